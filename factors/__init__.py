@@ -1,0 +1,1 @@
+"""DVL and IMU factors for GTSAM (installed as graphnav.factors)."""

@@ -1,0 +1,48 @@
+"""The ``graphnav`` command line.
+
+Every module in :mod:`graphnav.commands` that defines ``register(subparsers)`` adds one subcommand;
+``register`` creates its parser (with ``--help``) and sets ``func`` to a callable taking the parsed args
+and returning an exit code.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from . import __version__, commands
+from .errors import GraphnavError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="graphnav",
+        description="Factor-graph INS/DVL navigation for AUVs through partial DVL beam outages.")
+    parser.add_argument("--version", action="version", version=f"graphnav {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{commands.__name__}.{info.name}")
+        if hasattr(module, "register"):
+            module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except GraphnavError as exc:
+        print(f"graphnav {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"graphnav {args.command}: interrupted; results written so far are kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Subcommands of the graphnav CLI, one module each (see graphnav.cli)."""

@@ -1,0 +1,47 @@
+"""Error types raised by graphnav.
+
+Every error about input data names where the problem is (file or stream, line or index, field), so a
+user can go straight to the bad record. Library code raises only these types for bad input.
+"""
+from __future__ import annotations
+
+
+class GraphnavError(Exception):
+    """Base class of every error graphnav raises on purpose."""
+
+
+class DataError(GraphnavError, ValueError):
+    """Invalid input data.
+
+    Attributes:
+        source: file path or stream name (e.g. ``"imu"``, ``".../IMU_trajectory1.csv"``).
+        line: 1-based line in a file, or 0-based index in an in-memory stream; None if not applicable.
+        field: column or field name; None if not applicable.
+    """
+
+    def __init__(self, message: str, source: str | None = None, line: int | None = None,
+                 field: str | None = None):
+        self.source = source
+        self.line = line
+        self.field = field
+        where = []
+        if source is not None:
+            where.append(str(source))
+        if line is not None:
+            where.append(f"line {line}" if _is_file(source) else f"index {line}")
+        if field is not None:
+            where.append(f"field '{field}'")
+        prefix = ", ".join(where)
+        super().__init__(f"{prefix}: {message}" if prefix else message)
+
+
+class ConfigError(GraphnavError, ValueError):
+    """Invalid configuration (file or arguments)."""
+
+
+class GeometryError(GraphnavError, ValueError):
+    """A DVL geometry problem, e.g. fewer than three valid beams for a least-squares velocity."""
+
+
+def _is_file(source: str | None) -> bool:
+    return source is not None and ("/" in source or "." in source)

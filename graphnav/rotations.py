@@ -1,0 +1,48 @@
+"""Rotation helpers in GTSAM's convention.
+
+``C_b_n`` is the body-to-navigation rotation matrix (GTSAM's ``nRb``: ``v_n = C_b_n @ v_b``). Euler angles
+are aerospace roll/pitch/yaw with ``C_b_n = Rz(yaw) @ Ry(pitch) @ Rx(roll)``, which equals
+``gtsam.Rot3.Ypr(yaw, pitch, roll)``. Perturbations are on the right: ``C = C_hat @ Exp(dtheta)``.
+All functions are vectorised over a leading axis.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrix ``[v]x`` of a (3,) or (N,3) array, so that ``skew(a) @ b == cross(a, b)``."""
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def euler_to_C_b_n(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Body-to-NED rotation matrices (N,3,3) from roll, pitch, yaw in rad."""
+    angles = np.stack(np.broadcast_arrays(yaw, pitch, roll), axis=-1)
+    return Rotation.from_euler("ZYX", angles).as_matrix()
+
+
+def C_b_n_to_euler(C_b_n: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw in rad, shape (..., 3), from body-to-NED rotation matrices."""
+    ypr = Rotation.from_matrix(C_b_n).as_euler("ZYX")
+    return ypr[..., ::-1]
+
+
+def so3_exp(phi: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``Exp(phi)`` for rotation vectors phi (…,3) in rad."""
+    return Rotation.from_rotvec(phi).as_matrix()
+
+
+def so3_log(C: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``Log(C)`` in rad, shape (…,3)."""
+    return Rotation.from_matrix(C).as_rotvec()
+
+
+def attitude_error(C_est_b_n: np.ndarray, C_true_b_n: np.ndarray) -> np.ndarray:
+    """Right-perturbation attitude error ``Log(C_true^T C_est)`` in rad (body frame), shape (…,3)."""
+    return so3_log(np.swapaxes(C_true_b_n, -1, -2) @ C_est_b_n)

@@ -1,0 +1,39 @@
+"""The output every estimator returns: a navigation solution at its output epochs."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class NavSolution:
+    """Estimated trajectory of the IMU.
+
+    Attributes:
+        method: method name (``LC``, ``TC``, ``Average-LC``, ``Average-TC``, ``HNLC``, ``HNTC``,
+            ``Graph-TC``, ``Graph-HN``, ``Graph-HN-batch``, ...).
+        t: (K,) output stamps, s (IMU clock).
+        p_n: (K,3) NED position, m.
+        v_n: (K,3) NED velocity, m/s.
+        C_b_n: (K,3,3) body-to-NED rotation.
+        cov_v_n: optional (K,3,3) velocity covariance in NED, (m/s)^2.
+        bias_acc: optional (K,3) accelerometer bias estimate, m/s^2.
+        bias_gyro: optional (K,3) gyro bias estimate, rad/s.
+        runtime_s: wall time of the whole run, s.
+        info: free-form diagnostics (e.g. update timings).
+    """
+
+    method: str
+    t: np.ndarray
+    p_n: np.ndarray
+    v_n: np.ndarray
+    C_b_n: np.ndarray
+    cov_v_n: np.ndarray | None = None
+    bias_acc: np.ndarray | None = None
+    bias_gyro: np.ndarray | None = None
+    runtime_s: float = float("nan")
+    info: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.t)

@@ -1,0 +1,32 @@
+"""The average estimator of the paper: a missing beam is the mean of its N past values."""
+from __future__ import annotations
+
+import numpy as np
+
+from .completer import check_inputs
+
+
+class AverageCompleter:
+    """Fill missing beams with the mean of the past ``n_past`` values of the same beam.
+
+    Sigma of a filled beam (m/s): ``sqrt(noise_std^2 (1 + 1/N) + var_past)``, the beam noise of the mean
+    and of the new ping plus the spread of the past values (a proxy for how fast the beam is changing).
+    Pass ``sigma`` to use fixed per-beam values instead (e.g. calibrated on validation data).
+    """
+
+    def __init__(self, n_past: int = 3, noise_std: float = 0.042, sigma: np.ndarray | float | None = None):
+        if n_past < 1:
+            raise ValueError(f"n_past must be >= 1, got {n_past}")
+        self.n_past = n_past
+        self.noise_std = noise_std
+        self.sigma = None if sigma is None else np.broadcast_to(np.asarray(sigma, float), (4,)).copy()
+
+    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        past, measured = check_inputs(past, measured, self.n_past)
+        missing = ~np.isfinite(measured)
+        beams = np.where(missing, past.mean(axis=0), measured)
+        if self.sigma is not None:
+            spread = self.sigma
+        else:
+            spread = np.sqrt(self.noise_std ** 2 * (1.0 + 1.0 / self.n_past) + past.var(axis=0))
+        return beams, np.where(missing, spread, 0.0)

@@ -1,0 +1,36 @@
+"""The beam-completer interface and input checks shared by every completer.
+
+A completer fills the missing beams of one ping:
+``complete(past, measured) -> (beams, sigma)`` where ``past`` is (n_past, 4) m/s (oldest first),
+``measured`` (4,) m/s with NaN for missing beams, ``beams`` (4,) with measured beams passed through and
+``sigma`` (4,) m/s, 0 for measured beams: the 1-sigma error of each filled beam, used by the estimators
+as the inflated measurement noise (EKF) or the weak factor's noise (graph).
+"""
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+from graphnav.errors import DataError
+
+
+class BeamCompleter(Protocol):
+    n_past: int
+
+    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ...
+
+
+def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validate and convert completer inputs; raise :class:`DataError` naming the bad field."""
+    past = np.asarray(past, dtype=float)
+    measured = np.asarray(measured, dtype=float)
+    if past.shape != (n_past, 4):
+        raise DataError(f"shape {past.shape}, expected ({n_past}, 4)", "completer", field="past")
+    bad = np.argwhere(~np.isfinite(past))
+    if bad.size:
+        raise DataError("past beam is not finite", "completer", int(bad[0][0]), "past")
+    if measured.shape != (4,):
+        raise DataError(f"shape {measured.shape}, expected (4,)", "completer", field="measured")
+    return past, measured
