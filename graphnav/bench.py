@@ -1,0 +1,483 @@
+"""The comparison benchmark behind ``graphnav bench``.
+
+A *case* is one trajectory x scenario x IMU grade x method. Its mission gets 30 s outage windows spread
+over it (:func:`graphnav.scenarios.window_starts`: the first after 60 s of convergence, then one every
+window + 60 s, so consecutive windows are separated by >= 60 s of full beams and share one run); the
+method runs once over the whole mission and each window is scored on its own, giving one record per
+window (:data:`RECORD_KEYS`). The ``none`` scenario scores the same windows with all beams present.
+
+IMU grades: ``as-recorded`` uses the IMU as recorded (for the simulated default: the simulator's
+navigation grade); any grade of :data:`graphnav.config.IMU_GRADES` (``tactical``) adds that grade's errors
+to the recorded samples with :func:`graphnav.imu_errors.corrupt_imu` (seeded per trajectory, so every
+method sees the same IMU) and gives the estimators that grade's error model.
+
+Results are written after every finished case (``results.json``, atomically), so an interrupted benchmark
+keeps what it finished and ``--resume`` skips those cases. :func:`make_report` turns the records into
+``report.md``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+import os
+import time
+import warnings
+import zlib
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .config import imu_grade as imu_grade_spec
+from .errors import ConfigError
+from .methods import METHODS, average_of, baseline_of, check_method, check_scenario, run_method
+from .mission import Mission
+from .scenarios import scenario_outage, window_starts
+from .solution import NavSolution
+
+SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "none")
+IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical")
+#: Keys of every result record (extra diagnostic keys may follow).
+RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
+                                "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s")
+
+
+@dataclass(frozen=True)
+class TrajectorySource:
+    """Where a trajectory comes from: a folder in the A-KIT layout, or the simulator (``folder=None``)."""
+
+    name: str
+    folder: str | None = None
+    seed: int = 0
+    duration_s: float = 400.0
+    config_path: str | None = None
+
+
+@dataclass(frozen=True)
+class BenchCase:
+    """One run: a method on a trajectory with a scenario's windows, at an IMU grade."""
+
+    trajectory: TrajectorySource
+    scenario: str
+    imu_grade: str
+    method: str
+    window_s: float = 30.0
+    max_windows: int | None = None
+    save_dir: str | None = None  # keep the (down-sampled) solution here for the plots
+
+    @property
+    def key(self) -> tuple:
+        return (self.trajectory.name, self.scenario, self.imu_grade, self.method, float(self.window_s))
+
+
+def record_key(record: dict) -> tuple:
+    return (record["trajectory"], record["scenario"], record["imu_grade"], record["method"],
+            float(record["window_s"]))
+
+
+# --- trajectories and missions --------------------------------------------------------------------------
+def find_trajectories(data: str | None = None, sim_seeds: int = 1, sim_duration_s: float = 400.0,
+                      config_path: str | None = None) -> list[TrajectorySource]:
+    """The simulated default (``data=None``; one trajectory per seed), one A-KIT trajectory folder, or
+    every trajectory folder under ``data``."""
+    if data is None:
+        return [TrajectorySource(f"sim-seed{s}", None, s, sim_duration_s, config_path) for s in range(sim_seeds)]
+    from .loaders import list_akit
+    root = Path(data)
+    if not root.is_dir():
+        raise ConfigError(f"--data {data}: not a folder")
+    if any(root.glob("IMU_*.csv")):
+        folders = [root]
+    else:
+        folders = [Path(f) for f in list_akit(root)]
+    if not folders:
+        raise ConfigError(f"--data {data}: no trajectory folders (IMU_*.csv, DVL_*.csv, GT_*.csv) found")
+    return [TrajectorySource(f.name, str(f), 0, 0.0, config_path) for f in folders]
+
+
+def load_source(source: TrajectorySource) -> Mission:
+    """The mission of a trajectory source, as recorded (or simulated at navigation grade)."""
+    from .loaders import load_mission
+    if source.folder is None:
+        return load_mission(None, source.config_path, duration_s=source.duration_s, seed=source.seed)
+    return load_mission(source.folder, source.config_path)
+
+
+def degrade_imu(mission: Mission, grade: str, seed: int) -> Mission:
+    """A copy of ``mission`` with ``grade``'s IMU errors added and the estimators' IMU model set to it."""
+    from .imu_errors import corrupt_imu
+    spec = imu_grade_spec(grade)
+    imu, _truth = corrupt_imu(mission.imu, spec, seed=seed)
+    config = dataclasses.replace(mission.config, imu=spec)
+    return dataclasses.replace(mission, imu=imu, config=config,
+                               meta={**mission.meta, "imu_degraded_to": grade, "imu_degrade_seed": seed})
+
+
+@functools.lru_cache(maxsize=4)
+def prepared_mission(source: TrajectorySource, grade: str) -> Mission:
+    """Mission for a trajectory at an IMU grade; cached per process (cases of one trajectory share it)."""
+    mission = load_source(source)
+    if mission.gt is None:
+        raise ConfigError(f"trajectory {source.name} has no ground truth; the benchmark needs it")
+    if grade == "as-recorded":
+        return mission
+    # The seed depends on the trajectory only, so every method and scenario sees the same IMU.
+    return degrade_imu(mission, grade, seed=zlib.crc32(source.name.encode()) % 2**31)
+
+
+def case_windows(mission: Mission, window_s: float, max_windows: int | None = None) -> list[float]:
+    return window_starts(mission.t0, mission.t1, window_s=window_s, settle_s=60.0, gap_s=60.0,
+                         max_windows=max_windows)
+
+
+# --- scoring ---------------------------------------------------------------------------------------------
+def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) -> float:
+    """Horizontal position error accumulated over a window, m: ``|e(t_end) - e(t_start)|`` (N, E), with
+    ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
+    start isolates what the outage cost (the error at the start is the same dead-reckoning drift for all)."""
+    def err(t):
+        p_est = np.array([np.interp(t, sol.t, sol.p_n[:, i]) for i in range(2)])
+        p_gt = np.array([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(2)])
+        return p_est - p_gt
+    return float(np.linalg.norm(err(t_end) - err(t_start)))
+
+
+def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float) -> list[dict]:
+    """Per-window metrics of one solution (keys ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``,
+    ``pos_err_abs_window_end_m``)."""
+    from .metrics import horizontal_position_error, vrmse
+    gt = mission.gt
+    v_mission = float(vrmse(sol, gt, mission.t0, mission.t1))
+    out = []
+    for s in starts:
+        out.append({
+            "window_start_s": float(s),
+            "vrmse_window": float(vrmse(sol, gt, s, s + window_s)),
+            "vrmse_mission": v_mission,
+            "pos_err_window_end_m": window_position_drift(sol, gt, s, s + window_s),
+            "pos_err_abs_window_end_m": float(horizontal_position_error(sol, gt, s + window_s)),
+        })
+    return out
+
+
+def downsample(sol: NavSolution, rate_hz: float = 10.0) -> NavSolution:
+    """Every n-th epoch so that the solution is at most ``rate_hz`` (for saving and plotting)."""
+    if len(sol.t) < 3:
+        return sol
+    step = max(1, int(round(1.0 / (rate_hz * float(np.median(np.diff(sol.t)))))))
+    idx = slice(None, None, step)
+    take = (lambda a: None if a is None else a[idx])
+    return dataclasses.replace(sol, t=sol.t[idx], p_n=sol.p_n[idx], v_n=sol.v_n[idx], C_b_n=sol.C_b_n[idx],
+                               cov_v_n=take(sol.cov_v_n), bias_acc=take(sol.bias_acc),
+                               bias_gyro=take(sol.bias_gyro), info={})
+
+
+def solution_file(save_dir: str | Path, trajectory: str, imu_grade: str, scenario: str, method: str) -> Path:
+    return Path(save_dir) / f"{trajectory}__{imu_grade}__{scenario}__{method}.npz"
+
+
+def save_solution(path: Path, sol: NavSolution) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {k: getattr(sol, k) for k in ("t", "p_n", "v_n", "C_b_n", "cov_v_n", "bias_acc", "bias_gyro")
+              if getattr(sol, k) is not None}
+    np.savez_compressed(path, method=sol.method, runtime_s=sol.runtime_s, **arrays)
+
+
+def load_solution(path: str | Path) -> NavSolution:
+    with np.load(path) as z:
+        get = (lambda k: z[k] if k in z.files else None)
+        return NavSolution(method=str(z["method"]), t=z["t"], p_n=z["p_n"], v_n=z["v_n"], C_b_n=z["C_b_n"],
+                           cov_v_n=get("cov_v_n"), bias_acc=get("bias_acc"), bias_gyro=get("bias_gyro"),
+                           runtime_s=float(z["runtime_s"]))
+
+
+def run_case(case: BenchCase) -> list[dict]:
+    """Run one case and return its records (one per window). Failures give records with ``error`` set and
+    the metrics ``None``, so one broken method does not stop a long benchmark."""
+    base = {"trajectory": case.trajectory.name, "scenario": case.scenario, "imu_grade": case.imu_grade,
+            "window_s": float(case.window_s), "method": case.method}
+    try:
+        mission = prepared_mission(case.trajectory, case.imu_grade)
+        starts = case_windows(mission, case.window_s, case.max_windows)
+        if not starts:
+            raise ConfigError(f"mission {case.trajectory.name} ({mission.duration:.0f} s) is too short for "
+                              f"a {case.window_s:g} s window after 60 s of convergence")
+        run_mission = mission.with_outage(*[scenario_outage(case.scenario, s, case.window_s) for s in starts])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            start = time.perf_counter()
+            sol = run_method(run_mission, case.method, case.scenario)
+            wall = time.perf_counter() - start
+        scores = score_case(sol, mission, starts, case.window_s)
+        if case.save_dir is not None:
+            save_solution(solution_file(case.save_dir, *base_key(base)), downsample(sol))
+        extra = {"runtime_s": wall, "mission_duration_s": mission.duration,
+                 "completer": sol.info.get("completer", "none"),
+                 "warnings": sorted({str(w.message)[:200] for w in caught})}
+        return [{**base, **s, **extra} for s in scores]
+    except Exception as exc:  # noqa: BLE001 - one failed case must not end the benchmark; it is reported
+        return [{**base, "window_start_s": None, "vrmse_window": None, "vrmse_mission": None,
+                 "pos_err_window_end_m": None, "runtime_s": None, "error": f"{type(exc).__name__}: {exc}"}]
+
+
+def base_key(base: dict) -> tuple[str, str, str, str]:
+    return base["trajectory"], base["imu_grade"], base["scenario"], base["method"]
+
+
+# --- the whole benchmark ---------------------------------------------------------------------------------
+def make_cases(trajectories: list[TrajectorySource], scenarios=SCENARIO_NAMES, grades=IMU_GRADE_CHOICES,
+               methods=METHODS, window_s: float = 30.0, max_windows: int | None = None,
+               save_dir: str | None = None, save_first: int = 1) -> list[BenchCase]:
+    """All cases, grouped by trajectory then grade (so a worker's mission cache is reused); solutions of the
+    first ``save_first`` trajectories are kept in ``save_dir`` for the plots."""
+    for s in scenarios:
+        check_scenario(s)
+    for m in methods:
+        check_method(m)
+    for g in grades:
+        if g != "as-recorded":
+            imu_grade_spec(g)
+    return [BenchCase(traj, sc, g, m, window_s, max_windows, save_dir if i < save_first else None)
+            for i, traj in enumerate(trajectories) for g in grades for sc in scenarios for m in methods]
+
+
+def load_results(path: str | Path) -> list[dict]:
+    path = Path(path)
+    if not path.exists():
+        return []
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: not valid JSON ({exc}); move it away or run without --resume") from None
+    if not isinstance(data, list):
+        raise ConfigError(f"{path}: expected a list of records")
+    return data
+
+
+def _init_worker() -> None:
+    # One process per core: keep torch from starting its own thread pool in each worker.
+    try:
+        import torch
+        torch.set_num_threads(1)
+    except ImportError:
+        pass
+
+
+def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume: bool = False,
+              progress: bool = True) -> list[dict]:
+    """Run cases (``jobs`` processes), writing ``out_dir/results.json`` after every finished case.
+
+    With ``resume`` the records already in ``results.json`` are kept and their cases skipped (failed
+    cases are run again). Returns all records.
+    """
+    from tqdm import tqdm
+    from .outputs import write_json
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    results_path = out_dir / "results.json"
+    records = [r for r in load_results(results_path) if not r.get("error")] if resume else []
+    done = {record_key(r) for r in records}
+    todo = [c for c in cases if c.key not in done]
+    bar = tqdm(total=len(cases), initial=len(cases) - len(todo), desc="bench cases", unit="case",
+               disable=not progress, dynamic_ncols=True)
+
+    def finished(new: list[dict]) -> None:
+        records.extend(new)
+        write_json(results_path, records)
+        r = new[0]
+        bar.set_postfix_str(f"{r['trajectory']} {r['imu_grade']} {r['scenario']} {r['method']}"
+                            + (" FAILED" if r.get("error") else ""), refresh=False)
+        bar.update(1)
+
+    write_json(results_path, records)
+    try:
+        if jobs <= 1:
+            for case in todo:
+                finished(run_case(case))
+        else:
+            # Workers inherit the environment at start: one BLAS/OpenMP thread each, no oversubscription.
+            saved = {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
+            os.environ.update({k: "1" for k in saved})
+            try:
+                import multiprocessing
+                ctx = multiprocessing.get_context("spawn")  # fork after torch/gtsam threads can deadlock
+                with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
+                    futures = [pool.submit(run_case, c) for c in todo]
+                    try:
+                        for fut in as_completed(futures):
+                            finished(fut.result())
+                    except KeyboardInterrupt:
+                        for fut in futures:
+                            fut.cancel()
+                        raise
+            finally:
+                for k, v in saved.items():
+                    if v is None:
+                        os.environ.pop(k, None)
+                    else:
+                        os.environ[k] = v
+    finally:
+        bar.close()
+    return records
+
+
+# --- the report ------------------------------------------------------------------------------------------
+def _num(x) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def _mean(values) -> float:
+    v = [x for x in values if x is not None and math.isfinite(x)]
+    return float(np.mean(v)) if v else float("nan")
+
+
+def _max(values) -> float:
+    v = [x for x in values if x is not None and math.isfinite(x)]
+    return float(np.max(v)) if v else float("nan")
+
+
+def improvement_pct(model: float, ref: float) -> float:
+    """Signed VRTE, %: ``(ref - model) / ref * 100``; positive when ``model`` has the smaller error.
+    (The paper's VRTE is the magnitude of this.)"""
+    if not (math.isfinite(model) and math.isfinite(ref)) or ref <= 0:
+        return float("nan")
+    return (ref - model) / ref * 100.0
+
+
+def aggregate(records: list[dict]) -> dict:
+    """Per (imu_grade, scenario, method): window VRMSE mean/worst, mission VRMSE mean, drift mean, counts,
+    the per-window values keyed by (trajectory, window_start_s), mean runtime and real-time factor."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in records:
+        groups[(r["imu_grade"], r["scenario"], r["method"])].append(r)
+    out = {}
+    for key, rs in groups.items():
+        ok = [r for r in rs if not r.get("error")]
+        runs = {(r["trajectory"], r["window_s"]): r for r in ok}.values()  # one runtime per run
+        runtime = _mean(r["runtime_s"] for r in runs)
+        duration = _mean(r.get("mission_duration_s") for r in runs)
+        out[key] = {
+            "vrmse_window_mean": _mean(r["vrmse_window"] for r in ok),
+            "vrmse_window_worst": _max(r["vrmse_window"] for r in ok),
+            "vrmse_mission_mean": _mean(r["vrmse_mission"] for r in ok),
+            "drift_mean": _mean(r["pos_err_window_end_m"] for r in ok),
+            "n_windows": len(ok), "n_failed": len(rs) - len(ok),
+            "per_window": {(r["trajectory"], r["window_start_s"]): _num(r["vrmse_window"]) for r in ok},
+            "runtime_mean_s": runtime, "duration_mean_s": duration,
+            "realtime_factor": duration / runtime if runtime and runtime > 0 else float("nan"),
+            "completers": sorted({r.get("completer", "?") for r in ok}),
+        }
+    return out
+
+
+def _f(x: float, digits: int = 3) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _pct(x: float) -> str:
+    return "-" if not math.isfinite(x) else f"{x:+.0f}%"
+
+
+def headline(agg: dict, grade: str, scenario: str, model: str = "Graph-HN", ref: str = "HNTC") -> str | None:
+    """One sentence: does ``model`` beat ``ref`` in this grade and scenario, by how much, in how many windows."""
+    a, b = agg.get((grade, scenario, model)), agg.get((grade, scenario, ref))
+    if not a or not b or not a["n_windows"] or not b["n_windows"]:
+        return None
+    common = sorted(set(a["per_window"]) & set(b["per_window"]))
+    wins = sum(a["per_window"][k] < b["per_window"][k] for k in common)
+    gain = improvement_pct(a["vrmse_window_mean"], b["vrmse_window_mean"])
+    verdict = "beats" if gain > 0 else "does not beat"
+    return (f"{model} {verdict} {ref}: window VRMSE {_f(a['vrmse_window_mean'])} vs "
+            f"{_f(b['vrmse_window_mean'])} m/s ({_pct(gain)}), lower in {wins} of {len(common)} windows")
+
+
+def make_report(records: list[dict], meta: dict | None = None) -> str:
+    """``report.md`` text: per IMU grade the paper-style table and a detailed table per scenario, the
+    Graph-HN vs HNTC headline, runtime and real-time factor per method, and the benchmark's settings."""
+    meta = meta or {}
+    agg = aggregate(records)
+    grades = [g for g in (*IMU_GRADE_CHOICES, *sorted({r["imu_grade"] for r in records}))
+              if any(k[0] == g for k in agg)]
+    grades = list(dict.fromkeys(grades))
+    scenarios = [s for s in SCENARIO_NAMES if any(k[1] == s for k in agg)]
+    methods = [m for m in METHODS if any(k[2] == m for k in agg)]
+    methods += sorted({k[2] for k in agg} - set(methods))
+    trajectories = sorted({r["trajectory"] for r in records})
+    lines = ["# graphnav benchmark report", ""]
+    if meta.get("command"):
+        lines += [f"Command: `{meta['command']}`", ""]
+    lines += [f"Trajectories ({len(trajectories)}): {', '.join(trajectories)}  ",
+              f"Windows: {meta.get('window_s', '?')} s outages starting 60 s into each mission and then every "
+              f"window + 60 s (>= 60 s of full beams between windows; each window scored on its own; "
+              f"`none` scores the same windows with all beams).  ",
+              "VRMSE: m/s against ground truth, over the window (mean and worst over windows and "
+              "trajectories) and over the whole mission (mean). VRTE: signed improvement "
+              "`(ref - model) / ref` of the mean window VRMSE, positive = better than the reference; "
+              "baseline = LC for LC/Average-LC/HNLC and TC for the rest, average = Average-LC or Average-TC "
+              "likewise. Drift: horizontal position error accumulated over the window, m.", ""]
+    if meta.get("wall_time_s") is not None:
+        lines += [f"Wall time: {meta['wall_time_s']:.0f} s with {meta.get('jobs', 1)} job(s).", ""]
+    failed = [r for r in records if r.get("error")]
+    if failed:
+        lines += [f"**{len(failed)} case(s) failed** (first: {failed[0]['method']} on {failed[0]['trajectory']}"
+                  f" {failed[0]['imu_grade']} {failed[0]['scenario']}: {failed[0]['error'][:200]})", ""]
+
+    for grade in grades:
+        title = grade
+        if grade != "as-recorded":
+            spec = imu_grade_spec(grade)
+            title += (f" (IMU degraded: accel bias {spec.accel_bias_sigma:.3g} m/s^2, gyro bias "
+                      f"{np.rad2deg(spec.gyro_bias_sigma) * 3600:.3g} deg/h, accel noise "
+                      f"{spec.accel_noise_density:.3g} m/s^2/sqrt(Hz), gyro noise "
+                      f"{np.rad2deg(spec.gyro_noise_density) * 60:.3g} deg/sqrt(h), bias random walk "
+                      f"{spec.accel_bias_rw:.2g} m/s^3/sqrt(Hz), {spec.gyro_bias_rw:.2g} rad/s^2/sqrt(Hz))")
+        lines += [f"## IMU grade: {title}", "",
+                  "Window VRMSE, m/s, mean (worst):", "",
+                  "| scenario | " + " | ".join(methods) + " |",
+                  "| --- |" + " --- |" * len(methods)]
+        for sc in scenarios:
+            cells = []
+            for m in methods:
+                a = agg.get((grade, sc, m))
+                cells.append("-" if not a else f"{_f(a['vrmse_window_mean'])} ({_f(a['vrmse_window_worst'])})")
+            lines.append(f"| {sc} | " + " | ".join(cells) + " |")
+        lines.append("")
+        for sc in scenarios:
+            heads = [h for h in (headline(agg, grade, sc), headline(agg, grade, sc, "Graph-HN-batch"))
+                     if h]
+            lines += [f"### {grade}, {sc}", ""] + [f"- {h}" for h in heads] + ([""] if heads else [])
+            lines += ["| method | VRMSE window mean | worst | VRMSE mission | drift (m) | VRTE vs baseline "
+                      "| VRTE vs average | windows | completer |",
+                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+            for m in methods:
+                a = agg.get((grade, sc, m))
+                if not a:
+                    continue
+                base = agg.get((grade, sc, baseline_of(m)), {}).get("vrmse_window_mean", float("nan"))
+                avg = agg.get((grade, sc, average_of(m)), {}).get("vrmse_window_mean", float("nan"))
+                vs_base = "-" if m == baseline_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], base))
+                vs_avg = "-" if m == average_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], avg))
+                n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "")
+                lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "
+                             f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | {vs_base} | {vs_avg} | "
+                             f"{n} | {', '.join(a['completers'])} |")
+            lines.append("")
+
+    lines += ["## Runtime", "", "Wall time of one method run over a whole mission (mean over runs) and the "
+              "real-time factor (mission duration / wall time).", "",
+              "| method | runtime (s) | real-time factor | runs |", "| --- | --- | --- | --- |"]
+    for m in methods:
+        runs = {(r["trajectory"], r["imu_grade"], r["scenario"]): r for r in records
+                if r["method"] == m and not r.get("error")}.values()
+        rt = _mean(r["runtime_s"] for r in runs)
+        dur = _mean(r.get("mission_duration_s") for r in runs)
+        rtf = dur / rt if rt and math.isfinite(rt) and rt > 0 else float("nan")
+        lines.append(f"| {m} | {_f(rt, 2)} | {_f(rtf, 0)}x | {len(runs)} |")
+    lines.append("")
+    if meta.get("plots"):
+        lines += ["## Plots", ""] + [f"- [{Path(p).name}]({p})" for p in meta["plots"]] + [""]
+    return "\n".join(lines)

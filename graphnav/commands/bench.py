@@ -1,0 +1,126 @@
+"""``graphnav bench``: the comparison benchmark (every method, scenario, IMU grade and window position).
+
+Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md`` and PNG plots in
+``OUT/plots/``. See :mod:`graphnav.bench` for how windows and IMU grades are made.
+"""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+from pathlib import Path
+
+from graphnav.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
+from graphnav.methods import METHODS
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench", help="compare every method over scenarios, IMU grades and outage windows; report + plots",
+        description="Run every method on every trajectory (the simulated default, or each trajectory under "
+                    "--data), scenario and IMU grade, with outage windows spread over each mission, and "
+                    "write OUT/results.json (one record per window, written as cases finish), "
+                    "OUT/report.md (paper-style tables, VRTE, runtime) and OUT/plots/*.png.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--data", metavar="DIR",
+                   help="a folder of trajectories in the A-KIT layout (e.g. ../shared/data/snapir-2022-akit) "
+                        "or one trajectory folder; default: the simulated mission")
+    p.add_argument("--config", metavar="JSON", help="sensor configuration for every trajectory")
+    p.add_argument("--sim-seeds", type=int, default=1, metavar="N",
+                   help="without --data: number of simulated trajectories (seeds 0..N-1)")
+    p.add_argument("--sim-duration", type=float, default=400.0, metavar="S",
+                   help="without --data: simulated mission length, s")
+    p.add_argument("--scenario", nargs="+", default=list(SCENARIO_NAMES), choices=SCENARIO_NAMES,
+                   help="beam-outage scenarios")
+    p.add_argument("--imu-grade", nargs="+", default=list(IMU_GRADE_CHOICES), metavar="GRADE",
+                   help="'as-recorded' and/or grades whose errors are added to the recorded IMU "
+                        "(tactical, mems)")
+    p.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
+    p.add_argument("--max-windows", type=int, default=None, metavar="N",
+                   help="at most N windows per mission (evenly thinned); default: as many as fit")
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="METHOD",
+                   help=f"methods to run (from {', '.join(METHODS)})")
+    p.add_argument("--jobs", type=int, default=1, metavar="N", help="parallel worker processes")
+    p.add_argument("--out", default="out/bench", metavar="DIR", help="output folder")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the finished cases in OUT/results.json and run only the others")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios, methods) -> list[Path]:
+    """Bar chart per IMU grade, and for the first trajectory (whose solutions were kept) the trajectory,
+    velocity-error and velocity-std figures per grade and outage scenario."""
+    from graphnav import plots
+    from graphnav.bench import case_windows, load_solution, prepared_mission, solution_file
+    from graphnav.scenarios import scenario_outage
+    pdir = out / "plots"
+    files = []
+    for g in grades:
+        if any(r["imu_grade"] == g and not r.get("error") for r in records):
+            files.append(plots.plot_vrmse_bars(records, pdir / f"vrmse_bars_{g}.png", imu_grade=g))
+    first = trajectories[0]
+    window_s = records[0]["window_s"] if records else 30.0
+    for g in grades:
+        mission = None
+        for sc in scenarios:
+            sols = []
+            for m in methods:
+                f = solution_file(out / "runs", first.name, g, sc, m)
+                if f.exists():
+                    sols.append(load_solution(f))
+            if not sols:
+                continue
+            if mission is None:
+                mission = prepared_mission(first, g)
+            starts = case_windows(mission, window_s)
+            outages = [scenario_outage(sc, s, window_s) for s in starts] if sc != "none" else []
+            tag = f"{first.name}_{g}_{sc}"
+            label = f"{first.name}, {g} IMU, {sc}"
+            files.append(plots.plot_trajectories(mission.gt, sols, outages, pdir / f"trajectory_{tag}.png",
+                                                 f"{label}: North-East track"))
+            # Sleeves need a covariance; show the strongest EKF and graph methods so the figure stays readable.
+            pick = [s for s in sols if s.method in ("TC", "HNTC", "Graph-TC", "Graph-HN", "Graph-HN-batch")]
+            if outages:
+                a, b = outages[0].start_s - 20.0, outages[0].end_s + 40.0
+            else:
+                a, b = mission.t0, mission.t1
+            files.append(plots.plot_velocity_errors(mission.gt, pick or sols, outages,
+                                                    pdir / f"velocity_error_{tag}.png",
+                                                    f"{label}: velocity error around the first window",
+                                                    t_range=(a, b)))
+            files.append(plots.plot_velocity_std(pick or sols, outages, pdir / f"velocity_std_{tag}.png",
+                                                 f"{label}: velocity std around the first window"))
+    return files
+
+
+def run(args) -> int:
+    from graphnav.bench import find_trajectories, make_cases, make_report, run_bench
+    from graphnav.outputs import write_json  # noqa: F401  (results.json is written by run_bench)
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    trajectories = find_trajectories(args.data, args.sim_seeds, args.sim_duration, args.config)
+    cases = make_cases(trajectories, args.scenario, args.imu_grade, args.methods, args.window_s,
+                       args.max_windows, save_dir=None if args.no_plots else str(out / "runs"))
+    print(f"bench: {len(trajectories)} trajectories x {len(args.scenario)} scenarios x {len(args.imu_grade)} "
+          f"IMU grades x {len(args.methods)} methods = {len(cases)} runs, {args.jobs} job(s); results in {out}",
+          file=sys.stderr)
+    start = time.perf_counter()
+    records = run_bench(cases, out, jobs=args.jobs, resume=args.resume, progress=not args.no_progress)
+    wall = time.perf_counter() - start
+    plot_files = []
+    if not args.no_plots:
+        plot_files = bench_plots(out, records, trajectories, args.imu_grade, args.scenario, args.methods)
+    command = "graphnav " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
+        else "graphnav bench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    report = make_report(records, {"command": command, "window_s": args.window_s, "wall_time_s": wall,
+                                   "jobs": args.jobs,
+                                   "plots": [str(p.relative_to(out)) for p in plot_files]})
+    (out / "report.md").write_text(report)
+    n_failed = sum(1 for r in records if r.get("error"))
+    print(f"bench: {len(records)} window records in {wall:.0f} s ({n_failed} failed); "
+          f"report {out / 'report.md'}, results {out / 'results.json'}, plots {out / 'plots'}")
+    return 1 if n_failed else 0

@@ -1,0 +1,151 @@
+"""``graphnav smooth``: batch-smooth a mission and write the trajectory (CSV, TUM), a JSON summary and plots.
+
+Also home of the mission options shared with ``graphnav online`` (data, configuration, IMU grade and an
+optional injected beam outage).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from graphnav.methods import METHODS, check_scenario
+from graphnav.scenarios import SCENARIOS, scenario_outage, window_starts
+
+
+# --- options shared with `graphnav online` --------------------------------------------------------------
+def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
+    g = parser.add_argument_group("mission")
+    g.add_argument("--data", metavar="FOLDER",
+                   help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv); "
+                        "default: the simulated 400 s mission")
+    g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
+    g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given (default 0)")
+    g.add_argument("--duration", type=float, default=400.0, metavar="S",
+                   help="simulated mission length in s when --data is not given (default 400)")
+    g.add_argument("--imu-grade", default="as-recorded", metavar="GRADE",
+                   help="'as-recorded' (default) or an IMU grade (tactical, mems) whose errors are added to "
+                        "the recorded IMU, seeded, as in `graphnav bench`")
+    g.add_argument("--scenario", default="none", choices=sorted(SCENARIOS),
+                   help="inject a beam outage: 2-missing (beams 1, 3), 3-missing (only beam 2 left) or none "
+                        "(default: data as recorded)")
+    g.add_argument("--window-start", type=float, action="append", metavar="S",
+                   help="start of an outage window in s (repeatable); default: windows spread over the "
+                        "mission as in the benchmark (60 s in, then every window + 60 s)")
+    g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length (default 30)")
+
+
+def mission_from_args(args):
+    """(mission with the IMU grade and outages applied, list of outages)."""
+    from graphnav.bench import degrade_imu
+    from graphnav.loaders import load_mission
+    if args.data is None:
+        mission = load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
+    else:
+        mission = load_mission(args.data, args.config)
+    if args.imu_grade != "as-recorded":
+        import zlib
+        mission = degrade_imu(mission, args.imu_grade, seed=zlib.crc32(mission.name.encode()) % 2**31)
+    outages = []
+    if check_scenario(args.scenario) != "none":
+        starts = args.window_start or window_starts(mission.t0, mission.t1, args.window_s)
+        outages = [scenario_outage(args.scenario, s, args.window_s) for s in starts]
+        mission = mission.with_outage(*outages)
+    return mission, outages
+
+
+def accuracy_summary(sol, mission, outages) -> dict:
+    """VRMSE over the mission and each outage window and the final horizontal position error (when GT)."""
+    if mission.gt is None:
+        return {"ground_truth": False}
+    from graphnav.metrics import horizontal_position_error, vrmse
+    t_end = float(min(sol.t[-1], mission.gt.t[-1]))
+    return {
+        "ground_truth": True,
+        "vrmse_mission_mps": float(vrmse(sol, mission.gt, mission.t0, mission.t1)),
+        "windows": [{"start_s": o.start_s, "end_s": o.end_s, "missing_beams": [b + 1 for b in o.missing],
+                     "vrmse_window_mps": float(vrmse(sol, mission.gt, o.start_s, o.end_s))} for o in outages],
+        "final_horizontal_position_error_m": float(horizontal_position_error(sol, mission.gt, t_end)),
+    }
+
+
+def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
+    from graphnav import plots
+    files = []
+    if mission.gt is not None:
+        files.append(plots.plot_trajectories(mission.gt, solutions, outages, out / "trajectory_ne.png",
+                                             f"{mission.name}: {label}"))
+        files.append(plots.plot_velocity_errors(mission.gt, solutions, outages, out / "velocity_error.png",
+                                                f"{mission.name}: velocity error, {label}"))
+    if any(s.cov_v_n is not None for s in solutions):
+        files.append(plots.plot_velocity_std(solutions, outages, out / "velocity_std.png",
+                                             f"{mission.name}: velocity std around the first window, {label}"))
+    return [str(f) for f in files]
+
+
+def print_summary(summary: dict) -> None:
+    acc = summary.get("accuracy", {})
+    print(f"{summary['method']} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
+          f"of data in {summary['runtime_s']:.2f} s ({summary['realtime_factor']:.0f}x real time)")
+    if acc.get("ground_truth"):
+        print(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
+              f"{acc['final_horizontal_position_error_m']:.2f} m")
+        for w in acc["windows"]:
+            print(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
+                  f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
+    for name, path in summary.get("files", {}).items():
+        print(f"  {name}: {path}")
+
+
+# --- the command ----------------------------------------------------------------------------------------
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "smooth", help="batch-smooth a mission (Graph-HN-batch); write CSV, TUM, JSON summary and plots",
+        description="Batch-smooth a whole mission with the factor graph (Levenberg-Marquardt over all "
+                    "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
+                    "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum when the mission has GT), "
+                    "OUT/summary.json and PNG plots.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    add_mission_arguments(p)
+    p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
+    p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, help="estimator to run")
+    p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
+                   help="also run these methods and draw them in the plots (e.g. HNTC Graph-HN)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from graphnav.methods import run_method
+    from graphnav.outputs import write_json, write_trajectory_csv, write_tum
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    mission, outages = mission_from_args(args)
+    start = time.perf_counter()
+    sol = run_method(mission, args.method, args.scenario)
+    wall = time.perf_counter() - start
+    files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+    if mission.gt is not None:
+        from graphnav.solution import NavSolution
+        gt = mission.gt
+        files["groundtruth_tum"] = str(write_tum(out / "groundtruth.tum",
+                                                 NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n)))
+    others = [run_method(mission, m, args.scenario) for m in args.compare if m != args.method]
+    summary = {
+        "method": args.method, "mission": mission.name, "scenario": args.scenario,
+        "imu_grade": args.imu_grade, "completer": sol.info.get("completer"),
+        "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
+        "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
+        "accuracy": accuracy_summary(sol, mission, outages),
+        "compared": {o.method: accuracy_summary(o, mission, outages) for o in others},
+    }
+    if not args.no_plots:
+        plots = make_plots(out, mission, [*others, sol], outages,
+                           f"{args.scenario} scenario, {args.imu_grade} IMU")
+        files.update({Path(p).stem: p for p in plots})
+    summary["files"] = files
+    files["summary_json"] = str(out / "summary.json")
+    write_json(out / "summary.json", summary)
+    print_summary(summary)
+    return 0
