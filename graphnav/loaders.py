@@ -1,0 +1,396 @@
+"""Loaders for the published real data sets, and the one mission entry point the CLI commands share.
+
+A-KIT (``ansfl/A-KIT``, Snapir AUV, June 2022): one folder ``TrajectoryN/`` with
+``IMU_trajectoryN.csv`` (100 Hz), ``DVL_trajectoryN.csv`` and ``GT_trajectoryN.csv`` (1 Hz).
+BeamsNet (``ansfl/BeamsNet``, May 2021): ``V.npy`` (3,N) and ``V_test.npy`` DVL body velocities at 1 Hz.
+Please cite the data authors (A-KIT: Cohen & Klein; BeamsNet: Cohen & Klein) when using them.
+
+What :func:`load_akit` does to the recorded files, and why (each step is a parameter):
+
+1. **Stamps.** The published stamps are ``linspace(0, 400, N)``: period 400/(N-1), i.e. 1.0025 s for the
+   1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
+   the IMU-to-GT attitude alignment drifts by -2.5 ms per second over a file (from -0.45 s to -1.35 s on
+   trajectory 1, measured in 50 s windows), and it is constant after rescaling. ``rescale_stamps=True``
+   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows in that file).
+2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
+   published IMU files predate the authors' "corrected the transformation" commit: their y axis is
+   flipped, hence the default ``(1, -1, 1)``.
+3. **Time offsets.** Every stream ends on the IMU clock: ``t = t_file (rescaled) + offset``.
+   ``config.gt_time_offset_s`` and ``config.dvl_time_offset_s`` record the offsets added. ``"auto"``
+   estimates them at load time (about 0.2 s per trajectory, see
+   :mod:`graphnav.calibration_align`): the GT offset by matching gyro-integrated attitude increments
+   with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
+   ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating at load time rather than shipping a
+   table works for any A-KIT folder, including the three not in ``../shared/data``.
+4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
+   stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
+5. **DVL.** The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``,
+   and beams are made from them with :func:`graphnav.dvl.make_beams` (the paper's error model, seeded
+   by ``beam_seed``). NaN rows are invalid pings.
+6. **IMU error model** (:data:`PHINS_RECORDED`): see its docstring.
+
+``load_mission`` is what every ``graphnav`` subcommand calls: a data folder or None (the simulated default).
+"""
+from __future__ import annotations
+
+import dataclasses
+import io
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .config import ImuSpec, SensorConfig
+from .dvl import make_beams
+from .earth import gravity_magnitude, lla_to_ned
+from .errors import ConfigError, DataError
+from .mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from .rotations import euler_to_C_b_n
+
+#: Column names of the published A-KIT files, in order.
+AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
+    "IMU": ("Time [s]", "ACC X [m/s^2]", "ACC Y [m/s^2]", "ACC Z [m/s^2]",
+            "GYRO X [rad/s]", "GYRO Y [rad/s]", "GYRO Z [rad/s]"),
+    "DVL": ("Time [s]", "DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]"),
+    "GT": ("Time [s]", "Longitude [rad]", "Latitude [rad]", "Altitude [m]", "V North [m/s]",
+           "V East [m/s]", "V Down [m/s]", "Roll [rad]", "Pitch [rad]", "Yaw [rad]"),
+}
+
+#: Default lever arm of the Snapir DVL relative to the INS, body frame, m (data README; calibrate finds
+#: [-1.78..-1.93, -0.03..-0.07, 0.05..0.3] per trajectory).
+AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
+
+#: IMU error model for the recorded Phins data, per-sqrt(Hz) densities.
+#: The values are stored with a 1e-4 resolution (rad/s and m/s^2). Quantisation noise of step q sampled at
+#: f = 100 Hz has std q/sqrt(12) = 2.9e-5 per sample, i.e. a density of 2.9e-5/sqrt(f) = 2.9e-6 per
+#: sqrt(Hz), four times the Phins' specified gyro angle random walk (0.0025 deg/sqrt(h) = 7.3e-7
+#: rad/s/sqrt(Hz)), so the gyro density is the quantisation floor (rounded up to 3e-6). The accelerometer's
+#: high-frequency noise is dominated by vehicle vibration: the scatter of consecutive-sample differences
+#: (``scripts/check_realdata.py`` prints it, median over the trajectories ~4e-3 m/s^2 per sample) gives
+#: ~4e-4 m/s^2/sqrt(Hz). Biases: the Phins datasheet (gyro 0.01 deg/h, accelerometer 50 micro-g), with
+#: random walks kept from the navigation grade.
+PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=4e-4, gyro_noise_density=3e-6,
+                         accel_bias_rw=1e-6, gyro_bias_rw=1e-9, accel_bias_sigma=50 * 9.80665e-6,
+                         gyro_bias_sigma=0.01 * np.pi / 180 / 3600)
+
+
+# ------------------------------------------------------------------------------------------------
+# CSV reading
+# ------------------------------------------------------------------------------------------------
+def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
+             repair: bool = False) -> np.ndarray:
+    """Read a numeric CSV with a known header into an (N, len(columns)) float array.
+
+    The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
+    Every bad data line is found and reported (1-based line number and column): wrong number of fields
+    (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
+    The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
+    stamps are dropped (first kept) and the rows sorted, with a warning.
+
+    Raises:
+        DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
+            message lists up to 10 bad lines.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise DataError(f"cannot read file: {exc}", source) from None
+    lines = text.splitlines()
+    if not lines:
+        raise DataError("empty file, expected a header line", source, 1)
+    header = [h.strip() for h in lines[0].split(",")]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}",
+                        source, 1, missing[0])
+    if header != list(columns):
+        raise DataError(f"unexpected header {header}, expected {list(columns)}", source, 1,
+                        next((h for h, c in zip(header, columns) if h != c), header[-1]))
+    line_no = np.array([i + 1 for i, s in enumerate(lines) if i > 0 and s.strip()], dtype=int)
+    body = [lines[i - 1] for i in line_no]
+    if not body:
+        raise DataError("no data lines", source, 2)
+    try:
+        data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=",", ndmin=2, dtype=float)
+        if data.shape[1] != len(columns):
+            raise ValueError("column count")
+    except ValueError:
+        _raise_bad_lines(source, body, line_no, columns)
+        raise  # pragma: no cover - _raise_bad_lines always raises
+    problems = []
+    for j, name in enumerate(columns):
+        if name in nan_ok:
+            bad = np.flatnonzero(np.isinf(data[:, j]))
+        else:
+            bad = np.flatnonzero(~np.isfinite(data[:, j]))
+        problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
+    if problems:
+        _raise_problems(source, sorted(problems))
+    return _check_stamps(data, line_no, source, columns[0], repair)
+
+
+def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
+    problems = []
+    for n, s in zip(line_no, body):
+        fields = s.split(",")
+        if len(fields) != len(columns):
+            what = "truncated line" if len(fields) < len(columns) else "too many fields"
+            problems.append((int(n), columns[min(len(fields), len(columns)) - 1] if len(fields) < len(columns)
+                             else columns[-1], f"{what}: {len(fields)} fields, expected {len(columns)}"))
+            continue
+        for name, f in zip(columns, fields):
+            try:
+                float(f)
+            except ValueError:
+                problems.append((int(n), name, f"not a number: {f.strip()!r}"))
+    if not problems:  # loadtxt failed on something the checks above did not catch
+        raise DataError("cannot parse the file as numbers", source)
+    _raise_problems(source, problems)
+
+
+def _raise_problems(source: str, problems: list[tuple[int, str, str]]) -> None:
+    shown = "; ".join(f"line {n}, column '{c}': {m}" for n, c, m in problems[:10])
+    more = f" (and {len(problems) - 10} more)" if len(problems) > 10 else ""
+    line, col, msg = problems[0]
+    err = DataError(f"{msg}; {len(problems)} bad line(s): {shown}{more}", source, line, col)
+    err.problems = problems
+    raise err
+
+
+def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: str,
+                  repair: bool) -> np.ndarray:
+    step = np.diff(data[:, 0])
+    bad = np.flatnonzero(step <= 0)
+    if not bad.size:
+        return data
+    if not repair:
+        i = bad[0] + 1
+        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
+        raise DataError(f"time stamp {kind} ({data[i - 1, 0]!r} s then {data[i, 0]!r} s); "
+                        f"{bad.size} such line(s); pass repair=True to drop duplicates and sort",
+                        source, int(line_no[i]), time_col)
+    order = np.argsort(data[:, 0], kind="stable")
+    data = data[order]
+    keep = np.concatenate([[True], np.diff(data[:, 0]) > 0])
+    warnings.warn(f"{source}: {int((~keep).sum())} duplicated and {int((step < 0).sum())} out-of-order "
+                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
+    return data[keep]
+
+
+# ------------------------------------------------------------------------------------------------
+# A-KIT
+# ------------------------------------------------------------------------------------------------
+def list_akit(root: str | Path) -> list[Path]:
+    """The ``TrajectoryN`` folders under ``root`` (sorted by N) that hold all three CSV files."""
+    root = Path(root)
+    found = []
+    for d in root.iterdir() if root.is_dir() else []:
+        m = re.fullmatch(r"Trajectory(\d+)", d.name)
+        if m and all((d / f"{k}_trajectory{m.group(1)}.csv").is_file() for k in AKIT_COLUMNS):
+            found.append((int(m.group(1)), d))
+    return [d for _, d in sorted(found)]
+
+
+def akit_files(folder: str | Path) -> dict[str, Path]:
+    """{"IMU": path, "DVL": path, "GT": path} of one A-KIT trajectory folder."""
+    folder = Path(folder)
+    m = re.fullmatch(r"Trajectory(\d+)", folder.name)
+    if m:
+        files = {k: folder / f"{k}_trajectory{m.group(1)}.csv" for k in AKIT_COLUMNS}
+    else:  # a renamed folder: accept one file per kind
+        files = {}
+        for k in AKIT_COLUMNS:
+            hits = sorted(folder.glob(f"{k}_*.csv"))
+            files[k] = hits[0] if len(hits) == 1 else folder / f"{k}_trajectoryN.csv"
+    for k, p in files.items():
+        if not p.is_file():
+            raise DataError(f"{k} file not found (expected A-KIT layout TrajectoryN/{{IMU,DVL,GT}}_"
+                            f"trajectoryN.csv)", str(p))
+    return files
+
+
+@dataclasses.dataclass
+class AkitRaw:
+    """The three A-KIT files as read (after stamp rescaling and IMU axis signs, before offsets)."""
+
+    imu: np.ndarray      # (N,7) t, f_b(3), omega_b(3)
+    dvl: np.ndarray      # (M,4) t, v(3)
+    gt: np.ndarray       # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw
+    files: dict
+
+
+def read_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), rescale_stamps: bool = True,
+              repair: bool = False) -> AkitRaw:
+    """Read and check the three CSVs of one trajectory folder (see the module docstring, steps 1-2)."""
+    files = akit_files(folder)
+    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
+    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair)
+    signs = np.asarray(imu_axis_signs, float).reshape(3)
+    if not np.all(np.abs(signs) == 1):
+        raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
+    imu[:, 1:4] *= signs
+    imu[:, 4:7] *= signs
+    if rescale_stamps:
+        for a in (imu, dvl, gt):
+            a[:, 0] *= (len(a) - 1) / len(a)
+    return AkitRaw(imu, dvl, gt, files)
+
+
+def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_s: float | str = "auto",
+              gt_time_offset_s: float | str = "auto", lever_arm_b=None, beam_seed: int = 0,
+              config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
+              repair: bool = False) -> Mission:
+    """Load one A-KIT trajectory folder as a :class:`Mission` on the IMU clock.
+
+    Args:
+        folder: ``.../TrajectoryN``.
+        imu_axis_signs: signs applied to the raw IMU x, y, z (accelerometer and gyro).
+        dvl_time_offset_s: seconds added to the (rescaled) DVL stamps, or ``"auto"`` (estimated).
+        gt_time_offset_s: seconds added to the (rescaled) GT stamps, or ``"auto"`` (estimated).
+        lever_arm_b: DVL position relative to the IMU, body frame, m (used for the beams' geometry,
+            the config and the DVL offset estimate); None = the config's if one is given, else
+            :data:`AKIT_LEVER_ARM_B`.
+        beam_seed: seed of the beam error model.
+        config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry,
+            error model and IMU spec are kept, while lat, gravity, axis signs and offsets are set from
+            the data and the arguments above (:func:`load_mission` passes a config's offsets and signs).
+        name: mission name (default: the folder name).
+        rescale_stamps: fix the published stamps' period (module docstring, step 1).
+        repair: drop duplicated stamps and sort (with a warning) instead of raising.
+
+    Returns:
+        Mission with ``meta`` keys ``source``, ``depth_source="gt"``, ``rescale_stamps``,
+        ``time_offsets`` (the estimates with their sigmas when "auto").
+    """
+    folder = Path(folder)
+    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
+    cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
+        PHINS_RECORDED))
+    cfg.dvl = dataclasses.replace(cfg.dvl)
+    if lever_arm_b is None:
+        lever_arm_b = config.dvl.lever_arm_b if config is not None else AKIT_LEVER_ARM_B
+    cfg.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
+
+    # contiguous copies: np.interp on a strided 40k-sample column copies it at every call
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    g = raw.gt
+    lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
+    cfg.lat_rad = float(lat0)
+    cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
+    cfg.imu_axis_signs = np.asarray(imu_axis_signs, float)
+    p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
+    v_n = g[:, 4:7]
+    C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
+    lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
+
+    estimates = {}
+    if gt_time_offset_s == "auto":
+        from .calibration_align import estimate_gt_time_offset
+        est = estimate_gt_time_offset(t_imu, omega_b, g[:, 0], C_b_n, lat_for_rate)
+        gt_time_offset_s = est.offset_s
+        estimates["gt"] = est
+    if dvl_time_offset_s == "auto":
+        from .calibration_align import Reference, estimate_dvl_time_offset
+        ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
+                        cfg.gravity_mps2, lat_for_rate)
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], raw.dvl[:, 1:4], cfg.dvl.lever_arm_b)
+        dvl_time_offset_s = est.offset_s
+        estimates["dvl"] = est
+    cfg.gt_time_offset_s = float(gt_time_offset_s)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+
+    t_gt = g[:, 0] + cfg.gt_time_offset_s
+    src = {k: str(p) for k, p in raw.files.items()}
+    gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), float(alt0)), source=src["GT"])
+    depth = DepthData(t_gt, -g[:, 3], source=src["GT"])
+    v_dvl = raw.dvl[:, 1:4]
+    valid_ping = np.all(np.isfinite(v_dvl), axis=1)
+    beams = np.full((len(v_dvl), 4), np.nan)
+    beams[valid_ping] = make_beams(v_dvl[valid_ping], cfg.dvl, beam_seed)
+    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
+                  v_dvl, source=src["DVL"])
+    imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
+    meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
+            "beam_seed": beam_seed,
+            "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
+                             for k, e in estimates.items()}}
+    return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+# ------------------------------------------------------------------------------------------------
+# BeamsNet
+# ------------------------------------------------------------------------------------------------
+#: Fraction of ``V.npy`` the published split uses for training (the rest is validation).
+BEAMSNET_TRAIN_FRACTION = 0.75
+
+
+def load_beamsnet(folder: str | Path) -> dict:
+    """The BeamsNet velocities: ``{"V": (3,N), "V_test": (3,M)}`` DVL body velocities at 1 Hz, m/s.
+
+    Raises:
+        DataError: missing file, wrong shape (must be (3, N)) or non-finite values (naming the sample).
+    """
+    folder = Path(folder)
+    out = {}
+    for key in ("V", "V_test"):
+        path = folder / f"{key}.npy"
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise DataError(f"cannot read: {exc}", str(path)) from None
+        if arr.ndim != 2 or arr.shape[0] != 3:
+            raise DataError(f"shape {arr.shape}, expected (3, N) velocity x/y/z rows", str(path))
+        bad = np.argwhere(~np.isfinite(arr))
+        if bad.size:
+            raise DataError("value is not finite", str(path), int(bad[0][1]), "xyz"[bad[0][0]])
+        out[key] = arr.astype(float)
+    return out
+
+
+def beamsnet_split(V: np.ndarray, train_fraction: float = BEAMSNET_TRAIN_FRACTION
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The published split of ``V`` (3,N): (first 75 % for training, last 25 % for validation)."""
+    n_train = int(round(V.shape[1] * train_fraction))
+    return V[:, :n_train], V[:, n_train:]
+
+
+def beamsnet_beams(V: np.ndarray, config: SensorConfig | None = None, seed: int = 0) -> np.ndarray:
+    """Beams (N,4) made from BeamsNet velocities V (3,N) with the DVL error model, as in the paper."""
+    cfg = config or SensorConfig()
+    return make_beams(np.asarray(V, float).T, cfg.dvl, seed)
+
+
+# ------------------------------------------------------------------------------------------------
+# The entry point of the CLI commands
+# ------------------------------------------------------------------------------------------------
+def load_mission(data: str | Path | None = None, config_path: str | Path | None = None,
+                 **sim_kwargs) -> Mission:
+    """The mission a ``graphnav`` command works on.
+
+    Args:
+        data: an A-KIT ``TrajectoryN`` folder, or None for the simulated default mission.
+        config_path: a SensorConfig JSON (e.g. written by ``graphnav calibrate``) or None.
+        **sim_kwargs: passed to :func:`graphnav.simulate.simulate_mission` when ``data`` is None, or to
+            :func:`load_akit` otherwise (e.g. ``beam_seed``).
+
+    With a config on real data, its lever arm, IMU axis signs and time offsets are used as given (no
+    "auto" estimation): the config is the calibration.
+    """
+    config = SensorConfig.load(config_path) if config_path else None
+    if data is None:
+        from .simulate import simulate_mission
+        if config is not None:
+            sim_kwargs.setdefault("config", config)
+        return simulate_mission(**sim_kwargs)
+    path = Path(data)
+    if not path.is_dir():
+        raise DataError("data folder not found", str(path))
+    if config is not None:
+        sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
+        sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
+        sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
+    return load_akit(path, config=config, **sim_kwargs)

@@ -1,0 +1,229 @@
+"""CSV reading and A-KIT/BeamsNet loading on small synthetic files (no real data needed)."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.errors import DataError
+from graphnav.loaders import (AKIT_COLUMNS, beamsnet_split, list_akit, load_akit, load_beamsnet,
+                              read_csv)
+
+
+def write_csv(path, columns, rows):
+    lines = [",".join(columns)] + [",".join(str(v) for v in row) if not isinstance(row, str) else row
+                                   for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def make_akit_folder(root, n=3, seconds=20, yaw_rate=0.05):
+    """A tiny A-KIT folder: level vehicle, 1.5 m/s forward, constant yaw rate, stamps as published
+    (``linspace(0, seconds, N)``), IMU y axis stored flipped like the published files."""
+    folder = root / f"Trajectory{n}"
+    folder.mkdir(parents=True)
+    lat, lon, g = 0.5733, 0.6089, 9.7949
+    n_imu, n_1hz = seconds * 100, seconds
+    t_imu = np.linspace(0, seconds, n_imu)
+    imu = np.zeros((n_imu, 7))
+    imu[:, 0] = t_imu
+    imu[:, 2] = -(yaw_rate * 1.5)       # centripetal specific force is +y (right turn), stored flipped
+    imu[:, 3] = -g
+    imu[:, 6] = yaw_rate
+    t1 = np.linspace(0, seconds, n_1hz)
+    k = np.arange(n_1hz)                # true stamps are k * 1 s
+    yaw = yaw_rate * k
+    gt = np.zeros((n_1hz, 10))
+    gt[:, 0] = t1
+    gt[:, 1], gt[:, 2], gt[:, 3] = lon, lat, -15.0
+    gt[:, 4], gt[:, 5] = 1.5 * np.cos(yaw), 1.5 * np.sin(yaw)
+    gt[:, 9] = yaw
+    dvl = np.zeros((n_1hz, 4))
+    dvl[:, 0] = t1
+    dvl[:, 1] = 1.5
+    dvl[:, 2] = yaw_rate * -1.86        # omega x l with l = (-1.86, 0, 0)
+    write_csv(folder / f"IMU_trajectory{n}.csv", AKIT_COLUMNS["IMU"], imu.tolist())
+    write_csv(folder / f"GT_trajectory{n}.csv", AKIT_COLUMNS["GT"], gt.tolist())
+    write_csv(folder / f"DVL_trajectory{n}.csv", AKIT_COLUMNS["DVL"], dvl.tolist())
+    return folder
+
+
+COLS = AKIT_COLUMNS["DVL"]
+
+
+def good_rows(n=5):
+    return [[float(i), 1.0, 0.1, 0.0] for i in range(n)]
+
+
+def test_read_csv_good(tmp_path):
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, good_rows())
+    data = read_csv(p, COLS)
+    assert data.shape == (5, 4)
+    np.testing.assert_allclose(data[:, 0], np.arange(5))
+
+
+def test_missing_column_named(tmp_path):
+    p = write_csv(tmp_path / "DVL_x.csv", COLS[:2] + ("DVL Q [m/s]",) + COLS[3:], good_rows())
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    assert err.value.source == str(p) and err.value.line == 1 and err.value.field == "DVL Y [m/s]"
+    assert "DVL Y [m/s]" in str(err.value) and str(p) in str(err.value)
+
+
+@pytest.mark.parametrize("bad_line, field, words", [
+    ("2.0,1.0,0.1", "DVL Y [m/s]", "truncated"),
+    ("2.0,1.0,abc,0.0", "DVL Y [m/s]", "not a number"),
+    ("2.0,1.0,,0.0", "DVL Y [m/s]", "not a number"),
+    ("2.0,1.0,0.1,0.0,7", "DVL Z [m/s]", "too many"),
+])
+def test_bad_line_reported_with_line_and_field(tmp_path, bad_line, field, words):
+    rows = good_rows()
+    rows[2] = bad_line                  # data row 2 is file line 4 (header is line 1)
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    e = err.value
+    assert (e.source, e.line, e.field) == (str(p), 4, field)
+    assert words in str(e) and "line 4" in str(e)
+
+
+def test_every_bad_line_listed(tmp_path):
+    rows = good_rows(8)
+    rows[1] = "1.0,x,0.1,0.0"
+    rows[5] = "5.0,1.0"
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    assert err.value.line == 3
+    assert [prob[0] for prob in err.value.problems] == [3, 7]
+    assert "2 bad line(s)" in str(err.value)
+
+
+def test_nan_rejected_unless_allowed(tmp_path):
+    rows = good_rows()
+    rows[3][2] = float("nan")
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    assert (err.value.line, err.value.field) == (5, "DVL Y [m/s]")
+    data = read_csv(p, COLS, nan_ok=COLS[1:])
+    assert np.isnan(data[3, 2])
+
+
+def test_nan_time_rejected_even_if_values_may_be_nan(tmp_path):
+    rows = good_rows()
+    rows[4][0] = float("nan")
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS, nan_ok=COLS[1:])
+    assert (err.value.line, err.value.field) == (6, "Time [s]")
+
+
+@pytest.mark.parametrize("stamps, kind, line", [([0, 1, 1, 2, 3], "duplicated", 4),
+                                                ([0, 1, 3, 2, 4], "out of order", 5)])
+def test_bad_stamps(tmp_path, stamps, kind, line):
+    rows = [[float(s), 1.0, 0.1, 0.0] for s in stamps]
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    assert kind in str(err.value) and (err.value.line, err.value.field) == (line, "Time [s]")
+    with pytest.warns(UserWarning, match="repaired"):
+        data = read_csv(p, COLS, repair=True)
+    assert np.all(np.diff(data[:, 0]) > 0) and len(data) == len(set(stamps))
+
+
+def test_blank_lines_do_not_shift_line_numbers(tmp_path):
+    rows = good_rows()
+    rows.insert(1, "")
+    rows[4] = "3.0,oops,0.1,0.0"
+    p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
+    with pytest.raises(DataError) as err:
+        read_csv(p, COLS)
+    assert err.value.line == 6
+
+
+def test_list_and_load_akit(tmp_path):
+    folder = make_akit_folder(tmp_path, n=3)
+    make_akit_folder(tmp_path, n=12)
+    (tmp_path / "Trajectory7").mkdir()                       # incomplete folders are not listed
+    assert [p.name for p in list_akit(tmp_path)] == ["Trajectory3", "Trajectory12"]
+    m = load_akit(folder, dvl_time_offset_s=0.5, gt_time_offset_s=-0.25)
+    cfg = m.config
+    assert cfg.dvl_time_offset_s == 0.5 and cfg.gt_time_offset_s == -0.25
+    np.testing.assert_allclose(cfg.imu_axis_signs, [1, -1, 1])
+    # stamps rescaled from linspace(0, 20, N) to k / rate, then shifted
+    np.testing.assert_allclose(m.imu.t[:3], [0.0, 0.01, 0.02], atol=1e-12)
+    np.testing.assert_allclose(m.gt.t[:3], [-0.25, 0.75, 1.75], atol=1e-12)
+    np.testing.assert_allclose(m.dvl.t[:2], [0.5, 1.5], atol=1e-12)
+    assert m.imu.f_b[0, 1] > 0                              # flipped y specific force is right again
+    np.testing.assert_allclose(m.depth.depth, 15.0)
+    assert m.meta["depth_source"] == "gt"
+    np.testing.assert_allclose(m.gt.p_n[0], 0.0, atol=1e-9)
+    assert m.dvl.valid.all() and m.dvl.beams.shape == (20, 4)
+    np.testing.assert_allclose(m.dvl.v_b[:, 0], 1.5)
+    assert abs(cfg.lat_rad - 0.5733) < 1e-12 and 9.78 < cfg.gravity_mps2 < 9.81
+
+
+def test_load_akit_auto_offsets_on_synthetic_turn(tmp_path):
+    """With the IMU and GT consistent and no offsets, "auto" finds ~0 for both."""
+    folder = make_akit_folder(tmp_path, n=1, seconds=40, yaw_rate=0.0)
+    # add a yaw-rate step so that the attitude and velocity carry timing information
+    imu_path = folder / "IMU_trajectory1.csv"
+    imu = read_csv(imu_path, AKIT_COLUMNS["IMU"])
+    t_true = np.arange(len(imu)) * 0.01
+    rate = 0.08 * np.sin(2 * np.pi * t_true / 10.0)
+    imu[:, 6] = rate
+    imu[:, 2] = -rate * 1.5
+    write_csv(imu_path, AKIT_COLUMNS["IMU"], imu.tolist())
+    gt = read_csv(folder / "GT_trajectory1.csv", AKIT_COLUMNS["GT"])
+    k = np.arange(len(gt))
+    yaw = 0.08 * 10.0 / (2 * np.pi) * (1 - np.cos(2 * np.pi * k / 10.0))
+    gt[:, 9] = yaw
+    gt[:, 4], gt[:, 5] = 1.5 * np.cos(yaw), 1.5 * np.sin(yaw)
+    write_csv(folder / "GT_trajectory1.csv", AKIT_COLUMNS["GT"], gt.tolist())
+    dvl = read_csv(folder / "DVL_trajectory1.csv", AKIT_COLUMNS["DVL"])
+    dvl[:, 2] = 0.08 * np.sin(2 * np.pi * k / 10.0) * -1.86
+    write_csv(folder / "DVL_trajectory1.csv", AKIT_COLUMNS["DVL"], dvl.tolist())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_akit(folder, lever_arm_b=(-1.86, 0.0, 0.0))
+    assert abs(m.config.gt_time_offset_s) < 0.03
+    assert abs(m.config.dvl_time_offset_s) < 0.05
+
+
+def test_dvl_nan_rows_are_invalid_pings(tmp_path):
+    folder = make_akit_folder(tmp_path, n=2)
+    p = folder / "DVL_trajectory2.csv"
+    lines = p.read_text().splitlines()
+    lines[5] = "4.2105263157894735,nan,nan,nan"
+    p.write_text("\n".join(lines) + "\n")
+    m = load_akit(folder, dvl_time_offset_s=0.0, gt_time_offset_s=0.0)
+    assert not m.dvl.valid[4].any() and m.dvl.valid[np.arange(20) != 4].all()
+    assert np.isnan(m.dvl.beams[4]).all()
+
+
+def test_missing_file_named(tmp_path):
+    folder = make_akit_folder(tmp_path, n=4)
+    (folder / "GT_trajectory4.csv").unlink()
+    with pytest.raises(DataError, match="GT_trajectory4.csv"):
+        load_akit(folder)
+
+
+def test_beamsnet(tmp_path):
+    rng = np.random.default_rng(0)
+    np.save(tmp_path / "V.npy", rng.normal(size=(3, 100)))
+    np.save(tmp_path / "V_test.npy", rng.normal(size=(3, 20)))
+    d = load_beamsnet(tmp_path)
+    train, val = beamsnet_split(d["V"])
+    assert train.shape == (3, 75) and val.shape == (3, 25)
+    np.testing.assert_array_equal(np.concatenate([train, val], axis=1), d["V"])
+    bad = rng.normal(size=(3, 10))
+    bad[1, 7] = np.nan
+    np.save(tmp_path / "V_test.npy", bad)
+    with pytest.raises(DataError) as err:
+        load_beamsnet(tmp_path)
+    assert err.value.line == 7 and err.value.field == "y"
+    np.save(tmp_path / "V.npy", rng.normal(size=(4, 10)))
+    with pytest.raises(DataError, match=r"\(3, N\)"):
+        load_beamsnet(tmp_path)
