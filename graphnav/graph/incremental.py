@@ -1,0 +1,312 @@
+"""Incremental graph estimators: ISAM2 over the whole mission (online) and GTSAM's fixed-lag smoother.
+
+Both follow the same cycle per keyframe: ``add(keyframe)`` (factors + predicted initial values),
+``update()`` (one solver step) and ``estimate()`` (the filtered state of the newest keyframe with its
+marginal velocity covariance in NED). Like GTSAM's ``ImuFactorExample``::
+
+    est = OnlineGraph(builder, initial)
+    for kf in builder:
+        est.add(kf)
+        est.update()
+        print(est.estimate())
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, V, X
+
+from graphnav.errors import ConfigError
+from graphnav.mission import Mission
+
+from .builder import Keyframe, KeyframeBuilder, imu_factor, keyframe_factors
+from .options import GraphOptions
+
+
+@dataclass
+class InitialState:
+    """State at the first keyframe: pose (attitude C_b_n and NED position, m), NED velocity (m/s), IMU bias."""
+
+    pose: gtsam.Pose3
+    v_n: np.ndarray
+    bias: gtsam.imuBias.ConstantBias = field(default_factory=gtsam.imuBias.ConstantBias)
+
+    @classmethod
+    def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":
+        """GT interpolated at t (position, velocity linearly; attitude from the nearest GT sample), zero bias."""
+        gt = mission.gt
+        if gt is None:
+            raise ConfigError(f"mission '{mission.name}' has no ground truth to initialise the graph from; "
+                              "pass an InitialState")
+        p = np.array([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(3)])
+        v = np.array([np.interp(t, gt.t, gt.v_n[:, i]) for i in range(3)])
+        i = int(np.argmin(np.abs(gt.t - t)))
+        # rotate the nearest attitude to t with the mean body rate of the IMU in between (sub-sample accuracy)
+        C = gt.C_b_n[i]
+        imu = mission.imu
+        sel = (imu.t >= min(t, gt.t[i])) & (imu.t < max(t, gt.t[i]))
+        if sel.any():
+            dtheta = imu.omega_b[sel].mean(axis=0) * (t - gt.t[i])
+            C = C @ gtsam.Rot3.Expmap(dtheta).matrix()
+        return cls(gtsam.Pose3(gtsam.Rot3(C), p), v)
+
+
+@dataclass
+class EpochEstimate:
+    """Filtered (or smoothed) state at one keyframe.
+
+    Attributes:
+        index: keyframe index k; t: stamp, s; kind: ``"dvl"`` or ``"imu"``.
+        pose: Pose3 (attitude C_b_n, NED position m); v_n: (3,) m/s; bias: ConstantBias (acc m/s^2, gyro rad/s).
+        cov_v_n: (3,3) marginal velocity covariance in NED, (m/s)^2, or None.
+        n_measured, n_regressed: beams used at this keyframe.
+        update_s: solver time of this keyframe, s.
+    """
+
+    index: int
+    t: float
+    kind: str
+    pose: gtsam.Pose3
+    v_n: np.ndarray
+    bias: gtsam.imuBias.ConstantBias
+    cov_v_n: np.ndarray | None
+    n_measured: int
+    n_regressed: int
+    update_s: float
+
+    @property
+    def C_b_n(self) -> np.ndarray:
+        return self.pose.rotation().matrix()
+
+    @property
+    def p_n(self) -> np.ndarray:
+        return self.pose.translation()
+
+
+def prior_factors(builder: KeyframeBuilder, initial: InitialState, k: int = 0) -> gtsam.NonlinearFactorGraph:
+    """Priors on X(k), V(k), B(k) with the sigmas of ``builder.options`` (bias: IMU spec turn-on sigmas)."""
+    o, imu = builder.options, builder.config.imu
+    acc = o.prior_acc_bias_sigma if o.prior_acc_bias_sigma is not None else imu.accel_bias_sigma
+    gyro = o.prior_gyro_bias_sigma if o.prior_gyro_bias_sigma is not None else imu.gyro_bias_sigma
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(gtsam.PriorFactorPose3(X(k), initial.pose, gtsam.noiseModel.Diagonal.Sigmas(
+        np.r_[np.full(3, o.prior_rot_sigma), np.full(3, o.prior_pos_sigma)])))
+    graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, gtsam.noiseModel.Isotropic.Sigma(3, o.prior_vel_sigma)))
+    graph.add(gtsam.PriorFactorConstantBias(B(k), initial.bias, gtsam.noiseModel.Diagonal.Sigmas(
+        np.r_[np.full(3, acc), np.full(3, gyro)])))
+    return graph
+
+
+def isam2_params(options: GraphOptions) -> gtsam.ISAM2Params:
+    """ISAM2 settings: factorisation, per-variable-type relinearisation thresholds, relinearise skip."""
+    params = gtsam.ISAM2Params()
+    params.setFactorization(options.factorization)
+    params.relinearizeSkip = options.relinearize_skip
+    thresholds = gtsam.ISAM2ThresholdMap()
+    thresholds.insert(("x", np.r_[np.full(3, options.relin_rot), np.full(3, options.relin_pos)]))
+    thresholds.insert(("v", np.full(3, options.relin_vel)))
+    thresholds.insert(("b", np.r_[np.full(3, options.relin_bias_acc), np.full(3, options.relin_bias_gyro)]))
+    params.setRelinearizeThreshold(thresholds)
+    params.setOptimizationParams(gtsam.ISAM2GaussNewtonParams(options.wildfire_threshold))
+    return params
+
+
+class _IncrementalGraph:
+    """Shared add/update/estimate logic; subclasses provide the solver calls."""
+
+    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+        self.builder = builder
+        self.options = builder.options
+        self.initial = initial
+        self._pending_factors = gtsam.NonlinearFactorGraph()
+        self._pending_values = gtsam.Values()
+        self._pending_kf: Keyframe | None = None
+        self._last: EpochEstimate | None = None
+        # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
+        self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, gtsam.NonlinearFactorGraph]] = []
+        self.keep_keyframe_graphs = False
+        self.record_joint_at: set[int] = set()
+        self.joint: dict[int, tuple[gtsam.Values, np.ndarray]] = {}   # k -> (lin. point, 15x15 cov [x,v,b])
+        self.update_times: list[float] = []
+        self.n_recovered = 0
+
+    # --- the cycle --------------------------------------------------------------------------------
+    def add(self, kf: Keyframe) -> None:
+        """Queue the factors of keyframe ``kf`` and its predicted initial values (from the last estimate)."""
+        k = kf.index
+        if k == 0:
+            pose, v_n, bias = self.initial.pose, np.asarray(self.initial.v_n, float), self.initial.bias
+            link = prior_factors(self.builder, self.initial)
+        else:
+            if self._last is None or self._last.index != k - 1:
+                raise ConfigError(f"keyframe {k} added before keyframe {k - 1} was updated")
+            last = self._last
+            nav = kf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias)
+            pose, v_n, bias = nav.pose(), nav.velocity(), last.bias
+            link = gtsam.NonlinearFactorGraph()
+            link.add(imu_factor(kf))
+        local = keyframe_factors(kf, self.builder, pose.rotation().matrix(), pose.translation())
+        if self.keep_keyframe_graphs:
+            self.keyframe_graphs.append((link, local))
+        self._pending_factors.push_back(link)
+        self._pending_factors.push_back(local)
+        self._pending_values.insert(X(k), pose)
+        self._pending_values.insert(V(k), v_n)
+        self._pending_values.insert(B(k), bias)
+        self._pending_kf = kf
+
+    def update(self) -> EpochEstimate:
+        """One solver step with the queued keyframe; returns (and stores) its estimate."""
+        kf = self._pending_kf
+        if kf is None:
+            raise ConfigError("update() called without a new keyframe")
+        start = time.perf_counter()
+        try:
+            self._solve(self._pending_factors, self._pending_values, kf)
+        except RuntimeError as exc:
+            if "ndeterminant" not in str(exc):
+                raise
+            self._recover(kf, exc)
+        k = kf.index
+        pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
+        cov = self._marginal(V(k)) if self.options.marginals else None
+        if k in self.record_joint_at:
+            self.joint[k] = self._joint(k, pose, v_n, bias)
+        elapsed = time.perf_counter() - start
+        self.update_times.append(elapsed)
+        m = kf.dvl
+        self._last = EpochEstimate(k, kf.t, kf.kind, pose, v_n, bias, cov,
+                                   0 if m is None else m.n_measured, 0 if m is None else m.n_regressed, elapsed)
+        self._pending_factors = gtsam.NonlinearFactorGraph()
+        self._pending_values = gtsam.Values()
+        self._pending_kf = None
+        return self._last
+
+    def estimate(self) -> EpochEstimate:
+        """The estimate of the newest updated keyframe."""
+        if self._last is None:
+            raise ConfigError("no keyframe has been updated yet")
+        return self._last
+
+    def _recover(self, kf: Keyframe, exc: Exception) -> None:
+        """Indeterminant linear system: add weak priors on the newest state at its prediction and retry once.
+
+        Weak (rot 0.1 rad, pos 100 m, vel 10 m/s, bias 10x turn-on) so they fix the rank without biasing.
+        """
+        self.n_recovered += 1
+        warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): {exc}; "
+                      "adding weak priors on the newest state and continuing", RuntimeWarning, stacklevel=3)
+        k = kf.index
+        values = self._pending_values
+        weak = gtsam.NonlinearFactorGraph()
+        imu = self.builder.config.imu
+        weak.add(gtsam.PriorFactorPose3(X(k), values.atPose3(X(k)), gtsam.noiseModel.Diagonal.Sigmas(
+            np.r_[np.full(3, 0.1), np.full(3, 100.0)])))
+        weak.add(gtsam.PriorFactorVector(V(k), values.atVector(V(k)), gtsam.noiseModel.Isotropic.Sigma(3, 10.0)))
+        weak.add(gtsam.PriorFactorConstantBias(B(k), values.atConstantBias(B(k)), gtsam.noiseModel.Diagonal.Sigmas(
+            np.r_[np.full(3, 10 * imu.accel_bias_sigma), np.full(3, 10 * imu.gyro_bias_sigma)])))
+        self._retry(weak, kf)
+
+    # --- solver hooks -----------------------------------------------------------------------------
+    def _solve(self, factors, values, kf):
+        raise NotImplementedError
+
+    def _retry(self, weak, kf):
+        raise NotImplementedError
+
+    def _value(self, key, kind):
+        raise NotImplementedError
+
+    def _marginal(self, key):
+        raise NotImplementedError
+
+    def _joint_covariance(self, keys):
+        raise NotImplementedError
+
+    def _joint(self, k, pose, v_n, bias):
+        keys = [X(k), V(k), B(k)]
+        jm = self._joint_covariance(keys)
+        cov = np.block([[jm.at(a, b) for b in keys] for a in keys])
+        lin = gtsam.Values()
+        lin.insert(X(k), pose)
+        lin.insert(V(k), v_n)
+        lin.insert(B(k), bias)
+        return lin, 0.5 * (cov + cov.T)
+
+
+class OnlineGraph(_IncrementalGraph):
+    """ISAM2 over the whole mission, one update per keyframe (settings: :func:`isam2_params`).
+
+    The estimate at each keyframe is the filtered state (all data up to that keyframe); the graph keeps
+    every keyframe, so its cost grows with the mission (use :class:`FixedLagGraph` for long missions).
+    """
+
+    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+        super().__init__(builder, initial)
+        self.isam = gtsam.ISAM2(isam2_params(self.options))
+        # keyframes older than options.relin_window_s stay at their linearisation point: relinearising an
+        # old state re-eliminates the whole chain from it to the newest state (cost grows with the mission)
+        self._frozen = gtsam.KeyList()
+        self._n_frozen = 0
+        self._times: list[float] = []
+
+    def _solve(self, factors, values, kf):
+        self._times.append(kf.t)
+        window = self.options.relin_window_s
+        if window is None:
+            self.isam.update(factors, values)
+            return
+        while self._n_frozen < len(self._times) - 1 and kf.t - self._times[self._n_frozen] > window:
+            for key in (X(self._n_frozen), V(self._n_frozen), B(self._n_frozen)):
+                self._frozen.push_back(key)
+            self._n_frozen += 1
+        self.isam.update(factors, values, [], None, self._frozen)
+
+    def _retry(self, weak, kf):
+        # the failed update already holds the new factors and values; the priors make the system full rank
+        self.isam.update(weak, gtsam.Values())
+
+    def _value(self, key, kind):
+        return getattr(self.isam, f"calculateEstimate{kind}")(key)
+
+    def _marginal(self, key):
+        return self.isam.marginalCovariance(key)
+
+    def _joint_covariance(self, keys):
+        return self.isam.jointMarginalCovariance(keys)
+
+    def smoothed(self) -> gtsam.Values:
+        """The current ISAM2 estimate of every keyframe (smoothed by all data so far)."""
+        return self.isam.calculateEstimate()
+
+
+class FixedLagGraph(_IncrementalGraph):
+    """GTSAM's IncrementalFixedLagSmoother: keyframes older than ``options.lag_s`` are marginalised out,
+    so the working graph, the time per update and the memory stay bounded on long missions.
+    The estimate at each keyframe is the filtered state."""
+
+    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+        super().__init__(builder, initial)
+        self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s, isam2_params(self.options))
+
+    def _timestamps(self, values, t):
+        return {key: t for key in values.keys()}
+
+    def _solve(self, factors, values, kf):
+        self.smoother.update(factors, values, self._timestamps(values, kf.t))
+
+    def _retry(self, weak, kf):
+        self.smoother.update(weak, gtsam.Values(), {})
+
+    def _value(self, key, kind):
+        return getattr(self.smoother, f"calculateEstimate{kind}")(key)
+
+    def _marginal(self, key):
+        return self.smoother.marginalCovariance(key)
+
+    def _joint_covariance(self, keys):
+        return self.smoother.getISAM2().jointMarginalCovariance(keys)

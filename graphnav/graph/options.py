@@ -1,0 +1,113 @@
+"""Settings of the factor-graph estimators (one dataclass, defaults chosen and measured here).
+
+Chosen defaults and why:
+
+- One DVL factor per epoch holding all its measured beams (``beam_factor_mode="epoch"``): each
+  ``gtsam.CustomFactor`` call costs a Python round trip plus a copy of the whole ``Values``, so fewer,
+  larger factors are faster (``scripts/bench_graph.py`` measures epoch vs beam). Regressed beams go in
+  a second factor of the same epoch; with a Huber kernel they get one factor each, so the kernel acts
+  per beam.
+- Regressed beams: noise = the completer's sigma (floored at the measured-beam sigma) with a Huber kernel
+  (k = 1.5 sigma) so one bad regression cannot pull the solution; measured beams are plain Gaussian.
+- ISAM2: Cholesky factorisation with an integration covariance of 1e-4 (m^2/s) -- the probe saw
+  ``IndeterminantLinearSystem`` with Cholesky at 1e-8, and none at >= 1e-4 (horizontal position is
+  unobservable while attitude and biases are very well known); the extra 1e-4 m^2/s of position
+  uncertainty per second is irrelevant to velocity. Should the solver still hit an indeterminant system,
+  the estimator adds weak priors on the newest state and continues (warning). ``factorization="QR"``
+  is the slower, more robust alternative.
+- Relinearisation: per-variable-type thresholds (pose rot 1e-3 rad / pos 0.05 m, velocity 1e-3 m/s,
+  bias 1e-4 m/s^2 / 1e-6 rad/s) checked every ``relinearize_skip`` = 10 updates; one scalar threshold
+  relinearised whole chains (probe: 26 ms median instead of ~1 ms).
+- Keyframes at every DVL stamp; when no DVL stamp arrives for more than ``max_keyframe_gap_s`` (2 s),
+  IMU-only keyframes every ``imu_keyframe_interval_s`` (1 s) keep each preintegration short.
+- Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
+  initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from graphnav.errors import ConfigError
+
+BEAM_FACTOR_MODES = ("epoch", "beam")
+FACTORIZATIONS = ("CHOLESKY", "QR")
+
+
+@dataclass
+class GraphOptions:
+    """Settings of the graph estimators. Units SI (m, s, rad, m/s).
+
+    Attributes:
+        beam_sigma: noise of one measured beam, m/s; None = ``config.dvl.beam_noise_std``.
+        beam_factor_mode: ``"epoch"`` (one factor per epoch, all beams) or ``"beam"`` (one per beam).
+        huber_measured_k: Huber threshold (in sigmas) for measured beams; None = Gaussian.
+        huber_regressed_k: Huber threshold (in sigmas) for regressed beams; None = Gaussian.
+        regressed_sigma_floor: lowest noise a regressed beam may get, m/s; None = beam_sigma.
+        use_depth: add depth factors when the mission has a depth sensor.
+        depth_sigma: depth noise, m; None = ``config.depth_noise_std``.
+        earth_rate_in_lever_arm: remove the Earth rate (with the predicted attitude) from the gyro sample
+            used for the lever-arm velocity, so the DVL sees ``omega_nb_b x l_b``.
+        integration_sigma: preintegration integration noise (continuous-time std, m/sqrt(s)); its square is
+            GTSAM's integration covariance.
+        factorization: ``"CHOLESKY"`` or ``"QR"`` (ISAM2 and batch).
+        relinearize_skip: ISAM2 relinearisation check interval (updates).
+        relin_rot, relin_pos, relin_vel, relin_bias_acc, relin_bias_gyro: per-variable-type thresholds.
+        relin_window_s: online ISAM2 holds keyframes older than this at their linearisation point
+            (``noRelinKeys``); None = any keyframe may be relinearised.
+        wildfire_threshold: ISAM2 Gauss-Newton back-substitution stops where the update is smaller.
+        max_keyframe_gap_s: insert IMU-only keyframes when the DVL is silent for longer than this, s.
+        imu_keyframe_interval_s: spacing of IMU-only keyframes inside such a gap, s.
+        prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
+        prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
+        lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
+        batch_chunk_s: batch smoother chunk length, s; None or >= mission length = one full batch.
+        batch_overlap_s: look-ahead each chunk keeps beyond its end (results there are discarded), s.
+        batch_max_iterations: Levenberg-Marquardt iteration cap per (chunk) solve.
+        marginals: compute the marginal velocity covariance at every output epoch.
+    """
+
+    beam_sigma: float | None = None
+    beam_factor_mode: str = "epoch"
+    huber_measured_k: float | None = None
+    huber_regressed_k: float | None = 1.5
+    regressed_sigma_floor: float | None = None
+    use_depth: bool = True
+    depth_sigma: float | None = None
+    earth_rate_in_lever_arm: bool = True
+    integration_sigma: float = 1e-2
+    factorization: str = "CHOLESKY"
+    relinearize_skip: int = 10
+    relin_rot: float = 2e-3
+    relin_pos: float = 1.0
+    relin_vel: float = 1e-2
+    relin_bias_acc: float = 1e-3
+    relin_bias_gyro: float = 1e-5
+    relin_window_s: float | None = 30.0
+    wildfire_threshold: float = 1e-2
+    max_keyframe_gap_s: float = 2.0
+    imu_keyframe_interval_s: float = 1.0
+    prior_rot_sigma: float = np.deg2rad(0.05)
+    prior_pos_sigma: float = 1.0
+    prior_vel_sigma: float = 0.05
+    prior_acc_bias_sigma: float | None = None
+    prior_gyro_bias_sigma: float | None = None
+    lag_s: float = 30.0
+    batch_chunk_s: float | None = 300.0
+    batch_overlap_s: float = 60.0
+    batch_max_iterations: int = 20
+    marginals: bool = True
+
+    def __post_init__(self):
+        if self.beam_factor_mode not in BEAM_FACTOR_MODES:
+            raise ConfigError(f"beam_factor_mode must be one of {BEAM_FACTOR_MODES}, got '{self.beam_factor_mode}'")
+        self.factorization = self.factorization.upper()
+        if self.factorization not in FACTORIZATIONS:
+            raise ConfigError(f"factorization must be one of {FACTORIZATIONS}, got '{self.factorization}'")
+        if self.imu_keyframe_interval_s <= 0 or self.max_keyframe_gap_s < self.imu_keyframe_interval_s:
+            raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
+        if self.lag_s <= 0:
+            raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.batch_chunk_s is not None and self.batch_chunk_s <= 0:
+            raise ConfigError(f"batch_chunk_s must be > 0 s or None, got {self.batch_chunk_s}")
