@@ -342,3 +342,61 @@ def gyro_attitude_error(t_imu, omega_b, t_ref, C_b_n_ref, start_s: float, durati
     C_nav = Rotation.from_rotvec(-np.outer(t_ref[sel] - t_start, w_ie))
     C_est = C_nav * Rotation.from_matrix(C_b_n_ref[sel[0]]) * R_body
     return (Rotation.from_matrix(C_b_n_ref[sel]).inv() * C_est).as_rotvec()
+
+
+# ------------------------------------------------------------------------------------------------
+# Mission-level checks (used by tests/test_realdata.py, scripts/check_realdata.py and calibrate)
+# ------------------------------------------------------------------------------------------------
+#: Pings shallower than this (m, from the depth stream) are left out of the DVL-vs-reference RMS: at
+#: the surface (trajectory 11 ends there) waves and bubbles make the DVL disagree by 0.1 m/s.
+SURFACE_DEPTH_M = 2.0
+
+
+def mission_reference(mission) -> Reference:
+    """The IMU-aided :class:`Reference` built from a mission's ground truth (must have GT)."""
+    cfg = mission.config
+    if mission.gt is None:
+        raise DataError("the mission has no ground truth", mission.name, field="gt")
+    return Reference(mission.imu.t, mission.imu.f_b, mission.imu.omega_b, mission.gt.t, mission.gt.v_n,
+                     mission.gt.C_b_n, cfg.gravity_mps2, cfg.lat_rad if cfg.earth_rotation else None)
+
+
+def submerged_pings(mission, min_depth_m: float = SURFACE_DEPTH_M) -> np.ndarray:
+    """(M,) bool: DVL pings taken deeper than ``min_depth_m`` (all True without a depth stream)."""
+    if mission.depth is None:
+        return np.ones(len(mission.dvl.t), bool)
+    depth = np.interp(mission.dvl.t, mission.depth.t, mission.depth.depth)
+    return depth > min_depth_m
+
+
+def dvl_consistency(mission, reference: Reference | None = None, lever_arm_b=None,
+                    min_depth_m: float = SURFACE_DEPTH_M) -> dict:
+    """DVL body velocity vs reference ``v_b + omega x l`` (stamps as loaded), m/s.
+
+    Returns ``{"rms": per-axis-pooled RMS over submerged pings, "rms_axes": (3,), "rms_all": RMS over
+    every ping, "n": pings used, "n_surface": pings left out}``.
+    """
+    ref = reference or mission_reference(mission)
+    l = mission.config.dvl.lever_arm_b if lever_arm_b is None else np.asarray(lever_arm_b, float)
+    if mission.dvl.v_b is None:
+        raise DataError("the mission's DVL has no body velocity", mission.name, field="dvl.v_b")
+    deep = submerged_pings(mission, min_depth_m)
+    rms_all, _ = dvl_residual_rms(ref, mission.dvl.t, mission.dvl.v_b, l)
+    v = np.where(deep[:, None], mission.dvl.v_b, np.nan)
+    rms, axes = dvl_residual_rms(ref, mission.dvl.t, v, l)
+    return {"rms": rms, "rms_axes": axes, "rms_all": rms_all, "n": int(deep.sum()),
+            "n_surface": int((~deep).sum())}
+
+
+def gyro_check(mission, duration_s: float = 60.0, starts_s=None) -> np.ndarray:
+    """Largest gyro-vs-reference attitude error (rad) within ``duration_s`` from each start time.
+
+    ``starts_s`` default: every 100 s that leaves a full window.
+    """
+    gt = mission.gt
+    if starts_s is None:
+        starts_s = np.arange(max(gt.t[0], mission.t0), min(gt.t[-1], mission.t1) - duration_s, 100.0)
+    lat = mission.config.lat_rad if mission.config.earth_rotation else None
+    return np.array([np.linalg.norm(gyro_attitude_error(mission.imu.t, mission.imu.omega_b, gt.t, gt.C_b_n,
+                                                        s, duration_s, lat), axis=1).max()
+                     for s in starts_s])

@@ -1,0 +1,87 @@
+"""Consistency of the loaded A-KIT trajectories with their ground truth (skips without ../shared/data).
+
+Measured values (scripts/check_realdata.py) are in the final report of issue 2; the thresholds below
+are the issue's (DVL) and about twice the worst measured value (gyro).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from graphnav.calibration_align import (dvl_consistency, estimate_gt_time_offset, gyro_check)
+from graphnav.loaders import list_akit, load_akit, load_beamsnet, read_akit, beamsnet_split
+from graphnav.rotations import euler_to_C_b_n
+
+pytestmark = pytest.mark.realdata
+
+
+@pytest.fixture(scope="module")
+def missions(akit_dir):
+    folders = list_akit(akit_dir)
+    if not folders:
+        pytest.skip(f"no TrajectoryN folders in {akit_dir}")
+    return {d.name: load_akit(d) for d in folders}
+
+
+def test_dvl_matches_gt_body_velocity_on_every_trajectory(missions):
+    """Issue 2: after lever arm and time offsets, DVL vs GT body velocity RMS < 0.03 m/s (per axis,
+    submerged pings; trajectory 11 spends its last 140 s at the surface, see SURFACE_DEPTH_M)."""
+    rms = {name: dvl_consistency(m) for name, m in missions.items()}
+    bad = {name: round(r["rms"], 4) for name, r in rms.items() if not r["rms"] < 0.03}
+    assert not bad, f"DVL-vs-GT RMS >= 0.03 m/s: {bad}"
+    # Without the lever arm the turns show: the residual grows on every trajectory with turns.
+    no_arm = dvl_consistency(missions["Trajectory5"], lever_arm_b=np.zeros(3)) if "Trajectory5" in missions \
+        else None
+    if no_arm is not None:
+        assert no_arm["rms"] > 2 * rms["Trajectory5"]["rms"]
+
+
+def test_time_offsets_in_readme_ranges(missions):
+    """Data README: IMU-to-GT offset about -0.5..+0.5 s; the DVL leads the GT by about 0.5..1.5 s."""
+    for name, m in missions.items():
+        gt_off, dvl_off = m.config.gt_time_offset_s, m.config.dvl_time_offset_s
+        assert -0.6 < gt_off < 0.6, (name, gt_off)
+        assert 0.4 < dvl_off - gt_off < 1.6, (name, dvl_off, gt_off)
+        assert m.meta["time_offsets"]["gt"]["sigma_s"] < 0.02
+
+
+def test_gyro_follows_gt_attitude_and_needs_the_y_flip(missions, akit_dir):
+    """Gyro integrated from the GT attitude stays within 0.3 deg for 60 s; with the raw y axis it
+    leaves by more than 1 deg within the same windows."""
+    worst = {name: np.degrees(gyro_check(m, 60.0).max()) for name, m in missions.items()}
+    bad = {k: round(v, 3) for k, v in worst.items() if not v < 0.3}
+    assert not bad, f"gyro-vs-GT error over 60 s >= 0.3 deg: {bad}"
+    for name in list(missions)[:3]:
+        m = missions[name]
+        raw = load_akit(akit_dir / name, imu_axis_signs=(1, 1, 1),
+                        gt_time_offset_s=m.config.gt_time_offset_s,
+                        dvl_time_offset_s=m.config.dvl_time_offset_s)
+        assert np.degrees(gyro_check(raw, 60.0).max()) > 1.0, name
+
+
+def gt_offset_slope(folder, rescale_stamps, window=100):
+    """Slope (s per s) of the GT time offset estimated in consecutive 100-sample windows."""
+    raw = read_akit(folder, rescale_stamps=rescale_stamps)
+    C = euler_to_C_b_n(raw.gt[:, 7], raw.gt[:, 8], raw.gt[:, 9])
+    t_imu, w = np.ascontiguousarray(raw.imu[:, 0]), raw.imu[:, 4:7]
+    starts = range(0, len(raw.gt) - window + 1, window)
+    mid = [raw.gt[s + window // 2, 0] for s in starts]
+    off = [estimate_gt_time_offset(t_imu, w, raw.gt[s:s + window, 0], C[s:s + window]).offset_s
+           for s in starts]
+    return np.polyfit(mid, off, 1)[0]
+
+
+def test_published_stamps_drift_and_rescaling_fixes_it(akit_dir):
+    """With the published 1.0025 s / 0.01000025 s periods the GT offset drifts by -2.5 ms/s (measured
+    -2.2..-2.7 ms/s); after rescaling to 1 s / 0.01 s it is constant."""
+    folder = list_akit(akit_dir)[0]
+    assert -3.5e-3 < gt_offset_slope(folder, False) < -1.5e-3
+    assert abs(gt_offset_slope(folder, True)) < 2e-4
+
+
+def test_beamsnet_published_shapes(beamsnet_dir):
+    d = load_beamsnet(beamsnet_dir)
+    assert d["V"].shape == (3, 13886) and d["V_test"].shape == (3, 2001)
+    train, val = beamsnet_split(d["V"])
+    assert train.shape[1] == 10414 and val.shape[1] == 3472
+    assert 0.5 < np.median(d["V"][0]) < 3.0              # forward speed of a survey AUV, m/s
