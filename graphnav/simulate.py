@@ -2,8 +2,8 @@
 
 The vehicle starts at ~2 m depth, descends nose-down (pitch about -15..-19 deg) to 22-28 m, then flies a
 lawnmower survey: straight legs of 100-160 s joined by pairs of 90 deg turns (yaw rate up to ~0.1 rad/s),
-a depth change (pitch bump) in most legs, a new speed (1.1-2.3 m/s, smooth change) on every leg, and
-roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with small sway and heave. The pattern
+a depth change (pitch bump) in most legs, new speeds (1.1-2.3 m/s, smooth changes) at the start
+and often late in every leg, and roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with small sway and heave. The pattern
 continues for any duration (tested up to 4 h).
 
 Kinematics are analytic: roll, pitch, yaw and the body velocity ``v_b = [u, v, w]`` are sums of quintic
@@ -295,7 +295,7 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
     target = float(rng.uniform(22.0, 28.0))
     pitch_down = -float(rng.uniform(15.0, 19.0)) * DEG
     ramp = 8.0
-    traj.speed.add(2.0, 15.0, float(rng.uniform(1.4, 2.2)) - traj.speed0)
+    traj.speed.add(2.0, 15.0, float(rng.uniform(1.4, 2.3)) - traj.speed0)
     traj.pitch.add(3.0, ramp, pitch_down)
     up = traj.pitch.add(3.0 + ramp, ramp, -pitch_down)
 
@@ -335,6 +335,10 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
                     bump_error(brentq(bump_error, lo, hi, xtol=1e-6))
                 else:
                     bump_error(lo if abs(bump_error(lo)) < abs(bump_error(hi)) else hi)
+        if leg > 0 and rng.random() < 0.5:
+            # A second speed change late in the leg (after any depth change), before the turn.
+            speed_now = traj.speed0 + sum(traj.speed.delta)
+            traj.speed.add(leg_start + 75.0, 15.0, float(rng.uniform(1.1, 2.3)) - speed_now)
         # Lawnmower turn: 90 deg, short cross leg, 90 deg in the same direction; alternate direction.
         t_turn = leg_start + leg_len
         turn1, cross, turn2 = (float(rng.uniform(30.0, 40.0)), float(rng.uniform(10.0, 25.0)),
