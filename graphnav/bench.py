@@ -411,7 +411,7 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
     if meta.get("command"):
         lines += [f"Command: `{meta['command']}`", ""]
     lines += [f"Trajectories ({len(trajectories)}): {', '.join(trajectories)}  ",
-              f"Windows: {meta.get('window_s', '?')} s outages starting 60 s into each mission and then every "
+              f"Windows: {meta.get('window_s', 30.0):g} s outages starting 60 s into each mission and then every "
               f"window + 60 s (>= 60 s of full beams between windows; each window scored on its own; "
               f"`none` scores the same windows with all beams).  ",
               "VRMSE: m/s against ground truth, over the window (mean and worst over windows and "
@@ -476,7 +476,7 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
         rt = _mean(r["runtime_s"] for r in runs)
         dur = _mean(r.get("mission_duration_s") for r in runs)
         rtf = dur / rt if rt and math.isfinite(rt) and rt > 0 else float("nan")
-        lines.append(f"| {m} | {_f(rt, 2)} | {_f(rtf, 0)}x | {len(runs)} |")
+        lines.append(f"| {m} | {_f(rt, 2)} | {_f(rtf, 0) + ('x' if math.isfinite(rtf) else '')} | {len(runs)} |")
     lines.append("")
     if meta.get("plots"):
         lines += ["## Plots", ""] + [f"- [{Path(p).name}]({p})" for p in meta["plots"]] + [""]

@@ -14,8 +14,9 @@ Graph-HN-batch     graph      the network completer (batch smoothed)
 =================  =========  ==========================================================
 
 The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 for ``3-missing`` and
-``none``. The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none`` uses the
-3-missing network, which is only consulted if beams drop out); when its weights or module are missing the
+``none``. The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none`` uses
+``load_completer("auto")``, the networks where trained and the average estimator for other patterns, only
+consulted if beams drop out); when its weights or module are missing the
 average estimator stands in, with a warning, and the solution's ``info["completer"]`` says so.
 """
 from __future__ import annotations
@@ -37,7 +38,7 @@ METHODS: tuple[str, ...] = EKF_METHODS + GRAPH_METHODS
 #: Past pings the average estimator uses per scenario.
 AVERAGE_N_PAST: dict[str, int] = {"2-missing": 3, "3-missing": 5, "none": 5}
 #: Which network (number of missing beams it was trained for) serves each scenario.
-NETWORK_FOR_SCENARIO: dict[str, int] = {"2-missing": 2, "3-missing": 3, "none": 3}
+NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto"}
 
 
 def check_method(method: str) -> str:
@@ -74,7 +75,7 @@ def average_completer(scenario: str, noise_std: float = 0.042):
 
 
 @functools.lru_cache(maxsize=None)
-def _network(missing: int):
+def _network(missing):
     """Load a network once per process (loading torch weights costs far more than a completion)."""
     from graphnav import nets
     return nets.load_completer(missing=missing)
@@ -103,13 +104,16 @@ def completer_for(method: str, scenario: str, noise_std: float = 0.042):
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
-               options: dict | None = None, callback=None) -> NavSolution:
+               options=None, callback=None, mode: str = "online") -> NavSolution:
     """Run one method on a mission and return its :class:`NavSolution`.
 
     The scenario only chooses the completer (the outage itself is already in ``mission``'s valid mask,
-    see :meth:`Mission.with_outage`). ``completer`` overrides the choice; ``options`` go to the estimator;
-    ``callback`` (graph methods only) receives each online estimate as it is produced.
-    ``runtime_s`` is the wall time of the estimator call, and ``info["completer"]`` names the completer.
+    see :meth:`Mission.with_outage`). ``completer`` overrides the choice. ``options`` go to the estimator:
+    its options object (:class:`graphnav.ekf.EkfOptions`, :class:`graphnav.graph.GraphOptions`) or a dict
+    of its fields. Graph methods only: ``callback`` receives each filtered
+    :class:`graphnav.graph.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
+    ``"fixed-lag"`` (lag ``options.lag_s``).
+    ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer.
     """
     described = "given"
     if completer is None:
@@ -118,11 +122,15 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         check_method(method)
     start = time.perf_counter()
     if method in EKF_METHODS:
-        from graphnav.ekf import run_ekf
+        from graphnav.ekf import EkfOptions, run_ekf
+        if isinstance(options, dict):
+            options = EkfOptions(**options)
         sol = run_ekf(mission, method, completer=completer, options=options)
     else:
-        from graphnav.graph import run_graph
-        sol = run_graph(mission, method, completer=completer, options=options, callback=callback)
+        from graphnav.graph import GraphOptions, run_graph
+        if isinstance(options, dict):
+            options = GraphOptions(**options)
+        sol = run_graph(mission, method, completer=completer, options=options, callback=callback, mode=mode)
     wall = time.perf_counter() - start
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall

@@ -66,8 +66,9 @@ def gt_at(gt, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_trajectories(gt, solutions: list[NavSolution], outages, path, title: str = "") -> Path:
-    """North (up) vs East (right) of ground truth and every solution; GT inside outage windows in red."""
-    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    """Left: North (up) vs East (right) of ground truth and every solution, GT inside outage windows in red.
+    Right: horizontal position error over time (m), where metres of difference show that the track hides."""
+    fig, (ax, ax_err) = plt.subplots(1, 2, figsize=(14, 6.2), gridspec_kw={"width_ratios": [1.1, 1]})
     if gt is not None:
         ax.plot(gt.p_n[:, 1], gt.p_n[:, 0], color="k", lw=2.5, alpha=0.5, label="ground truth", zorder=1)
         for i, (a, b) in enumerate(_windows(outages)):
@@ -83,7 +84,20 @@ def plot_trajectories(gt, solutions: list[NavSolution], outages, path, title: st
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best", ncol=2)
-    ax.set_title(title or "Trajectory (North-East)")
+    ax.set_title("North-East track")
+    if gt is not None:
+        _mark_windows(ax_err, _windows(outages))
+        for i, sol in enumerate(solutions):
+            p_gt, _ = gt_at(gt, sol.t)
+            ax_err.plot(sol.t, np.hypot(*(sol.p_n[:, :2] - p_gt[:, :2]).T), color=_color(sol.method, i),
+                        lw=1.2, label=sol.method)
+        ax_err.set_xlabel("time (s)")
+        ax_err.set_ylabel("horizontal position error (m)")
+        ax_err.grid(alpha=0.3)
+        ax_err.legend(fontsize=8, ncol=2, loc="upper left")
+        ax_err.set_title("Horizontal position error")
+    fig.suptitle(title or "Trajectory")
+    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -106,6 +120,8 @@ def plot_velocity_errors(gt, solutions: list[NavSolution], outages, path, title:
                 ax.fill_between(t, -s, s, color=c, alpha=0.18, lw=0,
                                 label=f"{sol.method} +-1 sigma" if k == 0 else None)
         ax.axhline(0, color="k", lw=0.5)
+        if t_range is not None:
+            ax.set_xlim(*t_range)
         ax.set_ylabel(f"v {AXES_NED[k]} error (m/s)")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, ncol=3, loc="upper right")

@@ -6,6 +6,7 @@ Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md`` an
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 import time
@@ -41,7 +42,8 @@ def register(subparsers) -> None:
                    help="at most N windows per mission (evenly thinned); default: as many as fit")
     p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="METHOD",
                    help=f"methods to run (from {', '.join(METHODS)})")
-    p.add_argument("--jobs", type=int, default=1, metavar="N", help="parallel worker processes")
+    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
+                   help="parallel worker processes (1 = run in this process)")
     p.add_argument("--out", default="out/bench", metavar="DIR", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep the finished cases in OUT/results.json and run only the others")
@@ -98,7 +100,6 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
 
 def run(args) -> int:
     from graphnav.bench import find_trajectories, make_cases, make_report, run_bench
-    from graphnav.outputs import write_json  # noqa: F401  (results.json is written by run_bench)
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

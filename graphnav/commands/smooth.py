@@ -93,6 +93,10 @@ def print_summary(summary: dict) -> None:
         for w in acc["windows"]:
             print(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
+    timing = summary.get("update_timing")
+    if timing:
+        print(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
+              f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
         print(f"  {name}: {path}")
 

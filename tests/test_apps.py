@@ -1,0 +1,145 @@
+"""The three uses end to end on short simulated missions: smooth, online (flush, resume, Ctrl-C), bench.
+
+Also the method registry (which completer each method gets). Real estimators, short missions.
+"""
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from graphnav import methods
+from graphnav.cli import main
+from graphnav.nets import AverageCompleter
+from graphnav.outputs import CSV_COLUMNS, read_trajectory_csv, read_tum
+
+
+@pytest.mark.parametrize("command", ["smooth", "online", "bench"])
+def test_help(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    assert "--out" in capsys.readouterr().out
+
+
+def test_completer_registry(monkeypatch):
+    assert methods.completer_for("TC", "2-missing")[0] is None
+    assert methods.completer_for("Graph-TC", "3-missing")[0] is None
+    for scenario, n in (("2-missing", 3), ("3-missing", 5), ("none", 5)):
+        c, _ = methods.completer_for("Average-LC", scenario)
+        assert isinstance(c, AverageCompleter) and c.n_past == n
+    assert methods.baseline_of("HNLC") == "LC" and methods.baseline_of("Graph-HN") == "TC"
+    assert methods.average_of("Graph-HN-batch") == "Average-TC"
+
+    def no_weights(missing):
+        raise FileNotFoundError(f"no weights for {missing}")
+
+    monkeypatch.setattr(methods, "_network", no_weights)
+    with pytest.warns(RuntimeWarning, match="average estimator instead"):
+        c, described = methods.completer_for("Graph-HN", "3-missing")
+    assert isinstance(c, AverageCompleter) and c.n_past == 5 and "fallback" in described
+    with pytest.raises(Exception, match="unknown method"):
+        methods.completer_for("EKF", "none")
+
+
+def test_smooth_outputs(tmp_path, capsys):
+    out = tmp_path / "smooth"
+    rc = main(["smooth", "--duration", "120", "--scenario", "2-missing", "--out", str(out)])
+    assert rc == 0
+    summary = json.loads((out / "summary.json").read_text())
+    sol = read_trajectory_csv(out / "trajectory.csv")
+    t, p, C = read_tum(out / "trajectory.tum")
+    assert summary["method"] == "Graph-HN-batch" and summary["epochs"] == len(sol.t) == len(t) > 100
+    np.testing.assert_allclose(p, sol.p_n, atol=1e-5)
+    np.testing.assert_allclose(C, sol.C_b_n, atol=1e-6)
+    assert sol.cov_v_n is not None
+    acc = summary["accuracy"]
+    # Navigation-grade IMU, one 30 s window of 2 missing beams: the smoother stays at the cm/s level.
+    assert acc["vrmse_mission_mps"] < 0.05
+    assert [w["start_s"] for w in acc["windows"]] == [60.0]
+    assert acc["windows"][0]["vrmse_window_mps"] < 0.05
+    for name in ("trajectory_ne.png", "velocity_error.png", "velocity_std.png", "groundtruth.tum"):
+        assert (out / name).stat().st_size > 0
+    assert "VRMSE mission" in capsys.readouterr().out
+
+
+def _online(out, *extra):
+    return main(["online", "--duration", "120", "--scenario", "3-missing", "--method", "Graph-TC",
+                 "--out", str(out), "--no-progress", "--no-plots", *extra])
+
+
+def test_online_resume_continues_identically(tmp_path):
+    full = tmp_path / "full"
+    assert _online(full) == 0
+    reference = (full / "online.csv").read_text()
+    rows = reference.splitlines()
+    assert rows[0].split(",") == list(CSV_COLUMNS) and len(rows) > 100
+    summary = json.loads((full / "summary.json").read_text())
+    assert summary["epochs"] == len(rows) - 1 and summary["accuracy"]["vrmse_mission_mps"] < 0.2
+
+    # An interrupted run: the first half written, then a torn line.
+    part = tmp_path / "part"
+    part.mkdir()
+    half = len(rows) // 2
+    (part / "online.csv").write_text("\n".join(rows[:half]) + "\n" + rows[half][:17])
+    assert _online(part, "--resume") == 0
+    assert (part / "online.csv").read_text() == reference
+    resumed = json.loads((part / "summary.json").read_text())
+    assert resumed["epochs_replayed"] == half - 1 and resumed["epochs_this_run"] == len(rows) - half
+
+
+def test_online_ctrl_c_keeps_written_epochs(tmp_path):
+    out = tmp_path / "online"
+    cmd = [sys.executable, "-m", "graphnav", "online", "--duration", "120", "--method", "Graph-TC",
+           "--realtime", "--speed", "10", "--out", str(out), "--no-progress", "--no-plots"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    csv_path = out / "online.csv"
+    deadline = time.monotonic() + 60
+    try:
+        while time.monotonic() < deadline:
+            if csv_path.exists() and len(csv_path.read_text().splitlines()) > 10:
+                break
+            time.sleep(0.2)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    text = csv_path.read_text()
+    assert text.endswith("\n")
+    sol = read_trajectory_csv(csv_path)
+    # Paced at 10x, the run was stopped well before the end; everything produced so far is there.
+    assert 10 <= len(sol.t) < 110 and np.all(np.diff(sol.t) > 0)
+
+
+def test_bench_end_to_end(tmp_path):
+    out = tmp_path / "bench"
+    rc = main(["bench", "--sim-duration", "200", "--scenario", "2-missing", "--imu-grade", "tactical",
+               "--methods", "TC", "Average-TC", "--jobs", "2", "--out", str(out), "--no-progress"])
+    assert rc == 0
+    records = json.loads((out / "results.json").read_text())
+    assert len(records) == 2 * 2  # two windows (60 s, 150 s) x two methods
+    for r in records:
+        assert set(r) >= {"trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
+                          "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s"}
+        assert r["imu_grade"] == "tactical" and "error" not in r
+        assert 0 < r["vrmse_window"] < 1.0 and 0 < r["vrmse_mission"] < 1.0
+    assert {r["window_start_s"] for r in records} == {60.0, 150.0}
+    report = (out / "report.md").read_text()
+    assert "## IMU grade: tactical" in report and "| TC |" in report and "| Average-TC |" in report
+    plots = sorted(p.name for p in (out / "plots").iterdir())
+    assert "vrmse_bars_tactical.png" in plots
+    assert "trajectory_sim-seed0_tactical_2-missing.png" in plots
+    # --resume with nothing left to do keeps the records and runs nothing.
+    before = (out / "results.json").read_text()
+    assert main(["bench", "--sim-duration", "200", "--scenario", "2-missing", "--imu-grade", "tactical",
+                 "--methods", "TC", "Average-TC", "--jobs", "1", "--out", str(out), "--no-progress",
+                 "--resume", "--no-plots"]) == 0
+    assert json.loads((out / "results.json").read_text()) == json.loads(before)

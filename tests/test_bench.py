@@ -1,0 +1,171 @@
+"""Benchmark record schema, window scoring, incremental results.json, resume, and report aggregation.
+
+The estimator is replaced by a fake (ground truth plus a known velocity error inside outage windows) so
+the numbers in records and report are known exactly; the real estimators run in tests/test_apps.py.
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from graphnav import bench
+from graphnav.bench import (RECORD_KEYS, BenchCase, TrajectorySource, aggregate, make_cases, make_report,
+                            run_bench, run_case)
+from graphnav.mission import DvlData, GroundTruth, ImuData, Mission
+from graphnav.solution import NavSolution
+
+#: Fake velocity error (m/s, north) inside outage windows, per method; outside windows the error is 0.01.
+FAKE_ERR = {"TC": 0.5, "HNTC": 0.2, "Average-TC": 0.3, "Graph-HN": 0.1, "Graph-TC": 0.4, "LC": 2.0}
+OUTSIDE = 0.01
+
+
+def synthetic_mission(name: str = "fake", duration: float = 200.0) -> Mission:
+    """Straight line at 1.5 m/s north; IMU at 10 Hz, DVL and GT at 1 Hz (enough for scoring)."""
+    t_imu = np.arange(0.0, duration + 1e-9, 0.1)
+    t = np.arange(0.0, duration + 1e-9, 1.0)
+    v = np.tile([1.5, 0.0, 0.0], (len(t), 1))
+    gt = GroundTruth(t, np.column_stack([1.5 * t, 0 * t, 0 * t]), v, np.tile(np.eye(3), (len(t), 1, 1)))
+    imu = ImuData(t_imu, np.tile([0.0, 0.0, -9.8], (len(t_imu), 1)), np.zeros((len(t_imu), 3)))
+    dvl = DvlData(t, np.full((len(t), 4), 0.5), np.ones((len(t), 4), bool))
+    return Mission(name, imu, dvl, gt=gt)
+
+
+def fake_run_method(mission, method, scenario, **_):
+    """GT velocity plus FAKE_ERR[method] north inside the mission's outage windows (any scenario)."""
+    if method == "Graph-TC" and mission.name == "broken":
+        raise RuntimeError("solver exploded")
+    gt = mission.gt
+    err = np.full(len(gt.t), OUTSIDE)
+    for o in mission.meta.get("outages", []):
+        err[(gt.t >= o.start_s) & (gt.t <= o.end_s)] = FAKE_ERR[method]
+    v = gt.v_n.copy()
+    v[:, 0] += err
+    p = gt.p_n.copy()
+    p[:, 0] += np.concatenate([[0.0], np.cumsum(err[1:] * np.diff(gt.t))])
+    return NavSolution(method, gt.t.copy(), p, v, gt.C_b_n.copy(), runtime_s=0.5, info={"completer": "fake"})
+
+
+@pytest.fixture
+def fake_world(monkeypatch):
+    missions = {}
+
+    def load_source(source):
+        return missions.setdefault(source.name, synthetic_mission(source.name))
+
+    monkeypatch.setattr(bench, "load_source", load_source)
+    monkeypatch.setattr(bench, "run_method", fake_run_method)
+    bench.prepared_mission.cache_clear()
+    yield
+    bench.prepared_mission.cache_clear()
+
+
+def test_run_case_records(fake_world):
+    case = BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", "HNTC", 30.0)
+    records = run_case(case)
+    # 200 s mission: windows at 60 s and 150 s (60 s settle, then every 30 + 60 s, ending >= 5 s early).
+    assert [r["window_start_s"] for r in records] == [60.0, 150.0]
+    for r in records:
+        assert set(RECORD_KEYS) <= set(r) and "error" not in r
+        assert (r["trajectory"], r["scenario"], r["imu_grade"], r["method"], r["window_s"]) == \
+            ("t1", "2-missing", "as-recorded", "HNTC", 30.0)
+        assert r["vrmse_window"] == pytest.approx(0.2)
+        # Over the window the fake drifts 0.2 m/s north for 30 s (stamps 60..90 s at 1 Hz).
+        assert r["pos_err_window_end_m"] == pytest.approx(0.2 * 30, rel=0.05)
+        assert r["runtime_s"] >= 0 and r["mission_duration_s"] == pytest.approx(200.0)
+    n_in = 2 * 31
+    expect_mission = math.sqrt((n_in * 0.2 ** 2 + (201 - n_in) * OUTSIDE ** 2) / 201)
+    assert records[0]["vrmse_mission"] == pytest.approx(expect_mission, rel=1e-6)
+
+
+def test_failed_case_is_recorded_not_raised(fake_world):
+    records = run_case(BenchCase(TrajectorySource("broken"), "3-missing", "as-recorded", "Graph-TC"))
+    assert len(records) == 1 and "solver exploded" in records[0]["error"]
+    assert records[0]["vrmse_window"] is None
+
+
+def test_degraded_grade_changes_imu_and_model(fake_world):
+    mission = bench.prepared_mission(TrajectorySource("t1"), "tactical")
+    ref = bench.prepared_mission(TrajectorySource("t1"), "as-recorded")
+    assert mission.config.imu.name == "tactical"
+    assert not np.allclose(mission.imu.f_b, ref.imu.f_b)
+    again = bench.degrade_imu(ref, "tactical", seed=mission.meta["imu_degrade_seed"])
+    np.testing.assert_array_equal(again.imu.f_b, mission.imu.f_b)  # seeded: every method sees the same IMU
+
+
+def test_results_written_per_case_and_resume(fake_world, tmp_path, monkeypatch):
+    cases = make_cases([TrajectorySource("t1"), TrajectorySource("t2")], ["2-missing"], ["as-recorded"],
+                       ["TC", "HNTC"], 30.0)
+    assert len(cases) == 4
+    calls = []
+
+    def interrupting(mission, method, scenario, **kw):
+        calls.append((mission.name, method))
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return fake_run_method(mission, method, scenario, **kw)
+
+    monkeypatch.setattr(bench, "run_method", interrupting)
+    with pytest.raises(KeyboardInterrupt):
+        run_bench(cases, tmp_path, jobs=1, progress=False)
+    kept = json.loads((tmp_path / "results.json").read_text())
+    assert {(r["trajectory"], r["method"]) for r in kept} == {("t1", "TC"), ("t1", "HNTC")}
+    assert len(kept) == 4  # two windows each
+
+    calls.clear()
+    monkeypatch.setattr(bench, "run_method", fake_run_method)
+    records = run_bench(cases, tmp_path, jobs=1, resume=True, progress=False)
+    assert len(records) == 8
+    assert len(json.loads((tmp_path / "results.json").read_text())) == 8
+    # Without --resume everything runs again from scratch.
+    records = run_bench(cases[:1], tmp_path, jobs=1, progress=False)
+    assert len(records) == 2
+
+
+def fake_records() -> list[dict]:
+    out = []
+    for traj in ("a", "b"):
+        for w, start in enumerate((60.0, 150.0)):
+            for method, err in FAKE_ERR.items():
+                # Trajectory b, second window: Graph-HN is worse than HNTC there.
+                v = 0.3 if (traj, w, method) == ("b", 1, "Graph-HN") else err
+                out.append({"trajectory": traj, "scenario": "2-missing", "imu_grade": "tactical",
+                            "window_start_s": start, "window_s": 30.0, "method": method,
+                            "vrmse_window": v, "vrmse_mission": v / 5, "pos_err_window_end_m": 30 * v,
+                            "runtime_s": 2.0 if method.startswith("Graph") else 0.5,
+                            "mission_duration_s": 400.0, "completer": "fake"})
+    out.append({"trajectory": "a", "scenario": "2-missing", "imu_grade": "tactical", "window_start_s": None,
+                "window_s": 30.0, "method": "Graph-HN-batch", "vrmse_window": None, "vrmse_mission": None,
+                "pos_err_window_end_m": None, "runtime_s": None, "error": "RuntimeError: boom"})
+    return out
+
+
+def test_aggregate_numbers():
+    agg = aggregate(fake_records())
+    g = agg[("tactical", "2-missing", "Graph-HN")]
+    assert g["vrmse_window_mean"] == pytest.approx((0.1 * 3 + 0.3) / 4)
+    assert g["vrmse_window_worst"] == pytest.approx(0.3)
+    assert g["n_windows"] == 4 and g["n_failed"] == 0
+    assert g["realtime_factor"] == pytest.approx(200.0)
+    assert agg[("tactical", "2-missing", "Graph-HN-batch")]["n_failed"] == 1
+    assert bench.improvement_pct(0.15, 0.2) == pytest.approx(25.0)
+    assert bench.improvement_pct(0.3, 0.2) == pytest.approx(-50.0)
+
+
+def test_report_tables():
+    text = make_report(fake_records(), {"command": "graphnav bench --x", "window_s": 30.0, "wall_time_s": 12.0})
+    assert "graphnav bench --x" in text and "Wall time: 12 s" in text
+    assert "## IMU grade: tactical (IMU degraded:" in text and "deg/h" in text
+    assert "1 case(s) failed" in text
+    # Paper-style row: mean (worst) per method.
+    row = next(line for line in text.splitlines() if line.startswith("| 2-missing |"))
+    assert "0.150 (0.300)" in row and "0.500 (0.500)" in row
+    # Detailed table: HNTC vs TC baseline = (0.5 - 0.2) / 0.5 = +60 %, vs Average-TC (0.3) = +33 %.
+    hntc = next(line for line in text.splitlines() if line.startswith("| HNTC |"))
+    assert "+60%" in hntc and "+33%" in hntc
+    # Headline: Graph-HN 0.15 vs HNTC 0.2, lower in 3 of 4 windows.
+    assert "Graph-HN beats HNTC: window VRMSE 0.150 vs 0.200 m/s (+25%), lower in 3 of 4 windows" in text
+    runtime = next(line for line in text.splitlines() if line.startswith("| Graph-HN | 2.00"))
+    assert "200x" in runtime
