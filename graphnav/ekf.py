@@ -1,0 +1,354 @@
+"""Error-state EKF for INS/DVL: the paper's LC and TC baselines and their hybrid (beam-completer) variants.
+
+State and conventions
+---------------------
+Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n`` (integrated from velocity, no error
+state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error state (12, paper order)
+``dx = [dv_n, eps_n, db_a, db_g]`` with *every* error defined as estimate minus truth:
+``v = v_hat - dv``, ``b = b_hat - db`` and ``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of
+the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
+
+Error model (Groves, *Principles of GNSS, Inertial and Multisensor Integrated Navigation*, 2nd ed., eq.
+14.48 local-navigation-frame form, transport rate and gravity-position coupling dropped as the nominal
+model does; derived here for the convention above and checked numerically in ``tests/test_ekf.py``)::
+
+    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
+    d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
+    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb
+
+so, with ``w = [n_a, n_g, n_ab, n_gb]``::
+
+    F = [[F_vv, F_ve, -C, 0], [F_ev=0, F_ee, 0, -C], [0]*4, [0]*4]
+    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I]]
+
+**Block placement against the paper.** ``../shared/docs/method.md`` prints the velocity row as
+``[F_vv, F_ve, 0, C_b^n]`` and the attitude row as ``[F_ev, F_ee, C_b^n, 0]`` (and G with the velocity driven
+by the second noise, the attitude by the first) for the state order ``[dv, eps, db_a, db_g]``. That would let
+the *gyro* bias drive the velocity error and the *accelerometer* bias the misalignment, which is physically
+wrong; it is the textbook matrix with the two bias columns (and noise columns) swapped, i.e. what one gets
+with the state order ``[dv, eps, db_g, db_a]``. We use the textbook placement (accelerometer bias into
+velocity, gyro bias into attitude). The signs of the bias blocks (-C) follow from "true = estimate -
+error" for the biases; the paper's +C corresponds to the opposite bias-error sign and changes nothing else.
+
+Discretisation (the paper's): per IMU segment ``Phi = sum_{r<=order} (F dt)^r / r!`` and
+``Q = 0.5 (Phi G Qc G^T + G Qc G^T Phi^T) dt``. With isotropic IMU noise ``G Qc G^T`` is the constant
+diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses. The per-segment pairs
+are composed between two DVL pings by a pairwise tree, ``(Phi_b, Q_b) o (Phi_a, Q_a) = (Phi_b Phi_a,
+Phi_b Q_a Phi_b^T + Q_b)``, which equals propagating P segment by segment.
+
+Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``, lever arm l_b optional,
+``omega_b`` the IMU rate interpolated at the ping stamp), with ``dz = h(x_hat) - y = H dx + noise``:
+
+- LC (>= 3 beams; weighted least-squares velocity): ``H = [C^T, C^T [v_n]x, 0, [l_b]x]``.
+  The paper prints ``-C^T [v_n x]``, which is the same row for the opposite misalignment sign.
+- TC (one row per beam): ``y_i = b_i^T v_d_b``, ``H_i = b_i^T H_LC`` (b_i the beam unit vector in body).
+
+Beam noise: the beams carry an unmodelled bias (0.01 m/s) and scale factor (0.7 %) besides white noise; the
+filter treats them as white noise of variance ``noise^2 + bias^2 + (scale * |beam|)^2`` (each term from
+the configuration by default, see :class:`EkfOptions`). Completed beams add their completer sigma^2.
+
+Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
+normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
+b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from .config import SensorConfig
+from .dvl import DvlGeometry
+from .errors import ConfigError
+from .history import BeamHistory
+from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline, so3_exp_batch
+from .mission import Mission
+from .rotations import skew
+from .solution import NavSolution
+
+METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
+N_STATES = 12
+IV, IE, IA, IG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+
+
+@dataclass
+class EkfOptions:
+    """Tuning of :class:`ErrorStateEkf`. None means "from the mission's :class:`SensorConfig`".
+
+    Attributes:
+        lever_arm: model the DVL lever arm (None: on when ``config.dvl.lever_arm_b`` is non-zero).
+        gating: reject updates whose normalised innovation squared exceeds ``chi2.ppf(gate_prob, dof)``.
+        gate_prob: gating probability.
+        beam_noise_std: white beam noise, m/s (None: ``config.dvl.beam_noise_std``).
+        beam_bias_std: inflation for the unmodelled beam bias, m/s (None: max |config.dvl.beam_bias|).
+        beam_scale_std: inflation for the unmodelled scale factor, unitless, multiplies |beam| (None: max
+            |config.dvl.scale_factor|).
+        sigma_v0: initial velocity sigma, m/s (the filter starts on the ground truth; this covers GT error and
+            the time offsets of real data).
+        sigma_att0_rad: initial misalignment sigma per NED axis, rad.
+        sigma_ba0: initial accelerometer bias sigma, m/s^2 (None: ``config.imu.accel_bias_sigma``).
+        sigma_bg0: initial gyro bias sigma, rad/s (None: ``config.imu.gyro_bias_sigma``).
+        phi_order: order of the truncated series for Phi.
+    """
+
+    lever_arm: bool | None = None
+    gating: bool = False
+    gate_prob: float = 0.9999
+    beam_noise_std: float | None = None
+    beam_bias_std: float | None = None
+    beam_scale_std: float | None = None
+    sigma_v0: float = 0.05
+    sigma_att0_rad: np.ndarray = field(default_factory=lambda: np.deg2rad([0.1, 0.1, 0.1]))
+    sigma_ba0: float | None = None
+    sigma_bg0: float | None = None
+    phi_order: int = 2
+
+
+def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Compose per-segment (Phi_j, Q_j) (n,k,k) in time order into one (Phi, Q) by a pairwise tree."""
+    while len(Phi) > 1:
+        even = len(Phi) // 2 * 2
+        Pa, Pb, Qa, Qb = Phi[0:even:2], Phi[1:even:2], Q[0:even:2], Q[1:even:2]
+        Phi_new = Pb @ Pa
+        Q_new = Pb @ Qa @ np.swapaxes(Pb, 1, 2) + Qb
+        if len(Phi) > even:
+            Phi_new = np.concatenate([Phi_new, Phi[-1:]])
+            Q_new = np.concatenate([Q_new, Q[-1:]])
+        Phi, Q = Phi_new, Q_new
+    return Phi[0], Q[0]
+
+
+class ErrorStateEkf:
+    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC).
+
+    Args:
+        config: sensor configuration (noise model, gravity, Earth rate, DVL geometry).
+        state: initial nominal state.
+        options: tuning; default :class:`EkfOptions`.
+        bias_acc, bias_gyro: initial bias estimates, m/s^2 and rad/s (default zero).
+    """
+
+    def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
+                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None):
+        self.config = config
+        self.options = opts = options or EkfOptions()
+        self.strapdown = Strapdown.from_config(config)
+        self.state = state.copy()
+        self.bias_acc = np.zeros(3) if bias_acc is None else np.asarray(bias_acc, float).copy()
+        self.bias_gyro = np.zeros(3) if bias_gyro is None else np.asarray(bias_gyro, float).copy()
+        imu = config.imu
+        sba0 = imu.accel_bias_sigma if opts.sigma_ba0 is None else opts.sigma_ba0
+        sbg0 = imu.gyro_bias_sigma if opts.sigma_bg0 is None else opts.sigma_bg0
+        self.P = np.diag(np.concatenate([np.full(3, opts.sigma_v0 ** 2),
+                                         np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
+                                         np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]))
+        # G Qc G^T: constant because the IMU noise is isotropic (C C^T = I)
+        self.qd = np.repeat([imu.accel_noise_density ** 2, imu.gyro_noise_density ** 2,
+                             imu.accel_bias_rw ** 2, imu.gyro_bias_rw ** 2], 3)
+        geometry = DvlGeometry.from_spec(config.dvl)
+        self.T_b = geometry.T_b
+        use_lever = (np.any(config.dvl.lever_arm_b != 0) if opts.lever_arm is None else opts.lever_arm)
+        self.lever_arm_b = geometry.lever_arm_b if use_lever else np.zeros(3)
+        self.skew_lever = skew(self.lever_arm_b)
+        self.beam_noise_std = config.dvl.beam_noise_std if opts.beam_noise_std is None else opts.beam_noise_std
+        self.beam_bias_std = (float(np.max(np.abs(config.dvl.beam_bias))) if opts.beam_bias_std is None
+                              else opts.beam_bias_std)
+        self.beam_scale_std = (float(np.max(np.abs(config.dvl.scale_factor))) if opts.beam_scale_std is None
+                               else opts.beam_scale_std)
+        self._gate = {m: chi2.ppf(opts.gate_prob, m) for m in range(1, 5)}
+        self._skew_wie = skew(self.strapdown.omega_ie_n)
+        self.n_updates = 0
+        self.n_gated = 0
+
+    # --- propagation ------------------------------------------------------------------------------
+    def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
+        """Per-segment (Phi (n,12,12), Q (n,12,12)) along a :class:`~graphnav.ins.PropagationPath`."""
+        n, dt, C = len(path.dt), path.dt, path.C_b_n
+        F = np.zeros((n, N_STATES, N_STATES))
+        F[:, IV, IV] = -2.0 * self._skew_wie
+        F[:, IV, IE] = -skew(path.f_n)
+        F[:, IV, IA] = -C
+        F[:, IE, IE] = -self._skew_wie
+        F[:, IE, IG] = -C
+        A = F * dt[:, None, None]
+        Phi = np.broadcast_to(np.eye(N_STATES), A.shape) + A
+        term = A
+        for r in range(2, self.options.phi_order + 1):
+            term = term @ A / r
+            Phi = Phi + term
+        M = Phi * self.qd
+        Q = 0.5 * (M + np.swapaxes(M, 1, 2)) * dt[:, None, None]
+        return Phi, Q
+
+    def predict(self, f_b: np.ndarray, omega_b: np.ndarray, dt: np.ndarray) -> None:
+        """Propagate nominal state and covariance over zero-order-hold IMU segments.
+
+        Args:
+            f_b: (n,3) specific force, m/s^2; omega_b: (n,3) rate, rad/s (body, raw: biases are removed
+                here); dt: (n,) segment lengths, s.
+        """
+        if len(dt) == 0:
+            return
+        self.state, path = self.strapdown.propagate(self.state, f_b, omega_b, dt, self.bias_acc, self.bias_gyro)
+        Phi, Q = compose_transitions(*self.transition(path))
+        self.P = Phi @ self.P @ Phi.T + Q
+
+    # --- measurement model -----------------------------------------------------------------------
+    def predicted_dvl_velocity(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h (3,) predicted DVL-head velocity in body, m/s; H (3,12)) at the current state."""
+        C = self.state.C_b_n
+        Ct = C.T
+        h = Ct @ self.state.v_n + np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
+        H = np.zeros((3, N_STATES))
+        H[:, IV] = Ct
+        H[:, IE] = Ct @ skew(self.state.v_n)
+        H[:, IG] = self.skew_lever
+        return h, H
+
+    def beam_variance(self, beams: np.ndarray) -> np.ndarray:
+        """Assumed variance (m/s)^2 of beam measurements of magnitude |beams| (white + bias + scale)."""
+        return (self.beam_noise_std ** 2 + self.beam_bias_std ** 2
+                + (self.beam_scale_std * np.asarray(beams)) ** 2)
+
+    def _update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray) -> bool:
+        PHt = self.P @ H.T
+        S = H @ PHt + R
+        S_inv_dz = np.linalg.solve(S, dz)
+        if self.options.gating and dz @ S_inv_dz > self._gate[min(len(dz), 4)]:
+            self.n_gated += 1
+            return False
+        K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
+        dx = PHt @ S_inv_dz
+        IKH = np.eye(N_STATES) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
+        self.P = 0.5 * (self.P + self.P.T)
+        # closed-loop correction, then the error state is reset to zero
+        self.state.v_n = self.state.v_n - dx[IV]
+        self.state.C_b_n = so3_exp_batch(-dx[IE][None])[0] @ self.state.C_b_n
+        self.bias_acc = self.bias_acc - dx[IA]
+        self.bias_gyro = self.bias_gyro - dx[IG]
+        self.n_updates += 1
+        return True
+
+    def update_lc(self, v_dvl_b: np.ndarray, R_v: np.ndarray, omega_b: np.ndarray) -> bool:
+        """Loosely coupled update with a DVL-head velocity (3,) m/s in body and its covariance (3,3).
+
+        ``omega_b`` is the raw IMU rate at the ping (rad/s) for the lever-arm term. Returns False if gated.
+        """
+        h, H = self.predicted_dvl_velocity(omega_b)
+        return self._update(h - v_dvl_b, H, R_v)
+
+    def update_lc_beams(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
+                        ) -> bool:
+        """LC update from >= 3 beams (4,) m/s (NaN = missing) by weighted least squares.
+
+        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams). With fewer than
+        three beams there is no update (pure inertial) and False is returned.
+        """
+        used = np.isfinite(beams)
+        if used.sum() < 3:
+            return False
+        var = self.beam_variance(beams[used])
+        if sigma_extra is not None:
+            var = var + sigma_extra[used] ** 2
+        A = self.T_b[used]
+        info = A.T @ (A / var[:, None])
+        R_v = np.linalg.inv(info)
+        v = R_v @ (A.T @ (beams[used] / var))
+        return self.update_lc(v, R_v, omega_b)
+
+    def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
+        """Tightly coupled update, one row per finite beam of ``beams`` (4,) m/s (NaN = missing).
+
+        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams).
+        """
+        used = np.isfinite(beams)
+        if not used.any():
+            return False
+        h, H = self.predicted_dvl_velocity(omega_b)
+        Tu = self.T_b[used]
+        y = beams[used]
+        var = self.beam_variance(y)
+        if sigma_extra is not None:
+            var = var + sigma_extra[used] ** 2
+        return self._update(Tu @ h - y, Tu @ H, np.diag(var))
+
+
+def _initial_state(mission: Mission, t0: float) -> StrapdownState:
+    from .metrics import interpolate_gt
+    p, v, C = interpolate_gt(mission.gt, np.array([t0]))
+    return StrapdownState(t0, C[0], v[0], p[0])
+
+
+def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
+            initial: StrapdownState | None = None) -> NavSolution:
+    """Run one of the EKF methods over a mission and return the solution at every DVL ping (post update).
+
+    Args:
+        mission: the mission (IMU, DVL beams and valid mask, config, ground truth).
+        method: ``LC``, ``TC`` (measured beams only), ``Average-LC``, ``Average-TC``, ``HNLC``, ``HNTC``
+            (missing beams completed by ``completer`` through :class:`~graphnav.history.BeamHistory`; the
+            completed beams enter with their variance inflated by the completer's sigma^2).
+        completer: required for the hybrid methods, e.g. ``AverageCompleter(n_past)`` or the network's.
+        options: :class:`EkfOptions`.
+        initial: initial nominal state; default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the
+            paper (the comparison is about the outage, not the alignment; the initial covariance of
+            :class:`EkfOptions` covers the ground truth's own error).
+
+    Returns:
+        :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
+    """
+    wall = time.perf_counter()
+    if method not in METHODS:
+        raise ConfigError(f"unknown EKF method '{method}'; choose one of {list(METHODS)}")
+    hybrid = method not in ("LC", "TC")
+    if hybrid and completer is None:
+        raise ConfigError(f"method {method} needs a beam completer (e.g. graphnav.nets.AverageCompleter(3))")
+    loose = method.endswith("LC")
+    imu, dvl = mission.imu, mission.dvl
+    if initial is None:
+        if mission.gt is None:
+            raise ConfigError("run_ekf needs mission.gt or an initial state")
+        initial = _initial_state(mission, max(imu.t[0], mission.gt.t[0]))
+    t0 = initial.t
+    keep = (dvl.t >= t0) & (dvl.t <= imu.t[-1])
+    ping_t, ping_beams, ping_valid = dvl.t[keep], dvl.beams[keep], dvl.valid[keep]
+    events = np.concatenate([[t0], ping_t])
+    seg_t, seg_imu, event_seg = segment_timeline(imu.t, events)
+    seg_dt = np.diff(np.append(seg_t, imu.t[-1]))
+    seg_f = segment_specific_force(imu.t, imu.f_b, imu.omega_b, seg_t, seg_imu)
+    seg_w = imu.omega_b[seg_imu]
+    ping_w = np.stack([np.interp(ping_t, imu.t, imu.omega_b[:, i]) for i in range(3)], axis=-1)
+
+    ekf = ErrorStateEkf(mission.config, initial, options)
+    history = BeamHistory(completer.n_past) if hybrid else None
+    K = len(ping_t)
+    out_p, out_v = np.empty((K, 3)), np.empty((K, 3))
+    out_C, out_P = np.empty((K, 3, 3)), np.empty((K, 3, 3))
+    out_ba, out_bg = np.empty((K, 3)), np.empty((K, 3))
+    n_completed = 0
+    for k in range(K):
+        seg = slice(event_seg[k], event_seg[k + 1])
+        ekf.predict(seg_f[seg], seg_w[seg], seg_dt[seg])
+        valid = ping_valid[k]
+        beams = np.where(valid, ping_beams[k], np.nan)
+        sigma = None
+        if hybrid:
+            completed = history.complete(completer, ping_beams[k], valid)
+            if completed is not None:
+                if not valid.all():
+                    n_completed += 1
+                beams, sigma = completed
+        if loose:
+            ekf.update_lc_beams(beams, ping_w[k], sigma)
+        else:
+            ekf.update_tc(beams, ping_w[k], sigma)
+        s = ekf.state
+        out_p[k], out_v[k], out_C[k], out_P[k] = s.p_n, s.v_n, s.C_b_n, ekf.P[IV, IV]
+        out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
+    info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
+            "n_imu_segments": int(len(seg_t)), "t0": float(t0)}
+    return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
+                       runtime_s=time.perf_counter() - wall, info=info)

@@ -1,0 +1,231 @@
+"""Error-state EKF: F/Phi against a numerical linearisation, measurement models, consistency, outages."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from graphnav import metrics
+from graphnav.config import SensorConfig, imu_grade
+from graphnav.dvl import DvlGeometry, make_beams
+from graphnav.earth import earth_rate_n
+from graphnav.ekf import IA, IE, IG, IV, METHODS, EkfOptions, ErrorStateEkf, compose_transitions, run_ekf
+from graphnav.errors import ConfigError
+from graphnav.imu_errors import corrupt_imu
+from graphnav.ins import StrapdownState, so3_exp_batch
+from graphnav.mission import DvlData, GroundTruth, ImuData, Mission
+from graphnav.nets import AverageCompleter
+from graphnav.rotations import euler_to_C_b_n, so3_log
+from graphnav.scenarios import scenario_outage, window_starts
+from graphnav.simulate import simulate_mission
+
+
+def _manoeuvre(n=100, dt=0.01):
+    t = np.arange(n) * dt
+    f = np.c_[0.3 * np.sin(t), 0.2 * np.cos(2 * t), -9.79 + 0.1 * t]
+    w = np.c_[0.05 * np.cos(t), np.full(n, -0.03), 0.1 * np.sin(3 * t)]
+    return f, w, np.full(n, dt)
+
+
+def _numerical_phi(ekf, s0, f, w, dt, ba, bg):
+    """Jacobian of the end error w.r.t. the start error by perturbing the nominal start (true = est - err)."""
+    end, _ = ekf.strapdown.propagate(s0, f, w, dt, ba, bg)
+    scale = np.r_[np.full(3, 1e-3), np.full(3, 1e-4), np.full(3, 1e-4), np.full(3, 1e-5)]
+    num = np.zeros((12, 12))
+    for j in range(12):
+        dx = np.zeros(12)
+        dx[j] = scale[j]
+        start = StrapdownState(s0.t, so3_exp_batch(-dx[IE][None])[0] @ s0.C_b_n, s0.v_n - dx[IV], s0.p_n)
+        true_end, _ = ekf.strapdown.propagate(start, f, w, dt, ba - dx[IA], bg - dx[IG])
+        err = np.r_[end.v_n - true_end.v_n, so3_log(end.C_b_n @ true_end.C_b_n.T), dx[IA], dx[IG]]
+        num[:, j] = err / scale[j]
+    return num
+
+
+def _block_errors(Phi, num):
+    out = {}
+    for i, r in enumerate((IV, IE, IA, IG)):
+        for j, c in enumerate((IV, IE, IA, IG)):
+            out[i, j] = (np.abs(num[r, c] - Phi[r, c]).max(), np.abs(num[r, c]).max())
+    return out
+
+
+def test_phi_matches_numerical_linearisation_of_the_strapdown():
+    """1 s of manoeuvring (100 IMU steps): Phi composed from the per-step series vs finite differences.
+
+    The remaining difference is the O(dt) gap between the continuous error model and the Euler-discretised
+    nominal integrator (about 1 % on the second-order gyro-bias-to-velocity block, far less elsewhere).
+    """
+    f, w, dt = _manoeuvre()
+    s0 = StrapdownState(0.0, euler_to_C_b_n(0.05, -0.2, 1.0), np.array([1.5, -0.5, 0.3]), np.zeros(3))
+    ba, bg = np.array([1e-3, -2e-3, 5e-4]), np.array([1e-4, -2e-4, 3e-4])
+    ekf = ErrorStateEkf(SensorConfig(), s0, bias_acc=ba, bias_gyro=bg)
+    _, path = ekf.strapdown.propagate(s0, f, w, dt, ba, bg)
+    Phi, Q = compose_transitions(*ekf.transition(path))
+    num = _numerical_phi(ekf, s0, f, w, dt, ba, bg)
+    for (i, j), (diff, size) in _block_errors(Phi, num).items():
+        assert diff <= 0.015 * size + 1e-6, f"block ({i},{j}): |num - Phi| = {diff} vs |block| = {size}"
+    assert np.allclose(Q, Q.T) and np.all(np.linalg.eigvalsh(Q) > -1e-20)
+
+    # the paper's printed placement (bias columns swapped) fails the same check
+    swapped = Phi.copy()
+    swapped[:, [6, 7, 8, 9, 10, 11]] = Phi[:, [9, 10, 11, 6, 7, 8]]
+    worst = max(d / max(s, 1e-12) for (i, j), (d, s) in _block_errors(swapped, num).items() if s > 1e-3)
+    assert worst > 0.5
+
+
+def test_composed_transition_equals_step_by_step_covariance_propagation():
+    f, w, dt = _manoeuvre(n=37)
+    s0 = StrapdownState(0.0, euler_to_C_b_n(0.1, 0.2, -1.0), np.array([1.0, 0.2, 0.0]), np.zeros(3))
+    ekf = ErrorStateEkf(SensorConfig(imu=imu_grade("mems")), s0)
+    _, path = ekf.strapdown.propagate(s0, f, w, dt)
+    Phis, Qs = ekf.transition(path)
+    P = ekf.P.copy()
+    for Phi_j, Q_j in zip(Phis, Qs):
+        P = Phi_j @ P @ Phi_j.T + Q_j
+    Phi, Q = compose_transitions(Phis, Qs)
+    assert np.allclose(Phi @ ekf.P @ Phi.T + Q, P, rtol=1e-10, atol=1e-20)
+
+
+def _state_on_truth(cfg):
+    C = euler_to_C_b_n(0.03, -0.1, 0.7)
+    return StrapdownState(0.0, C, np.array([1.2, -0.4, 0.2]), np.zeros(3))
+
+
+def test_lc_and_tc_updates_agree_with_four_beams_and_vanish_on_exact_beams():
+    cfg = SensorConfig()
+    cfg.dvl.lever_arm_b = np.array([-1.86, -0.04, 0.2])
+    s = _state_on_truth(cfg)
+    omega = np.array([0.02, -0.05, 0.1])
+    geo = DvlGeometry.from_spec(cfg.dvl)
+    exact = geo.beams_from_velocity(s.C_b_n.T @ s.v_n, omega)
+    lc, tc = ErrorStateEkf(cfg, s), ErrorStateEkf(cfg, s)
+    lc.update_lc_beams(exact, omega)
+    tc.update_tc(exact, omega)
+    # exact beams (lever arm included) give zero innovation: the state does not move
+    assert np.allclose(tc.state.v_n, s.v_n, atol=1e-12) and np.allclose(tc.state.C_b_n, s.C_b_n, atol=1e-12)
+    # a linear update with 4 beams equals the LC update with the weighted LS velocity and its covariance
+    noisy = exact + np.array([0.03, -0.05, 0.02, 0.04])
+    lc, tc = ErrorStateEkf(cfg, s), ErrorStateEkf(cfg, s)
+    lc.update_lc_beams(noisy, omega)
+    tc.update_tc(noisy, omega)
+    assert np.allclose(lc.state.v_n, tc.state.v_n, atol=1e-10)
+    assert np.allclose(lc.P, tc.P, rtol=1e-8, atol=1e-18)
+    # without the lever arm term the same beams give a different (biased) update
+    no_lever = ErrorStateEkf(cfg, s, EkfOptions(lever_arm=False))
+    no_lever.update_tc(exact, omega)
+    assert np.abs(no_lever.state.v_n - s.v_n).max() > 1e-3
+
+
+def test_lc_with_two_beams_does_not_update_and_gating_rejects_outliers():
+    cfg = SensorConfig()
+    s = _state_on_truth(cfg)
+    ekf = ErrorStateEkf(cfg, s)
+    assert not ekf.update_lc_beams(np.array([np.nan, 0.5, np.nan, -0.2]), np.zeros(3))
+    gated = ErrorStateEkf(cfg, s, EkfOptions(gating=True))
+    beams = DvlGeometry.from_spec(cfg.dvl).beams_from_velocity(s.C_b_n.T @ s.v_n) + 5.0
+    assert not gated.update_tc(beams, np.zeros(3))
+    assert gated.n_gated == 1 and np.allclose(gated.state.v_n, s.v_n)
+
+
+def test_run_ekf_rejects_unknown_method_and_missing_completer():
+    m = simulate_mission(20.0, seed=0)
+    with pytest.raises(ConfigError):
+        run_ekf(m, "EKF")
+    with pytest.raises(ConfigError):
+        run_ekf(m, "HNTC")
+
+
+@pytest.fixture(scope="module")
+def sim_mission():
+    return simulate_mission(400.0, seed=0)
+
+
+def test_all_beams_vrmse_near_dvl_noise_and_outputs_at_every_ping(sim_mission):
+    m = sim_mission
+    for method in METHODS:
+        sol = run_ekf(m, method, completer=AverageCompleter(3))
+        assert sol.method == method and len(sol) == len(m.dvl.t)
+        assert np.allclose(sol.t, m.dvl.t)
+        assert sol.cov_v_n.shape == (len(sol), 3, 3) and sol.runtime_s > 0
+        # one ping's LS velocity has ~0.09 m/s horizontal noise; the filter must beat the beam noise
+        assert 0.005 < metrics.vrmse(sol, m.gt) < m.config.dvl.beam_noise_std
+        assert metrics.horizontal_position_error(sol, m.gt) < 10.0
+
+
+def test_velocity_nees_is_consistent_with_white_dvl_noise():
+    """Monte Carlo NEES (8 seeds, 150 s, navigation and tactical IMU) inside the chi-square 95 % band.
+
+    The 12-state paper filter has no DVL bias/scale states, so the check uses beams with white noise only
+    (with the default 0.01 m/s bias and 0.7 % scale the filter is overconfident: NEES ~8, see the report).
+    """
+    base = simulate_mission(10.0, seed=0).config
+    dvl = dataclasses.replace(base.dvl, beam_bias=np.zeros(4), scale_factor=np.zeros(3))
+    runs = 8
+    lo, hi = chi2.ppf([0.025, 0.975], 3 * runs) / runs
+    for grade in ("navigation", "tactical"):
+        nees = []
+        for seed in range(runs):
+            m = simulate_mission(150.0, imu_grade=grade, seed=seed, config=dataclasses.replace(base, dvl=dvl))
+            nees.append(metrics.nees_velocity(run_ekf(m, "TC"), m.gt, t_start=30.0))
+        mean_over_runs = np.mean(nees, axis=0)
+        assert lo < mean_over_runs.mean() < hi, (grade, mean_over_runs.mean(), lo, hi)
+
+
+def test_lc_drifts_more_than_tc_in_partial_beam_windows():
+    """Tactical IMU, 30 s windows of 2 and 3 missing beams at every standard window start."""
+    m = simulate_mission(400.0, imu_grade="tactical", seed=0)
+    starts = window_starts(m.t0, m.t1)
+    for name in ("2-missing", "3-missing"):
+        lc, tc = [], []
+        for s in starts:
+            mo = m.with_outage(scenario_outage(name, s, 30.0))
+            lc.append(metrics.vrmse(run_ekf(mo, "LC"), m.gt, s, s + 30.0))
+            tc.append(metrics.vrmse(run_ekf(mo, "TC"), m.gt, s, s + 30.0))
+        assert np.mean(lc) > 1.5 * np.mean(tc), (name, lc, tc)
+
+
+def _steady_leg_mission(duration=120.0, grade="mems", seed=0):
+    """A straight, constant-velocity leg: the premise under which past beams predict the missing ones.
+
+    IMU from exact kinematics (at rest in attitude, constant v_n: f_b = C^T (2 w_ie x v - g),
+    omega_b = C^T w_ie) corrupted with the grade's errors; beams with the paper's DVL error model.
+    """
+    cfg = SensorConfig(imu=imu_grade(grade))
+    cfg.dvl.lever_arm_b = np.array([-1.86, -0.04, 0.2])
+    C = euler_to_C_b_n(0.02, -0.05, 0.8)
+    v_n = C @ np.array([1.8, 0.05, 0.1])
+    w_ie = earth_rate_n(cfg.lat_rad)
+    g = np.array([0.0, 0.0, cfg.gravity_mps2])
+    t = np.arange(0.0, duration + 1e-9, 0.01)
+    f_b = np.tile(C.T @ (2.0 * np.cross(w_ie, v_n) - g), (len(t), 1))
+    w_b = np.tile(C.T @ w_ie, (len(t), 1))
+    imu, _ = corrupt_imu(ImuData(t, f_b, w_b), cfg.imu, seed)
+    t_dvl = np.arange(1.0, duration, 1.0)
+    v_dvl_b = np.tile(C.T @ v_n + np.cross(w_b[0], cfg.dvl.lever_arm_b), (len(t_dvl), 1))
+    beams = make_beams(v_dvl_b, cfg.dvl, seed)
+    dvl = DvlData(t_dvl, beams, np.ones((len(t_dvl), 4), bool))
+    gt = GroundTruth(t, v_n * t[:, None], np.tile(v_n, (len(t), 1)), np.tile(C, (len(t), 1, 1)))
+    return Mission("steady-leg", imu, dvl, cfg, gt)
+
+
+def test_average_tc_beats_tc_when_the_vehicle_holds_its_velocity():
+    """Mean window VRMSE over 6 seeds of a steady leg with a MEMS IMU: Average-TC < TC < LC.
+
+    Single realisations vary (the average freezes the mean of N noisy past beams for the whole window), so
+    the claim is checked in the mean, as the paper reports it.
+    """
+    start, vr = 60.0, {}
+    for seed in range(6):
+        m = _steady_leg_mission(seed=seed)
+        for name, n_past in (("2-missing", 3), ("3-missing", 5)):
+            mo = m.with_outage(scenario_outage(name, start, 30.0))
+            for method in ("LC", "TC", "Average-TC"):
+                completer = AverageCompleter(n_past) if method == "Average-TC" else None
+                sol = run_ekf(mo, method, completer)
+                vr.setdefault((name, method), []).append(metrics.vrmse(sol, m.gt, start, start + 30.0))
+    for name in ("2-missing", "3-missing"):
+        lc, tc, avg = (np.mean(vr[name, method]) for method in ("LC", "TC", "Average-TC"))
+        assert avg < tc < lc, (name, avg, tc, lc)
