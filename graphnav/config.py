@@ -85,6 +85,9 @@ class DvlSpec:
         beam_bias: bias of each beam, m/s (4,) (used to make beams; estimators do not know it).
         scale_factor: scale factor error per DVL axis, unitless (3,) (used to make beams).
         rate_hz: nominal DVL ping rate, Hz.
+        velocity_scale_correction: scale error of the DVL's *reported* velocities, unitless, as measured by
+            ``graphnav calibrate``; the real-data loaders divide the recorded velocities by ``1 + value``
+            (0 = none). Unlike ``scale_factor`` it describes the instrument, not the synthetic beam model.
     """
 
     theta_rad: float = 20.0 * DEG
@@ -95,6 +98,7 @@ class DvlSpec:
     beam_bias: np.ndarray = field(default_factory=lambda: np.full(4, 0.01))
     scale_factor: np.ndarray = field(default_factory=lambda: np.full(3, 0.007))
     rate_hz: float = 1.0
+    velocity_scale_correction: float = 0.0
 
     def __post_init__(self):
         self.psi_rad = np.asarray(self.psi_rad, dtype=float).reshape(4)

@@ -24,8 +24,9 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    table works for any A-KIT folder, including the three not in ``../shared/data``.
 4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
    stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
-5. **DVL.** The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``,
-   and beams are made from them with :func:`graphnav.dvl.make_beams` (the paper's error model, seeded
+5. **DVL.** The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
+   (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
+   default), and beams are made from them with :func:`graphnav.dvl.make_beams` (the paper's error model, seeded
    by ``beam_seed``). NaN rows are invalid pings.
 6. **IMU error model** (:data:`PHINS_RECORDED`): see its docstring.
 
@@ -288,6 +289,10 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
     lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
 
+    # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
+    # calibrated) and remove a calibrated scale error.
+    v_dvl = raw.dvl[:, 1:4] @ cfg.dvl.C_d_b.T / (1.0 + cfg.dvl.velocity_scale_correction)
+
     estimates = {}
     if gt_time_offset_s == "auto":
         from .calibration_align import estimate_gt_time_offset
@@ -298,7 +303,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         from .calibration_align import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
                         cfg.gravity_mps2, lat_for_rate)
-        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], raw.dvl[:, 1:4], cfg.dvl.lever_arm_b)
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
     cfg.gt_time_offset_s = float(gt_time_offset_s)
@@ -308,7 +313,6 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     src = {k: str(p) for k, p in raw.files.items()}
     gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), float(alt0)), source=src["GT"])
     depth = DepthData(t_gt, -g[:, 3], source=src["GT"])
-    v_dvl = raw.dvl[:, 1:4]
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     beams = np.full((len(v_dvl), 4), np.nan)
     beams[valid_ping] = make_beams(v_dvl[valid_ping], cfg.dvl, beam_seed)

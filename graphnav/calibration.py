@@ -1,0 +1,467 @@
+"""Sensor calibration from a recorded mission: DVL lever arm, time offsets, DVL mounting, IMU axes.
+
+Two modes (``graphnav calibrate``):
+
+* **with ground truth** (``mode="gt"``): the IMU axes are checked against the GT attitude (gyro) and the
+  GT roll/pitch (accelerometer gravity direction), the IMU-to-GT offset is found by matching attitude
+  increments, and the DVL is regressed on the GT body velocity over candidate DVL offsets:
+
+      v_dvl = (1 + s) Rz(psi)^T (v_b + omega_b x l_b) + [0, 0, b_z]
+
+  (``v_b`` from the IMU-aided GT interpolation of :class:`graphnav.calibration_align.Reference`); l_b
+  (lever arm), s (scale factor), psi (DVL mounting yaw, so that ``C_d_b = Rz(psi)``) and b_z (a vertical
+  velocity bias: equal beam biases, the paper's model, show up on z only; horizontal biases would be
+  nearly collinear with the scale factor at survey speed) by least squares at each candidate offset, the offset by minimising the residual.
+  Uncertainties: parameter covariance ``sigma^2 (A^T A)^-1`` of the fit and offset sigma from the
+  curvature of the profiled cost, both inflated by the residuals' autocorrelation
+  (:func:`correlation_inflation`; real DVL-minus-GT residuals are correlated over a few seconds). They
+  are statistical only: differences between trajectories (e.g. lever arm z) are larger.
+* **without ground truth** (``mode="graph"``): see :mod:`graphnav.calibration_graph` (lever arm as a
+  Point3 variable in the beam factors, DVL offset by profiling the graph's negative log-likelihood).
+
+The result converts to a :class:`~graphnav.config.SensorConfig` (``SensorConfig.save`` writes the JSON
+that every command accepts as ``--config``). Offsets in it are *totals* relative to the raw stamps (the
+mission's already-applied offset plus the correction found here).
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from .calibration_align import (OffsetEstimate, Reference, _search_offset, _sigma_from_curvature,
+                                cumulative_integral, estimate_gt_time_offset, interp_rows,
+                                submerged_pings)
+from .config import SensorConfig
+from .dvl import DvlGeometry
+from .errors import DataError
+from .mission import Mission
+from .rotations import skew
+
+AXES = "xyz"
+
+
+@dataclass
+class Quantity:
+    """An estimate with its 1-sigma uncertainty (same shape) and unit."""
+
+    value: float | np.ndarray
+    sigma: float | np.ndarray
+    unit: str
+
+    def to_dict(self) -> dict:
+        plain = (lambda x: np.asarray(x).tolist())
+        return {"value": plain(self.value), "sigma": plain(self.sigma), "unit": self.unit}
+
+
+# ------------------------------------------------------------------------------------------------
+# IMU axis check
+# ------------------------------------------------------------------------------------------------
+def signed_permutations() -> list[np.ndarray]:
+    """The 48 signed permutation matrices P (corrected = P @ raw), identity first."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            P = np.zeros((3, 3))
+            P[np.arange(3), perm] = signs
+            out.append(P)
+    return out
+
+
+def describe_axis_map(P: np.ndarray, sensor: str) -> list[str]:
+    """Human-readable suspects for a correction P (corrected axis i = sign * raw axis j)."""
+    notes = []
+    for i in range(3):
+        j = int(np.flatnonzero(P[i])[0])
+        sign = P[i, j]
+        if j != i:
+            notes.append(f"{sensor} {AXES[i]}: reads the raw {AXES[j]} axis"
+                         + (" with its sign flipped" if sign < 0 else " (swapped axes)"))
+        elif sign < 0:
+            notes.append(f"{sensor} {AXES[i]}: sign flipped")
+    return notes
+
+
+@dataclass
+class AxisCheck:
+    """Result of the IMU axis check.
+
+    Attributes:
+        method: what the axes were checked against.
+        gyro_map, accel_map: best correction P (corrected = P @ as-loaded), identity when consistent; None
+            when not checked.
+        gyro_rms, accel_rms: residual of the as-loaded axes and of the best map (rad per interval;
+            m/s^2), as (as_loaded, best).
+        suspects: named suspect axes (empty when the axes are consistent).
+        notes: limits of the check.
+    """
+
+    method: str
+    gyro_map: np.ndarray | None = None
+    accel_map: np.ndarray | None = None
+    gyro_rms: tuple[float, float] | None = None
+    accel_rms: tuple[float, float] | None = None
+    suspects: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.suspects
+
+    @property
+    def sign_correction(self) -> np.ndarray:
+        """Per-axis sign corrections when both maps are pure sign flips on the same axes, else ones."""
+        maps = [m for m in (self.gyro_map, self.accel_map) if m is not None]
+        if not maps or any(not np.allclose(np.abs(m), np.eye(3)) for m in maps):
+            return np.ones(3)
+        signs = [np.diag(m) for m in maps]
+        return signs[0] if all(np.array_equal(signs[0], s) for s in signs) else np.ones(3)
+
+    def to_dict(self) -> dict:
+        def plain(x):
+            return None if x is None else np.asarray(x).tolist()
+        return {"method": self.method, "ok": self.ok, "suspects": self.suspects, "notes": self.notes,
+                "gyro_map": plain(self.gyro_map), "accel_map": plain(self.accel_map),
+                "gyro_rms_as_loaded_best": plain(self.gyro_rms), "accel_rms_as_loaded_best": plain(self.accel_rms)}
+
+
+#: A candidate axis map must beat the as-loaded axes by this factor to be reported.
+AXIS_MARGIN = 2.0
+
+
+def _gt_predicted_specific_force(mission: Mission, gt_t: np.ndarray):
+    """Mean specific force over each GT interval predicted from GT velocity and attitude, (K-1,3)."""
+    gt = mission.gt
+    g_n = np.array([0.0, 0.0, mission.config.gravity_mps2])
+    dt = np.diff(gt_t)
+    a_n = np.diff(gt.v_n, axis=0) / dt[:, None]
+    incr = Rotation.from_matrix(np.swapaxes(gt.C_b_n[:-1], 1, 2) @ gt.C_b_n[1:]).as_rotvec()
+    C_mid = (Rotation.from_matrix(gt.C_b_n[:-1]) * Rotation.from_rotvec(0.5 * incr)).as_matrix()
+    return np.einsum("kji,kj->ki", C_mid, a_n - g_n)
+
+
+def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]:
+    """Check gyro and accelerometer axes against the GT; also returns the GT offset of the best gyro map.
+
+    Gyro: for each of the 48 signed permutations the IMU-to-GT offset is re-estimated and the residual of
+    the attitude increments compared. Accelerometer: the interval-mean specific force against the one
+    predicted from the GT (``C^T (dv_n/dt - g_n)``, dominated by the gravity direction, i.e. roll/pitch).
+    """
+    imu, gt, cfg = mission.imu, mission.gt, mission.config
+    lat = cfg.lat_rad if cfg.earth_rotation else None
+    t_imu = np.ascontiguousarray(imu.t)
+    results = []
+    for P in signed_permutations():
+        est = estimate_gt_time_offset(t_imu, imu.omega_b @ P.T, gt.t, gt.C_b_n, lat, step_s=0.05)
+        results.append((est.rms, P, est))
+    as_loaded = results[0]
+    best = min(results, key=lambda r: r[0])
+    check = AxisCheck("GT attitude (gyro increments) and GT roll/pitch (accelerometer gravity direction)")
+    gyro_map = best[1] if best[0] * AXIS_MARGIN < as_loaded[0] else np.eye(3)
+    check.gyro_map = gyro_map
+    check.gyro_rms = (as_loaded[0], best[0])
+    offset = best[2] if gyro_map is best[1] else as_loaded[2]
+    # accelerometer: interval means on the IMU clock with the GT shifted by the offset found
+    gt_t = gt.t + offset.offset_s
+    f_pred = _gt_predicted_specific_force(mission, gt_t)
+    F = np.asfortranarray(cumulative_integral(t_imu, imu.f_b))
+    ok = (gt_t[:-1] >= t_imu[0]) & (gt_t[1:] <= t_imu[-1])
+    f_meas = (interp_rows(gt_t[1:][ok], t_imu, F) - interp_rows(gt_t[:-1][ok], t_imu, F)) \
+        / np.diff(gt_t)[ok][:, None]
+    acc = [(float(np.sqrt(np.mean((f_meas @ P.T - f_pred[ok]) ** 2))), P) for P in signed_permutations()]
+    best_acc = min(acc, key=lambda r: r[0])
+    accel_map = best_acc[1] if best_acc[0] * AXIS_MARGIN < acc[0][0] else np.eye(3)
+    check.accel_map = accel_map
+    check.accel_rms = (acc[0][0], best_acc[0])
+    check.suspects = describe_axis_map(gyro_map, "gyro") + describe_axis_map(accel_map, "accelerometer")
+    return check, offset
+
+
+def check_imu_axes_without_gt(mission: Mission) -> AxisCheck:
+    """Axis check from the IMU alone: gravity on the accelerometer z axis, and tilt kinematics.
+
+    The gravity direction seen by the accelerometer, ``u = -f_b/|f_b|`` (1 s means), must turn as
+    ``du/dt = u x omega_b`` with the gyro. Sign flips of the x/y axes of either sensor (including a flipped
+    y on both, a left-handed frame) break that relation. Not checkable this way: the gyro z sign (rotation
+    about gravity leaves u unchanged) and a 180 deg rotation about z of both sensors.
+    """
+    imu = mission.imu
+    check = AxisCheck("IMU self-consistency: gravity on accelerometer z, tilt kinematics (gyro vs "
+                      "accelerometer)")
+    check.notes.append("gyro z sign and a 180 deg turn about z of both sensors need a heading reference (GT)")
+    t = np.ascontiguousarray(imu.t)
+    edges = np.arange(t[0], t[-1], 1.0)
+    F = np.asfortranarray(cumulative_integral(t, imu.f_b))
+    W = np.asfortranarray(cumulative_integral(t, imu.omega_b))
+    f = np.diff(interp_rows(edges, t, F), axis=0)
+    w = np.diff(interp_rows(edges, t, W), axis=0)
+    accel = np.eye(3)
+    if np.mean(f[:, 2]) > 0:                     # FRD at rest: f_z = -g
+        accel = np.diag([1.0, 1.0, -1.0])
+        check.suspects.append("accelerometer z: sign flipped (gravity reads +g on z, FRD expects -g)")
+    results = []
+    for sa in itertools.product((1.0, -1.0), repeat=2):
+        for sg in itertools.product((1.0, -1.0), repeat=2):
+            Sa = accel @ np.diag([*sa, 1.0])
+            Sg = np.diag([*sg, 1.0])
+            u = -(f @ Sa.T)
+            u /= np.linalg.norm(u, axis=1, keepdims=True)
+            du = (u[2:] - u[:-2]) / 2.0                     # central difference at 1 s spacing
+            pred = np.cross(u[1:-1], w[1:-1] @ Sg.T)
+            results.append((float(np.sqrt(np.mean((du - pred)[:, :2] ** 2))), Sa, Sg, len(np.flatnonzero(
+                np.concatenate([np.array(sa), np.array(sg)]) < 0))))
+    as_loaded = results[0]
+    best = min(results, key=lambda r: (round(r[0] / max(as_loaded[0], 1e-12), 2), r[3]))
+    if best[0] * AXIS_MARGIN < as_loaded[0]:
+        check.accel_map, check.gyro_map = best[1], best[2]
+        check.suspects += describe_axis_map(np.diag(np.diag(best[1]) * np.diag(accel)), "accelerometer") \
+            + describe_axis_map(best[2], "gyro")
+    else:
+        check.accel_map, check.gyro_map = accel, np.eye(3)
+    check.gyro_rms = (as_loaded[0], best[0])
+    return check
+
+
+def apply_axis_map(mission: Mission, gyro_map: np.ndarray, accel_map: np.ndarray) -> Mission:
+    """A copy of the mission with the IMU axes corrected (corrected = map @ as-loaded)."""
+    imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b @ accel_map.T,
+                              omega_b=mission.imu.omega_b @ gyro_map.T)
+    return dataclasses.replace(mission, imu=imu)
+
+
+# ------------------------------------------------------------------------------------------------
+# DVL regression against the GT
+# ------------------------------------------------------------------------------------------------
+PARAM_NAMES = ("l_x", "l_y", "l_z", "scale", "yaw", "b_z")
+N_PARAMS = len(PARAM_NAMES)
+
+
+def dvl_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
+    """The DVL-head body velocity of each ping as the estimators see it, and the mask of usable pings.
+
+    The instrument's own velocity (``dvl.v_b``) when present, else least squares from >= 3 valid beams
+    with the configured geometry.
+    """
+    dvl = mission.dvl
+    if dvl.v_b is not None:
+        v = dvl.v_b
+    else:
+        v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid,
+                                                                          allow_missing=True)
+    return v, np.all(np.isfinite(v), axis=1)
+
+
+def _design(reference: Reference, t: np.ndarray):
+    C = reference.C_b_n(t)
+    v_ref = reference.v_b(t, C)
+    omega = reference.omega_nb_b(t, C)
+    # linearised about l = s = psi = b = 0 (the small terms' products, e.g. s * omega x l, are left to the
+    # exact refinement)
+    A = np.zeros((len(t), 3, N_PARAMS))
+    A[:, :, 0:3] = skew(omega)                   # omega x l
+    A[:, :, 3] = v_ref                           # s v
+    A[:, :, 4] = np.stack([v_ref[:, 1], -v_ref[:, 0], np.zeros(len(t))], axis=1)  # Rz(psi)^T v ~ v + psi [v_y, -v_x, 0]
+    A[:, 2, 5] = 1.0                             # vertical bias (equal beam biases show up on z only)
+    return A, v_ref, omega
+
+
+def _exact_residual(theta, v_dvl, v_ref, omega):
+    l, s, psi, b = theta[0:3], theta[3], theta[4], np.array([0.0, 0.0, theta[5]])
+    head = v_ref + np.cross(omega, l)
+    Rz_T = Rotation.from_euler("z", -psi).as_matrix()
+    return (v_dvl - ((1 + s) * head @ Rz_T.T + b)).reshape(-1)
+
+
+@dataclass
+class DvlFit:
+    """DVL regression result at one offset: parameters, covariance, residual RMS, pings used."""
+
+    offset_s: float
+    theta: np.ndarray
+    cov: np.ndarray
+    rms: float
+    n_pings: int
+    sse: float
+
+
+def correlation_inflation(e: np.ndarray, max_lag: int = 20) -> float:
+    """Variance inflation ``1 + 2 sum_k rho_k`` of a mean over residuals correlated in time (k up to the
+    first non-positive autocorrelation, at most ``max_lag``), averaged over the columns of e (N,k).
+
+    Least-squares covariances assume white residuals; the real DVL-minus-GT residuals are correlated over
+    a few pings (GT smoothing, waves), which this factor accounts for (approximately: it treats every
+    regressor as slowly varying).
+    """
+    e = e - e.mean(axis=0)
+    var = np.sum(e * e, axis=0)
+    if np.any(var <= 0):
+        return 1.0
+    total = 1.0
+    for k in range(1, min(max_lag, len(e) - 1) + 1):
+        rho = float(np.mean(np.sum(e[k:] * e[:-k], axis=0) / var))
+        if rho <= 0:
+            break
+        total += 2 * rho
+    return total
+
+
+def fit_dvl(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, offset_s: float,
+            use: np.ndarray, exact: bool = False) -> DvlFit:
+    """Least-squares fit of (l, s, psi, b) at one DVL offset (linearised; ``exact`` refines the
+    nonlinear model with scipy's least_squares)."""
+    t = t_raw[use] + offset_s
+    A, v_ref, omega = _design(reference, t)
+    r = (v_dvl[use] - v_ref).reshape(-1)
+    A2 = A.reshape(-1, N_PARAMS)
+    theta, *_ = np.linalg.lstsq(A2, r, rcond=None)
+    if exact:
+        sol = least_squares(_exact_residual, theta, args=(v_dvl[use], v_ref, omega), method="lm")
+        theta = sol.x
+        e = sol.fun
+        J = sol.jac
+    else:
+        e = r - A2 @ theta
+        J = A2
+    sse = float(e @ e)
+    dof = max(len(e) - N_PARAMS, 1)
+    cov = np.linalg.pinv(J.T @ J) * sse / dof * correlation_inflation(e.reshape(-1, 3))
+    return DvlFit(offset_s, theta, cov, float(np.sqrt(sse / len(e))), int(use.sum()), sse)
+
+
+def calibrate_dvl_with_gt(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, use: np.ndarray,
+                          search_s: tuple[float, float] = (-3.0, 3.0), step_s: float = 0.1
+                          ) -> tuple[DvlFit, float]:
+    """Profile the DVL fit over candidate offsets; returns (exact fit at the best offset, offset sigma)."""
+    use = use & reference.covers(t_raw + search_s[0]) & reference.covers(t_raw + search_s[1])
+    if use.sum() < 20:
+        raise DataError("fewer than 20 DVL pings overlap the ground truth", "dvl")
+
+    def cost(offset):
+        return fit_dvl(reference, t_raw, v_dvl, offset, use).sse
+
+    x, sse, curv = _search_offset(cost, search_s[0], search_s[1], step_s)
+    fit = fit_dvl(reference, t_raw, v_dvl, x, use, exact=True)
+    inflation = correlation_inflation(_exact_residual(fit.theta, v_dvl[use], *_design(reference, t_raw[use] + x)[1:]
+                                                      ).reshape(-1, 3))
+    sigma = _sigma_from_curvature(sse, curv, 3 * int(use.sum()), N_PARAMS + 1) * np.sqrt(inflation)
+    return fit, sigma
+
+
+# ------------------------------------------------------------------------------------------------
+# The result and the entry points
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class CalibrationResult:
+    """What ``graphnav calibrate`` found. Offsets are totals relative to the raw stamps.
+
+    Attributes:
+        mode: ``"gt"`` or ``"graph"``.
+        lever_arm_b: DVL lever arm, body frame, m.
+        dvl_time_offset_s: value to add to raw DVL stamps, s.
+        gt_time_offset_s: value to add to raw GT stamps, s (None without GT).
+        dvl_yaw_rad: DVL mounting yaw misalignment psi, ``C_d_b = Rz(psi)`` (None if not estimated).
+        dvl_scale: DVL velocity scale factor s, ``v_dvl = (1 + s) ...`` (None if not estimated).
+        dvl_bias: constant vertical DVL velocity bias b_z, m/s (None if not estimated).
+        residual_rms: RMS of the final residual (m/s per axis, or the graph's whitened RMS).
+        axis_check: the IMU axis check.
+        config: the calibrated configuration.
+        info: extra diagnostics.
+    """
+
+    mode: str
+    lever_arm_b: Quantity
+    dvl_time_offset_s: Quantity
+    gt_time_offset_s: Quantity | None
+    dvl_yaw_rad: Quantity | None
+    dvl_scale: Quantity | None
+    dvl_bias: Quantity | None
+    residual_rms: float
+    axis_check: AxisCheck
+    config: SensorConfig
+    info: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        def q(x):
+            return None if x is None else x.to_dict()
+        return {"mode": self.mode, "lever_arm_b": q(self.lever_arm_b),
+                "dvl_time_offset_s": q(self.dvl_time_offset_s), "gt_time_offset_s": q(self.gt_time_offset_s),
+                "dvl_yaw_rad": q(self.dvl_yaw_rad), "dvl_scale": q(self.dvl_scale), "dvl_bias": q(self.dvl_bias),
+                "residual_rms": self.residual_rms, "axis_check": self.axis_check.to_dict(),
+                "info": {k: v for k, v in self.info.items() if isinstance(v, (int, float, str, bool))}}
+
+    def report(self) -> str:
+        def fmt(x: Quantity | None, scale=1.0, unit=None, digits=3):
+            if x is None:
+                return "not estimated in this mode"
+            v, s = np.atleast_1d(x.value) * scale, np.atleast_1d(x.sigma) * scale
+            parts = [f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]
+            return ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + f" {unit or x.unit}"
+        lines = [f"calibration mode: {self.mode}",
+                 f"  DVL lever arm (body)      : {fmt(self.lever_arm_b)}",
+                 f"  DVL time offset           : {fmt(self.dvl_time_offset_s)}",
+                 f"  IMU-to-GT time offset     : {fmt(self.gt_time_offset_s)}",
+                 f"  DVL mounting yaw          : {fmt(self.dvl_yaw_rad, 180 / np.pi, 'deg')}",
+                 f"  DVL scale factor          : {fmt(self.dvl_scale, 100, '%')}",
+                 f"  DVL vertical bias         : {fmt(self.dvl_bias, 1e3, 'mm/s', 1)}",
+                 f"  residual RMS              : {self.residual_rms:.4f}",
+                 f"  IMU axes ({self.axis_check.method}): "
+                 + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
+        lines += [f"    note: {n}" for n in self.axis_check.notes]
+        return "\n".join(lines)
+
+
+def _q(value, sigma, unit):
+    return Quantity(value, sigma, unit)
+
+
+def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> CalibrationResult:
+    """Calibrate against the mission's ground truth (see the module docstring).
+
+    Pings shallower than ``min_depth_m`` (surface, waves) are left out of the DVL regression.
+    """
+    if mission.gt is None:
+        raise DataError("calibration with GT needs a mission with ground truth", mission.name, field="gt")
+    cfg0 = mission.config
+    check, gt_est = check_imu_axes_with_gt(mission)
+    work = apply_axis_map(mission, check.gyro_map, check.accel_map) if not check.ok else mission
+    if not check.ok:
+        lat = cfg0.lat_rad if cfg0.earth_rotation else None
+        gt_est = estimate_gt_time_offset(np.ascontiguousarray(work.imu.t), work.imu.omega_b, work.gt.t,
+                                         work.gt.C_b_n, lat)
+    gt_t = work.gt.t + gt_est.offset_s
+    ref = Reference(work.imu.t, work.imu.f_b, work.imu.omega_b, gt_t, work.gt.v_n, work.gt.C_b_n,
+                    cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None)
+    v_dvl, usable = dvl_velocity(work)
+    usable &= submerged_pings(work, min_depth_m) if work.depth is not None else True
+    fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable)
+    sig = np.sqrt(np.diag(fit.cov))
+    th = fit.theta
+    cfg = SensorConfig.from_dict(cfg0.to_dict())
+    cfg.gt_time_offset_s = cfg0.gt_time_offset_s + gt_est.offset_s
+    cfg.dvl_time_offset_s = cfg0.dvl_time_offset_s + fit.offset_s
+    cfg.dvl.lever_arm_b = th[0:3].copy()
+    cfg.dvl.C_d_b = Rotation.from_euler("z", th[4]).as_matrix() @ cfg0.dvl.C_d_b
+    cfg.dvl.velocity_scale_correction = float((1 + cfg0.dvl.velocity_scale_correction) * (1 + th[3]) - 1)
+    cfg.imu_axis_signs = cfg0.imu_axis_signs * check.sign_correction
+    return CalibrationResult(
+        "gt", _q(th[0:3], sig[0:3], "m"), _q(cfg.dvl_time_offset_s, off_sigma, "s"),
+        _q(cfg.gt_time_offset_s, gt_est.sigma_s, "s"), _q(th[4], sig[4], "rad"), _q(th[3], sig[3], "-"),
+        _q(th[5], sig[5], "m/s"), fit.rms, check, cfg,
+        info={"dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
+              "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms})
+
+
+def calibrate(mission: Mission, mode: str = "auto", **kwargs) -> CalibrationResult:
+    """Calibrate a mission: ``mode`` = ``"gt"``, ``"graph"`` or ``"auto"`` (gt when GT is present)."""
+    if mode == "auto":
+        mode = "gt" if mission.gt is not None else "graph"
+    if mode == "gt":
+        return calibrate_with_gt(mission, **kwargs)
+    if mode == "graph":
+        from .calibration_graph import calibrate_with_graph
+        return calibrate_with_graph(mission, **kwargs)
+    raise ValueError(f"unknown calibration mode '{mode}' (gt, graph, auto)")
