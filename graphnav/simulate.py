@@ -3,8 +3,8 @@
 The vehicle starts at ~2 m depth, descends nose-down (pitch about -15..-19 deg) to 22-28 m, then flies a
 lawnmower survey: straight legs of 100-160 s joined by pairs of 90 deg turns (yaw rate up to ~0.1 rad/s),
 a depth change (pitch bump) in most legs, new speeds (1.1-2.3 m/s, smooth changes) at the start
-and often late in every leg, and roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with small sway and heave. The pattern
-continues for any duration (tested up to 4 h).
+and often late in every leg, and roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with
+small sway and heave. The pattern continues for any duration (tested up to 4 h).
 
 Kinematics are analytic: roll, pitch, yaw and the body velocity ``v_b = [u, v, w]`` are sums of quintic
 smooth steps (C2) and sinusoids, so their values and first derivatives are exact. From them
