@@ -1,119 +1,201 @@
-"""Batch smoothing: Levenberg-Marquardt over the mission, started from the incremental (filtered) estimate.
+"""Batch smoothing over the whole mission, started from the incremental (filtered) estimate.
 
-Why chunks: ``gtsam.CustomFactor`` copies the whole ``Values`` on every call inside the C++ optimisers,
-so one LM over a 4 h mission costs O(N^2) (probe: 393 s at 1 h). The smoother therefore solves chunks
-of ``options.batch_chunk_s`` with ``options.batch_overlap_s`` of look-ahead whose results are discarded.
-Each chunk (but the first) starts with the *filtered* joint marginal of (pose, velocity, bias) at its
-first keyframe, taken from the incremental pass. In a linear-Gaussian chain that prior is exactly the
-information of all earlier data (it has not seen the chunk's data, so nothing is counted twice), so a
-chunk's smoothed states equal the full batch's except for the data beyond the look-ahead; with a
-look-ahead of a minute that loss is negligible (``scripts/bench_graph.py`` compares chunked and full
-batch on 400 s). ``batch_chunk_s=None`` (or longer than the mission) gives one full batch.
+Why not simply LM on the incremental graph: each ``gtsam.CustomFactor`` call inside the C++ optimisers
+copies the whole ``Values`` (pybind11 casts the ``const Values&`` argument by value), so one
+linearisation of an N-keyframe graph costs O(N^2) (probe: LM 393 s at 1 h). The default solver here,
+``"vectorized"``, is Gauss-Newton where
+
+- the C++ factors (priors, CombinedImuFactor, depth) are linearised by GTSAM, and
+- all DVL beam factors are linearised at once in numpy (same model and Jacobians as
+  :func:`graphnav.factors.beam_factor`; Huber kernels by iteratively reweighted least squares, as GTSAM's
+  robust noise model does) and added as ``JacobianFactor`` s,
+
+then the linear system is solved by GTSAM's multifrontal elimination and the step retracted on the
+manifold, until the cost stops decreasing (step halving if it rises). Cost per iteration is O(N).
+``solver="lm"`` runs GTSAM's Levenberg-Marquardt on the CustomFactor graph itself (reference, O(N^2)).
+Velocity covariances are the marginals of the final linearisation.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
+from graphnav.errors import ConfigError
+
+from .builder import BeamGroup, KeyframeFactors
 from .incremental import EpochEstimate
 from .options import GraphOptions
 
-
-@dataclass
-class Chunk:
-    """Keyframes ``start <= k < solve_end`` are solved; ``start <= k < out_end`` are kept."""
-
-    start: int
-    out_end: int
-    solve_end: int
+BATCH_SOLVERS = ("vectorized", "lm")
 
 
-def chunk_plan(times: np.ndarray, options: GraphOptions) -> list[Chunk]:
-    """Split keyframes at stamps ``times`` (s) into chunks (see module docstring)."""
-    n = len(times)
-    if options.batch_chunk_s is None or times[-1] - times[0] <= options.batch_chunk_s:
-        return [Chunk(0, n, n)]
-    edges = np.arange(times[0], times[-1], options.batch_chunk_s)
-    starts = sorted(set(int(np.searchsorted(times, e)) for e in edges) - {n})
-    chunks = []
-    for i, s in enumerate(starts):
-        out_end = starts[i + 1] if i + 1 < len(starts) else n
-        t_end = times[out_end - 1] + options.batch_overlap_s
-        solve_end = max(out_end, int(np.searchsorted(times, t_end, side="right")))
-        chunks.append(Chunk(s, out_end, min(solve_end, n)))
-    return chunks
+class StackedBeams:
+    """All DVL beam rows of a mission as arrays, for vectorised linearisation.
 
-
-def marginal_prior(lin_point: gtsam.Values, cov: np.ndarray, keys: list[int]) -> gtsam.LinearContainerFactor:
-    """A Gaussian prior on the joint (pose, velocity, bias) tangent space at ``lin_point``, covariance ``cov``.
-
-    Stored as a linear factor ``|R dx|^2`` with ``R^T R = cov^-1`` (GTSAM's LinearContainerFactor maps the
-    tangent-space error of the current values onto it), so it runs in C++.
+    Attributes (R rows): k (R,) keyframe index; rows (R,3); y, sigma, huber (R,) (NaN = no kernel);
+    omega, lever (R,3).
     """
-    info = np.linalg.inv(cov)
-    R = np.linalg.cholesky(0.5 * (info + info.T)).T
-    dims = [6, 3, 6]
-    cols = np.cumsum([0] + dims)
-    blocks = [R[:, cols[i]:cols[i + 1]] for i in range(3)]
-    jf = gtsam.JacobianFactor(keys[0], blocks[0], keys[1], blocks[1], keys[2], blocks[2], np.zeros(R.shape[0]),
-                              gtsam.noiseModel.Unit.Create(R.shape[0]))
-    return gtsam.LinearContainerFactor(jf, lin_point)
+
+    def __init__(self, groups: list[BeamGroup]):
+        sizes = [len(g.y) for g in groups]
+        self.k = np.repeat([g.k for g in groups], sizes).astype(int)
+        self.rows = np.concatenate([g.rows_b for g in groups]) if groups else np.zeros((0, 3))
+        self.y = np.concatenate([g.y for g in groups]) if groups else np.zeros(0)
+        self.sigma = np.concatenate([g.sigma for g in groups]) if groups else np.zeros(0)
+        self.huber = np.repeat([np.nan if g.huber_k is None else g.huber_k for g in groups], sizes)
+        self.omega = np.repeat([g.omega_b for g in groups], sizes, axis=0).reshape(-1, 3)
+        self.lever = np.repeat([g.lever_arm_b for g in groups], sizes, axis=0).reshape(-1, 3)
+        order = np.argsort(self.k, kind="stable")
+        for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever"):
+            setattr(self, name, getattr(self, name)[order])
+        # one JacobianFactor per keyframe: row ranges
+        self.keyframes, self.starts = np.unique(self.k, return_index=True)
+        self.ends = np.append(self.starts[1:], len(self.k))
+
+    def linearize(self, C_b_n: np.ndarray, v_n: np.ndarray, gyro_bias: np.ndarray):
+        """Residuals e (R,) and Jacobians (R,3) d/drot, d/dv, d/dgyro-bias at per-keyframe states (K,...)."""
+        R = C_b_n[self.k]
+        v_body = np.einsum("rji,rj->ri", R, v_n[self.k])
+        rate = self.omega - gyro_bias[self.k]
+        e = np.einsum("ri,ri->r", self.rows, v_body + np.cross(rate, self.lever)) - self.y
+        # b^T [u]x w = w . (b x u)
+        J_rot = np.cross(self.rows, v_body)
+        J_v = np.einsum("rij,rj->ri", R, self.rows)
+        J_bg = np.cross(self.rows, self.lever)
+        return e, J_rot, J_v, J_bg
+
+    def weights(self, e: np.ndarray) -> np.ndarray:
+        """Huber IRLS weights (1 where no kernel or inside the threshold)."""
+        s = np.abs(e / self.sigma)
+        w = np.ones_like(s)
+        robust = np.isfinite(self.huber) & (s > self.huber)
+        w[robust] = self.huber[robust] / s[robust]
+        return w
+
+    def cost(self, e: np.ndarray) -> float:
+        """GTSAM-compatible cost: 0.5 s^2 (Gaussian) or the Huber loss, s = e / sigma."""
+        s = np.abs(e / self.sigma)
+        k = self.huber
+        robust = np.isfinite(k) & (s > k)
+        loss = 0.5 * s ** 2
+        loss[robust] = k[robust] * s[robust] - 0.5 * k[robust] ** 2
+        return float(loss.sum())
+
+    def jacobian_factors(self, e, J_rot, J_v, J_bg) -> gtsam.GaussianFactorGraph:
+        """Whitened, reweighted linear factors ``|A dx + e|`` per keyframe."""
+        scale = np.sqrt(self.weights(e)) / self.sigma
+        A_rot, A_v, A_bg, b = J_rot * scale[:, None], J_v * scale[:, None], J_bg * scale[:, None], -e * scale
+        zeros = np.zeros((len(e), 3))
+        A_pose = np.hstack([A_rot, zeros])
+        A_bias = np.hstack([zeros, A_bg])
+        graph = gtsam.GaussianFactorGraph()
+        for k, a, z in zip(self.keyframes.tolist(), self.starts.tolist(), self.ends.tolist()):
+            graph.push_back(gtsam.JacobianFactor(X(k), A_pose[a:z], V(k), A_v[a:z], B(k), A_bias[a:z], b[a:z],
+                                                 gtsam.noiseModel.Unit.Create(z - a)))
+        return graph
 
 
-def lm_params(options: GraphOptions) -> gtsam.LevenbergMarquardtParams:
+def _states(values: gtsam.Values, n: int):
+    C = np.empty((n, 3, 3))
+    v = np.empty((n, 3))
+    bg = np.empty((n, 3))
+    for k in range(n):
+        C[k] = values.atPose3(X(k)).rotation().matrix()
+        v[k] = values.atVector(V(k))
+        bg[k] = values.atConstantBias(B(k)).gyroscope()
+    return C, v, bg
+
+
+def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]],
+                 estimates: list[EpochEstimate], options: GraphOptions) -> tuple[list[EpochEstimate], dict]:
+    """Smooth the whole mission.
+
+    Args:
+        keyframe_graphs: per keyframe (link factors: priors or IMU factor, :class:`KeyframeFactors`), as kept
+            by an incremental estimator with ``keep_keyframe_graphs=True``.
+        estimates: the incremental pass's estimate at every keyframe (initial values).
+        options: ``batch_solver``, ``batch_max_iterations``, ``marginals``.
+
+    Returns:
+        (smoothed estimates per keyframe, info: iterations, cost history, timings).
+    """
+    if options.batch_solver not in BATCH_SOLVERS:
+        raise ConfigError(f"batch_solver must be one of {BATCH_SOLVERS}, got '{options.batch_solver}'")
+    start = time.perf_counter()
+    n = len(estimates)
+    cpp = gtsam.NonlinearFactorGraph()
+    groups: list[BeamGroup] = []
+    values = gtsam.Values()
+    for (link, local), e in zip(keyframe_graphs, estimates):
+        cpp.push_back(link)
+        cpp.push_back(local.other)
+        groups.extend(local.groups)
+        values.insert(X(e.index), e.pose)
+        values.insert(V(e.index), e.v_n)
+        values.insert(B(e.index), e.bias)
+    if options.batch_solver == "lm":
+        result, info, linear = _solve_lm(cpp, groups, values, options)
+    else:
+        result, info, linear = _solve_vectorized(cpp, StackedBeams(groups), values, n, options)
+    info["solve_s"] = time.perf_counter() - start
+    covs = [None] * n
+    if options.marginals:
+        t0 = time.perf_counter()
+        marginals = gtsam.Marginals(linear, result)
+        covs = [marginals.marginalCovariance(V(k)) for k in range(n)]
+        info["marginals_s"] = time.perf_counter() - t0
+    out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
+                         result.atConstantBias(B(e.index)), covs[e.index], e.n_measured, e.n_regressed,
+                         float("nan")) for e in estimates]
+    return out, info
+
+
+def _solve_vectorized(cpp, beams: StackedBeams, values, n, options):
+    def linearize(vals):
+        C, v, bg = _states(vals, n)
+        e, J_rot, J_v, J_bg = beams.linearize(C, v, bg)
+        linear = cpp.linearize(vals)
+        linear.push_back(beams.jacobian_factors(e, J_rot, J_v, J_bg))
+        return linear
+
+    def cost(vals):
+        C, v, bg = _states(vals, n)
+        return cpp.error(vals) + beams.cost(beams.linearize(C, v, bg)[0])
+
+    costs = [cost(values)]
+    iterations = 0
+    for iterations in range(1, options.batch_max_iterations + 1):
+        linear = linearize(values)
+        delta = linear.optimize()
+        step = 1.0
+        while True:
+            candidate = values.retract(delta if step == 1.0 else delta.scale(step))
+            new_cost = cost(candidate)
+            if new_cost <= costs[-1] or step < 1e-3:
+                break
+            step *= 0.5
+        if new_cost > costs[-1]:
+            break                                   # no descent along the Gauss-Newton direction: converged
+        values = candidate
+        costs.append(new_cost)
+        if costs[-2] - new_cost <= 1e-6 * costs[-2]:
+            break
+    return values, {"iterations": iterations, "costs": costs}, linearize(values)
+
+
+def _solve_lm(cpp, groups, values, options):
+    graph = gtsam.NonlinearFactorGraph()
+    graph.push_back(cpp)
+    for group in groups:
+        graph.add(group.factor())
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(options.batch_max_iterations)
     params.setLinearSolverType("MULTIFRONTAL_QR" if options.factorization == "QR" else "MULTIFRONTAL_CHOLESKY")
     params.setRelativeErrorTol(1e-6)
-    return params
-
-
-def batch_smooth(keyframe_graphs, estimates: list[EpochEstimate], joint: dict, chunks: list[Chunk],
-                 options: GraphOptions) -> tuple[list[EpochEstimate], dict]:
-    """Smooth the whole mission chunk by chunk.
-
-    Args:
-        keyframe_graphs: per keyframe (link factors: priors or IMU factor, own DVL/depth factors),
-            as kept by an incremental estimator with ``keep_keyframe_graphs=True``.
-        estimates: the incremental pass's estimate at every keyframe (initial values).
-        joint: ``k -> (linearisation point, 15x15 covariance)`` filtered joint marginals at chunk starts > 0.
-        chunks: from :func:`chunk_plan`.
-        options: ``marginals`` decides whether velocity covariances are computed.
-
-    Returns:
-        (smoothed estimates per keyframe, info with per-chunk iterations and timings).
-    """
-    out: list[EpochEstimate] = []
-    info = {"chunks": [], "lm_iterations": []}
-    for chunk in chunks:
-        start = time.perf_counter()
-        graph = gtsam.NonlinearFactorGraph()
-        values = gtsam.Values()
-        s = chunk.start
-        if s > 0:
-            lin, cov = joint[s]
-            graph.add(marginal_prior(lin, cov, [X(s), V(s), B(s)]))
-        for k in range(s, chunk.solve_end):
-            link, local = keyframe_graphs[k]
-            if k > s or s == 0:
-                graph.push_back(link)
-            graph.push_back(local)
-            e = estimates[k]
-            values.insert(X(k), e.pose)
-            values.insert(V(k), e.v_n)
-            values.insert(B(k), e.bias)
-        optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, lm_params(options))
-        result = optimizer.optimize()
-        marginals = gtsam.Marginals(graph, result) if options.marginals else None
-        for k in range(s, chunk.out_end):
-            e = estimates[k]
-            cov = marginals.marginalCovariance(V(k)) if marginals is not None else None
-            out.append(EpochEstimate(k, e.t, e.kind, result.atPose3(X(k)), result.atVector(V(k)),
-                                     result.atConstantBias(B(k)), cov, e.n_measured, e.n_regressed, float("nan")))
-        info["chunks"].append((chunk.start, chunk.out_end, chunk.solve_end, time.perf_counter() - start))
-        info["lm_iterations"].append(optimizer.iterations())
-    return out, info
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
+    result = optimizer.optimize()
+    return result, {"iterations": optimizer.iterations(), "costs": [graph.error(values), graph.error(result)]}, \
+        graph.linearize(result)

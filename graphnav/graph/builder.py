@@ -208,9 +208,57 @@ def imu_factor(kf: Keyframe) -> gtsam.CombinedImuFactor:
     return gtsam.CombinedImuFactor(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), B(k), kf.pim)
 
 
+@dataclass
+class BeamGroup:
+    """Beams of keyframe k that share one DVL factor (same kernel), with everything the factor needs.
+
+    Attributes:
+        k: keyframe index (keys ``X(k)``, ``V(k)``, ``B(k)``).
+        rows_b: (m,3) beam unit vectors, body frame.
+        y: (m,) beam velocities, m/s.
+        sigma: (m,) noise std, m/s.
+        huber_k: Huber threshold in sigmas, or None (Gaussian).
+        omega_b: (3,) body rate for the lever-arm term (Earth rate removed when configured), rad/s.
+        lever_arm_b: (3,) m.
+        regressed: whether these are regressed (completed) beams.
+    """
+
+    k: int
+    rows_b: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    huber_k: float | None
+    omega_b: np.ndarray
+    lever_arm_b: np.ndarray
+    regressed: bool
+
+    def factor(self) -> gtsam.CustomFactor:
+        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y,
+                           beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
+
+
+@dataclass
+class KeyframeFactors:
+    """What keyframe k adds besides its IMU link: DVL beam groups and C++ factors (depth)."""
+
+    groups: list[BeamGroup]
+    other: gtsam.NonlinearFactorGraph
+
+    def graph(self) -> gtsam.NonlinearFactorGraph:
+        graph = gtsam.NonlinearFactorGraph()
+        for group in self.groups:
+            graph.add(group.factor())
+        graph.push_back(self.other)
+        return graph
+
+
 def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndarray,
-                     p_n_pred: np.ndarray | None = None) -> gtsam.NonlinearFactorGraph:
+                     p_n_pred: np.ndarray | None = None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
+
+    Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
+    kernel is set for them; regressed beams likewise. A robust kernel acts on a factor's whole residual,
+    so robust beams get one factor each.
 
     Args:
         kf: the keyframe.
@@ -218,29 +266,26 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
     """
-    graph = gtsam.NonlinearFactorGraph()
-    k = kf.index
     options, config = builder.options, builder.config
+    groups: list[BeamGroup] = []
+    other = gtsam.NonlinearFactorGraph()
+    k = kf.index
     if kf.dvl is not None:
         m = kf.dvl
         omega = m.omega_b
         if options.earth_rate_in_lever_arm and config.earth_rotation:
             omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
         lever = builder.geometry.lever_arm_b
-
-        def add(sel, huber):
-            rows, y, sigma = m.rows_b[sel], m.y[sel], m.sigma[sel]
-            if options.beam_factor_mode == "beam" or (huber is not None and len(y) > 1):
-                for i in range(len(y)):     # a robust kernel acts on a factor's whole residual: one per beam
-                    graph.add(beam_factor(X(k), V(k), B(k), rows[i:i + 1], y[i:i + 1],
-                                          beam_noise(sigma[i:i + 1], huber), omega, lever))
-            elif len(y):
-                graph.add(beam_factor(X(k), V(k), B(k), rows, y, beam_noise(sigma, huber), omega, lever))
-
-        add(~m.regressed, options.huber_measured_k)
-        add(m.regressed, options.huber_regressed_k)
+        for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
+            sel = np.flatnonzero(m.regressed == regressed)
+            if sel.size == 0:
+                continue
+            split = options.beam_factor_mode == "beam" or huber is not None
+            for part in ([[i] for i in sel] if split else [sel]):
+                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], m.sigma[part], huber, omega, lever,
+                                        regressed))
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]
-        graph.add(depth_factor(X(k), kf.depth, sigma, ne))
-    return graph
+        other.add(depth_factor(X(k), kf.depth, sigma, ne))
+    return KeyframeFactors(groups, other)

@@ -23,7 +23,7 @@ from gtsam.symbol_shorthand import B, V, X
 from graphnav.errors import ConfigError
 from graphnav.mission import Mission
 
-from .builder import Keyframe, KeyframeBuilder, imu_factor, keyframe_factors
+from .builder import Keyframe, KeyframeBuilder, KeyframeFactors, imu_factor, keyframe_factors
 from .options import GraphOptions
 
 
@@ -101,10 +101,10 @@ def prior_factors(builder: KeyframeBuilder, initial: InitialState, k: int = 0) -
     return graph
 
 
-def isam2_params(options: GraphOptions) -> gtsam.ISAM2Params:
+def isam2_params(options: GraphOptions, factorization: str | None = None) -> gtsam.ISAM2Params:
     """ISAM2 settings: factorisation, per-variable-type relinearisation thresholds, relinearise skip."""
     params = gtsam.ISAM2Params()
-    params.setFactorization(options.factorization)
+    params.setFactorization(factorization or options.factorization)
     params.relinearizeSkip = options.relinearize_skip
     thresholds = gtsam.ISAM2ThresholdMap()
     thresholds.insert(("x", np.r_[np.full(3, options.relin_rot), np.full(3, options.relin_pos)]))
@@ -127,12 +127,11 @@ class _IncrementalGraph:
         self._pending_kf: Keyframe | None = None
         self._last: EpochEstimate | None = None
         # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
-        self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, gtsam.NonlinearFactorGraph]] = []
+        self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]] = []
         self.keep_keyframe_graphs = False
-        self.record_joint_at: set[int] = set()
-        self.joint: dict[int, tuple[gtsam.Values, np.ndarray]] = {}   # k -> (lin. point, 15x15 cov [x,v,b])
         self.update_times: list[float] = []
         self.n_recovered = 0
+        self.factorization = self.options.factorization
 
     # --- the cycle --------------------------------------------------------------------------------
     def add(self, kf: Keyframe) -> None:
@@ -153,7 +152,7 @@ class _IncrementalGraph:
         if self.keep_keyframe_graphs:
             self.keyframe_graphs.append((link, local))
         self._pending_factors.push_back(link)
-        self._pending_factors.push_back(local)
+        self._pending_factors.push_back(local.graph())
         self._pending_values.insert(X(k), pose)
         self._pending_values.insert(V(k), v_n)
         self._pending_values.insert(B(k), bias)
@@ -168,14 +167,12 @@ class _IncrementalGraph:
         try:
             self._solve(self._pending_factors, self._pending_values, kf)
         except RuntimeError as exc:
-            if "ndeterminant" not in str(exc):
+            if "ndetermina" not in str(exc):   # "Indeterminant" (class) or "Indeterminate" (message)
                 raise
             self._recover(kf, exc)
         k = kf.index
         pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
         cov = self._marginal(V(k)) if self.options.marginals else None
-        if k in self.record_joint_at:
-            self.joint[k] = self._joint(k, pose, v_n, bias)
         elapsed = time.perf_counter() - start
         self.update_times.append(elapsed)
         m = kf.dvl
@@ -193,29 +190,47 @@ class _IncrementalGraph:
         return self._last
 
     def _recover(self, kf: Keyframe, exc: Exception) -> None:
-        """Indeterminant linear system: add weak priors on the newest state at its prediction and retry once.
+        """Indeterminant linear system: restart the solver with QR factorisation from the last good state.
 
-        Weak (rot 0.1 rad, pos 100 m, vel 10 m/s, bias 10x turn-on) so they fix the rank without biasing.
+        The new solver starts with priors on keyframe k-1 at its estimate, with its marginal covariances
+        (block-diagonal: pose, velocity, bias; the prior sigmas of the options if the failed solver cannot
+        give them), then takes keyframe k's factors. The filtered output continues; what is lost is the
+        cross-correlation between those blocks at the restart. A second failure raises.
         """
         self.n_recovered += 1
-        warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): {exc}; "
-                      "adding weak priors on the newest state and continuing", RuntimeWarning, stacklevel=3)
-        k = kf.index
-        values = self._pending_values
-        weak = gtsam.NonlinearFactorGraph()
-        imu = self.builder.config.imu
-        weak.add(gtsam.PriorFactorPose3(X(k), values.atPose3(X(k)), gtsam.noiseModel.Diagonal.Sigmas(
-            np.r_[np.full(3, 0.1), np.full(3, 100.0)])))
-        weak.add(gtsam.PriorFactorVector(V(k), values.atVector(V(k)), gtsam.noiseModel.Isotropic.Sigma(3, 10.0)))
-        weak.add(gtsam.PriorFactorConstantBias(B(k), values.atConstantBias(B(k)), gtsam.noiseModel.Diagonal.Sigmas(
-            np.r_[np.full(3, 10 * imu.accel_bias_sigma), np.full(3, 10 * imu.gyro_bias_sigma)])))
-        self._retry(weak, kf)
+        warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): "
+                      f"{str(exc).strip().splitlines()[0]} -- restarting the solver with QR factorisation from "
+                      "the last estimate (factorization='QR' or a larger integration_sigma avoid this)",
+                      RuntimeWarning, stacklevel=3)
+        last = self._last
+        if last is None or self.factorization == "QR":
+            raise exc
+        j = last.index
+        try:
+            covs = [self._marginal(X(j)), self._marginal(V(j)), self._marginal(B(j))]
+        except (RuntimeError, IndexError):      # the failed solver may have dropped its Bayes tree
+            covs = None
+        self.factorization = "QR"
+        self._restart()
+        restart_state = InitialState(last.pose, last.v_n, last.bias)
+        graph = prior_factors(self.builder, restart_state, j)
+        if covs is not None:
+            graph = gtsam.NonlinearFactorGraph()
+            graph.add(gtsam.PriorFactorPose3(X(j), last.pose, gtsam.noiseModel.Gaussian.Covariance(covs[0])))
+            graph.add(gtsam.PriorFactorVector(V(j), last.v_n, gtsam.noiseModel.Gaussian.Covariance(covs[1])))
+            graph.add(gtsam.PriorFactorConstantBias(B(j), last.bias, gtsam.noiseModel.Gaussian.Covariance(covs[2])))
+        graph.push_back(self._pending_factors)
+        values = gtsam.Values(self._pending_values)
+        values.insert(X(j), last.pose)
+        values.insert(V(j), last.v_n)
+        values.insert(B(j), last.bias)
+        self._solve(graph, values, kf, first_key=j)
 
     # --- solver hooks -----------------------------------------------------------------------------
-    def _solve(self, factors, values, kf):
+    def _solve(self, factors, values, kf, first_key=None):
         raise NotImplementedError
 
-    def _retry(self, weak, kf):
+    def _restart(self):
         raise NotImplementedError
 
     def _value(self, key, kind):
@@ -223,19 +238,6 @@ class _IncrementalGraph:
 
     def _marginal(self, key):
         raise NotImplementedError
-
-    def _joint_covariance(self, keys):
-        raise NotImplementedError
-
-    def _joint(self, k, pose, v_n, bias):
-        keys = [X(k), V(k), B(k)]
-        jm = self._joint_covariance(keys)
-        cov = np.block([[jm.at(a, b) for b in keys] for a in keys])
-        lin = gtsam.Values()
-        lin.insert(X(k), pose)
-        lin.insert(V(k), v_n)
-        lin.insert(B(k), bias)
-        return lin, 0.5 * (cov + cov.T)
 
 
 class OnlineGraph(_IncrementalGraph):
@@ -247,15 +249,19 @@ class OnlineGraph(_IncrementalGraph):
 
     def __init__(self, builder: KeyframeBuilder, initial: InitialState):
         super().__init__(builder, initial)
-        self.isam = gtsam.ISAM2(isam2_params(self.options))
+        self._times: list[float] = []
+        self._restart()
+
+    def _restart(self):
+        self.isam = gtsam.ISAM2(isam2_params(self.options, self.factorization))
         # keyframes older than options.relin_window_s stay at their linearisation point: relinearising an
         # old state re-eliminates the whole chain from it to the newest state (cost grows with the mission)
         self._frozen = gtsam.KeyList()
-        self._n_frozen = 0
-        self._times: list[float] = []
+        self._n_frozen = max(0, len(self._times) - 2)   # after a restart the oldest key is k-1
 
-    def _solve(self, factors, values, kf):
-        self._times.append(kf.t)
+    def _solve(self, factors, values, kf, first_key=None):
+        if first_key is None:
+            self._times.append(kf.t)
         window = self.options.relin_window_s
         if window is None:
             self.isam.update(factors, values)
@@ -266,18 +272,12 @@ class OnlineGraph(_IncrementalGraph):
             self._n_frozen += 1
         self.isam.update(factors, values, [], None, self._frozen)
 
-    def _retry(self, weak, kf):
-        # the failed update already holds the new factors and values; the priors make the system full rank
-        self.isam.update(weak, gtsam.Values())
-
     def _value(self, key, kind):
         return getattr(self.isam, f"calculateEstimate{kind}")(key)
 
     def _marginal(self, key):
         return self.isam.marginalCovariance(key)
 
-    def _joint_covariance(self, keys):
-        return self.isam.jointMarginalCovariance(keys)
 
     def smoothed(self) -> gtsam.Values:
         """The current ISAM2 estimate of every keyframe (smoothed by all data so far)."""
@@ -291,16 +291,16 @@ class FixedLagGraph(_IncrementalGraph):
 
     def __init__(self, builder: KeyframeBuilder, initial: InitialState):
         super().__init__(builder, initial)
-        self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s, isam2_params(self.options))
+        self._restart()
 
-    def _timestamps(self, values, t):
-        return {key: t for key in values.keys()}
+    def _restart(self):
+        self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s,
+                                                          isam2_params(self.options, self.factorization))
 
-    def _solve(self, factors, values, kf):
-        self.smoother.update(factors, values, self._timestamps(values, kf.t))
-
-    def _retry(self, weak, kf):
-        self.smoother.update(weak, gtsam.Values(), {})
+    def _solve(self, factors, values, kf, first_key=None):
+        t_last = self._last.t if first_key is not None else kf.t
+        stamps = {key: (t_last if gtsam.Symbol(key).index() == first_key else kf.t) for key in values.keys()}
+        self.smoother.update(factors, values, stamps)
 
     def _value(self, key, kind):
         return getattr(self.smoother, f"calculateEstimate{kind}")(key)
@@ -308,5 +308,3 @@ class FixedLagGraph(_IncrementalGraph):
     def _marginal(self, key):
         return self.smoother.marginalCovariance(key)
 
-    def _joint_covariance(self, keys):
-        return self.smoother.getISAM2().jointMarginalCovariance(keys)

@@ -62,9 +62,9 @@ class GraphOptions:
         prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
         prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
         lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
-        batch_chunk_s: batch smoother chunk length, s; None or >= mission length = one full batch.
-        batch_overlap_s: look-ahead each chunk keeps beyond its end (results there are discarded), s.
-        batch_max_iterations: Levenberg-Marquardt iteration cap per (chunk) solve.
+        batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
+            iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
+        batch_max_iterations: iteration cap of the batch solver.
         marginals: compute the marginal velocity covariance at every output epoch.
     """
 
@@ -94,8 +94,7 @@ class GraphOptions:
     prior_acc_bias_sigma: float | None = None
     prior_gyro_bias_sigma: float | None = None
     lag_s: float = 30.0
-    batch_chunk_s: float | None = 300.0
-    batch_overlap_s: float = 60.0
+    batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: bool = True
 
@@ -109,5 +108,5 @@ class GraphOptions:
             raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
-        if self.batch_chunk_s is not None and self.batch_chunk_s <= 0:
-            raise ConfigError(f"batch_chunk_s must be > 0 s or None, got {self.batch_chunk_s}")
+        if self.batch_solver not in ("vectorized", "lm"):
+            raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")

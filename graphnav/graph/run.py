@@ -4,8 +4,8 @@ Methods (names as in results):
 
 - ``Graph-TC``: measured beams only, incremental filtered output.
 - ``Graph-HN``: measured beams plus the completer's regressed beams as weaker factors, filtered output.
-- ``Graph-HN-batch``: as Graph-HN, then the chunked batch smoother (:mod:`graphnav.graph.batch`) started
-  from the incremental estimate; smoothed output.
+- ``Graph-HN-batch``: as Graph-HN, then the batch smoother over the whole mission
+  (:mod:`graphnav.graph.batch`) started from the incremental estimate; smoothed output.
 
 Modes (the incremental engine): ``mode="online"`` (default) is ISAM2 over the whole mission;
 ``mode="fixed-lag"`` is GTSAM's IncrementalFixedLagSmoother with ``options.lag_s`` (bounded memory and
@@ -24,7 +24,7 @@ from graphnav.errors import ConfigError
 from graphnav.mission import Mission
 from graphnav.solution import NavSolution
 
-from .batch import batch_smooth, chunk_plan
+from .batch import batch_smooth
 from .builder import KeyframeBuilder
 from .incremental import EpochEstimate, FixedLagGraph, InitialState, OnlineGraph
 from .options import GraphOptions
@@ -85,16 +85,13 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     Returns:
         NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
         ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
-        recoveries) and, for the batch, its chunk timings.
+        recoveries) and, for the batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s``.
     """
     start = time.perf_counter()
     options = options or GraphOptions()
     estimator, builder = _setup(mission, method, completer, options, mode, initial)
     batch = method == "Graph-HN-batch"
-    chunks = chunk_plan(builder.times, options) if batch else []
-    if batch:
-        estimator.keep_keyframe_graphs = True
-        estimator.record_joint_at = {c.start for c in chunks if c.start > 0}
+    estimator.keep_keyframe_graphs = batch
     estimates = []
     for kf in builder:
         estimator.add(kf)
@@ -105,7 +102,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     info = {"mode": mode, "update_s": list(estimator.update_times), "recovered": estimator.n_recovered,
             "online_s": time.perf_counter() - start}
     if batch:
-        estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, estimator.joint, chunks, options)
+        estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
         info.update({"batch_" + k: v for k, v in batch_info.items()})
         info["batch_s"] = time.perf_counter() - start - info["online_s"]
     sol = solution_from_estimates(method, estimates)
