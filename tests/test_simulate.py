@@ -340,3 +340,11 @@ def test_written_mission_loads_back(tmp_path):
     # the loader puts its NED origin at the first GT sample; geodetic round trip is sub-millimetre
     np.testing.assert_allclose(back.gt.p_n, sim.gt.p_n - sim.gt.p_n[0], atol=1e-3)
     np.testing.assert_allclose(back.depth.depth, sim.gt.p_n[:, 2], atol=1e-6)
+
+
+def test_closed_form_euler_matches_the_shared_rotation_helper():
+    from graphnav.rotations import euler_to_C_b_n as shared
+    from graphnav.simulate import euler_to_C_b_n as closed_form
+    rng = np.random.default_rng(0)
+    roll, pitch, yaw = rng.uniform(-3, 3, 100), rng.uniform(-1.5, 1.5, 100), rng.uniform(-3, 3, 100)
+    np.testing.assert_allclose(closed_form(roll, pitch, yaw), shared(roll, pitch, yaw), atol=1e-14)
