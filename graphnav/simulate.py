@@ -233,9 +233,13 @@ class SimTrajectory:
         nodes, weights = np.polynomial.legendre.leggauss(order)
         a, b = t[:-1], t[1:]
         half = 0.5 * (b - a)
-        tau = (0.5 * (a + b))[:, None] + half[:, None] * nodes[None, :]
-        v = self.velocity_n(tau.ravel()).reshape(len(a), order, 3)
-        steps = np.einsum("k,nkj->nj", weights, v) * half[:, None]
+        steps = np.empty((len(a), 3))
+        chunk = 20_000                  # intervals per call: bounded memory for multi-hour missions
+        for i in range(0, len(a), chunk):
+            sl = slice(i, i + chunk)
+            tau = (0.5 * (a[sl] + b[sl]))[:, None] + half[sl, None] * nodes[None, :]
+            v = self.velocity_n(tau.ravel()).reshape(-1, order, 3)
+            steps[sl] = np.einsum("k,nkj->nj", weights, v) * half[sl, None]
         return self.p0_n + np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
 
     def imu_samples(self, t: np.ndarray, dt: float, order: int = 3) -> tuple[np.ndarray, np.ndarray]:
