@@ -38,6 +38,7 @@ from .calibration_align import (OffsetEstimate, Reference, _search_offset, _sigm
                                 submerged_pings)
 from .config import SensorConfig
 from .dvl import DvlGeometry
+from .earth import earth_rate_n
 from .errors import DataError
 from .mission import Mission
 from .rotations import skew
@@ -147,24 +148,36 @@ def _gt_predicted_specific_force(mission: Mission, gt_t: np.ndarray):
 def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]:
     """Check gyro and accelerometer axes against the GT; also returns the GT offset of the best gyro map.
 
-    Gyro: for each of the 48 signed permutations the IMU-to-GT offset is re-estimated and the residual of
-    the attitude increments compared. Accelerometer: the interval-mean specific force against the one
+    Gyro: each of the 48 signed permutations is scored by the residual of the attitude increments at its
+    best IMU-to-GT offset (grid of 0.05 s over +-2 s); the GT offset returned is refined for the chosen map. Accelerometer: the interval-mean specific force against the one
     predicted from the GT (``C^T (dv_n/dt - g_n)``, dominated by the gravity direction, i.e. roll/pitch).
     """
     imu, gt, cfg = mission.imu, mission.gt, mission.config
     lat = cfg.lat_rad if cfg.earth_rotation else None
     t_imu = np.ascontiguousarray(imu.t)
-    results = []
-    for P in signed_permutations():
-        est = estimate_gt_time_offset(t_imu, imu.omega_b @ P.T, gt.t, gt.C_b_n, lat, step_s=0.05)
-        results.append((est.rms, P, est))
-    as_loaded = results[0]
-    best = min(results, key=lambda r: r[0])
+    # Increments of a mapped gyro are the mapped increments (the integral is linear), so all 48 maps are
+    # scored on one grid of offsets; ~1 s between reference samples is plenty to tell them apart.
+    stride = max(1, int(round(1.0 / np.median(np.diff(gt.t)))))
+    t_ref, C_ref = gt.t[::stride], gt.C_b_n[::stride]
+    incr_ref = Rotation.from_matrix(np.swapaxes(C_ref[:-1], 1, 2) @ C_ref[1:]).as_rotvec()
+    if lat is not None:
+        incr_ref += np.einsum("kji,j->ki", C_ref[:-1], earth_rate_n(lat)) * np.diff(t_ref)[:, None]
+    S = np.asfortranarray(cumulative_integral(t_imu, imu.omega_b))
+    offsets = np.arange(-2.0, 2.0 + 1e-9, 0.05)
+    inside = (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])
+    incr = np.stack([interp_rows(t_ref[1:][inside] + o, t_imu, S) - interp_rows(t_ref[:-1][inside] + o, t_imu, S)
+                     for o in offsets])                                   # (n_offsets, K, 3)
+    maps = signed_permutations()
+    scores = []
+    for P in maps:
+        rms = np.sqrt(np.mean((incr @ P.T - incr_ref[inside]) ** 2, axis=(1, 2)))
+        scores.append(float(rms.min()))
+    i_best = int(np.argmin(scores))
     check = AxisCheck("GT attitude (gyro increments) and GT roll/pitch (accelerometer gravity direction)")
-    gyro_map = best[1] if best[0] * AXIS_MARGIN < as_loaded[0] else np.eye(3)
+    gyro_map = maps[i_best] if scores[i_best] * AXIS_MARGIN < scores[0] else np.eye(3)
     check.gyro_map = gyro_map
-    check.gyro_rms = (as_loaded[0], best[0])
-    offset = best[2] if gyro_map is best[1] else as_loaded[2]
+    check.gyro_rms = (scores[0], scores[i_best])
+    offset = estimate_gt_time_offset(t_imu, imu.omega_b @ gyro_map.T, gt.t, gt.C_b_n, lat)
     # accelerometer: interval means on the IMU clock with the GT shifted by the offset found
     gt_t = gt.t + offset.offset_s
     f_pred = _gt_predicted_specific_force(mission, gt_t)
@@ -428,10 +441,6 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
     cfg0 = mission.config
     check, gt_est = check_imu_axes_with_gt(mission)
     work = apply_axis_map(mission, check.gyro_map, check.accel_map) if not check.ok else mission
-    if not check.ok:
-        lat = cfg0.lat_rad if cfg0.earth_rotation else None
-        gt_est = estimate_gt_time_offset(np.ascontiguousarray(work.imu.t), work.imu.omega_b, work.gt.t,
-                                         work.gt.C_b_n, lat)
     gt_t = work.gt.t + gt_est.offset_s
     ref = Reference(work.imu.t, work.imu.f_b, work.imu.omega_b, gt_t, work.gt.v_n, work.gt.C_b_n,
                     cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None)

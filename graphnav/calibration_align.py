@@ -48,9 +48,13 @@ class OffsetEstimate:
 
 
 def cumulative_integral(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Trapezoidal running integral of samples x (N,...) at stamps t (N,), starting at 0."""
+    """Running integral of IMU samples x (N,...) at stamps t (N,), starting at 0.
+
+    Sample j is held over ``[t_j, t_j+1)`` (zero-order hold, GTSAM's preintegration convention and the
+    simulator's increment convention), so offsets found with it are the ones the estimators need.
+    """
     dt = np.diff(t).reshape((-1,) + (1,) * (x.ndim - 1))
-    steps = 0.5 * (x[1:] + x[:-1]) * dt
+    steps = x[:-1] * dt
     return np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(steps, axis=0)])
 
 

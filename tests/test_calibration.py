@@ -1,0 +1,152 @@
+"""graphnav calibrate on simulated missions with known errors, and on the shared real data.
+
+Simulated missions are made "as recorded" by a miscalibrated system: the DVL reports its velocity in its
+own (yawed) frame with a scale error, the DVL and GT stamps carry offsets, and the configuration claims a
+zero lever arm. Tolerances are stated per test; they are ~3 sigma of the estimates for these settings.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from graphnav.calibration import (calibrate, check_imu_axes_with_gt, check_imu_axes_without_gt,
+                                  signed_permutations)
+from graphnav.config import SensorConfig
+from graphnav.dvl import DvlGeometry
+from graphnav.simulate import simulate_mission
+
+TRUE_LEVER = np.array([-1.2, 0.3, 0.5])
+TRUE_DVL_OFFSET = 0.40       # s, to add to the recorded DVL stamps
+TRUE_GT_OFFSET = -0.30       # s, to add to the recorded GT stamps
+TRUE_YAW = np.deg2rad(1.5)   # DVL mounting yaw, C_d_b = Rz(yaw)
+TRUE_SCALE = 0.01
+
+
+def miscalibrated_mission(seed=3, duration=600.0, beam_noise=0.01):
+    truth = SensorConfig()
+    truth.dvl.lever_arm_b = TRUE_LEVER
+    truth.dvl.C_d_b = Rotation.from_euler("z", TRUE_YAW).as_matrix()
+    truth.dvl.scale_factor = np.full(3, TRUE_SCALE)
+    truth.dvl.beam_noise_std = beam_noise
+    m = simulate_mission(duration, seed=seed, config=truth)
+    believed = SensorConfig.from_dict(m.config.to_dict())
+    believed.dvl.lever_arm_b = np.zeros(3)
+    believed.dvl.C_d_b = np.eye(3)
+    # what the DVL reports: least squares with its own (unrotated) geometry
+    v_reported = DvlGeometry.from_spec(believed.dvl).velocity_from_beams(m.dvl.beams, m.dvl.valid,
+                                                                         allow_missing=True)
+    dvl = dataclasses.replace(m.dvl, t=m.dvl.t - TRUE_DVL_OFFSET, v_b=v_reported)
+    gt = dataclasses.replace(m.gt, t=m.gt.t - TRUE_GT_OFFSET)
+    return dataclasses.replace(m, dvl=dvl, gt=gt, config=believed)
+
+
+@pytest.fixture(scope="module")
+def mission():
+    return miscalibrated_mission()
+
+
+def test_gt_mode_recovers_known_errors(mission):
+    r = calibrate(mission, "gt")
+    assert r.axis_check.ok, r.axis_check.suspects
+    np.testing.assert_allclose(r.lever_arm_b.value, TRUE_LEVER, atol=0.06)
+    assert abs(r.dvl_time_offset_s.value - TRUE_DVL_OFFSET) < 0.1      # sigma ~0.03 s here
+    assert abs(r.gt_time_offset_s.value - TRUE_GT_OFFSET) < 0.005
+    assert abs(r.dvl_yaw_rad.value - TRUE_YAW) < np.deg2rad(0.1)
+    assert abs(r.dvl_scale.value - TRUE_SCALE) < 0.002
+    # the sigmas are honest: every estimate within 4 sigma of the truth
+    for est, true in ((r.lever_arm_b, TRUE_LEVER), (r.dvl_time_offset_s, TRUE_DVL_OFFSET),
+                      (r.dvl_yaw_rad, TRUE_YAW), (r.dvl_scale, TRUE_SCALE)):
+        assert np.all(np.abs(np.asarray(est.value) - true) < 4 * np.asarray(est.sigma) + 1e-9), est
+    # the calibrated configuration carries the values
+    cfg = r.config
+    np.testing.assert_allclose(cfg.dvl.lever_arm_b, r.lever_arm_b.value)
+    assert cfg.dvl_time_offset_s == pytest.approx(r.dvl_time_offset_s.value)
+    assert Rotation.from_matrix(cfg.dvl.C_d_b).as_euler("ZYX")[0] == pytest.approx(r.dvl_yaw_rad.value)
+    assert cfg.dvl.velocity_scale_correction == pytest.approx(r.dvl_scale.value)
+
+
+def test_calibrated_config_round_trips(mission, tmp_path):
+    r = calibrate(mission, "gt")
+    path = tmp_path / "cal.json"
+    r.config.save(path)
+    back = SensorConfig.load(path)
+    np.testing.assert_allclose(back.dvl.lever_arm_b, r.config.dvl.lever_arm_b)
+    np.testing.assert_allclose(back.dvl.C_d_b, r.config.dvl.C_d_b)
+    assert back.dvl.velocity_scale_correction == r.config.dvl.velocity_scale_correction
+    assert back.gt_time_offset_s == r.config.gt_time_offset_s
+
+
+def flipped(mission, axis):
+    flip = np.ones(3)
+    flip[axis] = -1
+    imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b * flip, omega_b=mission.imu.omega_b * flip)
+    return dataclasses.replace(mission, imu=imu), flip
+
+
+def test_flipped_y_axis_is_named_and_calibration_still_works(mission):
+    """The A-KIT case: y of both sensors flipped."""
+    bad, flip = flipped(mission, 1)
+    r = calibrate(bad, "gt")
+    assert sorted(r.axis_check.suspects) == ["accelerometer y: sign flipped", "gyro y: sign flipped"]
+    np.testing.assert_allclose(r.config.imu_axis_signs, flip)
+    np.testing.assert_allclose(r.lever_arm_b.value, TRUE_LEVER, atol=0.06)
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+def test_flipped_axis_is_named(mission, axis):
+    check, _ = check_imu_axes_with_gt(flipped(mission, axis)[0])
+    name = "xyz"[axis]
+    assert sorted(check.suspects) == [f"accelerometer {name}: sign flipped", f"gyro {name}: sign flipped"]
+
+
+def test_swapped_gyro_axes_are_named(mission):
+    omega = mission.imu.omega_b[:, [1, 0, 2]]
+    bad = dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, omega_b=omega))
+    check, _ = check_imu_axes_with_gt(bad)
+    assert "gyro x: reads the raw y axis (swapped axes)" in check.suspects
+    assert "gyro y: reads the raw x axis (swapped axes)" in check.suspects
+    assert not any(s.startswith("accelerometer") for s in check.suspects)
+
+
+def test_correct_axes_pass_both_checks(mission):
+    check, _ = check_imu_axes_with_gt(mission)
+    assert check.ok and check.gyro_rms[0] == check.gyro_rms[1]
+    assert check_imu_axes_without_gt(mission).ok
+
+
+@pytest.mark.parametrize("sensor, axis, expect", [
+    ("f_b", 2, "accelerometer z: sign flipped"),
+    ("f_b", 1, "accelerometer y: sign flipped"),
+    ("omega_b", 0, "gyro x: sign flipped"),
+])
+def test_axis_check_without_gt(mission, sensor, axis, expect):
+    arr = getattr(mission.imu, sensor).copy()
+    arr[:, axis] *= -1
+    bad = dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, **{sensor: arr}))
+    check = check_imu_axes_without_gt(bad)
+    assert any(s.startswith(expect) for s in check.suspects), check.suspects
+
+
+def test_signed_permutations_are_the_48_orthogonal_axis_maps():
+    maps = signed_permutations()
+    assert len(maps) == 48 and np.array_equal(maps[0], np.eye(3))
+    assert len({m.tobytes() for m in maps}) == 48
+    for P in maps:
+        np.testing.assert_allclose(P @ P.T, np.eye(3))
+
+
+@pytest.mark.realdata
+def test_real_data_estimates_near_readme_values(akit_dir):
+    """Data README: lever arm close to [-1.86, -0.04, 0.2] m, IMU-to-GT offset -0.5..0.5 s, the DVL
+    leading the GT by 0.5..1.5 s."""
+    from graphnav.loaders import list_akit, load_akit
+    for folder in list_akit(akit_dir)[:4]:
+        r = calibrate(load_akit(folder), "gt")
+        assert r.axis_check.ok, (folder.name, r.axis_check.suspects)
+        np.testing.assert_allclose(r.lever_arm_b.value, [-1.86, -0.04, 0.2], atol=0.2, err_msg=folder.name)
+        gt_off, dvl_off = r.gt_time_offset_s.value, r.dvl_time_offset_s.value
+        assert -0.6 < gt_off < 0.6 and 0.4 < dvl_off - gt_off < 1.6, (folder.name, gt_off, dvl_off)
+        assert r.residual_rms < 0.02
