@@ -350,3 +350,17 @@ def test_closed_form_euler_matches_the_shared_rotation_helper():
     rng = np.random.default_rng(0)
     roll, pitch, yaw = rng.uniform(-3, 3, 100), rng.uniform(-1.5, 1.5, 100), rng.uniform(-3, 3, 100)
     np.testing.assert_allclose(closed_form(roll, pitch, yaw), shared(roll, pitch, yaw), atol=1e-14)
+
+
+def test_dvl_pings_between_imu_samples_are_exact():
+    m = simulate_mission(30.0, seed=1, noiseless=True, dvl_stamp_offset_s=0.437)
+    np.testing.assert_allclose(m.dvl.t, np.arange(30) + 0.437)
+    assert not np.isin(m.dvl.t, m.imu.t).any()
+    geometry = DvlGeometry.from_spec(m.config.dvl)
+    state = m.meta["trajectory"].state(m.dvl.t)
+    np.testing.assert_allclose(m.dvl.beams, geometry.beams_from_velocity(state.v_b, state.omega_nb_b), atol=1e-12)
+    # the same trajectory as without the offset: GT is unchanged
+    np.testing.assert_array_equal(m.gt.p_n, simulate_mission(30.0, seed=1, noiseless=True).gt.p_n)
+    from graphnav.errors import ConfigError
+    with pytest.raises(ConfigError):
+        simulate_mission(10.0, dvl_stamp_offset_s=1.0)
