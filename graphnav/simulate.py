@@ -392,7 +392,8 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         dropout: bottom-lock dropouts from :func:`graphnav.scenarios.markov_dropout` (invalid beams NaN).
         config: sensor configuration to simulate (latitude, gravity, Earth rotation, IMU rate, DVL geometry
             incl. C_d_b and error model, depth noise); default: lat 32.85 deg, WGS84 gravity, 100 Hz IMU,
-            1 Hz DVL with the paper's error model.
+            1 Hz DVL with the paper's error model. Its time offsets and IMU axis signs are reset (the
+            simulated streams are on the IMU clock, in FRD).
         gt_rate_hz: ground-truth rate, Hz (must divide the IMU rate).
         noiseless: no IMU, DVL or depth errors (exact measurements).
         dvl_stamp_offset_s: DVL pings at ``k / dvl_rate + offset`` (s, ``0 <= offset < 1 / dvl_rate``);
@@ -415,6 +416,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         if lever_arm_b is not None:
             config.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
     config.imu = dataclasses.replace(spec)
+    # Simulated streams are born on the IMU clock in FRD axes: nothing was shifted or flipped.
+    config.dvl_time_offset_s = config.gt_time_offset_s = 0.0
+    config.imu_axis_signs = np.ones(3)
 
     imu_rate = float(config.imu_rate_hz)
     gt_stride = imu_rate / gt_rate_hz
