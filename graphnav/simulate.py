@@ -18,7 +18,7 @@ IMU sample convention: the sample stamped ``t_k`` is the *increment* over ``[t_k
 ``dt``, as a strapdown IMU outputs it: ``omega_b[k] = Log(C_ib(t_k)^T C_ib(t_k+dt)) / dt`` and
 ``f_b[k] = (1/dt) * integral of C_b_n(t_k)^T C_b_n(tau) f_n(tau) dtau`` (body axes frozen at ``t_k``). Holding
 sample k constant from ``t_k`` to ``t_{k+1}`` (GTSAM's preintegration) then reproduces the truth exactly up to
-the Earth-rate cross terms (~1e-9 rad per step; ``tests/test_simulate.py`` measures 4e-6 m/s and 1 mm after
+the Earth-rate cross terms (~1e-9 rad per step; ``tests/test_simulate.py`` measures 1e-8 m/s and 2e-6 m after
 400 s; GTSAM 4.3's rotating-frame prediction adds its own ~3e-6 m/s^2 drift, also for a perfect static IMU).
 Ground truth, DVL and depth are instantaneous values at their
 stamps, all of which are IMU stamps (the DVL's unless ``dvl_stamp_offset_s`` moves them between samples).
