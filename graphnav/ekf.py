@@ -43,9 +43,13 @@ Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``,
   The paper prints ``-C^T [v_n x]``, which is the same row for the opposite misalignment sign.
 - TC (one row per beam): ``y_i = b_i^T v_d_b``, ``H_i = b_i^T H_LC`` (b_i the beam unit vector in body).
 
-Beam noise: the beams carry an unmodelled bias (0.01 m/s) and scale factor (0.7 %) besides white noise; the
-filter treats them as white noise of variance ``noise^2 + bias^2 + (scale * |beam|)^2`` (each term from
-the configuration by default, see :class:`EkfOptions`). Completed beams add their completer sigma^2.
+Beam noise: the beams carry a bias (0.01 m/s) and scale factor (0.7 %) besides white noise. The paper's
+12-state filter treats them as white noise of variance ``noise^2 + bias^2 + (scale * |beam|)^2`` (each term
+from the configuration by default, see :class:`EkfOptions`); it then averages many pings and becomes
+overconfident (velocity NEES ~8 on the simulated default mission). ``EkfOptions.dvl_error_states`` adds the
+scale factor per DVL axis and the bias per beam as 7 random-constant states (beam model
+``y = T_d [(1 + s) C_d_b^T v_d_b] + b``, rows ``H_s = T_d diag(v_d)``, ``H_b = I``). Completed beams add
+their completer sigma^2.
 
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
 normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
@@ -70,7 +74,9 @@ from .solution import NavSolution
 
 METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
 N_STATES = 12
+N_DVL_STATES = 7
 IV, IE, IA, IG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+IS, IB = slice(12, 15), slice(15, 19)           # optional DVL scale factor and beam bias states
 
 
 @dataclass
@@ -95,6 +101,12 @@ class EkfOptions:
             data; on the recorded A-KIT data the INS disagrees with the ground truth far more than the
             recorded noise densities say (1-s free-inertial velocity error ~0.06 m/s), and all-beam runs
             need about 10-20 for a velocity NEES near 3 (``scripts/bench_ekf.py`` reports its choice).
+        dvl_error_states: add 7 DVL error states (not in the paper): the scale factor per DVL axis ``s``
+            (3) and the bias per beam ``b`` (4) of the beam model ``y = T_d [(1 + s) v_d] + b + n``, random
+            constants. They are observable through accelerations and turns (the IMU senses velocity
+            changes exactly); with them the white-noise inflation for bias/scale defaults to 0.
+        sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
+        sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
     """
 
     lever_arm: bool | None = None
@@ -109,6 +121,9 @@ class EkfOptions:
     sigma_bg0: float | None = None
     phi_order: int = 2
     imu_noise_scale: float = 1.0
+    dvl_error_states: bool = False
+    sigma_dvl_scale0: float | None = None
+    sigma_beam_bias0: float | None = None
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,23 +161,36 @@ class ErrorStateEkf:
         imu = config.imu
         sba0 = imu.accel_bias_sigma if opts.sigma_ba0 is None else opts.sigma_ba0
         sbg0 = imu.gyro_bias_sigma if opts.sigma_bg0 is None else opts.sigma_bg0
-        self.P = np.diag(np.concatenate([np.full(3, opts.sigma_v0 ** 2),
-                                         np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
-                                         np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]))
+        variances = [np.full(3, opts.sigma_v0 ** 2), np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
+                     np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]
+        dvl = config.dvl
+        self.n_states = N_STATES + (N_DVL_STATES if opts.dvl_error_states else 0)
+        if opts.dvl_error_states:
+            ss0 = (max(float(np.max(np.abs(dvl.scale_factor))), 0.005) if opts.sigma_dvl_scale0 is None
+                   else opts.sigma_dvl_scale0)
+            sb0 = (max(float(np.max(np.abs(dvl.beam_bias))), 0.005) if opts.sigma_beam_bias0 is None
+                   else opts.sigma_beam_bias0)
+            variances += [np.full(3, ss0 ** 2), np.full(4, sb0 ** 2)]
+        self.P = np.diag(np.concatenate(variances))
+        #: DVL scale factor per DVL axis (3,) and beam biases (4,) m/s; stay zero without dvl_error_states
+        self.dvl_scale = np.zeros(3)
+        self.beam_bias = np.zeros(4)
         # G Qc G^T: constant because the IMU noise is isotropic (C C^T = I)
         k = opts.imu_noise_scale
         self.qd = np.repeat([(k * imu.accel_noise_density) ** 2, (k * imu.gyro_noise_density) ** 2,
                              imu.accel_bias_rw ** 2, imu.gyro_bias_rw ** 2], 3)
         geometry = DvlGeometry.from_spec(config.dvl)
         self.T_b = geometry.T_b
+        self.T_d, self.C_d_b = geometry.T_d, geometry.C_d_b
         use_lever = (np.any(config.dvl.lever_arm_b != 0) if opts.lever_arm is None else opts.lever_arm)
         self.lever_arm_b = geometry.lever_arm_b if use_lever else np.zeros(3)
         self.skew_lever = skew(self.lever_arm_b)
         self.beam_noise_std = config.dvl.beam_noise_std if opts.beam_noise_std is None else opts.beam_noise_std
-        self.beam_bias_std = (float(np.max(np.abs(config.dvl.beam_bias))) if opts.beam_bias_std is None
-                              else opts.beam_bias_std)
-        self.beam_scale_std = (float(np.max(np.abs(config.dvl.scale_factor))) if opts.beam_scale_std is None
-                               else opts.beam_scale_std)
+        modelled = opts.dvl_error_states       # bias and scale are states: no white-noise inflation
+        self.beam_bias_std = ((0.0 if modelled else float(np.max(np.abs(dvl.beam_bias))))
+                              if opts.beam_bias_std is None else opts.beam_bias_std)
+        self.beam_scale_std = ((0.0 if modelled else float(np.max(np.abs(dvl.scale_factor))))
+                               if opts.beam_scale_std is None else opts.beam_scale_std)
         self._gate = {m: chi2.ppf(opts.gate_prob, m) for m in range(1, 5)}
         self._skew_wie = skew(self.strapdown.omega_ie_n)
         self.n_updates = 0
@@ -199,18 +227,37 @@ class ErrorStateEkf:
             return
         self.state, path = self.strapdown.propagate(self.state, f_b, omega_b, dt, self.bias_acc, self.bias_gyro)
         Phi, Q = compose_transitions(*self.transition(path))
-        self.P = Phi @ self.P @ Phi.T + Q
+        P, n = self.P, N_STATES
+        if self.n_states == n:
+            self.P = Phi @ P @ Phi.T + Q
+        else:   # the DVL error states are random constants: Phi = blockdiag(Phi_12, I), Q = blockdiag(Q_12, 0)
+            cross = Phi @ P[:n, n:]
+            P[:n, :n] = Phi @ P[:n, :n] @ Phi.T + Q
+            P[:n, n:] = cross
+            P[n:, :n] = cross.T
 
     # --- measurement model -----------------------------------------------------------------------
-    def predicted_dvl_velocity(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h (3,) predicted DVL-head velocity in body, m/s; H (3,12)) at the current state."""
+    def predicted_beams(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h (4,) predicted beams, m/s; H (4, n_states)) at the current state.
+
+        ``h = T_d [(1 + s) C_d_b^T v_d_b] + b`` with the DVL-head velocity
+        ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b`` (``omega_b`` raw IMU rate at the ping, rad/s);
+        s and b are zero unless :attr:`EkfOptions.dvl_error_states`.
+        """
         C = self.state.C_b_n
         Ct = C.T
-        h = Ct @ self.state.v_n + np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
-        H = np.zeros((3, N_STATES))
-        H[:, IV] = Ct
-        H[:, IE] = Ct @ skew(self.state.v_n)
-        H[:, IG] = self.skew_lever
+        v_d_b = Ct @ self.state.v_n + np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
+        H_vel = np.zeros((3, self.n_states))          # d v_d_b / d dx
+        H_vel[:, IV] = Ct
+        H_vel[:, IE] = Ct @ skew(self.state.v_n)
+        H_vel[:, IG] = self.skew_lever
+        v_d = self.C_d_b.T @ v_d_b
+        M = self.T_d * (1.0 + self.dvl_scale)        # T_d diag(1 + s)
+        h = M @ v_d + self.beam_bias
+        H = (M @ self.C_d_b.T) @ H_vel
+        if self.n_states > N_STATES:
+            H[:, IS] = self.T_d * v_d
+            H[:, IB] = np.eye(4)
         return h, H
 
     def beam_variance(self, beams: np.ndarray) -> np.ndarray:
@@ -227,7 +274,7 @@ class ErrorStateEkf:
             return False
         K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
         dx = PHt @ S_inv_dz
-        IKH = np.eye(N_STATES) - K @ H
+        IKH = np.eye(self.n_states) - K @ H
         self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
         self.P = 0.5 * (self.P + self.P.T)
         # closed-loop correction, then the error state is reset to zero
@@ -235,6 +282,9 @@ class ErrorStateEkf:
         self.state.C_b_n = so3_exp_batch(-dx[IE][None])[0] @ self.state.C_b_n
         self.bias_acc = self.bias_acc - dx[IA]
         self.bias_gyro = self.bias_gyro - dx[IG]
+        if self.n_states > N_STATES:
+            self.dvl_scale = self.dvl_scale - dx[IS]
+            self.beam_bias = self.beam_bias - dx[IB]
         self.n_updates += 1
         return True
 
@@ -242,28 +292,32 @@ class ErrorStateEkf:
         """Loosely coupled update with a DVL-head velocity (3,) m/s in body and its covariance (3,3).
 
         ``omega_b`` is the raw IMU rate at the ping (rad/s) for the lever-arm term. Returns False if gated.
+        (With DVL error states, use :meth:`update_lc_beams`, which knows which beams made the velocity.)
         """
-        h, H = self.predicted_dvl_velocity(omega_b)
-        return self._update(h - v_dvl_b, H, R_v)
+        h, H = self.predicted_beams(omega_b)
+        G = np.linalg.pinv(self.T_b)                  # beams -> body velocity (all four beams)
+        return self._update(G @ h - v_dvl_b, G @ H, R_v)
 
     def update_lc_beams(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
                         ) -> bool:
         """LC update from >= 3 beams (4,) m/s (NaN = missing) by weighted least squares.
 
-        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams). With fewer than
-        three beams there is no update (pure inertial) and False is returned.
+        ``v = G y``, ``G = (A^T W A)^-1 A^T W`` over the used beams (A their body-frame unit vectors, W the
+        inverse beam variances), ``R_v = (A^T W A)^-1`` and the prediction ``G h(x)``. ``sigma_extra`` (4,)
+        m/s is added in quadrature to the beam noise (completed beams). With fewer than three beams there
+        is no update (pure inertial) and False is returned.
         """
         used = np.isfinite(beams)
         if used.sum() < 3:
             return False
+        h, H = self.predicted_beams(omega_b)
         var = self.beam_variance(beams[used])
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
         A = self.T_b[used]
-        info = A.T @ (A / var[:, None])
-        R_v = np.linalg.inv(info)
-        v = R_v @ (A.T @ (beams[used] / var))
-        return self.update_lc(v, R_v, omega_b)
+        R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+        G = R_v @ (A.T / var)
+        return self._update(G @ (h[used] - beams[used]), G @ H[used], R_v)
 
     def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
         """Tightly coupled update, one row per finite beam of ``beams`` (4,) m/s (NaN = missing).
@@ -273,13 +327,12 @@ class ErrorStateEkf:
         used = np.isfinite(beams)
         if not used.any():
             return False
-        h, H = self.predicted_dvl_velocity(omega_b)
-        Tu = self.T_b[used]
+        h, H = self.predicted_beams(omega_b)
         y = beams[used]
         var = self.beam_variance(y)
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
-        return self._update(Tu @ h - y, Tu @ H, np.diag(var))
+        return self._update(h[used] - y, H[used], np.diag(var))
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
@@ -355,6 +408,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         out_p[k], out_v[k], out_C[k], out_P[k] = s.p_n, s.v_n, s.C_b_n, ekf.P[IV, IV]
         out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
     info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
+            "dvl_scale": ekf.dvl_scale.copy(), "beam_bias": ekf.beam_bias.copy(),
             "n_imu_segments": int(len(seg_t)), "t0": float(t0)}
     return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
                        runtime_s=time.perf_counter() - wall, info=info)
