@@ -176,11 +176,10 @@ class KeyframeBuilder:
     def __iter__(self) -> Iterator[Keyframe]:
         imu = self.mission.imu
         t_imu = imu.t
-        f_list, w_list = imu.f_b.tolist(), imu.omega_b.tolist()
+        n = len(t_imu)
         # IMU sample j covers [t_j, t_{j+1}); the last sample covers one nominal period
-        last_dt = t_imu[-1] - t_imu[-2] if len(t_imu) > 1 else 1.0 / self.config.imu_rate_hz
+        last_dt = t_imu[-1] - t_imu[-2] if n > 1 else 1.0 / self.config.imu_rate_hz
         t_next = np.append(t_imu[1:], t_imu[-1] + last_dt)
-        dt_list = (t_next - t_imu).tolist()
         # first sample whose interval ends after each keyframe (the one a keyframe splits, if any)
         split = np.searchsorted(t_next, self.times, side="right").tolist()
         for k, (t, ping) in enumerate(zip(self.times, self.ping)):
@@ -189,15 +188,19 @@ class KeyframeBuilder:
                 pim = gtsam.PreintegratedCombinedMeasurements(self.params)
                 t_prev = self.times[k - 1]
                 j0, j1 = split[k - 1], split[k]
+                # python lists of this keyframe's samples only (bounded memory on long missions)
+                hi = min(j1 + 1, n)
+                f, w = imu.f_b[j0:hi].tolist(), imu.omega_b[j0:hi].tolist()
+                dt = (t_next[j0:hi] - t_imu[j0:hi]).tolist()
                 if j0 == j1:                                   # both keyframes inside one IMU interval
-                    pim.integrateMeasurement(f_list[j0], w_list[j0], t - t_prev)
+                    pim.integrateMeasurement(f[0], w[0], t - t_prev)
                 else:
-                    if j0 < len(t_imu):                        # rest of the interval split at t_prev
-                        pim.integrateMeasurement(f_list[j0], w_list[j0], t_next[j0] - max(t_prev, t_imu[j0]))
-                    for j in range(j0 + 1, min(j1, len(t_imu))):
-                        pim.integrateMeasurement(f_list[j], w_list[j], dt_list[j])
-                    if j1 < len(t_imu) and t > t_imu[j1]:      # start of the interval split at t
-                        pim.integrateMeasurement(f_list[j1], w_list[j1], t - t_imu[j1])
+                    if j0 < n:                                 # rest of the interval split at t_prev
+                        pim.integrateMeasurement(f[0], w[0], t_next[j0] - max(t_prev, t_imu[j0]))
+                    for i in range(1, min(j1, n) - j0):
+                        pim.integrateMeasurement(f[i], w[i], dt[i])
+                    if j1 < n and t > t_imu[j1]:               # start of the interval split at t
+                        pim.integrateMeasurement(f[j1 - j0], w[j1 - j0], t - t_imu[j1])
             dvl = self.dvl_measurement(ping) if ping >= 0 else None
             yield Keyframe(k, float(t), pim, dvl, self.depth_at(t), "dvl" if ping >= 0 else "imu")
 

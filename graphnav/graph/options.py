@@ -15,9 +15,14 @@ Chosen defaults and why:
   uncertainty per second is irrelevant to velocity. Should the solver still hit an indeterminant system,
   the estimator adds weak priors on the newest state and continues (warning). ``factorization="QR"``
   is the slower, more robust alternative.
-- Relinearisation: per-variable-type thresholds (pose rot 1e-3 rad / pos 0.05 m, velocity 1e-3 m/s,
-  bias 1e-4 m/s^2 / 1e-6 rad/s) checked every ``relinearize_skip`` = 10 updates; one scalar threshold
-  relinearised whole chains (probe: 26 ms median instead of ~1 ms).
+- Relinearisation: per-variable-type thresholds (pose rot 2e-3 rad / pos 1 m, velocity 0.01 m/s,
+  bias 1e-3 m/s^2 / 1e-5 rad/s) checked every ``relinearize_skip`` = 10 updates, and only for keyframes
+  of the last ``relin_window_s`` = 5 s (older ones are ``noRelinKeys``). Relinearising an old keyframe
+  re-eliminates the chain from it to the newest one: with tight thresholds and no window, updates took
+  up to 250 ms at 400 s. Measured on simulated 200 s missions (navigation, tactical, MEMS IMU, 3-missing
+  outage): VRMSE identical to 4 digits with relinearisation at every update, with this window, and with
+  none at all -- predictions from the preintegrated IMU are already close to the optimum.
+- Back-substitution: wildfire threshold 0.01 (the newest state is always updated exactly).
 - Keyframes at every DVL stamp; when no DVL stamp arrives for more than ``max_keyframe_gap_s`` (2 s),
   IMU-only keyframes every ``imu_keyframe_interval_s`` (1 s) keep each preintegration short.
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
@@ -84,7 +89,7 @@ class GraphOptions:
     relin_vel: float = 1e-2
     relin_bias_acc: float = 1e-3
     relin_bias_gyro: float = 1e-5
-    relin_window_s: float | None = 30.0
+    relin_window_s: float | None = 5.0
     wildfire_threshold: float = 1e-2
     max_keyframe_gap_s: float = 2.0
     imu_keyframe_interval_s: float = 1.0

@@ -15,6 +15,7 @@ scalable choice). Output stamps are the keyframes: every DVL ping plus IMU-only 
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Callable
 
@@ -45,10 +46,10 @@ def make_estimator(mode: str, builder: KeyframeBuilder, initial: InitialState):
 def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
                   options: GraphOptions | None = None, mode: str = "online",
                   initial: InitialState | None = None):
-    """Generator over the filtered :class:`EpochEstimate` of every keyframe (for streaming).
+    """Generator over the filtered :class:`EpochEstimate` of every keyframe, as each is computed.
 
-    The generator's ``estimator`` attribute is not available; use :func:`run_graph` with a callback when
-    the estimator object itself is needed afterwards.
+    Nothing is kept between keyframes except the estimator itself (bounded memory with
+    ``mode="fixed-lag"``); ``Graph-HN-batch`` streams its first (filtered) pass only.
     """
     estimator, builder = _setup(mission, method, completer, options, mode, initial)
     for kf in builder:
@@ -89,8 +90,11 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     """
     start = time.perf_counter()
     options = options or GraphOptions()
-    estimator, builder = _setup(mission, method, completer, options, mode, initial)
     batch = method == "Graph-HN-batch"
+    # the batch computes its own marginals; its first pass only provides initial values (and the callback's
+    # filtered estimates, which keep their covariance when a callback is given)
+    first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
+    estimator, builder = _setup(mission, method, completer, first_pass, mode, initial)
     estimator.keep_keyframe_graphs = batch
     estimates = []
     for kf in builder:
