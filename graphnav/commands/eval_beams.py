@@ -1,0 +1,39 @@
+"""``graphnav eval-beams``: the missing-beam network against the average estimator, as a table."""
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "eval-beams", help="evaluate the missing-beam networks against the average estimator",
+        description="Beam RMSE and velocity RMSE (least squares on the completed beams vs the true DVL "
+                    "velocity), and sigma calibration (fraction of errors within 1 and 2 sigma), of the "
+                    "network and the average estimator, for 2 and 3 missing beams, on the validation split "
+                    "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
+                    "ping from the true past; 'outage 30 s' completes 30-ping outages recursively, as the "
+                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor).",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped)")
+    p.add_argument("--beamsnet", default=None, help="snapir-2021-beamsnet folder (default: GRAPHNAV_DATA)")
+    p.add_argument("--akit", default=None, help="snapir-2022-akit folder (default: GRAPHNAV_DATA)")
+    p.add_argument("--beam-seed", type=int, default=1000,
+                   help="seed of the beam noise (default differs from training's)")
+    p.add_argument("--scenario", action="append", choices=["2-missing", "3-missing"],
+                   help="scenario to evaluate (repeat; default both)")
+    p.add_argument("--no-outage", action="store_true", help="skip the recursive 30 s outage rows")
+    p.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from graphnav.nets.evaluate import evaluate_all, format_table
+
+    rows = evaluate_all(args.weights, args.beamsnet, args.akit, args.beam_seed,
+                        tuple(args.scenario or ("2-missing", "3-missing")), outage=not args.no_outage)
+    print(format_table(rows))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0

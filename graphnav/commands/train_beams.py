@@ -1,0 +1,68 @@
+"""``graphnav train-beams``: train the missing-beam regressor and write its weights and model card."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from graphnav.errors import ConfigError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "train-beams", help="train the missing-beam regressor (2 and/or 3 missing beams)",
+        description="Train the paper's missing-beam regressor on beams made from the BeamsNet V.npy DVL "
+                    "velocities (first 75 %% train, last 25 %% validation), then its sigma head (Gaussian "
+                    "NLL). Writes <scenario>.pt and <scenario>.json (model card) to --out. Defaults are the "
+                    "paper's: MSE, RMSprop, batch 4, lr 1e-3 x0.1 every 35 epochs, 100 epochs.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--scenario", action="append", choices=["2-missing", "3-missing"],
+                   help="scenario to train (repeat for both; default: both)")
+    p.add_argument("--missing", type=str, default=None,
+                   help="custom 0-based missing beams, e.g. '0,2' (instead of --scenario)")
+    p.add_argument("--n-past", type=int, default=None, help="past window N (default 3, or 5 for 3 missing)")
+    p.add_argument("--epochs", type=int, default=100)
+    p.add_argument("--batch-size", type=int, default=4)
+    p.add_argument("--lr", type=float, default=1e-3)
+    p.add_argument("--lr-step", type=int, default=35, help="epochs between x0.1 learning-rate steps")
+    p.add_argument("--patience", type=int, default=30,
+                   help="stop after this many epochs without validation improvement (0: never; the best "
+                        "validation epoch is kept either way)")
+    p.add_argument("--sigma-epochs", type=int, default=30, help="epochs of the sigma head (Gaussian NLL)")
+    p.add_argument("--seed", type=int, default=0, help="seed of weight init and shuffling")
+    p.add_argument("--beam-seed", type=int, default=0, help="seed of the beam noise")
+    p.add_argument("--align-yaw", type=float, default=45.0,
+                   help="yaw (deg) turning the BeamsNet velocities into the body frame; 0 = as published")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (1 is fastest for this tiny net)")
+    p.add_argument("--data", default=None, help="snapir-2021-beamsnet folder (default: found via GRAPHNAV_DATA)")
+    p.add_argument("--out", default=None, help="output folder (default: the package's nets/weights)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from graphnav.nets.train import TrainOptions, save, train
+
+    if args.missing is not None:
+        try:
+            targets = [tuple(int(b) for b in args.missing.split(","))]
+        except ValueError:
+            raise ConfigError(f"--missing must be comma-separated beam indices, got '{args.missing}'") from None
+    else:
+        targets = args.scenario or ["2-missing", "3-missing"]
+    opt = TrainOptions(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, lr_step_epochs=args.lr_step,
+                       patience=args.patience or None, sigma_epochs=args.sigma_epochs, seed=args.seed,
+                       beam_seed=args.beam_seed, threads=args.threads,
+                       align_yaw_deg=args.align_yaw)
+    for missing in targets:
+        result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress)
+        pt, js = save(result, args.out)
+        card = result.card
+        val, test = card["metrics"]["val"], card["metrics"]["test"]
+        print(f"{card['scenario']}: N={card['n_past']} epochs={card['training']['epochs_run']} "
+              f"(best {card['training']['best_epoch']}) time={card['training']['time_s']:.1f} s")
+        for name, m in (("validation", val), ("V_test", test)):
+            print(f"  {name:10s} beam RMSE {m['beam_rmse']:.4f} m/s  velocity RMSE {m['vel_rmse']:.4f} m/s  "
+                  f"within 1/2 sigma {m['within_1sigma']:.3f}/{m['within_2sigma']:.3f}")
+        print(f"  wrote {pt} and {js}")
+        print(json.dumps({"constant_sigma": card["constant_sigma"]}))
+    return 0

@@ -1,0 +1,158 @@
+"""Training and evaluation data of the missing-beam regressor.
+
+Beams are made from recorded DVL velocities (body frame, m/s, 1 Hz) with the DVL error model
+(:func:`graphnav.dvl.make_beams`, seeded), as in the paper. One sample at ping k is
+``past = beams[k-N:k]`` (N, 4), ``measured = beams[k, kept]`` and ``target = beams[k, missing]``, with the
+true DVL velocity ``v = V[k]`` for the velocity metric. Samples never span two recordings, nor the
+train/validation split of ``V.npy`` (first 75 % train, last 25 % validation, the published split).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from graphnav import paths
+from graphnav.config import DvlSpec
+from graphnav.dvl import make_beams
+from graphnav.errors import DataError
+
+TRAIN_FRACTION = 0.75
+
+#: Yaw (deg, about body z) that turns the BeamsNet velocities into the vehicle body frame. In ``V.npy`` the
+#: horizontal velocity points at -44.8 deg (median course over pings faster than 0.5 m/s; 5-95 %: -59 to
+#: -38 deg), while the A-KIT body-frame DVL velocities of the same vehicle point at -1.6 deg (-17 to 15):
+#: the BeamsNet files are in a frame turned 45 deg from the body (the DVL mounting). Beams made from the
+#: unrotated file would teach the network a velocity direction the estimators never see.
+BEAMSNET_YAW_DEG = 45.0
+
+
+@dataclass
+class BeamSeries:
+    """One continuous recording: true DVL velocity ``v_b`` (K, 3) and the beams made from it (K, 4), m/s."""
+
+    name: str
+    v_b: np.ndarray
+    beams: np.ndarray
+
+
+@dataclass
+class BeamSamples:
+    """Windowed samples of one or more series (all m/s).
+
+    Attributes:
+        past: (S, N, 4) the N full beam vectors before the ping, oldest first.
+        beams: (S, 4) the full beam vector of the ping (measured and would-be-missing beams).
+        v_b: (S, 3) the true DVL velocity of the ping.
+    """
+
+    past: np.ndarray
+    beams: np.ndarray
+    v_b: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.beams)
+
+
+def windows(series: BeamSeries | list[BeamSeries], n_past: int) -> BeamSamples:
+    """All samples with a full window of ``n_past`` past pings inside each series."""
+    series = [series] if isinstance(series, BeamSeries) else series
+    past, beams, v = [], [], []
+    for s in series:
+        k = np.arange(n_past, len(s.beams))
+        if k.size == 0:
+            continue
+        past.append(s.beams[k[:, None] - n_past + np.arange(n_past)])
+        beams.append(s.beams[k])
+        v.append(s.v_b[k])
+    if not past:
+        raise DataError(f"no series is longer than n_past={n_past} pings", "beam samples")
+    return BeamSamples(np.concatenate(past), np.concatenate(beams), np.concatenate(v))
+
+
+def _load_matrix(path: Path) -> np.ndarray:
+    """A (3, K) BeamsNet velocity file as (K, 3), checked."""
+    if not path.is_file():
+        raise DataError("file not found", str(path))
+    v = np.load(path)
+    if v.ndim != 2 or v.shape[0] != 3:
+        raise DataError(f"shape {v.shape}, expected (3, K) DVL velocities", str(path))
+    bad = np.argwhere(~np.isfinite(v))
+    if bad.size:
+        raise DataError("value is not finite", str(path), int(bad[0][1]), "xyz"[bad[0][0]])
+    return v.T.copy()
+
+
+def _data_dir(data_dir: str | Path | None, which: str) -> Path:
+    if data_dir is not None:
+        return Path(data_dir)
+    d = paths.beamsnet_dir() if which == "beamsnet" else paths.akit_dir()
+    if d is None:
+        raise DataError(f"{which} data folder not found; set GRAPHNAV_DATA or pass the folder", which)
+    return d
+
+
+def yaw_rotation(yaw_deg: float) -> np.ndarray:
+    """Rotation about z by ``yaw_deg`` (3,3): ``v_body = R @ v``."""
+    c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def beamsnet_series(split: str, data_dir: str | Path | None = None, seed: int = 0,
+                    spec: DvlSpec | None = None, align_yaw_deg: float = BEAMSNET_YAW_DEG) -> BeamSeries:
+    """The BeamsNet May 2021 data as one beam series.
+
+    Args:
+        split: ``train`` (first 75 % of ``V.npy``), ``val`` (last 25 %), ``all`` (``V.npy`` whole) or
+            ``test`` (``V_test.npy``).
+        seed: seed of the beam noise; the beams of ``V.npy`` are made once and then split, so train and
+            validation come from one noise draw whatever the split.
+        align_yaw_deg: yaw applied to the velocities before making beams (see ``BEAMSNET_YAW_DEG``);
+            0 keeps the files' frame, as the paper did.
+    """
+    d = _data_dir(data_dir, "beamsnet")
+    spec = spec or DvlSpec()
+    rot = yaw_rotation(align_yaw_deg)
+    if split == "test":
+        v = _load_matrix(d / "V_test.npy") @ rot.T
+        return BeamSeries("V_test", v, make_beams(v, spec, seed))
+    v = _load_matrix(d / "V.npy") @ rot.T
+    beams = make_beams(v, spec, seed)
+    cut = int(round(TRAIN_FRACTION * len(v)))
+    if split == "all":
+        return BeamSeries("V", v, beams)
+    if split == "train":
+        return BeamSeries("V[:75%]", v[:cut], beams[:cut])
+    if split == "val":
+        return BeamSeries("V[75%:]", v[cut:], beams[cut:])
+    raise DataError(f"unknown split '{split}'; choose train, val, all or test", "beamsnet", field="split")
+
+
+def akit_series(data_dir: str | Path | None = None, seed: int = 0,
+                spec: DvlSpec | None = None) -> list[BeamSeries]:
+    """Beams made from the DVL velocities of every A-KIT trajectory (``TrajectoryN/DVL_trajectoryN.csv``).
+
+    The DVL files hold the measured DVL velocity in the body frame (columns Time, DVL X, Y, Z); each
+    trajectory gets its own noise draw (``seed + N``).
+    """
+    d = _data_dir(data_dir, "akit")
+    spec = spec or DvlSpec()
+    out = []
+    trajs = sorted(d.glob("Trajectory*"), key=lambda p: int(p.name.removeprefix("Trajectory") or 0))
+    for traj in trajs:
+        number = int(traj.name.removeprefix("Trajectory"))
+        path = traj / f"DVL_trajectory{number}.csv"
+        if not path.is_file():
+            continue
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        if data.shape[1] != 4:
+            raise DataError(f"{data.shape[1]} columns, expected Time, DVL X, DVL Y, DVL Z", str(path))
+        v = data[:, 1:4]
+        bad = np.argwhere(~np.isfinite(v))
+        if bad.size:
+            raise DataError("value is not finite", str(path), int(bad[0][0]) + 2, f"DVL {'XYZ'[bad[0][1]]}")
+        out.append(BeamSeries(traj.name, v, make_beams(v, spec, seed + number)))
+    if not out:
+        raise DataError("no TrajectoryN/DVL_trajectoryN.csv found", str(d))
+    return out

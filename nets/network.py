@@ -1,0 +1,164 @@
+"""Loading the shipped regressors as beam completers (``complete(past, measured) -> (beams, sigma)``).
+
+``load_completer(2)`` / ``load_completer(3)`` give the network of the paper's scenario (beams 1 and 3
+missing / only beam 2 kept). Real dropouts have other patterns, so ``load_completer("auto")`` returns a
+dispatcher: the network when the missing pattern is one a network was trained for, the average estimator
+otherwise (and when nothing is missing, the measured beams pass through).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+import graphnav
+from graphnav.errors import ConfigError, DataError
+
+from .average import AverageCompleter
+from .completer import check_inputs
+from .model import BeamRegressor, normalize_missing, scenario_name
+from .train import FORMAT_VERSION, weights_dir
+
+
+class NetworkCompleter:
+    """A trained :class:`BeamRegressor` behind the completer interface.
+
+    Args:
+        model: the trained network (its ``missing`` pattern is the only one it serves).
+        sigma: ``"head"`` for the per-ping sigma of the heteroscedastic head, or ``"constant"`` for the
+            per-beam RMS residual on the validation split (``constant_sigma``, m/s).
+        constant_sigma: per-missing-beam sigma (m/s) for ``sigma="constant"``.
+    """
+
+    def __init__(self, model: BeamRegressor, sigma: str = "head", constant_sigma=None, card: dict | None = None):
+        if sigma not in ("head", "constant"):
+            raise ConfigError(f"sigma must be 'head' or 'constant', got '{sigma}'")
+        if sigma == "constant" and constant_sigma is None:
+            raise ConfigError("sigma='constant' needs constant_sigma (the model card's validation RMS)")
+        self.model = model.eval()
+        self.n_past = model.n_past
+        self.missing = model.missing
+        self.sigma_mode = sigma
+        self.constant_sigma = None if constant_sigma is None else np.asarray(constant_sigma, float)
+        self.card = card or {}
+
+    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Fill the missing beams of one ping.
+
+        Args:
+            past: (n_past, 4) the last full beam vectors, oldest first, m/s.
+            measured: (4,) beams of this ping, NaN exactly at the network's missing beams, m/s.
+
+        Returns:
+            (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
+
+        Raises:
+            DataError: wrong shape, non-finite past, or a missing pattern the network was not trained for.
+        """
+        past, measured = check_inputs(past, measured, self.n_past)
+        pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(measured)))
+        if pattern != self.missing:
+            raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
+                            f"{list(self.missing)}; use load_completer('auto') for any pattern",
+                            "completer", field="measured")
+        with torch.no_grad():
+            out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],
+                                  torch.as_tensor(measured[list(self.model.kept)], dtype=torch.float32)[None])
+        beams, sigma = measured.copy(), np.zeros(4)
+        beams[list(self.missing)] = out[0].double().numpy()
+        sigma[list(self.missing)] = (self.constant_sigma if self.sigma_mode == "constant"
+                                     else sig[0].double().numpy())
+        return beams, sigma
+
+
+class AutoCompleter:
+    """Serve any missing pattern: a network when one was trained for it, else the average estimator.
+
+    ``n_past`` is the longest window of its completers (5 with the shipped networks); each completer sees
+    the most recent ``n_past`` of its own. With no beam missing the measured beams pass through.
+    """
+
+    def __init__(self, networks: list[NetworkCompleter], fallback: AverageCompleter):
+        self.networks = {net.missing: net for net in networks}
+        self.fallback = fallback
+        self.n_past = max([net.n_past for net in networks] + [fallback.n_past])
+
+    def completer_for(self, measured: np.ndarray):
+        """The completer that serves the missing pattern (NaN) of ``measured``."""
+        pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(np.asarray(measured, float))))
+        return self.networks.get(pattern, self.fallback)
+
+    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        past, measured = check_inputs(past, measured, self.n_past)
+        if np.all(np.isfinite(measured)):
+            return measured.copy(), np.zeros(4)
+        chosen = self.completer_for(measured)
+        return chosen.complete(past[-chosen.n_past:], measured)
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
+    """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones).
+
+    Raises:
+        ConfigError: files missing, format version or scenario mismatch, tensor shapes that do not match
+            the architecture in the card, or weights that are not the ones the card describes.
+    """
+    missing = normalize_missing(missing)
+    name = scenario_name(missing)
+    directory = Path(directory) if directory is not None else weights_dir()
+    pt, js = directory / f"{name}.pt", directory / f"{name}.json"
+    if not pt.is_file() or not js.is_file():
+        raise ConfigError(f"no trained weights for '{name}' in {directory} (need {pt.name} and {js.name}); "
+                          f"train them with: graphnav train-beams --missing {','.join(map(str, missing))}")
+    card = json.loads(js.read_text())
+    if card.get("format_version") != FORMAT_VERSION:
+        raise ConfigError(f"{js}: weights format version {card.get('format_version')}, this graphnav reads "
+                          f"version {FORMAT_VERSION}; retrain with graphnav train-beams")
+    if tuple(card.get("missing", ())) != missing:
+        raise ConfigError(f"{js}: card is for missing beams {card.get('missing')}, expected {list(missing)}")
+    if card.get("graphnav_version") != graphnav.__version__:
+        warnings.warn(f"{js}: trained with graphnav {card.get('graphnav_version')}, running "
+                      f"{graphnav.__version__}", stacklevel=2)
+    if "weights_sha256" in card and card["weights_sha256"] != _sha256(pt):
+        raise ConfigError(f"{pt}: file does not match the checksum in its model card {js.name}")
+    model = BeamRegressor(**card["architecture"])
+    state = torch.load(pt, map_location="cpu", weights_only=True)
+    expected = {k: list(v.shape) for k, v in model.state_dict().items()}
+    found = {k: list(v.shape) for k, v in state.items()}
+    if found != expected or card.get("state_dict_shapes", expected) != expected:
+        diff = sorted(k for k in set(expected) | set(found) if expected.get(k) != found.get(k))
+        raise ConfigError(f"{pt}: tensors do not match the architecture {card['architecture']}: "
+                          + ", ".join(f"{k} {found.get(k)} (expected {expected.get(k)})" for k in diff))
+    model.load_state_dict(state)
+    return model.eval(), card
+
+
+def load_completer(missing=2, sigma: str = "head", directory: str | Path | None = None,
+                   fallback_n_past: int = 3):
+    """A beam completer with the shipped (or ``directory``'s) weights.
+
+    Args:
+        missing: ``2`` / ``"2-missing"`` (beams 1 and 3 missing, N = 3), ``3`` / ``"3-missing"`` (only beam
+            2 kept, N = 5), a tuple of 0-based missing beams with trained weights, or ``"auto"`` for an
+            :class:`AutoCompleter` that serves every pattern (network where trained, average otherwise).
+        sigma: ``"head"`` (per-ping heteroscedastic sigma) or ``"constant"`` (validation RMS per beam).
+        fallback_n_past: window of the average estimator used by ``"auto"`` for untrained patterns.
+    """
+    if missing == "auto":
+        nets = [load_completer(m, sigma, directory) for m in ("2-missing", "3-missing")]
+        return AutoCompleter(nets, AverageCompleter(fallback_n_past))
+    if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
+        if missing not in (2, 3):
+            raise ConfigError(f"missing={missing}: shipped networks exist for 2 and 3 missing beams; "
+                              "use 'auto' for other patterns")
+        missing = f"{missing}-missing"
+    model, card = load_model(missing, directory)
+    return NetworkCompleter(model, sigma, card.get("constant_sigma"), card)

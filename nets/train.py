@@ -1,0 +1,226 @@
+"""Training of the missing-beam regressor, its sigma head, and the model card.
+
+Stage 1 is the paper's recipe: MSE on normalised beams, RMSprop, batch 4, learning rate 1e-3 decayed x0.1
+every 35 epochs, at most 100 epochs; the weights of the epoch with the lowest validation MSE are kept.
+With ``patience`` (30 epochs by default) training stops early; the weights are then the same as after
+all 100 epochs whenever the best epoch comes more than ``patience`` epochs before the end, as it did for
+both shipped networks (best epochs 6 and 22 of 100). Stage 2 freezes that network and fits the sigma
+head with the Gaussian negative log-likelihood (Adam), again keeping the best validation epoch. Everything is seeded;
+with one thread (the default) a rerun gives the same weights bit for bit.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+import graphnav
+from graphnav.config import DvlSpec
+
+from . import data as beamdata
+from .evaluate import completion_metrics, full_beam_vel_rmse, predict_network
+from .model import BeamRegressor, normalize_missing, scenario_name
+
+#: Version of the weights file layout and model card; bump when either changes incompatibly.
+FORMAT_VERSION = 1
+
+
+@dataclass
+class TrainOptions:
+    """Hyper-parameters (paper defaults for stage 1)."""
+
+    epochs: int = 100
+    batch_size: int = 4
+    lr: float = 1e-3
+    lr_step_epochs: int = 35
+    lr_gamma: float = 0.1
+    patience: int | None = 30            # stop after this many epochs without validation improvement
+    sigma_epochs: int = 30
+    sigma_batch_size: int = 64
+    sigma_lr: float = 3e-3
+    seed: int = 0                        # weights init and shuffling
+    beam_seed: int = 0                   # noise of the beams made from velocities
+    align_yaw_deg: float = beamdata.BEAMSNET_YAW_DEG   # BeamsNet files -> body frame (0: as published)
+    threads: int = 1
+
+
+@dataclass
+class TrainResult:
+    model: BeamRegressor
+    card: dict
+    history: list[dict] = field(default_factory=list)
+
+
+def _tensors(model: BeamRegressor, samples: beamdata.BeamSamples):
+    past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
+    meas = torch.as_tensor(samples.beams[:, list(model.kept)], dtype=torch.float32)
+    target = torch.as_tensor(samples.beams[:, list(model.missing)], dtype=torch.float32)
+    return past, meas, target
+
+
+def _normalised_mse(model, past, meas, target):
+    pred, _ = model(past, meas)
+    scale = model.beam_std[list(model.missing)]
+    return torch.mean(((pred - target) / scale) ** 2)
+
+
+def _gaussian_nll(model, past, meas, target):
+    pred, sigma = model(past, meas)
+    return torch.nn.functional.gaussian_nll_loss(pred.detach(), target, sigma ** 2, full=True)
+
+
+def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: beamdata.BeamSamples,
+        options: TrainOptions | None = None, progress: bool = True) -> list[dict]:
+    """Train ``model`` in place (both stages); returns the per-epoch history.
+
+    The normalisation is set from the training beams. Validation samples select the best epoch.
+    """
+    opt = options or TrainOptions()
+    prev_threads = torch.get_num_threads()
+    torch.set_num_threads(opt.threads)
+    try:
+        torch.manual_seed(opt.seed)
+        model.set_normalisation(torch.as_tensor(train_samples.beams, dtype=torch.float32))
+        tr, va = _tensors(model, train_samples), _tensors(model, val_samples)
+        history = _run_stage(model, model.mean_parameters(), tr, va, _normalised_mse, "mse", opt.epochs,
+                             opt.batch_size, torch.optim.RMSprop, opt.lr, opt.lr_step_epochs, opt.lr_gamma,
+                             opt.patience, opt.seed, progress)
+        history += _run_stage(model, list(model.sigma_head.parameters()), tr, va, _gaussian_nll, "nll",
+                              opt.sigma_epochs, opt.sigma_batch_size, torch.optim.Adam, opt.sigma_lr,
+                              None, 1.0, None, opt.seed + 1, progress)
+    finally:
+        torch.set_num_threads(prev_threads)
+    model.eval()
+    return history
+
+
+def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_cls, lr, step, gamma,
+               patience, seed, progress):
+    """One training stage over ``params`` only; restores the best-validation weights."""
+    for p in model.parameters():
+        p.requires_grad_(False)
+    for p in params:
+        p.requires_grad_(True)
+    optim = optim_cls(params, lr=lr)
+    sched = torch.optim.lr_scheduler.StepLR(optim, step, gamma) if step else None
+    gen = torch.Generator().manual_seed(seed)
+    n = len(tr[0])
+    best, best_state, since_best, history = np.inf, None, 0, []
+    bar = tqdm(range(epochs), desc=f"{scenario_name(model.missing)} {name}", disable=not progress,
+               leave=False)
+    for epoch in bar:
+        model.train()
+        order = torch.randperm(n, generator=gen)
+        total = 0.0
+        for i in range(0, n, batch_size):
+            idx = order[i:i + batch_size]
+            loss = loss_fn(model, tr[0][idx], tr[1][idx], tr[2][idx])
+            optim.zero_grad(set_to_none=True)
+            loss.backward()
+            optim.step()
+            total += loss.item() * len(idx)
+        if sched is not None:
+            sched.step()
+        model.eval()
+        with torch.no_grad():
+            val = loss_fn(model, *va).item()
+        history.append({"stage": name, "epoch": epoch + 1, "train": total / n, "val": val})
+        bar.set_postfix(train=f"{total / n:.4g}", val=f"{val:.4g}")
+        if val < best:
+            best, best_state, since_best = val, copy.deepcopy(model.state_dict()), 0
+        else:
+            since_best += 1
+            if patience is not None and since_best >= patience:
+                break
+    model.load_state_dict(best_state)
+    for p in model.parameters():
+        p.requires_grad_(True)
+    return history
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def train(missing="2-missing", n_past: int | None = None, options: TrainOptions | None = None,
+          data_dir: str | Path | None = None, progress: bool = True) -> TrainResult:
+    """Train the regressor for ``missing`` on the BeamsNet ``V.npy`` data and build its model card.
+
+    Beams are made from ``V.npy`` with the default :class:`~graphnav.config.DvlSpec` error model and
+    ``options.beam_seed``; the first 75 % of the pings train, the last 25 % validate (no window crosses
+    the cut); metrics on ``V_test.npy`` are added to the card.
+    """
+    opt = options or TrainOptions()
+    missing = normalize_missing(missing)
+    torch.manual_seed(opt.seed)
+    model = BeamRegressor(missing, n_past)
+    d = beamdata._data_dir(data_dir, "beamsnet")
+    series = {s: beamdata.beamsnet_series(s, d, opt.beam_seed, align_yaw_deg=opt.align_yaw_deg)
+              for s in ("train", "val", "test")}
+    samples = {s: beamdata.windows(v, model.n_past) for s, v in series.items()}
+    t0 = time.perf_counter()
+    history = fit(model, samples["train"], samples["val"], opt, progress)
+    train_time = time.perf_counter() - t0
+    metrics = {}
+    for split in ("val", "test"):
+        full, sigma = predict_network(model, samples[split])
+        metrics[split] = completion_metrics(full, sigma, samples[split], missing)
+        metrics[split]["all_beams_vel_rmse"] = full_beam_vel_rmse(samples[split])
+    # The minimum calibrated alternative to the head: one sigma per beam, the validation residual RMS.
+    constant_sigma = metrics["val"]["beam_rmse_per_beam"]
+    mse_hist = [h for h in history if h["stage"] == "mse"]
+    nll_hist = [h for h in history if h["stage"] == "nll"]
+    card = {
+        "format_version": FORMAT_VERSION,
+        "graphnav_version": graphnav.__version__,
+        "torch_version": torch.__version__,
+        "scenario": scenario_name(missing),
+        "missing": list(missing),
+        "kept": list(model.kept),
+        "n_past": model.n_past,
+        "architecture": model.architecture(),
+        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
+        "data": {
+            "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
+            "V_sha256": _sha256(d / "V.npy"),
+            "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v)
+                           for k, v in asdict(DvlSpec()).items()},
+            "beam_seed": opt.beam_seed,
+            "align_yaw_deg": opt.align_yaw_deg,
+        },
+        "split": {"train_fraction": beamdata.TRAIN_FRACTION, "order": "mission order as published",
+                  "train_samples": len(samples["train"]), "val_samples": len(samples["val"]),
+                  "test_samples": len(samples["test"])},
+        "training": {**asdict(opt), "epochs_run": len(mse_hist),
+                     "best_epoch": int(np.argmin([h["val"] for h in mse_hist])) + 1,
+                     "sigma_epochs_run": len(nll_hist),
+                     "time_s": round(train_time, 1)},
+        "normalisation": {"beam_mean": model.beam_mean.tolist(), "beam_std": model.beam_std.tolist()},
+        "constant_sigma": constant_sigma,
+        "metrics": metrics,
+    }
+    return TrainResult(model, card, history)
+
+
+def weights_dir() -> Path:
+    """The folder of the shipped weights inside the package."""
+    return Path(__file__).resolve().parent / "weights"
+
+
+def save(result: TrainResult, directory: str | Path | None = None) -> tuple[Path, Path]:
+    """Write ``<scenario>.pt`` (state dict) and ``<scenario>.json`` (model card) to ``directory``."""
+    import json
+    directory = Path(directory) if directory is not None else weights_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    name = result.card["scenario"]
+    pt, js = directory / f"{name}.pt", directory / f"{name}.json"
+    torch.save(result.model.state_dict(), pt)
+    result.card["weights_sha256"] = _sha256(pt)
+    js.write_text(json.dumps(result.card, indent=2) + "\n")
+    return pt, js
