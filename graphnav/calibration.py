@@ -247,6 +247,38 @@ def apply_axis_map(mission: Mission, gyro_map: np.ndarray, accel_map: np.ndarray
 
 
 # ------------------------------------------------------------------------------------------------
+# Where the accelerometer sits relative to the reference (GT) point
+# ------------------------------------------------------------------------------------------------
+def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Position r (body, m) of the accelerometer's measurement point relative to the GT reference point.
+
+    A rigid body's specific force at r differs from the one at the reference point by
+    ``omega_dot x r + omega x (omega x r)``. Interval means (between GT samples) of the measured specific
+    force minus the one predicted from the GT (``C^T (dv_n/dt - g_n)``) are regressed on that, with a
+    constant bias. Returns (r, covariance of r, residual RMS before, after), m/s^2. The GT stamps must
+    already be on the IMU clock. r matters because the estimators integrate the IMU: the DVL lever arm
+    they need is the DVL's position relative to the accelerometer point, ``l_dvl - r``.
+    """
+    imu, gt = mission.imu, mission.gt
+    t = np.ascontiguousarray(imu.t)
+    ok = (gt.t[:-1] >= t[0]) & (gt.t[1:] <= t[-1])
+    a, b = gt.t[:-1][ok], gt.t[1:][ok]
+    F = np.asfortranarray(cumulative_integral(t, imu.f_b))
+    W = np.asfortranarray(cumulative_integral(t, imu.omega_b))
+    dt = (b - a)[:, None]
+    f_meas = (interp_rows(b, t, F) - interp_rows(a, t, F)) / dt
+    w_mean = (interp_rows(b, t, W) - interp_rows(a, t, W)) / dt
+    d = f_meas - _gt_predicted_specific_force(mission, gt.t)[ok]
+    w_dot = np.gradient(w_mean, 0.5 * (a + b), axis=0)
+    A = np.concatenate([skew(w_dot) + skew(w_mean) @ skew(w_mean), np.broadcast_to(np.eye(3), (len(a), 3, 3))],
+                       axis=2).reshape(-1, 6)
+    x, *_ = np.linalg.lstsq(A, d.reshape(-1), rcond=None)
+    e = d.reshape(-1) - A @ x
+    cov = np.linalg.pinv(A.T @ A) * float(e @ e) / max(len(e) - 6, 1) * correlation_inflation(e.reshape(-1, 3))
+    return x[:3], cov[:3, :3], float(np.sqrt(np.mean(d ** 2))), float(np.sqrt(np.mean(e ** 2)))
+
+
+# ------------------------------------------------------------------------------------------------
 # DVL regression against the GT
 # ------------------------------------------------------------------------------------------------
 PARAM_NAMES = ("l_x", "l_y", "l_z", "scale", "yaw", "b_z")
@@ -382,6 +414,8 @@ class CalibrationResult:
         residual_rms: RMS of the final residual (m/s per axis, or the graph's whitened RMS).
         axis_check: the IMU axis check.
         config: the calibrated configuration.
+        imu_position_b: gt mode: the accelerometer's position relative to the GT reference point, m
+            (:func:`estimate_imu_position`); the lever arm above is relative to the GT point.
         info: extra diagnostics.
     """
 
@@ -395,6 +429,7 @@ class CalibrationResult:
     residual_rms: float
     axis_check: AxisCheck
     config: SensorConfig
+    imu_position_b: Quantity | None = None
     info: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -403,6 +438,7 @@ class CalibrationResult:
         return {"mode": self.mode, "lever_arm_b": q(self.lever_arm_b),
                 "dvl_time_offset_s": q(self.dvl_time_offset_s), "gt_time_offset_s": q(self.gt_time_offset_s),
                 "dvl_yaw_rad": q(self.dvl_yaw_rad), "dvl_scale": q(self.dvl_scale), "dvl_bias": q(self.dvl_bias),
+                "imu_position_b": q(self.imu_position_b),
                 "residual_rms": self.residual_rms, "axis_check": self.axis_check.to_dict(),
                 "info": {k: v for k, v in self.info.items() if isinstance(v, (int, float, str, bool))}}
 
@@ -413,14 +449,16 @@ class CalibrationResult:
             v, s = np.atleast_1d(x.value) * scale, np.atleast_1d(x.sigma) * scale
             parts = [f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]
             return ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + f" {unit or x.unit}"
+        ref = "GT point" if self.mode == "gt" else "IMU"
         lines = [f"calibration mode: {self.mode}",
-                 f"  DVL lever arm (body)      : {fmt(self.lever_arm_b)}",
+                 f"  DVL lever arm (vs {ref:<8}): {fmt(self.lever_arm_b)}",
                  f"  DVL time offset           : {fmt(self.dvl_time_offset_s)}",
                  f"  IMU-to-GT time offset     : {fmt(self.gt_time_offset_s)}",
                  f"  DVL mounting yaw          : {fmt(self.dvl_yaw_rad, 180 / np.pi, 'deg')}",
                  f"  DVL scale factor          : {fmt(self.dvl_scale, 100, '%')}",
                  f"  DVL vertical bias         : {fmt(self.dvl_bias, 1e3, 'mm/s', 1)}",
                  f"  residual RMS              : {self.residual_rms:.4f}",
+                 f"  IMU position vs GT point  : {fmt(self.imu_position_b)}",
                  f"  IMU axes ({self.axis_check.method}): "
                  + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
         lines += [f"    note: {n}" for n in self.axis_check.notes]
@@ -456,11 +494,13 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
     cfg.dvl.C_d_b = Rotation.from_euler("z", th[4]).as_matrix() @ cfg0.dvl.C_d_b
     cfg.dvl.velocity_scale_correction = float((1 + cfg0.dvl.velocity_scale_correction) * (1 + th[3]) - 1)
     cfg.imu_axis_signs = cfg0.imu_axis_signs * check.sign_correction
+    r_imu, r_cov, r_before, r_after = estimate_imu_position(dataclasses.replace(
+        work, gt=dataclasses.replace(work.gt, t=gt_t)))
     return CalibrationResult(
         "gt", _q(th[0:3], sig[0:3], "m"), _q(cfg.dvl_time_offset_s, off_sigma, "s"),
         _q(cfg.gt_time_offset_s, gt_est.sigma_s, "s"), _q(th[4], sig[4], "rad"), _q(th[3], sig[3], "-"),
-        _q(th[5], sig[5], "m/s"), fit.rms, check, cfg,
-        info={"dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
+        _q(th[5], sig[5], "m/s"), fit.rms, check, cfg, _q(r_imu, np.sqrt(np.diag(r_cov)), "m"),
+        info={"accel_residual_rms_before_after": f"{r_before:.4f} -> {r_after:.4f} m/s^2","dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
               "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms})
 
 

@@ -56,6 +56,8 @@ def test_gt_mode_recovers_known_errors(mission):
     assert abs(r.gt_time_offset_s.value - TRUE_GT_OFFSET) < 0.005
     assert abs(r.dvl_yaw_rad.value - TRUE_YAW) < np.deg2rad(0.1)
     assert abs(r.dvl_scale.value - TRUE_SCALE) < 0.002
+    # the simulated IMU sits at the GT point
+    np.testing.assert_allclose(r.imu_position_b.value, 0.0, atol=max(0.05, 4 * np.max(r.imu_position_b.sigma)))
     # the sigmas are honest: every estimate within 4 sigma of the truth
     for est, true in ((r.lever_arm_b, TRUE_LEVER), (r.dvl_time_offset_s, TRUE_DVL_OFFSET),
                       (r.dvl_yaw_rad, TRUE_YAW), (r.dvl_scale, TRUE_SCALE)):
@@ -150,3 +152,24 @@ def test_real_data_estimates_near_readme_values(akit_dir):
         gt_off, dvl_off = r.gt_time_offset_s.value, r.dvl_time_offset_s.value
         assert -0.6 < gt_off < 0.6 and 0.4 < dvl_off - gt_off < 1.6, (folder.name, gt_off, dvl_off)
         assert r.residual_rms < 0.02
+
+
+def test_graph_mode_without_gt_recovers_lever_arm_and_dvl_offset():
+    """No ground truth: the lever arm is a Point3 graph variable, the DVL offset the minimum of the
+    graph's profile likelihood. 300 s, beams with 0.01 m/s noise; sigma ~0.02-0.07 m and ~0.03 s."""
+    truth = SensorConfig()
+    truth.dvl.lever_arm_b = TRUE_LEVER
+    truth.dvl.beam_noise_std = 0.01
+    m = simulate_mission(300.0, seed=5, config=truth)
+    believed = SensorConfig.from_dict(m.config.to_dict())
+    believed.dvl.lever_arm_b = np.zeros(3)
+    m = dataclasses.replace(m, dvl=dataclasses.replace(m.dvl, t=m.dvl.t - TRUE_DVL_OFFSET), gt=None,
+                            config=believed)
+    r = calibrate(m, "graph", search_s=(-1.0, 1.0), step_s=0.5)
+    assert r.mode == "graph" and r.gt_time_offset_s is None and r.axis_check.ok
+    sigma = np.asarray(r.lever_arm_b.sigma)
+    assert np.all(sigma < 0.1), sigma
+    assert np.all(np.abs(r.lever_arm_b.value - TRUE_LEVER) < np.maximum(4 * sigma, 0.05)), r.lever_arm_b
+    assert abs(r.dvl_time_offset_s.value - TRUE_DVL_OFFSET) < max(4 * r.dvl_time_offset_s.sigma, 0.05), \
+        r.dvl_time_offset_s
+    np.testing.assert_allclose(r.config.dvl.lever_arm_b, r.lever_arm_b.value)
