@@ -121,6 +121,14 @@ def run(args) -> int:
                                    "jobs": args.jobs,
                                    "plots": [str(p.relative_to(out)) for p in plot_files]})
     (out / "report.md").write_text(report)
+    from graphnav.bench import aggregate, headline
+    agg = aggregate(records)
+    for g in args.imu_grade:
+        for sc in args.scenario:
+            for model in ("Graph-HN", "Graph-HN-batch"):
+                line = headline(agg, g, sc, model)
+                if line:
+                    print(f"{g:>12} {sc:>9}: {line}")
     n_failed = sum(1 for r in records if r.get("error"))
     print(f"bench: {len(records)} window records in {wall:.0f} s ({n_failed} failed); "
           f"report {out / 'report.md'}, results {out / 'results.json'}, plots {out / 'plots'}")
