@@ -12,6 +12,13 @@ likelihood of the offset. A parabola through the grid minimum and its neighbours
 ``sigma^2 = 1 / curvature`` (exact for a Gaussian model). This is justified because the offset only
 enters through the dynamics the IMU measures: a wrong offset pairs each ping with the wrong part of the
 IMU-propagated velocity, which the IMU factors penalise.
+
+The lever arm found here is relative to the point whose motion the accelerometer measures. On the shared
+A-KIT data that point is ~1.9 m aft of the GT reference point (see
+:func:`graphnav.calibration.estimate_imu_position`), so this mode finds the DVL within ~0.2 m of the IMU in
+x/y, while the GT mode finds it ~1.8 m aft of the GT point: both are right for their reference point.
+Without GT, the first position is the origin, the first heading comes from gyrocompassing
+(:func:`initial_heading`) and depth factors are left out (see :func:`solve_calibration_graph`).
 """
 from __future__ import annotations
 

@@ -58,8 +58,11 @@ AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
            "V East [m/s]", "V Down [m/s]", "Roll [rad]", "Pitch [rad]", "Yaw [rad]"),
 }
 
-#: Default lever arm of the Snapir DVL relative to the INS, body frame, m (data README; calibrate finds
-#: [-1.78..-1.93, -0.03..-0.07, 0.05..0.3] per trajectory).
+#: Default lever arm of the Snapir DVL relative to the INS (the GT reference point), body frame, m (data
+#: README). ``graphnav calibrate`` (GT mode) finds [-1.72..-1.86, -0.10..+0.06, +0.03..+0.15] over the ten
+#: shared trajectories. Note: the recorded specific force behaves as if measured ~1.9 m aft of the GT point
+#: (:func:`graphnav.calibration.estimate_imu_position`), so relative to the IMU the DVL is close to zero in
+#: x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
 AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities, measured on the files.

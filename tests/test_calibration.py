@@ -173,3 +173,17 @@ def test_graph_mode_without_gt_recovers_lever_arm_and_dvl_offset():
     assert abs(r.dvl_time_offset_s.value - TRUE_DVL_OFFSET) < max(4 * r.dvl_time_offset_s.sigma, 0.05), \
         r.dvl_time_offset_s
     np.testing.assert_allclose(r.config.dvl.lever_arm_b, r.lever_arm_b.value)
+
+
+def test_cli_writes_a_config_later_runs_accept(tmp_path, capsys):
+    from graphnav.cli import main
+    from graphnav.loaders import load_mission
+    out, report = tmp_path / "cal.json", tmp_path / "report.json"
+    assert main(["calibrate", "--duration", "150", "--seed", "2", "--out", str(out), "--report", str(report)]) == 0
+    text = capsys.readouterr().out
+    assert "DVL lever arm" in text and "IMU axes" in text and "consistent" in text
+    cfg = SensorConfig.load(out)
+    # the simulated default has the Snapir lever arm; 150 s with the paper's beam noise: sigma ~0.15 m
+    np.testing.assert_allclose(cfg.dvl.lever_arm_b, [-1.86, -0.04, 0.2], atol=0.6)
+    m = load_mission(None, str(out), duration_s=30.0, seed=2)
+    np.testing.assert_allclose(m.config.dvl.lever_arm_b, cfg.dvl.lever_arm_b)
