@@ -8,9 +8,10 @@ state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error 
 ``v = v_hat - dv``, ``b = b_hat - db`` and ``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of
 the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
 
-Error model (Groves, *Principles of GNSS, Inertial and Multisensor Integrated Navigation*, 2nd ed., eq.
-14.48 local-navigation-frame form, transport rate and gravity-position coupling dropped as the nominal
-model does; derived here for the convention above and checked numerically in ``tests/test_ekf.py``)::
+Error model (the local-navigation-frame strapdown error equations of Groves, *Principles of GNSS, Inertial
+and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; transport rate and the
+gravity-position coupling dropped, as the nominal model does; derived here for the convention above and
+checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``)::
 
     d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
     d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
@@ -42,6 +43,9 @@ Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``,
 - LC (>= 3 beams; weighted least-squares velocity): ``H = [C^T, C^T [v_n]x, 0, [l_b]x]``.
   The paper prints ``-C^T [v_n x]``, which is the same row for the opposite misalignment sign.
 - TC (one row per beam): ``y_i = b_i^T v_d_b``, ``H_i = b_i^T H_LC`` (b_i the beam unit vector in body).
+
+The model is linear in the beams, so with four beams (and no DVL error states) an LC update with the WLS
+velocity and its covariance is identical to the TC update; LC and TC differ only when beams are missing.
 
 Beam noise: the beams carry a bias (0.01 m/s) and scale factor (0.7 %) besides white noise. The paper's
 12-state filter treats them as white noise of variance ``noise^2 + bias^2 + (scale * |beam|)^2`` (each term
