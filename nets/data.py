@@ -17,8 +17,9 @@ from graphnav import paths
 from graphnav.config import DvlSpec
 from graphnav.dvl import make_beams
 from graphnav.errors import DataError
+from graphnav.loaders import AKIT_COLUMNS, BEAMSNET_TRAIN_FRACTION, akit_files, list_akit, load_beamsnet, read_csv
 
-TRAIN_FRACTION = 0.75
+TRAIN_FRACTION = BEAMSNET_TRAIN_FRACTION
 
 #: Yaw (deg, about body z) that turns the BeamsNet velocities into the vehicle body frame. In ``V.npy`` the
 #: horizontal velocity points at -44.8 deg (median course over pings faster than 0.5 m/s; 5-95 %: -59 to
@@ -71,17 +72,9 @@ def windows(series: BeamSeries | list[BeamSeries], n_past: int) -> BeamSamples:
     return BeamSamples(np.concatenate(past), np.concatenate(beams), np.concatenate(v))
 
 
-def _load_matrix(path: Path) -> np.ndarray:
-    """A (3, K) BeamsNet velocity file as (K, 3), checked."""
-    if not path.is_file():
-        raise DataError("file not found", str(path))
-    v = np.load(path)
-    if v.ndim != 2 or v.shape[0] != 3:
-        raise DataError(f"shape {v.shape}, expected (3, K) DVL velocities", str(path))
-    bad = np.argwhere(~np.isfinite(v))
-    if bad.size:
-        raise DataError("value is not finite", str(path), int(bad[0][1]), "xyz"[bad[0][0]])
-    return v.T.copy()
+def _load_velocities(folder: Path, key: str) -> np.ndarray:
+    """``V`` or ``V_test`` of the BeamsNet folder as (K, 3), read and checked by the project loader."""
+    return load_beamsnet(folder)[key].T.copy()
 
 
 def _data_dir(data_dir: str | Path | None, which: str) -> Path:
@@ -115,11 +108,11 @@ def beamsnet_series(split: str, data_dir: str | Path | None = None, seed: int = 
     spec = spec or DvlSpec()
     rot = yaw_rotation(align_yaw_deg)
     if split == "test":
-        v = _load_matrix(d / "V_test.npy") @ rot.T
+        v = _load_velocities(d, "V_test") @ rot.T
         return BeamSeries("V_test", v, make_beams(v, spec, seed))
-    v = _load_matrix(d / "V.npy") @ rot.T
+    v = _load_velocities(d, "V") @ rot.T
     beams = make_beams(v, spec, seed)
-    cut = int(round(TRAIN_FRACTION * len(v)))
+    cut = int(TRAIN_FRACTION * len(v))         # as graphnav.loaders.beamsnet_split
     if split == "all":
         return BeamSeries("V", v, beams)
     if split == "train":
@@ -133,26 +126,23 @@ def akit_series(data_dir: str | Path | None = None, seed: int = 0,
                 spec: DvlSpec | None = None) -> list[BeamSeries]:
     """Beams made from the DVL velocities of every A-KIT trajectory (``TrajectoryN/DVL_trajectoryN.csv``).
 
-    The DVL files hold the measured DVL velocity in the body frame (columns Time, DVL X, Y, Z); each
-    trajectory gets its own noise draw (``seed + N``).
+    The DVL files hold the measured DVL velocity in the body frame (read and checked by
+    :func:`graphnav.loaders.read_csv`); each trajectory gets its own noise draw (``seed + N``). Invalid
+    (NaN) pings split a trajectory into separate series, so no window spans a gap.
     """
     d = _data_dir(data_dir, "akit")
     spec = spec or DvlSpec()
     out = []
-    trajs = sorted(d.glob("Trajectory*"), key=lambda p: int(p.name.removeprefix("Trajectory") or 0))
-    for traj in trajs:
+    for traj in list_akit(d):
         number = int(traj.name.removeprefix("Trajectory"))
-        path = traj / f"DVL_trajectory{number}.csv"
-        if not path.is_file():
-            continue
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-        if data.shape[1] != 4:
-            raise DataError(f"{data.shape[1]} columns, expected Time, DVL X, DVL Y, DVL Z", str(path))
-        v = data[:, 1:4]
-        bad = np.argwhere(~np.isfinite(v))
-        if bad.size:
-            raise DataError("value is not finite", str(path), int(bad[0][0]) + 2, f"DVL {'XYZ'[bad[0][1]]}")
-        out.append(BeamSeries(traj.name, v, make_beams(v, spec, seed + number)))
+        dvl = read_csv(akit_files(traj)["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:])
+        v = dvl[:, 1:4]
+        beams = make_beams(v, spec, seed + number)
+        ok = np.all(np.isfinite(v), axis=1)
+        edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(int), 0]))
+        for part, (i0, i1) in enumerate(zip(edges[::2], edges[1::2])):
+            name = traj.name if part == 0 else f"{traj.name}#{part}"
+            out.append(BeamSeries(name, v[i0:i1], beams[i0:i1]))
     if not out:
-        raise DataError("no TrajectoryN/DVL_trajectoryN.csv found", str(d))
+        raise DataError("no TrajectoryN folder with IMU, DVL and GT files found", str(d))
     return out
