@@ -187,3 +187,17 @@ def test_cli_writes_a_config_later_runs_accept(tmp_path, capsys):
     np.testing.assert_allclose(cfg.dvl.lever_arm_b, [-1.86, -0.04, 0.2], atol=0.6)
     m = load_mission(None, str(out), duration_s=30.0, seed=2)
     np.testing.assert_allclose(m.config.dvl.lever_arm_b, cfg.dvl.lever_arm_b)
+
+
+def test_ground_truth_at_another_point_is_its_kinematics():
+    """v of the moved GT equals the time derivative of its moved position (simulated, noiseless IMU)."""
+    from graphnav.calibration_align import ground_truth_at
+    m = simulate_mission(60.0, seed=1, noiseless=True)
+    r = np.array([-1.9, 0.1, -0.3])
+    moved = ground_truth_at(m, r)
+    dt = np.diff(moved.t)[:, None]
+    v_num = np.diff(moved.p_n, axis=0) / dt
+    v_mid = 0.5 * (moved.v_n[1:] + moved.v_n[:-1])
+    assert np.max(np.abs(v_num - v_mid)) < 2e-3
+    # moving the point changes the velocity where the vehicle rotates
+    assert np.max(np.linalg.norm(moved.v_n - m.gt.v_n, axis=1)) > 0.01
