@@ -279,11 +279,6 @@ class OnlineGraph(_IncrementalGraph):
         return self.isam.marginalCovariance(key)
 
 
-    def smoothed(self) -> gtsam.Values:
-        """The current ISAM2 estimate of every keyframe (smoothed by all data so far)."""
-        return self.isam.calculateEstimate()
-
-
 class FixedLagGraph(_IncrementalGraph):
     """GTSAM's IncrementalFixedLagSmoother: keyframes older than ``options.lag_s`` are marginalised out,
     so the working graph, the time per update and the memory stay bounded on long missions.
