@@ -130,8 +130,11 @@ class AxisCheck:
                 "gyro_rms_as_loaded_best": plain(self.gyro_rms), "accel_rms_as_loaded_best": plain(self.accel_rms)}
 
 
-#: A candidate axis map must beat the as-loaded axes by this factor to be reported.
+#: A candidate axis map must beat the as-loaded axes by this factor to be reported. Against GT the
+#: flipped A-KIT y axis scores 10-100x worse than the fix; without GT (tilt kinematics) 1.9-3.6x worse
+#: (correct axes: exactly 1), hence the smaller margin there.
 AXIS_MARGIN = 2.0
+AXIS_MARGIN_NO_GT = 1.5
 
 
 def _gt_predicted_specific_force(mission: Mission, gt_t: np.ndarray):
@@ -229,7 +232,7 @@ def check_imu_axes_without_gt(mission: Mission) -> AxisCheck:
                 np.concatenate([np.array(sa), np.array(sg)]) < 0))))
     as_loaded = results[0]
     best = min(results, key=lambda r: (round(r[0] / max(as_loaded[0], 1e-12), 2), r[3]))
-    if best[0] * AXIS_MARGIN < as_loaded[0]:
+    if best[0] * AXIS_MARGIN_NO_GT < as_loaded[0]:
         check.accel_map, check.gyro_map = best[1], best[2]
         check.suspects += describe_axis_map(np.diag(np.diag(best[1]) * np.diag(accel)), "accelerometer") \
             + describe_axis_map(best[2], "gyro")

@@ -201,3 +201,17 @@ def test_ground_truth_at_another_point_is_its_kinematics():
     assert np.max(np.abs(v_num - v_mid)) < 2e-3
     # moving the point changes the velocity where the vehicle rotates
     assert np.max(np.linalg.norm(moved.v_n - m.gt.v_n, axis=1)) > 0.01
+
+
+@pytest.mark.realdata
+def test_real_data_raw_y_axis_is_named_with_and_without_gt(akit_dir):
+    """The published IMU files have y flipped: both checks name it (offsets fixed to skip "auto")."""
+    from graphnav.loaders import list_akit, load_akit
+    for folder in list_akit(akit_dir)[:3]:
+        raw = load_akit(folder, imu_axis_signs=(1, 1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=1.0)
+        with_gt, _ = check_imu_axes_with_gt(raw)
+        assert sorted(with_gt.suspects) == ["accelerometer y: sign flipped", "gyro y: sign flipped"], folder
+        assert sorted(check_imu_axes_without_gt(raw).suspects) == ["accelerometer y: sign flipped",
+                                                                   "gyro y: sign flipped"], folder
+        fixed = load_akit(folder, gt_time_offset_s=0.0, dvl_time_offset_s=1.0)
+        assert check_imu_axes_without_gt(fixed).ok and check_imu_axes_with_gt(fixed)[0].ok
