@@ -138,6 +138,8 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
             since_best += 1
             if patience is not None and since_best >= patience:
                 break
+    if best_state is None:
+        raise FloatingPointError(f"{name} stage diverged: validation loss was never finite")
     model.load_state_dict(best_state)
     for p in model.parameters():
         p.requires_grad_(True)

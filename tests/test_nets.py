@@ -218,3 +218,15 @@ def test_cli_parsers():
     assert args.scenario == ["3-missing"] and args.epochs == 2
     args = build_parser().parse_args(["eval-beams", "--no-outage"])
     assert args.no_outage
+
+
+def test_outage_rollout_feeds_completions_back():
+    from graphnav.nets.evaluate import outage_rollout
+    s = _series(200)
+    full, sigma, samples = outage_rollout(AverageCompleter(3), s, (0, 2), window=30, gap=60, settle=10)
+    assert full.shape == (60, 4) and len(samples) == 60              # windows at pings 10 and 100
+    np.testing.assert_array_equal(samples.beams[:30], s.beams[10:40])
+    np.testing.assert_array_equal(full[:, [1, 3]], samples.beams[:, [1, 3]])
+    # From the 4th outage ping on the history holds only earlier completions.
+    assert full[3, 0] == pytest.approx(np.mean(full[:3, 0]))
+    assert np.all(sigma[:, [0, 2]] > 0) and np.all(sigma[:, [1, 3]] == 0)

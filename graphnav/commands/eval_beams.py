@@ -1,7 +1,6 @@
 """``graphnav eval-beams``: the missing-beam network against the average estimator, as a table."""
 from __future__ import annotations
 
-import argparse
 import json
 
 
@@ -14,12 +13,12 @@ def register(subparsers) -> None:
                     "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
                     "ping from the true past; 'outage 30 s' completes 30-ping outages recursively, as the "
                     "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+)
     p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped)")
     p.add_argument("--beamsnet", default=None, help="snapir-2021-beamsnet folder (default: GRAPHNAV_DATA)")
     p.add_argument("--akit", default=None, help="snapir-2022-akit folder (default: GRAPHNAV_DATA)")
     p.add_argument("--beam-seed", type=int, default=1000,
-                   help="seed of the beam noise (default differs from training's)")
+                   help="seed of the beam noise (default 1000, not the training draw's 0)")
     p.add_argument("--scenario", action="append", choices=["2-missing", "3-missing"],
                    help="scenario to evaluate (repeat; default both)")
     p.add_argument("--no-outage", action="store_true", help="skip the recursive 30 s outage rows")

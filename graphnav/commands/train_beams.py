@@ -1,7 +1,6 @@
 """``graphnav train-beams``: train the missing-beam regressor and write its weights and model card."""
 from __future__ import annotations
 
-import argparse
 import json
 
 from graphnav.errors import ConfigError
@@ -11,28 +10,30 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "train-beams", help="train the missing-beam regressor (2 and/or 3 missing beams)",
         description="Train the paper's missing-beam regressor on beams made from the BeamsNet V.npy DVL "
-                    "velocities (first 75 %% train, last 25 %% validation), then its sigma head (Gaussian "
+                    "velocities (first 75 % train, last 25 % validation), then its sigma head (Gaussian "
                     "NLL). Writes <scenario>.pt and <scenario>.json (model card) to --out. Defaults are the "
-                    "paper's: MSE, RMSprop, batch 4, lr 1e-3 x0.1 every 35 epochs, 100 epochs.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                    "paper's: MSE, RMSprop, batch 4, lr 1e-3 x0.1 every 35 epochs, 100 epochs (with early "
+                    "stopping on validation).",
+    )
     p.add_argument("--scenario", action="append", choices=["2-missing", "3-missing"],
                    help="scenario to train (repeat for both; default: both)")
     p.add_argument("--missing", type=str, default=None,
-                   help="custom 0-based missing beams, e.g. '0,2' (instead of --scenario)")
+                   help="custom 0-based missing beams, e.g. '0,3' (instead of --scenario)")
     p.add_argument("--n-past", type=int, default=None, help="past window N (default 3, or 5 for 3 missing)")
-    p.add_argument("--epochs", type=int, default=100)
-    p.add_argument("--batch-size", type=int, default=4)
-    p.add_argument("--lr", type=float, default=1e-3)
-    p.add_argument("--lr-step", type=int, default=35, help="epochs between x0.1 learning-rate steps")
+    p.add_argument("--epochs", type=int, default=100, help="maximum epochs (default 100)")
+    p.add_argument("--batch-size", type=int, default=4, help="batch size (default 4)")
+    p.add_argument("--lr", type=float, default=1e-3, help="RMSprop learning rate (default 1e-3)")
+    p.add_argument("--lr-step", type=int, default=35, help="epochs between x0.1 learning-rate steps (default 35)")
     p.add_argument("--patience", type=int, default=30,
-                   help="stop after this many epochs without validation improvement (0: never; the best "
-                        "validation epoch is kept either way)")
-    p.add_argument("--sigma-epochs", type=int, default=30, help="epochs of the sigma head (Gaussian NLL)")
-    p.add_argument("--seed", type=int, default=0, help="seed of weight init and shuffling")
-    p.add_argument("--beam-seed", type=int, default=0, help="seed of the beam noise")
+                   help="stop after this many epochs without validation improvement (default 30; 0: never; "
+                        "the best validation epoch is kept either way)")
+    p.add_argument("--sigma-epochs", type=int, default=30, help="epochs of the sigma head, Gaussian NLL (default 30)")
+    p.add_argument("--seed", type=int, default=0, help="seed of weight init and shuffling (default 0)")
+    p.add_argument("--beam-seed", type=int, default=0, help="seed of the beam noise (default 0)")
     p.add_argument("--align-yaw", type=float, default=45.0,
-                   help="yaw (deg) turning the BeamsNet velocities into the body frame; 0 = as published")
-    p.add_argument("--threads", type=int, default=1, help="torch threads (1 is fastest for this tiny net)")
+                   help="yaw (deg) turning the BeamsNet velocities into the body frame (default 45; 0: as "
+                        "published, as the paper did)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default 1, fastest for this tiny net)")
     p.add_argument("--data", default=None, help="snapir-2021-beamsnet folder (default: found via GRAPHNAV_DATA)")
     p.add_argument("--out", default=None, help="output folder (default: the package's nets/weights)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
