@@ -15,6 +15,8 @@ from pathlib import Path
 from graphnav.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
 from graphnav.methods import METHODS
 
+from .smooth import HelpFormatter
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
@@ -23,7 +25,7 @@ def register(subparsers) -> None:
                     "--data), scenario and IMU grade, with outage windows spread over each mission, and "
                     "write OUT/results.json (one record per window, written as cases finish), "
                     "OUT/report.md (paper-style tables, VRTE, runtime) and OUT/plots/*.png.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=HelpFormatter)
     p.add_argument("--data", metavar="DIR",
                    help="a folder of trajectories in the A-KIT layout (e.g. ../shared/data/snapir-2022-akit) "
                         "or one trajectory folder; default: the simulated mission")
@@ -52,7 +54,8 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios, methods) -> list[Path]:
+def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios, methods,
+                window_s: float = 30.0) -> list[Path]:
     """Bar chart per IMU grade, and for the first trajectory (whose solutions were kept) the trajectory,
     velocity-error and velocity-std figures per grade and outage scenario."""
     from graphnav import plots
@@ -64,7 +67,6 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
         if any(r["imu_grade"] == g and not r.get("error") for r in records):
             files.append(plots.plot_vrmse_bars(records, pdir / f"vrmse_bars_{g}.png", imu_grade=g))
     first = trajectories[0]
-    window_s = records[0]["window_s"] if records else 30.0
     for g in grades:
         mission = None
         for sc in scenarios:
@@ -98,6 +100,16 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
     return files
 
 
+def command_line() -> str:
+    """The command as typed (``graphnav bench ...``, ``python -m graphnav bench ...`` or ``scripts/bench.py``)."""
+    argv = sys.argv[1:]
+    if Path(sys.argv[0]).name not in ("graphnav", "__main__.py", "bench.py"):
+        return "graphnav bench (called from Python)"
+    if "bench" in argv and Path(sys.argv[0]).name != "bench.py":
+        argv = argv[argv.index("bench") + 1:]
+    return "graphnav bench " + " ".join(shlex.quote(a) for a in argv)
+
+
 def run(args) -> int:
     from graphnav.bench import find_trajectories, make_cases, make_report, run_bench
 
@@ -114,9 +126,9 @@ def run(args) -> int:
     wall = time.perf_counter() - start
     plot_files = []
     if not args.no_plots:
-        plot_files = bench_plots(out, records, trajectories, args.imu_grade, args.scenario, args.methods)
-    command = "graphnav " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
-        else "graphnav bench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+        plot_files = bench_plots(out, records, trajectories, args.imu_grade, args.scenario, args.methods,
+                                 args.window_s)
+    command = command_line()
     report = make_report(records, {"command": command, "window_s": args.window_s, "wall_time_s": wall,
                                    "jobs": args.jobs,
                                    "plots": [str(p.relative_to(out)) for p in plot_files]})

@@ -11,7 +11,7 @@ import argparse
 import time
 from pathlib import Path
 
-from .smooth import accuracy_summary, add_mission_arguments, make_plots, mission_from_args
+from .smooth import HelpFormatter, accuracy_summary, add_mission_arguments, make_plots, mission_from_args
 
 
 def register(subparsers) -> None:
@@ -21,7 +21,7 @@ def register(subparsers) -> None:
                     "smoother with --lag) one keyframe at a time, as on a vehicle. Each estimate is "
                     "appended to OUT/online.csv and flushed at once; Ctrl-C keeps the file; --resume "
                     "continues from its last epoch. A final summary goes to OUT/summary.json.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=HelpFormatter)
     add_mission_arguments(p)
     p.add_argument("--out", default="out/online", metavar="DIR", help="output folder")
     p.add_argument("--method", default="Graph-HN", choices=("Graph-HN", "Graph-TC"),

@@ -13,26 +13,35 @@ from graphnav.methods import METHODS, check_scenario
 from graphnav.scenarios import SCENARIOS, scenario_outage, window_starts
 
 
-# --- options shared with `graphnav online` --------------------------------------------------------------
+# --- options shared with `graphnav online` and `graphnav bench` ------------------------------------------
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Show defaults in --help, except the uninformative None/False/[] of optional paths, flags and lists."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.default == []:
+            return action.help
+        return super()._get_help_string(action)
+
+
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("mission")
     g.add_argument("--data", metavar="FOLDER",
                    help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv); "
                         "default: the simulated 400 s mission")
     g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
-    g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given (default 0)")
+    g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",
-                   help="simulated mission length in s when --data is not given (default 400)")
+                   help="simulated mission length in s when --data is not given")
     g.add_argument("--imu-grade", default="as-recorded", metavar="GRADE",
-                   help="'as-recorded' (default) or an IMU grade (tactical, mems) whose errors are added to "
+                   help="'as-recorded' or an IMU grade (tactical, mems) whose errors are added to "
                         "the recorded IMU, seeded, as in `graphnav bench`")
     g.add_argument("--scenario", default="none", choices=sorted(SCENARIOS),
                    help="inject a beam outage: 2-missing (beams 1, 3), 3-missing (only beam 2 left) or none "
-                        "(default: data as recorded)")
+                        "(data as recorded)")
     g.add_argument("--window-start", type=float, action="append", metavar="S",
                    help="start of an outage window in s (repeatable); default: windows spread over the "
                         "mission as in the benchmark (60 s in, then every window + 60 s)")
-    g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length (default 30)")
+    g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
 
 
 def mission_from_args(args):
@@ -93,6 +102,11 @@ def print_summary(summary: dict) -> None:
         for w in acc["windows"]:
             print(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
+    for name, other in summary.get("compared", {}).items():
+        if other.get("ground_truth"):
+            windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
+            print(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
+                  + (f", windows {windows} m/s" if windows else ""))
     timing = summary.get("update_timing")
     if timing:
         print(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
@@ -109,7 +123,7 @@ def register(subparsers) -> None:
                     "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum when the mission has GT), "
                     "OUT/summary.json and PNG plots.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=HelpFormatter)
     add_mission_arguments(p)
     p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
     p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, help="estimator to run")
