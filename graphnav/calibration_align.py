@@ -409,18 +409,25 @@ def gyro_check(mission, duration_s: float = 60.0, starts_s=None) -> np.ndarray:
 def ground_truth_at(mission, r_b) -> "GroundTruth":
     """The mission's ground truth moved to the point ``r_b`` (body frame, m, relative to the GT point).
 
-    ``p_n + C_b_n r_b`` and ``v_n + C_b_n (omega_nb_b x r_b)`` (gyro at the GT stamps minus the Earth rate);
-    attitude unchanged. On the shared A-KIT data the estimators' velocity is that of the accelerometer's
-    point, ~[-1.9, 0, -0.1] m from the GT point (``graphnav calibrate`` both modes), whose velocity differs
-    from the GT point's by 0.1-0.2 m/s RMS on the turning trajectories; compare against this GT then.
+    See :func:`move_ground_truth`. On the raw A-KIT reference (``load_akit(..., imu_position_b=(0, 0, 0))``)
+    the accelerometer's point is ~[-1.9, 0, -0.1] m from the GT point (``graphnav calibrate`` both modes),
+    whose velocity differs from the GT point's by 0.1-0.2 m/s RMS on the turning trajectories.
+    """
+    return move_ground_truth(mission.gt, mission.imu.t, mission.imu.omega_b, r_b,
+                             mission.config.lat_rad if mission.config.earth_rotation else None)
+
+
+def move_ground_truth(gt, t_imu, omega_b, r_b, lat_rad: float | None) -> "GroundTruth":
+    """Ground truth moved to the point ``r_b`` (body frame, m, relative to the GT point).
+
+    ``p_n + C_b_n r_b`` and ``v_n + C_b_n (omega_nb_b x r_b)``, with omega_nb_b the gyro interpolated at the
+    GT stamps minus the Earth rate (``lat_rad`` None: no Earth rate); attitude unchanged.
     """
     from .mission import GroundTruth
-    gt = mission.gt
     r_b = np.asarray(r_b, float).reshape(3)
-    cfg = mission.config
-    omega = interp_rows(gt.t, np.ascontiguousarray(mission.imu.t), np.asarray(mission.imu.omega_b, float))
-    if cfg.earth_rotation:
-        omega = omega - np.einsum("kji,j->ki", gt.C_b_n, earth_rate_n(cfg.lat_rad))
+    omega = interp_rows(gt.t, np.ascontiguousarray(t_imu), np.asarray(omega_b, float))
+    if lat_rad is not None:
+        omega = omega - np.einsum("kji,j->ki", gt.C_b_n, earth_rate_n(lat_rad))
     p_n = gt.p_n + gt.C_b_n @ r_b
     v_n = gt.v_n + np.einsum("kij,kj->ki", gt.C_b_n, np.cross(omega, r_b))
     return GroundTruth(gt.t.copy(), p_n, v_n, gt.C_b_n.copy(), gt.origin_lla, gt.source)

@@ -65,6 +65,14 @@ AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
 #: x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
 AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 
+#: Position of the IMU's measurement point relative to the published GT reference point, body frame, m.
+#: The estimators navigate the IMU point, so the loader moves the GT there (``imu_position_b``) and gives the
+#: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
+#: (:func:`graphnav.calibration.estimate_imu_position`) puts the IMU at ~[-1.9, 0, -0.1] m and calibration
+#: without GT puts the DVL within ~0.2 m of the IMU, so the default takes them as co-located: the IMU point is
+#: the DVL point measured against the GT, and the DVL lever arm relative to the IMU is zero.
+AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
+
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities, measured on the files.
 #: The values are stored with a 1e-4 resolution (rad/s, m/s^2); quantisation noise of step q at f = 100 Hz
 #: is q/sqrt(12) = 2.9e-5 per sample, a density of 2.9e-6 per sqrt(Hz). The recorded streams scatter far
@@ -248,7 +256,7 @@ def read_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), rescale_stamps: 
 def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_s: float | str = "auto",
               gt_time_offset_s: float | str = "auto", lever_arm_b=None, beam_seed: int = 0,
               config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
-              repair: bool = False) -> Mission:
+              repair: bool = False, imu_position_b=None) -> Mission:
     """Load one A-KIT trajectory folder as a :class:`Mission` on the IMU clock.
 
     Args:
@@ -258,7 +266,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         gt_time_offset_s: seconds added to the (rescaled) GT stamps, or ``"auto"`` (estimated).
         lever_arm_b: DVL position relative to the IMU, body frame, m (used for the beams' geometry,
             the config and the DVL offset estimate); None = the config's if one is given, else
-            :data:`AKIT_LEVER_ARM_B`.
+            ``AKIT_LEVER_ARM_B - imu_position_b`` (zero with the defaults).
         beam_seed: seed of the beam error model.
         config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry,
             error model and IMU spec are kept, while lat, gravity, axis signs and offsets are set from
@@ -266,6 +274,9 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         name: mission name (default: the folder name).
         rescale_stamps: fix the published stamps' period (module docstring, step 1).
         repair: drop duplicated stamps and sort (with a warning) instead of raising.
+        imu_position_b: IMU point relative to the published GT point, body frame, m; the returned GT is
+            moved there so that estimates and GT describe the same point. None = :data:`AKIT_IMU_POSITION_B`;
+            ``(0, 0, 0)`` keeps the GT at its published point (then the DVL lever arm is relative to it).
 
     Returns:
         Mission with ``meta`` keys ``source``, ``depth_source="gt"``, ``rescale_stamps``,
@@ -276,8 +287,11 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))
     cfg.dvl = dataclasses.replace(cfg.dvl)
+    imu_position_b = np.asarray(AKIT_IMU_POSITION_B if imu_position_b is None else imu_position_b,
+                                float).reshape(3)
     if lever_arm_b is None:
-        lever_arm_b = config.dvl.lever_arm_b if config is not None else AKIT_LEVER_ARM_B
+        lever_arm_b = (config.dvl.lever_arm_b if config is not None
+                       else np.asarray(AKIT_LEVER_ARM_B) - imu_position_b)
     cfg.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
 
     # contiguous copies: np.interp on a strided 40k-sample column copies it at every call
@@ -306,7 +320,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         from .calibration_align import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
                         cfg.gravity_mps2, lat_for_rate)
-        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b)
+        # against the published GT point the DVL sits at lever arm + IMU position
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
     cfg.gt_time_offset_s = float(gt_time_offset_s)
@@ -315,7 +330,10 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     t_gt = g[:, 0] + cfg.gt_time_offset_s
     src = {k: str(p) for k, p in raw.files.items()}
     gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), float(alt0)), source=src["GT"])
-    depth = DepthData(t_gt, -g[:, 3], source=src["GT"])
+    if np.any(imu_position_b):
+        from .calibration_align import move_ground_truth
+        gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
+    depth = DepthData(t_gt, gt.p_n[:, 2] - g[0, 3], source=src["GT"])  # p_n is relative to the first GT fix
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     beams = np.full((len(v_dvl), 4), np.nan)
     beams[valid_ping] = make_beams(v_dvl[valid_ping], cfg.dvl, beam_seed)
@@ -323,7 +341,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
-            "beam_seed": beam_seed,
+            "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)

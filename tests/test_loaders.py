@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from graphnav.errors import DataError
-from graphnav.loaders import (AKIT_COLUMNS, beamsnet_split, list_akit, load_akit, load_beamsnet,
+from graphnav.loaders import (AKIT_COLUMNS, AKIT_IMU_POSITION_B, AKIT_LEVER_ARM_B, beamsnet_split, list_akit, load_akit, load_beamsnet,
                               read_csv)
 
 
@@ -157,9 +157,15 @@ def test_list_and_load_akit(tmp_path):
     np.testing.assert_allclose(m.gt.t[:3], [-0.25, 0.75, 1.75], atol=1e-12)
     np.testing.assert_allclose(m.dvl.t[:2], [0.5, 1.5], atol=1e-12)
     assert m.imu.f_b[0, 1] > 0                              # flipped y specific force is right again
-    np.testing.assert_allclose(m.depth.depth, 15.0)
+    # the GT is moved to the IMU point, 0.2 m below the published GT point (level vehicle)
+    np.testing.assert_allclose(m.depth.depth, 15.0 + 0.2)
     assert m.meta["depth_source"] == "gt"
-    np.testing.assert_allclose(m.gt.p_n[0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(m.gt.p_n[0], np.asarray(AKIT_IMU_POSITION_B), atol=1e-9)
+    np.testing.assert_allclose(m.config.dvl.lever_arm_b, 0.0, atol=1e-12)
+    at_gt_point = load_akit(folder, dvl_time_offset_s=0.5, gt_time_offset_s=-0.25, imu_position_b=(0, 0, 0))
+    np.testing.assert_allclose(at_gt_point.depth.depth, 15.0)
+    np.testing.assert_allclose(at_gt_point.gt.p_n[0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(at_gt_point.config.dvl.lever_arm_b, AKIT_LEVER_ARM_B)
     assert m.dvl.valid.all() and m.dvl.beams.shape == (20, 4)
     np.testing.assert_allclose(m.dvl.v_b[:, 0], 1.5)
     assert abs(cfg.lat_rad - 0.5733) < 1e-12 and 9.78 < cfg.gravity_mps2 < 9.81
@@ -187,7 +193,7 @@ def test_load_akit_auto_offsets_on_synthetic_turn(tmp_path):
     write_csv(folder / "DVL_trajectory1.csv", AKIT_COLUMNS["DVL"], dvl.tolist())
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        m = load_akit(folder, lever_arm_b=(-1.86, 0.0, 0.0))
+        m = load_akit(folder, lever_arm_b=(-1.86, 0.0, 0.0), imu_position_b=(0, 0, 0))
     assert abs(m.config.gt_time_offset_s) < 0.03
     assert abs(m.config.dvl_time_offset_s) < 0.05
 
