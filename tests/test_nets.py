@@ -122,6 +122,8 @@ def test_shipped_weights_load_and_predict_deterministically(missing, pattern):
     assert card["n_past"] == comp.n_past and card["metrics"]["val"]["beam_rmse"] > 0
     const = load_completer(missing, sigma="constant").complete(past, measured)[1]
     np.testing.assert_allclose(const[list(pattern)], card["constant_sigma"])
+    scaled = load_completer(missing, sigma_scale=1.5).complete(past, measured)[1]
+    np.testing.assert_allclose(scaled, 1.5 * sigma, rtol=1e-12)
 
 
 def test_bad_inputs_give_clear_errors():
