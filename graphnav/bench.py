@@ -147,19 +147,24 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
 
 
 def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float) -> list[dict]:
-    """Per-window metrics of one solution (keys ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``,
-    ``pos_err_abs_window_end_m``)."""
-    from .metrics import horizontal_position_error, vrmse
+    """Per-window metrics of one solution: ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``
+    (drift over the window), ``pos_err_abs_window_end_m`` (error at the window end) and ``nees_window``
+    (mean velocity NEES over the window, 3 for a consistent estimator; None without covariance)."""
+    from .metrics import horizontal_position_error, nees_velocity, vrmse
     gt = mission.gt
     v_mission = float(vrmse(sol, gt, mission.t0, mission.t1))
     out = []
     for s in starts:
+        nees = None
+        if sol.cov_v_n is not None:
+            nees = float(np.mean(nees_velocity(sol, gt, s, s + window_s)))
         out.append({
             "window_start_s": float(s),
             "vrmse_window": float(vrmse(sol, gt, s, s + window_s)),
             "vrmse_mission": v_mission,
             "pos_err_window_end_m": window_position_drift(sol, gt, s, s + window_s),
             "pos_err_abs_window_end_m": float(horizontal_position_error(sol, gt, s + window_s)),
+            "nees_window": nees,
         })
     return out
 
@@ -367,6 +372,7 @@ def aggregate(records: list[dict]) -> dict:
             "vrmse_window_worst": _max(r["vrmse_window"] for r in ok),
             "vrmse_mission_mean": _mean(r["vrmse_mission"] for r in ok),
             "drift_mean": _mean(r["pos_err_window_end_m"] for r in ok),
+            "nees_mean": _mean(r.get("nees_window") for r in ok),
             "n_windows": len(ok), "n_failed": len(rs) - len(ok),
             "per_window": {(r["trajectory"], r["window_start_s"]): _num(r["vrmse_window"]) for r in ok},
             "runtime_mean_s": runtime, "duration_mean_s": duration,
@@ -426,7 +432,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
               "trajectories) and over the whole mission (mean). VRTE: signed improvement "
               "`(ref - model) / ref` of the mean window VRMSE, positive = better than the reference; "
               "baseline = LC for LC/Average-LC/HNLC and TC for the rest, average = Average-LC or Average-TC "
-              "likewise. Drift: horizontal position error accumulated over the window, m.", ""]
+              "likewise. Drift: horizontal position error accumulated over the window, m. NEES: mean velocity "
+              "NEES over the window (3 = consistent; much larger = the estimator's sigma is too small).", ""]
     if meta.get("wall_time_s") is not None:
         lines += [f"Wall time: {meta['wall_time_s']:.0f} s with {meta.get('jobs', 1)} job(s).", ""]
     failed = [r for r in records if r.get("error")]
@@ -459,8 +466,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                      if h]
             lines += [f"### {grade}, {sc}", ""] + [f"- {h}" for h in heads] + ([""] if heads else [])
             lines += ["| method | VRMSE window mean | worst | VRMSE mission | drift (m) | VRTE vs baseline "
-                      "| VRTE vs average | windows | completer |",
-                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+                      "| VRTE vs average | NEES | windows | completer |",
+                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
             for m in methods:
                 a = agg.get((grade, sc, m))
                 if not a:
@@ -472,7 +479,7 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                 n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "")
                 lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "
                              f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | {vs_base} | {vs_avg} | "
-                             f"{n} | {', '.join(a['completers'])} |")
+                             f"{_f(a['nees_mean'], 1)} | {n} | {', '.join(a['completers'])} |")
             lines.append("")
 
     lines += ["## Runtime", "", "Wall time of one method run over a whole mission (mean over runs) and the "
@@ -486,6 +493,18 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
         rtf = dur / rt if rt and math.isfinite(rt) and rt > 0 else float("nan")
         lines.append(f"| {m} | {_f(rt, 2)} | {_f(rtf, 0) + ('x' if math.isfinite(rtf) else '')} | {len(runs)} |")
     lines.append("")
+    if len(trajectories) > 1:
+        lines += ["## Per trajectory", "", "Window VRMSE (m/s), mean over the windows of each trajectory.", ""]
+        for grade in grades:
+            for sc in [s for s in scenarios if s != "none"]:
+                lines += [f"### {grade}, {sc}", "", "| trajectory | " + " | ".join(methods) + " |",
+                          "| --- |" + " --- |" * len(methods)]
+                for traj in trajectories:
+                    cells = [_f(_mean(r["vrmse_window"] for r in records
+                                      if (r["imu_grade"], r["scenario"], r["method"], r["trajectory"])
+                                      == (grade, sc, m, traj) and not r.get("error"))) for m in methods]
+                    lines.append(f"| {traj} | " + " | ".join(cells) + " |")
+                lines.append("")
     if meta.get("plots"):
         lines += ["## Plots", ""] + [f"- [{Path(p).name}]({p})" for p in meta["plots"]] + [""]
     return "\n".join(lines)

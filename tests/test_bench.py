@@ -75,6 +75,7 @@ def test_run_case_records(fake_world):
         # Over the window the fake drifts 0.2 m/s north for 30 s (stamps 60..90 s at 1 Hz).
         assert r["pos_err_window_end_m"] == pytest.approx(0.2 * 30, rel=0.05)
         assert r["runtime_s"] >= 0 and r["mission_duration_s"] == pytest.approx(200.0)
+        assert r["nees_window"] is None  # the fake has no covariance
     n_in = 2 * 31
     expect_mission = math.sqrt((n_in * 0.2 ** 2 + (201 - n_in) * OUTSIDE ** 2) / 201)
     assert records[0]["vrmse_mission"] == pytest.approx(expect_mission, rel=1e-6)
@@ -169,3 +170,7 @@ def test_report_tables():
     assert "Graph-HN beats HNTC: window VRMSE 0.150 vs 0.200 m/s (+25%), lower in 3 of 4 windows" in text
     runtime = next(line for line in text.splitlines() if line.startswith("| Graph-HN | 2.00"))
     assert "200x" in runtime
+    # Per-trajectory appendix: trajectory b's Graph-HN mean is (0.1 + 0.3) / 2.
+    appendix = text[text.index("## Per trajectory"):]
+    row_b = next(line for line in appendix.splitlines() if line.startswith("| b |"))
+    assert row_b.split(" | ")[6] == "0.200"
