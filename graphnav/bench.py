@@ -247,7 +247,10 @@ def make_cases(trajectories: list[TrajectorySource], scenarios=SCENARIO_NAMES, g
         check_method(m)
     for g in grades:
         if g != "as-recorded":
-            imu_grade_spec(g)
+            try:
+                imu_grade_spec(g)
+            except ConfigError as exc:
+                raise ConfigError(f"{exc} (or 'as-recorded')") from None
     return [BenchCase(traj, sc, g, m, window_s, max_windows, save_dir if i < save_first else None)
             for i, traj in enumerate(trajectories) for g in grades for sc in scenarios for m in methods]
 

@@ -94,7 +94,8 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
 
 def print_summary(summary: dict) -> None:
     acc = summary.get("accuracy", {})
-    print(f"{summary['method']} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
+    mode = f" ({summary['mode']})" if summary.get("mode") else ""
+    print(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
           f"of data in {summary['runtime_s']:.2f} s ({summary['realtime_factor']:.0f}x real time)")
     if acc.get("ground_truth"):
         print(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
