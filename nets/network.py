@@ -32,9 +32,9 @@ class NetworkCompleter:
         sigma: ``"head"`` for the per-ping sigma of the heteroscedastic head, or ``"constant"`` for the
             per-beam RMS residual on the validation split (``constant_sigma``, m/s).
         constant_sigma: per-missing-beam sigma (m/s) for ``sigma="constant"``.
-        sigma_scale: factor on every returned sigma. Per ping the sigma is calibrated (1.0); through
-            recursive 30 s outages the RMS of error/sigma measured 1.2-2.0 (model card), so an estimator
-            that completes long outages may pass about 1.5.
+        sigma_scale: factor on every returned sigma (default 1: per ping the sigma is calibrated).
+            Through recursive 30 s outages the RMS of error/sigma is 1.2-2.0 (model card); the growth
+            that :class:`graphnav.history.BeamHistory` adds over a run of filled pings covers that.
     """
 
     def __init__(self, model: BeamRegressor, sigma: str = "head", constant_sigma=None, card: dict | None = None,

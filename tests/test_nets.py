@@ -232,3 +232,19 @@ def test_outage_rollout_feeds_completions_back():
     # From the 4th outage ping on the history holds only earlier completions.
     assert full[3, 0] == pytest.approx(np.mean(full[:3, 0]))
     assert np.all(sigma[:, [0, 2]] > 0) and np.all(sigma[:, [1, 3]] == 0)
+
+
+def test_akit_series_splits_at_invalid_pings(tmp_path):
+    from graphnav.loaders import AKIT_COLUMNS
+    folder = tmp_path / "Trajectory7"
+    folder.mkdir()
+    for kind in ("IMU", "GT"):
+        (folder / f"{kind}_trajectory7.csv").write_text(",".join(AKIT_COLUMNS[kind]) + "\n")
+    rows = [f"{k:.1f},{1.5 + 0.01 * k},0.1,0.0" for k in range(12)]
+    rows[5] = "5.0,NaN,NaN,NaN"
+    (folder / "DVL_trajectory7.csv").write_text(",".join(AKIT_COLUMNS["DVL"]) + "\n" + "\n".join(rows) + "\n")
+    series = beamdata.akit_series(tmp_path, seed=0)
+    assert [s.name for s in series] == ["Trajectory7", "Trajectory7#1"]
+    assert [len(s.beams) for s in series] == [5, 6]
+    assert all(np.all(np.isfinite(s.beams)) for s in series)
+    assert len(beamdata.windows(series, 3)) == (5 - 3) + (6 - 3)
