@@ -21,7 +21,7 @@ from graphnav.errors import ConfigError, DataError
 from .average import AverageCompleter
 from .completer import check_inputs
 from .model import BeamRegressor, normalize_missing, scenario_name
-from .train import FORMAT_VERSION, weights_dir
+from .training import FORMAT_VERSION, weights_dir
 
 
 class NetworkCompleter:

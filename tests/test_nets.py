@@ -15,7 +15,7 @@ from graphnav.nets import (AverageCompleter, AutoCompleter, BeamRegressor, Netwo
                            load_completer, load_model)
 from graphnav.nets import data as beamdata
 from graphnav.nets.evaluate import completion_metrics, predict_completer, predict_network
-from graphnav.nets.train import weights_dir
+from graphnav.nets.training import weights_dir
 
 
 def _series(n=200, seed=0):

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from graphnav.nets.train import TrainOptions, save, train
+    from graphnav.nets.training import TrainOptions, save, train
 
     if args.missing is not None:
         try:
