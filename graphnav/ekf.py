@@ -72,7 +72,7 @@ from .dvl import DvlGeometry
 from .errors import ConfigError
 from .history import BeamHistory
 from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline, so3_exp_batch
-from .mission import Mission
+from .mission import Mission, gap_variances
 from .rotations import skew
 from .solution import NavSolution
 
@@ -240,6 +240,12 @@ class ErrorStateEkf:
             P[:n, n:] = cross
             P[n:, :n] = cross.T
 
+    def inflate(self, var_v: float, var_att: float) -> None:
+        """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
+        gap bridged by interpolation (:meth:`graphnav.mission.ImuData.bridge_gaps`)."""
+        self.P[IV, IV] += var_v * np.eye(3)
+        self.P[IE, IE] += var_att * np.eye(3)
+
     # --- measurement model -----------------------------------------------------------------------
     def predicted_beams(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h (4,) predicted beams, m/s; H (4, n_states)) at the current state.
@@ -370,7 +376,9 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
     if hybrid and completer is None:
         raise ConfigError(f"method {method} needs a beam completer (e.g. graphnav.nets.AverageCompleter(3))")
     loose = method.endswith("LC")
-    imu, dvl = mission.imu, mission.dvl
+    # all-zero rows dropped and gaps bridged (with warnings); the covariance is inflated over the gaps below
+    imu, gaps = mission.imu.bridge_gaps(mission.config.imu_rate_hz)
+    dvl = mission.dvl
     if initial is None:
         if mission.gt is None:
             raise ConfigError("run_ekf needs mission.gt or an initial state")
@@ -395,6 +403,8 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
     for k in range(K):
         seg = slice(event_seg[k], event_seg[k + 1])
         ekf.predict(seg_f[seg], seg_w[seg], seg_dt[seg])
+        if gaps:
+            ekf.inflate(*gap_variances(gaps, events[k], events[k + 1]))
         valid = ping_valid[k]
         beams = np.where(valid, ping_beams[k], np.nan)
         sigma = None
@@ -413,6 +423,6 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
     info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
             "dvl_scale": ekf.dvl_scale.copy(), "beam_bias": ekf.beam_bias.copy(),
-            "n_imu_segments": int(len(seg_t)), "t0": float(t0)}
+            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps)}
     return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
                        runtime_s=time.perf_counter() - wall, info=info)

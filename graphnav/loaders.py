@@ -46,7 +46,7 @@ from .config import ImuSpec, SensorConfig
 from .dvl import make_beams
 from .earth import gravity_magnitude, lla_to_ned
 from .errors import ConfigError, DataError
-from .mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from .mission import MAX_DVL_SPEED_MPS, DepthData, DvlData, GroundTruth, ImuData, Mission, invalid_dvl_values
 from .rotations import euler_to_C_b_n
 
 #: Column names of the published A-KIT files, in order.
@@ -182,7 +182,7 @@ def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: 
     if not repair:
         i = bad[0] + 1
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"time stamp {kind} ({data[i - 1, 0]!r} s then {data[i, 0]!r} s); "
+        raise DataError(f"time stamp {kind} ({float(data[i - 1, 0])!r} s then {float(data[i, 0])!r} s); "
                         f"{bad.size} such line(s); pass repair=True to drop duplicates and sort",
                         source, int(line_no[i]), time_col)
     order = np.argsort(data[:, 0], kind="stable")
@@ -309,6 +309,15 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
     # calibrated) and remove a calibrated scale error.
     v_dvl = raw.dvl[:, 1:4] @ cfg.dvl.C_d_b.T / (1.0 + cfg.dvl.velocity_scale_correction)
+    # RDI bad-velocity flags (-32.768 m/s, -32768) and impossible speeds are not measurements: the ping
+    # becomes invalid (NaN), as a NaN row is, before anything (time-offset estimate, beams) uses it
+    flagged = np.flatnonzero(np.any(invalid_dvl_values(raw.dvl[:, 1:4]), axis=1)
+                             & ~np.any(np.isnan(raw.dvl[:, 1:4]), axis=1))
+    if flagged.size:
+        warnings.warn(f"{raw.files['DVL']}: {flagged.size} ping(s) with an invalid velocity (RDI bad-velocity "
+                      f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
+                      f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
+        v_dvl[flagged] = np.nan
 
     estimates = {}
     if gt_time_offset_s == "auto":

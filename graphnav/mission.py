@@ -9,12 +9,64 @@ Frames: ``f_b``, ``omega_b`` in the body frame (FRD); ``beams`` are along-beam v
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .config import SensorConfig
 from .errors import DataError
+
+#: Largest along-beam (or DVL-axis) velocity magnitude a DVL can report, m/s: the velocity range of the
+#: RDI Workhorse/Pathfinder class (+-10 m/s), far above any AUV speed. A larger value is an invalid flag or
+#: a decoding error, never a measurement.
+MAX_DVL_SPEED_MPS = 10.0
+#: RDI's "bad velocity" marker: -32768 in raw counts (mm/s) and -32.768 once scaled to m/s. Both exceed
+#: :data:`MAX_DVL_SPEED_MPS`; they are listed so that the warning can name them.
+RDI_BAD_VELOCITY = (-32768.0, -32.768)
+
+#: IMU gaps longer than this many nominal sample periods are bridged (see :meth:`ImuData.bridge_gaps`).
+IMU_GAP_PERIODS = 2.5
+#: Assumed 1-sigma of the unmeasured specific force (m/s^2) and body rate (rad/s) inside a bridged IMU gap:
+#: what an AUV's accelerations and turn rates may do that a linear interpolation misses. The estimators
+#: add ``(sigma * gap length)^2`` to their velocity and attitude variances over a gap (a 2 s gap: 0.2 m/s,
+#: 0.11 deg). The gyro value is small on purpose: the graph's CombinedImuFactor carries the gap's rotation
+#: variance next to bias random-walk variances ~1e-18, and at 5e-3 rad/s (ratio ~1e14) the batch solver
+#: reported an indeterminant system on a 2 s gap (2e-3 and 1e-3 passed; tests/test_faults.py).
+IMU_GAP_ACCEL_SIGMA = 0.1
+IMU_GAP_GYRO_SIGMA = 1e-3
+
+
+def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:
+    """Mask of DVL velocities (any shape, m/s) that are not measurements: NaN/inf, RDI's bad-velocity
+    markers, or beyond ``max_speed`` in magnitude."""
+    values = np.asarray(values, float)
+    with np.errstate(invalid="ignore"):
+        return ~np.isfinite(values) | (np.abs(values) > max_speed) | np.isin(values, RDI_BAD_VELOCITY)
+
+
+@dataclass(frozen=True)
+class ImuGap:
+    """An IMU gap bridged by interpolation: samples ``index`` and ``index + 1`` (of the original stream)
+    are ``t_end - t_start`` seconds apart."""
+
+    index: int
+    t_start: float
+    t_end: float
+
+    @property
+    def length(self) -> float:
+        return self.t_end - self.t_start
+
+    def overlap(self, t0: float, t1: float) -> float:
+        """Seconds of the gap inside ``[t0, t1]``."""
+        return max(0.0, min(t1, self.t_end) - max(t0, self.t_start))
+
+
+def gap_variances(gaps: list[ImuGap], t0: float, t1: float) -> tuple[float, float]:
+    """Extra (velocity (m/s)^2, attitude rad^2) variance per axis for the bridged gaps inside [t0, t1]."""
+    length = sum(g.overlap(t0, t1) for g in gaps)
+    return (IMU_GAP_ACCEL_SIGMA * length) ** 2, (IMU_GAP_GYRO_SIGMA * length) ** 2
 
 
 def _check_time(t: np.ndarray, source: str) -> None:
@@ -43,6 +95,16 @@ def _check_array(a: np.ndarray, shape_tail: tuple, n: int, source: str, name: st
         raise DataError("value is not finite", source, int(bad[0][0]), name)
 
 
+def _check_speed(a: np.ndarray, used: np.ndarray, source: str, name: str) -> None:
+    with np.errstate(invalid="ignore"):
+        bad = np.argwhere(used & (np.abs(a) > MAX_DVL_SPEED_MPS))
+    if bad.size:
+        i, j = bad[0]
+        raise DataError(f"value {a[i, j]:g} m/s (column {j}) is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL can "
+                        f"measure (an invalid flag such as RDI's -32.768?); {len(bad)} such value(s); "
+                        "DvlData.sanitized() marks them invalid", source, int(i), name)
+
+
 @dataclass
 class ImuData:
     """IMU samples. t (N,) s; f_b (N,3) specific force, m/s^2; omega_b (N,3) angular rate, rad/s."""
@@ -59,6 +121,61 @@ class ImuData:
 
     def take(self, idx) -> "ImuData":
         return ImuData(self.t[idx], self.f_b[idx], self.omega_b[idx], self.source)
+
+    def bridge_gaps(self, rate_hz: float, gap_periods: float = IMU_GAP_PERIODS
+                    ) -> tuple["ImuData", list[ImuGap]]:
+        """The stream the estimators integrate, and the gaps they must inflate their covariance over.
+
+        1. All-zero rows (f_b = omega_b = 0: a logger's filler, physically impossible under gravity) are
+           dropped, with a warning naming them.
+        2. Gaps longer than ``gap_periods / rate_hz`` are filled at the nominal rate by linear interpolation
+           between the samples on either side, with a warning. Integrating the sample before a gap over the
+           whole gap (zero-order hold) would treat a 2 s gap as one 2 s sample; interpolation is better, but
+           what the vehicle did inside the gap is unknown, so the estimators add the variances of
+           :func:`gap_variances` (:data:`IMU_GAP_ACCEL_SIGMA`, :data:`IMU_GAP_GYRO_SIGMA`) over it.
+
+        Returns ``(self, [])`` when there is nothing to do. Gap indices refer to the stream after step 1.
+        """
+        imu = self
+        zero = np.flatnonzero(~np.any(self.f_b, axis=1) & ~np.any(self.omega_b, axis=1))
+        if zero.size:
+            warnings.warn(f"{self.source}: {zero.size} all-zero IMU row(s) dropped (index {zero[:5].tolist()}"
+                          f"{'...' if zero.size > 5 else ''}): zero specific force is impossible under gravity",
+                          RuntimeWarning, stacklevel=2)
+            imu = self.take(np.setdiff1d(np.arange(len(self.t)), zero))
+        if len(imu.t) < 2:
+            return imu, []
+        period = 1.0 / rate_hz
+        step = np.diff(imu.t)
+        at = np.flatnonzero(step > gap_periods * period)
+        if not at.size:
+            return imu, []
+        gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
+        longest = max(gaps, key=lambda g: g.length)
+        warnings.warn(f"{self.source}: {len(gaps)} IMU gap(s) longer than {gap_periods * period:.3g} s bridged "
+                      f"by linear interpolation (longest {longest.length:.3f} s after index {longest.index}, "
+                      f"t = {longest.t_start:.3f} s); velocity/attitude covariance inflated over the gaps",
+                      RuntimeWarning, stacklevel=2)
+        pieces_t, pieces_f, pieces_w = [], [], []
+        start = 0
+        for g in gaps:
+            i = g.index
+            pieces_t.append(imu.t[start:i + 1])
+            pieces_f.append(imu.f_b[start:i + 1])
+            pieces_w.append(imu.omega_b[start:i + 1])
+            n_fill = int(np.ceil(g.length / period)) - 1
+            t_fill = g.t_start + g.length * np.arange(1, n_fill + 1) / (n_fill + 1)
+            u = ((t_fill - g.t_start) / g.length)[:, None]
+            pieces_t.append(t_fill)
+            pieces_f.append((1 - u) * imu.f_b[i] + u * imu.f_b[i + 1])
+            pieces_w.append((1 - u) * imu.omega_b[i] + u * imu.omega_b[i + 1])
+            start = i + 1
+        pieces_t.append(imu.t[start:])
+        pieces_f.append(imu.f_b[start:])
+        pieces_w.append(imu.omega_b[start:])
+        bridged = ImuData(np.concatenate(pieces_t), np.concatenate(pieces_f), np.concatenate(pieces_w),
+                          self.source)
+        return bridged, gaps
 
 
 @dataclass
@@ -84,9 +201,37 @@ class DvlData:
             raise DataError(f"valid mask must be bool of shape {(len(self.t), 4)}, got "
                             f"{self.valid.dtype} {self.valid.shape}", self.source, field="valid")
         _check_array(self.beams, (4,), len(self.t), self.source, "beams", finite=self.valid)
+        _check_speed(self.beams, self.valid, self.source, "beams")
         if self.v_b is not None:
-            _check_array(self.v_b, (3,), len(self.t), self.source, "v_b",
-                         finite=np.repeat(self.valid.sum(axis=1, keepdims=True) >= 3, 3, axis=1))
+            used = np.repeat(self.valid.sum(axis=1, keepdims=True) >= 3, 3, axis=1)
+            _check_array(self.v_b, (3,), len(self.t), self.source, "v_b", finite=used)
+            _check_speed(self.v_b, used, self.source, "v_b")
+
+    def sanitized(self, max_speed: float = MAX_DVL_SPEED_MPS) -> "DvlData":
+        """A copy where every beam that is not a measurement is marked invalid (and set to NaN), with a
+        warning: NaN/inf, RDI's bad-velocity markers (-32768, -32.768) and |beam| > ``max_speed`` m/s.
+        A ping whose reported ``v_b`` is such a value is invalid as a whole (the instrument flagged it).
+        The loaders call this; build in-memory data with it too (``validate`` rejects such beams)."""
+        bad_beam = self.valid & invalid_dvl_values(self.beams, max_speed)
+        bad_ping = np.zeros(len(self.t), dtype=bool)
+        v_b = self.v_b
+        if v_b is not None:
+            bad_ping = np.any(invalid_dvl_values(v_b, max_speed), axis=1) & self.valid.any(axis=1) \
+                & ~np.all(np.isnan(v_b), axis=1)
+        if not bad_beam.any() and not bad_ping.any():
+            return self
+        valid = self.valid & ~bad_beam & ~bad_ping[:, None]
+        beams = np.where(valid, self.beams, np.nan)
+        if v_b is not None:
+            v_b = np.where((valid.sum(axis=1) >= 3)[:, None], v_b, np.nan)
+        rows = np.flatnonzero(bad_beam.any(axis=1) | bad_ping)
+        rdi = int(np.isin(self.beams[bad_beam], RDI_BAD_VELOCITY).sum()
+                  + (0 if self.v_b is None else np.isin(self.v_b[bad_ping], RDI_BAD_VELOCITY).sum()))
+        warnings.warn(f"{self.source}: {int(bad_beam.sum())} beam value(s) and {int(bad_ping.sum())} ping "
+                      f"velocit(ies) are not measurements (NaN, RDI bad-velocity flag -32768/-32.768 "
+                      f"[{rdi} seen], or beyond {max_speed:g} m/s) and are marked invalid; first at index "
+                      f"{int(rows[0])}, {rows.size} ping(s) affected", RuntimeWarning, stacklevel=2)
+        return DvlData(self.t, beams, valid, v_b, self.source)
 
     def take(self, idx) -> "DvlData":
         return DvlData(self.t[idx], self.beams[idx], self.valid[idx],
@@ -181,6 +326,14 @@ class Mission:
         for stream in (self.imu, self.dvl, self.gt, self.depth):
             if stream is not None:
                 stream.validate()
+        outside = np.flatnonzero((self.dvl.t < self.imu.t[0]) | (self.dvl.t > self.imu.t[-1])) \
+            if len(self.imu.t) else np.arange(len(self.dvl.t))
+        if outside.size:
+            warnings.warn(f"{self.dvl.source}: {outside.size} DVL ping(s) outside the IMU span "
+                          f"[{self.imu.t[0] if len(self.imu.t) else float('nan'):.3f}, "
+                          f"{self.imu.t[-1] if len(self.imu.t) else float('nan'):.3f}] s (first at index "
+                          f"{int(outside[0])}, t = {self.dvl.t[outside[0]]:.3f} s) cannot be used and are "
+                          "ignored by the estimators", RuntimeWarning, stacklevel=2)
 
     @property
     def t0(self) -> float:

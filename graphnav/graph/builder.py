@@ -22,7 +22,7 @@ from graphnav.dvl import DvlGeometry
 from graphnav.earth import earth_rate_n
 from graphnav.factors import beam_factor, beam_noise, depth_factor
 from graphnav.history import BeamHistory
-from graphnav.mission import Mission
+from graphnav.mission import Mission, gap_variances
 
 from .options import GraphOptions
 
@@ -137,7 +137,9 @@ class KeyframeBuilder:
         self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else self.config.dvl.beam_noise_std
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
-        self.times, self.ping = keyframe_times(mission.imu.t, mission.dvl.t, options)
+        # all-zero rows dropped and gaps bridged (with warnings); keyframes over a gap get inflated IMU noise
+        self.imu, self.imu_gaps = mission.imu.bridge_gaps(self.config.imu_rate_hz)
+        self.times, self.ping = keyframe_times(self.imu.t, mission.dvl.t, options)
 
     def __len__(self) -> int:
         return len(self.times)
@@ -158,7 +160,7 @@ class KeyframeBuilder:
                 valid = np.ones(4, dtype=bool)
         if not valid.any():
             return None
-        imu = self.mission.imu
+        imu = self.imu
         nearest = int(np.clip(np.searchsorted(imu.t, dvl.t[j]), 1, len(imu.t) - 1))
         if abs(imu.t[nearest - 1] - dvl.t[j]) <= abs(imu.t[nearest] - dvl.t[j]):
             nearest -= 1
@@ -173,8 +175,21 @@ class KeyframeBuilder:
             return None
         return float(np.interp(t, depth.t, depth.depth))
 
+    def gap_params(self, t0: float, t1: float) -> gtsam.PreintegrationCombinedParams:
+        """Preintegration settings for the keyframe interval [t0, t1]: inflated IMU noise when it holds a
+        bridged IMU gap, so that the IMU factor's velocity and rotation variances grow by
+        :func:`graphnav.mission.gap_variances` (GTSAM integrates the continuous covariance over t1 - t0)."""
+        var_v, var_att = gap_variances(self.imu_gaps, t0, t1)
+        if not var_v and not var_att:
+            return self.params
+        imu, length = self.config.imu, max(t1 - t0, 1e-9)
+        params = preintegration_params(self.config, self.options)
+        params.setAccelerometerCovariance(np.eye(3) * (imu.accel_noise_density ** 2 + var_v / length))
+        params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
+        return params
+
     def __iter__(self) -> Iterator[Keyframe]:
-        imu = self.mission.imu
+        imu = self.imu
         t_imu = imu.t
         n = len(t_imu)
         # IMU sample j covers [t_j, t_{j+1}); the last sample covers one nominal period
@@ -185,8 +200,9 @@ class KeyframeBuilder:
         for k, (t, ping) in enumerate(zip(self.times, self.ping)):
             pim = None
             if k > 0:
-                pim = gtsam.PreintegratedCombinedMeasurements(self.params)
                 t_prev = self.times[k - 1]
+                params = self.gap_params(t_prev, t) if self.imu_gaps else self.params
+                pim = gtsam.PreintegratedCombinedMeasurements(params)
                 j0, j1 = split[k - 1], split[k]
                 # python lists of this keyframe's samples only (bounded memory on long missions)
                 hi = min(j1 + 1, n)
