@@ -90,6 +90,10 @@ class EkfOptions:
     Attributes:
         lever_arm: model the DVL lever arm (None: on when ``config.dvl.lever_arm_b`` is non-zero).
         gating: reject updates whose normalised innovation squared exceeds ``chi2.ppf(gate_prob, dof)``.
+            On by default (not in the paper): on the simulated 300 s missions (seeds 1-3, navigation/tactical/
+            MEMS IMU, 3-missing and 2-missing 30 s windows, a 120 s total outage; TC, LC, HNTC) and on A-KIT
+            trajectories 1-3 (3-missing windows) it rejected no update and changed nothing, while it rejects
+            every 1 m/s beam spike of ``tests/test_faults.py`` (TC VRMSE 0.086 -> 0.037 m/s).
         gate_prob: gating probability.
         beam_noise_std: white beam noise, m/s (None: ``config.dvl.beam_noise_std``).
         beam_bias_std: inflation for the unmodelled beam bias, m/s (None: max |config.dvl.beam_bias|).
@@ -114,7 +118,7 @@ class EkfOptions:
     """
 
     lever_arm: bool | None = None
-    gating: bool = False
+    gating: bool = True
     gate_prob: float = 0.9999
     beam_noise_std: float | None = None
     beam_bias_std: float | None = None

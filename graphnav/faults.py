@@ -211,6 +211,7 @@ def _csv(damage: Callable[[dict], None], **load_kwargs) -> Callable[[Mission, Pa
 #: :meth:`DvlData.sanitized` first, as the loaders do.
 FAULTS: dict[str, Callable[[Mission, Path], Mission]] = {
     "none": lambda m, w: m,
+    "none csv": _csv(None),
     "nan-beams raw": lambda m, w: with_streams(m, dvl=nan_beams(m.dvl)),
     "nan-beams sanitized": lambda m, w: with_streams(m, dvl=nan_beams(m.dvl).sanitized()),
     "rdi-invalid raw": lambda m, w: with_streams(m, dvl=rdi_invalid_beams(m.dvl)),
@@ -231,6 +232,59 @@ FAULTS: dict[str, Callable[[Mission, Path], Mission]] = {
     "truncated-line csv": _csv(lambda p: truncate_csv_line(p["IMU"], 1234)),
     "missing-column csv": _csv(lambda p: drop_csv_column(p["DVL"], "DVL Y [m/s]")),
 }
+
+
+@dataclasses.dataclass(frozen=True)
+class Expected:
+    """The required outcome of a fault.
+
+    ``stop``: the input is refused with a DataError whose ``source`` ends with ``source``, whose ``line``
+    equals ``line`` (None: the test computes it from the injected data) and whose ``field`` is ``field``.
+    Otherwise the run completes and every estimator's VRMSE is at most ``factor`` times its VRMSE on the
+    ``baseline`` fault (``"none"``, or ``"none csv"`` for missions that went through the files), and a
+    warning containing ``warning`` was raised (None: no warning required).
+    """
+
+    stop: bool = False
+    source: str | None = None
+    line: int | None = None
+    field: str | None = None
+    factor: float = 1.0
+    baseline: str = "none"
+    warning: str | None = None
+
+
+#: The outcome each fault of :data:`FAULTS` must have on :func:`fault_mission`; the bounds
+#: are about 1.2-1.3x what was measured (``scripts/fault_report.py`` prints both).
+EXPECTED: dict[str, Expected] = {
+    "none": Expected(),
+    "none csv": Expected(),
+    "nan-beams raw": Expected(stop=True, source="dvl", field="beams"),
+    "nan-beams sanitized": Expected(factor=1.2, warning="are not measurements"),
+    "rdi-invalid raw": Expected(stop=True, source="dvl", field="beams"),
+    "rdi-invalid sanitized": Expected(factor=1.2, warning="RDI bad-velocity flag"),
+    "rdi-invalid csv": Expected(factor=1.2, baseline="none csv", warning="RDI bad-velocity flag"),
+    "beam-spikes 1 m/s": Expected(factor=1.3),
+    "dvl-outage 120 s": Expected(factor=6.0),
+    "imu-gap 2 s": Expected(factor=1.5, warning="bridged by linear interpolation"),
+    "imu-zero-row": Expected(factor=1.05, warning="all-zero IMU row"),
+    "dvl-outside-imu": Expected(factor=1.001, warning="outside the IMU span"),
+    "duplicated-stamp imu": Expected(stop=True, source="imu", line=1001, field="t"),
+    "out-of-order dvl": Expected(stop=True, source="dvl", line=51, field="t"),
+    "duplicated-stamp csv": Expected(stop=True, source="IMU_trajectory1.csv", line=1002, field="Time [s]"),
+    "out-of-order csv": Expected(stop=True, source="DVL_trajectory1.csv", line=52, field="Time [s]"),
+    "duplicated-stamp csv repair": Expected(factor=1.2, baseline="none csv", warning="repaired"),
+    "truncated-line csv": Expected(stop=True, source="IMU_trajectory1.csv", line=1234, field="ACC X [m/s^2]"),
+    "missing-column csv": Expected(stop=True, source="DVL_trajectory1.csv", line=1, field="DVL Y [m/s]"),
+}
+
+
+def fault_mission() -> Mission:
+    """The mission the fault table is stated for: simulated 200 s, navigation-grade IMU, seed 1, DVL pings
+    0.37 s after the IMU stamps (between two IMU samples, as on real data)."""
+    from .simulate import simulate_mission
+    return simulate_mission(200.0, "navigation", seed=1, dvl_stamp_offset_s=0.37)
+
 
 
 def run_estimator(name: str, mission: Mission, completer=None) -> NavSolution:
