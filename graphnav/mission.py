@@ -303,6 +303,10 @@ class GroundTruth:
         return ned_to_lla(self.p_n, self.origin_lla)
 
 
+#: DVL pings closer than this (s) to the IMU span are dropped without a warning (see Mission.validate).
+OUTSIDE_SPAN_TOLERANCE_S = 0.5
+
+
 @dataclass
 class Mission:
     """One mission: IMU, DVL, optional depth and ground truth, and the sensor configuration.
@@ -326,9 +330,14 @@ class Mission:
         for stream in (self.imu, self.dvl, self.gt, self.depth):
             if stream is not None:
                 stream.validate()
+        # DVL pings outside the IMU span cannot be used. A ping within OUTSIDE_SPAN_TOLERANCE_S of the span
+        # is the usual effect of a time offset at the ends of a recording (A-KIT: the last ping, 0.02-0.06 s
+        # after the last IMU sample) and is dropped quietly; anything further out is reported.
         outside = np.flatnonzero((self.dvl.t < self.imu.t[0]) | (self.dvl.t > self.imu.t[-1])) \
             if len(self.imu.t) else np.arange(len(self.dvl.t))
-        if outside.size:
+        far = (np.any((self.dvl.t < self.imu.t[0] - OUTSIDE_SPAN_TOLERANCE_S)
+                      | (self.dvl.t > self.imu.t[-1] + OUTSIDE_SPAN_TOLERANCE_S)) if len(self.imu.t) else True)
+        if outside.size and far:
             warnings.warn(f"{self.dvl.source}: {outside.size} DVL ping(s) outside the IMU span "
                           f"[{self.imu.t[0] if len(self.imu.t) else float('nan'):.3f}, "
                           f"{self.imu.t[-1] if len(self.imu.t) else float('nan'):.3f}] s (first at index "
