@@ -108,9 +108,15 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     path = Path(path)
     source = str(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise DataError(f"cannot read file: {exc}", source) from None
+    try:
+        text = raw.decode("utf-8-sig")     # a byte-order mark is not part of the header
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise DataError(f"not UTF-8 text: byte {raw[exc.start:exc.start + 1]!r} at offset {exc.start}", source,
+                        line) from None
     lines = text.splitlines()
     if not lines:
         raise DataError("empty file, expected a header line", source, 1)
