@@ -258,7 +258,7 @@ class Expected:
 #: are about 1.2-1.3x what was measured (``scripts/fault_report.py`` prints both).
 EXPECTED: dict[str, Expected] = {
     "none": Expected(),
-    "none csv": Expected(),
+    "none csv": Expected(baseline="none csv"),
     "nan-beams raw": Expected(stop=True, source="dvl", field="beams"),
     "nan-beams sanitized": Expected(factor=1.2, warning="are not measurements"),
     "rdi-invalid raw": Expected(stop=True, source="dvl", field="beams"),
