@@ -223,6 +223,27 @@ def test_indeterminant_system_recovers_with_a_warning(mission, monkeypatch):
     assert vrmse(sol, mission.gt) < 1.2 * vrmse(reference, mission.gt)
 
 
+@pytest.mark.parametrize("mode", ["online", "fixed-lag"])
+def test_indeterminant_system_from_a_tiny_integration_sigma_recovers(mission, mode):
+    """The real thing: Cholesky with an integration sigma of 1e-4 (covariance 1e-8) is indeterminant at
+    keyframe 1; the solver restarts with QR and the run is as accurate as with the default sigma."""
+    with pytest.warns(RuntimeWarning, match="indeterminant linear system at keyframe 1"):
+        sol = run_graph(mission, "Graph-TC", options=GraphOptions(integration_sigma=1e-4), mode=mode)
+    reference = run_graph(mission, "Graph-TC", mode=mode)
+    assert sol.info["recovered"] == 1
+    assert vrmse(sol, mission.gt) < 1.05 * vrmse(reference, mission.gt)
+
+
+def test_indeterminant_batch_falls_back_to_the_filtered_estimates(mission):
+    from graphnav.nets.average import AverageCompleter
+    options = GraphOptions(integration_sigma=1e-4)
+    with pytest.warns(RuntimeWarning, match="returning the filtered"):
+        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5), options=options)
+    filtered = run_graph(mission, "Graph-HN", AverageCompleter(5), options=options)
+    assert "Indeterminate" in sol.info["batch_failed"] and sol.cov_v_n is None
+    np.testing.assert_allclose(sol.v_n, filtered.v_n, atol=1e-9)
+
+
 def test_other_solver_errors_are_not_swallowed(mission, monkeypatch):
     from graphnav.graph.incremental import OnlineGraph
 

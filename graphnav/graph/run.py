@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from typing import Callable
 
 import numpy as np
@@ -86,7 +87,9 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     Returns:
         NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
         ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
-        recoveries) and, for the batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s``.
+        recoveries) and, for the batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or
+        ``batch_failed`` (the reason) when the batch system was indeterminant and the filtered estimates
+        are returned instead (with a warning).
     """
     start = time.perf_counter()
     options = options or GraphOptions()
@@ -106,8 +109,18 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     info = {"mode": mode, "update_s": list(estimator.update_times), "recovered": estimator.n_recovered,
             "online_s": time.perf_counter() - start}
     if batch:
-        estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
-        info.update({"batch_" + k: v for k, v in batch_info.items()})
+        try:
+            estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
+            info.update({"batch_" + k: v for k, v in batch_info.items()})
+        except RuntimeError as exc:
+            if "ndetermina" not in str(exc):   # "Indeterminant" (class) or "Indeterminate" (message)
+                raise
+            # Seen with a tiny integration_sigma (1e-4) or a huge rotation variance in one IMU factor: the
+            # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
+            reason = " ".join(str(exc).split())[:160]
+            warnings.warn(f"graph batch: {reason} -- returning the filtered (incremental) estimates instead of "
+                          "smoothed ones (no velocity covariance)", RuntimeWarning, stacklevel=2)
+            info["batch_failed"] = reason
         info["batch_s"] = time.perf_counter() - start - info["online_s"]
     sol = solution_from_estimates(method, estimates)
     sol.runtime_s = time.perf_counter() - start
