@@ -234,12 +234,31 @@ def test_indeterminant_system_from_a_tiny_integration_sigma_recovers(mission, mo
     assert vrmse(sol, mission.gt) < 1.05 * vrmse(reference, mission.gt)
 
 
-def test_indeterminant_batch_falls_back_to_the_filtered_estimates(mission):
+@pytest.mark.parametrize("solver", ["vectorized", "lm"])
+def test_indeterminant_batch_is_solved_again_with_qr(mission, solver):
     from graphnav.nets.average import AverageCompleter
-    options = GraphOptions(integration_sigma=1e-4)
+    with pytest.warns(RuntimeWarning, match="solving again with QR elimination"):
+        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5),
+                        options=GraphOptions(integration_sigma=1e-4, batch_solver=solver))
+    reference = run_graph(mission, "Graph-HN-batch", AverageCompleter(5), options=GraphOptions(batch_solver=solver))
+    assert sol.info["batch_qr_retry"] and "batch_failed" not in sol.info
+    assert vrmse(sol, mission.gt) < 1.05 * vrmse(reference, mission.gt)
+    # the QR marginals agree with the Cholesky ones where both work
+    qr = run_graph(mission, "Graph-HN-batch", AverageCompleter(5),
+                   options=GraphOptions(factorization="QR", batch_solver=solver))
+    np.testing.assert_allclose(qr.cov_v_n, reference.cov_v_n, rtol=1e-6, atol=1e-12)
+
+
+def test_batch_that_cannot_be_solved_returns_the_filtered_estimates(mission, monkeypatch):
+    from graphnav.graph import run as graph_run
+    from graphnav.nets.average import AverageCompleter
+
+    def indeterminant(*args, **kwargs):
+        raise RuntimeError("Indeterminate linear system detected while working near variable x5")
+    monkeypatch.setattr(graph_run, "batch_smooth", indeterminant)
     with pytest.warns(RuntimeWarning, match="returning the filtered"):
-        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5), options=options)
-    filtered = run_graph(mission, "Graph-HN", AverageCompleter(5), options=options)
+        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5))
+    filtered = run_graph(mission, "Graph-HN", AverageCompleter(5))
     assert "Indeterminate" in sol.info["batch_failed"] and sol.cov_v_n is None
     np.testing.assert_allclose(sol.v_n, filtered.v_n, atol=1e-9)
 

@@ -13,11 +13,14 @@ linearisation of an N-keyframe graph costs O(N^2) (probe: LM 393 s at 1 h). The 
 then the linear system is solved by GTSAM's multifrontal elimination and the step retracted on the
 manifold, until the cost stops decreasing (step halving if it rises). Cost per iteration is O(N).
 ``solver="lm"`` runs GTSAM's Levenberg-Marquardt on the CustomFactor graph itself (reference, O(N^2)).
-Velocity covariances are the marginals of the final linearisation.
+Velocity covariances are the marginals of the final linearisation. Elimination is Cholesky (GTSAM's default)
+unless ``factorization="QR"``; when Cholesky reports an indeterminant system, the batch warns and solves
+again with QR.
 """
 from __future__ import annotations
 
 import time
+import warnings
 
 import gtsam
 import numpy as np
@@ -136,24 +139,56 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
         values.insert(X(e.index), e.pose)
         values.insert(V(e.index), e.v_n)
         values.insert(B(e.index), e.bias)
-    if options.batch_solver == "lm":
-        result, info, linear = _solve_lm(cpp, groups, values, options)
-    else:
-        result, info, linear = _solve_vectorized(cpp, StackedBeams(groups), values, n, options)
+    qr = options.factorization == "QR"
+    try:
+        result, info, covs = _solve(cpp, groups, values, n, options, qr)
+    except RuntimeError as exc:
+        if qr or "ndetermina" not in str(exc):   # "Indeterminant" (class) or "Indeterminate" (message)
+            raise
+        # Cholesky (GTSAM's default elimination) gives up on poorly conditioned systems that QR solves, e.g.
+        # integration_sigma=1e-4, or one IMU factor holding a large rotation variance (tests/test_faults.py)
+        warnings.warn(f"graph batch: {' '.join(str(exc).split())[:120]} -- solving again with QR elimination",
+                      RuntimeWarning, stacklevel=2)
+        result, info, covs = _solve(cpp, groups, values, n, options, True)
+        info["qr_retry"] = True
     info["solve_s"] = time.perf_counter() - start
-    covs = [None] * n
-    if options.marginals:
-        t0 = time.perf_counter()
-        marginals = gtsam.Marginals(linear, result)
-        covs = [marginals.marginalCovariance(V(k)) for k in range(n)]
-        info["marginals_s"] = time.perf_counter() - t0
     out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
                          result.atConstantBias(B(e.index)), covs[e.index], e.n_measured, e.n_regressed,
                          float("nan")) for e in estimates]
     return out, info
 
 
-def _solve_vectorized(cpp, beams: StackedBeams, values, n, options):
+def _solve(cpp, groups, values, n, options, qr: bool):
+    """(result, info, velocity covariance per keyframe or Nones) with the configured solver; ``qr`` selects
+    QR elimination (else GTSAM's default, Cholesky) for the steps and the marginals."""
+    if options.batch_solver == "lm":
+        result, info, linear = _solve_lm(cpp, groups, values, options, qr)
+    else:
+        result, info, linear = _solve_vectorized(cpp, StackedBeams(groups), values, n, options, qr)
+    covs = [None] * n
+    if options.marginals:
+        t0 = time.perf_counter()
+        if qr:      # Marginals and marginalCovariance eliminate with Cholesky: take R of the QR marginal
+            tree = linear.eliminateMultifrontal(None, gtsam.EliminateQR)
+            covs = [_covariance(tree.marginalFactor(V(k), gtsam.EliminateQR)) for k in range(n)]
+        else:
+            marginals = gtsam.Marginals(linear, result)
+            covs = [marginals.marginalCovariance(V(k)) for k in range(n)]
+        info["marginals_s"] = time.perf_counter() - t0
+    return result, info, covs
+
+
+def _covariance(conditional: gtsam.GaussianConditional) -> np.ndarray:
+    """Covariance (R^T Sigma^-2 R)^-1 of a marginal Gaussian conditional ``|| Sigma^-1 (R x - d) ||``."""
+    R = conditional.R()
+    model = conditional.get_model()
+    if model is not None:
+        R = R / np.asarray(model.sigmas())[:, None]
+    R_inv = np.linalg.inv(R)
+    return R_inv @ R_inv.T
+
+
+def _solve_vectorized(cpp, beams: StackedBeams, values, n, options, qr: bool = False):
     def linearize(vals):
         C, v, bg = _states(vals, n)
         e, J_rot, J_v, J_bg = beams.linearize(C, v, bg)
@@ -169,7 +204,7 @@ def _solve_vectorized(cpp, beams: StackedBeams, values, n, options):
     iterations = 0
     for iterations in range(1, options.batch_max_iterations + 1):
         linear = linearize(values)
-        delta = linear.optimize()
+        delta = linear.optimize(gtsam.EliminateQR) if qr else linear.optimize()
         step = 1.0
         while True:
             candidate = values.retract(delta if step == 1.0 else delta.scale(step))
@@ -186,14 +221,14 @@ def _solve_vectorized(cpp, beams: StackedBeams, values, n, options):
     return values, {"iterations": iterations, "costs": costs}, linearize(values)
 
 
-def _solve_lm(cpp, groups, values, options):
+def _solve_lm(cpp, groups, values, options, qr: bool = False):
     graph = gtsam.NonlinearFactorGraph()
     graph.push_back(cpp)
     for group in groups:
         graph.add(group.factor())
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(options.batch_max_iterations)
-    params.setLinearSolverType("MULTIFRONTAL_QR" if options.factorization == "QR" else "MULTIFRONTAL_CHOLESKY")
+    params.setLinearSolverType("MULTIFRONTAL_QR" if qr else "MULTIFRONTAL_CHOLESKY")
     params.setRelativeErrorTol(1e-6)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
     result = optimizer.optimize()
