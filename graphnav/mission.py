@@ -34,9 +34,10 @@ IMU_GAP_PERIODS = 2.5
 #: 120 s; mean mission VRMSE Graph-TC / EKF-TC / Graph-HN-batch, m/s): zero-order hold over the gap (what
 #: the estimators did before) 4.3 / 7.8 / 1.9; interpolation without inflation 0.50 / 1.9 / 0.34; with
 #: (0.1, 1e-3) 0.041 / 0.046 / 0.019 (no gap: 0.030 / 0.037 / 0.014). Accel 0.03-0.3 and gyro 1e-3-2e-3 do
-#: about as well; gyro 3e-4 is too small (EKF 0.37). Gyro 5e-3 broke the batch smoother on 9 of 12 gaps
-#: (indeterminant system: the CombinedImuFactor then holds the gap's rotation variance next to bias
-#: random-walk variances ~1e-18), hence 1e-3.
+#: about as well; gyro 3e-4 is too small (EKF 0.37). Gyro 5e-3 did worse (Graph-TC 0.046) and made the batch
+#: smoother's Cholesky report an indeterminant system on 9 of 12 gaps (the CombinedImuFactor then holds the
+#: gap's rotation variance next to bias random-walk variances ~1e-18; the batch now retries with QR), hence
+#: 1e-3.
 IMU_GAP_ACCEL_SIGMA = 0.1
 IMU_GAP_GYRO_SIGMA = 1e-3
 
