@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from graphnav import history
 from graphnav.nets import AverageCompleter, load_completer
 from graphnav.nets import data as beamdata
 from graphnav.nets.evaluate import outage_rollout
@@ -25,8 +24,8 @@ def main() -> None:
     for scen, n_past in (("2-missing", 3), ("3-missing", 5)):
         missing = list(SCENARIOS[scen])
         for name, comp in (("network", load_completer(scen)), ("average", AverageCompleter(n_past))):
-            for drift in (0.0, 0.01, 0.02, 0.03):
-                history.BeamHistory.__init__.__defaults__ = (drift,)
+            for drift in (0.0, 0.01, 0.02, 0.03, 0.04):
+                comp.drift_std = drift          # BeamHistory takes the completer's drift_std
                 full, sigma, samples = outage_rollout(comp, series, missing)
                 err = (full - samples.beams)[:, missing]
                 z = np.abs(err) / sigma[:, missing]

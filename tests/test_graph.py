@@ -122,6 +122,8 @@ def test_outage_hn_beats_tc_and_batch_beats_filter(tactical_mission, scenario, n
 class OracleCompleter:
     """Fills missing beams with the true (error-free) beams plus seeded noise of known sigma."""
 
+    drift_std = 0.0       # its errors do not compound through an outage (BeamHistory)
+
     def __init__(self, mission, sigma=0.03, seed=0):
         self.n_past = 3
         self.sigma = sigma

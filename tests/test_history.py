@@ -36,3 +36,14 @@ def test_sigma_grows_like_a_random_walk_through_an_outage_and_resets():
 def test_push_rejects_non_finite():
     with pytest.raises(ValueError):
         BeamHistory(2).push([1.0, np.nan, 0.0, 0.0])
+
+
+def test_completer_drift_std_overrides_the_history_default():
+    class Exact(AverageCompleter):
+        drift_std = 0.0
+    h = BeamHistory(3, drift_std=0.5)
+    for _ in range(3):
+        h.push(np.ones(4))
+    valid = np.array([0, 1, 1, 1], bool)
+    sig = [h.complete(Exact(3, sigma=0.05), np.ones(4), valid)[1][0] for _ in range(5)]
+    np.testing.assert_allclose(sig, 0.05)
