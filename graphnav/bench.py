@@ -500,7 +500,7 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
         lines += ["## Per trajectory", "", "Window VRMSE (m/s), mean over the windows of each trajectory.", ""]
         for grade in grades:
             for sc in [s for s in scenarios if s != "none"]:
-                lines += [f"### {grade}, {sc}", "", "| trajectory | " + " | ".join(methods) + " |",
+                lines += [f"### Per trajectory: {grade}, {sc}", "", "| trajectory | " + " | ".join(methods) + " |",
                           "| --- |" + " --- |" * len(methods)]
                 for traj in trajectories:
                     cells = [_f(_mean(r["vrmse_window"] for r in records
