@@ -18,6 +18,7 @@ Frames: body FRD, nav NED; ``C_b_n`` body-to-NED; rates in rad/s, velocities in 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -26,6 +27,9 @@ from scipy.spatial.transform import Rotation
 from .earth import earth_rate_n
 from .errors import DataError
 from .rotations import skew
+
+if TYPE_CHECKING:
+    from .mission import GroundTruth
 
 
 @dataclass
@@ -406,7 +410,7 @@ def gyro_check(mission, duration_s: float = 60.0, starts_s=None) -> np.ndarray:
                      for s in starts_s])
 
 
-def ground_truth_at(mission, r_b) -> "GroundTruth":
+def ground_truth_at(mission, r_b) -> GroundTruth:
     """The mission's ground truth moved to the point ``r_b`` (body frame, m, relative to the GT point).
 
     See :func:`move_ground_truth`. On the raw A-KIT reference (``load_akit(..., imu_position_b=(0, 0, 0))``)
@@ -417,7 +421,7 @@ def ground_truth_at(mission, r_b) -> "GroundTruth":
                              mission.config.lat_rad if mission.config.earth_rotation else None)
 
 
-def move_ground_truth(gt, t_imu, omega_b, r_b, lat_rad: float | None) -> "GroundTruth":
+def move_ground_truth(gt, t_imu, omega_b, r_b, lat_rad: float | None) -> GroundTruth:
     """Ground truth moved to the point ``r_b`` (body frame, m, relative to the GT point).
 
     ``p_n + C_b_n r_b`` and ``v_n + C_b_n (omega_nb_b x r_b)``, with omega_nb_b the gyro interpolated at the

@@ -362,6 +362,23 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
+def gt_offset_drift(folder: str | Path, rescale_stamps: bool, window: int = 100) -> float:
+    """Drift of the IMU-to-GT time offset over a trajectory, s per s (the check behind ``rescale_stamps``).
+
+    The offset is estimated in consecutive ``window``-sample GT windows and a line is fitted through them:
+    with the published ``linspace`` stamps it drifts by about -2.5 ms/s, with rescaled stamps by ~0.
+    """
+    from .calibration_align import estimate_gt_time_offset
+    raw = read_akit(folder, rescale_stamps=rescale_stamps)
+    C_b_n = euler_to_C_b_n(raw.gt[:, 7], raw.gt[:, 8], raw.gt[:, 9])
+    t_imu, omega_b = np.ascontiguousarray(raw.imu[:, 0]), raw.imu[:, 4:7]
+    starts = range(0, len(raw.gt) - window + 1, window)
+    mid = [raw.gt[s + window // 2, 0] for s in starts]
+    offsets = [estimate_gt_time_offset(t_imu, omega_b, raw.gt[s:s + window, 0], C_b_n[s:s + window]).offset_s
+               for s in starts]
+    return float(np.polyfit(mid, offsets, 1)[0])
+
+
 # ------------------------------------------------------------------------------------------------
 # BeamsNet
 # ------------------------------------------------------------------------------------------------

@@ -20,9 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from graphnav import paths
-from graphnav.calibration_align import (dvl_consistency, estimate_gt_time_offset, gyro_attitude_error)
-from graphnav.loaders import AKIT_COLUMNS, akit_files, list_akit, load_akit, read_akit, read_csv
-from graphnav.rotations import euler_to_C_b_n
+from graphnav.calibration_align import (dvl_consistency, gyro_attitude_error)
+from graphnav.loaders import AKIT_COLUMNS, akit_files, gt_offset_drift, list_akit, load_akit, read_csv
 
 
 def error_after(m, duration=60.0, step=100.0):
@@ -32,18 +31,6 @@ def error_after(m, duration=60.0, step=100.0):
     return max(np.degrees(np.linalg.norm(gyro_attitude_error(m.imu.t, m.imu.omega_b, gt.t, gt.C_b_n, s,
                                                              duration, lat)[-1]))
                for s in starts)
-
-
-def stamp_drift(folder, rescale_stamps=False, window=100):
-    """Slope (ms/s) of the GT offset estimated in 100-sample windows, with the given stamps."""
-    raw = read_akit(folder, rescale_stamps=rescale_stamps)
-    C = euler_to_C_b_n(raw.gt[:, 7], raw.gt[:, 8], raw.gt[:, 9])
-    t_imu, w = np.ascontiguousarray(raw.imu[:, 0]), raw.imu[:, 4:7]
-    starts = range(0, len(raw.gt) - window + 1, window)
-    mid = [raw.gt[s + window // 2, 0] for s in starts]
-    off = [estimate_gt_time_offset(t_imu, w, raw.gt[s:s + window, 0], C[s:s + window]).offset_s
-           for s in starts]
-    return 1e3 * np.polyfit(mid, off, 1)[0]
 
 
 def main(argv):
@@ -71,7 +58,7 @@ def main(argv):
         print(f"{folder.name:<13}{c.gt_time_offset_s:>+7.3f}+-{est['gt']['sigma_s']:<5.3f}"
               f"{c.dvl_time_offset_s:>+7.3f}+-{est['dvl']['sigma_s']:<5.3f}{cons['rms']:>11.4f}"
               f"{cons['rms_all']:>8.4f}{error_after(m):>11.3f}{error_after(raw):>9.2f}"
-              f"{stamp_drift(folder):>11.2f}{stamp_drift(folder, True):>8.2f}{hf_acc:>9.1e}{hf_gyr:>9.1e}"
+              f"{1e3 * gt_offset_drift(folder, False):>11.2f}{1e3 * gt_offset_drift(folder, True):>8.2f}{hf_acc:>9.1e}{hf_gyr:>9.1e}"
               f"{t_read:>7.3f}")
     print("\nDVL-GT rms: per-axis RMS of DVL - (GT v_b + omega x l), l = config lever arm, submerged "
           "pings (depth > 2 m); (all): every ping.")

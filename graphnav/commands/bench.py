@@ -5,7 +5,6 @@ Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md`` an
 """
 from __future__ import annotations
 
-import argparse
 import os
 import shlex
 import sys

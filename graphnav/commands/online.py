@@ -7,7 +7,6 @@ epochs already in the file without writing them (fast, no pacing) and appends fr
 """
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
