@@ -38,6 +38,7 @@ from .methods import METHODS, average_of, baseline_of, check_method, check_scena
 from .mission import Mission
 from .scenarios import scenario_outage, window_starts
 from .solution import NavSolution
+from .timeseries import interp_rows
 
 SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "none")
 IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical")
@@ -140,9 +141,7 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
     ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
     start isolates what the outage cost (the error at the start is the same dead-reckoning drift for all)."""
     def err(t):
-        p_est = np.array([np.interp(t, sol.t, sol.p_n[:, i]) for i in range(2)])
-        p_gt = np.array([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(2)])
-        return p_est - p_gt
+        return interp_rows(t, sol.t, sol.p_n[:, :2]) - interp_rows(t, gt.t, gt.p_n[:, :2])
     return float(np.linalg.norm(err(t_end) - err(t_start)))
 
 

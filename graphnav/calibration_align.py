@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 from .earth import earth_rate_n
 from .errors import DataError
 from .rotations import skew
+from .timeseries import interp_rows  # noqa: F401  (re-exported for calibration.py)
 
 if TYPE_CHECKING:
     from .mission import GroundTruth
@@ -60,14 +61,6 @@ def cumulative_integral(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     dt = np.diff(t).reshape((-1,) + (1,) * (x.ndim - 1))
     steps = x[:-1] * dt
     return np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(steps, axis=0)])
-
-
-def interp_rows(t_query: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Linear interpolation of each column of x (N,k) at t_query (M,).
-
-    Pass a Fortran-ordered x (``np.asfortranarray``) when calling often: np.interp copies strided columns.
-    """
-    return np.stack([np.interp(t_query, t, x[:, i]) for i in range(x.shape[1])], axis=1)
 
 
 def _search_offset(cost, lo: float, hi: float, step: float) -> tuple[float, float, float]:

@@ -75,6 +75,7 @@ from .ins import StrapdownState, Strapdown, segment_specific_force, segment_time
 from .mission import Mission, gap_variances
 from .rotations import skew
 from .solution import NavSolution
+from .timeseries import interp_rows
 
 METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
 N_STATES = 12
@@ -395,7 +396,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
     seg_dt = np.diff(np.append(seg_t, imu.t[-1]))
     seg_f = segment_specific_force(imu.t, imu.f_b, imu.omega_b, seg_t, seg_imu)
     seg_w = imu.omega_b[seg_imu]
-    ping_w = np.stack([np.interp(ping_t, imu.t, imu.omega_b[:, i]) for i in range(3)], axis=-1)
+    ping_w = interp_rows(ping_t, imu.t, imu.omega_b)
 
     ekf = ErrorStateEkf(mission.config, initial, options)
     history = BeamHistory(completer.n_past) if hybrid else None

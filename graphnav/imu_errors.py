@@ -22,6 +22,7 @@ import numpy as np
 from .config import ImuSpec
 from .errors import DataError
 from .mission import ImuData
+from .timeseries import interp_rows
 
 
 @dataclass
@@ -45,8 +46,8 @@ class ImuErrorTruth:
     def at(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(bias_acc, bias_gyro) linearly interpolated at time(s) t (s)."""
         t = np.asarray(t, dtype=float)
-        acc = np.stack([np.interp(t, self.t, self.bias_acc[:, i]) for i in range(3)], axis=-1)
-        gyro = np.stack([np.interp(t, self.t, self.bias_gyro[:, i]) for i in range(3)], axis=-1)
+        acc = interp_rows(t, self.t, self.bias_acc)
+        gyro = interp_rows(t, self.t, self.bias_gyro)
         return acc, gyro
 
 

@@ -20,6 +20,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from .errors import DataError
 from .mission import GroundTruth
 from .solution import NavSolution
+from .timeseries import interp_rows
 
 
 @dataclass
@@ -54,8 +55,8 @@ def interpolate_gt(gt: GroundTruth, t: np.ndarray) -> tuple[np.ndarray, np.ndarr
     if outside.size:
         raise DataError(f"stamp {t[outside[0]]:.3f} s outside the ground truth span "
                         f"[{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s", "gt", int(outside[0]), "t")
-    p = np.stack([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(3)], axis=-1)
-    v = np.stack([np.interp(t, gt.t, gt.v_n[:, i]) for i in range(3)], axis=-1)
+    p = interp_rows(t, gt.t, gt.p_n)
+    v = interp_rows(t, gt.t, gt.v_n)
     if len(gt.t) == 1:
         C = np.repeat(gt.C_b_n, len(t), axis=0)
     else:

@@ -19,6 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .solution import NavSolution  # noqa: E402
+from .timeseries import interp_rows  # noqa: E402
 
 AXES_NED = ("north", "east", "down")
 #: Fixed colours so a method looks the same in every figure.
@@ -58,8 +59,8 @@ def _mark_windows(ax, windows, label: bool = True) -> None:
 def gt_at(gt, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ground-truth NED position and velocity linearly interpolated at stamps t (NaN outside GT's span)."""
     inside = (t >= gt.t[0]) & (t <= gt.t[-1])
-    p = np.column_stack([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(3)])
-    v = np.column_stack([np.interp(t, gt.t, gt.v_n[:, i]) for i in range(3)])
+    p = interp_rows(t, gt.t, gt.p_n)
+    v = interp_rows(t, gt.t, gt.v_n)
     p[~inside] = np.nan
     v[~inside] = np.nan
     return p, v

@@ -22,6 +22,7 @@ from gtsam.symbol_shorthand import B, V, X
 
 from graphnav.errors import ConfigError
 from graphnav.mission import Mission
+from graphnav.timeseries import interp_rows
 
 from .builder import Keyframe, KeyframeBuilder, KeyframeFactors, imu_factor, keyframe_factors
 from .options import GraphOptions
@@ -42,8 +43,8 @@ class InitialState:
         if gt is None:
             raise ConfigError(f"mission '{mission.name}' has no ground truth to initialise the graph from; "
                               "pass an InitialState")
-        p = np.array([np.interp(t, gt.t, gt.p_n[:, i]) for i in range(3)])
-        v = np.array([np.interp(t, gt.t, gt.v_n[:, i]) for i in range(3)])
+        p = interp_rows(t, gt.t, gt.p_n)
+        v = interp_rows(t, gt.t, gt.v_n)
         i = int(np.argmin(np.abs(gt.t - t)))
         # rotate the nearest attitude to t with the mean body rate of the IMU in between (sub-sample accuracy)
         C = gt.C_b_n[i]

@@ -1,0 +1,13 @@
+"""Small helpers for time series sampled at increasing stamps."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def interp_rows(t_query, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Linear interpolation of each column of x (N,k) at t_query: a scalar gives (k,), (M,) gives (M,k).
+
+    Outside [t[0], t[-1]] the end values are held (np.interp). Pass a Fortran-ordered x
+    (``np.asfortranarray``) when calling often: np.interp copies strided columns.
+    """
+    return np.stack([np.interp(t_query, t, x[:, i]) for i in range(x.shape[1])], axis=-1)
