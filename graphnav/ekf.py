@@ -303,16 +303,6 @@ class ErrorStateEkf:
         self.n_updates += 1
         return True
 
-    def update_lc(self, v_dvl_b: np.ndarray, R_v: np.ndarray, omega_b: np.ndarray) -> bool:
-        """Loosely coupled update with a DVL-head velocity (3,) m/s in body and its covariance (3,3).
-
-        ``omega_b`` is the raw IMU rate at the ping (rad/s) for the lever-arm term. Returns False if gated.
-        (With DVL error states, use :meth:`update_lc_beams`, which knows which beams made the velocity.)
-        """
-        h, H = self.predicted_beams(omega_b)
-        G = np.linalg.pinv(self.T_b)                  # beams -> body velocity (all four beams)
-        return self._update(G @ h - v_dvl_b, G @ H, R_v)
-
     def update_lc_beams(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
                         ) -> bool:
         """LC update from >= 3 beams (4,) m/s (NaN = missing) by weighted least squares.
