@@ -21,14 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataError
+from .loaders import AKIT_COLUMNS
 from .mission import Mission
 from .rotations import C_b_n_to_euler
 
-IMU_COLUMNS = ("Time [s]", "ACC X [m/s^2]", "ACC Y [m/s^2]", "ACC Z [m/s^2]",
-               "GYRO X [rad/s]", "GYRO Y [rad/s]", "GYRO Z [rad/s]")
-DVL_COLUMNS = ("Time [s]", "DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]")
-GT_COLUMNS = ("Time [s]", "Longitude [rad]", "Latitude [rad]", "Altitude [m]", "V North [m/s]",
-              "V East [m/s]", "V Down [m/s]", "Roll [rad]", "Pitch [rad]", "Yaw [rad]")
 BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
 
 
@@ -48,12 +44,12 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     paths["config"] = out / f"config_trajectory{number}.json"
 
     imu = mission.imu
-    _write_csv(paths["IMU"], IMU_COLUMNS, np.column_stack([imu.t, imu.f_b, imu.omega_b]))
+    _write_csv(paths["IMU"], AKIT_COLUMNS["IMU"], np.column_stack([imu.t, imu.f_b, imu.omega_b]))
 
     dvl = mission.dvl
     v_b = dvl.v_b if dvl.v_b is not None else np.full((len(dvl.t), 3), np.nan)
     ok = np.isfinite(v_b).all(axis=1)
-    _write_csv(paths["DVL"], DVL_COLUMNS, np.column_stack([dvl.t[ok], v_b[ok]]))
+    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_b[ok]]))
     beams = np.where(dvl.valid, dvl.beams, np.nan)
     _write_csv(paths["beams"], BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
     text = paths["beams"].read_text().replace("nan", "")
@@ -62,7 +58,7 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     gt = mission.gt
     lla = gt.lla
     euler = C_b_n_to_euler(gt.C_b_n)
-    _write_csv(paths["GT"], GT_COLUMNS,
+    _write_csv(paths["GT"], AKIT_COLUMNS["GT"],
                np.column_stack([gt.t, lla[:, 1], lla[:, 0], lla[:, 2], gt.v_n, euler]))
     mission.config.save(paths["config"])
     return paths
