@@ -416,12 +416,6 @@ def beamsnet_split(V: np.ndarray, train_fraction: float = BEAMSNET_TRAIN_FRACTIO
     return V[:, :n_train], V[:, n_train:]
 
 
-def beamsnet_beams(V: np.ndarray, config: SensorConfig | None = None, seed: int = 0) -> np.ndarray:
-    """Beams (N,4) made from BeamsNet velocities V (3,N) with the DVL error model, as in the paper."""
-    cfg = config or SensorConfig()
-    return make_beams(np.asarray(V, float).T, cfg.dvl, seed)
-
-
 # ------------------------------------------------------------------------------------------------
 # The entry point of the CLI commands
 # ------------------------------------------------------------------------------------------------
