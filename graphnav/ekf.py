@@ -71,9 +71,9 @@ from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
 from .history import BeamHistory
-from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline, so3_exp_batch
+from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline
 from .mission import Mission, gap_variances
-from .rotations import skew
+from .rotations import skew, so3_exp_batch
 from .solution import NavSolution
 from .timeseries import interp_rows
 

@@ -27,7 +27,7 @@ import numpy as np
 from .config import SensorConfig
 from .earth import earth_rate_n
 from .mission import ImuData
-from .rotations import skew
+from .rotations import so3_exp_batch
 
 
 @dataclass
@@ -67,21 +67,6 @@ class PropagationPath:
     v_n: np.ndarray
     p_n: np.ndarray
     dt: np.ndarray
-
-
-def so3_exp_batch(phi: np.ndarray) -> np.ndarray:
-    """Rodrigues' formula ``Exp(phi)`` for rotation vectors (n,3), rad -> (n,3,3).
-
-    Plain numpy (no per-call object construction) with series coefficients for small angles.
-    """
-    phi = np.asarray(phi, dtype=float)
-    theta2 = np.einsum("ni,ni->n", phi, phi)
-    small = theta2 < 1e-8
-    theta = np.sqrt(np.where(small, 1.0, theta2))
-    a = np.where(small, 1.0 - theta2 / 6.0, np.sin(theta) / theta)
-    b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(theta)) / np.where(small, 1.0, theta2))
-    K = skew(phi)
-    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
 def prefix_products(D: np.ndarray) -> np.ndarray:

@@ -33,9 +33,19 @@ def C_b_n_to_euler(C_b_n: np.ndarray) -> np.ndarray:
     return ypr[..., ::-1]
 
 
-def so3_exp(phi: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``Exp(phi)`` for rotation vectors phi (…,3) in rad."""
-    return Rotation.from_rotvec(phi).as_matrix()
+def so3_exp_batch(phi: np.ndarray) -> np.ndarray:
+    """Rodrigues' formula ``Exp(phi)`` for rotation vectors (n,3), rad -> (n,3,3).
+
+    Plain numpy (no per-call object construction) with series coefficients for small angles.
+    """
+    phi = np.asarray(phi, dtype=float)
+    theta2 = np.einsum("ni,ni->n", phi, phi)
+    small = theta2 < 1e-8
+    theta = np.sqrt(np.where(small, 1.0, theta2))
+    a = np.where(small, 1.0 - theta2 / 6.0, np.sin(theta) / theta)
+    b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(theta)) / np.where(small, 1.0, theta2))
+    K = skew(phi)
+    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
 def so3_log(C: np.ndarray) -> np.ndarray:

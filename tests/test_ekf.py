@@ -14,10 +14,10 @@ from graphnav.earth import earth_rate_n
 from graphnav.ekf import IA, IE, IG, IV, METHODS, EkfOptions, ErrorStateEkf, compose_transitions, run_ekf
 from graphnav.errors import ConfigError
 from graphnav.imu_errors import corrupt_imu
-from graphnav.ins import StrapdownState, so3_exp_batch
+from graphnav.ins import StrapdownState
 from graphnav.mission import DvlData, GroundTruth, ImuData, Mission
 from graphnav.nets import AverageCompleter
-from graphnav.rotations import euler_to_C_b_n, so3_log
+from graphnav.rotations import euler_to_C_b_n, so3_exp_batch, so3_log
 from graphnav.scenarios import scenario_outage, window_starts
 from graphnav.simulate import simulate_mission
 

@@ -8,9 +8,9 @@ from scipy.spatial.transform import Rotation
 from graphnav.config import SensorConfig
 from graphnav.earth import earth_rate_n
 from graphnav.ins import (Strapdown, StrapdownState, integrate, prefix_products, segment_specific_force,
-                          segment_timeline, so3_exp_batch)
+                          segment_timeline)
 from graphnav.mission import ImuData
-from graphnav.rotations import attitude_error, euler_to_C_b_n
+from graphnav.rotations import attitude_error, euler_to_C_b_n, so3_exp_batch
 
 
 def test_so3_exp_batch_matches_scipy_including_tiny_angles():
