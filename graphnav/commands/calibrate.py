@@ -40,12 +40,9 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from graphnav.calibration import calibrate
-    from graphnav.loaders import load_mission
 
-    if args.data is None:
-        mission = load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
-    else:
-        mission = load_mission(args.data, args.config)
+    from .smooth import recorded_mission
+    mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
     result = calibrate(mission, args.mode, **kwargs)
     print(f"mission: {mission.name} ({mission.duration:.0f} s)")

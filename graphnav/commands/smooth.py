@@ -44,14 +44,18 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
 
 
+def recorded_mission(args):
+    """The mission of ``--data``/``--config`` as recorded, or the simulated one of ``--seed``/``--duration``."""
+    from graphnav.loaders import load_mission
+    if args.data is None:
+        return load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
+    return load_mission(args.data, args.config)
+
+
 def mission_from_args(args):
     """(mission with the IMU grade and outages applied, list of outages)."""
     from graphnav.bench import degrade_imu
-    from graphnav.loaders import load_mission
-    if args.data is None:
-        mission = load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
-    else:
-        mission = load_mission(args.data, args.config)
+    mission = recorded_mission(args)
     if args.imu_grade != "as-recorded":
         import zlib
         mission = degrade_imu(mission, args.imu_grade, seed=zlib.crc32(mission.name.encode()) % 2**31)
