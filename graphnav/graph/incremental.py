@@ -28,6 +28,12 @@ from .builder import Keyframe, KeyframeBuilder, KeyframeFactors, imu_factor, key
 from .options import GraphOptions
 
 
+def is_indeterminant(exc: Exception) -> bool:
+    """True for GTSAM's indeterminant-linear-system error ("Indeterminant" in the class, "Indeterminate" in
+    the message)."""
+    return "ndetermina" in str(exc)
+
+
 @dataclass
 class InitialState:
     """State at the first keyframe: pose (attitude C_b_n and NED position, m), NED velocity (m/s), IMU bias."""
@@ -168,7 +174,7 @@ class _IncrementalGraph:
         try:
             self._solve(self._pending_factors, self._pending_values, kf)
         except RuntimeError as exc:
-            if "ndetermina" not in str(exc):   # "Indeterminant" (class) or "Indeterminate" (message)
+            if not is_indeterminant(exc):
                 raise
             self._recover(kf, exc)
         k = kf.index

@@ -28,7 +28,7 @@ from graphnav.solution import NavSolution
 
 from .batch import batch_smooth
 from .builder import KeyframeBuilder
-from .incremental import EpochEstimate, FixedLagGraph, InitialState, OnlineGraph
+from .incremental import EpochEstimate, FixedLagGraph, InitialState, OnlineGraph, is_indeterminant
 from .options import GraphOptions
 
 GRAPH_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
@@ -113,7 +113,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
             estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
             info.update({"batch_" + k: v for k, v in batch_info.items()})
         except RuntimeError as exc:
-            if "ndetermina" not in str(exc):   # "Indeterminant" (class) or "Indeterminate" (message)
+            if not is_indeterminant(exc):
                 raise
             # Seen with a tiny integration_sigma (1e-4) or a huge rotation variance in one IMU factor: the
             # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
