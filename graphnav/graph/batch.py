@@ -30,9 +30,7 @@ from graphnav.errors import ConfigError
 
 from .builder import BeamGroup, KeyframeFactors
 from .incremental import EpochEstimate, is_indeterminant
-from .options import GraphOptions
-
-BATCH_SOLVERS = ("vectorized", "lm")
+from .options import BATCH_SOLVERS, GraphOptions
 
 
 class StackedBeams:

@@ -44,6 +44,7 @@ from graphnav.errors import ConfigError
 
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
+BATCH_SOLVERS = ("vectorized", "lm")
 
 
 @dataclass
@@ -119,5 +120,5 @@ class GraphOptions:
             raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
-        if self.batch_solver not in ("vectorized", "lm"):
+        if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")
