@@ -35,10 +35,9 @@ from scipy.spatial.transform import Rotation
 
 from .calibration_align import (OffsetEstimate, Reference, _search_offset, _sigma_from_curvature,
                                 cumulative_integral, estimate_gt_time_offset, interp_rows,
-                                submerged_pings)
+                                reference_gyro_increments, submerged_pings)
 from .config import SensorConfig
 from .dvl import DvlGeometry
-from .earth import earth_rate_n
 from .errors import DataError
 from .mission import Mission
 from .rotations import skew
@@ -162,9 +161,7 @@ def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]
     # scored on one grid of offsets; ~1 s between reference samples is plenty to tell them apart.
     stride = max(1, int(round(1.0 / np.median(np.diff(gt.t)))))
     t_ref, C_ref = gt.t[::stride], gt.C_b_n[::stride]
-    incr_ref = Rotation.from_matrix(np.swapaxes(C_ref[:-1], 1, 2) @ C_ref[1:]).as_rotvec()
-    if lat is not None:
-        incr_ref += np.einsum("kji,j->ki", C_ref[:-1], earth_rate_n(lat)) * np.diff(t_ref)[:, None]
+    incr_ref = reference_gyro_increments(t_ref, C_ref, lat)
     S = np.asfortranarray(cumulative_integral(t_imu, imu.omega_b))
     offsets = np.arange(-2.0, 2.0 + 1e-9, 0.05)
     inside = (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])

@@ -195,6 +195,16 @@ def cumulative_quat_product(steps: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
+def reference_gyro_increments(t_ref: np.ndarray, C_b_n_ref: np.ndarray, lat_rad: float | None) -> np.ndarray:
+    """What the gyro integrates over each reference interval, (K-1,3): ``Log(C_k^T C_k+1)`` plus the Earth
+    rate ``C_k^T omega_ie_n dt`` (left out when ``lat_rad`` is None)."""
+    C = C_b_n_ref
+    incr = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec()
+    if lat_rad is not None:
+        incr += np.einsum("kji,j->ki", C[:-1], earth_rate_n(lat_rad)) * np.diff(t_ref)[:, None]
+    return incr
+
+
 def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | None = None,
                             search_s: tuple[float, float] = (-2.0, 2.0),
                             step_s: float = 0.02) -> OffsetEstimate:
@@ -213,10 +223,7 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
     t_imu = np.ascontiguousarray(t_imu, float)
     t_gt = np.asarray(t_gt, float)
     S = np.asfortranarray(cumulative_integral(t_imu, np.asarray(omega_b, float)))
-    C = np.asarray(C_b_n_gt, float)
-    incr_ref = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec()
-    w_ie = np.zeros(3) if lat_rad is None else earth_rate_n(lat_rad)
-    incr_ref += np.einsum("kji,j->ki", C[:-1], w_ie) * np.diff(t_gt)[:, None]
+    incr_ref = reference_gyro_increments(t_gt, np.asarray(C_b_n_gt, float), lat_rad)
     # Use only intervals that stay inside the IMU span for every candidate, so the cost is comparable.
     usable = (t_gt[:-1] + search_s[0] >= t_imu[0]) & (t_gt[1:] + search_s[1] <= t_imu[-1])
     if usable.sum() < 10:
