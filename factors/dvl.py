@@ -49,6 +49,17 @@ def beam_noise(sigmas: np.ndarray, huber_k: float | None = None) -> gtsam.noiseM
     return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(float(huber_k)), base)
 
 
+def _rows_measurements_noise(rows_b, y, noise):
+    """(B (m,3), y (m,), noise model) of a DVL factor; (m,) sigmas become :func:`beam_noise`."""
+    B = np.array(rows_b, dtype=float).reshape(-1, 3)
+    y = np.array(y, dtype=float).reshape(-1)
+    if B.shape[0] != y.shape[0]:
+        raise ValueError(f"{B.shape[0]} beam rows but {y.shape[0]} measurements")
+    if not isinstance(noise, gtsam.noiseModel.Base):
+        noise = beam_noise(noise)
+    return B, y, noise
+
+
 def predict_beams(rows_b: np.ndarray, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray,
                   gyro_bias: np.ndarray, lever_arm_b: np.ndarray) -> np.ndarray:
     """Predicted measurements ``B (R^T v_n + (omega_b - b_g) x l_b)`` (m,), m/s."""
@@ -68,14 +79,9 @@ def beam_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.nd
         omega_b: (3,) measured body rate near the DVL stamp, rad/s.
         lever_arm_b: (3,) DVL position relative to the IMU, body frame, m.
     """
-    B = np.array(rows_b, dtype=float).reshape(-1, 3)
-    y = np.array(y, dtype=float).reshape(-1)
+    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
     omega = np.array(omega_b, dtype=float).reshape(3)
     lever = np.array(lever_arm_b, dtype=float).reshape(3)
-    if B.shape[0] != y.shape[0]:
-        raise ValueError(f"{B.shape[0]} beam rows but {y.shape[0]} measurements")
-    if not isinstance(noise, gtsam.noiseModel.Base):
-        noise = beam_noise(noise)
     # d/dbias is constant: [0, B [l]x]
     H_bias = np.hstack([np.zeros((B.shape[0], 3)), B @ _skew(lever)])
 
@@ -113,13 +119,8 @@ def beam_factor_lever_arm(x_key: int, v_key: int, b_key: int, l_key: int, rows_b
     For lever-arm calibration: put a (weak) prior on ``l_key`` and let the graph estimate it, or hold it
     constant. Extra Jacobian ``d/dl = B [omega_b - b_g]x``.
     """
-    B = np.array(rows_b, dtype=float).reshape(-1, 3)
-    y = np.array(y, dtype=float).reshape(-1)
+    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
     omega = np.array(omega_b, dtype=float).reshape(3)
-    if B.shape[0] != y.shape[0]:
-        raise ValueError(f"{B.shape[0]} beam rows but {y.shape[0]} measurements")
-    if not isinstance(noise, gtsam.noiseModel.Base):
-        noise = beam_noise(noise)
     zeros = np.zeros((B.shape[0], 3))
 
     def error(_factor, values, H):
