@@ -107,12 +107,14 @@ def plot_velocity_errors(gt, solutions: list[NavSolution], outages, path, title:
     """Velocity error (estimate - GT, NED, m/s) per axis, with the +-1 sigma sleeve where a covariance exists."""
     fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
     windows = _windows(outages)
+    # GT at each solution's (selected) stamps, once for the three axes
+    selected = []
+    for sol in solutions:
+        sel = slice(None) if t_range is None else (sol.t >= t_range[0]) & (sol.t <= t_range[1])
+        selected.append((sel, sol.t[sel], gt_at(gt, sol.t[sel])[1]))
     for k, ax in enumerate(axes):
         _mark_windows(ax, windows, label=k == 0)
-        for i, sol in enumerate(solutions):
-            sel = slice(None) if t_range is None else (sol.t >= t_range[0]) & (sol.t <= t_range[1])
-            t = sol.t[sel]
-            _, v_gt = gt_at(gt, t)
+        for i, (sol, (sel, t, v_gt)) in enumerate(zip(solutions, selected)):
             err = sol.v_n[sel, k] - v_gt[:, k]
             c = _color(sol.method, i)
             ax.plot(t, err, color=c, lw=1.0, label=sol.method)
