@@ -338,15 +338,14 @@ class Mission:
         # DVL pings outside the IMU span cannot be used. A ping within OUTSIDE_SPAN_TOLERANCE_S of the span
         # is the usual effect of a time offset at the ends of a recording (A-KIT: the last ping, 0.02-0.06 s
         # after the last IMU sample) and is dropped quietly; anything further out is reported.
-        outside = np.flatnonzero((self.dvl.t < self.imu.t[0]) | (self.dvl.t > self.imu.t[-1])) \
-            if len(self.imu.t) else np.arange(len(self.dvl.t))
-        far = (np.any((self.dvl.t < self.imu.t[0] - OUTSIDE_SPAN_TOLERANCE_S)
-                      | (self.dvl.t > self.imu.t[-1] + OUTSIDE_SPAN_TOLERANCE_S)) if len(self.imu.t) else True)
+        imu_t, dvl_t = self.imu.t, self.dvl.t
+        t0, t1 = (imu_t[0], imu_t[-1]) if len(imu_t) else (np.inf, -np.inf)   # no IMU: every ping is outside
+        outside = np.flatnonzero((dvl_t < t0) | (dvl_t > t1))
+        far = np.any((dvl_t < t0 - OUTSIDE_SPAN_TOLERANCE_S) | (dvl_t > t1 + OUTSIDE_SPAN_TOLERANCE_S))
         if outside.size and far:
-            warnings.warn(f"{self.dvl.source}: {outside.size} DVL ping(s) outside the IMU span "
-                          f"[{self.imu.t[0] if len(self.imu.t) else float('nan'):.3f}, "
-                          f"{self.imu.t[-1] if len(self.imu.t) else float('nan'):.3f}] s (first at index "
-                          f"{int(outside[0])}, t = {self.dvl.t[outside[0]]:.3f} s) cannot be used and are "
+            span = f"[{t0:.3f}, {t1:.3f}]" if len(imu_t) else "[nan, nan]"
+            warnings.warn(f"{self.dvl.source}: {outside.size} DVL ping(s) outside the IMU span {span} s (first at "
+                          f"index {int(outside[0])}, t = {dvl_t[outside[0]]:.3f} s) cannot be used and are "
                           "ignored by the estimators", RuntimeWarning, stacklevel=2)
 
     @property
