@@ -7,7 +7,6 @@ otherwise (and when nothing is missing, the measured beams pass through).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import warnings
 from pathlib import Path
@@ -21,7 +20,7 @@ from graphnav.errors import ConfigError, DataError
 from .average import AverageCompleter
 from .completer import check_inputs
 from .model import BeamRegressor, normalize_missing, scenario_name
-from .training import FORMAT_VERSION, weights_dir
+from .training import FORMAT_VERSION, file_sha256, weights_dir
 
 
 class NetworkCompleter:
@@ -107,10 +106,6 @@ class AutoCompleter:
         return chosen.complete(past[-chosen.n_past:], measured)
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
     """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones).
 
@@ -134,7 +129,7 @@ def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegres
     if card.get("graphnav_version") != graphnav.__version__:
         warnings.warn(f"{js}: trained with graphnav {card.get('graphnav_version')}, running "
                       f"{graphnav.__version__}", stacklevel=2)
-    if "weights_sha256" in card and card["weights_sha256"] != _sha256(pt):
+    if "weights_sha256" in card and card["weights_sha256"] != file_sha256(pt):
         raise ConfigError(f"{pt}: file does not match the checksum in its model card {js.name}")
     model = BeamRegressor(**card["architecture"])
     state = torch.load(pt, map_location="cpu", weights_only=True)

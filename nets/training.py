@@ -146,7 +146,8 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
     return history
 
 
-def _sha256(path: Path) -> str:
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes (data and weights fingerprints in the model card)."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
@@ -190,7 +191,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
         "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
         "data": {
             "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
-            "V_sha256": _sha256(d / "V.npy"),
+            "V_sha256": file_sha256(d / "V.npy"),
             "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v)
                            for k, v in asdict(DvlSpec()).items()},
             "beam_seed": opt.beam_seed,
@@ -223,6 +224,6 @@ def save(result: TrainResult, directory: str | Path | None = None) -> tuple[Path
     name = result.card["scenario"]
     pt, js = directory / f"{name}.pt", directory / f"{name}.json"
     torch.save(result.model.state_dict(), pt)
-    result.card["weights_sha256"] = _sha256(pt)
+    result.card["weights_sha256"] = file_sha256(pt)
     js.write_text(json.dumps(result.card, indent=2) + "\n")
     return pt, js
