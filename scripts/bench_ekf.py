@@ -30,7 +30,9 @@ from collections import defaultdict
 import numpy as np
 
 from graphnav import metrics
+from graphnav.bench import improvement_pct
 from graphnav.ekf import METHODS, EkfOptions, run_ekf
+from graphnav.methods import average_of, baseline_of
 from graphnav.nets import AverageCompleter
 from graphnav.scenarios import scenario_outage, window_starts
 
@@ -88,7 +90,7 @@ def run_windows(missions, options: EkfOptions, completers: dict, max_windows: in
 
 
 def improvement(model: float, ref: float) -> str:
-    return f"{(ref - model) / ref * 100:+.1f}%"
+    return f"{improvement_pct(model, ref):+.1f}%"
 
 
 def print_table(title: str, rows) -> None:
@@ -105,9 +107,8 @@ def print_table(title: str, rows) -> None:
             rt = np.mean([r["runtime"] for r in rs])
             cpu = np.mean([r["cpu"] for r in rs])
             rtf = np.mean([r["duration"] / r["runtime"] for r in rs])
-            coupling = "LC" if meth.endswith("LC") else "TC"
-            vs_base = improvement(mean[meth], mean[coupling]) if meth not in ("LC", "TC") else "-"
-            vs_avg = improvement(mean[meth], mean[f"Average-{coupling}"]) if meth.startswith("HN") else "-"
+            vs_base = improvement(mean[meth], mean[baseline_of(meth)]) if meth not in ("LC", "TC") else "-"
+            vs_avg = improvement(mean[meth], mean[average_of(meth)]) if meth.startswith("HN") else "-"
             print(f"| {scenario} | {meth} | {win.mean():.3f} | {win.max():.3f} | {mis:.3f} | {vs_base} | "
                   f"{vs_avg} | {rt:.3f} | {cpu:.3f} | {rtf:.0f} |")
     n = len({(r["mission"], r["start"]) for r in rows["2-missing", "LC"]})
