@@ -7,8 +7,8 @@ so during an outage earlier completions stand in for missing beams, as in the pa
 Completers are calibrated one ping ahead from a measured past. Once the past holds their own completions,
 errors compound: the regressed beam of a 30 s outage is off by 1.2-2x its one-step sigma (``nets/weights/
 README.md``, recursive outages), and the average estimator's spread collapses to zero on a constant
-history. The history therefore keeps, per beam, how many pings in a row it has been filled and makes the
-sigma it hands on non-decreasing through the run, growing like a random walk:
+history. The history therefore keeps, per beam, the sigma it handed on in the current run of filled pings
+and makes it non-decreasing through the run, growing like a random walk:
 ``sigma_k = sqrt(max(sigma_completer, sigma_{k-1})^2 + drift_std^2)`` (first filled ping: the completer's
 sigma). ``drift_std`` (m/s per ping) is the completer's attribute of that name when it has one (a completer
 whose errors do not compound sets 0), else the history's, 0.03 by default: on recursive 30-ping outages of
