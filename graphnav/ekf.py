@@ -72,6 +72,7 @@ from .dvl import DvlGeometry
 from .errors import ConfigError
 from .history import BeamHistory
 from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline
+from .metrics import interpolate_gt
 from .mission import Mission, gap_variances
 from .rotations import skew, so3_exp_batch
 from .solution import NavSolution
@@ -341,7 +342,6 @@ class ErrorStateEkf:
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
-    from .metrics import interpolate_gt
     p, v, C = interpolate_gt(mission.gt, np.array([t0]))
     return StrapdownState(t0, C[0], v[0], p[0])
 
