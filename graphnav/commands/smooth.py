@@ -6,6 +6,7 @@ optional injected beam outage).
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 from pathlib import Path
 
@@ -96,28 +97,30 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
     return [str(f) for f in files]
 
 
-def print_summary(summary: dict) -> None:
+def print_summary(summary: dict, file=None) -> None:
+    """Print a command's summary (to ``file``, default standard output)."""
+    out = functools.partial(print, file=file)
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
-    print(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
+    out(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
           f"of data in {summary['runtime_s']:.2f} s ({summary['realtime_factor']:.0f}x real time)")
     if acc.get("ground_truth"):
-        print(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
+        out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
         for w in acc["windows"]:
-            print(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
+            out(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
-            print(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
+            out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
     timing = summary.get("update_timing")
     if timing:
-        print(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
+        out(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
               f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
-        print(f"  {name}: {path}")
+        out(f"  {name}: {path}")
 
 
 # --- the command ----------------------------------------------------------------------------------------
