@@ -157,6 +157,7 @@ class _IncrementalGraph:
         self.keep_keyframe_graphs = False
         self.update_times: list[float] = []
         self.n_recovered = 0
+        self._recovering_at: int | None = None     # keyframe of the last solver restart (a second one raises)
         self.factorization = self.options.factorization
 
     # --- the cycle --------------------------------------------------------------------------------
@@ -216,21 +217,22 @@ class _IncrementalGraph:
         return self._last
 
     def _recover(self, kf: Keyframe, exc: Exception) -> None:
-        """Indeterminant linear system: restart the solver with QR factorisation from the last good state.
+        """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state.
 
         The new solver starts with priors on keyframe k-1 at its estimate, with its marginal covariances
         (block-diagonal: pose, velocity, bias; the prior sigmas of the options if the failed solver cannot
         give them), then takes keyframe k's factors. The filtered output continues; what is lost is the
-        cross-correlation between those blocks at the restart. A second failure raises.
+        cross-correlation between those blocks at the restart. A second failure at the same keyframe raises.
         """
         self.n_recovered += 1
         warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): "
                       f"{str(exc).strip().splitlines()[0]} -- restarting the solver with QR factorisation from "
-                      "the last estimate (factorization='QR' or a larger integration_sigma avoid this)",
+                      "the last estimate",
                       RuntimeWarning, stacklevel=3)
         last = self._last
-        if last is None or self.factorization == "QR":
+        if last is None or self._recovering_at == kf.index:
             raise exc
+        self._recovering_at = kf.index
         j = last.index
         try:
             covs = [self._marginal(X(j)), self._marginal(V(j)), self._marginal(B(j))]
