@@ -345,7 +345,7 @@ def _initial_state(mission: Mission, t0: float) -> StrapdownState:
 
 
 def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
-            initial=None, init: str = "auto") -> NavSolution:
+            initial=None, init: str = "auto", aligner_kwargs: dict | None = None) -> NavSolution:
     """Run one of the EKF methods over a recorded mission and return the solution at every DVL ping (post
     update): a sample-by-sample replay through :class:`graphnav.navigator.Navigator` (backend ``"ekf"``).
 
@@ -362,6 +362,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
             covers the ground truth's own error).
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
 
     Returns:
         :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
@@ -384,7 +385,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
     initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
     nav = Navigator(mission.config, "ekf", completer=completer if hybrid else None, initial=initial,
-                    ekf_options=options, tight=not method.endswith("LC"))
+                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs)
     estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))

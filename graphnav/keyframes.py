@@ -186,6 +186,8 @@ class Keyframer:
         self.history = BeamHistory(completer.n_past) if completer is not None else None
         self.stats = KeyframerStats()
         self._period = 1.0 / config.imu_rate_hz
+        self._gap_limit = IMU_GAP_PERIODS * self._period
+        self._max_gap = self.options.max_keyframe_gap_s
         # IMU samples (t, f, w) from the one that covers the newest keyframe's stamp on (before the start:
         # the newest two)
         self._samples: list[tuple[float, tuple, tuple]] = []
@@ -205,6 +207,12 @@ class Keyframer:
     @property
     def started(self) -> bool:
         return self._started
+
+    @property
+    def samples(self) -> list[tuple[float, tuple, tuple]]:
+        """The IMU samples (t, f_b, omega_b) from the one that covers the newest keyframe's stamp to the newest
+        (read only)."""
+        return self._samples
 
     @property
     def last_imu(self) -> tuple[float, tuple, tuple] | None:
@@ -228,16 +236,27 @@ class Keyframer:
     # --- inputs (time order) ------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> list[Keyframe]:
         """An IMU sample (f_b m/s^2, omega_b rad/s: 3-tuples of floats) in time order."""
-        f, w = f_b, omega_b
-        if not (any(f) or any(w)):
+        if not (any(f_b) or any(omega_b)):
             self.stats.zero_imu_rows += 1
             if self.stats.zero_imu_rows == 1:
                 warnings.warn(f"imu: all-zero IMU row at t = {t:.3f} s dropped (zero specific force is impossible "
                               "under gravity); further ones are counted", RuntimeWarning, stacklevel=3)
             return []
-        if self._samples and t - self._samples[-1][0] > IMU_GAP_PERIODS * self._period:
-            return self._bridge(self._samples[-1], (t, f, w))
-        return self._on_sample(t, f, w)
+        samples = self._samples
+        if samples and t - samples[-1][0] > self._gap_limit:
+            return self._bridge(samples[-1], (t, f_b, omega_b))
+        # the common path of _on_sample, inline (it runs 100 times a second)
+        self._n_imu += 1
+        samples.append((t, f_b, omega_b))
+        if not self._started:
+            if len(samples) > 2:
+                del samples[0]
+            return []
+        pending = self._pending
+        out = self._close_ready() if pending and pending[0].t <= t else []
+        if t - self._anchor > self._max_gap:
+            out += self._fill_gap(t)
+        return out
 
     def add_dvl(self, t: float, beams, valid) -> list[Keyframe]:
         if not self._started:

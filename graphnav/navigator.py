@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import bisect
 import heapq
+from collections import deque
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -119,14 +120,14 @@ class Navigator:
         self.backend = None
         self.aligner = None
         self.alignment = None
-        self._heap: list = []
+        self._heap: list = []             # aiding and DVL samples waiting, by (t, stream order, arrival)
+        self._imu_q: deque = deque()      # IMU samples waiting, in time order (the 100 Hz stream: no heap)
         self._seq = 0
         self._newest = -math.inf          # newest stamp received
         self._released = -math.inf        # everything up to here has left the reorder buffer
         self._stamps: dict[str, set] = {k: set() for k in STREAM_ORDER}
         self._last_released: dict[str, float] = {k: -math.inf for k in STREAM_ORDER}
         self._latest: EpochEstimate | None = None
-        self._imu_recent: list[tuple] = []          # IMU samples received since the latest estimate
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
         self.refused: dict[str, dict[str, int]] = {}
@@ -155,14 +156,20 @@ class Navigator:
             w = self._vector("imu", t, "omega_b", omega_b, 3)
             if f is None or w is None:
                 return []
-        if not self._accept("imu", t):
-            return []
-        recent = self._imu_recent
-        if recent and t < recent[-1][0]:
-            recent.insert(bisect.bisect(recent, (t,)), (t, f, w))
+        q = self._imu_q
+        in_order = not q or t > q[-1][0]
+        if t == self._last_released["imu"] or (not in_order and any(s[0] == t for s in q)):
+            return self._refuse("imu", t, "t", "duplicate stamp")
+        if t < self._released:
+            return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
+                                f"left the reorder buffer (window {self.options.reorder_window_s} s)")
+        if in_order:
+            q.append((t, f, w))
         else:
-            recent.append((t, f, w))
-        return self._push("imu", t, (f, w))
+            q.insert(bisect.bisect(q, t, key=_stamp), (t, f, w))
+        if t > self._newest:
+            self._newest = t
+        return self._release(self._newest - self.options.reorder_window_s)
 
     def add_dvl(self, t: float, beams, valid=None) -> list[EpochEstimate]:
         """A DVL ping: along-beam velocities ``beams`` (4,) m/s of the DVL head and their validity ``valid``
@@ -238,7 +245,9 @@ class Navigator:
         order), for t between the latest estimate and the newest IMU sample plus ``max_extrapolation_s``.
         Repeated calls with increasing t integrate each new sample once (tens of microseconds a call)."""
         est = self.estimate()
-        recent = self._imu_recent
+        # the samples since the one covering the latest estimate: the keyframer's (released), then the ones
+        # still in the reorder buffer; a sample keeps its index here until the next estimate
+        recent = _Concat(self.keyframer.samples, self._imu_q)
         if t < est.t - 1e-9:
             raise ConfigError(f"state_at({t:.3f}): before the latest estimate (t = {est.t:.3f} s)")
         newest = recent[-1][0] if recent else est.t
@@ -365,14 +374,24 @@ class Navigator:
 
     def _release(self, until: float) -> list[EpochEstimate]:
         out = []
-        heap = self._heap
-        while heap and heap[0][0] <= until:
-            t, _, _, stream, payload = heapq.heappop(heap)
-            self._stamps[stream].discard(t)
-            self._last_released[stream] = t
-            self._released = t
-            out += self._dispatch(stream, t, payload)
-        return out
+        heap, q = self._heap, self._imu_q
+        while True:
+            if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
+                t, f, w = q.popleft()
+                self._last_released["imu"] = self._released = t
+                if self.backend is not None:
+                    kfs = self.keyframer.add_imu(t, f, w)
+                    if kfs:
+                        out += self._process(kfs)
+                else:
+                    out += self._dispatch("imu", t, (f, w))
+            elif heap and heap[0][0] <= until:
+                t, _, _, stream, payload = heapq.heappop(heap)
+                self._stamps[stream].discard(t)
+                self._last_released[stream] = self._released = t
+                out += self._dispatch(stream, t, payload)
+            else:
+                return out
 
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         if self.backend is None:
@@ -400,14 +419,6 @@ class Navigator:
         if out:
             self._latest = out[-1]
             self.n_estimates += len(out)
-            t = self._latest.t
-            # samples before the newest estimate are no longer needed for state_at
-            recent = self._imu_recent
-            i = 0
-            while i + 1 < len(recent) and recent[i + 1][0] <= t:
-                i += 1
-            if i:
-                del recent[:i]
         return out
 
     # --- initialisation -----------------------------------------------------------------------------
@@ -474,3 +485,28 @@ def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True) -> 
         for est in new:
             callback(est)
     return out
+
+
+def _stamp(sample: tuple) -> float:
+    return sample[0]
+
+
+class _Concat:
+    """Read-only indexable view of a list followed by a deque (the IMU samples of :meth:`Navigator.state_at`)."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a: list, b: deque):
+        self.a, self.b = a, b
+
+    def __len__(self) -> int:
+        return len(self.a) + len(self.b)
+
+    def __bool__(self) -> bool:
+        return bool(self.a) or bool(self.b)
+
+    def __getitem__(self, i: int):
+        n = len(self.a)
+        if i < 0:
+            i += n + len(self.b)
+        return self.a[i] if i < n else self.b[i - n]

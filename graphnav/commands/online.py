@@ -13,12 +13,12 @@ new epoch.
 """
 from __future__ import annotations
 
-import math
 import sys
 import time
 from pathlib import Path
 
-from .smooth import HelpFormatter, accuracy_summary, add_mission_arguments, make_plots, mission_from_args
+from .smooth import (HelpFormatter, accuracy_summary, add_init_arguments, add_mission_arguments, aligner_kwargs,
+                     make_plots, mission_from_args)
 
 STREAMING_METHODS = ("Graph-TC", "Graph-HN", "TC", "LC", "Average-TC", "Average-LC", "HNTC", "HNLC")
 
@@ -36,6 +36,7 @@ def register(subparsers) -> None:
                     "continues a replay from its last epoch. A final summary goes to OUT/summary.json.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
+    add_init_arguments(p)
     p.add_argument("--stream", metavar="FILE",
                    help="read the measurements as JSON lines from FILE ('-' = standard input) instead of a mission")
     p.add_argument("--out", default="out/online", metavar="DIR", help="output folder")
@@ -48,16 +49,6 @@ def register(subparsers) -> None:
                         "mission")
     p.add_argument("--lag", type=float, default=None, metavar="S",
                    help="fixed-lag smoother window in s (default: GraphOptions.lag_s)")
-    p.add_argument("--init", default="auto", choices=("auto", "gt", "sensors"),
-                   help="initial state: ground truth at the first ping (gt), alignment from the sensors "
-                        "(sensors), or gt when the mission has ground truth (auto; a stream has none)")
-    p.add_argument("--initial-position", type=float, nargs=2, metavar=("LAT", "LON"),
-                   help="with sensor alignment: the starting position, degrees (else a local origin)")
-    p.add_argument("--initial-heading", type=float, metavar="DEG",
-                   help="with sensor alignment: the starting heading, degrees (else gyrocompassing or the "
-                        "first heading record)")
-    p.add_argument("--heading-sigma", type=float, default=2.0, metavar="DEG",
-                   help="1-sigma of --initial-heading, degrees")
     p.add_argument("--reorder-window", type=float, default=None, metavar="S",
                    help="how late (s) a sample may arrive after later-stamped ones (default: "
                         "NavigatorOptions.reorder_window_s)")
@@ -149,14 +140,8 @@ def make_navigator(args, config, mission=None):
     elif args.init == "gt":
         from graphnav.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
-    aligner = {}
-    if args.initial_position is not None:
-        aligner["initial_lla"] = (math.radians(args.initial_position[0]), math.radians(args.initial_position[1]), 0.0)
-    if args.initial_heading is not None:
-        aligner["initial_heading_rad"] = math.radians(args.initial_heading)
-        aligner["heading_sigma_rad"] = math.radians(args.heading_sigma)
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
-                    tight=not args.method.endswith("LC"), options=nav_options, aligner_kwargs=aligner)
+                    tight=not args.method.endswith("LC"), options=nav_options, aligner_kwargs=aligner_kwargs(args))
     return nav, described
 
 

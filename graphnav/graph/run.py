@@ -41,11 +41,12 @@ MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
 def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
                     options: GraphOptions | None = None, mode: str = "online",
                     initial: InitialState | None = None, init: str = "auto", navigator_options=None,
-                    keep_keyframe_graphs: bool = False):
+                    keep_keyframe_graphs: bool = False, aligner_kwargs: dict | None = None):
     """The :class:`~graphnav.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
 
     ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
     ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
+    ``aligner_kwargs`` go to the :class:`~graphnav.align.Aligner` (e.g. ``initial_heading_rad``).
     """
     from graphnav.navigator import Navigator
     from graphnav.replay import first_ping_time
@@ -58,7 +59,7 @@ def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
     initial = initial_state(mission, initial, init, first_ping_time(mission))
     return Navigator(mission.config, MODES[mode], completer=completer if method.startswith("Graph-HN") else None,
                      initial=initial, graph_options=options or GraphOptions(), options=navigator_options,
-                     keep_keyframe_graphs=keep_keyframe_graphs)
+                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs)
 
 
 def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:
@@ -91,7 +92,8 @@ def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
 
 def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, options: GraphOptions | None = None,
               callback: Callable[[EpochEstimate], None] | None = None, mode: str = "online",
-              initial: InitialState | None = None, init: str = "auto") -> NavSolution:
+              initial: InitialState | None = None, init: str = "auto",
+              aligner_kwargs: dict | None = None) -> NavSolution:
     """Run a graph method over a recorded mission (a sample-by-sample replay through the Navigator).
 
     Args:
@@ -104,6 +106,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
         initial: state at the first keyframe (stamp ``initial.t``, default the first DVL ping).
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
 
     Returns:
         NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
@@ -120,7 +123,8 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
-    nav = graph_navigator(mission, method, completer, first_pass, mode, initial, init, keep_keyframe_graphs=batch)
+    nav = graph_navigator(mission, method, completer, first_pass, mode, initial, init, keep_keyframe_graphs=batch,
+                          aligner_kwargs=aligner_kwargs)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
         raise ConfigError(f"{method} on '{mission.name}': no estimate was made "
