@@ -63,11 +63,18 @@ class NavigatorOptions:
         keyframes: where keyframes go (:class:`~graphnav.keyframes.KeyframeOptions`).
         max_extrapolation_s: :meth:`Navigator.state_at` extrapolates at most this far beyond the newest IMU
             sample (s).
+        align_catch_up: when a sensor alignment completes, start the estimator at the first sample the aligner
+            holds (the aligned attitude carried back with the gyros, :meth:`graphnav.align.Aligner.result_at`)
+            and run it through the samples buffered meanwhile, so that the estimates cover the alignment time
+            too (they all arrive when the alignment completes); False starts it where the alignment ends.
+        align_buffer_s: the longest stretch of samples kept for the catch-up, s (the newest).
     """
 
     reorder_window_s: float = 0.2
     keyframes: KeyframeOptions = field(default_factory=KeyframeOptions)
     max_extrapolation_s: float = 0.1
+    align_catch_up: bool = True
+    align_buffer_s: float = 600.0
 
     def __post_init__(self):
         if self.reorder_window_s < 0:
@@ -116,10 +123,13 @@ class Navigator:
         self.options = options or NavigatorOptions()
         self._backend_kwargs = {"graph_options": graph_options, "ekf_options": ekf_options, "tight": tight,
                                 "keep_keyframe_graphs": keep_keyframe_graphs}
+        self._completer = completer
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
+        self._align_events: deque = deque()       # released samples kept during alignment (catch-up)
         self.backend = None
         self.aligner = None
         self.alignment = None
+        self.alignment_ready_t: float | None = None   # stamp at which the alignment completed
         self._heap: list = []             # aiding and DVL samples waiting, by (t, stream order, arrival)
         self._imu_q: deque = deque()      # IMU samples waiting, in time order (the 100 Hz stream: no heap)
         self._seq = 0
@@ -299,7 +309,8 @@ class Navigator:
             info["n_fixes"] = self.backend.n_fixes
         if self.alignment is not None:
             a = self.alignment
-            info["alignment"] = {"t": a.t, "heading_source": a.heading_source, **a.info}
+            info["alignment"] = {**a.info, "t": a.t, "heading_source": a.heading_source,
+                                 "completed_t": self.alignment_ready_t}
         return info
 
     # --- internals ----------------------------------------------------------------------------------
@@ -397,6 +408,11 @@ class Navigator:
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
                 self.keyframer.add_imu(t, *payload)
+            if self.options.align_catch_up:
+                events = self._align_events
+                events.append((stream, t, payload))
+                while events[0][1] < t - self.options.align_buffer_s:
+                    events.popleft()
             return self._align(stream, t, payload)
         k = self.keyframer
         if stream == "imu":
@@ -441,8 +457,32 @@ class Navigator:
             a.add_position_fix(t, *payload)
         if stream != "imu" or not a.ready:
             return []
+        events = self._align_events
+        t_first = next((e[1] for e in events if e[0] == "imu"), None)
+        if self.options.align_catch_up and t_first is not None:
+            from .align import AlignmentError
+            try:
+                al = a.result_at(t_first)
+            except AlignmentError as exc:
+                warnings.warn(f"navigator: alignment not carried back to t = {t_first:.3f} s ({exc}); the "
+                              "estimator starts where the alignment ends", RuntimeWarning, stacklevel=4)
+                al = None
+            if al is not None:
+                self.alignment = al
+                self.aligner = None
+                self.alignment_ready_t = t
+                # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer
+                self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
+                out = self._start(initial_from_alignment(al))
+                replayed = [e for e in events if e[1] >= t_first]
+                events.clear()
+                for stream_, t_, payload_ in replayed:
+                    out += self._dispatch(stream_, t_, payload_)
+                return out
+        events.clear()
         self.alignment = al = a.result()
         self.aligner = None
+        self.alignment_ready_t = t
         return self._start(initial_from_alignment(al))
 
     def _align_missing(self) -> str:

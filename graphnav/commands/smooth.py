@@ -134,7 +134,9 @@ def print_summary(summary: dict, file=None) -> None:
           f"of data in {summary['runtime_s']:.2f} s ({summary['realtime_factor']:.0f}x real time)")
     init = summary.get("initialisation") or {}
     if "heading_source" in init:
-        out(f"  initial state aligned from the sensors at t = {init['t']:.1f} s (heading: {init['heading_source']})")
+        done = init.get("completed_t")
+        out(f"  initial state aligned from the sensors at t = {init['t']:.1f} s (heading: {init['heading_source']}"
+            + (f"; alignment completed at t = {done:.1f} s)" if done is not None else ")"))
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
