@@ -86,6 +86,8 @@ class AlignOptions:
         max_window_s: the aligner keeps at most this much data (the newest), s; bounds memory when
             ``result`` is called late or never.
         coriolis_iterations: Wahba solutions (the Coriolis term of alpha uses the previous one).
+        estimate_accel_bias: estimate the accelerometer bias in the fit (observable when the vehicle turns;
+            the spec's turn-on sigma is its prior); False holds it at zero.
         velocity_window_s: the velocity at the end is the mean of the pings of this last stretch, each carried
             to the end with the aligned IMU, s (one ping has ~0.09 m/s noise per horizontal axis).
     """
@@ -99,6 +101,7 @@ class AlignOptions:
     unknown_depth_sigma_m: float = 100.0
     max_window_s: float = 600.0
     coriolis_iterations: int = 2
+    estimate_accel_bias: bool = True
     velocity_window_s: float = 10.0
 
     def __post_init__(self):
@@ -326,25 +329,30 @@ class Aligner:
         v_head_b = np.array([d[1] for d in dvl])
         t_end = max(t_imu[-1], t_dvl[-1])
 
-        # body attitude C_bt_b0 and int C_bt_b0 f dt at every IMU stamp (zero-order hold), then at any t
+        # body attitude C_bt_b0, int C_bt_b0 f dt and int C_bt_b0 dt at every IMU stamp (zero-order hold)
         dt = np.diff(t_imu)
         B = np.concatenate([np.eye(3)[None], prefix_products(so3_exp_batch(w_b[:-1] * dt[:, None]))])
         F = np.concatenate([np.zeros((1, 3)), np.cumsum(np.einsum("nij,nj->ni", B[:-1], f_b[:-1]) * dt[:, None], 0)])
+        M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(B[:-1] * dt[:, None, None], 0)])
 
         def body_at(t):
+            """(C_bt_b0, int C f dt, int C dt, IMU index) at stamps t: the last sample held (zero-order hold)."""
             t = np.atleast_1d(t)
             k = np.clip(np.searchsorted(t_imu, t, side="right") - 1, 0, len(t_imu) - 1)
             lag = (t - t_imu[k])[:, None]
-            return B[k] @ so3_exp_batch(w_b[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_b[k]) * lag, k
+            return (B[k] @ so3_exp_batch(w_b[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_b[k]) * lag,
+                    M[k] + B[k] * lag[:, :, None], k)
 
-        B_dvl, F_dvl, k_dvl = body_at(t_dvl)
+        B_dvl, F_dvl, M_dvl, k_dvl = body_at(t_dvl)
         # IMU velocity in the body frame: the DVL head's minus the lever-arm term omega x l
         v_b = v_head_b - np.cross(w_b[k_dvl], self.geometry.lever_arm_b)
         v_b0 = np.einsum("nij,nj->ni", B_dvl, v_b)
         r_b0 = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (v_b0[1:] + v_b0[:-1]) * np.diff(t_dvl)[:, None], 0)])
         G = _rotating_integral(omega_ie, g_n, t_dvl - t0)          # int_0^t C_nt_n0 g dt
-        beta = (F_dvl - F_dvl[0]) - (v_b0 - v_b0[0])
-        beta, r_b0 = beta[1:], r_b0[1:]
+        beta = ((F_dvl - F_dvl[0]) - (v_b0 - v_b0[0]))[1:]
+        M_k = (M_dvl - M_dvl[0])[1:]
+        r_b0 = r_b0[1:]
+        tau = t_dvl[1:] - t_dvl[0]
         C = np.eye(3)
         for _ in range(o.coriolis_iterations):
             alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
@@ -352,8 +360,38 @@ class Aligner:
             # of the first ping is common to every vector and tilts the whole fit
             rot, _ = Rotation.align_vectors(alpha - alpha.mean(0), beta - beta.mean(0))
             C = rot.as_matrix()
-        residual = (alpha - alpha.mean(0)) - (beta - beta.mean(0)) @ C.T
-        resid_rms = float(np.sqrt(np.mean(residual ** 2)))
+        # Gauss-Newton refinement with the accelerometer bias (observable in turns; a spec prior otherwise),
+        # weighted by the DVL noise of each ping (anisotropic: the vertical is better), giving the covariance
+        sigma_acc = cfg.imu.accel_noise_density
+        cov_dvl_b = self._dvl_velocity_covariance()
+        b_acc = np.zeros(3)
+        est_bias = o.estimate_accel_bias
+        for _ in range(3):
+            alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
+            C_B = C @ B_dvl[1:]
+            R = C_B @ cov_dvl_b @ np.swapaxes(C_B, 1, 2) + (sigma_acc ** 2 * tau)[:, None, None] * np.eye(3)
+            W = np.linalg.inv(R)
+            y = (beta - np.einsum("nij,j->ni", M_k, b_acc)) @ C.T
+            u = np.linalg.solve(W.sum(0), np.einsum("nij,nj->i", W, alpha - y))
+            res = alpha - u - y
+            n = len(res)
+            J = np.zeros((n, 3, 9))
+            J[:, :, 0:3] = skew(y)                              # d res / d phi (left perturbation, n0)
+            J[:, :, 3:6] = -np.eye(3)                           # d res / d u
+            J[:, :, 6:9] = C @ M_k                              # d res / d b_acc
+            H = np.einsum("nki,nkl,nlj->ij", J, W, J)
+            g_vec = np.einsum("nki,nkl,nl->i", J, W, res)
+            prior = np.zeros(9)
+            prior[6:9] = 1.0 / cfg.imu.accel_bias_sigma ** 2 if est_bias else 1e12
+            H += np.diag(prior)
+            g_vec[6:9] += prior[6:9] * b_acc
+            dx = -np.linalg.solve(H, g_vec)
+            C = Rotation.from_rotvec(dx[0:3]).as_matrix() @ C
+            b_acc = b_acc + dx[6:9] if est_bias else b_acc
+        chi2_dof = float(np.einsum("ni,nij,nj->", res, W, res) / max(3 * n - 9, 1))
+        P = np.linalg.inv(H) * max(1.0, chi2_dof)              # what the data say, if worse than the spec
+        cov_phi = P[0:3, 0:3]
+        resid_rms = float(np.sqrt(np.mean(res ** 2)))
 
         def nav_rotation(t):          # C_n0_nt = Exp(-omega_ie (t - t0))
             return Rotation.from_rotvec(-np.outer(np.atleast_1d(t) - t0, omega_ie)).as_matrix()
@@ -363,8 +401,13 @@ class Aligner:
         sigma_v_spec = self._dvl_velocity_sigma()
         sigma_v = max(sigma_v_spec, resid_rms)
         terms = gyrocompass_heading_terms(cfg, T, len(t_dvl), sigma_v, lat)
-        gc_sigma = _rss(terms)
         spec_terms = {k: v for k, v in terms.items() if k != "dvl"}
+        # the fit's covariance holds the DVL noise and the accelerometer bias (and what turns do to them);
+        # the gyro bias and random walk act through C_bt_b0, which the fit takes as exact: added here
+        gyro_var = terms["gyro_bias"] ** 2 + terms["gyro_arw"] ** 2
+        tilt_gyro_var = (cfg.imu.gyro_bias_sigma * T / 2) ** 2 + cfg.imu.gyro_noise_density ** 2 * T / 3
+        cov_phi = cov_phi + np.diag([tilt_gyro_var, tilt_gyro_var, gyro_var if np.isfinite(gyro_var) else 0.0])
+        gc_sigma = gyrocompass_sigma = float(np.sqrt(cov_phi[2, 2]))
         heading_source, heading_sigma = "gyrocompass", gc_sigma
         if self._gyrocompass_bias_limit() > o.max_heading_sigma_rad:
             gc_sigma = float("inf")
@@ -372,26 +415,26 @@ class Aligner:
             C_h, h_sigma, h_src = self._apply_heading(C, t_imu, B, w_b, nav_rotation, body_at)
             if h_sigma < gc_sigma:
                 C, heading_sigma, heading_source = C_h, h_sigma, h_src
+                cov_phi = cov_phi.copy()
+                cov_phi[2, :] = cov_phi[:, 2] = 0.0
+                cov_phi[2, 2] = h_sigma ** 2
 
         # --- state at t_end
-        B_end, F_end, _ = body_at(t_end)
+        B_end, F_end, M_end, _ = body_at(t_end)
         E_end = nav_rotation(t_end)[0]
         C_b_n = _orthonormalise(E_end @ C @ B_end[0])
         G_end = _rotating_integral(omega_ie, g_n, np.array([t_end - t0]))[0]
         # velocity at t_end: each recent ping carried to t_end with the IMU, averaged (one ping is noisy)
         recent = t_dvl >= t_dvl[-1] - o.velocity_window_s
-        v_n0_end = np.mean(v_b0[recent] @ C.T + (F_end[0] - F_dvl[recent]) @ C.T + (G_end - G[recent]), axis=0)
+        dF = (F_end[0] - F_dvl[recent]) - np.einsum("nij,j->ni", M_end[0] - M_dvl[recent], b_acc)
+        v_n0_end = np.mean((v_b0[recent] + dF) @ C.T + (G_end - G[recent]), axis=0)
         v_n = E_end @ v_n0_end
         v_n_dvl = np.einsum("nij,nj->ni", nav_rotation(t_dvl), v_b0 @ C.T)
 
-        tilt_sigma = float(np.sqrt((cfg.imu.accel_bias_sigma / cfg.gravity_mps2) ** 2
-                                   + (np.sqrt(12.0 / len(t_dvl)) * sigma_v / (cfg.gravity_mps2 * T)) ** 2
-                                   + (cfg.imu.gyro_bias_sigma * T / 2) ** 2))
-        # the heading error is a rotation about the n0 vertical, which the Earth has turned away from the local
-        # vertical by t_end: part of it shows as tilt (correlated with the heading error)
-        axis = E_end[:, 2]
-        cov_rot_nav = np.diag([tilt_sigma ** 2, tilt_sigma ** 2, 0.0]) + heading_sigma ** 2 * np.outer(axis, axis)
-        cov_rot = C_b_n.T @ cov_rot_nav @ C_b_n            # left (NED) to right (body) perturbation
+        # attitude covariance: left perturbation in n0 -> right perturbation in the body at t_end
+        A = C_b_n.T @ E_end
+        cov_rot = A @ cov_phi @ A.T
+        tilt_sigma = float(np.sqrt(max(cov_phi[0, 0], cov_phi[1, 1])))
         cov_v_n = self._velocity_covariance(C_b_n, v_b[-1], cov_rot, t_end - t_dvl[recent][0], int(recent.sum()))
 
         p_n, cov_p_n, origin_lla, pos_info = self._position(t_imu, t_dvl, v_n_dvl, t_end, v_n, cov_v_n,
@@ -400,18 +443,24 @@ class Aligner:
             "t_start": float(t0), "duration_s": float(t_end - t0), "dvl_span_s": T,
             "n_imu": len(t_imu), "n_dvl": len(t_dvl), "n_dvl_ignored": self.n_dvl_ignored,
             "lat_rad": lat, "heading_sigma_rad": float(heading_sigma), "tilt_sigma_rad": tilt_sigma,
-            "gyrocompass_sigma_rad": float(_rss(terms)), "gyrocompass_terms_rad": {k: float(v) for k, v in terms.items()},
+            "gyrocompass_sigma_rad": gyrocompass_sigma, "gyrocompass_sigma_formula_rad": _rss(terms),
+            "fit_chi2_per_dof": chi2_dof,
+            "accel_bias_sigma_mps2": np.sqrt(np.diag(P[6:9, 6:9])).tolist(), "gyrocompass_terms_rad": {k: float(v) for k, v in terms.items()},
             "heading_sigma_spec_rad": _rss(spec_terms), "sigma_v_spec_mps": sigma_v_spec,
             "wahba_residual_rms_mps": resid_rms, **pos_info,
         }
         return Alignment(float(t_end), C_b_n, v_n, p_n, origin_lla, cov_rot, cov_v_n, cov_p_n,
-                         np.zeros(3), np.zeros(3), heading_source, info)
+                         b_acc.copy(), np.zeros(3), heading_source, info)
 
     # --- pieces -----------------------------------------------------------------------------------
+    def _dvl_velocity_covariance(self) -> np.ndarray:
+        """Body-frame covariance of one 4-beam least-squares velocity from the beam noise, (m/s)^2."""
+        T_b = self.geometry.T_b
+        return self.config.dvl.beam_noise_std ** 2 * np.linalg.inv(T_b.T @ T_b)
+
     def _dvl_velocity_sigma(self) -> float:
         """Horizontal velocity 1-sigma of one ping from the beam noise and geometry (4 beams), m/s."""
-        T_b = self.geometry.T_b
-        cov = self.config.dvl.beam_noise_std ** 2 * np.linalg.inv(T_b.T @ T_b)
+        cov = self._dvl_velocity_covariance()
         return float(np.sqrt(max(cov[0, 0], cov[1, 1])))
 
     def _apply_heading(self, C, t_imu, B, w_b, nav_rotation, body_at):
@@ -429,7 +478,7 @@ class Aligner:
         t_h = np.clip(np.array([m[0] for m in meas]), t_imu[0], None)
         yaw = np.array([m[1] for m in meas])
         sig = np.array([m[2] for m in meas])
-        B_h, _, _ = body_at(t_h)
+        B_h = body_at(t_h)[0]
         E_h = nav_rotation(t_h)
         for _ in range(2):           # Earth-rate rotation and Rz do not commute exactly: iterate
             model = C_b_n_to_euler(E_h @ C @ B_h)[:, 2]
