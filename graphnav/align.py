@@ -16,28 +16,42 @@ The vehicle may be underway (turning, diving) from the first sample. Method (ine
       beta_k  = int C_bt_b0 f_b dt - (v_b0(t_k) - v_b0(t_a))                 (body b0, from IMU + DVL)
       alpha_k = -int C_nt_n0 g_n dt + omega_ie x C int v_b0 dt                (n0, gravity + Coriolis)
 
-  ``C`` is the solution of Wahba's problem over all pings (:meth:`scipy.spatial.transform.Rotation.
-  align_vectors`, SVD); the small Coriolis term, which needs ``C``, is iterated. Roll and pitch come from
-  the mean direction of the vectors (levelling, with the DVL velocity change removing the vehicle's
-  accelerations); heading comes from the slow turn of gravity in inertial space (gyrocompassing).
+  ``C`` starts as the solution of Wahba's problem over all pings (:meth:`scipy.spatial.transform.Rotation.
+  align_vectors`, SVD, with the initial velocity as a free offset: the vectors are centred); the small
+  Coriolis term, which needs ``C``, is iterated. A Gauss-Newton refinement then fits ``C``, the offset and
+  the accelerometer bias ``b_a`` (``beta_k`` loses ``int C_bt_b0 dt b_a``; prior: the spec's turn-on sigma)
+  with each ping weighted by its DVL noise (the vertical is ~4x better than the horizontal), and its inverse
+  information matrix is the attitude covariance. Roll and pitch come from the mean direction of the vectors
+  (levelling, the DVL velocity change removing the vehicle's accelerations); heading from the slow turn of
+  gravity in inertial space (gyrocompassing).
 
 Expected accuracy (1-sigma; ``L`` latitude, ``Omega`` Earth rate, ``g`` gravity, ``T`` alignment time,
-``N`` DVL pings, ``sigma_v`` velocity noise per axis of one ping):
+``N`` DVL pings, ``sigma_v`` velocity noise per horizontal axis of one ping):
 
 * heading, gyrocompassing: ``sqrt((b_g / (Omega cos L))^2 + (ARW / (Omega cos L sqrt(T)))^2
   + (b_a tan L / g)^2 + (sqrt(720 / N) sigma_v / (g Omega cos L T^2))^2)``. The first three terms are
-  the classic gyro-bias, angle-random-walk and accelerometer-bias limits (b_g gyro bias rad/s, ARW rad/sqrt(s)
-  = gyro noise density, b_a accelerometer bias m/s^2). The last is the DVL: heading shows up as a tilt
-  growing at ``psi Omega cos L``, i.e. a velocity error ``g psi Omega cos L t^2 / 2``, and a least-squares fit
-  of that quadratic to N noisy pings over T has that sigma. It falls with T^-2.5: with sigma_v = 0.03 m/s
-  at 1 Hz it is ~2.6 deg after 60 s, ~0.45 deg after 120 s and ~0.05 deg after 300 s. This is why a DVL-aided
-  alignment takes minutes even with a perfect gyro.
-* roll/pitch: ``sqrt((b_a / g)^2 + (sqrt(12 / N) sigma_v / (g T))^2 + (b_g T / 2)^2)``.
+  the classic (stationary) gyro-bias, angle-random-walk and accelerometer-bias limits (b_g gyro bias rad/s,
+  ARW rad/sqrt(s) = gyro noise density, b_a accelerometer bias m/s^2). The last is the DVL: a heading error
+  psi shows up as a tilt growing at ``psi Omega cos L``, i.e. a velocity error ``g psi Omega cos L t^2 / 2``,
+  and a least-squares fit of that quadratic to N noisy pings over T has that sigma. It falls with T^-2.5:
+  with the default DVL spec (0.042 m/s per beam, sigma_v = 0.087 m/s) at 1 Hz it is ~8 deg after 60 s,
+  ~1.4 deg after 120 s and ~0.14 deg after 300 s. This is why a DVL-aided alignment takes minutes even with
+  a perfect gyro. :func:`gyrocompass_heading_terms` gives the terms; ``Alignment.info`` reports them.
+* In turns the accelerometer bias is no longer the constant tilt of the stationary formula: a body-fixed bias
+  rotates with the vehicle and part of it looks like the heading signature (simulated, 50 micro-g, 120 s
+  with a 90 deg turn pair: ~1 deg). The fit estimates ``b_a`` and its covariance carries this coupling, so the
+  reported heading sigma is the fit's (DVL noise, accelerometer bias, geometry of the manoeuvres) plus the
+  gyro-bias and random-walk terms, scaled up when the residuals are larger than the DVL spec says.
+* roll/pitch: about ``sqrt((b_a / g)^2 + (sqrt(12 / N) sigma_v / (g T))^2 + (b_g T / 2)^2)``, plus the heading
+  error times the Earth's turn since t0 (the n0 vertical is no longer the local one): from the fit.
 
-``sigma_v`` is the larger of the DVL spec (beam noise through the beam geometry, 1 ping) and the RMS of the
-Wahba residuals (what the data say). Neglected: transport rate (as in the whole project: for a vehicle
-at v m/s it would add a heading error of ~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward), DVL scale
-and bias errors in turns (they enter the residual RMS).
+Neglected: transport rate (as in the whole project: for a vehicle at v m/s it would add a heading error of
+~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward), DVL scale factor and beam biases (they enter the
+residuals).
+
+:meth:`Aligner.result` gives the state at the last sample used (a streaming navigator starts there);
+:meth:`Aligner.result_at` at any stamp of the window, e.g. the first sample, for offline smoothing of a
+whole record.
 
 Frames and units: body FRD, NED, ``C_b_n`` body-to-NED, SI units, angles in rad, GTSAM's right
 perturbation for the attitude covariance (``C_true = C_est @ Exp(delta)``, delta in the body frame).
@@ -242,7 +256,6 @@ class Aligner:
     def add_depth(self, t: float, depth_m: float) -> None:
         """Depth of the IMU below the sea surface, m (positive down)."""
         self._depth.append((float(t), float(depth_m)))
-        del self._depth[:-1]            # only the latest is used
 
     def add_position_fix(self, t: float, lat: float, lon: float, sigma_m: float) -> None:
         """Horizontal position fix of the IMU (GNSS at the surface, USBL): lat, lon in rad, 1-sigma m."""
@@ -258,6 +271,7 @@ class Aligner:
             start = t_last - self.options.max_window_s
             del self._imu[:bisect.bisect_left([s[0] for s in self._imu], start)]
             del self._dvl[:bisect.bisect_left([s[0] for s in self._dvl], start)]
+            del self._depth[:bisect.bisect_left([s[0] for s in self._depth], start)]
 
     # --- readiness --------------------------------------------------------------------------------
     @property
@@ -313,6 +327,19 @@ class Aligner:
         Raises:
             AlignmentError: naming what is missing (IMU time, DVL bottom lock, a heading source).
         """
+        return self._solve(None)
+
+    def result_at(self, t: float) -> Alignment:
+        """The aligned state at any stamp t (s) inside the data the aligner holds, e.g. the first IMU sample, so
+        that an offline smoother can navigate the whole record (the attitude is known over the whole window:
+        ``C_b_n(t) = C_nt_n0^T C_b0_n0 C_bt_b0``; the velocity comes from the pings around t).
+
+        Raises:
+            AlignmentError: as :meth:`result`, or t outside the data held.
+        """
+        return self._solve(float(t))
+
+    def _solve(self, t_out: float | None) -> Alignment:
         missing = self.missing()
         if missing:
             raise AlignmentError("cannot align from the sensors: " + "; ".join(missing))
@@ -328,6 +355,10 @@ class Aligner:
         t_dvl = np.array([d[0] for d in dvl])
         v_head_b = np.array([d[1] for d in dvl])
         t_end = max(t_imu[-1], t_dvl[-1])
+        if t_out is None:
+            t_out = t_end
+        elif not t0 <= t_out <= t_end:
+            raise AlignmentError(f"result_at({t_out:.3f}): outside the aligner's data [{t0:.3f}, {t_end:.3f}] s")
 
         # body attitude C_bt_b0, int C_bt_b0 f dt and int C_bt_b0 dt at every IMU stamp (zero-order hold)
         dt = np.diff(t_imu)
@@ -419,28 +450,28 @@ class Aligner:
                 cov_phi[2, :] = cov_phi[:, 2] = 0.0
                 cov_phi[2, 2] = h_sigma ** 2
 
-        # --- state at t_end
-        B_end, F_end, M_end, _ = body_at(t_end)
-        E_end = nav_rotation(t_end)[0]
-        C_b_n = _orthonormalise(E_end @ C @ B_end[0])
-        G_end = _rotating_integral(omega_ie, g_n, np.array([t_end - t0]))[0]
-        # velocity at t_end: each recent ping carried to t_end with the IMU, averaged (one ping is noisy)
-        recent = t_dvl >= t_dvl[-1] - o.velocity_window_s
-        dF = (F_end[0] - F_dvl[recent]) - np.einsum("nij,j->ni", M_end[0] - M_dvl[recent], b_acc)
-        v_n0_end = np.mean((v_b0[recent] + dF) @ C.T + (G_end - G[recent]), axis=0)
-        v_n = E_end @ v_n0_end
+        # --- state at t_out
+        B_out, F_out, M_out, _ = body_at(t_out)
+        E_out = nav_rotation(t_out)[0]
+        C_b_n = _orthonormalise(E_out @ C @ B_out[0])
+        G_out = _rotating_integral(omega_ie, g_n, np.array([t_out - t0]))[0]
+        # velocity at t_out: the pings around it, each carried to t_out with the IMU, averaged (one ping is noisy)
+        near = np.abs(t_dvl - t_out) <= o.velocity_window_s / 2
+        near = near if near.any() else np.abs(t_dvl - t_out) == np.min(np.abs(t_dvl - t_out))
+        dF = (F_out[0] - F_dvl[near]) - np.einsum("nij,j->ni", M_out[0] - M_dvl[near], b_acc)
+        v_n = E_out @ np.mean((v_b0[near] + dF) @ C.T + (G_out - G[near]), axis=0)
         v_n_dvl = np.einsum("nij,nj->ni", nav_rotation(t_dvl), v_b0 @ C.T)
 
-        # attitude covariance: left perturbation in n0 -> right perturbation in the body at t_end
-        A = C_b_n.T @ E_end
+        # attitude covariance: left perturbation in n0 -> right perturbation in the body at t_out
+        A = C_b_n.T @ E_out
         cov_rot = A @ cov_phi @ A.T
         tilt_sigma = float(np.sqrt(max(cov_phi[0, 0], cov_phi[1, 1])))
-        cov_v_n = self._velocity_covariance(C_b_n, v_b[-1], cov_rot, t_end - t_dvl[recent][0], int(recent.sum()))
-
-        p_n, cov_p_n, origin_lla, pos_info = self._position(t_imu, t_dvl, v_n_dvl, t_end, v_n, cov_v_n,
+        cov_v_n = self._velocity_covariance(C_b_n, v_b[near][-1], cov_rot,
+                                            float(np.max(np.abs(t_out - t_dvl[near]))), int(near.sum()))
+        p_n, cov_p_n, origin_lla, pos_info = self._position(t_imu[0], t_dvl, v_n_dvl, t_out, cov_v_n,
                                                             heading_sigma)
         info = {
-            "t_start": float(t0), "duration_s": float(t_end - t0), "dvl_span_s": T,
+            "t_start": float(t0), "t_end": float(t_end), "duration_s": float(t_end - t0), "dvl_span_s": T,
             "n_imu": len(t_imu), "n_dvl": len(t_dvl), "n_dvl_ignored": self.n_dvl_ignored,
             "lat_rad": lat, "heading_sigma_rad": float(heading_sigma), "tilt_sigma_rad": tilt_sigma,
             "gyrocompass_sigma_rad": gyrocompass_sigma, "gyrocompass_sigma_formula_rad": _rss(terms),
@@ -449,7 +480,7 @@ class Aligner:
             "heading_sigma_spec_rad": _rss(spec_terms), "sigma_v_spec_mps": sigma_v_spec,
             "wahba_residual_rms_mps": resid_rms, **pos_info,
         }
-        return Alignment(float(t_end), C_b_n, v_n, p_n, origin_lla, cov_rot, cov_v_n, cov_p_n,
+        return Alignment(float(t_out), C_b_n, v_n, p_n, origin_lla, cov_rot, cov_v_n, cov_p_n,
                          b_acc.copy(), np.zeros(3), heading_source, info)
 
     # --- pieces -----------------------------------------------------------------------------------
@@ -503,49 +534,59 @@ class Aligner:
         prop = (imu.accel_noise_density ** 2 * dt_since_ping + (imu.accel_bias_sigma * dt_since_ping) ** 2)
         return C_b_n @ cov_b @ C_b_n.T + J @ cov_rot @ J.T + prop * np.eye(3)
 
-    def _position(self, t_imu, t_dvl, v_n_dvl, t_end, v_n_end, cov_v_n, heading_sigma):
-        """Position at t_end: dead reckoning with the aligned DVL velocities from the latest fix (NED origin
-        at the first fix) or from the local origin; depth from the depth sensor."""
+    def _position(self, t_start, t_dvl, v_n_dvl, t_out, cov_v_n, heading_sigma):
+        """Position at t_out: dead reckoning with the aligned DVL velocities from the latest fix (NED origin at
+        the first fix) or from the local origin at t_start; depth from the depth sensor."""
         o = self.options
         sigma_v = float(np.sqrt(np.trace(cov_v_n[:2, :2]) / 2))
-        dr_t = np.append(t_dvl, t_end)
-        dr_v = np.vstack([v_n_dvl, v_n_end])
+        # running integral of the ping velocities (trapezoid), held flat before the first and after the last
+        steps = 0.5 * (v_n_dvl[1:] + v_n_dvl[:-1]) * np.diff(t_dvl)[:, None]
+        travel = np.concatenate([[0.0], np.cumsum(np.linalg.norm(steps[:, :2], axis=1))])
+        run = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, 0)])
+
+        def integral(t):
+            """(int v_n dt, distance travelled) from the first ping to t, m."""
+            t = float(t)
+            at = np.array([np.interp(t, t_dvl, run[:, i]) for i in range(3)])
+            travelled = float(np.interp(t, t_dvl, travel))
+            edge = 0 if t < t_dvl[0] else -1                     # outside the pings: the nearest ping's velocity
+            extra = v_n_dvl[edge] * (t - t_dvl[edge]) if (t < t_dvl[0] or t > t_dvl[-1]) else np.zeros(3)
+            return at + extra, travelled + float(np.linalg.norm(extra[:2])) * (1 if edge else -1)
 
         def displacement(t_from):
-            """Dead-reckoned displacement from t_from to t_end, m, and its distance."""
-            t_from = float(np.clip(t_from, dr_t[0], dr_t[-1]))
-            grid = np.union1d(dr_t[dr_t > t_from], [t_from])
-            v = np.stack([np.interp(grid, dr_t, dr_v[:, i]) for i in range(3)], axis=-1)
-            steps = 0.5 * (v[1:] + v[:-1]) * np.diff(grid)[:, None]
-            return steps.sum(axis=0), float(np.sum(np.linalg.norm(steps[:, :2], axis=1))), t_end - t_from
+            """Dead-reckoned displacement from t_from to t_out (m), distance travelled (m), |time| (s)."""
+            (a, da), (b, db) = integral(t_from), integral(t_out)
+            return b - a, abs(db - da), abs(t_out - t_from)
 
         info = {}
         if self._fixes:
             _, lat0, lon0, _ = self._fixes[0]
             origin = (lat0, lon0, 0.0)
-            t_f, lat, lon, s_f = self._fixes[-1]
+            t_f, lat, lon, s_f = min(self._fixes, key=lambda f: abs(f[0] - t_out))   # the fix nearest t_out
             start = lla_to_ned(lat, lon, 0.0, origin)
-            d, dist, elapsed = displacement(t_f)
+            d, dist, elapsed = displacement(max(t_f, t_start))
             horizontal_var = s_f ** 2
             info["position_source"] = "fix"
         else:
             origin = self.initial_lla
             start = np.zeros(3) if self.initial_position_n is None else self.initial_position_n.copy()
-            d, dist, elapsed = displacement(t_imu[0])
+            d, dist, elapsed = displacement(t_start)
             horizontal_var = o.local_origin_sigma_m ** 2 if self.initial_lla is None else 0.0
             info["position_source"] = "initial_lla" if self.initial_lla is not None else "local origin at start"
         # dead-reckoning error: velocity sigma over the time, heading sigma over the distance
         dr_var = (sigma_v * elapsed) ** 2 + (heading_sigma * dist) ** 2
         p_n = np.asarray(start, float) + d
         cov = np.diag([horizontal_var + dr_var, horizontal_var + dr_var, 0.0])
-        if self._depth:
-            t_d, depth = self._depth[-1]
-            p_n[2] = depth + v_n_end[2] * (t_end - t_d)
-            cov[2, 2] = self.config.depth_noise_std ** 2 + cov_v_n[2, 2] * (t_end - t_d) ** 2
+        depth = [(t, z) for t, z in self._depth if t >= t_start - 1.0]
+        if depth:
+            t_d = np.array([x[0] for x in depth])
+            k = int(np.argmin(np.abs(t_d - t_out)))
+            p_n[2] = depth[k][1] + (integral(t_out)[0][2] - integral(t_d[k])[0][2])
+            cov[2, 2] = self.config.depth_noise_std ** 2 + cov_v_n[2, 2] * (t_out - t_d[k]) ** 2
             info["depth_source"] = "depth sensor"
         else:
             p_n[2] = (0.0 if self.initial_position_n is None else self.initial_position_n[2]) + \
-                displacement(t_imu[0])[0][2]
+                displacement(t_start)[0][2]
             cov[2, 2] = o.unknown_depth_sigma_m ** 2
             info["depth_source"] = "none (dead reckoning from depth 0 or initial_position_n)"
         info["dead_reckoning_distance_m"] = dist
@@ -572,12 +613,14 @@ def _orthonormalise(C: np.ndarray) -> np.ndarray:
 
 
 def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bool = True,
-                  t_end: float | None = None, **kwargs) -> Alignment:
+                  t_end: float | None = None, t_result: float | None = None, **kwargs) -> Alignment:
     """Feed a recorded :class:`~graphnav.mission.Mission` to an :class:`Aligner` in time order (IMU, DVL and,
     with ``use_depth``, the depth stream; never the ground truth) until it is ready (or until ``t_end``, s).
 
-    ``kwargs`` go to :class:`Aligner` (initial heading, position). Raises :class:`AlignmentError` when the
-    mission ends (or ``t_end`` comes) before the aligner is ready.
+    The state is given at the last sample used, or at ``t_result`` (s, inside the data used; e.g.
+    ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`). ``kwargs`` go to
+    :class:`Aligner` (initial heading, position). Raises :class:`AlignmentError` when the mission ends (or
+    ``t_end`` comes) before the aligner is ready.
     """
     aligner = Aligner(mission.config, options, **kwargs)
     events = [(t, 0, i) for i, t in enumerate(mission.imu.t)]
@@ -597,4 +640,4 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
             aligner.add_dvl(t, dvl.beams[i], dvl.valid[i])
         else:
             aligner.add_depth(t, depth.depth[i])
-    return aligner.result()
+    return aligner.result() if t_result is None else aligner.result_at(t_result)

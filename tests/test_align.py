@@ -77,6 +77,20 @@ def test_navigation_grade_attitude_covariance_covers_the_error(navigation_runs):
     assert chi2.ppf(0.001, k) < sum(nees) < chi2.ppf(0.999, k), nees
 
 
+def test_state_at_the_start_of_the_window():
+    """result_at(t0): the same alignment carried back to the first IMU sample (for offline smoothing)."""
+    mission = simulate_mission(250.0, "navigation", 5).slice(120.0, 245.0)
+    a = align_mission(mission, AlignOptions(duration_s=DURATION_S), t_result=mission.t0)
+    assert a.t == mission.t0
+    C_true, v_true, _ = truth(mission, a.t)
+    e = attitude_error(a.C_b_n, C_true)
+    assert e @ np.linalg.solve(a.cov_rot, e) < chi2.ppf(0.999, 3)
+    assert np.all(np.abs(a.v_n - v_true) < 3 * np.sqrt(np.diag(a.cov_v_n)))
+    assert np.allclose(a.p_n[:2], 0.0) and abs(a.p_n[2] - truth(mission, a.t)[2][2]) < 0.2
+    with pytest.raises(AlignmentError, match="outside"):
+        align_mission(mission, AlignOptions(duration_s=DURATION_S), t_result=mission.t0 - 1.0)
+
+
 def test_mems_without_heading_source_is_refused_with_a_clear_message():
     mission = simulate_mission(30.0, "mems", 1)
     aligner = Aligner(mission.config, AlignOptions(levelling_duration_s=10.0))
