@@ -314,7 +314,7 @@ class Aligner:
                        f"give a heading error of {np.degrees(limit):.1f} deg (limit "
                        f"{np.degrees(o.max_heading_sigma_rad):g} deg, AlignOptions.max_heading_sigma_rad)")
                 out.append(f"heading cannot be determined by gyrocompassing: {why}; supply a heading source "
-                           "(add_heading from an AHRS/magnetometer, or initial_heading_rad / --initial-heading)")
+                           "(add_heading from an AHRS/magnetometer, or Aligner(initial_heading_rad=...))")
         return out
 
     @property
