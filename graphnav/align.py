@@ -136,7 +136,8 @@ class Alignment:
     """Initial navigation state of the IMU from the aligner.
 
     Attributes:
-        t: stamp of the state, s (IMU clock): the last sample the aligner used.
+        t: stamp of the state, s (IMU clock): the last sample the aligner used (``result``), or the stamp asked
+            for (``result_at``).
         C_b_n: (3,3) body-to-NED at t.
         v_n: (3,) NED velocity at t, m/s.
         p_n: (3,) NED position at t relative to ``origin_lla`` (or to the local origin: the vehicle's position
@@ -314,7 +315,7 @@ class Aligner:
                        f"give a heading error of {np.degrees(limit):.1f} deg (limit "
                        f"{np.degrees(o.max_heading_sigma_rad):g} deg, AlignOptions.max_heading_sigma_rad)")
                 out.append(f"heading cannot be determined by gyrocompassing: {why}; supply a heading source "
-                           "(add_heading from an AHRS/magnetometer, or initial_heading_rad / --initial-heading)")
+                           "(add_heading from an AHRS/magnetometer, or Aligner(initial_heading_rad=...))")
         return out
 
     @property
