@@ -70,9 +70,9 @@ from scipy.stats import chi2
 from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
+from .health import HealthOptions, NisMonitor
 from .history import BeamHistory
 from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline
-from .metrics import interpolate_gt
 from .mission import Mission, gap_variances
 from .rotations import skew, so3_exp_batch
 from .solution import NavSolution
@@ -117,6 +117,13 @@ class EkfOptions:
             changes exactly); with them the white-noise inflation for bias/scale defaults to 0.
         sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
         sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
+        health: :class:`graphnav.health.HealthOptions` of the NIS monitor; its ``lockout_rejections``
+            consecutive gated pings trigger a re-acquisition.
+        reacquire: after a lockout, re-acquire (see :meth:`ErrorStateEkf.reacquire`) instead of staying
+            pure inertial. Without it the filter can reject every ping of a mission (seen on a real
+            trajectory that starts inside a fast turn: 400 of 400 pings gated, 262 m/s VRMSE).
+        sigma_att_reacq_rad: misalignment sigma per NED axis added at a re-acquisition, rad.
+        sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
     """
 
     lever_arm: bool | None = None
@@ -134,6 +141,10 @@ class EkfOptions:
     dvl_error_states: bool = False
     sigma_dvl_scale0: float | None = None
     sigma_beam_bias0: float | None = None
+    health: HealthOptions = field(default_factory=HealthOptions)
+    reacquire: bool = True
+    sigma_att_reacq_rad: float = float(np.deg2rad(2.0))
+    sigma_v_reacq: float = 0.5
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -158,10 +169,14 @@ class ErrorStateEkf:
         state: initial nominal state.
         options: tuning; default :class:`EkfOptions`.
         bias_acc, bias_gyro: initial bias estimates, m/s^2 and rad/s (default zero).
+        name: estimator name in health warnings (e.g. ``"EKF TC"``).
+
+    Attributes:
+        health: the :class:`graphnav.health.NisMonitor` fed with the NIS of every update (gated or not).
     """
 
     def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
-                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None):
+                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None, name: str = "EKF"):
         self.config = config
         self.options = opts = options or EkfOptions()
         self.strapdown = Strapdown.from_config(config)
@@ -205,6 +220,7 @@ class ErrorStateEkf:
         self._skew_wie = skew(self.strapdown.omega_ie_n)
         self.n_updates = 0
         self.n_gated = 0
+        self.health = NisMonitor(name, opts.health)
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -285,7 +301,10 @@ class ErrorStateEkf:
         PHt = self.P @ H.T
         S = H @ PHt + R
         S_inv_dz = np.linalg.solve(S, dz)
-        if self.options.gating and dz @ S_inv_dz > self._gate[min(len(dz), 4)]:
+        nis = float(dz @ S_inv_dz)
+        gated = self.options.gating and not nis <= self._gate[min(len(dz), 4)]
+        self.health.record(self.state.t, nis, len(dz), accepted=not gated)
+        if gated:
             self.n_gated += 1
             return False
         K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
@@ -323,6 +342,12 @@ class ErrorStateEkf:
         A = self.T_b[used]
         R_v = np.linalg.inv(A.T @ (A / var[:, None]))
         G = R_v @ (A.T / var)
+        if self._update(G @ (h[used] - beams[used]), G @ H[used], R_v):
+            return True
+        if not self._locked_out():
+            return False
+        self.reacquire(beams, omega_b, sigma_extra)
+        h, H = self.predicted_beams(omega_b)
         return self._update(G @ (h[used] - beams[used]), G @ H[used], R_v)
 
     def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
@@ -338,12 +363,70 @@ class ErrorStateEkf:
         var = self.beam_variance(y)
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
+        if self._update(h[used] - y, H[used], np.diag(var)):
+            return True
+        if not self._locked_out():
+            return False
+        self.reacquire(beams, omega_b, sigma_extra)
+        h, H = self.predicted_beams(omega_b)
         return self._update(h[used] - y, H[used], np.diag(var))
+
+    # --- re-acquisition ------------------------------------------------------------------------------
+    def _locked_out(self) -> bool:
+        return (self.options.reacquire and self.options.gating
+                and self.health.rejection_run >= self.options.health.lockout_rejections)
+
+    def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> str:
+        """Recover from a gating lockout with the current ping ``beams`` (4,) m/s (NaN = missing).
+
+        A lockout means the state has left the region its covariance describes, so that the gate rejects
+        the very measurements that could correct it. As robust (fault-tolerant) INS/DVL filters do, the
+        filter falls back on the measurements: with >= 3 beams the velocity is re-initialised from their
+        weighted least-squares fix (``v_n = C_b_n (v_d_b - (omega_b - b_g) x l_b)``, covariance
+        ``C R_v C^T`` plus the attitude sigma's share, correlations with the other states dropped); with
+        fewer, the velocity variance is inflated so that the rejected innovation lies inside the gate
+        (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
+        ``sigma_att_reacq_rad^2`` per axis, since an attitude error (e.g. a start inside a fast turn) is
+        the usual cause and must be observable again through the velocity updates.
+        The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
+        """
+        opts = self.options
+        used = np.isfinite(beams)
+        P = self.P
+        att_var = opts.sigma_att_reacq_rad ** 2
+        P[IE, IE] += att_var * np.eye(3)
+        C = self.state.C_b_n
+        if used.sum() >= 3:
+            var = self.beam_variance(beams[used])
+            if sigma_extra is not None:
+                var = var + sigma_extra[used] ** 2
+            A = self.T_b[used]
+            R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+            v_d_b = R_v @ (A.T @ (beams[used] / var))
+            v_old = self.state.v_n
+            self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
+            speed = float(np.linalg.norm(self.state.v_n))
+            P[IV, :] = 0.0
+            P[:, IV] = 0.0
+            P[IV, IV] = C @ R_v @ C.T + (speed ** 2 * att_var + opts.sigma_v0 ** 2) * np.eye(3)
+            how = (f"velocity re-initialised from a {int(used.sum())}-beam least-squares fix (changed by "
+                   f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
+                   f"+{np.rad2deg(opts.sigma_att_reacq_rad):.3g} deg")
+        else:
+            h, _ = self.predicted_beams(omega_b)
+            worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0
+            sigma = max(2.0 * worst, opts.sigma_v_reacq)
+            P[IV, IV] += sigma ** 2 * np.eye(3)
+            how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} beam(s): no velocity fix), attitude "
+                   f"sigma +{np.rad2deg(opts.sigma_att_reacq_rad):.3g} deg")
+        self.P = 0.5 * (P + P.T)
+        self.health.reacquired(self.state.t, how)
+        return how
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
-    p, v, C = interpolate_gt(mission.gt, np.array([t0]))
-    return StrapdownState(t0, C[0], v[0], p[0])
+    p, v, C = mission.gt.at(t0)
+    return StrapdownState(t0, C, v, p)
 
 
 def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
@@ -388,7 +471,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
     seg_w = imu.omega_b[seg_imu]
     ping_w = interp_rows(ping_t, imu.t, imu.omega_b)
 
-    ekf = ErrorStateEkf(mission.config, initial, options)
+    ekf = ErrorStateEkf(mission.config, initial, options, name=f"EKF {method}")
     history = BeamHistory(completer.n_past) if hybrid else None
     K = len(ping_t)
     out_p, out_v = np.empty((K, 3)), np.empty((K, 3))
@@ -418,6 +501,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
     info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
             "dvl_scale": ekf.dvl_scale.copy(), "beam_bias": ekf.beam_bias.copy(),
-            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps)}
+            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps),
+            "health": ekf.health.summary()}
     return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
                        runtime_s=time.perf_counter() - wall, info=info)

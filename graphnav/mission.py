@@ -294,6 +294,41 @@ class GroundTruth:
         return GroundTruth(self.t[idx], self.p_n[idx], self.v_n[idx], self.C_b_n[idx],
                            self.origin_lla, self.source)
 
+    def at(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The ground truth at stamp(s) ``t`` (s) inside its span: the one interpolator every caller uses.
+
+        Position and velocity are interpolated linearly; the attitude by spherical linear interpolation of
+        the rotations (:class:`scipy.spatial.transform.Slerp`: constant body rate between two samples), so
+        at a sample stamp all three are that sample exactly, and between samples the rotation lies on the
+        geodesic (never a renormalised matrix blend, never the nearest sample).
+
+        Returns:
+            (p_n m, v_n m/s, C_b_n): (3,), (3,), (3,3) for a scalar ``t``; (K,3), (K,3), (K,3,3) for (K,).
+
+        Raises:
+            DataError: a stamp lies outside the ground-truth span (no extrapolation).
+        """
+        from scipy.spatial.transform import Rotation, Slerp
+
+        from .timeseries import interp_rows
+        scalar = np.ndim(t) == 0
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        outside = np.flatnonzero(~((t >= self.t[0]) & (t <= self.t[-1])))
+        if outside.size:
+            raise DataError(f"stamp {t[outside[0]]:.3f} s outside the ground truth span "
+                            f"[{self.t[0]:.3f}, {self.t[-1]:.3f}] s", self.source, int(outside[0]), "t")
+        if len(self.t) == 1:
+            p, v = np.repeat(self.p_n, len(t), axis=0), np.repeat(self.v_n, len(t), axis=0)
+            C = np.repeat(self.C_b_n, len(t), axis=0)
+        else:
+            p, v = interp_rows(t, self.t, self.p_n), interp_rows(t, self.t, self.v_n)
+            C = Slerp(self.t, Rotation.from_matrix(self.C_b_n))(t).as_matrix()
+            # Slerp round-trips a sample through a quaternion; return the stored matrix there (exact)
+            i = np.searchsorted(self.t, t)
+            hit = (i < len(self.t)) & (self.t[np.minimum(i, len(self.t) - 1)] == t)
+            C[hit] = self.C_b_n[i[hit]]
+        return (p[0], v[0], C[0]) if scalar else (p, v, C)
+
     @property
     def v_b(self) -> np.ndarray:
         """Body-frame velocity (K,3), m/s."""
@@ -361,14 +396,26 @@ class Mission:
         return self.t1 - self.t0
 
     def slice(self, t_start: float, t_end: float) -> "Mission":
-        """The part of the mission with ``t_start <= t <= t_end`` (s) in every stream."""
+        """The part of the mission with ``t_start <= t <= t_end`` (s) in every stream.
+
+        The ground truth keeps, besides its samples inside, the sample on either side of the span (when
+        there is one), so that :meth:`GroundTruth.at` can interpolate it at every stamp of the slice (a
+        1 Hz ground truth would otherwise start up to 1 s after the first IMU sample or DVL ping).
+        """
         def sel(t):
             return (t >= t_start) & (t <= t_end)
+
+        def bracket(t):
+            i0 = max(int(np.searchsorted(t, t_start, side="right")) - 1, 0)
+            i1 = min(int(np.searchsorted(t, t_end, side="left")), len(t) - 1)
+            keep = np.zeros(len(t), dtype=bool)
+            keep[i0:i1 + 1] = True
+            return keep
         return dataclasses.replace(
             self,
             imu=self.imu.take(sel(self.imu.t)),
             dvl=self.dvl.take(sel(self.dvl.t)),
-            gt=None if self.gt is None else self.gt.take(sel(self.gt.t)),
+            gt=None if self.gt is None else self.gt.take(bracket(self.gt.t)),
             depth=None if self.depth is None else self.depth.take(sel(self.depth.t)),
             meta={**self.meta, "slice": (t_start, t_end)},
         )

@@ -67,7 +67,9 @@ def _setup(mission, method, completer, options, mode, initial):
     builder = KeyframeBuilder(mission, options, completer if method.startswith("Graph-HN") else None)
     if initial is None:
         initial = InitialState.from_ground_truth(mission, builder.times[0])
-    return make_estimator(mode, builder, initial), builder
+    estimator = make_estimator(mode, builder, initial)
+    estimator.health.estimator = method
+    return estimator, builder
 
 
 def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, options: GraphOptions | None = None,
@@ -107,7 +109,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
         if callback is not None:
             callback(est)
     info = {"mode": mode, "update_s": list(estimator.update_times), "recovered": estimator.n_recovered,
-            "online_s": time.perf_counter() - start}
+            "online_s": time.perf_counter() - start, "health": estimator.health.summary()}
     if batch:
         try:
             estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
