@@ -122,7 +122,11 @@ class EkfOptions:
         reacquire: after a lockout, re-acquire (see :meth:`ErrorStateEkf.reacquire`) instead of staying
             pure inertial. Without it the filter can reject every ping of a mission (seen on a real
             trajectory that starts inside a fast turn: 400 of 400 pings gated, 262 m/s VRMSE).
-        sigma_att_reacq_rad: misalignment sigma per NED axis added at a re-acquisition, rad.
+        sigma_att_reacq_rad: misalignment sigma per NED axis added at a re-acquisition, rad; doubled at each
+            further re-acquisition within ``reacq_escalate_s`` of the previous one (the first did not
+            cover the error), up to ``sigma_att_reacq_max_rad``.
+        reacq_escalate_s: see ``sigma_att_reacq_rad``, s.
+        sigma_att_reacq_max_rad: cap of the escalated misalignment sigma, rad.
         sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
     """
 
@@ -144,6 +148,8 @@ class EkfOptions:
     health: HealthOptions = field(default_factory=HealthOptions)
     reacquire: bool = True
     sigma_att_reacq_rad: float = float(np.deg2rad(2.0))
+    reacq_escalate_s: float = 30.0
+    sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
     sigma_v_reacq: float = 0.5
 
 
@@ -221,6 +227,8 @@ class ErrorStateEkf:
         self.n_updates = 0
         self.n_gated = 0
         self.health = NisMonitor(name, opts.health)
+        self._reacq_level = 0
+        self._reacq_t = -np.inf
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -346,7 +354,8 @@ class ErrorStateEkf:
             return True
         if not self._locked_out():
             return False
-        self.reacquire(beams, omega_b, sigma_extra)
+        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+            return True                            # this ping made the velocity fix
         h, H = self.predicted_beams(omega_b)
         return self._update(G @ (h[used] - beams[used]), G @ H[used], R_v)
 
@@ -367,7 +376,8 @@ class ErrorStateEkf:
             return True
         if not self._locked_out():
             return False
-        self.reacquire(beams, omega_b, sigma_extra)
+        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+            return True                            # this ping made the velocity fix
         h, H = self.predicted_beams(omega_b)
         return self._update(h[used] - y, H[used], np.diag(var))
 
@@ -382,18 +392,23 @@ class ErrorStateEkf:
         A lockout means the state has left the region its covariance describes, so that the gate rejects
         the very measurements that could correct it. As robust (fault-tolerant) INS/DVL filters do, the
         filter falls back on the measurements: with >= 3 beams the velocity is re-initialised from their
-        weighted least-squares fix (``v_n = C_b_n (v_d_b - (omega_b - b_g) x l_b)``, covariance
-        ``C R_v C^T`` plus the attitude sigma's share, correlations with the other states dropped); with
+        weighted least-squares fix (``v_n = C_b_n (v_d_b - (omega_b - b_g) x l_b)``; its error
+        ``-[v_n]x eps + C n_v`` sets the velocity rows of P: ``C R_v C^T`` plus the misalignment's share,
+        correlated with eps; the ping is then used up); with
         fewer, the velocity variance is inflated so that the rejected innovation lies inside the gate
         (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
-        ``sigma_att_reacq_rad^2`` per axis, since an attitude error (e.g. a start inside a fast turn) is
+        ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error (e.g. a start inside a fast turn) is
         the usual cause and must be observable again through the velocity updates.
         The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
         """
         opts = self.options
         used = np.isfinite(beams)
         P = self.P
-        att_var = opts.sigma_att_reacq_rad ** 2
+        t = self.state.t
+        self._reacq_level = self._reacq_level + 1 if t - self._reacq_t < opts.reacq_escalate_s else 0
+        self._reacq_t = t
+        sigma_att = min(opts.sigma_att_reacq_rad * 2.0 ** self._reacq_level, opts.sigma_att_reacq_max_rad)
+        att_var = sigma_att ** 2
         P[IE, IE] += att_var * np.eye(3)
         C = self.state.C_b_n
         if used.sum() >= 3:
@@ -405,20 +420,22 @@ class ErrorStateEkf:
             v_d_b = R_v @ (A.T @ (beams[used] / var))
             v_old = self.state.v_n
             self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
-            speed = float(np.linalg.norm(self.state.v_n))
-            P[IV, :] = 0.0
-            P[:, IV] = 0.0
-            P[IV, IV] = C @ R_v @ C.T + (speed ** 2 * att_var + opts.sigma_v0 ** 2) * np.eye(3)
+            # v_hat = C_hat v_b: its error is the fix's noise plus the misalignment's share,
+            # dv = -[v_hat]x eps + C n_v, so it stays correlated with eps (and through it with the rest)
+            J = -skew(self.state.v_n)
+            P[IV, :] = J @ P[IE, :]
+            P[:, IV] = P[IV, :].T
+            P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
             how = (f"velocity re-initialised from a {int(used.sum())}-beam least-squares fix (changed by "
                    f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
-                   f"+{np.rad2deg(opts.sigma_att_reacq_rad):.3g} deg")
+                   f"+{np.rad2deg(sigma_att):.3g} deg")
         else:
             h, _ = self.predicted_beams(omega_b)
             worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0
             sigma = max(2.0 * worst, opts.sigma_v_reacq)
             P[IV, IV] += sigma ** 2 * np.eye(3)
             how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} beam(s): no velocity fix), attitude "
-                   f"sigma +{np.rad2deg(opts.sigma_att_reacq_rad):.3g} deg")
+                   f"sigma +{np.rad2deg(sigma_att):.3g} deg")
         self.P = 0.5 * (P + P.T)
         self.health.reacquired(self.state.t, how)
         return how
