@@ -127,6 +127,7 @@ def run(args) -> int:
         "duration_s": mission.duration, "runtime_s": wall,
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "update_timing": update_timing(sol.info.get("update_s")),
+        "health": sol.info.get("health"),
         "accuracy": accuracy_summary(written, mission, outages) if len(written.t) else {},
         "files": {"online_csv": str(csv_path)},
     }

@@ -97,6 +97,7 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
 
 
 def print_summary(summary: dict) -> None:
+    from graphnav.health import health_line
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
     print(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
@@ -112,6 +113,11 @@ def print_summary(summary: dict) -> None:
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
             print(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
+        if other.get("health") and not other["health"]["ok"]:
+            print(f"  compared {name} {health_line(other['health'])}")
+    line = health_line(summary.get("health"))
+    if line:
+        print(f"  {line}")
     timing = summary.get("update_timing")
     if timing:
         print(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
@@ -160,8 +166,9 @@ def run(args) -> int:
         "imu_grade": args.imu_grade, "completer": sol.info.get("completer"),
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages),
-        "compared": {o.method: accuracy_summary(o, mission, outages) for o in others},
+        "accuracy": accuracy_summary(sol, mission, outages), "health": sol.info.get("health"),
+        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": o.info.get("health")}
+                     for o in others},
     }
     if not args.no_plots:
         plots = make_plots(out, mission, [*others, sol], outages,
