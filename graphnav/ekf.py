@@ -442,7 +442,7 @@ class ErrorStateEkf:
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
-    p, v, C = mission.gt.at(t0)
+    p, v, C = mission.gt.at(t0, mission.imu)
     return StrapdownState(t0, C, v, p)
 
 

@@ -69,12 +69,18 @@ def main(argv=None) -> int:
     p.add_argument("--window", type=float, default=30.0, help="scored window length, s")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--out", default="out/start_sweep.json")
+    p.add_argument("--table", metavar="JSON", help="only print the table of a (possibly partial) --out file")
     args = p.parse_args(argv)
+    if args.table:
+        records = json.loads(Path(args.table).read_text())
+        print(f"{len({(r['trajectory'], r['t_start']) for r in records})} (trajectory, start) pairs from {args.table}\n")
+        print(table(records, args.methods, args.scenarios))
+        return 0
     root = Path(args.data) if args.data else akit_dir()
     if root is None:
         p.error("no A-KIT data (set GRAPHNAV_DATA or --data)")
     folders = [f for f in list_akit(root) if not args.trajectories or Path(f).name in args.trajectories]
-    jobs = [(str(f), sc) for f in folders for sc in args.scenarios]
+    jobs = [(str(f), sc) for sc in args.scenarios for f in folders]      # scenario by scenario
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     records: list[dict] = []

@@ -45,12 +45,13 @@ class InitialState:
 
     @classmethod
     def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":
-        """Ground truth at t (:meth:`graphnav.mission.GroundTruth.at`: slerp attitude), zero bias."""
+        """Ground truth at t (:meth:`graphnav.mission.GroundTruth.at`, attitude carried by the gyro between
+        the samples), zero bias."""
         gt = mission.gt
         if gt is None:
             raise ConfigError(f"mission '{mission.name}' has no ground truth to initialise the graph from; "
                               "pass an InitialState")
-        p, v, C = gt.at(t)
+        p, v, C = gt.at(t, mission.imu)
         return cls(gtsam.Pose3(gtsam.Rot3(C), p), v)
 
 

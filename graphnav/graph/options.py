@@ -72,11 +72,6 @@ class GraphOptions:
         max_keyframe_gap_s: insert IMU-only keyframes when the DVL is silent for longer than this, s.
         imu_keyframe_interval_s: spacing of IMU-only keyframes inside such a gap, s.
         prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
-            The attitude prior must cover the ground truth's own error at the start: between 1 Hz GT samples
-            inside a fast turn the interpolated roll is off by 1-3 deg (A-KIT Trajectory6 at 0 s, 13 deg/s).
-            With 0.05 deg the graph held that attitude, integrated the misprojected gravity and sat 1.3 m/s
-            off for 30 s (start VRMSE 0.69 m/s; Trajectory11 at 340 s: 0.75); 0.5 deg: 0.069 and 0.199
-            (``scripts/start_sweep.py``).
         prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
         lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
         batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
@@ -105,7 +100,7 @@ class GraphOptions:
     wildfire_threshold: float = 1e-2
     max_keyframe_gap_s: float = 2.0
     imu_keyframe_interval_s: float = 1.0
-    prior_rot_sigma: float = np.deg2rad(0.5)
+    prior_rot_sigma: float = np.deg2rad(0.05)
     prior_pos_sigma: float = 1.0
     prior_vel_sigma: float = 0.05
     prior_acc_bias_sigma: float | None = None
