@@ -154,7 +154,7 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
     ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
     start isolates what the outage cost (the error at the start is the same dead-reckoning drift for all)."""
     def err(t):
-        return interp_rows(t, sol.t, sol.p_n[:, :2]) - interp_rows(t, gt.t, gt.p_n[:, :2])
+        return interp_rows(t, sol.t, sol.p_n[:, :2]) - gt.at(t)[0][:2]
     return float(np.linalg.norm(err(t_end) - err(t_start)))
 
 
