@@ -58,6 +58,12 @@ their completer sigma^2.
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
 normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
 b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+
+Health: every update's NIS (gated or not) goes to a :class:`graphnav.health.NisMonitor` (``info["health"]``:
+chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
+``HealthOptions.lockout_rejections`` rejected pings in a row it re-acquires (:meth:`ErrorStateEkf.reacquire`:
+velocity from a >= 3-beam least-squares fix, or covariance inflation with fewer beams; attitude variance
+inflated) and says so (``scripts/lockout_demo.py``).
 """
 from __future__ import annotations
 

@@ -88,6 +88,7 @@ def main(argv=None) -> int:
     p.add_argument("--window", type=float, default=30.0, help="scored window length, s")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--out", default="out/start_sweep.json")
+    p.add_argument("--resume", action="store_true", help="keep the records in --out and skip their starts")
     p.add_argument("--table", metavar="JSON", help="only print the table of a (possibly partial) --out file")
     args = p.parse_args(argv)
     if args.table:
@@ -102,7 +103,9 @@ def main(argv=None) -> int:
     jobs = ordered_jobs(folders, args.scenarios, args.step, args.length)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    records: list[dict] = []
+    records: list[dict] = json.loads(out.read_text()) if args.resume and out.exists() else []
+    done = {(r["trajectory"], r["scenario"], r["t_start"]) for r in records}
+    jobs = [j for j in jobs if (_mission(j[0]).name, j[1], j[2]) not in done]
     start = time.perf_counter()
     os.environ.update({k: "1" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
