@@ -60,7 +60,8 @@ class GraphBackend(_Aided):
         initial: state at the first keyframe.
     """
 
-    def __init__(self, config: SensorConfig, options: GraphOptions | None, mode: str, initial: InitialState):
+    def __init__(self, config: SensorConfig, options: GraphOptions | None, mode: str, initial: InitialState,
+                 name: str = "graph"):
         self.ctx = GraphContext(config, options or GraphOptions())
         if mode == "isam2":
             self.estimator = OnlineGraph(self.ctx, initial)
@@ -68,6 +69,7 @@ class GraphBackend(_Aided):
             self.estimator = FixedLagGraph(self.ctx, initial)
         else:
             raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag' or 'isam2'")
+        self.estimator.health.estimator = name
         self.mode = mode
         self.origin_lla = initial.origin_lla
         self._initial = initial
@@ -88,7 +90,8 @@ class GraphBackend(_Aided):
     @property
     def info(self) -> dict:
         e = self.estimator
-        return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered}
+        return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
+                "health": e.health.summary()}
 
 
 def split_specific_force(imu: ImuSegments) -> np.ndarray:
@@ -120,7 +123,8 @@ class EkfBackend(_Aided):
         initial: state at the first keyframe; its covariances, when given, replace the options' initial sigmas.
     """
 
-    def __init__(self, config: SensorConfig, options: EkfOptions | None, tight: bool, initial: InitialState):
+    def __init__(self, config: SensorConfig, options: EkfOptions | None, tight: bool, initial: InitialState,
+                 name: str = "EKF"):
         options = options or EkfOptions()
         C = initial.pose.rotation().matrix()
         if initial.cov_pose is not None:       # body-frame rotation tangent -> NED misalignment (diagonal)
@@ -130,7 +134,8 @@ class EkfBackend(_Aided):
             options = _replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
         state = StrapdownState(float(initial.t), C, np.asarray(initial.v_n, float).copy(),
                                np.asarray(initial.pose.translation(), float).copy())
-        self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope())
+        self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
+                                 name=name)
         self.tight = tight
         self.origin_lla = initial.origin_lla
         self.n_completed = 0
@@ -186,7 +191,8 @@ class EkfBackend(_Aided):
         e = self.ekf
         return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
-                "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times)}
+                "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
+                "health": e.health.summary()}
 
 
 def _replace(options, **changes):
@@ -195,13 +201,15 @@ def _replace(options, **changes):
 
 
 def make_backend(name: str, config: SensorConfig, initial: InitialState, *, graph_options: GraphOptions | None = None,
-                 ekf_options: EkfOptions | None = None, tight: bool = True, keep_keyframe_graphs: bool = False):
+                 ekf_options: EkfOptions | None = None, tight: bool = True, keep_keyframe_graphs: bool = False,
+                 label: str | None = None):
     """The backend called ``name`` (one of :data:`BACKENDS`) started at ``initial`` (``keep_keyframe_graphs``:
-    a graph backend keeps every keyframe's factors for a batch smoother)."""
+    a graph backend keeps every keyframe's factors for a batch smoother; ``label`` names the estimator in its
+    health warnings)."""
     if name == "ekf":
-        return EkfBackend(config, ekf_options, tight, initial)
+        return EkfBackend(config, ekf_options, tight, initial, name=label or f"EKF {'TC' if tight else 'LC'}")
     if name in ("fixed-lag", "isam2"):
-        backend = GraphBackend(config, graph_options, name, initial)
+        backend = GraphBackend(config, graph_options, name, initial, name=label or f"graph {name}")
         backend.estimator.keep_keyframe_graphs = keep_keyframe_graphs
         return backend
     raise ConfigError(f"unknown backend '{name}'; choose one of {', '.join(BACKENDS)}")

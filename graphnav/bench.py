@@ -11,6 +11,11 @@ navigation grade); any grade of :data:`graphnav.config.IMU_GRADES` (``tactical``
 to the recorded samples with :func:`graphnav.imu_errors.corrupt_imu` (seeded per trajectory, so every
 method sees the same IMU) and gives the estimators that grade's error model.
 
+Failures are reported as failures: a window whose estimate diverged (:func:`divergence_reason`: non-finite,
+window VRMSE at or above :data:`DIVERGED_VRMSE_MPS`, or the estimator's health monitor in its diverged state
+during the window, :mod:`graphnav.health`) carries ``diverged: true`` and the reason in ``results.json``;
+the report counts and lists such windows and leaves them out of the means instead of averaging them in.
+
 Results are written after every finished case (``results.json``, atomically), so an interrupted benchmark
 keeps what it finished and ``--resume`` skips those cases. :func:`make_report` turns the records into
 ``report.md``.
@@ -34,6 +39,7 @@ import numpy as np
 
 from .config import imu_grade as imu_grade_spec
 from .errors import ConfigError
+from .health import diverged_during
 from .methods import METHODS, average_of, baseline_of, check_method, check_scenario, run_method
 from .mission import Mission
 from .scenarios import scenario_outage, window_starts
@@ -44,7 +50,14 @@ SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "none")
 IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical")
 #: Keys of every result record (extra diagnostic keys may follow).
 RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
-                                "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s")
+                                "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s", "diverged",
+                                "divergence_reason")
+#: A window VRMSE (m/s) at or above this is a divergence, not an accuracy: it exceeds the speed of the
+#: vehicles the benchmark covers (Snapir: 1-2.5 m/s), so the estimate carries no information about the
+#: velocity. Healthy runs stay far below it: the worst window of any method in the shared-data benchmark
+#: and in ``scripts/start_sweep.py`` is < 0.5 m/s; pure inertial through a 30 s outage on the degraded
+#: (tactical) IMU stays below 1 m/s.
+DIVERGED_VRMSE_MPS = 3.0
 
 
 @dataclass(frozen=True)
@@ -141,7 +154,7 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
     ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
     start isolates what the outage cost (the error at the start is the same dead-reckoning drift for all)."""
     def err(t):
-        return interp_rows(t, sol.t, sol.p_n[:, :2]) - interp_rows(t, gt.t, gt.p_n[:, :2])
+        return interp_rows(t, sol.t, sol.p_n[:, :2]) - gt.at(t)[0][:2]
     return float(np.linalg.norm(err(t_end) - err(t_start)))
 
 
@@ -166,6 +179,26 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
             "nees_window": nees,
         })
     return out
+
+
+def divergence_reason(sol: NavSolution, record: dict, t_start: float, t_end: float) -> str | None:
+    """Why the window ``[t_start, t_end]`` (s) of a scored run counts as diverged, or None: a non-finite
+    estimate in the window, window VRMSE >= :data:`DIVERGED_VRMSE_MPS`, or the health monitor's diverged
+    state overlapping the window."""
+    inside = (sol.t >= t_start) & (sol.t <= t_end)
+    if not (np.all(np.isfinite(sol.v_n[inside])) and np.all(np.isfinite(sol.p_n[inside]))):
+        return "non-finite estimate"
+    v = record.get("vrmse_window")
+    if v is None or not math.isfinite(v):
+        return "non-finite window VRMSE"
+    if v >= DIVERGED_VRMSE_MPS:
+        return f"window VRMSE {v:.3g} m/s >= {DIVERGED_VRMSE_MPS:g} m/s"
+    health = sol.info.get("health")
+    if diverged_during(health, t_start, t_end):
+        first = next(i for i in health["divergence_intervals"]
+                     if i[0] <= t_end and (i[1] is None or i[1] >= t_start))
+        return f"health monitor: {first[2]} (t={first[0]:.1f} s)"
+    return None
 
 
 def downsample(sol: NavSolution, rate_hz: float = 10.0) -> NavSolution:
@@ -221,9 +254,15 @@ def run_case(case: BenchCase) -> list[dict]:
             save_solution(solution_file(case.save_dir, *base_key(base)), downsample(sol))
         # The estimator's own wall time (excludes loading the completer, which happens once per process).
         runtime = sol.runtime_s if np.isfinite(sol.runtime_s) else wall
+        health = sol.info.get("health") or {}
         extra = {"runtime_s": runtime, "mission_duration_s": mission.duration,
                  "completer": sol.info.get("completer", "none"),
+                 "health_divergences": health.get("n_divergences"), "health_reacquired": health.get("n_reacquired"),
+                 "health_nis_per_dof": health.get("nis_mean_per_dof"),
                  "warnings": sorted({str(w.message)[:200] for w in caught})}
+        for s in scores:
+            reason = divergence_reason(sol, s, s["window_start_s"], s["window_start_s"] + case.window_s)
+            s.update(diverged=reason is not None, divergence_reason=reason)
         return [{**base, **s, **extra} for s in scores]
     except Exception as exc:  # noqa: BLE001 - one failed case must not end the benchmark; it is reported
         return [{**base, "window_start_s": None, "vrmse_window": None, "vrmse_mission": None,
@@ -359,14 +398,19 @@ def improvement_pct(model: float, ref: float) -> float:
 
 def aggregate(records: list[dict]) -> dict:
     """Per (imu_grade, scenario, method): window VRMSE mean/worst, mission VRMSE mean, drift mean, counts,
-    the per-window values keyed by (trajectory, window_start_s), mean runtime and real-time factor."""
+    the per-window values keyed by (trajectory, window_start_s), mean runtime and real-time factor.
+
+    Diverged windows (``diverged`` true) are left out of the statistics and counted in ``n_diverged`` and
+    listed in ``diverged`` as (trajectory, window_start_s, reason)."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in records:
         groups[(r["imu_grade"], r["scenario"], r["method"])].append(r)
     out = {}
     for key, rs in groups.items():
-        ok = [r for r in rs if not r.get("error")]
-        runs = {(r["trajectory"], r["window_s"]): r for r in ok}.values()  # one runtime per run
+        ran = [r for r in rs if not r.get("error")]
+        ok = [r for r in ran if not r.get("diverged")]
+        bad = [r for r in ran if r.get("diverged")]
+        runs = {(r["trajectory"], r["window_s"]): r for r in ran}.values()  # one runtime per run
         runtime = _mean(r["runtime_s"] for r in runs)
         duration = _mean(r.get("mission_duration_s") for r in runs)
         out[key] = {
@@ -375,11 +419,12 @@ def aggregate(records: list[dict]) -> dict:
             "vrmse_mission_mean": _mean(r["vrmse_mission"] for r in ok),
             "drift_mean": _mean(r["pos_err_window_end_m"] for r in ok),
             "nees_mean": _mean(r.get("nees_window") for r in ok),
-            "n_windows": len(ok), "n_failed": len(rs) - len(ok),
+            "n_windows": len(ok), "n_failed": len(rs) - len(ran), "n_diverged": len(bad),
+            "diverged": [(r["trajectory"], r["window_start_s"], r.get("divergence_reason")) for r in bad],
             "per_window": {(r["trajectory"], r["window_start_s"]): _num(r["vrmse_window"]) for r in ok},
             "runtime_mean_s": runtime, "duration_mean_s": duration,
             "realtime_factor": duration / runtime if runtime and runtime > 0 else float("nan"),
-            "completers": sorted({r.get("completer", "?") for r in ok}),
+            "completers": sorted({r.get("completer", "?") for r in ran}),
         }
     return out
 
@@ -435,7 +480,10 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
               "`(ref - model) / ref` of the mean window VRMSE, positive = better than the reference; "
               "baseline = LC for LC/Average-LC/HNLC and TC for the rest, average = Average-LC or Average-TC "
               "likewise. Drift: horizontal position error accumulated over the window, m. NEES: mean velocity "
-              "NEES over the window (3 = consistent; much larger = the estimator's sigma is too small).", ""]
+              "NEES over the window (3 = consistent; much larger = the estimator's sigma is too small). "
+              f"Diverged windows (non-finite, window VRMSE >= {DIVERGED_VRMSE_MPS:g} m/s, or the estimator's "
+              "health monitor diverged during the window) are not averaged in: they are counted in brackets "
+              "and listed under 'Diverged runs'.", ""]
     if meta.get("wall_time_s") is not None:
         lines += [f"Wall time: {meta['wall_time_s']:.0f} s with {meta.get('jobs', 1)} job(s).", ""]
     failed = [r for r in records if r.get("error")]
@@ -460,7 +508,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
             cells = []
             for m in methods:
                 a = agg.get((grade, sc, m))
-                cells.append("-" if not a else f"{_f(a['vrmse_window_mean'])} ({_f(a['vrmse_window_worst'])})")
+                cells.append("-" if not a else f"{_f(a['vrmse_window_mean'])} ({_f(a['vrmse_window_worst'])})"
+                             + (f" [{a['n_diverged']} diverged]" if a["n_diverged"] else ""))
             lines.append(f"| {sc} | " + " | ".join(cells) + " |")
         lines.append("")
         for sc in scenarios:
@@ -478,12 +527,26 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                 avg = agg.get((grade, sc, average_of(m)), {}).get("vrmse_window_mean", float("nan"))
                 vs_base = "-" if m == baseline_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], base))
                 vs_avg = "-" if m == average_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], avg))
-                n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "")
+                n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "") \
+                    + (f" (+{a['n_diverged']} diverged)" if a["n_diverged"] else "")
                 lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "
                              f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | {vs_base} | {vs_avg} | "
                              f"{_f(a['nees_mean'], 1)} | {n} | {', '.join(a['completers'])} |")
             lines.append("")
 
+    diverged = [(k, a) for k, a in sorted(agg.items()) if a["n_diverged"]]
+    lines += ["## Diverged runs", ""]
+    if not diverged:
+        lines += ["None: no window diverged.", ""]
+    else:
+        lines += [f"{sum(a['n_diverged'] for _, a in diverged)} window(s) diverged; they are not in the means "
+                  "above.", "", "| IMU grade | scenario | method | windows | trajectory, window start (s): reason |",
+                  "| --- | --- | --- | --- | --- |"]
+        for (grade, sc, m), a in diverged:
+            listed = "; ".join(f"{t} {s:.0f}: {why}" for t, s, why in a["diverged"][:10])
+            more = f"; ... {a['n_diverged'] - 10} more" if a["n_diverged"] > 10 else ""
+            lines.append(f"| {grade} | {sc} | {m} | {a['n_diverged']} | {listed}{more} |")
+        lines.append("")
     lines += ["## Runtime", "", "Wall time of one method run over a whole mission (mean over runs) and the "
               "real-time factor (mission duration / wall time).", "",
               "| method | runtime (s) | real-time factor | runs |", "| --- | --- | --- | --- |"]
@@ -504,7 +567,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                 for traj in trajectories:
                     cells = [_f(_mean(r["vrmse_window"] for r in records
                                       if (r["imu_grade"], r["scenario"], r["method"], r["trajectory"])
-                                      == (grade, sc, m, traj) and not r.get("error"))) for m in methods]
+                                      == (grade, sc, m, traj) and not r.get("error") and not r.get("diverged")))
+                             for m in methods]
                     lines.append(f"| {traj} | " + " | ".join(cells) + " |")
                 lines.append("")
     if meta.get("plots"):

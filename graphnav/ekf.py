@@ -58,6 +58,12 @@ their completer sigma^2.
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
 normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
 b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+
+Health: every update's NIS (gated or not) goes to a :class:`graphnav.health.NisMonitor` (``info["health"]``:
+chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
+``HealthOptions.lockout_rejections`` rejected pings in a row it re-acquires (:meth:`ErrorStateEkf.reacquire`:
+velocity from a >= 3-beam least-squares fix, or covariance inflation with fewer beams; attitude variance
+inflated) and says so (``scripts/lockout_demo.py``).
 """
 from __future__ import annotations
 
@@ -70,8 +76,8 @@ from scipy.stats import chi2
 from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
+from .health import HealthOptions, NisMonitor
 from .ins import StrapdownState, Strapdown
-from .metrics import interpolate_gt
 from .mission import Mission
 from .rotations import skew, so3_exp_batch
 from .solution import NavSolution
@@ -115,6 +121,17 @@ class EkfOptions:
             changes exactly); with them the white-noise inflation for bias/scale defaults to 0.
         sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
         sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
+        health: :class:`graphnav.health.HealthOptions` of the NIS monitor; its ``lockout_rejections``
+            consecutive gated pings trigger a re-acquisition.
+        reacquire: after a lockout, re-acquire (see :meth:`ErrorStateEkf.reacquire`) instead of staying
+            pure inertial. Without it the filter can reject every ping of a mission (seen on a real
+            trajectory that starts inside a fast turn: 400 of 400 pings gated, 262 m/s VRMSE).
+        sigma_att_reacq_rad: misalignment sigma per NED axis added at a re-acquisition, rad; doubled at each
+            further re-acquisition within ``reacq_escalate_s`` of the previous one (the first did not
+            cover the error), up to ``sigma_att_reacq_max_rad``.
+        reacq_escalate_s: see ``sigma_att_reacq_rad``, s.
+        sigma_att_reacq_max_rad: cap of the escalated misalignment sigma, rad.
+        sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
     """
 
     lever_arm: bool | None = None
@@ -132,6 +149,12 @@ class EkfOptions:
     dvl_error_states: bool = False
     sigma_dvl_scale0: float | None = None
     sigma_beam_bias0: float | None = None
+    health: HealthOptions = field(default_factory=HealthOptions)
+    reacquire: bool = True
+    sigma_att_reacq_rad: float = float(np.deg2rad(2.0))
+    reacq_escalate_s: float = 30.0
+    sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
+    sigma_v_reacq: float = 0.5
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -156,10 +179,14 @@ class ErrorStateEkf:
         state: initial nominal state.
         options: tuning; default :class:`EkfOptions`.
         bias_acc, bias_gyro: initial bias estimates, m/s^2 and rad/s (default zero).
+        name: estimator name in health warnings (e.g. ``"EKF TC"``).
+
+    Attributes:
+        health: the :class:`graphnav.health.NisMonitor` fed with the NIS of every update (gated or not).
     """
 
     def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
-                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None):
+                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None, name: str = "EKF"):
         self.config = config
         self.options = opts = options or EkfOptions()
         self.strapdown = Strapdown.from_config(config)
@@ -203,6 +230,9 @@ class ErrorStateEkf:
         self._skew_wie = skew(self.strapdown.omega_ie_n)
         self.n_updates = 0
         self.n_gated = 0
+        self.health = NisMonitor(name, opts.health)
+        self._reacq_level = 0
+        self._reacq_t = -np.inf
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -283,7 +313,10 @@ class ErrorStateEkf:
         PHt = self.P @ H.T
         S = H @ PHt + R
         S_inv_dz = np.linalg.solve(S, dz)
-        if self.options.gating and dz @ S_inv_dz > self._gate[min(len(dz), 4)]:
+        nis = float(dz @ S_inv_dz)
+        gated = self.options.gating and not nis <= self._gate[min(len(dz), 4)]
+        self.health.record(self.state.t, nis, len(dz), accepted=not gated)
+        if gated:
             self.n_gated += 1
             return False
         K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
@@ -321,6 +354,13 @@ class ErrorStateEkf:
         A = self.T_b[used]
         R_v = np.linalg.inv(A.T @ (A / var[:, None]))
         G = R_v @ (A.T / var)
+        if self._update(G @ (h[used] - beams[used]), G @ H[used], R_v):
+            return True
+        if not self._locked_out():
+            return False
+        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+            return True                            # this ping made the velocity fix
+        h, H = self.predicted_beams(omega_b)
         return self._update(G @ (h[used] - beams[used]), G @ H[used], R_v)
 
     def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
@@ -336,12 +376,78 @@ class ErrorStateEkf:
         var = self.beam_variance(y)
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
+        if self._update(h[used] - y, H[used], np.diag(var)):
+            return True
+        if not self._locked_out():
+            return False
+        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+            return True                            # this ping made the velocity fix
+        h, H = self.predicted_beams(omega_b)
         return self._update(h[used] - y, H[used], np.diag(var))
+
+    # --- re-acquisition ------------------------------------------------------------------------------
+    def _locked_out(self) -> bool:
+        return (self.options.reacquire and self.options.gating
+                and self.health.rejection_run >= self.options.health.lockout_rejections)
+
+    def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> str:
+        """Recover from a gating lockout with the current ping ``beams`` (4,) m/s (NaN = missing).
+
+        A lockout means the state has left the region its covariance describes, so that the gate rejects
+        the very measurements that could correct it. As robust (fault-tolerant) INS/DVL filters do, the
+        filter falls back on the measurements: with >= 3 beams the velocity is re-initialised from their
+        weighted least-squares fix (``v_n = C_b_n (v_d_b - (omega_b - b_g) x l_b)``; its error
+        ``-[v_n]x eps + C n_v`` sets the velocity rows of P: ``C R_v C^T`` plus the misalignment's share,
+        correlated with eps; the ping is then used up); with
+        fewer, the velocity variance is inflated so that the rejected innovation lies inside the gate
+        (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
+        ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error (e.g. a start inside a fast turn) is
+        the usual cause and must be observable again through the velocity updates.
+        The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
+        """
+        opts = self.options
+        used = np.isfinite(beams)
+        P = self.P
+        t = self.state.t
+        self._reacq_level = self._reacq_level + 1 if t - self._reacq_t < opts.reacq_escalate_s else 0
+        self._reacq_t = t
+        sigma_att = min(opts.sigma_att_reacq_rad * 2.0 ** self._reacq_level, opts.sigma_att_reacq_max_rad)
+        att_var = sigma_att ** 2
+        P[IE, IE] += att_var * np.eye(3)
+        C = self.state.C_b_n
+        if used.sum() >= 3:
+            var = self.beam_variance(beams[used])
+            if sigma_extra is not None:
+                var = var + sigma_extra[used] ** 2
+            A = self.T_b[used]
+            R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+            v_d_b = R_v @ (A.T @ (beams[used] / var))
+            v_old = self.state.v_n
+            self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
+            # v_hat = C_hat v_b: its error is the fix's noise plus the misalignment's share,
+            # dv = -[v_hat]x eps + C n_v, so it stays correlated with eps (and through it with the rest)
+            J = -skew(self.state.v_n)
+            P[IV, :] = J @ P[IE, :]
+            P[:, IV] = P[IV, :].T
+            P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
+            how = (f"velocity re-initialised from a {int(used.sum())}-beam least-squares fix (changed by "
+                   f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
+                   f"+{np.rad2deg(sigma_att):.3g} deg")
+        else:
+            h, _ = self.predicted_beams(omega_b)
+            worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0
+            sigma = max(2.0 * worst, opts.sigma_v_reacq)
+            P[IV, IV] += sigma ** 2 * np.eye(3)
+            how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} beam(s): no velocity fix), attitude "
+                   f"sigma +{np.rad2deg(sigma_att):.3g} deg")
+        self.P = 0.5 * (P + P.T)
+        self.health.reacquired(self.state.t, how)
+        return how
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
-    p, v, C = interpolate_gt(mission.gt, np.array([t0]))
-    return StrapdownState(t0, C[0], v[0], p[0])
+    p, v, C = mission.gt.at(t0, mission.imu)
+    return StrapdownState(t0, C, v, p)
 
 
 def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
@@ -385,7 +491,8 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
     initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
     nav = Navigator(mission.config, "ekf", completer=completer if hybrid else None, initial=initial,
-                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs)
+                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs,
+                    name=f"EKF {method}")
     estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))

@@ -1,7 +1,7 @@
 """Accuracy metrics shared by every estimator, benchmark and test.
 
-Time alignment is explicit: the ground truth is interpolated at the solution's stamps (linear for
-position and velocity, slerp for attitude); solution epochs outside the ground-truth time span are dropped
+Time alignment is explicit: the ground truth is interpolated at the solution's stamps by
+:meth:`graphnav.mission.GroundTruth.at` (linear for position and velocity, slerp for attitude); solution epochs outside the ground-truth time span are dropped
 (never extrapolated). All errors are estimate minus truth in the local NED frame.
 
 - VRMSE ``sqrt(mean_k |v_k - v_hat_k|^2)`` (m/s), the paper's velocity metric, over the solution epochs in a
@@ -15,12 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
-
 from .errors import DataError
 from .mission import GroundTruth
 from .solution import NavSolution
-from .timeseries import interp_rows
 
 
 @dataclass
@@ -42,33 +39,11 @@ class Aligned:
     mask: np.ndarray
 
 
-def interpolate_gt(gt: GroundTruth, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(p_n (K,3) m, v_n (K,3) m/s, C_b_n (K,3,3)) of the ground truth at stamps ``t`` inside its span.
-
-    Linear interpolation for position and velocity, slerp for attitude.
-
-    Raises:
-        DataError: a stamp lies outside the ground-truth span.
-    """
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    outside = np.flatnonzero((t < gt.t[0]) | (t > gt.t[-1]))
-    if outside.size:
-        raise DataError(f"stamp {t[outside[0]]:.3f} s outside the ground truth span "
-                        f"[{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s", "gt", int(outside[0]), "t")
-    p = interp_rows(t, gt.t, gt.p_n)
-    v = interp_rows(t, gt.t, gt.v_n)
-    if len(gt.t) == 1:
-        C = np.repeat(gt.C_b_n, len(t), axis=0)
-    else:
-        C = Slerp(gt.t, Rotation.from_matrix(gt.C_b_n))(t).as_matrix()
-    return p, v, C
-
-
 def align(solution: NavSolution, gt: GroundTruth) -> Aligned:
     """Ground truth at the solution's stamps; epochs outside the ground-truth span are dropped."""
     mask = (solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])
     t = solution.t[mask]
-    p, v, C = interpolate_gt(gt, t)
+    p, v, C = gt.at(t)
     return Aligned(t, v, p, C, mask)
 
 

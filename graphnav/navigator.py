@@ -109,20 +109,21 @@ class Navigator:
         align_options: settings of the :class:`~graphnav.align.Aligner` (when ``initial`` is None).
         aligner_kwargs: keyword arguments of the Aligner (e.g. ``initial_heading_rad``, ``initial_lla``).
         keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards).
+        name: the estimator's name in health warnings (e.g. the method name).
     """
 
     def __init__(self, config: SensorConfig, backend: str = "fixed-lag", *, completer=None,
                  initial: InitialState | None = None, graph_options: GraphOptions | None = None,
                  ekf_options: EkfOptions | None = None, tight: bool = True,
                  options: NavigatorOptions | None = None, align_options=None, aligner_kwargs: dict | None = None,
-                 keep_keyframe_graphs: bool = False):
+                 keep_keyframe_graphs: bool = False, name: str | None = None):
         if backend not in BACKENDS:
             raise ConfigError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
         self.config = config
         self.backend_name = backend
         self.options = options or NavigatorOptions()
         self._backend_kwargs = {"graph_options": graph_options, "ekf_options": ekf_options, "tight": tight,
-                                "keep_keyframe_graphs": keep_keyframe_graphs}
+                                "keep_keyframe_graphs": keep_keyframe_graphs, "label": name}
         self._completer = completer
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
         self._align_events: deque = deque()       # released samples kept during alignment (catch-up)

@@ -19,7 +19,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .solution import NavSolution  # noqa: E402
-from .timeseries import interp_rows  # noqa: E402
 
 AXES_NED = ("north", "east", "down")
 #: Fixed colours so a method looks the same in every figure.
@@ -57,12 +56,11 @@ def _mark_windows(ax, windows, label: bool = True) -> None:
 
 
 def gt_at(gt, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Ground-truth NED position and velocity linearly interpolated at stamps t (NaN outside GT's span)."""
+    """Ground-truth NED position and velocity at stamps t (:meth:`GroundTruth.at`; NaN outside GT's span)."""
     inside = (t >= gt.t[0]) & (t <= gt.t[-1])
-    p = interp_rows(t, gt.t, gt.p_n)
-    v = interp_rows(t, gt.t, gt.v_n)
-    p[~inside] = np.nan
-    v[~inside] = np.nan
+    p, v = np.full((len(t), 3), np.nan), np.full((len(t), 3), np.nan)
+    if inside.any():
+        p[inside], v[inside], _ = gt.at(t[inside])
     return p, v
 
 

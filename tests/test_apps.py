@@ -65,7 +65,11 @@ def test_smooth_outputs(tmp_path, capsys):
     assert acc["windows"][0]["vrmse_window_mps"] < 0.05
     for name in ("trajectory_ne.png", "velocity_error.png", "velocity_std.png", "groundtruth.tum"):
         assert (out / name).stat().st_size > 0
-    assert "VRMSE mission" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "VRMSE mission" in printed
+    # the estimator's health (graph innovation NIS) is in the summary and the printout
+    assert summary["health"]["ok"] and summary["health"]["n_measurements"] > 100
+    assert "health: ok; NIS/dof" in printed
 
 
 def _online(out, *extra):

@@ -174,3 +174,40 @@ def test_report_tables():
     appendix = text[text.index("## Per trajectory"):]
     row_b = next(line for line in appendix.splitlines() if line.startswith("| b |"))
     assert row_b.split(" | ")[6] == "0.200"
+
+
+def test_diverged_windows_are_marked_and_kept_out_of_the_means(fake_world, monkeypatch):
+    """A run whose error explodes in one window, and one whose health monitor diverged in a window, are
+    marked in the records and reported separately (count + list), not averaged in."""
+    def diverging(mission, method, scenario, **kw):
+        sol = fake_run_method(mission, method, scenario, **kw)
+        if method == "TC":                       # 262 m/s in the second window: the issue's lockout
+            sol.v_n[sol.t >= 150.0, 0] += 262.0
+        if method == "HNTC":                     # accurate, but its monitor says it diverged in 55-70 s
+            sol.info["health"] = {"n_divergences": 1, "n_reacquired": 1, "nis_mean_per_dof": 3.0,
+                                  "divergence_intervals": [[55.0, 70.0, "5 measurements in a row rejected"]]}
+        return sol
+
+    monkeypatch.setattr(bench, "run_method", diverging)
+    records = []
+    for method in ("TC", "HNTC", "Graph-HN"):
+        records += run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", method, 30.0))
+    by = {(r["method"], r["window_start_s"]): r for r in records}
+    assert by[("TC", 150.0)]["diverged"] and "window VRMSE" in by[("TC", 150.0)]["divergence_reason"]
+    assert not by[("TC", 60.0)]["diverged"] and by[("TC", 60.0)]["divergence_reason"] is None
+    assert by[("HNTC", 60.0)]["diverged"] and "health monitor" in by[("HNTC", 60.0)]["divergence_reason"]
+    assert not by[("HNTC", 150.0)]["diverged"]
+    assert not any(r["diverged"] for r in records if r["method"] == "Graph-HN")
+    assert by[("HNTC", 60.0)]["health_reacquired"] == 1
+    agg = aggregate(records)
+    tc = agg[("as-recorded", "2-missing", "TC")]
+    assert tc["n_diverged"] == 1 and tc["n_windows"] == 1
+    assert tc["vrmse_window_mean"] == pytest.approx(0.5) and tc["vrmse_window_worst"] == pytest.approx(0.5)
+    text = make_report(records)
+    row = next(line for line in text.splitlines() if line.startswith("| 2-missing |"))
+    assert "0.500 (0.500) [1 diverged]" in row
+    section = text[text.index("## Diverged runs"):text.index("## Runtime")]
+    assert "2 window(s) diverged" in section
+    assert "t1 150: window VRMSE" in section and "t1 60: health monitor" in section
+    healthy = make_report([r for r in records if r["method"] == "Graph-HN"])
+    assert "None: no window diverged." in healthy

@@ -21,7 +21,7 @@ def _gt():
 
 
 def _solution(t, gt, dv=np.zeros(3), dp=np.zeros(3), cov=None):
-    p, v, C = metrics.interpolate_gt(gt, np.clip(t, gt.t[0], gt.t[-1]))
+    p, v, C = gt.at(np.clip(t, gt.t[0], gt.t[-1]))
     return NavSolution("test", np.asarray(t, float), p + dp, v + dv, C,
                        None if cov is None else np.tile(cov, (len(t), 1, 1)))
 

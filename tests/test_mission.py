@@ -106,8 +106,12 @@ def test_slice_keeps_every_stream_inside_the_window():
     s = m.slice(0.25, 0.65)
     assert s.imu.t[0] == pytest.approx(0.25) and s.imu.t[-1] == pytest.approx(0.65)
     assert len(s.imu.t) == 41
-    for stream in (s.dvl.t, s.gt.t, s.depth.t):
+    for stream in (s.dvl.t, s.depth.t):
         assert stream.min() >= 0.25 and stream.max() <= 0.65
+    # the ground truth keeps one sample either side, so that it can be interpolated at every stamp inside
+    assert s.gt.t[0] <= 0.25 and s.gt.t[-1] >= 0.65
+    assert np.sum(s.gt.t < 0.25) <= 1 and np.sum(s.gt.t > 0.65) <= 1
+    s.gt.at(s.imu.t)
     np.testing.assert_array_equal(s.dvl.t, [0.3, 0.4, 0.5, 0.6])
     assert s.dvl.v_b.shape == (4, 3) and s.meta["slice"] == (0.25, 0.65)
     assert len(m.imu.t) == 101                                   # the original is untouched

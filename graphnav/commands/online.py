@@ -193,7 +193,7 @@ def run(args) -> int:
         "update_timing": update_timing(info.get("update_s")),
         "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
                                                   nav.alignment is None else "none"}),
-        "refused": info["refused"], "stream": stream_info,
+        "refused": info["refused"], "stream": stream_info, "health": info.get("health"),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "files": {"online_csv": str(csv_path)},
     }

@@ -128,6 +128,7 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
 def print_summary(summary: dict, file=None) -> None:
     """Print a command's summary (to ``file``, default standard output)."""
     out = functools.partial(print, file=file)
+    from graphnav.health import health_line
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
     out(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
@@ -151,6 +152,11 @@ def print_summary(summary: dict, file=None) -> None:
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
             out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
+        if other.get("health") and not other["health"]["ok"]:
+            out(f"  compared {name} {health_line(other['health'])}")
+    line = health_line(summary.get("health"))
+    if line:
+        out(f"  {line}")
     timing = summary.get("update_timing")
     if timing:
         out(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
@@ -202,8 +208,9 @@ def run(args) -> int:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages),
-        "compared": {o.method: accuracy_summary(o, mission, outages) for o in others},
+        "accuracy": accuracy_summary(sol, mission, outages), "health": sol.info.get("health"),
+        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": o.info.get("health")}
+                     for o in others},
     }
     if not args.no_plots:
         plots = make_plots(out, mission, [*others, sol], outages,

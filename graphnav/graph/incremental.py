@@ -23,8 +23,9 @@ import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
 from graphnav.errors import ConfigError
+from graphnav.factors import predict_beams
+from graphnav.health import NisMonitor
 from graphnav.mission import Mission
-from graphnav.timeseries import interp_rows
 
 from .builder import GraphContext, Keyframe, KeyframeFactors, imu_factor, keyframe_factors
 from .options import GraphOptions
@@ -58,21 +59,13 @@ class InitialState:
 
     @classmethod
     def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":
-        """GT interpolated at t (position, velocity linearly; attitude from the nearest GT sample), zero bias."""
+        """Ground truth at t (:meth:`graphnav.mission.GroundTruth.at`, attitude carried by the gyro between
+        the samples), zero bias."""
         gt = mission.gt
         if gt is None:
             raise ConfigError(f"mission '{mission.name}' has no ground truth to initialise the graph from; "
                               "pass an InitialState")
-        p = interp_rows(t, gt.t, gt.p_n)
-        v = interp_rows(t, gt.t, gt.v_n)
-        i = int(np.argmin(np.abs(gt.t - t)))
-        # rotate the nearest attitude to t with the mean body rate of the IMU in between (sub-sample accuracy)
-        C = gt.C_b_n[i]
-        imu = mission.imu
-        sel = (imu.t >= min(t, gt.t[i])) & (imu.t < max(t, gt.t[i]))
-        if sel.any():
-            dtheta = imu.omega_b[sel].mean(axis=0) * (t - gt.t[i])
-            C = C @ gtsam.Rot3.Expmap(dtheta).matrix()
+        p, v, C = gt.at(t, mission.imu)
         return cls(gtsam.Pose3(gtsam.Rot3(C), p), v, t=float(t), origin_lla=gt.origin_lla)
 
 
@@ -142,7 +135,22 @@ def isam2_params(options: GraphOptions, factorization: str | None = None) -> gts
 
 
 class _IncrementalGraph:
-    """Shared add/update/estimate logic; subclasses provide the solver calls."""
+    """Shared add/update/estimate logic; subclasses provide the solver calls.
+
+    Health (:attr:`health`, a :class:`graphnav.health.NisMonitor`): each keyframe with measured beams is
+    checked *before* its update, as a filter's innovation test: the innovation ``y - h(x_pred)`` of its
+    measured (not regressed) beams at the IMU-predicted state of keyframe k, against
+    ``S = H P_v H^T + R`` with ``H = B C_pred^T`` (beam rows B), ``P_v`` the predicted velocity covariance
+    in NED (the marginal of V(k-1) plus the preintegrated velocity covariance rotated to NED) and R the
+    beam noise. Why the innovation rather than the whitened residuals after the update: after the update
+    the graph has already pulled the state onto the measurements (the residuals are small and their
+    distribution depends on the update's gain), so a graph that has lost track would still look healthy;
+    the innovation shows the disagreement between what the IMU chain predicts and what the DVL sees, which
+    is what divergence is. The attitude and bias uncertainty are left out of S (at AUV speeds a 0.1 deg
+    misalignment moves a beam by ~3 mm/s against a 40 mm/s beam sigma), and without marginals
+    (``options.marginals=False``, e.g. the batch's first pass) P_v(k-1) is taken as zero: S is then a lower
+    bound and the NIS an upper bound (conservative for the divergence test).
+    """
 
     def __init__(self, builder: GraphContext, initial: InitialState):
         self.builder = builder
@@ -159,6 +167,7 @@ class _IncrementalGraph:
         self.n_recovered = 0
         self._recovering_at: int | None = None     # keyframe of the last solver restart (a second one raises)
         self.factorization = self.options.factorization
+        self.health = NisMonitor("graph")
 
     # --- the cycle --------------------------------------------------------------------------------
     def add(self, kf: Keyframe) -> None:
@@ -176,6 +185,7 @@ class _IncrementalGraph:
             link = gtsam.NonlinearFactorGraph()
             link.add(imu_factor(kf))
         local = keyframe_factors(kf, self.builder, pose.rotation().matrix(), pose.translation())
+        self._check_innovation(kf, local, pose, v_n, bias)
         if self.keep_keyframe_graphs:
             self.keyframe_graphs.append((link, local))
         self._pending_factors.push_back(link)
@@ -209,6 +219,28 @@ class _IncrementalGraph:
         self._pending_values = gtsam.Values()
         self._pending_kf = None
         return self._last
+
+    def _check_innovation(self, kf: Keyframe, local, pose, v_n, bias) -> None:
+        """NIS of keyframe kf's measured beams at the predicted state (see the class docstring)."""
+        groups = [g for g in local.groups if not g.regressed]
+        if not groups:
+            return
+        C = pose.rotation().matrix()
+        if kf.index == 0:
+            P_v = (np.asarray(self.initial.cov_v_n, float) if self.initial.cov_v_n is not None
+                   else np.eye(3) * self.options.prior_vel_sigma ** 2)
+        else:
+            last = self._last
+            C_prev = last.pose.rotation().matrix()
+            P_v = C_prev @ kf.pim.preintMeasCov()[6:9, 6:9] @ C_prev.T   # GTSAM order [rot, pos, vel, ...]
+            if last.cov_v_n is not None:
+                P_v = P_v + last.cov_v_n
+        rows = np.vstack([g.rows_b for g in groups])
+        dz = np.concatenate([g.y - predict_beams(g.rows_b, C, v_n, g.omega_b, bias.gyroscope(), g.lever_arm_b)
+                             for g in groups])
+        H = rows @ C.T
+        S = H @ P_v @ H.T + np.diag(np.concatenate([g.sigma for g in groups]) ** 2)
+        self.health.record(kf.t, float(dz @ np.linalg.solve(S, dz)), len(dz))
 
     def estimate(self) -> EpochEstimate:
         """The estimate of the newest updated keyframe."""

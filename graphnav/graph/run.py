@@ -59,7 +59,7 @@ def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
     initial = initial_state(mission, initial, init, first_ping_time(mission))
     return Navigator(mission.config, MODES[mode], completer=completer if method.startswith("Graph-HN") else None,
                      initial=initial, graph_options=options or GraphOptions(), options=navigator_options,
-                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs)
+                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs, name=method)
 
 
 def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:

@@ -1,0 +1,232 @@
+"""Estimator health: one normalised-innovation-squared (NIS) monitor for every estimator.
+
+Each DVL measurement an estimator processes gives an innovation ``nu`` (measured minus predicted, at the
+state *before* the measurement is used) and its predicted covariance ``S = H P H^T + R``; its NIS
+``nu^T S^-1 nu`` is chi-square with ``dim(nu)`` degrees of freedom when the estimator is consistent.
+:class:`NisMonitor` turns that stream into three things:
+
+- **Consistency** (statistical): the NIS of consecutive, non-overlapping blocks of ``window`` measurements is
+  summed and compared with the two-sided chi-square band of the block's total dof at ``band_prob``
+  (scipy's ``chi2.ppf``). A block above the band means the estimator's covariance is too small for its
+  errors (overconfident), below it too large. Counted; the first block above the band warns.
+- **Divergence** (the estimator has lost track): the mean NIS per dof over the last ``window``
+  measurements exceeds ``divergence_ratio`` (errors of ``sqrt(ratio)`` sigma on average, far outside any
+  plausible tuning error), or ``lockout_rejections`` measurements in a row were rejected by the
+  estimator's gate. Entering and leaving the diverged state are warned and kept as time intervals
+  (``divergence_intervals``), so a caller can tell whether a given time window was affected.
+- **Re-acquisitions**: an estimator that recovers from a lockout (the EKF re-initialises its velocity
+  from the beams or inflates its covariance) reports it with :meth:`NisMonitor.reacquired`, which warns,
+  counts and restarts the window.
+
+Warnings are ``RuntimeWarning`` and name the estimator, the time (s) and what happened; after
+``max_warnings`` per run further events are only counted. :meth:`NisMonitor.summary` is the plain dict that
+goes into ``NavSolution.info["health"]``.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from collections import deque
+from dataclasses import dataclass
+
+from scipy.stats import chi2
+
+
+@dataclass
+class HealthOptions:
+    """Settings of :class:`NisMonitor` (and of the EKF's re-acquisition trigger).
+
+    Attributes:
+        window: measurements (DVL pings) per consistency block and in the sliding divergence window.
+        band_prob: two-sided probability of the chi-square band of a block's summed NIS.
+        divergence_ratio: mean NIS per dof over the sliding window above which the estimator is declared
+            diverged. 25 (5-sigma errors on average): in ``scripts/start_sweep.py`` on the shared A-KIT
+            trajectories no run trips it (the highest run-mean NIS per dof is 2.9, HNLC in a 2-missing
+            outage), while a filter that has lost track shows 1e2-1e4 (EKF locked out after a 2-10 deg
+            attitude error, ``scripts/lockout_demo.py``: NIS 344-7929 on 3 dof; graph with the IMU y axis
+            of the wrong sign: 5.7e3 per dof).
+        lockout_rejections: consecutive gated (rejected) measurements that count as a lockout: the
+            estimator is declared diverged and (EKF) re-acquires. 5 pings = 5 s at 1 Hz.
+        recover_after: measurements after a re-acquisition (or a divergence) with no rejection and a mean
+            NIS per dof below ``divergence_ratio`` after which the estimator is healthy again.
+        max_warnings: warnings per run; later events are counted only.
+    """
+
+    window: int = 20
+    band_prob: float = 0.999
+    divergence_ratio: float = 25.0
+    lockout_rejections: int = 5
+    recover_after: int = 5
+    max_warnings: int = 5
+
+
+class NisMonitor:
+    """Windowed NIS statistics, divergence flag, counters and warnings for one estimator run.
+
+    Args:
+        estimator: name used in warnings and the summary (e.g. ``"EKF TC"``, ``"Graph-TC"``).
+        options: :class:`HealthOptions`.
+    """
+
+    def __init__(self, estimator: str, options: HealthOptions | None = None):
+        self.estimator = estimator
+        self.options = o = options or HealthOptions()
+        self._recent: deque = deque(maxlen=o.window)       # (nis, dof) of the sliding divergence window
+        self._block_nis = 0.0
+        self._block_dof = 0
+        self._block_n = 0
+        self.n_nis = 0
+        self.sum_nis = 0.0
+        self.sum_dof = 0
+        self.n_blocks = 0
+        self.n_blocks_high = 0
+        self.n_blocks_low = 0
+        self.n_rejected = 0
+        self.rejection_run = 0
+        self.max_rejection_run = 0
+        self.n_divergences = 0
+        self.n_reacquired = 0
+        self.diverged = False
+        self.intervals: list[list] = []          # [t_enter, t_leave or None, reason]
+        self.reacquisitions: list[list] = []     # [t, how]
+        self._since_reset = 0                    # measurements since the last re-acquisition/divergence
+        self.n_warnings = 0
+        self.first_event: str | None = None
+
+    # --- input ------------------------------------------------------------------------------------
+    def record(self, t: float, nis: float, dof: int, accepted: bool = True) -> None:
+        """One measurement at time t (s): its NIS, degrees of freedom and whether the estimator used it."""
+        o = self.options
+        if not math.isfinite(nis):
+            nis = math.inf
+        self.n_nis += 1
+        self.sum_nis += nis
+        self.sum_dof += dof
+        self._recent.append((nis, dof))
+        self._since_reset += 1
+        if accepted:
+            self.rejection_run = 0
+        else:
+            self.n_rejected += 1
+            self.rejection_run += 1
+            self.max_rejection_run = max(self.max_rejection_run, self.rejection_run)
+        # consistency: non-overlapping blocks against the chi-square band of their total dof
+        self._block_nis += nis
+        self._block_dof += dof
+        self._block_n += 1
+        if self._block_n == o.window:
+            lo, hi = chi2.ppf([(1 - o.band_prob) / 2, (1 + o.band_prob) / 2], self._block_dof)
+            self.n_blocks += 1
+            if self._block_nis > hi:
+                self.n_blocks_high += 1
+                if self.n_blocks_high == 1 and not self.diverged:
+                    self._warn(t, f"NIS of the last {o.window} measurements {self._block_nis:.3g} is above its "
+                                  f"{o.band_prob:g} chi-square band [{lo:.3g}, {hi:.3g}] ({self._block_dof} dof): "
+                                  "the estimator's covariance is too small for its errors (counted from now on)")
+            elif self._block_nis < lo:
+                self.n_blocks_low += 1
+            self._block_nis, self._block_dof, self._block_n = 0.0, 0, 0
+        # divergence
+        ratio = self.window_ratio()
+        if not self.diverged:
+            if self.rejection_run >= o.lockout_rejections:
+                self._enter(t, f"{self.rejection_run} measurements in a row rejected by the gate (lockout)")
+            elif len(self._recent) == o.window and ratio > o.divergence_ratio:
+                self._enter(t, f"mean NIS per dof {ratio:.3g} over the last {o.window} measurements exceeds "
+                               f"{o.divergence_ratio:g}")
+        elif (self._since_reset >= o.recover_after and self.rejection_run == 0
+              and self._ratio_since_reset() <= o.divergence_ratio):
+            self.diverged = False
+            self.intervals[-1][1] = float(t)
+            self._warn(t, f"recovered: the last {self._since_reset} measurements are consistent again "
+                          f"(mean NIS per dof {self._ratio_since_reset():.3g})")
+
+    def reacquired(self, t: float, how: str) -> None:
+        """The estimator re-acquired at time t (s) after a lockout; ``how`` says what it did."""
+        self.n_reacquired += 1
+        if len(self.reacquisitions) < 50:
+            self.reacquisitions.append([float(t), how])
+        self.rejection_run = 0
+        self._recent.clear()
+        self._since_reset = 0
+        self._warn(t, f"re-acquired after a lockout: {how}")
+
+    # --- state ------------------------------------------------------------------------------------
+    def window_ratio(self) -> float:
+        """Mean NIS per dof over the sliding window (NaN when empty)."""
+        dof = sum(d for _, d in self._recent)
+        return sum(n for n, _ in self._recent) / dof if dof else float("nan")
+
+    def _ratio_since_reset(self) -> float:
+        recent = list(self._recent)[-self._since_reset:] if self._since_reset else []
+        dof = sum(d for _, d in recent)
+        return sum(n for n, _ in recent) / dof if dof else float("nan")
+
+    def _enter(self, t: float, reason: str) -> None:
+        self.diverged = True
+        self.n_divergences += 1
+        self._since_reset = 0
+        self.intervals.append([float(t), None, reason])
+        self._warn(t, f"DIVERGED: {reason}")
+
+    def _warn(self, t: float, what: str) -> None:
+        message = f"{self.estimator}: t={t:.2f} s: {what}"
+        if self.first_event is None:
+            self.first_event = message
+        self.n_warnings += 1
+        if self.n_warnings <= self.options.max_warnings:
+            warnings.warn(message, RuntimeWarning, stacklevel=3)
+        elif self.n_warnings == self.options.max_warnings + 1:
+            warnings.warn(f"{self.estimator}: t={t:.2f} s: more health events; further ones are counted only "
+                          "(NavSolution.info['health'])", RuntimeWarning, stacklevel=3)
+
+    def summary(self) -> dict:
+        """Plain (JSON-ready) health record of the run."""
+        o = self.options
+        mean = self.sum_nis / self.sum_dof if self.sum_dof else float("nan")
+        return {
+            "estimator": self.estimator,
+            "ok": not self.n_divergences,
+            "diverged": self.n_divergences > 0,
+            "diverged_at_end": self.diverged,
+            "n_divergences": self.n_divergences,
+            "divergence_intervals": [list(i) for i in self.intervals],
+            "n_reacquired": self.n_reacquired,
+            "reacquisitions": [list(r) for r in self.reacquisitions],
+            "n_measurements": self.n_nis,
+            "n_rejected": self.n_rejected,
+            "max_rejection_run": self.max_rejection_run,
+            "nis_mean_per_dof": mean if math.isfinite(mean) else None,
+            "n_blocks": self.n_blocks, "n_blocks_above_band": self.n_blocks_high,
+            "n_blocks_below_band": self.n_blocks_low,
+            "window": o.window, "band_prob": o.band_prob, "divergence_ratio": o.divergence_ratio,
+            "first_event": self.first_event,
+        }
+
+
+def diverged_during(health: dict | None, t_start: float, t_end: float) -> bool:
+    """Whether a run's health record (:meth:`NisMonitor.summary`) has a divergence interval overlapping
+    ``[t_start, t_end]`` (s); an interval still open at the end of the run extends to infinity."""
+    if not health:
+        return False
+    for t0, t1, _reason in health.get("divergence_intervals", []):
+        if t0 <= t_end and (t1 is None or t1 >= t_start):
+            return True
+    return False
+
+
+def health_line(health: dict | None) -> str | None:
+    """One line for command output: ``"health: ok ..."`` or what went wrong."""
+    if not health:
+        return None
+    mean = health.get("nis_mean_per_dof")
+    stats = (f"NIS/dof {mean:.2f}" if mean is not None else "no NIS") + \
+        (f", {health['n_blocks_above_band']}/{health['n_blocks']} blocks above the chi-square band"
+         if health.get("n_blocks") else "") + \
+        (f", {health['n_rejected']} rejected" if health.get("n_rejected") else "")
+    if health.get("diverged"):
+        state = ("DIVERGED (not recovered at the end)" if health.get("diverged_at_end")
+                 else f"diverged {health['n_divergences']} time(s), recovered")
+        extra = f", re-acquired {health['n_reacquired']} time(s)" if health.get("n_reacquired") else ""
+        return f"health: {state}{extra}; {stats}; first: {health.get('first_event')}"
+    return f"health: ok; {stats}"
