@@ -77,6 +77,56 @@ def beam_spikes(mission: Mission, beam: int = 1, fraction: float = 0.1, size: fl
                                meta={**mission.meta, "spike_rows": rows, "spike_beam": beam})
 
 
+def glitch_velocities(v: np.ndarray, fraction: float = 0.1, seed: int = 0, margin: int = 10
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Implausible DVL velocities as real logs have them, in ``fraction`` of the pings (after ``margin``).
+
+    Two of three glitches are no-bottom-lock samples (``|v_z|`` 1-2 m/s, random sign; horizontal velocity
+    scaled by 0.2-1: water-track or noise); every third is a spike no vehicle can make (the horizontal
+    velocity jumps by 2.5-3.5 m/s in a random direction for one ping). ``v`` (M,3) m/s, body frame.
+
+    Returns:
+        (glitched copy of ``v``, sorted glitched rows).
+    """
+    rng = np.random.default_rng(seed)
+    ok = np.flatnonzero(np.all(np.isfinite(v), axis=1))
+    rows = np.sort(rng.choice(ok[(ok >= margin) & (ok < len(v) - margin)],
+                              size=max(1, int(round(fraction * len(ok)))), replace=False))
+    out = np.array(v, float)
+    for k, i in enumerate(rows):
+        if k % 3 == 2:
+            heading = rng.uniform(0.0, 2 * np.pi)
+            out[i, :2] += rng.uniform(2.5, 3.5) * np.array([np.cos(heading), np.sin(heading)])
+        else:
+            out[i, :2] *= rng.uniform(0.2, 1.0)
+            out[i, 2] = rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 2.0)
+    return out, rows
+
+
+def dvl_glitches(mission: Mission, fraction: float = 0.1, seed: int = 0) -> Mission:
+    """:func:`glitch_velocities` in the mission's DVL: ``v_b`` and the beams (each beam moves by the
+    projection of the velocity change, its noise kept); the glitched rows in ``meta["glitch_rows"]``."""
+    from .dvl import DvlGeometry
+    dvl = mission.dvl
+    geom = DvlGeometry.from_spec(mission.config.dvl)
+    v = dvl.v_b if dvl.v_b is not None else geom.velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
+    glitched, rows = glitch_velocities(v, fraction, seed)
+    beams = dvl.beams + np.nan_to_num(glitched - v) @ geom.T_b.T
+    return dataclasses.replace(mission, dvl=dataclasses.replace(dvl, beams=beams, v_b=glitched),
+                               meta={**mission.meta, "glitch_rows": rows})
+
+
+def glitch_csv(path: str | Path, fraction: float = 0.1, seed: int = 0) -> np.ndarray:
+    """:func:`glitch_velocities` in an A-KIT DVL file (columns 2-4), in place; returns the 0-based rows
+    (file line = row + 2)."""
+    from .loaders import AKIT_COLUMNS, read_csv
+    cols = AKIT_COLUMNS["DVL"]
+    data = read_csv(path, cols, nan_ok=cols[1:])
+    data[:, 1:4], rows = glitch_velocities(data[:, 1:4], fraction, seed)
+    np.savetxt(path, data, delimiter=",", fmt="%.10g", comments="", header=",".join(cols))
+    return rows
+
+
 def dvl_outage(mission: Mission, start_s: float, duration_s: float = 120.0) -> Mission:
     """All four beams invalid for ``duration_s`` seconds from ``start_s`` (total bottom-lock loss)."""
     return mission.with_outage(Outage(start_s, duration_s, (0, 1, 2, 3)))
@@ -206,6 +256,12 @@ def _csv(damage: Callable[[dict], None], **load_kwargs) -> Callable[[Mission, Pa
     return lambda m, w: write_and_load(m, w, damage, **load_kwargs)
 
 
+def _screened_glitches(mission: Mission) -> Mission:
+    from .dvl import screen_implausible
+    glitched = dvl_glitches(mission)
+    return with_streams(glitched, dvl=screen_implausible(glitched.dvl, mission.config.dvl))
+
+
 #: name -> (mission, workdir) -> Mission (raises DataError when the data cannot be used). ``raw`` variants
 #: hand the decoder's output straight to the data model; ``sanitized`` ones pass it through
 #: :meth:`DvlData.sanitized` first, as the loaders do.
@@ -219,6 +275,8 @@ FAULTS: dict[str, Callable[[Mission, Path], Mission]] = {
     "rdi-invalid csv": _csv(lambda p: [set_csv_field(p["DVL"], line, "DVL X [m/s]", value)
                                        for line, value in ((20, "-32.768"), (40, "-32768"), (60, "-32.768"))]),
     "beam-spikes 1 m/s": lambda m, w: beam_spikes(m),
+    "dvl-glitches screened": lambda m, w: _screened_glitches(m),
+    "dvl-glitches csv": _csv(lambda p: glitch_csv(p["DVL"])),
     "dvl-outage 120 s": lambda m, w: dvl_outage(m, 40.0, 120.0),
     "imu-gap 2 s": lambda m, w: imu_gap(m, 80.0, 2.0),
     "imu-zero-row": lambda m, w: zero_imu_row(m, 5000),
@@ -265,6 +323,8 @@ EXPECTED: dict[str, Expected] = {
     "rdi-invalid sanitized": Expected(factor=1.2, warning="RDI bad-velocity flag"),
     "rdi-invalid csv": Expected(factor=1.2, baseline="none csv", warning="RDI bad-velocity flag"),
     "beam-spikes 1 m/s": Expected(factor=1.3),
+    "dvl-glitches screened": Expected(factor=1.2, warning="outside the vehicle's envelope"),
+    "dvl-glitches csv": Expected(factor=1.2, baseline="none csv", warning="outside the vehicle's envelope"),
     "dvl-outage 120 s": Expected(factor=6.0),
     "imu-gap 2 s": Expected(factor=1.5, warning="bridged by linear interpolation"),
     "imu-zero-row": Expected(factor=1.05, warning="all-zero IMU row"),

@@ -29,7 +29,11 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    table works for any A-KIT folder, including the three not in ``../shared/data``.
 4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
    stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
-5. **DVL.** The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
+5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.config.DvlSpec` ``max_*``: speed,
+   ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.dvl.implausible_pings`)
+   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
+   the ten shared trajectories).
+   The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.dvl.make_beams` (the paper's error model, seeded
    by ``beam_seed``). NaN rows are invalid pings.
@@ -48,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import ImuSpec, SensorConfig
-from .dvl import make_beams
+from .dvl import describe_implausible, implausible_pings, make_beams
 from .earth import gravity_magnitude, lla_to_ned
 from .errors import ConfigError, DataError
 from .mission import MAX_DVL_SPEED_MPS, DepthData, DvlData, GroundTruth, ImuData, Mission, invalid_dvl_values
@@ -364,6 +368,16 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan
+    # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
+    # the envelope; spikes): invalid too, before the offset estimate and the completers see them
+    envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
+    outside = np.flatnonzero(np.any(list(envelope.values()), axis=0))
+    if outside.size:
+        lines = ", ".join(str(int(i) + 2) for i in outside[:10]) + (" ..." if outside.size > 10 else "")
+        warnings.warn(f"{raw.files['DVL']}: {outside.size} ping(s) outside the vehicle's envelope marked invalid "
+                      f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
+                      RuntimeWarning, stacklevel=2)
+        v_dvl[outside] = np.nan
 
     estimates = {}
     detected = raw.axis_detection
@@ -395,13 +409,15 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
     depth = DepthData(t_gt, gt.p_n[:, 2] - g[0, 3], source=src["GT"])  # p_n is relative to the first GT fix
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
-    beams = np.full((len(v_dvl), 4), np.nan)
-    beams[valid_ping] = make_beams(v_dvl[valid_ping], cfg.dvl, beam_seed)
+    # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
+    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
+                                                     beam_seed), np.nan)
     dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
             "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
+            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
                                "decided": None if detected is None else detected.decided},
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
