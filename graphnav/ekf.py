@@ -67,6 +67,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
+from .coasting import MAX_PURE_INERTIAL_S, check_pure_inertial
 from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
@@ -117,6 +118,8 @@ class EkfOptions:
             changes exactly); with them the white-noise inflation for bias/scale defaults to 0.
         sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
         sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
+        max_pure_inertial_s: warn when no DVL update enters for longer than this, s
+            (:func:`graphnav.coasting.check_pure_inertial`).
     """
 
     lever_arm: bool | None = None
@@ -134,6 +137,7 @@ class EkfOptions:
     dvl_error_states: bool = False
     sigma_dvl_scale0: float | None = None
     sigma_beam_bias0: float | None = None
+    max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -395,6 +399,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
     out_C, out_P = np.empty((K, 3, 3)), np.empty((K, 3, 3))
     out_ba, out_bg = np.empty((K, 3)), np.empty((K, 3))
     n_completed = 0
+    aided = np.zeros(K, dtype=bool)
     for k in range(K):
         seg = slice(event_seg[k], event_seg[k + 1])
         ekf.predict(seg_f[seg], seg_w[seg], seg_dt[seg])
@@ -410,14 +415,15 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
                     n_completed += 1
                 beams, sigma = completed
         if loose:
-            ekf.update_lc_beams(beams, ping_w[k], sigma)
+            aided[k] = ekf.update_lc_beams(beams, ping_w[k], sigma)
         else:
-            ekf.update_tc(beams, ping_w[k], sigma)
+            aided[k] = ekf.update_tc(beams, ping_w[k], sigma)
         s = ekf.state
         out_p[k], out_v[k], out_C[k], out_P[k] = s.p_n, s.v_n, s.C_b_n, ekf.P[IV, IV]
         out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
     info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
             "dvl_scale": ekf.dvl_scale.copy(), "beam_bias": ekf.beam_bias.copy(),
-            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps)}
+            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps),
+            **check_pure_inertial(f"EKF-{method}", ping_t, aided, out_P, ekf.options.max_pure_inertial_s)}
     return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
                        runtime_s=time.perf_counter() - wall, info=info)
