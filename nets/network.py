@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 import graphnav
-from graphnav.errors import ConfigError
+from graphnav.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs
@@ -112,17 +112,23 @@ class NetworkCompleter:
         Returns:
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
 
-        A missing pattern the network was not trained for, or inputs outside its envelope, are filled by
-        the average estimator over the same past (counted in ``fallbacks["pattern"]`` /
-        ``fallbacks["envelope"]``).
+        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), or
+        whose inputs lie outside its envelope, is filled by the average estimator over the same past
+        (counted in ``fallbacks["pattern"]`` / ``fallbacks["envelope"]``).
 
         Raises:
-            DataError: wrong shape or non-finite past.
+            DataError: wrong shape, non-finite past, or a missing pattern that is neither the network's nor
+                a superset of it.
         """
         past, measured = check_inputs(past, measured, self.n_past)
         pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(measured)))
         if pattern != self.missing:
-            # e.g. a ping the loader marked invalid inside an outage window: the network cannot serve it
+            if not set(self.missing) < set(pattern):
+                raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
+                                f"{list(self.missing)}; use load_completer('auto') for any pattern",
+                                "completer", field="measured")
+            # a ping that also lost a beam the network takes as input (e.g. marked invalid by the loader
+            # inside an outage window): the network cannot serve it, the average estimator can
             self.fallbacks["pattern"] += 1
             return self.fallback.complete(past, measured)
         if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
