@@ -247,10 +247,9 @@ def apply_axis_map(mission: Mission, gyro_map: np.ndarray, accel_map: np.ndarray
     return dataclasses.replace(mission, imu=imu)
 
 
-#: The axis conventions of the published A-KIT IMU files (signs that make the raw axes FRD): the files as
-#: first published (y flipped) and the authors' corrected files (y already in the body frame).
+#: The axis convention of the published A-KIT IMU files (signs that make the raw axes FRD: y flipped); the
+#: authors' corrected files have y in the body frame, (1, 1, 1).
 AKIT_PUBLISHED_AXIS_SIGNS = (1.0, -1.0, 1.0)
-AKIT_CORRECTED_AXIS_SIGNS = (1.0, 1.0, 1.0)
 
 
 @dataclass
