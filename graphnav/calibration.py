@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -244,6 +245,130 @@ def apply_axis_map(mission: Mission, gyro_map: np.ndarray, accel_map: np.ndarray
     imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b @ accel_map.T,
                               omega_b=mission.imu.omega_b @ gyro_map.T)
     return dataclasses.replace(mission, imu=imu)
+
+
+#: The axis convention of the published A-KIT IMU files (signs that make the raw axes FRD: y flipped); the
+#: authors' corrected files have y in the body frame, (1, 1, 1).
+AKIT_PUBLISHED_AXIS_SIGNS = (1.0, -1.0, 1.0)
+
+
+@dataclass
+class AxisDetection:
+    """What :func:`detect_imu_axis_signs` chose and why.
+
+    Attributes:
+        signs: signs to apply to the raw x, y, z of both accelerometer and gyro (FRD afterwards).
+        check: the axis check that decided (run on the raw axes, or on the y-flipped axes when the raw
+            axes looked consistent and had to be confirmed against the other convention).
+        gt_offset: the IMU-to-GT offset the GT check found for the chosen axes (None without GT).
+        decided: False when the data cannot tell the conventions apart (too little rotation); ``signs``
+            are then the published A-KIT convention.
+        notes: what the warning says beyond the choice.
+    """
+
+    signs: np.ndarray
+    check: AxisCheck
+    gt_offset: OffsetEstimate | None = None
+    decided: bool = True
+    notes: list[str] = field(default_factory=list)
+
+    def message(self, source: str) -> str:
+        how = "against the GT attitude" if self.gt_offset is not None else "from gravity/gyro consistency (no GT)"
+        what = (f"chose imu_axis_signs={tuple(int(s) for s in self.signs)}" if self.decided else
+                f"could not tell the conventions apart; assumed {tuple(int(s) for s in self.signs)}")
+        return (f"{source}: IMU axis convention detected {how}: {what}"
+                + "".join(f"; {n}" for n in self.notes) + "; pass imu_axis_signs explicitly to override")
+
+
+def _run_axis_check(imu, gt, config) -> tuple[AxisCheck, OffsetEstimate | None]:
+    probe = SimpleNamespace(imu=imu, gt=gt, config=config)   # the checks read only these three
+    if gt is not None:
+        return check_imu_axes_with_gt(probe)
+    return check_imu_axes_without_gt(probe), None
+
+
+def detect_imu_axis_signs(imu, config: SensorConfig, gt=None, source: str = "IMU") -> AxisDetection:
+    """The sign convention of raw IMU axes, by the IMU axis check (:func:`check_imu_axes_with_gt`, or
+    :func:`check_imu_axes_without_gt` when ``gt`` is None).
+
+    One set of signs applies to both sensors (a file convention, as :func:`graphnav.loaders.read_akit`
+    applies it). The check runs on the raw axes; when it finds them consistent it runs again on the
+    y-flipped axes, which must then be reported flipped, otherwise the data cannot tell the conventions
+    apart (``decided=False``, the published A-KIT signs are assumed). Rules: with GT the gyro decides (its
+    attitude increments separate the conventions 10-100x); the accelerometer (gravity direction, weak at
+    small roll) must not contradict it. Without GT the x/y signs come from the tilt kinematics and z from
+    gravity; a turn about z of both sensors is invisible to the IMU alone: of the two sign conventions
+    that then fit equally (a 180 deg turn apart) the one with x = +1 (x forward, as in both A-KIT
+    conventions) is taken, and swapped x/y axes are not detected without GT.
+
+    Args:
+        imu: :class:`~graphnav.mission.ImuData` with the raw axes. config: lat/gravity/earth_rotation used
+        by the GT check. gt: :class:`~graphnav.mission.GroundTruth` on the file's clock, or None.
+
+    Raises:
+        DataError: no sign convention fits (swapped axes, or gyro and accelerometer flipped differently),
+            naming the axis.
+    """
+    check, offset = _run_axis_check(imu, gt, config)
+    signs = _signs_of(check, gt is not None, source)
+    notes = []
+    decided = True
+    g, a = np.diag(check.gyro_map), np.diag(check.accel_map)
+    if gt is not None and np.any(g != a):
+        # one sensor decided a flip the other did not see: the flipped axes must then check consistent
+        fixed = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
+        recheck, offset = _run_axis_check(fixed, gt, config)
+        if not recheck.ok:
+            rg, ra = np.diag(recheck.gyro_map), np.diag(recheck.accel_map)
+            i = int(np.flatnonzero((rg != 1) | (ra != 1))[0]) if np.any((rg != 1) | (ra != 1)) else 0
+            raise _disagree(check, g, a, i, source)
+        notes.append(f"{'accelerometer' if np.all(a == 1) else 'gyro'} check undecided on "
+                     f"{', '.join(AXES[i] for i in np.flatnonzero(g != a))} (too little motion), the other decided")
+    if np.all(signs == 1):
+        flip = np.asarray(AKIT_PUBLISHED_AXIS_SIGNS)
+        flipped = dataclasses.replace(imu, f_b=imu.f_b * flip, omega_b=imu.omega_b * flip)
+        check_f, offset_f = _run_axis_check(flipped, gt, config)
+        if np.array_equal(_signs_of(check_f, gt is not None, source), flip):
+            offset = offset_f if offset_f is not None else offset
+        else:
+            decided = False
+            signs = flip.copy()
+            notes.append("the data carry too little rotation/tilt to tell y as recorded from y flipped")
+    if gt is None:
+        notes.append("without GT the gyro z sign follows the accelerometer's gravity and x is taken forward "
+                     "(a turn about z cannot be seen)")
+    return AxisDetection(signs, check, offset, decided, notes)
+
+
+def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
+    """The one sign vector of a check's maps, or DataError naming the axis when none fits."""
+    for P, sensor in ((check.gyro_map, "gyro"), (check.accel_map, "accelerometer")):
+        if not np.allclose(np.abs(P), np.eye(3)):
+            swapped = [AXES[i] for i in range(3) if P[i, i] == 0]
+            raise DataError(f"no IMU axis sign convention fits: {'; '.join(describe_axis_map(P, sensor))}"
+                            f" (axes are swapped, not sign-flipped); fix the file or pass imu_axis_signs",
+                            source, field=f"{sensor} {swapped[0]}")
+    g, a = np.diag(check.gyro_map).copy(), np.diag(check.accel_map).copy()
+    if not with_gt:
+        g[2] = a[2]                       # gyro z is not observable from tilt: it follows gravity's axis
+        if g[0] < 0 and a[0] < 0:         # 180 deg about z of both sensors: take x forward
+            g[:2] *= -1
+            a[:2] *= -1
+    differ = np.flatnonzero(g != a)
+    if differ.size and with_gt:
+        # against GT a check reports a flip only when it beats the as-loaded axes by AXIS_MARGIN, while "as
+        # loaded" may mean undecided (no rotation about that axis, little roll/pitch): the flip wins, and
+        # detect_imu_axis_signs re-checks the result
+        return np.minimum(g, a)
+    if differ.size:
+        raise _disagree(check, g, a, int(differ[0]), source)
+    return g
+
+
+def _disagree(check: AxisCheck, g: np.ndarray, a: np.ndarray, i: int, source: str) -> DataError:
+    return DataError(f"no IMU axis sign convention fits: gyro {AXES[i]} sign {g[i]:+.0f} but accelerometer "
+                     f"{AXES[i]} sign {a[i]:+.0f} (one convention applies to both sensors); suspects: "
+                     f"{'; '.join(check.suspects) or 'none'}; pass imu_axis_signs", source, field=f"axis {AXES[i]}")
 
 
 # ------------------------------------------------------------------------------------------------

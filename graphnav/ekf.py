@@ -73,6 +73,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
+from .coasting import MAX_PURE_INERTIAL_S, check_pure_inertial
 from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
@@ -132,6 +133,8 @@ class EkfOptions:
         reacq_escalate_s: see ``sigma_att_reacq_rad``, s.
         sigma_att_reacq_max_rad: cap of the escalated misalignment sigma, rad.
         sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
+        max_pure_inertial_s: warn when no DVL update enters for longer than this, s
+            (:func:`graphnav.coasting.check_pure_inertial`).
     """
 
     lever_arm: bool | None = None
@@ -155,6 +158,7 @@ class EkfOptions:
     reacq_escalate_s: float = 30.0
     sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
     sigma_v_reacq: float = 0.5
+    max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -505,4 +509,9 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
                       np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
                       np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
                       runtime_s=time.perf_counter() - wall, info=info)
+    # a ping aided the filter when it carried enough beams for its update (TC: one, LC: three); a gated
+    # update is not seen from here
+    used = np.array([e.n_measured + e.n_regressed for e in estimates]) >= (3 if method.endswith("LC") else 1)
+    sol.info.update(check_pure_inertial(f"EKF-{method}", sol.t, used, sol.cov_v_n,
+                                        (options or EkfOptions()).max_pure_inertial_s))
     return sol

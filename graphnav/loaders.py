@@ -14,7 +14,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows in that file).
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
    published IMU files predate the authors' "corrected the transformation" commit: their y axis is
-   flipped, hence the default ``(1, -1, 1)``.
+   flipped (``(1, -1, 1)``); the corrected files have y in the body frame (``(1, 1, 1)``). The default
+   ``"auto"`` detects the convention at load time with the IMU axis check
+   (:func:`graphnav.calibration.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
+   consistency without GT) and warns what it chose; an explicit tuple (or a ``--config`` that sets
+   ``imu_axis_signs``) is used as given. No fitting sign convention (swapped axes, gyro and accelerometer
+   flipped differently) is a DataError naming the axis.
 3. **Time offsets.** Every stream ends on the IMU clock: ``t = t_file (rescaled) + offset``.
    ``config.gt_time_offset_s`` and ``config.dvl_time_offset_s`` record the offsets added. ``"auto"``
    estimates them at load time (about 0.2 s per trajectory, see
@@ -24,7 +29,11 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    table works for any A-KIT folder, including the three not in ``../shared/data``.
 4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
    stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
-5. **DVL.** The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
+5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.config.DvlSpec` ``max_*``: speed,
+   ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.dvl.implausible_pings`)
+   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
+   the ten shared trajectories).
+   The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.dvl.make_beams` (the paper's error model, seeded
    by ``beam_seed``). NaN rows are invalid pings.
@@ -43,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import ImuSpec, SensorConfig
-from .dvl import make_beams
+from .dvl import describe_implausible, implausible_pings, make_beams
 from .earth import gravity_magnitude, lla_to_ned
 from .errors import ConfigError, DataError
 from .mission import MAX_DVL_SPEED_MPS, DepthData, DvlData, GroundTruth, ImuData, Mission, invalid_dvl_values
@@ -213,8 +222,9 @@ def list_akit(root: str | Path) -> list[Path]:
     return [d for _, d in sorted(found)]
 
 
-def akit_files(folder: str | Path) -> dict[str, Path]:
-    """{"IMU": path, "DVL": path, "GT": path} of one A-KIT trajectory folder."""
+def akit_files(folder: str | Path, require_gt: bool = True) -> dict[str, Path]:
+    """{"IMU": path, "DVL": path, "GT": path} of one A-KIT trajectory folder (no "GT" key when the GT file
+    is missing and ``require_gt`` is False)."""
     folder = Path(folder)
     m = re.fullmatch(r"Trajectory(\d+)", folder.name)
     if m:
@@ -224,6 +234,8 @@ def akit_files(folder: str | Path) -> dict[str, Path]:
         for k in AKIT_COLUMNS:
             hits = sorted(folder.glob(f"{k}_*.csv"))
             files[k] = hits[0] if len(hits) == 1 else folder / f"{k}_trajectoryN.csv"
+    if not require_gt and not files["GT"].is_file():
+        del files["GT"]
     for k, p in files.items():
         if not p.is_file():
             raise DataError(f"{k} file not found (expected A-KIT layout TrajectoryN/{{IMU,DVL,GT}}_"
@@ -237,29 +249,59 @@ class AkitRaw:
 
     imu: np.ndarray      # (N,7) t, f_b(3), omega_b(3)
     dvl: np.ndarray      # (M,4) t, v(3)
-    gt: np.ndarray       # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw
+    gt: np.ndarray | None  # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw; None without a GT file
     files: dict
+    axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
+    axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
 
 
-def read_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), rescale_stamps: bool = True,
+def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
               repair: bool = False) -> AkitRaw:
-    """Read and check the three CSVs of one trajectory folder (see the module docstring, steps 1-2)."""
-    files = akit_files(folder)
+    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2).
+
+    ``imu_axis_signs``: a +-1 triple, or ``"auto"`` (detected, with a warning; module docstring step 2).
+    A folder without a GT file reads with ``gt=None`` (the axis detection then uses the IMU alone).
+    """
+    files = akit_files(folder, require_gt=False)
     imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
     dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
-    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair)
-    signs = np.asarray(imu_axis_signs, float).reshape(3)
-    if not np.all(np.abs(signs) == 1):
-        raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
-    imu[:, 1:4] *= signs
-    imu[:, 4:7] *= signs
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
     if rescale_stamps:
         for a in (imu, dvl, gt):
-            a[:, 0] *= (len(a) - 1) / len(a)
-    return AkitRaw(imu, dvl, gt, files)
+            if a is not None:
+                a[:, 0] *= (len(a) - 1) / len(a)
+    detection = None
+    if isinstance(imu_axis_signs, str):
+        if imu_axis_signs != "auto":
+            raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
+        detection = detect_akit_axis_signs(imu, gt, str(files["IMU"]))
+        signs = detection.signs
+    else:
+        signs = np.asarray(imu_axis_signs, float).reshape(3)
+        if not np.all(np.abs(signs) == 1):
+            raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
+    imu[:, 1:4] *= signs
+    imu[:, 4:7] *= signs
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection)
 
 
-def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_s: float | str = "auto",
+def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
+    """:func:`graphnav.calibration.detect_imu_axis_signs` on raw A-KIT arrays (IMU (N,7), GT (K,10) or
+    None, stamps as read), with its warning. Adds ~0.1-0.3 s to a load (the GT offset it finds is reused)."""
+    from .calibration import detect_imu_axis_signs
+    imu_data = ImuData(np.ascontiguousarray(imu[:, 0]), imu[:, 1:4], imu[:, 4:7], source=source)
+    gt_data, config = None, SensorConfig()
+    if gt is not None:
+        config.lat_rad = float(gt[0, 2])
+        config.gravity_mps2 = gravity_magnitude(gt[0, 2], float(np.mean(-gt[:, 3])))
+        gt_data = GroundTruth(gt[:, 0], np.zeros((len(gt), 3)), gt[:, 4:7],
+                              euler_to_C_b_n(gt[:, 7], gt[:, 8], gt[:, 9]))
+    detection = detect_imu_axis_signs(imu_data, config, gt_data, source)
+    warnings.warn(detection.message(source), UserWarning, stacklevel=3)
+    return detection
+
+
+def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: float | str = "auto",
               gt_time_offset_s: float | str = "auto", lever_arm_b=None, beam_seed: int = 0,
               config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
               repair: bool = False, imu_position_b=None) -> Mission:
@@ -267,7 +309,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
 
     Args:
         folder: ``.../TrajectoryN``.
-        imu_axis_signs: signs applied to the raw IMU x, y, z (accelerometer and gyro).
+        imu_axis_signs: signs applied to the raw IMU x, y, z (accelerometer and gyro), or ``"auto"``
+            (detected at load time, with a warning; module docstring step 2).
         dvl_time_offset_s: seconds added to the (rescaled) DVL stamps, or ``"auto"`` (estimated).
         gt_time_offset_s: seconds added to the (rescaled) GT stamps, or ``"auto"`` (estimated).
         lever_arm_b: DVL position relative to the IMU, body frame, m (used for the beams' geometry,
@@ -289,6 +332,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         ``time_offsets`` (the estimates with their sigmas when "auto").
     """
     folder = Path(folder)
+    akit_files(folder)       # load_akit needs the GT file (NED origin, depth): the error names it
     raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))
@@ -306,7 +350,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
     cfg.lat_rad = float(lat0)
     cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
-    cfg.imu_axis_signs = np.asarray(imu_axis_signs, float)
+    cfg.imu_axis_signs = raw.axis_signs
     p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
     v_n = g[:, 4:7]
     C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
@@ -324,8 +368,23 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan
+    # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
+    # the envelope; spikes): invalid too, before the offset estimate and the completers see them
+    envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
+    outside = np.flatnonzero(np.any(list(envelope.values()), axis=0))
+    if outside.size:
+        lines = ", ".join(str(int(i) + 2) for i in outside[:10]) + (" ..." if outside.size > 10 else "")
+        warnings.warn(f"{raw.files['DVL']}: {outside.size} ping(s) outside the vehicle's envelope marked invalid "
+                      f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
+                      RuntimeWarning, stacklevel=2)
+        v_dvl[outside] = np.nan
 
     estimates = {}
+    detected = raw.axis_detection
+    if gt_time_offset_s == "auto" and detected is not None and detected.gt_offset is not None \
+            and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
+        gt_time_offset_s = detected.gt_offset.offset_s
+        estimates["gt"] = detected.gt_offset
     if gt_time_offset_s == "auto":
         from .calibration_align import estimate_gt_time_offset
         est = estimate_gt_time_offset(t_imu, omega_b, g[:, 0], C_b_n, lat_for_rate)
@@ -350,13 +409,17 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
         gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
     depth = DepthData(t_gt, gt.p_n[:, 2] - g[0, 3], source=src["GT"])  # p_n is relative to the first GT fix
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
-    beams = np.full((len(v_dvl), 4), np.nan)
-    beams[valid_ping] = make_beams(v_dvl[valid_ping], cfg.dvl, beam_seed)
+    # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
+    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
+                                                     beam_seed), np.nan)
     dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
             "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
+            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
+            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
+                               "decided": None if detected is None else detected.decided},
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
@@ -430,7 +493,8 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
             :func:`load_akit` otherwise (e.g. ``beam_seed``).
 
     With a config on real data, its lever arm, IMU axis signs and time offsets are used as given (no
-    "auto" estimation): the config is the calibration.
+    "auto" estimation): the config is the calibration. A config file that does not set ``imu_axis_signs``
+    leaves the axis convention to the load-time detection.
     """
     config = SensorConfig.load(config_path) if config_path else None
     if data is None:
@@ -442,7 +506,14 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
     if config is not None:
-        sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
+        if "imu_axis_signs" in _config_keys(config_path):   # a config without the field leaves it "auto"
+            sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
         sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
         sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
     return load_akit(path, config=config, **sim_kwargs)
+
+
+def _config_keys(config_path: str | Path) -> set[str]:
+    """Top-level keys of a SensorConfig JSON file (already parsed once by ``SensorConfig.load``)."""
+    import json
+    return set(json.loads(Path(config_path).read_text()))

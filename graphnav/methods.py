@@ -116,13 +116,16 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     ``"fixed-lag"`` (lag ``options.lag_s``). ``init``: the initial state from the ground truth (``"gt"``),
     from the sensors (``"sensors"``, with ``aligner_kwargs`` such as ``initial_heading_rad``), or ``"auto"``
     (ground truth when the mission has it).
-    ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer.
+    ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer and, for a network
+    completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
+    (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for}``).
     """
     described = "given"
     if completer is None:
         completer, described = completer_for(method, scenario, mission.config.dvl.beam_noise_std)
     else:
         check_method(method)
+    fallbacks_before = dict(getattr(completer, "fallbacks", {}))
     start = time.perf_counter()
     if method in EKF_METHODS:
         from graphnav.ekf import EkfOptions, run_ekf
@@ -140,4 +143,11 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall
     sol.info = {**sol.info, "completer": described, "scenario": scenario}
+    if fallbacks_before:
+        counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
+        sol.info["completer_fallbacks"] = counts
+        if any(counts.values()):
+            warnings.warn(f"{method}: the average estimator filled {counts['envelope']} ping(s) whose inputs left "
+                          f"the network's training envelope and {counts['pattern']} with a missing-beam pattern "
+                          f"the network was not trained for", RuntimeWarning, stacklevel=2)
     return sol

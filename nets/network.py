@@ -23,6 +23,47 @@ from .model import BeamRegressor, normalize_missing, scenario_name
 from .training import FORMAT_VERSION, file_sha256, weights_dir
 
 
+#: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
+#: ping at the edge of the training data does not switch completers.
+ENVELOPE_MARGIN_MPS = 0.1
+
+
+class InputEnvelope:
+    """The inputs a network was trained on: per-beam range and largest ping-to-ping change, m/s.
+
+    From the model card's ``"envelope"`` (:func:`graphnav.nets.training.training_envelope`); a card without
+    one gives the normalisation's mean +- 4 std per beam and no step limit.
+    """
+
+    def __init__(self, beam_min, beam_max, max_step=None, margin: float = ENVELOPE_MARGIN_MPS):
+        self.lo = np.asarray(beam_min, float) - margin
+        self.hi = np.asarray(beam_max, float) + margin
+        self.max_step = None if max_step is None else np.asarray(max_step, float) + margin
+
+    @classmethod
+    def from_card(cls, card: dict) -> "InputEnvelope | None":
+        if "envelope" in card:
+            env = card["envelope"]
+            return cls(env["beam_min"], env["beam_max"], env.get("max_step"))
+        if "normalisation" in card:
+            mean, std = (np.asarray(card["normalisation"][k], float) for k in ("beam_mean", "beam_std"))
+            return cls(mean - 4 * std, mean + 4 * std)
+        return None
+
+    def contains(self, past: np.ndarray, measured: np.ndarray, kept) -> bool:
+        """Whether every past beam, the kept measured beams and (with a step limit) every ping-to-ping
+        change of them lie inside the envelope."""
+        kept = list(kept)
+        if np.any((past < self.lo) | (past > self.hi)):
+            return False
+        if np.any((measured[kept] < self.lo[kept]) | (measured[kept] > self.hi[kept])):
+            return False
+        if self.max_step is None:
+            return True
+        return bool(np.all(np.abs(np.diff(past, axis=0)) <= self.max_step)
+                    and np.all(np.abs(measured[kept] - past[-1, kept]) <= self.max_step[kept]))
+
+
 class NetworkCompleter:
     """A trained :class:`BeamRegressor` behind the completer interface.
 
@@ -34,6 +75,12 @@ class NetworkCompleter:
         sigma_scale: factor on every returned sigma (default 1: per ping the sigma is calibrated).
             Through recursive 30 s outages the RMS of error/sigma is 1.2-2.0 (model card); the growth
             that :class:`graphnav.history.BeamHistory` adds over a run of filled pings covers that.
+
+    A network extrapolates badly outside the data it was trained on (no-bottom-lock samples in its past
+    window put its beams 0.1-0.3 m/s off, where the average estimator stays bounded): a ping whose inputs
+    leave the card's :class:`InputEnvelope` is filled by the average estimator over the same window, and
+    counted in ``fallbacks["envelope"]`` (:func:`graphnav.methods.run_method` puts the counts of a run in
+    ``info["completer_fallbacks"]``).
     """
 
     def __init__(self, model: BeamRegressor, sigma: str = "head", constant_sigma=None, card: dict | None = None,
@@ -51,6 +98,9 @@ class NetworkCompleter:
             raise ConfigError(f"sigma_scale must be > 0, got {sigma_scale}")
         self.sigma_scale = float(sigma_scale)
         self.card = card or {}
+        self.envelope = InputEnvelope.from_card(self.card)
+        self.fallback = AverageCompleter(self.n_past)
+        self.fallbacks = {"envelope": 0, "pattern": 0}
 
     def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping.
@@ -62,15 +112,28 @@ class NetworkCompleter:
         Returns:
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
 
+        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), or
+        whose inputs lie outside its envelope, is filled by the average estimator over the same past
+        (counted in ``fallbacks["pattern"]`` / ``fallbacks["envelope"]``).
+
         Raises:
-            DataError: wrong shape, non-finite past, or a missing pattern the network was not trained for.
+            DataError: wrong shape, non-finite past, or a missing pattern that is neither the network's nor
+                a superset of it.
         """
         past, measured = check_inputs(past, measured, self.n_past)
         pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(measured)))
         if pattern != self.missing:
-            raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
-                            f"{list(self.missing)}; use load_completer('auto') for any pattern",
-                            "completer", field="measured")
+            if not set(self.missing) < set(pattern):
+                raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
+                                f"{list(self.missing)}; use load_completer('auto') for any pattern",
+                                "completer", field="measured")
+            # a ping that also lost a beam the network takes as input (e.g. marked invalid by the loader
+            # inside an outage window): the network cannot serve it, the average estimator can
+            self.fallbacks["pattern"] += 1
+            return self.fallback.complete(past, measured)
+        if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
+            self.fallbacks["envelope"] += 1
+            return self.fallback.complete(past, measured)
         with torch.no_grad():
             out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],
                                   torch.as_tensor(measured[list(self.model.kept)], dtype=torch.float32)[None])
@@ -92,6 +155,12 @@ class AutoCompleter:
         self.networks = {net.missing: net for net in networks}
         self.fallback = fallback
         self.n_past = max([net.n_past for net in networks] + [fallback.n_past])
+
+    @property
+    def fallbacks(self) -> dict[str, int]:
+        """Pings the networks handed to the average estimator (inputs outside their envelope); patterns
+        without a network go to the average estimator by design and are not counted."""
+        return {"envelope": sum(net.fallbacks["envelope"] for net in self.networks.values()), "pattern": 0}
 
     def completer_for(self, measured: np.ndarray):
         """The completer that serves the missing pattern (NaN) of ``measured``."""

@@ -205,10 +205,23 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
                      "sigma_epochs_run": len(nll_hist),
                      "time_s": round(train_time, 1)},
         "normalisation": {"beam_mean": model.beam_mean.tolist(), "beam_std": model.beam_std.tolist()},
+        "envelope": training_envelope(series["train"]),
         "constant_sigma": constant_sigma,
         "metrics": metrics,
     }
     return TrainResult(model, card, history)
+
+
+def training_envelope(series) -> dict:
+    """The input envelope of a network, from its training beams (list of :class:`BeamSeries`, or one):
+    per-beam min and max (m/s) and the largest ping-to-ping change of each beam (m/s). Stored in the model
+    card (``"envelope"``); :class:`graphnav.nets.network.NetworkCompleter` falls back to the average
+    estimator for inputs outside it."""
+    series = [series] if isinstance(series, beamdata.BeamSeries) else list(series)
+    beams = np.concatenate([s.beams for s in series])
+    steps = np.concatenate([np.abs(np.diff(s.beams, axis=0)) for s in series if len(s.beams) > 1])
+    return {"beam_min": beams.min(axis=0).tolist(), "beam_max": beams.max(axis=0).tolist(),
+            "max_step": steps.max(axis=0).tolist(), "source": "training split beams", "samples": int(len(beams))}
 
 
 def weights_dir() -> Path:

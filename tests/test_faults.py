@@ -353,3 +353,38 @@ def test_bench_interrupted_keeps_finished_cases(tmp_path, monkeypatch):
     assert calls == ["Graph-TC", "LC"]          # the finished case is not run again
     assert [r["method"] for r in records] == ["TC", "Graph-TC", "LC"]
     assert records[0] == kept[0] and not any(r.get("error") for r in records)
+
+
+# --- every IMU grade -------------------------------------------------------------------------------------
+#: The faults run on the tactical and MEMS missions in the suite (the whole table: scripts/fault_report.py).
+GRADE_FAULTS = ("none", "dvl-outage 120 s", "dvl-glitches screened", "beam-spikes 1 m/s")
+
+
+@pytest.mark.parametrize("grade", ["tactical", "mems"])
+def test_fault_subset_on_lower_grade_imus(grade, tmp_path):
+    """Within the bound, or (a total outage: no bound can hold for a tactical/MEMS INS) the estimator warned
+    that it ran pure inertial and its covariance covers the error."""
+    mission = faults.fault_mission(grade)
+    base = {o.estimator: o.vrmse for o in faults.run_fault("none", ESTIMATORS, mission, tmp_path)}
+    for fault in GRADE_FAULTS[1:]:
+        for o in faults.run_fault(fault, ESTIMATORS, mission, tmp_path):
+            verdict = faults.judge(EXPECTED[fault], o, base[o.estimator])
+            assert verdict != "FAIL", (grade, fault, o.estimator, o.vrmse, o.nees, o.warnings)
+            if fault.startswith("dvl-outage") and o.estimator in ("Graph-TC", "EKF-TC"):
+                assert o.warned_pure_inertial and o.pure_inertial_s >= 119.0
+                assert o.nees <= faults.NEES_COVER_MAX, (grade, o.estimator, o.nees)
+
+
+def test_pure_inertial_check_warns_with_the_predicted_sigma():
+    from graphnav.coasting import check_pure_inertial
+    t = np.arange(200.0)
+    aided = (t < 40) | (t >= 160)
+    cov = np.repeat(np.eye(3)[None], 200, axis=0) * 0.01
+    cov[159] *= 4.0
+    with pytest.warns(RuntimeWarning, match=r"EKF-TC: pure inertial for 120 s \(39.0-159.0 s.*sigma 0.346 m/s"):
+        info = check_pure_inertial("EKF-TC", t, aided, cov, max_s=60.0)
+    assert info["pure_inertial_max_s"] == 120.0 and info["pure_inertial_spans"] == [[39.0, 159.0, pytest.approx(0.3464, abs=1e-4)]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_pure_inertial("x", t, aided, None, max_s=130.0)["pure_inertial_spans"] == []
+        assert check_pure_inertial("x", t, np.ones(200, bool), cov)["pure_inertial_max_s"] == 0.0

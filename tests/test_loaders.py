@@ -193,7 +193,7 @@ def test_load_akit_auto_offsets_on_synthetic_turn(tmp_path):
     write_csv(folder / "DVL_trajectory1.csv", AKIT_COLUMNS["DVL"], dvl.tolist())
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        m = load_akit(folder, lever_arm_b=(-1.86, 0.0, 0.0), imu_position_b=(0, 0, 0))
+        m = load_akit(folder, lever_arm_b=(-1.86, 0.0, 0.0), imu_position_b=(0, 0, 0), imu_axis_signs=(1, -1, 1))
     assert abs(m.config.gt_time_offset_s) < 0.03
     assert abs(m.config.dvl_time_offset_s) < 0.05
 

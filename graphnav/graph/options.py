@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from graphnav.coasting import MAX_PURE_INERTIAL_S
 from graphnav.errors import ConfigError
 
 BEAM_FACTOR_MODES = ("epoch", "beam")
@@ -83,6 +84,8 @@ class GraphOptions:
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
         marginals: compute the marginal velocity covariance at every output epoch.
+        max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
+            (:func:`graphnav.coasting.check_pure_inertial`).
     """
 
     beam_sigma: float | None = None
@@ -113,6 +116,7 @@ class GraphOptions:
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: bool = True
+    max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
     def __post_init__(self):
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:

@@ -25,6 +25,7 @@ from typing import Callable
 
 import numpy as np
 
+from graphnav.coasting import check_pure_inertial
 from graphnav.errors import ConfigError
 from graphnav.mission import Mission
 from graphnav.solution import NavSolution
@@ -147,6 +148,8 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     sol = solution_from_estimates(method, estimates)
     sol.runtime_s = time.perf_counter() - start
     sol.info.update(info)
+    aided = (sol.info["n_measured"] + sol.info["n_regressed"]) > 0
+    sol.info.update(check_pure_inertial(method, sol.t, aided, sol.cov_v_n, options.max_pure_inertial_s))
     return sol
 
 

@@ -1,0 +1,120 @@
+"""IMU axis convention detected at load time (``imu_axis_signs="auto"``): the shared A-KIT files as
+published (y flipped) and the same files with y already in the body frame, with and without GT."""
+from __future__ import annotations
+
+import json
+import shutil
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.config import SensorConfig
+from graphnav.errors import DataError
+from graphnav.loaders import AKIT_COLUMNS, akit_files, load_akit, load_mission, read_akit, read_csv
+
+TRAJ = ("Trajectory2", "Trajectory11")   # Trajectory11: little roll, the accelerometer check is undecided
+
+
+def _copy(src, dst_root, imu_transform=None, with_gt=True):
+    """A copy of an A-KIT folder in ``dst_root`` (never in the repo); the IMU rows pass through
+    ``imu_transform`` (raw (N,7) -> (N,7))."""
+    dst = dst_root / src.name
+    dst.mkdir()
+    files = akit_files(src)
+    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"])
+    if imu_transform is not None:
+        imu = imu_transform(imu)
+    np.savetxt(dst / files["IMU"].name, imu, delimiter=",", fmt="%.10g", comments="",
+               header=",".join(AKIT_COLUMNS["IMU"]))
+    shutil.copy(files["DVL"], dst / files["DVL"].name)
+    if with_gt:
+        shutil.copy(files["GT"], dst / files["GT"].name)
+    return dst
+
+
+def _negate_y(imu):
+    imu = imu.copy()
+    imu[:, [2, 5]] *= -1          # ACC Y, GYRO Y: the authors' corrected files (y in the body frame)
+    return imu
+
+
+def _auto(load, *args, **kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = load(*args, **kwargs)
+    msgs = [str(w.message) for w in caught if "IMU axis convention" in str(w.message)]
+    assert len(msgs) == 1, msgs
+    return out, msgs[0]
+
+
+@pytest.mark.parametrize("name", TRAJ)
+def test_published_files_detected_as_y_flipped(akit_dir, name):
+    m, msg = _auto(load_akit, akit_dir / name)
+    np.testing.assert_array_equal(m.config.imu_axis_signs, [1, -1, 1])
+    assert "against the GT attitude" in msg and "(1, -1, 1)" in msg
+    explicit = load_akit(akit_dir / name, imu_axis_signs=(1, -1, 1))
+    np.testing.assert_array_equal(m.imu.omega_b, explicit.imu.omega_b)
+    assert m.config.gt_time_offset_s == explicit.config.gt_time_offset_s   # reused, not re-estimated
+
+
+@pytest.mark.parametrize("name", TRAJ)
+def test_y_in_body_frame_detected(akit_dir, tmp_path, name):
+    folder = _copy(akit_dir / name, tmp_path, _negate_y)
+    m, msg = _auto(load_akit, folder)
+    np.testing.assert_array_equal(m.config.imu_axis_signs, [1, 1, 1])
+    assert "(1, 1, 1)" in msg
+    published = load_akit(akit_dir / name, imu_axis_signs=(1, -1, 1))
+    np.testing.assert_allclose(m.imu.omega_b, published.imu.omega_b, atol=1e-9)
+    np.testing.assert_allclose(m.imu.f_b, published.imu.f_b, atol=1e-8)
+
+
+@pytest.mark.parametrize("transform, signs", [(None, [1, -1, 1]), (_negate_y, [1, 1, 1])])
+def test_without_gt_gravity_and_gyro_decide(akit_dir, tmp_path, transform, signs):
+    folder = _copy(akit_dir / TRAJ[0], tmp_path, transform, with_gt=False)
+    raw, msg = _auto(read_akit, folder)
+    assert raw.gt is None and "no GT" in msg
+    np.testing.assert_array_equal(raw.axis_signs, signs)
+    with pytest.raises(DataError, match="GT file not found|GT_"):   # load_akit itself still needs the GT
+        load_akit(folder, imu_axis_signs=(1, 1, 1))
+
+
+def test_explicit_signs_win_and_config_without_field_is_auto(akit_dir, tmp_path):
+    folder = akit_dir / TRAJ[0]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*IMU axis convention")
+        m = load_akit(folder, imu_axis_signs=(1, 1, 1))           # wrong on purpose: used as given
+        np.testing.assert_array_equal(m.config.imu_axis_signs, [1, 1, 1])
+        cfg = SensorConfig(imu_axis_signs=(1, 1, 1))
+        cfg.save(tmp_path / "with.json")
+        m = load_mission(folder, tmp_path / "with.json")
+        np.testing.assert_array_equal(m.config.imu_axis_signs, [1, 1, 1])
+    d = cfg.to_dict()
+    del d["imu_axis_signs"]
+    (tmp_path / "without.json").write_text(json.dumps(d))
+    m, _ = _auto(load_mission, folder, tmp_path / "without.json")
+    np.testing.assert_array_equal(m.config.imu_axis_signs, [1, -1, 1])
+
+
+def test_no_convention_fits_names_the_axis(akit_dir, tmp_path):
+    # swapped x/y (with GT; without GT a swap of the published axes is a turn about z, which the IMU alone
+    # cannot see: see detect_imu_axis_signs)
+    def swap_xy(imu):
+        imu = imu.copy()
+        imu[:, [1, 2, 4, 5]] = imu[:, [2, 1, 5, 4]]
+        return imu
+    folder = _copy(akit_dir / TRAJ[0], tmp_path, swap_xy)
+    with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
+        read_akit(folder)
+    assert err.value.field.split()[-1] in "xy"
+
+
+def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
+    def flip_accel_y_only(imu):
+        imu = imu.copy()
+        imu[:, 5] *= -1               # gyro y corrected, accelerometer y still flipped
+        return imu
+    folder = _copy(akit_dir / TRAJ[0], tmp_path, flip_accel_y_only, with_gt=False)
+    with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
+        read_akit(folder)
+    assert "y" in err.value.field
