@@ -76,6 +76,11 @@ AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 
 #: Position of the IMU's measurement point relative to the published GT reference point, body frame, m.
 #: The estimators navigate the IMU point, so the loader moves the GT there (``imu_position_b``) and gives the
+#: DVL time offset of the published A-KIT files (s added to the rescaled DVL stamps), for folders without a GT
+#: file: the mean of the load-time estimates against the GT on the ten shared trajectories (0.976-1.061 s, spread
+#: 0.025 s; ``scripts/no_gt_runs.py`` prints them).
+AKIT_DVL_TIME_OFFSET_S = 1.02
+
 #: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
 #: (:func:`graphnav.calibration.estimate_imu_position`) puts the IMU at ~[-1.9, 0, -0.1] m and calibration
 #: without GT puts the DVL within ~0.2 m of the IMU, so the default takes them as co-located: the IMU point is
@@ -332,7 +337,6 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         ``time_offsets`` (the estimates with their sigmas when "auto").
     """
     folder = Path(folder)
-    akit_files(folder)       # load_akit needs the GT file (NED origin, depth): the error names it
     raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))
@@ -347,13 +351,14 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     # contiguous copies: np.interp on a strided 40k-sample column copies it at every call
     t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
     g = raw.gt
-    lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
-    cfg.lat_rad = float(lat0)
-    cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
     cfg.imu_axis_signs = raw.axis_signs
-    p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
-    v_n = g[:, 4:7]
-    C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
+    if g is not None:
+        lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
+        cfg.lat_rad = float(lat0)
+        cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
+        p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
+        v_n = g[:, 4:7]
+        C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
     lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
 
     # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
@@ -381,6 +386,9 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
 
     estimates = {}
     detected = raw.axis_detection
+    if g is None:
+        return _mission_without_gt(folder, raw, cfg, v_dvl, envelope, dvl_time_offset_s, beam_seed, name,
+                                   rescale_stamps)
     if gt_time_offset_s == "auto" and detected is not None and detected.gt_offset is not None \
             and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
         gt_time_offset_s = detected.gt_offset.offset_s
@@ -423,6 +431,37 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
+                        dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool) -> Mission:
+    """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
+    published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
+    given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
+    if dvl_time_offset_s == "auto":
+        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
+        warnings.warn(f"{folder}: no GT file, so the DVL time offset cannot be estimated; using this vehicle's "
+                      f"{AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared trajectories, "
+                      "spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                      RuntimeWarning, stacklevel=3)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+    cfg.gt_time_offset_s = 0.0
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    valid_ping = np.all(np.isfinite(v_dvl), axis=1)
+    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
+                                                     beam_seed), np.nan)
+    src = {k: str(p) for k, p in raw.files.items()}
+    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
+                  v_dvl, source=src["DVL"])
+    imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
+    detected = raw.axis_detection
+    meta = {"source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
+            "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
+            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
+            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
+                               "decided": None if detected is None else detected.decided},
+            "time_offsets": {}}
+    return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
 
 
 def gt_offset_drift(folder: str | Path, rescale_stamps: bool, window: int = 100) -> float:
