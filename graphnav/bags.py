@@ -173,10 +173,14 @@ def parse_topics(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str) -> dict[str, str]:
+def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str,
+                   wanted: tuple[str, ...] = tuple(STREAM_TYPES), required: tuple[str, ...] = REQUIRED_STREAMS
+                   ) -> dict[str, str]:
     """Stream -> topic: the overrides (checked), else the topic of an accepted type (first by preference)."""
     chosen = {}
     for stream, types in STREAM_TYPES.items():
+        if stream not in wanted:
+            continue
         if stream in topics:
             topic = topics[stream]
             if topic not in available:
@@ -195,7 +199,7 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
             if matches:
                 chosen[stream] = matches[0]
                 break
-    for stream in REQUIRED_STREAMS:
+    for stream in required:
         if stream not in chosen:
             raise DataError(f"no {stream} topic: need a topic of type {' or '.join(STREAM_TYPES[stream])}; the bag "
                             f"has {', '.join(f'{t} ({ty})' for t, ty in sorted(available.items())) or 'no topics'}",
@@ -203,8 +207,10 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
     return chosen
 
 
-def read_streams(path: str | Path, topics: dict[str, str] | None = None) -> dict[str, _Stream]:
-    """The raw messages of each stream (header stamps in ns, deserialized messages), sorted checks done."""
+def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted: tuple[str, ...] = tuple(STREAM_TYPES),
+                 required: tuple[str, ...] = REQUIRED_STREAMS) -> dict[str, _Stream]:
+    """The raw messages of each stream (header stamps in ns, deserialized messages), stamps checked to
+    increase strictly per topic."""
     _require_rosbags()
     from rosbags.highlevel import AnyReader, AnyReaderError
     path = Path(path)
@@ -222,7 +228,7 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None) -> dict
         missing = {k: v for k, v in default.fielddefs.items() if k not in reader.typestore.fielddefs}
         reader.typestore.register(missing)
         available = {c.topic: c.msgtype for c in reader.connections}
-        chosen = _choose_topics(available, topics or {}, source)
+        chosen = _choose_topics(available, topics or {}, source, wanted, required)
         out = {}
         for stream, topic in chosen.items():
             conns = [c for c in reader.connections if c.topic == topic]
@@ -331,6 +337,23 @@ def _gt(s: _Stream, t0_ns: int, source: str) -> GroundTruth:
     p_n = p @ A.T
     v_n = np.einsum("kij,kj->ki", C_b_n, v_child @ B)  # twist is in the child frame; B is symmetric
     return GroundTruth((s.t_ns - t0_ns) / 1e9, p_n, v_n, C_b_n, None, f"{source}:{s.topic}")
+
+
+def load_odometry(path: str | Path, topic: str | None = None):
+    """The ``nav_msgs/msg/Odometry`` of a bag (e.g. what :func:`write_odometry_bag` wrote) as a
+    :class:`~graphnav.solution.NavSolution` in NED/FRD with absolute stamps (Unix s) and the velocity
+    covariance from ``twist.covariance`` (None when it is all zero)."""
+    from .solution import NavSolution
+    s = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
+    gt = _gt(s, 0, str(path))
+    child_frd = _frame_is(s.rows[0].child_frame_id, "_frd")
+    B = np.eye(3) if child_frd else FLU_FRD
+    cov_child = np.array([np.asarray(m.twist.covariance, float).reshape(6, 6)[:3, :3] for m in s.rows])
+    cov = None
+    if np.any(cov_child):
+        R = np.einsum("kij,jl->kil", gt.C_b_n, B)          # child -> NED
+        cov = np.einsum("kij,kjl,kml->kim", R, cov_child, R)
+    return NavSolution(s.topic, gt.t, gt.p_n, gt.v_n, gt.C_b_n, cov_v_n=cov)
 
 
 def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[str, str] | None = None,
