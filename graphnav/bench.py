@@ -296,6 +296,8 @@ def _run_dask(todo: list[BenchCase], finished, scheduler: str, jobs: int) -> Non
     ``"local"`` for a :class:`dask.distributed.LocalCluster` of ``jobs`` single-threaded worker processes.
     Results come back as cases finish and go through the same ``finished`` (results.json, resume) as the
     process pool. Remote workers need graphnav installed (and the data paths readable) on their side."""
+    if not todo:
+        return   # everything resumed: no cluster needed
     try:
         from dask.distributed import Client, LocalCluster, as_completed as dask_completed
     except ImportError:
