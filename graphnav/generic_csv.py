@@ -200,15 +200,17 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     meta["t0_s"] = t0
     imu = ImuData(t_imu - t0, f_b, omega_b, str(path))
 
-    spec = cmap.get("dvl")
-    if not spec:
+    spec = cmap.get("dvl") or {}
+    if not spec and pd0_file is None:
         raise ConfigError("csv_columns needs a 'dvl' entry")
     depth = None
     if pd0_file is not None or "pd0" in spec:
         from .pd0 import read_pd0
         pd0_path = pd0_file or root / spec["pd0"]
+        from .pd0 import pd0_geometry
         dvl_raw, depth, pd0_meta = read_pd0(pd0_path, config)
         meta.update(pd0_meta)
+        config = pd0_geometry(config, pd0_meta)
         dvl = dataclasses.replace(dvl_raw, t=dvl_raw.t - t0)
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
