@@ -130,12 +130,11 @@ def typestore():
 
 
 def is_bag(path: str | Path) -> bool:
-    """True for a ``.mcap``/``.db3`` file or a rosbag2 folder (``metadata.yaml`` or a storage file inside)."""
+    """True for a ``.mcap``/``.db3`` file or a rosbag2 folder (one with ``metadata.yaml``)."""
     path = Path(path)
     if path.is_file():
         return path.suffix in BAG_SUFFIXES
-    return path.is_dir() and ((path / "metadata.yaml").exists()
-                              or any(p.suffix in BAG_SUFFIXES for p in path.iterdir()))
+    return path.is_dir() and (path / "metadata.yaml").exists()
 
 
 def _stamp(msg) -> int:

@@ -87,8 +87,16 @@ def find_trajectories(data: str | None = None, sim_seeds: int = 1, sim_duration_
     every trajectory folder under ``data``."""
     if data is None:
         return [TrajectorySource(f"sim-seed{s}", None, s, sim_duration_s, config_path) for s in range(sim_seeds)]
+    from .bags import is_bag
     from .loaders import list_akit
     root = Path(data)
+    if is_bag(root):
+        return [TrajectorySource(root.stem if root.is_file() else root.name, str(root), 0, 0.0, config_path)]
+    if root.is_dir() and not any(root.glob("IMU_*.csv")) and not list_akit(root):
+        # A folder of ROS 2 bags (bag folders or bare .mcap/.db3 files), one mission each.
+        found = sorted(p for p in root.iterdir() if is_bag(p))
+        if found:
+            return [TrajectorySource(p.stem if p.is_file() else p.name, str(p), 0, 0.0, config_path) for p in found]
     if not root.is_dir():
         raise ConfigError(f"--data {data}: not a folder")
     if any(root.glob("IMU_*.csv")):

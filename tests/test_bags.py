@@ -143,3 +143,11 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
                      "--out", str(tmp_path / "x"), "--no-plots"]) == 1
     with pytest.raises(ConfigError, match="STREAM=TOPIC"):
         bags.parse_topics(["dvl:/dvl"])
+
+
+def test_bench_finds_a_folder_of_bags(sim, tmp_path):
+    from graphnav.bench import find_trajectories
+    _, config, paths, root = sim
+    found = find_trajectories(str(root), config_path=str(config))
+    assert [s.name for s in found] == ["run_mcap", "run_wl"]
+    assert [s.name for s in find_trajectories(str(paths["mcap"] / "run_mcap.mcap"))] == ["run_mcap"]

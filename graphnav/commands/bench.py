@@ -27,7 +27,8 @@ def register(subparsers) -> None:
         formatter_class=HelpFormatter)
     p.add_argument("--data", metavar="DIR",
                    help="a folder of trajectories in the A-KIT layout (e.g. ../shared/data/snapir-2022-akit) "
-                        "or one trajectory folder; default: the simulated mission")
+                        "or one trajectory folder, or a ROS 2 bag or a folder of bags (with a reference Odometry "
+                        "topic); default: the simulated mission")
     p.add_argument("--config", metavar="JSON", help="sensor configuration for every trajectory")
     p.add_argument("--sim-seeds", type=int, default=1, metavar="N",
                    help="without --data: number of simulated trajectories (seeds 0..N-1)")
