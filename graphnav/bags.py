@@ -306,6 +306,11 @@ def _dvl(s: _Stream, t0_ns: int, config: SensorConfig, source: str) -> tuple[Dvl
             warnings.warn(f"{source}:{s.topic}: {unknown_id} DVLBeam id(s) outside 0..3; list position used",
                           RuntimeWarning, stacklevel=3)
     v_b = v_d @ config.dvl.C_d_b.T
+    if np.any(~np.all(np.isfinite(v_b), axis=1) & (valid.sum(axis=1) >= 3)):
+        # The instrument's own velocity is optional (the estimators use the beams); a DVL that leaves it
+        # unset on pings with enough beams gives none at all rather than a partial stream.
+        v_b = None
+        info["dvl_v_b"] = "not used: missing on pings with >= 3 valid beams"
     dvl = DvlData((s.t_ns - t0_ns) / 1e9, np.where(valid, beams, np.nan), valid, v_b, f"{source}:{s.topic}")
     return dvl.sanitized(), info
 
