@@ -100,8 +100,16 @@ def find_trajectories(data: str | None = None, sim_seeds: int = 1, sim_duration_
     every trajectory folder under ``data``."""
     if data is None:
         return [TrajectorySource(f"sim-seed{s}", None, s, sim_duration_s, config_path) for s in range(sim_seeds)]
+    from .bags import is_bag
     from .loaders import list_akit
     root = Path(data)
+    if is_bag(root):
+        return [TrajectorySource(root.stem if root.is_file() else root.name, str(root), 0, 0.0, config_path)]
+    if root.is_dir() and not any(root.glob("IMU_*.csv")) and not list_akit(root):
+        # A folder of ROS 2 bags (bag folders or bare .mcap/.db3 files), one mission each.
+        found = sorted(p for p in root.iterdir() if is_bag(p))
+        if found:
+            return [TrajectorySource(p.stem if p.is_file() else p.name, str(p), 0, 0.0, config_path) for p in found]
     if not root.is_dir():
         raise ConfigError(f"--data {data}: not a folder")
     if any(root.glob("IMU_*.csv")):
@@ -315,9 +323,62 @@ def _init_worker() -> None:
         pass
 
 
+def _run_pool(todo: list[BenchCase], finished, jobs: int) -> None:
+    """Run the cases in ``jobs`` spawned worker processes, handing records to ``finished`` as they come."""
+    import multiprocessing
+    ctx = multiprocessing.get_context("spawn")  # fork after torch/gtsam threads can deadlock
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
+        futures = [pool.submit(run_case, c) for c in todo]
+        try:
+            for fut in as_completed(futures):
+                finished(fut.result())
+        except KeyboardInterrupt:
+            for fut in futures:
+                fut.cancel()
+            raise
+
+
+def _run_dask(todo: list[BenchCase], finished, scheduler: str, jobs: int) -> None:
+    """Run the cases on a Dask cluster: ``scheduler`` is a scheduler address (``tcp://host:8786``) or
+    ``"local"`` for a :class:`dask.distributed.LocalCluster` of ``jobs`` single-threaded worker processes.
+    Results come back as cases finish and go through the same ``finished`` (results.json, resume) as the
+    process pool. Remote workers need graphnav installed (and the data paths readable) on their side."""
+    if not todo:
+        return   # everything resumed: no cluster needed
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+    except ImportError:
+        raise ConfigError("--scheduler needs dask.distributed: pip install 'graphnav[dask]'") from None
+    cluster = None
+    if scheduler == "local":
+        # Worker processes inherit the environment: one BLAS/OpenMP thread each (the caller sets it).
+        cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(scheduler, timeout="30s")
+        except OSError as exc:
+            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+    try:
+        client.run(_init_worker)
+        futures = client.map(run_case, todo, pure=False)
+        try:
+            for fut in dask_completed(futures):
+                finished(fut.result())
+        except KeyboardInterrupt:
+            client.cancel(futures)
+            raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume: bool = False,
-              progress: bool = True) -> list[dict]:
-    """Run cases (``jobs`` processes), writing ``out_dir/results.json`` after every finished case.
+              progress: bool = True, scheduler: str | None = None) -> list[dict]:
+    """Run cases (``jobs`` processes, or on the Dask cluster of ``scheduler``: an address or ``"local"``),
+    writing ``out_dir/results.json`` after every finished case.
 
     With ``resume`` the records already in ``results.json`` are kept and their cases skipped (failed
     cases are run again). Returns all records.
@@ -343,7 +404,7 @@ def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume
 
     write_json(results_path, records)
     try:
-        if jobs <= 1:
+        if jobs <= 1 and scheduler is None:
             for case in todo:
                 finished(run_case(case))
         else:
@@ -351,17 +412,10 @@ def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume
             saved = {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
             os.environ.update({k: "1" for k in saved})
             try:
-                import multiprocessing
-                ctx = multiprocessing.get_context("spawn")  # fork after torch/gtsam threads can deadlock
-                with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
-                    futures = [pool.submit(run_case, c) for c in todo]
-                    try:
-                        for fut in as_completed(futures):
-                            finished(fut.result())
-                    except KeyboardInterrupt:
-                        for fut in futures:
-                            fut.cancel()
-                        raise
+                if scheduler is not None:
+                    _run_dask(todo, finished, scheduler, jobs)
+                else:
+                    _run_pool(todo, finished, jobs)
             finally:
                 for k, v in saved.items():
                     if v is None:

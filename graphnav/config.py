@@ -141,6 +141,9 @@ class SensorConfig:
         gt_time_offset_s: offset already added to the raw ground-truth stamps, s.
         imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD.
         depth_noise_std: depth sensor white noise, m.
+        water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
+        atmospheric_pressure_pa: surface pressure subtracted from an absolute pressure reading, Pa.
+        csv_columns: column map of a team's own CSV logs (:mod:`graphnav.generic_csv`); empty when unused.
     """
 
     imu: ImuSpec = field(default_factory=ImuSpec)
@@ -153,6 +156,9 @@ class SensorConfig:
     gt_time_offset_s: float = 0.0
     imu_axis_signs: np.ndarray = field(default_factory=lambda: np.ones(3))
     depth_noise_std: float = 0.05
+    water_density_kgpm3: float = 1025.0
+    atmospheric_pressure_pa: float = 101325.0
+    csv_columns: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.imu_axis_signs = np.asarray(self.imu_axis_signs, dtype=float).reshape(3)

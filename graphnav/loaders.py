@@ -522,12 +522,20 @@ def beamsnet_split(V: np.ndarray, train_fraction: float = BEAMSNET_TRAIN_FRACTIO
 # The entry point of the CLI commands
 # ------------------------------------------------------------------------------------------------
 def load_mission(data: str | Path | None = None, config_path: str | Path | None = None,
-                 **sim_kwargs) -> Mission:
+                 topics: dict[str, str] | None = None, **sim_kwargs) -> Mission:
     """The mission a ``graphnav`` command works on.
 
     Args:
-        data: an A-KIT ``TrajectoryN`` folder, or None for the simulated default mission.
+        data: what to load, by its form:
+
+            * None: the simulated default mission;
+            * a ROS 2 bag: a ``.mcap`` / ``.db3`` file or a rosbag2 folder (:func:`graphnav.bags.load_bag`);
+            * a Teledyne RDI PD0 file, ``.pd0`` or ``.000``-style numbered (:func:`graphnav.pd0.load_pd0`);
+            * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
+              (:func:`graphnav.generic_csv.load_csv_mission`);
+            * an A-KIT ``TrajectoryN`` folder.
         config_path: a SensorConfig JSON (e.g. written by ``graphnav calibrate``) or None.
+        topics: bag stream -> topic overrides (``{"imu": "/imu/data"}``); bags only.
         **sim_kwargs: passed to :func:`graphnav.simulate.simulate_mission` when ``data`` is None, or to
             :func:`load_akit` otherwise (e.g. ``beam_seed``).
 
@@ -542,6 +550,15 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
             sim_kwargs.setdefault("config", config)
         return simulate_mission(**sim_kwargs)
     path = Path(data)
+    from . import bags, generic_csv, pd0
+    if topics and not bags.is_bag(path):
+        raise ConfigError(f"--topic applies to ROS 2 bags only; {path} is not one")
+    if bags.is_bag(path):
+        return bags.load_bag(path, config, topics)
+    if pd0.is_pd0(path):
+        return pd0.load_pd0(path, config)
+    if generic_csv.uses_column_map(path, config):
+        return generic_csv.load_csv_mission(path, config)
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
     if config is not None:

@@ -13,5 +13,6 @@ fi
 PIP=("$VENV/bin/python" -m pip --disable-pip-version-check -q)
 "${PIP[@]}" install --upgrade "pip>=23" "setuptools>=68" wheel
 "$VENV/bin/python" -c "import torch" 2>/dev/null || "${PIP[@]}" install "torch==${GRAPHNAV_TORCH:-2.13.0}"
-"${PIP[@]}" install -e ".[test]"
+# The optional readers/writers (ROS bags, PD0, evo, Dask) are installed too: the tests exercise them.
+"${PIP[@]}" install -e ".[test,ros,pd0,eval,dask]"
 echo "graphnav installed in $VENV ($("$VENV/bin/python" -c 'import graphnav; print(graphnav.__version__)'))"

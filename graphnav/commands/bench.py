@@ -27,7 +27,8 @@ def register(subparsers) -> None:
         formatter_class=HelpFormatter)
     p.add_argument("--data", metavar="DIR",
                    help="a folder of trajectories in the A-KIT layout (e.g. ../shared/data/snapir-2022-akit) "
-                        "or one trajectory folder; default: the simulated mission")
+                        "or one trajectory folder, or a ROS 2 bag or a folder of bags (with a reference Odometry "
+                        "topic); default: the simulated mission")
     p.add_argument("--config", metavar="JSON", help="sensor configuration for every trajectory")
     p.add_argument("--sim-seeds", type=int, default=1, metavar="N",
                    help="without --data: number of simulated trajectories (seeds 0..N-1)")
@@ -45,6 +46,10 @@ def register(subparsers) -> None:
                    help=f"methods to run (from {', '.join(METHODS)})")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
                    help="parallel worker processes (1 = run in this process)")
+    p.add_argument("--scheduler", metavar="ADDRESS|local",
+                   help="run the cases on a Dask cluster (dask.distributed): a scheduler address such as "
+                        "tcp://10.0.0.5:8786, or 'local' for a LocalCluster of --jobs worker processes; same "
+                        "results.json and --resume as the process pool (needs graphnav[dask])")
     p.add_argument("--out", default="out/bench", metavar="DIR", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep the finished cases in OUT/results.json and run only the others")
@@ -118,10 +123,12 @@ def run(args) -> int:
     cases = make_cases(trajectories, args.scenario, args.imu_grade, args.methods, args.window_s,
                        args.max_windows, save_dir=None if args.no_plots else str(out / "runs"))
     print(f"bench: {len(trajectories)} trajectories x {len(args.scenario)} scenarios x {len(args.imu_grade)} "
-          f"IMU grades x {len(args.methods)} methods = {len(cases)} runs, {args.jobs} job(s); results in {out}",
+          f"IMU grades x {len(args.methods)} methods = {len(cases)} runs, "
+          + (f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)") + f"; results in {out}",
           file=sys.stderr)
     start = time.perf_counter()
-    records = run_bench(cases, out, jobs=args.jobs, resume=args.resume, progress=not args.no_progress)
+    records = run_bench(cases, out, jobs=args.jobs, resume=args.resume, progress=not args.no_progress,
+                        scheduler=args.scheduler)
     wall = time.perf_counter() - start
     plot_files = []
     if not args.no_plots:

@@ -26,9 +26,13 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("mission")
-    g.add_argument("--data", metavar="FOLDER",
-                   help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv); "
-                        "default: the simulated 400 s mission")
+    g.add_argument("--data", metavar="PATH",
+                   help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv), a ROS 2 "
+                        "bag (.mcap, .db3 or bag folder), a PD0 file (.pd0/.000) or a CSV log with the column "
+                        "map of --config; default: the simulated 400 s mission")
+    g.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
+                   help="bags: read STREAM (imu, dvl, depth, gt) from TOPIC instead of the topic chosen by "
+                        "message type (repeatable)")
     g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
     g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",
@@ -78,7 +82,8 @@ def recorded_mission(args):
     from graphnav.loaders import load_mission
     if args.data is None:
         return load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
-    return load_mission(args.data, args.config)
+    from graphnav.bags import parse_topics
+    return load_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None)))
 
 
 def mission_from_args(args):
@@ -181,6 +186,9 @@ def register(subparsers) -> None:
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
                    help="also run these methods and draw them in the plots (e.g. HNTC Graph-HN)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--bag", choices=("none", "mcap", "sqlite3"), default="none",
+                   help="also write the estimates as nav_msgs/Odometry with covariance in the ROS 2 bag "
+                        "OUT/trajectory_bag (REP-103 frames; needs graphnav[ros])")
     p.set_defaults(func=run)
 
 
@@ -201,6 +209,13 @@ def run(args) -> int:
         gt = mission.gt
         files["groundtruth_tum"] = str(write_tum(out / "groundtruth.tum",
                                                  NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n)))
+    if args.bag != "none":
+        import shutil
+        from graphnav.bags import write_odometry_bag
+        bag = out / "trajectory_bag"
+        shutil.rmtree(bag, ignore_errors=True)   # rosbag2 writers only create new bags; a rerun replaces it
+        files["trajectory_bag"] = str(write_odometry_bag(sol, bag, t0_unix_ns=int(mission.meta.get("t0_unix_ns", 0)),
+                                                         storage=args.bag))
     others = [run_method(mission, m, args.scenario, **init) for m in args.compare if m != args.method]
     summary = {
         "method": args.method, "mission": mission.name, "scenario": args.scenario,

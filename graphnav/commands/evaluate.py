@@ -1,0 +1,42 @@
+"""``graphnav evaluate``: APE/RPE (through evo) beside VRMSE and NEES of a written trajectory."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .smooth import HelpFormatter
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "evaluate", help="score a trajectory CSV/TUM against a reference: APE, RPE (evo), VRMSE, NEES",
+        description="Score a trajectory written by `graphnav smooth`/`online` (trajectory.csv, or a TUM file) "
+                    "against a reference: a TUM file, a trajectory CSV, or a mission path as --data takes it "
+                    "(A-KIT folder, ROS 2 bag with a reference nav_msgs/Odometry topic, CSV log with a gt "
+                    "column map) whose ground truth is used. APE and RPE come from evo's library; VRMSE and "
+                    "the velocity NEES from graphnav.metrics. Needs graphnav[eval].",
+        formatter_class=HelpFormatter)
+    p.add_argument("trajectory", help="trajectory.csv (or .tum) to score")
+    p.add_argument("--ref", required=True, metavar="PATH", help="reference: TUM/CSV file or mission data path")
+    p.add_argument("--config", metavar="JSON", help="sensor configuration for a mission reference")
+    p.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
+                   help="bag reference: read STREAM from TOPIC (e.g. gt=/nav/odometry)")
+    p.add_argument("--align", action="store_true",
+                   help="Umeyama SE(3) alignment before APE (as evo_ape --align), for a reference in another frame")
+    p.add_argument("--rpe-delta", type=float, default=10.0, metavar="D", help="RPE pose distance")
+    p.add_argument("--rpe-unit", choices=("m", "frames"), default="m", help="unit of --rpe-delta")
+    p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from graphnav.bags import parse_topics
+    from graphnav.evaluate import evaluate, format_report, load_reference, load_trajectory
+    est = load_trajectory(args.trajectory)
+    ref = load_reference(args.ref, args.config, parse_topics(args.topic) or None)
+    result = evaluate(est, ref, align=args.align, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit)
+    result.update({"trajectory": str(args.trajectory), "reference": str(args.ref)})
+    print(format_report(result, Path(args.trajectory).name, str(args.ref)))
+    if args.json:
+        from graphnav.outputs import write_json
+        write_json(args.json, result)
+    return 0

@@ -1,0 +1,135 @@
+"""A team's own CSV logs through the column map of the SensorConfig JSON: units, one merged file with empty
+cells, body-velocity-only DVLs, and errors naming file, line and column."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from graphnav import cli
+from graphnav.errors import ConfigError, DataError
+from graphnav.loaders import load_mission
+from graphnav.rotations import C_b_n_to_euler
+from graphnav.simulate import simulate_mission
+
+T0 = 1_700_000_000.0   # Unix seconds, as loggers write them
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_mission(duration_s=40.0, seed=5)
+
+
+def _write(path, header, columns):
+    rows = [",".join(header)]
+    for row in np.column_stack(columns):
+        rows.append(",".join("" if not np.isfinite(x) else f"{x:.12g}" for x in row))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def _config(tmp_path, mission, cmap):
+    cfg = mission.config.to_dict()
+    cfg["csv_columns"] = cmap
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps(cfg))
+    return path
+
+
+def _separate_files(tmp_path, m):
+    """IMU in g and deg/s with ms stamps; DVL beams in mm/s with validity flags; pressure in dbar; GT in deg."""
+    _write(tmp_path / "imu.csv", ["time_ms", "ax", "ay", "az", "gx", "gy", "gz"],
+           [(m.imu.t + T0) * 1e3, m.imu.f_b / 9.80665, np.degrees(m.imu.omega_b)])
+    beams = np.where(m.dvl.valid, m.dvl.beams * 1e3, -32768.0)
+    _write(tmp_path / "dvl.csv", ["time_ms", "b1", "b2", "b3", "b4", "ok1", "ok2", "ok3", "ok4"],
+           [(m.dvl.t + T0) * 1e3, beams, m.dvl.valid.astype(float)])
+    _write(tmp_path / "depth.csv", ["time_ms", "p_dbar"],
+           [(m.depth.t + T0) * 1e3, m.depth.depth * 1025.0 * m.config.gravity_mps2 / 1e4])
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(m.gt.t + T0) * 1e3, m.gt.p_n, m.gt.v_n, np.degrees(C_b_n_to_euler(m.gt.C_b_n))])
+    return {
+        "time_unit": "ms",
+        "imu": {"file": "imu.csv", "t": "time_ms", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                "accel_unit": "g", "gyro_unit": "deg/s"},
+        "dvl": {"file": "dvl.csv", "t": "time_ms", "beams": ["b1", "b2", "b3", "b4"],
+                "valid": ["ok1", "ok2", "ok3", "ok4"], "velocity_unit": "mm/s"},
+        "depth": {"file": "depth.csv", "t": "time_ms", "pressure": "p_dbar", "pressure_unit": "dbar"},
+        "gt": {"file": "nav.csv", "t": "time_ms", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+               "euler": ["roll", "pitch", "yaw"], "angle_unit": "deg"},
+    }
+
+
+def test_separate_files_with_units(sim, tmp_path):
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    m = load_mission(tmp_path, cfg)
+    assert m.meta["t0_s"] == pytest.approx(T0)
+    np.testing.assert_allclose(m.imu.t, sim.imu.t, atol=1e-6)
+    np.testing.assert_allclose(m.imu.f_b, sim.imu.f_b, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(m.dvl.valid, sim.dvl.valid)
+    np.testing.assert_allclose(m.dvl.beams[m.dvl.valid], sim.dvl.beams[sim.dvl.valid], atol=1e-9)
+    np.testing.assert_allclose(m.depth.depth, sim.depth.depth, atol=1e-9)
+    np.testing.assert_allclose(m.gt.C_b_n, sim.gt.C_b_n, atol=1e-9)
+
+
+def test_merged_log_and_body_velocity_dvl_through_smooth(sim, tmp_path, capsys):
+    # One file, one row per IMU sample; the DVL body velocity only on the ping rows and the reference only on
+    # its 10 Hz rows (empty cells elsewhere).
+    m = sim
+    n = len(m.imu.t)
+    ping = np.searchsorted(m.imu.t, m.dvl.t)
+    v_b = np.full((n, 3), np.nan)
+    v_b[ping] = m.gt.v_b[np.searchsorted(m.gt.t, m.dvl.t)]
+    dvl_t = np.full(n, np.nan)
+    dvl_t[ping] = m.dvl.t
+    ref = np.full((n, 10), np.nan)
+    rows = np.searchsorted(m.imu.t, m.gt.t)
+    ref[rows] = np.column_stack([m.gt.t, m.gt.p_n, m.gt.v_n, C_b_n_to_euler(m.gt.C_b_n)])
+    _write(tmp_path / "log.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz", "dvl_t", "vx", "vy", "vz",
+                                  "gt_t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [m.imu.t, m.imu.f_b, m.imu.omega_b, dvl_t, v_b, ref])
+    cmap = {"imu": {"t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+            "dvl": {"t": "dvl_t", "v_b": ["vx", "vy", "vz"]}}
+    # Without a gt entry the mission has no reference (scoring is then skipped by the commands).
+    mission = load_mission(tmp_path / "log.csv", _config(tmp_path, m, cmap))
+    assert mission.meta["beams_from_v_b"] and mission.gt is None and mission.depth is None
+    assert len(mission.dvl.t) == len(m.dvl.t) and mission.dvl.valid.all()
+    # ... and smooths from a sensor alignment (levelling, DVL velocity; the heading as a compass would give it:
+    # 40 s are too short to gyrocompass), unscored.
+    out = tmp_path / "no_gt"
+    heading_deg = float(np.degrees(C_b_n_to_euler(m.gt.C_b_n[:1])[0, 2]))
+    assert cli.main(["smooth", "--data", str(tmp_path / "log.csv"), "--config", str(tmp_path / "config.json"),
+                     "--method", "Graph-TC", "--init", "sensors", "--initial-heading", f"{heading_deg:.3f}",
+                     "--out", str(out), "--no-plots"]) == 0
+    assert json.loads((out / "summary.json").read_text())["accuracy"] == {"ground_truth": False}
+    from graphnav.outputs import read_trajectory_csv
+    from graphnav.metrics import vrmse
+    no_gt_vrmse = vrmse(read_trajectory_csv(out / "trajectory.csv"), m.gt)
+    cmap["gt"] = {"t": "gt_t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"], "euler": ["roll", "pitch", "yaw"]}
+    cfg = _config(tmp_path, m, cmap)
+    out = tmp_path / "out"
+    assert cli.main(["smooth", "--data", str(tmp_path / "log.csv"), "--config", str(cfg), "--method", "Graph-TC",
+                     "--out", str(out), "--no-plots"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    # Beams projected from an exact body velocity: the smoother follows the truth closely, from the reference
+    # or from the sensor alignment.
+    assert summary["accuracy"]["vrmse_mission_mps"] < 0.05
+    assert no_gt_vrmse < 0.1
+
+
+def test_errors_name_file_line_and_column(sim, tmp_path):
+    cmap = _separate_files(tmp_path, sim)
+    lines = (tmp_path / "dvl.csv").read_text().splitlines()
+    lines[5] = lines[5].replace(",", ",x", 1)
+    (tmp_path / "dvl.csv").write_text("\n".join(lines) + "\n")
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.raises(DataError, match=r"dvl.csv, line 6, field 'b1': not a number"):
+        load_mission(tmp_path, cfg)
+    cmap["dvl"]["beams"] = ["b1", "b2", "b3", "beam4"]
+    with pytest.raises(DataError, match=r"line 1, field 'beam4'"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    cmap["imu"]["gyro_unit"] = "rpm"
+    with pytest.raises(ConfigError, match=r"csv_columns.imu.gyro_unit = 'rpm'"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    with pytest.raises(ConfigError, match="column map"):
+        load_mission(tmp_path / "imu.csv", None)
