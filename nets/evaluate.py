@@ -85,6 +85,8 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
     In each window the ``missing`` beams are removed; the history is primed with the full pings before the
     window and then holds earlier completions, so errors can grow through the window. Windows start at
     ping ``settle`` (at least ``n_past``) and repeat every ``window + gap`` pings of each series.
+    A completer with ``needs_imu`` gets the IMU window of each ping (series with ``imu_window``,
+    :class:`graphnav.nets.imu_data.ImuBeamSeries`); give every compared completer the same ``settle``.
 
     Returns:
         :class:`BeamSamples`-aligned arrays ``(full, sigma, samples)`` over all in-window pings, ready for
@@ -105,7 +107,9 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
             for k in range(start - completer.n_past, start):
                 hist.push(s.beams[k])
             for k in range(start, start + window):
-                b, sg = hist.complete(completer, s.beams[k], valid)
+                imu = (s.imu_window(k, completer.imu_samples) if getattr(completer, "needs_imu", False)
+                       else None)
+                b, sg = hist.complete(completer, s.beams[k], valid, imu=imu)
                 full.append(b)
                 sigma.append(sg)
                 beams.append(s.beams[k])

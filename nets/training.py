@@ -102,7 +102,11 @@ def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: 
 
 def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_cls, lr, step, gamma,
                patience, seed, progress):
-    """One training stage over ``params`` only; restores the best-validation weights."""
+    """One training stage over ``params`` only; restores the best-validation weights.
+
+    ``tr`` and ``va`` are tuples of tensors with the samples on axis 0 (inputs, then the target);
+    ``loss_fn(model, *tensors)`` gives the mean loss of a batch.
+    """
     for p in model.parameters():
         p.requires_grad_(False)
     for p in params:
@@ -120,7 +124,7 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
         total = 0.0
         for i in range(0, n, batch_size):
             idx = order[i:i + batch_size]
-            loss = loss_fn(model, tr[0][idx], tr[1][idx], tr[2][idx])
+            loss = loss_fn(model, *(t[idx] for t in tr))
             optim.zero_grad(set_to_none=True)
             loss.backward()
             optim.step()
@@ -221,7 +225,7 @@ def save(result: TrainResult, directory: str | Path | None = None) -> tuple[Path
     import json
     directory = Path(directory) if directory is not None else weights_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    name = result.card["scenario"]
+    name = result.card.get("name", result.card["scenario"])
     pt, js = directory / f"{name}.pt", directory / f"{name}.json"
     torch.save(result.model.state_dict(), pt)
     result.card["weights_sha256"] = file_sha256(pt)
