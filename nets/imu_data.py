@@ -72,6 +72,11 @@ class ImuBeamSamples(BeamSamples):
 
     imu: ImuFeatures | None = None
 
+    @staticmethod
+    def concatenate(parts: list["ImuBeamSamples"]) -> "ImuBeamSamples":
+        return ImuBeamSamples(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("past", "beams", "v_b")),
+                              imu=ImuFeatures.concatenate([p.imu for p in parts]))
+
 
 def akit_imu_series(numbers, data_dir: str | Path | None = None, beam_seed: int = 0, draw: int = 0,
                     spec: DvlSpec | None = None) -> list[ImuBeamSeries]:
@@ -100,7 +105,7 @@ def imu_windows(series: ImuBeamSeries | list[ImuBeamSeries], n_past: int, n_imu:
                 ping_dt: float = 1.0, pings: slice | None = None) -> ImuBeamSamples:
     """All usable samples of ``series`` (optionally only pings in ``pings``), IMU preintegrated."""
     series = [series] if isinstance(series, ImuBeamSeries) else series
-    past, beams, v, feats = [], [], [], []
+    parts = []
     for s in series:
         ok = s.usable(n_past, n_imu)
         if pings is not None:
@@ -110,16 +115,12 @@ def imu_windows(series: ImuBeamSeries | list[ImuBeamSeries], n_past: int, n_imu:
         k = np.flatnonzero(ok)
         if k.size == 0:
             continue
-        past.append(s.beams[k[:, None] - n_past + np.arange(n_past)])
-        beams.append(s.beams[k])
-        v.append(s.v_b[k])
-        ends = s.imu_end[k] + 1
-        idx = ends[:, None] - n_imu + np.arange(n_imu)
-        feats.append(preintegrate(s.f_b[idx], s.omega_b[idx], n_past, s.imu_rate_hz, ping_dt))
-    if not past:
+        idx = (s.imu_end[k] + 1)[:, None] - n_imu + np.arange(n_imu)
+        parts.append(ImuBeamSamples(s.beams[k[:, None] - n_past + np.arange(n_past)], s.beams[k], s.v_b[k],
+                                    preintegrate(s.f_b[idx], s.omega_b[idx], n_past, s.imu_rate_hz, ping_dt)))
+    if not parts:
         raise DataError(f"no series has a usable ping (n_past={n_past}, IMU window {n_imu})", "beam samples")
-    return ImuBeamSamples(np.concatenate(past), np.concatenate(beams), np.concatenate(v),
-                          ImuFeatures.concatenate(feats))
+    return ImuBeamSamples.concatenate(parts)
 
 
 def n_imu_samples(window_s: float = IMU_WINDOW_S, rate_hz: float = IMU_RATE_HZ) -> int:

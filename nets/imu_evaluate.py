@@ -12,7 +12,7 @@ import numpy as np
 import torch
 
 from .average import AverageCompleter
-from .evaluate import completion_metrics, full_beam_vel_rmse, outage_rollout
+from .evaluate import completion_metrics, full_beam_vel_rmse, outage_rollout, predict_completer
 from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, imu_windows
 from .imu_network import ImuNetworkCompleter, load_imu_completer, model_inputs
 from .imu_window import IMU_WINDOW_S
@@ -41,25 +41,17 @@ def predict_imu_network(model, samples: ImuBeamSamples, batch: int = 4096):
     return full, sigma
 
 
-def _predict_beam_only(completer, samples: ImuBeamSamples, missing):
-    """Completions of a beam-only completer on the IMU samples' past windows (one ping at a time)."""
-    missing = list(missing)
-    full, sigma = np.empty_like(samples.beams), np.empty_like(samples.beams)
-    for i in range(len(samples)):
-        measured = samples.beams[i].copy()
-        measured[missing] = np.nan
-        full[i], sigma[i] = completer.complete(samples.past[i, -completer.n_past:], measured)
-    return full, sigma
-
-
 def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"], directory=None,
                  akit_dir=None, beam_seed: int = 1000, outage: bool = True, completers=None) -> list[dict]:
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
-    Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3, as the estimators use it) and
+    Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
+    the estimators use it, :data:`graphnav.methods.AVERAGE_N_PAST`) and
     ``network`` (the shipped beam-only network of the paper). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     """
+    from graphnav.methods import AVERAGE_N_PAST
+
     from .network import load_completer
 
     series = akit_imu_series(trajectories, akit_dir, beam_seed)
@@ -67,16 +59,18 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     for scen in scenarios:
         imu_net = (completers or {}).get(scen) or load_imu_completer(scen, directory)
         beam_net = load_completer(scen)
-        methods = {"imu-network": imu_net, "average": AverageCompleter(3), "network": beam_net}
+        methods = {"imu-network": imu_net, "average": AverageCompleter(AVERAGE_N_PAST[scen]), "network": beam_net}
         n_past = max(c.n_past for c in methods.values())
         samples = imu_windows(series, n_past, imu_net.imu_samples, imu_net.ping_dt)
         floor = full_beam_vel_rmse(samples)
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
-                sub = ImuBeamSamples(samples.past[:, -comp.n_past:], samples.beams, samples.v_b, samples.imu)
-                full, sigma = predict_imu_network(comp.model, sub)
+                own = imu_windows(series, comp.n_past, comp.imu_samples, comp.ping_dt)
+                if not np.array_equal(own.beams, samples.beams):   # the IMU window fills after any past window
+                    raise RuntimeError("IMU network samples are not the pings of the other methods")
+                full, sigma = predict_imu_network(comp.model, own)
             else:
-                full, sigma = _predict_beam_only(comp, samples, imu_net.missing)
+                full, sigma = predict_completer(comp, samples, imu_net.missing)
             rows.append({"scenario": scen, "mode": "per ping", "method": name,
                          **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
         if outage:

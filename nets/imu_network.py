@@ -57,6 +57,9 @@ class ImuNetworkCompleter:
         model: the trained network; it serves its ``missing`` pattern only.
         card: its model card.
         sigma_scale: factor on the returned sigma (1: calibrated per ping on held-out pings).
+
+    No ``drift_std`` of its own: :class:`graphnav.history.BeamHistory` grows the sigma through a run of filled
+    pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
     """
 
     needs_imu = True

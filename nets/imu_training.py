@@ -13,13 +13,14 @@ error/sigma 1 on the selection pings. Seeded; with one thread a rerun gives the 
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import torch
 
 import graphnav
 from graphnav.config import DvlSpec
+from graphnav.dvl import make_beams
 
 from . import imu_data
 from .data import _data_dir
@@ -33,7 +34,7 @@ from .training import FORMAT_VERSION, TrainResult, _run_stage, file_sha256
 class ImuTrainOptions:
     """Hyper-parameters of the IMU-aware network."""
 
-    n_past: int = DEFAULT_IMU_N_PAST
+    n_past: int | None = None           # None: DEFAULT_IMU_N_PAST for the number of missing beams
     hidden: int = 32
     sigma_hidden: int = 16
     imu_window_s: float = imu_data.IMU_WINDOW_S
@@ -77,15 +78,16 @@ def _samples(series, opt: ImuTrainOptions, part: str):
         cut = int(round((1.0 - opt.select_fraction) * len(s.beams)))
         pings = slice(0, cut) if part == "train" else slice(cut + opt.n_past, None)
         out.append(imu_data.imu_windows(s, opt.n_past, n_imu, pings=pings))
-    return imu_data.ImuBeamSamples(*(np.concatenate([getattr(o, k) for o in out]) for k in ("past", "beams", "v_b")),
-                                   imu=imu_data.ImuFeatures.concatenate([o.imu for o in out]))
+    return imu_data.ImuBeamSamples.concatenate(out)
 
 
 def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_dir=None,
               progress: bool = True, evaluate: bool = True) -> TrainResult:
     """Train the IMU-aware network for ``missing`` and build its model card (module docstring)."""
-    opt = options or ImuTrainOptions()
     missing = normalize_missing(missing)
+    opt = replace(options or ImuTrainOptions())
+    if opt.n_past is None:
+        opt.n_past = DEFAULT_IMU_N_PAST[len(missing)]
     d = _data_dir(data_dir, "akit")
     prev_threads = torch.get_num_threads()
     torch.set_num_threads(opt.threads)
@@ -95,16 +97,13 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         base = imu_data.akit_imu_series(imu_data.AKIT_SPLIT["train"], d, opt.beam_seed)
         spec = DvlSpec()
         train_parts, select = [], _samples(base, opt, "select")
-        from graphnav.dvl import make_beams
         for draw in range(opt.draws):
             series = base if draw == 0 else [
                 s.with_beams(np.where(np.isfinite(s.beams), make_beams(np.nan_to_num(s.v_b), spec,
                              opt.beam_seed + 100 * draw + int(s.name.removeprefix("Trajectory"))), np.nan))
                 for s in base]
             train_parts.append(_samples(series, opt, "train"))
-        train = imu_data.ImuBeamSamples(
-            *(np.concatenate([getattr(o, k) for o in train_parts]) for k in ("past", "beams", "v_b")),
-            imu=imu_data.ImuFeatures.concatenate([o.imu for o in train_parts]))
+        train = imu_data.ImuBeamSamples.concatenate(train_parts)
         tr, se = _tensors(model, train), _tensors(model, select)
         with torch.no_grad():
             _, g_dir = model.propagate(*tr[0:1], *tr[2:6])
