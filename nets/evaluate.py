@@ -17,8 +17,12 @@ from .data import BeamSamples
 from .model import BeamRegressor
 
 
-def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 4096):
-    """Completed beams (S, 4) and sigma (S, 4) (0 for measured beams) of the network on all samples."""
+def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 4096, extra=None):
+    """Completed beams (S, 4) and sigma (S, 4) (0 for measured beams) of the network on all samples.
+
+    ``extra(slice)`` gives further input tensors of a batch after the past and measured beams (the IMU
+    features of :class:`~graphnav.nets.imu_model.ImuBeamRegressor`).
+    """
     miss, kept = list(model.missing), list(model.kept)
     past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
     meas = torch.as_tensor(samples.beams[:, kept], dtype=torch.float32)
@@ -26,7 +30,8 @@ def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 409
     model.eval()
     with torch.no_grad():
         for i in range(0, len(samples), batch):
-            b, s = model(past[i:i + batch], meas[i:i + batch])
+            sl = slice(i, i + batch)
+            b, s = model(past[sl], meas[sl], *(extra(sl) if extra is not None else ()))
             out.append(b.double().numpy())
             sig.append(s.double().numpy())
     full = samples.beams.copy()

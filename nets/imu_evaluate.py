@@ -9,10 +9,10 @@ velocity RMSE is least squares on the four completed beams against the recorded 
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from .average import AverageCompleter
-from .evaluate import completion_metrics, full_beam_vel_rmse, outage_rollout, predict_completer
+from .evaluate import (completion_metrics, full_beam_vel_rmse, outage_rollout, predict_completer,
+                       predict_network)
 from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, imu_windows
 from .imu_network import ImuNetworkCompleter, load_imu_completer, model_inputs
 from .imu_window import IMU_WINDOW_S
@@ -23,22 +23,7 @@ OUTAGE_SETTLE = int(IMU_WINDOW_S) + 5
 
 def predict_imu_network(model, samples: ImuBeamSamples, batch: int = 4096):
     """Completed beams (S, 4) and sigma (S, 4) (0 for measured beams) of the IMU-aware network."""
-    miss, kept = list(model.missing), list(model.kept)
-    past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
-    meas = torch.as_tensor(samples.beams[:, kept], dtype=torch.float32)
-    out, sig = [], []
-    model.eval()
-    with torch.no_grad():
-        for i in range(0, len(samples), batch):
-            sl = slice(i, i + batch)
-            b, s = model(past[sl], meas[sl], *model_inputs(samples.imu, sl))
-            out.append(b.double().numpy())
-            sig.append(s.double().numpy())
-    full = samples.beams.copy()
-    sigma = np.zeros_like(full)
-    full[:, miss] = np.concatenate(out)
-    sigma[:, miss] = np.concatenate(sig)
-    return full, sigma
+    return predict_network(model, samples, batch, extra=lambda sl: model_inputs(samples.imu, sl))
 
 
 def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"], directory=None,

@@ -20,21 +20,18 @@ Returns ``(beams (4,), sigma (4,))`` m/s as every completer (measured beams pass
 """
 from __future__ import annotations
 
-import json
-import warnings
 from pathlib import Path
 
 import numpy as np
 import torch
 
-import graphnav
 from graphnav.errors import ConfigError, DataError
 
 from .completer import check_inputs
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
-from .training import FORMAT_VERSION, file_sha256, weights_dir
+from .network import load_weights
 
 
 def imu_weights_name(missing) -> str:
@@ -104,38 +101,12 @@ def load_imu_model(missing, directory: str | Path | None = None) -> tuple[ImuBea
     """Load the IMU-aware weights and model card of ``missing`` (default folder: the shipped weights).
 
     Raises:
-        ConfigError: files missing, format version or scenario mismatch, tensor shapes that do not match the
-            architecture in the card, or weights that are not the ones the card describes (sha256).
+        ConfigError: files missing, format version, kind or scenario mismatch, tensor shapes that do not match
+            the architecture in the card, or weights that are not the ones the card describes (sha256).
     """
     missing = normalize_missing(missing)
-    name = imu_weights_name(missing)
-    directory = Path(directory) if directory is not None else weights_dir()
-    pt, js = directory / f"{name}.pt", directory / f"{name}.json"
-    if not pt.is_file() or not js.is_file():
-        raise ConfigError(f"no trained IMU-aware weights for '{name}' in {directory} (need {pt.name} and "
-                          f"{js.name}); train them with: graphnav train-beams --imu --scenario "
-                          f"{scenario_name(missing)}")
-    card = json.loads(js.read_text())
-    if card.get("format_version") != FORMAT_VERSION or card.get("kind") != "imu":
-        raise ConfigError(f"{js}: not an IMU-aware model card of format version {FORMAT_VERSION} "
-                          f"(found kind {card.get('kind')!r}, version {card.get('format_version')})")
-    if tuple(card.get("missing", ())) != missing:
-        raise ConfigError(f"{js}: card is for missing beams {card.get('missing')}, expected {list(missing)}")
-    if card.get("graphnav_version") != graphnav.__version__:
-        warnings.warn(f"{js}: trained with graphnav {card.get('graphnav_version')}, running "
-                      f"{graphnav.__version__}", stacklevel=2)
-    if card.get("weights_sha256") != file_sha256(pt):
-        raise ConfigError(f"{pt}: file does not match the checksum in its model card {js.name}")
-    model = ImuBeamRegressor(**card["architecture"])
-    state = torch.load(pt, map_location="cpu", weights_only=True)
-    expected = {k: list(v.shape) for k, v in model.state_dict().items()}
-    found = {k: list(v.shape) for k, v in state.items()}
-    if found != expected:
-        diff = sorted(k for k in set(expected) | set(found) if expected.get(k) != found.get(k))
-        raise ConfigError(f"{pt}: tensors do not match the architecture {card['architecture']}: "
-                          + ", ".join(f"{k} {found.get(k)} (expected {expected.get(k)})" for k in diff))
-    model.load_state_dict(state)
-    return model.eval(), card
+    return load_weights(ImuBeamRegressor, imu_weights_name(missing), missing, directory, kind="imu",
+                        train_hint=f"graphnav train-beams --imu --scenario {scenario_name(missing)}")
 
 
 def load_imu_completer(missing=2, directory: str | Path | None = None, sigma_scale: float = 1.0):

@@ -18,7 +18,6 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 import torch
 
-import graphnav
 from graphnav.config import DvlSpec
 from graphnav.dvl import make_beams
 
@@ -27,7 +26,7 @@ from .data import _data_dir
 from .imu_model import DEFAULT_IMU_N_PAST, ImuBeamRegressor
 from .imu_network import ImuNetworkCompleter, imu_weights_name, model_inputs
 from .model import normalize_missing, scenario_name
-from .training import FORMAT_VERSION, TrainResult, _run_stage, file_sha256
+from .training import TrainResult, _run_stage, card_header, file_sha256
 
 
 @dataclass
@@ -124,19 +123,11 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
     model.eval()
     mse_hist = [h for h in history if h["stage"] == "mse"]
     card = {
-        "format_version": FORMAT_VERSION,
+        **card_header(model),
         "kind": "imu",
         "name": imu_weights_name(missing),
-        "graphnav_version": graphnav.__version__,
-        "torch_version": torch.__version__,
-        "scenario": scenario_name(missing),
-        "missing": list(missing),
-        "kept": list(model.kept),
-        "n_past": model.n_past,
         "imu_samples": model.imu_samples,
-        "architecture": model.architecture(),
         "n_parameters": int(sum(p.numel() for p in model.parameters())),
-        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
         "data": {
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
                       "via graphnav.loaders.load_akit",

@@ -184,15 +184,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
     mse_hist = [h for h in history if h["stage"] == "mse"]
     nll_hist = [h for h in history if h["stage"] == "nll"]
     card = {
-        "format_version": FORMAT_VERSION,
-        "graphnav_version": graphnav.__version__,
-        "torch_version": torch.__version__,
-        "scenario": scenario_name(missing),
-        "missing": list(missing),
-        "kept": list(model.kept),
-        "n_past": model.n_past,
-        "architecture": model.architecture(),
-        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
+        **card_header(model),
         "data": {
             "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
             "V_sha256": file_sha256(d / "V.npy"),
@@ -213,6 +205,21 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
         "metrics": metrics,
     }
     return TrainResult(model, card, history)
+
+
+def card_header(model) -> dict:
+    """Model-card fields every trained regressor shares: versions, scenario, beams, architecture, shapes."""
+    return {
+        "format_version": FORMAT_VERSION,
+        "graphnav_version": graphnav.__version__,
+        "torch_version": torch.__version__,
+        "scenario": scenario_name(model.missing),
+        "missing": list(model.missing),
+        "kept": list(model.kept),
+        "n_past": model.n_past,
+        "architecture": model.architecture(),
+        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
+    }
 
 
 def weights_dir() -> Path:

@@ -112,7 +112,8 @@ def test_a_few_training_steps_are_deterministic():
 @pytest.mark.parametrize("missing, pattern", [(2, (0, 2)), (3, (0, 2, 3))])
 def test_shipped_imu_weights_load_and_predict_deterministically(missing, pattern):
     comp = load_imu_completer(missing)
-    assert comp.needs_imu and comp.missing == pattern and comp.imu_samples == 2000 and comp.n_past == {2: 5, 3: 3}[missing]
+    assert comp.needs_imu and comp.missing == pattern and comp.imu_samples == 2000
+    assert comp.n_past == {2: 5, 3: 3}[missing]
     assert comp.card["split"]["val_trajectories"] == [3, 5, 6]
     assert not set(comp.card["split"]["val_trajectories"]) & set(comp.card["split"]["train_trajectories"])
     f_b, omega_b, v = _steady_turn()
