@@ -4,7 +4,7 @@ Interface (what an estimator passes), in addition to the beam-only completers' `
 
     completer = load_imu_completer(2)              # or 3, "2-missing", "3-missing"
     completer.needs_imu                            # True
-    completer.n_past                               # N past full beam vectors (3)
+    completer.n_past                               # N past full beam vectors (5 for 2 missing, 3 for 3)
     completer.imu_samples, completer.imu_rate_hz   # 2000 samples at 100 Hz: the last 20 s of IMU
     beams, sigma = completer.complete(past, measured, imu=(f_b, omega_b))
 
@@ -14,7 +14,8 @@ Interface (what an estimator passes), in addition to the beam-only completers' `
 - ``f_b`` and ``omega_b`` (imu_samples, 3): specific force (m/s^2) and angular rate (rad/s) in the body frame
   (FRD), the last ``imu_samples`` IMU samples at ``imu_rate_hz`` whose last one is the sample at (or just
   before) the ping time, oldest first, on the DVL's clock. ``BeamHistory.complete(completer, beams, valid,
-  imu=(f_b, omega_b))`` forwards it.
+  imu=(f_b, omega_b))`` forwards it; :func:`graphnav.nets.imu_window.imu_window_at` cuts it from an
+  ``ImuData`` stream (None during the first 20 s).
 
 Returns ``(beams (4,), sigma (4,))`` m/s as every completer (measured beams passed through, sigma 0).
 """

@@ -160,3 +160,20 @@ def preintegrate(f_b: np.ndarray, omega_b: np.ndarray, n_past: int, rate_hz: flo
         summary = np.concatenate([w[:, -last:].mean(1), w[:, idx[0]:].mean(1)], axis=1)
         parts.append(ImuFeatures(np.swapaxes(P[:, idx], -1, -2), tail[:, idx], a.mean(1), M, summary))
     return ImuFeatures.concatenate(parts)
+
+
+def imu_window_at(imu, t: float, n_samples: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The IMU window an estimator passes for a ping at time ``t`` (s, the IMU's clock).
+
+    Args:
+        imu: an IMU stream with ``t`` (M,) s, ``f_b`` and ``omega_b`` (M, 3) (:class:`graphnav.mission.ImuData`).
+        n_samples: window length (the completer's ``imu_samples``).
+
+    Returns:
+        ``(f_b, omega_b)`` of the last ``n_samples`` samples at or before ``t``, or None while fewer exist
+        (the first ``n_samples / rate`` seconds of a mission: use a beam-only completer then).
+    """
+    end = int(np.searchsorted(imu.t, t, side="right"))
+    if end < n_samples:
+        return None
+    return imu.f_b[end - n_samples:end], imu.omega_b[end - n_samples:end]

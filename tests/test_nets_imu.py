@@ -182,6 +182,18 @@ def test_beam_history_forwards_the_imu_window():
     np.testing.assert_allclose(hist.past()[-1], full)
 
 
+def test_imu_window_at_takes_the_samples_up_to_the_ping():
+    from graphnav.mission import ImuData
+    from graphnav.nets.imu_window import imu_window_at
+
+    t = np.arange(500) * 0.01
+    imu = ImuData(t, np.tile(t[:, None], (1, 3)), -np.tile(t[:, None], (1, 3)))
+    assert imu_window_at(imu, 1.0, 200) is None                  # 101 samples so far
+    f_b, omega_b = imu_window_at(imu, 3.005, 200)
+    assert f_b.shape == omega_b.shape == (200, 3)
+    assert f_b[-1, 0] == pytest.approx(3.0) and f_b[0, 0] == pytest.approx(1.01)
+
+
 @pytest.mark.realdata
 def test_imu_network_beats_the_average_on_a_validation_trajectory(akit_dir):
     from graphnav.nets import AverageCompleter
