@@ -55,13 +55,17 @@ class BeamHistory:
         """(n_past, 4) oldest first."""
         return np.array(self._buf)
 
-    def complete(self, completer, beams: np.ndarray, valid: np.ndarray):
+    def complete(self, completer, beams: np.ndarray, valid: np.ndarray, imu=None):
         """Complete one ping and update the history.
 
         Args:
-            completer: object with ``complete(past, measured) -> (beams, sigma)`` and ``n_past``.
+            completer: object with ``complete(past, measured) -> (beams, sigma)`` and ``n_past``; a completer
+                with ``needs_imu = True`` (:class:`graphnav.nets.ImuNetworkCompleter`) is called as
+                ``complete(past, measured, imu=imu)``.
             beams: (4,) measured beams, m/s.
             valid: (4,) bool validity.
+            imu: ``(f_b, omega_b)``, each (``completer.imu_samples``, 3): the last IMU samples up to the ping
+                (oldest first, m/s^2 and rad/s, body frame), for completers that need it; ignored otherwise.
 
         Returns:
             (beams (4,), sigma (4,)): the full vector and the per-beam sigma (0 for measured beams), or
@@ -77,7 +81,10 @@ class BeamHistory:
             self._run_sigma[:] = 0.0
             return None
         measured = np.where(valid, beams, np.nan)
-        full, sigma = completer.complete(self.past(), measured)
+        if getattr(completer, "needs_imu", False):
+            full, sigma = completer.complete(self.past(), measured, imu=imu)
+        else:
+            full, sigma = completer.complete(self.past(), measured)
         filled = ~valid
         continuing = filled & (self._run_sigma > 0)
         drift_std = getattr(completer, "drift_std", self.drift_std)

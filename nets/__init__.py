@@ -5,6 +5,10 @@ network with a calibrated sigma head. ``load_completer(missing=2|3)`` loads the 
 completer, ``load_completer("auto")`` serves every missing pattern (network where trained, average
 otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-beams``).
 
+``load_imu_completer(2|3)`` loads the IMU-aware network (``ImuBeamRegressor``, trained on A-KIT IMU + DVL with
+``train_imu`` / ``graphnav train-beams --imu``); it needs the IMU window:
+``complete(past, measured, imu=(f_b, omega_b))`` (see :mod:`graphnav.nets.imu_network`).
+
 The torch-based names are imported on first use, so ``from graphnav.nets import AverageCompleter`` does
 not load torch.
 """
@@ -19,6 +23,8 @@ _LAZY = {
     "load_model": "network",
     "TrainOptions": "training", "TrainResult": "training", "fit": "training", "save": "training",
     "train": "training",
+    "ImuBeamRegressor": "imu_model", "ImuNetworkCompleter": "imu_network", "load_imu_completer": "imu_network",
+    "load_imu_model": "imu_network", "ImuTrainOptions": "imu_training", "train_imu": "imu_training",
 }
 
 __all__ = ["AverageCompleter", "BeamCompleter", "check_inputs", *_LAZY]

@@ -5,6 +5,10 @@ A completer fills the missing beams of one ping:
 ``measured`` (4,) m/s with NaN for missing beams, ``beams`` (4,) with measured beams passed through and
 ``sigma`` (4,) m/s, 0 for measured beams: the 1-sigma error of each filled beam, used by the estimators
 as the inflated measurement noise (EKF) or the weak factor's noise (graph).
+
+A completer that also needs the IMU sets ``needs_imu = True`` and takes it as a keyword,
+``complete(past, measured, imu=(f_b, omega_b))`` with ``f_b``/``omega_b`` the last ``imu_samples`` IMU samples
+up to the ping (``graphnav.nets.imu_network``); :meth:`graphnav.history.BeamHistory.complete` forwards it.
 """
 from __future__ import annotations
 

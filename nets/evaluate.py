@@ -17,8 +17,12 @@ from .data import BeamSamples
 from .model import BeamRegressor
 
 
-def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 4096):
-    """Completed beams (S, 4) and sigma (S, 4) (0 for measured beams) of the network on all samples."""
+def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 4096, extra=None):
+    """Completed beams (S, 4) and sigma (S, 4) (0 for measured beams) of the network on all samples.
+
+    ``extra(slice)`` gives further input tensors of a batch after the past and measured beams (the IMU
+    features of :class:`~graphnav.nets.imu_model.ImuBeamRegressor`).
+    """
     miss, kept = list(model.missing), list(model.kept)
     past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
     meas = torch.as_tensor(samples.beams[:, kept], dtype=torch.float32)
@@ -26,7 +30,8 @@ def predict_network(model: BeamRegressor, samples: BeamSamples, batch: int = 409
     model.eval()
     with torch.no_grad():
         for i in range(0, len(samples), batch):
-            b, s = model(past[i:i + batch], meas[i:i + batch])
+            sl = slice(i, i + batch)
+            b, s = model(past[sl], meas[sl], *(extra(sl) if extra is not None else ()))
             out.append(b.double().numpy())
             sig.append(s.double().numpy())
     full = samples.beams.copy()
@@ -85,6 +90,8 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
     In each window the ``missing`` beams are removed; the history is primed with the full pings before the
     window and then holds earlier completions, so errors can grow through the window. Windows start at
     ping ``settle`` (at least ``n_past``) and repeat every ``window + gap`` pings of each series.
+    A completer with ``needs_imu`` gets the IMU window of each ping (series with ``imu_window``,
+    :class:`graphnav.nets.imu_data.ImuBeamSeries`); give every compared completer the same ``settle``.
 
     Returns:
         :class:`BeamSamples`-aligned arrays ``(full, sigma, samples)`` over all in-window pings, ready for
@@ -105,7 +112,9 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
             for k in range(start - completer.n_past, start):
                 hist.push(s.beams[k])
             for k in range(start, start + window):
-                b, sg = hist.complete(completer, s.beams[k], valid)
+                imu = (s.imu_window(k, completer.imu_samples) if getattr(completer, "needs_imu", False)
+                       else None)
+                b, sg = hist.complete(completer, s.beams[k], valid, imu=imu)
                 full.append(b)
                 sigma.append(sg)
                 beams.append(s.beams[k])

@@ -175,32 +175,34 @@ class AutoCompleter:
         return chosen.complete(past[-chosen.n_past:], measured)
 
 
-def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
-    """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones).
+def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | None = None,
+                 kind: str | None = None, train_hint: str = "graphnav train-beams"):
+    """Load ``<name>.pt`` and its card ``<name>.json`` from ``directory`` (default: the shipped weights).
+
+    The card must have this :data:`FORMAT_VERSION`, the ``kind`` (None for the beam-only networks), the
+    ``missing`` beams and the sha256 of the ``.pt``; the tensors must match ``model_cls(**card["architecture"])``.
 
     Raises:
-        ConfigError: files missing, format version or scenario mismatch, tensor shapes that do not match
-            the architecture in the card, or weights that are not the ones the card describes.
+        ConfigError: naming the file and what does not match (``train_hint`` says how to make the files).
     """
-    missing = normalize_missing(missing)
-    name = scenario_name(missing)
     directory = Path(directory) if directory is not None else weights_dir()
     pt, js = directory / f"{name}.pt", directory / f"{name}.json"
     if not pt.is_file() or not js.is_file():
         raise ConfigError(f"no trained weights for '{name}' in {directory} (need {pt.name} and {js.name}); "
-                          f"train them with: graphnav train-beams --missing {','.join(map(str, missing))}")
+                          f"train them with: {train_hint}")
     card = json.loads(js.read_text())
-    if card.get("format_version") != FORMAT_VERSION:
-        raise ConfigError(f"{js}: weights format version {card.get('format_version')}, this graphnav reads "
-                          f"version {FORMAT_VERSION}; retrain with graphnav train-beams")
+    if card.get("format_version") != FORMAT_VERSION or card.get("kind") != kind:
+        raise ConfigError(f"{js}: weights format version {card.get('format_version')} of kind "
+                          f"{card.get('kind')!r}, this graphnav reads version {FORMAT_VERSION} of kind {kind!r}; "
+                          f"retrain with {train_hint}")
     if tuple(card.get("missing", ())) != missing:
         raise ConfigError(f"{js}: card is for missing beams {card.get('missing')}, expected {list(missing)}")
     if card.get("graphnav_version") != graphnav.__version__:
         warnings.warn(f"{js}: trained with graphnav {card.get('graphnav_version')}, running "
-                      f"{graphnav.__version__}", stacklevel=2)
-    if "weights_sha256" in card and card["weights_sha256"] != file_sha256(pt):
+                      f"{graphnav.__version__}", stacklevel=3)
+    if ("weights_sha256" in card or kind is not None) and card.get("weights_sha256") != file_sha256(pt):
         raise ConfigError(f"{pt}: file does not match the checksum in its model card {js.name}")
-    model = BeamRegressor(**card["architecture"])
+    model = model_cls(**card["architecture"])
     state = torch.load(pt, map_location="cpu", weights_only=True)
     expected = {k: list(v.shape) for k, v in model.state_dict().items()}
     found = {k: list(v.shape) for k, v in state.items()}
@@ -210,6 +212,18 @@ def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegres
                           + ", ".join(f"{k} {found.get(k)} (expected {expected.get(k)})" for k in diff))
     model.load_state_dict(state)
     return model.eval(), card
+
+
+def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
+    """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones).
+
+    Raises:
+        ConfigError: files missing, format version or scenario mismatch, tensor shapes that do not match
+            the architecture in the card, or weights that are not the ones the card describes.
+    """
+    missing = normalize_missing(missing)
+    return load_weights(BeamRegressor, scenario_name(missing), missing, directory,
+                        train_hint=f"graphnav train-beams --missing {','.join(map(str, missing))}")
 
 
 def load_completer(missing=2, sigma: str = "head", directory: str | Path | None = None,

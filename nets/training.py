@@ -102,7 +102,11 @@ def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: 
 
 def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_cls, lr, step, gamma,
                patience, seed, progress):
-    """One training stage over ``params`` only; restores the best-validation weights."""
+    """One training stage over ``params`` only; restores the best-validation weights.
+
+    ``tr`` and ``va`` are tuples of tensors with the samples on axis 0 (inputs, then the target);
+    ``loss_fn(model, *tensors)`` gives the mean loss of a batch.
+    """
     for p in model.parameters():
         p.requires_grad_(False)
     for p in params:
@@ -120,7 +124,7 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
         total = 0.0
         for i in range(0, n, batch_size):
             idx = order[i:i + batch_size]
-            loss = loss_fn(model, tr[0][idx], tr[1][idx], tr[2][idx])
+            loss = loss_fn(model, *(t[idx] for t in tr))
             optim.zero_grad(set_to_none=True)
             loss.backward()
             optim.step()
@@ -180,15 +184,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
     mse_hist = [h for h in history if h["stage"] == "mse"]
     nll_hist = [h for h in history if h["stage"] == "nll"]
     card = {
-        "format_version": FORMAT_VERSION,
-        "graphnav_version": graphnav.__version__,
-        "torch_version": torch.__version__,
-        "scenario": scenario_name(missing),
-        "missing": list(missing),
-        "kept": list(model.kept),
-        "n_past": model.n_past,
-        "architecture": model.architecture(),
-        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
+        **card_header(model),
         "data": {
             "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
             "V_sha256": file_sha256(d / "V.npy"),
@@ -224,6 +220,21 @@ def training_envelope(series) -> dict:
             "max_step": steps.max(axis=0).tolist(), "source": "training split beams", "samples": int(len(beams))}
 
 
+def card_header(model) -> dict:
+    """Model-card fields every trained regressor shares: versions, scenario, beams, architecture, shapes."""
+    return {
+        "format_version": FORMAT_VERSION,
+        "graphnav_version": graphnav.__version__,
+        "torch_version": torch.__version__,
+        "scenario": scenario_name(model.missing),
+        "missing": list(model.missing),
+        "kept": list(model.kept),
+        "n_past": model.n_past,
+        "architecture": model.architecture(),
+        "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
+    }
+
+
 def weights_dir() -> Path:
     """The folder of the shipped weights inside the package."""
     return Path(__file__).resolve().parent / "weights"
@@ -234,7 +245,7 @@ def save(result: TrainResult, directory: str | Path | None = None) -> tuple[Path
     import json
     directory = Path(directory) if directory is not None else weights_dir()
     directory.mkdir(parents=True, exist_ok=True)
-    name = result.card["scenario"]
+    name = result.card.get("name", result.card["scenario"])
     pt, js = directory / f"{name}.pt", directory / f"{name}.json"
     torch.save(result.model.state_dict(), pt)
     result.card["weights_sha256"] = file_sha256(pt)

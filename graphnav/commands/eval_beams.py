@@ -23,12 +23,41 @@ def register(subparsers) -> None:
                    help="scenario to evaluate (repeat; default both)")
     p.add_argument("--no-outage", action="store_true", help="skip the recursive 30 s outage rows")
     p.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    p.add_argument("--imu", action="store_true",
+                   help="evaluate the IMU-aware networks instead: IMU-aware network vs average estimator "
+                        "(N=3) vs beam-only network on the A-KIT validation trajectories (3, 5, 6), per ping "
+                        "and recursive 30 s outages, with the reduction against the average in %%")
+    p.add_argument("--trajectories", type=str, default=None,
+                   help="with --imu: comma-separated A-KIT trajectory numbers (default: validation 3,5,6)")
     p.set_defaults(func=run)
+
+
+def run_imu(args) -> int:
+    from graphnav.errors import ConfigError
+    from graphnav.nets.imu_data import AKIT_SPLIT
+    from graphnav.nets.imu_evaluate import evaluate_imu, format_imu_table
+
+    trajectories = AKIT_SPLIT["val"]
+    if args.trajectories:
+        try:
+            trajectories = tuple(int(t) for t in args.trajectories.split(","))
+        except ValueError:
+            raise ConfigError(f"--trajectories must be comma-separated numbers, got '{args.trajectories}'") from None
+    rows = evaluate_imu(tuple(args.scenario or ("2-missing", "3-missing")), trajectories, args.weights, args.akit,
+                        args.beam_seed, outage=not args.no_outage)
+    print(f"A-KIT trajectories {list(trajectories)}, beam seed {args.beam_seed}")
+    print(format_imu_table(rows))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0
 
 
 def run(args) -> int:
     from graphnav.nets.evaluate import evaluate_all, format_table
 
+    if args.imu:
+        return run_imu(args)
     rows = evaluate_all(args.weights, args.beamsnet, args.akit, args.beam_seed,
                         tuple(args.scenario or ("2-missing", "3-missing")), outage=not args.no_outage)
     print(format_table(rows))

@@ -37,12 +37,46 @@ def register(subparsers) -> None:
     p.add_argument("--data", default=None, help="snapir-2021-beamsnet folder (default: found via GRAPHNAV_DATA)")
     p.add_argument("--out", default=None, help="output folder (default: the package's nets/weights)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("--imu", action="store_true",
+                   help="train the IMU-aware networks instead (imu-<scenario>.pt/.json): A-KIT trajectories "
+                        "(IMU + DVL), split by trajectory (train 1 2 4 8 10 11 13, validation 3 5 6), Adam, "
+                        "early stopping on the last 20 %% of each training trajectory; prints the validation "
+                        "table. Uses --scenario, --seed, --beam-seed, --threads, --out; --data is the "
+                        "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule")
+    p.add_argument("--imu-epochs", type=int, default=60, help="maximum epochs of the IMU-aware network (default 60)")
+    p.add_argument("--imu-draws", type=int, default=6,
+                   help="beam-noise draws of the training trajectories for the IMU-aware network (default 6)")
     p.set_defaults(func=run)
+
+
+def run_imu(args) -> int:
+    """``--imu``: train the IMU-aware networks and print their validation table."""
+    from graphnav.nets.imu_evaluate import format_imu_table
+    from graphnav.nets.imu_training import ImuTrainOptions, train_imu
+    from graphnav.nets.training import save
+
+    if args.missing is not None:
+        raise ConfigError("--imu trains the 2-missing and 3-missing scenarios; use --scenario, not --missing")
+    opt = ImuTrainOptions(epochs=args.imu_epochs, draws=args.imu_draws, seed=args.seed, beam_seed=args.beam_seed,
+                          threads=args.threads)
+    for scenario in args.scenario or ["2-missing", "3-missing"]:
+        result = train_imu(scenario, opt, args.data, progress=not args.no_progress)
+        pt, js = save(result, args.out)
+        card = result.card
+        print(f"{card['name']}: N={card['n_past']} IMU window {card['imu_samples']} samples, "
+              f"{card['n_parameters']} parameters, epochs={card['training']['epochs_run']} "
+              f"(best {card['training']['best_epoch']}) time={card['training']['time_s']:.1f} s; "
+              f"validation trajectories {card['split']['val_trajectories']}")
+        print(format_imu_table(card["metrics_val"]))
+        print(f"  wrote {pt} and {js}")
+    return 0
 
 
 def run(args) -> int:
     from graphnav.nets.training import TrainOptions, save, train
 
+    if args.imu:
+        return run_imu(args)
     if args.missing is not None:
         try:
             targets = [tuple(int(b) for b in args.missing.split(","))]

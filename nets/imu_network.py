@@ -1,0 +1,120 @@
+"""The IMU-aware regressor behind the completer interface, and loading its shipped weights.
+
+Interface (what an estimator passes), in addition to the beam-only completers' ``complete(past, measured)``::
+
+    completer = load_imu_completer(2)              # or 3, "2-missing", "3-missing"
+    completer.needs_imu                            # True
+    completer.n_past                               # N past full beam vectors (5 for 2 missing, 3 for 3)
+    completer.imu_samples, completer.imu_rate_hz   # 2000 samples at 100 Hz: the last 20 s of IMU
+    beams, sigma = completer.complete(past, measured, imu=(f_b, omega_b))
+
+- ``past`` (N, 4) m/s: the last N full beam vectors, oldest first, one DVL period (``ping_dt``, 1 s) apart,
+  completions included (:class:`graphnav.history.BeamHistory` keeps them);
+- ``measured`` (4,) m/s: this ping's beams, NaN exactly at the network's missing beams;
+- ``f_b`` and ``omega_b`` (imu_samples, 3): specific force (m/s^2) and angular rate (rad/s) in the body frame
+  (FRD), the last ``imu_samples`` IMU samples at ``imu_rate_hz`` whose last one is the sample at (or just
+  before) the ping time, oldest first, on the DVL's clock. ``BeamHistory.complete(completer, beams, valid,
+  imu=(f_b, omega_b))`` forwards it; :func:`graphnav.nets.imu_window.imu_window_at` cuts it from an
+  ``ImuData`` stream (None during the first 20 s).
+
+Returns ``(beams (4,), sigma (4,))`` m/s as every completer (measured beams passed through, sigma 0).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from graphnav.errors import ConfigError, DataError
+
+from .completer import check_inputs
+from .imu_model import ImuBeamRegressor
+from .imu_window import check_imu, preintegrate
+from .model import normalize_missing, scenario_name
+from .network import load_weights
+
+
+def imu_weights_name(missing) -> str:
+    """File stem of the IMU-aware weights for ``missing``: ``imu-2-missing``, ``imu-3-missing``, ..."""
+    return "imu-" + scenario_name(missing)
+
+
+def model_inputs(features, idx=None) -> list[torch.Tensor]:
+    """The IMU tensors of the model's ``forward`` from :class:`~graphnav.nets.imu_window.ImuFeatures`."""
+    fields = [getattr(features, k) for k in features.FIELDS]
+    if idx is not None:
+        fields = [f[idx] for f in fields]
+    return [torch.as_tensor(f, dtype=torch.float32) for f in fields]
+
+
+class ImuNetworkCompleter:
+    """A trained :class:`ImuBeamRegressor` as a beam completer that needs the IMU window (module docstring).
+
+    Args:
+        model: the trained network; it serves its ``missing`` pattern only.
+        card: its model card.
+        sigma_scale: factor on the returned sigma (1: calibrated per ping on held-out pings).
+
+    No ``drift_std`` of its own: :class:`graphnav.history.BeamHistory` grows the sigma through a run of filled
+    pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
+    """
+
+    needs_imu = True
+
+    def __init__(self, model: ImuBeamRegressor, card: dict | None = None, sigma_scale: float = 1.0):
+        if not sigma_scale > 0:
+            raise ConfigError(f"sigma_scale must be > 0, got {sigma_scale}")
+        self.model = model.eval()
+        self.missing = model.missing
+        self.n_past = model.n_past
+        self.imu_samples = model.imu_samples
+        self.imu_rate_hz = model.imu_rate_hz
+        self.ping_dt = model.ping_dt
+        self.sigma_scale = float(sigma_scale)
+        self.card = card or {}
+
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
+        """Fill the missing beams of one ping (module docstring for the inputs).
+
+        Raises:
+            DataError: wrong shape or non-finite past/IMU, no IMU window, or a missing pattern the network
+                was not trained for.
+        """
+        past, measured = check_inputs(past, measured, self.n_past)
+        f_b, omega_b = check_imu(imu, self.imu_samples)
+        pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(measured)))
+        if pattern != self.missing:
+            raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
+                            f"{list(self.missing)}", "completer", field="measured")
+        feats = preintegrate(f_b, omega_b, self.n_past, self.imu_rate_hz, self.ping_dt)
+        with torch.no_grad():
+            out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],
+                                  torch.as_tensor(measured[list(self.model.kept)], dtype=torch.float32)[None],
+                                  *model_inputs(feats))
+        beams, sigma = measured.copy(), np.zeros(4)
+        beams[list(self.missing)] = out[0].double().numpy()
+        sigma[list(self.missing)] = self.sigma_scale * sig[0].double().numpy()
+        return beams, sigma
+
+
+def load_imu_model(missing, directory: str | Path | None = None) -> tuple[ImuBeamRegressor, dict]:
+    """Load the IMU-aware weights and model card of ``missing`` (default folder: the shipped weights).
+
+    Raises:
+        ConfigError: files missing, format version, kind or scenario mismatch, tensor shapes that do not match
+            the architecture in the card, or weights that are not the ones the card describes (sha256).
+    """
+    missing = normalize_missing(missing)
+    return load_weights(ImuBeamRegressor, imu_weights_name(missing), missing, directory, kind="imu",
+                        train_hint=f"graphnav train-beams --imu --scenario {scenario_name(missing)}")
+
+
+def load_imu_completer(missing=2, directory: str | Path | None = None, sigma_scale: float = 1.0):
+    """The IMU-aware completer for ``missing`` (2 / 3 / scenario name / 0-based indices with weights)."""
+    if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
+        if missing not in (2, 3):
+            raise ConfigError(f"missing={missing}: IMU-aware networks are shipped for 2 and 3 missing beams")
+        missing = f"{missing}-missing"
+    model, card = load_imu_model(missing, directory)
+    return ImuNetworkCompleter(model, card, sigma_scale)

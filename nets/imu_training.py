@@ -1,0 +1,156 @@
+"""Training of the IMU-aware missing-beam regressor on the A-KIT trajectories, and its model card.
+
+Split by trajectory (:data:`graphnav.nets.imu_data.AKIT_SPLIT`): the training trajectories give the training
+pings (their first ``1 - select_fraction``) and the selection pings (the rest; the best epoch and the sigma
+gain are chosen on them); the validation trajectories are only used for the card's metrics, with another
+beam-noise draw (seed 1000, as ``graphnav eval-beams``). Training beams come in ``draws`` noise draws of the
+DVL error model (the IMU features are shared), which multiplies the 2 600 training pings.
+
+Stage 1: MSE on normalised beams, Adam, step decay, early stopping on the selection pings. Stage 2: the sigma
+head with the Gaussian NLL while the mean network is frozen; then ``sigma_gain`` makes the RMS of
+error/sigma 1 on the selection pings. Seeded; with one thread a rerun gives the same weights bit for bit.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+import torch
+
+from graphnav.config import DvlSpec
+from graphnav.dvl import make_beams
+
+from . import imu_data
+from .data import _data_dir
+from .imu_model import DEFAULT_IMU_N_PAST, ImuBeamRegressor
+from .imu_network import ImuNetworkCompleter, imu_weights_name, model_inputs
+from .model import normalize_missing, scenario_name
+from .training import TrainResult, _run_stage, card_header, file_sha256
+
+
+@dataclass
+class ImuTrainOptions:
+    """Hyper-parameters of the IMU-aware network."""
+
+    n_past: int | None = None           # None: DEFAULT_IMU_N_PAST for the number of missing beams
+    hidden: int = 32
+    sigma_hidden: int = 16
+    imu_window_s: float = imu_data.IMU_WINDOW_S
+    epochs: int = 60
+    batch_size: int = 64
+    lr: float = 2e-3
+    lr_step_epochs: int = 20
+    lr_gamma: float = 0.3
+    patience: int | None = 15
+    sigma_epochs: int = 20
+    sigma_batch_size: int = 128
+    sigma_lr: float = 3e-3
+    draws: int = 6                      # beam-noise draws of the training trajectories
+    select_fraction: float = 0.2        # last part of each training trajectory: epoch and sigma-gain selection
+    seed: int = 0
+    beam_seed: int = 0
+    threads: int = 1
+
+
+def _tensors(model: ImuBeamRegressor, samples: imu_data.ImuBeamSamples):
+    past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
+    meas = torch.as_tensor(samples.beams[:, list(model.kept)], dtype=torch.float32)
+    target = torch.as_tensor(samples.beams[:, list(model.missing)], dtype=torch.float32)
+    return (past, meas, *model_inputs(samples.imu), target)
+
+
+def _mse(model, *tensors):
+    pred, _ = model(*tensors[:-1])
+    return torch.mean(((pred - tensors[-1]) / model.beam_std[list(model.missing)]) ** 2)
+
+
+def _nll(model, *tensors):
+    pred, sigma = model(*tensors[:-1])
+    return torch.nn.functional.gaussian_nll_loss(pred.detach(), tensors[-1], sigma ** 2, full=True)
+
+
+def _samples(series, opt: ImuTrainOptions, part: str):
+    n_imu = imu_data.n_imu_samples(opt.imu_window_s)
+    out = []
+    for s in series:
+        cut = int(round((1.0 - opt.select_fraction) * len(s.beams)))
+        pings = slice(0, cut) if part == "train" else slice(cut + opt.n_past, None)
+        out.append(imu_data.imu_windows(s, opt.n_past, n_imu, pings=pings))
+    return imu_data.ImuBeamSamples.concatenate(out)
+
+
+def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_dir=None,
+              progress: bool = True, evaluate: bool = True) -> TrainResult:
+    """Train the IMU-aware network for ``missing`` and build its model card (module docstring)."""
+    missing = normalize_missing(missing)
+    opt = replace(options or ImuTrainOptions())
+    if opt.n_past is None:
+        opt.n_past = DEFAULT_IMU_N_PAST[len(missing)]
+    d = _data_dir(data_dir, "akit")
+    prev_threads = torch.get_num_threads()
+    torch.set_num_threads(opt.threads)
+    try:
+        torch.manual_seed(opt.seed)
+        model = ImuBeamRegressor(missing, opt.n_past, opt.hidden, opt.sigma_hidden, imu_window_s=opt.imu_window_s)
+        base = imu_data.akit_imu_series(imu_data.AKIT_SPLIT["train"], d, opt.beam_seed)
+        spec = DvlSpec()
+        train_parts, select = [], _samples(base, opt, "select")
+        for draw in range(opt.draws):
+            series = base if draw == 0 else [
+                s.with_beams(np.where(np.isfinite(s.beams), make_beams(np.nan_to_num(s.v_b), spec,
+                             opt.beam_seed + 100 * draw + int(s.name.removeprefix("Trajectory"))), np.nan))
+                for s in base]
+            train_parts.append(_samples(series, opt, "train"))
+        train = imu_data.ImuBeamSamples.concatenate(train_parts)
+        tr, se = _tensors(model, train), _tensors(model, select)
+        with torch.no_grad():
+            _, g_dir = model.propagate(*tr[0:1], *tr[2:6])
+        model.set_normalisation(tr[0].flatten(0, 1), tr[6], g_dir)
+        t0 = time.perf_counter()
+        history = _run_stage(model, model.mean_parameters(), tr, se, _mse, "mse", opt.epochs, opt.batch_size,
+                             torch.optim.Adam, opt.lr, opt.lr_step_epochs, opt.lr_gamma, opt.patience, opt.seed,
+                             progress)
+        history += _run_stage(model, list(model.sigma_head.parameters()), tr, se, _nll, "nll", opt.sigma_epochs,
+                              opt.sigma_batch_size, torch.optim.Adam, opt.sigma_lr, None, 1.0, None, opt.seed + 1,
+                              progress)
+        with torch.no_grad():       # calibrate on held-out pings: RMS of error/sigma = 1
+            pred, sigma = model(*se[:-1])
+            model.sigma_gain.mul_(torch.sqrt(torch.mean(((pred - se[-1]) / sigma) ** 2)))
+        train_time = time.perf_counter() - t0
+    finally:
+        torch.set_num_threads(prev_threads)
+    model.eval()
+    mse_hist = [h for h in history if h["stage"] == "mse"]
+    card = {
+        **card_header(model),
+        "kind": "imu",
+        "name": imu_weights_name(missing),
+        "imu_samples": model.imu_samples,
+        "n_parameters": int(sum(p.numel() for p in model.parameters())),
+        "data": {
+            "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
+                      "via graphnav.loaders.load_akit",
+            "DVL_sha256": {s.name: file_sha256(d / s.name / f"DVL_trajectory{s.name.removeprefix('Trajectory')}.csv")
+                           for s in base},
+            "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},
+            "beam_seed": opt.beam_seed, "draws": opt.draws,
+        },
+        "split": {"train_trajectories": list(imu_data.AKIT_SPLIT["train"]),
+                  "val_trajectories": list(imu_data.AKIT_SPLIT["val"]),
+                  "selection": f"last {opt.select_fraction:.0%} of each training trajectory (best epoch, "
+                               "sigma gain)",
+                  "train_samples": len(train), "selection_samples": len(select)},
+        "training": {**asdict(opt), "epochs_run": len(mse_hist),
+                     "best_epoch": int(np.argmin([h["val"] for h in mse_hist])) + 1,
+                     "time_s": round(train_time, 1)},
+        "lag_weights": torch.softmax(model.lag_logits.detach(), 0).tolist(),
+        "sigma_gain": float(model.sigma_gain),
+    }
+    if evaluate:
+        from .imu_evaluate import evaluate_imu
+        name = scenario_name(missing)
+        if name in ("2-missing", "3-missing"):
+            card["metrics_val"] = evaluate_imu((name,), directory=None, akit_dir=d,
+                                               completers={name: ImuNetworkCompleter(model, card)})
+    return TrainResult(model, card, history)

@@ -1,0 +1,220 @@
+"""Tests of the IMU-aware missing-beam regressor: preintegration, model, completer, shipped weights, history."""
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+import torch
+
+from graphnav.config import DvlSpec
+from graphnav.dvl import DvlGeometry
+from graphnav.errors import ConfigError, DataError
+from graphnav.history import BeamHistory
+from graphnav.nets import ImuBeamRegressor, load_imu_completer, load_imu_model
+from graphnav.nets.imu_network import model_inputs
+from graphnav.nets.imu_window import ImuFeatures, preintegrate
+from graphnav.nets.training import weights_dir
+
+G = 9.81
+
+
+def _steady_turn(n=2000, rate=100.0, v_b=(1.6, 0.15, 0.05), omega_b=(0.0, 0.0, 0.06), pitch=0.05):
+    """IMU window of a vehicle holding body velocity ``v_b`` in a turn about body z, pitched by ``pitch``.
+
+    With the body velocity constant, ``dv_b/dt = 0 = f_b + g_b - omega_b x v_b``, so ``f_b = omega x v - g_b``.
+    The turn is about body z and gravity has a body-x component, so g_b rotates in the body frame.
+    """
+    dt = 1.0 / rate
+    w = np.asarray(omega_b, float)
+    v = np.asarray(v_b, float)
+    t = np.arange(n) * dt
+    # body z is the turn axis: gravity in the body frame rotates about z at -w_z
+    ang = -w[2] * (t - t[-1])
+    g0 = G * np.array([-np.sin(pitch), 0.0, np.cos(pitch)])          # g_b at the last sample
+    c, s = np.cos(ang), np.sin(ang)
+    g_b = np.stack([c * g0[0] - s * g0[1], s * g0[0] + c * g0[1], np.full(n, g0[2])], axis=1)
+    f_b = np.cross(w, v)[None, :] - g_b
+    return f_b, np.tile(w, (n, 1)), v
+
+
+def test_preintegration_propagates_a_held_body_velocity_exactly_in_a_pitched_turn():
+    f_b, omega_b, v = _steady_turn()
+    feats = preintegrate(f_b, omega_b, n_past=3)
+    assert feats.rot.shape == (1, 3, 3, 3) and feats.tail.shape == (1, 3, 3) and feats.summary.shape == (1, 6)
+    # rotation j pings ago -> now: a yaw of omega_z * tau
+    for j, tau in enumerate((3.0, 2.0, 1.0)):
+        a = 0.06 * tau
+        expected = np.array([[np.cos(a), np.sin(a), 0], [-np.sin(a), np.cos(a), 0], [0, 0, 1]])
+        np.testing.assert_allclose(feats.rot[0, j], expected, atol=1e-9)
+    model = ImuBeamRegressor("2-missing", n_past=3)
+    T = DvlGeometry.from_spec(DvlSpec()).T_b
+    past = torch.as_tensor(np.tile(v @ T.T, (3, 1))[None], dtype=torch.float32)
+    prop, g_dir = model.propagate(past, *model_inputs(feats)[:4])
+    np.testing.assert_allclose(prop[0].numpy(), np.tile(v @ T.T, (3, 1)), atol=2e-3)
+    np.testing.assert_allclose(g_dir[0].numpy(), [-np.sin(0.05), 0, np.cos(0.05)], atol=1e-3)
+    # without the centripetal term (mean inertial acceleration taken as zero) the propagation is off
+    g_naive = -feats.f_mean[0]
+    v_naive = feats.rot[0, 0] @ v + feats.tail[0, 0] + g_naive * 3.0
+    assert np.linalg.norm(v_naive - v) > 0.1
+
+
+def test_preintegration_batches_like_single_windows():
+    f1, w1, _ = _steady_turn(pitch=0.0)
+    f2, w2, _ = _steady_turn(omega_b=(0.01, -0.02, 0.03), pitch=0.1)
+    both = preintegrate(np.stack([f1, f2]), np.stack([w1, w2]), 5, chunk=1)
+    for i, (f, w) in enumerate(((f1, w1), (f2, w2))):
+        one = preintegrate(f, w, 5)
+        for k in ImuFeatures.FIELDS:
+            np.testing.assert_allclose(getattr(both, k)[i], getattr(one, k)[0], atol=1e-12)
+    with pytest.raises(DataError, match="shorter than"):
+        preintegrate(f1[:200], w1[:200], 3)
+
+
+def test_model_shapes_and_architecture_checks():
+    model = ImuBeamRegressor("3-missing", n_past=3, imu_window_s=20.0)
+    assert model.imu_samples == 2000 and model.kept == (1,)
+    f_b, omega_b, v = _steady_turn()
+    feats = preintegrate(np.stack([f_b] * 4), np.stack([omega_b] * 4), 3)
+    beams, sigma = model(torch.randn(4, 3, 4), torch.randn(4, 1), *model_inputs(feats))
+    assert beams.shape == sigma.shape == (4, 3) and torch.all(sigma > 0)
+    with pytest.raises(ConfigError):
+        ImuBeamRegressor("2-missing", n_past=5, imu_window_s=3.0)
+
+
+def test_a_few_training_steps_are_deterministic():
+    from graphnav.nets.imu_training import _mse
+    from graphnav.nets.training import _run_stage
+
+    f_b, omega_b, v = _steady_turn()
+    one = preintegrate(f_b, omega_b, 3)
+    feats = ImuFeatures(*(np.repeat(getattr(one, k), 32, axis=0) for k in ImuFeatures.FIELDS))
+    rng = np.random.default_rng(0)
+    past = torch.as_tensor(rng.normal(0, 0.5, (32, 3, 4)), dtype=torch.float32)
+    target = past[:, -1, [0, 2]] + 0.05
+    data = (past, past[:, -1, [1, 3]], *model_inputs(feats), target)
+
+    def run():
+        torch.manual_seed(0)
+        model = ImuBeamRegressor("2-missing", n_past=3)
+        _, g_dir = model.propagate(past, *data[2:6])
+        model.set_normalisation(past.flatten(0, 1), data[6], g_dir)
+        hist = _run_stage(model, model.mean_parameters(), data, data, _mse, "mse", 3, 8, torch.optim.Adam, 1e-2,
+                          None, 1.0, None, 0, False)
+        return model, hist
+
+    (m1, h1), (m2, h2) = run(), run()
+    assert h1[-1]["train"] < h1[0]["train"]
+    for a, b in zip(m1.state_dict().values(), m2.state_dict().values()):
+        assert torch.equal(a, b)
+
+
+@pytest.mark.parametrize("missing, pattern", [(2, (0, 2)), (3, (0, 2, 3))])
+def test_shipped_imu_weights_load_and_predict_deterministically(missing, pattern):
+    comp = load_imu_completer(missing)
+    assert comp.needs_imu and comp.missing == pattern and comp.imu_samples == 2000
+    assert comp.n_past == {2: 5, 3: 3}[missing]
+    assert comp.card["split"]["val_trajectories"] == [3, 5, 6]
+    assert not set(comp.card["split"]["val_trajectories"]) & set(comp.card["split"]["train_trajectories"])
+    f_b, omega_b, v = _steady_turn()
+    T = DvlGeometry.from_spec(DvlSpec()).T_b
+    beams = v @ T.T
+    measured = beams.copy()
+    measured[list(pattern)] = np.nan
+    out1, sig1 = comp.complete(np.tile(beams, (comp.n_past, 1)), measured, imu=(f_b, omega_b))
+    out2, sig2 = comp.complete(np.tile(beams, (comp.n_past, 1)), measured, imu=(f_b, omega_b))
+    np.testing.assert_array_equal(out1, out2)
+    np.testing.assert_array_equal(sig1, sig2)
+    kept = [b for b in range(4) if b not in pattern]
+    np.testing.assert_array_equal(out1[kept], beams[kept])
+    assert np.all(sig1[list(pattern)] > 0) and np.all(sig1[kept] == 0)
+    # a vehicle holding its velocity: the completion stays close to the true beams
+    assert np.max(np.abs(out1 - beams)) < 0.1
+
+
+def test_bad_inputs_give_clear_errors():
+    comp = load_imu_completer(2)
+    f_b, omega_b, v = _steady_turn()
+    past = np.ones((comp.n_past, 4))
+    measured = np.array([np.nan, 1.0, np.nan, 1.0])
+    with pytest.raises(DataError, match="needs the IMU window"):
+        comp.complete(past, measured)
+    with pytest.raises(DataError, match="imu.f_b"):
+        comp.complete(past, measured, imu=(f_b[:-1], omega_b))
+    with pytest.raises(DataError, match="imu.omega_b"):
+        comp.complete(past, measured, imu=(f_b, omega_b[:, :2]))
+    bad = omega_b.copy()
+    bad[17, 1] = np.nan
+    with pytest.raises(DataError, match="index 17.*imu.omega_b"):
+        comp.complete(past, measured, imu=(f_b, bad))
+    with pytest.raises(DataError, match="pair"):
+        comp.complete(past, measured, imu=f_b)
+    with pytest.raises(DataError, match="past"):
+        comp.complete(np.ones((2, 4)), measured, imu=(f_b, omega_b))
+    with pytest.raises(DataError, match="do not match"):
+        comp.complete(past, np.array([np.nan, 1.0, 1.0, 1.0]), imu=(f_b, omega_b))
+
+
+def test_weights_checksum_and_missing_files(tmp_path):
+    for ext in ("pt", "json"):
+        shutil.copy(weights_dir() / f"imu-2-missing.{ext}", tmp_path / f"imu-2-missing.{ext}")
+    load_imu_model("2-missing", tmp_path)
+    pt = tmp_path / "imu-2-missing.pt"
+    pt.write_bytes(pt.read_bytes()[:-1] + bytes([pt.read_bytes()[-1] ^ 1]))
+    with pytest.raises(ConfigError, match="checksum"):
+        load_imu_model("2-missing", tmp_path)
+    with pytest.raises(ConfigError, match="train-beams --imu"):
+        load_imu_model("3-missing", tmp_path)
+
+
+def test_beam_history_forwards_the_imu_window():
+    comp = load_imu_completer(2)
+    f_b, omega_b, v = _steady_turn()
+    beams = v @ DvlGeometry.from_spec(DvlSpec()).T_b.T
+    hist = BeamHistory(comp.n_past)
+    for _ in range(comp.n_past):
+        hist.complete(comp, beams, np.ones(4, bool))
+    valid = np.array([0, 1, 0, 1], bool)
+    with pytest.raises(DataError, match="needs the IMU window"):
+        hist.complete(comp, beams, valid)
+    full, sigma = hist.complete(comp, beams, valid, imu=(f_b, omega_b))
+    assert np.all(np.isfinite(full)) and sigma[0] > 0
+    np.testing.assert_allclose(hist.past()[-1], full)
+
+
+def test_imu_window_at_takes_the_samples_up_to_the_ping():
+    from graphnav.mission import ImuData
+    from graphnav.nets.imu_window import imu_window_at
+
+    t = np.arange(500) * 0.01
+    imu = ImuData(t, np.tile(t[:, None], (1, 3)), -np.tile(t[:, None], (1, 3)))
+    assert imu_window_at(imu, 1.0, 200) is None                  # 101 samples so far
+    f_b, omega_b = imu_window_at(imu, 3.005, 200)
+    assert f_b.shape == omega_b.shape == (200, 3)
+    assert f_b[-1, 0] == pytest.approx(3.0) and f_b[0, 0] == pytest.approx(1.01)
+
+
+@pytest.mark.realdata
+def test_imu_network_beats_the_average_on_a_validation_trajectory(akit_dir):
+    from graphnav.nets import AverageCompleter
+    from graphnav.nets.evaluate import completion_metrics
+    from graphnav.nets.imu_data import akit_imu_series, imu_windows
+    from graphnav.nets.evaluate import predict_completer
+    from graphnav.nets.imu_evaluate import predict_imu_network
+
+    series = akit_imu_series((5,), akit_dir, beam_seed=7)
+    comp = load_imu_completer(2)
+    samples = imu_windows(series, comp.n_past, comp.imu_samples, pings=slice(0, 200))
+    net = completion_metrics(*predict_imu_network(comp.model, samples), samples, comp.missing)
+    avg = completion_metrics(*predict_completer(AverageCompleter(3), samples, comp.missing), samples,
+                             comp.missing)
+    assert net["beam_rmse"] < 0.85 * avg["beam_rmse"]
+    assert 0.55 < net["within_1sigma"] < 0.8 and 0.9 < net["within_2sigma"] < 0.99
+
+
+def test_cli_parsers_imu():
+    from graphnav.cli import build_parser
+    args = build_parser().parse_args(["train-beams", "--imu", "--scenario", "2-missing", "--imu-epochs", "3"])
+    assert args.imu and args.imu_epochs == 3
+    args = build_parser().parse_args(["eval-beams", "--imu", "--trajectories", "3,5"])
+    assert args.imu and args.trajectories == "3,5"
