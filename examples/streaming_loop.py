@@ -1,8 +1,8 @@
 """A vehicle integrator's first read: feed graphnav's Navigator sample by sample, as drivers deliver them.
 
 No ground truth anywhere: the Navigator aligns itself from the IMU and the DVL (levelling, gyrocompassing
-with the FOG-grade IMU), then publishes a filtered state at every DVL ping, and the controller reads the
-100 Hz state from ``state_at``. Here a simulated mission stands in for the drivers; on a vehicle, call the
+with the FOG-grade IMU; 300 s, after which it publishes the estimates of the alignment time too), then
+publishes a filtered state at every DVL ping, and the controller reads the 100 Hz state from ``state_at``. Here a simulated mission stands in for the drivers; on a vehicle, call the
 ``add_*`` methods from the IMU, DVL and depth callbacks instead.
 
 Run it: ``python examples/streaming_loop.py [--duration S]``.
@@ -17,11 +17,11 @@ from graphnav.replay import replay
 from graphnav.simulate import simulate_mission
 
 
-def main(duration_s: float = 180.0) -> None:
+def main(duration_s: float = 600.0) -> None:
     mission = simulate_mission(duration_s, seed=7)          # stands in for the drivers (and for scoring)
     nav = Navigator(mission.config)                        # fixed-lag graph, aligned from the sensors
 
-    published = []
+    published, state = [], None
     for kind, t, sample in replay(mission):               # the drivers' callbacks, in arrival order
         if kind == "imu":
             estimates = nav.add_imu(t, *sample)              # f_b (m/s^2), omega_b (rad/s)
@@ -39,8 +39,9 @@ def main(duration_s: float = 180.0) -> None:
     nav.finish()
 
     al = nav.alignment
-    print(f"aligned at t = {al.t:.1f} s from the sensors (heading: {al.heading_source}), "
-          f"{len(published)} estimates, last controller state at t = {state.t:.2f} s")
+    print(f"aligned from the sensors (heading: {al.heading_source}; done at t = {nav.alignment_ready_t:.1f} s, "
+          f"carried back to t = {al.t:.1f} s), {len(published)} estimates"
+          + (f", last controller state at t = {state.t:.2f} s" if state is not None else ""))
     # score against the simulator's truth (a vehicle has none)
     truth = mission.gt
     t = np.array([e.t for e in published])
@@ -52,6 +53,6 @@ def main(duration_s: float = 180.0) -> None:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=180.0, help="simulated mission length, s")
+    parser.add_argument("--duration", type=float, default=600.0, help="simulated mission length, s")
     warnings.simplefilter("default")
     main(parser.parse_args().duration)

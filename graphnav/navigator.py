@@ -230,6 +230,8 @@ class Navigator:
     def finish(self) -> list[EpochEstimate]:
         """End of data: release everything still buffered and close the keyframes the IMU covers."""
         out = self._release(math.inf)
+        if self.backend is None and self.aligner is not None:
+            out += self._align_at_end()
         if self.backend is not None:
             out += self._process(self.keyframer.finish())
         elif self.aligner is not None:
@@ -458,33 +460,53 @@ class Navigator:
             a.add_position_fix(t, *payload)
         if stream != "imu" or not a.ready:
             return []
-        events = self._align_events
+        return self._start_from_aligner(t)
+
+    def _start_from_aligner(self, t: float, end_of_data: bool = False) -> list[EpochEstimate]:
+        """Start the estimator from the aligner's result: carried back to the first buffered sample and run
+        through the buffer (``align_catch_up``), else where the alignment ends."""
+        a, events = self.aligner, self._align_events
         t_first = next((e[1] for e in events if e[0] == "imu"), None)
-        if self.options.align_catch_up and t_first is not None:
+        al = None
+        if (self.options.align_catch_up or end_of_data) and t_first is not None:
             from .align import AlignmentError
             try:
-                al = a.result_at(t_first)
+                al = a.result_at(t_first, end_of_data=end_of_data)
             except AlignmentError as exc:
+                if end_of_data:
+                    raise
                 warnings.warn(f"navigator: alignment not carried back to t = {t_first:.3f} s ({exc}); the "
                               "estimator starts where the alignment ends", RuntimeWarning, stacklevel=4)
-                al = None
-            if al is not None:
-                self.alignment = al
-                self.aligner = None
-                self.alignment_ready_t = t
-                # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer
-                self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
-                out = self._start(initial_from_alignment(al))
-                replayed = [e for e in events if e[1] >= t_first]
-                events.clear()
-                for stream_, t_, payload_ in replayed:
-                    out += self._dispatch(stream_, t_, payload_)
-                return out
-        events.clear()
-        self.alignment = al = a.result()
         self.aligner = None
         self.alignment_ready_t = t
-        return self._start(initial_from_alignment(al))
+        if al is None:
+            events.clear()
+            self.alignment = al = a.result()
+            return self._start(initial_from_alignment(al))
+        self.alignment = al
+        # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer
+        self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
+        out = self._start(initial_from_alignment(al))
+        replayed = [e for e in events if e[1] >= t_first]
+        events.clear()
+        for stream, t_, payload in replayed:
+            out += self._dispatch(stream, t_, payload)
+        return out
+
+    def _align_at_end(self) -> list[EpochEstimate]:
+        """The data ended before ``AlignOptions.duration_s``: align over what there is when it covers
+        ``min_duration_s`` (with a warning giving the expected heading accuracy), and run the buffer."""
+        a = self.aligner
+        if a.missing(end_of_data=True) or not self._align_events:
+            return []
+        out = self._start_from_aligner(self._align_events[-1][1], end_of_data=True)
+        al = self.alignment
+        sigma = al.info.get("heading_sigma_rad")
+        warnings.warn(f"navigator: the data ended before the {a.options.duration_s:g} s alignment finished; aligned "
+                      f"over the {al.info.get('duration_s', float('nan')):.0f} s there are"
+                      + (f" (expected heading sigma {np.degrees(sigma):.1f} deg)" if sigma is not None else ""),
+                      RuntimeWarning, stacklevel=3)
+        return out
 
     def _align_missing(self) -> str:
         """What the aligner still lacks (its error message)."""

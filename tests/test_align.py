@@ -151,7 +151,7 @@ def test_position_fix_sets_the_origin_and_the_position():
     t_fix = 5.0
     p_fix = truth(mission, t_fix)[2]
     lat, lon, _ = ned_to_lla(p_fix, DEFAULT_ORIGIN_LLA)
-    aligner = Aligner(mission.config)
+    aligner = Aligner(mission.config, AlignOptions(duration_s=120.0))
     fed = False
     for i, t in enumerate(mission.imu.t):
         aligner.add_imu(t, mission.imu.f_b[i], mission.imu.omega_b[i])
@@ -186,7 +186,7 @@ def test_missing_inputs_are_named():
     assert not aligner.ready
     with pytest.raises(AlignmentError) as info:
         aligner.result()
-    assert "DVL" in str(info.value) and "10.0 s of the 120 s" in str(info.value)
+    assert "DVL" in str(info.value) and "10.0 s of the 300 s" in str(info.value)
     off = SensorConfig(earth_rotation=False)
     assert any("earth_rotation=False" in m for m in Aligner(off).missing())
     with pytest.raises(ConfigError):

@@ -260,7 +260,7 @@ def test_the_streaming_example_runs():
     import sys
     example = Path(__file__).parents[1] / "examples" / "streaming_loop.py"
     argv = sys.argv
-    sys.argv = [str(example), "--duration", "200"]
+    sys.argv = [str(example), "--duration", "330"]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
