@@ -530,12 +530,16 @@ def initial_from_alignment(al) -> InitialState:
                         origin_lla=al.origin_lla)
 
 
-def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True) -> list[EpochEstimate]:
+def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:
     """Replay a recorded mission into ``nav`` sample by sample in time order (never its ground truth) and
-    return every estimate; ``callback(estimate)`` is called as each is made."""
+    return every estimate; ``callback(estimate)`` is called as each is made. ``stop()``, when given, is asked
+    between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
+    interrupt delivered inside a GTSAM call can surface as another exception)."""
     out = []
     adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
     for kind, t, payload in replay(mission, depth=depth):
+        if stop is not None and stop():
+            raise KeyboardInterrupt
         new = adders[kind](t, *payload)
         if new:
             out += new

@@ -167,15 +167,17 @@ def run(args) -> int:
         sink = EpochSink(writer, bar, resumed_from, args.realtime, args.speed,
                          echo=sys.stdout if streaming else None)
         start = time.perf_counter()
+        stop = InterruptFlag()
         try:
             if streaming:
-                nav, described, stream_info = run_stream(args, sink)
+                nav, described, stream_info = run_stream(args, sink, stop)
             else:
                 from graphnav.navigator import feed_mission
                 nav, described = make_navigator(args, mission.config, mission)
-                feed_mission(nav, mission, callback=sink)
+                feed_mission(nav, mission, callback=sink, stop=stop)
                 stream_info = {}
         finally:
+            stop.restore()
             bar.close()
         wall = time.perf_counter() - start
         n_total = writer.n_written
@@ -207,7 +209,35 @@ def run(args) -> int:
     return 0
 
 
-def run_stream(args, sink):
+class InterruptFlag:
+    """Ctrl-C (SIGINT) sets a flag that the loops check between samples, so that the interrupt stops the run at
+    a clean point (delivered inside a GTSAM call it can surface as a TypeError from pybind11); a second
+    Ctrl-C interrupts at once. ``restore()`` puts the previous handler back."""
+
+    def __init__(self):
+        import signal
+        self.set = False
+        self._signal = signal
+        try:
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        except ValueError:          # not the main thread: leave Ctrl-C alone
+            self._previous = None
+
+    def _handle(self, signum, frame):
+        if self.set:
+            raise KeyboardInterrupt
+        self.set = True
+
+    def __call__(self) -> bool:
+        return self.set
+
+    def restore(self) -> None:
+        if self._previous is not None:
+            self._signal.signal(self._signal.SIGINT, self._previous)
+            self._previous = None
+
+
+def run_stream(args, sink, stop=None):
     """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come."""
     import contextlib
 
@@ -218,6 +248,8 @@ def run_stream(args, sink):
         reader = StreamReader(fh, source)
         nav = described = None
         for rec in reader:
+            if stop is not None and stop():
+                raise KeyboardInterrupt
             if nav is None:
                 config = SensorConfig.load(args.config) if args.config else (reader.config or SensorConfig())
                 nav, described = make_navigator(args, config)
