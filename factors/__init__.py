@@ -5,6 +5,7 @@ See :mod:`graphnav.factors.dvl` for the measurement model and the Jacobian conve
 from .depth import depth_factor
 from .dvl import (beam_factor, beam_factor_lever_arm, beam_noise, body_velocity_factor,
                   predict_beams)
+from .motion import body_velocity_change_factor, nonholonomic_factor
 
 __all__ = ["beam_factor", "beam_factor_lever_arm", "beam_noise", "body_velocity_factor",
-           "depth_factor", "predict_beams"]
+           "body_velocity_change_factor", "depth_factor", "nonholonomic_factor", "predict_beams"]

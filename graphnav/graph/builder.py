@@ -25,6 +25,7 @@ from graphnav.history import BeamHistory
 from graphnav.mission import Mission, gap_variances
 
 from .options import GraphOptions
+from .regressed import motion_prior_factors, screen_regressed
 
 
 @dataclass
@@ -140,6 +141,12 @@ class KeyframeBuilder:
         # all-zero rows dropped and gaps bridged (with warnings); keyframes over a gap get inflated IMU noise
         self.imu, self.imu_gaps = mission.imu.bridge_gaps(self.config.imu_rate_hz)
         self.times, self.ping = keyframe_times(self.imu.t, mission.dvl.t, options)
+        #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
+        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+
+    def count_screening(self, stats: dict) -> None:
+        for key, n in stats.items():
+            self.screening[key] += n
 
     def __len__(self) -> int:
         return len(self.times)
@@ -150,7 +157,9 @@ class KeyframeBuilder:
         beams, valid = dvl.beams[j], dvl.valid[j] & np.isfinite(dvl.beams[j])
         sigma = np.where(valid, self.beam_sigma, np.nan)
         regressed = np.zeros(4, dtype=bool)
-        if self.history is not None:
+        # without any measured beam the completers are extrapolating blind; a motion prior takes over if set
+        skip = self.options.motion_prior != "off" and not valid.any()
+        if self.history is not None and not skip:
             completed = self.history.complete(self.completer, np.where(valid, beams, 0.0), valid)
             if completed is not None:
                 full, filled_sigma = completed
@@ -272,7 +281,7 @@ class KeyframeFactors:
 
 
 def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndarray,
-                     p_n_pred: np.ndarray | None = None) -> KeyframeFactors:
+                     p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
     Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
@@ -284,6 +293,7 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
         builder: its builder (geometry, options, configuration).
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
+        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams.
     """
     options, config = builder.options, builder.config
     groups: list[BeamGroup] = []
@@ -297,12 +307,25 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
         lever = builder.geometry.lever_arm_b
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
+            sigma = m.sigma
+            if regressed and sel.size:
+                keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
+                                                          omega, builder.geometry.lever_arm_b, prediction,
+                                                          options)
+                builder.count_screening(stats)
+                sigma = m.sigma.copy()
+                sigma[sel] = sigma_sel
+                sel = sel[keep]
             if sel.size == 0:
                 continue
             split = options.beam_factor_mode == "beam" or huber is not None
             for part in ([[i] for i in sel] if split else [sel]):
-                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], m.sigma[part], huber, omega, lever,
+                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
                                         regressed))
+    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
+    if k > 0 and (options.motion_prior == "partial" and n_measured < 3
+                  or options.motion_prior == "total" and n_measured == 0):
+        other.push_back(motion_prior_factors(k, kf.t - builder.times[k - 1], options))
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]

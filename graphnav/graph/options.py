@@ -45,6 +45,7 @@ from graphnav.errors import ConfigError
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
 BATCH_SOLVERS = ("vectorized", "lm")
+MOTION_PRIOR_MODES = ("off", "partial", "total")
 
 
 @dataclass
@@ -78,6 +79,18 @@ class GraphOptions:
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
         marginals: compute the marginal velocity covariance at every output epoch.
+        regressed_gate_k: joint-covariance gate of a regressed beam against the graph's predicted beam
+            (sigmas); None = no gate. See :mod:`.regressed`.
+        regressed_adaptive: raise a regressed beam's variance to its innovation's excess over the
+            prediction variance.
+        regressed_correlation: assumed correlation (0..1) between a completion's error and the graph's
+            prediction error (both come from the same past pings); 0 = independent.
+        motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
+            heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
+            ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
+            measured beam are then not completed (the prior replaces the completion).
+        motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
+        motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
     """
 
     beam_sigma: float | None = None
@@ -109,6 +122,12 @@ class GraphOptions:
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: bool = True
+    regressed_gate_k: float | None = None
+    regressed_adaptive: bool = False
+    regressed_correlation: float = 0.0
+    motion_prior: str = "off"
+    motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
+    motion_prior_heave_sigma: float | None = 0.05
 
     def __post_init__(self):
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:
@@ -120,5 +139,9 @@ class GraphOptions:
             raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.motion_prior not in MOTION_PRIOR_MODES:
+            raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        if not 0.0 <= self.regressed_correlation < 1.0:
+            raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
         if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")
