@@ -107,7 +107,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
         if callback is not None:
             callback(est)
     info = {"mode": mode, "update_s": list(estimator.update_times), "recovered": estimator.n_recovered,
-            "online_s": time.perf_counter() - start}
+            "online_s": time.perf_counter() - start, "regressed_screening": dict(builder.screening)}
     if batch:
         try:
             estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
