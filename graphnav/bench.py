@@ -529,7 +529,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
     if meta.get("command"):
         lines += [f"Command: `{meta['command']}`", ""]
     lines += [f"Trajectories ({len(trajectories)}): {', '.join(trajectories)}  ",
-              f"Windows: {', '.join(f'{w:g}' for w in np.atleast_1d(meta.get('window_s', 30.0)))} s outages starting 60 s into each mission and then every "
+              f"Windows: {', '.join(f'{w:g}' for w in np.atleast_1d(meta.get('window_s', 30.0)))} s outages "
+              "starting 60 s into each mission and then every "
               f"window + 60 s (>= 60 s of full beams between windows; each window scored on its own; "
               f"`none` scores the same windows with all beams).  ",
               "VRMSE: m/s against ground truth, over the window (mean and worst over windows and "

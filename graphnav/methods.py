@@ -19,7 +19,8 @@ The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 f
 ``0-beams`` (total DVL outage) and ``markov`` (random dropouts) use ``load_completer("auto")``: the networks
 for the patterns they were trained on, the average estimator for the others -- with no beam measured the
 networks do not apply, so in a total outage the hybrid's completion is the average estimator's constant-beam
-extrapolation unless the graph's ``motion_prior`` replaces it (:data:`GRAPH_HN_OPTIONS`). The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none`` uses
+extrapolation unless the graph's ``motion_prior`` replaces it (:data:`GRAPH_HN_OPTIONS`).
+The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none`` uses
 ``load_completer("auto")``, the networks where trained and the average estimator for other patterns, only
 consulted if beams drop out); when its weights or module are missing the
 average estimator stands in, with a warning, and the solution's ``info["completer"]`` says so.

@@ -85,6 +85,8 @@ class GraphOptions:
             prediction variance.
         regressed_correlation: assumed correlation (0..1) between a completion's error and the graph's
             prediction error (both come from the same past pings); 0 = independent.
+        regressed_prediction_var_scale: factor on the graph's predicted beam variance in the screening (its
+            marginal is over-confident on real data; see :mod:`.regressed`).
         motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
             heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
             ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
@@ -125,6 +127,7 @@ class GraphOptions:
     regressed_gate_k: float | None = None
     regressed_adaptive: bool = False
     regressed_correlation: float = 0.0
+    regressed_prediction_var_scale: float = 1.0
     motion_prior: str = "off"
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
@@ -141,6 +144,8 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        if not self.regressed_prediction_var_scale > 0:
+            raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
         if not 0.0 <= self.regressed_correlation < 1.0:
             raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
         if self.batch_solver not in BATCH_SOLVERS:
