@@ -6,6 +6,8 @@ from .aiding import heading_factor, horizontal_position_factor
 from .depth import depth_factor
 from .dvl import (beam_factor, beam_factor_lever_arm, beam_noise, body_velocity_factor,
                   predict_beams)
+from .motion import body_velocity_change_factor, nonholonomic_factor
 
-__all__ = ["heading_factor", "horizontal_position_factor", "beam_factor", "beam_factor_lever_arm", "beam_noise", "body_velocity_factor",
-           "depth_factor", "predict_beams"]
+__all__ = ["beam_factor", "beam_factor_lever_arm", "beam_noise", "body_velocity_change_factor",
+           "body_velocity_factor", "depth_factor", "heading_factor", "horizontal_position_factor",
+           "nonholonomic_factor", "predict_beams"]

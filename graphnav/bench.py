@@ -46,8 +46,10 @@ from .scenarios import scenario_outage, window_starts
 from .solution import NavSolution
 from .timeseries import interp_rows
 
-SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "none")
-IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical")
+SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "0-beams", "markov", "none")
+IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical", "mems")
+#: Methods of the regime summary (report section "Regimes"), the hybrid first, its reference second.
+REGIME_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-MP", "TC", "HNTC")
 #: Keys of every result record (extra diagnostic keys may follow).
 RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
                                 "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s", "diverged",
@@ -283,10 +285,14 @@ def base_key(base: dict) -> tuple[str, str, str, str]:
 
 # --- the whole benchmark ---------------------------------------------------------------------------------
 def make_cases(trajectories: list[TrajectorySource], scenarios=SCENARIO_NAMES, grades=IMU_GRADE_CHOICES,
-               methods=METHODS, window_s: float = 30.0, max_windows: int | None = None,
+               methods=METHODS, window_s: float | list[float] = 30.0, max_windows: int | None = None,
                save_dir: str | None = None, save_first: int = 1) -> list[BenchCase]:
     """All cases, grouped by trajectory then grade (so a worker's mission cache is reused); solutions of the
-    first ``save_first`` trajectories are kept in ``save_dir`` for the plots."""
+    first ``save_first`` trajectories are kept in ``save_dir`` for the plots (first window length only).
+    ``window_s`` may be a list of window lengths (s): every case is run once per length."""
+    windows = [float(w) for w in np.atleast_1d(window_s)]
+    if any(w <= 0 for w in windows):
+        raise ConfigError(f"window lengths must be > 0 s, got {windows}")
     for s in scenarios:
         check_scenario(s)
     for m in methods:
@@ -297,8 +303,9 @@ def make_cases(trajectories: list[TrajectorySource], scenarios=SCENARIO_NAMES, g
                 imu_grade_spec(g)
             except ConfigError as exc:
                 raise ConfigError(f"{exc} (or 'as-recorded')") from None
-    return [BenchCase(traj, sc, g, m, window_s, max_windows, save_dir if i < save_first else None)
-            for i, traj in enumerate(trajectories) for g in grades for sc in scenarios for m in methods]
+    return [BenchCase(traj, sc, g, m, w, max_windows, save_dir if i < save_first and w == windows[0] else None)
+            for i, traj in enumerate(trajectories) for g in grades for w in windows for sc in scenarios
+            for m in methods]
 
 
 def load_results(path: str | Path) -> list[dict]:
@@ -510,6 +517,101 @@ def headline(agg: dict, grade: str, scenario: str, model: str = "Graph-HN", ref:
             f"{_f(b['vrmse_window_mean'])} m/s ({_pct(gain)}), lower in {wins} of {len(common)} windows")
 
 
+# --- the regime summary ----------------------------------------------------------------------------------
+def aggregate_regimes(records: list[dict]) -> dict:
+    """Per (imu_grade, scenario, window_s, method): window VRMSE mean and worst, number of windows."""
+    groups: dict[tuple, list[float]] = defaultdict(list)
+    for r in records:
+        if not r.get("error") and r.get("vrmse_window") is not None:
+            groups[(r["imu_grade"], r["scenario"], float(r["window_s"]), r["method"])].append(r["vrmse_window"])
+    return {k: {"mean": _mean(v), "worst": _max(v), "n": len(v)} for k, v in groups.items()}
+
+
+def _ratio(agg: dict, regime: tuple, model: str, ref: str = "Graph-TC") -> float:
+    a, b = agg.get((*regime, model)), agg.get((*regime, ref))
+    if not a or not b or not (b["mean"] > 0):
+        return float("nan")
+    return a["mean"] / b["mean"]
+
+
+#: Ratio thresholds of the regime verdicts (mean window VRMSE of a method / Graph-TC's).
+HELPS_BELOW, HURTS_ABOVE = 0.95, 1.02
+
+
+def regime_summary(records: list[dict]) -> list[str]:
+    """Markdown: the regime table (IMU grade x scenario x window length; mean and worst window VRMSE per
+    method of :data:`REGIME_METHODS`, Graph-HN and the batch as a ratio of Graph-TC) and, generated from
+    those numbers, where the hybrid helps, where it is neutral, where it hurts, and the issue's targets."""
+    agg = aggregate_regimes(records)
+    regimes = sorted({k[:3] for k in agg}, key=lambda r: (
+        list(dict.fromkeys((*IMU_GRADE_CHOICES, r[0]))).index(r[0]),
+        list(dict.fromkeys((*SCENARIO_NAMES, r[1]))).index(r[1]), r[2]))
+    methods = [m for m in REGIME_METHODS if any(k[3] == m for k in agg)]
+    if not regimes or "Graph-TC" not in methods:
+        return []
+    lines = ["## Regimes", "",
+             "Window VRMSE, m/s, mean (worst) over all windows of all trajectories, per IMU grade, scenario and "
+             "window length; `HN/TC` and `batch/TC` are Graph-HN's and Graph-HN-batch's mean divided by "
+             "Graph-TC's.", "",
+             "| IMU | scenario | window s | " + " | ".join(methods) + " | HN/TC | batch/TC | windows |",
+             "| --- | --- | --- |" + " --- |" * (len(methods) + 3)]
+    for reg in regimes:
+        cells = [f"{_f(agg[(*reg, m)]['mean'])} ({_f(agg[(*reg, m)]['worst'])})" if (*reg, m) in agg else "-"
+                 for m in methods]
+        n = agg.get((*reg, "Graph-TC"), {}).get("n", 0)
+        lines.append(f"| {reg[0]} | {reg[1]} | {reg[2]:g} | " + " | ".join(cells) +
+                     f" | {_f(_ratio(agg, reg, 'Graph-HN'), 2)} | {_f(_ratio(agg, reg, 'Graph-HN-batch'), 2)} | {n} |")
+    lines.append("")
+    lossy = [r for r in regimes if r[1] != "none"]
+
+    def verdicts(model: str) -> list[str]:
+        rated = [(r, _ratio(agg, r, model)) for r in lossy]
+        rated = [(r, x) for r, x in rated if math.isfinite(x)]
+        if not rated:
+            return []
+        name = lambda r, x: f"{r[0]}/{r[1]}/{r[2]:g} s ({x:.2f}x)"  # noqa: E731
+        helps = [name(r, x) for r, x in rated if x < HELPS_BELOW]
+        neutral = [name(r, x) for r, x in rated if HELPS_BELOW <= x <= HURTS_ABOVE]
+        hurts = [name(r, x) for r, x in rated if x > HURTS_ABOVE]
+        out = [f"- {model} vs Graph-TC over {len(rated)} regimes with missing beams: "
+               f"helps (< {HELPS_BELOW:g}x) in {len(helps)}, neutral in {len(neutral)}, "
+               f"hurts (> {HURTS_ABOVE:g}x) in {len(hurts)}."]
+        if helps:
+            out.append(f"  - helps: {', '.join(helps)}")
+        if hurts:
+            out.append(f"  - hurts: {', '.join(hurts)}")
+        best = min(rated, key=lambda rx: rx[1])
+        out.append(f"  - largest gain: {name(*best)}; worst case: {name(*max(rated, key=lambda rx: rx[1]))}")
+        return out
+
+    lines += ["Where the hybrid helps (generated from the table):", ""]
+    for model in ("Graph-HN", "Graph-HN-batch", "Graph-MP"):
+        lines += verdicts(model)
+    # the issue's targets, checked on the same numbers
+    checks = []
+    hn = [(r, _ratio(agg, r, "Graph-HN")) for r in lossy]
+    hn = [(r, x) for r, x in hn if math.isfinite(x)]
+    if hn:
+        bad = [r for r, x in hn if x > HURTS_ABOVE]
+        checks.append(f"- never hurts (Graph-HN <= {HURTS_ABOVE:g}x Graph-TC in every regime): "
+                      + ("holds" if not bad else f"fails in {len(bad)} of {len(hn)}"))
+    hard = [(r, x) for r, x in hn if r[0] in ("tactical", "mems") and (r[1] == "3-missing" or "0-" in r[1]
+                                                                        or "outage" in r[1]) and r[2] >= 60]
+    if hard:
+        bad = [r for r, x in hard if x > 0.7]
+        checks.append(f"- helps where it can (Graph-HN <= 0.7x Graph-TC, tactical/MEMS, 3-missing and total "
+                      f"outage, 60-120 s): " + ("holds" if not bad else f"fails in {len(bad)} of {len(hard)}"))
+    bt = [(r, _ratio(agg, r, "Graph-HN-batch")) for r in lossy]
+    bt = [(r, x) for r, x in bt if math.isfinite(x)]
+    if bt:
+        bad = [r for r, x in bt if x > 0.8]
+        checks.append("- batch smoother <= 0.8x Graph-TC in every cell with missing beams: "
+                      + ("holds" if not bad else f"fails in {len(bad)} of {len(bt)}"))
+    if checks:
+        lines += ["", "Targets of issue 13:", ""] + checks
+    return lines + [""]
+
+
 def make_report(records: list[dict], meta: dict | None = None) -> str:
     """``report.md`` text: per IMU grade the paper-style table and a detailed table per scenario, the
     Graph-HN vs HNTC headline, runtime and real-time factor per method, and the benchmark's settings."""
@@ -526,7 +628,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
     if meta.get("command"):
         lines += [f"Command: `{meta['command']}`", ""]
     lines += [f"Trajectories ({len(trajectories)}): {', '.join(trajectories)}  ",
-              f"Windows: {meta.get('window_s', 30.0):g} s outages starting 60 s into each mission and then every "
+              f"Windows: {', '.join(f'{w:g}' for w in np.atleast_1d(meta.get('window_s', 30.0)))} s outages "
+              "starting 60 s into each mission and then every "
               f"window + 60 s (>= 60 s of full beams between windows; each window scored on its own; "
               f"`none` scores the same windows with all beams).  ",
               "VRMSE: m/s against ground truth, over the window (mean and worst over windows and "
@@ -538,6 +641,10 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
               f"Diverged windows (non-finite, window VRMSE >= {DIVERGED_VRMSE_MPS:g} m/s, or the estimator's "
               "health monitor diverged during the window) are not averaged in: they are counted in brackets "
               "and listed under 'Diverged runs'.", ""]
+    if len(np.atleast_1d(meta.get("window_s", 30.0))) > 1:
+        lines += ["With several window lengths, the per-grade tables below pool them; the regime table "
+                  "separates them.", ""]
+    lines += regime_summary(records)
     if meta.get("wall_time_s") is not None:
         lines += [f"Wall time: {meta['wall_time_s']:.0f} s with {meta.get('jobs', 1)} job(s).", ""]
     failed = [r for r in records if r.get("error")]

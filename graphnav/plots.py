@@ -18,6 +18,7 @@ matplotlib.use("Agg")  # files only: works on headless machines and inside worke
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .scenarios import SCENARIOS  # noqa: E402
 from .solution import NavSolution  # noqa: E402
 
 AXES_NED = ("north", "east", "down")
@@ -168,7 +169,7 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
     rs = [r for r in records if not r.get("error") and r.get("vrmse_window") is not None
           and (imu_grade is None or r["imu_grade"] == imu_grade)]
     methods = methods or [m for m in METHODS if any(r["method"] == m for r in rs)]
-    scenarios = [s for s in ("2-missing", "3-missing", "none") if any(r["scenario"] == s for r in rs)]
+    scenarios = [s for s in SCENARIOS if any(r["scenario"] == s for r in rs)]
     fig, ax = plt.subplots(figsize=(max(7.0, 1.1 * len(methods) + 2), 4.8))
     width = 0.8 / max(1, len(scenarios))
     x = np.arange(len(methods))

@@ -2,7 +2,9 @@
 
 Beam numbers in names and presets follow the paper (beams 1..4); arrays use 0-based indices.
 Presets: ``2-missing`` = beams 1 and 3 missing (2 and 4 measured); ``3-missing`` = only beam 2 measured;
-``none`` = all beams measured.
+``0-beams`` = total DVL outage (no beam measured); ``markov`` = random per-beam dropouts inside the window
+(independent two-state Markov chains per beam, :data:`MARKOV_DROPOUT`, seeded by the window start so every
+method sees the same pattern); ``none`` = all beams measured.
 """
 from __future__ import annotations
 
@@ -17,7 +19,13 @@ SCENARIOS: dict[str, tuple[int, ...]] = {
     "none": (),
     "2-missing": (0, 2),
     "3-missing": (0, 2, 3),
+    "0-beams": (0, 1, 2, 3),
+    "markov": (0, 1, 2, 3),     # beams that may drop; which ones and when: MARKOV_DROPOUT
 }
+#: Per-ping (p_drop, p_recover) of the random-dropout scenarios. 0.1 / 0.2: each beam is out a third of the
+#: time in runs of 5 pings on average (1 s at the A-KIT DVL's 5 Hz), so 2+ beams are missing together in
+#: ~26 % of the pings -- the bursty loss of a compact DVL over rough terrain or in bubbles.
+MARKOV_DROPOUT: dict[str, tuple[float, float]] = {"markov": (0.1, 0.2)}
 
 
 @dataclass(frozen=True)
@@ -27,12 +35,17 @@ class Outage:
     start_s: float
     duration_s: float
     missing: tuple[int, ...]
+    #: (p_drop, p_recover) per ping: the ``missing`` beams drop at random (:func:`markov_dropout`) instead
+    #: of all the time; None = fixed pattern.
+    markov: tuple[float, float] | None = None
 
     def __post_init__(self):
         if self.duration_s < 0:
             raise ConfigError(f"outage duration must be >= 0 s, got {self.duration_s}")
         if any(b not in range(4) for b in self.missing):
             raise ConfigError(f"missing beams must be 0-based indices 0..3, got {self.missing}")
+        if self.markov is not None and not all(0.0 < p <= 1.0 for p in self.markov):
+            raise ConfigError(f"markov (p_drop, p_recover) must be in (0, 1], got {self.markov}")
 
     @property
     def end_s(self) -> float:
@@ -43,13 +56,22 @@ class Outage:
         inside = (t >= self.start_s) & (t < self.end_s)
         out = np.zeros((len(t), 4), dtype=bool)
         out[np.ix_(inside, list(self.missing))] = True
+        if self.markov is not None:
+            # seeded by the window start (ms): the same pattern for every method and run of this window
+            drop = ~markov_dropout(int(inside.sum()), *self.markov, seed=int(round(self.start_s * 1e3)) % 2**32)
+            out[inside] &= drop
         return out
 
 
+def is_total_outage(name: str) -> bool:
+    """True for scenarios in which no beam is measured (the name holds ``0-`` or ``outage``)."""
+    return "0-" in name or "outage" in name
+
+
 def scenario_outage(name: str, start_s: float, duration_s: float = 30.0) -> Outage:
-    """The named scenario (``none``, ``2-missing``, ``3-missing``) as an :class:`Outage`."""
+    """The named scenario (a key of :data:`SCENARIOS`) as an :class:`Outage`."""
     try:
-        return Outage(start_s, duration_s, SCENARIOS[name])
+        return Outage(start_s, duration_s, SCENARIOS[name], MARKOV_DROPOUT.get(name))
     except KeyError:
         raise ConfigError(f"unknown scenario '{name}'; choose one of {sorted(SCENARIOS)}") from None
 

@@ -211,3 +211,23 @@ def test_diverged_windows_are_marked_and_kept_out_of_the_means(fake_world, monke
     assert "t1 150: window VRMSE" in section and "t1 60: health monitor" in section
     healthy = make_report([r for r in records if r["method"] == "Graph-HN"])
     assert "None: no window diverged." in healthy
+
+
+def test_window_lengths_and_regime_summary(fake_world):
+    from graphnav.bench import regime_summary
+    cases = make_cases([TrajectorySource("sim", None, 0, 200.0)], ["0-beams", "markov"], ["as-recorded", "mems"],
+                       ["Graph-TC"], window_s=[30.0, 60.0])
+    assert {(c.scenario, c.imu_grade, c.window_s) for c in cases} == {
+        (s, g, w) for s in ("0-beams", "markov") for g in ("as-recorded", "mems") for w in (30.0, 60.0)}
+    records = []
+    for w, hn in ((60.0, 0.05), (120.0, 0.12)):       # Graph-HN helps at 60 s, hurts at 120 s
+        for method, v in (("Graph-TC", 0.1), ("Graph-HN", hn), ("Graph-HN-batch", 0.07)):
+            records.append({"trajectory": "a", "scenario": "3-missing", "imu_grade": "mems", "window_s": w,
+                            "window_start_s": 60.0, "method": method, "vrmse_window": v})
+    text = "\n".join(regime_summary(records))
+    row = next(line for line in text.splitlines() if line.startswith("| mems | 3-missing | 60 |"))
+    assert "0.050 (0.050)" in row and "| 0.50 | 0.70 |" in row
+    assert "helps (< 0.95x) in 1, neutral in 0, hurts (> 1.02x) in 1" in text
+    assert "hurts: mems/3-missing/120 s (1.20x)" in text
+    assert "never hurts (Graph-HN <= 1.02x Graph-TC in every regime): fails in 1 of 2" in text
+    assert "batch smoother <= 0.8x Graph-TC in every cell with missing beams: holds" in text

@@ -159,3 +159,51 @@ def _pose_values(pose):
     values = gtsam.Values()
     values.insert(X(0), pose)
     return values
+
+
+# --- model-aided motion priors (factors/motion.py) -------------------------------------------------------
+def _numeric_jacobian(factor, values, keys):
+    """Whitened Jacobian by central differences on each variable's tangent space (Pose3 / Vector3)."""
+    cols = []
+    for key in keys:
+        is_pose = gtsam.Symbol(key).chr() == ord("x")
+        for d in range(6 if is_pose else 3):
+            delta = np.zeros(6 if is_pose else 3)
+            delta[d] = 1e-6
+            out = []
+            for sign in (1.0, -1.0):
+                vals = gtsam.Values(values)
+                if is_pose:
+                    vals.update(key, values.atPose3(key).retract(sign * delta))
+                else:
+                    vals.update(key, values.atVector(key) + sign * delta)
+                out.append(factor.whitenedError(vals))
+            cols.append((out[0] - out[1]) / 2e-6)
+    return np.column_stack(cols)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_motion_prior_factors_residual_and_jacobians(seed):
+    from graphnav.factors import body_velocity_change_factor, nonholonomic_factor
+    rng = np.random.default_rng(seed)
+    pose_i, v_i, _ = random_state(rng)
+    pose_j, v_j, _ = random_state(rng)
+    values = gtsam.Values()
+    for k, (p, v) in enumerate(((pose_i, v_i), (pose_j, v_j))):
+        values.insert(X(k), p)
+        values.insert(V(k), v)
+    v_bi = pose_i.rotation().matrix().T @ v_i
+    v_bj = pose_j.rotation().matrix().T @ v_j
+    nhc = nonholonomic_factor(X(0), V(0), [0.05, 0.02])
+    np.testing.assert_allclose(nhc.unwhitenedError(values), v_bi[1:], atol=1e-12)
+    np.testing.assert_allclose(nhc.linearize(values).jacobian()[0],
+                               _numeric_jacobian(nhc, values, [X(0), V(0)]), atol=1e-5)
+    # a mean equal to the true body velocity gives a zero residual
+    zero = nonholonomic_factor(X(1), V(1), 0.1, axes=(0, 1, 2), mean=v_bj)
+    np.testing.assert_allclose(zero.unwhitenedError(values), 0.0, atol=1e-12)
+    change = body_velocity_change_factor(X(0), V(0), X(1), V(1), [0.1, 0.03, 0.03])
+    np.testing.assert_allclose(change.unwhitenedError(values), v_bj - v_bi, atol=1e-12)
+    np.testing.assert_allclose(change.linearize(values).jacobian()[0],
+                               _numeric_jacobian(change, values, [X(0), V(0), X(1), V(1)]), atol=1e-5)
+    with pytest.raises(ValueError):
+        nonholonomic_factor(X(0), V(0), [0.0, 0.1])

@@ -13,7 +13,7 @@ def test_presets_are_the_papers_cases():
     assert scenario_outage("2-missing", 10.0).missing == (0, 2)
     assert scenario_outage("3-missing", 10.0).missing == (0, 2, 3)
     assert scenario_outage("none", 10.0).missing == ()
-    assert set(SCENARIOS) == {"none", "2-missing", "3-missing"}
+    assert set(SCENARIOS) == {"none", "2-missing", "3-missing", "0-beams", "markov"}
     with pytest.raises(ConfigError, match="unknown scenario"):
         scenario_outage("4-missing", 0.0)
 
@@ -65,3 +65,22 @@ def test_markov_dropout_is_seeded():
     np.testing.assert_array_equal(markov_dropout(500, seed=3), markov_dropout(500, seed=3))
     assert not np.array_equal(markov_dropout(500, seed=3), markov_dropout(500, seed=4))
     assert markov_dropout(1000, p_drop=0.0, p_recover=1.0, seed=0).all()
+
+
+def test_total_outage_and_markov_scenarios():
+    from graphnav.scenarios import is_total_outage
+    t = np.arange(0.0, 100.0, 0.2)
+    total = scenario_outage("0-beams", 10.0, 60.0)
+    assert is_total_outage("0-beams") and not is_total_outage("3-missing")
+    inside = (t >= 10.0) & (t < 70.0)
+    assert total.mask(t)[inside].all() and not total.mask(t)[~inside].any()
+    markov = scenario_outage("markov", 10.0, 60.0)
+    mask = markov.mask(t)
+    assert not mask[~inside].any()
+    # random dropouts: some but not all beams missing inside, bursts, and the same pattern every time
+    frac = mask[inside].mean()
+    assert 0.15 < frac < 0.6
+    assert np.array_equal(mask, scenario_outage("markov", 10.0, 60.0).mask(t))
+    assert not np.array_equal(mask[inside], scenario_outage("markov", 11.0, 60.0).mask(t + 1.0)[inside])
+    with pytest.raises(ConfigError):
+        Outage(0.0, 1.0, (0,), markov=(0.0, 0.5))

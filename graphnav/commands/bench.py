@@ -39,7 +39,8 @@ def register(subparsers) -> None:
     p.add_argument("--imu-grade", nargs="+", default=list(IMU_GRADE_CHOICES), metavar="GRADE",
                    help="'as-recorded' and/or grades whose errors are added to the recorded IMU "
                         "(tactical, mems)")
-    p.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
+    p.add_argument("--window-s", type=float, nargs="+", default=[30.0], metavar="S",
+                   help="outage window length(s), s; several = each case once per length (e.g. 30 60 120)")
     p.add_argument("--max-windows", type=int, default=None, metavar="N",
                    help="at most N windows per mission (evenly thinned); default: as many as fit")
     p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="METHOD",
@@ -123,7 +124,7 @@ def run(args) -> int:
     cases = make_cases(trajectories, args.scenario, args.imu_grade, args.methods, args.window_s,
                        args.max_windows, save_dir=None if args.no_plots else str(out / "runs"))
     print(f"bench: {len(trajectories)} trajectories x {len(args.scenario)} scenarios x {len(args.imu_grade)} "
-          f"IMU grades x {len(args.methods)} methods = {len(cases)} runs, "
+          f"IMU grades x {len(args.window_s)} window lengths x {len(args.methods)} methods = {len(cases)} runs, "
           + (f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)") + f"; results in {out}",
           file=sys.stderr)
     start = time.perf_counter()
@@ -133,7 +134,7 @@ def run(args) -> int:
     plot_files = []
     if not args.no_plots:
         plot_files = bench_plots(out, records, trajectories, args.imu_grade, args.scenario, args.methods,
-                                 args.window_s)
+                                 args.window_s[0])
     command = command_line()
     report = make_report(records, {"command": command, "window_s": args.window_s, "wall_time_s": wall,
                                    "jobs": args.jobs,

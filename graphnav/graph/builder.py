@@ -22,6 +22,7 @@ from graphnav.earth import earth_rate_n
 from graphnav.factors import beam_factor, beam_noise, depth_factor, heading_factor, horizontal_position_factor
 
 from .options import GraphOptions
+from .regressed import motion_prior_factors, screen_regressed
 
 
 @dataclass
@@ -114,6 +115,12 @@ class GraphContext:
         self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else config.dvl.beam_noise_std
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
+        #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
+        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+
+    def count_screening(self, stats: dict) -> None:
+        for key, n in stats.items():
+            self.screening[key] += n
 
     def gap_params(self, var_v: float, var_att: float, length: float) -> gtsam.PreintegrationCombinedParams:
         """Preintegration settings for a keyframe interval of ``length`` s that holds a bridged IMU gap: the
@@ -139,6 +146,9 @@ class GraphContext:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
         completer's sigma (floored); None when no beam is usable."""
         usable = np.isfinite(ping.beams)
+        if self.options.motion_prior != "off" and not ping.measured.any():
+            # without any measured beam the completers extrapolate blind; the motion prior takes over
+            usable = ping.measured
         if not usable.any():
             return None
         regressed = usable & ~ping.measured
@@ -225,7 +235,7 @@ class KeyframeFactors:
 
 
 def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
-                     p_n_pred: np.ndarray | None = None) -> KeyframeFactors:
+                     p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
     Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
@@ -237,6 +247,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         builder: the mission's :class:`GraphContext` (geometry, options, configuration).
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
+        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams.
     """
     options, config = builder.options, builder.config
     groups: list[BeamGroup] = []
@@ -250,12 +261,25 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         lever = builder.geometry.lever_arm_b
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
+            sigma = m.sigma
+            if regressed and sel.size:
+                keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
+                                                          omega, builder.geometry.lever_arm_b, prediction,
+                                                          options)
+                builder.count_screening(stats)
+                sigma = m.sigma.copy()
+                sigma[sel] = sigma_sel
+                sel = sel[keep]
             if sel.size == 0:
                 continue
             split = options.beam_factor_mode == "beam" or huber is not None
             for part in ([[i] for i in sel] if split else [sel]):
-                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], m.sigma[part], huber, omega, lever,
+                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
                                         regressed))
+    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
+    if k > 0 and (options.motion_prior == "partial" and n_measured < 3
+                  or options.motion_prior == "total" and n_measured == 0):
+        other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]

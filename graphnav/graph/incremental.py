@@ -184,7 +184,8 @@ class _IncrementalGraph:
             pose, v_n, bias = nav.pose(), nav.velocity(), last.bias
             link = gtsam.NonlinearFactorGraph()
             link.add(imu_factor(kf))
-        local = keyframe_factors(kf, self.builder, pose.rotation().matrix(), pose.translation())
+        local = keyframe_factors(kf, self.builder, pose.rotation().matrix(), pose.translation(),
+                                 self._prediction(kf, v_n, bias))
         self._check_innovation(kf, local, pose, v_n, bias)
         if self.keep_keyframe_graphs:
             self.keyframe_graphs.append((link, local))
@@ -194,6 +195,17 @@ class _IncrementalGraph:
         self._pending_values.insert(V(k), v_n)
         self._pending_values.insert(B(k), bias)
         self._pending_kf = kf
+
+    def _prediction(self, kf: Keyframe, v_n_pred, bias):
+        """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened."""
+        o = self.options
+        screening = o.regressed_gate_k is not None or o.regressed_adaptive or o.regressed_correlation > 0
+        if not screening or kf.index == 0 or kf.dvl is None or not kf.dvl.n_regressed:
+            return None
+        from .regressed import predict_state
+        last = self._last
+        cov = last.cov_v_n if last.cov_v_n is not None else self._marginal(V(last.index))
+        return predict_state(cov, last.C_b_n, kf.pim, v_n_pred, bias.gyroscope())
 
     def update(self) -> EpochEstimate:
         """One solver step with the queued keyframe; returns (and stores) its estimate."""

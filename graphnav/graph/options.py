@@ -52,6 +52,7 @@ from graphnav.errors import ConfigError
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
 BATCH_SOLVERS = ("vectorized", "lm")
+MOTION_PRIOR_MODES = ("off", "partial", "total")
 
 
 @dataclass
@@ -86,6 +87,20 @@ class GraphOptions:
         marginals: compute the marginal velocity covariance at every output epoch.
         max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
             (:func:`graphnav.coasting.check_pure_inertial`).
+        regressed_gate_k: joint-covariance gate of a regressed beam against the graph's predicted beam
+            (sigmas); None = no gate. See :mod:`.regressed`.
+        regressed_adaptive: raise a regressed beam's variance to its innovation's excess over the
+            prediction variance.
+        regressed_correlation: assumed correlation (0..1) between a completion's error and the graph's
+            prediction error (both come from the same past pings); 0 = independent.
+        regressed_prediction_var_scale: factor on the graph's predicted beam variance in the screening (its
+            marginal is over-confident on real data; see :mod:`.regressed`).
+        motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
+            heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
+            ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
+            measured beam are then not completed (the prior replaces the completion).
+        motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
+        motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
     """
 
     beam_sigma: float | None = None
@@ -117,6 +132,13 @@ class GraphOptions:
     batch_max_iterations: int = 20
     marginals: bool = True
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
+    regressed_gate_k: float | None = None
+    regressed_adaptive: bool = False
+    regressed_correlation: float = 0.0
+    regressed_prediction_var_scale: float = 1.0
+    motion_prior: str = "off"
+    motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
+    motion_prior_heave_sigma: float | None = 0.05
 
     def __post_init__(self):
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:
@@ -128,5 +150,11 @@ class GraphOptions:
                 raise ConfigError(f"{name} must be one of {FACTORIZATIONS}, got '{getattr(self, name)}'")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.motion_prior not in MOTION_PRIOR_MODES:
+            raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        if not self.regressed_prediction_var_scale > 0:
+            raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
+        if not 0.0 <= self.regressed_correlation < 1.0:
+            raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
         if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")

@@ -131,6 +131,8 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
         raise ConfigError(f"{method} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
+    if nav.backend is not None and hasattr(nav.backend, "ctx"):
+        info["regressed_screening"] = dict(nav.backend.ctx.screening)
     if batch:
         try:
             estimates, batch_info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates, options)

@@ -1,0 +1,96 @@
+"""Measure the regressed-beam candidates of issue 13 (gate, correlation, adaptive sigma, motion prior).
+
+Runs Graph-TC and Graph-HN with each candidate's GraphOptions over the same windows (the bench's windows,
+scenarios and IMU grades) and prints window VRMSE mean / worst and the ratio to Graph-TC. Usage::
+
+    nice -n 10 .venv/bin/python scripts/regressed_candidates.py --data ../shared/data/snapir-2022-akit \
+        --trajectories Trajectory1 Trajectory5 --grades tactical --scenarios 3-missing --window-s 60
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+#: The hybrid without any screening or motion prior.
+PLAIN = {"regressed_gate_k": None, "regressed_adaptive": False, "regressed_correlation": 0.0, "motion_prior": "off"}
+CANDIDATES: dict[str, tuple[str, dict]] = {
+    "Graph-TC": ("Graph-TC", {}),
+    "Graph-MP": ("Graph-MP", {}),
+    "MP heave": ("Graph-MP", {"motion_prior_rw": None}),
+    "MP rw x2": ("Graph-MP", {"motion_prior_rw": (0.1, 0.16, 0.06)}),
+    "MP rw x4": ("Graph-MP", {"motion_prior_rw": (0.2, 0.32, 0.12)}),
+    "MP heave0.2": ("Graph-MP", {"motion_prior_rw": None, "motion_prior_heave_sigma": 0.2}),
+    "MP rw x4 heave0.2": ("Graph-MP", {"motion_prior_rw": (0.2, 0.32, 0.12), "motion_prior_heave_sigma": 0.2}),
+    "MP rw x8 nohv": ("Graph-MP", {"motion_prior_rw": (0.4, 0.64, 0.24), "motion_prior_heave_sigma": None}),
+    "HN plain": ("Graph-HN", {}),
+    "HN gate3": ("Graph-HN", {"regressed_gate_k": 3.0}),
+    "HN adaptive": ("Graph-HN", {"regressed_adaptive": True}),
+    "HN adapt+gate3": ("Graph-HN", {"regressed_adaptive": True, "regressed_gate_k": 3.0}),
+    "HN corr0.5": ("Graph-HN", {"regressed_correlation": 0.5}),
+    "HN corr0.9": ("Graph-HN", {"regressed_correlation": 0.9}),
+    "HN corr0.5+adapt": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True}),
+    "HN corr0.5+adapt a x4": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
+                                           "regressed_prediction_var_scale": 4.0}),
+    "HN corr0.5+adapt a x8": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
+                                           "regressed_prediction_var_scale": 8.0}),
+    "HN corr0.5+adapt MP-total": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
+                                               "motion_prior": "total", "motion_prior_rw": (0.2, 0.32, 0.12),
+                                               "motion_prior_heave_sigma": 0.2}),
+    "HN +MP": ("Graph-HN", {"motion_prior": "partial"}),
+    "HN MP-total": ("Graph-HN", {"motion_prior": "total"}),
+    "HN adapt+MP": ("Graph-HN", {"regressed_adaptive": True, "motion_prior": "partial"}),
+}
+
+
+def run_one(args):
+    source, grade, scenario, window_s, name = args
+    from graphnav.bench import case_windows, prepared_mission, score_case
+    from graphnav.methods import run_method
+    from graphnav.scenarios import scenario_outage
+    mission = prepared_mission(source, grade)
+    starts = case_windows(mission, window_s)
+    run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
+    method, options = CANDIDATES[name]
+    if method.startswith("Graph-HN"):   # candidates are measured against the plain hybrid, not the defaults
+        options = {**PLAIN, **options}
+    sol = run_method(run, method, scenario, options=dict(options))
+    return (grade, scenario, window_s, name), [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)]
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", required=True)
+    p.add_argument("--trajectories", nargs="+", default=None)
+    p.add_argument("--grades", nargs="+", default=["tactical"])
+    p.add_argument("--scenarios", nargs="+", default=["3-missing"])
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0])
+    p.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
+    p.add_argument("--jobs", type=int, default=1)
+    a = p.parse_args(argv)
+    from graphnav.bench import find_trajectories
+    sources = [s for s in find_trajectories(a.data) if not a.trajectories or s.name in a.trajectories]
+    tasks = [(s, g, sc, w, c) for s in sources for g in a.grades for sc in a.scenarios for w in a.window_s
+             for c in a.candidates]
+    results: dict = {}
+    with ProcessPoolExecutor(a.jobs) as pool:
+        for key, vals in pool.map(run_one, tasks):
+            results.setdefault(key, []).extend(vals)
+    print(f"trajectories: {', '.join(s.name for s in sources)}")
+    print("| grade | scenario | window s | candidate | VRMSE mean | worst | x Graph-TC |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for g in a.grades:
+        for sc in a.scenarios:
+            for w in a.window_s:
+                ref = results.get((g, sc, w, "Graph-TC"))
+                for c in a.candidates:
+                    v = results[(g, sc, w, c)]
+                    ratio = f"{np.mean(v) / np.mean(ref):.2f}" if ref else "-"
+                    print(f"| {g} | {sc} | {w:g} | {c} | {np.mean(v):.3f} | {np.max(v):.3f} | {ratio} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
