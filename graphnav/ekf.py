@@ -405,12 +405,17 @@ class ErrorStateEkf:
         correlated with eps; the ping is then used up); with
         fewer, the velocity variance is inflated so that the rejected innovation lies inside the gate
         (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
-        ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error (e.g. a start inside a fast turn) is
-        the usual cause and must be observable again through the velocity updates.
+        ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error
+        (e.g. a start inside a fast turn) is
+        the usual cause and must be observable again through the velocity updates. Completed (regressed)
+        beams never enter the fix.
         The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
         """
         opts = self.options
         used = np.isfinite(beams)
+        if sigma_extra is not None:
+            # completed (regressed) beams never make the fix: the gate may have been right to reject them
+            used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
         P = self.P
         t = self.state.t
         self._reacq_level = self._reacq_level + 1 if t - self._reacq_t < opts.reacq_escalate_s else 0
@@ -421,8 +426,6 @@ class ErrorStateEkf:
         C = self.state.C_b_n
         if used.sum() >= 3:
             var = self.beam_variance(beams[used])
-            if sigma_extra is not None:
-                var = var + sigma_extra[used] ** 2
             A = self.T_b[used]
             R_v = np.linalg.inv(A.T @ (A / var[:, None]))
             v_d_b = R_v @ (A.T @ (beams[used] / var))
@@ -434,7 +437,7 @@ class ErrorStateEkf:
             P[IV, :] = J @ P[IE, :]
             P[:, IV] = P[IV, :].T
             P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
-            how = (f"velocity re-initialised from a {int(used.sum())}-beam least-squares fix (changed by "
+            how = (f"velocity re-initialised from a {int(used.sum())}-measured-beam least-squares fix (changed by "
                    f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
                    f"+{np.rad2deg(sigma_att):.3g} deg")
         else:
@@ -442,7 +445,7 @@ class ErrorStateEkf:
             worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0
             sigma = max(2.0 * worst, opts.sigma_v_reacq)
             P[IV, IV] += sigma ** 2 * np.eye(3)
-            how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} beam(s): no velocity fix), attitude "
+            how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} measured beam(s): no velocity fix), attitude "
                    f"sigma +{np.rad2deg(sigma_att):.3g} deg")
         self.P = 0.5 * (P + P.T)
         self.health.reacquired(self.state.t, how)

@@ -93,7 +93,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.table:
         records = json.loads(Path(args.table).read_text())
-        print(f"{len({(r['trajectory'], r['t_start']) for r in records})} (trajectory, start) pairs from {args.table}\n")
+        pairs = len({(r['trajectory'], r['t_start']) for r in records})
+        print(f"{pairs} (trajectory, start) pairs from {args.table}\n")
         print(table(records, args.methods, args.scenarios))
         return 0
     root = Path(args.data) if args.data else akit_dir()

@@ -191,7 +191,7 @@ def test_ekf_reacquires_after_a_forced_lockout(sim):
             sol = run_ekf(sim, method, initial=init)
         h = sol.info["health"]
         assert h["n_reacquired"] >= 1 and not h["diverged_at_end"] and h["n_rejected"] <= 10
-        assert "velocity re-initialised from a 4-beam least-squares fix" in h["reacquisitions"][0][1]
+        assert "velocity re-initialised from a 4-measured-beam least-squares fix" in h["reacquisitions"][0][1]
         assert any("re-acquired after a lockout" in m for m in _health_warnings(caught, f"EKF {method}"))
         assert vrmse(sol, sim.gt, sim.t0 + 30.0) < 0.2
 
