@@ -8,7 +8,7 @@ import pytest
 
 from graphnav import bags, cli
 from graphnav.errors import DataError
-from graphnav.metrics import interpolate_gt, nees_velocity, vrmse
+from graphnav.metrics import nees_velocity, vrmse
 from graphnav.outputs import read_trajectory_csv
 from graphnav.simulate import simulate_mission
 
@@ -28,7 +28,7 @@ def run(tmp_path_factory):
 def test_against_tum_and_mission_reference(run, capsys):
     mission, root, out = run
     sol = read_trajectory_csv(out / "trajectory.csv")
-    p_ref, v_ref, _ = interpolate_gt(mission.gt, sol.t)
+    p_ref, v_ref, _ = mission.gt.at(sol.t)
     ape_rmse = float(np.sqrt(np.mean(np.sum((sol.p_n - p_ref) ** 2, axis=1))))
     # TUM reference: poses only, so APE/RPE and no VRMSE/NEES.
     assert cli.main(["evaluate", str(out / "trajectory.csv"), "--ref", str(out / "groundtruth.tum"),
