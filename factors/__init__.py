@@ -3,8 +3,8 @@
 See :mod:`graphnav.factors.dvl` for the measurement model and the Jacobian conventions.
 """
 from .depth import depth_factor
-from .dvl import (beam_factor, beam_factor_lever_arm, beam_noise, body_velocity_factor,
-                  predict_beams)
+from .dvl import (N_DVL_ERRORS, beam_factor, beam_factor_dvl_errors, beam_factor_lever_arm, beam_noise,
+                  body_velocity_factor, predict_beams)
 
-__all__ = ["beam_factor", "beam_factor_lever_arm", "beam_noise", "body_velocity_factor",
+__all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise", "body_velocity_factor",
            "depth_factor", "predict_beams"]

@@ -31,6 +31,14 @@ Chosen defaults and why:
 - Back-substitution: wildfire threshold 0.01 (the newest state is always updated exactly).
 - Keyframes at every DVL stamp; when no DVL stamp arrives for more than ``max_keyframe_gap_s`` (2 s),
   IMU-only keyframes every ``imu_keyframe_interval_s`` (1 s) keep each preintegration short.
+- DVL error states (``dvl_error_states``): a Vector7 ``D(k)`` per keyframe, [scale per DVL axis (3),
+  bias per beam (4) m/s] in the beam model ``y = T_d[(1 + s) v_d] + b`` (the EKF's ``dvl_error_states``),
+  prior at the first keyframe (sigmas ``max(|config value|, 0.005)`` as the EKF's) and a random walk between
+  keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
+  the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
+  ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
+  100 s). See ``docs`` in :mod:`.dvl_errors` and the measurement both ways in the README section
+  "Consistency".
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
@@ -78,6 +86,13 @@ class GraphOptions:
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
         marginals: compute the marginal velocity covariance at every output epoch.
+        dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
+            ``D(k)`` (random walk between keyframes); see :mod:`graphnav.graph.dvl_errors`.
+        dvl_scale_rw: random walk of each scale state, 1/sqrt(s).
+        dvl_bias_rw: random walk of each beam bias state, m/s/sqrt(s).
+        prior_dvl_scale_sigma, prior_dvl_bias_sigma: first-keyframe prior sigmas (unitless, m/s); None =
+            ``max(|config.dvl.scale_factor|, 0.005)`` and ``max(|config.dvl.beam_bias|, 0.005)``.
+        relin_dvl_scale, relin_dvl_bias: ISAM2 relinearisation thresholds of the DVL error states.
     """
 
     beam_sigma: float | None = None
@@ -109,6 +124,13 @@ class GraphOptions:
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: bool = True
+    dvl_error_states: bool = False
+    dvl_scale_rw: float = 2e-5
+    dvl_bias_rw: float = 2e-4
+    prior_dvl_scale_sigma: float | None = None
+    prior_dvl_bias_sigma: float | None = None
+    relin_dvl_scale: float = 1e-3
+    relin_dvl_bias: float = 1e-3
 
     def __post_init__(self):
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:
@@ -120,5 +142,7 @@ class GraphOptions:
             raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:
+            raise ConfigError("dvl_scale_rw and dvl_bias_rw must be >= 0")
         if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")
