@@ -83,6 +83,17 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: the upper-middle values as white densities: 6e-5 rad/s/sqrt(Hz) and 3e-3 m/s^2/sqrt(Hz) (conservative
 #: for a FOG, whose datasheet ARW is 7e-7, but that is what the recorded numbers carry). Biases: the
 #: Phins datasheet (gyro 0.01 deg/h, accelerometer 50 micro-g); random walks from the navigation grade.
+#: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``scripts/identify_noise.py`` over
+#: the ten shared trajectories (:mod:`graphnav.noise_id`): north/east from the GT's white lateral velocity
+#: error (median 0.0099 m/s on the body y axis, 0.0022 on x, spread over N and E by the heading: 0.0072 per
+#: axis; lag-1 correlation of its increments -0.2..-0.53, i.e. white-ish; found against the IMU's velocity
+#: increments, independent of every estimator here); down from the all-beam batch smoother's error minus its
+#: covariance (median 0.0043 m/s; an upper bound; the GT's down velocity also disagrees with the derivative
+#: of its own depth by 0.005-0.011 m/s RMS on calm trajectories). The loader puts it in
+#: ``mission.meta["gt_velocity_sigma_n"]``; the benchmark's consistency section adds it to the estimators'
+#: covariance to show how much of their NEES the reference explains.
+AKIT_GT_VELOCITY_SIGMA_N = (0.0072, 0.0072, 0.0043)
+
 PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3e-3, gyro_noise_density=6e-5,
                          accel_bias_rw=1e-6, gyro_bias_rw=1e-9, accel_bias_sigma=50 * 9.80665e-6,
                          gyro_bias_sigma=0.01 * np.pi / 180 / 3600)
@@ -357,6 +368,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs=(1, -1, 1), dvl_time_offset_
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
             "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
+            "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)

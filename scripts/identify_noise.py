@@ -1,6 +1,7 @@
 """Identify the IMU white-noise densities, the beam noise and the GT's velocity error on A-KIT trajectories.
 
-Method: :mod:`graphnav.noise_id` (Allan deviation at short tau for the IMU; all-beam batch-smoother residuals
+Method: :mod:`graphnav.noise_id` (the IMU's 1-s increments against the GT's, and the Allan deviation at
+short tau; all-beam batch-smoother residuals
 with the smoother's own prediction variance added back for the beams; batch error vs GT minus the smoother's
 covariance for the GT). Prints one row per trajectory and the median over them, which is what
 :data:`graphnav.loaders.PHINS_RECORDED` and :data:`graphnav.loaders.AKIT_BEAM_NOISE_STD` hold.
@@ -40,18 +41,24 @@ def main(argv=None) -> int:
     folders = [str(root)] if any(root.glob("IMU_*.csv")) else [str(f) for f in list_akit(root)]
     with ProcessPoolExecutor(max(1, a.jobs)) as pool:
         rows = list(pool.map(one, folders))
-    print("| trajectory | accel density (m/s^2/sqrt(Hz)) | gyro density (rad/s/sqrt(Hz)) | beam noise (m/s) "
-          "| GT velocity error N, E, D (m/s) | beams |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("| trajectory | accel density 1 s (m/s^2/sqrt(Hz)) | gyro density 1 s (rad/s/sqrt(Hz)) | accel / gyro "
+          "density, Allan 0.01-0.1 s | beam noise (m/s) "
+          "| GT velocity error N, E, D (m/s) | GT white error x, y, z (m/s) | its lag-1 corr. | beams |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         gt = ", ".join(f"{x:.4f}" for x in r["gt_velocity_sigma_n"])
         print(f"| {r['trajectory']} | {r['accel_noise_density']:.2e} | {r['gyro_noise_density']:.2e} | "
-              f"{r['beam_noise_std']:.4f} | {gt} | {r['n_beams']} |")
+              f"{r['allan_accel_density']:.2e} / {r['allan_gyro_density']:.2e} | "
+              f"{r['beam_noise_std']:.4f} | {gt} | {', '.join(f'{x:.4f}' for x in r['gt_white_sigma_b'])} | "
+              f"{', '.join(f'{x:+.2f}' for x in r['gt_white_lag1_b'])} | {r['n_beams']} |")
     med = {k: float(np.median([r[k] for r in rows])) for k in ("accel_noise_density", "gyro_noise_density",
+                                                               "allan_accel_density", "allan_gyro_density",
                                                                "beam_noise_std")}
     gt_med = np.median([r["gt_velocity_sigma_n"] for r in rows], axis=0)
     print(f"| median | {med['accel_noise_density']:.2e} | {med['gyro_noise_density']:.2e} | "
-          f"{med['beam_noise_std']:.4f} | {', '.join(f'{x:.4f}' for x in gt_med)} | |")
+          f"{med['allan_accel_density']:.2e} / {med['allan_gyro_density']:.2e} | "
+          f"{med['beam_noise_std']:.4f} | {', '.join(f'{x:.4f}' for x in gt_med)} | "
+          f"{', '.join(f'{x:.4f}' for x in np.median([r['gt_white_sigma_b'] for r in rows], axis=0))} | | |")
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     Path(a.out).write_text(json.dumps({"trajectories": rows, "median": {**med, "gt_velocity_sigma_n":
                                                                         gt_med.tolist()}}, indent=1))
