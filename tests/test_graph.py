@@ -268,3 +268,14 @@ def test_dvl_error_states_batch_and_recovery(biased_missions):
     ref = run_graph(m.slice(0, 40), "Graph-TC", options=dataclasses.replace(bad, factorization="QR"))
     assert sol.info["recovered"] >= 1
     assert vrmse(sol, m.gt) < 1.2 * vrmse(ref, m.gt) + 1e-3
+
+
+def test_dvl_error_states_only_on_measured_beams_batch_equals_lm(biased_missions):
+    """Regressed beams without the DVL error states (mixed rows in one keyframe) in the vectorised batch."""
+    m = biased_missions[1].slice(0, 40).with_outage(scenario_outage("2-missing", 20.0, 10.0))
+    opts = GraphOptions(dvl_error_states=True, dvl_errors_on_regressed=False)
+    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=opts)
+    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+                  options=dataclasses.replace(opts, batch_solver="lm"))
+    np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
+    np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)

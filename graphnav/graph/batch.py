@@ -43,14 +43,14 @@ class StackedBeams:
     """
 
     def __init__(self, groups: list[BeamGroup]):
-        with_d = [g.beam_index is not None for g in groups]
-        if any(with_d) and not all(with_d):
-            raise ConfigError("either all DVL beam groups carry the DVL error states or none does")
-        self.has_dvl_errors = bool(groups) and all(with_d)
-        self.C_d_b = groups[0].C_d_b if self.has_dvl_errors else np.eye(3)
-        self.beam = (np.concatenate([g.beam_index for g in groups]).astype(int) if self.has_dvl_errors
-                     else np.zeros(sum(len(g.y) for g in groups), dtype=int))
         sizes = [len(g.y) for g in groups]
+        with_d = [g for g in groups if g.beam_index is not None]
+        self.has_dvl_errors = bool(with_d)
+        self.C_d_b = with_d[0].C_d_b if with_d else np.eye(3)
+        # rows without the DVL error states (e.g. regressed beams with dvl_errors_on_regressed=False) get s = b = 0
+        self.uses_d = np.repeat([g.beam_index is not None for g in groups], sizes).astype(bool)
+        self.beam = (np.concatenate([np.zeros(len(g.y), int) if g.beam_index is None else g.beam_index
+                                     for g in groups]).astype(int) if groups else np.zeros(0, int))
         self.k = np.repeat([g.k for g in groups], sizes).astype(int)
         self.rows = np.concatenate([g.rows_b for g in groups]) if groups else np.zeros((0, 3))
         self.y = np.concatenate([g.y for g in groups]) if groups else np.zeros(0)
@@ -59,7 +59,7 @@ class StackedBeams:
         self.omega = np.repeat([g.omega_b for g in groups], sizes, axis=0).reshape(-1, 3)
         self.lever = np.repeat([g.lever_arm_b for g in groups], sizes, axis=0).reshape(-1, 3)
         order = np.argsort(self.k, kind="stable")
-        for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever", "beam"):
+        for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever", "beam", "uses_d"):
             setattr(self, name, getattr(self, name)[order])
         # one JacobianFactor per keyframe: row ranges
         self.keyframes, self.starts = np.unique(self.k, return_index=True)
@@ -79,14 +79,14 @@ class StackedBeams:
             J_d = None
         else:
             # y = T_d[(1 + s) v_d] + b: M = T_d diag(1 + s) C_d_b^T takes the place of the body-frame rows
-            d = dvl_errors[self.k]
+            d = dvl_errors[self.k] * self.uses_d[:, None]
             rows_d = self.rows @ self.C_d_b
             v_d = v_head @ self.C_d_b
             M = (rows_d * (1.0 + d[:, :3])) @ self.C_d_b.T
             onehot = np.zeros((len(self.k), 4))
             onehot[np.arange(len(self.k)), self.beam] = 1.0
             e = np.einsum("ri,ri->r", M, v_head) + d[np.arange(len(self.k)), 3 + self.beam] - self.y
-            J_d = np.hstack([rows_d * v_d, onehot])
+            J_d = np.hstack([rows_d * v_d, onehot]) * self.uses_d[:, None]
         # b^T [u]x w = w . (b x u)
         J_rot = np.cross(M, v_body)
         J_v = np.einsum("rij,rj->ri", R, M)

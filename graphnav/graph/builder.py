@@ -305,8 +305,7 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
         if options.earth_rate_in_lever_arm and config.earth_rotation:
             omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
         lever = builder.geometry.lever_arm_b
-        # the DVL error states act on measured and regressed beams alike: the completer predicts beams as
-        # the DVL measures them, bias and scale included
+        # the DVL error states act on measured beams, and on regressed ones if dvl_errors_on_regressed
         index = beam_index(m.rows_b, builder.geometry.T_b) if options.dvl_error_states else None
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
@@ -314,9 +313,10 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
             if sel.size == 0:
                 continue
             split = options.beam_factor_mode == "beam" or huber is not None
+            use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], m.sigma[part], huber, omega, lever,
-                                        regressed, None if index is None else index[part], C_d_b))
+                                        regressed, index[part] if use_d else None, C_d_b if use_d else None))
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]

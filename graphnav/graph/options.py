@@ -88,6 +88,8 @@ class GraphOptions:
         marginals: compute the marginal velocity covariance at every output epoch.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.graph.dvl_errors`.
+        dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
+            as the DVL measures them, bias and scale included); False = regressed beams enter without them.
         dvl_scale_rw: random walk of each scale state, 1/sqrt(s).
         dvl_bias_rw: random walk of each beam bias state, m/s/sqrt(s).
         prior_dvl_scale_sigma, prior_dvl_bias_sigma: first-keyframe prior sigmas (unitless, m/s); None =
@@ -125,6 +127,7 @@ class GraphOptions:
     batch_max_iterations: int = 20
     marginals: bool = True
     dvl_error_states: bool = False
+    dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
     dvl_bias_rw: float = 2e-4
     prior_dvl_scale_sigma: float | None = None
