@@ -93,9 +93,11 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: keeps 0.042.
 #: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``scripts/identify_noise.py`` over
 #: the ten shared trajectories (:mod:`graphnav.noise_id`): north/east from the GT's white lateral velocity
-#: error (median 0.0099 m/s on the body y axis, 0.0022 on x, spread over N and E by the heading: 0.0072 per
-#: axis; lag-1 correlation of its increments -0.2..-0.53, i.e. white-ish; found against the IMU's velocity
-#: increments, independent of every estimator here); down from the all-beam batch smoother's error minus its
+#: error (first run, with the Allan accelerometer density subtracted: median 0.0099 m/s on the body y axis,
+#: 0.0022 on x, spread over N and E by the heading: 0.0072 per axis; with the 1-s density subtracted, as the
+#: code does now: 0.0081 and 0.0015, i.e. 0.0058 per axis -- the benchmark numbers in the README were made
+#: with 0.0072; lag-1 correlation of its increments -0.14..-0.50, i.e. white-ish; found against the IMU's
+#: velocity increments, independent of every estimator here); down from the all-beam batch smoother's error minus its
 #: covariance (median 0.0043 m/s; an upper bound; the GT's down velocity also disagrees with the derivative
 #: of its own depth by 0.005-0.011 m/s RMS on calm trajectories). The loader puts it in
 #: ``mission.meta["gt_velocity_sigma_n"]``; the benchmark's consistency section adds it to the estimators'
