@@ -34,7 +34,7 @@ from .config import SensorConfig
 from .earth import earth_rate_n
 from .errors import DataError
 from .factors import beam_factor_lever_arm, beam_noise, depth_factor
-from .graph.builder import KeyframeBuilder, imu_factor
+from .graph.builder import imu_factor, mission_keyframes
 from .graph.options import GraphOptions
 from .mission import Mission
 
@@ -80,7 +80,6 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
     if pings is not None:
         inside &= pings
     shifted = dataclasses.replace(mission, dvl=dvl.take(inside))
-    builder = KeyframeBuilder(shifted, options)
     cfg = mission.config
     w_ie = earth_rate_n(cfg.lat_rad) if cfg.earth_rotation else np.zeros(3)
     imu = mission.imu
@@ -93,8 +92,10 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
     bias0 = gtsam.imuBias.ConstantBias()
     state = None
     n_beams = 0
-    for kf in builder:
+    n_keyframes = 0
+    for kf in mission_keyframes(shifted, options):
         k = kf.index
+        n_keyframes += 1
         if k == 0:
             v_b = np.zeros(3)
             if kf.dvl is not None and len(kf.dvl.y) >= 3:
@@ -138,7 +139,7 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
     result = gtsam.LevenbergMarquardtOptimizer(graph, values, params).optimize()
     cov = lever_arm_covariance(graph, result) if marginals else None
     return GraphFit(offset_s, float(graph.error(result)), np.asarray(result.atPoint3(L(0))), cov,
-                    len(builder), n_beams, time.perf_counter() - started)
+                    n_keyframes, n_beams, time.perf_counter() - started)
 
 
 def lever_arm_covariance(graph: gtsam.NonlinearFactorGraph, values: gtsam.Values) -> np.ndarray:

@@ -70,13 +70,11 @@ from scipy.stats import chi2
 from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import ConfigError
-from .history import BeamHistory
-from .ins import StrapdownState, Strapdown, segment_specific_force, segment_timeline
+from .ins import StrapdownState, Strapdown
 from .metrics import interpolate_gt
-from .mission import Mission, gap_variances
+from .mission import Mission
 from .rotations import skew, so3_exp_batch
 from .solution import NavSolution
-from .timeseries import interp_rows
 
 METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
 N_STATES = 12
@@ -347,77 +345,57 @@ def _initial_state(mission: Mission, t0: float) -> StrapdownState:
 
 
 def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
-            initial: StrapdownState | None = None) -> NavSolution:
-    """Run one of the EKF methods over a mission and return the solution at every DVL ping (post update).
+            initial=None, init: str = "auto", aligner_kwargs: dict | None = None) -> NavSolution:
+    """Run one of the EKF methods over a recorded mission and return the solution at every DVL ping (post
+    update): a sample-by-sample replay through :class:`graphnav.navigator.Navigator` (backend ``"ekf"``).
 
     Args:
-        mission: the mission (IMU, DVL beams and valid mask, config, ground truth).
+        mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
         method: ``LC``, ``TC`` (measured beams only), ``Average-LC``, ``Average-TC``, ``HNLC``, ``HNTC``
             (missing beams completed by ``completer`` through :class:`~graphnav.history.BeamHistory`; the
             completed beams enter with their variance inflated by the completer's sigma^2).
         completer: required for the hybrid methods, e.g. ``AverageCompleter(n_past)`` or the network's.
         options: :class:`EkfOptions`.
-        initial: initial nominal state; default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the
-            paper (the comparison is about the outage, not the alignment; the initial covariance of
-            :class:`EkfOptions` covers the ground truth's own error).
+        initial: initial state (:class:`~graphnav.ins.StrapdownState` or :class:`~graphnav.graph.InitialState`
+            with its stamp); default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the paper (the
+            comparison is about the outage, not the alignment; the initial covariance of :class:`EkfOptions`
+            covers the ground truth's own error).
+        init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
+            ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
 
     Returns:
         :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
     """
+    import gtsam
+
+    from .graph.incremental import InitialState
+    from .graph.run import initial_state
+    from .navigator import Navigator, feed_mission
     wall = time.perf_counter()
     if method not in METHODS:
         raise ConfigError(f"unknown EKF method '{method}'; choose one of {list(METHODS)}")
     hybrid = method not in ("LC", "TC")
     if hybrid and completer is None:
         raise ConfigError(f"method {method} needs a beam completer (e.g. graphnav.nets.AverageCompleter(3))")
-    loose = method.endswith("LC")
-    # all-zero rows dropped and gaps bridged (with warnings); the covariance is inflated over the gaps below
-    imu, gaps = mission.imu.bridge_gaps(mission.config.imu_rate_hz)
-    dvl = mission.dvl
-    if initial is None:
-        if mission.gt is None:
-            raise ConfigError("run_ekf needs mission.gt or an initial state")
-        initial = _initial_state(mission, max(imu.t[0], mission.gt.t[0]))
-    t0 = initial.t
-    keep = (dvl.t >= t0) & (dvl.t <= imu.t[-1])
-    ping_t, ping_beams, ping_valid = dvl.t[keep], dvl.beams[keep], dvl.valid[keep]
-    events = np.concatenate([[t0], ping_t])
-    seg_t, seg_imu, event_seg = segment_timeline(imu.t, events)
-    seg_dt = np.diff(np.append(seg_t, imu.t[-1]))
-    seg_f = segment_specific_force(imu.t, imu.f_b, imu.omega_b, seg_t, seg_imu)
-    seg_w = imu.omega_b[seg_imu]
-    ping_w = interp_rows(ping_t, imu.t, imu.omega_b)
-
-    ekf = ErrorStateEkf(mission.config, initial, options)
-    history = BeamHistory(completer.n_past) if hybrid else None
-    K = len(ping_t)
-    out_p, out_v = np.empty((K, 3)), np.empty((K, 3))
-    out_C, out_P = np.empty((K, 3, 3)), np.empty((K, 3, 3))
-    out_ba, out_bg = np.empty((K, 3)), np.empty((K, 3))
-    n_completed = 0
-    for k in range(K):
-        seg = slice(event_seg[k], event_seg[k + 1])
-        ekf.predict(seg_f[seg], seg_w[seg], seg_dt[seg])
-        if gaps:
-            ekf.inflate(*gap_variances(gaps, events[k], events[k + 1]))
-        valid = ping_valid[k]
-        beams = np.where(valid, ping_beams[k], np.nan)
-        sigma = None
-        if hybrid:
-            completed = history.complete(completer, ping_beams[k], valid)
-            if completed is not None:
-                if not valid.all():
-                    n_completed += 1
-                beams, sigma = completed
-        if loose:
-            ekf.update_lc_beams(beams, ping_w[k], sigma)
-        else:
-            ekf.update_tc(beams, ping_w[k], sigma)
-        s = ekf.state
-        out_p[k], out_v[k], out_C[k], out_P[k] = s.p_n, s.v_n, s.C_b_n, ekf.P[IV, IV]
-        out_ba[k], out_bg[k] = ekf.bias_acc, ekf.bias_gyro
-    info = {"n_updates": ekf.n_updates, "n_gated": ekf.n_gated, "n_completed": n_completed,
-            "dvl_scale": ekf.dvl_scale.copy(), "beam_bias": ekf.beam_bias.copy(),
-            "n_imu_segments": int(len(seg_t)), "t0": float(t0), "imu_gaps": len(gaps)}
-    return NavSolution(method, ping_t.copy(), out_p, out_v, out_C, out_P, out_ba, out_bg,
-                       runtime_s=time.perf_counter() - wall, info=info)
+    if isinstance(initial, StrapdownState):
+        initial = InitialState(gtsam.Pose3(gtsam.Rot3(initial.C_b_n), initial.p_n), initial.v_n, t=initial.t)
+    if initial is None and init != "sensors" and mission.gt is not None:
+        s = _initial_state(mission, max(mission.imu.t[0], mission.gt.t[0]))
+        initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
+    initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
+    nav = Navigator(mission.config, "ekf", completer=completer if hybrid else None, initial=initial,
+                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs)
+    estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
+    info = nav.info
+    info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
+    K = len(estimates)
+    sol = NavSolution(method, np.array([e.t for e in estimates]),
+                      np.array([e.p_n for e in estimates]).reshape(K, 3),
+                      np.array([e.v_n for e in estimates]).reshape(K, 3),
+                      np.array([e.C_b_n for e in estimates]).reshape(K, 3, 3),
+                      np.array([e.cov_v_n for e in estimates]).reshape(K, 3, 3),
+                      np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
+                      np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
+                      runtime_s=time.perf_counter() - wall, info=info)
+    return sol

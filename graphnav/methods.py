@@ -104,7 +104,8 @@ def completer_for(method: str, scenario: str, noise_std: float = 0.042):
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
-               options=None, callback=None, mode: str = "online") -> NavSolution:
+               options=None, callback=None, mode: str = "online", init: str = "auto",
+               aligner_kwargs: dict | None = None) -> NavSolution:
     """Run one method on a mission and return its :class:`NavSolution`.
 
     The scenario only chooses the completer (the outage itself is already in ``mission``'s valid mask,
@@ -112,7 +113,9 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     its options object (:class:`graphnav.ekf.EkfOptions`, :class:`graphnav.graph.GraphOptions`) or a dict
     of its fields. Graph methods only: ``callback`` receives each filtered
     :class:`graphnav.graph.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
-    ``"fixed-lag"`` (lag ``options.lag_s``).
+    ``"fixed-lag"`` (lag ``options.lag_s``). ``init``: the initial state from the ground truth (``"gt"``),
+    from the sensors (``"sensors"``, with ``aligner_kwargs`` such as ``initial_heading_rad``), or ``"auto"``
+    (ground truth when the mission has it).
     ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer.
     """
     described = "given"
@@ -125,12 +128,14 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         from graphnav.ekf import EkfOptions, run_ekf
         if isinstance(options, dict):
             options = EkfOptions(**options)
-        sol = run_ekf(mission, method, completer=completer, options=options)
+        sol = run_ekf(mission, method, completer=completer, options=options, init=init,
+                      aligner_kwargs=aligner_kwargs)
     else:
         from graphnav.graph import GraphOptions, run_graph
         if isinstance(options, dict):
             options = GraphOptions(**options)
-        sol = run_graph(mission, method, completer=completer, options=options, callback=callback, mode=mode)
+        sol = run_graph(mission, method, completer=completer, options=options, callback=callback, mode=mode,
+                        init=init, aligner_kwargs=aligner_kwargs)
     wall = time.perf_counter() - start
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall

@@ -9,8 +9,8 @@ import pytest
 
 from graphnav.config import DvlSpec, SensorConfig
 from graphnav.errors import ConfigError
-from graphnav.graph import GraphOptions, KeyframeBuilder, iterate_graph, run_graph
-from graphnav.graph.builder import keyframe_times
+from graphnav.graph import GraphOptions, iterate_graph, mission_keyframes, run_graph
+from graphnav.keyframes import Keyframer, KeyframeOptions
 from graphnav.metrics import nees_velocity, vrmse
 from graphnav.nets import AverageCompleter
 from graphnav.scenarios import Outage, scenario_outage
@@ -36,38 +36,58 @@ def nav_mission():
     return simulate_mission(160, seed=0)
 
 
-def test_keyframe_times_fill_dvl_gaps():
-    imu_t = np.arange(0, 20.001, 0.01)
+def streamed_keyframes(imu_t, dvl_t, options=None):
+    """Keyframes of a stream of IMU stamps and DVL pings (all beams valid), in time order, no look-ahead."""
+    from graphnav.config import SensorConfig
+    k = Keyframer(SensorConfig(), options)
+    events = sorted([(t, 1, "dvl") for t in dvl_t] + [(t, 2, "imu") for t in imu_t])
+    out = k.start(float(dvl_t[0]))
+    for t, _, kind in events:
+        if kind == "imu":
+            out += k.add_imu(t, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+        else:
+            out += k.add_dvl(t, np.ones(4), np.ones(4, bool))
+    return out + k.finish()
+
+
+def test_keyframes_fill_dvl_gaps_without_look_ahead():
+    imu_t = np.round(np.arange(0, 20.001, 0.01), 10)
     dvl_t = np.r_[np.arange(0.5, 5.0, 1.0), np.arange(12.5, 20.0, 1.0)]
-    times, ping = keyframe_times(imu_t, dvl_t, GraphOptions(max_keyframe_gap_s=2.0, imu_keyframe_interval_s=1.0))
+    kfs = streamed_keyframes(imu_t, dvl_t, KeyframeOptions(max_keyframe_gap_s=2.0, imu_keyframe_interval_s=1.0))
+    times = np.array([k.t for k in kfs])
     assert np.all(np.diff(times) > 0)
     assert np.all(np.diff(times) <= 2.0 + 1e-9)
-    np.testing.assert_array_equal(times[ping >= 0], dvl_t)
-    fill = times[ping < 0]
+    np.testing.assert_array_equal(times[[k.kind == "dvl" for k in kfs]], dvl_t)
+    fill = times[[k.kind == "imu" for k in kfs]]
     np.testing.assert_allclose(fill, [5.5, 6.5, 7.5, 8.5, 9.5, 10.5, 11.5])
+    # IMU-only keyframes also run up to half an interval before the end of the IMU data
+    kfs = streamed_keyframes(imu_t, dvl_t[:3])
+    np.testing.assert_allclose([k.t for k in kfs if k.kind == "imu"], np.arange(3.5, 19.6, 1.0))
 
 
 def test_split_preintegration_matches_truth_between_imu_samples():
     """Keyframes off the IMU grid: preintegrating the split intervals predicts the exact state."""
     m = simulate_mission(30, seed=3, noiseless=True)
     shifted = dataclasses.replace(m.dvl, t=m.dvl.t + 0.0037)
-    builder = KeyframeBuilder(dataclasses.replace(m, dvl=shifted), GraphOptions())
+    kfs = list(mission_keyframes(dataclasses.replace(m, dvl=shifted), GraphOptions()))
+    times = np.array([kf.t for kf in kfs])
+    np.testing.assert_allclose(times, shifted.t[shifted.t <= m.imu.t[-1]])
     traj = m.meta["trajectory"]
     import gtsam
     checked = 0
-    states = traj.state(builder.times)
-    for kf in builder:
+    states = traj.state(times)
+    for kf in kfs:
         if kf.pim is None:
             continue
         k = kf.index
         start = gtsam.NavState(gtsam.Rot3(states.C_b_n[k - 1]), np.zeros(3),   # position does not enter v, R
                                states.v_n[k - 1])
         pred = kf.pim.predict(start, gtsam.imuBias.ConstantBias())
-        assert abs(kf.pim.deltaTij() - (builder.times[k] - builder.times[k - 1])) < 1e-9
+        assert abs(kf.pim.deltaTij() - (times[k] - times[k - 1])) < 1e-9
         np.testing.assert_allclose(pred.velocity(), states.v_n[k], atol=2e-5)
         np.testing.assert_allclose(pred.attitude().matrix(), states.C_b_n[k], atol=1e-6)
         checked += 1
-    assert checked == len(builder) - 1
+    assert checked == len(kfs) - 1
 
 
 def test_noiseless_mission_recovers_truth():
@@ -261,7 +281,7 @@ def test_dvl_error_states_batch_and_recovery(biased_missions):
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)
     assert a.info["batch_dvl_errors"].shape == (len(a), 7)
-    bad = dataclasses.replace(opts, integration_sigma=1e-4)
+    bad = dataclasses.replace(opts, integration_sigma=1e-4, factorization="CHOLESKY")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         sol = run_graph(m.slice(0, 40), "Graph-TC", options=bad)

@@ -1,36 +1,59 @@
-"""``graphnav online``: run a mission through the incremental graph as it would run on a vehicle.
+"""``graphnav online``: navigate as on a vehicle, sample by sample, through :class:`graphnav.navigator.Navigator`.
 
-Every keyframe estimate (the filtered state and its marginal velocity covariance) is appended to
-``OUT/online.csv`` and flushed as soon as it is produced, so a crash or Ctrl-C keeps everything computed
-so far. ``--resume`` continues an interrupted run: the estimator is deterministic, so it replays the
-epochs already in the file without writing them (fast, no pacing) and appends from the first new epoch.
+Two inputs: a recorded mission (``--data``, or the simulated default) replayed in time order, or a live
+JSON-lines stream (``--stream -`` reads standard input; schema in :mod:`graphnav.streamio`). Ground truth,
+when the mission has one, only initialises (``--init gt``/``auto``) and scores; without it the Navigator
+aligns from the sensors (``--init sensors``; ``--initial-position``, ``--initial-heading`` help it).
+
+Every estimate (the filtered state at a closed keyframe) is appended to ``OUT/online.csv`` and flushed at
+once, so a crash or Ctrl-C keeps everything computed so far; with ``--stream`` it is also written to
+standard output as a JSON line, flushed. ``--resume`` continues an interrupted replay: the estimator is
+deterministic, so it replays the epochs already in the file without writing them and appends from the first
+new epoch.
 """
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
-from .smooth import HelpFormatter, accuracy_summary, add_mission_arguments, make_plots, mission_from_args
+from .smooth import (HelpFormatter, accuracy_summary, add_init_arguments, add_mission_arguments, aligner_kwargs,
+                     make_plots, mission_from_args)
+
+STREAMING_METHODS = ("Graph-TC", "Graph-HN", "TC", "LC", "Average-TC", "Average-LC", "HNTC", "HNLC")
 
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "online", help="stream a mission through ISAM2 (or a fixed-lag smoother); per-epoch CSV flushed live",
-        description="Stream a mission through the incremental factor graph (ISAM2, or gtsam's fixed-lag "
-                    "smoother with --lag) one keyframe at a time, as on a vehicle. Each estimate is "
-                    "appended to OUT/online.csv and flushed at once; Ctrl-C keeps the file; --resume "
-                    "continues from its last epoch. A final summary goes to OUT/summary.json.",
+        "online", help="navigate sample by sample (fixed-lag graph, ISAM2 or EKF); a live JSON-lines stream or "
+                       "a recorded mission; per-epoch CSV flushed live",
+        description="Navigate as on a vehicle: samples go one by one through graphnav's Navigator (reorder "
+                    "buffer, alignment from the sensors when there is no initial state, keyframes closed as "
+                    "soon as the IMU passes them). Input: a recorded mission (--data or the simulated "
+                    "default) or a live JSON-lines stream (--stream -; schema: python -m graphnav.streamio or "
+                    "the README). Each estimate is appended to OUT/online.csv and flushed at once (and, with "
+                    "--stream, printed to standard output as a JSON line); Ctrl-C keeps the file; --resume "
+                    "continues a replay from its last epoch. A final summary goes to OUT/summary.json.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
+    add_init_arguments(p)
+    p.add_argument("--stream", metavar="FILE",
+                   help="read the measurements as JSON lines from FILE ('-' = standard input) instead of a mission")
     p.add_argument("--out", default="out/online", metavar="DIR", help="output folder")
-    p.add_argument("--method", default="Graph-HN", choices=("Graph-HN", "Graph-TC"),
-                   help="Graph-HN adds the completer's regressed beams as weak factors; Graph-TC uses "
-                        "measured beams only")
+    p.add_argument("--method", default="Graph-TC", choices=STREAMING_METHODS,
+                   help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
+                        "data, see the README); Graph-HN adds the completer's regressed beams as weak factors; "
+                        "the others run the paper's EKF (TC/LC and their hybrids)")
+    p.add_argument("--backend", default="fixed-lag", choices=("fixed-lag", "isam2"),
+                   help="graph methods: fixed-lag smoother (bounded time and memory) or ISAM2 over the whole "
+                        "mission")
     p.add_argument("--lag", type=float, default=None, metavar="S",
-                   help="use a fixed-lag smoother keeping S seconds (bounded memory) instead of ISAM2 "
-                        "over the whole mission")
+                   help="fixed-lag smoother window in s (default: GraphOptions.lag_s)")
+    p.add_argument("--reorder-window", type=float, default=None, metavar="S",
+                   help="how late (s) a sample may arrive after later-stamped ones (default: "
+                        "NavigatorOptions.reorder_window_s)")
     p.add_argument("--realtime", action="store_true",
-                   help="pace the run to the mission clock (sleep until each epoch's time has come)")
+                   help="pace a replay to the mission clock (sleep until each epoch's time has come)")
     p.add_argument("--speed", type=float, default=1.0, metavar="X",
                    help="with --realtime: play X times faster than real time")
     p.add_argument("--resume", action="store_true",
@@ -52,10 +75,11 @@ def epoch_fields(est) -> dict:
 
 
 class EpochSink:
-    """Callback for the online estimator: skip replayed epochs, pace, write+flush, advance the progress bar."""
+    """Called with each estimate: skip replayed epochs, pace, write+flush the CSV (and a JSON line to
+    ``echo``), advance the progress bar."""
 
-    def __init__(self, writer, bar, skip_until: float | None, realtime: bool, speed: float):
-        self.writer, self.bar = writer, bar
+    def __init__(self, writer, bar, skip_until: float | None, realtime: bool, speed: float, echo=None):
+        self.writer, self.bar, self.echo = writer, bar, echo
         self.skip_until = skip_until
         self.realtime, self.speed = realtime, speed
         self.first_t: float | None = None
@@ -77,6 +101,12 @@ class EpochSink:
             if ahead > 0:
                 time.sleep(ahead)
         self.writer.write(**f)
+        if self.echo is not None:
+            import json
+
+            from graphnav.streamio import estimate_record
+            self.echo.write(json.dumps(estimate_record(est), separators=(",", ":")) + "\n")
+            self.echo.flush()
         self.n_new += 1
 
 
@@ -90,51 +120,113 @@ def update_timing(update_s) -> dict:
             "p99_ms": float(np.percentile(ms, 99)), "max_ms": float(ms.max())}
 
 
+def make_navigator(args, config, mission=None):
+    """The Navigator the arguments ask for: backend and completer from ``--method``, the initial state from
+    ``--init`` (ground truth at the first ping of ``mission``) or the aligner's options."""
+    from graphnav.graph import GraphOptions
+    from graphnav.graph.run import initial_state
+    from graphnav.methods import EKF_METHODS, completer_for
+    from graphnav.navigator import Navigator, NavigatorOptions
+    from graphnav.replay import first_ping_time
+    completer, described = completer_for(args.method, args.scenario, config.dvl.beam_noise_std)
+    ekf = args.method in EKF_METHODS
+    backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
+    graph_options = GraphOptions() if args.lag is None else GraphOptions(lag_s=args.lag)
+    nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
+        reorder_window_s=args.reorder_window)
+    initial = None
+    if mission is not None:
+        initial = initial_state(mission, None, args.init, first_ping_time(mission))
+    elif args.init == "gt":
+        from graphnav.errors import ConfigError
+        raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
+    nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
+                    tight=not args.method.endswith("LC"), options=nav_options, aligner_kwargs=aligner_kwargs(args))
+    return nav, described
+
+
 def run(args) -> int:
     from tqdm import tqdm
 
-    from graphnav.methods import run_method
     from graphnav.outputs import EpochCsvWriter, read_trajectory_csv, write_json
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    mission, outages = mission_from_args(args)
     csv_path = out / "online.csv"
-    options = None if args.lag is None else {"lag_s": args.lag}
+    streaming = args.stream is not None
+    mission, outages = (None, []) if streaming else mission_from_args(args)
+    log = sys.stderr if streaming else sys.stdout
     with EpochCsvWriter(csv_path, resume=args.resume, fsync=args.fsync) as writer:
         resumed_from = writer.last_t
         if resumed_from is not None:
             print(f"resuming after t = {resumed_from:.3f} s ({writer.n_written} epochs already in {csv_path}); "
-                  "replaying the earlier epochs without writing them")
-        bar = tqdm(total=len(mission.dvl.t), desc=f"{args.method}{'' if args.lag is None else ' lag'}",
-                   unit="epoch", disable=args.no_progress, dynamic_ncols=True)
-        sink = EpochSink(writer, bar, resumed_from, args.realtime, args.speed)
+                  "replaying the earlier epochs without writing them", file=log)
+        total = None if streaming else len(mission.dvl.t)
+        bar = tqdm(total=total, desc=args.method, unit="epoch", disable=args.no_progress or streaming,
+                   dynamic_ncols=True)
+        sink = EpochSink(writer, bar, resumed_from, args.realtime, args.speed,
+                         echo=sys.stdout if streaming else None)
         start = time.perf_counter()
         try:
-            sol = run_method(mission, args.method, args.scenario, options=options, callback=sink,
-                             mode="online" if args.lag is None else "fixed-lag")
+            if streaming:
+                nav, described, stream_info = run_stream(args, sink)
+            else:
+                from graphnav.navigator import feed_mission
+                nav, described = make_navigator(args, mission.config, mission)
+                feed_mission(nav, mission, callback=sink)
+                stream_info = {}
         finally:
             bar.close()
         wall = time.perf_counter() - start
         n_total = writer.n_written
-    # The summary covers the whole file (earlier runs included), read back from what was written.
+    info = nav.info
     written = read_trajectory_csv(csv_path, method=args.method)
+    duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {
-        "method": args.method, "mode": "ISAM2" if args.lag is None else f"fixed-lag {args.lag:g} s",
-        "mission": mission.name, "scenario": args.scenario, "imu_grade": args.imu_grade,
-        "completer": sol.info.get("completer"), "epochs": int(n_total), "epochs_this_run": sink.n_new,
-        "epochs_replayed": sink.n_replayed, "resumed_after_s": resumed_from,
-        "duration_s": mission.duration, "runtime_s": wall,
-        "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "update_timing": update_timing(sol.info.get("update_s")),
-        "accuracy": accuracy_summary(written, mission, outages) if len(written.t) else {},
+        "method": args.method, "backend": nav.backend_name,
+        "mode": nav.backend_name if args.lag is None else f"fixed-lag {args.lag:g} s",
+        "mission": "<stream>" if streaming else mission.name, "scenario": args.scenario,
+        "imu_grade": args.imu_grade, "completer": described, "epochs": int(n_total),
+        "epochs_this_run": sink.n_new, "epochs_replayed": sink.n_replayed, "resumed_after_s": resumed_from,
+        "duration_s": duration if streaming else mission.duration, "runtime_s": wall,
+        "realtime_factor": (duration if streaming else mission.duration) / wall if wall > 0 else float("nan"),
+        "update_timing": update_timing(info.get("update_s")),
+        "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
+                                                  nav.alignment is None else "none"}),
+        "refused": info["refused"], "stream": stream_info,
+        "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "files": {"online_csv": str(csv_path)},
     }
-    if not args.no_plots and len(written.t):
+    if not args.no_plots and mission is not None and len(written.t):
         plots = make_plots(out, mission, [written], outages, f"online {summary['mode']}, {args.scenario}")
         summary["files"].update({Path(p).stem: p for p in plots})
     summary["files"]["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
     from .smooth import print_summary
-    print_summary(summary)
+    print_summary(summary, file=log)
     return 0
+
+
+def run_stream(args, sink):
+    """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come."""
+    import contextlib
+
+    from graphnav.config import SensorConfig
+    from graphnav.streamio import StreamReader, feed
+    source = "<stdin>" if args.stream == "-" else args.stream
+    with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh:
+        reader = StreamReader(fh, source)
+        nav = described = None
+        for rec in reader:
+            if nav is None:
+                config = SensorConfig.load(args.config) if args.config else (reader.config or SensorConfig())
+                nav, described = make_navigator(args, config)
+            for est in feed(nav, rec):
+                sink(est)
+        if nav is None:
+            from graphnav.errors import DataError
+            raise DataError("the stream holds no measurement record", source)
+        for est in nav.finish():
+            sink(est)
+    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad,
+                            "config": "--config" if args.config else ("stream" if reader.config else "default")}

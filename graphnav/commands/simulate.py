@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,10 @@ def register(subparsers) -> None:
     parser.add_argument("--gt-rate", type=float, default=10.0, help="ground-truth rate, Hz")
     parser.add_argument("--out", type=Path, default=None, help="folder to write the CSVs and the PNG into")
     parser.add_argument("--number", type=int, default=1, help="N of the written TrajectoryN folder")
+    parser.add_argument("--stream", metavar="FILE", default=None,
+                        help="write the measurements (no ground truth) as time-ordered JSON lines to FILE ('-' = "
+                             "standard output; the summary then goes to standard error), the input of "
+                             "`graphnav online --stream`")
     parser.set_defaults(func=run)
 
 
@@ -77,12 +82,21 @@ def run(args) -> int:
 
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless)
+    log = sys.stderr if args.stream == "-" else sys.stdout
+    if args.stream is not None:
+        from ..streamio import mission_records, write_records
+        if args.stream == "-":
+            write_records(mission_records(mission), sys.stdout)
+        else:
+            with open(args.stream, "w") as fh:
+                n = write_records(mission_records(mission), fh)
+            print(f"wrote {n} records to {args.stream}", file=log)
     s = summarize(mission)
     print(f"{mission.name}: {s['duration_s']:.0f} s, {s['distance_m']:.0f} m travelled, "
           f"depth {s['depth_min_m']:.1f}..{s['depth_max_m']:.1f} m, "
           f"speed {s['speed_min_mps']:.2f}..{s['speed_max_mps']:.2f} m/s, "
           f"max yaw rate {s['max_yaw_rate_radps']:.3f} rad/s, "
-          f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams)")
+          f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams)", file=log)
     if args.out is not None:
         paths = write_akit(mission, args.out, args.number)
         png = Path(args.out) / f"trajectory{args.number}.png"

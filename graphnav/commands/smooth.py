@@ -6,6 +6,7 @@ optional injected beam outage).
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 from pathlib import Path
 
@@ -42,6 +43,34 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
                    help="start of an outage window in s (repeatable); default: windows spread over the "
                         "mission as in the benchmark (60 s in, then every window + 60 s)")
     g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
+
+
+def add_init_arguments(parser: argparse.ArgumentParser) -> None:
+    """Where the estimator starts: the ground truth or an alignment from the sensors (shared with online)."""
+    g = parser.add_argument_group("initial state")
+    g.add_argument("--init", default="auto", choices=("auto", "gt", "sensors"),
+                   help="the ground truth at the first ping (gt), an alignment from the sensors (sensors: "
+                        "levelling, gyrocompassing or a heading record, DVL velocity), or gt when the data "
+                        "has ground truth (auto)")
+    g.add_argument("--initial-position", type=float, nargs=2, metavar=("LAT", "LON"),
+                   help="with sensor alignment: the starting position, degrees (else a local origin)")
+    g.add_argument("--initial-heading", type=float, metavar="DEG",
+                   help="with sensor alignment: the starting heading, degrees (else gyrocompassing or the "
+                        "first heading record)")
+    g.add_argument("--heading-sigma", type=float, default=2.0, metavar="DEG",
+                   help="1-sigma of --initial-heading, degrees")
+
+
+def aligner_kwargs(args) -> dict:
+    """The Aligner's keyword arguments from --initial-position / --initial-heading."""
+    import math
+    kw = {}
+    if args.initial_position is not None:
+        kw["initial_lla"] = (math.radians(args.initial_position[0]), math.radians(args.initial_position[1]), 0.0)
+    if args.initial_heading is not None:
+        kw["initial_heading_rad"] = math.radians(args.initial_heading)
+        kw["heading_sigma_rad"] = math.radians(args.heading_sigma)
+    return kw
 
 
 def recorded_mission(args):
@@ -96,28 +125,38 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
     return [str(f) for f in files]
 
 
-def print_summary(summary: dict) -> None:
+def print_summary(summary: dict, file=None) -> None:
+    """Print a command's summary (to ``file``, default standard output)."""
+    out = functools.partial(print, file=file)
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
-    print(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
+    out(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
           f"of data in {summary['runtime_s']:.2f} s ({summary['realtime_factor']:.0f}x real time)")
+    init = summary.get("initialisation") or {}
+    if "heading_source" in init:
+        done = init.get("completed_t")
+        out(f"  initial state aligned from the sensors at t = {init['t']:.1f} s (heading: {init['heading_source']}"
+            + (f"; alignment completed at t = {done:.1f} s)" if done is not None else ")"))
+    refused = summary.get("refused")
+    if refused:
+        out(f"  refused samples (stream: field: count): {refused}")
     if acc.get("ground_truth"):
-        print(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
+        out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
         for w in acc["windows"]:
-            print(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
+            out(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
-            print(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
+            out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
     timing = summary.get("update_timing")
     if timing:
-        print(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
+        out(f"  solver update per keyframe: median {timing['median_ms']:.1f} ms, p99 {timing['p99_ms']:.1f} ms, "
               f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
-        print(f"  {name}: {path}")
+        out(f"  {name}: {path}")
 
 
 # --- the command ----------------------------------------------------------------------------------------
@@ -130,6 +169,7 @@ def register(subparsers) -> None:
                     "OUT/summary.json and PNG plots.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
+    add_init_arguments(p)
     p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
     p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, help="estimator to run")
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
@@ -145,7 +185,8 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
-    sol = run_method(mission, args.method, args.scenario)
+    init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
+    sol = run_method(mission, args.method, args.scenario, **init)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
              "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
@@ -154,11 +195,12 @@ def run(args) -> int:
         gt = mission.gt
         files["groundtruth_tum"] = str(write_tum(out / "groundtruth.tum",
                                                  NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n)))
-    others = [run_method(mission, m, args.scenario) for m in args.compare if m != args.method]
+    others = [run_method(mission, m, args.scenario, **init) for m in args.compare if m != args.method]
     summary = {
         "method": args.method, "mission": mission.name, "scenario": args.scenario,
         "imu_grade": args.imu_grade, "completer": sol.info.get("completer"),
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
+        "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages),
         "compared": {o.method: accuracy_summary(o, mission, outages) for o in others},

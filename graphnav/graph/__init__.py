@@ -2,18 +2,15 @@
 GTSAM's fixed-lag smoother, or a batch smoother over the whole mission.
 
 Entry point: :func:`run_graph` (methods ``Graph-TC``, ``Graph-HN``, ``Graph-HN-batch``; ``mode`` online or
-fixed-lag). Building blocks: :class:`GraphOptions`, :class:`KeyframeBuilder`, :class:`OnlineGraph`,
-:class:`FixedLagGraph`, :func:`batch_smooth`.
+fixed-lag), a replay through :class:`graphnav.navigator.Navigator`. Building blocks: :class:`GraphOptions`,
+:class:`GraphContext`, :class:`OnlineGraph`, :class:`FixedLagGraph`, :func:`batch_smooth`.
 """
-from .batch import StackedBeams, batch_smooth
-from .builder import (BeamGroup, DvlMeasurement, Keyframe, KeyframeBuilder, KeyframeFactors, keyframe_factors,
-                      preintegration_params)
+from .batch import batch_smooth
+from .builder import GraphContext, mission_keyframes, preintegration_params
 from .incremental import EpochEstimate, FixedLagGraph, InitialState, OnlineGraph
 from .options import GraphOptions
 from .run import GRAPH_METHODS, MODES, iterate_graph, run_graph, solution_from_estimates
 
-__all__ = ["GRAPH_METHODS", "MODES", "DvlMeasurement", "EpochEstimate", "FixedLagGraph", "GraphOptions",
-           "InitialState", "Keyframe", "KeyframeBuilder", "OnlineGraph", "batch_smooth", "BeamGroup",
-           "KeyframeFactors", "StackedBeams",
-           "iterate_graph", "keyframe_factors", "preintegration_params", "run_graph",
-           "solution_from_estimates"]
+__all__ = ["GRAPH_METHODS", "MODES", "EpochEstimate", "FixedLagGraph", "GraphContext", "GraphOptions",
+           "InitialState", "OnlineGraph", "batch_smooth", "iterate_graph", "mission_keyframes",
+           "preintegration_params", "run_graph", "solution_from_estimates"]

@@ -14,7 +14,7 @@ then the linear system is solved by GTSAM's multifrontal elimination and the ste
 manifold, until the cost stops decreasing (step halving if it rises). Cost per iteration is O(N).
 ``solver="lm"`` runs GTSAM's Levenberg-Marquardt on the CustomFactor graph itself (reference, O(N^2)).
 Velocity covariances are the marginals of the final linearisation. Elimination is Cholesky (GTSAM's default)
-unless ``factorization="QR"``; when Cholesky reports an indeterminant system, the batch warns and solves
+unless ``batch_factorization="QR"``; when Cholesky reports an indeterminant system, the batch warns and solves
 again with QR.
 """
 from __future__ import annotations
@@ -197,7 +197,7 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
     for key in cpp.keyVector():
         if gtsam.Symbol(key).chr() == ord("d") and not values.exists(key):
             values.insert(key, np.zeros(N_DVL_ERRORS))
-    qr = options.factorization == "QR"
+    qr = options.batch_factorization == "QR"
     try:
         result, info, covs = _solve(cpp, groups, values, n, options, qr)
     except RuntimeError as exc:

@@ -1,11 +1,9 @@
-"""Turn a mission into a stream of keyframes: IMU preintegration between them plus their DVL/depth data.
+"""From streamed keyframes (:mod:`graphnav.keyframes`) to graph keyframes and their factors.
 
-Keyframes sit at DVL stamps; when the DVL is silent for longer than ``options.max_keyframe_gap_s``,
-IMU-only keyframes every ``options.imu_keyframe_interval_s`` fill the gap. IMU sample j holds over
-``[t_j, t_{j+1})`` (zero-order hold, GTSAM's convention), so a keyframe between two IMU samples splits
-that interval: sample j is integrated up to the keyframe and the rest of it goes to the next keyframe.
-
-The estimators in this package consume :class:`Keyframe` objects and make their factors with
+:class:`GraphContext` holds what every graph factor needs (options, configuration, DVL geometry, GTSAM's
+preintegration settings); :func:`graph_keyframe` preintegrates a keyframe's IMU segments (zero-order hold,
+GTSAM's convention, a split sample integrated over its part only) and turns its ping into the beams the
+graph uses. The estimators in this package consume :class:`Keyframe` objects and make their factors with
 :func:`keyframe_factors` (which needs the predicted attitude, for the Earth rate in the lever-arm term).
 """
 from __future__ import annotations
@@ -17,12 +15,12 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, D, V, X
 
+from graphnav import keyframes as kfs
 from graphnav.config import SensorConfig
 from graphnav.dvl import DvlGeometry
 from graphnav.earth import earth_rate_n
-from graphnav.factors import beam_factor, beam_factor_dvl_errors, beam_noise, depth_factor
-from graphnav.history import BeamHistory
-from graphnav.mission import Mission, gap_variances
+from graphnav.factors import (beam_factor, beam_factor_dvl_errors, beam_noise, depth_factor, heading_factor,
+                              horizontal_position_factor)
 
 from .dvl_errors import beam_index
 from .options import GraphOptions
@@ -67,7 +65,9 @@ class Keyframe:
         pim: preintegrated IMU from keyframe k-1 to k (None for k = 0).
         dvl: the DVL ping at this keyframe, or None (IMU-only keyframe, or a ping with no usable beam).
         depth: depth of the IMU at t (m, down), or None.
-        kind: ``"dvl"`` (a DVL stamp) or ``"imu"`` (filler inside a DVL gap).
+        kind: ``"init"``, ``"dvl"`` (a DVL stamp), ``"imu"`` (filler inside a DVL gap) or ``"fix"``.
+        heading: (yaw rad, sigma rad) from a heading sensor, or None.
+        fix_ne: (north, east) m of a position fix in the navigation frame, or None; ``fix_sigma`` m.
     """
 
     index: int
@@ -76,6 +76,9 @@ class Keyframe:
     dvl: DvlMeasurement | None
     depth: float | None
     kind: str
+    heading: tuple[float, float] | None = None
+    fix_ne: np.ndarray | None = None
+    fix_sigma: float = 0.0
 
 
 def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.PreintegrationCombinedParams:
@@ -96,130 +99,81 @@ def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.
     return params
 
 
-def keyframe_times(imu_t: np.ndarray, dvl_t: np.ndarray, options: GraphOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Keyframe stamps (K,) and, per keyframe, the DVL ping index or -1 for IMU-only keyframes.
-
-    Every DVL stamp inside the IMU span is a keyframe; gaps longer than ``max_keyframe_gap_s`` (also before
-    the end of the IMU data) get IMU-only keyframes every ``imu_keyframe_interval_s``, none closer than half
-    an interval to the next keyframe.
-    """
-    inside = np.flatnonzero((dvl_t >= imu_t[0]) & (dvl_t <= imu_t[-1]))
-    anchors = [(float(dvl_t[j]), int(j)) for j in inside] or [(float(imu_t[0]), -1)]
-    following = [t for t, _ in anchors[1:]] + [float(imu_t[-1])]
-    step = options.imu_keyframe_interval_s
-    times, ping = [], []
-    for (t, j), t_next in zip(anchors, following):
-        times.append(t)
-        ping.append(j)
-        if t_next - t > options.max_keyframe_gap_s:
-            n_fill = int(np.floor((t_next - t) / step - 0.5))
-            times.extend(t + step * np.arange(1, n_fill + 1))
-            ping.extend([-1] * n_fill)
-    return np.array(times), np.array(ping, dtype=int)
-
-
-class KeyframeBuilder:
-    """Preintegrates the IMU and collects the DVL (and depth) data of each keyframe of one mission.
+class GraphContext:
+    """What the graph factors of one mission need: options, sensor configuration, DVL geometry, beam sigmas
+    and GTSAM's preintegration settings.
 
     Args:
-        mission: the mission (stamps on the IMU clock).
+        config: sensor configuration.
         options: graph settings.
-        completer: beam completer for the hybrid methods (Graph-HN*), or None for measured beams only.
     """
 
-    def __init__(self, mission: Mission, options: GraphOptions, completer=None):
-        self.mission = mission
+    def __init__(self, config: SensorConfig, options: GraphOptions):
+        self.config = config
         self.options = options
-        self.config = mission.config
-        self.geometry = DvlGeometry.from_spec(mission.config.dvl)
-        self.params = preintegration_params(self.config, options)
-        self.completer = completer
-        self.history = BeamHistory(completer.n_past) if completer is not None else None
-        self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else self.config.dvl.beam_noise_std
+        self.geometry = DvlGeometry.from_spec(config.dvl)
+        self.params = preintegration_params(config, options)
+        self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else config.dvl.beam_noise_std
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
-        # all-zero rows dropped and gaps bridged (with warnings); keyframes over a gap get inflated IMU noise
-        self.imu, self.imu_gaps = mission.imu.bridge_gaps(self.config.imu_rate_hz)
-        self.times, self.ping = keyframe_times(self.imu.t, mission.dvl.t, options)
 
-    def __len__(self) -> int:
-        return len(self.times)
-
-    def dvl_measurement(self, j: int) -> DvlMeasurement | None:
-        """The beams of ping j as graph measurements (completed when a completer is set)."""
-        dvl = self.mission.dvl
-        beams, valid = dvl.beams[j], dvl.valid[j] & np.isfinite(dvl.beams[j])
-        sigma = np.where(valid, self.beam_sigma, np.nan)
-        regressed = np.zeros(4, dtype=bool)
-        if self.history is not None:
-            completed = self.history.complete(self.completer, np.where(valid, beams, 0.0), valid)
-            if completed is not None:
-                full, filled_sigma = completed
-                regressed = ~valid
-                beams = np.where(valid, beams, full)
-                sigma = np.where(valid, self.beam_sigma, np.maximum(filled_sigma, self.regressed_floor))
-                valid = np.ones(4, dtype=bool)
-        if not valid.any():
-            return None
-        imu = self.imu
-        nearest = int(np.clip(np.searchsorted(imu.t, dvl.t[j]), 1, len(imu.t) - 1))
-        if abs(imu.t[nearest - 1] - dvl.t[j]) <= abs(imu.t[nearest] - dvl.t[j]):
-            nearest -= 1
-        return DvlMeasurement(float(dvl.t[j]), self.geometry.T_b[valid], beams[valid], sigma[valid],
-                              regressed[valid], imu.omega_b[nearest].copy())
-
-    def depth_at(self, t: float) -> float | None:
-        depth = self.mission.depth
-        if depth is None or not self.options.use_depth or len(depth.t) == 0:
-            return None
-        if t < depth.t[0] - 0.5 or t > depth.t[-1] + 0.5:
-            return None
-        return float(np.interp(t, depth.t, depth.depth))
-
-    def gap_params(self, t0: float, t1: float) -> gtsam.PreintegrationCombinedParams:
-        """Preintegration settings for the keyframe interval [t0, t1]: inflated IMU noise when it holds a
-        bridged IMU gap, so that the IMU factor's velocity and rotation variances grow by
-        :func:`graphnav.mission.gap_variances` (GTSAM integrates the continuous covariance over t1 - t0)."""
-        var_v, var_att = gap_variances(self.imu_gaps, t0, t1)
+    def gap_params(self, var_v: float, var_att: float, length: float) -> gtsam.PreintegrationCombinedParams:
+        """Preintegration settings for a keyframe interval of ``length`` s that holds a bridged IMU gap: the
+        IMU noise is inflated so that the IMU factor's velocity and rotation variances grow by ``var_v``
+        ((m/s)^2) and ``var_att`` (rad^2) per axis (:func:`graphnav.mission.gap_variances`; GTSAM integrates
+        the continuous covariance over the interval)."""
         if not var_v and not var_att:
             return self.params
-        imu, length = self.config.imu, max(t1 - t0, 1e-9)
+        imu, length = self.config.imu, max(length, 1e-9)
         params = preintegration_params(self.config, self.options)
         params.setAccelerometerCovariance(np.eye(3) * (imu.accel_noise_density ** 2 + var_v / length))
         params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
         return params
 
-    def __iter__(self) -> Iterator[Keyframe]:
-        imu = self.imu
-        t_imu = imu.t
-        n = len(t_imu)
-        # IMU sample j covers [t_j, t_{j+1}); the last sample covers one nominal period
-        last_dt = t_imu[-1] - t_imu[-2] if n > 1 else 1.0 / self.config.imu_rate_hz
-        t_next = np.append(t_imu[1:], t_imu[-1] + last_dt)
-        # first sample whose interval ends after each keyframe (the one a keyframe splits, if any)
-        split = np.searchsorted(t_next, self.times, side="right").tolist()
-        for k, (t, ping) in enumerate(zip(self.times, self.ping)):
-            pim = None
-            if k > 0:
-                t_prev = self.times[k - 1]
-                params = self.gap_params(t_prev, t) if self.imu_gaps else self.params
-                pim = gtsam.PreintegratedCombinedMeasurements(params)
-                j0, j1 = split[k - 1], split[k]
-                # python lists of this keyframe's samples only (bounded memory on long missions)
-                hi = min(j1 + 1, n)
-                f, w = imu.f_b[j0:hi].tolist(), imu.omega_b[j0:hi].tolist()
-                dt = (t_next[j0:hi] - t_imu[j0:hi]).tolist()
-                if j0 == j1:                                   # both keyframes inside one IMU interval
-                    pim.integrateMeasurement(f[0], w[0], t - t_prev)
-                else:
-                    if j0 < n:                                 # rest of the interval split at t_prev
-                        pim.integrateMeasurement(f[0], w[0], t_next[j0] - max(t_prev, t_imu[j0]))
-                    for i in range(1, min(j1, n) - j0):
-                        pim.integrateMeasurement(f[i], w[i], dt[i])
-                    if j1 < n and t > t_imu[j1]:               # start of the interval split at t
-                        pim.integrateMeasurement(f[j1 - j0], w[j1 - j0], t - t_imu[j1])
-            dvl = self.dvl_measurement(ping) if ping >= 0 else None
-            yield Keyframe(k, float(t), pim, dvl, self.depth_at(t), "dvl" if ping >= 0 else "imu")
+    def preintegrate(self, imu: kfs.ImuSegments) -> gtsam.PreintegratedCombinedMeasurements:
+        """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment)."""
+        pim = gtsam.PreintegratedCombinedMeasurements(self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum())))
+        for f, w, dt in zip(imu.f_b.tolist(), imu.omega_b.tolist(), imu.dt.tolist()):
+            pim.integrateMeasurement(f, w, dt)
+        return pim
+
+    def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
+        """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
+        completer's sigma (floored); None when no beam is usable."""
+        usable = np.isfinite(ping.beams)
+        if not usable.any():
+            return None
+        regressed = usable & ~ping.measured
+        sigma = np.where(regressed, np.maximum(ping.sigma_regressed, self.regressed_floor), self.beam_sigma)
+        return DvlMeasurement(ping.t, self.geometry.T_b[usable], ping.beams[usable], sigma[usable],
+                              regressed[usable], ping.omega_b_nearest.copy())
+
+
+def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext, fix_ne: np.ndarray | None = None) -> Keyframe:
+    """A streamed keyframe as the graph estimators use it (``fix_ne``: its position fix in NED, m)."""
+    pim = ctx.preintegrate(kf.imu) if kf.imu is not None else None
+    dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
+    depth = kf.depth if ctx.options.use_depth else None
+    return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, fix_ne,
+                    kf.fix.sigma_m if kf.fix is not None else 0.0)
+
+
+def mission_keyframes(mission, options: GraphOptions, completer=None,
+                      keyframe_options: kfs.KeyframeOptions | None = None) -> Iterator[Keyframe]:
+    """Graph keyframes of a recorded mission, from its first DVL ping inside the IMU span (a replay of its
+    samples in time order through :class:`graphnav.keyframes.Keyframer`; used by offline tools such as the
+    lever-arm calibration)."""
+    from graphnav.replay import first_ping_time, replay
+    ctx = GraphContext(mission.config, options)
+    keyframer = kfs.Keyframer(mission.config, keyframe_options, completer)
+    started = False
+    t0 = first_ping_time(mission)
+    for kind, t, payload in replay(mission):
+        if not started and t >= t0:
+            started = True
+            yield from (graph_keyframe(k, ctx) for k in keyframer.start(t0))
+        yield from (graph_keyframe(k, ctx) for k in getattr(keyframer, "add_" + kind)(t, *payload))
+    yield from (graph_keyframe(k, ctx) for k in keyframer.finish())
 
 
 def imu_factor(kf: Keyframe) -> gtsam.CombinedImuFactor:
@@ -281,7 +235,7 @@ class KeyframeFactors:
         return graph
 
 
-def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndarray,
+def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
                      p_n_pred: np.ndarray | None = None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
@@ -291,7 +245,7 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
 
     Args:
         kf: the keyframe.
-        builder: its builder (geometry, options, configuration).
+        builder: the mission's :class:`GraphContext` (geometry, options, configuration).
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
     """
@@ -321,4 +275,9 @@ def keyframe_factors(kf: Keyframe, builder: KeyframeBuilder, C_b_n_pred: np.ndar
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]
         other.add(depth_factor(X(k), kf.depth, sigma, ne))
+    if kf.fix_ne is not None:
+        down = None if p_n_pred is None else p_n_pred[2]
+        other.add(horizontal_position_factor(X(k), kf.fix_ne, kf.fix_sigma, down))
+    if kf.heading is not None:
+        other.add(heading_factor(X(k), *kf.heading))
     return KeyframeFactors(groups, other)

@@ -4,11 +4,13 @@ Both follow the same cycle per keyframe: ``add(keyframe)`` (factors + predicted 
 ``update()`` (one solver step) and ``estimate()`` (the filtered state of the newest keyframe with its
 marginal velocity covariance in NED). Like GTSAM's ``ImuFactorExample``::
 
-    est = OnlineGraph(builder, initial)
-    for kf in builder:
+    est = OnlineGraph(GraphContext(config, options), initial)
+    for kf in keyframes:          # graph keyframes (graphnav.graph.builder.graph_keyframe)
         est.add(kf)
         est.update()
         print(est.estimate())
+
+:class:`graphnav.navigator.Navigator` runs this cycle on keyframes it assembles from streamed samples.
 """
 from __future__ import annotations
 
@@ -26,7 +28,7 @@ from graphnav.mission import Mission
 from graphnav.timeseries import interp_rows
 
 from . import dvl_errors
-from .builder import Keyframe, KeyframeBuilder, KeyframeFactors, imu_factor, keyframe_factors
+from .builder import GraphContext, Keyframe, KeyframeFactors, imu_factor, keyframe_factors
 from .options import GraphOptions
 
 
@@ -38,11 +40,23 @@ def is_indeterminant(exc: Exception) -> bool:
 
 @dataclass
 class InitialState:
-    """State at the first keyframe: pose (attitude C_b_n and NED position, m), NED velocity (m/s), IMU bias."""
+    """State at the first keyframe: pose (attitude C_b_n and NED position, m), NED velocity (m/s), IMU bias.
+
+    Attributes:
+        t: its stamp, s (IMU clock); None = the first keyframe's (the first DVL ping) in the replay helpers.
+        cov_pose: optional (6,6) prior covariance in GTSAM's Pose3 tangent ``[rot (rad), trans (m)]`` (right
+            perturbation, body frame); None = the option sigmas (``GraphOptions.prior_*``).
+        cov_v_n: optional (3,3) prior velocity covariance, (m/s)^2; None = the option sigma.
+        origin_lla: (lat rad, lon rad, alt m) of the NED origin, when known (position fixes need it).
+    """
 
     pose: gtsam.Pose3
     v_n: np.ndarray
     bias: gtsam.imuBias.ConstantBias = field(default_factory=gtsam.imuBias.ConstantBias)
+    t: float | None = None
+    cov_pose: np.ndarray | None = None
+    cov_v_n: np.ndarray | None = None
+    origin_lla: tuple[float, float, float] | None = None
 
     @classmethod
     def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":
@@ -61,7 +75,7 @@ class InitialState:
         if sel.any():
             dtheta = imu.omega_b[sel].mean(axis=0) * (t - gt.t[i])
             C = C @ gtsam.Rot3.Expmap(dtheta).matrix()
-        return cls(gtsam.Pose3(gtsam.Rot3(C), p), v)
+        return cls(gtsam.Pose3(gtsam.Rot3(C), p), v, t=float(t), origin_lla=gt.origin_lla)
 
 
 @dataclass
@@ -99,17 +113,22 @@ class EpochEstimate:
         return self.pose.translation()
 
 
-def prior_factors(builder: KeyframeBuilder, initial: InitialState, k: int = 0,
+def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0,
                   dvl_errors_mean: np.ndarray | None = None) -> gtsam.NonlinearFactorGraph:
-    """Priors on X(k), V(k), B(k) with the sigmas of ``builder.options`` (bias: IMU spec turn-on sigmas),
-    and on the DVL error states D(k) (mean ``dvl_errors_mean``, default zero) when they are enabled."""
+    """Priors on X(k), V(k), B(k): the initial state's covariances where given, else the sigmas of
+    ``builder.options`` (bias: IMU spec turn-on sigmas); and on the DVL error states D(k) (mean
+    ``dvl_errors_mean``, default zero) when they are enabled."""
     o, imu = builder.options, builder.config.imu
     acc = o.prior_acc_bias_sigma if o.prior_acc_bias_sigma is not None else imu.accel_bias_sigma
     gyro = o.prior_gyro_bias_sigma if o.prior_gyro_bias_sigma is not None else imu.gyro_bias_sigma
     graph = gtsam.NonlinearFactorGraph()
-    graph.add(gtsam.PriorFactorPose3(X(k), initial.pose, gtsam.noiseModel.Diagonal.Sigmas(
-        np.r_[np.full(3, o.prior_rot_sigma), np.full(3, o.prior_pos_sigma)])))
-    graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, gtsam.noiseModel.Isotropic.Sigma(3, o.prior_vel_sigma)))
+    pose_noise = (gtsam.noiseModel.Gaussian.Covariance(np.asarray(initial.cov_pose, float))
+                  if initial.cov_pose is not None else gtsam.noiseModel.Diagonal.Sigmas(
+                      np.r_[np.full(3, o.prior_rot_sigma), np.full(3, o.prior_pos_sigma)]))
+    vel_noise = (gtsam.noiseModel.Gaussian.Covariance(np.asarray(initial.cov_v_n, float))
+                 if initial.cov_v_n is not None else gtsam.noiseModel.Isotropic.Sigma(3, o.prior_vel_sigma))
+    graph.add(gtsam.PriorFactorPose3(X(k), initial.pose, pose_noise))
+    graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, vel_noise))
     graph.add(gtsam.PriorFactorConstantBias(B(k), initial.bias, gtsam.noiseModel.Diagonal.Sigmas(
         np.r_[np.full(3, acc), np.full(3, gyro)])))
     if o.dvl_error_states:
@@ -136,7 +155,7 @@ def isam2_params(options: GraphOptions, factorization: str | None = None) -> gts
 class _IncrementalGraph:
     """Shared add/update/estimate logic; subclasses provide the solver calls."""
 
-    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+    def __init__(self, builder: GraphContext, initial: InitialState):
         self.builder = builder
         self.options = builder.options
         self.initial = initial
@@ -149,6 +168,7 @@ class _IncrementalGraph:
         self.keep_keyframe_graphs = False
         self.update_times: list[float] = []
         self.n_recovered = 0
+        self._recovering_at: int | None = None     # keyframe of the last solver restart (a second one raises)
         self.factorization = self.options.factorization
         #: (keyframe index, value) of the newest DVL error-state estimate (``options.dvl_error_states``)
         self.dvl_errors: tuple[int, np.ndarray] | None = None
@@ -220,21 +240,22 @@ class _IncrementalGraph:
         return self._last
 
     def _recover(self, kf: Keyframe, exc: Exception) -> None:
-        """Indeterminant linear system: restart the solver with QR factorisation from the last good state.
+        """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state.
 
         The new solver starts with priors on keyframe k-1 at its estimate, with its marginal covariances
         (block-diagonal: pose, velocity, bias; the prior sigmas of the options if the failed solver cannot
         give them), then takes keyframe k's factors. The filtered output continues; what is lost is the
-        cross-correlation between those blocks at the restart. A second failure raises.
+        cross-correlation between those blocks at the restart. A second failure at the same keyframe raises.
         """
         self.n_recovered += 1
         warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): "
                       f"{str(exc).strip().splitlines()[0]} -- restarting the solver with QR factorisation from "
-                      "the last estimate (factorization='QR' or a larger integration_sigma avoid this)",
+                      "the last estimate",
                       RuntimeWarning, stacklevel=3)
         last = self._last
-        if last is None or self.factorization == "QR":
+        if last is None or self._recovering_at == kf.index:
             raise exc
+        self._recovering_at = kf.index
         j = last.index
         with_d = self.options.dvl_error_states
         # the DVL error states of keyframe j were read when keyframe k = j + 1 was added
@@ -288,7 +309,7 @@ class OnlineGraph(_IncrementalGraph):
     every keyframe, so its cost grows with the mission (use :class:`FixedLagGraph` for long missions).
     """
 
-    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+    def __init__(self, builder: GraphContext, initial: InitialState):
         super().__init__(builder, initial)
         self._times: list[float] = []
         self._restart()
@@ -326,7 +347,7 @@ class FixedLagGraph(_IncrementalGraph):
     so the working graph, the time per update and the memory stay bounded on long missions.
     The estimate at each keyframe is the filtered state."""
 
-    def __init__(self, builder: KeyframeBuilder, initial: InitialState):
+    def __init__(self, builder: GraphContext, initial: InitialState):
         super().__init__(builder, initial)
         self._restart()
 

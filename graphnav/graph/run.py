@@ -1,4 +1,6 @@
-"""``run_graph``: one call from a mission to a :class:`~graphnav.solution.NavSolution` for the graph methods.
+"""``run_graph``: one call from a recorded mission to a :class:`~graphnav.solution.NavSolution` for the graph
+methods -- a replay of the mission, sample by sample, through :class:`graphnav.navigator.Navigator` (the one
+code path a vehicle runs too).
 
 Methods (names as in results):
 
@@ -11,7 +13,8 @@ Modes (the incremental engine): ``mode="online"`` (default) is ISAM2 over the wh
 ``mode="fixed-lag"`` is GTSAM's IncrementalFixedLagSmoother with ``options.lag_s`` (bounded memory and
 time per update, for long missions). Graph-HN-batch's first pass uses ``mode`` too (``"fixed-lag"`` is the
 scalable choice). Output stamps are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps
-(``info["kind"]``).
+(``info["kind"]``). The initial state is the ground truth at the first DVL ping when the mission has one,
+else the Navigator aligns from the sensors.
 """
 from __future__ import annotations
 
@@ -27,21 +30,48 @@ from graphnav.mission import Mission
 from graphnav.solution import NavSolution
 
 from .batch import batch_smooth
-from .builder import KeyframeBuilder
-from .incremental import EpochEstimate, FixedLagGraph, InitialState, OnlineGraph, is_indeterminant
+from .incremental import EpochEstimate, InitialState, is_indeterminant
 from .options import GraphOptions
 
 GRAPH_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
-MODES = ("online", "fixed-lag")
+#: run_graph's modes and the Navigator backend each one is.
+MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
 
 
-def make_estimator(mode: str, builder: KeyframeBuilder, initial: InitialState):
-    """An :class:`OnlineGraph` (``"online"``) or :class:`FixedLagGraph` (``"fixed-lag"``)."""
-    if mode == "online":
-        return OnlineGraph(builder, initial)
-    if mode == "fixed-lag":
-        return FixedLagGraph(builder, initial)
-    raise ConfigError(f"unknown graph mode '{mode}'; choose one of {MODES}")
+def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
+                    options: GraphOptions | None = None, mode: str = "online",
+                    initial: InitialState | None = None, init: str = "auto", navigator_options=None,
+                    keep_keyframe_graphs: bool = False, aligner_kwargs: dict | None = None):
+    """The :class:`~graphnav.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
+
+    ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
+    ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
+    ``aligner_kwargs`` go to the :class:`~graphnav.align.Aligner` (e.g. ``initial_heading_rad``).
+    """
+    from graphnav.navigator import Navigator
+    from graphnav.replay import first_ping_time
+    if method not in GRAPH_METHODS:
+        raise ConfigError(f"unknown graph method '{method}'; choose one of {GRAPH_METHODS}")
+    if method.startswith("Graph-HN") and completer is None:
+        raise ConfigError(f"{method} needs a beam completer (e.g. graphnav.nets.AverageCompleter)")
+    if mode not in MODES:
+        raise ConfigError(f"unknown graph mode '{mode}'; choose one of {tuple(MODES)}")
+    initial = initial_state(mission, initial, init, first_ping_time(mission))
+    return Navigator(mission.config, MODES[mode], completer=completer if method.startswith("Graph-HN") else None,
+                     initial=initial, graph_options=options or GraphOptions(), options=navigator_options,
+                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs)
+
+
+def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:
+    """The initial state a replay starts from: ``initial`` (stamped t0 when it has no stamp), else the ground
+    truth at t0 (``init="gt"``, or ``"auto"`` with ground truth), else None: align from the sensors."""
+    if init not in ("auto", "gt", "sensors"):
+        raise ConfigError(f"init must be 'auto', 'gt' or 'sensors', got '{init}'")
+    if initial is not None:
+        return initial if initial.t is not None else dataclasses.replace(initial, t=t0)
+    if init == "sensors" or (init == "auto" and mission.gt is None):
+        return None
+    return InitialState.from_ground_truth(mission, t0)
 
 
 def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
@@ -52,65 +82,57 @@ def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
     Nothing is kept between keyframes except the estimator itself (bounded memory with
     ``mode="fixed-lag"``); ``Graph-HN-batch`` streams its first (filtered) pass only.
     """
-    estimator, builder = _setup(mission, method, completer, options, mode, initial)
-    for kf in builder:
-        estimator.add(kf)
-        yield estimator.update()
-
-
-def _setup(mission, method, completer, options, mode, initial):
-    if method not in GRAPH_METHODS:
-        raise ConfigError(f"unknown graph method '{method}'; choose one of {GRAPH_METHODS}")
-    if method.startswith("Graph-HN") and completer is None:
-        raise ConfigError(f"{method} needs a beam completer (e.g. graphnav.nets.AverageCompleter)")
-    options = options or GraphOptions()
-    builder = KeyframeBuilder(mission, options, completer if method.startswith("Graph-HN") else None)
-    if initial is None:
-        initial = InitialState.from_ground_truth(mission, builder.times[0])
-    return make_estimator(mode, builder, initial), builder
+    from graphnav.replay import replay
+    nav = graph_navigator(mission, method, completer, options, mode, initial)
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    for kind, t, payload in replay(mission):
+        yield from adders[kind](t, *payload)
+    yield from nav.finish()
 
 
 def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, options: GraphOptions | None = None,
               callback: Callable[[EpochEstimate], None] | None = None, mode: str = "online",
-              initial: InitialState | None = None) -> NavSolution:
-    """Run a graph method over a mission.
+              initial: InitialState | None = None, init: str = "auto",
+              aligner_kwargs: dict | None = None) -> NavSolution:
+    """Run a graph method over a recorded mission (a sample-by-sample replay through the Navigator).
 
     Args:
-        mission: the mission (IMU, DVL, optional depth; ground truth for the initial state unless ``initial``).
+        mission: the mission (IMU, DVL, optional depth; ground truth only for the initial state).
         method: ``Graph-TC``, ``Graph-HN`` or ``Graph-HN-batch`` (the HN methods need ``completer``).
         completer: beam completer (``complete(past, measured)``, ``n_past``).
         options: :class:`GraphOptions` (defaults when None).
         callback: called with the filtered :class:`EpochEstimate` after each keyframe update.
         mode: ``"online"`` (ISAM2) or ``"fixed-lag"`` (lag ``options.lag_s``).
-        initial: state at the first keyframe; default: ground truth there (zero bias).
+        initial: state at the first keyframe (stamp ``initial.t``, default the first DVL ping).
+        init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
+            ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
 
     Returns:
         NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
         ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
-        recoveries) and, for the batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or
-        ``batch_failed`` (the reason) when the batch system was indeterminant and the filtered estimates
-        are returned instead (with a warning).
+        recoveries), the Navigator's counters (``refused``, ``imu_gaps``, ``alignment`` ...) and, for the
+        batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or ``batch_failed`` (the reason)
+        when the batch system was indeterminant and the filtered estimates are returned instead (with a
+        warning).
     """
+    from graphnav.navigator import feed_mission
     start = time.perf_counter()
     options = options or GraphOptions()
     batch = method == "Graph-HN-batch"
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
-    estimator, builder = _setup(mission, method, completer, first_pass, mode, initial)
-    estimator.keep_keyframe_graphs = batch
-    estimates = []
-    for kf in builder:
-        estimator.add(kf)
-        est = estimator.update()
-        estimates.append(est)
-        if callback is not None:
-            callback(est)
-    info = {"mode": mode, "update_s": list(estimator.update_times), "recovered": estimator.n_recovered,
-            "online_s": time.perf_counter() - start}
+    nav = graph_navigator(mission, method, completer, first_pass, mode, initial, init, keep_keyframe_graphs=batch,
+                          aligner_kwargs=aligner_kwargs)
+    estimates = feed_mission(nav, mission, callback)
+    if not estimates:
+        raise ConfigError(f"{method} on '{mission.name}': no estimate was made "
+                          f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
+    info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
     if batch:
         try:
-            estimates, batch_info = batch_smooth(estimator.keyframe_graphs, estimates, options)
+            estimates, batch_info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates, options)
             info.update({"batch_" + k: v for k, v in batch_info.items()})
         except RuntimeError as exc:
             if not is_indeterminant(exc):

@@ -1,0 +1,193 @@
+"""In-motion alignment from the sensors (graphnav.align) on simulated missions with exact ground truth."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from graphnav.align import AlignmentError, AlignOptions, Aligner, align_mission, gyrocompass_heading_terms
+from graphnav.config import SensorConfig
+from graphnav.earth import ned_to_lla
+from graphnav.errors import ConfigError
+from graphnav.rotations import C_b_n_to_euler, attitude_error
+from graphnav.simulate import DEFAULT_ORIGIN_LLA, simulate_mission
+
+SEEDS = (0, 1, 2, 3)
+DURATION_S = 120.0
+
+
+def truth(mission, t):
+    """(C_b_n, v_n, p_n) of the simulated IMU at stamp t (exact kinematics; position from the GT stream)."""
+    state = mission.meta["trajectory"].state(np.array([t]))
+    p = np.array([np.interp(t, mission.gt.t, mission.gt.p_n[:, i]) for i in range(3)])
+    return state.C_b_n[0], state.v_n[0], p
+
+
+def wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+@pytest.fixture(scope="module")
+def navigation_runs():
+    """Navigation-grade FOG on a vehicle underway at 1-2 m/s: the window 120-245 s holds the two 90 deg turns of
+    the first lawnmower turn pair (and depth changes) for these seeds; aligned over 120 s."""
+    out = []
+    for seed in SEEDS:
+        mission = simulate_mission(250.0, "navigation", seed).slice(120.0, 245.0)
+        out.append((mission, align_mission(mission, AlignOptions(duration_s=DURATION_S))))
+    return out
+
+
+def test_navigation_grade_in_motion_errors_within_spec_bounds(navigation_runs):
+    for mission, a in navigation_runs:
+        cfg = mission.config
+        assert a.heading_source == "gyrocompass"
+        assert DURATION_S <= a.t - mission.t0 < DURATION_S + 0.02
+        C_true, v_true, p_true = truth(mission, a.t)
+        # the vehicle is moving and turning during the window (otherwise this is not an in-motion test)
+        yaw_rate = mission.meta["trajectory"].state(mission.imu.t[::100]).omega_nb_b[:, 2]  # rad/s
+        assert np.linalg.norm(v_true) > 1.0 and np.max(np.abs(yaw_rate)) > 0.05
+        # bounds from the spec alone (not from the aligner's own covariance): levelling is limited by the
+        # accelerometer bias (b_a / g), the heading by the gyrocompassing formula with the DVL spec noise
+        sigma_v = cfg.dvl.beam_noise_std / (np.sqrt(2) * np.sin(cfg.dvl.theta_rad))
+        heading_bound = np.sqrt(sum(v ** 2 for v in gyrocompass_heading_terms(
+            cfg, DURATION_S, int(DURATION_S), sigma_v).values()))
+        tilt_bound = cfg.imu.accel_bias_sigma / cfg.gravity_mps2
+        assert np.degrees(heading_bound) < 2.0            # 1.4 deg after 120 s with this DVL
+        err = C_b_n_to_euler(a.C_b_n) - C_b_n_to_euler(C_true)
+        assert abs(err[0]) < 4 * tilt_bound + 2e-4 and abs(err[1]) < 4 * tilt_bound + 2e-4, np.degrees(err)
+        assert abs(wrap(err[2])) < 3 * heading_bound, np.degrees(err)
+        assert abs(a.info["heading_sigma_rad"] - heading_bound) < 0.5 * heading_bound
+        assert np.all(np.abs(a.v_n - v_true) < 3 * np.sqrt(np.diag(a.cov_v_n)))
+        # no fix: local origin at the start; no depth sensor used? (align_mission feeds the depth stream)
+        assert a.origin_lla is None and a.info["position_source"].startswith("local")
+        assert abs(a.p_n[2] - p_true[2]) < 3 * np.sqrt(a.cov_p_n[2, 2])
+        assert np.all(np.abs(a.p_n[:2] - (p_true[:2] - truth(mission, mission.t0)[2][:2]))
+                      < 3 * np.sqrt(np.diag(a.cov_p_n)[:2]))
+
+
+def test_navigation_grade_attitude_covariance_covers_the_error(navigation_runs):
+    """NEES of the attitude error in GTSAM's right-perturbation tangent, summed over seeds: chi2(3K) test."""
+    nees = []
+    for mission, a in navigation_runs:
+        C_true = truth(mission, a.t)[0]
+        e = attitude_error(a.C_b_n, C_true)          # C_true = C_est Exp(delta): delta = -Log(C_true^T C_est)
+        nees.append(float(e @ np.linalg.solve(a.cov_rot, e)))
+    k = 3 * len(nees)
+    assert chi2.ppf(0.001, k) < sum(nees) < chi2.ppf(0.999, k), nees
+
+
+def test_state_at_the_start_of_the_window():
+    """result_at(t0): the same alignment carried back to the first IMU sample (for offline smoothing)."""
+    mission = simulate_mission(250.0, "navigation", 5).slice(120.0, 245.0)
+    a = align_mission(mission, AlignOptions(duration_s=DURATION_S), t_result=mission.t0)
+    assert a.t == mission.t0
+    C_true, v_true, _ = truth(mission, a.t)
+    e = attitude_error(a.C_b_n, C_true)
+    assert e @ np.linalg.solve(a.cov_rot, e) < chi2.ppf(0.999, 3)
+    assert np.all(np.abs(a.v_n - v_true) < 3 * np.sqrt(np.diag(a.cov_v_n)))
+    assert np.allclose(a.p_n[:2], 0.0) and abs(a.p_n[2] - truth(mission, a.t)[2][2]) < 0.2
+    with pytest.raises(AlignmentError, match="outside"):
+        align_mission(mission, AlignOptions(duration_s=DURATION_S), t_result=mission.t0 - 1.0)
+
+
+def test_mems_without_heading_source_is_refused_with_a_clear_message():
+    mission = simulate_mission(30.0, "mems", 1)
+    aligner = Aligner(mission.config, AlignOptions(levelling_duration_s=10.0))
+    for i, t in enumerate(mission.imu.t):
+        aligner.add_imu(t, mission.imu.f_b[i], mission.imu.omega_b[i])
+    for i, t in enumerate(mission.dvl.t):
+        aligner.add_dvl(t, mission.dvl.beams[i], mission.dvl.valid[i])
+    assert not aligner.ready
+    with pytest.raises(AlignmentError) as info:
+        aligner.result()
+    msg = str(info.value)
+    assert "heading cannot be determined" in msg and "10 deg/h" in msg and "add_heading" in msg
+    assert isinstance(info.value, ConfigError)
+
+
+def test_mems_with_heading_source_aligns():
+    mission = simulate_mission(40.0, "mems", 2)
+    aligner = Aligner(mission.config, AlignOptions(levelling_duration_s=30.0))
+    rng = np.random.default_rng(0)
+    yaw_gt = C_b_n_to_euler(mission.gt.C_b_n)[:, 2]
+    sigma_h = np.deg2rad(2.0)
+    events = sorted([(t, 0, i) for i, t in enumerate(mission.imu.t)] +
+                    [(t, 1, i) for i, t in enumerate(mission.dvl.t)] +
+                    [(t, 2, i) for i, t in enumerate(mission.gt.t[::10])])
+    for t, kind, i in events:
+        if kind == 0:
+            aligner.add_imu(t, mission.imu.f_b[i], mission.imu.omega_b[i])
+            if aligner.ready:
+                break
+        elif kind == 1:
+            aligner.add_dvl(t, mission.dvl.beams[i], mission.dvl.valid[i])
+        else:   # an AHRS heading at 1 Hz: truth plus a constant deviation of 1 sigma
+            aligner.add_heading(t, yaw_gt[10 * i] + sigma_h + 0.2 * sigma_h * rng.standard_normal(), sigma_h)
+    a = aligner.result()
+    assert a.heading_source == "heading"
+    C_true, v_true, _ = truth(mission, a.t)
+    err = C_b_n_to_euler(a.C_b_n) - C_b_n_to_euler(C_true)
+    sig = np.sqrt(np.diag(a.C_b_n @ a.cov_rot @ a.C_b_n.T))        # NED-axis sigmas
+    assert abs(wrap(err[2])) < 3 * sig[2] and sig[2] < np.deg2rad(3.0)
+    # levelling with a 5 mg accelerometer: ~0.3 deg
+    assert np.all(np.abs(err[:2]) < 3 * max(sig[0], sig[1])) and np.all(np.abs(err[:2]) < np.deg2rad(1.0))
+    assert np.all(np.abs(a.v_n - v_true) < 3 * np.sqrt(np.diag(a.cov_v_n)))
+
+
+def test_given_initial_heading_is_used():
+    mission = simulate_mission(30.0, "tactical", 3)
+    yaw0 = C_b_n_to_euler(mission.gt.C_b_n[0])[2]
+    a = align_mission(mission, AlignOptions(levelling_duration_s=20.0), initial_heading_rad=yaw0,
+                      heading_sigma_rad=np.deg2rad(1.0))
+    assert a.heading_source == "given"
+    err = wrap(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(truth(mission, a.t)[0])[2])
+    assert abs(err) < np.deg2rad(0.3)                  # exact start heading + 20 s of a 1 deg/h gyro
+    assert np.isclose(a.info["heading_sigma_rad"], np.deg2rad(1.0), rtol=0.05)
+
+
+def test_position_fix_sets_the_origin_and_the_position():
+    mission = simulate_mission(125.0, "navigation", 4)
+    t_fix = 5.0
+    p_fix = truth(mission, t_fix)[2]
+    lat, lon, _ = ned_to_lla(p_fix, DEFAULT_ORIGIN_LLA)
+    aligner = Aligner(mission.config)
+    fed = False
+    for i, t in enumerate(mission.imu.t):
+        aligner.add_imu(t, mission.imu.f_b[i], mission.imu.omega_b[i])
+        if not fed and t >= t_fix:
+            aligner.add_position_fix(t_fix, lat, lon, 2.0)
+            fed = True
+        j = np.searchsorted(mission.dvl.t, t)
+        if j < len(mission.dvl.t) and mission.dvl.t[j] == t:
+            aligner.add_dvl(t, mission.dvl.beams[j], mission.dvl.valid[j])
+        k = np.searchsorted(mission.depth.t, t)
+        if k < len(mission.depth.t) and mission.depth.t[k] == t:
+            aligner.add_depth(t, mission.depth.depth[k])
+        if aligner.ready:
+            break
+    a = aligner.result()
+    assert a.origin_lla == pytest.approx((lat, lon, 0.0))
+    assert a.info["position_source"] == "fix" and a.info["depth_source"] == "depth sensor"
+    p_true = truth(mission, a.t)[2]
+    expected = np.r_[p_true[:2] - p_fix[:2], p_true[2]]       # NED origin at the fix, at the sea surface
+    sig = np.sqrt(np.diag(a.cov_p_n))
+    assert np.all(np.abs(a.p_n - expected) < 3 * sig), (a.p_n, expected, sig)
+    assert sig[0] < 20.0 and sig[2] < 0.2
+
+
+def test_missing_inputs_are_named():
+    config = SensorConfig()
+    aligner = Aligner(config)
+    with pytest.raises(AlignmentError, match="no IMU samples"):
+        aligner.result()
+    for k in range(1001):
+        aligner.add_imu(k * 0.01, [0.0, 0.0, -config.gravity_mps2], np.zeros(3))
+    assert not aligner.ready
+    with pytest.raises(AlignmentError) as info:
+        aligner.result()
+    assert "DVL" in str(info.value) and "10.0 s of the 120 s" in str(info.value)
+    off = SensorConfig(earth_rotation=False)
+    assert any("earth_rotation=False" in m for m in Aligner(off).missing())
+    with pytest.raises(ConfigError):
+        AlignOptions(duration_s=-1.0)
