@@ -20,6 +20,13 @@ bias tangent ``[acc, gyro]``), with ``B`` the (m,3) rows:
 
     d/dpose = [B [R^T v]x, 0]      d/dv = B R^T      d/dbias = [0, B [l]x]      d/dl = B [omega - b_g]x
 
+DVL error states (:func:`beam_factor_dvl_errors`, as the EKF's ``dvl_error_states``): a Vector7 variable
+``d = [s (3), b (4)]`` holds the scale factor per DVL axis and the bias per beam, beam model
+``y_i = T_d[i] ((1 + s) * v_d) + b_i`` with ``v_d = C_d_b^T (R^T v_n + (omega_b - b_g) x l_b)``. With
+``M`` = rows ``T_d[i] diag(1 + s) C_d_b^T`` in place of ``B`` above, plus
+
+    d/ds = T_d[i] * v_d (elementwise)      d/db = e_i (the factor's beam index)
+
 ``gtsam.CustomFactor`` calls back into Python; inside the C++ optimisers each call also copies the whole
 ``Values`` (pybind11 casts the ``const Values&`` argument by copy), so the cost of one call grows with the
 number of variables. Fewer, larger factors (one per epoch) are therefore preferred.
@@ -98,6 +105,53 @@ def beam_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.nd
         return residual
 
     return gtsam.CustomFactor(noise, [x_key, v_key, b_key], error)
+
+
+#: Dimension of the DVL error-state vector ``[scale x, y, z, bias beam 1..4]``.
+N_DVL_ERRORS = 7
+
+
+def beam_factor_dvl_errors(x_key: int, v_key: int, b_key: int, d_key: int, rows_b: np.ndarray,
+                           beam_index: np.ndarray, C_d_b: np.ndarray, y: np.ndarray,
+                           noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
+                           lever_arm_b: np.ndarray) -> gtsam.CustomFactor:
+    """As :func:`beam_factor`, plus the DVL error states: Vector7 ``d_key`` = [scale (3), beam bias (4) m/s].
+
+    Args:
+        rows_b: (m,3) beam unit vectors in the body frame (rows of ``DvlGeometry.T_b``).
+        beam_index: (m,) 0-based beam number of each row (which bias applies).
+        C_d_b: (3,3) DVL-to-body rotation (the scale factor acts on the DVL-frame axes).
+        Others as :func:`beam_factor`.
+    """
+    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
+    C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
+    rows_d = B @ C_d_b                     # T_d rows: T_b = T_d C_d_b^T
+    index = np.asarray(beam_index, dtype=int).reshape(-1)
+    if index.shape[0] != B.shape[0] or np.any((index < 0) | (index > 3)):
+        raise ValueError(f"beam_index must hold one beam number 0..3 per row, got {index.tolist()}")
+    onehot = np.zeros((B.shape[0], 4))
+    onehot[np.arange(B.shape[0]), index] = 1.0
+    omega = np.array(omega_b, dtype=float).reshape(3)
+    lever = np.array(lever_arm_b, dtype=float).reshape(3)
+    zeros = np.zeros((B.shape[0], 3))
+
+    def error(_factor, values, H):
+        R = values.atPose3(x_key).rotation().matrix()
+        v_n = values.atVector(v_key)
+        b_g = values.atConstantBias(b_key).gyroscope()
+        d = values.atVector(d_key)
+        v_body = R.T @ v_n
+        v_d = C_d_b.T @ (v_body + _cross(omega - b_g, lever))
+        residual = rows_d @ ((1.0 + d[:3]) * v_d) + onehot @ d[3:] - y
+        if H is not None:
+            M = (rows_d * (1.0 + d[:3])) @ C_d_b.T
+            H[0] = np.hstack([M @ _skew(v_body), zeros])
+            H[1] = M @ R.T
+            H[2] = np.hstack([zeros, M @ _skew(lever)])
+            H[3] = np.hstack([rows_d * v_d, onehot])
+        return residual
+
+    return gtsam.CustomFactor(noise, [x_key, v_key, b_key, d_key], error)
 
 
 def body_velocity_factor(x_key: int, v_key: int, b_key: int, v_dvl_b: np.ndarray,

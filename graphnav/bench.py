@@ -171,10 +171,12 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
 def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float) -> list[dict]:
     """Per-window metrics of one solution: ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``
     (drift over the window), ``pos_err_abs_window_end_m`` (error at the window end) and ``nees_window``
-    (mean velocity NEES over the window, 3 for a consistent estimator; None without covariance)."""
+    (mean velocity NEES over the window, 3 for a consistent estimator; None without covariance), and the
+    mission's NEES (:func:`mission_nees`)."""
     from .metrics import horizontal_position_error, nees_velocity, vrmse
     gt = mission.gt
     v_mission = float(vrmse(sol, gt, mission.t0, mission.t1))
+    consistency = mission_nees(sol, mission)
     out = []
     for s in starts:
         nees = None
@@ -187,6 +189,7 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
             "pos_err_window_end_m": window_position_drift(sol, gt, s, s + window_s),
             "pos_err_abs_window_end_m": float(horizontal_position_error(sol, gt, s + window_s)),
             "nees_window": nees,
+            **consistency,
         })
     return out
 
@@ -209,6 +212,71 @@ def divergence_reason(sol: NavSolution, record: dict, t_start: float, t_end: flo
                      if i[0] <= t_end and (i[1] is None or i[1] >= t_start))
         return f"health monitor: {first[2]} (t={first[0]:.1f} s)"
     return None
+
+
+#: Seconds after the mission start left out of the mission NEES (initial convergence).
+NEES_SETTLE_S = 60.0
+
+
+def mission_nees(sol: NavSolution, mission: Mission) -> dict:
+    """``nees_mission``: mean velocity NEES over the mission after :data:`NEES_SETTLE_S`;
+    ``nees_mission_gt``: the same with the GT's own velocity error covariance added to the solution's
+    (``mission.meta["gt_velocity_sigma_n"]``, m/s per NED axis, set by the A-KIT loader; None without it);
+    ``nees_n_independent``: independent epochs for the chi-square band (:mod:`graphnav.consistency`)."""
+    from .consistency import n_independent, nees_with_reference
+    from .metrics import nees_velocity
+    if sol.cov_v_n is None:
+        return {"nees_mission": None, "nees_mission_gt": None, "nees_n_independent": None}
+    t0 = mission.t0 + NEES_SETTLE_S
+    nees = float(np.mean(nees_velocity(sol, mission.gt, t0)))
+    sigma_gt = mission.meta.get("gt_velocity_sigma_n")
+    nees_gt = None
+    if sigma_gt is not None:
+        nees_gt = float(np.mean(nees_with_reference(sol, mission.gt, np.diag(np.square(sigma_gt)), t0)))
+    return {"nees_mission": nees, "nees_mission_gt": nees_gt,
+            "nees_n_independent": n_independent(sol.t[sol.t >= t0])}
+
+
+def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
+    """Report lines: velocity NEES per method over the mission and in the windows, with the 95 % chi-square
+    band, the share of trajectories inside it, and how much of the NEES the GT's own error explains."""
+    from .consistency import chi2_band
+    lines = ["## Consistency (velocity NEES)", "",
+             "Mean velocity NEES (3 dof; 3 = consistent) over each mission after "
+             f"{NEES_SETTLE_S:g} s (`mission`, mean and range over trajectories) and over the windows (`windows`). "
+             "Band: 95 % chi-square band of a mission mean, counting one independent epoch per 10 s "
+             "(errors are correlated in time; `graphnav.consistency`). `+GT`: NEES with the ground truth's own "
+             "velocity error added to the estimator's covariance (A-KIT: identified by "
+             "`scripts/identify_noise.py`, an upper bound of the GT's error); `GT share`: the part of the "
+             "NEES that the GT's error explains, `1 - NEES(+GT) / NEES`. One trajectory with a bad stretch (e.g. "
+             "A-KIT Trajectory11 at the surface) dominates a mean; the median over trajectories does not.", ""]
+    for grade in grades:
+        for sc in scenarios:
+            rows = []
+            for m in methods:
+                rs = [r for r in records if (r["imu_grade"], r["scenario"], r["method"]) == (grade, sc, m)
+                      and not r.get("error") and r.get("nees_mission") is not None]
+                if not rs:
+                    continue
+                per_traj = {r["trajectory"]: r for r in rs}.values()     # one mission value per trajectory
+                nees = [r["nees_mission"] for r in per_traj]
+                n_ind = int(np.median([r["nees_n_independent"] for r in per_traj]))
+                lo, hi = chi2_band(n_ind)
+                inside = sum(lo <= x <= hi for x in nees)
+                gt = [r["nees_mission_gt"] for r in per_traj if r.get("nees_mission_gt") is not None]
+                gt_mean = _mean(gt) if gt else float("nan")
+                share = 1.0 - gt_mean / _mean(nees) if gt else float("nan")
+                rows.append(f"| {m} | {_f(_mean(nees), 1)} ({_f(min(nees), 1)}-{_f(max(nees), 1)}) | "
+                            f"{_f(float(np.median(nees)), 1)} | "
+                            f"{_f(_mean(r.get('nees_window') for r in rs), 1)} | {lo:.2f}-{hi:.2f} | "
+                            f"{inside}/{len(nees)} | {_f(gt_mean, 1)} | "
+                            f"{'-' if not math.isfinite(share) else f'{share * 100:.0f}%'} |")
+            if rows:
+                lines += [f"### NEES: {grade}, {sc}", "",
+                          "| method | mission NEES (range) | median | windows NEES | 95 % band | inside | +GT "
+                          "| GT share |",
+                          "| --- | --- | --- | --- | --- | --- | --- | --- |", *rows, ""]
+    return lines
 
 
 def downsample(sol: NavSolution, rate_hz: float = 10.0) -> NavSolution:
@@ -708,6 +776,9 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
             more = f"; ... {a['n_diverged'] - 10} more" if a["n_diverged"] > 10 else ""
             lines.append(f"| {grade} | {sc} | {m} | {a['n_diverged']} | {listed}{more} |")
         lines.append("")
+
+
+    lines += nees_section(records, grades, scenarios, methods)
     lines += ["## Runtime", "", "Wall time of one method run over a whole mission (mean over runs) and the "
               "real-time factor (mission duration / wall time).", "",
               "| method | runtime (s) | real-time factor | runs |", "| --- | --- | --- | --- |"]

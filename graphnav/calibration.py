@@ -41,6 +41,7 @@ from .config import SensorConfig
 from .dvl import DvlGeometry
 from .errors import DataError
 from .mission import Mission
+from .noise_id import NoiseEstimate
 from .rotations import skew
 
 AXES = "xyz"
@@ -542,6 +543,8 @@ class CalibrationResult:
         imu_position_b: gt mode: the accelerometer's position relative to the GT reference point, m
             (:func:`estimate_imu_position`); the lever arm above is relative to the GT point.
         info: extra diagnostics.
+        noise: identified IMU densities, beam noise and GT velocity error (:mod:`graphnav.noise_id`), written
+            into ``config`` (``imu.*_noise_density``, ``dvl.beam_noise_std``); None if not identified.
     """
 
     mode: str
@@ -556,6 +559,7 @@ class CalibrationResult:
     config: SensorConfig
     imu_position_b: Quantity | None = None
     info: dict = field(default_factory=dict)
+    noise: NoiseEstimate | None = None
 
     def to_dict(self) -> dict:
         def q(x):
@@ -565,6 +569,7 @@ class CalibrationResult:
                 "dvl_yaw_rad": q(self.dvl_yaw_rad), "dvl_scale": q(self.dvl_scale), "dvl_bias": q(self.dvl_bias),
                 "imu_position_b": q(self.imu_position_b),
                 "residual_rms": self.residual_rms, "axis_check": self.axis_check.to_dict(),
+                "noise": None if self.noise is None else self.noise.to_dict(),
                 "info": {k: v for k, v in self.info.items() if isinstance(v, (int, float, str, bool))}}
 
     def report(self) -> str:
@@ -587,6 +592,14 @@ class CalibrationResult:
                  f"  IMU axes ({self.axis_check.method}): "
                  + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
         lines += [f"    note: {n}" for n in self.axis_check.notes]
+        if self.noise is not None:
+            n = self.noise
+            gt = ("-" if n.gt_velocity_sigma_n is None
+                  else "[" + ", ".join(f"{x:.4f}" for x in n.gt_velocity_sigma_n) + "] m/s (N, E, D; upper bound)")
+            lines += [f"  accel noise density       : {n.accel_noise_density:.2e} m/s^2/sqrt(Hz)",
+                      f"  gyro noise density        : {n.gyro_noise_density:.2e} rad/s/sqrt(Hz)",
+                      f"  beam noise                : {n.beam_noise_std:.4f} m/s ({n.n_beams} beams)",
+                      f"  GT velocity error         : {gt}"]
         return "\n".join(lines)
 
 
@@ -629,13 +642,27 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
               "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms})
 
 
-def calibrate(mission: Mission, mode: str = "auto", **kwargs) -> CalibrationResult:
-    """Calibrate a mission: ``mode`` = ``"gt"``, ``"graph"`` or ``"auto"`` (gt when GT is present)."""
+def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False, **kwargs) -> CalibrationResult:
+    """Calibrate a mission: ``mode`` = ``"gt"``, ``"graph"`` or ``"auto"`` (gt when GT is present).
+
+    ``identify_noise``: also identify the IMU white-noise densities and the beam noise from the data
+    (:func:`graphnav.noise_id.identify`, one all-beam batch-smoother run; with GT also the GT's velocity
+    error) and write them into the calibrated configuration (``graphnav calibrate`` does by default).
+    """
     if mode == "auto":
         mode = "gt" if mission.gt is not None else "graph"
     if mode == "gt":
-        return calibrate_with_gt(mission, **kwargs)
-    if mode == "graph":
+        result = calibrate_with_gt(mission, **kwargs)
+    elif mode == "graph":
         from .calibration_graph import calibrate_with_graph
-        return calibrate_with_graph(mission, **kwargs)
-    raise ValueError(f"unknown calibration mode '{mode}' (gt, graph, auto)")
+        result = calibrate_with_graph(mission, **kwargs)
+    else:
+        raise ValueError(f"unknown calibration mode '{mode}' (gt, graph, auto)")
+    if identify_noise:
+        from .noise_id import identify
+        noise = identify(mission)
+        result.noise = noise
+        result.config.imu.accel_noise_density = noise.accel_noise_density
+        result.config.imu.gyro_noise_density = noise.gyro_noise_density
+        result.config.dvl.beam_noise_std = noise.beam_noise_std
+    return result

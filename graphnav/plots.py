@@ -4,6 +4,7 @@
 * :func:`plot_velocity_errors`: NED velocity error per axis with the estimator's +-1 sigma sleeve.
 * :func:`plot_velocity_std`: velocity standard deviation over time around the outage windows.
 * :func:`plot_vrmse_bars`: window VRMSE per method and scenario from benchmark records.
+* :func:`plot_nees`: velocity NEES over time per method with the chi-square band (consistency).
 
 Every function takes a path, writes one PNG there and returns the path.
 """
@@ -157,6 +158,39 @@ def plot_velocity_std(solutions: list[NavSolution], outages, path, title: str = 
     axes[0].legend(fontsize=8, ncol=3, loc="upper left")
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(title or "Velocity standard deviation around the outage window")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_nees(gt, solutions: list[NavSolution], outages, path, title: str = "", smooth_s: float = 10.0,
+              settle_s: float = 60.0) -> Path:
+    """Velocity NEES over time (log scale) of every solution with a covariance: per epoch (thin) and its
+    running mean over ``smooth_s`` (thick), with the 95 % chi-square band of one epoch (3 dof) and of a
+    ``smooth_s`` mean (one independent epoch per second assumed, so the band is indicative)."""
+    from .consistency import DOF, chi2_band, nees_time_series
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    _mark_windows(ax, _windows(outages))
+    lo1, hi1 = chi2_band(1)
+    lo, hi = chi2_band(max(int(smooth_s), 1))
+    ax.axhspan(lo1, hi1, color="0.85", alpha=0.5, label="95 % band, one epoch")
+    ax.axhspan(lo, hi, color="#a5d6a7", alpha=0.6, label=f"95 % band, {smooth_s:g} s mean")
+    ax.axhline(DOF, color="k", lw=0.8, ls="--")
+    for i, sol in enumerate(solutions):
+        if sol.cov_v_n is None:
+            continue
+        t, nees = nees_time_series(sol, gt, sol.t[0] + settle_s)
+        c = _color(sol.method, i)
+        ax.plot(t, np.clip(nees, 1e-3, None), color=c, lw=0.4, alpha=0.5)
+        n = max(int(round(smooth_s / max(float(np.median(np.diff(t))), 1e-3))), 1) if len(t) > 1 else 1
+        mean = np.convolve(nees, np.ones(n) / n, mode="same")
+        ax.plot(t, np.clip(mean, 1e-3, None), color=c, lw=1.6,
+                label=f"{sol.method} (mean {np.mean(nees):.1f})")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("velocity NEES (3 dof)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, ncol=3, loc="upper left")
+    ax.set_title(title or "Velocity NEES over time")
     fig.tight_layout()
     return _save(fig, path)
 

@@ -4,14 +4,14 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 import pytest
-from gtsam.symbol_shorthand import B, L, V, X
+from gtsam.symbol_shorthand import B, D, L, V, X
 from gtsam.utils.numerical_derivative import (numericalDerivative41, numericalDerivative42,
                                               numericalDerivative43, numericalDerivative44)
 
 from graphnav.config import DvlSpec
 from graphnav.dvl import DvlGeometry
-from graphnav.factors import (beam_factor, beam_factor_lever_arm, body_velocity_factor, depth_factor,
-                              predict_beams)
+from graphnav.factors import (beam_factor, beam_factor_dvl_errors, beam_factor_lever_arm, body_velocity_factor,
+                              depth_factor, predict_beams)
 
 LEVER = np.array([-1.86, -0.04, 0.2])
 
@@ -135,6 +135,45 @@ def test_lever_arm_is_recovered_by_optimisation():
         values.insert(B(k), bias)
     result = gtsam.LevenbergMarquardtOptimizer(graph, values).optimize()
     np.testing.assert_allclose(result.atPoint3(L(0)), geo.lever_arm_b, atol=0.03)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("beams", [[2], [0, 3], [0, 1, 2, 3]])
+def test_dvl_error_state_factor_zero_residual_and_jacobians(seed, beams):
+    """Beams made with scale s and bias b (the EKF's model y = T_d[(1+s) v_d] + b): zero residual at the true
+    (state, d); every Jacobian block, including the scale and bias columns, equals the numerical one."""
+    rng = np.random.default_rng(100 + seed)
+    geo = geometry(rng)
+    pose, v_n, bias = random_state(rng)
+    omega = rng.normal(0, 0.3, 3)
+    d = np.r_[rng.normal(0, 0.02, 3), rng.normal(0, 0.05, 4)]
+    v_head_b = geo.dvl_velocity_b(pose.rotation().matrix().T @ v_n, omega - bias.gyroscope())
+    v_d = geo.C_d_b.T @ v_head_b
+    y_all = geo.T_d @ ((1.0 + d[:3]) * v_d) + d[3:]
+    sigmas = rng.uniform(0.02, 0.3, len(beams))
+    factor = beam_factor_dvl_errors(X(0), V(0), B(0), D(0), geo.T_b[beams], beams, geo.C_d_b, y_all[beams],
+                                    sigmas, omega, geo.lever_arm_b)
+    values = values_of(pose, v_n, bias)
+    values.insert(D(0), d)
+    np.testing.assert_allclose(factor.unwhitenedError(values), 0.0, atol=1e-12)
+
+    def h(x, v, b, dd):
+        vals = values_of(x, v, b)
+        vals.insert(D(0), dd)
+        return factor.whitenedError(vals)
+
+    args = [pose, v_n, bias, d]
+    numeric = np.hstack([numericalDerivative41(h, *args), numericalDerivative42(h, *args),
+                         numericalDerivative43(h, *args), numericalDerivative44(h, *args)])
+    A = factor.linearize(values).jacobian()[0]
+    np.testing.assert_allclose(A, numeric, atol=1e-6, rtol=1e-6)
+    # with d = 0 the factor is the plain beam factor
+    values.update(D(0), np.zeros(7))
+    plain = beam_factor(X(0), V(0), B(0), geo.T_b[beams], y_all[beams], sigmas, omega, geo.lever_arm_b)
+    np.testing.assert_allclose(factor.unwhitenedError(values), plain.unwhitenedError(values), atol=1e-12)
+    with pytest.raises(ValueError, match="beam_index"):
+        beam_factor_dvl_errors(X(0), V(0), B(0), D(0), geo.T_b[beams], [4] * len(beams), geo.C_d_b,
+                               y_all[beams], sigmas, omega, geo.lever_arm_b)
 
 
 def test_beam_factor_rejects_mismatched_sizes():

@@ -241,3 +241,61 @@ def test_callback_iterator_and_errors(nav_mission):
         run_graph(m, "Graph-TC", mode="sideways")
     with pytest.raises(ConfigError):
         GraphOptions(beam_factor_mode="per-ping")
+
+
+@pytest.fixture(scope="module")
+def biased_missions():
+    """200 s, navigation IMU, beams with the default bias (0.01 m/s) and scale error (0.7 %)."""
+    missions = [simulate_mission(200, seed=s) for s in range(4)]
+    assert np.all(missions[0].config.dvl.beam_bias != 0) and np.all(missions[0].config.dvl.scale_factor != 0)
+    return missions
+
+
+@pytest.mark.parametrize("mode", ["online", "fixed-lag"])
+def test_dvl_error_states_make_biased_beams_consistent(biased_missions, mode):
+    """With beam bias and scale in the data, the DVL error states keep the filtered NEES (mean over four
+    missions: one mission's mean is dominated by a few slow error excursions) in its band and estimate the
+    common beam bias (observable through the depth factor)."""
+    opts = GraphOptions(dvl_error_states=True, lag_s=10.0)
+    nees, bias, err = [], [], []
+    for m in biased_missions:
+        seen = []
+        sol = run_graph(m, "Graph-TC", mode=mode, options=opts, callback=seen.append)
+        nees.append(nees_velocity(sol, m.gt, t_start=20.0).mean())
+        err.append(vrmse(sol, m.gt))
+        d = seen[-2].dvl_errors          # D(k) is read back when keyframe k + 1 is added
+        assert d.shape == (7,)
+        bias.append(d[3:].mean())
+    assert 1.5 < np.mean(nees) < 4.5, nees
+    assert np.mean(err) < biased_missions[0].config.dvl.beam_noise_std, err
+    assert abs(np.mean(bias) - 0.01) < 0.004, bias
+
+
+def test_dvl_error_states_batch_and_recovery(biased_missions):
+    """Vectorised batch with the D(k) columns equals GTSAM's LM; the QR restart carries D(k)."""
+    m = biased_missions[0].slice(0, 60).with_outage(scenario_outage("2-missing", 30.0, 15.0))
+    opts = GraphOptions(dvl_error_states=True)
+    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=opts)
+    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+                  options=dataclasses.replace(opts, batch_solver="lm"))
+    np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
+    np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)
+    assert a.info["batch_dvl_errors"].shape == (len(a), 7)
+    bad = dataclasses.replace(opts, integration_sigma=1e-4, factorization="CHOLESKY")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sol = run_graph(m.slice(0, 40), "Graph-TC", options=bad)
+    ref = run_graph(m.slice(0, 40), "Graph-TC", options=dataclasses.replace(bad, factorization="QR"))
+    assert sol.info["recovered"] >= 1
+    assert vrmse(sol, m.gt) < 1.2 * vrmse(ref, m.gt) + 1e-3
+
+
+def test_dvl_error_states_only_on_measured_beams_batch_equals_lm(biased_missions):
+    """Regressed beams without the DVL error states (mixed rows in one keyframe) in the vectorised batch."""
+    m = biased_missions[1].slice(0, 40).with_outage(scenario_outage("2-missing", 20.0, 10.0))
+    opts = GraphOptions(dvl_error_states=True, dvl_errors_on_regressed=False)
+    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=opts)
+    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+                  options=dataclasses.replace(opts, batch_solver="lm"))
+    np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
+    np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)

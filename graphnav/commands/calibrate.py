@@ -31,6 +31,10 @@ def register(subparsers) -> None:
                         "the mission has GT")
     p.add_argument("--min-depth", type=float, default=2.0, metavar="M",
                    help="gt mode: leave out DVL pings shallower than this (surface waves), m")
+    p.add_argument("--no-noise", action="store_true",
+                   help="skip the noise identification (IMU white-noise densities by Allan deviation, beam noise "
+                        "from the all-beam batch smoother's residuals, GT velocity error; graphnav.noise_id), "
+                        "whose values are otherwise written into the calibrated configuration")
     p.add_argument("--out", metavar="JSON", default="calibrated_config.json",
                    help="where to write the calibrated SensorConfig")
     p.add_argument("--report", metavar="JSON", default=None,
@@ -44,7 +48,7 @@ def run(args) -> int:
     from .smooth import recorded_mission
     mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
-    result = calibrate(mission, args.mode, **kwargs)
+    result = calibrate(mission, args.mode, identify_noise=not args.no_noise, **kwargs)
     print(f"mission: {mission.name} ({mission.duration:.0f} s)")
     print(result.report())
     result.config.save(args.out)

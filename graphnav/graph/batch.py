@@ -24,9 +24,10 @@ import warnings
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import B, V, X
+from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.errors import ConfigError
+from graphnav.factors import N_DVL_ERRORS
 
 from .builder import BeamGroup, KeyframeFactors
 from .incremental import EpochEstimate, is_indeterminant
@@ -37,11 +38,19 @@ class StackedBeams:
     """All DVL beam rows of a mission as arrays, for vectorised linearisation.
 
     Attributes (R rows): k (R,) keyframe index; rows (R,3); y, sigma, huber (R,) (NaN = no kernel);
-    omega, lever (R,3).
+    omega, lever (R,3); with DVL error states (``has_dvl_errors``): beam (R,) beam number 0..3 and C_d_b
+    (3,3), and the columns d/ds (3) and d/db (4) of each row on ``D(k)``.
     """
 
     def __init__(self, groups: list[BeamGroup]):
         sizes = [len(g.y) for g in groups]
+        with_d = [g for g in groups if g.beam_index is not None]
+        self.has_dvl_errors = bool(with_d)
+        self.C_d_b = with_d[0].C_d_b if with_d else np.eye(3)
+        # rows without the DVL error states (e.g. regressed beams with dvl_errors_on_regressed=False) get s = b = 0
+        self.uses_d = np.repeat([g.beam_index is not None for g in groups], sizes).astype(bool)
+        self.beam = (np.concatenate([np.zeros(len(g.y), int) if g.beam_index is None else g.beam_index
+                                     for g in groups]).astype(int) if groups else np.zeros(0, int))
         self.k = np.repeat([g.k for g in groups], sizes).astype(int)
         self.rows = np.concatenate([g.rows_b for g in groups]) if groups else np.zeros((0, 3))
         self.y = np.concatenate([g.y for g in groups]) if groups else np.zeros(0)
@@ -50,23 +59,39 @@ class StackedBeams:
         self.omega = np.repeat([g.omega_b for g in groups], sizes, axis=0).reshape(-1, 3)
         self.lever = np.repeat([g.lever_arm_b for g in groups], sizes, axis=0).reshape(-1, 3)
         order = np.argsort(self.k, kind="stable")
-        for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever"):
+        for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever", "beam", "uses_d"):
             setattr(self, name, getattr(self, name)[order])
         # one JacobianFactor per keyframe: row ranges
         self.keyframes, self.starts = np.unique(self.k, return_index=True)
         self.ends = np.append(self.starts[1:], len(self.k))
 
-    def linearize(self, C_b_n: np.ndarray, v_n: np.ndarray, gyro_bias: np.ndarray):
-        """Residuals e (R,) and Jacobians (R,3) d/drot, d/dv, d/dgyro-bias at per-keyframe states (K,...)."""
+    def linearize(self, C_b_n: np.ndarray, v_n: np.ndarray, gyro_bias: np.ndarray,
+                  dvl_errors: np.ndarray | None = None):
+        """Residuals e (R,) and Jacobians (R,3) d/drot, d/dv, d/dgyro-bias at per-keyframe states (K,...),
+        and (R,7) d/dD (None without DVL error states; ``dvl_errors`` (K,7) = [scale (3), beam bias (4)])."""
         R = C_b_n[self.k]
         v_body = np.einsum("rji,rj->ri", R, v_n[self.k])
         rate = self.omega - gyro_bias[self.k]
-        e = np.einsum("ri,ri->r", self.rows, v_body + np.cross(rate, self.lever)) - self.y
+        v_head = v_body + np.cross(rate, self.lever)
+        if not self.has_dvl_errors:
+            M = self.rows
+            e = np.einsum("ri,ri->r", M, v_head) - self.y
+            J_d = None
+        else:
+            # y = T_d[(1 + s) v_d] + b: M = T_d diag(1 + s) C_d_b^T takes the place of the body-frame rows
+            d = dvl_errors[self.k] * self.uses_d[:, None]
+            rows_d = self.rows @ self.C_d_b
+            v_d = v_head @ self.C_d_b
+            M = (rows_d * (1.0 + d[:, :3])) @ self.C_d_b.T
+            onehot = np.zeros((len(self.k), 4))
+            onehot[np.arange(len(self.k)), self.beam] = 1.0
+            e = np.einsum("ri,ri->r", M, v_head) + d[np.arange(len(self.k)), 3 + self.beam] - self.y
+            J_d = np.hstack([rows_d * v_d, onehot]) * self.uses_d[:, None]
         # b^T [u]x w = w . (b x u)
-        J_rot = np.cross(self.rows, v_body)
-        J_v = np.einsum("rij,rj->ri", R, self.rows)
-        J_bg = np.cross(self.rows, self.lever)
-        return e, J_rot, J_v, J_bg
+        J_rot = np.cross(M, v_body)
+        J_v = np.einsum("rij,rj->ri", R, M)
+        J_bg = np.cross(M, self.lever)
+        return e, J_rot, J_v, J_bg, J_d
 
     def weights(self, e: np.ndarray) -> np.ndarray:
         """Huber IRLS weights (1 where no kernel or inside the threshold)."""
@@ -85,29 +110,60 @@ class StackedBeams:
         loss[robust] = k[robust] * s[robust] - 0.5 * k[robust] ** 2
         return float(loss.sum())
 
-    def jacobian_factors(self, e, J_rot, J_v, J_bg) -> gtsam.GaussianFactorGraph:
-        """Whitened, reweighted linear factors ``|A dx + e|`` per keyframe."""
+    def jacobian_factors(self, e, J_rot, J_v, J_bg, J_d=None) -> gtsam.GaussianFactorGraph:
+        """Whitened, reweighted linear factors ``|A dx + e|`` per keyframe (with ``D(k)`` columns if J_d)."""
         scale = np.sqrt(self.weights(e)) / self.sigma
         A_rot, A_v, A_bg, b = J_rot * scale[:, None], J_v * scale[:, None], J_bg * scale[:, None], -e * scale
         zeros = np.zeros((len(e), 3))
         A_pose = np.hstack([A_rot, zeros])
         A_bias = np.hstack([zeros, A_bg])
         graph = gtsam.GaussianFactorGraph()
+        A_d = None if J_d is None else J_d * scale[:, None]
         for k, a, z in zip(self.keyframes.tolist(), self.starts.tolist(), self.ends.tolist()):
-            graph.push_back(gtsam.JacobianFactor(X(k), A_pose[a:z], V(k), A_v[a:z], B(k), A_bias[a:z], b[a:z],
-                                                 gtsam.noiseModel.Unit.Create(z - a)))
+            if A_d is None:
+                graph.push_back(gtsam.JacobianFactor(X(k), A_pose[a:z], V(k), A_v[a:z], B(k), A_bias[a:z],
+                                                     b[a:z], gtsam.noiseModel.Unit.Create(z - a)))
+            else:
+                graph.push_back(_jacobian_factor4([X(k), V(k), B(k), D(k)],
+                                                  [A_pose[a:z], A_v[a:z], A_bias[a:z], A_d[a:z]], b[a:z]))
         return graph
 
 
-def _states(values: gtsam.Values, n: int):
+def _jacobian_factor4(keys: list[int], blocks: list[np.ndarray], b: np.ndarray) -> gtsam.JacobianFactor:
+    """``JacobianFactor`` ``|sum_j A_j dx_j - b|`` on four keys (X, V, B, D).
+
+    gtsam's Python wrapper constructs JacobianFactors on at most three keys, so the precomputed (already
+    whitened) blocks are handed through a ``CustomFactor`` that returns them, linearised on a Values holding
+    only its own four variables (about 11 us; no copy of the mission's Values).
+    """
+    residual = -np.asarray(b)
+
+    def error(_factor, _values, H):
+        if H is not None:
+            for j, block in enumerate(blocks):
+                H[j] = block
+        return residual
+
+    small = gtsam.Values()
+    small.insert(keys[0], gtsam.Pose3())
+    small.insert(keys[1], np.zeros(3))
+    small.insert(keys[2], gtsam.imuBias.ConstantBias())
+    small.insert(keys[3], np.zeros(N_DVL_ERRORS))
+    return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(len(b)), keys, error).linearize(small)
+
+
+def _states(values: gtsam.Values, n: int, with_d: bool = False):
     C = np.empty((n, 3, 3))
     v = np.empty((n, 3))
     bg = np.empty((n, 3))
+    d = np.zeros((n, N_DVL_ERRORS)) if with_d else None
     for k in range(n):
         C[k] = values.atPose3(X(k)).rotation().matrix()
         v[k] = values.atVector(V(k))
         bg[k] = values.atConstantBias(B(k)).gyroscope()
-    return C, v, bg
+        if with_d:
+            d[k] = values.atVector(D(k))
+    return C, v, bg, d
 
 
 def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]],
@@ -137,6 +193,10 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
         values.insert(X(e.index), e.pose)
         values.insert(V(e.index), e.v_n)
         values.insert(B(e.index), e.bias)
+    # DVL error states (GraphOptions.dvl_error_states) start at zero: the model is linear in them
+    for key in cpp.keyVector():
+        if gtsam.Symbol(key).chr() == ord("d") and not values.exists(key):
+            values.insert(key, np.zeros(N_DVL_ERRORS))
     qr = options.batch_factorization == "QR"
     try:
         result, info, covs = _solve(cpp, groups, values, n, options, qr)
@@ -150,9 +210,12 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
         result, info, covs = _solve(cpp, groups, values, n, options, True)
         info["qr_retry"] = True
     info["solve_s"] = time.perf_counter() - start
+    with_d = result.exists(D(0))
     out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
                          result.atConstantBias(B(e.index)), covs[e.index], e.n_measured, e.n_regressed,
-                         float("nan")) for e in estimates]
+                         float("nan"), result.atVector(D(e.index)) if with_d else None) for e in estimates]
+    if with_d:
+        info["dvl_errors"] = np.array([o.dvl_errors for o in out])
     return out, info
 
 
@@ -188,15 +251,12 @@ def _covariance(conditional: gtsam.GaussianConditional) -> np.ndarray:
 
 def _solve_vectorized(cpp, beams: StackedBeams, values, n, options, qr: bool = False):
     def linearize(vals):
-        C, v, bg = _states(vals, n)
-        e, J_rot, J_v, J_bg = beams.linearize(C, v, bg)
         linear = cpp.linearize(vals)
-        linear.push_back(beams.jacobian_factors(e, J_rot, J_v, J_bg))
+        linear.push_back(beams.jacobian_factors(*beams.linearize(*_states(vals, n, beams.has_dvl_errors))))
         return linear
 
     def cost(vals):
-        C, v, bg = _states(vals, n)
-        return cpp.error(vals) + beams.cost(beams.linearize(C, v, bg)[0])
+        return cpp.error(vals) + beams.cost(beams.linearize(*_states(vals, n, beams.has_dvl_errors))[0])
 
     costs = [cost(values)]
     iterations = 0

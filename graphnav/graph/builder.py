@@ -13,14 +13,16 @@ from typing import Iterator
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import B, V, X
+from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav import keyframes as kfs
 from graphnav.config import SensorConfig
 from graphnav.dvl import DvlGeometry
 from graphnav.earth import earth_rate_n
-from graphnav.factors import beam_factor, beam_noise, depth_factor, heading_factor, horizontal_position_factor
+from graphnav.factors import (beam_factor, beam_factor_dvl_errors, beam_noise, depth_factor, heading_factor,
+                              horizontal_position_factor)
 
+from .dvl_errors import beam_index
 from .options import GraphOptions
 from .regressed import motion_prior_factors, screen_regressed
 
@@ -203,6 +205,9 @@ class BeamGroup:
         omega_b: (3,) body rate for the lever-arm term (Earth rate removed when configured), rad/s.
         lever_arm_b: (3,) m.
         regressed: whether these are regressed (completed) beams.
+        beam_index: (m,) beam number 0..3 of each row when the DVL error states ``D(k)`` (scale, beam bias)
+            act on these beams (``GraphOptions.dvl_error_states``), else None.
+        C_d_b: (3,3) DVL-to-body rotation, with ``beam_index``.
     """
 
     k: int
@@ -213,8 +218,14 @@ class BeamGroup:
     omega_b: np.ndarray
     lever_arm_b: np.ndarray
     regressed: bool
+    beam_index: np.ndarray | None = None
+    C_d_b: np.ndarray | None = None
 
     def factor(self) -> gtsam.CustomFactor:
+        if self.beam_index is not None:
+            return beam_factor_dvl_errors(X(self.k), V(self.k), B(self.k), D(self.k), self.rows_b,
+                                          self.beam_index, self.C_d_b, self.y,
+                                          beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
         return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y,
                            beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
 
@@ -259,6 +270,9 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         if options.earth_rate_in_lever_arm and config.earth_rotation:
             omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
         lever = builder.geometry.lever_arm_b
+        # the DVL error states act on measured beams, and on regressed ones if dvl_errors_on_regressed
+        index = beam_index(m.rows_b, builder.geometry.T_b) if options.dvl_error_states else None
+        C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
@@ -273,9 +287,10 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
             if sel.size == 0:
                 continue
             split = options.beam_factor_mode == "beam" or huber is not None
+            use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
-                                        regressed))
+                                        regressed, index[part] if use_d else None, C_d_b if use_d else None))
     n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
     if k > 0 and (options.motion_prior == "partial" and n_measured < 3
                   or options.motion_prior == "total" and n_measured == 0):

@@ -20,13 +20,15 @@ from dataclasses import dataclass, field
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import B, V, X
+from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.errors import ConfigError
 from graphnav.factors import predict_beams
 from graphnav.health import NisMonitor
+from graphnav.factors import N_DVL_ERRORS
 from graphnav.mission import Mission
 
+from . import dvl_errors
 from .builder import GraphContext, Keyframe, KeyframeFactors, imu_factor, keyframe_factors
 from .options import GraphOptions
 
@@ -79,6 +81,8 @@ class EpochEstimate:
         cov_v_n: (3,3) marginal velocity covariance in NED, (m/s)^2, or None.
         n_measured, n_regressed: beams used at this keyframe.
         update_s: solver time of this keyframe, s.
+        dvl_errors: (7,) DVL error states [scale (3), beam bias (4) m/s] at this keyframe, filled in when the
+            next keyframe is added (``GraphOptions.dvl_error_states``), else None.
     """
 
     index: int
@@ -91,6 +95,7 @@ class EpochEstimate:
     n_measured: int
     n_regressed: int
     update_s: float
+    dvl_errors: np.ndarray | None = None
 
     @property
     def C_b_n(self) -> np.ndarray:
@@ -101,9 +106,11 @@ class EpochEstimate:
         return self.pose.translation()
 
 
-def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0) -> gtsam.NonlinearFactorGraph:
+def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0,
+                  dvl_errors_mean: np.ndarray | None = None) -> gtsam.NonlinearFactorGraph:
     """Priors on X(k), V(k), B(k): the initial state's covariances where given, else the sigmas of
-    ``builder.options`` (bias: IMU spec turn-on sigmas)."""
+    ``builder.options`` (bias: IMU spec turn-on sigmas); and on the DVL error states D(k) (mean
+    ``dvl_errors_mean``, default zero) when they are enabled."""
     o, imu = builder.options, builder.config.imu
     acc = o.prior_acc_bias_sigma if o.prior_acc_bias_sigma is not None else imu.accel_bias_sigma
     gyro = o.prior_gyro_bias_sigma if o.prior_gyro_bias_sigma is not None else imu.gyro_bias_sigma
@@ -117,6 +124,9 @@ def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0) -> g
     graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, vel_noise))
     graph.add(gtsam.PriorFactorConstantBias(B(k), initial.bias, gtsam.noiseModel.Diagonal.Sigmas(
         np.r_[np.full(3, acc), np.full(3, gyro)])))
+    if o.dvl_error_states:
+        mean = np.zeros(N_DVL_ERRORS) if dvl_errors_mean is None else dvl_errors_mean
+        graph.add(dvl_errors.prior_factor(k, mean, dvl_errors.prior_sigmas(builder.config, o)))
     return graph
 
 
@@ -129,6 +139,7 @@ def isam2_params(options: GraphOptions, factorization: str | None = None) -> gts
     thresholds.insert(("x", np.r_[np.full(3, options.relin_rot), np.full(3, options.relin_pos)]))
     thresholds.insert(("v", np.full(3, options.relin_vel)))
     thresholds.insert(("b", np.r_[np.full(3, options.relin_bias_acc), np.full(3, options.relin_bias_gyro)]))
+    thresholds.insert(("d", np.r_[np.full(3, options.relin_dvl_scale), np.full(4, options.relin_dvl_bias)]))
     params.setRelinearizeThreshold(thresholds)
     params.setOptimizationParams(gtsam.ISAM2GaussNewtonParams(options.wildfire_threshold))
     return params
@@ -168,6 +179,8 @@ class _IncrementalGraph:
         self._recovering_at: int | None = None     # keyframe of the last solver restart (a second one raises)
         self.factorization = self.options.factorization
         self.health = NisMonitor("graph")
+        #: (keyframe index, value) of the newest DVL error-state estimate (``options.dvl_error_states``)
+        self.dvl_errors: tuple[int, np.ndarray] | None = None
 
     # --- the cycle --------------------------------------------------------------------------------
     def add(self, kf: Keyframe) -> None:
@@ -184,6 +197,14 @@ class _IncrementalGraph:
             pose, v_n, bias = nav.pose(), nav.velocity(), last.bias
             link = gtsam.NonlinearFactorGraph()
             link.add(imu_factor(kf))
+        if self.options.dvl_error_states:
+            if k == 0:
+                d = np.zeros(N_DVL_ERRORS)
+            else:
+                d = self._value(D(k - 1), "Vector")
+                self.dvl_errors = (k - 1, d)
+                last.dvl_errors = d
+                link.add(dvl_errors.random_walk_factor(k, kf.t - self._last.t, self.options))
         local = keyframe_factors(kf, self.builder, pose.rotation().matrix(), pose.translation(),
                                  self._prediction(kf, v_n, bias))
         self._check_innovation(kf, local, pose, v_n, bias)
@@ -194,6 +215,8 @@ class _IncrementalGraph:
         self._pending_values.insert(X(k), pose)
         self._pending_values.insert(V(k), v_n)
         self._pending_values.insert(B(k), bias)
+        if self.options.dvl_error_states:
+            self._pending_values.insert(D(k), d)
         self._pending_kf = kf
 
     def _prediction(self, kf: Keyframe, v_n_pred, bias):
@@ -278,24 +301,35 @@ class _IncrementalGraph:
             raise exc
         self._recovering_at = kf.index
         j = last.index
+        with_d = self.options.dvl_error_states
+        # the DVL error states of keyframe j were read when keyframe k = j + 1 was added
+        d_j = self.dvl_errors[1] if with_d and self.dvl_errors is not None and self.dvl_errors[0] == j else None
         try:
             covs = [self._marginal(X(j)), self._marginal(V(j)), self._marginal(B(j))]
+            if with_d:
+                covs.append(self._marginal(D(j)))
         except (RuntimeError, IndexError):      # the failed solver may have dropped its Bayes tree
             covs = None
+        if with_d and d_j is None:
+            d_j = np.zeros(N_DVL_ERRORS)
         self.factorization = "QR"
         self._restart()
         restart_state = InitialState(last.pose, last.v_n, last.bias)
-        graph = prior_factors(self.builder, restart_state, j)
+        graph = prior_factors(self.builder, restart_state, j, d_j)
         if covs is not None:
             graph = gtsam.NonlinearFactorGraph()
             graph.add(gtsam.PriorFactorPose3(X(j), last.pose, gtsam.noiseModel.Gaussian.Covariance(covs[0])))
             graph.add(gtsam.PriorFactorVector(V(j), last.v_n, gtsam.noiseModel.Gaussian.Covariance(covs[1])))
             graph.add(gtsam.PriorFactorConstantBias(B(j), last.bias, gtsam.noiseModel.Gaussian.Covariance(covs[2])))
+            if with_d:
+                graph.add(dvl_errors.prior_factor(j, d_j, covs[3]))
         graph.push_back(self._pending_factors)
         values = gtsam.Values(self._pending_values)
         values.insert(X(j), last.pose)
         values.insert(V(j), last.v_n)
         values.insert(B(j), last.bias)
+        if with_d:
+            values.insert(D(j), d_j)
         self._solve(graph, values, kf, first_key=j)
 
     # --- solver hooks -----------------------------------------------------------------------------
@@ -339,7 +373,8 @@ class OnlineGraph(_IncrementalGraph):
             self.isam.update(factors, values)
             return
         while self._n_frozen < len(self._times) - 1 and kf.t - self._times[self._n_frozen] > window:
-            for key in (X(self._n_frozen), V(self._n_frozen), B(self._n_frozen)):
+            j = self._n_frozen
+            for key in (X(j), V(j), B(j)) + ((D(j),) if self.options.dvl_error_states else ()):
                 self._frozen.push_back(key)
             self._n_frozen += 1
         self.isam.update(factors, values, [], None, self._frozen)

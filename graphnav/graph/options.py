@@ -37,6 +37,13 @@ Chosen defaults and why:
 - Keyframes (where they go is the stream's business: :class:`graphnav.keyframes.KeyframeOptions`) at every
   DVL stamp; when no DVL stamp arrives for more than 2 s, IMU-only keyframes every 1 s keep each
   preintegration short.
+- DVL error states (``dvl_error_states``): a Vector7 ``D(k)`` per keyframe, [scale per DVL axis (3),
+  bias per beam (4) m/s] in the beam model ``y = T_d[(1 + s) v_d] + b`` (the EKF's ``dvl_error_states``),
+  prior at the first keyframe (sigmas ``max(|config value|, 0.005)`` as the EKF's) and a random walk between
+  keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
+  the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
+  ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
+  100 s). Measured both ways in the README section "Consistency, DVL error states and noise identification".
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
@@ -101,6 +108,15 @@ class GraphOptions:
             measured beam are then not completed (the prior replaces the completion).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
+        dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
+            ``D(k)`` (random walk between keyframes); see :mod:`graphnav.graph.dvl_errors`.
+        dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
+            as the DVL measures them, bias and scale included); False = regressed beams enter without them.
+        dvl_scale_rw: random walk of each scale state, 1/sqrt(s).
+        dvl_bias_rw: random walk of each beam bias state, m/s/sqrt(s).
+        prior_dvl_scale_sigma, prior_dvl_bias_sigma: first-keyframe prior sigmas (unitless, m/s); None =
+            ``max(|config.dvl.scale_factor|, 0.005)`` and ``max(|config.dvl.beam_bias|, 0.005)``.
+        relin_dvl_scale, relin_dvl_bias: ISAM2 relinearisation thresholds of the DVL error states.
     """
 
     beam_sigma: float | None = None
@@ -139,6 +155,14 @@ class GraphOptions:
     motion_prior: str = "off"
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
+    dvl_error_states: bool = False
+    dvl_errors_on_regressed: bool = True
+    dvl_scale_rw: float = 2e-5
+    dvl_bias_rw: float = 2e-4
+    prior_dvl_scale_sigma: float | None = None
+    prior_dvl_bias_sigma: float | None = None
+    relin_dvl_scale: float = 1e-3
+    relin_dvl_bias: float = 1e-3
 
     def __post_init__(self):
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:
@@ -156,5 +180,7 @@ class GraphOptions:
             raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
         if not 0.0 <= self.regressed_correlation < 1.0:
             raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
+        if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:
+            raise ConfigError("dvl_scale_rw and dvl_bias_rw must be >= 0")
         if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")

@@ -1,0 +1,107 @@
+"""Velocity NEES and window VRMSE of the graph methods with and without the DVL error states.
+
+Runs Graph-TC, Graph-HN, Graph-HN-batch (and the EKF TC for reference) on every trajectory of an A-KIT folder
+(or the simulated default) with ``GraphOptions(dvl_error_states=False)`` and ``=True``, with the bench's
+windows (:func:`graphnav.bench.case_windows`) and scenarios, and prints per method and setting:
+
+- window VRMSE (m/s, mean over windows and trajectories) per scenario, as ``graphnav bench`` computes it;
+- mean velocity NEES over the mission after the 60 s settling time, all beams (scenario ``none``), with the
+  95 % chi-square band (:mod:`graphnav.consistency`), and with the GT's own velocity error added
+  (``--gt-sigma``, see ``scripts/identify_noise.py``).
+
+    .venv/bin/python scripts/consistency.py --data ../shared/data/snapir-2022-akit --jobs 2
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.bench import case_windows, find_trajectories, prepared_mission, score_case
+from graphnav.consistency import chi2_band, n_independent, nees_with_reference
+from graphnav.graph import GraphOptions
+from graphnav.methods import run_method
+from graphnav.metrics import nees_velocity
+from graphnav.scenarios import scenario_outage
+
+GRAPH = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
+SETTLE_S = 60.0
+
+
+def run_trajectory(args) -> list[dict]:
+    source, methods, scenarios, settings, gt_sigma, window_s = args
+    mission = prepared_mission(source, "as-recorded")
+    starts = case_windows(mission, window_s)
+    cov_gt = np.diag(np.square(gt_sigma))
+    out = []
+    for scenario in scenarios:
+        run_mission = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
+        for method in methods:
+            for name, fields in settings.items():
+                if method not in GRAPH and name != "off":
+                    continue
+                options = GraphOptions(**fields) if method in GRAPH else None
+                sol = run_method(run_mission, method, scenario, options=options)
+                scores = score_case(sol, mission, starts, window_s)
+                t0 = mission.t0 + SETTLE_S
+                nees = nees_velocity(sol, mission.gt, t0)
+                nees_ref = nees_with_reference(sol, mission.gt, cov_gt, t0)
+                out.append({"trajectory": source.name, "scenario": scenario, "method": method, "setting": name,
+                            "vrmse_window": float(np.mean([s["vrmse_window"] for s in scores])),
+                            "vrmse_mission": scores[0]["vrmse_mission"],
+                            "nees_mission": float(np.mean(nees)), "nees_mission_gt": float(np.mean(nees_ref)),
+                            "n_independent": n_independent(sol.t[sol.t >= t0]), "runtime_s": sol.runtime_s})
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", default=None, help="A-KIT folder (default: the simulated mission)")
+    ap.add_argument("--methods", nargs="+", default=[*GRAPH, "TC"])
+    ap.add_argument("--scenario", nargs="+", default=["none", "2-missing", "3-missing"])
+    ap.add_argument("--gt-sigma", type=float, nargs=3, default=[0.0, 0.0, 0.0],
+                    help="GT velocity error std N, E, D (m/s) added to P for the reference-aware NEES")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", default="out/consistency.json")
+    a = ap.parse_args(argv)
+    settings = {"off": {"dvl_error_states": False}, "on": {"dvl_error_states": True}}
+    sources = find_trajectories(a.data)
+    tasks = [(s, a.methods, a.scenario, settings, a.gt_sigma, 30.0) for s in sources]
+    if a.jobs > 1:
+        with ProcessPoolExecutor(a.jobs) as pool:
+            rows = [r for rs in pool.map(run_trajectory, tasks) for r in rs]
+    else:
+        rows = [r for t in tasks for r in run_trajectory(t)]
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(json.dumps(rows, indent=1))
+    print(f"{len(sources)} trajectories; NEES = mean velocity NEES over the mission after {SETTLE_S:g} s, all "
+          f"beams; NEES+GT with GT sigma {a.gt_sigma} m/s (N, E, D)")
+    print("| method | DVL error states | " + " | ".join(f"VRMSE window {s}" for s in a.scenario)
+          + " | NEES (min-max over traj.) | NEES+GT | 95 % band per traj. |")
+    print("| --- | --- |" + " --- |" * len(a.scenario) + " --- | --- | --- |")
+    for method in a.methods:
+        for name in settings:
+            sel = [r for r in rows if r["method"] == method and r["setting"] == name]
+            if not sel:
+                continue
+            cells = [f"{np.mean([r['vrmse_window'] for r in sel if r['scenario'] == s]):.4f}" for s in a.scenario]
+            full = [r for r in sel if r["scenario"] == "none"]
+            if full:
+                nees = [r["nees_mission"] for r in full]
+                nees_gt = [r["nees_mission_gt"] for r in full]
+                band = chi2_band(int(np.median([r["n_independent"] for r in full])))
+                tail = (f"{np.mean(nees):.1f} ({min(nees):.1f}-{max(nees):.1f}) | {np.mean(nees_gt):.1f} | "
+                        f"{band[0]:.2f}-{band[1]:.2f}")
+            else:
+                tail = "- | - | -"
+            print(f"| {method} | {name} | " + " | ".join(cells) + f" | {tail} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
