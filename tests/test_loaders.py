@@ -211,9 +211,23 @@ def test_dvl_nan_rows_are_invalid_pings(tmp_path):
 
 def test_missing_file_named(tmp_path):
     folder = make_akit_folder(tmp_path, n=4)
-    (folder / "GT_trajectory4.csv").unlink()
-    with pytest.raises(DataError, match="GT_trajectory4.csv"):
+    (folder / "DVL_trajectory4.csv").unlink()
+    with pytest.raises(DataError, match="DVL_trajectory4.csv"):
         load_akit(folder)
+
+
+def test_folder_without_gt_loads_as_a_vehicle_has_it(tmp_path):
+    """IMU and DVL only: no ground truth, no depth (A-KIT's is the GT's), the DVL offset from the vehicle's
+    measured constant with a warning (it cannot be estimated against a missing GT)."""
+    from graphnav.loaders import AKIT_DVL_TIME_OFFSET_S
+    folder = make_akit_folder(tmp_path, n=4)
+    (folder / "GT_trajectory4.csv").unlink()
+    with pytest.warns(RuntimeWarning, match="no GT file"):
+        m = load_akit(folder, imu_axis_signs=(1, -1, 1))
+    assert m.gt is None and m.depth is None and m.meta["ground_truth"] is False
+    assert m.config.dvl_time_offset_s == AKIT_DVL_TIME_OFFSET_S
+    m = load_akit(folder, imu_axis_signs=(1, -1, 1), dvl_time_offset_s=0.5)
+    assert m.config.dvl_time_offset_s == 0.5
 
 
 def test_beamsnet(tmp_path):
