@@ -236,7 +236,7 @@ class Keyframer:
     # --- inputs (time order) ------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> list[Keyframe]:
         """An IMU sample (f_b m/s^2, omega_b rad/s: 3-tuples of floats) in time order."""
-        if not (any(f_b) or any(omega_b)):
+        if f_b[2] == 0.0 and not (any(f_b) or any(omega_b)):      # z first: gravity makes it non-zero
             self.stats.zero_imu_rows += 1
             if self.stats.zero_imu_rows == 1:
                 warnings.warn(f"imu: all-zero IMU row at t = {t:.3f} s dropped (zero specific force is impossible "
@@ -388,19 +388,17 @@ class Keyframer:
             j = max(0, bisect.bisect_right(samples, t, key=_stamp) - 1)
             del samples[:j]
             return None
-        f, w, dt, lag = [], [], [], []
-        j = 0
-        for i, (ti, fi, wi) in enumerate(samples):
-            if ti > t:
-                break
-            j = i
-            end = samples[i + 1][0] if i + 1 < len(samples) else math.inf
-            a, b = max(ti, t_open), min(end, t)
-            if b > a:
-                f.append(fi)
-                w.append(wi)
-                dt.append(b - a)
-                lag.append(a - ti)
+        # samples[0] holds at t_open; samples[j] is the last one at or before t (it holds at t)
+        j = max(0, bisect.bisect_right(samples, t, key=_stamp) - 1)
+        part = samples[:j + 2]
+        stamps = [x[0] for x in part]
+        starts = [max(ti, t_open) for ti in stamps[:j + 1]]
+        ends = [min(te, t) for te in stamps[1:j + 1]] + [t]
+        keep = [i for i in range(j + 1) if ends[i] > starts[i]]
+        f = [part[i][1] for i in keep]
+        w = [part[i][2] for i in keep]
+        dt = [ends[i] - starts[i] for i in keep]
+        lag = [starts[i] - stamps[i] for i in keep]
         del samples[:j]
         var_v, var_att = gap_variances(self._gaps, t_open, t) if self._gaps else (0.0, 0.0)
         if self._gaps:

@@ -138,6 +138,7 @@ class Navigator:
         self._released = -math.inf        # everything up to here has left the reorder buffer
         self._stamps: dict[str, set] = {k: set() for k in STREAM_ORDER}
         self._last_released: dict[str, float] = {k: -math.inf for k in STREAM_ORDER}
+        self._last_imu_released = -math.inf
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
@@ -156,11 +157,13 @@ class Navigator:
         """An IMU sample: specific force ``f_b`` (3,) m/s^2 and angular rate ``omega_b`` (3,) rad/s, body
         frame, at stamp t (s). Held over ``[t, t_next)`` (zero-order hold)."""
         try:     # the fast path of a 100 Hz stream: three floats each, all finite (x - x == 0 fails for inf/NaN)
-            f = (float(f_b[0]), float(f_b[1]), float(f_b[2]))
-            w = (float(omega_b[0]), float(omega_b[1]), float(omega_b[2]))
+            fx, fy, fz = f_b
+            wx, wy, wz = omega_b
+            f = (float(fx), float(fy), float(fz))
+            w = (float(wx), float(wy), float(wz))
             total = float(t) + f[0] + f[1] + f[2] + w[0] + w[1] + w[2]
-            ok = total - total == 0.0 and len(f_b) == 3 and len(omega_b) == 3
-        except (TypeError, ValueError, IndexError):
+            ok = total - total == 0.0
+        except (TypeError, ValueError):
             ok = False
         if not ok:
             f = self._vector("imu", t, "f_b", f_b, 3)
@@ -169,7 +172,7 @@ class Navigator:
                 return []
         q = self._imu_q
         in_order = not q or t > q[-1][0]
-        if t == self._last_released["imu"] or (not in_order and any(s[0] == t for s in q)):
+        if t == self._last_imu_released or (not in_order and any(s[0] == t for s in q)):
             return self._refuse("imu", t, "t", "duplicate stamp")
         if t < self._released:
             return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
@@ -267,20 +270,7 @@ class Navigator:
         if t > newest + self.options.max_extrapolation_s:
             raise ConfigError(f"state_at({t:.3f}): more than {self.options.max_extrapolation_s} s after the newest "
                               f"IMU sample (t = {newest:.3f} s)")
-        prop = self._prop
-        if prop is None or prop[0] is not est or t < prop[2]:
-            j = 0
-            while j + 1 < len(recent) and recent[j + 1][0] <= est.t:
-                j += 1
-            prop = [est, gtsam.PreintegratedImuMeasurements(self._pim_params, est.bias), est.t, j]
-        _, pim, upto, j = prop
-        while j + 1 < len(recent) and recent[j + 1][0] <= t:
-            if recent[j + 1][0] > upto:
-                pim.integrateMeasurement(recent[j][1], recent[j][2], recent[j + 1][0] - upto)
-                upto = recent[j + 1][0]
-            j += 1
-        prop[2], prop[3] = upto, j
-        self._prop = prop
+        _, pim, upto, j = self._advance_propagation(est, recent, t)
         start = gtsam.NavState(est.pose, est.v_n)
         nav = pim.predict(start, est.bias) if upto > est.t else start
         C, v, p = nav.attitude().matrix(), nav.velocity(), nav.position()
@@ -295,6 +285,25 @@ class Navigator:
             v = v + acc * dt
             C = C @ gtsam.Rot3.Expmap(omega * dt).matrix()
         return NavState(t, C, v, p, omega)
+
+    def _advance_propagation(self, est: EpochEstimate, recent, t: float) -> list:
+        """The cached preintegration from the latest estimate, advanced over the whole IMU samples up to t:
+        [estimate, pim, integrated up to (s), index of the sample that holds at that stamp]."""
+        prop = self._prop
+        if prop is None or prop[0] is not est or t < prop[2]:
+            j = 0
+            while j + 1 < len(recent) and recent[j + 1][0] <= est.t:
+                j += 1
+            prop = [est, gtsam.PreintegratedImuMeasurements(self._pim_params, est.bias), est.t, j]
+        _, pim, upto, j = prop
+        while j + 1 < len(recent) and recent[j + 1][0] <= t:
+            if recent[j + 1][0] > upto:
+                pim.integrateMeasurement(recent[j][1], recent[j][2], recent[j + 1][0] - upto)
+                upto = recent[j + 1][0]
+            j += 1
+        prop[2], prop[3] = upto, j
+        self._prop = prop
+        return prop
 
     @property
     def info(self) -> dict:
@@ -392,7 +401,7 @@ class Navigator:
         while True:
             if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
                 t, f, w = q.popleft()
-                self._last_released["imu"] = self._released = t
+                self._last_imu_released = self._released = t
                 if self.backend is not None:
                     kfs = self.keyframer.add_imu(t, f, w)
                     if kfs:
@@ -438,6 +447,11 @@ class Navigator:
         if out:
             self._latest = out[-1]
             self.n_estimates += len(out)
+            if self._prop is not None:
+                # a controller reads state_at: propagate the new estimate now rather than in its next call
+                recent = _Concat(self.keyframer.samples, self._imu_q)
+                if recent:
+                    self._advance_propagation(self._latest, recent, recent[-1][0])
         return out
 
     # --- initialisation -----------------------------------------------------------------------------

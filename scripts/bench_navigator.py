@@ -44,7 +44,7 @@ def replay_speed(mission, backend: str, state_at: bool = False) -> dict:
     wall, cpu = time.perf_counter(), time.process_time()
     for kind, t, sample in events:
         adders[kind](t, *sample)
-        if state_at and kind == "imu" and nav.initialised:
+        if state_at and kind == "imu" and nav.n_estimates:
             c0 = time.perf_counter()
             nav.state_at(t)
             calls.append(time.perf_counter() - c0)
