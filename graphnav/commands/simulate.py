@@ -19,7 +19,7 @@ def register(subparsers) -> None:
                     "--out writes the mission in the published A-KIT CSV layout (OUT/TrajectoryN/"
                     "{IMU,DVL,GT}_trajectoryN.csv, IMU in FRD) plus a PNG of track, depth and speed.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--duration", type=float, default=400.0, help="mission length, s (up to 14400)")
+    parser.add_argument("--duration", type=float, default=400.0, help="mission length, s (up to 86400)")
     parser.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default="navigation",
                         help="IMU error model (navigation: FOG INS like the Phins)")
     parser.add_argument("--seed", type=int, default=0, help="seed of trajectory and sensor errors")
