@@ -315,9 +315,12 @@ def run_folder(args, missions) -> int:
     from graphnav.bench import load_results
     from graphnav.outputs import write_json
     from graphnav.tasks import run_tasks
-    out = Path(args.out)
+    # Absolute paths: Dask workers elsewhere (another working directory or host) read and write the same
+    # places, which on a lab cluster must be a shared filesystem.
+    out = Path(args.out).absolute()
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "results.json"
+    args = argparse.Namespace(**{**vars(args), "config": str(Path(args.config).absolute()) if args.config else None})
     settings = {k: getattr(args, k) for k in BATCH_SETTINGS}
     records = [r for r in load_results(results_path) if not r.get("error")] if args.resume else []
     for r in records:
@@ -326,7 +329,8 @@ def run_folder(args, missions) -> int:
                               f"not {settings}; use another --out or run without --resume")
     done = {r["mission"] for r in records}
     options = {k: v for k, v in vars(args).items() if k != "func"}
-    todo = [(m.name, m.folder, options, str(out / m.name)) for m in missions if m.name not in done]
+    todo = [(m.name, str(Path(m.folder).absolute()), options, str(out / m.name)) for m in missions
+            if m.name not in done]
     print(f"smooth: {len(missions)} missions under {args.data}, {len(missions) - len(todo)} already done, "
           + (f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)")
           + f"; results in {results_path}", file=sys.stderr)
