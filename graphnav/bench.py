@@ -26,12 +26,10 @@ import dataclasses
 import functools
 import json
 import math
-import os
 import time
 import warnings
 import zlib
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,6 +42,7 @@ from .methods import METHODS, average_of, baseline_of, check_method, check_scena
 from .mission import Mission
 from .scenarios import scenario_outage, window_starts
 from .solution import NavSolution
+from .tasks import run_tasks
 from .timeseries import interp_rows
 
 SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "0-beams", "markov", "none")
@@ -98,8 +97,9 @@ def record_key(record: dict) -> tuple:
 # --- trajectories and missions --------------------------------------------------------------------------
 def find_trajectories(data: str | None = None, sim_seeds: int = 1, sim_duration_s: float = 400.0,
                       config_path: str | None = None) -> list[TrajectorySource]:
-    """The simulated default (``data=None``; one trajectory per seed), one A-KIT trajectory folder, or
-    every trajectory folder under ``data``."""
+    """The simulated default (``data=None``; one trajectory per seed), one mission (an A-KIT trajectory
+    folder or a ROS 2 bag), or every mission under the folder ``data``: its A-KIT ``TrajectoryN`` folders,
+    else its ROS 2 bags (bag folders or bare ``.mcap``/``.db3`` files)."""
     if data is None:
         return [TrajectorySource(f"sim-seed{s}", None, s, sim_duration_s, config_path) for s in range(sim_seeds)]
     from .bags import is_bag
@@ -107,20 +107,36 @@ def find_trajectories(data: str | None = None, sim_seeds: int = 1, sim_duration_
     root = Path(data)
     if is_bag(root):
         return [TrajectorySource(root.stem if root.is_file() else root.name, str(root), 0, 0.0, config_path)]
-    if root.is_dir() and not any(root.glob("IMU_*.csv")) and not list_akit(root):
-        # A folder of ROS 2 bags (bag folders or bare .mcap/.db3 files), one mission each.
-        found = sorted(p for p in root.iterdir() if is_bag(p))
-        if found:
-            return [TrajectorySource(p.stem if p.is_file() else p.name, str(p), 0, 0.0, config_path) for p in found]
     if not root.is_dir():
         raise ConfigError(f"--data {data}: not a folder")
     if any(root.glob("IMU_*.csv")):
-        folders = [root]
-    else:
-        folders = [Path(f) for f in list_akit(root)]
-    if not folders:
-        raise ConfigError(f"--data {data}: no trajectory folders (IMU_*.csv, DVL_*.csv, GT_*.csv) found")
-    return [TrajectorySource(f.name, str(f), 0, 0.0, config_path) for f in folders]
+        return [TrajectorySource(root.name, str(root), 0, 0.0, config_path)]
+    found = [Path(f) for f in list_akit(root)] or sorted(p for p in root.iterdir() if is_bag(p))
+    if not found:
+        raise ConfigError(f"--data {data}: no trajectory folders (IMU_*.csv, DVL_*.csv, GT_*.csv) or ROS 2 "
+                          "bags found")
+    sources = [TrajectorySource(p.stem if p.is_file() else p.name, str(p), 0, 0.0, config_path) for p in found]
+    names = [s.name for s in sources]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ConfigError(f"--data {data}: several missions named {twice} (e.g. a bag folder and a bag file); "
+                          "rename one")
+    return sources
+
+
+def mission_collection(data: str | None, config_path: str | None = None) -> list[TrajectorySource] | None:
+    """The missions under ``data`` when it is a folder of missions (as :func:`find_trajectories` finds
+    them), or None when ``data`` is one mission (a file, a bag, an A-KIT folder, a column-map CSV folder)
+    or nothing (the simulated default); the loader then reads it or says why it cannot."""
+    if data is None or not Path(data).is_dir():
+        return None
+    try:
+        sources = find_trajectories(data, config_path=config_path)
+    except ConfigError:
+        return None
+    if len(sources) == 1 and Path(sources[0].folder) == Path(data):
+        return None
+    return sources
 
 
 def load_source(source: TrajectorySource) -> Mission:
@@ -389,67 +405,6 @@ def load_results(path: str | Path) -> list[dict]:
     return data
 
 
-def _init_worker() -> None:
-    # One process per core: keep torch from starting its own thread pool in each worker.
-    try:
-        import torch
-        torch.set_num_threads(1)
-    except ImportError:
-        pass
-
-
-def _run_pool(todo: list[BenchCase], finished, jobs: int) -> None:
-    """Run the cases in ``jobs`` spawned worker processes, handing records to ``finished`` as they come."""
-    import multiprocessing
-    ctx = multiprocessing.get_context("spawn")  # fork after torch/gtsam threads can deadlock
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
-        futures = [pool.submit(run_case, c) for c in todo]
-        try:
-            for fut in as_completed(futures):
-                finished(fut.result())
-        except KeyboardInterrupt:
-            for fut in futures:
-                fut.cancel()
-            raise
-
-
-def _run_dask(todo: list[BenchCase], finished, scheduler: str, jobs: int) -> None:
-    """Run the cases on a Dask cluster: ``scheduler`` is a scheduler address (``tcp://host:8786``) or
-    ``"local"`` for a :class:`dask.distributed.LocalCluster` of ``jobs`` single-threaded worker processes.
-    Results come back as cases finish and go through the same ``finished`` (results.json, resume) as the
-    process pool. Remote workers need graphnav installed (and the data paths readable) on their side."""
-    if not todo:
-        return   # everything resumed: no cluster needed
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed as dask_completed
-    except ImportError:
-        raise ConfigError("--scheduler needs dask.distributed: pip install 'graphnav[dask]'") from None
-    cluster = None
-    if scheduler == "local":
-        # Worker processes inherit the environment: one BLAS/OpenMP thread each (the caller sets it).
-        cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout="30s")
-        except OSError as exc:
-            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-    try:
-        client.run(_init_worker)
-        futures = client.map(run_case, todo, pure=False)
-        try:
-            for fut in dask_completed(futures):
-                finished(fut.result())
-        except KeyboardInterrupt:
-            client.cancel(futures)
-            raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
 def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume: bool = False,
               progress: bool = True, scheduler: str | None = None) -> list[dict]:
     """Run cases (``jobs`` processes, or on the Dask cluster of ``scheduler``: an address or ``"local"``),
@@ -479,24 +434,7 @@ def run_bench(cases: list[BenchCase], out_dir: str | Path, jobs: int = 1, resume
 
     write_json(results_path, records)
     try:
-        if jobs <= 1 and scheduler is None:
-            for case in todo:
-                finished(run_case(case))
-        else:
-            # Workers inherit the environment at start: one BLAS/OpenMP thread each, no oversubscription.
-            saved = {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
-            os.environ.update({k: "1" for k in saved})
-            try:
-                if scheduler is not None:
-                    _run_dask(todo, finished, scheduler, jobs)
-                else:
-                    _run_pool(todo, finished, jobs)
-            finally:
-                for k, v in saved.items():
-                    if v is None:
-                        os.environ.pop(k, None)
-                    else:
-                        os.environ[k] = v
+        run_tasks(run_case, todo, finished, jobs, scheduler)
     finally:
         bar.close()
     return records

@@ -1,4 +1,6 @@
-"""``graphnav smooth``: batch-smooth a mission and write the trajectory (CSV, TUM), a JSON summary and plots.
+"""``graphnav smooth``: batch-smooth a mission and write the trajectory (CSV, TUM), a JSON summary and plots;
+or every mission of a folder of missions (:func:`run_folder`), in parallel or on a Dask cluster, with one
+``results.json`` over all of them.
 
 Also home of the mission options shared with ``graphnav online`` (data, configuration, IMU grade and an
 optional injected beam outage).
@@ -10,6 +12,7 @@ import functools
 import time
 from pathlib import Path
 
+from graphnav.errors import ConfigError
 from graphnav.methods import METHODS, check_scenario
 from graphnav.scenarios import SCENARIOS, scenario_outage, window_starts
 
@@ -29,7 +32,8 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--data", metavar="PATH",
                    help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv), a ROS 2 "
                         "bag (.mcap, .db3 or bag folder), a PD0 file (.pd0/.000) or a CSV log with the column "
-                        "map of --config; default: the simulated 400 s mission")
+                        "map of --config; `smooth` also takes a folder of missions (TrajectoryN folders or "
+                        "bags, as `bench --data` finds them); default: the simulated 400 s mission")
     g.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
                    help="bags: read STREAM (imu, dvl, depth, gt) from TOPIC instead of the topic chosen by "
                         "message type (repeatable)")
@@ -173,11 +177,15 @@ def print_summary(summary: dict, file=None) -> None:
 # --- the command ----------------------------------------------------------------------------------------
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "smooth", help="batch-smooth a mission (Graph-HN-batch); write CSV, TUM, JSON summary and plots",
+        "smooth", help="batch-smooth a mission or a folder of missions (Graph-HN-batch); write CSV, TUM, JSON "
+                       "summary and plots",
         description="Batch-smooth a whole mission with the factor graph (Levenberg-Marquardt over all "
                     "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum when the mission has GT), "
-                    "OUT/summary.json and PNG plots.",
+                    "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
+                    "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
+                    "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
+                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
@@ -189,13 +197,31 @@ def register(subparsers) -> None:
     p.add_argument("--bag", choices=("none", "mcap", "sqlite3"), default="none",
                    help="also write the estimates as nav_msgs/Odometry with covariance in the ROS 2 bag "
                         "OUT/trajectory_bag (REP-103 frames; needs graphnav[ros])")
+    g = p.add_argument_group("folder of missions")
+    g.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="smooth N missions at once in worker processes (1 = one after the other in this process)")
+    g.add_argument("--scheduler", metavar="ADDRESS|local",
+                   help="smooth the missions on a Dask cluster (dask.distributed): a scheduler address such as "
+                        "tcp://10.0.0.5:8786, or 'local' for a LocalCluster of --jobs worker processes; same "
+                        "results.json and --resume as --jobs (needs graphnav[dask])")
+    g.add_argument("--resume", action="store_true",
+                   help="keep the missions already smoothed in OUT/results.json and smooth only the others "
+                        "(failed ones again)")
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+#: The options a mission's smoothing depends on; a --resume must use the same ones as the results it keeps.
+BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s", "window_start", "init",
+                                   "initial_position", "initial_heading", "heading_sigma", "config", "topic")
+
+
+def smooth_mission(args, out: Path) -> dict:
+    """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
+    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
+    Returns the summary (also written to ``out/summary.json``)."""
     from graphnav.methods import run_method
     from graphnav.outputs import write_json, write_trajectory_csv, write_tum
-    out = Path(args.out)
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
@@ -234,5 +260,94 @@ def run(args) -> int:
     summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
-    print_summary(summary)
+    return summary
+
+
+def run(args) -> int:
+    from graphnav.bench import mission_collection
+    missions = mission_collection(args.data, args.config)
+    if missions is not None:
+        return run_folder(args, missions)
+    if args.jobs != 1 or args.scheduler is not None or args.resume:
+        raise ConfigError("--jobs, --scheduler and --resume apply to a folder of missions (TrajectoryN folders "
+                          f"or ROS 2 bags); --data {args.data} is one mission")
+    print_summary(smooth_mission(args, Path(args.out)))
     return 0
+
+
+# --- a folder of missions -------------------------------------------------------------------------------
+def mission_record(name: str, summary: dict | None, error: str | None = None) -> dict:
+    """One line of OUT/results.json: the mission, its settings, accuracy and health (when GT), runtime,
+    files, and the error when it failed (then the metrics are None)."""
+    s = summary or {}
+    acc = s.get("accuracy") or {}
+    health = s.get("health") or {}
+    return {
+        "mission": name, "method": s.get("method"), "scenario": s.get("scenario"), "imu_grade": s.get("imu_grade"),
+        "epochs": s.get("epochs"), "duration_s": s.get("duration_s"),
+        "ground_truth": acc.get("ground_truth"),
+        "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
+        "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
+        "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
+        "health": {k: health.get(k) for k in ("ok", "diverged_at_end", "n_divergences", "n_reacquired",
+                                              "n_rejected", "nis_mean_per_dof")} if health else None,
+        "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,
+    }
+
+
+def smooth_task(task: tuple[str, str, dict, str]) -> tuple[dict, dict | None]:
+    """Smooth one mission of a folder (runs in a worker): ``task`` = (name, path, options of the command
+    as a dict, output folder). Returns (its results.json record, its summary or None). A failure becomes a
+    record with ``error`` set, so one bad mission does not stop the others."""
+    name, path, options, out = task
+    args = argparse.Namespace(**{**options, "data": path})
+    try:
+        summary = smooth_mission(args, Path(out))
+    except Exception as exc:  # noqa: BLE001 - reported in results.json and the exit code, not swallowed
+        return mission_record(name, None, f"{type(exc).__name__}: {exc}"), None
+    return mission_record(name, summary), summary
+
+
+def run_folder(args, missions) -> int:
+    """Smooth every mission of a folder into OUT/<mission>/ and keep OUT/results.json (atomically rewritten
+    after each mission; --resume keeps its finished missions). Exit code 1 when a mission failed."""
+    import sys
+    from graphnav.bench import load_results
+    from graphnav.outputs import write_json
+    from graphnav.tasks import run_tasks
+    # Absolute paths: Dask workers elsewhere (another working directory or host) read and write the same
+    # places, which on a lab cluster must be a shared filesystem.
+    out = Path(args.out).absolute()
+    out.mkdir(parents=True, exist_ok=True)
+    results_path = out / "results.json"
+    args = argparse.Namespace(**{**vars(args), "config": str(Path(args.config).absolute()) if args.config else None})
+    settings = {k: getattr(args, k) for k in BATCH_SETTINGS}
+    records = [r for r in load_results(results_path) if not r.get("error")] if args.resume else []
+    for r in records:
+        if r.get("settings", settings) != settings:
+            raise ConfigError(f"{results_path}: mission {r.get('mission')} was smoothed with {r.get('settings')}, "
+                              f"not {settings}; use another --out or run without --resume")
+    done = {r["mission"] for r in records}
+    options = {k: v for k, v in vars(args).items() if k != "func"}
+    todo = [(m.name, str(Path(m.folder).absolute()), options, str(out / m.name)) for m in missions
+            if m.name not in done]
+    print(f"smooth: {len(missions)} missions under {args.data}, {len(missions) - len(todo)} already done, "
+          + (f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)")
+          + f"; results in {results_path}", file=sys.stderr)
+
+    def finished(result) -> None:
+        record, summary = result
+        records.append({**record, "settings": settings})
+        write_json(results_path, records)
+        print(f"[{len(records)}/{len(missions)}] {record['mission']}", flush=True)
+        if summary is not None:
+            print_summary(summary)
+        else:
+            print(f"  FAILED: {record['error']}", flush=True)
+
+    write_json(results_path, records)
+    run_tasks(smooth_task, todo, finished, args.jobs, args.scheduler)
+    failed = [r["mission"] for r in records if r.get("error")]
+    print(f"smooth: {len(records) - len(failed)} of {len(missions)} missions smoothed"
+          + (f"; FAILED: {', '.join(failed)}" if failed else "") + f"; {results_path}")
+    return 1 if failed else 0
