@@ -91,6 +91,7 @@ class GraphBackend(_Aided):
     def info(self) -> dict:
         e = self.estimator
         return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
+                "reanchored": e.n_reanchored,
                 "health": e.health.summary()}
 
 

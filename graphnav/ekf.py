@@ -351,21 +351,17 @@ class ErrorStateEkf:
         used = np.isfinite(beams)
         if used.sum() < 3:
             return False
-        h, H = self.predicted_beams(omega_b)
         var = self.beam_variance(beams[used])
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
         A = self.T_b[used]
         R_v = np.linalg.inv(A.T @ (A / var[:, None]))
         G = R_v @ (A.T / var)
-        if self._update(G @ (h[used] - beams[used]), G @ H[used], R_v):
-            return True
-        if not self._locked_out():
-            return False
-        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
-            return True                            # this ping made the velocity fix
-        h, H = self.predicted_beams(omega_b)
-        return self._update(G @ (h[used] - beams[used]), G @ H[used], R_v)
+
+        def innovation():
+            h, H = self.predicted_beams(omega_b)
+            return G @ (h[used] - beams[used]), G @ H[used], R_v
+        return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
 
     def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
         """Tightly coupled update, one row per finite beam of ``beams`` (4,) m/s (NaN = missing).
@@ -375,19 +371,27 @@ class ErrorStateEkf:
         used = np.isfinite(beams)
         if not used.any():
             return False
-        h, H = self.predicted_beams(omega_b)
         y = beams[used]
         var = self.beam_variance(y)
         if sigma_extra is not None:
             var = var + sigma_extra[used] ** 2
-        if self._update(h[used] - y, H[used], np.diag(var)):
+
+        def innovation():
+            h, H = self.predicted_beams(omega_b)
+            return h[used] - y, H[used], np.diag(var)
+        return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
+
+    def _update_or_reacquire(self, innovation, beams: np.ndarray, omega_b: np.ndarray,
+                             sigma_extra: np.ndarray | None) -> bool:
+        """Update with ``innovation() -> (dz, H, R)`` at the current state; when the gate has now rejected a
+        run of pings (lockout), re-acquire and, unless the ping itself made the velocity fix, update again."""
+        if self._update(*innovation()):
             return True
         if not self._locked_out():
             return False
         if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
             return True                            # this ping made the velocity fix
-        h, H = self.predicted_beams(omega_b)
-        return self._update(h[used] - y, H[used], np.diag(var))
+        return self._update(*innovation())
 
     # --- re-acquisition ------------------------------------------------------------------------------
     def _locked_out(self) -> bool:

@@ -88,6 +88,9 @@ class GraphOptions:
         prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
         prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
         lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
+        reanchor_interval_s: the fixed-lag smoother is restarted from the last estimate (priors: its marginal
+            covariances, block-diagonal) every this many seconds; None = never. GTSAM's smoother slows down
+            over hours (update p99 5 ms in hour 1, 18 ms in hour 21 without it: ``scripts/bench_navigator.py``).
         batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
@@ -144,6 +147,7 @@ class GraphOptions:
     prior_acc_bias_sigma: float | None = None
     prior_gyro_bias_sigma: float | None = None
     lag_s: float = 30.0
+    reanchor_interval_s: float | None = 600.0
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: bool = True
