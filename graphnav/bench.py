@@ -605,8 +605,8 @@ def regime_summary(records: list[dict]) -> list[str]:
                                                                         or "outage" in r[1]) and r[2] >= 60]
     if hard:
         bad = [r for r, x in hard if x > 0.7]
-        checks.append(f"- helps where it can (Graph-HN <= 0.7x Graph-TC, tactical/MEMS, 3-missing and total "
-                      f"outage, 60-120 s): " + ("holds" if not bad else f"fails in {len(bad)} of {len(hard)}"))
+        checks.append("- helps where it can (Graph-HN <= 0.7x Graph-TC, tactical/MEMS, 3-missing and total "
+                      "outage, 60-120 s): " + ("holds" if not bad else f"fails in {len(bad)} of {len(hard)}"))
     bt = [(r, _ratio(agg, r, "Graph-HN-batch")) for r in lossy]
     bt = [(r, x) for r, x in bt if math.isfinite(x)]
     if bt:

@@ -14,7 +14,6 @@ windows (:func:`graphnav.bench.case_windows`) and scenarios, and prints per meth
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 from concurrent.futures import ProcessPoolExecutor

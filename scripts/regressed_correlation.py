@@ -24,7 +24,6 @@ def collect(mission, scenario: str, window_s: float) -> np.ndarray:
     from graphnav.factors import predict_beams
     from graphnav.graph import builder as builder_mod
     from graphnav.graph import incremental as inc_mod
-    from graphnav.graph import regressed as reg_mod
     from graphnav.methods import run_method
     from graphnav.scenarios import scenario_outage
     from graphnav.timeseries import interp_rows

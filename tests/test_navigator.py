@@ -15,7 +15,7 @@ from graphnav.ekf import run_ekf
 from graphnav.graph import GraphOptions, InitialState, run_graph
 from graphnav.metrics import vrmse
 from graphnav.nets import AverageCompleter
-from graphnav.navigator import Navigator, NavigatorOptions, feed_mission
+from graphnav.navigator import Navigator, NavigatorOptions
 from graphnav.replay import first_ping_time, replay
 from graphnav.scenarios import scenario_outage
 from graphnav.simulate import simulate_mission

@@ -103,7 +103,7 @@ def test_a_few_training_steps_are_deterministic():
                           None, 1.0, None, 0, False)
         return model, hist
 
-    (m1, h1), (m2, h2) = run(), run()
+    (m1, h1), (m2, _) = run(), run()
     assert h1[-1]["train"] < h1[0]["train"]
     for a, b in zip(m1.state_dict().values(), m2.state_dict().values()):
         assert torch.equal(a, b)
