@@ -420,6 +420,8 @@ class Navigator:
         if self.backend is None:
             if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
                 self.keyframer.add_imu(t, *payload)
+                if not (any(payload[0]) or any(payload[1])):
+                    return []       # an all-zero row (dropped and counted by the keyframer) is no alignment data
             if self.options.align_catch_up:
                 events = self._align_events
                 events.append((stream, t, payload))
