@@ -10,6 +10,7 @@ covariance, the biases). Both take the same :class:`~graphnav.graph.InitialState
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import gtsam
@@ -75,16 +76,15 @@ class GraphBackend(_Aided):
         self._initial = initial
 
     def process(self, kf: Keyframe) -> EpochEstimate:
-        fix_ne = None
+        gkf = graph_keyframe(kf, self.ctx)
         if kf.fix is not None:
             last = self.estimator._last
             if last is None:
                 p_pred = self._initial.pose.translation()
             else:
-                pim = self.ctx.preintegrate(kf.imu)
-                p_pred = pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
-            fix_ne = self.fix_ne(kf, p_pred)
-        self.estimator.add(graph_keyframe(kf, self.ctx, fix_ne))
+                p_pred = gkf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
+            gkf.fix_ne = self.fix_ne(kf, p_pred)
+        self.estimator.add(gkf)
         return self.estimator.update()
 
     @property
@@ -130,9 +130,9 @@ class EkfBackend(_Aided):
         C = initial.pose.rotation().matrix()
         if initial.cov_pose is not None:       # body-frame rotation tangent -> NED misalignment (diagonal)
             cov_eps = C @ np.asarray(initial.cov_pose)[:3, :3] @ C.T
-            options = _replace(options, sigma_att0_rad=np.sqrt(np.diag(cov_eps)))
+            options = dataclasses.replace(options, sigma_att0_rad=np.sqrt(np.diag(cov_eps)))
         if initial.cov_v_n is not None:
-            options = _replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
+            options = dataclasses.replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
         state = StrapdownState(float(initial.t), C, np.asarray(initial.v_n, float).copy(),
                                np.asarray(initial.pose.translation(), float).copy())
         self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
@@ -155,7 +155,7 @@ class EkfBackend(_Aided):
                 self.n_imu_gaps += 1
         ping = kf.ping
         if ping is not None:
-            sigma = ping.sigma_regressed if ping.completed or ping.n_regressed else None
+            sigma = ping.sigma_regressed if ping.n_regressed else None
             if ping.completed:
                 self.n_completed += 1
             if self.tight:
@@ -194,11 +194,6 @@ class EkfBackend(_Aided):
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
                 "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
                 "health": e.health.summary()}
-
-
-def _replace(options, **changes):
-    import dataclasses
-    return dataclasses.replace(options, **changes)
 
 
 def make_backend(name: str, config: SensorConfig, initial: InitialState, *, graph_options: GraphOptions | None = None,

@@ -205,24 +205,10 @@ class Keyframer:
 
     # --- state -------------------------------------------------------------------------------------
     @property
-    def started(self) -> bool:
-        return self._started
-
-    @property
     def samples(self) -> list[tuple[float, tuple, tuple]]:
         """The IMU samples (t, f_b, omega_b) from the one that covers the newest keyframe's stamp to the newest
         (read only)."""
         return self._samples
-
-    @property
-    def last_imu(self) -> tuple[float, tuple, tuple] | None:
-        """(t, f_b, omega_b) of the newest IMU sample accepted."""
-        return self._samples[-1] if self._samples else None
-
-    @property
-    def t_keyframe(self) -> float | None:
-        """Stamp of the newest closed keyframe."""
-        return self._t_kf
 
     def start(self, t0: float) -> list[Keyframe]:
         """Set the initial epoch t0 (s): keyframe 0 sits there (with a ping at exactly t0, if any)."""
@@ -245,18 +231,7 @@ class Keyframer:
         samples = self._samples
         if samples and t - samples[-1][0] > self._gap_limit:
             return self._bridge(samples[-1], (t, f_b, omega_b))
-        # the common path of _on_sample, inline (it runs 100 times a second)
-        self._n_imu += 1
-        samples.append((t, f_b, omega_b))
-        if not self._started:
-            if len(samples) > 2:
-                del samples[0]
-            return []
-        pending = self._pending
-        out = self._close_ready() if pending and pending[0].t <= t else []
-        if t - self._anchor > self._max_gap:
-            out += self._fill_gap(t)
-        return out
+        return self._on_sample(t, f_b, omega_b)
 
     def add_dvl(self, t: float, beams, valid) -> list[Keyframe]:
         if not self._started:
@@ -287,7 +262,9 @@ class Keyframer:
         self._heading.append((t, yaw, sigma))
         return []
 
-    def add_fix(self, fix: PositionFix) -> list[Keyframe]:
+    def add_fix(self, t: float, lat: float, lon: float, sigma_m: float) -> list[Keyframe]:
+        """A horizontal position fix (rad, rad, m): its own keyframe unless decimated."""
+        fix = PositionFix(t, lat, lon, sigma_m)
         if not self._started:
             return []
         if fix.t - self._last_fix_t < self.options.fix_min_interval_s:
@@ -346,7 +323,7 @@ class Keyframer:
                 del samples[0]
             return []
         out = self._close_ready() if self._pending and self._pending[0].t <= t else []
-        if t - self._anchor > self.options.max_keyframe_gap_s:
+        if t - self._anchor > self._max_gap:
             out += self._fill_gap(t)
         return out
 
@@ -385,11 +362,11 @@ class Keyframer:
         t_open = self._t_kf
         samples = self._samples
         if t_open is None:       # keyframe 0: nothing to integrate; keep the sample that covers t0
-            j = max(0, bisect.bisect_right(samples, t, key=_stamp) - 1)
+            j = max(0, bisect.bisect_right(samples, t, key=stamp_of) - 1)
             del samples[:j]
             return None
         # samples[0] holds at t_open; samples[j] is the last one at or before t (it holds at t)
-        j = max(0, bisect.bisect_right(samples, t, key=_stamp) - 1)
+        j = max(0, bisect.bisect_right(samples, t, key=stamp_of) - 1)
         part = samples[:j + 2]
         stamps = [x[0] for x in part]
         starts = [max(ti, t_open) for ti in stamps[:j + 1]]
@@ -445,7 +422,7 @@ class Keyframer:
     def _bracket(self, t: float):
         """The IMU sample at or before t and the one after it (None if there is none yet)."""
         samples = self._samples
-        i = bisect.bisect_right(samples, t, key=_stamp) - 1
+        i = bisect.bisect_right(samples, t, key=stamp_of) - 1
         if i < 0:
             return samples[0], None
         return samples[i], (samples[i + 1] if i + 1 < len(samples) else None)
@@ -481,5 +458,6 @@ class Keyframer:
         return (math.remainder(yaw, 2 * math.pi), sigma)
 
 
-def _stamp(sample: tuple) -> float:
+def stamp_of(sample: tuple) -> float:
+    """The stamp of a (t, ...) sample tuple (a sort key)."""
     return sample[0]

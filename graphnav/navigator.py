@@ -48,7 +48,7 @@ from .errors import ConfigError
 from .graph.builder import preintegration_params
 from .graph.incremental import EpochEstimate, InitialState
 from .graph.options import GraphOptions
-from .keyframes import Keyframer, KeyframeOptions, PositionFix
+from .keyframes import Keyframer, KeyframeOptions, stamp_of
 from .replay import STREAM_ORDER, replay
 
 
@@ -180,7 +180,7 @@ class Navigator:
         if in_order:
             q.append((t, f, w))
         else:
-            q.insert(bisect.bisect(q, t, key=_stamp), (t, f, w))
+            q.insert(bisect.bisect(q, t, key=stamp_of), (t, f, w))
         if t > self._newest:
             self._newest = t
         return self._release(self._newest - self.options.reorder_window_s)
@@ -428,17 +428,7 @@ class Navigator:
                 while events[0][1] < t - self.options.align_buffer_s:
                     events.popleft()
             return self._align(stream, t, payload)
-        k = self.keyframer
-        if stream == "imu":
-            kfs = k.add_imu(t, *payload)
-        elif stream == "dvl":
-            kfs = k.add_dvl(t, *payload)
-        elif stream == "depth":
-            kfs = k.add_depth(t, *payload)
-        elif stream == "heading":
-            kfs = k.add_heading(t, *payload)
-        else:
-            kfs = k.add_fix(PositionFix(t, *payload))
+        kfs = getattr(self.keyframer, "add_" + stream)(t, *payload)
         return self._process(kfs) if kfs else []
 
     def _process(self, kfs) -> list[EpochEstimate]:
@@ -464,16 +454,7 @@ class Navigator:
 
     def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         a = self.aligner
-        if stream == "imu":
-            a.add_imu(t, *payload)
-        elif stream == "dvl":
-            a.add_dvl(t, *payload)
-        elif stream == "depth":
-            a.add_depth(t, *payload)
-        elif stream == "heading":
-            a.add_heading(t, *payload)
-        else:
-            a.add_position_fix(t, *payload)
+        getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
         if stream != "imu" or not a.ready:
             return []
         return self._start_from_aligner(t)
@@ -568,10 +549,6 @@ def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, sto
         for est in new:
             callback(est)
     return out
-
-
-def _stamp(sample: tuple) -> float:
-    return sample[0]
 
 
 class _Concat:

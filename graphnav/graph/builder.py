@@ -159,12 +159,13 @@ class GraphContext:
                               regressed[usable], ping.omega_b_nearest.copy())
 
 
-def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext, fix_ne: np.ndarray | None = None) -> Keyframe:
-    """A streamed keyframe as the graph estimators use it (``fix_ne``: its position fix in NED, m)."""
+def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> Keyframe:
+    """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
+    who knows the navigation origin)."""
     pim = ctx.preintegrate(kf.imu) if kf.imu is not None else None
     dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
     depth = kf.depth if ctx.options.use_depth else None
-    return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, fix_ne,
+    return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
                     kf.fix.sigma_m if kf.fix is not None else 0.0)
 
 
