@@ -13,8 +13,8 @@ import warnings
 import numpy as np
 
 from graphnav import Navigator
-from graphnav.replay import replay
-from graphnav.simulate import simulate_mission
+from graphnav.estimators.replay import replay
+from graphnav.sim.simulate import simulate_mission
 
 
 def main(duration_s: float = 600.0) -> None:

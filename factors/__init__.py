@@ -4,8 +4,15 @@ See :mod:`graphnav.factors.dvl` for the measurement model and the Jacobian conve
 """
 from .aiding import heading_factor, horizontal_position_factor
 from .depth import depth_factor
-from .dvl import (N_DVL_ERRORS, beam_factor, beam_factor_dvl_errors, beam_factor_lever_arm, beam_noise,
-                  body_velocity_factor, predict_beams)
+from .dvl import (
+                  N_DVL_ERRORS,
+                  beam_factor,
+                  beam_factor_dvl_errors,
+                  beam_factor_lever_arm,
+                  beam_noise,
+                  body_velocity_factor,
+                  predict_beams,
+)
 from .motion import body_velocity_change_factor, nonholonomic_factor
 
 __all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",

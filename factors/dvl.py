@@ -8,7 +8,7 @@ DVL head along its unit vector,
 with ``R`` = ``C_b_n`` the attitude of Pose3 ``x_k``, ``v_n`` the NED velocity ``v_k`` (Vector3), ``b_g`` the
 gyro part of the IMU bias ``b_k`` (imuBias.ConstantBias, tangent ``[acc, gyro]``), ``omega_b`` the raw body
 rate of the IMU sample nearest the DVL stamp (rad/s, the Earth rate already removed by the caller if wanted),
-``l_b`` the lever arm (m, body frame) and ``b_i^T C_d_b^T`` = row i of :attr:`graphnav.dvl.DvlGeometry.T_b`.
+``l_b`` the lever arm (m, body frame) and ``b_i^T C_d_b^T`` = row i of :attr:`graphnav.core.dvl.DvlGeometry.T_b`.
 
 One factor may hold any number m of beams (rows); per-beam sigmas go in a diagonal noise model, so the
 same code serves "one factor per beam" (m = 1) and "one factor per epoch" (m = number of valid beams).

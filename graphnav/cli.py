@@ -11,8 +11,8 @@ import importlib
 import pkgutil
 import sys
 
-from . import __version__, commands
-from .errors import GraphnavError
+from graphnav import __version__, commands
+from graphnav.core.errors import GraphnavError
 
 
 def build_parser() -> argparse.ArgumentParser:

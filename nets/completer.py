@@ -8,7 +8,7 @@ as the inflated measurement noise (EKF) or the weak factor's noise (graph).
 
 A completer that also needs the IMU sets ``needs_imu = True`` and takes it as a keyword,
 ``complete(past, measured, imu=(f_b, omega_b))`` with ``f_b``/``omega_b`` the last ``imu_samples`` IMU samples
-up to the ping (``graphnav.nets.imu_network``); :meth:`graphnav.history.BeamHistory.complete` forwards it.
+up to the ping (``graphnav.nets.imu_network``); :meth:`graphnav.estimators.history.BeamHistory.complete` forwards it.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from typing import Protocol
 
 import numpy as np
 
-from graphnav.errors import DataError
+from graphnav.core.errors import DataError
 
 
 class BeamCompleter(Protocol):

@@ -1,7 +1,7 @@
 """Training and evaluation data of the missing-beam regressor.
 
 Beams are made from recorded DVL velocities (body frame, m/s, 1 Hz) with the DVL error model
-(:func:`graphnav.dvl.make_beams`, seeded), as in the paper. One sample at ping k is
+(:func:`graphnav.core.dvl.make_beams`, seeded), as in the paper. One sample at ping k is
 ``past = beams[k-N:k]`` (N, 4), ``measured = beams[k, kept]`` and ``target = beams[k, missing]``, with the
 true DVL velocity ``v = V[k]`` for the velocity metric. Samples never span two recordings, nor the
 train/validation split of ``V.npy`` (first 75 % train, last 25 % validation, the published split).
@@ -13,11 +13,18 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav import paths
-from graphnav.config import DvlSpec
-from graphnav.dvl import make_beams
-from graphnav.errors import DataError
-from graphnav.loaders import AKIT_COLUMNS, BEAMSNET_TRAIN_FRACTION, akit_files, list_akit, load_beamsnet, read_csv
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
+from graphnav.core.errors import DataError
+from graphnav.io import paths
+from graphnav.io.loaders import (
+    AKIT_COLUMNS,
+    BEAMSNET_TRAIN_FRACTION,
+    akit_files,
+    list_akit,
+    load_beamsnet,
+    read_csv,
+)
 
 TRAIN_FRACTION = BEAMSNET_TRAIN_FRACTION
 
@@ -112,7 +119,7 @@ def beamsnet_series(split: str, data_dir: str | Path | None = None, seed: int = 
         return BeamSeries("V_test", v, make_beams(v, spec, seed))
     v = _load_velocities(d, "V") @ rot.T
     beams = make_beams(v, spec, seed)
-    cut = int(TRAIN_FRACTION * len(v))         # as graphnav.loaders.beamsnet_split
+    cut = int(TRAIN_FRACTION * len(v))         # as graphnav.io.loaders.beamsnet_split
     if split == "all":
         return BeamSeries("V", v, beams)
     if split == "train":
@@ -127,7 +134,7 @@ def akit_series(data_dir: str | Path | None = None, seed: int = 0,
     """Beams made from the DVL velocities of every A-KIT trajectory (``TrajectoryN/DVL_trajectoryN.csv``).
 
     The DVL files hold the measured DVL velocity in the body frame (read and checked by
-    :func:`graphnav.loaders.read_csv`); each trajectory gets its own noise draw (``seed + N``). Invalid
+    :func:`graphnav.io.loaders.read_csv`); each trajectory gets its own noise draw (``seed + N``). Invalid
     (NaN) pings split a trajectory into separate series, so no window spans a gap.
     """
     d = _data_dir(data_dir, "akit")

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from graphnav.config import DvlSpec
-from graphnav.dvl import DvlGeometry
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
 
 from .average import AverageCompleter
 from .data import BeamSamples
@@ -85,7 +85,7 @@ def full_beam_vel_rmse(samples: BeamSamples, geometry: DvlGeometry | None = None
 
 
 def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, settle: int = 10):
-    """Complete 30-ping outages recursively, as an estimator does (:class:`graphnav.history.BeamHistory`).
+    """Complete 30-ping outages recursively, as an estimator does (:class:`graphnav.estimators.history.BeamHistory`).
 
     In each window the ``missing`` beams are removed; the history is primed with the full pings before the
     window and then holds earlier completions, so errors can grow through the window. Windows start at
@@ -97,7 +97,8 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
         :class:`BeamSamples`-aligned arrays ``(full, sigma, samples)`` over all in-window pings, ready for
         :func:`completion_metrics` (``samples.past`` is empty: the past is the completer's own).
     """
-    from graphnav.history import BeamHistory
+    from graphnav.estimators.history import BeamHistory
+
     from .data import BeamSeries
 
     series = [series] if isinstance(series, BeamSeries) else series
@@ -136,7 +137,7 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
         rows of dicts: dataset, scenario, mode, method, the :func:`completion_metrics` keys and
         ``all_beams_vel_rmse`` (least squares on all four made beams, the floor).
     """
-    from graphnav.errors import DataError
+    from graphnav.core.errors import DataError
 
     from . import data as beamdata
     from .network import load_completer

@@ -1,8 +1,8 @@
 """Training and evaluation data of the IMU-aware beam completer: A-KIT trajectories with IMU and DVL.
 
-Each trajectory is loaded with :func:`graphnav.loaders.load_akit` (IMU and DVL on the IMU clock, the DVL time
+Each trajectory is loaded with :func:`graphnav.io.loaders.load_akit` (IMU and DVL on the IMU clock, the DVL time
 offset estimated, the IMU y axis corrected). Beams are made from the recorded DVL velocities with the DVL
-error model (:func:`graphnav.dvl.make_beams`, default :class:`~graphnav.config.DvlSpec`, seed
+error model (:func:`graphnav.core.dvl.make_beams`, default :class:`~graphnav.core.config.DvlSpec`, seed
 ``beam_seed + 100 * draw + N`` for trajectory N), as the loader does. A sample at ping k is the beam-only
 sample of :mod:`graphnav.nets.data` plus the IMU window of the last ``n_imu`` samples up to the ping,
 preintegrated (:func:`graphnav.nets.imu_window.preintegrate`).
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.config import DvlSpec
-from graphnav.dvl import make_beams
-from graphnav.errors import DataError
-from graphnav.loaders import load_akit
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
+from graphnav.core.errors import DataError
+from graphnav.io.loaders import load_akit
 
 from .data import BeamSamples, _data_dir
 from .imu_window import IMU_RATE_HZ, IMU_WINDOW_S, ImuFeatures, preintegrate

@@ -1,7 +1,7 @@
 """The IMU-aware completer against the average estimator and the beam-only network, on A-KIT trajectories.
 
 Per ping: every ping completed from the true past. Recursive outage: 30-ping outages of the missing beams,
-each completer fed its own completions through :class:`graphnav.history.BeamHistory` (as the estimators do),
+each completer fed its own completions through :class:`graphnav.estimators.history.BeamHistory` (as the estimators do),
 windows every 90 pings from ping :data:`OUTAGE_SETTLE` (the IMU window must be full). Every method is
 scored on the same pings. Beam RMSE is over the filled beams against the beams the DVL would have reported;
 velocity RMSE is least squares on the four completed beams against the recorded DVL velocity.
@@ -11,8 +11,13 @@ from __future__ import annotations
 import numpy as np
 
 from .average import AverageCompleter
-from .evaluate import (completion_metrics, full_beam_vel_rmse, outage_rollout, predict_completer,
-                       predict_network)
+from .evaluate import (
+    completion_metrics,
+    full_beam_vel_rmse,
+    outage_rollout,
+    predict_completer,
+    predict_network,
+)
 from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, imu_windows
 from .imu_network import ImuNetworkCompleter, load_imu_completer, model_inputs
 from .imu_window import IMU_WINDOW_S
@@ -31,11 +36,11 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
-    the estimators use it, :data:`graphnav.methods.AVERAGE_N_PAST`) and
+    the estimators use it, :data:`graphnav.evaluation.methods.AVERAGE_N_PAST`) and
     ``network`` (the shipped beam-only network of the paper). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     """
-    from graphnav.methods import AVERAGE_N_PAST
+    from graphnav.evaluation.methods import AVERAGE_N_PAST
 
     from .network import load_completer
 

@@ -6,7 +6,7 @@ it: every past beam vector is propagated to the ping with the IMU (a physical pr
 corrects that prior from everything it sees.
 
 For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (default
-:class:`~graphnav.config.DvlSpec` geometry, the one the beams were made with):
+:class:`~graphnav.core.config.DvlSpec` geometry, the one the beams were made with):
 
 1. ``v_j = T+ b_j`` the least-squares velocity of past ping j (N full past beam vectors, oldest first);
 2. gravity in the body frame now, ``g_now = M v_{N} - f_mean`` (window mean of the rotated specific force,
@@ -26,9 +26,9 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from graphnav.config import DvlSpec
-from graphnav.dvl import DvlGeometry
-from graphnav.errors import ConfigError
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import ConfigError
 
 from .imu_window import IMU_RATE_HZ, IMU_WINDOW_S, N_SUMMARY
 from .model import normalize_missing

@@ -9,7 +9,7 @@ Interface (what an estimator passes), in addition to the beam-only completers' `
     beams, sigma = completer.complete(past, measured, imu=(f_b, omega_b))
 
 - ``past`` (N, 4) m/s: the last N full beam vectors, oldest first, one DVL period (``ping_dt``, 1 s) apart,
-  completions included (:class:`graphnav.history.BeamHistory` keeps them);
+  completions included (:class:`graphnav.estimators.history.BeamHistory` keeps them);
 - ``measured`` (4,) m/s: this ping's beams, NaN exactly at the network's missing beams;
 - ``f_b`` and ``omega_b`` (imu_samples, 3): specific force (m/s^2) and angular rate (rad/s) in the body frame
   (FRD), the last ``imu_samples`` IMU samples at ``imu_rate_hz`` whose last one is the sample at (or just
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from graphnav.errors import ConfigError, DataError
+from graphnav.core.errors import ConfigError, DataError
 
 from .completer import check_inputs
 from .imu_model import ImuBeamRegressor
@@ -56,7 +56,7 @@ class ImuNetworkCompleter:
         card: its model card.
         sigma_scale: factor on the returned sigma (1: calibrated per ping on held-out pings).
 
-    No ``drift_std`` of its own: :class:`graphnav.history.BeamHistory` grows the sigma through a run of filled
+    No ``drift_std`` of its own: :class:`graphnav.estimators.history.BeamHistory` grows the sigma through a run of filled
     pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
     """
 

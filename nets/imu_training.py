@@ -18,15 +18,16 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 import torch
 
-from graphnav.config import DvlSpec
-from graphnav.dvl import make_beams
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
 
 from . import imu_data
 from .data import _data_dir
 from .imu_model import DEFAULT_IMU_N_PAST, ImuBeamRegressor
 from .imu_network import ImuNetworkCompleter, imu_weights_name, model_inputs
 from .model import normalize_missing, scenario_name
-from .training import TrainResult, _run_stage, card_header, file_sha256
+from .storage import file_sha256
+from .training import TrainResult, _run_stage, card_header
 
 
 @dataclass
@@ -130,7 +131,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         "n_parameters": int(sum(p.numel() for p in model.parameters())),
         "data": {
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
-                      "via graphnav.loaders.load_akit",
+                      "via graphnav.io.loaders.load_akit",
             "DVL_sha256": {s.name: file_sha256(d / s.name / f"DVL_trajectory{s.name.removeprefix('Trajectory')}.csv")
                            for s in base},
             "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},

@@ -2,7 +2,7 @@
 
 The window is the last ``n_samples`` IMU samples up to the ping (the last sample at or before the ping time,
 oldest first, at ``rate_hz``): specific force ``f_b`` (n, 3) m/s^2 and angular rate ``omega_b`` (n, 3) rad/s
-in the body frame (FRD, as :func:`graphnav.loaders.load_akit` gives them).
+in the body frame (FRD, as :func:`graphnav.io.loaders.load_akit` gives them).
 
 :func:`preintegrate` turns it into what the network needs, in the body frame *of the ping* (``now``), for
 each of the N past pings j (``tau_j`` seconds before the ping):
@@ -24,7 +24,7 @@ centripetal term, 1 s ahead is off by 0.022 / 0.024 / 0.006 m/s (x / y / z); 10 
 40 s 0.015 / 0.021, 60 s 0.017 / 0.022 (the body velocity is not held that long). 20 s is the shipped window.
 The earth rate (7e-5 rad/s) and Coriolis terms are neglected; the DVL is taken at the IMU (no lever-arm
 term; on the Snapir AUV the DVL is within ~0.2 m of the IMU's measurement point,
-``graphnav.loaders.AKIT_IMU_POSITION_B``).
+``graphnav.io.loaders.AKIT_IMU_POSITION_B``).
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from graphnav.errors import DataError
+from graphnav.core.errors import DataError
 
 #: IMU rate the shipped IMU-aware networks were trained at (A-KIT Phins), Hz.
 IMU_RATE_HZ = 100.0
@@ -166,7 +166,7 @@ def imu_window_at(imu, t: float, n_samples: int) -> tuple[np.ndarray, np.ndarray
     """The IMU window an estimator passes for a ping at time ``t`` (s, the IMU's clock).
 
     Args:
-        imu: an IMU stream with ``t`` (M,) s, ``f_b`` and ``omega_b`` (M, 3) (:class:`graphnav.mission.ImuData`).
+        imu: an IMU stream with ``t`` (M,) s, ``f_b`` and ``omega_b`` (M, 3) (:class:`graphnav.core.mission.ImuData`).
         n_samples: window length (the completer's ``imu_samples``).
 
     Returns:

@@ -9,8 +9,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from graphnav.errors import ConfigError
-from graphnav.scenarios import SCENARIOS
+from graphnav.core.errors import ConfigError
+from graphnav.core.scenarios import SCENARIOS
 
 #: Past window length N of the paper for each number of missing beams.
 DEFAULT_N_PAST = {1: 3, 2: 3, 3: 5}

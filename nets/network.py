@@ -15,13 +15,12 @@ import numpy as np
 import torch
 
 import graphnav
-from graphnav.errors import ConfigError, DataError
+from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs
 from .model import BeamRegressor, normalize_missing, scenario_name
-from .training import FORMAT_VERSION, file_sha256, weights_dir
-
+from .storage import FORMAT_VERSION, file_sha256, weights_dir
 
 #: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
 #: ping at the edge of the training data does not switch completers.
@@ -74,12 +73,12 @@ class NetworkCompleter:
         constant_sigma: per-missing-beam sigma (m/s) for ``sigma="constant"``.
         sigma_scale: factor on every returned sigma (default 1: per ping the sigma is calibrated).
             Through recursive 30 s outages the RMS of error/sigma is 1.2-2.0 (model card); the growth
-            that :class:`graphnav.history.BeamHistory` adds over a run of filled pings covers that.
+            that :class:`graphnav.estimators.history.BeamHistory` adds over a run of filled pings covers that.
 
     A network extrapolates badly outside the data it was trained on (no-bottom-lock samples in its past
     window put its beams 0.1-0.3 m/s off, where the average estimator stays bounded): a ping whose inputs
     leave the card's :class:`InputEnvelope` is filled by the average estimator over the same window, and
-    counted in ``fallbacks["envelope"]`` (:func:`graphnav.methods.run_method` puts the counts of a run in
+    counted in ``fallbacks["envelope"]`` (:func:`graphnav.evaluation.methods.run_method` puts the counts of a run in
     ``info["completer_fallbacks"]``).
     """
 

@@ -11,7 +11,6 @@ Everything is seeded; with one thread (the default) a rerun gives the same weigh
 from __future__ import annotations
 
 import copy
-import hashlib
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -21,14 +20,12 @@ import torch
 from tqdm.auto import tqdm
 
 import graphnav
-from graphnav.config import DvlSpec
+from graphnav.core.config import DvlSpec
 
 from . import data as beamdata
 from .evaluate import completion_metrics, full_beam_vel_rmse, predict_network
 from .model import BeamRegressor, normalize_missing, scenario_name
-
-#: Version of the weights file layout and model card; bump when either changes incompatibly.
-FORMAT_VERSION = 1
+from .storage import FORMAT_VERSION, file_sha256, weights_dir
 
 
 @dataclass
@@ -150,16 +147,11 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
     return history
 
 
-def file_sha256(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes (data and weights fingerprints in the model card)."""
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 def train(missing="2-missing", n_past: int | None = None, options: TrainOptions | None = None,
           data_dir: str | Path | None = None, progress: bool = True) -> TrainResult:
     """Train the regressor for ``missing`` on the BeamsNet ``V.npy`` data and build its model card.
 
-    Beams are made from ``V.npy`` with the default :class:`~graphnav.config.DvlSpec` error model and
+    Beams are made from ``V.npy`` with the default :class:`~graphnav.core.config.DvlSpec` error model and
     ``options.beam_seed``; the first 75 % of the pings train, the last 25 % validate (no window crosses
     the cut); metrics on ``V_test.npy`` are added to the card.
     """
@@ -233,11 +225,6 @@ def card_header(model) -> dict:
         "architecture": model.architecture(),
         "state_dict_shapes": {k: list(v.shape) for k, v in model.state_dict().items()},
     }
-
-
-def weights_dir() -> Path:
-    """The folder of the shipped weights inside the package."""
-    return Path(__file__).resolve().parent / "weights"
 
 
 def save(result: TrainResult, directory: str | Path | None = None) -> tuple[Path, Path]:

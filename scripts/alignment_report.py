@@ -1,7 +1,7 @@
 """In-motion alignment from the sensors on the shared A-KIT trajectories (issue 11, item 2).
 
 For each trajectory the IMU and DVL samples (and nothing else: the A-KIT depth stream is GT-derived) are fed
-in time order to :class:`graphnav.align.Aligner`; the ground truth is only used to score.
+in time order to :class:`graphnav.estimators.align.Aligner`; the ground truth is only used to score.
 
 Table 1: heading / roll / pitch error of the alignment against the GT (at the IMU point) for several
 alignment durations, with the predicted heading 1-sigma.
@@ -23,14 +23,15 @@ import warnings
 import gtsam
 import numpy as np
 
-from graphnav.align import AlignOptions, align_mission
-from graphnav.graph import InitialState, run_graph
-from graphnav.graph.builder import keyframe_times
-from graphnav.graph.options import GraphOptions
-from graphnav.loaders import list_akit, load_akit
-from graphnav.metrics import vrmse
-from graphnav.paths import akit_dir
-from graphnav.rotations import C_b_n_to_euler
+from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.estimators.align import AlignOptions, align_mission
+from graphnav.estimators.graph import InitialState
+from graphnav.estimators.graph.builder import keyframe_times
+from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.runs import run_graph
+from graphnav.evaluation.metrics import vrmse
+from graphnav.io.loaders import list_akit, load_akit
+from graphnav.io.paths import akit_dir
 
 
 def wrap_deg(x):

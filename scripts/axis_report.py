@@ -18,8 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.loaders import AKIT_COLUMNS, akit_files, list_akit, load_akit, read_akit, read_csv
-from graphnav.paths import akit_dir
+from graphnav.io.loaders import (
+    AKIT_COLUMNS,
+    akit_files,
+    list_akit,
+    load_akit,
+    read_akit,
+    read_csv,
+)
+from graphnav.io.paths import akit_dir
 
 EXPECTED = {"published": (1, -1, 1), "y in body": (1, 1, 1)}
 

@@ -2,10 +2,10 @@
 """Benchmark of the six EKF methods (LC, TC, Average-LC, Average-TC, HNLC, HNTC) through partial-beam outages.
 
 Protocol (the paper's, on every mission): a 30 s window with 2 missing beams (beams 1 and 3) or 3 missing
-beams (only beam 2 kept) placed at ``graphnav.scenarios.window_starts(t0, t1)`` (first window after 60 s
+beams (only beam 2 kept) placed at ``graphnav.core.scenarios.window_starts(t0, t1)`` (first window after 60 s
 of full beams, 60 s of full beams between windows, last window ending before t1 - 5 s; 4 windows in a
-400 s mission), one run per window. Missions: the shared real A-KIT trajectories (``graphnav.paths.akit_dir``,
-loaded with ``graphnav.loaders.load_akit``: IMU y axis corrected, time offsets estimated, beams made from
+400 s mission), one run per window. Missions: the shared real A-KIT trajectories (``graphnav.io.paths.akit_dir``,
+loaded with ``graphnav.io.loaders.load_akit``: IMU y axis corrected, time offsets estimated, beams made from
 the recorded DVL velocity with the paper's error model) and the simulated default mission.
 
 Printed per mission set and scenario: VRMSE in the window (mean and worst over missions x windows), VRMSE over
@@ -28,13 +28,14 @@ import time
 from collections import defaultdict
 
 import numpy as np
-
-from graphnav import metrics
-from graphnav.bench import improvement_pct
-from graphnav.ekf import METHODS, EkfOptions, run_ekf
-from graphnav.methods import average_of, baseline_of
 from graphnav.nets import AverageCompleter
-from graphnav.scenarios import scenario_outage, window_starts
+
+from graphnav.core.scenarios import scenario_outage, window_starts
+from graphnav.estimators.ekf import METHODS, EkfOptions
+from graphnav.estimators.runs import run_ekf
+from graphnav.evaluation import metrics
+from graphnav.evaluation.bench import improvement_pct
+from graphnav.evaluation.methods import average_of, baseline_of
 
 SCENARIOS = {"2-missing": 3, "3-missing": 5}      # scenario -> n_past of the average estimator (paper)
 WINDOW_S = 30.0
@@ -50,8 +51,8 @@ def network_completer(scenario: str):
 
 
 def load_real(trajectories: list[str] | None, imu_axis_signs=(1, -1, 1)):
-    from graphnav.loaders import list_akit, load_akit
-    from graphnav.paths import akit_dir
+    from graphnav.io.loaders import list_akit, load_akit
+    from graphnav.io.paths import akit_dir
     root = akit_dir()
     if root is None:
         print("real data not found (set GRAPHNAV_DATA); skipping real trajectories", file=sys.stderr)
@@ -180,7 +181,7 @@ def main(argv=None) -> int:
             if not args.no_unflipped:
                 print_unflipped(load_real(trajs, imu_axis_signs=(1, 1, 1)), opts, args.max_windows)
     if not args.no_sim:
-        from graphnav.simulate import simulate_mission
+        from graphnav.sim.simulate import simulate_mission
         sim = [simulate_mission(400.0, seed=0)]
         print_table("Simulated default mission (400 s, navigation-grade IMU, seed 0)",
                     run_windows(sim, EkfOptions(), completers, args.max_windows))

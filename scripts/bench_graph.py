@@ -23,12 +23,13 @@ import gc
 import time
 
 import numpy as np
-
-from graphnav.graph import GraphOptions, iterate_graph, run_graph
-from graphnav.metrics import vrmse
 from graphnav.nets import AverageCompleter
-from graphnav.scenarios import scenario_outage
-from graphnav.simulate import simulate_mission
+
+from graphnav.core.scenarios import scenario_outage
+from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.runs import iterate_graph, run_graph
+from graphnav.evaluation.metrics import vrmse
+from graphnav.sim.simulate import simulate_mission
 
 
 def rss_mb() -> float:

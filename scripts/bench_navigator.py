@@ -18,10 +18,10 @@ import warnings
 
 import numpy as np
 
-from graphnav.graph import InitialState
-from graphnav.navigator import Navigator
-from graphnav.replay import first_ping_time, replay
-from graphnav.simulate import simulate_mission
+from graphnav.estimators.graph import InitialState
+from graphnav.estimators.navigator import Navigator
+from graphnav.estimators.replay import first_ping_time, replay
+from graphnav.sim.simulate import simulate_mission
 
 
 def rss_mb() -> float:

@@ -9,12 +9,12 @@ filled-beam errors within 1 and 2 sigma (Gaussian: 0.683 / 0.954) and the RMS of
 from __future__ import annotations
 
 import numpy as np
-
 from graphnav.nets import AverageCompleter, load_completer
 from graphnav.nets import data as beamdata
 from graphnav.nets.evaluate import outage_rollout
-from graphnav.paths import akit_dir
-from graphnav.scenarios import SCENARIOS
+
+from graphnav.core.scenarios import SCENARIOS
+from graphnav.io.paths import akit_dir
 
 
 def main() -> None:

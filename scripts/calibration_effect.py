@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav import paths
-from graphnav.calibration import calibrate
-from graphnav.ekf import run_ekf
-from graphnav.graph import run_graph
-from graphnav.loaders import list_akit, load_akit, load_mission
-from graphnav.metrics import vrmse
+from graphnav.calibration.calibrate import calibrate
+from graphnav.estimators.runs import run_ekf, run_graph
+from graphnav.evaluation.metrics import vrmse
+from graphnav.io import paths
+from graphnav.io.loaders import list_akit, load_akit, load_mission
 
 
 def scores(mission) -> tuple[float, float]:

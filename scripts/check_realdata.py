@@ -19,9 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav import paths
-from graphnav.calibration_align import (dvl_consistency, gyro_attitude_error)
-from graphnav.loaders import AKIT_COLUMNS, akit_files, gt_offset_drift, list_akit, load_akit, read_csv
+from graphnav.calibration.reference import dvl_consistency, gyro_attitude_error
+from graphnav.io import paths
+from graphnav.io.loaders import (
+    AKIT_COLUMNS,
+    akit_files,
+    gt_offset_drift,
+    list_akit,
+    load_akit,
+    read_csv,
+)
 
 
 def error_after(m, duration=60.0, step=100.0):

@@ -2,11 +2,11 @@
 
 Runs Graph-TC, Graph-HN, Graph-HN-batch (and the EKF TC for reference) on every trajectory of an A-KIT folder
 (or the simulated default) with ``GraphOptions(dvl_error_states=False)`` and ``=True``, with the bench's
-windows (:func:`graphnav.bench.case_windows`) and scenarios, and prints per method and setting:
+windows (:func:`graphnav.evaluation.bench.case_windows`) and scenarios, and prints per method and setting:
 
 - window VRMSE (m/s, mean over windows and trajectories) per scenario, as ``graphnav bench`` computes it;
 - mean velocity NEES over the mission after the 60 s settling time, all beams (scenario ``none``), with the
-  95 % chi-square band (:mod:`graphnav.consistency`), and with the GT's own velocity error added
+  95 % chi-square band (:mod:`graphnav.evaluation.consistency`), and with the GT's own velocity error added
   (``--gt-sigma``, see ``scripts/identify_noise.py``).
 
     .venv/bin/python scripts/consistency.py --data ../shared/data/snapir-2022-akit --jobs 2
@@ -21,12 +21,21 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.bench import case_windows, find_trajectories, prepared_mission, score_case
-from graphnav.consistency import chi2_band, n_independent, nees_with_reference
-from graphnav.graph import GraphOptions
-from graphnav.methods import run_method
-from graphnav.metrics import nees_velocity
-from graphnav.scenarios import scenario_outage
+from graphnav.core.scenarios import scenario_outage
+from graphnav.estimators.graph import GraphOptions
+from graphnav.evaluation.bench import (
+    case_windows,
+    find_trajectories,
+    prepared_mission,
+    score_case,
+)
+from graphnav.evaluation.consistency import (
+    chi2_band,
+    n_independent,
+    nees_with_reference,
+)
+from graphnav.evaluation.methods import run_method
+from graphnav.evaluation.metrics import nees_velocity
 
 GRAPH = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
 SETTLE_S = 60.0

@@ -1,7 +1,7 @@
-"""Print the fault-injection outcome table: every fault of ``graphnav.faults.FAULTS`` on a simulated mission
+"""Print the fault-injection outcome table: every fault of ``graphnav.evaluation.faults.FAULTS`` on a simulated mission
 per IMU grade (navigation, tactical, MEMS), run through the online graph (Graph-TC, Graph-HN), the batch
 smoother (Graph-HN-batch) and the EKF (TC, HNTC), with each estimator's VRMSE against its bound
-(``graphnav.faults.EXPECTED``) and its mean velocity NEES, or the error that stopped the input.
+(``graphnav.evaluation.faults.EXPECTED``) and its mean velocity NEES, or the error that stopped the input.
 
     .venv/bin/python scripts/fault_report.py                        # all three grades
     .venv/bin/python scripts/fault_report.py --grade navigation     # the grade the bounds are stated for
@@ -9,7 +9,7 @@ smoother (Graph-HN-batch) and the EKF (TC, HNTC), with each estimator's VRMSE ag
 
 Bounds are relative (factor x the estimator's VRMSE on the fault-free mission of the same grade). A cell
 reads ``VRMSE<=bound NEES``; NEES is the mean over the estimator's pure-inertial spans when it reported one
-(``*``), else over the mission (3 for a consistent estimator). Verdicts (``graphnav.faults.judge``): PASS
+(``*``), else over the mission (3 for a consistent estimator). Verdicts (``graphnav.evaluation.faults.judge``): PASS
 within the bound; PI where the bound cannot hold (pure inertial longer than ``max_pure_inertial_s``) but the
 estimator warned so and its NEES is at most ``NEES_COVER_MAX`` (the covariance covers the error); FAIL
 otherwise.
@@ -20,8 +20,16 @@ import argparse
 import tempfile
 import time
 
-from graphnav.faults import (ESTIMATORS, EXPECTED, FAULT_GRADES, FAULTS, NEES_COVER_MAX, fault_mission, judge,
-                             run_fault)
+from graphnav.evaluation.faults import (
+    ESTIMATORS,
+    EXPECTED,
+    FAULT_GRADES,
+    FAULTS,
+    NEES_COVER_MAX,
+    fault_mission,
+    judge,
+    run_fault,
+)
 
 
 def report_grade(grade: str, seed: int, duration: float, workdir: str) -> int:

@@ -1,13 +1,13 @@
 """Glitch-injection table: implausible DVL samples in a simulated mission and in shared A-KIT trajectories,
 and what the hybrid methods (network completer) make of them.
 
-10 % of the pings (default) are replaced by :func:`graphnav.faults.glitch_velocities` glitches: two of three
+10 % of the pings (default) are replaced by :func:`graphnav.evaluation.faults.glitch_velocities` glitches: two of three
 no-bottom-lock samples (|v_z| 1-2 m/s, horizontal velocity scaled by 0.2-1), one of three a 2.5-3.5 m/s
 one-ping spike. Three runs of each method on each scenario (missing beams in 30 s windows, as the bench):
 
 - ``clean``: the mission as loaded;
 - ``screened``: glitches injected and screened the way the loaders do (``DvlSpec`` envelope,
-  :func:`graphnav.dvl.implausible_pings`; for A-KIT the glitched CSV goes through ``load_akit``);
+  :func:`graphnav.core.dvl.implausible_pings`; for A-KIT the glitched CSV goes through ``load_akit``);
 - ``unscreened``: glitches injected with the envelope off: only the completer's own envelope check
   (fallback to the average estimator, counted in ``info["completer_fallbacks"]["envelope"]``) protects it.
 
@@ -29,14 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.dvl import screen_implausible
-from graphnav.faults import dvl_glitches, glitch_csv
-from graphnav.loaders import akit_files, load_akit
-from graphnav.methods import run_method
-from graphnav.metrics import vrmse
-from graphnav.paths import akit_dir
-from graphnav.scenarios import scenario_outage, window_starts
-from graphnav.simulate import simulate_mission
+from graphnav.core.dvl import screen_implausible
+from graphnav.core.scenarios import scenario_outage, window_starts
+from graphnav.evaluation.faults import dvl_glitches, glitch_csv
+from graphnav.evaluation.methods import run_method
+from graphnav.evaluation.metrics import vrmse
+from graphnav.io.loaders import akit_files, load_akit
+from graphnav.io.paths import akit_dir
+from graphnav.sim.simulate import simulate_mission
 
 BOUND = 1.2
 NO_ENVELOPE = dict(max_speed_mps=np.inf, max_vertical_mps=np.inf, max_accel_mps2=np.inf)

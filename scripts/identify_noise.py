@@ -1,10 +1,10 @@
 """Identify the IMU white-noise densities, the beam noise and the GT's velocity error on A-KIT trajectories.
 
-Method: :mod:`graphnav.noise_id` (the IMU's 1-s increments against the GT's, and the Allan deviation at
+Method: :mod:`graphnav.calibration.noise` (the IMU's 1-s increments against the GT's, and the Allan deviation at
 short tau; all-beam batch-smoother residuals
 with the smoother's own prediction variance added back for the beams; batch error vs GT minus the smoother's
 covariance for the GT). Prints one row per trajectory and the median over them, which is what
-:data:`graphnav.loaders.PHINS_RECORDED` and :data:`graphnav.loaders.AKIT_BEAM_NOISE_STD` hold.
+:data:`graphnav.io.loaders.PHINS_RECORDED` and :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD` hold.
 
     .venv/bin/python scripts/identify_noise.py --data ../shared/data/snapir-2022-akit --jobs 2
 """
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.loaders import list_akit, load_mission
-from graphnav.noise_id import identify
+from graphnav.calibration.noise import identify
+from graphnav.io.loaders import list_akit, load_mission
 
 
 def one(folder: str) -> dict:

@@ -20,11 +20,12 @@ import numpy as np
 
 def main() -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from graphnav.ekf import EkfOptions, _initial_state, run_ekf
-    from graphnav.loaders import load_mission
-    from graphnav.metrics import vrmse
-    from graphnav.paths import akit_dir
-    from graphnav.rotations import so3_exp_batch
+    from graphnav.core.rotations import so3_exp_batch
+    from graphnav.estimators.ekf import EkfOptions
+    from graphnav.estimators.runs import _initial_state, run_ekf
+    from graphnav.evaluation.metrics import vrmse
+    from graphnav.io.loaders import load_mission
+    from graphnav.io.paths import akit_dir
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cases = [("simulated 120 s, seed 1", load_mission(None, None, duration_s=120, seed=1))]

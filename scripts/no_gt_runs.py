@@ -11,7 +11,7 @@ For every A-KIT trajectory folder under ``--data``:
 3. ``sensor init, full folder``: ``--init sensors`` on the full folder, to separate the initialisation from the
    other differences of (1).
 
-Each run is scored afterwards against the GT of the full folder (``graphnav.metrics.vrmse``): mission VRMSE
+Each run is scored afterwards against the GT of the full folder (``graphnav.evaluation.metrics.vrmse``): mission VRMSE
 after the first 60 s of the mission, and over the common span (from the end of the alignment).
 
 Usage: ``.venv/bin/python scripts/no_gt_runs.py [--data ../shared/data/snapir-2022-akit] [--out out/no_gt]``
@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.cli import main as graphnav
-from graphnav.loaders import list_akit, load_akit
-from graphnav.metrics import vrmse
-from graphnav.outputs import read_trajectory_csv
-from graphnav.paths import akit_dir
+from graphnav.evaluation.metrics import vrmse
+from graphnav.io.loaders import list_akit, load_akit
+from graphnav.io.outputs import read_trajectory_csv
+from graphnav.io.paths import akit_dir
 
 
 def run_online(folder: Path, out: Path, *extra: str) -> tuple:

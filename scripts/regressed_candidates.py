@@ -47,9 +47,9 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 
 def run_one(args):
     source, grade, scenario, window_s, name = args
-    from graphnav.bench import case_windows, prepared_mission, score_case
-    from graphnav.methods import run_method
-    from graphnav.scenarios import scenario_outage
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation.bench import case_windows, prepared_mission, score_case
+    from graphnav.evaluation.methods import run_method
     mission = prepared_mission(source, grade)
     starts = case_windows(mission, window_s)
     run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     p.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
     p.add_argument("--jobs", type=int, default=1)
     a = p.parse_args(argv)
-    from graphnav.bench import find_trajectories
+    from graphnav.evaluation.bench import find_trajectories
     sources = [s for s in find_trajectories(a.data) if not a.trajectories or s.name in a.trajectories]
     tasks = [(s, g, sc, w, c) for s in sources for g in a.grades for sc in a.scenarios for w in a.window_s
              for c in a.candidates]

@@ -20,13 +20,14 @@ import numpy as np
 
 def collect(mission, scenario: str, window_s: float) -> np.ndarray:
     """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one run."""
-    from graphnav.bench import case_windows
     from graphnav.factors import predict_beams
-    from graphnav.graph import builder as builder_mod
-    from graphnav.graph import incremental as inc_mod
-    from graphnav.methods import run_method
-    from graphnav.scenarios import scenario_outage
-    from graphnav.timeseries import interp_rows
+
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.core.timeseries import interp_rows
+    from graphnav.estimators.graph import builder as builder_mod
+    from graphnav.estimators.graph import incremental as inc_mod
+    from graphnav.evaluation.bench import case_windows
+    from graphnav.evaluation.methods import run_method
     starts = case_windows(mission, window_s)
     run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
     gt, rows, state = mission.gt, [], {}
@@ -67,7 +68,7 @@ def main(argv=None) -> int:
     p.add_argument("--window-s", type=float, default=60.0)
     a = p.parse_args(argv)
     warnings.simplefilter("ignore")
-    from graphnav.bench import find_trajectories, prepared_mission
+    from graphnav.evaluation.bench import find_trajectories, prepared_mission
     sources = [s for s in find_trajectories(a.data) if not a.trajectories or s.name in a.trajectories]
     print(f"trajectories: {', '.join(s.name for s in sources)}; {a.window_s:g} s windows")
     print("| grade | scenario | beams | corr(e_c, e_p) | RMS e_c | RMS e_p | e_c^2/s_c^2 | e_p^2/a |")

@@ -1,7 +1,7 @@
 """Start-time sweep: every method from a start every --step s of each shared trajectory; worst window VRMSE.
 
 For each trajectory, start time (every 10 s by default), scenario and method, the mission is cut at the
-start and the method runs over the next --length s (:mod:`graphnav.startsweep`: first window = start-up with
+start and the method runs over the next --length s (:mod:`graphnav.evaluation.startsweep`: first window = start-up with
 all beams, second window = the scenario's outage). Prints, per scenario, the worst window VRMSE (m/s) of each
 method over all starts and trajectories, the count of failed starts (worst >= 0.5 m/s, diverged or crashed)
 and where the worst one was; writes every record to --out (JSON, rewritten as results arrive).
@@ -24,7 +24,7 @@ from pathlib import Path
 
 @functools.lru_cache(maxsize=2)
 def _mission(folder: str):
-    from graphnav.loaders import load_mission
+    from graphnav.io.loaders import load_mission
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return load_mission(folder)
@@ -32,7 +32,7 @@ def _mission(folder: str):
 
 def _start_job(folder: str, scenario: str, t_start: float, methods: list[str], length: float,
                window: float) -> list[dict]:
-    from graphnav.startsweep import run_start
+    from graphnav.evaluation.startsweep import run_start
     return [run_start(_mission(folder), m, scenario, t_start, length, window) for m in methods]
 
 
@@ -40,7 +40,7 @@ def ordered_jobs(folders, scenarios, step, length) -> list[tuple[str, str, float
     """(folder, scenario, start) in the order they are run: first the three fastest-manoeuvre starts of every
     trajectory, then the starts on a 3-step grid, then the rest, each scenario by scenario, so that a sweep
     cut short still covers every trajectory (the table says how many starts it holds)."""
-    from graphnav.startsweep import fastest_starts, start_times
+    from graphnav.evaluation.startsweep import fastest_starts, start_times
     jobs = []
     for f in folders:
         starts = start_times(_mission(str(f)), step, length)
@@ -52,7 +52,7 @@ def ordered_jobs(folders, scenarios, step, length) -> list[tuple[str, str, float
 
 
 def table(records: list[dict], methods: list[str], scenarios: list[str]) -> str:
-    from graphnav.startsweep import START_VRMSE_LIMIT, failed
+    from graphnav.evaluation.startsweep import START_VRMSE_LIMIT, failed
     lines = [f"Worst window VRMSE (m/s) over all starts; failed = worst >= {START_VRMSE_LIMIT} m/s, diverged "
              "or crashed; starts = (trajectory, start) pairs run.", "",
              "| scenario | method | starts | worst window VRMSE | at (trajectory, start s) | median of worst | "
@@ -75,9 +75,9 @@ def table(records: list[dict], methods: list[str], scenarios: list[str]) -> str:
 
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from graphnav.loaders import list_akit
-    from graphnav.methods import METHODS
-    from graphnav.paths import akit_dir
+    from graphnav.evaluation.methods import METHODS
+    from graphnav.io.loaders import list_akit
+    from graphnav.io.paths import akit_dir
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT root (default: the shared data)")
     p.add_argument("--trajectories", nargs="*", help="trajectory folder names (default: all)")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from graphnav import paths
+from graphnav.io import paths
 
 
 @pytest.fixture(scope="session")

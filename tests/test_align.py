@@ -1,16 +1,22 @@
-"""In-motion alignment from the sensors (graphnav.align) on simulated missions with exact ground truth."""
+"""In-motion alignment from the sensors (graphnav.estimators.align) on simulated missions with exact ground truth."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from graphnav.align import AlignmentError, AlignOptions, Aligner, align_mission, gyrocompass_heading_terms
-from graphnav.config import SensorConfig
-from graphnav.earth import ned_to_lla
-from graphnav.errors import ConfigError
-from graphnav.rotations import C_b_n_to_euler, attitude_error
-from graphnav.simulate import DEFAULT_ORIGIN_LLA, simulate_mission
+from graphnav.core.config import SensorConfig
+from graphnav.core.earth import ned_to_lla
+from graphnav.core.errors import ConfigError
+from graphnav.core.rotations import C_b_n_to_euler, attitude_error
+from graphnav.estimators.align import (
+    Aligner,
+    AlignmentError,
+    AlignOptions,
+    align_mission,
+    gyrocompass_heading_terms,
+)
+from graphnav.sim.simulate import DEFAULT_ORIGIN_LLA, simulate_mission
 
 SEEDS = (0, 1, 2, 3)
 DURATION_S = 120.0

@@ -12,11 +12,11 @@ import time
 
 import numpy as np
 import pytest
-
-from graphnav import methods
-from graphnav.cli import main
 from graphnav.nets import AverageCompleter
-from graphnav.outputs import CSV_COLUMNS, read_trajectory_csv, read_tum
+
+from graphnav.cli import main
+from graphnav.evaluation import methods
+from graphnav.io.outputs import CSV_COLUMNS, read_trajectory_csv, read_tum
 
 
 @pytest.mark.parametrize("command", ["smooth", "online", "bench"])

@@ -9,9 +9,16 @@ import warnings
 import numpy as np
 import pytest
 
-from graphnav.config import SensorConfig
-from graphnav.errors import DataError
-from graphnav.loaders import AKIT_COLUMNS, akit_files, load_akit, load_mission, read_akit, read_csv
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.io.loaders import (
+    AKIT_COLUMNS,
+    akit_files,
+    load_akit,
+    load_mission,
+    read_akit,
+    read_csv,
+)
 
 TRAJ = ("Trajectory2", "Trajectory11")   # Trajectory11: little roll, the accelerometer check is undecided
 

@@ -8,11 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from graphnav import bags, cli
-from graphnav.errors import ConfigError, DataError
-from graphnav.loaders import load_mission
-from graphnav.methods import run_method
-from graphnav.simulate import simulate_mission
+from graphnav import cli
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.evaluation.methods import run_method
+from graphnav.io import bags
+from graphnav.io.loaders import load_mission
+from graphnav.sim.simulate import simulate_mission
 
 T0_NS = 1_700_000_000_123_456_789
 
@@ -63,11 +64,11 @@ def test_smooth_reads_the_bag_and_writes_an_odometry_bag(sim, tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     # Same estimate as on the mission itself (the bag loses nothing the estimator uses).
     direct = run_method(mission, "Graph-TC", "none")
-    from graphnav.metrics import vrmse
+    from graphnav.evaluation.metrics import vrmse
     assert summary["accuracy"]["vrmse_mission_mps"] == pytest.approx(vrmse(direct, mission.gt), rel=1e-3)
     assert summary["accuracy"]["vrmse_mission_mps"] < 0.1     # 40 s incl. the initial convergence
     # The Odometry bag: absolute stamps, REP-103 frames, velocity covariance; read back as a reference.
-    from graphnav.outputs import read_trajectory_csv
+    from graphnav.io.outputs import read_trajectory_csv
     sol = read_trajectory_csv(out / "trajectory.csv")
     ref = bags.load_odometry(out / "trajectory_bag")
     assert ref.t[0] == pytest.approx((T0_NS / 1e9) + sol.t[0], abs=1e-6)
@@ -146,7 +147,7 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
 
 
 def test_bench_finds_a_folder_of_bags(sim, tmp_path):
-    from graphnav.bench import find_trajectories
+    from graphnav.evaluation.bench import find_trajectories
     _, config, paths, root = sim
     found = find_trajectories(str(root), config_path=str(config))
     assert [s.name for s in found] == ["run_mcap", "run_wl"]

@@ -11,11 +11,19 @@ import math
 import numpy as np
 import pytest
 
-from graphnav import bench
-from graphnav.bench import (RECORD_KEYS, BenchCase, TrajectorySource, aggregate, make_cases, make_report,
-                            run_bench, run_case)
-from graphnav.mission import DvlData, GroundTruth, ImuData, Mission
-from graphnav.solution import NavSolution
+from graphnav.core.mission import DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.solution import NavSolution
+from graphnav.evaluation import bench
+from graphnav.evaluation.bench import (
+    RECORD_KEYS,
+    BenchCase,
+    TrajectorySource,
+    aggregate,
+    make_cases,
+    make_report,
+    run_bench,
+    run_case,
+)
 
 #: Fake velocity error (m/s, north) inside outage windows, per method; outside windows the error is 0.01.
 FAKE_ERR = {"TC": 0.5, "HNTC": 0.2, "Average-TC": 0.3, "Graph-HN": 0.1, "Graph-TC": 0.4, "LC": 2.0}
@@ -214,7 +222,7 @@ def test_diverged_windows_are_marked_and_kept_out_of_the_means(fake_world, monke
 
 
 def test_window_lengths_and_regime_summary(fake_world):
-    from graphnav.bench import regime_summary
+    from graphnav.evaluation.bench import regime_summary
     cases = make_cases([TrajectorySource("sim", None, 0, 200.0)], ["0-beams", "markov"], ["as-recorded", "mems"],
                        ["Graph-TC"], window_s=[30.0, 60.0])
     assert {(c.scenario, c.imu_grade, c.window_s) for c in cases} == {

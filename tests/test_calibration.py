@@ -12,11 +12,15 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphnav.calibration import (calibrate, check_imu_axes_with_gt, check_imu_axes_without_gt,
-                                  signed_permutations)
-from graphnav.config import SensorConfig
-from graphnav.dvl import DvlGeometry
-from graphnav.simulate import simulate_mission
+from graphnav.calibration.axes import (
+    check_imu_axes_with_gt,
+    check_imu_axes_without_gt,
+    signed_permutations,
+)
+from graphnav.calibration.calibrate import calibrate
+from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import DvlGeometry
+from graphnav.sim.simulate import simulate_mission
 
 TRUE_LEVER = np.array([-1.2, 0.3, 0.5])
 TRUE_DVL_OFFSET = 0.40       # s, to add to the recorded DVL stamps
@@ -145,7 +149,7 @@ def test_real_data_estimates_near_readme_values(akit_dir):
     """Data README: lever arm close to [-1.86, -0.04, 0.2] m (relative to the published GT point),
     IMU-to-GT offset -0.5..0.5 s, the DVL leading the GT by 0.5..1.5 s. With the GT moved to the IMU point
     (the loader's default) the DVL lever arm comes out near zero."""
-    from graphnav.loaders import list_akit, load_akit
+    from graphnav.io.loaders import list_akit, load_akit
     for folder in list_akit(akit_dir)[:4]:
         at_imu = calibrate(load_akit(folder), "gt")
         np.testing.assert_allclose(at_imu.lever_arm_b.value, 0.0, atol=0.2, err_msg=folder.name)
@@ -180,7 +184,7 @@ def test_graph_mode_without_gt_recovers_lever_arm_and_dvl_offset():
 
 def test_cli_writes_a_config_later_runs_accept(tmp_path, capsys):
     from graphnav.cli import main
-    from graphnav.loaders import load_mission
+    from graphnav.io.loaders import load_mission
     out, report = tmp_path / "cal.json", tmp_path / "report.json"
     assert main(["calibrate", "--duration", "150", "--seed", "2", "--out", str(out), "--report", str(report)]) == 0
     text = capsys.readouterr().out
@@ -194,7 +198,7 @@ def test_cli_writes_a_config_later_runs_accept(tmp_path, capsys):
 
 def test_ground_truth_at_another_point_is_its_kinematics():
     """v of the moved GT equals the time derivative of its moved position (simulated, noiseless IMU)."""
-    from graphnav.calibration_align import ground_truth_at
+    from graphnav.calibration.reference import ground_truth_at
     m = simulate_mission(60.0, seed=1, noiseless=True)
     r = np.array([-1.9, 0.1, -0.3])
     moved = ground_truth_at(m, r)
@@ -209,7 +213,7 @@ def test_ground_truth_at_another_point_is_its_kinematics():
 @pytest.mark.realdata
 def test_real_data_raw_y_axis_is_named_with_and_without_gt(akit_dir):
     """The published IMU files have y flipped: both checks name it (offsets fixed to skip "auto")."""
-    from graphnav.loaders import list_akit, load_akit
+    from graphnav.io.loaders import list_akit, load_akit
     for folder in list_akit(akit_dir)[:3]:
         raw = load_akit(folder, imu_axis_signs=(1, 1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=1.0)
         with_gt, _ = check_imu_axes_with_gt(raw)

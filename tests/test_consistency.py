@@ -4,13 +4,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graphnav.bench import mission_nees, nees_section
-from graphnav.consistency import chi2_band, n_independent, nees_time_series, nees_with_reference
-from graphnav.graph import GraphOptions, run_graph
-from graphnav.metrics import nees_velocity
-from graphnav.noise_id import allan_deviation, identify, white_density
-from graphnav.plots import plot_nees
-from graphnav.simulate import simulate_mission
+from graphnav.calibration.noise import allan_deviation, identify, white_density
+from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.runs import run_graph
+from graphnav.evaluation.bench import mission_nees, nees_section
+from graphnav.evaluation.consistency import (
+    chi2_band,
+    n_independent,
+    nees_time_series,
+    nees_with_reference,
+)
+from graphnav.evaluation.metrics import nees_velocity
+from graphnav.evaluation.plots import plot_nees
+from graphnav.sim.simulate import simulate_mission
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from graphnav.bench import TrajectorySource, make_cases, run_bench
+from graphnav.evaluation.bench import TrajectorySource, make_cases, run_bench
 
 VOLATILE = ("runtime_s", "warnings")
 

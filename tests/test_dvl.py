@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphnav.config import DEG, DvlSpec
-from graphnav.dvl import DvlErrorModel, DvlGeometry, beam_matrix, make_beams
-from graphnav.errors import ConfigError, GeometryError
+from graphnav.core.config import DEG, DvlSpec
+from graphnav.core.dvl import DvlErrorModel, DvlGeometry, beam_matrix, make_beams
+from graphnav.core.errors import ConfigError, GeometryError
 
 
 @pytest.fixture

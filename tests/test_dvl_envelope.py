@@ -1,6 +1,6 @@
-"""DVL validity at load time (the vehicle's envelope, :func:`graphnav.dvl.implausible_pings`) and the network
+"""DVL validity at load time (the vehicle's envelope, :func:`graphnav.core.dvl.implausible_pings`) and the network
 completer's training envelope (fallback to the average estimator, counted in the solution's info), with
-glitches injected by :mod:`graphnav.faults`."""
+glitches injected by :mod:`graphnav.evaluation.faults`."""
 from __future__ import annotations
 
 import dataclasses
@@ -9,13 +9,13 @@ import warnings
 
 import numpy as np
 import pytest
-
-from graphnav import faults
-from graphnav.config import DvlSpec
-from graphnav.dvl import implausible_pings, screen_implausible
-from graphnav.loaders import akit_files, list_akit, load_akit, read_akit
-from graphnav.methods import run_method
 from graphnav.nets import AverageCompleter, load_completer
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import implausible_pings, screen_implausible
+from graphnav.evaluation import faults
+from graphnav.evaluation.methods import run_method
+from graphnav.io.loaders import akit_files, list_akit, load_akit, read_akit
 
 
 def _series(n=60, seed=0):
@@ -108,7 +108,7 @@ def test_fallbacks_reach_the_solution_info():
 def test_hybrid_methods_within_1_2x_of_clean_with_screened_glitches():
     """10 % of the pings glitched (no bottom lock, spikes), screened as the loaders do: the hybrid methods
     with the network completer stay within 1.2x of their clean window VRMSE (2 beams missing)."""
-    from graphnav.metrics import vrmse
+    from graphnav.evaluation.metrics import vrmse
     clean = faults.fault_mission()
     glitched = faults.dvl_glitches(clean, fraction=0.1, seed=1)
     with pytest.warns(RuntimeWarning, match="outside the vehicle's envelope"):

@@ -5,21 +5,31 @@ import dataclasses
 
 import numpy as np
 import pytest
+from graphnav.nets import AverageCompleter
 from scipy.stats import chi2
 
-from graphnav import metrics
-from graphnav.config import SensorConfig, imu_grade
-from graphnav.dvl import DvlGeometry, make_beams
-from graphnav.earth import earth_rate_n
-from graphnav.ekf import IA, IE, IG, IV, METHODS, EkfOptions, ErrorStateEkf, compose_transitions, run_ekf
-from graphnav.errors import ConfigError
-from graphnav.imu_errors import corrupt_imu
-from graphnav.ins import StrapdownState
-from graphnav.mission import DvlData, GroundTruth, ImuData, Mission
-from graphnav.nets import AverageCompleter
-from graphnav.rotations import euler_to_C_b_n, so3_exp_batch, so3_log
-from graphnav.scenarios import scenario_outage, window_starts
-from graphnav.simulate import simulate_mission
+from graphnav.core.config import SensorConfig, imu_grade
+from graphnav.core.dvl import DvlGeometry, make_beams
+from graphnav.core.earth import earth_rate_n
+from graphnav.core.errors import ConfigError
+from graphnav.core.mission import DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.rotations import euler_to_C_b_n, so3_exp_batch, so3_log
+from graphnav.core.scenarios import scenario_outage, window_starts
+from graphnav.estimators.ekf import (
+    IA,
+    IE,
+    IG,
+    IV,
+    METHODS,
+    EkfOptions,
+    ErrorStateEkf,
+    compose_transitions,
+)
+from graphnav.estimators.ins import StrapdownState
+from graphnav.estimators.runs import run_ekf
+from graphnav.evaluation import metrics
+from graphnav.sim.imu_errors import corrupt_imu
+from graphnav.sim.simulate import simulate_mission
 
 
 def _manoeuvre(n=100, dt=0.01):

@@ -6,11 +6,12 @@ import json
 import numpy as np
 import pytest
 
-from graphnav import bags, cli
-from graphnav.errors import DataError
-from graphnav.metrics import nees_velocity, vrmse
-from graphnav.outputs import read_trajectory_csv
-from graphnav.simulate import simulate_mission
+from graphnav import cli
+from graphnav.core.errors import DataError
+from graphnav.evaluation.metrics import nees_velocity, vrmse
+from graphnav.io import bags
+from graphnav.io.outputs import read_trajectory_csv
+from graphnav.sim.simulate import simulate_mission
 
 
 @pytest.fixture(scope="module")
@@ -51,8 +52,8 @@ def test_against_tum_and_mission_reference(run, capsys):
 
 
 def test_aligned_ape_removes_a_frame_offset(run, tmp_path):
-    from graphnav.evaluate import evaluate, load_trajectory
-    from graphnav.mission import GroundTruth
+    from graphnav.core.mission import GroundTruth
+    from graphnav.evaluation.score import evaluate, load_trajectory
     mission, _, out = run
     sol = load_trajectory(out / "trajectory.csv")
     g = mission.gt

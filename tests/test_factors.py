@@ -4,14 +4,24 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 import pytest
+from graphnav.factors import (
+    beam_factor,
+    beam_factor_dvl_errors,
+    beam_factor_lever_arm,
+    body_velocity_factor,
+    depth_factor,
+    predict_beams,
+)
 from gtsam.symbol_shorthand import B, D, L, V, X
-from gtsam.utils.numerical_derivative import (numericalDerivative41, numericalDerivative42,
-                                              numericalDerivative43, numericalDerivative44)
+from gtsam.utils.numerical_derivative import (
+    numericalDerivative41,
+    numericalDerivative42,
+    numericalDerivative43,
+    numericalDerivative44,
+)
 
-from graphnav.config import DvlSpec
-from graphnav.dvl import DvlGeometry
-from graphnav.factors import (beam_factor, beam_factor_dvl_errors, beam_factor_lever_arm, body_velocity_factor,
-                              depth_factor, predict_beams)
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
 
 LEVER = np.array([-1.86, -0.04, 0.2])
 

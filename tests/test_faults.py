@@ -1,8 +1,8 @@
 """Fault injection: every fault either completes within its stated bound or stops with an error naming the
-file/stream, line/index and field (table: :data:`graphnav.faults.EXPECTED`); robust estimators against beam
+file/stream, line/index and field (table: :data:`graphnav.evaluation.faults.EXPECTED`); robust estimators against beam
 spikes; the solver's indeterminant-system recovery; no lost work when online/bench runs are interrupted.
 
-Everything runs on the 200 s simulated mission of :func:`graphnav.faults.fault_mission` (each estimator
+Everything runs on the 200 s simulated mission of :func:`graphnav.evaluation.faults.fault_mission` (each estimator
 ~0.2 s), seeded. A SIGALRM guard fails any test that hangs.
 """
 from __future__ import annotations
@@ -14,14 +14,21 @@ import warnings
 import numpy as np
 import pytest
 
-from graphnav import faults
 from graphnav.cli import main
-from graphnav.ekf import EkfOptions, run_ekf
-from graphnav.errors import DataError
-from graphnav.faults import ESTIMATORS, EXPECTED, FAULTS
-from graphnav.graph import GraphOptions, run_graph
-from graphnav.mission import (IMU_GAP_ACCEL_SIGMA, MAX_DVL_SPEED_MPS, DvlData, ImuData, gap_variances)
-from graphnav.metrics import vrmse
+from graphnav.core.errors import DataError
+from graphnav.core.mission import (
+    IMU_GAP_ACCEL_SIGMA,
+    MAX_DVL_SPEED_MPS,
+    DvlData,
+    ImuData,
+    gap_variances,
+)
+from graphnav.estimators.ekf import EkfOptions
+from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.runs import run_ekf, run_graph
+from graphnav.evaluation import faults
+from graphnav.evaluation.faults import ESTIMATORS, EXPECTED, FAULTS
+from graphnav.evaluation.metrics import vrmse
 
 HANG_LIMIT_S = 120
 
@@ -166,7 +173,7 @@ def test_imu_gap_inflates_estimator_covariance(mission):
     assert sol.info["imu_gaps"] == 1 and clean.info["imu_gaps"] == 0
     k = int(np.searchsorted(sol.t, 82.0))     # first ping after the gap
     assert np.trace(sol.cov_v_n[k]) > 1.5 * np.trace(clean.cov_v_n[k])
-    from graphnav.graph import GraphContext, mission_keyframes
+    from graphnav.estimators.graph.builder import GraphContext, mission_keyframes
     with pytest.warns(RuntimeWarning, match="bridged"):
         kfs = list(mission_keyframes(gap, GraphOptions()))
     t = np.array([kf.t for kf in kfs])
@@ -208,7 +215,7 @@ def test_graph_huber_on_measured_beams_helps_the_spike_case(mission, spiky):
 def test_indeterminant_system_recovers_with_a_warning(mission, monkeypatch):
     """GTSAM's IndeterminantLinearSystem at keyframe 60: the solver restarts (QR, priors from the last
     estimate) with a warning, and the run completes as accurately as without the failure."""
-    from graphnav.graph.incremental import OnlineGraph
+    from graphnav.estimators.graph.incremental import OnlineGraph
     original = OnlineGraph._solve
     calls = {"n": 0}
 
@@ -255,8 +262,9 @@ def test_indeterminant_batch_is_solved_again_with_qr(mission, solver):
 
 
 def test_batch_that_cannot_be_solved_returns_the_filtered_estimates(mission, monkeypatch):
-    from graphnav.graph import run as graph_run
     from graphnav.nets.average import AverageCompleter
+
+    from graphnav.estimators import runs as graph_run
 
     def indeterminant(*args, **kwargs):
         raise RuntimeError("Indeterminate linear system detected while working near variable x5")
@@ -269,7 +277,7 @@ def test_batch_that_cannot_be_solved_returns_the_filtered_estimates(mission, mon
 
 
 def test_other_solver_errors_are_not_swallowed(mission, monkeypatch):
-    from graphnav.graph.incremental import OnlineGraph
+    from graphnav.estimators.graph.incremental import OnlineGraph
 
     def broken(self, *args, **kwargs):
         raise RuntimeError("something else")
@@ -281,7 +289,7 @@ def test_other_solver_errors_are_not_swallowed(mission, monkeypatch):
 # --- every entry point names the bad record -------------------------------------------------------------
 @pytest.mark.parametrize("command", ["smooth", "online"])
 def test_cli_reports_a_truncated_line(command, mission, tmp_path, capsys):
-    from graphnav.export import write_akit
+    from graphnav.io.export import write_akit
     paths = write_akit(mission, tmp_path)
     faults.truncate_csv_line(paths["DVL"], 7)
     rc = main([command, "--data", str(paths["DVL"].parent), "--out", str(tmp_path / "out"), "--no-plots"])
@@ -301,7 +309,7 @@ def test_online_interrupted_keeps_epochs_and_resumes_identically(tmp_path, monke
     assert _online(full) == 0
     reference = (full / "online.csv").read_text()
 
-    from graphnav.outputs import EpochCsvWriter
+    from graphnav.io.outputs import EpochCsvWriter
     original = EpochCsvWriter.write
     stop_after = 40
 
@@ -324,7 +332,7 @@ def test_online_interrupted_keeps_epochs_and_resumes_identically(tmp_path, monke
 
 
 def test_bench_interrupted_keeps_finished_cases(tmp_path, monkeypatch):
-    from graphnav import bench
+    from graphnav.evaluation import bench
     source = bench.TrajectorySource("sim-fault", None, 1, 200.0, None)
     cases = bench.make_cases([source], scenarios=("2-missing",), grades=("navigation",),
                              methods=("TC", "Graph-TC", "LC"), window_s=30.0, max_windows=1)
@@ -376,7 +384,7 @@ def test_fault_subset_on_lower_grade_imus(grade, tmp_path):
 
 
 def test_pure_inertial_check_warns_with_the_predicted_sigma():
-    from graphnav.coasting import check_pure_inertial
+    from graphnav.estimators.coasting import check_pure_inertial
     t = np.arange(200.0)
     aided = (t < 40) | (t >= 160)
     cov = np.repeat(np.eye(3)[None], 200, axis=0) * 0.01

@@ -1,5 +1,5 @@
 """Input fuzzing: random malformed CSVs into ``read_csv`` and ``load_akit``; only graphnav's own error types
-(:class:`graphnav.errors.GraphnavError`) may escape, and whatever is returned must be clean.
+(:class:`graphnav.core.errors.GraphnavError`) may escape, and whatever is returned must be clean.
 
 Hypothesis runs derandomized (the same examples every run) with bounded example counts:
 ``READ_CSV_EXAMPLES`` + ``LOAD_AKIT_EXAMPLES`` files per run. Each example starts from a valid file and
@@ -18,8 +18,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from graphnav.errors import GraphnavError
-from graphnav.loaders import AKIT_COLUMNS, load_akit, read_csv
+from graphnav.core.errors import GraphnavError
+from graphnav.io.loaders import AKIT_COLUMNS, load_akit, read_csv
 
 READ_CSV_EXAMPLES = 1000
 LOAD_AKIT_EXAMPLES = 200
@@ -129,8 +129,8 @@ def test_read_csv_raises_only_graphnav_errors(kind, n, seed, ops, repair):
 @pytest.fixture(scope="module")
 def akit_folder(tmp_path_factory):
     """A valid A-KIT folder (simulated 30 s mission) whose files the fuzzer damages one at a time."""
-    from graphnav.export import write_akit
-    from graphnav.simulate import simulate_mission
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
     root = tmp_path_factory.mktemp("akit")
     paths = write_akit(simulate_mission(30.0, seed=3), root)
     return {k: paths[k].read_text().splitlines() for k in ("IMU", "DVL", "GT")}

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from graphnav import cli
-from graphnav.errors import ConfigError, DataError
-from graphnav.loaders import load_mission
-from graphnav.rotations import C_b_n_to_euler
-from graphnav.simulate import simulate_mission
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.io.loaders import load_mission
+from graphnav.sim.simulate import simulate_mission
 
 T0 = 1_700_000_000.0   # Unix seconds, as loggers write them
 
@@ -102,8 +102,8 @@ def test_merged_log_and_body_velocity_dvl_through_smooth(sim, tmp_path, capsys):
                      "--method", "Graph-TC", "--init", "sensors", "--initial-heading", f"{heading_deg:.3f}",
                      "--out", str(out), "--no-plots"]) == 0
     assert json.loads((out / "summary.json").read_text())["accuracy"] == {"ground_truth": False}
-    from graphnav.outputs import read_trajectory_csv
-    from graphnav.metrics import vrmse
+    from graphnav.evaluation.metrics import vrmse
+    from graphnav.io.outputs import read_trajectory_csv
     no_gt_vrmse = vrmse(read_trajectory_csv(out / "trajectory.csv"), m.gt)
     cmap["gt"] = {"t": "gt_t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"], "euler": ["roll", "pitch", "yaw"]}
     cfg = _config(tmp_path, m, cmap)

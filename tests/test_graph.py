@@ -6,15 +6,17 @@ import warnings
 
 import numpy as np
 import pytest
-
-from graphnav.config import DvlSpec, SensorConfig
-from graphnav.errors import ConfigError
-from graphnav.graph import GraphOptions, iterate_graph, mission_keyframes, run_graph
-from graphnav.keyframes import Keyframer, KeyframeOptions
-from graphnav.metrics import nees_velocity, vrmse
 from graphnav.nets import AverageCompleter
-from graphnav.scenarios import Outage, scenario_outage
-from graphnav.simulate import DEFAULT_LEVER_ARM_B, simulate_mission
+
+from graphnav.core.config import DvlSpec, SensorConfig
+from graphnav.core.errors import ConfigError
+from graphnav.core.scenarios import Outage, scenario_outage
+from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.graph.builder import mission_keyframes
+from graphnav.estimators.keyframes import KeyframeOptions, Keyframer
+from graphnav.estimators.runs import iterate_graph, run_graph
+from graphnav.evaluation.metrics import nees_velocity, vrmse
+from graphnav.sim.simulate import DEFAULT_LEVER_ARM_B, simulate_mission
 
 NO_SYSTEMATIC_DVL = SensorConfig(dvl=DvlSpec(beam_bias=np.zeros(4), scale_factor=np.zeros(3),
                                              lever_arm_b=DEFAULT_LEVER_ARM_B))
@@ -38,7 +40,7 @@ def nav_mission():
 
 def streamed_keyframes(imu_t, dvl_t, options=None):
     """Keyframes of a stream of IMU stamps and DVL pings (all beams valid), in time order, no look-ahead."""
-    from graphnav.config import SensorConfig
+    from graphnav.core.config import SensorConfig
     k = Keyframer(SensorConfig(), options)
     events = sorted([(t, 1, "dvl") for t in dvl_t] + [(t, 2, "imu") for t in imu_t])
     out = k.start(float(dvl_t[0]))
@@ -149,7 +151,7 @@ class OracleCompleter:
         self.sigma = sigma
         rng = np.random.default_rng(seed)
         traj = mission.meta["trajectory"]
-        from graphnav.dvl import DvlGeometry
+        from graphnav.core.dvl import DvlGeometry
         geo = DvlGeometry.from_spec(mission.config.dvl)
         state = traj.state(mission.dvl.t)
         clean = geo.beams_from_velocity(state.v_b, state.omega_nb_b)

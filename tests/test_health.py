@@ -8,14 +8,20 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from graphnav.ekf import EkfOptions, _initial_state, run_ekf
-from graphnav.errors import DataError
-from graphnav.health import HealthOptions, NisMonitor, diverged_during, health_line
-from graphnav.loaders import load_mission
-from graphnav.mission import GroundTruth
-from graphnav.methods import run_method
-from graphnav.metrics import vrmse
-from graphnav.rotations import so3_exp_batch
+from graphnav.core.errors import DataError
+from graphnav.core.mission import GroundTruth
+from graphnav.core.rotations import so3_exp_batch
+from graphnav.estimators.ekf import EkfOptions
+from graphnav.estimators.health import (
+    HealthOptions,
+    NisMonitor,
+    diverged_during,
+    health_line,
+)
+from graphnav.estimators.runs import _initial_state, run_ekf
+from graphnav.evaluation.methods import run_method
+from graphnav.evaluation.metrics import vrmse
+from graphnav.io.loaders import load_mission
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +79,7 @@ def test_ground_truth_at_with_the_imu_follows_a_roll_oscillation():
     """A 1 Hz ground truth of a vehicle rolling at 0.8 Hz (20 deg/s peak rate): the plain slerp misses the roll
     between samples by degrees; carried by the gyro it is exact (the IMU is the truth's own rate here) and
     still exact at the samples."""
-    from graphnav.mission import ImuData
+    from graphnav.core.mission import ImuData
     t_imu = np.arange(0.0, 5.0 + 1e-9, 0.01)
     omega = np.c_[np.deg2rad(20.0) * np.sin(2 * np.pi * 0.8 * t_imu), np.zeros_like(t_imu),
                   np.full_like(t_imu, np.deg2rad(5.0))]
@@ -198,7 +204,7 @@ def test_ekf_reacquires_after_a_forced_lockout(sim):
 
 def test_ekf_reacquires_with_one_beam_by_inflation(sim):
     """Only one beam (the 3-missing preset over the whole run): no velocity fix, the covariance is inflated."""
-    from graphnav.scenarios import scenario_outage
+    from graphnav.core.scenarios import scenario_outage
     one_beam = sim.with_outage(scenario_outage("3-missing", sim.t0, sim.duration + 1.0))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -215,8 +221,8 @@ def test_graph_flags_divergence_and_inconsistency(sim):
     wrong start has left an attitude error), and the NIS blocks are above their band."""
     import dataclasses
 
-    from graphnav.graph import run_graph
-    from graphnav.graph.incremental import InitialState
+    from graphnav.estimators.graph.incremental import InitialState
+    from graphnav.estimators.runs import run_graph
     m = sim.slice(sim.t0, sim.t0 + 50.0)
     flip = np.array([1.0, -1.0, 1.0])
     flipped = dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=m.imu.f_b * flip,

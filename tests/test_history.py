@@ -1,9 +1,9 @@
 """BeamHistory: what goes into the past window, and how sigma grows through a run of filled pings."""
 import numpy as np
 import pytest
-
-from graphnav.history import BeamHistory
 from graphnav.nets import AverageCompleter
+
+from graphnav.estimators.history import BeamHistory
 
 
 def test_not_ready_until_full_pings_then_completes_and_feeds_back():

@@ -5,12 +5,18 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphnav.config import SensorConfig
-from graphnav.earth import earth_rate_n
-from graphnav.ins import (Strapdown, StrapdownState, integrate, prefix_products, segment_specific_force,
-                          segment_timeline)
-from graphnav.mission import ImuData
-from graphnav.rotations import attitude_error, euler_to_C_b_n, so3_exp_batch
+from graphnav.core.config import SensorConfig
+from graphnav.core.earth import earth_rate_n
+from graphnav.core.mission import ImuData
+from graphnav.core.rotations import attitude_error, euler_to_C_b_n, so3_exp_batch
+from graphnav.estimators.ins import (
+    Strapdown,
+    StrapdownState,
+    integrate,
+    prefix_products,
+    segment_specific_force,
+    segment_timeline,
+)
 
 
 def test_so3_exp_batch_matches_scipy_including_tiny_angles():
@@ -75,7 +81,7 @@ def test_noiseless_simulated_imu_integrates_on_ground_truth():
     Earth-rate cross terms (attitude ~1e-10 deg measured). Velocity differs by the first-order Coriolis
     step (measured 0.5 mm/s), position by the trapezoid rule on a smooth velocity (measured 0.09 m in 400 s).
     """
-    from graphnav.simulate import simulate_mission
+    from graphnav.sim.simulate import simulate_mission
     m = simulate_mission(400.0, seed=0, noiseless=True)
     gt = m.gt
     s0 = StrapdownState(gt.t[0], gt.C_b_n[0], gt.v_n[0], gt.p_n[0])

@@ -50,7 +50,7 @@ def test_wheel_holds_only_the_graphnav_package(tmp_path):
     assert all(t == "graphnav" or (t.startswith("graphnav-") and t.endswith(".dist-info")) for t in top), top
     assert "factors" not in top and "nets" not in top
     for required in ("graphnav/__init__.py", "graphnav/cli.py", "graphnav/factors/__init__.py",
-                     "graphnav/nets/__init__.py", "graphnav/nets/completer.py", "graphnav/simulate.py"):
+                     "graphnav/nets/__init__.py", "graphnav/nets/completer.py", "graphnav/sim/simulate.py"):
         assert required in names
     # every module of the three source folders is in the wheel under graphnav/
     for folder, prefix in (("graphnav", "graphnav/"), ("factors", "graphnav/factors/"), ("nets", "graphnav/nets/")):

@@ -6,9 +6,17 @@ import warnings
 import numpy as np
 import pytest
 
-from graphnav.errors import DataError
-from graphnav.loaders import (AKIT_COLUMNS, AKIT_IMU_POSITION_B, AKIT_LEVER_ARM_B, beamsnet_split, list_akit, load_akit, load_beamsnet,
-                              read_csv)
+from graphnav.core.errors import DataError
+from graphnav.io.loaders import (
+    AKIT_COLUMNS,
+    AKIT_IMU_POSITION_B,
+    AKIT_LEVER_ARM_B,
+    beamsnet_split,
+    list_akit,
+    load_akit,
+    load_beamsnet,
+    read_csv,
+)
 
 
 def write_csv(path, columns, rows):
@@ -219,7 +227,7 @@ def test_missing_file_named(tmp_path):
 def test_folder_without_gt_loads_as_a_vehicle_has_it(tmp_path):
     """IMU and DVL only: no ground truth, no depth (A-KIT's is the GT's), the DVL offset from the vehicle's
     measured constant with a warning (it cannot be estimated against a missing GT)."""
-    from graphnav.loaders import AKIT_DVL_TIME_OFFSET_S
+    from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
     folder = make_akit_folder(tmp_path, n=4)
     (folder / "GT_trajectory4.csv").unlink()
     with pytest.warns(RuntimeWarning, match="no GT file"):

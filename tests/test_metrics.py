@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphnav import metrics
-from graphnav.errors import DataError
-from graphnav.mission import GroundTruth
-from graphnav.rotations import euler_to_C_b_n
-from graphnav.solution import NavSolution
+from graphnav.core.errors import DataError
+from graphnav.core.mission import GroundTruth
+from graphnav.core.rotations import euler_to_C_b_n
+from graphnav.core.solution import NavSolution
+from graphnav.evaluation import metrics
 
 
 def _gt():

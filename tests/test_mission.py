@@ -6,10 +6,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from graphnav.config import SensorConfig
-from graphnav.errors import DataError
-from graphnav.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.scenarios import scenario_outage
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.scenarios import scenario_outage
 
 
 def _mission(n_imu: int = 101, n_dvl: int = 11) -> Mission:

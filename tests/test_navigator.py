@@ -10,15 +10,15 @@ from pathlib import Path
 import gtsam
 import numpy as np
 import pytest
-
-from graphnav.ekf import run_ekf
-from graphnav.graph import GraphOptions, InitialState, run_graph
-from graphnav.metrics import vrmse
 from graphnav.nets import AverageCompleter
-from graphnav.navigator import Navigator, NavigatorOptions
-from graphnav.replay import first_ping_time, replay
-from graphnav.scenarios import scenario_outage
-from graphnav.simulate import simulate_mission
+
+from graphnav.core.scenarios import scenario_outage
+from graphnav.estimators.graph import GraphOptions, InitialState
+from graphnav.estimators.navigator import Navigator, NavigatorOptions
+from graphnav.estimators.replay import first_ping_time, replay
+from graphnav.estimators.runs import run_ekf, run_graph
+from graphnav.evaluation.metrics import vrmse
+from graphnav.sim.simulate import simulate_mission
 
 REFERENCE = Path(__file__).parent / "data" / "replay_reference.npz"
 
@@ -164,7 +164,7 @@ def test_heading_and_position_fix_constrain_the_graph(mission):
     yaw = np.unwrap(np.arctan2(gt.C_b_n[:, 1, 0], gt.C_b_n[:, 0, 0]))
     rng = np.random.default_rng(0)
     origin = (math.radians(32.8), math.radians(34.9), 0.0)
-    from graphnav.earth import ned_to_lla
+    from graphnav.core.earth import ned_to_lla
     lla = ned_to_lla(gt.p_n, origin)
     initial = dataclasses.replace(InitialState.from_ground_truth(m, first_ping_time(m)), origin_lla=origin)
     # a 3 deg initial heading error that only the heading sensor can correct (the DVL barely sees yaw)

@@ -7,15 +7,27 @@ import shutil
 import numpy as np
 import pytest
 import torch
-
-from graphnav.config import DvlSpec
-from graphnav.dvl import make_beams
-from graphnav.errors import ConfigError, DataError
-from graphnav.nets import (AverageCompleter, AutoCompleter, BeamRegressor, NetworkCompleter, TrainOptions, fit,
-                           load_completer, load_model)
+from graphnav.nets import (
+    AutoCompleter,
+    AverageCompleter,
+    BeamRegressor,
+    NetworkCompleter,
+    TrainOptions,
+    fit,
+    load_completer,
+    load_model,
+)
 from graphnav.nets import data as beamdata
-from graphnav.nets.evaluate import completion_metrics, predict_completer, predict_network
-from graphnav.nets.training import weights_dir
+from graphnav.nets.evaluate import (
+    completion_metrics,
+    predict_completer,
+    predict_network,
+)
+from graphnav.nets.storage import weights_dir
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
+from graphnav.core.errors import ConfigError, DataError
 
 
 def _series(n=200, seed=0):
@@ -235,7 +247,7 @@ def test_outage_rollout_feeds_completions_back():
 
 
 def test_akit_series_splits_at_invalid_pings(tmp_path):
-    from graphnav.loaders import AKIT_COLUMNS
+    from graphnav.io.loaders import AKIT_COLUMNS
     folder = tmp_path / "Trajectory7"
     folder.mkdir()
     for kind in ("IMU", "GT"):

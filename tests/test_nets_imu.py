@@ -6,15 +6,15 @@ import shutil
 import numpy as np
 import pytest
 import torch
-
-from graphnav.config import DvlSpec
-from graphnav.dvl import DvlGeometry
-from graphnav.errors import ConfigError, DataError
-from graphnav.history import BeamHistory
 from graphnav.nets import ImuBeamRegressor, load_imu_completer, load_imu_model
 from graphnav.nets.imu_network import model_inputs
 from graphnav.nets.imu_window import ImuFeatures, preintegrate
-from graphnav.nets.training import weights_dir
+from graphnav.nets.storage import weights_dir
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.estimators.history import BeamHistory
 
 G = 9.81
 
@@ -183,8 +183,9 @@ def test_beam_history_forwards_the_imu_window():
 
 
 def test_imu_window_at_takes_the_samples_up_to_the_ping():
-    from graphnav.mission import ImuData
     from graphnav.nets.imu_window import imu_window_at
+
+    from graphnav.core.mission import ImuData
 
     t = np.arange(500) * 0.01
     imu = ImuData(t, np.tile(t[:, None], (1, 3)), -np.tile(t[:, None], (1, 3)))
@@ -197,9 +198,8 @@ def test_imu_window_at_takes_the_samples_up_to_the_ping():
 @pytest.mark.realdata
 def test_imu_network_beats_the_average_on_a_validation_trajectory(akit_dir):
     from graphnav.nets import AverageCompleter
-    from graphnav.nets.evaluate import completion_metrics
+    from graphnav.nets.evaluate import completion_metrics, predict_completer
     from graphnav.nets.imu_data import akit_imu_series, imu_windows
-    from graphnav.nets.evaluate import predict_completer
     from graphnav.nets.imu_evaluate import predict_imu_network
 
     series = akit_imu_series((5,), akit_dir, beam_seed=7)

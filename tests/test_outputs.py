@@ -6,11 +6,18 @@ import json
 import numpy as np
 import pytest
 
-from graphnav.errors import DataError
-from graphnav.outputs import (CSV_COLUMNS, EpochCsvWriter, read_trajectory_csv, read_tum, write_json,
-                              write_trajectory_csv, write_tum)
-from graphnav.rotations import euler_to_C_b_n
-from graphnav.solution import NavSolution
+from graphnav.core.errors import DataError
+from graphnav.core.rotations import euler_to_C_b_n
+from graphnav.core.solution import NavSolution
+from graphnav.io.outputs import (
+    CSV_COLUMNS,
+    EpochCsvWriter,
+    read_trajectory_csv,
+    read_tum,
+    write_json,
+    write_trajectory_csv,
+    write_tum,
+)
 
 
 def make_solution(k: int = 50, seed: int = 0, cov: bool = True) -> NavSolution:

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from graphnav import cli
-from graphnav.errors import DataError
-from graphnav.loaders import load_mission
-from graphnav.simulate import simulate_mission
+from graphnav.core.errors import DataError
+from graphnav.io.loaders import load_mission
+from graphnav.sim.simulate import simulate_mission
 
 pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed (scripts/setup_env.sh installs it)")
 
@@ -72,7 +72,7 @@ def write_pd0(path, mission, coord_ex: int = 0) -> None:
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory):
-    from graphnav.config import SensorConfig
+    from graphnav.core.config import SensorConfig
     root = tmp_path_factory.mktemp("pd0")
     config = SensorConfig()
     # A convex RDI head: beams 1/2 along -x/+x, 3/4 along +y/-y of the instrument frame, 30 deg from its axis.
@@ -85,7 +85,7 @@ def sim(tmp_path_factory):
     rows = ["t,ax,ay,az,gx,gy,gz"] + [",".join(f"{x:.12g}" for x in (t + t0, *f, *w))
                                        for t, f, w in zip(mission.imu.t, mission.imu.f_b, mission.imu.omega_b)]
     (root / "imu.csv").write_text("\n".join(rows) + "\n")
-    from graphnav.rotations import C_b_n_to_euler
+    from graphnav.core.rotations import C_b_n_to_euler
     g = mission.gt
     rows = ["t,n,e,d,vn,ve,vd,roll,pitch,yaw"] + [",".join(f"{x:.12g}" for x in (t + t0, *p, *v, *e)) for t, p, v, e
                                                   in zip(g.t, g.p_n, g.v_n, C_b_n_to_euler(g.C_b_n))]
@@ -120,8 +120,8 @@ def test_pd0_mission_smooths_like_the_simulation(sim, tmp_path):
     out = tmp_path / "out"
     assert cli.main(["smooth", "--data", str(root / "dvl.000"), "--config", str(root / "config.json"),
                      "--method", "Graph-TC", "--out", str(out), "--no-plots"]) == 0
-    from graphnav.metrics import vrmse
-    from graphnav.outputs import read_trajectory_csv
+    from graphnav.evaluation.metrics import vrmse
+    from graphnav.io.outputs import read_trajectory_csv
     assert vrmse(read_trajectory_csv(out / "trajectory.csv"), mission.gt) < 0.1
 
 
@@ -133,6 +133,6 @@ def test_pd0_refuses_earth_coordinates_and_needs_an_imu(sim, tmp_path):
         (tmp_path / name).write_text((root / name).read_text())
     with pytest.raises(DataError, match="earth coordinates"):
         load_mission(tmp_path / "earth.pd0", tmp_path / "config.json")
-    from graphnav.errors import ConfigError
+    from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError, match="holds the DVL only"):
         load_mission(root / "dvl.000", None)

@@ -9,8 +9,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graphnav.calibration_align import (dvl_consistency, gyro_check)
-from graphnav.loaders import beamsnet_split, gt_offset_drift, list_akit, load_akit, load_beamsnet
+from graphnav.calibration.reference import dvl_consistency, gyro_check
+from graphnav.io.loaders import (
+    beamsnet_split,
+    gt_offset_drift,
+    list_akit,
+    load_akit,
+    load_beamsnet,
+)
 
 pytestmark = pytest.mark.realdata
 

@@ -4,9 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graphnav.errors import ConfigError
-from graphnav.graph import GraphOptions
-from graphnav.graph.regressed import BeamPrediction, motion_prior_factors, screen_regressed
+from graphnav.core.errors import ConfigError
+from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.graph.regressed import (
+    BeamPrediction,
+    motion_prior_factors,
+    screen_regressed,
+)
 
 ROWS = np.array([[0.5, 0.5, 0.7071], [-0.5, 0.5, 0.7071]])
 C = np.eye(3)

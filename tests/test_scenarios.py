@@ -4,8 +4,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graphnav.errors import ConfigError
-from graphnav.scenarios import SCENARIOS, Outage, markov_dropout, scenario_outage, window_starts
+from graphnav.core.errors import ConfigError
+from graphnav.core.scenarios import (
+    SCENARIOS,
+    Outage,
+    markov_dropout,
+    scenario_outage,
+    window_starts,
+)
 
 
 def test_presets_are_the_papers_cases():
@@ -68,7 +74,7 @@ def test_markov_dropout_is_seeded():
 
 
 def test_total_outage_and_markov_scenarios():
-    from graphnav.scenarios import is_total_outage
+    from graphnav.core.scenarios import is_total_outage
     t = np.arange(0.0, 100.0, 0.2)
     total = scenario_outage("0-beams", 10.0, 60.0)
     assert is_total_outage("0-beams") and not is_total_outage("3-missing")

@@ -7,8 +7,8 @@ import json
 import pytest
 
 from graphnav.cli import main
-from graphnav.export import write_akit
-from graphnav.simulate import simulate_mission
+from graphnav.io.export import write_akit
+from graphnav.sim.simulate import simulate_mission
 
 MISSIONS = ("Trajectory1", "Trajectory2")
 #: Keys that legitimately differ between two runs of the same missions (wall time, output folder).

@@ -13,9 +13,15 @@ import warnings
 
 import pytest
 
-from graphnav.loaders import list_akit, load_mission
-from graphnav.methods import METHODS
-from graphnav.startsweep import START_VRMSE_LIMIT, failed, fastest_starts, run_start, start_times
+from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.startsweep import (
+    START_VRMSE_LIMIT,
+    failed,
+    fastest_starts,
+    run_start,
+    start_times,
+)
+from graphnav.io.loaders import list_akit, load_mission
 
 pytestmark = pytest.mark.realdata
 

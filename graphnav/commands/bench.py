@@ -1,7 +1,7 @@
 """``graphnav bench``: the comparison benchmark (every method, scenario, IMU grade and window position).
 
 Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md`` and PNG plots in
-``OUT/plots/``. See :mod:`graphnav.bench` for how windows and IMU grades are made.
+``OUT/plots/``. See :mod:`graphnav.evaluation.bench` for how windows and IMU grades are made.
 """
 from __future__ import annotations
 
@@ -11,10 +11,9 @@ import sys
 import time
 from pathlib import Path
 
-from graphnav.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
-from graphnav.methods import METHODS
-
-from .smooth import HelpFormatter
+from graphnav.commands.smooth import HelpFormatter
+from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
+from graphnav.evaluation.methods import METHODS
 
 
 def register(subparsers) -> None:
@@ -63,9 +62,14 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
                 window_s: float = 30.0) -> list[Path]:
     """Bar chart per IMU grade, and for the first trajectory (whose solutions were kept) the trajectory,
     velocity-error and velocity-std figures per grade and outage scenario."""
-    from graphnav import plots
-    from graphnav.bench import case_windows, load_solution, prepared_mission, solution_file
-    from graphnav.scenarios import scenario_outage
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation import plots
+    from graphnav.evaluation.bench import (
+        case_windows,
+        load_solution,
+        prepared_mission,
+        solution_file,
+    )
     pdir = out / "plots"
     files = []
     for g in grades:
@@ -118,7 +122,12 @@ def command_line() -> str:
 
 
 def run(args) -> int:
-    from graphnav.bench import find_trajectories, make_cases, make_report, run_bench
+    from graphnav.evaluation.bench import (
+        find_trajectories,
+        make_cases,
+        make_report,
+        run_bench,
+    )
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -142,7 +151,7 @@ def run(args) -> int:
                                    "jobs": args.jobs,
                                    "plots": [str(p.relative_to(out)) for p in plot_files]})
     (out / "report.md").write_text(report)
-    from graphnav.bench import aggregate, headline
+    from graphnav.evaluation.bench import aggregate, headline
     agg = aggregate(records)
     for g in args.imu_grade:
         for sc in args.scenario:

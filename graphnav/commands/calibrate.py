@@ -33,7 +33,7 @@ def register(subparsers) -> None:
                    help="gt mode: leave out DVL pings shallower than this (surface waves), m")
     p.add_argument("--no-noise", action="store_true",
                    help="skip the noise identification (IMU white-noise densities by Allan deviation, beam noise "
-                        "from the all-beam batch smoother's residuals, GT velocity error; graphnav.noise_id), "
+                        "from the all-beam batch smoother's residuals, GT velocity error; graphnav.calibration.noise), "
                         "whose values are otherwise written into the calibrated configuration")
     p.add_argument("--out", metavar="JSON", default="calibrated_config.json",
                    help="where to write the calibrated SensorConfig")
@@ -43,9 +43,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from graphnav.calibration import calibrate
-
-    from .smooth import recorded_mission
+    from graphnav.calibration.calibrate import calibrate
+    from graphnav.commands.smooth import recorded_mission
     mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
     result = calibrate(mission, args.mode, identify_noise=not args.no_noise, **kwargs)

@@ -33,7 +33,7 @@ def register(subparsers) -> None:
 
 
 def run_imu(args) -> int:
-    from graphnav.errors import ConfigError
+    from graphnav.core.errors import ConfigError
     from graphnav.nets.imu_data import AKIT_SPLIT
     from graphnav.nets.imu_evaluate import evaluate_imu, format_imu_table
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .smooth import HelpFormatter
+from graphnav.commands.smooth import HelpFormatter
 
 
 def register(subparsers) -> None:
@@ -13,7 +13,7 @@ def register(subparsers) -> None:
                     "against a reference: a TUM file, a trajectory CSV, or a mission path as --data takes it "
                     "(A-KIT folder, ROS 2 bag with a reference nav_msgs/Odometry topic, CSV log with a gt "
                     "column map) whose ground truth is used. APE and RPE come from evo's library; VRMSE and "
-                    "the velocity NEES from graphnav.metrics. Needs graphnav[eval].",
+                    "the velocity NEES from graphnav.evaluation.metrics. Needs graphnav[eval].",
         formatter_class=HelpFormatter)
     p.add_argument("trajectory", help="trajectory.csv (or .tum) to score")
     p.add_argument("--ref", required=True, metavar="PATH", help="reference: TUM/CSV file or mission data path")
@@ -29,14 +29,19 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from graphnav.bags import parse_topics
-    from graphnav.evaluate import evaluate, format_report, load_reference, load_trajectory
+    from graphnav.evaluation.score import (
+        evaluate,
+        format_report,
+        load_reference,
+        load_trajectory,
+    )
+    from graphnav.io.bags import parse_topics
     est = load_trajectory(args.trajectory)
     ref = load_reference(args.ref, args.config, parse_topics(args.topic) or None)
     result = evaluate(est, ref, align=args.align, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit)
     result.update({"trajectory": str(args.trajectory), "reference": str(args.ref)})
     print(format_report(result, Path(args.trajectory).name, str(args.ref)))
     if args.json:
-        from graphnav.outputs import write_json
+        from graphnav.io.outputs import write_json
         write_json(args.json, result)
     return 0

@@ -1,7 +1,7 @@
-"""``graphnav online``: navigate as on a vehicle, sample by sample, through :class:`graphnav.navigator.Navigator`.
+"""``graphnav online``: navigate as on a vehicle, sample by sample, through :class:`graphnav.estimators.navigator.Navigator`.
 
 Two inputs: a recorded mission (``--data``, or the simulated default) replayed in time order, or a live
-JSON-lines stream (``--stream -`` reads standard input; schema in :mod:`graphnav.streamio`). Ground truth,
+JSON-lines stream (``--stream -`` reads standard input; schema in :mod:`graphnav.io.streamio`). Ground truth,
 when the mission has one, only initialises (``--init gt``/``auto``) and scores; without it the Navigator
 aligns from the sensors (``--init sensors``; ``--initial-position``, ``--initial-heading`` help it).
 
@@ -17,8 +17,15 @@ import sys
 import time
 from pathlib import Path
 
-from .smooth import (HelpFormatter, accuracy_summary, add_init_arguments, add_mission_arguments, aligner_kwargs,
-                     make_plots, mission_from_args)
+from graphnav.commands.smooth import (
+    HelpFormatter,
+    accuracy_summary,
+    add_init_arguments,
+    add_mission_arguments,
+    aligner_kwargs,
+    make_plots,
+    mission_from_args,
+)
 
 STREAMING_METHODS = ("Graph-TC", "Graph-HN", "TC", "LC", "Average-TC", "Average-LC", "HNTC", "HNLC")
 
@@ -30,7 +37,7 @@ def register(subparsers) -> None:
         description="Navigate as on a vehicle: samples go one by one through graphnav's Navigator (reorder "
                     "buffer, alignment from the sensors when there is no initial state, keyframes closed as "
                     "soon as the IMU passes them). Input: a recorded mission (--data or the simulated "
-                    "default) or a live JSON-lines stream (--stream -; schema: python -m graphnav.streamio or "
+                    "default) or a live JSON-lines stream (--stream -; schema: python -m graphnav.io.streamio or "
                     "the README). Each estimate is appended to OUT/online.csv and flushed at once (and, with "
                     "--stream, printed to standard output as a JSON line); Ctrl-C keeps the file; --resume "
                     "continues a replay from its last epoch. A final summary goes to OUT/summary.json.",
@@ -66,7 +73,7 @@ def register(subparsers) -> None:
 
 
 def epoch_fields(est) -> dict:
-    """The CSV fields of one :class:`graphnav.graph.EpochEstimate`: t, p_n, v_n, C_b_n, cov_v_n and the
+    """The CSV fields of one :class:`graphnav.estimators.graph.EpochEstimate`: t, p_n, v_n, C_b_n, cov_v_n and the
     accelerometer and gyro biases."""
     bias = est.bias
     return {"t": est.t, "p_n": est.p_n, "v_n": est.v_n, "C_b_n": est.C_b_n, "cov_v_n": est.cov_v_n,
@@ -104,7 +111,7 @@ class EpochSink:
         if self.echo is not None:
             import json
 
-            from graphnav.streamio import estimate_record
+            from graphnav.io.streamio import estimate_record
             self.echo.write(json.dumps(estimate_record(est), separators=(",", ":")) + "\n")
             self.echo.flush()
         self.n_new += 1
@@ -123,11 +130,11 @@ def update_timing(update_s) -> dict:
 def make_navigator(args, config, mission=None):
     """The Navigator the arguments ask for: backend and completer from ``--method``, the initial state from
     ``--init`` (ground truth at the first ping of ``mission``) or the aligner's options."""
-    from graphnav.graph import GraphOptions
-    from graphnav.graph.run import initial_state
-    from graphnav.methods import EKF_METHODS, completer_for
-    from graphnav.navigator import Navigator, NavigatorOptions
-    from graphnav.replay import first_ping_time
+    from graphnav.estimators.graph import GraphOptions
+    from graphnav.estimators.navigator import Navigator, NavigatorOptions
+    from graphnav.estimators.replay import first_ping_time
+    from graphnav.estimators.runs import initial_state
+    from graphnav.evaluation.methods import EKF_METHODS, completer_for
     completer, described = completer_for(args.method, args.scenario, config.dvl.beam_noise_std)
     ekf = args.method in EKF_METHODS
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
@@ -138,7 +145,7 @@ def make_navigator(args, config, mission=None):
     if mission is not None:
         initial = initial_state(mission, None, args.init, first_ping_time(mission))
     elif args.init == "gt":
-        from graphnav.errors import ConfigError
+        from graphnav.core.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
                     tight=not args.method.endswith("LC"), options=nav_options, aligner_kwargs=aligner_kwargs(args))
@@ -148,7 +155,7 @@ def make_navigator(args, config, mission=None):
 def run(args) -> int:
     from tqdm import tqdm
 
-    from graphnav.outputs import EpochCsvWriter, read_trajectory_csv, write_json
+    from graphnav.io.outputs import EpochCsvWriter, read_trajectory_csv, write_json
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -172,7 +179,7 @@ def run(args) -> int:
             if streaming:
                 nav, described, stream_info = run_stream(args, sink, stop)
             else:
-                from graphnav.navigator import feed_mission
+                from graphnav.estimators.navigator import feed_mission
                 nav, described = make_navigator(args, mission.config, mission)
                 feed_mission(nav, mission, callback=sink, stop=stop)
                 stream_info = {}
@@ -204,7 +211,7 @@ def run(args) -> int:
         summary["files"].update({Path(p).stem: p for p in plots})
     summary["files"]["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
-    from .smooth import print_summary
+    from graphnav.commands.smooth import print_summary
     print_summary(summary, file=log)
     return 0
 
@@ -241,8 +248,8 @@ def run_stream(args, sink, stop=None):
     """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come."""
     import contextlib
 
-    from graphnav.config import SensorConfig
-    from graphnav.streamio import StreamReader, feed
+    from graphnav.core.config import SensorConfig
+    from graphnav.io.streamio import StreamReader, feed
     source = "<stdin>" if args.stream == "-" else args.stream
     with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh:
         reader = StreamReader(fh, source)
@@ -256,7 +263,7 @@ def run_stream(args, sink, stop=None):
             for est in feed(nav, rec):
                 sink(est)
         if nav is None:
-            from graphnav.errors import DataError
+            from graphnav.core.errors import DataError
             raise DataError("the stream holds no measurement record", source)
         for est in nav.finish():
             sink(est)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import IMU_GRADES
+from graphnav.core.config import IMU_GRADES
 
 
 def register(subparsers) -> None:
@@ -77,14 +77,14 @@ def plot(mission, path: Path) -> None:
 
 
 def run(args) -> int:
-    from ..export import write_akit
-    from ..simulate import simulate_mission
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
 
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
-        from ..streamio import mission_records, write_records
+        from graphnav.io.streamio import mission_records, write_records
         if args.stream == "-":
             write_records(mission_records(mission), sys.stdout)
         else:

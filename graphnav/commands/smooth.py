@@ -12,9 +12,9 @@ import functools
 import time
 from pathlib import Path
 
-from graphnav.errors import ConfigError
-from graphnav.methods import METHODS, check_scenario
-from graphnav.scenarios import SCENARIOS, scenario_outage, window_starts
+from graphnav.core.errors import ConfigError
+from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
+from graphnav.evaluation.methods import METHODS, check_scenario
 
 
 # --- options shared with `graphnav online` and `graphnav bench` ------------------------------------------
@@ -83,16 +83,16 @@ def aligner_kwargs(args) -> dict:
 
 def recorded_mission(args):
     """The mission of ``--data``/``--config`` as recorded, or the simulated one of ``--seed``/``--duration``."""
-    from graphnav.loaders import load_mission
+    from graphnav.io.loaders import load_mission
     if args.data is None:
         return load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
-    from graphnav.bags import parse_topics
+    from graphnav.io.bags import parse_topics
     return load_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None)))
 
 
 def mission_from_args(args):
     """(mission with the IMU grade and outages applied, list of outages)."""
-    from graphnav.bench import degrade_imu
+    from graphnav.evaluation.bench import degrade_imu
     mission = recorded_mission(args)
     if args.imu_grade != "as-recorded":
         import zlib
@@ -109,7 +109,7 @@ def accuracy_summary(sol, mission, outages) -> dict:
     """VRMSE over the mission and each outage window and the final horizontal position error (when GT)."""
     if mission.gt is None:
         return {"ground_truth": False}
-    from graphnav.metrics import horizontal_position_error, vrmse
+    from graphnav.evaluation.metrics import horizontal_position_error, vrmse
     t_end = float(min(sol.t[-1], mission.gt.t[-1]))
     return {
         "ground_truth": True,
@@ -121,7 +121,7 @@ def accuracy_summary(sol, mission, outages) -> dict:
 
 
 def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
-    from graphnav import plots
+    from graphnav.evaluation import plots
     files = []
     if mission.gt is not None:
         files.append(plots.plot_trajectories(mission.gt, solutions, outages, out / "trajectory_ne.png",
@@ -137,7 +137,7 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
 def print_summary(summary: dict, file=None) -> None:
     """Print a command's summary (to ``file``, default standard output)."""
     out = functools.partial(print, file=file)
-    from graphnav.health import health_line
+    from graphnav.estimators.health import health_line
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
     out(f"{summary['method']}{mode} on {summary['mission']}: {summary['epochs']} epochs, {summary['duration_s']:.0f} s "
@@ -219,8 +219,8 @@ def smooth_mission(args, out: Path) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
     Returns the summary (also written to ``out/summary.json``)."""
-    from graphnav.methods import run_method
-    from graphnav.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.evaluation.methods import run_method
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission, outages = mission_from_args(args)
@@ -231,13 +231,14 @@ def smooth_mission(args, out: Path) -> dict:
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
              "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
     if mission.gt is not None:
-        from graphnav.solution import NavSolution
+        from graphnav.core.solution import NavSolution
         gt = mission.gt
         files["groundtruth_tum"] = str(write_tum(out / "groundtruth.tum",
                                                  NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n)))
     if args.bag != "none":
         import shutil
-        from graphnav.bags import write_odometry_bag
+
+        from graphnav.io.bags import write_odometry_bag
         bag = out / "trajectory_bag"
         shutil.rmtree(bag, ignore_errors=True)   # rosbag2 writers only create new bags; a rerun replaces it
         files["trajectory_bag"] = str(write_odometry_bag(sol, bag, t0_unix_ns=int(mission.meta.get("t0_unix_ns", 0)),
@@ -264,7 +265,7 @@ def smooth_mission(args, out: Path) -> dict:
 
 
 def run(args) -> int:
-    from graphnav.bench import mission_collection
+    from graphnav.evaluation.bench import mission_collection
     missions = mission_collection(args.data, args.config)
     if missions is not None:
         return run_folder(args, missions)
@@ -312,9 +313,10 @@ def run_folder(args, missions) -> int:
     """Smooth every mission of a folder into OUT/<mission>/ and keep OUT/results.json (atomically rewritten
     after each mission; --resume keeps its finished missions). Exit code 1 when a mission failed."""
     import sys
-    from graphnav.bench import load_results
-    from graphnav.outputs import write_json
-    from graphnav.tasks import run_tasks
+
+    from graphnav.evaluation.bench import load_results
+    from graphnav.evaluation.tasks import run_tasks
+    from graphnav.io.outputs import write_json
     # Absolute paths: Dask workers elsewhere (another working directory or host) read and write the same
     # places, which on a lab cluster must be a shared filesystem.
     out = Path(args.out).absolute()

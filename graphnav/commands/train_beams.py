@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from graphnav.errors import ConfigError
+from graphnav.core.errors import ConfigError
 
 
 def register(subparsers) -> None:

@@ -1,0 +1,336 @@
+"""IMU axis conventions: the check of the gyro and accelerometer axes against the GT attitude or against
+gravity and each other, and the detection the loaders run at load time."""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from graphnav.calibration.reference import (
+    OffsetEstimate,
+    cumulative_integral,
+    estimate_gt_time_offset,
+    interp_rows,
+    reference_gyro_increments,
+)
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.core.mission import Mission
+
+AXES = "xyz"
+
+
+# ------------------------------------------------------------------------------------------------
+# IMU axis check
+# ------------------------------------------------------------------------------------------------
+def signed_permutations() -> list[np.ndarray]:
+    """The 48 signed permutation matrices P (corrected = P @ raw), identity first."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            P = np.zeros((3, 3))
+            P[np.arange(3), perm] = signs
+            out.append(P)
+    return out
+
+
+def describe_axis_map(P: np.ndarray, sensor: str) -> list[str]:
+    """Human-readable suspects for a correction P (corrected axis i = sign * raw axis j)."""
+    notes = []
+    for i in range(3):
+        j = int(np.flatnonzero(P[i])[0])
+        sign = P[i, j]
+        if j != i:
+            notes.append(f"{sensor} {AXES[i]}: reads the raw {AXES[j]} axis"
+                         + (" with its sign flipped" if sign < 0 else " (swapped axes)"))
+        elif sign < 0:
+            notes.append(f"{sensor} {AXES[i]}: sign flipped")
+    return notes
+
+
+@dataclass
+class AxisCheck:
+    """Result of the IMU axis check.
+
+    Attributes:
+        method: what the axes were checked against.
+        gyro_map, accel_map: best correction P (corrected = P @ as-loaded), identity when consistent; None
+            when not checked.
+        gyro_rms, accel_rms: residual of the as-loaded axes and of the best map (rad per interval;
+            m/s^2), as (as_loaded, best).
+        suspects: named suspect axes (empty when the axes are consistent).
+        notes: limits of the check.
+    """
+
+    method: str
+    gyro_map: np.ndarray | None = None
+    accel_map: np.ndarray | None = None
+    gyro_rms: tuple[float, float] | None = None
+    accel_rms: tuple[float, float] | None = None
+    suspects: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.suspects
+
+    @property
+    def sign_correction(self) -> np.ndarray:
+        """Per-axis sign corrections when both maps are pure sign flips on the same axes, else ones."""
+        maps = [m for m in (self.gyro_map, self.accel_map) if m is not None]
+        if not maps or any(not np.allclose(np.abs(m), np.eye(3)) for m in maps):
+            return np.ones(3)
+        signs = [np.diag(m) for m in maps]
+        return signs[0] if all(np.array_equal(signs[0], s) for s in signs) else np.ones(3)
+
+    def to_dict(self) -> dict:
+        def plain(x):
+            return None if x is None else np.asarray(x).tolist()
+        return {"method": self.method, "ok": self.ok, "suspects": self.suspects, "notes": self.notes,
+                "gyro_map": plain(self.gyro_map), "accel_map": plain(self.accel_map),
+                "gyro_rms_as_loaded_best": plain(self.gyro_rms), "accel_rms_as_loaded_best": plain(self.accel_rms)}
+
+
+#: A candidate axis map must beat the as-loaded axes by this factor to be reported. Against GT the
+#: flipped A-KIT y axis scores 10-100x worse than the fix; without GT (tilt kinematics) 1.9-3.6x worse
+#: (correct axes: exactly 1), hence the smaller margin there.
+AXIS_MARGIN = 2.0
+AXIS_MARGIN_NO_GT = 1.5
+
+
+def gt_predicted_specific_force(mission: Mission, gt_t: np.ndarray):
+    """Mean specific force over each GT interval predicted from GT velocity and attitude, (K-1,3)."""
+    gt = mission.gt
+    g_n = np.array([0.0, 0.0, mission.config.gravity_mps2])
+    dt = np.diff(gt_t)
+    a_n = np.diff(gt.v_n, axis=0) / dt[:, None]
+    incr = Rotation.from_matrix(np.swapaxes(gt.C_b_n[:-1], 1, 2) @ gt.C_b_n[1:]).as_rotvec()
+    C_mid = (Rotation.from_matrix(gt.C_b_n[:-1]) * Rotation.from_rotvec(0.5 * incr)).as_matrix()
+    return np.einsum("kji,kj->ki", C_mid, a_n - g_n)
+
+
+def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]:
+    """Check gyro and accelerometer axes against the GT; also returns the GT offset of the best gyro map.
+
+    Gyro: each of the 48 signed permutations is scored by the residual of the attitude increments at its
+    best IMU-to-GT offset (grid of 0.05 s over +-2 s); the GT offset returned is refined for the chosen map. Accelerometer: the interval-mean specific force against the one
+    predicted from the GT (``C^T (dv_n/dt - g_n)``, dominated by the gravity direction, i.e. roll/pitch).
+    """
+    imu, gt, cfg = mission.imu, mission.gt, mission.config
+    lat = cfg.lat_rad if cfg.earth_rotation else None
+    t_imu = np.ascontiguousarray(imu.t)
+    # Increments of a mapped gyro are the mapped increments (the integral is linear), so all 48 maps are
+    # scored on one grid of offsets; ~1 s between reference samples is plenty to tell them apart.
+    stride = max(1, int(round(1.0 / np.median(np.diff(gt.t)))))
+    t_ref, C_ref = gt.t[::stride], gt.C_b_n[::stride]
+    incr_ref = reference_gyro_increments(t_ref, C_ref, lat)
+    S = np.asfortranarray(cumulative_integral(t_imu, imu.omega_b))
+    offsets = np.arange(-2.0, 2.0 + 1e-9, 0.05)
+    inside = (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])
+    incr = np.stack([interp_rows(t_ref[1:][inside] + o, t_imu, S) - interp_rows(t_ref[:-1][inside] + o, t_imu, S)
+                     for o in offsets])                                   # (n_offsets, K, 3)
+    maps = signed_permutations()
+    scores = []
+    for P in maps:
+        rms = np.sqrt(np.mean((incr @ P.T - incr_ref[inside]) ** 2, axis=(1, 2)))
+        scores.append(float(rms.min()))
+    i_best = int(np.argmin(scores))
+    check = AxisCheck("GT attitude (gyro increments) and GT roll/pitch (accelerometer gravity direction)")
+    gyro_map = maps[i_best] if scores[i_best] * AXIS_MARGIN < scores[0] else np.eye(3)
+    check.gyro_map = gyro_map
+    check.gyro_rms = (scores[0], scores[i_best])
+    offset = estimate_gt_time_offset(t_imu, imu.omega_b @ gyro_map.T, gt.t, gt.C_b_n, lat)
+    # accelerometer: interval means on the IMU clock with the GT shifted by the offset found
+    gt_t = gt.t + offset.offset_s
+    f_pred = gt_predicted_specific_force(mission, gt_t)
+    F = np.asfortranarray(cumulative_integral(t_imu, imu.f_b))
+    ok = (gt_t[:-1] >= t_imu[0]) & (gt_t[1:] <= t_imu[-1])
+    f_meas = (interp_rows(gt_t[1:][ok], t_imu, F) - interp_rows(gt_t[:-1][ok], t_imu, F)) \
+        / np.diff(gt_t)[ok][:, None]
+    acc = [(float(np.sqrt(np.mean((f_meas @ P.T - f_pred[ok]) ** 2))), P) for P in signed_permutations()]
+    best_acc = min(acc, key=lambda r: r[0])
+    accel_map = best_acc[1] if best_acc[0] * AXIS_MARGIN < acc[0][0] else np.eye(3)
+    check.accel_map = accel_map
+    check.accel_rms = (acc[0][0], best_acc[0])
+    check.suspects = describe_axis_map(gyro_map, "gyro") + describe_axis_map(accel_map, "accelerometer")
+    return check, offset
+
+
+def check_imu_axes_without_gt(mission: Mission) -> AxisCheck:
+    """Axis check from the IMU alone: gravity on the accelerometer z axis, and tilt kinematics.
+
+    The gravity direction seen by the accelerometer, ``u = -f_b/|f_b|`` (1 s means), must turn as
+    ``du/dt = u x omega_b`` with the gyro. Sign flips of the x/y axes of either sensor (including a flipped
+    y on both, a left-handed frame) break that relation. Not checkable this way: the gyro z sign (rotation
+    about gravity leaves u unchanged) and a 180 deg rotation about z of both sensors.
+    """
+    imu = mission.imu
+    check = AxisCheck("IMU self-consistency: gravity on accelerometer z, tilt kinematics (gyro vs "
+                      "accelerometer)")
+    check.notes.append("gyro z sign and a 180 deg turn about z of both sensors need a heading reference (GT)")
+    t = np.ascontiguousarray(imu.t)
+    edges = np.arange(t[0], t[-1], 1.0)
+    F = np.asfortranarray(cumulative_integral(t, imu.f_b))
+    W = np.asfortranarray(cumulative_integral(t, imu.omega_b))
+    f = np.diff(interp_rows(edges, t, F), axis=0)
+    w = np.diff(interp_rows(edges, t, W), axis=0)
+    accel = np.eye(3)
+    if np.mean(f[:, 2]) > 0:                     # FRD at rest: f_z = -g
+        accel = np.diag([1.0, 1.0, -1.0])
+        check.suspects.append("accelerometer z: sign flipped (gravity reads +g on z, FRD expects -g)")
+    results = []
+    for sa in itertools.product((1.0, -1.0), repeat=2):
+        for sg in itertools.product((1.0, -1.0), repeat=2):
+            Sa = accel @ np.diag([*sa, 1.0])
+            Sg = np.diag([*sg, 1.0])
+            u = -(f @ Sa.T)
+            u /= np.linalg.norm(u, axis=1, keepdims=True)
+            du = (u[2:] - u[:-2]) / 2.0                     # central difference at 1 s spacing
+            pred = np.cross(u[1:-1], w[1:-1] @ Sg.T)
+            results.append((float(np.sqrt(np.mean((du - pred)[:, :2] ** 2))), Sa, Sg, len(np.flatnonzero(
+                np.concatenate([np.array(sa), np.array(sg)]) < 0))))
+    as_loaded = results[0]
+    best = min(results, key=lambda r: (round(r[0] / max(as_loaded[0], 1e-12), 2), r[3]))
+    if best[0] * AXIS_MARGIN_NO_GT < as_loaded[0]:
+        check.accel_map, check.gyro_map = best[1], best[2]
+        check.suspects += describe_axis_map(np.diag(np.diag(best[1]) * np.diag(accel)), "accelerometer") \
+            + describe_axis_map(best[2], "gyro")
+    else:
+        check.accel_map, check.gyro_map = accel, np.eye(3)
+    check.gyro_rms = (as_loaded[0], best[0])
+    return check
+
+
+def apply_axis_map(mission: Mission, gyro_map: np.ndarray, accel_map: np.ndarray) -> Mission:
+    """A copy of the mission with the IMU axes corrected (corrected = map @ as-loaded)."""
+    imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b @ accel_map.T,
+                              omega_b=mission.imu.omega_b @ gyro_map.T)
+    return dataclasses.replace(mission, imu=imu)
+
+
+#: The axis convention of the published A-KIT IMU files (signs that make the raw axes FRD: y flipped); the
+#: authors' corrected files have y in the body frame, (1, 1, 1).
+AKIT_PUBLISHED_AXIS_SIGNS = (1.0, -1.0, 1.0)
+
+
+@dataclass
+class AxisDetection:
+    """What :func:`detect_imu_axis_signs` chose and why.
+
+    Attributes:
+        signs: signs to apply to the raw x, y, z of both accelerometer and gyro (FRD afterwards).
+        check: the axis check that decided (run on the raw axes, or on the y-flipped axes when the raw
+            axes looked consistent and had to be confirmed against the other convention).
+        gt_offset: the IMU-to-GT offset the GT check found for the chosen axes (None without GT).
+        decided: False when the data cannot tell the conventions apart (too little rotation); ``signs``
+            are then the published A-KIT convention.
+        notes: what the warning says beyond the choice.
+    """
+
+    signs: np.ndarray
+    check: AxisCheck
+    gt_offset: OffsetEstimate | None = None
+    decided: bool = True
+    notes: list[str] = field(default_factory=list)
+
+    def message(self, source: str) -> str:
+        how = "against the GT attitude" if self.gt_offset is not None else "from gravity/gyro consistency (no GT)"
+        what = (f"chose imu_axis_signs={tuple(int(s) for s in self.signs)}" if self.decided else
+                f"could not tell the conventions apart; assumed {tuple(int(s) for s in self.signs)}")
+        return (f"{source}: IMU axis convention detected {how}: {what}"
+                + "".join(f"; {n}" for n in self.notes) + "; pass imu_axis_signs explicitly to override")
+
+
+def _run_axis_check(imu, gt, config) -> tuple[AxisCheck, OffsetEstimate | None]:
+    probe = SimpleNamespace(imu=imu, gt=gt, config=config)   # the checks read only these three
+    if gt is not None:
+        return check_imu_axes_with_gt(probe)
+    return check_imu_axes_without_gt(probe), None
+
+
+def detect_imu_axis_signs(imu, config: SensorConfig, gt=None, source: str = "IMU") -> AxisDetection:
+    """The sign convention of raw IMU axes, by the IMU axis check (:func:`check_imu_axes_with_gt`, or
+    :func:`check_imu_axes_without_gt` when ``gt`` is None).
+
+    One set of signs applies to both sensors (a file convention, as :func:`graphnav.io.loaders.read_akit`
+    applies it). The check runs on the raw axes; when it finds them consistent it runs again on the
+    y-flipped axes, which must then be reported flipped, otherwise the data cannot tell the conventions
+    apart (``decided=False``, the published A-KIT signs are assumed). Rules: with GT the gyro decides (its
+    attitude increments separate the conventions 10-100x); the accelerometer (gravity direction, weak at
+    small roll) must not contradict it. Without GT the x/y signs come from the tilt kinematics and z from
+    gravity; a turn about z of both sensors is invisible to the IMU alone: of the two sign conventions
+    that then fit equally (a 180 deg turn apart) the one with x = +1 (x forward, as in both A-KIT
+    conventions) is taken, and swapped x/y axes are not detected without GT.
+
+    Args:
+        imu: :class:`~graphnav.core.mission.ImuData` with the raw axes. config: lat/gravity/earth_rotation used
+        by the GT check. gt: :class:`~graphnav.core.mission.GroundTruth` on the file's clock, or None.
+
+    Raises:
+        DataError: no sign convention fits (swapped axes, or gyro and accelerometer flipped differently),
+            naming the axis.
+    """
+    check, offset = _run_axis_check(imu, gt, config)
+    signs = _signs_of(check, gt is not None, source)
+    notes = []
+    decided = True
+    g, a = np.diag(check.gyro_map), np.diag(check.accel_map)
+    if gt is not None and np.any(g != a):
+        # one sensor decided a flip the other did not see: the flipped axes must then check consistent
+        fixed = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
+        recheck, offset = _run_axis_check(fixed, gt, config)
+        if not recheck.ok:
+            rg, ra = np.diag(recheck.gyro_map), np.diag(recheck.accel_map)
+            i = int(np.flatnonzero((rg != 1) | (ra != 1))[0]) if np.any((rg != 1) | (ra != 1)) else 0
+            raise _disagree(check, g, a, i, source)
+        notes.append(f"{'accelerometer' if np.all(a == 1) else 'gyro'} check undecided on "
+                     f"{', '.join(AXES[i] for i in np.flatnonzero(g != a))} (too little motion), the other decided")
+    if np.all(signs == 1):
+        flip = np.asarray(AKIT_PUBLISHED_AXIS_SIGNS)
+        flipped = dataclasses.replace(imu, f_b=imu.f_b * flip, omega_b=imu.omega_b * flip)
+        check_f, offset_f = _run_axis_check(flipped, gt, config)
+        if np.array_equal(_signs_of(check_f, gt is not None, source), flip):
+            offset = offset_f if offset_f is not None else offset
+        else:
+            decided = False
+            signs = flip.copy()
+            notes.append("the data carry too little rotation/tilt to tell y as recorded from y flipped")
+    if gt is None:
+        notes.append("without GT the gyro z sign follows the accelerometer's gravity and x is taken forward "
+                     "(a turn about z cannot be seen)")
+    return AxisDetection(signs, check, offset, decided, notes)
+
+
+def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
+    """The one sign vector of a check's maps, or DataError naming the axis when none fits."""
+    for P, sensor in ((check.gyro_map, "gyro"), (check.accel_map, "accelerometer")):
+        if not np.allclose(np.abs(P), np.eye(3)):
+            swapped = [AXES[i] for i in range(3) if P[i, i] == 0]
+            raise DataError(f"no IMU axis sign convention fits: {'; '.join(describe_axis_map(P, sensor))}"
+                            f" (axes are swapped, not sign-flipped); fix the file or pass imu_axis_signs",
+                            source, field=f"{sensor} {swapped[0]}")
+    g, a = np.diag(check.gyro_map).copy(), np.diag(check.accel_map).copy()
+    if not with_gt:
+        g[2] = a[2]                       # gyro z is not observable from tilt: it follows gravity's axis
+        if g[0] < 0 and a[0] < 0:         # 180 deg about z of both sensors: take x forward
+            g[:2] *= -1
+            a[:2] *= -1
+    differ = np.flatnonzero(g != a)
+    if differ.size and with_gt:
+        # against GT a check reports a flip only when it beats the as-loaded axes by AXIS_MARGIN, while "as
+        # loaded" may mean undecided (no rotation about that axis, little roll/pitch): the flip wins, and
+        # detect_imu_axis_signs re-checks the result
+        return np.minimum(g, a)
+    if differ.size:
+        raise _disagree(check, g, a, int(differ[0]), source)
+    return g
+
+
+def _disagree(check: AxisCheck, g: np.ndarray, a: np.ndarray, i: int, source: str) -> DataError:
+    return DataError(f"no IMU axis sign convention fits: gyro {AXES[i]} sign {g[i]:+.0f} but accelerometer "
+                     f"{AXES[i]} sign {a[i]:+.0f} (one convention applies to both sensors); suspects: "
+                     f"{'; '.join(check.suspects) or 'none'}; pass imu_axis_signs", source, field=f"axis {AXES[i]}")

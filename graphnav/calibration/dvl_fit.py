@@ -1,0 +1,172 @@
+"""DVL lever arm, mounting yaw, scale factor and time offset regressed on the ground truth, and where the
+accelerometer sits relative to the GT reference point."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from graphnav.calibration.axes import gt_predicted_specific_force
+from graphnav.calibration.reference import (
+    Reference,
+    _search_offset,
+    _sigma_from_curvature,
+    cumulative_integral,
+    interp_rows,
+)
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import DataError
+from graphnav.core.mission import Mission
+from graphnav.core.rotations import skew
+
+
+# ------------------------------------------------------------------------------------------------
+# Where the accelerometer sits relative to the reference (GT) point
+# ------------------------------------------------------------------------------------------------
+def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Position r (body, m) of the accelerometer's measurement point relative to the GT reference point.
+
+    A rigid body's specific force at r differs from the one at the reference point by
+    ``omega_dot x r + omega x (omega x r)``. Interval means (between GT samples) of the measured specific
+    force minus the one predicted from the GT (``C^T (dv_n/dt - g_n)``) are regressed on that, with a
+    constant bias. Returns (r, covariance of r, residual RMS before, after), m/s^2. The GT stamps must
+    already be on the IMU clock. r matters because the estimators integrate the IMU: the DVL lever arm
+    they need is the DVL's position relative to the accelerometer point, ``l_dvl - r``.
+    """
+    imu, gt = mission.imu, mission.gt
+    t = np.ascontiguousarray(imu.t)
+    ok = (gt.t[:-1] >= t[0]) & (gt.t[1:] <= t[-1])
+    a, b = gt.t[:-1][ok], gt.t[1:][ok]
+    F = np.asfortranarray(cumulative_integral(t, imu.f_b))
+    W = np.asfortranarray(cumulative_integral(t, imu.omega_b))
+    dt = (b - a)[:, None]
+    f_meas = (interp_rows(b, t, F) - interp_rows(a, t, F)) / dt
+    w_mean = (interp_rows(b, t, W) - interp_rows(a, t, W)) / dt
+    d = f_meas - gt_predicted_specific_force(mission, gt.t)[ok]
+    w_dot = np.gradient(w_mean, 0.5 * (a + b), axis=0)
+    A = np.concatenate([skew(w_dot) + skew(w_mean) @ skew(w_mean), np.broadcast_to(np.eye(3), (len(a), 3, 3))],
+                       axis=2).reshape(-1, 6)
+    x, *_ = np.linalg.lstsq(A, d.reshape(-1), rcond=None)
+    e = d.reshape(-1) - A @ x
+    cov = np.linalg.pinv(A.T @ A) * float(e @ e) / max(len(e) - 6, 1) * correlation_inflation(e.reshape(-1, 3))
+    return x[:3], cov[:3, :3], float(np.sqrt(np.mean(d ** 2))), float(np.sqrt(np.mean(e ** 2)))
+
+
+# ------------------------------------------------------------------------------------------------
+# DVL regression against the GT
+# ------------------------------------------------------------------------------------------------
+PARAM_NAMES = ("l_x", "l_y", "l_z", "scale", "yaw", "b_z")
+N_PARAMS = len(PARAM_NAMES)
+
+
+def dvl_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
+    """The DVL-head body velocity of each ping as the estimators see it, and the mask of usable pings.
+
+    The instrument's own velocity (``dvl.v_b``) when present, else least squares from >= 3 valid beams
+    with the configured geometry.
+    """
+    dvl = mission.dvl
+    if dvl.v_b is not None:
+        v = dvl.v_b
+    else:
+        v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid,
+                                                                          allow_missing=True)
+    return v, np.all(np.isfinite(v), axis=1)
+
+
+def _design(reference: Reference, t: np.ndarray):
+    C = reference.C_b_n(t)
+    v_ref = reference.v_b(t, C)
+    omega = reference.omega_nb_b(t, C)
+    # linearised about l = s = psi = b = 0 (the small terms' products, e.g. s * omega x l, are left to the
+    # exact refinement)
+    A = np.zeros((len(t), 3, N_PARAMS))
+    A[:, :, 0:3] = skew(omega)                   # omega x l
+    A[:, :, 3] = v_ref                           # s v
+    A[:, :, 4] = np.stack([v_ref[:, 1], -v_ref[:, 0], np.zeros(len(t))], axis=1)  # Rz(psi)^T v ~ v + psi [v_y, -v_x, 0]
+    A[:, 2, 5] = 1.0                             # vertical bias (equal beam biases show up on z only)
+    return A, v_ref, omega
+
+
+def _exact_residual(theta, v_dvl, v_ref, omega):
+    l, s, psi, b = theta[0:3], theta[3], theta[4], np.array([0.0, 0.0, theta[5]])
+    head = v_ref + np.cross(omega, l)
+    Rz_T = Rotation.from_euler("z", -psi).as_matrix()
+    return (v_dvl - ((1 + s) * head @ Rz_T.T + b)).reshape(-1)
+
+
+@dataclass
+class DvlFit:
+    """DVL regression result at one offset: parameters, covariance, residual RMS, pings used."""
+
+    offset_s: float
+    theta: np.ndarray
+    cov: np.ndarray
+    rms: float
+    n_pings: int
+    sse: float
+
+
+def correlation_inflation(e: np.ndarray, max_lag: int = 20) -> float:
+    """Variance inflation ``1 + 2 sum_k rho_k`` of a mean over residuals correlated in time (k up to the
+    first non-positive autocorrelation, at most ``max_lag``), averaged over the columns of e (N,k).
+
+    Least-squares covariances assume white residuals; the real DVL-minus-GT residuals are correlated over
+    a few pings (GT smoothing, waves), which this factor accounts for (approximately: it treats every
+    regressor as slowly varying).
+    """
+    e = e - e.mean(axis=0)
+    var = np.sum(e * e, axis=0)
+    if np.any(var <= 0):
+        return 1.0
+    total = 1.0
+    for k in range(1, min(max_lag, len(e) - 1) + 1):
+        rho = float(np.mean(np.sum(e[k:] * e[:-k], axis=0) / var))
+        if rho <= 0:
+            break
+        total += 2 * rho
+    return total
+
+
+def fit_dvl(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, offset_s: float,
+            use: np.ndarray, exact: bool = False) -> DvlFit:
+    """Least-squares fit of (l, s, psi, b) at one DVL offset (linearised; ``exact`` refines the
+    nonlinear model with scipy's least_squares)."""
+    t = t_raw[use] + offset_s
+    A, v_ref, omega = _design(reference, t)
+    r = (v_dvl[use] - v_ref).reshape(-1)
+    A2 = A.reshape(-1, N_PARAMS)
+    theta, *_ = np.linalg.lstsq(A2, r, rcond=None)
+    if exact:
+        sol = least_squares(_exact_residual, theta, args=(v_dvl[use], v_ref, omega), method="lm")
+        theta = sol.x
+        e = sol.fun
+        J = sol.jac
+    else:
+        e = r - A2 @ theta
+        J = A2
+    sse = float(e @ e)
+    dof = max(len(e) - N_PARAMS, 1)
+    cov = np.linalg.pinv(J.T @ J) * sse / dof * correlation_inflation(e.reshape(-1, 3))
+    return DvlFit(offset_s, theta, cov, float(np.sqrt(sse / len(e))), int(use.sum()), sse)
+
+
+def calibrate_dvl_with_gt(reference: Reference, t_raw: np.ndarray, v_dvl: np.ndarray, use: np.ndarray,
+                          search_s: tuple[float, float] = (-3.0, 3.0), step_s: float = 0.1
+                          ) -> tuple[DvlFit, float]:
+    """Profile the DVL fit over candidate offsets; returns (exact fit at the best offset, offset sigma)."""
+    use = use & reference.covers(t_raw + search_s[0]) & reference.covers(t_raw + search_s[1])
+    if use.sum() < 20:
+        raise DataError("fewer than 20 DVL pings overlap the ground truth", "dvl")
+
+    def cost(offset):
+        return fit_dvl(reference, t_raw, v_dvl, offset, use).sse
+
+    x, sse, curv = _search_offset(cost, search_s[0], search_s[1], step_s)
+    fit = fit_dvl(reference, t_raw, v_dvl, x, use, exact=True)
+    inflation = correlation_inflation(_exact_residual(fit.theta, v_dvl[use], *_design(reference, t_raw[use] + x)[1:]
+                                                      ).reshape(-1, 3))
+    sigma = _sigma_from_curvature(sse, curv, 3 * int(use.sum()), N_PARAMS + 1) * np.sqrt(inflation)
+    return fit, sigma

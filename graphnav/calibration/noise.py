@@ -1,0 +1,203 @@
+"""Noise identification from recorded data: IMU white-noise densities, beam noise, the GT's velocity error.
+
+- **IMU white noise** (accelerometer m/s^2/sqrt(Hz), gyro rad/s/sqrt(Hz)) at the scale the estimators
+  integrate over (keyframes 1 s apart): with GT, the mismatch of the IMU's 1-s velocity and attitude
+  increments with the GT's (:func:`identify_imu_with_gt`), ``N = std / sqrt(dt)``. Without GT: overlapping
+  Allan deviation of the raw streams at short tau (1..10 samples), ``N = min_tau sigma_A(tau) sqrt(tau)``,
+  median over axes. On the A-KIT Phins data the two disagree: the short-tau Allan density of the
+  accelerometer (median 1.7e-3) is about half of the 1-s one, and using it made the graph's NEES worse
+  (Trajectory1, Graph-TC 5.3 -> 8.0, batch 10.3 -> 17.4) -- the recorded vibration is not white, so the
+  1-s value is the one an estimator with 1-s keyframes needs.
+- **Beam noise** (m/s): residuals ``r = y - h(x_hat)`` of every measured beam at the all-beam batch smoother
+  (Graph-HN-batch with DVL error states, no outage). For a least-squares estimate ``E[r^2] = sigma^2 -
+  var(h(x_hat))``, so ``sigma^2 = mean(r^2) + mean(M P_v M^T)`` with ``P_v`` the smoother's velocity marginal
+  (the attitude's share of ``var(h)`` is below 1e-6 (m/s)^2 here and left out). Residuals beyond 5 sigma of
+  the assumed noise (surface pings) are left out.
+- **GT velocity error** (m/s per NED axis): the batch smoother's error against the GT has covariance
+  ``P + Sigma_gt`` (the GT does not see the beams' synthetic noise), so ``Sigma_gt = mean(e e^T) - mean(P)``
+  per axis over the mission after 60 s (clipped at 0). This attributes *all* unexplained error to the GT: it
+  is an upper bound of the GT's error (and a lower bound of what the smoother's covariance misses), and it
+  is *not* independent of the batch smoother (its own NEES with it is ~3 by construction).
+  An independent check of the GT's fast (sample-to-sample) error: the GT's 1-s velocity increments against
+  the IMU's (:func:`gt_white_velocity_error`): ``d_k = (f_gt - mean f_imu) dt`` has variance
+  ``2 sigma_white^2 + N_acc^2 dt`` and lag-1 correlation -0.5 if the GT error is white.
+
+``scripts/identify_noise.py`` runs this over the shared trajectories and prints the values the A-KIT loader
+uses (:data:`graphnav.io.loaders.PHINS_RECORDED`, :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD`).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.mission import Mission
+from graphnav.core.timeseries import interp_rows
+
+#: Averaging times of the white-noise fit, in samples.
+SHORT_TAUS = (1, 2, 3, 5, 10)
+SETTLE_S = 60.0
+
+
+def allan_deviation(x: np.ndarray, rate_hz: float, m_samples) -> np.ndarray:
+    """Overlapping Allan deviation of the rate samples ``x`` (N,) or (N,k) at ``tau = m / rate`` (len(m),...)."""
+    x = np.asarray(x, dtype=float)
+    theta = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)]) / rate_hz
+    out = []
+    for m in m_samples:
+        tau = m / rate_hz
+        d = theta[2 * m:] - 2 * theta[m:-m] + theta[:-2 * m]
+        out.append(np.sqrt(np.mean(d ** 2, axis=0) / (2 * tau ** 2)))
+    return np.array(out)
+
+
+def white_density(x: np.ndarray, rate_hz: float, m_samples=SHORT_TAUS) -> float:
+    """White-noise density ``min_tau sigma_A(tau) sqrt(tau)`` per axis, median over axes."""
+    adev = allan_deviation(x, rate_hz, m_samples)
+    taus = np.asarray(m_samples, dtype=float)[:, None] / rate_hz
+    return float(np.median(np.min(adev * np.sqrt(taus), axis=0)))
+
+
+def increment_mismatch(mission: Mission) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(d_v (K-1,3) m/s, d_theta (K-1,3) rad, dt (K-1,) s, keep (K-1,) bool) per GT interval, body frame:
+    velocity increments ``(f_gt - mean f_imu) dt`` (GT-predicted specific force from GT velocity and attitude)
+    and attitude increments ``integral(omega_imu) - Log(C_k^T C_k+1)`` (Earth rate included), medians removed;
+    ``keep`` leaves out intervals beyond 5 MAD on any axis (surface, manoeuvres)."""
+    from graphnav.calibration.axes import gt_predicted_specific_force
+    from graphnav.calibration.reference import (
+        cumulative_integral,
+        reference_gyro_increments,
+    )
+    gt, imu, cfg = mission.gt, mission.imu, mission.config
+    sel = (gt.t >= imu.t[0]) & (gt.t <= imu.t[-1])
+    t = gt.t[sel]
+    sub = dataclasses.replace(mission, gt=dataclasses.replace(gt, t=t, p_n=gt.p_n[sel], v_n=gt.v_n[sel],
+                                                               C_b_n=gt.C_b_n[sel]))
+    dt = np.diff(t)
+    out = []
+    for x, ref in ((imu.f_b, gt_predicted_specific_force(sub, t) * dt[:, None]),
+                   (imu.omega_b, reference_gyro_increments(t, gt.C_b_n[sel],
+                                                           cfg.lat_rad if cfg.earth_rotation else None))):
+        integral = np.stack([np.interp(t, imu.t, cumulative_integral(imu.t, x[:, i])) for i in range(3)], 1)
+        d = ref - np.diff(integral, axis=0)
+        out.append(d - np.median(d, axis=0))
+    keep = np.ones(len(dt), dtype=bool)
+    for d in out:
+        keep &= np.all(np.abs(d) < 5 * 1.4826 * np.median(np.abs(d), axis=0), axis=1)
+    return out[0], out[1], dt, keep
+
+
+def identify_imu_with_gt(mission: Mission) -> tuple[float, float]:
+    """(accel m/s^2/sqrt(Hz), gyro rad/s/sqrt(Hz)) white densities at the keyframe scale (the GT interval,
+    1 s): ``std(d) / sqrt(dt)`` of the increment mismatches (:func:`increment_mismatch`). Accelerometer: median
+    of the body x and z axes (the y axis carries the GT's white lateral velocity error,
+    :func:`gt_white_velocity_error`); gyro: median over the axes (an upper bound: it holds the GT's attitude
+    noise too)."""
+    d_v, d_th, dt, keep = increment_mismatch(mission)
+    scale = np.sqrt(float(np.median(dt)))
+    acc = np.std(d_v[keep], axis=0) / scale
+    gyro = np.std(d_th[keep], axis=0) / scale
+    return float(np.median(acc[[0, 2]])), float(np.median(gyro))
+
+
+def gt_white_velocity_error(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
+    """(sigma (3,), lag-1 correlation (3,)) per body axis of the GT's white velocity error, m/s.
+
+    From the velocity-increment mismatch d (:func:`increment_mismatch`): ``sigma^2 = (var(d) - N_acc^2 dt) /
+    2`` with ``N_acc`` the accelerometer density of :func:`identify_imu_with_gt` (x/z axes). The lag-1
+    correlation of d is -0.5 for a white GT error (a slow error or IMU noise gives ~0).
+    """
+    d, _, dt, keep = increment_mismatch(mission)
+    n_acc, _ = identify_imu_with_gt(mission)
+    var = np.var(d[keep], axis=0) - n_acc ** 2 * float(np.median(dt))
+    a, b = d[:-1], d[1:]
+    both = keep[:-1] & keep[1:]
+    rho = np.sum(a[both] * b[both], axis=0) / np.sqrt(np.sum(a[both] ** 2, axis=0) * np.sum(b[both] ** 2, axis=0))
+    return np.sqrt(np.maximum(var, 0.0) / 2.0), rho
+
+
+@dataclass
+class NoiseEstimate:
+    """Identified noise of one mission (units above); ``n_beams`` residuals used; ``gt_white_*``: the GT's
+    white velocity error per body axis and the lag-1 correlation of its increments
+    (:func:`gt_white_velocity_error`)."""
+
+    accel_noise_density: float
+    gyro_noise_density: float
+    allan_accel_density: float | None = None
+    allan_gyro_density: float | None = None
+    beam_noise_std: float | None = None
+    gt_velocity_sigma_n: tuple[float, float, float] | None = None
+    gt_white_sigma_b: tuple[float, float, float] | None = None
+    gt_white_lag1_b: tuple[float, float, float] | None = None
+    n_beams: int = 0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def identify_imu(mission: Mission) -> NoiseEstimate:
+    """IMU white-noise densities: at the keyframe scale against the GT when the mission has one
+    (:func:`identify_imu_with_gt`), else the Allan deviation at short tau; the Allan values are kept too."""
+    rate = 1.0 / float(np.median(np.diff(mission.imu.t)))
+    acc, gyro = white_density(mission.imu.f_b, rate), white_density(mission.imu.omega_b, rate)
+    est = NoiseEstimate(acc, gyro, acc, gyro)
+    if mission.gt is not None:
+        est.accel_noise_density, est.gyro_noise_density = identify_imu_with_gt(mission)
+    return est
+
+
+def beam_residuals(mission: Mission, sol) -> tuple[np.ndarray, np.ndarray]:
+    """(r (n,), var_h (n,)): residual and predicted-beam variance of every valid beam at a keyframe of
+    ``sol`` (a graph solution with ``info["batch_dvl_errors"]``, or none = no DVL error states)."""
+    geo = DvlGeometry.from_spec(mission.config.dvl)
+    d = sol.info.get("batch_dvl_errors")
+    imu, dvl = mission.imu, mission.dvl
+    k = np.searchsorted(sol.t, dvl.t)
+    k = np.clip(k, 0, len(sol.t) - 1)
+    at_keyframe = np.abs(sol.t[k] - dvl.t) < 1e-6
+    res, var = [], []
+    for j in np.flatnonzero(at_keyframe):
+        i = k[j]
+        valid = dvl.valid[j] & np.isfinite(dvl.beams[j])
+        if not valid.any():
+            continue
+        omega = imu.omega_b[min(np.searchsorted(imu.t, dvl.t[j]), len(imu.t) - 1)] - sol.bias_gyro[i]
+        R = sol.C_b_n[i]
+        v_head = R.T @ sol.v_n[i] + np.cross(omega, geo.lever_arm_b)
+        s, b = (np.zeros(3), np.zeros(4)) if d is None else (d[i, :3], d[i, 3:])
+        M = (geo.T_d * (1.0 + s)) @ geo.C_d_b.T
+        h = M @ v_head + b
+        res.append((dvl.beams[j] - h)[valid])
+        MR = M @ R.T
+        var.append(np.einsum("ij,jk,ik->i", MR, sol.cov_v_n[i], MR)[valid])
+    return np.concatenate(res), np.concatenate(var)
+
+
+def identify(mission: Mission, sol=None) -> NoiseEstimate:
+    """IMU densities, beam noise and GT velocity error of one mission with GT.
+
+    ``sol``: an all-beam Graph-HN-batch solution with DVL error states (run here when None).
+    """
+    est = identify_imu(mission)
+    if sol is None:
+        from graphnav.estimators.graph import GraphOptions
+        from graphnav.evaluation.methods import run_method
+        sol = run_method(mission, "Graph-HN-batch", "none", options=GraphOptions(dvl_error_states=True))
+    r, var_h = beam_residuals(mission, sol)
+    sigma0 = mission.config.dvl.beam_noise_std
+    keep = np.abs(r) < 5 * sigma0
+    est.beam_noise_std = float(np.sqrt(np.mean(r[keep] ** 2) + np.mean(var_h[keep])))
+    est.n_beams = int(keep.sum())
+    if mission.gt is not None and sol.cov_v_n is not None:
+        sel = sol.t >= sol.t[0] + SETTLE_S
+        sel &= (sol.t >= mission.gt.t[0]) & (sol.t <= mission.gt.t[-1])
+        e = sol.v_n[sel] - interp_rows(sol.t[sel], mission.gt.t, mission.gt.v_n)
+        p = np.diagonal(sol.cov_v_n[sel], axis1=1, axis2=2)
+        est.gt_velocity_sigma_n = tuple(float(x) for x in np.sqrt(np.maximum(np.mean(e ** 2 - p, axis=0), 0)))
+        white, rho = gt_white_velocity_error(mission)
+        est.gt_white_sigma_b = tuple(float(x) for x in white)
+        est.gt_white_lag1_b = tuple(float(x) for x in rho)
+    return est

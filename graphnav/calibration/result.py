@@ -1,0 +1,105 @@
+"""What a calibration found: values with their sigma, the calibrated SensorConfig and a report."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from graphnav.calibration.axes import AxisCheck
+from graphnav.calibration.noise import NoiseEstimate
+from graphnav.core.config import SensorConfig
+
+
+@dataclass
+class Quantity:
+    """An estimate with its 1-sigma uncertainty (same shape) and unit."""
+
+    value: float | np.ndarray
+    sigma: float | np.ndarray
+    unit: str
+
+    def to_dict(self) -> dict:
+        plain = (lambda x: np.asarray(x).tolist())
+        return {"value": plain(self.value), "sigma": plain(self.sigma), "unit": self.unit}
+
+
+@dataclass
+class CalibrationResult:
+    """What ``graphnav calibrate`` found. Offsets are totals relative to the raw stamps.
+
+    Attributes:
+        mode: ``"gt"`` or ``"graph"``.
+        lever_arm_b: DVL lever arm, body frame, m.
+        dvl_time_offset_s: value to add to raw DVL stamps, s.
+        gt_time_offset_s: value to add to raw GT stamps, s (None without GT).
+        dvl_yaw_rad: DVL mounting yaw misalignment psi, ``C_d_b = Rz(psi)`` (None if not estimated).
+        dvl_scale: DVL velocity scale factor s, ``v_dvl = (1 + s) ...`` (None if not estimated).
+        dvl_bias: constant vertical DVL velocity bias b_z, m/s (None if not estimated).
+        residual_rms: RMS of the final residual (m/s per axis, or the graph's whitened RMS).
+        axis_check: the IMU axis check.
+        config: the calibrated configuration.
+        imu_position_b: gt mode: the accelerometer's position relative to the GT reference point, m
+            (:func:`estimate_imu_position`); the lever arm above is relative to the GT point.
+        info: extra diagnostics.
+        noise: identified IMU densities, beam noise and GT velocity error (:mod:`graphnav.calibration.noise`), written
+            into ``config`` (``imu.*_noise_density``, ``dvl.beam_noise_std``); None if not identified.
+    """
+
+    mode: str
+    lever_arm_b: Quantity
+    dvl_time_offset_s: Quantity
+    gt_time_offset_s: Quantity | None
+    dvl_yaw_rad: Quantity | None
+    dvl_scale: Quantity | None
+    dvl_bias: Quantity | None
+    residual_rms: float
+    axis_check: AxisCheck
+    config: SensorConfig
+    imu_position_b: Quantity | None = None
+    info: dict = field(default_factory=dict)
+    noise: NoiseEstimate | None = None
+
+    def to_dict(self) -> dict:
+        def q(x):
+            return None if x is None else x.to_dict()
+        return {"mode": self.mode, "lever_arm_b": q(self.lever_arm_b),
+                "dvl_time_offset_s": q(self.dvl_time_offset_s), "gt_time_offset_s": q(self.gt_time_offset_s),
+                "dvl_yaw_rad": q(self.dvl_yaw_rad), "dvl_scale": q(self.dvl_scale), "dvl_bias": q(self.dvl_bias),
+                "imu_position_b": q(self.imu_position_b),
+                "residual_rms": self.residual_rms, "axis_check": self.axis_check.to_dict(),
+                "noise": None if self.noise is None else self.noise.to_dict(),
+                "info": {k: v for k, v in self.info.items() if isinstance(v, (int, float, str, bool))}}
+
+    def report(self) -> str:
+        def fmt(x: Quantity | None, scale=1.0, unit=None, digits=3):
+            if x is None:
+                return "not estimated in this mode"
+            v, s = np.atleast_1d(x.value) * scale, np.atleast_1d(x.sigma) * scale
+            parts = [f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]
+            return ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + f" {unit or x.unit}"
+        ref = "GT point" if self.mode == "gt" else "IMU"
+        lines = [f"calibration mode: {self.mode}",
+                 f"  DVL lever arm (vs {ref:<8}): {fmt(self.lever_arm_b)}",
+                 f"  DVL time offset           : {fmt(self.dvl_time_offset_s)}",
+                 f"  IMU-to-GT time offset     : {fmt(self.gt_time_offset_s)}",
+                 f"  DVL mounting yaw          : {fmt(self.dvl_yaw_rad, 180 / np.pi, 'deg')}",
+                 f"  DVL scale factor          : {fmt(self.dvl_scale, 100, '%')}",
+                 f"  DVL vertical bias         : {fmt(self.dvl_bias, 1e3, 'mm/s', 1)}",
+                 f"  residual RMS              : {self.residual_rms:.4f}",
+                 f"  IMU position vs GT point  : {fmt(self.imu_position_b)}",
+                 f"  IMU axes ({self.axis_check.method}): "
+                 + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
+        lines += [f"    note: {n}" for n in self.axis_check.notes]
+        if self.noise is not None:
+            n = self.noise
+            gt = ("-" if n.gt_velocity_sigma_n is None
+                  else "[" + ", ".join(f"{x:.4f}" for x in n.gt_velocity_sigma_n) + "] m/s (N, E, D; upper bound)")
+            lines += [f"  accel noise density       : {n.accel_noise_density:.2e} m/s^2/sqrt(Hz)",
+                      f"  gyro noise density        : {n.gyro_noise_density:.2e} rad/s/sqrt(Hz)",
+                      f"  beam noise                : {n.beam_noise_std:.4f} m/s ({n.n_beams} beams)",
+                      f"  GT velocity error         : {gt}"]
+        return "\n".join(lines)
+
+
+def _q(value, sigma, unit):
+    return Quantity(value, sigma, unit)

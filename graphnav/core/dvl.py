@@ -1,0 +1,192 @@
+"""DVL beam geometry and measurement model (``../shared/docs/method.md``).
+
+Beam velocities are the projections of the DVL velocity on the beam unit vectors:
+``y = T @ v_d`` with ``T`` (4,3) holding the beam vectors of the DVL frame as rows and
+``v_d = C_d_b^T (v_b + omega_b x l_b)`` the velocity of the DVL head in the DVL frame.
+Beam indices are 0-based here (index 0 is the paper's beam 1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.errors import GeometryError
+
+
+def beam_matrix(theta_rad: float, psi_rad: np.ndarray) -> np.ndarray:
+    """The (4,3) matrix T of beam unit vectors in the DVL frame."""
+    psi = np.asarray(psi_rad, dtype=float)
+    return np.stack([np.cos(psi) * np.sin(theta_rad), np.sin(psi) * np.sin(theta_rad),
+                     np.full_like(psi, np.cos(theta_rad))], axis=-1)
+
+
+@dataclass
+class DvlGeometry:
+    """Beam geometry of one DVL installation.
+
+    Attributes:
+        T_d: (4,3) beam unit vectors in the DVL frame (rows).
+        C_d_b: (3,3) DVL-to-body rotation.
+        lever_arm_b: (3,) DVL position relative to the IMU, body frame, m.
+    """
+
+    T_d: np.ndarray
+    C_d_b: np.ndarray
+    lever_arm_b: np.ndarray
+
+    @classmethod
+    def from_spec(cls, spec: DvlSpec) -> "DvlGeometry":
+        return cls(beam_matrix(spec.theta_rad, spec.psi_rad), spec.C_d_b.copy(), spec.lever_arm_b.copy())
+
+    @property
+    def T_b(self) -> np.ndarray:
+        """(4,3) beam unit vectors in the body frame: ``y = T_b @ v_dvl_b``."""
+        return self.T_d @ self.C_d_b.T
+
+    def dvl_velocity_b(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
+        """Velocity of the DVL head in the body frame, ``v_b + omega_b x l_b``, m/s (…,3)."""
+        v_b = np.asarray(v_b, dtype=float)
+        if omega_b is None:
+            return v_b
+        return v_b + np.cross(omega_b, self.lever_arm_b)
+
+    def beams_from_velocity(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
+        """Error-free beam velocities (…,4), m/s, from body velocity v_b (…,3) of the IMU and body rate.
+
+        With ``omega_b`` (rad/s) given, the lever-arm velocity is included.
+        """
+        return self.dvl_velocity_b(v_b, omega_b) @ self.T_b.T
+
+    def velocity_from_beams(self, beams: np.ndarray, valid: np.ndarray | None = None,
+                            allow_missing: bool = False) -> np.ndarray:
+        """Least-squares DVL velocity in the body frame from >= 3 valid beams, m/s.
+
+        ``v_b = C_d_b (T^T T)^-1 T^T y`` over the valid rows. Works on one epoch (4,) or many (N,4).
+        This is the velocity of the DVL head; subtract ``omega_b x l_b`` for the IMU's velocity.
+
+        Raises:
+            GeometryError: an epoch has fewer than 3 valid beams (unless ``allow_missing``, which gives NaN).
+        """
+        beams = np.asarray(beams, dtype=float)
+        single = beams.ndim == 1
+        beams = np.atleast_2d(beams)
+        if valid is None:
+            valid = np.isfinite(beams)
+        valid = np.atleast_2d(np.asarray(valid, dtype=bool)) & np.isfinite(beams)
+        out = np.full((beams.shape[0], 3), np.nan)
+        T_b = self.T_b
+        for pattern in np.unique(valid, axis=0):
+            rows = np.all(valid == pattern, axis=1)
+            if pattern.sum() < 3:
+                if not allow_missing:
+                    first = int(np.flatnonzero(rows)[0])
+                    raise GeometryError(
+                        f"epoch {first}: {int(pattern.sum())} valid beams, a least-squares velocity needs >= 3")
+                continue
+            out[rows] = np.linalg.lstsq(T_b[pattern], beams[rows][:, pattern].T, rcond=None)[0].T
+        return out[0] if single else out
+
+
+@dataclass
+class DvlErrorModel:
+    """The beam error model ``y = T [v_d * (1 + s)] + b + n`` (scale s per DVL axis, bias b per beam, noise n).
+
+    Attributes:
+        scale_factor: (3,) unitless.
+        beam_bias: (4,) m/s.
+        noise_std: white noise std of each beam, m/s.
+    """
+
+    scale_factor: np.ndarray
+    beam_bias: np.ndarray
+    noise_std: float
+
+    @classmethod
+    def from_spec(cls, spec: DvlSpec) -> "DvlErrorModel":
+        return cls(spec.scale_factor.copy(), spec.beam_bias.copy(), spec.beam_noise_std)
+
+    def beams(self, geometry: DvlGeometry, v_dvl_b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Noisy beams (N,4), m/s, from the DVL-head velocity in the body frame v_dvl_b (N,3)."""
+        v_d = np.atleast_2d(v_dvl_b) @ geometry.C_d_b       # row form of C_d_b^T v_b
+        clean = (v_d * (1.0 + self.scale_factor)) @ geometry.T_d.T
+        return clean + self.beam_bias + rng.normal(0.0, self.noise_std, clean.shape)
+
+
+def make_beams(v_dvl_b: np.ndarray, spec: DvlSpec, seed: int | np.random.Generator = 0) -> np.ndarray:
+    """Beams (N,4) made from recorded or simulated DVL-head body velocities with the spec's error model.
+
+    This is how beams are made from the recorded DVL velocities of the real data sets (as in the paper).
+    """
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    return DvlErrorModel.from_spec(spec).beams(DvlGeometry.from_spec(spec), v_dvl_b, rng)
+
+
+#: Valid pings on each side whose median a ping is compared with in :func:`implausible_pings`.
+JUMP_NEIGHBOURS = 3
+
+
+def implausible_pings(t: np.ndarray, v_b: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
+    """Pings whose reported velocity this vehicle cannot have (envelope of :class:`DvlSpec`).
+
+    Args:
+        t: (M,) ping stamps, s. v_b: (M,3) reported DVL velocity, body frame, m/s (NaN rows = invalid pings,
+            never flagged). spec: ``max_speed_mps``, ``max_vertical_mps``, ``max_accel_mps2``,
+            ``jump_tolerance_mps``.
+
+    Returns:
+        ``{"speed": mask, "vertical": mask, "jump": mask}`` (M,) bool, disjoint (a ping is counted under the
+        first reason it fails). A jump is a departure from the component-wise median of the
+        :data:`JUMP_NEIGHBOURS` valid pings on each side (pings failing speed/vertical excluded) larger than
+        ``1.5 * max_accel_mps2 * dt + jump_tolerance_mps``: a spike the vehicle makes and undoes, while a
+        lasting change of velocity is kept.
+    """
+    t = np.asarray(t, float)
+    v = np.asarray(v_b, float)
+    ok = np.all(np.isfinite(v), axis=1)
+    speed = ok & (np.linalg.norm(np.where(ok[:, None], v, 0.0), axis=1) > spec.max_speed_mps)
+    vertical = ok & ~speed & (np.abs(np.where(ok, v[:, 2], 0.0)) > spec.max_vertical_mps)
+    jump = np.zeros(len(v), dtype=bool)
+    idx = np.flatnonzero(ok & ~speed & ~vertical)
+    n = JUMP_NEIGHBOURS
+    if idx.size > 2:
+        vi, ti = v[idx], t[idx]
+        padded = np.concatenate([np.full((n, 3), np.nan), vi, np.full((n, 3), np.nan)])
+        win = np.lib.stride_tricks.sliding_window_view(padded, 2 * n + 1, axis=0)    # (K, 3, 2n+1)
+        ref = np.nanmedian(np.delete(win, n, axis=2), axis=2)
+        gaps = np.diff(ti)
+        dt = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
+        jump[idx] = np.linalg.norm(vi - ref, axis=1) > 1.5 * spec.max_accel_mps2 * dt + spec.jump_tolerance_mps
+    return {"speed": speed, "vertical": vertical, "jump": jump}
+
+
+def describe_implausible(masks: dict[str, np.ndarray], spec: DvlSpec) -> str:
+    """'N speed, N vertical, N jump' with the limits, for warnings."""
+    limits = {"speed": f"speed > {spec.max_speed_mps:g} m/s", "vertical": f"|v_z| > {spec.max_vertical_mps:g} m/s",
+              "jump": f"jump > 1.5*{spec.max_accel_mps2:g} m/s^2*dt + {spec.jump_tolerance_mps:g} m/s"}
+    return ", ".join(f"{int(m.sum())} {limits[k]}" for k, m in masks.items() if m.any())
+
+
+def screen_implausible(dvl, spec: DvlSpec):
+    """``dvl`` (:class:`~graphnav.core.mission.DvlData`) with the pings of :func:`implausible_pings` marked invalid
+    (beams NaN), with a warning naming the first index and the counts; what the loaders do to a file, for
+    in-memory data. The ping velocity is ``dvl.v_b`` where given, else the least-squares velocity of pings
+    with >= 3 valid beams."""
+    import warnings
+
+    from graphnav.core.mission import DvlData
+    v = dvl.v_b
+    if v is None:
+        v = DvlGeometry.from_spec(spec).velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
+    masks = implausible_pings(dvl.t, v, spec)
+    bad = np.any(list(masks.values()), axis=0)
+    if not bad.any():
+        return dvl
+    rows = np.flatnonzero(bad)
+    warnings.warn(f"{dvl.source}: {rows.size} ping(s) outside the vehicle's envelope marked invalid "
+                  f"({describe_implausible(masks, spec)}; DvlSpec.max_*), first at index {int(rows[0])}",
+                  RuntimeWarning, stacklevel=2)
+    valid = dvl.valid & ~bad[:, None]
+    return DvlData(dvl.t, np.where(valid, dvl.beams, np.nan), valid,
+                   None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b), dvl.source)

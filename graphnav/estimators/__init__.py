@@ -1,0 +1,1 @@
+"""The estimators: strapdown INS, the error-state EKF, the factor graph, and the streaming Navigator over them."""

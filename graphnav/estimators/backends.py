@@ -1,0 +1,216 @@
+"""The estimators behind :class:`graphnav.estimators.navigator.Navigator`, one adapter each: keyframe in, estimate out.
+
+- :class:`GraphBackend`: the factor graph (``"fixed-lag"``: GTSAM's IncrementalFixedLagSmoother, bounded
+  time and memory; ``"isam2"``: ISAM2 over the whole mission) on preintegrated IMU factors, per-beam DVL
+  factors, depth, heading and position-fix factors.
+- :class:`EkfBackend`: the paper's error-state EKF (tightly or loosely coupled) on the same keyframes.
+
+Both return a :class:`~graphnav.estimators.graph.EpochEstimate` per keyframe (the filtered state, its velocity
+covariance, the biases). Both take the same :class:`~graphnav.estimators.graph.InitialState`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import gtsam
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.earth import lla_to_ned
+from graphnav.core.errors import ConfigError
+from graphnav.core.rotations import so3_exp_batch
+from graphnav.estimators.ekf import IE, IV, EkfOptions, ErrorStateEkf
+from graphnav.estimators.graph.builder import GraphContext, graph_keyframe
+from graphnav.estimators.graph.incremental import (
+    EpochEstimate,
+    FixedLagGraph,
+    InitialState,
+    OnlineGraph,
+)
+from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.ins import StrapdownState
+from graphnav.estimators.keyframes import ImuSegments, Keyframe
+from graphnav.factors.aiding import yaw_and_jacobian
+
+#: Backend names of the Navigator.
+BACKENDS = ("fixed-lag", "isam2", "ekf")
+
+
+class _Aided:
+    """Shared handling of position fixes: NED of a fix relative to the navigation origin (set by the first
+    fix when the initial state gave none: the origin is then placed so that this fix equals the position
+    estimated at its stamp, and the fix itself adds no information)."""
+
+    origin_lla: tuple[float, float, float] | None = None
+    n_fixes: int = 0
+
+    def fix_ne(self, kf: Keyframe, p_n_pred: np.ndarray) -> np.ndarray | None:
+        if kf.fix is None:
+            return None
+        self.n_fixes += 1
+        if self.origin_lla is None:
+            self.origin_lla = (kf.fix.lat, kf.fix.lon, 0.0)
+            self._origin_offset_ne = np.asarray(p_n_pred[:2], float).copy()
+        ned = lla_to_ned(np.array([kf.fix.lat]), np.array([kf.fix.lon]), np.array([0.0]), self.origin_lla)[0]
+        return ned[:2] + getattr(self, "_origin_offset_ne", np.zeros(2))
+
+
+class GraphBackend(_Aided):
+    """Factor-graph backend.
+
+    Args:
+        config: sensor configuration.
+        options: graph settings.
+        mode: ``"fixed-lag"`` (lag ``options.lag_s``) or ``"isam2"``.
+        initial: state at the first keyframe.
+    """
+
+    def __init__(self, config: SensorConfig, options: GraphOptions | None, mode: str, initial: InitialState,
+                 name: str = "graph"):
+        self.ctx = GraphContext(config, options or GraphOptions())
+        if mode == "isam2":
+            self.estimator = OnlineGraph(self.ctx, initial)
+        elif mode == "fixed-lag":
+            self.estimator = FixedLagGraph(self.ctx, initial)
+        else:
+            raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag' or 'isam2'")
+        self.estimator.health.estimator = name
+        self.mode = mode
+        self.origin_lla = initial.origin_lla
+        self._initial = initial
+
+    def process(self, kf: Keyframe) -> EpochEstimate:
+        gkf = graph_keyframe(kf, self.ctx)
+        if kf.fix is not None:
+            last = self.estimator._last
+            if last is None:
+                p_pred = self._initial.pose.translation()
+            else:
+                p_pred = gkf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
+            gkf.fix_ne = self.fix_ne(kf, p_pred)
+        self.estimator.add(gkf)
+        return self.estimator.update()
+
+    @property
+    def info(self) -> dict:
+        e = self.estimator
+        return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
+                "reanchored": e.n_reanchored,
+                "health": e.health.summary()}
+
+
+def split_specific_force(imu: ImuSegments) -> np.ndarray:
+    """Specific force of each segment in the body axes at the segment's start, m/s^2: a segment that starts
+    ``lag`` s into its sample sees the body already rotated by ``D = Exp(omega lag)``, so the sample is
+    expressed as ``D^T f`` (then a split propagation equals the unsplit one; see
+    :func:`graphnav.estimators.ins.segment_specific_force`)."""
+    f = imu.f_b.copy()
+    split = np.flatnonzero(imu.lag > 0)
+    if split.size:
+        D = so3_exp_batch(imu.omega_b[split] * imu.lag[split, None])
+        f[split] = np.einsum("nji,nj->ni", D, f[split])
+    return f
+
+
+class EkfBackend(_Aided):
+    """Error-state EKF backend (the paper's filter; see :mod:`graphnav.estimators.ekf`).
+
+    Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
+    the ping (``tight``: one row per beam, else least squares from >= 3 beams; completed beams add their
+    completer sigma^2) using the gyro rate interpolated at the ping, and with a heading measurement. The
+    filter integrates position from velocity without a position error state (the paper's mode), so a position
+    fix resets the horizontal position (counted in ``info["n_fixes"]``).
+
+    Args:
+        config: sensor configuration.
+        options: EKF tuning.
+        tight: tightly (TC) or loosely (LC) coupled beam updates.
+        initial: state at the first keyframe; its covariances, when given, replace the options' initial sigmas.
+    """
+
+    def __init__(self, config: SensorConfig, options: EkfOptions | None, tight: bool, initial: InitialState,
+                 name: str = "EKF"):
+        options = options or EkfOptions()
+        C = initial.pose.rotation().matrix()
+        if initial.cov_pose is not None:       # body-frame rotation tangent -> NED misalignment (diagonal)
+            cov_eps = C @ np.asarray(initial.cov_pose)[:3, :3] @ C.T
+            options = dataclasses.replace(options, sigma_att0_rad=np.sqrt(np.diag(cov_eps)))
+        if initial.cov_v_n is not None:
+            options = dataclasses.replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
+        state = StrapdownState(float(initial.t), C, np.asarray(initial.v_n, float).copy(),
+                               np.asarray(initial.pose.translation(), float).copy())
+        self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
+                                 name=name)
+        self.tight = tight
+        self.origin_lla = initial.origin_lla
+        self.n_completed = 0
+        self.n_imu_segments = 0
+        self.n_imu_gaps = 0
+        self.update_times: list[float] = []
+
+    def process(self, kf: Keyframe) -> EpochEstimate:
+        start = time.perf_counter()
+        ekf = self.ekf
+        if kf.imu is not None and len(kf.imu.dt):
+            ekf.predict(split_specific_force(kf.imu), kf.imu.omega_b, kf.imu.dt)
+            self.n_imu_segments += len(kf.imu.dt)
+            if kf.imu.var_v or kf.imu.var_att:
+                ekf.inflate(kf.imu.var_v, kf.imu.var_att)
+                self.n_imu_gaps += 1
+        ping = kf.ping
+        if ping is not None:
+            sigma = ping.sigma_regressed if ping.n_regressed else None
+            if ping.completed:
+                self.n_completed += 1
+            if self.tight:
+                ekf.update_tc(ping.beams, ping.omega_b_interp, sigma)
+            else:
+                ekf.update_lc_beams(ping.beams, ping.omega_b_interp, sigma)
+        if kf.heading is not None:
+            self._update_heading(*kf.heading)
+        if kf.fix is not None:
+            ekf.state.p_n[:2] = self.fix_ne(kf, ekf.state.p_n)
+        s = ekf.state
+        elapsed = time.perf_counter() - start
+        self.update_times.append(elapsed)
+        return EpochEstimate(kf.index, kf.t, kf.kind, gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n.copy(),
+                             gtsam.imuBias.ConstantBias(ekf.bias_acc, ekf.bias_gyro), ekf.P[IV, IV].copy(),
+                             0 if ping is None else ping.n_measured, 0 if ping is None else ping.n_regressed,
+                             elapsed)
+
+    def _update_heading(self, yaw: float, sigma: float) -> None:
+        """Yaw update: ``dz = yaw(C_hat) - yaw_meas``; with ``C = Exp(-eps) C_hat`` the row on the NED
+        misalignment is ``d yaw / d eps = C_hat J`` (J the right-perturbation yaw Jacobian)."""
+        ekf = self.ekf
+        C = ekf.state.C_b_n
+        yaw_hat, J = yaw_and_jacobian(C)
+        H = np.zeros((1, ekf.n_states))
+        # C_true = Exp(-eps) C_hat = C_hat Exp(-C_hat^T eps): right perturbation d = -C_hat^T eps, and
+        # dz = h(x_hat) - y = -(J . d) = J C_hat^T eps
+        H[0, IE] = J @ C.T
+        dz = np.array([np.remainder(yaw_hat - yaw + np.pi, 2 * np.pi) - np.pi])
+        ekf._update(dz, H, np.array([[sigma ** 2]]))
+
+    @property
+    def info(self) -> dict:
+        e = self.ekf
+        return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
+                "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
+                "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
+                "health": e.health.summary()}
+
+
+def make_backend(name: str, config: SensorConfig, initial: InitialState, *, graph_options: GraphOptions | None = None,
+                 ekf_options: EkfOptions | None = None, tight: bool = True, keep_keyframe_graphs: bool = False,
+                 label: str | None = None):
+    """The backend called ``name`` (one of :data:`BACKENDS`) started at ``initial`` (``keep_keyframe_graphs``:
+    a graph backend keeps every keyframe's factors for a batch smoother; ``label`` names the estimator in its
+    health warnings)."""
+    if name == "ekf":
+        return EkfBackend(config, ekf_options, tight, initial, name=label or f"EKF {'TC' if tight else 'LC'}")
+    if name in ("fixed-lag", "isam2"):
+        backend = GraphBackend(config, graph_options, name, initial, name=label or f"graph {name}")
+        backend.estimator.keep_keyframe_graphs = keep_keyframe_graphs
+        return backend
+    raise ConfigError(f"unknown backend '{name}'; choose one of {', '.join(BACKENDS)}")

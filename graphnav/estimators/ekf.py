@@ -1,0 +1,452 @@
+"""Error-state EKF for INS/DVL: the paper's LC and TC baselines and their hybrid (beam-completer) variants.
+
+State and conventions
+---------------------
+Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n`` (integrated from velocity, no error
+state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error state (12, paper order)
+``dx = [dv_n, eps_n, db_a, db_g]`` with *every* error defined as estimate minus truth:
+``v = v_hat - dv``, ``b = b_hat - db`` and ``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of
+the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
+
+Error model (the local-navigation-frame strapdown error equations of Groves, *Principles of GNSS, Inertial
+and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; transport rate and the
+gravity-position coupling dropped, as the nominal model does; derived here for the convention above and
+checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``)::
+
+    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
+    d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
+    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb
+
+so, with ``w = [n_a, n_g, n_ab, n_gb]``::
+
+    F = [[F_vv, F_ve, -C, 0], [F_ev=0, F_ee, 0, -C], [0]*4, [0]*4]
+    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I]]
+
+**Block placement against the paper.** ``../shared/docs/method.md`` prints the velocity row as
+``[F_vv, F_ve, 0, C_b^n]`` and the attitude row as ``[F_ev, F_ee, C_b^n, 0]`` (and G with the velocity driven
+by the second noise, the attitude by the first) for the state order ``[dv, eps, db_a, db_g]``. That would let
+the *gyro* bias drive the velocity error and the *accelerometer* bias the misalignment, which is physically
+wrong; it is the textbook matrix with the two bias columns (and noise columns) swapped, i.e. what one gets
+with the state order ``[dv, eps, db_g, db_a]``. We use the textbook placement (accelerometer bias into
+velocity, gyro bias into attitude). The signs of the bias blocks (-C) follow from "true = estimate -
+error" for the biases; the paper's +C corresponds to the opposite bias-error sign and changes nothing else.
+
+Discretisation (the paper's): per IMU segment ``Phi = sum_{r<=order} (F dt)^r / r!`` and
+``Q = 0.5 (Phi G Qc G^T + G Qc G^T Phi^T) dt``. With isotropic IMU noise ``G Qc G^T`` is the constant
+diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses. The per-segment pairs
+are composed between two DVL pings by a pairwise tree, ``(Phi_b, Q_b) o (Phi_a, Q_a) = (Phi_b Phi_a,
+Phi_b Q_a Phi_b^T + Q_b)``, which equals propagating P segment by segment.
+
+Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``, lever arm l_b optional,
+``omega_b`` the IMU rate interpolated at the ping stamp), with ``dz = h(x_hat) - y = H dx + noise``:
+
+- LC (>= 3 beams; weighted least-squares velocity): ``H = [C^T, C^T [v_n]x, 0, [l_b]x]``.
+  The paper prints ``-C^T [v_n x]``, which is the same row for the opposite misalignment sign.
+- TC (one row per beam): ``y_i = b_i^T v_d_b``, ``H_i = b_i^T H_LC`` (b_i the beam unit vector in body).
+
+The model is linear in the beams, so with four beams (and no DVL error states) an LC update with the WLS
+velocity and its covariance is identical to the TC update; LC and TC differ only when beams are missing.
+
+Beam noise: the beams carry a bias (0.01 m/s) and scale factor (0.7 %) besides white noise. The paper's
+12-state filter treats them as white noise of variance ``noise^2 + bias^2 + (scale * |beam|)^2`` (each term
+from the configuration by default, see :class:`EkfOptions`); it then averages many pings and becomes
+overconfident (velocity NEES ~8 on the simulated default mission). ``EkfOptions.dvl_error_states`` adds the
+scale factor per DVL axis and the bias per beam as 7 random-constant states (beam model
+``y = T_d [(1 + s) C_d_b^T v_d_b] + b``, rows ``H_s = T_d diag(v_d)``, ``H_b = I``). Completed beams add
+their completer sigma^2.
+
+Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
+normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
+b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+
+Health: every update's NIS (gated or not) goes to a :class:`graphnav.estimators.health.NisMonitor` (``info["health"]``:
+chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
+``HealthOptions.lockout_rejections`` rejected pings in a row it re-acquires (:meth:`ErrorStateEkf.reacquire`:
+velocity from a >= 3-beam least-squares fix, or covariance inflation with fewer beams; attitude variance
+inflated) and says so (``scripts/lockout_demo.py``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.rotations import skew, so3_exp_batch
+from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
+from graphnav.estimators.health import HealthOptions, NisMonitor
+from graphnav.estimators.ins import Strapdown, StrapdownState
+
+METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
+N_STATES = 12
+N_DVL_STATES = 7
+IV, IE, IA, IG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+IS, IB = slice(12, 15), slice(15, 19)           # optional DVL scale factor and beam bias states
+
+
+@dataclass
+class EkfOptions:
+    """Tuning of :class:`ErrorStateEkf`. None means "from the mission's :class:`SensorConfig`".
+
+    Attributes:
+        lever_arm: model the DVL lever arm (None: on when ``config.dvl.lever_arm_b`` is non-zero).
+        gating: reject updates whose normalised innovation squared exceeds ``chi2.ppf(gate_prob, dof)``.
+            On by default (not in the paper): on the simulated 300 s missions (seeds 1-3, navigation/tactical/
+            MEMS IMU, 3-missing and 2-missing 30 s windows, a 120 s total outage; TC, LC, HNTC) and on A-KIT
+            trajectories 1-3 (3-missing windows) it rejected no update and changed nothing, while it rejects
+            every 1 m/s beam spike of ``tests/test_faults.py`` (TC VRMSE 0.086 -> 0.037 m/s).
+        gate_prob: gating probability.
+        beam_noise_std: white beam noise, m/s (None: ``config.dvl.beam_noise_std``).
+        beam_bias_std: inflation for the unmodelled beam bias, m/s (None: max |config.dvl.beam_bias|).
+        beam_scale_std: inflation for the unmodelled scale factor, unitless, multiplies |beam| (None: max
+            |config.dvl.scale_factor|).
+        sigma_v0: initial velocity sigma, m/s (the filter starts on the ground truth; this covers GT error and
+            the time offsets of real data).
+        sigma_att0_rad: initial misalignment sigma per NED axis, rad.
+        sigma_ba0: initial accelerometer bias sigma, m/s^2 (None: ``config.imu.accel_bias_sigma``).
+        sigma_bg0: initial gyro bias sigma, rad/s (None: ``config.imu.gyro_bias_sigma``).
+        phi_order: order of the truncated series for Phi.
+        imu_noise_scale: factor on the IMU white-noise densities of ``config.imu`` in Q. 1 for simulated
+            data; on the recorded A-KIT data the INS disagrees with the ground truth far more than the
+            recorded noise densities say (1-s free-inertial velocity error ~0.06 m/s), and all-beam runs
+            need about 10-20 for a velocity NEES near 3 (``scripts/bench_ekf.py`` reports its choice).
+        dvl_error_states: add 7 DVL error states (not in the paper): the scale factor per DVL axis ``s``
+            (3) and the bias per beam ``b`` (4) of the beam model ``y = T_d [(1 + s) v_d] + b + n``, random
+            constants. They are observable through accelerations and turns (the IMU senses velocity
+            changes exactly); with them the white-noise inflation for bias/scale defaults to 0.
+        sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
+        sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
+        health: :class:`graphnav.estimators.health.HealthOptions` of the NIS monitor; its ``lockout_rejections``
+            consecutive gated pings trigger a re-acquisition.
+        reacquire: after a lockout, re-acquire (see :meth:`ErrorStateEkf.reacquire`) instead of staying
+            pure inertial. Without it the filter can reject every ping of a mission (seen on a real
+            trajectory that starts inside a fast turn: 400 of 400 pings gated, 262 m/s VRMSE).
+        sigma_att_reacq_rad: misalignment sigma per NED axis added at a re-acquisition, rad; doubled at each
+            further re-acquisition within ``reacq_escalate_s`` of the previous one (the first did not
+            cover the error), up to ``sigma_att_reacq_max_rad``.
+        reacq_escalate_s: see ``sigma_att_reacq_rad``, s.
+        sigma_att_reacq_max_rad: cap of the escalated misalignment sigma, rad.
+        sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
+        max_pure_inertial_s: warn when no DVL update enters for longer than this, s
+            (:func:`graphnav.estimators.coasting.check_pure_inertial`).
+    """
+
+    lever_arm: bool | None = None
+    gating: bool = True
+    gate_prob: float = 0.9999
+    beam_noise_std: float | None = None
+    beam_bias_std: float | None = None
+    beam_scale_std: float | None = None
+    sigma_v0: float = 0.05
+    sigma_att0_rad: np.ndarray = field(default_factory=lambda: np.deg2rad([0.1, 0.1, 0.1]))
+    sigma_ba0: float | None = None
+    sigma_bg0: float | None = None
+    phi_order: int = 2
+    imu_noise_scale: float = 1.0
+    dvl_error_states: bool = False
+    sigma_dvl_scale0: float | None = None
+    sigma_beam_bias0: float | None = None
+    health: HealthOptions = field(default_factory=HealthOptions)
+    reacquire: bool = True
+    sigma_att_reacq_rad: float = float(np.deg2rad(2.0))
+    reacq_escalate_s: float = 30.0
+    sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
+    sigma_v_reacq: float = 0.5
+    max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
+
+
+def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Compose per-segment (Phi_j, Q_j) (n,k,k) in time order into one (Phi, Q) by a pairwise tree."""
+    while len(Phi) > 1:
+        even = len(Phi) // 2 * 2
+        Pa, Pb, Qa, Qb = Phi[0:even:2], Phi[1:even:2], Q[0:even:2], Q[1:even:2]
+        Phi_new = Pb @ Pa
+        Q_new = Pb @ Qa @ np.swapaxes(Pb, 1, 2) + Qb
+        if len(Phi) > even:
+            Phi_new = np.concatenate([Phi_new, Phi[-1:]])
+            Q_new = np.concatenate([Q_new, Q[-1:]])
+        Phi, Q = Phi_new, Q_new
+    return Phi[0], Q[0]
+
+
+class ErrorStateEkf:
+    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC).
+
+    Args:
+        config: sensor configuration (noise model, gravity, Earth rate, DVL geometry).
+        state: initial nominal state.
+        options: tuning; default :class:`EkfOptions`.
+        bias_acc, bias_gyro: initial bias estimates, m/s^2 and rad/s (default zero).
+        name: estimator name in health warnings (e.g. ``"EKF TC"``).
+
+    Attributes:
+        health: the :class:`graphnav.estimators.health.NisMonitor` fed with the NIS of every update (gated or not).
+    """
+
+    def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
+                 bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None, name: str = "EKF"):
+        self.config = config
+        self.options = opts = options or EkfOptions()
+        self.strapdown = Strapdown.from_config(config)
+        self.state = state.copy()
+        self.bias_acc = np.zeros(3) if bias_acc is None else np.asarray(bias_acc, float).copy()
+        self.bias_gyro = np.zeros(3) if bias_gyro is None else np.asarray(bias_gyro, float).copy()
+        imu = config.imu
+        sba0 = imu.accel_bias_sigma if opts.sigma_ba0 is None else opts.sigma_ba0
+        sbg0 = imu.gyro_bias_sigma if opts.sigma_bg0 is None else opts.sigma_bg0
+        variances = [np.full(3, opts.sigma_v0 ** 2), np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
+                     np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]
+        dvl = config.dvl
+        self.n_states = N_STATES + (N_DVL_STATES if opts.dvl_error_states else 0)
+        if opts.dvl_error_states:
+            ss0 = (max(float(np.max(np.abs(dvl.scale_factor))), 0.005) if opts.sigma_dvl_scale0 is None
+                   else opts.sigma_dvl_scale0)
+            sb0 = (max(float(np.max(np.abs(dvl.beam_bias))), 0.005) if opts.sigma_beam_bias0 is None
+                   else opts.sigma_beam_bias0)
+            variances += [np.full(3, ss0 ** 2), np.full(4, sb0 ** 2)]
+        self.P = np.diag(np.concatenate(variances))
+        #: DVL scale factor per DVL axis (3,) and beam biases (4,) m/s; stay zero without dvl_error_states
+        self.dvl_scale = np.zeros(3)
+        self.beam_bias = np.zeros(4)
+        # G Qc G^T: constant because the IMU noise is isotropic (C C^T = I)
+        k = opts.imu_noise_scale
+        self.qd = np.repeat([(k * imu.accel_noise_density) ** 2, (k * imu.gyro_noise_density) ** 2,
+                             imu.accel_bias_rw ** 2, imu.gyro_bias_rw ** 2], 3)
+        geometry = DvlGeometry.from_spec(config.dvl)
+        self.T_b = geometry.T_b
+        self.T_d, self.C_d_b = geometry.T_d, geometry.C_d_b
+        use_lever = (np.any(config.dvl.lever_arm_b != 0) if opts.lever_arm is None else opts.lever_arm)
+        self.lever_arm_b = geometry.lever_arm_b if use_lever else np.zeros(3)
+        self.skew_lever = skew(self.lever_arm_b)
+        self.beam_noise_std = config.dvl.beam_noise_std if opts.beam_noise_std is None else opts.beam_noise_std
+        modelled = opts.dvl_error_states       # bias and scale are states: no white-noise inflation
+        self.beam_bias_std = ((0.0 if modelled else float(np.max(np.abs(dvl.beam_bias))))
+                              if opts.beam_bias_std is None else opts.beam_bias_std)
+        self.beam_scale_std = ((0.0 if modelled else float(np.max(np.abs(dvl.scale_factor))))
+                               if opts.beam_scale_std is None else opts.beam_scale_std)
+        self._gate = {m: chi2.ppf(opts.gate_prob, m) for m in range(1, 5)}
+        self._skew_wie = skew(self.strapdown.omega_ie_n)
+        self.n_updates = 0
+        self.n_gated = 0
+        self.health = NisMonitor(name, opts.health)
+        self._reacq_level = 0
+        self._reacq_t = -np.inf
+
+    # --- propagation ------------------------------------------------------------------------------
+    def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
+        """Per-segment (Phi (n,12,12), Q (n,12,12)) along a :class:`~graphnav.estimators.ins.PropagationPath`."""
+        n, dt, C = len(path.dt), path.dt, path.C_b_n
+        F = np.zeros((n, N_STATES, N_STATES))
+        F[:, IV, IV] = -2.0 * self._skew_wie
+        F[:, IV, IE] = -skew(path.f_n)
+        F[:, IV, IA] = -C
+        F[:, IE, IE] = -self._skew_wie
+        F[:, IE, IG] = -C
+        A = F * dt[:, None, None]
+        Phi = np.broadcast_to(np.eye(N_STATES), A.shape) + A
+        term = A
+        for r in range(2, self.options.phi_order + 1):
+            term = term @ A / r
+            Phi = Phi + term
+        M = Phi * self.qd
+        Q = 0.5 * (M + np.swapaxes(M, 1, 2)) * dt[:, None, None]
+        return Phi, Q
+
+    def predict(self, f_b: np.ndarray, omega_b: np.ndarray, dt: np.ndarray) -> None:
+        """Propagate nominal state and covariance over zero-order-hold IMU segments.
+
+        Args:
+            f_b: (n,3) specific force, m/s^2; omega_b: (n,3) rate, rad/s (body, raw: biases are removed
+                here); dt: (n,) segment lengths, s.
+        """
+        if len(dt) == 0:
+            return
+        self.state, path = self.strapdown.propagate(self.state, f_b, omega_b, dt, self.bias_acc, self.bias_gyro)
+        Phi, Q = compose_transitions(*self.transition(path))
+        P, n = self.P, N_STATES
+        if self.n_states == n:
+            self.P = Phi @ P @ Phi.T + Q
+        else:   # the DVL error states are random constants: Phi = blockdiag(Phi_12, I), Q = blockdiag(Q_12, 0)
+            cross = Phi @ P[:n, n:]
+            P[:n, :n] = Phi @ P[:n, :n] @ Phi.T + Q
+            P[:n, n:] = cross
+            P[n:, :n] = cross.T
+
+    def inflate(self, var_v: float, var_att: float) -> None:
+        """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
+        gap bridged by interpolation (:meth:`graphnav.core.mission.ImuData.bridge_gaps`)."""
+        self.P[IV, IV] += var_v * np.eye(3)
+        self.P[IE, IE] += var_att * np.eye(3)
+
+    # --- measurement model -----------------------------------------------------------------------
+    def predicted_beams(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h (4,) predicted beams, m/s; H (4, n_states)) at the current state.
+
+        ``h = T_d [(1 + s) C_d_b^T v_d_b] + b`` with the DVL-head velocity
+        ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b`` (``omega_b`` raw IMU rate at the ping, rad/s);
+        s and b are zero unless :attr:`EkfOptions.dvl_error_states`.
+        """
+        C = self.state.C_b_n
+        Ct = C.T
+        v_d_b = Ct @ self.state.v_n + np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
+        H_vel = np.zeros((3, self.n_states))          # d v_d_b / d dx
+        H_vel[:, IV] = Ct
+        H_vel[:, IE] = Ct @ skew(self.state.v_n)
+        H_vel[:, IG] = self.skew_lever
+        v_d = self.C_d_b.T @ v_d_b
+        M = self.T_d * (1.0 + self.dvl_scale)        # T_d diag(1 + s)
+        h = M @ v_d + self.beam_bias
+        H = (M @ self.C_d_b.T) @ H_vel
+        if self.n_states > N_STATES:
+            H[:, IS] = self.T_d * v_d
+            H[:, IB] = np.eye(4)
+        return h, H
+
+    def beam_variance(self, beams: np.ndarray) -> np.ndarray:
+        """Assumed variance (m/s)^2 of beam measurements of magnitude |beams| (white + bias + scale)."""
+        return (self.beam_noise_std ** 2 + self.beam_bias_std ** 2
+                + (self.beam_scale_std * np.asarray(beams)) ** 2)
+
+    def _update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray) -> bool:
+        PHt = self.P @ H.T
+        S = H @ PHt + R
+        S_inv_dz = np.linalg.solve(S, dz)
+        nis = float(dz @ S_inv_dz)
+        gated = self.options.gating and not nis <= self._gate[min(len(dz), 4)]
+        self.health.record(self.state.t, nis, len(dz), accepted=not gated)
+        if gated:
+            self.n_gated += 1
+            return False
+        K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
+        dx = PHt @ S_inv_dz
+        IKH = np.eye(self.n_states) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
+        self.P = 0.5 * (self.P + self.P.T)
+        # closed-loop correction, then the error state is reset to zero
+        self.state.v_n = self.state.v_n - dx[IV]
+        self.state.C_b_n = so3_exp_batch(-dx[IE][None])[0] @ self.state.C_b_n
+        self.bias_acc = self.bias_acc - dx[IA]
+        self.bias_gyro = self.bias_gyro - dx[IG]
+        if self.n_states > N_STATES:
+            self.dvl_scale = self.dvl_scale - dx[IS]
+            self.beam_bias = self.beam_bias - dx[IB]
+        self.n_updates += 1
+        return True
+
+    def update_lc_beams(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
+                        ) -> bool:
+        """LC update from >= 3 beams (4,) m/s (NaN = missing) by weighted least squares.
+
+        ``v = G y``, ``G = (A^T W A)^-1 A^T W`` over the used beams (A their body-frame unit vectors, W the
+        inverse beam variances), ``R_v = (A^T W A)^-1`` and the prediction ``G h(x)``. ``sigma_extra`` (4,)
+        m/s is added in quadrature to the beam noise (completed beams). With fewer than three beams there
+        is no update (pure inertial) and False is returned.
+        """
+        used = np.isfinite(beams)
+        if used.sum() < 3:
+            return False
+        var = self.beam_variance(beams[used])
+        if sigma_extra is not None:
+            var = var + sigma_extra[used] ** 2
+        A = self.T_b[used]
+        R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+        G = R_v @ (A.T / var)
+
+        def innovation():
+            h, H = self.predicted_beams(omega_b)
+            return G @ (h[used] - beams[used]), G @ H[used], R_v
+        return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
+
+    def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
+        """Tightly coupled update, one row per finite beam of ``beams`` (4,) m/s (NaN = missing).
+
+        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams).
+        """
+        used = np.isfinite(beams)
+        if not used.any():
+            return False
+        y = beams[used]
+        var = self.beam_variance(y)
+        if sigma_extra is not None:
+            var = var + sigma_extra[used] ** 2
+
+        def innovation():
+            h, H = self.predicted_beams(omega_b)
+            return h[used] - y, H[used], np.diag(var)
+        return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
+
+    def _update_or_reacquire(self, innovation, beams: np.ndarray, omega_b: np.ndarray,
+                             sigma_extra: np.ndarray | None) -> bool:
+        """Update with ``innovation() -> (dz, H, R)`` at the current state; when the gate has now rejected a
+        run of pings (lockout), re-acquire and, unless the ping itself made the velocity fix, update again."""
+        if self._update(*innovation()):
+            return True
+        if not self._locked_out():
+            return False
+        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+            return True                            # this ping made the velocity fix
+        return self._update(*innovation())
+
+    # --- re-acquisition ------------------------------------------------------------------------------
+    def _locked_out(self) -> bool:
+        return (self.options.reacquire and self.options.gating
+                and self.health.rejection_run >= self.options.health.lockout_rejections)
+
+    def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> str:
+        """Recover from a gating lockout with the current ping ``beams`` (4,) m/s (NaN = missing).
+
+        A lockout means the state has left the region its covariance describes, so that the gate rejects
+        the very measurements that could correct it. As robust (fault-tolerant) INS/DVL filters do, the
+        filter falls back on the measurements: with >= 3 beams the velocity is re-initialised from their
+        weighted least-squares fix (``v_n = C_b_n (v_d_b - (omega_b - b_g) x l_b)``; its error
+        ``-[v_n]x eps + C n_v`` sets the velocity rows of P: ``C R_v C^T`` plus the misalignment's share,
+        correlated with eps; the ping is then used up); with
+        fewer, the velocity variance is inflated so that the rejected innovation lies inside the gate
+        (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
+        ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error
+        (e.g. a start inside a fast turn) is
+        the usual cause and must be observable again through the velocity updates. Completed (regressed)
+        beams never enter the fix.
+        The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
+        """
+        opts = self.options
+        used = np.isfinite(beams)
+        if sigma_extra is not None:
+            # completed (regressed) beams never make the fix: the gate may have been right to reject them
+            used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
+        P = self.P
+        t = self.state.t
+        self._reacq_level = self._reacq_level + 1 if t - self._reacq_t < opts.reacq_escalate_s else 0
+        self._reacq_t = t
+        sigma_att = min(opts.sigma_att_reacq_rad * 2.0 ** self._reacq_level, opts.sigma_att_reacq_max_rad)
+        att_var = sigma_att ** 2
+        P[IE, IE] += att_var * np.eye(3)
+        C = self.state.C_b_n
+        if used.sum() >= 3:
+            var = self.beam_variance(beams[used])
+            A = self.T_b[used]
+            R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+            v_d_b = R_v @ (A.T @ (beams[used] / var))
+            v_old = self.state.v_n
+            self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
+            # v_hat = C_hat v_b: its error is the fix's noise plus the misalignment's share,
+            # dv = -[v_hat]x eps + C n_v, so it stays correlated with eps (and through it with the rest)
+            J = -skew(self.state.v_n)
+            P[IV, :] = J @ P[IE, :]
+            P[:, IV] = P[IV, :].T
+            P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
+            how = (f"velocity re-initialised from a {int(used.sum())}-measured-beam least-squares fix (changed by "
+                   f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
+                   f"+{np.rad2deg(sigma_att):.3g} deg")
+        else:
+            h, _ = self.predicted_beams(omega_b)
+            worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0
+            sigma = max(2.0 * worst, opts.sigma_v_reacq)
+            P[IV, IV] += sigma ** 2 * np.eye(3)
+            how = (f"velocity sigma +{sigma:.3g} m/s ({int(used.sum())} measured beam(s): no velocity fix), attitude "
+                   f"sigma +{np.rad2deg(sigma_att):.3g} deg")
+        self.P = 0.5 * (P + P.T)
+        self.health.reacquired(self.state.t, how)
+        return how

@@ -1,0 +1,313 @@
+"""From streamed keyframes (:mod:`graphnav.estimators.keyframes`) to graph keyframes and their factors.
+
+:class:`GraphContext` holds what every graph factor needs (options, configuration, DVL geometry, GTSAM's
+preintegration settings); :func:`graph_keyframe` preintegrates a keyframe's IMU segments (zero-order hold,
+GTSAM's convention, a split sample integrated over its part only) and turns its ping into the beams the
+graph uses. The estimators in this package consume :class:`Keyframe` objects and make their factors with
+:func:`keyframe_factors` (which needs the predicted attitude, for the Earth rate in the lever-arm term).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, D, V, X
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.earth import earth_rate_n
+from graphnav.estimators import keyframes as kfs
+from graphnav.estimators.graph.dvl_errors import beam_index
+from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.graph.regressed import motion_prior_factors, screen_regressed
+from graphnav.factors import (
+    beam_factor,
+    beam_factor_dvl_errors,
+    beam_noise,
+    depth_factor,
+    heading_factor,
+    horizontal_position_factor,
+)
+
+
+@dataclass
+class DvlMeasurement:
+    """The beams of one DVL ping that go into the graph.
+
+    Attributes:
+        t: DVL stamp (IMU clock), s.
+        rows_b: (m,3) beam unit vectors in the body frame.
+        y: (m,) beam velocities of the DVL head, m/s (measured or regressed).
+        sigma: (m,) noise std per beam, m/s.
+        regressed: (m,) True for beams filled in by the completer.
+        omega_b: (3,) gyro sample nearest the ping (raw, rad/s).
+    """
+
+    t: float
+    rows_b: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    regressed: np.ndarray
+    omega_b: np.ndarray
+
+    @property
+    def n_measured(self) -> int:
+        return int((~self.regressed).sum())
+
+    @property
+    def n_regressed(self) -> int:
+        return int(self.regressed.sum())
+
+
+@dataclass
+class Keyframe:
+    """One graph state (x_k, v_k, b_k) and what constrains it.
+
+    Attributes:
+        index: k, 0-based; keys are ``X(k)``, ``V(k)``, ``B(k)``.
+        t: stamp, s.
+        pim: preintegrated IMU from keyframe k-1 to k (None for k = 0).
+        dvl: the DVL ping at this keyframe, or None (IMU-only keyframe, or a ping with no usable beam).
+        depth: depth of the IMU at t (m, down), or None.
+        kind: ``"init"``, ``"dvl"`` (a DVL stamp), ``"imu"`` (filler inside a DVL gap) or ``"fix"``.
+        heading: (yaw rad, sigma rad) from a heading sensor, or None.
+        fix_ne: (north, east) m of a position fix in the navigation frame, or None; ``fix_sigma`` m.
+    """
+
+    index: int
+    t: float
+    pim: gtsam.PreintegratedCombinedMeasurements | None
+    dvl: DvlMeasurement | None
+    depth: float | None
+    kind: str
+    heading: tuple[float, float] | None = None
+    fix_ne: np.ndarray | None = None
+    fix_sigma: float = 0.0
+
+
+def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.PreintegrationCombinedParams:
+    """GTSAM preintegration settings: NED gravity, Earth rate as Coriolis term (first order), IMU noise.
+
+    Covariances are continuous-time (density^2), as GTSAM expects.
+    """
+    params = gtsam.PreintegrationCombinedParams.MakeSharedD(config.gravity_mps2)
+    imu = config.imu
+    params.setAccelerometerCovariance(np.eye(3) * imu.accel_noise_density ** 2)
+    params.setGyroscopeCovariance(np.eye(3) * imu.gyro_noise_density ** 2)
+    params.setIntegrationCovariance(np.eye(3) * options.integration_sigma ** 2)
+    params.setBiasAccCovariance(np.eye(3) * imu.accel_bias_rw ** 2)
+    params.setBiasOmegaCovariance(np.eye(3) * imu.gyro_bias_rw ** 2)
+    if config.earth_rotation:
+        params.setOmegaCoriolis(earth_rate_n(config.lat_rad))
+    # use2ndOrderCoriolis stays False (the default): the project's IMU model keeps first-order terms only
+    return params
+
+
+class GraphContext:
+    """What the graph factors of one mission need: options, sensor configuration, DVL geometry, beam sigmas
+    and GTSAM's preintegration settings.
+
+    Args:
+        config: sensor configuration.
+        options: graph settings.
+    """
+
+    def __init__(self, config: SensorConfig, options: GraphOptions):
+        self.config = config
+        self.options = options
+        self.geometry = DvlGeometry.from_spec(config.dvl)
+        self.params = preintegration_params(config, options)
+        self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else config.dvl.beam_noise_std
+        self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
+                                else self.beam_sigma)
+        #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
+        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+
+    def count_screening(self, stats: dict) -> None:
+        for key, n in stats.items():
+            self.screening[key] += n
+
+    def gap_params(self, var_v: float, var_att: float, length: float) -> gtsam.PreintegrationCombinedParams:
+        """Preintegration settings for a keyframe interval of ``length`` s that holds a bridged IMU gap: the
+        IMU noise is inflated so that the IMU factor's velocity and rotation variances grow by ``var_v``
+        ((m/s)^2) and ``var_att`` (rad^2) per axis (:func:`graphnav.core.mission.gap_variances`; GTSAM integrates
+        the continuous covariance over the interval)."""
+        if not var_v and not var_att:
+            return self.params
+        imu, length = self.config.imu, max(length, 1e-9)
+        params = preintegration_params(self.config, self.options)
+        params.setAccelerometerCovariance(np.eye(3) * (imu.accel_noise_density ** 2 + var_v / length))
+        params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
+        return params
+
+    def preintegrate(self, imu: kfs.ImuSegments) -> gtsam.PreintegratedCombinedMeasurements:
+        """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment)."""
+        pim = gtsam.PreintegratedCombinedMeasurements(self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum())))
+        for f, w, dt in zip(imu.f_b.tolist(), imu.omega_b.tolist(), imu.dt.tolist()):
+            pim.integrateMeasurement(f, w, dt)
+        return pim
+
+    def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
+        """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
+        completer's sigma (floored); None when no beam is usable."""
+        usable = np.isfinite(ping.beams)
+        if self.options.motion_prior != "off" and not ping.measured.any():
+            # without any measured beam the completers extrapolate blind; the motion prior takes over
+            usable = ping.measured
+        if not usable.any():
+            return None
+        regressed = usable & ~ping.measured
+        sigma = np.where(regressed, np.maximum(ping.sigma_regressed, self.regressed_floor), self.beam_sigma)
+        return DvlMeasurement(ping.t, self.geometry.T_b[usable], ping.beams[usable], sigma[usable],
+                              regressed[usable], ping.omega_b_nearest.copy())
+
+
+def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> Keyframe:
+    """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
+    who knows the navigation origin)."""
+    pim = ctx.preintegrate(kf.imu) if kf.imu is not None else None
+    dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
+    depth = kf.depth if ctx.options.use_depth else None
+    return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
+                    kf.fix.sigma_m if kf.fix is not None else 0.0)
+
+
+def mission_keyframes(mission, options: GraphOptions, completer=None,
+                      keyframe_options: kfs.KeyframeOptions | None = None) -> Iterator[Keyframe]:
+    """Graph keyframes of a recorded mission, from its first DVL ping inside the IMU span (a replay of its
+    samples in time order through :class:`graphnav.estimators.keyframes.Keyframer`; used by offline tools such as the
+    lever-arm calibration)."""
+    from graphnav.estimators.replay import first_ping_time, replay
+    ctx = GraphContext(mission.config, options)
+    keyframer = kfs.Keyframer(mission.config, keyframe_options, completer)
+    started = False
+    t0 = first_ping_time(mission)
+    for kind, t, payload in replay(mission):
+        if not started and t >= t0:
+            started = True
+            yield from (graph_keyframe(k, ctx) for k in keyframer.start(t0))
+        yield from (graph_keyframe(k, ctx) for k in getattr(keyframer, "add_" + kind)(t, *payload))
+    yield from (graph_keyframe(k, ctx) for k in keyframer.finish())
+
+
+def imu_factor(kf: Keyframe) -> gtsam.CombinedImuFactor:
+    """The preintegrated IMU factor between keyframes k-1 and k (k >= 1)."""
+    k = kf.index
+    return gtsam.CombinedImuFactor(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), B(k), kf.pim)
+
+
+@dataclass
+class BeamGroup:
+    """Beams of keyframe k that share one DVL factor (same kernel), with everything the factor needs.
+
+    Attributes:
+        k: keyframe index (keys ``X(k)``, ``V(k)``, ``B(k)``).
+        rows_b: (m,3) beam unit vectors, body frame.
+        y: (m,) beam velocities, m/s.
+        sigma: (m,) noise std, m/s.
+        huber_k: Huber threshold in sigmas, or None (Gaussian).
+        omega_b: (3,) body rate for the lever-arm term (Earth rate removed when configured), rad/s.
+        lever_arm_b: (3,) m.
+        regressed: whether these are regressed (completed) beams.
+        beam_index: (m,) beam number 0..3 of each row when the DVL error states ``D(k)`` (scale, beam bias)
+            act on these beams (``GraphOptions.dvl_error_states``), else None.
+        C_d_b: (3,3) DVL-to-body rotation, with ``beam_index``.
+    """
+
+    k: int
+    rows_b: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    huber_k: float | None
+    omega_b: np.ndarray
+    lever_arm_b: np.ndarray
+    regressed: bool
+    beam_index: np.ndarray | None = None
+    C_d_b: np.ndarray | None = None
+
+    def factor(self) -> gtsam.CustomFactor:
+        if self.beam_index is not None:
+            return beam_factor_dvl_errors(X(self.k), V(self.k), B(self.k), D(self.k), self.rows_b,
+                                          self.beam_index, self.C_d_b, self.y,
+                                          beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
+        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y,
+                           beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
+
+
+@dataclass
+class KeyframeFactors:
+    """What keyframe k adds besides its IMU link: DVL beam groups and C++ factors (depth)."""
+
+    groups: list[BeamGroup]
+    other: gtsam.NonlinearFactorGraph
+
+    def graph(self) -> gtsam.NonlinearFactorGraph:
+        graph = gtsam.NonlinearFactorGraph()
+        for group in self.groups:
+            graph.add(group.factor())
+        graph.push_back(self.other)
+        return graph
+
+
+def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
+                     p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
+    """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
+
+    Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
+    kernel is set for them; regressed beams likewise. A robust kernel acts on a factor's whole residual,
+    so robust beams get one factor each.
+
+    Args:
+        kf: the keyframe.
+        builder: the mission's :class:`GraphContext` (geometry, options, configuration).
+        C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
+        p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
+        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams.
+    """
+    options, config = builder.options, builder.config
+    groups: list[BeamGroup] = []
+    other = gtsam.NonlinearFactorGraph()
+    k = kf.index
+    if kf.dvl is not None:
+        m = kf.dvl
+        omega = m.omega_b
+        if options.earth_rate_in_lever_arm and config.earth_rotation:
+            omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
+        lever = builder.geometry.lever_arm_b
+        # the DVL error states act on measured beams, and on regressed ones if dvl_errors_on_regressed
+        index = beam_index(m.rows_b, builder.geometry.T_b) if options.dvl_error_states else None
+        C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
+        for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
+            sel = np.flatnonzero(m.regressed == regressed)
+            sigma = m.sigma
+            if regressed and sel.size:
+                keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
+                                                          omega, builder.geometry.lever_arm_b, prediction,
+                                                          options)
+                builder.count_screening(stats)
+                sigma = m.sigma.copy()
+                sigma[sel] = sigma_sel
+                sel = sel[keep]
+            if sel.size == 0:
+                continue
+            split = options.beam_factor_mode == "beam" or huber is not None
+            use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
+            for part in ([[i] for i in sel] if split else [sel]):
+                groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
+                                        regressed, index[part] if use_d else None, C_d_b if use_d else None))
+    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
+    if k > 0 and (options.motion_prior == "partial" and n_measured < 3
+                  or options.motion_prior == "total" and n_measured == 0):
+        other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
+    if kf.depth is not None:
+        sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
+        ne = None if p_n_pred is None else p_n_pred[:2]
+        other.add(depth_factor(X(k), kf.depth, sigma, ne))
+    if kf.fix_ne is not None:
+        down = None if p_n_pred is None else p_n_pred[2]
+        other.add(horizontal_position_factor(X(k), kf.fix_ne, kf.fix_sigma, down))
+    if kf.heading is not None:
+        other.add(heading_factor(X(k), *kf.heading))
+    return KeyframeFactors(groups, other)

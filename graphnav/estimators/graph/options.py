@@ -1,0 +1,190 @@
+"""Settings of the factor-graph estimators (one dataclass, defaults chosen and measured here).
+
+Chosen defaults and why:
+
+- One DVL factor per epoch holding all its measured beams (``beam_factor_mode="epoch"``): each
+  ``gtsam.CustomFactor`` call costs a Python round trip plus a copy of the whole ``Values``, so fewer,
+  larger factors are faster (``scripts/bench_graph.py`` measures epoch vs beam). Regressed beams go in
+  a second factor of the same epoch; with a Huber kernel they get one factor each, so the kernel acts
+  per beam.
+- Regressed beams: noise = the completer's sigma (floored at the measured-beam sigma) with a Huber kernel
+  (k = 1.5 sigma) so one bad regression cannot pull the solution.
+- Measured beams: Huber kernel at k = 3 sigma (one factor per beam, so a bad beam does not down-weight the
+  good ones of its ping). Measured with ``tests/test_faults.py``'s spike fault (1 m/s on one beam in 10 % of
+  the pings, simulated 200 s, seeds 1-2, navigation and tactical IMU), Graph-TC VRMSE m/s:
+  Gaussian 0.086/0.130/0.116/0.153 -> k=3: 0.036/0.047/0.027/0.046 (k=1.5: 0.037/0.045/0.026/0.047), while on
+  the clean missions k=3 changes VRMSE by <= 0.0001 (k=1.5: up to +10 %). Cost: ~30 % more update time
+  (four factors per ping instead of one).
+- ISAM2 and the fixed-lag smoother: QR factorisation (``factorization``). Cholesky was the first choice, but
+  with an initial yaw sigma of degrees (a start aligned from the sensors, :mod:`graphnav.estimators.align`) it reported
+  ``IndeterminantLinearSystem`` at the first IMU factor, and the restart from marginals (below) then held the
+  yaw near its initial error (a 3 deg error still 1.1 deg after 100 s of 0.5 deg heading fixes; QR: 0.05 deg
+  after 5 s, as the batch smoother and the EKF). Measured on the simulated 400 s mission, Graph-TC: QR costs
+  the same (1.4-1.6 s CPU either way, update median 1.0-2.3 ms for both on a loaded machine) and agrees with
+  Cholesky to 3e-11 m/s. The batch smoother keeps Cholesky (``batch_factorization``) and retries with QR.
+  The integration covariance of 1e-4 (m^2/s): Cholesky saw indeterminant systems at 1e-8 (horizontal
+  position is unobservable while attitude and biases are very well known); the extra 1e-4 m^2/s of position
+  uncertainty per second is irrelevant to velocity. Should the solver still hit an indeterminant system,
+  it restarts from the last estimate with its marginals as priors and continues (warning).
+- Relinearisation: per-variable-type thresholds (pose rot 2e-3 rad / pos 1 m, velocity 0.01 m/s,
+  bias 1e-3 m/s^2 / 1e-5 rad/s) checked every ``relinearize_skip`` = 10 updates, and only for keyframes
+  of the last ``relin_window_s`` = 5 s (older ones are ``noRelinKeys``). Relinearising an old keyframe
+  re-eliminates the chain from it to the newest one: with tight thresholds and no window, updates took
+  up to 250 ms at 400 s. Measured on simulated 200 s missions (navigation, tactical, MEMS IMU, 3-missing
+  outage): VRMSE identical to 4 digits with relinearisation at every update, with this window, and with
+  none at all -- predictions from the preintegrated IMU are already close to the optimum.
+- Back-substitution: wildfire threshold 0.01 (the newest state is always updated exactly).
+- Keyframes (where they go is the stream's business: :class:`graphnav.estimators.keyframes.KeyframeOptions`) at every
+  DVL stamp; when no DVL stamp arrives for more than 2 s, IMU-only keyframes every 1 s keep each
+  preintegration short.
+- DVL error states (``dvl_error_states``): a Vector7 ``D(k)`` per keyframe, [scale per DVL axis (3),
+  bias per beam (4) m/s] in the beam model ``y = T_d[(1 + s) v_d] + b`` (the EKF's ``dvl_error_states``),
+  prior at the first keyframe (sigmas ``max(|config value|, 0.005)`` as the EKF's) and a random walk between
+  keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
+  the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
+  ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
+  100 s). Measured both ways in the README section "Consistency, DVL error states and noise identification".
+- Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
+  initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError
+from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
+
+BEAM_FACTOR_MODES = ("epoch", "beam")
+FACTORIZATIONS = ("CHOLESKY", "QR")
+BATCH_SOLVERS = ("vectorized", "lm")
+MOTION_PRIOR_MODES = ("off", "partial", "total")
+
+
+@dataclass
+class GraphOptions:
+    """Settings of the graph estimators. Units SI (m, s, rad, m/s).
+
+    Attributes:
+        beam_sigma: noise of one measured beam, m/s; None = ``config.dvl.beam_noise_std``.
+        beam_factor_mode: ``"epoch"`` (one factor per epoch, all beams) or ``"beam"`` (one per beam).
+        huber_measured_k: Huber threshold (in sigmas) for measured beams; None = Gaussian.
+        huber_regressed_k: Huber threshold (in sigmas) for regressed beams; None = Gaussian.
+        regressed_sigma_floor: lowest noise a regressed beam may get, m/s; None = beam_sigma.
+        use_depth: add depth factors when the mission has a depth sensor.
+        depth_sigma: depth noise, m; None = ``config.depth_noise_std``.
+        earth_rate_in_lever_arm: remove the Earth rate (with the predicted attitude) from the gyro sample
+            used for the lever-arm velocity, so the DVL sees ``omega_nb_b x l_b``.
+        integration_sigma: preintegration integration noise (continuous-time std, m/sqrt(s)); its square is
+            GTSAM's integration covariance.
+        factorization: ``"QR"`` or ``"CHOLESKY"``, ISAM2 and the fixed-lag smoother.
+        batch_factorization: ``"CHOLESKY"`` (retried with QR on an indeterminant system) or ``"QR"``, batch.
+        relinearize_skip: ISAM2 relinearisation check interval (updates).
+        relin_rot, relin_pos, relin_vel, relin_bias_acc, relin_bias_gyro: per-variable-type thresholds.
+        relin_window_s: online ISAM2 holds keyframes older than this at their linearisation point
+            (``noRelinKeys``); None = any keyframe may be relinearised.
+        wildfire_threshold: ISAM2 Gauss-Newton back-substitution stops where the update is smaller.
+        prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
+        prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
+        lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
+        reanchor_interval_s: the fixed-lag smoother is restarted from the last estimate (priors: its marginal
+            covariances, block-diagonal) every this many seconds; None = never. GTSAM's smoother slows down
+            over hours (update p99 5 ms in hour 1, 18 ms in hour 21 without it: ``scripts/bench_navigator.py``).
+        batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
+            iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
+        batch_max_iterations: iteration cap of the batch solver.
+        marginals: compute the marginal velocity covariance at every output epoch.
+        max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
+            (:func:`graphnav.estimators.coasting.check_pure_inertial`).
+        regressed_gate_k: joint-covariance gate of a regressed beam against the graph's predicted beam
+            (sigmas); None = no gate. See :mod:`.regressed`.
+        regressed_adaptive: raise a regressed beam's variance to its innovation's excess over the
+            prediction variance.
+        regressed_correlation: assumed correlation (0..1) between a completion's error and the graph's
+            prediction error (both come from the same past pings); 0 = independent.
+        regressed_prediction_var_scale: factor on the graph's predicted beam variance in the screening (its
+            marginal is over-confident on real data; see :mod:`.regressed`).
+        motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
+            heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
+            ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
+            measured beam are then not completed (the prior replaces the completion).
+        motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
+        motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
+        dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
+            ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
+        dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
+            as the DVL measures them, bias and scale included); False = regressed beams enter without them.
+        dvl_scale_rw: random walk of each scale state, 1/sqrt(s).
+        dvl_bias_rw: random walk of each beam bias state, m/s/sqrt(s).
+        prior_dvl_scale_sigma, prior_dvl_bias_sigma: first-keyframe prior sigmas (unitless, m/s); None =
+            ``max(|config.dvl.scale_factor|, 0.005)`` and ``max(|config.dvl.beam_bias|, 0.005)``.
+        relin_dvl_scale, relin_dvl_bias: ISAM2 relinearisation thresholds of the DVL error states.
+    """
+
+    beam_sigma: float | None = None
+    beam_factor_mode: str = "epoch"
+    huber_measured_k: float | None = 3.0
+    huber_regressed_k: float | None = 1.5
+    regressed_sigma_floor: float | None = None
+    use_depth: bool = True
+    depth_sigma: float | None = None
+    earth_rate_in_lever_arm: bool = True
+    integration_sigma: float = 1e-2
+    factorization: str = "QR"
+    batch_factorization: str = "CHOLESKY"
+    relinearize_skip: int = 10
+    relin_rot: float = 2e-3
+    relin_pos: float = 1.0
+    relin_vel: float = 1e-2
+    relin_bias_acc: float = 1e-3
+    relin_bias_gyro: float = 1e-5
+    relin_window_s: float | None = 5.0
+    wildfire_threshold: float = 1e-2
+    prior_rot_sigma: float = np.deg2rad(0.05)
+    prior_pos_sigma: float = 1.0
+    prior_vel_sigma: float = 0.05
+    prior_acc_bias_sigma: float | None = None
+    prior_gyro_bias_sigma: float | None = None
+    lag_s: float = 30.0
+    reanchor_interval_s: float | None = 600.0
+    batch_solver: str = "vectorized"
+    batch_max_iterations: int = 20
+    marginals: bool = True
+    max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
+    regressed_gate_k: float | None = None
+    regressed_adaptive: bool = False
+    regressed_correlation: float = 0.0
+    regressed_prediction_var_scale: float = 1.0
+    motion_prior: str = "off"
+    motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
+    motion_prior_heave_sigma: float | None = 0.05
+    dvl_error_states: bool = False
+    dvl_errors_on_regressed: bool = True
+    dvl_scale_rw: float = 2e-5
+    dvl_bias_rw: float = 2e-4
+    prior_dvl_scale_sigma: float | None = None
+    prior_dvl_bias_sigma: float | None = None
+    relin_dvl_scale: float = 1e-3
+    relin_dvl_bias: float = 1e-3
+
+    def __post_init__(self):
+        if self.beam_factor_mode not in BEAM_FACTOR_MODES:
+            raise ConfigError(f"beam_factor_mode must be one of {BEAM_FACTOR_MODES}, got '{self.beam_factor_mode}'")
+        self.factorization = self.factorization.upper()
+        self.batch_factorization = self.batch_factorization.upper()
+        for name in ("factorization", "batch_factorization"):
+            if getattr(self, name) not in FACTORIZATIONS:
+                raise ConfigError(f"{name} must be one of {FACTORIZATIONS}, got '{getattr(self, name)}'")
+        if self.lag_s <= 0:
+            raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.motion_prior not in MOTION_PRIOR_MODES:
+            raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        if not self.regressed_prediction_var_scale > 0:
+            raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
+        if not 0.0 <= self.regressed_correlation < 1.0:
+            raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
+        if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:
+            raise ConfigError("dvl_scale_rw and dvl_bias_rw must be >= 0")
+        if self.batch_solver not in BATCH_SOLVERS:
+            raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")

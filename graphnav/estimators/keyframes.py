@@ -1,0 +1,463 @@
+"""Streaming keyframes: turn time-ordered sensor samples into the keyframes every estimator consumes.
+
+No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, from the samples seen so far.
+
+- **Keyframes** sit at the initial epoch, at every DVL ping and at every (decimated) position fix. When the
+  DVL has been silent for longer than ``max_keyframe_gap_s`` since the last ping, IMU-only keyframes follow
+  every ``imu_keyframe_interval_s`` from that ping, each decided half an interval after its stamp, and
+  skipped when a ping arrives within that half interval (so none sits closer than half an interval before
+  the next ping: the rule the whole-mission builder used with look-ahead, now without it).
+- **IMU.** Sample j holds over ``[t_j, t_{j+1})`` (zero-order hold, GTSAM's convention). A keyframe between
+  two IMU stamps splits that interval: each keyframe gets the zero-order-hold segments ``(f_b, omega_b, dt,
+  lag)`` since the previous keyframe, ``lag`` being how far into its sample a segment starts. All-zero rows
+  are dropped and gaps longer than :data:`graphnav.core.mission.IMU_GAP_PERIODS` periods are bridged by linear
+  interpolation (warning, counted); the keyframe intervals over a gap carry the extra velocity and attitude
+  variance of :func:`graphnav.core.mission.gap_variances`.
+- **DVL.** A ping's beams are completed through the shared :class:`~graphnav.estimators.history.BeamHistory` when a
+  completer is set (hybrid methods). The gyro rate at the ping is given both as the nearest sample and
+  interpolated between the two samples around the ping.
+- **Depth and heading** are sampled at a keyframe's stamp: interpolated between the samples around it when
+  both have arrived, else extrapolated linearly from the last two samples, at most ``aiding_max_age_s`` old.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+import warnings
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import ConfigError
+from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, gap_variances
+from graphnav.estimators.history import BeamHistory
+
+
+@dataclass
+class KeyframeOptions:
+    """Where keyframes go (s).
+
+    Attributes:
+        max_keyframe_gap_s: insert IMU-only keyframes once the DVL has been silent for longer than this.
+        imu_keyframe_interval_s: spacing of IMU-only keyframes in such a gap.
+        aiding_max_age_s: depth/heading older than this at a keyframe (with nothing newer) are not used.
+        fix_min_interval_s: position fixes closer than this to the previous fix used are decimated.
+    """
+
+    max_keyframe_gap_s: float = 2.0
+    imu_keyframe_interval_s: float = 1.0
+    aiding_max_age_s: float = 1.5
+    fix_min_interval_s: float = 1.0
+
+    def __post_init__(self):
+        if self.imu_keyframe_interval_s <= 0 or self.max_keyframe_gap_s < self.imu_keyframe_interval_s:
+            raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
+
+
+@dataclass
+class ImuSegments:
+    """Zero-order-hold IMU segments from the previous keyframe to this one.
+
+    Attributes:
+        f_b: (n,3) specific force of each segment's sample, m/s^2 (body axes at the sample's stamp).
+        omega_b: (n,3) angular rate, rad/s.
+        dt: (n,) segment lengths, s (they add up to the keyframe interval).
+        lag: (n,) time from the sample's stamp to the segment's start, s (> 0 for a split sample).
+        var_v, var_att: extra velocity ((m/s)^2) and attitude (rad^2) variance per axis over bridged IMU gaps.
+    """
+
+    f_b: np.ndarray
+    omega_b: np.ndarray
+    dt: np.ndarray
+    lag: np.ndarray
+    var_v: float = 0.0
+    var_att: float = 0.0
+
+
+@dataclass
+class Ping:
+    """One DVL ping as the estimators use it.
+
+    Attributes:
+        t: stamp (IMU clock), s.
+        beams: (4,) along-beam velocities, m/s: measured, or completed; NaN where unusable.
+        measured: (4,) True for beams measured at this ping (valid and finite).
+        sigma_regressed: (4,) completer sigma of completed beams, m/s (0 elsewhere).
+        completed: True when the completer filled missing beams of this ping.
+        omega_b_nearest: (3,) raw gyro sample nearest the ping, rad/s.
+        omega_b_interp: (3,) raw gyro rate interpolated at the ping, rad/s.
+    """
+
+    t: float
+    beams: np.ndarray
+    measured: np.ndarray
+    sigma_regressed: np.ndarray
+    completed: bool
+    omega_b_nearest: np.ndarray
+    omega_b_interp: np.ndarray
+
+    @property
+    def regressed(self) -> np.ndarray:
+        return np.isfinite(self.beams) & ~self.measured
+
+    @property
+    def n_measured(self) -> int:
+        return int(self.measured.sum())
+
+    @property
+    def n_regressed(self) -> int:
+        return int(self.regressed.sum())
+
+
+@dataclass
+class PositionFix:
+    """A horizontal position fix: geodetic latitude/longitude (rad), 1-sigma per horizontal axis (m)."""
+
+    t: float
+    lat: float
+    lon: float
+    sigma_m: float
+
+
+@dataclass
+class Keyframe:
+    """One estimator epoch and everything that constrains it.
+
+    Attributes:
+        index: k, 0-based.
+        t: stamp, s.
+        kind: ``"init"`` (the initial epoch without a ping), ``"dvl"``, ``"imu"`` (filler in a DVL gap) or
+            ``"fix"``.
+        imu: IMU segments from keyframe k-1 (None for k = 0).
+        ping: the DVL ping at this stamp, or None.
+        depth: depth of the IMU at t (m, down), or None.
+        heading: (yaw rad, sigma rad) at t, or None.
+        fix: a position fix at t, or None.
+    """
+
+    index: int
+    t: float
+    kind: str
+    imu: ImuSegments | None = None
+    ping: Ping | None = None
+    depth: float | None = None
+    heading: tuple[float, float] | None = None
+    fix: PositionFix | None = None
+
+
+@dataclass
+class _Pending:
+    t: float
+    kind: str
+    ping: tuple | None = None          # (beams, valid)
+    fix: PositionFix | None = None
+
+
+@dataclass
+class KeyframerStats:
+    """Counters of what the keyframer dropped or repaired."""
+
+    zero_imu_rows: int = 0
+    imu_gaps: list = field(default_factory=list)
+    fixes_decimated: int = 0
+    pings_before_start: int = 0
+    pings_after_end: int = 0
+
+
+class Keyframer:
+    """Assemble keyframes from time-ordered samples (see the module docstring).
+
+    Feed samples in time order with :meth:`add_imu`, :meth:`add_dvl`, :meth:`add_depth`, :meth:`add_heading`,
+    :meth:`add_fix` (each returns the keyframes it closed); :meth:`start` sets the initial epoch (before it,
+    only the last IMU sample is kept); :meth:`finish` closes what the end of the data allows.
+
+    Args:
+        config: sensor configuration (IMU rate).
+        options: keyframe placement.
+        completer: beam completer for the hybrid methods, or None.
+    """
+
+    def __init__(self, config: SensorConfig, options: KeyframeOptions | None = None, completer=None):
+        self.config = config
+        self.options = options or KeyframeOptions()
+        self.completer = completer
+        self.history = BeamHistory(completer.n_past) if completer is not None else None
+        self.stats = KeyframerStats()
+        self._period = 1.0 / config.imu_rate_hz
+        self._gap_limit = IMU_GAP_PERIODS * self._period
+        self._max_gap = self.options.max_keyframe_gap_s
+        # IMU samples (t, f, w) from the one that covers the newest keyframe's stamp on (before the start:
+        # the newest two)
+        self._samples: list[tuple[float, tuple, tuple]] = []
+        self._started = False
+        self._index = 0
+        self._t_kf: float | None = None                          # stamp of the newest keyframe
+        self._anchor: float | None = None                        # newest ping (or start): fillers count from it
+        self._pending: list[_Pending] = []                       # keyframes waiting for the IMU, by time
+        self._depth: deque = deque(maxlen=64)
+        self._heading: deque = deque(maxlen=64)
+        self._last_fix_t = -math.inf
+        self._gaps: list[ImuGap] = []
+        self._n_imu = 0
+        self._fill_i = 1                                         # next IMU-only keyframe: anchor + i * step
+
+    # --- state -------------------------------------------------------------------------------------
+    @property
+    def samples(self) -> list[tuple[float, tuple, tuple]]:
+        """The IMU samples (t, f_b, omega_b) from the one that covers the newest keyframe's stamp to the newest
+        (read only)."""
+        return self._samples
+
+    def start(self, t0: float) -> list[Keyframe]:
+        """Set the initial epoch t0 (s): keyframe 0 sits there (with a ping at exactly t0, if any)."""
+        if self._started:
+            raise ConfigError("Keyframer.start called twice")
+        self._started = True
+        self._anchor = t0
+        self._pending.insert(0, _Pending(t0, "init"))
+        return self._close_ready()
+
+    # --- inputs (time order) ------------------------------------------------------------------------
+    def add_imu(self, t: float, f_b, omega_b) -> list[Keyframe]:
+        """An IMU sample (f_b m/s^2, omega_b rad/s: 3-tuples of floats) in time order."""
+        if f_b[2] == 0.0 and not (any(f_b) or any(omega_b)):      # z first: gravity makes it non-zero
+            self.stats.zero_imu_rows += 1
+            if self.stats.zero_imu_rows == 1:
+                warnings.warn(f"imu: all-zero IMU row at t = {t:.3f} s dropped (zero specific force is impossible "
+                              "under gravity); further ones are counted", RuntimeWarning, stacklevel=3)
+            return []
+        samples = self._samples
+        if samples and t - samples[-1][0] > self._gap_limit:
+            return self._bridge(samples[-1], (t, f_b, omega_b))
+        return self._on_sample(t, f_b, omega_b)
+
+    def add_dvl(self, t: float, beams, valid) -> list[Keyframe]:
+        if not self._started:
+            self.stats.pings_before_start += 1
+            return []
+        beams = np.asarray(beams, float).reshape(4)
+        valid = np.asarray(valid, bool).reshape(4)
+        for p in self._pending:
+            if abs(p.t - t) <= 1e-9:                     # the initial epoch or a fix at the same stamp
+                p.kind, p.ping = "dvl", (beams, valid)
+                break
+        else:
+            if t <= self._t_kf_or_start():               # at or before the newest keyframe: no place for it
+                self.stats.pings_before_start += 1
+                return []
+            self._insert_pending(_Pending(t, "dvl", ping=(beams, valid)))
+        return self._close_ready()
+
+    def add_depth(self, t: float, depth_m: float) -> list[Keyframe]:
+        self._depth.append((t, depth_m))
+        return []
+
+    def add_heading(self, t: float, yaw: float, sigma: float) -> list[Keyframe]:
+        if self._heading:
+            # unwrap against the previous sample so that interpolation never crosses +-pi the long way
+            prev = self._heading[-1][1]
+            yaw = prev + (yaw - prev + math.pi) % (2 * math.pi) - math.pi
+        self._heading.append((t, yaw, sigma))
+        return []
+
+    def add_fix(self, t: float, lat: float, lon: float, sigma_m: float) -> list[Keyframe]:
+        """A horizontal position fix (rad, rad, m): its own keyframe unless decimated."""
+        fix = PositionFix(t, lat, lon, sigma_m)
+        if not self._started:
+            return []
+        if fix.t - self._last_fix_t < self.options.fix_min_interval_s:
+            self.stats.fixes_decimated += 1
+            return []
+        self._last_fix_t = fix.t
+        for p in self._pending:
+            if abs(p.t - fix.t) <= 1e-9:
+                p.fix = fix
+                break
+        else:
+            self._insert_pending(_Pending(fix.t, "fix", fix=fix))
+        return self._close_ready()
+
+    def finish(self) -> list[Keyframe]:
+        """End of data: IMU-only keyframes up to half an interval before the last IMU sample (if the DVL
+        has been silent long enough) and every pending keyframe the IMU covers; later pings are dropped."""
+        out = []
+        if self._started and self._samples:
+            out += self._close_ready()
+            out += self._fill_gap(self._samples[-1][0])
+        n_late = sum(1 for p in self._pending if p.ping is not None)
+        self.stats.pings_after_end += n_late
+        self._pending.clear()
+        return out
+
+    # --- internals ----------------------------------------------------------------------------------
+    def _insert_pending(self, p: _Pending) -> None:
+        keys = [q.t for q in self._pending]
+        self._pending.insert(bisect.bisect_right(keys, p.t), p)
+
+    def _bridge(self, last, new) -> list[Keyframe]:
+        t0, t1 = last[0], new[0]
+        length = t1 - t0
+        n_fill = int(math.ceil(length / self._period)) - 1
+        gap = ImuGap(self._n_imu - 1, t0, t1)
+        self._gaps.append(gap)
+        self.stats.imu_gaps.append(gap)
+        warnings.warn(f"imu: gap of {length:.3f} s after t = {t0:.3f} s bridged by linear interpolation "
+                      f"({n_fill} samples); velocity/attitude covariance inflated over it", RuntimeWarning,
+                      stacklevel=4)
+        f0, w0, f1, w1 = np.array(last[1]), np.array(last[2]), np.array(new[1]), np.array(new[2])
+        out = []
+        for i in range(1, n_fill + 1):
+            u = i / (n_fill + 1)
+            out += self._on_sample(t0 + length * u, tuple((1 - u) * f0 + u * f1), tuple((1 - u) * w0 + u * w1))
+        out += self._on_sample(*new)
+        return out
+
+    def _on_sample(self, t: float, f: tuple, w: tuple) -> list[Keyframe]:
+        self._n_imu += 1
+        samples = self._samples
+        samples.append((t, f, w))
+        if not self._started:
+            if len(samples) > 2:
+                del samples[0]
+            return []
+        out = self._close_ready() if self._pending and self._pending[0].t <= t else []
+        if t - self._anchor > self._max_gap:
+            out += self._fill_gap(t)
+        return out
+
+    def _t_kf_or_start(self) -> float:
+        return self._t_kf if self._t_kf is not None else (self._pending[0].t if self._pending else math.inf)
+
+    def _fill_gap(self, now: float) -> list[Keyframe]:
+        """IMU-only keyframes in a DVL gap, decided at time ``now`` (see the module docstring)."""
+        o = self.options
+        step = o.imu_keyframe_interval_s
+        out = []
+        if self._t_kf is None:
+            return out
+        while now - self._anchor > o.max_keyframe_gap_s:
+            t_f = self._anchor + self._fill_i * step
+            if t_f + 0.5 * step > now + 1e-12:
+                break
+            if any(p.ping is not None and t_f < p.t < t_f + 0.5 * step - 1e-12 for p in self._pending):
+                break      # a ping closes within half an interval: it takes the filler's place
+            self._fill_i += 1
+            if t_f > self._t_kf + 1e-9 and not any(abs(p.t - t_f) <= 1e-9 for p in self._pending):
+                self._insert_pending(_Pending(t_f, "imu"))
+                out += self._close_ready()
+        return out
+
+    def _close_ready(self) -> list[Keyframe]:
+        out = []
+        pending, samples = self._pending, self._samples
+        while pending and samples and pending[0].t <= samples[-1][0] + 1e-12:
+            out.append(self._close(pending.pop(0)))
+        return out
+
+    def _take_segments(self, t: float) -> ImuSegments | None:
+        """The zero-order-hold segments from the newest keyframe to t; the samples before the one that
+        covers t are dropped."""
+        t_open = self._t_kf
+        samples = self._samples
+        if t_open is None:       # keyframe 0: nothing to integrate; keep the sample that covers t0
+            j = max(0, bisect.bisect_right(samples, t, key=stamp_of) - 1)
+            del samples[:j]
+            return None
+        # samples[0] holds at t_open; samples[j] is the last one at or before t (it holds at t)
+        j = max(0, bisect.bisect_right(samples, t, key=stamp_of) - 1)
+        part = samples[:j + 2]
+        stamps = [x[0] for x in part]
+        starts = [max(ti, t_open) for ti in stamps[:j + 1]]
+        ends = [min(te, t) for te in stamps[1:j + 1]] + [t]
+        keep = [i for i in range(j + 1) if ends[i] > starts[i]]
+        f = [part[i][1] for i in keep]
+        w = [part[i][2] for i in keep]
+        dt = [ends[i] - starts[i] for i in keep]
+        lag = [starts[i] - stamps[i] for i in keep]
+        del samples[:j]
+        var_v, var_att = gap_variances(self._gaps, t_open, t) if self._gaps else (0.0, 0.0)
+        if self._gaps:
+            self._gaps = [g for g in self._gaps if g.t_end > t]
+        if not dt:
+            return ImuSegments(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), var_v, var_att)
+        return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att)
+
+    def _close(self, p: _Pending) -> Keyframe:
+        ping = self._ping(p.t, *p.ping) if p.ping is not None else None
+        imu = self._take_segments(p.t)
+        if p.ping is not None or p.kind == "init":
+            self._anchor, self._fill_i = p.t, 1
+        kind = "dvl" if p.ping is not None else p.kind
+        kf = Keyframe(self._index, p.t, kind, imu, ping, self._sample(self._depth, p.t),
+                      self._heading_at(p.t), p.fix)
+        self._index += 1
+        self._t_kf = p.t
+        return kf
+
+    def _ping(self, t: float, beams: np.ndarray, valid: np.ndarray) -> Ping:
+        measured = valid & np.isfinite(beams)
+        full = np.where(measured, beams, np.nan)
+        sigma = np.zeros(4)
+        completed = False
+        if self.history is not None:
+            result = self.history.complete(self.completer, np.where(measured, beams, 0.0), measured)
+            if result is not None:
+                full, sigma = result
+                completed = not measured.all()
+        a, b = self._bracket(t)
+        if b is None or abs(a[0] - t) <= abs(b[0] - t):
+            nearest = a[2]
+        else:
+            nearest = b[2]
+        if b is None or b[0] <= a[0]:
+            interp = a[2]
+        else:
+            u = (t - a[0]) / (b[0] - a[0])
+            interp = tuple((1 - u) * x + u * y for x, y in zip(a[2], b[2]))
+        return Ping(t, np.asarray(full, float), measured, np.asarray(sigma, float), completed,
+                    np.array(nearest, float), np.array(interp, float))
+
+    def _bracket(self, t: float):
+        """The IMU sample at or before t and the one after it (None if there is none yet)."""
+        samples = self._samples
+        i = bisect.bisect_right(samples, t, key=stamp_of) - 1
+        if i < 0:
+            return samples[0], None
+        return samples[i], (samples[i + 1] if i + 1 < len(samples) else None)
+
+    def _sample(self, samples: deque, t: float) -> float | None:
+        """Interpolate (or extrapolate from the last two) a scalar stream at t; None when too old."""
+        if not samples:
+            return None
+        max_age = self.options.aiding_max_age_s
+        after = [s for s in samples if s[0] >= t]
+        before = [s for s in samples if s[0] <= t]
+        if before and after:
+            a, b = before[-1], after[0]
+            if b[0] - a[0] <= 2 * max_age:
+                return a[1] if b[0] == a[0] else a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0])
+        if after and not before:
+            return after[0][1] if after[0][0] - t <= 0.5 else None
+        b = before[-1]
+        if t - b[0] > max_age:
+            return None
+        if len(before) >= 2 and b[0] - before[-2][0] <= max_age:
+            a = before[-2]
+            return b[1] + (b[1] - a[1]) * (t - b[0]) / (b[0] - a[0])
+        return b[1]
+
+    def _heading_at(self, t: float):
+        if not self._heading:
+            return None
+        yaw = self._sample(deque((s[0], s[1]) for s in self._heading), t)
+        if yaw is None:
+            return None
+        sigma = min(self._heading, key=lambda s: abs(s[0] - t))[2]
+        return (math.remainder(yaw, 2 * math.pi), sigma)
+
+
+def stamp_of(sample: tuple) -> float:
+    """The stamp of a (t, ...) sample tuple (a sort key)."""
+    return sample[0]

@@ -1,0 +1,572 @@
+"""``Navigator``: the streaming navigation backend a vehicle runs, fed sample by sample by its drivers.
+
+The loop is the one of GTSAM's ``ImuFactorISAM2Example`` and navlie's filters::
+
+    nav = Navigator(config)                        # fixed-lag graph; aligns itself from the sensors
+    for kind, t, payload in driver:                # any order within the reorder window
+        for est in getattr(nav, "add_" + kind)(t, *payload):
+            publish(est)                           # filtered state at each closed keyframe
+        command = controller(nav.state_at(now))    # IMU-rate state for the vehicle's controller
+
+What happens to a sample:
+
+1. **Checks.** A non-finite stamp or value (NaN/inf; a DVL beam may be NaN only where it is not valid), a
+   stamp older than the reorder window allows, or a stamp already seen on the same stream is refused with a
+   warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Nothing
+   estimated so far changes.
+2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
+   them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by
+   its processing time is thus slotted in before the IMU samples that follow its stamp.
+3. **Initialisation.** With an ``initial`` state the estimator starts at its stamp; without one an
+   :class:`~graphnav.estimators.align.Aligner` levels and gyrocompasses (or uses the heading sensor) from the first
+   samples, and the estimator starts where the alignment ends, with the alignment's covariance as prior.
+4. **Keyframes** (:mod:`graphnav.estimators.keyframes`): at every ping, every decimated position fix and, through DVL
+   gaps, every ``imu_keyframe_interval_s``; each closes as soon as the IMU has passed its stamp (no look-ahead)
+   and goes to the backend (:mod:`graphnav.estimators.backends`: ``"fixed-lag"``, ``"isam2"`` or ``"ekf"``).
+
+Every ``add_*`` returns the estimates it completed (usually none; one per closed keyframe).
+:meth:`Navigator.estimate` is the latest of them, :meth:`Navigator.state_at` propagates it with every IMU sample
+received since (including those still in the reorder buffer) for a controller at the IMU rate, and
+:meth:`Navigator.finish` drains the buffer at the end of the data.
+"""
+from __future__ import annotations
+
+import bisect
+import heapq
+import math
+import warnings
+from collections import deque
+from dataclasses import dataclass, field
+
+import gtsam
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import ConfigError
+from graphnav.estimators.backends import BACKENDS, make_backend
+from graphnav.estimators.ekf import EkfOptions
+from graphnav.estimators.graph.builder import preintegration_params
+from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
+from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
+from graphnav.estimators.replay import STREAM_ORDER, replay
+
+
+@dataclass
+class NavigatorOptions:
+    """Streaming settings of :class:`Navigator`.
+
+    Attributes:
+        reorder_window_s: how long (s of stream time) a sample waits for later-arriving samples with earlier
+            stamps. A DVL reports its ping after its processing time (tenths of a second); a sample more than
+            this late is refused. 0 = the input must be in time order.
+        keyframes: where keyframes go (:class:`~graphnav.estimators.keyframes.KeyframeOptions`).
+        max_extrapolation_s: :meth:`Navigator.state_at` extrapolates at most this far beyond the newest IMU
+            sample (s).
+        align_catch_up: when a sensor alignment completes, start the estimator at the first sample the aligner
+            holds (the aligned attitude carried back with the gyros, :meth:`graphnav.estimators.align.Aligner.result_at`)
+            and run it through the samples buffered meanwhile, so that the estimates cover the alignment time
+            too (they all arrive when the alignment completes); False starts it where the alignment ends.
+        align_buffer_s: the longest stretch of samples kept for the catch-up, s (the newest).
+    """
+
+    reorder_window_s: float = 0.2
+    keyframes: KeyframeOptions = field(default_factory=KeyframeOptions)
+    max_extrapolation_s: float = 0.1
+    align_catch_up: bool = True
+    align_buffer_s: float = 600.0
+
+    def __post_init__(self):
+        if self.reorder_window_s < 0:
+            raise ConfigError(f"reorder_window_s must be >= 0, got {self.reorder_window_s}")
+
+
+@dataclass
+class NavState:
+    """The state a controller reads: stamp t (s), attitude ``C_b_n``, NED velocity ``v_n`` (m/s) and position
+    ``p_n`` (m), and the bias-corrected body rate ``omega_b`` (rad/s) of the newest IMU sample."""
+
+    t: float
+    C_b_n: np.ndarray
+    v_n: np.ndarray
+    p_n: np.ndarray
+    omega_b: np.ndarray
+
+
+class Navigator:
+    """Streaming INS/DVL navigation (see the module docstring).
+
+    Args:
+        config: sensor configuration (IMU noise, DVL geometry and lever arm, latitude, gravity).
+        backend: ``"fixed-lag"`` (default: bounded time and memory for missions of any length), ``"isam2"``
+            or ``"ekf"``.
+        completer: a beam completer (``complete(past, measured)``, ``n_past``) for the hybrid methods: missing
+            beams are regressed and enter as weaker factors (graph) or inflated updates (EKF).
+        initial: the initial state and its stamp (``initial.t``); None = align from the sensors.
+        graph_options, ekf_options: the backend's settings.
+        tight: EKF backend only: tightly (True) or loosely coupled beam updates.
+        options: streaming settings.
+        align_options: settings of the :class:`~graphnav.estimators.align.Aligner` (when ``initial`` is None).
+        aligner_kwargs: keyword arguments of the Aligner (e.g. ``initial_heading_rad``, ``initial_lla``).
+        keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards).
+        name: the estimator's name in health warnings (e.g. the method name).
+    """
+
+    def __init__(self, config: SensorConfig, backend: str = "fixed-lag", *, completer=None,
+                 initial: InitialState | None = None, graph_options: GraphOptions | None = None,
+                 ekf_options: EkfOptions | None = None, tight: bool = True,
+                 options: NavigatorOptions | None = None, align_options=None, aligner_kwargs: dict | None = None,
+                 keep_keyframe_graphs: bool = False, name: str | None = None):
+        if backend not in BACKENDS:
+            raise ConfigError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
+        self.config = config
+        self.backend_name = backend
+        self.options = options or NavigatorOptions()
+        self._backend_kwargs = {"graph_options": graph_options, "ekf_options": ekf_options, "tight": tight,
+                                "keep_keyframe_graphs": keep_keyframe_graphs, "label": name}
+        self._completer = completer
+        self.keyframer = Keyframer(config, self.options.keyframes, completer)
+        self._align_events: deque = deque()       # released samples kept during alignment (catch-up)
+        self.backend = None
+        self.aligner = None
+        self.alignment = None
+        self.alignment_ready_t: float | None = None   # stamp at which the alignment completed
+        self._heap: list = []             # aiding and DVL samples waiting, by (t, stream order, arrival)
+        self._imu_q: deque = deque()      # IMU samples waiting, in time order (the 100 Hz stream: no heap)
+        self._seq = 0
+        self._newest = -math.inf          # newest stamp received
+        self._released = -math.inf        # everything up to here has left the reorder buffer
+        self._stamps: dict[str, set] = {k: set() for k in STREAM_ORDER}
+        self._last_released: dict[str, float] = {k: -math.inf for k in STREAM_ORDER}
+        self._last_imu_released = -math.inf
+        self._latest: EpochEstimate | None = None
+        self._prop: tuple | None = None             # cached propagation for state_at
+        self._pim_params = preintegration_params(config, graph_options or GraphOptions())
+        self.refused: dict[str, dict[str, int]] = {}
+        self.n_estimates = 0
+        if initial is not None:
+            if initial.t is None:
+                raise ConfigError("initial.t (the stamp of the initial state) is required")
+            self._start(initial)
+        else:
+            from graphnav.estimators.align import Aligner
+            self.aligner = Aligner(config, align_options, **(aligner_kwargs or {}))
+
+    # --- inputs -------------------------------------------------------------------------------------
+    def add_imu(self, t: float, f_b, omega_b) -> list[EpochEstimate]:
+        """An IMU sample: specific force ``f_b`` (3,) m/s^2 and angular rate ``omega_b`` (3,) rad/s, body
+        frame, at stamp t (s). Held over ``[t, t_next)`` (zero-order hold)."""
+        try:     # the fast path of a 100 Hz stream: three floats each, all finite (x - x == 0 fails for inf/NaN)
+            fx, fy, fz = f_b
+            wx, wy, wz = omega_b
+            f = (float(fx), float(fy), float(fz))
+            w = (float(wx), float(wy), float(wz))
+            total = float(t) + f[0] + f[1] + f[2] + w[0] + w[1] + w[2]
+            ok = total - total == 0.0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            f = self._vector("imu", t, "f_b", f_b, 3)
+            w = self._vector("imu", t, "omega_b", omega_b, 3)
+            if f is None or w is None:
+                return []
+        q = self._imu_q
+        in_order = not q or t > q[-1][0]
+        if t == self._last_imu_released or (not in_order and any(s[0] == t for s in q)):
+            return self._refuse("imu", t, "t", "duplicate stamp")
+        if t < self._released:
+            return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
+                                f"left the reorder buffer (window {self.options.reorder_window_s} s)")
+        if in_order:
+            q.append((t, f, w))
+        else:
+            q.insert(bisect.bisect(q, t, key=stamp_of), (t, f, w))
+        if t > self._newest:
+            self._newest = t
+        return self._release(self._newest - self.options.reorder_window_s)
+
+    def add_dvl(self, t: float, beams, valid=None) -> list[EpochEstimate]:
+        """A DVL ping: along-beam velocities ``beams`` (4,) m/s of the DVL head and their validity ``valid``
+        (4,) bool (None: the finite beams). Invalid beams may hold anything (NaN, RDI's -32.768)."""
+        if not self._stamp_ok("dvl", t):
+            return []
+        try:
+            b = np.asarray(beams, float).reshape(4)
+            v = np.isfinite(b) if valid is None else np.asarray(valid, bool).reshape(4)
+        except (ValueError, TypeError) as exc:
+            return self._refuse("dvl", t, "beams", f"not four beams with validity ({exc})")
+        bad = v & ~np.isfinite(b)
+        if bad.any():
+            return self._refuse("dvl", t, "beams", f"beam {int(np.flatnonzero(bad)[0]) + 1} is marked valid but "
+                                "not finite")
+        if not self._accept("dvl", t):
+            return []
+        return self._push("dvl", t, (tuple(np.where(v, b, np.nan).tolist()), tuple(v.tolist())))
+
+    def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:
+        """Depth of the IMU (m, positive down) from a pressure sensor."""
+        d = self._scalar("depth", t, "depth_m", depth_m)
+        if d is None or not self._accept("depth", t):
+            return []
+        return self._push("depth", t, (d,))
+
+    def add_position_fix(self, t: float, lat: float, lon: float, sigma_m: float) -> list[EpochEstimate]:
+        """A horizontal position fix (GNSS at the surface, USBL): geodetic ``lat``, ``lon`` (rad) with a
+        1-sigma of ``sigma_m`` (m) per horizontal axis."""
+        vals = [self._scalar("fix", t, name, x) for name, x in (("lat", lat), ("lon", lon), ("sigma_m", sigma_m))]
+        if any(v is None for v in vals) or not self._accept("fix", t):
+            return []
+        if vals[2] <= 0:
+            return self._refuse("fix", t, "sigma_m", f"must be > 0, got {vals[2]}")
+        return self._push("fix", t, tuple(vals))
+
+    def add_heading(self, t: float, yaw: float, sigma: float) -> list[EpochEstimate]:
+        """A heading measurement (AHRS, magnetometer): yaw of ``C_b_n`` (rad, from north, clockwise seen from
+        above) with 1-sigma ``sigma`` (rad)."""
+        vals = [self._scalar("heading", t, name, x) for name, x in (("yaw", yaw), ("sigma", sigma))]
+        if any(v is None for v in vals) or not self._accept("heading", t):
+            return []
+        if vals[1] <= 0:
+            return self._refuse("heading", t, "sigma", f"must be > 0, got {vals[1]}")
+        return self._push("heading", t, tuple(vals))
+
+    def finish(self) -> list[EpochEstimate]:
+        """End of data: release everything still buffered and close the keyframes the IMU covers."""
+        out = self._release(math.inf)
+        if self.backend is None and self.aligner is not None:
+            out += self._align_at_end()
+        if self.backend is not None:
+            out += self._process(self.keyframer.finish())
+        elif self.aligner is not None:
+            warnings.warn(f"navigator: the data ended before the alignment finished ({self._align_missing()}); "
+                          "no estimate was made", RuntimeWarning, stacklevel=2)
+        self._warn_refusals()
+        return out
+
+    # --- outputs ------------------------------------------------------------------------------------
+    @property
+    def initialised(self) -> bool:
+        return self.backend is not None
+
+    def estimate(self) -> EpochEstimate:
+        """The latest filtered state (pose, velocity, biases) with its velocity covariance."""
+        if self._latest is None:
+            why = "still aligning: " + self._align_missing() if self.aligner is not None else "no keyframe closed yet"
+            raise ConfigError(f"navigator: no estimate yet ({why})")
+        return self._latest
+
+    def state_at(self, t: float) -> NavState:
+        """The state at t (s), propagated from the latest estimate with the IMU samples received since
+        (GTSAM preintegration with the estimated biases; the part of the newest sample up to t to first
+        order), for t between the latest estimate and the newest IMU sample plus ``max_extrapolation_s``.
+        Repeated calls with increasing t integrate each new sample once (tens of microseconds a call)."""
+        est = self.estimate()
+        # the samples since the one covering the latest estimate: the keyframer's (released), then the ones
+        # still in the reorder buffer; a sample keeps its index here until the next estimate
+        recent = _Concat(self.keyframer.samples, self._imu_q)
+        if t < est.t - 1e-9:
+            raise ConfigError(f"state_at({t:.3f}): before the latest estimate (t = {est.t:.3f} s)")
+        newest = recent[-1][0] if recent else est.t
+        if t > newest + self.options.max_extrapolation_s:
+            raise ConfigError(f"state_at({t:.3f}): more than {self.options.max_extrapolation_s} s after the newest "
+                              f"IMU sample (t = {newest:.3f} s)")
+        _, pim, upto, j = self._advance_propagation(est, recent, t)
+        start = gtsam.NavState(est.pose, est.v_n)
+        nav = pim.predict(start, est.bias) if upto > est.t else start
+        C, v, p = nav.attitude().matrix(), nav.velocity(), nav.position()
+        if not recent:
+            return NavState(t, C, v, p, np.zeros(3))
+        _, f, w = recent[j]
+        omega = np.asarray(w) - est.bias.gyroscope()
+        dt = t - upto
+        if dt > 0:
+            acc = C @ (np.asarray(f) - est.bias.accelerometer()) + np.array([0.0, 0.0, self.config.gravity_mps2])
+            p = p + v * dt + 0.5 * acc * dt * dt
+            v = v + acc * dt
+            C = C @ gtsam.Rot3.Expmap(omega * dt).matrix()
+        return NavState(t, C, v, p, omega)
+
+    def _advance_propagation(self, est: EpochEstimate, recent, t: float) -> list:
+        """The cached preintegration from the latest estimate, advanced over the whole IMU samples up to t:
+        [estimate, pim, integrated up to (s), index of the sample that holds at that stamp]."""
+        prop = self._prop
+        if prop is None or prop[0] is not est or t < prop[2]:
+            j = 0
+            while j + 1 < len(recent) and recent[j + 1][0] <= est.t:
+                j += 1
+            prop = [est, gtsam.PreintegratedImuMeasurements(self._pim_params, est.bias), est.t, j]
+        _, pim, upto, j = prop
+        while j + 1 < len(recent) and recent[j + 1][0] <= t:
+            if recent[j + 1][0] > upto:
+                pim.integrateMeasurement(recent[j][1], recent[j][2], recent[j + 1][0] - upto)
+                upto = recent[j + 1][0]
+            j += 1
+        prop[2], prop[3] = upto, j
+        self._prop = prop
+        return prop
+
+    @property
+    def info(self) -> dict:
+        """Counters and diagnostics: refused samples per stream and reason, keyframer repairs, backend info,
+        alignment summary."""
+        stats = self.keyframer.stats
+        info = {"backend": self.backend_name, "estimates": self.n_estimates,
+                "refused": {k: dict(v) for k, v in self.refused.items()},
+                "n_refused": sum(sum(v.values()) for v in self.refused.values()),
+                "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
+                "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
+                "pings_after_end": stats.pings_after_end}
+        if self.backend is not None:
+            info.update(self.backend.info)
+            info["n_fixes"] = self.backend.n_fixes
+        if self.alignment is not None:
+            a = self.alignment
+            info["alignment"] = {**a.info, "t": a.t, "heading_source": a.heading_source,
+                                 "completed_t": self.alignment_ready_t}
+        return info
+
+    # --- internals ----------------------------------------------------------------------------------
+    def _refuse(self, stream: str, t, field_name: str, why: str) -> list:
+        counts = self.refused.setdefault(stream, {})
+        counts[field_name] = counts.get(field_name, 0) + 1
+        n = counts[field_name]
+        if n <= 3:
+            stamp = f"{t:.6f}" if isinstance(t, (int, float)) and math.isfinite(t) else repr(t)
+            warnings.warn(f"navigator: {stream} sample at t = {stamp} s refused, field '{field_name}': {why}"
+                          + ("; further refusals of this kind are only counted" if n == 3 else ""),
+                          RuntimeWarning, stacklevel=3)
+        return []
+
+    def _warn_refusals(self) -> None:
+        for stream, counts in self.refused.items():
+            many = {k: n for k, n in counts.items() if n > 3}
+            if many:
+                warnings.warn(f"navigator: {stream} samples refused in all: {many}", RuntimeWarning, stacklevel=3)
+
+    def _stamp_ok(self, stream: str, t) -> bool:
+        try:
+            ok = math.isfinite(t)
+        except TypeError:
+            ok = False
+        if not ok:
+            self._refuse(stream, t, "t", "stamp is not a finite number")
+        return ok
+
+    def _vector(self, stream: str, t, name: str, x, n: int):
+        if not self._stamp_ok(stream, t):
+            return None
+        try:
+            v = tuple(float(a) for a in x)
+        except (TypeError, ValueError) as exc:
+            self._refuse(stream, t, name, f"not a vector of {n} numbers ({exc})")
+            return None
+        if len(v) != n or not all(math.isfinite(a) for a in v):
+            self._refuse(stream, t, name, f"expected {n} finite values, got {list(v)}")
+            return None
+        return v
+
+    def _scalar(self, stream: str, t, name: str, x):
+        if not self._stamp_ok(stream, t):
+            return None
+        try:
+            v = float(x)
+        except (TypeError, ValueError):
+            v = math.nan
+        if not math.isfinite(v):
+            self._refuse(stream, t, name, f"not a finite number: {x!r}")
+            return None
+        return v
+
+    def _accept(self, stream: str, t: float) -> bool:
+        if t in self._stamps[stream] or t == self._last_released[stream]:
+            self._refuse(stream, t, "t", "duplicate stamp")
+            return False
+        if t < self._released:
+            self._refuse(stream, t, "t", f"out of order: {self._released - t:.3f} s older than what already left "
+                         f"the reorder buffer (window {self.options.reorder_window_s} s)")
+            return False
+        return True
+
+    def _push(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
+        heapq.heappush(self._heap, (t, STREAM_ORDER[stream], self._seq, stream, payload))
+        self._seq += 1
+        self._stamps[stream].add(t)
+        if t > self._newest:
+            self._newest = t
+        return self._release(self._newest - self.options.reorder_window_s)
+
+    def _release(self, until: float) -> list[EpochEstimate]:
+        out = []
+        heap, q = self._heap, self._imu_q
+        while True:
+            if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
+                t, f, w = q.popleft()
+                self._last_imu_released = self._released = t
+                if self.backend is not None:
+                    kfs = self.keyframer.add_imu(t, f, w)
+                    if kfs:
+                        out += self._process(kfs)
+                else:
+                    out += self._dispatch("imu", t, (f, w))
+            elif heap and heap[0][0] <= until:
+                t, _, _, stream, payload = heapq.heappop(heap)
+                self._stamps[stream].discard(t)
+                self._last_released[stream] = self._released = t
+                out += self._dispatch(stream, t, payload)
+            else:
+                return out
+
+    def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
+        if self.backend is None:
+            if stream == "imu":     # before the start the keyframer only keeps the sample that covers t0
+                self.keyframer.add_imu(t, *payload)
+                if not (any(payload[0]) or any(payload[1])):
+                    return []       # an all-zero row (dropped and counted by the keyframer) is no alignment data
+            if self.options.align_catch_up:
+                events = self._align_events
+                events.append((stream, t, payload))
+                while events[0][1] < t - self.options.align_buffer_s:
+                    events.popleft()
+            return self._align(stream, t, payload)
+        kfs = getattr(self.keyframer, "add_" + stream)(t, *payload)
+        return self._process(kfs) if kfs else []
+
+    def _process(self, kfs) -> list[EpochEstimate]:
+        out = []
+        for kf in kfs:
+            est = self.backend.process(kf)
+            out.append(est)
+        if out:
+            self._latest = out[-1]
+            self.n_estimates += len(out)
+            if self._prop is not None:
+                # a controller reads state_at: propagate the new estimate now rather than in its next call
+                recent = _Concat(self.keyframer.samples, self._imu_q)
+                if recent:
+                    self._advance_propagation(self._latest, recent, recent[-1][0])
+        return out
+
+    # --- initialisation -----------------------------------------------------------------------------
+    def _start(self, initial: InitialState) -> list[EpochEstimate]:
+        kw = self._backend_kwargs
+        self.backend = make_backend(self.backend_name, self.config, initial, **kw)
+        return self._process(self.keyframer.start(float(initial.t)))
+
+    def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
+        a = self.aligner
+        getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
+        if stream != "imu" or not a.ready:
+            return []
+        return self._start_from_aligner(t)
+
+    def _start_from_aligner(self, t: float, end_of_data: bool = False) -> list[EpochEstimate]:
+        """Start the estimator from the aligner's result: carried back to the first buffered sample and run
+        through the buffer (``align_catch_up``), else where the alignment ends."""
+        a, events = self.aligner, self._align_events
+        t_first = next((e[1] for e in events if e[0] == "imu"), None)
+        al = None
+        if (self.options.align_catch_up or end_of_data) and t_first is not None:
+            from graphnav.estimators.align import AlignmentError
+            try:
+                al = a.result_at(t_first, end_of_data=end_of_data)
+            except AlignmentError as exc:
+                if end_of_data:
+                    raise
+                warnings.warn(f"navigator: alignment not carried back to t = {t_first:.3f} s ({exc}); the "
+                              "estimator starts where the alignment ends", RuntimeWarning, stacklevel=4)
+        self.aligner = None
+        self.alignment_ready_t = t
+        if al is None:
+            events.clear()
+            self.alignment = al = a.result()
+            return self._start(initial_from_alignment(al))
+        self.alignment = al
+        # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer
+        self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
+        out = self._start(initial_from_alignment(al))
+        replayed = [e for e in events if e[1] >= t_first]
+        events.clear()
+        for stream, t_, payload in replayed:
+            out += self._dispatch(stream, t_, payload)
+        return out
+
+    def _align_at_end(self) -> list[EpochEstimate]:
+        """The data ended before ``AlignOptions.duration_s``: align over what there is when it covers
+        ``min_duration_s`` (with a warning giving the expected heading accuracy), and run the buffer."""
+        a = self.aligner
+        if a.missing(end_of_data=True) or not self._align_events:
+            return []
+        out = self._start_from_aligner(self._align_events[-1][1], end_of_data=True)
+        al = self.alignment
+        sigma = al.info.get("heading_sigma_rad")
+        warnings.warn(f"navigator: the data ended before the {a.options.duration_s:g} s alignment finished; aligned "
+                      f"over the {al.info.get('duration_s', float('nan')):.0f} s there are"
+                      + (f" (expected heading sigma {np.degrees(sigma):.1f} deg)" if sigma is not None else ""),
+                      RuntimeWarning, stacklevel=3)
+        return out
+
+    def _align_missing(self) -> str:
+        """What the aligner still lacks (its error message)."""
+        try:
+            self.aligner.result()
+        except ConfigError as exc:
+            return str(exc)
+        return "alignment ready"
+
+
+def initial_from_alignment(al) -> InitialState:
+    """The estimator's initial state and prior from an :class:`~graphnav.estimators.align.Alignment` (the position
+    covariance moves from NED to the body axes of GTSAM's Pose3 tangent ``[rot, trans]``)."""
+    C = np.asarray(al.C_b_n, float)
+    cov_pose = np.zeros((6, 6))
+    cov_pose[:3, :3] = al.cov_rot
+    cov_pose[3:, 3:] = C.T @ np.asarray(al.cov_p_n, float) @ C
+    return InitialState(gtsam.Pose3(gtsam.Rot3(C), np.asarray(al.p_n, float)), np.asarray(al.v_n, float),
+                        gtsam.imuBias.ConstantBias(np.asarray(al.bias_acc, float), np.asarray(al.bias_gyro, float)),
+                        t=float(al.t), cov_pose=cov_pose, cov_v_n=np.asarray(al.cov_v_n, float),
+                        origin_lla=al.origin_lla)
+
+
+def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:
+    """Replay a recorded mission into ``nav`` sample by sample in time order (never its ground truth) and
+    return every estimate; ``callback(estimate)`` is called as each is made. ``stop()``, when given, is asked
+    between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
+    interrupt delivered inside a GTSAM call can surface as another exception)."""
+    out = []
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    for kind, t, payload in replay(mission, depth=depth):
+        if stop is not None and stop():
+            raise KeyboardInterrupt
+        new = adders[kind](t, *payload)
+        if new:
+            out += new
+            if callback is not None:
+                for est in new:
+                    callback(est)
+    new = nav.finish()
+    out += new
+    if callback is not None:
+        for est in new:
+            callback(est)
+    return out
+
+
+class _Concat:
+    """Read-only indexable view of a list followed by a deque (the IMU samples of :meth:`Navigator.state_at`)."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a: list, b: deque):
+        self.a, self.b = a, b
+
+    def __len__(self) -> int:
+        return len(self.a) + len(self.b)
+
+    def __bool__(self) -> bool:
+        return bool(self.a) or bool(self.b)
+
+    def __getitem__(self, i: int):
+        n = len(self.a)
+        if i < 0:
+            i += n + len(self.b)
+        return self.a[i] if i < n else self.b[i - n]

@@ -1,0 +1,58 @@
+"""Replay a recorded :class:`~graphnav.core.mission.Mission` as the time-ordered sample stream a vehicle produces.
+
+One stream for every consumer (the :class:`~graphnav.estimators.navigator.Navigator` replay loops of ``run_graph`` and
+``run_ekf``, the JSON-lines writer of ``graphnav simulate --stream``, offline keyframe tools): records
+``(kind, t, payload)`` sorted by stamp, with ``kind`` and ``payload``:
+
+- ``"imu"``: ``(f_b (3,) m/s^2, omega_b (3,) rad/s)``;
+- ``"dvl"``: ``(beams (4,) m/s, NaN where not valid, valid (4,) bool)``;
+- ``"depth"``: ``(depth_m,)``.
+
+At equal stamps the aiding samples come first, then the DVL, then the IMU: a keyframe at a stamp then
+already holds the depth and the ping of that stamp when the IMU sample that closes it arrives.
+"""
+from __future__ import annotations
+
+from typing import Iterator
+
+import numpy as np
+
+from graphnav.core.mission import Mission
+
+#: Order of streams at equal stamps.
+STREAM_ORDER = {"depth": 0, "heading": 0, "fix": 0, "dvl": 1, "imu": 2}
+
+
+def first_ping_time(mission: Mission) -> float:
+    """Stamp of the first DVL ping inside the IMU span (the IMU start when there is none), s."""
+    t = mission.dvl.t
+    inside = t[(t >= mission.imu.t[0]) & (t <= mission.imu.t[-1])]
+    return float(inside[0]) if len(inside) else float(mission.imu.t[0])
+
+
+def replay(mission: Mission, depth: bool = True, chunk: int = 20000) -> Iterator[tuple[str, float, tuple]]:
+    """The mission's samples in time order (see the module docstring). Ground truth is never part of it.
+
+    Converted to Python values ``chunk`` samples at a time, so that replaying a day-long mission needs no
+    more memory than its arrays."""
+    imu, dvl = mission.imu, mission.dvl
+    beams = np.where(dvl.valid, dvl.beams, np.nan)
+    streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
+    if depth and mission.depth is not None:
+        streams.append(("depth", mission.depth.t, (mission.depth.depth,)))
+    t = np.concatenate([s[1] for s in streams])
+    order = np.concatenate([np.full(len(s[1]), STREAM_ORDER[s[0]], dtype=np.int8) for s in streams])
+    which = np.concatenate([np.full(len(s[1]), i, dtype=np.int8) for i, s in enumerate(streams)])
+    index = np.concatenate([np.arange(len(s[1])) for s in streams])
+    sort = np.lexsort((order, t))
+    del order
+    names = [s[0] for s in streams]
+    for start in range(0, len(sort), chunk):
+        part = sort[start:start + chunk]
+        w_part, j_part = which[part], index[part]
+        columns = []
+        for i, (_, _, arrays) in enumerate(streams):
+            rows = j_part[w_part == i]
+            columns.append(iter(list(zip(*(a[rows].tolist() for a in arrays)))))
+        for w, stamp in zip(w_part.tolist(), t[part].tolist()):
+            yield names[w], stamp, next(columns[w])

@@ -1,0 +1,235 @@
+"""Replays of a recorded mission through the :class:`~graphnav.estimators.navigator.Navigator`: one call from a
+:class:`~graphnav.core.mission.Mission` to a :class:`~graphnav.core.solution.NavSolution`, the same code path a
+vehicle runs.
+
+- :func:`run_graph`: the factor-graph methods ``Graph-TC`` (measured beams only), ``Graph-HN`` (plus the
+  completer's regressed beams as weaker factors) and ``Graph-HN-batch`` (then the batch smoother over the whole
+  mission, :mod:`graphnav.estimators.graph.batch`). ``mode="online"`` is ISAM2 over the whole mission,
+  ``mode="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and time per update). Output stamps
+  are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps (``info["kind"]``).
+- :func:`run_ekf`: the paper's error-state EKF (LC, TC and the hybrid variants), output at every DVL ping.
+
+The initial state is the ground truth at the start when the mission has one, else the Navigator aligns from
+the sensors.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+from typing import Callable
+
+import gtsam
+import numpy as np
+
+from graphnav.core.errors import ConfigError
+from graphnav.core.mission import Mission
+from graphnav.core.solution import NavSolution
+from graphnav.estimators.coasting import check_pure_inertial
+from graphnav.estimators.ekf import METHODS, EkfOptions
+from graphnav.estimators.graph.batch import batch_smooth
+from graphnav.estimators.graph.incremental import (
+    EpochEstimate,
+    InitialState,
+    is_indeterminant,
+)
+from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.ins import StrapdownState
+from graphnav.estimators.navigator import Navigator, feed_mission
+from graphnav.estimators.replay import first_ping_time, replay
+
+GRAPH_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
+#: run_graph's modes and the Navigator backend each one is.
+MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
+
+
+def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
+                    options: GraphOptions | None = None, mode: str = "online",
+                    initial: InitialState | None = None, init: str = "auto", navigator_options=None,
+                    keep_keyframe_graphs: bool = False, aligner_kwargs: dict | None = None):
+    """The :class:`~graphnav.estimators.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
+
+    ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
+    ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
+    ``aligner_kwargs`` go to the :class:`~graphnav.estimators.align.Aligner` (e.g. ``initial_heading_rad``).
+    """
+    if method not in GRAPH_METHODS:
+        raise ConfigError(f"unknown graph method '{method}'; choose one of {GRAPH_METHODS}")
+    if method.startswith("Graph-HN") and completer is None:
+        raise ConfigError(f"{method} needs a beam completer (e.g. graphnav.nets.AverageCompleter)")
+    if mode not in MODES:
+        raise ConfigError(f"unknown graph mode '{mode}'; choose one of {tuple(MODES)}")
+    initial = initial_state(mission, initial, init, first_ping_time(mission))
+    return Navigator(mission.config, MODES[mode], completer=completer if method.startswith("Graph-HN") else None,
+                     initial=initial, graph_options=options or GraphOptions(), options=navigator_options,
+                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs, name=method)
+
+
+def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:
+    """The initial state a replay starts from: ``initial`` (stamped t0 when it has no stamp), else the ground
+    truth at t0 (``init="gt"``, or ``"auto"`` with ground truth), else None: align from the sensors."""
+    if init not in ("auto", "gt", "sensors"):
+        raise ConfigError(f"init must be 'auto', 'gt' or 'sensors', got '{init}'")
+    if initial is not None:
+        return initial if initial.t is not None else dataclasses.replace(initial, t=t0)
+    if init == "sensors" or (init == "auto" and mission.gt is None):
+        return None
+    return InitialState.from_ground_truth(mission, t0)
+
+
+def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
+                  options: GraphOptions | None = None, mode: str = "online",
+                  initial: InitialState | None = None):
+    """Generator over the filtered :class:`EpochEstimate` of every keyframe, as each is computed.
+
+    Nothing is kept between keyframes except the estimator itself (bounded memory with
+    ``mode="fixed-lag"``); ``Graph-HN-batch`` streams its first (filtered) pass only.
+    """
+    nav = graph_navigator(mission, method, completer, options, mode, initial)
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    for kind, t, payload in replay(mission):
+        yield from adders[kind](t, *payload)
+    yield from nav.finish()
+
+
+def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, options: GraphOptions | None = None,
+              callback: Callable[[EpochEstimate], None] | None = None, mode: str = "online",
+              initial: InitialState | None = None, init: str = "auto",
+              aligner_kwargs: dict | None = None) -> NavSolution:
+    """Run a graph method over a recorded mission (a sample-by-sample replay through the Navigator).
+
+    Args:
+        mission: the mission (IMU, DVL, optional depth; ground truth only for the initial state).
+        method: ``Graph-TC``, ``Graph-HN`` or ``Graph-HN-batch`` (the HN methods need ``completer``).
+        completer: beam completer (``complete(past, measured)``, ``n_past``).
+        options: :class:`GraphOptions` (defaults when None).
+        callback: called with the filtered :class:`EpochEstimate` after each keyframe update.
+        mode: ``"online"`` (ISAM2) or ``"fixed-lag"`` (lag ``options.lag_s``).
+        initial: state at the first keyframe (stamp ``initial.t``, default the first DVL ping).
+        init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
+            ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+
+    Returns:
+        NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
+        ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
+        recoveries), the Navigator's counters (``refused``, ``imu_gaps``, ``alignment`` ...) and, for the
+        batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or ``batch_failed`` (the reason)
+        when the batch system was indeterminant and the filtered estimates are returned instead (with a
+        warning).
+    """
+    start = time.perf_counter()
+    options = options or GraphOptions()
+    batch = method == "Graph-HN-batch"
+    # the batch computes its own marginals; its first pass only provides initial values (and the callback's
+    # filtered estimates, which keep their covariance when a callback is given)
+    first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
+    nav = graph_navigator(mission, method, completer, first_pass, mode, initial, init, keep_keyframe_graphs=batch,
+                          aligner_kwargs=aligner_kwargs)
+    estimates = feed_mission(nav, mission, callback)
+    if not estimates:
+        raise ConfigError(f"{method} on '{mission.name}': no estimate was made "
+                          f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
+    info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
+    if nav.backend is not None and hasattr(nav.backend, "ctx"):
+        info["regressed_screening"] = dict(nav.backend.ctx.screening)
+    if batch:
+        try:
+            estimates, batch_info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates, options)
+            info.update({"batch_" + k: v for k, v in batch_info.items()})
+        except RuntimeError as exc:
+            if not is_indeterminant(exc):
+                raise
+            # Seen with a tiny integration_sigma (1e-4) or a huge rotation variance in one IMU factor: the
+            # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
+            reason = " ".join(str(exc).split())[:160]
+            warnings.warn(f"graph batch: {reason} -- returning the filtered (incremental) estimates instead of "
+                          "smoothed ones (no velocity covariance)", RuntimeWarning, stacklevel=2)
+            info["batch_failed"] = reason
+        info["batch_s"] = time.perf_counter() - start - info["online_s"]
+    sol = solution_from_estimates(method, estimates)
+    sol.runtime_s = time.perf_counter() - start
+    sol.info.update(info)
+    aided = (sol.info["n_measured"] + sol.info["n_regressed"]) > 0
+    sol.info.update(check_pure_inertial(method, sol.t, aided, sol.cov_v_n, options.max_pure_inertial_s))
+    return sol
+
+
+def solution_from_estimates(method: str, estimates: list[EpochEstimate]) -> NavSolution:
+    """Pack per-keyframe estimates into a :class:`NavSolution`."""
+    has_cov = all(e.cov_v_n is not None for e in estimates)
+    return NavSolution(
+        method=method,
+        t=np.array([e.t for e in estimates]),
+        p_n=np.array([e.p_n for e in estimates]),
+        v_n=np.array([e.v_n for e in estimates]),
+        C_b_n=np.array([e.C_b_n for e in estimates]),
+        cov_v_n=np.array([e.cov_v_n for e in estimates]) if has_cov else None,
+        bias_acc=np.array([e.bias.accelerometer() for e in estimates]),
+        bias_gyro=np.array([e.bias.gyroscope() for e in estimates]),
+        info={"kind": [e.kind for e in estimates], "n_measured": np.array([e.n_measured for e in estimates]),
+              "n_regressed": np.array([e.n_regressed for e in estimates])},
+    )
+
+
+def _initial_state(mission: Mission, t0: float) -> StrapdownState:
+    p, v, C = mission.gt.at(t0, mission.imu)
+    return StrapdownState(t0, C, v, p)
+
+
+def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
+            initial=None, init: str = "auto", aligner_kwargs: dict | None = None) -> NavSolution:
+    """Run one of the EKF methods over a recorded mission and return the solution at every DVL ping (post
+    update): a sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``).
+
+    Args:
+        mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
+        method: ``LC``, ``TC`` (measured beams only), ``Average-LC``, ``Average-TC``, ``HNLC``, ``HNTC``
+            (missing beams completed by ``completer`` through :class:`~graphnav.estimators.history.BeamHistory`; the
+            completed beams enter with their variance inflated by the completer's sigma^2).
+        completer: required for the hybrid methods, e.g. ``AverageCompleter(n_past)`` or the network's.
+        options: :class:`EkfOptions`.
+        initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.graph.InitialState`
+            with its stamp); default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the paper (the
+            comparison is about the outage, not the alignment; the initial covariance of :class:`EkfOptions`
+            covers the ground truth's own error).
+        init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
+            ``"gt"`` or ``"sensors"``.
+        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+
+    Returns:
+        :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
+    """
+    wall = time.perf_counter()
+    if method not in METHODS:
+        raise ConfigError(f"unknown EKF method '{method}'; choose one of {list(METHODS)}")
+    hybrid = method not in ("LC", "TC")
+    if hybrid and completer is None:
+        raise ConfigError(f"method {method} needs a beam completer (e.g. graphnav.nets.AverageCompleter(3))")
+    if isinstance(initial, StrapdownState):
+        initial = InitialState(gtsam.Pose3(gtsam.Rot3(initial.C_b_n), initial.p_n), initial.v_n, t=initial.t)
+    if initial is None and init != "sensors" and mission.gt is not None:
+        s = _initial_state(mission, max(mission.imu.t[0], mission.gt.t[0]))
+        initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
+    initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
+    nav = Navigator(mission.config, "ekf", completer=completer if hybrid else None, initial=initial,
+                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs,
+                    name=f"EKF {method}")
+    estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
+    info = nav.info
+    info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
+    K = len(estimates)
+    sol = NavSolution(method, np.array([e.t for e in estimates]),
+                      np.array([e.p_n for e in estimates]).reshape(K, 3),
+                      np.array([e.v_n for e in estimates]).reshape(K, 3),
+                      np.array([e.C_b_n for e in estimates]).reshape(K, 3, 3),
+                      np.array([e.cov_v_n for e in estimates]).reshape(K, 3, 3),
+                      np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
+                      np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
+                      runtime_s=time.perf_counter() - wall, info=info)
+    # a ping aided the filter when it carried enough beams for its update (TC: one, LC: three); a gated
+    # update is not seen from here
+    used = np.array([e.n_measured + e.n_regressed for e in estimates]) >= (3 if method.endswith("LC") else 1)
+    sol.info.update(check_pure_inertial(f"EKF-{method}", sol.t, used, sol.cov_v_n,
+                                        (options or EkfOptions()).max_pure_inertial_s))
+    return sol

@@ -1,0 +1,167 @@
+"""Score a written trajectory against a reference: APE and RPE through ``evo``'s library, VRMSE and NEES.
+
+The estimate is what ``graphnav smooth`` / ``online`` write: ``trajectory.csv`` (positions, velocities,
+attitude, velocity sigmas) or a TUM file (positions and attitude only). The reference is a TUM file, a
+trajectory CSV, or any mission ``--data`` accepts (A-KIT folder, ROS 2 bag with a reference Odometry topic,
+CSV log with a ``gt`` column map), whose ground truth is used; all of them on the mission clock.
+
+* APE / RPE: :class:`evo.core.metrics.APE` / :class:`evo.core.metrics.RPE` on :class:`PoseTrajectory3D`s
+  associated by ``evo.core.sync.associate_trajectories``, after the reference is interpolated (linear,
+  slerp) to the estimate's stamps inside its span. Poses are
+  compared as recorded (both in the mission's local NED frame); ``align=True`` first applies evo's Umeyama
+  SE(3) alignment, as ``evo_ape --align`` does (for a reference in another frame).
+* VRMSE (m/s) and velocity NEES (3 dof, mean 3 when consistent; :func:`graphnav.evaluation.metrics.nees_velocity`):
+  graphnav's own definitions, on the reference interpolated to the estimate's stamps. They need velocities
+  on both sides (a TUM file has none) and, for NEES, the estimate's sigmas (diagonal covariance: the CSV
+  keeps sigmas only).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.mission import GroundTruth
+from graphnav.core.solution import NavSolution
+
+
+def _require_evo():
+    try:
+        import evo  # noqa: F401
+    except ImportError:
+        raise ConfigError("APE/RPE use the evo package: pip install 'graphnav[eval]'") from None
+
+
+def load_trajectory(path: str | Path) -> NavSolution:
+    """A trajectory CSV (``.csv``) or TUM file (``.tum``/``.txt``; velocities NaN)."""
+    from graphnav.io.outputs import read_trajectory_csv, read_tum
+    path = Path(path)
+    if not path.is_file():
+        raise DataError("trajectory file not found", str(path))
+    if path.suffix.lower() == ".csv":
+        return read_trajectory_csv(path, method=path.stem)
+    try:
+        t, p, C = read_tum(path)
+    except ValueError as exc:
+        raise DataError(f"not a TUM file (timestamp tx ty tz qx qy qz qw per line): {exc}", str(path)) from None
+    return NavSolution(path.stem, t, p, np.full_like(p, np.nan), C)
+
+
+def load_reference(ref: str | Path, config_path: str | Path | None = None,
+                   topics: dict[str, str] | None = None) -> GroundTruth:
+    """The reference trajectory: a TUM/CSV file, or the ground truth of a mission ``--data`` path."""
+    path = Path(ref)
+    if path.is_file() and path.suffix.lower() in (".tum", ".txt") or (
+            path.suffix.lower() == ".csv" and not (config_path and _has_csv_map(config_path))):
+        sol = load_trajectory(path)
+        return GroundTruth(sol.t, sol.p_n, sol.v_n, sol.C_b_n, None, str(path))
+    from graphnav.io.loaders import load_mission
+    mission = load_mission(path, config_path, topics=topics)
+    if mission.gt is None:
+        raise DataError("the mission has no reference trajectory (ground truth / reference Odometry topic)",
+                        str(path), field="gt")
+    return mission.gt
+
+
+def _has_csv_map(config_path) -> bool:
+    from graphnav.core.config import SensorConfig
+    return bool(SensorConfig.load(config_path).csv_columns)
+
+
+def _evo_trajectory(t, p, C, name: str):
+    from evo.core.trajectory import PoseTrajectory3D
+    q = Rotation.from_matrix(C).as_quat()          # x y z w
+    return PoseTrajectory3D(positions_xyz=np.asarray(p, float), orientations_quat_wxyz=q[:, [3, 0, 1, 2]],
+                            timestamps=np.asarray(t, float), meta={"name": name})
+
+
+def _stats(metric) -> dict:
+    return {k: float(v) for k, v in metric.get_all_statistics().items()}
+
+
+def evaluate(est: NavSolution, ref: GroundTruth, *, align: bool = False, rpe_delta: float = 10.0,
+             rpe_unit: str = "m", max_diff_s: float = 0.01) -> dict:
+    """APE (translation, m; rotation, deg), RPE (translation, m per ``rpe_delta`` ``rpe_unit``), VRMSE and
+    NEES of ``est`` against ``ref``; a dict of plain floats (``None`` where not computable, with the reason)."""
+    _require_evo()
+    from evo.core import metrics, sync
+    from evo.core.metrics import PoseRelation, Unit
+    units = {"m": Unit.meters, "frames": Unit.frames}
+    if rpe_unit not in units:
+        raise ConfigError(f"rpe unit {rpe_unit!r}: choose m or frames")
+    from graphnav.evaluation.metrics import align as align_to_reference
+    # The reference (often at another rate, e.g. 1 Hz GT vs keyframes at DVL pings with a time offset) is
+    # interpolated to the estimate's stamps inside its span, so evo's association pairs every epoch.
+    at = align_to_reference(est, ref)
+    if not at.mask.any():
+        raise DataError(f"no estimate epoch inside the reference span [{ref.t[0]:.3f}, {ref.t[-1]:.3f}] s; are "
+                        "both on the mission clock?", est.method, field="t")
+    traj_ref = _evo_trajectory(at.t, at.p_true_n, at.C_true_b_n, "reference")
+    traj_est = _evo_trajectory(est.t[at.mask], est.p_n[at.mask], est.C_b_n[at.mask], est.method or "estimate")
+    try:
+        traj_ref, traj_est = sync.associate_trajectories(traj_ref, traj_est, max_diff=max_diff_s)
+    except sync.SyncException as exc:
+        raise DataError(f"no common stamps with the reference within {max_diff_s} s ({exc}); are both on the "
+                        "mission clock?", est.method, field="t") from None
+    out: dict = {"matched_poses": int(traj_est.num_poses), "aligned": bool(align)}
+    if align:
+        traj_est.align(traj_ref, correct_scale=False)
+    for name, relation in (("ape_translation_m", PoseRelation.translation_part),
+                           ("ape_rotation_deg", PoseRelation.rotation_angle_deg)):
+        ape = metrics.APE(relation)
+        ape.process_data((traj_ref, traj_est))
+        out[name] = _stats(ape)
+    delta = rpe_delta if rpe_unit == "m" else int(rpe_delta)
+    rpe = metrics.RPE(PoseRelation.translation_part, delta=delta, delta_unit=units[rpe_unit], all_pairs=False)
+    try:
+        rpe.process_data((traj_ref, traj_est))
+        out["rpe_translation_m"] = _stats(rpe)
+    except metrics.MetricsException as exc:
+        out["rpe_translation_m"] = None
+        out["rpe_note"] = str(exc)
+    out["rpe_delta"] = f"{rpe_delta:g} {rpe_unit}"
+    from graphnav.evaluation.metrics import nees_velocity, vrmse
+    if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
+        out["vrmse_mps"] = None
+        out["vrmse_note"] = "needs velocities in the estimate and the reference (a TUM file has none)"
+    else:
+        out["vrmse_mps"] = vrmse(est, ref)
+    if est.cov_v_n is None or out["vrmse_mps"] is None:
+        out["nees_velocity_mean"] = None
+        out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
+    else:
+        nees = nees_velocity(est, ref)
+        from scipy.stats import chi2
+        k = len(nees)
+        out["nees_velocity_mean"] = float(np.mean(nees))
+        out["nees_velocity_95pct_band"] = [float(chi2.ppf(0.025, 3 * k) / k), float(chi2.ppf(0.975, 3 * k) / k)]
+        out["nees_note"] = "diagonal covariance (the trajectory CSV keeps the sigmas only); 3 dof"
+    return out
+
+
+def format_report(result: dict, est_name: str, ref_name: str) -> str:
+    """The evaluation as a few lines of text."""
+    lines = [f"{est_name} vs {ref_name}: {result['matched_poses']} matched poses"
+             + (" (SE(3)-aligned)" if result["aligned"] else "")]
+    for key, label, unit in (("ape_translation_m", "APE translation", "m"),
+                             ("ape_rotation_deg", "APE rotation", "deg"),
+                             ("rpe_translation_m", f"RPE translation per {result['rpe_delta']}", "m")):
+        s = result.get(key)
+        if s:
+            lines.append(f"  {label}: rmse {s['rmse']:.4f} {unit}, mean {s['mean']:.4f}, median {s['median']:.4f}, "
+                         f"max {s['max']:.4f}")
+        elif key == "rpe_translation_m":
+            lines.append(f"  {label}: not computed ({result.get('rpe_note')})")
+    if result["vrmse_mps"] is not None:
+        lines.append(f"  VRMSE: {result['vrmse_mps']:.4f} m/s")
+    else:
+        lines.append(f"  VRMSE: not computed ({result['vrmse_note']})")
+    if result["nees_velocity_mean"] is not None:
+        lo, hi = result["nees_velocity_95pct_band"]
+        lines.append(f"  velocity NEES mean {result['nees_velocity_mean']:.2f} (consistent: 3; 95 % band "
+                     f"{lo:.2f}-{hi:.2f} for independent epochs)")
+    else:
+        lines.append(f"  velocity NEES: not computed ({result['nees_note']})")
+    return "\n".join(lines)

@@ -1,0 +1,64 @@
+"""Write a :class:`~graphnav.core.mission.Mission` in the published A-KIT CSV layout.
+
+``<folder>/TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv`` with exactly the published column headers, so
+:mod:`graphnav.io.loaders` reads a simulated mission like a recorded one. Differences from the published
+files, on purpose:
+
+* the IMU is written in the body frame FRD as it is (the published files have a flipped y axis; load a
+  written mission with ``imu_axis_signs=(1, 1, 1)``);
+* the DVL file holds the DVL-head velocity (least squares of the valid beams) of every ping with >= 3
+  valid beams; pings with fewer are left out (the published files have no gaps to encode);
+* two extra files the loaders may ignore: ``beams_trajectoryN.csv`` (the four along-beam velocities,
+  empty where a beam is invalid) and ``config_trajectoryN.json`` (the :class:`SensorConfig`).
+
+Ground truth: geodetic position from the NED origin ``gt.origin_lla`` (``Altitude`` negative below the
+surface), NED velocity, roll/pitch/yaw with ``C_b_n = Rz(yaw) Ry(pitch) Rx(roll)``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.core.errors import DataError
+from graphnav.core.mission import Mission
+from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.io.loaders import AKIT_COLUMNS
+
+BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
+
+
+def _write_csv(path: Path, columns: tuple[str, ...], data: np.ndarray) -> None:
+    # 15 significant digits: round trips to ~1e-15 relative, far below any sensor resolution.
+    np.savetxt(path, data, delimiter=",", header=",".join(columns), comments="", fmt="%.15g")
+
+
+def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[str, Path]:
+    """Write ``mission`` as ``folder/Trajectory<number>/`` in the A-KIT layout; returns the written paths."""
+    if mission.gt is None or mission.gt.origin_lla is None:
+        raise DataError("the A-KIT layout needs ground truth with a known geodetic origin",
+                        mission.name, field="gt.origin_lla")
+    out = Path(folder) / f"Trajectory{number}"
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {kind: out / f"{kind}_trajectory{number}.csv" for kind in ("IMU", "DVL", "GT", "beams")}
+    paths["config"] = out / f"config_trajectory{number}.json"
+
+    imu = mission.imu
+    _write_csv(paths["IMU"], AKIT_COLUMNS["IMU"], np.column_stack([imu.t, imu.f_b, imu.omega_b]))
+
+    dvl = mission.dvl
+    v_b = dvl.v_b if dvl.v_b is not None else np.full((len(dvl.t), 3), np.nan)
+    ok = np.isfinite(v_b).all(axis=1)
+    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_b[ok]]))
+    beams = np.where(dvl.valid, dvl.beams, np.nan)
+    _write_csv(paths["beams"], BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
+    text = paths["beams"].read_text().replace("nan", "")
+    paths["beams"].write_text(text)
+
+    gt = mission.gt
+    lla = gt.lla
+    euler = C_b_n_to_euler(gt.C_b_n)
+    _write_csv(paths["GT"], AKIT_COLUMNS["GT"],
+               np.column_stack([gt.t, lla[:, 1], lla[:, 0], lla[:, 2], gt.v_n, euler]))
+    mission.config.save(paths["config"])
+    return paths

@@ -1,0 +1,275 @@
+"""A team's own CSV logs, loaded without code through a column map in the SensorConfig JSON.
+
+The map is ``csv_columns`` of the configuration; one entry per stream (``imu`` and ``dvl`` required,
+``depth`` and ``gt`` optional), each naming its file (relative to the data folder; omitted = the data file
+itself, for one merged log whose rows leave the other sensors' cells empty), its stamp column and its value
+columns::
+
+    "csv_columns": {
+      "time_unit": "s",
+      "imu":   {"file": "imu.csv", "t": "stamp", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                "accel_unit": "m/s^2", "gyro_unit": "deg/s", "frame": "frd"},
+      "dvl":   {"file": "dvl.csv", "t": "stamp", "beams": ["b1", "b2", "b3", "b4"], "valid": ["ok1", "ok2", "ok3", "ok4"],
+                "v_b": ["vx", "vy", "vz"], "velocity_unit": "mm/s"},
+      "depth": {"file": "depth.csv", "t": "stamp", "pressure": "p", "pressure_unit": "dbar"},
+      "gt":    {"file": "nav.csv", "t": "stamp", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+                "euler": ["roll", "pitch", "yaw"], "angle_unit": "deg"}
+    }
+
+Units: ``time_unit`` s / ms / us / ns (global or per stream); ``accel_unit`` m/s^2 or g; ``gyro_unit`` rad/s
+or deg/s; ``velocity_unit`` m/s, cm/s or mm/s; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
+``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
+(positive down); ``angle_unit`` rad or deg. ``frame`` frd (default) or flu for the IMU (the latter negates
+y and z).
+
+DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
+without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
+that logs body velocity): the beams are then the exact projections ``T_b v_b`` of that velocity on the
+configured beam geometry (no noise added; ``meta["beams_from_v_b"]``), and a ping with any non-finite axis
+has no valid beam. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
+(:mod:`graphnav.io.pd0`), whose stamps are Unix seconds: the IMU stamps must then be Unix too.
+
+Every stream ends on one clock starting at the first IMU stamp (``meta["t0_s"]`` keeps the offset).
+Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.io.pd0 import pd0_geometry, read_pd0
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+ACCEL_UNITS = {"m/s^2": 1.0, "g": 9.80665}
+GYRO_UNITS = {"rad/s": 1.0, "deg/s": np.pi / 180}
+VELOCITY_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3}
+PRESSURE_UNITS = {"Pa": 1.0, "kPa": 1e3, "bar": 1e5, "dbar": 1e4}
+ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
+STREAMS = ("imu", "dvl", "depth", "gt")
+
+
+def uses_column_map(path: str | Path, config: SensorConfig | None) -> bool:
+    """True when ``path`` (a CSV file or folder) is to be read through the configuration's column map."""
+    path = Path(path)
+    has_map = config is not None and bool(config.csv_columns)
+    if path.is_file() and path.suffix.lower() == ".csv":
+        if not has_map:
+            raise ConfigError(f"{path}: a CSV mission needs a column map: give --config with a 'csv_columns' "
+                              "entry (see graphnav.io.generic_csv)")
+        return True
+    return has_map and path.is_dir()
+
+
+def _unit(spec: dict, key: str, table: dict, default: str, where: str) -> float:
+    name = spec.get(key, default)
+    if name not in table:
+        raise ConfigError(f"csv_columns.{where}.{key} = {name!r}: choose one of {sorted(table)}")
+    return table[name]
+
+
+class _Table:
+    """One CSV file read as text columns, with the line number of every row."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            with open(path, newline="", encoding="utf-8-sig") as f:
+                rows = list(csv.reader(f))
+        except OSError as exc:
+            raise DataError(f"cannot read file: {exc}", str(path)) from None
+        except UnicodeDecodeError as exc:
+            raise DataError(f"not UTF-8 text: {exc}", str(path)) from None
+        if not rows:
+            raise DataError("empty file, expected a header line", str(path), 1)
+        self.header = [h.strip() for h in rows[0]]
+        self.rows = rows[1:]
+
+    def columns(self, names: list[str], stream: str) -> tuple[np.ndarray, np.ndarray]:
+        """(values (n, len(names)) with NaN for empty cells, 1-based line numbers) of the rows where any of
+        ``names`` is non-empty."""
+        missing = [c for c in names if c not in self.header]
+        if missing:
+            raise DataError(f"column(s) {missing} of csv_columns.{stream} not in the header {self.header}",
+                            str(self.path), 1, missing[0])
+        idx = [self.header.index(c) for c in names]
+        values, lines = [], []
+        for i, row in enumerate(self.rows):
+            cells = [row[j].strip() if j < len(row) else "" for j in idx]
+            if not any(cells):
+                continue
+            out = []
+            for name, cell in zip(names, cells):
+                try:
+                    out.append(float(cell) if cell else np.nan)
+                except ValueError:
+                    raise DataError(f"not a number: {cell!r}", str(self.path), i + 2, name) from None
+            values.append(out)
+            lines.append(i + 2)
+        if not values:
+            raise DataError(f"no rows with values for csv_columns.{stream}", str(self.path), 2, names[0])
+        return np.array(values, float), np.array(lines)
+
+
+def _names(spec: dict, key: str, n: int, stream: str, required: bool = True) -> list[str] | None:
+    cols = spec.get(key)
+    if cols is None:
+        if required:
+            raise ConfigError(f"csv_columns.{stream} needs '{key}' ({n} column name(s))")
+        return None
+    cols = [cols] if isinstance(cols, str) else list(cols)
+    if len(cols) != n:
+        raise ConfigError(f"csv_columns.{stream}.{key}: {n} column name(s) expected, got {cols}")
+    return cols
+
+
+def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
+          time_unit: str, tables: dict) -> tuple[np.ndarray, dict, Path]:
+    """Stamps (s, on the file's clock) and value groups of one stream; checks stamps and finiteness."""
+    if "t" not in spec:
+        raise ConfigError(f"csv_columns.{stream} needs 't' (the stamp column)")
+    path = root / spec["file"] if "file" in spec else data_file
+    if path is None:
+        raise ConfigError(f"csv_columns.{stream} needs 'file' (the data path is a folder)")
+    if path not in tables:
+        tables[path] = _Table(path)
+    table = tables[path]
+    names = {k: _names(spec, k, n, stream, required=False) for k, n in groups.items()}
+    flat = [spec["t"]] + [c for cols in names.values() if cols for c in cols]
+    values, lines = table.columns(flat, stream)
+    scale = _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
+    t = values[:, 0] * scale
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise DataError("empty or non-finite stamp", str(path), int(lines[bad[0]]), spec["t"])
+    step = np.diff(t)
+    bad = np.flatnonzero(step <= 0)
+    if bad.size:
+        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
+        raise DataError(f"stamp {kind} ({t[bad[0]]:.6f} s then {t[bad[0] + 1]:.6f} s)", str(path),
+                        int(lines[bad[0] + 1]), spec["t"])
+    out, j = {}, 1
+    for key, cols in names.items():
+        if cols:
+            out[key] = values[:, j:j + len(cols)]
+            j += len(cols)
+    out["_lines"] = lines
+    return t, out, path
+
+
+def _require_finite(a: np.ndarray, lines: np.ndarray, cols: list[str], path: Path) -> None:
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        i, j = bad[0]
+        raise DataError("empty or non-finite value", str(path), int(lines[i]), cols[j])
+
+
+def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | None = None) -> Mission:
+    """A :class:`Mission` from CSV logs described by ``config.csv_columns`` (see the module docstring)."""
+    data = Path(data)
+    cmap = config.csv_columns or {}
+    unknown = set(cmap) - set(STREAMS) - {"time_unit"}
+    if unknown:
+        raise ConfigError(f"csv_columns: unknown entr(ies) {sorted(unknown)}; expected {STREAMS} and time_unit")
+    root, data_file = (data, None) if data.is_dir() else (data.parent, data)
+    time_unit = cmap.get("time_unit", "s")
+    tables: dict = {}
+    config = dataclasses.replace(config)
+    meta: dict = {"source": str(data), "format": "csv"}
+
+    spec = cmap.get("imu")
+    if not spec:
+        raise ConfigError("csv_columns needs an 'imu' entry")
+    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables)
+    for key in ("f_b", "omega_b"):
+        if key not in v:
+            raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
+        _require_finite(v[key], v["_lines"], spec[key], path)
+    f_b = v["f_b"] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
+    omega_b = v["omega_b"] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
+    frame = spec.get("frame", "frd")
+    if frame not in ("frd", "flu"):
+        raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
+    if frame == "flu":
+        f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
+    t0 = float(t_imu[0])
+    meta["t0_s"] = t0
+    imu = ImuData(t_imu - t0, f_b, omega_b, str(path))
+
+    spec = cmap.get("dvl") or {}
+    if not spec and pd0_file is None:
+        raise ConfigError("csv_columns needs a 'dvl' entry")
+    depth = None
+    if pd0_file is not None or "pd0" in spec:
+        pd0_path = pd0_file or root / spec["pd0"]
+        dvl_raw, depth, pd0_meta = read_pd0(pd0_path, config)
+        meta.update(pd0_meta)
+        config = pd0_geometry(config, pd0_meta)
+        dvl = dataclasses.replace(dvl_raw, t=dvl_raw.t - t0)
+        if depth is not None:
+            depth = dataclasses.replace(depth, t=depth.t - t0)
+    else:
+        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables)
+        vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
+        v_b = v["v_b"] * vscale if "v_b" in v else None
+        if "beams" in v:
+            raw = v["beams"]
+            flag = np.isin(raw, (-32768.0, -32.768))
+            beams = np.where(flag, -32.768, raw * vscale)
+            valid = np.isfinite(beams) if "valid" not in v else (np.nan_to_num(v["valid"]) != 0) & np.isfinite(beams)
+        elif v_b is not None:
+            from graphnav.core.dvl import DvlGeometry
+            T_b = DvlGeometry.from_spec(config.dvl).T_b
+            beams = v_b @ T_b.T
+            valid = np.repeat(np.all(np.isfinite(v_b), axis=1, keepdims=True), 4, axis=1)
+            meta["beams_from_v_b"] = True
+        else:
+            raise ConfigError("csv_columns.dvl needs 'beams' (4 columns) or 'v_b' (3 columns)")
+        dvl = DvlData(t_dvl - t0, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized()
+
+    spec = cmap.get("depth")
+    if spec:
+        if depth is not None:
+            raise ConfigError("csv_columns.depth given while the PD0 file has a pressure sensor; drop one")
+        key = "depth" if "depth" in spec else "pressure" if "pressure" in spec else None
+        if key is None:
+            raise ConfigError("csv_columns.depth needs 'depth' (m, down) or 'pressure' (a column name)")
+        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables)
+        _require_finite(v[key], v["_lines"], [spec[key]], path)
+        x = v[key][:, 0]
+        if key == "pressure":
+            unit = spec.get("pressure_unit", "Pa")
+            p = x * _unit(spec, "pressure_unit", PRESSURE_UNITS, "Pa", "depth")
+            if unit in ("Pa", "kPa"):
+                p = p - config.atmospheric_pressure_pa
+            x = p / (config.water_density_kgpm3 * config.gravity_mps2)
+        depth = DepthData(t_d - t0, x, str(path))
+    if depth is None:
+        meta["depth_source"] = "none"
+
+    gt = None
+    spec = cmap.get("gt")
+    if spec:
+        t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables)
+        for key in ("p_n", "v_n", "euler"):
+            if key not in v:
+                raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")
+            _require_finite(v[key], v["_lines"], spec[key], path)
+        from graphnav.core.rotations import euler_to_C_b_n
+        e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
+        gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
+    name = data.stem if data.is_file() else data.name
+    return Mission(name, imu, dvl, config, gt, depth, meta)
+
+
+def load_pd0(path: str | Path, config: SensorConfig | None = None):
+    """A Mission from a PD0 file plus the IMU named in the configuration's CSV column map."""
+    if config is None or "imu" not in config.csv_columns:
+        raise ConfigError(f"{path}: a PD0 file holds the DVL only; give the IMU in the configuration's "
+                          "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv)")
+    return load_csv_mission(Path(path).parent, config, pd0_file=Path(path))

@@ -1,0 +1,605 @@
+"""Loaders for the published real data sets, and the one mission entry point the CLI commands share.
+
+A-KIT (``ansfl/A-KIT``, Snapir AUV, June 2022): one folder ``TrajectoryN/`` with
+``IMU_trajectoryN.csv`` (100 Hz), ``DVL_trajectoryN.csv`` and ``GT_trajectoryN.csv`` (1 Hz).
+BeamsNet (``ansfl/BeamsNet``, May 2021): ``V.npy`` (3,N) and ``V_test.npy`` DVL body velocities at 1 Hz.
+Please cite the data authors (A-KIT: Cohen & Klein; BeamsNet: Cohen & Klein) when using them.
+
+What :func:`load_akit` does to the recorded files, and why (each step is a parameter):
+
+1. **Stamps.** The published stamps are ``linspace(0, 400, N)``: period 400/(N-1), i.e. 1.0025 s for the
+   1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
+   the IMU-to-GT attitude alignment drifts by -2.5 ms per second over a file (from -0.45 s to -1.35 s on
+   trajectory 1, measured in 50 s windows), and it is constant after rescaling. ``rescale_stamps=True``
+   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows in that file).
+2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
+   published IMU files predate the authors' "corrected the transformation" commit: their y axis is
+   flipped (``(1, -1, 1)``); the corrected files have y in the body frame (``(1, 1, 1)``). The default
+   ``"auto"`` detects the convention at load time with the IMU axis check
+   (:func:`graphnav.calibration.axes.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
+   consistency without GT) and warns what it chose; an explicit tuple (or a ``--config`` that sets
+   ``imu_axis_signs``) is used as given. No fitting sign convention (swapped axes, gyro and accelerometer
+   flipped differently) is a DataError naming the axis.
+3. **Time offsets.** Every stream ends on the IMU clock: ``t = t_file (rescaled) + offset``.
+   ``config.gt_time_offset_s`` and ``config.dvl_time_offset_s`` record the offsets added. ``"auto"``
+   estimates them at load time (about 0.2 s per trajectory, see
+   :mod:`graphnav.calibration.reference`): the GT offset by matching gyro-integrated attitude increments
+   with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
+   ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating at load time rather than shipping a
+   table works for any A-KIT folder, including the three not in ``../shared/data``.
+4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
+   stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
+5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec` ``max_*``: speed,
+   ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.core.dvl.implausible_pings`)
+   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
+   the ten shared trajectories).
+   The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
+   (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
+   default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
+   by ``beam_seed``). NaN rows are invalid pings.
+6. **IMU error model** (:data:`PHINS_RECORDED`): see its docstring.
+
+``load_mission`` is what every ``graphnav`` subcommand calls: a data folder or None (the simulated default).
+"""
+from __future__ import annotations
+
+import dataclasses
+import io
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.core.config import ImuSpec, SensorConfig
+from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams
+from graphnav.core.earth import gravity_magnitude, lla_to_ned
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.mission import (
+    MAX_DVL_SPEED_MPS,
+    DepthData,
+    DvlData,
+    GroundTruth,
+    ImuData,
+    Mission,
+    invalid_dvl_values,
+)
+from graphnav.core.rotations import euler_to_C_b_n
+
+#: Column names of the published A-KIT files, in order.
+AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
+    "IMU": ("Time [s]", "ACC X [m/s^2]", "ACC Y [m/s^2]", "ACC Z [m/s^2]",
+            "GYRO X [rad/s]", "GYRO Y [rad/s]", "GYRO Z [rad/s]"),
+    "DVL": ("Time [s]", "DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]"),
+    "GT": ("Time [s]", "Longitude [rad]", "Latitude [rad]", "Altitude [m]", "V North [m/s]",
+           "V East [m/s]", "V Down [m/s]", "Roll [rad]", "Pitch [rad]", "Yaw [rad]"),
+}
+
+#: Default lever arm of the Snapir DVL relative to the INS (the GT reference point), body frame, m (data
+#: README). ``graphnav calibrate`` (GT mode) finds [-1.72..-1.86, -0.10..+0.06, +0.03..+0.15] over the ten
+#: shared trajectories. Note: the recorded specific force behaves as if measured ~1.9 m aft of the GT point
+#: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so relative to the IMU the DVL is close to zero in
+#: x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
+AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
+
+#: Position of the IMU's measurement point relative to the published GT reference point, body frame, m.
+#: The estimators navigate the IMU point, so the loader moves the GT there (``imu_position_b``) and gives the
+#: DVL time offset of the published A-KIT files (s added to the rescaled DVL stamps), for folders without a GT
+#: file: the mean of the load-time estimates against the GT on the ten shared trajectories (0.976-1.061 s, spread
+#: 0.025 s; ``scripts/no_gt_runs.py`` prints them).
+AKIT_DVL_TIME_OFFSET_S = 1.02
+
+#: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
+#: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`) puts the IMU at ~[-1.9, 0, -0.1] m and calibration
+#: without GT puts the DVL within ~0.2 m of the IMU, so the default takes them as co-located: the IMU point is
+#: the DVL point measured against the GT, and the DVL lever arm relative to the IMU is zero.
+AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
+
+#: IMU error model for the recorded Phins data, per-sqrt(Hz) densities, measured on the files.
+#: The values are stored with a 1e-4 resolution (rad/s, m/s^2); quantisation noise of step q at f = 100 Hz
+#: is q/sqrt(12) = 2.9e-5 per sample, a density of 2.9e-6 per sqrt(Hz). The recorded streams scatter far
+#: more than that from sample to sample (vehicle vibration): ``scripts/check_realdata.py`` prints the
+#: density ``std(diff(x)) / sqrt(2) / sqrt(f)``, median over axes, 1.9e-5..1.0e-4 rad/s/sqrt(Hz) for the
+#: gyro and 1.0e-3..4.8e-3 m/s^2/sqrt(Hz) for the accelerometer over the ten trajectories. The gyro value
+#: agrees with the 1-s attitude increments against the GT (residual 5e-5 rad on calm stretches), so we use
+#: the upper-middle values as white densities: 6e-5 rad/s/sqrt(Hz) and 3e-3 m/s^2/sqrt(Hz) (conservative
+#: for a FOG, whose datasheet ARW is 7e-7, but that is what the recorded numbers carry). Biases: the
+#: Phins datasheet (gyro 0.01 deg/h, accelerometer 50 micro-g); random walks from the navigation grade.
+#: Identification (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; issue 14): the accelerometer's
+#: white density is 1.7-1.8e-3 at both 0.01-0.1 s (Allan) and 1 s (increments against the GT), the gyro's
+#: 6.4e-5 (Allan) and ~1e-5 (1 s). With the identified accelerometer value the graph's velocity NEES got
+#: worse (Trajectory1 Graph-TC 5.3 -> 8.0, batch 10.3 -> 17.4) at equal VRMSE: what the estimators' covariance
+#: misses is not IMU noise (it is the GT's own error and the surface pings of Trajectory11), so the
+#: densities of :data:`PHINS_RECORDED` stay as they were. The beam noise identified from the all-beam batch
+#: residuals is 0.0412-0.0424 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
+#: keeps 0.042.
+#: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``scripts/identify_noise.py`` over
+#: the ten shared trajectories (:mod:`graphnav.calibration.noise`): north/east from the GT's white lateral velocity
+#: error (first run, with the Allan accelerometer density subtracted: median 0.0099 m/s on the body y axis,
+#: 0.0022 on x, spread over N and E by the heading: 0.0072 per axis; with the 1-s density subtracted, as the
+#: code does now: 0.0081 and 0.0015, i.e. 0.0058 per axis -- the benchmark numbers in the README were made
+#: with 0.0072; lag-1 correlation of its increments -0.14..-0.50, i.e. white-ish; found against the IMU's
+#: velocity increments, independent of every estimator here); down from the all-beam batch smoother's error minus its
+#: covariance (median 0.0043 m/s; an upper bound; the GT's down velocity also disagrees with the derivative
+#: of its own depth by 0.005-0.011 m/s RMS on calm trajectories). The loader puts it in
+#: ``mission.meta["gt_velocity_sigma_n"]``; the benchmark's consistency section adds it to the estimators'
+#: covariance to show how much of their NEES the reference explains.
+AKIT_GT_VELOCITY_SIGMA_N = (0.0072, 0.0072, 0.0043)
+
+PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3e-3, gyro_noise_density=6e-5,
+                         accel_bias_rw=1e-6, gyro_bias_rw=1e-9, accel_bias_sigma=50 * 9.80665e-6,
+                         gyro_bias_sigma=0.01 * np.pi / 180 / 3600)
+
+
+# ------------------------------------------------------------------------------------------------
+# CSV reading
+# ------------------------------------------------------------------------------------------------
+def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
+             repair: bool = False) -> np.ndarray:
+    """Read a numeric CSV with a known header into an (N, len(columns)) float array.
+
+    The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
+    Every bad data line is found and reported (1-based line number and column): wrong number of fields
+    (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
+    The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
+    stamps are dropped (first kept) and the rows sorted, with a warning.
+
+    Raises:
+        DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
+            message lists up to 10 bad lines.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise DataError(f"cannot read file: {exc}", source) from None
+    try:
+        text = raw.decode("utf-8-sig")     # a byte-order mark is not part of the header
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise DataError(f"not UTF-8 text: byte {raw[exc.start:exc.start + 1]!r} at offset {exc.start}", source,
+                        line) from None
+    lines = text.splitlines()
+    if not lines:
+        raise DataError("empty file, expected a header line", source, 1)
+    header = [h.strip() for h in lines[0].split(",")]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise DataError(f"missing column(s) {missing}; header is {header}, expected {list(columns)}",
+                        source, 1, missing[0])
+    if header != list(columns):
+        raise DataError(f"unexpected header {header}, expected {list(columns)}", source, 1,
+                        next((h for h, c in zip(header, columns) if h != c), header[-1]))
+    line_no = np.array([i + 1 for i, s in enumerate(lines) if i > 0 and s.strip()], dtype=int)
+    body = [lines[i - 1] for i in line_no]
+    if not body:
+        raise DataError("no data lines", source, 2)
+    try:
+        data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=",", ndmin=2, dtype=float)
+        if data.shape[1] != len(columns):
+            raise ValueError("column count")
+    except ValueError:
+        _raise_bad_lines(source, body, line_no, columns)
+        raise  # pragma: no cover - _raise_bad_lines always raises
+    problems = []
+    for j, name in enumerate(columns):
+        if name in nan_ok:
+            bad = np.flatnonzero(np.isinf(data[:, j]))
+        else:
+            bad = np.flatnonzero(~np.isfinite(data[:, j]))
+        problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
+    if problems:
+        _raise_problems(source, sorted(problems))
+    return _check_stamps(data, line_no, source, columns[0], repair)
+
+
+def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
+    problems = []
+    for n, s in zip(line_no, body):
+        fields = s.split(",")
+        if len(fields) != len(columns):
+            what = "truncated line" if len(fields) < len(columns) else "too many fields"
+            problems.append((int(n), columns[min(len(fields), len(columns)) - 1] if len(fields) < len(columns)
+                             else columns[-1], f"{what}: {len(fields)} fields, expected {len(columns)}"))
+            continue
+        for name, f in zip(columns, fields):
+            try:
+                float(f)
+            except ValueError:
+                problems.append((int(n), name, f"not a number: {f.strip()!r}"))
+    if not problems:  # loadtxt failed on something the checks above did not catch
+        raise DataError("cannot parse the file as numbers", source)
+    _raise_problems(source, problems)
+
+
+def _raise_problems(source: str, problems: list[tuple[int, str, str]]) -> None:
+    shown = "; ".join(f"line {n}, column '{c}': {m}" for n, c, m in problems[:10])
+    more = f" (and {len(problems) - 10} more)" if len(problems) > 10 else ""
+    line, col, msg = problems[0]
+    err = DataError(f"{msg}; {len(problems)} bad line(s): {shown}{more}", source, line, col)
+    err.problems = problems
+    raise err
+
+
+def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: str,
+                  repair: bool) -> np.ndarray:
+    step = np.diff(data[:, 0])
+    bad = np.flatnonzero(step <= 0)
+    if not bad.size:
+        return data
+    if not repair:
+        i = bad[0] + 1
+        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
+        raise DataError(f"time stamp {kind} ({float(data[i - 1, 0])!r} s then {float(data[i, 0])!r} s); "
+                        f"{bad.size} such line(s); pass repair=True to drop duplicates and sort",
+                        source, int(line_no[i]), time_col)
+    order = np.argsort(data[:, 0], kind="stable")
+    data = data[order]
+    keep = np.concatenate([[True], np.diff(data[:, 0]) > 0])
+    warnings.warn(f"{source}: {int((~keep).sum())} duplicated and {int((step < 0).sum())} out-of-order "
+                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
+    return data[keep]
+
+
+# ------------------------------------------------------------------------------------------------
+# A-KIT
+# ------------------------------------------------------------------------------------------------
+def list_akit(root: str | Path) -> list[Path]:
+    """The ``TrajectoryN`` folders under ``root`` (sorted by N) that hold all three CSV files."""
+    root = Path(root)
+    found = []
+    for d in root.iterdir() if root.is_dir() else []:
+        m = re.fullmatch(r"Trajectory(\d+)", d.name)
+        if m and all((d / f"{k}_trajectory{m.group(1)}.csv").is_file() for k in AKIT_COLUMNS):
+            found.append((int(m.group(1)), d))
+    return [d for _, d in sorted(found)]
+
+
+def akit_files(folder: str | Path, require_gt: bool = True) -> dict[str, Path]:
+    """{"IMU": path, "DVL": path, "GT": path} of one A-KIT trajectory folder (no "GT" key when the GT file
+    is missing and ``require_gt`` is False)."""
+    folder = Path(folder)
+    m = re.fullmatch(r"Trajectory(\d+)", folder.name)
+    if m:
+        files = {k: folder / f"{k}_trajectory{m.group(1)}.csv" for k in AKIT_COLUMNS}
+    else:  # a renamed folder: accept one file per kind
+        files = {}
+        for k in AKIT_COLUMNS:
+            hits = sorted(folder.glob(f"{k}_*.csv"))
+            files[k] = hits[0] if len(hits) == 1 else folder / f"{k}_trajectoryN.csv"
+    if not require_gt and not files["GT"].is_file():
+        del files["GT"]
+    for k, p in files.items():
+        if not p.is_file():
+            raise DataError(f"{k} file not found (expected A-KIT layout TrajectoryN/{{IMU,DVL,GT}}_"
+                            f"trajectoryN.csv)", str(p))
+    return files
+
+
+@dataclasses.dataclass
+class AkitRaw:
+    """The three A-KIT files as read (after stamp rescaling and IMU axis signs, before offsets)."""
+
+    imu: np.ndarray      # (N,7) t, f_b(3), omega_b(3)
+    dvl: np.ndarray      # (M,4) t, v(3)
+    gt: np.ndarray | None  # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw; None without a GT file
+    files: dict
+    axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
+    axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
+
+
+def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
+              repair: bool = False) -> AkitRaw:
+    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2).
+
+    ``imu_axis_signs``: a +-1 triple, or ``"auto"`` (detected, with a warning; module docstring step 2).
+    A folder without a GT file reads with ``gt=None`` (the axis detection then uses the IMU alone).
+    """
+    files = akit_files(folder, require_gt=False)
+    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
+    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
+    if rescale_stamps:
+        for a in (imu, dvl, gt):
+            if a is not None:
+                a[:, 0] *= (len(a) - 1) / len(a)
+    detection = None
+    if isinstance(imu_axis_signs, str):
+        if imu_axis_signs != "auto":
+            raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
+        detection = detect_akit_axis_signs(imu, gt, str(files["IMU"]))
+        signs = detection.signs
+    else:
+        signs = np.asarray(imu_axis_signs, float).reshape(3)
+        if not np.all(np.abs(signs) == 1):
+            raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
+    imu[:, 1:4] *= signs
+    imu[:, 4:7] *= signs
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection)
+
+
+def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
+    """:func:`graphnav.calibration.axes.detect_imu_axis_signs` on raw A-KIT arrays (IMU (N,7), GT (K,10) or
+    None, stamps as read), with its warning. Adds ~0.1-0.3 s to a load (the GT offset it finds is reused)."""
+    from graphnav.calibration.axes import detect_imu_axis_signs
+    imu_data = ImuData(np.ascontiguousarray(imu[:, 0]), imu[:, 1:4], imu[:, 4:7], source=source)
+    gt_data, config = None, SensorConfig()
+    if gt is not None:
+        config.lat_rad = float(gt[0, 2])
+        config.gravity_mps2 = gravity_magnitude(gt[0, 2], float(np.mean(-gt[:, 3])))
+        gt_data = GroundTruth(gt[:, 0], np.zeros((len(gt), 3)), gt[:, 4:7],
+                              euler_to_C_b_n(gt[:, 7], gt[:, 8], gt[:, 9]))
+    detection = detect_imu_axis_signs(imu_data, config, gt_data, source)
+    warnings.warn(detection.message(source), UserWarning, stacklevel=3)
+    return detection
+
+
+def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: float | str = "auto",
+              gt_time_offset_s: float | str = "auto", lever_arm_b=None, beam_seed: int = 0,
+              config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
+              repair: bool = False, imu_position_b=None) -> Mission:
+    """Load one A-KIT trajectory folder as a :class:`Mission` on the IMU clock.
+
+    Args:
+        folder: ``.../TrajectoryN``.
+        imu_axis_signs: signs applied to the raw IMU x, y, z (accelerometer and gyro), or ``"auto"``
+            (detected at load time, with a warning; module docstring step 2).
+        dvl_time_offset_s: seconds added to the (rescaled) DVL stamps, or ``"auto"`` (estimated).
+        gt_time_offset_s: seconds added to the (rescaled) GT stamps, or ``"auto"`` (estimated).
+        lever_arm_b: DVL position relative to the IMU, body frame, m (used for the beams' geometry,
+            the config and the DVL offset estimate); None = the config's if one is given, else
+            ``AKIT_LEVER_ARM_B - imu_position_b`` (zero with the defaults).
+        beam_seed: seed of the beam error model.
+        config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry,
+            error model and IMU spec are kept, while lat, gravity, axis signs and offsets are set from
+            the data and the arguments above (:func:`load_mission` passes a config's offsets and signs).
+        name: mission name (default: the folder name).
+        rescale_stamps: fix the published stamps' period (module docstring, step 1).
+        repair: drop duplicated stamps and sort (with a warning) instead of raising.
+        imu_position_b: IMU point relative to the published GT point, body frame, m; the returned GT is
+            moved there so that estimates and GT describe the same point. None = :data:`AKIT_IMU_POSITION_B`;
+            ``(0, 0, 0)`` keeps the GT at its published point (then the DVL lever arm is relative to it).
+
+    Returns:
+        Mission with ``meta`` keys ``source``, ``depth_source="gt"``, ``rescale_stamps``,
+        ``time_offsets`` (the estimates with their sigmas when "auto").
+    """
+    folder = Path(folder)
+    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
+    cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
+        PHINS_RECORDED))
+    cfg.dvl = dataclasses.replace(cfg.dvl)
+    imu_position_b = np.asarray(AKIT_IMU_POSITION_B if imu_position_b is None else imu_position_b,
+                                float).reshape(3)
+    if lever_arm_b is None:
+        lever_arm_b = (config.dvl.lever_arm_b if config is not None
+                       else np.asarray(AKIT_LEVER_ARM_B) - imu_position_b)
+    cfg.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
+
+    # contiguous copies: np.interp on a strided 40k-sample column copies it at every call
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    g = raw.gt
+    cfg.imu_axis_signs = raw.axis_signs
+    if g is not None:
+        lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
+        cfg.lat_rad = float(lat0)
+        cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
+        p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
+        v_n = g[:, 4:7]
+        C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
+    lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
+
+    # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
+    # calibrated) and remove a calibrated scale error.
+    v_dvl = raw.dvl[:, 1:4] @ cfg.dvl.C_d_b.T / (1.0 + cfg.dvl.velocity_scale_correction)
+    # RDI bad-velocity flags (-32.768 m/s, -32768) and impossible speeds are not measurements: the ping
+    # becomes invalid (NaN), as a NaN row is, before anything (time-offset estimate, beams) uses it
+    flagged = np.flatnonzero(np.any(invalid_dvl_values(raw.dvl[:, 1:4]), axis=1)
+                             & ~np.any(np.isnan(raw.dvl[:, 1:4]), axis=1))
+    if flagged.size:
+        warnings.warn(f"{raw.files['DVL']}: {flagged.size} ping(s) with an invalid velocity (RDI bad-velocity "
+                      f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
+                      f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
+        v_dvl[flagged] = np.nan
+    # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
+    # the envelope; spikes): invalid too, before the offset estimate and the completers see them
+    envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
+    outside = np.flatnonzero(np.any(list(envelope.values()), axis=0))
+    if outside.size:
+        lines = ", ".join(str(int(i) + 2) for i in outside[:10]) + (" ..." if outside.size > 10 else "")
+        warnings.warn(f"{raw.files['DVL']}: {outside.size} ping(s) outside the vehicle's envelope marked invalid "
+                      f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
+                      RuntimeWarning, stacklevel=2)
+        v_dvl[outside] = np.nan
+
+    estimates = {}
+    detected = raw.axis_detection
+    if g is None:
+        return _mission_without_gt(folder, raw, cfg, v_dvl, envelope, dvl_time_offset_s, beam_seed, name,
+                                   rescale_stamps)
+    if gt_time_offset_s == "auto" and detected is not None and detected.gt_offset is not None \
+            and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
+        gt_time_offset_s = detected.gt_offset.offset_s
+        estimates["gt"] = detected.gt_offset
+    if gt_time_offset_s == "auto":
+        from graphnav.calibration.reference import estimate_gt_time_offset
+        est = estimate_gt_time_offset(t_imu, omega_b, g[:, 0], C_b_n, lat_for_rate)
+        gt_time_offset_s = est.offset_s
+        estimates["gt"] = est
+    if dvl_time_offset_s == "auto":
+        from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
+        ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
+                        cfg.gravity_mps2, lat_for_rate)
+        # against the published GT point the DVL sits at lever arm + IMU position
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        dvl_time_offset_s = est.offset_s
+        estimates["dvl"] = est
+    cfg.gt_time_offset_s = float(gt_time_offset_s)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+
+    t_gt = g[:, 0] + cfg.gt_time_offset_s
+    src = {k: str(p) for k, p in raw.files.items()}
+    gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), float(alt0)), source=src["GT"])
+    if np.any(imu_position_b):
+        from graphnav.calibration.reference import move_ground_truth
+        gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
+    depth = DepthData(t_gt, gt.p_n[:, 2] - g[0, 3], source=src["GT"])  # p_n is relative to the first GT fix
+    valid_ping = np.all(np.isfinite(v_dvl), axis=1)
+    # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
+    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
+                                                     beam_seed), np.nan)
+    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
+                  v_dvl, source=src["DVL"])
+    imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
+    meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
+            "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
+            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
+            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
+                               "decided": None if detected is None else detected.decided},
+            "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
+            "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
+                             for k, e in estimates.items()}}
+    return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
+                        dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool) -> Mission:
+    """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
+    published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
+    given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
+    if dvl_time_offset_s == "auto":
+        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
+        warnings.warn(f"{folder}: no GT file, so the DVL time offset cannot be estimated; using this vehicle's "
+                      f"{AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared trajectories, "
+                      "spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                      RuntimeWarning, stacklevel=3)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+    cfg.gt_time_offset_s = 0.0
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    valid_ping = np.all(np.isfinite(v_dvl), axis=1)
+    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
+                                                     beam_seed), np.nan)
+    src = {k: str(p) for k, p in raw.files.items()}
+    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
+                  v_dvl, source=src["DVL"])
+    imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
+    detected = raw.axis_detection
+    meta = {"source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
+            "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
+            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
+            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
+                               "decided": None if detected is None else detected.decided},
+            "time_offsets": {}}
+    return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
+
+
+def gt_offset_drift(folder: str | Path, rescale_stamps: bool, window: int = 100) -> float:
+    """Drift of the IMU-to-GT time offset over a trajectory, s per s (the check behind ``rescale_stamps``).
+
+    The offset is estimated in consecutive ``window``-sample GT windows and a line is fitted through them:
+    with the published ``linspace`` stamps it drifts by about -2.5 ms/s, with rescaled stamps by ~0.
+    """
+    from graphnav.calibration.reference import estimate_gt_time_offset
+    raw = read_akit(folder, rescale_stamps=rescale_stamps)
+    C_b_n = euler_to_C_b_n(raw.gt[:, 7], raw.gt[:, 8], raw.gt[:, 9])
+    t_imu, omega_b = np.ascontiguousarray(raw.imu[:, 0]), raw.imu[:, 4:7]
+    starts = range(0, len(raw.gt) - window + 1, window)
+    mid = [raw.gt[s + window // 2, 0] for s in starts]
+    offsets = [estimate_gt_time_offset(t_imu, omega_b, raw.gt[s:s + window, 0], C_b_n[s:s + window]).offset_s
+               for s in starts]
+    return float(np.polyfit(mid, offsets, 1)[0])
+
+
+# ------------------------------------------------------------------------------------------------
+# BeamsNet
+# ------------------------------------------------------------------------------------------------
+#: Fraction of ``V.npy`` the published split uses for training (the rest is validation).
+BEAMSNET_TRAIN_FRACTION = 0.75
+
+
+def load_beamsnet(folder: str | Path) -> dict:
+    """The BeamsNet velocities: ``{"V": (3,N), "V_test": (3,M)}`` DVL body velocities at 1 Hz, m/s.
+
+    Raises:
+        DataError: missing file, wrong shape (must be (3, N)) or non-finite values (naming the sample).
+    """
+    folder = Path(folder)
+    out = {}
+    for key in ("V", "V_test"):
+        path = folder / f"{key}.npy"
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise DataError(f"cannot read: {exc}", str(path)) from None
+        if arr.ndim != 2 or arr.shape[0] != 3:
+            raise DataError(f"shape {arr.shape}, expected (3, N) velocity x/y/z rows", str(path))
+        bad = np.argwhere(~np.isfinite(arr))
+        if bad.size:
+            raise DataError("value is not finite", str(path), int(bad[0][1]), "xyz"[bad[0][0]])
+        out[key] = arr.astype(float)
+    return out
+
+
+def beamsnet_split(V: np.ndarray, train_fraction: float = BEAMSNET_TRAIN_FRACTION
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The published split of ``V`` (3,N): (first 75 % for training, last 25 % for validation)."""
+    n_train = int(V.shape[1] * train_fraction)
+    return V[:, :n_train], V[:, n_train:]
+
+
+# ------------------------------------------------------------------------------------------------
+# The entry point of the CLI commands
+# ------------------------------------------------------------------------------------------------
+def load_mission(data: str | Path | None = None, config_path: str | Path | None = None,
+                 topics: dict[str, str] | None = None, **sim_kwargs) -> Mission:
+    """The mission a ``graphnav`` command works on.
+
+    Args:
+        data: what to load, by its form:
+
+            * None: the simulated default mission;
+            * a ROS 2 bag: a ``.mcap`` / ``.db3`` file or a rosbag2 folder (:func:`graphnav.io.bags.load_bag`);
+            * a Teledyne RDI PD0 file, ``.pd0`` or ``.000``-style numbered (:func:`graphnav.io.generic_csv.load_pd0`);
+            * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
+              (:func:`graphnav.io.generic_csv.load_csv_mission`);
+            * an A-KIT ``TrajectoryN`` folder.
+        config_path: a SensorConfig JSON (e.g. written by ``graphnav calibrate``) or None.
+        topics: bag stream -> topic overrides (``{"imu": "/imu/data"}``); bags only.
+        **sim_kwargs: passed to :func:`graphnav.sim.simulate.simulate_mission` when ``data`` is None, or to
+            :func:`load_akit` otherwise (e.g. ``beam_seed``).
+
+    With a config on real data, its lever arm, IMU axis signs and time offsets are used as given (no
+    "auto" estimation): the config is the calibration. A config file that does not set ``imu_axis_signs``
+    leaves the axis convention to the load-time detection.
+    """
+    config = SensorConfig.load(config_path) if config_path else None
+    if data is None:
+        from graphnav.sim.simulate import simulate_mission
+        if config is not None:
+            sim_kwargs.setdefault("config", config)
+        return simulate_mission(**sim_kwargs)
+    path = Path(data)
+    from graphnav.io import bags, generic_csv, pd0
+    if topics and not bags.is_bag(path):
+        raise ConfigError(f"--topic applies to ROS 2 bags only; {path} is not one")
+    if bags.is_bag(path):
+        return bags.load_bag(path, config, topics)
+    if pd0.is_pd0(path):
+        return generic_csv.load_pd0(path, config)
+    if generic_csv.uses_column_map(path, config):
+        return generic_csv.load_csv_mission(path, config)
+    if not path.is_dir():
+        raise DataError("data folder not found", str(path))
+    if config is not None:
+        if "imu_axis_signs" in _config_keys(config_path):   # a config without the field leaves it "auto"
+            sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
+        sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
+        sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
+    return load_akit(path, config=config, **sim_kwargs)
+
+
+def _config_keys(config_path: str | Path) -> set[str]:
+    """Top-level keys of a SensorConfig JSON file (already parsed once by ``SensorConfig.load``)."""
+    import json
+    return set(json.loads(Path(config_path).read_text()))

@@ -1,0 +1,1 @@
+"""Simulated missions with exact ground truth, and IMU error injection."""

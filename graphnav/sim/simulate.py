@@ -1,0 +1,498 @@
+"""The embedded default mission: a simulated AUV survey with exact ground truth (no download needed).
+
+The vehicle starts at ~2 m depth, descends nose-down (pitch about -15..-19 deg) to 22-28 m, then flies a
+lawnmower survey: straight legs of 100-160 s joined by pairs of 90 deg turns (yaw rate up to ~0.1 rad/s),
+a depth change (pitch bump) in most legs, new speeds (1.1-2.3 m/s, smooth changes) at the start
+and often late in every leg, and roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with
+small sway and heave. The pattern continues for any duration (tested up to 4 h; 21 h simulated for the
+Navigator's long-mission benchmark, ``scripts/bench_navigator.py``).
+
+Kinematics are analytic: roll, pitch, yaw and the body velocity ``v_b = [u, v, w]`` are sums of quintic
+smooth steps (C2) and sinusoids, so their values and first derivatives are exact. From them
+
+* ``v_n = C_b_n v_b``, ``omega_nb_b`` from the Euler-angle rates, ``a_n = C_b_n (dv_b/dt + omega_nb_b x v_b)``;
+* the true specific force and rate (shared conventions, transport rate neglected)
+  ``f_b = C_b_n^T (a_n + 2 omega_ie_n x v_n - g_n)``, ``omega_ib_b = omega_nb_b + C_b_n^T omega_ie_n``;
+* the position by Gauss-Legendre quadrature of ``v_n`` between output stamps (error far below 1 mm).
+
+IMU sample convention: the sample stamped ``t_k`` is the *increment* over ``[t_k, t_k + dt]`` divided by
+``dt``, as a strapdown IMU outputs it: ``omega_b[k] = Log(C_ib(t_k)^T C_ib(t_k+dt)) / dt`` and
+``f_b[k] = (1/dt) * integral of C_b_n(t_k)^T C_b_n(tau) f_n(tau) dtau`` (body axes frozen at ``t_k``). Holding
+sample k constant from ``t_k`` to ``t_{k+1}`` (GTSAM's preintegration) then reproduces the truth exactly up to
+the Earth-rate cross terms (~1e-9 rad per step; ``tests/test_simulate.py`` measures 1e-8 m/s and 2e-6 m after
+400 s; GTSAM 4.3's rotating-frame prediction adds its own ~3e-6 m/s^2 drift, also for a perfect static IMU).
+Ground truth, DVL and depth are instantaneous values at their
+stamps, all of which are IMU stamps (the DVL's unless ``dvl_stamp_offset_s`` moves them between samples).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.spatial.transform import Rotation
+
+from graphnav.core.config import DEG, DvlSpec, ImuSpec, SensorConfig
+from graphnav.core.config import imu_grade as _imu_grade
+from graphnav.core.dvl import DvlErrorModel, DvlGeometry
+from graphnav.core.earth import earth_rate_n, gravity_magnitude
+from graphnav.core.errors import ConfigError
+from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.scenarios import markov_dropout
+from graphnav.sim.imu_errors import corrupt_imu
+
+#: Default DVL lever arm (body frame, m): the DVL sits ~1.9 m aft of the INS, as on the Snapir AUV.
+DEFAULT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
+#: Default NED origin of the simulated mission (lat rad, lon rad, alt m): off Haifa, at the sea surface.
+DEFAULT_ORIGIN_LLA = (32.85 * DEG, 34.95 * DEG, 0.0)
+START_DEPTH_M = 2.0
+
+
+#: Longest mission the simulator makes, s (24 h; about 3 GB of memory at 21 h).
+MAX_DURATION_S = 24 * 3600.0
+
+def euler_to_C_b_n(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """``Rz(yaw) Ry(pitch) Rx(roll)`` (N,3,3) in closed form: the same matrices as
+    :func:`graphnav.core.rotations.euler_to_C_b_n` (tested), several times faster for millions of samples."""
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    C = np.empty(np.shape(roll) + (3, 3))
+    C[..., 0, 0], C[..., 0, 1], C[..., 0, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    C[..., 1, 0], C[..., 1, 1], C[..., 1, 2] = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    C[..., 2, 0], C[..., 2, 1], C[..., 2, 2] = -sp, cp * sr, cp * cr
+    return C
+
+
+# --- smooth profile building blocks ------------------------------------------------------------------
+
+def _smoothstep(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Quintic smooth step S(x) on [0,1] with S', S'' (zero slope and curvature at both ends: C2)."""
+    s = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x)
+    ds = 30.0 * x * x * (1.0 - x) ** 2
+    dds = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x)
+    return s, ds, dds
+
+
+@dataclass
+class SmoothSteps:
+    """A sum of smooth steps: step i rises by ``delta[i]`` between ``t0[i]`` and ``t0[i] + duration[i]``."""
+
+    t0: list = field(default_factory=list)
+    duration: list = field(default_factory=list)
+    delta: list = field(default_factory=list)
+
+    def add(self, t0: float, duration: float, delta: float) -> int:
+        self.t0.append(float(t0))
+        self.duration.append(float(duration))
+        self.delta.append(float(delta))
+        return len(self.delta) - 1
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Value, first and second time derivative at sorted stamps t (s)."""
+        t = np.asarray(t, dtype=float)
+        completed = np.zeros(len(t) + 1)  # difference array: +delta from the sample where a step is done
+        value = np.zeros(len(t))
+        rate = np.zeros(len(t))
+        acc = np.zeros(len(t))
+        for t0, dur, delta in zip(self.t0, self.duration, self.delta):
+            i0, i1 = np.searchsorted(t, [t0, t0 + dur])
+            completed[i1] += delta
+            if i1 > i0:
+                s, ds, dds = _smoothstep((t[i0:i1] - t0) / dur)
+                value[i0:i1] += delta * s
+                rate[i0:i1] += delta * ds / dur
+                acc[i0:i1] += delta * dds / dur ** 2
+        return value + np.cumsum(completed)[:-1], rate, acc
+
+
+@dataclass
+class Sines:
+    """A sum of sinusoids ``amp * sin(2 pi t / period + phase)``."""
+
+    amp: list = field(default_factory=list)
+    period: list = field(default_factory=list)
+    phase: list = field(default_factory=list)
+
+    def add(self, amp: float, period: float, phase: float) -> None:
+        self.amp.append(float(amp))
+        self.period.append(float(period))
+        self.phase.append(float(phase))
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Value and first time derivative at stamps t (s)."""
+        t = np.asarray(t, dtype=float)
+        value = np.zeros(len(t))
+        rate = np.zeros(len(t))
+        for amp, period, phase in zip(self.amp, self.period, self.phase):
+            w = 2.0 * np.pi / period
+            value += amp * np.sin(w * t + phase)
+            rate += amp * w * np.cos(w * t + phase)
+        return value, rate
+
+
+@dataclass
+class TrueState:
+    """Exact kinematics at stamps t (all arrays have leading dimension N).
+
+    Attributes:
+        t: (N,) s.
+        euler: (N,3) roll, pitch, yaw, rad.
+        C_b_n: (N,3,3) body-to-NED.
+        v_b: (N,3) body velocity, m/s; dv_b: (N,3) its time derivative (body components), m/s^2.
+        v_n: (N,3) NED velocity, m/s; a_n: (N,3) NED acceleration, m/s^2.
+        omega_nb_b: (N,3) body rate relative to the (Earth-fixed) NED frame, rad/s.
+        omega_ib_b: (N,3) body rate relative to inertial space (what a perfect gyro measures), rad/s.
+        f_b: (N,3) specific force (what a perfect accelerometer measures), m/s^2.
+    """
+
+    t: np.ndarray
+    euler: np.ndarray
+    C_b_n: np.ndarray
+    v_b: np.ndarray
+    dv_b: np.ndarray
+    v_n: np.ndarray
+    a_n: np.ndarray
+    omega_nb_b: np.ndarray
+    omega_ib_b: np.ndarray
+    f_b: np.ndarray
+
+
+@dataclass
+class SimTrajectory:
+    """The analytic trajectory of a simulated mission (kept in ``mission.meta["trajectory"]``).
+
+    Attributes:
+        yaw0: initial heading, rad.
+        p0_n: initial NED position of the IMU, m.
+        yaw, pitch, speed: smooth steps of yaw (rad), pitch (rad), forward speed u (m/s).
+        roll_osc, pitch_osc, yaw_osc, u_osc, sway, heave: sinusoids (rad or m/s).
+        bank_s: roll in turns = bank_s * yaw rate (s).
+        speed0: forward speed at t=0 before the speed steps, m/s.
+        gravity_mps2, omega_ie_n: gravity magnitude (m/s^2) and Earth rate in NED (rad/s) of the IMU model.
+    """
+
+    yaw0: float
+    p0_n: np.ndarray
+    speed0: float
+    gravity_mps2: float
+    omega_ie_n: np.ndarray
+    yaw: SmoothSteps = field(default_factory=SmoothSteps)
+    pitch: SmoothSteps = field(default_factory=SmoothSteps)
+    speed: SmoothSteps = field(default_factory=SmoothSteps)
+    roll_osc: Sines = field(default_factory=Sines)
+    pitch_osc: Sines = field(default_factory=Sines)
+    yaw_osc: Sines = field(default_factory=Sines)
+    u_osc: Sines = field(default_factory=Sines)
+    sway: Sines = field(default_factory=Sines)
+    heave: Sines = field(default_factory=Sines)
+    bank_s: float = 0.3
+
+    def euler_and_body_velocity(self, t: np.ndarray):
+        """(euler (N,3), euler rates (N,3), v_b (N,3), dv_b (N,3)) at sorted stamps t."""
+        t = np.asarray(t, dtype=float)
+        yaw_s, yaw_rate_s, yaw_acc_s = self.yaw.evaluate(t)
+        yaw_o, yaw_rate_o = self.yaw_osc.evaluate(t)
+        pitch_s, pitch_rate_s, _ = self.pitch.evaluate(t)
+        pitch_o, pitch_rate_o = self.pitch_osc.evaluate(t)
+        roll_o, roll_rate_o = self.roll_osc.evaluate(t)
+        u_s, u_rate_s, _ = self.speed.evaluate(t)
+        u_o, u_rate_o = self.u_osc.evaluate(t)
+        v, v_rate = self.sway.evaluate(t)
+        w, w_rate = self.heave.evaluate(t)
+        roll = roll_o + self.bank_s * yaw_rate_s
+        roll_rate = roll_rate_o + self.bank_s * yaw_acc_s
+        euler = np.stack([roll, pitch_s + pitch_o, self.yaw0 + yaw_s + yaw_o], axis=-1)
+        euler_rate = np.stack([roll_rate, pitch_rate_s + pitch_rate_o, yaw_rate_s + yaw_rate_o], axis=-1)
+        v_b = np.stack([self.speed0 + u_s + u_o, v, w], axis=-1)
+        dv_b = np.stack([u_rate_s + u_rate_o, v_rate, w_rate], axis=-1)
+        return euler, euler_rate, v_b, dv_b
+
+    def velocity_n(self, t: np.ndarray) -> np.ndarray:
+        """NED velocity (N,3), m/s, at sorted stamps t (s)."""
+        euler, _, v_b, _ = self.euler_and_body_velocity(t)
+        return np.einsum("nij,nj->ni", euler_to_C_b_n(*euler.T), v_b)
+
+    def state(self, t: np.ndarray) -> TrueState:
+        """Exact kinematics at sorted stamps t (s)."""
+        t = np.asarray(t, dtype=float)
+        euler, euler_rate, v_b, dv_b = self.euler_and_body_velocity(t)
+        C = euler_to_C_b_n(*euler.T)
+        roll, pitch = euler[:, 0], euler[:, 1]
+        droll, dpitch, dyaw = euler_rate.T
+        # Body rate from ZYX Euler-angle rates (C_b_n = Rz(yaw) Ry(pitch) Rx(roll)).
+        omega_nb_b = np.stack([
+            droll - dyaw * np.sin(pitch),
+            dpitch * np.cos(roll) + dyaw * np.sin(roll) * np.cos(pitch),
+            -dpitch * np.sin(roll) + dyaw * np.cos(roll) * np.cos(pitch)], axis=-1)
+        v_n = np.einsum("nij,nj->ni", C, v_b)
+        a_n = np.einsum("nij,nj->ni", C, dv_b + np.cross(omega_nb_b, v_b))
+        g_n = np.array([0.0, 0.0, self.gravity_mps2])
+        f_n = a_n + 2.0 * np.cross(self.omega_ie_n, v_n) - g_n
+        f_b = np.einsum("nji,nj->ni", C, f_n)
+        omega_ib_b = omega_nb_b + np.einsum("nji,j->ni", C, self.omega_ie_n)
+        return TrueState(t, euler, C, v_b, dv_b, v_n, a_n, omega_nb_b, omega_ib_b, f_b)
+
+    def position_n(self, t: np.ndarray, order: int = 6) -> np.ndarray:
+        """NED position (N,3), m, at sorted stamps t (s), starting from ``p0_n`` at t=0 (t[0] must be 0)."""
+        t = np.asarray(t, dtype=float)
+        if abs(t[0]) > 0:
+            raise ConfigError("position_n needs the stamps to start at t=0")
+        nodes, weights = np.polynomial.legendre.leggauss(order)
+        a, b = t[:-1], t[1:]
+        half = 0.5 * (b - a)
+        steps = np.empty((len(a), 3))
+        chunk = 20_000                  # intervals per call: bounded memory for multi-hour missions
+        for i in range(0, len(a), chunk):
+            sl = slice(i, i + chunk)
+            tau = (0.5 * (a[sl] + b[sl]))[:, None] + half[sl, None] * nodes[None, :]
+            v = self.velocity_n(tau.ravel()).reshape(-1, order, 3)
+            steps[sl] = np.einsum("k,nkj->nj", weights, v) * half[sl, None]
+        return self.p0_n + np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+
+    def imu_samples(self, t: np.ndarray, dt: float, order: int = 3) -> tuple[np.ndarray, np.ndarray]:
+        """Exact increment-type IMU samples (f_b (N,3) m/s^2, omega_b (N,3) rad/s) for stamps t (s).
+
+        Sample k is the increment over ``[t_k, t_k + dt]`` divided by dt (see the module docstring).
+        """
+        t = np.asarray(t, dtype=float)
+        euler_k = self.euler_and_body_velocity(t)[0]
+        euler_k1 = self.euler_and_body_velocity(t + dt)[0]
+        C_k = euler_to_C_b_n(*euler_k.T)
+        C_k1 = euler_to_C_b_n(*euler_k1.T)
+        # Gyro: body rotation relative to inertial space over the interval; the NED frame turns with
+        # the Earth by Exp(omega_ie_n dt) (transport rate neglected).
+        C_earth = Rotation.from_rotvec(self.omega_ie_n * dt).as_matrix()
+        delta = np.swapaxes(C_k, 1, 2) @ (C_earth @ C_k1)
+        omega_b = Rotation.from_matrix(delta).as_rotvec() / dt
+        # Accelerometer: velocity increment in the body axes frozen at t_k (includes sculling exactly).
+        nodes, weights = np.polynomial.legendre.leggauss(order)
+        f_b = np.zeros((len(t), 3))
+        for node, weight in zip(nodes, weights):
+            state = self.state(t + 0.5 * dt * (1.0 + node))
+            rel = np.swapaxes(C_k, 1, 2) @ state.C_b_n           # C_k^T C(tau)
+            f_b += 0.5 * weight * (rel @ state.f_b[:, :, None])[:, :, 0]
+        return f_b, omega_b
+
+
+# --- mission plan ------------------------------------------------------------------------------------
+
+def _depth_rate(traj: SimTrajectory, t: np.ndarray) -> np.ndarray:
+    euler, _, v_b, _ = traj.euler_and_body_velocity(t)
+    roll, pitch = euler[:, 0], euler[:, 1]
+    u, v, w = v_b.T
+    # Down component of C_b_n v_b (independent of yaw).
+    return -np.sin(pitch) * u + np.cos(pitch) * np.sin(roll) * v + np.cos(pitch) * np.cos(roll) * w
+
+
+def _depth_change(traj: SimTrajectory, ta: float, tb: float) -> float:
+    """Depth change (m) over [ta, tb] by Gauss-Legendre on 1 s panels (planning accuracy)."""
+    if tb <= ta:
+        return 0.0
+    n_panels = max(1, int(np.ceil(tb - ta)))
+    edges = np.linspace(ta, tb, n_panels + 1)
+    nodes, weights = np.polynomial.legendre.leggauss(4)
+    half = 0.5 * np.diff(edges)
+    tau = (0.5 * (edges[:-1] + edges[1:]))[:, None] + half[:, None] * nodes[None, :]
+    rate = _depth_rate(traj, tau.ravel()).reshape(n_panels, 4)
+    return float(np.sum(rate @ weights * half))
+
+
+def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: float,
+                    omega_ie_n: np.ndarray) -> SimTrajectory:
+    """Random (seeded) lawnmower survey covering at least ``duration_s`` seconds."""
+    traj = SimTrajectory(yaw0=float(rng.uniform(-np.pi, np.pi)),
+                         p0_n=np.array([0.0, 0.0, START_DEPTH_M]), speed0=1.3,
+                         gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float))
+    # Sea-state and control oscillations: a few degrees, periods 8-20 s.
+    for _ in range(2):
+        traj.roll_osc.add(rng.uniform(1.0, 2.0) * DEG, rng.uniform(8.0, 20.0), rng.uniform(0, 2 * np.pi))
+        traj.pitch_osc.add(rng.uniform(0.5, 1.5) * DEG, rng.uniform(8.0, 20.0), rng.uniform(0, 2 * np.pi))
+    traj.yaw_osc.add(rng.uniform(0.2, 0.5) * DEG, rng.uniform(10.0, 20.0), rng.uniform(0, 2 * np.pi))
+    traj.u_osc.add(rng.uniform(0.01, 0.04), rng.uniform(15.0, 30.0), rng.uniform(0, 2 * np.pi))
+    traj.sway.add(rng.uniform(0.02, 0.06), rng.uniform(10.0, 25.0), rng.uniform(0, 2 * np.pi))
+    traj.heave.add(rng.uniform(0.01, 0.03), rng.uniform(8.0, 15.0), rng.uniform(0, 2 * np.pi))
+
+    # Descent: pitch down at t=3 s, hold long enough to reach the survey depth, pitch back up.
+    target = float(rng.uniform(22.0, 28.0))
+    pitch_down = -float(rng.uniform(15.0, 19.0)) * DEG
+    ramp = 8.0
+    traj.speed.add(2.0, 15.0, float(rng.uniform(1.4, 2.3)) - traj.speed0)
+    traj.pitch.add(3.0, ramp, pitch_down)
+    up = traj.pitch.add(3.0 + ramp, ramp, -pitch_down)
+
+    def descent_error(hold: float) -> float:
+        traj.pitch.t0[up] = 3.0 + ramp + hold
+        return START_DEPTH_M + _depth_change(traj, 0.0, 3.0 + 2 * ramp + hold) - target
+
+    hold = brentq(descent_error, 0.0, 400.0, xtol=1e-3)
+    descent_error(hold)
+    t_known, depth_known = 0.0, START_DEPTH_M
+
+    cursor, leg, turn_sign = 0.0, 0, 1.0
+    while cursor < duration_s + 1.0:
+        leg_start = cursor
+        leg_len = float(rng.uniform(100.0, 160.0))
+        if leg == 0:
+            leg_len = max(leg_len, 3.0 + 2 * ramp + hold + 40.0)
+        else:
+            speed_now = traj.speed0 + sum(traj.speed.delta)
+            traj.speed.add(leg_start + 2.0, 20.0, float(rng.uniform(1.1, 2.3)) - speed_now)
+            if rng.random() < 0.75:
+                # Depth change by a pitch bump; its amplitude is solved so the bump ends at the target.
+                t_a, rise, hold_b = leg_start + 30.0, 10.0, float(rng.uniform(5.0, 20.0))
+                t_b = t_a + 2 * rise + hold_b
+                depth_known += _depth_change(traj, t_known, t_a)
+                t_known = t_a
+                target = float(np.clip(25.0 + rng.uniform(-6.0, 6.0), 15.0, 35.0))
+                i_dn = traj.pitch.add(t_a, rise, 0.0)
+                i_up = traj.pitch.add(t_a + rise + hold_b, rise, 0.0)
+
+                def bump_error(theta: float) -> float:
+                    traj.pitch.delta[i_dn], traj.pitch.delta[i_up] = theta, -theta
+                    return depth_known + _depth_change(traj, t_a, t_b) - target
+
+                lo, hi = -20.0 * DEG, 20.0 * DEG
+                if bump_error(lo) * bump_error(hi) < 0:
+                    bump_error(brentq(bump_error, lo, hi, xtol=1e-6))
+                else:
+                    bump_error(lo if abs(bump_error(lo)) < abs(bump_error(hi)) else hi)
+        if leg > 0 and rng.random() < 0.5:
+            # A second speed change late in the leg (after any depth change), before the turn.
+            speed_now = traj.speed0 + sum(traj.speed.delta)
+            traj.speed.add(leg_start + 75.0, 15.0, float(rng.uniform(1.1, 2.3)) - speed_now)
+        # Lawnmower turn: 90 deg, short cross leg, 90 deg in the same direction; alternate direction.
+        t_turn = leg_start + leg_len
+        turn1, cross, turn2 = (float(rng.uniform(30.0, 40.0)), float(rng.uniform(10.0, 25.0)),
+                               float(rng.uniform(30.0, 40.0)))
+        traj.yaw.add(t_turn, turn1, turn_sign * np.pi / 2)
+        traj.yaw.add(t_turn + turn1 + cross, turn2, turn_sign * np.pi / 2)
+        cursor = t_turn + turn1 + cross + turn2
+        turn_sign = -turn_sign
+        leg += 1
+    return traj
+
+
+# --- the mission -------------------------------------------------------------------------------------
+
+def _default_config(lever_arm_b) -> SensorConfig:
+    lat = DEFAULT_ORIGIN_LLA[0]
+    return SensorConfig(dvl=DvlSpec(lever_arm_b=np.asarray(lever_arm_b, float)), lat_rad=lat,
+                        gravity_mps2=gravity_magnitude(lat))
+
+
+def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
+                     lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
+                     gt_rate_hz: float = 10.0, noiseless: bool = False,
+                     dvl_stamp_offset_s: float = 0.0) -> Mission:
+    """Simulate a realistic AUV survey mission with exact ground truth.
+
+    Args:
+        duration_s: mission length, s (1 s .. :data:`MAX_DURATION_S`, 24 h: the Snapir AUV's endurance is 21 h).
+        imu_grade: ``navigation``, ``tactical``, ``mems`` (see :data:`graphnav.core.config.IMU_GRADES`) or an
+            :class:`ImuSpec`. The IMU errors are drawn from it and ``mission.config.imu`` is set to it.
+        seed: seed of everything random (trajectory, IMU errors, DVL errors, dropouts, depth noise); each
+            has its own stream, so e.g. ``noiseless=True`` keeps the same trajectory.
+        lever_arm_b: DVL lever arm in the body frame, m; default ``config.dvl.lever_arm_b`` when a config
+            is given, else :data:`DEFAULT_LEVER_ARM_B`.
+        dropout: bottom-lock dropouts from :func:`graphnav.core.scenarios.markov_dropout` (invalid beams NaN).
+        config: sensor configuration to simulate (latitude, gravity, Earth rotation, IMU rate, DVL geometry
+            incl. C_d_b and error model, depth noise); default: lat 32.85 deg, WGS84 gravity, 100 Hz IMU,
+            1 Hz DVL with the paper's error model. Its time offsets and IMU axis signs are reset (the
+            simulated streams are on the IMU clock, in FRD).
+        gt_rate_hz: ground-truth rate, Hz (must divide the IMU rate).
+        noiseless: no IMU, DVL or depth errors (exact measurements).
+        dvl_stamp_offset_s: DVL pings at ``k / dvl_rate + offset`` (s, ``0 <= offset < 1 / dvl_rate``);
+            an offset that is not a multiple of the IMU period puts every ping between two IMU samples,
+            as on real data. Default 0: pings on IMU stamps.
+
+    Returns:
+        A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
+        ``imu_errors`` (:class:`graphnav.sim.imu_errors.ImuErrorTruth` with the true biases, None if noiseless),
+        ``dvl_errors`` (dict of the true beam bias, scale factor and noise std) and ``trajectory``
+        (:class:`SimTrajectory`, exact kinematics at any time).
+    """
+    if not 1.0 <= duration_s <= MAX_DURATION_S:
+        raise ConfigError(f"duration_s must be in [1, {MAX_DURATION_S:.0f}] s, got {duration_s}")
+    spec = imu_grade if isinstance(imu_grade, ImuSpec) else _imu_grade(imu_grade)
+    if config is None:
+        config = _default_config(DEFAULT_LEVER_ARM_B if lever_arm_b is None else lever_arm_b)
+    else:
+        config = SensorConfig.from_dict(config.to_dict())      # deep copy; the caller's stays untouched
+        if lever_arm_b is not None:
+            config.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
+    config.imu = dataclasses.replace(spec)
+    # Simulated streams are born on the IMU clock in FRD axes: nothing was shifted or flipped.
+    config.dvl_time_offset_s = config.gt_time_offset_s = 0.0
+    config.imu_axis_signs = np.ones(3)
+
+    imu_rate = float(config.imu_rate_hz)
+    gt_stride = imu_rate / gt_rate_hz
+    dvl_stride = imu_rate / config.dvl.rate_hz
+    depth_stride = imu_rate / 10.0
+    for name, stride in (("gt_rate_hz", gt_stride), ("dvl.rate_hz", dvl_stride), ("depth rate", depth_stride)):
+        if stride < 1 or abs(stride - round(stride)) > 1e-9:
+            raise ConfigError(f"{name} must divide the IMU rate {imu_rate} Hz")
+    gt_stride, dvl_stride, depth_stride = int(round(gt_stride)), int(round(dvl_stride)), int(round(depth_stride))
+
+    seq = np.random.SeedSequence(seed)
+    rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth = (np.random.default_rng(s) for s in seq.spawn(5))
+    omega_ie_n = earth_rate_n(config.lat_rad) if config.earth_rotation else np.zeros(3)
+    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, omega_ie_n)
+
+    n_imu = int(round(duration_s * imu_rate)) + 1
+    t_imu = np.arange(n_imu) / imu_rate                 # integer-based stamps: every stream shares them
+    dt = 1.0 / imu_rate
+    f_b = np.empty((n_imu, 3))
+    omega_b = np.empty((n_imu, 3))
+    chunk = 100_000                                     # bounded memory for multi-hour missions
+    for i in range(0, n_imu, chunk):
+        f_b[i:i + chunk], omega_b[i:i + chunk] = traj.imu_samples(t_imu[i:i + chunk], dt)
+    imu = ImuData(t_imu, f_b, omega_b)
+    imu_truth = None
+    if not noiseless:
+        imu, imu_truth = corrupt_imu(imu, spec, rng_imu, rate_hz=imu_rate)
+        imu_truth.seed = seed
+
+    # Ground truth and depth: exact states at their stamps, positions by quadrature.
+    i_gt = np.arange(0, n_imu, gt_stride)
+    i_depth = np.arange(0, n_imu, depth_stride)
+    i_pos = np.union1d(i_gt, i_depth)
+    p_all = traj.position_n(t_imu[i_pos])
+    gt_state = traj.state(t_imu[i_gt])
+    gt = GroundTruth(t_imu[i_gt], p_all[np.searchsorted(i_pos, i_gt)], gt_state.v_n, gt_state.C_b_n,
+                     DEFAULT_ORIGIN_LLA)
+    depth_true = p_all[np.searchsorted(i_pos, i_depth), 2]
+    depth_noise = 0.0 if noiseless else rng_depth.normal(0.0, config.depth_noise_std, len(i_depth))
+    depth = DepthData(t_imu[i_depth], depth_true + depth_noise)
+
+    # DVL: beams of the DVL-head velocity v_b + omega_nb_b x l_b (the DVL measures relative to the seafloor).
+    if not 0.0 <= dvl_stamp_offset_s < 1.0 / config.dvl.rate_hz:
+        raise ConfigError(f"dvl_stamp_offset_s must be in [0, {1.0 / config.dvl.rate_hz}) s, "
+                          f"got {dvl_stamp_offset_s}")
+    t_dvl = t_imu[::dvl_stride] + dvl_stamp_offset_s
+    t_dvl = t_dvl[t_dvl <= t_imu[-1]]
+    dvl_state = traj.state(t_dvl)
+    geometry = DvlGeometry.from_spec(config.dvl)
+    v_head_b = geometry.dvl_velocity_b(dvl_state.v_b, dvl_state.omega_nb_b)
+    errors = DvlErrorModel.from_spec(config.dvl)
+    if noiseless:
+        beams = geometry.beams_from_velocity(v_head_b)
+    else:
+        beams = errors.beams(geometry, v_head_b, rng_dvl)
+    valid = markov_dropout(len(t_dvl), seed=rng_drop) if dropout else np.ones((len(t_dvl), 4), bool)
+    beams[~valid] = np.nan
+    dvl = DvlData(t_dvl, beams, valid, geometry.velocity_from_beams(beams, valid, allow_missing=True))
+
+    grade = spec.name
+    name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
+        ("-noiseless" if noiseless else "")
+    meta = {
+        "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
+        "imu_errors": imu_truth,
+        "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
+                                              "scale_factor": errors.scale_factor.copy(),
+                                              "noise_std": errors.noise_std},
+        "trajectory": traj,
+        "imu_sample_convention": "increment over [t_k, t_k + dt] divided by dt",
+    }
+    return Mission(name, imu, dvl, config, gt, depth, meta)
