@@ -7,7 +7,8 @@ DVL head along its unit vector,
 
 with ``R`` = ``C_b_n`` the attitude of Pose3 ``x_k``, ``v_n`` the NED velocity ``v_k`` (Vector3), ``b_g`` the
 gyro part of the IMU bias ``b_k`` (imuBias.ConstantBias, tangent ``[acc, gyro]``), ``omega_b`` the raw body
-rate of the IMU sample nearest the DVL stamp (rad/s, the Earth rate already removed by the caller if wanted),
+rate at the DVL stamp (interpolated between the IMU samples around it, rad/s; the Earth rate already removed
+by the caller if wanted),
 ``l_b`` the lever arm (m, body frame) and ``b_i^T C_d_b^T`` = row i of :attr:`graphnav.core.dvl.DvlGeometry.T_b`.
 
 One factor may hold any number m of beams (rows); per-beam sigmas go in a diagonal noise model, so the
@@ -15,17 +16,12 @@ same code serves "one factor per beam" (m = 1) and "one factor per epoch" (m = n
 The loosely coupled factor is the same model with the identity as its rows (3 rows, the DVL-head body
 velocity).
 
-Jacobians, in GTSAM's conventions (right perturbation ``R Exp(dtheta)``, Pose3 tangent ``[rot, trans]``,
-bias tangent ``[acc, gyro]``), with ``B`` the (m,3) rows:
-
-    d/dpose = [B [R^T v]x, 0]      d/dv = B R^T      d/dbias = [0, B [l]x]      d/dl = B [omega - b_g]x
-
-DVL error states (:func:`beam_factor_dvl_errors`, as the EKF's ``dvl_error_states``): a Vector7 variable
-``d = [s (3), b (4)]`` holds the scale factor per DVL axis and the bias per beam, beam model
-``y_i = T_d[i] ((1 + s) * v_d) + b_i`` with ``v_d = C_d_b^T (R^T v_n + (omega_b - b_g) x l_b)``. With
-``M`` = rows ``T_d[i] diag(1 + s) C_d_b^T`` in place of ``B`` above, plus
-
-    d/ds = T_d[i] * v_d (elementwise)      d/db = e_i (the factor's beam index)
+The model and its Jacobians are :mod:`graphnav.core.beam_model` (written once, also used by the vectorised
+batch and the EKF); here they are placed in GTSAM's tangent layouts: right perturbation ``R Exp(dtheta)``,
+Pose3 tangent ``[rot, trans]``, bias tangent ``[acc, gyro]``, Point3 lever arm, Vector7 DVL error states
+``d = [s (3), b (4)]`` (scale factor per DVL axis, bias per beam; beam model ``y_i = T_d[i] ((1 + s) * v_d) +
+b_i``, as the EKF's ``dvl_error_states``). One builder, :func:`dvl_factor`, makes every variant (fixed or
+variable lever arm, with or without the DVL error states); the other builders name its common uses.
 
 ``gtsam.CustomFactor`` calls back into Python; inside the C++ optimisers each call also copies the whole
 ``Values`` (pybind11 casts the ``const Values&`` argument by copy), so the cost of one call grows with the
@@ -36,16 +32,10 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 
-_ZERO3 = np.zeros((0, 3))
+from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    # np.cross costs ~0.1 ms on 3-vectors (axis handling); this runs in every factor call
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+__all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
+           "body_velocity_factor", "dvl_factor", "predict_beams"]
 
 
 def beam_noise(sigmas: np.ndarray, huber_k: float | None = None) -> gtsam.noiseModel.Base:
@@ -56,113 +46,97 @@ def beam_noise(sigmas: np.ndarray, huber_k: float | None = None) -> gtsam.noiseM
     return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(float(huber_k)), base)
 
 
-def _rows_measurements_noise(rows_b, y, noise):
-    """(B (m,3), y (m,), noise model) of a DVL factor; (m,) sigmas become :func:`beam_noise`."""
+def predict_beams(rows_b: np.ndarray, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray,
+                  gyro_bias: np.ndarray, lever_arm_b: np.ndarray) -> np.ndarray:
+    """Predicted measurements ``B (R^T v_n + (omega_b - b_g) x l_b)`` (m,), m/s (no DVL error states)."""
+    return BeamModel(rows_b).predict(np.asarray(C_b_n, float), np.asarray(v_n, float), np.asarray(omega_b, float),
+                                     np.asarray(gyro_bias, float), np.asarray(lever_arm_b, float)).h
+
+
+def dvl_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.ndarray,
+               noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
+               lever_arm_b: np.ndarray | None = None, *, l_key: int | None = None, d_key: int | None = None,
+               beam_index: np.ndarray | None = None, C_d_b: np.ndarray | None = None) -> gtsam.CustomFactor:
+    """DVL factor on (Pose3 x, Vector3 v_n, ConstantBias b [, Vector7 d] [, Point3 l]) for m rows.
+
+    Args:
+        x_key, v_key, b_key: keys of the pose, NED velocity and IMU bias.
+        rows_b: (m,3) beam unit vectors in the body frame (rows of ``DvlGeometry.T_b``), or I3 for LC.
+        y: (m,) measured beam velocities of the DVL head, m/s (or the 3 body-velocity components).
+        noise: a gtsam noise model of dimension m, or (m,) sigmas in m/s.
+        omega_b: (3,) raw body rate at the ping, rad/s.
+        lever_arm_b: (3,) DVL position relative to the IMU, body frame, m (fixed); or
+        l_key: key of a Point3 lever-arm variable (body frame, m), for lever-arm calibration.
+        d_key: key of the Vector7 DVL error states [scale (3), beam bias (4) m/s]; needs
+        beam_index: (m,) 0-based beam number of each row (which bias applies) and
+        C_d_b: (3,3) DVL-to-body rotation (the scale factor acts on the DVL-frame axes).
+
+    Keys (and Jacobians) in the order x, v, b, d, l.
+    """
     B = np.array(rows_b, dtype=float).reshape(-1, 3)
     y = np.array(y, dtype=float).reshape(-1)
     if B.shape[0] != y.shape[0]:
         raise ValueError(f"{B.shape[0]} beam rows but {y.shape[0]} measurements")
+    if (lever_arm_b is None) == (l_key is None):
+        raise ValueError("give either a fixed lever_arm_b or a lever-arm variable l_key")
+    if (d_key is None) != (beam_index is None):
+        raise ValueError("the DVL error states need both d_key and beam_index")
     if not isinstance(noise, gtsam.noiseModel.Base):
         noise = beam_noise(noise)
-    return B, y, noise
+    model = BeamModel(B, beam_index, C_d_b) if d_key is not None else BeamModel(B)
+    omega = np.array(omega_b, dtype=float).reshape(3)
+    lever = None if lever_arm_b is None else np.array(lever_arm_b, dtype=float).reshape(3)
+    zeros = np.zeros((B.shape[0], 3))
+    # with a fixed lever arm and no scale states d/dbias = [0, B [l]x] is constant
+    H_bias = (np.hstack([zeros, model.predict(np.eye(3), zeros[0], zeros[0], zeros[0], lever).d_gyro_bias()])
+              if lever is not None and d_key is None else None)
+    keys = [x_key, v_key, b_key] + ([d_key] if d_key is not None else []) + ([l_key] if l_key is not None else [])
 
+    def error(_factor, values, H):
+        p = model.predict(values.atPose3(x_key).rotation().matrix(), values.atVector(v_key), omega,
+                          values.atConstantBias(b_key).gyroscope(),
+                          lever if l_key is None else values.atPoint3(l_key),
+                          None if d_key is None else values.atVector(d_key))
+        if H is not None:
+            H[0] = np.hstack([p.d_rot(), zeros])
+            H[1] = p.d_v()
+            H[2] = H_bias if H_bias is not None else np.hstack([zeros, p.d_gyro_bias()])
+            if d_key is not None:
+                H[3] = p.d_dvl_errors()
+            if l_key is not None:
+                H[len(keys) - 1] = p.d_lever_arm()
+        return p.h - y
 
-def predict_beams(rows_b: np.ndarray, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray,
-                  gyro_bias: np.ndarray, lever_arm_b: np.ndarray) -> np.ndarray:
-    """Predicted measurements ``B (R^T v_n + (omega_b - b_g) x l_b)`` (m,), m/s."""
-    return rows_b @ (C_b_n.T @ v_n + np.cross(omega_b - gyro_bias, lever_arm_b))
+    return gtsam.CustomFactor(noise, keys, error)
 
 
 def beam_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.ndarray,
                 noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
                 lever_arm_b: np.ndarray) -> gtsam.CustomFactor:
-    """DVL factor on (Pose3 x, Vector3 v_n, ConstantBias b) for m beams (or the 3-row body velocity).
-
-    Args:
-        x_key, v_key, b_key: keys of the pose, NED velocity and IMU bias.
-        rows_b: (m,3) beam unit vectors in the body frame (rows of ``DvlGeometry.T_b``), or I3 for LC.
-        y: (m,) measured beam velocities of the DVL head, m/s.
-        noise: a gtsam noise model of dimension m, or (m,) sigmas in m/s.
-        omega_b: (3,) measured body rate near the DVL stamp, rad/s.
-        lever_arm_b: (3,) DVL position relative to the IMU, body frame, m.
-    """
-    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
-    omega = np.array(omega_b, dtype=float).reshape(3)
-    lever = np.array(lever_arm_b, dtype=float).reshape(3)
-    # d/dbias is constant: [0, B [l]x]
-    H_bias = np.hstack([np.zeros((B.shape[0], 3)), B @ _skew(lever)])
-
-    def error(_factor, values, H):
-        R = values.atPose3(x_key).rotation().matrix()
-        v_n = values.atVector(v_key)
-        b_g = values.atConstantBias(b_key).gyroscope()
-        v_body = R.T @ v_n
-        residual = B @ (v_body + _cross(omega - b_g, lever)) - y
-        if H is not None:
-            H[0] = np.hstack([B @ _skew(v_body), np.zeros((B.shape[0], 3))])
-            H[1] = B @ R.T
-            H[2] = H_bias
-        return residual
-
-    return gtsam.CustomFactor(noise, [x_key, v_key, b_key], error)
-
-
-#: Dimension of the DVL error-state vector ``[scale x, y, z, bias beam 1..4]``.
-N_DVL_ERRORS = 7
+    """DVL factor on (Pose3 x, Vector3 v_n, ConstantBias b) for m beams (:func:`dvl_factor`, fixed lever arm)."""
+    return dvl_factor(x_key, v_key, b_key, rows_b, y, noise, omega_b, lever_arm_b)
 
 
 def beam_factor_dvl_errors(x_key: int, v_key: int, b_key: int, d_key: int, rows_b: np.ndarray,
                            beam_index: np.ndarray, C_d_b: np.ndarray, y: np.ndarray,
                            noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
                            lever_arm_b: np.ndarray) -> gtsam.CustomFactor:
-    """As :func:`beam_factor`, plus the DVL error states: Vector7 ``d_key`` = [scale (3), beam bias (4) m/s].
-
-    Args:
-        rows_b: (m,3) beam unit vectors in the body frame (rows of ``DvlGeometry.T_b``).
-        beam_index: (m,) 0-based beam number of each row (which bias applies).
-        C_d_b: (3,3) DVL-to-body rotation (the scale factor acts on the DVL-frame axes).
-        Others as :func:`beam_factor`.
-    """
-    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
-    C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
-    rows_d = B @ C_d_b                     # T_d rows: T_b = T_d C_d_b^T
-    index = np.asarray(beam_index, dtype=int).reshape(-1)
-    if index.shape[0] != B.shape[0] or np.any((index < 0) | (index > 3)):
-        raise ValueError(f"beam_index must hold one beam number 0..3 per row, got {index.tolist()}")
-    onehot = np.zeros((B.shape[0], 4))
-    onehot[np.arange(B.shape[0]), index] = 1.0
-    omega = np.array(omega_b, dtype=float).reshape(3)
-    lever = np.array(lever_arm_b, dtype=float).reshape(3)
-    zeros = np.zeros((B.shape[0], 3))
-
-    def error(_factor, values, H):
-        R = values.atPose3(x_key).rotation().matrix()
-        v_n = values.atVector(v_key)
-        b_g = values.atConstantBias(b_key).gyroscope()
-        d = values.atVector(d_key)
-        v_body = R.T @ v_n
-        v_d = C_d_b.T @ (v_body + _cross(omega - b_g, lever))
-        residual = rows_d @ ((1.0 + d[:3]) * v_d) + onehot @ d[3:] - y
-        if H is not None:
-            M = (rows_d * (1.0 + d[:3])) @ C_d_b.T
-            H[0] = np.hstack([M @ _skew(v_body), zeros])
-            H[1] = M @ R.T
-            H[2] = np.hstack([zeros, M @ _skew(lever)])
-            H[3] = np.hstack([rows_d * v_d, onehot])
-        return residual
-
-    return gtsam.CustomFactor(noise, [x_key, v_key, b_key, d_key], error)
+    """As :func:`beam_factor`, plus the DVL error states: Vector7 ``d_key`` = [scale (3), beam bias (4) m/s]
+    (:func:`dvl_factor` with ``d_key``, ``beam_index``, ``C_d_b``)."""
+    return dvl_factor(x_key, v_key, b_key, rows_b, y, noise, omega_b, lever_arm_b, d_key=d_key,
+                      beam_index=beam_index, C_d_b=C_d_b)
 
 
 def body_velocity_factor(x_key: int, v_key: int, b_key: int, v_dvl_b: np.ndarray,
                          noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
                          lever_arm_b: np.ndarray) -> gtsam.CustomFactor:
-    """Loosely coupled factor: the DVL-head body velocity ``v_dvl_b`` (3,) m/s, residual 3 rows.
+    """Loosely coupled factor: the DVL-head body velocity ``v_dvl_b`` (3,) m/s, residual 3 rows (the beam
+    model with the identity as rows).
 
     ``noise`` is a 3-dimensional noise model (e.g. ``Gaussian.Covariance`` of the least-squares velocity)
     or (3,) sigmas in m/s.
     """
-    return beam_factor(x_key, v_key, b_key, np.eye(3), v_dvl_b, noise, omega_b, lever_arm_b)
+    return dvl_factor(x_key, v_key, b_key, np.eye(3), v_dvl_b, noise, omega_b, lever_arm_b)
 
 
 def beam_factor_lever_arm(x_key: int, v_key: int, b_key: int, l_key: int, rows_b: np.ndarray,
@@ -171,25 +145,6 @@ def beam_factor_lever_arm(x_key: int, v_key: int, b_key: int, l_key: int, rows_b
     """As :func:`beam_factor`, with the lever arm as a fourth variable (Point3 ``l_key``, body frame, m).
 
     For lever-arm calibration: put a (weak) prior on ``l_key`` and let the graph estimate it, or hold it
-    constant. Extra Jacobian ``d/dl = B [omega_b - b_g]x``.
+    constant (:func:`dvl_factor` with ``l_key``).
     """
-    B, y, noise = _rows_measurements_noise(rows_b, y, noise)
-    omega = np.array(omega_b, dtype=float).reshape(3)
-    zeros = np.zeros((B.shape[0], 3))
-
-    def error(_factor, values, H):
-        R = values.atPose3(x_key).rotation().matrix()
-        v_n = values.atVector(v_key)
-        b_g = values.atConstantBias(b_key).gyroscope()
-        lever = values.atPoint3(l_key)
-        v_body = R.T @ v_n
-        rate = omega - b_g
-        residual = B @ (v_body + _cross(rate, lever)) - y
-        if H is not None:
-            H[0] = np.hstack([B @ _skew(v_body), zeros])
-            H[1] = B @ R.T
-            H[2] = np.hstack([zeros, B @ _skew(lever)])
-            H[3] = B @ _skew(rate)
-        return residual
-
-    return gtsam.CustomFactor(noise, [x_key, v_key, b_key, l_key], error)
+    return dvl_factor(x_key, v_key, b_key, rows_b, y, noise, omega_b, l_key=l_key)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 
-from .dvl import _skew
+from graphnav.core.beam_model import skew3
 
 #: Body axes 1 (sway, starboard) and 2 (heave, down): the components a flight-style AUV keeps small.
 SWAY_HEAVE: tuple[int, ...] = (1, 2)
@@ -62,7 +62,7 @@ def nonholonomic_factor(x_key: int, v_key: int, sigmas, axes=SWAY_HEAVE, mean=No
         R = values.atPose3(x_key).rotation().matrix()
         v_b = R.T @ values.atVector(v_key)
         if H is not None:
-            H[0] = np.hstack([S @ _skew(v_b), zeros])
+            H[0] = np.hstack([S @ skew3(v_b), zeros])
             H[1] = S @ R.T
         return S @ v_b - m
 
@@ -86,9 +86,9 @@ def body_velocity_change_factor(xi_key: int, vi_key: int, xj_key: int, vj_key: i
         vbi = Ri.T @ values.atVector(vi_key)
         vbj = Rj.T @ values.atVector(vj_key)
         if H is not None:
-            H[0] = np.hstack([-S @ _skew(vbi), zeros])
+            H[0] = np.hstack([-S @ skew3(vbi), zeros])
             H[1] = -S @ Ri.T
-            H[2] = np.hstack([S @ _skew(vbj), zeros])
+            H[2] = np.hstack([S @ skew3(vbj), zeros])
             H[3] = S @ Rj.T
         return S @ (vbj - vbi)
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from graphnav.core.beam_model import BeamModel
 from graphnav.core.config import DvlSpec
 from graphnav.core.errors import GeometryError
 
@@ -45,6 +46,11 @@ class DvlGeometry:
         """(4,3) beam unit vectors in the body frame: ``y = T_b @ v_dvl_b``."""
         return self.T_d @ self.C_d_b.T
 
+    def beam_model(self, dvl_errors: bool = False) -> BeamModel:
+        """The :class:`~graphnav.core.beam_model.BeamModel` of the four beams (rows of :attr:`T_b`), with the
+        DVL error states (scale per DVL axis, bias per beam) when ``dvl_errors``."""
+        return BeamModel(self.T_b, np.arange(4), self.C_d_b) if dvl_errors else BeamModel(self.T_b)
+
     def dvl_velocity_b(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
         """Velocity of the DVL head in the body frame, ``v_b + omega_b x l_b``, m/s (…,3)."""
         v_b = np.asarray(v_b, dtype=float)
@@ -55,9 +61,15 @@ class DvlGeometry:
     def beams_from_velocity(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
         """Error-free beam velocities (…,4), m/s, from body velocity v_b (…,3) of the IMU and body rate.
 
-        With ``omega_b`` (rad/s) given, the lever-arm velocity is included.
+        With ``omega_b`` (rad/s) given, the lever-arm velocity is included (the beam model of
+        :mod:`graphnav.core.beam_model` at attitude I, zero gyro bias).
         """
-        return self.dvl_velocity_b(v_b, omega_b) @ self.T_b.T
+        v_b = np.asarray(v_b, dtype=float)
+        rate = np.zeros(3) if omega_b is None else np.asarray(omega_b, dtype=float)
+        lever = np.zeros(3) if omega_b is None else self.lever_arm_b
+        per_ping = v_b.ndim > 1 or rate.ndim > 1       # broadcast the pings over the four beam rows
+        v, w = (v_b[..., None, :], rate[..., None, :]) if per_ping else (v_b, rate)
+        return self.beam_model().predict(np.eye(3), v, w, np.zeros(3), lever).h
 
     def velocity_from_beams(self, beams: np.ndarray, valid: np.ndarray | None = None,
                             allow_missing: bool = False) -> np.ndarray:
@@ -108,10 +120,12 @@ class DvlErrorModel:
         return cls(spec.scale_factor.copy(), spec.beam_bias.copy(), spec.beam_noise_std)
 
     def beams(self, geometry: DvlGeometry, v_dvl_b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Noisy beams (N,4), m/s, from the DVL-head velocity in the body frame v_dvl_b (N,3)."""
-        v_d = np.atleast_2d(v_dvl_b) @ geometry.C_d_b       # row form of C_d_b^T v_b
-        clean = (v_d * (1.0 + self.scale_factor)) @ geometry.T_d.T
-        return clean + self.beam_bias + rng.normal(0.0, self.noise_std, clean.shape)
+        """Noisy beams (N,4), m/s, from the DVL-head velocity in the body frame v_dvl_b (N,3) (the beam model
+        of :mod:`graphnav.core.beam_model` with this scale and bias, plus white noise)."""
+        v = np.atleast_2d(np.asarray(v_dvl_b, dtype=float))[:, None, :]
+        clean = geometry.beam_model(dvl_errors=True).predict(
+            np.eye(3), v, np.zeros(3), np.zeros(3), np.zeros(3), np.r_[self.scale_factor, self.beam_bias]).h
+        return clean + rng.normal(0.0, self.noise_std, clean.shape)
 
 
 def make_beams(v_dvl_b: np.ndarray, spec: DvlSpec, seed: int | np.random.Generator = 0) -> np.ndarray:

@@ -216,10 +216,9 @@ class ErrorStateEkf:
                              imu.accel_bias_rw ** 2, imu.gyro_bias_rw ** 2], 3)
         geometry = DvlGeometry.from_spec(config.dvl)
         self.T_b = geometry.T_b
-        self.T_d, self.C_d_b = geometry.T_d, geometry.C_d_b
+        self.beam_model = geometry.beam_model(dvl_errors=opts.dvl_error_states)
         use_lever = (np.any(config.dvl.lever_arm_b != 0) if opts.lever_arm is None else opts.lever_arm)
         self.lever_arm_b = geometry.lever_arm_b if use_lever else np.zeros(3)
-        self.skew_lever = skew(self.lever_arm_b)
         self.beam_noise_std = config.dvl.beam_noise_std if opts.beam_noise_std is None else opts.beam_noise_std
         modelled = opts.dvl_error_states       # bias and scale are states: no white-noise inflation
         self.beam_bias_std = ((0.0 if modelled else float(np.max(np.abs(dvl.beam_bias))))
@@ -284,25 +283,23 @@ class ErrorStateEkf:
     def predicted_beams(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h (4,) predicted beams, m/s; H (4, n_states)) at the current state.
 
-        ``h = T_d [(1 + s) C_d_b^T v_d_b] + b`` with the DVL-head velocity
-        ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b`` (``omega_b`` raw IMU rate at the ping, rad/s);
-        s and b are zero unless :attr:`EkfOptions.dvl_error_states`.
+        ``h`` is the beam model of :mod:`graphnav.core.beam_model` (``h = T_d [(1 + s) C_d_b^T v_d_b] + b``,
+        ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``, ``omega_b`` the raw IMU rate at the ping, rad/s; s and
+        b zero unless :attr:`EkfOptions.dvl_error_states`); ``H`` its Jacobians mapped to this filter's error
+        state: with "true = estimate - error" (``v = v_hat - dv``, ``b = b_hat - db``, ``C = C_hat Exp(-C_hat^T
+        eps)``) and ``dz = h(x_hat) - y``, every block is the model's derivative, the attitude one taken from
+        GTSAM's right perturbation to NED axes: ``H_eps = (dh/dtheta) C_hat^T``.
         """
         C = self.state.C_b_n
-        Ct = C.T
-        v_d_b = Ct @ self.state.v_n + np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
-        H_vel = np.zeros((3, self.n_states))          # d v_d_b / d dx
-        H_vel[:, IV] = Ct
-        H_vel[:, IE] = Ct @ skew(self.state.v_n)
-        H_vel[:, IG] = self.skew_lever
-        v_d = self.C_d_b.T @ v_d_b
-        M = self.T_d * (1.0 + self.dvl_scale)        # T_d diag(1 + s)
-        h = M @ v_d + self.beam_bias
-        H = (M @ self.C_d_b.T) @ H_vel
-        if self.n_states > N_STATES:
-            H[:, IS] = self.T_d * v_d
-            H[:, IB] = np.eye(4)
-        return h, H
+        dvl = np.r_[self.dvl_scale, self.beam_bias] if self.n_states > N_STATES else None
+        p = self.beam_model.predict(C, self.state.v_n, omega_b, self.bias_gyro, self.lever_arm_b, dvl)
+        H = np.zeros((len(p.h), self.n_states))
+        H[:, IV] = p.d_v()
+        H[:, IE] = p.d_rot() @ C.T
+        H[:, IG] = p.d_gyro_bias()
+        if dvl is not None:
+            H[:, N_STATES:] = p.d_dvl_errors()
+        return p.h, H
 
     def beam_variance(self, beams: np.ndarray) -> np.ndarray:
         """Assumed variance (m/s)^2 of beam measurements of magnitude |beams| (white + bias + scale)."""

@@ -6,8 +6,8 @@ linearisation of an N-keyframe graph costs O(N^2) (probe: LM 393 s at 1 h). The 
 ``"vectorized"``, is Gauss-Newton where
 
 - the C++ factors (priors, CombinedImuFactor, depth) are linearised by GTSAM, and
-- all DVL beam factors are linearised at once in numpy (same model and Jacobians as
-  :func:`graphnav.factors.beam_factor`; Huber kernels by iteratively reweighted least squares, as GTSAM's
+- all DVL beam factors are linearised at once in numpy (the one beam model of
+  :mod:`graphnav.core.beam_model`, as in :func:`graphnav.factors.dvl_factor`; Huber kernels by iteratively reweighted least squares, as GTSAM's
   robust noise model does) and added as ``JacobianFactor`` s,
 
 then the linear system is solved by GTSAM's multifrontal elimination and the step retracted on the
@@ -26,11 +26,11 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, D, V, X
 
+from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph.builder import BeamGroup, KeyframeFactors
 from graphnav.estimators.graph.incremental import EpochEstimate, is_indeterminant
 from graphnav.estimators.graph.options import BATCH_SOLVERS, GraphOptions
-from graphnav.factors import N_DVL_ERRORS
 
 
 class StackedBeams:
@@ -60,6 +60,7 @@ class StackedBeams:
         order = np.argsort(self.k, kind="stable")
         for name in ("k", "rows", "y", "sigma", "huber", "omega", "lever", "beam", "uses_d"):
             setattr(self, name, getattr(self, name)[order])
+        self.model = BeamModel(self.rows, self.beam, self.C_d_b) if self.has_dvl_errors else BeamModel(self.rows)
         # one JacobianFactor per keyframe: row ranges
         self.keyframes, self.starts = np.unique(self.k, return_index=True)
         self.ends = np.append(self.starts[1:], len(self.k))
@@ -67,30 +68,14 @@ class StackedBeams:
     def linearize(self, C_b_n: np.ndarray, v_n: np.ndarray, gyro_bias: np.ndarray,
                   dvl_errors: np.ndarray | None = None):
         """Residuals e (R,) and Jacobians (R,3) d/drot, d/dv, d/dgyro-bias at per-keyframe states (K,...),
-        and (R,7) d/dD (None without DVL error states; ``dvl_errors`` (K,7) = [scale (3), beam bias (4)])."""
-        R = C_b_n[self.k]
-        v_body = np.einsum("rji,rj->ri", R, v_n[self.k])
-        rate = self.omega - gyro_bias[self.k]
-        v_head = v_body + np.cross(rate, self.lever)
-        if not self.has_dvl_errors:
-            M = self.rows
-            e = np.einsum("ri,ri->r", M, v_head) - self.y
-            J_d = None
-        else:
-            # y = T_d[(1 + s) v_d] + b: M = T_d diag(1 + s) C_d_b^T takes the place of the body-frame rows
-            d = dvl_errors[self.k] * self.uses_d[:, None]
-            rows_d = self.rows @ self.C_d_b
-            v_d = v_head @ self.C_d_b
-            M = (rows_d * (1.0 + d[:, :3])) @ self.C_d_b.T
-            onehot = np.zeros((len(self.k), 4))
-            onehot[np.arange(len(self.k)), self.beam] = 1.0
-            e = np.einsum("ri,ri->r", M, v_head) + d[np.arange(len(self.k)), 3 + self.beam] - self.y
-            J_d = np.hstack([rows_d * v_d, onehot]) * self.uses_d[:, None]
-        # b^T [u]x w = w . (b x u)
-        J_rot = np.cross(M, v_body)
-        J_v = np.einsum("rij,rj->ri", R, M)
-        J_bg = np.cross(M, self.lever)
-        return e, J_rot, J_v, J_bg, J_d
+        and (R,7) d/dD (None without DVL error states; ``dvl_errors`` (K,7) = [scale (3), beam bias (4)]).
+        The model is :class:`graphnav.core.beam_model.BeamModel` with one state per row."""
+        k = self.k
+        # rows without the DVL error states see s = b = 0 and no D(k) columns
+        d = None if not self.has_dvl_errors else dvl_errors[k] * self.uses_d[:, None]
+        p = self.model.predict(C_b_n[k], v_n[k], self.omega, gyro_bias[k], self.lever, d)
+        J_d = None if d is None else p.d_dvl_errors() * self.uses_d[:, None]
+        return p.h - self.y, p.d_rot(), p.d_v(), p.d_gyro_bias(), J_d
 
     def weights(self, e: np.ndarray) -> np.ndarray:
         """Huber IRLS weights (1 where no kernel or inside the threshold)."""
