@@ -164,9 +164,9 @@ class EkfBackend(_Aided):
             if ping.completed:
                 self.n_completed += 1
             if self.tight:
-                ekf.update_tc(ping.beams, ping.omega_b_interp, sigma)
+                ekf.update_tc(ping.beams, ping.omega_b, sigma)
             else:
-                ekf.update_lc_beams(ping.beams, ping.omega_b_interp, sigma)
+                ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
         if kf.fix is not None:

@@ -42,7 +42,7 @@ class DvlMeasurement:
         y: (m,) beam velocities of the DVL head, m/s (measured or regressed).
         sigma: (m,) noise std per beam, m/s.
         regressed: (m,) True for beams filled in by the completer.
-        omega_b: (3,) gyro sample nearest the ping (raw, rad/s).
+        omega_b: (3,) raw gyro rate at the ping (interpolated, :func:`graphnav.estimators.keyframes.gyro_at`), rad/s.
     """
 
     t: float
@@ -161,7 +161,7 @@ class GraphContext:
         regressed = usable & ~ping.measured
         sigma = np.where(regressed, np.maximum(ping.sigma_regressed, self.regressed_floor), self.beam_sigma)
         return DvlMeasurement(ping.t, self.geometry.T_b[usable], ping.beams[usable], sigma[usable],
-                              regressed[usable], ping.omega_b_nearest.copy())
+                              regressed[usable], ping.omega_b.copy())
 
 
 def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> Keyframe:

@@ -47,11 +47,8 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import V, X
 
-from graphnav.factors import (
-    body_velocity_change_factor,
-    nonholonomic_factor,
-    predict_beams,
-)
+from graphnav.core.beam_model import BeamModel
+from graphnav.factors import body_velocity_change_factor, nonholonomic_factor
 
 
 @dataclass
@@ -91,8 +88,8 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     if prediction is None:
         return keep, sigma, stats
-    y_p = predict_beams(rows_b, C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
-    H = rows_b @ C_b_n.T
+    predicted = BeamModel(rows_b).predict(C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
+    y_p, H = predicted.h, predicted.d_v()
     a = np.maximum(np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H), 1e-12)
     a = a * options.regressed_prediction_var_scale
     s2 = sigma ** 2
