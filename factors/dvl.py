@@ -7,7 +7,7 @@ DVL head along its unit vector,
 
 with ``R`` = ``C_b_n`` the attitude of Pose3 ``x_k``, ``v_n`` the NED velocity ``v_k`` (Vector3), ``b_g`` the
 gyro part of the IMU bias ``b_k`` (imuBias.ConstantBias, tangent ``[acc, gyro]``), ``omega_b`` the raw body
-rate at the DVL stamp (interpolated between the IMU samples around it, rad/s; the Earth rate already removed
+rate at the DVL stamp (rad/s, :func:`graphnav.estimators.keyframes.gyro_at`; the Earth rate already removed
 by the caller if wanted),
 ``l_b`` the lever arm (m, body frame) and ``b_i^T C_d_b^T`` = row i of :attr:`graphnav.core.dvl.DvlGeometry.T_b`.
 
