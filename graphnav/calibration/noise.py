@@ -184,8 +184,11 @@ def identify(mission: Mission, sol=None) -> NoiseEstimate:
     est = identify_imu(mission)
     if sol is None:
         from graphnav.estimators.graph import GraphOptions
-        from graphnav.evaluation.methods import run_method
-        sol = run_method(mission, "Graph-HN-batch", "none", options=GraphOptions(dvl_error_states=True))
+        from graphnav.estimators.runs import run_graph
+        from graphnav.nets import load_completer
+        # Graph-HN-batch over the data as recorded (the "none" scenario's completer)
+        sol = run_graph(mission, completer=load_completer("auto"), batch=True,
+                        options=GraphOptions(dvl_error_states=True), name="Graph-HN-batch")
     r, var_h = beam_residuals(mission, sol)
     sigma0 = mission.config.dvl.beam_noise_std
     keep = np.abs(r) < 5 * sigma0

@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from graphnav.commands.smooth import HelpFormatter
+from graphnav.commands.common import HelpFormatter
 from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
 from graphnav.evaluation.methods import METHODS
 

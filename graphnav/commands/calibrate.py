@@ -44,7 +44,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from graphnav.calibration.calibrate import calibrate
-    from graphnav.commands.smooth import recorded_mission
+    from graphnav.commands.common import recorded_mission
     mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
     result = calibrate(mission, args.mode, identify_noise=not args.no_noise, **kwargs)
