@@ -26,8 +26,8 @@ import numpy as np
 from graphnav.core.rotations import C_b_n_to_euler
 from graphnav.estimators.align import AlignOptions, align_mission
 from graphnav.estimators.graph import InitialState
-from graphnav.estimators.graph.builder import keyframe_times
 from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io.loaders import list_akit, load_akit
@@ -64,7 +64,7 @@ def initial_state(alignment) -> InitialState:
 
 def first_keyframe(mission) -> float:
     """Stamp of the graph's first keyframe (where run_graph's initial state applies), s."""
-    return float(keyframe_times(mission.imu.t, mission.dvl.t, GraphOptions())[0][0])
+    return first_ping_time(mission)
 
 
 def streaming_runs(mission, options, label):
