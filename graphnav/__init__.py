@@ -18,20 +18,15 @@ from graphnav._lazy import lazy_exports as _lazy_exports
 __version__ = "0.1.0"
 
 _PUBLIC = {
-    "Navigator": "graphnav.estimators.navigator",
-    "NavigatorOptions": "graphnav.estimators.navigator",
-    "Mission": "graphnav.core.mission",
-    "SensorConfig": "graphnav.core.config",
-    "NavSolution": "graphnav.core.solution",
-    "load_mission": "graphnav.io.loaders",
-    "simulate_mission": "graphnav.sim.simulate",
-    "GraphOptions": "graphnav.estimators.graph.options",
-    "EkfOptions": "graphnav.estimators.ekf",
-    "run_method": "graphnav.evaluation.methods",
-    "METHODS": "graphnav.evaluation.methods",
-    "DataError": "graphnav.core.errors",
-    "ConfigError": "graphnav.core.errors",
+    "estimators.navigator": ("Navigator", "NavigatorOptions"),
+    "core.mission": ("Mission",),
+    "core.config": ("SensorConfig",),
+    "core.solution": ("NavSolution",),
+    "io.loaders": ("load_mission",),
+    "sim.simulate": ("simulate_mission",),
+    "estimators.graph.options": ("GraphOptions",),
+    "estimators.ekf": ("EkfOptions",),
+    "evaluation.methods": ("run_method", "METHODS"),
+    "core.errors": ("DataError", "ConfigError"),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

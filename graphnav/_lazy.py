@@ -6,19 +6,21 @@ import importlib
 import sys
 
 
-def lazy_exports(package: str, names: dict[str, str]):
-    """``(__getattr__, __dir__)`` for the module ``package`` whose public names ``names`` map to the module
-    that defines each. A name is imported once and then kept in the package's namespace; ``dir()`` lists the
-    public names beside the package's own attributes."""
+def lazy_exports(package: str, modules: dict[str, tuple[str, ...]]):
+    """``(__all__, __getattr__, __dir__)`` for the package ``package`` whose public names are defined in its
+    submodules: ``modules`` maps a submodule (relative to ``package``) to the names it provides. A name is
+    imported once and then kept in the package's namespace; ``dir()`` lists the public names beside the
+    package's own attributes."""
+    where = {name: f"{package}.{module}" for module, names in modules.items() for name in names}
 
     def __getattr__(name: str):
-        if name not in names:
+        if name not in where:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(names[name]), name)
+        value = getattr(importlib.import_module(where[name]), name)
         setattr(sys.modules[package], name, value)
         return value
 
     def __dir__() -> list[str]:
-        return sorted(set(vars(sys.modules[package])) | set(names))
+        return sorted(set(vars(sys.modules[package])) | set(where))
 
-    return __getattr__, __dir__
+    return list(where), __getattr__, __dir__

@@ -86,10 +86,12 @@ def test_commands_import_shared_helpers_from_common_only():
                 assert node.module == "graphnav.commands.common", (path.name, node.module)
 
 
-def test_the_registry_example_runs():
-    example = ROOT / "examples" / "compare_methods.py"
+@pytest.mark.parametrize("example, args", [("streaming_loop.py", ["--duration", "330"]),
+                                           ("compare_methods.py", ["--duration", "90", "--methods", "TC", "Graph-TC"])])
+def test_the_examples_run(example, args):
+    example = ROOT / "examples" / example
     argv = sys.argv
-    sys.argv = [str(example), "--duration", "90", "--methods", "TC", "Graph-TC"]
+    sys.argv = [str(example), *args]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from pathlib import Path
 
 import gtsam
@@ -254,20 +253,6 @@ def test_cli_pipes_a_simulated_stream_into_online(tmp_path):
     assert summary["epochs"] == len(lines) and summary["stream"]["bad_lines"] == 0
     assert summary["initialisation"]["heading_source"] == "gyrocompass"
     assert "(fixed-lag)" in run.stderr
-
-
-def test_the_streaming_example_runs():
-    import runpy
-    import sys
-    example = Path(__file__).parents[1] / "examples" / "streaming_loop.py"
-    argv = sys.argv
-    sys.argv = [str(example), "--duration", "330"]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            runpy.run_path(str(example), run_name="__main__")
-    finally:
-        sys.argv = argv
 
 
 def test_fixed_lag_restart_from_the_joint_marginal_changes_nothing(mission):

@@ -4,13 +4,10 @@
 from graphnav._lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "CalibrationResult": "graphnav.calibration.result",
-    "calibrate_with_gt": "graphnav.calibration.calibrate",
-    "calibrate_with_graph": "graphnav.calibration.without_gt",
-    "detect_imu_axis_signs": "graphnav.calibration.axes",
-    "identify": "graphnav.calibration.noise",
-    "NoiseEstimate": "graphnav.calibration.noise",
+    "result": ("CalibrationResult",),
+    "calibrate": ("calibrate_with_gt",),
+    "without_gt": ("calibrate_with_graph",),
+    "axes": ("detect_imu_axis_signs",),
+    "noise": ("identify", "NoiseEstimate"),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

@@ -2,23 +2,11 @@
 from graphnav._lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "Mission": "graphnav.core.mission",
-    "ImuData": "graphnav.core.mission",
-    "DvlData": "graphnav.core.mission",
-    "DepthData": "graphnav.core.mission",
-    "GroundTruth": "graphnav.core.mission",
-    "SensorConfig": "graphnav.core.config",
-    "ImuSpec": "graphnav.core.config",
-    "DvlSpec": "graphnav.core.config",
-    "NavSolution": "graphnav.core.solution",
-    "GraphnavError": "graphnav.core.errors",
-    "DataError": "graphnav.core.errors",
-    "ConfigError": "graphnav.core.errors",
-    "SCENARIOS": "graphnav.core.scenarios",
-    "Outage": "graphnav.core.scenarios",
-    "scenario_outage": "graphnav.core.scenarios",
-    "DvlGeometry": "graphnav.core.dvl",
+    "mission": ("Mission", "ImuData", "DvlData", "DepthData", "GroundTruth"),
+    "config": ("SensorConfig", "ImuSpec", "DvlSpec"),
+    "solution": ("NavSolution",),
+    "errors": ("GraphnavError", "DataError", "ConfigError"),
+    "scenarios": ("SCENARIOS", "Outage", "scenario_outage"),
+    "dvl": ("DvlGeometry",),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

@@ -2,18 +2,11 @@
 from graphnav._lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "Navigator": "graphnav.estimators.navigator",
-    "NavigatorOptions": "graphnav.estimators.navigator",
-    "EkfOptions": "graphnav.estimators.ekf",
-    "GraphOptions": "graphnav.estimators.graph",
-    "InitialState": "graphnav.estimators.graph",
-    "EpochEstimate": "graphnav.estimators.graph",
-    "AlignOptions": "graphnav.estimators.align",
-    "HealthOptions": "graphnav.estimators.health",
-    "run_ekf": "graphnav.estimators.runs",
-    "run_graph": "graphnav.estimators.runs",
-    "iterate_graph": "graphnav.estimators.runs",
+    "navigator": ("Navigator", "NavigatorOptions"),
+    "ekf": ("EkfOptions",),
+    "graph": ("GraphOptions", "InitialState", "EpochEstimate"),
+    "align": ("AlignOptions",),
+    "health": ("HealthOptions",),
+    "runs": ("run_ekf", "run_graph", "iterate_graph"),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

@@ -2,19 +2,11 @@
 from graphnav._lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "load_mission": "graphnav.io.loaders",
-    "load_akit": "graphnav.io.loaders",
-    "load_bag": "graphnav.io.bags",
-    "write_odometry_bag": "graphnav.io.bags",
-    "write_trajectory_csv": "graphnav.io.outputs",
-    "read_trajectory_csv": "graphnav.io.outputs",
-    "write_tum": "graphnav.io.outputs",
-    "read_tum": "graphnav.io.outputs",
-    "write_json": "graphnav.io.outputs",
-    "EpochCsvWriter": "graphnav.io.outputs",
-    "write_akit": "graphnav.io.export",
-    "StreamReader": "graphnav.io.streamio",
+    "loaders": ("load_mission", "load_akit"),
+    "bags": ("load_bag", "write_odometry_bag"),
+    "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "read_tum", "write_json",
+                "EpochCsvWriter"),
+    "export": ("write_akit",),
+    "streamio": ("StreamReader",),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

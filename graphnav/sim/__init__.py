@@ -2,9 +2,7 @@
 from graphnav._lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "simulate_mission": "graphnav.sim.simulate",
-    "corrupt_imu": "graphnav.sim.imu_errors",
+    "simulate": ("simulate_mission",),
+    "imu_errors": ("corrupt_imu",),
 }
-
-__all__ = list(_PUBLIC)
-__getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
