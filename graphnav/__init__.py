@@ -13,7 +13,7 @@ The public API (the names of ``__all__``, each imported on first use so that ``i
 Each subpackage (``core``, ``io``, ``sim``, ``estimators``, ``calibration``, ``evaluation``) lists its own API
 in its ``__all__``.
 """
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 __version__ = "0.1.0"
 

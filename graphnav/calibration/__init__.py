@@ -1,7 +1,7 @@
 """Sensor calibration from recorded data: IMU axes, DVL lever arm and mounting, time offsets, noise densities.
 
 ``calibrate(mission)`` (module :mod:`graphnav.calibration.calibrate`, whose name it shares) runs them all."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "result": ("CalibrationResult",),

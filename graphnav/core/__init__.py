@@ -1,5 +1,5 @@
 """The data model every layer shares: mission, sensor configuration, solution, scenarios, frames and units."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "mission": ("Mission", "ImuData", "DvlData", "DepthData", "GroundTruth"),

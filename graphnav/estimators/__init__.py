@@ -1,5 +1,5 @@
 """The estimators: strapdown INS, the error-state EKF, the factor graph, and the streaming Navigator over them."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "navigator": ("Navigator", "NavigatorOptions"),

@@ -1,5 +1,5 @@
 """Scoring and comparing estimators: metrics, the method registry, the benchmark, fault injection, plots."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "methods": ("METHODS", "Method", "run_method"),

@@ -21,7 +21,8 @@ The estimators themselves take objects and flags, not names (:func:`graphnav.est
 ``tight``, ``completer``; :func:`graphnav.estimators.runs.run_graph`: ``completer``, ``batch``); a record says
 which call a name is.
 
-The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 for the other scenarios.
+The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 for the other scenarios
+(:data:`AVERAGE_N_PAST`, defined beside the estimator in :mod:`graphnav.nets.average`).
 ``0-beams`` (total DVL outage) and ``markov`` (random dropouts) use ``load_completer("auto")``: the networks
 for the patterns they were trained on, the average estimator for the others -- with no beam measured the
 networks do not apply, so in a total outage the hybrid's completion is the average estimator's constant-beam
@@ -44,9 +45,8 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.core.solution import NavSolution
+from graphnav.nets.average import AVERAGE_N_PAST
 
-#: Past pings the average estimator uses per scenario.
-AVERAGE_N_PAST: dict[str, int] = {"2-missing": 3, "3-missing": 5, "none": 5, "0-beams": 5, "markov": 5}
 #: Which network (number of missing beams it was trained for) serves each scenario.
 NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto", "0-beams": "auto",
                                               "markov": "auto"}
@@ -178,7 +178,7 @@ def uses_network(name: str) -> bool:
 
 def average_completer(scenario: str, noise_std: float = 0.042):
     """The paper's average estimator with the scenario's ``n_past``."""
-    from graphnav.nets import AverageCompleter
+    from graphnav.nets.average import AverageCompleter
     return AverageCompleter(n_past=AVERAGE_N_PAST[check_scenario(scenario)], noise_std=noise_std)
 
 

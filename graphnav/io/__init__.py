@@ -1,5 +1,5 @@
 """Reading and writing: the real data sets and vehicle formats (CSV, ROS 2 bags, PD0, JSON-lines) and the outputs."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "loaders": ("load_mission", "load_akit"),

@@ -1,5 +1,5 @@
 """Simulated missions with exact ground truth, and IMU error injection."""
-from graphnav._lazy import lazy_exports as _lazy_exports
+from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
     "simulate": ("simulate_mission",),
