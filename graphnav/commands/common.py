@@ -9,7 +9,7 @@ import functools
 from pathlib import Path
 
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
-from graphnav.evaluation.methods import check_scenario
+from graphnav.evaluation.methods import METHODS, check_scenario
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -19,6 +19,11 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         if action.default is None or action.default is False or action.default == []:
             return action.help
         return super()._get_help_string(action)
+
+
+def methods_help(names=None) -> str:
+    """One line per method of the registry for ``--help``: its name and description."""
+    return "; ".join(f"{n} - {METHODS[n].description}" for n in (names or METHODS))
 
 
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:

@@ -15,6 +15,7 @@ from graphnav.commands.common import (
     add_mission_arguments,
     aligner_kwargs,
     make_plots,
+    methods_help,
     mission_from_args,
     print_summary,
 )
@@ -38,7 +39,8 @@ def register(subparsers) -> None:
     add_mission_arguments(p)
     add_init_arguments(p)
     p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
-    p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, help="estimator to run")
+    p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, metavar="METHOD",
+                   help=f"method to run ({methods_help()})")
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
                    help="also run these methods and draw them in the plots (e.g. HNTC Graph-HN)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")

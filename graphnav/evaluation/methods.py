@@ -94,7 +94,7 @@ class Method:
     tight: bool
     completer: str
     batch: bool = False
-    graph_options: Mapping = dataclasses.field(default_factory=dict)
+    graph_options: Mapping = dataclasses.field(default_factory=lambda: types.MappingProxyType({}), hash=False)
     description: str = ""
 
     def __post_init__(self):
