@@ -12,9 +12,8 @@ import warnings
 
 import numpy as np
 
-from graphnav import Navigator
+from graphnav import Navigator, simulate_mission
 from graphnav.estimators.replay import replay
-from graphnav.sim.simulate import simulate_mission
 
 
 def main(duration_s: float = 600.0) -> None:

@@ -1,15 +1,32 @@
 """graphnav: factor-graph INS/DVL navigation for AUVs.
 
-``graphnav.Navigator`` is the streaming backend a vehicle runs (:mod:`graphnav.estimators.navigator`); it is loaded
-on first use, so that ``import graphnav`` stays light.
+The public API (the names of ``__all__``, each imported on first use so that ``import graphnav`` stays light):
+
+- :class:`Navigator`, :class:`NavigatorOptions`: the streaming backend a vehicle runs
+  (:mod:`graphnav.estimators.navigator`); :class:`GraphOptions`, :class:`EkfOptions` configure its estimators.
+- :class:`Mission`, :class:`SensorConfig`, :class:`NavSolution`: the data model (:mod:`graphnav.core`);
+  :func:`load_mission` reads a recorded one (A-KIT folder, ROS 2 bag, PD0, CSV log), :func:`simulate_mission`
+  makes one.
+- :func:`run_method` runs a method of :data:`METHODS` (the registry: LC, TC, ..., Graph-HN-batch) on a mission.
+- :class:`DataError`, :class:`ConfigError`: what bad input and bad settings raise.
+
+Each subpackage (``core``, ``io``, ``sim``, ``estimators``, ``calibration``, ``evaluation``) lists its own API
+in its ``__all__``.
 """
+from graphnav.core.lazy import lazy_exports as _lazy_exports
+
 __version__ = "0.1.0"
 
-_LAZY = {"Navigator": "graphnav.estimators.navigator", "NavigatorOptions": "graphnav.estimators.navigator"}
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'graphnav' has no attribute '{name}'")
+_PUBLIC = {
+    "estimators.navigator": ("Navigator", "NavigatorOptions"),
+    "core.mission": ("Mission",),
+    "core.config": ("SensorConfig",),
+    "core.solution": ("NavSolution",),
+    "io.loaders": ("load_mission",),
+    "sim.simulate": ("simulate_mission",),
+    "estimators.graph.options": ("GraphOptions",),
+    "estimators.ekf": ("EkfOptions",),
+    "evaluation.methods": ("run_method", "METHODS"),
+    "core.errors": ("DataError", "ConfigError"),
+}
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

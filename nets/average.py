@@ -5,6 +5,10 @@ import numpy as np
 
 from .completer import check_inputs
 
+#: Past pings the average estimator uses per beam-outage scenario (the paper's N: 3 for 2 missing beams, 5 for
+#: 3; 5 for the others), as the estimators and the network evaluation use it.
+AVERAGE_N_PAST: dict[str, int] = {"2-missing": 3, "3-missing": 5, "none": 5, "0-beams": 5, "markov": 5}
+
 
 class AverageCompleter:
     """Fill missing beams with the mean of the past ``n_past`` values of the same beam.

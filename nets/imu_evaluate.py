@@ -36,12 +36,11 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
-    the estimators use it, :data:`graphnav.evaluation.methods.AVERAGE_N_PAST`) and
+    the estimators use it, :data:`graphnav.nets.average.AVERAGE_N_PAST`) and
     ``network`` (the shipped beam-only network of the paper). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     """
-    from graphnav.evaluation.methods import AVERAGE_N_PAST
-
+    from .average import AVERAGE_N_PAST
     from .network import load_completer
 
     series = akit_imu_series(trajectories, akit_dir, beam_seed)

@@ -26,8 +26,8 @@ import numpy as np
 from graphnav.core.rotations import C_b_n_to_euler
 from graphnav.estimators.align import AlignOptions, align_mission
 from graphnav.estimators.graph import InitialState
-from graphnav.estimators.graph.builder import keyframe_times
 from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io.loaders import list_akit, load_akit
@@ -64,7 +64,7 @@ def initial_state(alignment) -> InitialState:
 
 def first_keyframe(mission) -> float:
     """Stamp of the graph's first keyframe (where run_graph's initial state applies), s."""
-    return float(keyframe_times(mission.imu.t, mission.dvl.t, GraphOptions())[0][0])
+    return first_ping_time(mission)
 
 
 def streaming_runs(mission, options, label):
@@ -80,13 +80,13 @@ def streaming_runs(mission, options, label):
                       t_result=t_k)
     t_score = max(60.0, a.t)
     out = {}
-    sol = run_graph(part, "Graph-TC", initial=initial_state(a), options=graph_options(a))
+    sol = run_graph(part, initial=initial_state(a), options=graph_options(a))
     out[f"{label} aligned"] = vrmse(sol, mission.gt, t_score)
     # the same aligned state with GraphOptions' default (tight, 0.05 deg) attitude prior: what a prior with the
     # alignment's tilt sigma (~0.01 deg) would do, which GraphOptions' single isotropic sigma cannot express
-    sol = run_graph(part, "Graph-TC", initial=initial_state(a))
+    sol = run_graph(part, initial=initial_state(a))
     out[f"{label} al.tight"] = vrmse(sol, mission.gt, t_score)
-    sol = run_graph(part, "Graph-TC")
+    sol = run_graph(part)
     out[f"{label} GT"] = vrmse(sol, mission.gt, t_score)
     return out, a.t, alignment_errors(mission, a)[2]
 
@@ -97,10 +97,10 @@ def offline_runs(mission, options, label):
     whole = dataclasses.replace(mission, depth=None)
     start = align_mission(mission, options, use_depth=False, t_result=first_keyframe(mission))
     out = {}
-    sol = run_graph(whole, "Graph-TC", initial=initial_state(start), options=graph_options(start))
+    sol = run_graph(whole, initial=initial_state(start), options=graph_options(start))
     out[f"{label} aligned"] = vrmse(sol, mission.gt, 60.0)
-    out["t0 GT"] = vrmse(run_graph(whole, "Graph-TC"), mission.gt, 60.0)
-    out["t0 GT+GT depth"] = vrmse(run_graph(mission, "Graph-TC"), mission.gt, 60.0)
+    out["t0 GT"] = vrmse(run_graph(whole), mission.gt, 60.0)
+    out["t0 GT+GT depth"] = vrmse(run_graph(mission), mission.gt, 60.0)
     return out, alignment_errors(mission, start)[2]
 
 

@@ -31,11 +31,11 @@ import numpy as np
 from graphnav.nets import AverageCompleter
 
 from graphnav.core.scenarios import scenario_outage, window_starts
-from graphnav.estimators.ekf import METHODS, EkfOptions
+from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.runs import run_ekf
 from graphnav.evaluation import metrics
 from graphnav.evaluation.bench import improvement_pct
-from graphnav.evaluation.methods import average_of, baseline_of
+from graphnav.evaluation.methods import EKF_METHODS, METHODS, average_of, baseline_of
 
 SCENARIOS = {"2-missing": 3, "3-missing": 5}      # scenario -> n_past of the average estimator (paper)
 WINDOW_S = 30.0
@@ -72,15 +72,17 @@ def run_windows(missions, options: EkfOptions, completers: dict, max_windows: in
         for scenario, n_past in SCENARIOS.items():
             for start in window_starts(t0, t1, WINDOW_S, max_windows=max_windows):
                 mo = m.with_outage(scenario_outage(scenario, start, WINDOW_S))
-                for method in METHODS:
-                    if method.startswith("Average"):
+                for method in EKF_METHODS:
+                    kind = METHODS[method].completer
+                    if kind == "average":
                         completer = AverageCompleter(n_past)
-                    elif method.startswith("HN"):
+                    elif kind == "network":
                         completer = completers[scenario] or AverageCompleter(n_past)
                     else:
                         completer = None
                     cpu = time.process_time()
-                    sol = run_ekf(mo, method, completer, options)
+                    sol = run_ekf(mo, tight=METHODS[method].tight, completer=completer, options=options,
+                                  name=method)
                     cpu = time.process_time() - cpu
                     rows[scenario, method].append({
                         "mission": m.name, "start": start,
@@ -100,8 +102,8 @@ def print_table(title: str, rows) -> None:
           "| wall s | cpu s | x real time (wall) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for scenario in SCENARIOS:
-        mean = {meth: np.mean([r["window"] for r in rows[scenario, meth]]) for meth in METHODS}
-        for meth in METHODS:
+        mean = {meth: np.mean([r["window"] for r in rows[scenario, meth]]) for meth in EKF_METHODS}
+        for meth in EKF_METHODS:
             rs = rows[scenario, meth]
             win = np.array([r["window"] for r in rs])
             mis = np.mean([r["mission_vrmse"] for r in rs])
@@ -109,7 +111,7 @@ def print_table(title: str, rows) -> None:
             cpu = np.mean([r["cpu"] for r in rs])
             rtf = np.mean([r["duration"] / r["runtime"] for r in rs])
             vs_base = improvement(mean[meth], mean[baseline_of(meth)]) if meth not in ("LC", "TC") else "-"
-            vs_avg = improvement(mean[meth], mean[average_of(meth)]) if meth.startswith("HN") else "-"
+            vs_avg = improvement(mean[meth], mean[average_of(meth)]) if METHODS[meth].completer == "network" else "-"
             print(f"| {scenario} | {meth} | {win.mean():.3f} | {win.max():.3f} | {mis:.3f} | {vs_base} | "
                   f"{vs_avg} | {rt:.3f} | {cpu:.3f} | {rtf:.0f} |")
     n = len({(r["mission"], r["start"]) for r in rows["2-missing", "LC"]})
@@ -122,8 +124,8 @@ def print_all_beams(title: str, missions, options: EkfOptions) -> None:
     print("| mission | LC VRMSE | TC VRMSE | TC NEES mean | TC end horiz. pos. error m | TC runtime s |")
     print("| --- | --- | --- | --- | --- | --- |")
     for m in missions:
-        lc = run_ekf(m, "LC", options=options)
-        tc = run_ekf(m, "TC", options=options)
+        lc = run_ekf(m, tight=False, options=options)
+        tc = run_ekf(m, options=options)
         print(f"| {m.name} | {metrics.vrmse(lc, m.gt):.3f} | {metrics.vrmse(tc, m.gt):.3f} | "
               f"{metrics.nees_velocity(tc, m.gt).mean():.2f} | {metrics.horizontal_position_error(tc, m.gt):.1f} "
               f"| {tc.runtime_s:.3f} |")
@@ -141,11 +143,11 @@ def print_unflipped(missions, options: EkfOptions, max_windows: int | None) -> N
         full = []
         for m in missions:
             t0, t1 = max(m.t0, float(m.gt.t[0])), min(m.t1, float(m.gt.t[-1]))
-            full.append(metrics.vrmse(run_ekf(m, "LC", options=options), m.gt))
+            full.append(metrics.vrmse(run_ekf(m, tight=False, options=options), m.gt))
             for start in window_starts(t0, t1, WINDOW_S, max_windows=max_windows):
                 mo = m.with_outage(scenario_outage(scenario, start, WINDOW_S))
                 for meth in ("LC", "TC"):
-                    res[meth].append(metrics.vrmse(run_ekf(mo, meth, options=options), m.gt, start,
+                    res[meth].append(metrics.vrmse(run_ekf(mo, tight=meth == "TC", options=options), m.gt, start,
                                                    start + WINDOW_S))
         print(f"| {scenario} | {np.mean(res['LC']):.2f} | {np.max(res['LC']):.2f} | {np.mean(res['TC']):.2f} "
               f"| {np.max(res['TC']):.2f} | {np.mean(full):.2f} |")

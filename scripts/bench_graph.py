@@ -57,13 +57,13 @@ def table(title, header, rows):
         print(row(r, widths))
 
 
-def stream(mission, mode, options=None, method="Graph-TC", completer=None):
+def stream(mission, mode, options=None, completer=None):
     """Run an incremental estimator without keeping its output; return (total s, update times, RSS increase MB)."""
     gc.collect()
     base = peak = rss_mb()
     updates = []
     start = time.perf_counter()
-    for est in iterate_graph(mission, method, completer=completer, options=options, mode=mode):
+    for est in iterate_graph(mission, completer=completer, options=options, mode=mode):
         updates.append(est.update_s)
         if est.index % 200 == 0:
             peak = max(peak, rss_mb())
@@ -74,13 +74,13 @@ def stream(mission, mode, options=None, method="Graph-TC", completer=None):
 
 def online_400(m400):
     rows = []
-    for label, method, opts, mission, comp in [
-            ("Graph-TC, epoch factors", "Graph-TC", GraphOptions(), m400, None),
-            ("Graph-TC, per-beam factors", "Graph-TC", GraphOptions(beam_factor_mode="beam"), m400, None),
-            ("Graph-HN, 30 s 2-missing", "Graph-HN", GraphOptions(),
+    for label, opts, mission, comp in [
+            ("Graph-TC, epoch factors", GraphOptions(), m400, None),
+            ("Graph-TC, per-beam factors", GraphOptions(beam_factor_mode="beam"), m400, None),
+            ("Graph-HN, 30 s 2-missing", GraphOptions(),
              m400.with_outage(scenario_outage("2-missing", 200.0, 30.0)), AverageCompleter(3))]:
-        run_graph(mission.slice(0, 20), method, completer=comp, options=opts)      # warm-up (imports, caches)
-        sol = run_graph(mission, method, completer=comp, options=opts)
+        run_graph(mission.slice(0, 20), completer=comp, options=opts)      # warm-up (imports, caches)
+        sol = run_graph(mission, completer=comp, options=opts)
         u = np.array(sol.info["update_s"])
         rows.append([label, f"{sol.runtime_s:.3f}", f"{m400.duration / sol.runtime_s:.0f}x", ms(np.median(u)),
                      ms(np.percentile(u, 99)), ms(u.max()), f"{vrmse(sol, mission.gt):.4f}"])
@@ -107,12 +107,12 @@ def batch(missions, lm_max_s):
     for m in missions:
         mission = m.with_outage(scenario_outage("2-missing", m.t0 + 200.0, 30.0))
         comp = AverageCompleter(3)
-        sol = run_graph(mission, "Graph-HN-batch", completer=comp, mode="fixed-lag")
+        sol = run_graph(mission, batch=True, completer=comp, mode="fixed-lag")
         info = sol.info
         rows.append([f"{m.duration:.0f}", "vectorized GN", f"{sol.runtime_s:.1f}", f"{info['online_s']:.1f}",
                      f"{info['batch_s']:.2f}", info["batch_iterations"], f"{vrmse(sol, m.gt):.4f}", ""])
         if m.duration <= lm_max_s:
-            ref = run_graph(mission, "Graph-HN-batch", completer=comp, mode="fixed-lag",
+            ref = run_graph(mission, batch=True, completer=comp, mode="fixed-lag",
                             options=GraphOptions(batch_solver="lm"))
             diff = np.abs(ref.v_n - sol.v_n).max()
             rows.append([f"{m.duration:.0f}", "GTSAM LM (CustomFactor)", f"{ref.runtime_s:.1f}",

@@ -24,7 +24,7 @@ from graphnav.io.loaders import list_akit, load_akit, load_mission
 
 
 def scores(mission) -> tuple[float, float]:
-    return vrmse(run_ekf(mission, "TC"), mission.gt), vrmse(run_graph(mission, "Graph-TC"), mission.gt)
+    return vrmse(run_ekf(mission), mission.gt), vrmse(run_graph(mission), mission.gt)
 
 
 def calibrated(folder: Path, mode: str, tmp: Path):

@@ -21,9 +21,9 @@ import tempfile
 import time
 
 from graphnav.evaluation.faults import (
-    ESTIMATORS,
     EXPECTED,
     FAULT_GRADES,
+    FAULT_METHODS,
     FAULTS,
     NEES_COVER_MAX,
     fault_mission,
@@ -37,12 +37,12 @@ def report_grade(grade: str, seed: int, duration: float, workdir: str) -> int:
     mission = fault_mission(grade, seed, duration)
     print(f"\n## {grade}: mission {mission.name} ({duration:g} s, seed {seed}); VRMSE m/s <= bound, mean NEES")
     width = max(len(f) for f in FAULTS)
-    print(f"{'fault':{width}}  {'outcome':9} " + " ".join(f"{e:>22}" for e in ESTIMATORS) + "  factor  check")
+    print(f"{'fault':{width}}  {'outcome':9} " + " ".join(f"{e:>22}" for e in FAULT_METHODS) + "  factor  check")
     base: dict[str, dict[str, float]] = {}
     n_fail = 0
     for fault, expected in EXPECTED.items():
         start = time.perf_counter()
-        outcomes = run_fault(fault, ESTIMATORS, mission, f"{workdir}/{grade}")
+        outcomes = run_fault(fault, FAULT_METHODS, mission, f"{workdir}/{grade}")
         wall = time.perf_counter() - start
         if fault.startswith("none"):
             base[fault] = {o.estimator: o.vrmse for o in outcomes}

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.calibration.noise import identify
+from graphnav.evaluation.methods import network_completer
 from graphnav.io.loaders import list_akit, load_mission
 
 
@@ -27,7 +28,7 @@ def one(folder: str) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         mission = load_mission(folder)
-        est = identify(mission)
+        est = identify(mission, completer=network_completer("none", mission.config.dvl.beam_noise_std)[0])
     return {"trajectory": Path(folder).name, **est.to_dict()}
 
 

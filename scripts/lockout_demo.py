@@ -43,7 +43,7 @@ def main() -> int:
                 for reacquire in (False, True):
                     with warnings.catch_warnings(record=True) as caught:
                         warnings.simplefilter("always")
-                        sol = run_ekf(m, method, options=EkfOptions(reacquire=reacquire), initial=init)
+                        sol = run_ekf(m, tight=method == "TC", options=EkfOptions(reacquire=reacquire), initial=init)
                     h = sol.info["health"]
                     n_warn = sum(str(w.message).startswith(f"EKF {method}") for w in caught)
                     print(f"| {name} | {deg} deg | {method} | {'yes' if reacquire else 'no'} | "

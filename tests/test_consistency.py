@@ -22,7 +22,7 @@ from graphnav.sim.simulate import simulate_mission
 @pytest.fixture(scope="module")
 def mission_and_solution():
     m = simulate_mission(120, seed=5)
-    sol = run_graph(m, "Graph-TC", options=GraphOptions(dvl_error_states=True))
+    sol = run_graph(m, options=GraphOptions(dvl_error_states=True))
     return m, sol
 
 

@@ -20,7 +20,6 @@ from graphnav.estimators.ekf import (
     IE,
     IG,
     IV,
-    METHODS,
     EkfOptions,
     ErrorStateEkf,
     compose_transitions,
@@ -28,6 +27,7 @@ from graphnav.estimators.ekf import (
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.runs import run_ekf
 from graphnav.evaluation import metrics
+from graphnav.evaluation.methods import EKF_METHODS, run_method
 from graphnav.sim.imu_errors import corrupt_imu
 from graphnav.sim.simulate import simulate_mission
 
@@ -148,12 +148,13 @@ def test_lc_with_two_beams_does_not_update_and_gating_rejects_outliers():
     assert gated.n_gated == 1 and np.allclose(gated.state.v_n, s.v_n)
 
 
-def test_run_ekf_rejects_unknown_method_and_missing_completer():
+def test_run_ekf_takes_flags_not_method_names():
     m = simulate_mission(20.0, seed=0)
-    with pytest.raises(ConfigError):
-        run_ekf(m, "EKF")
-    with pytest.raises(ConfigError):
-        run_ekf(m, "HNTC")
+    with pytest.raises(TypeError):
+        run_ekf(m, "TC")
+    with pytest.raises(ConfigError, match="unknown method 'EKF'"):
+        run_method(m, "EKF")
+    assert run_ekf(m, tight=False).method == "LC" and run_ekf(m, name="mine").method == "mine"
 
 
 @pytest.fixture(scope="module")
@@ -163,8 +164,8 @@ def sim_mission():
 
 def test_all_beams_vrmse_near_dvl_noise_and_outputs_at_every_ping(sim_mission):
     m = sim_mission
-    for method in METHODS:
-        sol = run_ekf(m, method, completer=AverageCompleter(3))
+    for method in EKF_METHODS:
+        sol = run_method(m, method, completer=AverageCompleter(3))
         assert sol.method == method and len(sol) == len(m.dvl.t)
         assert np.allclose(sol.t, m.dvl.t)
         assert sol.cov_v_n.shape == (len(sol), 3, 3) and sol.runtime_s > 0
@@ -187,7 +188,7 @@ def test_velocity_nees_is_consistent_with_white_dvl_noise():
         nees = []
         for seed in range(runs):
             m = simulate_mission(150.0, imu_grade=grade, seed=seed, config=dataclasses.replace(base, dvl=dvl))
-            nees.append(metrics.nees_velocity(run_ekf(m, "TC"), m.gt, t_start=30.0))
+            nees.append(metrics.nees_velocity(run_ekf(m), m.gt, t_start=30.0))
         mean_over_runs = np.mean(nees, axis=0)
         assert lo < mean_over_runs.mean() < hi, (grade, mean_over_runs.mean(), lo, hi)
 
@@ -200,8 +201,8 @@ def test_lc_drifts_more_than_tc_in_partial_beam_windows():
         lc, tc = [], []
         for s in starts:
             mo = m.with_outage(scenario_outage(name, s, 30.0))
-            lc.append(metrics.vrmse(run_ekf(mo, "LC"), m.gt, s, s + 30.0))
-            tc.append(metrics.vrmse(run_ekf(mo, "TC"), m.gt, s, s + 30.0))
+            lc.append(metrics.vrmse(run_ekf(mo, tight=False), m.gt, s, s + 30.0))
+            tc.append(metrics.vrmse(run_ekf(mo), m.gt, s, s + 30.0))
         assert np.mean(lc) > 1.5 * np.mean(tc), (name, lc, tc)
 
 
@@ -242,7 +243,7 @@ def test_average_tc_beats_tc_when_the_vehicle_holds_its_velocity():
             mo = m.with_outage(scenario_outage(name, start, 30.0))
             for method in ("LC", "TC", "Average-TC"):
                 completer = AverageCompleter(n_past) if method == "Average-TC" else None
-                sol = run_ekf(mo, method, completer)
+                sol = run_ekf(mo, tight=method != "LC", completer=completer)
                 vr.setdefault((name, method), []).append(metrics.vrmse(sol, m.gt, start, start + 30.0))
     for name in ("2-missing", "3-missing"):
         lc, tc, avg = (np.mean(vr[name, method]) for method in ("LC", "TC", "Average-TC"))
@@ -256,8 +257,8 @@ def test_dvl_error_states_absorb_a_large_dvl_scale_and_bias():
     dvl = dataclasses.replace(base.dvl, scale_factor=np.array([0.02, -0.01, 0.0]),
                               beam_bias=np.array([0.01, -0.01, 0.02, 0.0]))
     m = simulate_mission(400.0, seed=0, config=dataclasses.replace(base, dvl=dvl))
-    paper = run_ekf(m, "TC")
-    augmented = run_ekf(m, "TC", options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
+    paper = run_ekf(m)
+    augmented = run_ekf(m, options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
                                                     sigma_beam_bias0=0.02))
     assert metrics.vrmse(augmented, m.gt, 100.0) < 0.8 * metrics.vrmse(paper, m.gt, 100.0)
     assert metrics.nees_velocity(augmented, m.gt, 100.0).mean() < 4.0 < metrics.nees_velocity(paper, m.gt, 100.0).mean()

@@ -27,7 +27,7 @@ from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.runs import run_ekf, run_graph
 from graphnav.evaluation import faults
-from graphnav.evaluation.faults import ESTIMATORS, EXPECTED, FAULTS
+from graphnav.evaluation.faults import EXPECTED, FAULT_METHODS, FAULTS
 from graphnav.evaluation.metrics import vrmse
 
 HANG_LIMIT_S = 120
@@ -58,7 +58,7 @@ def workdir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def baselines(mission, workdir):
     """VRMSE per estimator on the fault-free mission, in memory and through the A-KIT files."""
-    return {name: {o.estimator: o.vrmse for o in faults.run_fault(name, ESTIMATORS, mission, workdir)}
+    return {name: {o.estimator: o.vrmse for o in faults.run_fault(name, FAULT_METHODS, mission, workdir)}
             for name in ("none", "none csv")}
 
 
@@ -74,8 +74,8 @@ def _first_changed_row(a: np.ndarray, b: np.ndarray) -> int:
 @pytest.mark.parametrize("fault", [f for f in FAULTS if not f.startswith("none")])
 def test_fault_outcome(fault, mission, workdir, baselines):
     expected = EXPECTED[fault]
-    outcomes = faults.run_fault(fault, ESTIMATORS, mission, workdir)
-    assert [o.estimator for o in outcomes] == list(ESTIMATORS)
+    outcomes = faults.run_fault(fault, FAULT_METHODS, mission, workdir)
+    assert [o.estimator for o in outcomes] == list(FAULT_METHODS)
     if expected.stop:
         err = outcomes[0].error
         assert outcomes[0].stopped and isinstance(err, DataError), f"{fault} was not refused"
@@ -168,8 +168,8 @@ def test_imu_gap_is_bridged_at_the_nominal_rate_with_linear_values():
 def test_imu_gap_inflates_estimator_covariance(mission):
     gap = faults.imu_gap(mission, 80.0, 2.0)
     with pytest.warns(RuntimeWarning, match="bridged"):
-        sol = run_ekf(gap, "TC")
-    clean = run_ekf(mission, "TC")
+        sol = run_ekf(gap)
+    clean = run_ekf(mission)
     assert sol.info["imu_gaps"] == 1 and clean.info["imu_gaps"] == 0
     k = int(np.searchsorted(sol.t, 82.0))     # first ping after the gap
     assert np.trace(sol.cov_v_n[k]) > 1.5 * np.trace(clean.cov_v_n[k])
@@ -194,9 +194,9 @@ def spiky(mission):
 
 def test_ekf_gating_rejects_exactly_the_spikes(mission, spiky):
     n_spikes = len(spiky.meta["spike_rows"])
-    gated = run_ekf(spiky, "TC", options=EkfOptions(gating=True))
-    plain = run_ekf(spiky, "TC", options=EkfOptions(gating=False))
-    clean = run_ekf(mission, "TC", options=EkfOptions(gating=True))
+    gated = run_ekf(spiky, options=EkfOptions(gating=True))
+    plain = run_ekf(spiky, options=EkfOptions(gating=False))
+    clean = run_ekf(mission, options=EkfOptions(gating=True))
     assert n_spikes == 18 and gated.info["n_gated"] == n_spikes and clean.info["n_gated"] == 0
     assert vrmse(gated, mission.gt) < 1.2 * vrmse(clean, mission.gt) < vrmse(plain, mission.gt) / 2
     assert EkfOptions().gating     # on by default
@@ -204,10 +204,10 @@ def test_ekf_gating_rejects_exactly_the_spikes(mission, spiky):
 
 def test_graph_huber_on_measured_beams_helps_the_spike_case(mission, spiky):
     assert GraphOptions().huber_measured_k == 3.0
-    robust = vrmse(run_graph(spiky, "Graph-TC"), mission.gt)
-    gaussian = vrmse(run_graph(spiky, "Graph-TC", options=GraphOptions(huber_measured_k=None)), mission.gt)
-    clean_robust = vrmse(run_graph(mission, "Graph-TC"), mission.gt)
-    clean_gaussian = vrmse(run_graph(mission, "Graph-TC", options=GraphOptions(huber_measured_k=None)), mission.gt)
+    robust = vrmse(run_graph(spiky), mission.gt)
+    gaussian = vrmse(run_graph(spiky, options=GraphOptions(huber_measured_k=None)), mission.gt)
+    clean_robust = vrmse(run_graph(mission), mission.gt)
+    clean_gaussian = vrmse(run_graph(mission, options=GraphOptions(huber_measured_k=None)), mission.gt)
     assert gaussian > 2 * robust and robust < 1.15 * clean_gaussian
     assert clean_robust < 1.01 * clean_gaussian     # free on clean data
 
@@ -227,9 +227,9 @@ def test_indeterminant_system_recovers_with_a_warning(mission, monkeypatch):
 
     monkeypatch.setattr(OnlineGraph, "_solve", failing)
     with pytest.warns(RuntimeWarning, match="indeterminant linear system at keyframe 60"):
-        sol = run_graph(mission, "Graph-TC")
+        sol = run_graph(mission)
     monkeypatch.undo()
-    reference = run_graph(mission, "Graph-TC")
+    reference = run_graph(mission)
     assert sol.info["recovered"] == 1 and len(sol.t) == len(reference.t)
     assert vrmse(sol, mission.gt) < 1.2 * vrmse(reference, mission.gt)
 
@@ -239,9 +239,9 @@ def test_indeterminant_system_from_a_tiny_integration_sigma_recovers(mission, mo
     """The real thing: Cholesky with an integration sigma of 1e-4 (covariance 1e-8) is indeterminant at
     keyframe 1; the solver restarts with QR and the run is as accurate as with the default sigma."""
     with pytest.warns(RuntimeWarning, match="indeterminant linear system at keyframe 1"):
-        sol = run_graph(mission, "Graph-TC", options=GraphOptions(integration_sigma=1e-4, factorization="CHOLESKY"),
+        sol = run_graph(mission, options=GraphOptions(integration_sigma=1e-4, factorization="CHOLESKY"),
                         mode=mode)
-    reference = run_graph(mission, "Graph-TC", mode=mode)
+    reference = run_graph(mission, mode=mode)
     assert sol.info["recovered"] == 1
     assert vrmse(sol, mission.gt) < 1.05 * vrmse(reference, mission.gt)
 
@@ -250,13 +250,13 @@ def test_indeterminant_system_from_a_tiny_integration_sigma_recovers(mission, mo
 def test_indeterminant_batch_is_solved_again_with_qr(mission, solver):
     from graphnav.nets.average import AverageCompleter
     with pytest.warns(RuntimeWarning, match="solving again with QR elimination"):
-        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5),
+        sol = run_graph(mission, completer=AverageCompleter(5), batch=True,
                         options=GraphOptions(integration_sigma=1e-4, batch_solver=solver))
-    reference = run_graph(mission, "Graph-HN-batch", AverageCompleter(5), options=GraphOptions(batch_solver=solver))
+    reference = run_graph(mission, completer=AverageCompleter(5), batch=True, options=GraphOptions(batch_solver=solver))
     assert sol.info["batch_qr_retry"] and "batch_failed" not in sol.info
     assert vrmse(sol, mission.gt) < 1.05 * vrmse(reference, mission.gt)
     # the QR marginals agree with the Cholesky ones where both work
-    qr = run_graph(mission, "Graph-HN-batch", AverageCompleter(5),
+    qr = run_graph(mission, completer=AverageCompleter(5), batch=True,
                    options=GraphOptions(batch_factorization="QR", batch_solver=solver))
     np.testing.assert_allclose(qr.cov_v_n, reference.cov_v_n, rtol=1e-6, atol=1e-12)
 
@@ -270,8 +270,8 @@ def test_batch_that_cannot_be_solved_returns_the_filtered_estimates(mission, mon
         raise RuntimeError("Indeterminate linear system detected while working near variable x5")
     monkeypatch.setattr(graph_run, "batch_smooth", indeterminant)
     with pytest.warns(RuntimeWarning, match="returning the filtered"):
-        sol = run_graph(mission, "Graph-HN-batch", AverageCompleter(5))
-    filtered = run_graph(mission, "Graph-HN", AverageCompleter(5))
+        sol = run_graph(mission, completer=AverageCompleter(5), batch=True)
+    filtered = run_graph(mission, completer=AverageCompleter(5))
     assert "Indeterminate" in sol.info["batch_failed"] and sol.cov_v_n is None
     np.testing.assert_allclose(sol.v_n, filtered.v_n, atol=1e-9)
 
@@ -283,7 +283,7 @@ def test_other_solver_errors_are_not_swallowed(mission, monkeypatch):
         raise RuntimeError("something else")
     monkeypatch.setattr(OnlineGraph, "_solve", broken)
     with pytest.raises(RuntimeError, match="something else"):
-        run_graph(mission, "Graph-TC")
+        run_graph(mission)
 
 
 # --- every entry point names the bad record -------------------------------------------------------------
@@ -373,12 +373,12 @@ def test_fault_subset_on_lower_grade_imus(grade, tmp_path):
     """Within the bound, or (a total outage: no bound can hold for a tactical/MEMS INS) the estimator warned
     that it ran pure inertial and its covariance covers the error."""
     mission = faults.fault_mission(grade)
-    base = {o.estimator: o.vrmse for o in faults.run_fault("none", ESTIMATORS, mission, tmp_path)}
+    base = {o.estimator: o.vrmse for o in faults.run_fault("none", FAULT_METHODS, mission, tmp_path)}
     for fault in GRADE_FAULTS[1:]:
-        for o in faults.run_fault(fault, ESTIMATORS, mission, tmp_path):
+        for o in faults.run_fault(fault, FAULT_METHODS, mission, tmp_path):
             verdict = faults.judge(EXPECTED[fault], o, base[o.estimator])
             assert verdict != "FAIL", (grade, fault, o.estimator, o.vrmse, o.nees, o.warnings)
-            if fault.startswith("dvl-outage") and o.estimator in ("Graph-TC", "EKF-TC"):
+            if fault.startswith("dvl-outage") and o.estimator in ("Graph-TC", "TC"):
                 assert o.warned_pure_inertial and o.pure_inertial_s >= 119.0
                 assert o.nees <= faults.NEES_COVER_MAX, (grade, o.estimator, o.nees)
 

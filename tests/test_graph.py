@@ -94,7 +94,7 @@ def test_split_preintegration_matches_truth_between_imu_samples():
 
 def test_noiseless_mission_recovers_truth():
     m = simulate_mission(60, seed=2, noiseless=True)
-    sol = run_graph(m, "Graph-TC")
+    sol = run_graph(m)
     assert vrmse(sol, m.gt) < 5e-4
 
 
@@ -102,7 +102,7 @@ def test_noiseless_mission_recovers_truth():
 def test_all_beams_filtered_velocity_is_consistent(steady_missions, mode):
     """Mean NEES of the filtered velocity in a loose band around 3 and VRMSE below one beam's noise."""
     for m in steady_missions:
-        sol = run_graph(m, "Graph-TC", mode=mode)
+        sol = run_graph(m, mode=mode)
         nees = nees_velocity(sol, m.gt, t_start=20.0)
         assert 1.5 < nees.mean() < 5.0, nees.mean()
         assert vrmse(sol, m.gt) < m.config.dvl.beam_noise_std
@@ -112,16 +112,16 @@ def test_all_beams_filtered_velocity_is_consistent(steady_missions, mode):
 
 def test_fixed_lag_filtered_output_equals_isam2(steady_missions):
     m = steady_missions[0]
-    a = run_graph(m, "Graph-TC", mode="online")
-    b = run_graph(m, "Graph-TC", mode="fixed-lag", options=GraphOptions(lag_s=10.0))
+    a = run_graph(m, mode="online")
+    b = run_graph(m, mode="fixed-lag", options=GraphOptions(lag_s=10.0))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=2e-4)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=0.05, atol=1e-8)
 
 
 def test_per_beam_and_per_epoch_factors_agree(steady_missions):
     m = steady_missions[1].slice(0, 60)
-    a = run_graph(m, "Graph-TC", options=GraphOptions(beam_factor_mode="epoch"))
-    b = run_graph(m, "Graph-TC", options=GraphOptions(beam_factor_mode="beam"))
+    a = run_graph(m, options=GraphOptions(beam_factor_mode="epoch"))
+    b = run_graph(m, options=GraphOptions(beam_factor_mode="beam"))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-8)
 
 
@@ -131,9 +131,9 @@ def test_outage_hn_beats_tc_and_batch_beats_filter(tactical_mission, scenario, n
     well that the average estimator's stale beams help only sometimes; see the final report)."""
     m = tactical_mission.with_outage(scenario_outage(scenario, 100.0, 30.0))
     completer = AverageCompleter(n_past)
-    tc = run_graph(m, "Graph-TC")
-    hn = run_graph(m, "Graph-HN", completer=completer)
-    batch = run_graph(m, "Graph-HN-batch", completer=completer)
+    tc = run_graph(m)
+    hn = run_graph(m, completer=completer)
+    batch = run_graph(m, batch=True, completer=completer)
     window = dict(t_start=100.0, t_end=130.0)
     assert hn.info["n_regressed"].sum() > 0
     assert vrmse(hn, m.gt, **window) < 0.8 * vrmse(tc, m.gt, **window)
@@ -173,9 +173,9 @@ def test_accurate_regressed_beams_help_navigation_grade(nav_mission, scenario):
     """With accurate regressed beams (true beams + 0.03 m/s noise) Graph-HN beats Graph-TC and comes back to
     the all-beams accuracy (the floor set by the DVL bias and scale errors of the measured beams)."""
     m = nav_mission.with_outage(scenario_outage(scenario, 100.0, 30.0))
-    tc = run_graph(m, "Graph-TC")
-    hn = run_graph(m, "Graph-HN", completer=OracleCompleter(m))
-    full = run_graph(nav_mission, "Graph-TC")
+    tc = run_graph(m)
+    hn = run_graph(m, completer=OracleCompleter(m))
+    full = run_graph(nav_mission)
     window = dict(t_start=100.0, t_end=130.0)
     assert vrmse(hn, m.gt, **window) < 0.9 * vrmse(tc, m.gt, **window)
     assert vrmse(hn, m.gt, **window) < 1.15 * vrmse(full, m.gt, **window)
@@ -185,8 +185,8 @@ def test_batch_vectorized_equals_gtsam_lm(nav_mission):
     """The O(N) vectorised Gauss-Newton batch equals GTSAM's LM on the CustomFactor graph (with Huber)."""
     m = nav_mission.slice(0, 80).with_outage(scenario_outage("2-missing", 40.0, 20.0))
     opts = dict(huber_regressed_k=1.0)
-    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=GraphOptions(**opts))
-    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+    a = run_graph(m, batch=True, completer=AverageCompleter(3), options=GraphOptions(**opts))
+    b = run_graph(m, batch=True, completer=AverageCompleter(3),
                   options=GraphOptions(batch_solver="lm", **opts))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)
@@ -200,11 +200,11 @@ def test_imu_only_gaps_do_not_crash(nav_mission):
     keep = (m.dvl.t < 60.0) | (m.dvl.t >= 120.0)
     silent = dataclasses.replace(m, dvl=m.dvl.take(keep))
     for mission in (invalid, silent):
-        for method, mode in [("Graph-TC", "online"), ("Graph-HN-batch", "fixed-lag")]:
-            sol = run_graph(mission, method, completer=AverageCompleter(3), mode=mode)
+        for completer, batch, mode in [(None, False, "online"), (AverageCompleter(3), True, "fixed-lag")]:
+            sol = run_graph(mission, completer=completer, batch=batch, mode=mode)
             assert np.all(np.isfinite(sol.v_n)) and np.all(np.isfinite(sol.cov_v_n))
             assert vrmse(sol, m.gt) < 0.5
-    sol = run_graph(silent, "Graph-TC")
+    sol = run_graph(silent)
     kinds = np.array(sol.info["kind"])
     assert (kinds == "imu").sum() >= 55
     # the velocity uncertainty grows during the gap and shrinks after it
@@ -220,27 +220,26 @@ def test_indeterminant_system_is_recovered_with_qr(nav_mission):
     bad = GraphOptions(integration_sigma=1e-4, factorization="CHOLESKY")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = run_graph(m, "Graph-TC", options=bad)
+        sol = run_graph(m, options=bad)
     assert sol.info["recovered"] >= 1
     assert any("indeterminant" in str(w.message) for w in caught)
-    ref = run_graph(m, "Graph-TC", options=dataclasses.replace(bad, factorization="QR"))
+    ref = run_graph(m, options=dataclasses.replace(bad, factorization="QR"))
     assert vrmse(sol, m.gt) < 1.2 * vrmse(ref, m.gt) + 1e-3
 
 
 def test_callback_iterator_and_errors(nav_mission):
     m = nav_mission.slice(0, 20)
     seen = []
-    sol = run_graph(m, "Graph-TC", callback=seen.append)
+    sol = run_graph(m, callback=seen.append)
     assert [e.index for e in seen] == list(range(len(sol)))
-    streamed = list(iterate_graph(m, "Graph-TC"))
+    streamed = list(iterate_graph(m))
     np.testing.assert_allclose([e.v_n for e in streamed], sol.v_n)
     assert sol.info["update_s"] and sol.runtime_s > 0
+    with pytest.raises(TypeError):
+        run_graph(m, "Graph-TC")
+    assert sol.method == "Graph-TC" and run_graph(m, name="mine").method == "mine"
     with pytest.raises(ConfigError):
-        run_graph(m, "Graph-HN")
-    with pytest.raises(ConfigError):
-        run_graph(m, "Graph-XX")
-    with pytest.raises(ConfigError):
-        run_graph(m, "Graph-TC", mode="sideways")
+        run_graph(m, mode="sideways")
     with pytest.raises(ConfigError):
         GraphOptions(beam_factor_mode="per-ping")
 
@@ -262,7 +261,7 @@ def test_dvl_error_states_make_biased_beams_consistent(biased_missions, mode):
     nees, bias, err = [], [], []
     for m in biased_missions:
         seen = []
-        sol = run_graph(m, "Graph-TC", mode=mode, options=opts, callback=seen.append)
+        sol = run_graph(m, mode=mode, options=opts, callback=seen.append)
         nees.append(nees_velocity(sol, m.gt, t_start=20.0).mean())
         err.append(vrmse(sol, m.gt))
         d = seen[-2].dvl_errors          # D(k) is read back when keyframe k + 1 is added
@@ -277,8 +276,8 @@ def test_dvl_error_states_batch_and_recovery(biased_missions):
     """Vectorised batch with the D(k) columns equals GTSAM's LM; the QR restart carries D(k)."""
     m = biased_missions[0].slice(0, 60).with_outage(scenario_outage("2-missing", 30.0, 15.0))
     opts = GraphOptions(dvl_error_states=True)
-    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=opts)
-    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+    a = run_graph(m, batch=True, completer=AverageCompleter(3), options=opts)
+    b = run_graph(m, batch=True, completer=AverageCompleter(3),
                   options=dataclasses.replace(opts, batch_solver="lm"))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)
@@ -286,8 +285,8 @@ def test_dvl_error_states_batch_and_recovery(biased_missions):
     bad = dataclasses.replace(opts, integration_sigma=1e-4, factorization="CHOLESKY")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        sol = run_graph(m.slice(0, 40), "Graph-TC", options=bad)
-    ref = run_graph(m.slice(0, 40), "Graph-TC", options=dataclasses.replace(bad, factorization="QR"))
+        sol = run_graph(m.slice(0, 40), options=bad)
+    ref = run_graph(m.slice(0, 40), options=dataclasses.replace(bad, factorization="QR"))
     assert sol.info["recovered"] >= 1
     assert vrmse(sol, m.gt) < 1.2 * vrmse(ref, m.gt) + 1e-3
 
@@ -296,8 +295,8 @@ def test_dvl_error_states_only_on_measured_beams_batch_equals_lm(biased_missions
     """Regressed beams without the DVL error states (mixed rows in one keyframe) in the vectorised batch."""
     m = biased_missions[1].slice(0, 40).with_outage(scenario_outage("2-missing", 20.0, 10.0))
     opts = GraphOptions(dvl_error_states=True, dvl_errors_on_regressed=False)
-    a = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3), options=opts)
-    b = run_graph(m, "Graph-HN-batch", completer=AverageCompleter(3),
+    a = run_graph(m, batch=True, completer=AverageCompleter(3), options=opts)
+    b = run_graph(m, batch=True, completer=AverageCompleter(3),
                   options=dataclasses.replace(opts, batch_solver="lm"))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)

@@ -165,7 +165,7 @@ def test_overconfident_ekf_is_flagged_above_band(sim):
     """Beam noise assumed 10x too small: the NIS leaves its chi-square band and the monitor says so."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = run_ekf(sim, "TC", options=EkfOptions(beam_noise_std=0.004, beam_bias_std=0.0, beam_scale_std=0.0,
+        sol = run_ekf(sim, options=EkfOptions(beam_noise_std=0.004, beam_bias_std=0.0, beam_scale_std=0.0,
                                                     gating=False))
     h = sol.info["health"]
     assert h["n_blocks_above_band"] == h["n_blocks"] >= 4
@@ -185,7 +185,7 @@ def test_ekf_reacquires_after_a_forced_lockout(sim):
     init = _tilted_start(sim, 2.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        locked = run_ekf(sim, "TC", options=EkfOptions(reacquire=False), initial=init)
+        locked = run_ekf(sim, options=EkfOptions(reacquire=False), initial=init)
     h = locked.info["health"]
     assert h["n_rejected"] >= len(locked.t) - 3 and h["diverged_at_end"] and h["n_reacquired"] == 0
     assert vrmse(locked, sim.gt) > 10.0
@@ -194,7 +194,7 @@ def test_ekf_reacquires_after_a_forced_lockout(sim):
     for method in ("TC", "LC"):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            sol = run_ekf(sim, method, initial=init)
+            sol = run_ekf(sim, tight=method == "TC", initial=init)
         h = sol.info["health"]
         assert h["n_reacquired"] >= 1 and not h["diverged_at_end"] and h["n_rejected"] <= 10
         assert "velocity re-initialised from a 4-measured-beam least-squares fix" in h["reacquisitions"][0][1]
@@ -208,7 +208,7 @@ def test_ekf_reacquires_with_one_beam_by_inflation(sim):
     one_beam = sim.with_outage(scenario_outage("3-missing", sim.t0, sim.duration + 1.0))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sol = run_ekf(one_beam, "TC", initial=_tilted_start(one_beam, 2.0))
+        sol = run_ekf(one_beam, initial=_tilted_start(one_beam, 2.0))
     h = sol.info["health"]
     assert h["n_reacquired"] >= 1 and "no velocity fix" in h["reacquisitions"][0][1]
     assert np.all(np.isfinite(sol.v_n))
@@ -229,7 +229,7 @@ def test_graph_flags_divergence_and_inconsistency(sim):
                                                              omega_b=m.imu.omega_b * flip))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = run_graph(flipped, "Graph-TC")
+        sol = run_graph(flipped)
     h = sol.info["health"]
     assert vrmse(sol, m.gt) > 5.0 and h["diverged_at_end"]
     assert diverged_during(h, m.t1 - 10.0, m.t1)
@@ -240,7 +240,7 @@ def test_graph_flags_divergence_and_inconsistency(sim):
     init = dataclasses.replace(init, v_n=init.v_n + np.array([2.0, 0.0, 0.0]))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = run_graph(m, "Graph-TC", initial=init)
+        sol = run_graph(m, initial=init)
     h = sol.info["health"]
     assert h["n_blocks_above_band"] >= 1 and h["nis_mean_per_dof"] > 3.0
     assert any("above its 0.999 chi-square band" in w for w in _health_warnings(caught, "Graph-TC"))

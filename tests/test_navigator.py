@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from pathlib import Path
 
 import gtsam
@@ -17,6 +16,7 @@ from graphnav.estimators.graph import GraphOptions, InitialState
 from graphnav.estimators.navigator import Navigator, NavigatorOptions
 from graphnav.estimators.replay import first_ping_time, replay
 from graphnav.estimators.runs import run_ekf, run_graph
+from graphnav.evaluation.methods import METHODS
 from graphnav.evaluation.metrics import vrmse
 from graphnav.sim.simulate import simulate_mission
 
@@ -62,9 +62,9 @@ def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission
     a = reference[f"initial/{'graph' if graph else 'ekf'}/{'gap' if tag == 'gap' else 'clean'}"]
     initial = InitialState(gtsam.Pose3(gtsam.Rot3(a[1:10].reshape(3, 3)), a[13:16]), a[10:13], t=float(a[0]))
     if graph:
-        sol = run_graph(m, method, completer, mode=mode, initial=initial)
+        sol = run_graph(m, completer=completer, batch=METHODS[method].batch, mode=mode, initial=initial)
     else:
-        sol = run_ekf(m, method, completer, initial=initial)
+        sol = run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial)
     key = f"{tag}/{method}/{mode}"
     np.testing.assert_array_equal(sol.t, reference[key + "/t"])
     v_tol, p_tol = (1e-9, 1e-9) if method.startswith("Graph") else (1e-5, 1e-4)
@@ -229,7 +229,7 @@ def test_estimators_started_from_the_sensors_never_read_the_ground_truth(method)
     m = simulate_mission(duration_s=200.0, seed=5)
     truth = m.gt
     object.__setattr__(m, "gt", _Tripwire())
-    sol = run_graph(m, method, init="sensors") if method.startswith("Graph") else run_ekf(m, method, init="sensors")
+    sol = run_graph(m, init="sensors") if method.startswith("Graph") else run_ekf(m, init="sensors")
     object.__setattr__(m, "gt", truth)
     assert sol.info["alignment"]["heading_source"] == "gyrocompass"
     assert sol.t[0] >= sol.info["alignment"]["t"] - 1e-9
@@ -256,28 +256,14 @@ def test_cli_pipes_a_simulated_stream_into_online(tmp_path):
     assert "(fixed-lag)" in run.stderr
 
 
-def test_the_streaming_example_runs():
-    import runpy
-    import sys
-    example = Path(__file__).parents[1] / "examples" / "streaming_loop.py"
-    argv = sys.argv
-    sys.argv = [str(example), "--duration", "330"]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            runpy.run_path(str(example), run_name="__main__")
-    finally:
-        sys.argv = argv
-
-
 def test_fixed_lag_restart_from_the_joint_marginal_changes_nothing(mission):
     """The fixed-lag smoother is restarted every reanchor_interval_s (its cost grows over hours otherwise):
     from the joint marginal of the last state the estimates stay within 5e-4 m/s (about 1 % of the beam noise;
     measured 2.6e-4 just after a restart, where the window's older keyframes can no longer be relinearised) of
     an unrestarted run."""
     m = mission.slice(0, 120)
-    a = run_graph(m, "Graph-TC", mode="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
-    b = run_graph(m, "Graph-TC", mode="fixed-lag", options=GraphOptions(reanchor_interval_s=20.0))
+    a = run_graph(m, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
+    b = run_graph(m, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=20.0))
     assert b.info["reanchored"] == 6 and a.info["reanchored"] == 0      # at 20, 40, ..., 120 s
     np.testing.assert_allclose(b.v_n, a.v_n, atol=5e-4)
     np.testing.assert_allclose(b.cov_v_n, a.cov_v_n, rtol=0.05, atol=1e-7)   # diagonal ~4e-4..2e-3

@@ -1,1 +1,13 @@
-"""Sensor calibration from recorded data: IMU axes, DVL lever arm and mounting, time offsets, noise densities."""
+"""Sensor calibration from recorded data: IMU axes, DVL lever arm and mounting, time offsets, noise densities.
+
+``calibrate(mission)`` (module :mod:`graphnav.calibration.calibrate`, whose name it shares) runs them all."""
+from graphnav.core.lazy import lazy_exports as _lazy_exports
+
+_PUBLIC = {
+    "result": ("CalibrationResult",),
+    "calibrate": ("calibrate_with_gt",),
+    "without_gt": ("calibrate_with_graph",),
+    "axes": ("detect_imu_axis_signs",),
+    "noise": ("identify", "NoiseEstimate"),
+}
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

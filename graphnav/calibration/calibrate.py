@@ -78,12 +78,14 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
               "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms})
 
 
-def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False, **kwargs) -> CalibrationResult:
+def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False, completer=None,
+              **kwargs) -> CalibrationResult:
     """Calibrate a mission: ``mode`` = ``"gt"``, ``"graph"`` or ``"auto"`` (gt when GT is present).
 
     ``identify_noise``: also identify the IMU white-noise densities and the beam noise from the data
     (:func:`graphnav.calibration.noise.identify`, one all-beam batch-smoother run; with GT also the GT's velocity
-    error) and write them into the calibrated configuration (``graphnav calibrate`` does by default).
+    error) and write them into the calibrated configuration (``graphnav calibrate`` does by default);
+    ``completer`` fills the pings with missing beams in that run (see :func:`~graphnav.calibration.noise.identify`).
     """
     if mode == "auto":
         mode = "gt" if mission.gt is not None else "graph"
@@ -96,7 +98,7 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
         raise ValueError(f"unknown calibration mode '{mode}' (gt, graph, auto)")
     if identify_noise:
         from graphnav.calibration.noise import identify
-        noise = identify(mission)
+        noise = identify(mission, completer=completer)
         result.noise = noise
         result.config.imu.accel_noise_density = noise.accel_noise_density
         result.config.imu.gyro_noise_density = noise.gyro_noise_density

@@ -176,16 +176,19 @@ def beam_residuals(mission: Mission, sol) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(res), np.concatenate(var)
 
 
-def identify(mission: Mission, sol=None) -> NoiseEstimate:
+def identify(mission: Mission, sol=None, completer=None) -> NoiseEstimate:
     """IMU densities, beam noise and GT velocity error of one mission with GT.
 
-    ``sol``: an all-beam Graph-HN-batch solution with DVL error states (run here when None).
+    ``sol``: an all-beam batch-smoother solution with DVL error states; when None it is run here, with
+    ``completer``'s regressed beams at pings with missing beams (Graph-HN-batch; the callers above this layer
+    pass the registry's completer for the data as recorded,
+    ``graphnav.evaluation.methods.network_completer("none")``) or on the measured beams only (None).
     """
     est = identify_imu(mission)
     if sol is None:
         from graphnav.estimators.graph import GraphOptions
-        from graphnav.evaluation.methods import run_method
-        sol = run_method(mission, "Graph-HN-batch", "none", options=GraphOptions(dvl_error_states=True))
+        from graphnav.estimators.runs import run_graph
+        sol = run_graph(mission, completer=completer, batch=True, options=GraphOptions(dvl_error_states=True))
     r, var_h = beam_residuals(mission, sol)
     sigma0 = mission.config.dvl.beam_noise_std
     keep = np.abs(r) < 5 * sigma0

@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from graphnav.commands.smooth import HelpFormatter
+from graphnav.commands.common import HelpFormatter, methods_help
 from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
 from graphnav.evaluation.methods import METHODS
 
@@ -43,7 +43,7 @@ def register(subparsers) -> None:
     p.add_argument("--max-windows", type=int, default=None, metavar="N",
                    help="at most N windows per mission (evenly thinned); default: as many as fit")
     p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="METHOD",
-                   help=f"methods to run (from {', '.join(METHODS)})")
+                   help=f"methods to run ({methods_help()})")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
                    help="parallel worker processes (1 = run in this process)")
     p.add_argument("--scheduler", metavar="ADDRESS|local",

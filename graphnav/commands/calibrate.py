@@ -44,9 +44,12 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from graphnav.calibration.calibrate import calibrate
-    from graphnav.commands.smooth import recorded_mission
+    from graphnav.commands.common import recorded_mission
     mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
+    if not args.no_noise:   # the noise run is Graph-HN-batch on the data as recorded: the registry's completer
+        from graphnav.evaluation.methods import network_completer
+        kwargs["completer"] = network_completer("none", mission.config.dvl.beam_noise_std)[0]
     result = calibrate(mission, args.mode, identify_noise=not args.no_noise, **kwargs)
     print(f"mission: {mission.name} ({mission.duration:.0f} s)")
     print(result.report())

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from graphnav.commands.smooth import HelpFormatter
+from graphnav.commands.common import HelpFormatter
 
 
 def register(subparsers) -> None:

@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from graphnav.commands.smooth import (
+from graphnav.commands.common import (
     HelpFormatter,
     accuracy_summary,
     add_init_arguments,
@@ -25,9 +25,12 @@ from graphnav.commands.smooth import (
     aligner_kwargs,
     make_plots,
     mission_from_args,
+    print_summary,
 )
+from graphnav.evaluation.methods import METHODS
 
-STREAMING_METHODS = ("Graph-TC", "Graph-HN", "TC", "LC", "Average-TC", "Average-LC", "HNTC", "HNLC")
+#: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
+STREAMING_METHODS = tuple(name for name, m in METHODS.items() if not m.batch)
 
 
 def register(subparsers) -> None:
@@ -50,7 +53,9 @@ def register(subparsers) -> None:
     p.add_argument("--method", default="Graph-TC", choices=STREAMING_METHODS,
                    help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
                         "data, see the README); Graph-HN adds the completer's regressed beams as weak factors; "
-                        "the others run the paper's EKF (TC/LC and their hybrids)")
+                        "Graph-MP a motion prior where fewer than 3 beams are measured; the others run the "
+                        "paper's EKF (TC/LC and their hybrids); the graph settings are the registry's "
+                        "(graphnav.evaluation.methods)")
     p.add_argument("--backend", default="fixed-lag", choices=("fixed-lag", "isam2"),
                    help="graph methods: fixed-lag smoother (bounded time and memory) or ISAM2 over the whole "
                         "mission")
@@ -130,15 +135,15 @@ def update_timing(update_s) -> dict:
 def make_navigator(args, config, mission=None):
     """The Navigator the arguments ask for: backend and completer from ``--method``, the initial state from
     ``--init`` (ground truth at the first ping of ``mission``) or the aligner's options."""
-    from graphnav.estimators.graph import GraphOptions
     from graphnav.estimators.navigator import Navigator, NavigatorOptions
     from graphnav.estimators.replay import first_ping_time
     from graphnav.estimators.runs import initial_state
-    from graphnav.evaluation.methods import EKF_METHODS, completer_for
-    completer, described = completer_for(args.method, args.scenario, config.dvl.beam_noise_std)
-    ekf = args.method in EKF_METHODS
+    from graphnav.evaluation.methods import completer_for, estimator_options, get_method
+    method = get_method(args.method)
+    completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std)
+    ekf = method.family == "ekf"
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
-    graph_options = GraphOptions() if args.lag is None else GraphOptions(lag_s=args.lag)
+    graph_options = None if ekf else estimator_options(method.name, None if args.lag is None else {"lag_s": args.lag})
     nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
         reorder_window_s=args.reorder_window)
     initial = None
@@ -148,7 +153,7 @@ def make_navigator(args, config, mission=None):
         from graphnav.core.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
-                    tight=not args.method.endswith("LC"), options=nav_options, aligner_kwargs=aligner_kwargs(args))
+                    tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
     return nav, described
 
 
@@ -211,7 +216,6 @@ def run(args) -> int:
         summary["files"].update({Path(p).stem: p for p in plots})
     summary["files"]["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
-    from graphnav.commands.smooth import print_summary
     print_summary(summary, file=log)
     return 0
 

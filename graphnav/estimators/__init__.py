@@ -1,1 +1,12 @@
 """The estimators: strapdown INS, the error-state EKF, the factor graph, and the streaming Navigator over them."""
+from graphnav.core.lazy import lazy_exports as _lazy_exports
+
+_PUBLIC = {
+    "navigator": ("Navigator", "NavigatorOptions"),
+    "ekf": ("EkfOptions",),
+    "graph": ("GraphOptions", "InitialState", "EpochEstimate"),
+    "align": ("AlignOptions",),
+    "health": ("HealthOptions",),
+    "runs": ("run_ekf", "run_graph", "iterate_graph"),
+}
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

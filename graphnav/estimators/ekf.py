@@ -79,7 +79,6 @@ from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 from graphnav.estimators.health import HealthOptions, NisMonitor
 from graphnav.estimators.ins import Strapdown, StrapdownState
 
-METHODS = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
 N_STATES = 12
 N_DVL_STATES = 7
 IV, IE, IA, IG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)

@@ -1,16 +1,19 @@
 """Replays of a recorded mission through the :class:`~graphnav.estimators.navigator.Navigator`: one call from a
 :class:`~graphnav.core.mission.Mission` to a :class:`~graphnav.core.solution.NavSolution`, the same code path a
-vehicle runs.
+vehicle runs. The runners take objects and flags, not method names (the names live in the registry,
+:mod:`graphnav.evaluation.methods`, which maps each to one of these calls):
 
-- :func:`run_graph`: the factor-graph methods ``Graph-TC`` (measured beams only), ``Graph-HN`` (plus the
-  completer's regressed beams as weaker factors) and ``Graph-HN-batch`` (then the batch smoother over the whole
-  mission, :mod:`graphnav.estimators.graph.batch`). ``mode="online"`` is ISAM2 over the whole mission,
-  ``mode="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and time per update). Output stamps
-  are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps (``info["kind"]``).
-- :func:`run_ekf`: the paper's error-state EKF (LC, TC and the hybrid variants), output at every DVL ping.
+- :func:`run_graph`: the factor graph over the measured beams (``Graph-TC``), plus a completer's regressed
+  beams as weaker factors (``completer=...``: ``Graph-HN``), then optionally the batch smoother over the whole
+  mission (``batch=True``: ``Graph-HN-batch``, :mod:`graphnav.estimators.graph.batch`). ``mode="online"`` is
+  ISAM2 over the whole mission, ``mode="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and
+  time per update). Output stamps are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps
+  (``info["kind"]``).
+- :func:`run_ekf`: the paper's error-state EKF, tightly (``tight=True``: TC) or loosely (LC) coupled, with a
+  completer for the hybrid variants; output at every DVL ping.
 
-The initial state is the ground truth at the start when the mission has one, else the Navigator aligns from
-the sensors.
+``name`` only labels the solution and the messages. The initial state is the ground truth at the start when
+the mission has one, else the Navigator aligns from the sensors.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
 from graphnav.estimators.coasting import check_pure_inertial
-from graphnav.estimators.ekf import METHODS, EkfOptions
+from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
 from graphnav.estimators.graph.incremental import (
     EpochEstimate,
@@ -38,31 +41,35 @@ from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.navigator import Navigator, feed_mission
 from graphnav.estimators.replay import first_ping_time, replay
 
-GRAPH_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch")
 #: run_graph's modes and the Navigator backend each one is.
 MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
 
 
-def graph_navigator(mission: Mission, method: str = "Graph-TC", completer=None,
-                    options: GraphOptions | None = None, mode: str = "online",
-                    initial: InitialState | None = None, init: str = "auto", navigator_options=None,
-                    keep_keyframe_graphs: bool = False, aligner_kwargs: dict | None = None):
+def graph_label(completer=None, batch: bool = False) -> str:
+    """The default label of a graph run: Graph-TC (measured beams only) or Graph-HN (with a completer), with
+    ``-batch`` for the batch smoother."""
+    return ("Graph-HN" if completer is not None else "Graph-TC") + ("-batch" if batch else "")
+
+
+def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions | None = None,
+                    mode: str = "online", initial: InitialState | None = None, init: str = "auto",
+                    navigator_options=None, keep_keyframe_graphs: bool = False,
+                    aligner_kwargs: dict | None = None, name: str | None = None):
     """The :class:`~graphnav.estimators.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
+
+    ``completer``: regressed beams for the pings with missing beams (None: measured beams only).
 
     ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
     ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
     ``aligner_kwargs`` go to the :class:`~graphnav.estimators.align.Aligner` (e.g. ``initial_heading_rad``).
     """
-    if method not in GRAPH_METHODS:
-        raise ConfigError(f"unknown graph method '{method}'; choose one of {GRAPH_METHODS}")
-    if method.startswith("Graph-HN") and completer is None:
-        raise ConfigError(f"{method} needs a beam completer (e.g. graphnav.nets.AverageCompleter)")
     if mode not in MODES:
         raise ConfigError(f"unknown graph mode '{mode}'; choose one of {tuple(MODES)}")
     initial = initial_state(mission, initial, init, first_ping_time(mission))
-    return Navigator(mission.config, MODES[mode], completer=completer if method.startswith("Graph-HN") else None,
-                     initial=initial, graph_options=options or GraphOptions(), options=navigator_options,
-                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs, name=method)
+    return Navigator(mission.config, MODES[mode], completer=completer, initial=initial,
+                     graph_options=options or GraphOptions(), options=navigator_options,
+                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs,
+                     name=name or graph_label(completer))
 
 
 def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:
@@ -77,31 +84,32 @@ def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialSta
     return InitialState.from_ground_truth(mission, t0)
 
 
-def iterate_graph(mission: Mission, method: str = "Graph-TC", completer=None,
-                  options: GraphOptions | None = None, mode: str = "online",
-                  initial: InitialState | None = None):
-    """Generator over the filtered :class:`EpochEstimate` of every keyframe, as each is computed.
+def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | None = None,
+                  mode: str = "online", initial: InitialState | None = None, name: str | None = None):
+    """Generator over the filtered :class:`EpochEstimate` of every keyframe, as each is computed (the
+    arguments as :func:`run_graph`'s).
 
     Nothing is kept between keyframes except the estimator itself (bounded memory with
-    ``mode="fixed-lag"``); ``Graph-HN-batch`` streams its first (filtered) pass only.
+    ``mode="fixed-lag"``); there is no batch pass.
     """
-    nav = graph_navigator(mission, method, completer, options, mode, initial)
+    nav = graph_navigator(mission, completer=completer, options=options, mode=mode, initial=initial, name=name)
     adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
     for kind, t, payload in replay(mission):
         yield from adders[kind](t, *payload)
     yield from nav.finish()
 
 
-def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, options: GraphOptions | None = None,
+def run_graph(mission: Mission, *, completer=None, batch: bool = False, options: GraphOptions | None = None,
               callback: Callable[[EpochEstimate], None] | None = None, mode: str = "online",
               initial: InitialState | None = None, init: str = "auto",
-              aligner_kwargs: dict | None = None) -> NavSolution:
-    """Run a graph method over a recorded mission (a sample-by-sample replay through the Navigator).
+              aligner_kwargs: dict | None = None, name: str | None = None) -> NavSolution:
+    """Run the factor graph over a recorded mission (a sample-by-sample replay through the Navigator).
 
     Args:
         mission: the mission (IMU, DVL, optional depth; ground truth only for the initial state).
-        method: ``Graph-TC``, ``Graph-HN`` or ``Graph-HN-batch`` (the HN methods need ``completer``).
-        completer: beam completer (``complete(past, measured)``, ``n_past``).
+        completer: beam completer (``complete(past, measured)``, ``n_past``) whose regressed beams enter as
+            weaker factors at pings with missing beams (Graph-HN); None: measured beams only (Graph-TC).
+        batch: after the filtered pass, the batch smoother over the whole mission (Graph-HN-batch).
         options: :class:`GraphOptions` (defaults when None).
         callback: called with the filtered :class:`EpochEstimate` after each keyframe update.
         mode: ``"online"`` (ISAM2) or ``"fixed-lag"`` (lag ``options.lag_s``).
@@ -109,6 +117,7 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
         aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+        name: the solution's label, also used in messages (default :func:`graph_label`).
 
     Returns:
         NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
@@ -120,15 +129,15 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
     """
     start = time.perf_counter()
     options = options or GraphOptions()
-    batch = method == "Graph-HN-batch"
+    name = name or graph_label(completer, batch)
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
-    nav = graph_navigator(mission, method, completer, first_pass, mode, initial, init, keep_keyframe_graphs=batch,
-                          aligner_kwargs=aligner_kwargs)
+    nav = graph_navigator(mission, completer=completer, options=first_pass, mode=mode, initial=initial, init=init,
+                          keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
-        raise ConfigError(f"{method} on '{mission.name}': no estimate was made "
+        raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
     if nav.backend is not None and hasattr(nav.backend, "ctx"):
@@ -147,11 +156,11 @@ def run_graph(mission: Mission, method: str = "Graph-TC", completer=None, option
                           "smoothed ones (no velocity covariance)", RuntimeWarning, stacklevel=2)
             info["batch_failed"] = reason
         info["batch_s"] = time.perf_counter() - start - info["online_s"]
-    sol = solution_from_estimates(method, estimates)
+    sol = solution_from_estimates(name, estimates)
     sol.runtime_s = time.perf_counter() - start
     sol.info.update(info)
     aided = (sol.info["n_measured"] + sol.info["n_regressed"]) > 0
-    sol.info.update(check_pure_inertial(method, sol.t, aided, sol.cov_v_n, options.max_pure_inertial_s))
+    sol.info.update(check_pure_inertial(name, sol.t, aided, sol.cov_v_n, options.max_pure_inertial_s))
     return sol
 
 
@@ -177,17 +186,23 @@ def _initial_state(mission: Mission, t0: float) -> StrapdownState:
     return StrapdownState(t0, C, v, p)
 
 
-def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions | None = None,
-            initial=None, init: str = "auto", aligner_kwargs: dict | None = None) -> NavSolution:
-    """Run one of the EKF methods over a recorded mission and return the solution at every DVL ping (post
+def ekf_label(tight: bool = True, completer=None) -> str:
+    """The default label of an EKF run: TC or LC, ``Hybrid-`` in front with a completer."""
+    return ("Hybrid-" if completer is not None else "") + ("TC" if tight else "LC")
+
+
+def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: EkfOptions | None = None,
+            initial=None, init: str = "auto", aligner_kwargs: dict | None = None,
+            name: str | None = None) -> NavSolution:
+    """Run the paper's error-state EKF over a recorded mission and return the solution at every DVL ping (post
     update): a sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``).
 
     Args:
         mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
-        method: ``LC``, ``TC`` (measured beams only), ``Average-LC``, ``Average-TC``, ``HNLC``, ``HNTC``
-            (missing beams completed by ``completer`` through :class:`~graphnav.estimators.history.BeamHistory`; the
-            completed beams enter with their variance inflated by the completer's sigma^2).
-        completer: required for the hybrid methods, e.g. ``AverageCompleter(n_past)`` or the network's.
+        tight: every measured beam is a measurement (TC); False: a velocity fix from 3+ beams (LC).
+        completer: fills the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
+            the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the completed beams enter
+            with their variance inflated by the completer's sigma^2. None: measured beams only.
         options: :class:`EkfOptions`.
         initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.graph.InitialState`
             with its stamp); default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the paper (the
@@ -196,30 +211,26 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
         aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+        name: the solution's label, also used in messages (default :func:`ekf_label`).
 
     Returns:
         :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
     """
     wall = time.perf_counter()
-    if method not in METHODS:
-        raise ConfigError(f"unknown EKF method '{method}'; choose one of {list(METHODS)}")
-    hybrid = method not in ("LC", "TC")
-    if hybrid and completer is None:
-        raise ConfigError(f"method {method} needs a beam completer (e.g. graphnav.nets.AverageCompleter(3))")
+    name = name or ekf_label(tight, completer)
     if isinstance(initial, StrapdownState):
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(initial.C_b_n), initial.p_n), initial.v_n, t=initial.t)
     if initial is None and init != "sensors" and mission.gt is not None:
         s = _initial_state(mission, max(mission.imu.t[0], mission.gt.t[0]))
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
     initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
-    nav = Navigator(mission.config, "ekf", completer=completer if hybrid else None, initial=initial,
-                    ekf_options=options, tight=not method.endswith("LC"), aligner_kwargs=aligner_kwargs,
-                    name=f"EKF {method}")
+    nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
+                    aligner_kwargs=aligner_kwargs, name=f"EKF {name}")
     estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
     K = len(estimates)
-    sol = NavSolution(method, np.array([e.t for e in estimates]),
+    sol = NavSolution(name, np.array([e.t for e in estimates]),
                       np.array([e.p_n for e in estimates]).reshape(K, 3),
                       np.array([e.v_n for e in estimates]).reshape(K, 3),
                       np.array([e.C_b_n for e in estimates]).reshape(K, 3, 3),
@@ -229,7 +240,7 @@ def run_ekf(mission: Mission, method: str, completer=None, options: EkfOptions |
                       runtime_s=time.perf_counter() - wall, info=info)
     # a ping aided the filter when it carried enough beams for its update (TC: one, LC: three); a gated
     # update is not seen from here
-    used = np.array([e.n_measured + e.n_regressed for e in estimates]) >= (3 if method.endswith("LC") else 1)
-    sol.info.update(check_pure_inertial(f"EKF-{method}", sol.t, used, sol.cov_v_n,
+    used = np.array([e.n_measured + e.n_regressed for e in estimates]) >= (1 if tight else 3)
+    sol.info.update(check_pure_inertial(f"EKF-{name}", sol.t, used, sol.cov_v_n,
                                         (options or EkfOptions()).max_pure_inertial_s))
     return sol

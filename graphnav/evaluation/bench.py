@@ -44,8 +44,6 @@ from graphnav.core.timeseries import interp_rows
 from graphnav.estimators.health import diverged_during
 from graphnav.evaluation.methods import (
     METHODS,
-    average_of,
-    baseline_of,
     check_method,
     check_scenario,
     run_method,
@@ -702,10 +700,13 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                 a = agg.get((grade, sc, m))
                 if not a:
                     continue
-                base = agg.get((grade, sc, baseline_of(m)), {}).get("vrmse_window_mean", float("nan"))
-                avg = agg.get((grade, sc, average_of(m)), {}).get("vrmse_window_mean", float("nan"))
-                vs_base = "-" if m == baseline_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], base))
-                vs_avg = "-" if m == average_of(m) else _pct(improvement_pct(a["vrmse_window_mean"], avg))
+                # a name the registry does not know (results of another version) is compared with nothing
+                record = METHODS.get(m)
+                base_name, avg_name = (record.baseline, record.average) if record else (m, m)
+                base = agg.get((grade, sc, base_name), {}).get("vrmse_window_mean", float("nan"))
+                avg = agg.get((grade, sc, avg_name), {}).get("vrmse_window_mean", float("nan"))
+                vs_base = "-" if m == base_name else _pct(improvement_pct(a["vrmse_window_mean"], base))
+                vs_avg = "-" if m == avg_name else _pct(improvement_pct(a["vrmse_window_mean"], avg))
                 n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "") \
                     + (f" (+{a['n_diverged']} diverged)" if a["n_diverged"] else "")
                 lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "

@@ -15,7 +15,8 @@ Two kinds of injectors:
   :func:`drop_csv_column`, :func:`set_csv_field`, :func:`duplicate_csv_line`, :func:`swap_csv_lines`.
 
 :data:`FAULTS` maps each fault name to a function ``(mission, workdir) -> Mission`` (raising
-``DataError`` when the data cannot be used) and :func:`run_estimator` runs one of :data:`ESTIMATORS`.
+``DataError`` when the data cannot be used); :func:`run_fault` runs each method of :data:`FAULT_METHODS` through
+the registry (:func:`graphnav.evaluation.methods.run_method`) on the faulty mission.
 """
 from __future__ import annotations
 
@@ -31,8 +32,10 @@ from graphnav.core.mission import RDI_BAD_VELOCITY, DvlData, ImuData, Mission
 from graphnav.core.scenarios import Outage
 from graphnav.core.solution import NavSolution
 
-#: The estimators the fault suite runs (graph online, graph batch, EKF; measured-only and hybrid).
-ESTIMATORS = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "EKF-TC", "EKF-HNTC")
+#: The methods the fault suite runs (graph online, graph batch, EKF; measured-only and hybrid), by their
+#: registry names (:data:`graphnav.evaluation.methods.METHODS`). The hybrids run with the average estimator
+#: (:func:`fault_completer`) in place of the network, so that the suite needs no weights and stays fast.
+FAULT_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "TC", "HNTC")
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -352,17 +355,10 @@ def fault_mission(grade: str = "navigation", seed: int = 1, duration_s: float = 
 
 
 
-def run_estimator(name: str, mission: Mission, completer=None) -> NavSolution:
-    """Run one of :data:`ESTIMATORS`; the hybrid ones use ``completer`` (default the average estimator)."""
-    from graphnav.estimators.runs import run_ekf, run_graph
-    if completer is None and "HN" in name:
-        from graphnav.nets.average import AverageCompleter
-        completer = AverageCompleter(5)
-    if name.startswith("Graph-"):
-        return run_graph(mission, name, completer)
-    if name.startswith("EKF-"):
-        return run_ekf(mission, name[4:], completer)
-    raise ConfigError(f"unknown estimator '{name}'; choose one of {ESTIMATORS}")
+def fault_completer():
+    """The completer of the hybrids in the fault suite: the average estimator over the past 5 pings."""
+    from graphnav.nets.average import AverageCompleter
+    return AverageCompleter(5)
 
 
 @dataclasses.dataclass
@@ -405,7 +401,10 @@ def make_faulty(fault: str, mission: Mission, workdir: str | Path) -> Mission:
 
 
 def run_fault(fault: str, estimators, mission: Mission, workdir: str | Path, completer=None) -> list[Outcome]:
-    """Inject ``fault`` and run each estimator; a refused input gives one ``stopped`` outcome per estimator."""
+    """Inject ``fault`` and run each method of ``estimators`` (registry names, e.g. :data:`FAULT_METHODS`); a
+    refused input gives one ``stopped`` outcome per method. The hybrids use ``completer`` (default
+    :func:`fault_completer`, a new one per run)."""
+    from graphnav.evaluation.methods import run_method
     from graphnav.evaluation.metrics import velocity_errors
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -419,7 +418,7 @@ def run_fault(fault: str, estimators, mission: Mission, workdir: str | Path, com
     for name in estimators:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            sol = run_estimator(name, faulty, completer)
+            sol = run_method(faulty, name, completer=fault_completer() if completer is None else completer)
         norm = np.linalg.norm(velocity_errors(sol, mission.gt)[1], axis=1) if sol.t.size else np.array([np.nan])
         out.append(Outcome(fault, name, False, None, float(np.sqrt(np.mean(norm ** 2))), float(np.max(norm)),
                            sorted(set(load_warnings) | {str(w.message) for w in caught}), sol,

@@ -1,6 +1,8 @@
-"""The one place that maps a method name and a beam-outage scenario to an estimator and its completer.
+"""The method registry: the one table that maps a method name to its estimator, flags and completer, and
+:func:`run_method`, which runs a method on a mission.
 
-Method names (used in results, reports and on the command line):
+Method names (used in results, reports and on the command line); each is a :class:`Method` record of
+:data:`METHODS`:
 
 =================  =========  ==========================================================
 method             estimator  completer
@@ -15,7 +17,12 @@ Graph-MP           graph      none; model-aided motion prior (body-velocity rand
                               heave) at keyframes with fewer than 3 measured beams
 =================  =========  ==========================================================
 
-The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 for the other scenarios.
+The estimators themselves take objects and flags, not names (:func:`graphnav.estimators.runs.run_ekf`:
+``tight``, ``completer``; :func:`graphnav.estimators.runs.run_graph`: ``completer``, ``batch``); a record says
+which call a name is.
+
+The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 for the other scenarios
+(:data:`AVERAGE_N_PAST`, defined beside the estimator in :mod:`graphnav.nets.average`).
 ``0-beams`` (total DVL outage) and ``markov`` (random dropouts) use ``load_completer("auto")``: the networks
 for the patterns they were trained on, the average estimator for the others -- with no beam measured the
 networks do not apply, so in a total outage the hybrid's completion is the average estimator's constant-beam
@@ -27,22 +34,19 @@ average estimator stands in, with a warning, and the solution's ``info["complete
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
+import types
 import warnings
+from typing import Mapping
 
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.core.solution import NavSolution
+from graphnav.nets.average import AVERAGE_N_PAST
 
-EKF_METHODS: tuple[str, ...] = ("LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC")
-GRAPH_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-MP")
-#: Every method, in the order tables and plots show them.
-METHODS: tuple[str, ...] = EKF_METHODS + GRAPH_METHODS
-
-#: Past pings the average estimator uses per scenario.
-AVERAGE_N_PAST: dict[str, int] = {"2-missing": 3, "3-missing": 5, "none": 5, "0-beams": 5, "markov": 5}
 #: Which network (number of missing beams it was trained for) serves each scenario.
 NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto", "0-beams": "auto",
                                               "markov": "auto"}
@@ -54,21 +58,102 @@ NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "n
 #: In total outages the screened completer (average estimator) stays, not the motion prior: the prior was
 #: 1-17 % better with the tactical / MEMS IMU in 60-120 s total outages but 4-29 % worse with the recorded
 #: navigation-grade IMU (Trajectory2, 6, 10; scripts/regressed_candidates.py, candidate "HN ... MP-total").
-GRAPH_HN_OPTIONS: dict = {"regressed_correlation": 0.5, "regressed_adaptive": True}
+GRAPH_HN_OPTIONS: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams. The densities
 #: are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma 0.2 m/s (5x its
 #: spread): tighter values (1x, heave 0.05 m/s) made Graph-MP 1.35x Graph-TC on the real data (the vehicle
 #: manoeuvres: 99th percentile of the 1-s sway change 0.47 m/s, and a heave prior treated as white pulls the
 #: pitch, whose error the gravity projection turns into horizontal velocity drift).
-GRAPH_MP_OPTIONS: dict = {"motion_prior": "partial", "motion_prior_rw": (0.2, 0.32, 0.12),
-                          "motion_prior_heave_sigma": 0.2}
+GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", "motion_prior_rw": (0.2, 0.32, 0.12),
+                                                    "motion_prior_heave_sigma": 0.2})
+
+#: The completer kinds a method can have.
+COMPLETER_KINDS = ("none", "average", "network")
 
 
-def check_method(method: str) -> str:
-    """Return ``method`` or raise :class:`ConfigError` listing the valid names."""
-    if method not in METHODS:
-        raise ConfigError(f"unknown method '{method}'; choose from {', '.join(METHODS)}")
-    return method
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """One method of the registry.
+
+    Attributes:
+        name: the name in results, reports and on the command line.
+        family: ``"ekf"`` (:func:`graphnav.estimators.runs.run_ekf`) or ``"graph"``
+            (:func:`graphnav.estimators.runs.run_graph`).
+        tight: beams as individual measurements (TC) or a 3-beam velocity fix (LC; EKF only).
+        completer: ``"none"`` (measured beams only), ``"average"`` (the average estimator) or ``"network"``
+            (the scenario's network, :data:`NETWORK_FOR_SCENARIO`).
+        batch: graph only: the batch smoother over the whole mission after the filtered pass.
+        graph_options: graph only: :class:`~graphnav.estimators.graph.GraphOptions` fields that differ from its
+            defaults (:data:`GRAPH_HN_OPTIONS`, :data:`GRAPH_MP_OPTIONS`); options given to :func:`run_method`
+            as a dict go on top.
+        description: one line for tables and ``--help``.
+    """
+
+    name: str
+    family: str
+    tight: bool
+    completer: str
+    batch: bool = False
+    graph_options: Mapping = dataclasses.field(default_factory=lambda: types.MappingProxyType({}), hash=False)
+    description: str = ""
+
+    def __post_init__(self):
+        if self.family not in ("ekf", "graph") or self.completer not in COMPLETER_KINDS:
+            raise ConfigError(f"method {self.name}: family must be 'ekf' or 'graph' and completer one of "
+                              f"{COMPLETER_KINDS}, got {self.family!r}, {self.completer!r}")
+
+    @property
+    def baseline(self) -> str:
+        """The classical baseline the method is compared with: LC for the loosely coupled family, else TC."""
+        return "TC" if self.tight else "LC"
+
+    @property
+    def average(self) -> str:
+        """The average-estimator method the method is compared with (Average-LC or Average-TC)."""
+        return "Average-TC" if self.tight else "Average-LC"
+
+
+_RECORDS = (
+    Method("LC", "ekf", tight=False, completer="none",
+           description="the paper's loosely coupled EKF: a velocity fix from 3+ measured beams, else it coasts"),
+    Method("TC", "ekf", tight=True, completer="none",
+           description="the paper's tightly coupled EKF: every measured beam is a measurement"),
+    Method("Average-LC", "ekf", tight=False, completer="average",
+           description="LC with the missing beams filled in by the average estimator"),
+    Method("Average-TC", "ekf", tight=True, completer="average",
+           description="TC with the missing beams filled in by the average estimator"),
+    Method("HNLC", "ekf", tight=False, completer="network",
+           description="LC with the missing beams regressed by the network (the paper's hybrid)"),
+    Method("HNTC", "ekf", tight=True, completer="network",
+           description="TC with the missing beams regressed by the network (the paper's hybrid)"),
+    Method("Graph-TC", "graph", tight=True, completer="none",
+           description="factor graph (ISAM2, filtered output), measured beams only"),
+    Method("Graph-HN", "graph", tight=True, completer="network", graph_options=GRAPH_HN_OPTIONS,
+           description="factor graph (ISAM2, filtered output) plus the network's screened regressed beams"),
+    Method("Graph-HN-batch", "graph", tight=True, completer="network", batch=True, graph_options=GRAPH_HN_OPTIONS,
+           description="Graph-HN, then the batch smoother over the whole mission"),
+    Method("Graph-MP", "graph", tight=True, completer="none", graph_options=GRAPH_MP_OPTIONS,
+           description="Graph-TC with a motion prior at keyframes with fewer than 3 measured beams"),
+)
+
+#: Every method by name, in the order tables and plots show them (iterating gives the names).
+METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECORDS})
+#: The EKF methods and the graph methods, in table order.
+EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")
+GRAPH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "graph")
+
+
+def get_method(name: str) -> Method:
+    """The :class:`Method` record of ``name``, or :class:`ConfigError` listing the valid names."""
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ConfigError(f"unknown method '{name}'; choose from {', '.join(METHODS)}") from None
+
+
+def check_method(name: str) -> str:
+    """Return ``name`` or raise :class:`ConfigError` listing the valid names."""
+    return get_method(name).name
 
 
 def check_scenario(scenario: str) -> str:
@@ -77,23 +162,23 @@ def check_scenario(scenario: str) -> str:
     return scenario
 
 
-def baseline_of(method: str) -> str:
+def baseline_of(name: str) -> str:
     """The classical baseline a method is compared with: LC for the loosely coupled family, TC otherwise."""
-    return "LC" if method.endswith("LC") else "TC"
+    return get_method(name).baseline
 
 
-def average_of(method: str) -> str:
+def average_of(name: str) -> str:
     """The average-estimator method a method is compared with (Average-LC or Average-TC)."""
-    return "Average-LC" if method.endswith("LC") else "Average-TC"
+    return get_method(name).average
 
 
-def uses_network(method: str) -> bool:
-    return method.startswith("HN") or method.startswith("Graph-HN")
+def uses_network(name: str) -> bool:
+    return get_method(name).completer == "network"
 
 
 def average_completer(scenario: str, noise_std: float = 0.042):
     """The paper's average estimator with the scenario's ``n_past``."""
-    from graphnav.nets import AverageCompleter
+    from graphnav.nets.average import AverageCompleter
     return AverageCompleter(n_past=AVERAGE_N_PAST[check_scenario(scenario)], noise_std=noise_std)
 
 
@@ -115,26 +200,41 @@ def network_completer(scenario: str, noise_std: float = 0.042):
         return average_completer(scenario, noise_std), f"average(n_past={AVERAGE_N_PAST[scenario]}) fallback"
 
 
-def completer_for(method: str, scenario: str, noise_std: float = 0.042):
+def completer_for(name: str, scenario: str, noise_std: float = 0.042):
     """(completer or None, description) for a method in a scenario (see the module table)."""
-    check_method(method)
+    kind = get_method(name).completer
     check_scenario(scenario)
-    if method.startswith("Average-"):
+    if kind == "average":
         return average_completer(scenario, noise_std), f"average(n_past={AVERAGE_N_PAST[scenario]})"
-    if uses_network(method):
+    if kind == "network":
         return network_completer(scenario, noise_std)
     return None, "none"
+
+
+def estimator_options(name: str, options=None):
+    """The options object a method's estimator runs with: ``options`` as given when it is an options object,
+    else :class:`~graphnav.estimators.ekf.EkfOptions` / :class:`~graphnav.estimators.graph.GraphOptions` from
+    the method's defaults (``graph_options``) updated by the dict ``options``."""
+    m = get_method(name)
+    if options is not None and not isinstance(options, dict):
+        return options
+    if m.family == "ekf":
+        from graphnav.estimators.ekf import EkfOptions
+        return EkfOptions(**(options or {})) if options is not None else None
+    from graphnav.estimators.graph import GraphOptions
+    return GraphOptions(**{**m.graph_options, **(options or {})})
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
                options=None, callback=None, mode: str = "online", init: str = "auto",
                aligner_kwargs: dict | None = None) -> NavSolution:
-    """Run one method on a mission and return its :class:`NavSolution`.
+    """Run one method of :data:`METHODS` on a mission and return its :class:`NavSolution`.
 
     The scenario only chooses the completer (the outage itself is already in ``mission``'s valid mask,
-    see :meth:`Mission.with_outage`). ``completer`` overrides the choice. ``options`` go to the estimator:
-    its options object (:class:`graphnav.estimators.ekf.EkfOptions`, :class:`graphnav.estimators.graph.GraphOptions`) or a dict
-    of its fields. Graph methods only: ``callback`` receives each filtered
+    see :meth:`Mission.with_outage`). ``completer`` overrides the choice (a method without a completer,
+    such as TC or Graph-TC, runs without one). ``options`` go to the estimator: its options object
+    (:class:`graphnav.estimators.ekf.EkfOptions`, :class:`graphnav.estimators.graph.GraphOptions`) as is, or a
+    dict of its fields on top of the method's defaults. Graph methods only: ``callback`` receives each filtered
     :class:`graphnav.estimators.graph.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
     ``"fixed-lag"`` (lag ``options.lag_s``). ``init``: the initial state from the ground truth (``"gt"``),
     from the sensors (``"sensors"``, with ``aligner_kwargs`` such as ``initial_heading_rad``), or ``"auto"``
@@ -143,30 +243,22 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
     (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for}``).
     """
+    from graphnav.estimators.runs import run_ekf, run_graph
+    m = get_method(method)
     described = "given"
     if completer is None:
-        completer, described = completer_for(method, scenario, mission.config.dvl.beam_noise_std)
-    else:
-        check_method(method)
+        completer, described = completer_for(m.name, scenario, mission.config.dvl.beam_noise_std)
+    elif m.completer == "none":
+        completer = None
     fallbacks_before = dict(getattr(completer, "fallbacks", {}))
+    options = estimator_options(m.name, options)
     start = time.perf_counter()
-    if method in EKF_METHODS:
-        from graphnav.estimators.ekf import EkfOptions
-        from graphnav.estimators.runs import run_ekf
-        if isinstance(options, dict):
-            options = EkfOptions(**options)
-        sol = run_ekf(mission, method, completer=completer, options=options, init=init,
-                      aligner_kwargs=aligner_kwargs)
+    if m.family == "ekf":
+        sol = run_ekf(mission, tight=m.tight, completer=completer, options=options, init=init,
+                      aligner_kwargs=aligner_kwargs, name=m.name)
     else:
-        from graphnav.estimators.graph import GraphOptions
-        from graphnav.estimators.runs import run_graph
-        defaults = GRAPH_MP_OPTIONS if method == "Graph-MP" else (GRAPH_HN_OPTIONS if uses_network(method) else {})
-        if options is None or isinstance(options, dict):
-            options = GraphOptions(**{**defaults, **(options or {})})
-        # Graph-MP is Graph-TC (measured beams only) with the motion prior switched on
-        sol = run_graph(mission, "Graph-TC" if method == "Graph-MP" else method, completer=completer,
-                        options=options, callback=callback, mode=mode, init=init, aligner_kwargs=aligner_kwargs)
-        sol.method = method
+        sol = run_graph(mission, completer=completer, batch=m.batch, options=options, callback=callback, mode=mode,
+                        init=init, aligner_kwargs=aligner_kwargs, name=m.name)
     wall = time.perf_counter() - start
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall
@@ -175,7 +267,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts
         if any(counts.values()):
-            warnings.warn(f"{method}: the average estimator filled {counts['envelope']} ping(s) whose inputs left "
+            warnings.warn(f"{m.name}: the average estimator filled {counts['envelope']} ping(s) whose inputs left "
                           f"the network's training envelope and {counts['pattern']} with a missing-beam pattern "
                           f"the network was not trained for", RuntimeWarning, stacklevel=2)
     return sol

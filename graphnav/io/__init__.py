@@ -1,1 +1,12 @@
 """Reading and writing: the real data sets and vehicle formats (CSV, ROS 2 bags, PD0, JSON-lines) and the outputs."""
+from graphnav.core.lazy import lazy_exports as _lazy_exports
+
+_PUBLIC = {
+    "loaders": ("load_mission", "load_akit"),
+    "bags": ("load_bag", "write_odometry_bag"),
+    "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "read_tum", "write_json",
+                "EpochCsvWriter"),
+    "export": ("write_akit",),
+    "streamio": ("StreamReader",),
+}
+__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

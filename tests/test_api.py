@@ -1,0 +1,100 @@
+"""The public face: every public name imports, ``import graphnav`` stays light, the README lists
+``graphnav.__all__``, subpackages export only their API, one method registry, command modules import each
+other's helpers only through ``commands.common``."""
+from __future__ import annotations
+
+import ast
+import importlib
+import re
+import runpy
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+
+import graphnav
+
+ROOT = Path(__file__).parents[1]
+SUBPACKAGES = ("core", "io", "sim", "estimators", "calibration", "evaluation", "commands")
+
+
+def test_every_public_name_imports_and_dir_lists_it():
+    assert len(graphnav.__all__) == len(set(graphnav.__all__)) <= 15
+    for name in graphnav.__all__:
+        assert getattr(graphnav, name) is not None, name
+        assert name in dir(graphnav)
+    assert graphnav.Navigator is importlib.import_module("graphnav.estimators.navigator").Navigator
+    with pytest.raises(AttributeError, match="no attribute 'StackedBeams'"):
+        graphnav.StackedBeams  # noqa: B018
+
+
+@pytest.mark.parametrize("sub", SUBPACKAGES)
+def test_subpackages_export_their_own_api(sub):
+    package = importlib.import_module(f"graphnav.{sub}")
+    for name in package.__all__:
+        value = getattr(package, name)
+        assert name in dir(package)
+        # defined in the subpackage itself (no re-export of another layer's names), and not a submodule
+        assert getattr(value, "__module__", package.__name__).startswith(package.__name__), (sub, name)
+        assert not isinstance(value, type(sys)), (sub, name)
+    assert not any(name.startswith("_") for name in package.__all__)
+
+
+def test_import_graphnav_is_light():
+    code = ("import sys, graphnav; graphnav.__version__; "
+            "print(sorted(m for m in ('numpy', 'gtsam', 'torch', 'scipy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_readme_lists_the_public_names():
+    line = next(ln for ln in (ROOT / "README.md").read_text().splitlines()
+                if ln.startswith("Public names (`graphnav.__all__`):"))
+    listed = re.findall(r"`([A-Za-z_]+)`", line.split(":", 1)[1])
+    assert listed == graphnav.__all__
+
+
+def test_one_method_registry():
+    from graphnav.evaluation import methods
+    assert list(graphnav.METHODS) == ["LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC", "Graph-TC",
+                                      "Graph-HN", "Graph-HN-batch", "Graph-MP"]
+    m = graphnav.METHODS["Graph-HN-batch"]
+    assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "network", True)
+    assert dict(graphnav.METHODS["Graph-MP"].graph_options) == dict(methods.GRAPH_MP_OPTIONS)
+    assert graphnav.METHODS["HNLC"].baseline == "LC" and graphnav.METHODS["Graph-HN"].average == "Average-TC"
+    assert all(rec.description for rec in graphnav.METHODS.values())
+    with pytest.raises(graphnav.ConfigError, match="unknown method 'EKF-TC'"):
+        methods.get_method("EKF-TC")
+    # no other module keeps a list of method names: only the two selections below, of registry names
+    selections = {}
+    for path in [*(ROOT / "graphnav").rglob("*.py"), *(ROOT / "scripts").glob("*.py")]:
+        for node in ast.walk(ast.parse(path.read_text())):
+            target = node.target if isinstance(node, ast.AnnAssign) else (
+                node.targets[0] if isinstance(node, ast.Assign) else None)
+            if isinstance(target, ast.Name) and target.id.endswith("METHODS") and isinstance(node.value, ast.Tuple):
+                selections[target.id] = [ast.literal_eval(e) for e in node.value.elts]
+    assert set(selections) == {"FAULT_METHODS", "REGIME_METHODS"}, selections
+    assert all(set(names) <= set(graphnav.METHODS) for names in selections.values())
+
+
+def test_commands_import_shared_helpers_from_common_only():
+    for path in (ROOT / "graphnav" / "commands").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("graphnav.commands."):
+                assert node.module == "graphnav.commands.common", (path.name, node.module)
+
+
+@pytest.mark.parametrize("example, args", [("streaming_loop.py", ["--duration", "330"]),
+                                           ("compare_methods.py", ["--duration", "90", "--methods", "TC", "Graph-TC"])])
+def test_the_examples_run(example, args):
+    example = ROOT / "examples" / example
+    argv = sys.argv
+    sys.argv = [str(example), *args]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            runpy.run_path(str(example), run_name="__main__")
+    finally:
+        sys.argv = argv
