@@ -21,11 +21,12 @@ from pathlib import Path
 
 import gtsam
 import numpy as np
+from graphnav.nets import AverageCompleter
 
 from graphnav.core.scenarios import scenario_outage
 from graphnav.estimators.graph import InitialState
 from graphnav.estimators.runs import run_ekf, run_graph
-from graphnav.nets import AverageCompleter
+from graphnav.evaluation.methods import METHODS
 from graphnav.sim.simulate import simulate_mission
 
 REFERENCE = Path(__file__).resolve().parent.parent / "tests" / "data" / "replay_reference.npz"
@@ -43,8 +44,8 @@ def solve(ref, m, tag: str, method: str, mode: str):
     initial = InitialState(gtsam.Pose3(gtsam.Rot3(a[1:10].reshape(3, 3)), a[13:16]), a[10:13], t=float(a[0]))
     completer = AverageCompleter(5) if "HN" in method else None
     if graph:
-        return run_graph(m, method, completer, mode=mode, initial=initial)
-    return run_ekf(m, method, completer, initial=initial)
+        return run_graph(m, completer=completer, batch=METHODS[method].batch, mode=mode, initial=initial)
+    return run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial)
 
 
 def main():
