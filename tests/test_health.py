@@ -271,3 +271,32 @@ def test_graph_flags_divergence_and_inconsistency(sim):
     h = sol.info["health"]
     assert h["n_blocks_above_band"] >= 1 and h["nis_mean_per_dof"] > 3.0
     assert any("above its 0.999 chi-square band" in w for w in _health_warnings(caught, "Graph-TC"))
+
+
+def test_ekf_relevels_a_large_tilt_at_reacquisition_but_cannot_see_a_heading_error(sim):
+    """10 deg about the north and east axes at the start (100x the initial sigma). The first-order error model
+    misses g (1 - cos 14 deg) along gravity, so without re-levelling the gate keeps rejecting and the filter
+    needs several re-acquisitions; with it, one re-acquisition levels roll/pitch from the DVL fixes and the
+    accelerometers over the rejection run and the filter tracks. A 10 deg heading error is a rotation about
+    gravity: DVL and IMU are blind to it (nothing is rejected, the NIS is fine), the NED velocity is off by
+    about |v| sin(10 deg)."""
+    def run(axes_deg, **options):
+        init = _initial_state(sim, sim.t0)
+        init.C_b_n = so3_exp_batch(np.deg2rad([axes_deg]))[0] @ init.C_b_n
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return run_ekf(sim, "TC", initial=init, options=EkfOptions(**options))
+    sol = run([10.0, -10.0, 0.0])
+    h = sol.info["health"]
+    assert h["n_reacquired"] == 1 and h["n_rejected"] == 5 and not h["diverged_at_end"]
+    angle = float(h["reacquisitions"][0][1].split("re-levelled by ")[1].split(" deg")[0])
+    assert angle == pytest.approx(14.1, abs=0.3)
+    assert vrmse(sol, sim.gt, sim.t0 + 30.0) < 0.1
+    plain = run([10.0, -10.0, 0.0], relevel=False)
+    assert plain.info["health"]["n_reacquired"] >= 3 and vrmse(plain, sim.gt, sim.t0 + 30.0) > 0.3
+
+    heading = run([0.0, 0.0, 10.0])
+    h = heading.info["health"]
+    assert h["n_rejected"] == 0 and not h["diverged"] and h["nis_mean_per_dof"] < 2.0
+    speed = np.sqrt(np.mean(np.sum(sim.gt.v_n ** 2, axis=1)))
+    assert vrmse(heading, sim.gt) == pytest.approx(speed * np.sin(np.deg2rad(10.0)), rel=0.3)
