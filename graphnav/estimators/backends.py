@@ -207,7 +207,7 @@ class EkfBackend(_Aided):
         return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
                 "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
-                "health": e.health.summary()}
+                "regressed_screening": dict(e.regressed_screening), "health": e.health.summary()}
 
 
 def make_backend(name: str, config: SensorConfig, initial: InitialState, *, graph_options: GraphOptions | None = None,

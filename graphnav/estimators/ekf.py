@@ -131,6 +131,12 @@ class EkfOptions:
         sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
         relevel: at a re-acquisition with a >= 3-measured-beam fix, re-level roll and pitch from the fixes and
             the accelerometers over the rejection run (:meth:`ErrorStateEkf.relevel`).
+        regressed_correlation, regressed_adaptive, regressed_gate_k, regressed_prediction_var_scale: the
+            screening of completed (regressed) beams against the filter's own predicted beam with their joint
+            covariance, as the graph's (:mod:`graphnav.estimators.graph.regressed`; same meaning):
+            :meth:`ErrorStateEkf.screen_regressed`. Off by default (the paper's hybrid filter takes the
+            completions at the completer's sigma); ``graphnav.evaluation.methods`` switches it on for the
+            hybrid methods.
         max_pure_inertial_s: warn when no DVL update enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
     """
@@ -157,6 +163,10 @@ class EkfOptions:
     sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
     sigma_v_reacq: float = 0.5
     relevel: bool = True
+    regressed_correlation: float = 0.0
+    regressed_adaptive: bool = False
+    regressed_gate_k: float | None = None
+    regressed_prediction_var_scale: float = 1.0
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
 
@@ -239,6 +249,8 @@ class ErrorStateEkf:
         # (t, r_n) at the first gated ping of the current rejection run with >= 3 measured beams:
         # r_n = C_hat v_b(fix) - v_hat, the NED velocity residual (see reacquire: re-levelling)
         self._run_start: tuple[float, np.ndarray] | None = None
+        #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
+        self.regressed_screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -351,6 +363,7 @@ class ErrorStateEkf:
         m/s is added in quadrature to the beam noise (completed beams). With fewer than three beams there
         is no update (pure inertial) and False is returned.
         """
+        beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
         used = np.isfinite(beams)
         if used.sum() < 3:
             return False
@@ -371,6 +384,7 @@ class ErrorStateEkf:
 
         ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams).
         """
+        beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
         used = np.isfinite(beams)
         if not used.any():
             return False
@@ -383,6 +397,40 @@ class ErrorStateEkf:
             h, H = self.predicted_beams(omega_b)
             return h[used] - y, H[used], np.diag(var)
         return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
+
+    def screen_regressed(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None,
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Completed beams (``sigma_extra`` > 0) checked against the filter's own predicted beams before an
+        update: :func:`graphnav.estimators.graph.regressed.screen_against_prediction` with the predicted
+        beam's variance ``a = H_i P H_i^T`` (velocity, attitude and gyro-bias uncertainty) and the completion's
+        ``beam variance + sigma_extra^2``. A completion is made from past pings the filter has already used, so
+        its error is correlated with the prediction's: where the filter's prediction is sharper than rho times
+        the completion, the completion adds nothing and is dropped (NaN); a kept one gets the variance of the
+        equivalent independent measurement, raised to what its innovation shows (adaptive). Without it a
+        completion that is wrong by more than its sigma (a 30 s outage inside a manoeuvre) pulls the filter
+        off and the gate, set for the sum of all rows, does not see it. Returns (beams, sigma_extra)."""
+        opts = self.options
+        if sigma_extra is None or not (opts.regressed_correlation or opts.regressed_adaptive
+                                       or opts.regressed_gate_k is not None):
+            return beams, sigma_extra
+        regressed = np.isfinite(beams) & (np.nan_to_num(sigma_extra, nan=0.0) > 0)
+        if not regressed.any():
+            return beams, sigma_extra
+        from graphnav.estimators.graph.regressed import screen_against_prediction
+        h, H = self.predicted_beams(omega_b)
+        Hr = H[regressed]
+        a = np.einsum("mi,ij,mj->m", Hr, self.P, Hr)
+        var_beam = self.beam_variance(beams[regressed])
+        keep, s2, stats = screen_against_prediction(beams[regressed], h[regressed], a,
+                                                    var_beam + sigma_extra[regressed] ** 2, opts)
+        for k, n in stats.items():
+            self.regressed_screening[k] += n
+        beams, sigma_extra = beams.copy(), np.asarray(sigma_extra, float).copy()
+        idx = np.flatnonzero(regressed)
+        beams[idx[~keep]] = np.nan
+        sigma_extra[idx[~keep]] = np.nan
+        sigma_extra[idx[keep]] = np.sqrt(np.maximum(s2[keep] - var_beam[keep], 1e-12))
+        return beams, sigma_extra
 
     def _update_or_reacquire(self, innovation, beams: np.ndarray, omega_b: np.ndarray,
                              sigma_extra: np.ndarray | None) -> bool:

@@ -60,6 +60,11 @@ GRAPH_HN_OPTIONS: dict = {"regressed_correlation": 0.5, "regressed_adaptive": Tr
 #: spread): tighter values (1x, heave 0.05 m/s) made Graph-MP 1.35x Graph-TC on the real data (the vehicle
 #: manoeuvres: 99th percentile of the 1-s sway change 0.47 m/s, and a heave prior treated as white pulls the
 #: pitch, whose error the gravity projection turns into horizontal velocity drift).
+#: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of completed beams
+#: against the filter's own prediction (graphnav.estimators.ekf.ErrorStateEkf.screen_regressed). Without it a
+#: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
+#: pulled the filter to 0.53-0.78 m/s window VRMSE (scripts/start_sweep.py; numbers in the issue-12 note).
+EKF_HYBRID_OPTIONS: dict = dict(GRAPH_HN_OPTIONS)
 GRAPH_MP_OPTIONS: dict = {"motion_prior": "partial", "motion_prior_rw": (0.2, 0.32, 0.12),
                           "motion_prior_heave_sigma": 0.2}
 
@@ -153,8 +158,9 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     if method in EKF_METHODS:
         from graphnav.estimators.ekf import EkfOptions
         from graphnav.estimators.runs import run_ekf
-        if isinstance(options, dict):
-            options = EkfOptions(**options)
+        if options is None or isinstance(options, dict):
+            defaults = EKF_HYBRID_OPTIONS if method not in ("LC", "TC") else {}
+            options = EkfOptions(**{**defaults, **(options or {})})
         sol = run_ekf(mission, method, completer=completer, options=options, init=init,
                       aligner_kwargs=aligner_kwargs)
     else:
