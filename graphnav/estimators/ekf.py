@@ -250,7 +250,7 @@ class ErrorStateEkf:
         # r_n = C_hat v_b(fix) - v_hat, the NED velocity residual (see reacquire: re-levelling)
         self._run_start: tuple[float, np.ndarray] | None = None
         #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
-        self.regressed_screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+        self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0}
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -423,6 +423,7 @@ class ErrorStateEkf:
         var_beam = self.beam_variance(beams[regressed])
         keep, s2, stats = screen_against_prediction(beams[regressed], h[regressed], a,
                                                     var_beam + sigma_extra[regressed] ** 2, opts)
+        self.regressed_screening["offered"] += int(regressed.sum())
         for k, n in stats.items():
             self.regressed_screening[k] += n
         beams, sigma_extra = beams.copy(), np.asarray(sigma_extra, float).copy()
