@@ -20,6 +20,7 @@ import timeit
 
 import gtsam
 import numpy as np
+from graphnav.factors import beam_factor, beam_factor_dvl_errors
 from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.core.config import SensorConfig
@@ -28,7 +29,6 @@ from graphnav.estimators.ekf import ErrorStateEkf
 from graphnav.estimators.graph.batch import StackedBeams
 from graphnav.estimators.graph.builder import BeamGroup
 from graphnav.estimators.ins import StrapdownState
-from graphnav.factors import beam_factor, beam_factor_dvl_errors
 
 
 def best_us(fn, number: int, repeat: int) -> float:

@@ -22,7 +22,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 
-@functools.lru_cache(maxsize=2)
+@functools.lru_cache(maxsize=None)     # ten small missions (2 MB of IMU each): load each once per process
 def _mission(folder: str):
     from graphnav.io.loaders import load_mission
     with warnings.catch_warnings():

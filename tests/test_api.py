@@ -62,7 +62,7 @@ def test_one_method_registry():
                                       "Graph-HN", "Graph-HN-batch", "Graph-MP"]
     m = graphnav.METHODS["Graph-HN-batch"]
     assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "network", True)
-    assert dict(graphnav.METHODS["Graph-MP"].graph_options) == dict(methods.GRAPH_MP_OPTIONS)
+    assert dict(graphnav.METHODS["Graph-MP"].defaults) == dict(methods.GRAPH_MP_OPTIONS)
     assert graphnav.METHODS["HNLC"].baseline == "LC" and graphnav.METHODS["Graph-HN"].average == "Average-TC"
     assert all(rec.description for rec in graphnav.METHODS.values())
     with pytest.raises(graphnav.ConfigError, match="unknown method 'EKF-TC'"):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 import pytest
+from graphnav.factors import dvl_factor
 from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.core.beam_model import BeamModel
@@ -16,7 +17,6 @@ from graphnav.estimators.ekf import IA, IE, IG, IV, N_STATES, EkfOptions, ErrorS
 from graphnav.estimators.graph.batch import StackedBeams
 from graphnav.estimators.graph.builder import BeamGroup
 from graphnav.estimators.ins import StrapdownState
-from graphnav.factors import dvl_factor
 
 LEVER = np.array([-1.86, -0.04, 0.2])
 EPS = 1e-6

@@ -198,13 +198,18 @@ def test_ekf_gating_rejects_exactly_the_spikes(mission, spiky):
     plain = run_ekf(spiky, options=EkfOptions(gating=False))
     clean = run_ekf(mission, options=EkfOptions(gating=True))
     assert n_spikes == 18 and gated.info["n_gated"] == n_spikes and clean.info["n_gated"] == 0
+    # a spike the gate rejects is not divergence, nor an inconsistency of the filter
+    h = gated.info["health"]
+    assert not h["diverged"] and h["n_rejected"] == n_spikes and h["n_blocks_above_band"] == 0
     assert vrmse(gated, mission.gt) < 1.2 * vrmse(clean, mission.gt) < vrmse(plain, mission.gt) / 2
     assert EkfOptions().gating     # on by default
 
 
 def test_graph_huber_on_measured_beams_helps_the_spike_case(mission, spiky):
     assert GraphOptions().huber_measured_k == 3.0
-    robust = vrmse(run_graph(spiky), mission.gt)
+    robust_sol = run_graph(spiky)
+    assert not robust_sol.info["health"]["diverged"]     # the down-weighted spikes are not divergence
+    robust = vrmse(robust_sol, mission.gt)
     gaussian = vrmse(run_graph(spiky, options=GraphOptions(huber_measured_k=None)), mission.gt)
     clean_robust = vrmse(run_graph(mission), mission.gt)
     clean_gaussian = vrmse(run_graph(mission, options=GraphOptions(huber_measured_k=None)), mission.gt)
@@ -383,15 +388,23 @@ def test_fault_subset_on_lower_grade_imus(grade, tmp_path):
                 assert o.nees <= faults.NEES_COVER_MAX, (grade, o.estimator, o.nees)
 
 
-def test_pure_inertial_check_warns_with_the_predicted_sigma():
+def test_pure_inertial_check_warns_when_it_happens_and_when_aiding_resumes():
     from graphnav.estimators.coasting import check_pure_inertial
     t = np.arange(200.0)
     aided = (t < 40) | (t >= 160)
     cov = np.repeat(np.eye(3)[None], 200, axis=0) * 0.01
     cov[159] *= 4.0
-    with pytest.warns(RuntimeWarning, match=r"EKF-TC: pure inertial for 120 s \(39.0-159.0 s.*sigma 0.346 m/s"):
+    with pytest.warns(RuntimeWarning) as record:
         info = check_pure_inertial("EKF-TC", t, aided, cov, max_s=60.0)
-    assert info["pure_inertial_max_s"] == 120.0 and info["pure_inertial_spans"] == [[39.0, 159.0, pytest.approx(0.3464, abs=1e-4)]]
+    text = [str(w.message) for w in record]
+    assert len(text) == 2
+    # once, at the first epoch past the limit (39 s was the last aided epoch), with the sigma there
+    assert text[0].startswith("EKF-TC: t=100.00 s: pure inertial for 61 s (since 39.0 s") and "sigma 0.173" in text[0]
+    # and when aiding resumes, with the whole span and the sigma at its last un-aided epoch
+    assert text[1].startswith("EKF-TC: t=160.00 s: DVL aiding resumed after 120 s pure inertial (39.0-159.0 s)")
+    assert "sigma at its end 0.346 m/s" in text[1]
+    assert info["pure_inertial_max_s"] == 120.0 and info["n_pure_inertial"] == 1
+    assert info["pure_inertial_spans"] == [[39.0, 159.0, pytest.approx(0.3464, abs=1e-4)]]
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert check_pure_inertial("x", t, aided, None, max_s=130.0)["pure_inertial_spans"] == []

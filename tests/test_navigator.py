@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from pathlib import Path
 
 import gtsam
@@ -267,3 +268,33 @@ def test_fixed_lag_restart_from_the_joint_marginal_changes_nothing(mission):
     assert b.info["reanchored"] == 6 and a.info["reanchored"] == 0      # at 20, 40, ..., 120 s
     np.testing.assert_allclose(b.v_n, a.v_n, atol=5e-4)
     np.testing.assert_allclose(b.cov_v_n, a.cov_v_n, rtol=0.05, atol=1e-7)   # diagonal ~4e-4..2e-3
+
+
+@pytest.mark.parametrize("backend", ["fixed-lag", "ekf"])
+def test_pure_inertial_warning_is_live_in_the_stream(mission, backend):
+    """A 70 s total DVL outage: the Navigator warns from the add_* call at which the stretch passes
+    max_pure_inertial_s (not after the run), once, counts it in info, and says when aiding resumes."""
+    t_out = 60.0
+    m = mission.slice(0, 150).with_outage(scenario_outage("0-beams", t_out, 70.0))
+    nav = _navigator(m, backend)
+    events, checked = [], False
+    for kind, t, payload in replay(m):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            getattr(nav, "add_" + kind)(t, *payload)
+        events += [(t, str(w.message)) for w in caught if "pure inertial" in str(w.message)]
+        if t >= 100.0 and not checked:     # 40 s into the outage: coasting, but no warning yet
+            assert nav.coasting.coasting_since is not None and not nav.info["pure_inertial_now"] and not events
+            checked = True
+    nav.finish()
+    assert len(events) == 2, events
+    (t_warn, first), (t_resume, second) = events
+    # the last aided ping is at most 1 s before the outage; the warning comes with the first keyframe past
+    # 60 s of coasting, from the stream call that closes it (at most a keyframe interval and the reorder
+    # window later)
+    assert t_out + 59.0 < t_warn < t_out + 62.5 and "pure inertial for 6" in first
+    assert t_out + 70.0 <= t_resume < t_out + 72.5 and "DVL aiding resumed after 7" in second
+    info = nav.info
+    assert info["n_pure_inertial"] == 1 and not info["pure_inertial_now"]
+    start, end, sigma = info["pure_inertial_spans"][0]
+    assert t_out - 1.01 <= start < t_out and t_out + 69.0 <= end < t_out + 70.0 and sigma > 0

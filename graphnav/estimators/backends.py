@@ -76,6 +76,8 @@ class GraphBackend(_Aided):
         else:
             raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag' or 'isam2'")
         self.estimator.health.estimator = name
+        self.name = name
+        self.last_aided = False
         self.mode = mode
         self.origin_lla = initial.origin_lla
         self._initial = initial
@@ -90,7 +92,10 @@ class GraphBackend(_Aided):
                 p_pred = gkf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
             gkf.fix_ne = self.fix_ne(kf, p_pred)
         self.estimator.add(gkf)
-        return self.estimator.update()
+        est = self.estimator.update()
+        #: a DVL factor (measured or completed beams) entered at this keyframe (the Navigator's coasting check)
+        self.last_aided = est.n_measured + est.n_regressed > 0
+        return est
 
     @property
     def info(self) -> dict:
@@ -143,6 +148,8 @@ class EkfBackend(_Aided):
         self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
                                  name=name)
         self.tight = tight
+        self.name = name
+        self.last_aided = False
         self.origin_lla = initial.origin_lla
         self.n_completed = 0
         self.n_imu_segments = 0
@@ -159,14 +166,16 @@ class EkfBackend(_Aided):
                 ekf.inflate(kf.imu.var_v, kf.imu.var_att)
                 self.n_imu_gaps += 1
         ping = kf.ping
+        #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
+        self.last_aided = False
         if ping is not None:
             sigma = ping.sigma_regressed if ping.n_regressed else None
             if ping.completed:
                 self.n_completed += 1
             if self.tight:
-                ekf.update_tc(ping.beams, ping.omega_b, sigma)
+                self.last_aided = ekf.update_tc(ping.beams, ping.omega_b, sigma)
             else:
-                ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
+                self.last_aided = ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
         if kf.fix is not None:
@@ -198,7 +207,7 @@ class EkfBackend(_Aided):
         return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
                 "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
-                "health": e.health.summary()}
+                "regressed_screening": dict(e.regressed_screening), "health": e.health.summary()}
 
 
 def make_backend(name: str, config: SensorConfig, initial: InitialState, *, graph_options: GraphOptions | None = None,

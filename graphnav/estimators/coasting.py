@@ -1,12 +1,19 @@
-"""Pure-inertial coasting: the one check, shared by the EKF and the graph, that an estimator says so when it
-has navigated on the IMU alone for longer than it should.
+"""Pure-inertial coasting: the one check, shared by the EKF and the graph, live in the Navigator's stream and
+in the replay runners, that an estimator says so when it has navigated on the IMU alone for longer than it
+should.
 
 Through a total DVL outage nothing bounds the velocity error but the IMU: a navigation-grade INS drifts by
 centimetres per second over two minutes, a tactical or MEMS unit by metres per second. No bound on the
-error can then hold; what must hold is that the estimator says so and that its covariance covers the error
-(velocity NEES, ``scripts/fault_report.py``). :func:`check_pure_inertial` finds every run of output epochs
-without a DVL update that lasts longer than the limit, warns once per run with its length and the
-predicted velocity sigma at its end, and returns the spans for the solution's ``info``.
+error can then hold; what must hold is that the estimator says so while it happens and that its covariance
+covers the error (velocity NEES, ``scripts/fault_report.py``).
+
+:class:`CoastingMonitor` is fed one output epoch at a time (:class:`graphnav.estimators.navigator.Navigator`
+feeds it every estimate it makes, with the backend's word on whether a DVL update entered). A stretch of
+epochs without a DVL update runs from the last aided epoch before it (or the first epoch). When a stretch
+becomes longer than the limit the monitor warns once, at that epoch ("pure inertial for X s since t0");
+when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
+the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
+``info``. :func:`check_pure_inertial` runs the same monitor over a finished solution's arrays.
 """
 from __future__ import annotations
 
@@ -20,43 +27,83 @@ import numpy as np
 MAX_PURE_INERTIAL_S = 60.0
 
 
-def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np.ndarray | None,
-                        max_s: float = MAX_PURE_INERTIAL_S) -> dict:
-    """Warn about every pure-inertial stretch longer than ``max_s``.
+def _sigma(cov_v_n) -> float:
+    """sqrt of the velocity covariance trace, m/s (NaN without covariance)."""
+    if cov_v_n is None:
+        return float("nan")
+    return float(np.sqrt(np.trace(np.asarray(cov_v_n, float))))
+
+
+class CoastingMonitor:
+    """Live pure-inertial check of one estimator run (see the module docstring).
 
     Args:
-        name: estimator/method name for the message.
-        t: (K,) output epochs, s. aided: (K,) True where a DVL update (measured or completed beams) entered
-            at that epoch. cov_v_n: (K,3,3) velocity covariance, m^2/s^2, or None.
-        max_s: limit, s.
+        name: estimator/method name for the messages.
+        max_s: limit, s (``max_pure_inertial_s``).
 
-    A stretch runs from the last aided epoch before it (or the first epoch) to its last un-aided epoch.
-
-    Returns:
-        ``{"pure_inertial_max_s": longest stretch, "pure_inertial_spans": [[start_s, end_s, sigma_v_end],
-        ...]}`` for the stretches above ``max_s`` (sigma: sqrt of the velocity covariance trace, m/s, NaN
-        without covariance).
+    Attributes:
+        spans: ``[start_s, end_s, sigma_v_end]`` per stretch longer than ``max_s``; the last one's end and sigma
+            follow the stretch while it lasts (sigma: sqrt of the velocity covariance trace at its last
+            un-aided epoch, m/s, NaN without covariance).
+        longest_s: the longest stretch so far (also one still running), s.
+        coasting_since: start (s) of the stretch under way, None while aided.
     """
-    t = np.asarray(t, float)
-    aided = np.asarray(aided, bool)
-    spans, longest = [], 0.0
-    k, K = 0, len(t)
-    while k < K:
-        if aided[k]:
-            k += 1
-            continue
-        end = k
-        while end + 1 < K and not aided[end + 1]:
-            end += 1
-        start_t = t[k - 1] if k > 0 else t[0]
-        length = float(t[end] - start_t)
-        longest = max(longest, length)
-        if length > max_s:
-            sigma = float(np.sqrt(np.trace(cov_v_n[end]))) if cov_v_n is not None else float("nan")
-            spans.append([float(start_t), float(t[end]), sigma])
-            warnings.warn(f"{name}: pure inertial for {length:.0f} s ({start_t:.1f}-{t[end]:.1f} s, no DVL update), "
-                          f"longer than max_pure_inertial_s={max_s:g}: the velocity is bounded by the IMU "
-                          f"alone; predicted velocity sigma {sigma:.3f} m/s at the end", RuntimeWarning,
-                          stacklevel=3)
-        k = end + 1
-    return {"pure_inertial_max_s": longest, "pure_inertial_spans": spans}
+
+    def __init__(self, name: str, max_s: float = MAX_PURE_INERTIAL_S):
+        self.name = name
+        self.max_s = float(max_s)
+        self.spans: list[list[float]] = []
+        self.longest_s = 0.0
+        self.coasting_since: float | None = None
+        self._last_t: float | None = None
+        self._warned = False            # the stretch under way has passed max_s (and was warned)
+
+    def update(self, t: float, aided: bool, cov_v_n=None) -> None:
+        """One output epoch at t (s): whether a DVL update (measured or completed beams) entered there, and the
+        velocity covariance (3,3) m^2/s^2 after it (or None)."""
+        t = float(t)
+        if aided:
+            if self._warned:
+                start, end, sigma = self.spans[-1]
+                warnings.warn(f"{self.name}: t={t:.2f} s: DVL aiding resumed after {end - start:.0f} s pure inertial "
+                              f"({start:.1f}-{end:.1f} s); predicted velocity sigma at its end {sigma:.3f} m/s",
+                              RuntimeWarning, stacklevel=3)
+            self.coasting_since, self._warned = None, False
+            self._last_t = t
+            return
+        if self.coasting_since is None:
+            self.coasting_since = self._last_t if self._last_t is not None else t
+        self._last_t = t
+        length = t - self.coasting_since
+        self.longest_s = max(self.longest_s, length)
+        if length > self.max_s:
+            if not self._warned:
+                self._warned = True
+                self.spans.append([self.coasting_since, t, _sigma(cov_v_n)])
+                warnings.warn(f"{self.name}: t={t:.2f} s: pure inertial for {length:.0f} s (since "
+                              f"{self.coasting_since:.1f} s, no DVL update), longer than max_pure_inertial_s="
+                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; predicted velocity sigma "
+                              f"{_sigma(cov_v_n):.3f} m/s", RuntimeWarning, stacklevel=3)
+            else:
+                self.spans[-1][1:] = [t, _sigma(cov_v_n)]
+
+    @property
+    def coasting(self) -> bool:
+        """The estimator is in a stretch longer than the limit now."""
+        return self._warned
+
+    def summary(self) -> dict:
+        """``{"pure_inertial_max_s": longest stretch, "pure_inertial_spans": [[start_s, end_s, sigma_v_end],
+        ...], "n_pure_inertial": number of spans, "pure_inertial_now": coasting at the last epoch}``."""
+        return {"pure_inertial_max_s": self.longest_s, "pure_inertial_spans": [list(s) for s in self.spans],
+                "n_pure_inertial": len(self.spans), "pure_inertial_now": self.coasting}
+
+
+def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np.ndarray | None,
+                        max_s: float = MAX_PURE_INERTIAL_S) -> dict:
+    """:class:`CoastingMonitor` over a finished run: ``t`` (K,) epochs, s; ``aided`` (K,) True where a DVL update
+    entered; ``cov_v_n`` (K,3,3) velocity covariance, m^2/s^2, or None. Returns its summary."""
+    monitor = CoastingMonitor(name, max_s)
+    for k in range(len(t)):
+        monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k])
+    return monitor.summary()

@@ -128,6 +128,14 @@ class EkfOptions:
         reacq_escalate_s: see ``sigma_att_reacq_rad``, s.
         sigma_att_reacq_max_rad: cap of the escalated misalignment sigma, rad.
         sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
+        relevel: at a re-acquisition with a >= 3-measured-beam fix, re-level roll and pitch from the fixes and
+            the accelerometers over the rejection run (:meth:`ErrorStateEkf.relevel`).
+        regressed_correlation, regressed_adaptive, regressed_gate_k, regressed_prediction_var_scale: the
+            screening of completed (regressed) beams against the filter's own predicted beam with their joint
+            covariance, as the graph's (:mod:`graphnav.estimators.graph.regressed`; same meaning):
+            :meth:`ErrorStateEkf.screen_regressed`. Off by default (the paper's hybrid filter takes the
+            completions at the completer's sigma); ``graphnav.evaluation.methods`` switches it on for the
+            hybrid methods.
         max_pure_inertial_s: warn when no DVL update enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
     """
@@ -153,6 +161,11 @@ class EkfOptions:
     reacq_escalate_s: float = 30.0
     sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
     sigma_v_reacq: float = 0.5
+    relevel: bool = True
+    regressed_correlation: float = 0.0
+    regressed_adaptive: bool = False
+    regressed_gate_k: float | None = None
+    regressed_prediction_var_scale: float = 1.0
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
 
@@ -231,6 +244,11 @@ class ErrorStateEkf:
         self.health = NisMonitor(name, opts.health)
         self._reacq_level = 0
         self._reacq_t = -np.inf
+        # (t, r_n) at the first gated ping of the current rejection run with >= 3 measured beams:
+        # r_n = C_hat v_b(fix) - v_hat, the NED velocity residual (see reacquire: re-levelling)
+        self._run_start: tuple[float, np.ndarray] | None = None
+        #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
+        self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0}
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
@@ -315,6 +333,7 @@ class ErrorStateEkf:
         if gated:
             self.n_gated += 1
             return False
+        self._run_start = None                     # the nominal state is updated: a new run starts afresh
         K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
         dx = PHt @ S_inv_dz
         IKH = np.eye(self.n_states) - K @ H
@@ -340,6 +359,7 @@ class ErrorStateEkf:
         m/s is added in quadrature to the beam noise (completed beams). With fewer than three beams there
         is no update (pure inertial) and False is returned.
         """
+        beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
         used = np.isfinite(beams)
         if used.sum() < 3:
             return False
@@ -360,6 +380,7 @@ class ErrorStateEkf:
 
         ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams).
         """
+        beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
         used = np.isfinite(beams)
         if not used.any():
             return False
@@ -373,12 +394,51 @@ class ErrorStateEkf:
             return h[used] - y, H[used], np.diag(var)
         return self._update_or_reacquire(innovation, beams, omega_b, sigma_extra)
 
+    def screen_regressed(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None,
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Completed beams (``sigma_extra`` > 0) checked against the filter's own predicted beams before an
+        update: :func:`graphnav.estimators.graph.regressed.screen_against_prediction` with the predicted
+        beam's variance ``a = H_i P H_i^T`` (velocity, attitude and gyro-bias uncertainty) and the completion's
+        ``beam variance + sigma_extra^2``. A completion is made from past pings the filter has already used, so
+        its error is correlated with the prediction's: where the filter's prediction is sharper than rho times
+        the completion, the completion adds nothing and is dropped (NaN); a kept one gets the variance of the
+        equivalent independent measurement, raised to what its innovation shows (adaptive). Without it a
+        completion that is wrong by more than its sigma (a 30 s outage inside a manoeuvre) pulls the filter
+        off and the gate, set for the sum of all rows, does not see it. Returns (beams, sigma_extra)."""
+        opts = self.options
+        if sigma_extra is None or not (opts.regressed_correlation or opts.regressed_adaptive
+                                       or opts.regressed_gate_k is not None):
+            return beams, sigma_extra
+        regressed = np.isfinite(beams) & (np.nan_to_num(sigma_extra, nan=0.0) > 0)
+        if not regressed.any():
+            return beams, sigma_extra
+        from graphnav.estimators.graph.regressed import screen_against_prediction
+        h, H = self.predicted_beams(omega_b)
+        Hr = H[regressed]
+        a = np.einsum("mi,ij,mj->m", Hr, self.P, Hr)
+        var_beam = self.beam_variance(beams[regressed])
+        keep, s2, stats = screen_against_prediction(beams[regressed], h[regressed], a,
+                                                    var_beam + sigma_extra[regressed] ** 2, opts)
+        self.regressed_screening["offered"] += int(regressed.sum())
+        for k, n in stats.items():
+            self.regressed_screening[k] += n
+        beams, sigma_extra = beams.copy(), np.asarray(sigma_extra, float).copy()
+        idx = np.flatnonzero(regressed)
+        beams[idx[~keep]] = np.nan
+        sigma_extra[idx[~keep]] = np.nan
+        sigma_extra[idx[keep]] = np.sqrt(np.maximum(s2[keep] - var_beam[keep], 1e-12))
+        return beams, sigma_extra
+
     def _update_or_reacquire(self, innovation, beams: np.ndarray, omega_b: np.ndarray,
                              sigma_extra: np.ndarray | None) -> bool:
         """Update with ``innovation() -> (dz, H, R)`` at the current state; when the gate has now rejected a
         run of pings (lockout), re-acquire and, unless the ping itself made the velocity fix, update again."""
         if self._update(*innovation()):
             return True
+        if self._run_start is None:
+            fix = self._velocity_fix(beams, sigma_extra)
+            if fix is not None:
+                self._run_start = (self.state.t, self._residual_n(fix[0], omega_b))
         if not self._locked_out():
             return False
         if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
@@ -389,6 +449,56 @@ class ErrorStateEkf:
     def _locked_out(self) -> bool:
         return (self.options.reacquire and self.options.gating
                 and self.health.rejection_run >= self.options.health.lockout_rejections)
+
+    def _velocity_fix(self, beams: np.ndarray, sigma_extra: np.ndarray | None):
+        """Weighted least-squares DVL-head velocity (3,) m/s, body axes, and its covariance from the *measured*
+        beams of a ping (completed beams never make a fix: the gate may have been right to reject them); None
+        with fewer than three."""
+        used = np.isfinite(beams)
+        if sigma_extra is not None:
+            used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
+        if used.sum() < 3:
+            return None
+        var = self.beam_variance(beams[used])
+        A = self.T_b[used]
+        R_v = np.linalg.inv(A.T @ (A / var[:, None]))
+        return R_v @ (A.T @ (beams[used] / var)), R_v, int(used.sum())
+
+    def _residual_n(self, v_d_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
+        """NED velocity of a fix rotated with the estimated attitude, minus the estimated velocity, m/s."""
+        v_b = v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
+        return self.state.C_b_n @ v_b - self.state.v_n
+
+    def relevel(self, r_n: np.ndarray) -> float | None:
+        """Roll/pitch from the DVL and the accelerometers over the rejection run; returns the correction, rad.
+
+        ``r_n`` is the current fix's residual (:meth:`_residual_n`). During a rejection run the nominal state is
+        only propagated: with a misalignment eps constant over the run (``C = Exp(-eps) C_hat``, the gyros carry
+        both alike) the INS velocity changes by ``Int C_hat f dt + g T`` and the true one by
+        ``Exp(-eps) Int C_hat f dt + g T``, while the fixes rotated with the estimated attitude are
+        ``w = Exp(eps) v_true``. So the change of the residual ``r = w - v_hat`` over the run, plus ``g T``,
+        is ``U = Exp(eps) g T``: the direction of U against gravity gives the tilt part of eps exactly (not
+        its first-order image, which the filter's error model holds and which misses ``g (1 - cos eps) T``
+        along gravity: 0.3 m/s per second at 14 deg, enough for the gate to reject every ping), whatever the
+        vehicle did meanwhile. The rotation about gravity (heading) is not observable this way. Errors: the
+        fixes' noise over ``g T`` (0.02 m/s over 5 s: 0.02 deg), an accelerometer bias b (b/g, as in any
+        levelling) and Coriolis terms of order ``2 omega_ie eps v T``. Applied when the run spans >= 1 s.
+        """
+        if self._run_start is None:
+            return None
+        t0, r0 = self._run_start
+        T = self.state.t - t0
+        if T < 1.0:
+            return None
+        g_n = self.strapdown.gravity_n
+        U = r_n - r0 + g_n * T
+        axis = np.cross(g_n, U)
+        angle = float(np.arctan2(np.linalg.norm(axis), g_n @ U))
+        if angle == 0.0:
+            return 0.0
+        eps = axis / np.linalg.norm(axis) * angle
+        self.state.C_b_n = so3_exp_batch(-eps[None])[0] @ self.state.C_b_n
+        return angle
 
     def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> str:
         """Recover from a gating lockout with the current ping ``beams`` (4,) m/s (NaN = missing).
@@ -403,8 +513,11 @@ class ErrorStateEkf:
         (at least ``sigma_v_reacq``). In both cases the misalignment variance grows by
         ``sigma_att_reacq_rad^2`` per axis (escalating on repeated re-acquisitions), since an attitude error
         (e.g. a start inside a fast turn) is
-        the usual cause and must be observable again through the velocity updates. Completed (regressed)
-        beams never enter the fix.
+        the usual cause and must be observable again through the velocity updates. Before the fix, with
+        ``EkfOptions.relevel``, roll and pitch are re-levelled from the fixes and the accelerometers over the
+        rejection run (:meth:`relevel`): a tilt error of more than a few degrees is otherwise not covered by the
+        filter's first-order error model and the gate keeps rejecting. Completed (regressed) beams never
+        enter the fix.
         The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
         """
         opts = self.options
@@ -412,6 +525,11 @@ class ErrorStateEkf:
         if sigma_extra is not None:
             # completed (regressed) beams never make the fix: the gate may have been right to reject them
             used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
+        fix = self._velocity_fix(beams, sigma_extra)
+        levelled = None
+        if fix is not None and opts.relevel:
+            levelled = self.relevel(self._residual_n(fix[0], omega_b))
+        self._run_start = None
         P = self.P
         t = self.state.t
         self._reacq_level = self._reacq_level + 1 if t - self._reacq_t < opts.reacq_escalate_s else 0
@@ -420,11 +538,8 @@ class ErrorStateEkf:
         att_var = sigma_att ** 2
         P[IE, IE] += att_var * np.eye(3)
         C = self.state.C_b_n
-        if used.sum() >= 3:
-            var = self.beam_variance(beams[used])
-            A = self.T_b[used]
-            R_v = np.linalg.inv(A.T @ (A / var[:, None]))
-            v_d_b = R_v @ (A.T @ (beams[used] / var))
+        if fix is not None:
+            v_d_b, R_v, _ = fix
             v_old = self.state.v_n
             self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
             # v_hat = C_hat v_b: its error is the fix's noise plus the misalignment's share,
@@ -434,8 +549,9 @@ class ErrorStateEkf:
             P[:, IV] = P[IV, :].T
             P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
             how = (f"velocity re-initialised from a {int(used.sum())}-measured-beam least-squares fix (changed by "
-                   f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), attitude sigma "
-                   f"+{np.rad2deg(sigma_att):.3g} deg")
+                   f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), "
+                   + (f"roll/pitch re-levelled by {np.rad2deg(levelled):.3g} deg, " if levelled is not None else "")
+                   + f"attitude sigma +{np.rad2deg(sigma_att):.3g} deg")
         else:
             h, _ = self.predicted_beams(omega_b)
             worst = float(np.max(np.abs(h[used] - beams[used]))) if used.any() else 0.0

@@ -5,15 +5,21 @@ state *before* the measurement is used) and its predicted covariance ``S = H P H
 ``nu^T S^-1 nu`` is chi-square with ``dim(nu)`` degrees of freedom when the estimator is consistent.
 :class:`NisMonitor` turns that stream into three things:
 
-- **Consistency** (statistical): the NIS of consecutive, non-overlapping blocks of ``window`` measurements is
-  summed and compared with the two-sided chi-square band of the block's total dof at ``band_prob``
-  (scipy's ``chi2.ppf``). A block above the band means the estimator's covariance is too small for its
-  errors (overconfident), below it too large. Counted; the first block above the band warns.
-- **Divergence** (the estimator has lost track): the mean NIS per dof over the last ``window``
-  measurements exceeds ``divergence_ratio`` (errors of ``sqrt(ratio)`` sigma on average, far outside any
-  plausible tuning error), or ``lockout_rejections`` measurements in a row were rejected by the
-  estimator's gate. Entering and leaving the diverged state are warned and kept as time intervals
-  (``divergence_intervals``), so a caller can tell whether a given time window was affected.
+- **Consistency** (statistical): the NIS of consecutive, non-overlapping blocks of ``window`` measurements the
+  estimator used is summed and compared with the two-sided chi-square band of the block's total dof at
+  ``band_prob`` (scipy's ``chi2.ppf``). A block above the band means the estimator's covariance is too small
+  for its errors (overconfident), below it too large. Counted; the first block above the band warns.
+  Measurements the estimator's gate rejected are counted (``n_rejected``), not put into the blocks: the
+  gate has already said they do not fit.
+- **Divergence** (the estimator has lost track): a *sustained* excess, the median NIS per dof of the last
+  ``window`` measurements above ``divergence_ratio`` (at least half of them with errors of ``sqrt(ratio)``
+  sigma, far outside any plausible tuning error), or ``lockout_rejections`` measurements in a row rejected
+  by the estimator's gate. The median, not the mean: an isolated outlier (a 1 m/s single-ping spike, NIS
+  in the thousands) moves a 20-ping mean past any threshold but not the median, and the estimator that
+  rejected it (gate) or down-weighted it (the graph's Huber kernel) has not lost track; an estimator
+  that has lost track misfits every ping. Entering and leaving the diverged state are warned and kept as
+  time intervals (``divergence_intervals``), so a caller can tell whether a given time window was
+  affected.
 - **Re-acquisitions**: an estimator that recovers from a lockout (the EKF re-initialises its velocity
   from the beams or inflates its covariance) reports it with :meth:`NisMonitor.reacquired`, which warns,
   counts and restarts the window.
@@ -29,6 +35,7 @@ import warnings
 from collections import deque
 from dataclasses import dataclass
 
+import numpy as np
 from scipy.stats import chi2
 
 
@@ -39,15 +46,16 @@ class HealthOptions:
     Attributes:
         window: measurements (DVL pings) per consistency block and in the sliding divergence window.
         band_prob: two-sided probability of the chi-square band of a block's summed NIS.
-        divergence_ratio: mean NIS per dof over the sliding window above which the estimator is declared
-            diverged. 25 (5-sigma errors on average): in ``scripts/start_sweep.py`` on the shared A-KIT
-            trajectories no run trips it (9180 runs; the highest run-mean NIS per dof is 2.86, HNLC in a
-            2-missing outage; 17 runs trip the lockout rule instead, and re-acquire), while a filter that has lost track shows 1e2-1e4 (EKF locked out after a 2-10 deg
-            attitude error, ``scripts/lockout_demo.py``: NIS 344-7929 on 3 dof; graph with the IMU y axis
-            of the wrong sign: 5.7e3 per dof).
+        divergence_ratio: median NIS per dof over the sliding window above which the estimator is declared
+            diverged. 25 (5-sigma errors for at least half the window): in ``scripts/start_sweep.py`` on the
+            shared A-KIT trajectories no run tripped the same threshold on the window *mean* (9180 runs; the
+            highest run-mean NIS per dof is 2.86, HNLC in a 2-missing outage; 17 runs trip the lockout rule
+            instead, and re-acquire), while a filter that has lost track shows 1e2-1e4 on every ping (EKF
+            locked out after a 2-10 deg attitude error, ``scripts/lockout_demo.py``: NIS 344-7929 on 3 dof;
+            graph with the IMU y axis of the wrong sign: 5.7e3 per dof).
         lockout_rejections: consecutive gated (rejected) measurements that count as a lockout: the
             estimator is declared diverged and (EKF) re-acquires. 5 pings = 5 s at 1 Hz.
-        recover_after: measurements after a re-acquisition (or a divergence) with no rejection and a mean
+        recover_after: measurements after a re-acquisition (or a divergence) with no rejection and a median
             NIS per dof below ``divergence_ratio`` after which the estimator is healthy again.
         max_warnings: warnings per run; later events are counted only.
     """
@@ -110,10 +118,11 @@ class NisMonitor:
             self.n_rejected += 1
             self.rejection_run += 1
             self.max_rejection_run = max(self.max_rejection_run, self.rejection_run)
-        # consistency: non-overlapping blocks against the chi-square band of their total dof
-        self._block_nis += nis
-        self._block_dof += dof
-        self._block_n += 1
+        # consistency: non-overlapping blocks of used measurements against the chi-square band of their dof
+        if accepted:
+            self._block_nis += nis
+            self._block_dof += dof
+            self._block_n += 1
         if self._block_n == o.window:
             lo, hi = chi2.ppf([(1 - o.band_prob) / 2, (1 + o.band_prob) / 2], self._block_dof)
             self.n_blocks += 1
@@ -122,7 +131,8 @@ class NisMonitor:
                 if self.n_blocks_high == 1 and not self.diverged:
                     self._warn(t, f"NIS of the last {o.window} measurements {self._block_nis:.3g} is above its "
                                   f"{o.band_prob:g} chi-square band [{lo:.3g}, {hi:.3g}] ({self._block_dof} dof): "
-                                  "the estimator's covariance is too small for its errors (counted from now on)")
+                                  "the estimator's covariance is too small for its errors, or the measurements hold outliers "
+                                  "(counted from now on)")
             elif self._block_nis < lo:
                 self.n_blocks_low += 1
             self._block_nis, self._block_dof, self._block_n = 0.0, 0, 0
@@ -132,14 +142,14 @@ class NisMonitor:
             if self.rejection_run >= o.lockout_rejections:
                 self._enter(t, f"{self.rejection_run} measurements in a row rejected by the gate (lockout)")
             elif len(self._recent) == o.window and ratio > o.divergence_ratio:
-                self._enter(t, f"mean NIS per dof {ratio:.3g} over the last {o.window} measurements exceeds "
+                self._enter(t, f"median NIS per dof {ratio:.3g} over the last {o.window} measurements exceeds "
                                f"{o.divergence_ratio:g}")
         elif (self._since_reset >= o.recover_after and self.rejection_run == 0
               and self._ratio_since_reset() <= o.divergence_ratio):
             self.diverged = False
             self.intervals[-1][1] = float(t)
             self._warn(t, f"recovered: the last {self._since_reset} measurements are consistent again "
-                          f"(mean NIS per dof {self._ratio_since_reset():.3g})")
+                          f"(median NIS per dof {self._ratio_since_reset():.3g})")
 
     def reacquired(self, t: float, how: str) -> None:
         """The estimator re-acquired at time t (s) after a lockout; ``how`` says what it did."""
@@ -153,14 +163,11 @@ class NisMonitor:
 
     # --- state ------------------------------------------------------------------------------------
     def window_ratio(self) -> float:
-        """Mean NIS per dof over the sliding window (NaN when empty)."""
-        dof = sum(d for _, d in self._recent)
-        return sum(n for n, _ in self._recent) / dof if dof else float("nan")
+        """Median NIS per dof of the measurements in the sliding window (NaN when empty)."""
+        return _median_ratio(self._recent)
 
     def _ratio_since_reset(self) -> float:
-        recent = list(self._recent)[-self._since_reset:] if self._since_reset else []
-        dof = sum(d for _, d in recent)
-        return sum(n for n, _ in recent) / dof if dof else float("nan")
+        return _median_ratio(list(self._recent)[-self._since_reset:] if self._since_reset else [])
 
     def _enter(self, t: float, reason: str) -> None:
         self.diverged = True
@@ -202,6 +209,12 @@ class NisMonitor:
             "window": o.window, "band_prob": o.band_prob, "divergence_ratio": o.divergence_ratio,
             "first_event": self.first_event,
         }
+
+
+def _median_ratio(measurements) -> float:
+    """Median of NIS/dof over (nis, dof) pairs (NaN when empty)."""
+    ratios = [n / d for n, d in measurements if d]
+    return float(np.median(ratios)) if ratios else float("nan")
 
 
 def diverged_during(health: dict | None, t_start: float, t_end: float) -> bool:

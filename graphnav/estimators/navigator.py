@@ -44,6 +44,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.backends import BACKENDS, make_backend
+from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
@@ -144,6 +145,8 @@ class Navigator:
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
         self.refused: dict[str, dict[str, int]] = {}
         self.n_estimates = 0
+        #: live pure-inertial check (:mod:`graphnav.estimators.coasting`), created when the estimator starts
+        self.coasting: CoastingMonitor | None = None
         if initial is not None:
             if initial.t is None:
                 raise ConfigError("initial.t (the stamp of the initial state) is required")
@@ -319,6 +322,7 @@ class Navigator:
         if self.backend is not None:
             info.update(self.backend.info)
             info["n_fixes"] = self.backend.n_fixes
+            info.update(self.coasting.summary())
         if self.alignment is not None:
             a = self.alignment
             info["alignment"] = {**a.info, "t": a.t, "heading_source": a.heading_source,
@@ -435,6 +439,7 @@ class Navigator:
         out = []
         for kf in kfs:
             est = self.backend.process(kf)
+            self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n)
             out.append(est)
         if out:
             self._latest = out[-1]
@@ -450,6 +455,9 @@ class Navigator:
     def _start(self, initial: InitialState) -> list[EpochEstimate]:
         kw = self._backend_kwargs
         self.backend = make_backend(self.backend_name, self.config, initial, **kw)
+        options = (kw["ekf_options"] or EkfOptions()) if self.backend_name == "ekf" else \
+            (kw["graph_options"] or GraphOptions())
+        self.coasting = CoastingMonitor(self.backend.name, options.max_pure_inertial_s)
         return self._process(self.keyframer.start(float(initial.t)))
 
     def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:

@@ -28,7 +28,6 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
-from graphnav.estimators.coasting import check_pure_inertial
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
 from graphnav.estimators.graph.incremental import (
@@ -159,8 +158,12 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     sol = solution_from_estimates(name, estimates)
     sol.runtime_s = time.perf_counter() - start
     sol.info.update(info)
-    aided = (sol.info["n_measured"] + sol.info["n_regressed"]) > 0
-    sol.info.update(check_pure_inertial(name, sol.t, aided, sol.cov_v_n, options.max_pure_inertial_s))
+    if batch and sol.cov_v_n is not None:
+        # the Navigator's live coasting check (info["pure_inertial_spans"]) saw the filtered pass; a span's
+        # sigma is the smoothed one at its end
+        for span in sol.info.get("pure_inertial_spans", []):
+            k = int(np.clip(np.searchsorted(sol.t, span[1]), 0, len(sol.t) - 1))
+            span[2] = float(np.sqrt(np.trace(sol.cov_v_n[k])))
     return sol
 
 
@@ -238,9 +241,4 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
                       np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
                       np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
                       runtime_s=time.perf_counter() - wall, info=info)
-    # a ping aided the filter when it carried enough beams for its update (TC: one, LC: three); a gated
-    # update is not seen from here
-    used = np.array([e.n_measured + e.n_regressed for e in estimates]) >= (1 if tight else 3)
-    sol.info.update(check_pure_inertial(f"EKF-{name}", sol.t, used, sol.cov_v_n,
-                                        (options or EkfOptions()).max_pure_inertial_s))
-    return sol
+    return sol  # info holds the Navigator's live pure-inertial check (pure_inertial_spans)

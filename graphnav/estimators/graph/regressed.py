@@ -83,16 +83,27 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     Returns:
         (keep (m,) bool, sigma (m,) m/s, counters {"gated", "decorrelated_out", "inflated"}).
     """
-    keep = np.ones(len(y), dtype=bool)
     sigma = np.asarray(sigma, float).copy()
-    stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     if prediction is None:
-        return keep, sigma, stats
+        return np.ones(len(y), dtype=bool), sigma, {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     predicted = BeamModel(rows_b).predict(C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
     y_p, H = predicted.h, predicted.d_v()
-    a = np.maximum(np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H), 1e-12)
-    a = a * options.regressed_prediction_var_scale
-    s2 = sigma ** 2
+    a = np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H)
+    keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options)
+    return keep, np.sqrt(s2), stats
+
+
+def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2: np.ndarray, options,
+                              ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The checks of the module docstring for completions ``y`` (m,) m/s of variance ``s2`` (m,) (m/s)^2
+    against the estimator's predicted beams ``y_p`` (m,) of variance ``a`` (m,): the graph's
+    (:func:`screen_regressed`) and the EKF's (:meth:`graphnav.estimators.ekf.ErrorStateEkf.screen_regressed`).
+    ``options`` carries ``regressed_correlation``, ``regressed_adaptive``, ``regressed_gate_k`` and
+    ``regressed_prediction_var_scale``. Returns (keep (m,) bool, variance (m,), counters)."""
+    keep = np.ones(len(y), dtype=bool)
+    stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+    a = np.maximum(np.asarray(a, float), 1e-12) * options.regressed_prediction_var_scale
+    s2 = np.asarray(s2, float)
     rho = options.regressed_correlation
     if rho:
         c = rho * np.sqrt(a * s2)
@@ -112,7 +123,7 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
         outside = innov2 > options.regressed_gate_k ** 2 * (a + s2)
         stats["gated"] = int((outside & keep).sum())
         keep &= ~outside
-    return keep, np.sqrt(s2), stats
+    return keep, s2, stats
 
 
 def motion_prior_factors(k: int, dt: float, options) -> gtsam.NonlinearFactorGraph:
