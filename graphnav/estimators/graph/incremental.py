@@ -22,6 +22,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, D, V, X
 
+from graphnav.core.beam_model import BeamModel
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.estimators.graph import dvl_errors
@@ -34,7 +35,7 @@ from graphnav.estimators.graph.builder import (
 )
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import NisMonitor
-from graphnav.factors import N_DVL_ERRORS, predict_beams
+from graphnav.factors import N_DVL_ERRORS
 
 
 def is_indeterminant(exc: Exception) -> bool:
@@ -283,10 +284,9 @@ class _IncrementalGraph:
             P_v = C_prev @ kf.pim.preintMeasCov()[6:9, 6:9] @ C_prev.T   # GTSAM order [rot, pos, vel, ...]
             if last.cov_v_n is not None:
                 P_v = P_v + last.cov_v_n
-        rows = np.vstack([g.rows_b for g in groups])
-        dz = np.concatenate([g.y - predict_beams(g.rows_b, C, v_n, g.omega_b, bias.gyroscope(), g.lever_arm_b)
-                             for g in groups])
-        H = rows @ C.T
+        predicted = [BeamModel(g.rows_b).predict(C, v_n, g.omega_b, bias.gyroscope(), g.lever_arm_b) for g in groups]
+        dz = np.concatenate([g.y - p.h for g, p in zip(groups, predicted)])
+        H = np.vstack([p.d_v() for p in predicted])
         S = H @ P_v @ H.T + np.diag(np.concatenate([g.sigma for g in groups]) ** 2)
         self.health.record(kf.t, float(dz @ np.linalg.solve(S, dz)), len(dz))
 
