@@ -464,10 +464,14 @@ class ErrorStateEkf:
         R_v = np.linalg.inv(A.T @ (A / var[:, None]))
         return R_v @ (A.T @ (beams[used] / var)), R_v, int(used.sum())
 
+    def _fix_n(self, v_d_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
+        """NED velocity (3,) m/s of the vehicle from a DVL-head velocity fix ``v_d_b`` (body axes): the beam
+        model's ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b`` solved for v_n at the estimated attitude."""
+        return self.state.C_b_n @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
+
     def _residual_n(self, v_d_b: np.ndarray, omega_b: np.ndarray) -> np.ndarray:
         """NED velocity of a fix rotated with the estimated attitude, minus the estimated velocity, m/s."""
-        v_b = v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b)
-        return self.state.C_b_n @ v_b - self.state.v_n
+        return self._fix_n(v_d_b, omega_b) - self.state.v_n
 
     def relevel(self, r_n: np.ndarray) -> float | None:
         """Roll/pitch from the DVL and the accelerometers over the rejection run; returns the correction, rad.
@@ -541,7 +545,7 @@ class ErrorStateEkf:
         if fix is not None:
             v_d_b, R_v, _ = fix
             v_old = self.state.v_n
-            self.state.v_n = C @ (v_d_b - np.cross(omega_b - self.bias_gyro, self.lever_arm_b))
+            self.state.v_n = self._fix_n(v_d_b, omega_b)
             # v_hat = C_hat v_b: its error is the fix's noise plus the misalignment's share,
             # dv = -[v_hat]x eps + C n_v, so it stays correlated with eps (and through it with the rest)
             J = -skew(self.state.v_n)
