@@ -59,8 +59,12 @@ def run_trajectory(args) -> list[dict]:
                 t0 = mission.t0 + SETTLE_S
                 nees = nees_velocity(sol, mission.gt, t0)
                 nees_ref = nees_with_reference(sol, mission.gt, cov_gt, t0)
+                win_nees = [s["nees_window"] for s in scores]
+                w_lo, w_hi = chi2_band(n_independent(np.array([0.0, window_s])))
                 out.append({"trajectory": source.name, "scenario": scenario, "method": method, "setting": name,
                             "vrmse_window": float(np.mean([s["vrmse_window"] for s in scores])),
+                            "nees_window": float(np.mean(win_nees)),
+                            "windows_in_band": float(np.mean([w_lo <= x <= w_hi for x in win_nees])),
                             "vrmse_mission": scores[0]["vrmse_mission"],
                             "nees_mission": float(np.mean(nees)), "nees_mission_gt": float(np.mean(nees_ref)),
                             "n_independent": n_independent(sol.t[sol.t >= t0]), "runtime_s": sol.runtime_s})
@@ -76,8 +80,12 @@ def main(argv=None) -> int:
                     help="GT velocity error std N, E, D (m/s) added to P for the reference-aware NEES")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default="out/consistency.json")
+    ap.add_argument("--settings", nargs="+", default=["off", "on"], choices=["off", "on"],
+                    help="DVL error states off and/or on for the graph methods")
+    ap.add_argument("--per-trajectory", action="store_true", help="print the per-trajectory NEES table too")
     a = ap.parse_args(argv)
-    settings = {"off": {"dvl_error_states": False}, "on": {"dvl_error_states": True}}
+    settings = {k: v for k, v in (("off", {"dvl_error_states": False}), ("on", {"dvl_error_states": True}))
+                if k in a.settings}
     sources = find_trajectories(a.data)
     tasks = [(s, a.methods, a.scenario, settings, a.gt_sigma, 30.0) for s in sources]
     if a.jobs > 1:
@@ -108,7 +116,28 @@ def main(argv=None) -> int:
             else:
                 tail = "- | - | -"
             print(f"| {method} | {name} | " + " | ".join(cells) + f" | {tail} |")
+    if a.per_trajectory:
+        print_per_trajectory(rows, a.methods, settings)
     return 0
+
+
+def print_per_trajectory(rows: list[dict], methods, settings) -> None:
+    """Per trajectory and method, all beams: mission NEES, +GT, mean window NEES and the fraction of windows
+    inside the window's 95 % band."""
+    full = [r for r in rows if r["scenario"] == "none"]
+    names = sorted({r["trajectory"] for r in full}, key=lambda n: (len(n), n))
+    print("\nAll beams, per trajectory: mission NEES / +GT / window NEES / windows inside the 95 % band")
+    print("| trajectory | " + " | ".join(f"{m} ({s})" for m in methods for s in settings
+                                          if m in GRAPH or s == "off") + " |")
+    cols = [(m, s) for m in methods for s in settings if m in GRAPH or s == "off"]
+    print("| --- |" + " --- |" * len(cols))
+    for n in names:
+        cells = []
+        for m, s in cols:
+            r = next((r for r in full if r["trajectory"] == n and r["method"] == m and r["setting"] == s), None)
+            cells.append("-" if r is None else f"{r['nees_mission']:.1f} / {r['nees_mission_gt']:.1f} / "
+                         f"{r['nees_window']:.1f} / {r['windows_in_band']:.0%}")
+        print(f"| {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
