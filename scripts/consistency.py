@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.scenarios import scenario_outage
-from graphnav.estimators.graph import GraphOptions
 from graphnav.evaluation.bench import (
     case_windows,
     find_trajectories,
@@ -57,7 +56,8 @@ def run_trajectory(args) -> list[dict]:
             for name, fields in settings.items():
                 if method not in GRAPH and name != "off":
                     continue
-                options = GraphOptions(**fields) if method in GRAPH else None
+                # a dict is merged into the method's own defaults (Graph-HN's screening of regressed beams)
+                options = dict(fields) if method in GRAPH else None
                 sol = run_method(run_mission, method, scenario, options=options)
                 scores = score_case(sol, mission, starts, window_s)
                 t0 = mission.t0 + SETTLE_S

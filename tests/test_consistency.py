@@ -52,7 +52,7 @@ def test_nees_section_and_plot(mission_and_solution, tmp_path):
                 "nees_window": 3.0 + i, **scores} for i in range(2)]
     text = "\n".join(nees_section(records, ["as-recorded"], ["none"], ["Graph-TC"]))
     assert "### NEES: as-recorded, none" in text and "| Graph-TC |" in text and "%" in text
-    path = plot_nees(m.gt, [sol], [], tmp_path / "nees.png", "test")
+    path = plot_nees(m, [sol], [], tmp_path / "nees.png", "test")
     assert path.exists() and path.stat().st_size > 1000
 
 
