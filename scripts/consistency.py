@@ -81,6 +81,7 @@ def run_trajectory(args) -> list[dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", default=None, help="A-KIT folder (default: the simulated mission)")
+    ap.add_argument("--sim-seeds", type=int, default=1, help="without --data: simulated missions (seeds 0..N-1)")
     ap.add_argument("--methods", nargs="+", default=[*GRAPH, "TC"])
     ap.add_argument("--scenario", nargs="+", default=["none", "2-missing", "3-missing"])
     ap.add_argument("--gt-sigma", type=float, nargs=3, default=[0.0, 0.0, 0.0],
@@ -93,7 +94,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     settings = {k: v for k, v in (("off", {"dvl_error_states": False}), ("on", {"dvl_error_states": True}))
                 if k in a.settings}
-    sources = find_trajectories(a.data)
+    sources = find_trajectories(a.data, sim_seeds=a.sim_seeds)
     tasks = [(s, a.methods, a.scenario, settings, a.gt_sigma, 30.0) for s in sources]
     if a.jobs > 1:
         with ProcessPoolExecutor(a.jobs) as pool:
