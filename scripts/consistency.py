@@ -91,7 +91,12 @@ def main(argv=None) -> int:
     ap.add_argument("--settings", nargs="+", default=["off", "on"], choices=["off", "on"],
                     help="DVL error states off and/or on for the graph methods")
     ap.add_argument("--per-trajectory", action="store_true", help="print the per-trajectory NEES table too")
+    ap.add_argument("--reference-check", action="store_true",
+                    help="only print, per trajectory, the recorded DVL against the GT interpolated linearly and "
+                         "carried by the IMU, submerged and at the surface (body x, y, z RMS, m/s)")
     a = ap.parse_args(argv)
+    if a.reference_check:
+        return reference_check(find_trajectories(a.data, sim_seeds=a.sim_seeds))
     settings = {k: v for k, v in (("off", {"dvl_error_states": False}), ("on", {"dvl_error_states": True}))
                 if k in a.settings}
     sources = find_trajectories(a.data, sim_seeds=a.sim_seeds)
@@ -126,6 +131,35 @@ def main(argv=None) -> int:
             print(f"| {method} | {name} | " + " | ".join(cells) + f" | {tail} |")
     if a.per_trajectory:
         print_per_trajectory(rows, a.methods, settings)
+    return 0
+
+
+def reference_check(sources, surface_m: float = 1.0) -> int:
+    """Recorded DVL velocity minus the reference body velocity (lever arm included) at the pings, RMS per body
+    axis after the per-trajectory median, for pings deeper / shallower than ``surface_m``: the reference
+    interpolated linearly (``GroundTruth.at``) and carried by the IMU (``calibration.reference.Reference``)."""
+    from graphnav.calibration.reference import mission_reference as imu_aided_reference
+    print("| trajectory | pings deep / surface | linear GT: deep | surface | IMU-carried GT: deep | surface |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for source in sources:
+        m = prepared_mission(source, "as-recorded")
+        ref = imu_aided_reference(m)
+        ok = np.all(np.isfinite(m.dvl.v_b), axis=1) & ref.covers(m.dvl.t)
+        t = m.dvl.t[ok]
+        omega = ref.omega_nb_b(t)
+        lever = np.cross(omega, m.config.dvl.lever_arm_b)
+        _, v_lin, C_lin = m.gt.at(t)
+        refs = (np.einsum("kji,kj->ki", C_lin, v_lin) + lever, ref.v_b(t) + lever)
+        depth = np.interp(t, m.depth.t, m.depth.depth) if m.depth is not None else np.full(len(t), np.inf)
+        deep = depth >= surface_m
+        cells = []
+        for v_ref in refs:
+            e = m.dvl.v_b[ok] - v_ref
+            e -= np.median(e[deep], axis=0) if deep.any() else 0.0
+            for sel in (deep, ~deep):
+                cells.append(" / ".join(f"{x:.3f}" for x in np.sqrt(np.mean(e[sel] ** 2, axis=0)))
+                             if sel.any() else "-")
+        print(f"| {source.name} | {deep.sum()} / {(~deep).sum()} | " + " | ".join(cells) + " |")
     return 0
 
 

@@ -17,12 +17,12 @@ misses whatever the vehicle did within the second. At the surface (Trajectory11,
 deg/s) the linearly interpolated GT and the recorded DVL differ by 0.06 / 0.10 / 0.14 m/s RMS (body x, y, z);
 carrying the GT samples to the ping with the IMU (:func:`imu_carried_reference`: strapdown from the GT
 samples either side, blended, as the time-offset calibration's
-:class:`graphnav.calibration.reference.Reference`) brings that to 0.03 / 0.05 / 0.015 m/s,
+:class:`graphnav.calibration.reference.Reference`) brings that to 0.025 / 0.024 / 0.013 m/s,
 and submerged the vertical from 0.023 to 0.003 m/s (``scripts/consistency.py --reference-check``). The NEES
 of the benchmark is therefore scored against the IMU-carried reference; the velocity RMSE keeps the plain
-interpolation (comparable with earlier results). The IMU's own error over <= 0.5 s (white 3e-3
-m/s^2/sqrt(Hz): 0.002 m/s; bias 50 micro-g: 2.5e-4 m/s) is small against the estimators' velocity sigmas and
-is the estimators' error too (a shared error lowers, never raises, the NEES).
+interpolation (comparable with earlier results). The IMU's own error over at most a second (white 2.5e-3
+m/s^2/sqrt(Hz): 0.003 m/s; bias 50 micro-g: 5e-4 m/s) is small against the estimators' velocity sigmas; it
+is partly the estimators' error too, which lowers the NEES slightly (not measured separately).
 """
 from __future__ import annotations
 
