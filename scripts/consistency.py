@@ -5,9 +5,12 @@ Runs Graph-TC, Graph-HN, Graph-HN-batch (and the EKF TC for reference) on every 
 windows (:func:`graphnav.evaluation.bench.case_windows`) and scenarios, and prints per method and setting:
 
 - window VRMSE (m/s, mean over windows and trajectories) per scenario, as ``graphnav bench`` computes it;
-- mean velocity NEES over the mission after the 60 s settling time, all beams (scenario ``none``), with the
-  95 % chi-square band (:mod:`graphnav.evaluation.consistency`), and with the GT's own velocity error added
-  (``--gt-sigma``, see ``scripts/identify_noise.py``).
+- mean velocity NEES over the mission after the 60 s settling time, all beams (scenario ``none``), against the
+  GT carried to each epoch by the IMU (:func:`graphnav.evaluation.consistency.mission_reference`), with the
+  95 % chi-square band (:mod:`graphnav.evaluation.consistency`), with the GT's own velocity error added
+  (``--gt-sigma``, see ``scripts/identify_noise.py``), and (json only) against the linearly interpolated GT;
+- with ``--per-trajectory``: per trajectory mission NEES, +GT, mean window NEES and the fraction of windows
+  whose NEES lies inside the 95 % band of one window.
 
     .venv/bin/python scripts/consistency.py --data ../shared/data/snapir-2022-akit --jobs 2
 """
@@ -22,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.scenarios import scenario_outage
-from graphnav.estimators.graph import GraphOptions
 from graphnav.evaluation.bench import (
     case_windows,
     find_trajectories,
@@ -31,6 +33,7 @@ from graphnav.evaluation.bench import (
 )
 from graphnav.evaluation.consistency import (
     chi2_band,
+    mission_reference,
     n_independent,
     nees_with_reference,
 )
@@ -53,16 +56,24 @@ def run_trajectory(args) -> list[dict]:
             for name, fields in settings.items():
                 if method not in GRAPH and name != "off":
                     continue
-                options = GraphOptions(**fields) if method in GRAPH else None
+                # a dict is merged into the method's own defaults (Graph-HN's screening of regressed beams)
+                options = dict(fields) if method in GRAPH else None
                 sol = run_method(run_mission, method, scenario, options=options)
                 scores = score_case(sol, mission, starts, window_s)
                 t0 = mission.t0 + SETTLE_S
-                nees = nees_velocity(sol, mission.gt, t0)
-                nees_ref = nees_with_reference(sol, mission.gt, cov_gt, t0)
+                reference = mission_reference(sol, mission)
+                nees = nees_velocity(sol, reference, t0)
+                nees_ref = nees_with_reference(sol, reference, cov_gt, t0)
+                nees_interp = nees_velocity(sol, mission.gt, t0)
+                win_nees = [s["nees_window"] for s in scores]
+                w_lo, w_hi = chi2_band(n_independent(np.array([0.0, window_s])))
                 out.append({"trajectory": source.name, "scenario": scenario, "method": method, "setting": name,
                             "vrmse_window": float(np.mean([s["vrmse_window"] for s in scores])),
+                            "nees_window": float(np.mean(win_nees)),
+                            "windows_in_band": float(np.mean([w_lo <= x <= w_hi for x in win_nees])),
                             "vrmse_mission": scores[0]["vrmse_mission"],
                             "nees_mission": float(np.mean(nees)), "nees_mission_gt": float(np.mean(nees_ref)),
+                            "nees_mission_interp": float(np.mean(nees_interp)),
                             "n_independent": n_independent(sol.t[sol.t >= t0]), "runtime_s": sol.runtime_s})
     return out
 
@@ -70,15 +81,25 @@ def run_trajectory(args) -> list[dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", default=None, help="A-KIT folder (default: the simulated mission)")
+    ap.add_argument("--sim-seeds", type=int, default=1, help="without --data: simulated missions (seeds 0..N-1)")
     ap.add_argument("--methods", nargs="+", default=[*GRAPH, "TC"])
     ap.add_argument("--scenario", nargs="+", default=["none", "2-missing", "3-missing"])
     ap.add_argument("--gt-sigma", type=float, nargs=3, default=[0.0, 0.0, 0.0],
                     help="GT velocity error std N, E, D (m/s) added to P for the reference-aware NEES")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default="out/consistency.json")
+    ap.add_argument("--settings", nargs="+", default=["off", "on"], choices=["off", "on"],
+                    help="DVL error states off and/or on for the graph methods")
+    ap.add_argument("--per-trajectory", action="store_true", help="print the per-trajectory NEES table too")
+    ap.add_argument("--reference-check", action="store_true",
+                    help="only print, per trajectory, the recorded DVL against the GT interpolated linearly and "
+                         "carried by the IMU, submerged and at the surface (body x, y, z RMS, m/s)")
     a = ap.parse_args(argv)
-    settings = {"off": {"dvl_error_states": False}, "on": {"dvl_error_states": True}}
-    sources = find_trajectories(a.data)
+    if a.reference_check:
+        return reference_check(find_trajectories(a.data, sim_seeds=a.sim_seeds))
+    settings = {k: v for k, v in (("off", {"dvl_error_states": False}), ("on", {"dvl_error_states": True}))
+                if k in a.settings}
+    sources = find_trajectories(a.data, sim_seeds=a.sim_seeds)
     tasks = [(s, a.methods, a.scenario, settings, a.gt_sigma, 30.0) for s in sources]
     if a.jobs > 1:
         with ProcessPoolExecutor(a.jobs) as pool:
@@ -108,7 +129,57 @@ def main(argv=None) -> int:
             else:
                 tail = "- | - | -"
             print(f"| {method} | {name} | " + " | ".join(cells) + f" | {tail} |")
+    if a.per_trajectory:
+        print_per_trajectory(rows, a.methods, settings)
     return 0
+
+
+def reference_check(sources, surface_m: float = 1.0) -> int:
+    """Recorded DVL velocity minus the reference body velocity (lever arm included) at the pings, RMS per body
+    axis after the per-trajectory median, for pings deeper / shallower than ``surface_m``: the reference
+    interpolated linearly (``GroundTruth.at``) and carried by the IMU (``calibration.reference.Reference``)."""
+    from graphnav.calibration.reference import mission_reference as imu_aided_reference
+    print("| trajectory | pings deep / surface | linear GT: deep | surface | IMU-carried GT: deep | surface |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for source in sources:
+        m = prepared_mission(source, "as-recorded")
+        ref = imu_aided_reference(m)
+        ok = np.all(np.isfinite(m.dvl.v_b), axis=1) & ref.covers(m.dvl.t)
+        t = m.dvl.t[ok]
+        omega = ref.omega_nb_b(t)
+        lever = np.cross(omega, m.config.dvl.lever_arm_b)
+        _, v_lin, C_lin = m.gt.at(t)
+        refs = (np.einsum("kji,kj->ki", C_lin, v_lin) + lever, ref.v_b(t) + lever)
+        depth = np.interp(t, m.depth.t, m.depth.depth) if m.depth is not None else np.full(len(t), np.inf)
+        deep = depth >= surface_m
+        cells = []
+        for v_ref in refs:
+            e = m.dvl.v_b[ok] - v_ref
+            e -= np.median(e[deep], axis=0) if deep.any() else 0.0
+            for sel in (deep, ~deep):
+                cells.append(" / ".join(f"{x:.3f}" for x in np.sqrt(np.mean(e[sel] ** 2, axis=0)))
+                             if sel.any() else "-")
+        print(f"| {source.name} | {deep.sum()} / {(~deep).sum()} | " + " | ".join(cells) + " |")
+    return 0
+
+
+def print_per_trajectory(rows: list[dict], methods, settings) -> None:
+    """Per trajectory and method, all beams: mission NEES, +GT, mean window NEES and the fraction of windows
+    inside the window's 95 % band."""
+    full = [r for r in rows if r["scenario"] == "none"]
+    names = sorted({r["trajectory"] for r in full}, key=lambda n: (len(n), n))
+    print("\nAll beams, per trajectory: mission NEES / +GT / window NEES / windows inside the 95 % band")
+    print("| trajectory | " + " | ".join(f"{m} ({s})" for m in methods for s in settings
+                                          if m in GRAPH or s == "off") + " |")
+    cols = [(m, s) for m in methods for s in settings if m in GRAPH or s == "off"]
+    print("| --- |" + " --- |" * len(cols))
+    for n in names:
+        cells = []
+        for m, s in cols:
+            r = next((r for r in full if r["trajectory"] == n and r["method"] == m and r["setting"] == s), None)
+            cells.append("-" if r is None else f"{r['nees_mission']:.1f} / {r['nees_mission_gt']:.1f} / "
+                         f"{r['nees_window']:.1f} / {r['windows_in_band']:.0%}")
+        print(f"| {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

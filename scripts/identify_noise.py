@@ -44,22 +44,26 @@ def main(argv=None) -> int:
         rows = list(pool.map(one, folders))
     print("| trajectory | accel density 1 s (m/s^2/sqrt(Hz)) | gyro density 1 s (rad/s/sqrt(Hz)) | accel / gyro "
           "density, Allan 0.01-0.1 s | beam noise (m/s) "
-          "| GT velocity error N, E, D (m/s) | GT white error x, y, z (m/s) | its lag-1 corr. | beams |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "| GT velocity error N, E, D (m/s) | GT white error x, y, z (m/s) | its lag-1 corr. | recorded DVL white "
+          "(m/s) / drift (m/s/sqrt(s)) | beams |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         gt = ", ".join(f"{x:.4f}" for x in r["gt_velocity_sigma_n"])
         print(f"| {r['trajectory']} | {r['accel_noise_density']:.2e} | {r['gyro_noise_density']:.2e} | "
               f"{r['allan_accel_density']:.2e} / {r['allan_gyro_density']:.2e} | "
               f"{r['beam_noise_std']:.4f} | {gt} | {', '.join(f'{x:.4f}' for x in r['gt_white_sigma_b'])} | "
-              f"{', '.join(f'{x:+.2f}' for x in r['gt_white_lag1_b'])} | {r['n_beams']} |")
+              f"{', '.join(f'{x:+.2f}' for x in r['gt_white_lag1_b'])} | "
+              f"{r['dvl_white_std']:.4f} / {r['dvl_bias_rw']:.1e} | {r['n_beams']} |")
     med = {k: float(np.median([r[k] for r in rows])) for k in ("accel_noise_density", "gyro_noise_density",
                                                                "allan_accel_density", "allan_gyro_density",
-                                                               "beam_noise_std")}
+                                                               "beam_noise_std", "dvl_white_std",
+                                                               "dvl_bias_rw")}
     gt_med = np.median([r["gt_velocity_sigma_n"] for r in rows], axis=0)
     print(f"| median | {med['accel_noise_density']:.2e} | {med['gyro_noise_density']:.2e} | "
           f"{med['allan_accel_density']:.2e} / {med['allan_gyro_density']:.2e} | "
           f"{med['beam_noise_std']:.4f} | {', '.join(f'{x:.4f}' for x in gt_med)} | "
-          f"{', '.join(f'{x:.4f}' for x in np.median([r['gt_white_sigma_b'] for r in rows], axis=0))} | | |")
+          f"{', '.join(f'{x:.4f}' for x in np.median([r['gt_white_sigma_b'] for r in rows], axis=0))} | | "
+          f"{med['dvl_white_std']:.4f} / {med['dvl_bias_rw']:.1e} | |")
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     Path(a.out).write_text(json.dumps({"trajectories": rows, "median": {**med, "gt_velocity_sigma_n":
                                                                         gt_med.tolist()}}, indent=1))

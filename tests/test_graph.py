@@ -115,7 +115,9 @@ def test_fixed_lag_filtered_output_equals_isam2(steady_missions):
     a = run_graph(m, mode="online")
     b = run_graph(m, mode="fixed-lag", options=GraphOptions(lag_s=10.0))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=2e-4)
-    np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=0.05, atol=1e-8)
+    # with the DVL error states (default) the marginalised D(k) prior moves the off-diagonal velocity
+    # covariance by ~1e-7 (m/s)^2, 5e-5 of the diagonal (2e-3)
+    np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=0.05, atol=1e-6)
 
 
 def test_per_beam_and_per_epoch_factors_agree(steady_missions):
@@ -207,10 +209,11 @@ def test_imu_only_gaps_do_not_crash(nav_mission):
     sol = run_graph(silent)
     kinds = np.array(sol.info["kind"])
     assert (kinds == "imu").sum() >= 55
-    # the velocity uncertainty grows during the gap and shrinks after it
+    # the velocity uncertainty grows during the gap and shrinks after it (x2.0 with the DVL error states,
+    # whose bias uncertainty is in the velocity's before the gap too; x2.4 without)
     sd = np.sqrt(np.trace(sol.cov_v_n, axis1=1, axis2=2))
     before, end_gap, after = (np.interp(t, sol.t, sd) for t in (59.0, 119.5, 150.0))
-    assert end_gap > 2 * before and after < end_gap
+    assert end_gap > 1.7 * before and after < end_gap
 
 
 def test_indeterminant_system_is_recovered_with_qr(nav_mission):

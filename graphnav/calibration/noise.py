@@ -13,7 +13,10 @@
   var(h(x_hat))``, so ``sigma^2 = mean(r^2) + mean(M P_v M^T)`` with ``P_v`` the smoother's velocity marginal
   (the attitude's share of ``var(h)`` is below 1e-6 (m/s)^2 here and left out). Residuals beyond 5 sigma of
   the assumed noise (surface pings) are left out.
-- **GT velocity error** (m/s per NED axis): the batch smoother's error against the GT has covariance
+- **The recorded DVL's own errors** (:func:`dvl_error_drift`): white part and random-walk density of the
+  recorded DVL velocity against the IMU-carried GT, in beam space (what the DVL error states' walk must hold).
+- **GT velocity error** (m/s per NED axis): the batch smoother's error against the GT (carried to the
+  smoother's epochs by the IMU, :class:`graphnav.calibration.reference.Reference`) has covariance
   ``P + Sigma_gt`` (the GT does not see the beams' synthetic noise), so ``Sigma_gt = mean(e e^T) - mean(P)``
   per axis over the mission after 60 s (clipped at 0). This attributes *all* unexplained error to the GT: it
   is an upper bound of the GT's error (and a lower bound of what the smoother's covariance misses), and it
@@ -34,7 +37,6 @@ import numpy as np
 
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.mission import Mission
-from graphnav.core.timeseries import interp_rows
 
 #: Averaging times of the white-noise fit, in samples.
 SHORT_TAUS = (1, 2, 3, 5, 10)
@@ -122,7 +124,8 @@ def gt_white_velocity_error(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
 class NoiseEstimate:
     """Identified noise of one mission (units above); ``n_beams`` residuals used; ``gt_white_*``: the GT's
     white velocity error per body axis and the lag-1 correlation of its increments
-    (:func:`gt_white_velocity_error`)."""
+    (:func:`gt_white_velocity_error`); ``dvl_white_std`` (m/s) and ``dvl_bias_rw`` (m/s/sqrt(s)): the recorded
+    DVL's own beam errors (:func:`dvl_error_drift`)."""
 
     accel_noise_density: float
     gyro_noise_density: float
@@ -132,6 +135,8 @@ class NoiseEstimate:
     gt_velocity_sigma_n: tuple[float, float, float] | None = None
     gt_white_sigma_b: tuple[float, float, float] | None = None
     gt_white_lag1_b: tuple[float, float, float] | None = None
+    dvl_white_std: float | None = None
+    dvl_bias_rw: float | None = None
     n_beams: int = 0
 
     def to_dict(self) -> dict:
@@ -195,12 +200,47 @@ def identify(mission: Mission, sol=None, completer=None) -> NoiseEstimate:
     est.beam_noise_std = float(np.sqrt(np.mean(r[keep] ** 2) + np.mean(var_h[keep])))
     est.n_beams = int(keep.sum())
     if mission.gt is not None and sol.cov_v_n is not None:
-        sel = sol.t >= sol.t[0] + SETTLE_S
-        sel &= (sol.t >= mission.gt.t[0]) & (sol.t <= mission.gt.t[-1])
-        e = sol.v_n[sel] - interp_rows(sol.t[sel], mission.gt.t, mission.gt.v_n)
+        from graphnav.calibration.reference import mission_reference
+        ref = mission_reference(mission)
+        sel = (sol.t >= sol.t[0] + SETTLE_S) & ref.covers(sol.t)
+        # the GT at the smoother's epochs carried there by the IMU: a 1 Hz GT interpolated linearly misses
+        # the motion within the second (0.1 m/s in waves), which is not the GT's error at its samples
+        e = sol.v_n[sel] - ref.v_n(sol.t[sel])
         p = np.diagonal(sol.cov_v_n[sel], axis1=1, axis2=2)
         est.gt_velocity_sigma_n = tuple(float(x) for x in np.sqrt(np.maximum(np.mean(e ** 2 - p, axis=0), 0)))
         white, rho = gt_white_velocity_error(mission)
         est.gt_white_sigma_b = tuple(float(x) for x in white)
         est.gt_white_lag1_b = tuple(float(x) for x in rho)
+        if mission.dvl.v_b is not None:
+            est.dvl_white_std, est.dvl_bias_rw = dvl_error_drift(mission)
     return est
+
+
+#: Averaging times (s) of the DVL error drift fit: long enough for the 1 Hz white part to have averaged down.
+DRIFT_TAUS_S = (20.0, 50.0)
+
+
+def dvl_error_drift(mission) -> tuple[float, float]:
+    """(white m/s, random-walk density m/s/sqrt(s)) of the recorded DVL's own beam errors, from the
+    beam-space residuals of the recorded DVL velocity against the GT carried to each ping by the IMU
+    (:func:`graphnav.calibration.reference.dvl_design`, lever arm ``omega x l`` removed, submerged pings
+    only, per-beam median removed): the Allan deviation at 1 ping gives the white part ``N`` (1 Hz), and a
+    random walk ``K`` adds ``K^2 tau / 3`` to the Allan variance, so ``K^2 = 3 (sigma_A^2(tau) - N^2 / tau)
+    / tau``, largest over :data:`DRIFT_TAUS_S`, median over beams. The GT's own slow error is in the
+    residual too, so ``K`` bounds the DVL's drift from above -- the size of the walk the DVL error states
+    (:class:`graphnav.estimators.graph.GraphOptions` ``dvl_bias_rw``) need."""
+    from graphnav.calibration.reference import dvl_design, mission_reference, submerged_pings
+    dvl = mission.dvl
+    ok = np.all(np.isfinite(dvl.v_b), axis=1) & submerged_pings(mission)
+    ref = mission_reference(mission)
+    ok &= ref.covers(dvl.t)
+    r, omega, _, _ = dvl_design(ref, dvl.t[ok], dvl.v_b[ok])
+    e_b = (r - np.cross(omega, mission.config.dvl.lever_arm_b)) @ DvlGeometry.from_spec(mission.config.dvl).T_b.T
+    e_b -= np.median(e_b, axis=0)
+    rate = 1.0 / float(np.median(np.diff(dvl.t[ok])))
+    taus = [1] + [int(round(t * rate)) for t in DRIFT_TAUS_S]
+    adev = allan_deviation(e_b, rate, taus)
+    white = adev[0] * np.sqrt(1.0 / rate)
+    k2 = [3.0 * np.maximum(adev[i] ** 2 - white ** 2 / (taus[i] / rate), 0.0) / (taus[i] / rate)
+          for i in range(1, len(taus))]
+    return float(np.median(white)), float(np.median(np.sqrt(np.max(k2, axis=0))))

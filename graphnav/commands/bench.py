@@ -106,7 +106,7 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
                                                     t_range=(a, b)))
             files.append(plots.plot_velocity_std(pick or sols, outages, pdir / f"velocity_std_{tag}.png",
                                                  f"{label}: velocity std around the first window"))
-            files.append(plots.plot_nees(mission.gt, pick or sols, outages, pdir / f"nees_{tag}.png",
+            files.append(plots.plot_nees(mission, pick or sols, outages, pdir / f"nees_{tag}.png",
                                          f"{label}: velocity NEES over time"))
     return files
 

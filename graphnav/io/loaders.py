@@ -95,38 +95,36 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 #: the DVL point measured against the GT, and the DVL lever arm relative to the IMU is zero.
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
-#: IMU error model for the recorded Phins data, per-sqrt(Hz) densities, measured on the files.
-#: The values are stored with a 1e-4 resolution (rad/s, m/s^2); quantisation noise of step q at f = 100 Hz
-#: is q/sqrt(12) = 2.9e-5 per sample, a density of 2.9e-6 per sqrt(Hz). The recorded streams scatter far
-#: more than that from sample to sample (vehicle vibration): ``scripts/check_realdata.py`` prints the
-#: density ``std(diff(x)) / sqrt(2) / sqrt(f)``, median over axes, 1.9e-5..1.0e-4 rad/s/sqrt(Hz) for the
-#: gyro and 1.0e-3..4.8e-3 m/s^2/sqrt(Hz) for the accelerometer over the ten trajectories. The gyro value
-#: agrees with the 1-s attitude increments against the GT (residual 5e-5 rad on calm stretches), so we use
-#: the upper-middle values as white densities: 6e-5 rad/s/sqrt(Hz) and 3e-3 m/s^2/sqrt(Hz) (conservative
-#: for a FOG, whose datasheet ARW is 7e-7, but that is what the recorded numbers carry). Biases: the
-#: Phins datasheet (gyro 0.01 deg/h, accelerometer 50 micro-g); random walks from the navigation grade.
-#: Identification (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; issue 14): the accelerometer's
-#: white density is 1.7-1.8e-3 at both 0.01-0.1 s (Allan) and 1 s (increments against the GT), the gyro's
-#: 6.4e-5 (Allan) and ~1e-5 (1 s). With the identified accelerometer value the graph's velocity NEES got
-#: worse (Trajectory1 Graph-TC 5.3 -> 8.0, batch 10.3 -> 17.4) at equal VRMSE: what the estimators' covariance
-#: misses is not IMU noise (it is the GT's own error and the surface pings of Trajectory11), so the
-#: densities of :data:`PHINS_RECORDED` stay as they were. The beam noise identified from the all-beam batch
-#: residuals is 0.0412-0.0424 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
+#: IMU error model for the recorded Phins data, per-sqrt(Hz) densities identified on the files
+#: (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; issue 14). The white densities are those
+#: at the scale the estimators integrate over, the GT's 1-s sample interval and the DVL's 1-s ping interval:
+#: the mismatch of the IMU's 1-s velocity and attitude increments with the GT's
+#: (:func:`graphnav.calibration.noise.identify_imu_with_gt`), median over the ten shared trajectories:
+#: accelerometer 2.5e-3 m/s^2/sqrt(Hz) (1.8e-3..4.2e-3 per trajectory), gyro 1.2e-5 rad/s/sqrt(Hz)
+#: (8.5e-6..1.9e-5; an upper bound: it holds the GT's own attitude noise too). The sample-to-sample scatter
+#: is larger (Allan deviation at 0.01-0.1 s: gyro 6.4e-5, accelerometer 1.7e-3; ``scripts/check_realdata.py``
+#: 1.9e-5..1.0e-4 and 1.0e-3..4.8e-3): vehicle vibration, which averages out within a keyframe interval and
+#: is therefore not white noise at the estimators' scale. The densities used before issue 14 (3e-3, 6e-5)
+#: were the upper-middle of that sample scatter; with the identified ones the window VRMSE and NEES are as in
+#: the README section on issue 14. Biases: the Phins datasheet (gyro 0.01 deg/h, accelerometer 50
+#: micro-g); random walks from the navigation grade. The beam noise identified from the all-beam batch
+#: residuals is 0.0412-0.0423 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
 #: keeps 0.042.
 #: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``scripts/identify_noise.py`` over
-#: the ten shared trajectories (:mod:`graphnav.calibration.noise`): north/east from the GT's white lateral velocity
-#: error (first run, with the Allan accelerometer density subtracted: median 0.0099 m/s on the body y axis,
-#: 0.0022 on x, spread over N and E by the heading: 0.0072 per axis; with the 1-s density subtracted, as the
-#: code does now: 0.0081 and 0.0015, i.e. 0.0058 per axis -- the benchmark numbers in the README were made
-#: with 0.0072; lag-1 correlation of its increments -0.14..-0.50, i.e. white-ish; found against the IMU's
-#: velocity increments, independent of every estimator here); down from the all-beam batch smoother's error minus its
-#: covariance (median 0.0043 m/s; an upper bound; the GT's down velocity also disagrees with the derivative
-#: of its own depth by 0.005-0.011 m/s RMS on calm trajectories). The loader puts it in
+#: the ten shared trajectories (:func:`graphnav.calibration.noise.gt_white_velocity_error`): the GT's white
+#: velocity error per body axis, from its 1-s velocity increments against the IMU's with the identified
+#: accelerometer density removed (independent of every estimator here), median x 0.0015, y 0.0081, z 0.0000
+#: m/s (lag-1 correlation of its increments -0.14..-0.50: white-ish); horizontal spread over N and E by the
+#: heading: sqrt((0.0015^2 + 0.0081^2) / 2) = 0.0058 per axis. Down: 0 -- neither the increments nor the
+#: all-beam batch smoother's error against the IMU-carried GT beyond its own covariance
+#: (:func:`graphnav.calibration.noise.identify`, median 0) show any. (Before issue 14's reference fix the
+#: smoother's error was measured against the linearly interpolated GT, which gave 0.0043 m/s down and
+#: (0.0072, 0.0072) with the Allan accelerometer density.) The loader puts it in
 #: ``mission.meta["gt_velocity_sigma_n"]``; the benchmark's consistency section adds it to the estimators'
 #: covariance to show how much of their NEES the reference explains.
-AKIT_GT_VELOCITY_SIGMA_N = (0.0072, 0.0072, 0.0043)
+AKIT_GT_VELOCITY_SIGMA_N = (0.0058, 0.0058, 0.0)
 
-PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3e-3, gyro_noise_density=6e-5,
+PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=2.5e-3, gyro_noise_density=1.2e-5,
                          accel_bias_rw=1e-6, gyro_bias_rw=1e-9, accel_bias_sigma=50 * 9.80665e-6,
                          gyro_bias_sigma=0.01 * np.pi / 180 / 3600)
 

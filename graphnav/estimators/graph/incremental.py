@@ -328,7 +328,7 @@ class _IncrementalGraph:
             covs = None
         if with_d and d_j is None:
             d_j = np.zeros(N_DVL_ERRORS)
-        joint = None if with_d or self.factorization != self.options.factorization else self._joint_prior(last)
+        joint = None if self.factorization != self.options.factorization else self._joint_prior(last, d_j)
         self._restart()
         self._t_anchor = last.t
         restart_state = InitialState(last.pose, last.v_n, last.bias)
@@ -351,12 +351,16 @@ class _IncrementalGraph:
             values.insert(D(j), d_j)
         self._solve(graph, values, kf, first_key=j)
 
-    def _joint_prior(self, last: EpochEstimate) -> gtsam.NonlinearFactorGraph | None:
-        """The joint marginal of (pose, velocity, bias) at the last keyframe as one linear prior (GTSAM's
-        Marginals over the solver's current graph; a JacobianFactor with R^T R = the joint information, at the
-        estimate as linearisation point), or None when the solver cannot give it."""
+    def _joint_prior(self, last: EpochEstimate, d_j: np.ndarray | None = None) -> gtsam.NonlinearFactorGraph | None:
+        """The joint marginal of (pose, velocity, bias and, with ``dvl_error_states``, the DVL error states
+        ``d_j``) at the last keyframe as one linear prior (GTSAM's Marginals over the solver's current graph;
+        R^T R = the joint information, at the estimate as linearisation point), or None when the solver cannot
+        give it. Four keys are more than GTSAM's Python JacobianFactor takes, so with the DVL error states
+        the prior is a CustomFactor ``R [local(pose), v, local(bias), d]`` (Jacobians R's blocks, as
+        LinearContainerFactor's)."""
         j = last.index
-        keys = [X(j), V(j), B(j)]
+        with_d = self.options.dvl_error_states and d_j is not None
+        keys = [X(j), V(j), B(j)] + ([D(j)] if with_d else [])
         try:
             marginals = gtsam.Marginals(self._graph(), self._estimates())
             joint = marginals.jointMarginalCovariance(gtsam.KeyVector(keys))
@@ -365,6 +369,8 @@ class _IncrementalGraph:
             R = np.linalg.cholesky(0.5 * (info + info.T)).T
         except (RuntimeError, np.linalg.LinAlgError, AttributeError):
             return None
+        if with_d:
+            return self._joint_prior_with_dvl_errors(last, np.asarray(d_j, float), R, keys)
         factor = gtsam.JacobianFactor(X(j), R[:, :6], V(j), R[:, 6:9], B(j), R[:, 9:15], np.zeros(15),
                                       gtsam.noiseModel.Unit.Create(15))
         point = gtsam.Values()
@@ -373,6 +379,26 @@ class _IncrementalGraph:
         point.insert(B(j), last.bias)
         graph = gtsam.NonlinearFactorGraph()
         graph.add(gtsam.LinearContainerFactor(factor, point))
+        return graph
+
+    @staticmethod
+    def _joint_prior_with_dvl_errors(last: EpochEstimate, d_j: np.ndarray, R: np.ndarray,
+                                     keys: list[int]) -> gtsam.NonlinearFactorGraph:
+        """The 4-key joint prior of :meth:`_joint_prior` (pose 6, velocity 3, bias 6, DVL errors 7)."""
+        pose, v, bias = last.pose, np.asarray(last.v_n, float), last.bias
+        blocks = [slice(0, 6), slice(6, 9), slice(9, 15), slice(15, 15 + len(d_j))]
+
+        def error(this, values, H):
+            dx = np.concatenate([pose.localCoordinates(values.atPose3(keys[0])), values.atVector(keys[1]) - v,
+                                 bias.localCoordinates(values.atConstantBias(keys[2])),
+                                 values.atVector(keys[3]) - d_j])
+            if H is not None:
+                for i, sl in enumerate(blocks):
+                    H[i] = R[:, sl]
+            return R @ dx
+
+        graph = gtsam.NonlinearFactorGraph()
+        graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
     def _reanchor_due(self, kf: Keyframe) -> bool:
