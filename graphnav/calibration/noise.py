@@ -37,6 +37,7 @@ import numpy as np
 
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.mission import Mission
+from graphnav.estimators.keyframes import gyro_at
 
 #: Averaging times of the white-noise fit, in samples.
 SHORT_TAUS = (1, 2, 3, 5, 10)
@@ -159,7 +160,9 @@ def beam_residuals(mission: Mission, sol) -> tuple[np.ndarray, np.ndarray]:
     ``sol`` (a graph solution with ``info["batch_dvl_errors"]``, or none = no DVL error states)."""
     geo = DvlGeometry.from_spec(mission.config.dvl)
     d = sol.info.get("batch_dvl_errors")
+    model = geo.beam_model(dvl_errors=d is not None)
     imu, dvl = mission.imu, mission.dvl
+    samples = list(zip(imu.t, imu.f_b, imu.omega_b))
     k = np.searchsorted(sol.t, dvl.t)
     k = np.clip(k, 0, len(sol.t) - 1)
     at_keyframe = np.abs(sol.t[k] - dvl.t) < 1e-6
@@ -169,15 +172,11 @@ def beam_residuals(mission: Mission, sol) -> tuple[np.ndarray, np.ndarray]:
         valid = dvl.valid[j] & np.isfinite(dvl.beams[j])
         if not valid.any():
             continue
-        omega = imu.omega_b[min(np.searchsorted(imu.t, dvl.t[j]), len(imu.t) - 1)] - sol.bias_gyro[i]
-        R = sol.C_b_n[i]
-        v_head = R.T @ sol.v_n[i] + np.cross(omega, geo.lever_arm_b)
-        s, b = (np.zeros(3), np.zeros(4)) if d is None else (d[i, :3], d[i, 3:])
-        M = (geo.T_d * (1.0 + s)) @ geo.C_d_b.T
-        h = M @ v_head + b
-        res.append((dvl.beams[j] - h)[valid])
-        MR = M @ R.T
-        var.append(np.einsum("ij,jk,ik->i", MR, sol.cov_v_n[i], MR)[valid])
+        p = model.predict(sol.C_b_n[i], sol.v_n[i], gyro_at(dvl.t[j], samples), sol.bias_gyro[i], geo.lever_arm_b,
+                          None if d is None else d[i])
+        res.append((dvl.beams[j] - p.h)[valid])
+        H_v = p.d_v()
+        var.append(np.einsum("ij,jk,ik->i", H_v, sol.cov_v_n[i], H_v)[valid])
     return np.concatenate(res), np.concatenate(var)
 
 
@@ -229,7 +228,11 @@ def dvl_error_drift(mission) -> tuple[float, float]:
     / tau``, largest over :data:`DRIFT_TAUS_S`, median over beams. The GT's own slow error is in the
     residual too, so ``K`` bounds the DVL's drift from above -- the size of the walk the DVL error states
     (:class:`graphnav.estimators.graph.GraphOptions` ``dvl_bias_rw``) need."""
-    from graphnav.calibration.reference import dvl_design, mission_reference, submerged_pings
+    from graphnav.calibration.reference import (
+        dvl_design,
+        mission_reference,
+        submerged_pings,
+    )
     dvl = mission.dvl
     ok = np.all(np.isfinite(dvl.v_b), axis=1) & submerged_pings(mission)
     ref = mission_reference(mission)
