@@ -4,7 +4,7 @@ The fast test runs a subsample: on four shared trajectories the start with the f
 second (found from the IMU, not hard-coded), three estimators (EKF TC and Average-LC, Graph-TC) with all
 beams and with the 3-missing outage in the second window. The full sweep (every method, every trajectory, a
 start every 10 s, all scenarios; ``scripts/start_sweep.py`` prints its table) is marked slow and, as it takes
-about an hour on two cores, also needs ``GRAPHNAV_FULL_SWEEP=1``.
+about 20 minutes in one process (scripts/start_sweep.py --jobs 2: 11 min), also needs ``GRAPHNAV_FULL_SWEEP=1``.
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ def test_fastest_start_does_not_diverge(akit_dir, trajectory):
 
 @pytest.mark.slow
 @pytest.mark.skipif(os.environ.get("GRAPHNAV_FULL_SWEEP") != "1",
-                    reason="full start-time sweep (~1 h on 2 cores): set GRAPHNAV_FULL_SWEEP=1")
+                    reason="full start-time sweep (~20 min in one process): set GRAPHNAV_FULL_SWEEP=1")
 def test_full_start_sweep(akit_dir):
     bad = []
     for folder in list_akit(akit_dir):
