@@ -185,6 +185,8 @@ def solution_from_estimates(method: str, estimates: list[EpochEstimate]) -> NavS
 
 
 def _initial_state(mission: Mission, t0: float) -> StrapdownState:
+    """The ground truth at t0 as a strapdown state (what tests and demos perturb before passing it as
+    ``run_ekf(initial=...)``)."""
     p, v, C = mission.gt.at(t0, mission.imu)
     return StrapdownState(t0, C, v, p)
 
@@ -223,10 +225,10 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
     name = name or ekf_label(tight, completer)
     if isinstance(initial, StrapdownState):
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(initial.C_b_n), initial.p_n), initial.v_n, t=initial.t)
+    t0 = float(mission.imu.t[0])
     if initial is None and init != "sensors" and mission.gt is not None:
-        s = _initial_state(mission, max(mission.imu.t[0], mission.gt.t[0]))
-        initial = InitialState(gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n, t=s.t)
-    initial = initial_state(mission, initial, init, float(mission.imu.t[0]))
+        t0 = max(t0, float(mission.gt.t[0]))     # the paper's start: the first instant with IMU and GT
+    initial = initial_state(mission, initial, init, t0)
     nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
                     aligner_kwargs=aligner_kwargs, name=f"EKF {name}")
     estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]

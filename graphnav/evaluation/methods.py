@@ -225,11 +225,9 @@ def estimator_options(name: str, options=None):
     m = get_method(name)
     if options is not None and not isinstance(options, dict):
         return options
-    if m.family == "ekf":
-        from graphnav.estimators.ekf import EkfOptions
-        return EkfOptions(**{**m.defaults, **(options or {})}) if options is not None or m.defaults else None
+    from graphnav.estimators.ekf import EkfOptions
     from graphnav.estimators.graph import GraphOptions
-    return GraphOptions(**{**m.defaults, **(options or {})})
+    return (EkfOptions if m.family == "ekf" else GraphOptions)(**{**m.defaults, **(options or {})})
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
@@ -256,7 +254,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     if completer is None:
         completer, described = completer_for(m.name, scenario, mission.config.dvl.beam_noise_std)
     elif m.completer == "none":
-        completer = None
+        completer, described = None, "none"
     fallbacks_before = dict(getattr(completer, "fallbacks", {}))
     options = estimator_options(m.name, options)
     start = time.perf_counter()
