@@ -53,7 +53,8 @@ from graphnav.evaluation.tasks import run_tasks
 SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "0-beams", "markov", "none")
 IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical", "mems")
 #: Methods of the regime summary (report section "Regimes"), the hybrid first, its reference second.
-REGIME_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-MP", "TC", "HNTC")
+REGIME_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "TC",
+                                    "HNTC")
 #: Keys of every result record (extra diagnostic keys may follow).
 RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
                                 "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s", "diverged",
@@ -593,8 +594,8 @@ def regime_summary(records: list[dict]) -> list[str]:
     lines.append("")
     lossy = [r for r in regimes if r[1] != "none"]
 
-    def verdicts(model: str) -> list[str]:
-        rated = [(r, _ratio(agg, r, model)) for r in lossy]
+    def verdicts(model: str, ref: str = "Graph-TC") -> list[str]:
+        rated = [(r, _ratio(agg, r, model, ref)) for r in lossy]
         rated = [(r, x) for r, x in rated if math.isfinite(x)]
         if not rated:
             return []
@@ -602,7 +603,7 @@ def regime_summary(records: list[dict]) -> list[str]:
         helps = [name(r, x) for r, x in rated if x < HELPS_BELOW]
         neutral = [name(r, x) for r, x in rated if HELPS_BELOW <= x <= HURTS_ABOVE]
         hurts = [name(r, x) for r, x in rated if x > HURTS_ABOVE]
-        out = [f"- {model} vs Graph-TC over {len(rated)} regimes with missing beams: "
+        out = [f"- {model} vs {ref} over {len(rated)} regimes with missing beams: "
                f"helps (< {HELPS_BELOW:g}x) in {len(helps)}, neutral in {len(neutral)}, "
                f"hurts (> {HURTS_ABOVE:g}x) in {len(hurts)}."]
         if helps:
@@ -616,6 +617,9 @@ def regime_summary(records: list[dict]) -> list[str]:
     lines += ["Where the hybrid helps (generated from the table):", ""]
     for model in ("Graph-HN", "Graph-HN-batch", "Graph-MP"):
         lines += verdicts(model)
+    # the batch's gain split: smoothing alone (Graph-TC-batch) against what the completions add to it
+    lines += verdicts("Graph-TC-batch")
+    lines += verdicts("Graph-HN-batch", "Graph-TC-batch")
     # the targets, checked on the same numbers
     checks = []
     hn = [(r, _ratio(agg, r, "Graph-HN")) for r in lossy]

@@ -13,6 +13,7 @@ HNLC, HNTC         EKF        the network completer for the scenario
 Graph-TC           graph      none (measured beams only, ISAM2 filtered output)
 Graph-HN           graph      the network completer (ISAM2 filtered output)
 Graph-HN-batch     graph      the network completer (batch smoothed)
+Graph-TC-batch     graph      none (batch smoothed): what smoothing alone gives, without completions
 Graph-MP           graph      none; model-aided motion prior (body-velocity random walk, small
                               heave) at keyframes with fewer than 3 measured beams
 =================  =========  ==========================================================
@@ -139,6 +140,8 @@ _RECORDS = (
            description="factor graph (ISAM2, filtered output) plus the network's screened regressed beams"),
     Method("Graph-HN-batch", "graph", tight=True, completer="network", batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN, then the batch smoother over the whole mission"),
+    Method("Graph-TC-batch", "graph", tight=True, completer="none", batch=True,
+           description="Graph-TC, then the batch smoother over the whole mission (no completions)"),
     Method("Graph-MP", "graph", tight=True, completer="none", defaults=GRAPH_MP_OPTIONS,
            description="Graph-TC with a motion prior at keyframes with fewer than 3 measured beams"),
 )

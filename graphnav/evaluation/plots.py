@@ -27,7 +27,7 @@ AXES_NED = ("north", "east", "down")
 METHOD_COLORS = {
     "LC": "#9e9e9e", "TC": "#616161", "Average-LC": "#ffb74d", "Average-TC": "#f57c00",
     "HNLC": "#81c784", "HNTC": "#2e7d32", "Graph-TC": "#64b5f6", "Graph-HN": "#1565c0",
-    "Graph-HN-batch": "#8e24aa",
+    "Graph-HN-batch": "#8e24aa", "Graph-TC-batch": "#ce93d8", "Graph-MP": "#00897b",
 }
 SCENARIO_COLORS = {"2-missing": "#1f77b4", "3-missing": "#d62728", "none": "#7f7f7f"}
 
