@@ -232,9 +232,16 @@ def test_window_lengths_and_regime_summary(fake_world):
         for method, v in (("Graph-TC", 0.1), ("Graph-HN", hn), ("Graph-HN-batch", 0.07)):
             records.append({"trajectory": "a", "scenario": "3-missing", "imu_grade": "mems", "window_s": w,
                             "window_start_s": 60.0, "method": method, "vrmse_window": v})
+    # every beam measured: Graph-TC 0.08 at 120 s, so 0.7x Graph-TC (0.084 there) needs little more than that
+    records.append({"trajectory": "a", "scenario": "none", "imu_grade": "mems", "window_s": 120.0,
+                    "window_start_s": 60.0, "method": "Graph-TC", "vrmse_window": 0.08})
     text = "\n".join(regime_summary(records))
     row = next(line for line in text.splitlines() if line.startswith("| mems | 3-missing | 60 |"))
-    assert "0.050 (0.050)" in row and "| 0.50 | 0.70 |" in row
+    assert "0.050 (0.050)" in row and "| 0.50 | 0.70 | - |" in row
+    row = next(line for line in text.splitlines() if line.startswith("| mems | 3-missing | 120 |"))
+    assert "| 1.20 | 0.70 | 0.80 |" in row
+    assert "fails in 1 of 2; in 1 of these even Graph-TC with all four beams measured is above 0.7x " \
+           "(mems/3-missing/120 s)" in text
     assert "helps (< 0.95x) in 1, neutral in 0, hurts (> 1.02x) in 1" in text
     assert "hurts: mems/3-missing/120 s (1.20x)" in text
     assert "never hurts (Graph-HN <= 1.02x Graph-TC in every regime): fails in 1 of 2" in text
