@@ -39,6 +39,11 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "HN corr0.5+adapt MP-total": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
                                                "motion_prior": "total", "motion_prior_rw": (0.2, 0.32, 0.12),
                                                "motion_prior_heave_sigma": 0.2}),
+    **{f"HN MP-if-uncertain {std:g}": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
+                                                     "motion_prior": "total-if-uncertain",
+                                                     "motion_prior_rw": (0.2, 0.32, 0.12),
+                                                     "motion_prior_heave_sigma": 0.2, "motion_prior_switch_std": std})
+       for std in (0.1, 0.15, 0.2, 0.3)},
     "HN +MP": ("Graph-HN", {"motion_prior": "partial"}),
     "HN MP-total": ("Graph-HN", {"motion_prior": "total"}),
     "HN adapt+MP": ("Graph-HN", {"regressed_adaptive": True, "motion_prior": "partial"}),
