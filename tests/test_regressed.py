@@ -112,7 +112,6 @@ def test_total_if_uncertain_switches_with_the_imu_grade(grade, switched):
     options = {**GRAPH_HN_OPTIONS, "motion_prior": "total-if-uncertain", "motion_prior_switch_std": 0.2}
     sol = run_method(run, "Graph-HN", "0-beams", options=options)
     counts = sol.info["motion_prior_switch"]
-    print(grade, counts)
     assert counts["prior"] + counts["no_prior"] >= 55
     assert (counts["switched_on"] == 1) == switched
     assert (counts["prior"] > 0) == switched

@@ -113,12 +113,13 @@ class GraphOptions:
             heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
             ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
             measured beam are then not completed (the prior replaces the completion);
-            ``"total-if-uncertain"`` = at keyframes without any measured beam, the prior only once the graph's
+            ``"total-if-uncertain"`` = at keyframes without any measured beam, the prior once the graph's
             predicted sway/heave velocity std exceeds ``motion_prior_switch_std`` (then until a beam is
-            measured again; the keyframe's completions are dropped), else the (screened) completions
+            measured again), next to the (screened) completions, which stay
             (:class:`.regressed.OutagePriorSwitch`).
         motion_prior_switch_std: predicted body-velocity std (m/s) above which ``"total-if-uncertain"``
-            switches the motion prior on.
+            switches the motion prior on; 0.2 m/s = the sigma of Graph-MP's heave prior, the spread the
+            vehicle model allows its small body velocities (measured against 0.1 and 0.3 in the issue-13-C note).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
@@ -169,7 +170,7 @@ class GraphOptions:
     motion_prior: str = "off"
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
-    motion_prior_switch_std: float = 0.1
+    motion_prior_switch_std: float = 0.2
     dvl_error_states: bool = True
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
