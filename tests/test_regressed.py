@@ -105,11 +105,12 @@ def test_total_if_uncertain_switches_with_the_imu_grade(grade, switched):
     """Simulated 60 s total DVL outage: with a MEMS IMU the graph's predicted velocity std passes the switch
     and the motion prior replaces the completions; with a navigation-grade IMU it stays off."""
     from graphnav.core.scenarios import scenario_outage
-    from graphnav.evaluation.methods import GRAPH_HN_OPTIONS, run_method
+    from graphnav.evaluation.methods import GRAPH_HN_OPTIONS, MOTION_PRIOR_SETTINGS, run_method
     from graphnav.sim.simulate import simulate_mission
     mission = simulate_mission(150.0, grade, seed=4)
     run = mission.with_outage(scenario_outage("0-beams", mission.t0 + 70.0, 60.0))
-    options = {**GRAPH_HN_OPTIONS, "motion_prior": "total-if-uncertain", "motion_prior_switch_std": 0.2}
+    options = {**GRAPH_HN_OPTIONS, **MOTION_PRIOR_SETTINGS, "motion_prior": "total-if-uncertain",
+               "motion_prior_switch_std": 0.2}
     sol = run_method(run, "Graph-HN", "0-beams", options=options)
     counts = sol.info["motion_prior_switch"]
     assert counts["prior"] + counts["no_prior"] >= 55

@@ -119,7 +119,7 @@ class GraphOptions:
             (:class:`.regressed.OutagePriorSwitch`).
         motion_prior_switch_std: predicted body-velocity std (m/s) above which ``"total-if-uncertain"``
             switches the motion prior on; 0.2 m/s = the sigma of Graph-MP's heave prior, the spread the
-            vehicle model allows its small body velocities (measured against 0.1 and 0.3 in the issue-13-C note).
+            vehicle model allows its small body velocities (0.1 m/s and always-on measured in the issue-13-C note).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables

@@ -165,10 +165,10 @@ class OutagePriorSwitch:
     constrains best (sway and heave, ``MOTION_PRIOR_AXES``) exceeds ``options.motion_prior_switch_std`` (m/s):
     there the IMU alone no longer holds the velocity better than the vehicle model. With the recorded
     navigation-grade IMU the predicted sway std reaches 0.16-0.17 m/s at the end of a 120 s outage
-    (Trajectory2), with the tactical IMU 0.2 m/s after ~35-50 s, with the MEMS IMU after ~20-25 s. Once on, it stays on until
-    a beam is measured again: with the prior in the graph the marginal shrinks below the threshold, and
-    switching it off again would make the prior flicker on and off through the outage (each switch-off
-    lets the IMU drift from a state the prior had held).
+    (Trajectory2), with the tactical IMU 0.2 m/s after ~35-50 s, with the MEMS IMU after ~20-25 s (the heave
+    std stays below 0.02 m/s: the depth sensor holds it). Once on, the prior stays on until a beam is measured
+    again: with the prior in the graph the marginal shrinks below the threshold, and switching it off again
+    would make the prior flicker on and off through the outage.
 
     Counters (``counts``): keyframes of total outages with the prior (``prior``), without it (``no_prior``),
     outages in which it was switched on (``switched_on``); ``max_std`` is the largest predicted std seen on the
