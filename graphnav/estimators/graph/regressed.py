@@ -163,10 +163,10 @@ class OutagePriorSwitch:
 
     The motion prior goes in where the graph's predicted body-frame velocity std on the axes the prior
     constrains best (sway and heave, ``MOTION_PRIOR_AXES``) exceeds ``options.motion_prior_switch_std`` (m/s):
-    there the IMU alone no longer holds the velocity better than the vehicle model. With the recorded
-    navigation-grade IMU the predicted sway std reaches 0.16-0.17 m/s at the end of a 120 s outage
-    (Trajectory2), with the tactical IMU 0.2 m/s after ~35-50 s, with the MEMS IMU after ~20-25 s (the heave
-    std stays below 0.02 m/s: the depth sensor holds it). Once on, the prior stays on until a beam is measured
+    there the IMU alone no longer holds the velocity better than the vehicle model. In 120 s total outages
+    on six A-KIT trajectories (1, 2, 4, 6, 8, 10), with 0.2 m/s: the recorded navigation-grade IMU's predicted
+    sway std reaches 0.16-0.18 m/s at the end, so the prior never goes in; the tactical IMU passes 0.2 m/s
+    after ~53-68 s, the MEMS IMU after ~30 s (the heave std stays below 0.02 m/s: the depth sensor holds it). Once on, the prior stays on until a beam is measured
     again: with the prior in the graph the marginal shrinks below the threshold, and switching it off again
     would make the prior flicker on and off through the outage.
 
