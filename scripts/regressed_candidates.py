@@ -14,6 +14,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from graphnav.evaluation.methods import MOTION_PRIOR_SETTINGS, REGRESSED_SCREENING
+
 #: The hybrid without any screening or motion prior.
 PLAIN = {"regressed_gate_k": None, "regressed_adaptive": False, "regressed_correlation": 0.0, "motion_prior": "off"}
 CANDIDATES: dict[str, tuple[str, dict]] = {
@@ -39,6 +41,14 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "HN corr0.5+adapt MP-total": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
                                                "motion_prior": "total", "motion_prior_rw": (0.2, 0.32, 0.12),
                                                "motion_prior_heave_sigma": 0.2}),
+    **{f"HN MP-if-uncertain {std:g}": ("Graph-HN", {**REGRESSED_SCREENING, **MOTION_PRIOR_SETTINGS,
+                                                     "motion_prior": "total-if-uncertain",
+                                                     "motion_prior_switch_std": std})
+       for std in (0.1, 0.15, 0.2, 0.3)},
+    "HN-batch corr0.5+adapt": ("Graph-HN-batch", dict(REGRESSED_SCREENING)),
+    "HN-batch MP-if-uncertain 0.2": ("Graph-HN-batch", {**REGRESSED_SCREENING, **MOTION_PRIOR_SETTINGS,
+                                                        "motion_prior": "total-if-uncertain",
+                                                        "motion_prior_switch_std": 0.2}),
     "HN +MP": ("Graph-HN", {"motion_prior": "partial"}),
     "HN MP-total": ("Graph-HN", {"motion_prior": "total"}),
     "HN adapt+MP": ("Graph-HN", {"regressed_adaptive": True, "motion_prior": "partial"}),

@@ -8,6 +8,8 @@ from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.graph.regressed import (
     BeamPrediction,
+    OutagePriorSwitch,
+    body_velocity_std,
     motion_prior_factors,
     screen_regressed,
 )
@@ -73,3 +75,44 @@ def test_motion_prior_factors_and_modes():
     assert motion_prior_factors(0, 1.0, GraphOptions()).size() == 0
     with pytest.raises(ConfigError, match="motion_prior"):
         GraphOptions(motion_prior="always")
+
+
+def _prediction(std_n):
+    return BeamPrediction(V_TRUE, np.diag(np.square(std_n)), np.zeros(3))
+
+
+def test_outage_prior_switch_on_synthetic_covariances():
+    switch = OutagePriorSwitch(GraphOptions(motion_prior="total-if-uncertain", motion_prior_switch_std=0.2))
+    assert not switch.decide(0, None, C)                          # first keyframe: nothing to compare with
+    assert not switch.decide(0, _prediction([0.05, 0.05, 0.01]), C)   # IMU still holds the velocity
+    assert not switch.decide(0, _prediction([0.5, 0.05, 0.01]), C)    # surge alone does not decide
+    # yawed 90 deg: the NED north uncertainty is the body's sway
+    C_yaw = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    assert np.allclose(body_velocity_std(_prediction([0.5, 0.05, 0.01]), C_yaw), [0.05, 0.5, 0.01])
+    assert switch.decide(0, _prediction([0.5, 0.05, 0.01]), C_yaw)
+    # latched: the prior's own effect shrinks the marginal, the prior stays until a beam is measured
+    assert switch.decide(0, _prediction([0.05, 0.05, 0.01]), C)
+    assert not switch.decide(1, _prediction([0.5, 0.5, 0.5]), C)
+    assert not switch.decide(0, _prediction([0.05, 0.05, 0.01]), C)
+    assert switch.decide(0, _prediction([0.01, 0.01, 0.3]), C)       # heave decides too
+    assert switch.counts == {"prior": 3, "no_prior": 3, "switched_on": 2, "max_std": pytest.approx(0.5)}
+    with pytest.raises(ConfigError, match="motion_prior_switch_std"):
+        GraphOptions(motion_prior_switch_std=0.0)
+
+
+@pytest.mark.parametrize("grade, switched", [("navigation", False), ("mems", True)])
+def test_total_if_uncertain_switches_with_the_imu_grade(grade, switched):
+    """Simulated 60 s total DVL outage: with a MEMS IMU the graph's predicted velocity std passes the switch
+    and the motion prior replaces the completions; with a navigation-grade IMU it stays off."""
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation.methods import GRAPH_HN_OPTIONS, MOTION_PRIOR_SETTINGS, run_method
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(150.0, grade, seed=4)
+    run = mission.with_outage(scenario_outage("0-beams", mission.t0 + 70.0, 60.0))
+    options = {**GRAPH_HN_OPTIONS, **MOTION_PRIOR_SETTINGS, "motion_prior": "total-if-uncertain",
+               "motion_prior_switch_std": 0.2}
+    sol = run_method(run, "Graph-HN", "0-beams", options=options)
+    counts = sol.info["motion_prior_switch"]
+    assert counts["prior"] + counts["no_prior"] >= 55
+    assert (counts["switched_on"] == 1) == switched
+    assert (counts["prior"] > 0) == switched

@@ -141,6 +141,8 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
     if nav.backend is not None and hasattr(nav.backend, "ctx"):
         info["regressed_screening"] = dict(nav.backend.ctx.screening)
+        if options.motion_prior == "total-if-uncertain":
+            info["motion_prior_switch"] = dict(nav.backend.ctx.outage_switch.counts)
     if batch:
         try:
             estimates, batch_info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates, options)

@@ -27,7 +27,8 @@ The average estimator uses the past ``n_past=3`` pings for ``2-missing`` and 5 f
 ``0-beams`` (total DVL outage) and ``markov`` (random dropouts) use ``load_completer("auto")``: the networks
 for the patterns they were trained on, the average estimator for the others -- with no beam measured the
 networks do not apply, so in a total outage the hybrid's completion is the average estimator's constant-beam
-extrapolation unless the graph's ``motion_prior`` replaces it (:data:`GRAPH_HN_OPTIONS`).
+extrapolation, screened (:data:`GRAPH_HN_OPTIONS`; ``GraphOptions.motion_prior`` can add or substitute the
+motion prior there).
 The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none`` uses
 ``load_completer("auto")``, the networks where trained and the average estimator for other patterns, only
 consulted if beams drop out); when its weights or module are missing the
@@ -51,28 +52,41 @@ from graphnav.nets.average import AVERAGE_N_PAST
 #: Which network (number of missing beams it was trained for) serves each scenario.
 NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto", "0-beams": "auto",
                                               "markov": "auto"}
-#: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch) on top of the GraphOptions defaults.
-#: Regressed beams are screened against the graph's prediction (see graphnav.estimators.graph.regressed): their error is
-#: taken as correlated with the prediction's (rho = 0.5: both come from the same past pings) and their sigma is
-#: raised to what the innovation shows. Measured with scripts/regressed_candidates.py (numbers in the module
-#: docstring of graphnav.estimators.graph.regressed and in the issue-13 note).
-#: In total outages the screened completer (average estimator) stays, not the motion prior: the prior was
-#: 1-17 % better with the tactical / MEMS IMU in 60-120 s total outages but 4-29 % worse with the recorded
-#: navigation-grade IMU (Trajectory2, 6, 10; scripts/regressed_candidates.py, candidate "HN ... MP-total").
-GRAPH_HN_OPTIONS: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
-#: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams. The densities
-#: are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma 0.2 m/s (5x its
-#: spread): tighter values (1x, heave 0.05 m/s) made Graph-MP 1.35x Graph-TC on the real data (the vehicle
-#: manoeuvres: 99th percentile of the 1-s sway change 0.47 m/s, and a heave prior treated as white pulls the
-#: pitch, whose error the gravity projection turns into horizontal velocity drift).
-GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", "motion_prior_rw": (0.2, 0.32, 0.12),
-                                                    "motion_prior_heave_sigma": 0.2})
+#: Screening of regressed beams against the estimator's own prediction (graph: graphnav.estimators.graph.regressed;
+#: EKF: ErrorStateEkf.screen_regressed): their error is taken as correlated with the prediction's (rho = 0.5: both
+#: come from the same past pings) and their sigma is raised to what the innovation shows. Measured with
+#: scripts/regressed_candidates.py (numbers in the module docstring of graphnav.estimators.graph.regressed and in
+#: the issue-13 note).
+REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
+#: The motion prior's settings (Graph-MP; the hybrid's GraphOptions.motion_prior="total" / "total-if-uncertain").
+#: The densities are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma
+#: 0.2 m/s (5x its spread): tighter values
+#: (1x, heave 0.05 m/s) made Graph-MP 1.35x Graph-TC on the real data (the vehicle manoeuvres: 99th percentile
+#: of the 1-s sway change 0.47 m/s, and a heave prior treated as white pulls the pitch, whose error the gravity
+#: projection turns into horizontal velocity drift).
+MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2, 0.32, 0.12),
+                                                         "motion_prior_heave_sigma": 0.2})
+#: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch) on top of the GraphOptions defaults:
+#: the screening. In total outages the screened completer (average estimator) carries the keyframes alone.
+#: The motion prior in every total outage (motion_prior="total") was 1-17 % better with the tactical / MEMS IMU
+#: in 60-120 s total outages but 4-29 % worse with the recorded navigation-grade IMU (issue-13 note). The
+#: graph's own choice, motion_prior="total-if-uncertain" (prior next to the completions once the predicted
+#: sway/heave std passes 0.2 m/s, graphnav.estimators.graph.regressed.OutagePriorSwitch) is not the default
+#: either: window VRMSE x Graph-TC, 0-beams, 60 s / 120 s, Graph-HN -> with the switch: Trajectory2, 6, 10
+#: (tuning) as-recorded 1.00 / 1.00 -> 1.00 / 1.00, tactical 1.00 / 0.96 -> 0.99 / 0.91, MEMS 0.91 / 0.49 ->
+#: 0.89 / 0.44; Trajectory1, 4, 8 (not used for choosing) as-recorded 1.00 / 1.00 -> 1.00 / 1.00, tactical
+#: 1.00 / 1.00 -> 0.99 / 0.87, MEMS 0.92 / 0.47 -> 0.90 / 0.51: worse in one cell (MEMS 120 s, 0.545 vs 0.495
+#: m/s), so not better-or-equal everywhere (scripts/regressed_candidates.py, candidate "HN MP-if-uncertain
+#: 0.2"; the issue-13-C note).
+GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
+#: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
+GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
 #: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of completed beams
 #: against the filter's own prediction (graphnav.estimators.ekf.ErrorStateEkf.screen_regressed). Without it a
 #: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
 #: pulled the filter to 0.53-0.78 m/s window VRMSE (scripts/start_sweep.py).
-EKF_HYBRID_OPTIONS: Mapping = types.MappingProxyType(dict(GRAPH_HN_OPTIONS))
+EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
 
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network")

@@ -21,7 +21,7 @@ from graphnav.core.earth import earth_rate_n
 from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
-from graphnav.estimators.graph.regressed import motion_prior_factors, screen_regressed
+from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
 from graphnav.factors import (
     beam_factor,
     beam_factor_dvl_errors,
@@ -124,6 +124,8 @@ class GraphContext:
                                 else self.beam_sigma)
         #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
         self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+        #: the choice of motion_prior="total-if-uncertain" (state across keyframes, counters)
+        self.outage_switch = OutagePriorSwitch(options)
 
     def count_screening(self, stats: dict) -> None:
         for key, n in stats.items():
@@ -153,7 +155,7 @@ class GraphContext:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
         completer's sigma (floored); None when no beam is usable."""
         usable = np.isfinite(ping.beams)
-        if self.options.motion_prior != "off" and not ping.measured.any():
+        if self.options.motion_prior in ("partial", "total") and not ping.measured.any():
             # without any measured beam the completers extrapolate blind; the motion prior takes over
             usable = ping.measured
         if not usable.any():
@@ -264,12 +266,19 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         builder: the mission's :class:`GraphContext` (geometry, options, configuration).
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
-        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams.
+        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams and
+            for the choice of ``motion_prior="total-if-uncertain"``.
     """
     options, config = builder.options, builder.config
     groups: list[BeamGroup] = []
     other = gtsam.NonlinearFactorGraph()
     k = kf.index
+    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
+    if options.motion_prior == "total-if-uncertain":
+        use_prior = builder.outage_switch.decide(n_measured, prediction, C_b_n_pred)
+    else:
+        use_prior = k > 0 and (options.motion_prior == "partial" and n_measured < 3
+                               or options.motion_prior == "total" and n_measured == 0)
     if kf.dvl is not None:
         m = kf.dvl
         omega = m.omega_b
@@ -282,6 +291,8 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
+            if regressed and use_prior and n_measured == 0 and options.motion_prior == "total":
+                continue    # the motion prior replaces the blind completion
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
@@ -297,9 +308,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
                                         regressed, index[part] if use_d else None, C_d_b if use_d else None))
-    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
-    if k > 0 and (options.motion_prior == "partial" and n_measured < 3
-                  or options.motion_prior == "total" and n_measured == 0):
+    if use_prior and k > 0:
         other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std

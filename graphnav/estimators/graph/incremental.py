@@ -230,10 +230,13 @@ class _IncrementalGraph:
         self._pending_kf = kf
 
     def _prediction(self, kf: Keyframe, v_n_pred, bias):
-        """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened."""
+        """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened or
+        ``motion_prior="total-if-uncertain"`` must choose at a keyframe without measured beams."""
         o = self.options
         screening = o.regressed_gate_k is not None or o.regressed_adaptive or o.regressed_correlation > 0
-        if not screening or kf.index == 0 or kf.dvl is None or not kf.dvl.n_regressed:
+        needed = (screening and kf.dvl is not None and kf.dvl.n_regressed
+                  or o.motion_prior == "total-if-uncertain" and (kf.dvl is None or not kf.dvl.n_measured))
+        if not needed or kf.index == 0:
             return None
         from graphnav.estimators.graph.regressed import predict_state
         last = self._last

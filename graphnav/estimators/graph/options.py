@@ -63,7 +63,7 @@ from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
 BATCH_SOLVERS = ("vectorized", "lm")
-MOTION_PRIOR_MODES = ("off", "partial", "total")
+MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
 
 
 @dataclass
@@ -112,7 +112,14 @@ class GraphOptions:
         motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
             heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
             ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
-            measured beam are then not completed (the prior replaces the completion).
+            measured beam are then not completed (the prior replaces the completion);
+            ``"total-if-uncertain"`` = at keyframes without any measured beam, the prior once the graph's
+            predicted sway/heave velocity std exceeds ``motion_prior_switch_std`` (then until a beam is
+            measured again), next to the (screened) completions, which stay
+            (:class:`.regressed.OutagePriorSwitch`).
+        motion_prior_switch_std: predicted body-velocity std (m/s) above which ``"total-if-uncertain"``
+            switches the motion prior on; 0.2 m/s = the sigma of Graph-MP's heave prior, the spread the
+            vehicle model allows its small body velocities (0.1 m/s and always-on measured in the issue-13-C note).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
@@ -163,6 +170,7 @@ class GraphOptions:
     motion_prior: str = "off"
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
+    motion_prior_switch_std: float = 0.2
     dvl_error_states: bool = True
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -184,6 +192,8 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        if not self.motion_prior_switch_std > 0:
+            raise ConfigError(f"motion_prior_switch_std must be > 0 m/s, got {self.motion_prior_switch_std}")
         if not self.regressed_prediction_var_scale > 0:
             raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
         if not 0.0 <= self.regressed_correlation < 1.0:
