@@ -62,8 +62,10 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
         floor = full_beam_vel_rmse(samples)
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
-                own = imu_windows(series, comp.n_past, comp.imu_samples, comp.ping_dt)
-                if not np.array_equal(own.beams, samples.beams):   # the IMU window fills after any past window
+                # the same pings: those with the longest past window (the IMU window is full from ping n_past
+                # on in a tail, after any past window otherwise)
+                own = imu_windows(series, comp.n_past, comp.imu_samples, comp.ping_dt, pings=slice(n_past, None))
+                if not np.array_equal(own.beams, samples.beams):
                     raise RuntimeError("IMU network samples are not the pings of the other methods")
                 full, sigma = predict_imu_network(comp.model, own)
             else:
