@@ -56,11 +56,15 @@ class ImuBeamRegressor(nn.Module):
         imu_window_s: length of the IMU window, s.
         imu_rate_hz: IMU rate, Hz.
         blend: learn the blend between the IMU-propagated and the held prior (False: propagated prior only).
+        relative: the heads see the beams relative to the prior (past, propagated and measured beams minus
+            the prior of all four beams), not their values, so a velocity offset common to the past and the
+            measured beams (an error fed back along the unobserved direction) does not change the correction,
+            and the correction cannot learn a velocity-dependent bias that compounds through an outage.
     """
 
     def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 32, sigma_hidden: int = 16,
                  ping_dt: float = 1.0, imu_window_s: float = IMU_WINDOW_S, imu_rate_hz: float = IMU_RATE_HZ,
-                 blend: bool = False):
+                 blend: bool = False, relative: bool = False):
         super().__init__()
         self.missing = normalize_missing(missing)
         self.kept = tuple(b for b in range(4) if b not in self.missing)
@@ -74,7 +78,7 @@ class ImuBeamRegressor(nn.Module):
         self.ping_dt, self.imu_window_s, self.imu_rate_hz = float(ping_dt), float(imu_window_s), float(imu_rate_hz)
         n_miss, n_kept, n_aux = len(self.missing), len(self.kept), N_SUMMARY + 3
         n_in = 8 * self.n_past + n_kept + n_aux
-        self.blend = bool(blend)
+        self.blend, self.relative = bool(blend), bool(relative)
         self.lag_logits = nn.Parameter(torch.zeros(self.n_past))
         if self.blend:
             self.hold_logits = nn.Parameter(torch.zeros(self.n_past))
@@ -97,6 +101,9 @@ class ImuBeamRegressor(nn.Module):
         self.register_buffer("beam_std", torch.ones(4))
         self.register_buffer("aux_mean", torch.zeros(n_aux))
         self.register_buffer("aux_std", torch.ones(n_aux))
+        if self.relative:       # normalisation of the relative inputs
+            self.register_buffer("h_mean", torch.zeros(n_in))
+            self.register_buffer("h_std", torch.ones(n_in))
         self.register_buffer("sigma_gain", torch.tensor(1.0))
         self.register_buffer("sigma_floor", torch.tensor(1e-3))   # m/s, keeps the NLL finite
 
@@ -125,18 +132,38 @@ class ImuBeamRegressor(nn.Module):
         self.aux_mean.copy_(aux.mean(0))
         self.aux_std.copy_(aux.std(0).clamp_min(1e-4))
 
+    def set_input_normalisation(self, past, measured, rot, tail, f_mean, M, summary) -> None:
+        """With ``relative``: mean and std of the relative inputs on the training samples (after
+        :meth:`set_normalisation`)."""
+        if not self.relative:
+            return
+        self.h_mean.zero_()
+        self.h_std.fill_(1.0)
+        with torch.no_grad():
+            _, h = self.features(past, measured, rot, tail, f_mean, M, summary)
+        n = h.shape[1] - self.aux_mean.numel()
+        self.h_mean[:n].copy_(h[:, :n].mean(0))
+        self.h_std[:n].copy_(h[:, :n].std(0).clamp_min(1e-4))
+
     def features(self, past, measured, rot, tail, f_mean, M, summary):
         """Prior for the missing beams (B, n_missing), m/s, and the normalised input ``h`` of the heads."""
         prop, g_dir = self.propagate(past, rot, tail, f_mean, M)
         w = torch.softmax(self.lag_logits, 0)
-        miss = list(self.missing)
-        prior = (prop * w[None, :, None]).sum(1)[:, miss]
-        x = ((past - self.beam_mean) / self.beam_std).flatten(1)
-        xp = ((prop - self.beam_mean) / self.beam_std).flatten(1)
-        kept = list(self.kept)
-        p = (measured - self.beam_mean[kept]) / self.beam_std[kept]
+        miss, kept = list(self.missing), list(self.kept)
+        prior = (prop * w[None, :, None]).sum(1)                           # (B, 4)
         aux = (self._aux(summary, g_dir) - self.aux_mean) / self.aux_std
-        h = torch.cat([x, xp, p, aux], dim=1)
+        if self.relative:
+            held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1) if self.blend else prior
+            ref = 0.5 * (prior + held)      # the gate's inputs must not depend on the gate
+            h = torch.cat([(past - ref[:, None]).flatten(1), (prop - ref[:, None]).flatten(1),
+                           measured - ref[:, kept]], dim=1)
+            h = torch.cat([(h - self.h_mean[:h.shape[1]]) / self.h_std[:h.shape[1]], aux], dim=1)
+        else:
+            x = ((past - self.beam_mean) / self.beam_std).flatten(1)
+            xp = ((prop - self.beam_mean) / self.beam_std).flatten(1)
+            p = (measured - self.beam_mean[kept]) / self.beam_std[kept]
+            h = torch.cat([x, xp, p, aux], dim=1)
+        prior = prior[:, miss]
         if self.blend:
             a = torch.sigmoid(self.gate(h))
             held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1)[:, miss]
@@ -168,4 +195,4 @@ class ImuBeamRegressor(nn.Module):
         """Constructor arguments, for the model card."""
         return {"missing": list(self.missing), "n_past": self.n_past, "hidden": self.hidden,
                 "sigma_hidden": self.sigma_hidden, "ping_dt": self.ping_dt, "imu_window_s": self.imu_window_s,
-                "imu_rate_hz": self.imu_rate_hz, "blend": self.blend}
+                "imu_rate_hz": self.imu_rate_hz, "blend": self.blend, "relative": self.relative}

@@ -55,6 +55,7 @@ class ImuTrainOptions:
     sigma_batch_size: int = 128
     sigma_lr: float = 3e-3
     blend: bool = True                  # learned blend of the IMU-propagated and the held prior
+    relative: bool = True               # the heads see beams relative to the prior, not their values
     rollout_epochs: int = 20            # recursive stage (0: one step ahead only)
     rollout_window: int = 30            # pings per rollout (the 30 s outages of the issue)
     rollout_stride: int = 3             # pings between rollout starts
@@ -176,7 +177,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
     try:
         torch.manual_seed(opt.seed)
         model = ImuBeamRegressor(missing, opt.n_past, opt.hidden, opt.sigma_hidden, imu_window_s=opt.imu_window_s,
-                                 blend=opt.blend)
+                                 blend=opt.blend, relative=opt.relative)
         base = imu_data.akit_imu_series(imu_data.AKIT_SPLIT["train"], d, opt.beam_seed)
         spec = DvlSpec()
         train_parts, select, draws = [], _samples(base, opt, "select"), []
@@ -192,6 +193,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         with torch.no_grad():
             _, g_dir = model.propagate(*tr[0:1], *tr[2:6])
         model.set_normalisation(tr[0].flatten(0, 1), tr[6], g_dir)
+        model.set_input_normalisation(*tr[:-1])
         t0 = time.perf_counter()
         history = _run_stage(model, model.mean_parameters(), tr, se, _mse, "mse", opt.epochs, opt.batch_size,
                              torch.optim.Adam, opt.lr, opt.lr_step_epochs, opt.lr_gamma, opt.patience, opt.seed,
