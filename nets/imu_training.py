@@ -56,6 +56,7 @@ class ImuTrainOptions:
     sigma_lr: float = 3e-3
     blend: bool = True                  # learned blend of the IMU-propagated and the held prior
     relative: bool = True               # the heads see beams relative to the prior, not their values
+    correction_sees_imu: bool = False   # the correction sees the angular rates and gravity direction
     rollout_epochs: int = 20            # recursive stage (0: one step ahead only)
     rollout_window: int = 30            # pings per rollout (the 30 s outages of the issue)
     rollout_stride: int = 3             # pings between rollout starts
@@ -177,7 +178,8 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
     try:
         torch.manual_seed(opt.seed)
         model = ImuBeamRegressor(missing, opt.n_past, opt.hidden, opt.sigma_hidden, imu_window_s=opt.imu_window_s,
-                                 blend=opt.blend, relative=opt.relative)
+                                 blend=opt.blend, relative=opt.relative,
+                                 correction_sees_imu=opt.correction_sees_imu)
         base = imu_data.akit_imu_series(imu_data.AKIT_SPLIT["train"], d, opt.beam_seed)
         spec = DvlSpec()
         train_parts, select, draws = [], _samples(base, opt, "select"), []
