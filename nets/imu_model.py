@@ -20,7 +20,10 @@ For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (d
    network fall back to holding the velocity where the propagated prior would drift (a tilt error of 0.1 deg
    is 0.017 m/s^2 integrated through a 30-ping outage);
 5. output ``p + std * (MLP(h) + L(h))`` with ``h`` the normalised past beams, propagated beams, measured
-   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path);
+   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path). Options measured
+   and not shipped (model card): ``relative`` inputs (the beams minus the prior, so that an offset fed back
+   along the unobserved direction cannot change the correction) and a correction that does not see the rates
+   and gravity direction (``correction_sees_imu=False``); both were worse on the selection pings;
 6. a sigma head ``softplus(W2 tanh(W1 h)) * std * gain + floor``, trained afterwards with the Gaussian NLL
    while the mean network is frozen; ``gain`` is set so that the RMS of error/sigma is 1 on held-out pings.
 
@@ -64,6 +67,7 @@ class ImuBeamRegressor(nn.Module):
             gravity direction. False: only the blend gate and the sigma head see them, so on a steady leg the
             correction has no attitude-dependent offset to add at every ping (0.005 m/s per ping is 0.15 m/s
             after a 30-ping outage); the IMU still enters the mean through the propagated prior.
+            (Shipped: True; False was worse on the selection pings, model card.)
     """
 
     def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 32, sigma_hidden: int = 16,
@@ -157,9 +161,9 @@ class ImuBeamRegressor(nn.Module):
         w = torch.softmax(self.lag_logits, 0)
         miss, kept = list(self.missing), list(self.kept)
         prior = (prop * w[None, :, None]).sum(1)                           # (B, 4)
+        held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1) if self.blend else prior
         aux = (self._aux(summary, g_dir) - self.aux_mean) / self.aux_std
         if self.relative:
-            held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1) if self.blend else prior
             ref = 0.5 * (prior + held)      # the gate's inputs must not depend on the gate
             h = torch.cat([(past - ref[:, None]).flatten(1), (prop - ref[:, None]).flatten(1),
                            measured - ref[:, kept]], dim=1)
@@ -169,10 +173,9 @@ class ImuBeamRegressor(nn.Module):
             xp = ((prop - self.beam_mean) / self.beam_std).flatten(1)
             p = (measured - self.beam_mean[kept]) / self.beam_std[kept]
             h = torch.cat([x, xp, p, aux], dim=1)
-        prior = prior[:, miss]
+        prior, held = prior[:, miss], held[:, miss]
         if self.blend:
             a = torch.sigmoid(self.gate(h))
-            held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1)[:, miss]
             prior = a * prior + (1.0 - a) * held
         return prior, h
 
