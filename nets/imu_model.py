@@ -20,10 +20,12 @@ For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (d
    network fall back to holding the velocity where the propagated prior would drift (a tilt error of 0.1 deg
    is 0.017 m/s^2 integrated through a 30-ping outage);
 5. output ``p + std * (MLP(h) + L(h))`` with ``h`` the normalised past beams, propagated beams, measured
-   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path). Options measured
-   and not shipped (model card): ``relative`` inputs (the beams minus the prior, so that an offset fed back
-   along the unobserved direction cannot change the correction) and a correction that does not see the rates
-   and gravity direction (``correction_sees_imu=False``); both were worse on the selection pings;
+   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path). The shipped
+   networks use ``relative`` inputs (the beams minus the prior, so that an offset fed back along the
+   unobserved direction cannot change the correction) and a correction that does not see the rates and the
+   gravity direction (``correction_sees_imu=False``: an attitude-dependent offset of a few mm/s per ping
+   becomes a drift of 0.1-0.5 m/s through a 30-ping outage on a steady leg); the gate and the sigma head see
+   everything, and the IMU enters the mean through the propagated prior;
 6. a sigma head ``softplus(W2 tanh(W1 h)) * std * gain + floor``, trained afterwards with the Gaussian NLL
    while the mean network is frozen; ``gain`` is set so that the RMS of error/sigma is 1 on held-out pings.
 
@@ -67,7 +69,7 @@ class ImuBeamRegressor(nn.Module):
             gravity direction. False: only the blend gate and the sigma head see them, so on a steady leg the
             correction has no attitude-dependent offset to add at every ping (0.005 m/s per ping is 0.15 m/s
             after a 30-ping outage); the IMU still enters the mean through the propagated prior.
-            (Shipped: True; False was worse on the selection pings, model card.)
+            (Shipped: False.)
     """
 
     def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 32, sigma_hidden: int = 16,

@@ -55,8 +55,8 @@ class ImuTrainOptions:
     sigma_batch_size: int = 128
     sigma_lr: float = 3e-3
     blend: bool = True                  # learned blend of the IMU-propagated and the held prior
-    relative: bool = False              # the heads see beams relative to the prior (measured: worse, card)
-    correction_sees_imu: bool = True    # the correction sees the angular rates and gravity direction
+    relative: bool = True               # the heads see beams relative to the prior, not their values
+    correction_sees_imu: bool = False   # the correction sees the angular rates and gravity direction
     rollout_epochs: int = 20            # recursive stage (0: one step ahead only)
     rollout_window: int = 30            # pings per rollout (the 30 s outages of the issue)
     rollout_stride: int = 3             # pings between rollout starts
