@@ -18,8 +18,8 @@ from graphnav.estimators.history import BeamHistory
 
 G = 9.81
 #: Recursive steady-leg error allowed against the average estimator's. The shipped networks: 1.13-1.51x (an
-#: error level, no drift); the first release 1.1-8.4x, and with the recursive stage alone (correction seeing
-#: the attitude) 1.1-5.5x.
+#: error level of 0.10-0.115 m/s that hardly grows); the first release 1.1-8.4x, and with the recursive stage
+#: and blend alone (correction seeing the attitude) 1.1-6.2x.
 STEADY_LEG_MARGIN = 1.6
 
 
