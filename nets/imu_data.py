@@ -61,6 +61,12 @@ class ImuBeamSeries:
             ok[k] = finite[k - n_past:k + 1].all() and self.imu_end[k] + 1 >= n_imu
         return ok
 
+    def tail(self, fraction: float) -> "ImuBeamSeries":
+        """The last ``fraction`` of the pings (the IMU stream is kept whole, so every window stays full)."""
+        cut = int(round((1.0 - fraction) * len(self.beams)))
+        return ImuBeamSeries(self.name, self.t[cut:], self.v_b[cut:], self.beams[cut:], self.f_b, self.omega_b,
+                             self.imu_end[cut:], self.imu_rate_hz)
+
     def with_beams(self, beams: np.ndarray) -> "ImuBeamSeries":
         return ImuBeamSeries(self.name, self.t, self.v_b, beams, self.f_b, self.omega_b, self.imu_end,
                              self.imu_rate_hz)

@@ -32,18 +32,26 @@ def predict_imu_network(model, samples: ImuBeamSamples, batch: int = 4096):
 
 
 def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"], directory=None,
-                 akit_dir=None, beam_seed: int = 1000, outage: bool = True, completers=None) -> list[dict]:
+                 akit_dir=None, beam_seed: int = 1000, outage: bool = True, completers=None,
+                 tail_fraction: float | None = None) -> list[dict]:
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
     the estimators use it, :data:`graphnav.nets.average.AVERAGE_N_PAST`) and
     ``network`` (the shipped beam-only network of the paper). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
+    ``tail_fraction``: only the last part of each trajectory (the selection pings of the training
+    trajectories, :class:`~graphnav.nets.imu_training.ImuTrainOptions` ``select_fraction``); the outage windows
+    then follow one another from the first ping with a full past.
     """
     from .average import AVERAGE_N_PAST
     from .network import load_completer
 
     series = akit_imu_series(trajectories, akit_dir, beam_seed)
+    settle, gap = OUTAGE_SETTLE, 60
+    if tail_fraction is not None:
+        series = [s.tail(tail_fraction) for s in series]
+        settle, gap = 5, 0
     rows = []
     for scen in scenarios:
         imu_net = (completers or {}).get(scen) or load_imu_completer(scen, directory)
@@ -54,8 +62,10 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
         floor = full_beam_vel_rmse(samples)
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
-                own = imu_windows(series, comp.n_past, comp.imu_samples, comp.ping_dt)
-                if not np.array_equal(own.beams, samples.beams):   # the IMU window fills after any past window
+                # the same pings: those with the longest past window (the IMU window is full from ping n_past
+                # on in a tail, after any past window otherwise)
+                own = imu_windows(series, comp.n_past, comp.imu_samples, comp.ping_dt, pings=slice(n_past, None))
+                if not np.array_equal(own.beams, samples.beams):
                     raise RuntimeError("IMU network samples are not the pings of the other methods")
                 full, sigma = predict_imu_network(comp.model, own)
             else:
@@ -64,7 +74,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
                          **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
         if outage:
             for name, comp in methods.items():
-                full, sigma, osamples = outage_rollout(comp, series, imu_net.missing, settle=OUTAGE_SETTLE)
+                full, sigma, osamples = outage_rollout(comp, series, imu_net.missing, gap=gap, settle=settle)
                 rows.append({"scenario": scen, "mode": "outage 30 s", "method": name,
                              **completion_metrics(full, sigma, osamples, imu_net.missing),
                              "all_beams_vel_rmse": full_beam_vel_rmse(osamples)})
@@ -85,4 +95,32 @@ def format_imu_table(rows: list[dict]) -> str:
                      f"{r['beam_gain_pct']:+.1f} % | {r['vel_rmse']:.4f} | {r['vel_gain_pct']:+.1f} % | "
                      f"{r['all_beams_vel_rmse']:.4f} | {r['within_1sigma']:.3f} | {r['within_2sigma']:.3f} | "
                      f"{r['n']} |")
+    return "\n".join(lines)
+
+
+def evaluate_imu_per_trajectory(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"],
+                                **kwargs) -> list[dict]:
+    """:func:`evaluate_imu` rows of each trajectory alone and of all of them pooled (key ``trajectories``)."""
+    groups = [(t,) for t in trajectories] + ([tuple(trajectories)] if len(trajectories) > 1 else [])
+    rows = []
+    for group in groups:
+        for r in evaluate_imu(scenarios, group, **kwargs):
+            rows.append({"trajectories": list(group), **r})
+    return rows
+
+
+def format_imu_summary(rows: list[dict]) -> str:
+    """Markdown table of the IMU-aware network against the average per trajectory group (rows of
+    :func:`evaluate_imu_per_trajectory`): beam and velocity RMSE (m/s), gain (%), sigma coverage."""
+    lines = ["| trajectories | scenario | mode | beam RMSE net / avg | gain | vel RMSE net / avg | gain | in 1s / 2s |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        if r["method"] != "imu-network":
+            continue
+        avg = next(a for a in rows if a["trajectories"] == r["trajectories"] and a["scenario"] == r["scenario"]
+                   and a["mode"] == r["mode"] and a["method"] == "average")
+        name = ",".join(str(t) for t in r["trajectories"])
+        lines.append(f"| {name} | {r['scenario']} | {r['mode']} | {r['beam_rmse']:.4f} / {avg['beam_rmse']:.4f} | "
+                     f"{r['beam_gain_pct']:+.1f} % | {r['vel_rmse']:.4f} / {avg['vel_rmse']:.4f} | "
+                     f"{r['vel_gain_pct']:+.1f} % | {r['within_1sigma']:.3f} / {r['within_2sigma']:.3f} |")
     return "\n".join(lines)

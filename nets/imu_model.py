@@ -13,9 +13,19 @@ For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (d
    corrected by the mean centripetal term of a vehicle holding its last body velocity);
 3. ``v_now|j = C_j_now v_j + tail_j + g_now tau_j`` (``tau_j`` the time from ping j to now) and its beams
    ``p_j = T v_now|j``;
-4. prior ``p = sum_j w_j p_j`` (learned softmax weights over the lags), missing entries only;
+4. prior ``p = a * sum_j w_j p_j + (1 - a) * sum_j u_j b_j`` (learned softmax weights ``w``, ``u`` over the
+   lags), missing entries only: a blend of the IMU-propagated beams and the held past beams (what the average
+   estimator does), with ``a = sigmoid(G(h))`` per missing beam an input-dependent output of the network
+   (``G`` linear). Trained through recursive outages (:mod:`graphnav.nets.imu_training`), the blend lets the
+   network fall back to holding the velocity where the propagated prior would drift (a tilt error of 0.1 deg
+   is 0.017 m/s^2 integrated through a 30-ping outage);
 5. output ``p + std * (MLP(h) + L(h))`` with ``h`` the normalised past beams, propagated beams, measured
-   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path);
+   beams, mean angular rates and gravity direction (MLP: two tanh layers; L: a linear path). The shipped
+   networks use ``relative`` inputs (the beams minus the prior, so that an offset fed back along the
+   unobserved direction cannot change the correction) and a correction that does not see the rates and the
+   gravity direction (``correction_sees_imu=False``: an attitude-dependent offset of a few mm/s per ping
+   becomes a drift of 0.1-0.5 m/s through a 30-ping outage on a steady leg); the gate and the sigma head see
+   everything, and the IMU enters the mean through the propagated prior;
 6. a sigma head ``softplus(W2 tanh(W1 h)) * std * gain + floor``, trained afterwards with the Gaussian NLL
    while the mean network is frozen; ``gain`` is set so that the RMS of error/sigma is 1 on held-out pings.
 
@@ -50,10 +60,21 @@ class ImuBeamRegressor(nn.Module):
         ping_dt: DVL ping period, s (the past pings are this far apart).
         imu_window_s: length of the IMU window, s.
         imu_rate_hz: IMU rate, Hz.
+        blend: learn the blend between the IMU-propagated and the held prior (False: propagated prior only).
+        relative: the heads see the beams relative to the prior (past, propagated and measured beams minus
+            the prior of all four beams), not their values, so a velocity offset common to the past and the
+            measured beams (an error fed back along the unobserved direction) does not change the correction,
+            and the correction cannot learn a velocity-dependent bias that compounds through an outage.
+        correction_sees_imu: the correction (MLP and linear path) also sees the angular-rate summary and the
+            gravity direction. False: only the blend gate and the sigma head see them, so on a steady leg the
+            correction has no attitude-dependent offset to add at every ping (0.005 m/s per ping is 0.15 m/s
+            after a 30-ping outage); the IMU still enters the mean through the propagated prior.
+            (Shipped: False.)
     """
 
     def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 32, sigma_hidden: int = 16,
-                 ping_dt: float = 1.0, imu_window_s: float = IMU_WINDOW_S, imu_rate_hz: float = IMU_RATE_HZ):
+                 ping_dt: float = 1.0, imu_window_s: float = IMU_WINDOW_S, imu_rate_hz: float = IMU_RATE_HZ,
+                 blend: bool = False, relative: bool = False, correction_sees_imu: bool = True):
         super().__init__()
         self.missing = normalize_missing(missing)
         self.kept = tuple(b for b in range(4) if b not in self.missing)
@@ -67,10 +88,18 @@ class ImuBeamRegressor(nn.Module):
         self.ping_dt, self.imu_window_s, self.imu_rate_hz = float(ping_dt), float(imu_window_s), float(imu_rate_hz)
         n_miss, n_kept, n_aux = len(self.missing), len(self.kept), N_SUMMARY + 3
         n_in = 8 * self.n_past + n_kept + n_aux
+        self.blend, self.relative = bool(blend), bool(relative)
+        self.correction_sees_imu = bool(correction_sees_imu)
+        n_corr = n_in if self.correction_sees_imu else n_in - n_aux
         self.lag_logits = nn.Parameter(torch.zeros(self.n_past))
-        self.mlp = nn.Sequential(nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh(),
+        if self.blend:
+            self.hold_logits = nn.Parameter(torch.zeros(self.n_past))
+            self.gate = nn.Linear(n_in, n_miss)
+            nn.init.zeros_(self.gate.weight)
+            nn.init.constant_(self.gate.bias, 3.0)      # a = 0.95: start near the propagated prior
+        self.mlp = nn.Sequential(nn.Linear(n_corr, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh(),
                                  nn.Linear(hidden, n_miss))
-        self.linear = nn.Linear(n_in, n_miss)
+        self.linear = nn.Linear(n_corr, n_miss)
         for layer in (self.mlp[-1], self.linear):     # start from the IMU-propagated prior
             nn.init.zeros_(layer.weight)
             nn.init.zeros_(layer.bias)
@@ -84,6 +113,9 @@ class ImuBeamRegressor(nn.Module):
         self.register_buffer("beam_std", torch.ones(4))
         self.register_buffer("aux_mean", torch.zeros(n_aux))
         self.register_buffer("aux_std", torch.ones(n_aux))
+        if self.relative:       # normalisation of the relative inputs
+            self.register_buffer("h_mean", torch.zeros(n_in))
+            self.register_buffer("h_std", torch.ones(n_in))
         self.register_buffer("sigma_gain", torch.tensor(1.0))
         self.register_buffer("sigma_floor", torch.tensor(1e-3))   # m/s, keeps the NLL finite
 
@@ -112,17 +144,42 @@ class ImuBeamRegressor(nn.Module):
         self.aux_mean.copy_(aux.mean(0))
         self.aux_std.copy_(aux.std(0).clamp_min(1e-4))
 
+    def set_input_normalisation(self, past, measured, rot, tail, f_mean, M, summary) -> None:
+        """With ``relative``: mean and std of the relative inputs on the training samples (after
+        :meth:`set_normalisation`)."""
+        if not self.relative:
+            return
+        self.h_mean.zero_()
+        self.h_std.fill_(1.0)
+        with torch.no_grad():
+            _, h = self.features(past, measured, rot, tail, f_mean, M, summary)
+        n = h.shape[1] - self.aux_mean.numel()
+        self.h_mean[:n].copy_(h[:, :n].mean(0))
+        self.h_std[:n].copy_(h[:, :n].std(0).clamp_min(1e-4))
+
     def features(self, past, measured, rot, tail, f_mean, M, summary):
         """Prior for the missing beams (B, n_missing), m/s, and the normalised input ``h`` of the heads."""
         prop, g_dir = self.propagate(past, rot, tail, f_mean, M)
         w = torch.softmax(self.lag_logits, 0)
-        prior = (prop * w[None, :, None]).sum(1)[:, list(self.missing)]
-        x = ((past - self.beam_mean) / self.beam_std).flatten(1)
-        xp = ((prop - self.beam_mean) / self.beam_std).flatten(1)
-        kept = list(self.kept)
-        p = (measured - self.beam_mean[kept]) / self.beam_std[kept]
+        miss, kept = list(self.missing), list(self.kept)
+        prior = (prop * w[None, :, None]).sum(1)                           # (B, 4)
+        held = (past * torch.softmax(self.hold_logits, 0)[None, :, None]).sum(1) if self.blend else prior
         aux = (self._aux(summary, g_dir) - self.aux_mean) / self.aux_std
-        return prior, torch.cat([x, xp, p, aux], dim=1)
+        if self.relative:
+            ref = 0.5 * (prior + held)      # the gate's inputs must not depend on the gate
+            h = torch.cat([(past - ref[:, None]).flatten(1), (prop - ref[:, None]).flatten(1),
+                           measured - ref[:, kept]], dim=1)
+            h = torch.cat([(h - self.h_mean[:h.shape[1]]) / self.h_std[:h.shape[1]], aux], dim=1)
+        else:
+            x = ((past - self.beam_mean) / self.beam_std).flatten(1)
+            xp = ((prop - self.beam_mean) / self.beam_std).flatten(1)
+            p = (measured - self.beam_mean[kept]) / self.beam_std[kept]
+            h = torch.cat([x, xp, p, aux], dim=1)
+        prior, held = prior[:, miss], held[:, miss]
+        if self.blend:
+            a = torch.sigmoid(self.gate(h))
+            prior = a * prior + (1.0 - a) * held
+        return prior, h
 
     def forward(self, past, measured, rot, tail, f_mean, M, summary):
         """Missing beams and their sigma.
@@ -137,7 +194,8 @@ class ImuBeamRegressor(nn.Module):
         """
         prior, h = self.features(past, measured, rot, tail, f_mean, M, summary)
         scale = self.beam_std[list(self.missing)]
-        beams = prior + scale * (self.mlp(h) + self.linear(h))
+        hc = h if self.correction_sees_imu else h[:, :self.linear.in_features]     # aux columns are last
+        beams = prior + scale * (self.mlp(hc) + self.linear(hc))
         sigma = nn.functional.softplus(self.sigma_head(h)) * scale * self.sigma_gain + self.sigma_floor
         return beams, sigma
 
@@ -149,4 +207,5 @@ class ImuBeamRegressor(nn.Module):
         """Constructor arguments, for the model card."""
         return {"missing": list(self.missing), "n_past": self.n_past, "hidden": self.hidden,
                 "sigma_hidden": self.sigma_hidden, "ping_dt": self.ping_dt, "imu_window_s": self.imu_window_s,
-                "imu_rate_hz": self.imu_rate_hz}
+                "imu_rate_hz": self.imu_rate_hz, "blend": self.blend, "relative": self.relative,
+                "correction_sees_imu": self.correction_sees_imu}

@@ -29,13 +29,21 @@ def register(subparsers) -> None:
                         "and recursive 30 s outages, with the reduction against the average in %%")
     p.add_argument("--trajectories", type=str, default=None,
                    help="with --imu: comma-separated A-KIT trajectory numbers (default: validation 3,5,6)")
+    p.add_argument("--per-trajectory", action="store_true",
+                   help="with --imu: also evaluate each trajectory alone and print the network-vs-average "
+                        "summary per trajectory and pooled")
     p.set_defaults(func=run)
 
 
 def run_imu(args) -> int:
     from graphnav.core.errors import ConfigError
     from graphnav.nets.imu_data import AKIT_SPLIT
-    from graphnav.nets.imu_evaluate import evaluate_imu, format_imu_table
+    from graphnav.nets.imu_evaluate import (
+        evaluate_imu,
+        evaluate_imu_per_trajectory,
+        format_imu_summary,
+        format_imu_table,
+    )
 
     trajectories = AKIT_SPLIT["val"]
     if args.trajectories:
@@ -43,10 +51,17 @@ def run_imu(args) -> int:
             trajectories = tuple(int(t) for t in args.trajectories.split(","))
         except ValueError:
             raise ConfigError(f"--trajectories must be comma-separated numbers, got '{args.trajectories}'") from None
-    rows = evaluate_imu(tuple(args.scenario or ("2-missing", "3-missing")), trajectories, args.weights, args.akit,
-                        args.beam_seed, outage=not args.no_outage)
+    scenarios = tuple(args.scenario or ("2-missing", "3-missing"))
     print(f"A-KIT trajectories {list(trajectories)}, beam seed {args.beam_seed}")
-    print(format_imu_table(rows))
+    if args.per_trajectory:
+        rows = evaluate_imu_per_trajectory(scenarios, trajectories, directory=args.weights, akit_dir=args.akit,
+                                           beam_seed=args.beam_seed, outage=not args.no_outage)
+        print(format_imu_table([r for r in rows if r["trajectories"] == rows[-1]["trajectories"]]))
+        print(format_imu_summary(rows))
+    else:
+        rows = evaluate_imu(scenarios, trajectories, args.weights, args.akit, args.beam_seed,
+                            outage=not args.no_outage)
+        print(format_imu_table(rows))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)
