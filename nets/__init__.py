@@ -8,6 +8,8 @@ otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-be
 ``load_imu_completer(2|3)`` loads the IMU-aware network (``ImuBeamRegressor``, trained on A-KIT IMU + DVL with
 ``train_imu`` / ``graphnav train-beams --imu``); it needs the IMU window:
 ``complete(past, measured, imu=(f_b, omega_b))`` (see :mod:`graphnav.nets.imu_network`).
+``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
+window, ``load_completer("auto")`` otherwise (:mod:`graphnav.nets.imu_auto`).
 
 The torch-based names are imported on first use, so ``from graphnav.nets import AverageCompleter`` does
 not load torch.
@@ -25,6 +27,7 @@ _LAZY = {
     "train": "training",
     "ImuBeamRegressor": "imu_model", "ImuNetworkCompleter": "imu_network", "load_imu_completer": "imu_network",
     "load_imu_model": "imu_network", "ImuTrainOptions": "imu_training", "train_imu": "imu_training",
+    "ImuAutoCompleter": "imu_auto", "load_imu_auto_completer": "imu_auto",
 }
 
 __all__ = ["AverageCompleter", "BeamCompleter", "check_inputs", *_LAZY]

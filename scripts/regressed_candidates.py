@@ -52,6 +52,10 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "HN +MP": ("Graph-HN", {"motion_prior": "partial"}),
     "HN MP-total": ("Graph-HN", {"motion_prior": "total"}),
     "HN adapt+MP": ("Graph-HN", {"regressed_adaptive": True, "motion_prior": "partial"}),
+    # the same screenings with the IMU-aware completer (Graph-HNI; "HNI corr0.5+adapt" is its default)
+    "HNI plain": ("Graph-HNI", {}),
+    "HNI adaptive": ("Graph-HNI", {"regressed_adaptive": True}),
+    "HNI corr0.5+adapt": ("Graph-HNI", {"regressed_correlation": 0.5, "regressed_adaptive": True}),
 }
 
 
@@ -67,7 +71,10 @@ def run_one(args):
     if method.startswith("Graph-HN"):   # candidates are measured against the plain hybrid, not the defaults
         options = {**PLAIN, **options}
     sol = run_method(run, method, scenario, options=dict(options))
-    return (grade, scenario, window_s, name), [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)]
+    dropped = sol.info.get("regressed_screening", {})
+    kept = sol.info.get("completed_beams", 0) - dropped.get("gated", 0) - dropped.get("decorrelated_out", 0)
+    return (grade, scenario, window_s, name), ([r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
+                                               [kept, sol.info.get("completed_beams", 0)])
 
 
 def main(argv=None) -> int:
@@ -85,12 +92,14 @@ def main(argv=None) -> int:
     tasks = [(s, g, sc, w, c) for s in sources for g in a.grades for sc in a.scenarios for w in a.window_s
              for c in a.candidates]
     results: dict = {}
+    kept: dict = {}
     with ProcessPoolExecutor(a.jobs) as pool:
-        for key, vals in pool.map(run_one, tasks):
+        for key, (vals, counts) in pool.map(run_one, tasks):
             results.setdefault(key, []).extend(vals)
+            kept[key] = np.add(kept.get(key, 0), counts)
     print(f"trajectories: {', '.join(s.name for s in sources)}")
-    print("| grade | scenario | window s | candidate | VRMSE mean | worst | x Graph-TC |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print("| grade | scenario | window s | candidate | VRMSE mean | worst | x Graph-TC | completed beams kept |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for g in a.grades:
         for sc in a.scenarios:
             for w in a.window_s:
@@ -98,7 +107,9 @@ def main(argv=None) -> int:
                 for c in a.candidates:
                     v = results[(g, sc, w, c)]
                     ratio = f"{np.mean(v) / np.mean(ref):.2f}" if ref else "-"
-                    print(f"| {g} | {sc} | {w:g} | {c} | {np.mean(v):.3f} | {np.max(v):.3f} | {ratio} |")
+                    k = kept[(g, sc, w, c)]
+                    print(f"| {g} | {sc} | {w:g} | {c} | {np.mean(v):.3f} | {np.max(v):.3f} | {ratio} | "
+                          f"{k[0]} / {k[1]} |")
     return 0
 
 

@@ -59,7 +59,8 @@ def test_readme_lists_the_public_names():
 def test_one_method_registry():
     from graphnav.evaluation import methods
     assert list(graphnav.METHODS) == ["LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC", "Graph-TC",
-                                      "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP"]
+                                      "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "HNTC-IMU",
+                                      "Graph-HNI", "Graph-HNI-batch"]
     m = graphnav.METHODS["Graph-HN-batch"]
     assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "network", True)
     assert dict(graphnav.METHODS["Graph-MP"].defaults) == dict(methods.GRAPH_MP_OPTIONS)

@@ -17,7 +17,11 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   completer is set (hybrid methods). :class:`Ping` is the one per-ping measurement every estimator uses
   (beams, measured mask, completer sigmas, gyro rate); the gyro rate at the ping (for the lever-arm term) is
   interpolated linearly between the centres of the IMU sample intervals around the ping (:func:`gyro_at`),
-  the same for the graph and the EKF.
+  the same for the graph and the EKF. An IMU-aware completer (``needs_imu``) also gets the last
+  ``completer.imu_samples`` IMU samples up to the ping (:class:`~graphnav.estimators.imu_buffer.ImuWindowBuffer`,
+  kept from the first sample on); without a usable window (not yet full, a bridged gap, another rate) it gets
+  ``imu=None`` and completes the ping beam-only (``nets.ImuAutoCompleter``), counted per reason in
+  :attr:`KeyframerStats.imu_window_missing`.
 - **Depth and heading** are sampled at a keyframe's stamp: interpolated between the samples around it when
   both have arrived, else extrapolated linearly from the last two samples, at most ``aiding_max_age_s`` old.
 """
@@ -35,6 +39,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, gap_variances
 from graphnav.estimators.history import BeamHistory
+from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 
 
 @dataclass
@@ -157,13 +162,21 @@ class _Pending:
 
 @dataclass
 class KeyframerStats:
-    """Counters of what the keyframer dropped or repaired."""
+    """Counters of what the keyframer dropped or repaired, and of the completions it made.
+
+    ``completed_pings`` / ``completed_beams``: pings with beams filled in by the completer, and those beams.
+    ``imu_window_missing``: pings an IMU-aware completer completed without an IMU window, per reason of
+    :data:`~graphnav.estimators.imu_buffer.NO_WINDOW_REASONS` (None without an IMU-aware completer).
+    """
 
     zero_imu_rows: int = 0
     imu_gaps: list = field(default_factory=list)
     fixes_decimated: int = 0
     pings_before_start: int = 0
     pings_after_end: int = 0
+    completed_pings: int = 0
+    completed_beams: int = 0
+    imu_window_missing: dict | None = None
 
 
 class Keyframer:
@@ -176,7 +189,8 @@ class Keyframer:
     Args:
         config: sensor configuration (IMU rate).
         options: keyframe placement.
-        completer: beam completer for the hybrid methods, or None.
+        completer: beam completer for the hybrid methods, or None. An IMU-aware one (``needs_imu``) must
+            complete a ping beam-only when given ``imu=None`` (``beam_only``: ``graphnav.nets.ImuAutoCompleter``).
     """
 
     def __init__(self, config: SensorConfig, options: KeyframeOptions | None = None, completer=None):
@@ -185,6 +199,13 @@ class Keyframer:
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
         self.stats = KeyframerStats()
+        self._imu_buffer = None
+        if getattr(completer, "needs_imu", False):
+            if getattr(completer, "beam_only", None) is None:
+                raise ConfigError(f"{type(completer).__name__} needs the IMU window and has no beam-only completer for "
+                                  "pings without one (the first 20 s, IMU gaps): wrap it in graphnav.nets.ImuAutoCompleter")
+            self._imu_buffer = ImuWindowBuffer(completer.imu_samples, completer.imu_rate_hz)
+            self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
         self._period = 1.0 / config.imu_rate_hz
         self._gap_limit = IMU_GAP_PERIODS * self._period
         self._max_gap = self.options.max_keyframe_gap_s
@@ -310,12 +331,15 @@ class Keyframer:
         out = []
         for i in range(1, n_fill + 1):
             u = i / (n_fill + 1)
-            out += self._on_sample(t0 + length * u, tuple((1 - u) * f0 + u * f1), tuple((1 - u) * w0 + u * w1))
+            out += self._on_sample(t0 + length * u, tuple((1 - u) * f0 + u * f1), tuple((1 - u) * w0 + u * w1),
+                                   bridged=True)
         out += self._on_sample(*new)
         return out
 
-    def _on_sample(self, t: float, f: tuple, w: tuple) -> list[Keyframe]:
+    def _on_sample(self, t: float, f: tuple, w: tuple, bridged: bool = False) -> list[Keyframe]:
         self._n_imu += 1
+        if self._imu_buffer is not None:
+            self._imu_buffer.push(t, f, w, bridged)
         samples = self._samples
         samples.append((t, f, w))
         if not self._started:
@@ -402,10 +426,18 @@ class Keyframer:
         sigma = np.zeros(4)
         completed = False
         if self.history is not None:
-            result = self.history.complete(self.completer, np.where(measured, beams, 0.0), measured)
+            imu = None
+            if self._imu_buffer is not None and self.history.ready and not measured.all():
+                imu, reason = self._imu_buffer.window(t)
+                if reason is not None:
+                    self.stats.imu_window_missing[reason] += 1
+            result = self.history.complete(self.completer, np.where(measured, beams, 0.0), measured, imu=imu)
             if result is not None:
                 full, sigma = result
                 completed = not measured.all()
+                if completed:
+                    self.stats.completed_pings += 1
+                    self.stats.completed_beams += int((np.isfinite(full) & ~measured).sum())
         return Ping(t, np.asarray(full, float), measured, np.asarray(sigma, float), completed,
                     gyro_at(t, self._samples))
 

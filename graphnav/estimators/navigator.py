@@ -318,7 +318,10 @@ class Navigator:
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
-                "pings_after_end": stats.pings_after_end}
+                "pings_after_end": stats.pings_after_end, "completed_pings": stats.completed_pings,
+                "completed_beams": stats.completed_beams}
+        if stats.imu_window_missing is not None:
+            info["imu_window_missing"] = dict(stats.imu_window_missing)
         if self.backend is not None:
             info.update(self.backend.info)
             info["n_fixes"] = self.backend.n_fixes

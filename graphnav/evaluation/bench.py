@@ -54,7 +54,7 @@ SCENARIO_NAMES: tuple[str, ...] = ("2-missing", "3-missing", "0-beams", "markov"
 IMU_GRADE_CHOICES: tuple[str, ...] = ("as-recorded", "tactical", "mems")
 #: Methods of the regime summary (report section "Regimes"), the hybrid first, its reference second.
 REGIME_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "TC",
-                                    "HNTC")
+                                    "HNTC", "Graph-HNI", "Graph-HNI-batch", "HNTC-IMU")
 #: Keys of every result record (extra diagnostic keys may follow).
 RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_start_s", "window_s", "method",
                                 "vrmse_window", "vrmse_mission", "pos_err_window_end_m", "runtime_s", "diverged",
@@ -374,6 +374,9 @@ def run_case(case: BenchCase) -> list[dict]:
         health = sol.info.get("health") or {}
         extra = {"runtime_s": runtime, "mission_duration_s": mission.duration,
                  "completer": sol.info.get("completer", "none"),
+                 # what the completer did and how much of it the estimator's screening dropped
+                 **{k: sol.info[k] for k in ("completed_beams", "regressed_screening", "completer_usage",
+                                             "imu_window_missing", "completer_fallbacks") if k in sol.info},
                  "health_divergences": health.get("n_divergences"), "health_reacquired": health.get("n_reacquired"),
                  "health_nis_per_dof": health.get("nis_mean_per_dof"),
                  "warnings": sorted({str(w.message)[:200] for w in caught})}

@@ -16,6 +16,9 @@ Graph-HN-batch     graph      the network completer (batch smoothed)
 Graph-TC-batch     graph      none (batch smoothed): what smoothing alone gives, without completions
 Graph-MP           graph      none; model-aided motion prior (body-velocity random walk, small
                               heave) at keyframes with fewer than 3 measured beams
+HNTC-IMU           EKF        the IMU-aware completer (beam-only where it cannot serve)
+Graph-HNI          graph      the IMU-aware completer (ISAM2 filtered output)
+Graph-HNI-batch    graph      the IMU-aware completer (batch smoothed)
 =================  =========  ==========================================================
 
 The estimators themselves take objects and flags, not names (:func:`graphnav.estimators.runs.run_ekf`:
@@ -33,6 +36,13 @@ The network completer is ``graphnav.nets.load_completer(missing=2|3)`` (``none``
 ``load_completer("auto")``, the networks where trained and the average estimator for other patterns, only
 consulted if beams drop out); when its weights or module are missing the
 average estimator stands in, with a warning, and the solution's ``info["completer"]`` says so.
+
+The IMU-aware completer (kind ``"imu-network"``) is ``graphnav.nets.load_imu_auto_completer()`` in every
+scenario: the IMU-aware networks (2 and 3 missing beams) at pings with their pattern and a usable IMU window
+(the last 20 s at 100 Hz, kept by the keyframer), the beam-only ``load_completer("auto")`` at the others (the
+first 20 s, after an IMU gap, no beam measured, other dropout patterns). ``info["completer_usage"]`` counts
+the routes (``imu`` / ``no_imu`` / ``pattern``), ``info["imu_window_missing"]`` why a window was missing.
+When its weights cannot be loaded the scenario's beam-only network stands in, with a warning.
 """
 from __future__ import annotations
 
@@ -89,7 +99,7 @@ GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", *
 EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
 
 #: The completer kinds a method can have.
-COMPLETER_KINDS = ("none", "average", "network")
+COMPLETER_KINDS = ("none", "average", "network", "imu-network")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,8 +111,9 @@ class Method:
         family: ``"ekf"`` (:func:`graphnav.estimators.runs.run_ekf`) or ``"graph"``
             (:func:`graphnav.estimators.runs.run_graph`).
         tight: beams as individual measurements (TC) or a 3-beam velocity fix (LC; EKF only).
-        completer: ``"none"`` (measured beams only), ``"average"`` (the average estimator) or ``"network"``
-            (the scenario's network, :data:`NETWORK_FOR_SCENARIO`).
+        completer: ``"none"`` (measured beams only), ``"average"`` (the average estimator), ``"network"``
+            (the scenario's network, :data:`NETWORK_FOR_SCENARIO`) or ``"imu-network"`` (the IMU-aware
+            completer, module docstring).
         batch: graph only: the batch smoother over the whole mission after the filtered pass.
         defaults: the fields of the estimator's options (:class:`~graphnav.estimators.ekf.EkfOptions` or
             :class:`~graphnav.estimators.graph.GraphOptions`) that differ from their defaults
@@ -158,6 +169,12 @@ _RECORDS = (
            description="Graph-TC, then the batch smoother over the whole mission (no completions)"),
     Method("Graph-MP", "graph", tight=True, completer="none", defaults=GRAPH_MP_OPTIONS,
            description="Graph-TC with a motion prior at keyframes with fewer than 3 measured beams"),
+    Method("HNTC-IMU", "ekf", tight=True, completer="imu-network", defaults=EKF_HYBRID_OPTIONS,
+           description="HNTC with the IMU-aware completer (beam-only without a 20 s IMU window)"),
+    Method("Graph-HNI", "graph", tight=True, completer="imu-network", defaults=GRAPH_HN_OPTIONS,
+           description="Graph-HN with the IMU-aware completer (beam-only without a 20 s IMU window)"),
+    Method("Graph-HNI-batch", "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
+           description="Graph-HNI, then the batch smoother over the whole mission"),
 )
 
 #: Every method by name, in the order tables and plots show them (iterating gives the names).
@@ -197,7 +214,7 @@ def average_of(name: str) -> str:
 
 
 def uses_network(name: str) -> bool:
-    return get_method(name).completer == "network"
+    return get_method(name).completer in ("network", "imu-network")
 
 
 def average_completer(scenario: str, noise_std: float = 0.042):
@@ -224,6 +241,26 @@ def network_completer(scenario: str, noise_std: float = 0.042):
         return average_completer(scenario, noise_std), f"average(n_past={AVERAGE_N_PAST[scenario]}) fallback"
 
 
+@functools.lru_cache(maxsize=None)
+def _imu_auto():
+    """The IMU-aware completer, loaded once per process (its beam-only part is :func:`_network`'s "auto")."""
+    from graphnav import nets
+    return nets.load_imu_auto_completer(beam_only=_network("auto"))
+
+
+def imu_network_completer(scenario: str, noise_std: float = 0.042):
+    """(completer, description): the IMU-aware completer, or the scenario's beam-only completer (with a
+    warning) when it cannot be loaded."""
+    check_scenario(scenario)
+    try:
+        return _imu_auto(), "imu-network(2, 3; beam-only auto without an IMU window)"
+    except (ImportError, AttributeError, OSError, ValueError, RuntimeError, KeyError, ConfigError) as exc:
+        warnings.warn(f"IMU-aware completer unavailable ({exc}); using the beam-only completer instead",
+                      RuntimeWarning, stacklevel=2)
+        completer, described = network_completer(scenario, noise_std)
+        return completer, described + " (IMU-aware unavailable)"
+
+
 def completer_for(name: str, scenario: str, noise_std: float = 0.042):
     """(completer or None, description) for a method in a scenario (see the module table)."""
     kind = get_method(name).completer
@@ -232,6 +269,8 @@ def completer_for(name: str, scenario: str, noise_std: float = 0.042):
         return average_completer(scenario, noise_std), f"average(n_past={AVERAGE_N_PAST[scenario]})"
     if kind == "network":
         return network_completer(scenario, noise_std)
+    if kind == "imu-network":
+        return imu_network_completer(scenario, noise_std)
     return None, "none"
 
 
@@ -273,6 +312,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     elif m.completer == "none":
         completer, described = None, "none"
     fallbacks_before = dict(getattr(completer, "fallbacks", {}))
+    usage_before = dict(getattr(completer, "usage", {}))
     options = estimator_options(m.name, options)
     start = time.perf_counter()
     if m.family == "ekf":
@@ -285,6 +325,8 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall
     sol.info = {**sol.info, "completer": described, "scenario": scenario}
+    if usage_before:
+        sol.info["completer_usage"] = {k: completer.usage[k] - n for k, n in usage_before.items()}
     if fallbacks_before:
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts

@@ -1,0 +1,74 @@
+"""The IMU window an IMU-aware beam completer sees, kept sample by sample as the estimator is fed.
+
+An IMU-aware completer (``needs_imu``, :mod:`graphnav.nets.imu_network`) wants the last ``n_samples`` IMU
+samples up to the ping (the last one at or before the ping stamp, oldest first) at its training rate
+``rate_hz``. :class:`ImuWindowBuffer` keeps them as they stream in, so the window equals
+``graphnav.nets.imu_window.imu_window_at(mission.imu, t_ping, n_samples)`` on the recorded stream.
+It says why there is no usable window instead of handing one on that the completer would misread:
+
+- ``"not_full"``: fewer than ``n_samples`` samples at or before the ping (the first ``n_samples / rate_hz``
+  seconds of a mission, or after a restart);
+- ``"gap"``: the window holds samples the keyframer made up to bridge an IMU gap, or a step longer than 1.5
+  periods (a dropped sample);
+- ``"rate"``: the mean step differs from ``1 / rate_hz`` by more than ``rate_tol`` (relative): an IMU at
+  another rate would stretch every preintegrated interval.
+"""
+from __future__ import annotations
+
+import bisect
+from collections import deque
+from itertools import islice
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError
+
+#: Reasons :meth:`ImuWindowBuffer.window` gives for a ping without a usable IMU window.
+NO_WINDOW_REASONS = ("not_full", "gap", "rate")
+
+
+class ImuWindowBuffer:
+    """Ring buffer of the newest IMU samples (t s, f_b m/s^2, omega_b rad/s, body frame).
+
+    Args:
+        n_samples: window length (the completer's ``imu_samples``).
+        rate_hz: the rate the completer assumes (its ``imu_rate_hz``).
+        rate_tol: relative tolerance on the window's mean sample step.
+        extra_s: how long after a ping its samples are still kept (a ping is completed when the IMU has
+            passed its stamp, usually by one sample; 10 s covers pings closed late).
+    """
+
+    def __init__(self, n_samples: int, rate_hz: float, rate_tol: float = 0.02, extra_s: float = 10.0):
+        if n_samples < 2 or not rate_hz > 0:
+            raise ConfigError(f"IMU window needs n_samples >= 2 and rate_hz > 0, got {n_samples}, {rate_hz}")
+        self.n_samples = int(n_samples)
+        self.period = 1.0 / float(rate_hz)
+        self.rate_tol = float(rate_tol)
+        size = self.n_samples + int(np.ceil(extra_s * rate_hz))
+        self._t: deque[float] = deque(maxlen=size)
+        self._f: deque = deque(maxlen=size)
+        self._w: deque = deque(maxlen=size)
+        self._bridged: deque[bool] = deque(maxlen=size)
+
+    def push(self, t: float, f_b, omega_b, bridged: bool = False) -> None:
+        """Append one sample in time order; ``bridged``: made up by interpolation over an IMU gap."""
+        self._t.append(float(t))
+        self._f.append(f_b)
+        self._w.append(omega_b)
+        self._bridged.append(bool(bridged))
+
+    def window(self, t: float) -> tuple[tuple[np.ndarray, np.ndarray] | None, str | None]:
+        """``((f_b, omega_b), None)``, each (n_samples, 3), for a ping at ``t`` (s), or ``(None, reason)``
+        with a reason of :data:`NO_WINDOW_REASONS`."""
+        end = bisect.bisect_right(self._t, t)
+        if end < self.n_samples:
+            return None, "not_full"
+        start = end - self.n_samples
+        steps = np.diff(np.fromiter(islice(self._t, start, end), float, self.n_samples))
+        if any(islice(self._bridged, start, end)) or steps.max() > 1.5 * self.period:
+            return None, "gap"
+        if abs(steps.mean() - self.period) > self.rate_tol * self.period:
+            return None, "rate"
+        f_b = np.array(list(islice(self._f, start, end)), dtype=float)
+        omega_b = np.array(list(islice(self._w, start, end)), dtype=float)
+        return (f_b, omega_b), None

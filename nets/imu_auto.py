@@ -1,0 +1,76 @@
+"""An IMU-aware completer for every missing pattern, with a beam-only completer where the IMU one cannot serve.
+
+The IMU-aware networks (:func:`graphnav.nets.load_imu_completer`) serve one pattern each and need the last
+``imu_samples`` IMU samples at ``imu_rate_hz``. An estimator has no such window during the first 20 s of a
+mission, after a bridged IMU gap or with an IMU at another rate; the keyframer
+(:class:`graphnav.estimators.keyframes.Keyframer`) then passes ``imu=None``. Patterns without an IMU-aware
+network (no beam measured, the random dropouts' other patterns) are not what it was trained for either.
+:class:`ImuAutoCompleter` sends those pings to a beam-only completer (``load_completer("auto")``: the
+beam-only networks where trained, the average estimator otherwise) and counts each route in ``usage``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError
+
+from .completer import check_inputs
+
+
+class ImuAutoCompleter:
+    """IMU-aware networks where they apply, a beam-only completer elsewhere (module docstring).
+
+    Args:
+        imu_networks: IMU-aware completers (``needs_imu``), one per missing pattern (``missing``), all with the
+            same ``imu_samples`` and ``imu_rate_hz``.
+        beam_only: completer for the other pings (``complete(past, measured)``, ``n_past``), e.g.
+            ``load_completer("auto")``.
+
+    ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
+    (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
+    ``fallbacks`` are the beam-only completer's own counters (inputs outside a beam-only network's envelope).
+    """
+
+    needs_imu = True
+
+    def __init__(self, imu_networks, beam_only):
+        imu_networks = list(imu_networks)
+        if not imu_networks:
+            raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
+        if any(not getattr(n, "needs_imu", False) for n in imu_networks) or getattr(beam_only, "needs_imu", False):
+            raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU and beam_only must not")
+        windows = {(n.imu_samples, n.imu_rate_hz) for n in imu_networks}
+        if len(windows) != 1:
+            raise ConfigError(f"ImuAutoCompleter: the IMU-aware networks want different IMU windows {sorted(windows)}")
+        self.networks = {tuple(n.missing): n for n in imu_networks}
+        self.beam_only = beam_only
+        (self.imu_samples, self.imu_rate_hz), = windows
+        self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
+        self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
+
+    @property
+    def fallbacks(self) -> dict[str, int]:
+        return dict(getattr(self.beam_only, "fallbacks", {"envelope": 0, "pattern": 0}))
+
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
+        """Complete one ping: ``past`` (n_past, 4) and ``measured`` (4,) m/s as every completer, ``imu`` the
+        ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window)."""
+        past, measured = check_inputs(past, measured, self.n_past)
+        missing = ~np.isfinite(measured)
+        if not missing.any():
+            return measured.copy(), np.zeros(4)
+        net = self.networks.get(tuple(int(b) for b in np.flatnonzero(missing)))
+        if net is not None and imu is not None:
+            self.usage["imu"] += 1
+            return net.complete(past[-net.n_past:], measured, imu=imu)
+        self.usage["no_imu" if net is not None else "pattern"] += 1
+        return self.beam_only.complete(past[-self.beam_only.n_past:], measured)
+
+
+def load_imu_auto_completer(directory=None, beam_only=None) -> ImuAutoCompleter:
+    """The shipped IMU-aware networks (2 and 3 missing beams) with ``beam_only`` (default
+    ``load_completer("auto")``) for the other pings; ``directory`` holds the IMU-aware weights."""
+    from .imu_network import load_imu_completer
+    from .network import load_completer
+    nets = [load_imu_completer(m, directory) for m in (2, 3)]
+    return ImuAutoCompleter(nets, beam_only if beam_only is not None else load_completer("auto"))

@@ -1,0 +1,148 @@
+"""The IMU-aware completer wired into the estimators: the keyframer's streaming IMU window, the beam-only
+fallback and its counters, the routing of :class:`graphnav.nets.ImuAutoCompleter`, the registry's methods."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from graphnav.core.errors import ConfigError
+from graphnav.core.mission import ImuData
+from graphnav.core.scenarios import scenario_outage
+from graphnav.estimators.imu_buffer import ImuWindowBuffer
+from graphnav.estimators.keyframes import Keyframer
+from graphnav.estimators.replay import replay
+from graphnav.nets import AverageCompleter
+from graphnav.nets.imu_window import imu_window_at
+from graphnav.sim.simulate import simulate_mission
+
+GAP = (30.0, 30.5)        # IMU samples strictly inside are dropped
+
+
+class SpyImuCompleter:
+    """Stands in for an IMU-aware completer: records the window it is given, completes beam-only."""
+
+    needs_imu = True
+    imu_samples = 2000
+    imu_rate_hz = 100.0
+
+    def __init__(self):
+        self.beam_only = AverageCompleter(3)
+        self.n_past = 3
+        self.windows = []
+
+    def complete(self, past, measured, imu=None):
+        self.windows.append(imu)
+        return self.beam_only.complete(past, measured)
+
+
+@pytest.fixture(scope="module")
+def gapped_mission():
+    """60 s simulated mission, 2 beams missing from 6 s on (after the 5 full pings a history needs), the IMU
+    silent over GAP."""
+    m = simulate_mission(60.0, "navigation", 1)
+    keep = ~((m.imu.t > GAP[0]) & (m.imu.t < GAP[1]))
+    imu = ImuData(m.imu.t[keep], m.imu.f_b[keep], m.imu.omega_b[keep])
+    return dataclasses.replace(m, imu=imu).with_outage(scenario_outage("2-missing", 6.0, 53.0))
+
+
+def test_window_buffer_reasons():
+    buf = ImuWindowBuffer(200, 100.0)
+    for k in range(199):
+        buf.push(0.01 * k, (k, 0.0, 9.8), (0.0, 0.0, -k))
+    assert buf.window(5.0) == (None, "not_full")
+    for k in range(199, 260):
+        buf.push(0.01 * k, (k, 0.0, 9.8), (0.0, 0.0, -k))
+    (f_b, omega_b), reason = buf.window(2.305)                    # samples 31..230: later ones are left out
+    assert reason is None and f_b.shape == omega_b.shape == (200, 3)
+    assert f_b[0, 0] == 31 and f_b[-1, 0] == 230 and omega_b[-1, 2] == -230
+
+    slow = ImuWindowBuffer(200, 100.0)                            # a 95 Hz IMU for a 100 Hz completer
+    for k in range(300):
+        slow.push(k / 95.0, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0))
+    assert slow.window(3.0) == (None, "rate")
+
+    dropped = ImuWindowBuffer(200, 100.0)                         # one sample missing: a 2-period step
+    for k in range(300):
+        if k != 250:
+            dropped.push(0.01 * k, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0))
+    assert dropped.window(2.6) == (None, "gap")
+    assert dropped.window(2.49)[1] is None                        # before the dropped sample: a clean window
+
+    bridged = ImuWindowBuffer(200, 100.0)
+    for k in range(340):
+        bridged.push(0.01 * k, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0), bridged=(k == 120))
+    assert bridged.window(2.9) == (None, "gap") and bridged.window(3.3)[1] is None    # 3.3: samples 131..330
+
+
+def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(gapped_mission):
+    m = gapped_mission
+    spy = SpyImuCompleter()
+    kfr = Keyframer(m.config, completer=spy)
+    kfr.start(float(m.imu.t[0]))
+    keyframes = []
+    with pytest.warns(RuntimeWarning, match="gap"):
+        for kind, t, payload in replay(m, depth=False):
+            keyframes += getattr(kfr, "add_" + kind)(t, *payload)
+        keyframes += kfr.finish()
+    completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.completed]
+    assert len(completed) == len(spy.windows) > 40
+    expected = {"not_full": 0, "gap": 0, "rate": 0}
+    n_used = 0
+    for t, got in zip(completed, spy.windows):
+        want = imu_window_at(m.imu, t, 2000)
+        if want is None:
+            expected["not_full"] += 1
+            assert got is None
+        elif t > GAP[0] and t - 2000 * 0.01 < GAP[1]:             # the window reaches into the bridged gap
+            expected["gap"] += 1
+            assert got is None
+        else:
+            n_used += 1
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), t
+    assert kfr.stats.imu_window_missing == expected
+    assert expected["not_full"] >= 10 and expected["gap"] >= 15 and n_used >= 15
+    assert kfr.stats.completed_pings == len(completed) and kfr.stats.completed_beams == 2 * len(completed)
+
+
+def test_keyframer_refuses_an_imu_completer_without_a_beam_only_fallback(gapped_mission):
+    spy = SpyImuCompleter()
+    spy.beam_only = None
+    with pytest.raises(ConfigError, match="ImuAutoCompleter"):
+        Keyframer(gapped_mission.config, completer=spy)
+
+
+def test_imu_auto_completer_routes_and_counts():
+    from graphnav.nets import ImuAutoCompleter, load_imu_completer
+    nets = [load_imu_completer(2), load_imu_completer(3)]
+    auto = ImuAutoCompleter(nets, AverageCompleter(3))
+    assert auto.n_past == 5 and auto.imu_samples == 2000 and auto.needs_imu
+    rng = np.random.default_rng(0)
+    past = 1.0 + 0.01 * rng.standard_normal((5, 4))
+    imu = (np.tile([0.0, 0.0, -9.8], (2000, 1)), np.zeros((2000, 3)))
+    two = np.array([np.nan, 1.0, np.nan, 1.0])
+    full, sigma = auto.complete(past, two, imu=imu)
+    np.testing.assert_array_equal(full, nets[0].complete(past, two, imu=imu)[0])
+    beam_only = auto.complete(past, two)                          # no window: the average over its 3 pings
+    np.testing.assert_array_equal(beam_only[0], AverageCompleter(3).complete(past[-3:], two)[0])
+    auto.complete(past, np.full(4, np.nan), imu=imu)              # no beam measured: beam-only
+    auto.complete(past, np.ones(4), imu=imu)                      # nothing to complete: not counted
+    assert auto.usage == {"imu": 1, "no_imu": 1, "pattern": 1}
+    with pytest.raises(ConfigError):
+        ImuAutoCompleter(nets, nets[0])
+
+
+@pytest.mark.parametrize("method", ["HNTC-IMU", "Graph-HNI"])
+def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
+    from graphnav.evaluation.methods import get_method, run_method
+    assert get_method(method).completer == "imu-network"
+    with pytest.warns(RuntimeWarning, match="gap"):
+        sol = run_method(gapped_mission, method, "2-missing")
+    info = sol.info
+    usage, missing = info["completer_usage"], info["imu_window_missing"]
+    assert info["completer"].startswith("imu-network")
+    assert usage["pattern"] == 0 and usage["no_imu"] == sum(missing.values()) and usage["imu"] >= 15
+    assert usage["imu"] + usage["no_imu"] == info["completed_pings"]
+    assert missing["not_full"] >= 10 and missing["gap"] >= 15 and missing["rate"] == 0
+    assert np.all(np.isfinite(sol.v_n))
