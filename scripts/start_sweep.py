@@ -75,13 +75,13 @@ def table(records: list[dict], methods: list[str], scenarios: list[str]) -> str:
 
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from graphnav.evaluation.methods import METHODS
+    from graphnav.evaluation.methods import BENCH_METHODS
     from graphnav.io.loaders import list_akit
     from graphnav.io.paths import akit_dir
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT root (default: the shared data)")
     p.add_argument("--trajectories", nargs="*", help="trajectory folder names (default: all)")
-    p.add_argument("--methods", nargs="*", default=list(METHODS))
+    p.add_argument("--methods", nargs="*", default=list(BENCH_METHODS))
     p.add_argument("--scenarios", nargs="*", default=["none", "2-missing", "3-missing"])
     p.add_argument("--step", type=float, default=10.0, help="s between start times")
     p.add_argument("--length", type=float, default=60.0, help="s of data after each start")

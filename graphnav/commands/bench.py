@@ -13,7 +13,7 @@ from pathlib import Path
 
 from graphnav.commands.common import HelpFormatter, methods_help
 from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import BENCH_METHODS, METHODS
 
 
 def register(subparsers) -> None:
@@ -42,7 +42,7 @@ def register(subparsers) -> None:
                    help="outage window length(s), s; several = each case once per length (e.g. 30 60 120)")
     p.add_argument("--max-windows", type=int, default=None, metavar="N",
                    help="at most N windows per mission (evenly thinned); default: as many as fit")
-    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="METHOD",
+    p.add_argument("--methods", nargs="+", default=list(BENCH_METHODS), choices=METHODS, metavar="METHOD",
                    help=f"methods to run ({methods_help()})")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
                    help="parallel worker processes (1 = run in this process)")
