@@ -78,8 +78,9 @@ MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2
                                                          "motion_prior_heave_sigma": 0.2})
 #: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch) on top of the GraphOptions defaults:
 #: the screening. In total outages the screened completer (average estimator) carries the keyframes alone.
-#: The motion prior in every total outage (motion_prior="total") was 1-17 % better with the tactical / MEMS IMU
-#: in 60-120 s total outages but 4-29 % worse with the recorded navigation-grade IMU (issue-13 note). The
+#: The motion prior instead of the completion is worse: on the ten shared trajectories (issue-13 regime
+#: benchmark) Graph-MP is above Graph-HN in every 0-beams regime but the recorded IMU's 30 s one (0.060 vs 0.061
+#: m/s), e.g. MEMS 120 s 0.639 vs 0.423 m/s, and above Graph-TC with the recorded IMU at 120 s (1.08x). The
 #: graph's own choice, motion_prior="total-if-uncertain" (prior next to the completions once the predicted
 #: sway/heave std passes 0.2 m/s, graphnav.estimators.graph.regressed.OutagePriorSwitch) is not the default
 #: either: window VRMSE x Graph-TC, 0-beams, 60 s / 120 s, Graph-HN -> with the switch: Trajectory2, 6, 10
