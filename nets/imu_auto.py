@@ -39,12 +39,12 @@ class ImuAutoCompleter:
             raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
         if any(not getattr(n, "needs_imu", False) for n in imu_networks) or getattr(beam_only, "needs_imu", False):
             raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU and beam_only must not")
-        windows = {(n.imu_samples, n.imu_rate_hz) for n in imu_networks}
+        windows = {(n.imu_samples, n.imu_rate_hz, n.ping_dt) for n in imu_networks}
         if len(windows) != 1:
             raise ConfigError(f"ImuAutoCompleter: the IMU-aware networks want different IMU windows {sorted(windows)}")
         self.networks = {tuple(n.missing): n for n in imu_networks}
         self.beam_only = beam_only
-        (self.imu_samples, self.imu_rate_hz), = windows
+        (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
         self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
 

@@ -62,6 +62,14 @@ def test_window_buffer_reasons():
     for k in range(300):
         slow.push(k / 95.0, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0))
     assert slow.window(3.0) == (None, "rate")
+    half = ImuWindowBuffer(200, 100.0)                            # 50 Hz: every step is 2 periods, a rate
+    for k in range(300):
+        half.push(k / 50.0, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0))
+    assert half.window(5.9) == (None, "rate")
+    late = ImuWindowBuffer(200, 100.0, extra_s=1.0)               # keeps 300 samples: 2.0 s is long gone
+    for k in range(1000):
+        late.push(0.01 * k, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0))
+    assert late.window(2.0) == (None, "late") and late.window(9.99)[1] is None
 
     dropped = ImuWindowBuffer(200, 100.0)                         # one sample missing: a 2-period step
     for k in range(300):
@@ -88,7 +96,7 @@ def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(
         keyframes += kfr.finish()
     completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.completed]
     assert len(completed) == len(spy.windows) > 40
-    expected = {"not_full": 0, "gap": 0, "rate": 0}
+    expected = {"not_full": 0, "rate": 0, "gap": 0, "late": 0, "ping_dt": 0}
     n_used = 0
     for t, got in zip(completed, spy.windows):
         want = imu_window_at(m.imu, t, 2000)
@@ -104,6 +112,26 @@ def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(
     assert kfr.stats.imu_window_missing == expected
     assert expected["not_full"] >= 10 and expected["gap"] >= 15 and n_used >= 15
     assert kfr.stats.completed_pings == len(completed) and kfr.stats.completed_beams == 2 * len(completed)
+
+
+def test_keyframer_withholds_the_window_when_a_ping_is_missing(gapped_mission):
+    """The completer propagates each past ping over exactly ping_dt: after a missed ping its lags are wrong,
+    so the keyframer hands no window (reason "ping_dt") until the history is one period apart again."""
+    m = gapped_mission
+    drop = int(np.argmin(np.abs(m.dvl.t - 54.0)))               # well after the IMU gap's 20 s shadow
+    keep = np.arange(len(m.dvl.t)) != drop
+    dvl = dataclasses.replace(m.dvl, t=m.dvl.t[keep], beams=m.dvl.beams[keep], valid=m.dvl.valid[keep],
+                              v_b=None if m.dvl.v_b is None else m.dvl.v_b[keep])
+    spy = SpyImuCompleter()
+    spy.ping_dt = 1.0
+    kfr = Keyframer(m.config, completer=spy)
+    kfr.start(float(m.imu.t[0]))
+    with pytest.warns(RuntimeWarning, match="gap"):
+        for kind, t, payload in replay(dataclasses.replace(m, dvl=dvl), depth=False):
+            getattr(kfr, "add_" + kind)(t, *payload)
+        kfr.finish()
+    assert kfr.stats.imu_window_missing["ping_dt"] == spy.n_past       # the 3 pings whose history spans it
+    assert spy.windows[-1] is not None                                 # one period apart again
 
 
 def test_keyframer_refuses_an_imu_completer_without_a_beam_only_fallback(gapped_mission):
@@ -144,5 +172,5 @@ def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
     assert info["completer"].startswith("imu-network")
     assert usage["pattern"] == 0 and usage["no_imu"] == sum(missing.values()) and usage["imu"] >= 15
     assert usage["imu"] + usage["no_imu"] == info["completed_pings"]
-    assert missing["not_full"] >= 10 and missing["gap"] >= 15 and missing["rate"] == 0
+    assert missing["not_full"] >= 10 and missing["gap"] >= 15 and missing["rate"] == missing["ping_dt"] == 0
     assert np.all(np.isfinite(sol.v_n))

@@ -103,7 +103,7 @@ def test_outage_prior_switch_on_synthetic_covariances():
 @pytest.mark.parametrize("grade, switched", [("navigation", False), ("mems", True)])
 def test_total_if_uncertain_switches_with_the_imu_grade(grade, switched):
     """Simulated 60 s total DVL outage: with a MEMS IMU the graph's predicted velocity std passes the switch
-    and the motion prior replaces the completions; with a navigation-grade IMU it stays off."""
+    and the motion prior joins the (screened) completions; with a navigation-grade IMU it stays off."""
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.methods import GRAPH_HN_OPTIONS, MOTION_PRIOR_SETTINGS, run_method
     from graphnav.sim.simulate import simulate_mission

@@ -8,10 +8,13 @@ It says why there is no usable window instead of handing one on that the complet
 
 - ``"not_full"``: fewer than ``n_samples`` samples at or before the ping (the first ``n_samples / rate_hz``
   seconds of a mission, or after a restart);
+- ``"rate"``: the median step differs from ``1 / rate_hz`` by more than ``rate_tol`` (relative): an IMU at
+  another rate would stretch every preintegrated interval;
 - ``"gap"``: the window holds samples the keyframer made up to bridge an IMU gap, or a step longer than 1.5
   periods (a dropped sample);
-- ``"rate"``: the mean step differs from ``1 / rate_hz`` by more than ``rate_tol`` (relative): an IMU at
-  another rate would stretch every preintegrated interval.
+- ``"late"``: the ping is older than the samples still kept (``extra_s``);
+- ``"ping_dt"`` (given by the keyframer, not the buffer): the past pings the completer propagates are not one
+  DVL period (its ``ping_dt``) apart -- a missed ping or a DVL at another rate.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 
 #: Reasons :meth:`ImuWindowBuffer.window` gives for a ping without a usable IMU window.
-NO_WINDOW_REASONS = ("not_full", "gap", "rate")
+NO_WINDOW_REASONS = ("not_full", "rate", "gap", "late", "ping_dt")
 
 
 class ImuWindowBuffer:
@@ -62,13 +65,14 @@ class ImuWindowBuffer:
         with a reason of :data:`NO_WINDOW_REASONS`."""
         end = bisect.bisect_right(self._t, t)
         if end < self.n_samples:
-            return None, "not_full"
+            full = len(self._t) == self._t.maxlen
+            return None, "late" if full and end < len(self._t) else "not_full"
         start = end - self.n_samples
         steps = np.diff(np.fromiter(islice(self._t, start, end), float, self.n_samples))
+        if abs(np.median(steps) - self.period) > self.rate_tol * self.period:
+            return None, "rate"
         if any(islice(self._bridged, start, end)) or steps.max() > 1.5 * self.period:
             return None, "gap"
-        if abs(steps.mean() - self.period) > self.rate_tol * self.period:
-            return None, "rate"
         f_b = np.array(list(islice(self._f, start, end)), dtype=float)
         omega_b = np.array(list(islice(self._w, start, end)), dtype=float)
         return (f_b, omega_b), None

@@ -206,6 +206,12 @@ class Keyframer:
                                   "pings without one (the first 20 s, IMU gaps): wrap it in graphnav.nets.ImuAutoCompleter")
             self._imu_buffer = ImuWindowBuffer(completer.imu_samples, completer.imu_rate_hz)
             self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
+            if abs(config.imu_rate_hz - completer.imu_rate_hz) > 0.02 * completer.imu_rate_hz:
+                warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
+                              f"{completer.imu_rate_hz:g} Hz: every ping will be completed beam-only "
+                              "(counted in imu_window_missing['rate'])", RuntimeWarning, stacklevel=2)
+        # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
+        self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
         self._period = 1.0 / config.imu_rate_hz
         self._gap_limit = IMU_GAP_PERIODS * self._period
         self._max_gap = self.options.max_keyframe_gap_s
@@ -429,8 +435,11 @@ class Keyframer:
             imu = None
             if self._imu_buffer is not None and self.history.ready and not measured.all():
                 imu, reason = self._imu_buffer.window(t)
+                if reason is None and not self._pings_one_period_apart(t):
+                    imu, reason = None, "ping_dt"
                 if reason is not None:
                     self.stats.imu_window_missing[reason] += 1
+            self._ping_t.append(t)
             result = self.history.complete(self.completer, np.where(measured, beams, 0.0), measured, imu=imu)
             if result is not None:
                 full, sigma = result
@@ -440,6 +449,15 @@ class Keyframer:
                     self.stats.completed_beams += int((np.isfinite(full) & ~measured).sum())
         return Ping(t, np.asarray(full, float), measured, np.asarray(sigma, float), completed,
                     gyro_at(t, self._samples))
+
+    def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
+        """Whether the history's pings and the ping at ``t`` (s) are the IMU-aware completer's ``ping_dt``
+        apart (within ``tol`` of it): it propagates each past ping over that many seconds."""
+        dt = getattr(self.completer, "ping_dt", None)
+        if dt is None:
+            return True
+        steps = np.diff([*self._ping_t, t])
+        return bool(np.all(np.abs(steps - dt) <= tol * dt))
 
     def _sample(self, samples: deque, t: float) -> float | None:
         """Interpolate (or extrapolate from the last two) a scalar stream at t; None when too old."""

@@ -43,6 +43,7 @@ from graphnav.core.solution import NavSolution
 from graphnav.core.timeseries import interp_rows
 from graphnav.estimators.health import diverged_during
 from graphnav.evaluation.methods import (
+    BENCH_METHODS,
     METHODS,
     check_method,
     check_scenario,
@@ -395,7 +396,7 @@ def base_key(base: dict) -> tuple[str, str, str, str]:
 
 # --- the whole benchmark ---------------------------------------------------------------------------------
 def make_cases(trajectories: list[TrajectorySource], scenarios=SCENARIO_NAMES, grades=IMU_GRADE_CHOICES,
-               methods=METHODS, window_s: float | list[float] = 30.0, max_windows: int | None = None,
+               methods=BENCH_METHODS, window_s: float | list[float] = 30.0, max_windows: int | None = None,
                save_dir: str | None = None, save_first: int = 1) -> list[BenchCase]:
     """All cases, grouped by trajectory then grade (so a worker's mission cache is reused); solutions of the
     first ``save_first`` trajectories are kept in ``save_dir`` for the plots (first window length only).

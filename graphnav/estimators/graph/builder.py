@@ -291,8 +291,6 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
-            if regressed and use_prior and n_measured == 0 and options.motion_prior == "total":
-                continue    # the motion prior replaces the blind completion
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
