@@ -35,7 +35,14 @@ from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.runs import run_ekf
 from graphnav.evaluation import metrics
 from graphnav.evaluation.bench import improvement_pct
-from graphnav.evaluation.methods import EKF_METHODS, METHODS, average_of, baseline_of, imu_network_completer
+from graphnav.evaluation.methods import (
+    EKF_METHODS,
+    METHODS,
+    average_of,
+    baseline_of,
+    imu_network_completer,
+    uses_network,
+)
 
 SCENARIOS = {"2-missing": 3, "3-missing": 5}      # scenario -> n_past of the average estimator (paper)
 WINDOW_S = 30.0
@@ -113,8 +120,7 @@ def print_table(title: str, rows) -> None:
             cpu = np.mean([r["cpu"] for r in rs])
             rtf = np.mean([r["duration"] / r["runtime"] for r in rs])
             vs_base = improvement(mean[meth], mean[baseline_of(meth)]) if meth not in ("LC", "TC") else "-"
-            hybrid = METHODS[meth].completer in ("network", "imu-network")
-            vs_avg = improvement(mean[meth], mean[average_of(meth)]) if hybrid else "-"
+            vs_avg = improvement(mean[meth], mean[average_of(meth)]) if uses_network(meth) else "-"
             print(f"| {scenario} | {meth} | {win.mean():.3f} | {win.max():.3f} | {mis:.3f} | {vs_base} | "
                   f"{vs_avg} | {rt:.3f} | {cpu:.3f} | {rtf:.0f} |")
     n = len({(r["mission"], r["start"]) for r in rows["2-missing", "LC"]})

@@ -65,8 +65,8 @@ class ImuWindowBuffer:
         with a reason of :data:`NO_WINDOW_REASONS`."""
         end = bisect.bisect_right(self._t, t)
         if end < self.n_samples:
-            full = len(self._t) == self._t.maxlen
-            return None, "late" if full and end < len(self._t) else "not_full"
+            # a full ring has dropped samples: the ping's window is gone, not still to come
+            return None, "late" if len(self._t) == self._t.maxlen else "not_full"
         start = end - self.n_samples
         steps = np.diff(np.fromiter(islice(self._t, start, end), float, self.n_samples))
         if abs(np.median(steps) - self.period) > self.rate_tol * self.period:

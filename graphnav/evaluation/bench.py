@@ -561,21 +561,19 @@ def aggregate_regimes(records: list[dict]) -> dict:
     return {k: {"mean": _mean(v), "worst": _max(v), "n": len(v)} for k, v in groups.items()}
 
 
+def _ratio(agg: dict, regime: tuple, model: str, ref: str = "Graph-TC", model_regime: tuple | None = None) -> float:
+    """Mean window VRMSE of ``model`` (in ``model_regime``, default ``regime``) over ``ref``'s in ``regime``."""
+    a, b = agg.get((*(model_regime or regime), model)), agg.get((*regime, ref))
+    if not a or not b or not (b["mean"] > 0):
+        return float("nan")
+    return a["mean"] / b["mean"]
+
+
 def _all_beams_ratio(agg: dict, regime: tuple) -> float:
     """Graph-TC with every beam measured (scenario ``none``) over Graph-TC in ``regime``, on the same grade
     and window length: the lowest ratio to Graph-TC a completion can give, since a completion made from past
     pings and the IMU carries no more than the beam it stands for."""
-    a, b = agg.get((regime[0], "none", regime[2], "Graph-TC")), agg.get((*regime, "Graph-TC"))
-    if not a or not b or not (b["mean"] > 0):
-        return float("nan")
-    return a["mean"] / b["mean"]
-
-
-def _ratio(agg: dict, regime: tuple, model: str, ref: str = "Graph-TC") -> float:
-    a, b = agg.get((*regime, model)), agg.get((*regime, ref))
-    if not a or not b or not (b["mean"] > 0):
-        return float("nan")
-    return a["mean"] / b["mean"]
+    return _ratio(agg, regime, "Graph-TC", model_regime=(regime[0], "none", regime[2]))
 
 
 #: Ratio thresholds of the regime verdicts (mean window VRMSE of a method / Graph-TC's).
