@@ -192,6 +192,12 @@ class DvlData:
         beams: (M,4) along-beam velocity of the DVL head, m/s (NaN allowed where not valid).
         valid: (M,4) bool, True where the beam returned a usable measurement.
         v_b: optional (M,3) velocity of the DVL head in the body frame as the instrument reported it, m/s.
+        v_d: optional (M,3) velocity of the DVL head in the DVL frame ``d`` measured by the instrument itself
+            (a 3-beam solution, a velocity-only DVL, a velocity converted from an earth/ship-frame log), m/s.
+            The estimators use it, through the DVL velocity model, on pings where ``v_d_valid`` is True and
+            the beams cannot be used (fewer than the beams a ping needs); NaN elsewhere.
+        v_d_valid: optional (M,) bool, True where ``v_d`` is a measurement.
+        v_d_sigma: optional (M,3) one-sigma of ``v_d`` per DVL axis, m/s (None: the configuration's).
     """
 
     t: np.ndarray
@@ -199,6 +205,9 @@ class DvlData:
     valid: np.ndarray
     v_b: np.ndarray | None = None
     source: str = "dvl"
+    v_d: np.ndarray | None = None
+    v_d_valid: np.ndarray | None = None
+    v_d_sigma: np.ndarray | None = None
 
     def validate(self) -> None:
         _check_time(self.t, self.source)
@@ -211,6 +220,15 @@ class DvlData:
             used = np.repeat(self.valid.sum(axis=1, keepdims=True) >= 3, 3, axis=1)
             _check_array(self.v_b, (3,), len(self.t), self.source, "v_b", finite=used)
             _check_speed(self.v_b, used, self.source, "v_b")
+        if self.v_d is not None:
+            if self.v_d_valid is None or self.v_d_valid.shape != (len(self.t),) or self.v_d_valid.dtype != bool:
+                raise DataError(f"v_d needs a bool v_d_valid of shape {(len(self.t),)}", self.source,
+                                field="v_d_valid")
+            used = np.repeat(self.v_d_valid[:, None], 3, axis=1)
+            _check_array(self.v_d, (3,), len(self.t), self.source, "v_d", finite=used)
+            _check_speed(self.v_d, used, self.source, "v_d")
+            if self.v_d_sigma is not None:
+                _check_array(self.v_d_sigma, (3,), len(self.t), self.source, "v_d_sigma", finite=used)
 
     def sanitized(self, max_speed: float = MAX_DVL_SPEED_MPS) -> "DvlData":
         """A copy where every beam that is not a measurement is marked invalid (and set to NaN), with a
@@ -236,11 +254,13 @@ class DvlData:
                       f"velocit(ies) are not measurements (NaN, RDI bad-velocity flag -32768/-32.768 "
                       f"[{rdi} seen], or beyond {max_speed:g} m/s) and are marked invalid; first at index "
                       f"{int(rows[0])}, {rows.size} ping(s) affected", RuntimeWarning, stacklevel=2)
-        return DvlData(self.t, beams, valid, v_b, self.source)
+        return dataclasses.replace(self, beams=beams, valid=valid, v_b=v_b)
 
     def take(self, idx) -> "DvlData":
-        return DvlData(self.t[idx], self.beams[idx], self.valid[idx],
-                       None if self.v_b is None else self.v_b[idx], self.source)
+        def pick(a):
+            return None if a is None else a[idx]
+        return DvlData(self.t[idx], self.beams[idx], self.valid[idx], pick(self.v_b), self.source,
+                       pick(self.v_d), pick(self.v_d_valid), pick(self.v_d_sigma))
 
     @property
     def n_valid(self) -> np.ndarray:

@@ -1,0 +1,52 @@
+"""What each input stream read, used and refused, and why: the one record every loader and the Navigator keep.
+
+It lives in ``Mission.meta["streams"]`` (and from there in ``summary.json`` and ``graphnav info``)::
+
+    {"dvl": {"source": "log.pd0", "read": 400, "used": 380, "refused": {"no bottom lock": 20},
+             "rate_hz": 1.0, "span_s": [t0, t1], "notes": ["stamps: header stamps were zero; receive time used"]},
+     "imu": {...}}
+
+Nothing a loader drops leaves without a count and a reason here.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def stream_entry(meta: dict, stream: str) -> dict:
+    """The (created on first use) record of ``stream`` in a mission's ``meta``."""
+    return meta.setdefault("streams", {}).setdefault(
+        stream, {"source": "", "read": 0, "used": 0, "refused": {}, "rate_hz": None, "span_s": None, "notes": []})
+
+
+def count_read(meta: dict, stream: str, t: np.ndarray, source: str = "") -> dict:
+    """Record ``len(t)`` samples read (and the stream's median rate and span) for ``stream``."""
+    entry = stream_entry(meta, stream)
+    t = np.asarray(t, float)
+    entry["read"] += int(t.size)
+    entry["used"] += int(t.size)
+    if source:
+        entry["source"] = source
+    finite = t[np.isfinite(t)]
+    if finite.size:
+        entry["span_s"] = [float(finite.min()), float(finite.max())]
+    if finite.size > 1:
+        step = np.median(np.diff(np.sort(finite)))
+        entry["rate_hz"] = float(1.0 / step) if step > 0 else None
+    return entry
+
+
+def count_refused(meta: dict, stream: str, reason: str, n: int) -> dict:
+    """Record ``n`` samples of ``stream`` refused for ``reason`` (they are no longer counted as used)."""
+    entry = stream_entry(meta, stream)
+    if n:
+        entry["refused"][reason] = entry["refused"].get(reason, 0) + int(n)
+        entry["used"] = max(0, entry["used"] - int(n))
+    return entry
+
+
+def add_note(meta: dict, stream: str, note: str) -> dict:
+    """A sentence about ``stream`` a user must see (which stamps were used, a unit converted, an offset)."""
+    entry = stream_entry(meta, stream)
+    entry["notes"].append(note)
+    return entry
