@@ -26,6 +26,8 @@ class DvlLog:
         beam_valid: (M,4) bool or None.
         attitude_deg: (M,3) heading, pitch, roll the instrument stored (deg, RDI convention), or None.
         depth_m: (M,) depth of the instrument, m, positive down, NaN where unknown, or None.
+        v_n: (M,3) velocity of the head over the seabed in NED, m/s, from the instrument's own attitude (what an
+            earth-coordinate log holds, or ``v_d`` turned with ``attitude_deg``), NaN where not measured, or None.
         three_beam: (M,) bool or None: the instrument's velocity is a 3-beam solution.
         instrument: metadata (model, frequency, beam angle deg, beam pattern, orientation, serial, ...).
         counts: per reason, pings read / valid / refused (e.g. ``{"read": 400, "valid": 380, "no bottom
@@ -41,6 +43,7 @@ class DvlLog:
     beam_valid: np.ndarray | None = None
     attitude_deg: np.ndarray | None = None
     depth_m: np.ndarray | None = None
+    v_n: np.ndarray | None = None
     three_beam: np.ndarray | None = None
     instrument: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
