@@ -32,9 +32,9 @@ WATER_PRESSURE_RANGE_PA = (8.0e4, 1.2e8)
 #: 95-105 kPa; above it the vehicle is already 0.5 m or more under water).
 ATMOSPHERE_RANGE_PA = (9.4e4, 1.06e5)
 #: The first seconds of a pressure stream averaged for the surface pressure, s, and the largest spread
-#: (1-sigma, Pa; ~1 cm of water) they may have for the vehicle to count as still at the surface.
+#: (Pa from the first reading; ~1.5 cm of water) they may have for the vehicle to count as still at the surface.
 SURFACE_WINDOW_S = 5.0
-SURFACE_MAX_STD_PA = 150.0
+SURFACE_MAX_DEV_PA = 150.0
 #: Depth range check, m: above the surface beyond the tolerance (waves, a pressure offset) or deeper than the
 #: ocean is not a depth.
 DEPTH_ABOVE_SURFACE_TOL_M = 1.0
@@ -216,16 +216,21 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
 # --- depth -------------------------------------------------------------------------------------------------
 def _surface_pressure(t_s: np.ndarray, p: np.ndarray, config: SensorConfig, configured: bool
                       ) -> tuple[float, str]:
-    """The atmospheric pressure (Pa) subtracted from the readings, and why that value."""
+    """The atmospheric pressure (Pa) subtracted from the readings, and why that value: the configured one, else
+    the median of the leading readings (up to :data:`SURFACE_WINDOW_S`) that stay within
+    :data:`SURFACE_MAX_DEV_PA` of the first, when the first lies in :data:`ATMOSPHERE_RANGE_PA` and they last
+    at least a second (the vehicle floats while the recording starts)."""
     if configured:
         return config.atmospheric_pressure_pa, "SensorConfig.atmospheric_pressure_pa (configured)"
-    first = p[t_s - t_s[0] <= SURFACE_WINDOW_S]
     lo, hi = ATMOSPHERE_RANGE_PA
-    if first.size >= 3 and lo <= np.median(first) <= hi and np.std(first) <= SURFACE_MAX_STD_PA:
-        return float(np.median(first)), (f"estimated from the first {SURFACE_WINDOW_S:g} s at the surface "
-                                         f"({first.size} samples, std {np.std(first):.0f} Pa)")
-    return config.atmospheric_pressure_pa, (f"SensorConfig.atmospheric_pressure_pa (the first {SURFACE_WINDOW_S:g} "
-                                            "s do not look like the surface)")
+    window = (t_s - t_s[0] <= SURFACE_WINDOW_S) & np.isfinite(p)
+    still = window & (np.abs(p - p[0]) <= SURFACE_MAX_DEV_PA)
+    run = int(np.argmin(still)) if not still.all() else len(p)      # length of the leading run
+    if lo <= p[0] <= hi and run >= 3 and t_s[run - 1] - t_s[0] >= 1.0:
+        return float(np.median(p[:run])), (f"estimated at the surface from the first {t_s[run - 1] - t_s[0]:.1f} s "
+                                           f"({run} samples)")
+    return config.atmospheric_pressure_pa, ("SensorConfig.atmospheric_pressure_pa (the record does not start at the "
+                                            "surface)")
 
 
 def depth_candidate(s: Stream, config: SensorConfig, configured_atm: bool) -> dict:

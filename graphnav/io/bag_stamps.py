@@ -84,7 +84,7 @@ def compare_clocks(stamps: dict[str, tuple[np.ndarray, np.ndarray, str]], meta: 
     if "imu" in stamps and "dvl" in stamps:
         imu, dvl = stamps["imu"][0], stamps["dvl"][0]
         overlap = min(imu[-1], dvl[-1]) - max(imu[0], dvl[0])
-        clock["dvl_imu_overlap_s"] = max(0.0, overlap / 1e9)
+        clock["dvl_imu_overlap_s"] = float(max(0.0, overlap / 1e9))
         clock["dvl_minus_imu_start_s"] = float(dvl[0] - imu[0]) / 1e9
         if overlap <= 0:
             gap = clock["dvl_minus_imu_start_s"]
