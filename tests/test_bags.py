@@ -348,3 +348,73 @@ def test_ros1_bag_is_read_by_content(driver, tmp_path):
     assert not bags.is_bag(junk)
     with pytest.raises(DataError, match="not a ROS bag"):
         bags.read_streams(junk)
+
+
+def test_velocity_only_dvl_heading_topics_and_depth_range(driver, tmp_path):
+    """A TwistWithCovarianceStamped DVL (DVL frame) into v_d with its sigma and validity; a compass heading in
+    degrees and a pose orientation as heading sources; depth samples above the surface or deeper than the ocean
+    dropped and counted."""
+    mission, _ = driver
+    store = bags.typestore()
+    T = store.types
+    V3, t0 = T["geometry_msgs/msg/Vector3"], 1_650_000_000_000_000_000
+    H = bags._header
+    from scipy.spatial.transform import Rotation
+    rows = [("/imu", "sensor_msgs/msg/Imu", t0 + round(t * 1e9), _imu_msg(store, t0 + round(t * 1e9)))
+            for t in mission.imu.t[::10]]
+    A = bag_driver.beam_matrix(mission.config.dvl.theta_rad, mission.config.dvl.psi_rad)
+    v_true = np.array([np.linalg.lstsq(A, b, rcond=None)[0] for b in np.nan_to_num(mission.dvl.beams)])
+    invalid = {3, 7}
+    for k, t in enumerate(mission.dvl.t):
+        ns = t0 + round(t * 1e9)
+        cov = np.zeros((6, 6))
+        cov[:3, :3] = np.diag([0.02 ** 2, 0.03 ** 2, 0.01 ** 2])
+        cov[0, 0] = -1.0 if k in invalid else cov[0, 0]
+        rows.append(("/dvl/twist", bags.TWIST_DVL, ns, T[bags.TWIST_DVL](
+            header=H(store, ns, "dvl_link"), twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=T["geometry_msgs/msg/Twist"](linear=V3(x=v_true[k, 0], y=v_true[k, 1], z=v_true[k, 2]),
+                                                   angular=V3(x=0., y=0., z=0.)), covariance=cov.reshape(36)))))
+    C = mission.gt.at(mission.gt.t)[2]
+    yaw = Rotation.from_matrix(C).as_euler("ZYX")[:, 0]
+    q_enu = Rotation.from_matrix(np.einsum("ij,kjl,lm->kim", bags.ENU_NED, C, bags.FLU_FRD)).as_quat()
+    for k, t in enumerate(mission.gt.t):
+        ns = t0 + round(t * 1e9) + 1
+        rows.append(("/compass/heading", "std_msgs/msg/Float64", ns, T["std_msgs/msg/Float64"](data=float(np.degrees(yaw[k]) % 360))))
+        pose = T["geometry_msgs/msg/PoseWithCovariance"](pose=T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=0., y=0., z=0.),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=q_enu[k, 0], y=q_enu[k, 1], z=q_enu[k, 2], w=q_enu[k, 3])),
+            covariance=np.diag([0, 0, 0, 0, 0, np.radians(1.5) ** 2]).reshape(36))
+        rows.append(("/nav/pose", bags.POSE, ns, T[bags.POSE](header=H(store, ns, "map"), pose=pose)))
+    cfg = mission.config
+    d = mission.depth.depth.copy()
+    d[[5, 9]] = [-5.0, 20000.0]
+    for t, dk in zip(mission.depth.t, d):
+        ns = t0 + round(t * 1e9) + 2
+        rows.append(("/pressure", "sensor_msgs/msg/FluidPressure", ns, T["sensor_msgs/msg/FluidPressure"](
+            header=H(store, ns, "p"), fluid_pressure=float(101325 + cfg.water_density_kgpm3 * cfg.gravity_mps2 * dk),
+            variance=0.0)))
+    rows.sort(key=lambda r: r[2])
+    path = _bag_with(tmp_path, "twist", rows, store)
+    m, warned = _load(path, cfg)
+    # DVL: velocity only, in the DVL frame, covariance -> sigma, -1 -> invalid
+    assert not m.dvl.valid.any() and m.dvl.v_b is None
+    ok = np.ones(len(mission.dvl.t), bool)
+    ok[list(invalid)] = False
+    np.testing.assert_array_equal(m.dvl.v_d_valid, ok)
+    np.testing.assert_allclose(m.dvl.v_d[ok], v_true[ok], atol=1e-12)
+    np.testing.assert_allclose(m.dvl.v_d_sigma[ok], np.tile([0.02, 0.03, 0.01], (ok.sum(), 1)))
+    assert m.meta["streams"]["dvl"]["refused"] == {"no valid beam and no valid velocity": 2}
+    assert any("velocity-only" in n for n in m.meta["streams"]["dvl"]["notes"])
+    assert any("no DVL message; the velocity-only /dvl/twist" in w for w in warned)
+    # depth: two impossible samples dropped with their reasons
+    assert m.meta["streams"]["depth"]["refused"] == {"above the surface by more than 1 m": 1, "deeper than 11000 m": 1}
+    assert len(m.depth.t) == len(mission.depth.t) - 2
+    # heading: the compass (degrees, clockwise from north) preferred to the pose, with a warning
+    assert m.meta["heading_source"] == "/compass/heading (std_msgs/msg/Float64)"
+    assert any("several heading sources" in w for w in warned)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m.heading.yaw - yaw))), 0.0, atol=1e-9)
+    assert "degrees" in m.meta["streams"]["heading"]["notes"][-1]
+    # the pose's orientation when asked for, with its own yaw variance
+    m2, _ = _load(path, cfg, topics={"heading": "/nav/pose"})
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m2.heading.yaw - yaw))), 0.0, atol=1e-9)
+    np.testing.assert_allclose(m2.heading.sigma, np.radians(1.5))

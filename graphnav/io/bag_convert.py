@@ -301,10 +301,17 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict) -> DepthDa
 
 
 # --- heading -----------------------------------------------------------------------------------------------
-def is_ahrs(rows) -> bool:
-    """A ``sensor_msgs/Imu`` stream that fills its orientation (covariance[0] != -1, non-zero quaternion)."""
-    filled = [m.orientation_covariance[0] != -1 and np.linalg.norm(quat(m.orientation)) > 0.5 for m in rows]
-    return bool(filled) and float(np.mean(filled)) > 0.5
+def ahrs_check(rows) -> tuple[bool, str]:
+    """Whether a ``sensor_msgs/Imu`` stream is an AHRS, and why: its orientation is filled
+    (orientation_covariance[0] != -1, a non-zero quaternion) on most messages and is not one constant value
+    (drivers without an orientation often publish the identity with a zero covariance)."""
+    q = np.array([quat(m.orientation) for m in rows])
+    filled = np.array([m.orientation_covariance[0] != -1 for m in rows]) & (np.linalg.norm(q, axis=1) > 0.5)
+    if not rows or float(np.mean(filled)) <= 0.5:
+        return False, "orientation not filled (orientation_covariance[0] = -1 or a zero quaternion)"
+    if np.ptp(q[filled], axis=0).max() == 0.0:
+        return False, f"orientation constant ({q[filled][0].round(3).tolist()}): a placeholder, not an AHRS"
+    return True, "orientation filled"
 
 
 def _C_b_n(q: np.ndarray, frame_id: str, world_frame_id: str = "") -> np.ndarray:

@@ -259,13 +259,17 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None
             add_note(meta, stream, note)
 
 
-def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], imu_topic: str, source: str
-                    ) -> Stream | None:
+def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], imu_topic: str, source: str,
+                    meta: dict) -> Stream | None:
     """The heading source: the override, else an AHRS (the IMU topic itself first), a heading topic, a pose."""
     cands = streams.get("heading", [])
     if "heading" in topics:
         return cands[0]
-    ahrs = sorted((s for s in cands if s.msgtype == IMU and conv.is_ahrs(s.rows)), key=lambda s: s.topic != imu_topic)
+    checked = {s.topic: conv.ahrs_check(s.rows) for s in cands if s.msgtype == IMU}
+    for topic, (ok, why) in checked.items():
+        if not ok:
+            add_note(meta, "heading", f"{topic} is not an AHRS: {why}")
+    ahrs = sorted((s for s in cands if s.msgtype == IMU and checked[s.topic][0]), key=lambda s: s.topic != imu_topic)
     rest = [s for s in cands if s.msgtype != IMU]
     ordered = ahrs + rest
     if len(ordered) > 1:
@@ -338,7 +342,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         _record(meta, "depth", s, t0_ns, source)
         depth = conv.depth(s, cand, t0_ns, source, meta)
     heading = None
-    h = _heading_stream(streams, topics, imu_s.topic, source)
+    h = _heading_stream(streams, topics, imu_s.topic, source, meta)
     if h is not None:
         _record(meta, "heading", h, t0_ns, source)
         heading = conv.heading(h, t0_ns, source, meta)
