@@ -418,3 +418,17 @@ def test_velocity_only_dvl_heading_topics_and_depth_range(driver, tmp_path):
     m2, _ = _load(path, cfg, topics={"heading": "/nav/pose"})
     np.testing.assert_allclose(np.angle(np.exp(1j * (m2.heading.yaw - yaw))), 0.0, atol=1e-9)
     np.testing.assert_allclose(m2.heading.sigma, np.radians(1.5))
+
+
+def test_mems_imu_aligns_on_the_ahrs_of_the_bag(tmp_path):
+    """A MEMS IMU cannot gyrocompass: with the bag's AHRS the Navigator aligns on its heading and navigates;
+    without it the loader says so up front, naming the gyro's limit and what to add."""
+    from graphnav.estimators.runs import run_graph
+    from graphnav.evaluation.metrics import vrmse
+    mission = simulate_mission(duration_s=60.0, imu_grade="mems", seed=2)
+    m, _ = _load(bag_driver.write_driver_bag(mission, tmp_path / "ahrs", dvl_latency_s=0.0), mission.config)
+    sol = run_graph(m, init="sensors")
+    assert sol.info["alignment"]["heading_source"] == "heading"
+    assert vrmse(sol, mission.gt) < 0.15          # measured 0.065 m/s (0.056 over 120 s)
+    _, warned = _load(bag_driver.write_driver_bag(mission, tmp_path / "none", ahrs=False), mission.config)
+    assert any("no heading source" in w and "cannot do" in w and "add an AHRS/compass topic" in w for w in warned)
