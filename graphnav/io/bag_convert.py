@@ -180,13 +180,19 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
         beams, valid, v_d, v_ok, sig = _water_linked(s, source, info)
     else:
         beams, valid, v_d, v_ok, sig = _twist(s, config, source, info)
+    # A NaN velocity is a driver's "not computed" (the beams still count); a finite one beyond any DVL's
+    # range is an invalid flag or a decoding error.
+    unset = v_ok & ~np.all(np.isfinite(v_d), axis=1)
+    if unset.any():
+        info["dvl_v_d_not_finite"] = int(unset.sum())
     with np.errstate(invalid="ignore"):
-        too_fast = v_ok & ~np.all(np.abs(v_d) <= MAX_DVL_SPEED_MPS, axis=1)
+        too_fast = v_ok & ~unset & np.any(np.abs(v_d) > MAX_DVL_SPEED_MPS, axis=1)
     if too_fast.any():
         warnings.warn(f"{source}:{s.topic}: {int(too_fast.sum())} DVL velocit(ies) beyond {MAX_DVL_SPEED_MPS:g} "
-                      "m/s or not finite marked invalid", RuntimeWarning, stacklevel=3)
-        count_refused(meta, "dvl", "velocity beyond the DVL's range or not finite", int(too_fast.sum()))
-    v_ok &= ~too_fast
+                      "m/s marked invalid", RuntimeWarning, stacklevel=3)
+        add_note(meta, "dvl", f"{int(too_fast.sum())} instrument velocit(ies) beyond {MAX_DVL_SPEED_MPS:g} m/s not "
+                              "used (their beams are)")
+    v_ok &= ~too_fast & ~unset
     v_d = np.where(v_ok[:, None], v_d, np.nan)
     has_sigma = np.all(np.isfinite(sig[v_ok]), axis=1) if v_ok.any() else np.zeros(0, bool)
     v_d_sigma = None
