@@ -243,8 +243,10 @@ def test_dvl_clock_days_away_is_kept_and_recorded(driver):
     mission, root = driver
     six_days = -6 * 86400.0
     path = bag_driver.write_driver_bag(mission, root / "offset", duplicate_dvl_stamps=0, dvl_clock_offset_s=six_days,
-                                       leak_sensor=False, housing_sensor=False)
+                                       leak_sensor=False, housing_sensor=False, gyro_deg=True)
     m, warned = _load(path, mission.config)
+    # the writer can record the gyro in deg/s (what a units check must catch; the loader reads it as recorded)
+    np.testing.assert_allclose(m.imu.omega_b, np.degrees(mission.imu.omega_b), atol=1e-9)
     assert len(m.dvl.t) == len(mission.dvl.t)
     np.testing.assert_allclose(m.dvl.t, mission.dvl.t + six_days, atol=2e-9)
     clock = m.meta["clock"]
@@ -285,6 +287,12 @@ def test_embedded_definition_wins_over_the_built_in(driver):
     assert m.meta["dvl_definition"] == "embedded in the bag"
     np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
     assert m.dvl.v_d_sigma is None and m.dvl.v_d_valid.any()
+    # the MCAP file under another name is still an MCAP bag (its magic bytes)
+    import shutil
+    renamed = shutil.copy(next(path.glob("*.mcap")), root / "a50_copy.dat")
+    assert bag_msgs.bag_kind(renamed) == "mcap"
+    m2, _ = _load(renamed, mission.config)
+    np.testing.assert_array_equal(m2.dvl.valid, mission.dvl.valid)
 
 
 def _ros1_bag(mission, path, store):
@@ -294,23 +302,25 @@ def _ros1_bag(mission, path, store):
     V3 = T["geometry_msgs/msg/Vector3"]
     t0 = 1_600_000_000_000_000_000
     msgs = []
+
+    def hdr(ns, k, frame_id):
+        return T["std_msgs/msg/Header"](seq=k, frame_id=frame_id,
+                                        stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9))
     for k, t in enumerate(mission.imu.t):
         ns = t0 + round(t * 1e9)
         f, w = mission.imu.f_b[k] @ bags.FLU_FRD, mission.imu.omega_b[k] @ bags.FLU_FRD
         msgs.append((ns, "/imu", "sensor_msgs/msg/Imu", T["sensor_msgs/msg/Imu"](
-            header=T["std_msgs/msg/Header"](seq=k, stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
-                                            frame_id="imu"),
-            orientation=T["geometry_msgs/msg/Quaternion"](x=0., y=0., z=0., w=1.), orientation_covariance=np.array([-1.0] + [0.0] * 8),
+            header=hdr(ns, k, "imu"), orientation=T["geometry_msgs/msg/Quaternion"](x=0., y=0., z=0., w=1.),
+            orientation_covariance=np.array([-1.0] + [0.0] * 8),
             angular_velocity=V3(x=w[0], y=w[1], z=w[2]), angular_velocity_covariance=np.zeros(9),
             linear_acceleration=V3(x=f[0], y=f[1], z=f[2]), linear_acceleration_covariance=np.zeros(9))))
     for k, t in enumerate(mission.dvl.t):
         ns = t0 + round(t * 1e9)
         ok = mission.dvl.valid[k]
-        beams = [T[bags.WL_BEAM](id=j, velocity=float(mission.dvl.beams[k, j]) if ok[j] else 0.0, distance=1.0, rssi=0.0,
-                                 nsd=0.0, valid=bool(ok[j])) for j in range(4)]
+        beams = [T[bags.WL_BEAM](id=j, velocity=float(mission.dvl.beams[k, j]) if ok[j] else 0.0, distance=1.0,
+                                 rssi=0.0, nsd=0.0, valid=bool(ok[j])) for j in range(4)]
         msgs.append((ns, "/dvl/data", bags.WL_DVL, T[bags.WL_DVL](
-            header=T["std_msgs/msg/Header"](seq=k, stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
-                                            frame_id="dvl"),
+            header=hdr(ns, k, "dvl"),
             time=0.0, velocity=V3(x=0., y=0., z=0.), fom=0.0, altitude=1.0, beams=beams, velocity_valid=False, status=0,
             form="json_v2")))
     msgs.sort(key=lambda m: m[0])
@@ -379,7 +389,8 @@ def test_velocity_only_dvl_heading_topics_and_depth_range(driver, tmp_path):
     q_enu = Rotation.from_matrix(np.einsum("ij,kjl,lm->kim", bags.ENU_NED, C, bags.FLU_FRD)).as_quat()
     for k, t in enumerate(mission.gt.t):
         ns = t0 + round(t * 1e9) + 1
-        rows.append(("/compass/heading", "std_msgs/msg/Float64", ns, T["std_msgs/msg/Float64"](data=float(np.degrees(yaw[k]) % 360))))
+        compass = T["std_msgs/msg/Float64"](data=float(np.degrees(yaw[k]) % 360))
+        rows.append(("/compass/heading", "std_msgs/msg/Float64", ns, compass))
         pose = T["geometry_msgs/msg/PoseWithCovariance"](pose=T["geometry_msgs/msg/Pose"](
             position=T["geometry_msgs/msg/Point"](x=0., y=0., z=0.),
             orientation=T["geometry_msgs/msg/Quaternion"](x=q_enu[k, 0], y=q_enu[k, 1], z=q_enu[k, 2], w=q_enu[k, 3])),

@@ -370,7 +370,8 @@ def heading(s: Stream, t0_ns: int, source: str, meta: dict) -> HeadingData:
     sigma = np.where(np.isfinite(var) & (var > 0), np.sqrt(np.abs(var)), DEFAULT_HEADING_SIGMA_RAD)
     assumed = not np.any(np.isfinite(var) & (var > 0))
     add_note(meta, "heading", f"heading (and roll/pitch) from the {kind} on {s.topic}"
-             + (f"; no variance given, {np.degrees(DEFAULT_HEADING_SIGMA_RAD):g} deg 1-sigma assumed" if assumed else "")
+             + (f"; no variance given, {np.degrees(DEFAULT_HEADING_SIGMA_RAD):g} deg 1-sigma assumed"
+                if assumed else "")
              + "; a magnetic heading needs the declination added")
     keep = ~bad
     C = _C_b_n(q[keep] / norm[keep, None], frame_id, world)

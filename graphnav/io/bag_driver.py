@@ -90,7 +90,8 @@ def _dvl_messages(mission: Mission, store, t0_ns: int, duplicate: int, clock_off
                       velocity_valid=bool(ok.sum() >= 3), status=0, form="json_v3")
         if with_cov:
             fields.update(covariance=np.diag(np.full(3, velocity_sigma ** 2)).reshape(9),
-                          time_of_validity=_ns(t0_ns, t) // 1000, time_of_transmission=_ns(t0_ns, t + latency_s) // 1000)
+                          time_of_validity=_ns(t0_ns, t) // 1000,
+                          time_of_transmission=_ns(t0_ns, t + latency_s) // 1000)
         out.append((_ns(t0_ns, t + latency_s), DVL_TOPIC, WL_DVL, T[WL_DVL](**fields)))
     return out
 
@@ -111,7 +112,8 @@ def _pressure_messages(mission: Mission, store, t0_ns: int, p_atm: float, surfac
     for k, (tk, dk) in enumerate(zip(t, d)):
         ns = _ns(t0_ns, tk)
         out.append((ns, PRESSURE_TOPIC, "sensor_msgs/msg/FluidPressure",
-                    P(header=_header(store, ns, "pressure_link"), fluid_pressure=float(p_atm + rho_g * dk), variance=0.0)))
+                    P(header=_header(store, ns, "pressure_link"), fluid_pressure=float(p_atm + rho_g * dk),
+                      variance=0.0)))
         if leak:
             out.append((ns, LEAK_TOPIC, "sensor_msgs/msg/FluidPressure",
                         P(header=_header(store, ns, "leak_link"), fluid_pressure=0.0, variance=0.0)))

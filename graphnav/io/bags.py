@@ -45,9 +45,10 @@ from graphnav.core.mission import Mission
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io import bag_convert as conv
 from graphnav.io.bag_convert import ENU_NED, FLU_FRD, TWIST_DVL, Stream
-from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM, MARINE_ACOUSTIC_DVL,  # noqa: F401
-                                  MARINE_DVL, WL_BEAM, WL_DVL, bag_kind, fit_definition, readable_path,
-                                  require_rosbags, typestore)
+from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
+from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM,  # noqa: F401
+                                  MARINE_ACOUSTIC_DVL, MARINE_DVL, WL_BEAM, WL_DVL, bag_kind, fit_definition,
+                                  readable_path, require_rosbags, typestore)
 
 IMU = "sensor_msgs/msg/Imu"
 PRESSURE = "sensor_msgs/msg/FluidPressure"
