@@ -186,7 +186,8 @@ def test_driver_bag_loads_and_reports_each_repair(driver):
     streams = m.meta["streams"]
     # IMU: header stamps all zero -> receive time (the mission clock, exactly)
     assert any("/imu/data: stamps: all header stamps are zero; the bag's receive time is used" in w for w in warned)
-    assert m.meta["clock"]["stamps"] == {"imu": "receive", "dvl": "receive"}
+    assert m.meta["clock"]["stamps"] == {"imu": "receive", "dvl": "receive", "depth": "header", "heading": "receive"}
+    assert abs(m.meta["clock"]["header_minus_receive_s"]["depth"]) < 1e-9
     np.testing.assert_allclose(m.imu.t, mission.imu.t, atol=2e-9)
     np.testing.assert_allclose(m.imu.omega_b, mission.imu.omega_b, atol=1e-12)
     assert streams["imu"]["read"] == streams["imu"]["used"] == len(mission.imu.t)

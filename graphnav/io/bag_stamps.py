@@ -71,8 +71,8 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
 
 
 def compare_clocks(stamps: dict[str, tuple[np.ndarray, np.ndarray, str]], meta: dict, source: str) -> dict:
-    """Record in ``meta["clock"]`` how each stream's stamps relate to the receive clock and whether the DVL
-    overlaps the IMU. ``stamps``: stream -> (chosen stamps ns, receive ns of the same messages, kind)."""
+    """Record in ``meta["clock"]`` which stamps each stream uses, how its header clock relates to the receive
+    clock, and whether the DVL overlaps the IMU. ``stamps``: stream -> (chosen stamps ns, receive ns of the same messages, kind)."""
     clock: dict = {"stamps": {s: kind for s, (_, _, kind) in stamps.items()}, "header_minus_receive_s": {}}
     for stream, (t_ns, rx_ns, kind) in stamps.items():
         if kind == "header" and len(t_ns):

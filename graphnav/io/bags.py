@@ -16,7 +16,7 @@ overrides the choice. Streams and the types read:
   ``Float32`` topics named like depth (water pressure range, not all zeros, varying), the surface pressure
   estimated when the record starts at the surface, depths range-checked;
 * ``heading``: an AHRS (a ``sensor_msgs/msg/Imu`` whose orientation is filled), a ``Float64``/``Float32``
-  topic named like heading, or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
+  topic named like heading or compass (a compass heading: clockwise from north), or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
   ``Mission.heading`` (the replay feeds it to ``Navigator.add_heading``; the aligner uses it instead of
   gyrocompassing). A bag without any says so when it is loaded;
 * ``gt`` (optional reference for scoring): ``nav_msgs/msg/Odometry``.
@@ -67,7 +67,7 @@ STREAM_TYPES: dict[str, tuple[str, ...]] = {
 REQUIRED_STREAMS = ("imu", "dvl")
 #: Words that make a Float64/Float32 topic a depth or a heading.
 DEPTH_WORDS = ("depth",)
-HEADING_WORDS = ("heading", "compass", "yaw")
+HEADING_WORDS = ("heading", "compass")     # not "yaw": a ROS yaw is ENU (counter-clockwise from east)
 #: Messages of a dvl_msgs/DVL topic without an embedded definition that a candidate definition must decode.
 FIT_MESSAGES = 20
 
@@ -327,8 +327,6 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
     t0_ns = int(imu_s.t_ns[0])
     meta.update({"format": "ros1" if meta["bag_kind"] == "ros1" else "rosbag2", "t0_unix_ns": t0_ns})
-    compare_clocks({"imu": (imu_s.t_ns, imu_s.receive_ns, imu_s.stamp_kind),
-                    "dvl": (dvl_s.t_ns, dvl_s.receive_ns, dvl_s.stamp_kind)}, meta, source)
     _record(meta, "imu", imu_s, t0_ns, source)
     imu = conv.imu(imu_s, t0_ns, source)
     _record(meta, "dvl", dvl_s, t0_ns, source)
@@ -357,6 +355,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         gt = conv.gt(g, t0_ns, source)
     used = {"imu": imu_s, "dvl": dvl_s, **({"depth": cands[chosen][0]} if chosen else {}),
             **({"heading": h} if h is not None else {})}
+    compare_clocks({k: (s.t_ns, s.receive_ns, s.stamp_kind) for k, s in used.items()}, meta, source)
     meta["topics"] = {k: f"{s.topic} ({s.msgtype})" for k, s in used.items()}
     meta.update(info)
     if depth is None:
