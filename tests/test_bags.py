@@ -444,3 +444,14 @@ def test_mems_imu_aligns_on_the_ahrs_of_the_bag(tmp_path):
     assert vrmse(sol, mission.gt) < 0.15          # measured 0.065 m/s (0.056 over 120 s)
     _, warned = _load(bag_driver.write_driver_bag(mission, tmp_path / "none", ahrs=False), mission.config)
     assert any("no heading source" in w and "cannot do" in w and "add an AHRS/compass topic" in w for w in warned)
+
+
+def test_dvl_log_of_a_bag(driver):
+    """read_dvl_log: the DVL topic alone (Unix stamps, the instrument's velocity, beams, counts)."""
+    mission, root = driver
+    path = root / "drv" if (root / "drv").exists() else bag_driver.write_driver_bag(mission, root / "drv")
+    log = bags.read_dvl_log(path)
+    assert log.frame == "instrument" and log.instrument["message"] == bags.WL_DVL
+    np.testing.assert_allclose(log.t, 1_700_000_000 + mission.dvl.t + 0.05, atol=1e-6)
+    np.testing.assert_array_equal(log.beam_valid, mission.dvl.valid)
+    assert log.counts["read"] == len(mission.dvl.t) and log.counts["valid"] == int(log.v_d_valid.sum())

@@ -382,6 +382,26 @@ def load_odometry(path: str | Path, topic: str | None = None):
     return NavSolution(s.topic, gt.t, gt.p_n, gt.v_n, gt.C_b_n, cov_v_n=cov)
 
 
+def read_dvl_log(path: str | Path, topic: str | None = None, config: SensorConfig | None = None):
+    """The DVL topic of a bag on its own, as a :class:`~graphnav.core.dvl_log.DvlLog` (stamps in Unix s,
+    chosen as :func:`load_bag` chooses them; ``config`` gives ``C_d_b`` for a body-frame twist)."""
+    from graphnav.core.dvl_log import DvlLog
+    config = config or SensorConfig()
+    meta: dict = {}
+    found = read_streams(path, {"dvl": topic} if topic else {}, wanted=("dvl",), required=("dvl",), meta=meta)["dvl"]
+    s = found[0] if topic else _pick_one("dvl", found, str(path))
+    _record(meta, "dvl", s, 0, str(path))
+    dvl, info = conv.dvl(s, 0, config, str(path), meta)
+    entry = meta["streams"]["dvl"]
+    has_beams = bool(dvl.valid.any())
+    return DvlLog(dvl.t, dvl.v_d, dvl.v_d_valid, "instrument" if has_beams else "dvl",
+                  beams=dvl.beams if has_beams else None, beam_valid=dvl.valid if has_beams else None,
+                  instrument={"message": s.msgtype, "topic": s.topic, "stamps": s.stamp_kind,
+                              **({"definition": meta["dvl_definition"]} if "dvl_definition" in meta else {}), **info},
+                  counts={"read": entry["read"], "valid": int(dvl.v_d_valid.sum()), **entry["refused"]},
+                  source=f"{path}:{s.topic}")
+
+
 # --- writing -----------------------------------------------------------------------------------------------
 def _writer(path: Path, storage: str):
     require_rosbags()
