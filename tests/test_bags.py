@@ -123,8 +123,10 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
     stamps = [10, 20, 15, 30]
     unsorted = _bag_with(tmp_path, "unsorted", [("/imu", "sensor_msgs/msg/Imu", k * 1_000_000, _imu_msg(store, s * 1_000_000))
                                                 for k, s in enumerate(stamps, 1)])
-    with pytest.raises(DataError, match=r"topic /imu \(imu\): header stamp out of order at message 2"):
-        bags.read_streams(unsorted, {"imu": "/imu"}, wanted=("imu",), required=("imu",))
+    with pytest.warns(RuntimeWarning, match=r"unsorted:/imu: stamps: header stamps 1 non-monotonic \(first at "
+                      r"message 2\); the bag's receive time is used"):
+        imu = bags.read_streams(unsorted, {"imu": "/imu"}, wanted=("imu",), required=("imu",))["imu"][0]
+    assert imu.stamp_kind == "receive" and imu.t_ns.tolist() == [1_000_000, 2_000_000, 3_000_000, 4_000_000]
     # A topic override naming a topic of the wrong type, and one that is absent.
     with pytest.raises(DataError, match="/imu/data has type sensor_msgs/msg/Imu"):
         load_mission(paths["mcap"], config, topics={"dvl": "/imu/data"})
@@ -152,3 +154,304 @@ def test_bench_finds_a_folder_of_bags(sim, tmp_path):
     found = find_trajectories(str(root), config_path=str(config))
     assert [s.name for s in found] == ["run_mcap", "run_wl"]
     assert [s.name for s in find_trajectories(str(paths["mcap"] / "run_mcap.mcap"))] == ["run_mcap"]
+
+
+# --- bags as real drivers record them -----------------------------------------------------------------------
+from graphnav.io import bag_driver, bag_msgs  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def driver(tmp_path_factory):
+    root = tmp_path_factory.mktemp("driver")
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    return mission, root
+
+
+def _load(path, config, **kw):
+    """The mission and every warning its loading gave (``config`` a SensorConfig, or a path/None through
+    load_mission)."""
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(path, config, **kw) if hasattr(config, "dvl") else load_mission(path, config, **kw)
+    return m, [str(w.message) for w in caught]
+
+
+def test_driver_bag_loads_and_reports_each_repair(driver):
+    """MCAP with embedded definitions, zero IMU stamps, repeated DVL stamps, a leak sensor and a housing sensor
+    beside the water pressure, an AHRS: every repair is warned about and recorded."""
+    mission, root = driver
+    path = bag_driver.write_driver_bag(mission, root / "drv", atmospheric_pressure_pa=100_800.0)
+    m, warned = _load(path, mission.config)
+    streams = m.meta["streams"]
+    # IMU: header stamps all zero -> receive time (the mission clock, exactly)
+    assert any("/imu/data: stamps: all header stamps are zero; the bag's receive time is used" in w for w in warned)
+    assert m.meta["clock"]["stamps"] == {"imu": "receive", "dvl": "receive", "depth": "header", "heading": "receive"}
+    assert abs(m.meta["clock"]["header_minus_receive_s"]["depth"]) < 1e-9
+    np.testing.assert_allclose(m.imu.t, mission.imu.t, atol=2e-9)
+    np.testing.assert_allclose(m.imu.omega_b, mission.imu.omega_b, atol=1e-12)
+    assert streams["imu"]["read"] == streams["imu"]["used"] == len(mission.imu.t)
+    # DVL: 3 repeated header stamps -> receive time (0.05 s after validity); no ping lost
+    assert "header stamps 3 duplicated" in streams["dvl"]["notes"][0]
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t + 0.05, atol=2e-9)
+    np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
+    assert streams["dvl"]["read"] == len(mission.dvl.t)
+    # the A50's own velocity, valid with >= 3 beams, its covariance as sigma
+    ok = mission.dvl.valid.sum(axis=1) >= 3
+    np.testing.assert_array_equal(m.dvl.v_d_valid, ok)
+    from graphnav.core.dvl import beam_matrix
+    A = beam_matrix(mission.config.dvl.theta_rad, mission.config.dvl.psi_rad)
+    k = int(np.flatnonzero(ok & (mission.dvl.valid.sum(axis=1) == 4))[0])
+    np.testing.assert_allclose(m.dvl.v_d[k], np.linalg.lstsq(A, mission.dvl.beams[k], rcond=None)[0], atol=1e-9)
+    np.testing.assert_allclose(m.dvl.v_d_sigma[ok], 0.01)
+    # depth: the water pressure, not the leak sensor's zeros nor the housing's flat atmosphere; surface
+    # pressure estimated from the 5 s at the surface (100.8 kPa, not the configured 101.325 kPa)
+    choice = m.meta["depth_choice"]
+    assert choice["chosen"] == "/pressure"
+    assert "all zeros" in choice["candidates"]["/leak/pressure"]
+    assert "does not vary" in choice["candidates"]["/housing/pressure"]
+    assert any("depth from /pressure" in w and "/leak/pressure" in w for w in warned)
+    assert "estimated at the surface" in streams["depth"]["notes"][0] and "100800 Pa" in streams["depth"]["notes"][0]
+    inside = m.depth.t >= 0
+    np.testing.assert_allclose(m.depth.depth[inside], mission.depth.depth, atol=1e-6)
+    np.testing.assert_allclose(m.depth.depth[~inside], 0.0, atol=1e-6)
+    # heading: the AHRS orientation (REP-103 FLU/ENU in the bag) is the GT heading, roll and pitch
+    assert m.meta["heading_source"] == "/imu/data (sensor_msgs/msg/Imu)"
+    from scipy.spatial.transform import Rotation
+    zyx = Rotation.from_matrix(mission.gt.at(m.heading.t)[2]).as_euler("ZYX")
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m.heading.yaw - zyx[:, 0]))), 0.0, atol=1e-9)
+    np.testing.assert_allclose(m.heading.pitch, zyx[:, 1], atol=1e-9)
+    np.testing.assert_allclose(m.heading.roll, zyx[:, 2], atol=1e-9)
+    np.testing.assert_allclose(m.heading.sigma, np.radians(2.0))
+    assert not any("no heading source" in w for w in warned)
+
+
+def test_heading_reaches_the_navigator_and_the_aligner(driver):
+    """The replay feeds Mission.heading to add_heading: the aligner takes its heading from it."""
+    from graphnav.estimators.align import align_mission
+    from graphnav.estimators.replay import replay
+    mission, root = driver
+    m, _ = _load(root / "drv", mission.config) if (root / "drv").exists() else _load(
+        bag_driver.write_driver_bag(mission, root / "drv"), mission.config)
+    kinds = {kind for kind, _, _ in replay(m)}
+    assert kinds == {"imu", "dvl", "depth", "heading"}
+    al = align_mission(m)
+    assert al.heading_source == "heading"
+
+
+def test_dvl_clock_days_away_is_kept_and_recorded(driver):
+    """Header stamps of a DVL clock 6 days behind: not dropped, recorded as a clock offset."""
+    mission, root = driver
+    six_days = -6 * 86400.0
+    path = bag_driver.write_driver_bag(mission, root / "offset", duplicate_dvl_stamps=0, dvl_clock_offset_s=six_days,
+                                       leak_sensor=False, housing_sensor=False, gyro_deg=True)
+    m, warned = _load(path, mission.config)
+    # the writer can record the gyro in deg/s (what a units check must catch; the loader reads it as recorded)
+    np.testing.assert_allclose(m.imu.omega_b, np.degrees(mission.imu.omega_b), atol=1e-9)
+    assert len(m.dvl.t) == len(mission.dvl.t)
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t + six_days, atol=2e-9)
+    clock = m.meta["clock"]
+    assert clock["stamps"]["dvl"] == "header" and clock["dvl_imu_overlap_s"] == 0.0
+    assert clock["dvl_minus_imu_start_s"] == pytest.approx(six_days, abs=1e-6)
+    assert clock["header_minus_receive_s"]["dvl"] == pytest.approx(six_days - 0.05, abs=1e-6)
+    assert any("do not overlap the IMU's" in w and "6.00 days" in w for w in warned)
+    assert any("clock offset" in n for n in m.meta["streams"]["dvl"]["notes"])
+
+
+@pytest.mark.parametrize("definition, name", [(bag_msgs.DVL_MSGS_DVL_A50, "A50"), (bag_msgs.DVL_MSGS_DVL_V3, "v3")])
+def test_sqlite_bag_without_definitions_fits_the_released_message(driver, definition, name):
+    """rosbag2 before Iron embeds no definitions: the dvl_msgs variant that decodes the bytes exactly is used."""
+    mission, root = driver
+    path = bag_driver.write_driver_bag(mission, root / f"nodefs_{name}", storage="sqlite3", dvl_definition=definition,
+                                       embed_definitions=False, leak_sensor=False, housing_sensor=False)
+    db3 = next(path.glob("*.db3"))
+    m, _ = _load(db3, mission.config)
+    assert name in m.meta["dvl_definition"] and "embeds none" in m.meta["dvl_definition"]
+    np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
+    np.testing.assert_allclose(m.dvl.beams[m.dvl.valid], mission.dvl.beams[mission.dvl.valid], atol=1e-12)
+    assert (m.dvl.v_d_sigma is not None) == (name == "v3")
+    # the other definition cannot decode these bytes
+    other = bag_msgs.DVL_MSGS_DVL_V3 if name == "A50" else bag_msgs.DVL_MSGS_DVL_A50
+    from rosbags.rosbag2 import Reader
+    with Reader(db3) as reader:
+        raw = next(r for c, _, r in reader.messages() if c.msgtype == bags.WL_DVL)
+    with pytest.raises(Exception):
+        bag_msgs.typestore(other).deserialize_cdr(raw, bags.WL_DVL)
+
+
+def test_embedded_definition_wins_over_the_built_in(driver):
+    """An MCAP written with the first-release A50 message (not graphnav's built-in v3) reads with its own."""
+    mission, root = driver
+    path = bag_driver.write_driver_bag(mission, root / "a50", dvl_definition=bag_msgs.DVL_MSGS_DVL_A50,
+                                       leak_sensor=False, housing_sensor=False)
+    m, _ = _load(path, mission.config)
+    assert m.meta["dvl_definition"] == "embedded in the bag"
+    np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
+    assert m.dvl.v_d_sigma is None and m.dvl.v_d_valid.any()
+    # the MCAP file under another name is still an MCAP bag (its magic bytes)
+    import shutil
+    renamed = shutil.copy(next(path.glob("*.mcap")), root / "a50_copy.dat")
+    assert bag_msgs.bag_kind(renamed) == "mcap"
+    m2, _ = _load(renamed, mission.config)
+    np.testing.assert_array_equal(m2.dvl.valid, mission.dvl.valid)
+
+
+def _ros1_bag(mission, path, store):
+    """A ROS 1 bag (IMU with filled header stamps, Water Linked's ROS 1 DVL message, pressure)."""
+    from rosbags.rosbag1 import Writer
+    T = store.types
+    V3 = T["geometry_msgs/msg/Vector3"]
+    t0 = 1_600_000_000_000_000_000
+    msgs = []
+
+    def hdr(ns, k, frame_id):
+        return T["std_msgs/msg/Header"](seq=k, frame_id=frame_id,
+                                        stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9))
+    for k, t in enumerate(mission.imu.t):
+        ns = t0 + round(t * 1e9)
+        f, w = mission.imu.f_b[k] @ bags.FLU_FRD, mission.imu.omega_b[k] @ bags.FLU_FRD
+        msgs.append((ns, "/imu", "sensor_msgs/msg/Imu", T["sensor_msgs/msg/Imu"](
+            header=hdr(ns, k, "imu"), orientation=T["geometry_msgs/msg/Quaternion"](x=0., y=0., z=0., w=1.),
+            orientation_covariance=np.array([-1.0] + [0.0] * 8),
+            angular_velocity=V3(x=w[0], y=w[1], z=w[2]), angular_velocity_covariance=np.zeros(9),
+            linear_acceleration=V3(x=f[0], y=f[1], z=f[2]), linear_acceleration_covariance=np.zeros(9))))
+    for k, t in enumerate(mission.dvl.t):
+        ns = t0 + round(t * 1e9)
+        ok = mission.dvl.valid[k]
+        beams = [T[bags.WL_BEAM](id=j, velocity=float(mission.dvl.beams[k, j]) if ok[j] else 0.0, distance=1.0,
+                                 rssi=0.0, nsd=0.0, valid=bool(ok[j])) for j in range(4)]
+        msgs.append((ns, "/dvl/data", bags.WL_DVL, T[bags.WL_DVL](
+            header=hdr(ns, k, "dvl"),
+            time=0.0, velocity=V3(x=0., y=0., z=0.), fom=0.0, altitude=1.0, beams=beams, velocity_valid=False, status=0,
+            form="json_v2")))
+    msgs.sort(key=lambda m: m[0])
+    with Writer(path) as writer:
+        conns = {}
+        for ns, topic, typ, msg in msgs:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, typ, typestore=store)
+            writer.write(conns[topic], ns, store.serialize_ros1(msg, typ))
+    return path
+
+
+def test_ros1_bag_is_read_by_content(driver, tmp_path):
+    """A ROS 1 bag, named .log: recognised by its '#ROSBAG V2.0' magic, read with its embedded definitions."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    mission, _ = driver
+    store = get_typestore(Stores.ROS1_NOETIC)
+    types = get_types_from_msg(bag_msgs.DVL_MSGS_DVLBEAM, bags.WL_BEAM)
+    types.update(get_types_from_msg(bag_msgs.DVL_MSGS_DVL_A50.replace("std_msgs/Header", "Header"), bags.WL_DVL))
+    store.register(types)
+    bag = _ros1_bag(mission, tmp_path / "run.bag", store)
+    renamed = bag.rename(tmp_path / "run.log")
+    assert bags.is_bag(renamed) and bag_msgs.bag_kind(renamed) == "ros1"
+    m, warned = _load(renamed, None)         # through load_mission: routed by content
+    assert m.meta["format"] == "ros1" and m.meta["clock"]["stamps"] == {"imu": "header", "dvl": "header"}
+    np.testing.assert_allclose(m.imu.f_b, mission.imu.f_b, atol=1e-12)
+    np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t, atol=2e-9)
+    # no heading source: said up front, naming what to add
+    assert any("no heading source in the bag" in w and "--topic heading=TOPIC" in w for w in warned)
+    assert m.meta["heading_source"] == "none" and m.heading is None
+    # not a bag: a clear error
+    junk = tmp_path / "junk.bag"
+    junk.write_text("hello")
+    assert not bags.is_bag(junk)
+    with pytest.raises(DataError, match="not a ROS bag"):
+        bags.read_streams(junk)
+
+
+def test_velocity_only_dvl_heading_topics_and_depth_range(driver, tmp_path):
+    """A TwistWithCovarianceStamped DVL (DVL frame) into v_d with its sigma and validity; a compass heading in
+    degrees and a pose orientation as heading sources; depth samples above the surface or deeper than the ocean
+    dropped and counted."""
+    mission, _ = driver
+    store = bags.typestore()
+    T = store.types
+    V3, t0 = T["geometry_msgs/msg/Vector3"], 1_650_000_000_000_000_000
+    H = bags._header
+    from scipy.spatial.transform import Rotation
+    rows = [("/imu", "sensor_msgs/msg/Imu", t0 + round(t * 1e9), _imu_msg(store, t0 + round(t * 1e9)))
+            for t in mission.imu.t[::10]]
+    A = bag_driver.beam_matrix(mission.config.dvl.theta_rad, mission.config.dvl.psi_rad)
+    v_true = np.array([np.linalg.lstsq(A, b, rcond=None)[0] for b in np.nan_to_num(mission.dvl.beams)])
+    invalid = {3, 7}
+    for k, t in enumerate(mission.dvl.t):
+        ns = t0 + round(t * 1e9)
+        cov = np.zeros((6, 6))
+        cov[:3, :3] = np.diag([0.02 ** 2, 0.03 ** 2, 0.01 ** 2])
+        cov[0, 0] = -1.0 if k in invalid else cov[0, 0]
+        rows.append(("/dvl/twist", bags.TWIST_DVL, ns, T[bags.TWIST_DVL](
+            header=H(store, ns, "dvl_link"), twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=T["geometry_msgs/msg/Twist"](linear=V3(x=v_true[k, 0], y=v_true[k, 1], z=v_true[k, 2]),
+                                                   angular=V3(x=0., y=0., z=0.)), covariance=cov.reshape(36)))))
+    C = mission.gt.at(mission.gt.t)[2]
+    yaw = Rotation.from_matrix(C).as_euler("ZYX")[:, 0]
+    q_enu = Rotation.from_matrix(np.einsum("ij,kjl,lm->kim", bags.ENU_NED, C, bags.FLU_FRD)).as_quat()
+    for k, t in enumerate(mission.gt.t):
+        ns = t0 + round(t * 1e9) + 1
+        compass = T["std_msgs/msg/Float64"](data=float(np.degrees(yaw[k]) % 360))
+        rows.append(("/compass/heading", "std_msgs/msg/Float64", ns, compass))
+        pose = T["geometry_msgs/msg/PoseWithCovariance"](pose=T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=0., y=0., z=0.),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=q_enu[k, 0], y=q_enu[k, 1], z=q_enu[k, 2], w=q_enu[k, 3])),
+            covariance=np.diag([0, 0, 0, 0, 0, np.radians(1.5) ** 2]).reshape(36))
+        rows.append(("/nav/pose", bags.POSE, ns, T[bags.POSE](header=H(store, ns, "map"), pose=pose)))
+    cfg = mission.config
+    d = mission.depth.depth.copy()
+    d[[5, 9]] = [-5.0, 20000.0]
+    for t, dk in zip(mission.depth.t, d):
+        ns = t0 + round(t * 1e9) + 2
+        rows.append(("/pressure", "sensor_msgs/msg/FluidPressure", ns, T["sensor_msgs/msg/FluidPressure"](
+            header=H(store, ns, "p"), fluid_pressure=float(101325 + cfg.water_density_kgpm3 * cfg.gravity_mps2 * dk),
+            variance=0.0)))
+    rows.sort(key=lambda r: r[2])
+    path = _bag_with(tmp_path, "twist", rows, store)
+    m, warned = _load(path, cfg)
+    # DVL: velocity only, in the DVL frame, covariance -> sigma, -1 -> invalid
+    assert not m.dvl.valid.any() and m.dvl.v_b is None
+    ok = np.ones(len(mission.dvl.t), bool)
+    ok[list(invalid)] = False
+    np.testing.assert_array_equal(m.dvl.v_d_valid, ok)
+    np.testing.assert_allclose(m.dvl.v_d[ok], v_true[ok], atol=1e-12)
+    np.testing.assert_allclose(m.dvl.v_d_sigma[ok], np.tile([0.02, 0.03, 0.01], (ok.sum(), 1)))
+    assert m.meta["streams"]["dvl"]["refused"] == {"no valid beam and no valid velocity": 2}
+    assert any("velocity-only" in n for n in m.meta["streams"]["dvl"]["notes"])
+    assert any("no DVL message; the velocity-only /dvl/twist" in w for w in warned)
+    # depth: two impossible samples dropped with their reasons
+    assert m.meta["streams"]["depth"]["refused"] == {"above the surface by more than 1 m": 1, "deeper than 11000 m": 1}
+    assert len(m.depth.t) == len(mission.depth.t) - 2
+    # heading: the compass (degrees, clockwise from north) preferred to the pose, with a warning
+    assert m.meta["heading_source"] == "/compass/heading (std_msgs/msg/Float64)"
+    assert any("several heading sources" in w for w in warned)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m.heading.yaw - yaw))), 0.0, atol=1e-9)
+    assert "degrees" in m.meta["streams"]["heading"]["notes"][-1]
+    # the pose's orientation when asked for, with its own yaw variance
+    m2, _ = _load(path, cfg, topics={"heading": "/nav/pose"})
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m2.heading.yaw - yaw))), 0.0, atol=1e-9)
+    np.testing.assert_allclose(m2.heading.sigma, np.radians(1.5))
+
+
+def test_mems_imu_aligns_on_the_ahrs_of_the_bag(tmp_path):
+    """A MEMS IMU cannot gyrocompass: with the bag's AHRS the Navigator aligns on its heading and navigates;
+    without it the loader says so up front, naming the gyro's limit and what to add."""
+    from graphnav.estimators.runs import run_graph
+    from graphnav.evaluation.metrics import vrmse
+    mission = simulate_mission(duration_s=60.0, imu_grade="mems", seed=2)
+    m, _ = _load(bag_driver.write_driver_bag(mission, tmp_path / "ahrs", dvl_latency_s=0.0), mission.config)
+    sol = run_graph(m, init="sensors")
+    assert sol.info["alignment"]["heading_source"] == "heading"
+    assert vrmse(sol, mission.gt) < 0.15          # measured 0.065 m/s (0.056 over 120 s)
+    _, warned = _load(bag_driver.write_driver_bag(mission, tmp_path / "none", ahrs=False), mission.config)
+    assert any("no heading source" in w and "cannot do" in w and "add an AHRS/compass topic" in w for w in warned)
+
+
+def test_dvl_log_of_a_bag(driver):
+    """read_dvl_log: the DVL topic alone (Unix stamps, the instrument's velocity, beams, counts)."""
+    mission, root = driver
+    path = root / "drv" if (root / "drv").exists() else bag_driver.write_driver_bag(mission, root / "drv")
+    log = bags.read_dvl_log(path)
+    assert log.frame == "instrument" and log.instrument["message"] == bags.WL_DVL
+    np.testing.assert_allclose(log.t, 1_700_000_000 + mission.dvl.t + 0.05, atol=1e-6)
+    np.testing.assert_array_equal(log.beam_valid, mission.dvl.valid)
+    assert log.counts["read"] == len(mission.dvl.t) and log.counts["valid"] == int(log.v_d_valid.sum())

@@ -34,8 +34,8 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
                         "map of --config; `smooth` also takes a folder of missions (TrajectoryN folders or "
                         "bags, as `bench --data` finds them); default: the simulated 400 s mission")
     g.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
-                   help="bags: read STREAM (imu, dvl, depth, gt) from TOPIC instead of the topic chosen by "
-                        "message type (repeatable)")
+                   help="bags: read STREAM (imu, dvl, depth, heading, gt) from TOPIC instead of the topic chosen "
+                        "by message type and plausibility (repeatable)")
     g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
     g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",

@@ -285,6 +285,47 @@ class DepthData:
 
 
 @dataclass
+class HeadingData:
+    """Heading aiding (an AHRS, a compass, a heading topic): what the replay feeds to
+    :meth:`~graphnav.estimators.navigator.Navigator.add_heading` and what the aligner uses in place of
+    gyrocompassing.
+
+    Attributes:
+        t: (N,) s.
+        yaw: (N,) heading of ``C_b_n`` (body FRD to NED), rad, from north, clockwise seen from above.
+        sigma: (N,) 1-sigma of ``yaw``, rad (> 0).
+        roll: optional (N,) roll of ``C_b_n`` (ZYX Euler angles), rad, where the source gives it.
+        pitch: optional (N,) pitch of ``C_b_n``, rad.
+    """
+
+    t: np.ndarray
+    yaw: np.ndarray
+    sigma: np.ndarray
+    roll: np.ndarray | None = None
+    pitch: np.ndarray | None = None
+    source: str = "heading"
+
+    def validate(self) -> None:
+        _check_time(self.t, self.source)
+        _check_array(self.yaw, (), len(self.t), self.source, "yaw")
+        _check_array(self.sigma, (), len(self.t), self.source, "sigma")
+        bad = np.flatnonzero(self.sigma <= 0)
+        if bad.size:
+            raise DataError(f"heading sigma must be > 0 rad, got {self.sigma[bad[0]]:g}", self.source,
+                            int(bad[0]), "sigma")
+        for name in ("roll", "pitch"):
+            a = getattr(self, name)
+            if a is not None:
+                _check_array(a, (), len(self.t), self.source, name)
+
+    def take(self, idx) -> "HeadingData":
+        def pick(a):
+            return None if a is None else a[idx]
+        return HeadingData(self.t[idx], self.yaw[idx], self.sigma[idx], pick(self.roll), pick(self.pitch),
+                           self.source)
+
+
+@dataclass
 class GroundTruth:
     """Reference trajectory of the IMU.
 
@@ -414,7 +455,7 @@ OUTSIDE_SPAN_TOLERANCE_S = 0.5
 
 @dataclass
 class Mission:
-    """One mission: IMU, DVL, optional depth and ground truth, and the sensor configuration.
+    """One mission: IMU, DVL, optional depth, heading aiding and ground truth, and the sensor configuration.
 
     All stamps share the IMU clock. ``validate()`` is called on construction.
     """
@@ -426,13 +467,14 @@ class Mission:
     gt: GroundTruth | None = None
     depth: DepthData | None = None
     meta: dict = field(default_factory=dict)
+    heading: HeadingData | None = None
 
     def __post_init__(self):
         self.validate()
 
     def validate(self) -> None:
         """Check every stream; raise :class:`DataError` naming stream, index and field."""
-        for stream in (self.imu, self.dvl, self.gt, self.depth):
+        for stream in (self.imu, self.dvl, self.gt, self.depth, self.heading):
             if stream is not None:
                 stream.validate()
         # DVL pings outside the IMU span cannot be used. A ping within OUTSIDE_SPAN_TOLERANCE_S of the span
@@ -482,6 +524,7 @@ class Mission:
             dvl=self.dvl.take(sel(self.dvl.t)),
             gt=None if self.gt is None else self.gt.take(bracket(self.gt.t)),
             depth=None if self.depth is None else self.depth.take(sel(self.depth.t)),
+            heading=None if self.heading is None else self.heading.take(sel(self.heading.t)),
             meta={**self.meta, "slice": (t_start, t_end)},
         )
 

@@ -627,7 +627,7 @@ def _orthonormalise(C: np.ndarray) -> np.ndarray:
 def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bool = True,
                   t_end: float | None = None, t_result: float | None = None, **kwargs) -> Alignment:
     """Feed a recorded :class:`~graphnav.core.mission.Mission` to an :class:`Aligner` in time order (IMU, DVL and,
-    with ``use_depth``, the depth stream; never the ground truth) until it is ready (or until ``t_end``, s).
+    with ``use_depth``, the depth stream, and the mission's heading aiding; never the ground truth) until it is ready (or until ``t_end``, s).
 
     The state is given at the last sample used, or at ``t_result`` (s, inside the data used; e.g.
     ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`). ``kwargs`` go to
@@ -639,6 +639,8 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
     events += [(t, 1, i) for i, t in enumerate(mission.dvl.t)]
     if use_depth and mission.depth is not None:
         events += [(t, 2, i) for i, t in enumerate(mission.depth.t)]
+    if mission.heading is not None:
+        events += [(t, 3, i) for i, t in enumerate(mission.heading.t)]
     events.sort()
     imu, dvl, depth = mission.imu, mission.dvl, mission.depth
     for t, kind, i in events:
@@ -650,6 +652,8 @@ def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bo
                 break
         elif kind == 1:
             aligner.add_dvl(t, dvl.beams[i], dvl.valid[i])
-        else:
+        elif kind == 2:
             aligner.add_depth(t, depth.depth[i])
+        else:
+            aligner.add_heading(t, mission.heading.yaw[i], mission.heading.sigma[i])
     return aligner.result() if t_result is None else aligner.result_at(t_result)

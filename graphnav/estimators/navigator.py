@@ -544,7 +544,7 @@ def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, sto
     between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
     interrupt delivered inside a GTSAM call can surface as another exception)."""
     out = []
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth, "heading": nav.add_heading}
     for kind, t, payload in replay(mission, depth=depth):
         if stop is not None and stop():
             raise KeyboardInterrupt

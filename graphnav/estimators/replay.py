@@ -6,7 +6,8 @@ One stream for every consumer (the :class:`~graphnav.estimators.navigator.Naviga
 
 - ``"imu"``: ``(f_b (3,) m/s^2, omega_b (3,) rad/s)``;
 - ``"dvl"``: ``(beams (4,) m/s, NaN where not valid, valid (4,) bool)``;
-- ``"depth"``: ``(depth_m,)``.
+- ``"depth"``: ``(depth_m,)``;
+- ``"heading"``: ``(yaw rad, sigma rad)`` (an AHRS or heading topic, :class:`~graphnav.core.mission.HeadingData`).
 
 At equal stamps the aiding samples come first, then the DVL, then the IMU: a keyframe at a stamp then
 already holds the depth and the ping of that stamp when the IMU sample that closes it arrives.
@@ -30,7 +31,8 @@ def first_ping_time(mission: Mission) -> float:
     return float(inside[0]) if len(inside) else float(mission.imu.t[0])
 
 
-def replay(mission: Mission, depth: bool = True, chunk: int = 20000) -> Iterator[tuple[str, float, tuple]]:
+def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bool = True
+           ) -> Iterator[tuple[str, float, tuple]]:
     """The mission's samples in time order (see the module docstring). Ground truth is never part of it.
 
     Converted to Python values ``chunk`` samples at a time, so that replaying a day-long mission needs no
@@ -40,6 +42,8 @@ def replay(mission: Mission, depth: bool = True, chunk: int = 20000) -> Iterator
     streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
     if depth and mission.depth is not None:
         streams.append(("depth", mission.depth.t, (mission.depth.depth,)))
+    if heading and mission.heading is not None:
+        streams.append(("heading", mission.heading.t, (mission.heading.yaw, mission.heading.sigma)))
     t = np.concatenate([s[1] for s in streams])
     order = np.concatenate([np.full(len(s[1]), STREAM_ORDER[s[0]], dtype=np.int8) for s in streams])
     which = np.concatenate([np.full(len(s[1]), i, dtype=np.int8) for i, s in enumerate(streams)])

@@ -1,27 +1,30 @@
-"""ROS 2 bags (sqlite3 ``.db3`` and MCAP) in and out, through ``rosbags`` (pure Python, no ROS install).
+"""ROS bags (ROS 1 ``.bag``, ROS 2 sqlite3 ``.db3``, MCAP, rosbag2 folders) in and out, through ``rosbags``
+(pure Python, no ROS install).
 
-Reading (:func:`load_bag`): a bag folder (with ``metadata.yaml``) or a bare ``.mcap`` / ``.db3`` file.
-Topics are chosen by message type; ``topics={"imu": "/imu/data", ...}`` (CLI ``--topic imu=/imu/data``)
+Reading (:func:`load_bag`): a bag is recognised by its content (:func:`is_bag`: ROS 1's ``#ROSBAG V2.0``,
+MCAP's and sqlite3's magic bytes, a folder with ``metadata.yaml``), whatever its name. Topics are chosen by
+message type and plausibility; ``topics={"imu": "/imu/data", ...}`` (CLI ``--topic imu=/imu/data``)
 overrides the choice. Streams and the types read:
 
 * ``imu``: ``sensor_msgs/msg/Imu`` (``linear_acceleration`` -> ``f_b``, ``angular_velocity`` -> ``omega_b``);
-* ``dvl``: ``marine_acoustic_msgs/msg/Dvl`` (the community message: ``beam_velocity[4]`` with validity
-  from ``beam_velocities_valid``, ``num_good_beams`` and the per-beam values; ``beam_unit_vec[4]`` gives
-  the beam geometry when filled) or Water Linked's ``dvl_msgs/msg/DVL`` with its ``DVLBeam`` list (``id``,
-  ``velocity``, ``valid``);
-* ``depth``: ``sensor_msgs/msg/FluidPressure`` (``depth = (p - p_atm) / (rho g)`` with
-  ``SensorConfig.water_density_kgpm3`` and ``atmospheric_pressure_pa``) or ``std_msgs/msg/Float64``/``Float32``
-  holding depth in m, positive down (no header: the bag's receive time is used);
+* ``dvl``: ``marine_acoustic_msgs/msg/Dvl`` (beams with ``beam_velocities_valid``/``num_good_beams``, the
+  geometry from ``beam_unit_vec``, the velocity when ``num_good_beams >= 3``), Water Linked's
+  ``dvl_msgs/msg/DVL`` (``DVLBeam`` list; ``velocity`` with ``velocity_valid`` and ``covariance``), or, when
+  there is no DVL message, a velocity-only ``geometry_msgs/msg/TwistWithCovarianceStamped`` (see
+  :mod:`graphnav.io.bag_convert` for its frame). The instrument's velocity goes to ``DvlData.v_d``;
+* ``depth``: the most plausible of the ``sensor_msgs/msg/FluidPressure`` topics and the ``std_msgs/Float64``/
+  ``Float32`` topics named like depth (water pressure range, not all zeros, varying), the surface pressure
+  estimated when the record starts at the surface, depths range-checked;
+* ``heading``: an AHRS (a ``sensor_msgs/msg/Imu`` whose orientation is filled), a ``Float64``/``Float32``
+  topic named like heading or compass (a compass heading: clockwise from north), or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
+  ``Mission.heading`` (the replay feeds it to ``Navigator.add_heading``; the aligner uses it instead of
+  gyrocompassing). A bag without any says so when it is loaded;
 * ``gt`` (optional reference for scoring): ``nav_msgs/msg/Odometry``.
 
-Frames. graphnav works in FRD body / NED navigation. ROS' REP-103 uses FLU body / ENU world; a ``frame_id``
-ending in ``_frd`` / ``_ned`` (the marine and PX4 convention) marks FRD / NED data. The readers convert
-per message from its ``frame_id`` (``child_frame_id`` for the Odometry body). The DVL messages are in the
-DVL's own frame (marine_acoustic_msgs: z along the DVL axis, x vehicle forward; for a down-looking DVL
-that is graphnav's DVL frame d), turned into the body frame with ``SensorConfig.dvl.C_d_b``.
-
-Stamps are the messages' header stamps (the time of validity), on one clock; the mission clock starts at
-the first IMU stamp (``meta["t0_unix_ns"]`` keeps it, so the written estimates carry absolute stamps).
+Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :mod:`graphnav.io.bag_msgs`.
+Stamps: :mod:`graphnav.io.bag_stamps` (header stamps when sane, else receive time; DVL/IMU clock offsets
+recorded, never dropped). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``). What each
+stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
 Writing (:func:`write_odometry_bag`): the estimates as ``nav_msgs/msg/Odometry`` in REP-103 frames
 (``odom`` ENU, ``base_link`` FLU) with the velocity covariance in ``twist.covariance``; what the estimator
@@ -29,8 +32,8 @@ does not provide (pose covariance, angular rate) is left at zero, ROS' "unknown"
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -38,127 +41,40 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.mission import Mission
+from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.io import bag_convert as conv
+from graphnav.io.bag_convert import ENU_NED, FLU_FRD, TWIST_DVL, Stream
+from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
+from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM,  # noqa: F401
+                                  MARINE_ACOUSTIC_DVL, MARINE_DVL, WL_BEAM, WL_DVL, bag_kind, fit_definition,
+                                  readable_path, require_rosbags, typestore)
 
-#: Water Linked's ROS 2 DVL messages (package ``dvl_msgs``), registered from their ``.msg`` text because
-#: sqlite3 bags recorded before ROS 2 Iron carry no message definitions. Source: github.com/paagutie/dvl_msgs
-#: (``msg/DVL.msg``, the package Water Linked's ROS 2 driver publishes), whose beam message is the same as
-#: Water Linked's own ``waterlinked/dvl-a50-ros-driver`` ``msg/DVLBeam.msg`` (id, velocity, distance,
-#: rssi, nsd, valid). Bags that embed their definitions (MCAP, rosbag2 >= Iron) use those instead.
-DVL_MSGS_DVLBEAM = """\
-int64 id
-float64 velocity
-float64 distance
-float64 rssi
-float64 nsd
-bool valid
-"""
-DVL_MSGS_DVL = """\
-std_msgs/Header header
-float64 time
-geometry_msgs/Vector3 velocity
-float64 fom
-float64[] covariance
-float64 altitude
-DVLBeam[] beams
-bool velocity_valid
-int64 status
-int64 time_of_validity
-int64 time_of_transmission
-string form
-"""
-#: The community DVL message, ``marine_acoustic_msgs/msg/Dvl`` from apl-ocean-engineering/marine_msgs
-#: (``marine_acoustic_msgs/msg/Dvl.msg``; constants omitted: they are not serialized).
-MARINE_ACOUSTIC_DVL = """\
-std_msgs/Header header
-uint8 velocity_mode
-uint8 dvl_type
-geometry_msgs/Vector3 velocity
-float64[9] velocity_covar
-float64 altitude
-float64 course_gnd
-float64 speed_gnd
-uint8 num_good_beams
-float32 sound_speed
-bool beam_ranges_valid
-bool beam_velocities_valid
-geometry_msgs/Vector3[4] beam_unit_vec
-float64[4] range
-float32[4] range_covar
-float32[4] beam_quality
-float32[4] beam_velocity
-float32[4] beam_velocity_covar
-"""
-MARINE_DVL = "marine_acoustic_msgs/msg/Dvl"
-WL_DVL = "dvl_msgs/msg/DVL"
-WL_BEAM = "dvl_msgs/msg/DVLBeam"
+IMU = "sensor_msgs/msg/Imu"
+PRESSURE = "sensor_msgs/msg/FluidPressure"
+FLOATS = ("std_msgs/msg/Float64", "std_msgs/msg/Float32")
+POSE = "geometry_msgs/msg/PoseWithCovarianceStamped"
+ODOM = "nav_msgs/msg/Odometry"
 
 #: Message types each stream accepts, in order of preference when several topics match.
 STREAM_TYPES: dict[str, tuple[str, ...]] = {
-    "imu": ("sensor_msgs/msg/Imu",),
-    "dvl": (MARINE_DVL, WL_DVL),
-    "depth": ("sensor_msgs/msg/FluidPressure", "std_msgs/msg/Float64", "std_msgs/msg/Float32"),
-    "gt": ("nav_msgs/msg/Odometry",),
+    "imu": (IMU,),
+    "dvl": (MARINE_DVL, WL_DVL, TWIST_DVL),
+    "depth": (PRESSURE, *FLOATS),
+    "heading": (IMU, *FLOATS, POSE, ODOM),
+    "gt": (ODOM,),
 }
 REQUIRED_STREAMS = ("imu", "dvl")
-BAG_SUFFIXES = (".mcap", ".db3")
-
-#: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
-FLU_FRD = np.diag([1.0, -1.0, -1.0])
-ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-
-
-def _require_rosbags():
-    try:
-        import rosbags  # noqa: F401
-    except ImportError:
-        raise ConfigError("reading/writing ROS 2 bags needs the 'rosbags' package: pip install 'graphnav[ros]'") \
-            from None
-
-
-def typestore():
-    """The ROS 2 Humble typestore of rosbags plus the two DVL message families above."""
-    _require_rosbags()
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    types = {}
-    types.update(get_types_from_msg(DVL_MSGS_DVLBEAM, WL_BEAM))
-    types.update(get_types_from_msg(DVL_MSGS_DVL, WL_DVL))
-    types.update(get_types_from_msg(MARINE_ACOUSTIC_DVL, MARINE_DVL))
-    store.register(types)
-    return store
+#: Words that make a Float64/Float32 topic a depth or a heading.
+DEPTH_WORDS = ("depth",)
+HEADING_WORDS = ("heading", "compass")     # not "yaw": a ROS yaw is ENU (counter-clockwise from east)
+#: Messages of a dvl_msgs/DVL topic without an embedded definition that a candidate definition must decode.
+FIT_MESSAGES = 20
 
 
 def is_bag(path: str | Path) -> bool:
-    """True for a ``.mcap``/``.db3`` file or a rosbag2 folder (one with ``metadata.yaml``)."""
-    path = Path(path)
-    if path.is_file():
-        return path.suffix in BAG_SUFFIXES
-    return path.is_dir() and (path / "metadata.yaml").exists()
-
-
-def _stamp(msg) -> int:
-    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
-
-
-def _frame_is(frame_id: str, suffix: str) -> bool:
-    return frame_id.lower().rstrip("/").endswith(suffix)
-
-
-def _vec(v) -> np.ndarray:
-    return np.array([v.x, v.y, v.z], dtype=float)
-
-
-def _quat(q) -> np.ndarray:
-    return np.array([q.x, q.y, q.z, q.w], dtype=float)
-
-
-@dataclass
-class _Stream:
-    topic: str
-    msgtype: str
-    t_ns: np.ndarray
-    rows: list
+    """True for a ROS 1 bag, an MCAP or sqlite3 file (by their magic bytes) or a rosbag2 folder."""
+    return bag_kind(path) is not None
 
 
 def parse_topics(items: list[str] | None) -> dict[str, str]:
@@ -172,14 +88,29 @@ def parse_topics(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str,
-                   wanted: tuple[str, ...] = tuple(STREAM_TYPES), required: tuple[str, ...] = REQUIRED_STREAMS
-                   ) -> dict[str, str]:
-    """Stream -> topic: the overrides (checked), else the topic of an accepted type (first by preference)."""
-    chosen = {}
-    for stream, types in STREAM_TYPES.items():
-        if stream not in wanted:
-            continue
+def _named(topic: str, words: tuple[str, ...]) -> bool:
+    return any(w in topic.lower() for w in words)
+
+
+def _candidates(available: dict[str, str], stream: str) -> list[str]:
+    """The topics that may hold ``stream``, by type preference then name."""
+    out = []
+    for typ in STREAM_TYPES[stream]:
+        topics = sorted(t for t, ty in available.items() if ty == typ)
+        if typ in FLOATS:
+            topics = [t for t in topics if _named(t, DEPTH_WORDS if stream == "depth" else HEADING_WORDS)]
+        if stream == "heading" and typ == ODOM:
+            topics = []          # an Odometry is the reference unless named with --topic heading=...
+        out += topics
+    return out
+
+
+def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str, wanted: tuple[str, ...],
+                   required: tuple[str, ...]) -> dict[str, list[str]]:
+    """Stream -> candidate topics: the override alone (checked), else every topic of an accepted type."""
+    chosen: dict[str, list[str]] = {}
+    for stream in wanted:
+        types = STREAM_TYPES[stream]
         if stream in topics:
             topic = topics[stream]
             if topic not in available:
@@ -188,16 +119,17 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
             if available[topic] not in types:
                 raise DataError(f"topic {topic} has type {available[topic]}, which graphnav cannot read as "
                                 f"{stream} (accepted: {', '.join(types)})", source, field=topic)
-            chosen[stream] = topic
+            chosen[stream] = [topic]
             continue
-        for typ in types:
-            matches = sorted(t for t, ty in available.items() if ty == typ)
-            if len(matches) > 1:
-                warnings.warn(f"{source}: several {typ} topics {matches}; using {matches[0]} for {stream} "
-                              f"(choose with --topic {stream}=TOPIC)", RuntimeWarning, stacklevel=3)
-            if matches:
-                chosen[stream] = matches[0]
-                break
+        found = _candidates(available, stream)
+        if stream == "dvl" and found:
+            beams = [t for t in found if available[t] != TWIST_DVL]
+            found = beams or found
+            if not beams:
+                warnings.warn(f"{source}: no DVL message; the velocity-only {found[0]} "
+                              f"({TWIST_DVL}) is used as the DVL", RuntimeWarning, stacklevel=3)
+        if found:
+            chosen[stream] = found
     for stream in required:
         if stream not in chosen:
             raise DataError(f"no {stream} topic: need a topic of type {' or '.join(STREAM_TYPES[stream])}; the bag "
@@ -206,141 +138,230 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
     return chosen
 
 
-def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted: tuple[str, ...] = tuple(STREAM_TYPES),
-                 required: tuple[str, ...] = REQUIRED_STREAMS) -> dict[str, _Stream]:
-    """The raw messages of each stream (header stamps in ns, deserialized messages), stamps checked to
-    increase strictly per topic."""
-    _require_rosbags()
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    path = Path(path)
-    source = str(path)
-    if not path.exists():
-        raise DataError("bag not found", source)
-    default = typestore()
-    try:
-        reader = AnyReader([path], default_typestore=default)
-        reader.open()
-    except (AnyReaderError, Exception) as exc:  # rosbags raises several reader error types
-        raise DataError(f"cannot open as a ROS 2 bag: {type(exc).__name__}: {exc}", source) from None
-    try:
-        # A bag may embed definitions for some types only (e.g. recorded by a mix of nodes): fill the rest.
+def _pick_one(stream: str, topics: list[str], source: str) -> str:
+    if len(topics) > 1:
+        warnings.warn(f"{source}: several {stream} topics {topics}; using {topics[0]} "
+                      f"(choose with --topic {stream}=TOPIC)", RuntimeWarning, stacklevel=3)
+    return topics[0]
+
+
+class _Bag:
+    """An open bag: its connections, the typestore of its own definitions (completed with graphnav's) and the
+    decoding of one topic's messages."""
+
+    def __init__(self, reader, source: str, meta: dict):
+        self.reader, self.source, self.meta = reader, source, meta
+        default = typestore()
         missing = {k: v for k, v in default.fielddefs.items() if k not in reader.typestore.fielddefs}
         reader.typestore.register(missing)
-        available = {c.topic: c.msgtype for c in reader.connections}
-        chosen = _choose_topics(available, topics or {}, source, wanted, required)
-        out = {}
-        for stream, topic in chosen.items():
-            conns = [c for c in reader.connections if c.topic == topic]
-            msgtype = conns[0].msgtype
-            stamps, rows = [], []
-            for conn, log_ns, raw in reader.messages(connections=conns):
-                try:
-                    msg = reader.deserialize(raw, conn.msgtype)
-                except Exception as exc:  # noqa: BLE001 - any decoding failure is reported with the topic
-                    raise DataError(f"message {len(rows)} of type {conn.msgtype} cannot be decoded: {exc}",
-                                    source, field=topic) from None
-                stamps.append(_stamp(msg) if hasattr(msg, "header") else int(log_ns))
-                rows.append(msg)
-            if not rows:
-                raise DataError(f"topic {topic} ({stream}) has no messages", source, field=topic)
-            t_ns = np.array(stamps, dtype=np.int64)
-            step = np.diff(t_ns)
-            bad = np.flatnonzero(step <= 0)
-            if bad.size:
-                i = int(bad[0]) + 1
-                kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-                raise DataError(f"topic {topic} ({stream}): header stamp {kind} at message {i} "
-                                f"({t_ns[i - 1] / 1e9:.9f} s then {t_ns[i] / 1e9:.9f} s); "
-                                f"{bad.size} such message(s)", source, i, topic)
-            out[stream] = _Stream(topic, msgtype, t_ns, rows)
-        return out
-    finally:
-        reader.close()
+        self.available = {c.topic: c.msgtype for c in reader.connections}
+
+    def _embedded(self, conns) -> bool:
+        from rosbags.interfaces import MessageDefinitionFormat
+        return all(c.msgdef.format != MessageDefinitionFormat.NONE for c in conns)
+
+    def _decoder(self, topic: str, conns):
+        """How to decode ``topic``: the bag's typestore, or for a ``dvl_msgs/DVL`` without its definition the
+        released variant that fits the recorded bytes."""
+        msgtype = conns[0].msgtype
+        if msgtype != WL_DVL or not self.reader.is2 or self._embedded(conns):
+            if msgtype == WL_DVL:
+                self.meta["dvl_definition"] = "embedded in the bag"
+            return self.reader.deserialize
+        raws = [raw for _, _, raw in self.reader.messages(connections=conns)][:FIT_MESSAGES]
+        try:
+            name, store = fit_definition(raws)
+        except ValueError as exc:
+            raise DataError(f"{WL_DVL} without an embedded definition matches none of the released ones: {exc}",
+                            self.source, field=topic) from None
+        self.meta["dvl_definition"] = f"{name} (the bag embeds none; it decodes the recorded messages exactly)"
+        add_note(self.meta, "dvl", f"message definition: {self.meta['dvl_definition']}")
+        return store.deserialize_cdr
+
+    def topic(self, topic: str) -> tuple[str, np.ndarray | None, np.ndarray, list]:
+        """(msgtype, header stamps ns or None, receive stamps ns, decoded messages) of ``topic``."""
+        conns = [c for c in self.reader.connections if c.topic == topic]
+        msgtype = conns[0].msgtype
+        decode = self._decoder(topic, conns)
+        header, receive, rows = [], [], []
+        for conn, log_ns, raw in self.reader.messages(connections=conns):
+            try:
+                msg = decode(raw, conn.msgtype)
+            except Exception as exc:  # noqa: BLE001 - any decoding failure is reported with the topic
+                raise DataError(f"message {len(rows)} of type {conn.msgtype} cannot be decoded: {exc}",
+                                self.source, len(rows), topic) from None
+            if hasattr(msg, "header"):
+                header.append(int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec))
+            receive.append(int(log_ns))
+            rows.append(msg)
+        if not rows:
+            raise DataError(f"topic {topic} has no messages", self.source, field=topic)
+        head = np.array(header, np.int64) if len(header) == len(rows) else None
+        return msgtype, head, np.array(receive, np.int64), rows
 
 
-# --- one converter per stream ------------------------------------------------------------------------------
-def _imu(s: _Stream, t0_ns: int, source: str) -> ImuData:
-    f = np.array([_vec(m.linear_acceleration) for m in s.rows])
-    w = np.array([_vec(m.angular_velocity) for m in s.rows])
-    if not _frame_is(s.rows[0].header.frame_id, "_frd"):
-        f, w = f @ FLU_FRD, w @ FLU_FRD
-    return ImuData((s.t_ns - t0_ns) / 1e9, f, w, f"{source}:{s.topic}")
+def _open_reader(path: Path, source: str):
+    require_rosbags()
+    from rosbags.highlevel import AnyReader
+    reader = AnyReader([path], default_typestore=typestore())
+    try:
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - rosbags raises several reader error types
+        raise DataError(f"cannot open as a ROS bag: {type(exc).__name__}: {exc}", source) from None
+    return reader
 
 
-def _dvl(s: _Stream, t0_ns: int, config: SensorConfig, source: str) -> tuple[DvlData, dict]:
-    n = len(s.rows)
-    beams = np.full((n, 4), np.nan)
-    valid = np.zeros((n, 4), bool)
-    v_d = np.full((n, 3), np.nan)
-    info: dict = {"dvl_message": s.msgtype}
-    if s.msgtype == MARINE_DVL:
-        mismatch = 0
-        unit = None
-        for i, m in enumerate(s.rows):
-            b = np.asarray(m.beam_velocity, float)
-            ok = np.isfinite(b) & bool(m.beam_velocities_valid)
-            beams[i], valid[i] = b, ok
-            if int(ok.sum()) != int(m.num_good_beams) and m.beam_velocities_valid:
-                mismatch += 1
-            v_d[i] = _vec(m.velocity)
-            vecs = np.array([_vec(u) for u in m.beam_unit_vec])
-            if unit is None and np.allclose(np.linalg.norm(vecs, axis=1), 1.0, atol=1e-3):
-                unit = vecs
-        if mismatch:
-            warnings.warn(f"{source}:{s.topic}: {mismatch} ping(s) where num_good_beams differs from the finite "
-                          "beam velocities; the per-beam values are used", RuntimeWarning, stacklevel=3)
-        info["dvl_num_good_beams_mismatch"] = mismatch
-        if unit is not None:
-            info["beam_unit_vec_d"] = unit.tolist()
+def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted: tuple[str, ...] = tuple(STREAM_TYPES),
+                 required: tuple[str, ...] = REQUIRED_STREAMS, meta: dict | None = None
+                 ) -> dict[str, list[Stream]]:
+    """Stream -> the decoded candidate topics (the override alone when given), stamps chosen per topic by
+    :func:`graphnav.io.bag_stamps.choose_stamps`; notes and counts go to ``meta``."""
+    from graphnav.io.bag_stamps import choose_stamps
+    path = Path(path)
+    source = str(path)
+    meta = {} if meta is None else meta
+    if not path.exists():
+        raise DataError("bag not found", source)
+    kind = bag_kind(path)
+    if kind is None:
+        raise DataError("not a ROS bag: no ROS 1 '#ROSBAG V2.0', MCAP or sqlite3 header, and no metadata.yaml "
+                        "in a folder", source)
+    meta["bag_kind"] = kind
+    with readable_path(path, kind) as readable:
+        reader = _open_reader(readable, source)
+        try:
+            bag = _Bag(reader, source, meta)
+            chosen = _choose_topics(bag.available, topics or {}, source, wanted, required)
+            decoded: dict[str, Stream] = {}
+            out: dict[str, list[Stream]] = {}
+            for stream, names in chosen.items():
+                for topic in names:
+                    if topic not in decoded:
+                        msgtype, head, rx, rows = bag.topic(topic)
+                        sub: dict = {}
+                        t_ns, keep, how = choose_stamps(head, rx, sub, stream, f"{source}:{topic}")
+                        decoded[topic] = Stream(topic, msgtype, t_ns, [rows[i] for i in keep], how, rx[keep],
+                                                len(rows), sub.get("streams", {}))
+                    out.setdefault(stream, []).append(decoded[topic])
+            return out
+        finally:
+            reader.close()
+
+
+def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
+    """Counts and notes of a chosen topic: what it read (including messages its stamps could not order)."""
+    t = (s.t_ns - t0_ns) / 1e9
+    dropped = s.n_read - len(t)
+    count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})")
+    for entry in s.log.values():
+        for reason, n in entry["refused"].items():
+            count_refused(meta, stream, reason, n)
+        for note in entry["notes"]:
+            add_note(meta, stream, note)
+
+
+def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], imu_topic: str, source: str,
+                    meta: dict) -> Stream | None:
+    """The heading source: the override, else an AHRS (the IMU topic itself first), a heading topic, a pose."""
+    cands = streams.get("heading", [])
+    if "heading" in topics:
+        return cands[0]
+    checked = {s.topic: conv.ahrs_check(s.rows) for s in cands if s.msgtype == IMU}
+    for topic, (ok, why) in checked.items():
+        if not ok:
+            add_note(meta, "heading", f"{topic} is not an AHRS: {why}")
+    ahrs = sorted((s for s in cands if s.msgtype == IMU and checked[s.topic][0]), key=lambda s: s.topic != imu_topic)
+    rest = [s for s in cands if s.msgtype != IMU]
+    ordered = ahrs + rest
+    if len(ordered) > 1:
+        warnings.warn(f"{source}: several heading sources {[s.topic for s in ordered]}; using {ordered[0].topic} "
+                      "(choose with --topic heading=TOPIC)", RuntimeWarning, stacklevel=3)
+    return ordered[0] if ordered else None
+
+
+def _warn_no_heading(config: SensorConfig, source: str, meta: dict) -> None:
+    """Said when the bag is loaded, not after an alignment fails: what to add for a heading."""
+    from graphnav.estimators.align import AlignOptions, gyrocompass_heading_terms
+    limit = gyrocompass_heading_terms(config, 1.0, 1, 0.0, config.lat_rad)["gyro_bias"]
+    can = limit <= AlignOptions().max_heading_sigma_rad
+    msg = ("no heading source in the bag (no sensor_msgs/Imu with its orientation filled, no Float64 topic named "
+           "heading, no PoseWithCovarianceStamped): the heading must come from gyrocompassing, which "
+           + (f"the configured gyro allows (bias limit {np.degrees(limit):.2f} deg)" if can else
+              f"the configured gyro cannot do (its bias alone gives {np.degrees(limit):.1f} deg; a MEMS or 10 Hz "
+              "IMU never can)")
+           + "; add an AHRS/compass topic (--topic heading=TOPIC) or give the initial heading")
+    add_note(meta, "heading", msg)
+    meta["heading_source"] = "none"
+    warnings.warn(f"{source}: {msg}", RuntimeWarning, stacklevel=3)
+
+
+def _apply_beam_geometry(config: SensorConfig, info: dict, source: str) -> SensorConfig:
+    """The marine_acoustic_msgs message carries the beam geometry: use it (theta from the mean z component,
+    psi per beam)."""
+    if "beam_unit_vec_d" not in info:
+        return config
+    u = np.asarray(info["beam_unit_vec_d"])
+    theta = float(np.arccos(np.clip(np.mean(u[:, 2]), -1, 1)))
+    psi = np.arctan2(u[:, 1], u[:, 0])
+    if np.max(np.abs(u[:, 2] - np.cos(theta))) > 1e-3:
+        warnings.warn(f"{source}: beam_unit_vec inclinations differ ({np.degrees(np.arccos(u[:, 2]))} deg); "
+                      f"using their mean {np.degrees(theta):.2f} deg", RuntimeWarning, stacklevel=3)
+    config.dvl = dataclasses.replace(config.dvl, theta_rad=theta, psi_rad=psi)
+    return config
+
+
+def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[str, str] | None = None,
+             name: str | None = None, atmospheric_pressure_configured: bool = False) -> Mission:
+    """A :class:`Mission` from a ROS bag (see the module docstring).
+
+    ``atmospheric_pressure_configured``: subtract ``config.atmospheric_pressure_pa`` as given instead of
+    estimating the surface pressure from the first seconds of the record."""
+    from graphnav.io.bag_stamps import compare_clocks
+    path = Path(path)
+    config = dataclasses.replace(config) if config is not None else SensorConfig()
+    topics = topics or {}
+    source = str(path)
+    meta: dict = {"source": source}
+    streams = read_streams(path, topics, meta=meta)
+    imu_s = streams["imu"][0] if "imu" in topics else _pick_one("imu", streams["imu"], source)
+    dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
+    t0_ns = int(imu_s.t_ns[0])
+    meta.update({"format": "ros1" if meta["bag_kind"] == "ros1" else "rosbag2", "t0_unix_ns": t0_ns})
+    _record(meta, "imu", imu_s, t0_ns, source)
+    imu = conv.imu(imu_s, t0_ns, source)
+    _record(meta, "dvl", dvl_s, t0_ns, source)
+    dvl, info = conv.dvl(dvl_s, t0_ns, config, source, meta)
+    config = _apply_beam_geometry(config, info, source)
+    depth = None
+    cands = {s.topic: (s, conv.depth_candidate(s, config, atmospheric_pressure_configured))
+             for s in streams.get("depth", [])}
+    chosen = conv.choose_depth(cands, source, meta) if cands else None
+    if chosen:
+        s, cand = cands[chosen]
+        _record(meta, "depth", s, t0_ns, source)
+        depth = conv.depth(s, cand, t0_ns, source, meta)
+    heading = None
+    h = _heading_stream(streams, topics, imu_s.topic, source, meta)
+    if h is not None:
+        _record(meta, "heading", h, t0_ns, source)
+        heading = conv.heading(h, t0_ns, source, meta)
+        meta["heading_source"] = f"{h.topic} ({h.msgtype})"
     else:
-        unknown_id = 0
-        for i, m in enumerate(s.rows):
-            for k, beam in enumerate(m.beams):
-                j = int(beam.id) if 0 <= int(beam.id) < 4 else k
-                unknown_id += not 0 <= int(beam.id) < 4
-                if j < 4:
-                    beams[i, j], valid[i, j] = float(beam.velocity), bool(beam.valid)
-            if m.velocity_valid:
-                v_d[i] = _vec(m.velocity)
-        if unknown_id:
-            warnings.warn(f"{source}:{s.topic}: {unknown_id} DVLBeam id(s) outside 0..3; list position used",
-                          RuntimeWarning, stacklevel=3)
-    v_b = v_d @ config.dvl.C_d_b.T
-    if np.any(~np.all(np.isfinite(v_b), axis=1) & (valid.sum(axis=1) >= 3)):
-        # The instrument's own velocity is optional (the estimators use the beams); a DVL that leaves it
-        # unset on pings with enough beams gives none at all rather than a partial stream.
-        v_b = None
-        info["dvl_v_b"] = "not used: missing on pings with >= 3 valid beams"
-    dvl = DvlData((s.t_ns - t0_ns) / 1e9, np.where(valid, beams, np.nan), valid, v_b, f"{source}:{s.topic}")
-    return dvl.sanitized(), info
-
-
-def _depth(s: _Stream, t0_ns: int, config: SensorConfig, source: str) -> DepthData:
-    if s.msgtype == "sensor_msgs/msg/FluidPressure":
-        p = np.array([m.fluid_pressure for m in s.rows], float)
-        depth = (p - config.atmospheric_pressure_pa) / (config.water_density_kgpm3 * config.gravity_mps2)
-    else:
-        depth = np.array([m.data for m in s.rows], float)
-    return DepthData((s.t_ns - t0_ns) / 1e9, depth, f"{source}:{s.topic}")
-
-
-def _gt(s: _Stream, t0_ns: int, source: str) -> GroundTruth:
-    p = np.array([_vec(m.pose.pose.position) for m in s.rows])
-    q = np.array([_quat(m.pose.pose.orientation) for m in s.rows])
-    v_child = np.array([_vec(m.twist.twist.linear) for m in s.rows])
-    bad = np.flatnonzero(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-3)
-    if bad.size:
-        raise DataError(f"orientation quaternion not unit length (|q| = {np.linalg.norm(q[bad[0]]):.4f})",
-                        f"{source}:{s.topic}", int(bad[0]), "pose.pose.orientation")
-    C_child_world = Rotation.from_quat(q).as_matrix()
-    world_ned = _frame_is(s.rows[0].header.frame_id, "_ned")
-    child_frd = _frame_is(s.rows[0].child_frame_id, "_frd")
-    A = np.eye(3) if world_ned else ENU_NED            # world -> NED
-    B = np.eye(3) if child_frd else FLU_FRD            # FRD body -> child
-    C_b_n = A @ C_child_world @ B
-    p_n = p @ A.T
-    v_n = np.einsum("kij,kj->ki", C_b_n, v_child @ B)  # twist is in the child frame; B is symmetric
-    return GroundTruth((s.t_ns - t0_ns) / 1e9, p_n, v_n, C_b_n, None, f"{source}:{s.topic}")
+        _warn_no_heading(config, source, meta)
+    gt = None
+    if streams.get("gt"):
+        g = streams["gt"][0] if "gt" in topics else _pick_one("gt", streams["gt"], source)
+        _record(meta, "gt", g, t0_ns, source)
+        gt = conv.gt(g, t0_ns, source)
+    used = {"imu": imu_s, "dvl": dvl_s, **({"depth": cands[chosen][0]} if chosen else {}),
+            **({"heading": h} if h is not None else {})}
+    compare_clocks({k: (s.t_ns, s.receive_ns, s.stamp_kind) for k, s in used.items()}, meta, source)
+    meta["topics"] = {k: f"{s.topic} ({s.msgtype})" for k, s in used.items()}
+    meta.update(info)
+    if depth is None:
+        meta["depth_source"] = "none"
+    return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
+                   heading=heading)
 
 
 def load_odometry(path: str | Path, topic: str | None = None):
@@ -348,9 +369,10 @@ def load_odometry(path: str | Path, topic: str | None = None):
     :class:`~graphnav.core.solution.NavSolution` in NED/FRD with absolute stamps (Unix s) and the velocity
     covariance from ``twist.covariance`` (None when it is all zero)."""
     from graphnav.core.solution import NavSolution
-    s = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
-    gt = _gt(s, 0, str(path))
-    child_frd = _frame_is(s.rows[0].child_frame_id, "_frd")
+    found = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
+    s = found[0] if topic else _pick_one("gt", found, str(path))
+    gt = conv.gt(s, 0, str(path))
+    child_frd = conv.frame_is(s.rows[0].child_frame_id, "_frd")
     B = np.eye(3) if child_frd else FLU_FRD
     cov_child = np.array([np.asarray(m.twist.covariance, float).reshape(6, 6)[:3, :3] for m in s.rows])
     cov = None
@@ -360,38 +382,29 @@ def load_odometry(path: str | Path, topic: str | None = None):
     return NavSolution(s.topic, gt.t, gt.p_n, gt.v_n, gt.C_b_n, cov_v_n=cov)
 
 
-def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[str, str] | None = None,
-             name: str | None = None) -> Mission:
-    """A :class:`Mission` from a ROS 2 bag (folder, ``.mcap`` or ``.db3``); see the module docstring."""
-    import dataclasses
-    path = Path(path)
-    config = dataclasses.replace(config) if config is not None else SensorConfig()
-    source = str(path)
-    streams = read_streams(path, topics)
-    t0_ns = int(streams["imu"].t_ns[0])
-    imu = _imu(streams["imu"], t0_ns, source)
-    dvl, info = _dvl(streams["dvl"], t0_ns, config, source)
-    if "beam_unit_vec_d" in info:
-        # The messages carry the beam geometry: use it (theta from the mean z component, psi per beam).
-        u = np.asarray(info["beam_unit_vec_d"])
-        theta = float(np.arccos(np.clip(np.mean(u[:, 2]), -1, 1)))
-        psi = np.arctan2(u[:, 1], u[:, 0])
-        if np.max(np.abs(u[:, 2] - np.cos(theta))) > 1e-3:
-            warnings.warn(f"{source}: beam_unit_vec inclinations differ ({np.degrees(np.arccos(u[:, 2]))} deg); "
-                          f"using their mean {np.degrees(theta):.2f} deg", RuntimeWarning, stacklevel=2)
-        config.dvl = dataclasses.replace(config.dvl, theta_rad=theta, psi_rad=psi)
-    depth = _depth(streams["depth"], t0_ns, config, source) if "depth" in streams else None
-    gt = _gt(streams["gt"], t0_ns, source) if "gt" in streams else None
-    meta = {"source": source, "format": "rosbag2", "t0_unix_ns": t0_ns,
-            "topics": {k: f"{s.topic} ({s.msgtype})" for k, s in streams.items()}, **info}
-    if depth is None:
-        meta["depth_source"] = "none"
-    return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta)
+def read_dvl_log(path: str | Path, topic: str | None = None, config: SensorConfig | None = None):
+    """The DVL topic of a bag on its own, as a :class:`~graphnav.core.dvl_log.DvlLog` (stamps in Unix s,
+    chosen as :func:`load_bag` chooses them; ``config`` gives ``C_d_b`` for a body-frame twist)."""
+    from graphnav.core.dvl_log import DvlLog
+    config = config or SensorConfig()
+    meta: dict = {}
+    found = read_streams(path, {"dvl": topic} if topic else {}, wanted=("dvl",), required=("dvl",), meta=meta)["dvl"]
+    s = found[0] if topic else _pick_one("dvl", found, str(path))
+    _record(meta, "dvl", s, 0, str(path))
+    dvl, info = conv.dvl(s, 0, config, str(path), meta)
+    entry = meta["streams"]["dvl"]
+    has_beams = bool(dvl.valid.any())
+    return DvlLog(dvl.t, dvl.v_d, dvl.v_d_valid, "instrument" if has_beams else "dvl",
+                  beams=dvl.beams if has_beams else None, beam_valid=dvl.valid if has_beams else None,
+                  instrument={"message": s.msgtype, "topic": s.topic, "stamps": s.stamp_kind,
+                              **({"definition": meta["dvl_definition"]} if "dvl_definition" in meta else {}), **info},
+                  counts={"read": entry["read"], "valid": int(dvl.v_d_valid.sum()), **entry["refused"]},
+                  source=f"{path}:{s.topic}")
 
 
 # --- writing -----------------------------------------------------------------------------------------------
 def _writer(path: Path, storage: str):
-    _require_rosbags()
+    require_rosbags()
     from rosbags.rosbag2 import StoragePlugin, Writer
     plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
     if storage not in plugins:

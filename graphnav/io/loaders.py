@@ -557,7 +557,8 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
         data: what to load, by its form:
 
             * None: the simulated default mission;
-            * a ROS 2 bag: a ``.mcap`` / ``.db3`` file or a rosbag2 folder (:func:`graphnav.io.bags.load_bag`);
+            * a ROS bag, recognised by its content: ROS 1, MCAP, sqlite3 or a rosbag2 folder
+              (:func:`graphnav.io.bags.load_bag`);
             * a Teledyne RDI PD0 file, ``.pd0`` or ``.000``-style numbered (:func:`graphnav.io.generic_csv.load_pd0`);
             * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
               (:func:`graphnav.io.generic_csv.load_csv_mission`);
@@ -580,9 +581,11 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     path = Path(data)
     from graphnav.io import bags, generic_csv, pd0
     if topics and not bags.is_bag(path):
-        raise ConfigError(f"--topic applies to ROS 2 bags only; {path} is not one")
+        raise ConfigError(f"--topic applies to ROS bags only; {path} is not one")
     if bags.is_bag(path):
-        return bags.load_bag(path, config, topics)
+        # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
+        atm = config_path is not None and "atmospheric_pressure_pa" in _config_keys(config_path)
+        return bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
     if pd0.is_pd0(path):
         return generic_csv.load_pd0(path, config)
     if generic_csv.uses_column_map(path, config):

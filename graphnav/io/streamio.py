@@ -56,6 +56,8 @@ def mission_records(mission, config: bool = True) -> Iterator[dict]:
             yield {"type": "imu", "t": t, "f_b": list(payload[0]), "omega_b": list(payload[1])}
         elif kind == "dvl":
             yield {"type": "dvl", "t": t, "beams": [_num(b) for b in payload[0]], "valid": list(payload[1])}
+        elif kind == "heading":
+            yield {"type": "heading", "t": t, "yaw": payload[0], "sigma": payload[1]}
         else:
             yield {"type": "depth", "t": t, "depth_m": payload[0]}
 

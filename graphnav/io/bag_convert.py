@@ -1,0 +1,402 @@
+"""From a bag's decoded messages to the Mission's streams: IMU, DVL (beams and the instrument's own velocity),
+depth chosen by plausibility, heading aiding, reference odometry.
+
+Frames. graphnav works in FRD body / NED navigation. ROS' REP-103 uses FLU body / ENU world; a ``frame_id``
+ending in ``_frd`` / ``_ned`` (the marine and PX4 convention) marks FRD / NED data. The DVL messages are in the
+DVL's own frame (marine_acoustic_msgs: z along the DVL axis, x vehicle forward; Water Linked: x forward, y
+right, z down; for a down-looking DVL both are graphnav's DVL frame d).
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData, GroundTruth, HeadingData, ImuData
+from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
+
+#: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
+FLU_FRD = np.diag([1.0, -1.0, -1.0])
+ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+TWIST_DVL = "geometry_msgs/msg/TwistWithCovarianceStamped"
+
+#: Absolute pressure a water-pressure sensor can read, Pa: from a low atmosphere (80 kPa, a storm at altitude)
+#: to 11 km of sea water (~110 MPa). All zeros, or a leak detector's 0/1, are not water.
+WATER_PRESSURE_RANGE_PA = (8.0e4, 1.2e8)
+#: A surface pressure reading must lie in this range to be taken as the atmosphere, Pa (sea-level weather
+#: 95-105 kPa; above it the vehicle is already 0.5 m or more under water).
+ATMOSPHERE_RANGE_PA = (9.4e4, 1.06e5)
+#: The first seconds of a pressure stream averaged for the surface pressure, s, and the largest spread
+#: (Pa from the first reading; ~1.5 cm of water) they may have for the vehicle to count as still at the surface.
+SURFACE_WINDOW_S = 5.0
+SURFACE_MAX_DEV_PA = 150.0
+#: Depth range check, m: above the surface beyond the tolerance (waves, a pressure offset) or deeper than the
+#: ocean is not a depth.
+DEPTH_ABOVE_SURFACE_TOL_M = 1.0
+MAX_DEPTH_M = 11000.0
+#: A depth stream must vary by at least this much (m, 2nd to 98th percentile) to be taken as the vehicle's:
+#: a housing's internal pressure or a disconnected sensor stays flat.
+MIN_DEPTH_VARIATION_M = 0.2
+#: Heading 1-sigma of an AHRS / heading topic that gives no variance, rad: the 1-3 deg a MEMS AHRS with a
+#: calibrated magnetometer states, at its upper end (a vehicle's own fields disturb it).
+DEFAULT_HEADING_SIGMA_RAD = float(np.deg2rad(3.0))
+
+
+@dataclass
+class Stream:
+    """One topic's decoded messages: stamps (ns, as chosen by :mod:`graphnav.io.bag_stamps`: ``stamp_kind``
+    ``"header"`` or ``"receive"``), the receive stamps of the same messages, how many messages the topic
+    had before any was dropped, and the stamp repairs (a ``meta`` of its own, see :mod:`graphnav.core.streams`)."""
+
+    topic: str
+    msgtype: str
+    t_ns: np.ndarray
+    rows: list
+    stamp_kind: str = "header"
+    receive_ns: np.ndarray | None = None
+    n_read: int = 0
+    log: dict = field(default_factory=dict)
+
+
+def frame_is(frame_id: str, suffix: str) -> bool:
+    return frame_id.lower().rstrip("/").endswith(suffix)
+
+
+def vec(v) -> np.ndarray:
+    return np.array([v.x, v.y, v.z], dtype=float)
+
+
+def quat(q) -> np.ndarray:
+    return np.array([q.x, q.y, q.z, q.w], dtype=float)
+
+
+def _rel(s: Stream, t0_ns: int) -> np.ndarray:
+    return (s.t_ns - t0_ns) / 1e9
+
+
+# --- IMU ---------------------------------------------------------------------------------------------------
+def imu(s: Stream, t0_ns: int, source: str) -> ImuData:
+    f = np.array([vec(m.linear_acceleration) for m in s.rows])
+    w = np.array([vec(m.angular_velocity) for m in s.rows])
+    if not frame_is(s.rows[0].header.frame_id, "_frd"):
+        f, w = f @ FLU_FRD, w @ FLU_FRD
+    return ImuData(_rel(s, t0_ns), f, w, f"{source}:{s.topic}")
+
+
+# --- DVL ---------------------------------------------------------------------------------------------------
+def _sigma_from_cov(cov: np.ndarray) -> np.ndarray:
+    """Per-axis 1-sigma from a row-major 3x3 covariance; NaN when unknown (all zero or -1)."""
+    cov = np.asarray(cov, float)
+    if cov.size < 9:
+        return np.full(3, np.nan)
+    d = np.diag(cov[:9].reshape(3, 3))
+    return np.where(np.isfinite(d) & (d > 0), np.sqrt(np.abs(d)), np.nan)
+
+
+def _marine(s: Stream, source: str, info: dict):
+    n = len(s.rows)
+    beams, valid = np.full((n, 4), np.nan), np.zeros((n, 4), bool)
+    v_d, v_ok, sig = np.full((n, 3), np.nan), np.zeros(n, bool), np.full((n, 3), np.nan)
+    mismatch, unit = 0, None
+    for i, m in enumerate(s.rows):
+        b = np.asarray(m.beam_velocity, float)
+        ok = np.isfinite(b) & bool(m.beam_velocities_valid)
+        beams[i], valid[i] = b, ok
+        if m.beam_velocities_valid and int(ok.sum()) != int(m.num_good_beams):
+            mismatch += 1
+        v_d[i] = vec(m.velocity)
+        # a velocity solution needs three beams; the message has no other validity flag for it
+        v_ok[i] = int(m.num_good_beams) >= 3
+        sig[i] = _sigma_from_cov(m.velocity_covar)
+        vecs = np.array([vec(u) for u in m.beam_unit_vec])
+        if unit is None and np.allclose(np.linalg.norm(vecs, axis=1), 1.0, atol=1e-3):
+            unit = vecs
+    if mismatch:
+        warnings.warn(f"{source}:{s.topic}: {mismatch} ping(s) where num_good_beams differs from the finite "
+                      "beam velocities; the per-beam values are used", RuntimeWarning, stacklevel=4)
+    info["dvl_num_good_beams_mismatch"] = mismatch
+    if unit is not None:
+        info["beam_unit_vec_d"] = unit.tolist()
+    return beams, valid, v_d, v_ok, sig
+
+
+def _water_linked(s: Stream, source: str, info: dict):
+    n = len(s.rows)
+    beams, valid = np.full((n, 4), np.nan), np.zeros((n, 4), bool)
+    v_d, v_ok, sig = np.full((n, 3), np.nan), np.zeros(n, bool), np.full((n, 3), np.nan)
+    unknown_id = 0
+    for i, m in enumerate(s.rows):
+        for k, beam in enumerate(m.beams):
+            good_id = 0 <= int(beam.id) < 4
+            unknown_id += not good_id
+            j = int(beam.id) if good_id else k
+            if j < 4:
+                beams[i, j], valid[i, j] = float(beam.velocity), bool(beam.valid)
+        v_d[i] = vec(m.velocity)
+        v_ok[i] = bool(m.velocity_valid)
+        if hasattr(m, "covariance"):          # the protocol v3 message only
+            sig[i] = _sigma_from_cov(m.covariance)
+    if unknown_id:
+        warnings.warn(f"{source}:{s.topic}: {unknown_id} DVLBeam id(s) outside 0..3; list position used",
+                      RuntimeWarning, stacklevel=4)
+    return beams, valid, v_d, v_ok, sig
+
+
+def _twist(s: Stream, config: SensorConfig, source: str, info: dict):
+    """``TwistWithCovarianceStamped``: a ``frame_id`` naming the DVL holds the DVL's own velocity (frame d);
+    any other frame is the body (FRD when it ends in ``_frd``, else REP-103 FLU), turned into d."""
+    n = len(s.rows)
+    frame_id = s.rows[0].header.frame_id
+    C_d_b = config.dvl.C_d_b
+    if "dvl" in frame_id.lower():
+        R, how = np.eye(3), "DVL frame"
+    else:
+        B = np.eye(3) if frame_is(frame_id, "_frd") else FLU_FRD       # message frame -> FRD body
+        R, how = C_d_b.T @ B, "body frame turned into the DVL frame with C_d_b"
+    info["dvl_twist_frame"] = f"{frame_id or '(empty)'}: {how}"
+    v_d, v_ok, sig = np.full((n, 3), np.nan), np.zeros(n, bool), np.full((n, 3), np.nan)
+    for i, m in enumerate(s.rows):
+        v_d[i] = R @ vec(m.twist.twist.linear)
+        cov6 = np.asarray(m.twist.covariance, float).reshape(6, 6)
+        # -1 on the diagonal is the drivers' "invalid measurement"
+        v_ok[i] = bool(np.all(np.isfinite(v_d[i])) and cov6[0, 0] >= 0)
+        cov = R @ cov6[:3, :3] @ R.T
+        sig[i] = _sigma_from_cov(cov.reshape(9))
+    return np.full((n, 4), np.nan), np.zeros((n, 4), bool), v_d, v_ok, sig
+
+
+def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) -> tuple[DvlData, dict]:
+    """Beams (where the message has them) and the instrument's own velocity ``v_d`` with its validity and
+    1-sigma, every invalid ping counted in ``meta["streams"]["dvl"]``."""
+    info: dict = {"dvl_message": s.msgtype}
+    if s.msgtype == MARINE_DVL:
+        beams, valid, v_d, v_ok, sig = _marine(s, source, info)
+    elif s.msgtype == WL_DVL:
+        beams, valid, v_d, v_ok, sig = _water_linked(s, source, info)
+    else:
+        beams, valid, v_d, v_ok, sig = _twist(s, config, source, info)
+    # A NaN velocity is a driver's "not computed" (the beams still count); a finite one beyond any DVL's
+    # range is an invalid flag or a decoding error.
+    unset = v_ok & ~np.all(np.isfinite(v_d), axis=1)
+    if unset.any():
+        info["dvl_v_d_not_finite"] = int(unset.sum())
+    with np.errstate(invalid="ignore"):
+        too_fast = v_ok & ~unset & np.any(np.abs(v_d) > MAX_DVL_SPEED_MPS, axis=1)
+    if too_fast.any():
+        warnings.warn(f"{source}:{s.topic}: {int(too_fast.sum())} DVL velocit(ies) beyond {MAX_DVL_SPEED_MPS:g} "
+                      "m/s marked invalid", RuntimeWarning, stacklevel=3)
+        add_note(meta, "dvl", f"{int(too_fast.sum())} instrument velocit(ies) beyond {MAX_DVL_SPEED_MPS:g} m/s not "
+                              "used (their beams are)")
+    v_ok &= ~too_fast & ~unset
+    v_d = np.where(v_ok[:, None], v_d, np.nan)
+    has_sigma = np.all(np.isfinite(sig[v_ok]), axis=1) if v_ok.any() else np.zeros(0, bool)
+    v_d_sigma = None
+    if has_sigma.size and has_sigma.all():
+        v_d_sigma = np.where(v_ok[:, None], sig, np.nan)
+    elif has_sigma.size and has_sigma.any():
+        info["dvl_v_d_sigma"] = (f"not used: the message's covariance is missing on {int((~has_sigma).sum())} of "
+                                 f"{has_sigma.size} valid pings (the configuration's noise is used)")
+    no_beams = ~valid.any(axis=1)
+    unusable = no_beams & ~v_ok
+    if unusable.any():
+        count_refused(meta, "dvl", "no valid beam and no valid velocity", int(unusable.sum()))
+    if s.msgtype == TWIST_DVL or (no_beams.all() and v_ok.any()):
+        add_note(meta, "dvl", f"velocity-only DVL ({s.msgtype}): the instrument's velocity v_d is used, no beams")
+    # The instrument's body-frame velocity (v_b) where it has beams too; pings without >= 3 beams leave it NaN.
+    v_b = np.where((valid.sum(axis=1) >= 3)[:, None], v_d @ config.dvl.C_d_b.T, np.nan)
+    if np.any(~np.all(np.isfinite(v_b), axis=1) & (valid.sum(axis=1) >= 3)):
+        v_b = None
+        info["dvl_v_b"] = "not used: missing on pings with >= 3 valid beams"
+    elif not np.isfinite(v_b).any():
+        v_b = None
+    out = DvlData(_rel(s, t0_ns), np.where(valid, beams, np.nan), valid, v_b, f"{source}:{s.topic}",
+                  v_d=v_d, v_d_valid=v_ok, v_d_sigma=v_d_sigma)
+    return out.sanitized(), info
+
+
+# --- depth -------------------------------------------------------------------------------------------------
+def _surface_pressure(t_s: np.ndarray, p: np.ndarray, config: SensorConfig, configured: bool
+                      ) -> tuple[float, str]:
+    """The atmospheric pressure (Pa) subtracted from the readings, and why that value: the configured one, else
+    the median of the leading readings (up to :data:`SURFACE_WINDOW_S`) that stay within
+    :data:`SURFACE_MAX_DEV_PA` of the first, when the first lies in :data:`ATMOSPHERE_RANGE_PA` and they last
+    at least a second (the vehicle floats while the recording starts)."""
+    if configured:
+        return config.atmospheric_pressure_pa, "SensorConfig.atmospheric_pressure_pa (configured)"
+    lo, hi = ATMOSPHERE_RANGE_PA
+    window = (t_s - t_s[0] <= SURFACE_WINDOW_S) & np.isfinite(p)
+    still = window & (np.abs(p - p[0]) <= SURFACE_MAX_DEV_PA)
+    run = int(np.argmin(still)) if not still.all() else len(p)      # length of the leading run
+    if lo <= p[0] <= hi and run >= 3 and t_s[run - 1] - t_s[0] >= 1.0:
+        return float(np.median(p[:run])), (f"estimated at the surface from the first {t_s[run - 1] - t_s[0]:.1f} s "
+                                           f"({run} samples)")
+    return config.atmospheric_pressure_pa, ("SensorConfig.atmospheric_pressure_pa (the record does not start at the "
+                                            "surface)")
+
+
+def depth_candidate(s: Stream, config: SensorConfig, configured_atm: bool) -> dict:
+    """A pressure/depth topic's depth (m, positive down) and its plausibility: ``ok`` and ``why``."""
+    t_s = s.t_ns / 1e9
+    if s.msgtype == "sensor_msgs/msg/FluidPressure":
+        p = np.array([m.fluid_pressure for m in s.rows], float)
+        finite = p[np.isfinite(p)]
+        lo, hi = WATER_PRESSURE_RANGE_PA
+        if not finite.size or not np.any(finite):
+            return {"ok": False, "why": "all zeros: not a water pressure (a leak or housing sensor?)"}
+        inside = np.mean((finite >= lo) & (finite <= hi))
+        if inside < 0.9:
+            return {"ok": False, "why": f"only {inside:.0%} of the readings lie in the water pressure range "
+                                        f"{lo / 1e3:g} kPa..{hi / 1e6:g} MPa (not Pa, or not water)"}
+        p_atm, atm_why = _surface_pressure(t_s, p, config, configured_atm)
+        depth = (p - p_atm) / (config.water_density_kgpm3 * config.gravity_mps2)
+        extra = {"atmospheric_pressure_pa": p_atm, "atmosphere": atm_why}
+    else:
+        depth = np.array([m.data for m in s.rows], float)
+        if not np.any(depth[np.isfinite(depth)]):
+            return {"ok": False, "why": "all zeros"}
+        extra = {}
+    finite = depth[np.isfinite(depth)]
+    spread = float(np.percentile(finite, 98) - np.percentile(finite, 2))
+    if spread < MIN_DEPTH_VARIATION_M:
+        return {"ok": False, "why": f"does not vary (2-98 % spread {spread:.3f} m < {MIN_DEPTH_VARIATION_M} m)",
+                "spread_m": spread}
+    return {"ok": True, "why": f"water pressure range, varies by {spread:.1f} m", "spread_m": spread,
+            "depth": depth, **extra}
+
+
+def choose_depth(candidates: dict[str, tuple[Stream, dict]], source: str, meta: dict) -> str | None:
+    """The topic of the most plausible depth stream (the largest variation among the plausible ones), the
+    choice and every rejection said in ``meta["depth_choice"]`` and a warning when there were several."""
+    report = {topic: c["why"] for topic, (_, c) in candidates.items()}
+    good = {t: c for t, (_, c) in candidates.items() if c["ok"]}
+    chosen = max(good, key=lambda t: good[t]["spread_m"]) if good else None
+    meta["depth_choice"] = {"chosen": chosen, "candidates": report}
+    if len(candidates) > 1 or chosen is None:
+        others = "; ".join(f"{t}: {w}" for t, w in report.items() if t != chosen)
+        msg = (f"{source}: depth from {chosen} ({report[chosen]})" if chosen else f"{source}: no usable depth topic") \
+            + (f"; not used: {others}" if others else "")
+        warnings.warn(msg, RuntimeWarning, stacklevel=3)
+    if chosen:
+        add_note(meta, "depth", f"depth from {chosen}: {report[chosen]}"
+                 + (f"; atmosphere {good[chosen]['atmospheric_pressure_pa']:.0f} Pa, {good[chosen]['atmosphere']}"
+                    if "atmosphere" in good[chosen] else ""))
+    return chosen
+
+
+def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict) -> DepthData:
+    """The chosen depth stream, range-checked: depths above the surface beyond the tolerance or deeper than
+    the ocean are dropped and counted."""
+    d = cand["depth"]
+    checks = {f"above the surface by more than {DEPTH_ABOVE_SURFACE_TOL_M:g} m": d < -DEPTH_ABOVE_SURFACE_TOL_M,
+              f"deeper than {MAX_DEPTH_M:g} m": d > MAX_DEPTH_M, "not finite": ~np.isfinite(d)}
+    bad = np.zeros(len(d), bool)
+    for reason, mask in checks.items():
+        mask = mask & ~bad
+        if mask.any():
+            count_refused(meta, "depth", reason, int(mask.sum()))
+            warnings.warn(f"{source}:{s.topic}: {int(mask.sum())} depth sample(s) {reason} dropped (first at "
+                          f"message {int(np.flatnonzero(mask)[0])}, {d[mask][0]:.2f} m)", RuntimeWarning,
+                          stacklevel=3)
+        bad |= mask
+    return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
+
+
+# --- heading -----------------------------------------------------------------------------------------------
+def ahrs_check(rows) -> tuple[bool, str]:
+    """Whether a ``sensor_msgs/Imu`` stream is an AHRS, and why: its orientation is filled
+    (orientation_covariance[0] != -1, a non-zero quaternion) on most messages and is not one constant value
+    (drivers without an orientation often publish the identity with a zero covariance)."""
+    q = np.array([quat(m.orientation) for m in rows])
+    filled = np.array([m.orientation_covariance[0] != -1 for m in rows]) & (np.linalg.norm(q, axis=1) > 0.5)
+    if not rows or float(np.mean(filled)) <= 0.5:
+        return False, "orientation not filled (orientation_covariance[0] = -1 or a zero quaternion)"
+    if np.ptp(q[filled], axis=0).max() == 0.0:
+        return False, f"orientation constant ({q[filled][0].round(3).tolist()}): a placeholder, not an AHRS"
+    return True, "orientation filled"
+
+
+def _C_b_n(q: np.ndarray, frame_id: str, world_frame_id: str = "") -> np.ndarray:
+    """Body FRD -> NED from ROS orientations (child -> world): REP-103 FLU/ENU unless ``_frd``/``_ned``."""
+    C = Rotation.from_quat(q).as_matrix()
+    A = np.eye(3) if frame_is(frame_id, "_frd") or frame_is(world_frame_id, "_ned") else ENU_NED
+    B = np.eye(3) if frame_is(frame_id, "_frd") else FLU_FRD
+    return A @ C @ B
+
+
+def _heading_from_C(C: np.ndarray, sigma: np.ndarray, t: np.ndarray, label: str, keep_tilt: bool) -> HeadingData:
+    zyx = Rotation.from_matrix(C).as_euler("ZYX")
+    return HeadingData(t, zyx[:, 0], sigma, zyx[:, 2] if keep_tilt else None, zyx[:, 1] if keep_tilt else None,
+                       label)
+
+
+def heading(s: Stream, t0_ns: int, source: str, meta: dict) -> HeadingData:
+    """Heading aiding from an AHRS ``Imu`` orientation, a ``PoseWithCovarianceStamped``/``Odometry``
+    orientation or a ``Float64``/``Float32`` heading topic (compass heading, clockwise from north, degrees
+    when any value exceeds 2 pi, else radians)."""
+    label = f"{source}:{s.topic}"
+    t = _rel(s, t0_ns)
+    if s.msgtype in ("std_msgs/msg/Float64", "std_msgs/msg/Float32"):
+        yaw = np.array([m.data for m in s.rows], float)
+        degrees = bool(np.nanmax(np.abs(yaw)) > 2 * np.pi + 0.1)
+        add_note(meta, "heading", f"heading from {s.topic} ({s.msgtype}, compass heading in "
+                                  f"{'degrees' if degrees else 'radians'}, {np.degrees(DEFAULT_HEADING_SIGMA_RAD):g} "
+                                  "deg 1-sigma assumed)")
+        yaw = np.radians(yaw) if degrees else yaw
+        return HeadingData(t, (yaw + np.pi) % (2 * np.pi) - np.pi, np.full(len(t), DEFAULT_HEADING_SIGMA_RAD),
+                           source=label)
+    if s.msgtype == "sensor_msgs/msg/Imu":
+        q = np.array([quat(m.orientation) for m in s.rows])
+        var = np.array([m.orientation_covariance[8] for m in s.rows], float)
+        frame_id, world = s.rows[0].header.frame_id, ""
+        kind = "AHRS orientation (sensor_msgs/Imu)"
+    else:
+        pose = [m.pose.pose if hasattr(m.pose, "pose") else m.pose for m in s.rows]
+        q = np.array([quat(p.orientation) for p in pose])
+        var = np.array([np.asarray(m.pose.covariance, float)[35] for m in s.rows])
+        world = s.rows[0].header.frame_id
+        frame_id = getattr(s.rows[0], "child_frame_id", "") or "base_link"
+        kind = f"orientation of {s.msgtype}"
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.abs(norm - 1.0) > 1e-2
+    if bad.any():
+        count_refused(meta, "heading", "orientation quaternion not unit length", int(bad.sum()))
+        warnings.warn(f"{label}: {int(bad.sum())} orientation(s) not of unit length dropped", RuntimeWarning,
+                      stacklevel=3)
+    sigma = np.where(np.isfinite(var) & (var > 0), np.sqrt(np.abs(var)), DEFAULT_HEADING_SIGMA_RAD)
+    assumed = not np.any(np.isfinite(var) & (var > 0))
+    add_note(meta, "heading", f"heading (and roll/pitch) from the {kind} on {s.topic}"
+             + (f"; no variance given, {np.degrees(DEFAULT_HEADING_SIGMA_RAD):g} deg 1-sigma assumed"
+                if assumed else "")
+             + "; a magnetic heading needs the declination added")
+    keep = ~bad
+    C = _C_b_n(q[keep] / norm[keep, None], frame_id, world)
+    return _heading_from_C(C, sigma[keep], t[keep], label, keep_tilt=True)
+
+
+# --- reference ---------------------------------------------------------------------------------------------
+def gt(s: Stream, t0_ns: int, source: str) -> GroundTruth:
+    p = np.array([vec(m.pose.pose.position) for m in s.rows])
+    q = np.array([quat(m.pose.pose.orientation) for m in s.rows])
+    v_child = np.array([vec(m.twist.twist.linear) for m in s.rows])
+    bad = np.flatnonzero(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-3)
+    if bad.size:
+        raise DataError(f"orientation quaternion not unit length (|q| = {np.linalg.norm(q[bad[0]]):.4f})",
+                        f"{source}:{s.topic}", int(bad[0]), "pose.pose.orientation")
+    C_child_world = Rotation.from_quat(q).as_matrix()
+    world_ned = frame_is(s.rows[0].header.frame_id, "_ned")
+    child_frd = frame_is(s.rows[0].child_frame_id, "_frd")
+    A = np.eye(3) if world_ned else ENU_NED            # world -> NED
+    B = np.eye(3) if child_frd else FLU_FRD            # FRD body -> child
+    C_b_n = A @ C_child_world @ B
+    p_n = p @ A.T
+    v_n = np.einsum("kij,kj->ki", C_b_n, v_child @ B)  # twist is in the child frame; B is symmetric
+    return GroundTruth(_rel(s, t0_ns), p_n, v_n, C_b_n, None, f"{source}:{s.topic}")
+
+
+def count_stream(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
+    count_read(meta, stream, _rel(s, t0_ns), f"{source}:{s.topic} ({s.msgtype})")

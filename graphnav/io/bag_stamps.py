@@ -1,0 +1,107 @@
+"""Which stamps to trust in a bag, per stream and between streams.
+
+Per stream (:func:`choose_stamps`): the header stamps (the time of validity) when they are sane: none zero,
+strictly increasing. Otherwise the bag's receive time (when the recorder got the message), with a warning and
+a note in ``Mission.meta["streams"]`` saying which and why: drivers that leave the stamp at zero, stamp a
+burst of samples with one time, or stamp from a clock that jumps. Samples that even the receive time cannot
+order (two messages received in the same nanosecond) are dropped and counted.
+
+Between streams (:func:`compare_clocks`): each stream's header clock is compared with the receive clock
+(median difference), and the DVL span with the IMU span. A DVL whose stamps lie days away from the IMU's runs
+on another clock (a DVL that never synchronised its RTC): its pings are kept as they are and the offset is
+recorded in ``meta["clock"]``, for :mod:`graphnav.calibration.clock` to estimate from the data.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from graphnav.core.streams import add_note, count_refused
+
+#: Offsets between a stream's header clock and the bag's receive clock below this are latency, not another
+#: clock, s (a driver's latency is milliseconds to a second).
+CLOCK_OFFSET_NOTE_S = 1.0
+
+
+def _why_not_header(header_ns: np.ndarray) -> str | None:
+    """Why a stream's header stamps cannot be used (None when they can)."""
+    if np.all(header_ns == 0):
+        return "all header stamps are zero"
+    zero = int(np.count_nonzero(header_ns == 0))
+    if zero:
+        return f"{zero} header stamp(s) are zero"
+    step = np.diff(header_ns)
+    dup, back = int(np.count_nonzero(step == 0)), int(np.count_nonzero(step < 0))
+    if dup or back:
+        first = int(np.flatnonzero(step <= 0)[0]) + 1
+        parts = ([f"{dup} duplicated"] if dup else []) + ([f"{back} non-monotonic"] if back else [])
+        return f"header stamps {' and '.join(parts)} (first at message {first})"
+    return None
+
+
+def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: dict, stream: str, label: str
+                  ) -> tuple[np.ndarray, np.ndarray, str]:
+    """(stamps ns, kept message indices, ``"header"`` or ``"receive"``) for one stream.
+
+    ``header_ns`` None: the message type has no header (``std_msgs/Float64``): the receive time, noted.
+    ``label`` names the stream in warnings (``file:topic``). Every dropped message is counted in ``meta``.
+    """
+    receive_ns = np.asarray(receive_ns, np.int64)
+    if header_ns is None:
+        why = "the message type has no header"
+    else:
+        header_ns = np.asarray(header_ns, np.int64)
+        why = _why_not_header(header_ns)
+        if why is None:
+            return header_ns, np.arange(len(header_ns)), "header"
+    note = f"stamps: {why}; the bag's receive time is used"
+    add_note(meta, stream, note)
+    if header_ns is not None:
+        warnings.warn(f"{label}: {note} (latency of the recorder included)", RuntimeWarning, stacklevel=3)
+    order = np.argsort(receive_ns, kind="stable")
+    t = receive_ns[order]
+    keep = np.concatenate([[True], np.diff(t) > 0]) if len(t) else np.zeros(0, bool)
+    dropped = int(np.count_nonzero(~keep))
+    if dropped:
+        count_refused(meta, stream, "same receive time as the previous message", dropped)
+        warnings.warn(f"{label}: {dropped} message(s) received in the same nanosecond as the previous one "
+                      "dropped (no stamp orders them)", RuntimeWarning, stacklevel=3)
+    return t[keep], order[keep], "receive"
+
+
+def compare_clocks(stamps: dict[str, tuple[np.ndarray, np.ndarray, str]], meta: dict, source: str) -> dict:
+    """Record in ``meta["clock"]`` which stamps each stream uses, how its header clock relates to the receive
+    clock, and whether the DVL overlaps the IMU. ``stamps``: stream -> (chosen stamps ns, receive ns of the same messages, kind)."""
+    clock: dict = {"stamps": {s: kind for s, (_, _, kind) in stamps.items()}, "header_minus_receive_s": {}}
+    for stream, (t_ns, rx_ns, kind) in stamps.items():
+        if kind == "header" and len(t_ns):
+            offset = float(np.median((t_ns - rx_ns).astype(np.float64))) / 1e9
+            clock["header_minus_receive_s"][stream] = offset
+            if abs(offset) > CLOCK_OFFSET_NOTE_S:
+                add_note(meta, stream, f"clock: header stamps are {_span(offset)} "
+                                       f"{'ahead of' if offset > 0 else 'behind'} the bag's receive clock")
+    if "imu" in stamps and "dvl" in stamps:
+        imu, dvl = stamps["imu"][0], stamps["dvl"][0]
+        overlap = min(imu[-1], dvl[-1]) - max(imu[0], dvl[0])
+        clock["dvl_imu_overlap_s"] = float(max(0.0, overlap / 1e9))
+        clock["dvl_minus_imu_start_s"] = float(dvl[0] - imu[0]) / 1e9
+        if overlap <= 0:
+            gap = clock["dvl_minus_imu_start_s"]
+            note = (f"clock: the DVL stamps do not overlap the IMU's (DVL starts {_span(gap)} "
+                    f"{'after' if gap > 0 else 'before'} the IMU): a clock offset between the two, not pings "
+                    "outside the mission; the pings are kept as stamped: estimate the offset "
+                    "(graphnav.calibration.clock)")
+            add_note(meta, "dvl", note)
+            warnings.warn(f"{source}: {note}", RuntimeWarning, stacklevel=3)
+    meta["clock"] = clock
+    return clock
+
+
+def _span(seconds: float) -> str:
+    s = abs(seconds)
+    if s >= 86400:
+        return f"{s / 86400:.2f} days ({s:.0f} s)"
+    if s >= 3600:
+        return f"{s / 3600:.2f} h ({s:.0f} s)"
+    return f"{s:.3f} s"
