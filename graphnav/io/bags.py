@@ -386,6 +386,8 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
             "topics": {k: f"{s.topic} ({s.msgtype})" for k, s in streams.items()}, **info}
     if depth is None:
         meta["depth_source"] = "none"
+    from graphnav.io.stream_counts import record_bag_streams
+    record_bag_streams(meta, streams, imu, dvl, depth, gt)
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta)
 
 
