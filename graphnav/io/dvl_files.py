@@ -107,10 +107,7 @@ def read_dvl(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
     counts = {"read": int(len(dvl.t)), "valid": int(v_d_valid.sum())}
     if (~v_d_valid).any():
         counts["fewer than 3 valid bottom-track beams"] = int((~v_d_valid).sum())
-    if v_n is not None and (v_d_valid & (n_valid == 3)).any():
-        counts["3-beam pings without an earth velocity (dolfyn rotates 4-beam pings only)"] = int(
-            (v_d_valid & (n_valid == 3)).sum())
-    instrument = {**_instrument(ds), "pd0_invalid_beams": meta["pd0_invalid_beams"]}
+    instrument = _instrument(ds)
     return DvlLog(t=dvl.t, v_d=v_d, v_d_valid=v_d_valid, frame="beam", beams=dvl.beams, beam_valid=dvl.valid,
                   attitude_deg=attitude, depth_m=None if depth is None else depth.depth, v_n=v_n,
                   three_beam=n_valid == 3, instrument=instrument, counts=counts, source=str(path))
