@@ -265,3 +265,40 @@ def test_smooth_dead_reckoning_matches_the_gps_in_the_file():
     run = np.sum(np.linalg.norm(np.diff(p_gps, axis=0), axis=1))
     assert run > 150.0
     assert np.linalg.norm(p_dr[-1] - p_gps[-1]) < 0.15 * run
+
+
+def test_info_on_a_csv_log_with_the_column_map(sim, tmp_path, capsys):
+    """The column map: IMU in g and deg/s, DVL beams in mm/s with RDI's -32768 where invalid, ms stamps."""
+    def write(path, header, columns):
+        rows = [",".join(header)] + [",".join(f"{x:.12g}" for x in row) for row in np.column_stack(columns)]
+        path.write_text("\n".join(rows) + "\n")
+    t0 = 1_700_000_000.0
+    write(tmp_path / "imu.csv", ["ms", "ax", "ay", "az", "gx", "gy", "gz"],
+          [(sim.imu.t + t0) * 1e3, sim.imu.f_b / 9.80665, np.degrees(sim.imu.omega_b)])
+    write(tmp_path / "dvl.csv", ["ms", "b1", "b2", "b3", "b4"],
+          [(sim.dvl.t + t0) * 1e3, np.where(sim.dvl.valid, sim.dvl.beams * 1e3, -32768.0)])
+    cfg = sim.config.to_dict()
+    cfg["csv_columns"] = {
+        "time_unit": "ms",
+        "imu": {"file": "imu.csv", "t": "ms", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                "accel_unit": "g", "gyro_unit": "deg/s"},
+        "dvl": {"file": "dvl.csv", "t": "ms", "beams": ["b1", "b2", "b3", "b4"], "velocity_unit": "mm/s"}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    assert cli.main(["info", str(tmp_path), "--config", str(tmp_path / "config.json"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["format"] == "csv" and d["usable"] and not d["ground_truth"] and d["depth_m"] is None
+    s = d["streams"]
+    assert s["imu"]["read"] == len(sim.imu.t) and s["dvl"]["refused"] == {NO_VALID_BEAM: 3}
+    assert any("g, gyro_unit deg/s" in n for n in s["imu"]["notes"])
+    assert any("RDI bad-velocity flag" in w for w in d["warnings"])          # the loader's own warning
+    assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), abs=1e-9)
+    # without the map the same folder is not something graphnav reads
+    assert cli.main(["info", str(tmp_path)]) == 2
+
+
+def test_smooth_summary_carries_the_streams(tmp_path):
+    out = tmp_path / "s"
+    assert cli.main(["smooth", "--duration", "20", "--method", "Graph-TC", "--no-plots", "--out", str(out)]) == 0
+    streams = json.loads((out / "summary.json").read_text())["streams"]
+    assert streams["imu"]["read"] == streams["imu"]["used"] == 2001          # 0 .. 20 s at 100 Hz
+    assert streams["imu"]["rate_hz"] == pytest.approx(100.0) and streams["dvl"]["read"] == 20
