@@ -301,4 +301,4 @@ def test_smooth_summary_carries_the_streams(tmp_path):
     assert cli.main(["smooth", "--duration", "20", "--method", "Graph-TC", "--no-plots", "--out", str(out)]) == 0
     streams = json.loads((out / "summary.json").read_text())["streams"]
     assert streams["imu"]["read"] == streams["imu"]["used"] == 2001          # 0 .. 20 s at 100 Hz
-    assert streams["imu"]["rate_hz"] == pytest.approx(100.0) and streams["dvl"]["read"] == 20
+    assert streams["imu"]["rate_hz"] == pytest.approx(100.0) and streams["dvl"]["read"] == 21
