@@ -34,7 +34,9 @@ def register(subparsers) -> None:
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
-                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume.",
+                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume. A DVL file "
+                    "without an IMU (a PD0 file alone) gives DVL-DR, a dead reckoning of the instrument's own "
+                    "velocity over ground and attitude, with a warning: `graphnav info FILE` tells which it is.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
@@ -180,6 +182,10 @@ def smooth_dvl_only(args, out: Path) -> dict:
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
+    if not args.no_plots:
+        from graphnav.evaluation.plots import plot_trajectories
+        files["trajectory_ne"] = str(plot_trajectories(None, [sol], [], out / "trajectory_ne.png",
+                                                       f"{data.name}: DVL dead reckoning (no IMU)"))
     summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)

@@ -470,8 +470,8 @@ def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str
     flag[flagged] = True
     out = {f"invalid velocity (RDI flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s)": flag}
     for key, mask in envelope.items():
-        out[f"outside the vehicle's envelope ({describe_implausible({key: np.ones(1, bool)}, spec).split(' ', 1)[1]})"] \
-            = mask
+        limit = describe_implausible({key: np.ones(1, bool)}, spec).split(" ", 1)[1]   # "1 speed > 3 m/s" -> limit
+        out[f"outside the vehicle's envelope ({limit})"] = mask
     return out
 
 
