@@ -294,5 +294,6 @@ def load_pd0(path: str | Path, config: SensorConfig | None = None):
     """A Mission from a PD0 file plus the IMU named in the configuration's CSV column map."""
     if config is None or "imu" not in config.csv_columns:
         raise ConfigError(f"{path}: a PD0 file holds the DVL only; give the IMU in the configuration's "
-                          "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv)")
+                          "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv); "
+                          "`graphnav smooth --data FILE` dead-reckons the DVL alone (DVL-DR)")
     return load_csv_mission(Path(path).parent, config, pd0_file=Path(path))

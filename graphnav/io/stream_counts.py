@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 
 from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
-from graphnav.core.streams import add_note, count_read, count_refused, stream_entry
+from graphnav.core.streams import add_note, count_read, count_refused
 
 #: Reason of a ping with no valid beam and no valid instrument velocity that no loader reason explains.
 NO_VALID_BEAM = "no valid beam (flagged invalid, NaN or RDI -32768 in the file)"
@@ -82,7 +82,6 @@ def ensure_streams(mission: Mission) -> dict:
     hand-built mission)."""
     if not mission.meta.get("streams"):
         record_streams(mission.meta, imu=mission.imu, dvl=mission.dvl, depth=mission.depth, gt=mission.gt)
-        stream_entry(mission.meta, "dvl")
     return mission.meta["streams"]
 
 
