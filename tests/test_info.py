@@ -302,3 +302,37 @@ def test_smooth_summary_carries_the_streams(tmp_path):
     streams = json.loads((out / "summary.json").read_text())["streams"]
     assert streams["imu"]["read"] == streams["imu"]["used"] == 2001          # 0 .. 20 s at 100 Hz
     assert streams["imu"]["rate_hz"] == pytest.approx(100.0) and streams["dvl"]["read"] == 21
+
+
+def test_info_on_a_pd0_file_alone_and_with_the_imu_of_the_column_map(tmp_path, capsys):
+    """A synthetic beam-coordinate PD0 file (tests/test_pd0.py writes it): alone it is a DVL log for dead
+    reckoning, with the IMU of the configuration's column map it is a mission."""
+    pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed")
+    from test_pd0 import START, write_pd0
+
+    from graphnav.core.config import SensorConfig
+    config = SensorConfig()
+    config.dvl.psi_rad = np.deg2rad([180.0, 0.0, 90.0, 270.0])      # a convex RDI head, 30 deg beams
+    config.dvl.theta_rad = np.deg2rad(30.0)
+    mission = simulate_mission(duration_s=20.0, seed=2, config=config)
+    write_pd0(tmp_path / "dvl.000", mission)
+    alone = describe(tmp_path / "dvl.000")
+    assert alone["format"] == "pd0" and alone["usable"] and "DVL dead reckoning" in alone["use"]
+    n = len(mission.dvl.t) - 1                          # dolfyn does not read a file's last ensemble
+    assert alone["streams"]["dvl"]["read"] == n and alone["dvl_frame"] == "beam"
+    assert alone["time_span_s"][0] == pytest.approx(START.timestamp() + mission.dvl.t[0], abs=1e-3)
+    assert alone["dvl"]["speed_mps"]["median"] == pytest.approx(
+        np.median(np.linalg.norm(mission.dvl.v_b[:n], axis=1)), rel=0.02)
+    rows = ["t,ax,ay,az,gx,gy,gz"] + [",".join(f"{x:.12g}" for x in (t + START.timestamp(), *f, *w))
+                                       for t, f, w in zip(mission.imu.t, mission.imu.f_b, mission.imu.omega_b)]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n")
+    cfg = mission.config.to_dict()
+    cfg["csv_columns"] = {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                  "omega_b": ["gx", "gy", "gz"]}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    with_imu = describe(tmp_path / "dvl.000", tmp_path / "config.json")
+    assert with_imu["usable"] and "IMU/DVL estimators" in with_imu["use"]
+    assert with_imu["streams"]["imu"]["read"] == len(mission.imu.t) and with_imu["streams"]["dvl"]["read"] == n
+    # the pressure sensor at the pings, to the decapascal of PD0
+    depth_at_pings = np.interp(mission.dvl.t[:n], mission.depth.t, mission.depth.depth)
+    assert with_imu["depth_m"]["max"] == pytest.approx(depth_at_pings.max(), abs=2e-3)
