@@ -208,6 +208,7 @@ def run(args) -> int:
         "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
                                                   nav.alignment is None else "none"}),
         "refused": info["refused"], "stream": stream_info, "health": info.get("health"),
+        "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "files": {"online_csv": str(csv_path)},
     }
@@ -246,6 +247,12 @@ class InterruptFlag:
         if self._previous is not None:
             self._signal.signal(self._signal.SIGINT, self._previous)
             self._previous = None
+
+
+def _loaded_streams(mission) -> dict:
+    """What the loader read / used / refused per stream (``Mission.meta["streams"]``)."""
+    from graphnav.io.stream_counts import ensure_streams
+    return ensure_streams(mission)
 
 
 def run_stream(args, sink, stop=None):

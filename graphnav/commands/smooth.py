@@ -34,7 +34,9 @@ def register(subparsers) -> None:
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
-                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume.",
+                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume. A DVL file "
+                    "without an IMU (a PD0 file alone) gives DVL-DR, a dead reckoning of the instrument's own "
+                    "velocity over ground and attitude, with a warning: `graphnav info FILE` tells which it is.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
@@ -70,9 +72,13 @@ def smooth_mission(args, out: Path) -> dict:
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
     Returns the summary (also written to ``out/summary.json``)."""
     from graphnav.evaluation.methods import run_method
+    from graphnav.io.dvl_files import holds_dvl_only
     from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.io.stream_counts import ensure_streams
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.data is not None and holds_dvl_only(args.data, _config(args)):
+        return smooth_dvl_only(args, out)
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
     init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
@@ -103,11 +109,83 @@ def smooth_mission(args, out: Path) -> dict:
         "accuracy": accuracy_summary(sol, mission, outages), "health": sol.info.get("health"),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": o.info.get("health")}
                      for o in others},
+        "streams": ensure_streams(mission),
     }
     if not args.no_plots:
         plots = make_plots(out, mission, [*others, sol], outages,
                            f"{args.scenario} scenario, {args.imu_grade} IMU")
         files.update({Path(p).stem: p for p in plots})
+    summary["files"] = files
+    files["summary_json"] = str(out / "summary.json")
+    write_json(out / "summary.json", summary)
+    return summary
+
+
+def _config(args):
+    from graphnav.core.config import SensorConfig
+    return SensorConfig.load(args.config) if args.config else None
+
+
+#: What ``smooth`` says when it dead-reckons a DVL log that came without an IMU.
+DVL_ONLY_WARNING = (
+    "{data} holds a DVL log and no IMU: the output is DVL-DR, a dead reckoning of the instrument's own velocity "
+    "over ground and attitude (its error grows with the compass error times the distance run), not graphnav's "
+    "IMU/DVL estimator ({method}). To run the estimator, give the IMU in the configuration's csv_columns map "
+    "(--config with \"csv_columns\": {{\"imu\": {{\"file\": ..., \"t\": ..., \"f_b\": [...], \"omega_b\": [...]}}, "
+    "\"dvl\": {{\"pd0\": \"{name}\"}}}}; see graphnav.io.generic_csv)")
+
+
+def smooth_dvl_only(args, out: Path) -> dict:
+    """``smooth`` of a DVL file without an IMU: the DVL-DR track (:func:`graphnav.estimators.dead_reckoning.
+    dvl_dead_reckoning`) written like a smoothed mission (trajectory CSV/TUM, optional bag, summary.json with
+    ``"method": "DVL-DR"``, the streams and the warning that this is not the IMU/DVL estimator)."""
+    import warnings
+
+    from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
+    from graphnav.io.dvl_files import read_dvl
+    from graphnav.io.inspect import describe_dvl_log
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    data = Path(args.data)
+    message = DVL_ONLY_WARNING.format(data=data, method=args.method, name=data.name)
+    warnings.warn(message, RuntimeWarning, stacklevel=2)
+    ignored = [f"--{k.replace('_', '-')} {v}" for k, v, default in (
+        ("scenario", args.scenario, "none"), ("imu_grade", args.imu_grade, "as-recorded"), ("init", args.init, "auto"))
+        if v != default] + (["--compare"] if args.compare else [])
+    if ignored:
+        warnings.warn(f"{data}: {', '.join(ignored)} ignored: they apply to the IMU/DVL estimators", RuntimeWarning,
+                      stacklevel=2)
+    start = time.perf_counter()
+    log = read_dvl(data, _config(args))
+    sol = dvl_dead_reckoning(log)
+    wall = time.perf_counter() - start
+    files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+    if args.bag != "none":
+        import shutil
+
+        from graphnav.io.bags import write_odometry_bag
+        bag = out / "trajectory_bag"
+        shutil.rmtree(bag, ignore_errors=True)
+        files["trajectory_bag"] = str(write_odometry_bag(sol, bag, storage=args.bag))
+    duration = float(sol.t[-1] - sol.t[0])
+    streams = describe_dvl_log(log)["streams"]
+    gaps = sol.info["gaps"]
+    if gaps:
+        streams["dvl"]["notes"].append(f"{len(gaps)} gap(s) bridged by dead reckoning (longest "
+                                       f"{max(g['length_s'] for g in gaps):.1f} s)")
+    summary = {
+        "method": "DVL-DR", "mission": data.stem, "scenario": "none", "imu_grade": None, "completer": None,
+        "epochs": int(len(sol.t)), "duration_s": duration, "runtime_s": wall,
+        "initialisation": {"source": "origin at the first ping with a velocity over ground"},
+        "realtime_factor": duration / wall if wall > 0 else float("nan"),
+        "accuracy": {"ground_truth": False}, "health": None, "compared": {},
+        "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
+        "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
+    }
+    if not args.no_plots:
+        from graphnav.evaluation.plots import plot_trajectories
+        files["trajectory_ne"] = str(plot_trajectories(None, [sol], [], out / "trajectory_ne.png",
+                                                       f"{data.name}: DVL dead reckoning (no IMU)"))
     summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)

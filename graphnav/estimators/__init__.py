@@ -8,5 +8,6 @@ _PUBLIC = {
     "align": ("AlignOptions",),
     "health": ("HealthOptions",),
     "runs": ("run_ekf", "run_graph", "iterate_graph"),
+    "dead_reckoning": ("dvl_dead_reckoning",),
 }
 __all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

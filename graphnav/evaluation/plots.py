@@ -97,6 +97,8 @@ def plot_trajectories(gt, solutions: list[NavSolution], outages, path, title: st
         ax_err.grid(alpha=0.3)
         ax_err.legend(fontsize=8, ncol=2, loc="upper left")
         ax_err.set_title("Horizontal position error")
+    else:
+        ax_err.set_visible(False)          # no reference: no error to show
     fig.suptitle(title or "Trajectory")
     fig.tight_layout()
     return _save(fig, path)

@@ -263,13 +263,37 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         from graphnav.core.rotations import euler_to_C_b_n
         e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
+    _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
+
+
+def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
+    """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock)."""
+    from graphnav.core.streams import add_note
+    from graphnav.io.stream_counts import record_streams
+    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt)
+    add_note(meta, "imu", f"clock starts at the first IMU stamp ({meta['t0_s']:.6f} s on the file's clock)")
+    spec = cmap.get("imu") or {}
+    units = [f"{k} {spec[k]}" for k in ("accel_unit", "gyro_unit") if spec.get(k) not in (None, "m/s^2", "rad/s")]
+    if units:
+        add_note(meta, "imu", f"converted to SI from {', '.join(units)}")
+    if spec.get("frame") == "flu":
+        add_note(meta, "imu", "FLU axes turned to FRD (y and z negated)")
+    if meta.get("beams_from_v_b"):
+        add_note(meta, "dvl", "the file has no beams: beams are the exact projections of its v_b on the configured "
+                              "geometry (no noise)")
+    if "pd0_instrument" in meta:
+        add_note(meta, "dvl", f"PD0 bottom track of a {meta['pd0_instrument'] or 'RDI'} "
+                              f"({meta['pd0_beam_angle_deg']:g} deg beams, {meta['pd0_beam_pattern']})")
+    if depth is None:
+        add_note(meta, "depth", "no depth stream")
 
 
 def load_pd0(path: str | Path, config: SensorConfig | None = None):
     """A Mission from a PD0 file plus the IMU named in the configuration's CSV column map."""
     if config is None or "imu" not in config.csv_columns:
         raise ConfigError(f"{path}: a PD0 file holds the DVL only; give the IMU in the configuration's "
-                          "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv)")
+                          "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv); "
+                          "`graphnav smooth --data FILE` dead-reckons the DVL alone (DVL-DR)")
     return load_csv_mission(Path(path).parent, config, pd0_file=Path(path))

@@ -413,9 +413,10 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
 
     estimates = {}
     detected = raw.axis_detection
+    refused = _akit_refused(len(v_dvl), flagged, envelope, cfg.dvl)
     if g is None:
         return _mission_without_gt(folder, raw, cfg, v_dvl, envelope, dvl_time_offset_s, beam_seed, name,
-                                   rescale_stamps)
+                                   rescale_stamps, refused)
     if gt_time_offset_s == "auto" and detected is not None and detected.gt_offset is not None \
             and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
         gt_time_offset_s = detected.gt_offset.offset_s
@@ -458,11 +459,47 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
             "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
+    _record_akit_streams(meta, imu, dvl, depth, gt, refused, cfg, rescale_stamps, estimates)
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
+def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str, np.ndarray]:
+    """Reason -> (n,) mask of the DVL rows the A-KIT loader made invalid (NaN rows are left to the generic
+    count of :func:`graphnav.io.stream_counts.record_streams`)."""
+    flag = np.zeros(n, dtype=bool)
+    flag[flagged] = True
+    out = {f"invalid velocity (RDI flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s)": flag}
+    for key, mask in envelope.items():
+        limit = describe_implausible({key: np.ones(1, bool)}, spec).split(" ", 1)[1]   # "1 speed > 3 m/s" -> limit
+        out[f"outside the vehicle's envelope ({limit})"] = mask
+    return out
+
+
+def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, cfg: SensorConfig, rescale_stamps: bool,
+                         estimates: dict) -> None:
+    """``meta["streams"]`` of an A-KIT mission: counts, refusals and what the loader did to each stream."""
+    from graphnav.core.streams import add_note
+    from graphnav.io.stream_counts import record_streams
+    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused)
+    if rescale_stamps:
+        for stream in ("imu", "dvl", "gt"):
+            if stream in meta["streams"]:
+                add_note(meta, stream, "stamps rescaled by (N-1)/N (the published linspace(0, 400, N) period)")
+    signs = meta["imu_axis_signs"]
+    add_note(meta, "imu", f"axis signs {signs['signs']} applied to accelerometer and gyro"
+                          + (" (detected at load time)" if signs["detected"] else " (given)"))
+    add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no beams)")
+    for stream, offset in (("dvl", cfg.dvl_time_offset_s), ("gt", cfg.gt_time_offset_s)):
+        if stream in meta["streams"]:
+            how = "estimated against the GT" if stream in estimates else "given or the vehicle's default"
+            add_note(meta, stream, f"time offset {offset:+.3f} s added ({how})")
+    if depth is not None:
+        add_note(meta, "depth", "depth is the GT's altitude (the files carry no depth sensor)")
+
+
 def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
-                        dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool) -> Mission:
+                        dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool,
+                        refused: dict | None = None) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
     published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
     given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
@@ -489,6 +526,7 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
                                "decided": None if detected is None else detected.decided},
             "time_offsets": {}}
+    _record_akit_streams(meta, imu, dvl, None, None, refused or {}, cfg, rescale_stamps, {})
     return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
 
 
@@ -582,22 +620,26 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     from graphnav.io import bags, generic_csv, pd0
     if topics and not bags.is_bag(path):
         raise ConfigError(f"--topic applies to ROS bags only; {path} is not one")
+    from graphnav.io.stream_counts import record_outside_span
     if bags.is_bag(path):
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
         atm = config_path is not None and "atmospheric_pressure_pa" in _config_keys(config_path)
-        return bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
-    if pd0.is_pd0(path):
-        return generic_csv.load_pd0(path, config)
-    if generic_csv.uses_column_map(path, config):
-        return generic_csv.load_csv_mission(path, config)
-    if not path.is_dir():
+        mission = bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
+    elif pd0.is_pd0(path):
+        mission = generic_csv.load_pd0(path, config)
+    elif generic_csv.uses_column_map(path, config):
+        mission = generic_csv.load_csv_mission(path, config)
+    elif not path.is_dir():
         raise DataError("data folder not found", str(path))
-    if config is not None:
-        if "imu_axis_signs" in _config_keys(config_path):   # a config without the field leaves it "auto"
-            sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
-        sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
-        sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
-    return load_akit(path, config=config, **sim_kwargs)
+    else:
+        if config is not None:
+            if "imu_axis_signs" in _config_keys(config_path):   # a config without the field leaves it "auto"
+                sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
+            sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
+            sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
+        mission = load_akit(path, config=config, **sim_kwargs)
+    record_outside_span(mission)
+    return mission
 
 
 def _config_keys(config_path: str | Path) -> set[str]:

@@ -42,6 +42,15 @@ def _fmt(x: float) -> str:
     return "" if x is None or not math.isfinite(x) else f"{x:.10g}"
 
 
+def _fmt_t(x: float) -> str:
+    # Stamps to the microsecond whatever their size: 10 significant digits would cut a Unix stamp to 1 s.
+    return "" if x is None or not math.isfinite(x) else (f"{x:.6f}".rstrip("0").rstrip(".") or "0")
+
+
+def _fmt_row(row) -> str:
+    return ",".join([_fmt_t(float(row[0]))] + [_fmt(float(x)) for x in row[1:]])
+
+
 def solution_rows(sol: NavSolution) -> np.ndarray:
     """(K, len(CSV_COLUMNS)) float array of a solution in CSV column order (NaN where not available)."""
     k = len(sol.t)
@@ -61,7 +70,7 @@ def write_trajectory_csv(path: str | Path, sol: NavSolution) -> Path:
     with path.open("w", newline="") as fh:
         fh.write(",".join(CSV_COLUMNS) + "\n")
         for row in solution_rows(sol):
-            fh.write(",".join(_fmt(x) for x in row) + "\n")
+            fh.write(_fmt_row(row) + "\n")
     return path
 
 
@@ -208,7 +217,7 @@ class EpochCsvWriter:
         sigma = nan3 if cov_v_n is None else np.sqrt(np.clip(np.diagonal(np.asarray(cov_v_n)), 0, None))
         row = [t, *np.asarray(p_n, float), *np.asarray(v_n, float), *C_b_n_to_euler(np.asarray(C_b_n, float)),
                *sigma, *(nan3 if bias_acc is None else bias_acc), *(nan3 if bias_gyro is None else bias_gyro)]
-        self._fh.write(",".join(_fmt(float(x)) for x in row) + "\n")
+        self._fh.write(_fmt_row(row) + "\n")
         self._fh.flush()
         if self.fsync:
             os.fsync(self._fh.fileno())

@@ -1,0 +1,85 @@
+"""The loaders' side of :mod:`graphnav.core.streams`: fill ``Mission.meta["streams"]`` from the streams a loader
+built, with the DVL pings it refused and why.
+
+A DVL ping is *used* when it has at least one valid beam or a valid instrument velocity ``v_d`` (the graph
+and the tightly coupled EKF use single beams); every other ping is *refused* under the first reason that
+applies: the loader's own reasons (an RDI flag, outside the vehicle's envelope, ...), then
+:data:`NO_VALID_BEAM`. Pings with 1-3 valid beams are used, and ``graphnav info`` shows how many beams pings
+had.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
+from graphnav.core.streams import add_note, count_read, count_refused
+
+#: Reason of a ping with no valid beam and no valid instrument velocity that no loader reason explains.
+NO_VALID_BEAM = "no valid beam (flagged invalid, NaN or RDI -32768 in the file)"
+#: Reason of a ping outside the IMU's time span (the estimators cannot use it).
+OUTSIDE_IMU_SPAN = "outside the IMU time span"
+
+
+def dvl_used(dvl) -> np.ndarray:
+    """(M,) bool: pings with a valid beam or a valid instrument velocity."""
+    used = np.asarray(dvl.valid, bool).any(axis=1)
+    if dvl.v_d is not None and dvl.v_d_valid is not None:
+        used |= np.asarray(dvl.v_d_valid, bool)
+    return used
+
+
+def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
+                   dvl_refused: dict[str, np.ndarray] | None = None) -> dict:
+    """Count every given stream as read (``count_read``) and refuse the DVL pings that are not used, by reason.
+
+    Args:
+        meta: the mission's ``meta`` (its ``"streams"`` entry is created or added to).
+        imu, dvl, depth, gt: the streams the loader built (``ImuData``, ``DvlData``, ``DepthData``,
+            ``GroundTruth``), each with ``t`` and ``source``; None for a stream the input does not have.
+        dvl_refused: reason -> (M,) bool mask of pings the loader refused for that reason (first reason in
+            the dict wins); the loader has warned about them.
+
+    The pings not used and not under a loader reason are counted under :data:`NO_VALID_BEAM`, with a warning.
+    Returns ``meta["streams"]``.
+    """
+    for name, stream in (("imu", imu), ("dvl", dvl), ("depth", depth), ("gt", gt)):
+        if stream is not None:
+            count_read(meta, name, stream.t, stream.source)
+    if dvl is not None:
+        left = ~dvl_used(dvl)
+        for reason, mask in (dvl_refused or {}).items():
+            hit = left & np.asarray(mask, bool)
+            count_refused(meta, "dvl", reason, int(hit.sum()))
+            left &= ~hit
+        if left.any():
+            first = int(np.flatnonzero(left)[0])
+            warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
+                          f"used (first at index {first}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
+            count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
+    return meta.get("streams", {})
+
+
+def record_outside_span(mission: Mission) -> None:
+    """Count the used DVL pings outside the IMU span (``Mission.validate`` warns about them when they are
+    further than ``OUTSIDE_SPAN_TOLERANCE_S`` out; the estimators skip them all)."""
+    if "dvl" not in mission.meta.get("streams", {}) or not len(mission.imu.t):
+        return
+    t = mission.dvl.t
+    outside = dvl_used(mission.dvl) & ((t < mission.imu.t[0]) | (t > mission.imu.t[-1]))
+    if outside.any():
+        count_refused(mission.meta, "dvl", OUTSIDE_IMU_SPAN, int(outside.sum()))
+        near = np.all((t[outside] >= mission.imu.t[0] - OUTSIDE_SPAN_TOLERANCE_S)
+                      & (t[outside] <= mission.imu.t[-1] + OUTSIDE_SPAN_TOLERANCE_S))
+        if near:
+            add_note(mission.meta, "dvl", f"{int(outside.sum())} ping(s) within {OUTSIDE_SPAN_TOLERANCE_S:g} s "
+                                          "outside the IMU span (the end of a recording) not used")
+
+
+def ensure_streams(mission: Mission) -> dict:
+    """``mission.meta["streams"]``, recorded from the mission's streams when no loader did (a simulated or
+    hand-built mission)."""
+    if not mission.meta.get("streams"):
+        record_streams(mission.meta, imu=mission.imu, dvl=mission.dvl, depth=mission.depth, gt=mission.gt)
+    return mission.meta["streams"]

@@ -1,0 +1,338 @@
+"""``graphnav info`` (graphnav.io.inspect.describe), the loaders' stream counts, and DVL dead reckoning of a DVL log
+without an IMU (graphnav.estimators.dead_reckoning, ``smooth --data FILE.pd0``)."""
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav import cli
+from graphnav.core.dvl_log import DvlLog
+from graphnav.core.errors import DataError
+from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
+from graphnav.io.inspect import describe, format_description
+from graphnav.io.paths import akit_dir, data_root
+from graphnav.io.stream_counts import NO_VALID_BEAM
+from graphnav.sim.simulate import simulate_mission
+
+SPEED = 1.5          # m/s
+PERIOD = 200.0       # s, one full circle
+
+
+# --- DVL dead reckoning on a synthetic log -------------------------------------------------------------------
+def circle_log(with_v_n: bool = True, drop: slice | None = None, remove: slice | None = None,
+               depth: bool = False) -> tuple[DvlLog, float]:
+    """A DVL log of a vehicle on a circle at SPEED (clockwise seen from above: heading = 360 t / PERIOD deg),
+    1 Hz pings, level; ``drop``: pings without a measurement; ``remove``: pings missing from the log."""
+    t = np.arange(0.0, PERIOD + 0.5, 1.0)
+    heading = 2 * np.pi * t / PERIOD
+    v_n = SPEED * np.column_stack([np.cos(heading), np.sin(heading), np.zeros_like(t)])
+    v_d = np.tile([SPEED, 0.0, 0.0], (len(t), 1))
+    valid = np.ones(len(t), bool)
+    if drop is not None:
+        valid[drop] = False
+        v_n[drop] = np.nan
+        v_d[drop] = np.nan
+    keep = np.ones(len(t), bool)
+    if remove is not None:
+        keep[remove] = False
+    attitude = np.column_stack([np.degrees(heading) % 360, np.zeros_like(t), np.zeros_like(t)])
+    log = DvlLog(t=t[keep], v_d=v_d[keep], v_d_valid=valid[keep], frame="instrument",
+                 attitude_deg=attitude[keep], v_n=v_n[keep] if with_v_n else None,
+                 depth_m=(10.0 + 0.01 * t[keep]) if depth else None, source="circle")
+    return log, SPEED * PERIOD / (2 * np.pi)
+
+
+def true_position(t: np.ndarray, radius: float) -> np.ndarray:
+    a = 2 * np.pi * t / PERIOD
+    return radius * np.column_stack([np.sin(a), 1 - np.cos(a)])
+
+
+@pytest.mark.parametrize("with_v_n", [True, False], ids=["v_n", "v_d+attitude"])
+def test_circle_at_known_speed_closes(with_v_n):
+    log, radius = circle_log(with_v_n)
+    sol = dvl_dead_reckoning(log)
+    assert sol.method == "DVL-DR" and sol.info["velocity"] == ("v_n" if with_v_n else "v_d+attitude")
+    # a full circle: back at the start; the trapezoid on 1 Hz pings keeps every point within 1 mm of the circle
+    assert np.linalg.norm(sol.p_n[-1] - sol.p_n[0]) < 1e-9
+    err = np.linalg.norm(sol.p_n[:, :2] - true_position(sol.t, radius), axis=1)
+    # the trapezoid shrinks each 1-s step by cos(dtheta/2): 2 R dtheta^2 / 12 = 7.8 mm across the circle
+    assert err.max() < 0.01
+    # the path length of the trapezoid: each step is |v_k + v_k+1| / 2 = SPEED cos(dtheta / 2) long
+    assert sol.info["distance_m"] == pytest.approx(SPEED * PERIOD * np.cos(np.pi / PERIOD), rel=1e-9)
+    # a quarter of the way round: R north and R east of the start, heading 90 deg
+    quarter = np.searchsorted(sol.t, PERIOD / 4)
+    assert sol.p_n[quarter, 0] == pytest.approx(radius, rel=1e-3) and sol.p_n[quarter, 1] == pytest.approx(
+        radius, rel=1e-3)
+    assert np.degrees(np.arctan2(sol.C_b_n[quarter, 1, 0], sol.C_b_n[quarter, 0, 0])) == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize("how", ["drop", "remove"])
+def test_a_20_s_gap_is_bridged_without_a_jump(how):
+    gap = slice(50, 70)                       # pings 50..69 missing: 21 s between the measured pings 49 and 70
+    log, radius = circle_log(**{how: gap})
+    with pytest.warns(RuntimeWarning, match=r"1 gap\(s\).*longest 21\.0 s"):
+        sol = dvl_dead_reckoning(log)
+    assert [g["length_s"] for g in sol.info["gaps"]] == [pytest.approx(21.0)]
+    # epochs every second across the gap (filled in where the log has no ping), no step longer than the speed
+    assert np.allclose(np.diff(sol.t), 1.0)
+    step = np.linalg.norm(np.diff(sol.p_n[:, :2], axis=0), axis=1)
+    assert step.max() <= SPEED * 1.0 + 1e-9
+    counted = sol.info["pings_interpolated"] if how == "drop" else sol.info["epochs_filled"]
+    assert counted == 20
+    # the bridge is the chord-like interpolation of the two velocities: off the circle by less than the sagitta
+    # of a 21 s arc, and the track is exact again in velocity after the gap
+    err = np.linalg.norm(sol.p_n[:, :2] - true_position(sol.t, radius), axis=1)
+    assert 0.1 < err[-1] < radius * (1 - np.cos(np.pi * 21 / PERIOD)) * 2
+
+
+def test_depth_sensor_sets_the_vertical_and_nothing_to_integrate_is_an_error():
+    log, _ = circle_log(depth=True)
+    sol = dvl_dead_reckoning(log)
+    assert sol.info["vertical"] == "depth" and np.allclose(sol.p_n[:, 2], 10.0 + 0.01 * sol.t)
+    bare = DvlLog(t=log.t, v_d=log.v_d, v_d_valid=log.v_d_valid, frame="instrument", source="bare")
+    with pytest.raises(DataError, match="no velocity over ground in NED .* no attitude"):
+        dvl_dead_reckoning(bare)
+    one, _ = circle_log(drop=slice(1, None))
+    with pytest.raises(DataError, match="1 ping"):
+        dvl_dead_reckoning(one)
+
+
+# --- describe: simulated missions in the formats graphnav reads ----------------------------------------------
+@pytest.fixture(scope="module")
+def sim():
+    mission = simulate_mission(duration_s=30.0, seed=5, dvl_stamp_offset_s=0.37)
+    valid = mission.dvl.valid.copy()
+    valid[[3, 4, 5], :] = False               # three pings without any valid beam
+    valid[10, 1] = False                      # one 3-beam ping
+    return mission.with_dvl_valid(valid)
+
+
+def speed_median(mission) -> float:
+    from graphnav.core.dvl import DvlGeometry
+    v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(mission.dvl.beams, mission.dvl.valid,
+                                                                     allow_missing=True)
+    return float(np.nanmedian(np.linalg.norm(v, axis=1)))
+
+
+def test_info_on_a_bag(sim, tmp_path):
+    pytest.importorskip("rosbags", reason="graphnav[ros] not installed")
+    from graphnav.io.bags import write_mission_bag
+    import dataclasses
+    mission = dataclasses.replace(sim, dvl=dataclasses.replace(sim.dvl, v_b=None))
+    bag = write_mission_bag(mission, tmp_path / "sim.mcap")
+    d = describe(bag)
+    assert d["format"] == "rosbag2" and d["usable"] and d["ground_truth"]
+    s = d["streams"]
+    assert s["imu"]["read"] == len(sim.imu.t) and s["imu"]["rate_hz"] == pytest.approx(100.0, rel=1e-6)
+    assert s["dvl"]["read"] == len(sim.dvl.t) and s["dvl"]["rate_hz"] == pytest.approx(1.0, rel=1e-6)
+    assert s["dvl"]["refused"] == {NO_VALID_BEAM: 3} and s["dvl"]["used"] == len(sim.dvl.t) - 3
+    assert d["dvl"]["beams_per_ping"] == {"4": len(sim.dvl.t) - 4, "3": 1, "0": 3}
+    assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), abs=1e-5)   # float32 beams
+    # pressure written with the simulation's gravity, read back with the default configuration's
+    assert d["depth_m"]["min"] == pytest.approx(sim.depth.depth.min(), abs=1e-3)
+    assert any("no valid beam" in w for w in d["warnings"])
+    assert any("/dvl/data (marine_acoustic_msgs/msg/Dvl)" in n for n in s["dvl"]["notes"])
+    assert d["duration_s"] == pytest.approx(sim.t1 - sim.t0, abs=1e-6)
+
+
+def test_info_on_akit_files_written_from_a_simulation(sim, tmp_path):
+    from graphnav.io.export import write_akit
+    write_akit(sim, tmp_path, number=7)
+    folder = tmp_path / "Trajectory7"
+    d = describe(folder)
+    assert d["format"] == "akit" and d["usable"]
+    s = d["streams"]
+    assert s["imu"]["read"] == len(sim.imu.t) and s["gt"]["read"] == len(sim.gt.t)
+    # the A-KIT DVL file holds the pings with a velocity (the simulation keeps v_b on the pings made invalid)
+    assert s["dvl"]["read"] == len(sim.dvl.t) and s["dvl"]["refused"] == {}
+    assert any("time offset" in n for n in s["dvl"]["notes"])
+    assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), rel=0.02)
+    text = format_description(d)
+    assert "A-KIT" in text and "imu" in text and "refused" in text
+
+
+def test_info_on_a_json_lines_stream(sim, tmp_path):
+    from graphnav.io.streamio import mission_records, write_records
+    path = tmp_path / "stream.jsonl"
+    with path.open("w") as fh:
+        write_records(mission_records(sim), fh)
+        fh.write("not json\n{\"type\": \"imu\", \"t\": 1.0}\n")
+    d = describe(path)
+    assert d["format"] == "jsonl" and d["usable"]
+    s = d["streams"]
+    assert s["imu"]["read"] == len(sim.imu.t) and s["dvl"]["read"] == len(sim.dvl.t)
+    assert s["dvl"]["refused"] == {"no valid beam": 3}
+    assert s["lines"]["refused"] == {"not a valid record (not JSON, unknown type or missing field)": 2}
+    assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), abs=1e-9)
+
+
+def test_cli_json_parses_and_exit_codes(sim, tmp_path, capsys):
+    from graphnav.io.streamio import mission_records, write_records
+    path = tmp_path / "s.jsonl"
+    with path.open("w") as fh:
+        write_records(mission_records(sim), fh)
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["format"] == "jsonl" and d["streams"]["depth"]["read"] == len(sim.depth.t)
+    (tmp_path / "notes.txt").write_text("hello\n")
+    assert cli.main(["info", str(tmp_path / "notes.txt")]) == 2
+    assert "not a format graphnav reads" in capsys.readouterr().out
+    assert cli.main(["info", str(tmp_path / "missing")]) == 2
+
+
+# --- real data (skipped when ../shared/data is absent) ------------------------------------------------------
+def test_info_on_a_shared_akit_folder(capsys):
+    root = akit_dir()
+    if root is None or not (root / "Trajectory1").is_dir():
+        pytest.skip("shared A-KIT data not found (GRAPHNAV_DATA or ../shared/data)")
+    assert cli.main(["info", str(root / "Trajectory1"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    s = d["streams"]
+    assert (s["imu"]["read"], s["dvl"]["read"], s["gt"]["read"]) == (40000, 400, 400)
+    assert s["imu"]["rate_hz"] == pytest.approx(100.0, rel=1e-3) and s["dvl"]["rate_hz"] == pytest.approx(1.0, rel=1e-3)
+    assert 1.0 < d["dvl"]["speed_mps"]["median"] < 2.5 and d["dvl"]["speed_mps"]["max"] < 4.0
+    assert 10.0 < d["depth_m"]["min"] < d["depth_m"]["max"] < 40.0
+    assert any("axis signs" in n for n in s["imu"]["notes"])
+
+
+PD0_FILES = {"RiverPro_test01.PD0": (True, "RiverPro", "beam"),
+             "RDI_withBT.000": (False, "Workhorse", "earth coordinates"),
+             "winriver01.PD0": (False, "Workhorse", "ship coordinates"),
+             "sentinelv_b5.pd0": (False, "SentinelV", "no bottom-track data")}
+
+
+def shared_pd0(name: str):
+    pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed")
+    root = data_root()
+    path = None if root is None else root / "real-formats" / "pd0" / name
+    if path is None or not path.is_file():
+        pytest.skip(f"shared PD0 file {name} not found (GRAPHNAV_DATA or ../shared/data)")
+    return path
+
+
+@pytest.mark.parametrize("name", sorted(PD0_FILES))
+def test_info_on_the_shared_pd0_files(name, capsys):
+    path = shared_pd0(name)
+    usable, model, what = PD0_FILES[name]
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["format"] == "pd0" and d["usable"] is usable and d["instrument"]["model"] == model
+    assert d["streams"] and d["time_span_s"][0] > 1.4e9           # the instrument's real-time clock
+    if usable:
+        assert d["dvl_frame"] == what and d["streams"]["dvl"]["read"] == 272
+        assert 0.5 < d["dvl"]["speed_mps"]["median"] < 2.0 and "DVL dead reckoning" in d["use"]
+    else:
+        assert what in d["reason"]
+
+
+def test_smooth_dead_reckons_the_beam_coordinate_pd0_file(tmp_path):
+    path = shared_pd0("RiverPro_test01.PD0")
+    out = tmp_path / "dr"
+    with pytest.warns(RuntimeWarning, match="not graphnav's IMU/DVL estimator.*csv_columns"):
+        assert cli.main(["smooth", "--data", str(path), "--out", str(out), "--no-plots"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["method"] == "DVL-DR" and summary["streams"]["dvl"]["read"] == 272
+    assert "csv_columns" in summary["warnings"][0]
+    from graphnav.io.outputs import read_trajectory_csv, read_tum
+    sol = read_trajectory_csv(out / "trajectory.csv")
+    t_tum, p_tum, _ = read_tum(out / "trajectory.tum")
+    assert len(sol.t) == len(t_tum) == 272 and np.allclose(sol.t, t_tum, atol=1e-6)
+    assert np.allclose(sol.p_n, p_tum, atol=1e-6)
+    # the boat ran ~200 m by its GPS; the dead reckoning ends 18 m from the GPS's end (the file's compass)
+    assert 150.0 < summary["dead_reckoning"]["distance_m"] < 250.0
+
+
+def test_smooth_dead_reckoning_matches_the_gps_in_the_file():
+    """The sign and frame of v_n: the RiverPro file carries the boat's GPS; the dead-reckoned track must follow it
+    (a flipped sign or a 90 deg frame error would end hundreds of metres off)."""
+    path = shared_pd0("RiverPro_test01.PD0")
+    from graphnav.core.earth import lla_to_ned
+    from graphnav.io import pd0
+    from graphnav.io.dvl_files import read_dvl
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = dvl_dead_reckoning(read_dvl(path))
+        ds = pd0._read_rdi(path)
+    lat, lon = (np.radians(np.asarray(ds[k].values, float)) for k in ("latitude_gps", "longitude_gps"))
+    t_gps = ds["time_gps"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
+    ok = np.isfinite(lat) & (t_gps >= sol.t[0]) & (t_gps <= sol.t[-1])
+    p_gps = lla_to_ned(lat[ok], lon[ok], np.zeros(ok.sum()), (lat[ok][0], lon[ok][0], 0.0))[:, :2]
+    p_dr = np.column_stack([np.interp(t_gps[ok], sol.t, sol.p_n[:, j]) for j in range(2)])
+    p_dr -= p_dr[0]
+    run = np.sum(np.linalg.norm(np.diff(p_gps, axis=0), axis=1))
+    assert run > 150.0
+    assert np.linalg.norm(p_dr[-1] - p_gps[-1]) < 0.15 * run
+
+
+def test_info_on_a_csv_log_with_the_column_map(sim, tmp_path, capsys):
+    """The column map: IMU in g and deg/s, DVL beams in mm/s with RDI's -32768 where invalid, ms stamps."""
+    def write(path, header, columns):
+        rows = [",".join(header)] + [",".join(f"{x:.12g}" for x in row) for row in np.column_stack(columns)]
+        path.write_text("\n".join(rows) + "\n")
+    t0 = 1_700_000_000.0
+    write(tmp_path / "imu.csv", ["ms", "ax", "ay", "az", "gx", "gy", "gz"],
+          [(sim.imu.t + t0) * 1e3, sim.imu.f_b / 9.80665, np.degrees(sim.imu.omega_b)])
+    write(tmp_path / "dvl.csv", ["ms", "b1", "b2", "b3", "b4"],
+          [(sim.dvl.t + t0) * 1e3, np.where(sim.dvl.valid, sim.dvl.beams * 1e3, -32768.0)])
+    cfg = sim.config.to_dict()
+    cfg["csv_columns"] = {
+        "time_unit": "ms",
+        "imu": {"file": "imu.csv", "t": "ms", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                "accel_unit": "g", "gyro_unit": "deg/s"},
+        "dvl": {"file": "dvl.csv", "t": "ms", "beams": ["b1", "b2", "b3", "b4"], "velocity_unit": "mm/s"}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    assert cli.main(["info", str(tmp_path), "--config", str(tmp_path / "config.json"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["format"] == "csv" and d["usable"] and not d["ground_truth"] and d["depth_m"] is None
+    s = d["streams"]
+    assert s["imu"]["read"] == len(sim.imu.t) and s["dvl"]["refused"] == {NO_VALID_BEAM: 3}
+    assert any("g, gyro_unit deg/s" in n for n in s["imu"]["notes"])
+    assert any("RDI bad-velocity flag" in w for w in d["warnings"])          # the loader's own warning
+    assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), abs=1e-9)
+    # without the map the same folder is not something graphnav reads
+    assert cli.main(["info", str(tmp_path)]) == 2
+
+
+def test_smooth_summary_carries_the_streams(tmp_path):
+    out = tmp_path / "s"
+    assert cli.main(["smooth", "--duration", "20", "--method", "Graph-TC", "--no-plots", "--out", str(out)]) == 0
+    streams = json.loads((out / "summary.json").read_text())["streams"]
+    assert streams["imu"]["read"] == streams["imu"]["used"] == 2001          # 0 .. 20 s at 100 Hz
+    assert streams["imu"]["rate_hz"] == pytest.approx(100.0) and streams["dvl"]["read"] == 21
+
+
+def test_info_on_a_pd0_file_alone_and_with_the_imu_of_the_column_map(tmp_path, capsys):
+    """A synthetic beam-coordinate PD0 file (tests/test_pd0.py writes it): alone it is a DVL log for dead
+    reckoning, with the IMU of the configuration's column map it is a mission."""
+    pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed")
+    from test_pd0 import START, write_pd0
+
+    from graphnav.core.config import SensorConfig
+    config = SensorConfig()
+    config.dvl.psi_rad = np.deg2rad([180.0, 0.0, 90.0, 270.0])      # a convex RDI head, 30 deg beams
+    config.dvl.theta_rad = np.deg2rad(30.0)
+    mission = simulate_mission(duration_s=20.0, seed=2, config=config)
+    write_pd0(tmp_path / "dvl.000", mission)
+    alone = describe(tmp_path / "dvl.000")
+    assert alone["format"] == "pd0" and alone["usable"] and "DVL dead reckoning" in alone["use"]
+    n = len(mission.dvl.t) - 1                          # dolfyn does not read a file's last ensemble
+    assert alone["streams"]["dvl"]["read"] == n and alone["dvl_frame"] == "beam"
+    assert alone["time_span_s"][0] == pytest.approx(START.timestamp() + mission.dvl.t[0], abs=1e-3)
+    assert alone["dvl"]["speed_mps"]["median"] == pytest.approx(
+        np.median(np.linalg.norm(mission.dvl.v_b[:n], axis=1)), rel=0.02)
+    rows = ["t,ax,ay,az,gx,gy,gz"] + [",".join(f"{x:.12g}" for x in (t + START.timestamp(), *f, *w))
+                                       for t, f, w in zip(mission.imu.t, mission.imu.f_b, mission.imu.omega_b)]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n")
+    cfg = mission.config.to_dict()
+    cfg["csv_columns"] = {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                  "omega_b": ["gx", "gy", "gz"]}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    with_imu = describe(tmp_path / "dvl.000", tmp_path / "config.json")
+    assert with_imu["usable"] and "IMU/DVL estimators" in with_imu["use"]
+    assert with_imu["streams"]["imu"]["read"] == len(mission.imu.t) and with_imu["streams"]["dvl"]["read"] == n
+    # the pressure sensor at the pings, to the decapascal of PD0
+    depth_at_pings = np.interp(mission.dvl.t[:n], mission.depth.t, mission.depth.depth)
+    assert with_imu["depth_m"]["max"] == pytest.approx(depth_at_pings.max(), abs=2e-3)
