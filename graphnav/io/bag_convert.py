@@ -205,6 +205,8 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     unusable = no_beams & ~v_ok
     if unusable.any():
         count_refused(meta, "dvl", "no valid beam and no valid velocity", int(unusable.sum()))
+        warnings.warn(f"{source}: {int(unusable.sum())} DVL ping(s) with no valid beam and no valid velocity "
+                      f"(first at index {int(np.flatnonzero(unusable)[0])}) are not used", RuntimeWarning, stacklevel=2)
     if s.msgtype == TWIST_DVL or (no_beams.all() and v_ok.any()):
         add_note(meta, "dvl", f"velocity-only DVL ({s.msgtype}): the instrument's velocity v_d is used, no beams")
     # The instrument's body-frame velocity (v_b) where it has beams too; pings without >= 3 beams leave it NaN.
