@@ -58,11 +58,11 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
     return body + struct.pack("<H", sum(body) & 0xFFFF)
 
 
-def write_pd0(path, mission, coord_ex: int = 0) -> None:
-    """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid) with the
-    depth as pressure (decapascal, gauge)."""
+def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = None) -> None:
+    """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid; or ``raw_mms``
+    (M,4) as the bottom-track velocities) with the depth as pressure (decapascal, gauge)."""
     dvl = mission.dvl
-    beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768)
+    beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768) if raw_mms is None else raw_mms
     depth = np.interp(dvl.t, mission.depth.t, mission.depth.depth)
     p_dpa = np.round(depth * 1025.0 * mission.config.gravity_mps2 / 10.0).astype(int)
     with open(path, "wb") as f:
@@ -75,8 +75,8 @@ def sim(tmp_path_factory):
     from graphnav.core.config import SensorConfig
     root = tmp_path_factory.mktemp("pd0")
     config = SensorConfig()
-    # A convex RDI head: beams 1/2 along -x/+x, 3/4 along +y/-y of the instrument frame, 30 deg from its axis.
-    config.dvl.psi_rad = np.deg2rad([180.0, 0.0, 90.0, 270.0])
+    # A convex RDI head in graphnav's DVL frame (x toward beam 3, y toward beam 2, z along the beams), 30 deg.
+    config.dvl.psi_rad = np.deg2rad([270.0, 90.0, 0.0, 180.0])
     config.dvl.theta_rad = np.deg2rad(30.0)
     mission = simulate_mission(duration_s=40.0, seed=7, config=config, dropout=True)
     assert (~mission.dvl.valid).any()
@@ -125,14 +125,41 @@ def test_pd0_mission_smooths_like_the_simulation(sim, tmp_path):
     assert vrmse(read_trajectory_csv(out / "trajectory.csv"), mission.gt) < 0.1
 
 
-def test_pd0_refuses_earth_coordinates_and_needs_an_imu(sim, tmp_path):
+def _earth_mms(mission) -> np.ndarray:
+    """The simulated pings as an RDI earth-coordinate bottom track at the synthetic file's attitude (heading
+    90 deg, no tilt): the seabed's velocity relative to the head in East-North-Up plus RDI's error velocity
+    ``(B1 + B2 - B3 - B4) / (2 sqrt(2) sin theta)``, mm/s, -32768 for pings with fewer than 4 beams. RDI's earth
+    frame at heading 90 deg: E = Y, N = -X, U = Z of its instrument frame, whose X/Y/Z are graphnav's y_d, x_d,
+    -z_d."""
+    from graphnav.core.dvl import DvlGeometry
+    dvl = mission.dvl
+    T_d = DvlGeometry.from_spec(mission.config.dvl).T_d
+    v_d = np.linalg.lstsq(T_d, np.where(dvl.valid, dvl.beams, 0.0).T, rcond=None)[0].T
+    seabed_rdi = -np.stack([v_d[:, 1], v_d[:, 0], -v_d[:, 2]], axis=1)
+    b = np.where(dvl.valid, dvl.beams, 0.0)
+    err = (b[:, 0] + b[:, 1] - b[:, 2] - b[:, 3]) / (2 * np.sqrt(2) * np.sin(mission.config.dvl.theta_rad))
+    enu = np.stack([seabed_rdi[:, 1], -seabed_rdi[:, 0], seabed_rdi[:, 2], err], axis=1)
+    return np.where(dvl.valid.all(axis=1, keepdims=True), np.round(enu * 1000.0), -32768)
+
+
+def test_pd0_earth_coordinates_come_back_to_beams(sim, tmp_path):
     mission, root = sim
-    write_pd0(tmp_path / "earth.pd0", mission, coord_ex=0b0001_1000)
-    (tmp_path / "config.json").write_text((root / "config.json").read_text())
-    for name in ("imu.csv", "nav.csv"):
+    dvl = mission.dvl
+    write_pd0(tmp_path / "earth.pd0", mission, coord_ex=0b0001_1111, raw_mms=_earth_mms(mission))
+    for name in ("imu.csv", "nav.csv", "config.json"):
         (tmp_path / name).write_text((root / name).read_text())
-    with pytest.raises(DataError, match="earth coordinates"):
-        load_mission(tmp_path / "earth.pd0", tmp_path / "config.json")
+    with pytest.warns(RuntimeWarning, match="no bottom lock"):
+        m = load_mission(tmp_path / "earth.pd0", tmp_path / "config.json")
+    full = dvl.valid.all(axis=1)[:-1]            # dolfyn does not read the last ensemble
+    np.testing.assert_array_equal(m.dvl.valid.all(axis=1), full)
+    # Four rounded mm/s components spread over four beams: within 2 mm/s of the simulated beams.
+    np.testing.assert_allclose(m.dvl.beams[full], dvl.beams[:-1][full], atol=2e-3)
+    assert m.meta["pd0_frame"] == "earth"
+    assert m.meta["streams"]["dvl"]["refused"]["no bottom lock"] == int((~full).sum())
+
+
+def test_pd0_needs_an_imu(sim):
+    mission, root = sim
     from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError, match="holds the DVL only"):
         load_mission(root / "dvl.000", None)
