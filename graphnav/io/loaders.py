@@ -558,7 +558,8 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
 
             * None: the simulated default mission;
             * a ROS 2 bag: a ``.mcap`` / ``.db3`` file or a rosbag2 folder (:func:`graphnav.io.bags.load_bag`);
-            * a Teledyne RDI PD0 file, ``.pd0`` or ``.000``-style numbered (:func:`graphnav.io.generic_csv.load_pd0`);
+            * a Teledyne RDI PD0 file, recognised by content (``.pd0``, ``.000``, VmDAS ``.ENR/.ENS/.ENX``, any
+              name), in any RDI frame (:func:`graphnav.io.generic_csv.load_pd0`);
             * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
               (:func:`graphnav.io.generic_csv.load_csv_mission`);
             * an A-KIT ``TrajectoryN`` folder.
@@ -583,7 +584,7 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
         raise ConfigError(f"--topic applies to ROS 2 bags only; {path} is not one")
     if bags.is_bag(path):
         return bags.load_bag(path, config, topics)
-    if pd0.is_pd0(path):
+    if pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
         return generic_csv.load_pd0(path, config)
     if generic_csv.uses_column_map(path, config):
         return generic_csv.load_csv_mission(path, config)

@@ -1,0 +1,98 @@
+"""A DVL log on its own, from any DVL file: :func:`read_dvl` -> :class:`graphnav.core.dvl_log.DvlLog`.
+
+* **PD0** (Teledyne RDI ``.pd0``, ``.000``; VmDAS ``.ENR``/``.ENS``/``.ENX``; any name: the file is recognised
+  by its content, :func:`graphnav.io.pd0.looks_like_pd0`): every RDI frame, see :mod:`graphnav.io.pd0`.
+* **CSV of DVL velocities**: a header row, a time column (``t``, ``time``, ``time_s`` or ``timestamp``,
+  seconds) and three velocity columns (``vx, vy, vz``, ``v_x, v_y, v_z`` or ``vel_x, vel_y, vel_z``; m/s, in
+  graphnav's DVL frame ``d``), optionally ``valid`` (0/1). Empty or non-finite velocities are pings without a
+  measurement (counted); anything that is not a number is an error naming the line and column.
+"""
+from __future__ import annotations
+
+import csv
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.dvl_log import DvlLog
+from graphnav.core.errors import DataError
+from graphnav.core.mission import invalid_dvl_values
+from graphnav.io import pd0
+
+#: Accepted header names of the CSV columns (lower case).
+CSV_TIME = ("t", "time", "time_s", "timestamp")
+CSV_VELOCITY = (("vx", "vy", "vz"), ("v_x", "v_y", "v_z"), ("vel_x", "vel_y", "vel_z"))
+
+
+def read_dvl(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
+    """The DVL log of a file (PD0/VmDAS by content, else a CSV of DVL velocities by its header).
+
+    ``config`` gives the water density and gravity for depth from pressure (default :class:`SensorConfig`).
+
+    Raises:
+        DataError: the file is missing, not a DVL format graphnav reads, or bad (the message names where).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError("no such file", str(path))
+    if pd0.looks_like_pd0(path):
+        return pd0.read_pd0_log(path, config)
+    if pd0.has_pd0_suffix(path):
+        raise DataError("named like a PD0 file but holds no PD0 ensemble (header 0x7F 0x7F with a valid "
+                        "checksum): a truncated download or another format?", str(path))
+    if path.suffix.lower() in (".csv", ".txt"):
+        return read_dvl_csv(path)
+    raise DataError("not a DVL file graphnav reads: PD0/VmDAS ensembles (recognised by content) or a CSV of "
+                    "DVL velocities (t, vx, vy, vz)", str(path))
+
+
+def _column(header: list[str], names: tuple[str, ...]) -> int | None:
+    low = [h.strip().lower() for h in header]
+    return next((low.index(n) for n in names if n in low), None)
+
+
+def read_dvl_csv(path: str | Path) -> DvlLog:
+    """A CSV of DVL-frame velocities (see the module docstring) as a :class:`DvlLog` with ``frame="dvl"``."""
+    path = Path(path)
+    source = str(path)
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise DataError("empty file", source)
+    header, body = rows[0], rows[1:]
+    i_t = _column(header, CSV_TIME)
+    i_v = next((idx for idx in ([_column(header, (n,)) for n in names] for names in CSV_VELOCITY)
+                if None not in idx), None)
+    if i_t is None or i_v is None:
+        raise DataError(f"the header needs a time column ({', '.join(CSV_TIME)}) and three velocity columns "
+                        f"({'; '.join(', '.join(n) for n in CSV_VELOCITY)}); got {header}", source, 1)
+    i_ok = _column(header, ("valid",))
+    cols = [i_t, *i_v] + ([i_ok] if i_ok is not None else [])
+    data = np.full((len(body), len(cols)), np.nan)
+    for r, row in enumerate(body):
+        for c, j in enumerate(cols):
+            text = row[j].strip() if j < len(row) else ""
+            if not text:
+                continue
+            try:
+                data[r, c] = float(text)
+            except ValueError:
+                raise DataError(f"not a number: {text!r}", source, r + 2, header[j]) from None
+    t, v = data[:, 0], data[:, 1:4]
+    if not np.all(np.isfinite(t)):
+        raise DataError("empty or non-finite time", source, int(np.flatnonzero(~np.isfinite(t))[0]) + 2,
+                        header[i_t])
+    flagged = np.any(invalid_dvl_values(v), axis=1)
+    valid = ~flagged & ((np.nan_to_num(data[:, 4]) != 0) if i_ok is not None else True)
+    counts = {"read": len(t), "valid": int(valid.sum())}
+    if flagged.any():
+        counts["no velocity (empty, non-finite or flagged)"] = int(flagged.sum())
+    if i_ok is not None and (~valid & ~flagged).any():
+        counts["marked invalid in the file"] = int((~valid & ~flagged).sum())
+    if counts["valid"] < len(t):
+        warnings.warn(f"{source}: {len(t) - counts['valid']} of {len(t)} ping(s) without a valid velocity",
+                      RuntimeWarning, stacklevel=2)
+    return DvlLog(t=t, v_d=np.where(valid[:, None], v, np.nan), v_d_valid=valid, frame="dvl",
+                  instrument={"format": "csv"}, counts=counts, source=source)
