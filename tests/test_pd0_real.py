@@ -113,7 +113,8 @@ def test_earth_frame_velocity_equals_dolfyns(pd0_dir, name):
 def test_real_beams_solve_to_dolfyns_velocity_with_right_handed_geometry(pd0_dir):
     """The RiverPro file's recorded beams, solved with graphnav's DVL geometry from the file (DvlSpec theta/psi,
     C_d_b = I), give dolfyn's instrument velocity through the proper rotation C_D_RDI; the old convention
-    (RDI's X/Y with beams along +z: azimuths 180, 0, 90, 270) solves to a mirror image, (-u, -v, +w)."""
+    (RDI's X/Y as x_d/y_d with beams along +z: azimuths 180, 0, 90, 270) solves to a mirror image, (-u, -v, +w)
+    of dolfyn's instrument velocity."""
     path = pd0_dir / "RiverPro_test01.PD0"
     log = _read(path)
     assert np.isclose(np.linalg.det(pd0.C_D_RDI), 1.0)
@@ -125,7 +126,8 @@ def test_real_beams_solve_to_dolfyns_velocity_with_right_handed_geometry(pd0_dir
     use = np.all(np.isfinite(v_d), axis=1) & np.all(np.isfinite(inst), axis=1)
     head_rdi = -inst[use]                     # dolfyn's bottom track is the seabed relative to the head
     assert np.max(np.abs(v_d[use] - head_rdi @ pd0.C_D_RDI.T)) < 5e-3   # one mean inclination: 0.2 % of 1.9 m/s
-    spec.psi_rad = np.deg2rad([180.0, 0.0, 90.0, 270.0])
+    # The same (calibrated) beams with RDI's X, Y taken as x_d, y_d: azimuth 90 deg - psi (180, 0, 90, 270).
+    spec.psi_rad = np.mod(np.pi / 2 - spec.psi_rad, 2 * np.pi)
     v_old = DvlGeometry.from_spec(spec).velocity_from_beams(log.beams, log.beam_valid, allow_missing=True)[use]
     assert np.max(np.abs(v_old - head_rdi)) > 0.1                                      # not RDI's frame...
     assert np.max(np.abs(v_old - head_rdi * [1, 1, -1])) < 5e-3                       # ...but its mirror image
