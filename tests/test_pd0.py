@@ -39,7 +39,7 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
     rtc = bytes([when.year % 100, when.month, when.day, when.hour, when.minute, when.second, hundredths])
     var = struct.pack("<H", 0x0080) + struct.pack("<H", number & 0xFFFF) + rtc + bytes([number >> 16])
     var += struct.pack("<HHH", 0, 1500, 100) + struct.pack("<Hhhhh", 9000, 0, 0, 35, 1500) + bytes([0, 0, 0])
-    var += bytes([0, 0, 0]) + bytes(8) + struct.pack("<I", 0) + bytes(2) + struct.pack("<II", pressure_dpa, 0)
+    var += bytes([0, 0, 0]) + bytes(8) + struct.pack("<I", 0) + bytes(2) + struct.pack("<II", pressure_dpa & 0xFFFFFFFF, 0)
     var += bytes(1) + bytes([when.year // 100]) + bytes([when.year % 100]) + rtc[1:]
     assert len(var) == 65
     vel = struct.pack("<H", 0x0100) + struct.pack("<4h", 0, 0, 0, 0)
@@ -58,13 +58,16 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
     return body + struct.pack("<H", sum(body) & 0xFFFF)
 
 
-def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = None) -> None:
+def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = None,
+              pressure_dpa: np.ndarray | None = None) -> None:
     """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid; or ``raw_mms``
     (M,4) as the bottom-track velocities) with the depth as pressure (decapascal, gauge)."""
     dvl = mission.dvl
     beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768) if raw_mms is None else raw_mms
     depth = np.interp(dvl.t, mission.depth.t, mission.depth.depth)
-    p_dpa = np.round(depth * 1025.0 * mission.config.gravity_mps2 / 10.0).astype(int)
+    p_dpa = np.round(depth * 1025.0 * mission.config.gravity_mps2 / 10.0).astype(np.int64)
+    if pressure_dpa is not None:
+        p_dpa = pressure_dpa
     with open(path, "wb") as f:
         for k, t in enumerate(dvl.t):
             f.write(_ensemble(k + 1, START + dt.timedelta(seconds=float(t)), beams[k], int(p_dpa[k]), coord_ex))
@@ -163,3 +166,24 @@ def test_pd0_needs_an_imu(sim):
     from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError, match="holds the DVL only"):
         load_mission(root / "dvl.000", None)
+
+
+def test_pd0_pressure_that_is_not_a_depth_is_invalid_and_counted(sim, tmp_path):
+    """0xFFFFFFFF (no sensor) and a 12 km depth never become depths: NaN in the log, dropped from the mission's
+    depth stream, counted per reason in meta['streams'] and warned about."""
+    from graphnav.io.dvl_files import read_dvl
+    from graphnav.io.pd0 import read_pd0
+    mission, root = sim
+    n = len(mission.dvl.t)
+    p = np.full(n, 5000, dtype=np.int64)                       # 5000 daPa: about 5 m
+    p[[3, 7]] = 0xFFFFFFFF
+    p[11] = round(12000.0 * 1025.0 * 9.81 / 10.0)
+    write_pd0(tmp_path / "p.000", mission, pressure_dpa=p)
+    with pytest.warns(RuntimeWarning, match="bad pressure word"):
+        log = read_dvl(tmp_path / "p.000")
+    assert log.counts["bad pressure word"] == 2 and log.counts["depth out of range"] == 1
+    assert np.isnan(log.depth_m[[3, 7, 11]]).all() and np.isfinite(np.delete(log.depth_m, [3, 7, 11])).all()
+    with pytest.warns(RuntimeWarning, match="depth out of range"):
+        _, depth, meta = read_pd0(tmp_path / "p.000")
+    assert len(depth.t) == n - 1 - 3 and depth.depth.max() < 6.0      # the last ensemble is not read
+    assert meta["streams"]["depth"]["refused"] == {"bad pressure word": 2, "depth out of range": 1}
