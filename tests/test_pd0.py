@@ -187,3 +187,21 @@ def test_pd0_pressure_that_is_not_a_depth_is_invalid_and_counted(sim, tmp_path):
         _, depth, meta = read_pd0(tmp_path / "p.000")
     assert len(depth.t) == n - 1 - 3 and depth.depth.max() < 6.0      # the last ensemble is not read
     assert meta["streams"]["depth"]["refused"] == {"bad pressure word": 2, "depth out of range": 1}
+
+
+def test_rdi_beam_geometry_in_the_dvl_frame():
+    """RDI's nominal beam matrices (dolfyn's) in graphnav's frame: convex 270, 90, 0, 180 deg, concave 90, 270,
+    180, 0 deg, both at the beam angle, through a proper rotation; a beam velocity equals u_i . v_d."""
+    from graphnav.io import pd0
+    pd0._import_dolfyn()
+    from mhkit.dolfyn.rotate.rdi import _calc_beam_orientmat
+    assert np.linalg.det(pd0.C_D_RDI) == pytest.approx(1.0)
+    for convex, psi in ((True, [270, 90, 0, 180]), (False, [90, 270, 180, 0])):
+        b2i = _calc_beam_orientmat(25, convex).astype(float)
+        theta, az = pd0.rdi_geometry(b2i)
+        assert np.rad2deg(theta) == pytest.approx(25.0, abs=1e-5)
+        np.testing.assert_allclose(np.rad2deg(az), psi, atol=1e-5)
+        # a head velocity v_d: RDI's beams of the seabed's motion (-v in RDI's frame) are u_i . v_d
+        v_d = np.array([1.2, -0.3, 0.2])
+        beams = np.linalg.inv(b2i)[:, :3] @ (-(pd0.C_D_RDI.T @ v_d))
+        np.testing.assert_allclose(beams, pd0.rdi_beam_vectors_d(b2i) @ v_d, atol=1e-6)

@@ -345,16 +345,18 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
             "magnetic_var_deg": float(a.get("magnetic_var_deg", 0.0))}
 
 
-#: Keys of :attr:`DvlLog.counts` that are not reasons for refusing a ping.
+#: Keys of :attr:`DvlLog.counts` that are not reasons for refusing a ping's velocity.
 NOT_REFUSALS = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
-                "flagged beams")
+                "flagged beams", "3-beam solution")
 
 
 def _warn_counts(counts: dict, source: str) -> None:
     refused = {k: v for k, v in counts.items() if k not in NOT_REFUSALS and v}
     flagged = counts.get("flagged beams", 0)
-    if refused or flagged:
+    three = counts.get("3-beam solution", 0)
+    if refused or flagged or three:
         warnings.warn(f"{source}: of {counts['read']} ping(s), {counts['valid']} give a velocity"
+                      + (f" ({three} of them 3-beam solutions: a velocity without beams)" if three else "")
                       + "".join(f"; {v} {k}" for k, v in refused.items())
                       + (f"; {flagged} beam value(s) flagged -32768 (no lock) marked invalid" if flagged else ""),
                       RuntimeWarning, stacklevel=3)
@@ -362,6 +364,16 @@ def _warn_counts(counts: dict, source: str) -> None:
 
 def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
     """A PD0 file's bottom track as a :class:`~graphnav.core.dvl_log.DvlLog` (see the module docstring).
+
+    ``counts`` (pings unless said): ``ensembles in file`` (complete, checksummed), ``read`` (by dolfyn),
+    ``valid`` (a velocity ``v_d``), ``beams recovered`` (>= 3 beams for beam files, all four for rotated ones),
+    ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
+    without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
+    ``bad pressure word`` and ``depth out of range`` (pressure readings). ``instrument`` holds the fixed
+    leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
+    matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
+    ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
+    variation ``EV``, in ``instrument``, are applied by the instrument only to ship/earth outputs).
 
     Raises:
         DataError: not PD0 by content, unreadable, no bottom-track block (an ADCP profile file), or a stored
