@@ -223,3 +223,15 @@ def test_csv_of_dvl_velocities(tmp_path):
     path.write_text("time,vx,vy,vz\n0.0,1.0,abc,0.0\n")
     with pytest.raises(DataError, match=r"line 2, field 'vy'"):
         read_dvl(path)
+
+
+def test_a_corrupt_ensemble_is_left_out_not_fatal(pd0_dir, tmp_path):
+    """dolfyn stops on a corrupt ensemble; graphnav reads the checksummed ones, counts and warns."""
+    raw = bytearray((pd0_dir / "winriver01.PD0").read_bytes())
+    start = pd0.scan_pd0(pd0_dir / "winriver01.PD0").spans[100][0]
+    raw[start + 700] ^= 0x55
+    (tmp_path / "corrupt.PD0").write_bytes(bytes(raw))
+    with pytest.warns(RuntimeWarning, match="1 ensemble.s. with a wrong checksum"):
+        log = read_dvl(tmp_path / "corrupt.PD0")
+    assert log.counts["bad checksum (ensemble left out)"] == 1
+    assert log.counts["ensembles in file"] == 261 and log.counts["read"] == 260

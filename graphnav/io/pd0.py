@@ -98,6 +98,7 @@ class Pd0Scan:
     bad_checksum: int
     trailing_bytes: int
     beam_matrix: np.ndarray | None
+    spans: list = dataclasses.field(default_factory=list, repr=False)   # (start, end) byte range of each one
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -131,17 +132,26 @@ def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
 def scan_pd0(path: str | Path) -> Pd0Scan:
     """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
     raw = Path(path).read_bytes()
-    good = bad = 0
-    end, first = 0, None
+    spans, bad, bad_end = [], 0, 0
     for start, length, ok in _ensembles(raw):
         if ok:
-            good += 1
-            end = start + length + 2
-            first = start if first is None else first
-        else:
+            spans.append((start, start + length + 2))
+        elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
             bad += 1
-    return Pd0Scan(good, bad, len(raw) - end if good else len(raw),
-                   None if first is None else _beam_matrix(raw, first))
+            bad_end = start + length + 2
+    return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
+                   _beam_matrix(raw, spans[0][0]) if spans else None, spans)
+
+
+def _read_good_ensembles(path: Path, scan: Pd0Scan):
+    """dolfyn's dataset of only the checksummed ensembles of ``path``: dolfyn itself stops with an error on a
+    corrupt ensemble (it parses on past a failed checksum), so those are cut out into a temporary copy."""
+    import tempfile
+    raw = path.read_bytes()
+    with tempfile.TemporaryDirectory(prefix="graphnav-pd0-") as tmp:
+        clean = Path(tmp) / path.name
+        clean.write_bytes(b"".join(raw[a:b] for a, b in scan.spans))
+        return _read_rdi(clean, source=str(path))
 
 
 def looks_like_pd0(path: str | Path) -> bool:
@@ -221,7 +231,7 @@ def _import_dolfyn() -> None:
         raise ConfigError("reading PD0 needs MHKiT's dolfyn: pip install 'graphnav[pd0]'") from None
 
 
-def _read_rdi(path: Path):
+def _read_rdi(path: Path, source: str | None = None):
     _import_dolfyn()
     from mhkit.dolfyn.io.rdi import read_rdi
     try:
@@ -229,7 +239,7 @@ def _read_rdi(path: Path):
             warnings.simplefilter("ignore")   # dolfyn's notes on missing userdata and similar; it prints progress
             return read_rdi(str(path), userdata=False)
     except Exception as exc:  # noqa: BLE001 - dolfyn raises plain Exceptions on corrupt files
-        raise DataError(f"cannot read as PD0: {type(exc).__name__}: {exc}", str(path)) from None
+        raise DataError(f"cannot read as PD0: {type(exc).__name__}: {exc}", source or str(path)) from None
 
 
 def _bt_dataset(ds, vel: np.ndarray, coord_sys: str):
@@ -347,7 +357,7 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 
 #: Keys of :attr:`DvlLog.counts` that are not reasons for refusing a ping's velocity.
 NOT_REFUSALS = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
-                "flagged beams", "3-beam solution")
+                "flagged beams", "3-beam solution", "bad checksum (ensemble left out)")
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -369,7 +379,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     ``valid`` (a velocity ``v_d``), ``beams recovered`` (>= 3 beams for beam files, all four for rotated ones),
     ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
-    ``bad pressure word`` and ``depth out of range`` (pressure readings). ``instrument`` holds the fixed
+    ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
+    (corrupt ensembles, not part of ``read``). ``instrument`` holds the fixed
     leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
     matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
     ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
@@ -386,7 +397,12 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
         raise DataError("not a PD0 file: no ensemble header 0x7F 0x7F with a valid checksum in the first "
                         f"{SNIFF_BYTES} bytes", source)
     scan = scan_pd0(path)
-    ds = _read_rdi(path)
+    if scan.bad_checksum:
+        warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
+                      f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=2)
+        ds = _read_good_ensembles(path, scan)
+    else:
+        ds = _read_rdi(path)
     if "vel_bt" not in ds:
         raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
                         "recording without bottom tracking gives no velocity over the seabed", source,
@@ -405,6 +421,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     bad = _flagged(vel)
     coord = str(ds.attrs.get("coord_sys", "beam")).lower()
     counts = {"ensembles in file": scan.ensembles, "read": n}
+    if scan.bad_checksum:
+        counts["bad checksum (ensemble left out)"] = scan.bad_checksum
     if scan.ensembles > n:
         counts["not read by dolfyn (last ensemble)"] = scan.ensembles - n
     if coord == "beam":
