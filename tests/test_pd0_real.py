@@ -4,6 +4,7 @@ pressure words, the ADCP refusal and recognising PD0 by content. Skipped when th
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import json
 import shutil
@@ -31,6 +32,7 @@ def pd0_dir():
     return root / "pd0"
 
 
+@functools.lru_cache(maxsize=8)          # read once per module run; callers never modify the dataset
 def _dolfyn(path, stored_matrix: bool = True):
     """dolfyn's dataset of ``path`` with RDI's -32768 as NaN, rotating only the bottom track, and (where the
     file stores one) the instrument's own beam matrix, as graphnav uses it."""
@@ -55,6 +57,7 @@ def _rotate(ds, frame):
         return rotate2(ds, frame, inplace=False)["vel_bt"].values.astype(float)
 
 
+@functools.lru_cache(maxsize=16)
 def _read(path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
