@@ -347,7 +347,8 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
             "n_beams": int(a.get("n_beams", 4)), "orientation": str(a.get("orientation", "")),
             "coordinate_system": FRAME_NAMES.get(str(a.get("coord_sys", "")).lower(), str(a.get("coord_sys"))),
             "ex_bits": {"frame": str(a.get("coord_sys", "")), "tilts_used": a.get("use_pitchroll") == "yes",
-                        "three_beam_allowed": a.get("use_3beam") == "yes", "bin_mapping": a.get("bin_mapping") == "yes"},
+                        "three_beam_allowed": a.get("use_3beam") == "yes",
+                        "bin_mapping": a.get("bin_mapping") == "yes"},
             "serial": int(a["serialnum"]) if "serialnum" in a else None,
             "firmware": str(a.get("firmware_ver", "")), "pings_per_ensemble": int(a.get("pings_per_ensemble", 1)),
             "beam_matrix": matrix_source, "ensembles_in_file": scan.ensembles,
@@ -370,6 +371,72 @@ def _warn_counts(counts: dict, source: str) -> None:
                       + "".join(f"; {v} {k}" for k, v in refused.items())
                       + (f"; {flagged} beam value(s) flagged -32768 (no lock) marked invalid" if flagged else ""),
                       RuntimeWarning, stacklevel=3)
+
+
+@dataclass
+class _Pings:
+    """What the bottom track of one file gives per ping: beams (M,4) and their validity, the head's velocity
+    ``v_d`` (M,3, NaN where none), RDI instrument-frame velocities ``inst`` (4,M), 3-beam flags, counts."""
+
+    beams: np.ndarray
+    beam_valid: np.ndarray
+    v_d: np.ndarray
+    inst: np.ndarray
+    three_beam: np.ndarray
+    counts: dict
+
+
+def _beam_pings(vel: np.ndarray, u_d: np.ndarray) -> _Pings:
+    """Beam-coordinate bottom track (4,M): beams as recorded, ``v_d`` by least squares over >= 3 valid beams on
+    the beam vectors ``u_d`` (4,3) of the file's matrix."""
+    bad = _flagged(vel)
+    beam_valid = ~bad.T
+    beams = np.where(beam_valid, vel.T, np.nan)
+    n_valid = beam_valid.sum(axis=1)
+    v_d = np.full((len(beams), 3), np.nan)
+    for pattern in np.unique(beam_valid[n_valid >= 3], axis=0):
+        rows = np.all(beam_valid == pattern, axis=1)
+        v_d[rows] = np.linalg.lstsq(u_d[pattern], beams[rows][:, pattern].T, rcond=None)[0].T
+    inst = np.vstack([(-v_d @ C_D_RDI).T, np.full((1, len(beams)), np.nan)])     # d -> RDI (C_D_RDI orthogonal)
+    counts = {"flagged beams": int(bad.sum()), "no bottom lock": int((n_valid == 0).sum()),
+              "fewer than 3 beams": int(((n_valid > 0) & (n_valid < 3)).sum()),
+              "beams recovered": int((n_valid >= 3).sum())}
+    return _Pings(beams, beam_valid, v_d, inst, n_valid == 3, counts)
+
+
+def _rotated_pings(ds, vel: np.ndarray) -> _Pings:
+    """Instrument/ship/earth bottom track (4,M: three components and the error velocity): back to RDI's
+    instrument frame and, where all four are valid, to beams; a flagged error velocity with three valid
+    components is a 3-beam solution (a velocity, no beams)."""
+    bad = _flagged(vel)
+    four = ~bad.any(axis=0)
+    three_beam = ~bad[:3].any(axis=0) & bad[3]
+    clean = np.where(bad, np.nan, vel)
+    clean[3, three_beam] = 0.0         # RDI's 3-beam solution assumes a zero error velocity
+    inst = instrument_velocity(ds, clean)
+    beams = beams_from_instrument(ds, np.where(four, inst, np.nan)).T
+    beam_valid = np.repeat(four[:, None], 4, axis=1) & np.all(np.isfinite(beams), axis=1, keepdims=True)
+    v_d = np.where((four | three_beam)[:, None], -inst[:3].T @ C_D_RDI.T, np.nan)
+    counts = {"no bottom lock": int((~(four | three_beam)).sum()), "3-beam solution": int(three_beam.sum()),
+              "beams recovered": int(beam_valid.all(axis=1).sum())}
+    return _Pings(np.where(beam_valid, beams, np.nan), beam_valid, v_d, inst, three_beam, counts)
+
+
+def _dataset(path: Path, scan: Pd0Scan):
+    """dolfyn's dataset of a PD0 file (corrupt ensembles left out, with a warning); refuses a file without
+    bottom track."""
+    source = str(path)
+    if scan.bad_checksum:
+        warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
+                      f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
+        ds = _read_good_ensembles(path, scan)
+    else:
+        ds = _read_rdi(path)
+    if "vel_bt" not in ds:
+        raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
+                        "recording without bottom tracking gives no velocity over the seabed", source,
+                        field="vel_bt")
+    return ds
 
 
 def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
@@ -397,75 +464,39 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
         raise DataError("not a PD0 file: no ensemble header 0x7F 0x7F with a valid checksum in the first "
                         f"{SNIFF_BYTES} bytes", source)
     scan = scan_pd0(path)
-    if scan.bad_checksum:
-        warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
-                      f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=2)
-        ds = _read_good_ensembles(path, scan)
-    else:
-        ds = _read_rdi(path)
-    if "vel_bt" not in ds:
-        raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
-                        "recording without bottom tracking gives no velocity over the seabed", source,
-                        field="vel_bt")
+    ds = _dataset(path, scan)
     matrix_source = "nominal (beam angle and pattern)"
     if scan.beam_matrix is not None:
         ds["beam2inst_orientmat"] = ds["beam2inst_orientmat"].copy(data=scan.beam_matrix)
         matrix_source = "stored in the file (0x3200)"
     b2i = np.asarray(ds["beam2inst_orientmat"].values, float)
     theta, psi = rdi_geometry(b2i, source)
-    u_d = rdi_beam_vectors_d(b2i)
 
     t = _stamps(ds)
-    n = len(t)
     vel = np.asarray(ds["vel_bt"].values, float)[:4]              # dolfyn: (dir, time)
-    bad = _flagged(vel)
     coord = str(ds.attrs.get("coord_sys", "beam")).lower()
-    counts = {"ensembles in file": scan.ensembles, "read": n}
+    counts = {"ensembles in file": scan.ensembles, "read": len(t)}
     if scan.bad_checksum:
         counts["bad checksum (ensemble left out)"] = scan.bad_checksum
-    if scan.ensembles > n:
-        counts["not read by dolfyn (last ensemble)"] = scan.ensembles - n
-    if coord == "beam":
-        beam_valid = ~bad.T
-        beams = np.where(beam_valid, vel.T, np.nan)
-        three_beam = beam_valid.sum(axis=1) == 3
-        enough = beam_valid.sum(axis=1) >= 3
-        v_d = np.full((n, 3), np.nan)
-        for pattern in np.unique(beam_valid[enough], axis=0):
-            rows = enough & np.all(beam_valid == pattern, axis=1)
-            v_d[rows] = np.linalg.lstsq(u_d[pattern], beams[rows][:, pattern].T, rcond=None)[0].T
-        counts["flagged beams"] = int(bad.sum())
-        counts["no bottom lock"] = int((beam_valid.sum(axis=1) == 0).sum())
-        counts["fewer than 3 beams"] = int((~enough & beam_valid.any(axis=1)).sum())
-        inst = np.vstack([(-v_d @ C_D_RDI).T, np.full((1, n), np.nan)])     # d -> RDI (C_D_RDI orthogonal)
-    else:
-        four = ~bad.any(axis=0)
-        three_beam = ~bad[:3].any(axis=0) & bad[3]
-        enough = four | three_beam
-        clean = np.where(bad, np.nan, vel)
-        clean[3, three_beam] = 0.0         # RDI's 3-beam solution assumes a zero error velocity
-        inst = instrument_velocity(ds, clean)
-        beams = beams_from_instrument(ds, np.where(four, inst, np.nan)).T
-        beam_valid = np.repeat(four[:, None], 4, axis=1) & np.all(np.isfinite(beams), axis=1, keepdims=True)
-        v_d = np.where(enough[:, None], -inst[:3].T @ C_D_RDI.T, np.nan)
-        counts["no bottom lock"] = int((~enough).sum())
-        counts["3-beam solution"] = int(three_beam.sum())
-    counts["beams recovered"] = int((beam_valid.sum(axis=1) >= 3).sum()) if coord == "beam" else int(beam_valid.all(axis=1).sum())
-    v_d_valid = enough & np.all(np.isfinite(v_d), axis=1)
+    if scan.ensembles > len(t):
+        counts["not read by dolfyn (last ensemble)"] = scan.ensembles - len(t)
+    pings = _beam_pings(vel, rdi_beam_vectors_d(b2i)) if coord == "beam" else _rotated_pings(ds, vel)
+    counts.update(pings.counts)
+    v_d_valid = np.all(np.isfinite(pings.v_d), axis=1)
     counts["valid"] = int(v_d_valid.sum())
     if coord == "earth":
-        enu = np.where(enough, np.where(bad[:3], np.nan, vel[:3]), np.nan)
+        enu = np.where(v_d_valid, np.where(_flagged(vel[:3]), np.nan, vel[:3]), np.nan)
     else:
-        enu = earth_velocity(ds, np.where(v_d_valid, inst, np.nan))
+        enu = earth_velocity(ds, np.where(v_d_valid, pings.inst, np.nan))
     v_n = -(C_NED_ENU @ enu).T                     # the seabed's velocity relative to the head, negated
     depth = _depth(ds, config, counts, source)
     _warn_counts(counts, source)
     attitude = np.stack([np.asarray(ds[k].values, float) for k in ("heading", "pitch", "roll")], axis=1)
     instrument = _instrument(ds, scan, matrix_source)
     instrument.update(beam_theta_rad=theta, beam_psi_rad=psi.tolist())
-    return DvlLog(t=t, v_d=np.where(v_d_valid[:, None], v_d, np.nan), v_d_valid=v_d_valid,
-                  frame=FRAME_NAMES.get(coord, coord), beams=beams, beam_valid=beam_valid, attitude_deg=attitude,
-                  depth_m=depth, v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=three_beam & v_d_valid,
+    return DvlLog(t=t, v_d=pings.v_d, v_d_valid=v_d_valid, frame=FRAME_NAMES.get(coord, coord), beams=pings.beams,
+                  beam_valid=pings.beam_valid, attitude_deg=attitude, depth_m=depth,
+                  v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=pings.three_beam & v_d_valid,
                   instrument=instrument, counts=counts, source=source)
 
 
