@@ -128,36 +128,43 @@ def test_pd0_mission_smooths_like_the_simulation(sim, tmp_path):
     assert vrmse(read_trajectory_csv(out / "trajectory.csv"), mission.gt) < 0.1
 
 
-def _earth_mms(mission) -> np.ndarray:
-    """The simulated pings as an RDI earth-coordinate bottom track at the synthetic file's attitude (heading
-    90 deg, no tilt): the seabed's velocity relative to the head in East-North-Up plus RDI's error velocity
-    ``(B1 + B2 - B3 - B4) / (2 sqrt(2) sin theta)``, mm/s, -32768 for pings with fewer than 4 beams. RDI's earth
-    frame at heading 90 deg: E = Y, N = -X, U = Z of its instrument frame, whose X/Y/Z are graphnav's y_d, x_d,
-    -z_d."""
+def _rotated_mms(mission, frame: str) -> np.ndarray:
+    """The simulated pings as an RDI bottom track in ``frame`` at the synthetic file's attitude (heading 90
+    deg, no tilt): the seabed's velocity relative to the head plus RDI's error velocity
+    ``(B1 + B2 - B3 - B4) / (2 sqrt(2) sin theta)``, mm/s, -32768 for pings with fewer than 4 beams. RDI's
+    instrument X/Y/Z are graphnav's y_d, x_d, -z_d; without tilt the ship frame is the instrument frame; the
+    earth frame at heading 90 deg is E = Y, N = -X, U = Z."""
     from graphnav.core.dvl import DvlGeometry
     dvl = mission.dvl
     T_d = DvlGeometry.from_spec(mission.config.dvl).T_d
     v_d = np.linalg.lstsq(T_d, np.where(dvl.valid, dvl.beams, 0.0).T, rcond=None)[0].T
-    seabed_rdi = -np.stack([v_d[:, 1], v_d[:, 0], -v_d[:, 2]], axis=1)
+    seabed = -np.stack([v_d[:, 1], v_d[:, 0], -v_d[:, 2]], axis=1)
+    if frame == "earth":
+        seabed = np.stack([seabed[:, 1], -seabed[:, 0], seabed[:, 2]], axis=1)
     b = np.where(dvl.valid, dvl.beams, 0.0)
     err = (b[:, 0] + b[:, 1] - b[:, 2] - b[:, 3]) / (2 * np.sqrt(2) * np.sin(mission.config.dvl.theta_rad))
-    enu = np.stack([seabed_rdi[:, 1], -seabed_rdi[:, 0], seabed_rdi[:, 2], err], axis=1)
-    return np.where(dvl.valid.all(axis=1, keepdims=True), np.round(enu * 1000.0), -32768)
+    out = np.column_stack([seabed, err])
+    return np.where(dvl.valid.all(axis=1, keepdims=True), np.round(out * 1000.0), -32768)
 
 
-def test_pd0_earth_coordinates_come_back_to_beams(sim, tmp_path):
+#: EX bits of each frame with tilts, 3-beam solutions and bin mapping on.
+EX_BITS = {"instrument": 0b0000_1111, "ship": 0b0001_0111, "earth": 0b0001_1111}
+
+
+@pytest.mark.parametrize("frame", sorted(EX_BITS))
+def test_pd0_rotated_frames_come_back_to_beams(sim, tmp_path, frame):
     mission, root = sim
     dvl = mission.dvl
-    write_pd0(tmp_path / "earth.pd0", mission, coord_ex=0b0001_1111, raw_mms=_earth_mms(mission))
+    write_pd0(tmp_path / "dvl.pd0", mission, coord_ex=EX_BITS[frame], raw_mms=_rotated_mms(mission, frame))
     for name in ("imu.csv", "nav.csv", "config.json"):
         (tmp_path / name).write_text((root / name).read_text())
     with pytest.warns(RuntimeWarning, match="no bottom lock"):
-        m = load_mission(tmp_path / "earth.pd0", tmp_path / "config.json")
+        m = load_mission(tmp_path / "dvl.pd0", tmp_path / "config.json")
     full = dvl.valid.all(axis=1)[:-1]            # dolfyn does not read the last ensemble
     np.testing.assert_array_equal(m.dvl.valid.all(axis=1), full)
     # Four rounded mm/s components spread over four beams: within 2 mm/s of the simulated beams.
     np.testing.assert_allclose(m.dvl.beams[full], dvl.beams[:-1][full], atol=2e-3)
-    assert m.meta["pd0_frame"] == "earth"
+    assert m.meta["pd0_frame"] == frame
     assert m.meta["streams"]["dvl"]["refused"]["no bottom lock"] == int((~full).sum())
 
 
