@@ -213,6 +213,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         meta.update(pd0_meta)
         config = pd0_geometry(config, pd0_meta)
         dvl = dataclasses.replace(dvl_raw, t=dvl_raw.t - t0)
+        for entry in meta.get("streams", {}).values():     # spans on the mission's clock, like the streams
+            if entry.get("span_s"):
+                entry["span_s"] = [entry["span_s"][0] - t0, entry["span_s"][1] - t0]
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:

@@ -39,6 +39,9 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
 
 A PD0 file holds the DVL only: for a mission, the IMU comes from the CSV column map of the configuration
 (:mod:`graphnav.io.generic_csv`, whose ``dvl`` entry may name a PD0 file) on the same clock (Unix seconds).
+The loader sets ``dvl.theta_rad`` and ``dvl.psi_rad`` from the file's beam matrix (:func:`pd0_geometry`); the
+configuration's ``dvl.C_d_b`` turns ``d`` into the body frame: ``I`` for a down-looking head with beam 3
+forward, a 45 deg yaw for beam 3 at 45 deg to starboard.
 """
 from __future__ import annotations
 
