@@ -206,7 +206,8 @@ def test_ship_frame_file_loads_as_a_mission_with_beams_and_three_beam_velocities
     assert m.dvl.v_d_valid.sum() == 11 and not (m.dvl.v_d_valid & m.dvl.valid.any(axis=1)).any()
     np.testing.assert_allclose(np.rad2deg(m.config.dvl.psi_rad), [270, 90, 0, 180], atol=1e-4)
     streams = m.meta["streams"]["dvl"]
-    assert streams["read"] == 261 and streams["refused"] == {"not read by dolfyn (last ensemble)": 1}
+    assert streams["read"] == 262 and streams["used"] == 261
+    assert streams["refused"] == {"not read by dolfyn (last ensemble)": 1}
     assert any("3-beam" in note for note in streams["notes"])
     # the recovered beams solve back to the instrument's own (ship-frame-derived) velocity
     log = _read(tmp_path / "dvl.PD0")

@@ -521,7 +521,10 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "pd0_beam_psi_rad": log.instrument["beam_psi_rad"],
                   "pd0_frame": log.frame, "pd0_invalid_beams": int((~log.beam_valid).sum()),
                   "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts}
-    count_read(meta, "dvl", log.t, f"{source}:vel_bt")
+    entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
+    unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
+    entry["read"] += unread              # in the file, so read; then refused with its reason
+    entry["used"] += unread
     for reason in ("no bottom lock", "fewer than 3 beams", "not read by dolfyn (last ensemble)"):
         count_refused(meta, "dvl", reason, log.counts.get(reason, 0))
     if log.frame != "beam":
