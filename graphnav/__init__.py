@@ -29,4 +29,8 @@ _PUBLIC = {
     "evaluation.methods": ("run_method", "METHODS"),
     "core.errors": ("DataError", "ConfigError"),
 }
-__all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
+#: Importable from ``graphnav`` on first use too, not (yet) in ``__all__``: :func:`read_dvl` reads any DVL file
+#: (PD0/VmDAS in every RDI frame, a CSV of DVL velocities) into a :class:`graphnav.core.dvl_log.DvlLog`.
+_ALSO = {"io.dvl_files": ("read_dvl",)}
+_names, __getattr__, __dir__ = _lazy_exports(__name__, {**_PUBLIC, **_ALSO})
+__all__ = [name for names in _PUBLIC.values() for name in names]

@@ -93,3 +93,14 @@ def test_make_beams_is_seeded_and_uses_the_spec():
 def test_spec_rejects_a_non_rotation():
     with pytest.raises(ConfigError):
         DvlSpec(C_d_b=np.diag([1.0, 1.0, 2.0]))
+
+
+def test_spec_rejects_a_reflection_and_beams_off_plus_z():
+    # Orthogonal but det -1: the DVL frame mirrored (e.g. an instrument's z flipped alone).
+    with pytest.raises(ConfigError, match="determinant -1"):
+        DvlSpec(C_d_b=np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(ConfigError, match="determinant -1"):
+        DvlSpec(C_d_b=np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    DvlSpec(C_d_b=np.diag([1.0, -1.0, -1.0]))               # a 180 deg roll is a rotation
+    with pytest.raises(ConfigError, match="inclination"):
+        DvlSpec(theta_rad=np.deg2rad(160.0))

@@ -39,7 +39,7 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
     rtc = bytes([when.year % 100, when.month, when.day, when.hour, when.minute, when.second, hundredths])
     var = struct.pack("<H", 0x0080) + struct.pack("<H", number & 0xFFFF) + rtc + bytes([number >> 16])
     var += struct.pack("<HHH", 0, 1500, 100) + struct.pack("<Hhhhh", 9000, 0, 0, 35, 1500) + bytes([0, 0, 0])
-    var += bytes([0, 0, 0]) + bytes(8) + struct.pack("<I", 0) + bytes(2) + struct.pack("<II", pressure_dpa, 0)
+    var += bytes([0, 0, 0]) + bytes(8) + struct.pack("<I", 0) + bytes(2) + struct.pack("<II", pressure_dpa & 0xFFFFFFFF, 0)
     var += bytes(1) + bytes([when.year // 100]) + bytes([when.year % 100]) + rtc[1:]
     assert len(var) == 65
     vel = struct.pack("<H", 0x0100) + struct.pack("<4h", 0, 0, 0, 0)
@@ -58,13 +58,16 @@ def _ensemble(number: int, when: dt.datetime, beams_mms: np.ndarray, pressure_dp
     return body + struct.pack("<H", sum(body) & 0xFFFF)
 
 
-def write_pd0(path, mission, coord_ex: int = 0) -> None:
-    """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid) with the
-    depth as pressure (decapascal, gauge)."""
+def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = None,
+              pressure_dpa: np.ndarray | None = None) -> None:
+    """The mission's DVL pings as PD0 ensembles (beam coordinates, mm/s, -32768 where invalid; or ``raw_mms``
+    (M,4) as the bottom-track velocities) with the depth as pressure (decapascal, gauge)."""
     dvl = mission.dvl
-    beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768)
+    beams = np.where(dvl.valid, np.round(dvl.beams * 1000.0), -32768) if raw_mms is None else raw_mms
     depth = np.interp(dvl.t, mission.depth.t, mission.depth.depth)
-    p_dpa = np.round(depth * 1025.0 * mission.config.gravity_mps2 / 10.0).astype(int)
+    p_dpa = np.round(depth * 1025.0 * mission.config.gravity_mps2 / 10.0).astype(np.int64)
+    if pressure_dpa is not None:
+        p_dpa = pressure_dpa
     with open(path, "wb") as f:
         for k, t in enumerate(dvl.t):
             f.write(_ensemble(k + 1, START + dt.timedelta(seconds=float(t)), beams[k], int(p_dpa[k]), coord_ex))
@@ -75,8 +78,8 @@ def sim(tmp_path_factory):
     from graphnav.core.config import SensorConfig
     root = tmp_path_factory.mktemp("pd0")
     config = SensorConfig()
-    # A convex RDI head: beams 1/2 along -x/+x, 3/4 along +y/-y of the instrument frame, 30 deg from its axis.
-    config.dvl.psi_rad = np.deg2rad([180.0, 0.0, 90.0, 270.0])
+    # A convex RDI head in graphnav's DVL frame (x toward beam 3, y toward beam 2, z along the beams), 30 deg.
+    config.dvl.psi_rad = np.deg2rad([270.0, 90.0, 0.0, 180.0])
     config.dvl.theta_rad = np.deg2rad(30.0)
     mission = simulate_mission(duration_s=40.0, seed=7, config=config, dropout=True)
     assert (~mission.dvl.valid).any()
@@ -125,14 +128,87 @@ def test_pd0_mission_smooths_like_the_simulation(sim, tmp_path):
     assert vrmse(read_trajectory_csv(out / "trajectory.csv"), mission.gt) < 0.1
 
 
-def test_pd0_refuses_earth_coordinates_and_needs_an_imu(sim, tmp_path):
+def _rotated_mms(mission, frame: str) -> np.ndarray:
+    """The simulated pings as an RDI bottom track in ``frame`` at the synthetic file's attitude (heading 90
+    deg, no tilt): the seabed's velocity relative to the head plus RDI's error velocity
+    ``(B1 + B2 - B3 - B4) / (2 sqrt(2) sin theta)``, mm/s, -32768 for pings with fewer than 4 beams. RDI's
+    instrument X/Y/Z are graphnav's y_d, x_d, -z_d; without tilt the ship frame is the instrument frame; the
+    earth frame at heading 90 deg is E = Y, N = -X, U = Z."""
+    from graphnav.core.dvl import DvlGeometry
+    dvl = mission.dvl
+    T_d = DvlGeometry.from_spec(mission.config.dvl).T_d
+    v_d = np.linalg.lstsq(T_d, np.where(dvl.valid, dvl.beams, 0.0).T, rcond=None)[0].T
+    seabed = -np.stack([v_d[:, 1], v_d[:, 0], -v_d[:, 2]], axis=1)
+    if frame == "earth":
+        seabed = np.stack([seabed[:, 1], -seabed[:, 0], seabed[:, 2]], axis=1)
+    b = np.where(dvl.valid, dvl.beams, 0.0)
+    err = (b[:, 0] + b[:, 1] - b[:, 2] - b[:, 3]) / (2 * np.sqrt(2) * np.sin(mission.config.dvl.theta_rad))
+    out = np.column_stack([seabed, err])
+    return np.where(dvl.valid.all(axis=1, keepdims=True), np.round(out * 1000.0), -32768)
+
+
+#: EX bits of each frame with tilts, 3-beam solutions and bin mapping on.
+EX_BITS = {"instrument": 0b0000_1111, "ship": 0b0001_0111, "earth": 0b0001_1111}
+
+
+@pytest.mark.parametrize("frame", sorted(EX_BITS))
+def test_pd0_rotated_frames_come_back_to_beams(sim, tmp_path, frame):
     mission, root = sim
-    write_pd0(tmp_path / "earth.pd0", mission, coord_ex=0b0001_1000)
-    (tmp_path / "config.json").write_text((root / "config.json").read_text())
-    for name in ("imu.csv", "nav.csv"):
+    dvl = mission.dvl
+    write_pd0(tmp_path / "dvl.pd0", mission, coord_ex=EX_BITS[frame], raw_mms=_rotated_mms(mission, frame))
+    for name in ("imu.csv", "nav.csv", "config.json"):
         (tmp_path / name).write_text((root / name).read_text())
-    with pytest.raises(DataError, match="earth coordinates"):
-        load_mission(tmp_path / "earth.pd0", tmp_path / "config.json")
+    with pytest.warns(RuntimeWarning, match="no bottom lock"):
+        m = load_mission(tmp_path / "dvl.pd0", tmp_path / "config.json")
+    full = dvl.valid.all(axis=1)[:-1]            # dolfyn does not read the last ensemble
+    np.testing.assert_array_equal(m.dvl.valid.all(axis=1), full)
+    # Four rounded mm/s components spread over four beams: within 2 mm/s of the simulated beams.
+    np.testing.assert_allclose(m.dvl.beams[full], dvl.beams[:-1][full], atol=2e-3)
+    assert m.meta["pd0_frame"] == frame
+    assert m.meta["streams"]["dvl"]["refused"]["no bottom lock"] == int((~full).sum())
+
+
+def test_pd0_needs_an_imu(sim):
+    mission, root = sim
     from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError, match="holds the DVL only"):
         load_mission(root / "dvl.000", None)
+
+
+def test_pd0_pressure_that_is_not_a_depth_is_invalid_and_counted(sim, tmp_path):
+    """0xFFFFFFFF (no sensor) and a 12 km depth never become depths: NaN in the log, dropped from the mission's
+    depth stream, counted per reason in meta['streams'] and warned about."""
+    from graphnav.io.dvl_files import read_dvl
+    from graphnav.io.pd0 import read_pd0
+    mission, root = sim
+    n = len(mission.dvl.t)
+    p = np.full(n, 5000, dtype=np.int64)                       # 5000 daPa: about 5 m
+    p[[3, 7]] = 0xFFFFFFFF
+    p[11] = round(12000.0 * 1025.0 * 9.81 / 10.0)
+    write_pd0(tmp_path / "p.000", mission, pressure_dpa=p)
+    with pytest.warns(RuntimeWarning, match="bad pressure word"):
+        log = read_dvl(tmp_path / "p.000")
+    assert log.counts["bad pressure word"] == 2 and log.counts["depth out of range"] == 1
+    assert np.isnan(log.depth_m[[3, 7, 11]]).all() and np.isfinite(np.delete(log.depth_m, [3, 7, 11])).all()
+    with pytest.warns(RuntimeWarning, match="depth out of range"):
+        _, depth, meta = read_pd0(tmp_path / "p.000")
+    assert len(depth.t) == n - 1 - 3 and depth.depth.max() < 6.0      # the last ensemble is not read
+    assert meta["streams"]["depth"]["refused"] == {"bad pressure word": 2, "depth out of range": 1}
+
+
+def test_rdi_beam_geometry_in_the_dvl_frame():
+    """RDI's nominal beam matrices (dolfyn's) in graphnav's frame: convex 270, 90, 0, 180 deg, concave 90, 270,
+    180, 0 deg, both at the beam angle, through a proper rotation; a beam velocity equals u_i . v_d."""
+    from graphnav.io import pd0
+    pd0._import_dolfyn()
+    from mhkit.dolfyn.rotate.rdi import _calc_beam_orientmat
+    assert np.linalg.det(pd0.C_D_RDI) == pytest.approx(1.0)
+    for convex, psi in ((True, [270, 90, 0, 180]), (False, [90, 270, 180, 0])):
+        b2i = _calc_beam_orientmat(25, convex).astype(float)
+        theta, az = pd0.rdi_geometry(b2i)
+        assert np.rad2deg(theta) == pytest.approx(25.0, abs=1e-5)
+        np.testing.assert_allclose(np.rad2deg(az), psi, atol=1e-5)
+        # a head velocity v_d: RDI's beams of the seabed's motion (-v in RDI's frame) are u_i . v_d
+        v_d = np.array([1.2, -0.3, 0.2])
+        beams = np.linalg.inv(b2i)[:, :3] @ (-(pd0.C_D_RDI.T @ v_d))
+        np.testing.assert_allclose(beams, pd0.rdi_beam_vectors_d(b2i) @ v_d, atol=1e-6)

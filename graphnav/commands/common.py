@@ -30,8 +30,10 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("mission")
     g.add_argument("--data", metavar="PATH",
                    help="trajectory folder in the published A-KIT layout (IMU_*.csv, DVL_*.csv, GT_*.csv), a ROS 2 "
-                        "bag (.mcap, .db3 or bag folder), a PD0 file (.pd0/.000; without an IMU in --config's "
-                        "column map `smooth` dead-reckons it, DVL-DR) or a CSV log with the column map of --config; `smooth` also takes a folder of missions (TrajectoryN folders or "
+                        "bag (ROS 1 .bag, .mcap, .db3 or a bag folder, recognised by content), a PD0 file (RDI/VmDAS "
+                        "ensembles in any frame, any name; without an IMU in --config's column map `smooth` "
+                        "dead-reckons it, DVL-DR) or a CSV log with the column map of --config; "
+                        "`smooth` also takes a folder of missions (TrajectoryN folders or "
                         "bags, as `bench --data` finds them); default: the simulated 400 s mission")
     g.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
                    help="bags: read STREAM (imu, dvl, depth, heading, gt) from TOPIC instead of the topic chosen "

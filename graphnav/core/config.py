@@ -74,7 +74,9 @@ class DvlSpec:
     """DVL geometry and error model (``../shared/docs/method.md``).
 
     Beam i (index i-1 here, i = 1..4) has unit vector in the DVL frame
-    ``[cos(psi_i) sin(theta), sin(psi_i) sin(theta), cos(theta)]``.
+    ``[cos(psi_i) sin(theta), sin(psi_i) sin(theta), cos(theta)]``: the right-handed frame ``d`` of
+    :mod:`graphnav.core.dvl` (z along the beams' side; for an RDI head x toward beam 3, y toward beam 2, a
+    convex head at psi = 270, 90, 0, 180 deg). ``C_d_b`` must be a rotation (det +1).
 
     Attributes:
         theta_rad: beam inclination from the DVL z axis, rad.
@@ -124,6 +126,14 @@ class DvlSpec:
         self.scale_factor = np.asarray(self.scale_factor, dtype=float).reshape(3)
         if not np.allclose(self.C_d_b @ self.C_d_b.T, np.eye(3), atol=1e-6):
             raise ConfigError("dvl.C_d_b is not a rotation matrix")
+        if np.linalg.det(self.C_d_b) < 0:
+            # An orthogonal matrix with det -1 is a reflection: it would mirror every DVL velocity (a DVL frame
+            # taken as left-handed, e.g. an instrument's z axis flipped without turning another axis).
+            raise ConfigError("dvl.C_d_b has determinant -1: a reflection, not a rotation; the DVL frame d is "
+                              "right-handed (docs/decisions/dvl-frame.md), flip two axes or none")
+        if not 0.0 < self.theta_rad < np.pi / 2:
+            raise ConfigError(f"dvl.theta_rad = {self.theta_rad:g}: beams point along +z of the DVL frame, so the "
+                              "inclination must be in (0, pi/2) rad")
 
 
 @dataclass

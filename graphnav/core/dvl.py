@@ -4,6 +4,24 @@ Beam velocities are the projections of the DVL velocity on the beam unit vectors
 ``y = T @ v_d`` with ``T`` (4,3) holding the beam vectors of the DVL frame as rows and
 ``v_d = C_d_b^T (v_b + omega_b x l_b)`` the velocity of the DVL head in the DVL frame.
 Beam indices are 0-based here (index 0 is the paper's beam 1).
+
+The one DVL frame and beam convention (``docs/decisions/dvl-frame.md``):
+
+* **DVL frame d**: right-handed, fixed to the head; ``z_d`` along the instrument's axis on the side the beams
+  point to (down for a down-looking DVL), ``x_d`` and ``y_d`` across it. ``v_b = C_d_b v_d`` with ``C_d_b`` a
+  rotation (det +1; :class:`~graphnav.core.config.DvlSpec` refuses a reflection).
+* **Beams**: outward unit vectors ``[cos psi sin theta, sin psi sin theta, cos theta]`` in ``d`` (along +z,
+  inclination theta, azimuth psi from ``x_d`` toward ``y_d``). A **beam velocity** is the head's velocity over
+  the seabed along its outward beam, ``y_i = u_i . v_d``: positive when the head moves toward the spot the
+  beam sees. That is also what a Teledyne RDI DVL records as a bottom-track beam velocity (the seabed's
+  velocity "toward the transducer"), so RDI beams are used as recorded.
+* **RDI instrument frame to d** (:data:`graphnav.io.pd0.C_D_RDI`): RDI's ``X, Y, Z`` (beam 1 -> -X, beam 2 -> +X,
+  beam 3 -> +Y, beam 4 -> -Y for a convex head, beams along **-Z**: the ``w = +b (B1+B2+B3+B4)`` row of the
+  beam-to-instrument matrix RDI stores in block 0x3200 and dolfyn uses) map to ``x_d = +Y`` (beam 3, the
+  instrument's heading reference: forward), ``y_d = +X`` (beam 2: right), ``z_d = -Z`` (the beams: down). A
+  convex RDI head has azimuths 270, 90, 0, 180 deg in ``d``; mounted with beam 3 forward and looking down,
+  ``C_d_b = I``. The head's velocity in ``d`` is ``-C_D_RDI`` times dolfyn's instrument-frame bottom-track
+  velocity (the seabed's velocity relative to the head).
 """
 from __future__ import annotations
 

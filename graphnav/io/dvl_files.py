@@ -1,45 +1,35 @@
-"""A DVL file on its own, as a :class:`~graphnav.core.dvl_log.DvlLog`: what ``graphnav info`` describes and
-``graphnav smooth`` dead-reckons when there is no IMU.
+"""A DVL log on its own, from any DVL file: :func:`read_dvl` -> :class:`graphnav.core.dvl_log.DvlLog`.
 
-Today's reader is the PD0 one (:func:`graphnav.io.pd0.read_pd0`): bottom track in beam coordinates. From it:
-
-* ``beams`` / ``beam_valid``: the bottom-track beams as :func:`~graphnav.io.pd0.read_pd0` gives them (RDI's
-  -32768 flags invalid);
-* ``v_d``: the least-squares head velocity of pings with >= 3 valid beams, in graphnav's DVL frame with the
-  file's beam angle and head pattern (:func:`~graphnav.io.pd0.pd0_geometry`); ``three_beam`` marks 3-beam pings;
-* ``v_n``: the head's velocity over the seabed in NED from the instrument's own heading, pitch and roll,
-  through dolfyn's rotation to its earth frame (``rotate2(ds, "earth")``, East-North-Up): RDI's bottom-track
-  velocity is the seabed's relative to the head, so the head's is its negative. Only on 4-beam pings
-  (dolfyn's beam-to-instrument transformation has no 3-beam solution); measured against the GPS the
-  RiverPro test file carries: the dead-reckoned track ends 18 m from the GPS's after 198 m;
-* ``attitude_deg``: heading, pitch, roll as stored; ``depth_m``: the pressure sensor's depth, if any.
-
-Files in earth, ship or instrument coordinates and files without bottom track are refused with the reason
-(:func:`read_pd0`); :func:`pd0_header` still tells what such a file holds.
+* **PD0** (Teledyne RDI ``.pd0``, ``.000``; VmDAS ``.ENR``/``.ENS``/``.ENX``; any name: the file is recognised
+  by its content, :func:`graphnav.io.pd0.looks_like_pd0`): every RDI frame, see :mod:`graphnav.io.pd0`.
+* **CSV of DVL velocities**: a header row, a time column (``t``, ``time``, ``time_s`` or ``timestamp``,
+  seconds) and three velocity columns (``vx, vy, vz``, ``v_x, v_y, v_z`` or ``vel_x, vel_y, vel_z``; m/s, in
+  graphnav's DVL frame ``d``), optionally ``valid`` (0/1). Empty or non-finite velocities are pings without a
+  measurement (counted); anything that is not a number is an error naming the line and column.
 """
 from __future__ import annotations
 
+import csv
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.dvl import beam_matrix
 from graphnav.core.dvl_log import DvlLog
 from graphnav.core.errors import DataError
+from graphnav.core.mission import invalid_dvl_values
 from graphnav.io import pd0
 
-#: dolfyn's dataset attributes reported as the instrument's metadata, under graphnav's names.
-PD0_INSTRUMENT_ATTRS = {"inst_make": "make", "inst_model": "model", "inst_type": "type", "freq": "frequency_khz",
-                        "beam_angle": "beam_angle_deg", "beam_pattern": "beam_pattern", "orientation": "orientation",
-                        "n_beams": "n_beams", "coord_sys": "coordinates", "fs": "ping_rate_hz",
-                        "SerialNum": "serial"}
+#: Accepted header names of the CSV columns (lower case).
+CSV_TIME = ("t", "time", "time_s", "timestamp")
+CSV_VELOCITY = (("vx", "vy", "vz"), ("v_x", "v_y", "v_z"), ("vel_x", "vel_y", "vel_z"))
 
 
 def is_dvl_file(path: str | Path) -> bool:
-    """A file :func:`read_dvl` reads (today: PD0, ``.pd0`` or RDI's numbered ``.000``)."""
-    return pd0.is_pd0(path)
+    """A file that holds a DVL only: PD0/VmDAS ensembles (recognised by content or by a PD0 name)."""
+    path = Path(path)
+    return path.is_file() and (pd0.looks_like_pd0(path) or pd0.has_pd0_suffix(path))
 
 
 def holds_dvl_only(path: str | Path, config: SensorConfig | None) -> bool:
@@ -47,67 +37,86 @@ def holds_dvl_only(path: str | Path, config: SensorConfig | None) -> bool:
     return is_dvl_file(path) and (config is None or "imu" not in (config.csv_columns or {}))
 
 
-def _instrument(ds) -> dict:
-    out = {}
-    for key, name in PD0_INSTRUMENT_ATTRS.items():
-        if key in ds.attrs:
-            value = ds.attrs[key]
-            out[name] = value.item() if hasattr(value, "item") else value
-    return out
-
-
 def pd0_header(path: str | Path) -> dict:
     """What a PD0 file holds, whether graphnav can use it or not: the instrument (model, frequency, beam angle,
     pattern, orientation, coordinates), ensembles, time span (Unix s) and whether it has bottom track."""
     ds = pd0._read_rdi(Path(path))
     t = ds["time"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
-    return {"instrument": _instrument(ds), "ensembles": int(len(t)),
+    scan = pd0.scan_pd0(path)
+    instrument = pd0._instrument(ds, scan, "file" if scan.beam_matrix is not None else "nominal")
+    instrument["coordinates"] = instrument.pop("coordinate_system")
+    return {"instrument": instrument, "ensembles": int(len(t)),
             "span_s": [float(t[0]), float(t[-1])] if len(t) else None,
             "bottom_track": "vel_bt" in ds, "variables": sorted(str(v) for v in ds.data_vars)}
 
 
-def _v_n_from_dolfyn(ds, four_beams: np.ndarray) -> np.ndarray:
-    """Head velocity over the seabed in NED (M,3) on 4-beam pings, through dolfyn's own earth rotation."""
-    from mhkit.dolfyn.rotate.api import rotate2
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        earth = rotate2(ds, "earth", inplace=False)
-    seabed_enu = np.asarray(earth["vel_bt"].values, float)[:3].T     # (M,3), the seabed relative to the head
-    head_enu = -seabed_enu
-    v_n = np.column_stack([head_enu[:, 1], head_enu[:, 0], -head_enu[:, 2]])
-    v_n[~four_beams] = np.nan
-    return v_n
-
-
 def read_dvl(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
-    """The DVL log of a file on its own (module docstring).
+    """The DVL log of a file (PD0/VmDAS by content, else a CSV of DVL velocities by its header).
+
+    ``config`` gives the water density and gravity for depth from pressure (default :class:`SensorConfig`).
 
     Raises:
-        DataError: not a DVL file graphnav reads, or a file it cannot use (no bottom track, not in beam
-            coordinates), with the reason.
+        DataError: the file is missing, not a DVL format graphnav reads, or bad (the message names where).
     """
     path = Path(path)
-    if not is_dvl_file(path):
-        raise DataError("not a DVL file graphnav reads (Teledyne RDI PD0: .pd0 or .000-style)", str(path))
-    config = config or SensorConfig()
-    dvl, depth, meta = pd0.read_pd0(path, config)
-    ds = pd0._read_rdi(path)
-    geometry = pd0.pd0_geometry(config, meta).dvl
-    T_d = beam_matrix(geometry.theta_rad, geometry.psi_rad)
-    n_valid = dvl.valid.sum(axis=1)
-    v_d = np.full((len(dvl.t), 3), np.nan)
-    for pattern in np.unique(dvl.valid, axis=0):
-        rows = np.all(dvl.valid == pattern, axis=1)
-        if pattern.sum() >= 3:
-            v_d[rows] = np.linalg.lstsq(T_d[pattern], dvl.beams[rows][:, pattern].T, rcond=None)[0].T
-    v_d_valid = n_valid >= 3
-    attitude = np.column_stack([np.asarray(ds[k].values, float) for k in ("heading", "pitch", "roll")]) \
-        if all(k in ds for k in ("heading", "pitch", "roll")) else None
-    v_n = _v_n_from_dolfyn(ds, n_valid == 4) if attitude is not None else None
-    counts = {"read": int(len(dvl.t)), "valid": int(v_d_valid.sum())}
-    if (~v_d_valid).any():
-        counts["fewer than 3 valid bottom-track beams"] = int((~v_d_valid).sum())
-    instrument = _instrument(ds)
-    return DvlLog(t=dvl.t, v_d=v_d, v_d_valid=v_d_valid, frame="beam", beams=dvl.beams, beam_valid=dvl.valid,
-                  attitude_deg=attitude, depth_m=None if depth is None else depth.depth, v_n=v_n,
-                  three_beam=n_valid == 3, instrument=instrument, counts=counts, source=str(path))
+    if not path.is_file():
+        raise DataError("no such file", str(path))
+    if pd0.looks_like_pd0(path):
+        return pd0.read_pd0_log(path, config)
+    if pd0.has_pd0_suffix(path):
+        raise DataError("named like a PD0 file but holds no PD0 ensemble (header 0x7F 0x7F with a valid "
+                        "checksum): a truncated download or another format?", str(path))
+    if path.suffix.lower() in (".csv", ".txt"):
+        return read_dvl_csv(path)
+    raise DataError("not a DVL file graphnav reads: PD0/VmDAS ensembles (recognised by content) or a CSV of "
+                    "DVL velocities (t, vx, vy, vz)", str(path))
+
+
+def _column(header: list[str], names: tuple[str, ...]) -> int | None:
+    low = [h.strip().lower() for h in header]
+    return next((low.index(n) for n in names if n in low), None)
+
+
+def read_dvl_csv(path: str | Path) -> DvlLog:
+    """A CSV of DVL-frame velocities (see the module docstring) as a :class:`DvlLog` with ``frame="dvl"``."""
+    path = Path(path)
+    source = str(path)
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise DataError("empty file", source)
+    header, body = rows[0], rows[1:]
+    i_t = _column(header, CSV_TIME)
+    i_v = next((idx for idx in ([_column(header, (n,)) for n in names] for names in CSV_VELOCITY)
+                if None not in idx), None)
+    if i_t is None or i_v is None:
+        raise DataError(f"the header needs a time column ({', '.join(CSV_TIME)}) and three velocity columns "
+                        f"({'; '.join(', '.join(n) for n in CSV_VELOCITY)}); got {header}", source, 1)
+    i_ok = _column(header, ("valid",))
+    cols = [i_t, *i_v] + ([i_ok] if i_ok is not None else [])
+    data = np.full((len(body), len(cols)), np.nan)
+    for r, row in enumerate(body):
+        for c, j in enumerate(cols):
+            text = row[j].strip() if j < len(row) else ""
+            if not text:
+                continue
+            try:
+                data[r, c] = float(text)
+            except ValueError:
+                raise DataError(f"not a number: {text!r}", source, r + 2, header[j]) from None
+    t, v = data[:, 0], data[:, 1:4]
+    if not np.all(np.isfinite(t)):
+        raise DataError("empty or non-finite time", source, int(np.flatnonzero(~np.isfinite(t))[0]) + 2,
+                        header[i_t])
+    flagged = np.any(invalid_dvl_values(v), axis=1)
+    valid = ~flagged & ((np.nan_to_num(data[:, 4]) != 0) if i_ok is not None else True)
+    counts = {"read": len(t), "valid": int(valid.sum())}
+    if flagged.any():
+        counts["no velocity (empty, non-finite or flagged)"] = int(flagged.sum())
+    if i_ok is not None and (~valid & ~flagged).any():
+        counts["marked invalid in the file"] = int((~valid & ~flagged).sum())
+    if counts["valid"] < len(t):
+        warnings.warn(f"{source}: {len(t) - counts['valid']} of {len(t)} ping(s) without a valid velocity",
+                      RuntimeWarning, stacklevel=2)
+    return DvlLog(t=t, v_d=np.where(valid[:, None], v, np.nan), v_d_valid=valid, frame="dvl",
+                  instrument={"format": "csv"}, counts=counts, source=source)

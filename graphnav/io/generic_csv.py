@@ -27,7 +27,9 @@ without them every finite beam is valid; RDI's -32768 / -32.768 flags are invali
 that logs body velocity): the beams are then the exact projections ``T_b v_b`` of that velocity on the
 configured beam geometry (no noise added; ``meta["beams_from_v_b"]``), and a ping with any non-finite axis
 has no valid beam. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
-(:mod:`graphnav.io.pd0`), whose stamps are Unix seconds: the IMU stamps must then be Unix too.
+(:mod:`graphnav.io.pd0`) recorded in any RDI frame (beam, instrument, ship or earth: rotated back to beams;
+3-beam solutions become ``DvlData.v_d``), whose stamps are Unix seconds: the IMU stamps must then be Unix too;
+what the file read and refused is in ``meta["streams"]``.
 
 Every stream ends on one clock starting at the first IMU stamp (``meta["t0_s"]`` keeps the offset).
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
@@ -211,6 +213,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         meta.update(pd0_meta)
         config = pd0_geometry(config, pd0_meta)
         dvl = dataclasses.replace(dvl_raw, t=dvl_raw.t - t0)
+        for entry in meta.get("streams", {}).values():     # spans on the mission's clock, like the streams
+            if entry.get("span_s"):
+                entry["span_s"] = [entry["span_s"][0] - t0, entry["span_s"][1] - t0]
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:

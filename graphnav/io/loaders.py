@@ -597,7 +597,8 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
             * None: the simulated default mission;
             * a ROS bag, recognised by its content: ROS 1, MCAP, sqlite3 or a rosbag2 folder
               (:func:`graphnav.io.bags.load_bag`);
-            * a Teledyne RDI PD0 file, ``.pd0`` or ``.000``-style numbered (:func:`graphnav.io.generic_csv.load_pd0`);
+            * a Teledyne RDI PD0 file, recognised by content (``.pd0``, ``.000``, VmDAS ``.ENR/.ENS/.ENX``, any
+              name), in any RDI frame (:func:`graphnav.io.generic_csv.load_pd0`);
             * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
               (:func:`graphnav.io.generic_csv.load_csv_mission`);
             * an A-KIT ``TrajectoryN`` folder.
@@ -625,7 +626,7 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
         atm = config_path is not None and "atmospheric_pressure_pa" in _config_keys(config_path)
         mission = bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
-    elif pd0.is_pd0(path):
+    elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
         mission = generic_csv.load_pd0(path, config)
     elif generic_csv.uses_column_map(path, config):
         mission = generic_csv.load_csv_mission(path, config)

@@ -36,3 +36,12 @@ def beamsnet_dir() -> Path | None:
     """``<data>/snapir-2021-beamsnet`` if present."""
     root = data_root()
     return root / BEAMSNET_DIRNAME if root is not None and (root / BEAMSNET_DIRNAME).is_dir() else None
+
+
+REAL_FORMATS_DIRNAME = "real-formats"
+
+
+def real_formats_dir() -> Path | None:
+    """``<data>/real-formats`` (real vendor files: ``pd0/`` RDI ensembles, ...) if present."""
+    root = data_root()
+    return root / REAL_FORMATS_DIRNAME if root is not None and (root / REAL_FORMATS_DIRNAME).is_dir() else None

@@ -1,110 +1,554 @@
-"""Teledyne RDI PD0 (the binary ensembles of Workhorse / Pathfinder / Pioneer / Tasman DVLs) through ``dolfyn``.
+"""Teledyne RDI PD0 (Workhorse / Pathfinder / Pioneer / Tasman / RiverPro DVLs and ADCPs, and VmDAS/WinRiver
+ensemble files) through MHKiT's dolfyn, in every coordinate frame the instrument can record.
 
-The reader is dolfyn's ``read_rdi``, as maintained inside MHKiT (``mhkit.dolfyn``; the standalone ``dolfyn``
-1.3.0 on PyPI imports ``numpy.RankWarning`` and ``scipy.integrate.cumtrapz``, both removed, and does not
-import with numpy 2). What graphnav takes from each ensemble:
+The reader is dolfyn's ``read_rdi`` as maintained inside MHKiT (``mhkit.dolfyn``), and every rotation between
+RDI's frames is dolfyn's own (``rotate2``, its orientation matrix from the stored heading/pitch/roll, its
+beam-to-instrument matrix); this module only adds what dolfyn does not do: recognising a PD0 file by its
+content, the beam-to-instrument matrix the instrument stores (block ``0x3200``, which dolfyn skips), undoing
+RDI's *ship* frame, sorting pings into 4-beam / 3-beam / no-lock, and mapping RDI's instrument frame to
+graphnav's DVL frame ``d`` (:mod:`graphnav.core.dvl`, ``docs/decisions/dvl-frame.md``).
 
-* bottom-track beam velocities ``vel_bt`` (the PD0 bottom-track block ``0x0600``, mm/s as int16, scaled to
-  m/s by dolfyn). RDI marks a beam without bottom lock with -32768 (-32.768 m/s after scaling); such beams,
-  NaN and anything beyond :data:`graphnav.core.mission.MAX_DVL_SPEED_MPS` are invalid per beam
-  (:meth:`graphnav.core.mission.DvlData.sanitized`). The ensemble must be in beam coordinates (``EX`` command
-  bits 00); earth/instrument-coordinate files would hold velocities, not beams, and are refused;
-* the clock (variable leader RTC) as the ping stamp. dolfyn keeps an ensemble only when another header
-  follows it (it treats the end of a file as a possibly cut-off ensemble), so a file's last ping is lost;
-* depth: the pressure sensor (dbar -> m with the configured water density), else none.
+**Frames and signs.** RDI's instrument frame (``X, Y, Z``; dolfyn's ``inst``) has beam 1 toward -X, beam 2
+toward +X, beam 3 toward +Y, beam 4 toward -Y for a convex head (the signs swap for a concave one) and the
+beams pointing along **-Z**: the beam-to-instrument matrix (RDI P/N 951-6079-00 section 5, dolfyn's
+``_calc_beam_orientmat`` and the ``0x3200`` matrix the instruments store) has ``w = +b (B1 + B2 + B3 + B4)``
+with beam velocities positive toward the transducer. Bottom-track velocities are the seabed's velocity
+relative to the head (WinRiver's boat velocity is their negative). graphnav's DVL frame is the instrument's
+forward-right-down frame: ``x_d`` along RDI's +Y (beam 3, the instrument's heading reference), ``y_d``
+along RDI's +X (beam 2), ``z_d`` along RDI's -Z (the beams' side), i.e. ``v_d = C_D_RDI @ v_rdi`` with
+:data:`C_D_RDI` a proper rotation. graphnav's beam (the head's velocity along the outward beam unit vector)
+then equals RDI's bottom-track beam velocity as recorded, and a convex head has beam azimuths 270, 90, 0,
+180 deg in ``d``. (Before this module settled it, graphnav took RDI's X and Y as ``x_d, y_d`` with beams along
++z: a reflection of RDI's frame, which solved to (-u, -v, +w) of dolfyn's instrument velocity.)
 
-Beam geometry and sign, from the RDI coordinate-transformation formulae (P/N 951-6079-00, section 5:
-``u = c a (B1 - B2)``, ``v = c a (B4 - B3)``, ``w = -b (B1 + B2 + B3 + B4)``, beam velocity positive toward
-the transducer, c = 1 convex / -1 concave): the beams point along +z of the RDI instrument frame, beam 1/2
-along -x/+x and 3/4 along +y/-y for a convex head (mirrored for concave). For bottom track the "water" is
-the seabed, whose velocity relative to the head is ``-v``; "toward the transducer" along an outward beam
-``u_i`` is then ``(-v) . (-u_i) = v . u_i``: exactly graphnav's beam (the head's velocity along the
-beam), so the values are taken as they are. The loader sets ``dvl.theta_rad`` from the file's beam angle
-and ``dvl.psi_rad`` from the head pattern (convex: 180, 0, 90, 270 deg); ``dvl.C_d_b`` of the configuration
-must therefore turn the RDI instrument frame into the body frame (e.g. a 45 deg yaw for a head mounted
-with beam 3 at 45 deg to starboard of forward).
+**What a ping becomes** (:func:`read_pd0_log`):
 
-A PD0 file holds the DVL only: the IMU comes from the CSV column map of the configuration
+* ``beam`` files: the four bottom-track beams as they are; RDI marks a beam without lock with -32768.
+* ``inst``/``ship``/``earth`` files: the instrument rotated the velocities itself with its own heading, pitch
+  and roll (tilts only when the ``EX`` "use tilts" bit is set; the ship frame has no heading). A ping whose
+  four components (X/Y/Z or E/N/U plus the error velocity) are valid is rotated back to the instrument frame
+  and to beams with dolfyn's rotations; a ping whose error velocity is flagged but whose three velocity
+  components are valid is a *3-beam solution* (``EX`` xxx1x, RDI's percent-good 1 = 100): its beams cannot be
+  recovered (the missing beam was filled by assuming a zero error velocity), so it only gives ``v_d``.
+* Every usable ping gives ``v_d`` (head velocity in ``d``) and ``v_n`` (head velocity in NED from the
+  instrument's attitude; RDI's earth frame is East-North-Up).
+* the clock (variable leader RTC) as Unix-second stamps. dolfyn keeps an ensemble only when another header
+  follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted.
+* depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
+  0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned.
+
+A PD0 file holds the DVL only: for a mission, the IMU comes from the CSV column map of the configuration
 (:mod:`graphnav.io.generic_csv`, whose ``dvl`` entry may name a PD0 file) on the same clock (Unix seconds).
+The loader sets ``dvl.theta_rad`` and ``dvl.psi_rad`` from the file's beam matrix (:func:`pd0_geometry`); the
+configuration's ``dvl.C_d_b`` turns ``d`` into the body frame: ``I`` for a down-looking head with beam 3
+forward, a 45 deg yaw for beam 3 at 45 deg to starboard.
 """
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import io
 import re
+import struct
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.dvl_log import DvlLog
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.mission import DepthData, DvlData
+from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData
 
-#: Beam azimuths (deg) of the RDI instrument frame by head pattern (see the module docstring).
-RDI_PSI_DEG = {"convex": (180.0, 0.0, 90.0, 270.0), "concave": (0.0, 180.0, 270.0, 90.0)}
+#: File name endings of PD0 ensembles: RDI's own ``.pd0`` and numbered ``.000``, ``.001``, ...; VmDAS's raw
+#: ``.ENR``, averaged ``.ENS`` and ``.ENX`` (any case). A file is read as PD0 by its content
+#: (:func:`looks_like_pd0`), whatever its name.
+PD0_SUFFIXES = (".pd0", ".enr", ".ens", ".enx")
+#: RDI's instrument frame (X, Y, Z) to graphnav's DVL frame d (forward = RDI +Y, right = RDI +X, down = RDI -Z).
+C_D_RDI = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+#: ENU (RDI's earth frame) to NED.
+C_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 #: RDI's bad-velocity marker in raw counts (mm/s).
 PD0_BAD = -32768
+#: A pressure word of 0xFFFFFFFF (decapascal) is RDI's "no pressure sensor"; dolfyn scales it to this, dbar.
+PRESSURE_NO_SENSOR_DBAR = 0xFFFFFFFF * 1e-3
+#: Depths (m, positive down) a pressure reading can mean: a few metres above the surface (a sensor in air,
+#: gauge offsets) to the deepest ocean trench.
+DEPTH_RANGE_M = (-5.0, 11000.0)
+#: Bytes searched for the first ensemble header when recognising a file.
+SNIFF_BYTES = 1 << 16
+#: dolfyn's name of each frame of the EX bits -> graphnav's (:attr:`DvlLog.frame`).
+FRAME_NAMES = {"beam": "beam", "inst": "instrument", "ship": "ship", "earth": "earth"}
+
+
+# ---------------------------------------------------------------------------------------------- content
+
+
+@dataclass
+class Pd0Scan:
+    """What a byte-level pass over a PD0 file finds.
+
+    Attributes:
+        ensembles: complete ensembles with a valid checksum.
+        bad_checksum: headers (0x7F 0x7F) followed by a full-length ensemble whose checksum fails.
+        trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
+        beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
+            error; scaled counts / 10000), or None.
+    """
+
+    ensembles: int
+    bad_checksum: int
+    trailing_bytes: int
+    beam_matrix: np.ndarray | None
+    spans: list = dataclasses.field(default_factory=list, repr=False)   # (start, end) byte range of each one
+
+
+def _ensembles(raw: bytes, limit: int | None = None):
+    """(offset, length without checksum, checksum ok) of each 0x7F7F-headed ensemble, in order."""
+    data = np.frombuffer(raw, dtype=np.uint8)
+    csum = np.concatenate([[0], np.cumsum(data, dtype=np.int64)])
+    pos, n = 0, len(raw)
+    while True:
+        i = raw.find(b"\x7f\x7f", pos)
+        if i < 0 or i + 6 > n or (limit is not None and i > limit):
+            return
+        length = raw[i + 2] | (raw[i + 3] << 8)
+        if length < 6 or i + length + 2 > n:
+            pos = i + 1
+            continue
+        ok = (int(csum[i + length] - csum[i]) & 0xFFFF) == (raw[i + length] | (raw[i + length + 1] << 8))
+        yield i, length, ok
+        pos = i + length + 2 if ok else i + 1
+
+
+def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
+    """Block 0x3200 (16 int16, row-major, scaled by 10000) of the ensemble at ``start``, if present."""
+    n_types = raw[start + 5]
+    offsets = struct.unpack_from(f"<{n_types}H", raw, start + 6)
+    for off in offsets:
+        if struct.unpack_from("<H", raw, start + off)[0] == 0x3200:
+            return np.array(struct.unpack_from("<16h", raw, start + off + 2), float).reshape(4, 4) / 1e4
+    return None
+
+
+def scan_pd0(path: str | Path) -> Pd0Scan:
+    """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
+    raw = Path(path).read_bytes()
+    spans, bad, bad_end = [], 0, 0
+    for start, length, ok in _ensembles(raw):
+        if ok:
+            spans.append((start, start + length + 2))
+        elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
+            bad += 1
+            bad_end = start + length + 2
+    return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
+                   _beam_matrix(raw, spans[0][0]) if spans else None, spans)
+
+
+def _read_good_ensembles(path: Path, scan: Pd0Scan):
+    """dolfyn's dataset of only the checksummed ensembles of ``path``: dolfyn itself stops with an error on a
+    corrupt ensemble (it parses on past a failed checksum), so those are cut out into a temporary copy."""
+    import tempfile
+    raw = path.read_bytes()
+    with tempfile.TemporaryDirectory(prefix="graphnav-pd0-") as tmp:
+        clean = Path(tmp) / path.name
+        clean.write_bytes(b"".join(raw[a:b] for a, b in scan.spans))
+        return _read_rdi(clean, source=str(path))
+
+
+def looks_like_pd0(path: str | Path) -> bool:
+    """True when the file's first 0x7F 0x7F header (within :data:`SNIFF_BYTES`) starts an ensemble whose
+    checksum is right: what makes a file PD0, whatever its extension."""
+    path = Path(path)
+    if not path.is_file():
+        return False
+    with open(path, "rb") as f:
+        raw = f.read(SNIFF_BYTES + (1 << 16))
+    return any(ok for _, _, ok in _ensembles(raw, limit=SNIFF_BYTES))
+
+
+def has_pd0_suffix(path: str | Path) -> bool:
+    """A name RDI or VmDAS gives PD0 files (:data:`PD0_SUFFIXES` or ``.NNN``), any case."""
+    suffix = Path(path).suffix.lower()
+    return suffix in PD0_SUFFIXES or re.fullmatch(r"\.\d{3}", suffix) is not None
 
 
 def is_pd0(path: str | Path) -> bool:
-    """A ``.pd0`` file or an RDI numbered file (``.000``, ``.001``, ...)."""
-    path = Path(path)
-    return path.is_file() and (path.suffix.lower() == ".pd0" or re.fullmatch(r"\.\d{3}", path.suffix) is not None)
+    """A PD0 file, recognised by content (:func:`looks_like_pd0`)."""
+    return looks_like_pd0(path)
 
 
-def _read_rdi(path: Path):
-    try:
-        from mhkit.dolfyn.io.rdi import read_rdi
-    except ImportError:
-        raise ConfigError("reading PD0 needs MHKiT's dolfyn: pip install 'graphnav[pd0]'") from None
+# ---------------------------------------------------------------------------------------------- geometry
+
+
+def rdi_beam_vectors_d(beam2inst: np.ndarray) -> np.ndarray:
+    """(4,3) outward beam unit vectors in graphnav's DVL frame from a 4x4 RDI beam-to-instrument matrix.
+
+    Beam velocities ``B`` (positive toward the transducer) of a water/seabed velocity ``V`` relative to the
+    head (RDI instrument frame) are ``B = A V`` with ``A`` the first three columns of ``inv(beam2inst)``; a
+    beam velocity toward the transducer is ``-V . u`` for the outward unit vector ``u``, so ``u = -A_i``.
+    """
+    A = np.linalg.inv(np.asarray(beam2inst, float))[:, :3]
+    u_rdi = -A / np.linalg.norm(A, axis=1, keepdims=True)
+    return u_rdi @ C_D_RDI.T
+
+
+def check_beam_handedness(u_d: np.ndarray, source: str = "beam matrix") -> None:
+    """Refuse a beam geometry that is not RDI's in a right-handed frame: every beam along +z of ``d``, and in
+    RDI's numbering ``((u1 - u2) x (u3 - u4)) . z_d > 0`` (true for convex and concave heads alike; a mirrored
+    matrix or frame has it negative)."""
+    u_d = np.asarray(u_d, float)
+    if np.any(u_d[:, 2] <= 0):
+        raise DataError(f"beam(s) {np.flatnonzero(u_d[:, 2] <= 0) + 1} do not point along +z of the DVL frame",
+                        source, field="beam2inst")
+    if np.cross(u_d[0] - u_d[1], u_d[2] - u_d[3])[2] <= 0:
+        raise DataError("the beam geometry is mirrored (beams 1-2 x beams 3-4 along -z): a left-handed "
+                        "beam-to-instrument matrix or frame", source, field="beam2inst")
+
+
+def rdi_geometry(beam2inst: np.ndarray, source: str = "beam matrix") -> tuple[float, np.ndarray]:
+    """Beam inclination (mean over the beams, rad) and azimuths (4,) in ``d`` of an RDI beam matrix (the
+    :class:`~graphnav.core.config.DvlSpec` ``theta_rad``, ``psi_rad``). A convex 20 deg head gives 20 deg and
+    270, 90, 0, 180 deg."""
+    u_d = rdi_beam_vectors_d(beam2inst)
+    check_beam_handedness(u_d, source)
+    theta = float(np.mean(np.arccos(np.clip(u_d[:, 2], -1.0, 1.0))))
+    psi = np.mod(np.arctan2(u_d[:, 1], u_d[:, 0]), 2 * np.pi)
+    return theta, np.where(psi > 2 * np.pi - 1e-9, 0.0, psi)      # -0 (float32 matrices) reads as 0, not 2 pi
+
+
+# ---------------------------------------------------------------------------------------------- dolfyn
+
+
+def _import_dolfyn() -> None:
+    """Import dolfyn's reader and rotations with the warning filters restored afterwards: importing
+    ``mhkit.dolfyn`` runs ``warnings.simplefilter("ignore", RuntimeWarning)`` (in ``dolfyn/binned.py``), which
+    would otherwise silence every RuntimeWarning graphnav raises for the rest of the process."""
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore")   # dolfyn's notes on missing userdata and similar
+            import mhkit.dolfyn.io.rdi  # noqa: F401
+            import mhkit.dolfyn.rotate.api  # noqa: F401
+            import mhkit.dolfyn.rotate.rdi  # noqa: F401
+    except ImportError:
+        raise ConfigError("reading PD0 needs MHKiT's dolfyn: pip install 'graphnav[pd0]'") from None
+
+
+def _read_rdi(path: Path, source: str | None = None):
+    _import_dolfyn()
+    from mhkit.dolfyn.io.rdi import read_rdi
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")   # dolfyn's notes on missing userdata and similar; it prints progress
             return read_rdi(str(path), userdata=False)
     except Exception as exc:  # noqa: BLE001 - dolfyn raises plain Exceptions on corrupt files
-        raise DataError(f"cannot read as PD0: {type(exc).__name__}: {exc}", str(path)) from None
+        raise DataError(f"cannot read as PD0: {type(exc).__name__}: {exc}", source or str(path)) from None
+
+
+def _bt_dataset(ds, vel: np.ndarray, coord_sys: str):
+    """A copy of ``ds`` holding only the bottom-track velocities ``vel`` (4,N) in ``coord_sys``, for dolfyn's
+    rotations (which rotate every variable of ``rotate_vars``)."""
+    keep = [k for k in ("heading", "pitch", "roll", "orientmat", "beam2inst_orientmat") if k in ds]
+    sub = ds[keep].copy(deep=True).assign_coords({c: ds[c] for c in ("beam", "dir") if c in ds.coords})
+    sub["vel_bt"] = ds["vel_bt"].copy(data=np.asarray(vel, np.float64))
+    sub.attrs = dict(ds.attrs, rotate_vars=["vel_bt"], coord_sys=coord_sys)
+    return sub
+
+
+def _orientmat(ds, heading: bool = True, tilts: bool = True):
+    """dolfyn's orientation matrix (inst -> ENU) from the stored attitude, without heading and/or tilts."""
+    from mhkit.dolfyn.rotate.rdi import _calc_orientmat
+    sub = ds[["heading", "pitch", "roll"]].copy(deep=True)
+    sub.attrs = dict(ds.attrs, coord_sys="earth")      # ship handling off: the tilts are applied or zeroed here
+    if not heading:
+        sub["heading"][:] = 0.0
+    if not tilts:
+        sub["pitch"][:] = 0.0
+        sub["roll"][:] = 0.0
+    return _calc_orientmat(sub)
+
+
+def _rotate(ds, vel: np.ndarray, coord_sys: str, out: str, orientmat=None) -> np.ndarray:
+    """``vel`` (4,N) from ``coord_sys`` to ``out`` with dolfyn's ``rotate2`` (``orientmat`` replacing the
+    dataset's for the inst <-> earth step)."""
+    from mhkit.dolfyn.rotate.api import rotate2
+    sub = _bt_dataset(ds, vel, coord_sys)
+    if orientmat is not None:
+        sub["orientmat"] = orientmat
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("ignore")
+        return np.asarray(rotate2(sub, out, inplace=False)["vel_bt"].values, float)
+
+
+def instrument_velocity(ds, vel: np.ndarray) -> np.ndarray:
+    """(4,N) bottom-track velocity in RDI's instrument frame (X, Y, Z, error) from the file's frame, with
+    dolfyn's rotations: earth -> inst with the stored attitude (tilts only when the EX bits say they were
+    used); ship -> inst by undoing the tilts (the ship frame is the earth rotation without heading); beam ->
+    inst with the beam-to-instrument matrix."""
+    coord = str(ds.attrs["coord_sys"]).lower()
+    tilts = str(ds.attrs.get("use_pitchroll", "yes")).lower() == "yes"
+    if coord == "inst":
+        return np.asarray(vel, float)
+    if coord == "beam":
+        return _rotate(ds, vel, "beam", "inst")
+    omat = _orientmat(ds, heading=coord == "earth", tilts=tilts)
+    return _rotate(ds, vel, "earth", "inst", orientmat=omat)
+
+
+def beams_from_instrument(ds, inst: np.ndarray) -> np.ndarray:
+    """(4,N) beam velocities from instrument-frame (X, Y, Z, error) velocities (dolfyn's inverse
+    beam-to-instrument matrix); NaN where a component is NaN."""
+    return _rotate(ds, inst, "inst", "beam")
+
+
+def earth_velocity(ds, inst: np.ndarray) -> np.ndarray:
+    """(3,N) East-North-Up velocity from instrument-frame velocities with dolfyn's orientation matrix of the
+    stored heading, pitch and roll."""
+    return _rotate(ds, inst, "inst", "earth", orientmat=_orientmat(ds))[:3]
+
+
+# ---------------------------------------------------------------------------------------------- reading
+
+
+def _stamps(ds) -> np.ndarray:
+    return ds["time"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
+
+
+def _flagged(vel: np.ndarray) -> np.ndarray:
+    """RDI's -32768 (dolfyn's float32 -32.768), NaN, or beyond what a DVL can measure."""
+    with np.errstate(invalid="ignore"):
+        return np.isclose(vel, PD0_BAD * 1e-3) | ~np.isfinite(vel) | (np.abs(vel) > MAX_DVL_SPEED_MPS)
+
+
+def _depth(ds, config: SensorConfig, counts: dict, source: str) -> np.ndarray | None:
+    """Depth (m, down) from the pressure sensor, NaN where the word is 0xFFFFFFFF or the depth implausible;
+    None when the instrument has no pressure sensor (every word zero or 0xFFFFFFFF)."""
+    if "pressure" not in ds:
+        return None
+    p_dbar = np.asarray(ds["pressure"].values, float)
+    no_sensor = p_dbar > 0.999 * PRESSURE_NO_SENSOR_DBAR
+    if np.all(no_sensor | (p_dbar == 0)):
+        return None
+    # dbar is gauge pressure on RDI instruments: 1 dbar = 1e4 Pa.
+    depth = p_dbar * 1e4 / (config.water_density_kgpm3 * config.gravity_mps2)
+    out_of_range = ~no_sensor & ((depth < DEPTH_RANGE_M[0]) | (depth > DEPTH_RANGE_M[1]))
+    for reason, mask in (("bad pressure word", no_sensor), ("depth out of range", out_of_range)):
+        if mask.any():
+            counts[reason] = int(mask.sum())
+            warnings.warn(f"{source}: {int(mask.sum())} pressure reading(s) are not a depth ({reason}: "
+                          f"{'0xFFFFFFFF, no sensor' if reason == 'bad pressure word' else DEPTH_RANGE_M} ), "
+                          f"first at ensemble index {int(np.flatnonzero(mask)[0])}; marked invalid",
+                          RuntimeWarning, stacklevel=3)
+    return np.where(no_sensor | out_of_range, np.nan, depth)
+
+
+def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
+    a = ds.attrs
+    return {"make": "Teledyne RDI", "model": str(a.get("inst_model", "")), "type": str(a.get("inst_type", "")),
+            "frequency_khz": float(a["carrier_freq"]) if "carrier_freq" in a else None,
+            "beam_angle_deg": float(a.get("beam_angle", np.nan)), "beam_pattern": str(a.get("beam_pattern", "")),
+            "n_beams": int(a.get("n_beams", 4)), "orientation": str(a.get("orientation", "")),
+            "coordinate_system": FRAME_NAMES.get(str(a.get("coord_sys", "")).lower(), str(a.get("coord_sys"))),
+            "ex_bits": {"frame": str(a.get("coord_sys", "")), "tilts_used": a.get("use_pitchroll") == "yes",
+                        "three_beam_allowed": a.get("use_3beam") == "yes",
+                        "bin_mapping": a.get("bin_mapping") == "yes"},
+            "serial": int(a["serialnum"]) if "serialnum" in a else None,
+            "firmware": str(a.get("firmware_ver", "")), "pings_per_ensemble": int(a.get("pings_per_ensemble", 1)),
+            "beam_matrix": matrix_source, "ensembles_in_file": scan.ensembles,
+            "heading_misalign_deg": float(a.get("heading_misalign_deg", 0.0)),
+            "magnetic_var_deg": float(a.get("magnetic_var_deg", 0.0))}
+
+
+#: Keys of :attr:`DvlLog.counts` that are not reasons for refusing a ping's velocity.
+NOT_REFUSALS = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
+                "flagged beams", "3-beam solution", "bad checksum (ensemble left out)")
+
+
+def _warn_counts(counts: dict, source: str) -> None:
+    refused = {k: v for k, v in counts.items() if k not in NOT_REFUSALS and v}
+    flagged = counts.get("flagged beams", 0)
+    three = counts.get("3-beam solution", 0)
+    if refused or flagged or three:
+        warnings.warn(f"{source}: of {counts['read']} ping(s), {counts['valid']} give a velocity"
+                      + (f" ({three} of them 3-beam solutions: a velocity without beams)" if three else "")
+                      + "".join(f"; {v} {k}" for k, v in refused.items())
+                      + (f"; {flagged} beam value(s) flagged -32768 (no lock) marked invalid" if flagged else ""),
+                      RuntimeWarning, stacklevel=3)
+
+
+@dataclass
+class _Pings:
+    """What the bottom track of one file gives per ping: beams (M,4) and their validity, the head's velocity
+    ``v_d`` (M,3, NaN where none), RDI instrument-frame velocities ``inst`` (4,M), 3-beam flags, counts."""
+
+    beams: np.ndarray
+    beam_valid: np.ndarray
+    v_d: np.ndarray
+    inst: np.ndarray
+    three_beam: np.ndarray
+    counts: dict
+
+
+def _beam_pings(vel: np.ndarray, u_d: np.ndarray) -> _Pings:
+    """Beam-coordinate bottom track (4,M): beams as recorded, ``v_d`` by least squares over >= 3 valid beams on
+    the beam vectors ``u_d`` (4,3) of the file's matrix."""
+    bad = _flagged(vel)
+    beam_valid = ~bad.T
+    beams = np.where(beam_valid, vel.T, np.nan)
+    n_valid = beam_valid.sum(axis=1)
+    v_d = np.full((len(beams), 3), np.nan)
+    for pattern in np.unique(beam_valid[n_valid >= 3], axis=0):
+        rows = np.all(beam_valid == pattern, axis=1)
+        v_d[rows] = np.linalg.lstsq(u_d[pattern], beams[rows][:, pattern].T, rcond=None)[0].T
+    inst = np.vstack([(-v_d @ C_D_RDI).T, np.full((1, len(beams)), np.nan)])     # d -> RDI (C_D_RDI orthogonal)
+    counts = {"flagged beams": int(bad.sum()), "no bottom lock": int((n_valid == 0).sum()),
+              "fewer than 3 beams": int(((n_valid > 0) & (n_valid < 3)).sum()),
+              "beams recovered": int((n_valid >= 3).sum())}
+    return _Pings(beams, beam_valid, v_d, inst, n_valid == 3, counts)
+
+
+def _rotated_pings(ds, vel: np.ndarray) -> _Pings:
+    """Instrument/ship/earth bottom track (4,M: three components and the error velocity): back to RDI's
+    instrument frame and, where all four are valid, to beams; a flagged error velocity with three valid
+    components is a 3-beam solution (a velocity, no beams)."""
+    bad = _flagged(vel)
+    four = ~bad.any(axis=0)
+    three_beam = ~bad[:3].any(axis=0) & bad[3]
+    clean = np.where(bad, np.nan, vel)
+    clean[3, three_beam] = 0.0         # RDI's 3-beam solution assumes a zero error velocity
+    inst = instrument_velocity(ds, clean)
+    beams = beams_from_instrument(ds, np.where(four, inst, np.nan)).T
+    beam_valid = np.repeat(four[:, None], 4, axis=1) & np.all(np.isfinite(beams), axis=1, keepdims=True)
+    v_d = np.where((four | three_beam)[:, None], -inst[:3].T @ C_D_RDI.T, np.nan)
+    counts = {"no bottom lock": int((~(four | three_beam)).sum()), "3-beam solution": int(three_beam.sum()),
+              "beams recovered": int(beam_valid.all(axis=1).sum())}
+    return _Pings(np.where(beam_valid, beams, np.nan), beam_valid, v_d, inst, three_beam, counts)
+
+
+def _dataset(path: Path, scan: Pd0Scan):
+    """dolfyn's dataset of a PD0 file (corrupt ensembles left out, with a warning); refuses a file without
+    bottom track."""
+    source = str(path)
+    if scan.bad_checksum:
+        warnings.warn(f"{source}: {scan.bad_checksum} ensemble(s) with a wrong checksum (corrupt) left out; "
+                      f"{scan.ensembles} good ones read", RuntimeWarning, stacklevel=3)
+        ds = _read_good_ensembles(path, scan)
+    else:
+        ds = _read_rdi(path)
+    if "vel_bt" not in ds:
+        raise DataError("no bottom track in the file (PD0 block 0x0600 absent): an ADCP current-profile "
+                        "recording without bottom tracking gives no velocity over the seabed", source,
+                        field="vel_bt")
+    return ds
+
+
+def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog:
+    """A PD0 file's bottom track as a :class:`~graphnav.core.dvl_log.DvlLog` (see the module docstring).
+
+    ``counts`` (pings unless said): ``ensembles in file`` (complete, checksummed), ``read`` (by dolfyn),
+    ``valid`` (a velocity ``v_d``), ``beams recovered`` (>= 3 beams for beam files, all four for rotated ones),
+    ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
+    without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
+    ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
+    (corrupt ensembles, not part of ``read``). ``instrument`` holds the fixed
+    leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
+    matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
+    ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
+    variation ``EV``, in ``instrument``, are applied by the instrument only to ship/earth outputs).
+
+    Raises:
+        DataError: not PD0 by content, unreadable, no bottom-track block (an ADCP profile file), or a stored
+            beam matrix that is mirrored.
+    """
+    path = Path(path)
+    source = str(path)
+    config = config or SensorConfig()
+    if not looks_like_pd0(path):
+        raise DataError("not a PD0 file: no ensemble header 0x7F 0x7F with a valid checksum in the first "
+                        f"{SNIFF_BYTES} bytes", source)
+    scan = scan_pd0(path)
+    ds = _dataset(path, scan)
+    matrix_source = "nominal (beam angle and pattern)"
+    if scan.beam_matrix is not None:
+        ds["beam2inst_orientmat"] = ds["beam2inst_orientmat"].copy(data=scan.beam_matrix)
+        matrix_source = "stored in the file (0x3200)"
+    b2i = np.asarray(ds["beam2inst_orientmat"].values, float)
+    theta, psi = rdi_geometry(b2i, source)
+
+    t = _stamps(ds)
+    vel = np.asarray(ds["vel_bt"].values, float)[:4]              # dolfyn: (dir, time)
+    coord = str(ds.attrs.get("coord_sys", "beam")).lower()
+    counts = {"ensembles in file": scan.ensembles, "read": len(t)}
+    if scan.bad_checksum:
+        counts["bad checksum (ensemble left out)"] = scan.bad_checksum
+    if scan.ensembles > len(t):
+        counts["not read by dolfyn (last ensemble)"] = scan.ensembles - len(t)
+    pings = _beam_pings(vel, rdi_beam_vectors_d(b2i)) if coord == "beam" else _rotated_pings(ds, vel)
+    counts.update(pings.counts)
+    v_d_valid = np.all(np.isfinite(pings.v_d), axis=1)
+    counts["valid"] = int(v_d_valid.sum())
+    if coord == "earth":
+        enu = np.where(v_d_valid, np.where(_flagged(vel[:3]), np.nan, vel[:3]), np.nan)
+    else:
+        enu = earth_velocity(ds, np.where(v_d_valid, pings.inst, np.nan))
+    v_n = -(C_NED_ENU @ enu).T                     # the seabed's velocity relative to the head, negated
+    depth = _depth(ds, config, counts, source)
+    _warn_counts(counts, source)
+    attitude = np.stack([np.asarray(ds[k].values, float) for k in ("heading", "pitch", "roll")], axis=1)
+    instrument = _instrument(ds, scan, matrix_source)
+    instrument.update(beam_theta_rad=theta, beam_psi_rad=psi.tolist())
+    return DvlLog(t=t, v_d=pings.v_d, v_d_valid=v_d_valid, frame=FRAME_NAMES.get(coord, coord), beams=pings.beams,
+                  beam_valid=pings.beam_valid, attitude_deg=attitude, depth_m=depth,
+                  v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=pings.three_beam & v_d_valid,
+                  instrument=instrument, counts=counts, source=source)
 
 
 def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlData, DepthData | None, dict]:
-    """Bottom-track beams (Unix-second stamps) and pressure depth of a PD0 file; also a dict of metadata."""
-    path = Path(path)
+    """Bottom-track beams (Unix-second stamps), the DVL-frame velocity of the pings whose beams cannot be
+    used (3-beam solutions), and the pressure depth of a PD0 file in any RDI frame; also a dict of metadata
+    (``pd0_*`` keys, ``streams``: what was read and refused, :mod:`graphnav.core.streams`)."""
+    from graphnav.core.streams import add_note, count_read, count_refused
     config = config or SensorConfig()
-    source = str(path)
-    ds = _read_rdi(path)
-    if "vel_bt" not in ds:
-        raise DataError("no bottom-track data (PD0 block 0x0600) in the file: is bottom tracking (BP) on?",
-                        source, field="vel_bt")
-    coord = str(ds.attrs.get("coord_sys", "beam")).lower()
-    if coord != "beam":
-        raise DataError(f"bottom track in {coord} coordinates; graphnav needs beam coordinates (EX00xxx)",
-                        source, field="coord_sys")
-    t = ds["time"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
-    vel = np.asarray(ds["vel_bt"].values, float).T           # dolfyn: (beam, time) -> (time, beam)
-    if vel.shape[1] < 4:
-        raise DataError(f"{vel.shape[1]} bottom-track beams; graphnav needs 4", source, field="vel_bt")
-    vel = vel[:, :4]
-    raw_bad = np.isclose(vel, PD0_BAD * 1e-3)
-    vel[raw_bad] = PD0_BAD * 1e-3     # dolfyn's float32 scaling leaves -32.76800003; the exact flag is counted
-    # Every beam is offered as valid; sanitized() turns RDI's flag (and NaN, out-of-range) into invalid, with a
-    # warning that counts them.
-    dvl = DvlData(t, vel, np.ones_like(vel, dtype=bool), None, f"{source}:vel_bt").sanitized()
+    log = read_pd0_log(path, config)
+    source = log.source
+    beams_ok = log.beam_valid.sum(axis=1) >= 3
+    v_d_used = log.v_d_valid & ~beams_ok              # beams win where they exist: one measurement per ping
+    dvl = DvlData(log.t, np.where(log.beam_valid, log.beams, np.nan), log.beam_valid.copy(), None,
+                  f"{source}:vel_bt", v_d=np.where(v_d_used[:, None], log.v_d, np.nan), v_d_valid=v_d_used)
+    meta: dict = {"pd0_beam_angle_deg": log.instrument["beam_angle_deg"],
+                  "pd0_beam_pattern": log.instrument["beam_pattern"],
+                  "pd0_beam_theta_rad": log.instrument["beam_theta_rad"],
+                  "pd0_beam_psi_rad": log.instrument["beam_psi_rad"],
+                  "pd0_frame": log.frame, "pd0_invalid_beams": int((~log.beam_valid).sum()),
+                  "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts}
+    entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
+    unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
+    entry["read"] += unread              # in the file, so read; then refused with its reason
+    entry["used"] += unread
+    for reason in ("no bottom lock", "fewer than 3 beams", "not read by dolfyn (last ensemble)"):
+        count_refused(meta, "dvl", reason, log.counts.get(reason, 0))
+    if log.frame != "beam":
+        add_note(meta, "dvl", f"bottom track recorded in {log.frame} coordinates: "
+                 f"{log.counts['beams recovered']} ping(s) rotated back to beams with the instrument's own "
+                 f"attitude (dolfyn's rotations)")
+    if v_d_used.any():
+        add_note(meta, "dvl", f"{int(v_d_used.sum())} 3-beam solution(s) used as DVL-frame velocities (their "
+                 "beams cannot be recovered)")
     depth = None
-    if "pressure" in ds and np.any(np.asarray(ds["pressure"].values) > 0):
-        # dbar is gauge pressure on RDI instruments: 1 dbar = 1e4 Pa.
-        p_pa = np.asarray(ds["pressure"].values, float) * 1e4
-        depth = DepthData(t.copy(), p_pa / (config.water_density_kgpm3 * config.gravity_mps2), f"{source}:pressure")
-    pattern = str(ds.attrs.get("beam_pattern", "convex"))
-    meta = {"pd0_beam_angle_deg": float(ds.attrs.get("beam_angle", np.nan)), "pd0_beam_pattern": pattern,
-            "pd0_invalid_beams": int(raw_bad.sum()), "pd0_ensembles": int(len(t)),
-            "pd0_instrument": str(ds.attrs.get("inst_model", ""))}
+    if log.depth_m is not None:
+        ok = np.isfinite(log.depth_m)
+        count_read(meta, "depth", log.t, f"{source}:pressure")
+        for reason in ("bad pressure word", "depth out of range"):
+            count_refused(meta, "depth", reason, log.counts.get(reason, 0))
+        if ok.any():
+            depth = DepthData(log.t[ok], log.depth_m[ok], f"{source}:pressure")
     return dvl, depth, meta
 
 
 def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
-    """A copy of ``config`` with the beam inclination and azimuths of the PD0 file (see the module docstring)."""
-    import dataclasses
-    theta = meta["pd0_beam_angle_deg"]
-    if not np.isfinite(theta) or theta <= 0:
+    """A copy of ``config`` with the beam inclination and azimuths (in ``d``) of the PD0 file's beam matrix."""
+    theta = meta.get("pd0_beam_theta_rad")
+    if theta is None or not np.isfinite(theta) or theta <= 0:
         return config
-    psi = RDI_PSI_DEG.get(meta["pd0_beam_pattern"], RDI_PSI_DEG["convex"])
-    dvl = dataclasses.replace(config.dvl, theta_rad=float(np.deg2rad(theta)), psi_rad=np.deg2rad(psi))
+    dvl = dataclasses.replace(config.dvl, theta_rad=float(theta), psi_rad=np.asarray(meta["pd0_beam_psi_rad"]))
     return dataclasses.replace(config, dvl=dvl)

@@ -1,0 +1,241 @@
+"""Real RDI files (``<data>/real-formats/pd0``, MHKiT/dolfyn's example data) against dolfyn's own reading and
+rotations: ping counts, velocities in RDI's instrument and earth frames, the DVL frame's handedness, bad
+pressure words, the ADCP refusal and recognising PD0 by content. Skipped when the folder is absent."""
+from __future__ import annotations
+
+import contextlib
+import functools
+import io
+import json
+import shutil
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import DataError
+from graphnav.io import paths, pd0
+from graphnav.io.dvl_files import read_dvl
+
+pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed (scripts/setup_env.sh installs it)")
+
+BOTTOM_TRACK = {"RDI_withBT.000": "earth", "winriver01.PD0": "ship", "RiverPro_test01.PD0": "beam"}
+
+
+@pytest.fixture(scope="module")
+def pd0_dir():
+    root = paths.real_formats_dir()
+    if root is None or not (root / "pd0").is_dir():
+        pytest.skip("real PD0 files not found: set GRAPHNAV_DATA or place them at ../shared/data/real-formats/pd0")
+    return root / "pd0"
+
+
+@functools.lru_cache(maxsize=8)          # read once per module run; callers never modify the dataset
+def _dolfyn(path, stored_matrix: bool = True):
+    """dolfyn's dataset of ``path`` with RDI's -32768 as NaN, rotating only the bottom track, and (where the
+    file stores one) the instrument's own beam matrix, as graphnav uses it."""
+    pd0._import_dolfyn()
+    from mhkit.dolfyn.io.rdi import read_rdi
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("ignore")
+        ds = read_rdi(str(path), userdata=False)
+    vel = ds["vel_bt"].values
+    vel[np.isclose(vel, -32.768)] = np.nan
+    ds.attrs["rotate_vars"] = ["vel_bt"]
+    matrix = pd0.scan_pd0(path).beam_matrix
+    if stored_matrix and matrix is not None:
+        ds["beam2inst_orientmat"].values[:] = matrix
+    return ds
+
+
+def _rotate(ds, frame):
+    from mhkit.dolfyn.rotate.api import rotate2
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("ignore")
+        return rotate2(ds, frame, inplace=False)["vel_bt"].values.astype(float)
+
+
+@functools.lru_cache(maxsize=16)
+def _read(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return read_dvl(path)
+
+
+@pytest.mark.parametrize("name", sorted(BOTTOM_TRACK))
+def test_pings_read_and_valid_match_dolfyn(pd0_dir, name):
+    log = _read(pd0_dir / name)
+    ds = _dolfyn(pd0_dir / name)
+    vel = ds["vel_bt"].values
+    n = vel.shape[1]
+    assert log.frame == BOTTOM_TRACK[name] == log.instrument["coordinate_system"]
+    assert log.counts["read"] == len(log) == n
+    # dolfyn does not read a complete file's last ensemble; the byte scan counts it (RDI_withBT is cut short).
+    assert log.counts["ensembles in file"] == n + (name != "RDI_withBT.000")
+    if BOTTOM_TRACK[name] == "beam":
+        dolfyn_valid = np.isfinite(vel).sum(axis=0) >= 3
+        assert log.counts["beams recovered"] == int(dolfyn_valid.sum())
+    else:
+        dolfyn_valid = np.all(np.isfinite(vel[:3]), axis=0)
+        four = dolfyn_valid & np.isfinite(vel[3])
+        assert log.counts["beams recovered"] == int(four.sum())
+        np.testing.assert_array_equal(log.three_beam, dolfyn_valid & ~four)
+    np.testing.assert_array_equal(log.v_d_valid, dolfyn_valid)
+    assert log.counts["valid"] == int(dolfyn_valid.sum())
+    assert log.counts["read"] == log.counts["valid"] + log.counts["no bottom lock"] + log.counts.get(
+        "fewer than 3 beams", 0)
+
+
+@pytest.mark.parametrize("name", ["RDI_withBT.000", "RiverPro_test01.PD0"])
+def test_instrument_frame_velocity_equals_dolfyns(pd0_dir, name):
+    """graphnav's v_d, taken back to RDI's instrument frame (the seabed relative to the head), is dolfyn's
+    ``rotate2(ds, 'inst')`` of the same file (earth: undoing the instrument's attitude; beam: the beam matrix)."""
+    log = _read(pd0_dir / name)
+    inst = _rotate(_dolfyn(pd0_dir / name), "inst")[:3].T
+    ours = -(log.v_d @ pd0.C_D_RDI)
+    use = log.v_d_valid & np.all(np.isfinite(inst), axis=1)
+    assert use.sum() > 200
+    assert np.max(np.abs(ours[use] - inst[use])) < 1e-4
+
+
+@pytest.mark.parametrize("name", sorted(BOTTOM_TRACK))
+def test_earth_frame_velocity_equals_dolfyns(pd0_dir, name):
+    """``v_n`` is the head's NED velocity: minus dolfyn's East-North-Up bottom track (for the ship-frame file
+    dolfyn's own ship -> earth, an independent check of undoing the ship frame's tilts)."""
+    log = _read(pd0_dir / name)
+    ds = _dolfyn(pd0_dir / name)
+    enu = ds["vel_bt"].values[:3].astype(float).T if ds.coord_sys == "earth" else _rotate(ds, "earth")[:3].T
+    ned_head = -enu @ pd0.C_NED_ENU.T
+    use = log.v_d_valid & np.all(np.isfinite(ned_head), axis=1)
+    assert use.sum() > 200
+    assert np.max(np.abs(log.v_n[use] - ned_head[use])) < 1e-4
+
+
+def test_real_beams_solve_to_dolfyns_velocity_with_right_handed_geometry(pd0_dir):
+    """The RiverPro file's recorded beams, solved with graphnav's DVL geometry from the file (DvlSpec theta/psi,
+    C_d_b = I), give dolfyn's instrument velocity through the proper rotation C_D_RDI; the old convention
+    (RDI's X/Y as x_d/y_d with beams along +z: azimuths 180, 0, 90, 270) solves to a mirror image, (-u, -v, +w)
+    of dolfyn's instrument velocity."""
+    path = pd0_dir / "RiverPro_test01.PD0"
+    log = _read(path)
+    assert np.isclose(np.linalg.det(pd0.C_D_RDI), 1.0)
+    spec = SensorConfig().dvl
+    spec.theta_rad, spec.psi_rad = log.instrument["beam_theta_rad"], np.asarray(log.instrument["beam_psi_rad"])
+    np.testing.assert_allclose(np.rad2deg(spec.psi_rad), [270, 90, 0, 180], atol=0.6)   # stored, calibrated
+    v_d = DvlGeometry.from_spec(spec).velocity_from_beams(log.beams, log.beam_valid, allow_missing=True)
+    inst = _rotate(_dolfyn(path), "inst")[:3].T
+    use = np.all(np.isfinite(v_d), axis=1) & np.all(np.isfinite(inst), axis=1)
+    head_rdi = -inst[use]                     # dolfyn's bottom track is the seabed relative to the head
+    assert np.max(np.abs(v_d[use] - head_rdi @ pd0.C_D_RDI.T)) < 5e-3   # one mean inclination: 0.2 % of 1.9 m/s
+    # The same (calibrated) beams with RDI's X, Y taken as x_d, y_d: azimuth 90 deg - psi (180, 0, 90, 270).
+    spec.psi_rad = np.mod(np.pi / 2 - spec.psi_rad, 2 * np.pi)
+    v_old = DvlGeometry.from_spec(spec).velocity_from_beams(log.beams, log.beam_valid, allow_missing=True)[use]
+    assert np.max(np.abs(v_old - head_rdi)) > 0.1                                      # not RDI's frame...
+    assert np.max(np.abs(v_old - head_rdi * [1, 1, -1])) < 5e-3                       # ...but its mirror image
+
+
+def test_a_mirrored_beam_matrix_is_refused(pd0_dir):
+    matrix = pd0.scan_pd0(pd0_dir / "RiverPro_test01.PD0").beam_matrix
+    theta, psi = pd0.rdi_geometry(matrix)
+    assert np.rad2deg(theta) == pytest.approx(20.0, abs=0.2)
+    mirrored = matrix * np.array([[1.0], [-1.0], [1.0], [1.0]])      # RDI's Y row negated: a reflection
+    with pytest.raises(DataError, match="mirrored"):
+        pd0.rdi_geometry(mirrored)
+
+
+def test_stored_beam_matrix_is_dolfyns_nominal_one_within_calibration(pd0_dir):
+    stored = pd0.scan_pd0(pd0_dir / "RiverPro_test01.PD0").beam_matrix
+    nominal = _dolfyn(pd0_dir / "RiverPro_test01.PD0", stored_matrix=False)["beam2inst_orientmat"].values
+    assert stored[2].min() > 0                       # w = +b (B1 + B2 + B3 + B4): beams along RDI's -Z
+    np.testing.assert_allclose(stored, nominal, atol=0.02)
+    assert pd0.scan_pd0(pd0_dir / "RDI_withBT.000").beam_matrix is None
+
+
+def test_bad_pressure_words_never_become_depth(pd0_dir):
+    path = pd0_dir / "RDI_withBT.000"
+    with pytest.warns(RuntimeWarning, match="bad pressure word"):
+        log = read_dvl(path)
+    no_sensor = _dolfyn(path)["pressure"].values > 4e6          # 0xFFFFFFFF decapascal
+    assert no_sensor.sum() == log.counts["bad pressure word"] == 31
+    assert np.all(np.isnan(log.depth_m[no_sensor]))
+    assert np.all(np.isfinite(log.depth_m[~no_sensor]))
+    assert np.nanmax(log.depth_m) < 10.0
+
+
+def test_an_adcp_file_without_bottom_track_is_refused(pd0_dir):
+    with pytest.raises(DataError, match="no bottom track"):
+        read_dvl(pd0_dir / "sentinelv_b5.pd0")
+
+
+@pytest.mark.parametrize("name", ["log.ENR", "LOG.ens", "survey.EnX", "deployment.001", "capture.bin"])
+def test_pd0_is_recognised_by_content_under_any_name(pd0_dir, tmp_path, name):
+    copy = tmp_path / name
+    shutil.copyfile(pd0_dir / "winriver01.PD0", copy)
+    assert pd0.is_pd0(copy)
+    log = _read(copy)
+    assert log.frame == "ship" and log.counts["read"] == 261
+
+
+def test_a_file_named_pd0_without_ensembles_is_refused(tmp_path):
+    fake = tmp_path / "notes.PD0"
+    fake.write_text("t,vx,vy,vz\n0,1,2,3\n")
+    assert not pd0.is_pd0(fake) and pd0.has_pd0_suffix(fake)
+    with pytest.raises(DataError, match="holds no PD0 ensemble"):
+        read_dvl(fake)
+
+
+def test_ship_frame_file_loads_as_a_mission_with_beams_and_three_beam_velocities(pd0_dir, tmp_path):
+    """The mission path (a PD0 file plus an IMU CSV of the config) on a ship-frame file: beams recovered for
+    4-beam pings, the 3-beam solutions as DVL-frame velocities, counted in meta['streams']."""
+    from graphnav.io.loaders import load_mission
+    shutil.copyfile(pd0_dir / "winriver01.PD0", tmp_path / "dvl.PD0")
+    t_dvl = _read(tmp_path / "dvl.PD0").t
+    t = np.arange(t_dvl[0] - 1.0, t_dvl[-1] + 1.0, 0.01)
+    rows = ["t,ax,ay,az,gx,gy,gz"] + [f"{x:.3f},0,0,-9.81,0,0,0" for x in t]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n")
+    cfg = SensorConfig().to_dict()
+    cfg["csv_columns"] = {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                  "omega_b": ["gx", "gy", "gz"]}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        m = load_mission(tmp_path / "dvl.PD0", tmp_path / "config.json")
+    assert m.dvl.valid.all(axis=1).sum() == 250
+    assert m.dvl.v_d_valid.sum() == 11 and not (m.dvl.v_d_valid & m.dvl.valid.any(axis=1)).any()
+    np.testing.assert_allclose(np.rad2deg(m.config.dvl.psi_rad), [270, 90, 0, 180], atol=1e-4)
+    streams = m.meta["streams"]["dvl"]
+    assert streams["read"] == 262 and streams["used"] == 261
+    assert streams["refused"] == {"not read by dolfyn (last ensemble)": 1}
+    assert any("3-beam" in note for note in streams["notes"])
+    # the recovered beams solve back to the instrument's own (ship-frame-derived) velocity
+    log = _read(tmp_path / "dvl.PD0")
+    v = DvlGeometry.from_spec(m.config.dvl).velocity_from_beams(m.dvl.beams, m.dvl.valid, allow_missing=True)
+    four = m.dvl.valid.all(axis=1)
+    assert np.max(np.abs(v[four] - log.v_d[four])) < 1e-5
+
+
+def test_csv_of_dvl_velocities(tmp_path):
+    path = tmp_path / "dvl.csv"
+    path.write_text("time,vx,vy,vz\n0.0,1.0,0.1,0.0\n1.0,,0.1,0.0\n2.0,-32.768,0,0\n3.0,1.1,0.0,0.05\n")
+    with pytest.warns(RuntimeWarning, match="2 of 4"):
+        log = read_dvl(path)
+    assert log.frame == "dvl" and log.counts == {"read": 4, "valid": 2,
+                                                 "no velocity (empty, non-finite or flagged)": 2}
+    np.testing.assert_allclose(log.v_d[3], [1.1, 0.0, 0.05])
+    path.write_text("time,vx,vy,vz\n0.0,1.0,abc,0.0\n")
+    with pytest.raises(DataError, match=r"line 2, field 'vy'"):
+        read_dvl(path)
+
+
+def test_a_corrupt_ensemble_is_left_out_not_fatal(pd0_dir, tmp_path):
+    """dolfyn stops on a corrupt ensemble; graphnav reads the checksummed ones, counts and warns."""
+    raw = bytearray((pd0_dir / "winriver01.PD0").read_bytes())
+    start = pd0.scan_pd0(pd0_dir / "winriver01.PD0").spans[100][0]
+    raw[start + 700] ^= 0x55
+    (tmp_path / "corrupt.PD0").write_bytes(bytes(raw))
+    with pytest.warns(RuntimeWarning, match="1 ensemble.s. with a wrong checksum"):
+        log = read_dvl(tmp_path / "corrupt.PD0")
+    assert log.counts["bad checksum (ensemble left out)"] == 1
+    assert log.counts["ensembles in file"] == 261 and log.counts["read"] == 260
