@@ -12,6 +12,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
+#: Keys of :attr:`DvlLog.counts` that describe pings without refusing them (the rest are refusal reasons).
+COUNT_NOTES = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
+               "flagged beams", "3-beam solution", "bad checksum (ensemble left out)")
+
+
 @dataclass
 class DvlLog:
     """One DVL log.
@@ -51,3 +56,7 @@ class DvlLog:
 
     def __len__(self) -> int:
         return len(self.t)
+
+    def refused(self) -> dict[str, int]:
+        """Pings refused, by reason (the non-zero :attr:`counts` that are not :data:`COUNT_NOTES`)."""
+        return {k: int(n) for k, n in self.counts.items() if k not in COUNT_NOTES and n}

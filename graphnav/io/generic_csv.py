@@ -277,7 +277,9 @@ def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
     """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock)."""
     from graphnav.core.streams import add_note
     from graphnav.io.stream_counts import record_streams
-    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt)
+    done = meta.get("streams", {})     # the PD0 reader counts its own DVL and depth, with its reasons
+    record_streams(meta, imu=imu, dvl=None if "dvl" in done else dvl, depth=None if "depth" in done else depth,
+                   gt=gt)
     add_note(meta, "imu", f"clock starts at the first IMU stamp ({meta['t0_s']:.6f} s on the file's clock)")
     spec = cmap.get("imu") or {}
     units = [f"{k} {spec[k]}" for k in ("accel_unit", "gyro_unit") if spec.get(k) not in (None, "m/s^2", "rad/s")]

@@ -257,8 +257,9 @@ def describe_dvl_log(log) -> dict:
     meta: dict = {}
     used = np.asarray(log.v_d_valid, bool)
     entry = count_read(meta, "dvl", log.t, log.source)
+    entry["refused"] = log.refused()
+    entry["read"] = int(used.sum()) + sum(entry["refused"].values())   # a refused ensemble was still in the file
     entry["used"] = int(used.sum())
-    entry["refused"] = {k: int(n) for k, n in log.counts.items() if k not in ("read", "valid")}
     if log.depth_m is not None and np.isfinite(log.depth_m).any():
         count_read(meta, "depth", log.t[np.isfinite(log.depth_m)], f"{log.source}:depth")
     if log.attitude_deg is not None:

@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.dvl_log import DvlLog
+from graphnav.core.dvl_log import COUNT_NOTES, DvlLog
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData
 
@@ -359,13 +359,10 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
             "magnetic_var_deg": float(a.get("magnetic_var_deg", 0.0))}
 
 
-#: Keys of :attr:`DvlLog.counts` that are not reasons for refusing a ping's velocity.
-NOT_REFUSALS = ("read", "valid", "beams recovered", "ensembles in file", "bad pressure word", "depth out of range",
-                "flagged beams", "3-beam solution", "bad checksum (ensemble left out)")
 
 
 def _warn_counts(counts: dict, source: str) -> None:
-    refused = {k: v for k, v in counts.items() if k not in NOT_REFUSALS and v}
+    refused = {k: v for k, v in counts.items() if k not in COUNT_NOTES and v}
     flagged = counts.get("flagged beams", 0)
     three = counts.get("3-beam solution", 0)
     if refused or flagged or three:
