@@ -45,6 +45,8 @@ def run_imu(args) -> int:
         format_imu_table,
     )
 
+    from graphnav.commands.common import check_out_file
+    check_out_file(args.json, force=True, option="--json")
     trajectories = AKIT_SPLIT["val"]
     if args.trajectories:
         try:
@@ -71,6 +73,8 @@ def run_imu(args) -> int:
 def run(args) -> int:
     from graphnav.nets.evaluate import evaluate_all, format_table
 
+    from graphnav.commands.common import check_out_file
+    check_out_file(args.json, force=True, option="--json")
     if args.imu:
         return run_imu(args)
     rows = evaluate_all(args.weights, args.beamsnet, args.akit, args.beam_seed,

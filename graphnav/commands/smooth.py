@@ -10,9 +10,13 @@ from pathlib import Path
 
 from graphnav.commands.common import (
     HelpFormatter,
+    StagedOut,
     accuracy_summary,
     add_init_arguments,
     add_mission_arguments,
+    add_out_arguments,
+    check_out,
+    clear_out,
     aligner_kwargs,
     make_plots,
     methods_help,
@@ -34,11 +38,13 @@ def register(subparsers) -> None:
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
-                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume.",
+                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume. An --out that "
+                    "already holds files is refused (--force replaces it whole); one mission's results appear in "
+                    "--out only once complete.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
-    p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
+    add_out_arguments(p, "out/smooth")
     p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, metavar="METHOD",
                    help=f"method to run ({methods_help()})")
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
@@ -65,10 +71,11 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
                                    "initial_position", "initial_heading", "heading_sigma", "config", "topic")
 
 
-def smooth_mission(args, out: Path) -> dict:
+def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
-    Returns the summary (also written to ``out/summary.json``)."""
+    Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
+    to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method
     from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
     out = Path(out)
@@ -108,8 +115,8 @@ def smooth_mission(args, out: Path) -> dict:
         plots = make_plots(out, mission, [*others, sol], outages,
                            f"{args.scenario} scenario, {args.imu_grade} IMU")
         files.update({Path(p).stem: p for p in plots})
-    summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
+    summary["files"] = {k: final(v) for k, v in files.items()}
     write_json(out / "summary.json", summary)
     return summary
 
@@ -122,7 +129,9 @@ def run(args) -> int:
     if args.jobs != 1 or args.scheduler is not None or args.resume:
         raise ConfigError("--jobs, --scheduler and --resume apply to a folder of missions (TrajectoryN folders "
                           f"or ROS 2 bags); --data {args.data} is one mission")
-    print_summary(smooth_mission(args, Path(args.out)))
+    with StagedOut(args.out, args.force) as staged:
+        summary = smooth_mission(args, staged.path, staged.final)
+    print_summary(summary)
     return 0
 
 
@@ -169,7 +178,9 @@ def run_folder(args, missions) -> int:
     from graphnav.io.outputs import write_json
     # Absolute paths: Dask workers elsewhere (another working directory or host) read and write the same
     # places, which on a lab cluster must be a shared filesystem.
-    out = Path(args.out).absolute()
+    out = check_out(args.out, force=args.force, resume=args.resume).absolute()
+    if args.force and out.exists() and not args.resume:
+        clear_out(out)
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "results.json"
     args = argparse.Namespace(**{**vars(args), "config": str(Path(args.config).absolute()) if args.config else None})

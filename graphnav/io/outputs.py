@@ -42,6 +42,11 @@ def _fmt(x: float) -> str:
     return "" if x is None or not math.isfinite(x) else f"{x:.10g}"
 
 
+def written_stamp(t: float) -> float:
+    """A stamp as the CSV writers hold it (10 significant digits): what a reader of the file gets back."""
+    return float(_fmt(float(t)))
+
+
 def solution_rows(sol: NavSolution) -> np.ndarray:
     """(K, len(CSV_COLUMNS)) float array of a solution in CSV column order (NaN where not available)."""
     k = len(sol.t)
