@@ -266,12 +266,13 @@ class StagedOut:
     """
 
     def __init__(self, out, force: bool = False, option: str = "--out"):
-        self.out = check_out(out, force=force, option=option).absolute()
+        self.shown = check_out(out, force=force, option=option)
+        self.out = self.shown.absolute()
         self.path = self.out.parent / f".{self.out.name}.partial-{os.getpid()}"
 
     def final(self, path) -> str:
-        """Where ``path`` (inside the staging folder) will be once in place."""
-        return str(self.out / Path(path).absolute().relative_to(self.path))
+        """Where ``path`` (inside the staging folder) will be once in place, as the user named ``--out``."""
+        return str(self.shown / Path(path).absolute().relative_to(self.path))
 
     def __enter__(self) -> "StagedOut":
         self.out.parent.mkdir(parents=True, exist_ok=True)
