@@ -203,3 +203,54 @@ def test_train_beams_leaves_the_shipped_weights_alone(fake_training, tmp_path, c
     assert (fake_training / "2-missing.pt").read_text() == "barely trained"
     assert sorted(p.name for p in fake_training.iterdir()) == ["2-missing.json", "2-missing.pt"]
     assert "installed 2-missing.pt, 2-missing.json" in capsys.readouterr().out
+
+
+# --- a live stream shows life --------------------------------------------------------------------------------
+def test_status_while_aligning(tmp_path):
+    """A Navigator aligning from the sensors (given heading: 20 s of levelling): status records at the first
+    record, then every `every_s` of (fake) wall time, saying what it waits for; one more when it navigates."""
+    import io
+
+    from graphnav.estimators.navigator import Navigator
+    from graphnav.io.streamio import feed, mission_records
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(40.0, seed=1)
+    nav = Navigator(mission.config, "ekf", aligner_kwargs={"initial_heading_rad": 0.0})
+    ticks = iter(np.arange(0.0, 1e4, 0.01))
+    out, err = io.StringIO(), io.StringIO()
+    status = online_cmd.StatusReporter(1.0, out=out, err=err, clock=lambda: float(next(ticks)))
+    for rec in mission_records(mission, config=False):
+        feed(nav, rec)
+        status(nav, rec["t"])
+    records = [json.loads(line) for line in out.getvalue().splitlines()]
+    assert all(r["type"] == "status" for r in records)
+    first, last = records[0], records[-1]
+    assert first["state"] == "aligning" and first["t"] == 0.0
+    assert set(first["alignment"]["waiting_for"]) == {"imu time", "dvl bottom lock"}
+    assert first["alignment"]["heading"] == "given" and first["alignment"]["needed_s"] == 20.0
+    assert last["state"] == "navigating" and 19.0 <= last["t"] <= 25.0
+    aligning = [r for r in records if r["state"] == "aligning"]
+    # one record per 100 ticks of 0.01 s (plus rounding of the tick sum): about every 1 s of wall time
+    assert np.all(np.diff([r["wall_s"] for r in aligning]) >= 1.0 - 1e-9)
+    assert len(aligning) >= 10
+    assert np.all(np.diff([r["alignment"]["aligned_s"] for r in aligning]) > 0)
+    lines = err.getvalue().splitlines()
+    assert len(lines) == len(records) and "aligning from the sensors" in lines[0] and "navigating" in lines[-1]
+
+
+def test_online_stream_prints_status_and_schema(tmp_path, capsys):
+    stream = tmp_path / "s.jsonl"
+    assert main(["simulate", "--duration", "40", "--stream", str(stream)]) == 0
+    capsys.readouterr()
+    assert main(["online", "--stream", str(stream), "--init", "sensors", "--initial-heading", "0",
+                 "--out", str(tmp_path / "o"), "--method", "TC", "--no-plots"]) == 0
+    captured = capsys.readouterr()
+    kinds = [json.loads(line)["type"] for line in captured.out.splitlines()]
+    assert kinds[0] == "status" and "estimate" in kinds
+    assert "graphnav online: t = 0.0 s: aligning from the sensors" in captured.err
+    assert main(["online", "--schema"]) == 0
+    schema = capsys.readouterr().out
+    assert "status" in schema and "imu.gyro_noise_density" in schema and "waiting_for" in schema
+    with pytest.raises(SystemExit):
+        main(["online", "--help"])
+    assert "--schema" in capsys.readouterr().out
