@@ -254,3 +254,30 @@ def test_online_stream_prints_status_and_schema(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["online", "--help"])
     assert "--schema" in capsys.readouterr().out
+
+
+def test_silent_stream_says_it_waits(tmp_path):
+    """Nothing on standard input: a 'waiting for data' status within a second or two, not silence."""
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-m", "graphnav", "online", "--stream", "-", "--status-every", "0.5",
+                             "--out", str(tmp_path / "o")], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    import threading
+    killer = threading.Timer(120, proc.kill)       # a hung run fails the test instead of hanging it
+    killer.start()
+    try:
+        first = proc.stderr.readline()             # blocks until the run says something
+        proc.stdin.close()
+        rest = proc.stderr.read()
+        out = proc.stdout.read()
+        proc.wait(timeout=60)
+    finally:
+        killer.cancel()
+        if proc.poll() is None:
+            proc.kill()
+    err = first + rest
+    status = [json.loads(line) for line in out.splitlines()]
+    assert status and status[0]["state"] == "waiting for data" and status[0]["source"] == "<stdin>"
+    assert "no record from <stdin> for" in err
+    assert proc.returncode == 1 and "the stream holds no measurement record" in err

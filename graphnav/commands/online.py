@@ -16,6 +16,7 @@ configuration keys.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import time
@@ -36,7 +37,6 @@ from graphnav.commands.common import (
 )
 from graphnav.core.errors import ConfigError
 from graphnav.evaluation.methods import METHODS
-from graphnav.io.outputs import written_stamp
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
 STREAMING_METHODS = tuple(name for name, m in METHODS.items() if not m.batch)
@@ -116,6 +116,7 @@ class EpochSink:
         self.n_replayed = 0
 
     def __call__(self, est) -> None:
+        from graphnav.io.outputs import written_stamp
         f = epoch_fields(est)
         t = float(f["t"])
         self.bar.update(1)
@@ -261,38 +262,59 @@ def check_inputs(args) -> None:
 
 class StatusReporter:
     """While a Navigator aligns, show life: at the first record and then every ``every_s`` seconds of wall
-    time, a line on ``err`` and a ``status`` JSON line on ``out``; one more when navigation starts."""
+    time, a line on ``err`` and a ``status`` JSON line on ``out``; one more when navigation starts. When no
+    record comes for ``every_s`` (a silent stream), :meth:`idle` says so the same way (``state`` ``waiting for
+    data``); it may run in another thread."""
 
-    def __init__(self, every_s: float, out=None, err=None, clock=time.monotonic):
+    def __init__(self, every_s: float, out=None, err=None, clock=time.monotonic, source: str = "the stream"):
+        import threading
         self.every_s = every_s
         self.out, self.err = out, err
         self.clock = clock
+        self.source = source
         self.start = clock()
         self.last: float | None = None
+        self.last_record: float | None = None
+        self.last_t: float | None = None
         self.aligning = False
         self.n_status = 0
+        self._lock = threading.Lock()
 
     def __call__(self, nav, t: float) -> None:
         from graphnav.io.streamio import status_record
         aligning = nav.aligner is not None
         now = self.clock()
+        self.last_record, self.last_t = now, float(t)
         due = aligning and (self.last is None or now - self.last >= self.every_s)
         started = self.aligning and not aligning
         self.aligning = aligning
-        if not (due or started):
-            return
-        self.last = now
-        rec = status_record(nav, t, now - self.start)
-        self.n_status += 1
-        if self.out is not None:
-            self.out.write(json.dumps(rec, separators=(",", ":")) + "\n")
-            self.out.flush()
-        if self.err is not None:
-            print(f"graphnav online: {status_line(rec)}", file=self.err, flush=True)
+        if due or started:
+            self._emit(status_record(nav, t, now - self.start), now)
+
+    def idle(self) -> None:
+        """A status when nothing has come for ``every_s`` (and none was shown for as long)."""
+        now = self.clock()
+        since = now - (self.start if self.last_record is None else self.last_record)
+        if since >= self.every_s and (self.last is None or now - self.last >= self.every_s):
+            self._emit({"type": "status", "t": self.last_t, "wall_s": round(now - self.start, 3),
+                        "state": "waiting for data", "idle_s": round(since, 3), "source": self.source}, now)
+
+    def _emit(self, rec: dict, now: float) -> None:
+        with self._lock:
+            self.last = now
+            self.n_status += 1
+            if self.out is not None:
+                self.out.write(json.dumps(rec, separators=(",", ":")) + "\n")
+                self.out.flush()
+            if self.err is not None:
+                print(f"graphnav online: {status_line(rec)}", file=self.err, flush=True)
 
 
 def status_line(rec: dict) -> str:
     """A status record in words."""
+    if rec["state"] == "waiting for data":
+        return (f"no record from {rec['source']} for {rec['idle_s']:.0f} s"
+                + ("" if rec["t"] is None else f" (last at t = {rec['t']:.1f} s)"))
     if rec["state"] != "aligning":
         return f"t = {rec['t']:.1f} s: aligned, navigating"
     a = rec["alignment"]
@@ -330,16 +352,32 @@ class InterruptFlag:
             self._previous = None
 
 
+@contextlib.contextmanager
+def _watchdog(status: StatusReporter):
+    """A daemon thread calling ``status.idle()`` about every second while the stream is read."""
+    import threading
+    done = threading.Event()
+
+    def watch():
+        while not done.wait(min(1.0, status.every_s)):
+            status.idle()
+    thread = threading.Thread(target=watch, name="graphnav-status", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+
+
 def run_stream(args, sink, stop=None, cli_config=None):
     """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come; ``cli_config``
     (the keys of ``--config``) is laid over the stream's config line, itself over the defaults."""
-    import contextlib
-
     from graphnav.core.config import SensorConfig
     from graphnav.io.streamio import StreamReader, feed
     source = "<stdin>" if args.stream == "-" else args.stream
-    status = StatusReporter(args.status_every, out=sys.stdout, err=sys.stderr)
-    with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh:
+    status = StatusReporter(args.status_every, out=sys.stdout, err=sys.stderr, source=source)
+    with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh, \
+            _watchdog(status):
         reader = StreamReader(fh, source)
         nav = described = None
         for rec in reader:

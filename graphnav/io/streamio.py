@@ -187,8 +187,9 @@ def schema_text() -> str:
              "Written back by graphnav online --stream (standard output, one JSON object per line):",
              "  estimate  t, kind, p_n [3] m (NED), v_n [3] m/s, rpy [3] rad (roll, pitch, yaw of C_b_n), "
              "cov_v_n 3x3 (m/s)^2 or null, bias_acc [3] m/s^2, bias_gyro [3] rad/s",
-             "  status    t (last record, s), wall_s, state (aligning | navigating), alignment {aligned_s, needed_s, "
-             "dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} while aligning",
+             "  status    t (last record, s), wall_s, state (aligning | navigating | waiting for data), alignment "
+             "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} "
+             "while aligning, idle_s and source while no record comes",
              "", "Keys of a config record (and of a --config file; any subset; the others keep their defaults):"]
     import textwrap
     previous = None
