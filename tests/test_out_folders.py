@@ -45,6 +45,17 @@ def test_check_out_rules(tmp_path):
         check_out_file(full)
 
 
+def test_force_never_empties_the_current_folder_or_a_parent(tmp_path, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "notes.txt").write_text("mine")
+    monkeypatch.chdir(work)
+    for out in (".", str(work), str(tmp_path)):
+        with pytest.raises(ConfigError, match="--force would delete the whole of"):
+            check_out(out, force=True)
+    assert (work / "notes.txt").read_text() == "mine"
+
+
 def test_staged_out_moves_whole_or_not_at_all(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
@@ -281,3 +292,13 @@ def test_silent_stream_says_it_waits(tmp_path):
     assert status and status[0]["state"] == "waiting for data" and status[0]["source"] == "<stdin>"
     assert "no record from <stdin> for" in err
     assert proc.returncode == 1 and "the stream holds no measurement record" in err
+
+
+def test_staged_out_into_an_empty_existing_folder(tmp_path):
+    out = tmp_path / "made_by_the_user"
+    out.mkdir()
+    inode = out.stat().st_ino
+    with StagedOut(out) as staged:
+        (staged.path / "a.csv").write_text("a")
+    assert out.stat().st_ino == inode and [p.name for p in out.iterdir()] == ["a.csv"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["made_by_the_user"]

@@ -221,6 +221,8 @@ def check_out(out, *, force: bool = False, resume: bool | None = None, option: s
         if not os.access(out, os.W_OK | os.X_OK):
             raise ConfigError(f"{option} {out}: no permission to write in this folder")
         entries = _entries(out)
+        if entries and force and not resume:
+            _refuse_replacing(out, option)
         if entries and not (force or resume):
             shown = ", ".join(entries[:4]) + (", ..." if len(entries) > 4 else "")
             raise ConfigError(f"{option} {out}: holds the results of an earlier run ({shown}); they are kept. "
@@ -229,6 +231,14 @@ def check_out(out, *, force: bool = False, resume: bool | None = None, option: s
     else:
         _writable_parent(out, option)
     return out
+
+
+def _refuse_replacing(out: Path, option: str) -> None:
+    """--force never empties the current folder, one of its parents, or the home folder."""
+    real, cwd = out.resolve(), Path.cwd().resolve()
+    if real == cwd or real in cwd.parents or real == Path.home().resolve():
+        raise ConfigError(f"{option} {out}: --force would delete the whole of {real} (the current folder, one of "
+                          "its parents or the home folder); give a folder of its own to --out")
 
 
 def check_out_file(path, *, force: bool = False, option: str = "--out") -> Path | None:
@@ -283,6 +293,12 @@ class StagedOut:
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is not None:
             shutil.rmtree(self.path, ignore_errors=True)
+            return
+        if self.out.is_dir() and not any(self.out.iterdir()):
+            # an empty folder the user made (perhaps the current one) stays; the results move into it
+            for entry in self.path.iterdir():
+                os.replace(entry, self.out / entry.name)
+            self.path.rmdir()
             return
         old = self.out.parent / f".{self.out.name}.replaced-{os.getpid()}"
         if self.out.exists():

@@ -45,8 +45,6 @@ def run_imu(args) -> int:
         format_imu_table,
     )
 
-    from graphnav.commands.common import check_out_file
-    check_out_file(args.json, force=True, option="--json")
     trajectories = AKIT_SPLIT["val"]
     if args.trajectories:
         try:
@@ -71,9 +69,9 @@ def run_imu(args) -> int:
 
 
 def run(args) -> int:
+    from graphnav.commands.common import check_out_file
     from graphnav.nets.evaluate import evaluate_all, format_table
 
-    from graphnav.commands.common import check_out_file
     check_out_file(args.json, force=True, option="--json")
     if args.imu:
         return run_imu(args)

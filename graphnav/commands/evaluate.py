@@ -29,6 +29,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from graphnav.commands.common import check_out_file
     from graphnav.evaluation.score import (
         evaluate,
         format_report,
@@ -36,7 +37,6 @@ def run(args) -> int:
         load_trajectory,
     )
     from graphnav.io.bags import parse_topics
-    from graphnav.commands.common import check_out_file
     check_out_file(args.json, force=True, option="--json")
     est = load_trajectory(args.trajectory)
     ref = load_reference(args.ref, args.config, parse_topics(args.topic) or None)
