@@ -171,8 +171,12 @@ def test_stream_config_first_line_is_checked_and_partial():
 
 def test_stream_config_after_a_measurement_is_refused_with_its_line():
     text = IMU_LINE + "\n\n" + '{"type": "config", "config": {}}\n'
-    with pytest.raises(ConfigError, match=r"<s>, line 3: a config record is accepted only as the first line"):
+    with pytest.raises(ConfigError, match=r"<s>, line 3: a config record is accepted only as the first line of "
+                                          r"the stream \(measurements start at line 1\)"):
         list(StreamReader(io.StringIO(text), "<s>"))
+    twice = '{"type": "config", "config": {}}\n' * 2
+    with pytest.raises(ConfigError, match=r"line 2: .* \(a config was already given at line 1\)"):
+        list(StreamReader(io.StringIO(twice), "<s>"))
 
 
 def test_stream_bad_config_stops_the_stream():

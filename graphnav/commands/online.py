@@ -319,9 +319,11 @@ def status_line(rec: dict) -> str:
         return f"t = {rec['t']:.1f} s: aligned, navigating"
     a = rec["alignment"]
     waiting = ", ".join(a["waiting_for"]) or "the next IMU sample"
+    heading = {"given": "heading given", "heading record": "heading from the heading records"}.get(
+        a["heading"], f"heading by {a['heading']}")
     return (f"t = {rec['t']:.1f} s: aligning from the sensors, {a['aligned_s']:.0f} of {a['needed_s']:.0f} s of IMU "
-            f"data, {a['dvl_pings']} of {a['dvl_pings_needed']} DVL pings with bottom lock, heading by "
-            f"{a['heading']}; waiting for: {waiting}")
+            f"data, {a['dvl_pings']} of {a['dvl_pings_needed']} DVL pings with bottom lock, {heading}; "
+            f"waiting for: {waiting}")
 
 
 class InterruptFlag:

@@ -92,6 +92,7 @@ class StreamReader:
         self.n_records = 0
         self.config: ConfigOverrides | None = None
         self._first_line: int | None = None
+        self._config_line: int | None = None
 
     def _bad(self, line_no: int, why: str) -> None:
         self.n_bad += 1
@@ -131,10 +132,11 @@ class StreamReader:
         """The keys of a ``config`` record, accepted on the first record line only."""
         where = f"{self.source}, line {line_no}"
         if self._first_line is not None or self.config is not None:
-            raise ConfigError(f"{where}: a config record is accepted only as the first line of the stream "
-                              f"(measurements start at line {self._first_line or '-'}"
-                              + ("" if self.config is None else ", a config was already given") + "); "
+            why = (f"a config was already given at line {self._config_line}" if self.config is not None else
+                   f"measurements start at line {self._first_line}")
+            raise ConfigError(f"{where}: a config record is accepted only as the first line of the stream ({why}); "
                               "put it first or give the configuration with --config")
+        self._config_line = line_no
         return ConfigOverrides.parse(data, where)
 
 
