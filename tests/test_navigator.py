@@ -248,8 +248,11 @@ def test_cli_pipes_a_simulated_stream_into_online(tmp_path):
            f"'{exe}' online --stream - --out '{tmp_path / 'on'}' --no-plots")
     run = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-2000:]
-    lines = [json.loads(x) for x in run.stdout.splitlines()]
+    records = [json.loads(x) for x in run.stdout.splitlines()]
+    lines = [r for r in records if r["type"] != "status"]
     assert len(lines) > 50 and all(r["type"] == "estimate" for r in lines)
+    # while it aligned (gyrocompassing, 300 s of data needed from a 200 s stream) it said so
+    assert records[0]["type"] == "status" and records[0]["state"] == "aligning"
     assert all(len(r["v_n"]) == 3 and len(r["cov_v_n"]) == 3 for r in lines)
     summary = json.loads((tmp_path / "on" / "summary.json").read_text())
     assert summary["epochs"] == len(lines) and summary["stream"]["bad_lines"] == 0

@@ -50,7 +50,11 @@ def register(subparsers) -> None:
                    help="run the cases on a Dask cluster (dask.distributed): a scheduler address such as "
                         "tcp://10.0.0.5:8786, or 'local' for a LocalCluster of --jobs worker processes; same "
                         "results.json and --resume as the process pool (needs graphnav[dask])")
-    p.add_argument("--out", default="out/bench", metavar="DIR", help="output folder")
+    p.add_argument("--out", default="out/bench", metavar="DIR",
+                   help="output folder (one that already holds files needs --resume or --force)")
+    p.add_argument("--force", action="store_true",
+                   help="empty an --out that already holds files before the run (without it, such a folder is "
+                        "refused and kept)")
     p.add_argument("--resume", action="store_true",
                    help="keep the finished cases in OUT/results.json and run only the others")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
@@ -129,7 +133,10 @@ def run(args) -> int:
         run_bench,
     )
 
-    out = Path(args.out)
+    from graphnav.commands.common import check_out, clear_out
+    out = check_out(args.out, force=args.force, resume=args.resume)
+    if args.force and not args.resume and out.exists():
+        clear_out(out)
     out.mkdir(parents=True, exist_ok=True)
     trajectories = find_trajectories(args.data, args.sim_seeds, args.sim_duration, args.config)
     cases = make_cases(trajectories, args.scenario, args.imu_grade, args.methods, args.window_s,

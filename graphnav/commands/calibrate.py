@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 
@@ -36,15 +35,19 @@ def register(subparsers) -> None:
                         "from the all-beam batch smoother's residuals, GT velocity error; graphnav.calibration.noise), "
                         "whose values are otherwise written into the calibrated configuration")
     p.add_argument("--out", metavar="JSON", default="calibrated_config.json",
-                   help="where to write the calibrated SensorConfig")
+                   help="where to write the calibrated SensorConfig (an existing file is kept unless --force)")
     p.add_argument("--report", metavar="JSON", default=None,
                    help="also write every estimate with its sigma and the axis check as JSON")
+    p.add_argument("--force", action="store_true", help="replace an existing --out / --report file")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from graphnav.calibration.calibrate import calibrate
-    from graphnav.commands.common import recorded_mission
+    from graphnav.commands.common import check_out_file, recorded_mission
+    from graphnav.io.outputs import write_json
+    check_out_file(args.out, force=args.force)
+    check_out_file(args.report, force=args.force, option="--report")
     mission = recorded_mission(args)
     kwargs = {"min_depth_m": args.min_depth} if args.mode != "graph" and mission.gt is not None else {}
     if not args.no_noise:   # the noise run is Graph-HN-batch on the data as recorded: the registry's completer
@@ -53,9 +56,10 @@ def run(args) -> int:
     result = calibrate(mission, args.mode, identify_noise=not args.no_noise, **kwargs)
     print(f"mission: {mission.name} ({mission.duration:.0f} s)")
     print(result.report())
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     result.config.save(args.out)
     print(f"calibrated configuration written to {args.out} (use it with --config)")
     if args.report:
-        Path(args.report).write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+        write_json(args.report, result.to_dict())
         print(f"report written to {args.report}")
     return 0 if result.axis_check.ok else 3

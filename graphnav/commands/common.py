@@ -1,13 +1,22 @@
 """Helpers shared by the ``graphnav`` subcommands: the mission and initial-state options (``smooth``,
-``online``), the mission they describe, the accuracy summary, plots and the printed summary, and the help
-formatter of every command. Every command module imports these from here, none from another command.
+``online``), the mission they describe, the accuracy summary, plots and the printed summary, the help
+formatter of every command, and the output folder rules (:func:`add_out_arguments`, :func:`check_out`,
+:class:`StagedOut`). Every command module imports these from here, none from another command.
+
+Output folders: ``--out`` is checked before any work (a folder that exists or can be created, writable); a
+folder that already holds files is kept unless ``--force`` (replace it whole) or, where a command has it,
+``--resume``. Batch commands write into a hidden folder beside ``--out`` and move it into place only when
+complete, so a crash never mixes with, nor destroys, an earlier run.
 """
 from __future__ import annotations
 
 import argparse
 import functools
+import os
+import shutil
 from pathlib import Path
 
+from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
 from graphnav.evaluation.methods import METHODS, check_scenario
 
@@ -173,3 +182,128 @@ def print_summary(summary: dict, file=None) -> None:
               f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
         out(f"  {name}: {path}")
+
+
+# --- output folders ------------------------------------------------------------------------------------------
+def add_out_arguments(parser: argparse.ArgumentParser, default: str | None, what: str = "output folder") -> None:
+    """``--out DIR`` and ``--force`` (replace an existing, non-empty ``--out`` whole)."""
+    parser.add_argument("--out", default=default, metavar="DIR", help=what)
+    parser.add_argument("--force", action="store_true",
+                        help="replace an --out folder that already holds files (its whole content goes; without "
+                             "--force such a folder is refused and kept)")
+
+
+def _writable_parent(path: Path, option: str) -> None:
+    """The nearest existing ancestor of ``path`` must be a folder this process may write into."""
+    parent = path.parent if path.parent != path else path
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ConfigError(f"{option} {path}: cannot be created, {parent} is a file, not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"{option} {path}: cannot be created, no permission to write in {parent}")
+
+
+def _entries(path: Path) -> list[str]:
+    return sorted(p.name for p in path.iterdir())
+
+
+def check_out(out, *, force: bool = False, resume: bool | None = None, option: str = "--out") -> Path:
+    """Check an output folder before any work: it exists as a folder or can be created, it is writable, and
+    it holds no earlier results unless ``force`` (they will be replaced) or ``resume`` (continued; None: the
+    command has no ``--resume``).
+
+    Raises:
+        ConfigError: naming the folder and what to do instead.
+    """
+    out = Path(out)
+    if out.exists():
+        if not out.is_dir():
+            raise ConfigError(f"{option} {out}: is a file, not a folder; give a folder")
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise ConfigError(f"{option} {out}: no permission to write in this folder")
+        entries = _entries(out)
+        if entries and force and not resume:
+            _refuse_replacing(out, option)
+        if entries and not (force or resume):
+            shown = ", ".join(entries[:4]) + (", ..." if len(entries) > 4 else "")
+            raise ConfigError(f"{option} {out}: holds the results of an earlier run ({shown}); they are kept. "
+                              f"Give another {option}, or --force to replace them"
+                              + (", or --resume to continue" if resume is not None else ""))
+    else:
+        _writable_parent(out, option)
+    return out
+
+
+def _refuse_replacing(out: Path, option: str) -> None:
+    """--force never empties the current folder, one of its parents, or the home folder."""
+    real, cwd = out.resolve(), Path.cwd().resolve()
+    if real == cwd or real in cwd.parents or real == Path.home().resolve():
+        raise ConfigError(f"{option} {out}: --force would delete the whole of {real} (the current folder, one of "
+                          "its parents or the home folder); give a folder of its own to --out")
+
+
+def check_out_file(path, *, force: bool = False, option: str = "--out") -> Path | None:
+    """Check an output file before any work: not a folder, its folder creatable and writable, and not an
+    existing file unless ``force``. None passes through (no file asked for)."""
+    if path is None:
+        return None
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{option} {path}: is a folder; give a file name")
+    if path.exists() and not force:
+        raise ConfigError(f"{option} {path}: exists and is kept; give another name, or --force to replace it")
+    _writable_parent(path, option)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ConfigError(f"{option} {path}: no permission to write this file")
+    return path
+
+
+def clear_out(out: Path) -> None:
+    """Empty an output folder (``--force``): nothing of an earlier run stays beside the new files."""
+    for entry in out.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+
+
+class StagedOut:
+    """Write a command's results into a hidden folder beside ``--out`` and move it into place whole when the
+    command completes; on an error or Ctrl-C the partial folder is removed and the earlier ``--out``, if any,
+    is untouched. ``--force`` replaces an earlier ``--out`` only at that final move.
+
+    Use ``with StagedOut(out, force) as staged:`` and write into ``staged.path``; :meth:`final` names a file as
+    it will be after the move (for summaries).
+    """
+
+    def __init__(self, out, force: bool = False, option: str = "--out"):
+        self.shown = check_out(out, force=force, option=option)
+        self.out = self.shown.absolute()
+        self.path = self.out.parent / f".{self.out.name}.partial-{os.getpid()}"
+
+    def final(self, path) -> str:
+        """Where ``path`` (inside the staging folder) will be once in place, as the user named ``--out``."""
+        return str(self.shown / Path(path).absolute().relative_to(self.path))
+
+    def __enter__(self) -> "StagedOut":
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.rmtree(self.path, ignore_errors=True)
+        self.path.mkdir()
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is not None:
+            shutil.rmtree(self.path, ignore_errors=True)
+            return
+        if self.out.is_dir() and not any(self.out.iterdir()):
+            # an empty folder the user made (perhaps the current one) stays; the results move into it
+            for entry in self.path.iterdir():
+                os.replace(entry, self.out / entry.name)
+            self.path.rmdir()
+            return
+        old = self.out.parent / f".{self.out.name}.replaced-{os.getpid()}"
+        if self.out.exists():
+            os.replace(self.out, old)
+        os.replace(self.path, self.out)
+        shutil.rmtree(old, ignore_errors=True)

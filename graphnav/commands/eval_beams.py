@@ -69,8 +69,10 @@ def run_imu(args) -> int:
 
 
 def run(args) -> int:
+    from graphnav.commands.common import check_out_file
     from graphnav.nets.evaluate import evaluate_all, format_table
 
+    check_out_file(args.json, force=True, option="--json")
     if args.imu:
         return run_imu(args)
     rows = evaluate_all(args.weights, args.beamsnet, args.akit, args.beam_seed,

@@ -29,6 +29,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from graphnav.commands.common import check_out_file
     from graphnav.evaluation.score import (
         evaluate,
         format_report,
@@ -36,6 +37,7 @@ def run(args) -> int:
         load_trajectory,
     )
     from graphnav.io.bags import parse_topics
+    check_out_file(args.json, force=True, option="--json")
     est = load_trajectory(args.trajectory)
     ref = load_reference(args.ref, args.config, parse_topics(args.topic) or None)
     result = evaluate(est, ref, align=args.align, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit)

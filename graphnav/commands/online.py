@@ -9,10 +9,15 @@ Every estimate (the filtered state at a closed keyframe) is appended to ``OUT/on
 once, so a crash or Ctrl-C keeps everything computed so far; with ``--stream`` it is also written to
 standard output as a JSON line, flushed. ``--resume`` continues an interrupted replay: the estimator is
 deterministic, so it replays the epochs already in the file without writing them and appends from the first
-new epoch.
+new epoch (never writing one twice). A live stream shows life while the Navigator aligns: every
+``--status-every`` seconds a line on standard error and a ``status`` JSON line on standard output
+(:func:`graphnav.io.streamio.status_record`). ``--schema`` prints the stream's record types and the
+configuration keys.
 """
 from __future__ import annotations
 
+import contextlib
+import json
 import sys
 import time
 from pathlib import Path
@@ -22,11 +27,15 @@ from graphnav.commands.common import (
     accuracy_summary,
     add_init_arguments,
     add_mission_arguments,
+    add_out_arguments,
     aligner_kwargs,
+    check_out,
+    clear_out,
     make_plots,
     mission_from_args,
     print_summary,
 )
+from graphnav.core.errors import ConfigError
 from graphnav.evaluation.methods import METHODS
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
@@ -40,16 +49,23 @@ def register(subparsers) -> None:
         description="Navigate as on a vehicle: samples go one by one through graphnav's Navigator (reorder "
                     "buffer, alignment from the sensors when there is no initial state, keyframes closed as "
                     "soon as the IMU passes them). Input: a recorded mission (--data or the simulated "
-                    "default) or a live JSON-lines stream (--stream -; schema: python -m graphnav.io.streamio or "
-                    "the README). Each estimate is appended to OUT/online.csv and flushed at once (and, with "
+                    "default) or a live JSON-lines stream (--stream -; its schema: graphnav online --schema). "
+                    "Each estimate is appended to OUT/online.csv and flushed at once (and, with "
                     "--stream, printed to standard output as a JSON line); Ctrl-C keeps the file; --resume "
-                    "continues a replay from its last epoch. A final summary goes to OUT/summary.json.",
+                    "continues a replay from its last epoch. An --out that already holds files is refused unless "
+                    "--resume or --force (which empties it first). A final summary goes to OUT/summary.json.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
     p.add_argument("--stream", metavar="FILE",
                    help="read the measurements as JSON lines from FILE ('-' = standard input) instead of a mission")
-    p.add_argument("--out", default="out/online", metavar="DIR", help="output folder")
+    p.add_argument("--schema", action="store_true",
+                   help="print the JSON-lines stream schema (record types, fields, units) and the configuration "
+                        "keys, then exit")
+    p.add_argument("--status-every", type=float, default=5.0, metavar="S",
+                   help="with --stream: while aligning, a status line on standard error and a status JSON line "
+                        "on standard output every S seconds of wall time")
+    add_out_arguments(p, "out/online")
     p.add_argument("--method", default="Graph-TC", choices=STREAMING_METHODS,
                    help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
                         "data, see the README); Graph-HN adds the completer's regressed beams as weak factors; "
@@ -100,10 +116,13 @@ class EpochSink:
         self.n_replayed = 0
 
     def __call__(self, est) -> None:
+        from graphnav.io.outputs import written_stamp
         f = epoch_fields(est)
         t = float(f["t"])
         self.bar.update(1)
-        if self.skip_until is not None and t <= self.skip_until + 1e-9:
+        # compared as written: the CSV holds 10 significant digits, so a stamp such as 1234.56789012 is
+        # 1234.56789 in the file and would otherwise count as a new epoch
+        if self.skip_until is not None and written_stamp(t) <= self.skip_until:
             self.n_replayed += 1
             return
         if self.realtime:
@@ -114,8 +133,6 @@ class EpochSink:
                 time.sleep(ahead)
         self.writer.write(**f)
         if self.echo is not None:
-            import json
-
             from graphnav.io.streamio import estimate_record
             self.echo.write(json.dumps(estimate_record(est), separators=(",", ":")) + "\n")
             self.echo.flush()
@@ -160,12 +177,21 @@ def make_navigator(args, config, mission=None):
 def run(args) -> int:
     from tqdm import tqdm
 
+    from graphnav.core.config import read_config
     from graphnav.io.outputs import EpochCsvWriter, read_trajectory_csv, write_json
 
-    out = Path(args.out)
+    if args.schema:
+        from graphnav.io.streamio import schema_text
+        print(schema_text())
+        return 0
+    streaming = args.stream is not None
+    check_inputs(args)
+    cli_config = read_config(args.config) if args.config else None
+    out = check_out(args.out, force=args.force, resume=args.resume)
+    if args.force and not args.resume and out.exists():
+        clear_out(out)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "online.csv"
-    streaming = args.stream is not None
     mission, outages = (None, []) if streaming else mission_from_args(args)
     log = sys.stderr if streaming else sys.stdout
     with EpochCsvWriter(csv_path, resume=args.resume, fsync=args.fsync) as writer:
@@ -182,7 +208,7 @@ def run(args) -> int:
         stop = InterruptFlag()
         try:
             if streaming:
-                nav, described, stream_info = run_stream(args, sink, stop)
+                nav, described, stream_info = run_stream(args, sink, stop, cli_config)
             else:
                 from graphnav.estimators.navigator import feed_mission
                 nav, described = make_navigator(args, mission.config, mission)
@@ -221,6 +247,86 @@ def run(args) -> int:
     return 0
 
 
+def check_inputs(args) -> None:
+    """The stream file and the option values, checked before any work."""
+    if args.stream is not None and args.stream != "-":
+        path = Path(args.stream)
+        if not path.exists():
+            raise ConfigError(f"--stream {path}: file not found (use --stream - for standard input)")
+        if path.is_dir():
+            raise ConfigError(f"--stream {path}: is a folder; give a JSON-lines file (or - for standard input)")
+    if not args.status_every > 0:
+        raise ConfigError(f"--status-every must be > 0 s, got {args.status_every}")
+    if not args.speed > 0:
+        raise ConfigError(f"--speed must be > 0, got {args.speed}")
+
+
+class StatusReporter:
+    """While a Navigator aligns, show life: at the first record and then every ``every_s`` seconds of wall
+    time, a line on ``err`` and a ``status`` JSON line on ``out``; one more when navigation starts. When no
+    record comes for ``every_s`` (a silent stream), :meth:`idle` says so the same way (``state`` ``waiting for
+    data``); it may run in another thread."""
+
+    def __init__(self, every_s: float, out=None, err=None, clock=time.monotonic, source: str = "the stream"):
+        import threading
+        self.every_s = every_s
+        self.out, self.err = out, err
+        self.clock = clock
+        self.source = source
+        self.start = clock()
+        self.last: float | None = None
+        self.last_record: float | None = None
+        self.last_t: float | None = None
+        self.aligning = False
+        self.n_status = 0
+        self._lock = threading.Lock()
+
+    def __call__(self, nav, t: float) -> None:
+        from graphnav.io.streamio import status_record
+        aligning = nav.aligner is not None
+        now = self.clock()
+        self.last_record, self.last_t = now, float(t)
+        due = aligning and (self.last is None or now - self.last >= self.every_s)
+        started = self.aligning and not aligning
+        self.aligning = aligning
+        if due or started:
+            self._emit(status_record(nav, t, now - self.start), now)
+
+    def idle(self) -> None:
+        """A status when nothing has come for ``every_s`` (and none was shown for as long)."""
+        now = self.clock()
+        since = now - (self.start if self.last_record is None else self.last_record)
+        if since >= self.every_s and (self.last is None or now - self.last >= self.every_s):
+            self._emit({"type": "status", "t": self.last_t, "wall_s": round(now - self.start, 3),
+                        "state": "waiting for data", "idle_s": round(since, 3), "source": self.source}, now)
+
+    def _emit(self, rec: dict, now: float) -> None:
+        with self._lock:
+            self.last = now
+            self.n_status += 1
+            if self.out is not None:
+                self.out.write(json.dumps(rec, separators=(",", ":")) + "\n")
+                self.out.flush()
+            if self.err is not None:
+                print(f"graphnav online: {status_line(rec)}", file=self.err, flush=True)
+
+
+def status_line(rec: dict) -> str:
+    """A status record in words."""
+    if rec["state"] == "waiting for data":
+        return (f"no record from {rec['source']} for {rec['idle_s']:.0f} s"
+                + ("" if rec["t"] is None else f" (last at t = {rec['t']:.1f} s)"))
+    if rec["state"] != "aligning":
+        return f"t = {rec['t']:.1f} s: aligned, navigating"
+    a = rec["alignment"]
+    waiting = ", ".join(a["waiting_for"]) or "the next IMU sample"
+    heading = {"given": "heading given", "heading record": "heading from the heading records"}.get(
+        a["heading"], f"heading by {a['heading']}")
+    return (f"t = {rec['t']:.1f} s: aligning from the sensors, {a['aligned_s']:.0f} of {a['needed_s']:.0f} s of IMU "
+            f"data, {a['dvl_pings']} of {a['dvl_pings_needed']} DVL pings with bottom lock, {heading}; "
+            f"waiting for: {waiting}")
+
+
 class InterruptFlag:
     """Ctrl-C (SIGINT) sets a flag that the loops check between samples, so that the interrupt stops the run at
     a clean point (delivered inside a GTSAM call it can surface as a TypeError from pybind11); a second
@@ -255,28 +361,50 @@ def _loaded_streams(mission) -> dict:
     return ensure_streams(mission)
 
 
-def run_stream(args, sink, stop=None):
-    """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come."""
-    import contextlib
+@contextlib.contextmanager
+def _watchdog(status: StatusReporter):
+    """A daemon thread calling ``status.idle()`` about every second while the stream is read."""
+    import threading
+    done = threading.Event()
 
+    def watch():
+        while not done.wait(min(1.0, status.every_s)):
+            status.idle()
+    thread = threading.Thread(target=watch, name="graphnav-status", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+
+
+def run_stream(args, sink, stop=None, cli_config=None):
+    """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come; ``cli_config``
+    (the keys of ``--config``) is laid over the stream's config line, itself over the defaults."""
     from graphnav.core.config import SensorConfig
     from graphnav.io.streamio import StreamReader, feed
     source = "<stdin>" if args.stream == "-" else args.stream
-    with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh:
+    status = StatusReporter(args.status_every, out=sys.stdout, err=sys.stderr, source=source)
+    with (contextlib.nullcontext(sys.stdin) if args.stream == "-" else open(args.stream)) as fh, \
+            _watchdog(status):
         reader = StreamReader(fh, source)
         nav = described = None
         for rec in reader:
             if stop is not None and stop():
                 raise KeyboardInterrupt
             if nav is None:
-                config = SensorConfig.load(args.config) if args.config else (reader.config or SensorConfig())
+                config = reader.config.over(SensorConfig()) if reader.config else SensorConfig()
+                if cli_config:
+                    config = cli_config.over(config)
                 nav, described = make_navigator(args, config)
             for est in feed(nav, rec):
                 sink(est)
+            status(nav, rec["t"])
         if nav is None:
             from graphnav.core.errors import DataError
             raise DataError("the stream holds no measurement record", source)
         for est in nav.finish():
             sink(est)
-    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad,
-                            "config": "--config" if args.config else ("stream" if reader.config else "default")}
+    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad, "status_lines": status.n_status,
+                            "config": " over ".join(n for n, c in (("--config", cli_config), ("stream", reader.config))
+                                                    if c) or "default"}

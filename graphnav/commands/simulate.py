@@ -26,7 +26,10 @@ def register(subparsers) -> None:
     parser.add_argument("--dropout", action="store_true", help="random per-beam bottom-lock dropouts")
     parser.add_argument("--noiseless", action="store_true", help="exact sensors (no IMU/DVL/depth errors)")
     parser.add_argument("--gt-rate", type=float, default=10.0, help="ground-truth rate, Hz")
-    parser.add_argument("--out", type=Path, default=None, help="folder to write the CSVs and the PNG into")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder to write the CSVs and the PNG into (appears only once complete)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an --out folder that already holds files, or an existing --stream file")
     parser.add_argument("--number", type=int, default=1, help="N of the written TrajectoryN folder")
     parser.add_argument("--stream", metavar="FILE", default=None,
                         help="write the measurements (no ground truth) as time-ordered JSON lines to FILE ('-' = "
@@ -77,9 +80,14 @@ def plot(mission, path: Path) -> None:
 
 
 def run(args) -> int:
+    from graphnav.commands.common import StagedOut, check_out, check_out_file
     from graphnav.io.export import write_akit
     from graphnav.sim.simulate import simulate_mission
 
+    if args.out is not None:
+        check_out(args.out, force=args.force)
+    if args.stream not in (None, "-"):
+        check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless)
     log = sys.stderr if args.stream == "-" else sys.stdout
@@ -88,8 +96,11 @@ def run(args) -> int:
         if args.stream == "-":
             write_records(mission_records(mission), sys.stdout)
         else:
-            with open(args.stream, "w") as fh:
+            import os
+            tmp = Path(args.stream).with_name(f".{Path(args.stream).name}.partial-{os.getpid()}")
+            with open(tmp, "w") as fh:
                 n = write_records(mission_records(mission), fh)
+            os.replace(tmp, args.stream)
             print(f"wrote {n} records to {args.stream}", file=log)
     s = summarize(mission)
     print(f"{mission.name}: {s['duration_s']:.0f} s, {s['distance_m']:.0f} m travelled, "
@@ -98,8 +109,10 @@ def run(args) -> int:
           f"max yaw rate {s['max_yaw_rate_radps']:.3f} rad/s, "
           f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams)", file=log)
     if args.out is not None:
-        paths = write_akit(mission, args.out, args.number)
-        png = Path(args.out) / f"trajectory{args.number}.png"
-        plot(mission, png)
-        print(f"wrote {paths['IMU'].parent} ({', '.join(p.name for p in paths.values())}) and {png}")
+        with StagedOut(args.out, args.force) as staged:
+            paths = write_akit(mission, staged.path, args.number)
+            png = staged.path / f"trajectory{args.number}.png"
+            plot(mission, png)
+        print(f"wrote {staged.final(paths['IMU'].parent)} ({', '.join(p.name for p in paths.values())}) and "
+              f"{staged.final(png)}")
     return 0

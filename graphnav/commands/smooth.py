@@ -10,9 +10,13 @@ from pathlib import Path
 
 from graphnav.commands.common import (
     HelpFormatter,
+    StagedOut,
     accuracy_summary,
     add_init_arguments,
     add_mission_arguments,
+    add_out_arguments,
+    check_out,
+    clear_out,
     aligner_kwargs,
     make_plots,
     methods_help,
@@ -34,13 +38,15 @@ def register(subparsers) -> None:
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
-                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume. A DVL file "
-                    "without an IMU (a PD0 file alone) gives DVL-DR, a dead reckoning of the instrument's own "
-                    "velocity over ground and attitude, with a warning: `graphnav info FILE` tells which it is.",
+                    "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume. An --out that "
+                    "already holds files is refused (--force replaces it whole); one mission's results appear in "
+                    "--out only once complete. A DVL file without an IMU (a PD0 file alone) gives DVL-DR, a dead "
+                    "reckoning of the instrument's own velocity over ground and attitude, with a warning: "
+                    "`graphnav info FILE` tells which it is.",
         formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
-    p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
+    add_out_arguments(p, "out/smooth")
     p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, metavar="METHOD",
                    help=f"method to run ({methods_help()})")
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
@@ -67,10 +73,11 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
                                    "initial_position", "initial_heading", "heading_sigma", "config", "topic")
 
 
-def smooth_mission(args, out: Path) -> dict:
+def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
-    Returns the summary (also written to ``out/summary.json``)."""
+    Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
+    to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method
     from graphnav.io.dvl_files import holds_dvl_only
     from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
@@ -78,7 +85,7 @@ def smooth_mission(args, out: Path) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if args.data is not None and holds_dvl_only(args.data, _config(args)):
-        return smooth_dvl_only(args, out)
+        return smooth_dvl_only(args, out, final)
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
     init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
@@ -115,8 +122,8 @@ def smooth_mission(args, out: Path) -> dict:
         plots = make_plots(out, mission, [*others, sol], outages,
                            f"{args.scenario} scenario, {args.imu_grade} IMU")
         files.update({Path(p).stem: p for p in plots})
-    summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
+    summary["files"] = {k: final(v) for k, v in files.items()}
     write_json(out / "summary.json", summary)
     return summary
 
@@ -135,7 +142,7 @@ DVL_ONLY_WARNING = (
     "\"dvl\": {{\"pd0\": \"{name}\"}}}}; see graphnav.io.generic_csv)")
 
 
-def smooth_dvl_only(args, out: Path) -> dict:
+def smooth_dvl_only(args, out: Path, final=str) -> dict:
     """``smooth`` of a DVL file without an IMU: the DVL-DR track (:func:`graphnav.estimators.dead_reckoning.
     dvl_dead_reckoning`) written like a smoothed mission (trajectory CSV/TUM, optional bag, summary.json with
     ``"method": "DVL-DR"``, the streams and the warning that this is not the IMU/DVL estimator)."""
@@ -186,8 +193,8 @@ def smooth_dvl_only(args, out: Path) -> dict:
         from graphnav.evaluation.plots import plot_trajectories
         files["trajectory_ne"] = str(plot_trajectories(None, [sol], [], out / "trajectory_ne.png",
                                                        f"{data.name}: DVL dead reckoning (no IMU)"))
-    summary["files"] = files
     files["summary_json"] = str(out / "summary.json")
+    summary["files"] = {k: final(v) for k, v in files.items()}
     write_json(out / "summary.json", summary)
     return summary
 
@@ -200,7 +207,9 @@ def run(args) -> int:
     if args.jobs != 1 or args.scheduler is not None or args.resume:
         raise ConfigError("--jobs, --scheduler and --resume apply to a folder of missions (TrajectoryN folders "
                           f"or ROS 2 bags); --data {args.data} is one mission")
-    print_summary(smooth_mission(args, Path(args.out)))
+    with StagedOut(args.out, args.force) as staged:
+        summary = smooth_mission(args, staged.path, staged.final)
+    print_summary(summary)
     return 0
 
 
@@ -247,7 +256,9 @@ def run_folder(args, missions) -> int:
     from graphnav.io.outputs import write_json
     # Absolute paths: Dask workers elsewhere (another working directory or host) read and write the same
     # places, which on a lab cluster must be a shared filesystem.
-    out = Path(args.out).absolute()
+    out = check_out(args.out, force=args.force, resume=args.resume).absolute()
+    if args.force and out.exists() and not args.resume:
+        clear_out(out)
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "results.json"
     args = argparse.Namespace(**{**vars(args), "config": str(Path(args.config).absolute()) if args.config else None})

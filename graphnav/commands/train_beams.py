@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 from graphnav.core.errors import ConfigError
 
@@ -11,7 +12,8 @@ def register(subparsers) -> None:
         "train-beams", help="train the missing-beam regressor (2 and/or 3 missing beams)",
         description="Train the paper's missing-beam regressor on beams made from the BeamsNet V.npy DVL "
                     "velocities (first 75 % train, last 25 % validation), then its sigma head (Gaussian "
-                    "NLL). Writes <scenario>.pt and <scenario>.json (model card) to --out. Defaults are the "
+                    "NLL). Writes <scenario>.pt and <scenario>.json (model card) to --out; only --install-weights "
+                    "also copies them over the shipped weights that every later run uses. Defaults are the "
                     "paper's: MSE, RMSprop, batch 4, lr 1e-3 x0.1 every 35 epochs, 100 epochs (with early "
                     "stopping on validation).",
     )
@@ -35,7 +37,12 @@ def register(subparsers) -> None:
                         "published, as the paper did)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1, fastest for this tiny net)")
     p.add_argument("--data", default=None, help="snapir-2021-beamsnet folder (default: found via GRAPHNAV_DATA)")
-    p.add_argument("--out", default=None, help="output folder (default: the package's nets/weights)")
+    p.add_argument("--out", default="out/train-beams", metavar="DIR",
+                   help="output folder of the weights and model cards (appears only once training completes)")
+    p.add_argument("--force", action="store_true", help="replace an --out folder that already holds files")
+    p.add_argument("--install-weights", action="store_true",
+                   help="after training, also copy the weights and model cards over the shipped ones in the "
+                        "package's nets/weights (what every later run loads); without it they are left as they are")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.add_argument("--imu", action="store_true",
                    help="train the IMU-aware networks instead (imu-<scenario>.pt/.json): A-KIT trajectories "
@@ -49,34 +56,62 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def run_imu(args) -> int:
-    """``--imu``: train the IMU-aware networks and print their validation table."""
+def run_imu(args, out: Path) -> list[Path]:
+    """``--imu``: train the IMU-aware networks into ``out`` and print their validation table; returns the
+    files written."""
     from graphnav.nets.imu_evaluate import format_imu_table
     from graphnav.nets.imu_training import ImuTrainOptions, train_imu
     from graphnav.nets.training import save
 
     if args.missing is not None:
         raise ConfigError("--imu trains the 2-missing and 3-missing scenarios; use --scenario, not --missing")
+    written = []
     opt = ImuTrainOptions(epochs=args.imu_epochs, draws=args.imu_draws, seed=args.seed, beam_seed=args.beam_seed,
                           threads=args.threads)
     for scenario in args.scenario or ["2-missing", "3-missing"]:
         result = train_imu(scenario, opt, args.data, progress=not args.no_progress)
-        pt, js = save(result, args.out)
+        pt, js = save(result, out)
+        written += [pt, js]
         card = result.card
         print(f"{card['name']}: N={card['n_past']} IMU window {card['imu_samples']} samples, "
               f"{card['n_parameters']} parameters, epochs={card['training']['epochs_run']} "
               f"(best {card['training']['best_epoch']}) time={card['training']['time_s']:.1f} s; "
               f"validation trajectories {card['split']['val_trajectories']}")
         print(format_imu_table(card["metrics_val"]))
-        print(f"  wrote {pt} and {js}")
-    return 0
+    return written
 
 
 def run(args) -> int:
+    from graphnav.commands.common import StagedOut
+
+    with StagedOut(args.out, args.force) as staged:
+        written = run_imu(args, staged.path) if args.imu else run_beams(args, staged.path)
+    finals = [Path(staged.final(p)) for p in written]
+    print("wrote " + ", ".join(str(p) for p in finals))
+    if args.install_weights:
+        install_weights(finals)
+    return 0
+
+
+def install_weights(files: list[Path]) -> None:
+    """Copy trained weights and model cards over the shipped ones (``--install-weights``), each file whole."""
+    import os
+    import shutil
+
+    from graphnav.nets.storage import weights_dir
+    target = weights_dir()
+    for f in files:
+        tmp = target / f".{f.name}.partial-{os.getpid()}"
+        shutil.copyfile(f, tmp)
+        os.replace(tmp, target / f.name)
+    print(f"installed {', '.join(f.name for f in files)} into {target} (the weights every later run uses)")
+
+
+def run_beams(args, out: Path) -> list[Path]:
+    """Train the beam-only regressors into ``out``; returns the files written."""
     from graphnav.nets.training import TrainOptions, save, train
 
-    if args.imu:
-        return run_imu(args)
+    written = []
     if args.missing is not None:
         try:
             targets = [tuple(int(b) for b in args.missing.split(","))]
@@ -90,7 +125,8 @@ def run(args) -> int:
                        align_yaw_deg=args.align_yaw)
     for missing in targets:
         result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress)
-        pt, js = save(result, args.out)
+        pt, js = save(result, out)
+        written += [pt, js]
         card = result.card
         val, test = card["metrics"]["val"], card["metrics"]["test"]
         print(f"{card['scenario']}: N={card['n_past']} epochs={card['training']['epochs_run']} "
@@ -98,6 +134,5 @@ def run(args) -> int:
         for name, m in (("validation", val), ("V_test", test)):
             print(f"  {name:10s} beam RMSE {m['beam_rmse']:.4f} m/s  velocity RMSE {m['vel_rmse']:.4f} m/s  "
                   f"within 1/2 sigma {m['within_1sigma']:.3f}/{m['within_2sigma']:.3f}")
-        print(f"  wrote {pt} and {js}")
         print(json.dumps({"constant_sigma": card["constant_sigma"]}))
-    return 0
+    return written

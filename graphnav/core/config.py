@@ -6,11 +6,20 @@ NED, the DVL frame d is fixed to the body by ``C_d_b`` (DVL-to-body, ``v_b = C_d
 
 A configuration round-trips through JSON (:meth:`SensorConfig.save` / :meth:`SensorConfig.load`), which is
 how ``graphnav calibrate`` hands calibrated values to later runs (``--config``).
+
+A configuration file is checked like input: every key against :data:`SCHEMA` (type, shape, range, unit),
+unknown keys refused with a did-you-mean. A file may be partial: :func:`read_config` returns only the keys
+it sets (:class:`ConfigOverrides`), and the loader lays them over its own defaults key by key
+(``{}`` = no configuration).
 """
 from __future__ import annotations
 
 import dataclasses
+import difflib
+import inspect
 import json
+import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -124,7 +133,7 @@ class DvlSpec:
         self.lever_arm_b = np.asarray(self.lever_arm_b, dtype=float).reshape(3)
         self.beam_bias = np.asarray(self.beam_bias, dtype=float).reshape(4)
         self.scale_factor = np.asarray(self.scale_factor, dtype=float).reshape(3)
-        if not np.allclose(self.C_d_b @ self.C_d_b.T, np.eye(3), atol=1e-6):
+        if not _is_rotation(self.C_d_b):
             raise ConfigError("dvl.C_d_b is not a rotation matrix")
         if np.linalg.det(self.C_d_b) < 0:
             # An orthogonal matrix with det -1 is a reflection: it would mirror every DVL velocity (a DVL frame
@@ -184,23 +193,291 @@ class SensorConfig:
         return plain(self)
 
     @classmethod
-    def from_dict(cls, data: dict, source: str = "<config>") -> "SensorConfig":
-        data = dict(data)
-        try:
-            imu = ImuSpec(**data.pop("imu", {}))
-            dvl = DvlSpec(**data.pop("dvl", {}))
-            return cls(imu=imu, dvl=dvl, **data)
-        except TypeError as exc:
-            raise ConfigError(f"{source}: {exc}") from None
+    def from_dict(cls, data, source: str = "<config>") -> "SensorConfig":
+        """A configuration from a (possibly partial) dict of JSON values laid over the defaults, checked
+        against :data:`SCHEMA` (:class:`ConfigError` naming ``source`` and the key on a bad value)."""
+        return ConfigOverrides.parse(data, source).over(cls())
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        """Write the configuration as JSON, whole or not at all (a temporary file renamed into place)."""
+        import os
+        path = Path(path)
+        tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+        tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        os.replace(tmp, path)
 
     @classmethod
     def load(cls, path: str | Path) -> "SensorConfig":
-        path = Path(path)
-        try:
-            data = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"{path}: cannot read configuration: {exc}") from None
-        return cls.from_dict(data, source=str(path))
+        """The configuration of a JSON file laid over the defaults of :class:`SensorConfig` (a loader lays
+        it over its own defaults instead: :func:`read_config`)."""
+        return read_config(path).over(cls())
+
+
+# --- the schema of a configuration file ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class Key:
+    """What one configuration key holds.
+
+    Attributes:
+        kind: ``number``, ``bool``, ``text``, ``vector`` (numbers, ``size`` of them), ``rotation`` (3x3
+            rotation matrix), ``signs`` (three of -1 / +1) or ``object`` (a JSON object).
+        unit: SI unit (empty when unitless).
+        low, high: allowed range of a number (or of each element of a vector), None = unbounded.
+        low_open: ``low`` itself is not allowed (strictly positive quantities).
+        size: number of elements of a vector.
+    """
+
+    kind: str
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    size: int = 0
+
+    def expected(self) -> str:
+        """The expected value in words, e.g. ``a number > 0 (rad/s/sqrt(Hz))``."""
+        what = {"number": "a number", "bool": "true or false", "text": "a string",
+                "vector": f"a list of {self.size} numbers", "rotation": "a 3x3 rotation matrix (3 lists of 3)",
+                "signs": "a list of 3 signs, each -1 or 1", "object": "a JSON object"}[self.kind]
+        if self.low is not None and self.high is not None:
+            what += f" in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}]"
+        elif self.low is not None:
+            what += f" {'>' if self.low_open else '>='} {self.low:g}"
+        elif self.high is not None:
+            what += f" <= {self.high:g}"
+        if self.kind == "vector" and (self.low is not None or self.high is not None):
+            what += " each"
+        return what + (f" ({self.unit})" if self.unit else "")
+
+
+_POSITIVE = {"low": 0.0, "low_open": True}
+_NON_NEGATIVE = {"low": 0.0}
+
+#: Every key of a configuration file (``section.field`` for the IMU and DVL specs): type, unit and range.
+#: Ranges refuse what cannot be a sensor of an AUV (a negative noise density, a 5000 m lever arm), not merely
+#: unusual values. The meaning of each key is the dataclass docstring (:func:`describe`).
+SCHEMA: dict[str, Key] = {
+    "imu.name": Key("text"),
+    "imu.accel_noise_density": Key("number", "m/s^2/sqrt(Hz)", high=10.0, **_POSITIVE),
+    "imu.gyro_noise_density": Key("number", "rad/s/sqrt(Hz)", high=1.0, **_POSITIVE),
+    "imu.accel_bias_rw": Key("number", "m/s^3/sqrt(Hz)", high=1.0, **_NON_NEGATIVE),
+    "imu.gyro_bias_rw": Key("number", "rad/s^2/sqrt(Hz)", high=1.0, **_NON_NEGATIVE),
+    "imu.accel_bias_sigma": Key("number", "m/s^2", high=10.0, **_NON_NEGATIVE),
+    "imu.gyro_bias_sigma": Key("number", "rad/s", high=1.0, **_NON_NEGATIVE),
+    "dvl.theta_rad": Key("number", "rad", high=math.pi / 2, **_POSITIVE),
+    "dvl.psi_rad": Key("vector", "rad", low=-2 * math.pi, high=2 * math.pi, size=4),
+    "dvl.C_d_b": Key("rotation"),
+    "dvl.lever_arm_b": Key("vector", "m", low=-100.0, high=100.0, size=3),
+    "dvl.beam_noise_std": Key("number", "m/s", high=10.0, **_POSITIVE),
+    "dvl.beam_bias": Key("vector", "m/s", low=-10.0, high=10.0, size=4),
+    "dvl.scale_factor": Key("vector", "", low=-0.5, high=0.5, size=3),
+    "dvl.rate_hz": Key("number", "Hz", high=1000.0, **_POSITIVE),
+    "dvl.velocity_scale_correction": Key("number", "", low=-0.5, high=0.5),
+    "dvl.max_speed_mps": Key("number", "m/s", high=100.0, **_POSITIVE),
+    "dvl.max_vertical_mps": Key("number", "m/s", high=100.0, **_POSITIVE),
+    "dvl.max_accel_mps2": Key("number", "m/s^2", high=100.0, **_POSITIVE),
+    "dvl.jump_tolerance_mps": Key("number", "m/s", high=100.0, **_NON_NEGATIVE),
+    "imu_rate_hz": Key("number", "Hz", high=100000.0, **_POSITIVE),
+    "lat_rad": Key("number", "rad", low=-math.pi / 2, high=math.pi / 2),
+    "gravity_mps2": Key("number", "m/s^2", low=9.7, high=9.9),
+    "earth_rotation": Key("bool"),
+    "dvl_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
+    "gt_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
+    "imu_axis_signs": Key("signs"),
+    "depth_noise_std": Key("number", "m", high=100.0, **_POSITIVE),
+    "water_density_kgpm3": Key("number", "kg/m^3", low=990.0, high=1100.0),
+    "atmospheric_pressure_pa": Key("number", "Pa", low=0.0, high=200000.0),
+    "csv_columns": Key("object"),
+}
+
+#: The sections of a configuration file and the dataclass each one fills.
+SECTIONS: dict[str, type] = {"imu": ImuSpec, "dvl": DvlSpec}
+
+
+def _is_rotation(m: np.ndarray) -> bool:
+    return bool(np.allclose(m @ m.T, np.eye(3), atol=1e-6) and np.linalg.det(m) > 0)
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """The ``Attributes:`` entries of a dataclass docstring, field name -> text (a shared entry such as
+    ``a, b: ...`` describes each of its names)."""
+    doc = inspect.cleandoc(cls.__doc__ or "")
+    body = doc.split("Attributes:", 1)[1] if "Attributes:" in doc else ""
+    docs, names = {}, []
+    for line in body.splitlines():
+        head = re.match(r"^    (\w+(?:, \w+)*):\s*(.*)$", line)
+        if head:
+            names = head.group(1).split(", ")
+            for n in names:
+                docs[n] = head.group(2)
+        elif line.startswith("        ") and names:
+            for n in names:
+                docs[n] += " " + line.strip()
+        elif line.strip():
+            names = []
+    return docs
+
+
+def describe() -> list[tuple[str, str, str]]:
+    """(key, expected value, meaning) for every key of :data:`SCHEMA`, the meaning from the dataclass
+    docstrings (what ``graphnav online --schema`` and the docs print)."""
+    docs = {**{f"imu.{k}": v for k, v in field_docs(ImuSpec).items()},
+            **{f"dvl.{k}": v for k, v in field_docs(DvlSpec).items()}, **field_docs(SensorConfig)}
+    return [(key, spec.expected(), docs.get(key, "")) for key, spec in SCHEMA.items()]
+
+
+def _suggest(name: str, prefix: str) -> str:
+    """``; did you mean 'x'?`` for an unknown key, from the keys of its section and every key's full name."""
+    here = [k[len(prefix):].split(".")[0] for k in SCHEMA if k.startswith(prefix)]
+    full = list(SCHEMA) + list(SECTIONS)
+    close = difflib.get_close_matches(name, sorted(set(here)), n=1, cutoff=0.6)
+    if close:
+        return f"; did you mean '{prefix}{close[0]}'?"
+    leaf = [k for k in full if k.rsplit(".", 1)[-1] == name]       # a key in the wrong section
+    close = leaf or difflib.get_close_matches(name, full, n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def _got(value) -> str:
+    text = json.dumps(value) if not isinstance(value, float) or math.isfinite(value) else str(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _check_value(key: str, spec: Key, value, source: str):
+    """The value of one key as graphnav holds it (float, bool, str, ndarray, dict), or ConfigError."""
+    def bad(why: str = ""):
+        return ConfigError(f"{source}: key '{key}': expected {spec.expected()}, got {_got(value)}"
+                           + (f" ({why})" if why else ""))
+
+    def number(x) -> float:
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise bad()
+        if not math.isfinite(x):
+            raise bad("not finite")
+        if spec.low is not None and (x < spec.low or (spec.low_open and x == spec.low)):
+            raise bad()
+        if spec.high is not None and x > spec.high:
+            raise bad()
+        return float(x)
+
+    if spec.kind == "number":
+        return number(value)
+    if spec.kind == "bool":
+        if not isinstance(value, bool):
+            raise bad()
+        return value
+    if spec.kind == "text":
+        if not isinstance(value, str):
+            raise bad()
+        return value
+    if spec.kind == "object":
+        if not isinstance(value, dict):
+            raise bad()
+        return dict(value)
+    if spec.kind == "rotation":
+        if not (isinstance(value, list) and len(value) == 3
+                and all(isinstance(r, list) and len(r) == 3 for r in value)):
+            raise bad()
+        m = np.array([[number(x) for x in row] for row in value])
+        if not _is_rotation(m):
+            raise bad("rows not orthonormal with determinant +1")
+        return m
+    size = 3 if spec.kind == "signs" else spec.size
+    if not isinstance(value, list) or len(value) != size:
+        raise bad(f"{len(value)} elements" if isinstance(value, list) else "")
+    v = np.array([number(x) for x in value])
+    if spec.kind == "signs" and not np.all(np.isin(v, (-1.0, 1.0))):
+        raise bad()
+    return v
+
+
+@dataclass(frozen=True)
+class ConfigOverrides:
+    """The keys a configuration file (or a stream's ``config`` line) sets, checked against :data:`SCHEMA`.
+
+    Attributes:
+        values: dotted key (``imu.gyro_noise_density``, ``lat_rad``) -> value as graphnav holds it
+            (float, bool, str, ndarray, dict).
+        source: where they come from (file path, ``"<stream>, line 1"``), for messages.
+    """
+
+    values: dict
+    source: str = "<config>"
+
+    @classmethod
+    def parse(cls, data, source: str = "<config>") -> "ConfigOverrides":
+        """Check a JSON value (the parsed file) key by key; :class:`ConfigError` names ``source``, the key,
+        what it expects and what it got."""
+        if isinstance(data, SensorConfig):
+            data = data.to_dict()
+        if not isinstance(data, dict):
+            raise ConfigError(f"{source}: a configuration is a JSON object of keys ({{\"imu_rate_hz\": 100, ...}}), "
+                              f"got {type(data).__name__ if not isinstance(data, list) else 'a list'} {_got(data)}")
+        values = {}
+        for name, value in data.items():
+            if name in SECTIONS:
+                if not isinstance(value, dict):
+                    raise ConfigError(f"{source}: key '{name}': expected a JSON object of {name} keys "
+                                      f"(e.g. {{\"{next(k for k in SCHEMA if k.startswith(name + '.'))[len(name) + 1:]}\": "
+                                      f"...}}), got {_got(value)}")
+                for sub, v in value.items():
+                    key = f"{name}.{sub}"
+                    if key not in SCHEMA:
+                        raise ConfigError(f"{source}: unknown key '{key}'{_suggest(str(sub), name + '.')}")
+                    values[key] = _check_value(key, SCHEMA[key], v, source)
+            elif name in SCHEMA:
+                values[name] = _check_value(name, SCHEMA[name], value, source)
+            else:
+                raise ConfigError(f"{source}: unknown key '{name}'{_suggest(str(name), '')}")
+        return cls(values, source)
+
+    def sets(self, key: str) -> bool:
+        """Whether the file sets ``key`` (dotted name)."""
+        return key in self.values
+
+    def __bool__(self) -> bool:
+        return bool(self.values)
+
+    def over(self, base: SensorConfig) -> SensorConfig:
+        """A copy of ``base`` with every key set here replaced, the others kept (key by key)."""
+        cfg = dataclasses.replace(base, imu=dataclasses.replace(base.imu), dvl=dataclasses.replace(base.dvl),
+                                  csv_columns=dict(base.csv_columns))
+        for key, value in self.values.items():
+            target, name = cfg, key
+            if "." in key:
+                section, name = key.split(".", 1)
+                target = getattr(cfg, section)
+            setattr(target, name, value.copy() if isinstance(value, (np.ndarray, dict)) else value)
+        return cfg
+
+    def differences(self, used: SensorConfig) -> list[tuple[str, object, object]]:
+        """(key, value set here, value in ``used``) for every key whose value ``used`` does not hold (a
+        loader replaced it from the data)."""
+        out = []
+        for key, value in self.values.items():
+            target, name = used, key
+            if "." in key:
+                section, name = key.split(".", 1)
+                target = getattr(used, section)
+            held = getattr(target, name)
+            same = (np.allclose(np.asarray(held, float), value, rtol=1e-9, atol=1e-12)
+                    if isinstance(value, (np.ndarray, float)) else held == value)
+            if not same:
+                out.append((key, value, held))
+        return out
+
+
+def read_config(path: str | Path) -> ConfigOverrides:
+    """The keys a SensorConfig JSON file sets, checked (:class:`ConfigError` naming the file on any problem)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: configuration file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read configuration: {exc}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: not JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}") from None
+    return ConfigOverrides.parse(data, str(path))

@@ -302,9 +302,8 @@ class Aligner:
         """What is still missing before :meth:`result` can work (empty when :attr:`ready`); ``end_of_data``:
         no more data will come, so a gyrocompassing window of ``min_duration_s`` is enough."""
         o, out = self.options, []
-        need = (o.levelling_duration_s if self._has_heading_source()
-                else (min(o.min_duration_s, o.duration_s) if end_of_data else o.duration_s))
-        span = self._imu[-1][0] - self._imu[0][0] if self._imu else 0.0
+        need = self._needed_s(end_of_data)
+        span = self._span_s()
         if not self._imu:
             out.append("no IMU samples (add_imu)")
         elif span < need:
@@ -324,6 +323,35 @@ class Aligner:
                 out.append(f"heading cannot be determined by gyrocompassing: {why}; supply a heading source "
                            "(add_heading from an AHRS/magnetometer, or Aligner(initial_heading_rad=...))")
         return out
+
+    def _needed_s(self, end_of_data: bool = False) -> float:
+        """IMU time the alignment needs, s: levelling with a heading source, else gyrocompassing."""
+        o = self.options
+        if self._has_heading_source():
+            return o.levelling_duration_s
+        return min(o.min_duration_s, o.duration_s) if end_of_data else o.duration_s
+
+    def _span_s(self) -> float:
+        return self._imu[-1][0] - self._imu[0][0] if self._imu else 0.0
+
+    def progress(self) -> dict:
+        """Where the alignment stands (a live status line): ``aligned_s`` IMU time gathered of ``needed_s``
+        (s), ``dvl_pings`` with bottom lock of ``dvl_pings_needed``, ``heading`` (``"heading record"``,
+        ``"given"`` or ``"gyrocompassing"``), and ``waiting_for``: ``"imu time"``, ``"dvl bottom lock"``,
+        ``"heading source"`` (gyrocompassing impossible with this gyro or configuration)."""
+        waiting = []
+        span, need = self._span_s(), self._needed_s()
+        if span < need:
+            waiting.append("imu time")
+        if len(self._dvl) < self.options.min_dvl_pings:
+            waiting.append("dvl bottom lock")
+        heading = ("heading record" if self._headings else "given" if self.initial_heading_rad is not None
+                   else "gyrocompassing")
+        if heading == "gyrocompassing" and self._gyrocompass_bias_limit() > self.options.max_heading_sigma_rad:
+            waiting.append("heading source")
+        return {"aligned_s": float(span), "needed_s": float(need), "dvl_pings": len(self._dvl),
+                "dvl_pings_needed": int(self.options.min_dvl_pings), "dvl_pings_ignored": int(self.n_dvl_ignored),
+                "heading": heading, "waiting_for": waiting}
 
     @property
     def ready(self) -> bool:

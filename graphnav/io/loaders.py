@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.core.config import ImuSpec, SensorConfig
+from graphnav.core.config import ConfigOverrides, ImuSpec, SensorConfig, read_config
 from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams
 from graphnav.core.earth import gravity_magnitude, lla_to_ned
 from graphnav.core.errors import ConfigError, DataError
@@ -366,7 +366,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     folder = Path(folder)
     raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
-        PHINS_RECORDED))
+        PHINS_RECORDED))     # akit_default_config(), whose lever arm the rule below gives
     cfg.dvl = dataclasses.replace(cfg.dvl)
     imu_position_b = np.asarray(AKIT_IMU_POSITION_B if imu_position_b is None else imu_position_b,
                                 float).reshape(3)
@@ -607,13 +607,35 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
         **sim_kwargs: passed to :func:`graphnav.sim.simulate.simulate_mission` when ``data`` is None, or to
             :func:`load_akit` otherwise (e.g. ``beam_seed``).
 
-    With a config on real data, its lever arm, IMU axis signs and time offsets are used as given (no
-    "auto" estimation): the config is the calibration. A config file that does not set ``imu_axis_signs``
-    leaves the axis convention to the load-time detection.
+    A configuration file may be partial: the keys it sets replace the loader's defaults one by one and the
+    others stay the loader's (``{}`` is no configuration). On A-KIT folders the defaults are
+    :func:`akit_default_config` with the axis signs and time offsets estimated at load time; a config that
+    sets ``imu_axis_signs``, ``gt_time_offset_s`` or ``dvl_time_offset_s`` fixes them instead (the config is the
+    calibration). A key the data itself replaces (e.g. the latitude from the ground truth) is warned about.
     """
-    config = SensorConfig.load(config_path) if config_path else None
+    overrides = read_config(config_path) if config_path else None
+    mission = _load(data, overrides, topics, sim_kwargs)
+    if overrides:
+        _warn_replaced(overrides, mission)
+    return mission
+
+
+def akit_default_config() -> SensorConfig:
+    """The configuration an A-KIT folder is loaded with when no configuration file sets a key: the recorded
+    Phins' noise model (:data:`PHINS_RECORDED`) and the DVL lever arm relative to the IMU point."""
+    cfg = SensorConfig(imu=dataclasses.replace(PHINS_RECORDED))
+    cfg.dvl.lever_arm_b = np.asarray(AKIT_LEVER_ARM_B, float) - np.asarray(AKIT_IMU_POSITION_B, float)
+    return cfg
+
+
+def _load(data, overrides: ConfigOverrides | None, topics, sim_kwargs) -> Mission:
+    """The mission of :func:`load_mission`, each loader's defaults overridden by the keys a config sets."""
+    def over(base: SensorConfig) -> SensorConfig | None:
+        return overrides.over(base) if overrides else None
+
     if data is None:
-        from graphnav.sim.simulate import simulate_mission
+        from graphnav.sim.simulate import default_config, simulate_mission
+        config = over(default_config())
         if config is not None:
             sim_kwargs.setdefault("config", config)
         return simulate_mission(**sim_kwargs)
@@ -622,9 +644,10 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     if topics and not bags.is_bag(path):
         raise ConfigError(f"--topic applies to ROS bags only; {path} is not one")
     from graphnav.io.stream_counts import record_outside_span
+    config = over(SensorConfig())
     if bags.is_bag(path):
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
-        atm = config_path is not None and "atmospheric_pressure_pa" in _config_keys(config_path)
+        atm = bool(overrides) and overrides.sets("atmospheric_pressure_pa")
         mission = bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
     elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
         mission = generic_csv.load_pd0(path, config)
@@ -633,17 +656,23 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     elif not path.is_dir():
         raise DataError("data folder not found", str(path))
     else:
+        config = over(akit_default_config())
         if config is not None:
-            if "imu_axis_signs" in _config_keys(config_path):   # a config without the field leaves it "auto"
+            if overrides.sets("imu_axis_signs"):     # else the load-time detection decides
                 sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
-            sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
-            sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
+            for key in ("gt_time_offset_s", "dvl_time_offset_s"):    # else estimated at load time
+                if overrides.sets(key):
+                    sim_kwargs.setdefault(key, getattr(config, key))
         mission = load_akit(path, config=config, **sim_kwargs)
     record_outside_span(mission)
     return mission
 
 
-def _config_keys(config_path: str | Path) -> set[str]:
-    """Top-level keys of a SensorConfig JSON file (already parsed once by ``SensorConfig.load``)."""
-    import json
-    return set(json.loads(Path(config_path).read_text()))
+def _warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
+    """Warn (and note in the mission's streams) every configuration key the loader replaced from the data."""
+    from graphnav.core.streams import add_note
+    for key, given, used in overrides.differences(mission.config):
+        note = (f"{overrides.source}: key '{key}' = {np.round(given, 6).tolist() if isinstance(given, np.ndarray) else given}"
+                f" replaced by {np.round(used, 6).tolist() if isinstance(used, np.ndarray) else used} from the data")
+        warnings.warn(note, RuntimeWarning, stacklevel=3)
+        add_note(mission.meta, "config", note)

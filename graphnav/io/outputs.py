@@ -51,6 +51,11 @@ def _fmt_row(row) -> str:
     return ",".join([_fmt_t(float(row[0]))] + [_fmt(float(x)) for x in row[1:]])
 
 
+def written_stamp(t: float) -> float:
+    """A stamp as the CSV writers hold it (to the microsecond): what a reader of the file gets back."""
+    return float(_fmt_t(float(t)))
+
+
 def solution_rows(sol: NavSolution) -> np.ndarray:
     """(K, len(CSV_COLUMNS)) float array of a solution in CSV column order (NaN where not available)."""
     k = len(sol.t)

@@ -6,8 +6,9 @@ fine). Units SI, frames as everywhere in graphnav (body FRD, NED), stamps in sec
 ====================  ===========================================================================
 ``type``              fields
 ====================  ===========================================================================
-``config``            optional first line: ``config`` = a :class:`~graphnav.core.config.SensorConfig` as JSON
-                      (what ``SensorConfig.to_dict`` writes); ``--config`` on the command line wins
+``config``            optional, first line only: ``config`` = a :class:`~graphnav.core.config.SensorConfig` as JSON
+                      (what ``SensorConfig.to_dict`` writes, or only some of its keys; checked like a
+                      ``--config`` file); keys ``--config`` sets win
 ``imu``               ``t``, ``f_b`` [3] specific force m/s^2, ``omega_b`` [3] angular rate rad/s
 ``dvl``               ``t``, ``beams`` [4] along-beam velocity m/s (``null`` where invalid), ``valid`` [4] bool
                       (optional: default = the beams that are numbers)
@@ -23,7 +24,12 @@ Example lines::
 
 The estimates ``graphnav online --stream`` writes back are JSON lines of ``type`` ``estimate`` (see
 :func:`estimate_record`). A line that is not valid JSON or lacks a field is skipped with a warning naming
-its line number, and counted; the Navigator refuses bad values itself.
+its line number, and counted; the Navigator refuses bad values itself. A ``config`` line anywhere but first,
+or one with a bad key, stops the stream with a :class:`~graphnav.core.errors.ConfigError` naming the line (the
+estimator is built from the configuration before the first measurement).
+
+While the Navigator aligns, ``graphnav online --stream`` also writes ``status`` lines (:func:`status_record`).
+``graphnav online --schema`` prints this table and the configuration keys.
 """
 from __future__ import annotations
 
@@ -34,7 +40,8 @@ from typing import IO, Iterator
 
 import numpy as np
 
-from graphnav.core.config import SensorConfig
+from graphnav.core.config import ConfigOverrides
+from graphnav.core.errors import ConfigError
 from graphnav.estimators.replay import replay
 
 #: Fields each record type needs (besides ``type``).
@@ -85,7 +92,9 @@ class StreamReader:
         self.source = source
         self.n_bad = 0
         self.n_records = 0
-        self.config: SensorConfig | None = None
+        self.config: ConfigOverrides | None = None
+        self._first_line: int | None = None
+        self._config_line: int | None = None
 
     def _bad(self, line_no: int, why: str) -> None:
         self.n_bad += 1
@@ -113,14 +122,24 @@ class StreamReader:
                 self._bad(line_no, f"{kind} record without field '{missing[0]}'")
                 continue
             if kind == "config":
-                try:
-                    self.config = SensorConfig.from_dict(rec["config"], source=f"{self.source}, line {line_no}")
-                except Exception as exc:       # noqa: BLE001 -- any malformed config is reported the same way
-                    self._bad(line_no, f"bad config ({exc})")
+                self.config = self._config(rec["config"], line_no)
                 continue
+            self._first_line = self._first_line or line_no
             self.n_records += 1
             rec["_line"] = line_no
             yield rec
+
+
+    def _config(self, data, line_no: int) -> ConfigOverrides:
+        """The keys of a ``config`` record, accepted on the first record line only."""
+        where = f"{self.source}, line {line_no}"
+        if self._first_line is not None or self.config is not None:
+            why = (f"a config was already given at line {self._config_line}" if self.config is not None else
+                   f"measurements start at line {self._first_line}")
+            raise ConfigError(f"{where}: a config record is accepted only as the first line of the stream ({why}); "
+                              "put it first or give the configuration with --config")
+        self._config_line = line_no
+        return ConfigOverrides.parse(data, where)
 
 
 def feed(nav, rec: dict) -> list:
@@ -148,3 +167,41 @@ def estimate_record(est) -> dict:
             "cov_v_n": None if est.cov_v_n is None else np.asarray(est.cov_v_n).tolist(),
             "bias_acc": np.asarray(est.bias.accelerometer()).tolist(),
             "bias_gyro": np.asarray(est.bias.gyroscope()).tolist()}
+
+
+def status_record(nav, t: float, wall_s: float) -> dict:
+    """A ``status`` record of a Navigator: ``t`` (s, stamp of the last record read), ``wall_s`` (s since the
+    stream was opened), ``state`` (``aligning`` or ``navigating``) and, while aligning, ``alignment``: the
+    aligner's :meth:`~graphnav.estimators.align.Aligner.progress` (``aligned_s`` of ``needed_s`` s of IMU data,
+    ``dvl_pings`` with bottom lock of ``dvl_pings_needed``, ``heading`` source, ``waiting_for``)."""
+    rec = {"type": "status", "t": float(t), "wall_s": round(float(wall_s), 3),
+           "state": "aligning" if nav.aligner is not None else "navigating"}
+    if nav.aligner is not None:
+        rec["alignment"] = nav.aligner.progress()
+    return rec
+
+
+def schema_text() -> str:
+    """The stream schema for ``graphnav online --schema``: the record table of this module and every key of a
+    ``config`` record (:data:`graphnav.core.config.SCHEMA`, meanings from the dataclass docstrings)."""
+    from graphnav.core.config import describe
+    doc = __doc__.split("====", 1)[0].rstrip()
+    table = "=" * 20 + __doc__.split("=" * 20, 1)[1].split("\nExample lines::")[0]
+    lines = [doc, "", table.rstrip(), "",
+             "Written back by graphnav online --stream (standard output, one JSON object per line):",
+             "  estimate  t, kind, p_n [3] m (NED), v_n [3] m/s, rpy [3] rad (roll, pitch, yaw of C_b_n), "
+             "cov_v_n 3x3 (m/s)^2 or null, bias_acc [3] m/s^2, bias_gyro [3] rad/s",
+             "  status    t (last record, s), wall_s, state (aligning | navigating | waiting for data), alignment "
+             "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} "
+             "while aligning, idle_s and source while no record comes",
+             "", "Keys of a config record (and of a --config file; any subset; the others keep their defaults):"]
+    import textwrap
+    previous = None
+    for key, expected, meaning in describe():
+        lines.append(f"  {key:32s} {expected}")
+        if meaning and meaning != previous:
+            lines += textwrap.wrap(meaning, 110, initial_indent=" " * 37, subsequent_indent=" " * 37)
+        elif meaning:
+            lines.append(" " * 37 + "(as above)")
+        previous = meaning
+    return "\n".join(lines)

@@ -374,6 +374,11 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
 
 # --- the mission -------------------------------------------------------------------------------------
 
+def default_config() -> SensorConfig:
+    """The configuration the default mission is simulated with (a configuration file's keys override it)."""
+    return _default_config(DEFAULT_LEVER_ARM_B)
+
+
 def _default_config(lever_arm_b) -> SensorConfig:
     lat = DEFAULT_ORIGIN_LLA[0]
     return SensorConfig(dvl=DvlSpec(lever_arm_b=np.asarray(lever_arm_b, float)), lat_rad=lat,
