@@ -320,7 +320,7 @@ def _describe_jsonl(path: Path, config) -> dict:
     with path.open(encoding="utf-8") as fh:
         reader = StreamReader(fh, str(path))
         records = list(reader)
-    config = config or reader.config or SensorConfig()
+    config = config or (reader.config.over(SensorConfig()) if reader.config else SensorConfig())
     by_type: dict[str, list[dict]] = {}
     for rec in records:
         by_type.setdefault(rec["type"], []).append(rec)
