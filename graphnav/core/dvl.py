@@ -51,6 +51,19 @@ class DvlGeometry:
         DVL error states (scale per DVL axis, bias per beam) when ``dvl_errors``."""
         return BeamModel(self.T_b, np.arange(4), self.C_d_b) if dvl_errors else BeamModel(self.T_b)
 
+    def velocity_model(self, dvl_errors: bool = False) -> BeamModel:
+        """The :class:`~graphnav.core.beam_model.BeamModel` of a DVL-frame velocity ``v_d`` measured by the
+        instrument (``T_d`` = identity; with ``dvl_errors`` the scale per DVL axis, no beam bias)."""
+        return BeamModel.dvl_velocity(self.C_d_b, dvl_errors)
+
+    def velocity_sigma_d(self, beam_noise_std: float) -> np.ndarray:
+        """(3,) one-sigma per DVL axis, m/s, of the four-beam least-squares velocity when each beam has white
+        noise ``beam_noise_std`` (m/s): ``sqrt(diag(sigma^2 (T_d^T T_d)^-1))``. For the Janus geometry at 20 deg
+        it is ``sigma / (sqrt(2) sin 20 deg)`` = 2.07 sigma horizontally and ``sigma / (2 cos 20 deg)`` = 0.53
+        sigma vertically."""
+        T = self.T_d
+        return float(beam_noise_std) * np.sqrt(np.diag(np.linalg.inv(T.T @ T)))
+
     def dvl_velocity_b(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
         """Velocity of the DVL head in the body frame, ``v_b + omega_b x l_b``, m/s (…,3)."""
         v_b = np.asarray(v_b, dtype=float)
