@@ -372,7 +372,6 @@ def test_velocity_only_mission_is_the_same_mission_without_beams(missions):
     np.testing.assert_allclose(velocity.dvl.v_d, geo.velocity_from_beams(beams.dvl.beams) @ geo.C_d_b, atol=1e-12)
 
 
-@pytest.mark.slow
 def test_velocity_only_navigates_like_all_beams_and_a_wrong_frame_does_not(missions):
     """Graph-TC (ISAM2), its batch smoother and EKF-TC: velocity-only VRMSE within 15 % of the all-beams run
     (the same information: the instrument's v_d is the least-squares solution of the same beams), and the
@@ -423,3 +422,30 @@ def test_stream_replay_equals_the_mission_replay(missions):
     for a, b in zip(direct, streamed):
         assert a.t == b.t
         np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-9)
+
+
+def test_hybrid_methods_run_through_velocity_pings(missions):
+    """A DVL that loses two beams for 20 s and then reports only its velocity for 20 s (a 3-beam log turning
+    into a velocity-only one): the completer fills the two-beam pings, never the velocity pings, and the
+    hybrid graph and EKF navigate through both."""
+    from graphnav.nets import AverageCompleter
+    beams, velocity, _ = missions
+    m = beams.slice(0.0, 60.0)
+    dvl = m.dvl
+    valid = dvl.valid.copy()
+    two = (dvl.t >= 15.0) & (dvl.t < 35.0)
+    vel = dvl.t >= 35.0
+    valid[two, :2] = False
+    valid[vel] = False
+    v_d_valid = vel.copy()
+    v_d = np.where(v_d_valid[:, None], velocity.slice(0.0, 60.0).dvl.v_d, np.nan)
+    m = dataclasses.replace(m, dvl=dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,
+                                                       v_b=None, v_d=v_d, v_d_valid=v_d_valid))
+    m.dvl.validate()
+    full = beams.slice(0.0, 60.0)
+    for run in (run_graph, run_ekf):
+        sol = run(m, completer=AverageCompleter(3))
+        assert sol.info["velocity_pings"] == int(vel.sum())
+        assert int(two.sum()) - 3 <= sol.info["completed_pings"] <= int(two.sum())
+        ref = vrmse(run(full), full.gt)                    # all beams all the time
+        assert vrmse(sol, m.gt) < 1.5 * ref

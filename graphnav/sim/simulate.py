@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import DEG, DvlSpec, ImuSpec, SensorConfig
 from graphnav.core.config import imu_grade as _imu_grade
-from graphnav.core.dvl import DvlErrorModel, DvlGeometry
+from graphnav.core.dvl import DvlErrorModel, DvlGeometry, as_velocity_only
 from graphnav.core.earth import earth_rate_n, gravity_magnitude
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
@@ -487,13 +487,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     beams[~valid] = np.nan
     if dvl_output not in ("beams", "velocity"):
         raise ConfigError(f"dvl_output must be 'beams' or 'velocity', got {dvl_output!r}")
-    v_b = geometry.velocity_from_beams(beams, valid, allow_missing=True)
-    if dvl_output == "beams":
-        dvl = DvlData(t_dvl, beams, valid, v_b)
-    else:
-        v_d_valid = valid.sum(axis=1) >= 3
-        v_d = np.where(v_d_valid[:, None], v_b @ geometry.C_d_b, np.nan)          # row form of C_d_b^T v_b
-        dvl = DvlData(t_dvl, np.full_like(beams, np.nan), np.zeros_like(valid), None, v_d=v_d, v_d_valid=v_d_valid)
+    dvl = DvlData(t_dvl, beams, valid, geometry.velocity_from_beams(beams, valid, allow_missing=True))
+    if dvl_output == "velocity":
+        dvl = as_velocity_only(dvl, config.dvl)
 
     grade = spec.name
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
