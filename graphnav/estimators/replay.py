@@ -9,7 +9,7 @@ One stream for every consumer (the :class:`~graphnav.estimators.navigator.Naviga
 - ``"dvl_velocity"``: ``(v_d (3,) m/s, sigma (3,) m/s or NaN = the configured one)``: the DVL-frame velocity
   the instrument measured (``DvlData.v_d``), for the pings where ``v_d_valid`` and the beams are not usable
   (fewer than :data:`~graphnav.estimators.keyframes.MIN_BEAMS_OVER_VELOCITY` valid; the keyframer then uses
-  the velocity, not those beams);
+  the velocity, not those beams; a velocity ping without any valid beam has no ``"dvl"`` record);
 - ``"depth"``: ``(depth_m,)``.
 
 At equal stamps the aiding samples come first, then the DVL, then the IMU: a keyframe at a stamp then
@@ -50,8 +50,14 @@ def replay(mission: Mission, depth: bool = True, chunk: int = 20000) -> Iterator
     more memory than its arrays."""
     imu, dvl = mission.imu, mission.dvl
     beams = np.where(dvl.valid, dvl.beams, np.nan)
-    streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
     velocity = velocity_pings(dvl)
+    # a velocity ping without any valid beam has no "dvl" record: its velocity is all there is
+    has_beams = ~(velocity & ~dvl.valid.any(axis=1))
+    if has_beams.all():
+        streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
+    else:
+        streams = [("imu", imu.t, (imu.f_b, imu.omega_b)),
+                   ("dvl", dvl.t[has_beams], (beams[has_beams], dvl.valid[has_beams]))]
     if velocity.any():
         sigma = (dvl.v_d_sigma[velocity] if dvl.v_d_sigma is not None
                  else np.full((int(velocity.sum()), 3), np.nan))
