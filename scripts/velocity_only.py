@@ -1,7 +1,7 @@
 """VRMSE with a velocity-only DVL against the same DVL's four beams, per estimator (prints a Markdown table).
 
     .venv/bin/python scripts/velocity_only.py [--seeds 1 2 3] [--duration 300] [--akit 1 2 ...]
-                                              [--methods Graph-TC Graph-TC-batch EKF-TC EKF-LC]
+                                              [--methods Graph-TC Graph-TC-batch TC LC]
 
 For each mission the estimators run three times: on the four beams (tightly coupled), on the velocity a
 velocity-only DVL would report for the same pings (:func:`graphnav.core.dvl.as_velocity_only`: its own
@@ -22,12 +22,9 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import as_velocity_only
-from graphnav.estimators.runs import run_ekf, run_graph
+from graphnav.evaluation.methods import check_method, run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.sim.simulate import simulate_mission
-
-RUNS = {"Graph-TC": lambda m: run_graph(m), "Graph-TC-batch": lambda m: run_graph(m, batch=True),
-        "EKF-TC": lambda m: run_ekf(m), "EKF-LC": lambda m: run_ekf(m, tight=False)}
 
 
 def variants(mission, wrong_frame: bool) -> dict:
@@ -44,8 +41,11 @@ def main():
     parser.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
     parser.add_argument("--duration", type=float, default=300.0)
     parser.add_argument("--akit", type=int, nargs="*", default=[])
-    parser.add_argument("--methods", nargs="*", default=list(RUNS))
+    parser.add_argument("--methods", nargs="*", default=["Graph-TC", "Graph-TC-batch", "TC", "LC"],
+                        help="method names of graphnav.evaluation.methods (the bench's)")
     args = parser.parse_args()
+    for method in args.methods:
+        check_method(method)
     missions = []
     config = SensorConfig()
     config.dvl.C_d_b = gtsam.Rot3.Yaw(np.deg2rad(45.0)).matrix()
@@ -70,7 +70,7 @@ def main():
             for name, m in variants(mission, wrong).items():
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    r[name] = vrmse(RUNS[method](m), mission.gt)
+                    r[name] = vrmse(run_method(m, method), mission.gt)
             w = f"{r['wrong frame']:.4f}" if "wrong frame" in r else "-"
             print(f"| {label} | {method} | {r['beams']:.4f} | {r['velocity']:.4f} | {r['velocity'] / r['beams']:.3f} "
                   f"| {w} | {time.perf_counter() - start:.0f} |", flush=True)

@@ -449,3 +449,25 @@ def test_hybrid_methods_run_through_velocity_pings(missions):
         assert int(two.sum()) - 3 <= sol.info["completed_pings"] <= int(two.sum())
         ref = vrmse(run(full), full.gt)                    # all beams all the time
         assert vrmse(sol, m.gt) < 1.5 * ref
+
+
+def test_ekf_locked_out_by_velocities_reacquires_from_the_velocity():
+    """A filter 3 m/s off with a tight covariance gates every velocity; after the lockout it re-initialises its
+    velocity from the instrument's own velocity (through C_d_b and the lever arm) and accepts again."""
+    rng = np.random.default_rng(8)
+    config = SensorConfig()
+    config.dvl.C_d_b = random_C_d_b(rng)
+    config.dvl.lever_arm_b = LEVER.copy()
+    C = gtsam.Rot3.RzRyRx(0.02, -0.01, 1.2).matrix()
+    v_true = np.array([1.5, -0.3, 0.1])
+    omega = np.array([0.0, 0.0, 0.05])
+    v_d = config.dvl.C_d_b.T @ (C.T @ v_true + np.cross(omega, LEVER))
+    ekf = ErrorStateEkf(config, StrapdownState(0.0, C, v_true + [3.0, 0.0, 0.0], np.zeros(3)),
+                        EkfOptions(sigma_v0=0.01, lever_arm=True, relevel=False))
+    with pytest.warns(RuntimeWarning, match="re-acquired after a lockout"):
+        accepted = [ekf.update_velocity(v_d, omega) for _ in range(ekf.options.health.lockout_rejections)]
+    assert not any(accepted[:-1]) and accepted[-1]
+    assert ekf.health.n_reacquired == 1
+    assert "instrument's DVL-frame velocity" in ekf.health.reacquisitions[0][1]
+    np.testing.assert_allclose(ekf.state.v_n, v_true, atol=1e-3)
+    assert ekf.update_velocity(v_d, omega)
