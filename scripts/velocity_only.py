@@ -22,7 +22,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import as_velocity_only
-from graphnav.evaluation.methods import check_method, run_method
+from graphnav.evaluation.methods import check_method, get_method, run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.sim.simulate import simulate_mission
 
@@ -43,6 +43,8 @@ def main():
     parser.add_argument("--akit", type=int, nargs="*", default=[])
     parser.add_argument("--methods", nargs="*", default=["Graph-TC", "Graph-TC-batch", "TC", "LC"],
                         help="method names of graphnav.evaluation.methods (the bench's)")
+    parser.add_argument("--no-dvl-error-states", action="store_true",
+                        help="graph methods without the DVL error states (GraphOptions.dvl_error_states=False)")
     args = parser.parse_args()
     for method in args.methods:
         check_method(method)
@@ -70,7 +72,9 @@ def main():
             for name, m in variants(mission, wrong).items():
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    r[name] = vrmse(run_method(m, method), mission.gt)
+                    options = ({"dvl_error_states": False}
+                               if args.no_dvl_error_states and get_method(method).family == "graph" else None)
+                    r[name] = vrmse(run_method(m, method, options=options), mission.gt)
             w = f"{r['wrong frame']:.4f}" if "wrong frame" in r else "-"
             print(f"| {label} | {method} | {r['beams']:.4f} | {r['velocity']:.4f} | {r['velocity'] / r['beams']:.3f} "
                   f"| {w} | {time.perf_counter() - start:.0f} |", flush=True)
