@@ -19,5 +19,4 @@ from .motion import body_velocity_change_factor, nonholonomic_factor
 
 __all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
            "body_velocity_change_factor", "body_velocity_factor", "depth_factor", "dvl_factor", "dvl_velocity_factor",
-           "heading_factor",
-           "horizontal_position_factor", "nonholonomic_factor", "predict_beams"]
+           "heading_factor", "horizontal_position_factor", "nonholonomic_factor", "predict_beams"]

@@ -471,3 +471,19 @@ def test_ekf_locked_out_by_velocities_reacquires_from_the_velocity():
     assert "instrument's DVL-frame velocity" in ekf.health.reacquisitions[0][1]
     np.testing.assert_allclose(ekf.state.v_n, v_true, atol=1e-3)
     assert ekf.update_velocity(v_d, omega)
+
+
+def test_alignment_from_the_sensors_uses_the_velocity_pings(missions):
+    """Without an initial state the aligner levels and gyrocompasses with the velocity pings as with >= 3-beam
+    pings: the same pings' information, so the same heading to well within its sigma."""
+    beams, velocity, _ = missions
+    out, yaw = {}, {}
+    for name, m in (("beams", beams), ("velocity", velocity)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            sol = run_ekf(m, init="sensors")
+        out[name] = sol.info["alignment"]
+        yaw[name] = np.arctan2(sol.C_b_n[0][1, 0], sol.C_b_n[0][0, 0])
+    assert out["velocity"]["n_dvl"] == out["beams"]["n_dvl"] > 100
+    assert out["velocity"]["heading_sigma_rad"] == pytest.approx(out["beams"]["heading_sigma_rad"], rel=0.05)
+    assert abs(yaw["velocity"] - yaw["beams"]) < 0.2 * out["beams"]["heading_sigma_rad"]
