@@ -185,6 +185,10 @@ class _Pending:
     velocity: tuple | None = None      # (v_d, sigma)
     fix: PositionFix | None = None
 
+    @property
+    def has_ping(self) -> bool:
+        return self.ping is not None or self.velocity is not None
+
 
 @dataclass
 class KeyframerStats:
@@ -365,7 +369,7 @@ class Keyframer:
         if self._started and self._samples:
             out += self._close_ready()
             out += self._fill_gap(self._samples[-1][0])
-        n_late = sum(1 for p in self._pending if p.ping is not None or p.velocity is not None)
+        n_late = sum(1 for p in self._pending if p.has_ping)
         self.stats.pings_after_end += n_late
         self._pending.clear()
         return out
@@ -423,7 +427,7 @@ class Keyframer:
             t_f = self._anchor + self._fill_i * step
             if t_f + 0.5 * step > now + 1e-12:
                 break
-            if any((p.ping is not None or p.velocity is not None) and t_f < p.t < t_f + 0.5 * step - 1e-12 for p in self._pending):
+            if any(p.has_ping and t_f < p.t < t_f + 0.5 * step - 1e-12 for p in self._pending):
                 break      # a ping closes within half an interval: it takes the filler's place
             self._fill_i += 1
             if t_f > self._t_kf + 1e-9 and not any(abs(p.t - t_f) <= 1e-9 for p in self._pending):
@@ -467,12 +471,11 @@ class Keyframer:
         return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att)
 
     def _close(self, p: _Pending) -> Keyframe:
-        has_ping = p.ping is not None or p.velocity is not None
-        ping = self._choose_ping(p) if has_ping else None
+        ping = self._choose_ping(p) if p.has_ping else None
         imu = self._take_segments(p.t)
-        if has_ping or p.kind == "init":
+        if p.has_ping or p.kind == "init":
             self._anchor, self._fill_i = p.t, 1
-        kind = "dvl" if has_ping else p.kind
+        kind = "dvl" if p.has_ping else p.kind
         kf = Keyframe(self._index, p.t, kind, imu, ping, self._sample(self._depth, p.t),
                       self._heading_at(p.t), p.fix)
         self._index += 1
