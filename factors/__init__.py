@@ -12,10 +12,11 @@ from .dvl import (
                   beam_noise,
                   body_velocity_factor,
                   dvl_factor,
+                  dvl_velocity_factor,
                   predict_beams,
 )
 from .motion import body_velocity_change_factor, nonholonomic_factor
 
 __all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
-           "body_velocity_change_factor", "body_velocity_factor", "depth_factor", "dvl_factor", "heading_factor",
-           "horizontal_position_factor", "nonholonomic_factor", "predict_beams"]
+           "body_velocity_change_factor", "body_velocity_factor", "depth_factor", "dvl_factor", "dvl_velocity_factor",
+           "heading_factor", "horizontal_position_factor", "nonholonomic_factor", "predict_beams"]

@@ -14,7 +14,10 @@ by the caller if wanted),
 One factor may hold any number m of beams (rows); per-beam sigmas go in a diagonal noise model, so the
 same code serves "one factor per beam" (m = 1) and "one factor per epoch" (m = number of valid beams).
 The loosely coupled factor is the same model with the identity as its rows (3 rows, the DVL-head body
-velocity).
+velocity). A DVL-frame velocity the instrument measured itself (:func:`dvl_velocity_factor`: a velocity-only
+DVL, a 3-beam solution, an earth/ship-frame log) is the model with ``T_d`` = identity (body rows ``C_d_b^T``):
+``y = (1 + s) * C_d_b^T (R^T v_n + (omega_b - b_g) x l_b)``, the scale per DVL axis with the DVL error states,
+no beam bias.
 
 The model and its Jacobians are :mod:`graphnav.core.beam_model` (written once, also used by the vectorised
 batch and the EKF); here they are placed in GTSAM's tangent layouts: right perturbation ``R Exp(dtheta)``,
@@ -35,7 +38,7 @@ import numpy as np
 from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 
 __all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
-           "body_velocity_factor", "dvl_factor", "predict_beams"]
+           "body_velocity_factor", "dvl_factor", "dvl_velocity_factor", "predict_beams"]
 
 
 def beam_noise(sigmas: np.ndarray, huber_k: float | None = None) -> gtsam.noiseModel.Base:
@@ -68,7 +71,7 @@ def dvl_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.nda
         lever_arm_b: (3,) DVL position relative to the IMU, body frame, m (fixed); or
         l_key: key of a Point3 lever-arm variable (body frame, m), for lever-arm calibration.
         d_key: key of the Vector7 DVL error states [scale (3), beam bias (4) m/s]; needs
-        beam_index: (m,) 0-based beam number of each row (which bias applies) and
+        beam_index: (m,) 0-based beam number of each row (which bias applies; -1: a DVL-axis row, no bias) and
         C_d_b: (3,3) DVL-to-body rotation (the scale factor acts on the DVL-frame axes).
 
     Keys (and Jacobians) in the order x, v, b, d, l.
@@ -148,3 +151,28 @@ def beam_factor_lever_arm(x_key: int, v_key: int, b_key: int, l_key: int, rows_b
     constant (:func:`dvl_factor` with ``l_key``).
     """
     return dvl_factor(x_key, v_key, b_key, rows_b, y, noise, omega_b, l_key=l_key)
+
+
+def dvl_velocity_factor(x_key: int, v_key: int, b_key: int, C_d_b: np.ndarray, v_d: np.ndarray,
+                        noise: gtsam.noiseModel.Base | np.ndarray, omega_b: np.ndarray,
+                        lever_arm_b: np.ndarray | None = None, *, l_key: int | None = None,
+                        d_key: int | None = None) -> gtsam.CustomFactor:
+    """A DVL-frame velocity measured by the instrument: residual (3,) ``(1 + s) * C_d_b^T (R^T v_n + (omega_b
+    - b_g) x l_b) - v_d``, m/s (the beam model with ``T_d`` = identity, :meth:`graphnav.core.beam_model.BeamModel.
+    dvl_velocity`).
+
+    Args:
+        x_key, v_key, b_key: keys of the pose, NED velocity and IMU bias.
+        C_d_b: (3,3) DVL-to-body rotation.
+        v_d: (3,) velocity of the DVL head in the DVL frame, m/s.
+        noise: a 3-dimensional noise model, or (3,) sigmas per DVL axis, m/s.
+        omega_b: (3,) raw body rate at the ping, rad/s.
+        lever_arm_b: (3,) DVL position relative to the IMU, body frame, m (fixed); or ``l_key`` (Point3).
+        d_key: key of the Vector7 DVL error states: the scale per DVL axis acts on the three rows, the beam
+            biases do not (their Jacobian columns are zero).
+
+    Keys (and Jacobians) in the order x, v, b, d, l.
+    """
+    C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
+    return dvl_factor(x_key, v_key, b_key, C_d_b.T, v_d, noise, omega_b, lever_arm_b, l_key=l_key, d_key=d_key,
+                      beam_index=None if d_key is None else np.full(3, -1), C_d_b=None if d_key is None else C_d_b)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import IMU_GRADES
+from graphnav.core.errors import ConfigError
 
 
 def register(subparsers) -> None:
@@ -35,6 +36,9 @@ def register(subparsers) -> None:
                         help="write the measurements (no ground truth) as time-ordered JSON lines to FILE ('-' = "
                              "standard output; the summary then goes to standard error), the input of "
                              "`graphnav online --stream`")
+    parser.add_argument("--dvl-output", choices=("beams", "velocity"), default="beams",
+                        help="what the simulated DVL reports: its four beams, or (velocity) only its own DVL-frame "
+                             "velocity, as a velocity-only DVL does (with --stream: dvl_velocity records)")
     parser.set_defaults(func=run)
 
 
@@ -84,12 +88,15 @@ def run(args) -> int:
     from graphnav.io.export import write_akit
     from graphnav.sim.simulate import simulate_mission
 
+    if args.dvl_output == "velocity" and args.out is not None:
+        raise ConfigError("--dvl-output velocity goes with --stream only: the A-KIT CSV layout of --out has no "
+                          "DVL-frame velocity")
     if args.out is not None:
         check_out(args.out, force=args.force)
     if args.stream not in (None, "-"):
         check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
-                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless)
+                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.io.streamio import mission_records, write_records
@@ -107,7 +114,8 @@ def run(args) -> int:
           f"depth {s['depth_min_m']:.1f}..{s['depth_max_m']:.1f} m, "
           f"speed {s['speed_min_mps']:.2f}..{s['speed_max_mps']:.2f} m/s, "
           f"max yaw rate {s['max_yaw_rate_radps']:.3f} rad/s, "
-          f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams)", file=log)
+          f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams"
+          + (", velocity-only DVL" if args.dvl_output == "velocity" else "") + ")", file=log)
     if args.out is not None:
         with StagedOut(args.out, args.force) as staged:
             paths = write_akit(mission, staged.path, args.number)

@@ -14,6 +14,10 @@ vector in the DVL frame, and the DVL error states: ``s`` (3,) scale factor per D
 ``T_b[i] = T_d[i] C_d_b^T``; a row may be any vector (the identity rows give the loosely coupled body
 velocity).
 
+A **DVL-frame velocity** measured by the instrument itself (a 3-beam solution, a velocity-only DVL) is the same
+model with the identity as ``T_d`` (body rows ``C_d_b^T``, :meth:`BeamModel.dvl_velocity`): row j measures
+``(1 + s_j) v_d[j]``; its rows carry beam number -1, so that no beam bias acts on them.
+
 Jacobians (row form; ``M`` = the effective rows ``T_d[i] diag(1 + s) C_d_b^T``, or the rows themselves
 without error states; ``[a]x`` the skew matrix)::
 
@@ -22,7 +26,7 @@ without error states; ``[a]x`` the skew matrix)::
     d/db_g   = M [l_b]x
     d/dl_b   = M [omega_b - b_g]x
     d/ds     = T_d[i] * v_d        (elementwise)
-    d/db     = e_i                 (the row's beam)
+    d/db     = e_i                 (the row's beam; zero for a DVL-axis row, beam number -1)
 
 Shapes: ``rows`` (R,3). State arguments are one state (``C_b_n`` (3,3), vectors (3,), DVL errors (7,)), one
 state per row (``C_b_n`` (R,3,3), vectors (R,3), (R,7)), or one per ping broadcast over the rows (vectors
@@ -119,7 +123,9 @@ class BeamModel:
     Args:
         rows_b: (R,3) body-frame beam unit vectors (rows of :attr:`graphnav.core.dvl.DvlGeometry.T_b`), or the
             identity for the loosely coupled body velocity.
-        beam_index: (R,) beam number 0..3 of each row: with ``C_d_b``, the DVL error states act on the rows.
+        beam_index: (R,) beam number 0..3 of each row: with ``C_d_b``, the DVL error states act on the rows;
+            -1 marks a DVL-axis row (a measured DVL-frame velocity component): the scale acts on it, no beam
+            bias does.
         C_d_b: (3,3) DVL-to-body rotation (the scale factor acts on the DVL-frame axes).
     """
 
@@ -131,12 +137,22 @@ class BeamModel:
             raise ValueError("the DVL error states need both beam_index and C_d_b")
         if beam_index is not None:
             index = np.asarray(beam_index, dtype=int).reshape(-1)
-            if index.shape[0] != n or np.any((index < 0) | (index > 3)):
-                raise ValueError(f"beam_index must hold one beam number 0..3 per row, got {index.tolist()}")
+            if index.shape[0] != n or np.any((index < -1) | (index > 3)):
+                raise ValueError(f"beam_index must hold one beam number 0..3 (or -1 for a DVL-axis row) per row, "
+                                 f"got {index.tolist()}")
             self.C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
             self.rows_d = self.rows_b @ self.C_d_b          # T_d rows: T_b = T_d C_d_b^T
             self.onehot = np.zeros((n, 4))
-            self.onehot[np.arange(n), index] = 1.0
+            beam = index >= 0
+            self.onehot[np.flatnonzero(beam), index[beam]] = 1.0
+
+    @classmethod
+    def dvl_velocity(cls, C_d_b: np.ndarray, dvl_errors: bool = False) -> "BeamModel":
+        """The model of a DVL-frame velocity ``v_d`` (3,) m/s measured by the instrument: the beam model with
+        ``T_d`` = identity (body rows ``C_d_b^T``); with ``dvl_errors`` the scale per DVL axis acts on its rows
+        and no beam bias does (beam number -1)."""
+        C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
+        return cls(C_d_b.T, np.full(3, -1), C_d_b) if dvl_errors else cls(C_d_b.T)
 
     @property
     def has_dvl_errors(self) -> bool:

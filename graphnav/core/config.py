@@ -96,6 +96,11 @@ class DvlSpec:
         beam_bias: bias of each beam, m/s (4,) (used to make beams; estimators do not know it).
         scale_factor: scale factor error per DVL axis, unitless (3,) (used to make beams).
         rate_hz: nominal DVL ping rate, Hz.
+        velocity_noise_std: (3,) one-sigma per DVL axis (m/s) of a DVL-frame velocity ``v_d`` the instrument
+            reports itself (``DvlData.v_d``, ``Navigator.add_dvl_velocity``) when a ping carries no sigma of its
+            own; None (default): the four-beam least-squares sigma from ``beam_noise_std`` and the beam
+            geometry (:meth:`graphnav.core.dvl.DvlGeometry.velocity_sigma_d`: 0.087, 0.087, 0.022 m/s for the
+            defaults), the noise of the solution the instrument computes from the same beams.
         velocity_scale_correction: scale error of the DVL's *reported* velocities, unitless, as measured by
             ``graphnav calibrate``; the real-data loaders divide the recorded velocities by ``1 + value``
             (0 = none). Unlike ``scale_factor`` it describes the instrument, not the synthetic beam model.
@@ -121,6 +126,7 @@ class DvlSpec:
     beam_bias: np.ndarray = field(default_factory=lambda: np.full(4, 0.01))
     scale_factor: np.ndarray = field(default_factory=lambda: np.full(3, 0.007))
     rate_hz: float = 1.0
+    velocity_noise_std: np.ndarray | None = None
     velocity_scale_correction: float = 0.0
     max_speed_mps: float = 4.0
     max_vertical_mps: float = 1.0
@@ -133,6 +139,10 @@ class DvlSpec:
         self.lever_arm_b = np.asarray(self.lever_arm_b, dtype=float).reshape(3)
         self.beam_bias = np.asarray(self.beam_bias, dtype=float).reshape(4)
         self.scale_factor = np.asarray(self.scale_factor, dtype=float).reshape(3)
+        if self.velocity_noise_std is not None:
+            self.velocity_noise_std = np.broadcast_to(np.asarray(self.velocity_noise_std, dtype=float), (3,)).copy()
+            if not np.all(np.isfinite(self.velocity_noise_std) & (self.velocity_noise_std > 0)):
+                raise ConfigError(f"dvl.velocity_noise_std must be > 0 (m/s), got {self.velocity_noise_std.tolist()}")
         if not _is_rotation(self.C_d_b):
             raise ConfigError("dvl.C_d_b is not a rotation matrix")
         if np.linalg.det(self.C_d_b) < 0:

@@ -69,6 +69,19 @@ class DvlGeometry:
         DVL error states (scale per DVL axis, bias per beam) when ``dvl_errors``."""
         return BeamModel(self.T_b, np.arange(4), self.C_d_b) if dvl_errors else BeamModel(self.T_b)
 
+    def velocity_model(self, dvl_errors: bool = False) -> BeamModel:
+        """The :class:`~graphnav.core.beam_model.BeamModel` of a DVL-frame velocity ``v_d`` measured by the
+        instrument (``T_d`` = identity; with ``dvl_errors`` the scale per DVL axis, no beam bias)."""
+        return BeamModel.dvl_velocity(self.C_d_b, dvl_errors)
+
+    def velocity_sigma_d(self, beam_noise_std: float) -> np.ndarray:
+        """(3,) one-sigma per DVL axis, m/s, of the four-beam least-squares velocity when each beam has white
+        noise ``beam_noise_std`` (m/s): ``sqrt(diag(sigma^2 (T_d^T T_d)^-1))``. For the Janus geometry at 20 deg
+        it is ``sigma / (sqrt(2) sin 20 deg)`` = 2.07 sigma horizontally and ``sigma / (2 cos 20 deg)`` = 0.53
+        sigma vertically."""
+        T = self.T_d
+        return float(beam_noise_std) * np.sqrt(np.diag(np.linalg.inv(T.T @ T)))
+
     def dvl_velocity_b(self, v_b: np.ndarray, omega_b: np.ndarray | None = None) -> np.ndarray:
         """Velocity of the DVL head in the body frame, ``v_b + omega_b x l_b``, m/s (…,3)."""
         v_b = np.asarray(v_b, dtype=float)
@@ -222,3 +235,18 @@ def screen_implausible(dvl, spec: DvlSpec):
     valid = dvl.valid & ~bad[:, None]
     return DvlData(dvl.t, np.where(valid, dvl.beams, np.nan), valid,
                    None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b), dvl.source)
+
+
+def as_velocity_only(dvl, spec: DvlSpec):
+    """``dvl`` (:class:`~graphnav.core.mission.DvlData`) as a velocity-only DVL reports it: on every ping with >= 3
+    valid beams the instrument's own least-squares solution of those beams in the DVL frame (``v_d``, m/s,
+    ``v_d_valid``; no per-ping sigma) and no beams (all invalid). For studies and tests: the same pings with the
+    information of their beams, through :meth:`graphnav.estimators.navigator.Navigator.add_dvl_velocity`'s path."""
+    import dataclasses
+
+    geometry = DvlGeometry.from_spec(spec)
+    v_b = geometry.velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
+    v_d_valid = np.all(np.isfinite(v_b), axis=1)
+    v_d = np.where(v_d_valid[:, None], v_b @ geometry.C_d_b, np.nan)             # row form of C_d_b^T v_b
+    return dataclasses.replace(dvl, beams=np.full(dvl.beams.shape, np.nan), valid=np.zeros(dvl.valid.shape, bool),
+                               v_b=None, v_d=v_d, v_d_valid=v_d_valid, v_d_sigma=None)

@@ -261,6 +261,14 @@ class Aligner:
             return
         self._dvl.append((float(t), self.geometry.velocity_from_beams(beams, valid)))
 
+    def add_dvl_velocity(self, t: float, v_d, sigma=None) -> None:
+        """A DVL-frame velocity of the DVL head (3,) m/s measured by the instrument (used as a >= 3-beam ping;
+        ``sigma`` is not used: the alignment weighs every ping alike)."""
+        if not self._imu:
+            self.n_dvl_ignored += 1
+            return
+        self._dvl.append((float(t), self.geometry.C_d_b @ np.asarray(v_d, float).reshape(3)))
+
     def add_depth(self, t: float, depth_m: float) -> None:
         """Depth of the IMU below the sea surface, m (positive down)."""
         self._depth.append((float(t), float(depth_m)))

@@ -123,9 +123,10 @@ class EkfBackend(_Aided):
 
     Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
     the ping (``tight``: one row per beam, else least squares from >= 3 beams; completed beams add their
-    completer sigma^2) using the gyro rate interpolated at the ping, and with a heading measurement. The
-    filter integrates position from velocity without a position error state (the paper's mode), so a position
-    fix resets the horizontal position (counted in ``info["n_fixes"]``).
+    completer sigma^2; a DVL-frame velocity ping, TC or LC: :meth:`~graphnav.estimators.ekf.ErrorStateEkf.
+    update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The filter
+    integrates position from velocity without a position error state (the paper's mode), so a position fix resets
+    the horizontal position (counted in ``info["n_fixes"]``).
 
     Args:
         config: sensor configuration.
@@ -168,7 +169,10 @@ class EkfBackend(_Aided):
         ping = kf.ping
         #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
         self.last_aided = False
-        if ping is not None:
+        if ping is not None and ping.is_velocity:
+            # a velocity is loosely coupled by nature: the same update for TC and LC
+            self.last_aided = ekf.update_velocity(ping.v_d, ping.omega_b, ping.v_d_sigma)
+        elif ping is not None:
             sigma = ping.sigma_regressed if ping.n_regressed else None
             if ping.completed:
                 self.n_completed += 1
@@ -185,7 +189,8 @@ class EkfBackend(_Aided):
         self.update_times.append(elapsed)
         return EpochEstimate(kf.index, kf.t, kf.kind, gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n.copy(),
                              gtsam.imuBias.ConstantBias(ekf.bias_acc, ekf.bias_gyro), ekf.P[IV, IV].copy(),
-                             0 if ping is None else ping.n_measured, 0 if ping is None else ping.n_regressed,
+                             0 if ping is None else (3 if ping.is_velocity else ping.n_measured),
+                             0 if ping is None else ping.n_regressed,
                              elapsed)
 
     def _update_heading(self, yaw: float, sigma: float) -> None:
@@ -205,6 +210,7 @@ class EkfBackend(_Aided):
     def info(self) -> dict:
         e = self.ekf
         return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
+                "n_velocity_updates": e.n_velocity_updates,
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
                 "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
                 "regressed_screening": dict(e.regressed_screening), "health": e.health.summary()}

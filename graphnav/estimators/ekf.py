@@ -43,6 +43,10 @@ Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``,
 - LC (>= 3 beams; weighted least-squares velocity): ``H = [C^T, C^T [v_n]x, 0, [l_b]x]``.
   The paper prints ``-C^T [v_n x]``, which is the same row for the opposite misalignment sign.
 - TC (one row per beam): ``y_i = b_i^T v_d_b``, ``H_i = b_i^T H_LC`` (b_i the beam unit vector in body).
+- DVL-frame velocity measured by the instrument (:meth:`ErrorStateEkf.update_velocity`, both LC and TC): the
+  beam model with ``T_d`` = identity, ``y = C_d_b^T v_d_b`` (times ``1 + s`` with the DVL error states, no beam
+  bias), ``H = C_d_b^T H_LC``; noise per DVL axis from the ping or ``DvlSpec.velocity_noise_std``, plus the
+  beam bias and scale inflation carried through the geometry as for beams.
 
 The model is linear in the beams, so with four beams (and no DVL error states) an LC update with the WLS
 velocity and its covariance is identical to the TC update; LC and TC differ only when beams are missing.
@@ -229,6 +233,10 @@ class ErrorStateEkf:
         geometry = DvlGeometry.from_spec(config.dvl)
         self.T_b = geometry.T_b
         self.beam_model = geometry.beam_model(dvl_errors=opts.dvl_error_states)
+        self.velocity_model = geometry.velocity_model(dvl_errors=opts.dvl_error_states)
+        self.C_d_b = geometry.C_d_b
+        #: per-axis factor from a beam sigma to the four-beam least-squares velocity sigma (DVL frame)
+        self._velocity_gain = geometry.velocity_sigma_d(1.0)
         use_lever = (np.any(config.dvl.lever_arm_b != 0) if opts.lever_arm is None else opts.lever_arm)
         self.lever_arm_b = geometry.lever_arm_b if use_lever else np.zeros(3)
         self.beam_noise_std = config.dvl.beam_noise_std if opts.beam_noise_std is None else opts.beam_noise_std
@@ -237,6 +245,10 @@ class ErrorStateEkf:
                               if opts.beam_bias_std is None else opts.beam_bias_std)
         self.beam_scale_std = ((0.0 if modelled else float(np.max(np.abs(dvl.scale_factor))))
                                if opts.beam_scale_std is None else opts.beam_scale_std)
+        #: (3,) white-noise sigma per DVL axis of a DVL-frame velocity without its own, m/s
+        self.velocity_noise_std = (dvl.velocity_noise_std if dvl.velocity_noise_std is not None
+                                   else self._velocity_gain * self.beam_noise_std)
+        self.n_velocity_updates = 0
         self._gate = {m: chi2.ppf(opts.gate_prob, m) for m in range(1, 5)}
         self._skew_wie = skew(self.strapdown.omega_ie_n)
         self.n_updates = 0
@@ -307,9 +319,18 @@ class ErrorStateEkf:
         eps)``) and ``dz = h(x_hat) - y``, every block is the model's derivative, the attitude one taken from
         GTSAM's right perturbation to NED axes: ``H_eps = (dh/dtheta) C_hat^T``.
         """
+        return self._predicted(self.beam_model, omega_b)
+
+    def predicted_velocity(self, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h (3,) predicted DVL-frame velocity of the DVL head, m/s; H (3, n_states)): the beam model with
+        ``T_d`` = identity (:meth:`graphnav.core.beam_model.BeamModel.dvl_velocity`), Jacobians mapped as in
+        :meth:`predicted_beams`."""
+        return self._predicted(self.velocity_model, omega_b)
+
+    def _predicted(self, model, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         C = self.state.C_b_n
         dvl = np.r_[self.dvl_scale, self.beam_bias] if self.n_states > N_STATES else None
-        p = self.beam_model.predict(C, self.state.v_n, omega_b, self.bias_gyro, self.lever_arm_b, dvl)
+        p = model.predict(C, self.state.v_n, omega_b, self.bias_gyro, self.lever_arm_b, dvl)
         H = np.zeros((len(p.h), self.n_states))
         H[:, IV] = p.d_v()
         H[:, IE] = p.d_rot() @ C.T
@@ -322,6 +343,31 @@ class ErrorStateEkf:
         """Assumed variance (m/s)^2 of beam measurements of magnitude |beams| (white + bias + scale)."""
         return (self.beam_noise_std ** 2 + self.beam_bias_std ** 2
                 + (self.beam_scale_std * np.asarray(beams)) ** 2)
+
+    def velocity_variance(self, v_d: np.ndarray, sigma: np.ndarray | None = None) -> np.ndarray:
+        """Assumed variance (m/s)^2 per DVL axis of a measured DVL-frame velocity ``v_d`` (3,) m/s: its white
+        noise (``sigma`` (3,) m/s, NaN or None = :attr:`velocity_noise_std`), the beam bias inflation through the
+        geometry and the scale inflation on each axis (zero with the DVL error states, as for beams)."""
+        white = self.velocity_noise_std if sigma is None else np.where(np.isfinite(sigma), sigma,
+                                                                        self.velocity_noise_std)
+        return (np.asarray(white, float) ** 2 + (self._velocity_gain * self.beam_bias_std) ** 2
+                + (self.beam_scale_std * np.asarray(v_d, float)) ** 2)
+
+    def update_velocity(self, v_d: np.ndarray, omega_b: np.ndarray, sigma: np.ndarray | None = None) -> bool:
+        """Update with a DVL-frame velocity of the DVL head measured by the instrument, ``v_d`` (3,) m/s, with
+        one-sigma ``sigma`` (3,) m/s per DVL axis (None/NaN: the configured one). A lockout re-acquires from the
+        velocity itself. Returns whether the update entered (not gated)."""
+        v_d = np.asarray(v_d, float).reshape(3)
+        var = self.velocity_variance(v_d, sigma)
+        C_d_b = self.C_d_b
+        fix = (C_d_b @ v_d, C_d_b @ np.diag(var) @ C_d_b.T, "the instrument's DVL-frame velocity")
+
+        def innovation():
+            h, H = self.predicted_velocity(omega_b)
+            return h - v_d, H, np.diag(var)
+        ok = self._update_or_reacquire(innovation, np.full(4, np.nan), omega_b, None, fix=fix)
+        self.n_velocity_updates += int(ok)
+        return ok
 
     def _update(self, dz: np.ndarray, H: np.ndarray, R: np.ndarray) -> bool:
         PHt = self.P @ H.T
@@ -430,18 +476,19 @@ class ErrorStateEkf:
         return beams, sigma_extra
 
     def _update_or_reacquire(self, innovation, beams: np.ndarray, omega_b: np.ndarray,
-                             sigma_extra: np.ndarray | None) -> bool:
+                             sigma_extra: np.ndarray | None, fix: tuple | None = None) -> bool:
         """Update with ``innovation() -> (dz, H, R)`` at the current state; when the gate has now rejected a
-        run of pings (lockout), re-acquire and, unless the ping itself made the velocity fix, update again."""
+        run of pings (lockout), re-acquire and, unless the ping itself made the velocity fix, update again.
+        ``fix``: the ping's own velocity fix (see :meth:`reacquire`) instead of one from its beams."""
         if self._update(*innovation()):
             return True
         if self._run_start is None:
-            fix = self._velocity_fix(beams, sigma_extra)
-            if fix is not None:
-                self._run_start = (self.state.t, self._residual_n(fix[0], omega_b))
+            run_fix = fix if fix is not None else self._velocity_fix(beams, sigma_extra)
+            if run_fix is not None:
+                self._run_start = (self.state.t, self._residual_n(run_fix[0], omega_b))
         if not self._locked_out():
             return False
-        if self.reacquire(beams, omega_b, sigma_extra).startswith("velocity re-initialised"):
+        if self.reacquire(beams, omega_b, sigma_extra, fix=fix).startswith("velocity re-initialised"):
             return True                            # this ping made the velocity fix
         return self._update(*innovation())
 
@@ -504,7 +551,8 @@ class ErrorStateEkf:
         self.state.C_b_n = so3_exp_batch(-eps[None])[0] @ self.state.C_b_n
         return angle
 
-    def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> str:
+    def reacquire(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
+                  fix: tuple | None = None) -> str:
         """Recover from a gating lockout with the current ping ``beams`` (4,) m/s (NaN = missing).
 
         A lockout means the state has left the region its covariance describes, so that the gate rejects
@@ -522,6 +570,8 @@ class ErrorStateEkf:
         rejection run (:meth:`relevel`): a tilt error of more than a few degrees is otherwise not covered by the
         filter's first-order error model and the gate keeps rejecting. Completed (regressed) beams never
         enter the fix.
+        ``fix`` = ``(v_d_b (3,) m/s body axes, R_v (3,3), description)``: a velocity the ping measured itself (a
+        DVL-frame velocity), used as the fix instead of one from ``beams``.
         The re-acquisition is reported to the health monitor (warning and counter); returns what was done.
         """
         opts = self.options
@@ -529,7 +579,11 @@ class ErrorStateEkf:
         if sigma_extra is not None:
             # completed (regressed) beams never make the fix: the gate may have been right to reject them
             used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
-        fix = self._velocity_fix(beams, sigma_extra)
+        if fix is None:
+            fix = self._velocity_fix(beams, sigma_extra)
+            source = None if fix is None else f"a {int(used.sum())}-measured-beam least-squares fix"
+        else:
+            source = fix[2]
         levelled = None
         if fix is not None and opts.relevel:
             levelled = self.relevel(self._residual_n(fix[0], omega_b))
@@ -552,7 +606,7 @@ class ErrorStateEkf:
             P[IV, :] = J @ P[IE, :]
             P[:, IV] = P[IV, :].T
             P[IV, IV] = J @ P[IE, IE] @ J.T + C @ R_v @ C.T
-            how = (f"velocity re-initialised from a {int(used.sum())}-measured-beam least-squares fix (changed by "
+            how = (f"velocity re-initialised from {source} (changed by "
                    f"{np.linalg.norm(self.state.v_n - v_old):.3g} m/s), "
                    + (f"roll/pitch re-levelled by {np.rad2deg(levelled):.3g} deg, " if levelled is not None else "")
                    + f"attitude sigma +{np.rad2deg(sigma_att):.3g} deg")

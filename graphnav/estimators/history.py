@@ -51,6 +51,12 @@ class BeamHistory:
             raise ValueError("BeamHistory.push needs a full finite beam vector")
         self._buf.append(beams.copy())
 
+    def push_measured(self, beams: np.ndarray) -> None:
+        """Append a measured full (4,) beam vector from outside :meth:`complete` (e.g. the beams a DVL-frame
+        velocity implies): a run of filled pings ends there."""
+        self.push(beams)
+        self._run_sigma[:] = 0.0
+
     def past(self) -> np.ndarray:
         """(n_past, 4) oldest first."""
         return np.array(self._buf)

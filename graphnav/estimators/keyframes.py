@@ -22,6 +22,13 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   kept from the first sample on); without a usable window (not yet full, a bridged gap, another rate) it gets
   ``imu=None`` and completes the ping beam-only (``nets.ImuAutoCompleter``), counted per reason in
   :attr:`KeyframerStats.imu_window_missing`.
+- **DVL velocity.** A DVL-frame velocity the instrument measured itself (:meth:`Keyframer.add_dvl_velocity`:
+  a velocity-only DVL, a 3-beam solution, an earth/ship-frame log) makes a ping too, carried in
+  :attr:`Ping.v_d`. One ping is used once: when beams and a velocity arrive at the same stamp, a ping with at
+  least :data:`MIN_BEAMS_OVER_VELOCITY` measured beams uses its beams (the velocity is counted in
+  ``velocity_superseded``), else its velocity (its 1-2 beams are counted in ``beams_superseded``, with a
+  warning). No completer runs on a velocity ping; its beams as the velocity implies them (``T_d v_d``) go into
+  the completer's history as a measured ping.
 - **Depth and heading** are sampled at a keyframe's stamp: interpolated between the samples around it when
   both have arrived, else extrapolated linearly from the last two samples, at most ``aiding_max_age_s`` old.
 """
@@ -36,10 +43,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, gap_variances
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
+
+
+#: A ping with at least this many measured beams uses them rather than a DVL-frame velocity at the same stamp
+#: (three beams determine the velocity the instrument would report, and the tightly coupled estimators use
+#: them one by one); with fewer, the instrument's velocity measures all three axes and is used instead.
+MIN_BEAMS_OVER_VELOCITY = 3
 
 
 @dataclass
@@ -94,6 +108,10 @@ class Ping:
         sigma_regressed: (4,) completer sigma of completed beams, m/s (0 elsewhere).
         completed: True when the completer filled missing beams of this ping.
         omega_b: (3,) raw gyro rate at the ping (:func:`gyro_at`), rad/s.
+        v_d: (3,) velocity of the DVL head in the DVL frame measured by the instrument, m/s, on a velocity
+            ping (its beams are then all NaN and unmeasured); None on a beam ping.
+        v_d_sigma: (3,) one-sigma of ``v_d`` per DVL axis, m/s; NaN where the ping gave none (the estimator's
+            configured ``DvlSpec.velocity_noise_std`` applies).
     """
 
     t: float
@@ -102,6 +120,13 @@ class Ping:
     sigma_regressed: np.ndarray
     completed: bool
     omega_b: np.ndarray
+    v_d: np.ndarray | None = None
+    v_d_sigma: np.ndarray | None = None
+
+    @property
+    def is_velocity(self) -> bool:
+        """True for a ping that carries a DVL-frame velocity instead of beams."""
+        return self.v_d is not None
 
     @property
     def regressed(self) -> np.ndarray:
@@ -157,7 +182,12 @@ class _Pending:
     t: float
     kind: str
     ping: tuple | None = None          # (beams, valid)
+    velocity: tuple | None = None      # (v_d, sigma)
     fix: PositionFix | None = None
+
+    @property
+    def has_ping(self) -> bool:
+        return self.ping is not None or self.velocity is not None
 
 
 @dataclass
@@ -167,6 +197,9 @@ class KeyframerStats:
     ``completed_pings`` / ``completed_beams``: pings with beams filled in by the completer, and those beams.
     ``imu_window_missing``: pings an IMU-aware completer completed without an IMU window, per reason of
     :data:`~graphnav.estimators.imu_buffer.NO_WINDOW_REASONS` (None without an IMU-aware completer).
+    ``velocity_pings``: pings that carry a DVL-frame velocity (:attr:`Ping.v_d`); ``velocity_superseded``:
+    velocities not used because their ping had >= :data:`MIN_BEAMS_OVER_VELOCITY` measured beams;
+    ``beams_superseded``: measured beams not used because their ping used its velocity.
     """
 
     zero_imu_rows: int = 0
@@ -177,6 +210,9 @@ class KeyframerStats:
     completed_pings: int = 0
     completed_beams: int = 0
     imu_window_missing: dict | None = None
+    velocity_pings: int = 0
+    velocity_superseded: int = 0
+    beams_superseded: int = 0
 
 
 class Keyframer:
@@ -212,6 +248,7 @@ class Keyframer:
                               "(counted in imu_window_missing['rate'])", RuntimeWarning, stacklevel=2)
         # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
         self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
+        self._T_d = DvlGeometry.from_spec(config.dvl).T_d
         self._period = 1.0 / config.imu_rate_hz
         self._gap_limit = IMU_GAP_PERIODS * self._period
         self._max_gap = self.options.max_keyframe_gap_s
@@ -277,6 +314,25 @@ class Keyframer:
             self._insert_pending(_Pending(t, "dvl", ping=(beams, valid)))
         return self._close_ready()
 
+    def add_dvl_velocity(self, t: float, v_d, sigma) -> list[Keyframe]:
+        """A DVL-frame velocity of the DVL head (``v_d`` (3,) m/s) measured by the instrument, with its one-sigma
+        per DVL axis (``sigma`` (3,) m/s, NaN = the configured one); a ping at its stamp (see the module
+        docstring for a ping that also has beams)."""
+        if not self._started:
+            self.stats.pings_before_start += 1
+            return []
+        velocity = (np.asarray(v_d, float).reshape(3), np.asarray(sigma, float).reshape(3))
+        for p in self._pending:
+            if abs(p.t - t) <= 1e-9:                     # the initial epoch, a fix or the beams of this ping
+                p.kind, p.velocity = "dvl", velocity
+                break
+        else:
+            if t <= self._t_kf_or_start():
+                self.stats.pings_before_start += 1
+                return []
+            self._insert_pending(_Pending(t, "dvl", velocity=velocity))
+        return self._close_ready()
+
     def add_depth(self, t: float, depth_m: float) -> list[Keyframe]:
         self._depth.append((t, depth_m))
         return []
@@ -313,7 +369,7 @@ class Keyframer:
         if self._started and self._samples:
             out += self._close_ready()
             out += self._fill_gap(self._samples[-1][0])
-        n_late = sum(1 for p in self._pending if p.ping is not None)
+        n_late = sum(1 for p in self._pending if p.has_ping)
         self.stats.pings_after_end += n_late
         self._pending.clear()
         return out
@@ -371,7 +427,7 @@ class Keyframer:
             t_f = self._anchor + self._fill_i * step
             if t_f + 0.5 * step > now + 1e-12:
                 break
-            if any(p.ping is not None and t_f < p.t < t_f + 0.5 * step - 1e-12 for p in self._pending):
+            if any(p.has_ping and t_f < p.t < t_f + 0.5 * step - 1e-12 for p in self._pending):
                 break      # a ping closes within half an interval: it takes the filler's place
             self._fill_i += 1
             if t_f > self._t_kf + 1e-9 and not any(abs(p.t - t_f) <= 1e-9 for p in self._pending):
@@ -415,16 +471,42 @@ class Keyframer:
         return ImuSegments(np.array(f), np.array(w), np.array(dt), np.array(lag), var_v, var_att)
 
     def _close(self, p: _Pending) -> Keyframe:
-        ping = self._ping(p.t, *p.ping) if p.ping is not None else None
+        ping = self._choose_ping(p) if p.has_ping else None
         imu = self._take_segments(p.t)
-        if p.ping is not None or p.kind == "init":
+        if p.has_ping or p.kind == "init":
             self._anchor, self._fill_i = p.t, 1
-        kind = "dvl" if p.ping is not None else p.kind
+        kind = "dvl" if p.has_ping else p.kind
         kf = Keyframe(self._index, p.t, kind, imu, ping, self._sample(self._depth, p.t),
                       self._heading_at(p.t), p.fix)
         self._index += 1
         self._t_kf = p.t
         return kf
+
+    def _choose_ping(self, p: _Pending) -> Ping:
+        """The ping of a pending keyframe: its beams or its DVL-frame velocity, never both (module docstring)."""
+        if p.velocity is None:
+            return self._ping(p.t, *p.ping)
+        n_beams = 0 if p.ping is None else int((p.ping[1] & np.isfinite(p.ping[0])).sum())
+        if n_beams >= MIN_BEAMS_OVER_VELOCITY:
+            self.stats.velocity_superseded += 1
+            return self._ping(p.t, *p.ping)
+        if n_beams:
+            self.stats.beams_superseded += n_beams
+            if self.stats.beams_superseded == n_beams:
+                warnings.warn(f"dvl: {n_beams} beam(s) of the ping at t = {p.t:.3f} s not used: the ping has fewer "
+                              f"than {MIN_BEAMS_OVER_VELOCITY} and a DVL-frame velocity, which is used instead; "
+                              "further ones are counted (beams_superseded)", RuntimeWarning, stacklevel=5)
+        return self._velocity_ping(p.t, *p.velocity)
+
+    def _velocity_ping(self, t: float, v_d: np.ndarray, sigma: np.ndarray) -> Ping:
+        self.stats.velocity_pings += 1
+        if self.history is not None:
+            # a measured ping for the completer's history: the beams the velocity implies
+            self.history.push_measured(self._T_d @ v_d)
+            self._ping_t.append(t)
+        nan = np.full(4, np.nan)
+        return Ping(t, nan, np.zeros(4, bool), np.zeros(4), False, gyro_at(t, self._samples), v_d.copy(),
+                    sigma.copy())
 
     def _ping(self, t: float, beams: np.ndarray, valid: np.ndarray) -> Ping:
         measured = valid & np.isfinite(beams)

@@ -43,6 +43,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError
+from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
@@ -206,6 +207,30 @@ class Navigator:
             return []
         return self._push("dvl", t, (tuple(np.where(v, b, np.nan).tolist()), tuple(v.tolist())))
 
+    def add_dvl_velocity(self, t: float, v_d, sigma=None) -> list[EpochEstimate]:
+        """A velocity of the DVL head in the DVL frame measured by the instrument itself: ``v_d`` (3,) m/s (a
+        velocity-only DVL, a 3-beam solution, a velocity converted to the DVL frame from an earth/ship-frame
+        log), with its one-sigma per DVL axis ``sigma`` (3,) m/s (None, or NaN for an axis: the configured
+        ``config.dvl.velocity_noise_std``).
+        It enters through the beam model with ``T_d`` = identity; a ping that also has >= 3 valid beams at the
+        same stamp uses the beams instead (:mod:`graphnav.estimators.keyframes`)."""
+        v = self._vector("dvl_velocity", t, "v_d", v_d, 3)
+        if v is None:
+            return []
+        if max(abs(a) for a in v) > MAX_DVL_SPEED_MPS:
+            return self._refuse("dvl_velocity", t, "v_d", f"beyond the DVL's velocity range ({MAX_DVL_SPEED_MPS:g} "
+                                f"m/s): {list(v)}")
+        try:
+            s = (math.nan,) * 3 if sigma is None else tuple(float(a) for a in sigma)
+        except (TypeError, ValueError) as exc:
+            return self._refuse("dvl_velocity", t, "sigma", f"not a vector of 3 numbers ({exc})")
+        if len(s) != 3 or not all(a > 0 and math.isfinite(a) or math.isnan(a) for a in s):
+            return self._refuse("dvl_velocity", t, "sigma", f"expected 3 values > 0 (m/s; NaN: the configured one), "
+                                f"got {list(s)}")
+        if not self._accept("dvl_velocity", t):
+            return []
+        return self._push("dvl_velocity", t, (v, s))
+
     def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:
         """Depth of the IMU (m, positive down) from a pressure sensor."""
         d = self._scalar("depth", t, "depth_m", depth_m)
@@ -319,7 +344,8 @@ class Navigator:
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
                 "pings_after_end": stats.pings_after_end, "completed_pings": stats.completed_pings,
-                "completed_beams": stats.completed_beams}
+                "completed_beams": stats.completed_beams, "velocity_pings": stats.velocity_pings,
+                "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
         if stats.imu_window_missing is not None:
             info["imu_window_missing"] = dict(stats.imu_window_missing)
         if self.backend is not None:
@@ -544,7 +570,8 @@ def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, sto
     between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
     interrupt delivered inside a GTSAM call can surface as another exception)."""
     out = []
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth, "heading": nav.add_heading}
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "dvl_velocity": nav.add_dvl_velocity, "depth": nav.add_depth,
+              "heading": nav.add_heading}
     for kind, t, payload in replay(mission, depth=depth):
         if stop is not None and stop():
             raise KeyboardInterrupt

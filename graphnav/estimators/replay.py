@@ -6,6 +6,10 @@ One stream for every consumer (the :class:`~graphnav.estimators.navigator.Naviga
 
 - ``"imu"``: ``(f_b (3,) m/s^2, omega_b (3,) rad/s)``;
 - ``"dvl"``: ``(beams (4,) m/s, NaN where not valid, valid (4,) bool)``;
+- ``"dvl_velocity"``: ``(v_d (3,) m/s, sigma (3,) m/s or NaN = the configured one)``: the DVL-frame velocity
+  the instrument measured (``DvlData.v_d``), for the pings where ``v_d_valid`` and the beams are not usable
+  (fewer than :data:`~graphnav.estimators.keyframes.MIN_BEAMS_OVER_VELOCITY` valid; the keyframer then uses
+  the velocity, not those beams; a velocity ping without any valid beam has no ``"dvl"`` record);
 - ``"depth"``: ``(depth_m,)``;
 - ``"heading"``: ``(yaw rad, sigma rad)`` (an AHRS or heading topic, :class:`~graphnav.core.mission.HeadingData`).
 
@@ -19,9 +23,10 @@ from typing import Iterator
 import numpy as np
 
 from graphnav.core.mission import Mission
+from graphnav.estimators.keyframes import MIN_BEAMS_OVER_VELOCITY
 
 #: Order of streams at equal stamps.
-STREAM_ORDER = {"depth": 0, "heading": 0, "fix": 0, "dvl": 1, "imu": 2}
+STREAM_ORDER = {"depth": 0, "heading": 0, "fix": 0, "dvl": 1, "dvl_velocity": 1, "imu": 2}
 
 
 def first_ping_time(mission: Mission) -> float:
@@ -29,6 +34,14 @@ def first_ping_time(mission: Mission) -> float:
     t = mission.dvl.t
     inside = t[(t >= mission.imu.t[0]) & (t <= mission.imu.t[-1])]
     return float(inside[0]) if len(inside) else float(mission.imu.t[0])
+
+
+def velocity_pings(dvl) -> np.ndarray:
+    """(M,) bool: the pings of ``dvl`` (:class:`~graphnav.core.mission.DvlData`) whose DVL-frame velocity
+    ``v_d`` is used: ``v_d_valid`` and fewer than ``MIN_BEAMS_OVER_VELOCITY`` valid beams."""
+    if dvl.v_d is None or dvl.v_d_valid is None:
+        return np.zeros(len(dvl.t), bool)
+    return dvl.v_d_valid & (dvl.n_valid < MIN_BEAMS_OVER_VELOCITY)
 
 
 def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bool = True
@@ -39,7 +52,18 @@ def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bo
     more memory than its arrays."""
     imu, dvl = mission.imu, mission.dvl
     beams = np.where(dvl.valid, dvl.beams, np.nan)
-    streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
+    velocity = velocity_pings(dvl)
+    # a velocity ping without any valid beam has no "dvl" record: its velocity is all there is
+    has_beams = ~(velocity & ~dvl.valid.any(axis=1))
+    if has_beams.all():
+        streams = [("imu", imu.t, (imu.f_b, imu.omega_b)), ("dvl", dvl.t, (beams, dvl.valid))]
+    else:
+        streams = [("imu", imu.t, (imu.f_b, imu.omega_b)),
+                   ("dvl", dvl.t[has_beams], (beams[has_beams], dvl.valid[has_beams]))]
+    if velocity.any():
+        sigma = (dvl.v_d_sigma[velocity] if dvl.v_d_sigma is not None
+                 else np.full((int(velocity.sum()), 3), np.nan))
+        streams.append(("dvl_velocity", dvl.t[velocity], (dvl.v_d[velocity], sigma)))
     if depth and mission.depth is not None:
         streams.append(("depth", mission.depth.t, (mission.depth.depth,)))
     if heading and mission.heading is not None:

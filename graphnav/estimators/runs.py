@@ -92,7 +92,8 @@ def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | N
     ``mode="fixed-lag"``); there is no batch pass.
     """
     nav = graph_navigator(mission, completer=completer, options=options, mode=mode, initial=initial, name=name)
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth, "heading": nav.add_heading}
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "dvl_velocity": nav.add_dvl_velocity, "depth": nav.add_depth,
+              "heading": nav.add_heading}
     for kind, t, payload in replay(mission):
         yield from adders[kind](t, *payload)
     yield from nav.finish()

@@ -12,6 +12,10 @@ fine). Units SI, frames as everywhere in graphnav (body FRD, NED), stamps in sec
 ``imu``               ``t``, ``f_b`` [3] specific force m/s^2, ``omega_b`` [3] angular rate rad/s
 ``dvl``               ``t``, ``beams`` [4] along-beam velocity m/s (``null`` where invalid), ``valid`` [4] bool
                       (optional: default = the beams that are numbers)
+``dvl_velocity``      ``t``, ``v_d`` [3] velocity of the DVL head in the DVL frame measured by the instrument, m/s
+                      (a velocity-only DVL, a 3-beam solution); ``sigma`` [3] one-sigma per DVL axis, m/s
+                      (optional: default ``DvlSpec.velocity_noise_std``). A ping with a ``dvl`` record of >= 3
+                      valid beams at the same ``t`` uses the beams instead
 ``depth``             ``t``, ``depth_m`` (m, positive down)
 ``fix``               ``t``, ``lat``, ``lon`` (rad), ``sigma_m`` (m, 1-sigma per horizontal axis)
 ``heading``           ``t``, ``yaw`` (rad), ``sigma`` (rad)
@@ -21,6 +25,7 @@ Example lines::
 
     {"type": "imu", "t": 12.34, "f_b": [0.01, -0.02, -9.79], "omega_b": [0.0, 0.001, -0.002]}
     {"type": "dvl", "t": 12.5, "beams": [0.71, null, -0.65, 0.12], "valid": [true, false, true, true]}
+    {"type": "dvl_velocity", "t": 13.5, "v_d": [1.02, -0.05, 0.01], "sigma": [0.02, 0.02, 0.01]}
 
 The estimates ``graphnav online --stream`` writes back are JSON lines of ``type`` ``estimate`` (see
 :func:`estimate_record`). A line that is not valid JSON or lacks a field is skipped with a warning naming
@@ -45,7 +50,8 @@ from graphnav.core.errors import ConfigError
 from graphnav.estimators.replay import replay
 
 #: Fields each record type needs (besides ``type``).
-FIELDS = {"imu": ("t", "f_b", "omega_b"), "dvl": ("t", "beams"), "depth": ("t", "depth_m"),
+FIELDS = {"imu": ("t", "f_b", "omega_b"), "dvl": ("t", "beams"), "dvl_velocity": ("t", "v_d"),
+          "depth": ("t", "depth_m"),
           "fix": ("t", "lat", "lon", "sigma_m"), "heading": ("t", "yaw", "sigma"), "config": ("config",)}
 
 
@@ -63,6 +69,11 @@ def mission_records(mission, config: bool = True) -> Iterator[dict]:
             yield {"type": "imu", "t": t, "f_b": list(payload[0]), "omega_b": list(payload[1])}
         elif kind == "dvl":
             yield {"type": "dvl", "t": t, "beams": [_num(b) for b in payload[0]], "valid": list(payload[1])}
+        elif kind == "dvl_velocity":
+            rec = {"type": "dvl_velocity", "t": t, "v_d": list(payload[0])}
+            if all(math.isfinite(x) for x in payload[1]):
+                rec["sigma"] = list(payload[1])
+            yield rec
         elif kind == "heading":
             yield {"type": "heading", "t": t, "yaw": payload[0], "sigma": payload[1]}
         else:
@@ -150,6 +161,8 @@ def feed(nav, rec: dict) -> list:
     if kind == "dvl":
         beams = [math.nan if b is None else b for b in rec["beams"]] if isinstance(rec["beams"], list) else rec["beams"]
         return nav.add_dvl(t, beams, rec.get("valid"))
+    if kind == "dvl_velocity":
+        return nav.add_dvl_velocity(t, rec["v_d"], rec.get("sigma"))
     if kind == "depth":
         return nav.add_depth(t, rec["depth_m"])
     if kind == "fix":

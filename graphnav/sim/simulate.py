@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import DEG, DvlSpec, ImuSpec, SensorConfig
 from graphnav.core.config import imu_grade as _imu_grade
-from graphnav.core.dvl import DvlErrorModel, DvlGeometry
+from graphnav.core.dvl import DvlErrorModel, DvlGeometry, as_velocity_only
 from graphnav.core.earth import earth_rate_n, gravity_magnitude
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
@@ -388,7 +388,7 @@ def _default_config(lever_arm_b) -> SensorConfig:
 def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
-                     dvl_stamp_offset_s: float = 0.0) -> Mission:
+                     dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams") -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -409,6 +409,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         dvl_stamp_offset_s: DVL pings at ``k / dvl_rate + offset`` (s, ``0 <= offset < 1 / dvl_rate``);
             an offset that is not a multiple of the IMU period puts every ping between two IMU samples,
             as on real data. Default 0: pings on IMU stamps.
+        dvl_output: ``"beams"`` (default): the four beams; ``"velocity"``: a velocity-only DVL, which reports
+            only the DVL-frame velocity ``v_d`` of its own least-squares solution of the same simulated beams
+            (true head velocity plus the beams' noise, bias and scale through the geometry; ``v_d_valid``
+            where >= 3 beams were valid, no per-ping sigma) and no beams (all invalid).
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -486,13 +490,18 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         beams = errors.beams(geometry, v_head_b, rng_dvl)
     valid = markov_dropout(len(t_dvl), seed=rng_drop) if dropout else np.ones((len(t_dvl), 4), bool)
     beams[~valid] = np.nan
+    if dvl_output not in ("beams", "velocity"):
+        raise ConfigError(f"dvl_output must be 'beams' or 'velocity', got {dvl_output!r}")
     dvl = DvlData(t_dvl, beams, valid, geometry.velocity_from_beams(beams, valid, allow_missing=True))
+    if dvl_output == "velocity":
+        dvl = as_velocity_only(dvl, config.dvl)
 
     grade = spec.name
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
-        ("-noiseless" if noiseless else "")
+        ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
+        "dvl_output": dvl_output,
         "imu_errors": imu_truth,
         "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
                                               "scale_factor": errors.scale_factor.copy(),

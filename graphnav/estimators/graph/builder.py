@@ -27,6 +27,7 @@ from graphnav.factors import (
     beam_factor_dvl_errors,
     beam_noise,
     depth_factor,
+    dvl_velocity_factor,
     heading_factor,
     horizontal_position_factor,
 )
@@ -34,15 +35,17 @@ from graphnav.factors import (
 
 @dataclass
 class DvlMeasurement:
-    """The beams of one DVL ping that go into the graph.
+    """The beams of one DVL ping that go into the graph, or its DVL-frame velocity.
 
     Attributes:
         t: DVL stamp (IMU clock), s.
-        rows_b: (m,3) beam unit vectors in the body frame.
-        y: (m,) beam velocities of the DVL head, m/s (measured or regressed).
-        sigma: (m,) noise std per beam, m/s.
+        rows_b: (m,3) beam unit vectors in the body frame (a velocity: the rows of ``C_d_b^T``, ``T_d`` = I).
+        y: (m,) beam velocities of the DVL head, m/s (measured or regressed); a velocity: ``v_d`` (3,).
+        sigma: (m,) noise std per beam (per DVL axis for a velocity), m/s.
         regressed: (m,) True for beams filled in by the completer.
         omega_b: (3,) raw gyro rate at the ping (interpolated, :func:`graphnav.estimators.keyframes.gyro_at`), rad/s.
+        velocity: True when the rows are a DVL-frame velocity measured by the instrument (its three axes
+            count as three measured rows).
     """
 
     t: float
@@ -51,6 +54,7 @@ class DvlMeasurement:
     sigma: np.ndarray
     regressed: np.ndarray
     omega_b: np.ndarray
+    velocity: bool = False
 
     @property
     def n_measured(self) -> int:
@@ -120,6 +124,10 @@ class GraphContext:
         self.geometry = DvlGeometry.from_spec(config.dvl)
         self.params = preintegration_params(config, options)
         self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else config.dvl.beam_noise_std
+        dvl = config.dvl
+        #: (3,) sigma per DVL axis of a DVL-frame velocity without its own (DvlSpec.velocity_noise_std)
+        self.velocity_sigma = (dvl.velocity_noise_std if dvl.velocity_noise_std is not None
+                               else self.geometry.velocity_sigma_d(self.beam_sigma))
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
         #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
@@ -153,7 +161,12 @@ class GraphContext:
 
     def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
-        completer's sigma (floored); None when no beam is usable."""
+        completer's sigma (floored); None when no beam is usable. A velocity ping gives its DVL-frame velocity
+        (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
+        if ping.is_velocity:
+            sigma = np.where(np.isfinite(ping.v_d_sigma), ping.v_d_sigma, self.velocity_sigma)
+            return DvlMeasurement(ping.t, self.geometry.C_d_b.T.copy(), ping.v_d.copy(), sigma, np.zeros(3, bool),
+                                  ping.omega_b.copy(), velocity=True)
         usable = np.isfinite(ping.beams)
         if self.options.motion_prior in ("partial", "total") and not ping.measured.any():
             # without any measured beam the completers extrapolate blind; the motion prior takes over
@@ -216,6 +229,8 @@ class BeamGroup:
         beam_index: (m,) beam number 0..3 of each row when the DVL error states ``D(k)`` (scale, beam bias)
             act on these beams (``GraphOptions.dvl_error_states``), else None.
         C_d_b: (3,3) DVL-to-body rotation, with ``beam_index``.
+        velocity: the rows are a DVL-frame velocity (rows ``C_d_b^T``, beam index -1 with the DVL error
+            states): one :func:`graphnav.factors.dvl_velocity_factor`.
     """
 
     k: int
@@ -228,8 +243,15 @@ class BeamGroup:
     regressed: bool
     beam_index: np.ndarray | None = None
     C_d_b: np.ndarray | None = None
+    velocity: bool = False
 
     def factor(self) -> gtsam.CustomFactor:
+        if self.velocity:
+            C_d_b = self.rows_b.T
+            d_key = D(self.k) if self.beam_index is not None else None
+            return dvl_velocity_factor(X(self.k), V(self.k), B(self.k), C_d_b, self.y,
+                                       beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b,
+                                       d_key=d_key)
         if self.beam_index is not None:
             return beam_factor_dvl_errors(X(self.k), V(self.k), B(self.k), D(self.k), self.rows_b,
                                           self.beam_index, self.C_d_b, self.y,
@@ -285,8 +307,11 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         if options.earth_rate_in_lever_arm and config.earth_rotation:
             omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
         lever = builder.geometry.lever_arm_b
-        # the DVL error states act on measured beams, and on regressed ones if dvl_errors_on_regressed
-        index = beam_index(m.rows_b, builder.geometry.T_b) if options.dvl_error_states else None
+        # the DVL error states act on measured beams, and on regressed ones if dvl_errors_on_regressed; a
+        # velocity's rows take the scale only (beam index -1)
+        index = None
+        if options.dvl_error_states:
+            index = np.full(len(m.y), -1) if m.velocity else beam_index(m.rows_b, builder.geometry.T_b)
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
@@ -301,11 +326,13 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
                 sel = sel[keep]
             if sel.size == 0:
                 continue
-            split = options.beam_factor_mode == "beam" or huber is not None
+            # a velocity is one measurement: one factor (a robust kernel on its whole residual)
+            split = not m.velocity and (options.beam_factor_mode == "beam" or huber is not None)
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
-                                        regressed, index[part] if use_d else None, C_d_b if use_d else None))
+                                        regressed, index[part] if use_d else None, C_d_b if use_d else None,
+                                        m.velocity))
     if use_prior and k > 0:
         other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
     if kf.depth is not None:
