@@ -235,6 +235,7 @@ class Key:
         low, high: allowed range of a number (or of each element of a vector), None = unbounded.
         low_open: ``low`` itself is not allowed (strictly positive quantities).
         size: number of elements of a vector.
+        nullable: JSON ``null`` is allowed (the default derived from other keys).
     """
 
     kind: str
@@ -243,6 +244,7 @@ class Key:
     high: float | None = None
     low_open: bool = False
     size: int = 0
+    nullable: bool = False
 
     def expected(self) -> str:
         """The expected value in words, e.g. ``a number > 0 (rad/s/sqrt(Hz))``."""
@@ -257,7 +259,7 @@ class Key:
             what += f" <= {self.high:g}"
         if self.kind == "vector" and (self.low is not None or self.high is not None):
             what += " each"
-        return what + (f" ({self.unit})" if self.unit else "")
+        return what + (f" ({self.unit})" if self.unit else "") + (" or null" if self.nullable else "")
 
 
 _POSITIVE = {"low": 0.0, "low_open": True}
@@ -282,6 +284,7 @@ SCHEMA: dict[str, Key] = {
     "dvl.beam_bias": Key("vector", "m/s", low=-10.0, high=10.0, size=4),
     "dvl.scale_factor": Key("vector", "", low=-0.5, high=0.5, size=3),
     "dvl.rate_hz": Key("number", "Hz", high=1000.0, **_POSITIVE),
+    "dvl.velocity_noise_std": Key("vector", "m/s", high=10.0, size=3, nullable=True, **_POSITIVE),
     "dvl.velocity_scale_correction": Key("number", "", low=-0.5, high=0.5),
     "dvl.max_speed_mps": Key("number", "m/s", high=100.0, **_POSITIVE),
     "dvl.max_vertical_mps": Key("number", "m/s", high=100.0, **_POSITIVE),
@@ -370,6 +373,8 @@ def _check_value(key: str, spec: Key, value, source: str):
             raise bad()
         return float(x)
 
+    if value is None and spec.nullable:
+        return None
     if spec.kind == "number":
         return number(value)
     if spec.kind == "bool":
