@@ -285,6 +285,7 @@ class AkitRaw:
     files: dict
     axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
     axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
+    meta: dict = dataclasses.field(default_factory=dict)   # unit conversions noted (meta["streams"])
 
 
 def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
@@ -298,6 +299,8 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
     imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
     dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
     gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
+    unit_meta: dict = {}
+    _akit_units(imu, dvl, gt, files, unit_meta)
     if rescale_stamps:
         for a in (imu, dvl, gt):
             if a is not None:
@@ -314,7 +317,19 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
             raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
     imu[:, 1:4] *= signs
     imu[:, 4:7] *= signs
-    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection)
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, unit_meta)
+
+
+def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict) -> None:
+    """Stamps, IMU and DVL units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
+    the header names units, but a file written by other tools in this layout may not hold them)."""
+    from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
+    for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
+        if a is not None:
+            a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
+    f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
+    imu[:, 1:4], imu[:, 4:7] = f_b, omega_b
+    dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
 
 
 def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
@@ -457,7 +472,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                                "decided": None if detected is None else detected.decided},
             "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
-                             for k, e in estimates.items()}}
+                             for k, e in estimates.items()}, **raw.meta}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
@@ -488,7 +503,7 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
                                "decided": None if detected is None else detected.decided},
-            "time_offsets": {}}
+            "time_offsets": {}, **raw.meta}
     return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
 
 

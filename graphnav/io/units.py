@@ -224,6 +224,20 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
                     "velocity unit (e.g. cm/s)", source, field=field)
 
 
+def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
+                       beams: bool = False) -> np.ndarray:
+    """DVL values as read (beams (M,4) when ``beams``, else a velocity (M,3)) in m/s: mm/s detected and
+    converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768."""
+    scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source)
+    if scale == 1.0:
+        return values
+    if declared is not None:
+        raise DataError(f"median DVL speed {med:.4g} m/s after the declared unit {declared!r}: the data look "
+                        "like mm/s", source, field="beams" if beams else "v_b")
+    _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s", source)
+    return np.asarray(values, float) * scale
+
+
 def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = None) -> DvlData:
     """The DVL with its velocities in m/s (mm/s detected and converted, with a warning and a note)."""
     velocity = dvl.v_b if dvl.v_b is not None else dvl.v_d
@@ -246,18 +260,28 @@ def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = Non
 # ------------------------------------------------------------------------------------------------
 # the entry point
 # ------------------------------------------------------------------------------------------------
+def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None = None,
+                      expected_rate_hz: float | None = None, declared: str | None = None,
+                      field: str = "t") -> np.ndarray:
+    """Stamps ``t`` in seconds: the unit detected by :func:`time_scale` applied (warning and note when not
+    s), or DataError."""
+    scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared)
+    if scale == 1.0:
+        return t
+    if declared is None:
+        _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
+              "seconds for this stream) and converted to s", source)
+    return np.asarray(t, float) * scale
+
+
 def _stamps(stream, name: str, meta, config, declared_time: str | None):
     if stream is None:
         return stream
     rate = None
     if config is not None:
         rate = config.imu_rate_hz if name == "imu" else config.dvl.rate_hz if name == "dvl" else None
-    scale, unit = time_scale(stream.t, name, stream.source, rate, declared=declared_time)
-    if scale == 1.0:
-        return stream
-    _note(meta, name, f"stamps read as {unit} (median step {np.median(np.diff(stream.t)):.4g}, implausible as "
-          f"seconds for this stream) and converted to s", stream.source)
-    return dataclasses.replace(stream, t=np.asarray(stream.t, float) * scale)
+    t = stamps_in_seconds(stream.t, name, stream.source, meta, rate, declared_time)
+    return stream if t is stream.t else dataclasses.replace(stream, t=t)
 
 
 def check_units(streams, config=None, meta: dict | None = None, declared: Mapping[str, str] | None = None):
@@ -304,4 +328,4 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
     return out
 
 
-__all__ = ["check_units", "imu_units", "dvl_units", "time_scale", "gyro_tilt_scale", "dvl_speed_scale"]
+__all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale", "gyro_tilt_scale", "dvl_speed_scale"]
