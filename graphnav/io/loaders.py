@@ -328,7 +328,7 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
         if a is not None:
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
     f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
-    imu[:, 1:4], imu[:, 4:7] = f_b, omega_b
+    imu[:, 1:7] = np.hstack([f_b, omega_b])       # a copy first: f_b/omega_b may be views of swapped columns
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
 
 
