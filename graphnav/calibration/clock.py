@@ -37,6 +37,9 @@ from graphnav.core.timeseries import interp_rows
 IMU_GRID_S = 0.05
 #: Shortest overlap of the two logs at a candidate lag, s.
 MIN_OVERLAP_S = 60.0
+#: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this, s
+#: (a clock set by hand or drifting; the whole range of a long log would cost minutes).
+NEAR_SEARCH_S = 300.0
 #: Lags closer than this to the peak do not count as a competing peak, s.
 PEAK_EXCLUSION_S = 5.0
 #: Lowest explained fraction accepted at the peak, and the lowest ratio of the residual at the best
@@ -213,7 +216,8 @@ class _WindowModel:
 # the estimate
 # ------------------------------------------------------------------------------------------------
 def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = MIN_OVERLAP_S,
-                              lever_arm_b=None, window_pings: int | None = None) -> ClockOffset:
+                              lever_arm_b=None, window_pings: int | None = None,
+                              search_s: tuple[float, float] | None = None) -> ClockOffset:
     """The offset to add to the DVL stamps to put them on the IMU clock, from the data (module docstring).
 
     Args:
@@ -223,6 +227,7 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         min_overlap_s: shortest overlap a candidate offset must leave between the two logs, s.
         lever_arm_b: DVL position relative to the IMU, m (default: the config's, else zero).
         window_pings: pings per window of the gravity fit (default :data:`WINDOW_S` worth).
+        search_s: (lo, hi) offsets to search, s; default: every offset leaving ``min_overlap_s`` of overlap.
 
     Returns:
         A :class:`ClockOffset`; check ``confident`` (:func:`align_stream_clocks` refuses or warns on it).
@@ -245,6 +250,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     # every offset at which the DVL log overlaps the IMU log by min_overlap_s: the whole possible range
     lo = ints.t[0] - t_dvl[-1] + min_overlap_s
     hi = ints.t[-1] - t_dvl[0] - min_overlap_s
+    if search_s is not None:
+        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
     h = max(0.5 * period, (hi - lo) / 20000)
     grid = np.arange(lo, hi + 0.5 * h, h)
     if grid.size == 0:
@@ -295,7 +302,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     meta = {} if meta is None else meta
     inside = _overlap_fraction(dvl.t, imu.t)
     try:
-        est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s)
+        near = (-NEAR_SEARCH_S, NEAR_SEARCH_S) if inside >= 0.5 else None
+        est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near)
     except DataError:
         if inside >= 0.5:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
