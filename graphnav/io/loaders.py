@@ -311,6 +311,10 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
             raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
         detection = detect_akit_axis_signs(imu, gt, str(files["IMU"]))
         signs = detection.signs
+        if not detection.decided:
+            from graphnav.core.streams import add_note
+            add_note(unit_meta, "imu", f"IMU axis convention undecided from the data; the configured "
+                     f"{tuple(int(x) for x in signs)} is used ({'; '.join(detection.notes)})")
     else:
         signs = np.asarray(imu_axis_signs, float).reshape(3)
         if not np.all(np.abs(signs) == 1):
