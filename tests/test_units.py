@@ -172,3 +172,34 @@ def test_refusals_name_the_field():
         imu_units(t, f, np.degrees(w * 100), "imu.csv", declared={"gyro": "rad/s"})
     with pytest.raises(DataError, match="declare the velocity unit"):
         dvl_speed_scale(None, np.full((10, 3), 30.0), "dvl.csv")
+
+
+def test_stream_reader_converts_declared_units_and_refuses_implausible_samples():
+    import json
+
+    from graphnav.core.errors import ConfigError
+    from graphnav.io.streamio import StreamReader
+    lines = [json.dumps(r) for r in (
+        {"type": "imu", "t": 1.0, "f_b": [0.0, 0.0, -9.8], "omega_b": [0.0, 0.0, 0.01]},
+        {"type": "imu", "t": 1.01, "f_b": [0.0, 0.0, -1.0], "omega_b": [0.0, 0.0, 0.6]},     # g: refused
+        {"type": "units", "time": "ms", "accel": "g", "gyro": "deg/s", "velocity": "mm/s"},
+        {"type": "imu", "t": 1020.0, "f_b": [0.0, 0.0, -1.0], "omega_b": [0.0, 0.0, 0.6]},
+        {"type": "dvl", "t": 1030.0, "beams": [700.0, None, -650.0, 120.0]},
+        {"type": "imu", "t": 1.7e15, "f_b": [0.0, 0.0, -1.0], "omega_b": [0.0, 0.0, 0.6]},    # us in ms: refused
+        {"type": "units", "gyro": "rpm"},                                                   # unknown: bad line
+    )]
+    reader = StreamReader(lines, "test")
+    with pytest.warns(RuntimeWarning) as caught:
+        recs = list(reader)
+    text = " ".join(str(w.message) for w in caught)
+    assert "line 2: imu sample refused" in text and "declare accel" in text
+    assert "line 6: imu sample refused" in text and "not seconds" in text
+    assert "line 7: unknown unit gyro='rpm'" in text
+    assert reader.refused == {"imu": 2} and reader.n_bad == 3
+    assert [r["_line"] for r in recs] == [1, 4, 5]
+    assert recs[1]["t"] == pytest.approx(1.02)
+    np.testing.assert_allclose(recs[1]["f_b"], [0, 0, -9.80665])
+    np.testing.assert_allclose(recs[1]["omega_b"], [0, 0, np.radians(0.6)])
+    assert recs[2]["beams"][0] == pytest.approx(0.7) and recs[2]["beams"][1] is None
+    with pytest.raises(ConfigError, match="unknown unit"):
+        StreamReader([], "x", units={"time": "minutes"})

@@ -271,5 +271,5 @@ def run_stream(args, sink, stop=None):
             raise DataError("the stream holds no measurement record", source)
         for est in nav.finish():
             sink(est)
-    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad,
+    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad, "refused": reader.refused,
                             "config": "--config" if args.config else ("stream" if reader.config else "default")}
