@@ -203,3 +203,10 @@ def test_stream_reader_converts_declared_units_and_refuses_implausible_samples()
     assert recs[2]["beams"][0] == pytest.approx(0.7) and recs[2]["beams"][1] is None
     with pytest.raises(ConfigError, match="unknown unit"):
         StreamReader([], "x", units={"time": "minutes"})
+
+
+def test_imu_in_milliseconds_is_refused_before_bridging(sim):
+    from graphnav.core.mission import ImuData
+    imu = ImuData(sim.imu.t * 1e3, sim.imu.f_b, sim.imu.omega_b, "imu")     # a 10 ms step read as 10 s
+    with pytest.raises(DataError, match="are the stamps in seconds"):
+        imu.bridge_gaps(sim.config.imu_rate_hz)
