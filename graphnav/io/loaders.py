@@ -448,8 +448,11 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
                         cfg.gravity_mps2, lat_for_rate)
+        # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
+        coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg)
         # against the published GT point the DVL sits at lever arm + IMU position
-        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0] + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
     cfg.gt_time_offset_s = float(gt_time_offset_s)
@@ -480,11 +483,31 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
+def _coarse_dvl_clock(t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, raw: AkitRaw, v_dvl: np.ndarray,
+                      cfg: SensorConfig) -> float:
+    """0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's clock offset
+    from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``raw.meta``), or
+    DataError when it cannot be found."""
+    t_dvl = raw.dvl[:, 0]
+    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
+        return 0.0
+    from graphnav.calibration.clock import align_stream_clocks
+    n = len(t_dvl)
+    dvl = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v_dvl, source=str(raw.files["DVL"]))
+    aligned, _ = align_stream_clocks(ImuData(t_imu, f_b, omega_b, str(raw.files["IMU"])), dvl, None, raw.meta,
+                                     cfg)
+    return float(aligned.t[0] - t_dvl[0])
+
+
 def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
                         dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
     published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
     given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg) if dvl_time_offset_s == "auto" else 0.0
+    if dvl_time_offset_s == "auto" and coarse:
+        dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if dvl_time_offset_s == "auto":
         dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
         warnings.warn(f"{folder}: no GT file, so the DVL time offset cannot be estimated; using this vehicle's "
@@ -493,7 +516,6 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
                       RuntimeWarning, stacklevel=3)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
-    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
                                                      beam_seed), np.nan)
