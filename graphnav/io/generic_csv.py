@@ -228,7 +228,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
-        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables, meta)
+        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables,
+                               meta)
         vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
         vdeclared = spec.get("velocity_unit")
         v_b = dvl_velocity_units(v["v_b"] * vscale, str(path), meta, vdeclared) if "v_b" in v else None
@@ -272,7 +273,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     gt = None
     spec = cmap.get("gt")
     if spec:
-        t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables, meta)
+        t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables,
+                             meta)
         for key in ("p_n", "v_n", "euler"):
             if key not in v:
                 raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")

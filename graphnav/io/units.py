@@ -25,8 +25,9 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   median exceeds :data:`GYRO_MEDIAN_MAX_RADPS` (0.3 rad/s: 7x the largest median seen, 17 deg/s of sustained
   rotation) or the 99.9th percentile exceeds :data:`GYRO_MAX_RADPS` (3 rad/s). A quiet vehicle logging
   deg/s may stay under both; the tilt kinematics then decide when there is tilt motion to see
-  (:func:`gyro_tilt_scale`: the gravity direction the accelerometer sees turns at the gyro rate, a scale of 1
-  in rad/s and 1/57.3 in deg/s).
+  (:func:`gyro_tilt_scale`: the gravity direction the accelerometer sees turns at the gyro rate; the fitted
+  scale is 0.36-0.64 on the ten trajectories in rad/s and 0.006-0.011 in deg/s, at most 0.015 in any 60 s
+  window; :data:`GYRO_TILT_SCALE_DEG` = 0.1 lies between, a factor 3.6 and 6.7 from either side).
 * **DVL.** A DVL measures at most +-10 m/s (:data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS`); a median
   speed of 100-10000 is mm/s (RDI's raw unit: an AUV at 0.1-10 m/s). 10-100 is cm/s or mm/s of a slow
   vehicle: refused, declare ``velocity_unit``.
@@ -166,7 +167,7 @@ def imu_units(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, source: str, 
                             f"{declared['accel']!r}: the data look like {unit}", source, field="f_b")
         f_b = f_b * (gravity if unit == "g" else gravity * 1e-3)
         _note(meta, "imu", f"accelerometer read as {unit} (median |f| {f_med:.4g}) and converted to m/s^2", source)
-    omega_b, gyro_unit = _gyro_units(t, f_b, omega_b, source, meta, declared)
+    omega_b, _ = _gyro_units(t, f_b, omega_b, source, meta, declared)
     return f_b, omega_b
 
 
@@ -328,4 +329,5 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
     return out
 
 
-__all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale", "gyro_tilt_scale", "dvl_speed_scale"]
+__all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
+           "gyro_tilt_scale", "dvl_speed_scale"]
