@@ -8,5 +8,6 @@ _PUBLIC = {
                 "EpochCsvWriter"),
     "export": ("write_akit",),
     "streamio": ("StreamReader",),
+    "units": ("check_units",),
 }
 __all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
