@@ -10,9 +10,9 @@ the *explained fraction*). Earth rate, gyro drift and accelerometer bias only en
 per window.
 
 :func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
-:data:`MIN_OVERLAP_S` (the whole possible range: the spans need not overlap, the DVL may be days away; the
-range is the sum of the two spans, whatever the offset), on a grid of half a DVL period, then refines the
-best by minimising the residual. Quality: the explained fraction at the peak and its sharpness (residual
+:data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
+may be days away; the range is the sum of the two spans, whatever the offset; a 1 h log takes ~30 s), on
+a grid of half a DVL period (coarser for long logs), then refines the best by minimising the residual. Quality: the explained fraction at the peak and its sharpness (residual
 at the best offset further than :data:`PEAK_EXCLUSION_S` over the residual at the peak). A log without
 velocity changes (constant speed and heading) has no signal: the estimate is then not confident, and
 :func:`align_stream_clocks` says so. This coarse offset is a *clock* offset; the sub-second DVL time offset
@@ -35,11 +35,16 @@ from graphnav.core.timeseries import interp_rows
 
 #: Step of the IMU grid the integrals are kept on, s.
 IMU_GRID_S = 0.05
-#: Shortest overlap of the two logs at a candidate lag, s.
+#: Shortest overlap of the two logs at a candidate offset, s ...
 MIN_OVERLAP_S = 60.0
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this, s
 #: (a clock set by hand or drifting; the whole range of a long log would cost minutes).
 NEAR_SEARCH_S = 300.0
+#: Windows the coarse scan scores at each offset (spread over the log; the refinement uses them all): 60 x 20 s
+#: is 20 minutes of a 1 Hz DVL, plenty to tell offsets apart, and keeps a long log's scan to seconds.
+COARSE_MAX_WINDOWS = 60
+#: ... and at least this fraction of the shorter log.
+MIN_OVERLAP_FRACTION = 0.5
 #: Lags closer than this to the peak do not count as a competing peak, s.
 PEAK_EXCLUSION_S = 5.0
 #: Lowest explained fraction accepted at the peak, and the lowest ratio of the residual at the best
@@ -177,6 +182,15 @@ class _WindowModel:
         beta = np.einsum("wij,wjk->wik", np.linalg.pinv(X), self.v)
         self.sse_null_w = np.sum((self.v - X @ beta) ** 2, axis=(1, 2))   # per window
 
+    def thinned(self, max_windows: int) -> "_WindowModel":
+        """The same model on at most ``max_windows`` windows spread over the log (for the coarse scan of a long
+        log: its cost grows with windows x offsets)."""
+        keep = np.unique(np.linspace(0, len(self.t) - 1, min(max_windows, len(self.t))).round().astype(int))
+        out = object.__new__(_WindowModel)
+        out.imu, out.lever, out.window = self.imu, self.lever, self.window
+        out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
+        return out
+
     def sse(self, offset: float) -> tuple[np.ndarray, np.ndarray]:
         """(SSE per window, True where the window lies inside the IMU span) at ``offset`` s."""
         imu, t = self.imu, self.t + offset
@@ -205,7 +219,7 @@ class _WindowModel:
     def score(self, offset: float) -> tuple[float, float, int]:
         """(explained fraction 1 - SSE/SSE_null, SSE, windows) over the windows inside the IMU span."""
         sse, inside = self.sse(offset)
-        if not inside.any():
+        if inside.sum() < 2:
             return -np.inf, np.inf, 0
         null = float(np.sum(self.sse_null_w[inside]))
         total = float(np.sum(sse[inside]))
@@ -224,7 +238,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         imu: :class:`~graphnav.core.mission.ImuData` (SI units, body FRD).
         dvl: :class:`~graphnav.core.mission.DvlData` on its own clock (seconds, any origin: days apart is fine).
         config: a SensorConfig (C_d_b, beam geometry, lever arm) or None.
-        min_overlap_s: shortest overlap a candidate offset must leave between the two logs, s.
+        min_overlap_s: shortest overlap a candidate offset must leave between the two logs, s (at least
+            :data:`MIN_OVERLAP_FRACTION` of the shorter log in any case).
         lever_arm_b: DVL position relative to the IMU, m (default: the config's, else zero).
         window_pings: pings per window of the gravity fit (default :data:`WINDOW_S` worth).
         search_s: (lo, hi) offsets to search, s; default: every offset leaving ``min_overlap_s`` of overlap.
@@ -246,18 +261,22 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
     model = _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window)
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
-    min_overlap_s = min(min_overlap_s, 0.5 * min(span_imu, span_dvl))
+    # the two logs of one mission overlap mostly; a candidate sharing only a sliver scores on a few windows
+    # and can win by chance (a 1 h log six days away did, 3538 s off, before this)
+    min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * min(span_imu, span_dvl)),
+                        min(span_imu, span_dvl) - window * period)
     # every offset at which the DVL log overlaps the IMU log by min_overlap_s: the whole possible range
     lo = ints.t[0] - t_dvl[-1] + min_overlap_s
     hi = ints.t[-1] - t_dvl[0] - min_overlap_s
     if search_s is not None:
         lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
-    h = max(0.5 * period, (hi - lo) / 20000)
+    h = max(0.5 * period, (hi - lo) / 4000)
     grid = np.arange(lo, hi + 0.5 * h, h)
     if grid.size == 0:
         raise DataError(f"the IMU ({span_imu:.0f} s) and DVL ({span_dvl:.0f} s) logs are too short to share "
                         f"{min_overlap_s:.0f} s at any offset", dvl.source, field="t")
-    scores = np.array([model.score(o)[0] for o in grid])
+    coarse_model = model.thinned(COARSE_MAX_WINDOWS)
+    scores = np.array([coarse_model.score(o)[0] for o in grid])
     i = int(np.argmax(scores))
     far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
     second = float(np.max(scores[far])) if far.any() else 0.0
