@@ -12,8 +12,9 @@ per window.
 :func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
 :data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
 may be days away; the range is the sum of the two spans, whatever the offset; a 1 h log takes ~30 s), on
-a grid of half a DVL period (coarser for long logs), then refines the best by minimising the residual. Quality: the explained fraction at the peak and its sharpness (residual
-at the best offset further than :data:`PEAK_EXCLUSION_S` over the residual at the peak). A log without
+a grid of half a DVL period (coarser for long logs), then refines the best by minimising the residual.
+Quality: the explained fraction at the peak and its sharpness (residual at the best offset further than
+:data:`PEAK_EXCLUSION_S` over the residual at the peak). A log without
 velocity changes (constant speed and heading) has no signal: the estimate is then not confident, and
 :func:`align_stream_clocks` says so. This coarse offset is a *clock* offset; the sub-second DVL time offset
 against a reference (:func:`graphnav.calibration.reference.estimate_dvl_time_offset` in the A-KIT loader,
