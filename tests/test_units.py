@@ -210,3 +210,10 @@ def test_imu_in_milliseconds_is_refused_before_bridging(sim):
     imu = ImuData(sim.imu.t * 1e3, sim.imu.f_b, sim.imu.omega_b, "imu")     # a 10 ms step read as 10 s
     with pytest.raises(DataError, match="are the stamps in seconds"):
         imu.bridge_gaps(sim.config.imu_rate_hz)
+
+
+def test_a_corrupt_stamp_in_the_middle_is_named():
+    t = np.arange(0.0, 100.0, 0.01)
+    t[4000] = 1e300
+    with pytest.raises(DataError, match="index 4000"):
+        stamps_in_seconds(t, "imu", "imu.csv")

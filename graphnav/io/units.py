@@ -87,6 +87,9 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     med = float(np.median(step))
     lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
     if declared is not None:
+        if declared not in TIME_SCALES:
+            from graphnav.core.errors import ConfigError
+            raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
         unit = declared
     elif lo <= med <= hi or med <= 0:
         unit = "s"       # a non-positive median step is an ordering problem, reported by the stamp checks
@@ -99,9 +102,11 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
             fits.sort(key=lambda u: abs(np.log10(med * TIME_SCALES[u] * expected_rate_hz)))
         unit = fits[0]
     scale = TIME_SCALES[unit]
-    span = float((t[-1] - t[0]) * scale) if np.all(np.isfinite(t[[0, -1]])) else np.inf
-    if not np.isfinite(span) or abs(span) > MAX_SPAN_S:
-        i = int(np.nanargmax(np.abs(step))) + 1 if np.any(np.isfinite(step)) else 0
+    finite = t[np.isfinite(t)]          # non-finite stamps are the stamp checks' to report, by line
+    span = float(np.ptp(finite) * scale) if finite.size else 0.0
+    if not np.isfinite(span) or span > MAX_SPAN_S:
+        with np.errstate(invalid="ignore"):
+            i = int(np.nanargmax(np.abs(step))) + 1 if np.any(np.isfinite(step)) else 0
         raise DataError(f"stamps span {span:.3g} s (more than a year: a corrupt stamp?); largest jump "
                         f"{t[i - 1]:.6g} -> {t[i]:.6g} ({unit}) at index {i}", source, i, field)
     return scale, unit
