@@ -127,3 +127,47 @@ def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
         read_akit(folder)
     assert "y" in err.value.field
+
+
+def _windows(akit_dir, name, length=60.0, step=60.0, transform=None):
+    from graphnav.core.mission import ImuData
+    imu = read_csv(akit_files(akit_dir / name)["IMU"], AKIT_COLUMNS["IMU"])
+    if transform is not None:
+        imu = transform(imu)
+    t = imu[:, 0]
+    for start in np.arange(t[0], t[-1] - length + 1e-9, step):
+        sel = (t >= start) & (t < start + length)
+        yield start, ImuData(np.ascontiguousarray(t[sel]), imu[sel, 1:4], imu[sel, 4:7], name)
+
+
+@pytest.mark.parametrize("name", ["Trajectory5", "Trajectory13"])       # many turns; steady at depth
+@pytest.mark.parametrize("transform, signs", [(None, [1, -1, 1]), (_negate_y, [1, 1, 1])])
+def test_without_gt_every_minute_decides_right(akit_dir, name, transform, signs):
+    from graphnav.calibration.axes import detect_imu_axis_signs
+    for start, imu in _windows(akit_dir, name, transform=transform):
+        det = detect_imu_axis_signs(imu, SensorConfig(), None, name)
+        assert det.decided, (name, start, det.notes)
+        np.testing.assert_array_equal(det.signs, signs, err_msg=f"{name} window at {start} s")
+
+
+def _static(imu):
+    """An IMU at rest (a vehicle on deck): gravity and noise only, no tilt motion to tell conventions apart."""
+    rng = np.random.default_rng(1)
+    imu = imu.copy()
+    imu[:, 1:4] = [0.0, 0.0, -9.8] + rng.normal(0, 2e-3, (len(imu), 3))
+    imu[:, 4:7] = rng.normal(0, 1e-5, (len(imu), 3))
+    return imu
+
+
+def test_without_gt_undecided_falls_back_to_the_configured_convention(akit_dir, tmp_path):
+    from graphnav.calibration.axes import detect_imu_axis_signs
+    _, imu = next(_windows(akit_dir, TRAJ[0], length=120.0, transform=_static))
+    det = detect_imu_axis_signs(imu, SensorConfig(), None, "static", fallback_signs=(1, 1, 1))
+    assert not det.decided
+    np.testing.assert_array_equal(det.signs, [1, 1, 1])
+    # through the loader: a warning, the published A-KIT convention, and a note in meta["streams"]
+    folder = _copy(akit_dir / TRAJ[0], tmp_path, _static, with_gt=False)
+    raw, msg = _auto(read_akit, folder)
+    assert "could not tell the conventions apart" in msg
+    np.testing.assert_array_equal(raw.axis_signs, [1, -1, 1])
+    assert "undecided" in raw.meta["streams"]["imu"]["notes"][0]

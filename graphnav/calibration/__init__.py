@@ -8,6 +8,7 @@ _PUBLIC = {
     "calibrate": ("calibrate_with_gt",),
     "without_gt": ("calibrate_with_graph",),
     "axes": ("detect_imu_axis_signs",),
+    "clock": ("estimate_dvl_clock_offset", "align_stream_clocks"),
     "noise": ("identify", "NoiseEstimate"),
 }
 __all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

@@ -405,6 +405,7 @@ def run_stream(args, sink, stop=None, cli_config=None):
             raise DataError("the stream holds no measurement record", source)
         for est in nav.finish():
             sink(est)
-    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad, "status_lines": status.n_status,
+    return nav, described, {"records": reader.n_records, "bad_lines": reader.n_bad, "refused": reader.refused,
+                            "status_lines": status.n_status,
                             "config": " over ".join(n for n, c in (("--config", cli_config), ("stream", reader.config))
                                                     if c) or "default"}

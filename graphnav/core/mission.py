@@ -40,6 +40,9 @@ IMU_GAP_PERIODS = 2.5
 #: 1e-3.
 IMU_GAP_ACCEL_SIGMA = 0.1
 IMU_GAP_GYRO_SIGMA = 1e-3
+#: Bridging may add at most this many interpolated samples per recorded one: more means the stamps are not in
+#: seconds or the rate is wrong (a real log with gaps for 90 % of its time is not navigable anyway).
+MAX_BRIDGE_FACTOR = 10
 
 
 def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:
@@ -155,6 +158,14 @@ class ImuData:
         at = np.flatnonzero(step > gap_periods * period)
         if not at.size:
             return imu, []
+        n_fill = int(np.sum(np.ceil(step[at] / period) - 1))
+        if n_fill > MAX_BRIDGE_FACTOR * len(imu.t):
+            # stamps in ms (a 10 ms step read as 10 s) or a wrong rate, not gaps: bridging would make the
+            # stream hundreds of times longer (GBs of memory, minutes of CPU) before any estimate
+            raise DataError(f"bridging the IMU gaps would add {n_fill} interpolated samples to {len(imu.t)} (median "
+                            f"step {np.median(step):.4g} s at the configured {rate_hz:g} Hz): are the stamps in "
+                            "seconds and imu_rate_hz right? (graphnav.io.units detects ms/us/ns stamps)",
+                            self.source, field="t")
         gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
         longest = max(gaps, key=lambda g: g.length)
         warnings.warn(f"{self.source}: {len(gaps)} IMU gap(s) longer than {gap_periods * period:.3g} s bridged "

@@ -10,5 +10,6 @@ _PUBLIC = {
     "streamio": ("StreamReader",),
     "dvl_files": ("read_dvl",),
     "inspect": ("describe",),
+    "units": ("check_units",),
 }
 __all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

@@ -17,7 +17,10 @@ columns::
     }
 
 Units: ``time_unit`` s / ms / us / ns (global or per stream); ``accel_unit`` m/s^2 or g; ``gyro_unit`` rad/s
-or deg/s; ``velocity_unit`` m/s, cm/s or mm/s; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
+or deg/s; ``velocity_unit`` m/s, cm/s or mm/s. A unit left out is detected from the data
+(:mod:`graphnav.io.units`: stamps from the sample step, g from |f|, deg/s from the rates, mm/s from the
+speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
+a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 ``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
 (positive down); ``angle_unit`` rad or deg. ``frame`` frd (default) or flu for the IMU (the latter negates
 y and z).
@@ -31,7 +34,11 @@ has no valid beam. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads 
 3-beam solutions become ``DvlData.v_d``), whose stamps are Unix seconds: the IMU stamps must then be Unix too;
 what the file read and refused is in ``meta["streams"]``.
 
-Every stream ends on one clock starting at the first IMU stamp (``meta["t0_s"]`` keeps the offset).
+Every stream ends on one clock starting at the first IMU stamp (``meta["t0_s"]`` keeps the offset). The DVL
+may run on a clock of its own (seconds or days away): with ``"dvl": {"clock": "auto"}`` (default) its offset
+is estimated from the data and applied (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in
+``meta["streams"]["dvl"]`` and ``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
+IMU clock already.
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
 """
 from __future__ import annotations
@@ -46,6 +53,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.io.pd0 import pd0_geometry, read_pd0
+from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ACCEL_UNITS = {"m/s^2": 1.0, "g": 9.80665}
@@ -131,7 +139,7 @@ def _names(spec: dict, key: str, n: int, stream: str, required: bool = True) -> 
 
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
-          time_unit: str, tables: dict) -> tuple[np.ndarray, dict, Path]:
+          time_unit: str | None, tables: dict, meta: dict) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock) and value groups of one stream; checks stamps and finiteness."""
     if "t" not in spec:
         raise ConfigError(f"csv_columns.{stream} needs 't' (the stamp column)")
@@ -144,11 +152,15 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     names = {k: _names(spec, k, n, stream, required=False) for k, n in groups.items()}
     flat = [spec["t"]] + [c for cols in names.values() if cols for c in cols]
     values, lines = table.columns(flat, stream)
-    scale = _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
-    t = values[:, 0] * scale
+    t = values[:, 0]
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise DataError("empty or non-finite stamp", str(path), int(lines[bad[0]]), spec["t"])
+    # a declared unit is applied (the span is still checked); without one it is detected from the step
+    unit = spec.get("time_unit", time_unit)
+    if unit is not None:
+        _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
+    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"])
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
     if bad.size:
@@ -179,7 +191,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     if unknown:
         raise ConfigError(f"csv_columns: unknown entr(ies) {sorted(unknown)}; expected {STREAMS} and time_unit")
     root, data_file = (data, None) if data.is_dir() else (data.parent, data)
-    time_unit = cmap.get("time_unit", "s")
+    time_unit = cmap.get("time_unit")        # None: detected per stream (graphnav.io.units)
     tables: dict = {}
     config = dataclasses.replace(config)
     meta: dict = {"source": str(data), "format": "csv"}
@@ -187,13 +199,15 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("imu")
     if not spec:
         raise ConfigError("csv_columns needs an 'imu' entry")
-    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables)
+    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables, meta)
     for key in ("f_b", "omega_b"):
         if key not in v:
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
         _require_finite(v[key], v["_lines"], spec[key], path)
     f_b = v["f_b"] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
     omega_b = v["omega_b"] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
+    declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
+    f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2)
     frame = spec.get("frame", "frd")
     if frame not in ("frd", "flu"):
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
@@ -219,11 +233,15 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
-        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables)
+        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables,
+                               meta)
         vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
-        v_b = v["v_b"] * vscale if "v_b" in v else None
+        vdeclared = spec.get("velocity_unit")
+        v_b = dvl_velocity_units(v["v_b"] * vscale, str(path), meta, vdeclared) if "v_b" in v else None
         if "beams" in v:
             raw = v["beams"]
+            if vdeclared is None:
+                raw = dvl_velocity_units(raw, str(path), meta, None, beams=True)   # m/s (mm/s detected)
             flag = np.isin(raw, (-32768.0, -32.768))
             beams = np.where(flag, -32.768, raw * vscale)
             valid = np.isfinite(beams) if "valid" not in v else (np.nan_to_num(v["valid"]) != 0) & np.isfinite(beams)
@@ -244,7 +262,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         key = "depth" if "depth" in spec else "pressure" if "pressure" in spec else None
         if key is None:
             raise ConfigError("csv_columns.depth needs 'depth' (m, down) or 'pressure' (a column name)")
-        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables)
+        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta)
         _require_finite(v[key], v["_lines"], [spec[key]], path)
         x = v[key][:, 0]
         if key == "pressure":
@@ -260,7 +278,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     gt = None
     spec = cmap.get("gt")
     if spec:
-        t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables)
+        t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables,
+                             meta)
         for key in ("p_n", "v_n", "euler"):
             if key not in v:
                 raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")
@@ -268,6 +287,12 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         from graphnav.core.rotations import euler_to_C_b_n
         e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
+    clock = (cmap.get("dvl") or {}).get("clock", "auto")
+    if clock not in ("auto", "imu"):
+        raise ConfigError(f"csv_columns.dvl.clock = {clock!r}: choose auto or imu")
+    if clock == "auto":
+        from graphnav.calibration.clock import align_stream_clocks
+        dvl, depth = align_stream_clocks(imu, dvl, depth, meta, config)
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)

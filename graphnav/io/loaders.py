@@ -285,6 +285,7 @@ class AkitRaw:
     files: dict
     axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
     axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
+    meta: dict = dataclasses.field(default_factory=dict)   # unit conversions noted (meta["streams"])
 
 
 def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
@@ -298,6 +299,8 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
     imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
     dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
     gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
+    unit_meta: dict = {}
+    _akit_units(imu, dvl, gt, files, unit_meta)
     if rescale_stamps:
         for a in (imu, dvl, gt):
             if a is not None:
@@ -308,13 +311,29 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
             raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
         detection = detect_akit_axis_signs(imu, gt, str(files["IMU"]))
         signs = detection.signs
+        if not detection.decided:
+            from graphnav.core.streams import add_note
+            add_note(unit_meta, "imu", f"IMU axis convention undecided from the data; the configured "
+                     f"{tuple(int(x) for x in signs)} is used ({'; '.join(detection.notes)})")
     else:
         signs = np.asarray(imu_axis_signs, float).reshape(3)
         if not np.all(np.abs(signs) == 1):
             raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
     imu[:, 1:4] *= signs
     imu[:, 4:7] *= signs
-    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection)
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, unit_meta)
+
+
+def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict) -> None:
+    """Stamps, IMU and DVL units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
+    the header names units, but a file written by other tools in this layout may not hold them)."""
+    from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
+    for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
+        if a is not None:
+            a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
+    f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
+    imu[:, 1:7] = np.hstack([f_b, omega_b])       # a copy first: f_b/omega_b may be views of swapped columns
+    dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
 
 
 def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
@@ -430,8 +449,11 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
                         cfg.gravity_mps2, lat_for_rate)
+        # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
+        coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg)
         # against the published GT point the DVL sits at lever arm + IMU position
-        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0] + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+        est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
     cfg.gt_time_offset_s = float(gt_time_offset_s)
@@ -458,9 +480,25 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                                "decided": None if detected is None else detected.decided},
             "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
-                             for k, e in estimates.items()}}
+                             for k, e in estimates.items()}, **raw.meta}
     _record_akit_streams(meta, imu, dvl, depth, gt, refused, cfg, rescale_stamps, estimates)
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+def _coarse_dvl_clock(t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, raw: AkitRaw, v_dvl: np.ndarray,
+                      cfg: SensorConfig) -> float:
+    """0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's clock offset
+    from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``raw.meta``), or
+    DataError when it cannot be found."""
+    t_dvl = raw.dvl[:, 0]
+    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
+        return 0.0
+    from graphnav.calibration.clock import align_stream_clocks
+    n = len(t_dvl)
+    dvl = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v_dvl, source=str(raw.files["DVL"]))
+    aligned, _ = align_stream_clocks(ImuData(t_imu, f_b, omega_b, str(raw.files["IMU"])), dvl, None, raw.meta,
+                                     cfg)
+    return float(aligned.t[0] - t_dvl[0])
 
 
 def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str, np.ndarray]:
@@ -503,6 +541,10 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
     published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
     given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
+    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
+    coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg) if dvl_time_offset_s == "auto" else 0.0
+    if dvl_time_offset_s == "auto" and coarse:
+        dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if dvl_time_offset_s == "auto":
         dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
         warnings.warn(f"{folder}: no GT file, so the DVL time offset cannot be estimated; using this vehicle's "
@@ -511,7 +553,6 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
                       RuntimeWarning, stacklevel=3)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
-    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
                                                      beam_seed), np.nan)
@@ -525,7 +566,7 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
                                "decided": None if detected is None else detected.decided},
-            "time_offsets": {}}
+            "time_offsets": {}, **raw.meta}
     _record_akit_streams(meta, imu, dvl, None, None, refused or {}, cfg, rescale_stamps, {})
     return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
 

@@ -19,7 +19,17 @@ fine). Units SI, frames as everywhere in graphnav (body FRD, NED), stamps in sec
 ``depth``             ``t``, ``depth_m`` (m, positive down)
 ``fix``               ``t``, ``lat``, ``lon`` (rad), ``sigma_m`` (m, 1-sigma per horizontal axis)
 ``heading``           ``t``, ``yaw`` (rad), ``sigma`` (rad)
+``units``             optional, before the samples it applies to: the units the following records are in
+                      (``time`` s/ms/us/ns, ``accel`` m/s^2/g, ``gyro`` rad/s/deg/s, ``velocity``
+                      m/s/cm/s/mm/s); each sample is converted to SI as it is read
 ====================  ===========================================================================
+
+A stream is read one sample at a time, so units cannot be detected from its statistics as the loaders do
+(:mod:`graphnav.io.units`): they are declared (a ``units`` record, or ``StreamReader(units=...)``), and a
+sample that cannot be in SI is refused, counted and warned about like a bad line, naming the unit to declare:
+a stamp beyond :data:`MAX_STAMP_S` (not seconds), ``|omega_b|`` above :data:`MAX_RATE_RADPS`, ``|f_b|``
+below :data:`MIN_ACCEL_MPS2` or above :data:`MAX_ACCEL_MPS2` (the accelerometer always sees gravity; g
+reads ~1, and swapped IMU blocks put ~0 in ``f_b``).
 
 Example lines::
 
@@ -52,7 +62,19 @@ from graphnav.estimators.replay import replay
 #: Fields each record type needs (besides ``type``).
 FIELDS = {"imu": ("t", "f_b", "omega_b"), "dvl": ("t", "beams"), "dvl_velocity": ("t", "v_d"),
           "depth": ("t", "depth_m"),
-          "fix": ("t", "lat", "lon", "sigma_m"), "heading": ("t", "yaw", "sigma"), "config": ("config",)}
+          "fix": ("t", "lat", "lon", "sigma_m"), "heading": ("t", "yaw", "sigma"), "config": ("config",),
+          "units": ()}
+#: Unit names a ``units`` record may declare, with their factor to SI.
+UNITS = {"time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
+         "accel": {"m/s^2": 1.0, "g": 9.80665},
+         "gyro": {"rad/s": 1.0, "deg/s": math.pi / 180},
+         "velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3}}
+#: Per-sample plausibility in SI (module docstring): stamps up to the year ~2286 in Unix seconds; an AUV never
+#: turns at 10 rad/s (570 deg/s); the accelerometer reads gravity, 9.8 m/s^2, within a few m/s^2.
+MAX_STAMP_S = 1e10
+MAX_RATE_RADPS = 10.0
+MIN_ACCEL_MPS2 = 3.0
+MAX_ACCEL_MPS2 = 50.0
 
 
 def _num(x: float):
@@ -98,7 +120,7 @@ class StreamReader:
         source: name for messages (e.g. ``"<stdin>"``).
     """
 
-    def __init__(self, lines, source: str = "<stream>"):
+    def __init__(self, lines, source: str = "<stream>", units: dict | None = None):
         self.lines = lines
         self.source = source
         self.n_bad = 0
@@ -106,6 +128,53 @@ class StreamReader:
         self.config: ConfigOverrides | None = None
         self._first_line: int | None = None
         self._config_line: int | None = None
+        self.refused: dict[str, int] = {}
+        self.scale = {k: 1.0 for k in UNITS}
+        if units:
+            problem = self._set_units(units)
+            if problem:
+                from graphnav.core.errors import ConfigError
+                raise ConfigError(f"{source}: {problem}")
+
+    def _set_units(self, rec: dict) -> str | None:
+        """Apply a units declaration; returns what is wrong with it, or None."""
+        for key, name in rec.items():
+            if key in ("type", "_line"):
+                continue
+            if key not in UNITS or name not in UNITS[key]:
+                return (f"unknown unit {key}={name!r} (choose "
+                        + "; ".join(f"{k}: {', '.join(v)}" for k, v in UNITS.items()) + ")")
+        for key, name in rec.items():
+            if key in UNITS:
+                self.scale[key] = UNITS[key][name]
+        return None
+
+    def _to_si(self, rec: dict) -> str | None:
+        """Convert a sample to SI in place by the declared units; returns why it cannot be SI, or None."""
+        try:
+            rec["t"] = float(rec["t"]) * self.scale["time"]
+            if rec["type"] == "imu":
+                rec["f_b"] = [float(x) * self.scale["accel"] for x in rec["f_b"]]
+                rec["omega_b"] = [float(x) * self.scale["gyro"] for x in rec["omega_b"]]
+            elif rec["type"] == "dvl" and isinstance(rec["beams"], list):
+                rec["beams"] = [None if b is None else float(b) * self.scale["velocity"] for b in rec["beams"]]
+            elif rec["type"] == "dvl_velocity" and isinstance(rec["v_d"], list):
+                rec["v_d"] = [None if v is None else float(v) * self.scale["velocity"] for v in rec["v_d"]]
+                if isinstance(rec.get("sigma"), list):
+                    rec["sigma"] = [None if v is None else float(v) * self.scale["velocity"] for v in rec["sigma"]]
+        except (TypeError, ValueError):
+            return None                      # malformed values: the Navigator refuses them itself
+        if abs(rec["t"]) > MAX_STAMP_S:
+            return f"stamp {rec['t']:.6g} s is not seconds (declare the time unit in a units record)"
+        if rec["type"] == "imu":
+            w = math.sqrt(sum(x * x for x in rec["omega_b"]))
+            f = math.sqrt(sum(x * x for x in rec["f_b"]))
+            if w > MAX_RATE_RADPS:
+                return f"|omega_b| {w:.4g} rad/s is beyond any AUV's turn rate (deg/s? declare gyro in a units record)"
+            if not MIN_ACCEL_MPS2 <= f <= MAX_ACCEL_MPS2:
+                return (f"|f_b| {f:.4g} m/s^2 is not gravity plus vehicle accelerations (g? declare accel in a units "
+                        "record; ~0 with |omega_b| ~9.8: accelerometer and gyro swapped)")
+        return None
 
     def _bad(self, line_no: int, why: str) -> None:
         self.n_bad += 1
@@ -132,6 +201,17 @@ class StreamReader:
             if missing:
                 self._bad(line_no, f"{kind} record without field '{missing[0]}'")
                 continue
+            if kind == "units":
+                problem = self._set_units(rec)
+                if problem:
+                    self._bad(line_no, problem)
+                continue
+            if kind in ("imu", "dvl", "dvl_velocity", "depth"):
+                problem = self._to_si(rec)
+                if problem:
+                    self.refused[kind] = self.refused.get(kind, 0) + 1
+                    self._bad(line_no, f"{kind} sample refused: {problem}")
+                    continue
             if kind == "config":
                 self.config = self._config(rec["config"], line_no)
                 continue

@@ -1,0 +1,360 @@
+"""Clock offsets between streams, from the data themselves: a DVL stamped seconds or days away from the IMU.
+
+The DVL measures the head's velocity in the body frame; what it changes by is what the IMU integrates:
+``v_b(t) = v0 + int (f_b + g_b - omega x v_b) dt`` (specific force plus the gravity the body sees). The
+gravity ``g_b`` is unknown without an attitude reference, but over a short window the gyro carries it
+exactly: ``g_b(t) = R(t)^T g0`` with R the gyro-integrated attitude. So, per window of :data:`WINDOW_S`
+of DVL pings, ``v0`` and ``g0`` are fitted by linear least squares and the residual measures how well the
+IMU explains the DVL at a candidate offset (against a straight line per window, the fit without the IMU:
+the *explained fraction*). Earth rate, gyro drift and accelerometer bias only enter through g0, refitted
+per window.
+
+:func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
+:data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
+may be days away; the range is the sum of the two spans, whatever the offset; a 1 h log takes ~30 s), on
+a grid of half a DVL period (coarser for long logs), then refines the best by minimising the residual.
+Quality: the explained fraction at the peak and its sharpness (residual at the best offset further than
+:data:`PEAK_EXCLUSION_S` over the residual at the peak). A log without
+velocity changes (constant speed and heading) has no signal: the estimate is then not confident, and
+:func:`align_stream_clocks` says so. This coarse offset is a *clock* offset; the sub-second DVL time offset
+against a reference (:func:`graphnav.calibration.reference.estimate_dvl_time_offset` in the A-KIT loader,
+``graphnav calibrate`` without GT) is the fine calibration that runs after it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from graphnav.calibration.reference import _sigma_from_curvature, cumulative_integral
+from graphnav.core.errors import DataError
+from graphnav.core.streams import add_note
+from graphnav.core.timeseries import interp_rows
+
+#: Step of the IMU grid the integrals are kept on, s.
+IMU_GRID_S = 0.05
+#: Shortest overlap of the two logs at a candidate offset, s ...
+MIN_OVERLAP_S = 60.0
+#: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this, s
+#: (a clock set by hand or drifting; the whole range of a long log would cost minutes).
+NEAR_SEARCH_S = 300.0
+#: Windows the coarse scan scores at each offset (spread over the log; the refinement uses them all): 60 x 20 s
+#: is 20 minutes of a 1 Hz DVL, plenty to tell offsets apart, and keeps a long log's scan to seconds.
+COARSE_MAX_WINDOWS = 60
+#: ... and at least this fraction of the shorter log.
+MIN_OVERLAP_FRACTION = 0.5
+#: Lags closer than this to the peak do not count as a competing peak, s.
+PEAK_EXCLUSION_S = 5.0
+#: Lowest explained fraction accepted at the peak, and the lowest ratio of the residual at the best
+#: offset further than PEAK_EXCLUSION_S to the residual at the peak. Measured (37 s injected): A-KIT
+#: trajectories 1, 5, 13 peak 0.75-0.99, ratio 2-50 (right offset); simulated missions with 0.01 m/s beam
+#: noise peak 0.43-0.63, ratio 1.26-2.0 (right); with the paper's 0.042 m/s beam noise on the simulator's
+#: gentle manoeuvres, peak 0.08-0.11, ratio 1.01-1.04 (wrong offsets: refused); 0.02 m/s: 0.18-0.32,
+#: ratio 1.01-1.2 (refused).
+MIN_PEAK = 0.2
+MIN_SSE_RATIO = 1.2
+#: Length of the windows over which the gravity seen at the window start is fitted, s.
+WINDOW_S = 20.0
+
+
+@dataclass
+class ClockOffset:
+    """A clock offset found from the data.
+
+    Attributes:
+        offset_s: seconds to add to the DVL stamps to put them on the IMU clock.
+        sigma_s: 1-sigma of the fine estimate (curvature of its least-squares cost), s.
+        peak: fraction of the DVL's velocity changes the IMU explains at the offset (1 - SSE / SSE of a
+            straight line per window; 1 = all).
+        second_peak: the same at the best offset further than :data:`PEAK_EXCLUSION_S` from the peak.
+        coarse_offset_s: the coarse (one-grid-step) offset.
+        rms: residual of the fine fit, m/s per axis per DVL interval.
+        overlap_s: overlap of the two logs at the offset, s.
+        n: DVL intervals used by the fine fit.
+    """
+
+    offset_s: float
+    sigma_s: float
+    peak: float
+    second_peak: float
+    coarse_offset_s: float
+    rms: float
+    overlap_s: float
+    n: int
+
+    @property
+    def sharpness(self) -> float:
+        """Residual at the best offset away from the peak over the residual at the peak (>= MIN_SSE_RATIO)."""
+        return (1.0 - self.second_peak) / max(1.0 - self.peak, 1e-9)
+
+    @property
+    def confident(self) -> bool:
+        return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO
+
+    def describe(self) -> str:
+        return (f"{self.offset_s:+.3f} s (sigma {self.sigma_s:.3f} s; IMU explains {self.peak:.2f} of the DVL's "
+                f"velocity changes there, {self.second_peak:.2f} at the next best offset; overlap "
+                f"{self.overlap_s:.0f} s)")
+
+    def to_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "sharpness": self.sharpness, "confident": self.confident}
+
+
+# ------------------------------------------------------------------------------------------------
+# the model
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class ImuIntegrals:
+    """The IMU on a uniform grid ``t`` (K,): running integrals of the specific force ``F`` (m/s), of the
+    gyro ``W`` (rad), of the transposed gyro attitude ``M`` (K,3,3, s; ``int R(t)^T dt`` with R the body
+    attitude relative to the first sample: ``M g0`` integrates the gravity a body sees that started with
+    gravity ``g0``), and the mean rate per step ``omega`` (K,3) at the grid stamps."""
+
+    t: np.ndarray
+    F: np.ndarray
+    W: np.ndarray
+    M: np.ndarray
+    omega: np.ndarray
+
+
+def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: float | None = None
+                  ) -> ImuIntegrals:
+    """:class:`ImuIntegrals` of an IMU stream (stamps s, f_b m/s^2, omega_b rad/s); grid step ``step_s``
+    (default :data:`IMU_GRID_S`, coarser for logs over ~1.5 h to keep the grid under 100 000 steps)."""
+    from scipy.spatial.transform import Rotation
+
+    from graphnav.calibration.reference import cumulative_quat_product
+    t = np.ascontiguousarray(t, float)
+    step = step_s or max(IMU_GRID_S, (t[-1] - t[0]) / 1e5)
+    edges = np.arange(t[0], t[-1], step)
+    F = interp_rows(edges, t, np.asfortranarray(cumulative_integral(t, f_b)))
+    W = interp_rows(edges, t, np.asfortranarray(cumulative_integral(t, omega_b)))
+    dtheta = np.diff(W, axis=0)
+    q = cumulative_quat_product(Rotation.from_rotvec(dtheta).as_quat())
+    R_T = np.swapaxes(Rotation.from_quat(q).as_matrix(), 1, 2)
+    M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(0.5 * (R_T[1:] + R_T[:-1]) * step, axis=0)])
+    omega = np.vstack([dtheta / step, dtheta[-1:] / step])
+    return ImuIntegrals(edges, F, W, M, omega)
+
+
+def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, v (M,3))`` of the pings with a head velocity in the body frame (m/s): the instrument's ``v_b``,
+    its ``v_d`` turned by ``C_d_b``, or the least-squares velocity of >= 3 valid beams."""
+    n = len(dvl.t)
+    v = np.full((n, 3), np.nan)
+    if dvl.v_b is not None:
+        v = np.where(np.isfinite(dvl.v_b), dvl.v_b, np.nan)
+    C_d_b = np.eye(3) if config is None else config.dvl.C_d_b
+    if dvl.v_d is not None and dvl.v_d_valid is not None:
+        fill = ~np.all(np.isfinite(v), axis=1) & dvl.v_d_valid
+        v[fill] = dvl.v_d[fill] @ C_d_b.T
+    missing = ~np.all(np.isfinite(v), axis=1) & (dvl.valid.sum(axis=1) >= 3)
+    if missing.any():
+        from graphnav.core.config import DvlSpec
+        from graphnav.core.dvl import DvlGeometry
+        spec = DvlSpec() if config is None else config.dvl
+        v[missing] = DvlGeometry.from_spec(spec).velocity_from_beams(
+            dvl.beams[missing], dvl.valid[missing], allow_missing=True)
+    ok = np.all(np.isfinite(v), axis=1)
+    return np.asarray(dvl.t, float)[ok], v[ok]
+
+
+class _WindowModel:
+    """The DVL pings in windows of :data:`WINDOW_PINGS`; for a candidate offset, the residual of
+
+        v_j = v0 + int f_b dt + (int R^T dt) g0 - int omega x v dt - omega_j x l       (per window: v0, g0)
+
+    against the same fit without the IMU terms (a straight line per window): the explained fraction."""
+
+    def __init__(self, imu: ImuIntegrals, t_dvl: np.ndarray, v: np.ndarray, lever_arm_b: np.ndarray,
+                 window: int):
+        self.imu, self.lever = imu, lever_arm_b
+        n_win = len(t_dvl) // window
+        self.t = t_dvl[:n_win * window].reshape(n_win, window)
+        self.v = v[:n_win * window].reshape(n_win, window, 3)
+        self.v_mid = 0.5 * (self.v[:, 1:] + self.v[:, :-1])
+        self.window = window
+        # the fit without IMU: v = v0 + c t per window (6 parameters, as the model's v0, g0)
+        tc = self.t - self.t.mean(axis=1, keepdims=True)
+        X = np.stack([np.ones_like(tc), tc], axis=-1)                   # (n_win, window, 2)
+        beta = np.einsum("wij,wjk->wik", np.linalg.pinv(X), self.v)
+        self.sse_null_w = np.sum((self.v - X @ beta) ** 2, axis=(1, 2))   # per window
+
+    def thinned(self, max_windows: int) -> "_WindowModel":
+        """The same model on at most ``max_windows`` windows spread over the log (for the coarse scan of a long
+        log: its cost grows with windows x offsets)."""
+        keep = np.unique(np.linspace(0, len(self.t) - 1, min(max_windows, len(self.t))).round().astype(int))
+        out = object.__new__(_WindowModel)
+        out.imu, out.lever, out.window = self.imu, self.lever, self.window
+        out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
+        return out
+
+    def sse(self, offset: float) -> tuple[np.ndarray, np.ndarray]:
+        """(SSE per window, True where the window lies inside the IMU span) at ``offset`` s."""
+        imu, t = self.imu, self.t + offset
+        inside = (t[:, 0] >= imu.t[0]) & (t[:, -1] <= imu.t[-1])
+        out = np.full(len(t), np.nan)
+        if not inside.any():
+            return out, inside
+        tq = t[inside].reshape(-1)
+        F = interp_rows(tq, imu.t, imu.F).reshape(-1, self.window, 3)
+        W = interp_rows(tq, imu.t, imu.W).reshape(-1, self.window, 3)
+        M = interp_rows(tq, imu.t, imu.M.reshape(-1, 9)).reshape(-1, self.window, 3, 3)
+        w = interp_rows(tq, imu.t, imu.omega).reshape(-1, self.window, 3)
+        v = self.v[inside]
+        rot = np.cross(np.diff(W, axis=1), self.v_mid[inside])        # omega x v over each ping interval
+        C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
+        y = v - np.cross(w, self.lever) - F + C
+        y = y - y.mean(axis=1, keepdims=True)                           # v0
+        Mc = M - M.mean(axis=1, keepdims=True)
+        A = Mc.reshape(len(v), -1, 3)                                   # (win, window*3, 3)
+        g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
+                             np.einsum("wki,wk->wi", A, y.reshape(len(v), -1))[..., None])[..., 0]
+        r = y.reshape(len(v), -1) - np.einsum("wkj,wj->wk", A, g0)
+        out[inside] = np.sum(r ** 2, axis=1)
+        return out, inside
+
+    def score(self, offset: float) -> tuple[float, float, int]:
+        """(explained fraction 1 - SSE/SSE_null, SSE, windows) over the windows inside the IMU span."""
+        sse, inside = self.sse(offset)
+        if inside.sum() < 2:
+            return -np.inf, np.inf, 0
+        null = float(np.sum(self.sse_null_w[inside]))
+        total = float(np.sum(sse[inside]))
+        return 1.0 - total / max(null, 1e-12), total, int(inside.sum())
+
+
+# ------------------------------------------------------------------------------------------------
+# the estimate
+# ------------------------------------------------------------------------------------------------
+def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = MIN_OVERLAP_S,
+                              lever_arm_b=None, window_pings: int | None = None,
+                              search_s: tuple[float, float] | None = None) -> ClockOffset:
+    """The offset to add to the DVL stamps to put them on the IMU clock, from the data (module docstring).
+
+    Args:
+        imu: :class:`~graphnav.core.mission.ImuData` (SI units, body FRD).
+        dvl: :class:`~graphnav.core.mission.DvlData` on its own clock (seconds, any origin: days apart is fine).
+        config: a SensorConfig (C_d_b, beam geometry, lever arm) or None.
+        min_overlap_s: shortest overlap a candidate offset must leave between the two logs, s (at least
+            :data:`MIN_OVERLAP_FRACTION` of the shorter log in any case).
+        lever_arm_b: DVL position relative to the IMU, m (default: the config's, else zero).
+        window_pings: pings per window of the gravity fit (default :data:`WINDOW_S` worth).
+        search_s: (lo, hi) offsets to search, s; default: every offset leaving ``min_overlap_s`` of overlap.
+
+    Returns:
+        A :class:`ClockOffset`; check ``confident`` (:func:`align_stream_clocks` refuses or warns on it).
+
+    Raises:
+        DataError: fewer than two windows of usable pings, or logs too short to overlap ``min_overlap_s``.
+    """
+    t_dvl, v = dvl_velocity_b(dvl, config)
+    period = float(np.median(np.diff(t_dvl))) if len(t_dvl) > 1 else np.nan
+    window = window_pings or max(6, int(round(WINDOW_S / period))) if np.isfinite(period) else 6
+    if len(t_dvl) < 2 * window:
+        raise DataError(f"{len(t_dvl)} DVL ping(s) with a velocity: too few to find a clock offset (need "
+                        f"{2 * window})", dvl.source, field="t")
+    if lever_arm_b is None:
+        lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
+    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+    model = _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window)
+    span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
+    # the two logs of one mission overlap mostly; a candidate sharing only a sliver scores on a few windows
+    # and can win by chance (a 1 h log six days away did, 3538 s off, before this)
+    min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * min(span_imu, span_dvl)),
+                        min(span_imu, span_dvl) - window * period)
+    # every offset at which the DVL log overlaps the IMU log by min_overlap_s: the whole possible range
+    lo = ints.t[0] - t_dvl[-1] + min_overlap_s
+    hi = ints.t[-1] - t_dvl[0] - min_overlap_s
+    if search_s is not None:
+        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
+    h = max(0.5 * period, (hi - lo) / 4000)
+    grid = np.arange(lo, hi + 0.5 * h, h)
+    if grid.size == 0:
+        raise DataError(f"the IMU ({span_imu:.0f} s) and DVL ({span_dvl:.0f} s) logs are too short to share "
+                        f"{min_overlap_s:.0f} s at any offset", dvl.source, field="t")
+    coarse_model = model.thinned(COARSE_MAX_WINDOWS)
+    scores = np.array([coarse_model.score(o)[0] for o in grid])
+    i = int(np.argmax(scores))
+    far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
+    second = float(np.max(scores[far])) if far.any() else 0.0
+    coarse = float(grid[i])
+
+    def cost(o):
+        return model.score(o)[1]
+    res = minimize_scalar(cost, bounds=(coarse - h, coarse + h), method="bounded", options={"xatol": 1e-4})
+    x = float(res.x)
+    explained, sse, n_win = model.score(x)
+    n = n_win * window * 3
+    step = 0.01
+    curvature = (cost(x + step) - 2 * sse + cost(x - step)) / step ** 2
+    sigma = _sigma_from_curvature(sse, curvature, n, 6 * n_win + 1)
+    rms = float(np.sqrt(sse / max(n, 1)))
+    overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
+    return ClockOffset(x, sigma, max(explained, float(scores[i])), max(second, 0.0), coarse, rms, overlap,
+                       n_win * window)
+
+
+def _overlap_fraction(t: np.ndarray, t_imu: np.ndarray) -> float:
+    if len(t) == 0 or len(t_imu) == 0:
+        return 0.0
+    return float(np.mean((t >= t_imu[0]) & (t <= t_imu[-1])))
+
+
+def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
+                        min_overlap_s: float = MIN_OVERLAP_S):
+    """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
+
+    The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident
+    and at least half a DVL period (smaller offsets are left to the fine DVL time-offset calibration,
+    which needs a reference or the graph, and are noted in meta). A depth stream with the DVL's source
+    (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and, when
+    applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate.
+
+    Raises:
+        DataError: the DVL does not overlap the IMU (fewer than half its pings inside the IMU span) and no
+            confident offset can be found (a constant-velocity log has no signal to align on), or a depth
+            stream on a third clock does not overlap the IMU.
+    """
+    meta = {} if meta is None else meta
+    inside = _overlap_fraction(dvl.t, imu.t)
+    try:
+        near = (-NEAR_SEARCH_S, NEAR_SEARCH_S) if inside >= 0.5 else None
+        est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near)
+    except DataError:
+        if inside >= 0.5:
+            add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
+            return dvl, depth
+        raise
+    meta.setdefault("clock_offsets", {})["dvl"] = est.to_dict()
+    period = float(np.median(np.diff(dvl.t))) if len(dvl.t) > 1 else 1.0
+    if not est.confident:
+        why = (f"the IMU's accelerations explain the DVL's velocity changes at no clear offset (best "
+               f"{est.peak:.2f}, next {est.second_peak:.2f}: the DVL noise hides the vehicle's accelerations, or "
+               "a constant-velocity log has no signal)")
+        if inside < 0.5:
+            raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
+                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s ({100 * (1 - inside):.0f} % of the pings) and the "
+                            f"clock offset cannot be found: {why}; give dvl_time_offset_s", dvl.source, field="t")
+        add_note(meta, "dvl", f"clock offset not applied: {why}")
+        return dvl, depth
+    if abs(est.offset_s) < 0.5 * period and inside >= 0.5:
+        add_note(meta, "dvl", f"clock offset {est.describe()} is under half a DVL period: left to the fine "
+                 "DVL time-offset calibration")
+        return dvl, depth
+    text = f"DVL clock offset {est.describe()} estimated from the data and added to the DVL stamps"
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
+    add_note(meta, "dvl", text)
+    dvl = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + est.offset_s)
+    if depth is not None:
+        if depth.source == dvl.source:
+            depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + est.offset_s)
+            add_note(meta, "depth", f"moved with the DVL clock ({est.offset_s:+.3f} s): same instrument")
+        elif _overlap_fraction(depth.t, imu.t) < 0.5:
+            raise DataError(f"depth stamps [{depth.t[0]:.3f}, {depth.t[-1]:.3f}] s lie outside the IMU span "
+                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
+                            depth.source, field="t")
+    return dvl, depth
