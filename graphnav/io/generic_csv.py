@@ -302,7 +302,8 @@ def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
     """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock)."""
     from graphnav.core.streams import add_note
     from graphnav.io.stream_counts import record_streams
-    done = meta.get("streams", {})     # the PD0 reader counts its own DVL and depth, with its reasons
+    # the PD0 reader counts its own DVL and depth, with its reasons
+    done = {k for k, e in meta.get("streams", {}).items() if e["read"]}
     record_streams(meta, imu=imu, dvl=None if "dvl" in done else dvl, depth=None if "depth" in done else depth,
                    gt=gt)
     add_note(meta, "imu", f"clock starts at the first IMU stamp ({meta['t0_s']:.6f} s on the file's clock)")
