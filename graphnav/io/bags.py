@@ -358,10 +358,51 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     compare_clocks({k: (s.t_ns, s.receive_ns, s.stamp_kind) for k, s in used.items()}, meta, source)
     meta["topics"] = {k: f"{s.topic} ({s.msgtype})" for k, s in used.items()}
     meta.update(info)
+    imu, dvl, depth = _units_and_clocks(imu, dvl, depth, config, meta)
     if depth is None:
         meta["depth_source"] = "none"
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
                    heading=heading)
+
+
+def _units_and_clocks(imu, dvl, depth, config: SensorConfig, meta: dict):
+    """The IMU in SI (a driver's gyro in deg/s, an accelerometer in g: :func:`graphnav.io.units.check_units`;
+    bag stamps are nanoseconds by definition) and the DVL on the IMU clock, each change warned about and noted
+    in meta. A DVL whose header clock is seconds or days away from the IMU's is first put on it through the
+    recorder's receive clock, which every message shares (:func:`_receive_clock_shift`); the offset is then
+    estimated from the data themselves (:func:`graphnav.calibration.clock.align_stream_clocks`: DVL velocity
+    changes against the IMU's accelerations), applied where it is confident."""
+    import dataclasses as dc
+
+    from graphnav.calibration.clock import align_stream_clocks
+    from graphnav.io.units import check_units
+    checked = check_units({"imu": imu, "depth": depth}, config, meta, declared={"time": "s"})
+    imu, depth = checked["imu"], checked["depth"]
+    shift = _receive_clock_shift(imu, dvl, meta)
+    if shift:
+        dvl = dc.replace(dvl, t=dvl.t - shift)
+        note = (f"clock: DVL header stamps moved by {-shift:+.3f} s onto the IMU clock through the bag's receive "
+                "clock (both streams' header-minus-receive offsets)")
+        add_note(meta, "dvl", note)
+        warnings.warn(f"{meta.get('source', 'bag')}: {note}", RuntimeWarning, stacklevel=3)
+        meta.setdefault("clock_offsets", {})["dvl_from_receive_clock_s"] = -shift
+    dvl, depth = align_stream_clocks(imu, dvl, depth, meta, config)
+    return imu, dvl, depth
+
+
+def _receive_clock_shift(imu, dvl, meta: dict) -> float:
+    """Seconds to subtract from the DVL stamps to put them on the IMU's clock, through the receive clock, when
+    fewer than half the pings lie in the IMU span and both clocks' relation to the receive clock is known;
+    else 0 (the stamps overlap, or nothing relates the clocks)."""
+    clock = meta.get("clock", {})
+    kinds, hmr = clock.get("stamps", {}), clock.get("header_minus_receive_s", {})
+    inside = np.mean((dvl.t >= imu.t[0]) & (dvl.t <= imu.t[-1])) if len(dvl.t) and len(imu.t) else 1.0
+    if inside >= 0.5 or "imu" not in kinds or "dvl" not in kinds:
+        return 0.0
+    offsets = [0.0 if kinds[s] != "header" else hmr.get(s) for s in ("dvl", "imu")]
+    if None in offsets:
+        return 0.0
+    return float(offsets[0] - offsets[1])
 
 
 def load_odometry(path: str | Path, topic: str | None = None):
