@@ -64,7 +64,6 @@ def test_smooth_reads_the_bag_and_writes_an_odometry_bag(sim, tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     # Same estimate as on the mission itself (the bag loses nothing the estimator uses).
     direct = run_method(mission, "Graph-TC", "none")
-    from graphnav.evaluation.metrics import vrmse
     assert summary["accuracy"]["vrmse_mission_mps"] == pytest.approx(vrmse(direct, mission.gt), rel=1e-3)
     assert summary["accuracy"]["vrmse_mission_mps"] < 0.1     # 40 s incl. the initial convergence
     # The Odometry bag: absolute stamps, REP-103 frames, velocity covariance; read back as a reference.
@@ -239,23 +238,53 @@ def test_heading_reaches_the_navigator_and_the_aligner(driver):
     assert al.heading_source == "heading"
 
 
-def test_dvl_clock_days_away_is_kept_and_recorded(driver):
-    """Header stamps of a DVL clock 6 days behind: not dropped, recorded as a clock offset."""
+def test_dvl_clock_days_away_and_a_gyro_in_deg_s_are_repaired(driver):
+    """Header stamps of a DVL clock 6 days behind and a gyro in deg/s: the gyro converted to rad/s, the DVL put
+    on the IMU clock through the receive clock, each repair warned about and recorded."""
     mission, root = driver
     six_days = -6 * 86400.0
     path = bag_driver.write_driver_bag(mission, root / "offset", duplicate_dvl_stamps=0, dvl_clock_offset_s=six_days,
                                        leak_sensor=False, housing_sensor=False, gyro_deg=True)
     m, warned = _load(path, mission.config)
-    # the writer can record the gyro in deg/s (what a units check must catch; the loader reads it as recorded)
-    np.testing.assert_allclose(m.imu.omega_b, np.degrees(mission.imu.omega_b), atol=1e-9)
+    np.testing.assert_allclose(m.imu.omega_b, mission.imu.omega_b, atol=1e-9)
+    assert any("gyro read as deg/s" in n for n in m.meta["streams"]["imu"]["notes"])
     assert len(m.dvl.t) == len(mission.dvl.t)
-    np.testing.assert_allclose(m.dvl.t, mission.dvl.t + six_days, atol=2e-9)
+    # on the IMU clock up to the recorder's 0.05 s latency (left to the fine DVL time-offset calibration)
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t + 0.05, atol=1e-6)
     clock = m.meta["clock"]
     assert clock["stamps"]["dvl"] == "header" and clock["dvl_imu_overlap_s"] == 0.0
     assert clock["dvl_minus_imu_start_s"] == pytest.approx(six_days, abs=1e-6)
     assert clock["header_minus_receive_s"]["dvl"] == pytest.approx(six_days - 0.05, abs=1e-6)
+    assert m.meta["clock_offsets"]["dvl_from_receive_clock_s"] == pytest.approx(-(six_days - 0.05), abs=1e-6)
     assert any("do not overlap the IMU's" in w and "6.00 days" in w for w in warned)
-    assert any("clock offset" in n for n in m.meta["streams"]["dvl"]["notes"])
+    assert any("onto the IMU clock through the bag's receive clock" in w for w in warned)
+    assert m.meta["streams"]["dvl"]["refused"].get("outside the IMU time span", 0) <= 1
+
+
+def test_driver_bag_end_to_end_through_smooth_and_info(tmp_path, capsys):
+    """A bag as a real vehicle's drivers write it (zero IMU stamps, DVL clock 6 days away, embedded definitions,
+    leak and housing pressure topics, gyro in deg/s, an AHRS) runs through ``graphnav smooth`` and
+    ``graphnav info``, and navigates as well as the same mission loaded clean."""
+    import json
+
+    from graphnav import cli
+    from graphnav.io.outputs import read_trajectory_csv
+    mission = simulate_mission(duration_s=120.0, seed=3)
+    path = bag_driver.write_driver_bag(mission, tmp_path / "drv.mcap", duplicate_dvl_stamps=0, gyro_deg=True,
+                                       dvl_clock_offset_s=-6 * 86400.0)
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["usable"] and d["streams"]["dvl"]["used"] >= len(mission.dvl.t) - 1
+    assert cli.main(["smooth", "--data", str(path), "--out", str(tmp_path / "out"), "--no-plots",
+                     "--method", "Graph-TC"]) == 0
+    sol = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")
+    # the bag's clock starts at the first IMU stamp, the simulation's at 0: the same instants
+    t_truth = sol.t - sol.t[0] + mission.imu.t[0]
+    inside = (t_truth > 30.0) & (t_truth < mission.t1)          # after the alignment from the sensors
+    _, v_true, _ = mission.gt.at(t_truth[inside])
+    err = float(np.sqrt(np.mean(np.sum((sol.v_n[inside] - v_true) ** 2, axis=1))))
+    print(f"velocity RMSE from the repaired driver bag: {err:.4f} m/s")
+    assert err < 0.1, f"velocity RMSE {err:.3f} m/s from the repaired bag"
 
 
 @pytest.mark.parametrize("definition, name", [(bag_msgs.DVL_MSGS_DVL_A50, "A50"), (bag_msgs.DVL_MSGS_DVL_V3, "v3")])
@@ -436,7 +465,6 @@ def test_mems_imu_aligns_on_the_ahrs_of_the_bag(tmp_path):
     """A MEMS IMU cannot gyrocompass: with the bag's AHRS the Navigator aligns on its heading and navigates;
     without it the loader says so up front, naming the gyro's limit and what to add."""
     from graphnav.estimators.runs import run_graph
-    from graphnav.evaluation.metrics import vrmse
     mission = simulate_mission(duration_s=60.0, imu_grade="mems", seed=2)
     m, _ = _load(bag_driver.write_driver_bag(mission, tmp_path / "ahrs", dvl_latency_s=0.0), mission.config)
     sol = run_graph(m, init="sensors")
