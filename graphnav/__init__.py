@@ -5,8 +5,9 @@ The public API (the names of ``__all__``, each imported on first use so that ``i
 - :class:`Navigator`, :class:`NavigatorOptions`: the streaming backend a vehicle runs
   (:mod:`graphnav.estimators.navigator`); :class:`GraphOptions`, :class:`EkfOptions` configure its estimators.
 - :class:`Mission`, :class:`SensorConfig`, :class:`NavSolution`: the data model (:mod:`graphnav.core`);
-  :func:`load_mission` reads a recorded one (A-KIT folder, ROS 2 bag, PD0, CSV log), :func:`simulate_mission`
-  makes one.
+  :func:`load_mission` reads a recorded one (A-KIT folder, ROS 1/2 bag, PD0, CSV log), :func:`simulate_mission`
+  makes one; :func:`read_dvl` reads a DVL log on its own (PD0/VmDAS in every RDI frame, a CSV of DVL
+  velocities) into a :class:`~graphnav.core.dvl_log.DvlLog`.
 - :func:`run_method` runs a method of :data:`METHODS` (the registry: LC, TC, ..., Graph-HN-batch) on a mission.
 - :class:`DataError`, :class:`ConfigError`: what bad input and bad settings raise.
 
@@ -23,14 +24,12 @@ _PUBLIC = {
     "core.config": ("SensorConfig",),
     "core.solution": ("NavSolution",),
     "io.loaders": ("load_mission",),
+    "io.dvl_files": ("read_dvl",),
     "sim.simulate": ("simulate_mission",),
     "estimators.graph.options": ("GraphOptions",),
     "estimators.ekf": ("EkfOptions",),
     "evaluation.methods": ("run_method", "METHODS"),
     "core.errors": ("DataError", "ConfigError"),
 }
-#: Importable from ``graphnav`` on first use too, not (yet) in ``__all__``: :func:`read_dvl` reads any DVL file
-#: (PD0/VmDAS in every RDI frame, a CSV of DVL velocities) into a :class:`graphnav.core.dvl_log.DvlLog`.
-_ALSO = {"io.dvl_files": ("read_dvl",)}
-_names, __getattr__, __dir__ = _lazy_exports(__name__, {**_PUBLIC, **_ALSO})
+_names, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)
 __all__ = [name for names in _PUBLIC.values() for name in names]
