@@ -1,7 +1,8 @@
 """Fault injection: the ways real DVL/IMU logs go wrong, applied to a mission or to its CSV files.
 
-Used by ``tests/test_faults.py`` (which asserts each outcome) and ``scripts/fault_report.py`` (which prints
-the outcome table). Every injector is deterministic (seeded) and leaves its input untouched.
+Used by ``tests/test_faults.py`` (which asserts each outcome) and ``graphnav faults --estimators`` (which
+prints the outcome table, :func:`estimator_table`). Every injector is deterministic (seeded) and leaves its
+input untouched.
 
 Two kinds of injectors:
 
@@ -17,6 +18,12 @@ Two kinds of injectors:
 :data:`FAULTS` maps each fault name to a function ``(mission, workdir) -> Mission`` (raising
 ``DataError`` when the data cannot be used); :func:`run_fault` runs each method of :data:`FAULT_METHODS` through
 the registry (:func:`graphnav.evaluation.methods.run_method`) on the faulty mission.
+
+The command-line fault table (``graphnav faults``, :data:`CLI_CASES`, :func:`run_table`) damages *inputs*
+instead -- files, configs, stream lines, output folders, runs -- and runs graphnav's own commands on them in
+subprocesses with a time limit, classifying what a user gets: clear error, warning (result within
+:data:`RESULT_FACTOR` x the clean run's), ok, warning with a degraded result, traceback, hang or silent
+garbage (:func:`classify`).
 """
 from __future__ import annotations
 
@@ -316,7 +323,7 @@ class Expected:
 
 
 #: The outcome each fault of :data:`FAULTS` must have on :func:`fault_mission`; the bounds
-#: are about 1.2-1.3x what was measured (``scripts/fault_report.py`` prints both).
+#: are about 1.2-1.3x what was measured (``graphnav faults --estimators`` prints both).
 EXPECTED: dict[str, Expected] = {
     "none": Expected(),
     "none csv": Expected(baseline="none csv"),
@@ -458,7 +465,7 @@ def judge(expected: "Expected", outcome: Outcome, baseline_vrmse: float) -> str:
 
 
 # --------------------------------------------------------------------------------------------------------
-# The estimator table (what scripts/fault_report.py printed): every fault of FAULTS through every method
+# The estimator table (graphnav faults --estimators): every fault of FAULTS through every method
 # --------------------------------------------------------------------------------------------------------
 def estimator_table(grade: str, seed: int = 1, duration_s: float = 200.0, workdir: str | Path = ".",
                     out=print) -> int:
@@ -1104,7 +1111,7 @@ def _tree_digest(folder: Path) -> dict:
 def _missing_stream(ws: Workspace, folder: Path) -> Plan:
     out = folder / "out"
     return Plan([Step(["online", "--stream", str(folder / "no-such-stream.jsonl"), "--out", str(out),
-                       "--no-plots", "--no-progress"])], out / "online.csv")
+                       "--no-plots", "--no-progress"])], out / "online.csv", reference=ws.sim.gt)
 
 
 def _out_is_a_file(ws: Workspace, folder: Path) -> Plan:
