@@ -635,6 +635,9 @@ def run_step(step: Step, cwd: Path, env: dict | None = None, timeout_s: float = 
             _kill(proc)
             out, err = proc.communicate()
             code = None
+        except BaseException:
+            _kill(proc)              # Ctrl-C of the table: its own session would outlive it
+            raise
     finally:
         if step.stdin is not None:
             stdin.close()
@@ -1332,7 +1335,10 @@ def run_case(case: CliCase, ws: Workspace) -> CaseResult:
     """Prepare, run and classify one case (never raises for what the commands do)."""
     import shutil
     import time
-    folder = ws.root / "cases" / "".join(c if c.isalnum() else "_" for c in case.name)[:60]
+    import zlib
+    # names differing only in punctuation ("config: {}", "config: []") must not share a folder
+    folder = ws.root / "cases" / (f"{zlib.crc32(case.name.encode()):08x}-"
+                                  + "".join(c if c.isalnum() else "_" for c in case.name)[:60])
     if folder.exists():
         shutil.rmtree(folder)
     start = time.perf_counter()
@@ -1346,6 +1352,9 @@ def run_case(case: CliCase, ws: Workspace) -> CaseResult:
                 run = run_step(step, folder, timeout_s=time_limit(ws, case))
                 if run.returncode != 0:
                     break
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "stdout.txt").write_text(run.stdout)
+        (folder / "stderr.txt").write_text(run.stderr)
         new = [w for w in _warning_lines(run.stderr)
                if _shape(w) not in ws.clean_warnings.get(case.baseline, set())]
         if case.baseline == case.name:
