@@ -214,3 +214,15 @@ def test_faults_command_runs_a_selection(tmp_path, capsys):
     assert "| online stream: clean |" in text and text.strip() in capsys.readouterr().out
     assert code == (1 if any(f"| **{v}** |" in text or f"| {v} |" in text for v in BAD_VERDICTS) else 0)
     shutil.rmtree(tmp_path / "w")
+
+
+@pytest.mark.slow
+def test_estimator_table_command(tmp_path, capsys):
+    """`graphnav faults --estimators` (what scripts/fault_report.py printed): one row per log fault."""
+    from graphnav import cli
+    code = cli.main(["faults", "--estimators", "--grade", "navigation", "--out", str(tmp_path / "est.md")])
+    text = (tmp_path / "est.md").read_text()
+    for fault in F.EXPECTED:
+        assert f"\n{fault} " in text
+    summary = [ln for ln in text.splitlines() if "faults within their stated outcome" in ln]
+    assert len(summary) == 1 and code == (0 if summary[0].startswith(f"{len(F.EXPECTED)}/") else 1)
