@@ -135,6 +135,10 @@ def test_the_damage_is_the_stated_one(ws, tmp_path):
     assert len(dvl) - len(gap) == 60 and not ((gap[:, 0] >= 40) & (gap[:, 0] < 100)).any()
     nan = damaged("DVL: 60 s of NaN rows", "DVL")
     assert np.isnan(nan[:, 1:]).all(axis=1).sum() == 60
+    stall = damaged("IMU: 5 s of rows deleted (logger stall)", "IMU")
+    assert len(imu) - len(stall) == 500
+    np.testing.assert_array_equal(damaged("DVL: x and y axes swapped (another frame)", "DVL")[:, [2, 1]],
+                                  dvl[:, [1, 2]])
     ahead = damaged("DVL: clock 3 days ahead of the IMU", "DVL")
     np.testing.assert_allclose(ahead[:, 0] - dvl[:, 0], 3 * 86400.0)
 

@@ -768,8 +768,6 @@ def _data_child(data: Path, name: str) -> Path | None:
 
 def _real_trajectory(data: Path, number: int, out: Path):
     """Copy the first :data:`REAL_DURATION_S` s of A-KIT ``TrajectoryN`` under ``out``; (folder, its GT)."""
-    import warnings as _w
-
     from graphnav.io.loaders import load_akit
     akit = _data_child(data, "snapir-2022-akit") or data
     src = akit / f"Trajectory{number}"
@@ -782,8 +780,8 @@ def _real_trajectory(data: Path, number: int, out: Path):
         lines = (src / name).read_text().splitlines()
         keep = [lines[0]] + [ln for ln in lines[1:] if ln and float(ln.split(",", 1)[0]) <= REAL_DURATION_S]
         (dst / name).write_text("\n".join(keep) + "\n")
-    with _w.catch_warnings():
-        _w.simplefilter("ignore")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
         return dst, load_akit(dst).gt
 
 
@@ -1155,6 +1153,10 @@ def _negate_velocities(d):
     return d
 
 
+def _swap_xy(d):
+    return d[:, [0, 2, 1, 3]]
+
+
 def _swap_blocks(d):
     return d[:, [0, 4, 5, 6, 1, 2, 3]]
 
@@ -1225,6 +1227,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("IMU: accelerometer in g", "smooth", E + W, _damage("IMU", _scale_cols(slice(1, 4), 1 / 9.80665))),
     _sim("IMU: 50 NaN rows (0.5 s)", "smooth", W + E, _damage("IMU", _set(_t_between(60.0, 60.5), slice(1, 7),
                                                                              np.nan))),
+    _sim("IMU: 5 s of rows deleted (logger stall)", "smooth", W + D, _damage("IMU", _delete_rows(70.0, 75.0))),
     _sim("IMU: a stamp of 0 mid-file", "smooth", E + W, _damage("IMU", _zero_stamp)),
     _sim("IMU: a duplicated stamp", "smooth", E + W, _damage("IMU", _dup_stamp)),
     # DVL
@@ -1232,6 +1235,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("DVL: 60 s of NaN rows", "smooth", W + D, _damage("DVL", _set(_t_between(40.0, 100.0), _DVL_XYZ, np.nan))),
     _sim("DVL: one velocity spike of 30 m/s", "smooth", W, _damage("DVL", _set(lambda d: 70, 1, 30.0))),
     _sim("DVL: velocities in cm/s", "smooth", E + W, _damage("DVL", _scale_cols(_DVL_XYZ, 100.0))),
+    _sim("DVL: x and y axes swapped (another frame)", "smooth", E + W + D, _damage("DVL", _swap_xy)),
     _sim("DVL: clock 3 days ahead of the IMU", "smooth", E, _damage("DVL", _shift_stamps(3 * 86400.0))),
     # ground truth
     _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
@@ -1368,6 +1372,7 @@ def run_case(case: CliCase, ws: Workspace) -> CaseResult:
                                   f"{run.returncode}, nothing said")
         elif new and not note.startswith("no result"):
             note = f"{note}; warned: {new[0][:120]}"
+        note = note.replace(str(folder), "CASE")          # the case's own folder: short, and the same every run
         return CaseResult(case, verdict, value, bound, note, time.perf_counter() - start, new)
     finally:
         if plan.cleanup is not None:
