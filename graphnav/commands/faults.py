@@ -37,7 +37,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", default="out/faults.md", metavar="FILE", help="write the table (markdown) here")
     p.add_argument("--jobs", type=int, default=2, metavar="N", help="cases run at once")
     p.add_argument("--case", action="append", metavar="TEXT",
-                   help="run only the cases whose name contains TEXT (the clean runs they need always run)")
+                   help="run only the cases whose name contains TEXT (and the clean runs they are scored against)")
     p.add_argument("--workdir", metavar="DIR", help="keep the damaged inputs and outputs here (default: a "
                                                     "temporary folder, removed at the end)")
     p.add_argument("--seed", type=int, default=1, help="simulator seed of the clean mission")
@@ -64,7 +64,12 @@ def run(args) -> int:
         ws = faults.make_workspace(root, args.data, args.trajectory, args.seed)
         cases = faults.CLI_CASES
         if args.case:
-            cases = tuple(c for c in cases if c.baseline == c.name or any(t in c.name for t in args.case))
+            chosen = [c for c in cases if any(t in c.name for t in args.case)]
+            if not chosen:
+                raise ConfigError(f"--case {args.case}: no case matches; the cases are: "
+                                  + "; ".join(c.name for c in cases))
+            needed = {c.baseline for c in chosen} | {c.name for c in chosen}
+            cases = tuple(c for c in cases if c.name in needed)
         results = faults.run_table(ws, cases, args.jobs, progress=_progress)
         title = (f"## graphnav faults: {len(results)} cases, simulated mission {faults.SIM_DURATION_S:g} s "
                  f"(seed {args.seed})" + (f", A-KIT Trajectory{args.trajectory} first {faults.REAL_DURATION_S:g} s"
