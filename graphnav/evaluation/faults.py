@@ -1371,7 +1371,9 @@ def run_case(case: CliCase, ws: Workspace) -> CaseResult:
             note = _said(run) or ("killed at the time limit" if verdict == HANG else "exit code "
                                   f"{run.returncode}, nothing said")
         elif new and not note.startswith("no result"):
-            note = f"{note}; warned: {new[0][:120]}"
+            # the estimator's own verdict on its result says most; else the first thing the user was told
+            told = next((w for w in new if "DIVERGED" in w), new[0])
+            note = f"{note}; warned ({len(new)}): {told[:120]}"
         note = note.replace(str(folder), "CASE")          # the case's own folder: short, and the same every run
         return CaseResult(case, verdict, value, bound, note, time.perf_counter() - start, new)
     finally:
