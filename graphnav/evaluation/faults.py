@@ -888,12 +888,18 @@ def _config_not_first(lines):
 
 
 # --- cases with their own runner or check -----------------------------------------------------------------
+#: Largest median difference (m) between a written position's down axis and the absolute depth.
+DEPTH_CONVENTION_TOL_M = 1.0
+
+
 def _evaluate_case(ws: Workspace, folder: Path, real: bool) -> Plan:
-    """``graphnav smooth`` then ``graphnav evaluate trajectory.csv --ref <A-KIT folder>``: evaluate's APE must
-    match the position RMSE against the reference in the one position convention (the harness computes it)."""
+    """``graphnav smooth`` then ``graphnav evaluate trajectory.csv --ref <A-KIT folder>``. Evaluate's APE must
+    match the position RMSE the harness computes against the same reference (within RESULT_FACTOR either
+    way), and the down axis of ``trajectory.csv`` and ``groundtruth.tum`` must be the absolute depth, checked
+    against a depth the loaders do not touch: the simulated truth, or ``-Altitude`` of the raw GT file."""
     import json
 
-    from graphnav.io.outputs import read_trajectory_csv
+    from graphnav.io.outputs import read_trajectory_csv, read_tum
     plan = _akit_case(ws, folder, real, None)
     data, trajectory = Path(plan.steps[0].argv[2]), plan.result
     argv = ["evaluate", str(trajectory), "--ref", str(data), "--json", str(folder / "eval.json")]
@@ -901,16 +907,35 @@ def _evaluate_case(ws: Workspace, folder: Path, real: bool) -> Plan:
         argv += ["--config", str(ws.sim_config)]
     plan.steps.append(Step(argv))
     gt = plan.reference
+    depth = _independent_depth(ws, real)
 
     def check(run):
         sol = read_trajectory_csv(trajectory)
         inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
         own = float(np.sqrt(np.mean(np.sum((sol.p_n[inside] - gt.at(sol.t[inside])[0]) ** 2, axis=1))))
         ape = json.loads((folder / "eval.json").read_text())["ape_translation_m"]["rmse"]
-        return ape, RESULT_FACTOR * own, f"APE {ape:.2f} m vs {own:.2f} m position RMSE against the reference"
+        t_ref, p_ref, _ = read_tum(trajectory.parent / "groundtruth.tum")
+        for name, t, down in (("trajectory.csv", sol.t, sol.p_n[:, 2]), ("groundtruth.tum", t_ref, p_ref[:, 2])):
+            off = float(np.median(down - depth(t)))
+            if abs(off) > DEPTH_CONVENTION_TOL_M:
+                return float("nan"), 0.0, f"{name}: down is {off:+.1f} m from the absolute depth"
+        note = f"APE {ape:.2f} m vs {own:.2f} m position RMSE against the reference; down = absolute depth"
+        return max(ape, own ** 2 / ape if ape > 0 else np.inf), RESULT_FACTOR * own, note
     plan.check = check
     plan.result = None
     return plan
+
+
+def _independent_depth(ws: Workspace, real: bool) -> Callable[[np.ndarray], np.ndarray]:
+    """Depth (m) at stamps, from a source the loaders do not touch: the simulated truth, or the raw A-KIT GT
+    file's ``-Altitude`` (its stamps rescaled as the loader does; a GT time offset of tenths of a second moves
+    a depth by centimetres)."""
+    if not real:
+        return lambda t: np.interp(t, ws.sim.gt.t, ws.sim.gt.p_n[:, 2])
+    raw = np.genfromtxt(_csv_file(ws.real_folder, "GT"), delimiter=",", skip_header=1)
+    n = len(raw)
+    t = raw[:, 0] * (n - 1) / n
+    return lambda s: np.interp(s, t, -raw[:, 3])
 
 
 def _resume_case(ws: Workspace, folder: Path) -> Plan:
