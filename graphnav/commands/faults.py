@@ -76,6 +76,9 @@ def run(args) -> int:
                                           if ws.real_folder is not None else "")
                  + f"; {time.perf_counter() - start:.0f} s\n")
         table = faults.format_table(results, title)
+        if ws.skipped:
+            table += (f"\nNot run ({len(ws.skipped)}; they need --data with the shared A-KIT and BeamsNet data): "
+                      + "; ".join(ws.skipped) + ".")
     print(table)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(table + "\n")

@@ -718,6 +718,7 @@ class Workspace:
     clean_epochs: dict = dataclasses.field(default_factory=dict)
     clean_warnings: dict = dataclasses.field(default_factory=dict)
     clean_wall: dict = dataclasses.field(default_factory=dict)
+    skipped: list = dataclasses.field(default_factory=list)
 
 
 #: Length of the simulated mission of the table, s (short: the whole table runs in about 3 minutes).
@@ -1411,8 +1412,10 @@ def run_table(ws: Workspace, cases=CLI_CASES, jobs: int = 2, progress=None) -> l
     its own subprocesses); returns their results in the order of ``cases``. ``progress(result)`` is called as
     each finishes."""
     from concurrent.futures import ThreadPoolExecutor
-    cases = [c for c in cases if not c.real or ws.real_folder is not None]
-    cases = [c for c in cases if "train-beams" not in c.name or ws.beamsnet is not None]
+    runnable = [c for c in cases if (not c.real or ws.real_folder is not None)
+                and ("train-beams" not in c.name or ws.beamsnet is not None)]
+    ws.skipped = [c.name for c in cases if c not in runnable]
+    cases = runnable
     results: dict[str, CaseResult] = {}
 
     def one(case):
