@@ -147,3 +147,25 @@ def test_bench_end_to_end(tmp_path):
                  "--methods", "TC", "Average-TC", "--jobs", "1", "--out", str(out), "--no-progress",
                  "--resume", "--no-plots"]) == 0
     assert json.loads((out / "results.json").read_text()) == json.loads(before)
+
+
+def test_resume_skips_the_last_written_epoch_despite_the_csv_rounding(tmp_path):
+    """The per-epoch CSV keeps 10 significant digits: the last stamp read back (21.22753333) is 3e-9 s below
+    the epoch's own (21.2275333333...), which must still count as written (else it is written twice)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from graphnav.commands.online import EpochSink
+    from graphnav.io.outputs import EpochCsvWriter
+    t_true = 21.0 + 0.37 - 0.1424666667 + 1e-10 / 3
+    path = tmp_path / "online.csv"
+    with EpochCsvWriter(path) as w:
+        w.write(t_true, np.zeros(3), np.zeros(3), np.eye(3))
+    with EpochCsvWriter(path, resume=True) as w:
+        assert w.last_t != t_true and abs(w.last_t - t_true) < 1e-8
+        sink = EpochSink(w, SimpleNamespace(update=lambda n: None), w.last_t, False, 1.0)
+        for t in (t_true, t_true + 1.0):
+            sink(SimpleNamespace(t=t, p_n=np.zeros(3), v_n=np.zeros(3), C_b_n=np.eye(3), cov_v_n=None, bias=None))
+    assert sink.n_replayed == 1 and sink.n_new == 1
+    assert len(path.read_text().splitlines()) == 3

@@ -370,7 +370,7 @@ def test_bench_interrupted_keeps_finished_cases(tmp_path, monkeypatch):
 
 
 # --- every IMU grade -------------------------------------------------------------------------------------
-#: The faults run on the tactical and MEMS missions in the suite (the whole table: scripts/fault_report.py).
+#: The faults run on the tactical and MEMS missions in the suite (the whole table: graphnav faults --estimators).
 GRADE_FAULTS = ("none", "dvl-outage 120 s", "dvl-glitches screened", "beam-spikes 1 m/s")
 
 

@@ -168,11 +168,14 @@ def test_list_and_load_akit(tmp_path):
     # the GT is moved to the IMU point, 0.2 m below the published GT point (level vehicle)
     np.testing.assert_allclose(m.depth.depth, 15.0 + 0.2)
     assert m.meta["depth_source"] == "gt"
-    np.testing.assert_allclose(m.gt.p_n[0], np.asarray(AKIT_IMU_POSITION_B), atol=1e-9)
+    # NED origin at the surface above the first fix: down is the absolute depth (one position convention)
+    assert m.gt.origin_lla[2] == 0.0
+    np.testing.assert_allclose(m.gt.p_n[0], np.asarray(AKIT_IMU_POSITION_B) + [0.0, 0.0, 15.0], atol=1e-9)
+    np.testing.assert_allclose(m.gt.p_n[:, 2], m.depth.depth)
     np.testing.assert_allclose(m.config.dvl.lever_arm_b, 0.0, atol=1e-12)
     at_gt_point = load_akit(folder, dvl_time_offset_s=0.5, gt_time_offset_s=-0.25, imu_position_b=(0, 0, 0))
     np.testing.assert_allclose(at_gt_point.depth.depth, 15.0)
-    np.testing.assert_allclose(at_gt_point.gt.p_n[0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(at_gt_point.gt.p_n[0], [0.0, 0.0, 15.0], atol=1e-9)
     np.testing.assert_allclose(at_gt_point.config.dvl.lever_arm_b, AKIT_LEVER_ARM_B)
     assert m.dvl.valid.all() and m.dvl.beams.shape == (20, 4)
     np.testing.assert_allclose(m.dvl.v_b[:, 0], 1.5)

@@ -340,8 +340,9 @@ def test_written_mission_loads_back(tmp_path):
     np.testing.assert_allclose(back.dvl.v_b, sim.dvl.v_b, atol=1e-12)
     np.testing.assert_allclose(back.gt.v_n, sim.gt.v_n, atol=1e-12)
     np.testing.assert_allclose(back.gt.C_b_n, sim.gt.C_b_n, atol=1e-12)
-    # the loader puts its NED origin at the first GT sample; geodetic round trip is sub-millimetre
-    np.testing.assert_allclose(back.gt.p_n, sim.gt.p_n - sim.gt.p_n[0], atol=1e-3)
+    # the loader puts its NED origin at the surface above the first GT sample (down = absolute depth);
+    # geodetic round trip is sub-millimetre
+    np.testing.assert_allclose(back.gt.p_n, sim.gt.p_n - sim.gt.p_n[0] * [1, 1, 0], atol=1e-3)
     np.testing.assert_allclose(back.depth.depth, sim.gt.p_n[:, 2], atol=1e-6)
 
 

@@ -12,8 +12,10 @@ def register(subparsers) -> None:
         description="Score a trajectory written by `graphnav smooth`/`online` (trajectory.csv, or a TUM file) "
                     "against a reference: a TUM file, a trajectory CSV, or a mission path as --data takes it "
                     "(A-KIT folder, ROS 2 bag with a reference nav_msgs/Odometry topic, CSV log with a gt "
-                    "column map) whose ground truth is used. APE and RPE come from evo's library; VRMSE and "
-                    "the velocity NEES from graphnav.evaluation.metrics. Needs graphnav[eval].",
+                    "column map) whose ground truth is used. APE and RPE come from evo's library, VRMSE "
+                    "from graphnav.evaluation.metrics; the velocity NEES is the benchmark's (after 60 s, against "
+                    "the reference carried to the estimate's epochs by the mission's IMU). Positions on both sides: NED from the sea surface "
+                    "above the first fix, down = absolute depth. Needs graphnav[eval].",
         formatter_class=HelpFormatter)
     p.add_argument("trajectory", help="trajectory.csv (or .tum) to score")
     p.add_argument("--ref", required=True, metavar="PATH", help="reference: TUM/CSV file or mission data path")
@@ -33,14 +35,15 @@ def run(args) -> int:
     from graphnav.evaluation.score import (
         evaluate,
         format_report,
-        load_reference,
+        load_reference_mission,
         load_trajectory,
     )
     from graphnav.io.bags import parse_topics
     check_out_file(args.json, force=True, option="--json")
     est = load_trajectory(args.trajectory)
-    ref = load_reference(args.ref, args.config, parse_topics(args.topic) or None)
-    result = evaluate(est, ref, align=args.align, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit)
+    ref, mission = load_reference_mission(args.ref, args.config, parse_topics(args.topic) or None)
+    result = evaluate(est, ref, mission=mission, align=args.align, rpe_delta=args.rpe_delta,
+                      rpe_unit=args.rpe_unit)
     result.update({"trajectory": str(args.trajectory), "reference": str(args.ref)})
     print(format_report(result, Path(args.trajectory).name, str(args.ref)))
     if args.json:

@@ -120,8 +120,7 @@ class EpochSink:
         f = epoch_fields(est)
         t = float(f["t"])
         self.bar.update(1)
-        # compared as written: the CSV holds 10 significant digits, so a stamp such as 1234.56789012 is
-        # 1234.56789 in the file and would otherwise count as a new epoch
+        # compared as written (stamps to the microsecond): a stamp read back from the file is the written one
         if self.skip_until is not None and written_stamp(t) <= self.skip_until:
             self.n_replayed += 1
             return

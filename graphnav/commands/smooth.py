@@ -34,7 +34,9 @@ def register(subparsers) -> None:
                        "summary and plots",
         description="Batch-smooth a whole mission with the factor graph (Levenberg-Marquardt over all "
                     "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
-                    "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum when the mission has GT), "
+                    "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT at the estimate's stamps, "
+                    "when the mission has GT: `evo_ape tum OUT/groundtruth.tum OUT/trajectory.tum` pairs every "
+                    "epoch), "
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
@@ -94,10 +96,11 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
              "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
     if mission.gt is not None:
-        from graphnav.core.solution import NavSolution
-        gt = mission.gt
-        files["groundtruth_tum"] = str(write_tum(out / "groundtruth.tum",
-                                                 NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n)))
+        # the reference at the estimate's stamps: evo_ape at its defaults pairs every epoch
+        from graphnav.io.outputs import write_reference_tum
+        written = write_reference_tum(out / "groundtruth.tum", sol, mission.gt)
+        if written is not None:
+            files["groundtruth_tum"] = str(written)
     if args.bag != "none":
         import shutil
 

@@ -295,6 +295,16 @@ class DepthData:
         return DepthData(self.t[idx], self.depth[idx], self.source)
 
 
+#: The one position convention of every position graphnav reads, estimates, writes and scores (loaders,
+#: estimators, trajectory CSV/TUM, ``graphnav evaluate``): NED in metres from an origin at the sea surface
+#: above the first geodetic fix, ``origin_lla = (lat0, lon0, 0.0)``, so ``p_n[:, 2]`` is the absolute depth
+#: (positive down) and never a depth relative to the start. Without a geodetic fix the horizontal origin is
+#: the vehicle's start (simulation, aligner without a fix); the down axis is still the depth. A reference
+#: read from a bag or a generic CSV is taken in the frame its file gives.
+NED_ORIGIN_CONVENTION = ("NED, m; origin at the sea surface above the first fix (lat0, lon0, alt 0); "
+                         "down = absolute depth")
+
+
 @dataclass
 class HeadingData:
     """Heading aiding (an AHRS, a compass, a heading topic): what the replay feeds to
@@ -342,7 +352,8 @@ class GroundTruth:
 
     Attributes:
         t: (K,) s.
-        p_n: (K,3) NED position relative to ``origin_lla``, m.
+        p_n: (K,3) NED position relative to ``origin_lla``, m (:data:`NED_ORIGIN_CONVENTION`: down is the
+            absolute depth).
         v_n: (K,3) NED velocity, m/s.
         C_b_n: (K,3,3) body-to-NED rotation.
         origin_lla: (lat rad, lon rad, alt m) of the NED origin, or None when unknown (simulation).

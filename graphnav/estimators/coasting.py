@@ -5,7 +5,7 @@ should.
 Through a total DVL outage nothing bounds the velocity error but the IMU: a navigation-grade INS drifts by
 centimetres per second over two minutes, a tactical or MEMS unit by metres per second. No bound on the
 error can then hold; what must hold is that the estimator says so while it happens and that its covariance
-covers the error (velocity NEES, ``scripts/fault_report.py``).
+covers the error (velocity NEES, ``graphnav faults --estimators``).
 
 :class:`CoastingMonitor` is fed one output epoch at a time (:class:`graphnav.estimators.navigator.Navigator`
 feeds it every estimate it makes, with the backend's word on whether a DVL update entered). A stretch of

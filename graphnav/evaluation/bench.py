@@ -42,6 +42,8 @@ from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.core.solution import NavSolution
 from graphnav.core.timeseries import interp_rows
 from graphnav.estimators.health import diverged_during
+# the mission NEES lives with the other consistency scores: ``graphnav evaluate`` calls the same function
+from graphnav.evaluation.consistency import NEES_SETTLE_S, mission_nees  # noqa: F401
 from graphnav.evaluation.methods import (
     BENCH_METHODS,
     METHODS,
@@ -241,35 +243,6 @@ def divergence_reason(sol: NavSolution, record: dict, t_start: float, t_end: flo
                      if i[0] <= t_end and (i[1] is None or i[1] >= t_start))
         return f"health monitor: {first[2]} (t={first[0]:.1f} s)"
     return None
-
-
-#: Seconds after the mission start left out of the mission NEES (initial convergence).
-NEES_SETTLE_S = 60.0
-
-
-def mission_nees(sol: NavSolution, mission: Mission) -> dict:
-    """``nees_mission``: mean velocity NEES over the mission after :data:`NEES_SETTLE_S`, against the reference
-    at the solution's epochs (:func:`graphnav.evaluation.consistency.mission_reference`: a sparse GT carried to
-    each epoch by the IMU); ``nees_mission_interp``: the same against the linearly interpolated GT (the
-    score before issue 14's reference fix; at the surface it is off by 0.1 m/s); ``nees_mission_gt``: the
-    first with the GT's own velocity error covariance added to the solution's
-    (``mission.meta["gt_velocity_sigma_n"]``, m/s per NED axis, set by the A-KIT loader; None without it);
-    ``nees_n_independent``: independent epochs for the chi-square band (:mod:`graphnav.evaluation.consistency`)."""
-    from graphnav.evaluation.consistency import mission_reference, n_independent, nees_with_reference
-    from graphnav.evaluation.metrics import nees_velocity
-    if sol.cov_v_n is None:
-        return {"nees_mission": None, "nees_mission_interp": None, "nees_mission_gt": None,
-                "nees_n_independent": None}
-    t0 = mission.t0 + NEES_SETTLE_S
-    reference = mission_reference(sol, mission)
-    nees = float(np.mean(nees_velocity(sol, reference, t0)))
-    nees_interp = float(np.mean(nees_velocity(sol, mission.gt, t0)))
-    sigma_gt = mission.meta.get("gt_velocity_sigma_n")
-    nees_gt = None
-    if sigma_gt is not None:
-        nees_gt = float(np.mean(nees_with_reference(sol, reference, np.diag(np.square(sigma_gt)), t0)))
-    return {"nees_mission": nees, "nees_mission_interp": nees_interp, "nees_mission_gt": nees_gt,
-            "nees_n_independent": n_independent(sol.t[sol.t >= t0])}
 
 
 def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:

@@ -1,7 +1,8 @@
 """Fault injection: the ways real DVL/IMU logs go wrong, applied to a mission or to its CSV files.
 
-Used by ``tests/test_faults.py`` (which asserts each outcome) and ``scripts/fault_report.py`` (which prints
-the outcome table). Every injector is deterministic (seeded) and leaves its input untouched.
+Used by ``tests/test_faults.py`` (which asserts each outcome) and ``graphnav faults --estimators`` (which
+prints the outcome table, :func:`estimator_table`). Every injector is deterministic (seeded) and leaves its
+input untouched.
 
 Two kinds of injectors:
 
@@ -17,6 +18,12 @@ Two kinds of injectors:
 :data:`FAULTS` maps each fault name to a function ``(mission, workdir) -> Mission`` (raising
 ``DataError`` when the data cannot be used); :func:`run_fault` runs each method of :data:`FAULT_METHODS` through
 the registry (:func:`graphnav.evaluation.methods.run_method`) on the faulty mission.
+
+The command-line fault table (``graphnav faults``, :data:`CLI_CASES`, :func:`run_table`) damages *inputs*
+instead -- files, configs, stream lines, output folders, runs -- and runs graphnav's own commands on them in
+subprocesses with a time limit, classifying what a user gets: clear error, warning (result within
+:data:`RESULT_FACTOR` x the clean run's), ok, warning with a degraded result, traceback, hang or silent
+garbage (:func:`classify`).
 """
 from __future__ import annotations
 
@@ -316,7 +323,7 @@ class Expected:
 
 
 #: The outcome each fault of :data:`FAULTS` must have on :func:`fault_mission`; the bounds
-#: are about 1.2-1.3x what was measured (``scripts/fault_report.py`` prints both).
+#: are about 1.2-1.3x what was measured (``graphnav faults --estimators`` prints both).
 EXPECTED: dict[str, Expected] = {
     "none": Expected(),
     "none csv": Expected(baseline="none csv"),
@@ -455,3 +462,996 @@ def judge(expected: "Expected", outcome: Outcome, baseline_vrmse: float) -> str:
     if outcome.warned_pure_inertial and outcome.nees <= NEES_COVER_MAX:
         return "PASS-PI"
     return "FAIL"
+
+
+# --------------------------------------------------------------------------------------------------------
+# The estimator table (graphnav faults --estimators): every fault of FAULTS through every method
+# --------------------------------------------------------------------------------------------------------
+def estimator_table(grade: str, seed: int = 1, duration_s: float = 200.0, workdir: str | Path = ".",
+                    out=print) -> int:
+    """Print (through ``out``) the outcome of every fault of :data:`EXPECTED` on the simulated mission of one
+    IMU grade, per estimator of :data:`FAULT_METHODS`: ``VRMSE<=bound NEES`` and the verdict of :func:`judge`
+    (PI: bound exceeded, but the estimator warned 'pure inertial' and its NEES <= :data:`NEES_COVER_MAX`;
+    ``!!``: outside the stated outcome; ``*``: NEES over the pure-inertial span). Returns the number of faults
+    outside their stated outcome."""
+    import time
+    mission = fault_mission(grade, seed, duration_s)
+    out(f"\n## {grade}: mission {mission.name} ({duration_s:g} s, seed {seed}); VRMSE m/s <= bound, mean NEES")
+    width = max(len(f) for f in FAULTS)
+    out(f"{'fault':{width}}  {'outcome':9} " + " ".join(f"{e:>22}" for e in FAULT_METHODS) + "  factor  check")
+    base: dict[str, dict[str, float]] = {}
+    n_fail = 0
+    for fault, expected in EXPECTED.items():
+        start = time.perf_counter()
+        outcomes = run_fault(fault, FAULT_METHODS, mission, Path(workdir) / grade)
+        wall = time.perf_counter() - start
+        if fault.startswith("none"):
+            base[fault] = {o.estimator: o.vrmse for o in outcomes}
+        if outcomes[0].stopped:
+            err = outcomes[0].error
+            ok = expected.stop and str(err.source).endswith(expected.source) and err.field == expected.field \
+                and (expected.line is None or err.line == expected.line)
+            n_fail += not ok
+            out(f"{fault:{width}}  {'stopped':9} {type(err).__name__}: {err}"[:width + 160]
+                + f"  {'PASS' if ok else 'FAIL'}")
+            continue
+        ref = base[expected.baseline]
+        verdicts = [judge(expected, o, ref[o.estimator]) for o in outcomes]
+        ok = not expected.stop and "FAIL" not in verdicts
+        n_fail += not ok
+        cells = [f"{o.vrmse:.3f}<={expected.factor * ref[o.estimator]:.3f} {o.nees:4.1f}"
+                 + ("*" if o.solution.info.get("pure_inertial_spans") else " ")
+                 + {"PASS": " ", "PASS-PI": "PI", "FAIL": "!!"}[v][:2] for o, v in zip(outcomes, verdicts)]
+        out(f"{fault:{width}}  {'completed':9} " + " ".join(f"{c:>22}" for c in cells)
+            + f"  {expected.factor:6g}  {'PASS' if ok else 'FAIL'}  ({wall:.1f} s)")
+    out(f"{len(EXPECTED) - n_fail}/{len(EXPECTED)} faults within their stated outcome ({grade})")
+    return n_fail
+
+
+# --------------------------------------------------------------------------------------------------------
+# The command-line fault table (`graphnav faults`): damaged inputs through the real commands
+# --------------------------------------------------------------------------------------------------------
+#: What a run of a damaged input came to, as a user sees it.
+CLEAR_ERROR = "clear error"            # non-zero exit, a message on stderr, no traceback
+WARNING = "warning"                    # exit 0, a new warning, result within RESULT_FACTOR x clean
+OK = "ok"                              # exit 0, no new warning, result within RESULT_FACTOR x clean
+DEGRADED = "warning, degraded"         # exit 0, a new warning, result beyond the bound (the user was told)
+TRACEBACK = "traceback"                # a Python traceback on stderr
+HANG = "hang"                          # did not finish within the case's time limit
+GARBAGE = "silent garbage"             # exit 0, no new warning, result beyond the bound, non-finite or missing
+UNEXPLAINED = "unexplained exit"       # non-zero exit with nothing on stderr that says why
+#: The verdicts that make ``graphnav faults`` exit non-zero.
+BAD_VERDICTS = (TRACEBACK, HANG, GARBAGE, UNEXPLAINED)
+#: A damaged input's result (velocity RMSE, or the case's own number) may be this many times the clean one.
+RESULT_FACTOR = 1.5
+
+
+@dataclasses.dataclass
+class Step:
+    """One command of a case: ``graphnav ARGV`` with standard input from ``stdin`` (a file) or none, killed
+    after ``timeout_s`` (None: :func:`time_limit` of the case)."""
+
+    argv: list[str]
+    stdin: Path | None = None
+    timeout_s: float | None = None
+
+
+@dataclasses.dataclass
+class Run:
+    """What a step did: exit code (None: killed at its time limit), its outputs, wall time (s)."""
+
+    returncode: int | None
+    stdout: str
+    stderr: str
+    wall_s: float
+
+
+@dataclasses.dataclass
+class Plan:
+    """The commands of one case and how its result is scored.
+
+    Attributes:
+        steps: run in order; a step that fails ends the case with that step's verdict.
+        result: the trajectory CSV (``trajectory.csv`` / ``online.csv``) to score against the reference, or None.
+        check: ``check(last_run) -> (value, bound, note)`` instead of the VRMSE of ``result`` (the value
+            must be <= bound; NaN = no result).
+        runner: ``runner(workspace, time_limit_s) -> Run`` in place of running ``steps`` (interrupts, pipes).
+        cleanup: called after the case whatever happened (restores what the case had to touch).
+        reference: the ground truth ``result`` is scored against (the clean input's, as its reader loads it).
+    """
+
+    steps: list[Step] = dataclasses.field(default_factory=list)
+    result: Path | None = None
+    check: Callable | None = None
+    runner: Callable | None = None
+    cleanup: Callable | None = None
+    reference: object = None
+
+
+@dataclasses.dataclass(frozen=True)
+class CliCase:
+    """A damaged input and the verdicts it may have (``expected``: one or more of the verdicts above).
+
+    ``plan(ws, folder) -> Plan`` writes the damaged input under ``folder`` and says what to run;
+    ``baseline`` names the clean case whose result scales the bound; ``real``: runs on the shared A-KIT
+    trajectory (``--data``) instead of the simulated mission."""
+
+    name: str
+    command: str
+    expected: tuple[str, ...]
+    plan: Callable
+    baseline: str | None = None
+    real: bool = False
+
+
+@dataclasses.dataclass
+class CaseResult:
+    """A case's verdict with its evidence."""
+
+    case: CliCase
+    verdict: str
+    value: float = float("nan")
+    bound: float = float("nan")
+    note: str = ""
+    wall_s: float = 0.0
+    warnings: list[str] = dataclasses.field(default_factory=list)
+
+    @property
+    def as_expected(self) -> bool:
+        return self.verdict in self.case.expected
+
+
+#: A step is a hang when it runs longer than this many times its clean run (at least MIN_TIME_LIMIT_S): the
+#: limit follows the machine's load, so a busy machine does not turn slow runs into hangs.
+HANG_FACTOR = 6.0
+MIN_TIME_LIMIT_S = 30.0
+#: The time limit of a clean run (it sets the others').
+CLEAN_TIME_LIMIT_S = 180.0
+
+
+def time_limit(ws: "Workspace", case: "CliCase") -> float:
+    """Seconds a step of ``case`` may run: :data:`HANG_FACTOR` x its clean run's wall time, at least
+    :data:`MIN_TIME_LIMIT_S`."""
+    if case.baseline is None or case.baseline == case.name or case.baseline not in ws.clean_wall:
+        return CLEAN_TIME_LIMIT_S
+    return max(MIN_TIME_LIMIT_S, HANG_FACTOR * ws.clean_wall[case.baseline])
+
+
+def run_step(step: Step, cwd: Path, env: dict | None = None, timeout_s: float = CLEAN_TIME_LIMIT_S) -> Run:
+    """Run ``python -m graphnav ARGV`` in a subprocess, killed after ``step.timeout_s`` (or ``timeout_s``); a
+    killed step has returncode None."""
+    import subprocess
+    import sys
+    import time
+    start = time.perf_counter()
+    stdin = step.stdin.open("rb") if step.stdin is not None else subprocess.DEVNULL
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "graphnav", *step.argv], cwd=cwd, stdin=stdin,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, start_new_session=True)
+        try:
+            out, err = proc.communicate(timeout=step.timeout_s or timeout_s)
+            code = proc.returncode
+        except subprocess.TimeoutExpired:
+            _kill(proc)
+            out, err = proc.communicate()
+            code = None
+        except BaseException:
+            _kill(proc)              # Ctrl-C of the table: its own session would outlive it
+            raise
+    finally:
+        if step.stdin is not None:
+            stdin.close()
+    return Run(code, out.decode(errors="replace"), err.decode(errors="replace"), time.perf_counter() - start)
+
+
+def _kill(proc) -> None:
+    """End ``proc`` and the processes it started (its own session), by its id."""
+    import os
+    import signal
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        proc.kill()
+
+
+def _warning_lines(stderr: str) -> list[str]:
+    """The warnings a run printed (Python's ``...Warning: message`` lines and ``warning:`` lines)."""
+    import re
+    lines = []
+    for line in stderr.splitlines():
+        m = re.search(r"(\w*Warning|warning): (.*)", line)
+        if m:
+            lines.append(m.group(2).strip())
+    return lines
+
+
+def _shape(message: str) -> str:
+    """A warning with its numbers and paths blanked, to tell a new warning from one the clean run gives too."""
+    import re
+    message = re.sub(r"\S*/\S*", "<path>", message)
+    return re.sub(r"[-+]?\d[\d.eE+-]*", "#", message)
+
+
+def classify(run: Run, value: float, bound: float, warned: bool) -> str:
+    """The verdict of one finished step (see :data:`BAD_VERDICTS`): time limit, traceback, exit code, then
+    the result against its bound and whether a new warning was printed."""
+    if run.returncode is None:
+        return HANG
+    if "Traceback (most recent call last)" in run.stderr:
+        return TRACEBACK
+    if run.returncode != 0:
+        return CLEAR_ERROR if "error" in run.stderr.lower() else UNEXPLAINED
+    good = np.isfinite(value) and value <= bound
+    if good:
+        return WARNING if warned else OK
+    return DEGRADED if warned else GARBAGE
+
+
+# --- the workspace: the clean inputs every case starts from ----------------------------------------------
+@dataclasses.dataclass
+class Workspace:
+    """The clean inputs of the table and their references.
+
+    Attributes:
+        root: working folder.
+        sim: the simulated mission; sim_folder: it in the A-KIT layout (``Trajectory1``), sim_config: its config
+            JSON, sim_stream: it as a JSON-lines stream (config line first); sim_folder_gt: the ground truth of
+            ``sim_folder`` as the A-KIT loader reads it (moved to the A-KIT IMU point), what the commands and
+            ``evaluate`` see.
+        real_folder: the first ``real_duration_s`` of a shared A-KIT trajectory (copied under ``root``), or None;
+            real_gt: its ground truth as the A-KIT loader reads it.
+        beamsnet: the BeamsNet data folder (train-beams), or None.
+        clean: the result (VRMSE, m/s) of each clean case, filled in as they run.
+        clean_warnings: the warning shapes of each clean case (what is not new in a damaged run).
+    """
+
+    root: Path
+    sim: Mission
+    sim_folder: Path
+    sim_config: Path
+    sim_stream: Path
+    sim_folder_gt: object = None
+    real_folder: Path | None = None
+    real_gt: object = None
+    beamsnet: Path | None = None
+    clean: dict = dataclasses.field(default_factory=dict)
+    clean_epochs: dict = dataclasses.field(default_factory=dict)
+    clean_warnings: dict = dataclasses.field(default_factory=dict)
+    clean_wall: dict = dataclasses.field(default_factory=dict)
+    skipped: list = dataclasses.field(default_factory=list)
+
+
+#: Length of the simulated mission of the table, s (short: the whole table runs in about 3 minutes).
+SIM_DURATION_S = 150.0
+#: Seconds of the shared trajectory the real-data cases use.
+REAL_DURATION_S = 150.0
+
+
+def make_workspace(root: str | Path, data: str | Path | None = None, trajectory: int = 1,
+                   seed: int = 1) -> Workspace:
+    """Write the clean inputs under ``root``: the simulated mission (A-KIT layout, config, stream), and with
+    ``data`` (the shared data folder or its ``snapir-2022-akit``) the first :data:`REAL_DURATION_S` s of
+    ``TrajectoryN``."""
+    from graphnav.io.export import write_akit
+    from graphnav.io.streamio import mission_records, write_records
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    sim = simulate_mission_for_table(seed)
+    paths = write_akit(sim, root / "sim")
+    stream = root / "sim" / "stream.jsonl"
+    with stream.open("w") as fh:
+        write_records(mission_records(sim), fh)
+    ws = Workspace(root, sim, paths["IMU"].parent, paths["config"], stream)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from graphnav.io.loaders import load_mission
+        ws.sim_folder_gt = load_mission(ws.sim_folder, ws.sim_config).gt
+    if data is not None:
+        ws.real_folder, ws.real_gt = _real_trajectory(Path(data), trajectory, root / "real")
+        beamsnet = _data_child(Path(data), "snapir-2021-beamsnet")
+        ws.beamsnet = beamsnet if beamsnet is not None and (beamsnet / "V.npy").is_file() else None
+    return ws
+
+
+def simulate_mission_for_table(seed: int = 1) -> Mission:
+    """The table's simulated mission: :data:`SIM_DURATION_S` s, navigation grade, DVL pings 0.37 s off the
+    IMU stamps (as on real data)."""
+    from graphnav.sim.simulate import simulate_mission
+    return simulate_mission(SIM_DURATION_S, "navigation", seed=seed, dvl_stamp_offset_s=0.37)
+
+
+def _data_child(data: Path, name: str) -> Path | None:
+    for cand in (data / name, data.parent / name, data):
+        if cand.is_dir() and cand.name == name:
+            return cand
+    return None
+
+
+def _real_trajectory(data: Path, number: int, out: Path):
+    """Copy the first :data:`REAL_DURATION_S` s of A-KIT ``TrajectoryN`` under ``out``; (folder, its GT)."""
+    from graphnav.io.loaders import load_akit
+    akit = _data_child(data, "snapir-2022-akit") or data
+    src = akit / f"Trajectory{number}"
+    if not src.is_dir():
+        raise ConfigError(f"--data {data}: no A-KIT folder Trajectory{number} (expected {src})")
+    dst = out / src.name
+    dst.mkdir(parents=True, exist_ok=True)
+    for kind in ("IMU", "DVL", "GT"):
+        name = f"{kind}_trajectory{number}.csv"
+        lines = (src / name).read_text().splitlines()
+        keep = [lines[0]] + [ln for ln in lines[1:] if ln and float(ln.split(",", 1)[0]) <= REAL_DURATION_S]
+        (dst / name).write_text("\n".join(keep) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return dst, load_akit(dst).gt
+
+
+# --- damaging files ---------------------------------------------------------------------------------------
+def _copy_folder(src: Path, dst: Path) -> Path:
+    import shutil
+    if dst.exists():
+        shutil.rmtree(dst)
+    shutil.copytree(src, dst)
+    return dst
+
+
+def _csv_file(folder: Path, kind: str) -> Path:
+    return next(folder.glob(f"{kind}_trajectory*.csv"))
+
+
+def edit_csv(path: Path, edit: Callable[[np.ndarray], np.ndarray]) -> None:
+    """Apply ``edit`` to the numbers of an A-KIT CSV (header kept; NaN written as ``nan``)."""
+    lines = path.read_text().splitlines()
+    data = np.genfromtxt(lines[1:], delimiter=",", dtype=float).reshape(len(lines) - 1, -1)
+    data = edit(data.copy())
+    np.savetxt(path, data, delimiter=",", header=lines[0], comments="", fmt="%.15g")
+
+
+def _rows_at(data: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    return (data[:, 0] >= t0) & (data[:, 0] < t1)
+
+
+def _set(rows, cols, value):
+    def edit(d):
+        d[rows if not callable(rows) else rows(d), cols] = value
+        return d
+    return edit
+
+
+def _akit_case(ws: Workspace, folder: Path, real: bool, damage: Callable[[Path], None] | None,
+               command: str = "smooth", config: Path | None | bool = True, extra=()) -> Plan:
+    """A copy of the clean A-KIT folder (simulated or real) damaged by ``damage(folder)``, through
+    ``graphnav smooth`` / ``online`` (``config``: True = the simulated mission's own config)."""
+    src = ws.real_folder if real else ws.sim_folder
+    data = _copy_folder(src, folder / src.name)
+    if damage is not None:
+        damage(data)
+    out = folder / "out"
+    argv = [command, "--data", str(data), "--out", str(out), "--no-plots", *extra]
+    if command == "online":
+        argv.append("--no-progress")
+    if config is True and not real:
+        argv += ["--config", str(ws.sim_config)]
+    elif isinstance(config, Path):
+        argv += ["--config", str(config)]
+    result = out / ("online.csv" if command == "online" else "trajectory.csv")
+    return Plan([Step(argv)], result, reference=ws.real_gt if real else ws.sim_folder_gt)
+
+
+def _with_config(ws: Workspace, folder: Path, change: Callable[[dict], object] | str) -> Plan:
+    """The simulated mission through ``graphnav smooth`` with its config changed by ``change(dict)`` (which may
+    return a whole new JSON value), or replaced by the text ``change``."""
+    import json
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "config.json"
+    if isinstance(change, str):
+        path.write_text(change)
+    else:
+        cfg = json.loads(ws.sim_config.read_text())
+        new = change(cfg)
+        path.write_text(json.dumps(cfg if new is None else new))
+    return _akit_case(ws, folder, False, None, config=path)
+
+
+def _stream_case(ws: Workspace, folder: Path, edit: Callable[[list[str]], list[str]] | None) -> Plan:
+    """The simulated mission's JSON-lines stream, edited line-wise, into ``graphnav online --stream -``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    lines = ws.sim_stream.read_text().splitlines()
+    if edit is not None:
+        lines = edit(lines)
+    stream = folder / "stream.jsonl"
+    stream.write_text("\n".join(lines) + "\n")
+    out = folder / "out"
+    return Plan([Step(["online", "--stream", "-", "--out", str(out), "--no-plots", "--no-progress"], stream)],
+                out / "online.csv", reference=ws.sim.gt)
+
+
+def _edit_record(kind: str, index: int, change: Callable[[dict], None]):
+    """A stream edit: ``change`` the ``index``-th record of type ``kind``."""
+    import json
+
+    def edit(lines):
+        seen = -1
+        for i, line in enumerate(lines):
+            if f'"type":"{kind}"' in line:
+                seen += 1
+                if seen == index:
+                    rec = json.loads(line)
+                    change(rec)
+                    lines[i] = json.dumps(rec)
+                    break
+        return lines
+    return edit
+
+
+def _config_not_first(lines):
+    return lines[1:200] + [lines[0]] + lines[200:]
+
+
+# --- cases with their own runner or check -----------------------------------------------------------------
+#: Largest median difference (m) between a written position's down axis and the absolute depth.
+DEPTH_CONVENTION_TOL_M = 1.0
+
+
+def _evaluate_case(ws: Workspace, folder: Path, real: bool) -> Plan:
+    """``graphnav smooth`` then ``graphnav evaluate trajectory.csv --ref <A-KIT folder>``. Evaluate's APE must
+    match the position RMSE the harness computes against the same reference (within RESULT_FACTOR either
+    way), and the down axis of ``trajectory.csv`` and ``groundtruth.tum`` must be the absolute depth, checked
+    against a depth the loaders do not touch: the simulated truth, or ``-Altitude`` of the raw GT file."""
+    import json
+
+    from graphnav.io.outputs import read_trajectory_csv, read_tum
+    plan = _akit_case(ws, folder, real, None)
+    data, trajectory = Path(plan.steps[0].argv[2]), plan.result
+    argv = ["evaluate", str(trajectory), "--ref", str(data), "--json", str(folder / "eval.json")]
+    if not real:
+        argv += ["--config", str(ws.sim_config)]
+    plan.steps.append(Step(argv))
+    gt = plan.reference
+    depth = _independent_depth(ws, real)
+
+    def check(run):
+        sol = read_trajectory_csv(trajectory)
+        inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
+        own = float(np.sqrt(np.mean(np.sum((sol.p_n[inside] - gt.at(sol.t[inside])[0]) ** 2, axis=1))))
+        ape = json.loads((folder / "eval.json").read_text())["ape_translation_m"]["rmse"]
+        t_ref, p_ref, _ = read_tum(trajectory.parent / "groundtruth.tum")
+        for name, t, down in (("trajectory.csv", sol.t, sol.p_n[:, 2]), ("groundtruth.tum", t_ref, p_ref[:, 2])):
+            off = float(np.median(down - depth(t)))
+            if abs(off) > DEPTH_CONVENTION_TOL_M:
+                return float("nan"), 0.0, f"{name}: down is {off:+.1f} m from the absolute depth"
+        note = f"APE {ape:.2f} m vs {own:.2f} m position RMSE against the reference; down = absolute depth"
+        return max(ape, own ** 2 / ape if ape > 0 else np.inf), RESULT_FACTOR * own, note
+    plan.check = check
+    plan.result = None
+    return plan
+
+
+def _independent_depth(ws: Workspace, real: bool) -> Callable[[np.ndarray], np.ndarray]:
+    """Depth (m) at stamps, from a source the loaders do not touch: the simulated truth, or the raw A-KIT GT
+    file's ``-Altitude`` (its stamps rescaled as the loader does; a GT time offset of tenths of a second moves
+    a depth by centimetres)."""
+    if not real:
+        return lambda t: np.interp(t, ws.sim.gt.t, ws.sim.gt.p_n[:, 2])
+    raw = np.genfromtxt(_csv_file(ws.real_folder, "GT"), delimiter=",", skip_header=1)
+    n = len(raw)
+    t = raw[:, 0] * (n - 1) / n
+    return lambda s: np.interp(s, t, -raw[:, 3])
+
+
+def _resume_case(ws: Workspace, folder: Path) -> Plan:
+    """``graphnav online`` interrupted (SIGINT once 20 epochs are written), then ``--resume``: the file must
+    hold every epoch of a clean run once, in order."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    plan = _akit_case(ws, folder, False, None, command="online")
+    argv = plan.steps[0].argv
+    csv = plan.result
+
+    def runner(_ws, limit):
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "graphnav", *argv], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, start_new_session=True)
+        while proc.poll() is None and time.perf_counter() - start < limit:
+            if csv.exists() and len(csv.read_text().splitlines()) > 20:
+                proc.send_signal(signal.SIGINT)
+                break
+            time.sleep(0.05)
+        try:
+            out1, err1 = proc.communicate(timeout=limit)
+        except subprocess.TimeoutExpired:
+            _kill(proc)
+            out1, err1 = proc.communicate()
+            return Run(None, out1.decode(), err1.decode(), time.perf_counter() - start)
+        if proc.returncode not in (0, 130):          # 130: interrupted, as asked
+            return Run(proc.returncode, out1.decode(), err1.decode(), time.perf_counter() - start)
+        second = run_step(Step([*argv, "--resume"]), folder, timeout_s=limit)
+        second.stderr = err1.decode(errors="replace") + second.stderr
+        second.wall_s = time.perf_counter() - start
+        return second
+
+    def check(run):
+        from graphnav.evaluation.metrics import vrmse
+        from graphnav.io.outputs import read_trajectory_csv
+        sol = read_trajectory_csv(csv)
+        clean_n = ws.clean_epochs.get("online replay: clean")
+        if np.any(np.diff(sol.t) <= 0):
+            return float("nan"), 0.0, "stamps repeated or out of order after the resume"
+        if clean_n is not None and len(sol.t) != clean_n:
+            return float("nan"), 0.0, f"{len(sol.t)} epochs after the resume, {clean_n} in a clean run"
+        value = vrmse(sol, ws.sim_folder_gt)
+        return value, RESULT_FACTOR * ws.clean["online replay: clean"], f"{len(sol.t)} epochs, VRMSE {value:.3f} m/s"
+    plan.runner, plan.check = runner, check
+    return plan
+
+
+def _diverged_into_existing_out(ws: Workspace, folder: Path) -> Plan:
+    """A clean ``graphnav online`` into OUT, then a run whose DVL says the opposite of the IMU (every DVL
+    velocity negated) into the same OUT: the second run's files must replace the first's, and a diverged
+    result must be said (health in summary.json and a warning)."""
+    import json
+    clean = _akit_case(ws, folder / "first", False, None, command="online")
+    out = Path(clean.steps[0].argv[clean.steps[0].argv.index("--out") + 1])
+    bad = _akit_case(ws, folder / "second", False, _damage("DVL", _negate_velocities), command="online")
+    argv = bad.steps[0].argv
+    argv[argv.index("--out") + 1] = str(out)
+    started = {}
+
+    def runner(_ws, limit):
+        first = run_step(clean.steps[0], folder, timeout_s=limit)
+        if first.returncode != 0:
+            return first
+        import time
+        started["t"] = time.time()
+        return run_step(Step(argv), folder, timeout_s=limit)
+
+    def check(run):
+        from graphnav.evaluation.metrics import vrmse
+        from graphnav.io.outputs import read_trajectory_csv
+        stale = [p.name for p in out.iterdir() if p.is_file() and p.stat().st_mtime < started.get("t", 0)]
+        if stale:
+            return float("nan"), 0.0, f"files of the earlier run left in OUT: {', '.join(sorted(stale))}"
+        value = vrmse(read_trajectory_csv(out / "online.csv"), ws.sim_folder_gt)
+        health = (json.loads((out / "summary.json").read_text()).get("health") or {})
+        note = f"VRMSE {value:.3f} m/s; summary health ok={health.get('ok')}"
+        bound = RESULT_FACTOR * ws.clean["online replay: clean"]
+        if value > bound and health.get("ok", True):
+            return value, bound, note + " (a diverged result reported as healthy)"
+        return value, bound, note
+    return Plan(runner=runner, check=check)
+
+
+def _live_stream_life(ws: Workspace, folder: Path) -> Plan:
+    """``graphnav online --stream -`` fed the first 300 s of a live stream through a pipe that stays open:
+    estimates must come out (standard output, flushed) while the stream is still open."""
+    import subprocess
+    import sys
+    import threading
+    import time
+    from graphnav.io.streamio import mission_records, write_records
+    from graphnav.sim.simulate import simulate_mission
+    folder.mkdir(parents=True, exist_ok=True)
+    live = simulate_mission(300.0, "navigation", seed=5, dvl_stamp_offset_s=0.37)
+    stream = folder / "live.jsonl"
+    with stream.open("w") as fh:
+        write_records(mission_records(live), fh)
+    out = folder / "out"
+    argv = ["online", "--stream", "-", "--out", str(out), "--no-plots", "--no-progress"]
+    seen = {}
+
+    def runner(_ws, limit):
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "graphnav", *argv], stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+        lines: list[bytes] = []
+        err: list[bytes] = []
+
+        def drain(pipe, into):
+            for line in iter(pipe.readline, b""):
+                into.append(line)
+
+        def feed():
+            try:
+                proc.stdin.write(stream.read_bytes())
+                proc.stdin.flush()
+            except BrokenPipeError:
+                pass
+        threads = [threading.Thread(target=drain, args=(proc.stdout, lines), daemon=True),
+                   threading.Thread(target=drain, args=(proc.stderr, err), daemon=True),
+                   threading.Thread(target=feed, daemon=True)]
+        for th in threads:
+            th.start()
+        # The pipe holds at most 64 KiB (a few seconds of data): once the writer is through, the command has
+        # read the 300 s; an estimate due in them is out a moment later, or never while the stream is open.
+        deadline = start + max(limit, CLEAN_TIME_LIMIT_S)
+        while not lines and proc.poll() is None and time.perf_counter() < deadline:
+            if not threads[2].is_alive():
+                threads[2].join()
+                grace = time.perf_counter() + 10.0
+                while not lines and proc.poll() is None and time.perf_counter() < grace:
+                    time.sleep(0.1)
+                break
+            time.sleep(0.1)
+        seen["while_open"] = len(lines)
+        seen["fed"] = not threads[2].is_alive()
+        try:
+            proc.stdin.close()
+        except BrokenPipeError:
+            pass
+        try:
+            code = proc.wait(timeout=max(limit, CLEAN_TIME_LIMIT_S) if seen["fed"] else 1.0)
+        except subprocess.TimeoutExpired:
+            _kill(proc)
+            proc.wait()
+            code = None
+        for th in threads[:2]:
+            th.join(5)
+        return Run(code, b"".join(lines).decode(errors="replace"), b"".join(err).decode(errors="replace"),
+                   time.perf_counter() - start)
+
+    def check(run):
+        from graphnav.evaluation.metrics import vrmse
+        from graphnav.io.outputs import read_trajectory_csv
+        if not seen.get("while_open"):
+            return float("nan"), 0.0, "no estimate while the stream was open (nothing until its end)"
+        value = vrmse(read_trajectory_csv(out / "online.csv"), live.gt)
+        return value, RESULT_FACTOR * ws.clean["online stream: clean"], \
+            f"{seen['while_open']} estimate line(s) before the stream closed; VRMSE {value:.3f} m/s"
+    return Plan(runner=runner, check=check)
+
+
+def _train_beams_case(ws: Workspace, folder: Path) -> Plan:
+    """``graphnav train-beams --epochs 1`` (a quick try, no --out): the shipped weights must not change. They
+    are backed up first and put back after the case, whatever happened."""
+    import shutil
+
+    from graphnav.nets.storage import weights_dir
+    shipped = weights_dir()
+    backup = folder / "weights-backup"
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(shipped, backup, dirs_exist_ok=True)
+    before = _tree_digest(shipped)
+    argv = ["train-beams", "--epochs", "1", "--sigma-epochs", "1", "--scenario", "2-missing", "--no-progress",
+            "--data", str(ws.beamsnet)]
+
+    def check(run):
+        changed = sorted(k for k, v in _tree_digest(shipped).items() if before.get(k) != v)
+        if changed:
+            return float("nan"), 0.0, f"shipped weights overwritten: {', '.join(changed)} (restored)"
+        return 0.0, 1.0, "shipped weights untouched"
+
+    def cleanup():
+        if _tree_digest(shipped) != before:
+            shutil.copytree(backup, shipped, dirs_exist_ok=True)
+            for name in set(_tree_digest(shipped)) - set(before):
+                (shipped / name).unlink()
+    return Plan([Step(argv, timeout_s=240.0)], check=check, cleanup=cleanup)
+
+
+def _tree_digest(folder: Path) -> dict:
+    import hashlib
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def _missing_stream(ws: Workspace, folder: Path) -> Plan:
+    out = folder / "out"
+    return Plan([Step(["online", "--stream", str(folder / "no-such-stream.jsonl"), "--out", str(out),
+                       "--no-plots", "--no-progress"])], out / "online.csv", reference=ws.sim.gt)
+
+
+def _out_is_a_file(ws: Workspace, folder: Path) -> Plan:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "out").write_text("a file where the output folder should go\n")
+    return _akit_case(ws, folder, False, None)
+
+
+def _out_not_writable(ws: Workspace, folder: Path) -> Plan:
+    plan = _akit_case(ws, folder, False, None)
+    argv = plan.steps[0].argv
+    argv[argv.index("--out") + 1] = "/proc/graphnav-out"      # not writable, not even for root
+    return plan
+
+
+# --- the table ---------------------------------------------------------------------------------------------
+def _damage(kind: str, edit) -> Callable[[Path], None]:
+    return lambda folder: edit_csv(_csv_file(folder, kind), edit)
+
+
+def _t_between(t0, t1):
+    return lambda d: _rows_at(d, t0, t1)
+
+
+def _imu_row(d):
+    return len(d) // 3
+
+
+def _scale_cols(cols, factor):
+    def edit(d):
+        d[:, cols] *= factor
+        return d
+    return edit
+
+
+def _negate_velocities(d):
+    d[:, 1:4] *= -1.0
+    return d
+
+
+def _swap_xy(d):
+    return d[:, [0, 2, 1, 3]]
+
+
+def _swap_blocks(d):
+    return d[:, [0, 4, 5, 6, 1, 2, 3]]
+
+
+def _delete_rows(t0, t1):
+    return lambda d: d[~_rows_at(d, t0, t1)]
+
+
+def _zero_stamp(d):
+    d[len(d) // 2, 0] = 0.0
+    return d
+
+
+def _dup_stamp(d):
+    d[len(d) // 2, 0] = d[len(d) // 2 - 1, 0]
+    return d
+
+
+def _shift_stamps(seconds):
+    def edit(d):
+        d[:, 0] += seconds
+        return d
+    return edit
+
+
+E, W, K, D = (CLEAR_ERROR,), (WARNING,), (OK,), (DEGRADED,)
+S, R = "smooth: clean", "smooth (real): clean"
+_DVL_XYZ = slice(1, 4)
+
+
+def _sim(name, command, expected, damage=None, **kw):
+    return CliCase(name, command, expected, lambda ws, f: _akit_case(ws, f, False, damage, **kw), S)
+
+
+def _real(name, command, expected, damage=None):
+    return CliCase(name, command, expected, lambda ws, f: _akit_case(ws, f, True, damage), R, real=True)
+
+
+def _cfg(name, expected, change):
+    return CliCase(name, "smooth --config", expected, lambda ws, f: _with_config(ws, f, change), S)
+
+
+def _stream(name, expected, edit):
+    return CliCase(name, "online --stream -", expected, lambda ws, f: _stream_case(ws, f, edit),
+                   "online stream: clean")
+
+
+def _set_key(path: tuple, value):
+    def change(cfg):
+        node = cfg
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return change
+
+
+#: Every case of ``graphnav faults``, clean runs first (their results scale the bounds of the others).
+CLI_CASES: tuple[CliCase, ...] = (
+    _sim(S, "smooth", K),
+    CliCase("online replay: clean", "online", K, lambda ws, f: _akit_case(ws, f, False, None, command="online"),
+            "online replay: clean"),
+    _stream("online stream: clean", K, None),
+    # IMU
+    _sim("IMU: one accelerometer sample of 1e6 m/s^2", "smooth", W, _damage("IMU", _set(_imu_row, 1, 1e6))),
+    _sim("IMU: accelerometer and gyro blocks swapped", "smooth", E, _damage("IMU", _swap_blocks)),
+    _sim("IMU: stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
+    _sim("IMU: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
+    _sim("IMU: accelerometer in g", "smooth", E + W, _damage("IMU", _scale_cols(slice(1, 4), 1 / 9.80665))),
+    _sim("IMU: 50 NaN rows (0.5 s)", "smooth", W + E, _damage("IMU", _set(_t_between(60.0, 60.5), slice(1, 7),
+                                                                             np.nan))),
+    _sim("IMU: 5 s of rows deleted (logger stall)", "smooth", W + D, _damage("IMU", _delete_rows(70.0, 75.0))),
+    _sim("IMU: a stamp of 0 mid-file", "smooth", E + W, _damage("IMU", _zero_stamp)),
+    _sim("IMU: a duplicated stamp", "smooth", E + W, _damage("IMU", _dup_stamp)),
+    # DVL
+    _sim("DVL: 60 s of rows deleted", "smooth", W + D, _damage("DVL", _delete_rows(40.0, 100.0))),
+    _sim("DVL: 60 s of NaN rows", "smooth", W + D, _damage("DVL", _set(_t_between(40.0, 100.0), _DVL_XYZ, np.nan))),
+    _sim("DVL: one velocity spike of 30 m/s", "smooth", W, _damage("DVL", _set(lambda d: 70, 1, 30.0))),
+    _sim("DVL: velocities in cm/s", "smooth", E + W, _damage("DVL", _scale_cols(_DVL_XYZ, 100.0))),
+    _sim("DVL: x and y axes swapped (another frame)", "smooth", E + W + D, _damage("DVL", _swap_xy)),
+    _sim("DVL: clock 3 days ahead of the IMU", "smooth", E, _damage("DVL", _shift_stamps(3 * 86400.0))),
+    # ground truth
+    _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
+    # configuration
+    _cfg("config: {}", W + K, "{}"),
+    _cfg("config: []", E, "[]"),
+    _cfg("config: imu_rate_hz -100", E, _set_key(("imu_rate_hz",), -100.0)),
+    _cfg("config: negative gyro noise", E, _set_key(("imu", "gyro_noise_density"), -7e-7)),
+    _cfg("config: wrong type (beam_noise_std 'high')", E, _set_key(("dvl", "beam_noise_std"), "high")),
+    _cfg("config: negative sigma (depth_noise_std -0.05)", E, _set_key(("depth_noise_std",), -0.05)),
+    _cfg("config: 2-element lever arm", E, _set_key(("dvl", "lever_arm_b"), [0.1, 0.2])),
+    # the live stream
+    _stream("stream: one DVL beam of 1e6 m/s", W, _edit_record("dvl", 50, lambda r: r["beams"].__setitem__(1, 1e6))),
+    _stream("stream: config line not the first line", E + W, _config_not_first),
+    _stream("stream: a stamp of 1e300", W, _edit_record("imu", 3000, lambda r: r.__setitem__("t", 1e300))),
+    CliCase("stream: --stream on a missing file", "online --stream FILE", E, _missing_stream,
+            "online stream: clean"),
+    CliCase("stream: a live stream's first 300 s show life", "online --stream - (pipe open)", K, _live_stream_life,
+            "online stream: clean"),
+    # outputs and runs
+    CliCase("--out is a file", "smooth --out FILE", E, _out_is_a_file, S),
+    CliCase("--out not writable", "smooth --out /proc/...", E, _out_not_writable, S),
+    CliCase("a diverged run into an existing --out", "online x2, same --out", D, _diverged_into_existing_out,
+            "online replay: clean"),
+    CliCase("online --resume after an interrupt", "online; SIGINT; online --resume", K, _resume_case,
+            "online replay: clean"),
+    CliCase("evaluate against an A-KIT folder", "smooth; evaluate --ref FOLDER", K,
+            lambda ws, f: _evaluate_case(ws, f, False), S),
+    # the shared real trajectory (--data)
+    _real(R, "smooth", K),
+    _real("real: one accelerometer sample of 1e6 m/s^2", "smooth", W, _damage("IMU", _set(_imu_row, 1, 1e6))),
+    _real("real: 60 s of DVL rows deleted", "smooth", W + D, _damage("DVL", _delete_rows(40.0, 100.0))),
+    _real("real: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
+    _real("real: IMU stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
+    CliCase("real: evaluate against the A-KIT folder", "smooth; evaluate --ref FOLDER", K,
+            lambda ws, f: _evaluate_case(ws, f, True), R, real=True),
+    CliCase("train-beams --epochs 1 leaves the shipped weights", "train-beams --epochs 1", K + E,
+            _train_beams_case, real=True),
+)
+
+
+#: A clean run's velocity RMSE (m/s) above which the clean run itself is garbage (the simulated navigation-grade
+#: mission and the shared trajectories give 0.03-0.1 m/s).
+CLEAN_VRMSE_MAX = 0.3
+
+
+def _vrmse_of(path: Path, gt) -> tuple[float, int, str]:
+    """(VRMSE m/s against ``gt``, epochs, note) of a written trajectory CSV; NaN when absent or non-finite."""
+    from graphnav.core.errors import GraphnavError as _Err
+    from graphnav.evaluation.metrics import vrmse
+    from graphnav.io.outputs import read_trajectory_csv
+    if path is None or not Path(path).is_file():
+        return float("nan"), 0, "no trajectory written"
+    try:
+        sol = read_trajectory_csv(path)
+    except _Err as exc:
+        return float("nan"), 0, f"trajectory unreadable: {exc}"
+    if not len(sol.t):
+        return float("nan"), 0, "trajectory empty"
+    bad = ~np.all(np.isfinite(np.column_stack([sol.p_n, sol.v_n])), axis=1)
+    if bad.any():
+        return float("nan"), len(sol.t), f"{int(bad.sum())} epoch(s) with non-finite position/velocity"
+    try:
+        value = vrmse(sol, gt)
+    except _Err as exc:
+        return float("nan"), len(sol.t), f"not comparable with the reference: {exc}"
+    return value, len(sol.t), f"VRMSE {value:.3f} m/s over {len(sol.t)} epochs"
+
+
+def _score(case: CliCase, plan: Plan, run: Run, ws: Workspace) -> tuple[float, float, str]:
+    """(value, bound, note) of a finished case."""
+    if plan.check is not None:
+        try:
+            return plan.check(run)
+        except Exception as exc:  # noqa: BLE001 - the harness must classify, not crash: no result
+            return float("nan"), 0.0, f"no result ({type(exc).__name__}: {exc})"
+    value, epochs, note = _vrmse_of(plan.result, plan.reference)
+    if case.baseline == case.name:
+        ws.clean[case.name], ws.clean_epochs[case.name] = value, epochs
+        return value, CLEAN_VRMSE_MAX, note
+    clean_epochs = ws.clean_epochs.get(case.baseline, 0)
+    if np.isfinite(value) and epochs < 0.5 * clean_epochs:
+        return float("nan"), 0.0, f"{note}: fewer than half the {clean_epochs} epochs of the clean run"
+    return value, RESULT_FACTOR * ws.clean.get(case.baseline, float("nan")), note
+
+
+def _said(run: Run) -> str:
+    """What the run said about its end, shortened: the exception of a traceback (its last line), else the
+    ``error:`` line, else the last warning."""
+    lines = [ln.strip() for ln in run.stderr.splitlines() if ln.strip()]
+    if "Traceback (most recent call last)" in run.stderr and lines:
+        return lines[-1][:160]
+    for line in lines:
+        if "error:" in line.lower():
+            return line[:160]
+    warned = _warning_lines(run.stderr)
+    return f"last warning: {warned[-1][:140]}" if warned else ""
+
+
+def run_case(case: CliCase, ws: Workspace) -> CaseResult:
+    """Prepare, run and classify one case (never raises for what the commands do)."""
+    import shutil
+    import time
+    import zlib
+    # names differing only in punctuation ("config: {}", "config: []") must not share a folder
+    folder = ws.root / "cases" / (f"{zlib.crc32(case.name.encode()):08x}-"
+                                  + "".join(c if c.isalnum() else "_" for c in case.name)[:60])
+    if folder.exists():
+        shutil.rmtree(folder)
+    start = time.perf_counter()
+    plan = case.plan(ws, folder)
+    try:
+        if plan.runner is not None:
+            run = plan.runner(ws, time_limit(ws, case))
+        else:
+            folder.mkdir(parents=True, exist_ok=True)
+            for step in plan.steps:
+                run = run_step(step, folder, timeout_s=time_limit(ws, case))
+                if run.returncode != 0:
+                    break
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "stdout.txt").write_text(run.stdout)
+        (folder / "stderr.txt").write_text(run.stderr)
+        new = [w for w in _warning_lines(run.stderr)
+               if _shape(w) not in ws.clean_warnings.get(case.baseline, set())]
+        if case.baseline == case.name:
+            ws.clean_warnings[case.name] = {_shape(w) for w in _warning_lines(run.stderr)}
+            ws.clean_wall[case.name] = run.wall_s
+            new = []
+        value, bound, note = (float("nan"), float("nan"), "") if run.returncode != 0 else _score(case, plan, run, ws)
+        verdict = classify(run, value, bound, bool(new))
+        if verdict in (CLEAR_ERROR, TRACEBACK, UNEXPLAINED, HANG):
+            note = _said(run) or ("killed at the time limit" if verdict == HANG else "exit code "
+                                  f"{run.returncode}, nothing said")
+        elif new and not note.startswith("no result"):
+            # the estimator's own verdict on its result says most; else the first thing the user was told
+            told = next((w for w in new if "DIVERGED" in w), new[0])
+            note = f"{note}; warned ({len(new)}): {told[:120]}"
+        note = note.replace(str(folder), "CASE")          # the case's own folder: short, and the same every run
+        return CaseResult(case, verdict, value, bound, note, time.perf_counter() - start, new)
+    finally:
+        if plan.cleanup is not None:
+            plan.cleanup()
+
+
+def run_table(ws: Workspace, cases=CLI_CASES, jobs: int = 2, progress=None) -> list[CaseResult]:
+    """Run ``cases`` (the clean ones first, one after the other; then the rest in ``jobs`` threads, each case
+    its own subprocesses); returns their results in the order of ``cases``. ``progress(result)`` is called as
+    each finishes."""
+    from concurrent.futures import ThreadPoolExecutor
+    runnable = [c for c in cases if (not c.real or ws.real_folder is not None)
+                and ("train-beams" not in c.name or ws.beamsnet is not None)]
+    ws.skipped = [c.name for c in cases if c not in runnable]
+    cases = runnable
+    results: dict[str, CaseResult] = {}
+
+    def one(case):
+        res = run_case(case, ws)
+        results[case.name] = res
+        if progress is not None:
+            progress(res)
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        list(pool.map(one, [c for c in cases if c.baseline == c.name]))
+        list(pool.map(one, [c for c in cases if c.name not in results]))
+    return [results[c.name] for c in cases]
+
+
+def _num(x: float, unit: str = "") -> str:
+    return "-" if x is None or not np.isfinite(x) else f"{x:.3g}{unit}"
+
+
+def format_table(results: list[CaseResult], title: str = "") -> str:
+    """The results as a markdown table: case, command, expected, verdict (bold when not expected), result
+    against its bound, wall time, what the user saw."""
+    lines = [title] if title else []
+    lines += ["| case | command | expected | verdict | result | bound | s | what the user saw / why |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in results:
+        verdict = r.verdict if r.as_expected else f"**{r.verdict}**"
+        note = r.note.replace("|", "/").replace("\n", " ")
+        lines.append(f"| {r.case.name} | `{r.case.command}` | {' / '.join(r.case.expected)} | {verdict} | "
+                     f"{_num(r.value)} | {_num(r.bound)} | {r.wall_s:.0f} | {note} |")
+    bad = [r for r in results if r.verdict in BAD_VERDICTS]
+    off = [r for r in results if not r.as_expected]
+    lines += ["", f"{len(results)} cases: {len(results) - len(off)} as expected, {len(off)} not; "
+                  f"{len(bad)} traceback / hang / silent garbage / unexplained exit"
+                  + (f" ({', '.join(r.case.name for r in bad)})" if bad else "") + ".",
+              f"Verdicts: clear error = non-zero exit with a message, no traceback; warning = exit 0, a warning "
+              f"the clean run does not give, result within {RESULT_FACTOR:g}x the clean run's; ok = the same "
+              f"without a new warning; warning, degraded = warned, result beyond the bound; silent garbage = "
+              f"exit 0, no new warning, result beyond the bound, non-finite or missing. Result: velocity RMSE "
+              f"(m/s) against the clean mission's ground truth, unless the case says otherwise."]
+    return "\n".join(lines)

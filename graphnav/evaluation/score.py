@@ -10,10 +10,17 @@ CSV log with a ``gt`` column map), whose ground truth is used; all of them on th
   slerp) to the estimate's stamps inside its span. Poses are
   compared as recorded (both in the mission's local NED frame); ``align=True`` first applies evo's Umeyama
   SE(3) alignment, as ``evo_ape --align`` does (for a reference in another frame).
-* VRMSE (m/s) and velocity NEES (3 dof, mean 3 when consistent; :func:`graphnav.evaluation.metrics.nees_velocity`):
-  graphnav's own definitions, on the reference interpolated to the estimate's stamps. They need velocities
-  on both sides (a TUM file has none) and, for NEES, the estimate's sigmas (diagonal covariance: the CSV
-  keeps sigmas only).
+* VRMSE (m/s): graphnav's own definition, on the reference interpolated to the estimate's stamps.
+* Velocity NEES (3 dof, mean 3 when consistent): the benchmark's own score, by the same function
+  (:func:`graphnav.evaluation.consistency.reference_nees`): after the settling time, against the reference
+  carried to the estimate's epochs by the mission's IMU when the reference is a mission (interpolated for a
+  reference file), with the chi-square band of the independent epochs. Both need velocities on both sides (a
+  TUM file has none) and, for NEES, the estimate's sigmas (diagonal covariance: the CSV keeps sigmas only).
+
+Positions follow :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` on every side (the loaders' ground
+truth, the estimators, the writers): NED from the sea surface above the first fix, down = absolute depth. A
+reference whose depth differs from the estimate's by a constant of metres (a file written with a depth
+relative to the start) is warned about.
 """
 from __future__ import annotations
 
@@ -52,17 +59,25 @@ def load_trajectory(path: str | Path) -> NavSolution:
 def load_reference(ref: str | Path, config_path: str | Path | None = None,
                    topics: dict[str, str] | None = None) -> GroundTruth:
     """The reference trajectory: a TUM/CSV file, or the ground truth of a mission ``--data`` path."""
+    return load_reference_mission(ref, config_path, topics)[0]
+
+
+def load_reference_mission(ref: str | Path, config_path: str | Path | None = None,
+                           topics: dict[str, str] | None = None):
+    """(reference :class:`GroundTruth`, the mission it came from or None for a TUM/CSV file). The mission
+    (its IMU) is what the velocity NEES carries the reference to the estimate's epochs with, as the
+    benchmark does (:func:`graphnav.evaluation.consistency.reference_nees`)."""
     path = Path(ref)
     if path.is_file() and path.suffix.lower() in (".tum", ".txt") or (
             path.suffix.lower() == ".csv" and not (config_path and _has_csv_map(config_path))):
         sol = load_trajectory(path)
-        return GroundTruth(sol.t, sol.p_n, sol.v_n, sol.C_b_n, None, str(path))
+        return GroundTruth(sol.t, sol.p_n, sol.v_n, sol.C_b_n, None, str(path)), None
     from graphnav.io.loaders import load_mission
     mission = load_mission(path, config_path, topics=topics)
     if mission.gt is None:
         raise DataError("the mission has no reference trajectory (ground truth / reference Odometry topic)",
                         str(path), field="gt")
-    return mission.gt
+    return mission.gt, mission
 
 
 def _has_csv_map(config_path) -> bool:
@@ -77,14 +92,38 @@ def _evo_trajectory(t, p, C, name: str):
                             timestamps=np.asarray(t, float), meta={"name": name})
 
 
+#: A constant depth difference (m) between estimate and reference above which ``evaluate`` warns that one
+#: of them is likely relative to the start rather than the absolute depth.
+DEPTH_OFFSET_WARN_M = 2.0
+
+
+def _warn_depth_offset(dz: np.ndarray, name: str) -> None:
+    """Warn when the estimate's depth minus the reference's (``dz``, m) is a near-constant offset of metres."""
+    import warnings
+    dz = dz[np.isfinite(dz)]
+    if dz.size < 2:
+        return
+    offset, spread = float(np.median(dz)), float(np.std(dz))
+    if abs(offset) > DEPTH_OFFSET_WARN_M and spread < 0.25 * abs(offset):
+        warnings.warn(f"{name}: the estimate is {offset:+.2f} m deeper than the reference throughout (spread "
+                      f"{spread:.2f} m): is one of them a depth relative to the start? graphnav writes and reads "
+                      "positions with down = absolute depth; APE includes this offset (--align removes it)",
+                      RuntimeWarning, stacklevel=3)
+
+
 def _stats(metric) -> dict:
     return {k: float(v) for k, v in metric.get_all_statistics().items()}
 
 
-def evaluate(est: NavSolution, ref: GroundTruth, *, align: bool = False, rpe_delta: float = 10.0,
+def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = False, rpe_delta: float = 10.0,
              rpe_unit: str = "m", max_diff_s: float = 0.01) -> dict:
     """APE (translation, m; rotation, deg), RPE (translation, m per ``rpe_delta`` ``rpe_unit``), VRMSE and
-    NEES of ``est`` against ``ref``; a dict of plain floats (``None`` where not computable, with the reason)."""
+    NEES of ``est`` against ``ref``; a dict of plain floats (``None`` where not computable, with the reason).
+
+    Positions on both sides follow :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute
+    depth). ``mission``: the mission ``ref`` belongs to (:func:`load_reference_mission`), for the velocity
+    NEES against the IMU-carried reference after the settling time, the benchmark's own score
+    (:func:`graphnav.evaluation.consistency.reference_nees`)."""
     _require_evo()
     from evo.core import metrics, sync
     from evo.core.metrics import PoseRelation, Unit
@@ -106,6 +145,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, align: bool = False, rpe_del
         raise DataError(f"no common stamps with the reference within {max_diff_s} s ({exc}); are both on the "
                         "mission clock?", est.method, field="t") from None
     out: dict = {"matched_poses": int(traj_est.num_poses), "aligned": bool(align)}
+    if not align:
+        _warn_depth_offset(est.p_n[at.mask, 2] - at.p_true_n[:, 2], est.method)
     if align:
         traj_est.align(traj_ref, correct_scale=False)
     for name, relation in (("ape_translation_m", PoseRelation.translation_part),
@@ -122,7 +163,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, align: bool = False, rpe_del
         out["rpe_translation_m"] = None
         out["rpe_note"] = str(exc)
     out["rpe_delta"] = f"{rpe_delta:g} {rpe_unit}"
-    from graphnav.evaluation.metrics import nees_velocity, vrmse
+    from graphnav.evaluation.metrics import vrmse
     if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
         out["vrmse_mps"] = None
         out["vrmse_note"] = "needs velocities in the estimate and the reference (a TUM file has none)"
@@ -132,19 +173,33 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, align: bool = False, rpe_del
         out["nees_velocity_mean"] = None
         out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
     else:
-        nees = nees_velocity(est, ref)
-        from scipy.stats import chi2
-        k = len(nees)
-        out["nees_velocity_mean"] = float(np.mean(nees))
-        out["nees_velocity_95pct_band"] = [float(chi2.ppf(0.025, 3 * k) / k), float(chi2.ppf(0.975, 3 * k) / k)]
-        out["nees_note"] = "diagonal covariance (the trajectory CSV keeps the sigmas only); 3 dof"
+        out.update(_nees(est, ref, mission))
     return out
+
+
+def _nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
+    """The benchmark's velocity NEES (:func:`graphnav.evaluation.consistency.reference_nees`) of ``est``."""
+    from graphnav.evaluation.consistency import NEES_SETTLE_S, chi2_band, reference_nees
+    t0 = (mission.t0 if mission is not None else float(ref.t[0])) + NEES_SETTLE_S
+    if not np.any((est.t >= t0) & (est.t <= ref.t[-1])):
+        t0 = float(max(est.t[0], ref.t[0]))          # a short estimate: score it all rather than nothing
+    sigma = None if mission is None else mission.meta.get("gt_velocity_sigma_n")
+    scores = reference_nees(est, ref, mission, t0, sigma)
+    lo, hi = chi2_band(scores["nees_n_independent"])
+    diagonal = bool(np.allclose(est.cov_v_n, np.einsum("kii->ki", est.cov_v_n)[:, :, None] * np.eye(3)))
+    return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
+            "nees_velocity_95pct_band": [lo, hi], "nees_n_independent": scores["nees_n_independent"],
+            "nees_t0_s": t0, "nees_reference": scores["nees_reference"],
+            "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference"
+                          + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else ""))}
 
 
 def format_report(result: dict, est_name: str, ref_name: str) -> str:
     """The evaluation as a few lines of text."""
+    from graphnav.core.mission import NED_ORIGIN_CONVENTION
     lines = [f"{est_name} vs {ref_name}: {result['matched_poses']} matched poses"
-             + (" (SE(3)-aligned)" if result["aligned"] else "")]
+             + (" (SE(3)-aligned)" if result["aligned"] else ""),
+             f"  positions: {NED_ORIGIN_CONVENTION}"]
     for key, label, unit in (("ape_translation_m", "APE translation", "m"),
                              ("ape_rotation_deg", "APE rotation", "deg"),
                              ("rpe_translation_m", f"RPE translation per {result['rpe_delta']}", "m")):
@@ -161,7 +216,8 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
     if result["nees_velocity_mean"] is not None:
         lo, hi = result["nees_velocity_95pct_band"]
         lines.append(f"  velocity NEES mean {result['nees_velocity_mean']:.2f} (consistent: 3; 95 % band "
-                     f"{lo:.2f}-{hi:.2f} for independent epochs)")
+                     f"{lo:.2f}-{hi:.2f} for {result['nees_n_independent']} independent epochs; "
+                     f"{result['nees_note']})")
     else:
         lines.append(f"  velocity NEES: not computed ({result['nees_note']})")
     return "\n".join(lines)

@@ -4,8 +4,8 @@ from graphnav.core.lazy import lazy_exports as _lazy_exports
 _PUBLIC = {
     "loaders": ("load_mission", "load_akit"),
     "bags": ("load_bag", "write_odometry_bag"),
-    "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "read_tum", "write_json",
-                "EpochCsvWriter"),
+    "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "write_reference_tum", "read_tum",
+                "write_json", "EpochCsvWriter"),
     "export": ("write_akit",),
     "streamio": ("StreamReader",),
     "dvl_files": ("read_dvl",),

@@ -27,8 +27,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
    ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating at load time rather than shipping a
    table works for any A-KIT folder, including the three not in ``../shared/data``.
-4. **GT.** lat/lon/alt -> NED relative to the first GT sample; ``C_b_n`` from roll/pitch/yaw; the depth
-   stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
+4. **GT.** lat/lon/alt -> NED with the project's one position convention
+   (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
+   sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
+   (as the estimators' depth factors and the aligner put it); ``C_b_n`` from roll/pitch/yaw; the depth
+   stream is that depth (``-altitude`` of the GT; ``meta["depth_source"] = "gt"``: the files carry no depth
+   sensor).
 5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec` ``max_*``: speed,
    ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.core.dvl.implausible_pings`)
    are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
@@ -399,10 +403,11 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     g = raw.gt
     cfg.imu_axis_signs = raw.axis_signs
     if g is not None:
-        lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
+        lat0, lon0 = g[0, 2], g[0, 1]
         cfg.lat_rad = float(lat0)
         cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
-        p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
+        # origin at the surface above the first fix: p_n[:, 2] is the absolute depth the estimate carries
+        p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, 0.0))
         v_n = g[:, 4:7]
         C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
     lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
@@ -461,11 +466,11 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
 
     t_gt = g[:, 0] + cfg.gt_time_offset_s
     src = {k: str(p) for k, p in raw.files.items()}
-    gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), float(alt0)), source=src["GT"])
+    gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), 0.0), source=src["GT"])
     if np.any(imu_position_b):
         from graphnav.calibration.reference import move_ground_truth
         gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
-    depth = DepthData(t_gt, gt.p_n[:, 2] - g[0, 3], source=src["GT"])  # p_n is relative to the first GT fix
+    depth = DepthData(t_gt, gt.p_n[:, 2].copy(), source=src["GT"])
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,

@@ -4,7 +4,11 @@
   (SI units and frames in the names; attitude as aerospace roll/pitch/yaw, ``C_b_n = Rz Ry Rx``; ``sigma_*``
   are 1-sigma from the estimator's velocity covariance, empty when it has none).
 * TUM file (:func:`write_tum`): ``timestamp tx ty tz qx qy qz qw`` per line, position in local NED (m) and
-  the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read.
+  the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read;
+  :func:`write_reference_tum` writes the ground truth at the estimate's stamps, so that
+  ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
+* Every position written follows :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`: NED from the sea
+  surface above the first fix, down = absolute depth.
 * JSON summary (:func:`write_json`): plain JSON (NaN written as ``null``), indented.
 * :class:`EpochCsvWriter`: the online mode's output, one row appended *and flushed* per epoch so a crash or
   Ctrl-C keeps every estimate produced so far; it reopens an existing file for ``--resume`` and reports the
@@ -16,12 +20,14 @@ import csv
 import json
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from graphnav.core.errors import DataError
+from graphnav.core.mission import GroundTruth
 from graphnav.core.rotations import C_b_n_to_euler, euler_to_C_b_n
 from graphnav.core.solution import NavSolution
 
@@ -89,6 +95,23 @@ def write_tum(path: str | Path, sol: NavSolution) -> Path:
     data = np.column_stack([sol.t, sol.p_n, quat_xyzw])
     np.savetxt(path, data, fmt="%.9f", delimiter=" ")
     return path
+
+
+def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> Path | None:
+    """Write the reference ``gt`` at the estimate's stamps (TUM, as :func:`write_tum`), so that evo's tools at
+    their defaults (``evo_ape tum groundtruth.tum trajectory.tum``: stamps matched within 0.01 s) pair every
+    epoch: :meth:`GroundTruth.at` (the one GT interpolator) at each of ``sol.t`` inside the GT span (never
+    extrapolated; epochs outside are left out). Positions in both files follow
+    :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute depth). Returns the path, or None
+    (with a RuntimeWarning, nothing written) when no estimate epoch lies inside the GT span."""
+    inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
+    if not inside.any():
+        warnings.warn(f"{path}: not written: no estimate epoch inside the ground truth span "
+                      f"[{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s", RuntimeWarning, stacklevel=2)
+        return None
+    t = sol.t[inside]
+    p, v, C = gt.at(t)
+    return write_tum(path, NavSolution("GT", t, p, v, C))
 
 
 def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
