@@ -157,7 +157,7 @@ def test_resume_check_catches_a_repeated_epoch(ws, tmp_path):
     assert np.isnan(value) and "repeated" in note
     write_trajectory_csv(plan.result, NavSolution("x", t, p, v, C))
     value, bound, _ = plan.check(None)
-    assert value < 1e-9 < bound
+    assert value < 1e-6 < bound      # the CSV keeps stamps to the microsecond
 
 
 def test_train_beams_case_restores_the_weights(ws, tmp_path, monkeypatch):
