@@ -16,6 +16,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
+from graphnav.core.screening import check_stamps
 
 #: Largest along-beam (or DVL-axis) velocity magnitude a DVL can report, m/s: the velocity range of the
 #: RDI Workhorse/Pathfinder class (+-10 m/s), far above any AUV speed. A larger value is an invalid flag or
@@ -80,6 +81,7 @@ def _check_time(t: np.ndarray, source: str) -> None:
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise DataError("time stamp is not finite", source, int(bad[0]), "t")
+    check_stamps(t, source)        # bounds before anything loops over the time
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
     if bad.size:
