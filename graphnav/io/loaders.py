@@ -11,7 +11,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
    the IMU-to-GT attitude alignment drifts by -2.5 ms per second over a file (from -0.45 s to -1.35 s on
    trajectory 1, measured in 50 s windows), and it is constant after rescaling. ``rescale_stamps=True``
-   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows in that file).
+   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows of the published file),
+   computed from the stamps, not from the rows present: ``T / (T + step)`` with ``step`` the file's median
+   stamp step and ``T`` the span all three files share (400 s), so a file with rows deleted (an outage cut
+   out of the log) keeps its later stamps; rows missing from the stamp grid are warned about and noted.
+   Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
+   from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
    published IMU files predate the authors' "corrected the transformation" commit: their y axis is
    flipped (``(1, -1, 1)``); the corrected files have y in the body frame (``(1, 1, 1)``). The default
@@ -31,8 +36,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    stream is ``-altitude`` of the GT (``meta["depth_source"] = "gt"``: the files carry no depth sensor).
 5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec` ``max_*``: speed,
    ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.core.dvl.implausible_pings`)
-   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
-   the ten shared trajectories).
+   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]`` and, with every
+   other refusal, in ``meta["streams"]``; none on the ten shared trajectories). A stretch without a usable
+   ping (NaN rows, deleted rows) longer than ``OUTAGE_MIN_S`` is warned about as a DVL outage.
+   IMU rows beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` / ``gyro_range_rads``) and GT
+   rows whose velocity is beyond the vehicle's speed or spikes are refused (dropped, counted) before the
+   axis detection and the time-offset estimates see them. More than half of a stream refused is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
@@ -65,6 +74,15 @@ from graphnav.core.mission import (
     invalid_dvl_values,
 )
 from graphnav.core.rotations import euler_to_C_b_n
+from graphnav.core.screening import (
+    check_refused_fraction,
+    gt_implausible,
+    imu_out_of_range,
+    note_outages,
+    refuse,
+    stamp_outliers,
+)
+from graphnav.core.streams import add_note, count_read, count_refused
 
 #: Column names of the published A-KIT files, in order.
 AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -133,14 +151,17 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=2.5e-3, gyro
 # CSV reading
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
-             repair: bool = False) -> np.ndarray:
+             repair: bool = False, meta: dict | None = None, stream: str = "") -> np.ndarray:
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
     Every bad data line is found and reported (1-based line number and column): wrong number of fields
     (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
     The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
-    stamps are dropped (first kept) and the rows sorted, with a warning.
+    stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
+    the rows are counted as read for ``stream`` and rows whose stamp is not a time
+    (:func:`graphnav.core.screening.stamp_outliers`: 1e300, a lone stamp a day off) are refused and counted
+    there, before the order check.
 
     Raises:
         DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
@@ -189,6 +210,15 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
     if problems:
         _raise_problems(source, sorted(problems))
+    if meta is not None:
+        count_read(meta, stream, data[:, 0], source)
+        bad = stamp_outliers(data[:, 0])
+        if bad.any():
+            refuse(meta, stream, {"stamp not a time": bad}, source, line_offset=1)
+            data, line_no = data[~bad], line_no[~bad]
+            count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
+            entry = meta["streams"][stream]
+            entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
     return _check_stamps(data, line_no, source, columns[0], repair)
 
 
@@ -285,23 +315,32 @@ class AkitRaw:
     files: dict
     axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
     axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
+    meta: dict = dataclasses.field(default_factory=dict)   # "streams": read / refused per file
 
 
 def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
-              repair: bool = False) -> AkitRaw:
-    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2).
+              repair: bool = False, config: SensorConfig | None = None) -> AkitRaw:
+    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2 and 5).
 
     ``imu_axis_signs``: a +-1 triple, or ``"auto"`` (detected, with a warning; module docstring step 2).
     A folder without a GT file reads with ``gt=None`` (the axis detection then uses the IMU alone).
+    ``config``: the sensor ranges and envelope the rows are screened with (default ``SensorConfig()``).
     """
     files = akit_files(folder, require_gt=False)
-    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
-    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
-    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
+    cfg = config or SensorConfig()
+    meta: dict = {}
+    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair, meta=meta, stream="imu")
+    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair, meta=meta,
+                   stream="dvl")
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair, meta=meta, stream="gt") if "GT" in files else None
     if rescale_stamps:
-        for a in (imu, dvl, gt):
-            if a is not None:
-                a[:, 0] *= (len(a) - 1) / len(a)
+        _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
+    bad = refuse(meta, "imu", imu_out_of_range(imu[:, 1:4], imu[:, 4:7], cfg), str(files["IMU"]), line_offset=2)
+    imu = imu[~bad]
+    if gt is not None:
+        bad = refuse(meta, "gt", gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl), str(files["GT"]), line_offset=2)
+        gt = gt[~bad]
+    check_refused_fraction(meta)
     detection = None
     if isinstance(imu_axis_signs, str):
         if imu_axis_signs != "auto":
@@ -314,7 +353,29 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
             raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
     imu[:, 1:4] *= signs
     imu[:, 4:7] *= signs
-    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection)
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, meta)
+
+
+def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
+    """Multiply each file's stamps (in place) by ``(N-1)/N`` of its published row count N, from the stamps:
+    ``T / (T + step)`` (``step``: the median stamp step, ``T``: the common span, the largest last stamp of
+    the files), so that deleted rows shift nothing. Rows missing from a file's stamp grid are warned about
+    and noted in ``meta["streams"]``."""
+    present = {k: a for k, a in arrays.items() if a is not None and len(a) > 1}
+    span = max(float(a[-1, 0]) for a in present.values()) if present else 0.0
+    for k, a in present.items():
+        step = float(np.median(np.diff(a[:, 0])))
+        if span <= 0 or step <= 0:
+            continue
+        on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
+        missing = on_grid - len(a)
+        if missing > 0:
+            gap = int(np.argmax(np.diff(a[:, 0])))
+            text = (f"{missing} row(s) missing from the {step:.6g} s stamp grid (largest hole after "
+                    f"t = {a[gap, 0]:.3f} s); stamps rescaled from the grid, not the row count")
+            add_note(meta, k, text)
+            warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
+        a[:, 0] *= span / (span + step)
 
 
 def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
@@ -364,7 +425,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         ``time_offsets`` (the estimates with their sigmas when "auto").
     """
     folder = Path(folder)
-    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
+    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair,
+                    config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))
     cfg.dvl = dataclasses.replace(cfg.dvl)
@@ -400,6 +462,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan
+        count_refused(raw.meta, "dvl", f"invalid velocity flag or beyond {MAX_DVL_SPEED_MPS:g} m/s", flagged.size)
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
     envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
@@ -410,6 +473,9 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
                       RuntimeWarning, stacklevel=2)
         v_dvl[outside] = np.nan
+        for reason, mask in envelope.items():
+            count_refused(raw.meta, "dvl", f"outside the envelope ({reason})", int(mask.sum()))
+    _note_dvl_outages(raw, v_dvl)
 
     estimates = {}
     detected = raw.axis_detection
@@ -428,7 +494,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     if dvl_time_offset_s == "auto":
         from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
-                        cfg.gravity_mps2, lat_for_rate)
+                        cfg.gravity_mps2, lat_for_rate, cfg.dvl)
         # against the published GT point the DVL sits at lever arm + IMU position
         est = estimate_dvl_time_offset(ref, raw.dvl[:, 0], v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
         dvl_time_offset_s = est.offset_s
@@ -450,7 +516,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
-    meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
+    meta = {"streams": raw.meta.get("streams", {}),
+            "source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
             "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
@@ -459,6 +526,16 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
             "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                              for k, e in estimates.items()}}
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+def _note_dvl_outages(raw: AkitRaw, v_dvl: np.ndarray) -> None:
+    """Warn about and note the stretches without a usable ping (NaN rows, deleted rows, refused pings), and
+    end the load when most of a stream was refused."""
+    t = raw.dvl[:, 0]
+    usable = np.all(np.isfinite(v_dvl), axis=1)
+    rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    note_outages(raw.meta, t, usable, rate, str(raw.files["DVL"]))
+    check_refused_fraction(raw.meta)
 
 
 def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
@@ -483,7 +560,8 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     detected = raw.axis_detection
-    meta = {"source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
+    meta = {"streams": raw.meta.get("streams", {}),
+            "source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
             "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
