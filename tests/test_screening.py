@@ -311,3 +311,67 @@ def test_clean_akit_refuses_nothing(clean_akit):
     streams = clean_akit.meta["streams"]
     assert {k: v["refused"] for k, v in streams.items()} == {"imu": {}, "dvl": {}, "gt": {}}
     assert "outages" not in streams["dvl"]
+
+
+# --- health in every output -----------------------------------------------------------------------------
+def test_a_diverged_run_says_so_in_every_output_and_exits_3(tmp_path):
+    """The IMU y axis of the wrong sign makes the graph lose track: the last estimates are 'diverged' (stream
+    record, CSV column, Odometry covariance), the run's health state is diverged and the command's exit status
+    is EXIT_DIVERGED."""
+    import dataclasses
+    import json
+
+    from graphnav.commands.common import exit_status, run_health_record
+    from graphnav.estimators.health import EXIT_DIVERGED
+    from graphnav.estimators.runs import run_graph
+    from graphnav.io.outputs import write_trajectory_csv
+    from graphnav.io.streamio import estimate_record
+    m = simulate_mission(duration_s=60.0, seed=1)
+    flip = np.array([1.0, -1.0, 1.0])
+    flipped = dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=m.imu.f_b * flip,
+                                                             omega_b=m.imu.omega_b * flip))
+    estimates = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = run_graph(flipped, callback=estimates.append)
+    assert estimates[0].health == "ok" and estimates[-1].health == "diverged"
+    record = json.loads(json.dumps(estimate_record(estimates[-1])))
+    assert record["health"] == "diverged" and "NIS" in record["health_why"]
+    assert sol.info["health_state"][-1] == "diverged"
+    rows = write_trajectory_csv(tmp_path / "t.csv", sol).read_text().splitlines()
+    assert rows[-1].endswith(",diverged") and rows[1].endswith(",ok")
+    summary = {"health": run_health_record(sol.info, flipped)}
+    assert summary["health"]["state"] == "diverged" and "not recovered" in summary["health"]["why"][0]
+    assert exit_status(summary) == EXIT_DIVERGED == 3
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = run_graph(m)
+    assert set(clean.info["health_state"]) == {"ok"}
+    assert exit_status({"health": run_health_record(clean.info, m)}) == 0
+    try:
+        from graphnav.io.bags import DIVERGED_VARIANCE, odometry_messages, typestore
+    except ImportError:
+        return
+    msgs = odometry_messages(sol, typestore())
+    assert msgs[-1][1].twist.covariance[0] == DIVERGED_VARIANCE and msgs[0][1].twist.covariance[0] < 1.0
+
+
+def test_run_health_is_degraded_by_refusals_and_pure_inertial_stretches():
+    from graphnav.estimators.health import run_health
+    assert run_health({"diverged": False, "n_blocks": 4, "n_blocks_above_band": 0}, {}) == {"state": "ok", "why": []}
+    h = run_health(None, {"received": {"dvl": 100}, "samples_refused": {"dvl": 10}})
+    assert h["state"] == "degraded" and "10 of 100 dvl samples refused" in h["why"][0]
+    h = run_health(None, {"pure_inertial_spans": [[10.0, 80.0, 0.3]], "pure_inertial_max_s": 70.0})
+    assert h["state"] == "degraded" and "longest 70 s" in h["why"][0]
+    streams = {"imu": {"read": 100, "refused": {"f_b beyond 156.906 m/s^2": 6}}}
+    assert run_health(None, {}, streams)["state"] == "degraded"
+
+
+def test_smooth_and_online_help_document_the_exit_status():
+    import subprocess
+    import sys
+    from pathlib import Path
+    exe = Path(sys.executable).parent / "graphnav"
+    for cmd in ("smooth", "online"):
+        out = subprocess.run([str(exe), cmd, "--help"], capture_output=True, text=True, timeout=120).stdout
+        assert "3 the estimator DIVERGED" in " ".join(out.split()), cmd

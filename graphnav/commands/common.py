@@ -9,6 +9,7 @@ import functools
 from pathlib import Path
 
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
+from graphnav.estimators.health import EXIT_DIVERGED, run_health
 from graphnav.evaluation.methods import METHODS, check_scenario
 
 
@@ -171,3 +172,25 @@ def print_summary(summary: dict, file=None) -> None:
               f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
         out(f"  {name}: {path}")
+
+
+# --- health of a run and the exit status -------------------------------------------------------------------
+EXIT_EPILOG = ("exit status: 0 the run finished and its estimator was healthy at the end (ok or degraded: see "
+               "'health' in summary.json and the health column); 1 an error in the input or the options (the message "
+               "names the file, line and field; also when more than half of a stream was refused); 2 a usage error; "
+               f"{EXIT_DIVERGED} the estimator DIVERGED and had not recovered at the end (the trajectory is written but "
+               "must not be trusted); 130 interrupted")
+
+
+def run_health_record(sol_info: dict, mission=None) -> dict:
+    """The ``health`` of a summary: the NIS monitor's record plus ``state`` (ok / degraded / diverged) and
+    ``why`` (:func:`graphnav.estimators.health.run_health`) over the run's info and the loader's streams."""
+    health = dict(sol_info.get("health") or {})
+    streams = (mission.meta.get("streams") if mission is not None else None) or None
+    return {**health, **run_health(health, sol_info, streams)}
+
+
+def exit_status(summary: dict) -> int:
+    """:data:`EXIT_DIVERGED` when the run's health state is diverged, else 0."""
+    return EXIT_DIVERGED if (summary.get("health") or {}).get("state") == "diverged" else 0
+

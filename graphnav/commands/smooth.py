@@ -9,17 +9,21 @@ import time
 from pathlib import Path
 
 from graphnav.commands.common import (
+    EXIT_EPILOG,
     HelpFormatter,
     accuracy_summary,
     add_init_arguments,
     add_mission_arguments,
     aligner_kwargs,
+    exit_status,
     make_plots,
     methods_help,
     mission_from_args,
     print_summary,
+    run_health_record,
 )
 from graphnav.core.errors import ConfigError
+from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import METHODS
 
 
@@ -35,7 +39,7 @@ def register(subparsers) -> None:
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
                     "--jobs processes or on a Dask cluster (--scheduler), resumable with --resume.",
-        formatter_class=HelpFormatter)
+        epilog=EXIT_EPILOG, formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
     p.add_argument("--out", default="out/smooth", metavar="DIR", help="output folder")
@@ -100,8 +104,9 @@ def smooth_mission(args, out: Path) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages), "health": sol.info.get("health"),
-        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": o.info.get("health")}
+        "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
+        "input_streams": mission.meta.get("streams", {}),
+        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
     }
     if not args.no_plots:
@@ -122,8 +127,9 @@ def run(args) -> int:
     if args.jobs != 1 or args.scheduler is not None or args.resume:
         raise ConfigError("--jobs, --scheduler and --resume apply to a folder of missions (TrajectoryN folders "
                           f"or ROS 2 bags); --data {args.data} is one mission")
-    print_summary(smooth_mission(args, Path(args.out)))
-    return 0
+    summary = smooth_mission(args, Path(args.out))
+    print_summary(summary)
+    return exit_status(summary)
 
 
 # --- a folder of missions -------------------------------------------------------------------------------
@@ -140,8 +146,8 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
-        "health": {k: health.get(k) for k in ("ok", "diverged_at_end", "n_divergences", "n_reacquired",
-                                              "n_rejected", "nis_mean_per_dof")} if health else None,
+        "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
+                                              "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,
     }
 
@@ -202,4 +208,7 @@ def run_folder(args, missions) -> int:
     failed = [r["mission"] for r in records if r.get("error")]
     print(f"smooth: {len(records) - len(failed)} of {len(missions)} missions smoothed"
           + (f"; FAILED: {', '.join(failed)}" if failed else "") + f"; {results_path}")
-    return 1 if failed else 0
+    diverged = [r["mission"] for r in records if (r.get("health") or {}).get("state") == "diverged"]
+    if diverged:
+        print(f"smooth: DIVERGED (estimates not to be trusted): {', '.join(diverged)}")
+    return 1 if failed else (EXIT_DIVERGED if diverged else 0)

@@ -52,6 +52,7 @@ from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
+from graphnav.estimators.health import epoch_health
 from graphnav.estimators.graph.builder import preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
@@ -498,6 +499,7 @@ class Navigator:
         for kf in kfs:
             est = self.backend.process(kf)
             self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n)
+            est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting)
             out.append(est)
         if out:
             self._latest = out[-1]
