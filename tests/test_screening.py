@@ -375,3 +375,24 @@ def test_smooth_and_online_help_document_the_exit_status():
     for cmd in ("smooth", "online"):
         out = subprocess.run([str(exe), cmd, "--help"], capture_output=True, text=True, timeout=120).stdout
         assert "3 the estimator DIVERGED" in " ".join(out.split()), cmd
+
+
+# --- time that cannot hang ------------------------------------------------------------------------------
+def test_imu_gaps_too_long_to_bridge_are_a_data_error_not_millions_of_samples():
+    t = np.r_[np.arange(100) * 0.01, 5000.0 + np.arange(100) * 0.01]
+    imu = ImuData(t, np.tile([0.0, 0.0, -9.8], (200, 1)), np.zeros((200, 3)), source="imu.csv")
+    with pytest.raises(DataError, match="IMU gap of 4999.01 s .* longer than the 600 s"):
+        imu.bridge_gaps(100.0)
+
+
+def test_keyframer_given_a_stamp_years_ahead_stops_with_a_data_error(mission):
+    """The keyframer alone (without the Navigator's stamp screening) bounds its loops in samples."""
+    from graphnav.estimators.keyframes import Keyframer
+    kf = Keyframer(mission.config)
+    kf.start(0.0)
+    for k in range(200):
+        kf.add_imu(k * 0.01, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    start = time.perf_counter()
+    with pytest.raises(DataError, match="IMU gap of 3e\\+08 s"):
+        kf.add_imu(3.0e8, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    assert time.perf_counter() - start < 1.0

@@ -41,6 +41,17 @@ IMU_GAP_PERIODS = 2.5
 #: 1e-3.
 IMU_GAP_ACCEL_SIGMA = 0.1
 IMU_GAP_GYRO_SIGMA = 1e-3
+#: Longest IMU gap bridged by interpolation, s. Beyond it the IMU stopped rather than dropped samples:
+#: interpolating would invent minutes of motion (and, for a stamp years off, never end); a DataError says so.
+MAX_IMU_BRIDGE_S = 600.0
+
+
+def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None) -> None:
+    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S`."""
+    if t1 - t0 > MAX_IMU_BRIDGE_S:
+        raise DataError(f"IMU gap of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
+                        "that can be bridged: the IMU stopped (or a stamp is wrong); split the mission there",
+                        source, index, "t")
 
 
 def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:
@@ -158,6 +169,8 @@ class ImuData:
         if not at.size:
             return imu, []
         gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
+        for g in gaps:
+            check_imu_gap(g.t_start, g.t_end, self.source, g.index + 1)
         longest = max(gaps, key=lambda g: g.length)
         warnings.warn(f"{self.source}: {len(gaps)} IMU gap(s) longer than {gap_periods * period:.3g} s bridged "
                       f"by linear interpolation (longest {longest.length:.3f} s after index {longest.index}, "
