@@ -396,3 +396,34 @@ def test_keyframer_given_a_stamp_years_ahead_stops_with_a_data_error(mission):
     with pytest.raises(DataError, match="IMU gap of 3e\\+08 s"):
         kf.add_imu(3.0e8, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
     assert time.perf_counter() - start < 1.0
+
+
+# --- the generic CSV loader (and bags, PD0: load_mission screens what they return) ----------------------
+def test_generic_csv_log_is_screened_like_akit(tmp_path):
+    """A team's CSV log with one IMU row of 1e6 g, one beam of 6 m/s (beyond the vehicle's speed, within a
+    DVL's range) and one GT velocity of 1e6 m/s: each refused and counted with its reason in
+    meta["streams"], the rest as written."""
+    from types import SimpleNamespace
+
+    from graphnav.io.loaders import load_mission
+    from tests.test_generic_csv import _config, _separate_files
+    sim = simulate_mission(duration_s=40.0, seed=5)
+    f_b = sim.imu.f_b.copy()
+    f_b[1000] = [1e6 * 9.80665, 0.0, 0.0]
+    beams = sim.dvl.beams.copy()
+    k = int(np.flatnonzero(sim.dvl.valid.all(axis=1))[10])
+    beams[k, 1] = 6.0
+    v_n = sim.gt.v_n.copy()
+    v_n[50] = [1e6, 0.0, 0.0]
+    bad = SimpleNamespace(imu=SimpleNamespace(t=sim.imu.t, f_b=f_b, omega_b=sim.imu.omega_b),
+                          dvl=SimpleNamespace(t=sim.dvl.t, beams=beams, valid=sim.dvl.valid), depth=sim.depth,
+                          gt=SimpleNamespace(t=sim.gt.t, p_n=sim.gt.p_n, v_n=v_n, C_b_n=sim.gt.C_b_n), config=sim.config)
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, bad))
+    with pytest.warns(RuntimeWarning, match="refused"):
+        m = load_mission(tmp_path, cfg)
+    refused = {k: v["refused"] for k, v in m.meta["streams"].items()}
+    assert refused["imu"] == {"f_b beyond 156.906 m/s^2": 1}
+    assert refused["dvl"] == {"beam beyond 4 m/s": 1} and not m.dvl.valid[k].any()
+    assert refused["gt"] == {"GT speed > 4 m/s": 1} and np.abs(m.gt.v_n).max() < 5
+    assert refused["depth"] == {}
+    assert len(m.imu.t) == len(sim.imu.t) - 1

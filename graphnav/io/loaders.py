@@ -75,7 +75,9 @@ from graphnav.core.mission import (
 )
 from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
+    beams_out_of_range,
     check_refused_fraction,
+    depth_implausible,
     gt_implausible,
     imu_out_of_range,
     note_outages,
@@ -660,11 +662,11 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     if topics and not bags.is_bag(path):
         raise ConfigError(f"--topic applies to ROS 2 bags only; {path} is not one")
     if bags.is_bag(path):
-        return bags.load_bag(path, config, topics)
+        return screen_mission(bags.load_bag(path, config, topics))
     if pd0.is_pd0(path):
-        return generic_csv.load_pd0(path, config)
+        return screen_mission(generic_csv.load_pd0(path, config))
     if generic_csv.uses_column_map(path, config):
-        return generic_csv.load_csv_mission(path, config)
+        return screen_mission(generic_csv.load_csv_mission(path, config))
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
     if config is not None:
@@ -673,6 +675,53 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
         sim_kwargs.setdefault("gt_time_offset_s", config.gt_time_offset_s)
         sim_kwargs.setdefault("dvl_time_offset_s", config.dvl_time_offset_s)
     return load_akit(path, config=config, **sim_kwargs)
+
+
+def screen_mission(mission: Mission) -> Mission:
+    """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
+    A-KIT loader screens its files itself): IMU rows beyond full scale, depth rows outside the range or spiking
+    and implausible GT rows are dropped; DVL beams beyond the vehicle's speed and pings outside its envelope
+    are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
+    warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
+    one when nothing was refused)."""
+    meta = mission.meta
+    cfg = mission.config
+    for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
+        if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
+            count_read(meta, name, stream.t, stream.source)
+    imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
+    bad = refuse(meta, "imu", imu_out_of_range(imu.f_b, imu.omega_b, cfg), imu.source)
+    if bad.any():
+        imu = imu.take(np.flatnonzero(~bad))
+    beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
+    masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
+    valid = dvl.valid & ~beam_bad
+    from graphnav.core.dvl import DvlGeometry
+    v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(
+        np.where(valid, dvl.beams, np.nan), valid, allow_missing=True)
+    masks.update({f"outside the envelope ({k})": m for k, m in implausible_pings(dvl.t, v, cfg.dvl).items()})
+    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping")
+    if bad.any():
+        valid = valid & ~bad[:, None]
+        dvl = dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,
+                                  v_b=None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b))
+    usable = dvl.valid.sum(axis=1) >= 3
+    if dvl.v_d_valid is not None:
+        usable |= dvl.v_d_valid
+    if len(dvl.t) > 1:
+        note_outages(meta, dvl.t, usable, 1.0 / float(np.median(np.diff(dvl.t))), dvl.source)
+    if depth is not None:
+        bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source)
+        if bad.any():
+            depth = depth.take(np.flatnonzero(~bad))
+    if gt is not None:
+        bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
+        if bad.any():
+            gt = gt.take(np.flatnonzero(~bad))
+    check_refused_fraction(meta)
+    if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
+        return mission
+    return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
 
 
 def _config_keys(config_path: str | Path) -> set[str]:
