@@ -251,6 +251,7 @@ def test_cli_pipes_a_simulated_stream_into_online(tmp_path):
     lines = [json.loads(x) for x in run.stdout.splitlines()]
     assert len(lines) > 50 and all(r["type"] == "estimate" for r in lines)
     assert all(len(r["v_n"]) == 3 and len(r["cov_v_n"]) == 3 for r in lines)
+    assert all(r["health"] in ("ok", "degraded", "diverged") for r in lines) and lines[-1]["health"] == "ok"
     summary = json.loads((tmp_path / "on" / "summary.json").read_text())
     assert summary["epochs"] == len(lines) and summary["stream"]["bad_lines"] == 0
     assert summary["initialisation"]["heading_source"] == "gyrocompass"
