@@ -153,7 +153,7 @@ def test_a_stream_stamp_of_1e300_or_a_jump_of_years_is_refused_without_hanging(m
     bad += events[i:]
     nav = _navigator(m)
     start = time.perf_counter()
-    with pytest.warns(RuntimeWarning, match="refused, field 't': stamp"):
+    with pytest.warns(RuntimeWarning, match=r"imu sample at t = (1e\+300|[0-9.]+) s refused, field 't': stamp"):
         out = _feed(nav, bad)
     assert time.perf_counter() - start < 20.0
     assert nav.info["refused"] == {"imu": {"t": 1}, "dvl": {"t": 1}}

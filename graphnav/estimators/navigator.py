@@ -52,10 +52,10 @@ from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
-from graphnav.estimators.health import epoch_health
 from graphnav.estimators.graph.builder import preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.health import epoch_health
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
 
@@ -153,7 +153,7 @@ class Navigator:
         self.refused: dict[str, dict[str, int]] = {}
         self._screen = StreamScreen(config)
         self.received: dict[str, int] = {}          # samples given to add_* per stream
-        self.samples_refused: dict[str, int] = {}   # whole samples refused per stream (a DVL ping: all its beams)
+        self.samples_refused: dict[str, int] = {}   # samples refused per stream, whatever the reason
         self.n_estimates = 0
         #: live pure-inertial check (:mod:`graphnav.estimators.coasting`), created when the estimator starts
         self.coasting: CoastingMonitor | None = None
@@ -365,18 +365,16 @@ class Navigator:
         return info
 
     # --- internals ----------------------------------------------------------------------------------
-    def _refuse(self, stream: str, t, field_name: str, why: str, screened: bool = False,
-                whole: bool = True) -> list:
+    def _refuse(self, stream: str, t, field_name: str, why: str, screened: bool = False) -> list:
         """Count and warn (three times per stream and key). ``field_name`` is the count key: the field for
-        malformed samples, the screening reason when ``screened``; ``whole``: the sample as a whole is refused
-        (not one beam of a ping)."""
+        malformed samples, the screening reason when ``screened``."""
         counts = self.refused.setdefault(stream, {})
         counts[field_name] = counts.get(field_name, 0) + 1
-        if whole:
-            self.samples_refused[stream] = self.samples_refused.get(stream, 0) + 1
+        self.samples_refused[stream] = self.samples_refused.get(stream, 0) + 1
         n = counts[field_name]
         if n <= 3:
-            stamp = f"{t:.6f}" if isinstance(t, (int, float)) and math.isfinite(t) else repr(t)
+            finite = isinstance(t, (int, float)) and math.isfinite(t)
+            stamp = (f"{t:.6f}" if abs(t) < 1e12 else f"{t:.6g}") if finite else repr(t)
             what = f"refused ({field_name}): {why}" if screened else f"refused, field '{field_name}': {why}"
             warnings.warn(f"navigator: {stream} sample at t = {stamp} s {what}"
                           + ("; further refusals of this kind are only counted" if n == 3 else ""),
