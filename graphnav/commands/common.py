@@ -150,6 +150,12 @@ def print_summary(summary: dict, file=None) -> None:
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
+    at_load = {k: v["refused"] for k, v in (summary.get("input_streams") or {}).items() if v.get("refused")}
+    if at_load:
+        out(f"  refused at load (stream: reason: count): {at_load}")
+    for stream, entry in (summary.get("input_streams") or {}).items():
+        for note in entry.get("notes", []):
+            out(f"  {stream}: {note}")
     if acc.get("ground_truth"):
         out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
@@ -161,7 +167,7 @@ def print_summary(summary: dict, file=None) -> None:
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
             out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
-        if other.get("health") and not other["health"]["ok"]:
+        if other.get("health") and other["health"].get("state", "ok") != "ok":
             out(f"  compared {name} {health_line(other['health'])}")
     line = health_line(summary.get("health"))
     if line:
