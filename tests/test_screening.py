@@ -427,3 +427,21 @@ def test_generic_csv_log_is_screened_like_akit(tmp_path):
     assert refused["gt"] == {"GT speed > 4 m/s": 1} and np.abs(m.gt.v_n).max() < 5
     assert refused["depth"] == {}
     assert len(m.imu.t) == len(sim.imu.t) - 1
+
+
+def test_read_csv_counts_what_it_drops(tmp_path):
+    """Rows dropped by the CSV reader (a stamp that is not a time, a duplicated stamp under repair) are counted
+    with their reason in the mission's meta."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    p = tmp_path / "DVL.csv"
+    rows = [",".join(AKIT_COLUMNS["DVL"])] + [f"{t},1.0,0.1,0.0" for t in (0.0, 1.0, 1.0, 2.0, 3.0, 1e300)]
+    p.write_text("\n".join(rows) + "\n")
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data = read_csv(p, AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=True, meta=meta, stream="dvl")
+    assert data[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0]
+    entry = meta["streams"]["dvl"]
+    assert entry["read"] == 6 and entry["used"] == 4
+    assert entry["refused"] == {"stamp not a time": 1, "duplicated stamp (repair)": 1}
+    assert entry["span_s"] == [0.0, 3.0]

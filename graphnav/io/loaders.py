@@ -221,7 +221,10 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
             entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
-    return _check_stamps(data, line_no, source, columns[0], repair)
+    kept = _check_stamps(data, line_no, source, columns[0], repair)
+    if meta is not None and len(kept) < len(data):
+        count_refused(meta, stream, "duplicated stamp (repair)", len(data) - len(kept))
+    return kept
 
 
 def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
