@@ -82,7 +82,8 @@ def test_online_resume_continues_identically(tmp_path):
     assert _online(full) == 0
     reference = (full / "online.csv").read_text()
     rows = reference.splitlines()
-    assert rows[0].split(",") == list(CSV_COLUMNS) and len(rows) > 100
+    assert rows[0].split(",") == list(CSV_COLUMNS) + ["health"] and len(rows) > 100
+    assert {r.rsplit(",", 1)[1] for r in rows[1:]} <= {"ok", "degraded", "diverged"}
     summary = json.loads((full / "summary.json").read_text())
     assert summary["epochs"] == len(rows) - 1 and summary["accuracy"]["vrmse_mission_mps"] < 0.2
 

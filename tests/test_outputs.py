@@ -36,10 +36,10 @@ def test_trajectory_csv_round_trip(tmp_path):
     sol = make_solution()
     path = write_trajectory_csv(tmp_path / "traj.csv", sol)
     lines = path.read_text().splitlines()
-    assert lines[0].split(",") == list(CSV_COLUMNS)
+    assert lines[0].split(",") == list(CSV_COLUMNS) + ["health"]
     assert len(lines) == len(sol.t) + 1
-    # Missing gyro bias is written as empty cells, not "nan".
-    assert lines[1].endswith(",,,") and "nan" not in path.read_text()
+    # Missing gyro bias is written as empty cells, not "nan" (and no health: the solution does not say).
+    assert lines[1].endswith(",,,,") and "nan" not in path.read_text()
     back = read_trajectory_csv(path)
     np.testing.assert_allclose(back.t, sol.t)
     np.testing.assert_allclose(back.p_n, sol.p_n, atol=1e-6)
@@ -48,6 +48,15 @@ def test_trajectory_csv_round_trip(tmp_path):
     np.testing.assert_allclose(back.cov_v_n, sol.cov_v_n, rtol=1e-8)
     np.testing.assert_allclose(back.bias_acc, sol.bias_acc, atol=1e-12)
     assert back.bias_gyro is None
+
+
+def test_trajectory_csv_health_column(tmp_path):
+    sol = make_solution()
+    states = ["ok"] * (len(sol.t) - 2) + ["degraded", "diverged"]
+    sol.info["health_state"] = states
+    lines = write_trajectory_csv(tmp_path / "traj.csv", sol).read_text().splitlines()
+    assert [x.rsplit(",", 1)[1] for x in lines[1:]] == states
+    np.testing.assert_allclose(read_trajectory_csv(tmp_path / "traj.csv").t, sol.t)
 
 
 def test_csv_reader_names_bad_cell(tmp_path):

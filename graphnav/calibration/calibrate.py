@@ -55,7 +55,7 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
     work = apply_axis_map(mission, check.gyro_map, check.accel_map) if not check.ok else mission
     gt_t = work.gt.t + gt_est.offset_s
     ref = Reference(work.imu.t, work.imu.f_b, work.imu.omega_b, gt_t, work.gt.v_n, work.gt.C_b_n,
-                    cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None)
+                    cfg0.gravity_mps2, cfg0.lat_rad if cfg0.earth_rotation else None, cfg0.dvl)
     v_dvl, usable = dvl_velocity(work)
     usable &= submerged_pings(work, min_depth_m) if work.depth is not None else True
     fit, off_sigma = calibrate_dvl_with_gt(ref, work.dvl.t, v_dvl, usable)

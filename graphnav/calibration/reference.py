@@ -17,6 +17,7 @@ Frames: body FRD, nav NED; ``C_b_n`` body-to-NED; rates in rad/s, velocities in 
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -96,14 +97,20 @@ class Reference:
         C_b_n: (K,3,3) reference attitude.
         gravity_mps2: gravity magnitude (down), m/s^2.
         lat_rad: latitude for the Earth rate, rad; None = no Earth rotation.
+        envelope: the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec`, default ``DvlSpec()``): reference
+            samples whose velocity is beyond its speed or spikes (:func:`graphnav.core.screening.gt_implausible`)
+            are left out, with a warning, and counted in ``n_refused``: one such sample would otherwise
+            dominate every least-squares fit against the reference (a 1e6 m/s GT sample pinned the DVL time
+            offset at its search bound).
     """
 
     def __init__(self, t_imu, f_b, omega_b, t_ref, v_n, C_b_n, gravity_mps2: float,
-                 lat_rad: float | None = None):
+                 lat_rad: float | None = None, envelope=None):
         self.t_imu = np.ascontiguousarray(t_imu, float)
         self.t_ref = np.asarray(t_ref, float)
         self.v_ref = np.asarray(v_n, float)
         self.C_ref = np.asarray(C_b_n, float)
+        self._screen(envelope)
         self.omega_ie_n = np.zeros(3) if lat_rad is None else earth_rate_n(lat_rad)
         omega_b = np.asarray(omega_b, float)
         inside = (self.t_imu >= self.t_ref[0]) & (self.t_imu <= self.t_ref[-1])
@@ -125,6 +132,21 @@ class Reference:
         g_n = np.array([0.0, 0.0, gravity_mps2])
         a_n = self.C_imu.apply(np.asarray(f_b, float)) + g_n
         self._V = np.asfortranarray(cumulative_integral(self.t_imu, a_n))
+
+    def _screen(self, envelope) -> None:
+        from graphnav.core.config import DvlSpec
+        from graphnav.core.screening import gt_implausible
+        masks = gt_implausible(self.t_ref, self.v_ref, envelope or DvlSpec())
+        bad = np.any(list(masks.values()), axis=0)
+        self.n_refused = {k: int(m.sum()) for k, m in masks.items() if m.any()}
+        if bad.any():
+            if bad.sum() > 0.5 * len(bad):
+                raise DataError(f"{int(bad.sum())} of {len(bad)} reference samples implausible ({self.n_refused})",
+                                "gt", int(np.flatnonzero(bad)[0]), "v_n")
+            warnings.warn(f"reference: {int(bad.sum())} ground-truth sample(s) left out ({self.n_refused}), first at "
+                          f"index {int(np.flatnonzero(bad)[0])}, t = {self.t_ref[bad][0]:.3f} s", RuntimeWarning,
+                          stacklevel=3)
+            self.t_ref, self.v_ref, self.C_ref = self.t_ref[~bad], self.v_ref[~bad], self.C_ref[~bad]
 
     def _rot_at(self, t: np.ndarray) -> Rotation:
         """Gyro-integrated rotation (relative to the IMU start) at arbitrary times, rotation at sample
@@ -366,7 +388,7 @@ def mission_reference(mission) -> Reference:
     if mission.gt is None:
         raise DataError("the mission has no ground truth", mission.name, field="gt")
     return Reference(mission.imu.t, mission.imu.f_b, mission.imu.omega_b, mission.gt.t, mission.gt.v_n,
-                     mission.gt.C_b_n, cfg.gravity_mps2, cfg.lat_rad if cfg.earth_rotation else None)
+                     mission.gt.C_b_n, cfg.gravity_mps2, cfg.lat_rad if cfg.earth_rotation else None, cfg.dvl)
 
 
 def submerged_pings(mission, min_depth_m: float = SURFACE_DEPTH_M) -> np.ndarray:

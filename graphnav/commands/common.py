@@ -18,6 +18,7 @@ from pathlib import Path
 
 from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
+from graphnav.estimators.health import EXIT_DIVERGED, run_health
 from graphnav.evaluation.methods import METHODS, check_scenario
 
 
@@ -160,6 +161,12 @@ def print_summary(summary: dict, file=None) -> None:
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
+    at_load = {k: v["refused"] for k, v in (summary.get("input_streams") or {}).items() if v.get("refused")}
+    if at_load:
+        out(f"  refused at load (stream: reason: count): {at_load}")
+    for stream, entry in (summary.get("input_streams") or {}).items():
+        for note in entry.get("notes", []):
+            out(f"  {stream}: {note}")
     if acc.get("ground_truth"):
         out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
@@ -171,7 +178,7 @@ def print_summary(summary: dict, file=None) -> None:
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
             out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
-        if other.get("health") and not other["health"]["ok"]:
+        if other.get("health") and other["health"].get("state", "ok") != "ok":
             out(f"  compared {name} {health_line(other['health'])}")
     line = health_line(summary.get("health"))
     if line:
@@ -307,3 +314,25 @@ class StagedOut:
             os.replace(self.out, old)
         os.replace(self.path, self.out)
         shutil.rmtree(old, ignore_errors=True)
+
+
+# --- health of a run and the exit status -------------------------------------------------------------------
+EXIT_EPILOG = ("exit status: 0 the run finished and its estimator was healthy at the end (ok or degraded: see "
+               "'health' in summary.json and the health column); 1 an error in the input or the options (the message "
+               "names the file, line and field; also when more than half of a stream was refused); 2 a usage error; "
+               f"{EXIT_DIVERGED} the estimator DIVERGED and had not recovered at the end (the trajectory is written but "
+               "must not be trusted); 130 interrupted")
+
+
+def run_health_record(sol_info: dict, mission=None) -> dict:
+    """The ``health`` of a summary: the NIS monitor's record plus ``state`` (ok / degraded / diverged) and
+    ``why`` (:func:`graphnav.estimators.health.run_health`) over the run's info and the loader's streams."""
+    health = dict(sol_info.get("health") or {})
+    streams = (mission.meta.get("streams") if mission is not None else None) or None
+    return {**health, **run_health(health, sol_info, streams)}
+
+
+def exit_status(summary: dict) -> int:
+    """:data:`EXIT_DIVERGED` when the run's health state is diverged, else 0."""
+    return EXIT_DIVERGED if (summary.get("health") or {}).get("state") == "diverged" else 0
+

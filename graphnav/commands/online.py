@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from graphnav.commands.common import (
+    EXIT_EPILOG,
     HelpFormatter,
     accuracy_summary,
     add_init_arguments,
@@ -32,8 +33,10 @@ from graphnav.commands.common import (
     check_out,
     clear_out,
     make_plots,
+    exit_status,
     mission_from_args,
     print_summary,
+    run_health_record,
 )
 from graphnav.core.errors import ConfigError
 from graphnav.evaluation.methods import METHODS
@@ -53,8 +56,10 @@ def register(subparsers) -> None:
                     "Each estimate is appended to OUT/online.csv and flushed at once (and, with "
                     "--stream, printed to standard output as a JSON line); Ctrl-C keeps the file; --resume "
                     "continues a replay from its last epoch. An --out that already holds files is refused unless "
-                    "--resume or --force (which empties it first). A final summary goes to OUT/summary.json.",
-        formatter_class=HelpFormatter)
+                    "--resume or --force (which empties it first). A final summary goes to OUT/summary.json. Every "
+                    "estimate says how far to trust it: 'health' (ok / degraded / diverged) and 'health_why' in "
+                    "the JSON lines, a health column in the CSV.",
+        epilog=EXIT_EPILOG, formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
     p.add_argument("--stream", metavar="FILE",
@@ -99,7 +104,7 @@ def epoch_fields(est) -> dict:
     bias = est.bias
     return {"t": est.t, "p_n": est.p_n, "v_n": est.v_n, "C_b_n": est.C_b_n, "cov_v_n": est.cov_v_n,
             "bias_acc": None if bias is None else bias.accelerometer(),
-            "bias_gyro": None if bias is None else bias.gyroscope()}
+            "bias_gyro": None if bias is None else bias.gyroscope(), "health": getattr(est, "health", None)}
 
 
 class EpochSink:
@@ -232,7 +237,7 @@ def run(args) -> int:
         "update_timing": update_timing(info.get("update_s")),
         "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
                                                   nav.alignment is None else "none"}),
-        "refused": info["refused"], "stream": stream_info, "health": info.get("health"),
+        "refused": info["refused"], "stream": stream_info, "health": run_health_record(info, mission),
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "files": {"online_csv": str(csv_path)},
@@ -243,7 +248,7 @@ def run(args) -> int:
     summary["files"]["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
     print_summary(summary, file=log)
-    return 0
+    return exit_status(summary)
 
 
 def check_inputs(args) -> None:

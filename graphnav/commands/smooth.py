@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from graphnav.commands.common import (
+    EXIT_EPILOG,
     HelpFormatter,
     StagedOut,
     accuracy_summary,
@@ -18,12 +19,15 @@ from graphnav.commands.common import (
     check_out,
     clear_out,
     aligner_kwargs,
+    exit_status,
     make_plots,
     methods_help,
     mission_from_args,
     print_summary,
+    run_health_record,
 )
 from graphnav.core.errors import ConfigError
+from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import METHODS
 
 
@@ -45,7 +49,7 @@ def register(subparsers) -> None:
                     "--out only once complete. A DVL file without an IMU (a PD0 file alone) gives DVL-DR, a dead "
                     "reckoning of the instrument's own velocity over ground and attitude, with a warning: "
                     "`graphnav info FILE` tells which it is.",
-        formatter_class=HelpFormatter)
+        epilog=EXIT_EPILOG, formatter_class=HelpFormatter)
     add_mission_arguments(p)
     add_init_arguments(p)
     add_out_arguments(p, "out/smooth")
@@ -116,8 +120,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages), "health": sol.info.get("health"),
-        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": o.info.get("health")}
+        "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
+        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
         "streams": ensure_streams(mission),
     }
@@ -213,7 +217,7 @@ def run(args) -> int:
     with StagedOut(args.out, args.force) as staged:
         summary = smooth_mission(args, staged.path, staged.final)
     print_summary(summary)
-    return 0
+    return exit_status(summary)
 
 
 # --- a folder of missions -------------------------------------------------------------------------------
@@ -230,8 +234,8 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
-        "health": {k: health.get(k) for k in ("ok", "diverged_at_end", "n_divergences", "n_reacquired",
-                                              "n_rejected", "nis_mean_per_dof")} if health else None,
+        "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
+                                              "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,
     }
 
@@ -294,4 +298,7 @@ def run_folder(args, missions) -> int:
     failed = [r["mission"] for r in records if r.get("error")]
     print(f"smooth: {len(records) - len(failed)} of {len(missions)} missions smoothed"
           + (f"; FAILED: {', '.join(failed)}" if failed else "") + f"; {results_path}")
-    return 1 if failed else 0
+    diverged = [r["mission"] for r in records if (r.get("health") or {}).get("state") == "diverged"]
+    if diverged:
+        print(f"smooth: DIVERGED (estimates not to be trusted): {', '.join(diverged)}")
+    return 1 if failed else (EXIT_DIVERGED if diverged else 0)

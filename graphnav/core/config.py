@@ -44,6 +44,12 @@ class ImuSpec:
         gyro_bias_rw: gyro bias random walk, rad/s^2/sqrt(Hz).
         accel_bias_sigma: constant (turn-on) accelerometer bias 1-sigma, m/s^2.
         gyro_bias_sigma: constant (turn-on) gyro bias 1-sigma, rad/s.
+        accel_range_mps2: full scale of the accelerometers (per axis), m/s^2. A sample beyond it is not a
+            measurement (a decoding error, a unit mix-up, a saturated sensor) and is refused
+            (:mod:`graphnav.core.screening`). Default 16 g: the +-10..20 g full scale of the FOG and MEMS IMUs
+            AUVs carry; an AUV's own accelerations are well under 1 g.
+        gyro_range_rads: full scale of the gyros (per axis), rad/s; default 500 deg/s (AUV IMUs: 300-1000
+            deg/s; an AUV turns at a few deg/s).
     """
 
     name: str = "navigation"
@@ -53,6 +59,8 @@ class ImuSpec:
     gyro_bias_rw: float = 1e-9
     accel_bias_sigma: float = 50 * MICRO_G
     gyro_bias_sigma: float = 0.01 * DEG_PER_HOUR
+    accel_range_mps2: float = 16 * 9.80665
+    gyro_range_rads: float = 500 * DEG
 
 
 #: IMU grades of the simulator and of the benchmark's IMU degradation.
@@ -173,6 +181,12 @@ class SensorConfig:
         water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
         atmospheric_pressure_pa: surface pressure subtracted from an absolute pressure reading, Pa.
         csv_columns: column map of a team's own CSV logs (:mod:`graphnav.io.generic_csv`); empty when unused.
+        depth_range_m: (shallowest, deepest) depth the pressure sensor can report, m (positive down). The
+            shallow end allows an uncompensated atmospheric pressure or a sensor above the waterline at the
+            surface (-10 m); the deep end is the 6000 m rating of deep AUVs. Outside: refused.
+        depth_jump_tolerance_m: a depth departing from the median of its neighbours by more than
+            ``1.5 * dvl.max_vertical_mps * dt`` plus this (m) is a spike and refused (the sensor's noise and
+            waves at the surface are well under it).
     """
 
     imu: ImuSpec = field(default_factory=ImuSpec)
@@ -188,8 +202,13 @@ class SensorConfig:
     water_density_kgpm3: float = 1025.0
     atmospheric_pressure_pa: float = 101325.0
     csv_columns: dict = field(default_factory=dict)
+    depth_range_m: tuple = (-10.0, 6000.0)
+    depth_jump_tolerance_m: float = 1.0
 
     def __post_init__(self):
+        self.depth_range_m = tuple(float(x) for x in self.depth_range_m)
+        if len(self.depth_range_m) != 2 or not self.depth_range_m[0] < self.depth_range_m[1]:
+            raise ConfigError(f"depth_range_m must be (shallowest, deepest), got {self.depth_range_m}")
         self.imu_axis_signs = np.asarray(self.imu_axis_signs, dtype=float).reshape(3)
 
     # --- JSON round trip -------------------------------------------------------------------------

@@ -32,6 +32,7 @@ import numpy as np
 from graphnav.core.beam_model import BeamModel
 from graphnav.core.config import DvlSpec
 from graphnav.core.errors import GeometryError
+from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings  # noqa: F401
 
 
 def beam_matrix(theta_rad: float, psi_rad: np.ndarray) -> np.ndarray:
@@ -168,49 +169,8 @@ def make_beams(v_dvl_b: np.ndarray, spec: DvlSpec, seed: int | np.random.Generat
     return DvlErrorModel.from_spec(spec).beams(DvlGeometry.from_spec(spec), v_dvl_b, rng)
 
 
-#: Valid pings on each side whose median a ping is compared with in :func:`implausible_pings`.
-JUMP_NEIGHBOURS = 3
-
-
-def implausible_pings(t: np.ndarray, v_b: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
-    """Pings whose reported velocity this vehicle cannot have (envelope of :class:`DvlSpec`).
-
-    Args:
-        t: (M,) ping stamps, s. v_b: (M,3) reported DVL velocity, body frame, m/s (NaN rows = invalid pings,
-            never flagged). spec: ``max_speed_mps``, ``max_vertical_mps``, ``max_accel_mps2``,
-            ``jump_tolerance_mps``.
-
-    Returns:
-        ``{"speed": mask, "vertical": mask, "jump": mask}`` (M,) bool, disjoint (a ping is counted under the
-        first reason it fails). A jump is a departure from the component-wise median of the
-        :data:`JUMP_NEIGHBOURS` valid pings on each side (pings failing speed/vertical excluded) larger than
-        ``1.5 * max_accel_mps2 * dt + jump_tolerance_mps``: a spike the vehicle makes and undoes, while a
-        lasting change of velocity is kept.
-    """
-    t = np.asarray(t, float)
-    v = np.asarray(v_b, float)
-    ok = np.all(np.isfinite(v), axis=1)
-    speed = ok & (np.linalg.norm(np.where(ok[:, None], v, 0.0), axis=1) > spec.max_speed_mps)
-    vertical = ok & ~speed & (np.abs(np.where(ok, v[:, 2], 0.0)) > spec.max_vertical_mps)
-    jump = np.zeros(len(v), dtype=bool)
-    idx = np.flatnonzero(ok & ~speed & ~vertical)
-    n = JUMP_NEIGHBOURS
-    if idx.size > 2:
-        vi, ti = v[idx], t[idx]
-        padded = np.concatenate([np.full((n, 3), np.nan), vi, np.full((n, 3), np.nan)])
-        win = np.lib.stride_tricks.sliding_window_view(padded, 2 * n + 1, axis=0)    # (K, 3, 2n+1)
-        ref = np.nanmedian(np.delete(win, n, axis=2), axis=2)
-        gaps = np.diff(ti)
-        dt = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
-        jump[idx] = np.linalg.norm(vi - ref, axis=1) > 1.5 * spec.max_accel_mps2 * dt + spec.jump_tolerance_mps
-    return {"speed": speed, "vertical": vertical, "jump": jump}
-
-
-def describe_implausible(masks: dict[str, np.ndarray], spec: DvlSpec) -> str:
-    """'N speed, N vertical, N jump' with the limits, for warnings."""
-    limits = {"speed": f"speed > {spec.max_speed_mps:g} m/s", "vertical": f"|v_z| > {spec.max_vertical_mps:g} m/s",
-              "jump": f"jump > 1.5*{spec.max_accel_mps2:g} m/s^2*dt + {spec.jump_tolerance_mps:g} m/s"}
-    return ", ".join(f"{int(m.sum())} {limits[k]}" for k, m in masks.items() if m.any())
+# The envelope rules live with every other sample rule in graphnav.core.screening; re-exported here.
+JUMP_NEIGHBOURS = SPIKE_NEIGHBOURS
 
 
 def screen_implausible(dvl, spec: DvlSpec):

@@ -16,6 +16,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
+from graphnav.core.screening import check_stamps
 
 #: Largest along-beam (or DVL-axis) velocity magnitude a DVL can report, m/s: the velocity range of the
 #: RDI Workhorse/Pathfinder class (+-10 m/s), far above any AUV speed. A larger value is an invalid flag or
@@ -43,6 +44,17 @@ IMU_GAP_GYRO_SIGMA = 1e-3
 #: Bridging may add at most this many interpolated samples per recorded one: more means the stamps are not in
 #: seconds or the rate is wrong (a real log with gaps for 90 % of its time is not navigable anyway).
 MAX_BRIDGE_FACTOR = 10
+#: Longest IMU gap bridged by interpolation, s. Beyond it the IMU stopped rather than dropped samples:
+#: interpolating would invent minutes of motion (and, for a stamp years off, never end); a DataError says so.
+MAX_IMU_BRIDGE_S = 600.0
+
+
+def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None) -> None:
+    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S`."""
+    if t1 - t0 > MAX_IMU_BRIDGE_S:
+        raise DataError(f"IMU gap of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
+                        "that can be bridged: the IMU stopped (or a stamp is wrong); split the mission there",
+                        source, index, "t")
 
 
 def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:
@@ -83,6 +95,7 @@ def _check_time(t: np.ndarray, source: str) -> None:
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise DataError("time stamp is not finite", source, int(bad[0]), "t")
+    check_stamps(t, source)        # bounds before anything loops over the time
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
     if bad.size:
@@ -167,6 +180,8 @@ class ImuData:
                             "seconds and imu_rate_hz right? (graphnav.io.units detects ms/us/ns stamps)",
                             self.source, field="t")
         gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
+        for g in gaps:
+            check_imu_gap(g.t_start, g.t_end, self.source, g.index + 1)
         longest = max(gaps, key=lambda g: g.length)
         warnings.warn(f"{self.source}: {len(gaps)} IMU gap(s) longer than {gap_periods * period:.3g} s bridged "
                       f"by linear interpolation (longest {longest.length:.3f} s after index {longest.index}, "

@@ -45,6 +45,13 @@ Expected accuracy (1-sigma; ``L`` latitude, ``Omega`` Earth rate, ``g`` gravity,
 * roll/pitch: about ``sqrt((b_a / g)^2 + (sqrt(12 / N) sigma_v / (g T))^2 + (b_g T / 2)^2)``, plus the heading
   error times the Earth's turn since t0 (the n0 vertical is no longer the local one): from the fit.
 
+Robustness: a single bad sample must not move the alignment. The aligner refuses what the screening of
+:mod:`graphnav.core.screening` refuses (an IMU value beyond the instrument's full scale; a ping beyond the
+vehicle's speed or ``|v_z|``, or a spike against the median of the last pings), and the fit itself rejects
+pings whose residual is an outlier (Mahalanobis distance above :data:`FIT_REJECT_CHI2` times the fit's own
+median scale) and solves again without them; the output velocity is the median of the nearby pings, not their
+mean. Counts in ``Alignment.info`` (``n_imu_refused``, ``n_dvl_refused``, ``n_dvl_rejected_fit``).
+
 Neglected: transport rate (as in the whole project: for a vehicle at v m/s it would add a heading error of
 ~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward), DVL scale factor and beam biases (they enter the
 residuals).
@@ -68,8 +75,17 @@ from graphnav.core.config import DEG_PER_HOUR, SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.earth import EARTH_RATE, earth_rate_n, lla_to_ned
 from graphnav.core.errors import ConfigError
+from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
 from graphnav.estimators.ins import prefix_products
+
+
+#: A ping whose fit residual (Mahalanobis, 3 dof) exceeds this times the fit's median scale (median of the
+#: distances / 2.366, the chi-square(3) median, at least 1) is an outlier: 25 is a chi-square(3) tail of 1.5e-5,
+#: so a clean 300-ping alignment loses none (checked on the simulated missions in tests/test_screening.py).
+FIT_REJECT_CHI2 = 25.0
+#: Rounds of outlier rejection and re-solving in the fit.
+FIT_REJECT_ROUNDS = 3
 
 
 class AlignmentError(ConfigError):
@@ -244,12 +260,23 @@ class Aligner:
         self._fixes: list[tuple[float, float, float, float]] = []
         self._headings: list[tuple[float, float, float]] = []
         self.n_dvl_ignored = 0       # pings with < 3 valid beams or before the first IMU sample
+        self.n_imu_refused = 0       # IMU samples beyond the instrument's full scale
+        self.n_dvl_refused = 0       # pings outside the vehicle's envelope or spiking
+        spec = config.dvl
+        self._dvl_spike = SpikeTest(spec.max_accel_mps2, spec.jump_tolerance_mps)
 
     # --- input ------------------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> None:
         """IMU sample: specific force f_b (3,) m/s^2 and angular rate omega_b (3,) rad/s, body; held over
-        [t, next t) (increment convention)."""
-        self._imu.append((float(t), np.asarray(f_b, float).reshape(3), np.asarray(omega_b, float).reshape(3)))
+        [t, next t) (increment convention). A sample beyond the IMU's full scale (or not finite) is refused:
+        one such sample would shift every later velocity increment."""
+        f = np.asarray(f_b, float).reshape(3)
+        w = np.asarray(omega_b, float).reshape(3)
+        imu = self.config.imu
+        if not (np.all(np.abs(f) <= imu.accel_range_mps2) and np.all(np.abs(w) <= imu.gyro_range_rads)):
+            self.n_imu_refused += 1
+            return
+        self._imu.append((float(t), f, w))
         self._trim()
 
     def add_dvl(self, t: float, beams, valid) -> None:
@@ -259,7 +286,13 @@ class Aligner:
         if valid.sum() < 3 or not self._imu:
             self.n_dvl_ignored += 1
             return
-        self._dvl.append((float(t), self.geometry.velocity_from_beams(beams, valid)))
+        v = self.geometry.velocity_from_beams(beams, valid)
+        spec = self.config.dvl
+        if (np.linalg.norm(v) > spec.max_speed_mps or abs(v[2]) > spec.max_vertical_mps
+                or self._dvl_spike.is_spike(float(t), v)):
+            self.n_dvl_refused += 1
+            return
+        self._dvl.append((float(t), v))
 
     def add_dvl_velocity(self, t: float, v_d, sigma=None) -> None:
         """A DVL-frame velocity of the DVL head (3,) m/s measured by the instrument (used as a >= 3-beam ping;
@@ -387,7 +420,8 @@ class Aligner:
         """
         return self._solve(float(t), end_of_data)
 
-    def _solve(self, t_out: float | None, end_of_data: bool = False) -> Alignment:
+    def _solve(self, t_out: float | None, end_of_data: bool = False, exclude: frozenset = frozenset(),
+               rounds: int = FIT_REJECT_ROUNDS) -> Alignment:
         missing = self.missing(end_of_data)
         if missing:
             raise AlignmentError("cannot align from the sensors: " + "; ".join(missing))
@@ -399,7 +433,7 @@ class Aligner:
         f_b = np.array([s[1] for s in self._imu])
         w_b = np.array([s[2] for s in self._imu])
         t0 = t_imu[0]
-        dvl = [d for d in self._dvl if d[0] >= t0]
+        dvl = [d for d in self._dvl if d[0] >= t0 and d[0] not in exclude]
         t_dvl = np.array([d[0] for d in dvl])
         v_head_b = np.array([d[1] for d in dvl])
         t_end = max(t_imu[-1], t_dvl[-1])
@@ -467,6 +501,12 @@ class Aligner:
             dx = -np.linalg.solve(H, g_vec)
             C = Rotation.from_rotvec(dx[0:3]).as_matrix() @ C
             b_acc = b_acc + dx[6:9] if est_bias else b_acc
+        # a ping whose residual is an outlier against the fit's own scale: solve again without it
+        d2 = np.einsum("ni,nij,nj->n", res, W, res)
+        scale = max(float(np.median(d2)) / 2.366, 1.0)
+        outliers = np.flatnonzero(d2 > FIT_REJECT_CHI2 * scale)
+        if outliers.size and rounds > 0 and n - outliers.size >= o.min_dvl_pings:
+            return self._solve(t_out, end_of_data, exclude | frozenset(t_dvl[1:][outliers].tolist()), rounds - 1)
         chi2_dof = float(np.einsum("ni,nij,nj->", res, W, res) / max(3 * n - 9, 1))
         P = np.linalg.inv(H) * max(1.0, chi2_dof)              # what the data say, if worse than the spec
         cov_phi = P[0:3, 0:3]
@@ -507,7 +547,7 @@ class Aligner:
         near = np.abs(t_dvl - t_out) <= o.velocity_window_s / 2
         near = near if near.any() else np.abs(t_dvl - t_out) == np.min(np.abs(t_dvl - t_out))
         dF = (F_out[0] - F_dvl[near]) - np.einsum("nij,j->ni", M_out[0] - M_dvl[near], b_acc)
-        v_n = E_out @ np.mean((v_b0[near] + dF) @ C.T + (G_out - G[near]), axis=0)
+        v_n = E_out @ np.median((v_b0[near] + dF) @ C.T + (G_out - G[near]), axis=0)   # one bad ping cannot move it
         v_n_dvl = np.einsum("nij,nj->ni", nav_rotation(t_dvl), v_b0 @ C.T)
 
         # attitude covariance: left perturbation in n0 -> right perturbation in the body at t_out
@@ -521,6 +561,8 @@ class Aligner:
         info = {
             "t_start": float(t0), "t_end": float(t_end), "duration_s": float(t_end - t0), "dvl_span_s": T,
             "n_imu": len(t_imu), "n_dvl": len(t_dvl), "n_dvl_ignored": self.n_dvl_ignored,
+            "n_imu_refused": self.n_imu_refused, "n_dvl_refused": self.n_dvl_refused,
+            "n_dvl_rejected_fit": len(exclude),
             "lat_rad": lat, "heading_sigma_rad": float(heading_sigma), "tilt_sigma_rad": tilt_sigma,
             "gyrocompass_sigma_rad": gyrocompass_sigma, "gyrocompass_sigma_formula_rad": _rss(terms),
             "fit_chi2_per_dof": chi2_dof,

@@ -98,6 +98,11 @@ class GraphBackend(_Aided):
         return est
 
     @property
+    def monitor(self):
+        """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
+        return self.estimator.health
+
+    @property
     def info(self) -> dict:
         e = self.estimator
         return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
@@ -205,6 +210,11 @@ class EkfBackend(_Aided):
         H[0, IE] = J @ C.T
         dz = np.array([np.remainder(yaw_hat - yaw + np.pi, 2 * np.pi) - np.pi])
         ekf._update(dz, H, np.array([[sigma ** 2]]))
+
+    @property
+    def monitor(self):
+        """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
+        return self.ekf.health
 
     @property
     def info(self) -> dict:

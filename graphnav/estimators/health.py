@@ -24,6 +24,14 @@ state *before* the measurement is used) and its predicted covariance ``S = H P H
   from the beams or inflates its covariance) reports it with :meth:`NisMonitor.reacquired`, which warns,
   counts and restarts the window.
 
+**How much to trust an estimate** (:func:`epoch_health` per estimate, :func:`run_health` per run): one word,
+``"ok"``, ``"degraded"`` or ``"diverged"``, and why. Diverged: the monitor is in the diverged state (per
+estimate), or was at the end of the run (per run; a command then exits with :data:`EXIT_DIVERGED`).
+Degraded: pure inertial longer than ``max_pure_inertial_s``, recovering from a divergence, or (per run) a
+divergence that recovered, most NIS blocks above their band, or more than :data:`REFUSED_DEGRADED_FRACTION` of
+an input stream refused. Every output carries it: the stream's JSON lines, the trajectory CSV's ``health``
+column, ``summary.json`` and the bag's Odometry covariance.
+
 Warnings are ``RuntimeWarning`` and name the estimator, the time (s) and what happened; after
 ``max_warnings`` per run further events are only counted. :meth:`NisMonitor.summary` is the plain dict that
 goes into ``NavSolution.info["health"]``.
@@ -242,4 +250,66 @@ def health_line(health: dict | None) -> str | None:
                  else f"diverged {health['n_divergences']} time(s), recovered")
         extra = f", re-acquired {health['n_reacquired']} time(s)" if health.get("n_reacquired") else ""
         return f"health: {state}{extra}; {stats}; first: {health.get('first_event')}"
+    if health.get("state") == "degraded":
+        return f"health: degraded ({'; '.join(health.get('why') or [])}); {stats}"
     return f"health: ok; {stats}"
+
+
+#: Health states, from best to worst.
+HEALTH_STATES = ("ok", "degraded", "diverged")
+#: Exit code of ``graphnav smooth`` / ``graphnav online`` when the estimator had diverged at the end of the run.
+EXIT_DIVERGED = 3
+#: A run that had to refuse more than this fraction of an input stream is at best degraded.
+REFUSED_DEGRADED_FRACTION = 0.05
+
+
+def epoch_health(monitor: NisMonitor | None, coasting=None) -> tuple[str, str]:
+    """(state, why) of the estimate just made, from the live NIS monitor and the live pure-inertial check
+    (:class:`~graphnav.estimators.coasting.CoastingMonitor`)."""
+    if monitor is not None and monitor.diverged:
+        reason = monitor.intervals[-1][2] if monitor.intervals else "diverged"
+        return "diverged", reason
+    if coasting is not None and coasting.coasting:
+        return "degraded", (f"pure inertial since t={coasting.coasting_since:.1f} s (longer than "
+                            f"max_pure_inertial_s={coasting.max_s:g})")
+    if monitor is not None and monitor.n_divergences and monitor._since_reset < 2 * monitor.options.window:
+        return "degraded", "recovering from a divergence"
+    return "ok", ""
+
+
+def run_health(health: dict | None, info: dict | None = None, streams: dict | None = None) -> dict:
+    """``{"state": ok|degraded|diverged, "why": [...]}`` of a whole run, from the NIS monitor's summary
+    (``health``), the run's info (pure-inertial spans, the Navigator's ``received`` / ``samples_refused``) and
+    the loader's ``Mission.meta["streams"]`` (refusals, DVL outages)."""
+    info = info or {}
+    state, why = "ok", []
+
+    def worse(s: str, reason: str) -> None:
+        nonlocal state
+        if HEALTH_STATES.index(s) > HEALTH_STATES.index(state):
+            state = s
+        why.append(reason)
+
+    if health:
+        if health.get("diverged_at_end"):
+            worse("diverged", f"diverged, not recovered at the end ({health.get('first_event')})")
+        elif health.get("diverged"):
+            worse("degraded", f"diverged {health.get('n_divergences')} time(s), recovered "
+                              f"({health.get('first_event')})")
+        n_blocks, high = health.get("n_blocks") or 0, health.get("n_blocks_above_band") or 0
+        if n_blocks and high > 0.5 * n_blocks:
+            worse("degraded", f"NIS above its chi-square band in {high} of {n_blocks} blocks (covariance too small "
+                              "for the errors)")
+    spans = info.get("pure_inertial_spans") or []
+    if spans:
+        worse("degraded", f"{len(spans)} pure-inertial stretch(es), longest {info.get('pure_inertial_max_s', 0):.0f} s")
+    received, refused = info.get("received") or {}, info.get("samples_refused") or {}
+    for stream, n in received.items():
+        if n and refused.get(stream, 0) > REFUSED_DEGRADED_FRACTION * n:
+            worse("degraded", f"{refused[stream]} of {n} {stream} samples refused on the stream")
+    for stream, entry in (streams or {}).items():
+        n, bad = entry.get("read", 0), sum(entry.get("refused", {}).values())
+        if n and bad > REFUSED_DEGRADED_FRACTION * n:
+            worse("degraded", f"{bad} of {n} {stream} samples refused at load ({entry['refused']})")
+    return {"state": state, "why": why}
+

@@ -45,7 +45,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, gap_variances
+from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, check_imu_gap, gap_variances
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 
@@ -382,6 +382,7 @@ class Keyframer:
     def _bridge(self, last, new) -> list[Keyframe]:
         t0, t1 = last[0], new[0]
         length = t1 - t0
+        check_imu_gap(t0, t1, "imu")          # bounds the samples made below
         n_fill = int(math.ceil(length / self._period)) - 1
         gap = ImuGap(self._n_imu - 1, t0, t1)
         self._gaps.append(gap)
@@ -423,7 +424,11 @@ class Keyframer:
         out = []
         if self._t_kf is None:
             return out
-        while now - self._anchor > o.max_keyframe_gap_s:
+        # a bound in keyframes, not in time: one filler per interval from the anchor to now, plus one per
+        # pending ping (closing one moves the anchor back to it)
+        for _ in range(int(max(now - self._anchor, 0.0) / step) + 2 + len(self._pending)):
+            if not now - self._anchor > o.max_keyframe_gap_s:
+                break
             t_f = self._anchor + self._fill_i * step
             if t_f + 0.5 * step > now + 1e-12:
                 break

@@ -12,8 +12,13 @@ What happens to a sample:
 
 1. **Checks.** A non-finite stamp or value (NaN/inf; a DVL beam may be NaN only where it is not valid), a
    stamp older than the reorder window allows, or a stamp already seen on the same stream is refused with a
-   warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Nothing
-   estimated so far changes.
+   warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Then the
+   screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
+   ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale, a
+   DVL beam beyond the vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong
+   makes the others suspect, and the completers expect the missing-beam patterns of outages),
+   a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
+   was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
    them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by
    its processing time is thus slotted in before the IMU samples that follow its stamp.
@@ -42,14 +47,16 @@ import gtsam
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.errors import ConfigError
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
+from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.health import epoch_health
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
 
@@ -145,6 +152,9 @@ class Navigator:
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
         self.refused: dict[str, dict[str, int]] = {}
+        self._screen = StreamScreen(config)
+        self.received: dict[str, int] = {}          # samples given to add_* per stream
+        self.samples_refused: dict[str, int] = {}   # samples refused per stream, whatever the reason
         self.n_estimates = 0
         #: live pure-inertial check (:mod:`graphnav.estimators.coasting`), created when the estimator starts
         self.coasting: CoastingMonitor | None = None
@@ -169,11 +179,18 @@ class Navigator:
             ok = total - total == 0.0
         except (TypeError, ValueError):
             ok = False
+        self.received["imu"] = self.received.get("imu", 0) + 1
         if not ok:
             f = self._vector("imu", t, "f_b", f_b, 3)
             w = self._vector("imu", t, "omega_b", omega_b, 3)
             if f is None or w is None:
                 return []
+        elif not self._stamp_ok("imu", t):
+            return []
+        why = self._screen.imu_problem(f, w)
+        if why is not None:
+            return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
+                                "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
         q = self._imu_q
         in_order = not q or t > q[-1][0]
         if t == self._last_imu_released or (not in_order and any(s[0] == t for s in q)):
@@ -192,6 +209,7 @@ class Navigator:
     def add_dvl(self, t: float, beams, valid=None) -> list[EpochEstimate]:
         """A DVL ping: along-beam velocities ``beams`` (4,) m/s of the DVL head and their validity ``valid``
         (4,) bool (None: the finite beams). Invalid beams may hold anything (NaN, RDI's -32.768)."""
+        self.received["dvl"] = self.received.get("dvl", 0) + 1
         if not self._stamp_ok("dvl", t):
             return []
         try:
@@ -205,6 +223,11 @@ class Navigator:
                                 "not finite")
         if not self._accept("dvl", t):
             return []
+        screened = self._screen.dvl_problems(t, b, v)
+        if screened:        # a beam the instrument got wrong makes the ping suspect: refused as a whole
+            i, why = next(iter(screened.items()))
+            return self._refuse("dvl", t, why, f"beam {i + 1} = {b[i]:.6g} m/s ({why}; DvlSpec max_speed_mps, "
+                                "max_accel_mps2, jump_tolerance_mps)", screened=True)
         return self._push("dvl", t, (tuple(np.where(v, b, np.nan).tolist()), tuple(v.tolist())))
 
     def add_dvl_velocity(self, t: float, v_d, sigma=None) -> list[EpochEstimate]:
@@ -233,14 +256,20 @@ class Navigator:
 
     def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:
         """Depth of the IMU (m, positive down) from a pressure sensor."""
+        self.received["depth"] = self.received.get("depth", 0) + 1
         d = self._scalar("depth", t, "depth_m", depth_m)
         if d is None or not self._accept("depth", t):
             return []
+        why = self._screen.depth_problem(t, d)
+        if why is not None:
+            return self._refuse("depth", t, why, f"depth {d:.6g} m ({why}; SensorConfig.depth_range_m, "
+                                "depth_jump_tolerance_m)", screened=True)
         return self._push("depth", t, (d,))
 
     def add_position_fix(self, t: float, lat: float, lon: float, sigma_m: float) -> list[EpochEstimate]:
         """A horizontal position fix (GNSS at the surface, USBL): geodetic ``lat``, ``lon`` (rad) with a
         1-sigma of ``sigma_m`` (m) per horizontal axis."""
+        self.received["fix"] = self.received.get("fix", 0) + 1
         vals = [self._scalar("fix", t, name, x) for name, x in (("lat", lat), ("lon", lon), ("sigma_m", sigma_m))]
         if any(v is None for v in vals) or not self._accept("fix", t):
             return []
@@ -251,6 +280,7 @@ class Navigator:
     def add_heading(self, t: float, yaw: float, sigma: float) -> list[EpochEstimate]:
         """A heading measurement (AHRS, magnetometer): yaw of ``C_b_n`` (rad, from north, clockwise seen from
         above) with 1-sigma ``sigma`` (rad)."""
+        self.received["heading"] = self.received.get("heading", 0) + 1
         vals = [self._scalar("heading", t, name, x) for name, x in (("yaw", yaw), ("sigma", sigma))]
         if any(v is None for v in vals) or not self._accept("heading", t):
             return []
@@ -260,6 +290,7 @@ class Navigator:
 
     def finish(self) -> list[EpochEstimate]:
         """End of data: release everything still buffered and close the keyframes the IMU covers."""
+        self._check_refused()
         out = self._release(math.inf)
         if self.backend is None and self.aligner is not None:
             out += self._align_at_end()
@@ -340,6 +371,7 @@ class Navigator:
         stats = self.keyframer.stats
         info = {"backend": self.backend_name, "estimates": self.n_estimates,
                 "refused": {k: dict(v) for k, v in self.refused.items()},
+                "received": dict(self.received), "samples_refused": dict(self.samples_refused),
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
@@ -359,16 +391,33 @@ class Navigator:
         return info
 
     # --- internals ----------------------------------------------------------------------------------
-    def _refuse(self, stream: str, t, field_name: str, why: str) -> list:
+    def _refuse(self, stream: str, t, field_name: str, why: str, screened: bool = False) -> list:
+        """Count and warn (three times per stream and key). ``field_name`` is the count key: the field for
+        malformed samples, the screening reason when ``screened``."""
         counts = self.refused.setdefault(stream, {})
         counts[field_name] = counts.get(field_name, 0) + 1
+        self.samples_refused[stream] = self.samples_refused.get(stream, 0) + 1
         n = counts[field_name]
         if n <= 3:
-            stamp = f"{t:.6f}" if isinstance(t, (int, float)) and math.isfinite(t) else repr(t)
-            warnings.warn(f"navigator: {stream} sample at t = {stamp} s refused, field '{field_name}': {why}"
+            finite = isinstance(t, (int, float)) and math.isfinite(t)
+            stamp = (f"{t:.6f}" if abs(t) < 1e12 else f"{t:.6g}") if finite else repr(t)
+            what = f"refused ({field_name}): {why}" if screened else f"refused, field '{field_name}': {why}"
+            warnings.warn(f"navigator: {stream} sample at t = {stamp} s {what}"
                           + ("; further refusals of this kind are only counted" if n == 3 else ""),
                           RuntimeWarning, stacklevel=3)
         return []
+
+    def _check_refused(self) -> None:
+        """DataError when more than MAX_REFUSED_FRACTION of a stream was refused: the data are not what the
+        configuration describes (units, column map, ranges), and a trajectory from the rest would mislead."""
+        for stream, n in self.received.items():
+            bad = self.samples_refused.get(stream, 0)
+            if n >= 10 and bad > MAX_REFUSED_FRACTION * n:
+                reasons = ", ".join(f"{k}: {c}" for k, c in sorted(self.refused.get(stream, {}).items(),
+                                                                    key=lambda kv: -kv[1]))
+                raise DataError(f"navigator: {bad} of {n} {stream} samples refused ({reasons}): more than "
+                                f"{MAX_REFUSED_FRACTION:.0%} of the stream; check units and sensor ranges",
+                                stream, field=stream)
 
     def _warn_refusals(self) -> None:
         for stream, counts in self.refused.items():
@@ -383,7 +432,12 @@ class Navigator:
             ok = False
         if not ok:
             self._refuse(stream, t, "t", "stamp is not a finite number")
-        return ok
+            return False
+        why = self._screen.stamp_problem(stream, t)
+        if why is not None:
+            self._refuse(stream, t, "t", why)
+            return False
+        return True
 
     def _vector(self, stream: str, t, name: str, x, n: int):
         if not self._stamp_ok(stream, t):
@@ -469,6 +523,7 @@ class Navigator:
         for kf in kfs:
             est = self.backend.process(kf)
             self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n)
+            est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting)
             out.append(est)
         if out:
             self._latest = out[-1]

@@ -183,7 +183,8 @@ def solution_from_estimates(method: str, estimates: list[EpochEstimate]) -> NavS
         bias_acc=np.array([e.bias.accelerometer() for e in estimates]),
         bias_gyro=np.array([e.bias.gyroscope() for e in estimates]),
         info={"kind": [e.kind for e in estimates], "n_measured": np.array([e.n_measured for e in estimates]),
-              "n_regressed": np.array([e.n_regressed for e in estimates])},
+              "n_regressed": np.array([e.n_regressed for e in estimates]),
+              "health_state": [e.health or "ok" for e in estimates]},
     )
 
 

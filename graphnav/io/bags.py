@@ -462,11 +462,18 @@ def _header(store, t_ns: int, frame_id: str):
                                     frame_id=frame_id)
 
 
+#: Velocity variance, (m/s)^2, an Odometry message carries when its estimate is diverged ("do not use").
+DIVERGED_VARIANCE = 1e6
+
+
 def odometry_messages(solution, store, t0_unix_ns: int = 0) -> list[tuple[int, object]]:
     """(stamp ns, ``nav_msgs/msg/Odometry``) per epoch of a :class:`~graphnav.core.solution.NavSolution`, in
     REP-103 frames (``odom`` ENU, ``base_link`` FLU); the NED velocity covariance, rotated into FLU, fills
-    the linear block of ``twist.covariance``."""
+    the linear block of ``twist.covariance``. An epoch whose health is ``diverged``
+    (``solution.info["health_state"]``) carries :data:`DIVERGED_VARIANCE` on that block's diagonal instead:
+    Odometry has no status field, and a consumer that weighs by covariance then ignores it."""
     T = store.types
+    health = (solution.info or {}).get("health_state") or [None] * len(solution.t)
     C_flu_enu = np.einsum("ij,kjl,lm->kim", ENU_NED, solution.C_b_n, FLU_FRD)
     q = Rotation.from_matrix(C_flu_enu).as_quat()
     p_enu = solution.p_n @ ENU_NED.T
@@ -479,6 +486,8 @@ def odometry_messages(solution, store, t0_unix_ns: int = 0) -> list[tuple[int, o
         if solution.cov_v_n is not None:
             R = FLU_FRD @ solution.C_b_n[k].T
             twist_cov[:3, :3] = R @ solution.cov_v_n[k] @ R.T
+        if health[k] == "diverged":
+            twist_cov[:3, :3] = np.eye(3) * DIVERGED_VARIANCE
         out.append((t_ns, T["nav_msgs/msg/Odometry"](
             header=_header(store, t_ns, "odom"), child_frame_id="base_link",
             pose=T["geometry_msgs/msg/PoseWithCovariance"](

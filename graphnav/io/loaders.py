@@ -11,7 +11,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
    the IMU-to-GT attitude alignment drifts by -2.5 ms per second over a file (from -0.45 s to -1.35 s on
    trajectory 1, measured in 50 s windows), and it is constant after rescaling. ``rescale_stamps=True``
-   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows in that file).
+   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows of the published file),
+   computed from the stamps, not from the rows present: ``T / (T + step)`` with ``step`` the file's median
+   stamp step and ``T`` the span all three files share (400 s), so a file with rows deleted (an outage cut
+   out of the log) keeps its later stamps; rows missing from the stamp grid are warned about and noted.
+   Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
+   from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
    published IMU files predate the authors' "corrected the transformation" commit: their y axis is
    flipped (``(1, -1, 1)``); the corrected files have y in the body frame (``(1, 1, 1)``). The default
@@ -35,8 +40,12 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    sensor).
 5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec` ``max_*``: speed,
    ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.core.dvl.implausible_pings`)
-   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]``; none on
-   the ten shared trajectories).
+   are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]`` and, with every
+   other refusal, in ``meta["streams"]``; none on the ten shared trajectories). A stretch without a usable
+   ping (NaN rows, deleted rows) longer than ``OUTAGE_MIN_S`` is warned about as a DVL outage.
+   IMU rows beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` / ``gyro_range_rads``) and GT
+   rows whose velocity is beyond the vehicle's speed or spikes are refused (dropped, counted) before the
+   axis detection and the time-offset estimates see them. More than half of a stream refused is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
@@ -69,6 +78,17 @@ from graphnav.core.mission import (
     invalid_dvl_values,
 )
 from graphnav.core.rotations import euler_to_C_b_n
+from graphnav.core.screening import (
+    beams_out_of_range,
+    check_refused_fraction,
+    depth_implausible,
+    gt_implausible,
+    imu_out_of_range,
+    note_outages,
+    refuse,
+    stamp_outliers,
+)
+from graphnav.core.streams import add_note, count_read, count_refused
 
 #: Column names of the published A-KIT files, in order.
 AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -137,14 +157,17 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=2.5e-3, gyro
 # CSV reading
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
-             repair: bool = False) -> np.ndarray:
+             repair: bool = False, meta: dict | None = None, stream: str = "") -> np.ndarray:
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
     Every bad data line is found and reported (1-based line number and column): wrong number of fields
     (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
     The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
-    stamps are dropped (first kept) and the rows sorted, with a warning.
+    stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
+    the rows are counted as read for ``stream`` and rows whose stamp is not a time
+    (:func:`graphnav.core.screening.stamp_outliers`: 1e300, a lone stamp a day off) are refused and counted
+    there, before the order check.
 
     Raises:
         DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
@@ -193,7 +216,19 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
     if problems:
         _raise_problems(source, sorted(problems))
-    return _check_stamps(data, line_no, source, columns[0], repair)
+    if meta is not None:
+        count_read(meta, stream, data[:, 0], source)
+        bad = stamp_outliers(data[:, 0])
+        if bad.any():
+            refuse(meta, stream, {"stamp not a time": bad}, source, line_offset=1)
+            data, line_no = data[~bad], line_no[~bad]
+            count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
+            entry = meta["streams"][stream]
+            entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
+    kept = _check_stamps(data, line_no, source, columns[0], repair)
+    if meta is not None and len(kept) < len(data):
+        count_refused(meta, stream, "duplicated stamp (repair)", len(data) - len(kept))
+    return kept
 
 
 def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
@@ -289,26 +324,33 @@ class AkitRaw:
     files: dict
     axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
     axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
-    meta: dict = dataclasses.field(default_factory=dict)   # unit conversions noted (meta["streams"])
+    meta: dict = dataclasses.field(default_factory=dict)   # "streams": read / refused per file, unit conversions
 
 
 def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
-              repair: bool = False) -> AkitRaw:
-    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2).
+              repair: bool = False, config: SensorConfig | None = None) -> AkitRaw:
+    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2 and 5).
 
     ``imu_axis_signs``: a +-1 triple, or ``"auto"`` (detected, with a warning; module docstring step 2).
     A folder without a GT file reads with ``gt=None`` (the axis detection then uses the IMU alone).
+    ``config``: the sensor ranges and envelope the rows are screened with (default ``SensorConfig()``).
     """
     files = akit_files(folder, require_gt=False)
-    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair)
-    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair)
-    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair) if "GT" in files else None
-    unit_meta: dict = {}
-    _akit_units(imu, dvl, gt, files, unit_meta)
+    cfg = config or SensorConfig()
+    meta: dict = {}
+    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair, meta=meta, stream="imu")
+    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair, meta=meta,
+                   stream="dvl")
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair, meta=meta, stream="gt") if "GT" in files else None
+    _akit_units(imu, dvl, gt, files, meta)       # before the screening: a gyro in deg/s is not out of range
     if rescale_stamps:
-        for a in (imu, dvl, gt):
-            if a is not None:
-                a[:, 0] *= (len(a) - 1) / len(a)
+        _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
+    bad = refuse(meta, "imu", imu_out_of_range(imu[:, 1:4], imu[:, 4:7], cfg), str(files["IMU"]), line_offset=2)
+    imu = imu[~bad]
+    if gt is not None:
+        bad = refuse(meta, "gt", gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl), str(files["GT"]), line_offset=2)
+        gt = gt[~bad]
+    check_refused_fraction(meta)
     detection = None
     if isinstance(imu_axis_signs, str):
         if imu_axis_signs != "auto":
@@ -325,7 +367,7 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
             raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
     imu[:, 1:4] *= signs
     imu[:, 4:7] *= signs
-    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, unit_meta)
+    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, meta)
 
 
 def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict) -> None:
@@ -338,6 +380,28 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
     f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
     imu[:, 1:7] = np.hstack([f_b, omega_b])       # a copy first: f_b/omega_b may be views of swapped columns
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
+
+
+def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
+    """Multiply each file's stamps (in place) by ``(N-1)/N`` of its published row count N, from the stamps:
+    ``T / (T + step)`` (``step``: the median stamp step, ``T``: the common span, the largest last stamp of
+    the files), so that deleted rows shift nothing. Rows missing from a file's stamp grid are warned about
+    and noted in ``meta["streams"]``."""
+    present = {k: a for k, a in arrays.items() if a is not None and len(a) > 1}
+    span = max(float(a[-1, 0]) for a in present.values()) if present else 0.0
+    for k, a in present.items():
+        step = float(np.median(np.diff(a[:, 0])))
+        if span <= 0 or step <= 0:
+            continue
+        on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
+        missing = on_grid - len(a)
+        if missing > 0:
+            gap = int(np.argmax(np.diff(a[:, 0])))
+            text = (f"{missing} row(s) missing from the {step:.6g} s stamp grid (largest hole after "
+                    f"t = {a[gap, 0]:.3f} s); stamps rescaled from the grid, not the row count")
+            add_note(meta, k, text)
+            warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
+        a[:, 0] *= span / (span + step)
 
 
 def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
@@ -387,7 +451,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         ``time_offsets`` (the estimates with their sigmas when "auto").
     """
     folder = Path(folder)
-    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair)
+    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair,
+                    config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))     # akit_default_config(), whose lever arm the rule below gives
     cfg.dvl = dataclasses.replace(cfg.dvl)
@@ -424,6 +489,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan
+        count_refused(raw.meta, "dvl", f"invalid velocity flag or beyond {MAX_DVL_SPEED_MPS:g} m/s", flagged.size)
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
     envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
@@ -434,6 +500,9 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
                       RuntimeWarning, stacklevel=2)
         v_dvl[outside] = np.nan
+        for reason, mask in envelope.items():
+            count_refused(raw.meta, "dvl", f"outside the envelope ({reason})", int(mask.sum()))
+    _note_dvl_outages(raw, v_dvl)
 
     estimates = {}
     detected = raw.axis_detection
@@ -453,7 +522,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     if dvl_time_offset_s == "auto":
         from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
-                        cfg.gravity_mps2, lat_for_rate)
+                        cfg.gravity_mps2, lat_for_rate, cfg.dvl)
         # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
         coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg)
         # against the published GT point the DVL sits at lever arm + IMU position
@@ -478,7 +547,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
-    meta = {"source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
+    meta = {"streams": raw.meta.get("streams", {}),
+            "source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
             "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
@@ -540,6 +610,16 @@ def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, cfg: Se
         add_note(meta, "depth", "depth is the GT's altitude (the files carry no depth sensor)")
 
 
+def _note_dvl_outages(raw: AkitRaw, v_dvl: np.ndarray) -> None:
+    """Warn about and note the stretches without a usable ping (NaN rows, deleted rows, refused pings), and
+    end the load when most of a stream was refused."""
+    t = raw.dvl[:, 0]
+    usable = np.all(np.isfinite(v_dvl), axis=1)
+    rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    note_outages(raw.meta, t, usable, rate, str(raw.files["DVL"]))
+    check_refused_fraction(raw.meta)
+
+
 def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
                         dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool,
                         refused: dict | None = None) -> Mission:
@@ -566,7 +646,8 @@ def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np
                   v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     detected = raw.axis_detection
-    meta = {"source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
+    meta = {"streams": raw.meta.get("streams", {}),
+            "source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
             "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
@@ -694,11 +775,11 @@ def _load(data, overrides: ConfigOverrides | None, topics, sim_kwargs) -> Missio
     if bags.is_bag(path):
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
         atm = bool(overrides) and overrides.sets("atmospheric_pressure_pa")
-        mission = bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)
+        mission = screen_mission(bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm))
     elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
-        mission = generic_csv.load_pd0(path, config)
+        mission = screen_mission(generic_csv.load_pd0(path, config))
     elif generic_csv.uses_column_map(path, config):
-        mission = generic_csv.load_csv_mission(path, config)
+        mission = screen_mission(generic_csv.load_csv_mission(path, config))
     elif not path.is_dir():
         raise DataError("data folder not found", str(path))
     else:
@@ -722,3 +803,51 @@ def _warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
                 f" replaced by {np.round(used, 6).tolist() if isinstance(used, np.ndarray) else used} from the data")
         warnings.warn(note, RuntimeWarning, stacklevel=3)
         add_note(mission.meta, "config", note)
+
+
+def screen_mission(mission: Mission) -> Mission:
+    """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
+    A-KIT loader screens its files itself): IMU rows beyond full scale, depth rows outside the range or spiking
+    and implausible GT rows are dropped; DVL beams beyond the vehicle's speed and pings outside its envelope
+    are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
+    warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
+    one when nothing was refused)."""
+    meta = mission.meta
+    cfg = mission.config
+    for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
+        if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
+            count_read(meta, name, stream.t, stream.source)
+    imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
+    bad = refuse(meta, "imu", imu_out_of_range(imu.f_b, imu.omega_b, cfg), imu.source)
+    if bad.any():
+        imu = imu.take(np.flatnonzero(~bad))
+    beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
+    masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
+    valid = dvl.valid & ~beam_bad
+    from graphnav.core.dvl import DvlGeometry
+    v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(
+        np.where(valid, dvl.beams, np.nan), valid, allow_missing=True)
+    masks.update({f"outside the envelope ({k})": m for k, m in implausible_pings(dvl.t, v, cfg.dvl).items()})
+    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping")
+    if bad.any():
+        valid = valid & ~bad[:, None]
+        dvl = dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,
+                                  v_b=None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b))
+    usable = dvl.valid.sum(axis=1) >= 3
+    if dvl.v_d_valid is not None:
+        usable |= dvl.v_d_valid
+    if len(dvl.t) > 1:
+        note_outages(meta, dvl.t, usable, 1.0 / float(np.median(np.diff(dvl.t))), dvl.source)
+    if depth is not None:
+        bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source)
+        if bad.any():
+            depth = depth.take(np.flatnonzero(~bad))
+    if gt is not None:
+        bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
+        if bad.any():
+            gt = gt.take(np.flatnonzero(~bad))
+    check_refused_fraction(meta)
+    if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
+        return mission
+    return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
+

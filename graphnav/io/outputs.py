@@ -2,7 +2,9 @@
 
 * Trajectory CSV (:func:`write_trajectory_csv`): one row per output epoch, columns :data:`CSV_COLUMNS`
   (SI units and frames in the names; attitude as aerospace roll/pitch/yaw, ``C_b_n = Rz Ry Rx``; ``sigma_*``
-  are 1-sigma from the estimator's velocity covariance, empty when it has none).
+  are 1-sigma from the estimator's velocity covariance, empty when it has none), then the ``health`` column:
+  ``ok``, ``degraded`` or ``diverged`` (:func:`graphnav.estimators.health.epoch_health`; empty when the
+  solution does not say).
 * TUM file (:func:`write_tum`): ``timestamp tx ty tz qx qy qz qw`` per line, position in local NED (m) and
   the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read;
   :func:`write_reference_tum` writes the ground truth at the estimate's stamps, so that
@@ -43,6 +45,12 @@ CSV_COLUMNS: tuple[str, ...] = (
 )
 
 
+#: The last column of the trajectory and per-epoch CSVs: how far to trust the row (ok / degraded / diverged).
+HEALTH_COLUMN = "health"
+#: The full header of the trajectory and per-epoch CSVs.
+TRAJECTORY_COLUMNS: tuple[str, ...] = CSV_COLUMNS + (HEALTH_COLUMN,)
+
+
 def _fmt(x: float) -> str:
     # Empty cell for "not available"; 10 significant digits keeps mm over km and nrad/s.
     return "" if x is None or not math.isfinite(x) else f"{x:.10g}"
@@ -78,10 +86,13 @@ def write_trajectory_csv(path: str | Path, sol: NavSolution) -> Path:
     """Write a whole solution as a CSV with header :data:`CSV_COLUMNS`; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    health = sol.info.get("health_state") if sol.info else None
+    if health is None or len(health) != len(sol.t):
+        health = [""] * len(sol.t)
     with path.open("w", newline="") as fh:
-        fh.write(",".join(CSV_COLUMNS) + "\n")
-        for row in solution_rows(sol):
-            fh.write(_fmt_row(row) + "\n")
+        fh.write(",".join(TRAJECTORY_COLUMNS) + "\n")
+        for row, state in zip(solution_rows(sol), health):
+            fh.write(_fmt_row(row) + "," + (state or "") + "\n")
     return path
 
 
@@ -212,12 +223,13 @@ class EpochCsvWriter:
         self.fsync = fsync
         self.last_t: float | None = None
         self.n_written = 0
+        self._health = True          # the file has the health column (files written before it did not)
         if resume and self.path.exists() and self.path.stat().st_size > 0:
             self._recover()
             self._fh = self.path.open("a", newline="")
         else:
             self._fh = self.path.open("w", newline="")
-            self._fh.write(",".join(CSV_COLUMNS) + "\n")
+            self._fh.write(",".join(TRAJECTORY_COLUMNS) + "\n")
             self._fh.flush()
 
     def _recover(self) -> None:
@@ -229,7 +241,9 @@ class EpochCsvWriter:
                 fh.truncate(cut)
             raw = raw[:cut]
         lines = raw.decode().splitlines()
-        if not lines or lines[0].split(",") != list(CSV_COLUMNS):
+        header = lines[0].split(",") if lines else []
+        self._health = header == list(TRAJECTORY_COLUMNS)
+        if not self._health and header != list(CSV_COLUMNS):
             raise DataError("cannot resume: header is not graphnav's per-epoch CSV header", str(self.path), 1)
         self.n_written = len(lines) - 1
         if self.n_written:
@@ -239,13 +253,14 @@ class EpochCsvWriter:
                 raise DataError("cannot resume: last row has no time stamp", str(self.path),
                                 len(lines), CSV_COLUMNS[0]) from None
 
-    def write(self, t: float, p_n, v_n, C_b_n, cov_v_n=None, bias_acc=None, bias_gyro=None) -> None:
-        """Append one epoch (units as in :data:`CSV_COLUMNS`) and flush."""
+    def write(self, t: float, p_n, v_n, C_b_n, cov_v_n=None, bias_acc=None, bias_gyro=None,
+              health: str | None = None) -> None:
+        """Append one epoch (units as in :data:`CSV_COLUMNS`, then ``health``) and flush."""
         nan3 = (np.nan,) * 3
         sigma = nan3 if cov_v_n is None else np.sqrt(np.clip(np.diagonal(np.asarray(cov_v_n)), 0, None))
         row = [t, *np.asarray(p_n, float), *np.asarray(v_n, float), *C_b_n_to_euler(np.asarray(C_b_n, float)),
                *sigma, *(nan3 if bias_acc is None else bias_acc), *(nan3 if bias_gyro is None else bias_gyro)]
-        self._fh.write(_fmt_row(row) + "\n")
+        self._fh.write(_fmt_row(row) + ("," + (health or "") if self._health else "") + "\n")
         self._fh.flush()
         if self.fsync:
             os.fsync(self._fh.fileno())

@@ -252,14 +252,16 @@ def feed(nav, rec: dict) -> list:
 
 def estimate_record(est) -> dict:
     """An estimate as a JSON-lines record: ``t`` s, ``kind``, ``p_n`` m, ``v_n`` m/s, ``rpy`` rad (roll,
-    pitch, yaw of ``C_b_n``), ``cov_v_n`` (3x3, (m/s)^2, or null), ``bias_acc`` m/s^2, ``bias_gyro`` rad/s."""
+    pitch, yaw of ``C_b_n``), ``cov_v_n`` (3x3, (m/s)^2, or null), ``bias_acc`` m/s^2, ``bias_gyro`` rad/s, and
+    ``health`` (``ok`` / ``degraded`` / ``diverged``: how far to trust it) with ``health_why`` (empty when ok)."""
     from graphnav.core.rotations import C_b_n_to_euler
     roll, pitch, yaw = np.asarray(C_b_n_to_euler(np.asarray(est.C_b_n)[None])).reshape(-1)[:3]
     return {"type": "estimate", "t": est.t, "kind": est.kind, "p_n": np.asarray(est.p_n).tolist(),
             "v_n": np.asarray(est.v_n).tolist(), "rpy": [float(roll), float(pitch), float(yaw)],
             "cov_v_n": None if est.cov_v_n is None else np.asarray(est.cov_v_n).tolist(),
             "bias_acc": np.asarray(est.bias.accelerometer()).tolist(),
-            "bias_gyro": np.asarray(est.bias.gyroscope()).tolist()}
+            "bias_gyro": np.asarray(est.bias.gyroscope()).tolist(),
+            "health": getattr(est, "health", None) or "ok", "health_why": getattr(est, "health_why", "")}
 
 
 def status_record(nav, t: float, wall_s: float) -> dict:
@@ -283,7 +285,8 @@ def schema_text() -> str:
     lines = [doc, "", table.rstrip(), "",
              "Written back by graphnav online --stream (standard output, one JSON object per line):",
              "  estimate  t, kind, p_n [3] m (NED), v_n [3] m/s, rpy [3] rad (roll, pitch, yaw of C_b_n), "
-             "cov_v_n 3x3 (m/s)^2 or null, bias_acc [3] m/s^2, bias_gyro [3] rad/s",
+             "cov_v_n 3x3 (m/s)^2 or null, bias_acc [3] m/s^2, bias_gyro [3] rad/s, health (ok | degraded | "
+             "diverged), health_why",
              "  status    t (last record, s), wall_s, state (aligning | navigating | waiting for data), alignment "
              "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} "
              "while aligning, idle_s and source while no record comes",

@@ -197,7 +197,8 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
     with_d = result.exists(D(0))
     out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
                          result.atConstantBias(B(e.index)), covs[e.index], e.n_measured, e.n_regressed,
-                         float("nan"), result.atVector(D(e.index)) if with_d else None) for e in estimates]
+                         float("nan"), result.atVector(D(e.index)) if with_d else None, e.health, e.health_why)
+           for e in estimates]      # the health of the filtered pass at each keyframe
     if with_d:
         info["dvl_errors"] = np.array([o.dvl_errors for o in out])
     return out, info

@@ -88,6 +88,8 @@ class EpochEstimate:
         update_s: solver time of this keyframe, s.
         dvl_errors: (7,) DVL error states [scale (3), beam bias (4) m/s] at this keyframe, filled in when the
             next keyframe is added (``GraphOptions.dvl_error_states``), else None.
+        health: how far to trust this estimate, ``"ok"``, ``"degraded"`` or ``"diverged"``, and ``health_why``
+            the reason (:func:`graphnav.estimators.health.epoch_health`; set by the Navigator), else None.
     """
 
     index: int
@@ -101,6 +103,8 @@ class EpochEstimate:
     n_regressed: int
     update_s: float
     dvl_errors: np.ndarray | None = None
+    health: str | None = None
+    health_why: str = ""
 
     @property
     def C_b_n(self) -> np.ndarray:

@@ -1,0 +1,377 @@
+"""One screening mechanism for every sample: what a sensor cannot have measured never becomes a number.
+
+The same rules serve the loaders (vectorised over a whole file) and the Navigator's stream (sample by
+sample), so a recorded log and a live vehicle refuse the same samples for the same reasons:
+
+* **Range** (the instrument's full scale, :class:`~graphnav.core.config.SensorConfig`): IMU specific force
+  beyond ``imu.accel_range_mps2`` and rate beyond ``imu.gyro_range_rads`` per axis; a DVL beam beyond
+  ``dvl.max_speed_mps`` (a beam is a projection of the velocity, so it cannot exceed the speed); a DVL
+  velocity outside the vehicle's envelope (speed, ``|v_z|``); a depth outside ``depth_range_m``; a
+  ground-truth velocity beyond the vehicle's speed.
+* **Spikes** against recent samples: a value departing from the median of its neighbours by more than
+  ``1.5 * max_rate * dt + tolerance`` (the vehicle cannot make and undo that change in dt; 1.5 dt bounds a
+  reversal of the rate at the sample). Loaders use the neighbours on both sides (:func:`spike_mask`);
+  the stream only has the past (:class:`SpikeTest`), and accepts a lasting change once ``reset_after``
+  samples in a row agree with each other.
+* **Stamps**: not finite, beyond :data:`MAX_STAMP_S` (1e300, or nanoseconds read as seconds), or a jump of
+  more than :data:`MAX_STAMP_GAP_S` inside one stream (years): a DataError for a file, a refusal on a stream
+  (:func:`stamp_problem`), checked before any loop runs over the stamps.
+
+A refused sample is never used: loaders drop it (IMU, depth, GT rows) or mark it invalid (DVL beams) and
+count it with its reason in ``Mission.meta["streams"]`` (:func:`refuse`); the Navigator counts it in its
+``info``. When more than :data:`MAX_REFUSED_FRACTION` of a stream is refused the data are not what the
+configuration describes, and the run ends with a :class:`~graphnav.core.errors.DataError` naming the stream
+and the reasons (:func:`check_refused_fraction`) instead of a trajectory.
+
+IMU samples get the range test only: vibration and shocks are real specific force, and a spike test on
+them would refuse measurements the estimators' noise model is meant to average.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from graphnav.core.config import DvlSpec, SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.core.streams import add_note, count_refused, stream_entry
+
+#: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
+#: A larger stamp is a unit error (micro/nanoseconds read as seconds) or a decoding error, never a time.
+MAX_STAMP_S = 1e10
+#: Largest step between consecutive stamps of one stream, s (one day). An AUV log never pauses a stream
+#: for a day and resumes; a larger jump is a clock reset or a corrupted stamp, and looping over the time in
+#: between (keyframes every second through a gap) would never end.
+MAX_STAMP_GAP_S = 86400.0
+#: A stream with more than this fraction of its samples refused ends the run with a DataError.
+MAX_REFUSED_FRACTION = 0.5
+#: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
+SPIKE_NEIGHBOURS = 3
+#: A DVL stream silent for longer than this many nominal ping periods (and at least this many seconds) is an
+#: outage worth a warning.
+OUTAGE_PERIODS = 5.0
+OUTAGE_MIN_S = 10.0
+
+
+# ------------------------------------------------------------------------------------------------
+# stamps
+# ------------------------------------------------------------------------------------------------
+def stamp_problem(t, previous: float | None = None) -> str | None:
+    """Why the stamp t (s) cannot be used after ``previous`` (the newest stamp of its stream), or None."""
+    try:
+        t = float(t)
+    except (TypeError, ValueError):
+        return "stamp is not a number"
+    if not math.isfinite(t):
+        return "stamp is not a finite number"
+    if abs(t) > MAX_STAMP_S:
+        return (f"stamp {t:.6g} s is beyond {MAX_STAMP_S:g} s (micro/nanoseconds read as seconds, or a "
+                "corrupted stamp)")
+    if previous is not None and math.isfinite(previous) and t - previous > MAX_STAMP_GAP_S:
+        return f"stamp jumps {t - previous:.6g} s ahead of the stream (more than {MAX_STAMP_GAP_S:g} s)"
+    return None
+
+
+def check_stamps(t: np.ndarray, source: str, field: str = "t", line_offset: int = 0) -> None:
+    """Raise :class:`DataError` when the stamps (s, sorted) are not finite, beyond :data:`MAX_STAMP_S` or jump
+    by more than :data:`MAX_STAMP_GAP_S`; the index reported is ``line_offset`` + the sample's index."""
+    t = np.asarray(t, float)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise DataError("time stamp is not finite", source, int(bad[0]) + line_offset, field)
+    bad = np.flatnonzero(np.abs(t) > MAX_STAMP_S)
+    if bad.size:
+        raise DataError(f"time stamp {t[bad[0]]:.6g} s is beyond {MAX_STAMP_S:g} s ({bad.size} such stamp(s); "
+                        "micro/nanoseconds read as seconds, or corrupted)", source, int(bad[0]) + line_offset,
+                        field)
+    if t.size > 1:
+        jump = np.flatnonzero(np.abs(np.diff(t)) > MAX_STAMP_GAP_S)
+        if jump.size:
+            i = int(jump[0]) + 1
+            raise DataError(f"time stamp jumps by {t[i] - t[i - 1]:.6g} s ({t[i - 1]:.6g} s then {t[i]:.6g} s), more "
+                            f"than {MAX_STAMP_GAP_S:g} s inside one stream (a clock reset or corrupted stamp)",
+                            source, i + line_offset, field)
+
+
+def stamp_outliers(t: np.ndarray) -> np.ndarray:
+    """Mask of stamps (s, file order) that are not times: not finite, beyond :data:`MAX_STAMP_S`, or an isolated
+    stamp more than :data:`MAX_STAMP_GAP_S` from both neighbours (one corrupted row in an otherwise regular
+    file). What remains may still jump (a real clock reset): :func:`check_stamps` reports that."""
+    t = np.asarray(t, float)
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(t) | (np.abs(t) > MAX_STAMP_S)
+    idx = np.flatnonzero(~bad)
+    if idx.size > 2:
+        ti = t[idx]
+        far_prev = np.r_[False, np.abs(np.diff(ti)) > MAX_STAMP_GAP_S]
+        far_next = np.r_[np.abs(np.diff(ti)) > MAX_STAMP_GAP_S, False]
+        lone = far_prev & far_next
+        lone[-1] = far_prev[-1]          # a corrupted last row has one neighbour only
+        lone[0] = far_next[0] and not far_next[1]
+        bad[idx[lone]] = True
+    return bad
+
+
+# ------------------------------------------------------------------------------------------------
+# vectorised rules (loaders)
+# ------------------------------------------------------------------------------------------------
+def spike_mask(t: np.ndarray, x: np.ndarray, max_rate: float, tolerance: float,
+               neighbours: int = SPIKE_NEIGHBOURS, usable: np.ndarray | None = None) -> np.ndarray:
+    """Samples departing from the component-wise median of the ``neighbours`` usable samples on each side by
+    more than ``1.5 * max_rate * dt + tolerance`` (dt: spacing to the nearest usable sample, s): a spike the
+    signal makes and undoes, while a lasting change is kept.
+
+    Args:
+        t: (N,) s. x: (N,) or (N,k) values (NaN rows are never flagged nor used as neighbours).
+        max_rate: largest rate of change of x (units of x per s). tolerance: the sensor's noise (units of x).
+        usable: (N,) bool, samples that may serve as neighbours and be tested (default: the finite ones).
+    """
+    t = np.asarray(t, float)
+    v = np.asarray(x, float)
+    v = v[:, None] if v.ndim == 1 else v
+    ok = np.all(np.isfinite(v), axis=1) if usable is None else np.asarray(usable, bool) & np.all(np.isfinite(v), axis=1)
+    out = np.zeros(len(v), dtype=bool)
+    idx = np.flatnonzero(ok)
+    n = neighbours
+    if idx.size > 2:
+        vi, ti = v[idx], t[idx]
+        pad = np.full((n, v.shape[1]), np.nan)
+        win = np.lib.stride_tricks.sliding_window_view(np.concatenate([pad, vi, pad]), 2 * n + 1, axis=0)
+        ref = np.nanmedian(np.delete(win, n, axis=2), axis=2)
+        gaps = np.diff(ti)
+        dt = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
+        out[idx] = np.linalg.norm(vi - ref, axis=1) > 1.5 * max_rate * dt + tolerance
+    return out
+
+
+def implausible_pings(t: np.ndarray, v_b: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
+    """Pings whose reported velocity this vehicle cannot have (envelope of :class:`DvlSpec`).
+
+    Args:
+        t: (M,) ping stamps, s. v_b: (M,3) reported DVL velocity, body frame, m/s (NaN rows = invalid pings,
+            never flagged). spec: ``max_speed_mps``, ``max_vertical_mps``, ``max_accel_mps2``,
+            ``jump_tolerance_mps``.
+
+    Returns:
+        ``{"speed": mask, "vertical": mask, "jump": mask}`` (M,) bool, disjoint (a ping is counted under the
+        first reason it fails); a jump is a :func:`spike_mask` with ``max_accel_mps2`` and
+        ``jump_tolerance_mps`` among the pings that pass speed and vertical.
+    """
+    v = np.asarray(v_b, float)
+    ok = np.all(np.isfinite(v), axis=1)
+    speed = ok & (np.linalg.norm(np.where(ok[:, None], v, 0.0), axis=1) > spec.max_speed_mps)
+    vertical = ok & ~speed & (np.abs(np.where(ok, v[:, 2], 0.0)) > spec.max_vertical_mps)
+    jump = spike_mask(t, v, spec.max_accel_mps2, spec.jump_tolerance_mps, usable=ok & ~speed & ~vertical)
+    return {"speed": speed, "vertical": vertical, "jump": jump}
+
+
+def describe_implausible(masks: dict[str, np.ndarray], spec: DvlSpec) -> str:
+    """'N speed, N vertical, N jump' with the limits, for warnings."""
+    limits = {"speed": f"speed > {spec.max_speed_mps:g} m/s", "vertical": f"|v_z| > {spec.max_vertical_mps:g} m/s",
+              "jump": f"jump > 1.5*{spec.max_accel_mps2:g} m/s^2*dt + {spec.jump_tolerance_mps:g} m/s"}
+    return ", ".join(f"{int(m.sum())} {limits[k]}" for k, m in masks.items() if m.any())
+
+
+def imu_out_of_range(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:
+    """IMU rows beyond the instrument's full scale: ``{"f_b beyond accel_range_mps2": mask, "omega_b beyond
+    gyro_range_rads": mask}`` (N,) bool, disjoint (NaN counts as beyond)."""
+    with np.errstate(invalid="ignore"):
+        acc = ~np.all(np.abs(np.asarray(f_b, float)) <= config.imu.accel_range_mps2, axis=1)
+        gyro = ~acc & ~np.all(np.abs(np.asarray(omega_b, float)) <= config.imu.gyro_range_rads, axis=1)
+    return {f"f_b beyond {config.imu.accel_range_mps2:g} m/s^2": acc,
+            f"omega_b beyond {config.imu.gyro_range_rads:g} rad/s": gyro}
+
+
+def depth_implausible(t: np.ndarray, depth_m: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:
+    """Depth samples outside ``depth_range_m`` or spiking (vertical speed ``dvl.max_vertical_mps``,
+    tolerance ``depth_jump_tolerance_m``), disjoint masks."""
+    d = np.asarray(depth_m, float)
+    lo, hi = config.depth_range_m
+    with np.errstate(invalid="ignore"):
+        outside = ~((d >= lo) & (d <= hi))
+    jump = spike_mask(t, d, config.dvl.max_vertical_mps, config.depth_jump_tolerance_m, usable=~outside)
+    return {f"depth outside [{lo:g}, {hi:g}] m": outside, "depth spike": jump}
+
+
+def gt_implausible(t: np.ndarray, v_n: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
+    """Ground-truth velocities (N,3, m/s) beyond the vehicle's speed or spiking (the DVL envelope: the GT
+    describes the same vehicle), disjoint masks."""
+    v = np.asarray(v_n, float)
+    with np.errstate(invalid="ignore"):
+        speed = ~(np.linalg.norm(v, axis=1) <= spec.max_speed_mps)
+    jump = spike_mask(t, v, spec.max_accel_mps2, spec.jump_tolerance_mps, usable=~speed)
+    return {f"GT speed > {spec.max_speed_mps:g} m/s": speed, "GT velocity spike": jump}
+
+
+def beams_out_of_range(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
+    """(M,4) valid beams whose magnitude exceeds the vehicle's speed (a beam is a projection of it)."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(valid, bool) & ~(np.abs(np.asarray(beams, float)) <= spec.max_speed_mps)
+
+
+# ------------------------------------------------------------------------------------------------
+# counting (loaders)
+# ------------------------------------------------------------------------------------------------
+def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, line_offset: int = 0,
+           unit: str = "sample") -> np.ndarray:
+    """Count the samples of ``masks`` (reason -> (N,) bool; a sample under its first reason) as refused in
+    ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (index +
+    ``line_offset``). Returns the union mask."""
+    total = np.zeros(len(next(iter(masks.values()))) if masks else 0, dtype=bool)
+    parts = []
+    for reason, m in masks.items():
+        m = np.asarray(m, bool) & ~total
+        if m.any():
+            count_refused(meta, stream, reason, int(m.sum()))
+            parts.append(f"{int(m.sum())} {reason}")
+        total |= m
+    if total.any():
+        rows = np.flatnonzero(total) + line_offset
+        where = ", ".join(str(int(i)) for i in rows[:10]) + (" ..." if rows.size > 10 else "")
+        label = "line(s)" if line_offset else "index(es)"
+        warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
+                      f"{where}; they are not used", RuntimeWarning, stacklevel=3)
+    return total
+
+
+def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> None:
+    """Raise :class:`DataError` naming the stream and its reasons when more than ``limit`` of a stream in
+    ``meta["streams"]`` was refused."""
+    for stream, entry in meta.get("streams", {}).items():
+        read = entry.get("read", 0)
+        refused = sum(entry.get("refused", {}).values())
+        if read and refused > limit * read:
+            reasons = ", ".join(f"{n} {r}" for r, n in sorted(entry["refused"].items(), key=lambda kv: -kv[1]))
+            raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
+                            f"{limit:.0%} of the stream; check the units, the column map and the "
+                            "configuration's sensor ranges", entry.get("source") or stream, field=stream)
+
+
+def dvl_outages(t: np.ndarray, usable: np.ndarray, rate_hz: float) -> list[tuple[float, float]]:
+    """Stretches (t_start, t_end) s, where the DVL gave no usable ping for longer than :data:`OUTAGE_PERIODS`
+    nominal periods (and :data:`OUTAGE_MIN_S`): from the last usable ping before to the first after (the
+    stream's ends included when the pings stop or start late)."""
+    t = np.asarray(t, float)
+    good = t[np.asarray(usable, bool)]
+    limit = max(OUTAGE_PERIODS / rate_hz if rate_hz > 0 else 0.0, OUTAGE_MIN_S)
+    if t.size == 0:
+        return []
+    edges = np.concatenate([[t[0]], good, [t[-1]]])
+    gaps = np.diff(edges)
+    return [(float(edges[i]), float(edges[i + 1])) for i in np.flatnonzero(gaps > limit)]
+
+
+def note_outages(meta: dict, t: np.ndarray, usable: np.ndarray, rate_hz: float, source: str) -> list:
+    """Warn about and count (``meta["streams"]["dvl"]["outages"]``, a note) the DVL outages of
+    :func:`dvl_outages`."""
+    outages = dvl_outages(t, usable, rate_hz)
+    if outages:
+        entry = stream_entry(meta, "dvl")
+        entry["outages"] = [[a, b] for a, b in outages]
+        total = sum(b - a for a, b in outages)
+        first = outages[0]
+        text = (f"{len(outages)} DVL outage(s), {total:.0f} s in all without a usable ping (first "
+                f"{first[0]:.1f}-{first[1]:.1f} s); the estimators coast on the IMU there")
+        add_note(meta, "dvl", text)
+        warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=3)
+    return outages
+
+
+# ------------------------------------------------------------------------------------------------
+# sample by sample (the stream)
+# ------------------------------------------------------------------------------------------------
+class SpikeTest:
+    """Causal spike test for one signal of a stream: a sample departing from the component-wise median of the
+    last ``neighbours`` accepted samples by more than ``1.5 * max_rate * dt + tolerance`` (dt: s since the
+    newest accepted sample) is a spike. ``reset_after`` spikes in a row that agree with each other within
+    the tolerance are a lasting change (a real manoeuvre the history missed): the history restarts from them
+    and the sample is accepted.
+    """
+
+    def __init__(self, max_rate: float, tolerance: float, neighbours: int = SPIKE_NEIGHBOURS,
+                 reset_after: int = 3):
+        self.max_rate, self.tolerance = float(max_rate), float(tolerance)
+        self.reset_after = int(reset_after)
+        self._hist: deque = deque(maxlen=int(neighbours))      # (t, x)
+        self._run: list = []                                   # consecutive spikes (t, x)
+
+    def is_spike(self, t: float, x) -> bool:
+        """Test the sample (t s, x array-like) and, when accepted, add it to the history."""
+        x = np.atleast_1d(np.asarray(x, float))
+        if len(self._hist) < self._hist.maxlen:
+            self._accept(t, x)
+            return False
+        ref = np.median(np.array([h[1] for h in self._hist]), axis=0)
+        dt = max(t - self._hist[-1][0], 0.0)
+        if np.linalg.norm(x - ref) <= 1.5 * self.max_rate * dt + self.tolerance:
+            self._accept(t, x)
+            return False
+        self._run.append((t, x))
+        if len(self._run) >= self.reset_after:
+            xs = np.array([r[1] for r in self._run])
+            if np.all(np.linalg.norm(xs - np.median(xs, axis=0), axis=1) <= self.tolerance):
+                run, self._run = self._run, []
+                self._hist.clear()
+                for t_r, x_r in run:
+                    self._hist.append((t_r, x_r))
+                return False
+            self._run = self._run[1:]
+        return True
+
+    def _accept(self, t: float, x: np.ndarray) -> None:
+        self._hist.append((t, x))
+        self._run = []
+
+
+@dataclass
+class StreamScreen:
+    """The per-sample rules of a :class:`~graphnav.estimators.navigator.Navigator`'s stream, from one
+    configuration. Each ``*_problem`` returns why a sample is refused (a short reason that is also its count
+    key) or None; the DVL one returns the failing beams with their reasons."""
+
+    config: SensorConfig
+
+    def __post_init__(self):
+        dvl = self.config.dvl
+        self._beam_spikes = [SpikeTest(dvl.max_accel_mps2, dvl.jump_tolerance_mps) for _ in range(4)]
+        self._depth_spike = SpikeTest(dvl.max_vertical_mps, self.config.depth_jump_tolerance_m)
+        self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
+
+    def stamp_problem(self, stream: str, t: float) -> str | None:
+        """Why a stamp of ``stream`` is refused: beyond the bounds, or a jump of more than
+        :data:`MAX_STAMP_GAP_S` ahead of the newest stamp of the streams (they share one clock)."""
+        why = stamp_problem(t, self._newest)
+        if why is None and float(t) > self._newest:
+            self._newest = float(t)
+        return why
+
+    def imu_problem(self, f_b, omega_b) -> str | None:
+        imu = self.config.imu
+        if max(abs(a) for a in f_b) > imu.accel_range_mps2:
+            return f"f_b beyond {imu.accel_range_mps2:g} m/s^2"
+        if max(abs(a) for a in omega_b) > imu.gyro_range_rads:
+            return f"omega_b beyond {imu.gyro_range_rads:g} rad/s"
+        return None
+
+    def dvl_problems(self, t: float, beams: np.ndarray, valid: np.ndarray) -> dict[int, str]:
+        """{beam index: reason} for the valid beams that are refused (range, then spike per beam)."""
+        spec = self.config.dvl
+        out = {}
+        for i in np.flatnonzero(valid):
+            b = float(beams[i])
+            if abs(b) > spec.max_speed_mps:
+                out[int(i)] = f"beam beyond {spec.max_speed_mps:g} m/s"
+            elif self._beam_spikes[i].is_spike(t, b):
+                out[int(i)] = "beam spike"
+        return out
+
+    def depth_problem(self, t: float, depth_m: float) -> str | None:
+        lo, hi = self.config.depth_range_m
+        if not lo <= depth_m <= hi:
+            return f"depth outside [{lo:g}, {hi:g}] m"
+        if self._depth_spike.is_spike(t, depth_m):
+            return "depth spike"
+        return None

@@ -1,0 +1,447 @@
+"""Bad samples never become numbers: the screening of graphnav.core.screening in the loaders, the Navigator's
+stream, the aligner and the reference of the time-offset calibration, and stamps that cannot hang a loop.
+
+Each damaged input of the screening brief has a test here: one IMU sample of 1e6 m/s^2, one DVL beam of 1e6 m/s
+on the stream, one GT sample of 1e6 m/s, a stream stamp of 1e300, 60 s of DVL rows deleted, 60 s of DVL NaN
+rows; plus the aligner's robustness to an outlier ping that passes the per-sample tests.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.errors import DataError
+from graphnav.core.mission import ImuData
+from graphnav.core.screening import (
+    MAX_STAMP_S,
+    SpikeTest,
+    check_refused_fraction,
+    check_stamps,
+    spike_mask,
+    stamp_outliers,
+)
+from graphnav.core.streams import count_read
+from graphnav.estimators.align import AlignOptions, Aligner, align_mission
+from graphnav.estimators.graph.incremental import InitialState
+from graphnav.estimators.navigator import Navigator
+from graphnav.estimators.replay import first_ping_time, replay
+from graphnav.sim.simulate import simulate_mission
+
+
+@pytest.fixture(scope="module")
+def mission():
+    return simulate_mission(duration_s=120.0, seed=3)
+
+
+def _feed(nav, events):
+    out = []
+    for kind, t, payload in events:
+        out += getattr(nav, "add_" + kind)(t, *payload)
+    return out + nav.finish()
+
+
+def _navigator(m, backend="ekf", **kw):
+    return Navigator(m.config, backend, initial=InitialState.from_ground_truth(m, first_ping_time(m)), **kw)
+
+
+def _vrmse(estimates, m):
+    t = np.array([e.t for e in estimates])
+    v = np.array([e.v_n for e in estimates])
+    truth = np.stack([np.interp(t, m.gt.t, m.gt.v_n[:, i]) for i in range(3)], axis=1)
+    return float(np.sqrt(np.mean(np.sum((v - truth) ** 2, axis=1))))
+
+
+# --- the rules ----------------------------------------------------------------------------------------
+def test_spike_mask_flags_a_spike_and_keeps_a_lasting_step():
+    t = np.arange(50.0)
+    x = np.where(t < 25, 1.0, 2.5) + np.random.default_rng(0).normal(0, 0.02, 50)
+    assert not spike_mask(t, x, 1.0, 0.5).any()          # a step the vehicle keeps is not a spike
+    x[10] += 3.0
+    assert np.flatnonzero(spike_mask(t, x, 1.0, 0.5)).tolist() == [10]
+
+
+def test_streaming_spike_test_refuses_a_spike_and_accepts_a_lasting_change_after_three_samples():
+    s = SpikeTest(max_rate=0.1, tolerance=0.5)
+    flags = [s.is_spike(float(k), v) for k, v in enumerate([1.0, 1.0, 1.0, 9.0, 1.0, 5.0, 5.0, 5.0, 5.0])]
+    assert flags == [False, False, False, True, False, True, True, False, False]
+
+
+def test_stamp_outliers_and_bounds():
+    t = np.r_[np.arange(10.0), 1e300]
+    assert np.flatnonzero(stamp_outliers(t)).tolist() == [10]
+    t = np.arange(10.0)
+    t[4] = 5e7                                                  # one corrupted row, years away
+    assert np.flatnonzero(stamp_outliers(t)).tolist() == [4]
+    with pytest.raises(DataError, match="beyond"):
+        check_stamps(np.r_[0.0, 1.0, 1e300], "imu.csv")
+    with pytest.raises(DataError, match="jumps by") as err:
+        check_stamps(np.r_[0.0, 1.0, 1.0 + 3e7, 2.0 + 3e7], "imu.csv")
+    assert err.value.line == 2
+
+
+def test_a_mission_with_a_stamp_of_1e300_is_a_data_error_not_a_hang():
+    t = np.r_[np.arange(100) * 0.01, 1e300]
+    with pytest.raises(DataError, match="beyond 1e\\+10 s"):
+        ImuData(t, np.zeros((101, 3)), np.zeros((101, 3)), source="imu.csv").validate()
+
+
+def test_mostly_refused_stream_is_a_data_error_naming_the_stream_and_the_reasons():
+    meta = {}
+    count_read(meta, "imu", np.arange(10.0), "imu.csv")
+    from graphnav.core.screening import refuse
+    with pytest.warns(RuntimeWarning, match="6 imu sample"):
+        refuse(meta, "imu", {"f_b beyond 157 m/s^2": np.arange(10) < 6}, "imu.csv")
+    with pytest.raises(DataError, match=r"6 of 10 imu samples refused \(6 f_b beyond 157 m/s\^2\)"):
+        check_refused_fraction(meta)
+
+
+# --- the stream ------------------------------------------------------------------------------------------
+def test_imu_sample_of_1e6_is_refused_and_the_estimate_matches_the_clean_run(mission):
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    clean = _feed(_navigator(m), events)
+    bad = list(events)
+    i = next(k for k, e in enumerate(bad) if e[0] == "imu" and e[1] > 20.0)
+    bad[i] = ("imu", bad[i][1], ([1e6, 0.0, -9.8], bad[i][2][1]))
+    nav = _navigator(m)
+    with pytest.warns(RuntimeWarning, match=r"refused \(f_b beyond 156.906 m/s\^2\)"):
+        out = _feed(nav, bad)
+    assert nav.info["refused"] == {"imu": {"f_b beyond 156.906 m/s^2": 1}}
+    assert abs(_vrmse(out, m) - _vrmse(clean, m)) < 0.002, (_vrmse(out, m), _vrmse(clean, m))
+
+
+def test_dvl_beam_of_1e6_on_the_stream_does_not_touch_the_alignment(mission):
+    """The aligner levels and gyrocompasses from the stream: one beam of 1e6 m/s at t = 5 s is refused with
+    its ping and the alignment is that of the clean stream without that ping."""
+    opts = AlignOptions(duration_s=60.0, min_duration_s=30.0)
+    events = list(replay(mission.slice(0, 70)))
+    k = next(i for i, e in enumerate(events) if e[0] == "dvl" and e[1] > 5.0)
+    beams, valid = events[k][2]
+    bad = list(events)
+    bad[k] = ("dvl", events[k][1], ((1e6,) + tuple(beams[1:]), valid))
+    dropped = events[:k] + events[k + 1:]
+    runs = {}
+    for name, evs in (("bad", bad), ("dropped", dropped)):
+        nav = Navigator(mission.config, "ekf", align_options=opts)
+        with warnings.catch_warnings(record=True) as rec:
+            warnings.simplefilter("always")
+            _feed(nav, evs)
+        runs[name] = (nav, [str(w.message) for w in rec])
+    nav, messages = runs["bad"]
+    assert nav.info["refused"] == {"dvl": {"beam beyond 4 m/s": 1}}
+    assert any("beam 1 = 1e+06 m/s" in s for s in messages)
+    a, b = nav.alignment, runs["dropped"][0].alignment
+    np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-9)
+    np.testing.assert_allclose(a.C_b_n, b.C_b_n, atol=1e-9)
+    assert np.linalg.norm(a.v_n) < 3.0
+
+
+@pytest.mark.parametrize("stamp", [1e300, "jump"])
+def test_a_stream_stamp_of_1e300_or_a_jump_of_years_is_refused_without_hanging(mission, stamp):
+    m = mission.slice(0, 30)
+    events = list(replay(m))
+    i = next(k for k, e in enumerate(events) if e[0] == "imu" and e[1] > 10.0)
+    t_bad = 1e300 if stamp == 1e300 else events[i][1] + 3.0e8       # ~10 years later
+    bad = events[:i] + [("imu", t_bad, events[i][2]), ("dvl", t_bad, events[i + 1][2]
+                                                        if events[i + 1][0] == "dvl" else ((0.1,) * 4, (True,) * 4))]
+    bad += events[i:]
+    nav = _navigator(m)
+    start = time.perf_counter()
+    with pytest.warns(RuntimeWarning, match=r"imu sample at t = (1e\+300|[0-9.]+) s refused, field 't': stamp"):
+        out = _feed(nav, bad)
+    assert time.perf_counter() - start < 20.0
+    assert nav.info["refused"] == {"imu": {"t": 1}, "dvl": {"t": 1}}
+    assert len(out) > 20 and out[-1].t < 31.0
+
+
+def test_a_stream_mostly_refused_ends_with_an_error_naming_it(mission):
+    m = mission.slice(0, 20)
+    events = [("imu", t, (([500.0, 0.0, 0.0]), p[1])) if kind == "imu" else (kind, t, p)
+              for kind, t, p in replay(m)]
+    nav = _navigator(m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"imu samples refused \(f_b beyond 156.906 m/s\^2: \d+\)"):
+            _feed(nav, events)
+
+
+# --- the aligner ----------------------------------------------------------------------------------------
+def test_aligner_is_not_moved_by_one_outlier_ping_that_passes_the_sample_tests():
+    """A ping 1.5 m/s off (inside the 2 m/s spike limit at 1 Hz): the fit rejects it and the heading, tilt
+    and velocity stay those of the clean alignment."""
+    m = simulate_mission(duration_s=320.0, seed=2)
+    clean = align_mission(m)
+    beams = m.dvl.beams.copy()
+    k = int(np.searchsorted(m.dvl.t, 150.0))
+    geometry_T = np.array([[np.cos(p) * np.sin(m.config.dvl.theta_rad), np.sin(p) * np.sin(m.config.dvl.theta_rad),
+                            np.cos(m.config.dvl.theta_rad)] for p in m.config.dvl.psi_rad])
+    beams[k] += geometry_T @ m.config.dvl.C_d_b.T @ np.array([1.5, 0.0, 0.0])
+    import dataclasses
+    bad = dataclasses.replace(m, dvl=dataclasses.replace(m.dvl, beams=beams))
+    robust = align_mission(bad)
+    assert robust.info["n_dvl_rejected_fit"] >= 1
+    d_yaw = np.degrees(abs(np.angle(np.exp(1j * (robust.euler[2] - clean.euler[2])))))
+    assert d_yaw < 0.05 and np.degrees(np.max(np.abs(robust.euler[:2] - clean.euler[:2]))) < 0.005
+    np.testing.assert_allclose(robust.v_n, clean.v_n, atol=0.02)
+    assert clean.info["n_dvl_rejected_fit"] == 0
+
+
+def test_aligner_refuses_an_imu_sample_beyond_full_scale():
+    m = simulate_mission(duration_s=320.0, seed=2)
+    clean = align_mission(m)
+    f = m.imu.f_b.copy()
+    f[5000] = [1e6, 0.0, 0.0]
+    import dataclasses
+    robust = align_mission(dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=f)))
+    assert robust.info["n_imu_refused"] == 1
+    assert np.degrees(abs(robust.euler[2] - clean.euler[2])) < 0.05
+
+
+# --- the loaders (real A-KIT data) -----------------------------------------------------------------------
+def _copy_trajectory(akit_dir, tmp_path, name="Trajectory1"):
+    src = akit_dir / name
+    dst = tmp_path / name
+    shutil.copytree(src, dst)
+    return dst
+
+
+def _edit_lines(path, edit):
+    lines = path.read_text().splitlines()
+    lines = edit(lines)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _load(folder):
+    from graphnav.io.loaders import load_akit
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_akit(folder)
+    return m, [str(w.message) for w in rec]
+
+
+@pytest.fixture(scope="module")
+def clean_akit(akit_dir):
+    return _load(akit_dir / "Trajectory1")[0]
+
+
+def test_akit_imu_row_of_1e6_is_refused_and_counted(akit_dir, tmp_path, clean_akit):
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    f = folder / "IMU_trajectory1.csv"
+    _edit_lines(f, lambda ls: ls[:1001] + [ls[1001].split(",")[0] + ",1000000.0," + ",".join(ls[1001].split(",")[2:])]
+                + ls[1002:])
+    m, messages = _load(folder)
+    assert m.meta["streams"]["imu"]["refused"] == {"f_b beyond 156.906 m/s^2": 1}
+    assert any("1 imu sample(s) refused" in s and "line(s) 1002" in s for s in messages)
+    assert len(m.imu.t) == len(clean_akit.imu.t) - 1 and np.abs(m.imu.f_b).max() < 100
+    assert abs(m.config.dvl_time_offset_s - clean_akit.config.dvl_time_offset_s) < 0.005
+
+
+def test_akit_gt_sample_of_1e6_does_not_pin_the_dvl_time_offset(akit_dir, tmp_path, clean_akit):
+    folder = _copy_trajectory(akit_dir, tmp_path)
+
+    def spike(ls):
+        row = ls[201].split(",")
+        row[4] = "1000000.0"
+        return ls[:201] + [",".join(row)] + ls[202:]
+    _edit_lines(folder / "GT_trajectory1.csv", spike)
+    m, messages = _load(folder)
+    assert m.meta["streams"]["gt"]["refused"] == {"GT speed > 4 m/s": 1}
+    assert abs(m.config.dvl_time_offset_s - clean_akit.config.dvl_time_offset_s) < 0.01
+    assert np.abs(m.gt.v_n).max() < 5
+
+
+def test_reference_leaves_a_gt_spike_out():
+    """calibrate builds its Reference from a mission's GT: a 1e6 m/s sample is left out there, and the DVL
+    time offset estimated against it is the clean one."""
+    from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
+    m = simulate_mission(duration_s=120.0, seed=1, gt_rate_hz=1.0)
+    cfg = m.config
+    args = (m.imu.t, m.imu.f_b, m.imu.omega_b, m.gt.t)
+    clean = Reference(*args, m.gt.v_n, m.gt.C_b_n, cfg.gravity_mps2, cfg.lat_rad, cfg.dvl)
+    v = m.gt.v_n.copy()
+    v[60] = [1e6, 0.0, 0.0]
+    with pytest.warns(RuntimeWarning, match="1 ground-truth sample"):
+        ref = Reference(*args, v, m.gt.C_b_n, cfg.gravity_mps2, cfg.lat_rad, cfg.dvl)
+    assert ref.n_refused == {"GT speed > 4 m/s": 1}
+    assert np.abs(ref.v_n(m.gt.t[58:63])).max() < 5.0
+    offsets = [estimate_dvl_time_offset(r, m.dvl.t, m.dvl.v_b, cfg.dvl.lever_arm_b).offset_s for r in (clean, ref)]
+    assert abs(offsets[1] - offsets[0]) < 0.02, offsets
+
+
+def test_akit_deleted_dvl_rows_shift_no_stamp_and_warn(akit_dir, tmp_path, clean_akit):
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "DVL_trajectory1.csv", lambda ls: ls[:101] + ls[161:])     # rows 100..159: 60 s
+    m, messages = _load(folder)
+    keep = np.r_[np.arange(100), np.arange(160, len(clean_akit.dvl.t))]
+    raw_clean = clean_akit.dvl.t - clean_akit.config.dvl_time_offset_s
+    raw = m.dvl.t - m.config.dvl_time_offset_s
+    np.testing.assert_allclose(raw, raw_clean[keep], atol=1e-9)
+    assert abs(m.config.dvl_time_offset_s - clean_akit.config.dvl_time_offset_s) < 0.01
+    assert any("60 row(s) missing from the" in s for s in messages)
+    assert any("DVL outage" in s for s in messages)
+
+
+def test_akit_60_s_of_dvl_nan_rows_give_an_outage_warning(akit_dir, tmp_path):
+    folder = _copy_trajectory(akit_dir, tmp_path)
+
+    def blank(ls):
+        return ls[:101] + [x.split(",")[0] + ",nan,nan,nan" for x in ls[101:161]] + ls[161:]
+    _edit_lines(folder / "DVL_trajectory1.csv", blank)
+    m, messages = _load(folder)
+    outages = m.meta["streams"]["dvl"]["outages"]
+    assert len(outages) == 1 and 60.0 < outages[0][1] - outages[0][0] < 62.5
+    assert any("1 DVL outage(s), 61 s in all without a usable ping" in s for s in messages)
+
+
+def test_akit_stamp_of_1e300_is_refused_with_its_row(akit_dir, tmp_path, clean_akit):
+    folder = _copy_trajectory(akit_dir, tmp_path)
+    _edit_lines(folder / "IMU_trajectory1.csv", lambda ls: ls[:-1] + ["1e300," + ls[-1].split(",", 1)[1]])
+    m, messages = _load(folder)
+    assert m.meta["streams"]["imu"]["refused"] == {"stamp not a time": 1}
+    assert m.imu.t[-1] < 401.0
+
+
+def test_clean_akit_refuses_nothing(clean_akit):
+    streams = clean_akit.meta["streams"]
+    assert {k: v["refused"] for k, v in streams.items()} == {"imu": {}, "dvl": {}, "gt": {}}
+    assert "outages" not in streams["dvl"]
+
+
+# --- health in every output -----------------------------------------------------------------------------
+def test_a_diverged_run_says_so_in_every_output_and_exits_3(tmp_path):
+    """The IMU y axis of the wrong sign makes the graph lose track: the last estimates are 'diverged' (stream
+    record, CSV column, Odometry covariance), the run's health state is diverged and the command's exit status
+    is EXIT_DIVERGED."""
+    import dataclasses
+    import json
+
+    from graphnav.commands.common import exit_status, run_health_record
+    from graphnav.estimators.health import EXIT_DIVERGED
+    from graphnav.estimators.runs import run_graph
+    from graphnav.io.outputs import write_trajectory_csv
+    from graphnav.io.streamio import estimate_record
+    m = simulate_mission(duration_s=60.0, seed=1)
+    flip = np.array([1.0, -1.0, 1.0])
+    flipped = dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=m.imu.f_b * flip,
+                                                             omega_b=m.imu.omega_b * flip))
+    estimates = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = run_graph(flipped, callback=estimates.append)
+    assert estimates[0].health == "ok" and estimates[-1].health == "diverged"
+    record = json.loads(json.dumps(estimate_record(estimates[-1])))
+    assert record["health"] == "diverged" and "NIS" in record["health_why"]
+    assert sol.info["health_state"][-1] == "diverged"
+    rows = write_trajectory_csv(tmp_path / "t.csv", sol).read_text().splitlines()
+    assert rows[-1].endswith(",diverged") and rows[1].endswith(",ok")
+    summary = {"health": run_health_record(sol.info, flipped)}
+    assert summary["health"]["state"] == "diverged" and "not recovered" in summary["health"]["why"][0]
+    assert exit_status(summary) == EXIT_DIVERGED == 3
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = run_graph(m)
+    assert set(clean.info["health_state"]) == {"ok"}
+    assert exit_status({"health": run_health_record(clean.info, m)}) == 0
+    try:
+        from graphnav.io.bags import DIVERGED_VARIANCE, odometry_messages, typestore
+    except ImportError:
+        return
+    msgs = odometry_messages(sol, typestore())
+    assert msgs[-1][1].twist.covariance[0] == DIVERGED_VARIANCE and msgs[0][1].twist.covariance[0] < 1.0
+
+
+def test_run_health_is_degraded_by_refusals_and_pure_inertial_stretches():
+    from graphnav.estimators.health import run_health
+    assert run_health({"diverged": False, "n_blocks": 4, "n_blocks_above_band": 0}, {}) == {"state": "ok", "why": []}
+    h = run_health(None, {"received": {"dvl": 100}, "samples_refused": {"dvl": 10}})
+    assert h["state"] == "degraded" and "10 of 100 dvl samples refused" in h["why"][0]
+    h = run_health(None, {"pure_inertial_spans": [[10.0, 80.0, 0.3]], "pure_inertial_max_s": 70.0})
+    assert h["state"] == "degraded" and "longest 70 s" in h["why"][0]
+    streams = {"imu": {"read": 100, "refused": {"f_b beyond 156.906 m/s^2": 6}}}
+    assert run_health(None, {}, streams)["state"] == "degraded"
+
+
+def test_smooth_and_online_help_document_the_exit_status():
+    import subprocess
+    import sys
+    from pathlib import Path
+    exe = Path(sys.executable).parent / "graphnav"
+    for cmd in ("smooth", "online"):
+        out = subprocess.run([str(exe), cmd, "--help"], capture_output=True, text=True, timeout=120).stdout
+        assert "3 the estimator DIVERGED" in " ".join(out.split()), cmd
+
+
+# --- time that cannot hang ------------------------------------------------------------------------------
+def test_imu_gaps_too_long_to_bridge_are_a_data_error_not_millions_of_samples():
+    t = np.r_[np.arange(100) * 0.01, 5000.0 + np.arange(100) * 0.01]
+    imu = ImuData(t, np.tile([0.0, 0.0, -9.8], (200, 1)), np.zeros((200, 3)), source="imu.csv")
+    with pytest.raises(DataError, match="IMU gap of 4999.01 s .* longer than the 600 s"):
+        imu.bridge_gaps(100.0)
+
+
+def test_keyframer_given_a_stamp_years_ahead_stops_with_a_data_error(mission):
+    """The keyframer alone (without the Navigator's stamp screening) bounds its loops in samples."""
+    from graphnav.estimators.keyframes import Keyframer
+    kf = Keyframer(mission.config)
+    kf.start(0.0)
+    for k in range(200):
+        kf.add_imu(k * 0.01, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    start = time.perf_counter()
+    with pytest.raises(DataError, match="IMU gap of 3e\\+08 s"):
+        kf.add_imu(3.0e8, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    assert time.perf_counter() - start < 1.0
+
+
+# --- the generic CSV loader (and bags, PD0: load_mission screens what they return) ----------------------
+def test_generic_csv_log_is_screened_like_akit(tmp_path):
+    """A team's CSV log with one IMU row of 1e6 g, one beam of 6 m/s (beyond the vehicle's speed, within a
+    DVL's range) and one GT velocity of 1e6 m/s: each refused and counted with its reason in
+    meta["streams"], the rest as written."""
+    from types import SimpleNamespace
+
+    from graphnav.io.loaders import load_mission
+    from tests.test_generic_csv import _config, _separate_files
+    sim = simulate_mission(duration_s=40.0, seed=5)
+    f_b = sim.imu.f_b.copy()
+    f_b[1000] = [1e6 * 9.80665, 0.0, 0.0]
+    beams = sim.dvl.beams.copy()
+    k = int(np.flatnonzero(sim.dvl.valid.all(axis=1))[10])
+    beams[k, 1] = 6.0
+    v_n = sim.gt.v_n.copy()
+    v_n[50] = [1e6, 0.0, 0.0]
+    bad = SimpleNamespace(imu=SimpleNamespace(t=sim.imu.t, f_b=f_b, omega_b=sim.imu.omega_b),
+                          dvl=SimpleNamespace(t=sim.dvl.t, beams=beams, valid=sim.dvl.valid), depth=sim.depth,
+                          gt=SimpleNamespace(t=sim.gt.t, p_n=sim.gt.p_n, v_n=v_n, C_b_n=sim.gt.C_b_n), config=sim.config)
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, bad))
+    with pytest.warns(RuntimeWarning, match="refused"):
+        m = load_mission(tmp_path, cfg)
+    refused = {k: v["refused"] for k, v in m.meta["streams"].items()}
+    assert refused["imu"] == {"f_b beyond 156.906 m/s^2": 1}
+    assert refused["dvl"] == {"beam beyond 4 m/s": 1} and not m.dvl.valid[k].any()
+    assert refused["gt"] == {"GT speed > 4 m/s": 1} and np.abs(m.gt.v_n).max() < 5
+    assert refused["depth"] == {}
+    assert len(m.imu.t) == len(sim.imu.t) - 1
+
+
+def test_read_csv_counts_what_it_drops(tmp_path):
+    """Rows dropped by the CSV reader (a stamp that is not a time, a duplicated stamp under repair) are counted
+    with their reason in the mission's meta."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    p = tmp_path / "DVL.csv"
+    rows = [",".join(AKIT_COLUMNS["DVL"])] + [f"{t},1.0,0.1,0.0" for t in (0.0, 1.0, 1.0, 2.0, 3.0, 1e300)]
+    p.write_text("\n".join(rows) + "\n")
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data = read_csv(p, AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=True, meta=meta, stream="dvl")
+    assert data[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0]
+    entry = meta["streams"]["dvl"]
+    assert entry["read"] == 6 and entry["used"] == 4
+    assert entry["refused"] == {"stamp not a time": 1, "duplicated stamp (repair)": 1}
+    assert entry["span_s"] == [0.0, 3.0]
