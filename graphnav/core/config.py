@@ -295,6 +295,8 @@ SCHEMA: dict[str, Key] = {
     "imu.gyro_bias_rw": Key("number", "rad/s^2/sqrt(Hz)", high=1.0, **_NON_NEGATIVE),
     "imu.accel_bias_sigma": Key("number", "m/s^2", high=10.0, **_NON_NEGATIVE),
     "imu.gyro_bias_sigma": Key("number", "rad/s", high=1.0, **_NON_NEGATIVE),
+    "imu.accel_range_mps2": Key("number", "m/s^2", high=10000.0, **_POSITIVE),
+    "imu.gyro_range_rads": Key("number", "rad/s", high=1000.0, **_POSITIVE),
     "dvl.theta_rad": Key("number", "rad", high=math.pi / 2, **_POSITIVE),
     "dvl.psi_rad": Key("vector", "rad", low=-2 * math.pi, high=2 * math.pi, size=4),
     "dvl.C_d_b": Key("rotation"),
@@ -317,6 +319,8 @@ SCHEMA: dict[str, Key] = {
     "gt_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
     "imu_axis_signs": Key("signs"),
     "depth_noise_std": Key("number", "m", high=100.0, **_POSITIVE),
+    "depth_range_m": Key("vector", "m", low=-1000.0, high=12000.0, size=2),
+    "depth_jump_tolerance_m": Key("number", "m", high=10000.0, **_POSITIVE),
     "water_density_kgpm3": Key("number", "kg/m^3", low=990.0, high=1100.0),
     "atmospheric_pressure_pa": Key("number", "Pa", low=0.0, high=200000.0),
     "csv_columns": Key("object"),
@@ -417,8 +421,8 @@ def _check_value(key: str, spec: Key, value, source: str):
             raise bad("rows not orthonormal with determinant +1")
         return m
     size = 3 if spec.kind == "signs" else spec.size
-    if not isinstance(value, list) or len(value) != size:
-        raise bad(f"{len(value)} elements" if isinstance(value, list) else "")
+    if not isinstance(value, (list, tuple)) or len(value) != size:
+        raise bad(f"{len(value)} elements" if isinstance(value, (list, tuple)) else "")
     v = np.array([number(x) for x in value])
     if spec.kind == "signs" and not np.all(np.isin(v, (-1.0, 1.0))):
         raise bad()

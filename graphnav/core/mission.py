@@ -171,6 +171,9 @@ class ImuData:
         at = np.flatnonzero(step > gap_periods * period)
         if not at.size:
             return imu, []
+        gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
+        for g in gaps:
+            check_imu_gap(g.t_start, g.t_end, self.source, g.index + 1)
         n_fill = int(np.sum(np.ceil(step[at] / period) - 1))
         if n_fill > MAX_BRIDGE_FACTOR * len(imu.t):
             # stamps in ms (a 10 ms step read as 10 s) or a wrong rate, not gaps: bridging would make the
@@ -179,9 +182,6 @@ class ImuData:
                             f"step {np.median(step):.4g} s at the configured {rate_hz:g} Hz): are the stamps in "
                             "seconds and imu_rate_hz right? (graphnav.io.units detects ms/us/ns stamps)",
                             self.source, field="t")
-        gaps = [ImuGap(int(i), float(imu.t[i]), float(imu.t[i + 1])) for i in at]
-        for g in gaps:
-            check_imu_gap(g.t_start, g.t_end, self.source, g.index + 1)
         longest = max(gaps, key=lambda g: g.length)
         warnings.warn(f"{self.source}: {len(gaps)} IMU gap(s) longer than {gap_periods * period:.3g} s bridged "
                       f"by linear interpolation (longest {longest.length:.3f} s after index {longest.index}, "

@@ -27,6 +27,14 @@ def count_read(meta: dict, stream: str, t: np.ndarray, source: str = "") -> dict
     entry["used"] += int(t.size)
     if source:
         entry["source"] = source
+    return set_span(meta, stream, t)
+
+
+def set_span(meta: dict, stream: str, t: np.ndarray) -> dict:
+    """Record the span and median rate of ``stream`` from its stamps ``t`` (s) as the mission holds them (after
+    a loader's rescaling or clock offsets), without counting samples."""
+    entry = stream_entry(meta, stream)
+    t = np.asarray(t, float)
     finite = t[np.isfinite(t)]
     if finite.size:
         entry["span_s"] = [float(finite.min()), float(finite.max())]

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 
 from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
-from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.core.streams import add_note, count_read, count_refused, set_span
 
 #: Reason of a ping with no valid beam and no valid instrument velocity that no loader reason explains.
 NO_VALID_BEAM = "no valid beam (flagged invalid, NaN or RDI -32768 in the file)"
@@ -45,7 +45,11 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
     Returns ``meta["streams"]``.
     """
     for name, stream in (("imu", imu), ("dvl", dvl), ("depth", depth), ("gt", gt)):
-        if stream is not None:
+        if stream is None:
+            continue
+        if meta.get("streams", {}).get(name, {}).get("read"):      # a reader counted it; the stamps may have moved
+            set_span(meta, name, stream.t)
+        else:
             count_read(meta, name, stream.t, stream.source)
     if dvl is not None:
         left = ~dvl_used(dvl)
