@@ -11,6 +11,7 @@ import pytest
 from graphnav import cli
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.evaluation.methods import run_method
+from graphnav.evaluation.metrics import vrmse
 from graphnav.io import bags
 from graphnav.io.loaders import load_mission
 from graphnav.sim.simulate import simulate_mission

@@ -151,8 +151,8 @@ class DvlSpec:
             self.velocity_noise_std = np.broadcast_to(np.asarray(self.velocity_noise_std, dtype=float), (3,)).copy()
             if not np.all(np.isfinite(self.velocity_noise_std) & (self.velocity_noise_std > 0)):
                 raise ConfigError(f"dvl.velocity_noise_std must be > 0 (m/s), got {self.velocity_noise_std.tolist()}")
-        if not _is_rotation(self.C_d_b):
-            raise ConfigError("dvl.C_d_b is not a rotation matrix")
+        if not np.allclose(self.C_d_b @ self.C_d_b.T, np.eye(3), atol=1e-6):
+            raise ConfigError("dvl.C_d_b is not a rotation matrix (its rows are not orthonormal)")
         if np.linalg.det(self.C_d_b) < 0:
             # An orthogonal matrix with det -1 is a reflection: it would mirror every DVL velocity (a DVL frame
             # taken as left-handed, e.g. an instrument's z axis flipped without turning another axis).
