@@ -239,7 +239,24 @@ def check_out(out, *, force: bool = False, resume: bool | None = None, option: s
                               + (", or --resume to continue" if resume is not None else ""))
     else:
         _writable_parent(out, option)
+        _probe_create(out, option)
     return out
+
+
+def _probe_create(out: Path, option: str) -> None:
+    """Create and remove ``out`` (and the parents it needs): ``os.access`` says yes to root everywhere, even
+    where the filesystem refuses (``/proc``, a read-only mount), and the answer must come before any work."""
+    made = []
+    try:
+        for folder in reversed([out, *out.parents]):
+            if not folder.exists():
+                folder.mkdir()
+                made.append(folder)
+    except OSError as exc:
+        raise ConfigError(f"{option} {out}: cannot be created ({exc.strerror or exc})") from None
+    finally:
+        for folder in reversed(made):
+            folder.rmdir()
 
 
 def _refuse_replacing(out: Path, option: str) -> None:
@@ -294,9 +311,12 @@ class StagedOut:
         return str(self.shown / Path(path).absolute().relative_to(self.path))
 
     def __enter__(self) -> "StagedOut":
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.rmtree(self.path, ignore_errors=True)
-        self.path.mkdir()
+        try:
+            self.out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.rmtree(self.path, ignore_errors=True)
+            self.path.mkdir()
+        except OSError as exc:
+            raise ConfigError(f"--out {self.shown}: cannot write beside it ({exc.strerror or exc})") from None
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:

@@ -61,7 +61,8 @@ def run(args) -> int:
     with tempfile.TemporaryDirectory(prefix="graphnav-faults-") as tmp:
         root = Path(args.workdir) if args.workdir else Path(tmp)
         start = time.perf_counter()
-        ws = faults.make_workspace(root, args.data, args.trajectory, args.seed)
+        data = None if args.data is None else Path(args.data).resolve()    # cases run in other folders
+        ws = faults.make_workspace(root, data, args.trajectory, args.seed)
         cases = faults.CLI_CASES
         if args.case:
             chosen = [c for c in cases if any(t in c.name for t in args.case)]

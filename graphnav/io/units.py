@@ -29,8 +29,9 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   scale is 0.36-0.64 on the ten trajectories in rad/s and 0.006-0.011 in deg/s, at most 0.015 in any 60 s
   window; :data:`GYRO_TILT_SCALE_DEG` = 0.1 lies between, a factor 3.6 and 6.7 from either side).
 * **DVL.** A DVL measures at most +-10 m/s (:data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS`); a median
-  speed of 100-10000 is mm/s (RDI's raw unit: an AUV at 0.1-10 m/s). 10-100 is cm/s or mm/s of a slow
-  vehicle: refused, declare ``velocity_unit``.
+  speed of 500-10000 is mm/s (RDI's raw unit: an AUV at 0.5-10 m/s). 10-500 is cm/s of a vehicle at
+  0.1-5 m/s as much as mm/s of one at 0.01-0.5 m/s: refused, declare ``velocity_unit`` (a wrong guess would
+  scale every velocity by 10).
 """
 from __future__ import annotations
 
@@ -60,7 +61,7 @@ GYRO_MAX_RADPS = 3.0
 #: Tilt-kinematics gyro scale below this is deg/s (1/57.3 = 0.017 expected; 1 for rad/s).
 GYRO_TILT_SCALE_DEG = 0.1
 #: Median DVL speed (per-ping norm of the instrument velocity, or the largest |beam|) taken as mm/s.
-DVL_MMPS_RANGE = (100.0, 10000.0)
+DVL_MMPS_RANGE = (500.0, 10000.0)
 
 
 def _note(meta: dict | None, stream: str, text: str, source: str) -> None:
@@ -225,6 +226,10 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
         return 1.0, med
     if DVL_MMPS_RANGE[0] <= med <= DVL_MMPS_RANGE[1]:
         return 1e-3, med
+    if med < DVL_MMPS_RANGE[0]:
+        raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures: "
+                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? Declare the velocity unit",
+                        source, field=field)
     raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
                     f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}); declare the "
                     "velocity unit (e.g. cm/s)", source, field=field)
