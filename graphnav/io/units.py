@@ -228,7 +228,7 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
         return 1e-3, med
     if med < DVL_MMPS_RANGE[0]:
         raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures: "
-                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? Declare the velocity unit",
+                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? declare the velocity unit",
                         source, field=field)
     raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
                     f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}); declare the "
