@@ -258,3 +258,20 @@ def test_beamsnet(tmp_path):
     np.save(tmp_path / "V.npy", rng.normal(size=(4, 10)))
     with pytest.raises(DataError, match=r"\(3, N\)"):
         load_beamsnet(tmp_path)
+
+
+def test_a_dvl_in_another_frame_is_refused_against_the_gt(tmp_path):
+    """DVL x and y swapped in an A-KIT folder (a DVL logged in another frame): no time offset makes it follow
+    the GT's body velocity, and the load stops naming the DVL file, instead of navigating 1.7 m/s off."""
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(duration_s=120.0, seed=1)
+    files = write_akit(mission, tmp_path, 1)
+    lines = files["DVL"].read_text().splitlines()
+    swapped = [lines[0]] + [",".join([c[0], c[2], c[1], c[3]]) for c in (ln.split(",") for ln in lines[1:])]
+    files["DVL"].write_text("\n".join(swapped) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"DVL_trajectory1.csv.*another frame"):
+            load_akit(tmp_path / "Trajectory1")
+        load_akit(tmp_path / "Trajectory1", dvl_time_offset_s=0.0)      # a given offset: the user's call

@@ -1265,7 +1265,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("DVL: 60 s of NaN rows", "smooth", W + D, _damage("DVL", _set(_t_between(40.0, 100.0), _DVL_XYZ, np.nan))),
     _sim("DVL: one velocity spike of 30 m/s", "smooth", W, _damage("DVL", _set(lambda d: 70, 1, 30.0))),
     _sim("DVL: velocities in cm/s", "smooth", E + W, _damage("DVL", _scale_cols(_DVL_XYZ, 100.0))),
-    _sim("DVL: x and y axes swapped (another frame)", "smooth", E + W + D, _damage("DVL", _swap_xy)),
+    _sim("DVL: x and y axes swapped (another frame)", "smooth", E + W, _damage("DVL", _swap_xy)),
     _sim("DVL: clock 3 days ahead of the IMU", "smooth", E, _damage("DVL", _shift_stamps(3 * 86400.0))),
     # ground truth
     _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
