@@ -359,7 +359,7 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
         signs = detection.signs
         if not detection.decided:
             from graphnav.core.streams import add_note
-            add_note(unit_meta, "imu", f"IMU axis convention undecided from the data; the configured "
+            add_note(meta, "imu", f"IMU axis convention undecided from the data; the configured "
                      f"{tuple(int(x) for x in signs)} is used ({'; '.join(detection.notes)})")
     else:
         signs = np.asarray(imu_axis_signs, float).reshape(3)
