@@ -16,30 +16,22 @@ import warnings
 import numpy as np
 
 from graphnav.core.dvl_log import DvlLog
-from graphnav.core.earth import lla_to_ned
 from graphnav.core.rotations import C_b_n_to_euler
 from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
 from graphnav.io.paths import akit_dir, data_root
 
 
 def riverpro() -> None:
+    from graphnav.evaluation.metrics import track_against_fixes
     from graphnav.io import pd0
     from graphnav.io.dvl_files import read_dvl
     path = data_root() / "real-formats" / "pd0" / "RiverPro_test01.PD0"
     with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sol = dvl_dead_reckoning(read_dvl(path))
-        ds = pd0._read_rdi(path)
-    lat, lon = (np.radians(np.asarray(ds[k].values, float)) for k in ("latitude_gps", "longitude_gps"))
-    t_gps = ds["time_gps"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
-    ok = np.isfinite(lat) & (t_gps >= sol.t[0]) & (t_gps <= sol.t[-1])
-    p_gps = lla_to_ned(lat[ok], lon[ok], np.zeros(ok.sum()), (lat[ok][0], lon[ok][0], 0.0))[:, :2]
-    p_dr = np.column_stack([np.interp(t_gps[ok], sol.t, sol.p_n[:, j]) for j in range(2)])
-    p_dr -= p_dr[0]
-    run = float(np.sum(np.linalg.norm(np.diff(p_gps, axis=0), axis=1)))
-    end = float(np.linalg.norm(p_dr[-1] - p_gps[-1]))
-    print(f"RiverPro_test01.PD0: GPS run {run:.1f} m over {t_gps[ok][-1] - t_gps[ok][0]:.0f} s; DVL-DR ends {end:.1f} m "
-          f"from the GPS ({100 * end / run:.1f} % of the run), max {np.max(np.linalg.norm(p_dr - p_gps, axis=1)):.1f} m")
+        r = track_against_fixes(sol, *pd0.gps_fixes(path))
+    print(f"RiverPro_test01.PD0: GPS run {r['run_m']:.1f} m over {r['duration_s']:.0f} s; DVL-DR ends {r['end_m']:.1f} m "
+          f"from the GPS ({100 * r['end_m'] / r['run_m']:.1f} % of the run), max {r['max_m']:.1f} m")
 
 
 def akit() -> None:

@@ -253,22 +253,15 @@ def test_smooth_dead_reckoning_matches_the_gps_in_the_file():
     """The sign and frame of v_n: the RiverPro file carries the boat's GPS; the dead-reckoned track must follow it
     (a flipped sign or a 90 deg frame error would end hundreds of metres off)."""
     path = shared_pd0("RiverPro_test01.PD0")
-    from graphnav.core.earth import lla_to_ned
+    from graphnav.evaluation.metrics import track_against_fixes
     from graphnav.io import pd0
     from graphnav.io.dvl_files import read_dvl
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sol = dvl_dead_reckoning(read_dvl(path))
-        ds = pd0._read_rdi(path)
-    lat, lon = (np.radians(np.asarray(ds[k].values, float)) for k in ("latitude_gps", "longitude_gps"))
-    t_gps = ds["time_gps"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
-    ok = np.isfinite(lat) & (t_gps >= sol.t[0]) & (t_gps <= sol.t[-1])
-    p_gps = lla_to_ned(lat[ok], lon[ok], np.zeros(ok.sum()), (lat[ok][0], lon[ok][0], 0.0))[:, :2]
-    p_dr = np.column_stack([np.interp(t_gps[ok], sol.t, sol.p_n[:, j]) for j in range(2)])
-    p_dr -= p_dr[0]
-    run = np.sum(np.linalg.norm(np.diff(p_gps, axis=0), axis=1))
-    assert run > 150.0
-    assert np.linalg.norm(p_dr[-1] - p_gps[-1]) < 0.15 * run
+        track = track_against_fixes(sol, *pd0.gps_fixes(path))
+    assert track["run_m"] > 150.0
+    assert track["end_m"] < 0.15 * track["run_m"]
 
 
 def test_info_on_a_csv_log_with_the_column_map(sim, tmp_path, capsys):

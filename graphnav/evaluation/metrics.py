@@ -115,3 +115,22 @@ def nees_velocity(solution: NavSolution, gt: GroundTruth, t_start: float | None 
     err = solution.v_n[aligned.mask][sel] - aligned.v_true_n[sel]
     cov = solution.cov_v_n[aligned.mask][sel]
     return np.einsum("ki,ki->k", err, np.linalg.solve(cov, err[..., None])[..., 0])
+
+
+def track_against_fixes(solution: NavSolution, t_fix: np.ndarray, lat: np.ndarray, lon: np.ndarray) -> dict:
+    """A solution's horizontal track against position fixes (e.g. a GPS the log carries) inside its span, both
+    from the first fix: ``run_m`` (distance along the fixes), ``end_m`` and ``max_m`` (horizontal error at the
+    last fix, and the largest), ``n`` fixes, and the two tracks ``p_fix``/``p_est`` (K,2) north-east, m."""
+    from graphnav.core.earth import lla_to_ned
+    ok = (t_fix >= solution.t[0]) & (t_fix <= solution.t[-1])
+    if ok.sum() < 2:
+        raise DataError("fewer than two fixes inside the solution's span", solution.method)
+    t, la, lo = t_fix[ok], lat[ok], lon[ok]
+    p_fix = lla_to_ned(la, lo, np.zeros(len(t)), (la[0], lo[0], 0.0))[:, :2]
+    p_est = np.column_stack([np.interp(t, solution.t, solution.p_n[:, j]) for j in range(2)])
+    p_est -= p_est[0]
+    err = np.linalg.norm(p_est - p_fix, axis=1)
+    return {"run_m": float(np.sum(np.linalg.norm(np.diff(p_fix, axis=0), axis=1))), "end_m": float(err[-1]),
+            "max_m": float(err.max()), "n": int(len(t)), "duration_s": float(t[-1] - t[0]),
+            "p_fix": p_fix, "p_est": p_est}
+

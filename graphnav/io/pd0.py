@@ -549,3 +549,16 @@ def pd0_geometry(config: SensorConfig, meta: dict) -> SensorConfig:
         return config
     dvl = dataclasses.replace(config.dvl, theta_rad=float(theta), psi_rad=np.asarray(meta["pd0_beam_psi_rad"]))
     return dataclasses.replace(config, dvl=dvl)
+
+
+def gps_fixes(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The GPS fixes a PD0 file carries (WinRiver/VmDAS NMEA blocks, as dolfyn reads them): ``(t Unix s,
+    lat rad, lon rad)`` of the finite fixes; empty arrays when the file has none."""
+    ds = _read_rdi(Path(path))
+    if "latitude_gps" not in ds:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    lat, lon = (np.radians(np.asarray(ds[k].values, float)) for k in ("latitude_gps", "longitude_gps"))
+    t = ds["time_gps"].values.astype("datetime64[ns]").astype(np.int64) / 1e9
+    ok = np.isfinite(lat) & np.isfinite(lon)
+    return t[ok], lat[ok], lon[ok]
+
