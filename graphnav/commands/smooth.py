@@ -160,6 +160,8 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     from graphnav.io.inspect import describe_dvl_log
     from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
     data = Path(args.data)
+    start = time.perf_counter()
+    log = read_dvl(data, _config(args))         # a file graphnav cannot use stops here, with its reason
     message = DVL_ONLY_WARNING.format(data=data, method=args.method, name=data.name)
     warnings.warn(message, RuntimeWarning, stacklevel=2)
     ignored = [f"--{k.replace('_', '-')} {v}" for k, v, default in (
@@ -168,8 +170,6 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     if ignored:
         warnings.warn(f"{data}: {', '.join(ignored)} ignored: they apply to the IMU/DVL estimators", RuntimeWarning,
                       stacklevel=2)
-    start = time.perf_counter()
-    log = read_dvl(data, _config(args))
     sol = dvl_dead_reckoning(log)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
