@@ -73,3 +73,30 @@ def make_run(duration_s: float = 400.0, rate_hz: float = 100.0) -> PyinsRun:
     imu = increments_to_samples(t, inc[["gyro_x", "gyro_y", "gyro_z"]].to_numpy(),
                                 inc[["accel_x", "accel_y", "accel_z"]].to_numpy(), source="pyins")
     return PyinsRun(t, imu, p_n, v_n, C_b_n, v_b, config, earth, traj, inc)
+
+
+def make_mission(run: PyinsRun, imu: ImuData | None = None, beam_noise_std: float = 0.0,
+                 seed: int = 0, gt_stride: int = 10, dvl_stride: int = 100):
+    """A graphnav :class:`~graphnav.core.mission.Mission` of the run: its IMU (or ``imu``), 1 Hz DVL beams of the
+    true body velocity (DVL at the IMU, no lever arm; ``beam_noise_std`` m/s white noise), 10 Hz ground truth.
+    Depth is left out: the check is of the horizontal and velocity channels the DVL aids."""
+    import dataclasses as dc
+
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.mission import DvlData, GroundTruth, Mission
+
+    config = SensorConfig.from_dict(run.config.to_dict())
+    config.dvl.lever_arm_b = np.zeros(3)
+    imu = run.imu if imu is None else imu
+    geometry = DvlGeometry.from_spec(config.dvl)
+    i_dvl = np.arange(dvl_stride, len(run.t) - 1, dvl_stride)
+    beams = geometry.beams_from_velocity(run.v_b[i_dvl])
+    if beam_noise_std:
+        beams = beams + np.random.default_rng(seed).normal(0.0, beam_noise_std, beams.shape)
+        config.dvl = dc.replace(config.dvl, beam_noise_std=beam_noise_std)
+    valid = np.ones(beams.shape, bool)
+    dvl = DvlData(run.t[i_dvl], beams, valid, geometry.velocity_from_beams(beams, valid, allow_missing=True))
+    i_gt = np.arange(0, len(run.t) - 1, gt_stride)
+    gt = GroundTruth(run.t[i_gt], run.p_n[i_gt], run.v_n[i_gt], run.C_b_n[i_gt],
+                     (run.earth.lat_rad, np.radians(LON0_DEG), 0.0))
+    return Mission("pyins-auv", imu, dvl, config, gt, None, {"simulated": True})

@@ -382,7 +382,8 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     if g is not None:
         lat0, lon0, alt0 = g[0, 2], g[0, 1], g[0, 3]
         cfg.lat_rad = float(lat0)
-        cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
+        # gravity at the navigation origin (the first GT fix): the Earth model adds its change with position
+        cfg.gravity_mps2 = gravity_magnitude(lat0, -float(alt0))
         p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, alt0))
         v_n = g[:, 4:7]
         C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
