@@ -167,21 +167,21 @@ class EarthModel:
     def gravity_n(self, p_n: np.ndarray) -> np.ndarray:
         """Plumb-bob gravity (...,3), m/s^2, at tangent-frame points ``p_n`` (...,3) m, in the origin's axes.
 
-        ``[0, 0, gravity_mps2]`` at the origin; the model's change from the origin is added (exact: normal
-        gravity along the local ellipsoid normal at the point's latitude and height, turned into the origin's
-        axes).
+        ``[0, 0, gravity_mps2]`` at the origin; elsewhere along the local vertical of the point (the ellipsoid
+        normal at its latitude, turned into the origin's axes), with the model's change of magnitude from the
+        origin added to ``gravity_mps2`` (so a measured value at the origin keeps its offset from the model).
         """
         p_n = np.asarray(p_n, dtype=float)
-        g = np.zeros(p_n.shape)
-        g[..., 2] = self.gravity_mps2
         if not self.gravity_variation:
+            g = np.zeros(p_n.shape)
+            g[..., 2] = self.gravity_mps2
             return g
         lla = self.to_lla(p_n)
-        local = C_n_e(lla[..., 0], lla[..., 1])[..., :, 2]            # local down in ECEF
         _, C0 = self._origin
-        mag = gravity_magnitude(lla[..., 0], -lla[..., 2])
-        g_model = np.einsum("ji,...j->...i", C0, local) * np.asarray(mag)[..., None]
-        return g + g_model - np.array([0.0, 0.0, gravity_magnitude(self.lat_rad, -self.alt_m)])
+        down = np.einsum("ji,...j->...i", C0, C_n_e(lla[..., 0], lla[..., 1])[..., :, 2])
+        mag = self.gravity_mps2 + (gravity_magnitude(lla[..., 0], -lla[..., 2])
+                                   - gravity_magnitude(self.lat_rad, -self.alt_m))
+        return down * np.asarray(mag)[..., None]
 
     def gravity_gradient_n(self, p_n: np.ndarray | None = None, step_m: float = 1.0) -> np.ndarray:
         """``d g_n / d p_n`` (3,3), s^-2, at ``p_n`` (default: the origin), by central differences of

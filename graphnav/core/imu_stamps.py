@@ -18,7 +18,7 @@ What users bring:
   interval (the same formulas, with the linear model's exact coning/sculling terms).
 
 Using increments or rates as if they were graphnav samples is a real error: stamping the increments of a
-2 m/s, four-turn run at their interval's end instead of its start costs 0.54 m/s and 98 m in 400 s
+2 m/s, four-turn run at their interval's end instead of its start costs 1.2 m/s and 240 m in 400 s
 (pure inertial); feeding instant rates without integration gives first-order errors in turns.
 """
 from __future__ import annotations
