@@ -11,10 +11,11 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.config import ImuSpec, SensorConfig, imu_grade
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.earth import EarthModel, gravity_magnitude
+from graphnav.estimators.graph.builder import preintegration_gravity
 from graphnav.core.mission import ImuData
 from graphnav.core.rotations import C_b_n_to_euler, attitude_error
 from graphnav.sim.imu_errors import corrupt_imu
-from graphnav.sim.simulate import DEFAULT_LEVER_ARM_B, SmoothSteps, simulate_mission
+from graphnav.sim.simulate import DEFAULT_LEVER_ARM_B, START_DEPTH_M, SmoothSteps, simulate_mission
 
 DEG = np.pi / 180
 
@@ -180,7 +181,7 @@ def _integrate_with_gtsam(mission, stride: int = 10):
         params.setOmegaCoriolis(earth.omega_ie_n)
         # use2ndOrderCoriolis stays at its default, False (the shared conventions; no Python setter)
         stretch = imu.t[k0 + stride] - imu.t[k0]
-        params.n_gravity = earth.gravity_n(state.position() + 0.5 * stretch * state.velocity())
+        params.n_gravity = preintegration_gravity(earth, state.position(), state.velocity(), stretch)
         pim = gtsam.PreintegratedImuMeasurements(params, bias)
         for k in range(k0, k0 + stride):
             pim.integrateMeasurement(imu.f_b[k], imu.omega_b[k], imu.t[k + 1] - imu.t[k])
@@ -204,12 +205,30 @@ def test_noiseless_imu_integrates_onto_ground_truth_without_earth_rate(noiseless
 
 
 def test_noiseless_imu_integrates_onto_ground_truth_with_gtsam(noiseless):
-    # With Earth rotation and the inertially frozen sample axes (what an IMU integrates and GTSAM's
-    # preintegration assumes), GTSAM 4.3 with each stretch's gravity stays on the truth: measured 1.5e-4 m/s,
-    # 0.029 m after 400 s (GTSAM's first-order Coriolis), attitude exact (4e-8 deg). The samples' axes frozen
-    # in the NED frame instead (this simulator before) drifted 1.2 mm/s and 0.23 m.
+    # With Earth rotation, the inertially frozen sample axes (what an IMU integrates and GTSAM's preintegration
+    # assumes) and each stretch's gravity from the Earth model (with GTSAM's centrifugal term undone,
+    # preintegration_gravity), GTSAM 4.3 stays on the truth: measured 7.8e-7 m/s, 1.3e-4 m after 400 s,
+    # attitude 2e-8 deg. Before (NED-frozen sample axes, constant gravity, GTSAM's centrifugal term left in)
+    # the same check drifted 1.2 mm/s and 0.23 m.
     att, vel, pos = _errors(noiseless, *_integrate_with_gtsam(noiseless))
-    assert att < 1e-5 and vel < 5e-4 and pos < 0.06
+    assert att < 1e-5 and vel < 1e-5 and pos < 2e-3
+
+
+def test_mission_far_from_the_origin_integrates_as_well_as_at_it():
+    """22 km from the origin gravity is tilted by 0.2 deg (0.034 m/s^2 horizontal) and the tangent plane is 39 m
+    above the sea: the simulated IMU and depth follow it, and GTSAM with the Earth model's gravity integrates
+    onto the truth exactly as at the origin (measured: 7.8e-7 m/s, 1.3e-4 m in both places)."""
+    far = simulate_mission(100.0, noiseless=True, seed=4, start_ne_m=(20000.0, 10000.0))
+    near = simulate_mission(100.0, noiseless=True, seed=4)
+    earth = EarthModel.from_config(far.config)
+    # the start is on the sea's curve: 2 m deep, 41 m below the tangent plane
+    drop = -float(earth.depth_of(far.gt.p_n[0] * [1.0, 1.0, 0.0]))
+    assert 39.0 < drop < 40.0 and far.gt.p_n[0, 2] == pytest.approx(START_DEPTH_M + drop, abs=1e-3)
+    assert far.depth.depth[0] == pytest.approx(START_DEPTH_M, abs=1e-6)
+    errors_far = _errors(far, *_integrate_with_gtsam(far))
+    errors_near = _errors(near, *_integrate_with_gtsam(near))
+    assert errors_far[1] < 1e-5 and errors_far[2] < 1e-3
+    assert errors_far[1] < 2 * errors_near[1] + 1e-7
 
 
 def _integrate_exactly(mission):

@@ -26,6 +26,8 @@ def register(subparsers) -> None:
     parser.add_argument("--dropout", action="store_true", help="random per-beam bottom-lock dropouts")
     parser.add_argument("--noiseless", action="store_true", help="exact sensors (no IMU/DVL/depth errors)")
     parser.add_argument("--gt-rate", type=float, default=10.0, help="ground-truth rate, Hz")
+    parser.add_argument("--start-ne", type=float, nargs=2, default=(0.0, 0.0), metavar=("NORTH", "EAST"),
+                        help="start this far from the NED origin, m (gravity tilts 1.5e-6 m/s^2 per metre)")
     parser.add_argument("--out", type=Path, default=None, help="folder to write the CSVs and the PNG into")
     parser.add_argument("--number", type=int, default=1, help="N of the written TrajectoryN folder")
     parser.add_argument("--stream", metavar="FILE", default=None,
@@ -81,7 +83,7 @@ def run(args) -> int:
     from graphnav.sim.simulate import simulate_mission
 
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
-                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless)
+                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless, start_ne_m=args.start_ne)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.io.streamio import mission_records, write_records

@@ -279,7 +279,9 @@ class DvlData:
 
 @dataclass
 class DepthData:
-    """Depth samples: t (N,) s; depth (N,) m, positive down (NED down of the IMU)."""
+    """Depth samples: t (N,) s; depth (N,) m, positive down: the IMU's depth below the navigation origin's
+    height, as a pressure sensor reads it (the tangent frame's ``down`` is larger by the curvature drop
+    ``|p_h|^2 / 2R``, :meth:`graphnav.core.earth.EarthModel.depth_of`; 2 cm at 500 m)."""
 
     t: np.ndarray
     depth: np.ndarray

@@ -47,7 +47,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
-from graphnav.estimators.graph.builder import preintegration_params
+from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
@@ -301,7 +301,7 @@ class Navigator:
                 j += 1
             # a fresh propagation: the gravity of the estimate's position (GTSAM takes one vector per
             # preintegration; it changes 1.5e-6 m/s^2 per metre, nothing over the seconds propagated here)
-            self._pim_params.n_gravity = self._earth.gravity_n(np.asarray(est.pose.translation(), float))
+            self._pim_params.n_gravity = preintegration_gravity(self._earth, est.pose.translation(), est.v_n, 0.0)
             prop = [est, gtsam.PreintegratedImuMeasurements(self._pim_params, est.bias), est.t, j]
         _, pim, upto, j = prop
         while j + 1 < len(recent) and recent[j + 1][0] <= t:

@@ -408,7 +408,7 @@ def _default_config(lever_arm_b) -> SensorConfig:
 def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
-                     dvl_stamp_offset_s: float = 0.0) -> Mission:
+                     dvl_stamp_offset_s: float = 0.0, start_ne_m=(0.0, 0.0)) -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -429,6 +429,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         dvl_stamp_offset_s: DVL pings at ``k / dvl_rate + offset`` (s, ``0 <= offset < 1 / dvl_rate``);
             an offset that is not a multiple of the IMU period puts every ping between two IMU samples,
             as on real data. Default 0: pings on IMU stamps.
+        start_ne_m: (north, east) of the start from the NED origin, m, on the sea surface's curve (its depth
+            is the usual start depth: the tangent plane's ``down`` is less by the curvature drop). A start
+            tens of km away puts the whole mission where gravity is tilted and the tangent plane has risen.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -463,6 +466,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth = (np.random.default_rng(s) for s in seq.spawn(5))
     earth = EarthModel.from_config(config)
     traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n)
+    if np.any(np.asarray(start_ne_m, float) != 0.0):
+        lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
+        lla[2] = earth.alt_m - traj.p0_n[2]
+        traj.p0_n = earth.from_lla(lla)
 
     n_imu = int(round(duration_s * imu_rate)) + 1
     t_imu = np.arange(n_imu) / imu_rate                 # integer-based stamps: every stream shares them
