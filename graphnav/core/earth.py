@@ -126,8 +126,11 @@ class EarthModel:
 
     @classmethod
     def from_config(cls, config) -> "EarthModel":
-        """The model of a :class:`graphnav.core.config.SensorConfig` (latitude, gravity, Earth rotation)."""
-        return cls(float(config.lat_rad), float(config.gravity_mps2), 0.0, bool(config.earth_rotation))
+        """The model of a :class:`graphnav.core.config.SensorConfig` (latitude, gravity at the origin, Earth
+        rotation, gravity variation); the origin is on the ellipsoid (heights are relative: only the 1e-12
+        s^-2/m curvature of the free-air term depends on it)."""
+        return cls(float(config.lat_rad), float(config.gravity_mps2), 0.0, bool(config.earth_rotation),
+                   bool(config.gravity_variation))
 
     @property
     def omega_ie_n(self) -> np.ndarray:
