@@ -236,3 +236,22 @@ def test_aided_error_does_not_grow_with_distance_from_the_origin(method):
     assert far < 2e-4 and far < 1.5 * near + 1e-5
     _, far_flat = _aided_far_and_near(method, flat=True)
     assert far_flat > 3 * far
+
+
+@pytest.mark.slow
+def test_two_hour_mission_far_from_the_origin_keeps_its_accuracy():
+    """A 2 h noise-free survey started 20 km from the origin (30 km at most from it), TC with 1 Hz beams: the
+    velocity error of the last 10 minutes is that of the first 10 (no growth with time or distance)."""
+    from graphnav.estimators.graph import InitialState
+    from graphnav.estimators.runs import run_ekf
+    from graphnav.sim.simulate import simulate_mission
+    m = simulate_mission(7200.0, noiseless=True, seed=1, start_ne_m=(20000.0, 0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sol = run_ekf(m, tight=True, initial=InitialState.from_ground_truth(m, float(m.dvl.t[0])))
+    k = np.searchsorted(m.gt.t, sol.t - 1e-9)
+    on = (k < len(m.gt.t)) & (np.abs(m.gt.t[np.minimum(k, len(m.gt.t) - 1)] - sol.t) < 1e-6)
+    err = np.linalg.norm(sol.v_n[on] - m.gt.v_n[k[on]], axis=1)
+    t = sol.t[on]
+    first, last = np.sqrt(np.mean(err[t < 600] ** 2)), np.sqrt(np.mean(err[t > t[-1] - 600] ** 2))
+    assert first < 3e-4 and last < 1.5 * first

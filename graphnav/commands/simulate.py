@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import IMU_GRADES
+from graphnav.core.earth import EarthModel
 
 
 def register(subparsers) -> None:
@@ -41,6 +42,7 @@ def summarize(mission) -> dict:
     """Distance (m), depth range (m), speed range (m/s), max |yaw rate| (rad/s) of a mission's GT."""
     gt = mission.gt
     speed = np.linalg.norm(gt.v_n, axis=1)
+    depth = EarthModel.from_config(mission.config).depth_of(gt.p_n)
     traj = mission.meta.get("trajectory")
     if traj is not None:
         yaw_rate = traj.state(gt.t).omega_nb_b
@@ -49,7 +51,8 @@ def summarize(mission) -> dict:
     return {
         "duration_s": mission.duration,
         "distance_m": float(np.sum(np.linalg.norm(np.diff(gt.p_n, axis=0), axis=1))),
-        "depth_min_m": float(gt.p_n[:, 2].min()), "depth_max_m": float(gt.p_n[:, 2].max()),
+        # the pressure depth (the tangent plane's down is larger far from the origin: the Earth curves away)
+        "depth_min_m": float(depth.min()), "depth_max_m": float(depth.max()),
         "speed_min_mps": float(speed.min()), "speed_max_mps": float(speed.max()),
         "max_yaw_rate_radps": float(np.abs(yaw_rate[:, 2]).max()),
         "dvl_pings": len(mission.dvl.t), "dvl_pings_lt3_beams": int(np.sum(mission.dvl.n_valid < 3)),
@@ -67,7 +70,7 @@ def plot(mission, path: Path) -> None:
     axes[0].plot(gt.p_n[0, 1], gt.p_n[0, 0], "go", label="start")
     axes[0].set(xlabel="East [m]", ylabel="North [m]", title="track", aspect="equal")
     axes[0].legend()
-    axes[1].plot(gt.t, gt.p_n[:, 2])
+    axes[1].plot(gt.t, EarthModel.from_config(mission.config).depth_of(gt.p_n))
     axes[1].invert_yaxis()
     axes[1].set(xlabel="time [s]", ylabel="depth [m]", title="depth")
     axes[2].plot(gt.t, np.linalg.norm(gt.v_n, axis=1))
