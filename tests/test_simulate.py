@@ -285,7 +285,11 @@ def test_noiseless_beams_are_the_body_velocity_plus_lever_arm(noiseless):
     np.testing.assert_allclose(m.dvl.v_b - np.cross(m.imu.omega_b[k], geometry.lever_arm_b), v_b, atol=1e-3)
     lever_term = np.linalg.norm(np.cross(omega_nb, geometry.lever_arm_b), axis=1)
     assert lever_term.max() > 0.1      # the lever arm matters in turns (as on the real vehicle)
-    np.testing.assert_allclose(m.depth.depth, m.gt.p_n[:, 2], atol=1e-12)
+    # the depth sensor reads the pressure depth: the tangent plane's down less the curvature drop (2 mm at 270 m)
+    earth = EarthModel.from_config(m.config)
+    np.testing.assert_allclose(m.depth.depth, earth.depth_of(m.gt.p_n), atol=1e-9)
+    drop = m.gt.p_n[:, 2] - m.depth.depth
+    np.testing.assert_allclose(drop, np.sum(m.gt.p_n[:, :2] ** 2, axis=1) / (2 * 6.37e6), rtol=0.01, atol=1e-8)
 
 
 def test_dvl_and_depth_errors_follow_the_config(noiseless):
