@@ -210,13 +210,19 @@ class Strapdown:
 
         Gravity and Coriolis depend on the path being computed, so they are evaluated on the previous pass's
         path (a fixed point: first pass with the start position and velocity); over ``CHUNK_S`` each pass
-        shrinks their error by ~``2 |omega_ie| T`` (1.5e-3), so 2-3 passes reach rounding.
+        shrinks their error by ~``2 |omega_ie| T`` (1.5e-3), so 2-3 passes reach rounding. Gravity is the model's
+        value and gradient at the stretch's start, linear in the position over it.
         """
         v = np.broadcast_to(v0, f_n.shape)
         p = np.broadcast_to(p0, f_n.shape)
+        # over a stretch (tens of metres) gravity is linear in the position to 1e-10 m/s^2: its value and
+        # gradient at the start, instead of the exact model at every segment (3x faster EKF)
+        g0 = self.earth.gravity_n(p0)
+        G = self.earth.gravity_gradient_n(p0)
         p_prev = None
         for _ in range(6):
-            a = f_n + self.earth.gravity_n(p) - 2.0 * np.cross(self.omega_ie_n, v)
+            g = g0 + (p - p0) @ G.T
+            a = f_n + g - 2.0 * np.cross(self.omega_ie_n, v)
             dv = a * dt[:, None]
             v_end = v0 + np.cumsum(dv, axis=0)
             v_start = np.concatenate([v0[None], v_end[:-1]])
