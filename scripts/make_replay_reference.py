@@ -8,7 +8,9 @@ stored solution moved.
 History: written at commit f2f7090 from the whole-mission estimators before the Navigator; regenerated in
 issue 16 when every estimator took the gyro rate at the ping from :func:`graphnav.estimators.keyframes.gyro_at`
 (interpolation between IMU interval centres; the graph used the nearest sample, the EKF interpolated between
-sample stamps). The initial states (``initial/*``) are kept as stored, so that the comparison keeps isolating
+sample stamps); regenerated again for the Earth model (position-dependent gravity in the simulator and every
+estimator, sample axes frozen in inertial space, GTSAM's centrifugal term undone): the stored velocities moved
+by up to 1.3e-4 m/s, positions by 1e-2 m. The initial states (``initial/*``) are kept as stored, so that the comparison keeps isolating
 the streaming code path; every solution key (``tag/method/mode/{t,v_n,p_n,cov_v_n}``) is recomputed on the
 same missions as the test's (``simulate_mission(200 s, seed 3)``: clean, a 3-missing 30 s outage at 80 s, a
 DVL gap 100-109.5 s).

@@ -12,7 +12,7 @@ from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import Outage, scenario_outage
 from graphnav.estimators.graph import GraphOptions
-from graphnav.estimators.graph.builder import mission_keyframes
+from graphnav.estimators.graph.builder import GraphContext, mission_keyframes
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer
 from graphnav.estimators.runs import iterate_graph, run_graph
 from graphnav.evaluation.metrics import nees_velocity, vrmse
@@ -78,12 +78,14 @@ def test_split_preintegration_matches_truth_between_imu_samples():
     import gtsam
     checked = 0
     states = traj.state(times)
+    p_n = traj.position_n(np.r_[0.0, times])[1:]
+    ctx = GraphContext(m.config, GraphOptions())
     for kf in kfs:
         if kf.pim is None:
             continue
         k = kf.index
-        start = gtsam.NavState(gtsam.Rot3(states.C_b_n[k - 1]), np.zeros(3),   # position does not enter v, R
-                               states.v_n[k - 1])
+        ctx.set_gravity(kf, p_n[k - 1], states.v_n[k - 1])      # the gravity of the true position
+        start = gtsam.NavState(gtsam.Rot3(states.C_b_n[k - 1]), p_n[k - 1], states.v_n[k - 1])
         pred = kf.pim.predict(start, gtsam.imuBias.ConstantBias())
         assert abs(kf.pim.deltaTij() - (times[k] - times[k - 1])) < 1e-9
         np.testing.assert_allclose(pred.velocity(), states.v_n[k], atol=2e-5)

@@ -66,8 +66,11 @@ def test_stationary_imu_with_earth_rate_stays_at_rest():
     cfg = SensorConfig()
     C = euler_to_C_b_n(0.05, 0.1, 1.2)
     t = np.arange(0.0, 600.0, 0.01)
-    f_b = np.tile(C.T @ np.array([0.0, 0.0, -cfg.gravity_mps2]), (len(t), 1))
+    f_inst = C.T @ np.array([0.0, 0.0, -cfg.gravity_mps2])
     w_b = np.tile(C.T @ earth_rate_n(cfg.lat_rad), (len(t), 1))
+    # a sample is the velocity increment in the body axes frozen in inertial space at its stamp: the body
+    # turns with the Earth meanwhile, so the constant instant force integrates to f + dt/2 omega x f
+    f_b = np.tile(f_inst + 0.005 * np.cross(w_b[0], f_inst), (len(t), 1))
     _, Cs, v, p = integrate(ImuData(t, f_b, w_b), cfg, StrapdownState(0.0, C, np.zeros(3), np.zeros(3)))
     assert np.abs(v).max() < 1e-6
     assert np.abs(p).max() < 1e-4

@@ -10,11 +10,12 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import ImuSpec, SensorConfig, imu_grade
 from graphnav.core.dvl import DvlGeometry
-from graphnav.core.earth import earth_rate_n, gravity_magnitude
+from graphnav.core.earth import EarthModel, gravity_magnitude
+from graphnav.estimators.graph.builder import preintegration_gravity
 from graphnav.core.mission import ImuData
 from graphnav.core.rotations import C_b_n_to_euler, attitude_error
 from graphnav.sim.imu_errors import corrupt_imu
-from graphnav.sim.simulate import DEFAULT_LEVER_ARM_B, SmoothSteps, simulate_mission
+from graphnav.sim.simulate import DEFAULT_LEVER_ARM_B, START_DEPTH_M, SmoothSteps, simulate_mission
 
 DEG = np.pi / 180
 
@@ -165,23 +166,27 @@ def test_simulated_imu_errors_are_the_grade_errors(noiseless):
 # --- the IMU is consistent with the ground truth -----------------------------------------------------
 
 def _integrate_with_gtsam(mission, stride: int = 10):
-    """Preintegrate ``stride`` samples at a time from the GT initial state; states at the GT stamps."""
+    """Preintegrate ``stride`` samples at a time from the GT initial state; states at the GT stamps.
+
+    Each preintegration gets the Earth model's gravity at the middle of its stretch (predicted from the state
+    at its start), as the graph estimators do."""
     cfg = mission.config
-    params = gtsam.PreintegrationParams.MakeSharedD(cfg.gravity_mps2)
-    if cfg.earth_rotation:
-        params.setOmegaCoriolis(earth_rate_n(cfg.lat_rad))
-    # use2ndOrderCoriolis stays at its default, False (the shared conventions; no Python setter)
+    earth = EarthModel.from_config(cfg)
     gt, imu = mission.gt, mission.imu
     state = gtsam.NavState(gtsam.Rot3(gt.C_b_n[0]), gt.p_n[0], gt.v_n[0])
     bias = gtsam.imuBias.ConstantBias()
-    pim = gtsam.PreintegratedImuMeasurements(params, bias)
     states = [state]
-    for k in range(len(imu.t) - 1):
-        pim.integrateMeasurement(imu.f_b[k], imu.omega_b[k], imu.t[k + 1] - imu.t[k])
-        if (k + 1) % stride == 0:
-            state = pim.predict(state, bias)
-            pim.resetIntegration()
-            states.append(state)
+    for k0 in range(0, len(imu.t) - stride, stride):
+        params = gtsam.PreintegrationParams.MakeSharedD(cfg.gravity_mps2)
+        params.setOmegaCoriolis(earth.omega_ie_n)
+        # use2ndOrderCoriolis stays at its default, False (the shared conventions; no Python setter)
+        stretch = imu.t[k0 + stride] - imu.t[k0]
+        params.n_gravity = preintegration_gravity(earth, state.position(), state.velocity(), stretch)
+        pim = gtsam.PreintegratedImuMeasurements(params, bias)
+        for k in range(k0, k0 + stride):
+            pim.integrateMeasurement(imu.f_b[k], imu.omega_b[k], imu.t[k + 1] - imu.t[k])
+        state = pim.predict(state, bias)
+        states.append(state)
     C = np.array([s.attitude().matrix() for s in states])
     return C, np.array([s.velocity() for s in states]), np.array([s.position() for s in states])
 
@@ -200,32 +205,51 @@ def test_noiseless_imu_integrates_onto_ground_truth_without_earth_rate(noiseless
 
 
 def test_noiseless_imu_integrates_onto_ground_truth_with_gtsam(noiseless):
-    # With Earth rotation, GTSAM 4.3's prediction (NavState::predictPIM in the rotating frame) leaves a
-    # drift of ~3e-6 m/s^2 (about |omega_ie x g| * dt_imu / 2): a *perfect static* IMU integrated by GTSAM
-    # the same way drifts 1.2 mm/s and 0.24 m west in 400 s, whatever the preintegration length (1 to 100
-    # samples). The errors measured here are that drift (1.2 mm/s, 0.23 m); attitude stays exact (4e-8 deg).
-    # The exact strapdown integration below shows the simulated IMU itself has no such drift.
+    # With Earth rotation, the inertially frozen sample axes (what an IMU integrates and GTSAM's preintegration
+    # assumes) and each stretch's gravity from the Earth model (with GTSAM's centrifugal term undone,
+    # preintegration_gravity), GTSAM 4.3 stays on the truth: measured 7.8e-7 m/s, 1.3e-4 m after 400 s,
+    # attitude 2e-8 deg. Before (NED-frozen sample axes, constant gravity, GTSAM's centrifugal term left in)
+    # the same check drifted 1.2 mm/s and 0.23 m.
     att, vel, pos = _errors(noiseless, *_integrate_with_gtsam(noiseless))
-    assert att < 1e-5 and vel < 2e-3 and pos < 0.3
+    assert att < 1e-5 and vel < 1e-5 and pos < 2e-3
+
+
+def test_mission_far_from_the_origin_integrates_as_well_as_at_it():
+    """22 km from the origin gravity is tilted by 0.2 deg (0.034 m/s^2 horizontal) and the tangent plane is 39 m
+    above the sea: the simulated IMU and depth follow it, and GTSAM with the Earth model's gravity integrates
+    onto the truth exactly as at the origin (measured: 7.8e-7 m/s, 1.3e-4 m in both places)."""
+    far = simulate_mission(100.0, noiseless=True, seed=4, start_ne_m=(20000.0, 10000.0))
+    near = simulate_mission(100.0, noiseless=True, seed=4)
+    earth = EarthModel.from_config(far.config)
+    # the start is on the sea's curve: 2 m deep, 41 m below the tangent plane
+    drop = -float(earth.depth_of(far.gt.p_n[0] * [1.0, 1.0, 0.0]))
+    assert 39.0 < drop < 40.0 and far.gt.p_n[0, 2] == pytest.approx(START_DEPTH_M + drop, abs=1e-3)
+    assert far.depth.depth[0] == pytest.approx(START_DEPTH_M, abs=1e-6)
+    errors_far = _errors(far, *_integrate_with_gtsam(far))
+    errors_near = _errors(near, *_integrate_with_gtsam(near))
+    assert errors_far[1] < 1e-5 and errors_far[2] < 1e-3
+    assert errors_far[1] < 2 * errors_near[1] + 1e-7
 
 
 def _integrate_exactly(mission):
     """Strapdown integration that follows the increment convention with Earth rotation exactly.
 
-    ``C_{k+1} = Exp(-omega_ie dt) C_k Exp(omega_k dt)``; ``v_{k+1} = v_k + C_k f_k dt + g dt - 2 omega_ie x
-    (trapezoid of v) dt``; ``p`` by the trapezoid rule. Truncation errors are O(dt^2) and bounded.
+    ``C_{k+1} = Exp(-omega_ie dt) C_k Exp(omega_k dt)``; ``v_{k+1} = v_k + Exp(-omega_ie dt / 2) C_k f_k dt
+    + g(p_k) dt - 2 omega_ie x (trapezoid of v) dt`` (the sample's axes are frozen in inertial space: half the
+    Earth's turn over the step, on average); ``p`` by the trapezoid rule. Truncation errors are O(dt^2).
     """
     cfg = mission.config
     imu, gt = mission.imu, mission.gt
     dt = 0.01
-    w_ie = earth_rate_n(cfg.lat_rad)
-    g = np.array([0.0, 0.0, cfg.gravity_mps2])
+    earth = EarthModel.from_config(cfg)
+    w_ie = earth.omega_ie_n
+    half_turn = Rotation.from_rotvec(-w_ie * dt / 2).as_matrix()
     earth_step = Rotation.from_rotvec(-w_ie * dt).as_matrix()
     body_steps = Rotation.from_rotvec(imu.omega_b * dt).as_matrix()
     C, v, p = gt.C_b_n[0].copy(), gt.v_n[0].copy(), gt.p_n[0].copy()
     out_C, out_v, out_p = [C], [v], [p]
     for k in range(len(imu.t) - 1):
-        dv_specific = C @ imu.f_b[k] * dt + g * dt
+        dv_specific = half_turn @ C @ imu.f_b[k] * dt + earth.gravity_n(p) * dt
         v_pred = v + dv_specific - 2 * np.cross(w_ie, v) * dt
         v_new = v + dv_specific - np.cross(w_ie, v + v_pred) * dt
         p = p + 0.5 * (v + v_new) * dt
@@ -240,7 +264,7 @@ def _integrate_exactly(mission):
 
 def test_noiseless_imu_integrates_onto_ground_truth_with_earth_rate(noiseless):
     # Independent of GTSAM: the exact increment integration stays on the truth over the whole 400 s
-    # (measured: 2e-10 deg, 8e-9 m/s, 2e-6 m).
+    # (measured: 2e-10 deg, 2e-6 m/s, 4e-4 m; the simulator interpolates its gravity track over 1 s).
     att, vel, pos = _errors(noiseless, *_integrate_exactly(noiseless))
     assert att < 1e-6 and vel < 1e-5 and pos < 1e-3
 
@@ -261,7 +285,11 @@ def test_noiseless_beams_are_the_body_velocity_plus_lever_arm(noiseless):
     np.testing.assert_allclose(m.dvl.v_b - np.cross(m.imu.omega_b[k], geometry.lever_arm_b), v_b, atol=1e-3)
     lever_term = np.linalg.norm(np.cross(omega_nb, geometry.lever_arm_b), axis=1)
     assert lever_term.max() > 0.1      # the lever arm matters in turns (as on the real vehicle)
-    np.testing.assert_allclose(m.depth.depth, m.gt.p_n[:, 2], atol=1e-12)
+    # the depth sensor reads the pressure depth: the tangent plane's down less the curvature drop (2 mm at 270 m)
+    earth = EarthModel.from_config(m.config)
+    np.testing.assert_allclose(m.depth.depth, earth.depth_of(m.gt.p_n), atol=1e-9)
+    drop = m.gt.p_n[:, 2] - m.depth.depth
+    np.testing.assert_allclose(drop, np.sum(m.gt.p_n[:, :2] ** 2, axis=1) / (2 * 6.37e6), rtol=0.01, atol=1e-8)
 
 
 def test_dvl_and_depth_errors_follow_the_config(noiseless):

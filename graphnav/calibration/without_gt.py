@@ -35,7 +35,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import earth_rate_n
 from graphnav.core.errors import DataError
 from graphnav.core.mission import Mission
-from graphnav.estimators.graph.builder import imu_factor, mission_keyframes
+from graphnav.estimators.graph.builder import GraphContext, imu_factor, mission_keyframes
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.factors import beam_factor_lever_arm, beam_noise, depth_factor
 
@@ -94,6 +94,9 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
     state = None
     n_beams = 0
     n_keyframes = 0
+    # the gravity of each keyframe's predicted position (radial about the vertical, so a yaw gauge does not
+    # matter: 4.5e-4 m/s^2 horizontal 300 m from the start, which a constant gravity would leave to the biases)
+    gravity = GraphContext(shifted.config, options)
     for kf in mission_keyframes(shifted, options):
         k = kf.index
         n_keyframes += 1
@@ -111,6 +114,7 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
             graph.add(gtsam.PriorFactorConstantBias(B(0), bias0, gtsam.noiseModel.Diagonal.Sigmas(
                 np.r_[np.full(3, acc_sigma), np.full(3, gyro_sigma)])))
         else:
+            gravity.set_gravity(kf, state.position(), state.velocity())
             graph.add(imu_factor(kf))
             state = kf.pim.predict(state, bias0)
         if kf.dvl is not None and len(kf.dvl.y) >= 3:

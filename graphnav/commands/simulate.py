@@ -9,6 +9,7 @@ import numpy as np
 
 from graphnav.core.config import IMU_GRADES
 from graphnav.core.errors import ConfigError
+from graphnav.core.earth import EarthModel
 
 
 def register(subparsers) -> None:
@@ -27,6 +28,8 @@ def register(subparsers) -> None:
     parser.add_argument("--dropout", action="store_true", help="random per-beam bottom-lock dropouts")
     parser.add_argument("--noiseless", action="store_true", help="exact sensors (no IMU/DVL/depth errors)")
     parser.add_argument("--gt-rate", type=float, default=10.0, help="ground-truth rate, Hz")
+    parser.add_argument("--start-ne", type=float, nargs=2, default=(0.0, 0.0), metavar=("NORTH", "EAST"),
+                        help="start this far from the NED origin, m (gravity tilts 1.5e-6 m/s^2 per metre)")
     parser.add_argument("--out", type=Path, default=None,
                         help="folder to write the CSVs and the PNG into (appears only once complete)")
     parser.add_argument("--force", action="store_true",
@@ -46,6 +49,7 @@ def summarize(mission) -> dict:
     """Distance (m), depth range (m), speed range (m/s), max |yaw rate| (rad/s) of a mission's GT."""
     gt = mission.gt
     speed = np.linalg.norm(gt.v_n, axis=1)
+    depth = EarthModel.from_config(mission.config).depth_of(gt.p_n)
     traj = mission.meta.get("trajectory")
     if traj is not None:
         yaw_rate = traj.state(gt.t).omega_nb_b
@@ -54,7 +58,8 @@ def summarize(mission) -> dict:
     return {
         "duration_s": mission.duration,
         "distance_m": float(np.sum(np.linalg.norm(np.diff(gt.p_n, axis=0), axis=1))),
-        "depth_min_m": float(gt.p_n[:, 2].min()), "depth_max_m": float(gt.p_n[:, 2].max()),
+        # the pressure depth (the tangent plane's down is larger far from the origin: the Earth curves away)
+        "depth_min_m": float(depth.min()), "depth_max_m": float(depth.max()),
         "speed_min_mps": float(speed.min()), "speed_max_mps": float(speed.max()),
         "max_yaw_rate_radps": float(np.abs(yaw_rate[:, 2]).max()),
         "dvl_pings": len(mission.dvl.t), "dvl_pings_lt3_beams": int(np.sum(mission.dvl.n_valid < 3)),
@@ -72,7 +77,7 @@ def plot(mission, path: Path) -> None:
     axes[0].plot(gt.p_n[0, 1], gt.p_n[0, 0], "go", label="start")
     axes[0].set(xlabel="East [m]", ylabel="North [m]", title="track", aspect="equal")
     axes[0].legend()
-    axes[1].plot(gt.t, gt.p_n[:, 2])
+    axes[1].plot(gt.t, EarthModel.from_config(mission.config).depth_of(gt.p_n))
     axes[1].invert_yaxis()
     axes[1].set(xlabel="time [s]", ylabel="depth [m]", title="depth")
     axes[2].plot(gt.t, np.linalg.norm(gt.v_n, axis=1))
@@ -96,7 +101,8 @@ def run(args) -> int:
     if args.stream not in (None, "-"):
         check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
-                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output)
+                               gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output,
+                               start_ne_m=args.start_ne)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.io.streamio import mission_records, write_records

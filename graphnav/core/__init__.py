@@ -8,5 +8,7 @@ _PUBLIC = {
     "errors": ("GraphnavError", "DataError", "ConfigError"),
     "scenarios": ("SCENARIOS", "Outage", "scenario_outage"),
     "dvl": ("DvlGeometry",),
+    "earth": ("EarthModel",),
+    "imu_stamps": ("increments_to_samples", "rates_to_samples"),
 }
 __all__, __getattr__, __dir__ = _lazy_exports(__name__, _PUBLIC)

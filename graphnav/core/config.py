@@ -172,8 +172,12 @@ class SensorConfig:
         dvl: DVL geometry and error model.
         imu_rate_hz: nominal IMU rate, Hz.
         lat_rad: mission latitude for gravity and Earth rate, rad.
-        gravity_mps2: gravity magnitude, m/s^2 (down in NED).
+        gravity_mps2: gravity magnitude at the navigation origin, m/s^2 (down in NED); elsewhere the Earth
+            model (:class:`graphnav.core.earth.EarthModel`) adds its change with position.
         earth_rotation: whether Earth rotation is modelled (IMU simulation and estimators).
+        gravity_variation: whether gravity varies with position (tilts with the distance from the origin,
+            grows with depth); False: the constant ``[0, 0, gravity_mps2]`` of a flat Earth (17 m in 400 s of
+            free inertial navigation at 2 m/s), kept to measure what the variation is worth.
         dvl_time_offset_s: offset already added to the raw DVL stamps to put them on the IMU clock, s.
         gt_time_offset_s: offset already added to the raw ground-truth stamps, s.
         imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD.
@@ -195,6 +199,7 @@ class SensorConfig:
     lat_rad: float = 32.85 * DEG
     gravity_mps2: float = 9.7949
     earth_rotation: bool = True
+    gravity_variation: bool = True
     dvl_time_offset_s: float = 0.0
     gt_time_offset_s: float = 0.0
     imu_axis_signs: np.ndarray = field(default_factory=lambda: np.ones(3))
@@ -315,6 +320,7 @@ SCHEMA: dict[str, Key] = {
     "lat_rad": Key("number", "rad", low=-math.pi / 2, high=math.pi / 2),
     "gravity_mps2": Key("number", "m/s^2", low=9.7, high=9.9),
     "earth_rotation": Key("bool"),
+    "gravity_variation": Key("bool"),
     "dvl_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
     "gt_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
     "imu_axis_signs": Key("signs"),

@@ -128,7 +128,16 @@ def _check_speed(a: np.ndarray, used: np.ndarray, source: str, name: str) -> Non
 
 @dataclass
 class ImuData:
-    """IMU samples. t (N,) s; f_b (N,3) specific force, m/s^2; omega_b (N,3) angular rate, rad/s."""
+    """IMU samples. t (N,) s; f_b (N,3) specific force, m/s^2; omega_b (N,3) angular rate, rad/s.
+
+    What a stamp means (:mod:`graphnav.core.imu_stamps`): sample k is the **increment over** ``[t_k, t_{k+1}]``
+    **divided by its length**, stamped at the **start** of that interval, body axes frozen (in inertial space)
+    at ``t_k``; the estimators hold it constant over ``[t_k, t_{k+1})``. Increments that end at their stamp
+    (INS/IMU logs, pyins) and instant rates (ROS ``sensor_msgs/Imu``) are converted by
+    :func:`~graphnav.core.imu_stamps.increments_to_samples` and :func:`~graphnav.core.imu_stamps.rates_to_samples`;
+    taken as they are, the former cost 1.2 m/s and 240 m in 400 s of pure inertial navigation (the tests' pyins
+    run)
+    """
 
     t: np.ndarray
     f_b: np.ndarray
@@ -296,7 +305,9 @@ class DvlData:
 
 @dataclass
 class DepthData:
-    """Depth samples: t (N,) s; depth (N,) m, positive down (NED down of the IMU)."""
+    """Depth samples: t (N,) s; depth (N,) m, positive down: the IMU's depth below the navigation origin's
+    height, as a pressure sensor reads it (the tangent frame's ``down`` is larger by the curvature drop
+    ``|p_h|^2 / 2R``, :meth:`graphnav.core.earth.EarthModel.depth_of`; 2 cm at 500 m)."""
 
     t: np.ndarray
     depth: np.ndarray

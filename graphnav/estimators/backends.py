@@ -89,6 +89,7 @@ class GraphBackend(_Aided):
             if last is None:
                 p_pred = self._initial.pose.translation()
             else:
+                self.ctx.set_gravity(gkf, last.pose.translation(), last.v_n)
                 p_pred = gkf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
             gkf.fix_ne = self.fix_ne(kf, p_pred)
         self.estimator.add(gkf)

@@ -9,9 +9,12 @@ state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error 
 the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
 
 Error model (the local-navigation-frame strapdown error equations of Groves, *Principles of GNSS, Inertial
-and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; transport rate and the
-gravity-position coupling dropped, as the nominal model does; derived here for the convention above and
-checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``)::
+and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; derived here for the convention
+above and checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``). The frame is
+the Earth model's fixed tangent frame (:mod:`graphnav.core.earth`): no transport rate. The nominal state
+uses the gravity of its position; the gravity-position coupling ``Gamma dp`` (``Gamma`` ~ 1.5e-6 s^-2
+horizontally) has no place here because position is not an error state: it is ``Gamma`` times the position
+error, 1.5e-5 m/s^2 for 10 m::
 
     d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
     d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
@@ -541,7 +544,7 @@ class ErrorStateEkf:
         T = self.state.t - t0
         if T < 1.0:
             return None
-        g_n = self.strapdown.gravity_n
+        g_n = self.strapdown.gravity_at(self.state.p_n)
         U = r_n - r0 + g_n * T
         axis = np.cross(g_n, U)
         angle = float(np.arctan2(np.linalg.norm(axis), g_n @ U))

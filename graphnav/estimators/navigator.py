@@ -47,13 +47,14 @@ import gtsam
 import numpy as np
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
-from graphnav.estimators.graph.builder import preintegration_params
+from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
@@ -151,6 +152,7 @@ class Navigator:
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
+        self._earth = EarthModel.from_config(config)
         self.refused: dict[str, dict[str, int]] = {}
         self._screen = StreamScreen(config)
         self.received: dict[str, int] = {}          # samples given to add_* per stream
@@ -339,7 +341,7 @@ class Navigator:
         omega = np.asarray(w) - est.bias.gyroscope()
         dt = t - upto
         if dt > 0:
-            acc = C @ (np.asarray(f) - est.bias.accelerometer()) + np.array([0.0, 0.0, self.config.gravity_mps2])
+            acc = C @ (np.asarray(f) - est.bias.accelerometer()) + self._earth.gravity_n(p)
             p = p + v * dt + 0.5 * acc * dt * dt
             v = v + acc * dt
             C = C @ gtsam.Rot3.Expmap(omega * dt).matrix()
@@ -353,6 +355,9 @@ class Navigator:
             j = 0
             while j + 1 < len(recent) and recent[j + 1][0] <= est.t:
                 j += 1
+            # a fresh propagation: the gravity of the estimate's position (GTSAM takes one vector per
+            # preintegration; it changes 1.5e-6 m/s^2 per metre, nothing over the seconds propagated here)
+            self._pim_params.n_gravity = preintegration_gravity(self._earth, est.pose.translation(), est.v_n, 0.0)
             prop = [est, gtsam.PreintegratedImuMeasurements(self._pim_params, est.bias), est.t, j]
         _, pim, upto, j = prop
         while j + 1 < len(recent) and recent[j + 1][0] <= t:

@@ -470,8 +470,9 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
     if g is not None:
         lat0, lon0 = g[0, 2], g[0, 1]
         cfg.lat_rad = float(lat0)
-        cfg.gravity_mps2 = gravity_magnitude(lat0, float(np.mean(-g[:, 3])))
-        # origin at the surface above the first fix: p_n[:, 2] is the absolute depth the estimate carries
+        # origin at the sea surface above the first fix (p_n[:, 2] is the absolute depth the estimate carries);
+        # gravity at that origin: the Earth model adds its change with position and depth
+        cfg.gravity_mps2 = gravity_magnitude(lat0, 0.0)
         p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, 0.0))
         v_n = g[:, 4:7]
         C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])

@@ -1,7 +1,8 @@
 """The JSON-lines measurement stream of ``graphnav online --stream`` and ``graphnav simulate --stream``.
 
 One JSON object per line, in time order (samples late by less than the Navigator's reorder window are
-fine). Units SI, frames as everywhere in graphnav (body FRD, NED), stamps in seconds on the IMU clock:
+fine). Units SI, frames as everywhere in graphnav (body FRD, NED: the fixed tangent frame at the origin of
+:class:`graphnav.core.earth.EarthModel`), stamps in seconds on the IMU clock:
 
 ====================  ===========================================================================
 ``type``              fields
@@ -9,7 +10,11 @@ fine). Units SI, frames as everywhere in graphnav (body FRD, NED), stamps in sec
 ``config``            optional, first line only: ``config`` = a :class:`~graphnav.core.config.SensorConfig` as JSON
                       (what ``SensorConfig.to_dict`` writes, or only some of its keys; checked like a
                       ``--config`` file); keys ``--config`` sets win
-``imu``               ``t``, ``f_b`` [3] specific force m/s^2, ``omega_b`` [3] angular rate rad/s
+``imu``               ``t``, ``f_b`` [3] specific force m/s^2, ``omega_b`` [3] angular rate rad/s: the
+                      increments over ``[t, t_next]`` divided by the interval, stamped at its **start**
+                      (:mod:`graphnav.core.imu_stamps`; convert increments that end at their stamp with
+                      ``increments_to_samples``, ROS ``sensor_msgs/Imu`` instant rates with
+                      ``rates_to_samples``)
 ``dvl``               ``t``, ``beams`` [4] along-beam velocity m/s (``null`` where invalid), ``valid`` [4] bool
                       (optional: default = the beams that are numbers)
 ``dvl_velocity``      ``t``, ``v_d`` [3] velocity of the DVL head in the DVL frame measured by the instrument, m/s

@@ -11,16 +11,22 @@ Kinematics are analytic: roll, pitch, yaw and the body velocity ``v_b = [u, v, w
 smooth steps (C2) and sinusoids, so their values and first derivatives are exact. From them
 
 * ``v_n = C_b_n v_b``, ``omega_nb_b`` from the Euler-angle rates, ``a_n = C_b_n (dv_b/dt + omega_nb_b x v_b)``;
-* the true specific force and rate (shared conventions, transport rate neglected)
-  ``f_b = C_b_n^T (a_n + 2 omega_ie_n x v_n - g_n)``, ``omega_ib_b = omega_nb_b + C_b_n^T omega_ie_n``;
+* the true specific force and rate in the fixed tangent frame of :class:`graphnav.core.earth.EarthModel`
+  (exact there: no transport rate is needed because the axes do not turn with the vehicle)
+  ``f_b = C_b_n^T (a_n + 2 omega_ie_n x v_n - g_n(p_n))``, ``omega_ib_b = omega_nb_b + C_b_n^T omega_ie_n``,
+  with the plumb-bob gravity ``g_n(p_n)`` at the vehicle's position (it tilts with the distance from the
+  origin and grows with depth);
 * the position by Gauss-Legendre quadrature of ``v_n`` between output stamps (error far below 1 mm).
 
-IMU sample convention: the sample stamped ``t_k`` is the *increment* over ``[t_k, t_k + dt]`` divided by
-``dt``, as a strapdown IMU outputs it: ``omega_b[k] = Log(C_ib(t_k)^T C_ib(t_k+dt)) / dt`` and
-``f_b[k] = (1/dt) * integral of C_b_n(t_k)^T C_b_n(tau) f_n(tau) dtau`` (body axes frozen at ``t_k``). Holding
-sample k constant from ``t_k`` to ``t_{k+1}`` (GTSAM's preintegration) then reproduces the truth exactly up to
-the Earth-rate cross terms (~1e-9 rad per step; ``tests/test_simulate.py`` measures 1e-8 m/s and 2e-6 m after
-400 s; GTSAM 4.3's rotating-frame prediction adds its own ~3e-6 m/s^2 drift, also for a perfect static IMU).
+The depth sensor reads the depth below the origin's height, :meth:`EarthModel.depth_of` (the tangent plane's
+``down`` plus the curvature drop ``|p_h|^2 / 2R``); ground truth is in the tangent frame (position, and
+velocity and attitude in the origin's axes).
+
+IMU sample convention (:mod:`graphnav.core.imu_stamps`): the sample stamped ``t_k`` is the *increment* over
+``[t_k, t_k + dt]`` divided by ``dt``, as a strapdown IMU outputs it: ``omega_b[k] = Log(C_ib(t_k)^T
+C_ib(t_k+dt)) / dt`` and ``f_b[k] = (1/dt) * integral of C_ib(t_k)^T C_ib(tau) f_b(tau) dtau`` (body axes frozen
+in inertial space at ``t_k``). Holding sample k constant from ``t_k`` to ``t_{k+1}`` (GTSAM's preintegration)
+then reproduces the truth exactly up to the Earth-rate cross terms (~1e-9 rad per step).
 Ground truth, DVL and depth are instantaneous values at their
 stamps, all of which are IMU stamps (the DVL's unless ``dvl_stamp_offset_s`` moves them between samples).
 """
@@ -36,8 +42,9 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.config import DEG, DvlSpec, ImuSpec, SensorConfig
 from graphnav.core.config import imu_grade as _imu_grade
 from graphnav.core.dvl import DvlErrorModel, DvlGeometry, as_velocity_only
-from graphnav.core.earth import earth_rate_n, gravity_magnitude
+from graphnav.core.earth import EarthModel, gravity_magnitude
 from graphnav.core.errors import ConfigError
+from graphnav.core.imu_stamps import SAMPLE_CONVENTION
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.scenarios import markov_dropout
 from graphnav.sim.imu_errors import corrupt_imu
@@ -168,7 +175,11 @@ class SimTrajectory:
         roll_osc, pitch_osc, yaw_osc, u_osc, sway, heave: sinusoids (rad or m/s).
         bank_s: roll in turns = bank_s * yaw rate (s).
         speed0: forward speed at t=0 before the speed steps, m/s.
-        gravity_mps2, omega_ie_n: gravity magnitude (m/s^2) and Earth rate in NED (rad/s) of the IMU model.
+        gravity_mps2, omega_ie_n: gravity magnitude at the origin (m/s^2) and Earth rate in NED (rad/s).
+        earth: the Earth model of the IMU (position-dependent gravity); None: constant ``[0, 0, gravity_mps2]``
+            (the planning phase, before positions are known).
+        gravity_track: (stamps (K,) s, positions (K,3) m) at which ``earth``'s gravity is evaluated,
+            interpolated linearly in between (gravity changes 1.5e-6 m/s^2 per metre: mm are plenty).
     """
 
     yaw0: float
@@ -186,6 +197,17 @@ class SimTrajectory:
     sway: Sines = field(default_factory=Sines)
     heave: Sines = field(default_factory=Sines)
     bank_s: float = 0.3
+    earth: EarthModel | None = None
+    gravity_track: tuple | None = None
+
+    def gravity_n(self, t: np.ndarray) -> np.ndarray:
+        """Gravity (N,3), m/s^2, at the vehicle's position at stamps t (s)."""
+        t = np.asarray(t, dtype=float)
+        if self.earth is None or self.gravity_track is None:
+            return np.broadcast_to(np.array([0.0, 0.0, self.gravity_mps2]), (len(t), 3))
+        ts, ps = self.gravity_track
+        p = np.stack([np.interp(t, ts, ps[:, j]) for j in range(3)], axis=-1)
+        return self.earth.gravity_n(p)
 
     def euler_and_body_velocity(self, t: np.ndarray):
         """(euler (N,3), euler rates (N,3), v_b (N,3), dv_b (N,3)) at sorted stamps t."""
@@ -226,7 +248,7 @@ class SimTrajectory:
             -dpitch * np.sin(roll) + dyaw * np.cos(roll) * np.cos(pitch)], axis=-1)
         v_n = np.einsum("nij,nj->ni", C, v_b)
         a_n = np.einsum("nij,nj->ni", C, dv_b + np.cross(omega_nb_b, v_b))
-        g_n = np.array([0.0, 0.0, self.gravity_mps2])
+        g_n = self.gravity_n(t)
         f_n = a_n + 2.0 * np.cross(self.omega_ie_n, v_n) - g_n
         f_b = np.einsum("nji,nj->ni", C, f_n)
         omega_ib_b = omega_nb_b + np.einsum("nji,j->ni", C, self.omega_ie_n)
@@ -264,12 +286,15 @@ class SimTrajectory:
         C_earth = Rotation.from_rotvec(self.omega_ie_n * dt).as_matrix()
         delta = np.swapaxes(C_k, 1, 2) @ (C_earth @ C_k1)
         omega_b = Rotation.from_matrix(delta).as_rotvec() / dt
-        # Accelerometer: velocity increment in the body axes frozen at t_k (includes sculling exactly).
+        # Accelerometer: velocity increment in the body axes frozen in inertial space at t_k (includes
+        # sculling exactly); the NED axes turn by Exp(omega_ie_n s) after s seconds.
         nodes, weights = np.polynomial.legendre.leggauss(order)
         f_b = np.zeros((len(t), 3))
         for node, weight in zip(nodes, weights):
-            state = self.state(t + 0.5 * dt * (1.0 + node))
-            rel = np.swapaxes(C_k, 1, 2) @ state.C_b_n           # C_k^T C(tau)
+            s_k = 0.5 * dt * (1.0 + node)
+            state = self.state(t + s_k)
+            C_turn = Rotation.from_rotvec(self.omega_ie_n * s_k).as_matrix()
+            rel = np.swapaxes(C_k, 1, 2) @ (C_turn @ state.C_b_n)   # C_ib(t_k)^T C_ib(tau)
             f_b += 0.5 * weight * (rel @ state.f_b[:, :, None])[:, :, 0]
         return f_b, omega_b
 
@@ -388,7 +413,7 @@ def _default_config(lever_arm_b) -> SensorConfig:
 def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
-                     dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams") -> Mission:
+                     dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0)) -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -413,6 +438,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
             only the DVL-frame velocity ``v_d`` of its own least-squares solution of the same simulated beams
             (true head velocity plus the beams' noise, bias and scale through the geometry; ``v_d_valid``
             where >= 3 beams were valid, no per-ping sigma) and no beams (all invalid).
+        start_ne_m: (north, east) of the start from the NED origin, m, on the sea surface's curve (its depth
+            is the usual start depth: the tangent plane's ``down`` is less by the curvature drop). A start
+            tens of km away puts the whole mission where gravity is tilted and the tangent plane has risen.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -445,12 +473,19 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
 
     seq = np.random.SeedSequence(seed)
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth = (np.random.default_rng(s) for s in seq.spawn(5))
-    omega_ie_n = earth_rate_n(config.lat_rad) if config.earth_rotation else np.zeros(3)
-    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, omega_ie_n)
+    earth = EarthModel.from_config(config)
+    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n)
+    if np.any(np.asarray(start_ne_m, float) != 0.0):
+        lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
+        lla[2] = earth.alt_m - traj.p0_n[2]
+        traj.p0_n = earth.from_lla(lla)
 
     n_imu = int(round(duration_s * imu_rate)) + 1
     t_imu = np.arange(n_imu) / imu_rate                 # integer-based stamps: every stream shares them
     dt = 1.0 / imu_rate
+    # gravity depends on the position: track it on a 1 s grid (plus the end) before making the IMU samples
+    t_track = np.union1d(np.arange(0.0, t_imu[-1], 1.0), [t_imu[-1], t_imu[-1] + dt])
+    traj.earth, traj.gravity_track = earth, (t_track, traj.position_n(t_track))
     f_b = np.empty((n_imu, 3))
     omega_b = np.empty((n_imu, 3))
     chunk = 100_000                                     # bounded memory for multi-hour missions
@@ -470,7 +505,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     gt_state = traj.state(t_imu[i_gt])
     gt = GroundTruth(t_imu[i_gt], p_all[np.searchsorted(i_pos, i_gt)], gt_state.v_n, gt_state.C_b_n,
                      DEFAULT_ORIGIN_LLA)
-    depth_true = p_all[np.searchsorted(i_pos, i_depth), 2]
+    depth_true = earth.depth_of(p_all[np.searchsorted(i_pos, i_depth)])
     depth_noise = 0.0 if noiseless else rng_depth.normal(0.0, config.depth_noise_std, len(i_depth))
     depth = DepthData(t_imu[i_depth], depth_true + depth_noise)
 
@@ -507,6 +542,6 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
                                               "scale_factor": errors.scale_factor.copy(),
                                               "noise_std": errors.noise_std},
         "trajectory": traj,
-        "imu_sample_convention": "increment over [t_k, t_k + dt] divided by dt",
+        "imu_sample_convention": SAMPLE_CONVENTION,
     }
     return Mission(name, imu, dvl, config, gt, depth, meta)

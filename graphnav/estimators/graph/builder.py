@@ -17,7 +17,7 @@ from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
-from graphnav.core.earth import earth_rate_n
+from graphnav.core.earth import EarthModel, earth_rate_n
 from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
@@ -89,12 +89,17 @@ class Keyframe:
     heading: tuple[float, float] | None = None
     fix_ne: np.ndarray | None = None
     fix_sigma: float = 0.0
+    #: the preintegration settings of ``pim`` alone (its gravity is set by :meth:`GraphContext.set_gravity`)
+    params: gtsam.PreintegrationCombinedParams | None = None
 
 
 def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.PreintegrationCombinedParams:
-    """GTSAM preintegration settings: NED gravity, Earth rate as Coriolis term (first order), IMU noise.
+    """GTSAM preintegration settings: NED gravity (at the origin), Earth rate as Coriolis term (first order),
+    IMU noise.
 
-    Covariances are continuous-time (density^2), as GTSAM expects.
+    Covariances are continuous-time (density^2), as GTSAM expects. Gravity depends on the position
+    (:class:`graphnav.core.earth.EarthModel`) while GTSAM takes one vector per preintegration: every keyframe has
+    its own settings, whose gravity :meth:`GraphContext.set_gravity` sets from the predicted position.
     """
     params = gtsam.PreintegrationCombinedParams.MakeSharedD(config.gravity_mps2)
     imu = config.imu
@@ -107,6 +112,21 @@ def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.
         params.setOmegaCoriolis(earth_rate_n(config.lat_rad))
     # use2ndOrderCoriolis stays False (the default): the project's IMU model keeps first-order terms only
     return params
+
+
+def preintegration_gravity(earth: EarthModel, p_n: np.ndarray, v_n: np.ndarray, length_s: float) -> np.ndarray:
+    """The gravity vector (3,) m/s^2 to give GTSAM for a preintegration of ``length_s`` s that starts at ``p_n``
+    (m) with velocity ``v_n`` (m/s): the Earth model's gravity at the interval's middle, plus
+    ``omega_ie x (omega_ie x p_n)``.
+
+    The second term undoes the centrifugal term GTSAM 4.3's prediction subtracts at the start position
+    (measured: a static IMU 22 km from the origin gains ``-omega x (omega x p)``, 6e-5 m/s per second, whatever
+    ``use2ndOrderCoriolis`` says): the Earth model's plumb-bob gravity already holds the centrifugal
+    acceleration of the point. Its dependence on the estimated position (5e-9 s^-2) is far below any IMU's.
+    """
+    p = np.asarray(p_n, float)
+    omega = earth.omega_ie_n
+    return earth.gravity_n(p + 0.5 * length_s * np.asarray(v_n, float)) + np.cross(omega, np.cross(omega, p))
 
 
 class GraphContext:
@@ -123,6 +143,7 @@ class GraphContext:
         self.options = options
         self.geometry = DvlGeometry.from_spec(config.dvl)
         self.params = preintegration_params(config, options)
+        self.earth = EarthModel.from_config(config)
         self.beam_sigma = options.beam_sigma if options.beam_sigma is not None else config.dvl.beam_noise_std
         dvl = config.dvl
         #: (3,) sigma per DVL axis of a DVL-frame velocity without its own (DvlSpec.velocity_noise_std)
@@ -143,21 +164,34 @@ class GraphContext:
         """Preintegration settings for a keyframe interval of ``length`` s that holds a bridged IMU gap: the
         IMU noise is inflated so that the IMU factor's velocity and rotation variances grow by ``var_v``
         ((m/s)^2) and ``var_att`` (rad^2) per axis (:func:`graphnav.core.mission.gap_variances`; GTSAM integrates
-        the continuous covariance over the interval)."""
-        if not var_v and not var_att:
-            return self.params
-        imu, length = self.config.imu, max(length, 1e-9)
+        the continuous covariance over the interval). A new object every call: a keyframe's gravity is its own."""
         params = preintegration_params(self.config, self.options)
+        if not var_v and not var_att:
+            return params
+        imu, length = self.config.imu, max(length, 1e-9)
         params.setAccelerometerCovariance(np.eye(3) * (imu.accel_noise_density ** 2 + var_v / length))
         params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
         return params
 
-    def preintegrate(self, imu: kfs.ImuSegments) -> gtsam.PreintegratedCombinedMeasurements:
-        """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment)."""
-        pim = gtsam.PreintegratedCombinedMeasurements(self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum())))
+    def preintegrate(self, imu: kfs.ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
+                                                          gtsam.PreintegrationCombinedParams]:
+        """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment), with the
+        settings object the preintegration holds (set its gravity with :meth:`set_gravity`)."""
+        params = self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum()))
+        pim = gtsam.PreintegratedCombinedMeasurements(params)
         for f, w, dt in zip(imu.f_b.tolist(), imu.omega_b.tolist(), imu.dt.tolist()):
             pim.integrateMeasurement(f, w, dt)
-        return pim
+        return pim, params
+
+    def set_gravity(self, kf: "Keyframe", p_n: np.ndarray, v_n: np.ndarray) -> None:
+        """Give keyframe ``kf``'s IMU factor the gravity at the middle of its interval, predicted from the
+        position ``p_n`` (m) and velocity ``v_n`` (m/s) at its start (before the factor is made: GTSAM shares the
+        settings with the factor). Gravity changes 1.5e-6 m/s^2 per metre, so the prediction's error (metres)
+        and the motion within the interval are far below IMU noise; over tens of km the vector turns by
+        ``|p_h|/R`` (0.27 deg at 30 km) and a constant one would be worth 0.05 m/s^2."""
+        if kf.params is None:
+            return
+        kf.params.n_gravity = preintegration_gravity(self.earth, p_n, v_n, kf.pim.deltaTij())
 
     def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
@@ -179,14 +213,24 @@ class GraphContext:
                               regressed[usable], ping.omega_b.copy())
 
 
+def tangent_down(earth: EarthModel, depth_m: float, p_n_pred: np.ndarray | None) -> float:
+    """The navigation frame's ``down`` (m) of a depth reading: a pressure sensor measures depth below the sea
+    surface, which curves away below the fixed tangent plane by ``|p_h|^2 / 2R`` (2 cm at 500 m, 7.8 m at
+    10 km); the drop is taken at the predicted position (its error, metres, changes it by micrometres)."""
+    if p_n_pred is None:
+        return float(depth_m)
+    p = np.asarray(p_n_pred, float)
+    return float(depth_m - (earth.depth_of(p) - p[2]))
+
+
 def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> Keyframe:
     """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
     who knows the navigation origin)."""
-    pim = ctx.preintegrate(kf.imu) if kf.imu is not None else None
+    pim, params = ctx.preintegrate(kf.imu) if kf.imu is not None else (None, None)
     dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
     depth = kf.depth if ctx.options.use_depth else None
     return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
-                    kf.fix.sigma_m if kf.fix is not None else 0.0)
+                    kf.fix.sigma_m if kf.fix is not None else 0.0, params)
 
 
 def mission_keyframes(mission, options: GraphOptions, completer=None,
@@ -338,7 +382,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
     if kf.depth is not None:
         sigma = options.depth_sigma if options.depth_sigma is not None else config.depth_noise_std
         ne = None if p_n_pred is None else p_n_pred[:2]
-        other.add(depth_factor(X(k), kf.depth, sigma, ne))
+        other.add(depth_factor(X(k), tangent_down(builder.earth, kf.depth, p_n_pred), sigma, ne))
     if kf.fix_ne is not None:
         down = None if p_n_pred is None else p_n_pred[2]
         other.add(horizontal_position_factor(X(k), kf.fix_ne, kf.fix_sigma, down))

@@ -207,6 +207,7 @@ class _IncrementalGraph:
             if self._last is None or self._last.index != k - 1:
                 raise ConfigError(f"keyframe {k} added before keyframe {k - 1} was updated")
             last = self._last
+            self.builder.set_gravity(kf, last.pose.translation(), last.v_n)
             nav = kf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias)
             pose, v_n, bias = nav.pose(), nav.velocity(), last.bias
             link = gtsam.NonlinearFactorGraph()
