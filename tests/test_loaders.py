@@ -272,6 +272,26 @@ def test_a_dvl_in_another_frame_is_refused_against_the_gt(tmp_path):
     files["DVL"].write_text("\n".join(swapped) + "\n")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(DataError, match=r"DVL_trajectory1.csv.*another frame"):
-            load_akit(tmp_path / "Trajectory1")
-        load_akit(tmp_path / "Trajectory1", dvl_time_offset_s=0.0)      # a given offset: the user's call
+        for offset in ("auto", 0.0):          # estimated, or given (a calibrated config)
+            with pytest.raises(DataError, match=r"DVL_trajectory1.csv.*another frame"):
+                load_akit(tmp_path / "Trajectory1", dvl_time_offset_s=offset)
+
+
+def test_refused_dvl_pings_are_counted_once(tmp_path):
+    """A ping outside the vehicle's envelope and a ping of an impossible value are each refused once, under one
+    reason, in meta["streams"]."""
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(duration_s=60.0, seed=2)
+    files = write_akit(mission, tmp_path, 1)
+    lines = files["DVL"].read_text().splitlines()
+    for row, value in ((30, "6.0"), (40, "30.0")):       # faster than the vehicle; beyond any DVL's range
+        cols = lines[row].split(",")
+        lines[row] = ",".join([cols[0], value, *cols[2:]])
+    files["DVL"].write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_akit(tmp_path / "Trajectory1")
+    refused = m.meta["streams"]["dvl"]["refused"]
+    assert sum(refused.values()) == 2 and len(refused) == 2, refused
+    assert m.meta["streams"]["dvl"]["used"] == m.meta["streams"]["dvl"]["read"] - 2

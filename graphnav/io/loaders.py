@@ -489,8 +489,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         warnings.warn(f"{raw.files['DVL']}: {flagged.size} ping(s) with an invalid velocity (RDI bad-velocity "
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
-        v_dvl[flagged] = np.nan
-        count_refused(raw.meta, "dvl", f"invalid velocity flag or beyond {MAX_DVL_SPEED_MPS:g} m/s", flagged.size)
+        v_dvl[flagged] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
     envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
@@ -500,9 +499,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         warnings.warn(f"{raw.files['DVL']}: {outside.size} ping(s) outside the vehicle's envelope marked invalid "
                       f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
                       RuntimeWarning, stacklevel=2)
-        v_dvl[outside] = np.nan
-        for reason, mask in envelope.items():
-            count_refused(raw.meta, "dvl", f"outside the envelope ({reason})", int(mask.sum()))
+        v_dvl[outside] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
     _note_dvl_outages(raw, v_dvl)
 
     estimates = {}
@@ -520,18 +517,28 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         est = estimate_gt_time_offset(t_imu, omega_b, g[:, 0], C_b_n, lat_for_rate)
         gt_time_offset_s = est.offset_s
         estimates["gt"] = est
-    if dvl_time_offset_s == "auto":
+    if g is not None:
         from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
         ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
                         cfg.gravity_mps2, lat_for_rate, cfg.dvl)
+        auto = dvl_time_offset_s == "auto"
         # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
-        coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg)
-        # against the published GT point the DVL sits at lever arm + IMU position
-        est = estimate_dvl_time_offset(ref, raw.dvl[:, 0] + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
-        est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
-        _check_dvl_follows_gt(est.rms, raw.files["DVL"])
-        dvl_time_offset_s = est.offset_s
-        estimates["dvl"] = est
+        coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg) if auto else float(dvl_time_offset_s)
+        try:
+            # against the published GT point the DVL sits at lever arm + IMU position
+            est = estimate_dvl_time_offset(ref, raw.dvl[:, 0] + coarse, v_dvl,
+                                           cfg.dvl.lever_arm_b + imu_position_b)
+        except DataError:
+            if auto:
+                raise
+            est = None          # a given offset the GT cannot check (too little overlap): the user's call
+        if est is not None:
+            # with a given offset too: a DVL in another frame follows the GT at no offset near it
+            _check_dvl_follows_gt(est.rms, raw.files["DVL"])
+        if auto:
+            est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
+            dvl_time_offset_s = est.offset_s
+            estimates["dvl"] = est
     cfg.gt_time_offset_s = float(gt_time_offset_s)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
 
