@@ -304,6 +304,11 @@ def _overlap_fraction(t: np.ndarray, t_imu: np.ndarray) -> float:
     return float(np.mean((t >= t_imu[0]) & (t <= t_imu[-1])))
 
 
+def _same_instrument(a: str, b: str) -> bool:
+    """Two streams of one file (``log.pd0:vel_bt`` and ``log.pd0:pressure``, or the same source): one clock."""
+    return a == b or (":" in a and ":" in b and a.rsplit(":", 1)[0] == b.rsplit(":", 1)[0])
+
+
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
                         min_overlap_s: float = MIN_OVERLAP_S):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
@@ -350,7 +355,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     add_note(meta, "dvl", text)
     dvl = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + est.offset_s)
     if depth is not None:
-        if depth.source == dvl.source:
+        if _same_instrument(depth.source, dvl.source):
             depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + est.offset_s)
             add_note(meta, "depth", f"moved with the DVL clock ({est.offset_s:+.3f} s): same instrument")
         elif _overlap_fraction(depth.t, imu.t) < 0.5:

@@ -192,11 +192,11 @@ def run(args) -> int:
     check_inputs(args)
     cli_config = read_config(args.config) if args.config else None
     out = check_out(args.out, force=args.force, resume=args.resume)
+    mission, outages = (None, []) if streaming else mission_from_args(args)   # bad input stops before --out changes
     if args.force and not args.resume and out.exists():
         clear_out(out)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "online.csv"
-    mission, outages = (None, []) if streaming else mission_from_args(args)
     log = sys.stderr if streaming else sys.stdout
     with EpochCsvWriter(csv_path, resume=args.resume, fsync=args.fsync) as writer:
         resumed_from = writer.last_t
@@ -248,6 +248,17 @@ def run(args) -> int:
     summary["files"]["summary_json"] = str(out / "summary.json")
     write_json(out / "summary.json", summary)
     print_summary(summary, file=log)
+    if n_total == 0:
+        waiting = ""
+        if nav.aligner is not None:
+            a = nav.aligner.progress()
+            waiting = (f": still aligning when the data ended ({a['aligned_s']:.0f} of {a['needed_s']:.0f} s of IMU "
+                       f"data, {a['dvl_pings']} of {a['dvl_pings_needed']} DVL pings; waiting for: "
+                       f"{', '.join(a['waiting_for']) or 'more data'})")
+        print(f"graphnav online: error: no estimate was made{waiting}; a longer log, a heading source "
+              "(--initial-heading, a heading record) or an initial state (--init gt) starts it sooner",
+              file=sys.stderr)
+        return 1
     return exit_status(summary)
 
 
@@ -349,6 +360,9 @@ class InterruptFlag:
         if self.set:
             raise KeyboardInterrupt
         self.set = True
+        # a silent stream delivers no next record to stop at: say how to stop now
+        print("graphnav online: interrupted; stopping at the next sample (Ctrl-C again to stop at once)",
+              file=sys.stderr, flush=True)
 
     def __call__(self) -> bool:
         return self.set

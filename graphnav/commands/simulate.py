@@ -111,6 +111,7 @@ def run(args) -> int:
         else:
             import os
             tmp = Path(args.stream).with_name(f".{Path(args.stream).name}.partial-{os.getpid()}")
+            tmp.parent.mkdir(parents=True, exist_ok=True)      # checked creatable up front (check_out_file)
             with open(tmp, "w") as fh:
                 n = write_records(mission_records(mission), fh)
             os.replace(tmp, args.stream)

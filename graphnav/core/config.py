@@ -492,7 +492,10 @@ class ConfigOverrides:
                 section, name = key.split(".", 1)
                 target = getattr(cfg, section)
             setattr(target, name, value.copy() if isinstance(value, (np.ndarray, dict)) else value)
-        return cfg
+        try:        # the dataclasses' own checks (a reversed range, a reflection) on the combined values
+            return dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu), dvl=dataclasses.replace(cfg.dvl))
+        except ConfigError as exc:
+            raise ConfigError(f"{self.source}: {exc}") from None
 
     def differences(self, used: SensorConfig) -> list[tuple[str, object, object]]:
         """(key, value set here, value in ``used``) for every key whose value ``used`` does not hold (a

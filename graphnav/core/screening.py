@@ -216,10 +216,10 @@ def beams_out_of_range(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> n
 # counting (loaders)
 # ------------------------------------------------------------------------------------------------
 def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, line_offset: int = 0,
-           unit: str = "sample") -> np.ndarray:
+           unit: str = "sample", lines: np.ndarray | None = None) -> np.ndarray:
     """Count the samples of ``masks`` (reason -> (N,) bool; a sample under its first reason) as refused in
-    ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (index +
-    ``line_offset``). Returns the union mask."""
+    ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (``lines``,
+    the file line of each sample, when given; else index + ``line_offset``). Returns the union mask."""
     total = np.zeros(len(next(iter(masks.values()))) if masks else 0, dtype=bool)
     parts = []
     for reason, m in masks.items():
@@ -229,9 +229,9 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
             parts.append(f"{int(m.sum())} {reason}")
         total |= m
     if total.any():
-        rows = np.flatnonzero(total) + line_offset
+        rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
         where = ", ".join(str(int(i)) for i in rows[:10]) + (" ..." if rows.size > 10 else "")
-        label = "line(s)" if line_offset else "index(es)"
+        label = "line(s)" if line_offset or lines is not None else "index(es)"
         warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
                       f"{where}; they are not used", RuntimeWarning, stacklevel=3)
     return total

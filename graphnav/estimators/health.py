@@ -250,8 +250,8 @@ def health_line(health: dict | None) -> str | None:
                  else f"diverged {health['n_divergences']} time(s), recovered")
         extra = f", re-acquired {health['n_reacquired']} time(s)" if health.get("n_reacquired") else ""
         return f"health: {state}{extra}; {stats}; first: {health.get('first_event')}"
-    if health.get("state") == "degraded":
-        return f"health: degraded ({'; '.join(health.get('why') or [])}); {stats}"
+    if health.get("state") in ("degraded", "diverged"):
+        return f"health: {health['state']} ({'; '.join(health.get('why') or [])}); {stats}"
     return f"health: ok; {stats}"
 
 
@@ -300,6 +300,8 @@ def run_health(health: dict | None, info: dict | None = None, streams: dict | No
         if n_blocks and high > 0.5 * n_blocks:
             worse("degraded", f"NIS above its chi-square band in {high} of {n_blocks} blocks (covariance too small "
                               "for the errors)")
+    if info.get("estimates") == 0:
+        worse("degraded", "no estimate: the estimator never started (alignment not completed, or no usable data)")
     spans = info.get("pure_inertial_spans") or []
     if spans:
         worse("degraded", f"{len(spans)} pure-inertial stretch(es), longest {info.get('pure_inertial_max_s', 0):.0f} s")

@@ -239,6 +239,7 @@ class Navigator:
         ``config.dvl.velocity_noise_std``).
         It enters through the beam model with ``T_d`` = identity; a ping that also has >= 3 valid beams at the
         same stamp uses the beams instead (:mod:`graphnav.estimators.keyframes`)."""
+        self.received["dvl_velocity"] = self.received.get("dvl_velocity", 0) + 1
         v = self._vector("dvl_velocity", t, "v_d", v_d, 3)
         if v is None:
             return []

@@ -306,6 +306,10 @@ def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
     done = {k for k, e in meta.get("streams", {}).items() if e["read"]}
     record_streams(meta, imu=imu, dvl=None if "dvl" in done else dvl, depth=None if "depth" in done else depth,
                    gt=gt)
+    from graphnav.core.streams import set_span
+    for name, stream in (("dvl", dvl), ("depth", depth)):
+        if name in done and stream is not None:
+            set_span(meta, name, stream.t)        # the stamps as the mission holds them (a clock offset added)
     add_note(meta, "imu", f"clock starts at the first IMU stamp ({meta['t0_s']:.6f} s on the file's clock)")
     spec = cmap.get("imu") or {}
     units = [f"{k} {spec[k]}" for k in ("accel_unit", "gyro_unit") if spec.get(k) not in (None, "m/s^2", "rad/s")]

@@ -348,7 +348,9 @@ def _describe_jsonl(path: Path, config) -> dict:
     stream_entry(meta, "lines")["notes"].append("config line: " + ("yes" if reader.config else "no"))
     return {"usable": bool(records), "reason": None if records else "the stream holds no measurement record",
             "use": "graphnav online --stream FILE (sample by sample)", "instrument": {"stream": str(path)},
-            "dvl_frame": "beam (along-beam velocities)", "clock": "the stream's clock, s (IMU clock)",
+            "dvl_frame": ("DVL frame (dvl_velocity records)" if "dvl_velocity" in by_type and "dvl" not in by_type
+                          else "beam (along-beam velocities)"),
+            "clock": "the stream's clock, s (IMU clock)",
             "time_span_s": span, "duration_s": duration, "streams": streams, "dvl": dvl, "depth_m": depth}
 
 

@@ -220,7 +220,7 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         count_read(meta, stream, data[:, 0], source)
         bad = stamp_outliers(data[:, 0])
         if bad.any():
-            refuse(meta, stream, {"stamp not a time": bad}, source, line_offset=1)
+            refuse(meta, stream, {"stamp not a time": bad}, source, lines=line_no)
             data, line_no = data[~bad], line_no[~bad]
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
@@ -833,7 +833,8 @@ def _warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself): IMU rows beyond full scale, depth rows outside the range or spiking
-    and implausible GT rows are dropped; DVL beams beyond the vehicle's speed and pings outside its envelope
+    and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
+    the instrument got wrong makes the others suspect, as on the Navigator's stream) and pings outside its envelope
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
     warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
     one when nothing was refused)."""

@@ -522,8 +522,12 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
     entry["read"] += unread              # in the file, so read; then refused with its reason
     entry["used"] += unread
-    for reason in ("no bottom lock", "fewer than 3 beams", "not read by dolfyn (last ensemble)"):
+    # pings with 1-2 valid beams are used (the graph and the tightly coupled EKF take single beams)
+    for reason in ("no bottom lock", "not read by dolfyn (last ensemble)"):
         count_refused(meta, "dvl", reason, log.counts.get(reason, 0))
+    if log.counts.get("fewer than 3 beams"):
+        add_note(meta, "dvl", f"{log.counts['fewer than 3 beams']} ping(s) with 1-2 valid beams: the beams are used, "
+                              "no velocity can be solved from them")
     if log.frame != "beam":
         add_note(meta, "dvl", f"bottom track recorded in {log.frame} coordinates: "
                  f"{log.counts['beams recovered']} ping(s) rotated back to beams with the instrument's own "

@@ -211,7 +211,7 @@ class StreamReader:
                 if problem:
                     self._bad(line_no, problem)
                 continue
-            if kind in ("imu", "dvl", "dvl_velocity", "depth"):
+            if kind in ("imu", "dvl", "dvl_velocity", "depth", "fix", "heading"):
                 problem = self._to_si(rec)
                 if problem:
                     self.refused[kind] = self.refused.get(kind, 0) + 1

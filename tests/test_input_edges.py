@@ -1,0 +1,63 @@
+"""Edges a second read of the real-logs and bad-input work found: each a behaviour a user relies on."""
+from __future__ import annotations
+
+import io
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.config import ConfigOverrides, SensorConfig
+from graphnav.core.errors import ConfigError, DataError
+
+
+def test_a_velocity_only_stream_refused_whole_stops_the_run():
+    """Every DVL velocity in mm/s (refused as beyond the DVL's range): the run ends with an error naming the
+    stream, as a beam stream does, not with "health: ok"."""
+    from graphnav.estimators.navigator import Navigator
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(duration_s=20.0, seed=1, dvl_output="velocity")
+    nav = Navigator(mission.config)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for t, v in zip(mission.dvl.t, mission.dvl.v_d):
+            if np.all(np.isfinite(v)):
+                nav.add_dvl_velocity(float(t), v * 1000.0)
+        with pytest.raises(DataError, match="dvl_velocity"):
+            nav.finish()
+
+
+def test_config_values_are_checked_as_a_whole():
+    """A key-by-key override runs the dataclasses' own checks: a reversed depth range is refused at once."""
+    with pytest.raises(ConfigError, match="depth_range_m"):
+        ConfigOverrides.parse({"depth_range_m": [6000, -10]}, "cfg.json").over(SensorConfig())
+
+
+def test_stream_units_apply_to_fixes_and_headings():
+    from graphnav.io.streamio import StreamReader
+    lines = [{"type": "units", "time": "ms"},
+             {"type": "depth", "t": 1000, "depth_m": 5.0},
+             {"type": "fix", "t": 1500, "lat": 0.5, "lon": 0.1, "sigma_m": 2.0},
+             {"type": "heading", "t": 1500, "yaw": 0.1, "sigma": 0.01}]
+    recs = list(StreamReader(io.StringIO("\n".join(json.dumps(r) for r in lines) + "\n"), "s.jsonl"))
+    assert [r["t"] for r in recs] == pytest.approx([1.0, 1.5, 1.5])
+
+
+def test_depth_of_the_dvl_moves_with_its_clock():
+    """A PD0's pressure (``file:pressure``) is the DVL's instrument (``file:vel_bt``): one clock."""
+    from graphnav.calibration.clock import _same_instrument
+    assert _same_instrument("/x/log.pd0:vel_bt", "/x/log.pd0:pressure")
+    assert not _same_instrument("/x/log.pd0:vel_bt", "/x/depth.csv")
+
+
+def test_online_without_an_estimate_exits_with_an_error(tmp_path, capsys):
+    """60 s of a stream cannot gyrocompass (300 s): no estimate, said plainly, exit 1, summary written."""
+    from graphnav import cli
+    stream = tmp_path / "s.jsonl"
+    assert cli.main(["simulate", "--duration", "60", "--stream", str(stream)]) == 0
+    code = cli.main(["online", "--stream", str(stream), "--out", str(tmp_path / "out"), "--no-plots",
+                     "--no-progress"])
+    assert code == 1
+    assert "no estimate was made" in capsys.readouterr().err
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["health"]["state"] == "degraded"
