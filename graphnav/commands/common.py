@@ -339,7 +339,8 @@ class StagedOut:
 # --- health of a run and the exit status -------------------------------------------------------------------
 EXIT_EPILOG = ("exit status: 0 the run finished and its estimator was healthy at the end (ok or degraded: see "
                "'health' in summary.json and the health column); 1 an error in the input or the options (the message "
-               "names the file, line and field; also when more than half of a stream was refused); 2 a usage error; "
+               "names the file, line and field; also when more than half of a stream was refused, or when no "
+               "estimate was made); 2 a usage error; "
                f"{EXIT_DIVERGED} the estimator DIVERGED and had not recovered at the end (the trajectory is written but "
                "must not be trusted); 130 interrupted")
 
