@@ -220,13 +220,15 @@ def test_faults_command_runs_a_selection(tmp_path, capsys):
     shutil.rmtree(tmp_path / "w")
 
 
-@pytest.mark.slow
-def test_estimator_table_command(tmp_path, capsys):
-    """`graphnav faults --estimators` (what scripts/fault_report.py printed): one row per log fault."""
+def test_estimator_table_command(tmp_path, capsys, monkeypatch):
+    """`graphnav faults --estimators`: one row per log fault with its verdict. Three faults here (the command's
+    wiring); every fault's outcome through every estimator is tests/test_faults.py's test_fault_outcome."""
     from graphnav import cli
+    subset = {k: F.EXPECTED[k] for k in ("none", "nan-beams sanitized", "rdi-invalid raw")}
+    monkeypatch.setattr(F, "EXPECTED", subset)
     code = cli.main(["faults", "--estimators", "--grade", "navigation", "--out", str(tmp_path / "est.md")])
     text = (tmp_path / "est.md").read_text()
-    for fault in F.EXPECTED:
+    for fault in subset:
         assert f"\n{fault} " in text
     summary = [ln for ln in text.splitlines() if "faults within their stated outcome" in ln]
-    assert len(summary) == 1 and code == (0 if summary[0].startswith(f"{len(F.EXPECTED)}/") else 1)
+    assert len(summary) == 1 and code == (0 if summary[0].startswith(f"{len(subset)}/") else 1)
