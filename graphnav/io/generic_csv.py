@@ -53,12 +53,10 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.io.pd0 import pd0_geometry, read_pd0
-from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
+from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-ACCEL_UNITS = {"m/s^2": 1.0, "g": 9.80665}
-GYRO_UNITS = {"rad/s": 1.0, "deg/s": np.pi / 180}
-VELOCITY_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3}
+TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
+                                                       for k in ("time", "accel", "gyro", "velocity"))
 PRESSURE_UNITS = {"Pa": 1.0, "kPa": 1e3, "bar": 1e5, "dbar": 1e4}
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 STREAMS = ("imu", "dvl", "depth", "gt")

@@ -63,17 +63,15 @@ import numpy as np
 from graphnav.core.config import ConfigOverrides
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.replay import replay
+from graphnav.io.units import DECLARED_UNITS
 
 #: Fields each record type needs (besides ``type``).
 FIELDS = {"imu": ("t", "f_b", "omega_b"), "dvl": ("t", "beams"), "dvl_velocity": ("t", "v_d"),
           "depth": ("t", "depth_m"),
           "fix": ("t", "lat", "lon", "sigma_m"), "heading": ("t", "yaw", "sigma"), "config": ("config",),
           "units": ()}
-#: Unit names a ``units`` record may declare, with their factor to SI.
-UNITS = {"time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9},
-         "accel": {"m/s^2": 1.0, "g": 9.80665},
-         "gyro": {"rad/s": 1.0, "deg/s": math.pi / 180},
-         "velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3}}
+#: Unit names a ``units`` record may declare, with their factor to SI (the same as a CSV column map's).
+UNITS = DECLARED_UNITS
 #: Per-sample plausibility in SI (module docstring): stamps up to the year ~2286 in Unix seconds; an AUV never
 #: turns at 10 rad/s (570 deg/s); the accelerometer reads gravity, 9.8 m/s^2, within a few m/s^2.
 MAX_STAMP_S = 1e10
