@@ -15,6 +15,8 @@ import math
 import gtsam
 import numpy as np
 
+from graphnav.core.rotations import yaw_jacobian
+
 
 def horizontal_position_factor(x_key: int, ne_m: np.ndarray, sigma_m: float, down_guess_m: float | None = None,
                                vertical_sigma_m: float = 1e3) -> gtsam.NonlinearFactor:
@@ -27,9 +29,7 @@ def horizontal_position_factor(x_key: int, ne_m: np.ndarray, sigma_m: float, dow
 
 def yaw_and_jacobian(R: np.ndarray) -> tuple[float, np.ndarray]:
     """(yaw rad, d yaw / d rotation-tangent (3,)) of a body-to-NED rotation matrix (right perturbation)."""
-    c = R[0, 0] ** 2 + R[1, 0] ** 2
-    J = np.array([0.0, R[1, 0] * R[0, 2] - R[0, 0] * R[1, 2], R[0, 0] * R[1, 1] - R[1, 0] * R[0, 1]]) / c
-    return math.atan2(R[1, 0], R[0, 0]), J
+    return math.atan2(R[1, 0], R[0, 0]), yaw_jacobian(R)
 
 
 def heading_factor(x_key: int, yaw_rad: float, sigma_rad: float) -> gtsam.CustomFactor:

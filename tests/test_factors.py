@@ -256,3 +256,18 @@ def test_motion_prior_factors_residual_and_jacobians(seed):
                                _numeric_jacobian(change, values, [X(0), V(0), X(1), V(1)]), atol=1e-5)
     with pytest.raises(ValueError):
         nonholonomic_factor(X(0), V(0), [0.0, 0.1])
+
+
+def test_heading_variance_matches_a_sampled_attitude_cloud():
+    """heading_variance (the yaw Jacobian of a right perturbation) against the spread of yaw over attitudes
+    drawn from the body-frame covariance, at a pitched and rolled attitude."""
+    from graphnav.core.rotations import C_b_n_to_euler, euler_to_C_b_n, heading_variance, so3_exp_batch
+    rng = np.random.default_rng(3)
+    C = np.asarray(euler_to_C_b_n(np.deg2rad(12.0), np.deg2rad(-25.0), np.deg2rad(140.0))).reshape(3, 3)
+    A = rng.normal(size=(3, 3)) * 1e-3
+    cov = A @ A.T
+    theta = rng.multivariate_normal(np.zeros(3), cov, size=20000)
+    yaw = C_b_n_to_euler(C[None] @ so3_exp_batch(theta))[:, 2]
+    yaw0 = C_b_n_to_euler(C)[2]
+    d = np.remainder(yaw - yaw0 + np.pi, 2 * np.pi) - np.pi
+    assert float(heading_variance(C, cov)) == pytest.approx(float(np.var(d)), rel=0.05)

@@ -56,3 +56,21 @@ def so3_log(C: np.ndarray) -> np.ndarray:
 def attitude_error(C_est_b_n: np.ndarray, C_true_b_n: np.ndarray) -> np.ndarray:
     """Right-perturbation attitude error ``Log(C_true^T C_est)`` in rad (body frame), shape (…,3)."""
     return so3_log(np.swapaxes(C_true_b_n, -1, -2) @ C_est_b_n)
+
+
+def yaw_jacobian(C_b_n: np.ndarray) -> np.ndarray:
+    """``d yaw / d theta`` (…,3) of body-to-NED rotations for a right perturbation ``C = C_hat Exp(theta)``
+    (theta in body axes, rad): the row that turns a body-frame attitude covariance into a heading variance.
+    Near +-90 deg pitch the yaw is undefined and the row grows without bound."""
+    R = np.asarray(C_b_n, dtype=float)
+    c = R[..., 0, 0] ** 2 + R[..., 1, 0] ** 2
+    J = np.stack([np.zeros_like(c), R[..., 1, 0] * R[..., 0, 2] - R[..., 0, 0] * R[..., 1, 2],
+                  R[..., 0, 0] * R[..., 1, 1] - R[..., 1, 0] * R[..., 0, 1]], axis=-1)
+    return J / c[..., None]
+
+
+def heading_variance(C_b_n: np.ndarray, cov_rot_b: np.ndarray) -> np.ndarray:
+    """Heading (yaw) variance, rad^2, shape (…), of attitudes ``C_b_n`` (…,3,3) whose error covariance is
+    ``cov_rot_b`` (…,3,3), rad^2, in GTSAM's right perturbation (body axes)."""
+    J = yaw_jacobian(C_b_n)
+    return np.einsum("...i,...ij,...j->...", J, np.asarray(cov_rot_b, dtype=float), J)

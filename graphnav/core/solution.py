@@ -18,6 +18,16 @@ class NavSolution:
         v_n: (K,3) NED velocity, m/s.
         C_b_n: (K,3,3) body-to-NED rotation.
         cov_v_n: optional (K,3,3) velocity covariance in NED, (m/s)^2.
+        cov_p_n: optional (K,3,3) position covariance in NED, m^2 (None: the estimator has no position
+            uncertainty, e.g. the paper's 12-state EKF, which integrates position without an error state).
+        cov_rot_b: optional (K,3,3) attitude covariance, rad^2, of the right perturbation ``C_b_n = C_hat
+            Exp(theta)`` (GTSAM's Rot3 tangent, body axes); :func:`graphnav.core.rotations.heading_variance`
+            turns it into a heading variance.
+        cov_bias: optional (K,6,6) covariance of the IMU biases ``[acc (m/s^2), gyro (rad/s)]`` (GTSAM's
+            ConstantBias order), their units squared.
+
+    Each covariance is the estimator's own marginal of that quantity (GTSAM marginals for the graph, blocks of
+    P for the EKF); the cross-covariances between position, attitude, velocity and biases are not carried.
         bias_acc: optional (K,3) accelerometer bias estimate, m/s^2.
         bias_gyro: optional (K,3) gyro bias estimate, rad/s.
         runtime_s: wall time of the whole run, s.
@@ -32,6 +42,9 @@ class NavSolution:
     cov_v_n: np.ndarray | None = None
     bias_acc: np.ndarray | None = None
     bias_gyro: np.ndarray | None = None
+    cov_p_n: np.ndarray | None = None
+    cov_rot_b: np.ndarray | None = None
+    cov_bias: np.ndarray | None = None
     runtime_s: float = float("nan")
     info: dict = field(default_factory=dict)
 

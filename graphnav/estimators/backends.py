@@ -20,7 +20,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import lla_to_ned
 from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
-from graphnav.estimators.ekf import IE, IV, EkfOptions, ErrorStateEkf
+from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.builder import GraphContext, graph_keyframe
 from graphnav.estimators.graph.incremental import (
     EpochEstimate,
@@ -193,11 +193,13 @@ class EkfBackend(_Aided):
         s = ekf.state
         elapsed = time.perf_counter() - start
         self.update_times.append(elapsed)
+        covs = ekf.nav_covariances()
         return EpochEstimate(kf.index, kf.t, kf.kind, gtsam.Pose3(gtsam.Rot3(s.C_b_n), s.p_n), s.v_n.copy(),
-                             gtsam.imuBias.ConstantBias(ekf.bias_acc, ekf.bias_gyro), ekf.P[IV, IV].copy(),
+                             gtsam.imuBias.ConstantBias(ekf.bias_acc, ekf.bias_gyro), covs["cov_v_n"],
                              0 if ping is None else (3 if ping.is_velocity else ping.n_measured),
                              0 if ping is None else ping.n_regressed,
-                             elapsed)
+                             elapsed, cov_p_n=covs["cov_p_n"], cov_rot_b=covs["cov_rot_b"],
+                             cov_bias=covs["cov_bias"])
 
     def _update_heading(self, yaw: float, sigma: float) -> None:
         """Yaw update: ``dz = yaw(C_hat) - yaw_meas``; with ``C = Exp(-eps) C_hat`` the row on the NED

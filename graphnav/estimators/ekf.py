@@ -305,6 +305,15 @@ class ErrorStateEkf:
             P[:n, n:] = cross
             P[n:, :n] = cross.T
 
+    def nav_covariances(self) -> dict:
+        """The filter's marginal covariances in :class:`graphnav.core.solution.NavSolution`'s conventions:
+        ``cov_v_n`` (NED, (m/s)^2), ``cov_rot_b`` (GTSAM right perturbation, body axes, rad^2: with
+        ``C = Exp(-eps) C_hat = C_hat Exp(-C_hat^T eps)`` it is ``C^T P_eps C``), ``cov_bias`` ([acc, gyro]) and
+        ``cov_p_n`` (NED, m^2; None without position error states)."""
+        P, C = self.P, self.state.C_b_n
+        bias = np.block([[P[IA, IA], P[IA, IG]], [P[IG, IA], P[IG, IG]]])
+        return {"cov_v_n": P[IV, IV].copy(), "cov_rot_b": C.T @ P[IE, IE] @ C, "cov_bias": bias, "cov_p_n": None}
+
     def inflate(self, var_v: float, var_att: float) -> None:
         """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
         gap bridged by interpolation (:meth:`graphnav.core.mission.ImuData.bridge_gaps`)."""

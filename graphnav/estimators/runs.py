@@ -171,17 +171,22 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
 
 
 def solution_from_estimates(method: str, estimates: list[EpochEstimate]) -> NavSolution:
-    """Pack per-keyframe estimates into a :class:`NavSolution`."""
-    has_cov = all(e.cov_v_n is not None for e in estimates)
+    """Pack per-keyframe estimates into a :class:`NavSolution` (a covariance only when every estimate has it)."""
+    def stacked(name):
+        values = [getattr(e, name) for e in estimates]
+        return np.array(values) if values and all(v is not None for v in values) else None
+
+    K = len(estimates)
     return NavSolution(
         method=method,
         t=np.array([e.t for e in estimates]),
-        p_n=np.array([e.p_n for e in estimates]),
-        v_n=np.array([e.v_n for e in estimates]),
-        C_b_n=np.array([e.C_b_n for e in estimates]),
-        cov_v_n=np.array([e.cov_v_n for e in estimates]) if has_cov else None,
-        bias_acc=np.array([e.bias.accelerometer() for e in estimates]),
-        bias_gyro=np.array([e.bias.gyroscope() for e in estimates]),
+        p_n=np.array([e.p_n for e in estimates]).reshape(K, 3),
+        v_n=np.array([e.v_n for e in estimates]).reshape(K, 3),
+        C_b_n=np.array([e.C_b_n for e in estimates]).reshape(K, 3, 3),
+        cov_v_n=stacked("cov_v_n"),
+        bias_acc=np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
+        bias_gyro=np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
+        cov_p_n=stacked("cov_p_n"), cov_rot_b=stacked("cov_rot_b"), cov_bias=stacked("cov_bias"),
         info={"kind": [e.kind for e in estimates], "n_measured": np.array([e.n_measured for e in estimates]),
               "n_regressed": np.array([e.n_regressed for e in estimates]),
               "health_state": [e.health or "ok" for e in estimates]},
@@ -238,13 +243,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
     estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
-    K = len(estimates)
-    sol = NavSolution(name, np.array([e.t for e in estimates]),
-                      np.array([e.p_n for e in estimates]).reshape(K, 3),
-                      np.array([e.v_n for e in estimates]).reshape(K, 3),
-                      np.array([e.C_b_n for e in estimates]).reshape(K, 3, 3),
-                      np.array([e.cov_v_n for e in estimates]).reshape(K, 3, 3),
-                      np.array([e.bias.accelerometer() for e in estimates]).reshape(K, 3),
-                      np.array([e.bias.gyroscope() for e in estimates]).reshape(K, 3),
-                      runtime_s=time.perf_counter() - wall, info=info)
+    sol = solution_from_estimates(name, estimates)
+    sol.runtime_s = time.perf_counter() - wall
+    sol.info.update(info)
     return sol  # info holds the Navigator's live pure-inertial check (pure_inertial_spans)

@@ -84,6 +84,9 @@ class EpochEstimate:
         index: keyframe index k; t: stamp, s; kind: ``"dvl"`` or ``"imu"``.
         pose: Pose3 (attitude C_b_n, NED position m); v_n: (3,) m/s; bias: ConstantBias (acc m/s^2, gyro rad/s).
         cov_v_n: (3,3) marginal velocity covariance in NED, (m/s)^2, or None.
+        cov_p_n, cov_rot_b, cov_bias: (3,3) position (NED, m^2), (3,3) attitude (right perturbation, body
+            axes, rad^2) and (6,6) bias ([acc, gyro]) marginal covariances, or None (the fields of
+            :class:`graphnav.core.solution.NavSolution`).
         n_measured, n_regressed: beams used at this keyframe.
         update_s: solver time of this keyframe, s.
         dvl_errors: (7,) DVL error states [scale (3), beam bias (4) m/s] at this keyframe, filled in when the
@@ -105,6 +108,9 @@ class EpochEstimate:
     dvl_errors: np.ndarray | None = None
     health: str | None = None
     health_why: str = ""
+    cov_p_n: np.ndarray | None = None
+    cov_rot_b: np.ndarray | None = None
+    cov_bias: np.ndarray | None = None
 
     @property
     def C_b_n(self) -> np.ndarray:
