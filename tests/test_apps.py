@@ -139,6 +139,12 @@ def test_bench_end_to_end(tmp_path):
     assert {r["window_start_s"] for r in records} == {60.0, 150.0}
     report = (out / "report.md").read_text()
     assert "## IMU grade: tactical" in report and "| TC |" in report and "| Average-TC |" in report
+    run = json.loads((out / "bench_run.json").read_text())
+    assert run["command"].startswith("graphnav bench") and run["window_s"] == [30.0] and run["wall_time_s"] > 0
+    # the results page from this run quotes the bench command and holds both methods
+    assert main(["results", "--from", str(out), "--out", str(tmp_path / "results.md")]) == 0
+    page = (tmp_path / "results.md").read_text()
+    assert f"`{run['command']}`" in page and "| TC |" in page and "| Average-TC |" in page
     plots = sorted(p.name for p in (out / "plots").iterdir())
     assert "vrmse_bars_tactical.png" in plots
     assert "trajectory_sim-seed0_tactical_2-missing.png" in plots

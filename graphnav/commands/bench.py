@@ -1,6 +1,7 @@
 """``graphnav bench``: the comparison benchmark (every method, scenario, IMU grade and window position).
 
-Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md`` and PNG plots in
+Writes ``OUT/results.json`` after every finished case, then ``OUT/report.md``, ``OUT/bench_run.json`` (the
+command and its settings, for ``graphnav results``) and PNG plots in
 ``OUT/plots/``. See :mod:`graphnav.evaluation.bench` for how windows and IMU grades are made.
 """
 from __future__ import annotations
@@ -158,6 +159,8 @@ def run(args) -> int:
                                    "jobs": args.jobs,
                                    "plots": [str(p.relative_to(out)) for p in plot_files]})
     (out / "report.md").write_text(report)
+    from graphnav.evaluation.results_page import write_run_record
+    write_run_record(out, command, args.window_s, args.jobs, wall)
     from graphnav.evaluation.bench import aggregate, headline
     agg = aggregate(records)
     for g in args.imu_grade:
