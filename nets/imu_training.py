@@ -58,7 +58,7 @@ class ImuTrainOptions:
     relative: bool = True               # the heads see beams relative to the prior, not their values
     correction_sees_imu: bool = False   # the correction sees the angular rates and gravity direction
     rollout_epochs: int = 20            # recursive stage (0: one step ahead only)
-    rollout_window: int = 30            # pings per rollout (the 30 s outages of the issue)
+    rollout_window: int = 30            # pings per rollout (the benchmark's 30 s outages)
     rollout_stride: int = 3             # pings between rollout starts
     rollout_batch_size: int = 64
     rollout_lr: float = 1e-3

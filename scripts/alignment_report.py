@@ -1,4 +1,4 @@
-"""In-motion alignment from the sensors on the shared A-KIT trajectories (issue 11, item 2).
+"""In-motion alignment from the sensors on the shared A-KIT trajectories (docs/decisions/alignment.md).
 
 For each trajectory the IMU and DVL samples (and nothing else: the A-KIT depth stream is GT-derived) are fed
 in time order to :class:`graphnav.estimators.align.Aligner`; the ground truth is only used to score.

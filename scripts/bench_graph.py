@@ -13,7 +13,7 @@ Tables:
 3. Batch smoothing: the vectorised Gauss-Newton batch (first pass = fixed-lag) vs GTSAM's LM on the
    CustomFactor graph at 400 s (time and largest velocity difference); vectorised at 1 h and 4 h.
 
-Targets from issue 5: online 400 s < 1.3 s (>= 300x real time), ISAM2 p99 < 10 ms, fixed-lag p99 < 15 ms with
+Targets: online 400 s < 1.3 s (>= 300x real time), ISAM2 p99 < 10 ms, fixed-lag p99 < 15 ms with
 flat RSS from 1 h to 4 h, 4 h batch < 60 s. The machine is shared (2 cores): compare within one run.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""What calibration buys on the shared real trajectories (issue 7): all-beam mission VRMSE per configuration.
+"""What calibration buys on the shared real trajectories: all-beam mission VRMSE per configuration.
 
 Configurations, each loaded and run the same way (EKF TC and Graph-TC, all beams, GT at the IMU point):
 - naive: no time offsets, no lever arm (what a first integration sees);

@@ -1,4 +1,4 @@
-"""How the beam completers do inside the estimators (issue 13: the IMU-aware completer wired in).
+"""How the beam completers do inside the estimators (the IMU-aware completer among them).
 
 Two reports:
 

@@ -4,8 +4,8 @@
 
 The simulator's IMU samples are increments over ``[t_k, t_k+1]`` divided by the interval (the mean rate
 over the interval), its pings sit ``dvl_stamp_offset_s`` after an IMU stamp, and its trajectory gives the
-true ``omega_ib_b`` at any time. Rules: the sample nearest the ping (the graph's rule before issue 16), linear
-interpolation between the two sample stamps (the EKF's rule before), and
+true ``omega_ib_b`` at any time. Rules: the sample nearest the ping (the graph's earlier rule), linear
+interpolation between the two sample stamps (the EKF's earlier rule), and
 :func:`graphnav.estimators.keyframes.gyro_at` (interpolation between the interval centres, now the rule of
 every estimator). RMS of |omega_rule - omega_true| over the pings, rad/s.
 """

@@ -1,7 +1,7 @@
 """The EKF gating lockout and its re-acquisition, reproduced: start the EKF with an attitude error larger than
 its initial covariance (0.1 deg) and run it with and without re-acquisition.
 
-The issue's failure (a real trajectory starting inside a fast manoeuvre: every EKF variant gated all 400
+The failure it reproduces (a real trajectory starting inside a fast manoeuvre: every EKF variant gated all 400
 pings and ran pure inertial, 262 m/s, silently) has the same mechanism: the initial state is outside what
 the covariance describes, the chi-square gate rejects the very pings that could correct it, and nothing
 brings it back. Here the attitude error is injected (per NED axis), on the simulated mission and on A-KIT

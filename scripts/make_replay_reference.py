@@ -5,8 +5,7 @@ stored solution moved.
     .venv/bin/python scripts/make_replay_reference.py            # rewrite the file, print the changes
     .venv/bin/python scripts/make_replay_reference.py --dry-run  # print the changes only
 
-History: written at commit f2f7090 from the whole-mission estimators before the Navigator; regenerated in
-issue 16 when every estimator took the gyro rate at the ping from :func:`graphnav.estimators.keyframes.gyro_at`
+History: written from the whole-mission estimators before the Navigator; regenerated when every estimator took the gyro rate at the ping from :func:`graphnav.estimators.keyframes.gyro_at`
 (interpolation between IMU interval centres; the graph used the nearest sample, the EKF interpolated between
 sample stamps); regenerated again for the Earth model (position-dependent gravity in the simulator and every
 estimator, sample axes frozen in inertial space, GTSAM's centrifugal term undone): the stored velocities moved

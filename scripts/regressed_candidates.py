@@ -1,4 +1,4 @@
-"""Measure the regressed-beam candidates of issue 13 (gate, correlation, adaptive sigma, motion prior).
+"""Measure the regressed-beam candidates (gate, correlation, adaptive sigma, motion prior; docs/decisions/regressed-beams.md).
 
 Runs Graph-TC and Graph-HN with each candidate's GraphOptions over the same windows (the bench's windows,
 scenarios and IMU grades) and prints window VRMSE mean / worst and the ratio to Graph-TC. Usage::

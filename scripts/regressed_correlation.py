@@ -1,4 +1,4 @@
-"""Measure how a completion's error relates to the graph's own prediction of the same beam (issue 13).
+"""Measure how a completion's error relates to the graph's own prediction of the same beam.
 
 For every regressed beam the plain hybrid (Graph-HN without screening) offers, records the completion error
 ``e_c = y_c - y_true`` and the graph's prediction error ``e_p = y_p - y_true`` (``y_true`` from the ground-truth

@@ -189,7 +189,7 @@ def test_diverged_windows_are_marked_and_kept_out_of_the_means(fake_world, monke
     marked in the records and reported separately (count + list), not averaged in."""
     def diverging(mission, method, scenario, **kw):
         sol = fake_run_method(mission, method, scenario, **kw)
-        if method == "TC":                       # 262 m/s in the second window: the issue's lockout
+        if method == "TC":                       # 262 m/s in the second window: the EKF lockout
             sol.v_n[sol.t >= 150.0, 0] += 262.0
         if method == "HNTC":                     # accurate, but its monitor says it diverged in 55-70 s
             sol.info["health"] = {"n_divergences": 1, "n_reacquired": 1, "nis_mean_per_dof": 3.0,

@@ -113,7 +113,7 @@ def test_merged_log_and_body_velocity_dvl_through_smooth(sim, tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     # Beams projected from an exact body velocity: the smoother follows the truth closely, from the reference
     # or from the sensor alignment.
-    # 0.058 m/s with the DVL error states (default since issue 14), which have no error to find here
+    # 0.058 m/s with the DVL error states (on by default), which have no error to find here
     assert summary["accuracy"]["vrmse_mission_mps"] < 0.065
     assert no_gt_vrmse < 0.1
 

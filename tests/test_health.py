@@ -242,7 +242,7 @@ def test_ekf_reacquires_with_one_beam_by_inflation(sim):
 
 
 def test_graph_flags_divergence_and_inconsistency(sim):
-    """Two broken graph runs. IMU y axis of the wrong sign (the issue's axis-convention failure): the graph
+    """Two broken graph runs. IMU y axis of the wrong sign (the A-KIT files as published): the graph
     loses track (tens of m/s) and the monitor flags the divergence, still open at the end. Initial velocity
     2 m/s off with a 0.05 m/s prior: the graph pulls in within a few keyframes but stays inconsistent (the
     wrong start has left an attitude error), and the NIS blocks are above their band."""

@@ -1,8 +1,8 @@
 """Consistency of the loaded A-KIT trajectories with their ground truth (skips without ../shared/data).
 
-Measured values (scripts/check_realdata.py) are in the final report of issue 2; the thresholds below
-are the issue's (DVL: 0.03 m/s; measured 0.007-0.016) and the data README's "about 0.1 degree" (gyro;
-measured 0.003-0.014 deg worst over 60 s windows).
+Measured values: scripts/check_realdata.py (docs/decisions/akit-loader.md). The thresholds below are the
+requirement for a usable loader (DVL: 0.03 m/s; measured 0.007-0.016) and the data README's "about 0.1 degree"
+(gyro; measured 0.003-0.014 deg worst over 60 s windows).
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def akit_dir_of(mission):
 
 
 def test_dvl_matches_gt_body_velocity_on_every_trajectory(missions):
-    """Issue 2: after lever arm and time offsets, DVL vs GT body velocity RMS < 0.03 m/s (per axis,
+    """After lever arm and time offsets, DVL vs GT body velocity RMS < 0.03 m/s (per axis,
     submerged pings; trajectory 11 spends its last 140 s at the surface, see SURFACE_DEPTH_M)."""
     rms = {name: dvl_consistency(m) for name, m in missions.items()}
     bad = {name: round(r["rms"], 4) for name, r in rms.items() if not r["rms"] < 0.03}

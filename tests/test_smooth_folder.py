@@ -51,7 +51,7 @@ def test_folder_smooths_every_mission(serial, missions, capsys):
         assert r["error"] is None and r["method"] == "Graph-TC" and r["scenario"] == "2-missing"
         assert r["ground_truth"] and r["health"]["ok"] and r["runtime_s"] > 0
         # Navigation-grade IMU, one window of 2 missing beams: the graph stays at the cm/s level.
-        # (0.101 m/s on one mission with the DVL error states, default since issue 14)
+        # (0.101 m/s on one mission with the DVL error states, on by default)
         assert r["vrmse_mission_mps"] < 0.12 and len(r["vrmse_windows_mps"]) == 1
         folder = serial / r["mission"]
         for name in ("trajectory.csv", "trajectory.tum", "groundtruth.tum", "summary.json"):

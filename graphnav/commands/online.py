@@ -73,7 +73,7 @@ def register(subparsers) -> None:
     add_out_arguments(p, "out/online")
     p.add_argument("--method", default="Graph-TC", choices=STREAMING_METHODS,
                    help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
-                        "data, see the README); Graph-HN adds the completer's regressed beams as weak factors; "
+                        "data, see docs/decisions/regressed-beams.md); Graph-HN adds the completer's regressed beams as weak factors; "
                         "Graph-MP a motion prior where fewer than 3 beams are measured; the others run the "
                         "paper's EKF (TC/LC and their hybrids); the graph settings are the registry's "
                         "(graphnav.evaluation.methods)")

@@ -105,7 +105,7 @@ class AlignOptions:
             120 s: -4.9 deg at the start, still -2.2 deg 400 s later), and
             :class:`graphnav.estimators.navigator.Navigator` carries the alignment back to the first sample and catches up,
             so the longer wait costs latency, not estimates (``scripts/no_gt_runs.py``: mission VRMSE without
-            GT 0.080 m/s with 120 s, against 0.056 from the GT; the closing note of issue 11 gives 300 s).
+            GT 0.080 m/s with 120 s, against 0.056 from the GT; docs/decisions/alignment.md).
         min_duration_s: when the data end before ``duration_s`` (a short record), the shortest gyrocompassing
             window ``result_at(t, end_of_data=True)`` still accepts, s (2.1 deg RMS heading at 120 s).
         levelling_duration_s: alignment time when the heading comes from a heading source or is given, s

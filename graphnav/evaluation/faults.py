@@ -334,7 +334,7 @@ EXPECTED: dict[str, Expected] = {
     "rdi-invalid csv": Expected(factor=1.2, baseline="none csv", warning="RDI bad-velocity flag"),
     "beam-spikes 1 m/s": Expected(factor=1.3),
     "dvl-glitches screened": Expected(factor=1.2, warning="outside the vehicle's envelope"),
-    # 1.22x with the graph's DVL error states (default since issue 14): the batch smoother's screened pings
+    # 1.22x with the graph's DVL error states (on by default, docs/decisions/consistency.md): the batch smoother's screened pings
     "dvl-glitches csv": Expected(factor=1.3, baseline="none csv", warning="outside the vehicle's envelope"),
     "dvl-outage 120 s": Expected(factor=6.0),
     "imu-gap 2 s": Expected(factor=1.5, warning="bridged by linear interpolation"),

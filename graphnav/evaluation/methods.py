@@ -65,8 +65,7 @@ NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "n
 #: Screening of regressed beams against the estimator's own prediction (graph: graphnav.estimators.graph.regressed;
 #: EKF: ErrorStateEkf.screen_regressed): their error is taken as correlated with the prediction's (rho = 0.5: both
 #: come from the same past pings) and their sigma is raised to what the innovation shows. Measured with
-#: scripts/regressed_candidates.py (numbers in the module docstring of graphnav.estimators.graph.regressed and in
-#: the issue-13 note).
+#: scripts/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
 REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
 #: The motion prior's settings (Graph-MP; the hybrid's GraphOptions.motion_prior="total" / "total-if-uncertain").
 #: The densities are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma
@@ -77,18 +76,10 @@ REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 
 MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2, 0.32, 0.12),
                                                          "motion_prior_heave_sigma": 0.2})
 #: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch) on top of the GraphOptions defaults:
-#: the screening. In total outages the screened completer (average estimator) carries the keyframes alone.
-#: The motion prior instead of the completion is worse: on the ten shared trajectories (issue-13 regime
-#: benchmark) Graph-MP is above Graph-HN in every 0-beams regime but the recorded IMU's 30 s one (0.060 vs 0.061
-#: m/s), e.g. MEMS 120 s 0.639 vs 0.423 m/s, and above Graph-TC with the recorded IMU at 120 s (1.08x). The
-#: graph's own choice, motion_prior="total-if-uncertain" (prior next to the completions once the predicted
-#: sway/heave std passes 0.2 m/s, graphnav.estimators.graph.regressed.OutagePriorSwitch) is not the default
-#: either: window VRMSE x Graph-TC, 0-beams, 60 s / 120 s, Graph-HN -> with the switch: Trajectory2, 6, 10
-#: (tuning) as-recorded 1.00 / 1.00 -> 1.00 / 1.00, tactical 1.00 / 0.96 -> 0.99 / 0.91, MEMS 0.91 / 0.49 ->
-#: 0.89 / 0.44; Trajectory1, 4, 8 (not used for choosing) as-recorded 1.00 / 1.00 -> 1.00 / 1.00, tactical
-#: 1.00 / 1.00 -> 0.99 / 0.87, MEMS 0.92 / 0.47 -> 0.90 / 0.51: worse in one cell (MEMS 120 s, 0.545 vs 0.495
-#: m/s), so not better-or-equal everywhere (scripts/regressed_candidates.py, candidate "HN MP-if-uncertain
-#: 0.2"; the issue-13-C note).
+#: the screening only. In total outages the screened completion (the average estimator's held beams) carries
+#: the keyframes alone: neither the motion prior in its place nor motion_prior="total-if-uncertain" beside it
+#: is better-or-equal in every regime of the ten shared trajectories (docs/decisions/regressed-beams.md,
+#: measured with scripts/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
@@ -187,7 +178,7 @@ _RECORDS = (
 METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECORDS})
 #: The default method list of ``graphnav bench`` and the start sweep: every method but the experimental ones
 #: (the IMU-aware completer's: with the MEMS IMU they are worse than Graph-TC / TC -- Graph-HNI 0.386 vs 0.317
-#: m/s in 120 s 3-missing windows on its validation trajectories 3, 5, 6 -- see the issue-13 note).
+#: m/s in 120 s 3-missing windows on its validation trajectories 3, 5, 6; docs/decisions/regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not m.experimental)
 #: The EKF methods and the graph methods, in table order.
 EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")

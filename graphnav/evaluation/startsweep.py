@@ -22,7 +22,7 @@ import numpy as np
 from graphnav.core.mission import Mission
 from graphnav.core.scenarios import scenario_outage
 
-#: A start whose worst window VRMSE (m/s) is at or above this has failed (the issue's bound).
+#: A start whose worst window VRMSE (m/s) is at or above this has failed (docs/decisions/health-and-coasting.md).
 START_VRMSE_LIMIT = 0.5
 
 

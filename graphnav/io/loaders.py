@@ -120,7 +120,7 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities identified on the files
-#: (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; issue 14). The white densities are those
+#: (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; docs/decisions/consistency.md). The white densities are those
 #: at the scale the estimators integrate over, the GT's 1-s sample interval and the DVL's 1-s ping interval:
 #: the mismatch of the IMU's 1-s velocity and attitude increments with the GT's
 #: (:func:`graphnav.calibration.noise.identify_imu_with_gt`), median over the ten shared trajectories:
@@ -128,9 +128,9 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: (8.5e-6..1.9e-5; an upper bound: it holds the GT's own attitude noise too). The sample-to-sample scatter
 #: is larger (Allan deviation at 0.01-0.1 s: gyro 6.4e-5, accelerometer 1.7e-3; ``scripts/check_realdata.py``
 #: 1.9e-5..1.0e-4 and 1.0e-3..4.8e-3): vehicle vibration, which averages out within a keyframe interval and
-#: is therefore not white noise at the estimators' scale. The densities used before issue 14 (3e-3, 6e-5)
+#: is therefore not white noise at the estimators' scale. The densities used before (3e-3, 6e-5)
 #: were the upper-middle of that sample scatter; with the identified ones the window VRMSE and NEES are as in
-#: the README section on issue 14. Biases: the Phins datasheet (gyro 0.01 deg/h, accelerometer 50
+#: docs/decisions/consistency.md. Biases: the Phins datasheet (gyro 0.01 deg/h, accelerometer 50
 #: micro-g); random walks from the navigation grade. The beam noise identified from the all-beam batch
 #: residuals is 0.0412-0.0423 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
 #: keeps 0.042.
@@ -141,7 +141,7 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: m/s (lag-1 correlation of its increments -0.14..-0.50: white-ish); horizontal spread over N and E by the
 #: heading: sqrt((0.0015^2 + 0.0081^2) / 2) = 0.0058 per axis. Down: 0 -- neither the increments nor the
 #: all-beam batch smoother's error against the IMU-carried GT beyond its own covariance
-#: (:func:`graphnav.calibration.noise.identify`, median 0) show any. (Before issue 14's reference fix the
+#: (:func:`graphnav.calibration.noise.identify`, median 0) show any. (Before the IMU-carried reference the
 #: smoother's error was measured against the linearly interpolated GT, which gave 0.0043 m/s down and
 #: (0.0072, 0.0072) with the Allan accelerometer density.) The loader puts it in
 #: ``mission.meta["gt_velocity_sigma_n"]``; the benchmark's consistency section adds it to the estimators'

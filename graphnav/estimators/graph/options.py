@@ -44,10 +44,9 @@ Chosen defaults and why:
   the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
   ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
   100 s); ``scripts/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above
-  at 1.8e-4..1.2e-3 m/s/sqrt(s) (median 5.9e-4; the GT's slow error is in it too). **On by default** (issue
-  14): on the ten shared trajectories they lower the window VRMSE of Graph-TC, Graph-HN and Graph-HN-batch in
-  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways in the README section
-  "Consistency, DVL error states and noise identification" (``scripts/consistency.py``).
+  at 1.8e-4..1.2e-3 m/s/sqrt(s) (median 5.9e-4; the GT's slow error is in it too). **On by default**
+  (docs/decisions/consistency.md): on the ten shared trajectories they lower the window VRMSE of Graph-TC, Graph-HN and Graph-HN-batch in
+  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``scripts/consistency.py``.
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
@@ -119,7 +118,7 @@ class GraphOptions:
             (:class:`.regressed.OutagePriorSwitch`).
         motion_prior_switch_std: predicted body-velocity std (m/s) above which ``"total-if-uncertain"``
             switches the motion prior on; 0.2 m/s = the sigma of Graph-MP's heave prior, the spread the
-            vehicle model allows its small body velocities (0.1 m/s and always-on measured in the issue-13-C note).
+            vehicle model allows its small body velocities (0.1 m/s and always-on were worse: docs/decisions/regressed-beams.md).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables

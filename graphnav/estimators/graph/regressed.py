@@ -29,7 +29,7 @@ those regimes the completions carry nothing the IMU and the measured beams do no
 MEMS total outage, where the kept ones lower the window VRMSE by 8 % on Trajectory1, 5 and 8). The gate alone
 fires on almost nothing (the completions are wrong by a steady 0.13 m/s, not by outliers), and the adaptive
 sigma alone cuts Graph-HN's excess over Graph-TC by 18-82 % but still leaves it 1.02-1.96x Graph-TC
-(``scripts/regressed_candidates.py``; numbers in the issue-13 note). The graph's predicted beam variance is
+(``scripts/regressed_candidates.py``; docs/decisions/regressed-beams.md). The graph's predicted beam variance is
 over-confident on these data (mean e_p^2 / a = 2.7-8.7); scaling it (``regressed_prediction_var_scale``) by 4
 keeps more completions: tactical total outage 0.82x Graph-TC instead of 1.00x, but MEMS total outage 0.96x
 instead of 0.88x and MEMS 2-missing 1.02x (x8: 1.10x / 1.21x), so the default stays 1.
@@ -39,7 +39,7 @@ measured beam); :func:`motion_prior_factors` give the physics-based alternative 
 walk plus small heave, :mod:`graphnav.factors.motion`), used by ``Graph-MP`` (``motion_prior="partial"``)
 and, with ``motion_prior="total"``, by the hybrid methods during total outages.
 
-Which of the two is better in a total outage depends on the IMU (issue 13, trajectories 2, 6, 10): the prior
+Which of the two is better in a total outage depends on the IMU (trajectories 2, 6, 10): the prior
 was 1-17 % better than the screened completion with a tactical or MEMS IMU in 60-120 s outages and up to 29 %
 worse with the navigation-grade recorded IMU. ``motion_prior="total-if-uncertain"`` lets the graph choose from
 its own uncertainty, without a grade name (:class:`OutagePriorSwitch`): at a keyframe without any measured
@@ -47,7 +47,7 @@ beam the prior goes in once the graph's predicted body-frame sway/heave velocity
 marginal, :func:`predict_state`) exceeds ``motion_prior_switch_std`` (0.2 m/s); the screened completions stay
 next to it. Keeping them matters: the average estimator's completion holds the beams at their pre-outage
 values, an absolute anchor the random walk does not give, and with the MEMS IMU in 120 s outages dropping them
-for the prior cost 0.56-0.65x Graph-TC instead of 0.44x (numbers in the issue-13-C note).
+for the prior cost 0.56-0.65x Graph-TC instead of 0.44x (docs/decisions/regressed-beams.md).
 """
 from __future__ import annotations
 
