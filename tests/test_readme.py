@@ -46,3 +46,22 @@ def test_readme_lists_every_subcommand():
     table = README.read_text()
     missing = [name for name in sub.choices if f"| `graphnav {name}` |" not in table]
     assert not missing, f"README command table lacks {missing}"
+
+
+DOCS = README.parent / "docs"
+
+
+def test_docs_index_lists_every_decision_page():
+    index = (DOCS / "README.md").read_text()
+    missing = [p.name for p in sorted((DOCS / "decisions").glob("*.md")) if f"(decisions/{p.name})" not in index]
+    assert not missing, f"docs/README.md does not list {missing}"
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/README.md"])
+def test_relative_links_resolve(page):
+    path = README.parent / page
+    text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.S | re.M)     # code is not links
+    links = re.findall(r"\]\(([^)#:]+)\)", text)
+    assert links
+    broken = [link for link in links if not (path.parent / link).exists()]
+    assert not broken, f"{page}: links to missing files {broken}"
