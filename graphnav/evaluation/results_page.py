@@ -45,8 +45,8 @@ def read_bench_records(path: str | Path) -> tuple[list[dict], Path]:
     if path.is_dir():
         path = path / "results.json"
     if not path.is_file():
-        raise ConfigError(f"--from {path}: no such file; give the results.json of a `graphnav bench` run "
-                          "or its --out folder")
+        raise ConfigError(f"{path}: no such file; give the results.json of a `graphnav bench` run or its "
+                          "--out folder")
     records = load_results(path)
     if not records:
         raise DataError(f"{path}: holds no records (a bench run that has not finished a case yet?)")
