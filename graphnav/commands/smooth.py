@@ -29,6 +29,7 @@ from graphnav.commands.common import (
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.metrics import drift_summary
 
 
 # --- the command ----------------------------------------------------------------------------------------
@@ -121,6 +122,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
+        "drift": drift_summary(sol, mission.gt),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
         "streams": ensure_streams(mission),
@@ -192,7 +194,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": duration, "runtime_s": wall,
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
-        "accuracy": {"ground_truth": False}, "health": None, "compared": {},
+        "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
