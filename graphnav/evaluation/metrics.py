@@ -316,6 +316,7 @@ def drift_line(summary: dict) -> str:
     if summary.get("end_error_m") is not None:
         line += (f"; drift {fmt(summary['drift_pct'], '.2f')} % DT against the reference (end error "
                  f"{summary['end_error_m']:.2f} m over {summary['reference_distance_m']:.1f} m)")
-    line += (f"; claimed position sigma at the end {fmt(summary['sigma_h_end_m'], '.2f')} m = "
-             f"{fmt(summary['sigma_h_end_pct'], '.2f')} % DT")
-    return line
+    if summary.get("sigma_h_end_m") is None:
+        return line + "; claimed position sigma at the end: - (the estimate carries no position covariance)"
+    return line + (f"; claimed position sigma at the end {summary['sigma_h_end_m']:.2f} m = "
+                   f"{fmt(summary['sigma_h_end_pct'], '.2f')} % DT")
