@@ -144,7 +144,7 @@ def test_heading_nees_of_a_tilted_vehicle_uses_the_heading_variance():
     sol = NavSolution("h", t, np.zeros((n, 3)), np.zeros((n, 3)), C_est, cov_rot_b=np.tile(P, (n, 1, 1)))
     assert abs(np.mean(metrics.nees_heading(sol, gt)) - 1.0) < 0.04
     wrong = NavSolution("h", t, sol.p_n, sol.v_n, C_est, cov_rot_b=np.tile(np.diag([0, 0, P[2, 2]]), (n, 1, 1)))
-    assert np.mean(metrics.nees_heading(wrong, gt)) > 3.0             # body z alone is not the heading
+    assert np.mean(metrics.nees_heading(wrong, gt)) > 2.5             # body z alone is not the heading
 
 
 def test_horizontal_distance_interpolates_the_window_ends():

@@ -78,8 +78,10 @@ def n_independent(t: np.ndarray, decorrelation_s: float = 10.0) -> int:
 
 def decorrelation_time(t: np.ndarray, z: np.ndarray, floor_s: float = MIN_DECORRELATION_S) -> float:
     """Decorrelation time, s, of a normalised error series ``z`` (K,) or (K,d) at stamps ``t`` (K,) s: the
-    first lag at which the autocorrelation (mean removed, averaged over the columns) falls below 1/e, at least
-    ``floor_s``; the whole span when it never does. Non-finite rows are dropped."""
+    first lag at which its autocorrelation (summed over the columns) falls below 1/e, at least ``floor_s``;
+    the whole span when it never does. Non-finite rows are dropped. The mean is not removed: a consistent
+    estimator's error has zero mean, and an error that keeps its sign for long is one correlated error, not
+    many independent ones."""
     t = np.asarray(t, dtype=float)
     z = np.asarray(z, dtype=float).reshape(len(t), -1)
     ok = np.all(np.isfinite(z), axis=1)
@@ -87,7 +89,6 @@ def decorrelation_time(t: np.ndarray, z: np.ndarray, floor_s: float = MIN_DECORR
     if len(t) < 3:
         return floor_s
     span, dt = float(t[-1] - t[0]), float(np.median(np.diff(t)))
-    z = z - z.mean(axis=0)
     n = len(z)
     spec = np.fft.rfft(z, 2 * n, axis=0)
     acf = np.fft.irfft(spec * np.conj(spec), axis=0)[:n].sum(axis=1)
