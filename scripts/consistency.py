@@ -106,7 +106,12 @@ def main(argv=None) -> int:
     ap.add_argument("--reference-check", action="store_true",
                     help="only print, per trajectory, the recorded DVL against the GT interpolated linearly and "
                          "carried by the IMU, submerged and at the surface (body x, y, z RMS, m/s)")
+    ap.add_argument("--drift-check", action="store_true",
+                    help="only print, per trajectory and method (all beams), the window % DT as scored and with the "
+                         "part a stamp offset explains removed (position error = a + b t + v_gt * delta, fitted)")
     a = ap.parse_args(argv)
+    if a.drift_check:
+        return drift_check(find_trajectories(a.data, sim_seeds=a.sim_seeds), a.methods)
     if a.reference_check:
         return reference_check(find_trajectories(a.data, sim_seeds=a.sim_seeds))
     settings = {k: v for k, v in (("off", {"dvl_error_states": False}), ("on", {"dvl_error_states": True}))
@@ -193,6 +198,39 @@ def reference_check(sources, surface_m: float = 1.0) -> int:
                 cells.append(" / ".join(f"{x:.3f}" for x in np.sqrt(np.mean(e[sel] ** 2, axis=0)))
                              if sel.any() else "-")
         print(f"| {source.name} | {deep.sum()} / {(~deep).sum()} | " + " | ".join(cells) + " |")
+    return 0
+
+
+def drift_check(sources, methods, window_s: float = 30.0) -> int:
+    """How much of the window % DT a stamp offset between estimate and reference explains: the horizontal
+    position error is fitted as ``a + b t + v_gt(t) delta`` (per-axis offset and trend, one shared ``delta``,
+    least squares over the mission) and the windows scored again with ``v_gt delta`` removed."""
+    from graphnav.evaluation.metrics import align as align_to_gt
+    from graphnav.evaluation.metrics import horizontal_distance
+    print("| trajectory | method | delta (s) | % DT window | without v*delta | % DT mission |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for source in sources:
+        mission = prepared_mission(source, "as-recorded")
+        starts = case_windows(mission, window_s)
+        for method in methods:
+            sol = run_method(mission, method, "none")
+            at = align_to_gt(sol, mission.gt)
+            t, e = at.t, sol.p_n[at.mask, :2] - at.p_true_n[:, :2]
+            v = at.v_true_n[:, :2]
+            n = len(t)
+            A = np.zeros((2 * n, 5))
+            A[:n, 0], A[:n, 1], A[n:, 2], A[n:, 3] = 1.0, t, 1.0, t
+            A[:n, 4], A[n:, 4] = v[:, 0], v[:, 1]
+            delta = float(np.linalg.lstsq(A, e.T.reshape(-1), rcond=None)[0][4])
+            fixed = e - v * delta
+            rows = []
+            for err in (e, fixed):
+                drift = [np.linalg.norm(np.array([np.interp(s + window_s, t, err[:, j]) - np.interp(s, t, err[:, j])
+                                                  for j in range(2)])) for s in starts]
+                dist = [horizontal_distance(mission.gt.t, mission.gt.p_n, s, s + window_s) for s in starts]
+                rows.append(100 * sum(drift) / sum(dist))
+            whole = score_case(sol, mission, starts[:1], window_s)[0]["drift_pct_mission"]
+            print(f"| {source.name} | {method} | {delta:+.2f} | {rows[0]:.2f} | {rows[1]:.2f} | {whole:.2f} |")
     return 0
 
 
