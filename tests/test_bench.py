@@ -293,7 +293,7 @@ def test_records_carry_drift_in_percent_of_distance_and_pose_nees(fake_world, mo
     assert "% DT window | % DT mission" in text
     pose = text[text.index("### Position and heading NEES: as-recorded, 2-missing"):]
     row = next(line for line in pose.splitlines() if line.startswith("| HNTC |"))
-    assert "4.0 (4.0-4.0)" in row                                                # heading NEES
+    assert "4.00 (4.00-4.00)" in row                                             # heading NEES
 
 
 def test_report_of_records_without_the_new_fields_shows_dashes():

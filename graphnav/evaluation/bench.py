@@ -329,7 +329,7 @@ def _pose_cells(rs: list[dict], key: str, dof: int) -> list[str]:
     lo, hi = chi2_band(int(np.median(n_ind)), dof)
     inside = sum(chi2_band(n, dof)[0] <= x <= chi2_band(n, dof)[1] for x, n in zip(nees, n_ind))
     window = _mean(r.get(f"{key}_window") for r in rs)
-    return [f"{_f(_mean(nees), 1)} ({_f(min(nees), 1)}-{_f(max(nees), 1)})", _f(window, 1),
+    return [f"{_f(_mean(nees), 2)} ({_f(min(nees), 2)}-{_f(max(nees), 2)})", _f(window, 2),
             f"{lo:.2f}-{hi:.2f}", f"{inside}/{len(nees)}"]
 
 
