@@ -236,6 +236,7 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
+        "distance_m": (s.get("drift") or {}).get("distance_m"), "drift_pct": (s.get("drift") or {}).get("drift_pct"),
         "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
                                               "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,
