@@ -260,7 +260,10 @@ def plot_position_error(gt, solutions: list[NavSolution], outages, path, title: 
                                      label=f"{sol.method} +-{n_sigma:g} sigma" if k == 0 else None)
         axes[2].plot(sol.t, np.hypot(err[:, 0], err[:, 1]), color=c, lw=1.0, label=name)
         if sol.cov_p_n is not None:
-            major = np.sqrt(np.clip(np.linalg.eigvalsh(sol.cov_p_n[:, :2, :2])[:, -1], 0, None))
+            ne = sol.cov_p_n[:, :2, :2]
+            finite = np.all(np.isfinite(ne.reshape(len(ne), -1)), axis=1)   # a file's empty sigma rows
+            major = np.full(len(ne), np.nan)
+            major[finite] = np.sqrt(np.clip(np.linalg.eigvalsh(ne[finite])[:, -1], 0, None))
             axes[2].plot(sol.t, n_sigma * major, color=c, lw=1.0, ls="--",
                          label=f"{sol.method} {n_sigma:g} sigma (major axis)")
     for k, name in enumerate(("north error (m)", "east error (m)", "horizontal error (m)")):
