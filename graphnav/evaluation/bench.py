@@ -803,7 +803,8 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                     + (f" (+{a['n_diverged']} diverged)" if a["n_diverged"] else "")
                 lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "
                              f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | "
-                             f"{_f(a['drift_pct_window'], 2)} | {_f(a['drift_pct_mission_mean'], 2)} | {vs_base} | {vs_avg} | "
+                             f"{_f(a['drift_pct_window'], 2)} | {_f(a['drift_pct_mission_mean'], 2)} | "
+                             f"{vs_base} | {vs_avg} | "
                              f"{_f(a['nees_mean'], 1)} | {n} | {', '.join(a['completers'])} |")
             lines.append("")
 
