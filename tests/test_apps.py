@@ -70,6 +70,12 @@ def test_smooth_outputs(tmp_path, capsys):
     # the estimator's health (graph innovation NIS) is in the summary and the printout
     assert summary["health"]["ok"] and summary["health"]["n_measurements"] > 100
     assert "health: ok; NIS/dof" in printed
+    # distance travelled and drift in % of it: the end error is the accuracy summary's final error
+    drift = summary["drift"]
+    assert drift["end_error_m"] == pytest.approx(acc["final_horizontal_position_error_m"], rel=1e-9)
+    assert drift["drift_pct"] == pytest.approx(100 * drift["end_error_m"] / drift["reference_distance_m"])
+    assert drift["distance_m"] == pytest.approx(drift["reference_distance_m"], rel=0.05)
+    assert "horizontal distance travelled" in printed and "% DT against the reference" in printed
 
 
 def _online(out, *extra):
@@ -86,6 +92,7 @@ def test_online_resume_continues_identically(tmp_path):
     assert {r.rsplit(",", 1)[1] for r in rows[1:]} <= {"ok", "degraded", "diverged"}
     summary = json.loads((full / "summary.json").read_text())
     assert summary["epochs"] == len(rows) - 1 and summary["accuracy"]["vrmse_mission_mps"] < 0.2
+    assert summary["drift"]["distance_m"] > 50 and summary["drift"]["drift_pct"] is not None
 
     # An interrupted run: the first half written, then a torn line.
     part = tmp_path / "part"

@@ -246,3 +246,74 @@ def test_window_lengths_and_regime_summary(fake_world):
     assert "hurts: mems/3-missing/120 s (1.20x)" in text
     assert "never hurts (Graph-HN <= 1.02x Graph-TC in every regime): fails in 1 of 2" in text
     assert "batch smoother <= 0.8x Graph-TC in every cell with missing beams: holds" in text
+
+
+def test_records_carry_drift_in_percent_of_distance_and_pose_nees(fake_world, monkeypatch):
+    """Window and mission % DT from the fake's known drift; position and heading NEES from a covariance the
+    fake states (heading 1 deg off with a 0.5 deg sigma: NEES 4); None where the run carries no covariance."""
+    from graphnav.core.rotations import euler_to_C_b_n
+    records = run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", "HNTC", 30.0))
+    sol = fake_run_method(bench.prepared_mission(TrajectorySource("t1"), "as-recorded")
+                          .with_outage(*[bench.scenario_outage("2-missing", s, 30.0) for s in (60.0, 150.0)]),
+                          "HNTC", "2-missing")
+    for r in records:
+        assert r["distance_window_m"] == pytest.approx(45.0)                     # 1.5 m/s for 30 s
+        assert r["drift_pct_window"] == pytest.approx(r["pos_err_window_end_m"] / 45.0 * 100)
+        assert r["drift_pct_window"] == pytest.approx(0.2 * 30 / 45.0 * 100, rel=0.05)
+        assert r["distance_mission_m"] == pytest.approx(300.0)
+        assert r["pos_err_mission_end_m"] == pytest.approx(sol.p_n[-1, 0] - 300.0)
+        assert r["drift_pct_mission"] == pytest.approx((sol.p_n[-1, 0] - 300.0) / 3.0)
+        assert r["nees_pos_window"] is None and r["nees_heading_window"] is None and r["nees_pos_mission"] is None
+
+    sigma_p, sigma_psi = 2.0, np.deg2rad(0.5)
+
+    def with_covariance(mission, method, scenario, **kw):
+        s = fake_run_method(mission, method, scenario, **kw)
+        s.C_b_n = euler_to_C_b_n(np.zeros(len(s.t)), np.zeros(len(s.t)), np.full(len(s.t), np.deg2rad(1.0)))
+        s.cov_p_n = np.tile(np.diag([sigma_p ** 2, sigma_p ** 2, 0.01]), (len(s.t), 1, 1))
+        s.cov_rot_b = np.tile(np.diag([1e-4, 1e-4, sigma_psi ** 2]), (len(s.t), 1, 1))
+        return s
+
+    monkeypatch.setattr(bench, "run_method", with_covariance)
+    records = run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", "HNTC", 30.0))
+    inside = (sol.t >= 60.0) & (sol.t <= 90.0)
+    e_n = sol.p_n[inside, 0] - 1.5 * sol.t[inside]
+    assert records[0]["nees_pos_window"] == pytest.approx(np.mean(e_n ** 2) / sigma_p ** 2, rel=1e-6)
+    after = sol.t >= 60.0
+    assert records[0]["nees_pos_mission"] == pytest.approx(
+        np.mean((sol.p_n[after, 0] - 1.5 * sol.t[after]) ** 2) / sigma_p ** 2, rel=1e-6)
+    assert records[0]["nees_heading_window"] == pytest.approx(4.0, rel=1e-6)
+    assert records[0]["nees_heading_mission"] == pytest.approx(4.0, rel=1e-6)
+    assert records[0]["nees_heading_n_independent"] >= 1 and records[0]["nees_pos_n_independent"] >= 1
+    json.dumps(records)                                                          # plain values for results.json
+
+    text = make_report(records)
+    table = next(line for line in text.splitlines() if line.startswith("| HNTC | 0.200"))
+    assert f"| {bench.drift_pct_of(records):.2f} | {records[0]['drift_pct_mission']:.2f} |" in table
+    assert "% DT window | % DT mission" in text
+    pose = text[text.index("### Position and heading NEES: as-recorded, 2-missing"):]
+    row = next(line for line in pose.splitlines() if line.startswith("| HNTC |"))
+    assert "4.00 (4.00-4.00)" in row                                             # heading NEES
+
+
+def test_report_of_records_without_the_new_fields_shows_dashes():
+    """Records written before the position metrics existed: the report shows "-" and no pose NEES table."""
+    text = make_report(fake_records())
+    hntc = next(line for line in text.splitlines() if line.startswith("| HNTC |"))
+    assert hntc.split(" | ")[5:7] == ["-", "-"]
+    assert "### Position and heading NEES" not in text
+    assert bench.drift_pct_of([{"pos_err_window_end_m": 1.0, "distance_window_m": 100.0},
+                               {"pos_err_window_end_m": 3.0, "distance_window_m": 100.0},
+                               {"pos_err_window_end_m": 9.0, "distance_window_m": 1.0}]) == pytest.approx(2.0)
+
+
+def test_regime_table_has_the_windows_drift_in_percent():
+    from graphnav.evaluation.bench import regime_summary
+    records = [{"trajectory": "a", "scenario": "3-missing", "imu_grade": "mems", "window_s": 30.0,
+                "window_start_s": s, "method": m, "vrmse_window": 0.1, "pos_err_window_end_m": e,
+                "distance_window_m": 50.0}
+               for m, e in (("Graph-TC", 1.0), ("Graph-HN", 0.5)) for s in (60.0, 150.0)]
+    text = "\n".join(regime_summary(records))
+    assert "% DT TC / HN / batch" in text
+    row = next(line for line in text.splitlines() if line.startswith("| mems | 3-missing | 30 |"))
+    assert "| 2.00 / 1.00 / - |" in row

@@ -96,3 +96,83 @@ def test_imu_carried_reference_between_sparse_samples(mission_and_solution):
     own = mission_reference(sol, sparse)
     inside = (sol.t >= sparse.gt.t[0]) & (sol.t <= sparse.gt.t[-1])
     np.testing.assert_array_equal(own.t, sol.t[inside])
+
+
+# --- position and heading NEES ------------------------------------------------------------------------------
+def test_chi2_band_per_dof():
+    """The band of one epoch is the chi-square quantiles of its dof; of many it narrows around the dof."""
+    assert chi2_band(1, 2) == pytest.approx((0.05064, 7.3778), abs=1e-4)
+    assert chi2_band(1, 1) == pytest.approx((0.000982, 5.0239), abs=1e-4)
+    lo, hi = chi2_band(50, 2)                     # chi2(100) / 50
+    assert lo == pytest.approx(74.222 / 50, abs=1e-3) and hi == pytest.approx(129.561 / 50, abs=1e-3)
+
+
+def _ar1(rng, n, tau_samples, dims):
+    """Unit-variance AR(1) noise (n, dims) with e-folding time ``tau_samples``."""
+    phi = np.exp(-1.0 / tau_samples)
+    x = np.zeros((n, dims))
+    x[0] = rng.normal(size=dims)
+    w = rng.normal(scale=np.sqrt(1 - phi ** 2), size=(n, dims))
+    for k in range(1, n):
+        x[k] = phi * x[k - 1] + w[k]
+    return x
+
+
+def test_decorrelation_time_of_white_and_correlated_errors():
+    from graphnav.evaluation.consistency import decorrelation_time
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 4000.0, 0.5)
+    assert decorrelation_time(t, rng.normal(size=(len(t), 2))) == 10.0          # white: the 10 s floor
+    assert decorrelation_time(t, _ar1(rng, len(t), 80, 2)) == pytest.approx(40.0, rel=0.25)  # 80 samples of 0.5 s
+    ramp = np.c_[t, -t]                                                          # never decorrelates in the span
+    assert decorrelation_time(t[:200], ramp[:200]) > 0.4 * 100.0                # a trend: a large part of the span
+    assert decorrelation_time(t[:2], ramp[:2]) == 10.0
+
+
+def test_pose_nees_of_consistent_and_overconfident_errors():
+    """Errors drawn from the stated covariances (correlated in time): position NEES about 2, heading about 1,
+    each inside its band; a covariance 4x too small puts them 4x higher and outside. Without the covariances:
+    None, never a number."""
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n, so3_exp_batch
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, pose_nees
+    rng = np.random.default_rng(7)
+    n = 6000
+    t = np.arange(n, dtype=float)
+    zero = np.zeros(n)
+    gt = GroundTruth(t, np.c_[1.5 * t, zero, zero], np.tile([1.5, 0, 0], (n, 1)),
+                     euler_to_C_b_n(zero, zero, np.full(n, 3.1)))
+    sigma_p = np.linspace(1.0, 10.0, n)                                         # growing, as dead reckoning
+    P = np.einsum("k,ij->kij", sigma_p ** 2, np.diag([1.0, 0.5, 0.01]))
+    z = _ar1(rng, n, 20, 3)                                                      # decorrelates in 20 s
+    p_est = gt.p_n + np.c_[sigma_p * z[:, 0], sigma_p * np.sqrt(0.5) * z[:, 1], zero]
+    R = np.tile(np.diag([1e-6, 1e-6, np.deg2rad(0.5) ** 2]), (n, 1, 1))
+    C_est = gt.C_b_n @ so3_exp_batch(np.c_[zero, zero, np.deg2rad(0.5) * z[:, 2]])   # crosses +-180 deg
+    sol = NavSolution("s", t, p_est, gt.v_n, C_est, cov_p_n=P, cov_rot_b=R)
+    s = pose_nees(sol, gt, 60.0)
+    assert s["nees_pos_mission"] == pytest.approx(2.0, rel=0.15)
+    assert s["nees_heading_mission"] == pytest.approx(1.0, rel=0.15)
+    assert s["nees_pos_decorrelation_s"] == pytest.approx(20.0, rel=0.3)
+    for key, dof in (("nees_pos", POSITION_DOF), ("nees_heading", HEADING_DOF)):
+        lo, hi = chi2_band(s[f"{key}_n_independent"], dof)
+        assert lo <= s[f"{key}_mission"] <= hi
+    tight = NavSolution("s", t, p_est, gt.v_n, C_est, cov_p_n=P / 4, cov_rot_b=R / 4)
+    s4 = pose_nees(tight, gt, 60.0)
+    assert s4["nees_pos_mission"] == pytest.approx(4 * s["nees_pos_mission"], rel=1e-9)
+    assert s4["nees_pos_mission"] > chi2_band(s4["nees_pos_n_independent"], POSITION_DOF)[1]
+    assert s4["nees_heading_mission"] > chi2_band(s4["nees_heading_n_independent"], HEADING_DOF)[1]
+    none = pose_nees(NavSolution("s", t, p_est, gt.v_n, C_est), gt, 60.0)
+    assert set(none) == set(s) and all(v is None for v in none.values())
+
+
+def test_the_ekf_reports_heading_nees_and_no_position_nees():
+    """The paper's 12-state EKF carries an attitude covariance and no position covariance: the mission scores
+    have a heading NEES and None for the position NEES."""
+    from graphnav.estimators.runs import run_ekf
+    m = simulate_mission(90, seed=4)
+    sol = run_ekf(m)
+    assert sol.cov_rot_b is not None and sol.cov_p_n is None
+    scores = mission_nees(sol, m)
+    assert scores["nees_pos_mission"] is None and scores["nees_pos_n_independent"] is None
+    assert 0 < scores["nees_heading_mission"] < 100 and scores["nees_heading_n_independent"] >= 1

@@ -52,8 +52,72 @@ def test_against_tum_and_mission_reference(run, capsys):
     assert res["nees_velocity_mean"] == pytest.approx(bench["nees_mission"], rel=1e-9)
     assert res["nees_reference"] == "imu-carried"
     assert res["nees_velocity_mean"] != pytest.approx(float(np.mean(nees_velocity(sol, mission.gt))), rel=1e-6)
+    # drift in % of distance travelled: the metrics' own numbers; NEES of what the CSV carries, else "-"
+    from graphnav.evaluation.metrics import mission_drift
+    drift = mission_drift(sol, mission.gt)
+    assert res["drift_pct_mission"] == pytest.approx(drift["drift_pct"], rel=1e-9)
+    assert res["end_horizontal_error_m"] == pytest.approx(drift["end_error_m"], rel=1e-9)
+    assert res["distance_travelled_m"] == pytest.approx(drift["distance_m"], rel=1e-9)
     text = capsys.readouterr().out
     assert "APE translation" in text and "RPE translation per 10 m" in text and "velocity NEES" in text
+    assert f"drift {drift['drift_pct']:.2f} % of distance travelled" in text
+    if sol.cov_p_n is None:
+        assert res["nees_position_mean"] is None and "horizontal position NEES: - (needs position sigmas" in text
+    else:
+        assert res["nees_position_mean"] > 0 and "horizontal position NEES mean" in text
+    # the smooth summary of the same run: distance from the estimate, % DT against the mission's reference
+    assert summary["drift"]["drift_pct"] == pytest.approx(drift["drift_pct"], rel=1e-3)
+    assert summary["drift"]["distance_m"] > 0.5 * drift["distance_m"]
+
+
+def test_pose_nees_and_drift_of_known_errors_and_the_position_plot(tmp_path, capsys):
+    """An estimate 1 m north and 2 m east of the truth with position sigmas 1 m / 2 m scores a horizontal
+    position NEES of exactly 2; a heading 1 deg off with a 0.5 deg sigma a heading NEES of 4; --plots draws
+    the error with its 2-sigma sleeve."""
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.plots import plot_position_error
+    from graphnav.evaluation.score import evaluate, format_report
+    t = np.arange(0.0, 200.01, 1.0)
+    zero = np.zeros_like(t)
+    yaw = np.deg2rad(179.5) + zero                                           # the estimate wraps to -179.5
+    north = np.minimum(t, 100.0)                                               # 150 m south, then 150 m east
+    p = np.c_[-1.5 * north, 1.5 * (t - north), 10 + zero]
+    gt = GroundTruth(t, p, np.gradient(p, t, axis=0), euler_to_C_b_n(zero, zero, yaw))
+    C_est = euler_to_C_b_n(zero, zero, yaw + np.deg2rad(1.0))
+    est = NavSolution("est", t, gt.p_n + [1.0, 2.0, 0.0], gt.v_n, C_est,
+                      cov_p_n=np.tile(np.diag([1.0, 4.0, 0.01]), (len(t), 1, 1)),
+                      cov_rot_b=np.tile(np.diag([1e-4, 1e-4, np.deg2rad(0.5) ** 2]), (len(t), 1, 1)))
+    res = evaluate(est, gt)
+    assert res["nees_position_mean"] == pytest.approx(2.0, rel=1e-9)
+    assert res["nees_heading_mean"] == pytest.approx(4.0, rel=1e-9)
+    assert res["nees_position_95pct_band"][0] < 2.0 < res["nees_position_95pct_band"][1]
+    assert res["nees_heading_95pct_band"][1] < 4.0                            # a constant error: one epoch
+    assert res["end_horizontal_error_m"] == pytest.approx(np.sqrt(5.0))
+    assert res["distance_travelled_m"] == pytest.approx(300.0)
+    assert res["drift_pct_mission"] == pytest.approx(np.sqrt(5.0) / 3.0)
+    assert res["sigma_h_end_m"] == pytest.approx(np.sqrt(5.0))
+    text = format_report(res, "est", "gt")
+    assert "horizontal position NEES mean 2.00 (consistent: 2" in text and "heading NEES mean 4.00" in text
+    assert "drift 0.75 % of distance travelled" in text
+    aligned = evaluate(est, gt, align=True)
+    assert aligned["nees_position_mean"] is None and aligned["drift_pct_mission"] is None
+    assert "not computed with --align" in format_report(aligned, "est", "gt")
+    est.cov_p_n[:10] = np.nan                                                  # rows a file left empty
+    path = plot_position_error(gt, [est, NavSolution("no-cov", t, gt.p_n + 0.5, gt.v_n, gt.C_b_n)], [],
+                               tmp_path / "position_error.png", "test")
+    assert path.exists() and path.stat().st_size > 10000
+
+
+def test_evaluate_plots_option_writes_the_position_error_figure(run, tmp_path):
+    mission, root, out = run
+    assert cli.main(["evaluate", str(out / "trajectory.csv"), "--ref", str(out / "groundtruth.tum"),
+                     "--plots", str(tmp_path / "figs")]) == 0
+    assert (tmp_path / "figs" / "position_error.png").stat().st_size > 10000
+    (tmp_path / "afile").write_text("x")
+    assert cli.main(["evaluate", str(out / "trajectory.csv"), "--ref", str(out / "groundtruth.tum"),
+                     "--plots", str(tmp_path / "afile")]) != 0
 
 
 def test_aligned_ape_removes_a_frame_offset(run, tmp_path):
@@ -105,6 +169,10 @@ def test_akit_reference_has_absolute_depth_and_a_known_offset_is_recovered(tmp_p
     res = json.loads((tmp_path / "res.json").read_text())
     assert res["ape_translation_m"]["rmse"] == pytest.approx(np.linalg.norm(offset), abs=1e-3)
     assert res["ape_translation_m"]["max"] == pytest.approx(np.linalg.norm(offset), abs=1e-3)
+    from graphnav.evaluation.metrics import horizontal_distance
+    assert res["end_horizontal_error_m"] == pytest.approx(5.0, abs=1e-3)          # the injected 3 m N, -4 m E
+    distance = horizontal_distance(loaded.gt.t, loaded.gt.p_n, t[0], t[-1])
+    assert res["drift_pct_mission"] == pytest.approx(5.0 / distance * 100, rel=1e-3)
     assert "down = absolute depth" in capsys.readouterr().out
 
 

@@ -59,6 +59,7 @@ def test_folder_smooths_every_mission(serial, missions, capsys):
         summary = json.loads((folder / "summary.json").read_text())
         assert summary["mission"] == r["mission"]
         assert summary["accuracy"]["vrmse_mission_mps"] == r["vrmse_mission_mps"]
+        assert r["drift_pct"] == summary["drift"]["drift_pct"] and r["distance_m"] == summary["drift"]["distance_m"] > 0
         assert r["files"]["trajectory_csv"] == str(folder / "trajectory.csv")
 
 

@@ -113,6 +113,9 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
                                                  f"{label}: velocity std around the first window"))
             files.append(plots.plot_nees(mission, pick or sols, outages, pdir / f"nees_{tag}.png",
                                          f"{label}: velocity NEES over time"))
+            files.append(plots.plot_position_error(mission.gt, pick or sols, outages,
+                                                   pdir / f"position_error_{tag}.png",
+                                                   f"{label}: position error with +-2 sigma"))
     return files
 
 

@@ -180,6 +180,9 @@ def print_summary(summary: dict, file=None) -> None:
                   + (f", windows {windows} m/s" if windows else ""))
         if other.get("health") and other["health"].get("state", "ok") != "ok":
             out(f"  compared {name} {health_line(other['health'])}")
+    if summary.get("drift"):
+        from graphnav.evaluation.metrics import drift_line
+        out(f"  {drift_line(summary['drift'])}")
     line = health_line(summary.get("health"))
     if line:
         out(f"  {line}")

@@ -8,13 +8,16 @@ from graphnav.commands.common import HelpFormatter
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "evaluate", help="score a trajectory CSV/TUM against a reference: APE, RPE (evo), VRMSE, NEES",
+        "evaluate", help="score a trajectory CSV/TUM against a reference: APE, RPE (evo), VRMSE, NEES, % DT",
         description="Score a trajectory written by `graphnav smooth`/`online` (trajectory.csv, or a TUM file) "
                     "against a reference: a TUM file, a trajectory CSV, or a mission path as --data takes it "
                     "(A-KIT folder, ROS 2 bag with a reference nav_msgs/Odometry topic, CSV log with a gt "
                     "column map) whose ground truth is used. APE and RPE come from evo's library, VRMSE "
                     "from graphnav.evaluation.metrics; the velocity NEES is the benchmark's (after 60 s, against "
-                    "the reference carried to the estimate's epochs by the mission's IMU). Positions on both sides: NED from the sea surface "
+                    "the reference carried to the estimate's epochs by the mission's IMU); horizontal position NEES (2 "
+                    "dof) and heading NEES (1 dof) when the estimate carries those sigmas; drift in % of the "
+                    "distance travelled (horizontal error at the end / distance the reference travelled). "
+                    "Positions on both sides: NED from the sea surface "
                     "above the first fix, down = absolute depth. Needs graphnav[eval].",
         formatter_class=HelpFormatter)
     p.add_argument("trajectory", help="trajectory.csv (or .tum) to score")
@@ -27,6 +30,9 @@ def register(subparsers) -> None:
     p.add_argument("--rpe-delta", type=float, default=10.0, metavar="D", help="RPE pose distance")
     p.add_argument("--rpe-unit", choices=("m", "frames"), default="m", help="unit of --rpe-delta")
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--plots", metavar="DIR",
+                   help="also write DIR/position_error.png: north, east and horizontal position error against the "
+                        "reference with the estimate's +-2 sigma (when it carries position sigmas)")
     p.set_defaults(func=run)
 
 
@@ -40,6 +46,8 @@ def run(args) -> int:
     )
     from graphnav.io.bags import parse_topics
     check_out_file(args.json, force=True, option="--json")
+    if args.plots:
+        check_out_file(Path(args.plots) / "position_error.png", force=True, option="--plots")
     est = load_trajectory(args.trajectory)
     ref, mission = load_reference_mission(args.ref, args.config, parse_topics(args.topic) or None)
     result = evaluate(est, ref, mission=mission, align=args.align, rpe_delta=args.rpe_delta,
@@ -49,4 +57,9 @@ def run(args) -> int:
     if args.json:
         from graphnav.io.outputs import write_json
         write_json(args.json, result)
+    if args.plots:
+        from graphnav.evaluation.plots import plot_position_error
+        path = plot_position_error(ref, [est], [], Path(args.plots) / "position_error.png",
+                                   f"{Path(args.trajectory).name} vs {Path(args.ref).name}: position error")
+        print(f"  plot: {path}")
     return 0

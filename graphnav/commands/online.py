@@ -40,6 +40,7 @@ from graphnav.commands.common import (
 )
 from graphnav.core.errors import ConfigError
 from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.metrics import drift_summary
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
 STREAMING_METHODS = tuple(name for name, m in METHODS.items() if not m.batch)
@@ -240,6 +241,7 @@ def run(args) -> int:
         "refused": info["refused"], "stream": stream_info, "health": run_health_record(info, mission),
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
+        "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
         "files": {"online_csv": str(csv_path)},
     }
     if not args.no_plots and mission is not None and len(written.t):

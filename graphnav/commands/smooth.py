@@ -29,6 +29,7 @@ from graphnav.commands.common import (
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.metrics import drift_summary
 
 
 # --- the command ----------------------------------------------------------------------------------------
@@ -121,6 +122,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
+        "drift": drift_summary(sol, mission.gt),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
         "streams": ensure_streams(mission),
@@ -192,7 +194,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": duration, "runtime_s": wall,
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
-        "accuracy": {"ground_truth": False}, "health": None, "compared": {},
+        "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
@@ -234,6 +236,7 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
+        "distance_m": (s.get("drift") or {}).get("distance_m"), "drift_pct": (s.get("drift") or {}).get("drift_pct"),
         "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
                                               "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,

@@ -40,7 +40,6 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.core.solution import NavSolution
-from graphnav.core.timeseries import interp_rows
 from graphnav.estimators.health import diverged_during
 # the mission NEES lives with the other consistency scores: ``graphnav evaluate`` calls the same function
 from graphnav.evaluation.consistency import NEES_SETTLE_S, mission_nees  # noqa: F401
@@ -185,41 +184,54 @@ def case_windows(mission: Mission, window_s: float, max_windows: int | None = No
 
 # --- scoring ---------------------------------------------------------------------------------------------
 def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) -> float:
-    """Horizontal position error accumulated over a window, m: ``|e(t_end) - e(t_start)|`` (N, E), with
-    ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
-    start isolates what the outage cost (the error at the start is the same dead-reckoning drift for all)."""
-    def err(t):
-        return interp_rows(t, sol.t, sol.p_n[:, :2]) - gt.at(t)[0][:2]
-    return float(np.linalg.norm(err(t_end) - err(t_start)))
+    """Horizontal position error accumulated over a window, m (:func:`graphnav.evaluation.metrics.position_drift`)."""
+    from graphnav.evaluation.metrics import position_drift
+    return position_drift(sol, gt, t_start, t_end)
 
 
 def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float) -> list[dict]:
     """Per-window metrics of one solution: ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``
-    (drift over the window), ``pos_err_abs_window_end_m`` (error at the window end) and ``nees_window``
-    (mean velocity NEES over the window, 3 for a consistent estimator; None without covariance), and the
-    mission's NEES (:func:`mission_nees`)."""
+    (drift over the window, m), ``distance_window_m`` (horizontal distance the GT travelled in it) and
+    ``drift_pct_window`` (% DT: the two divided, None under
+    :data:`graphnav.evaluation.metrics.MIN_DISTANCE_M`), ``pos_err_abs_window_end_m`` (error at the window
+    end), ``nees_window`` (mean velocity NEES over the window, 3 for a consistent estimator),
+    ``nees_pos_window`` (horizontal position, 2) and ``nees_heading_window`` (1; each None without its
+    covariance); and the mission's: ``drift_pct_mission`` (end horizontal error / distance travelled, %),
+    ``pos_err_mission_end_m``, ``distance_mission_m``, and its NEES (:func:`mission_nees`: velocity, position,
+    heading)."""
+    from graphnav.evaluation.consistency import mission_reference, window_pose_nees
     from graphnav.evaluation.metrics import (
         horizontal_position_error,
+        mission_drift,
         nees_velocity,
         vrmse,
+        window_drift,
     )
-    from graphnav.evaluation.consistency import mission_reference
     gt = mission.gt
     v_mission = float(vrmse(sol, gt, mission.t0, mission.t1))
     consistency = mission_nees(sol, mission)
-    reference = mission_reference(sol, mission) if sol.cov_v_n is not None else gt
+    whole = mission_drift(sol, gt)
+    drift_mission = {"drift_pct_mission": whole["drift_pct"], "pos_err_mission_end_m": whole["end_error_m"],
+                     "distance_mission_m": whole["distance_m"]}
+    has_cov = any(c is not None for c in (sol.cov_v_n, sol.cov_p_n, sol.cov_rot_b))
+    reference = mission_reference(sol, mission) if has_cov else gt
     out = []
     for s in starts:
         nees = None
         if sol.cov_v_n is not None:
             nees = float(np.mean(nees_velocity(sol, reference, s, s + window_s)))
+        drift = window_drift(sol, gt, s, s + window_s)
         out.append({
             "window_start_s": float(s),
             "vrmse_window": float(vrmse(sol, gt, s, s + window_s)),
             "vrmse_mission": v_mission,
-            "pos_err_window_end_m": window_position_drift(sol, gt, s, s + window_s),
+            "pos_err_window_end_m": drift["drift_m"],
+            "distance_window_m": drift["distance_m"],
+            "drift_pct_window": drift["drift_pct"],
             "pos_err_abs_window_end_m": float(horizontal_position_error(sol, gt, s + window_s)),
             "nees_window": nees,
+            **window_pose_nees(sol, reference, s, s + window_s),
+            **drift_mission,
             **consistency,
         })
     return out
@@ -249,7 +261,7 @@ def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
     """Report lines: velocity NEES per method over the mission and in the windows, with the 95 % chi-square
     band, the share of trajectories inside it, and how much of the NEES the GT's own error explains."""
     from graphnav.evaluation.consistency import chi2_band
-    lines = ["## Consistency (velocity NEES)", "",
+    lines = ["## Consistency (NEES)", "",
              "Mean velocity NEES (3 dof; 3 = consistent) over each mission after "
              f"{NEES_SETTLE_S:g} s (`mission`, mean and range over trajectories) and over the windows (`windows`). "
              "Band: 95 % chi-square band of a mission mean, counting one independent epoch per 10 s "
@@ -289,7 +301,50 @@ def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
                           "| method | mission NEES (range) | median | windows NEES | 95 % band | inside | +GT "
                           "| GT share | interp. GT |",
                           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |", *rows, ""]
+            pose = pose_nees_rows(records, grade, sc, methods)
+            if pose:
+                lines += [f"### Position and heading NEES: {grade}, {sc}", "",
+                          "| method | position NEES (range) | windows | 95 % band | inside | heading NEES (range) "
+                          "| windows | 95 % band | inside |",
+                          "| --- | --- | --- | --- | --- | --- | --- | --- | --- |", *pose, ""]
+    lines[4:4] = ["Position and heading: horizontal position NEES (2 dof; 2 = consistent; north-east, the depth "
+                  "being measured directly) and heading NEES (1 dof; 1 = consistent; yaw error wrapped across "
+                  "+-180 deg) over each mission after the same settling time, against the GT's position and the "
+                  "reference attitude. Their errors are integrals and stay correlated for long: independent epochs "
+                  "are counted one per decorrelation time of the normalised error (at least 10 s), so the band "
+                  "is wide; `inside` counts trajectories inside their own band. `-`: the estimator reports no "
+                  "such covariance.", ""]
     return lines
+
+
+def _pose_cells(rs: list[dict], key: str, dof: int) -> list[str]:
+    """Mission NEES mean (range), window mean, 95 % band at the median independent epochs, trajectories inside
+    their own band; "-" cells without values."""
+    from graphnav.evaluation.consistency import chi2_band
+    per_traj = [r for r in {r["trajectory"]: r for r in rs}.values() if r.get(f"{key}_mission") is not None]
+    if not per_traj:
+        return ["-"] * 4
+    nees = [r[f"{key}_mission"] for r in per_traj]
+    n_ind = [r[f"{key}_n_independent"] for r in per_traj]
+    lo, hi = chi2_band(int(np.median(n_ind)), dof)
+    inside = sum(chi2_band(n, dof)[0] <= x <= chi2_band(n, dof)[1] for x, n in zip(nees, n_ind))
+    window = _mean(r.get(f"{key}_window") for r in rs)
+    return [f"{_f(_mean(nees), 2)} ({_f(min(nees), 2)}-{_f(max(nees), 2)})", _f(window, 2),
+            f"{lo:.2f}-{hi:.2f}", f"{inside}/{len(nees)}"]
+
+
+def pose_nees_rows(records: list[dict], grade: str, scenario: str, methods) -> list[str]:
+    """Table rows of the position (2 dof) and heading (1 dof) NEES per method; only methods with one of them."""
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF
+    rows = []
+    for m in methods:
+        rs = [r for r in records if (r["imu_grade"], r["scenario"], r["method"]) == (grade, scenario, m)
+              and not r.get("error")]
+        if not any(r.get("nees_pos_mission") is not None or r.get("nees_heading_mission") is not None for r in rs):
+            continue
+        cells = _pose_cells(rs, "nees_pos", POSITION_DOF) + _pose_cells(rs, "nees_heading", HEADING_DOF)
+        rows.append(f"| {m} | " + " | ".join(cells) + " |")
+    return rows
 
 
 def downsample(sol: NavSolution, rate_hz: float = 10.0) -> NavSolution:
@@ -301,7 +356,8 @@ def downsample(sol: NavSolution, rate_hz: float = 10.0) -> NavSolution:
     take = (lambda a: None if a is None else a[idx])
     return dataclasses.replace(sol, t=sol.t[idx], p_n=sol.p_n[idx], v_n=sol.v_n[idx], C_b_n=sol.C_b_n[idx],
                                cov_v_n=take(sol.cov_v_n), bias_acc=take(sol.bias_acc),
-                               bias_gyro=take(sol.bias_gyro), info={})
+                               bias_gyro=take(sol.bias_gyro), cov_p_n=take(sol.cov_p_n),
+                               cov_rot_b=take(sol.cov_rot_b), cov_bias=take(sol.cov_bias), info={})
 
 
 def solution_file(save_dir: str | Path, trajectory: str, imu_grade: str, scenario: str, method: str) -> Path:
@@ -310,7 +366,8 @@ def solution_file(save_dir: str | Path, trajectory: str, imu_grade: str, scenari
 
 def save_solution(path: Path, sol: NavSolution) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = {k: getattr(sol, k) for k in ("t", "p_n", "v_n", "C_b_n", "cov_v_n", "bias_acc", "bias_gyro")
+    arrays = {k: getattr(sol, k) for k in ("t", "p_n", "v_n", "C_b_n", "cov_v_n", "bias_acc", "bias_gyro",
+                                           "cov_p_n", "cov_rot_b", "cov_bias")
               if getattr(sol, k) is not None}
     np.savez_compressed(path, method=sol.method, runtime_s=sol.runtime_s, **arrays)
 
@@ -320,6 +377,7 @@ def load_solution(path: str | Path) -> NavSolution:
         get = (lambda k: z[k] if k in z.files else None)
         return NavSolution(method=str(z["method"]), t=z["t"], p_n=z["p_n"], v_n=z["v_n"], C_b_n=z["C_b_n"],
                            cov_v_n=get("cov_v_n"), bias_acc=get("bias_acc"), bias_gyro=get("bias_gyro"),
+                           cov_p_n=get("cov_p_n"), cov_rot_b=get("cov_rot_b"), cov_bias=get("cov_bias"),
                            runtime_s=float(z["runtime_s"]))
 
 
@@ -486,6 +544,9 @@ def aggregate(records: list[dict]) -> dict:
             "vrmse_window_worst": _max(r["vrmse_window"] for r in ok),
             "vrmse_mission_mean": _mean(r["vrmse_mission"] for r in ok),
             "drift_mean": _mean(r["pos_err_window_end_m"] for r in ok),
+            "drift_pct_window": drift_pct_of(ok),
+            "drift_pct_mission_mean": _mean(r.get("drift_pct_mission")
+                                            for r in {r["trajectory"]: r for r in ok}.values()),
             "nees_mean": _mean(r.get("nees_window") for r in ok),
             "n_windows": len(ok), "n_failed": len(rs) - len(ran), "n_diverged": len(bad),
             "diverged": [(r["trajectory"], r["window_start_s"], r.get("divergence_reason")) for r in bad],
@@ -495,6 +556,18 @@ def aggregate(records: list[dict]) -> dict:
             "completers": sorted({r.get("completer", "?") for r in ran}),
         }
     return out
+
+
+def drift_pct_of(records: list[dict]) -> float:
+    """% DT of a set of windows: their summed drift over their summed distance travelled (windows under
+    :data:`graphnav.evaluation.metrics.MIN_DISTANCE_M` and records without a distance left out); a mean of
+    per-window ratios would let the slowest window dominate. NaN when nothing is left."""
+    from graphnav.evaluation.metrics import MIN_DISTANCE_M
+    pairs = [(r.get("pos_err_window_end_m"), r.get("distance_window_m")) for r in records]
+    pairs = [(e, d) for e, d in pairs if e is not None and d is not None and math.isfinite(e) and math.isfinite(d)
+             and d >= MIN_DISTANCE_M]
+    distance = sum(d for _, d in pairs)
+    return 100.0 * sum(e for e, _ in pairs) / distance if distance > 0 else float("nan")
 
 
 def natural_key(name: str) -> list:
@@ -526,12 +599,14 @@ def headline(agg: dict, grade: str, scenario: str, model: str = "Graph-HN", ref:
 
 # --- the regime summary ----------------------------------------------------------------------------------
 def aggregate_regimes(records: list[dict]) -> dict:
-    """Per (imu_grade, scenario, window_s, method): window VRMSE mean and worst, number of windows."""
-    groups: dict[tuple, list[float]] = defaultdict(list)
+    """Per (imu_grade, scenario, window_s, method): window VRMSE mean and worst, number of windows, and the
+    windows' % DT (:func:`drift_pct_of`)."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in records:
         if not r.get("error") and r.get("vrmse_window") is not None:
-            groups[(r["imu_grade"], r["scenario"], float(r["window_s"]), r["method"])].append(r["vrmse_window"])
-    return {k: {"mean": _mean(v), "worst": _max(v), "n": len(v)} for k, v in groups.items()}
+            groups[(r["imu_grade"], r["scenario"], float(r["window_s"]), r["method"])].append(r)
+    return {k: {"mean": _mean(r["vrmse_window"] for r in v), "worst": _max(r["vrmse_window"] for r in v),
+                "n": len(v), "drift_pct": drift_pct_of(v)} for k, v in groups.items()}
 
 
 def _ratio(agg: dict, regime: tuple, model: str, ref: str = "Graph-TC", model_regime: tuple | None = None) -> float:
@@ -568,16 +643,22 @@ def regime_summary(records: list[dict]) -> list[str]:
              "Window VRMSE, m/s, mean (worst) over all windows of all trajectories, per IMU grade, scenario and "
              "window length; `HN/TC` and `batch/TC` are Graph-HN's and Graph-HN-batch's mean divided by "
              "Graph-TC's; `all-beams/TC` is Graph-TC with every beam measured (scenario `none`, same grade and "
-             "window length) divided by Graph-TC: the lowest `HN/TC` a completion can reach.", "",
-             "| IMU | scenario | window s | " + " | ".join(methods) + " | HN/TC | batch/TC | all-beams/TC | windows |",
-             "| --- | --- | --- |" + " --- |" * (len(methods) + 4)]
+             "window length) divided by Graph-TC: the lowest `HN/TC` a completion can reach. `% DT TC / HN / "
+             "batch`: drift over the windows in % of the distance travelled in them (summed drift / summed "
+             "distance) of Graph-TC, Graph-HN and Graph-HN-batch.", "",
+             "| IMU | scenario | window s | " + " | ".join(methods)
+             + " | HN/TC | batch/TC | all-beams/TC | % DT TC / HN / batch | windows |",
+             "| --- | --- | --- |" + " --- |" * (len(methods) + 5)]
     for reg in regimes:
         cells = [f"{_f(agg[(*reg, m)]['mean'])} ({_f(agg[(*reg, m)]['worst'])})" if (*reg, m) in agg else "-"
                  for m in methods]
         n = agg.get((*reg, "Graph-TC"), {}).get("n", 0)
         lines.append(f"| {reg[0]} | {reg[1]} | {reg[2]:g} | " + " | ".join(cells) +
                      f" | {_f(_ratio(agg, reg, 'Graph-HN'), 2)} | {_f(_ratio(agg, reg, 'Graph-HN-batch'), 2)}"
-                     f" | {_f(_all_beams_ratio(agg, reg), 2)} | {n} |")
+                     f" | {_f(_all_beams_ratio(agg, reg), 2)} | "
+                     + " / ".join(_f(agg.get((*reg, m), {}).get("drift_pct", float("nan")), 2)
+                                  for m in ("Graph-TC", "Graph-HN", "Graph-HN-batch"))
+                     + f" | {n} |")
     lines.append("")
     lossy = [r for r in regimes if r[1] != "none"]
 
@@ -660,7 +741,10 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
               "trajectories) and over the whole mission (mean). VRTE: signed improvement "
               "`(ref - model) / ref` of the mean window VRMSE, positive = better than the reference; "
               "baseline = LC for LC/Average-LC/HNLC and TC for the rest, average = Average-LC or Average-TC "
-              "likewise. Drift: horizontal position error accumulated over the window, m. NEES: mean velocity "
+              "likewise. Drift: horizontal position error accumulated over the window, m. % DT window: that drift "
+              "in % of the horizontal distance the reference travelled in the window (summed drift over summed "
+              "distance of all windows); % DT mission: horizontal error at the mission's end in % of the "
+              "distance travelled over the mission (mean over trajectories). NEES: mean velocity "
               "NEES over the window (3 = consistent; much larger = the estimator's sigma is too small). "
               f"Diverged windows (non-finite, window VRMSE >= {DIVERGED_VRMSE_MPS:g} m/s, or the estimator's "
               "health monitor diverged during the window) are not averaged in: they are counted in brackets "
@@ -701,9 +785,9 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
             heads = [h for h in (headline(agg, grade, sc), headline(agg, grade, sc, "Graph-HN-batch"))
                      if h]
             lines += [f"### {grade}, {sc}", ""] + [f"- {h}" for h in heads] + ([""] if heads else [])
-            lines += ["| method | VRMSE window mean | worst | VRMSE mission | drift (m) | VRTE vs baseline "
-                      "| VRTE vs average | NEES | windows | completer |",
-                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+            lines += ["| method | VRMSE window mean | worst | VRMSE mission | drift (m) | % DT window | % DT mission "
+                      "| VRTE vs baseline | VRTE vs average | NEES | windows | completer |",
+                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
             for m in methods:
                 a = agg.get((grade, sc, m))
                 if not a:
@@ -718,7 +802,9 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
                 n = f"{a['n_windows']}" + (f" ({a['n_failed']} failed)" if a["n_failed"] else "") \
                     + (f" (+{a['n_diverged']} diverged)" if a["n_diverged"] else "")
                 lines.append(f"| {m} | {_f(a['vrmse_window_mean'])} | {_f(a['vrmse_window_worst'])} | "
-                             f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | {vs_base} | {vs_avg} | "
+                             f"{_f(a['vrmse_mission_mean'])} | {_f(a['drift_mean'], 2)} | "
+                             f"{_f(a['drift_pct_window'], 2)} | {_f(a['drift_pct_mission_mean'], 2)} | "
+                             f"{vs_base} | {vs_avg} | "
                              f"{_f(a['nees_mean'], 1)} | {n} | {', '.join(a['completers'])} |")
             lines.append("")
 

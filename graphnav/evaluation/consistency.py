@@ -1,4 +1,5 @@
-"""Covariance consistency: velocity NEES statistics, their chi-square band, and the reference's own error.
+"""Covariance consistency: velocity, horizontal position and heading NEES statistics, their chi-square band,
+and the reference's own error.
 
 NEES ``e^T P^-1 e`` of a 3-D velocity error is chi-square with 3 dof for a consistent estimator; the mean of
 K independent epochs lies in ``chi2.ppf([0.025, 0.975], 3K) / K`` with 95 % probability. Navigation errors
@@ -23,6 +24,16 @@ of the benchmark is therefore scored against the IMU-carried reference; the velo
 interpolation (comparable with earlier results). The IMU's own error over at most a second (white 2.5e-3
 m/s^2/sqrt(Hz): 0.003 m/s; bias 50 micro-g: 5e-4 m/s) is small against the estimators' velocity sigmas; it
 is partly the estimators' error too, which lowers the NEES slightly (not measured separately).
+
+Position and heading (:func:`pose_nees`): the horizontal position NEES has 2 dof (north, east: the depth is
+measured directly, see :func:`graphnav.evaluation.metrics.nees_position`), the heading NEES 1 dof (the yaw
+error wrapped across +-pi against the heading variance of the attitude covariance). Both errors are integrals
+(of the velocity error, of the gyro bias) and stay correlated far longer than the velocity error, so one
+independent epoch per 10 s would make their band too narrow: their independent epochs are counted one per
+:func:`decorrelation_time` of the normalised error (its autocorrelation's e-folding lag, at least 10 s; the
+whole span when it never decorrelates, i.e. one epoch and the widest band). The reference is the GT's position
+(not corrected for the GT's own error, see :mod:`graphnav.evaluation.metrics`) and the same reference attitude
+the velocity NEES uses.
 """
 from __future__ import annotations
 
@@ -32,10 +43,22 @@ from scipy.stats import chi2
 from graphnav.core.mission import GroundTruth
 from graphnav.core.solution import NavSolution
 from graphnav.core.timeseries import interp_rows
-from graphnav.evaluation.metrics import _window, nees_velocity
+from graphnav.evaluation.metrics import (
+    _window,
+    heading_errors,
+    nees_heading,
+    nees_position,
+    nees_velocity,
+)
 
 #: dof of the velocity NEES.
 DOF = 3
+#: dof of the horizontal position NEES (north, east).
+POSITION_DOF = 2
+#: dof of the heading NEES.
+HEADING_DOF = 1
+#: Shortest decorrelation time counted, s (the velocity NEES's one independent epoch per 10 s).
+MIN_DECORRELATION_S = 10.0
 
 
 def chi2_band(n_independent: int, dof: int = DOF, prob: float = 0.95) -> tuple[float, float]:
@@ -51,6 +74,79 @@ def n_independent(t: np.ndarray, decorrelation_s: float = 10.0) -> int:
     if t.size == 0:
         return 0
     return max(1, int((t[-1] - t[0]) // decorrelation_s) + 1)
+
+
+def decorrelation_time(t: np.ndarray, z: np.ndarray, floor_s: float = MIN_DECORRELATION_S) -> float:
+    """Decorrelation time, s, of a normalised error series ``z`` (K,) or (K,d) at stamps ``t`` (K,) s: the
+    first lag at which its autocorrelation (summed over the columns) falls below 1/e, at least ``floor_s``;
+    the whole span when it never does. Non-finite rows are dropped. The mean is not removed: a consistent
+    estimator's error has zero mean, and an error that keeps its sign for long is one correlated error, not
+    many independent ones."""
+    t = np.asarray(t, dtype=float)
+    z = np.asarray(z, dtype=float).reshape(len(t), -1)
+    ok = np.all(np.isfinite(z), axis=1)
+    t, z = t[ok], z[ok]
+    if len(t) < 3:
+        return floor_s
+    span, dt = float(t[-1] - t[0]), float(np.median(np.diff(t)))
+    n = len(z)
+    spec = np.fft.rfft(z, 2 * n, axis=0)
+    acf = np.fft.irfft(spec * np.conj(spec), axis=0)[:n].sum(axis=1)
+    if not acf[0] > 0:
+        return max(floor_s, span)
+    below = np.flatnonzero(acf / acf[0] < np.exp(-1.0))
+    return max(floor_s, span if below.size == 0 else float(below[0]) * dt)
+
+
+def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str) -> dict:
+    """``{prefix}_mission`` (mean of the finite per-epoch NEES), ``{prefix}_n_independent`` (one per
+    :func:`decorrelation_time` of the normalised error ``z``), ``{prefix}_decorrelation_s``; None without a
+    finite epoch."""
+    ok = np.isfinite(nees)
+    if not ok.any():
+        return {f"{prefix}_mission": None, f"{prefix}_n_independent": None, f"{prefix}_decorrelation_s": None}
+    tau = decorrelation_time(t[ok], z[ok])
+    return {f"{prefix}_mission": float(np.mean(nees[ok])),
+            f"{prefix}_n_independent": n_independent(t[ok], tau), f"{prefix}_decorrelation_s": tau}
+
+
+def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = None,
+              t_end: float | None = None) -> dict:
+    """Horizontal position NEES (2 dof) and heading NEES (1 dof) of ``sol`` against ``reference`` over
+    ``[t_start, t_end]``: ``nees_pos_mission`` / ``nees_heading_mission`` (mean), ``*_n_independent`` (for
+    :func:`chi2_band` with ``dof`` :data:`POSITION_DOF` / :data:`HEADING_DOF`) and ``*_decorrelation_s``;
+    all None for a quantity whose covariance the solution does not carry (never a made-up number)."""
+    out = pose_nees_none()
+    if sol.cov_p_n is None and sol.cov_rot_b is None:
+        return out
+    aligned, sel = _window(sol, reference, t_start, t_end)
+    t = aligned.t[sel]
+    if sol.cov_p_n is not None:
+        nees = nees_position(sol, reference, t_start, t_end)
+        err = sol.p_n[aligned.mask][sel, :2] - aligned.p_true_n[sel, :2]
+        var = np.diagonal(sol.cov_p_n[aligned.mask][sel][:, :2, :2], axis1=1, axis2=2)
+        out.update(_nees_stats(t, nees, err / np.sqrt(var), "nees_pos"))
+    if sol.cov_rot_b is not None:
+        nees = nees_heading(sol, reference, t_start, t_end)
+        _, d = heading_errors(sol, reference, t_start, t_end)
+        out.update(_nees_stats(t, nees, np.sign(d) * np.sqrt(nees), "nees_heading"))
+    return out
+
+
+def pose_nees_none() -> dict:
+    """The keys of :func:`pose_nees`, all None."""
+    return {f"{q}_{k}": None for q in ("nees_pos", "nees_heading") for k in ("mission", "n_independent",
+                                                                            "decorrelation_s")}
+
+
+def window_pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end: float) -> dict:
+    """``nees_pos_window`` and ``nees_heading_window``: mean position / heading NEES over one window (None
+    without the covariance or a finite epoch)."""
+    def mean(f):
+        x = f(sol, reference, t_start, t_end)
+        return float(np.mean(x[np.isfinite(x)])) if np.isfinite(x).any() else None
+    return {"nees_pos_window": None if sol.cov_p_n is None else mean(nees_position),
+            "nees_heading_window": None if sol.cov_rot_b is None else mean(nees_heading)}
 
 
 def nees_with_reference(sol: NavSolution, gt: GroundTruth, cov_gt_n: np.ndarray,
@@ -123,10 +219,13 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     t0 = float(gt.t[0] + NEES_SETTLE_S) if t0 is None else float(t0)
     out = {"nees_mission": None, "nees_mission_interp": None, "nees_mission_gt": None,
            "nees_n_independent": None, "nees_t0": t0,
-           "nees_reference": "interpolated" if mission is None else "imu-carried"}
-    if sol.cov_v_n is None:
+           "nees_reference": "interpolated" if mission is None else "imu-carried", **pose_nees_none()}
+    if sol.cov_v_n is None and sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
     reference = gt if mission is None else mission_reference(sol, mission)
+    out.update(pose_nees(sol, reference, t0))
+    if sol.cov_v_n is None:
+        return out
     out["nees_mission"] = float(np.mean(nees_velocity(sol, reference, t0)))
     out["nees_mission_interp"] = float(np.mean(nees_velocity(sol, gt, t0)))
     if gt_sigma_n is not None:

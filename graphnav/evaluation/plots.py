@@ -5,6 +5,7 @@
 * :func:`plot_velocity_std`: velocity standard deviation over time around the outage windows.
 * :func:`plot_vrmse_bars`: window VRMSE per method and scenario from benchmark records.
 * :func:`plot_nees`: velocity NEES over time per method with the chi-square band (consistency).
+* :func:`plot_position_error`: north, east and horizontal position error with the estimator's +-2 sigma.
 
 Every function takes a path, writes one PNG there and returns the path.
 """
@@ -231,5 +232,47 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
     ax.grid(axis="y", alpha=0.3, which="both")
     ax.legend(fontsize=8)
     ax.set_title(title or f"Window VRMSE per method{'' if imu_grade is None else f' ({imu_grade} IMU)'}")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_position_error(gt, solutions: list[NavSolution], outages, path, title: str = "",
+                        n_sigma: float = 2.0) -> Path:
+    """Position error against the reference (estimate - GT, m) over time: north and east with the
+    estimator's +-``n_sigma`` sleeve from ``cov_p_n``, and the horizontal error norm with ``n_sigma`` times
+    the square root of the largest eigenvalue of the north-east covariance (the semi-major axis of the error
+    ellipse: a norm outside it is outside the ellipse in every direction). A solution without ``cov_p_n`` is
+    drawn without a sleeve and says so in the legend."""
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), sharex=True)
+    windows = _windows(outages)
+    for k, ax in enumerate(axes):
+        _mark_windows(ax, windows, label=k == 0)
+    for i, sol in enumerate(solutions):
+        c = _color(sol.method, i)
+        p_gt, _ = gt_at(gt, sol.t)
+        err = sol.p_n[:, :2] - p_gt[:, :2]
+        name = sol.method if sol.cov_p_n is not None else f"{sol.method} (no position covariance)"
+        for k in range(2):
+            axes[k].plot(sol.t, err[:, k], color=c, lw=1.0, label=name)
+            if sol.cov_p_n is not None:
+                s = n_sigma * np.sqrt(np.clip(sol.cov_p_n[:, k, k], 0, None))
+                axes[k].fill_between(sol.t, -s, s, color=c, alpha=0.18, lw=0,
+                                     label=f"{sol.method} +-{n_sigma:g} sigma" if k == 0 else None)
+        axes[2].plot(sol.t, np.hypot(err[:, 0], err[:, 1]), color=c, lw=1.0, label=name)
+        if sol.cov_p_n is not None:
+            ne = sol.cov_p_n[:, :2, :2]
+            finite = np.all(np.isfinite(ne.reshape(len(ne), -1)), axis=1)   # a file's empty sigma rows
+            major = np.full(len(ne), np.nan)
+            major[finite] = np.sqrt(np.clip(np.linalg.eigvalsh(ne[finite])[:, -1], 0, None))
+            axes[2].plot(sol.t, n_sigma * major, color=c, lw=1.0, ls="--",
+                         label=f"{sol.method} {n_sigma:g} sigma (major axis)")
+    for k, name in enumerate(("north error (m)", "east error (m)", "horizontal error (m)")):
+        axes[k].axhline(0, color="k", lw=0.5)
+        axes[k].set_ylabel(name)
+        axes[k].grid(alpha=0.3)
+    axes[0].legend(fontsize=8, ncol=3, loc="upper left")
+    axes[2].legend(fontsize=8, ncol=2, loc="upper left")
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(title or f"Position error with +-{n_sigma:g} sigma")
     fig.tight_layout()
     return _save(fig, path)

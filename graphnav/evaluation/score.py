@@ -11,6 +11,10 @@ CSV log with a ``gt`` column map), whose ground truth is used; all of them on th
   compared as recorded (both in the mission's local NED frame); ``align=True`` first applies evo's Umeyama
   SE(3) alignment, as ``evo_ape --align`` does (for a reference in another frame).
 * VRMSE (m/s): graphnav's own definition, on the reference interpolated to the estimate's stamps.
+* Horizontal position NEES (2 dof) and heading NEES (1 dof), the benchmark's own
+  (:func:`graphnav.evaluation.consistency.pose_nees`), when the estimate carries position / attitude sigmas;
+  drift in % of the distance the reference travelled (end horizontal error / distance) and the estimate's own
+  horizontal sigma at the end in % of its distance (:func:`graphnav.evaluation.metrics.drift_summary`).
 * Velocity NEES (3 dof, mean 3 when consistent): the benchmark's own score, by the same function
   (:func:`graphnav.evaluation.consistency.reference_nees`): after the settling time, against the reference
   carried to the estimate's epochs by the mission's IMU when the reference is a mission (interpolated for a
@@ -174,15 +178,68 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
         out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
     else:
         out.update(_nees(est, ref, mission))
+    if align:
+        # both are frame-dependent: the estimate is in another frame than the reference
+        note = "not computed with --align (the estimate is in another frame)"
+        out.update(drift_pct_mission=None, end_horizontal_error_m=None, drift_note=note,
+                   **{f"nees_{q}_{k}": None for q in ("position", "heading")
+                      for k in ("mean", "95pct_band", "n_independent")},
+                   nees_position_note=note, nees_heading_note=note)
+    else:
+        out.update(_drift(est, ref))
+        out.update(_pose_nees(est, ref, mission))
+    return out
+
+
+def _settle_t0(est: NavSolution, ref: GroundTruth, mission) -> float:
+    """First stamp the NEES scores: the benchmark's settling time after the start, or the whole overlap for
+    an estimate too short for it."""
+    from graphnav.evaluation.consistency import NEES_SETTLE_S
+    t0 = (mission.t0 if mission is not None else float(ref.t[0])) + NEES_SETTLE_S
+    if not np.any((est.t >= t0) & (est.t <= ref.t[-1])):
+        t0 = float(max(est.t[0], ref.t[0]))          # a short estimate: score it all rather than nothing
+    return t0
+
+
+def _drift(est: NavSolution, ref: GroundTruth) -> dict:
+    """Mission drift in % of the distance travelled (:func:`graphnav.evaluation.metrics.drift_summary`):
+    ``drift_pct_mission``, ``end_horizontal_error_m``, ``distance_travelled_m`` (the reference's),
+    ``sigma_h_end_m`` and ``sigma_h_end_pct`` (the estimate's own claim; None without position sigmas)."""
+    from graphnav.evaluation.metrics import drift_summary
+    d = drift_summary(est, ref)
+    return {"drift_pct_mission": d["drift_pct"], "end_horizontal_error_m": d["end_error_m"],
+            "distance_travelled_m": d["reference_distance_m"], "sigma_h_end_m": d["sigma_h_end_m"],
+            "sigma_h_end_pct": d["sigma_h_end_pct"]}
+
+
+def _pose_nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
+    """The benchmark's horizontal position NEES (2 dof) and heading NEES (1 dof) of ``est`` after the settling
+    time with their 95 % bands (:func:`graphnav.evaluation.consistency.pose_nees`); None (with a note) where
+    the estimate carries no position / attitude covariance."""
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, mission_reference, pose_nees
+    t0 = _settle_t0(est, ref, mission)
+    out = {}
+    if est.cov_p_n is None and est.cov_rot_b is None:
+        scores = {}
+    else:
+        reference = ref if mission is None else mission_reference(est, mission)
+        scores = pose_nees(est, reference, t0)
+    for key, name, dof, field in (("nees_pos", "position", POSITION_DOF, "position sigmas"),
+                                  ("nees_heading", "heading", HEADING_DOF, "an attitude covariance")):
+        mean, n = scores.get(f"{key}_mission"), scores.get(f"{key}_n_independent")
+        out[f"nees_{name}_mean"] = mean
+        out[f"nees_{name}_95pct_band"] = None if mean is None else list(chi2_band(n, dof))
+        out[f"nees_{name}_n_independent"] = n
+        out[f"nees_{name}_note"] = (f"needs {field} in the estimate" if mean is None else
+                                    f"{dof} dof, after {t0:.1f} s, one independent epoch per "
+                                    f"{scores[f'{key}_decorrelation_s']:.0f} s")
     return out
 
 
 def _nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
     """The benchmark's velocity NEES (:func:`graphnav.evaluation.consistency.reference_nees`) of ``est``."""
-    from graphnav.evaluation.consistency import NEES_SETTLE_S, chi2_band, reference_nees
-    t0 = (mission.t0 if mission is not None else float(ref.t[0])) + NEES_SETTLE_S
-    if not np.any((est.t >= t0) & (est.t <= ref.t[-1])):
-        t0 = float(max(est.t[0], ref.t[0]))          # a short estimate: score it all rather than nothing
+    from graphnav.evaluation.consistency import chi2_band, reference_nees
+    t0 = _settle_t0(est, ref, mission)
     sigma = None if mission is None else mission.meta.get("gt_velocity_sigma_n")
     scores = reference_nees(est, ref, mission, t0, sigma)
     lo, hi = chi2_band(scores["nees_n_independent"])
@@ -220,4 +277,23 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
                      f"{result['nees_note']})")
     else:
         lines.append(f"  velocity NEES: not computed ({result['nees_note']})")
+    for name, dof in (("position", 2), ("heading", 1)):
+        label = "horizontal position NEES" if name == "position" else "heading NEES"
+        mean = result.get(f"nees_{name}_mean")
+        if mean is None:
+            lines.append(f"  {label}: - ({result.get(f'nees_{name}_note', 'not computed')})")
+            continue
+        lo, hi = result[f"nees_{name}_95pct_band"]
+        lines.append(f"  {label} mean {mean:.2f} (consistent: {dof}; 95 % band {lo:.2f}-{hi:.2f} for "
+                     f"{result[f'nees_{name}_n_independent']} independent epochs; {result[f'nees_{name}_note']})")
+    if result.get("drift_note"):
+        lines.append(f"  drift in % of distance travelled: - ({result['drift_note']})")
+    if result.get("end_horizontal_error_m") is not None:
+        pct = result["drift_pct_mission"]
+        claim = result.get("sigma_h_end_pct")
+        lines.append(f"  drift {'-' if pct is None else f'{pct:.2f}'} % of distance travelled (horizontal error at "
+                     f"the end {result['end_horizontal_error_m']:.2f} m over {result['distance_travelled_m']:.1f} m "
+                     "travelled by the reference); claimed by the estimate: "
+                     + ("-" if result.get("sigma_h_end_m") is None else
+                        f"{result['sigma_h_end_m']:.2f} m ({'-' if claim is None else f'{claim:.2f}'} % DT)"))
     return "\n".join(lines)
