@@ -132,7 +132,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     name = name or graph_label(completer, batch)
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
-    first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
+    first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
     nav = graph_navigator(mission, completer=completer, options=first_pass, mode=mode, initial=initial, init=init,
                           keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name)
     estimates = feed_mission(nav, mission, callback)
