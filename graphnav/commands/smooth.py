@@ -40,7 +40,7 @@ def register(subparsers) -> None:
                     "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT at the estimate's stamps, "
                     "when the mission has GT: `evo_ape tum OUT/groundtruth.tum OUT/trajectory.tum` pairs every "
-                    "epoch), "
+                    "epoch), OUT/trajectory_cov.csv (the position and attitude covariance of each TUM line), "
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
@@ -81,12 +81,19 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
 
 def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
-    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
+    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose covariances
+    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas).
     Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
     to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method
     from graphnav.io.dvl_files import holds_dvl_only
-    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.io.outputs import (
+        uncertainty_summary,
+        write_json,
+        write_pose_covariance_csv,
+        write_trajectory_csv,
+        write_tum,
+    )
     from graphnav.io.stream_counts import ensure_streams
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -98,7 +105,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     sol = run_method(mission, args.method, args.scenario, **init)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
-             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
+             "trajectory_cov": str(write_pose_covariance_csv(out / "trajectory_cov.csv", sol))}
     if mission.gt is not None:
         # the reference at the estimate's stamps: evo_ape at its defaults pairs every epoch
         from graphnav.io.outputs import write_reference_tum
@@ -120,7 +128,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
+        "accuracy": accuracy_summary(sol, mission, outages), "uncertainty": uncertainty_summary(sol),
+        "health": run_health_record(sol.info, mission),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
         "streams": ensure_streams(mission),
@@ -158,7 +167,13 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
     from graphnav.io.dvl_files import read_dvl
     from graphnav.io.inspect import describe_dvl_log
-    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.io.outputs import (
+        uncertainty_summary,
+        write_json,
+        write_pose_covariance_csv,
+        write_trajectory_csv,
+        write_tum,
+    )
     data = Path(args.data)
     start = time.perf_counter()
     log = read_dvl(data, _config(args))         # a file graphnav cannot use stops here, with its reason
@@ -173,7 +188,8 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     sol = dvl_dead_reckoning(log)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
-             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
+             "trajectory_cov": str(write_pose_covariance_csv(out / "trajectory_cov.csv", sol))}
     if args.bag != "none":
         import shutil
 
@@ -192,7 +208,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": duration, "runtime_s": wall,
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
-        "accuracy": {"ground_truth": False}, "health": None, "compared": {},
+        "accuracy": {"ground_truth": False}, "uncertainty": uncertainty_summary(sol), "health": None, "compared": {},
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
@@ -234,6 +250,8 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_mission_mps": acc.get("vrmse_mission_mps"),
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
+        "final_horizontal_position_sigma_m": (s.get("uncertainty") or {}).get("final_horizontal_position_sigma_m"),
+        "final_heading_sigma_deg": (s.get("uncertainty") or {}).get("final_heading_sigma_deg"),
         "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
                                               "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,
