@@ -125,6 +125,11 @@ def test_batch_marginal_levels(short_mission):
     k = len(full.t) // 2
     assert np.trace(full.cov_v_n[k]) <= np.trace(filtered.cov_v_n[k]) * (1 + 1e-6)
     assert full.info["batch_marginals_s"] > 0
+    # QR elimination's marginals (taken from R) are Cholesky's
+    qr = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(batch_factorization="QR"))
+    for name in ("cov_v_n", "cov_p_n", "cov_rot_b", "cov_bias"):
+        np.testing.assert_allclose(getattr(qr, name), getattr(full, name), rtol=1e-5,
+                                   atol=1e-9 * np.abs(getattr(full, name)).max())
 
 
 # --- consistency against simulated truth -------------------------------------------------------------------
