@@ -165,7 +165,9 @@ def make_navigator(args, config, mission=None):
     completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std)
     ekf = method.family == "ekf"
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
-    graph_options = None if ekf else estimator_options(method.name, None if args.lag is None else {"lag_s": args.lag})
+    # the per-epoch CSV and the stream print the position and attitude sigmas: ask the graph for them
+    graph_options = None if ekf else estimator_options(
+        method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
     nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
         reorder_window_s=args.reorder_window)
     initial = None

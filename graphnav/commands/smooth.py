@@ -102,7 +102,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
     init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
-    sol = run_method(mission, args.method, args.scenario, **init)
+    sol = run_method(mission, args.method, args.scenario, options=_printed_covariances(args.method), **init)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
              "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
@@ -121,7 +121,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         shutil.rmtree(bag, ignore_errors=True)   # rosbag2 writers only create new bags; a rerun replaces it
         files["trajectory_bag"] = str(write_odometry_bag(sol, bag, t0_unix_ns=int(mission.meta.get("t0_unix_ns", 0)),
                                                          storage=args.bag))
-    others = [run_method(mission, m, args.scenario, **init) for m in args.compare if m != args.method]
+    others = [run_method(mission, m, args.scenario, options=_printed_covariances(m), **init)
+              for m in args.compare if m != args.method]
     summary = {
         "method": args.method, "mission": mission.name, "scenario": args.scenario,
         "imu_grade": args.imu_grade, "completer": sol.info.get("completer"),
@@ -142,6 +143,12 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     summary["files"] = {k: final(v) for k, v in files.items()}
     write_json(out / "summary.json", summary)
     return summary
+
+
+def _printed_covariances(method: str) -> dict | None:
+    """The estimator options a smoothed mission's outputs need: every covariance of a graph method (the CSV,
+    the TUM side file, the bag and the summary print them); the EKF gives what its P holds."""
+    return {"marginals": "full"} if METHODS[method].family == "graph" else None
 
 
 def _config(args):
