@@ -114,6 +114,21 @@ def test_marginal_levels_leave_the_estimates_bit_equal(short_mission, mode):
     assert np.all(np.diff(full.cov_p_n[:, 0, 0] + full.cov_p_n[:, 1, 1]) > -1e-9)
 
 
+def test_position_covariance_continues_across_a_reanchor(short_mission):
+    """The fixed-lag smoother's restarts (reanchor_interval_s) carry the joint marginal of the last state as a
+    prior: the position and attitude covariances go on as without a restart."""
+    a = run_graph(short_mission, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
+    b = run_graph(short_mission, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=10.0))
+    assert b.info["reanchored"] >= 3
+    for name in ("cov_p_n", "cov_rot_b"):
+        restarted, reference = getattr(b, name), getattr(a, name)
+        sigma = np.sqrt(np.diagonal(reference, axis1=1, axis2=2))
+        np.testing.assert_allclose(np.sqrt(np.diagonal(restarted, axis1=1, axis2=2)), sigma, rtol=0.02)
+        # correlations (what a restart from block priors would lose) within 0.01
+        np.testing.assert_allclose(restarted / np.einsum("ki,kj->kij", sigma, sigma),
+                                   reference / np.einsum("ki,kj->kij", sigma, sigma), atol=0.01)
+
+
 def test_batch_marginal_levels(short_mission):
     full = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(marginals="full"))
     velocity = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(marginals="velocity"))
