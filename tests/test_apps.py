@@ -67,6 +67,17 @@ def test_smooth_outputs(tmp_path, capsys):
         assert (out / name).stat().st_size > 0
     printed = capsys.readouterr().out
     assert "VRMSE mission" in printed
+    # the smoother's own uncertainty: sigmas in the CSV, the pose covariance of each TUM line, the summary
+    assert sol.cov_p_n is not None and sol.cov_rot_b is not None
+    from graphnav.io.outputs import read_pose_covariance_csv
+    t_cov, cov_p, cov_rot = read_pose_covariance_csv(out / "trajectory_cov.csv")
+    np.testing.assert_allclose(t_cov, t, atol=1e-9)
+    np.testing.assert_allclose(np.sqrt(np.diagonal(cov_p, axis1=1, axis2=2)),
+                               np.sqrt(np.diagonal(sol.cov_p_n, axis1=1, axis2=2)), rtol=1e-8)
+    u = summary["uncertainty"]
+    assert u["not_estimated"] == [] and 0 < u["final_horizontal_position_sigma_m"] <= u["max_horizontal_position_sigma_m"]
+    assert 0 < u["final_heading_sigma_deg"] < 1
+    assert "position sigma N/E/D" in printed and "heading sigma" in printed
     # the estimator's health (graph innovation NIS) is in the summary and the printout
     assert summary["health"]["ok"] and summary["health"]["n_measurements"] > 100
     assert "health: ok; NIS/dof" in printed
@@ -93,6 +104,10 @@ def test_online_resume_continues_identically(tmp_path):
     summary = json.loads((full / "summary.json").read_text())
     assert summary["epochs"] == len(rows) - 1 and summary["accuracy"]["vrmse_mission_mps"] < 0.2
     assert summary["drift"]["distance_m"] > 50 and summary["drift"]["drift_pct"] is not None
+    # the filter's position and heading sigmas in every row and in the summary
+    written = read_trajectory_csv(full / "online.csv")
+    assert np.all(np.isfinite(written.cov_p_n)) and np.all(np.isfinite(written.cov_rot_b))
+    assert summary["uncertainty"]["final_horizontal_position_sigma_m"] > 0
 
     # An interrupted run: the first half written, then a torn line.
     part = tmp_path / "part"

@@ -256,6 +256,7 @@ def test_cli_pipes_a_simulated_stream_into_online(tmp_path):
     # while it aligned (gyrocompassing, 300 s of data needed from a 200 s stream) it said so
     assert records[0]["type"] == "status" and records[0]["state"] == "aligning"
     assert all(len(r["v_n"]) == 3 and len(r["cov_v_n"]) == 3 for r in lines)
+    assert all(len(r["sigma_p_n"]) == 3 and len(r["sigma_rpy"]) == 3 and len(r["cov_bias"]) == 6 for r in lines)
     assert all(r["health"] in ("ok", "degraded", "diverged") for r in lines) and lines[-1]["health"] == "ok"
     summary = json.loads((tmp_path / "on" / "summary.json").read_text())
     assert summary["epochs"] == len(lines) and summary["stream"]["bad_lines"] == 0

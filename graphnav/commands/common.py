@@ -183,6 +183,9 @@ def print_summary(summary: dict, file=None) -> None:
     if summary.get("drift"):
         from graphnav.evaluation.metrics import drift_line
         out(f"  {drift_line(summary['drift'])}")
+    line = uncertainty_line(summary.get("uncertainty"))
+    if line:
+        out(f"  {line}")
     line = health_line(summary.get("health"))
     if line:
         out(f"  {line}")
@@ -192,6 +195,26 @@ def print_summary(summary: dict, file=None) -> None:
               f"max {timing['max_ms']:.1f} ms")
     for name, path in summary.get("files", {}).items():
         out(f"  {name}: {path}")
+
+
+def uncertainty_line(uncertainty: dict | None) -> str:
+    """One line of a summary's ``uncertainty`` (:func:`graphnav.io.outputs.uncertainty_summary`): the estimator's
+    own position and heading sigmas at the end and their largest values, and what it does not estimate."""
+    if not uncertainty or "final_horizontal_position_sigma_m" not in uncertainty:
+        return ""
+    u = uncertainty
+    parts = []
+    if u["final_position_sigma_ned_m"] is not None:
+        n, e, d = u["final_position_sigma_ned_m"]
+        horizontal, largest = u["final_horizontal_position_sigma_m"], u["max_horizontal_position_sigma_m"]
+        parts.append(f"position sigma N/E/D {n:.2f}/{e:.2f}/{d:.2f} m (horizontal {horizontal:.2f} m, largest "
+                     f"{largest:.2f} m)")
+    if u["final_heading_sigma_deg"] is not None:
+        parts.append(f"heading sigma {u['final_heading_sigma_deg']:.3f} deg (largest "
+                     f"{u['max_heading_sigma_deg']:.3f} deg)")
+    missing = u.get("not_estimated") or []
+    return ("estimator's own uncertainty at the end: " + ("; ".join(parts) if parts else "none")
+            + (f"; not estimated: {', '.join(missing)}" if missing else ""))
 
 
 # --- output folders ------------------------------------------------------------------------------------------

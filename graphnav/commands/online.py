@@ -100,12 +100,13 @@ def register(subparsers) -> None:
 
 
 def epoch_fields(est) -> dict:
-    """The CSV fields of one :class:`graphnav.estimators.graph.EpochEstimate`: t, p_n, v_n, C_b_n, cov_v_n and the
-    accelerometer and gyro biases."""
+    """The CSV fields of one :class:`graphnav.estimators.graph.EpochEstimate`: t, p_n, v_n, C_b_n, the accelerometer
+    and gyro biases, health and the covariances (velocity, position, attitude; None where the estimator has none)."""
     bias = est.bias
     return {"t": est.t, "p_n": est.p_n, "v_n": est.v_n, "C_b_n": est.C_b_n, "cov_v_n": est.cov_v_n,
             "bias_acc": None if bias is None else bias.accelerometer(),
-            "bias_gyro": None if bias is None else bias.gyroscope(), "health": getattr(est, "health", None)}
+            "bias_gyro": None if bias is None else bias.gyroscope(), "health": getattr(est, "health", None),
+            "cov_p_n": getattr(est, "cov_p_n", None), "cov_rot_b": getattr(est, "cov_rot_b", None)}
 
 
 class EpochSink:
@@ -165,7 +166,9 @@ def make_navigator(args, config, mission=None):
     completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std)
     ekf = method.family == "ekf"
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
-    graph_options = None if ekf else estimator_options(method.name, None if args.lag is None else {"lag_s": args.lag})
+    # the per-epoch CSV and the stream print the position and attitude sigmas: ask the graph for them
+    graph_options = None if ekf else estimator_options(
+        method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
     nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
         reorder_window_s=args.reorder_window)
     initial = None
@@ -183,7 +186,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from graphnav.core.config import read_config
-    from graphnav.io.outputs import EpochCsvWriter, read_trajectory_csv, write_json
+    from graphnav.io.outputs import EpochCsvWriter, read_trajectory_csv, uncertainty_summary, write_json
 
     if args.schema:
         from graphnav.io.streamio import schema_text
@@ -242,6 +245,7 @@ def run(args) -> int:
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
+        "uncertainty": uncertainty_summary(written),
         "files": {"online_csv": str(csv_path)},
     }
     if not args.no_plots and mission is not None and len(written.t):

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
                     "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT at the estimate's stamps, "
                     "when the mission has GT: `evo_ape tum OUT/groundtruth.tum OUT/trajectory.tum` pairs every "
-                    "epoch), "
+                    "epoch), OUT/trajectory_cov.csv (the position and attitude covariance of each TUM line), "
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
@@ -82,12 +82,19 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
 
 def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
-    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM, optional bag, plots, summary.json.
+    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose covariances
+    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas).
     Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
     to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method
     from graphnav.io.dvl_files import holds_dvl_only
-    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.io.outputs import (
+        uncertainty_summary,
+        write_json,
+        write_pose_covariance_csv,
+        write_trajectory_csv,
+        write_tum,
+    )
     from graphnav.io.stream_counts import ensure_streams
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -96,10 +103,11 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
     init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
-    sol = run_method(mission, args.method, args.scenario, **init)
+    sol = run_method(mission, args.method, args.scenario, options=_printed_covariances(args.method), **init)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
-             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
+             "trajectory_cov": str(write_pose_covariance_csv(out / "trajectory_cov.csv", sol))}
     if mission.gt is not None:
         # the reference at the estimate's stamps: evo_ape at its defaults pairs every epoch
         from graphnav.io.outputs import write_reference_tum
@@ -114,7 +122,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         shutil.rmtree(bag, ignore_errors=True)   # rosbag2 writers only create new bags; a rerun replaces it
         files["trajectory_bag"] = str(write_odometry_bag(sol, bag, t0_unix_ns=int(mission.meta.get("t0_unix_ns", 0)),
                                                          storage=args.bag))
-    others = [run_method(mission, m, args.scenario, **init) for m in args.compare if m != args.method]
+    others = [run_method(mission, m, args.scenario, options=_printed_covariances(m), **init)
+              for m in args.compare if m != args.method]
     summary = {
         "method": args.method, "mission": mission.name, "scenario": args.scenario,
         "imu_grade": args.imu_grade, "completer": sol.info.get("completer"),
@@ -123,6 +132,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
         "drift": drift_summary(sol, mission.gt),
+        "accuracy": accuracy_summary(sol, mission, outages), "uncertainty": uncertainty_summary(sol),
+        "health": run_health_record(sol.info, mission),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
                      for o in others},
         "streams": ensure_streams(mission),
@@ -135,6 +146,12 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     summary["files"] = {k: final(v) for k, v in files.items()}
     write_json(out / "summary.json", summary)
     return summary
+
+
+def _printed_covariances(method: str) -> dict | None:
+    """The estimator options a smoothed mission's outputs need: every covariance of a graph method (the CSV,
+    the TUM side file, the bag and the summary print them); the EKF gives what its P holds."""
+    return {"marginals": "full"} if METHODS[method].family == "graph" else None
 
 
 def _config(args):
@@ -160,7 +177,13 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
     from graphnav.io.dvl_files import read_dvl
     from graphnav.io.inspect import describe_dvl_log
-    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    from graphnav.io.outputs import (
+        uncertainty_summary,
+        write_json,
+        write_pose_covariance_csv,
+        write_trajectory_csv,
+        write_tum,
+    )
     data = Path(args.data)
     start = time.perf_counter()
     log = read_dvl(data, _config(args))         # a file graphnav cannot use stops here, with its reason
@@ -175,7 +198,8 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     sol = dvl_dead_reckoning(log)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
-             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol))}
+             "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
+             "trajectory_cov": str(write_pose_covariance_csv(out / "trajectory_cov.csv", sol))}
     if args.bag != "none":
         import shutil
 
@@ -195,6 +219,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
         "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
+        "accuracy": {"ground_truth": False}, "uncertainty": uncertainty_summary(sol), "health": None, "compared": {},
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
@@ -237,6 +262,8 @@ def mission_record(name: str, summary: dict | None, error: str | None = None) ->
         "vrmse_windows_mps": [w["vrmse_window_mps"] for w in acc.get("windows", [])] if acc else None,
         "final_horizontal_position_error_m": acc.get("final_horizontal_position_error_m"),
         "distance_m": (s.get("drift") or {}).get("distance_m"), "drift_pct": (s.get("drift") or {}).get("drift_pct"),
+        "final_horizontal_position_sigma_m": (s.get("uncertainty") or {}).get("final_horizontal_position_sigma_m"),
+        "final_heading_sigma_deg": (s.get("uncertainty") or {}).get("final_heading_sigma_deg"),
         "health": {k: health.get(k) for k in ("state", "why", "ok", "diverged_at_end", "n_divergences",
                                               "n_reacquired", "n_rejected", "nis_mean_per_dof")} if health else None,
         "runtime_s": s.get("runtime_s"), "files": s.get("files", {}), "error": error,

@@ -58,6 +58,24 @@ def attitude_error(C_est_b_n: np.ndarray, C_true_b_n: np.ndarray) -> np.ndarray:
     return so3_log(np.swapaxes(C_true_b_n, -1, -2) @ C_est_b_n)
 
 
+def euler_jacobian(C_b_n: np.ndarray) -> np.ndarray:
+    """``d (roll, pitch, yaw) / d theta`` (…,3,3) of body-to-NED rotations for a right perturbation
+    ``C = C_hat Exp(theta)`` (theta in body axes, rad): the inverse of the Euler-rate matrix ``omega_b = E
+    d(roll, pitch, yaw)/dt``. Its last row is :func:`yaw_jacobian`; near +-90 deg pitch it grows without bound."""
+    roll, pitch, _ = np.moveaxis(C_b_n_to_euler(np.asarray(C_b_n, dtype=float)), -1, 0)
+    sr, cr, tp, cp = np.sin(roll), np.cos(roll), np.tan(pitch), np.cos(pitch)
+    one, zero = np.ones_like(roll), np.zeros_like(roll)
+    return np.stack([np.stack([one, sr * tp, cr * tp], -1), np.stack([zero, cr, -sr], -1),
+                     np.stack([zero, sr / cp, cr / cp], -1)], -2)
+
+
+def euler_covariance(C_b_n: np.ndarray, cov_rot_b: np.ndarray) -> np.ndarray:
+    """Covariance (…,3,3), rad^2, of roll, pitch, yaw of attitudes ``C_b_n`` whose error covariance is
+    ``cov_rot_b`` (…,3,3), rad^2, in GTSAM's right perturbation (body axes); first order."""
+    J = euler_jacobian(C_b_n)
+    return J @ np.asarray(cov_rot_b, dtype=float) @ np.swapaxes(J, -1, -2)
+
+
 def yaw_jacobian(C_b_n: np.ndarray) -> np.ndarray:
     """``d yaw / d theta`` (…,3) of body-to-NED rotations for a right perturbation ``C = C_hat Exp(theta)``
     (theta in body axes, rad): the row that turns a body-frame attitude covariance into a heading variance.

@@ -5,8 +5,8 @@
   factors, depth, heading and position-fix factors.
 - :class:`EkfBackend`: the paper's error-state EKF (tightly or loosely coupled) on the same keyframes.
 
-Both return a :class:`~graphnav.estimators.graph.EpochEstimate` per keyframe (the filtered state, its velocity
-covariance, the biases). Both take the same :class:`~graphnav.estimators.graph.InitialState`.
+Both return a :class:`~graphnav.estimators.graph.EpochEstimate` per keyframe (the filtered state, the biases and
+the estimator's marginal covariances: the graph's as ``GraphOptions.marginals`` asks, the EKF's blocks of P). Both take the same :class:`~graphnav.estimators.graph.InitialState`.
 """
 from __future__ import annotations
 

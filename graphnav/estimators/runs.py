@@ -120,7 +120,8 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
         name: the solution's label, also used in messages (default :func:`graph_label`).
 
     Returns:
-        NavSolution at the keyframes; ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
+        NavSolution at the keyframes, with the covariances ``options.marginals`` asks for (default ``"full"``:
+        velocity, position, attitude and biases; the batch's are the smoothed marginals); ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
         ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
         recoveries), the Navigator's counters (``refused``, ``imu_gaps``, ``alignment`` ...) and, for the
         batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or ``batch_failed`` (the reason)
@@ -132,7 +133,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     name = name or graph_label(completer, batch)
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
-    first_pass = dataclasses.replace(options, marginals=False) if batch and callback is None else options
+    first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
     nav = graph_navigator(mission, completer=completer, options=first_pass, mode=mode, initial=initial, init=init,
                           keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name)
     estimates = feed_mission(nav, mission, callback)
@@ -155,7 +156,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
             # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
             reason = " ".join(str(exc).split())[:160]
             warnings.warn(f"graph batch: {reason} -- returning the filtered (incremental) estimates instead of "
-                          "smoothed ones (no velocity covariance)", RuntimeWarning, stacklevel=2)
+                          "smoothed ones (without covariances)", RuntimeWarning, stacklevel=2)
             info["batch_failed"] = reason
         info["batch_s"] = time.perf_counter() - start - info["online_s"]
     sol = solution_from_estimates(name, estimates)

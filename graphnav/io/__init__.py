@@ -5,7 +5,7 @@ _PUBLIC = {
     "loaders": ("load_mission", "load_akit"),
     "bags": ("load_bag", "write_odometry_bag"),
     "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "write_reference_tum", "read_tum",
-                "write_json", "EpochCsvWriter"),
+                "write_json", "EpochCsvWriter", "write_pose_covariance_csv", "read_pose_covariance_csv"),
     "export": ("write_akit",),
     "streamio": ("StreamReader",),
     "dvl_files": ("read_dvl",),

@@ -27,8 +27,10 @@ recorded, never dropped). The mission clock starts at the first IMU stamp (``met
 stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
 Writing (:func:`write_odometry_bag`): the estimates as ``nav_msgs/msg/Odometry`` in REP-103 frames
-(``odom`` ENU, ``base_link`` FLU) with the velocity covariance in ``twist.covariance``; what the estimator
-does not provide (pose covariance, angular rate) is left at zero, ROS' "unknown".
+(``odom`` ENU, ``base_link`` FLU) with the covariances in the frames and order ROS defines:
+``pose.covariance`` (x, y, z, rotation about the fixed x, y, z axes) in ``odom`` ENU, ``twist.covariance``
+in ``base_link`` FLU. What the estimator does not provide (the angular rate; the position of the paper's 12-state
+EKF) carries :data:`UNKNOWN_VARIANCE` on its diagonal, never a zero that would claim certainty.
 """
 from __future__ import annotations
 
@@ -407,20 +409,34 @@ def _receive_clock_shift(imu, dvl, meta: dict) -> float:
 
 def load_odometry(path: str | Path, topic: str | None = None):
     """The ``nav_msgs/msg/Odometry`` of a bag (e.g. what :func:`write_odometry_bag` wrote) as a
-    :class:`~graphnav.core.solution.NavSolution` in NED/FRD with absolute stamps (Unix s) and the velocity
-    covariance from ``twist.covariance`` (None when it is all zero)."""
+    :class:`~graphnav.core.solution.NavSolution` in NED/FRD with absolute stamps (Unix s) and the covariances
+    in its conventions: velocity from ``twist.covariance``, position and attitude (``cov_p_n``, ``cov_rot_b``)
+    from ``pose.covariance``; each None when its block is all zero or :data:`UNKNOWN_VARIANCE` in every message."""
     from graphnav.core.solution import NavSolution
     found = read_streams(path, {"gt": topic} if topic else {}, wanted=("gt",), required=("gt",))["gt"]
     s = found[0] if topic else _pick_one("gt", found, str(path))
     gt = conv.gt(s, 0, str(path))
     child_frd = conv.frame_is(s.rows[0].child_frame_id, "_frd")
     B = np.eye(3) if child_frd else FLU_FRD
-    cov_child = np.array([np.asarray(m.twist.covariance, float).reshape(6, 6)[:3, :3] for m in s.rows])
-    cov = None
-    if np.any(cov_child):
-        R = np.einsum("kij,jl->kil", gt.C_b_n, B)          # child -> NED
-        cov = np.einsum("kij,kjl,kml->kim", R, cov_child, R)
-    return NavSolution(s.topic, gt.t, gt.p_n, gt.v_n, gt.C_b_n, cov_v_n=cov)
+    A = np.eye(3) if conv.frame_is(s.rows[0].header.frame_id, "_ned") else ENU_NED      # world <-> NED
+    twist = np.array([np.asarray(m.twist.covariance, float).reshape(6, 6) for m in s.rows])
+    pose = np.array([np.asarray(m.pose.covariance, float).reshape(6, 6) for m in s.rows])
+    R = np.einsum("kij,jl->kil", gt.C_b_n, B)                                       # child -> NED
+    cov_v = _known(twist[:, :3, :3])
+    cov_p = _known(pose[:, :3, :3])
+    cov_rot = _known(pose[:, 3:, 3:])
+    return NavSolution(
+        s.topic, gt.t, gt.p_n, gt.v_n, gt.C_b_n,
+        cov_v_n=None if cov_v is None else np.einsum("kij,kjl,kml->kim", R, cov_v, R),
+        cov_p_n=None if cov_p is None else A @ cov_p @ A.T,
+        # rotation about the world's fixed axes -> NED -> body axes (right perturbation)
+        cov_rot_b=None if cov_rot is None else np.einsum("kji,jl,klm,nm,knp->kip", gt.C_b_n, A, cov_rot, A, gt.C_b_n))
+
+
+def _known(blocks: np.ndarray) -> np.ndarray | None:
+    """(K,3,3) covariance blocks, or None when no message carries one (all zero, or the unknown marker)."""
+    unknown = np.all(blocks == 0, axis=(1, 2)) | np.all(np.isclose(blocks, np.eye(3) * UNKNOWN_VARIANCE), axis=(1, 2))
+    return None if np.all(unknown) else blocks
 
 
 def read_dvl_log(path: str | Path, topic: str | None = None, config: SensorConfig | None = None):
@@ -462,43 +478,74 @@ def _header(store, t_ns: int, frame_id: str):
                                     frame_id=frame_id)
 
 
-#: Velocity variance, (m/s)^2, an Odometry message carries when its estimate is diverged ("do not use").
+#: Variance on the diagonal of a covariance block of an Odometry message whose estimate is diverged ("do not
+#: use"), (m/s)^2, m^2 and rad^2 alike.
 DIVERGED_VARIANCE = 1e6
+#: Variance on the diagonal of a block the estimator does not estimate ("no information"): the angular rate
+#: (the twist's angular part is written as zero), the position of the paper's 12-state EKF.
+UNKNOWN_VARIANCE = 1e6
+
+
+def odometry_covariances(solution) -> tuple[np.ndarray, np.ndarray]:
+    """(pose, twist) covariances (K,6,6) of a :class:`~graphnav.core.solution.NavSolution` in ROS' frames and
+    order (REP 103 / ``geometry_msgs``):
+
+    - pose, in ``odom`` ENU: ``[x, y, z, rotation about the fixed x, y, z axes]``. Position ``A P_n A^T`` with
+      ``A`` the NED-to-ENU axis permutation; rotation: the body-axes right perturbation
+      ``C_b_n Exp(theta) = Exp(C_b_n theta) C_b_n`` is the NED-fixed-axes perturbation ``C_b_n theta``, so
+      ``A C P_rot C^T A^T`` (the FRD-to-FLU change of the child frame does not change a fixed-axes perturbation).
+    - twist, in ``base_link`` FLU: ``[linear, angular]``; linear ``F C^T P_v C F`` (``F`` = FRD-to-FLU),
+      angular unknown.
+
+    The position-attitude cross block is zero: the estimators carry separate marginals; for the same reason the
+    attitude's share of the body-frame velocity's uncertainty (``[v_b]x P_rot [v_b]x^T``, about 1 mm/s at 1.5 m/s
+    and 0.05 deg, against a velocity sigma of centimetres per second) is left out. A block the solution has
+    no covariance for carries :data:`UNKNOWN_VARIANCE` on its diagonal; a diverged epoch
+    (``solution.info["health_state"]``) :data:`DIVERGED_VARIANCE` on every diagonal: Odometry has no status
+    field, and a consumer that weighs by covariance then ignores it."""
+    K = len(solution.t)
+    C = solution.C_b_n
+    unknown = np.broadcast_to(np.eye(3) * UNKNOWN_VARIANCE, (K, 3, 3))
+    pose = np.zeros((K, 6, 6))
+    twist = np.zeros((K, 6, 6))
+    pose[:, :3, :3] = unknown if solution.cov_p_n is None else ENU_NED @ solution.cov_p_n @ ENU_NED.T
+    pose[:, 3:, 3:] = unknown if solution.cov_rot_b is None else np.einsum(
+        "ij,kjl,klm,knm,pn->kip", ENU_NED, C, solution.cov_rot_b, C, ENU_NED)
+    twist[:, :3, :3] = unknown if solution.cov_v_n is None else np.einsum(
+        "ij,kli,klm,kmn,np->kjp", FLU_FRD, C, solution.cov_v_n, C, FLU_FRD)
+    twist[:, 3:, 3:] = unknown
+    health = (solution.info or {}).get("health_state") or [None] * K
+    diverged = np.array([h == "diverged" for h in health], bool)
+    for cov in (pose, twist):
+        cov[diverged] = np.eye(6) * DIVERGED_VARIANCE
+    # symmetric to the last bit: some consumers check it before they invert
+    return 0.5 * (pose + np.swapaxes(pose, 1, 2)), 0.5 * (twist + np.swapaxes(twist, 1, 2))
 
 
 def odometry_messages(solution, store, t0_unix_ns: int = 0) -> list[tuple[int, object]]:
     """(stamp ns, ``nav_msgs/msg/Odometry``) per epoch of a :class:`~graphnav.core.solution.NavSolution`, in
-    REP-103 frames (``odom`` ENU, ``base_link`` FLU); the NED velocity covariance, rotated into FLU, fills
-    the linear block of ``twist.covariance``. An epoch whose health is ``diverged``
-    (``solution.info["health_state"]``) carries :data:`DIVERGED_VARIANCE` on that block's diagonal instead:
-    Odometry has no status field, and a consumer that weighs by covariance then ignores it."""
+    REP-103 frames (``odom`` ENU, ``base_link`` FLU), with the covariances of :func:`odometry_covariances`."""
     T = store.types
-    health = (solution.info or {}).get("health_state") or [None] * len(solution.t)
     C_flu_enu = np.einsum("ij,kjl,lm->kim", ENU_NED, solution.C_b_n, FLU_FRD)
     q = Rotation.from_matrix(C_flu_enu).as_quat()
     p_enu = solution.p_n @ ENU_NED.T
     v_flu = np.einsum("kji,kj->ki", solution.C_b_n, solution.v_n) @ FLU_FRD
+    pose_cov, twist_cov = odometry_covariances(solution)
     V3 = T["geometry_msgs/msg/Vector3"]
     out = []
     for k in range(len(solution.t)):
         t_ns = int(t0_unix_ns + round(float(solution.t[k]) * 1e9))
-        twist_cov = np.zeros((6, 6))
-        if solution.cov_v_n is not None:
-            R = FLU_FRD @ solution.C_b_n[k].T
-            twist_cov[:3, :3] = R @ solution.cov_v_n[k] @ R.T
-        if health[k] == "diverged":
-            twist_cov[:3, :3] = np.eye(3) * DIVERGED_VARIANCE
         out.append((t_ns, T["nav_msgs/msg/Odometry"](
             header=_header(store, t_ns, "odom"), child_frame_id="base_link",
             pose=T["geometry_msgs/msg/PoseWithCovariance"](
                 pose=T["geometry_msgs/msg/Pose"](
                     position=T["geometry_msgs/msg/Point"](x=p_enu[k, 0], y=p_enu[k, 1], z=p_enu[k, 2]),
                     orientation=T["geometry_msgs/msg/Quaternion"](x=q[k, 0], y=q[k, 1], z=q[k, 2], w=q[k, 3])),
-                covariance=np.zeros(36)),
+                covariance=pose_cov[k].reshape(36)),
             twist=T["geometry_msgs/msg/TwistWithCovariance"](
                 twist=T["geometry_msgs/msg/Twist"](linear=V3(x=v_flu[k, 0], y=v_flu[k, 1], z=v_flu[k, 2]),
                                                    angular=V3(x=0.0, y=0.0, z=0.0)),
-                covariance=twist_cov.reshape(36)))))
+                covariance=twist_cov[k].reshape(36)))))
     return out
 
 

@@ -2,16 +2,21 @@
 
 * Trajectory CSV (:func:`write_trajectory_csv`): one row per output epoch, columns :data:`CSV_COLUMNS`
   (SI units and frames in the names; attitude as aerospace roll/pitch/yaw, ``C_b_n = Rz Ry Rx``; ``sigma_*``
-  are 1-sigma from the estimator's velocity covariance, empty when it has none), then the ``health`` column:
+  are 1-sigma from the estimator's velocity, position and attitude covariances -- velocity and position NED,
+  m/s and m; roll, pitch and yaw (heading) in rad like the angles -- empty cells when it has none, e.g. no
+  position sigma from the paper's 12-state EKF), then the ``health`` column:
   ``ok``, ``degraded`` or ``diverged`` (:func:`graphnav.estimators.health.epoch_health`; empty when the
   solution does not say).
 * TUM file (:func:`write_tum`): ``timestamp tx ty tz qx qy qz qw`` per line, position in local NED (m) and
-  the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read;
+  the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read; beside it
+  :func:`write_pose_covariance_csv` (``trajectory_cov.csv``) holds each line's position covariance (NED, m^2)
+  and attitude covariance (body axes, rad^2), which TUM has no place for;
   :func:`write_reference_tum` writes the ground truth at the estimate's stamps, so that
   ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
 * Every position written follows :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`: NED from the sea
   surface above the first fix, down = absolute depth.
-* JSON summary (:func:`write_json`): plain JSON (NaN written as ``null``), indented.
+* JSON summary (:func:`write_json`): plain JSON (NaN written as ``null``), indented;
+  :func:`uncertainty_summary` is what a summary says about the run's own uncertainty.
 * :class:`EpochCsvWriter`: the online mode's output, one row appended *and flushed* per epoch so a crash or
   Ctrl-C keeps every estimate produced so far; it reopens an existing file for ``--resume`` and reports the
   last epoch written (a torn last line from a crash is cut off first).
@@ -30,11 +35,18 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.errors import DataError
 from graphnav.core.mission import GroundTruth
-from graphnav.core.rotations import C_b_n_to_euler, euler_to_C_b_n
+from graphnav.core.rotations import (
+    C_b_n_to_euler,
+    euler_covariance,
+    euler_jacobian,
+    euler_to_C_b_n,
+    heading_variance,
+)
 from graphnav.core.solution import NavSolution
 
-#: Columns of the trajectory CSV and of the per-epoch CSV (same layout).
-CSV_COLUMNS: tuple[str, ...] = (
+#: The columns every trajectory CSV graphnav wrote has (files from before the position and attitude sigmas
+#: were written still read and resume).
+BASE_COLUMNS: tuple[str, ...] = (
     "t_s",
     "p_north_m", "p_east_m", "p_down_m",
     "v_north_mps", "v_east_mps", "v_down_mps",
@@ -43,12 +55,25 @@ CSV_COLUMNS: tuple[str, ...] = (
     "bias_acc_x_mps2", "bias_acc_y_mps2", "bias_acc_z_mps2",
     "bias_gyro_x_radps", "bias_gyro_y_radps", "bias_gyro_z_radps",
 )
+#: 1-sigma of the position (NED, m) and of roll, pitch and yaw (heading) (rad), from the estimator's own
+#: position covariance and attitude covariance (:func:`graphnav.core.rotations.euler_covariance`); empty cells
+#: when it has none (the paper's 12-state EKF has no position uncertainty).
+SIGMA_COLUMNS: tuple[str, ...] = (
+    "sigma_p_north_m", "sigma_p_east_m", "sigma_p_down_m",
+    "sigma_roll_rad", "sigma_pitch_rad", "sigma_yaw_rad",
+)
+#: Columns of the trajectory CSV and of the per-epoch CSV (same layout).
+CSV_COLUMNS: tuple[str, ...] = BASE_COLUMNS + SIGMA_COLUMNS
 
 
 #: The last column of the trajectory and per-epoch CSVs: how far to trust the row (ok / degraded / diverged).
 HEALTH_COLUMN = "health"
 #: The full header of the trajectory and per-epoch CSVs.
 TRAJECTORY_COLUMNS: tuple[str, ...] = CSV_COLUMNS + (HEALTH_COLUMN,)
+#: Headers of per-epoch CSVs ``--resume`` continues: today's and the earlier layouts (without the position and
+#: attitude sigmas, without the health column).
+RESUMABLE_HEADERS: tuple[tuple[str, ...], ...] = (TRAJECTORY_COLUMNS, CSV_COLUMNS, BASE_COLUMNS + (HEALTH_COLUMN,),
+                                                  BASE_COLUMNS)
 
 
 def _fmt(x: float) -> str:
@@ -70,16 +95,33 @@ def written_stamp(t: float) -> float:
     return float(_fmt_t(float(t)))
 
 
+def _sigmas(cov, k: int) -> np.ndarray:
+    """(k,3) square roots of the diagonals of (k,3,3) covariances; NaN when there are none."""
+    if cov is None:
+        return np.full((k, 3), np.nan)
+    return np.sqrt(np.clip(np.diagonal(np.asarray(cov, float).reshape(k, 3, 3), axis1=1, axis2=2), 0, None))
+
+
+def _rows(t, p_n, v_n, C_b_n, cov_v_n=None, bias_acc=None, bias_gyro=None, cov_p_n=None,
+          cov_rot_b=None) -> np.ndarray:
+    """(K, len(CSV_COLUMNS)) rows of K epochs (arrays with a leading K axis; None = not available: NaN)."""
+    C_b_n = np.asarray(C_b_n, float).reshape(-1, 3, 3)
+    k = len(C_b_n)
+    nan3 = np.full((k, 3), np.nan)
+    att = None if cov_rot_b is None else euler_covariance(C_b_n, np.asarray(cov_rot_b, float).reshape(k, 3, 3))
+    return np.column_stack([
+        np.asarray(t, float).reshape(k), np.asarray(p_n, float).reshape(k, 3), np.asarray(v_n, float).reshape(k, 3),
+        C_b_n_to_euler(C_b_n).reshape(k, 3), _sigmas(cov_v_n, k),
+        nan3 if bias_acc is None else np.asarray(bias_acc, float).reshape(k, 3),
+        nan3 if bias_gyro is None else np.asarray(bias_gyro, float).reshape(k, 3),
+        _sigmas(cov_p_n, k), _sigmas(att, k),
+    ])
+
+
 def solution_rows(sol: NavSolution) -> np.ndarray:
     """(K, len(CSV_COLUMNS)) float array of a solution in CSV column order (NaN where not available)."""
-    k = len(sol.t)
-    nan3 = np.full((k, 3), np.nan)
-    sigma = nan3 if sol.cov_v_n is None else np.sqrt(np.clip(np.diagonal(sol.cov_v_n, axis1=1, axis2=2), 0, None))
-    return np.column_stack([
-        sol.t, sol.p_n, sol.v_n, C_b_n_to_euler(sol.C_b_n).reshape(k, 3), sigma,
-        nan3 if sol.bias_acc is None else sol.bias_acc,
-        nan3 if sol.bias_gyro is None else sol.bias_gyro,
-    ])
+    return _rows(sol.t, sol.p_n, sol.v_n, sol.C_b_n, sol.cov_v_n, sol.bias_acc, sol.bias_gyro, sol.cov_p_n,
+                 sol.cov_rot_b)
 
 
 def write_trajectory_csv(path: str | Path, sol: NavSolution) -> Path:
@@ -108,6 +150,96 @@ def write_tum(path: str | Path, sol: NavSolution) -> Path:
     return path
 
 
+#: Columns of the pose covariance file written beside a TUM trajectory (:func:`write_pose_covariance_csv`): the
+#: stamp, the upper triangle of the position covariance (NED, m^2) and of the attitude covariance (GTSAM's right
+#: perturbation ``C_b_n = C_hat Exp(theta)``, theta in body axes, rad^2).
+POSE_COV_COLUMNS: tuple[str, ...] = (
+    "t_s",
+    "p_nn_m2", "p_ne_m2", "p_nd_m2", "p_ee_m2", "p_ed_m2", "p_dd_m2",
+    "rot_b_xx_rad2", "rot_b_xy_rad2", "rot_b_xz_rad2", "rot_b_yy_rad2", "rot_b_yz_rad2", "rot_b_zz_rad2",
+)
+_UPPER = np.triu_indices(3)
+
+
+def write_pose_covariance_csv(path: str | Path, sol: NavSolution) -> Path:
+    """Write the pose covariance of every epoch of ``sol``, one row per line of the TUM file :func:`write_tum`
+    writes (same stamps): columns :data:`POSE_COV_COLUMNS`. The estimators carry position and attitude
+    covariances as separate marginals (no cross-covariance between them), so the two 3x3 blocks are written,
+    not a 6x6 with a made-up zero cross block. A block the estimator does not provide (e.g. the position of the
+    paper's 12-state EKF) is written as empty cells. Returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    k = len(sol.t)
+    nan6 = np.full((k, 6), np.nan)
+    blocks = [nan6 if c is None else np.asarray(c, float).reshape(k, 3, 3)[:, _UPPER[0], _UPPER[1]]
+              for c in (sol.cov_p_n, sol.cov_rot_b)]
+    with path.open("w", newline="") as fh:
+        fh.write(",".join(POSE_COV_COLUMNS) + "\n")
+        for t, row in zip(sol.t, np.hstack(blocks)):
+            fh.write(f"{t:.9f}," + ",".join(_fmt(float(x)) for x in row) + "\n")
+    return path
+
+
+def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Read :func:`write_pose_covariance_csv`'s file: (t (K,), cov_p_n (K,3,3) or None, cov_rot_b (K,3,3) or
+    None; None where the block's cells are all empty).
+
+    Raises:
+        DataError: another header or a malformed row, naming file, line and column.
+    """
+    path = Path(path)
+    with path.open(newline="") as fh:
+        reader = csv.reader(fh)
+        header = next(reader, None)
+        if header is None or tuple(header) != POSE_COV_COLUMNS:
+            raise DataError("header is not graphnav's pose covariance header", str(path), 1)
+        rows = []
+        for line_no, row in enumerate(reader, start=2):
+            if len(row) != len(header):
+                raise DataError(f"{len(row)} cells, expected {len(header)}", str(path), line_no)
+            bad = next((i for i, c in enumerate(row) if c != "" and not _is_float(c)), None)
+            if bad is not None:
+                raise DataError(f"not a number: {row[bad]!r}", str(path), line_no, header[bad])
+            rows.append([float(c) if c != "" else np.nan for c in row])
+    data = np.array(rows, dtype=float).reshape(-1, len(POSE_COV_COLUMNS))
+
+    def symmetric(upper: np.ndarray) -> np.ndarray | None:
+        if np.all(np.isnan(upper)):
+            return None
+        cov = np.empty((len(upper), 3, 3))
+        cov[:, _UPPER[0], _UPPER[1]] = upper
+        cov[:, _UPPER[1], _UPPER[0]] = upper
+        return cov
+
+    return data[:, 0], symmetric(data[:, 1:7]), symmetric(data[:, 7:13])
+
+
+def uncertainty_summary(sol: NavSolution) -> dict:
+    """What a run's summary says about its own uncertainty: the 1-sigma position (N, E, D, m) at the last
+    epoch, the horizontal position sigma ``sqrt(P_nn + P_ee)`` (m) at the end and its largest value over the
+    run, the heading sigma (deg) at the end and its largest value, and the velocity sigma at the end (NED, m/s).
+    A quantity the estimator does not provide is None, and ``not_estimated`` names it (e.g. ``"position"`` for
+    the paper's 12-state EKF)."""
+    out: dict = {"not_estimated": [name for name, cov in (("position", sol.cov_p_n), ("attitude", sol.cov_rot_b),
+                                                          ("velocity", sol.cov_v_n)) if cov is None]}
+    if not len(sol.t):
+        return out
+    horizontal = heading = None
+    if sol.cov_p_n is not None:
+        horizontal = np.sqrt(np.clip(sol.cov_p_n[:, 0, 0] + sol.cov_p_n[:, 1, 1], 0, None))
+    if sol.cov_rot_b is not None:
+        heading = np.rad2deg(np.sqrt(np.clip(heading_variance(sol.C_b_n, sol.cov_rot_b), 0, None)))
+    out.update({
+        "final_position_sigma_ned_m": None if sol.cov_p_n is None else _sigmas(sol.cov_p_n[-1:], 1)[0],
+        "final_horizontal_position_sigma_m": None if horizontal is None else float(horizontal[-1]),
+        "max_horizontal_position_sigma_m": None if horizontal is None else float(np.nanmax(horizontal)),
+        "final_heading_sigma_deg": None if heading is None else float(heading[-1]),
+        "max_heading_sigma_deg": None if heading is None else float(np.nanmax(heading)),
+        "final_velocity_sigma_ned_mps": None if sol.cov_v_n is None else _sigmas(sol.cov_v_n[-1:], 1)[0],
+    })
+    return out
+
+
 def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> Path | None:
     """Write the reference ``gt`` at the estimate's stamps (TUM, as :func:`write_tum`), so that evo's tools at
     their defaults (``evo_ape tum groundtruth.tum trajectory.tum``: stamps matched within 0.01 s) pair every
@@ -132,7 +264,13 @@ def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def read_trajectory_csv(path: str | Path, method: str = "") -> NavSolution:
-    """Read a trajectory or per-epoch CSV back into a :class:`NavSolution` (covariance diagonal only).
+    """Read a trajectory or per-epoch CSV back into a :class:`NavSolution`.
+
+    The covariances are what the file holds, the sigmas: ``cov_v_n`` and ``cov_p_n`` diagonal, and
+    ``cov_rot_b`` the body-axes covariance whose roll, pitch and yaw variances are the file's with no
+    correlation between them (so :func:`graphnav.core.rotations.heading_variance` gives the written heading
+    sigma back). A covariance whose sigma columns are empty (or absent: files from before the position and
+    attitude sigmas) is None.
 
     Raises:
         DataError: missing column or malformed row, naming file, line and column.
@@ -143,27 +281,47 @@ def read_trajectory_csv(path: str | Path, method: str = "") -> NavSolution:
         header = next(reader, None)
         if header is None:
             raise DataError("file is empty", str(path), 1)
-        missing = [c for c in CSV_COLUMNS if c not in header]
+        missing = [c for c in BASE_COLUMNS if c not in header]
         if missing:
             raise DataError("column missing from header", str(path), 1, missing[0])
-        idx = [header.index(c) for c in CSV_COLUMNS]
+        idx = [header.index(c) if c in header else None for c in CSV_COLUMNS]
+        present = [i for i in idx if i is not None]
         rows = []
         for line_no, row in enumerate(reader, start=2):
             if len(row) != len(header):
                 raise DataError(f"{len(row)} cells, expected {len(header)}", str(path), line_no)
             try:
-                rows.append([float(row[i]) if row[i] != "" else np.nan for i in idx])
+                rows.append([float(row[i]) if i is not None and row[i] != "" else np.nan for i in idx])
             except ValueError:
-                bad = next(i for i in idx if row[i] != "" and not _is_float(row[i]))
+                bad = next(i for i in present if row[i] != "" and not _is_float(row[i]))
                 raise DataError(f"not a number: {row[bad]!r}", str(path), line_no, header[bad]) from None
     data = np.array(rows, dtype=float).reshape(-1, len(CSV_COLUMNS))
-    sigma = data[:, 10:13]
-    cov = None if np.all(np.isnan(sigma)) else np.einsum("ki,ij->kij", sigma ** 2, np.eye(3))
+    col = {name: i for i, name in enumerate(CSV_COLUMNS)}
+
+    def block(first: str) -> np.ndarray:
+        return data[:, col[first]:col[first] + 3]
+
+    C_b_n = euler_to_C_b_n(data[:, 7], data[:, 8], data[:, 9]).reshape(-1, 3, 3)
     return NavSolution(
-        method=method, t=data[:, 0], p_n=data[:, 1:4], v_n=data[:, 4:7],
-        C_b_n=euler_to_C_b_n(data[:, 7], data[:, 8], data[:, 9]).reshape(-1, 3, 3), cov_v_n=cov,
-        bias_acc=None if np.all(np.isnan(data[:, 13:16])) else data[:, 13:16],
-        bias_gyro=None if np.all(np.isnan(data[:, 16:19])) else data[:, 16:19])
+        method=method, t=data[:, 0], p_n=data[:, 1:4], v_n=data[:, 4:7], C_b_n=C_b_n,
+        cov_v_n=_diagonal_cov(block("sigma_v_north_mps")),
+        bias_acc=None if np.all(np.isnan(block("bias_acc_x_mps2"))) else block("bias_acc_x_mps2"),
+        bias_gyro=None if np.all(np.isnan(block("bias_gyro_x_radps"))) else block("bias_gyro_x_radps"),
+        cov_p_n=_diagonal_cov(block("sigma_p_north_m")),
+        cov_rot_b=_attitude_cov(C_b_n, block("sigma_roll_rad")))
+
+
+def _diagonal_cov(sigma: np.ndarray) -> np.ndarray | None:
+    return None if np.all(np.isnan(sigma)) else np.einsum("ki,ij->kij", sigma ** 2, np.eye(3))
+
+
+def _attitude_cov(C_b_n: np.ndarray, sigma_rpy: np.ndarray) -> np.ndarray | None:
+    """Body-axes attitude covariance whose roll/pitch/yaw covariance is ``diag(sigma_rpy^2)``."""
+    cov_euler = _diagonal_cov(sigma_rpy)
+    if cov_euler is None:
+        return None
+    J_inv = np.linalg.inv(euler_jacobian(C_b_n))
+    return J_inv @ cov_euler @ np.swapaxes(J_inv, -1, -2)
 
 
 def _is_float(s: str) -> bool:
@@ -223,7 +381,9 @@ class EpochCsvWriter:
         self.fsync = fsync
         self.last_t: float | None = None
         self.n_written = 0
-        self._health = True          # the file has the health column (files written before it did not)
+        # the layout of the file: a resumed file keeps the one it was started with (files written before the
+        # health column, or before the position and attitude sigmas, had fewer columns)
+        self._columns = TRAJECTORY_COLUMNS
         if resume and self.path.exists() and self.path.stat().st_size > 0:
             self._recover()
             self._fh = self.path.open("a", newline="")
@@ -231,6 +391,8 @@ class EpochCsvWriter:
             self._fh = self.path.open("w", newline="")
             self._fh.write(",".join(TRAJECTORY_COLUMNS) + "\n")
             self._fh.flush()
+        self._health = self._columns[-1] == HEALTH_COLUMN
+        self._take = [CSV_COLUMNS.index(c) for c in self._columns if c != HEALTH_COLUMN]
 
     def _recover(self) -> None:
         """Cut a torn last line (crash mid-write), check the header, find the last stamp."""
@@ -241,10 +403,10 @@ class EpochCsvWriter:
                 fh.truncate(cut)
             raw = raw[:cut]
         lines = raw.decode().splitlines()
-        header = lines[0].split(",") if lines else []
-        self._health = header == list(TRAJECTORY_COLUMNS)
-        if not self._health and header != list(CSV_COLUMNS):
+        header = tuple(lines[0].split(",")) if lines else ()
+        if header not in RESUMABLE_HEADERS:
             raise DataError("cannot resume: header is not graphnav's per-epoch CSV header", str(self.path), 1)
+        self._columns = header
         self.n_written = len(lines) - 1
         if self.n_written:
             try:
@@ -254,12 +416,11 @@ class EpochCsvWriter:
                                 len(lines), CSV_COLUMNS[0]) from None
 
     def write(self, t: float, p_n, v_n, C_b_n, cov_v_n=None, bias_acc=None, bias_gyro=None,
-              health: str | None = None) -> None:
-        """Append one epoch (units as in :data:`CSV_COLUMNS`, then ``health``) and flush."""
-        nan3 = (np.nan,) * 3
-        sigma = nan3 if cov_v_n is None else np.sqrt(np.clip(np.diagonal(np.asarray(cov_v_n)), 0, None))
-        row = [t, *np.asarray(p_n, float), *np.asarray(v_n, float), *C_b_n_to_euler(np.asarray(C_b_n, float)),
-               *sigma, *(nan3 if bias_acc is None else bias_acc), *(nan3 if bias_gyro is None else bias_gyro)]
+              health: str | None = None, cov_p_n=None, cov_rot_b=None) -> None:
+        """Append one epoch (units as in :data:`CSV_COLUMNS`, then ``health``) and flush; the covariances
+        (``cov_v_n`` NED (m/s)^2, ``cov_p_n`` NED m^2, ``cov_rot_b`` body-axes right perturbation rad^2) give
+        the sigma columns, None = empty cells."""
+        row = _rows(t, p_n, v_n, C_b_n, cov_v_n, bias_acc, bias_gyro, cov_p_n, cov_rot_b)[0][self._take]
         self._fh.write(_fmt_row(row) + ("," + (health or "") if self._health else "") + "\n")
         self._fh.flush()
         if self.fsync:

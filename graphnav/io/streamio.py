@@ -253,17 +253,34 @@ def feed(nav, rec: dict) -> list:
     return nav.add_heading(t, rec["yaw"], rec["sigma"])
 
 
+def _matrix(cov):
+    return None if cov is None else np.asarray(cov, float).tolist()
+
+
+def _sigma(cov):
+    return None if cov is None else np.sqrt(np.clip(np.diagonal(np.asarray(cov, float)), 0, None)).tolist()
+
+
 def estimate_record(est) -> dict:
     """An estimate as a JSON-lines record: ``t`` s, ``kind``, ``p_n`` m, ``v_n`` m/s, ``rpy`` rad (roll,
-    pitch, yaw of ``C_b_n``), ``cov_v_n`` (3x3, (m/s)^2, or null), ``bias_acc`` m/s^2, ``bias_gyro`` rad/s, and
-    ``health`` (``ok`` / ``degraded`` / ``diverged``: how far to trust it) with ``health_why`` (empty when ok)."""
-    from graphnav.core.rotations import C_b_n_to_euler
-    roll, pitch, yaw = np.asarray(C_b_n_to_euler(np.asarray(est.C_b_n)[None])).reshape(-1)[:3]
+    pitch, yaw of ``C_b_n``), ``bias_acc`` m/s^2, ``bias_gyro`` rad/s, the estimator's covariances --
+    ``cov_p_n`` (3x3 NED, m^2), ``cov_v_n`` (3x3 NED, (m/s)^2), ``cov_rot_b`` (3x3 attitude, rad^2, GTSAM's right
+    perturbation ``C_b_n = C_hat Exp(theta)``, theta in body axes), ``cov_bias`` (6x6 [acc, gyro]) -- and their
+    1-sigma ``sigma_p_n`` [3] m, ``sigma_v_n`` [3] m/s, ``sigma_rpy`` [3] rad (roll, pitch, yaw), each null when
+    the estimator has none (the paper's 12-state EKF: no position), and ``health`` (``ok`` / ``degraded`` /
+    ``diverged``: how far to trust it) with ``health_why`` (empty when ok)."""
+    from graphnav.core.rotations import C_b_n_to_euler, euler_covariance
+    C = np.asarray(est.C_b_n, float)
+    roll, pitch, yaw = np.asarray(C_b_n_to_euler(C[None])).reshape(-1)[:3]
+    cov_p, cov_rot = getattr(est, "cov_p_n", None), getattr(est, "cov_rot_b", None)
     return {"type": "estimate", "t": est.t, "kind": est.kind, "p_n": np.asarray(est.p_n).tolist(),
             "v_n": np.asarray(est.v_n).tolist(), "rpy": [float(roll), float(pitch), float(yaw)],
-            "cov_v_n": None if est.cov_v_n is None else np.asarray(est.cov_v_n).tolist(),
+            "cov_v_n": _matrix(est.cov_v_n),
             "bias_acc": np.asarray(est.bias.accelerometer()).tolist(),
             "bias_gyro": np.asarray(est.bias.gyroscope()).tolist(),
+            "cov_p_n": _matrix(cov_p), "cov_rot_b": _matrix(cov_rot), "cov_bias": _matrix(getattr(est, "cov_bias", None)),
+            "sigma_p_n": _sigma(cov_p), "sigma_v_n": _sigma(est.cov_v_n),
+            "sigma_rpy": None if cov_rot is None else _sigma(euler_covariance(C, cov_rot)),
             "health": getattr(est, "health", None) or "ok", "health_why": getattr(est, "health_why", "")}
 
 
@@ -288,8 +305,10 @@ def schema_text() -> str:
     lines = [doc, "", table.rstrip(), "",
              "Written back by graphnav online --stream (standard output, one JSON object per line):",
              "  estimate  t, kind, p_n [3] m (NED), v_n [3] m/s, rpy [3] rad (roll, pitch, yaw of C_b_n), "
-             "cov_v_n 3x3 (m/s)^2 or null, bias_acc [3] m/s^2, bias_gyro [3] rad/s, health (ok | degraded | "
-             "diverged), health_why",
+             "bias_acc [3] m/s^2, bias_gyro [3] rad/s; covariances, each null when the estimator has none: "
+             "cov_p_n 3x3 m^2 (NED), cov_v_n 3x3 (m/s)^2 (NED), cov_rot_b 3x3 rad^2 (C_b_n = C_hat Exp(theta), theta "
+             "in body axes), cov_bias 6x6 [acc, gyro]; their 1-sigma sigma_p_n [3] m, sigma_v_n [3] m/s, sigma_rpy [3] "
+             "rad; health (ok | degraded | diverged), health_why",
              "  status    t (last record, s), wall_s, state (aligning | navigating | waiting for data), alignment "
              "{aligned_s, needed_s, dvl_pings, dvl_pings_needed, dvl_pings_ignored, heading, waiting_for [...]} "
              "while aligning, idle_s and source while no record comes",

@@ -13,7 +13,8 @@ linearisation of an N-keyframe graph costs O(N^2) (probe: LM 393 s at 1 h). The 
 then the linear system is solved by GTSAM's multifrontal elimination and the step retracted on the
 manifold, until the cost stops decreasing (step halving if it rises). Cost per iteration is O(N).
 ``solver="lm"`` runs GTSAM's Levenberg-Marquardt on the CustomFactor graph itself (reference, O(N^2)).
-Velocity covariances are the marginals of the final linearisation. Elimination is Cholesky (GTSAM's default)
+The covariances (``GraphOptions.marginals``: velocity, or with ``"full"`` also position, attitude and biases)
+are the marginals of the final linearisation. Elimination is Cholesky (GTSAM's default)
 unless ``batch_factorization="QR"``; when Cholesky reports an indeterminant system, the batch warns and solves
 again with QR.
 """
@@ -30,6 +31,7 @@ from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph.builder import BeamGroup, KeyframeFactors
 from graphnav.estimators.graph.incremental import EpochEstimate, is_indeterminant
+from graphnav.estimators.graph.marginals import keyframe_marginals
 from graphnav.estimators.graph.options import BATCH_SOLVERS, GraphOptions
 
 
@@ -158,7 +160,8 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
         keyframe_graphs: per keyframe (link factors: priors or IMU factor, :class:`KeyframeFactors`), as kept
             by an incremental estimator with ``keep_keyframe_graphs=True``.
         estimates: the incremental pass's estimate at every keyframe (initial values).
-        options: ``batch_solver``, ``batch_max_iterations``, ``marginals``.
+        options: ``batch_solver``, ``batch_max_iterations``, ``marginals`` (the level of the smoothed
+            estimates' covariances).
 
     Returns:
         (smoothed estimates per keyframe, info: iterations, cost history, timings).
@@ -196,8 +199,10 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
     info["solve_s"] = time.perf_counter() - start
     with_d = result.exists(D(0))
     out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
-                         result.atConstantBias(B(e.index)), covs[e.index], e.n_measured, e.n_regressed,
-                         float("nan"), result.atVector(D(e.index)) if with_d else None, e.health, e.health_why)
+                         result.atConstantBias(B(e.index)), covs[e.index].get("cov_v_n"), e.n_measured,
+                         e.n_regressed, float("nan"), result.atVector(D(e.index)) if with_d else None, e.health,
+                         e.health_why, cov_p_n=covs[e.index].get("cov_p_n"),
+                         cov_rot_b=covs[e.index].get("cov_rot_b"), cov_bias=covs[e.index].get("cov_bias"))
            for e in estimates]      # the health of the filtered pass at each keyframe
     if with_d:
         info["dvl_errors"] = np.array([o.dvl_errors for o in out])
@@ -205,21 +210,24 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
 
 
 def _solve(cpp, groups, values, n, options, qr: bool):
-    """(result, info, velocity covariance per keyframe or Nones) with the configured solver; ``qr`` selects
+    """(result, info, per keyframe the covariances ``options.marginals`` asks for, a dict as
+    :func:`~graphnav.estimators.graph.marginals.keyframe_marginals`'s) with the configured solver; ``qr`` selects
     QR elimination (else GTSAM's default, Cholesky) for the steps and the marginals."""
     if options.batch_solver == "lm":
         result, info, linear = _solve_lm(cpp, groups, values, options, qr)
     else:
         result, info, linear = _solve_vectorized(cpp, StackedBeams(groups), values, n, options, qr)
-    covs = [None] * n
-    if options.marginals:
+    covs = [{} for _ in range(n)]
+    if options.marginals != "none":
         t0 = time.perf_counter()
         if qr:      # Marginals and marginalCovariance eliminate with Cholesky: take R of the QR marginal
             tree = linear.eliminateMultifrontal(None, gtsam.EliminateQR)
-            covs = [_covariance(tree.marginalFactor(V(k), gtsam.EliminateQR)) for k in range(n)]
+
+            def marginal(key):
+                return _covariance(tree.marginalFactor(key, gtsam.EliminateQR))
         else:
-            marginals = gtsam.Marginals(linear, result)
-            covs = [marginals.marginalCovariance(V(k)) for k in range(n)]
+            marginal = gtsam.Marginals(linear, result).marginalCovariance
+        covs = [keyframe_marginals(options.marginals, k, result.atPose3(X(k)), marginal) for k in range(n)]
         info["marginals_s"] = time.perf_counter() - t0
     return result, info, covs
 

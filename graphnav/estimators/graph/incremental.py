@@ -1,8 +1,9 @@
 """Incremental graph estimators: ISAM2 over the whole mission (online) and GTSAM's fixed-lag smoother.
 
 Both follow the same cycle per keyframe: ``add(keyframe)`` (factors + predicted initial values),
-``update()`` (one solver step) and ``estimate()`` (the filtered state of the newest keyframe with its
-marginal velocity covariance in NED). Like GTSAM's ``ImuFactorExample``::
+``update()`` (one solver step) and ``estimate()`` (the filtered state of the newest keyframe with the
+marginal covariances ``GraphOptions.marginals`` asks for: velocity in NED; position in NED, attitude and
+biases with ``"full"``). Like GTSAM's ``ImuFactorExample``::
 
     est = OnlineGraph(GraphContext(config, options), initial)
     for kf in keyframes:          # graph keyframes (graphnav.estimators.graph.builder.graph_keyframe)
@@ -33,6 +34,7 @@ from graphnav.estimators.graph.builder import (
     imu_factor,
     keyframe_factors,
 )
+from graphnav.estimators.graph.marginals import keyframe_marginals
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import NisMonitor
 from graphnav.factors import N_DVL_ERRORS
@@ -177,7 +179,7 @@ class _IncrementalGraph:
     the innovation shows the disagreement between what the IMU chain predicts and what the DVL sees, which
     is what divergence is. The attitude and bias uncertainty are left out of S (at AUV speeds a 0.1 deg
     misalignment moves a beam by ~3 mm/s against a 40 mm/s beam sigma), and without marginals
-    (``options.marginals=False``, e.g. the batch's first pass) P_v(k-1) is taken as zero: S is then a lower
+    (``options.marginals="none"``, e.g. the batch's first pass) P_v(k-1) is taken as zero: S is then a lower
     bound and the NIS an upper bound (conservative for the divergence test).
     """
 
@@ -272,12 +274,14 @@ class _IncrementalGraph:
             self._recover(kf, exc)
         k = kf.index
         pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
-        cov = self._marginal(V(k)) if self.options.marginals else None
+        covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
         elapsed = time.perf_counter() - start
         self.update_times.append(elapsed)
         m = kf.dvl
-        self._last = EpochEstimate(k, kf.t, kf.kind, pose, v_n, bias, cov,
-                                   0 if m is None else m.n_measured, 0 if m is None else m.n_regressed, elapsed)
+        self._last = EpochEstimate(k, kf.t, kf.kind, pose, v_n, bias, covs.get("cov_v_n"),
+                                   0 if m is None else m.n_measured, 0 if m is None else m.n_regressed, elapsed,
+                                   cov_p_n=covs.get("cov_p_n"), cov_rot_b=covs.get("cov_rot_b"),
+                                   cov_bias=covs.get("cov_bias"))
         self._pending_factors = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
         self._pending_kf = None

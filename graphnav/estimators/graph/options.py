@@ -47,6 +47,11 @@ Chosen defaults and why:
   at 1.8e-4..1.2e-3 m/s/sqrt(s) (median 5.9e-4; the GT's slow error is in it too). **On by default**
   (docs/decisions/consistency.md): on the ten shared trajectories they lower the window VRMSE of Graph-TC, Graph-HN and Graph-HN-batch in
   every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``scripts/consistency.py``.
+- Marginals (``marginals="full"``): every output keyframe carries its velocity, position (NED), attitude and
+  bias covariances. Full marginals cost 0.15 ms per keyframe over velocity-only ones in the fixed-lag
+  smoother and 0.7 ms in ISAM2 (the newest keyframe sits in the Bayes tree's root clique), 0.07 s per 400 s in
+  the batch; the estimates are bit-equal at every level (``docs/decisions/covariance-out.md``,
+  ``scripts/bench_marginals.py``).
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
@@ -62,6 +67,8 @@ from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
 BATCH_SOLVERS = ("vectorized", "lm")
+#: What ``GraphOptions.marginals`` may ask for at every output keyframe (see its docstring).
+MARGINAL_LEVELS = ("none", "velocity", "full")
 MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
 
 
@@ -97,7 +104,11 @@ class GraphOptions:
         batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
-        marginals: compute the marginal velocity covariance at every output epoch.
+        marginals: the marginal covariances computed at every output keyframe: ``"none"``; ``"velocity"``
+            (``cov_v_n``, which the health monitor's innovation test and the regressed-beam screening use);
+            ``"full"`` (also position ``cov_p_n`` in NED, attitude ``cov_rot_b`` and biases ``cov_bias``, what the
+            outputs print). The estimates do not depend on it; only the cost does
+            (``docs/decisions/covariance-out.md``). ``True`` / ``False`` are read as ``"velocity"`` / ``"none"``.
         max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
         regressed_gate_k: joint-covariance gate of a regressed beam against the graph's predicted beam
@@ -160,7 +171,7 @@ class GraphOptions:
     reanchor_interval_s: float | None = 600.0
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
-    marginals: bool = True
+    marginals: str = "full"
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
     regressed_gate_k: float | None = None
     regressed_adaptive: bool = False
@@ -180,6 +191,10 @@ class GraphOptions:
     relin_dvl_bias: float = 1e-3
 
     def __post_init__(self):
+        if isinstance(self.marginals, (bool, np.bool_)):
+            self.marginals = "velocity" if self.marginals else "none"
+        if self.marginals not in MARGINAL_LEVELS:
+            raise ConfigError(f"marginals must be one of {MARGINAL_LEVELS}, got {self.marginals!r}")
         if self.beam_factor_mode not in BEAM_FACTOR_MODES:
             raise ConfigError(f"beam_factor_mode must be one of {BEAM_FACTOR_MODES}, got '{self.beam_factor_mode}'")
         self.factorization = self.factorization.upper()
