@@ -19,6 +19,7 @@ from graphnav.estimators.ekf import (
     IA,
     IE,
     IG,
+    IP,
     IV,
     EkfOptions,
     ErrorStateEkf,
@@ -39,31 +40,38 @@ def _manoeuvre(n=100, dt=0.01):
     return f, w, np.full(n, dt)
 
 
-def _numerical_phi(ekf, s0, f, w, dt, ba, bg):
-    """Jacobian of the end error w.r.t. the start error by perturbing the nominal start (true = est - err)."""
+def _numerical_phi(ekf, s0, f, w, dt, ba, bg, pos_scale=1e-2):
+    """Jacobian of the end error w.r.t. the start error by perturbing the nominal start (true = est - err), over
+    the filter's navigation states (12, or 15 with the position error)."""
     end, _ = ekf.strapdown.propagate(s0, f, w, dt, ba, bg)
-    scale = np.r_[np.full(3, 1e-3), np.full(3, 1e-4), np.full(3, 1e-4), np.full(3, 1e-5)]
-    num = np.zeros((12, 12))
-    for j in range(12):
-        dx = np.zeros(12)
+    n = ekf.n_nav
+    scale = np.r_[np.full(3, 1e-3), np.full(3, 1e-4), np.full(3, 1e-4), np.full(3, 1e-5), np.full(3, pos_scale)][:n]
+    num = np.zeros((n, n))
+    for j in range(n):
+        dx = np.zeros(15)
         dx[j] = scale[j]
-        start = StrapdownState(s0.t, so3_exp_batch(-dx[IE][None])[0] @ s0.C_b_n, s0.v_n - dx[IV], s0.p_n)
+        start = StrapdownState(s0.t, so3_exp_batch(-dx[IE][None])[0] @ s0.C_b_n, s0.v_n - dx[IV], s0.p_n - dx[IP])
         true_end, _ = ekf.strapdown.propagate(start, f, w, dt, ba - dx[IA], bg - dx[IG])
-        err = np.r_[end.v_n - true_end.v_n, so3_log(end.C_b_n @ true_end.C_b_n.T), dx[IA], dx[IG]]
-        num[:, j] = err / scale[j]
+        err = np.r_[end.v_n - true_end.v_n, so3_log(end.C_b_n @ true_end.C_b_n.T), dx[IA], dx[IG],
+                    end.p_n - true_end.p_n]
+        num[:, j] = err[:n] / scale[j]
     return num
 
 
 def _block_errors(Phi, num):
+    blocks = (IV, IE, IA, IG, IP)[:len(Phi) // 3]
     out = {}
-    for i, r in enumerate((IV, IE, IA, IG)):
-        for j, c in enumerate((IV, IE, IA, IG)):
+    for i, r in enumerate(blocks):
+        for j, c in enumerate(blocks):
             out[i, j] = (np.abs(num[r, c] - Phi[r, c]).max(), np.abs(num[r, c]).max())
     return out
 
 
-def test_phi_matches_numerical_linearisation_of_the_strapdown():
-    """1 s of manoeuvring (100 IMU steps): Phi composed from the per-step series vs finite differences.
+@pytest.mark.parametrize("position_states", [False, True])
+def test_phi_matches_numerical_linearisation_of_the_strapdown(position_states):
+    """1 s of manoeuvring (100 IMU steps): Phi composed from the per-step series vs finite differences, for the
+    paper's 12 states and the 15 with the position rows (``d(dp)/dt = dv``: the position block sees the
+    velocity, misalignment and accelerometer-bias errors through their integrals).
 
     The remaining difference is the O(dt) gap between the continuous error model and the Euler-discretised
     nominal integrator (about 1 % on the second-order gyro-bias-to-velocity block, far less elsewhere).
@@ -71,19 +79,52 @@ def test_phi_matches_numerical_linearisation_of_the_strapdown():
     f, w, dt = _manoeuvre()
     s0 = StrapdownState(0.0, euler_to_C_b_n(0.05, -0.2, 1.0), np.array([1.5, -0.5, 0.3]), np.zeros(3))
     ba, bg = np.array([1e-3, -2e-3, 5e-4]), np.array([1e-4, -2e-4, 3e-4])
-    ekf = ErrorStateEkf(SensorConfig(), s0, bias_acc=ba, bias_gyro=bg)
+    ekf = ErrorStateEkf(SensorConfig(), s0, EkfOptions(position_states=position_states), bias_acc=ba, bias_gyro=bg)
     _, path = ekf.strapdown.propagate(s0, f, w, dt, ba, bg)
     Phi, Q = compose_transitions(*ekf.transition(path))
+    assert Phi.shape == (ekf.n_nav, ekf.n_nav) == ((15, 15) if position_states else (12, 12))
     num = _numerical_phi(ekf, s0, f, w, dt, ba, bg)
     for (i, j), (diff, size) in _block_errors(Phi, num).items():
         assert diff <= 0.015 * size + 1e-6, f"block ({i},{j}): |num - Phi| = {diff} vs |block| = {size}"
     assert np.allclose(Q, Q.T) and np.all(np.linalg.eigvalsh(Q) > -1e-20)
+    if position_states:
+        np.testing.assert_allclose(Phi[IP, IV], np.eye(3), atol=0.02)       # 1 s of velocity error
+        assert np.abs(Phi[IP, IE]).max() > 1.0                             # f x eps integrated twice
 
     # the paper's printed placement (bias columns swapped) fails the same check
     swapped = Phi.copy()
     swapped[:, [6, 7, 8, 9, 10, 11]] = Phi[:, [9, 10, 11, 6, 7, 8]]
     worst = max(d / max(s, 1e-12) for (i, j), (d, s) in _block_errors(swapped, num).items() if s > 1e-3)
     assert worst > 0.5
+
+
+def test_gravity_gradient_couples_position_into_velocity():
+    """60 s of straight, level cruise 300 m north-east of the origin, 20 m deep: the position columns of Phi
+    against finite differences of the strapdown with 50 m perturbations (big enough for the 1.5e-6 s^-2
+    horizontal and 3.1e-6 s^-2 vertical gradient to move the velocity by ~5e-3 m/s). ``Gamma dp`` in the
+    velocity row gives Phi_vp = Gamma T and Phi_pp = I + Gamma T^2 / 2; without it both would be wrong by
+    100 %; with the wrong sign by 200 %."""
+    cfg = SensorConfig()
+    n, dt = 6000, 0.01
+    C = euler_to_C_b_n(0.0, 0.0, 0.6)
+    s0 = StrapdownState(0.0, C, np.array([1.5, 1.0, 0.0]), np.array([200.0, 220.0, 20.0]))
+    ekf = ErrorStateEkf(cfg, s0)
+    g = ekf.strapdown.gravity_at(s0.p_n)
+    w_ie = ekf.strapdown.omega_ie_n
+    f = np.tile(C.T @ (2.0 * np.cross(w_ie, s0.v_n) - g), (n, 1))
+    w = np.tile(C.T @ w_ie, (n, 1))
+    steps = np.full(n, dt)
+    _, path = ekf.strapdown.propagate(s0, f, w, steps)
+    Phi, _ = compose_transitions(*ekf.transition(path))
+    num = _numerical_phi(ekf, s0, f, w, steps, np.zeros(3), np.zeros(3), pos_scale=50.0)
+    Gamma = ekf.gravity_gradient(s0.p_n)
+    T = n * dt
+    assert np.abs(np.diag(Gamma)).min() > 1e-6
+    # Coriolis turns the velocity error a little (2 w_ie T ~ 0.9 %) and the position error integrates it
+    np.testing.assert_allclose(num[IV, IP], Phi[IV, IP], atol=0.02 * np.abs(Gamma).max() * T)
+    np.testing.assert_allclose(num[IP, IP] - np.eye(3), Phi[IP, IP] - np.eye(3),
+                               atol=0.03 * np.abs(Gamma).max() * T ** 2 / 2)
+    np.testing.assert_allclose(Phi[IV, IP], Gamma * T, atol=0.02 * np.abs(Gamma).max() * T)
 
 
 def test_composed_transition_equals_step_by_step_covariance_propagation():

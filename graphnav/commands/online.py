@@ -165,6 +165,7 @@ def make_navigator(args, config, mission=None):
     ekf = method.family == "ekf"
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
     graph_options = None if ekf else estimator_options(method.name, None if args.lag is None else {"lag_s": args.lag})
+    ekf_options = estimator_options(method.name) if ekf else None   # e.g. the -12 methods' 12-state filter
     nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
         reorder_window_s=args.reorder_window)
     initial = None
@@ -174,7 +175,7 @@ def make_navigator(args, config, mission=None):
         from graphnav.core.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
-                    tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
+                    ekf_options=ekf_options, tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
     return nav, described
 
 
