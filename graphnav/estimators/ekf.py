@@ -329,6 +329,10 @@ class ErrorStateEkf:
             Phi = Phi + term
         M = Phi * self.qd
         Q = 0.5 * (M + np.swapaxes(M, 1, 2)) * dt[:, None, None]
+        if self.position_states:
+            # the paper's Q leaves the position block at zero, which with its velocity cross terms
+            # (q_a dt^2 / 2) is indefinite; the integrated white acceleration's own term q_a dt^3 / 3 fixes it
+            Q[:, IP, IP] += np.eye(3) * (self.qd[0] * dt ** 3 / 3.0)[:, None, None]
         return Phi, Q
 
     def predict(self, f_b: np.ndarray, omega_b: np.ndarray, dt: np.ndarray) -> None:
