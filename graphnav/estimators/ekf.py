@@ -227,6 +227,10 @@ class ErrorStateEkf:
         health: the :class:`graphnav.estimators.health.NisMonitor` fed with the NIS of every update (gated or not).
     """
 
+    #: the gravity gradient is re-evaluated when the position has moved this far, m (it changes by ~1e-9 s^-2
+    #: per km: g / R^2 horizontally; each evaluation is six ECEF round trips)
+    GAMMA_REUSE_M = 100.0
+
     def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
                  bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None, name: str = "EKF"):
         self.config = config
@@ -296,6 +300,7 @@ class ErrorStateEkf:
         # (t, r_n) at the first gated ping of the current rejection run with >= 3 measured beams:
         # r_n = C_hat v_b(fix) - v_hat, the NED velocity residual (see reacquire: re-levelling)
         self._run_start: tuple[float, np.ndarray] | None = None
+        self._gamma: tuple[np.ndarray, np.ndarray] | None = None     # (where, Gamma) of gravity_gradient
         # velocity corrections made by depth/fix updates since _run_start (relevel removes them from the residual)
         self._run_aiding_dv = np.zeros(3)
         #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
@@ -370,7 +375,10 @@ class ErrorStateEkf:
         """``Gamma = d g_n / d p_n`` (3,3), s^-2, of the Earth model at ``p_n`` (m, navigation frame): about
         ``diag(-g/R_M, -g/R_N, +2g/R)`` (:meth:`graphnav.core.earth.EarthModel.gravity_gradient_n`; zero for a
         flat Earth). With "true = estimate - error" the velocity error gains ``g(p_hat) - g(p) = Gamma dp``."""
-        return self.strapdown.earth.gravity_gradient_n(p_n)
+        p_n = np.asarray(p_n, float)
+        if self._gamma is None or np.max(np.abs(p_n - self._gamma[0])) > self.GAMMA_REUSE_M:
+            self._gamma = (p_n.copy(), self.strapdown.earth.gravity_gradient_n(p_n))
+        return self._gamma[1]
 
     def inflate(self, var_v: float, var_att: float) -> None:
         """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
