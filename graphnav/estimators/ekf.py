@@ -1,29 +1,37 @@
-"""Error-state EKF for INS/DVL: the paper's LC and TC baselines and their hybrid (beam-completer) variants.
+"""Error-state EKF for INS/DVL: the LC and TC baselines and their hybrid (beam-completer) variants, as the standard
+15-state filter (default) or the paper's 12-state filter (``EkfOptions(position_states=False)``; the registry's
+``-12`` methods, :mod:`graphnav.evaluation.methods`).
 
 State and conventions
 ---------------------
-Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n`` (integrated from velocity, no error
-state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error state (12, paper order)
-``dx = [dv_n, eps_n, db_a, db_g]`` with *every* error defined as estimate minus truth:
-``v = v_hat - dv``, ``b = b_hat - db`` and ``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of
-the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
+Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n``, accelerometer and gyro biases ``b_a``,
+``b_g``. Error state ``dx = [dv_n, eps_n, db_a, db_g, dp_n]`` (15; the paper's 12 are the first four blocks, in
+its order, and the paper's filter integrates the position without an error state) with *every* error defined as
+estimate minus truth: ``v = v_hat - dv``, ``p = p_hat - dp``, ``b = b_hat - db`` and
+``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of the estimated frame about NED axes; in GTSAM's
+right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``). The optional DVL error states (7) follow the
+navigation states (indices ``n_nav`` = 12 or 15 onwards: :attr:`ErrorStateEkf.i_scale`, ``i_bias``).
 
 Error model (the local-navigation-frame strapdown error equations of Groves, *Principles of GNSS, Inertial
 and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; derived here for the convention
 above and checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``). The frame is
 the Earth model's fixed tangent frame (:mod:`graphnav.core.earth`): no transport rate. The nominal state
-uses the gravity of its position; the gravity-position coupling ``Gamma dp`` (``Gamma`` ~ 1.5e-6 s^-2
-horizontally) has no place here because position is not an error state: it is ``Gamma`` times the position
-error, 1.5e-5 m/s^2 for 10 m::
+uses the gravity of its position, so a position error ``dp`` is a gravity error ``Gamma dp`` with
+``Gamma = d g_n / d p_n`` (:meth:`graphnav.core.earth.EarthModel.gravity_gradient_n`, about
+``diag(-g/R_M, -g/R_N, +2g/R)``: -1.5e-6 s^-2 horizontally, the Schuler coupling, +3.1e-6 s^-2 vertically, the
+unstable vertical channel that depth aiding holds)::
 
-    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
+    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + Gamma dp + C_b_n n_a
     d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
-    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb
+    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb,  d(dp)/dt = dv
 
 so, with ``w = [n_a, n_g, n_ab, n_gb]``::
 
-    F = [[F_vv, F_ve, -C, 0], [F_ev=0, F_ee, 0, -C], [0]*4, [0]*4]
-    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I]]
+    F = [[F_vv, F_ve, -C, 0, Gamma], [F_ev=0, F_ee, 0, -C, 0], [0]*5, [0]*5, [I, 0, 0, 0, 0]]
+    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0]*4]
+
+The 12-state filter drops the last row and column (``Gamma dp`` has no place without a position error: it is
+``Gamma`` times the position error, 1.5e-5 m/s^2 for 10 m).
 
 **Block placement against the paper.** ``../shared/docs/method.md`` prints the velocity row as
 ``[F_vv, F_ve, 0, C_b^n]`` and the attitude row as ``[F_ev, F_ee, C_b^n, 0]`` (and G with the velocity driven
@@ -36,7 +44,9 @@ error" for the biases; the paper's +C corresponds to the opposite bias-error sig
 
 Discretisation (the paper's): per IMU segment ``Phi = sum_{r<=order} (F dt)^r / r!`` and
 ``Q = 0.5 (Phi G Qc G^T + G Qc G^T Phi^T) dt``. With isotropic IMU noise ``G Qc G^T`` is the constant
-diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses. The per-segment pairs
+diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses; the 15-state filter adds
+the position block ``sa^2 dt^3 / 3`` of integrated white acceleration, without which the paper's ``Q`` is
+indefinite in the position rows. The per-segment pairs
 are composed between two DVL pings by a pairwise tree, ``(Phi_b, Q_b) o (Phi_a, Q_a) = (Phi_b Phi_a,
 Phi_b Q_a Phi_b^T + Q_b)``, which equals propagating P segment by segment.
 
@@ -51,6 +61,17 @@ Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``,
   bias), ``H = C_d_b^T H_LC``; noise per DVL axis from the ping or ``DvlSpec.velocity_noise_std``, plus the
   beam bias and scale inflation carried through the geometry as for beams.
 
+Position aiding (15-state filter only; :class:`graphnav.estimators.backends.EkfBackend` feeds it):
+
+- depth: ``z = p_D + n``, ``H = e_D`` on ``dp`` (:meth:`ErrorStateEkf.update_depth`; the pressure depth turned into
+  the tangent frame's down as the graph's depth factor does, sigma ``config.depth_noise_std``);
+- horizontal position fix: ``z = p_NE + n``, ``H = [I_2 0]`` on ``dp`` at the fix's sigma
+  (:meth:`ErrorStateEkf.update_position_ne`). The 12-state filter resets its horizontal position to the fix and
+  never uses depth (the paper's filter).
+
+Both are gated at ``gate_prob`` outside the DVL's health monitor; after ``EkfOptions.aiding_lockout`` gated in a
+row the component is re-initialised from the measurement, with a warning.
+
 The model is linear in the beams, so with four beams (and no DVL error states) an LC update with the WLS
 velocity and its covariance is identical to the TC update; LC and TC differ only when beams are missing.
 
@@ -64,7 +85,7 @@ their completer sigma^2.
 
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
 normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
-b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+b -= db, p -= dp) and reset of dx to zero (reset Jacobian taken as identity, first order).
 
 Health: every update's NIS (gated or not) goes to a :class:`graphnav.estimators.health.NisMonitor` (``info["health"]``:
 chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
@@ -214,7 +235,8 @@ def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.
 
 
 class ErrorStateEkf:
-    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC).
+    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC), and (15-state) by depth and
+    position fixes.
 
     Args:
         config: sensor configuration (noise model, gravity, Earth rate, DVL geometry).
