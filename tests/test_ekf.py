@@ -403,3 +403,44 @@ def test_horizontal_position_nees_over_seeds_is_inside_its_chi_square_band():
         nees.append(float(e @ np.linalg.solve(sol.cov_p_n[-1, :2, :2], e)))
     lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs
     assert lo < np.mean(nees) < hi, (np.mean(nees), lo, hi, nees)
+
+
+def test_navigator_fixes_update_the_15_state_filter_and_reset_the_paper_filter():
+    """Fixes every 10 s (sigma 2 m) on a 60 s mission started without a navigation origin: the first fix (on the
+    truth) only places the origin (no update); the later ones read 8 m north of the truth: the 15-state filter then pulls the position part of the
+    way towards each fix, with its sigma, while the 12-state filter jumps onto it."""
+    from graphnav.core.earth import ned_to_lla
+    from graphnav.estimators.graph import InitialState
+    from graphnav.estimators.navigator import Navigator
+    from graphnav.estimators.replay import first_ping_time, replay
+
+    m = simulate_mission(60.0, seed=2)
+    origin = m.gt.origin_lla
+    initial = dataclasses.replace(InitialState.from_ground_truth(m, first_ping_time(m)), origin_lla=None)
+    fix_t = np.arange(5.5, 60.0, 10.0)                    # between pings: keyframes of their own
+    # the first fix on the truth (it places the origin), the later ones 8 m north of it
+    p_fix = m.gt.at(fix_t)[0] + np.where(fix_t[:, None] > 10.0, [8.0, 0.0, 0.0], 0.0)
+    lla = ned_to_lla(p_fix, origin)
+    events = sorted([(k, t, p) for k, t, p in replay(m)]
+                    + [("position_fix", float(t), (float(a[0]), float(a[1]), 2.0)) for t, a in zip(fix_t, lla)],
+                    key=lambda e: (e[1], 0 if e[0] == "position_fix" else 1))
+    north = {}
+    for states in (15, 12):
+        nav = Navigator(m.config, "ekf", initial=initial, ekf_options=EkfOptions(position_states=states == 15))
+        out = []
+        for kind, t, payload in events:
+            out += getattr(nav, "add_" + kind)(t, *payload)
+        out += nav.finish()
+        fixes = [e for e in out if e.kind == "fix"]
+        assert len(fixes) == len(fix_t)
+        gt_n = m.gt.at(np.array([e.t for e in fixes]))[0][:, 0]
+        north[states] = np.array([e.p_n[0] for e in fixes]) - gt_n
+        if states == 15:
+            info = nav.backend.info
+            assert info["n_fix_origin"] == 1 and info["aiding"]["fix"]["used"] == len(fix_t) - 1
+            assert fixes[-1].cov_p_n[0, 0] < fixes[1].cov_p_n[0, 0] < 1.0 + 4.0
+    # the origin fix sits on the estimate (the origin is placed there)
+    assert abs(north[12][0]) < 0.5 and abs(north[15][0]) < 0.5
+    np.testing.assert_allclose(north[12][1:], 8.0, atol=0.5)             # reset onto the fix
+    assert np.all(north[15][1:] > 1.0) and np.all(north[15][1:] < 7.5)   # pulled part of the way
+    assert north[15][-1] > north[15][1]                                  # more with every fix
