@@ -13,7 +13,7 @@ from graphnav.core.beam_model import BeamModel
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.dvl import DvlGeometry
 from graphnav.estimators import keyframes as kfs
-from graphnav.estimators.ekf import IA, IE, IG, IV, N_STATES, EkfOptions, ErrorStateEkf
+from graphnav.estimators.ekf import IA, IE, IG, IP, IV, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.batch import StackedBeams
 from graphnav.estimators.graph.builder import BeamGroup
 from graphnav.estimators.ins import StrapdownState
@@ -161,9 +161,9 @@ def test_factor_batch_and_ekf_predict_the_same_beams_and_jacobians(dvl_errors):
     np.testing.assert_allclose(H[:, IA], 0.0, atol=0)
     if dvl_errors:
         np.testing.assert_allclose(A[:, 15:22], J_d_b, atol=1e-12)
-        np.testing.assert_allclose(H[:, N_STATES:], J_d_b, atol=1e-12)
+        np.testing.assert_allclose(H[:, ekf.n_nav:], J_d_b, atol=1e-12)
     else:
-        assert J_d_b is None and H.shape[1] == N_STATES
+        assert J_d_b is None and H.shape[1] == ekf.n_nav
 
 
 @pytest.mark.parametrize("dvl_errors", [False, True])
@@ -192,9 +192,10 @@ def test_ekf_h_matches_a_numerical_derivative_in_its_own_error_convention(dvl_er
             e.state.v_n = e.state.v_n - dx[IV]
             e.state.C_b_n = gtsam.Rot3.Expmap(-dx[IE]).matrix() @ e.state.C_b_n
             e.bias_gyro = e.bias_gyro - dx[IG]
+            e.state.p_n = e.state.p_n - dx[IP]                # no beam depends on the position
             if dvl_errors:
-                e.dvl_scale = e.dvl_scale - dx[12:15]
-                e.beam_bias = e.beam_bias - dx[15:19]
+                e.dvl_scale = e.dvl_scale - dx[e.i_scale]
+                e.beam_bias = e.beam_bias - dx[e.i_bias]
             hs.append(e.predicted_beams(omega)[0])
         numeric[:, i] = -(hs[0] - hs[1]) / (2 * EPS)         # dz = h(x_hat) - h(x_true(dx))
     np.testing.assert_allclose(H, numeric, atol=1e-7)

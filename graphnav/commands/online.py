@@ -169,6 +169,7 @@ def make_navigator(args, config, mission=None):
     # the per-epoch CSV and the stream print the position and attitude sigmas: ask the graph for them
     graph_options = None if ekf else estimator_options(
         method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
+    ekf_options = estimator_options(method.name) if ekf else None   # e.g. the -12 methods' 12-state filter
     nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
         reorder_window_s=args.reorder_window)
     initial = None
@@ -178,7 +179,7 @@ def make_navigator(args, config, mission=None):
         from graphnav.core.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
-                    tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
+                    ekf_options=ekf_options, tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
     return nav, described
 
 

@@ -17,11 +17,11 @@ import gtsam
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.earth import lla_to_ned
+from graphnav.core.earth import EarthModel, lla_to_ned
 from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
 from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
-from graphnav.estimators.graph.builder import GraphContext, graph_keyframe
+from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tangent_down
 from graphnav.estimators.graph.incremental import (
     EpochEstimate,
     FixedLagGraph,
@@ -130,9 +130,14 @@ class EkfBackend(_Aided):
     Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
     the ping (``tight``: one row per beam, else least squares from >= 3 beams; completed beams add their
     completer sigma^2; a DVL-frame velocity ping, TC or LC: :meth:`~graphnav.estimators.ekf.ErrorStateEkf.
-    update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The filter
-    integrates position from velocity without a position error state (the paper's mode), so a position fix resets
-    the horizontal position (counted in ``info["n_fixes"]``).
+    update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
+    filter (``EkfOptions.position_states``, the default) also updates with the keyframe's depth (the graph's
+    measurement: the pressure depth turned into the navigation frame's down by
+    :func:`~graphnav.estimators.graph.builder.tangent_down`, sigma ``EkfOptions.depth_sigma`` or
+    ``config.depth_noise_std``) and with a position fix at the fix's sigma. The paper's 12-state filter
+    integrates position from velocity without a position error state, ignores depth, and a position fix resets
+    the horizontal position. Fixes are counted in ``info["n_fixes"]``, depth and fix updates in
+    ``info["aiding"]``.
 
     Args:
         config: sensor configuration.
@@ -150,6 +155,9 @@ class EkfBackend(_Aided):
             options = dataclasses.replace(options, sigma_att0_rad=np.sqrt(np.diag(cov_eps)))
         if initial.cov_v_n is not None:
             options = dataclasses.replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
+        if initial.cov_pose is not None and options.position_states:   # body-frame translation -> NED
+            cov_p = C @ np.asarray(initial.cov_pose)[3:, 3:] @ C.T
+            options = dataclasses.replace(options, sigma_p0=np.sqrt(np.diag(cov_p)))
         state = StrapdownState(float(initial.t), C, np.asarray(initial.v_n, float).copy(),
                                np.asarray(initial.pose.translation(), float).copy())
         self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
@@ -161,7 +169,9 @@ class EkfBackend(_Aided):
         self.n_completed = 0
         self.n_imu_segments = 0
         self.n_imu_gaps = 0
+        self.n_fix_origin = 0
         self.update_times: list[float] = []
+        self._earth = EarthModel.from_config(config)
 
     def process(self, kf: Keyframe) -> EpochEstimate:
         start = time.perf_counter()
@@ -188,7 +198,9 @@ class EkfBackend(_Aided):
                 self.last_aided = ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
-        if kf.fix is not None:
+        if ekf.position_states:
+            self._update_position(kf)
+        elif kf.fix is not None:                   # the paper's filter: the fix replaces the position
             ekf.state.p_n[:2] = self.fix_ne(kf, ekf.state.p_n)
         s = ekf.state
         elapsed = time.perf_counter() - start
@@ -200,6 +212,21 @@ class EkfBackend(_Aided):
                              0 if ping is None else ping.n_regressed,
                              elapsed, cov_p_n=covs["cov_p_n"], cov_rot_b=covs["cov_rot_b"],
                              cov_bias=covs["cov_bias"])
+
+    def _update_position(self, kf: Keyframe) -> None:
+        """Depth and position-fix updates of the 15-state filter. A fix that places the navigation origin (no
+        origin from the initial state) equals the estimate by construction and carries no information: no
+        update (counted in ``info["n_fix_origin"]``)."""
+        ekf = self.ekf
+        if kf.depth is not None and ekf.options.use_depth:
+            ekf.update_depth(tangent_down(self._earth, kf.depth, ekf.state.p_n))
+        if kf.fix is not None:
+            places_origin = self.origin_lla is None
+            p_ne = self.fix_ne(kf, ekf.state.p_n)
+            if places_origin:
+                self.n_fix_origin += 1
+            else:
+                ekf.update_position_ne(p_ne, kf.fix.sigma_m)
 
     def _update_heading(self, yaw: float, sigma: float) -> None:
         """Yaw update: ``dz = yaw(C_hat) - yaw_meas``; with ``C = Exp(-eps) C_hat`` the row on the NED
@@ -223,7 +250,8 @@ class EkfBackend(_Aided):
     def info(self) -> dict:
         e = self.ekf
         return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
-                "n_velocity_updates": e.n_velocity_updates,
+                "n_velocity_updates": e.n_velocity_updates, "states": e.n_states,
+                "n_fix_origin": self.n_fix_origin, "aiding": {k: dict(v) for k, v in e.aiding.items()},
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),
                 "n_imu_segments": self.n_imu_segments, "update_s": list(self.update_times),
                 "regressed_screening": dict(e.regressed_screening), "health": e.health.summary()}

@@ -1,29 +1,37 @@
-"""Error-state EKF for INS/DVL: the paper's LC and TC baselines and their hybrid (beam-completer) variants.
+"""Error-state EKF for INS/DVL: the LC and TC baselines and their hybrid (beam-completer) variants, as the standard
+15-state filter (default) or the paper's 12-state filter (``EkfOptions(position_states=False)``; the registry's
+``-12`` methods, :mod:`graphnav.evaluation.methods`).
 
 State and conventions
 ---------------------
-Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n`` (integrated from velocity, no error
-state: the paper's mode), accelerometer and gyro biases ``b_a``, ``b_g``. Error state (12, paper order)
-``dx = [dv_n, eps_n, db_a, db_g]`` with *every* error defined as estimate minus truth:
-``v = v_hat - dv``, ``b = b_hat - db`` and ``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of
-the estimated frame about NED axes; in GTSAM's right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``).
+Nominal state: attitude ``C_b_n``, velocity ``v_n``, position ``p_n``, accelerometer and gyro biases ``b_a``,
+``b_g``. Error state ``dx = [dv_n, eps_n, db_a, db_g, dp_n]`` (15; the paper's 12 are the first four blocks, in
+its order, and the paper's filter integrates the position without an error state) with *every* error defined as
+estimate minus truth: ``v = v_hat - dv``, ``p = p_hat - dp``, ``b = b_hat - db`` and
+``C_b_n = Exp(-eps_n) C_hat_b_n`` (eps is the misalignment of the estimated frame about NED axes; in GTSAM's
+right-perturbation form ``C = C_hat Exp(-C_hat^T eps)``). The optional DVL error states (7) follow the
+navigation states (indices ``n_nav`` = 12 or 15 onwards: :attr:`ErrorStateEkf.i_scale`, ``i_bias``).
 
 Error model (the local-navigation-frame strapdown error equations of Groves, *Principles of GNSS, Inertial
 and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 14, and Savage; derived here for the convention
 above and checked against a numerical linearisation of the strapdown in ``tests/test_ekf.py``). The frame is
 the Earth model's fixed tangent frame (:mod:`graphnav.core.earth`): no transport rate. The nominal state
-uses the gravity of its position; the gravity-position coupling ``Gamma dp`` (``Gamma`` ~ 1.5e-6 s^-2
-horizontally) has no place here because position is not an error state: it is ``Gamma`` times the position
-error, 1.5e-5 m/s^2 for 10 m::
+uses the gravity of its position, so a position error ``dp`` is a gravity error ``Gamma dp`` with
+``Gamma = d g_n / d p_n`` (:meth:`graphnav.core.earth.EarthModel.gravity_gradient_n`, about
+``diag(-g/R_M, -g/R_N, +2g/R)``: -1.5e-6 s^-2 horizontally, the Schuler coupling, +3.1e-6 s^-2 vertically, the
+unstable vertical channel that depth aiding holds)::
 
-    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + C_b_n n_a
+    d(dv)/dt  = -2 [w_ie]x dv - [f_n]x eps - C_b_n db_a + Gamma dp + C_b_n n_a
     d(eps)/dt =               - [w_ie]x eps - C_b_n db_g + C_b_n n_g
-    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb
+    d(db_a)/dt = n_ab,  d(db_g)/dt = n_gb,  d(dp)/dt = dv
 
 so, with ``w = [n_a, n_g, n_ab, n_gb]``::
 
-    F = [[F_vv, F_ve, -C, 0], [F_ev=0, F_ee, 0, -C], [0]*4, [0]*4]
-    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I]]
+    F = [[F_vv, F_ve, -C, 0, Gamma], [F_ev=0, F_ee, 0, -C, 0], [0]*5, [0]*5, [I, 0, 0, 0, 0]]
+    G = [[C, 0, 0, 0], [0, C, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0]*4]
+
+The 12-state filter drops the last row and column (``Gamma dp`` has no place without a position error: it is
+``Gamma`` times the position error, 1.5e-5 m/s^2 for 10 m).
 
 **Block placement against the paper.** ``../shared/docs/method.md`` prints the velocity row as
 ``[F_vv, F_ve, 0, C_b^n]`` and the attitude row as ``[F_ev, F_ee, C_b^n, 0]`` (and G with the velocity driven
@@ -36,7 +44,9 @@ error" for the biases; the paper's +C corresponds to the opposite bias-error sig
 
 Discretisation (the paper's): per IMU segment ``Phi = sum_{r<=order} (F dt)^r / r!`` and
 ``Q = 0.5 (Phi G Qc G^T + G Qc G^T Phi^T) dt``. With isotropic IMU noise ``G Qc G^T`` is the constant
-diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses. The per-segment pairs
+diagonal ``diag(sa^2 I, sg^2 I, sab^2 I, sgb^2 I)`` (C C^T = I), which the code uses; the 15-state filter adds
+the position block ``sa^2 dt^3 / 3`` of integrated white acceleration, without which the paper's ``Q`` is
+indefinite in the position rows. The per-segment pairs
 are composed between two DVL pings by a pairwise tree, ``(Phi_b, Q_b) o (Phi_a, Q_a) = (Phi_b Phi_a,
 Phi_b Q_a Phi_b^T + Q_b)``, which equals propagating P segment by segment.
 
@@ -51,6 +61,17 @@ Measurements (DVL head velocity ``v_d_b = C_b_n^T v_n + (omega_b - b_g) x l_b``,
   bias), ``H = C_d_b^T H_LC``; noise per DVL axis from the ping or ``DvlSpec.velocity_noise_std``, plus the
   beam bias and scale inflation carried through the geometry as for beams.
 
+Position aiding (15-state filter only; :class:`graphnav.estimators.backends.EkfBackend` feeds it):
+
+- depth: ``z = p_D + n``, ``H = e_D`` on ``dp`` (:meth:`ErrorStateEkf.update_depth`; the pressure depth turned into
+  the tangent frame's down as the graph's depth factor does, sigma ``config.depth_noise_std``);
+- horizontal position fix: ``z = p_NE + n``, ``H = [I_2 0]`` on ``dp`` at the fix's sigma
+  (:meth:`ErrorStateEkf.update_position_ne`). The 12-state filter resets its horizontal position to the fix and
+  never uses depth (the paper's filter).
+
+Both are gated at ``gate_prob`` outside the DVL's health monitor; after ``EkfOptions.aiding_lockout`` gated in a
+row the component is re-initialised from the measurement, with a warning.
+
 The model is linear in the beams, so with four beams (and no DVL error states) an LC update with the WLS
 velocity and its covariance is identical to the TC update; LC and TC differ only when beams are missing.
 
@@ -64,7 +85,7 @@ their completer sigma^2.
 
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
 normalised innovation squared, closed-loop correction of the nominal state (v -= dv, C = Exp(-eps) C,
-b -= db) and reset of dx to zero (reset Jacobian taken as identity, first order).
+b -= db, p -= dp) and reset of dx to zero (reset Jacobian taken as identity, first order).
 
 Health: every update's NIS (gated or not) goes to a :class:`graphnav.estimators.health.NisMonitor` (``info["health"]``:
 chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
@@ -74,6 +95,7 @@ inflated) and says so (``scripts/lockout_demo.py``).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,15 +103,20 @@ from scipy.stats import chi2
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import skew, so3_exp_batch
 from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 from graphnav.estimators.health import HealthOptions, NisMonitor
 from graphnav.estimators.ins import Strapdown, StrapdownState
 
+#: the paper's error state [dv_n, eps_n, db_a, db_g]
 N_STATES = 12
+#: the standard form: the paper's states plus the position error dp_n
+N_STATES_15 = 15
 N_DVL_STATES = 7
 IV, IE, IA, IG = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
-IS, IB = slice(12, 15), slice(15, 19)           # optional DVL scale factor and beam bias states
+#: position error dp_n (15-state filter); the optional DVL error states follow the navigation states
+IP = slice(12, 15)
 
 
 @dataclass
@@ -97,6 +124,18 @@ class EkfOptions:
     """Tuning of :class:`ErrorStateEkf`. None means "from the mission's :class:`SensorConfig`".
 
     Attributes:
+        position_states: the standard 15-state filter (True, the default): the position error ``dp_n`` is
+            a state, coupled through ``d(dp)/dt = dv`` and the gravity gradient, so depth readings and
+            position fixes are measurement updates. False: the paper's 12-state filter (position integrated
+            from velocity; a fix resets the horizontal position; no depth), kept to reproduce its numbers
+            (the registry's ``-12`` methods).
+        sigma_p0: initial position sigma per NED axis, m (15-state only; the graph's first-keyframe prior).
+        use_depth: update with the depth sensor (15-state only; the paper's filter never uses depth).
+        depth_sigma: depth noise, m (None: ``config.depth_noise_std``, as the graph's depth factor).
+        aiding_lockout: a depth reading or a position fix is gated like a DVL ping (``gate_prob``, its own
+            dof); after this many gated in a row of one kind, that position component is re-initialised
+            from the measurement (with a warning): a long dead-reckoned stretch can leave the filter more
+            confident than its real error, and the gate must not then refuse every later fix.
         lever_arm: model the DVL lever arm (None: on when ``config.dvl.lever_arm_b`` is non-zero).
         gating: reject updates whose normalised innovation squared exceeds ``chi2.ppf(gate_prob, dof)``.
             On by default (not in the paper): on the simulated 300 s missions (seeds 1-3, navigation/tactical/
@@ -147,6 +186,11 @@ class EkfOptions:
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
     """
 
+    position_states: bool = True
+    sigma_p0: float | np.ndarray = 1.0
+    use_depth: bool = True
+    depth_sigma: float | None = None
+    aiding_lockout: int = 3
     lever_arm: bool | None = None
     gating: bool = True
     gate_prob: float = 0.9999
@@ -191,7 +235,8 @@ def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.
 
 
 class ErrorStateEkf:
-    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC).
+    """Error-state EKF on a strapdown INS, aided by DVL velocity (LC) or beams (TC), and (15-state) by depth and
+    position fixes.
 
     Args:
         config: sensor configuration (noise model, gravity, Earth rate, DVL geometry).
@@ -204,9 +249,14 @@ class ErrorStateEkf:
         health: the :class:`graphnav.estimators.health.NisMonitor` fed with the NIS of every update (gated or not).
     """
 
+    #: the gravity gradient is re-evaluated when the position has moved this far, m (it changes by ~1e-9 s^-2
+    #: per km: g / R^2 horizontally; each evaluation is six ECEF round trips)
+    GAMMA_REUSE_M = 100.0
+
     def __init__(self, config: SensorConfig, state: StrapdownState, options: EkfOptions | None = None,
                  bias_acc: np.ndarray | None = None, bias_gyro: np.ndarray | None = None, name: str = "EKF"):
         self.config = config
+        self.name = name
         self.options = opts = options or EkfOptions()
         self.strapdown = Strapdown.from_config(config)
         self.state = state.copy()
@@ -217,8 +267,16 @@ class ErrorStateEkf:
         sbg0 = imu.gyro_bias_sigma if opts.sigma_bg0 is None else opts.sigma_bg0
         variances = [np.full(3, opts.sigma_v0 ** 2), np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
                      np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]
+        #: whether the position error is a state (15-state filter) and the number of navigation states, where
+        #: the optional DVL error states start
+        self.position_states = bool(opts.position_states)
+        self.n_nav = N_STATES_15 if self.position_states else N_STATES
+        if self.position_states:
+            variances.append(np.broadcast_to(np.asarray(opts.sigma_p0, float) ** 2, (3,)))
+        self.i_scale = slice(self.n_nav, self.n_nav + 3)
+        self.i_bias = slice(self.n_nav + 3, self.n_nav + N_DVL_STATES)
         dvl = config.dvl
-        self.n_states = N_STATES + (N_DVL_STATES if opts.dvl_error_states else 0)
+        self.n_states = self.n_nav + (N_DVL_STATES if opts.dvl_error_states else 0)
         if opts.dvl_error_states:
             ss0 = (max(float(np.max(np.abs(dvl.scale_factor))), 0.005) if opts.sigma_dvl_scale0 is None
                    else opts.sigma_dvl_scale0)
@@ -233,6 +291,8 @@ class ErrorStateEkf:
         k = opts.imu_noise_scale
         self.qd = np.repeat([(k * imu.accel_noise_density) ** 2, (k * imu.gyro_noise_density) ** 2,
                              imu.accel_bias_rw ** 2, imu.gyro_bias_rw ** 2], 3)
+        if self.position_states:      # no noise drives the position directly: it integrates the velocity
+            self.qd = np.r_[self.qd, np.zeros(3)]
         geometry = DvlGeometry.from_spec(config.dvl)
         self.T_b = geometry.T_b
         self.beam_model = geometry.beam_model(dvl_errors=opts.dvl_error_states)
@@ -262,27 +322,44 @@ class ErrorStateEkf:
         # (t, r_n) at the first gated ping of the current rejection run with >= 3 measured beams:
         # r_n = C_hat v_b(fix) - v_hat, the NED velocity residual (see reacquire: re-levelling)
         self._run_start: tuple[float, np.ndarray] | None = None
+        self._gamma: tuple[np.ndarray, np.ndarray] | None = None     # (where, Gamma) of gravity_gradient
+        # velocity corrections made by depth/fix updates since _run_start (relevel removes them from the residual)
+        self._run_aiding_dv = np.zeros(3)
         #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
         self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0}
+        #: depth and position-fix updates (15-state): used, gated, re-initialised after ``aiding_lockout``
+        self.aiding = {kind: {"used": 0, "gated": 0, "reset": 0} for kind in ("depth", "fix")}
+        self._aiding_run = {"depth": 0, "fix": 0}
+        self.depth_sigma = config.depth_noise_std if opts.depth_sigma is None else float(opts.depth_sigma)
 
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
-        """Per-segment (Phi (n,12,12), Q (n,12,12)) along a :class:`~graphnav.estimators.ins.PropagationPath`."""
-        n, dt, C = len(path.dt), path.dt, path.C_b_n
-        F = np.zeros((n, N_STATES, N_STATES))
+        """Per-segment (Phi (n,k,k), Q (n,k,k)), k = 12 or 15 navigation states, along a
+        :class:`~graphnav.estimators.ins.PropagationPath`. The 15-state rows: ``d(dp)/dt = dv`` and the gravity
+        gradient ``Gamma dp`` in the velocity row, ``Gamma`` taken at the path's start (it changes by
+        ~1e-9 s^-2 per km)."""
+        n, dt, C, k = len(path.dt), path.dt, path.C_b_n, self.n_nav
+        F = np.zeros((n, k, k))
         F[:, IV, IV] = -2.0 * self._skew_wie
         F[:, IV, IE] = -skew(path.f_n)
         F[:, IV, IA] = -C
         F[:, IE, IE] = -self._skew_wie
         F[:, IE, IG] = -C
+        if self.position_states and n:
+            F[:, IV, IP] = self.gravity_gradient(path.p_n[0])
+            F[:, IP, IV] = np.eye(3)
         A = F * dt[:, None, None]
-        Phi = np.broadcast_to(np.eye(N_STATES), A.shape) + A
+        Phi = np.broadcast_to(np.eye(k), A.shape) + A
         term = A
         for r in range(2, self.options.phi_order + 1):
             term = term @ A / r
             Phi = Phi + term
         M = Phi * self.qd
         Q = 0.5 * (M + np.swapaxes(M, 1, 2)) * dt[:, None, None]
+        if self.position_states:
+            # the paper's Q leaves the position block at zero, which with its velocity cross terms
+            # (q_a dt^2 / 2) is indefinite; the integrated white acceleration's own term q_a dt^3 / 3 fixes it
+            Q[:, IP, IP] += np.eye(3) * (self.qd[0] * dt ** 3 / 3.0)[:, None, None]
         return Phi, Q
 
     def predict(self, f_b: np.ndarray, omega_b: np.ndarray, dt: np.ndarray) -> None:
@@ -296,10 +373,10 @@ class ErrorStateEkf:
             return
         self.state, path = self.strapdown.propagate(self.state, f_b, omega_b, dt, self.bias_acc, self.bias_gyro)
         Phi, Q = compose_transitions(*self.transition(path))
-        P, n = self.P, N_STATES
+        P, n = self.P, self.n_nav
         if self.n_states == n:
             self.P = Phi @ P @ Phi.T + Q
-        else:   # the DVL error states are random constants: Phi = blockdiag(Phi_12, I), Q = blockdiag(Q_12, 0)
+        else:   # the DVL error states are random constants: Phi = blockdiag(Phi_nav, I), Q = blockdiag(Q_nav, 0)
             cross = Phi @ P[:n, n:]
             P[:n, :n] = Phi @ P[:n, :n] @ Phi.T + Q
             P[:n, n:] = cross
@@ -312,7 +389,18 @@ class ErrorStateEkf:
         ``cov_p_n`` (NED, m^2; None without position error states)."""
         P, C = self.P, self.state.C_b_n
         bias = np.block([[P[IA, IA], P[IA, IG]], [P[IG, IA], P[IG, IG]]])
-        return {"cov_v_n": P[IV, IV].copy(), "cov_rot_b": C.T @ P[IE, IE] @ C, "cov_bias": bias, "cov_p_n": None}
+        cov_p_n = P[IP, IP].copy() if self.position_states else None
+        return {"cov_v_n": P[IV, IV].copy(), "cov_rot_b": C.T @ P[IE, IE] @ C, "cov_bias": bias,
+                "cov_p_n": cov_p_n}
+
+    def gravity_gradient(self, p_n: np.ndarray) -> np.ndarray:
+        """``Gamma = d g_n / d p_n`` (3,3), s^-2, of the Earth model at ``p_n`` (m, navigation frame): about
+        ``diag(-g/R_M, -g/R_N, +2g/R)`` (:meth:`graphnav.core.earth.EarthModel.gravity_gradient_n`; zero for a
+        flat Earth). With "true = estimate - error" the velocity error gains ``g(p_hat) - g(p) = Gamma dp``."""
+        p_n = np.asarray(p_n, float)
+        if self._gamma is None or np.max(np.abs(p_n - self._gamma[0])) > self.GAMMA_REUSE_M:
+            self._gamma = (p_n.copy(), self.strapdown.earth.gravity_gradient_n(p_n))
+        return self._gamma[1]
 
     def inflate(self, var_v: float, var_att: float) -> None:
         """Add variance per axis to the velocity ((m/s)^2) and misalignment (rad^2) errors, e.g. over an IMU
@@ -341,14 +429,14 @@ class ErrorStateEkf:
 
     def _predicted(self, model, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         C = self.state.C_b_n
-        dvl = np.r_[self.dvl_scale, self.beam_bias] if self.n_states > N_STATES else None
+        dvl = np.r_[self.dvl_scale, self.beam_bias] if self.n_states > self.n_nav else None
         p = model.predict(C, self.state.v_n, omega_b, self.bias_gyro, self.lever_arm_b, dvl)
         H = np.zeros((len(p.h), self.n_states))
         H[:, IV] = p.d_v()
         H[:, IE] = p.d_rot() @ C.T
         H[:, IG] = p.d_gyro_bias()
         if dvl is not None:
-            H[:, N_STATES:] = p.d_dvl_errors()
+            H[:, self.n_nav:] = p.d_dvl_errors()
         return p.h, H
 
     def beam_variance(self, beams: np.ndarray) -> np.ndarray:
@@ -392,6 +480,13 @@ class ErrorStateEkf:
             self.n_gated += 1
             return False
         self._run_start = None                     # the nominal state is updated: a new run starts afresh
+        self._apply(PHt, S, S_inv_dz, H, R)
+        self.n_updates += 1
+        return True
+
+    def _apply(self, PHt: np.ndarray, S: np.ndarray, S_inv_dz: np.ndarray, H: np.ndarray, R: np.ndarray,
+               ) -> np.ndarray:
+        """Joseph-form covariance update and closed-loop correction of the nominal state; returns dx."""
         K = np.linalg.solve(S, PHt.T).T           # S symmetric: K = P H^T S^-1
         dx = PHt @ S_inv_dz
         IKH = np.eye(self.n_states) - K @ H
@@ -402,11 +497,77 @@ class ErrorStateEkf:
         self.state.C_b_n = so3_exp_batch(-dx[IE][None])[0] @ self.state.C_b_n
         self.bias_acc = self.bias_acc - dx[IA]
         self.bias_gyro = self.bias_gyro - dx[IG]
-        if self.n_states > N_STATES:
-            self.dvl_scale = self.dvl_scale - dx[IS]
-            self.beam_bias = self.beam_bias - dx[IB]
-        self.n_updates += 1
+        if self.position_states:
+            self.state.p_n = self.state.p_n - dx[IP]
+        if self.n_states > self.n_nav:
+            self.dvl_scale = self.dvl_scale - dx[self.i_scale]
+            self.beam_bias = self.beam_bias - dx[self.i_bias]
+        return dx
+
+    # --- position aiding (15-state filter) ------------------------------------------------------------
+    def update_depth(self, down_m: float, sigma_m: float | None = None) -> bool:
+        """Update with a depth reading: ``z = p_D + n``, ``down_m`` the navigation frame's down of the reading
+        (m; :func:`graphnav.estimators.graph.builder.tangent_down` turns a pressure depth into it), noise
+        ``sigma_m`` (None: :attr:`depth_sigma`). ``dz = p_hat_D - z``, ``H = e_D`` on ``dp_n``. Returns whether
+        it entered (not gated). Only the 15-state filter has a position error to update."""
+        sigma = self.depth_sigma if sigma_m is None else float(sigma_m)
+        return self._update_position("depth", np.array([2]), np.array([float(down_m)]), sigma)
+
+    def update_position_ne(self, p_ne: np.ndarray, sigma_m: float) -> bool:
+        """Update with a horizontal position fix ``p_ne`` (2,) m (north, east in the navigation frame), one-sigma
+        ``sigma_m`` per axis: ``dz = p_hat_NE - p_ne``, ``H = [I_2 0]`` on ``dp_n``. Returns whether it entered
+        (not gated). Only the 15-state filter; the paper's 12-state filter resets the position instead."""
+        return self._update_position("fix", np.array([0, 1]), np.asarray(p_ne, float).reshape(2), float(sigma_m))
+
+    def _update_position(self, kind: str, axes: np.ndarray, z: np.ndarray, sigma: float) -> bool:
+        """Position components ``axes`` (NED indices) measured as ``z`` (m) with white noise ``sigma`` (m).
+
+        Gated with ``gate_prob`` but kept out of the DVL's health monitor and lockout logic (a depth reading
+        accepted at every ping must not hide a run of rejected pings); after ``aiding_lockout`` gated in a row
+        the components are re-initialised from the measurement (:meth:`_reset_position`)."""
+        if not self.position_states:
+            raise ConfigError(f"{self.name}: the paper's 12-state filter has no position error state for a {kind} "
+                              "update (EkfOptions.position_states=True)")
+        if not (np.all(np.isfinite(z)) and np.isfinite(sigma) and sigma > 0):
+            raise DataError(f"{self.name}: {kind} update at t={self.state.t:.3f} s needs a finite value and a "
+                            f"positive sigma, got {z} m, sigma {sigma} m")
+        rows = IP.start + axes
+        H = np.zeros((len(axes), self.n_states))
+        H[np.arange(len(axes)), rows] = 1.0
+        R = np.eye(len(axes)) * sigma ** 2
+        dz = self.state.p_n[axes] - z
+        PHt = self.P @ H.T
+        S = H @ PHt + R
+        S_inv_dz = np.linalg.solve(S, dz)
+        nis = float(dz @ S_inv_dz)
+        counts = self.aiding[kind]
+        if self.options.gating and not nis <= self._gate[len(dz)]:
+            counts["gated"] += 1
+            self._aiding_run[kind] += 1
+            if self._aiding_run[kind] >= self.options.aiding_lockout:
+                self._reset_position(kind, axes, z, sigma)
+            return False
+        self._aiding_run[kind] = 0
+        dx = self._apply(PHt, S, S_inv_dz, H, R)
+        if self._run_start is not None:
+            self._run_aiding_dv = self._run_aiding_dv - dx[IV]
+        counts["used"] += 1
         return True
+
+    def _reset_position(self, kind: str, axes: np.ndarray, z: np.ndarray, sigma: float) -> None:
+        """Re-initialise position components ``axes`` from a measurement ``z`` the gate keeps rejecting: the
+        new error is the measurement's own, independent of the other states (its rows of P are cleared)."""
+        moved = float(np.linalg.norm(self.state.p_n[axes] - z))
+        self.state.p_n[axes] = z
+        rows = IP.start + axes
+        self.P[rows, :] = 0.0
+        self.P[:, rows] = 0.0
+        self.P[rows, rows] = sigma ** 2
+        self.aiding[kind]["reset"] += 1
+        self._aiding_run[kind] = 0
+        warnings.warn(f"{self.name}: {self.options.aiding_lockout} {kind} measurements in a row rejected by the gate "
+                      f"at t={self.state.t:.3f} s; position re-initialised from the {kind} (moved by {moved:.3g} m)",
+                      RuntimeWarning, stacklevel=4)
 
     def update_lc_beams(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None,
                         ) -> bool:
@@ -498,6 +659,7 @@ class ErrorStateEkf:
             run_fix = fix if fix is not None else self._velocity_fix(beams, sigma_extra)
             if run_fix is not None:
                 self._run_start = (self.state.t, self._residual_n(run_fix[0], omega_b))
+                self._run_aiding_dv = np.zeros(3)
         if not self._locked_out():
             return False
         if self.reacquire(beams, omega_b, sigma_extra, fix=fix).startswith("velocity re-initialised"):
@@ -554,7 +716,8 @@ class ErrorStateEkf:
         if T < 1.0:
             return None
         g_n = self.strapdown.gravity_at(self.state.p_n)
-        U = r_n - r0 + g_n * T
+        # depth/fix updates during the run moved v_hat by _run_aiding_dv: the residual without them
+        U = r_n + self._run_aiding_dv - r0 + g_n * T
         axis = np.cross(g_n, U)
         angle = float(np.arctan2(np.linalg.norm(axis), g_n @ U))
         if angle == 0.0:

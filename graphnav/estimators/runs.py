@@ -9,8 +9,9 @@ vehicle runs. The runners take objects and flags, not method names (the names li
   ISAM2 over the whole mission, ``mode="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and
   time per update). Output stamps are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps
   (``info["kind"]``).
-- :func:`run_ekf`: the paper's error-state EKF, tightly (``tight=True``: TC) or loosely (LC) coupled, with a
-  completer for the hybrid variants; output at every DVL ping.
+- :func:`run_ekf`: the error-state EKF, tightly (``tight=True``: TC) or loosely (LC) coupled, with a
+  completer for the hybrid variants; output at every DVL ping. The 15-state filter (default) is fed the depth
+  sensor; the paper's 12-state filter (``EkfOptions(position_states=False)``) is not, as in the paper.
 
 ``name`` only labels the solution and the messages. The initial state is the ground truth at the start when
 the mission has one, else the Navigator aligns from the sensors.
@@ -209,8 +210,10 @@ def ekf_label(tight: bool = True, completer=None) -> str:
 def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: EkfOptions | None = None,
             initial=None, init: str = "auto", aligner_kwargs: dict | None = None,
             name: str | None = None) -> NavSolution:
-    """Run the paper's error-state EKF over a recorded mission and return the solution at every DVL ping (post
-    update): a sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``).
+    """Run the error-state EKF over a recorded mission and return the solution at every DVL ping (post update): a
+    sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``). The
+    mission's depth is replayed for the 15-state filter (``options.position_states`` and ``use_depth``), not
+    for the paper's 12-state filter.
 
     Args:
         mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
@@ -218,7 +221,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         completer: fills the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
             the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the completed beams enter
             with their variance inflated by the completer's sigma^2. None: measured beams only.
-        options: :class:`EkfOptions`.
+        options: :class:`EkfOptions` (default: the 15-state filter).
         initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.graph.InitialState`
             with its stamp); default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the paper (the
             comparison is about the outage, not the alignment; the initial covariance of :class:`EkfOptions`
@@ -229,9 +232,12 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         name: the solution's label, also used in messages (default :func:`ekf_label`).
 
     Returns:
-        :class:`NavSolution` with ``cov_v_n``, biases, ``runtime_s`` (wall time) and ``info`` counters.
+        :class:`NavSolution` with ``cov_v_n``, ``cov_rot_b``, ``cov_bias`` (and ``cov_p_n`` from the 15-state
+        filter), biases, ``runtime_s`` (wall time) and ``info`` counters.
     """
     wall = time.perf_counter()
+    options = options or EkfOptions()
+    depth = options.position_states and options.use_depth and mission.depth is not None
     name = name or ekf_label(tight, completer)
     if isinstance(initial, StrapdownState):
         initial = InitialState(gtsam.Pose3(gtsam.Rot3(initial.C_b_n), initial.p_n), initial.v_n, t=initial.t)
@@ -241,7 +247,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
     initial = initial_state(mission, initial, init, t0)
     nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
                     aligner_kwargs=aligner_kwargs, name=f"EKF {name}")
-    estimates = [e for e in feed_mission(nav, mission, depth=False) if e.kind == "dvl"]
+    estimates = [e for e in feed_mission(nav, mission, depth=depth) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
     sol = solution_from_estimates(name, estimates)

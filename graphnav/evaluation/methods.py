@@ -8,6 +8,7 @@ Method names (used in results, reports and on the command line); each is a :clas
 method             estimator  completer
 =================  =========  ==========================================================
 LC, TC             EKF        none (fewer than 3 beams: LC coasts on the IMU)
+LC-12, TC-12       EKF        none; the paper's 12-state filter (see below)
 Average-LC/-TC     EKF        :class:`graphnav.nets.AverageCompleter`
 HNLC, HNTC         EKF        the network completer for the scenario
 Graph-TC           graph      none (measured beams only, ISAM2 filtered output)
@@ -19,7 +20,17 @@ Graph-MP           graph      none; model-aided motion prior (body-velocity rand
 HNTC-IMU           EKF        the IMU-aware completer (beam-only where it cannot serve)
 Graph-HNI          graph      the IMU-aware completer (ISAM2 filtered output)
 Graph-HNI-batch    graph      the IMU-aware completer (batch smoothed)
+Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
+Average-TC-12,
+HNLC-12, HNTC-12
 =================  =========  ==========================================================
+
+The EKF methods run the standard 15-state error-state filter (velocity, attitude, both biases and the position
+error; :mod:`graphnav.estimators.ekf`), updated with the DVL, the depth sensor and position fixes. The ``-12``
+methods are the paper's 12-state filter (no position error state, no depth; a position fix resets the
+position), ``EkfOptions(position_states=False)`` in their :attr:`Method.defaults`: they reproduce the paper's
+numbers, are runnable by name and are left out of the default method list of ``graphnav bench``
+(:attr:`Method.reproduction`). A ``-12`` method is compared with the ``-12`` baseline and average estimator.
 
 The estimators themselves take objects and flags, not names (:func:`graphnav.estimators.runs.run_ekf`:
 ``tight``, ``completer``; :func:`graphnav.estimators.runs.run_graph`: ``completer``, ``batch``); a record says
@@ -89,6 +100,10 @@ GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", *
 #: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
 #: pulled the filter to 0.53-0.78 m/s window VRMSE (scripts/start_sweep.py).
 EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
+#: The paper's 12-state EKF (the ``-12`` methods): no position error state, no depth, a fix resets the position.
+EKF_PAPER_OPTIONS: Mapping = types.MappingProxyType({"position_states": False})
+#: Name suffix of the paper's 12-state EKF methods.
+PAPER_SUFFIX = "-12"
 
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network", "imu-network")
@@ -114,6 +129,8 @@ class Method:
         description: one line for tables and ``--help``.
         experimental: runnable by name, but left out of the default method list of ``graphnav bench`` and
             the start sweep (:data:`BENCH_METHODS`) because a measurement says it should not be used as is.
+        reproduction: the paper's 12-state EKF (``-12``), kept to reproduce its numbers: runnable by name, left
+            out of :data:`BENCH_METHODS`.
     """
 
     name: str
@@ -124,6 +141,7 @@ class Method:
     defaults: Mapping = dataclasses.field(default_factory=lambda: types.MappingProxyType({}), hash=False)
     description: str = ""
     experimental: bool = False
+    reproduction: bool = False
 
     def __post_init__(self):
         if self.family not in ("ekf", "graph") or self.completer not in COMPLETER_KINDS:
@@ -131,21 +149,27 @@ class Method:
                               f"{COMPLETER_KINDS}, got {self.family!r}, {self.completer!r}")
 
     @property
+    def _suffix(self) -> str:
+        return PAPER_SUFFIX if self.reproduction else ""
+
+    @property
     def baseline(self) -> str:
-        """The classical baseline the method is compared with: LC for the loosely coupled family, else TC."""
-        return "TC" if self.tight else "LC"
+        """The classical baseline the method is compared with: LC for the loosely coupled family, else TC
+        (LC-12 / TC-12 for the paper's 12-state methods)."""
+        return ("TC" if self.tight else "LC") + self._suffix
 
     @property
     def average(self) -> str:
-        """The average-estimator method the method is compared with (Average-LC or Average-TC)."""
-        return "Average-TC" if self.tight else "Average-LC"
+        """The average-estimator method the method is compared with (Average-LC or Average-TC, with ``-12`` for
+        the paper's 12-state methods)."""
+        return ("Average-TC" if self.tight else "Average-LC") + self._suffix
 
 
-_RECORDS = (
+_EKF_RECORDS = (
     Method("LC", "ekf", tight=False, completer="none",
-           description="the paper's loosely coupled EKF: a velocity fix from 3+ measured beams, else it coasts"),
+           description="loosely coupled 15-state EKF: a velocity fix from 3+ measured beams (else it coasts), depth"),
     Method("TC", "ekf", tight=True, completer="none",
-           description="the paper's tightly coupled EKF: every measured beam is a measurement"),
+           description="tightly coupled 15-state EKF: every measured beam is a measurement, depth"),
     Method("Average-LC", "ekf", tight=False, completer="average", defaults=EKF_HYBRID_OPTIONS,
            description="LC with the missing beams filled in by the average estimator, screened against the filter"),
     Method("Average-TC", "ekf", tight=True, completer="average", defaults=EKF_HYBRID_OPTIONS,
@@ -154,6 +178,18 @@ _RECORDS = (
            description="LC with the network's regressed beams (the paper's hybrid), screened against the filter"),
     Method("HNTC", "ekf", tight=True, completer="network", defaults=EKF_HYBRID_OPTIONS,
            description="TC with the network's regressed beams (the paper's hybrid), screened against the filter"),
+)
+
+
+def _paper_filter(m: Method) -> Method:
+    """The record of EKF method ``m`` in the paper's 12-state filter (name ``m.name + PAPER_SUFFIX``)."""
+    return Method(m.name + PAPER_SUFFIX, "ekf", tight=m.tight, completer=m.completer, reproduction=True,
+                  defaults=types.MappingProxyType({**m.defaults, **EKF_PAPER_OPTIONS}),
+                  description=f"{m.name} in the paper's 12-state EKF (no position error state, no depth)")
+
+
+_RECORDS = (
+    *_EKF_RECORDS,
     Method("Graph-TC", "graph", tight=True, completer="none",
            description="factor graph (ISAM2, filtered output), measured beams only"),
     Method("Graph-HN", "graph", tight=True, completer="network", defaults=GRAPH_HN_OPTIONS,
@@ -172,6 +208,7 @@ _RECORDS = (
            experimental=True),
     Method("Graph-HNI-batch", "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
+    *(_paper_filter(m) for m in _EKF_RECORDS),
 )
 
 #: Every method by name, in the order tables and plots show them (iterating gives the names).
@@ -179,7 +216,7 @@ METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECO
 #: The default method list of ``graphnav bench`` and the start sweep: every method but the experimental ones
 #: (the IMU-aware completer's: with the MEMS IMU they are worse than Graph-TC / TC -- Graph-HNI 0.386 vs 0.317
 #: m/s in 120 s 3-missing windows on its validation trajectories 3, 5, 6; docs/decisions/regressed-beams.md).
-BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not m.experimental)
+BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))
 #: The EKF methods and the graph methods, in table order.
 EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")
 GRAPH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "graph")
