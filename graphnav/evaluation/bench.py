@@ -65,7 +65,7 @@ RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_s
 #: A window VRMSE (m/s) at or above this is a divergence, not an accuracy: it exceeds the speed of the
 #: vehicles the benchmark covers (Snapir: 1-2.5 m/s), so the estimate carries no information about the
 #: velocity. Healthy runs stay far below it: the worst window of any method in the shared-data benchmark
-#: and in ``scripts/start_sweep.py`` is < 0.5 m/s; pure inertial through a 30 s outage on the degraded
+#: and in ``graphnav start-sweep`` is < 0.5 m/s; pure inertial through a 30 s outage on the degraded
 #: (tactical) IMU stays below 1 m/s.
 DIVERGED_VRMSE_MPS = 3.0
 

@@ -87,7 +87,7 @@ GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", *
 #: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of completed beams
 #: against the filter's own prediction (graphnav.estimators.ekf.ErrorStateEkf.screen_regressed). Without it a
 #: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
-#: pulled the filter to 0.53-0.78 m/s window VRMSE (scripts/start_sweep.py).
+#: pulled the filter to 0.53-0.78 m/s window VRMSE (graphnav start-sweep).
 EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
 
 #: The completer kinds a method can have.

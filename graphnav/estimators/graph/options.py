@@ -46,7 +46,7 @@ Chosen defaults and why:
   100 s); ``scripts/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above
   at 1.8e-4..1.2e-3 m/s/sqrt(s) (median 5.9e-4; the GT's slow error is in it too). **On by default**
   (docs/decisions/consistency.md): on the ten shared trajectories they lower the window VRMSE of Graph-TC, Graph-HN and Graph-HN-batch in
-  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``scripts/consistency.py``.
+  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``graphnav consistency``.
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
