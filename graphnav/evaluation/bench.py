@@ -255,7 +255,7 @@ def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
              "Band: 95 % chi-square band of a mission mean, counting one independent epoch per 10 s "
              "(errors are correlated in time; `graphnav.evaluation.consistency`). `+GT`: NEES with the ground truth's own "
              "velocity error added to the estimator's covariance (A-KIT: identified by "
-             "`scripts/identify_noise.py`, an upper bound of the GT's error); `GT share`: the part of the "
+             "`experiments/identify_noise.py`, an upper bound of the GT's error); `GT share`: the part of the "
              "NEES that the GT's error explains, `1 - NEES(+GT) / NEES`. The reference at an estimate's epoch is the "
              "nearest GT sample carried to it by the IMU (a 1 Hz GT linearly interpolated misses the motion "
              "within the second: 0.1 m/s in waves at the surface); `interp. GT`: the mission NEES against the "

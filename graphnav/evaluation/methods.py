@@ -65,7 +65,7 @@ NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "n
 #: Screening of regressed beams against the estimator's own prediction (graph: graphnav.estimators.graph.regressed;
 #: EKF: ErrorStateEkf.screen_regressed): their error is taken as correlated with the prediction's (rho = 0.5: both
 #: come from the same past pings) and their sigma is raised to what the innovation shows. Measured with
-#: scripts/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
+#: experiments/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
 REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
 #: The motion prior's settings (Graph-MP; the hybrid's GraphOptions.motion_prior="total" / "total-if-uncertain").
 #: The densities are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma
@@ -79,7 +79,7 @@ MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2
 #: the screening only. In total outages the screened completion (the average estimator's held beams) carries
 #: the keyframes alone: neither the motion prior in its place nor motion_prior="total-if-uncertain" beside it
 #: is better-or-equal in every regime of the ten shared trajectories (docs/decisions/regressed-beams.md,
-#: measured with scripts/regressed_candidates.py).
+#: measured with experiments/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})

@@ -13,8 +13,8 @@ Two reports:
 
 Usage::
 
-    nice -n 10 .venv/bin/python scripts/completer_in_estimators.py --data /tmp/val --window-s 60
-    nice -n 10 .venv/bin/python scripts/completer_in_estimators.py --results out/bench/results.json
+    nice -n 10 .venv/bin/python experiments/completer_in_estimators.py --data /tmp/val --window-s 60
+    nice -n 10 .venv/bin/python experiments/completer_in_estimators.py --results out/bench/results.json
 """
 from __future__ import annotations
 
@@ -112,7 +112,7 @@ def results_table(path: str) -> None:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="trajectories in the A-KIT layout: completions in the keyframer")
     p.add_argument("--window-s", type=float, default=60.0)
     p.add_argument("--results", help="a graphnav bench results.json: VRMSE and completion counters")

@@ -7,8 +7,8 @@ the covariance describes, the chi-square gate rejects the very pings that could 
 brings it back. Here the attitude error is injected (per NED axis), on the simulated mission and on A-KIT
 Trajectory6 from 0.3 s (a 13 deg/s turn).
 
-    nice -n 10 .venv/bin/python scripts/lockout_demo.py
-    nice -n 10 .venv/bin/python scripts/lockout_demo.py --axes     # 10 deg: tilt against heading, re-levelling
+    nice -n 10 .venv/bin/python experiments/lockout_demo.py
+    nice -n 10 .venv/bin/python experiments/lockout_demo.py --axes     # 10 deg: tilt against heading, re-levelling
 
 ``--axes`` separates the error: 10 deg about each NED axis, about north and east only (tilt: roll/pitch),
 and about down only (heading), each with and without the re-levelling at re-acquisition
@@ -16,9 +16,8 @@ and about down only (heading), each with and without the re-levelling at re-acqu
 """
 from __future__ import annotations
 
-import sys
+import argparse
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -49,21 +48,25 @@ def axes_table(cases) -> None:
                           f"{h['n_reacquired']} | {err:.2f} |")
 
 
-def main() -> int:
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--axes", action="store_true", help="the 10 deg error about each axis, tilt and heading")
+    parser.add_argument("--data", help="A-KIT folder holding Trajectory6 (default: the shared data, "
+                                       "graphnav.io.paths; without it the simulated mission only)")
+    args = parser.parse_args(argv)
     from graphnav.core.rotations import so3_exp_batch
     from graphnav.estimators.ekf import EkfOptions
     from graphnav.estimators.runs import _initial_state, run_ekf
     from graphnav.evaluation.metrics import vrmse
     from graphnav.io.loaders import load_mission
-    from graphnav.io.paths import akit_dir
+    from graphnav.io.paths import akit_dir, akit_trajectories
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cases = [("simulated 120 s, seed 1", load_mission(None, None, duration_s=120, seed=1))]
-        if akit_dir() is not None:
-            cases.append(("A-KIT Trajectory6, 0.3-100.3 s",
-                          load_mission(akit_dir() / "Trajectory6").slice(0.3, 100.3)))
-    if "--axes" in sys.argv[1:]:
+        if args.data is not None or akit_dir() is not None:
+            folder = akit_trajectories(args.data, names=["Trajectory6"])[0]
+            cases.append(("A-KIT Trajectory6, 0.3-100.3 s", load_mission(folder).slice(0.3, 100.3)))
+    if args.axes:
         axes_table(cases)
         return 0
     print("| mission | attitude error per axis | method | re-acquire | VRMSE mission (m/s) | VRMSE after 30 s | "

@@ -8,8 +8,8 @@ estimator) and pings rejected by the aligner's fit (300 s gyrocompassing alignme
 Part 2, with ``--damage``: ``graphnav smooth`` (Graph-HN-batch, GT initial state as the default) on Trajectory1
 clean and with each damage, its exit status, health state, refusals and VRMSE against the clean file's GT.
 
-    GRAPHNAV_DATA=/work/shared/data .venv/bin/python scripts/screening_report.py            # part 1
-    GRAPHNAV_DATA=/work/shared/data .venv/bin/python scripts/screening_report.py --damage   # and part 2
+    GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py            # part 1
+    GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py --damage   # and part 2
 """
 from __future__ import annotations
 
@@ -27,13 +27,13 @@ import numpy as np
 from graphnav.core.screening import StreamScreen
 from graphnav.estimators.align import align_mission
 from graphnav.estimators.replay import replay
-from graphnav.io.loaders import list_akit, load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_akit
+from graphnav.io.paths import akit_trajectories
 
 
-def clean_table(root: Path) -> None:
+def clean_table(root: Path | None) -> None:
     print("trajectory  loader_refused  stream_refused  aligner_fit_rejected  heading_deg")
-    for folder in list_akit(root):
+    for folder in akit_trajectories(root):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = load_akit(folder)
@@ -107,15 +107,13 @@ def damage_table(root: Path) -> None:
                   f"{first[:200]}")
 
 
-def main() -> int:
+def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--damage", action="store_true", help="also run graphnav smooth on damaged Trajectory1 copies")
     p.add_argument("--no-clean", action="store_true", help="skip part 1")
-    args = p.parse_args()
-    root = akit_dir()
-    if root is None:
-        print("A-KIT data not found (GRAPHNAV_DATA)", file=sys.stderr)
-        return 1
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = p.parse_args(argv)
+    root = akit_trajectories(args.data)[0].parent
     if not args.no_clean:
         clean_table(root)
     if args.damage:

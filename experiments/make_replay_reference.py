@@ -2,8 +2,8 @@
 sample-by-sample replay with) after a deliberate change of the estimators' results, and print how far every
 stored solution moved.
 
-    .venv/bin/python scripts/make_replay_reference.py            # rewrite the file, print the changes
-    .venv/bin/python scripts/make_replay_reference.py --dry-run  # print the changes only
+    .venv/bin/python experiments/make_replay_reference.py            # rewrite the file, print the changes
+    .venv/bin/python experiments/make_replay_reference.py --dry-run  # print the changes only
 
 History: written from the whole-mission estimators before the Navigator; regenerated when every estimator took the gyro rate at the ping from :func:`graphnav.estimators.keyframes.gyro_at`
 (interpolation between IMU interval centres; the graph used the nearest sample, the EKF interpolated between
@@ -49,10 +49,10 @@ def solve(ref, m, tag: str, method: str, mode: str):
     return run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial)
 
 
-def main():
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--dry-run", action="store_true", help="print the changes, leave the file alone")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     ref = dict(np.load(REFERENCE))
     ms = missions()
     cases = sorted({k.rsplit("/", 1)[0] for k in ref if not k.startswith("initial/")})

@@ -1,6 +1,6 @@
 """How well each gyro-at-ping rule recovers the true body rate at the DVL pings (prints a table).
 
-    .venv/bin/python scripts/gyro_at_ping.py [--seeds 3] [--duration 400]
+    .venv/bin/python experiments/gyro_at_ping.py [--seeds 3] [--duration 400]
 
 The simulator's IMU samples are increments over ``[t_k, t_k+1]`` divided by the interval (the mean rate
 over the interval), its pings sit ``dvl_stamp_offset_s`` after an IMU stamp, and its trajectory gives the
@@ -29,11 +29,11 @@ def rules(t_imu: np.ndarray, w: np.ndarray, t_ping: float) -> dict[str, np.ndarr
             "gyro_at (interval centres)": gyro_at(t_ping, samples)}
 
 
-def main():
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--duration", type=float, default=400.0)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print("| seed | ping offset s | nearest sample | between stamps | gyro_at (interval centres) |")
     print("|---|---|---|---|---|")
     for seed in range(args.seeds):

@@ -1,7 +1,7 @@
 """Speed of the factor-graph estimators on simulated missions (prints tables; no assertions).
 
-    .venv/bin/python scripts/bench_graph.py              # 400 s, 1 h and 4 h (several minutes)
-    .venv/bin/python scripts/bench_graph.py --quick      # 400 s only
+    .venv/bin/python benchmarks/graph_speed.py              # 400 s, 1 h and 4 h (several minutes)
+    .venv/bin/python benchmarks/graph_speed.py --quick      # 400 s only
 
 Tables:
 1. Online ISAM2 on a 400 s mission (preintegration included): total time, real-time factor, update
@@ -123,7 +123,7 @@ def batch(missions, lm_max_s):
            "max |dv| vs GN"], rows)
 
 
-def main() -> int:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="400 s mission only")
     parser.add_argument("--online-max-s", type=float, default=3600.0,
@@ -131,7 +131,7 @@ def main() -> int:
     parser.add_argument("--lm-max-s", type=float, default=400.0,
                         help="longest mission to run the GTSAM LM reference batch on (default 400)")
     parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     durations = [400.0] if args.quick else [400.0, 3600.0, 14400.0]
     t0 = time.perf_counter()
     missions = [simulate_mission(d, seed=args.seed) for d in durations]

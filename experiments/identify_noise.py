@@ -6,7 +6,7 @@ with the smoother's own prediction variance added back for the beams; batch erro
 covariance for the GT). Prints one row per trajectory and the median over them, which is what
 :data:`graphnav.io.loaders.PHINS_RECORDED` and :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD` hold.
 
-    .venv/bin/python scripts/identify_noise.py --data ../shared/data/snapir-2022-akit --jobs 2
+    .venv/bin/python experiments/identify_noise.py --data ../shared/data/snapir-2022-akit --jobs 2
 """
 from __future__ import annotations
 
@@ -14,14 +14,15 @@ import argparse
 import json
 import sys
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from graphnav.calibration.noise import identify
 from graphnav.evaluation.methods import network_completer
-from graphnav.io.loaders import list_akit, load_mission
+from graphnav.evaluation.tasks import run_tasks
+from graphnav.io.loaders import load_mission
+from graphnav.io.paths import akit_trajectories
 
 
 def one(folder: str) -> dict:
@@ -34,14 +35,18 @@ def one(folder: str) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", required=True, help="A-KIT folder of trajectories (or one trajectory)")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default="out/noise_id.json")
+    ap.add_argument("--data", help="A-KIT folder of trajectories, or one trajectory (default: the shared data, "
+                                   "graphnav.io.paths)")
+    ap.add_argument("--jobs", type=int, default=2, help="worker processes (graphnav.evaluation.tasks)")
+    ap.add_argument("--out", default="out/noise_id.json", help="JSON file of the per-trajectory rows")
     a = ap.parse_args(argv)
-    root = Path(a.data)
-    folders = [str(root)] if any(root.glob("IMU_*.csv")) else [str(f) for f in list_akit(root)]
-    with ProcessPoolExecutor(max(1, a.jobs)) as pool:
-        rows = list(pool.map(one, folders))
+    root = Path(a.data) if a.data else None
+    one_folder = root is not None and any(root.glob("IMU_*.csv"))
+    folders = [str(root)] if one_folder else [str(f) for f in akit_trajectories(root)]
+    rows: list[dict] = []
+    run_tasks(one, folders, rows.append, jobs=a.jobs)
+    order = [Path(f).name for f in folders]
+    rows.sort(key=lambda r: order.index(r["trajectory"]) if r["trajectory"] in order else len(order))
     print("| trajectory | accel density 1 s (m/s^2/sqrt(Hz)) | gyro density 1 s (rad/s/sqrt(Hz)) | accel / gyro "
           "density, Allan 0.01-0.1 s | beam noise (m/s) "
           "| GT velocity error N, E, D (m/s) | GT white error x, y, z (m/s) | its lag-1 corr. | recorded DVL white "

@@ -6,10 +6,11 @@ against the GT attitude) and without it (gravity and gyro consistency); prints t
 ``read_akit(imu_axis_signs="auto")`` chose (expected (1,-1,1) and (1,1,1)) and the CPU time the detection
 adds to a ``load_akit`` (against an explicit convention).
 
-    .venv/bin/python scripts/axis_report.py
+    .venv/bin/python experiments/axis_report.py
 """
 from __future__ import annotations
 
+import argparse
 import shutil
 import tempfile
 import time
@@ -21,12 +22,11 @@ import numpy as np
 from graphnav.io.loaders import (
     AKIT_COLUMNS,
     akit_files,
-    list_akit,
     load_akit,
     read_akit,
     read_csv,
 )
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 EXPECTED = {"published": (1, -1, 1), "y in body": (1, 1, 1)}
 
@@ -57,16 +57,15 @@ def cpu(fn) -> float:
     return best
 
 
-def main() -> int:
-    root = akit_dir()
-    if root is None:
-        print("shared A-KIT data not found (GRAPHNAV_DATA or ../shared/data)")
-        return 1
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    folders = akit_trajectories(parser.parse_args(argv).data)
     warnings.simplefilter("ignore")
     n_wrong = 0
     print(f"{'trajectory':12} {'convention':10} {'with GT':>10} {'no GT':>10} {'added load CPU s':>17}")
     with tempfile.TemporaryDirectory() as tmp:
-        for folder in list_akit(root):
+        for folder in folders:
             for conv, negate in (("published", False), ("y in body", True)):
                 chosen = {}
                 for with_gt in (True, False):
@@ -77,7 +76,7 @@ def main() -> int:
                         added = cpu(lambda: load_akit(d)) - cpu(lambda: load_akit(d, imu_axis_signs=EXPECTED[conv]))
                 print(f"{folder.name:12} {conv:10} {str(chosen[True]):>10} {str(chosen[False]):>10} {added:17.3f}",
                       flush=True)
-    print(f"\n{n_wrong} wrong choice(s) of {len(list_akit(root)) * 4}")
+    print(f"\n{n_wrong} wrong choice(s) of {len(folders) * 4}")
     return 1 if n_wrong else 0
 
 

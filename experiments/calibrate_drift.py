@@ -4,9 +4,11 @@ For each completer (network and average estimator, 2 and 3 missing beams) and ea
 30-ping outages on the A-KIT DVL velocities recursively (as the estimators do) and print the fraction of
 filled-beam errors within 1 and 2 sigma (Gaussian: 0.683 / 0.954) and the RMS of error/sigma.
 
-    .venv/bin/python scripts/calibrate_drift.py
+    .venv/bin/python experiments/calibrate_drift.py
 """
 from __future__ import annotations
+
+import argparse
 
 import numpy as np
 from graphnav.nets import AverageCompleter, load_completer
@@ -14,11 +16,13 @@ from graphnav.nets import data as beamdata
 from graphnav.nets.evaluate import outage_rollout
 
 from graphnav.core.scenarios import SCENARIOS
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 
-def main() -> None:
-    series = beamdata.akit_series(akit_dir())
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    series = beamdata.akit_series(akit_trajectories(parser.parse_args(argv).data)[0].parent)
     print("| completer | scenario | drift_std | within 1 sigma | within 2 sigma | rms(err/sigma) |")
     print("| --- | --- | --- | --- | --- | --- |")
     for scen, n_past in (("2-missing", 3), ("3-missing", 5)):

@@ -6,7 +6,7 @@ Configurations, each loaded and run the same way (EKF TC and Graph-TC, all beams
 - gt-calibrated: ``graphnav calibrate --mode gt`` written to a config and loaded with ``--config``;
 - graph-calibrated: ``graphnav calibrate --mode graph`` (no GT; lever arm as a graph variable), likewise.
 
-    .venv/bin/python scripts/calibration_effect.py [--no-graph-mode]
+    .venv/bin/python experiments/calibration_effect.py [--no-graph-mode]
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from graphnav.calibration.calibrate import calibrate
 from graphnav.estimators.runs import run_ekf, run_graph
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io import paths
-from graphnav.io.loaders import list_akit, load_akit, load_mission
+from graphnav.io.loaders import load_akit, load_mission
 
 
 def scores(mission) -> tuple[float, float]:
@@ -37,15 +37,12 @@ def calibrated(folder: Path, mode: str, tmp: Path):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--no-graph-mode", action="store_true", help="skip the (slower) no-GT calibration")
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     args = parser.parse_args(argv)
-    root = paths.akit_dir()
-    if root is None:
-        print("real data not found (set GRAPHNAV_DATA or place it at ../shared/data)")
-        return 1
     modes = ["gt"] + ([] if args.no_graph_mode else ["graph"])
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for folder in list_akit(root):
+        for folder in paths.akit_trajectories(args.data):
             row = {"naive": scores(load_akit(folder, dvl_time_offset_s=0.0, gt_time_offset_s=0.0,
                                              lever_arm_b=(0.0, 0.0, 0.0))),
                    "default": scores(load_akit(folder))}

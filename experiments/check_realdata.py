@@ -9,13 +9,12 @@ the published stamps and with the rescaled ones, the accelerometer and gyro whit
 implied by the sample-to-sample scatter (std of consecutive differences / sqrt(2 f), per sqrt(Hz)) and the
 time to read the IMU CSV.
 
-Usage: .venv/bin/python scripts/check_realdata.py [DATA_ROOT]   (default: ../shared/data)
+Usage: .venv/bin/python experiments/check_realdata.py [--data AKIT_FOLDER]   (default: the shared data)
 """
 from __future__ import annotations
 
-import sys
+import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -25,7 +24,6 @@ from graphnav.io.loaders import (
     AKIT_COLUMNS,
     akit_files,
     gt_offset_drift,
-    list_akit,
     load_akit,
     read_csv,
 )
@@ -40,17 +38,16 @@ def error_after(m, duration=60.0, step=100.0):
                for s in starts)
 
 
-def main(argv):
-    root = Path(argv[1]) / paths.AKIT_DIRNAME if len(argv) > 1 else paths.akit_dir()
-    if root is None or not root.is_dir():
-        print("A-KIT data not found; pass the data root (the folder holding snapir-2022-akit/)")
-        return 1
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    folders = paths.akit_trajectories(parser.parse_args(argv).data)
     head = (f"{'trajectory':<13}{'gt off s':>14}{'dvl off s':>14}{'DVL-GT rms':>11}{'(all)':>8}"
             f"{'gyro60 deg':>11}{'no y-fix':>9}{'drift ms/s':>11}{'(fixed)':>8}{'acc dens':>9}{'gyr dens':>9}"
             f"{'read s':>7}")
     print(head)
     print("-" * len(head))
-    for folder in list_akit(root):
+    for folder in folders:
         t0 = time.perf_counter()
         read_csv(akit_files(folder)["IMU"], AKIT_COLUMNS["IMU"])
         t_read = time.perf_counter() - t0
@@ -73,4 +70,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    raise SystemExit(main())

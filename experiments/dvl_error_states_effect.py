@@ -1,7 +1,7 @@
 """Graph-TC over each whole shared trajectory with the DVL error states off and on (all beams): mission VRMSE
 and the horizontal position error at the end of the mission, so that the default is chosen on both.
 
-    nice -n 10 .venv/bin/python scripts/dvl_error_states_effect.py [--trajectories Trajectory1 ...]
+    nice -n 10 .venv/bin/python experiments/dvl_error_states_effect.py [--trajectories Trajectory1 ...]
 """
 from __future__ import annotations
 
@@ -13,15 +13,16 @@ import numpy as np
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import horizontal_position_error, vrmse
-from graphnav.io.loaders import list_akit, load_mission
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_mission
+from graphnav.io.paths import akit_trajectories
 
 
-def main() -> int:
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trajectories", nargs="*", help="folder names (default: every shared trajectory)")
-    args = ap.parse_args()
-    folders = [f for f in list_akit(akit_dir()) if not args.trajectories or f.name in args.trajectories]
+    ap.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = ap.parse_args(argv)
+    folders = akit_trajectories(args.data, names=args.trajectories)
     print("| trajectory | VRMSE off | VRMSE on | position error at the end off, m | on, m |")
     print("| --- | --- | --- | --- | --- |")
     totals = np.zeros(4)

@@ -6,7 +6,7 @@ velocity and attitude, lever-arm term included) with the prediction variance ``a
 ``s_c^2``, and prints per grade and scenario: corr(e_c, e_p) (the rho of ``regressed_correlation``), RMS of
 both errors, and ``mean(e^2) / mean(sigma^2)`` for each (1 = the stated sigma is right). Usage::
 
-    nice -n 10 .venv/bin/python scripts/regressed_correlation.py --data ../shared/data/snapir-2022-akit \
+    nice -n 10 .venv/bin/python experiments/regressed_correlation.py --data ../shared/data/snapir-2022-akit \
         --trajectories Trajectory1 Trajectory5 --grades tactical mems --scenarios 2-missing 3-missing 0-beams
 """
 from __future__ import annotations
@@ -60,16 +60,18 @@ def collect(mission, scenario: str, window_s: float) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", required=True)
-    p.add_argument("--trajectories", nargs="+", default=None)
-    p.add_argument("--grades", nargs="+", default=["tactical", "mems"])
-    p.add_argument("--scenarios", nargs="+", default=["2-missing", "3-missing", "0-beams"])
-    p.add_argument("--window-s", type=float, default=60.0)
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--trajectories", nargs="+", default=None, help="trajectory folder names (default: all)")
+    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades")
+    p.add_argument("--scenarios", nargs="+", default=["2-missing", "3-missing", "0-beams"], help="scenarios")
+    p.add_argument("--window-s", type=float, default=60.0, help="outage window length, s")
     a = p.parse_args(argv)
     warnings.simplefilter("ignore")
     from graphnav.evaluation.bench import find_trajectories, prepared_mission
-    sources = [s for s in find_trajectories(a.data) if not a.trajectories or s.name in a.trajectories]
+    from graphnav.io.paths import akit_trajectories
+    folders = akit_trajectories(a.data, names=a.trajectories)
+    sources = [s for s in find_trajectories(str(folders[0].parent)) if s.name in {f.name for f in folders}]
     print(f"trajectories: {', '.join(s.name for s in sources)}; {a.window_s:g} s windows")
     print("| grade | scenario | beams | corr(e_c, e_p) | RMS e_c | RMS e_p | e_c^2/s_c^2 | e_p^2/a |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")

@@ -10,8 +10,8 @@ Table 2 (``--graph``): mission VRMSE of Graph-TC started at the end of the align
 the GT; and over the whole mission from the alignment carried back to the first sample
 (``Aligner.result_at``, what an offline smoother can do) versus from the GT.
 
-    .venv/bin/python scripts/alignment_report.py                       # table 1 (~1 min)
-    nice -n 10 .venv/bin/python scripts/alignment_report.py --graph    # + table 2 (~6 min on 2 cores)
+    .venv/bin/python experiments/alignment_report.py                       # table 1 (~1 min)
+    nice -n 10 .venv/bin/python experiments/alignment_report.py --graph    # + table 2 (~6 min on 2 cores)
 """
 from __future__ import annotations
 
@@ -30,8 +30,8 @@ from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import list_akit, load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_akit
+from graphnav.io.paths import akit_trajectories
 
 
 def wrap_deg(x):
@@ -104,7 +104,7 @@ def offline_runs(mission, options, label):
     return out, alignment_errors(mission, start)[2]
 
 
-def main(argv=None) -> None:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", default=None, help="A-KIT root (default: the shared data)")
     parser.add_argument("--durations", default="10,30,60,120,180,240,300", help="alignment durations, s")
@@ -114,10 +114,7 @@ def main(argv=None) -> None:
                         help="alignment duration of the offline (carried back) run, s")
     parser.add_argument("--no-accel-bias", action="store_true", help="AlignOptions(estimate_accel_bias=False)")
     args = parser.parse_args(argv)
-    root = args.data or akit_dir()
-    folders = list_akit(root) if root else []
-    if not folders:
-        raise SystemExit("no A-KIT trajectories found (set GRAPHNAV_DATA or --data)")
+    folders = akit_trajectories(args.data)
     durations = [float(x) for x in args.durations.split(",")]
     graph_durations = [float(x) for x in args.graph_durations.split(",")]
     missions = []
@@ -148,7 +145,7 @@ def main(argv=None) -> None:
     print(f"{'cpu s':>6} " + " ".join(f"{np.mean([r[2] for r in rows[d]]):>40.3f}" for d in durations))
 
     if not args.graph:
-        return
+        return 0
     print("\nTable 2: Graph-TC VRMSE (m/s), IMU + DVL only (no depth stream: the A-KIT one is GT-derived).")
     print("Streaming 'T=..': started where the aligner with that duration is ready, from the alignment or from the")
     print("GT there, scored after max(60 s, t_align). Offline: whole mission from the alignment carried back to the")
@@ -179,7 +176,8 @@ def main(argv=None) -> None:
         rows.append(res)
         print(f"{m.name[10:]:>6} {'/'.join(cells):>24} " + " ".join(f"{res[k]:17.4f}" for k in keys), flush=True)
     print(f"{'mean':>6} {'':>24} " + " ".join(f"{np.mean([r[k] for r in rows]):17.4f}" for k in keys))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

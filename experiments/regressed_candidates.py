@@ -3,14 +3,13 @@
 Runs Graph-TC and Graph-HN with each candidate's GraphOptions over the same windows (the bench's windows,
 scenarios and IMU grades) and prints window VRMSE mean / worst and the ratio to Graph-TC. Usage::
 
-    nice -n 10 .venv/bin/python scripts/regressed_candidates.py --data ../shared/data/snapir-2022-akit \
+    nice -n 10 .venv/bin/python experiments/regressed_candidates.py --data ../shared/data/snapir-2022-akit \
         --trajectories Trajectory1 Trajectory5 --grades tactical --scenarios 3-missing --window-s 60
 """
 from __future__ import annotations
 
 import argparse
 import sys
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -78,25 +77,31 @@ def run_one(args):
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", required=True)
-    p.add_argument("--trajectories", nargs="+", default=None)
-    p.add_argument("--grades", nargs="+", default=["tactical"])
-    p.add_argument("--scenarios", nargs="+", default=["3-missing"])
-    p.add_argument("--window-s", nargs="+", type=float, default=[60.0])
-    p.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
-    p.add_argument("--jobs", type=int, default=1)
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--trajectories", nargs="+", default=None, help="trajectory folder names (default: all)")
+    p.add_argument("--grades", nargs="+", default=["tactical"], help="IMU grades")
+    p.add_argument("--scenarios", nargs="+", default=["3-missing"], help="beam-outage scenarios")
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0], help="outage window lengths, s")
+    p.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES),
+                   metavar="NAME", help="candidates to run (default: all)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     a = p.parse_args(argv)
     from graphnav.evaluation.bench import find_trajectories
-    sources = [s for s in find_trajectories(a.data) if not a.trajectories or s.name in a.trajectories]
+    from graphnav.evaluation.tasks import run_tasks
+    from graphnav.io.paths import akit_trajectories
+    folders = akit_trajectories(a.data, names=a.trajectories)
+    sources = [s for s in find_trajectories(str(folders[0].parent)) if s.name in {f.name for f in folders}]
     tasks = [(s, g, sc, w, c) for s in sources for g in a.grades for sc in a.scenarios for w in a.window_s
              for c in a.candidates]
     results: dict = {}
     kept: dict = {}
-    with ProcessPoolExecutor(a.jobs) as pool:
-        for key, (vals, counts) in pool.map(run_one, tasks):
-            results.setdefault(key, []).extend(vals)
-            kept[key] = np.add(kept.get(key, 0), counts)
+
+    def collect(result) -> None:
+        key, (vals, counts) = result
+        results.setdefault(key, []).extend(vals)
+        kept[key] = np.add(kept.get(key, 0), counts)
+    run_tasks(run_one, tasks, collect, jobs=a.jobs)
     print(f"trajectories: {', '.join(s.name for s in sources)}")
     print("| grade | scenario | window s | candidate | VRMSE mean | worst | x Graph-TC | completed beams kept |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")

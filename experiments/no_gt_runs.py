@@ -14,7 +14,7 @@ For every A-KIT trajectory folder under ``--data``:
 Each run is scored afterwards against the GT of the full folder (``graphnav.evaluation.metrics.vrmse``): mission VRMSE
 after the first 60 s of the mission, and over the common span (from the end of the alignment).
 
-Usage: ``.venv/bin/python scripts/no_gt_runs.py [--data ../shared/data/snapir-2022-akit] [--out out/no_gt]``
+Usage: ``.venv/bin/python experiments/no_gt_runs.py [--data ../shared/data/snapir-2022-akit] [--out out/no_gt]``
 """
 from __future__ import annotations
 
@@ -30,9 +30,9 @@ import numpy as np
 
 from graphnav.cli import main as graphnav
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import list_akit, load_akit
+from graphnav.io.loaders import load_akit
 from graphnav.io.outputs import read_trajectory_csv
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 
 def run_online(folder: Path, out: Path, *extra: str) -> tuple:
@@ -44,15 +44,15 @@ def run_online(folder: Path, out: Path, *extra: str) -> tuple:
     return read_trajectory_csv(out / "online.csv"), json.loads((out / "summary.json").read_text())
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", default=None, help="folder of A-KIT trajectories (default: the shared data)")
     parser.add_argument("--out", default="out/no_gt", help="output folder")
-    args = parser.parse_args()
-    root = Path(args.data) if args.data else akit_dir()
+    args = parser.parse_args(argv)
+    folders = akit_trajectories(args.data)
     out = Path(args.out)
     rows = []
-    for folder in list_akit(root):
+    for folder in folders:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             gt = load_akit(folder).gt

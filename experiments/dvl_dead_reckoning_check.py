@@ -5,10 +5,11 @@
 2. The ten A-KIT trajectories with the GT's attitude as a perfect compass: the DVL velocity turned to NED with
    the GT attitude, dead-reckoned, against the GT position. What a DVL alone gives with an INS-grade heading.
 
-Run: GRAPHNAV_DATA=/work/shared/data .venv/bin/python scripts/dvl_dead_reckoning_check.py
+Run: GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/dvl_dead_reckoning_check.py
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
 import warnings
@@ -18,14 +19,14 @@ import numpy as np
 from graphnav.core.dvl_log import DvlLog
 from graphnav.core.rotations import C_b_n_to_euler
 from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
-from graphnav.io.paths import akit_dir, data_root
+from graphnav.io.paths import akit_trajectories, real_formats_file
 
 
 def riverpro() -> None:
     from graphnav.evaluation.metrics import track_against_fixes
     from graphnav.io import pd0
     from graphnav.io.dvl_files import read_dvl
-    path = data_root() / "real-formats" / "pd0" / "RiverPro_test01.PD0"
+    path = real_formats_file("pd0", "RiverPro_test01.PD0")
     with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sol = dvl_dead_reckoning(read_dvl(path))
@@ -34,10 +35,10 @@ def riverpro() -> None:
           f"from the GPS ({100 * r['end_m'] / r['run_m']:.1f} % of the run), max {r['max_m']:.1f} m")
 
 
-def akit() -> None:
-    from graphnav.io.loaders import list_akit, load_akit
+def akit(data=None) -> None:
+    from graphnav.io.loaders import load_akit
     errors = []
-    for folder in list_akit(akit_dir()):
+    for folder in akit_trajectories(data):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = load_akit(folder)
@@ -57,6 +58,14 @@ def akit() -> None:
     print(f"A-KIT, GT attitude: median {np.median(errors):.2f} %, max {np.max(errors):.2f} % of the distance")
 
 
-if __name__ == "__main__":
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = parser.parse_args(argv)
     riverpro()
-    akit()
+    akit(args.data)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

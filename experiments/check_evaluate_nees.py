@@ -1,6 +1,6 @@
 """Compare `graphnav evaluate`'s velocity NEES with the benchmark's on shared A-KIT trajectories.
 
-    .venv/bin/python scripts/check_evaluate_nees.py 5 11          # Graph-HN-batch on Trajectory5 and 11
+    .venv/bin/python experiments/check_evaluate_nees.py 5 11          # Graph-HN-batch on Trajectory5 and 11
 
 Per trajectory: the bench's mission NEES on the in-memory solution (full covariance), evaluate's on the
 written trajectory.csv (sigmas only: diagonal covariance), and the NEES evaluate printed before it called the
@@ -22,18 +22,20 @@ from graphnav.evaluation.metrics import nees_velocity
 from graphnav.evaluation.score import evaluate
 from graphnav.io.loaders import load_mission
 from graphnav.io.outputs import read_trajectory_csv, write_trajectory_csv
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 
-def main() -> None:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("trajectories", nargs="+", type=int, help="A-KIT trajectory numbers")
-    parser.add_argument("--method", default="Graph-HN-batch")
-    args = parser.parse_args()
+    parser.add_argument("--method", default="Graph-HN-batch", help="the method to score")
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = parser.parse_args(argv)
+    folders = akit_trajectories(args.data, names=args.trajectories)
     warnings.simplefilter("ignore")
     with tempfile.TemporaryDirectory() as tmp:
-        for n in args.trajectories:
-            mission = load_mission(akit_dir() / f"Trajectory{n}")
+        for n, folder in zip(args.trajectories, folders):
+            mission = load_mission(folder)
             sol = run_method(mission, args.method)
             csv = read_trajectory_csv(write_trajectory_csv(Path(tmp) / f"t{n}.csv", sol))
             print(json.dumps({
@@ -41,7 +43,8 @@ def main() -> None:
                 "bench_full_covariance": mission_nees(sol, mission)["nees_mission"],
                 "evaluate": evaluate(csv, mission.gt, mission=mission)["nees_velocity_mean"],
                 "evaluate_before": float(np.mean(nees_velocity(csv, mission.gt)))}))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

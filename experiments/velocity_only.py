@@ -1,6 +1,6 @@
 """VRMSE with a velocity-only DVL against the same DVL's four beams, per estimator (prints a Markdown table).
 
-    .venv/bin/python scripts/velocity_only.py [--seeds 1 2 3] [--duration 300] [--akit 1 2 ...]
+    .venv/bin/python experiments/velocity_only.py [--seeds 1 2 3] [--duration 300] [--akit 1 2 ...]
                                               [--methods Graph-TC Graph-TC-batch TC LC]
 
 For each mission the estimators run three times: on the four beams (tightly coupled), on the velocity a
@@ -36,7 +36,7 @@ def variants(mission, wrong_frame: bool) -> dict:
     return out
 
 
-def main():
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
     parser.add_argument("--duration", type=float, default=300.0)
@@ -45,7 +45,8 @@ def main():
                         help="method names of graphnav.evaluation.methods (the bench's)")
     parser.add_argument("--no-dvl-error-states", action="store_true",
                         help="graph methods without the DVL error states (GraphOptions.dvl_error_states=False)")
-    args = parser.parse_args()
+    parser.add_argument("--data", help="A-KIT folder for --akit (default: the shared data, graphnav.io.paths)")
+    args = parser.parse_args(argv)
     for method in args.methods:
         check_method(method)
     missions = []
@@ -55,14 +56,11 @@ def main():
         missions.append((f"sim seed {seed}", simulate_mission(args.duration, seed=seed, config=config), True))
     if args.akit:
         from graphnav.io.loaders import load_akit
-        from graphnav.io.paths import akit_dir
-        root = akit_dir()
-        if root is None:
-            raise SystemExit("the A-KIT data folder was not found (graphnav.io.paths.akit_dir)")
-        for n in args.akit:
+        from graphnav.io.paths import akit_trajectories
+        for n, folder in zip(args.akit, akit_trajectories(args.data, names=args.akit)):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                missions.append((f"A-KIT {n}", load_akit(root / f"Trajectory{n}"), False))
+                missions.append((f"A-KIT {n}", load_akit(folder), False))
     print("| mission | method | all beams | velocity-only | ratio | velocity in body axes (wrong frame) | s |")
     print("|---|---|---|---|---|---|---|")
     for label, mission, wrong in missions:

@@ -1,7 +1,7 @@
 """How often the no-GT IMU axis-convention detection picks the right convention on windows of the shared A-KIT
 trajectories (published files: y flipped, the right answer is (1, -1, 1)).
 
-    .venv/bin/python scripts/axis_detection_rates.py [--length 60] [--step 60] [--corrected | --mixed]
+    .venv/bin/python experiments/axis_detection_rates.py [--length 60] [--step 60] [--corrected | --mixed]
 
 Prints, per trajectory and overall: right (decided, signs (1,-1,1)), undecided (fell back to the configured
 convention), wrong (decided other signs), refused (DataError). ``--corrected``: the files with y negated
@@ -19,22 +19,23 @@ from graphnav.calibration.axes import detect_imu_axis_signs
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 from graphnav.core.mission import ImuData
-from graphnav.io.loaders import AKIT_COLUMNS, akit_files, list_akit, read_csv
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
+from graphnav.io.paths import akit_trajectories
 
 RIGHT = np.array([1.0, -1.0, 1.0])
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--length", type=float, default=60.0)
-    ap.add_argument("--step", type=float, default=60.0)
-    ap.add_argument("--corrected", action="store_true")
-    ap.add_argument("--mixed", action="store_true")
-    args = ap.parse_args()
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    ap.add_argument("--length", type=float, default=60.0, help="IMU segment length, s")
+    ap.add_argument("--step", type=float, default=60.0, help="time between segment starts, s")
+    ap.add_argument("--corrected", action="store_true", help="flip the y axis first (right answer: no flip)")
+    ap.add_argument("--mixed", action="store_true", help="flip the gyro y only (no consistent answer exists)")
+    args = ap.parse_args(argv)
     right = np.array([1.0, 1.0, 1.0]) if args.corrected else RIGHT
     total = {"right": 0, "undecided": 0, "wrong": 0, "refused": 0}
-    for folder in list_akit(akit_dir()):
+    for folder in akit_trajectories(args.data):
         imu = read_csv(akit_files(folder)["IMU"], AKIT_COLUMNS["IMU"])
         if args.corrected:
             imu[:, [2, 5]] *= -1
@@ -63,7 +64,8 @@ def main() -> None:
         print(folder.name, counts, flush=True)
     n = sum(total.values())
     print("all", total, " ".join(f"{k} {100 * v / n:.0f} %" for k, v in total.items()))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

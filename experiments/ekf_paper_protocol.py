@@ -4,7 +4,7 @@
 Protocol (the paper's, on every mission): a 30 s window with 2 missing beams (beams 1 and 3) or 3 missing
 beams (only beam 2 kept) placed at ``graphnav.core.scenarios.window_starts(t0, t1)`` (first window after 60 s
 of full beams, 60 s of full beams between windows, last window ending before t1 - 5 s; 4 windows in a
-400 s mission), one run per window. Missions: the shared real A-KIT trajectories (``graphnav.io.paths.akit_dir``,
+400 s mission), one run per window. Missions: the shared real A-KIT trajectories (``graphnav.io.paths.akit_trajectories``,
 loaded with ``graphnav.io.loaders.load_akit``: IMU y axis corrected, time offsets estimated, beams made from
 the recorded DVL velocity with the paper's error model) and the simulated default mission.
 
@@ -17,7 +17,7 @@ Also: all-beam VRMSE and velocity NEES, and LC/TC with the IMU y axis left as pu
 HN* use ``graphnav.nets.load_completer(missing)`` when its weights load, else the average estimator
 (flagged in the output).
 
-Usage: ``python scripts/bench_ekf.py [--trajectories 1,5] [--no-sim] [--no-real] [--max-windows N]``
+Usage: ``python experiments/ekf_paper_protocol.py [--trajectories 1,5] [--no-sim] [--no-real] [--max-windows N]``
 """
 from __future__ import annotations
 
@@ -57,16 +57,10 @@ def network_completer(scenario: str):
         return None, f"average (network unavailable: {type(exc).__name__}: {exc})"
 
 
-def load_real(trajectories: list[str] | None, imu_axis_signs=(1, -1, 1)):
-    from graphnav.io.loaders import list_akit, load_akit
-    from graphnav.io.paths import akit_dir
-    root = akit_dir()
-    if root is None:
-        print("real data not found (set GRAPHNAV_DATA); skipping real trajectories", file=sys.stderr)
-        return []
-    folders = list_akit(root)
-    if trajectories:
-        folders = [f for f in folders if f.name.replace("Trajectory", "") in trajectories]
+def load_real(trajectories: list[str] | None, imu_axis_signs=(1, -1, 1), data=None):
+    from graphnav.io.loaders import load_akit
+    from graphnav.io.paths import akit_trajectories
+    folders = akit_trajectories(data, names=trajectories)
     return [load_akit(f, imu_axis_signs=imu_axis_signs) for f in folders]
 
 
@@ -163,7 +157,8 @@ def print_unflipped(missions, options: EkfOptions, max_windows: int | None) -> N
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     parser.add_argument("--trajectories", help="comma-separated A-KIT trajectory numbers (default: all)")
     parser.add_argument("--no-real", action="store_true", help="skip the real trajectories")
     parser.add_argument("--no-sim", action="store_true", help="skip the simulated mission")
@@ -182,7 +177,7 @@ def main(argv=None) -> int:
     wall = time.perf_counter()
     if not args.no_real:
         trajs = args.trajectories.split(",") if args.trajectories else None
-        real = load_real(trajs)
+        real = load_real(trajs, data=args.data)
         if real:
             opts = EkfOptions(imu_noise_scale=args.real_imu_noise_scale)
             print(f"\nReal A-KIT trajectories: {', '.join(m.name for m in real)} "
@@ -190,7 +185,7 @@ def main(argv=None) -> int:
             print_table("Real A-KIT trajectories", run_windows(real, opts, completers, args.max_windows))
             print_all_beams("Real A-KIT trajectories", real, opts)
             if not args.no_unflipped:
-                print_unflipped(load_real(trajs, imu_axis_signs=(1, 1, 1)), opts, args.max_windows)
+                print_unflipped(load_real(trajs, imu_axis_signs=(1, 1, 1), data=args.data), opts, args.max_windows)
     if not args.no_sim:
         from graphnav.sim.simulate import simulate_mission
         sim = [simulate_mission(400.0, seed=0)]

@@ -2,10 +2,11 @@
 largest velocity difference in the instrument and earth frames (dolfyn's ``rotate2``, with the beam matrix the
 file stores where it has one). ``tests/test_pd0_real.py`` holds these numbers to bounds.
 
-Usage: .venv/bin/python scripts/pd0_against_dolfyn.py   (reads ../shared/data/real-formats/pd0, or $GRAPHNAV_DATA)
+Usage: .venv/bin/python experiments/pd0_against_dolfyn.py   (reads <data>/real-formats/pd0, graphnav.io.paths)
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
 import sys
@@ -15,7 +16,7 @@ import numpy as np
 
 from graphnav.io import pd0
 from graphnav.io.dvl_files import read_dvl
-from graphnav.io.paths import real_formats_dir
+from graphnav.io.paths import real_formats_file
 
 FILES = ("RDI_withBT.000", "winriver01.PD0", "RiverPro_test01.PD0")
 
@@ -59,16 +60,14 @@ def compare(path) -> str:
     return " | ".join(row)
 
 
-def main() -> int:
-    root = real_formats_dir()
-    if root is None:
-        print("real-formats data not found: set GRAPHNAV_DATA or place it at ../shared/data/real-formats")
-        return 1
+def main(argv=None) -> int:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
+    paths = [real_formats_file("pd0", name) for name in FILES]
     pd0._import_dolfyn()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name in FILES:
-            print(compare(root / "pd0" / name))
+        for path in paths:
+            print(compare(path))
     return 0
 
 

@@ -1,7 +1,7 @@
 """The DVL clock offset found from the data (graphnav.calibration.clock) on the shared A-KIT trajectories,
 against the fine offset the loader estimates against the GT, with known offsets injected.
 
-    .venv/bin/python scripts/clock_offsets.py [--inject 0 0.7 37 518400]
+    .venv/bin/python experiments/clock_offsets.py [--inject 0 0.7 37 518400]
 
 For each trajectory and injected offset: the estimate minus (GT-based offset + injected), the explained
 fraction at the peak and at the next best offset, and sigma.
@@ -15,16 +15,18 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.clock import estimate_dvl_clock_offset
-from graphnav.io.loaders import list_akit, load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_akit
+from graphnav.io.paths import akit_trajectories
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--inject", type=float, nargs="*", default=[0.0, 0.7, 37.0, 6 * 86400.0])
-    args = ap.parse_args()
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    ap.add_argument("--inject", type=float, nargs="*", default=[0.0, 0.7, 37.0, 6 * 86400.0],
+                    help="DVL clock offsets to inject, s")
+    args = ap.parse_args(argv)
     errors = []
-    for folder in list_akit(akit_dir()):
+    for folder in akit_trajectories(args.data):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = load_akit(folder, imu_axis_signs=(1, -1, 1))
@@ -40,7 +42,8 @@ def main() -> None:
                   f"confident {est.confident}", flush=True)
     e = np.abs(errors)
     print(f"all: |error| median {np.median(e):.3f} s, max {e.max():.3f} s over {len(e)} cases")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

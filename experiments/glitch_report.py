@@ -19,8 +19,8 @@ VRMSE is the mean window VRMSE (m/s) over the outage windows; ``ratio`` = screen
 2 % of ``dropped`` (the glitches left no trace; what is lost is the pings' information); FAIL otherwise
 (the exit status counts FAILs only). Run:
 
-    .venv/bin/python scripts/glitch_report.py                          # simulated + Trajectory5
-    .venv/bin/python scripts/glitch_report.py --trajectories Trajectory5 Trajectory11 --fraction 0.1
+    .venv/bin/python experiments/glitch_report.py                          # simulated + Trajectory5
+    .venv/bin/python experiments/glitch_report.py --trajectories Trajectory5 Trajectory11 --fraction 0.1
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ from graphnav.evaluation.faults import dvl_glitches, glitch_csv
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io.loaders import akit_files, load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 from graphnav.sim.simulate import simulate_mission
 
 BOUND = 1.2
@@ -81,7 +81,7 @@ def window_vrmse(mission, method: str, scenario: str, starts, window_s: float):
             sol.info.get("completer_fallbacks", {}).get("envelope", 0))
 
 
-def main() -> int:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration", type=float, default=400.0, help="simulated mission length, s")
     parser.add_argument("--grade", default="navigation", help="IMU grade of the simulated mission")
@@ -92,17 +92,15 @@ def main() -> int:
     parser.add_argument("--scenarios", nargs="+", default=["2-missing", "3-missing"])
     parser.add_argument("--methods", nargs="+", default=["HNTC", "Graph-HN", "Graph-HN-batch"])
     parser.add_argument("--window", type=float, default=30.0, help="outage window, s")
-    args = parser.parse_args()
+    parser.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = parser.parse_args(argv)
+    folders = akit_trajectories(args.data, names=args.trajectories) if args.trajectories else []
     warnings.simplefilter("ignore")   # the loaders' and completers' warnings are counted in the table instead
     n_fail = n_lost = 0
     with tempfile.TemporaryDirectory() as tmp:
         sources = [simulated_variants(args.duration, args.grade, args.seed, args.fraction)]
-        root = akit_dir()
-        for name in args.trajectories:
-            if root is None or not (root / name).is_dir():
-                print(f"(skipping {name}: shared A-KIT data not found)")
-                continue
-            sources.append(akit_variants(root / name, Path(tmp), args.fraction, args.seed))
+        for folder in folders:
+            sources.append(akit_variants(folder, Path(tmp), args.fraction, args.seed))
         print(f"{'mission':16} {'glitched':>8} {'screened':>8} {'scenario':9} {'method':15} {'clean':>7} "
               f"{'screened':>8} {'ratio':>6} {'dropped':>8} {'vs dropped':>10} {'unscreened':>10} {'fallbacks':>9}  "
               "check")

@@ -1,6 +1,6 @@
 """Speed of the DVL beam model where it runs hot (prints a table; no assertions).
 
-    .venv/bin/python scripts/bench_beam_model.py [--repeat 5]
+    .venv/bin/python benchmarks/beam_model_speed.py [--repeat 5]
 
 Rows:
 - GTSAM factor: one ``linearize`` of a 4-beam epoch factor (``beam_factor``) and of one with the DVL error
@@ -79,10 +79,10 @@ def ekf_rows(repeat):
     return rows
 
 
-def main():
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     rng = np.random.default_rng(0)
     geo = DvlGeometry.from_spec(SensorConfig().dvl)
     out = factor_rows(geo, rng, args.repeat) + batch_rows(geo, rng, args.repeat) + ekf_rows(args.repeat)

@@ -6,7 +6,7 @@ are cut out of one run; the table gives the mean window VRMSE (m/s) of TC, of th
 (the default) and without it (the paper's hybrid: completions at the completer's sigma), and how many
 completed beams the screening dropped, inflated or kept.
 
-    nice -n 10 .venv/bin/python scripts/hybrid_screening.py --methods HNTC Average-TC
+    nice -n 10 .venv/bin/python experiments/hybrid_screening.py --methods HNTC Average-TC
 """
 from __future__ import annotations
 
@@ -18,21 +18,22 @@ import numpy as np
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import list_akit, load_mission
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_mission
+from graphnav.io.paths import akit_trajectories
 
 PLAIN = {"regressed_correlation": 0.0, "regressed_adaptive": False}
 
 
-def main() -> int:
+def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--trajectories", nargs="*", help="trajectory folder names (default: all)")
     p.add_argument("--methods", nargs="+", default=["HNTC"])
     p.add_argument("--scenarios", nargs="+", default=["2-missing", "3-missing"])
     p.add_argument("--window", type=float, default=30.0)
-    args = p.parse_args()
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = p.parse_args(argv)
     warnings.simplefilter("ignore")
-    folders = [f for f in list_akit(akit_dir()) if not args.trajectories or f.name in args.trajectories]
+    folders = akit_trajectories(args.data, names=args.trajectories)
     print("| trajectory | scenario | TC | " + " | ".join(f"{m} screened | {m} plain | {m} dropped/inflated/kept"
                                                          for m in args.methods) + " |")
     print("| --- " * (3 + 3 * len(args.methods)) + "|")
