@@ -278,7 +278,7 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
           and (imu_grade is None or r["imu_grade"] == imu_grade)]
     methods = methods or [m for m in METHODS if any(r["method"] == m for r in rs)]
     scenarios = [s for s in SCENARIOS if any(r["scenario"] == s for r in rs)]
-    fig, ax = plt.subplots(figsize=(max(7.0, 0.45 * len(methods) * max(1, len(scenarios)) + 2), 5.2))
+    fig, ax = plt.subplots(figsize=(min(16.0, max(7.0, 0.3 * len(methods) * max(1, len(scenarios)) + 2)), 5.2))
     width = 0.84 / max(1, len(scenarios))
     x = np.arange(len(methods))
     # Value labels sit in a row of their own at the foot of each bar, one per bar, rotated: they cannot
@@ -301,7 +301,8 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
                 ax.text(p, 0.015, f"{v:.3f}", transform=foot, ha="center", va="bottom", fontsize=7,
                         rotation=90, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
                                            "alpha": 0.85})
-    ax.set_ylim(bottom=min([v for v in (r["vrmse_window"] for r in rs) if v > 0] or [1e-3]) / 8)
+    # room under the shortest bar for its label on the log axis
+    ax.set_ylim(bottom=min([v for v in (r["vrmse_window"] for r in rs) if v > 0] or [1e-3]) / 3)
     ax.set_xticks(x, methods, rotation=30, ha="right")
     ax.set_yscale("log")
     ax.set_ylabel("window VRMSE (m/s)")
