@@ -78,7 +78,8 @@ def test_one_method_registry():
         methods.get_method("EKF-TC")
     # no other module keeps a list of method names: only the two selections below, of registry names
     selections = {}
-    for path in [*(ROOT / "graphnav").rglob("*.py"), *(ROOT / "scripts").glob("*.py")]:
+    for path in [*(ROOT / "graphnav").rglob("*.py"),
+                 *(p for d in ("scripts", "experiments", "benchmarks") for p in (ROOT / d).glob("*.py"))]:
         for node in ast.walk(ast.parse(path.read_text())):
             target = node.target if isinstance(node, ast.AnnAssign) else (
                 node.targets[0] if isinstance(node, ast.Assign) else None)

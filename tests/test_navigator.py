@@ -34,7 +34,7 @@ def mission():
 def reference():
     """Solutions of the whole-mission estimators before the Navigator (KeyframeBuilder with
     look-ahead keyframes, run_ekf over the whole IMU timeline), on the same simulated missions; refreshed by
-    ``scripts/make_replay_reference.py`` after deliberate changes (one gyro-at-ping rule for every
+    ``experiments/make_replay_reference.py`` after deliberate changes (one gyro-at-ping rule for every
     estimator, which moved the stored velocities by up to 3.5e-4 m/s; the Earth model, which moved them by up to
     1.3e-4 m/s and the positions by 1e-2 m: the simulator's gravity now depends on the position; the script
     prints the changes)."""

@@ -1,6 +1,6 @@
 """Consistency of the loaded A-KIT trajectories with their ground truth (skips without ../shared/data).
 
-Measured values: scripts/check_realdata.py (docs/decisions/akit-loader.md). The thresholds below are the
+Measured values: experiments/check_realdata.py (docs/decisions/akit-loader.md). The thresholds below are the
 requirement for a usable loader (DVL: 0.03 m/s; measured 0.007-0.016) and the data README's "about 0.1 degree"
 (gyro; measured 0.003-0.014 deg worst over 60 s windows).
 """

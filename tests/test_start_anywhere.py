@@ -3,8 +3,8 @@
 The fast test runs a subsample: on four shared trajectories the start with the fastest manoeuvre in its first
 second (found from the IMU, not hard-coded), three estimators (EKF TC and Average-LC, Graph-TC) with all
 beams and with the 3-missing outage in the second window. The full sweep (every method, every trajectory, a
-start every 10 s, all scenarios; ``scripts/start_sweep.py`` prints its table) is marked slow and, as it takes
-about 20 minutes in one process (scripts/start_sweep.py --jobs 2: 11 min), also needs ``GRAPHNAV_FULL_SWEEP=1``.
+start every 10 s, all scenarios; ``graphnav start-sweep`` prints its table) is marked slow and, as it takes
+about 20 minutes in one process (graphnav start-sweep --jobs 2: 11 min), also needs ``GRAPHNAV_FULL_SWEEP=1``.
 """
 from __future__ import annotations
 

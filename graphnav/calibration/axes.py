@@ -328,12 +328,12 @@ def detect_imu_axis_signs(imu, config: SensorConfig, gt=None, source: str = "IMU
 
 #: Without GT, the y-as-recorded and y-flipped conventions (both sensors, x forward) are told apart when the
 #: worse one's tilt-kinematics residual is this many times the better one's. Measured on 60 s windows of the
-#: ten shared trajectories, every 30 s (120 windows, ``scripts/axis_detection_rates.py``): the wrong convention's
+#: ten shared trajectories, every 30 s (120 windows, ``experiments/axis_detection_rates.py``): the wrong convention's
 #: residual is 1.06-9x the right one's (5th percentile 1.45, median 2.4), never below 1; at 1.2, 99 % of the
 #: windows decide, all of them right, and whole trajectories all decide right.
 AXIS_MARGIN_JOINT = 1.2
 #: A mixed choice (gyro and accelerometer flipped differently) is reported as a fault when it fits this many
-#: times better than the better convention. Measured (``scripts/axis_detection_rates.py --mixed``): on the
+#: times better than the better convention. Measured (``experiments/axis_detection_rates.py --mixed``): on the
 #: clean files the best mixed choice beats the better convention by at most 0.98x over whole trajectories and
 #: 1.29x over 60 s windows (noise); with the gyro y flipped alone it wins by 1.17-2.02x over whole
 #: trajectories and 1.02-2.89x (median 1.56) over 60 s windows. Below the margin the convention is chosen.

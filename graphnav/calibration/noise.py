@@ -25,7 +25,7 @@
   the IMU's (:func:`gt_white_velocity_error`): ``d_k = (f_gt - mean f_imu) dt`` has variance
   ``2 sigma_white^2 + N_acc^2 dt`` and lag-1 correlation -0.5 if the GT error is white.
 
-``scripts/identify_noise.py`` runs this over the shared trajectories and prints the values the A-KIT loader
+``experiments/identify_noise.py`` runs this over the shared trajectories and prints the values the A-KIT loader
 uses (:data:`graphnav.io.loaders.PHINS_RECORDED`, :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD`).
 """
 from __future__ import annotations

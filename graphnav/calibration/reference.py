@@ -375,7 +375,7 @@ def gyro_attitude_error(t_imu, omega_b, t_ref, C_b_n_ref, start_s: float, durati
 
 
 # ------------------------------------------------------------------------------------------------
-# Mission-level checks (used by tests/test_realdata.py, scripts/check_realdata.py and calibrate)
+# Mission-level checks (used by tests/test_realdata.py, experiments/check_realdata.py and calibrate)
 # ------------------------------------------------------------------------------------------------
 #: Pings shallower than this (m, from the depth stream) are left out of the DVL-vs-reference RMS: at
 #: the surface (trajectory 11 ends there) waves and bubbles make the DVL disagree by 0.1 m/s.

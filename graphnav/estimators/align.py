@@ -98,13 +98,13 @@ class AlignOptions:
 
     Attributes:
         duration_s: alignment time when the heading comes from gyrocompassing, s. Measured on the ten shared
-            A-KIT trajectories (Phins FOG, 1 Hz DVL, vehicle underway; ``scripts/alignment_report.py``), heading
+            A-KIT trajectories (Phins FOG, 1 Hz DVL, vehicle underway; ``experiments/alignment_report.py``), heading
             RMS error: 37 deg (30 s), 11 deg (60 s), 2.1 deg (120 s), 1.5 deg (180 s), 0.64 deg (240 s),
             0.36 deg (300 s); roll/pitch <= 0.02 deg from 60 s. Default 300 s, the in-motion alignment time
             FOG INS makers quote: the graph refines a heading error only slowly afterwards (Trajectory10,
             120 s: -4.9 deg at the start, still -2.2 deg 400 s later), and
             :class:`graphnav.estimators.navigator.Navigator` carries the alignment back to the first sample and catches up,
-            so the longer wait costs latency, not estimates (``scripts/no_gt_runs.py``: mission VRMSE without
+            so the longer wait costs latency, not estimates (``experiments/no_gt_runs.py``: mission VRMSE without
             GT 0.080 m/s with 120 s, against 0.056 from the GT; docs/decisions/alignment.md).
         min_duration_s: when the data end before ``duration_s`` (a short record), the shortest gyrocompassing
             window ``result_at(t, end_of_data=True)`` still accepts, s (2.1 deg RMS heading at 120 s).

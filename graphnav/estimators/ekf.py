@@ -91,7 +91,7 @@ Health: every update's NIS (gated or not) goes to a :class:`graphnav.estimators.
 chi-square band per block of pings, divergence flag, warnings). Gating cannot lock the filter out: after
 ``HealthOptions.lockout_rejections`` rejected pings in a row it re-acquires (:meth:`ErrorStateEkf.reacquire`:
 velocity from a >= 3-beam least-squares fix, or covariance inflation with fewer beams; attitude variance
-inflated) and says so (``scripts/lockout_demo.py``).
+inflated) and says so (``experiments/lockout_demo.py``).
 """
 from __future__ import annotations
 
@@ -156,7 +156,7 @@ class EkfOptions:
         imu_noise_scale: factor on the IMU white-noise densities of ``config.imu`` in Q. 1 for simulated
             data; on the recorded A-KIT data the INS disagrees with the ground truth far more than the
             recorded noise densities say (1-s free-inertial velocity error ~0.06 m/s), and all-beam runs
-            need about 10-20 for a velocity NEES near 3 (``scripts/bench_ekf.py`` reports its choice).
+            need about 10-20 for a velocity NEES near 3 (``experiments/ekf_paper_protocol.py`` reports its choice).
         dvl_error_states: add 7 DVL error states (not in the paper): the scale factor per DVL axis ``s``
             (3) and the bias per beam ``b`` (4) of the beam model ``y = T_d [(1 + s) v_d] + b + n``, random
             constants. They are observable through accelerations and turns (the IMU senses velocity

@@ -55,11 +55,11 @@ class HealthOptions:
         window: measurements (DVL pings) per consistency block and in the sliding divergence window.
         band_prob: two-sided probability of the chi-square band of a block's summed NIS.
         divergence_ratio: median NIS per dof over the sliding window above which the estimator is declared
-            diverged. 25 (5-sigma errors for at least half the window): in ``scripts/start_sweep.py`` on the
+            diverged. 25 (5-sigma errors for at least half the window): in ``graphnav start-sweep`` on the
             shared A-KIT trajectories no run tripped the same threshold on the window *mean* (9180 runs; the
             highest run-mean NIS per dof is 2.86, HNLC in a 2-missing outage; 17 runs trip the lockout rule
             instead, and re-acquire), while a filter that has lost track shows 1e2-1e4 on every ping (EKF
-            locked out after a 2-10 deg attitude error, ``scripts/lockout_demo.py``: NIS 344-7929 on 3 dof;
+            locked out after a 2-10 deg attitude error, ``experiments/lockout_demo.py``: NIS 344-7929 on 3 dof;
             graph with the IMU y axis of the wrong sign: 5.7e3 per dof).
         lockout_rejections: consecutive gated (rejected) measurements that count as a lockout: the
             estimator is declared diverged and (EKF) re-acquires. 5 pings = 5 s at 1 Hz.

@@ -14,7 +14,7 @@ sigma). ``drift_std`` (m/s per ping) is the completer's attribute of that name w
 whose errors do not compound sets 0), else the history's, 0.03 by default: on recursive 30-ping outages of
 the A-KIT DVL data it makes the RMS of (filled-beam error / sigma) 0.91-1.00 for the network and the average
 estimator, 2 and 3 missing beams, the variance a least-squares weight needs (the error tails are heavier
-than Gaussian: 75-79 % within 1 sigma). Measured with ``scripts/calibrate_drift.py``; on the ten shared
+than Gaussian: 75-79 % within 1 sigma). Measured with ``experiments/calibrate_drift.py``; on the ten shared
 trajectories it lowers every hybrid method's window VRMSE against 0.02 (HNTC 0.204 -> 0.141 m/s, Graph-HN
 0.124 -> 0.105 m/s with 2 missing beams).
 """

@@ -585,7 +585,7 @@ def gyro_at(t: float, samples: list[tuple[float, tuple, tuple]]) -> np.ndarray:
     at the interval's centre to second order. The rate at t is interpolated linearly between the centres of
     the two intervals around t, and held beyond the first centre. Only the samples up to the first one after
     t are used (its centre is taken half the previous interval after its stamp), so the result does not
-    depend on how many later samples have arrived. ``scripts/gyro_at_ping.py`` measures this rule against the
+    depend on how many later samples have arrived. ``experiments/gyro_at_ping.py`` measures this rule against the
     simulator's true rate: 2e-8..1.4e-7 rad/s RMS at the pings, where the sample nearest the ping is off by
     7e-6..9.3e-5 rad/s and interpolation between the sample stamps by 4.5e-5..6.5e-5 rad/s; the lever arm
     turns a rate error into a beam error ``|l| |d omega|``.

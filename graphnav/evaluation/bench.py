@@ -64,7 +64,7 @@ RECORD_KEYS: tuple[str, ...] = ("trajectory", "scenario", "imu_grade", "window_s
 #: A window VRMSE (m/s) at or above this is a divergence, not an accuracy: it exceeds the speed of the
 #: vehicles the benchmark covers (Snapir: 1-2.5 m/s), so the estimate carries no information about the
 #: velocity. Healthy runs stay far below it: the worst window of any method in the shared-data benchmark
-#: and in ``scripts/start_sweep.py`` is < 0.5 m/s; pure inertial through a 30 s outage on the degraded
+#: and in ``graphnav start-sweep`` is < 0.5 m/s; pure inertial through a 30 s outage on the degraded
 #: (tactical) IMU stays below 1 m/s.
 DIVERGED_VRMSE_MPS = 3.0
 
@@ -267,7 +267,7 @@ def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
              "Band: 95 % chi-square band of a mission mean, counting one independent epoch per 10 s "
              "(errors are correlated in time; `graphnav.evaluation.consistency`). `+GT`: NEES with the ground truth's own "
              "velocity error added to the estimator's covariance (A-KIT: identified by "
-             "`scripts/identify_noise.py`, an upper bound of the GT's error); `GT share`: the part of the "
+             "`experiments/identify_noise.py`, an upper bound of the GT's error); `GT share`: the part of the "
              "NEES that the GT's error explains, `1 - NEES(+GT) / NEES`. The reference at an estimate's epoch is the "
              "nearest GT sample carried to it by the IMU (a 1 Hz GT linearly interpolated misses the motion "
              "within the second: 0.1 m/s in waves at the surface); `interp. GT`: the mission NEES against the "

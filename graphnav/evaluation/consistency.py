@@ -19,7 +19,7 @@ deg/s) the linearly interpolated GT and the recorded DVL differ by 0.06 / 0.10 /
 carrying the GT samples to the ping with the IMU (:func:`imu_carried_reference`: strapdown from the GT
 samples either side, blended, as the time-offset calibration's
 :class:`graphnav.calibration.reference.Reference`) brings that to 0.025 / 0.024 / 0.013 m/s,
-and submerged the vertical from 0.023 to 0.003 m/s (``scripts/consistency.py --reference-check``). The NEES
+and submerged the vertical from 0.023 to 0.003 m/s (``graphnav consistency --reference-check``). The NEES
 of the benchmark is therefore scored against the IMU-carried reference; the velocity RMSE keeps the plain
 interpolation (comparable with earlier results). The IMU's own error over at most a second (white 2.5e-3
 m/s^2/sqrt(Hz): 0.003 m/s; bias 50 micro-g: 5e-4 m/s) is small against the estimators' velocity sigmas; it

@@ -76,7 +76,7 @@ NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "n
 #: Screening of regressed beams against the estimator's own prediction (graph: graphnav.estimators.graph.regressed;
 #: EKF: ErrorStateEkf.screen_regressed): their error is taken as correlated with the prediction's (rho = 0.5: both
 #: come from the same past pings) and their sigma is raised to what the innovation shows. Measured with
-#: scripts/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
+#: experiments/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
 REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
 #: The motion prior's settings (Graph-MP; the hybrid's GraphOptions.motion_prior="total" / "total-if-uncertain").
 #: The densities are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma
@@ -90,7 +90,7 @@ MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2
 #: the screening only. In total outages the screened completion (the average estimator's held beams) carries
 #: the keyframes alone: neither the motion prior in its place nor motion_prior="total-if-uncertain" beside it
 #: is better-or-equal in every regime of the ten shared trajectories (docs/decisions/regressed-beams.md,
-#: measured with scripts/regressed_candidates.py).
+#: measured with experiments/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
@@ -98,7 +98,7 @@ GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", *
 #: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of completed beams
 #: against the filter's own prediction (graphnav.estimators.ekf.ErrorStateEkf.screen_regressed). Without it a
 #: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
-#: pulled the filter to 0.53-0.78 m/s window VRMSE (scripts/start_sweep.py).
+#: pulled the filter to 0.53-0.78 m/s window VRMSE (graphnav start-sweep).
 EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
 #: The paper's 12-state EKF (the ``-12`` methods): no position error state, no depth, a fix resets the position.
 EKF_PAPER_OPTIONS: Mapping = types.MappingProxyType({"position_states": False})

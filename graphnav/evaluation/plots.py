@@ -7,7 +7,10 @@
 * :func:`plot_nees`: velocity NEES over time per method with the chi-square band (consistency).
 * :func:`plot_position_error`: north, east and horizontal position error with the estimator's +-2 sigma.
 
-Every function takes a path, writes one PNG there and returns the path.
+Every function takes a path, writes one PNG there and returns the path. A method has one colour, marker and
+dash in every figure (:func:`method_style`, fixed by the registry's order) and a scenario one colour and
+hatch (:data:`SCENARIO_STYLES`); two methods whose results agree to :data:`IDENTICAL_TOL` draw on top of each
+other, so the legend names the second "(identical to X)" (:func:`same_as`).
 """
 from __future__ import annotations
 
@@ -24,17 +27,81 @@ from graphnav.core.scenarios import SCENARIOS  # noqa: E402
 from graphnav.core.solution import NavSolution  # noqa: E402
 
 AXES_NED = ("north", "east", "down")
-#: Fixed colours so a method looks the same in every figure.
-METHOD_COLORS = {
-    "LC": "#9e9e9e", "TC": "#616161", "Average-LC": "#ffb74d", "Average-TC": "#f57c00",
-    "HNLC": "#81c784", "HNTC": "#2e7d32", "Graph-TC": "#64b5f6", "Graph-HN": "#1565c0",
-    "Graph-HN-batch": "#8e24aa", "Graph-TC-batch": "#ce93d8", "Graph-MP": "#00897b",
-}
-SCENARIO_COLORS = {"2-missing": "#1f77b4", "3-missing": "#d62728", "none": "#7f7f7f"}
+#: Fourteen well-separated colours, given to the methods in the registry's order (a method looks the same in
+#: every figure; methods beyond fourteen reuse a colour with another marker and dash).
+_PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
+            "#17becf", "#000000", "#f4a6a6", "#0b5d1e", "#c49c00")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "h", "p", "d", "8")
+#: Dashes by registry position: identical results drawn on top of each other stay visible as two patterns.
+_DASHES = ("-", "--", "-.", ":", (0, (5, 1.5)), (0, (3, 1, 1, 1, 1, 1)))
+#: Scenario colours and hatches of the bar charts: every scenario its own.
+SCENARIO_STYLES: dict[str, tuple[str, str]] = {
+    "none": ("#9e9e9e", ""), "2-missing": ("#1f77b4", "//"), "3-missing": ("#d62728", "xx"),
+    "0-beams": ("#6a1b9a", ".."), "markov": ("#ff7f0e", "\\\\")}
+#: Two series whose values agree to this (their own units) are one result drawn twice; the legend says so.
+IDENTICAL_TOL = 1e-9
 
 
-def _color(method: str, i: int) -> str:
-    return METHOD_COLORS.get(method, f"C{i % 10}")
+def method_style(method: str) -> dict:
+    """Colour, marker and dash of ``method`` (keyword arguments of ``Axes.plot``), fixed by its position in the
+    method registry (:data:`graphnav.evaluation.methods.METHODS`); a name outside it gets the next free slot
+    of its hash, so the same name always looks the same."""
+    from graphnav.evaluation.methods import METHODS
+    names = list(METHODS)
+    i = names.index(method) if method in names else len(names) + sum(map(ord, method)) % 7
+    return {"color": _PALETTE[i % len(_PALETTE)], "marker": _MARKERS[(i + i // len(_PALETTE)) % len(_MARKERS)],
+            "linestyle": _DASHES[i % len(_DASHES)]}
+
+
+def scenario_style(scenario: str, j: int = 0) -> tuple[str, str]:
+    """(colour, hatch) of a scenario's bars."""
+    return SCENARIO_STYLES.get(scenario, (f"C{(j + 5) % 10}", "--"))
+
+
+def _line(method: str, n: int, lw: float = 1.2) -> dict:
+    """Plot keywords of a method's line with ``n`` points: its colour and dash, a marker every ~12th point."""
+    style = method_style(method)
+    return {**style, "lw": lw, "ms": 4, "markevery": max(1, n // 12), "markerfacecolor": "none"}
+
+
+def same_as(solutions: list[NavSolution], tol: float = IDENTICAL_TOL) -> dict[int, str]:
+    """Index -> the method of an earlier solution with the same result (same stamps; position, velocity and
+    velocity covariance within ``tol``): two methods that agree draw on top of each other, and the legend
+    must say why only one line shows."""
+    def equal(a: NavSolution, b: NavSolution) -> bool:
+        if a.t.shape != b.t.shape or not np.array_equal(a.t, b.t):
+            return False
+        pairs = [(a.p_n, b.p_n), (a.v_n, b.v_n)]
+        if (a.cov_v_n is None) != (b.cov_v_n is None):
+            return False
+        if a.cov_v_n is not None:
+            pairs.append((a.cov_v_n, b.cov_v_n))
+        return all(np.allclose(x, y, rtol=0.0, atol=tol, equal_nan=True) for x, y in pairs)
+    out = {}
+    for i, sol in enumerate(solutions):
+        for j in range(i):
+            if j not in out and equal(solutions[j], sol):
+                out[i] = solutions[j].method
+                break
+    return out
+
+
+def _labels(solutions: list[NavSolution], tol: float = IDENTICAL_TOL) -> list[str]:
+    """Legend labels: the method, and "(identical to X)" when an earlier one gave the same result."""
+    twins = same_as(solutions, tol)
+    return [f"{s.method} (identical to {twins[i]})" if i in twins else s.method for i, s in enumerate(solutions)]
+
+
+def _color(method: str, i: int = 0) -> str:
+    return method_style(method)["color"]
+
+
+def _legend_below(fig, ax, ncol: int = 4) -> None:
+    """The legend of ``ax`` under the figure, so it never hides a line or a bar."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="lower center", ncol=min(ncol, len(handles)), fontsize=8,
+                   bbox_to_anchor=(0.5, -0.01), frameon=False)
 
 
 def _save(fig, path: str | Path) -> Path:
@@ -78,30 +145,28 @@ def plot_trajectories(gt, solutions: list[NavSolution], outages, path, title: st
             ax.plot(gt.p_n[sel, 1], gt.p_n[sel, 0], color="red", lw=5, alpha=0.5, zorder=1,
                     label="GT during outage" if i == 0 else None)
         ax.plot(gt.p_n[0, 1], gt.p_n[0, 0], "k^", ms=9, label="start")
-    for i, sol in enumerate(solutions):
-        ax.plot(sol.p_n[:, 1], sol.p_n[:, 0], color=_color(sol.method, i), lw=1.2, label=sol.method, zorder=2)
-        ax.plot(sol.p_n[-1, 1], sol.p_n[-1, 0], "o", color=_color(sol.method, i), ms=4)
+    labels = _labels(solutions)
+    for sol, label in zip(solutions, labels):
+        ax.plot(sol.p_n[:, 1], sol.p_n[:, 0], label=label, zorder=2, **_line(sol.method, len(sol.t)))
     ax.set_xlabel("East (m)")
     ax.set_ylabel("North (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best", ncol=2)
     ax.set_title("North-East track")
     if gt is not None:
         _mark_windows(ax_err, _windows(outages))
-        for i, sol in enumerate(solutions):
+        for sol in solutions:
             p_gt, _ = gt_at(gt, sol.t)
-            ax_err.plot(sol.t, np.hypot(*(sol.p_n[:, :2] - p_gt[:, :2]).T), color=_color(sol.method, i),
-                        lw=1.2, label=sol.method)
+            ax_err.plot(sol.t, np.hypot(*(sol.p_n[:, :2] - p_gt[:, :2]).T), **_line(sol.method, len(sol.t)))
         ax_err.set_xlabel("time (s)")
         ax_err.set_ylabel("horizontal position error (m)")
         ax_err.grid(alpha=0.3)
-        ax_err.legend(fontsize=8, ncol=2, loc="upper left")
         ax_err.set_title("Horizontal position error")
     else:
         ax_err.set_visible(False)          # no reference: no error to show
     fig.suptitle(title or "Trajectory")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    _legend_below(fig, ax, ncol=5)
     return _save(fig, path)
 
 
@@ -115,25 +180,30 @@ def plot_velocity_errors(gt, solutions: list[NavSolution], outages, path, title:
     for sol in solutions:
         sel = slice(None) if t_range is None else (sol.t >= t_range[0]) & (sol.t <= t_range[1])
         selected.append((sel, sol.t[sel], gt_at(gt, sol.t[sel])[1]))
+    labels = _labels(solutions)
+    twins = same_as(solutions)
     for k, ax in enumerate(axes):
         _mark_windows(ax, windows, label=k == 0)
         for i, (sol, (sel, t, v_gt)) in enumerate(zip(solutions, selected)):
             err = sol.v_n[sel, k] - v_gt[:, k]
-            c = _color(sol.method, i)
-            ax.plot(t, err, color=c, lw=1.0, label=sol.method)
-            if sol.cov_v_n is not None:
+            style = _line(sol.method, len(t), lw=1.0)
+            ax.plot(t, err, label=labels[i] if k == 0 else None, **style)
+            if sol.cov_v_n is not None and i not in twins:      # a twin's sleeve is the same sleeve
                 s = np.sqrt(np.clip(sol.cov_v_n[sel, k, k], 0, None))
-                ax.fill_between(t, -s, s, color=c, alpha=0.18, lw=0,
-                                label=f"{sol.method} +-1 sigma" if k == 0 else None)
+                ax.plot(t, s, color=style["color"], lw=0.6, ls=":", alpha=0.9)
+                ax.plot(t, -s, color=style["color"], lw=0.6, ls=":", alpha=0.9)
+                ax.fill_between(t, -s, s, color=style["color"], alpha=0.08, lw=0,
+                                label="+-1 sigma (dotted edges)" if (k == 0 and i == min(
+                                    j for j, o in enumerate(solutions) if o.cov_v_n is not None)) else None)
         ax.axhline(0, color="k", lw=0.5)
         if t_range is not None:
             ax.set_xlim(*t_range)
         ax.set_ylabel(f"v {AXES_NED[k]} error (m/s)")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8, ncol=3, loc="upper right")
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(title or "Velocity error with +-1 sigma")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    _legend_below(fig, axes[0])
     return _save(fig, path)
 
 
@@ -147,21 +217,21 @@ def plot_velocity_std(solutions: list[NavSolution], outages, path, title: str = 
     else:
         t0, t1 = -math.inf, math.inf
     fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
+    with_cov = [s for s in solutions if s.cov_v_n is not None]
+    labels = _labels(with_cov)
     for k, ax in enumerate(axes):
         _mark_windows(ax, [w for w in windows if w[1] >= t0 and w[0] <= t1], label=k == 0)
-        for i, sol in enumerate(solutions):
-            if sol.cov_v_n is None:
-                continue
+        for sol, label in zip(with_cov, labels):
             sel = (sol.t >= t0) & (sol.t <= t1)
             ax.plot(sol.t[sel], np.sqrt(np.clip(sol.cov_v_n[sel, k, k], 1e-12, None)),
-                    color=_color(sol.method, i), lw=1.3, label=sol.method)
+                    label=label if k == 0 else None, **_line(sol.method, int(sel.sum()), lw=1.3))
         ax.set_yscale("log")
         ax.set_ylabel(f"std v {AXES_NED[k]} (m/s)")
         ax.grid(alpha=0.3, which="both")
-    axes[0].legend(fontsize=8, ncol=3, loc="upper left")
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(title or "Velocity standard deviation around the outage window")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    _legend_below(fig, axes[0])
     return _save(fig, path)
 
 
@@ -181,24 +251,22 @@ def plot_nees(gt, solutions: list[NavSolution], outages, path, title: str = "", 
     ax.axhspan(lo1, hi1, color="0.85", alpha=0.5, label="95 % band, one epoch")
     ax.axhspan(lo, hi, color="#a5d6a7", alpha=0.6, label=f"95 % band, {smooth_s:g} s mean")
     ax.axhline(DOF, color="k", lw=0.8, ls="--")
-    for i, sol in enumerate(solutions):
-        if sol.cov_v_n is None:
-            continue
+    with_cov = [s for s in solutions if s.cov_v_n is not None]
+    for sol, label in zip(with_cov, _labels(with_cov)):
         reference = mission_reference(sol, gt) if hasattr(gt, "imu") else gt
         t, nees = nees_time_series(sol, reference, sol.t[0] + settle_s)
-        c = _color(sol.method, i)
-        ax.plot(t, np.clip(nees, 1e-3, None), color=c, lw=0.4, alpha=0.5)
+        style = _line(sol.method, len(t), lw=1.6)
+        ax.plot(t, np.clip(nees, 1e-3, None), color=style["color"], lw=0.4, alpha=0.4)
         n = max(int(round(smooth_s / max(float(np.median(np.diff(t))), 1e-3))), 1) if len(t) > 1 else 1
         mean = np.convolve(nees, np.ones(n) / n, mode="same")
-        ax.plot(t, np.clip(mean, 1e-3, None), color=c, lw=1.6,
-                label=f"{sol.method} (mean {np.mean(nees):.1f})")
+        ax.plot(t, np.clip(mean, 1e-3, None), label=f"{label} (mean {np.mean(nees):.1f})", **style)
     ax.set_yscale("log")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("velocity NEES (3 dof)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, ncol=3, loc="upper left")
     ax.set_title(title or "Velocity NEES over time")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    _legend_below(fig, ax, ncol=3)
     return _save(fig, path)
 
 
@@ -211,9 +279,12 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
           and (imu_grade is None or r["imu_grade"] == imu_grade)]
     methods = methods or [m for m in METHODS if any(r["method"] == m for r in rs)]
     scenarios = [s for s in SCENARIOS if any(r["scenario"] == s for r in rs)]
-    fig, ax = plt.subplots(figsize=(max(7.0, 1.1 * len(methods) + 2), 4.8))
-    width = 0.8 / max(1, len(scenarios))
+    fig, ax = plt.subplots(figsize=(min(16.0, max(7.0, 0.3 * len(methods) * max(1, len(scenarios)) + 2)), 5.2))
+    width = 0.84 / max(1, len(scenarios))
     x = np.arange(len(methods))
+    # Value labels sit in a row of their own at the foot of each bar, one per bar, rotated: they cannot
+    # collide with each other, with the worst-window ticks or with the legend (outside the axes).
+    foot = matplotlib.transforms.blended_transform_factory(ax.transData, ax.transAxes)
     for j, sc in enumerate(scenarios):
         means, worst = [], []
         for m in methods:
@@ -221,16 +292,23 @@ def plot_vrmse_bars(records: list[dict], path, imu_grade: str | None = None, tit
             means.append(np.mean(v) if v else np.nan)
             worst.append(np.max(v) if v else np.nan)
         pos = x + (j - (len(scenarios) - 1) / 2) * width
-        ax.bar(pos, means, width, color=SCENARIO_COLORS.get(sc, f"C{j}"), label=f"{sc} (mean)")
-        ax.plot(pos, worst, "_", color="k", ms=12, mew=2, label="worst window" if j == 0 else None)
+        color, hatch = scenario_style(sc, j)
+        ax.bar(pos, means, width * 0.95, color=color, hatch=hatch, edgecolor="white", lw=0.5,
+               label=f"{sc} (mean)")
+        ax.plot(pos, worst, "_", color="k", ms=max(4.0, 40 * width), mew=2,
+                label="worst window" if j == 0 else None)
         for p, v in zip(pos, means):
             if np.isfinite(v):
-                ax.text(p, v, f"{v:.2g}", ha="center", va="bottom", fontsize=7, rotation=90)
+                ax.text(p, 0.015, f"{v:.3f}", transform=foot, ha="center", va="bottom", fontsize=7,
+                        rotation=90, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                                           "alpha": 0.85})
+    # room under the shortest bar for its label on the log axis
+    ax.set_ylim(bottom=min([v for v in (r["vrmse_window"] for r in rs) if v > 0] or [1e-3]) / 3)
     ax.set_xticks(x, methods, rotation=30, ha="right")
     ax.set_yscale("log")
     ax.set_ylabel("window VRMSE (m/s)")
     ax.grid(axis="y", alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # outside: hides no bar
     ax.set_title(title or f"Window VRMSE per method{'' if imu_grade is None else f' ({imu_grade} IMU)'}")
     fig.tight_layout()
     return _save(fig, path)

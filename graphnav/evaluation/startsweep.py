@@ -9,13 +9,16 @@ stamp, :meth:`graphnav.core.mission.GroundTruth.at`), the method runs over it, a
 scenario's beam outage (the paper's 2-missing / 3-missing presets; ``none`` = all beams). The result of
 one start is its *worst* window VRMSE and its health record (:mod:`graphnav.estimators.health`).
 
-``scripts/start_sweep.py`` runs the whole sweep and prints the table; ``tests/test_start_anywhere.py`` runs a
-subsample (and the full sweep when ``--runslow``).
+:func:`run_sweep` runs the whole sweep (every trajectory, start, scenario and method, through the task runner
+:func:`graphnav.evaluation.tasks.run_tasks`) and :func:`sweep_table` prints its table; ``graphnav start-sweep``
+is the command. ``tests/test_start_anywhere.py`` runs a subsample (and the full sweep when ``--runslow``).
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
+from typing import Callable
 
 import numpy as np
 
@@ -77,3 +80,80 @@ def run_start(mission: Mission, method: str, scenario: str, t_start: float, leng
 def failed(record: dict, limit: float = START_VRMSE_LIMIT) -> bool:
     """A start failed: it crashed, diverged (unrecovered) or its worst window VRMSE reached ``limit``."""
     return bool(record["error"] or record["diverged"] or not record["vrmse_worst"] < limit)
+
+
+# --- the sweep -----------------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=None)     # a handful of small missions: load each once per worker process
+def _mission(source) -> Mission:
+    from graphnav.evaluation.bench import load_source
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # the loaders' notes are the user's when they load one mission
+        return load_source(source)
+
+
+def sweep_jobs(sources, scenarios, step_s: float = 10.0, length_s: float = 60.0) -> list[tuple]:
+    """(source, scenario, start s) in the order they are run: first the three fastest-manoeuvre starts of every
+    trajectory, then the starts on a 3-step grid, then the rest, each scenario by scenario, so that a sweep
+    cut short still covers every trajectory (the table says how many starts it holds). ``sources`` are
+    :class:`graphnav.evaluation.bench.TrajectorySource`."""
+    jobs = []
+    for k_src, src in enumerate(sources):
+        mission = _mission(src)
+        starts = start_times(mission, step_s, length_s)
+        fast = set(fastest_starts(mission, starts, n=3))
+        for i, t in enumerate(starts):
+            priority = 0 if t in fast else (1 if i % 3 == 0 else 2)
+            jobs += [(priority, k, t, k_src, src, sc) for k, sc in enumerate(scenarios)]
+    return [(src, sc, t) for _, _, t, _, src, sc in sorted(jobs, key=lambda j: j[:4])]
+
+
+def run_start_job(job: tuple) -> list[dict]:
+    """One task of the sweep: ``(source, scenario, t_start, methods, length_s, window_s)`` -> one record per
+    method (module level, plain data: it runs in worker processes)."""
+    source, scenario, t_start, methods, length_s, window_s = job
+    mission = _mission(source)
+    return [run_start(mission, m, scenario, t_start, length_s, window_s) for m in methods]
+
+
+def run_sweep(sources, methods, scenarios, step_s: float = 10.0, length_s: float = 60.0, window_s: float = 30.0,
+              done: list[dict] | None = None, finished: Callable[[list[dict]], None] | None = None,
+              jobs: int = 1, scheduler: str | None = None) -> list[dict]:
+    """Every start of every source x scenario x method; the records of ``done`` are kept and their
+    (trajectory, scenario, start) skipped. ``finished(records)`` sees every record as its start completes
+    (the command rewrites its file there). Returns all records."""
+    from graphnav.evaluation.tasks import run_tasks
+    records = list(done or [])
+    skip = {(r["trajectory"], r["scenario"], float(r["t_start"])) for r in records}
+    todo = [(src, sc, t, list(methods), length_s, window_s) for src, sc, t in sweep_jobs(sources, scenarios, step_s,
+                                                                                          length_s)
+            if (_mission(src).name, sc, t) not in skip]
+
+    def collect(new: list[dict]) -> None:
+        records.extend(new)
+        if finished is not None:
+            finished(new)
+    run_tasks(run_start_job, todo, collect, jobs=jobs, scheduler=scheduler)
+    return records
+
+
+def sweep_table(records: list[dict], methods, scenarios, limit: float = START_VRMSE_LIMIT) -> str:
+    """Markdown table per scenario and method: starts run, worst window VRMSE (m/s) and where, the median of
+    the per-start worst, failed starts (:func:`failed`), runs the health monitor re-acquired and its trips."""
+    lines = [f"Worst window VRMSE (m/s) over all starts; failed = worst >= {limit} m/s, diverged or crashed; "
+             "starts = (trajectory, start) pairs run.", "",
+             "| scenario | method | starts | worst window VRMSE | at (trajectory, start s) | median of worst | "
+             "failed | re-acquired runs | health trips |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for sc in scenarios:
+        for m in methods:
+            rs = [r for r in records if r["scenario"] == sc and r["method"] == m]
+            if not rs:
+                continue
+            worst = max(rs, key=lambda r: r["vrmse_worst"])
+            finite = sorted(r["vrmse_worst"] for r in rs if math.isfinite(r["vrmse_worst"]))
+            median = finite[len(finite) // 2] if finite else float("nan")
+            n_fail = sum(failed(r, limit) for r in rs)
+            reacq = sum(bool(r["health"] and r["health"].get("n_reacquired")) for r in rs)
+            trips = sum(bool(r["health"] and r["health"].get("diverged")) for r in rs)
+            lines.append(f"| {sc} | {m} | {len(rs)} | {worst['vrmse_worst']:.3f} | {worst['trajectory']}, "
+                         f"{worst['t_start']:.0f} | {median:.3f} | {n_fail} | {reacq} | {trips} |")
+    return "\n".join(lines)

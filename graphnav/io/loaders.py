@@ -110,7 +110,7 @@ AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 #: The estimators navigate the IMU point, so the loader moves the GT there (``imu_position_b``) and gives the
 #: DVL time offset of the published A-KIT files (s added to the rescaled DVL stamps), for folders without a GT
 #: file: the mean of the load-time estimates against the GT on the ten shared trajectories (0.976-1.061 s, spread
-#: 0.025 s; ``scripts/no_gt_runs.py`` prints them).
+#: 0.025 s; ``experiments/no_gt_runs.py`` prints them).
 AKIT_DVL_TIME_OFFSET_S = 1.02
 
 #: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
@@ -120,13 +120,13 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities identified on the files
-#: (``scripts/identify_noise.py``, :mod:`graphnav.calibration.noise`; docs/decisions/consistency.md). The white densities are those
+#: (``experiments/identify_noise.py``, :mod:`graphnav.calibration.noise`; docs/decisions/consistency.md). The white densities are those
 #: at the scale the estimators integrate over, the GT's 1-s sample interval and the DVL's 1-s ping interval:
 #: the mismatch of the IMU's 1-s velocity and attitude increments with the GT's
 #: (:func:`graphnav.calibration.noise.identify_imu_with_gt`), median over the ten shared trajectories:
 #: accelerometer 2.5e-3 m/s^2/sqrt(Hz) (1.8e-3..4.2e-3 per trajectory), gyro 1.2e-5 rad/s/sqrt(Hz)
 #: (8.5e-6..1.9e-5; an upper bound: it holds the GT's own attitude noise too). The sample-to-sample scatter
-#: is larger (Allan deviation at 0.01-0.1 s: gyro 6.4e-5, accelerometer 1.7e-3; ``scripts/check_realdata.py``
+#: is larger (Allan deviation at 0.01-0.1 s: gyro 6.4e-5, accelerometer 1.7e-3; ``experiments/check_realdata.py``
 #: 1.9e-5..1.0e-4 and 1.0e-3..4.8e-3): vehicle vibration, which averages out within a keyframe interval and
 #: is therefore not white noise at the estimators' scale. The densities used before (3e-3, 6e-5)
 #: were the upper-middle of that sample scatter; with the identified ones the window VRMSE and NEES are as in
@@ -134,7 +134,7 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: micro-g); random walks from the navigation grade. The beam noise identified from the all-beam batch
 #: residuals is 0.0412-0.0423 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
 #: keeps 0.042.
-#: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``scripts/identify_noise.py`` over
+#: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``experiments/identify_noise.py`` over
 #: the ten shared trajectories (:func:`graphnav.calibration.noise.gt_white_velocity_error`): the GT's white
 #: velocity error per body axis, from its 1-s velocity increments against the IMU's with the identified
 #: accelerometer density removed (independent of every estimator here), median x 0.0015, y 0.0081, z 0.0000

@@ -4,7 +4,7 @@ Chosen defaults and why:
 
 - One DVL factor per epoch holding all its measured beams (``beam_factor_mode="epoch"``): each
   ``gtsam.CustomFactor`` call costs a Python round trip plus a copy of the whole ``Values``, so fewer,
-  larger factors are faster (``scripts/bench_graph.py`` measures epoch vs beam). Regressed beams go in
+  larger factors are faster (``benchmarks/graph_speed.py`` measures epoch vs beam). Regressed beams go in
   a second factor of the same epoch; with a Huber kernel they get one factor each, so the kernel acts
   per beam.
 - Regressed beams: noise = the completer's sigma (floored at the measured-beam sigma) with a Huber kernel
@@ -43,10 +43,10 @@ Chosen defaults and why:
   keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
   the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
   ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
-  100 s); ``scripts/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above
+  100 s); ``experiments/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above
   at 1.8e-4..1.2e-3 m/s/sqrt(s) (median 5.9e-4; the GT's slow error is in it too). **On by default**
   (docs/decisions/consistency.md): on the ten shared trajectories they lower the window VRMSE of Graph-TC, Graph-HN and Graph-HN-batch in
-  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``scripts/consistency.py``.
+  every scenario and bring their velocity NEES to 1.2-5.3; measured both ways with ``graphnav consistency``.
 - Marginals (``marginals="full"``): every output keyframe carries its velocity, position (NED), attitude and
   bias covariances. Full marginals cost 0.15 ms per keyframe over velocity-only ones in the fixed-lag
   smoother and 0.7 ms in ISAM2 (the newest keyframe sits in the Bayes tree's root clique), 0.07 s per 400 s in

@@ -21,7 +21,7 @@ Options (:class:`~graphnav.estimators.graph.GraphOptions`):
   disagreement shows.
 - ``regressed_gate_k``: joint-covariance gate, ``|y_c - y_p| / sqrt(a + s^2) > k`` -> dropped.
 
-Measured on the A-KIT data (``scripts/regressed_correlation.py``, Trajectory1 and 5, 60 s windows, plain
+Measured on the A-KIT data (``experiments/regressed_correlation.py``, Trajectory1 and 5, 60 s windows, plain
 hybrid): the completion's error correlates with the graph's prediction error (rho 0.27-0.68 over tactical /
 MEMS IMU and 2 / 3 / 0 measured beams), and it is 1.7-3.7x larger (RMS 0.13 m/s vs 0.035-0.075 m/s), so in
 those regimes the completions carry nothing the IMU and the measured beams do not already give better. With
@@ -29,7 +29,7 @@ those regimes the completions carry nothing the IMU and the measured beams do no
 MEMS total outage, where the kept ones lower the window VRMSE by 8 % on Trajectory1, 5 and 8). The gate alone
 fires on almost nothing (the completions are wrong by a steady 0.13 m/s, not by outliers), and the adaptive
 sigma alone cuts Graph-HN's excess over Graph-TC by 18-82 % but still leaves it 1.02-1.96x Graph-TC
-(``scripts/regressed_candidates.py``; docs/decisions/regressed-beams.md). The graph's predicted beam variance is
+(``experiments/regressed_candidates.py``; docs/decisions/regressed-beams.md). The graph's predicted beam variance is
 over-confident on these data (mean e_p^2 / a = 2.7-8.7); scaling it (``regressed_prediction_var_scale``) by 4
 keeps more completions: tactical total outage 0.82x Graph-TC instead of 1.00x, but MEMS total outage 0.96x
 instead of 0.88x and MEMS 2-missing 1.02x (x8: 1.10x / 1.21x), so the default stays 1.
