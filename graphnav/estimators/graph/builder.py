@@ -8,6 +8,7 @@ graph uses. The estimators in this package consume :class:`Keyframe` objects and
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Iterator
 
@@ -290,18 +291,29 @@ class BeamGroup:
     velocity: bool = False
 
     def factor(self) -> gtsam.CustomFactor:
+        """One factor over the group's rows; a Huber kernel acts on each beam by itself (per-row reweighting,
+        :func:`graphnav.factors.beam_noise`), on a velocity's residual as a whole."""
         if self.velocity:
             C_d_b = self.rows_b.T
             d_key = D(self.k) if self.beam_index is not None else None
             return dvl_velocity_factor(X(self.k), V(self.k), B(self.k), C_d_b, self.y,
                                        beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b,
                                        d_key=d_key)
+        noise = beam_noise(self.sigma, self.huber_k, per_row=True)
         if self.beam_index is not None:
             return beam_factor_dvl_errors(X(self.k), V(self.k), B(self.k), D(self.k), self.rows_b,
-                                          self.beam_index, self.C_d_b, self.y,
-                                          beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
-        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y,
-                           beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
+                                          self.beam_index, self.C_d_b, self.y, noise, self.omega_b, self.lever_arm_b)
+        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y, noise, self.omega_b,
+                           self.lever_arm_b)
+
+    def beam_factors(self) -> list[gtsam.CustomFactor]:
+        """One factor per beam (a velocity: its one factor): the same linearisation as :meth:`factor`, and a
+        nonlinear error that is the sum of the beams' robust losses (what Levenberg-Marquardt's step test needs)."""
+        if self.velocity or self.huber_k is None or len(self.y) == 1:
+            return [self.factor()]
+        return [dataclasses.replace(self, rows_b=self.rows_b[[i]], y=self.y[[i]], sigma=self.sigma[[i]],
+                                    beam_index=None if self.beam_index is None else self.beam_index[[i]]).factor()
+                for i in range(len(self.y))]
 
 
 @dataclass
@@ -323,9 +335,9 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
                      p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
-    Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
-    kernel is set for them; regressed beams likewise. A robust kernel acts on a factor's whole residual,
-    so robust beams get one factor each.
+    Measured beams form one group (one factor per ping) unless ``beam_factor_mode="beam"``; regressed beams
+    likewise. A Huber kernel acts on each beam of a group by itself (:meth:`BeamGroup.factor`); a DVL-frame
+    velocity is one measurement, its kernel acts on the whole residual.
 
     Args:
         kf: the keyframe.
@@ -371,7 +383,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
             if sel.size == 0:
                 continue
             # a velocity is one measurement: one factor (a robust kernel on its whole residual)
-            split = not m.velocity and (options.beam_factor_mode == "beam" or huber is not None)
+            split = not m.velocity and options.beam_factor_mode == "beam"
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
