@@ -189,8 +189,10 @@ class Navigator:
             w = self._vector("imu", t, "omega_b", omega_b, 3)
             if f is None or w is None:
                 return []
-        elif not self._stamp_ok("imu", t):
-            return []
+        else:       # t is a finite float here: straight to the stamp screening of _stamp_ok
+            why = self._screen.stamp_problem("imu", t)
+            if why is not None:
+                return self._refuse("imu", t, "t", why)
         acc, gyro = self._imu_full_scale
         if (abs(f[0]) > acc or abs(f[1]) > acc or abs(f[2]) > acc or abs(w[0]) > gyro or abs(w[1]) > gyro
                 or abs(w[2]) > gyro or not ok):
