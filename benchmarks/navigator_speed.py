@@ -167,14 +167,17 @@ def replay_table(mission, repeat: int, compare_beam: bool) -> None:
 def batch_table(hours: float) -> None:
     m = simulate_mission(hours * 3600.0, seed=0)
     mission = m.with_outage(scenario_outage("2-missing", m.t0 + 200.0, 30.0))
+    cpu = time.process_time()
     sol = run_graph(mission, batch=True, completer=AverageCompleter(3), mode="fixed-lag")
+    cpu = time.process_time() - cpu
     info = sol.info
     print(f"\n2. Graph-HN-batch, simulated {hours:g} h mission ({len(sol.t)} keyframes; AverageCompleter, one 30 s "
           "2-missing outage)")
-    print("| total s | first pass (fixed-lag) s | batch s | batch iterations | x real time (total) |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| total s (wall) | first pass (fixed-lag) s | batch s | batch iterations | total CPU s | "
+          "x real time (CPU) |")
+    print("| --- | --- | --- | --- | --- | --- |")
     print(f"| {sol.runtime_s:.1f} | {info['online_s']:.1f} | {info['batch_s']:.1f} | {info['batch_iterations']} | "
-          f"{m.duration / sol.runtime_s:.0f}x |", flush=True)
+          f"{cpu:.1f} | {m.duration / cpu:.0f}x |", flush=True)
 
 
 def main() -> int:
