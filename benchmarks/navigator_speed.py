@@ -25,6 +25,7 @@ Nothing is asserted (CI times nothing).
     .venv/bin/python benchmarks/navigator_speed.py                      # replay (3 rounds) + 1 h batch
     .venv/bin/python benchmarks/navigator_speed.py --repeat 5 --compare-beam --batch-hours 0
     .venv/bin/python benchmarks/navigator_speed.py --profile /tmp/replay.prof   # cProfile of one replay
+    .venv/bin/python benchmarks/navigator_speed.py --split       # CPU per sample / keyframe / solver / marginal
 """
 from __future__ import annotations
 
@@ -164,6 +165,53 @@ def replay_table(mission, repeat: int, compare_beam: bool) -> None:
           "keyframer or preintegration. On a loaded machine read the CPU columns.)")
 
 
+def cpu_split(mission, repeat: int) -> None:
+    """Where the CPU time of a fixed-lag replay goes: ``time.thread_time`` around the backend's per-keyframe calls
+    (the benchmark's own instrumentation, set on the classes in this process only)."""
+    from graphnav.estimators import backends
+    from graphnav.estimators.graph import incremental
+    spent: dict[str, float] = {}
+
+    def timed(owner, name):
+        call = getattr(owner, name)
+
+        def wrapper(*args, **kwargs):
+            start = time.thread_time()
+            try:
+                return call(*args, **kwargs)
+            finally:
+                spent[name] = spent.get(name, 0.0) + time.thread_time() - start
+        setattr(owner, name, wrapper)
+        return call
+
+    hooks = [(backends.GraphBackend, "process"), (incremental.FixedLagGraph, "add"),
+             (incremental.FixedLagGraph, "_solve"), (incremental.FixedLagGraph, "_marginal"),
+             (incremental.FixedLagGraph, "_value")]
+    originals = [(owner, name, timed(owner, name)) for owner, name in hooks]
+    events = list(replay(mission))
+    rows = []
+    try:
+        for _ in range(repeat):
+            spent.clear()
+            run = replay_run(mission, events, "fixed-lag")
+            rows.append({"replay": run["cpu"], "per sample (outside the backend)": run["cpu"] - spent["process"],
+                         "per keyframe: graph_keyframe (segments, preintegration)": spent["process"] - spent["add"]
+                         - run["update"].sum(),
+                         "per keyframe: add (gravity, prediction, factors, innovation)": spent["add"],
+                         "update: solver step": spent["_solve"], "update: velocity marginal": spent["_marginal"],
+                         "update: reading the estimate": spent["_value"]})
+    finally:
+        for owner, name, call in originals:
+            setattr(owner, name, call)
+    print(f"\nCPU split of the fixed-lag replay (s per {mission.duration:.0f} s of mission, median of {repeat})")
+    print("| part | CPU s | share |")
+    print("| --- | --- | --- |")
+    total = float(np.median([r["replay"] for r in rows]))
+    for key in rows[0]:
+        value = float(np.median([r[key] for r in rows]))
+        print(f"| {key} | {value:.3f} | {value / total:.0%} |")
+
+
 def batch_table(hours: float) -> None:
     m = simulate_mission(hours * 3600.0, seed=0)
     mission = m.with_outage(scenario_outage("2-missing", m.t0 + 200.0, 30.0))
@@ -187,6 +235,8 @@ def main() -> int:
     parser.add_argument("--compare-beam", action="store_true", help="also one DVL factor per beam")
     parser.add_argument("--batch-hours", type=float, default=1.0, help="batch mission length, h (0: skip)")
     parser.add_argument("--profile", metavar="FILE", help="only cProfile one fixed-lag replay into FILE")
+    parser.add_argument("--split", action="store_true",
+                        help="only the CPU split of the fixed-lag replay (per sample, per keyframe, solver, marginal)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     mission = simulate_mission(args.duration, seed=0)
@@ -196,6 +246,9 @@ def main() -> int:
         profiler.runcall(replay_run, mission, events, "fixed-lag")
         profiler.dump_stats(args.profile)
         print(f"wrote {args.profile} (read with: python -m pstats {args.profile})")
+        return 0
+    if args.split:
+        cpu_split(mission, args.repeat)
         return 0
     replay_table(mission, args.repeat, args.compare_beam)
     if args.batch_hours > 0:
