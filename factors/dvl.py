@@ -28,7 +28,9 @@ variable lever arm, with or without the DVL error states); the other builders na
 
 ``gtsam.CustomFactor`` calls back into Python; inside the C++ optimisers each call also copies the whole
 ``Values`` (pybind11 casts the ``const Values&`` argument by copy), so the cost of one call grows with the
-number of variables. Fewer, larger factors (one per epoch) are therefore preferred.
+number of variables. Fewer, larger factors (one per ping, a per-row Huber kernel: :func:`beam_noise`) are
+therefore preferred, and a call reads each variable once and takes the prediction and every Jacobian from one
+pass of the beam model.
 """
 from __future__ import annotations
 
@@ -41,12 +43,23 @@ __all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor
            "body_velocity_factor", "dvl_factor", "dvl_velocity_factor", "predict_beams"]
 
 
-def beam_noise(sigmas: np.ndarray, huber_k: float | None = None) -> gtsam.noiseModel.Base:
-    """Diagonal noise model with per-row sigmas (m/s), optionally wrapped in a Huber kernel (threshold k)."""
+def beam_noise(sigmas: np.ndarray, huber_k: float | None = None, per_row: bool = False) -> gtsam.noiseModel.Base:
+    """Diagonal noise model with per-row sigmas (m/s), optionally wrapped in a Huber kernel (threshold k, in
+    sigmas).
+
+    The kernel weighs the whole whitened residual by its norm (GTSAM's ``Block`` reweighting: one measurement
+    of several rows, e.g. a DVL-frame velocity), or with ``per_row`` each row by its own whitened error
+    (``Scalar`` reweighting): one factor over the m beams of a ping then linearises to exactly the rows of m
+    one-beam Huber factors, so a bad beam does not down-weight the good ones of its ping. What differs is the
+    factor's nonlinear error (GTSAM's robust loss of the residual's norm), which the incremental solvers do not
+    use; an optimiser that accepts steps by that error (Levenberg-Marquardt) needs one factor per beam.
+    """
     base = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(sigmas, dtype=float))
     if huber_k is None:
         return base
-    return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(float(huber_k)), base)
+    scheme = gtsam.noiseModel.mEstimator.Base.ReweightScheme
+    return gtsam.noiseModel.Robust.Create(
+        gtsam.noiseModel.mEstimator.Huber.Create(float(huber_k), scheme.Scalar if per_row else scheme.Block), base)
 
 
 def predict_beams(rows_b: np.ndarray, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray,
@@ -90,10 +103,10 @@ def dvl_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.nda
     omega = np.array(omega_b, dtype=float).reshape(3)
     lever = None if lever_arm_b is None else np.array(lever_arm_b, dtype=float).reshape(3)
     zeros = np.zeros((B.shape[0], 3))
-    # with a fixed lever arm and no scale states d/dbias = [0, B [l]x] is constant
-    H_bias = (np.hstack([zeros, model.predict(np.eye(3), zeros[0], zeros[0], zeros[0], lever).d_gyro_bias()])
-              if lever is not None and d_key is None else None)
     keys = [x_key, v_key, b_key] + ([d_key] if d_key is not None else []) + ([l_key] if l_key is not None else [])
+    if l_key is None:
+        return gtsam.CustomFactor(noise, keys, _fixed_lever_arm_error(model, x_key, v_key, b_key, d_key, y, omega,
+                                                                      lever))
 
     def error(_factor, values, H):
         p = model.predict(values.atPose3(x_key).rotation().matrix(), values.atVector(v_key), omega,
@@ -103,14 +116,41 @@ def dvl_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.nda
         if H is not None:
             H[0] = np.hstack([p.d_rot(), zeros])
             H[1] = p.d_v()
-            H[2] = H_bias if H_bias is not None else np.hstack([zeros, p.d_gyro_bias()])
+            H[2] = np.hstack([zeros, p.d_gyro_bias()])
             if d_key is not None:
                 H[3] = p.d_dvl_errors()
-            if l_key is not None:
-                H[len(keys) - 1] = p.d_lever_arm()
+            H[len(keys) - 1] = p.d_lever_arm()
         return p.h - y
 
     return gtsam.CustomFactor(noise, keys, error)
+
+
+def _fixed_lever_arm_error(model: BeamModel, x_key: int, v_key: int, b_key: int, d_key: int | None, y: np.ndarray,
+                           omega: np.ndarray, lever: np.ndarray):
+    """The error callback of a DVL factor with a fixed lever arm (keys x, v, b [, d]): the GTSAM optimisers call
+    it at every linearisation, so it reads each variable once and takes the prediction and all Jacobian blocks
+    from one pass of :meth:`graphnav.core.beam_model.BeamModel.linearize_one`, written into GTSAM's tangent
+    layouts (Pose3 ``[rot, trans]``, bias ``[acc, gyro]``)."""
+    m = len(y)
+
+    def error(_factor, values, H):
+        R = values.atPose3(x_key).rotation().matrix()
+        d = None if d_key is None else values.atVector(d_key)
+        h, J, J_d = model.linearize_one(R, values.atVector(v_key), omega, values.atConstantBias(b_key).gyroscope(),
+                                        lever, d)
+        if H is not None:
+            H_x = np.zeros((m, 6))
+            H_x[:, :3] = J[:, :3]
+            H_b = np.zeros((m, 6))
+            H_b[:, 3:] = J[:, 6:]
+            H[0] = H_x
+            H[1] = J[:, 3:6]
+            H[2] = H_b
+            if d_key is not None:
+                H[3] = J_d
+        return h - y
+
+    return error
 
 
 def beam_factor(x_key: int, v_key: int, b_key: int, rows_b: np.ndarray, y: np.ndarray,

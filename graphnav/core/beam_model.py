@@ -158,6 +158,37 @@ class BeamModel:
     def has_dvl_errors(self) -> bool:
         return self.rows_d is not None
 
+    def linearize_one(self, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray, gyro_bias: np.ndarray,
+                      lever_arm_b: np.ndarray, dvl_errors: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """At one state: ``(h (R,), J (R,9), J_d (R,7) or None)`` with ``J = [d_rot | d_v | d_gyro_bias]``, the
+        prediction and the blocks of :class:`BeamPrediction` in one pass (what a GTSAM factor needs at each
+        linearisation: the three blocks come from one product ``M [[C^T v_n]x | C^T | [l_b]x]``). Arguments as
+        :meth:`predict`, one state only (``C_b_n`` (3,3), vectors (3,), ``dvl_errors`` (7,))."""
+        Ct = C_b_n.T
+        v_body = Ct @ v_n
+        rate = omega_b - gyro_bias
+        v_head = v_body + _cross(rate, lever_arm_b)
+        (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = Ct.tolist()
+        bx, by, bz = v_body.tolist()
+        lx, ly, lz = lever_arm_b.tolist()
+        K = np.array([[0.0, -bz, by, c00, c01, c02, 0.0, -lz, ly],
+                      [bz, 0.0, -bx, c10, c11, c12, lz, 0.0, -lx],
+                      [-by, bx, 0.0, c20, c21, c22, -ly, lx, 0.0]])
+        if self.rows_d is None:
+            if dvl_errors is not None:
+                raise ValueError("DVL error states given to a beam model made without beam_index / C_d_b")
+            M = self.rows_b
+            return M @ v_head, M @ K, None
+        v_d = v_head @ self.C_d_b
+        J_d = np.concatenate([self.rows_d * v_d, self.onehot], axis=1)
+        if dvl_errors is None:
+            M = self.rows_b
+            return M @ v_head, M @ K, J_d
+        d = np.asarray(dvl_errors, dtype=float)
+        M = (self.rows_d * (1.0 + d[:3])) @ self.C_d_b.T
+        return M @ v_head + self.onehot @ d[3:], M @ K, J_d
+
     def predict(self, C_b_n: np.ndarray, v_n: np.ndarray, omega_b: np.ndarray, gyro_bias: np.ndarray,
                 lever_arm_b: np.ndarray, dvl_errors: np.ndarray | None = None) -> BeamPrediction:
         """Predicted beams at a state (shapes in the module docstring).

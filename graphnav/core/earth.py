@@ -23,6 +23,7 @@ tangent plane's ``down``: :meth:`EarthModel.depth_of` is the height relation (th
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -137,9 +138,12 @@ class EarthModel:
         """Earth rate in the navigation frame, rad/s (zeros without Earth rotation)."""
         return earth_rate_n(self.lat_rad) if self.earth_rotation else np.zeros(3)
 
-    @property
+    @functools.cached_property
     def _origin(self) -> tuple[np.ndarray, np.ndarray]:
-        return lla_to_ecef(self.lat_rad, 0.0, self.alt_m), C_n_e(self.lat_rad, 0.0)
+        # computed once per model (the estimators ask at every keyframe; the model is frozen)
+        r0, C0 = lla_to_ecef(self.lat_rad, 0.0, self.alt_m), C_n_e(self.lat_rad, 0.0)
+        r0.flags.writeable = C0.flags.writeable = False
+        return r0, C0
 
     def to_lla(self, p_n: np.ndarray) -> np.ndarray:
         """Geodetic (...,3) [lat rad, lon rad relative to the origin's meridian, alt m] of tangent-frame

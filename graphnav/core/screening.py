@@ -300,6 +300,18 @@ class SpikeTest:
 
     def is_spike(self, t: float, x) -> bool:
         """Test the sample (t s, x array-like) and, when accepted, add it to the history."""
+        if isinstance(x, float) and not self._run:
+            # a scalar stream (depth, one beam) in its usual state, at every sample: the same test without numpy
+            hist = self._hist
+            if len(hist) == hist.maxlen:
+                past = sorted(h[1][0] for h in hist)
+                n = len(past)
+                ref = past[n // 2] if n % 2 else (past[n // 2 - 1] + past[n // 2]) / 2
+                dt = max(t - hist[-1][0], 0.0)
+                if not abs(x - ref) <= 1.5 * self.max_rate * dt + self.tolerance:
+                    return self.is_spike(t, np.array([x]))
+            self._accept(t, np.array([x]))
+            return False
         x = np.atleast_1d(np.asarray(x, float))
         if len(self._hist) < self._hist.maxlen:
             self._accept(t, x)

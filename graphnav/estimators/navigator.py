@@ -155,6 +155,8 @@ class Navigator:
         self._earth = EarthModel.from_config(config)
         self.refused: dict[str, dict[str, int]] = {}
         self._screen = StreamScreen(config)
+        #: the IMU's full scale (m/s^2, rad/s): a sample within it needs no further screening call
+        self._imu_full_scale = (float(config.imu.accel_range_mps2), float(config.imu.gyro_range_rads))
         self.received: dict[str, int] = {}          # samples given to add_* per stream
         self.samples_refused: dict[str, int] = {}   # samples refused per stream, whatever the reason
         self.n_estimates = 0
@@ -187,9 +189,16 @@ class Navigator:
             w = self._vector("imu", t, "omega_b", omega_b, 3)
             if f is None or w is None:
                 return []
-        elif not self._stamp_ok("imu", t):
-            return []
-        why = self._screen.imu_problem(f, w)
+        else:       # t is a finite float here: straight to the stamp screening of _stamp_ok
+            why = self._screen.stamp_problem("imu", t)
+            if why is not None:
+                return self._refuse("imu", t, "t", why)
+        acc, gyro = self._imu_full_scale
+        if (abs(f[0]) > acc or abs(f[1]) > acc or abs(f[2]) > acc or abs(w[0]) > gyro or abs(w[1]) > gyro
+                or abs(w[2]) > gyro or not ok):
+            why = self._screen.imu_problem(f, w)
+        else:
+            why = None
         if why is not None:
             return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)

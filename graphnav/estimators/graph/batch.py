@@ -275,8 +275,9 @@ def _solve_vectorized(cpp, beams: StackedBeams, values, n, options, qr: bool = F
 def _solve_lm(cpp, groups, values, options, qr: bool = False):
     graph = gtsam.NonlinearFactorGraph()
     graph.push_back(cpp)
-    for group in groups:
-        graph.add(group.factor())
+    for group in groups:       # one factor per robust beam: LM accepts a step by the nonlinear error
+        for factor in group.beam_factors():
+            graph.add(factor)
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(options.batch_max_iterations)
     params.setLinearSolverType("MULTIFRONTAL_QR" if qr else "MULTIFRONTAL_CHOLESKY")

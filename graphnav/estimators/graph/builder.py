@@ -8,6 +8,7 @@ graph uses. The estimators in this package consume :class:`Keyframe` objects and
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Iterator
 
@@ -126,7 +127,14 @@ def preintegration_gravity(earth: EarthModel, p_n: np.ndarray, v_n: np.ndarray, 
     """
     p = np.asarray(p_n, float)
     omega = earth.omega_ie_n
-    return earth.gravity_n(p + 0.5 * length_s * np.asarray(v_n, float)) + np.cross(omega, np.cross(omega, p))
+    return earth.gravity_n(p + 0.5 * length_s * np.asarray(v_n, float)) + _cross(omega, _cross(omega, p))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` of two 3-vectors, the products and differences of ``np.cross`` (which costs ~10 us a call)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 class GraphContext:
@@ -179,7 +187,9 @@ class GraphContext:
         settings object the preintegration holds (set its gravity with :meth:`set_gravity`)."""
         params = self.gap_params(imu.var_v, imu.var_att, float(imu.dt.sum()))
         pim = gtsam.PreintegratedCombinedMeasurements(params)
-        for f, w, dt in zip(imu.f_b.tolist(), imu.omega_b.tolist(), imu.dt.tolist()):
+        # rows of the (n,3) arrays reach GTSAM as Eigen maps (lists would be converted to arrays first)
+        for f, w, dt in zip(np.ascontiguousarray(imu.f_b, float), np.ascontiguousarray(imu.omega_b, float),
+                            imu.dt.tolist()):
             pim.integrateMeasurement(f, w, dt)
         return pim, params
 
@@ -290,18 +300,29 @@ class BeamGroup:
     velocity: bool = False
 
     def factor(self) -> gtsam.CustomFactor:
+        """One factor over the group's rows; a Huber kernel acts on each beam by itself (per-row reweighting,
+        :func:`graphnav.factors.beam_noise`), on a velocity's residual as a whole."""
         if self.velocity:
             C_d_b = self.rows_b.T
             d_key = D(self.k) if self.beam_index is not None else None
             return dvl_velocity_factor(X(self.k), V(self.k), B(self.k), C_d_b, self.y,
                                        beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b,
                                        d_key=d_key)
+        noise = beam_noise(self.sigma, self.huber_k, per_row=True)
         if self.beam_index is not None:
             return beam_factor_dvl_errors(X(self.k), V(self.k), B(self.k), D(self.k), self.rows_b,
-                                          self.beam_index, self.C_d_b, self.y,
-                                          beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
-        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y,
-                           beam_noise(self.sigma, self.huber_k), self.omega_b, self.lever_arm_b)
+                                          self.beam_index, self.C_d_b, self.y, noise, self.omega_b, self.lever_arm_b)
+        return beam_factor(X(self.k), V(self.k), B(self.k), self.rows_b, self.y, noise, self.omega_b,
+                           self.lever_arm_b)
+
+    def beam_factors(self) -> list[gtsam.CustomFactor]:
+        """One factor per beam (a velocity: its one factor): the same linearisation as :meth:`factor`, and a
+        nonlinear error that is the sum of the beams' robust losses (what Levenberg-Marquardt's step test needs)."""
+        if self.velocity or self.huber_k is None or len(self.y) == 1:
+            return [self.factor()]
+        return [dataclasses.replace(self, rows_b=self.rows_b[[i]], y=self.y[[i]], sigma=self.sigma[[i]],
+                                    beam_index=None if self.beam_index is None else self.beam_index[[i]]).factor()
+                for i in range(len(self.y))]
 
 
 @dataclass
@@ -323,9 +344,9 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
                      p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
-    Measured beams form one group (one factor per epoch) unless ``beam_factor_mode="beam"`` or a Huber
-    kernel is set for them; regressed beams likewise. A robust kernel acts on a factor's whole residual,
-    so robust beams get one factor each.
+    Measured beams form one group (one factor per ping) unless ``beam_factor_mode="beam"``; regressed beams
+    likewise. A Huber kernel acts on each beam of a group by itself (:meth:`BeamGroup.factor`); a DVL-frame
+    velocity is one measurement, its kernel acts on the whole residual.
 
     Args:
         kf: the keyframe.
@@ -371,7 +392,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
             if sel.size == 0:
                 continue
             # a velocity is one measurement: one factor (a robust kernel on its whole residual)
-            split = not m.velocity and (options.beam_factor_mode == "beam" or huber is not None)
+            split = not m.velocity and options.beam_factor_mode == "beam"
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,

@@ -4,17 +4,18 @@ Chosen defaults and why:
 
 - One DVL factor per epoch holding all its measured beams (``beam_factor_mode="epoch"``): each
   ``gtsam.CustomFactor`` call costs a Python round trip plus a copy of the whole ``Values``, so fewer,
-  larger factors are faster (``benchmarks/graph_speed.py`` measures epoch vs beam). Regressed beams go in
-  a second factor of the same epoch; with a Huber kernel they get one factor each, so the kernel acts
-  per beam.
+  larger factors are faster (``benchmarks/navigator_speed.py`` measures epoch vs beam). Regressed beams go in
+  a second factor of the same epoch. A Huber kernel still acts per beam: GTSAM's per-row (``Scalar``)
+  reweighting linearises one factor over a ping's beams to exactly the rows of one factor per beam
+  (``docs/decisions/speed.md``).
 - Regressed beams: noise = the completer's sigma (floored at the measured-beam sigma) with a Huber kernel
   (k = 1.5 sigma) so one bad regression cannot pull the solution.
-- Measured beams: Huber kernel at k = 3 sigma (one factor per beam, so a bad beam does not down-weight the
+- Measured beams: Huber kernel at k = 3 sigma (per beam, so a bad beam does not down-weight the
   good ones of its ping). Measured with ``tests/test_faults.py``'s spike fault (1 m/s on one beam in 10 % of
   the pings, simulated 200 s, seeds 1-2, navigation and tactical IMU), Graph-TC VRMSE m/s:
   Gaussian 0.086/0.130/0.116/0.153 -> k=3: 0.036/0.047/0.027/0.046 (k=1.5: 0.037/0.045/0.026/0.047), while on
-  the clean missions k=3 changes VRMSE by <= 0.0001 (k=1.5: up to +10 %). Cost: ~30 % more update time
-  (four factors per ping instead of one).
+  the clean missions k=3 changes VRMSE by <= 0.0001 (k=1.5: up to +10 %). Cost: none since the kernel
+  reweights each row of the ping's one factor (it used to take four factors per ping, ~30 % more update time).
 - ISAM2 and the fixed-lag smoother: QR factorisation (``factorization``). Cholesky was the first choice, but
   with an initial yaw sigma of degrees (a start aligned from the sensors, :mod:`graphnav.estimators.align`) it reported
   ``IndeterminantLinearSystem`` at the first IMU factor, and the restart from marginals (below) then held the
