@@ -28,6 +28,8 @@ def main() -> None:
     ap.add_argument("--interval", type=float, default=600.0, help="time between surfacings, s")
     ap.add_argument("--stay", type=float, default=30.0, help="time at the surface, s")
     ap.add_argument("--imu-grade", default="navigation")
+    ap.add_argument("--pattern", choices=("lawnmower", "transit"), default="lawnmower",
+                    help="survey pattern: lawnmower (every other leg flies back) or transit (keeps going away)")
     ap.add_argument("--no-batch", action="store_true", help="fixed-lag only")
     ap.add_argument("--only-on", action="store_true", help="DVL error states on only (no reference runs without)")
     ap.add_argument("--dvl-scale-rw", type=float, default=None, help="GraphOptions.dvl_scale_rw, 1/sqrt(s)")
@@ -46,10 +48,10 @@ def main() -> None:
     cases = [(False, True), (True, True)] if args.only_on else None
     start = time.time()
     runs = surface_fix_study(args.seeds, args.duration, profile, args.imu_grade, batch=not args.no_batch,
-                             options=options, cases=cases, progress=lambda msg: print(f"  [{time.time() - start:5.0f} s] {msg}",
+                             options=options, cases=cases, pattern=args.pattern, progress=lambda msg: print(f"  [{time.time() - start:5.0f} s] {msg}",
                                                                                      flush=True))
     rows = summary(runs)
-    print(f"\nseeds {args.seeds}, {args.duration:g} s, surfacing every {args.interval:g} s for {args.stay:g} s, "
+    print(f"\n{args.pattern}, seeds {args.seeds}, {args.duration:g} s, surfacing every {args.interval:g} s for {args.stay:g} s, "
           f"{args.imu_grade} IMU, DVL scale error 0.7 %; dvl_scale_rw {options.dvl_scale_rw:g}, "
           f"dvl_bias_rw {options.dvl_bias_rw:g}")
     head = (f"{'method':10s} {'fixes':5s} {'D':3s} {'drift1 %DT':>10s} {'drift2+ %DT':>11s} {'mean err m':>10s} "
@@ -63,7 +65,7 @@ def main() -> None:
               f"{r.get('prior_scale_err', float('nan')):10.4f}")
     print("\nx scale (truth 0.0070) just before each surfacing and at the end, fixed-lag, DVL error states on:")
     for seed in args.seeds:
-        mission = study_mission(seed, args.duration, profile, args.imu_grade)
+        mission = study_mission(seed, args.duration, profile, args.imu_grade, pattern=args.pattern)
         for r in runs:
             if r.seed == seed and r.method == "fixed-lag" and r.dvl_error_states:
                 marks = ", ".join(f"{t:.0f} s: {s:+.4f}+-{sg:.4f}" for t, s, sg in scale_at_surfacings(r, mission))

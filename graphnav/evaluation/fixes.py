@@ -74,13 +74,15 @@ class FixRun:
 
 
 def study_mission(seed: int, duration_s: float = 2400.0, profile: SurfacingProfile | None = None,
-                  imu_grade: str = "navigation", scale: float = STUDY_SCALE) -> Mission:
-    """A simulated survey with surfacings (default :class:`SurfacingProfile`: every 10 min, 30 s at the
-    surface, 1 Hz fixes of 2-3 m) and a DVL scale error ``scale`` on every DVL axis."""
+                  imu_grade: str = "navigation", scale: float = STUDY_SCALE, pattern: str = "lawnmower") -> Mission:
+    """A simulated survey (``pattern``, see :func:`graphnav.sim.simulate.simulate_mission`) with surfacings
+    (default :class:`SurfacingProfile`: every 10 min, 30 s at the surface, 1 Hz fixes of 2-3 m) and a DVL scale
+    error ``scale`` on every DVL axis."""
     from graphnav.sim.simulate import default_config
     config = default_config()
     config.dvl.scale_factor = np.full(3, float(scale))
-    return simulate_mission(duration_s, imu_grade, seed, config=config, surfacing=profile or SurfacingProfile())
+    return simulate_mission(duration_s, imu_grade, seed, config=config, surfacing=profile or SurfacingProfile(),
+                            pattern=pattern)
 
 
 def path_length(mission: Mission, t: np.ndarray) -> np.ndarray:
@@ -199,13 +201,14 @@ def _fix_run(mission: Mission, method: str, fixes: bool, dvl_error_states: bool,
 
 def surface_fix_study(seeds=(1, 2, 3), duration_s: float = 2400.0, profile: SurfacingProfile | None = None,
                       imu_grade: str = "navigation", batch: bool = True, sample_s: float = 10.0,
-                      options: GraphOptions | None = None, cases=None, progress=None) -> list[FixRun]:
+                      options: GraphOptions | None = None, cases=None, progress=None,
+                      pattern: str = "lawnmower") -> list[FixRun]:
     """Every case on every seed's mission (:func:`study_mission`): ``cases`` is a list of (fixes,
     dvl_error_states), default all four. ``progress(message)`` is called after each run."""
     cases = cases or [(False, True), (True, True), (False, False), (True, False)]
     runs: list[FixRun] = []
     for seed in seeds:
-        mission = study_mission(seed, duration_s, profile, imu_grade)
+        mission = study_mission(seed, duration_s, profile, imu_grade, pattern=pattern)
         for fixes, dvl_errors in cases:
             new = run_case(mission, fixes, dvl_errors, batch, sample_s, options)
             runs += new

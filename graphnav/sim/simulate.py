@@ -56,6 +56,8 @@ DEFAULT_ORIGIN_LLA = (32.85 * DEG, 34.95 * DEG, 0.0)
 START_DEPTH_M = 2.0
 
 
+#: Survey patterns of :func:`plan_trajectory`.
+PATTERNS = ("lawnmower", "transit")
 #: Longest mission the simulator makes, s (24 h; about 3 GB of memory at 21 h).
 MAX_DURATION_S = 24 * 3600.0
 
@@ -437,10 +439,14 @@ def _depth_change(traj: SimTrajectory, ta: float, tb: float) -> float:
 
 def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: float,
                     omega_ie_n: np.ndarray, surfacing: SurfacingProfile | None = None,
-                    rng_surfacing: np.random.Generator | None = None) -> SimTrajectory:
-    """Random (seeded) lawnmower survey covering at least ``duration_s`` seconds; with ``surfacing``, stays at
-    the surface (their own random stream ``rng_surfacing``: the draws of ``rng`` are those of a mission without
-    them up to the first surfacing)."""
+                    rng_surfacing: np.random.Generator | None = None, pattern: str = "lawnmower") -> SimTrajectory:
+    """Random (seeded) survey covering at least ``duration_s`` seconds: a lawnmower (legs joined by pairs of
+    90 deg turns in the same direction: every other leg flies back) or, ``pattern="transit"``, the same legs
+    joined by a 90 deg turn and a turn back (a staircase along the first course: the vehicle keeps going
+    away). With ``surfacing``, stays at the surface (their own random stream ``rng_surfacing``: the draws of
+    ``rng`` are those of a mission without them up to the first surfacing)."""
+    if pattern not in PATTERNS:
+        raise ConfigError(f"pattern must be one of {PATTERNS}, got {pattern!r}")
     traj = SimTrajectory(yaw0=float(rng.uniform(-np.pi, np.pi)),
                          p0_n=np.array([0.0, 0.0, START_DEPTH_M]), speed0=1.3,
                          gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float))
@@ -524,7 +530,8 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
         turn1, cross, turn2 = (float(rng.uniform(30.0, 40.0)), float(rng.uniform(10.0, 25.0)),
                                float(rng.uniform(30.0, 40.0)))
         traj.yaw.add(t_turn, turn1, turn_sign * np.pi / 2)
-        traj.yaw.add(t_turn + turn1 + cross, turn2, turn_sign * np.pi / 2)
+        # a transit turns back onto its course (a staircase); a lawnmower reverses it
+        traj.yaw.add(t_turn + turn1 + cross, turn2, (-turn_sign if pattern == "transit" else turn_sign) * np.pi / 2)
         cursor = t_turn + turn1 + cross + turn2
         turn_sign = -turn_sign
         leg += 1
@@ -548,7 +555,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
                      dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0),
-                     surfacing: SurfacingProfile | None = None) -> Mission:
+                     surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower") -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -580,6 +587,8 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
             (``mission.fixes``, 1 Hz at the surface with a 2-3 m sigma by default). None (default): no
             surfacing and no fixes; the mission is then the same as before the option existed (same seed, same
             numbers).
+        pattern: ``"lawnmower"`` (default: every other leg flies back, so a DVL scale error largely cancels
+            over a few legs) or ``"transit"`` (a staircase that keeps going away: the scale error accumulates).
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -616,7 +625,8 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     # are those of the missions simulated before it existed
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
     earth = EarthModel.from_config(config)
-    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf)
+    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf,
+                           pattern)
     if np.any(np.asarray(start_ne_m, float) != 0.0):
         lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
         lla[2] = earth.alt_m - traj.p0_n[2]
@@ -680,10 +690,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     grade = spec.name
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
         ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
-        ("-surfacing" if surfacing is not None else "")
+        ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
-        "dvl_output": dvl_output,
+        "dvl_output": dvl_output, "pattern": pattern,
         "imu_errors": imu_truth,
         "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
                                               "scale_factor": errors.scale_factor.copy(),
