@@ -3,6 +3,7 @@ the fixes buy the graph (the DVL scale becomes observable, the drift is bound)."
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -162,3 +163,47 @@ def test_fixes_make_the_dvl_scale_observable_and_bound_the_drift(short_mission):
     after = with_fixes.sigma_h[np.flatnonzero((with_fixes.t <= w1) & np.isfinite(with_fixes.sigma_h))[-1]]
     assert after < 0.75 * before
     assert np.nanmean(with_fixes.nees_h) < 6.0
+
+
+# --- a bag's GNSS ---------------------------------------------------------------------------------
+
+def test_bag_navsatfix_round_trip(tmp_path):
+    """Fixes written as sensor_msgs/NavSatFix come back as Mission.fixes (stamps on the IMU clock, lat/lon in
+    rad, sigma from the covariance)."""
+    pytest.importorskip("rosbags")
+    from graphnav.io import bags
+    m = simulate_mission(200.0, seed=2, surfacing=SurfacingProfile(interval_s=60.0, stay_s=10.0,
+                                                                   dive_depth_m=(5.0, 6.0)))
+    f = m.fixes
+    path = bags.write_mission_bag(m, tmp_path / "run", gt=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        loaded = bags.load_bag(path)
+    got = loaded.fixes
+    assert got is not None and len(got.t) == len(f.t)
+    np.testing.assert_allclose(got.t, f.t, atol=1e-6)
+    np.testing.assert_allclose(got.lat, f.lat, atol=1e-12)
+    np.testing.assert_allclose(got.lon, f.lon, atol=1e-12)
+    np.testing.assert_allclose(got.sigma_m, f.sigma_m, rtol=1e-9)
+    assert loaded.meta["streams"]["fix"]["read"] == len(f.t)
+
+
+def test_navsatfix_without_a_fix_is_refused_and_counted():
+    """A receiver under water publishes status -1 (and often NaN); an unknown covariance gets the default sigma."""
+    from types import SimpleNamespace as NS
+
+    from graphnav.io import bag_convert as conv
+
+    def msg(status, lat, cov_type=2, var=4.0):
+        return NS(status=NS(status=status), latitude=lat, longitude=34.9,
+                  position_covariance=[var, 0, 0, 0, var, 0, 0, 0, var], position_covariance_type=cov_type)
+    rows = [msg(0, 32.8), msg(-1, float("nan")), msg(-1, 32.8), msg(0, 32.8, cov_type=0), msg(0, 32.8)]
+    t_ns = np.array([1, 2, 3, 4, 4]) * 1_000_000_000
+    meta: dict = {}
+    with pytest.warns(RuntimeWarning, match="2 of 5|3 of 5"):
+        f = conv.fixes(conv.Stream("/gnss", "sensor_msgs/msg/NavSatFix", t_ns, rows), 0, "bag", meta)
+    assert f.t.tolist() == [1.0, 4.0]
+    np.testing.assert_allclose(f.sigma_m, [2.0, conv.DEFAULT_FIX_SIGMA_M])
+    np.testing.assert_allclose(f.lat, np.radians(32.8))
+    refused = meta["streams"]["fix"]["refused"]
+    assert refused["no fix (NavSatStatus -1)"] == 2 and refused["stamp repeated or out of order"] == 1

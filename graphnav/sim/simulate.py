@@ -322,7 +322,8 @@ class SurfacingProfile:
             (with the seed); the fixes' errors are white with that sigma, which they also report.
         surface_depth_m: IMU depth at the surface, m (the antenna is above the water; the sea-state heave and
             pitch oscillations move the IMU by about 0.1 m).
-        dive_depth_m: (low, high) m: the survey depth after each dive is drawn uniformly from it; None = the
+        dive_depth_m: (low, high) m (low >= 3 m): the survey depth of the descent and after each dive is drawn
+            uniformly from it; None = the
             survey depths of a mission without surfacings (22-28 m after the descent, 15-35 m later).
         pitch_deg: pitch while climbing or diving, deg (the time at that pitch is solved for the depth).
     """
@@ -340,13 +341,14 @@ class SurfacingProfile:
                   "fix_sigma_m": 0 < self.fix_sigma_m[0] <= self.fix_sigma_m[1],
                   "surface_depth_m": 0 <= self.surface_depth_m < 5.0,
                   "dive_depth_m": self.dive_depth_m is None
-                  or self.surface_depth_m + 1.0 <= self.dive_depth_m[0] <= self.dive_depth_m[1],
+                  or max(self.surface_depth_m + 1.0, START_DEPTH_M + 1.0) <= self.dive_depth_m[0]
+                  <= self.dive_depth_m[1],
                   "pitch_deg": 1.0 <= self.pitch_deg <= 30.0}
         bad = [name for name, ok in checks.items() if not ok]
         if bad:
             raise ConfigError(f"SurfacingProfile: {bad[0]} = {getattr(self, bad[0])!r} is out of range "
                               "(interval, stay and fix rate > 0; 0 < sigma low <= high; surface depth in [0, 5) m; "
-                              "dive depths at least 1 m below it; pitch 1-30 deg)")
+                              "dive depths at least 1 m below it and below the 2 m start; pitch 1-30 deg)")
 
 
 def _pitch_manoeuvre(traj: "SimTrajectory", t_a: float, depth_a: float, target: float, pitch_max: float,
@@ -466,15 +468,24 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
     pitch_down = -float(rng.uniform(15.0, 19.0)) * DEG
     ramp = 8.0
     traj.speed.add(2.0, 15.0, float(rng.uniform(1.4, 2.3)) - traj.speed0)
-    traj.pitch.add(3.0, ramp, pitch_down)
+    down = traj.pitch.add(3.0, ramp, pitch_down)
     up = traj.pitch.add(3.0 + ramp, ramp, -pitch_down)
 
     def descent_error(hold: float) -> float:
         traj.pitch.t0[up] = 3.0 + ramp + hold
         return START_DEPTH_M + _depth_change(traj, 0.0, 3.0 + 2 * ramp + hold) - target
 
-    hold = brentq(descent_error, 0.0, 400.0, xtol=1e-3)
-    descent_error(hold)
+    if descent_error(0.0) > 0:
+        # a survey depth shallower than the full pitch reaches (surfacing profiles only): no hold, less pitch
+        def pitch_error(pitch: float) -> float:
+            traj.pitch.delta[down], traj.pitch.delta[up] = pitch, -pitch
+            return descent_error(0.0)
+
+        pitch_error(brentq(pitch_error, pitch_down, 0.0, xtol=1e-7))
+        hold = 0.0
+    else:
+        hold = brentq(descent_error, 0.0, 400.0, xtol=1e-3)
+        descent_error(hold)
     t_known, depth_known = 0.0, START_DEPTH_M
 
     cursor, leg, turn_sign = 0.0, 0, 1.0
