@@ -47,15 +47,19 @@ def main() -> None:
     profile = SurfacingProfile(interval_s=args.interval, stay_s=args.stay)
     cases = [(False, True), (True, True)] if args.only_on else None
     start = time.time()
+
+    def progress(msg: str) -> None:
+        print(f"  [{time.time() - start:5.0f} s] {msg}", flush=True)
+
     runs = surface_fix_study(args.seeds, args.duration, profile, args.imu_grade, batch=not args.no_batch,
-                             options=options, cases=cases, pattern=args.pattern, progress=lambda msg: print(f"  [{time.time() - start:5.0f} s] {msg}",
-                                                                                     flush=True))
+                             options=options, cases=cases, pattern=args.pattern, progress=progress)
     rows = summary(runs)
-    print(f"\n{args.pattern}, seeds {args.seeds}, {args.duration:g} s, surfacing every {args.interval:g} s for {args.stay:g} s, "
-          f"{args.imu_grade} IMU, DVL scale error 0.7 %; dvl_scale_rw {options.dvl_scale_rw:g}, "
+    print(f"\n{args.pattern}, seeds {args.seeds}, {args.duration:g} s, surfacing every {args.interval:g} s for "
+          f"{args.stay:g} s, {args.imu_grade} IMU, DVL scale error 0.7 %; dvl_scale_rw {options.dvl_scale_rw:g}, "
           f"dvl_bias_rw {options.dvl_bias_rw:g}")
     head = (f"{'method':10s} {'fixes':5s} {'D':3s} {'drift1 %DT':>10s} {'drift2+ %DT':>11s} {'mean err m':>10s} "
-            f"{'final err m':>11s} {'sigma m':>7s} {'NEES_h':>7s} {'|ds| end':>8s} {'sig_s end':>9s} {'|ds| prior':>10s}")
+            f"{'final err m':>11s} {'sigma m':>7s} {'NEES_h':>7s} {'|ds| end':>8s} {'sig_s end':>9s} "
+            f"{'|ds| prior':>10s}")
     print(head)
     for r in rows:
         print(f"{r['method']:10s} {'yes' if r['fixes'] else 'no':5s} {'on' if r['dvl_error_states'] else 'off':3s} "
