@@ -42,6 +42,11 @@ def register(subparsers) -> None:
     parser.add_argument("--dvl-output", choices=("beams", "velocity"), default="beams",
                         help="what the simulated DVL reports: its four beams, or (velocity) only its own DVL-frame "
                              "velocity, as a velocity-only DVL does (with --stream: dvl_velocity records)")
+    parser.add_argument("--surface-every", type=float, default=None, metavar="SECONDS",
+                        help="surface every SECONDS for GNSS fixes (1 Hz, sigma 2-3 m; with --stream: fix "
+                             "records); default: never")
+    parser.add_argument("--surface-stay", type=float, default=30.0, metavar="SECONDS",
+                        help="time at the surface of each --surface-every surfacing, s")
     parser.set_defaults(func=run)
 
 
@@ -96,13 +101,20 @@ def run(args) -> int:
     if args.dvl_output == "velocity" and args.out is not None:
         raise ConfigError("--dvl-output velocity goes with --stream only: the A-KIT CSV layout of --out has no "
                           "DVL-frame velocity")
+    if args.surface_every is not None and args.out is not None:
+        raise ConfigError("--surface-every goes with --stream only: the A-KIT CSV layout of --out has no "
+                          "position fixes")
+    surfacing = None
+    if args.surface_every is not None:
+        from graphnav.sim.simulate import SurfacingProfile
+        surfacing = SurfacingProfile(interval_s=args.surface_every, stay_s=args.surface_stay)
     if args.out is not None:
         check_out(args.out, force=args.force)
     if args.stream not in (None, "-"):
         check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output,
-                               start_ne_m=args.start_ne)
+                               start_ne_m=args.start_ne, surfacing=surfacing)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.io.streamio import mission_records, write_records
@@ -122,7 +134,9 @@ def run(args) -> int:
           f"speed {s['speed_min_mps']:.2f}..{s['speed_max_mps']:.2f} m/s, "
           f"max yaw rate {s['max_yaw_rate_radps']:.3f} rad/s, "
           f"{s['dvl_pings']} DVL pings ({s['dvl_pings_lt3_beams']} with < 3 beams"
-          + (", velocity-only DVL" if args.dvl_output == "velocity" else "") + ")", file=log)
+          + (", velocity-only DVL" if args.dvl_output == "velocity" else "") + ")"
+          + (f", {len(mission.meta['surface_windows'])} surfacing(s) with {len(mission.fixes.t)} GNSS fixes"
+             if mission.fixes is not None else ""), file=log)
     if args.out is not None:
         with StagedOut(args.out, args.force) as staged:
             paths = write_akit(mission, staged.path, args.number)

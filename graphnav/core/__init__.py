@@ -2,7 +2,7 @@
 from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "mission": ("Mission", "ImuData", "DvlData", "DepthData", "HeadingData", "GroundTruth"),
+    "mission": ("Mission", "ImuData", "DvlData", "DepthData", "HeadingData", "PositionFixData", "GroundTruth"),
     "config": ("SensorConfig", "ImuSpec", "DvlSpec"),
     "solution": ("NavSolution",),
     "errors": ("GraphnavError", "DataError", "ConfigError"),

@@ -372,6 +372,55 @@ class HeadingData:
                            self.source)
 
 
+#: Largest 1-sigma a horizontal position fix may claim, m: beyond it a fix carries no useful information (a
+#: GNSS receiver without a solution reports sigmas of 1e3-1e7 m or its "invalid" marker); larger ones are refused.
+MAX_FIX_SIGMA_M = 1e4
+
+
+@dataclass
+class PositionFixData:
+    """Horizontal position fixes (GNSS at the surface, USBL): what the replay feeds to
+    :meth:`~graphnav.estimators.navigator.Navigator.add_position_fix`.
+
+    Attributes:
+        t: (N,) s, on the IMU clock.
+        lat: (N,) geodetic latitude of the IMU, rad (WGS84).
+        lon: (N,) geodetic longitude of the IMU, rad (WGS84).
+        sigma_m: (N,) 1-sigma of the fix per horizontal axis (north and east), m (> 0).
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    sigma_m: np.ndarray
+    source: str = "fix"
+
+    def validate(self) -> None:
+        _check_time(self.t, self.source)
+        for name in ("lat", "lon", "sigma_m"):
+            _check_array(getattr(self, name), (), len(self.t), self.source, name)
+        bad = np.flatnonzero(np.abs(self.lat) > np.pi / 2)
+        if bad.size:
+            raise DataError(f"latitude {self.lat[bad[0]]:g} rad is beyond +-pi/2 (given in degrees?)", self.source,
+                            int(bad[0]), "lat")
+        bad = np.flatnonzero(np.abs(self.lon) > 2 * np.pi)
+        if bad.size:
+            raise DataError(f"longitude {self.lon[bad[0]]:g} rad is beyond +-2 pi (given in degrees?)", self.source,
+                            int(bad[0]), "lon")
+        bad = np.flatnonzero(~((self.sigma_m > 0) & (self.sigma_m <= MAX_FIX_SIGMA_M)))
+        if bad.size:
+            raise DataError(f"fix sigma must be in (0, {MAX_FIX_SIGMA_M:g}] m, got {self.sigma_m[bad[0]]:g}",
+                            self.source, int(bad[0]), "sigma_m")
+
+    def take(self, idx) -> "PositionFixData":
+        return PositionFixData(self.t[idx], self.lat[idx], self.lon[idx], self.sigma_m[idx], self.source)
+
+    def ne_m(self, origin_lla: tuple[float, float, float]) -> np.ndarray:
+        """(N,2) north and east of the fixes in the NED tangent frame at ``origin_lla`` (rad, rad, m), m."""
+        from graphnav.core.earth import lla_to_ned
+        return lla_to_ned(self.lat, self.lon, np.zeros(len(self.t)), origin_lla)[:, :2]
+
+
 @dataclass
 class GroundTruth:
     """Reference trajectory of the IMU.
@@ -503,7 +552,8 @@ OUTSIDE_SPAN_TOLERANCE_S = 0.5
 
 @dataclass
 class Mission:
-    """One mission: IMU, DVL, optional depth, heading aiding and ground truth, and the sensor configuration.
+    """One mission: IMU, DVL, optional depth, heading aiding, position fixes and ground truth, and the sensor
+    configuration.
 
     All stamps share the IMU clock. ``validate()`` is called on construction.
     """
@@ -516,13 +566,14 @@ class Mission:
     depth: DepthData | None = None
     meta: dict = field(default_factory=dict)
     heading: HeadingData | None = None
+    fixes: PositionFixData | None = None
 
     def __post_init__(self):
         self.validate()
 
     def validate(self) -> None:
         """Check every stream; raise :class:`DataError` naming stream, index and field."""
-        for stream in (self.imu, self.dvl, self.gt, self.depth, self.heading):
+        for stream in (self.imu, self.dvl, self.gt, self.depth, self.heading, self.fixes):
             if stream is not None:
                 stream.validate()
         # DVL pings outside the IMU span cannot be used. A ping within OUTSIDE_SPAN_TOLERANCE_S of the span
@@ -573,6 +624,7 @@ class Mission:
             gt=None if self.gt is None else self.gt.take(bracket(self.gt.t)),
             depth=None if self.depth is None else self.depth.take(sel(self.depth.t)),
             heading=None if self.heading is None else self.heading.take(sel(self.heading.t)),
+            fixes=None if self.fixes is None else self.fixes.take(sel(self.fixes.t)),
             meta={**self.meta, "slice": (t_start, t_end)},
         )
 

@@ -634,14 +634,19 @@ def initial_from_alignment(al) -> InitialState:
                         origin_lla=al.origin_lla)
 
 
+def stream_adders(nav: Navigator) -> dict:
+    """The Navigator call for each sample kind of :func:`graphnav.estimators.replay.replay`."""
+    return {"imu": nav.add_imu, "dvl": nav.add_dvl, "dvl_velocity": nav.add_dvl_velocity, "depth": nav.add_depth,
+            "heading": nav.add_heading, "fix": nav.add_position_fix}
+
+
 def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:
     """Replay a recorded mission into ``nav`` sample by sample in time order (never its ground truth) and
     return every estimate; ``callback(estimate)`` is called as each is made. ``stop()``, when given, is asked
     between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
     interrupt delivered inside a GTSAM call can surface as another exception)."""
     out = []
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "dvl_velocity": nav.add_dvl_velocity, "depth": nav.add_depth,
-              "heading": nav.add_heading}
+    adders = stream_adders(nav)
     for kind, t, payload in replay(mission, depth=depth):
         if stop is not None and stop():
             raise KeyboardInterrupt

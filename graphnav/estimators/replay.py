@@ -11,7 +11,9 @@ One stream for every consumer (the :class:`~graphnav.estimators.navigator.Naviga
   (fewer than :data:`~graphnav.estimators.keyframes.MIN_BEAMS_OVER_VELOCITY` valid; the keyframer then uses
   the velocity, not those beams; a velocity ping without any valid beam has no ``"dvl"`` record);
 - ``"depth"``: ``(depth_m,)``;
-- ``"heading"``: ``(yaw rad, sigma rad)`` (an AHRS or heading topic, :class:`~graphnav.core.mission.HeadingData`).
+- ``"heading"``: ``(yaw rad, sigma rad)`` (an AHRS or heading topic, :class:`~graphnav.core.mission.HeadingData`);
+- ``"fix"``: ``(lat rad, lon rad, sigma_m m)``: a horizontal position fix (GNSS at the surface, USBL,
+  :class:`~graphnav.core.mission.PositionFixData`), for :meth:`~graphnav.estimators.navigator.Navigator.add_position_fix`.
 
 At equal stamps the aiding samples come first, then the DVL, then the IMU: a keyframe at a stamp then
 already holds the depth and the ping of that stamp when the IMU sample that closes it arrives.
@@ -44,9 +46,10 @@ def velocity_pings(dvl) -> np.ndarray:
     return dvl.v_d_valid & (dvl.n_valid < MIN_BEAMS_OVER_VELOCITY)
 
 
-def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bool = True
+def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bool = True, fixes: bool = True
            ) -> Iterator[tuple[str, float, tuple]]:
-    """The mission's samples in time order (see the module docstring). Ground truth is never part of it.
+    """The mission's samples in time order (see the module docstring). Ground truth is never part of it;
+    ``depth``, ``heading`` and ``fixes`` = False leave that stream out.
 
     Converted to Python values ``chunk`` samples at a time, so that replaying a day-long mission needs no
     more memory than its arrays."""
@@ -68,6 +71,9 @@ def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bo
         streams.append(("depth", mission.depth.t, (mission.depth.depth,)))
     if heading and mission.heading is not None:
         streams.append(("heading", mission.heading.t, (mission.heading.yaw, mission.heading.sigma)))
+    if fixes and mission.fixes is not None:
+        f = mission.fixes
+        streams.append(("fix", f.t, (f.lat, f.lon, f.sigma_m)))
     t = np.concatenate([s[1] for s in streams])
     order = np.concatenate([np.full(len(s[1]), STREAM_ORDER[s[0]], dtype=np.int8) for s in streams])
     which = np.concatenate([np.full(len(s[1]), i, dtype=np.int8) for i, s in enumerate(streams)])

@@ -38,7 +38,7 @@ from graphnav.estimators.graph.incremental import (
 )
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
-from graphnav.estimators.navigator import Navigator, feed_mission
+from graphnav.estimators.navigator import Navigator, feed_mission, stream_adders
 from graphnav.estimators.replay import first_ping_time, replay
 
 #: run_graph's modes and the Navigator backend each one is.
@@ -93,8 +93,7 @@ def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | N
     ``mode="fixed-lag"``); there is no batch pass.
     """
     nav = graph_navigator(mission, completer=completer, options=options, mode=mode, initial=initial, name=name)
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "dvl_velocity": nav.add_dvl_velocity, "depth": nav.add_depth,
-              "heading": nav.add_heading}
+    adders = stream_adders(nav)
     for kind, t, payload in replay(mission):
         yield from adders[kind](t, *payload)
     yield from nav.finish()

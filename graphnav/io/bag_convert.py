@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData, GroundTruth, HeadingData, ImuData
+from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
+                                   ImuData, PositionFixData)
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
@@ -45,6 +46,11 @@ MIN_DEPTH_VARIATION_M = 0.2
 #: Heading 1-sigma of an AHRS / heading topic that gives no variance, rad: the 1-3 deg a MEMS AHRS with a
 #: calibrated magnetometer states, at its upper end (a vehicle's own fields disturb it).
 DEFAULT_HEADING_SIGMA_RAD = float(np.deg2rad(3.0))
+#: 1-sigma per horizontal axis, m, of a NavSatFix without a position covariance (``position_covariance_type``
+#: 0, unknown): a standalone GNSS receiver's typical horizontal accuracy.
+DEFAULT_FIX_SIGMA_M = 5.0
+#: ``sensor_msgs/NavSatStatus.STATUS_NO_FIX``: the receiver has no position.
+NAVSAT_NO_FIX = -1
 
 
 @dataclass
@@ -402,3 +408,52 @@ def gt(s: Stream, t0_ns: int, source: str) -> GroundTruth:
 
 def count_stream(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
     count_read(meta, stream, _rel(s, t0_ns), f"{source}:{s.topic} ({s.msgtype})")
+
+
+# --- position fixes ----------------------------------------------------------------------------------------
+def fixes(s: Stream, t0_ns: int, source: str, meta: dict) -> PositionFixData | None:
+    """GNSS fixes of a ``sensor_msgs/NavSatFix`` topic: latitude/longitude (deg -> rad) with the horizontal sigma
+    ``sqrt(max(var_east, var_north))`` of ``position_covariance`` (ENU, m^2) where it is given, else
+    :data:`DEFAULT_FIX_SIGMA_M`. Messages without a fix (status -1: a receiver under water), with a non-finite
+    position or a sigma beyond :data:`~graphnav.core.mission.MAX_FIX_SIGMA_M`, and repeated stamps are refused
+    and counted. None when nothing is left."""
+    label = f"{source}:{s.topic}"
+    t = _rel(s, t0_ns)
+    status = np.array([m.status.status for m in s.rows], int)
+    lat = np.radians(np.array([m.latitude for m in s.rows], float))
+    lon = np.radians(np.array([m.longitude for m in s.rows], float))
+    cov = np.array([np.asarray(m.position_covariance, float) for m in s.rows]).reshape(-1, 9)
+    known = np.array([m.position_covariance_type for m in s.rows], int) > 0
+    var = np.maximum(cov[:, 0], cov[:, 4])
+    given = known & np.isfinite(var) & (var > 0)
+    sigma = np.where(given, np.sqrt(np.where(given, var, 1.0)), DEFAULT_FIX_SIGMA_M)
+    reasons = {"no fix (NavSatStatus -1)": status <= NAVSAT_NO_FIX,
+               "latitude/longitude not finite or out of range": ~(np.isfinite(lat) & np.isfinite(lon)
+                                                                  & (np.abs(lat) <= np.pi / 2)),
+               f"sigma beyond {MAX_FIX_SIGMA_M:g} m": sigma > MAX_FIX_SIGMA_M}
+    bad = np.zeros(len(t), bool)
+    for reason, mask in reasons.items():
+        mask = mask & ~bad
+        if mask.any():
+            count_refused(meta, "fix", reason, int(mask.sum()))
+        bad |= mask
+    order_bad = np.zeros(len(t), bool)
+    last = -np.inf
+    for i in np.flatnonzero(~bad):
+        if t[i] <= last:
+            order_bad[i] = True
+        else:
+            last = t[i]
+    if order_bad.any():
+        count_refused(meta, "fix", "stamp repeated or out of order", int(order_bad.sum()))
+    keep = ~bad & ~order_bad
+    if (~keep).any():
+        warnings.warn(f"{label}: {int((~keep).sum())} of {len(t)} NavSatFix message(s) refused (no fix, bad position, "
+                      "huge sigma or repeated stamp; counts in meta['streams'])", RuntimeWarning, stacklevel=3)
+    if not keep.any():
+        add_note(meta, "fix", f"no usable fix on {s.topic}")
+        return None
+    add_note(meta, "fix", f"GNSS fixes from {s.topic} ({int(keep.sum())} used)"
+             + ("" if given[keep].all() else f"; {DEFAULT_FIX_SIGMA_M:g} m 1-sigma assumed where no covariance"
+                                             " is given"))
+    return PositionFixData(t[keep], lat[keep], lon[keep], sigma[keep], source=label)

@@ -19,6 +19,8 @@ overrides the choice. Streams and the types read:
   topic named like heading or compass (a compass heading: clockwise from north), or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
   ``Mission.heading`` (the replay feeds it to ``Navigator.add_heading``; the aligner uses it instead of
   gyrocompassing). A bag without any says so when it is loaded;
+* ``fix``: ``sensor_msgs/msg/NavSatFix`` GNSS fixes into ``Mission.fixes`` (the replay feeds them to
+  ``Navigator.add_position_fix``): no-fix messages refused, sigma from ``position_covariance``;
 * ``gt`` (optional reference for scoring): ``nav_msgs/msg/Odometry``.
 
 Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :mod:`graphnav.io.bag_msgs`.
@@ -57,6 +59,7 @@ PRESSURE = "sensor_msgs/msg/FluidPressure"
 FLOATS = ("std_msgs/msg/Float64", "std_msgs/msg/Float32")
 POSE = "geometry_msgs/msg/PoseWithCovarianceStamped"
 ODOM = "nav_msgs/msg/Odometry"
+NAVSATFIX = "sensor_msgs/msg/NavSatFix"
 
 #: Message types each stream accepts, in order of preference when several topics match.
 STREAM_TYPES: dict[str, tuple[str, ...]] = {
@@ -65,6 +68,7 @@ STREAM_TYPES: dict[str, tuple[str, ...]] = {
     "depth": (PRESSURE, *FLOATS),
     "heading": (IMU, *FLOATS, POSE, ODOM),
     "gt": (ODOM,),
+    "fix": (NAVSATFIX,),
 }
 REQUIRED_STREAMS = ("imu", "dvl")
 #: Words that make a Float64/Float32 topic a depth or a heading.
@@ -355,6 +359,11 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         g = streams["gt"][0] if "gt" in topics else _pick_one("gt", streams["gt"], source)
         _record(meta, "gt", g, t0_ns, source)
         gt = conv.gt(g, t0_ns, source)
+    fixes = None
+    if streams.get("fix"):
+        f = streams["fix"][0] if "fix" in topics else _pick_one("fix", streams["fix"], source)
+        _record(meta, "fix", f, t0_ns, source)
+        fixes = conv.fixes(f, t0_ns, source, meta)
     used = {"imu": imu_s, "dvl": dvl_s, **({"depth": cands[chosen][0]} if chosen else {}),
             **({"heading": h} if h is not None else {})}
     compare_clocks({k: (s.t_ns, s.receive_ns, s.stamp_kind) for k, s in used.items()}, meta, source)
@@ -364,7 +373,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     if depth is None:
         meta["depth_source"] = "none"
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
-                   heading=heading)
+                   heading=heading, fixes=fixes)
 
 
 def _units_and_clocks(imu, dvl, depth, config: SensorConfig, meta: dict):
@@ -621,6 +630,16 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
                     header=H(store, t_ns, "pressure_link"), fluid_pressure=float(p), variance=0.0)))
             else:
                 msgs.append((t_ns, "/depth", T["std_msgs/msg/Float64"](data=float(d))))
+    if mission.fixes is not None:
+        f = mission.fixes
+        for k, t in enumerate(f.t):
+            t_ns = t0_unix_ns + round(t * 1e9)
+            var = float(f.sigma_m[k]) ** 2
+            msgs.append((t_ns, "/gnss/fix", T[NAVSATFIX](
+                header=H(store, t_ns, "gnss_link"), status=T["sensor_msgs/msg/NavSatStatus"](status=0, service=1),
+                latitude=float(np.degrees(f.lat[k])), longitude=float(np.degrees(f.lon[k])), altitude=0.0,
+                position_covariance=np.array([var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, 4 * var]),
+                position_covariance_type=2)))
     if gt and mission.gt is not None:
         from graphnav.core.solution import NavSolution
         g = mission.gt
@@ -628,7 +647,7 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
         msgs += [(t_ns, "/reference/odometry", m) for t_ns, m in odometry_messages(ref, store, t0_unix_ns)]
     types = {"/imu/data": "sensor_msgs/msg/Imu", "/dvl/data": dvl_type,
              "/pressure": "sensor_msgs/msg/FluidPressure", "/depth": "std_msgs/msg/Float64",
-             "/reference/odometry": "nav_msgs/msg/Odometry"}
+             "/reference/odometry": "nav_msgs/msg/Odometry", "/gnss/fix": NAVSATFIX}
     msgs.sort(key=lambda m: m[0])
     with _writer(path, storage) as writer:
         conns = {topic: writer.add_connection(topic, typ, typestore=store) for topic, typ in types.items()

@@ -101,6 +101,8 @@ def mission_records(mission, config: bool = True) -> Iterator[dict]:
             yield rec
         elif kind == "heading":
             yield {"type": "heading", "t": t, "yaw": payload[0], "sigma": payload[1]}
+        elif kind == "fix":
+            yield {"type": "fix", "t": t, "lat": payload[0], "lon": payload[1], "sigma_m": payload[2]}
         else:
             yield {"type": "depth", "t": t, "depth_m": payload[0]}
 

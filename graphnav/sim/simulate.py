@@ -45,7 +45,7 @@ from graphnav.core.dvl import DvlErrorModel, DvlGeometry, as_velocity_only
 from graphnav.core.earth import EarthModel, gravity_magnitude
 from graphnav.core.errors import ConfigError
 from graphnav.core.imu_stamps import SAMPLE_CONVENTION
-from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission, PositionFixData
 from graphnav.core.scenarios import markov_dropout
 from graphnav.sim.imu_errors import corrupt_imu
 
@@ -56,6 +56,8 @@ DEFAULT_ORIGIN_LLA = (32.85 * DEG, 34.95 * DEG, 0.0)
 START_DEPTH_M = 2.0
 
 
+#: Survey patterns of :func:`plan_trajectory`.
+PATTERNS = ("lawnmower", "transit")
 #: Longest mission the simulator makes, s (24 h; about 3 GB of memory at 21 h).
 MAX_DURATION_S = 24 * 3600.0
 
@@ -180,6 +182,7 @@ class SimTrajectory:
             (the planning phase, before positions are known).
         gravity_track: (stamps (K,) s, positions (K,3) m) at which ``earth``'s gravity is evaluated,
             interpolated linearly in between (gravity changes 1.5e-6 m/s^2 per metre: mm are plenty).
+        surface_windows: ``(t_start, t_end)`` s of each stay at the surface (a :class:`SurfacingProfile`).
     """
 
     yaw0: float
@@ -199,6 +202,7 @@ class SimTrajectory:
     bank_s: float = 0.3
     earth: EarthModel | None = None
     gravity_track: tuple | None = None
+    surface_windows: list = field(default_factory=list)
 
     def gravity_n(self, t: np.ndarray) -> np.ndarray:
         """Gravity (N,3), m/s^2, at the vehicle's position at stamps t (s)."""
@@ -299,6 +303,119 @@ class SimTrajectory:
         return f_b, omega_b
 
 
+# --- surfacings ------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SurfacingProfile:
+    """Surfacings for GNSS fixes: every ``interval_s`` the vehicle climbs to the surface, stays ``stay_s``
+    there receiving fixes, and dives to a new survey depth.
+
+    The climb starts on the first straight leg after each multiple of ``interval_s`` (at the multiple when it
+    falls inside a leg, else 30 s into the next leg; that leg is lengthened to hold the climb, the stay and the
+    dive before its turn), so consecutive surfacings are ``interval_s`` to about ``interval_s + 130`` s apart.
+
+    Attributes:
+        interval_s: time between surfacings, s.
+        stay_s: time at the surface (level flight at ``surface_depth_m``), s.
+        fix_rate_hz: GNSS fix rate at the surface, Hz.
+        fix_sigma_m: (low, high) m: each surfacing's fix 1-sigma per horizontal axis is drawn uniformly from it
+            (with the seed); the fixes' errors are white with that sigma, which they also report.
+        surface_depth_m: IMU depth at the surface, m (the antenna is above the water; the sea-state heave and
+            pitch oscillations move the IMU by about 0.1 m).
+        dive_depth_m: (low, high) m (low >= 3 m): the survey depth of the descent and after each dive is drawn
+            uniformly from it; None = the
+            survey depths of a mission without surfacings (22-28 m after the descent, 15-35 m later).
+        pitch_deg: pitch while climbing or diving, deg (the time at that pitch is solved for the depth).
+    """
+
+    interval_s: float = 600.0
+    stay_s: float = 30.0
+    fix_rate_hz: float = 1.0
+    fix_sigma_m: tuple[float, float] = (2.0, 3.0)
+    surface_depth_m: float = 0.5
+    dive_depth_m: tuple[float, float] | None = None
+    pitch_deg: float = 15.0
+
+    def __post_init__(self):
+        checks = {"interval_s": self.interval_s > 0, "stay_s": self.stay_s > 0, "fix_rate_hz": self.fix_rate_hz > 0,
+                  "fix_sigma_m": 0 < self.fix_sigma_m[0] <= self.fix_sigma_m[1],
+                  "surface_depth_m": 0 <= self.surface_depth_m < 5.0,
+                  "dive_depth_m": self.dive_depth_m is None
+                  or max(self.surface_depth_m + 1.0, START_DEPTH_M + 1.0) <= self.dive_depth_m[0]
+                  <= self.dive_depth_m[1],
+                  "pitch_deg": 1.0 <= self.pitch_deg <= 30.0}
+        bad = [name for name, ok in checks.items() if not ok]
+        if bad:
+            raise ConfigError(f"SurfacingProfile: {bad[0]} = {getattr(self, bad[0])!r} is out of range "
+                              "(interval, stay and fix rate > 0; 0 < sigma low <= high; surface depth in [0, 5) m; "
+                              "dive depths at least 1 m below it and below the 2 m start; pitch 1-30 deg)")
+
+
+def _pitch_manoeuvre(traj: "SimTrajectory", t_a: float, depth_a: float, target: float, pitch_max: float,
+                     rise: float = 10.0) -> float:
+    """Add a pitch manoeuvre from ``t_a`` (depth ``depth_a`` m) that ends level at depth ``target`` (m):
+    pitch to ``pitch_max`` (rad, nose up to climb, down to dive) over ``rise`` s, hold, pitch back; the hold is
+    solved for the depth (for a small change, the hold is 0 and the pitch is solved). Returns its end, s."""
+    sign = 1.0 if target < depth_a else -1.0          # nose up (positive pitch) climbs
+    i_on = traj.pitch.add(t_a, rise, sign * pitch_max)
+    i_off = traj.pitch.add(t_a + rise, rise, -sign * pitch_max)
+
+    def error(hold: float, pitch: float = pitch_max) -> float:
+        traj.pitch.delta[i_on], traj.pitch.delta[i_off] = sign * pitch, -sign * pitch
+        traj.pitch.t0[i_off] = t_a + rise + hold
+        return depth_a + _depth_change(traj, t_a, t_a + 2 * rise + hold) - target
+
+    if sign * error(0.0) > 0:         # the full pitch without a hold does not get there: hold it
+        hi = 60.0
+        while sign * error(hi) > 0:
+            hi *= 2.0
+        hold = brentq(error, 0.0, hi, xtol=1e-3)
+        error(hold)
+        return t_a + 2 * rise + hold
+    pitch = brentq(lambda p: error(0.0, p), 0.0, pitch_max, xtol=1e-7)
+    error(0.0, pitch)
+    return t_a + 2 * rise
+
+
+def _plan_surfacing(traj: "SimTrajectory", profile: SurfacingProfile, rng: np.random.Generator, t_a: float,
+                    depth_a: float) -> tuple[float, float]:
+    """Climb from ``t_a`` (depth ``depth_a`` m), stay at the surface, dive to a drawn depth; records the stay
+    in ``traj.surface_windows``. Returns (end of the dive s, its depth m)."""
+    pitch = profile.pitch_deg * DEG
+    t_up = _pitch_manoeuvre(traj, t_a, depth_a, profile.surface_depth_m, pitch)
+    t_down = t_up + profile.stay_s
+    traj.surface_windows.append((t_up, t_down))
+    low, high = profile.dive_depth_m or (15.0, 35.0)
+    target = float(rng.uniform(low, high))
+    return _pitch_manoeuvre(traj, t_down, profile.surface_depth_m, target, pitch), target
+
+
+def surface_fixes(traj: "SimTrajectory", profile: SurfacingProfile, rng: np.random.Generator, t_end: float,
+                  origin_lla: tuple[float, float, float], noiseless: bool = False) -> PositionFixData | None:
+    """GNSS fixes at ``profile.fix_rate_hz`` during the surface stays of ``traj`` up to ``t_end`` s: the true
+    IMU position plus white north/east errors of the surfacing's drawn sigma (none when ``noiseless``; the
+    sigma the fixes report is the drawn one either way), as latitude/longitude (rad) in the frame of
+    ``origin_lla``. None when the mission has no stay at the surface."""
+    from graphnav.core.earth import ned_to_lla
+    t_all, sigma_all, err_all = [], [], []
+    for t0, t1 in traj.surface_windows:
+        sigma = float(rng.uniform(*profile.fix_sigma_m))
+        n0 = int(np.ceil(t0 * profile.fix_rate_hz - 1e-9))
+        t = np.arange(n0, np.floor(min(t1, t_end) * profile.fix_rate_hz + 1e-9) + 1) / profile.fix_rate_hz
+        t_all.append(t)
+        sigma_all.append(np.full(len(t), sigma))
+        err = rng.normal(0.0, sigma, (len(t), 2))
+        err_all.append(np.zeros_like(err) if noiseless else err)
+    if not t_all or not sum(len(t) for t in t_all):
+        return None
+    t = np.concatenate(t_all)
+    grid = np.union1d(np.arange(0.0, t[-1], 1.0), t)     # its quadrature runs from t = 0 between the stamps
+    p = traj.position_n(grid)[np.searchsorted(grid, t)]
+    p[:, :2] += np.concatenate(err_all)
+    lla = ned_to_lla(p, origin_lla)
+    return PositionFixData(t, lla[:, 0], lla[:, 1], np.concatenate(sigma_all), "sim:gnss")
+
+
 # --- mission plan ------------------------------------------------------------------------------------
 
 def _depth_rate(traj: SimTrajectory, t: np.ndarray) -> np.ndarray:
@@ -323,8 +440,15 @@ def _depth_change(traj: SimTrajectory, ta: float, tb: float) -> float:
 
 
 def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: float,
-                    omega_ie_n: np.ndarray) -> SimTrajectory:
-    """Random (seeded) lawnmower survey covering at least ``duration_s`` seconds."""
+                    omega_ie_n: np.ndarray, surfacing: SurfacingProfile | None = None,
+                    rng_surfacing: np.random.Generator | None = None, pattern: str = "lawnmower") -> SimTrajectory:
+    """Random (seeded) survey covering at least ``duration_s`` seconds: a lawnmower (legs joined by pairs of
+    90 deg turns in the same direction: every other leg flies back) or, ``pattern="transit"``, the same legs
+    joined by a 90 deg turn and a turn back (a staircase along the first course: the vehicle keeps going
+    away). With ``surfacing``, stays at the surface (their own random stream ``rng_surfacing``: the draws of
+    ``rng`` are those of a mission without them up to the first surfacing)."""
+    if pattern not in PATTERNS:
+        raise ConfigError(f"pattern must be one of {PATTERNS}, got {pattern!r}")
     traj = SimTrajectory(yaw0=float(rng.uniform(-np.pi, np.pi)),
                          p0_n=np.array([0.0, 0.0, START_DEPTH_M]), speed0=1.3,
                          gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float))
@@ -339,21 +463,33 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
 
     # Descent: pitch down at t=3 s, hold long enough to reach the survey depth, pitch back up.
     target = float(rng.uniform(22.0, 28.0))
+    if surfacing is not None and surfacing.dive_depth_m is not None:
+        target = float(rng_surfacing.uniform(*surfacing.dive_depth_m))
     pitch_down = -float(rng.uniform(15.0, 19.0)) * DEG
     ramp = 8.0
     traj.speed.add(2.0, 15.0, float(rng.uniform(1.4, 2.3)) - traj.speed0)
-    traj.pitch.add(3.0, ramp, pitch_down)
+    down = traj.pitch.add(3.0, ramp, pitch_down)
     up = traj.pitch.add(3.0 + ramp, ramp, -pitch_down)
 
     def descent_error(hold: float) -> float:
         traj.pitch.t0[up] = 3.0 + ramp + hold
         return START_DEPTH_M + _depth_change(traj, 0.0, 3.0 + 2 * ramp + hold) - target
 
-    hold = brentq(descent_error, 0.0, 400.0, xtol=1e-3)
-    descent_error(hold)
+    if descent_error(0.0) > 0:
+        # a survey depth shallower than the full pitch reaches (surfacing profiles only): no hold, less pitch
+        def pitch_error(pitch: float) -> float:
+            traj.pitch.delta[down], traj.pitch.delta[up] = pitch, -pitch
+            return descent_error(0.0)
+
+        pitch_error(brentq(pitch_error, pitch_down, 0.0, xtol=1e-7))
+        hold = 0.0
+    else:
+        hold = brentq(descent_error, 0.0, 400.0, xtol=1e-3)
+        descent_error(hold)
     t_known, depth_known = 0.0, START_DEPTH_M
 
     cursor, leg, turn_sign = 0.0, 0, 1.0
+    next_surfacing = surfacing.interval_s if surfacing is not None else np.inf
     while cursor < duration_s + 1.0:
         leg_start = cursor
         leg_len = float(rng.uniform(100.0, 160.0))
@@ -362,6 +498,19 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
         else:
             speed_now = traj.speed0 + sum(traj.speed.delta)
             traj.speed.add(leg_start + 2.0, 20.0, float(rng.uniform(1.1, 2.3)) - speed_now)
+        surfaces = next_surfacing < leg_start + leg_len
+        if surfaces:
+            # after the descent or the leg's speed change; no depth bump or late speed change in this leg
+            t_free = 3.0 + 2 * ramp + hold + 10.0 if leg == 0 else leg_start + 30.0
+            while next_surfacing < leg_start + leg_len and next_surfacing < duration_s + 1.0:
+                t_a = max(next_surfacing, t_free)
+                depth_known += _depth_change(traj, t_known, t_a)
+                t_free, depth_known = _plan_surfacing(traj, surfacing, rng_surfacing, t_a, depth_known)
+                t_known = t_free
+                leg_len = max(leg_len, t_free + 20.0 - leg_start)
+                while next_surfacing < t_free:
+                    next_surfacing += surfacing.interval_s
+        elif leg > 0:
             if rng.random() < 0.75:
                 # Depth change by a pitch bump; its amplitude is solved so the bump ends at the target.
                 t_a, rise, hold_b = leg_start + 30.0, 10.0, float(rng.uniform(5.0, 20.0))
@@ -369,6 +518,8 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
                 depth_known += _depth_change(traj, t_known, t_a)
                 t_known = t_a
                 target = float(np.clip(25.0 + rng.uniform(-6.0, 6.0), 15.0, 35.0))
+                if surfacing is not None and surfacing.dive_depth_m is not None:
+                    target = float(rng_surfacing.uniform(*surfacing.dive_depth_m))
                 i_dn = traj.pitch.add(t_a, rise, 0.0)
                 i_up = traj.pitch.add(t_a + rise + hold_b, rise, 0.0)
 
@@ -381,7 +532,7 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
                     bump_error(brentq(bump_error, lo, hi, xtol=1e-6))
                 else:
                     bump_error(lo if abs(bump_error(lo)) < abs(bump_error(hi)) else hi)
-        if leg > 0 and rng.random() < 0.5:
+        if leg > 0 and not surfaces and rng.random() < 0.5:
             # A second speed change late in the leg (after any depth change), before the turn.
             speed_now = traj.speed0 + sum(traj.speed.delta)
             traj.speed.add(leg_start + 75.0, 15.0, float(rng.uniform(1.1, 2.3)) - speed_now)
@@ -390,7 +541,8 @@ def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: f
         turn1, cross, turn2 = (float(rng.uniform(30.0, 40.0)), float(rng.uniform(10.0, 25.0)),
                                float(rng.uniform(30.0, 40.0)))
         traj.yaw.add(t_turn, turn1, turn_sign * np.pi / 2)
-        traj.yaw.add(t_turn + turn1 + cross, turn2, turn_sign * np.pi / 2)
+        # a transit turns back onto its course (a staircase); a lawnmower reverses it
+        traj.yaw.add(t_turn + turn1 + cross, turn2, (-turn_sign if pattern == "transit" else turn_sign) * np.pi / 2)
         cursor = t_turn + turn1 + cross + turn2
         turn_sign = -turn_sign
         leg += 1
@@ -413,7 +565,8 @@ def _default_config(lever_arm_b) -> SensorConfig:
 def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
-                     dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0)) -> Mission:
+                     dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0),
+                     surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower") -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -441,12 +594,19 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         start_ne_m: (north, east) of the start from the NED origin, m, on the sea surface's curve (its depth
             is the usual start depth: the tangent plane's ``down`` is less by the curvature drop). A start
             tens of km away puts the whole mission where gravity is tilted and the tangent plane has risen.
+        surfacing: a :class:`SurfacingProfile`: the vehicle surfaces every ``interval_s`` for GNSS fixes
+            (``mission.fixes``, 1 Hz at the surface with a 2-3 m sigma by default). None (default): no
+            surfacing and no fixes; the mission is then the same as before the option existed (same seed, same
+            numbers).
+        pattern: ``"lawnmower"`` (default: every other leg flies back, so a DVL scale error largely cancels
+            over a few legs) or ``"transit"`` (a staircase that keeps going away: the scale error accumulates).
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
         ``imu_errors`` (:class:`graphnav.sim.imu_errors.ImuErrorTruth` with the true biases, None if noiseless),
-        ``dvl_errors`` (dict of the true beam bias, scale factor and noise std) and ``trajectory``
-        (:class:`SimTrajectory`, exact kinematics at any time).
+        ``dvl_errors`` (dict of the true beam bias, scale factor and noise std), ``trajectory``
+        (:class:`SimTrajectory`, exact kinematics at any time) and, with ``surfacing``, ``surfacing`` (the
+        profile) and ``surface_windows`` (``(t_start, t_end)`` s of each stay at the surface).
     """
     if not 1.0 <= duration_s <= MAX_DURATION_S:
         raise ConfigError(f"duration_s must be in [1, {MAX_DURATION_S:.0f}] s, got {duration_s}")
@@ -472,9 +632,12 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     gt_stride, dvl_stride, depth_stride = int(round(gt_stride)), int(round(dvl_stride)), int(round(depth_stride))
 
     seq = np.random.SeedSequence(seed)
-    rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth = (np.random.default_rng(s) for s in seq.spawn(5))
+    # a sixth stream for the surfacings: SeedSequence children are keyed by their index, so the first five
+    # are those of the missions simulated before it existed
+    rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
     earth = EarthModel.from_config(config)
-    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n)
+    traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf,
+                           pattern)
     if np.any(np.asarray(start_ne_m, float) != 0.0):
         lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
         lla[2] = earth.alt_m - traj.p0_n[2]
@@ -531,12 +694,17 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     if dvl_output == "velocity":
         dvl = as_velocity_only(dvl, config.dvl)
 
+    fixes = None
+    if surfacing is not None:
+        fixes = surface_fixes(traj, surfacing, rng_surf, float(t_imu[-1]), DEFAULT_ORIGIN_LLA, noiseless)
+
     grade = spec.name
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
-        ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "")
+        ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
+        ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
-        "dvl_output": dvl_output,
+        "dvl_output": dvl_output, "pattern": pattern,
         "imu_errors": imu_truth,
         "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
                                               "scale_factor": errors.scale_factor.copy(),
@@ -544,4 +712,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         "trajectory": traj,
         "imu_sample_convention": SAMPLE_CONVENTION,
     }
-    return Mission(name, imu, dvl, config, gt, depth, meta)
+    if surfacing is not None:
+        meta["surfacing"] = surfacing
+        meta["surface_windows"] = [w for w in traj.surface_windows if w[0] <= t_imu[-1]]
+    return Mission(name, imu, dvl, config, gt, depth, meta, fixes=fixes)
