@@ -24,10 +24,10 @@ from graphnav.io.paths import akit_dir
 CANDIDATES = [(None, 2e-4), (0.002, 2e-4), (0.002, 2e-5), (0.005, 5e-5)]
 
 
-def main() -> int:
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trajectories", nargs="*", help="folder names (default: every shared trajectory)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     folders = [f for f in list_akit(akit_dir()) if not args.trajectories or f.name in args.trajectories]
     names = [f.name for f in folders]
     # metrics[trajectory][candidate] = (VRMSE m/s, end horizontal error m, velocity NEES)

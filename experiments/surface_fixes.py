@@ -21,8 +21,8 @@ from graphnav.evaluation.fixes import scale_at_surfacings, study_mission, summar
 from graphnav.sim.simulate import SurfacingProfile
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--duration", type=float, default=2400.0, help="mission length, s")
     ap.add_argument("--interval", type=float, default=600.0, help="time between surfacings, s")
@@ -37,7 +37,7 @@ def main() -> None:
     ap.add_argument("--prior-dvl-bias-sigma", type=float, default=None, help="GraphOptions.prior_dvl_bias_sigma, m/s")
     ap.add_argument("--json", default=None, help="write the summary and the per-run series here")
     ap.add_argument("--plot", default=None, help="write a figure (scale, error, sigma over time) here")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
 
     options = GraphOptions()
     for name in ("dvl_scale_rw", "dvl_bias_rw", "prior_dvl_bias_sigma"):
