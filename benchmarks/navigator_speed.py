@@ -15,23 +15,36 @@ The machine this runs on is usually shared, so absolute times are noisy; each ta
      Python DVL factor callbacks and of the DVL error states.
    - with ``--compare-beam``: the graph with one DVL factor per beam (``beam_factor_mode="beam"``, the
      structure before one factor per ping).
+   - the EKF backend (``ErrorStateEkf``) on the same samples.
 2. **Batch.** Graph-HN-batch (AverageCompleter, one 30 s 2-missing outage) on a simulated mission of
    ``--batch-hours`` hours (default 1; the 4 h figure: ``--batch-hours 4``, several minutes): total, first pass
    (fixed-lag, no marginals) and batch times.
 
-Targets (quiet 2-core machine): fixed-lag replay >= 500x real time, update p99 < 10 ms, 4 h batch < 20 s.
-Nothing is asserted (CI times nothing).
+3. **state_at** (``--state-at``): the fixed-lag replay with ``Navigator.state_at`` called after every IMU
+   sample (a 100 Hz controller reading the state): mean and p99 per call.
+4. **Long missions** (``--long-hours``, e.g. ``1 21``): simulated missions of that many hours through the
+   fixed-lag backend, sample by sample; per hour of mission the keyframe update median / p99 (CPU time of the
+   solver step), the process's resident memory and its growth since the start, and x real time. Flat rows
+   from hour 1 to the last are the target; ``--no-reanchor`` runs them without
+   ``GraphOptions.reanchor_interval_s`` (GTSAM's smoother alone, whose p99 grows over the hours).
+
+Targets (quiet 2-core machine): fixed-lag replay >= 500x real time, update p99 < 10 ms, EKF replay >= 1000x,
+``state_at`` < 50 us, 4 h batch < 20 s, long missions flat in update p99 and memory. Nothing is asserted (CI
+times nothing).
 
     .venv/bin/python benchmarks/navigator_speed.py                      # replay (3 rounds) + 1 h batch
     .venv/bin/python benchmarks/navigator_speed.py --repeat 5 --compare-beam --batch-hours 0
     .venv/bin/python benchmarks/navigator_speed.py --profile /tmp/replay.prof   # cProfile of one replay
     .venv/bin/python benchmarks/navigator_speed.py --split       # CPU per sample / keyframe / solver / marginal
+    .venv/bin/python benchmarks/navigator_speed.py --state-at --batch-hours 0 --repeat 1
+    .venv/bin/python benchmarks/navigator_speed.py --long-hours 1 21    # the 21 h mission: about 40 min
 """
 from __future__ import annotations
 
 import argparse
 import cProfile
 import dataclasses
+import os
 import time
 import warnings
 
@@ -51,27 +64,46 @@ from graphnav.nets import AverageCompleter
 from graphnav.sim.simulate import simulate_mission
 
 
-def replay_run(mission, events, backend: str, options: GraphOptions | None = None) -> dict:
-    """One sample-by-sample replay; wall and CPU time, per-keyframe update times (s)."""
-    nav = Navigator(mission.config, backend, graph_options=options,
-                    initial=InitialState.from_ground_truth(mission, first_ping_time(mission)))
-    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
-    estimator = nav.backend.estimator
-    solver_update, update_cpu = estimator.update, []
+def navigator(mission, backend: str, options: GraphOptions | None = None) -> Navigator:
+    """A Navigator on ``backend`` started from the ground truth at the first ping."""
+    return Navigator(mission.config, backend, graph_options=options,
+                     initial=InitialState.from_ground_truth(mission, first_ping_time(mission)))
 
-    def timed_update():         # CPU time of the solver step (wall time on a shared machine measures the load)
+
+def time_updates(nav: Navigator) -> list[float]:
+    """Record the CPU time (``thread_time``, s) of each solver step of ``nav`` from now on: the graph's
+    ``update``, or the EKF backend's whole keyframe (prediction and update). Returns the growing list."""
+    backend = nav.backend
+    owner, name = (backend.estimator, "update") if hasattr(backend, "estimator") else (backend, "process")
+    call, spent = getattr(owner, name), []
+
+    def timed(*args, **kwargs):     # CPU, not wall time: on a shared machine the wall time measures the load
         start = time.thread_time()
-        out = solver_update()
-        update_cpu.append(time.thread_time() - start)
+        out = call(*args, **kwargs)
+        spent.append(time.thread_time() - start)
         return out
 
-    estimator.update = timed_update
+    setattr(owner, name, timed)
+    return spent
+
+
+def replay_run(mission, events, backend: str, options: GraphOptions | None = None, state_at: bool = False) -> dict:
+    """One sample-by-sample replay; wall and CPU time, per-keyframe update times (s); with ``state_at``, the
+    wall time of a ``Navigator.state_at`` call after every IMU sample (s)."""
+    nav = navigator(mission, backend, options)
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    update_cpu, calls = time_updates(nav), []
     wall, cpu = time.perf_counter(), time.process_time()
     for kind, t, sample in events:
         adders[kind](t, *sample)
+        if state_at and kind == "imu" and nav.n_estimates:
+            start = time.perf_counter()
+            nav.state_at(t)
+            calls.append(time.perf_counter() - start)
     nav.finish()
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    return {"wall": wall, "cpu": cpu, "update": np.asarray(update_cpu), "keyframes": nav.n_estimates}
+    return {"wall": wall, "cpu": cpu, "update": np.asarray(update_cpu), "keyframes": nav.n_estimates,
+            "state_at": np.asarray(calls)}
 
 
 def cpp_only_keyframes(mission, options: GraphOptions) -> list:
@@ -138,7 +170,7 @@ def replay_table(mission, repeat: int, compare_beam: bool) -> None:
     events = list(replay(mission))
     no_d = GraphOptions(dvl_error_states=False)
     variants = {"fixed-lag": ("fixed-lag", None), "fixed-lag, DVL error states off": ("fixed-lag", no_d),
-                "isam2": ("isam2", None)}
+                "isam2": ("isam2", None), "ekf": ("ekf", None)}
     if compare_beam:
         variants["fixed-lag, one factor per beam"] = ("fixed-lag", GraphOptions(beam_factor_mode="beam"))
     keyframes = cpp_only_keyframes(mission, no_d)
@@ -161,8 +193,9 @@ def replay_table(mission, repeat: int, compare_beam: bool) -> None:
     for name, r in rows.items():
         print(f"| {name} | {r['wall']:.2f} | {r['cpu']:.2f} | {r['rt']:.0f}x | {r['rt_cpu']:.0f}x | {r['p50']:.2f} | "
               f"{r['p99']:.2f} | {r['cpu'] / base['cpu']:.2f} | {r['p50'] / cpp['p50']:.2f} |", flush=True)
-    print("(update: CPU time of the solver step, thread_time; C++-only: the smoother loop alone, no Navigator, "
-          "keyframer or preintegration. On a loaded machine read the CPU columns.)")
+    print("(update: CPU time of the solver step, thread_time; for the EKF its whole keyframe, prediction and "
+          "update; C++-only: the smoother loop alone, no Navigator, keyframer or preintegration. On a loaded "
+          "machine read the CPU columns.)")
 
 
 def cpu_split(mission, repeat: int) -> None:
@@ -228,16 +261,90 @@ def batch_table(hours: float) -> None:
           f"{cpu:.1f} | {m.duration / cpu:.0f}x |", flush=True)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def state_at_table(mission, repeat: int) -> None:
+    """``Navigator.state_at`` after every IMU sample of a fixed-lag replay: mean and p99 per call (us)."""
+    events = list(replay(mission))
+    us = 1e6 * np.concatenate([replay_run(mission, events, "fixed-lag", state_at=True)["state_at"]
+                               for _ in range(repeat)])
+    print(f"\n3. state_at after every IMU sample (100 Hz controller), fixed-lag backend, {len(us)} calls")
+    print("| mean us | median us | p99 us |")
+    print("| --- | --- | --- |")
+    print(f"| {us.mean():.1f} | {np.median(us):.1f} | {np.percentile(us, 99):.1f} |", flush=True)
+
+
+def rss_mb() -> float:
+    """Resident memory of this process, MB (Linux ``/proc``; NaN elsewhere)."""
+    try:
+        with open(f"/proc/{os.getpid()}/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def long_mission(hours: float, reanchor: bool = True) -> list[dict]:
+    """A simulated mission of ``hours`` through the fixed-lag backend, sample by sample; one row per hour of
+    mission: keyframe update median / p99 (ms CPU), resident memory and its growth since the start (MB), and x
+    real time so far (wall)."""
+    mission = simulate_mission(hours * 3600.0, seed=0)
+    options = None if reanchor else GraphOptions(reanchor_interval_s=None)
+    nav = navigator(mission, "fixed-lag", options)
+    adders = {"imu": nav.add_imu, "dvl": nav.add_dvl, "depth": nav.add_depth}
+    spent = time_updates(nav)
+    rows, rss0, start = [], rss_mb(), time.perf_counter()
+
+    def report(hour: int, t: float) -> None:
+        if spent:
+            chunk = 1e3 * np.asarray(spent)
+            rows.append({"hour": hour, "median_ms": float(np.median(chunk)), "p99_ms": float(np.percentile(chunk, 99)),
+                         "rss_mb": rss_mb(), "rss_growth_mb": rss_mb() - rss0,
+                         "rt": (t - mission.t0) / (time.perf_counter() - start)})
+            spent.clear()       # one hour's timings per row; the list would otherwise grow with the mission
+
+    hour, t = 1, mission.t0
+    for kind, t, sample in replay(mission):
+        adders[kind](t, *sample)
+        if t - mission.t0 >= hour * 3600.0:
+            report(hour, t)
+            hour += 1
+    report(hour, t)
+    nav.finish()
+    return rows
+
+
+def long_table(hours_list, reanchor: bool) -> None:
+    what = "restarted every reanchor_interval_s" if reanchor else "never restarted (--no-reanchor)"
+    print(f"\n4. Long simulated missions, fixed-lag backend ({what}): per hour of mission")
+    print("| mission | hour | update median ms CPU | update p99 ms CPU | RSS MB | RSS growth since start MB | "
+          "x real time |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for hours in hours_list:
+        for row in long_mission(hours, reanchor):
+            print(f"| {hours:g} h | {row['hour']} | {row['median_ms']:.2f} | {row['p99_ms']:.2f} | "
+                  f"{row['rss_mb']:.0f} | {row['rss_growth_mb']:+.0f} | {row['rt']:.0f}x |", flush=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeat", type=int, default=3, help="interleaved rounds of the replay table (default 3)")
     parser.add_argument("--duration", type=float, default=400.0, help="replay mission length, s (default 400)")
     parser.add_argument("--compare-beam", action="store_true", help="also one DVL factor per beam")
     parser.add_argument("--batch-hours", type=float, default=1.0, help="batch mission length, h (0: skip)")
+    parser.add_argument("--state-at", action="store_true", help="also time Navigator.state_at after every IMU sample")
+    parser.add_argument("--long-hours", type=float, nargs="+", default=[], metavar="H",
+                        help="also long simulated missions of these lengths, h (e.g. 1 21): update p99 and memory "
+                             "per hour")
+    parser.add_argument("--no-reanchor", action="store_true",
+                        help="long missions without GraphOptions.reanchor_interval_s (the smoother never restarted)")
+    parser.add_argument("--skip-replay", action="store_true", help="leave out the replay table")
     parser.add_argument("--profile", metavar="FILE", help="only cProfile one fixed-lag replay into FILE")
     parser.add_argument("--split", action="store_true",
                         help="only the CPU split of the fixed-lag replay (per sample, per keyframe, solver, marginal)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.repeat < 1 or args.duration <= 0 or any(h <= 0 for h in args.long_hours):
+        parser.error("--repeat must be >= 1, --duration and --long-hours > 0")
     warnings.simplefilter("ignore")
     mission = simulate_mission(args.duration, seed=0)
     if args.profile:
@@ -250,9 +357,14 @@ def main() -> int:
     if args.split:
         cpu_split(mission, args.repeat)
         return 0
-    replay_table(mission, args.repeat, args.compare_beam)
+    if not args.skip_replay:
+        replay_table(mission, args.repeat, args.compare_beam)
     if args.batch_hours > 0:
         batch_table(args.batch_hours)
+    if args.state_at:
+        state_at_table(mission, args.repeat)
+    if args.long_hours:
+        long_table(args.long_hours, reanchor=not args.no_reanchor)
     return 0
 
 

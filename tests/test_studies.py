@@ -51,8 +51,7 @@ def test_no_study_keeps_its_own_process_pool_or_data_path():
 
 def test_scripts_keeps_only_the_entry_points():
     kept = {"smooth.py", "online.py", "bench.py", "quickstart.sh", "setup_env.sh", "test.sh", "train_beams.sh"}
-    # bench_navigator.py moves to benchmarks/ with the navigator speed work
-    assert {p.name for p in (ROOT / "scripts").iterdir()} - kept <= {"bench_navigator.py"}
+    assert {p.name for p in (ROOT / "scripts").iterdir()} <= kept
 
 
 def test_akit_trajectories_finds_names_and_refuses_clearly(tmp_path, monkeypatch):

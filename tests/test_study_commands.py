@@ -66,6 +66,98 @@ def test_consistency_rows_and_table(tmp_path, capsys):
     assert "--force" in capsys.readouterr().err
 
 
+def test_consistency_position_heading_and_drift_columns_are_score_cases(tmp_path, capsys):
+    """The rows' % DT and position / heading NEES are the bench's own (``score_case``, ``drift_pct_of``) for the
+    same run, and the tables show them."""
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation.bench import case_windows, drift_pct_of, prepared_mission, score_case
+    from graphnav.evaluation.consistency_study import POSE_FIELDS, counted_distance
+    from graphnav.evaluation.methods import run_method
+    out = tmp_path / "cons"
+    assert main(["consistency", "--sim-duration", "160", "--jobs", "1", "--methods", "TC", "--scenario", "none",
+                 "3-missing", "--per-trajectory", "--out", str(out)]) == 0
+    rows = {r["scenario"]: r for r in json.loads((out / "consistency.json").read_text())}
+    mission = prepared_mission(find_trajectories(None, sim_duration_s=160.0)[0], "as-recorded")
+    starts = case_windows(mission, 30.0)
+    for scenario, row in rows.items():
+        run = mission.with_outage(*[scenario_outage(scenario, s, 30.0) for s in starts])
+        scores = score_case(run_method(run, "TC", scenario), mission, starts, 30.0)
+        assert row["drift_pct_window"] == pytest.approx(drift_pct_of(scores), rel=1e-9)
+        assert row["drift_pct_mission"] == pytest.approx(scores[0]["drift_pct_mission"], rel=1e-9)
+        distance = row["distance_window_sum_m"]
+        assert distance == pytest.approx(counted_distance(scores)) and distance > 50
+        for key in POSE_FIELDS:                       # the 15-state EKF carries position and attitude covariances
+            assert row[key] is not None and row[key] == pytest.approx(scores[0][key], rel=1e-9), key
+    assert rows["3-missing"]["drift_pct_window"] > rows["none"]["drift_pct_window"] > 0
+    table = (out / "table.md").read_text()
+    assert "| % DT window none | % DT window 3-missing |" in table and "| position NEES (band) |" in table
+    none = rows["none"]
+    line = next(x for x in table.splitlines() if x.startswith("| TC | off |"))
+    assert (f"| {none['drift_pct_window']:.2f} | {rows['3-missing']['drift_pct_window']:.2f} |" in line
+            and f"| {none['nees_pos_mission']:.2f} ({none['nees_pos_mission']:.2f}-" in line
+            and f"| {none['nees_heading_mission']:.2f} (" in line
+            and line.endswith(f"| {none['drift_pct_mission']:.2f} |"))
+    assert (f"| sim-seed0 | {none['nees_pos_mission']:.2f} / {none['nees_heading_mission']:.2f} / "
+            f"{none['drift_pct_window']:.2f} / {none['drift_pct_mission']:.2f} |") in table
+
+
+def test_pooled_window_drift_is_summed_drift_over_summed_distance():
+    from graphnav.evaluation.consistency_study import _pct_window
+    rows = [{"drift_pct_window": 100 * 3.0 / 300.0, "distance_window_sum_m": 300.0},
+            {"drift_pct_window": 100 * 1.0 / 100.0, "distance_window_sum_m": 100.0},
+            {"drift_pct_window": float("nan"), "distance_window_sum_m": 0.0}]
+    assert _pct_window(rows) == f"{100 * 4.0 / 400.0:.2f}" and _pct_window(rows[2:]) == "-"
+
+
+def _drift_rows(text: str) -> dict:
+    """``method -> (delta s, % DT window, without the offset)`` of a printed drift-check table."""
+    out = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if line.startswith("| sim-seed0 |"):
+            out[cells[1]] = tuple(float(c) for c in cells[2:5])
+    return out
+
+
+def test_consistency_drift_check_recovers_an_injected_stamp_offset(monkeypatch, capsys):
+    """The estimate's stamps moved 0.3 s late: the fitted delta grows by 0.3 s and the window % DT without the
+    fitted offset is the undamaged run's."""
+    import dataclasses
+
+    from graphnav.evaluation import methods
+    args = ["consistency", "--drift-check", "--sim-duration", "250", "--jobs", "1", "--methods", "TC"]
+    assert main(args) == 0
+    base = _drift_rows(capsys.readouterr().out)["TC"]
+    run_method = methods.run_method
+
+    def late(*a, **k):
+        sol = run_method(*a, **k)
+        return dataclasses.replace(sol, t=sol.t + 0.3)
+    monkeypatch.setattr(methods, "run_method", late)
+    assert main(args) == 0
+    shifted = _drift_rows(capsys.readouterr().out)["TC"]
+    assert shifted[0] - base[0] == pytest.approx(0.3, abs=0.05)
+    assert shifted[1] > base[1] + 0.2                           # the offset costs % DT as scored ...
+    assert shifted[2] == pytest.approx(base[2], abs=0.05)       # ... and the fit takes it out again
+
+
+def test_stamp_offset_fit_of_the_reference_itself():
+    """The reference as an estimate, its stamps late by 0.25 s: the whole error is the offset."""
+    import dataclasses
+
+    import numpy as np
+
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency_study import stamp_offset_fit
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(200.0, seed=3)
+    t = np.arange(mission.gt.t[0] + 5.0, mission.gt.t[-1] - 5.0, 1.0)
+    p, v, C = mission.gt.at(t - 0.25)
+    sol = NavSolution(t=t, p_n=p, v_n=v, C_b_n=C, method="reference")
+    assert stamp_offset_fit(sol, mission.gt) == pytest.approx(0.25, abs=0.01)
+    assert stamp_offset_fit(dataclasses.replace(sol, t=t - 0.25), mission.gt) == pytest.approx(0.0, abs=0.01)
+
+
 def test_consistency_reference_check_and_errors(capsys):
     assert main(["consistency", "--reference-check", "--sim-duration", "100"]) == 0
     assert "| sim-seed0 |" in capsys.readouterr().out

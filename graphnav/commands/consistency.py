@@ -1,5 +1,6 @@
-"""``graphnav consistency``: velocity NEES and window VRMSE per method (graph methods with the DVL error states
-off and on), and the check of the reference the NEES is scored against.
+"""``graphnav consistency``: velocity, position and heading NEES, window VRMSE and % DT per method (graph methods
+with the DVL error states off and on); the check of the reference the NEES is scored against; the check of how
+much of the window % DT a stamp offset explains.
 
 The study is :mod:`graphnav.evaluation.consistency_study`; this module reads the arguments, writes
 ``OUT/consistency.json`` (rows, rewritten as trajectories finish) and ``OUT/table.md``, and prints the table.
@@ -20,15 +21,20 @@ TABLE_FILE = "table.md"
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "consistency", help="velocity NEES and window VRMSE per method, DVL error states off/on; reference check",
+        "consistency", help="velocity / position / heading NEES, window VRMSE and %% DT per method, DVL error "
+                            "states off/on; reference and drift checks",
         description="Run each method on every trajectory (the simulated default, or each under --data) with the "
                     "bench's windows and scenarios and print per method: the window VRMSE per scenario and the "
                     "mean velocity NEES over the mission after 60 s with all beams (3 for a consistent "
                     "estimator; the 95 % band of one trajectory beside it), scored against the ground truth "
-                    "carried to each epoch by the IMU, also with the GT's own velocity error (--gt-sigma) added. "
-                    "The graph methods run with the DVL error states off and on (--settings). Writes "
-                    "OUT/consistency.json and OUT/table.md. --reference-check instead compares the recorded DVL "
-                    "with the linearly interpolated and the IMU-carried ground truth, deep and at the surface. "
+                    "carried to each epoch by the IMU, also with the GT's own velocity error (--gt-sigma) added; "
+                    "the horizontal position NEES (2 dof) and heading NEES (1 dof) over the mission with their "
+                    "bands; the drift in % of the distance travelled (% DT) over the windows (summed drift / "
+                    "summed distance) per scenario and at the mission's end. The graph methods run with the DVL "
+                    "error states off and on (--settings). Writes OUT/consistency.json and OUT/table.md. "
+                    "--reference-check instead compares the recorded DVL with the linearly interpolated and the "
+                    "IMU-carried ground truth, deep and at the surface; --drift-check fits the estimate's stamp "
+                    "offset against the GT and prints the window % DT with and without that offset. "
                     "Example: graphnav consistency --data ../shared/data/snapir-2022-akit --jobs 2",
         formatter_class=HelpFormatter)
     p.add_argument("--data", metavar="DIR",
@@ -53,6 +59,10 @@ def register(subparsers) -> None:
                    help="only print, per trajectory, the recorded DVL against the GT interpolated linearly and "
                         "carried by the IMU, deeper and shallower than --surface-m (body x / y / z RMS, m/s)")
     p.add_argument("--surface-m", type=float, default=1.0, metavar="M", help="--reference-check: surface depth")
+    p.add_argument("--drift-check", action="store_true",
+                   help="only print, per trajectory and method (all beams), the stamp offset of the estimate that "
+                        "best explains its horizontal position error (error = offset + trend - v_gt * delta, "
+                        "least squares) and the window %% DT as scored and with the stamps moved back by delta")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
                    help="parallel worker processes, one trajectory each (1 = run in this process)")
     p.add_argument("--scheduler", metavar="ADDRESS|local",
@@ -79,8 +89,10 @@ def run(args) -> int:
     from graphnav.commands.common import StagedOut
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.consistency_study import (
+        drift_check_table,
         per_trajectory_table,
         reference_check_table,
+        run_drift_check,
         run_study,
         study_table,
     )
@@ -90,6 +102,10 @@ def run(args) -> int:
                                 config_path=args.config)
     if args.reference_check:
         print(reference_check_table(sources, args.surface_m))
+        return 0
+    if args.drift_check:
+        rows = run_drift_check(sources, args.methods, args.window_s, jobs=args.jobs, scheduler=args.scheduler)
+        print(drift_check_table(rows))
         return 0
     with StagedOut(args.out, args.force) as staged:
         rows: list[dict] = []

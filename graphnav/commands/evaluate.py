@@ -8,7 +8,7 @@ from graphnav.commands.common import HelpFormatter
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "evaluate", help="score a trajectory CSV/TUM against a reference: APE, RPE (evo), VRMSE, NEES, % DT",
+        "evaluate", help="score a trajectory CSV/TUM against a reference: APE, RPE (evo), VRMSE, NEES, %% DT",
         description="Score a trajectory written by `graphnav smooth`/`online` (trajectory.csv, or a TUM file) "
                     "against a reference: a TUM file, a trajectory CSV, or a mission path as --data takes it "
                     "(A-KIT folder, ROS 2 bag with a reference nav_msgs/Odometry topic, CSV log with a gt "

@@ -5,7 +5,7 @@ lawnmower survey: straight legs of 100-160 s joined by pairs of 90 deg turns (ya
 a depth change (pitch bump) in most legs, new speeds (1.1-2.3 m/s, smooth changes) at the start
 and often late in every leg, and roll/pitch/yaw oscillations of a few degrees (periods 8-20 s) with
 small sway and heave. The pattern continues for any duration (tested up to 4 h; 21 h simulated for the
-Navigator's long-mission benchmark, ``scripts/bench_navigator.py``).
+Navigator's long-mission benchmark, ``benchmarks/navigator_speed.py --long-hours 21``).
 
 Kinematics are analytic: roll, pitch, yaw and the body velocity ``v_b = [u, v, w]`` are sums of quintic
 smooth steps (C2) and sinusoids, so their values and first derivatives are exact. From them

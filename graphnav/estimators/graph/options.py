@@ -52,7 +52,7 @@ Chosen defaults and why:
   bias covariances. Full marginals cost 0.15 ms per keyframe over velocity-only ones in the fixed-lag
   smoother and 0.7 ms in ISAM2 (the newest keyframe sits in the Bayes tree's root clique), 0.07 s per 400 s in
   the batch; the estimates are bit-equal at every level (``docs/decisions/covariance-out.md``,
-  ``scripts/bench_marginals.py``).
+  ``benchmarks/marginals_speed.py``).
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
   initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
 """
@@ -101,7 +101,8 @@ class GraphOptions:
         lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
         reanchor_interval_s: the fixed-lag smoother is restarted from the last estimate (priors: its marginal
             covariances, block-diagonal) every this many seconds; None = never. GTSAM's smoother slows down
-            over hours (update p99 5 ms in hour 1, 18 ms in hour 21 without it: ``scripts/bench_navigator.py``).
+            over hours (update p99 5 ms in hour 1, 18 ms in hour 21 without it:
+            ``benchmarks/navigator_speed.py --long-hours 1 21 --no-reanchor``).
         batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.

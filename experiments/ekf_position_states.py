@@ -1,18 +1,19 @@
 #!/usr/bin/env python
 """The 15-state EKF (position error state, depth aiding) against the paper's 12-state filter on whole missions.
 
-For every shared A-KIT trajectory (``graphnav.io.paths.akit_dir``) and each of the two filters (the registry's
-``TC`` and ``TC-12``, all beams, ground-truth start as the bench): velocity RMSE over the mission and per NED
-axis, mean velocity NEES after 60 s (3 dof), the horizontal position error at the mission's last ping and, for
-the 15-state filter, its horizontal position sigma there and the 2-dof position NEES at the end.
+For every shared A-KIT trajectory (``graphnav.io.paths.akit_trajectories``; ``--data`` overrides) and each of
+the two filters (the registry's ``TC`` and ``TC-12``, all beams, ground-truth start as the bench): velocity
+RMSE over the mission and per NED axis, mean velocity NEES after 60 s (3 dof), the horizontal position error at
+the mission's last ping and, for the 15-state filter, its horizontal position sigma there and the 2-dof position
+NEES at the end.
 ``--scenario 3-missing`` puts the bench's 30 s windows of 3 missing beams into the mission
 (:func:`graphnav.core.scenarios.window_starts`) and scores the whole mission.
 
 Note: the A-KIT depth stream is the ground truth's altitude (the files carry no depth sensor), so depth aiding
 on these missions comes from the reference's own vertical channel.
 
-Usage: ``python scripts/ekf_position_states.py [--trajectories 1,5] [--scenario none|3-missing]
-[--dvl-error-states]``
+    .venv/bin/python experiments/ekf_position_states.py [--trajectories 1,5] [--scenario none|3-missing]
+                                                         [--dvl-error-states] [--data DIR]
 """
 from __future__ import annotations
 
@@ -22,11 +23,12 @@ import warnings
 
 import numpy as np
 
+from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.evaluation import metrics
 from graphnav.evaluation.methods import run_method
 from graphnav.io.loaders import load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 #: the filters compared: the 15-state default and the paper's 12-state filter
 FILTERS = ("TC", "TC-12")
@@ -58,19 +60,14 @@ def score(sol, gt) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trajectories", default=None, help="comma-separated numbers (default: all shared)")
     ap.add_argument("--scenario", default="none", choices=("none", "3-missing", "2-missing"))
     ap.add_argument("--dvl-error-states", action="store_true", help="both filters with EkfOptions.dvl_error_states")
+    ap.add_argument("--data", metavar="DIR", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     args = ap.parse_args(argv)
-    root = akit_dir()
-    if root is None:
-        print("no A-KIT data found (graphnav.io.paths.akit_dir)", file=sys.stderr)
-        return 1
-    folders = sorted(root.glob("Trajectory*"), key=lambda p: int(p.name.removeprefix("Trajectory")))
-    if args.trajectories:
-        keep = {f"Trajectory{n.strip()}" for n in args.trajectories.split(",")}
-        folders = [f for f in folders if f.name in keep]
+    names = [n.strip() for n in args.trajectories.split(",")] if args.trajectories else None
+    folders = akit_trajectories(args.data, names=names)
     rows = {name: [] for name in FILTERS}
     print(f"scenario {args.scenario}; per trajectory: VRMSE m/s [N E D], velocity NEES, horizontal position error at "
           "the end m (15-state: its sigma and 2-dof NEES)")
@@ -104,4 +101,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except ConfigError as exc:
+        sys.exit(f"error: {exc}")

@@ -6,8 +6,8 @@ truth as initial state: at the last epoch inside the GT, the horizontal position
 ``sqrt(P_nn + P_ee)`` from the estimator's ``cov_p_n``, the horizontal NEES (2 dof), the heading error and
 its sigma from ``cov_rot_b``; then the mean NEES over the trajectories per method.
 
-    .venv/bin/python scripts/covariance_check.py
-    .venv/bin/python scripts/covariance_check.py --methods Graph-TC --trajectories 1 5
+    .venv/bin/python experiments/covariance_check.py
+    .venv/bin/python experiments/covariance_check.py --methods Graph-TC --trajectories 1 5
 """
 from __future__ import annotations
 
@@ -16,10 +16,11 @@ import warnings
 
 import numpy as np
 
+from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import attitude_error, heading_variance, yaw_jacobian
-from graphnav.evaluation.methods import run_method
+from graphnav.evaluation.methods import check_method, run_method
 from graphnav.io.loaders import load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 
 
 def end_of_run(sol, mission) -> dict:
@@ -36,19 +37,16 @@ def end_of_run(sol, mission) -> dict:
             "heading_sigma_deg": float(np.rad2deg(np.sqrt(var_yaw))), "heading_nees": d_yaw ** 2 / var_yaw}
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--data", default=None, help="A-KIT folder (default: graphnav.io.paths.akit_dir())")
-    parser.add_argument("--methods", nargs="+", default=["Graph-TC", "Graph-TC-batch"])
-    parser.add_argument("--trajectories", nargs="+", type=int, default=None)
-    args = parser.parse_args()
-    from pathlib import Path
-    root = Path(args.data) if args.data else akit_dir()
-    if root is None:
-        raise SystemExit("no A-KIT data: give --data")
-    folders = sorted((p for p in root.glob("Trajectory*") if p.is_dir()), key=lambda p: int(p.name[10:]))
-    if args.trajectories:
-        folders = [f for f in folders if int(f.name[10:]) in args.trajectories]
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", metavar="DIR", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    parser.add_argument("--methods", nargs="+", default=["Graph-TC", "Graph-TC-batch"],
+                        help="method names of graphnav.evaluation.methods (default Graph-TC Graph-TC-batch)")
+    parser.add_argument("--trajectories", nargs="+", type=int, default=None, help="trajectory numbers (default all)")
+    args = parser.parse_args(argv)
+    for method in args.methods:
+        check_method(method)
+    folders = akit_trajectories(args.data, names=args.trajectories)
     results = {m: [] for m in args.methods}
     print("| trajectory | method | horizontal error m | sigma m | NEES (2 dof) | heading error deg | sigma deg |")
     print("|---|---|---|---|---|---|---|")
@@ -66,7 +64,11 @@ def main():
             print(f"{method}: mean horizontal NEES {np.mean([r['nees'] for r in rows]):.2f} (expected 2), mean "
                   f"heading NEES {np.mean([r['heading_nees'] for r in rows]):.2f} (expected 1) over {len(rows)} "
                   "trajectories")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        raise SystemExit(main())
+    except ConfigError as exc:
+        raise SystemExit(f"error: {exc}") from None

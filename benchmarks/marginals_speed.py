@@ -8,8 +8,9 @@ all beams) and on a real A-KIT trajectory; for the batch smoother (Graph-TC-batc
 machine is shared). The largest difference of the position and velocity estimates from the ``none`` run must
 be exactly 0.
 
-    .venv/bin/python scripts/bench_marginals.py                              # simulated 400 s + Trajectory1
-    .venv/bin/python scripts/bench_marginals.py --trajectory 5 --repeats 3
+    .venv/bin/python benchmarks/marginals_speed.py                           # simulated 400 s + Trajectory1
+    .venv/bin/python benchmarks/marginals_speed.py --trajectory 5 --repeats 3
+    .venv/bin/python benchmarks/marginals_speed.py --trajectory 0            # simulated mission only
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.graph.options import MARGINAL_LEVELS
 from graphnav.estimators.runs import run_graph
 from graphnav.io.loaders import load_akit
-from graphnav.io.paths import akit_dir
+from graphnav.io.paths import akit_trajectories
 from graphnav.sim.simulate import simulate_mission
 
 
@@ -54,16 +55,18 @@ def bench(label, mission, repeats):
     return rows
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--trajectory", type=int, default=1, help="A-KIT trajectory number (when the data is there)")
-    parser.add_argument("--repeats", type=int, default=2)
-    args = parser.parse_args()
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--trajectory", type=int, default=1,
+                        help="A-KIT trajectory number (0: the simulated mission only)")
+    parser.add_argument("--data", metavar="DIR",
+                        help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    parser.add_argument("--repeats", type=int, default=2, help="runs per level, the fastest kept (default 2)")
+    args = parser.parse_args(argv)
+    folders = akit_trajectories(args.data, names=[args.trajectory]) if args.trajectory else []
     rows = bench("simulated 400 s tactical", simulate_mission(400, imu_grade="tactical", seed=0), args.repeats)
-    root = akit_dir()
-    if root is not None and (root / f"Trajectory{args.trajectory}").exists():
-        rows += bench(f"A-KIT Trajectory{args.trajectory}", load_akit(root / f"Trajectory{args.trajectory}"),
-                      args.repeats)
+    for folder in folders:
+        rows += bench(f"A-KIT {folder.name}", load_akit(folder), args.repeats)
     header = ("mission", "estimator", "marginals", "total s", "update median ms", "update p99 ms",
               "batch marginals s", "max |dp| m", "max |dv| m/s")
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
@@ -71,7 +74,12 @@ def main():
     print("|" + "|".join("-" * (w + 2) for w in widths) + "|")
     for r in rows:
         print("| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    from graphnav.core.errors import ConfigError
+    try:
+        raise SystemExit(main())
+    except ConfigError as exc:
+        raise SystemExit(f"error: {exc}") from None
