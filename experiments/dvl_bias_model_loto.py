@@ -18,8 +18,8 @@ import numpy as np
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import horizontal_position_error, nees_velocity, vrmse
-from graphnav.io.loaders import list_akit, load_mission
-from graphnav.io.paths import akit_dir
+from graphnav.io.loaders import load_mission
+from graphnav.io.paths import akit_trajectories
 
 CANDIDATES = [(None, 2e-4), (0.002, 2e-4), (0.002, 2e-5), (0.005, 5e-5)]
 
@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trajectories", nargs="*", help="folder names (default: every shared trajectory)")
     args = ap.parse_args(argv)
-    folders = [f for f in list_akit(akit_dir()) if not args.trajectories or f.name in args.trajectories]
+    folders = akit_trajectories(names=args.trajectories or None, option=None)
     names = [f.name for f in folders]
     # metrics[trajectory][candidate] = (VRMSE m/s, end horizontal error m, velocity NEES)
     metrics = np.zeros((len(folders), len(CANDIDATES), 3))
