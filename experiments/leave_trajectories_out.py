@@ -78,13 +78,14 @@ def main(argv=None) -> int:
                               ""]
         for p in args.params:
             rule = args.rule or crossval.PARAMETERS[p].rule
-            for m in args.methods:
-                if not any(r["parameter"] == p and r["method"] == m for r in table):
-                    continue
+            ran = [m for m in args.methods if any(r["parameter"] == p and r["method"] == m for r in table)]
+            shared = crossval.sharing_methods(p, ran)
+            # each method's own choice, then the one default the methods sharing the parameter get
+            for m, with_ in [(m, ()) for m in ran] + ([(m, shared) for m in shared] if len(shared) > 1 else []):
                 try:
                     results.append(crossval.cross_validate(table, folds, m, p, rule, "none", args.vrmse_tol,
                                                            score_scenarios=[s for s in args.scenarios
-                                                                            if s != "none"]))
+                                                                            if s != "none"], shared_with=with_))
                 except ConfigError as exc:
                     print(f"{p} / {m}: {exc}", file=sys.stderr)
         lines += [crossval.report(results), ""]

@@ -188,3 +188,16 @@ def test_grid_tasks_run_graph_parameters_once_for_the_ekf():
     assert all(t.methods == crossval.STUDY_METHODS for t in tasks if t.parameter == "imu_noise_scale")
     with pytest.raises(ConfigError, match="unknown parameter"):
         crossval.grid_tasks([src], ["lever_arm"], ["none"])
+
+
+def test_shared_value_is_the_most_cautious_choice():
+    # method A wants 1.0 (NEES 3 there), method B 2.0: sharing the parameter both get 2.0 in every fold
+    table = synthetic_table(lambda t, v: 3.0 / v, method="A") + synthetic_table(lambda t, v: 6.0 / v, method="B")
+    own = cross_validate(table, SNAPIR_FOLDS, "A", "imu_noise_scale", rule="nees")
+    shared = cross_validate(table, SNAPIR_FOLDS, "A", "imu_noise_scale", rule="nees", shared_with=["A", "B"])
+    assert own["all_data_value"] == 1.0 and own["out_of_fold"]["nees"] == pytest.approx(3.0)
+    assert [f["value"] for f in shared["folds"]] == [2.0] * 5 and shared["all_data_value"] == 2.0
+    assert shared["out_of_fold"]["nees"] == pytest.approx(1.5) and shared["chosen_by"] == ["A", "B"]
+    assert crossval.sharing_methods("dvl_bias_rw", ["Graph-TC", "Graph-TC-batch", "TC"]) == ["Graph-TC",
+                                                                                             "Graph-TC-batch"]
+    assert crossval.sharing_methods("imu_noise_scale", ["Graph-TC", "TC"]) == ["Graph-TC", "TC"]

@@ -20,6 +20,10 @@ Parameters (:data:`PARAMETERS`):
 - ``dvl_bias_rw``, ``dvl_scale_rw``: the graph's DVL error-state random walks (``GraphOptions``; m/s/sqrt(s)
   and 1/sqrt(s)).
 - ``prior_dvl_bias_sigma``: the graph's first-keyframe prior sigma of the beam bias states (m/s).
+- ``dvl_lever_x``, ``dvl_lever_y``: the DVL's position relative to the IMU point, body x / y (m), added to the
+  loader's default lever arm (A-KIT: :data:`graphnav.io.loaders.AKIT_LEVER_ARM_B` minus
+  :data:`~graphnav.io.loaders.AKIT_IMU_POSITION_B`, zero). The mission is loaded again with it, since the
+  loader's DVL time-offset estimate uses the lever arm; the GT stays at the IMU point.
 
 Selection rules (:data:`RULES`):
 
@@ -75,7 +79,8 @@ class Parameter:
 
     Attributes:
         name: the parameter's name in records and tables.
-        where: ``"config"`` (applied to the mission's :class:`~graphnav.core.config.SensorConfig`),
+        where: ``"config"`` (applied to the mission's :class:`~graphnav.core.config.SensorConfig`), ``"load"``
+            (given to the A-KIT loader: the mission is loaded again),
             ``"graph"`` (a :class:`~graphnav.estimators.graph.GraphOptions` field) or ``"ekf"``
             (an :class:`~graphnav.estimators.ekf.EkfOptions` field).
         default: the current default value (what the study compares with).
@@ -100,6 +105,10 @@ def _parameters() -> dict[str, Parameter]:
         Parameter("dvl_bias_rw", "graph", g.dvl_bias_rw, (1e-4, 2e-4, 5e-4, 1e-3, 2e-3), unit="m/s/sqrt(s)"),
         Parameter("dvl_scale_rw", "graph", g.dvl_scale_rw, (2e-5, 1e-4, 5e-4), unit="1/sqrt(s)"),
         Parameter("prior_dvl_bias_sigma", "graph", 0.01, (0.005, 0.01, 0.02), unit="m/s"),
+        Parameter("dvl_lever_x", "load", 0.0, (0.0, 0.04, 0.08, 0.12, 0.16), rule="vrmse",
+                  unit="m, DVL forward of the IMU point"),
+        Parameter("dvl_lever_y", "load", 0.0, (-0.04, 0.0, 0.04, 0.08), rule="vrmse",
+                  unit="m, DVL right of the IMU point"),
     )}
 
 
@@ -204,9 +213,19 @@ def select_value(scores: dict[float, dict], rule: str = "nees-guarded", vrmse_to
 
 
 # --- cross-validation ------------------------------------------------------------------------------------
+def choose_shared(table: Sequence[dict], methods: Sequence[str], parameter: str, trajectories: Sequence[str],
+                  rule: str = "nees-guarded", scenario: str = "none", vrmse_tol: float = VRMSE_TOL) -> float:
+    """One value for several methods that share the parameter (an IMU density, a GraphOptions field): each
+    method's choice on ``trajectories`` (:func:`select_value`), then the largest. The parameters of the study
+    are noise and random-walk values, so the largest is the most cautious: a method that needed less becomes
+    somewhat under-confident rather than another over-confident."""
+    return max(select_value(score_values(table, m, parameter, trajectories, scenario), rule, vrmse_tol)
+               for m in methods)
+
+
 def cross_validate(table: Sequence[dict], folds: Sequence[Sequence[str]], method: str, parameter: str,
                    rule: str = "nees-guarded", scenario: str = "none", vrmse_tol: float = VRMSE_TOL,
-                   score_scenarios: Sequence[str] = ()) -> dict:
+                   score_scenarios: Sequence[str] = (), shared_with: Sequence[str] = ()) -> dict:
     """Leave-one-fold-out for one method and parameter.
 
     For each fold the value is chosen on the other folds' trajectories (``scenario``) and scored on the fold's
@@ -216,17 +235,20 @@ def cross_validate(table: Sequence[dict], folds: Sequence[Sequence[str]], method
     folds, out-of-fold over all trajectories each scored once held out), ``all_data_value`` (the value chosen
     on every trajectory: the default the study recommends) with its in-sample means, and ``default`` (the
     current default's means over every trajectory). ``score_scenarios``: further scenarios scored at the
-    chosen values (e.g. ``"3-missing"``), in ``out_of_fold_by_scenario``.
+    chosen values (e.g. ``"3-missing"``), in ``out_of_fold_by_scenario``. ``shared_with``: other methods that
+    share the parameter; the value is then :func:`choose_shared` over ``method`` and them.
     """
+    choosers = [method, *[m for m in shared_with if m != method]]
     check_folds(folds)
     spec = PARAMETERS.get(parameter)
     names = [n for f in folds for n in f]
     result = {"method": method, "parameter": parameter, "rule": rule, "scenario": scenario, "folds": [],
+              "chosen_by": choosers,
               "per_trajectory": {}}
     held_scores: dict[str, list[dict]] = defaultdict(list)
     for fold in folds:
         train = [n for n in names if n not in fold]
-        chosen = select_value(score_values(table, method, parameter, train, scenario), rule, vrmse_tol)
+        chosen = choose_shared(table, choosers, parameter, train, rule, scenario, vrmse_tol)
         inside = score_values(table, method, parameter, train, scenario)[chosen]
         held = {}
         for n in fold:
@@ -253,7 +275,7 @@ def cross_validate(table: Sequence[dict], folds: Sequence[Sequence[str]], method
         sc: {"nees": _mean(s["nees"] for s in v), "vrmse": _mean(s["vrmse"] for s in v),
              "vrmse_window": _mean(s["vrmse_window"] for s in v)} for sc, v in held_scores.items()}
     all_scores = score_values(table, method, parameter, names, scenario)
-    result["all_data_value"] = select_value(all_scores, rule, vrmse_tol)
+    result["all_data_value"] = choose_shared(table, choosers, parameter, names, rule, scenario, vrmse_tol)
     result["all_data"] = all_scores[result["all_data_value"]]
     if spec is not None and spec.default in all_scores:
         result["default"] = {"value": spec.default, **all_scores[spec.default]}
@@ -269,6 +291,18 @@ def with_imu_noise_scale(mission: Mission, scale: float) -> Mission:
                               accel_noise_density=mission.config.imu.accel_noise_density * scale,
                               gyro_noise_density=mission.config.imu.gyro_noise_density * scale)
     return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu=imu))
+
+
+def load_with_lever(source, dx: float, dy: float) -> Mission:
+    """The A-KIT mission of ``source`` (a trajectory folder) loaded with the DVL ``dx``, ``dy`` m (body x, y)
+    away from the loader's default lever arm (the GT stays at the IMU point)."""
+    from graphnav.io.loaders import akit_default_config, load_akit
+    if source.folder is None:
+        raise ConfigError(f"{source.name}: the lever-arm parameters need an A-KIT folder")
+    lever = akit_default_config().dvl.lever_arm_b + np.array([dx, dy, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return load_akit(source.folder, lever_arm_b=lever)
 
 
 def _method_options(parameter: Parameter, value: float, family: str, base: dict | None) -> dict | None:
@@ -330,7 +364,11 @@ def run_grid_task(task: GridTask) -> list[dict]:
             "value": float(task.value), "graph_base": dict(task.graph_base), "ekf_base": dict(task.ekf_base),
             "config_base": dict(task.config_base)}
     try:
-        mission = prepared_mission(task.source, "as-recorded")
+        lever = {k: v for k, v in task.config_base if k.startswith("dvl_lever_")}
+        if spec.where == "load":
+            lever[spec.name] = task.value
+        mission = (load_with_lever(task.source, lever.get("dvl_lever_x", 0.0), lever.get("dvl_lever_y", 0.0))
+                   if any(lever.values()) else prepared_mission(task.source, "as-recorded"))
         scale = dict(task.config_base).get("imu_noise_scale", 1.0)
         if spec.name == "imu_noise_scale":
             scale = task.value
@@ -375,7 +413,7 @@ def grid_tasks(sources: Sequence, parameters: Sequence[str], scenarios: Sequence
             for sc in scenarios:
                 for v in spec.grid:
                     ms = tuple(m for m in methods
-                               if spec.where in ("config", get_method(m).family) or v == spec.default)
+                               if spec.where in ("config", "load", get_method(m).family) or v == spec.default)
                     if ms:
                         tasks.append(GridTask(src, sc, p, float(v), ms, tuple(sorted((graph_base or {}).items())),
                                               (), tuple(sorted((config_base or {}).items()))))
@@ -389,7 +427,7 @@ def expand_constant(table: list[dict]) -> list[dict]:
     have = {(r["trajectory"], r["scenario"], r["parameter"], float(r["value"]), r["method"]) for r in table}
     for r in table:
         spec = PARAMETERS.get(r["parameter"])
-        if spec is None or spec.where in ("config", get_method(r["method"]).family) or r["value"] != spec.default:
+        if spec is None or spec.where in ("config", "load", get_method(r["method"]).family) or r["value"] != spec.default:
             continue
         for v in spec.grid:
             k = (r["trajectory"], r["scenario"], r["parameter"], float(v), r["method"])
@@ -438,17 +476,25 @@ def _g(x) -> str:
     return f"{x:g}"
 
 
+def sharing_methods(parameter: str, methods: Sequence[str]) -> list[str]:
+    """The methods of ``methods`` one default of ``parameter`` acts on (all for a config or loader value, the
+    graph's or the EKF's for an options field)."""
+    from graphnav.evaluation.methods import get_method
+    where = PARAMETERS[parameter].where
+    return [m for m in methods if where in ("config", "load") or get_method(m).family == where]
+
+
 def report(results: Sequence[dict]) -> str:
     """Markdown: per parameter and method the current default, the per-fold choices, in-fold and
     out-of-fold mean NEES and VRMSE, and the value chosen on all trajectories."""
-    lines = ["| parameter | method | default: NEES / VRMSE | per-fold choice | in-fold NEES / VRMSE | "
+    lines = ["| parameter | method | chosen by | default: NEES / VRMSE | per-fold choice | in-fold NEES / VRMSE | "
              "out-of-fold NEES (max) / VRMSE | 3-missing out-of-fold NEES / window VRMSE | chosen on all |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         d = r.get("default") or {}
         miss = r["out_of_fold_by_scenario"].get("3-missing", {})
         lines.append(
-            f"| {r['parameter']} | {r['method']} | "
+            f"| {r['parameter']} | {r['method']} | {', '.join(r.get('chosen_by', [r['method']]))} | "
             f"{_g(d['value']) + ': ' + _f(d['nees']) + ' / ' + _f(d['vrmse'], 4) if d else '-'} | "
             f"{', '.join(_g(f['value']) for f in r['folds'])} | "
             f"{_f(r['in_fold']['nees'])} / {_f(r['in_fold']['vrmse'], 4)} | "
