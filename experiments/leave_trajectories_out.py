@@ -14,6 +14,7 @@ and scores it on the held-out fold (:func:`graphnav.evaluation.crossval.cross_va
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -46,6 +47,8 @@ def main(argv=None) -> int:
     ap.add_argument("--graph-base", nargs="*", default=[], metavar="NAME=VALUE",
                     help="GraphOptions values every run uses (e.g. a value chosen in an earlier round)")
     ap.add_argument("--config-base", nargs="*", default=[], metavar="imu_noise_scale=S")
+    ap.add_argument("--grid", nargs="*", default=[], metavar="NAME=V1,V2,...",
+                    help="candidate values of a parameter instead of its default grid")
     ap.add_argument("--rule", choices=crossval.RULES, default=None,
                     help="selection rule for every parameter (default: each parameter's own)")
     ap.add_argument("--vrmse-tol", type=float, default=crossval.VRMSE_TOL)
@@ -55,6 +58,12 @@ def main(argv=None) -> int:
     out = Path(args.out)
     grid_path = out / "grid.json"
     graph_base, config_base = parse_pairs(args.graph_base), parse_pairs(args.config_base)
+    for item in args.grid:
+        name, _, values = item.partition("=")
+        if name not in crossval.PARAMETERS or not values:
+            raise SystemExit(f"--grid {item}: expected one of {', '.join(crossval.PARAMETERS)}=V1,V2,...")
+        spec = crossval.PARAMETERS[name]
+        crossval.PARAMETERS[name] = dataclasses.replace(spec, grid=tuple(float(v) for v in values.split(",")))
     try:
         if not args.report_only:
             if not args.data:
@@ -81,7 +90,7 @@ def main(argv=None) -> int:
             ran = [m for m in args.methods if any(r["parameter"] == p and r["method"] == m for r in table)]
             shared = crossval.sharing_methods(p, ran)
             # each method's own choice, then the one default the methods sharing the parameter get
-            for m, with_ in [(m, ()) for m in ran] + ([(m, shared) for m in shared] if len(shared) > 1 else []):
+            for m, with_ in [(m, ()) for m in shared] + ([(m, shared) for m in shared] if len(shared) > 1 else []):
                 try:
                     results.append(crossval.cross_validate(table, folds, m, p, rule, "none", args.vrmse_tol,
                                                            score_scenarios=[s for s in args.scenarios
