@@ -49,6 +49,8 @@ def main(argv=None) -> int:
     ap.add_argument("--config-base", nargs="*", default=[], metavar="imu_noise_scale=S")
     ap.add_argument("--grid", nargs="*", default=[], metavar="NAME=V1,V2,...",
                     help="candidate values of a parameter instead of its default grid")
+    ap.add_argument("--study-defaults", nargs="*", default=[], metavar="NAME=VALUE",
+                    help="the default a stored grid was run around, when it has changed since (report only)")
     ap.add_argument("--rule", choices=crossval.RULES, default=None,
                     help="selection rule for every parameter (default: each parameter's own)")
     ap.add_argument("--vrmse-tol", type=float, default=crossval.VRMSE_TOL)
@@ -64,6 +66,8 @@ def main(argv=None) -> int:
             raise SystemExit(f"--grid {item}: expected one of {', '.join(crossval.PARAMETERS)}=V1,V2,...")
         spec = crossval.PARAMETERS[name]
         crossval.PARAMETERS[name] = dataclasses.replace(spec, grid=tuple(float(v) for v in values.split(",")))
+    for name, value in parse_pairs(args.study_defaults).items():
+        crossval.PARAMETERS[name] = dataclasses.replace(crossval.PARAMETERS[name], default=value)
     try:
         if not args.report_only:
             if not args.data:

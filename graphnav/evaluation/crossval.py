@@ -116,8 +116,16 @@ def _parameters() -> dict[str, Parameter]:
 PARAMETERS: dict[str, Parameter] = _parameters()
 #: Graph methods whose filtered and batch solutions come from one run (the batch's first pass is Graph-TC).
 GRAPH_PAIR = ("Graph-TC", "Graph-TC-batch")
-#: Methods of the study: the graph (filtered), its batch smoother, and the paper's tightly coupled EKF.
-STUDY_METHODS = ("Graph-TC", "Graph-TC-batch", "TC")
+
+
+def _study_methods() -> tuple[str, ...]:
+    from graphnav.evaluation.methods import METHODS
+    return tuple(n for n, m in METHODS.items() if m.tight and m.completer == "none" and not m.defaults)
+
+
+#: Methods of the study, from the registry: the tightly coupled methods on measured beams with no settings of
+#: their own (TC, Graph-TC, Graph-TC-batch): what the defaults alone decide.
+STUDY_METHODS: tuple[str, ...] = _study_methods()
 
 
 # --- folds -----------------------------------------------------------------------------------------------
