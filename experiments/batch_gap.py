@@ -86,10 +86,6 @@ def trajectory_report(source, graph: dict, scale: float) -> dict:
         A = np.column_stack([yaw_rate, np.ones_like(yaw_rate)])
         slope_right = float(np.linalg.lstsq(A, e_b[:, 1], rcond=None)[0][0])
         slope_fwd = float(-np.linalg.lstsq(A, e_b[:, 0], rcond=None)[0][0])
-        # a reference late by dt_ref shows its centripetal acceleration: right = omega_z v_fwd dt_ref
-        v_fwd = np.einsum("kji,kj->ki", C, sol.v_n[np.isin(sol.t, t)])[:, 0]
-        B = np.column_stack([yaw_rate, yaw_rate * v_fwd, np.ones_like(yaw_rate)])
-        joint = np.linalg.lstsq(B, e_b[:, 1], rcond=None)[0]
         key = "batch" if name.endswith("batch") else "filter"
         out[key] = {
             "nees": float(nees.mean()), "nees_gt": float(nees_of(e, P, gt_cov).mean()),
@@ -103,7 +99,6 @@ def trajectory_report(source, graph: dict, scale: float) -> dict:
             "sigma_h_median": float(np.median(np.sqrt((P[:, 0, 0] + P[:, 1, 1]) / 2))),
             "corr_time_s_fwd_right": [correlation_time(z[:, 0], dt), correlation_time(z[:, 1], dt)],
             "lever_dx_dy_m": [slope_right, slope_fwd],
-            "joint_dx_m_dt_s": [float(joint[0]), float(joint[1])],
             "vrmse": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
         }
     return out
@@ -127,10 +122,10 @@ def main(argv=None) -> int:
               f" surface {b['nees_surface'] or float('nan'):5.2f} [{b['surface_fraction']:.0%}]) "
               f"err/sigma f,r,d {b['err_over_sigma_fwd_right_down']} sigma_h {b['sigma_h_median']:.4f} "
               f"corr {b['corr_time_s_fwd_right'][0]:.0f},{b['corr_time_s_fwd_right'][1]:.0f} s "
-              f"dl {b['lever_dx_dy_m'][0]:+.3f},{b['lever_dx_dy_m'][1]:+.3f} m "
-              f"joint dx {b['joint_dx_m_dt_s'][0]:+.3f} m dt {b['joint_dx_m_dt_s'][1]:+.3f} s | "
+              f"dl {b['lever_dx_dy_m'][0]:+.3f},{b['lever_dx_dy_m'][1]:+.3f} m | "
               f"filter NEES {f['nees']:5.2f} sigma_h {f['sigma_h_median']:.4f} "
-              f"err/sigma {f['err_over_sigma_fwd_right_down']} dl {f['lever_dx_dy_m'][0]:+.3f},{f['lever_dx_dy_m'][1]:+.3f} m", flush=True)
+              f"err/sigma {f['err_over_sigma_fwd_right_down']} "
+              f"dl {f['lever_dx_dy_m'][0]:+.3f},{f['lever_dx_dy_m'][1]:+.3f} m", flush=True)
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)

@@ -435,7 +435,8 @@ def expand_constant(table: list[dict]) -> list[dict]:
     have = {(r["trajectory"], r["scenario"], r["parameter"], float(r["value"]), r["method"]) for r in table}
     for r in table:
         spec = PARAMETERS.get(r["parameter"])
-        if spec is None or spec.where in ("config", "load", get_method(r["method"]).family) or r["value"] != spec.default:
+        if (spec is None or spec.where in ("config", "load", get_method(r["method"]).family)
+                or r["value"] != spec.default):
             continue
         for v in spec.grid:
             k = (r["trajectory"], r["scenario"], r["parameter"], float(v), r["method"])
