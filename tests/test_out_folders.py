@@ -97,7 +97,7 @@ def test_smooth_keeps_an_earlier_run_and_force_replaces_it_whole(tmp_path, capsy
     assert (out / "velocity_error.png").read_text() == "plot of an earlier run"
     assert main([*SMOOTH, "--out", str(out), "--force"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["groundtruth.tum", "summary.json", "trajectory.csv",
-                                                     "trajectory.tum"]
+                                                     "trajectory.tum", "trajectory_cov.csv"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["files"]["trajectory_csv"] == str(out / "trajectory.csv")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -35,7 +35,7 @@ def _figure_texts(monkeypatch) -> list:
 
 def test_every_registry_method_has_its_own_style():
     styles = [plots.method_style(m) for m in METHODS]
-    assert len({s["color"] for s in styles}) == len(styles)          # 14 methods, 14 colours
+    assert len({s["color"] for s in styles}) == len(styles)          # every method its own colour
     assert len({(s["color"], s["marker"], str(s["linestyle"])) for s in styles}) == len(styles)
     assert plots.method_style("Graph-TC") == plots.method_style("Graph-TC")
     scen = [plots.scenario_style(s) for s in ("none", "2-missing", "3-missing", "0-beams", "markov")]
