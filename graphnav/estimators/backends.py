@@ -5,8 +5,8 @@
   factors, depth, heading and position-fix factors.
 - :class:`EkfBackend`: the paper's error-state EKF (tightly or loosely coupled) on the same keyframes.
 
-Both return a :class:`~graphnav.estimators.graph.EpochEstimate` per keyframe (the filtered state, the biases and
-the estimator's marginal covariances: the graph's as ``GraphOptions.marginals`` asks, the EKF's blocks of P). Both take the same :class:`~graphnav.estimators.graph.InitialState`.
+Both return a :class:`~graphnav.estimators.types.EpochEstimate` per keyframe (the filtered state, the biases and
+the estimator's marginal covariances: the graph's as ``GraphOptions.marginals`` asks, the EKF's blocks of P). Both take the same :class:`~graphnav.estimators.types.InitialState`.
 """
 from __future__ import annotations
 
@@ -22,15 +22,11 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
 from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tangent_down
-from graphnav.estimators.graph.incremental import (
-    EpochEstimate,
-    FixedLagGraph,
-    InitialState,
-    OnlineGraph,
-)
+from graphnav.estimators.graph.incremental import FixedLagGraph, OnlineGraph
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.keyframes import ImuSegments, Keyframe
+from graphnav.estimators.types import EpochEstimate, InitialState
 from graphnav.factors.aiding import yaw_and_jacobian
 
 #: Backend names of the Navigator.
@@ -102,6 +98,15 @@ class GraphBackend(_Aided):
     def monitor(self):
         """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
         return self.estimator.health
+
+    def keyframe_graphs(self) -> list:
+        """Every keyframe's factors so far, one (link factors, :class:`~.graph.builder.KeyframeFactors`) per
+        keyframe, for :func:`graphnav.estimators.graph.batch.batch_smooth`. ConfigError when the backend was
+        made without ``keep_keyframe_graphs`` (it then keeps none)."""
+        if not self.estimator.keep_keyframe_graphs:
+            raise ConfigError(f"{self.name}: the keyframe factors were not kept (make the backend with "
+                              "keep_keyframe_graphs=True for a batch smoother)")
+        return self.estimator.keyframe_graphs
 
     @property
     def info(self) -> dict:

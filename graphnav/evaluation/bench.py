@@ -199,7 +199,7 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
     covariance); and the mission's: ``drift_pct_mission`` (end horizontal error / distance travelled, %),
     ``pos_err_mission_end_m``, ``distance_mission_m``, and its NEES (:func:`mission_nees`: velocity, position,
     heading)."""
-    from graphnav.evaluation.consistency import mission_reference, window_pose_nees
+    from graphnav.evaluation.consistency import scoring_reference, window_pose_nees
     from graphnav.evaluation.metrics import (
         horizontal_position_error,
         mission_drift,
@@ -214,7 +214,7 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
     drift_mission = {"drift_pct_mission": whole["drift_pct"], "pos_err_mission_end_m": whole["end_error_m"],
                      "distance_mission_m": whole["distance_m"]}
     has_cov = any(c is not None for c in (sol.cov_v_n, sol.cov_p_n, sol.cov_rot_b))
-    reference = mission_reference(sol, mission) if has_cov else gt
+    reference = scoring_reference(sol, mission) if has_cov else gt
     out = []
     for s in starts:
         nees = None
