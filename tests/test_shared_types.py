@@ -37,7 +37,10 @@ def test_no_two_classes_share_a_name():
 @pytest.mark.parametrize("name, home", [
     ("InitialState", "graphnav/estimators/types.py"),
     ("EpochEstimate", "graphnav/estimators/types.py"),
-    ("Keyframe", "graphnav/estimators/keyframes.py"),
+    ("Keyframe", "graphnav/estimators/types.py"),
+    ("Ping", "graphnav/estimators/types.py"),
+    ("ImuSegments", "graphnav/estimators/types.py"),
+    ("PositionFix", "graphnav/estimators/types.py"),
     ("GraphKeyframe", "graphnav/estimators/graph/builder.py"),
     ("BeamPrediction", "graphnav/core/beam_model.py"),
     ("euler_to_C_b_n", "graphnav/core/rotations.py"),

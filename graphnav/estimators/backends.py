@@ -25,8 +25,7 @@ from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tang
 from graphnav.estimators.graph.incremental import FixedLagGraph, OnlineGraph
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
-from graphnav.estimators.keyframes import ImuSegments, Keyframe
-from graphnav.estimators.types import EpochEstimate, InitialState
+from graphnav.estimators.types import EpochEstimate, ImuSegments, InitialState, Keyframe
 from graphnav.factors.aiding import yaw_and_jacobian
 
 #: Backend names of the Navigator.

@@ -23,6 +23,7 @@ from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
+from graphnav.estimators.types import ImuSegments, Keyframe, Ping
 from graphnav.factors import (
     beam_factor,
     beam_factor_dvl_errors,
@@ -181,7 +182,7 @@ class GraphContext:
         params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
         return params
 
-    def preintegrate(self, imu: kfs.ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
+    def preintegrate(self, imu: ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
                                                           gtsam.PreintegrationCombinedParams]:
         """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment), with the
         settings object the preintegration holds (set its gravity with :meth:`set_gravity`)."""
@@ -203,7 +204,7 @@ class GraphContext:
             return
         kf.params.n_gravity = preintegration_gravity(self.earth, p_n, v_n, kf.pim.deltaTij())
 
-    def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
+    def dvl_measurement(self, ping: Ping) -> DvlMeasurement | None:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
         completer's sigma (floored); None when no beam is usable. A velocity ping gives its DVL-frame velocity
         (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
@@ -233,7 +234,7 @@ def tangent_down(earth: EarthModel, depth_m: float, p_n_pred: np.ndarray | None)
     return float(depth_m - (earth.depth_of(p) - p[2]))
 
 
-def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> GraphKeyframe:
+def graph_keyframe(kf: Keyframe, ctx: GraphContext) -> GraphKeyframe:
     """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
     who knows the navigation origin)."""
     pim, params = ctx.preintegrate(kf.imu) if kf.imu is not None else (None, None)
