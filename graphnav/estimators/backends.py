@@ -98,6 +98,15 @@ class GraphBackend(_Aided):
         """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
         return self.estimator.health
 
+    def screening_counts(self) -> dict:
+        """What the graph did with completed beams so far: ``regressed_screening`` (gated, decorrelated out,
+        inflated) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
+        decisions)."""
+        out = {"regressed_screening": dict(self.ctx.screening)}
+        if self.ctx.options.motion_prior == "total-if-uncertain":
+            out["motion_prior_switch"] = dict(self.ctx.outage_switch.counts)
+        return out
+
     def keyframe_graphs(self) -> list:
         """Every keyframe's factors so far, one (link factors, :class:`~.graph.builder.KeyframeFactors`) per
         keyframe, for :func:`graphnav.estimators.graph.batch.batch_smooth`. ConfigError when the backend was
