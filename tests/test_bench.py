@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from graphnav.core.mission import DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.scenarios import scenario_outage
 from graphnav.core.solution import NavSolution
 from graphnav.evaluation import bench
 from graphnav.evaluation.bench import (
@@ -63,8 +64,8 @@ def fake_world(monkeypatch):
     def load_source(source):
         return missions.setdefault(source.name, synthetic_mission(source.name))
 
-    monkeypatch.setattr(bench, "load_source", load_source)
-    monkeypatch.setattr(bench, "run_method", fake_run_method)
+    monkeypatch.setattr(bench.cases, "load_source", load_source)
+    monkeypatch.setattr(bench.runner, "run_method", fake_run_method)
     bench.prepared_mission.cache_clear()
     yield
     bench.prepared_mission.cache_clear()
@@ -116,7 +117,7 @@ def test_results_written_per_case_and_resume(fake_world, tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return fake_run_method(mission, method, scenario, **kw)
 
-    monkeypatch.setattr(bench, "run_method", interrupting)
+    monkeypatch.setattr(bench.runner, "run_method", interrupting)
     with pytest.raises(KeyboardInterrupt):
         run_bench(cases, tmp_path, jobs=1, progress=False)
     kept = json.loads((tmp_path / "results.json").read_text())
@@ -124,7 +125,7 @@ def test_results_written_per_case_and_resume(fake_world, tmp_path, monkeypatch):
     assert len(kept) == 4  # two windows each
 
     calls.clear()
-    monkeypatch.setattr(bench, "run_method", fake_run_method)
+    monkeypatch.setattr(bench.runner, "run_method", fake_run_method)
     records = run_bench(cases, tmp_path, jobs=1, resume=True, progress=False)
     assert len(records) == 8
     assert len(json.loads((tmp_path / "results.json").read_text())) == 8
@@ -196,7 +197,7 @@ def test_diverged_windows_are_marked_and_kept_out_of_the_means(fake_world, monke
                                   "divergence_intervals": [[55.0, 70.0, "5 measurements in a row rejected"]]}
         return sol
 
-    monkeypatch.setattr(bench, "run_method", diverging)
+    monkeypatch.setattr(bench.runner, "run_method", diverging)
     records = []
     for method in ("TC", "HNTC", "Graph-HN"):
         records += run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", method, 30.0))
@@ -254,7 +255,7 @@ def test_records_carry_drift_in_percent_of_distance_and_pose_nees(fake_world, mo
     from graphnav.core.rotations import euler_to_C_b_n
     records = run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", "HNTC", 30.0))
     sol = fake_run_method(bench.prepared_mission(TrajectorySource("t1"), "as-recorded")
-                          .with_outage(*[bench.scenario_outage("2-missing", s, 30.0) for s in (60.0, 150.0)]),
+                          .with_outage(*[scenario_outage("2-missing", s, 30.0) for s in (60.0, 150.0)]),
                           "HNTC", "2-missing")
     for r in records:
         assert r["distance_window_m"] == pytest.approx(45.0)                     # 1.5 m/s for 30 s
@@ -274,7 +275,7 @@ def test_records_carry_drift_in_percent_of_distance_and_pose_nees(fake_world, mo
         s.cov_rot_b = np.tile(np.diag([1e-4, 1e-4, sigma_psi ** 2]), (len(s.t), 1, 1))
         return s
 
-    monkeypatch.setattr(bench, "run_method", with_covariance)
+    monkeypatch.setattr(bench.runner, "run_method", with_covariance)
     records = run_case(BenchCase(TrajectorySource("t1"), "2-missing", "as-recorded", "HNTC", 30.0))
     inside = (sol.t >= 60.0) & (sol.t <= 90.0)
     e_n = sol.p_n[inside, 0] - 1.5 * sol.t[inside]

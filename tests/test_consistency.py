@@ -79,7 +79,7 @@ def test_imu_carried_reference_between_sparse_samples(mission_and_solution):
     linear interpolation does, and is exact at its own samples; the bench's NEES is scored against it."""
     import dataclasses
 
-    from graphnav.evaluation.consistency import imu_carried_reference, mission_reference
+    from graphnav.evaluation.consistency import imu_carried_reference, scoring_reference
     m, sol = mission_and_solution
     gt = m.gt
     step = int(round(1.0 / np.median(np.diff(gt.t))))
@@ -93,7 +93,7 @@ def test_imu_carried_reference_between_sparse_samples(mission_and_solution):
     assert err_carried < 0.005 and err_carried < 0.5 * err_linear
     on_samples = imu_carried_reference(sparse.gt.t[3:9], sparse)
     np.testing.assert_allclose(on_samples.v_n, sparse.gt.v_n[3:9], atol=1e-9)
-    own = mission_reference(sol, sparse)
+    own = scoring_reference(sol, sparse)
     inside = (sol.t >= sparse.gt.t[0]) & (sol.t <= sparse.gt.t[-1])
     np.testing.assert_array_equal(own.t, sol.t[inside])
 

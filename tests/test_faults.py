@@ -345,7 +345,7 @@ def test_bench_interrupted_keeps_finished_cases(tmp_path, monkeypatch):
     source = bench.TrajectorySource("sim-fault", None, 1, 200.0, None)
     cases = bench.make_cases([source], scenarios=("2-missing",), grades=("navigation",),
                              methods=("TC", "Graph-TC", "LC"), window_s=30.0, max_windows=1)
-    original = bench.run_method
+    original = bench.runner.run_method
     calls = []
 
     def interrupting(mission, method, *args, **kwargs):
@@ -355,14 +355,14 @@ def test_bench_interrupted_keeps_finished_cases(tmp_path, monkeypatch):
         return original(mission, method, *args, **kwargs)
 
     bench.prepared_mission.cache_clear()
-    monkeypatch.setattr(bench, "run_method", interrupting)
+    monkeypatch.setattr(bench.runner, "run_method", interrupting)
     with pytest.raises(KeyboardInterrupt):
         bench.run_bench(cases, tmp_path, progress=False)
     kept = json.loads((tmp_path / "results.json").read_text())
     assert [r["method"] for r in kept] == ["TC"] and kept[0]["vrmse_window"] < 0.1
 
     calls.clear()
-    monkeypatch.setattr(bench, "run_method", lambda m, method, *a, **k: calls.append(method) or original(m, method, *a, **k))
+    monkeypatch.setattr(bench.runner, "run_method", lambda m, method, *a, **k: calls.append(method) or original(m, method, *a, **k))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         records = bench.run_bench(cases, tmp_path, resume=True, progress=False)

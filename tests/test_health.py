@@ -248,7 +248,7 @@ def test_graph_flags_divergence_and_inconsistency(sim):
     wrong start has left an attitude error), and the NIS blocks are above their band."""
     import dataclasses
 
-    from graphnav.estimators.graph.incremental import InitialState
+    from graphnav.estimators.types import InitialState
     from graphnav.estimators.runs import run_graph
     m = sim.slice(sim.t0, sim.t0 + 50.0)
     flip = np.array([1.0, -1.0, 1.0])

@@ -7,7 +7,7 @@ import pytest
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.graph.regressed import (
-    BeamPrediction,
+    VelocityPrediction,
     OutagePriorSwitch,
     body_velocity_std,
     motion_prior_factors,
@@ -20,7 +20,7 @@ V_TRUE = np.array([1.5, 0.2, 0.05])
 
 
 def screen(y, sigma, cov, **opts):
-    pred = BeamPrediction(V_TRUE, cov, np.zeros(3))
+    pred = VelocityPrediction(V_TRUE, cov, np.zeros(3))
     return screen_regressed(ROWS, np.asarray(y), np.asarray(sigma), C, np.zeros(3), np.zeros(3), pred,
                             GraphOptions(**opts))
 
@@ -78,7 +78,7 @@ def test_motion_prior_factors_and_modes():
 
 
 def _prediction(std_n):
-    return BeamPrediction(V_TRUE, np.diag(np.square(std_n)), np.zeros(3))
+    return VelocityPrediction(V_TRUE, np.diag(np.square(std_n)), np.zeros(3))
 
 
 def test_outage_prior_switch_on_synthetic_covariances():

@@ -28,7 +28,7 @@ from graphnav.core.screening import (
 )
 from graphnav.core.streams import count_read
 from graphnav.estimators.align import AlignOptions, Aligner, align_mission
-from graphnav.estimators.graph.incremental import InitialState
+from graphnav.estimators.types import InitialState
 from graphnav.estimators.navigator import Navigator
 from graphnav.estimators.replay import first_ping_time, replay
 from graphnav.sim.simulate import simulate_mission

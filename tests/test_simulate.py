@@ -376,7 +376,7 @@ def test_written_mission_loads_back(tmp_path):
 
 def test_closed_form_euler_matches_the_shared_rotation_helper():
     from graphnav.core.rotations import euler_to_C_b_n as shared
-    from graphnav.sim.simulate import euler_to_C_b_n as closed_form
+    from graphnav.core.rotations import euler_to_C_b_n_closed_form as closed_form
     rng = np.random.default_rng(0)
     roll, pitch, yaw = rng.uniform(-3, 3, 100), rng.uniform(-1.5, 1.5, 100), rng.uniform(-3, 3, 100)
     np.testing.assert_allclose(closed_form(roll, pitch, yaw), shared(roll, pitch, yaw), atol=1e-14)

@@ -100,7 +100,7 @@ def register(subparsers) -> None:
 
 
 def epoch_fields(est) -> dict:
-    """The CSV fields of one :class:`graphnav.estimators.graph.EpochEstimate`: t, p_n, v_n, C_b_n, the accelerometer
+    """The CSV fields of one :class:`graphnav.estimators.types.EpochEstimate`: t, p_n, v_n, C_b_n, the accelerometer
     and gyro biases, health and the covariances (velocity, position, attitude; None where the estimator has none)."""
     bias = est.bias
     return {"t": est.t, "p_n": est.p_n, "v_n": est.v_n, "C_b_n": est.C_b_n, "cov_v_n": est.cov_v_n,

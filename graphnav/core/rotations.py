@@ -27,6 +27,18 @@ def euler_to_C_b_n(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.n
     return Rotation.from_euler("ZYX", angles).as_matrix()
 
 
+def euler_to_C_b_n_closed_form(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """``Rz(yaw) Ry(pitch) Rx(roll)`` (N,3,3) from roll, pitch, yaw in rad, in closed form: the same matrices as
+    :func:`euler_to_C_b_n` to ~1e-15 (tested), several times faster for the simulator's millions of samples.
+    :func:`euler_to_C_b_n` stays the loaders' (bit-for-bit what they have always produced)."""
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    C = np.empty(np.shape(roll) + (3, 3))
+    C[..., 0, 0], C[..., 0, 1], C[..., 0, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    C[..., 1, 0], C[..., 1, 1], C[..., 1, 2] = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    C[..., 2, 0], C[..., 2, 1], C[..., 2, 2] = -sp, cp * sr, cp * cr
+    return C
+
+
 def C_b_n_to_euler(C_b_n: np.ndarray) -> np.ndarray:
     """Roll, pitch, yaw in rad, shape (..., 3), from body-to-NED rotation matrices."""
     ypr = Rotation.from_matrix(C_b_n).as_euler("ZYX")

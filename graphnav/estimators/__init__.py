@@ -4,7 +4,8 @@ from graphnav.core.lazy import lazy_exports as _lazy_exports
 _PUBLIC = {
     "navigator": ("Navigator", "NavigatorOptions"),
     "ekf": ("EkfOptions",),
-    "graph": ("GraphOptions", "InitialState", "EpochEstimate"),
+    "graph": ("GraphOptions",),
+    "types": ("InitialState", "EpochEstimate"),
     "align": ("AlignOptions",),
     "health": ("HealthOptions",),
     "runs": ("run_ekf", "run_graph", "iterate_graph"),

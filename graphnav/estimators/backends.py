@@ -5,8 +5,8 @@
   factors, depth, heading and position-fix factors.
 - :class:`EkfBackend`: the paper's error-state EKF (tightly or loosely coupled) on the same keyframes.
 
-Both return a :class:`~graphnav.estimators.graph.EpochEstimate` per keyframe (the filtered state, the biases and
-the estimator's marginal covariances: the graph's as ``GraphOptions.marginals`` asks, the EKF's blocks of P). Both take the same :class:`~graphnav.estimators.graph.InitialState`.
+Both return a :class:`~graphnav.estimators.types.EpochEstimate` per keyframe (the filtered state, the biases and
+the estimator's marginal covariances: the graph's as ``GraphOptions.marginals`` asks, the EKF's blocks of P). Both take the same :class:`~graphnav.estimators.types.InitialState`.
 """
 from __future__ import annotations
 
@@ -22,15 +22,10 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
 from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tangent_down
-from graphnav.estimators.graph.incremental import (
-    EpochEstimate,
-    FixedLagGraph,
-    InitialState,
-    OnlineGraph,
-)
+from graphnav.estimators.graph.incremental import FixedLagGraph, OnlineGraph
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
-from graphnav.estimators.keyframes import ImuSegments, Keyframe
+from graphnav.estimators.types import EpochEstimate, ImuSegments, InitialState, Keyframe
 from graphnav.factors.aiding import yaw_and_jacobian
 
 #: Backend names of the Navigator.
@@ -102,6 +97,33 @@ class GraphBackend(_Aided):
     def monitor(self):
         """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
         return self.estimator.health
+
+    def screening_counts(self) -> dict:
+        """What the graph did with completed beams so far: ``regressed_screening`` (gated, decorrelated out,
+        inflated) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
+        decisions)."""
+        out = {"regressed_screening": dict(self.ctx.screening)}
+        if self.ctx.options.motion_prior == "total-if-uncertain":
+            out["motion_prior_switch"] = dict(self.ctx.outage_switch.counts)
+        return out
+
+    def dvl_errors(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """The DVL error states ``D(index)`` of a keyframe still in the smoother: estimate (7,) [scale per DVL
+        axis, bias per beam m/s] and marginal covariance (7,7). ConfigError without ``dvl_error_states``."""
+        from gtsam.symbol_shorthand import D
+        if not self.ctx.options.dvl_error_states:
+            raise ConfigError(f"{self.name}: no DVL error states (GraphOptions.dvl_error_states is off)")
+        return (np.asarray(self.estimator._value(D(index), "Vector"), float),
+                np.asarray(self.estimator._marginal(D(index)), float))
+
+    def keyframe_graphs(self) -> list:
+        """Every keyframe's factors so far, one (link factors, :class:`~.graph.builder.KeyframeFactors`) per
+        keyframe, for :func:`graphnav.estimators.graph.batch.batch_smooth`. ConfigError when the backend was
+        made without ``keep_keyframe_graphs`` (it then keeps none)."""
+        if not self.estimator.keep_keyframe_graphs:
+            raise ConfigError(f"{self.name}: the keyframe factors were not kept (make the backend with "
+                              "keep_keyframe_graphs=True for a batch smoother)")
+        return self.estimator.keyframe_graphs
 
     @property
     def info(self) -> dict:

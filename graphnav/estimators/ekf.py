@@ -108,6 +108,7 @@ from graphnav.core.rotations import skew, so3_exp_batch
 from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 from graphnav.estimators.health import HealthOptions, NisMonitor
 from graphnav.estimators.ins import Strapdown, StrapdownState
+from graphnav.estimators.regressed_screening import screen_against_prediction
 
 #: the paper's error state [dv_n, eps_n, db_a, db_g]
 N_STATES = 12
@@ -616,7 +617,7 @@ class ErrorStateEkf:
     def screen_regressed(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None,
                          ) -> tuple[np.ndarray, np.ndarray | None]:
         """Completed beams (``sigma_extra`` > 0) checked against the filter's own predicted beams before an
-        update: :func:`graphnav.estimators.graph.regressed.screen_against_prediction` with the predicted
+        update: :func:`graphnav.estimators.regressed_screening.screen_against_prediction` with the predicted
         beam's variance ``a = H_i P H_i^T`` (velocity, attitude and gyro-bias uncertainty) and the completion's
         ``beam variance + sigma_extra^2``. A completion is made from past pings the filter has already used, so
         its error is correlated with the prediction's: where the filter's prediction is sharper than rho times
@@ -631,7 +632,6 @@ class ErrorStateEkf:
         regressed = np.isfinite(beams) & (np.nan_to_num(sigma_extra, nan=0.0) > 0)
         if not regressed.any():
             return beams, sigma_extra
-        from graphnav.estimators.graph.regressed import screen_against_prediction
         h, H = self.predicted_beams(omega_b)
         Hr = H[regressed]
         a = np.einsum("mi,ij,mj->m", Hr, self.P, Hr)

@@ -48,6 +48,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, check_imu_gap, gap_variances
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
+from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
 
 
 #: A ping with at least this many measured beams uses them rather than a DVL-frame velocity at the same stamp
@@ -75,106 +76,6 @@ class KeyframeOptions:
     def __post_init__(self):
         if self.imu_keyframe_interval_s <= 0 or self.max_keyframe_gap_s < self.imu_keyframe_interval_s:
             raise ConfigError("need 0 < imu_keyframe_interval_s <= max_keyframe_gap_s")
-
-
-@dataclass
-class ImuSegments:
-    """Zero-order-hold IMU segments from the previous keyframe to this one.
-
-    Attributes:
-        f_b: (n,3) specific force of each segment's sample, m/s^2 (body axes at the sample's stamp).
-        omega_b: (n,3) angular rate, rad/s.
-        dt: (n,) segment lengths, s (they add up to the keyframe interval).
-        lag: (n,) time from the sample's stamp to the segment's start, s (> 0 for a split sample).
-        var_v, var_att: extra velocity ((m/s)^2) and attitude (rad^2) variance per axis over bridged IMU gaps.
-    """
-
-    f_b: np.ndarray
-    omega_b: np.ndarray
-    dt: np.ndarray
-    lag: np.ndarray
-    var_v: float = 0.0
-    var_att: float = 0.0
-
-
-@dataclass
-class Ping:
-    """One DVL ping as the estimators use it.
-
-    Attributes:
-        t: stamp (IMU clock), s.
-        beams: (4,) along-beam velocities, m/s: measured, or completed; NaN where unusable.
-        measured: (4,) True for beams measured at this ping (valid and finite).
-        sigma_regressed: (4,) completer sigma of completed beams, m/s (0 elsewhere).
-        completed: True when the completer filled missing beams of this ping.
-        omega_b: (3,) raw gyro rate at the ping (:func:`gyro_at`), rad/s.
-        v_d: (3,) velocity of the DVL head in the DVL frame measured by the instrument, m/s, on a velocity
-            ping (its beams are then all NaN and unmeasured); None on a beam ping.
-        v_d_sigma: (3,) one-sigma of ``v_d`` per DVL axis, m/s; NaN where the ping gave none (the estimator's
-            configured ``DvlSpec.velocity_noise_std`` applies).
-    """
-
-    t: float
-    beams: np.ndarray
-    measured: np.ndarray
-    sigma_regressed: np.ndarray
-    completed: bool
-    omega_b: np.ndarray
-    v_d: np.ndarray | None = None
-    v_d_sigma: np.ndarray | None = None
-
-    @property
-    def is_velocity(self) -> bool:
-        """True for a ping that carries a DVL-frame velocity instead of beams."""
-        return self.v_d is not None
-
-    @property
-    def regressed(self) -> np.ndarray:
-        return np.isfinite(self.beams) & ~self.measured
-
-    @property
-    def n_measured(self) -> int:
-        return int(self.measured.sum())
-
-    @property
-    def n_regressed(self) -> int:
-        return int(self.regressed.sum())
-
-
-@dataclass
-class PositionFix:
-    """A horizontal position fix: geodetic latitude/longitude (rad), 1-sigma per horizontal axis (m)."""
-
-    t: float
-    lat: float
-    lon: float
-    sigma_m: float
-
-
-@dataclass
-class Keyframe:
-    """One estimator epoch and everything that constrains it.
-
-    Attributes:
-        index: k, 0-based.
-        t: stamp, s.
-        kind: ``"init"`` (the initial epoch without a ping), ``"dvl"``, ``"imu"`` (filler in a DVL gap) or
-            ``"fix"``.
-        imu: IMU segments from keyframe k-1 (None for k = 0).
-        ping: the DVL ping at this stamp, or None.
-        depth: depth of the IMU at t (m, down), or None.
-        heading: (yaw rad, sigma rad) at t, or None.
-        fix: a position fix at t, or None.
-    """
-
-    index: int
-    t: float
-    kind: str
-    imu: ImuSegments | None = None
-    ping: Ping | None = None
-    depth: float | None = None
-    heading: tuple[float, float] | None = None
-    fix: PositionFix | None = None
 
 
 @dataclass

@@ -55,11 +55,11 @@ from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
-from graphnav.estimators.graph.incremental import EpochEstimate, InitialState
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
+from graphnav.estimators.types import EpochEstimate, InitialState
 
 
 @dataclass

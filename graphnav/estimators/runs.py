@@ -29,17 +29,15 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
+from graphnav.estimators.backends import GraphBackend
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
-from graphnav.estimators.graph.incremental import (
-    EpochEstimate,
-    InitialState,
-    is_indeterminant,
-)
+from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.navigator import Navigator, feed_mission, stream_adders
 from graphnav.estimators.replay import first_ping_time, replay
+from graphnav.estimators.types import EpochEstimate, InitialState
 
 #: run_graph's modes and the Navigator backend each one is.
 MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
@@ -141,13 +139,11 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
-    if nav.backend is not None and hasattr(nav.backend, "ctx"):
-        info["regressed_screening"] = dict(nav.backend.ctx.screening)
-        if options.motion_prior == "total-if-uncertain":
-            info["motion_prior_switch"] = dict(nav.backend.ctx.outage_switch.counts)
+    if isinstance(nav.backend, GraphBackend):
+        info.update(nav.backend.screening_counts())
     if batch:
         try:
-            estimates, batch_info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates, options)
+            estimates, batch_info = batch_smooth(nav.backend.keyframe_graphs(), estimates, options)
             info.update({"batch_" + k: v for k, v in batch_info.items()})
         except RuntimeError as exc:
             if not is_indeterminant(exc):
@@ -221,7 +217,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
             the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the completed beams enter
             with their variance inflated by the completer's sigma^2. None: measured beams only.
         options: :class:`EkfOptions` (default: the 15-state filter).
-        initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.graph.InitialState`
+        initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.types.InitialState`
             with its stamp); default the ground truth at ``max(imu.t[0], gt.t[0])``, as in the paper (the
             comparison is about the outage, not the alignment; the initial covariance of :class:`EkfOptions`
             covers the ground truth's own error).

@@ -183,7 +183,7 @@ def imu_carried_reference(sol_t: np.ndarray, mission) -> GroundTruth:
                       source=f"{gt.source} (carried to the epochs by the IMU)")
 
 
-def mission_reference(sol: NavSolution, mission) -> GroundTruth:
+def scoring_reference(sol: NavSolution, mission) -> GroundTruth:
     """The reference the NEES is scored against: the GT carried to the solution's epochs by the IMU
     (:func:`imu_carried_reference`; equal to the GT at epochs on its samples, as the simulated missions'
     pings are), or the GT itself when the mission has no IMU."""
@@ -205,7 +205,7 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
         sol: the solution (needs ``cov_v_n``).
         gt: its reference.
         mission: the mission ``gt`` belongs to, when there is one: the reference is then carried to the
-            solution's epochs by the IMU (:func:`mission_reference`); without it (a reference file) the
+            solution's epochs by the IMU (:func:`scoring_reference`); without it (a reference file) the
             reference is ``gt`` interpolated (:meth:`GroundTruth.at`).
         t0: the first stamp scored, s (None: ``gt.t[0] +`` :data:`NEES_SETTLE_S`).
         gt_sigma_n: (3,) m/s, the reference's own NED velocity sigma, or None.
@@ -222,7 +222,7 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
            "nees_reference": "interpolated" if mission is None else "imu-carried", **pose_nees_none()}
     if sol.cov_v_n is None and sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
-    reference = gt if mission is None else mission_reference(sol, mission)
+    reference = gt if mission is None else scoring_reference(sol, mission)
     out.update(pose_nees(sol, reference, t0))
     if sol.cov_v_n is None:
         return out
@@ -237,7 +237,7 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
 
 def mission_nees(sol: NavSolution, mission) -> dict:
     """``nees_mission``: mean velocity NEES over the mission after :data:`NEES_SETTLE_S`, against the reference
-    at the solution's epochs (:func:`mission_reference`: a sparse GT carried to each epoch by the IMU);
+    at the solution's epochs (:func:`scoring_reference`: a sparse GT carried to each epoch by the IMU);
     ``nees_mission_interp``: the same against the linearly interpolated GT (at the surface it is off by
     0.1 m/s); ``nees_mission_gt``: the first with the GT's own velocity error covariance added to the
     solution's (``mission.meta["gt_velocity_sigma_n"]``, m/s per NED axis, set by the A-KIT loader; None

@@ -8,7 +8,7 @@ bench's windows (:func:`graphnav.evaluation.bench.case_windows`) and is scored:
 - window VRMSE (m/s, mean over the windows) as ``graphnav bench`` computes it (:func:`~graphnav.evaluation.
   bench.score_case`), and the mean window NEES with the fraction of windows inside one window's 95 % band;
 - mean velocity NEES over the mission after :data:`SETTLE_S`, against the GT carried to each epoch by the IMU
-  (:func:`graphnav.evaluation.consistency.mission_reference`), with the GT's own velocity error added
+  (:func:`graphnav.evaluation.consistency.scoring_reference`), with the GT's own velocity error added
   (``gt_sigma``: :func:`~graphnav.evaluation.consistency.nees_with_reference`), and against the linearly
   interpolated GT;
 - horizontal position NEES (:data:`~graphnav.evaluation.consistency.POSITION_DOF` = 2 dof) and heading NEES
@@ -46,7 +46,7 @@ def run_trajectory(task: tuple) -> list[dict]:
     it runs in worker processes."""
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.bench import case_windows, drift_pct_of, prepared_mission, score_case
-    from graphnav.evaluation.consistency import chi2_band, mission_reference, n_independent, nees_with_reference
+    from graphnav.evaluation.consistency import chi2_band, n_independent, nees_with_reference, scoring_reference
     from graphnav.evaluation.methods import run_method
     from graphnav.evaluation.metrics import nees_velocity
     source, methods, scenarios, setting_names, gt_sigma, window_s = task
@@ -65,7 +65,7 @@ def run_trajectory(task: tuple) -> list[dict]:
                 options = dict(SETTINGS[name]) if method in GRAPH_METHODS else None
                 sol = run_method(run_mission, method, scenario, options=options)
                 scores = score_case(sol, mission, starts, window_s)
-                reference = mission_reference(sol, mission)
+                reference = scoring_reference(sol, mission)
                 win_nees = [s["nees_window"] for s in scores]
                 rows.append({"trajectory": source.name, "scenario": scenario, "method": method, "setting": name,
                              "vrmse_window": float(np.mean([s["vrmse_window"] for s in scores])),

@@ -26,7 +26,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from gtsam.symbol_shorthand import D, X
 
 from graphnav.core.mission import Mission
 from graphnav.estimators.graph.batch import batch_smooth
@@ -122,19 +121,6 @@ def drift_before_surfacings(mission: Mission, t: np.ndarray, err_h: np.ndarray, 
     return out
 
 
-def _position_covariance(estimator, est) -> np.ndarray | None:
-    """NED position covariance (3,3) m^2 of an estimate: its own ``cov_p_n`` when the estimator fills it, else
-    the marginal of its pose (GTSAM's Pose3 tangent ``[rot, trans]``, translation in body axes) rotated to NED."""
-    if est.cov_p_n is not None:
-        return np.asarray(est.cov_p_n)
-    try:
-        cov = estimator._marginal(X(est.index))[3:, 3:]
-    except RuntimeError:
-        return None
-    R = est.C_b_n
-    return R @ cov @ R.T
-
-
 def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool = True,
              sample_s: float = 10.0, options: GraphOptions | None = None) -> list[FixRun]:
     """The fixed-lag smoother (and with ``batch`` the batch smoother over its keyframes) on ``mission`` with or
@@ -152,15 +138,14 @@ def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool 
         return any(abs(fix_t[j] - t) <= 1.5 for j in (i - 1, i) if 0 <= j < len(fix_t))
 
     def record(est):
-        estimator = nav.backend.estimator
         if est.t < next_sample[0] and not near_fix(est.t):   # every keyframe around a fix, else sampled
             covs.append(None)
             return
         next_sample[0] = est.t + sample_s
-        covs.append(_position_covariance(estimator, est))
+        covs.append(None if est.cov_p_n is None else np.asarray(est.cov_p_n))
         if dvl_error_states:
-            d = estimator._value(D(est.index), "Vector")
-            scale.append((est.t, d[0], float(np.sqrt(estimator._marginal(D(est.index))[0, 0]))))
+            d, cov_d = nav.backend.dvl_errors(est.index)
+            scale.append((est.t, d[0], float(np.sqrt(cov_d[0, 0]))))
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -168,7 +153,7 @@ def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool 
     truth = float(mission.meta["dvl_errors"]["scale_factor"][0])
     runs = [_fix_run(mission, "fixed-lag", fixes, dvl_error_states, estimates, covs, scale, truth)]
     if batch:
-        smoothed, info = batch_smooth(nav.backend.estimator.keyframe_graphs, estimates,
+        smoothed, info = batch_smooth(nav.backend.keyframe_graphs(), estimates,
                                       dataclasses.replace(options, marginals=False))
         d = info.get("dvl_errors")
         t = np.array([e.t for e in smoothed])

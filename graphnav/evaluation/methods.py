@@ -334,7 +334,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     such as TC or Graph-TC, runs without one). ``options`` go to the estimator: its options object
     (:class:`graphnav.estimators.ekf.EkfOptions`, :class:`graphnav.estimators.graph.GraphOptions`) as is, or a
     dict of its fields on top of the method's defaults. Graph methods only: ``callback`` receives each filtered
-    :class:`graphnav.estimators.graph.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
+    :class:`graphnav.estimators.types.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
     ``"fixed-lag"`` (lag ``options.lag_s``). ``init``: the initial state from the ground truth (``"gt"``),
     from the sensors (``"sensors"``, with ``aligner_kwargs`` such as ``initial_heading_rad``), or ``"auto"``
     (ground truth when the mission has it).

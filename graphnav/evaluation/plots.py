@@ -244,8 +244,8 @@ def plot_nees(gt, solutions: list[NavSolution], outages, path, title: str = "", 
     ``smooth_s`` mean (one independent epoch per second assumed, so the band is indicative).
 
     ``gt``: the ground truth, or the mission (then each solution is scored against the GT carried to its
-    epochs by the IMU, as the benchmark's NEES is: :func:`graphnav.evaluation.consistency.mission_reference`)."""
-    from graphnav.evaluation.consistency import DOF, chi2_band, mission_reference, nees_time_series
+    epochs by the IMU, as the benchmark's NEES is: :func:`graphnav.evaluation.consistency.scoring_reference`)."""
+    from graphnav.evaluation.consistency import DOF, chi2_band, nees_time_series, scoring_reference
     fig, ax = plt.subplots(figsize=(10, 4.5))
     _mark_windows(ax, _windows(outages))
     lo1, hi1 = chi2_band(1)
@@ -255,7 +255,7 @@ def plot_nees(gt, solutions: list[NavSolution], outages, path, title: str = "", 
     ax.axhline(DOF, color="k", lw=0.8, ls="--")
     with_cov = [s for s in solutions if s.cov_v_n is not None]
     for sol, label in zip(with_cov, _labels(with_cov)):
-        reference = mission_reference(sol, gt) if hasattr(gt, "imu") else gt
+        reference = scoring_reference(sol, gt) if hasattr(gt, "imu") else gt
         t, nees = nees_time_series(sol, reference, sol.t[0] + settle_s)
         style = _line(sol.method, len(t), lw=1.6)
         ax.plot(t, np.clip(nees, 1e-3, None), color=style["color"], lw=0.4, alpha=0.4)

@@ -216,13 +216,13 @@ def _pose_nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
     """The benchmark's horizontal position NEES (2 dof) and heading NEES (1 dof) of ``est`` after the settling
     time with their 95 % bands (:func:`graphnav.evaluation.consistency.pose_nees`); None (with a note) where
     the estimate carries no position / attitude covariance."""
-    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, mission_reference, pose_nees
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, pose_nees, scoring_reference
     t0 = _settle_t0(est, ref, mission)
     out = {}
     if est.cov_p_n is None and est.cov_rot_b is None:
         scores = {}
     else:
-        reference = ref if mission is None else mission_reference(est, mission)
+        reference = ref if mission is None else scoring_reference(est, mission)
         scores = pose_nees(est, reference, t0)
     for key, name, dof, field in (("nees_pos", "position", POSITION_DOF, "position sigmas"),
                                   ("nees_heading", "heading", HEADING_DOF, "an attitude covariance")):

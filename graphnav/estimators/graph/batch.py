@@ -30,9 +30,10 @@ from gtsam.symbol_shorthand import B, D, V, X
 from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph.builder import BeamGroup, KeyframeFactors
-from graphnav.estimators.graph.incremental import EpochEstimate, is_indeterminant
+from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.marginals import keyframe_marginals
 from graphnav.estimators.graph.options import BATCH_SOLVERS, GraphOptions
+from graphnav.estimators.types import EpochEstimate
 
 
 class StackedBeams:

@@ -3,7 +3,7 @@
 :class:`GraphContext` holds what every graph factor needs (options, configuration, DVL geometry, GTSAM's
 preintegration settings); :func:`graph_keyframe` preintegrates a keyframe's IMU segments (zero-order hold,
 GTSAM's convention, a split sample integrated over its part only) and turns its ping into the beams the
-graph uses. The estimators in this package consume :class:`Keyframe` objects and make their factors with
+graph uses. The estimators in this package consume :class:`GraphKeyframe` objects and make their factors with
 :func:`keyframe_factors` (which needs the predicted attitude, for the Earth rate in the lever-arm term).
 """
 from __future__ import annotations
@@ -23,6 +23,7 @@ from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
+from graphnav.estimators.types import ImuSegments, Keyframe, Ping
 from graphnav.factors import (
     beam_factor,
     beam_factor_dvl_errors,
@@ -67,7 +68,7 @@ class DvlMeasurement:
 
 
 @dataclass
-class Keyframe:
+class GraphKeyframe:
     """One graph state (x_k, v_k, b_k) and what constrains it.
 
     Attributes:
@@ -181,7 +182,7 @@ class GraphContext:
         params.setGyroscopeCovariance(np.eye(3) * (imu.gyro_noise_density ** 2 + var_att / length))
         return params
 
-    def preintegrate(self, imu: kfs.ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
+    def preintegrate(self, imu: ImuSegments) -> tuple[gtsam.PreintegratedCombinedMeasurements,
                                                           gtsam.PreintegrationCombinedParams]:
         """The keyframe interval's IMU segments preintegrated (zero-order hold, one call per segment), with the
         settings object the preintegration holds (set its gravity with :meth:`set_gravity`)."""
@@ -193,7 +194,7 @@ class GraphContext:
             pim.integrateMeasurement(f, w, dt)
         return pim, params
 
-    def set_gravity(self, kf: "Keyframe", p_n: np.ndarray, v_n: np.ndarray) -> None:
+    def set_gravity(self, kf: "GraphKeyframe", p_n: np.ndarray, v_n: np.ndarray) -> None:
         """Give keyframe ``kf``'s IMU factor the gravity at the middle of its interval, predicted from the
         position ``p_n`` (m) and velocity ``v_n`` (m/s) at its start (before the factor is made: GTSAM shares the
         settings with the factor). Gravity changes 1.5e-6 m/s^2 per metre, so the prediction's error (metres)
@@ -203,7 +204,7 @@ class GraphContext:
             return
         kf.params.n_gravity = preintegration_gravity(self.earth, p_n, v_n, kf.pim.deltaTij())
 
-    def dvl_measurement(self, ping: kfs.Ping) -> DvlMeasurement | None:
+    def dvl_measurement(self, ping: Ping) -> DvlMeasurement | None:
         """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
         completer's sigma (floored); None when no beam is usable. A velocity ping gives its DVL-frame velocity
         (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
@@ -233,18 +234,18 @@ def tangent_down(earth: EarthModel, depth_m: float, p_n_pred: np.ndarray | None)
     return float(depth_m - (earth.depth_of(p) - p[2]))
 
 
-def graph_keyframe(kf: kfs.Keyframe, ctx: GraphContext) -> Keyframe:
+def graph_keyframe(kf: Keyframe, ctx: GraphContext) -> GraphKeyframe:
     """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
     who knows the navigation origin)."""
     pim, params = ctx.preintegrate(kf.imu) if kf.imu is not None else (None, None)
     dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
     depth = kf.depth if ctx.options.use_depth else None
-    return Keyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
+    return GraphKeyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
                     kf.fix.sigma_m if kf.fix is not None else 0.0, params)
 
 
 def mission_keyframes(mission, options: GraphOptions, completer=None,
-                      keyframe_options: kfs.KeyframeOptions | None = None) -> Iterator[Keyframe]:
+                      keyframe_options: kfs.KeyframeOptions | None = None) -> Iterator[GraphKeyframe]:
     """Graph keyframes of a recorded mission, from its first DVL ping inside the IMU span (a replay of its
     samples in time order through :class:`graphnav.estimators.keyframes.Keyframer`; used by offline tools such as the
     lever-arm calibration)."""
@@ -261,7 +262,7 @@ def mission_keyframes(mission, options: GraphOptions, completer=None,
     yield from (graph_keyframe(k, ctx) for k in keyframer.finish())
 
 
-def imu_factor(kf: Keyframe) -> gtsam.CombinedImuFactor:
+def imu_factor(kf: GraphKeyframe) -> gtsam.CombinedImuFactor:
     """The preintegrated IMU factor between keyframes k-1 and k (k >= 1)."""
     k = kf.index
     return gtsam.CombinedImuFactor(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), B(k), kf.pim)
@@ -340,7 +341,7 @@ class KeyframeFactors:
         return graph
 
 
-def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
+def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
                      p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
 
@@ -353,7 +354,7 @@ def keyframe_factors(kf: Keyframe, builder: GraphContext, C_b_n_pred: np.ndarray
         builder: the mission's :class:`GraphContext` (geometry, options, configuration).
         C_b_n_pred: predicted attitude at kf (for the Earth rate removed from the lever-arm rate).
         p_n_pred: predicted position (centre of the depth factor's weak horizontal part).
-        prediction: the graph's :class:`.regressed.BeamPrediction` at kf, for screening regressed beams and
+        prediction: the graph's :class:`.regressed.VelocityPrediction` at kf, for screening regressed beams and
             for the choice of ``motion_prior="total-if-uncertain"``.
     """
     options, config = builder.options, builder.config

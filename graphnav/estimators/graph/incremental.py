@@ -17,19 +17,16 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
-
 import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, D, V, X
 
 from graphnav.core.beam_model import BeamModel
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import Mission
 from graphnav.estimators.graph import dvl_errors
 from graphnav.estimators.graph.builder import (
     GraphContext,
-    Keyframe,
+    GraphKeyframe,
     KeyframeFactors,
     imu_factor,
     keyframe_factors,
@@ -37,6 +34,7 @@ from graphnav.estimators.graph.builder import (
 from graphnav.estimators.graph.marginals import keyframe_marginals
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import NisMonitor
+from graphnav.estimators.types import EpochEstimate, InitialState
 from graphnav.factors import N_DVL_ERRORS
 
 
@@ -44,83 +42,6 @@ def is_indeterminant(exc: Exception) -> bool:
     """True for GTSAM's indeterminant-linear-system error ("Indeterminant" in the class, "Indeterminate" in
     the message)."""
     return "ndetermina" in str(exc)
-
-
-@dataclass
-class InitialState:
-    """State at the first keyframe: pose (attitude C_b_n and NED position, m), NED velocity (m/s), IMU bias.
-
-    Attributes:
-        t: its stamp, s (IMU clock); None = the first keyframe's (the first DVL ping) in the replay helpers.
-        cov_pose: optional (6,6) prior covariance in GTSAM's Pose3 tangent ``[rot (rad), trans (m)]`` (right
-            perturbation, body frame); None = the option sigmas (``GraphOptions.prior_*``).
-        cov_v_n: optional (3,3) prior velocity covariance, (m/s)^2; None = the option sigma.
-        origin_lla: (lat rad, lon rad, alt m) of the NED origin, when known (position fixes need it).
-    """
-
-    pose: gtsam.Pose3
-    v_n: np.ndarray
-    bias: gtsam.imuBias.ConstantBias = field(default_factory=gtsam.imuBias.ConstantBias)
-    t: float | None = None
-    cov_pose: np.ndarray | None = None
-    cov_v_n: np.ndarray | None = None
-    origin_lla: tuple[float, float, float] | None = None
-
-    @classmethod
-    def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":
-        """Ground truth at t (:meth:`graphnav.core.mission.GroundTruth.at`, attitude carried by the gyro between
-        the samples), zero bias."""
-        gt = mission.gt
-        if gt is None:
-            raise ConfigError(f"mission '{mission.name}' has no ground truth to initialise the graph from; "
-                              "pass an InitialState")
-        p, v, C = gt.at(t, mission.imu)
-        return cls(gtsam.Pose3(gtsam.Rot3(C), p), v, t=float(t), origin_lla=gt.origin_lla)
-
-
-@dataclass
-class EpochEstimate:
-    """Filtered (or smoothed) state at one keyframe.
-
-    Attributes:
-        index: keyframe index k; t: stamp, s; kind: ``"dvl"`` or ``"imu"``.
-        pose: Pose3 (attitude C_b_n, NED position m); v_n: (3,) m/s; bias: ConstantBias (acc m/s^2, gyro rad/s).
-        cov_v_n: (3,3) marginal velocity covariance in NED, (m/s)^2, or None.
-        cov_p_n, cov_rot_b, cov_bias: (3,3) position (NED, m^2), (3,3) attitude (right perturbation, body
-            axes, rad^2) and (6,6) bias ([acc, gyro]) marginal covariances, or None (the fields of
-            :class:`graphnav.core.solution.NavSolution`).
-        n_measured, n_regressed: beams used at this keyframe.
-        update_s: solver time of this keyframe, s.
-        dvl_errors: (7,) DVL error states [scale (3), beam bias (4) m/s] at this keyframe, filled in when the
-            next keyframe is added (``GraphOptions.dvl_error_states``), else None.
-        health: how far to trust this estimate, ``"ok"``, ``"degraded"`` or ``"diverged"``, and ``health_why``
-            the reason (:func:`graphnav.estimators.health.epoch_health`; set by the Navigator), else None.
-    """
-
-    index: int
-    t: float
-    kind: str
-    pose: gtsam.Pose3
-    v_n: np.ndarray
-    bias: gtsam.imuBias.ConstantBias
-    cov_v_n: np.ndarray | None
-    n_measured: int
-    n_regressed: int
-    update_s: float
-    dvl_errors: np.ndarray | None = None
-    health: str | None = None
-    health_why: str = ""
-    cov_p_n: np.ndarray | None = None
-    cov_rot_b: np.ndarray | None = None
-    cov_bias: np.ndarray | None = None
-
-    @property
-    def C_b_n(self) -> np.ndarray:
-        return self.pose.rotation().matrix()
-
-    @property
-    def p_n(self) -> np.ndarray:
-        return self.pose.translation()
 
 
 def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0,
@@ -189,7 +110,7 @@ class _IncrementalGraph:
         self.initial = initial
         self._pending_factors = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
-        self._pending_kf: Keyframe | None = None
+        self._pending_kf: GraphKeyframe | None = None
         self._last: EpochEstimate | None = None
         # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
         self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]] = []
@@ -205,7 +126,7 @@ class _IncrementalGraph:
         self.dvl_errors: tuple[int, np.ndarray] | None = None
 
     # --- the cycle --------------------------------------------------------------------------------
-    def add(self, kf: Keyframe) -> None:
+    def add(self, kf: GraphKeyframe) -> None:
         """Queue the factors of keyframe ``kf`` and its predicted initial values (from the last estimate)."""
         k = kf.index
         if k == 0:
@@ -242,7 +163,7 @@ class _IncrementalGraph:
             self._pending_values.insert(D(k), d)
         self._pending_kf = kf
 
-    def _prediction(self, kf: Keyframe, v_n_pred, bias):
+    def _prediction(self, kf: GraphKeyframe, v_n_pred, bias):
         """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened or
         ``motion_prior="total-if-uncertain"`` must choose at a keyframe without measured beams."""
         o = self.options
@@ -287,7 +208,7 @@ class _IncrementalGraph:
         self._pending_kf = None
         return self._last
 
-    def _check_innovation(self, kf: Keyframe, local, pose, v_n, bias) -> None:
+    def _check_innovation(self, kf: GraphKeyframe, local, pose, v_n, bias) -> None:
         """NIS of keyframe kf's measured beams at the predicted state (see the class docstring)."""
         groups = [g for g in local.groups if not g.regressed]
         if not groups:
@@ -314,7 +235,7 @@ class _IncrementalGraph:
             raise ConfigError("no keyframe has been updated yet")
         return self._last
 
-    def _recover(self, kf: Keyframe, exc: Exception) -> None:
+    def _recover(self, kf: GraphKeyframe, exc: Exception) -> None:
         """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state
         (:meth:`_restart_from_last`). A second failure at the same keyframe raises."""
         self.n_recovered += 1
@@ -328,7 +249,7 @@ class _IncrementalGraph:
         self.factorization = "QR"
         self._restart_from_last(kf)
 
-    def _restart_from_last(self, kf: Keyframe) -> None:
+    def _restart_from_last(self, kf: GraphKeyframe) -> None:
         """A new solver that starts with priors on keyframe k-1 at its estimate, with its marginal covariances
         (block-diagonal: pose, velocity, bias, DVL errors; the prior sigmas of the options if the old solver
         cannot give them), then takes keyframe k's factors. The filtered output continues; what is lost is
@@ -419,7 +340,7 @@ class _IncrementalGraph:
         graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
-    def _reanchor_due(self, kf: Keyframe) -> bool:
+    def _reanchor_due(self, kf: GraphKeyframe) -> bool:
         interval = self.options.reanchor_interval_s
         if self._t_anchor is None:
             self._t_anchor = kf.t

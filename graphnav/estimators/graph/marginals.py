@@ -32,7 +32,7 @@ def _symmetric(P: np.ndarray) -> np.ndarray:
 
 def keyframe_marginals(level: str, k: int, pose: gtsam.Pose3,
                        marginal: Callable[[int], np.ndarray]) -> dict:
-    """The covariances of keyframe k a :class:`~graphnav.estimators.graph.EpochEstimate` carries at marginal
+    """The covariances of keyframe k a :class:`~graphnav.estimators.types.EpochEstimate` carries at marginal
     ``level`` (:data:`~graphnav.estimators.graph.options.MARGINAL_LEVELS`): keys ``cov_v_n`` (NED, (m/s)^2)
     and, at ``"full"``, ``cov_p_n``, ``cov_rot_b``, ``cov_bias`` ([acc, gyro]); ``marginal(key)`` is the
     solver's marginal covariance of one variable in its tangent space."""

@@ -58,11 +58,12 @@ import numpy as np
 from gtsam.symbol_shorthand import V, X
 
 from graphnav.core.beam_model import BeamModel
+from graphnav.estimators.regressed_screening import screen_against_prediction
 from graphnav.factors import body_velocity_change_factor, nonholonomic_factor
 
 
 @dataclass
-class BeamPrediction:
+class VelocityPrediction:
     """The graph's prediction at a keyframe: NED velocity (m/s), its covariance ((m/s)^2), gyro bias (rad/s)."""
 
     v_n: np.ndarray
@@ -71,16 +72,16 @@ class BeamPrediction:
 
 
 def predict_state(last_cov_v_n: np.ndarray, C_b_n_last: np.ndarray, pim, v_n_pred: np.ndarray,
-                  gyro_bias: np.ndarray) -> BeamPrediction:
+                  gyro_bias: np.ndarray) -> VelocityPrediction:
     """Prediction of keyframe k from k-1: ``P_v = P_v,k-1 + R_k-1 Cov(dv) R_k-1^T`` (preintegrated velocity
     noise is in the body frame of k-1; GTSAM's combined covariance order is [rot, pos, vel, b_a, b_g])."""
     cov_dv = np.asarray(pim.preintMeasCov())[6:9, 6:9]
     cov = np.asarray(last_cov_v_n) + C_b_n_last @ cov_dv @ C_b_n_last.T
-    return BeamPrediction(np.asarray(v_n_pred, float), cov, np.asarray(gyro_bias, float))
+    return VelocityPrediction(np.asarray(v_n_pred, float), cov, np.asarray(gyro_bias, float))
 
 
 def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n: np.ndarray,
-                     omega_b: np.ndarray, lever_arm_b: np.ndarray, prediction: BeamPrediction | None,
+                     omega_b: np.ndarray, lever_arm_b: np.ndarray, prediction: VelocityPrediction | None,
                      options) -> tuple[np.ndarray, np.ndarray, dict]:
     """Sigmas for regressed beams after the checks in the module docstring.
 
@@ -103,39 +104,6 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     return keep, np.sqrt(s2), stats
 
 
-def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2: np.ndarray, options,
-                              ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The checks of the module docstring for completions ``y`` (m,) m/s of variance ``s2`` (m,) (m/s)^2
-    against the estimator's predicted beams ``y_p`` (m,) of variance ``a`` (m,): the graph's
-    (:func:`screen_regressed`) and the EKF's (:meth:`graphnav.estimators.ekf.ErrorStateEkf.screen_regressed`).
-    ``options`` carries ``regressed_correlation``, ``regressed_adaptive``, ``regressed_gate_k`` and
-    ``regressed_prediction_var_scale``. Returns (keep (m,) bool, variance (m,), counters)."""
-    keep = np.ones(len(y), dtype=bool)
-    stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
-    a = np.maximum(np.asarray(a, float), 1e-12) * options.regressed_prediction_var_scale
-    s2 = np.asarray(s2, float)
-    rho = options.regressed_correlation
-    if rho:
-        c = rho * np.sqrt(a * s2)
-        informative = c < a
-        stats["decorrelated_out"] = int((~informative).sum())
-        keep &= informative
-        # K >= 1 (c >= s_c^2, a prediction far wider than the completion) has no equivalent factor at y_c;
-        # the conditional variance of the completion's error given the prediction's, s_c^2 (1 - rho^2),
-        # is the floor
-        s2 = np.where(informative, np.maximum(a * (s2 - c) / np.maximum(a - c, 1e-12), s2 * (1 - rho ** 2)), s2)
-    innov2 = (np.asarray(y, float) - y_p) ** 2
-    if options.regressed_adaptive:
-        raised = innov2 - a > s2
-        stats["inflated"] = int((raised & keep).sum())
-        s2 = np.where(raised, innov2 - a, s2)
-    if options.regressed_gate_k is not None:
-        outside = innov2 > options.regressed_gate_k ** 2 * (a + s2)
-        stats["gated"] = int((outside & keep).sum())
-        keep &= ~outside
-    return keep, s2, stats
-
-
 def motion_prior_factors(k: int, dt: float, options) -> gtsam.NonlinearFactorGraph:
     """Motion prior of keyframe k (k >= 1) linking it to k-1, ``dt`` s apart: the body velocity is a random
     walk of density ``options.motion_prior_rw`` (surge, sway, heave; m/s/sqrt(s)) and, if
@@ -151,7 +119,7 @@ def motion_prior_factors(k: int, dt: float, options) -> gtsam.NonlinearFactorGra
     return graph
 
 
-def body_velocity_std(prediction: BeamPrediction, C_b_n: np.ndarray) -> np.ndarray:
+def body_velocity_std(prediction: VelocityPrediction, C_b_n: np.ndarray) -> np.ndarray:
     """Predicted body-frame velocity std (surge, sway, heave), m/s: ``sqrt(diag(C_b_n^T P_v C_b_n))`` with
     ``P_v`` the predicted NED velocity covariance and ``C_b_n`` the predicted attitude (body-to-NED)."""
     C_b_n = np.asarray(C_b_n, float)
@@ -184,7 +152,7 @@ class OutagePriorSwitch:
         self.on = False
         self.counts = {"prior": 0, "no_prior": 0, "switched_on": 0, "max_std": 0.0}
 
-    def decide(self, n_measured: int, prediction: BeamPrediction | None, C_b_n_pred: np.ndarray) -> bool:
+    def decide(self, n_measured: int, prediction: VelocityPrediction | None, C_b_n_pred: np.ndarray) -> bool:
         """Whether a keyframe with ``n_measured`` measured beams gets the motion prior. ``prediction`` is the
         graph's prediction at it (None at the first keyframe: no prior); ``C_b_n_pred`` its predicted attitude."""
         if n_measured > 0:
