@@ -55,7 +55,7 @@ def solve(ref, m, tag: str, method: str, mode: str):
         return run_graph(m, completer=completer, batch=METHODS[method].batch, mode=mode, initial=initial)
     # the paper's 12-state EKF (the reference predates the 15-state filter, and the 12-state results are unchanged)
     return run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial,
-                   options=EkfOptions(position_states=False))
+                   options=EkfOptions(position_states=False, dvl_error_states=False))
 
 
 def main(argv=None) -> None:

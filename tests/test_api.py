@@ -66,13 +66,15 @@ def test_one_method_registry():
     assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "network", True)
     assert dict(graphnav.METHODS["Graph-MP"].defaults) == dict(methods.GRAPH_MP_OPTIONS)
     assert graphnav.METHODS["HNLC"].baseline == "LC" and graphnav.METHODS["Graph-HN"].average == "Average-TC"
-    # the paper's 12-state EKF: the method's own defaults plus position_states=False, compared within its family
+    # the paper's 12-state EKF (no position or DVL error states): the method's own defaults plus the paper's,
+    # compared within its family
     hn12 = graphnav.METHODS["HNTC-12"]
-    assert dict(hn12.defaults) == {**methods.EKF_HYBRID_OPTIONS, "position_states": False}
+    assert dict(hn12.defaults) == {**methods.EKF_HYBRID_OPTIONS, "position_states": False, "dvl_error_states": False}
     assert (hn12.baseline, hn12.average, hn12.reproduction) == ("TC-12", "Average-TC-12", True)
     assert "TC-12" not in methods.BENCH_METHODS and "TC" in methods.BENCH_METHODS
     assert methods.estimator_options("LC-12").position_states is False
     assert methods.estimator_options("LC").position_states is True
+    assert methods.estimator_options("TC").dvl_error_states and not methods.estimator_options("TC-12").dvl_error_states
     assert all(rec.description for rec in graphnav.METHODS.values())
     with pytest.raises(graphnav.ConfigError, match="unknown method 'EKF-TC'"):
         methods.get_method("EKF-TC")

@@ -130,7 +130,7 @@ def test_gravity_gradient_couples_position_into_velocity():
 def test_composed_transition_equals_step_by_step_covariance_propagation():
     f, w, dt = _manoeuvre(n=37)
     s0 = StrapdownState(0.0, euler_to_C_b_n(0.1, 0.2, -1.0), np.array([1.0, 0.2, 0.0]), np.zeros(3))
-    ekf = ErrorStateEkf(SensorConfig(imu=imu_grade("mems")), s0)
+    ekf = ErrorStateEkf(SensorConfig(imu=imu_grade("mems")), s0, EkfOptions(dvl_error_states=False))
     _, path = ekf.strapdown.propagate(s0, f, w, dt)
     Phis, Qs = ekf.transition(path)
     P = ekf.P.copy()
@@ -152,14 +152,16 @@ def test_lc_and_tc_updates_agree_with_four_beams_and_vanish_on_exact_beams():
     omega = np.array([0.02, -0.05, 0.1])
     geo = DvlGeometry.from_spec(cfg.dvl)
     exact = geo.beams_from_velocity(s.C_b_n.T @ s.v_n, omega)
-    lc, tc = ErrorStateEkf(cfg, s), ErrorStateEkf(cfg, s)
+    # LC = TC with four beams holds for the navigation states alone (the DVL error states see beams, not a fix)
+    no_dvl_states = EkfOptions(dvl_error_states=False)
+    lc, tc = ErrorStateEkf(cfg, s, no_dvl_states), ErrorStateEkf(cfg, s, no_dvl_states)
     lc.update_lc_beams(exact, omega)
     tc.update_tc(exact, omega)
     # exact beams (lever arm included) give zero innovation: the state does not move
     assert np.allclose(tc.state.v_n, s.v_n, atol=1e-12) and np.allclose(tc.state.C_b_n, s.C_b_n, atol=1e-12)
     # a linear update with 4 beams equals the LC update with the weighted LS velocity and its covariance
     noisy = exact + np.array([0.03, -0.05, 0.02, 0.04])
-    lc, tc = ErrorStateEkf(cfg, s), ErrorStateEkf(cfg, s)
+    lc, tc = ErrorStateEkf(cfg, s, no_dvl_states), ErrorStateEkf(cfg, s, no_dvl_states)
     lc.update_lc_beams(noisy, omega)
     tc.update_tc(noisy, omega)
     assert np.allclose(lc.state.v_n, tc.state.v_n, atol=1e-10)
@@ -302,7 +304,7 @@ def test_dvl_error_states_absorb_a_large_dvl_scale_and_bias():
     dvl = dataclasses.replace(base.dvl, scale_factor=np.array([0.02, -0.01, 0.0]),
                               beam_bias=np.array([0.01, -0.01, 0.02, 0.0]))
     m = simulate_mission(400.0, seed=0, config=dataclasses.replace(base, dvl=dvl))
-    paper = run_ekf(m, options=EkfOptions(position_states=False))
+    paper = run_ekf(m, options=EkfOptions(position_states=False, dvl_error_states=False))
     augmented = run_ekf(m, options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
                                               sigma_beam_bias0=0.02, position_states=False))
     augmented15 = run_ekf(m, options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
@@ -369,7 +371,8 @@ def test_position_updates_gate_then_reinitialise_and_the_paper_filter_has_none()
     np.testing.assert_array_equal(ekf.P[12:14, 12:14], 4.0 * np.eye(2))
     assert ekf.aiding["fix"] == {"used": 0, "gated": 3, "reset": 1}
     assert ekf.update_position_ne(far + 1.0, 2.0)                  # and the next fix is an update again
-    paper = ErrorStateEkf(SensorConfig(), _state_on_truth(None), EkfOptions(position_states=False))
+    paper = ErrorStateEkf(SensorConfig(), _state_on_truth(None),
+                          EkfOptions(position_states=False, dvl_error_states=False))
     assert paper.P.shape == (12, 12) and paper.nav_covariances()["cov_p_n"] is None
     with pytest.raises(ConfigError, match="12-state"):
         paper.update_depth(1.0)

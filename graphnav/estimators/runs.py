@@ -11,7 +11,7 @@ vehicle runs. The runners take objects and flags, not method names (the names li
   (``info["kind"]``).
 - :func:`run_ekf`: the error-state EKF, tightly (``tight=True``: TC) or loosely (LC) coupled, with a
   completer for the hybrid variants; output at every DVL ping. The 15-state filter (default) is fed the depth
-  sensor; the paper's 12-state filter (``EkfOptions(position_states=False)``) is not, as in the paper.
+  sensor; the paper's 12-state filter (``EkfOptions(position_states=False, dvl_error_states=False)``) is not, as in the paper.
 
 ``name`` only labels the solution and the messages. The initial state is the ground truth at the start when
 the mission has one, else the Navigator aligns from the sensors.

@@ -28,7 +28,7 @@ HNLC-12, HNTC-12
 The EKF methods run the standard 15-state error-state filter (velocity, attitude, both biases and the position
 error; :mod:`graphnav.estimators.ekf`), updated with the DVL, the depth sensor and position fixes. The ``-12``
 methods are the paper's 12-state filter (no position error state, no depth; a position fix resets the
-position), ``EkfOptions(position_states=False)`` in their :attr:`Method.defaults`: they reproduce the paper's
+position), ``EkfOptions(position_states=False, dvl_error_states=False)`` in their :attr:`Method.defaults`: they reproduce the paper's
 numbers, are runnable by name and are left out of the default method list of ``graphnav bench``
 (:attr:`Method.reproduction`). A ``-12`` method is compared with the ``-12`` baseline and average estimator.
 
@@ -101,7 +101,7 @@ GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", *
 #: pulled the filter to 0.53-0.78 m/s window VRMSE (graphnav start-sweep).
 EKF_HYBRID_OPTIONS: Mapping = REGRESSED_SCREENING
 #: The paper's 12-state EKF (the ``-12`` methods): no position error state, no depth, a fix resets the position.
-EKF_PAPER_OPTIONS: Mapping = types.MappingProxyType({"position_states": False})
+EKF_PAPER_OPTIONS: Mapping = types.MappingProxyType({"position_states": False, "dvl_error_states": False})
 #: Name suffix of the paper's 12-state EKF methods.
 PAPER_SUFFIX = "-12"
 
