@@ -56,6 +56,8 @@ class Variant:
             yaw drawn in +-``yaw_deg`` about body z, scales it by a factor drawn in 1 +- ``speed_scale``, and
             draws new beam noise.
         epochs, batch_size, lr, patience, sigma_epochs: the schedule (RMSprop, lr x0.1 every 35 epochs).
+        rollout: after the one-step training, fine-tune the mean network on its own completions fed back
+            through ``rollout``-ping outages (0: no such stage; :func:`fine_tune_recursive`).
     """
 
     name: str
@@ -69,15 +71,22 @@ class Variant:
     lr: float = 1e-3
     patience: int = 5
     sigma_epochs: int = 8
+    rollout: int = 0
+    rollout_epochs: int = 6
 
 
-#: The recipes the out-of-fold table compares (``graphnav eval-beams --folds --variant NAME``).
+#: The recipes the out-of-fold table can compare (``graphnav eval-beams --folds --variant NAME``); the default
+#: run is :data:`DEFAULT_VARIANTS`.
 VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("shipped-recipe"),                                   # BeamsNet only, values (the shipped networks)
     Variant("akit", akit=True),                                  # + A-KIT training folds
     Variant("akit-residual", akit=True, residual=True),          # + change from the average
     Variant("akit-residual-aug", akit=True, residual=True, copies=2),   # + yaw/speed/noise augmentation
+    Variant("akit-residual-recursive", akit=True, residual=True, rollout=15),  # + trained on its own completions
 )}
+#: The recipes ``graphnav eval-beams --folds`` runs without ``--variant``: the recursive stage is left out (its
+#: rollouts cost about 8 min of one core per fold on the shared machine, 15x the one-step recipe).
+DEFAULT_VARIANTS: tuple[str, ...] = ("shipped-recipe", "akit", "akit-residual", "akit-residual-aug")
 
 
 def check_folds(folds) -> tuple[tuple[int, ...], ...]:
@@ -223,9 +232,78 @@ def train_network(train: dict[str, list], missing, variant: Variant, seed: int =
     n = model.n_past
     opt = TrainOptions(epochs=variant.epochs, batch_size=variant.batch_size, lr=variant.lr,
                        patience=variant.patience, sigma_epochs=variant.sigma_epochs, seed=seed, threads=1)
-    fit(model, beamdata.windows([s for s in fit_s if len(s.beams) > n], n),
-        beamdata.windows([s for s in select_s if len(s.beams) > n], n), opt, progress)
+    fit_w = beamdata.windows([s for s in fit_s if len(s.beams) > n], n)
+    select_w = beamdata.windows([s for s in select_s if len(s.beams) > n], n)
+    fit(model, fit_w, select_w, opt, progress)
+    if variant.rollout:
+        fine_tune_recursive(model, fit_s, select_s, variant, seed)
+        from .training import _gaussian_nll, _run_stage, _tensors
+        _run_stage(model, list(model.sigma_head.parameters()), _tensors(model, fit_w), _tensors(model, select_w),
+                   _gaussian_nll, "nll", variant.sigma_epochs, 64, torch.optim.Adam, 3e-3, None, 1.0, None,
+                   seed + 1, progress)
+        model.eval()
     return NetworkCompleter(model, card={"envelope": training_envelope(fit_s)})
+
+
+def rollout_sequences(series: list[beamdata.BeamSeries], n_past: int, length: int, stride: int = 3) -> np.ndarray:
+    """Beam sequences (S, n_past + length, 4) m/s, one starting every ``stride`` pings inside each recording."""
+    out = []
+    for s in series:
+        span = n_past + length
+        for k in range(0, len(s.beams) - span + 1, stride):
+            out.append(s.beams[k:k + span])
+    if not out:
+        raise DataError(f"no recording is longer than {n_past + length} pings", "crossval")
+    return np.asarray(out)
+
+
+def rollout_loss(model, seq):
+    """Normalised MSE of the missing beams through an outage of ``seq.shape[1] - n_past`` pings in which the
+    network's completions are fed back as its past (differentiable through the whole outage)."""
+    import torch
+
+    n, miss, kept = model.n_past, list(model.missing), list(model.kept)
+    scale = model.beam_std[miss]
+    hist = seq[:, :n]
+    losses = []
+    for k in range(n, seq.shape[1]):
+        pred, _ = model(hist[:, -n:], seq[:, k, kept])
+        losses.append(torch.mean(((pred - seq[:, k, miss]) / scale) ** 2))
+        full = seq[:, k].clone()
+        full[:, miss] = pred
+        hist = torch.cat([hist[:, 1:], full[:, None]], dim=1)
+    return torch.stack(losses).mean()
+
+
+def fine_tune_recursive(model, fit_s, select_s, variant: Variant, seed: int) -> None:
+    """Fine-tune the mean network on rollouts of ``variant.rollout`` pings (Adam 3e-4, batch 64); the epoch
+    with the lowest rollout loss on the selection recordings is kept (the one-step weights if none is lower)."""
+    import copy
+
+    import torch
+
+    tr = torch.as_tensor(rollout_sequences(fit_s, model.n_past, variant.rollout), dtype=torch.float32)
+    va = torch.as_tensor(rollout_sequences(select_s, model.n_past, variant.rollout), dtype=torch.float32)
+    params = model.mean_parameters()
+    optim = torch.optim.Adam(params, lr=3e-4)
+    gen = torch.Generator().manual_seed(seed)
+    model.eval()
+    with torch.no_grad():
+        best, best_state = rollout_loss(model, va).item(), copy.deepcopy(model.state_dict())
+    for _ in range(variant.rollout_epochs):
+        model.train()
+        order = torch.randperm(len(tr), generator=gen)
+        for i in range(0, len(tr), 64):
+            loss = rollout_loss(model, tr[order[i:i + 64]])
+            optim.zero_grad(set_to_none=True)
+            loss.backward()
+            optim.step()
+        model.eval()
+        with torch.no_grad():
+            val = rollout_loss(model, va).item()
+        if val < best:
+            best, best_state = val, copy.deepcopy(model.state_dict())
+    model.load_state_dict(best_state)
 
 
 def predict_batch(completer, samples: beamdata.BeamSamples, missing) -> tuple[np.ndarray, np.ndarray]:

@@ -38,8 +38,8 @@ def register(subparsers) -> None:
                         "--variant on the rest and score it against the average estimator on the held-out "
                         "recordings and V_test.npy; prints per-fold rows and the pooled / worst-fold table")
     p.add_argument("--variant", action="append", default=None,
-                   help="with --folds: training recipe to cross-validate (repeat; default all of "
-                        "graphnav.nets.crossval.VARIANTS)")
+                   help="with --folds: training recipe to cross-validate (repeat; one of graphnav.nets.crossval.VARIANTS; "
+                        "default: shipped-recipe, akit, akit-residual, akit-residual-aug)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
     p.set_defaults(func=run)
 
@@ -86,7 +86,7 @@ def run_folds(args) -> int:
     from graphnav.core.errors import ConfigError
     from graphnav.nets import crossval
 
-    names = args.variant or list(crossval.VARIANTS)
+    names = args.variant or list(crossval.DEFAULT_VARIANTS)
     unknown = [v for v in names if v not in crossval.VARIANTS]
     if unknown:
         raise ConfigError(f"--variant {unknown[0]!r} unknown; choose from {list(crossval.VARIANTS)}")
