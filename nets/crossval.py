@@ -457,3 +457,38 @@ def variant_dict(variant: Variant) -> dict:
 def with_epochs(variant: Variant, epochs: int) -> Variant:
     """``variant`` with another epoch budget (tests, quick runs)."""
     return replace(variant, epochs=epochs)
+
+
+def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=None, beam_seed: int = 0,
+                seed: int = 0, summary: list[dict] | None = None, progress: bool = False):
+    """Train ``variant`` on every recording (all ten A-KIT trajectories and all of ``V.npy``; ``V_test`` stays
+    out) after the recipe was chosen out of fold; returns a :class:`~graphnav.nets.training.TrainResult` whose
+    model card says which protocol chose the recipe and, given ``summary`` (:func:`summarise` rows), its
+    out-of-fold numbers. Save it with :func:`graphnav.nets.training.save`."""
+    from .storage import file_sha256
+    from .training import TrainResult, card_header
+
+    variant = VARIANTS[variant] if isinstance(variant, str) else variant
+    missing = normalize_missing(missing)
+    data = load_fold_data(akit_dir, beamsnet_dir, beam_seed)
+    train = {"akit": [s for ss in data.akit.values() for s in ss],
+             "beamsnet": [s for block in data.beamsnet for s in block]}
+    t0 = time.perf_counter()
+    net = train_network(train, missing, variant, seed, progress)
+    scen = scenario_name(missing)
+    card = {
+        **card_header(net.model),
+        "data": {"source": "A-KIT trajectories " + ", ".join(map(str, sorted(data.akit)))
+                           + (" and snapir-2021-beamsnet V.npy (all)" if data.beamsnet else ""),
+                 "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
+                 "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy")
+                 if data.beamsnet else None},
+        "split": {"selection": f"last {INNER_VAL_FRACTION:.0%} of every recording (epoch only)"},
+        "training": {**variant_dict(variant), "seed": seed, "time_s": round(time.perf_counter() - t0, 1)},
+        "normalisation": {"beam_mean": net.model.beam_mean.tolist(), "beam_std": net.model.beam_std.tolist()},
+        "envelope": net.card["envelope"],
+        "selected_by": "leave-trajectories-out cross-validation, graphnav.nets.crossval (graphnav eval-beams "
+                       f"--folds): A-KIT folds {[list(f) for f in AKIT_FOLDS]} with BeamsNet mission blocks",
+        "out_of_fold": [r for r in (summary or []) if r["variant"] == variant.name and r["scenario"] == scen],
+    }
+    return TrainResult(net.model, card)

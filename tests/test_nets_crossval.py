@@ -125,3 +125,23 @@ def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():
         ratio = np.linalg.norm(c.v_b, axis=1) / np.linalg.norm(s.v_b, axis=1)
         assert np.ptp(ratio) < 1e-9 and 0.9 <= ratio[0] <= 1.1
         assert not np.allclose(c.beams, s.beams)
+
+
+def test_real_folds_and_final_training_round_trip(akit_dir, beamsnet_dir, tmp_path):
+    """On the shared data: the folds hold every A-KIT trajectory once and every V.npy ping once; a recipe
+    trained on everything saves a card that loads as a completer and says which protocol chose it."""
+    from graphnav.nets import load_completer
+    from graphnav.nets.training import save
+
+    data = cv.load_fold_data(akit_dir, beamsnet_dir)
+    assert sorted(data.akit) == [1, 2, 3, 4, 5, 6, 8, 10, 11, 13]
+    pings = [s.name for block in data.beamsnet for s in block]
+    edges = [tuple(int(x) for x in n.removeprefix("V[").removesuffix("]").split(":")) for n in pings]
+    assert edges[0][0] == 0 and all(a[1] == b[0] for a, b in zip(edges[:-1], edges[1:]))
+    assert edges[-1][1] == sum(len(s.beams) for block in data.beamsnet for s in block)
+    tiny = cv.Variant("tiny", akit=True, residual=True, epochs=1, patience=1, sigma_epochs=1, batch_size=256)
+    result = cv.train_final("2-missing", tiny, akit_dir, beamsnet_dir)
+    save(result, tmp_path)
+    completer = load_completer(2, directory=tmp_path)
+    assert completer.model.residual and "cross-validation" in completer.card["selected_by"]
+    assert completer.card["training"]["name"] == "tiny"
