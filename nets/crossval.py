@@ -440,6 +440,29 @@ def format_fold_rows(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def format_fold_gains(rows: list[dict], dataset: str = "A-KIT") -> str:
+    """Markdown table of the network's gain against the average (``1 - network/average``, beam / velocity RMSE)
+    per recipe and fold on ``dataset``, one column per scenario and mode."""
+    cols = sorted({(r["scenario"], r["mode"]) for r in rows if r["dataset"] == dataset},
+                  key=lambda c: (c[0], c[1] != "per ping"))
+    lines = ["| recipe | fold (held out) | " + " | ".join(f"{sc} {mode}" for sc, mode in cols) + " |",
+             "| --- | --- | " + " | ".join("---" for _ in cols) + " |"]
+    for var in dict.fromkeys(r["variant"] for r in rows):
+        for f in sorted({r["fold"] for r in rows if r["variant"] == var}):
+            cells, held = [], ""
+            for sc, mode in cols:
+                sel = {r["method"]: r for r in rows if (r["variant"], r["fold"], r["dataset"], r["scenario"], r["mode"])
+                       == (var, f, dataset, sc, mode)}
+                if "network" not in sel or "average" not in sel:
+                    cells.append("-")
+                    continue
+                held = ", ".join(map(str, sel["network"]["held_out"])) if dataset == "A-KIT" else ""
+                cells.append(" / ".join(f"{100 * (1 - sel['network'][m] / sel['average'][m]):+.1f} %"
+                                        for m in ("beam_rmse", "vel_rmse")))
+            lines.append(f"| {var} | {f} ({held}) | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def fold_table(data: FoldData) -> str:
     """What each fold holds out (A-KIT trajectories, BeamsNet pings), for the decision page."""
     lines = ["| fold | A-KIT trajectories | BeamsNet V.npy pings |", "| --- | --- | --- |"]

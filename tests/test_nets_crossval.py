@@ -114,6 +114,11 @@ def test_protocol_on_tiny_synthetic_folds():
     assert per_ping["beam_rmse_worst_gain"] <= per_ping["beam_rmse_gain"] + 1e-12
     table = cv.format_summary(summary)
     assert "| tiny | A-KIT | 2-missing | per ping |" in table
+    gains = cv.format_fold_gains(rows).splitlines()
+    assert len(gains) == 2 + 2 and gains[2].startswith("| tiny | 0 (1, 2) |")
+    net0 = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (0, "per ping", "network"))
+    avg0 = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (0, "per ping", "average"))
+    assert f"{100 * (1 - net0['beam_rmse'] / avg0['beam_rmse']):+.1f} %" in gains[2]
 
 
 def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():

@@ -38,8 +38,8 @@ def register(subparsers) -> None:
                         "--variant on the rest and score it against the average estimator on the held-out "
                         "recordings and V_test.npy; prints per-fold rows and the pooled / worst-fold table")
     p.add_argument("--variant", action="append", default=None,
-                   help="with --folds: training recipe to cross-validate (repeat; one of graphnav.nets.crossval.VARIANTS; "
-                        "default: shipped-recipe, akit, akit-residual, akit-residual-aug)")
+                   help="with --folds: training recipe to cross-validate (repeat; one of "
+                        "graphnav.nets.crossval.VARIANTS; default: shipped-recipe, akit, akit-residual, akit-residual-aug)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
     p.set_defaults(func=run)
 
@@ -102,6 +102,9 @@ def run_folds(args) -> int:
                 with open(args.json, "w") as fh:
                     json.dump(rows, fh, indent=1)
     print(crossval.format_fold_rows(rows))
+    print("\nGain of the network against the average per held-out A-KIT fold (beam / velocity RMSE):")
+    print(crossval.format_fold_gains(rows))
+    print("\nPooled over the folds, and the worst fold:")
     print(crossval.format_summary(crossval.summarise(rows)))
     return 0
 
