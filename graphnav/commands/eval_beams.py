@@ -39,7 +39,8 @@ def register(subparsers) -> None:
                         "recordings and V_test.npy; prints per-fold rows and the pooled / worst-fold table")
     p.add_argument("--variant", action="append", default=None,
                    help="with --folds: training recipe to cross-validate (repeat; one of "
-                        "graphnav.nets.crossval.VARIANTS; default: shipped-recipe, akit, akit-residual, akit-residual-aug)")
+                        "graphnav.nets.crossval.VARIANTS; default: shipped-recipe, akit, akit-residual, "
+                        "akit-residual-aug)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
     p.set_defaults(func=run)
 
