@@ -12,7 +12,9 @@ def register(subparsers) -> None:
                     "network and the average estimator, for 2 and 3 missing beams, on the validation split "
                     "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
                     "ping from the true past; 'outage 30 s' completes 30-ping outages recursively, as the "
-                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor).",
+                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor). --folds "
+                    "cross-validates training recipes instead, holding out whole trajectories: the numbers that "
+                    "predict unseen motion.",
 )
     p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped)")
     p.add_argument("--beamsnet", default=None, help="snapir-2021-beamsnet folder (default: GRAPHNAV_DATA)")
