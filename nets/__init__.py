@@ -11,6 +11,10 @@ otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-be
 ``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
 window, ``load_completer("auto")`` otherwise (:mod:`graphnav.nets.imu_auto`).
 
+``graphnav.nets.crossval`` cross-validates training recipes of the beam-only network against the average estimator
+with whole trajectories held out (``graphnav eval-beams --folds``); the hybrid graph methods complete with the
+average estimator because no recipe matched it in every held-out fold (``docs/decisions/completers.md``).
+
 The torch-based names are imported on first use, so ``from graphnav.nets import AverageCompleter`` does
 not load torch.
 """

@@ -60,9 +60,13 @@ class BeamRegressor(nn.Module):
         n_past: past window N (default 3 for 1-2 missing beams, 5 for 3).
         hidden: width of the hidden FC layer (16 in the paper).
         sigma_hidden: width of the sigma head's hidden layer.
+        residual: regress the change of each missing beam from its mean over the past window (the average
+            estimator's prediction) instead of its value; the output layer starts at zero, so an untrained
+            network is the average estimator and training departs from it only where that lowers the loss.
     """
 
-    def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 16, sigma_hidden: int = 16):
+    def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 16, sigma_hidden: int = 16,
+                 residual: bool = False):
         super().__init__()
         self.missing = normalize_missing(missing)
         self.kept = tuple(b for b in range(4) if b not in self.missing)
@@ -70,7 +74,7 @@ class BeamRegressor(nn.Module):
         if self.n_past < 1:
             raise ConfigError(f"n_past must be >= 1, got {n_past}")
         n_miss, n_kept, n_feat = len(self.missing), len(self.kept), 4 * self.n_past
-        self.hidden, self.sigma_hidden = hidden, sigma_hidden
+        self.hidden, self.sigma_hidden, self.residual = hidden, sigma_hidden, bool(residual)
         self.conv = nn.Conv1d(self.n_past, 2 * self.n_past, kernel_size=2, stride=2)
         self.fc1 = nn.Linear(n_feat, hidden)
         self.fc2 = nn.Linear(hidden, n_miss)
@@ -81,6 +85,9 @@ class BeamRegressor(nn.Module):
         self.register_buffer("beam_mean", torch.zeros(4))
         self.register_buffer("beam_std", torch.ones(4))
         self.register_buffer("sigma_floor", torch.tensor(1e-3))   # m/s, keeps the NLL finite
+        if self.residual:
+            nn.init.zeros_(self.out.weight)
+            nn.init.zeros_(self.out.bias)
 
     def set_normalisation(self, beams: torch.Tensor) -> None:
         """Per-beam mean and std of the training beams (S, 4), m/s."""
@@ -111,7 +118,8 @@ class BeamRegressor(nn.Module):
         out = self.out(torch.cat([hidden, p, m], dim=1))
         raw_sigma = self.sigma_head(torch.cat([y, p, m], dim=1))
         scale = self.beam_std[list(self.missing)]
-        beams = out * scale + self.beam_mean[list(self.missing)]
+        base = past.mean(1)[:, list(self.missing)] if self.residual else self.beam_mean[list(self.missing)]
+        beams = out * scale + base
         sigma = nn.functional.softplus(raw_sigma) * scale + self.sigma_floor
         return beams, sigma
 
@@ -121,5 +129,8 @@ class BeamRegressor(nn.Module):
 
     def architecture(self) -> dict:
         """Constructor arguments, for the model card."""
-        return {"missing": list(self.missing), "n_past": self.n_past, "hidden": self.hidden,
+        arch = {"missing": list(self.missing), "n_past": self.n_past, "hidden": self.hidden,
                 "sigma_hidden": self.sigma_hidden}
+        if self.residual:       # absent in the cards of networks that predict values
+            arch["residual"] = True
+        return arch

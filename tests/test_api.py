@@ -59,11 +59,14 @@ def test_readme_lists_the_public_names():
 def test_one_method_registry():
     from graphnav.evaluation import methods
     assert list(graphnav.METHODS) == ["LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC", "Graph-TC",
-                                      "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "HNTC-IMU",
+                                      "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "Graph-HN-net",
+                                      "Graph-HN-net-batch", "HNTC-IMU",
                                       "Graph-HNI", "Graph-HNI-batch", "LC-12", "TC-12", "Average-LC-12",
                                       "Average-TC-12", "HNLC-12", "HNTC-12"]
     m = graphnav.METHODS["Graph-HN-batch"]
-    assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "network", True)
+    assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "average", True)
+    m = graphnav.METHODS["Graph-HN-net-batch"]
+    assert (m.family, m.tight, m.completer, m.batch, m.experimental) == ("graph", True, "network", True, True)
     assert dict(graphnav.METHODS["Graph-MP"].defaults) == dict(methods.GRAPH_MP_OPTIONS)
     assert graphnav.METHODS["HNLC"].baseline == "LC" and graphnav.METHODS["Graph-HN"].average == "Average-TC"
     # the paper's 12-state EKF (no position or DVL error states): the method's own defaults plus the paper's,

@@ -33,6 +33,13 @@ def test_completer_registry(monkeypatch):
     for scenario, n in (("2-missing", 3), ("3-missing", 5), ("none", 5)):
         c, _ = methods.completer_for("Average-LC", scenario)
         assert isinstance(c, AverageCompleter) and c.n_past == n
+    # the hybrid graph methods default to the average estimator (out-of-fold choice, docs/decisions/completers.md)
+    assert methods.HYBRID_COMPLETER == "average"
+    for method in ("Graph-HN", "Graph-HN-batch"):
+        c, described = methods.completer_for(method, "3-missing")
+        assert isinstance(c, AverageCompleter) and c.n_past == 5 and described == "average(n_past=5)"
+    assert methods.get_method("Graph-HN-net").completer == "network"
+    assert "Graph-HN-net" not in methods.BENCH_METHODS and "Graph-HN" in methods.BENCH_METHODS
     assert methods.baseline_of("HNLC") == "LC" and methods.baseline_of("Graph-HN") == "TC"
     assert methods.average_of("Graph-HN-batch") == "Average-TC"
 
@@ -41,7 +48,7 @@ def test_completer_registry(monkeypatch):
 
     monkeypatch.setattr(methods, "_network", no_weights)
     with pytest.warns(RuntimeWarning, match="average estimator instead"):
-        c, described = methods.completer_for("Graph-HN", "3-missing")
+        c, described = methods.completer_for("Graph-HN-net", "3-missing")
     assert isinstance(c, AverageCompleter) and c.n_past == 5 and "fallback" in described
     with pytest.raises(Exception, match="unknown method"):
         methods.completer_for("EKF", "none")

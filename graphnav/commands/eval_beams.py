@@ -12,7 +12,9 @@ def register(subparsers) -> None:
                     "network and the average estimator, for 2 and 3 missing beams, on the validation split "
                     "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
                     "ping from the true past; 'outage 30 s' completes 30-ping outages recursively, as the "
-                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor).",
+                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor). --folds "
+                    "cross-validates training recipes instead, holding out whole trajectories: the numbers that "
+                    "predict unseen motion.",
 )
     p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped)")
     p.add_argument("--beamsnet", default=None, help="snapir-2021-beamsnet folder (default: GRAPHNAV_DATA)")
@@ -32,6 +34,16 @@ def register(subparsers) -> None:
     p.add_argument("--per-trajectory", action="store_true",
                    help="with --imu: also evaluate each trajectory alone and print the network-vs-average "
                         "summary per trajectory and pooled")
+    p.add_argument("--folds", action="store_true",
+                   help="leave-trajectories-out cross-validation instead: in each of 5 fixed folds (two A-KIT "
+                        "trajectories and one block of BeamsNet missions held out) train a network with "
+                        "--variant on the rest and score it against the average estimator on the held-out "
+                        "recordings and V_test.npy; prints per-fold rows and the pooled / worst-fold table")
+    p.add_argument("--variant", action="append", default=None,
+                   help="with --folds: training recipe to cross-validate (repeat; one of "
+                        "graphnav.nets.crossval.VARIANTS; default: shipped-recipe, akit, akit-residual, "
+                        "akit-residual-aug)")
+    p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
     p.set_defaults(func=run)
 
 
@@ -68,11 +80,45 @@ def run_imu(args) -> int:
     return 0
 
 
+def run_folds(args) -> int:
+    """``--folds``: the out-of-fold table of each training recipe."""
+    import sys
+
+    import torch
+
+    from graphnav.core.errors import ConfigError
+    from graphnav.nets import crossval
+
+    names = args.variant or list(crossval.DEFAULT_VARIANTS)
+    unknown = [v for v in names if v not in crossval.VARIANTS]
+    if unknown:
+        raise ConfigError(f"--variant {unknown[0]!r} unknown; choose from {list(crossval.VARIANTS)}")
+    torch.set_num_threads(args.threads)
+    data = crossval.load_fold_data(args.akit, args.beamsnet, args.beam_seed)
+    print(crossval.fold_table(data))
+    rows = []
+    for name in names:
+        for scen in args.scenario or ("2-missing", "3-missing"):
+            rows += crossval.crossval(data, scen, name, outage=not args.no_outage,
+                                      log=lambda msg: print(msg, file=sys.stderr, flush=True))
+            if args.json:
+                with open(args.json, "w") as fh:
+                    json.dump(rows, fh, indent=1)
+    print(crossval.format_fold_rows(rows))
+    print("\nGain of the network against the average per held-out A-KIT fold (beam / velocity RMSE):")
+    print(crossval.format_fold_gains(rows))
+    print("\nPooled over the folds, and the worst fold:")
+    print(crossval.format_summary(crossval.summarise(rows)))
+    return 0
+
+
 def run(args) -> int:
     from graphnav.commands.common import check_out_file
     from graphnav.nets.evaluate import evaluate_all, format_table
 
     check_out_file(args.json, force=True, option="--json")
+    if args.folds:
+        return run_folds(args)
     if args.imu:
         return run_imu(args)
     rows = evaluate_all(args.weights, args.beamsnet, args.akit, args.beam_seed,

@@ -53,6 +53,11 @@ def register(subparsers) -> None:
     p.add_argument("--imu-epochs", type=int, default=60, help="maximum epochs of the IMU-aware network (default 60)")
     p.add_argument("--imu-draws", type=int, default=6,
                    help="beam-noise draws of the training trajectories for the IMU-aware network (default 6)")
+    p.add_argument("--recipe", default=None, metavar="NAME",
+                   help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (e.g. akit-residual-aug) "
+                        "on all ten A-KIT trajectories and all of V.npy instead of the paper's BeamsNet split; "
+                        "--data is then the folder holding snapir-2022-akit and snapir-2021-beamsnet (default: "
+                        "GRAPHNAV_DATA); uses --scenario, --seed, --beam-seed, --threads, --out")
     p.set_defaults(func=run)
 
 
@@ -81,11 +86,39 @@ def run_imu(args, out: Path) -> list[Path]:
     return written
 
 
+def run_recipe(args, out: Path) -> list[Path]:
+    """``--recipe``: train a cross-validated recipe on every recording into ``out``; returns the files written."""
+    import torch
+
+    from graphnav.nets import crossval
+    from graphnav.nets.training import save
+
+    if args.recipe not in crossval.VARIANTS:
+        raise ConfigError(f"--recipe {args.recipe!r} unknown; choose from {list(crossval.VARIANTS)}")
+    if args.imu or args.missing is not None:
+        raise ConfigError("--recipe trains the beam-only 2-missing / 3-missing networks; drop --imu / --missing")
+    akit = beamsnet = None
+    if args.data:
+        akit, beamsnet = Path(args.data) / "snapir-2022-akit", Path(args.data) / "snapir-2021-beamsnet"
+    torch.set_num_threads(args.threads)
+    written = []
+    for scenario in args.scenario or ["2-missing", "3-missing"]:
+        result = crossval.train_final(scenario, args.recipe, akit, beamsnet, args.beam_seed, args.seed,
+                                      progress=not args.no_progress)
+        written += list(save(result, out))
+        print(f"{scenario}: recipe {args.recipe}, {result.card['training']['time_s']:.1f} s; "
+              f"chosen by {result.card['selected_by']}")
+    return written
+
+
 def run(args) -> int:
     from graphnav.commands.common import StagedOut
 
     with StagedOut(args.out, args.force) as staged:
-        written = run_imu(args, staged.path) if args.imu else run_beams(args, staged.path)
+        if args.recipe:
+            written = run_recipe(args, staged.path)
+        else:
+            written = run_imu(args, staged.path) if args.imu else run_beams(args, staged.path)
     finals = [Path(staged.final(p)) for p in written]
     print("wrote " + ", ".join(str(p) for p in finals))
     if args.install_weights:

@@ -12,8 +12,10 @@ LC-12, TC-12       EKF        none; the paper's 12-state filter (see below)
 Average-LC/-TC     EKF        :class:`graphnav.nets.AverageCompleter`
 HNLC, HNTC         EKF        the network completer for the scenario
 Graph-TC           graph      none (measured beams only, ISAM2 filtered output)
-Graph-HN           graph      the network completer (ISAM2 filtered output)
-Graph-HN-batch     graph      the network completer (batch smoothed)
+Graph-HN           graph      :data:`HYBRID_COMPLETER`: the average estimator (ISAM2 filtered output)
+Graph-HN-batch     graph      :data:`HYBRID_COMPLETER` (batch smoothed)
+Graph-HN-net,      graph      the network completer (ISAM2 filtered output / batch smoothed); experimental
+Graph-HN-net-batch
 Graph-TC-batch     graph      none (batch smoothed): what smoothing alone gives, without completions
 Graph-MP           graph      none; model-aided motion prior (body-velocity random walk, small
                               heave) at keyframes with fewer than 3 measured beams
@@ -105,6 +107,13 @@ EKF_PAPER_OPTIONS: Mapping = types.MappingProxyType({"position_states": False, "
 #: Name suffix of the paper's 12-state EKF methods.
 PAPER_SUFFIX = "-12"
 
+#: The completer of the hybrid graph methods (Graph-HN, Graph-HN-batch): the average estimator. Chosen by the
+#: leave-trajectories-out cross-validation of the completers (graphnav.nets.crossval, ``graphnav eval-beams
+#: --folds``; docs/decisions/completers.md): no beam-only network recipe was at least as good as the average
+#: estimator in every held-out fold of the ten A-KIT trajectories; the networks stay runnable as Graph-HN-net,
+#: Graph-HN-net-batch (and HNLC / HNTC, the paper's EKF hybrids).
+HYBRID_COMPLETER = "average"
+
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network", "imu-network")
 
@@ -192,14 +201,20 @@ _RECORDS = (
     *_EKF_RECORDS,
     Method("Graph-TC", "graph", tight=True, completer="none",
            description="factor graph (ISAM2, filtered output), measured beams only"),
-    Method("Graph-HN", "graph", tight=True, completer="network", defaults=GRAPH_HN_OPTIONS,
-           description="factor graph (ISAM2, filtered output) plus the network's screened regressed beams"),
-    Method("Graph-HN-batch", "graph", tight=True, completer="network", batch=True, defaults=GRAPH_HN_OPTIONS,
+    Method("Graph-HN", "graph", tight=True, completer=HYBRID_COMPLETER, defaults=GRAPH_HN_OPTIONS,
+           description="factor graph (ISAM2, filtered output) plus screened completed beams (average estimator)"),
+    Method("Graph-HN-batch", "graph", tight=True, completer=HYBRID_COMPLETER, batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN, then the batch smoother over the whole mission"),
     Method("Graph-TC-batch", "graph", tight=True, completer="none", batch=True,
            description="Graph-TC, then the batch smoother over the whole mission (no completions)"),
     Method("Graph-MP", "graph", tight=True, completer="none", defaults=GRAPH_MP_OPTIONS,
            description="Graph-TC with a motion prior at keyframes with fewer than 3 measured beams"),
+    Method("Graph-HN-net", "graph", tight=True, completer="network", defaults=GRAPH_HN_OPTIONS,
+           description="Graph-HN with the beam-only network's regressed beams; experimental (worse than the "
+                       "average estimator in some held-out folds)", experimental=True),
+    Method("Graph-HN-net-batch", "graph", tight=True, completer="network", batch=True, defaults=GRAPH_HN_OPTIONS,
+           description="Graph-HN-net, then the batch smoother over the whole mission; experimental",
+           experimental=True),
     Method("HNTC-IMU", "ekf", tight=True, completer="imu-network", defaults=EKF_HYBRID_OPTIONS,
            description="HNTC with the IMU-aware completer (beam-only without a 20 s IMU window); experimental",
            experimental=True),

@@ -1,0 +1,152 @@
+"""Tests of the leave-trajectories-out cross-validation of the beam completers (graphnav.nets.crossval)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from graphnav.nets import AverageCompleter, BeamRegressor, NetworkCompleter
+from graphnav.nets import crossval as cv
+from graphnav.nets import data as beamdata
+from graphnav.nets.evaluate import predict_completer
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
+from graphnav.core.errors import ConfigError
+
+
+def _series(name, n=160, seed=0, phase=0.0):
+    """Smooth synthetic DVL velocity (forward ~1.5 m/s, sway, heave) and beams made from it."""
+    t = np.arange(n, dtype=float) + phase
+    v = np.stack([1.5 + 0.3 * np.sin(t / 15), 0.2 * np.sin(t / 7), 0.05 * np.cos(t / 11)], axis=1)
+    return beamdata.BeamSeries(name, v, make_beams(v, DvlSpec(), seed))
+
+
+def test_akit_folds_hold_out_every_trajectory_exactly_once():
+    folds = cv.check_folds(cv.AKIT_FOLDS)
+    flat = [t for f in folds for t in f]
+    assert sorted(flat) == [1, 2, 3, 4, 5, 6, 8, 10, 11, 13]
+    assert len(folds) == 5 and all(len(f) == 2 for f in folds)
+    with pytest.raises(ConfigError, match="trajectory 3 is in folds 0 and 1"):
+        cv.check_folds([(1, 3), (3, 4)])
+    with pytest.raises(ConfigError, match="fold 1 holds no trajectory"):
+        cv.check_folds([(1,), ()])
+
+
+def test_fold_split_never_trains_on_a_held_out_recording():
+    akit = {t: [_series(f"Trajectory{t}", seed=t)] for t in (1, 2, 3, 4)}
+    bn = [[_series("V[0:160]", seed=10)], [_series("V[160:320]", seed=11)]]
+    data = cv.FoldData(akit, bn, [_series("V_test", seed=12)], cv.check_folds([(1, 3), (2, 4)]))
+    for i in range(2):
+        train, held = data.split(i)
+        train_names = {s.name for ss in train.values() for s in ss}
+        held_names = {s.name for ss in held.values() for s in ss}
+        assert not train_names & held_names
+        assert {s.name for s in held["A-KIT"]} == {f"Trajectory{t}" for t in data.folds[i]}
+        assert "V_test" in held_names and "V_test" not in train_names
+        assert train_names | held_names == {f"Trajectory{t}" for t in akit} | {"V[0:160]", "V[160:320]", "V_test"}
+
+
+def test_beamsnet_missions_are_found_at_velocity_jumps_and_blocks_are_contiguous():
+    rng = np.random.default_rng(0)
+    parts = [np.full((n, 3), lvl) + 0.05 * rng.standard_normal((n, 3)) for n, lvl in
+             ((300, 0.0), (200, 2.0), (500, 0.2))]
+    v = np.concatenate(parts)
+    missions = cv.beamsnet_missions(v)
+    assert [(m.start, m.stop) for m in missions] == [(0, 300), (300, 500), (500, 1000)]
+    blocks = cv.beamsnet_blocks(missions, 2)
+    flat = [p for b in blocks for p in b]
+    assert flat[0].start == 0 and flat[-1].stop == 1000
+    assert all(a.stop == b.start for a, b in zip(flat[:-1], flat[1:]))       # contiguous, no ping twice
+    assert blocks[0][-1].stop == 500             # the equal cut (500) is a mission boundary: kept whole
+
+
+def test_untrained_residual_network_is_the_average_estimator():
+    torch.manual_seed(0)
+    model = BeamRegressor("3-missing", residual=True)
+    model.set_normalisation(torch.as_tensor(_series("a").beams, dtype=torch.float32))
+    samples = beamdata.windows(_series("b", seed=3), model.n_past)
+    net = NetworkCompleter(model)
+    full_net, _ = cv.predict_batch(net, samples, model.missing)
+    full_avg, _ = cv.predict_batch(AverageCompleter(5), samples, model.missing)
+    np.testing.assert_allclose(full_net, full_avg, atol=1e-5)
+    assert BeamRegressor(**model.architecture()).residual
+
+
+@pytest.mark.parametrize("missing", ["2-missing", "3-missing"])
+def test_batch_prediction_matches_complete_ping_by_ping(missing):
+    torch.manual_seed(1)
+    model = BeamRegressor(missing)
+    train = _series("train", seed=1)
+    model.set_normalisation(torch.as_tensor(train.beams, dtype=torch.float32))
+    from graphnav.nets.training import training_envelope
+    env = training_envelope(train)
+    env["beam_max"][1] -= 0.15                   # some pings fall outside: filled by the average fallback
+    net = NetworkCompleter(model, card={"envelope": env})
+    samples = beamdata.windows(_series("eval", seed=2, phase=40.0), model.n_past)
+    for comp in (net, AverageCompleter(model.n_past)):
+        a = cv.predict_batch(comp, samples, model.missing)
+        b = predict_completer(comp, samples, model.missing)
+        np.testing.assert_allclose(a[0], b[0], atol=1e-6)
+        np.testing.assert_allclose(a[1], b[1], atol=1e-6)
+    assert 0 < net.fallbacks["envelope"] < len(samples)
+
+
+def test_protocol_on_tiny_synthetic_folds():
+    akit = {t: [_series(f"Trajectory{t}", seed=t, phase=13.0 * t)] for t in (1, 2, 3, 4)}
+    data = cv.FoldData(akit, [], [], cv.check_folds([(1, 2), (3, 4)]))
+    variant = cv.Variant("tiny", akit=True, residual=True, epochs=2, patience=1, sigma_epochs=1, batch_size=64)
+    rows = cv.crossval(data, "2-missing", variant)
+    assert {(r["fold"], r["mode"], r["method"]) for r in rows} == {
+        (f, m, k) for f in (0, 1) for m in ("per ping", "outage 30 s") for k in ("network", "average")}
+    # the average's per-ping numbers, computed here independently
+    for f, held in ((0, (1, 2)), (1, (3, 4))):
+        s = beamdata.windows([akit[t][0] for t in held], 3)
+        err = s.past.mean(axis=1)[:, [0, 2]] - s.beams[:, [0, 2]]
+        row = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (f, "per ping", "average"))
+        assert row["beam_rmse"] == pytest.approx(np.sqrt(np.mean(err ** 2)))
+        assert row["n"] == len(s)
+    summary = cv.summarise(rows)
+    per_ping = next(r for r in summary if r["mode"] == "per ping")
+    avg = [r for r in rows if r["mode"] == "per ping" and r["method"] == "average"]
+    pooled = np.sqrt(sum(r["beam_rmse"] ** 2 * r["n"] for r in avg) / sum(r["n"] for r in avg))
+    assert per_ping["beam_rmse_average"] == pytest.approx(pooled)
+    assert per_ping["beam_rmse_gain"] == pytest.approx(1 - per_ping["beam_rmse_network"] / pooled)
+    assert per_ping["beam_rmse_worst_gain"] <= per_ping["beam_rmse_gain"] + 1e-12
+    table = cv.format_summary(summary)
+    assert "| tiny | A-KIT | 2-missing | per ping |" in table
+    gains = cv.format_fold_gains(rows).splitlines()
+    assert len(gains) == 2 + 2 and gains[2].startswith("| tiny | 0 (1, 2) |")
+    net0 = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (0, "per ping", "network"))
+    avg0 = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (0, "per ping", "average"))
+    assert f"{100 * (1 - net0['beam_rmse'] / avg0['beam_rmse']):+.1f} %" in gains[2]
+
+
+def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():
+    s = _series("a")
+    variant = cv.Variant("aug", copies=2, yaw_deg=10.0, speed_scale=0.1)
+    out = cv.augment([s], variant, seed=0)
+    assert len(out) == 3 and out[0] is s
+    for c in out[1:]:
+        ratio = np.linalg.norm(c.v_b, axis=1) / np.linalg.norm(s.v_b, axis=1)
+        assert np.ptp(ratio) < 1e-9 and 0.9 <= ratio[0] <= 1.1
+        assert not np.allclose(c.beams, s.beams)
+
+
+def test_real_folds_and_final_training_round_trip(akit_dir, beamsnet_dir, tmp_path):
+    """On the shared data: the folds hold every A-KIT trajectory once and every V.npy ping once; a recipe
+    trained on everything saves a card that loads as a completer and says which protocol chose it."""
+    from graphnav.nets import load_completer
+    from graphnav.nets.training import save
+
+    data = cv.load_fold_data(akit_dir, beamsnet_dir)
+    assert sorted(data.akit) == [1, 2, 3, 4, 5, 6, 8, 10, 11, 13]
+    pings = [s.name for block in data.beamsnet for s in block]
+    edges = [tuple(int(x) for x in n.removeprefix("V[").removesuffix("]").split(":")) for n in pings]
+    assert edges[0][0] == 0 and all(a[1] == b[0] for a, b in zip(edges[:-1], edges[1:]))
+    assert edges[-1][1] == sum(len(s.beams) for block in data.beamsnet for s in block)
+    tiny = cv.Variant("tiny", akit=True, residual=True, epochs=1, patience=1, sigma_epochs=1, batch_size=256)
+    result = cv.train_final("2-missing", tiny, akit_dir, beamsnet_dir)
+    save(result, tmp_path)
+    completer = load_completer(2, directory=tmp_path)
+    assert completer.model.residual and "cross-validation" in completer.card["selected_by"]
+    assert completer.card["training"]["name"] == "tiny"
