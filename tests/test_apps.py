@@ -70,6 +70,11 @@ def test_smooth_outputs(tmp_path, capsys):
     assert acc["vrmse_mission_mps"] < 0.05
     assert [w["start_s"] for w in acc["windows"]] == [60.0]
     assert acc["windows"][0]["vrmse_window_mps"] < 0.05
+    # velocity, position and heading NEES with their bands, as the benchmark scores them
+    cons = acc["consistency"]
+    assert [cons[q]["dof"] for q in ("velocity", "position", "heading")] == [3, 2, 1]
+    assert all(0 < cons[q]["nees"] < 20 and cons[q]["band_95"][0] < cons[q]["dof"] < cons[q]["band_95"][1]
+               for q in cons)
     for name in ("trajectory_ne.png", "velocity_error.png", "velocity_std.png", "groundtruth.tum"):
         assert (out / name).stat().st_size > 0
     printed = capsys.readouterr().out

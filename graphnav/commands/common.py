@@ -16,6 +16,8 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
+
 from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
 from graphnav.estimators.health import EXIT_DIVERGED, run_health
@@ -128,7 +130,28 @@ def accuracy_summary(sol, mission, outages) -> dict:
         "windows": [{"start_s": o.start_s, "end_s": o.end_s, "missing_beams": [b + 1 for b in o.missing],
                      "vrmse_window_mps": float(vrmse(sol, mission.gt, o.start_s, o.end_s))} for o in outages],
         "final_horizontal_position_error_m": float(horizontal_position_error(sol, mission.gt, t_end)),
+        "consistency": consistency_summary(sol, mission),
     }
+
+
+def consistency_summary(sol, mission) -> dict:
+    """Velocity (3 dof), horizontal position (2 dof) and heading (1 dof) NEES over the mission after the
+    settling time against the IMU-carried reference, each with its 95 % chi-square band, as the benchmark
+    scores them (:func:`graphnav.evaluation.consistency.mission_nees`); None where the solution carries no
+    such covariance or the reference is too short to score."""
+    from graphnav.evaluation.consistency import DOF, HEADING_DOF, POSITION_DOF, chi2_band, mission_nees
+    try:
+        nees = mission_nees(sol, mission)
+    except (ValueError, IndexError):
+        return {"velocity": None, "position": None, "heading": None}
+    out = {}
+    for name, key, n_key, dof in (("velocity", "nees_mission", "nees_n_independent", DOF),
+                                  ("position", "nees_pos_mission", "nees_pos_n_independent", POSITION_DOF),
+                                  ("heading", "nees_heading_mission", "nees_heading_n_independent", HEADING_DOF)):
+        mean = nees.get(key)
+        out[name] = None if mean is None or not np.isfinite(mean) else {
+            "nees": float(mean), "dof": dof, "band_95": list(chi2_band(int(nees.get(n_key) or 1), dof))}
+    return out
 
 
 def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
@@ -173,6 +196,11 @@ def print_summary(summary: dict, file=None) -> None:
         for w in acc["windows"]:
             out(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")
+        cons = acc.get("consistency") or {}
+        if any(cons.values()):
+            out("  NEES (consistent = dof; 95 % band): " + ", ".join(
+                f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f})" if c else f"{name} -"
+                for name, c in cons.items()))
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
