@@ -2,7 +2,7 @@
 
 For each trajectory of an A-KIT folder, runs Graph-TC and its batch smoother (one run: the batch's first pass is
 Graph-TC) with the given GraphOptions / IMU noise scale and prints, against the IMU-carried reference
-(:func:`graphnav.evaluation.consistency.mission_reference`, epochs after 60 s):
+(:func:`graphnav.evaluation.consistency.scoring_reference`, epochs after 60 s):
 
 - ``nees`` and ``+GT`` (the GT's own velocity error added to the covariance: how much of the NEES the reference
   explains);
@@ -28,7 +28,7 @@ import numpy as np
 
 from graphnav.core.timeseries import interp_rows
 from graphnav.evaluation.bench import find_trajectories, natural_key, prepared_mission
-from graphnav.evaluation.consistency import NEES_SETTLE_S, mission_reference
+from graphnav.evaluation.consistency import NEES_SETTLE_S, scoring_reference
 from graphnav.evaluation.crossval import run_methods, with_imu_noise_scale
 from graphnav.evaluation.metrics import _window
 
@@ -67,7 +67,7 @@ def trajectory_report(source, graph: dict, scale: float) -> dict:
     gt_cov = np.diag(np.square(mission.meta.get("gt_velocity_sigma_n", (0.0, 0.0, 0.0))))
     out = {"trajectory": source.name, "time_offsets": mission.meta.get("time_offsets")}
     for name, sol in sols.items():
-        ref = mission_reference(sol, mission)
+        ref = scoring_reference(sol, mission)
         t, e, P, C = errors(sol, ref, t0)
         nees = nees_of(e, P)
         # yaw rate of the reference and depth at the epochs
