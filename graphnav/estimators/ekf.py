@@ -353,7 +353,6 @@ class ErrorStateEkf:
         self._F_ee = -self._skew_wie
         self._eye3 = np.eye(3)
         self._diag_nav = np.arange(self.n_nav)
-        self._diag_all = np.arange(self.n_states)
         self.n_updates = 0
         self.n_gated = 0
         self.health = NisMonitor(name, opts.health)
@@ -398,11 +397,13 @@ class ErrorStateEkf:
             term = term @ A / r
             Phi += term
         M = Phi * self.qd
-        Q = 0.5 * (M + np.swapaxes(M, 1, 2)) * dt[:, None, None]
+        Q = M + np.swapaxes(M, 1, 2)
+        Q *= 0.5 * dt3                  # scaling by 0.5 is exact: the same numbers as 0.5 (M + M^T) dt
         if self.position_states:
             # the paper's Q leaves the position block at zero, which with its velocity cross terms
             # (q_a dt^2 / 2) is indefinite; the integrated white acceleration's own term q_a dt^3 / 3 fixes it
-            Q[:, IP, IP] += np.eye(3) * (self.qd[0] * dt ** 3 / 3.0)[:, None, None]
+            diag_p = self._diag_nav[IP]
+            Q[:, diag_p, diag_p] += (self.qd[0] * dt ** 3 / 3.0)[:, None]
         return Phi, Q
 
     def predict(self, f_b: np.ndarray, omega_b: np.ndarray, dt: np.ndarray) -> None:
@@ -472,7 +473,7 @@ class ErrorStateEkf:
 
     def _predicted(self, model, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         C = self.state.C_b_n
-        dvl = np.r_[self.dvl_scale, self.beam_bias] if self.n_states > self.n_nav else None
+        dvl = np.concatenate((self.dvl_scale, self.beam_bias)) if self.n_states > self.n_nav else None
         p = model.predict(C, self.state.v_n, omega_b, self.bias_gyro, self.lever_arm_b, dvl)
         H = np.zeros((len(p.h), self.n_states))
         H[:, IV] = p.d_v()
