@@ -24,6 +24,8 @@ from graphnav.estimators.ekf import (
     EkfOptions,
     ErrorStateEkf,
     compose_transitions,
+    joseph_update,
+    so3_exp,
 )
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.runs import run_ekf
@@ -447,3 +449,67 @@ def test_navigator_fixes_update_the_15_state_filter_and_reset_the_paper_filter()
     np.testing.assert_allclose(north[12][1:], 8.0, atol=0.5)             # reset onto the fix
     assert np.all(north[15][1:] > 1.0) and np.all(north[15][1:] < 7.5)   # pulled part of the way
     assert north[15][-1] > north[15][1]                                  # more with every fix
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 4])
+def test_joseph_update_equals_the_textbook_product(m):
+    """The rank-m evaluation of the Joseph form is the textbook (I-KH) P (I-KH)^T + K R K^T, symmetrised."""
+    rng = np.random.default_rng(m)
+    n = 22
+    L = rng.normal(size=(n, n))
+    P = L @ L.T + n * np.eye(n)
+    H = rng.normal(size=(m, n))
+    R = np.diag(rng.uniform(0.1, 1.0, m))
+    K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
+    IKH = np.eye(n) - K @ H
+    ref = IKH @ P @ IKH.T + K @ R @ K.T
+    ref = 0.5 * (ref + ref.T)
+    out = joseph_update(P, K, H, R)
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    np.testing.assert_array_equal(out, out.T)
+    # a wrong sign or a missing K R K^T term is far outside that tolerance
+    assert np.abs(out - (IKH @ P @ IKH.T)).max() > 1e-3
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-7, 9e-5, 2e-4, 0.3, 2.5])
+def test_so3_exp_of_one_vector_equals_the_batch_formula(angle):
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    phi = axis * angle
+    np.testing.assert_allclose(so3_exp(phi), so3_exp_batch(phi[None])[0], rtol=0, atol=2e-16)
+    C = so3_exp(phi)
+    np.testing.assert_allclose(C @ C.T, np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(so3_log(C), phi, atol=1e-12)
+
+
+@pytest.mark.parametrize("position_states", [True, False])
+def test_transition_equals_the_truncated_series_of_f(position_states):
+    """Phi and Q built block by block are the documented ``sum (F dt)^r / r!`` and ``0.5 (Phi D + D Phi^T) dt``
+    (plus the position block), F assembled in full as in the module docstring."""
+    f, w, dt = _manoeuvre(n=23)
+    s0 = StrapdownState(0.0, euler_to_C_b_n(0.1, 0.2, -1.0), np.array([1.0, 0.2, 0.0]), np.array([5.0, -3.0, 40.0]))
+    ekf = ErrorStateEkf(SensorConfig(imu=imu_grade("mems")), s0, EkfOptions(position_states=position_states,
+                                                                             phi_order=3))
+    _, path = ekf.strapdown.propagate(ekf.state, f, w, dt)
+    Phi, Q = ekf.transition(path)
+    k = ekf.n_nav
+    wie = ekf.strapdown.omega_ie_n
+    Wie = np.array([[0.0, -wie[2], wie[1]], [wie[2], 0.0, -wie[0]], [-wie[1], wie[0], 0.0]])
+    for j in (0, 11, 22):
+        F = np.zeros((k, k))
+        fn = path.f_n[j]
+        F[IV, IV] = -2.0 * Wie
+        F[IV, IE] = -np.array([[0.0, -fn[2], fn[1]], [fn[2], 0.0, -fn[0]], [-fn[1], fn[0], 0.0]])
+        F[IV, IA] = -path.C_b_n[j]
+        F[IE, IE] = -Wie
+        F[IE, IG] = -path.C_b_n[j]
+        if position_states:
+            F[IV, IP] = ekf.strapdown.earth.gravity_gradient_n(path.p_n[0])
+            F[IP, IV] = np.eye(3)
+        A = F * dt[j]
+        Phi_ref = np.eye(k) + A + A @ A / 2 + A @ A @ A / 6
+        M = Phi_ref * ekf.qd
+        Q_ref = 0.5 * (M + M.T) * dt[j]
+        if position_states:
+            Q_ref[IP, IP] += np.eye(3) * ekf.qd[0] * dt[j] ** 3 / 3
+        np.testing.assert_allclose(Phi[j], Phi_ref, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(Q[j], Q_ref, rtol=1e-12, atol=1e-30)
