@@ -21,6 +21,7 @@ import numpy as np
 from graphnav.core.config import DvlSpec
 from graphnav.core.dvl import make_beams
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.folds import check_folds as core_check_folds
 
 from . import data as beamdata
 from .average import AVERAGE_N_PAST, AverageCompleter
@@ -90,17 +91,10 @@ DEFAULT_VARIANTS: tuple[str, ...] = ("shipped-recipe", "akit", "akit-residual", 
 
 
 def check_folds(folds) -> tuple[tuple[int, ...], ...]:
-    """``folds`` as tuples of trajectory numbers; raises :class:`ConfigError` when a fold is empty or a
-    trajectory is in two folds (a fold must hold out whole trajectories, each exactly once)."""
+    """``folds`` as tuples of trajectory numbers, checked by :func:`graphnav.core.folds.check_folds` (no empty
+    fold, no trajectory in two)."""
     folds = tuple(tuple(int(t) for t in f) for f in folds)
-    seen: dict[int, int] = {}
-    for i, fold in enumerate(folds):
-        if not fold:
-            raise ConfigError(f"fold {i} holds no trajectory")
-        for t in fold:
-            if t in seen:
-                raise ConfigError(f"trajectory {t} is in folds {seen[t]} and {i}; a trajectory must be held out once")
-            seen[t] = i
+    core_check_folds(folds)
     return folds
 
 

@@ -52,6 +52,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from graphnav.core.errors import ConfigError
+from graphnav.core.folds import check_folds
 from graphnav.core.mission import Mission
 
 #: Velocity NEES of a consistent 3-D estimate.
@@ -143,24 +144,6 @@ def make_folds(names: Sequence[str], n_folds: int) -> list[tuple[str, ...]]:
                           f"{len(names)} trajectories")
     ordered = sorted(names, key=natural_key)
     return [tuple(ordered[i::n_folds]) for i in range(n_folds)]
-
-
-def check_folds(folds: Sequence[Sequence[str]], names: Sequence[str] | None = None) -> None:
-    """Raise :class:`ConfigError` when a trajectory is in two folds, a fold is empty, or (with ``names``) a
-    trajectory of ``names`` is in no fold or a fold names one that is not in ``names``."""
-    seen: dict[str, int] = {}
-    for i, fold in enumerate(folds):
-        if not fold:
-            raise ConfigError(f"fold {i} is empty")
-        for n in fold:
-            if n in seen:
-                raise ConfigError(f"trajectory {n} is in folds {seen[n]} and {i}")
-            seen[n] = i
-    if names is not None:
-        missing, extra = sorted(set(names) - set(seen)), sorted(set(seen) - set(names))
-        if missing or extra:
-            raise ConfigError(f"folds do not match the trajectories: not in any fold {missing}, "
-                              f"not a trajectory {extra}")
 
 
 def folds_for(names: Sequence[str], n_folds: int = 5) -> list[tuple[str, ...]]:
