@@ -6,13 +6,12 @@ command and its settings, for ``graphnav results``) and PNG plots in
 """
 from __future__ import annotations
 
-import os
 import shlex
 import sys
 import time
 from pathlib import Path
 
-from graphnav.commands.common import HelpFormatter, methods_help
+from graphnav.commands.common import HelpFormatter, add_parallel_arguments, methods_help
 from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
 from graphnav.evaluation.methods import BENCH_METHODS, METHODS
 
@@ -45,12 +44,7 @@ def register(subparsers) -> None:
                    help="at most N windows per mission (evenly thinned); default: as many as fit")
     p.add_argument("--methods", nargs="+", default=list(BENCH_METHODS), choices=METHODS, metavar="METHOD",
                    help=f"methods to run ({methods_help()})")
-    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
-                   help="parallel worker processes (1 = run in this process)")
-    p.add_argument("--scheduler", metavar="ADDRESS|local",
-                   help="run the cases on a Dask cluster (dask.distributed): a scheduler address such as "
-                        "tcp://10.0.0.5:8786, or 'local' for a LocalCluster of --jobs worker processes; same "
-                        "results.json and --resume as the process pool (needs graphnav[dask])")
+    add_parallel_arguments(p, "cases")
     p.add_argument("--out", default="out/bench", metavar="DIR",
                    help="output folder (one that already holds files needs --resume or --force)")
     p.add_argument("--force", action="store_true",

@@ -246,6 +246,18 @@ def uncertainty_line(uncertainty: dict | None) -> str:
 
 
 # --- output folders ------------------------------------------------------------------------------------------
+def add_parallel_arguments(parser: argparse.ArgumentParser, what: str, jobs_note: str = "") -> None:
+    """``--jobs N`` (worker processes, default min(2, CPUs)) and ``--scheduler ADDRESS|local`` (a Dask cluster)
+    of the commands that run many independent ``what`` (cases, starts, trajectories) through
+    :func:`graphnav.evaluation.tasks.run_tasks`."""
+    parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
+                        help=f"parallel worker processes{jobs_note} (1 = run in this process)")
+    parser.add_argument("--scheduler", metavar="ADDRESS|local",
+                        help=f"run the {what} on a Dask cluster (dask.distributed): a scheduler address such as "
+                             "tcp://10.0.0.5:8786, or 'local' for a LocalCluster of --jobs worker processes; the "
+                             "same results as the process pool (needs graphnav[dask])")
+
+
 def add_out_arguments(parser: argparse.ArgumentParser, default: str | None, what: str = "output folder") -> None:
     """``--out DIR`` and ``--force`` (replace an existing, non-empty ``--out`` whole)."""
     parser.add_argument("--out", default=default, metavar="DIR", help=what)

@@ -7,10 +7,9 @@ The study is :mod:`graphnav.evaluation.consistency_study`; this module reads the
 """
 from __future__ import annotations
 
-import os
 import sys
 
-from graphnav.commands.common import HelpFormatter, methods_help
+from graphnav.commands.common import HelpFormatter, add_out_arguments, add_parallel_arguments, methods_help
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.evaluation.consistency_study import SETTINGS
 from graphnav.evaluation.methods import METHODS
@@ -63,15 +62,8 @@ def register(subparsers) -> None:
                    help="only print, per trajectory and method (all beams), the stamp offset of the estimate that "
                         "best explains its horizontal position error (error = offset + trend - v_gt * delta, "
                         "least squares) and the window %% DT as scored and with the stamps moved back by delta")
-    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
-                   help="parallel worker processes, one trajectory each (1 = run in this process)")
-    p.add_argument("--scheduler", metavar="ADDRESS|local",
-                   help="run the trajectories on a Dask cluster (as `bench --scheduler`; needs graphnav[dask])")
-    p.add_argument("--out", default="out/consistency", metavar="DIR",
-                   help="output folder (one that already holds files needs --force)")
-    p.add_argument("--force", action="store_true",
-                   help="replace an --out folder that already holds files (without it, such a folder is refused "
-                        "and kept)")
+    add_parallel_arguments(p, "trajectories", ", one trajectory each")
+    add_out_arguments(p, "out/consistency", "output folder (one that already holds files needs --force)")
     p.set_defaults(func=run)
 
 

@@ -6,13 +6,12 @@ finish (so ``--resume`` continues a sweep cut short) and writes the table to ``O
 """
 from __future__ import annotations
 
-import os
 import shlex
 import sys
 import time
 from pathlib import Path
 
-from graphnav.commands.common import HelpFormatter, methods_help
+from graphnav.commands.common import HelpFormatter, add_parallel_arguments, methods_help
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.evaluation.methods import BENCH_METHODS, METHODS
 
@@ -49,10 +48,7 @@ def register(subparsers) -> None:
     p.add_argument("--step", type=float, default=10.0, metavar="S", help="time between start times, s")
     p.add_argument("--length", type=float, default=60.0, metavar="S", help="data run after each start, s")
     p.add_argument("--window-s", type=float, default=30.0, metavar="S", help="scored window length, s")
-    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), metavar="N",
-                   help="parallel worker processes (1 = run in this process)")
-    p.add_argument("--scheduler", metavar="ADDRESS|local",
-                   help="run the starts on a Dask cluster (as `bench --scheduler`; needs graphnav[dask])")
+    add_parallel_arguments(p, "starts")
     p.add_argument("--out", default="out/start_sweep", metavar="DIR",
                    help="output folder (one that already holds files needs --resume or --force)")
     p.add_argument("--force", action="store_true",
