@@ -30,7 +30,7 @@ from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
 
 

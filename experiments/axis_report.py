@@ -19,13 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.io.loaders import (
-    AKIT_COLUMNS,
-    akit_files,
-    load_akit,
-    read_akit,
-    read_csv,
-)
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit, read_csv
+from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
 
 EXPECTED = {"published": (1, -1, 1), "y in body": (1, 1, 1)}

@@ -20,7 +20,7 @@ from graphnav.calibration.calibrate import calibrate
 from graphnav.estimators.runs import run_ekf, run_graph
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io import paths
-from graphnav.io.loaders import load_akit, load_mission
+from graphnav.missions import load_akit, load_mission
 
 
 def scores(mission) -> tuple[float, float]:

@@ -20,13 +20,9 @@ import numpy as np
 
 from graphnav.calibration.reference import dvl_consistency, gyro_attitude_error
 from graphnav.io import paths
-from graphnav.io.loaders import (
-    AKIT_COLUMNS,
-    akit_files,
-    gt_offset_drift,
-    load_akit,
-    read_csv,
-)
+from graphnav.calibration.preparation import gt_offset_drift
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
+from graphnav.missions import load_akit
 
 
 def error_after(m, duration=60.0, step=100.0):

@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.clock import estimate_dvl_clock_offset
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import attitude_error, heading_variance, yaw_jacobian
 from graphnav.evaluation.methods import check_method, run_method
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
 
 

@@ -36,7 +36,7 @@ def riverpro() -> None:
 
 
 def akit(data=None) -> None:
-    from graphnav.io.loaders import load_akit
+    from graphnav.missions import load_akit
     errors = []
     for folder in akit_trajectories(data):
         with warnings.catch_warnings():

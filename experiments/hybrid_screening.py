@@ -18,7 +18,7 @@ import numpy as np
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
 
 PLAIN = {"regressed_correlation": 0.0, "regressed_adaptive": False}

@@ -21,7 +21,7 @@ import numpy as np
 from graphnav.calibration.noise import identify
 from graphnav.evaluation.methods import network_completer
 from graphnav.evaluation.tasks import run_tasks
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
 
 

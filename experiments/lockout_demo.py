@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     from graphnav.estimators.ekf import EkfOptions
     from graphnav.estimators.runs import _initial_state, run_ekf
     from graphnav.evaluation.metrics import vrmse
-    from graphnav.io.loaders import load_mission
+    from graphnav.missions import load_mission
     from graphnav.io.paths import akit_dir, akit_trajectories
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

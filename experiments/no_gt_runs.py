@@ -30,7 +30,7 @@ import numpy as np
 
 from graphnav.cli import main as graphnav
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 from graphnav.io.outputs import read_trajectory_csv
 from graphnav.io.paths import akit_trajectories
 

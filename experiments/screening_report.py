@@ -27,7 +27,7 @@ import numpy as np
 from graphnav.core.screening import StreamScreen
 from graphnav.estimators.align import align_mission
 from graphnav.estimators.replay import replay
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
 
 

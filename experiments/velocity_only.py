@@ -55,7 +55,7 @@ def main(argv=None) -> None:
     for seed in args.seeds:
         missions.append((f"sim seed {seed}", simulate_mission(args.duration, seed=seed, config=config), True))
     if args.akit:
-        from graphnav.io.loaders import load_akit
+        from graphnav.missions import load_akit
         from graphnav.io.paths import akit_trajectories
         for n, folder in zip(args.akit, akit_trajectories(args.data, names=args.akit)):
             with warnings.catch_warnings():

@@ -5,7 +5,8 @@ The public API (the names of ``__all__``, each imported on first use so that ``i
 - :class:`Navigator`, :class:`NavigatorOptions`: the streaming backend a vehicle runs
   (:mod:`graphnav.estimators.navigator`); :class:`GraphOptions`, :class:`EkfOptions` configure its estimators.
 - :class:`Mission`, :class:`SensorConfig`, :class:`NavSolution`: the data model (:mod:`graphnav.core`);
-  :func:`load_mission` reads a recorded one (A-KIT folder, ROS 1/2 bag, PD0, CSV log), :func:`simulate_mission`
+  :func:`load_mission` reads a recorded one (A-KIT folder, ROS 1/2 bag, PD0, CSV log) and prepares it
+  (:func:`prepare`: IMU axes, time offsets and clocks estimated from the data), :func:`simulate_mission`
   makes one; :func:`read_dvl` reads a DVL log on its own (PD0/VmDAS in every RDI frame, a CSV of DVL
   velocities) into a :class:`~graphnav.core.dvl_log.DvlLog`.
 - :func:`run_method` runs a method of :data:`METHODS` (the registry: LC, TC, ..., Graph-HN-batch) on a mission.
@@ -23,7 +24,8 @@ _PUBLIC = {
     "core.mission": ("Mission",),
     "core.config": ("SensorConfig",),
     "core.solution": ("NavSolution",),
-    "io.loaders": ("load_mission",),
+    "missions": ("load_mission",),
+    "calibration.preparation": ("prepare",),
     "io.dvl_files": ("read_dvl",),
     "sim.simulate": ("simulate_mission",),
     "estimators.graph.options": ("GraphOptions",),

@@ -20,7 +20,7 @@ import numpy as np
 from graphnav.core.config import DvlSpec
 from graphnav.core.dvl import make_beams
 from graphnav.core.errors import DataError
-from graphnav.io.loaders import load_akit
+from graphnav.missions import load_akit
 
 from .data import BeamSamples, _data_dir
 from .imu_window import IMU_RATE_HZ, IMU_WINDOW_S, ImuFeatures, preintegrate

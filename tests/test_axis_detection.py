@@ -11,14 +11,8 @@ import pytest
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.io.loaders import (
-    AKIT_COLUMNS,
-    akit_files,
-    load_akit,
-    load_mission,
-    read_akit,
-    read_csv,
-)
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit, read_csv
+from graphnav.missions import load_akit, load_mission
 
 TRAJ = ("Trajectory2", "Trajectory11")   # Trajectory11: little roll, the accelerometer check is undecided
 

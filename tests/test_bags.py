@@ -13,7 +13,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io import bags
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
 T0_NS = 1_700_000_000_123_456_789

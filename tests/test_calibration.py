@@ -149,7 +149,8 @@ def test_real_data_estimates_near_readme_values(akit_dir):
     """Data README: lever arm close to [-1.86, -0.04, 0.2] m (relative to the published GT point),
     IMU-to-GT offset -0.5..0.5 s, the DVL leading the GT by 0.5..1.5 s. With the GT moved to the IMU point
     (the loader's default) the DVL lever arm comes out near zero."""
-    from graphnav.io.loaders import list_akit, load_akit
+    from graphnav.io.loaders import list_akit
+    from graphnav.missions import load_akit
     for folder in list_akit(akit_dir)[:4]:
         at_imu = calibrate(load_akit(folder), "gt")
         np.testing.assert_allclose(at_imu.lever_arm_b.value, 0.0, atol=0.2, err_msg=folder.name)
@@ -184,7 +185,7 @@ def test_graph_mode_without_gt_recovers_lever_arm_and_dvl_offset():
 
 def test_cli_writes_a_config_later_runs_accept(tmp_path, capsys):
     from graphnav.cli import main
-    from graphnav.io.loaders import load_mission
+    from graphnav.missions import load_mission
     out, report = tmp_path / "cal.json", tmp_path / "report.json"
     assert main(["calibrate", "--duration", "150", "--seed", "2", "--out", str(out), "--report", str(report)]) == 0
     text = capsys.readouterr().out
@@ -213,7 +214,8 @@ def test_ground_truth_at_another_point_is_its_kinematics():
 @pytest.mark.realdata
 def test_real_data_raw_y_axis_is_named_with_and_without_gt(akit_dir):
     """The published IMU files have y flipped: both checks name it (offsets fixed to skip "auto")."""
-    from graphnav.io.loaders import list_akit, load_akit
+    from graphnav.io.loaders import list_akit
+    from graphnav.missions import load_akit
     for folder in list_akit(akit_dir)[:3]:
         raw = load_akit(folder, imu_axis_signs=(1, 1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=1.0)
         with_gt, _ = check_imu_axes_with_gt(raw)

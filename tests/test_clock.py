@@ -13,7 +13,7 @@ from graphnav.calibration.clock import align_stream_clocks, estimate_dvl_clock_o
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 from graphnav.core.mission import DvlData
-from graphnav.io.loaders import load_akit, load_mission
+from graphnav.missions import load_akit, load_mission
 from graphnav.sim.simulate import simulate_mission
 
 DAYS6 = 6 * 86400.0

@@ -15,7 +15,8 @@ from graphnav.core.config import DvlSpec
 from graphnav.core.dvl import implausible_pings, screen_implausible
 from graphnav.evaluation import faults
 from graphnav.evaluation.methods import run_method
-from graphnav.io.loaders import akit_files, list_akit, load_akit, read_akit
+from graphnav.io.loaders import akit_files, list_akit, read_akit
+from graphnav.missions import load_akit
 
 
 def _series(n=60, seed=0):

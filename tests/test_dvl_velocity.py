@@ -33,7 +33,8 @@ from graphnav.estimators.navigator import Navigator, feed_mission
 from graphnav.estimators.replay import replay
 from graphnav.estimators.runs import initial_state, run_ekf, run_graph
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.streamio import StreamReader, feed, mission_records, write_records
+from graphnav.estimators.replay import mission_records
+from graphnav.io.streamio import StreamReader, feed, write_records
 from graphnav.sim.simulate import simulate_mission
 
 LEVER = np.array([-1.86, -0.04, 0.2])

@@ -140,7 +140,7 @@ def _akit_mission(tmp_path):
     """A 60 s simulated mission written in the A-KIT layout (GT at 10 Hz, pings 0.37 s off the GT stamps)
     and loaded back through the A-KIT loader with its own config."""
     from graphnav.io.export import write_akit
-    from graphnav.io.loaders import load_mission
+    from graphnav.missions import load_mission
     sim = simulate_mission(60.0, seed=3, dvl_stamp_offset_s=0.37)
     paths = write_akit(sim, tmp_path)
     folder = paths["IMU"].parent

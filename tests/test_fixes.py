@@ -12,7 +12,7 @@ from graphnav.core.errors import DataError
 from graphnav.core.mission import PositionFixData
 from graphnav.estimators.replay import replay
 from graphnav.evaluation.fixes import drift_before_surfacings, path_length, run_case, study_mission
-from graphnav.io.streamio import mission_records
+from graphnav.estimators.replay import mission_records
 from graphnav.sim.simulate import DEFAULT_ORIGIN_LLA, SurfacingProfile, simulate_mission
 
 #: A short mission with two surfacings: every 75 s, 20 s at the surface, survey at 6-8 m.

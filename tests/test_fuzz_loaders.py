@@ -19,7 +19,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from graphnav.core.errors import GraphnavError
-from graphnav.io.loaders import AKIT_COLUMNS, load_akit, read_csv
+from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+from graphnav.missions import load_akit
 
 READ_CSV_EXAMPLES = 1000
 LOAD_AKIT_EXAMPLES = 200

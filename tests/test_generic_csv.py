@@ -10,7 +10,7 @@ import pytest
 from graphnav import cli
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import C_b_n_to_euler
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
 T0 = 1_700_000_000.0   # Unix seconds, as loggers write them

@@ -21,7 +21,7 @@ from graphnav.estimators.health import (
 from graphnav.estimators.runs import _initial_state, run_ekf
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 
 
 @pytest.fixture(scope="module")

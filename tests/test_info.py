@@ -157,7 +157,8 @@ def test_info_on_akit_files_written_from_a_simulation(sim, tmp_path):
 
 
 def test_info_on_a_json_lines_stream(sim, tmp_path):
-    from graphnav.io.streamio import mission_records, write_records
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
     path = tmp_path / "stream.jsonl"
     with path.open("w") as fh:
         write_records(mission_records(sim), fh)
@@ -172,7 +173,8 @@ def test_info_on_a_json_lines_stream(sim, tmp_path):
 
 
 def test_cli_json_parses_and_exit_codes(sim, tmp_path, capsys):
-    from graphnav.io.streamio import mission_records, write_records
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
     path = tmp_path / "s.jsonl"
     with path.open("w") as fh:
         write_records(mission_records(sim), fh)

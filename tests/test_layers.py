@@ -13,14 +13,15 @@ PACKAGES = {"graphnav": "graphnav", "factors": "graphnav.factors", "nets": "grap
 #: Rank of each group: a module may import its own group and groups of lower rank only.
 LAYERS = {
     "graphnav.core": 0,
-    "graphnav.factors": 1, "graphnav.sim": 1,
-    "graphnav.estimators": 2,
-    "graphnav.calibration": 3,
-    "graphnav.io": 4,
-    "graphnav.nets": 5,
-    "graphnav.evaluation": 6,
-    "graphnav.commands": 7,
-    "graphnav.cli": 8, "graphnav.__main__": 9,
+    "graphnav.io": 1,
+    "graphnav.factors": 2, "graphnav.sim": 2,
+    "graphnav.estimators": 3,
+    "graphnav.calibration": 4,
+    "graphnav.missions": 5,
+    "graphnav.nets": 6,
+    "graphnav.evaluation": 7,
+    "graphnav.commands": 8,
+    "graphnav.cli": 9, "graphnav.__main__": 10,
 }
 
 

@@ -13,10 +13,10 @@ from graphnav.io.loaders import (
     AKIT_LEVER_ARM_B,
     beamsnet_split,
     list_akit,
-    load_akit,
     load_beamsnet,
     read_csv,
 )
+from graphnav.missions import load_akit
 
 
 def write_csv(path, columns, rows):

@@ -223,7 +223,8 @@ def test_status_while_aligning(tmp_path):
     import io
 
     from graphnav.estimators.navigator import Navigator
-    from graphnav.io.streamio import feed, mission_records
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import feed
     from graphnav.sim.simulate import simulate_mission
     mission = simulate_mission(40.0, seed=1)
     nav = Navigator(mission.config, "ekf", aligner_kwargs={"initial_heading_rad": 0.0})

@@ -17,7 +17,7 @@ import pytest
 
 from graphnav import cli
 from graphnav.core.errors import DataError
-from graphnav.io.loaders import load_mission
+from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
 pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed (scripts/setup_env.sh installs it)")

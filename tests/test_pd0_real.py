@@ -189,7 +189,7 @@ def test_a_file_named_pd0_without_ensembles_is_refused(tmp_path):
 def test_ship_frame_file_loads_as_a_mission_with_beams_and_three_beam_velocities(pd0_dir, tmp_path):
     """The mission path (a PD0 file plus an IMU CSV of the config) on a ship-frame file: beams recovered for
     4-beam pings, the 3-beam solutions as DVL-frame velocities, counted in meta['streams']."""
-    from graphnav.io.loaders import load_mission
+    from graphnav.missions import load_mission
     shutil.copyfile(pd0_dir / "winriver01.PD0", tmp_path / "dvl.PD0")
     t_dvl = _read(tmp_path / "dvl.PD0").t
     t = np.arange(t_dvl[0] - 1.0, t_dvl[-1] + 1.0, 0.01)

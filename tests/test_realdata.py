@@ -10,13 +10,9 @@ import numpy as np
 import pytest
 
 from graphnav.calibration.reference import dvl_consistency, gyro_check
-from graphnav.io.loaders import (
-    beamsnet_split,
-    gt_offset_drift,
-    list_akit,
-    load_akit,
-    load_beamsnet,
-)
+from graphnav.calibration.preparation import gt_offset_drift
+from graphnav.io.loaders import beamsnet_split, list_akit, load_beamsnet
+from graphnav.missions import load_akit
 
 pytestmark = pytest.mark.realdata
 

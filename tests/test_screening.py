@@ -218,7 +218,7 @@ def _edit_lines(path, edit):
 
 
 def _load(folder):
-    from graphnav.io.loaders import load_akit
+    from graphnav.missions import load_akit
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
         m = load_akit(folder)
@@ -406,7 +406,7 @@ def test_generic_csv_log_is_screened_like_akit(tmp_path):
     meta["streams"], the rest as written."""
     from types import SimpleNamespace
 
-    from graphnav.io.loaders import load_mission
+    from graphnav.missions import load_mission
     from tests.test_generic_csv import _config, _separate_files
     sim = simulate_mission(duration_s=40.0, seed=5)
     f_b = sim.imu.f_b.copy()

@@ -21,7 +21,8 @@ from graphnav.evaluation.startsweep import (
     run_start,
     start_times,
 )
-from graphnav.io.loaders import list_akit, load_mission
+from graphnav.io.loaders import list_akit
+from graphnav.missions import load_mission
 
 pytestmark = pytest.mark.realdata
 

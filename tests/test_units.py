@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from graphnav.core.errors import DataError
-from graphnav.io.loaders import AKIT_COLUMNS, akit_files, list_akit, load_akit, read_csv
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, list_akit, read_csv
+from graphnav.missions import load_akit
 from graphnav.io.units import (
     check_units,
     dvl_speed_scale,

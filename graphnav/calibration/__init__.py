@@ -1,9 +1,13 @@
 """Sensor calibration from recorded data: IMU axes, DVL lever arm and mounting, time offsets, noise densities.
 
+``prepare(mission)`` (module :mod:`graphnav.calibration.preparation`) is the step between reading and estimating:
+the IMU axes, time offsets and clocks a read mission needs, estimated from its data.
+
 ``calibrate(mission)`` (module :mod:`graphnav.calibration.calibrate`, whose name it shares) runs them all."""
 from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
+    "preparation": ("prepare",),
     "result": ("CalibrationResult",),
     "calibrate": ("calibrate_with_gt",),
     "without_gt": ("calibrate_with_graph",),

@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.earth import earth_rate_n
 from graphnav.core.errors import DataError
 from graphnav.core.rotations import skew
+from graphnav.core.timeseries import cumulative_integral  # noqa: F401  (re-exported for clock.py)
 from graphnav.core.timeseries import interp_rows  # noqa: F401  (re-exported for calibration.py)
 
 if TYPE_CHECKING:
@@ -51,17 +52,6 @@ class OffsetEstimate:
     rms: float
     n: int
     extra: dict = field(default_factory=dict)
-
-
-def cumulative_integral(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Running integral of IMU samples x (N,...) at stamps t (N,), starting at 0.
-
-    Sample j is held over ``[t_j, t_j+1)`` (zero-order hold, GTSAM's preintegration convention and the
-    simulator's increment convention), so offsets found with it are the ones the estimators need.
-    """
-    dt = np.diff(t).reshape((-1,) + (1,) * (x.ndim - 1))
-    steps = x[:-1] * dt
-    return np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(steps, axis=0)])
 
 
 def _search_offset(cost, lo: float, hi: float, step: float) -> tuple[float, float, float]:

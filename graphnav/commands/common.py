@@ -95,12 +95,15 @@ def aligner_kwargs(args) -> dict:
 
 
 def recorded_mission(args):
-    """The mission of ``--data``/``--config`` as recorded, or the simulated one of ``--seed``/``--duration``."""
-    from graphnav.io.loaders import load_mission
+    """The mission of ``--data``/``--config``, read and prepared (axis signs, time offsets and clocks estimated
+    from the data unless the configuration sets them), or the simulated one of ``--seed``/``--duration``."""
     if args.data is None:
-        return load_mission(None, args.config, duration_s=args.duration, seed=args.seed)
+        from graphnav.missions import simulated_mission
+        return simulated_mission(args.config, duration_s=args.duration, seed=args.seed)
+    from graphnav.calibration.preparation import prepare
     from graphnav.io.bags import parse_topics
-    return load_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None)))
+    from graphnav.io.loaders import read_mission
+    return prepare(read_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None))))
 
 
 def mission_from_args(args):

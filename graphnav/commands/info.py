@@ -28,10 +28,11 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from graphnav.calibration.preparation import prepare
     from graphnav.io.bags import parse_topics
     from graphnav.io.inspect import describe, format_description
     # readers that print progress (dolfyn's "Reading file ...") must not mix into the description
     with contextlib.redirect_stdout(sys.stderr):
-        desc = describe(args.path, args.config, parse_topics(args.topic))
+        desc = describe(args.path, args.config, parse_topics(args.topic), prepare=prepare)
     print(json.dumps(desc, indent=2) if args.json else format_description(desc))
     return 0 if desc["format"] is not None else 2

@@ -117,7 +117,8 @@ def run(args) -> int:
                                start_ne_m=args.start_ne, surfacing=surfacing)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
-        from graphnav.io.streamio import mission_records, write_records
+        from graphnav.estimators.replay import mission_records
+        from graphnav.io.streamio import write_records
         if args.stream == "-":
             write_records(mission_records(mission), sys.stdout)
         else:

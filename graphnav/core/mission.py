@@ -583,7 +583,7 @@ class Mission:
         t0, t1 = (imu_t[0], imu_t[-1]) if len(imu_t) else (np.inf, -np.inf)   # no IMU: every ping is outside
         outside = np.flatnonzero((dvl_t < t0) | (dvl_t > t1))
         far = np.any((dvl_t < t0 - OUTSIDE_SPAN_TOLERANCE_S) | (dvl_t > t1 + OUTSIDE_SPAN_TOLERANCE_S))
-        if outside.size and far:
+        if outside.size and far and self.meta.get("prepared", True):    # prepare may move the DVL clock
             span = f"[{t0:.3f}, {t1:.3f}]" if len(imu_t) else "[nan, nan]"
             warnings.warn(f"{self.dvl.source}: {outside.size} DVL ping(s) outside the IMU span {span} s (first at "
                           f"index {int(outside[0])}, t = {dvl_t[outside[0]]:.3f} s) cannot be used and are "

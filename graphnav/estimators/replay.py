@@ -20,6 +20,7 @@ already holds the depth and the ping of that stamp when the IMU sample that clos
 """
 from __future__ import annotations
 
+import math
 from typing import Iterator
 
 import numpy as np
@@ -90,3 +91,31 @@ def replay(mission: Mission, depth: bool = True, chunk: int = 20000, heading: bo
             columns.append(iter(list(zip(*(a[rows].tolist() for a in arrays)))))
         for w, stamp in zip(w_part.tolist(), t[part].tolist()):
             yield names[w], stamp, next(columns[w])
+
+
+def _finite_or_none(x: float):
+    return None if x is None or not math.isfinite(x) else x
+
+
+def mission_records(mission, config: bool = True) -> Iterator[dict]:
+    """A recorded mission as the records of the JSON-lines stream (:mod:`graphnav.io.streamio`: a config line
+    first, then its samples; never its ground truth)."""
+    if config:
+        yield {"type": "config", "config": mission.config.to_dict()}
+    for kind, t, payload in replay(mission):
+        if kind == "imu":
+            yield {"type": "imu", "t": t, "f_b": list(payload[0]), "omega_b": list(payload[1])}
+        elif kind == "dvl":
+            yield {"type": "dvl", "t": t, "beams": [_finite_or_none(b) for b in payload[0]],
+                   "valid": list(payload[1])}
+        elif kind == "dvl_velocity":
+            rec = {"type": "dvl_velocity", "t": t, "v_d": list(payload[0])}
+            if all(math.isfinite(x) for x in payload[1]):
+                rec["sigma"] = list(payload[1])
+            yield rec
+        elif kind == "heading":
+            yield {"type": "heading", "t": t, "yaw": payload[0], "sigma": payload[1]}
+        elif kind == "fix":
+            yield {"type": "fix", "t": t, "lat": payload[0], "lon": payload[1], "sigma_m": payload[2]}
+        else:
+            yield {"type": "depth", "t": t, "depth_m": payload[0]}

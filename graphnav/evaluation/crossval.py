@@ -287,7 +287,8 @@ def with_imu_noise_scale(mission: Mission, scale: float) -> Mission:
 def load_with_lever(source, dx: float, dy: float) -> Mission:
     """The A-KIT mission of ``source`` (a trajectory folder) loaded with the DVL ``dx``, ``dy`` m (body x, y)
     away from the loader's default lever arm (the GT stays at the IMU point)."""
-    from graphnav.io.loaders import akit_default_config, load_akit
+    from graphnav.io.loaders import akit_default_config
+    from graphnav.missions import load_akit
     if source.folder is None:
         raise ConfigError(f"{source.name}: the lever-arm parameters need an A-KIT folder")
     lever = akit_default_config().dvl.lever_arm_b + np.array([dx, dy, 0.0])

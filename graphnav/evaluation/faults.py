@@ -249,7 +249,7 @@ def write_and_load(mission: Mission, workdir: str | Path, damage: Callable[[dict
     load them back with :func:`graphnav.io.loaders.load_akit` (no time-offset estimation, FRD axes, GT at the
     IMU point: the simulated mission comes back as it went out)."""
     from graphnav.io.export import write_akit
-    from graphnav.io.loaders import load_akit
+    from graphnav.missions import load_akit
     paths = write_akit(mission, workdir)
     if damage is not None:
         damage(paths)
@@ -733,7 +733,8 @@ def make_workspace(root: str | Path, data: str | Path | None = None, trajectory:
     ``data`` (the shared data folder or its ``snapir-2022-akit``) the first :data:`REAL_DURATION_S` s of
     ``TrajectoryN``."""
     from graphnav.io.export import write_akit
-    from graphnav.io.streamio import mission_records, write_records
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     sim = simulate_mission_for_table(seed)
@@ -744,7 +745,7 @@ def make_workspace(root: str | Path, data: str | Path | None = None, trajectory:
     ws = Workspace(root, sim, paths["IMU"].parent, paths["config"], stream)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        from graphnav.io.loaders import load_mission
+        from graphnav.missions import load_mission
         ws.sim_folder_gt = load_mission(ws.sim_folder, ws.sim_config).gt
     if data is not None:
         ws.real_folder, ws.real_gt = _real_trajectory(Path(data), trajectory, root / "real")
@@ -769,7 +770,7 @@ def _data_child(data: Path, name: str) -> Path | None:
 
 def _real_trajectory(data: Path, number: int, out: Path):
     """Copy the first :data:`REAL_DURATION_S` s of A-KIT ``TrajectoryN`` under ``out``; (folder, its GT)."""
-    from graphnav.io.loaders import load_akit
+    from graphnav.missions import load_akit
     akit = _data_child(data, "snapir-2022-akit") or data
     src = akit / f"Trajectory{number}"
     if not src.is_dir():
@@ -1031,7 +1032,8 @@ def _live_stream_life(ws: Workspace, folder: Path) -> Plan:
     import sys
     import threading
     import time
-    from graphnav.io.streamio import mission_records, write_records
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
     from graphnav.sim.simulate import simulate_mission
     folder.mkdir(parents=True, exist_ok=True)
     live = simulate_mission(300.0, "navigation", seed=5, dvl_stamp_offset_s=0.37)

@@ -76,8 +76,9 @@ def load_reference_mission(ref: str | Path, config_path: str | Path | None = Non
             path.suffix.lower() == ".csv" and not (config_path and _has_csv_map(config_path))):
         sol = load_trajectory(path)
         return GroundTruth(sol.t, sol.p_n, sol.v_n, sol.C_b_n, None, str(path)), None
-    from graphnav.io.loaders import load_mission
-    mission = load_mission(path, config_path, topics=topics)
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.loaders import read_mission
+    mission = prepare(read_mission(path, config_path, topics=topics))
     if mission.gt is None:
         raise DataError("the mission has no reference trajectory (ground truth / reference Odometry topic)",
                         str(path), field="gt")

@@ -2,7 +2,7 @@
 from graphnav.core.lazy import lazy_exports as _lazy_exports
 
 _PUBLIC = {
-    "loaders": ("load_mission", "load_akit"),
+    "loaders": ("read_mission", "read_akit_mission"),
     "bags": ("load_bag", "write_odometry_bag"),
     "outputs": ("write_trajectory_csv", "read_trajectory_csv", "write_tum", "write_reference_tum", "read_tum",
                 "write_json", "EpochCsvWriter", "write_pose_covariance_csv", "read_pose_covariance_csv"),

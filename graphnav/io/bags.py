@@ -285,22 +285,6 @@ def _heading_stream(streams: dict[str, list[Stream]], topics: dict[str, str], im
     return ordered[0] if ordered else None
 
 
-def _warn_no_heading(config: SensorConfig, source: str, meta: dict) -> None:
-    """Said when the bag is loaded, not after an alignment fails: what to add for a heading."""
-    from graphnav.estimators.align import AlignOptions, gyrocompass_heading_terms
-    limit = gyrocompass_heading_terms(config, 1.0, 1, 0.0, config.lat_rad)["gyro_bias"]
-    can = limit <= AlignOptions().max_heading_sigma_rad
-    msg = ("no heading source in the bag (no sensor_msgs/Imu with its orientation filled, no Float64 topic named "
-           "heading, no PoseWithCovarianceStamped): the heading must come from gyrocompassing, which "
-           + (f"the configured gyro allows (bias limit {np.degrees(limit):.2f} deg)" if can else
-              f"the configured gyro cannot do (its bias alone gives {np.degrees(limit):.1f} deg; a MEMS or 10 Hz "
-              "IMU never can)")
-           + "; add an AHRS/compass topic (--topic heading=TOPIC) or give the initial heading")
-    add_note(meta, "heading", msg)
-    meta["heading_source"] = "none"
-    warnings.warn(f"{source}: {msg}", RuntimeWarning, stacklevel=3)
-
-
 def _apply_beam_geometry(config: SensorConfig, info: dict, source: str) -> SensorConfig:
     """The marine_acoustic_msgs message carries the beam geometry: use it (theta from the mean z component,
     psi per beam)."""
@@ -353,7 +337,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         heading = conv.heading(h, t0_ns, source, meta)
         meta["heading_source"] = f"{h.topic} ({h.msgtype})"
     else:
-        _warn_no_heading(config, source, meta)
+        meta["heading_source"] = "none"        # prepare says whether the configured gyro can gyrocompass
     gt = None
     if streams.get("gt"):
         g = streams["gt"][0] if "gt" in topics else _pick_one("gt", streams["gt"], source)
@@ -381,11 +365,10 @@ def _units_and_clocks(imu, dvl, depth, config: SensorConfig, meta: dict):
     bag stamps are nanoseconds by definition) and the DVL on the IMU clock, each change warned about and noted
     in meta. A DVL whose header clock is seconds or days away from the IMU's is first put on it through the
     recorder's receive clock, which every message shares (:func:`_receive_clock_shift`); the offset is then
-    estimated from the data themselves (:func:`graphnav.calibration.clock.align_stream_clocks`: DVL velocity
-    changes against the IMU's accelerations), applied where it is confident."""
+    estimated from the data themselves by :func:`graphnav.calibration.preparation.prepare` (``meta["prepare"]``:
+    DVL velocity changes against the IMU's accelerations), applied where it is confident."""
     import dataclasses as dc
 
-    from graphnav.calibration.clock import align_stream_clocks
     from graphnav.io.units import check_units
     checked = check_units({"imu": imu, "depth": depth}, config, meta, declared={"time": "s"})
     imu, depth = checked["imu"], checked["depth"]
@@ -397,7 +380,7 @@ def _units_and_clocks(imu, dvl, depth, config: SensorConfig, meta: dict):
         add_note(meta, "dvl", note)
         warnings.warn(f"{meta.get('source', 'bag')}: {note}", RuntimeWarning, stacklevel=3)
         meta.setdefault("clock_offsets", {})["dvl_from_receive_clock_s"] = -shift
-    dvl, depth = align_stream_clocks(imu, dvl, depth, meta, config)
+    meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto"})
     return imu, dvl, depth
 
 

@@ -36,8 +36,9 @@ what the file read and refused is in ``meta["streams"]``.
 
 Every stream ends on one clock starting at the first IMU stamp (``meta["t0_s"]`` keeps the offset). The DVL
 may run on a clock of its own (seconds or days away): with ``"dvl": {"clock": "auto"}`` (default) its offset
-is estimated from the data and applied (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in
-``meta["streams"]["dvl"]`` and ``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
+is estimated from the data and applied when the mission is prepared (:func:`graphnav.calibration.preparation.prepare`
+through :func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta["streams"]["dvl"]`` and
+``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
 IMU clock already.
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
 """
@@ -288,9 +289,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     clock = (cmap.get("dvl") or {}).get("clock", "auto")
     if clock not in ("auto", "imu"):
         raise ConfigError(f"csv_columns.dvl.clock = {clock!r}: choose auto or imu")
-    if clock == "auto":
-        from graphnav.calibration.clock import align_stream_clocks
-        dvl, depth = align_stream_clocks(imu, dvl, depth, meta, config)
+    # a DVL on a clock of its own is put on the IMU's by graphnav.calibration.preparation (estimated from the data)
+    meta.update(prepared=False, prepare={"format": "csv", "dvl_clock": clock})
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -91,7 +92,7 @@ def detect_format(path: str | Path, config: SensorConfig | None = None) -> str |
 
 # --- the description ---------------------------------------------------------------------------------------
 def describe(path: str | Path, config: SensorConfig | str | Path | None = None,
-             topics: dict[str, str] | None = None) -> dict:
+             topics: dict[str, str] | None = None, prepare: Callable | None = None) -> dict:
     """Describe ``path`` (module docstring).
 
     Args:
@@ -99,6 +100,9 @@ def describe(path: str | Path, config: SensorConfig | str | Path | None = None,
         config: a :class:`SensorConfig`, or the path of its JSON (the column map of a CSV log; the IMU that
             goes with a PD0 file).
         topics: bag stream -> topic overrides, as ``--topic``.
+        prepare: applied to a mission once read (``graphnav info`` passes
+            :func:`graphnav.calibration.preparation.prepare`: the axis signs, time offsets and clock offsets it
+            estimates are then described too); None describes the mission as read.
 
     Returns:
         A JSON-ready dict: ``path``, ``format`` (None: not a file graphnav knows), ``usable``, ``use`` (what
@@ -134,7 +138,7 @@ def describe(path: str | Path, config: SensorConfig | str | Path | None = None,
             elif fmt == "jsonl":
                 out.update(_describe_jsonl(path, config))
             else:
-                out.update(_describe_mission_path(path, config, config_path, topics))
+                out.update(_describe_mission_path(path, config, config_path, topics, prepare))
         except GraphnavError as exc:
             out.update(usable=False, reason=str(exc))
         except (OSError, UnicodeDecodeError, ValueError) as exc:    # a damaged file is described, not a traceback
@@ -188,21 +192,21 @@ def _depth_range(depth) -> dict | None:
 
 
 # --- missions (A-KIT, CSV, bags, PD0 with an IMU) ----------------------------------------------------------
-def _describe_mission_path(path: Path, config, config_path, topics) -> dict:
-    from graphnav.io.loaders import load_mission
-    mission = load_mission(path, config_path, topics=topics) if config is None or config_path is not None \
-        else _load_with_config(path, config, topics)
-    return describe_mission(mission)
+def _describe_mission_path(path: Path, config, config_path, topics, prepare) -> dict:
+    from graphnav.io.loaders import read_mission
+    mission = read_mission(path, config_path, topics=topics) if config is None or config_path is not None \
+        else _read_with_config(path, config, topics)
+    return describe_mission(mission if prepare is None else prepare(mission))
 
 
-def _load_with_config(path: Path, config: SensorConfig, topics):
-    """``load_mission`` for an in-memory configuration (it takes a JSON path)."""
+def _read_with_config(path: Path, config: SensorConfig, topics):
+    """``read_mission`` for an in-memory configuration (it takes a JSON path)."""
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "config.json"
         config.save(cfg)
-        from graphnav.io.loaders import load_mission
-        return load_mission(path, cfg, topics=topics)
+        from graphnav.io.loaders import read_mission
+        return read_mission(path, cfg, topics=topics)
 
 
 def _mission_instrument(mission) -> tuple[dict, str]:

@@ -323,23 +323,22 @@ def akit_files(folder: str | Path, require_gt: bool = True) -> dict[str, Path]:
 
 @dataclasses.dataclass
 class AkitRaw:
-    """The three A-KIT files as read (after stamp rescaling and IMU axis signs, before offsets)."""
+    """The three A-KIT files as read (after stamp rescaling, unit checks and screening; IMU axes as in the file,
+    no time offsets)."""
 
     imu: np.ndarray      # (N,7) t, f_b(3), omega_b(3)
     dvl: np.ndarray      # (M,4) t, v(3)
     gt: np.ndarray | None  # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw; None without a GT file
     files: dict
-    axis_signs: np.ndarray | None = None   # the signs applied to the raw IMU axes
-    axis_detection: object | None = None   # calibration.AxisDetection when imu_axis_signs="auto"
     meta: dict = dataclasses.field(default_factory=dict)   # "streams": read / refused per file, unit conversions
 
 
-def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool = True,
-              repair: bool = False, config: SensorConfig | None = None) -> AkitRaw:
-    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1-2 and 5).
+def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool = False,
+              config: SensorConfig | None = None) -> AkitRaw:
+    """Read and check the CSVs of one trajectory folder (see the module docstring, steps 1 and 5; the IMU axes
+    stay as in the file: :func:`graphnav.calibration.preparation.prepare` applies the signs).
 
-    ``imu_axis_signs``: a +-1 triple, or ``"auto"`` (detected, with a warning; module docstring step 2).
-    A folder without a GT file reads with ``gt=None`` (the axis detection then uses the IMU alone).
+    A folder without a GT file reads with ``gt=None``.
     ``config``: the sensor ranges and envelope the rows are screened with (default ``SensorConfig()``).
     """
     files = akit_files(folder, require_gt=False)
@@ -358,23 +357,7 @@ def read_akit(folder: str | Path, *, imu_axis_signs="auto", rescale_stamps: bool
         bad = refuse(meta, "gt", gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl), str(files["GT"]), line_offset=2)
         gt = gt[~bad]
     check_refused_fraction(meta)
-    detection = None
-    if isinstance(imu_axis_signs, str):
-        if imu_axis_signs != "auto":
-            raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
-        detection = detect_akit_axis_signs(imu, gt, str(files["IMU"]))
-        signs = detection.signs
-        if not detection.decided:
-            from graphnav.core.streams import add_note
-            add_note(meta, "imu", f"IMU axis convention undecided from the data; the configured "
-                     f"{tuple(int(x) for x in signs)} is used ({'; '.join(detection.notes)})")
-    else:
-        signs = np.asarray(imu_axis_signs, float).reshape(3)
-        if not np.all(np.abs(signs) == 1):
-            raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
-    imu[:, 1:4] *= signs
-    imu[:, 4:7] *= signs
-    return AkitRaw(imu, dvl, gt, files, np.asarray(signs, float), detection, meta)
+    return AkitRaw(imu, dvl, gt, files, meta)
 
 
 def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict) -> None:
@@ -411,55 +394,41 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
         a[:, 0] *= span / (span + step)
 
 
-def detect_akit_axis_signs(imu: np.ndarray, gt: np.ndarray | None, source: str):
-    """:func:`graphnav.calibration.axes.detect_imu_axis_signs` on raw A-KIT arrays (IMU (N,7), GT (K,10) or
-    None, stamps as read), with its warning. Adds ~0.1-0.3 s to a load (the GT offset it finds is reused)."""
-    from graphnav.calibration.axes import detect_imu_axis_signs
-    imu_data = ImuData(np.ascontiguousarray(imu[:, 0]), imu[:, 1:4], imu[:, 4:7], source=source)
-    gt_data, config = None, SensorConfig()
-    if gt is not None:
-        config.lat_rad = float(gt[0, 2])
-        config.gravity_mps2 = gravity_magnitude(gt[0, 2], float(np.mean(-gt[:, 3])))
-        gt_data = GroundTruth(gt[:, 0], np.zeros((len(gt), 3)), gt[:, 4:7],
-                              euler_to_C_b_n(gt[:, 7], gt[:, 8], gt[:, 9]))
-    detection = detect_imu_axis_signs(imu_data, config, gt_data, source)
-    warnings.warn(detection.message(source), UserWarning, stacklevel=3)
-    return detection
+#: Keys of a configuration file that :func:`graphnav.calibration.preparation.prepare` applies (a mission read from an
+#: A-KIT folder keeps them in ``meta["prepare"]["given"]`` until then).
+PREPARE_KEYS = ("imu_axis_signs", "gt_time_offset_s", "dvl_time_offset_s")
 
 
-def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: float | str = "auto",
-              gt_time_offset_s: float | str = "auto", lever_arm_b=None, beam_seed: int = 0,
-              config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
-              repair: bool = False, imu_position_b=None) -> Mission:
-    """Load one A-KIT trajectory folder as a :class:`Mission` on the IMU clock.
+def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 0,
+                      config: SensorConfig | None = None, name: str | None = None, rescale_stamps: bool = True,
+                      repair: bool = False, imu_position_b=None, given: dict | None = None) -> Mission:
+    """Read one A-KIT trajectory folder as a :class:`Mission` that is not yet prepared.
+
+    The streams are as the files hold them after the reading steps of the module docstring (stamps rescaled,
+    units checked, rows screened, GT in NED, beams made from the DVL velocity): IMU axes as in the file, no
+    time offsets added (``config.imu_axis_signs`` = (1, 1, 1), ``config.*_time_offset_s`` = 0), the GT and its
+    depth at the published GT point. ``meta["prepared"]`` is False and ``meta["prepare"]`` holds what
+    :func:`graphnav.calibration.preparation.prepare` needs: the IMU point ``imu_position_b`` (m, body frame) the GT
+    is moved to, the GT's mean depth (m, for the gravity of the axis check) and ``given`` (the axis signs and
+    time offsets a configuration file set; it uses them as given).
 
     Args:
         folder: ``.../TrajectoryN``.
-        imu_axis_signs: signs applied to the raw IMU x, y, z (accelerometer and gyro), or ``"auto"``
-            (detected at load time, with a warning; module docstring step 2).
-        dvl_time_offset_s: seconds added to the (rescaled) DVL stamps, or ``"auto"`` (estimated).
-        gt_time_offset_s: seconds added to the (rescaled) GT stamps, or ``"auto"`` (estimated).
-        lever_arm_b: DVL position relative to the IMU, body frame, m (used for the beams' geometry,
-            the config and the DVL offset estimate); None = the config's if one is given, else
-            ``AKIT_LEVER_ARM_B - imu_position_b`` (zero with the defaults).
+        lever_arm_b: DVL position relative to the IMU, body frame, m (the beams' geometry, the config and the DVL
+            offset estimate); None = the config's if one is given, else ``AKIT_LEVER_ARM_B - imu_position_b``
+            (zero with the defaults).
         beam_seed: seed of the beam error model.
-        config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry,
-            error model and IMU spec are kept, while lat, gravity, axis signs and offsets are set from
-            the data and the arguments above (:func:`load_mission` passes a config's offsets and signs).
+        config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry, error model
+            and IMU spec are kept, while lat and gravity are set from the GT.
         name: mission name (default: the folder name).
         rescale_stamps: fix the published stamps' period (module docstring, step 1).
         repair: drop duplicated stamps and sort (with a warning) instead of raising.
-        imu_position_b: IMU point relative to the published GT point, body frame, m; the returned GT is
-            moved there so that estimates and GT describe the same point. None = :data:`AKIT_IMU_POSITION_B`;
-            ``(0, 0, 0)`` keeps the GT at its published point (then the DVL lever arm is relative to it).
-
-    Returns:
-        Mission with ``meta`` keys ``source``, ``depth_source="gt"``, ``rescale_stamps``,
-        ``time_offsets`` (the estimates with their sigmas when "auto").
+        imu_position_b: IMU point relative to the published GT point, body frame, m (``prepare`` moves the GT
+            there). None = :data:`AKIT_IMU_POSITION_B`; ``(0, 0, 0)`` keeps the GT at its published point.
+        given: ``{key: value}`` of :data:`PREPARE_KEYS` a configuration file set (:func:`read_mission` passes them).
     """
     folder = Path(folder)
-    raw = read_akit(folder, imu_axis_signs=imu_axis_signs, rescale_stamps=rescale_stamps, repair=repair,
-                    config=config)
+    raw = read_akit(folder, rescale_stamps=rescale_stamps, repair=repair, config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))     # akit_default_config(), whose lever arm the rule below gives
     cfg.dvl = dataclasses.replace(cfg.dvl)
@@ -469,11 +438,12 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         lever_arm_b = (config.dvl.lever_arm_b if config is not None
                        else np.asarray(AKIT_LEVER_ARM_B) - imu_position_b)
     cfg.dvl.lever_arm_b = np.asarray(lever_arm_b, float).reshape(3)
+    cfg.imu_axis_signs = np.ones(3)          # the file's axes: prepare applies the signs
+    cfg.gt_time_offset_s = cfg.dvl_time_offset_s = 0.0
 
     # contiguous copies: np.interp on a strided 40k-sample column copies it at every call
     t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
     g = raw.gt
-    cfg.imu_axis_signs = raw.axis_signs
     if g is not None:
         lat0, lon0 = g[0, 2], g[0, 1]
         cfg.lat_rad = float(lat0)
@@ -481,9 +451,7 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
         # gravity at that origin: the Earth model adds its change with position and depth
         cfg.gravity_mps2 = gravity_magnitude(lat0, 0.0)
         p_n = lla_to_ned(g[:, 2], g[:, 1], g[:, 3], (lat0, lon0, 0.0))
-        v_n = g[:, 4:7]
         C_b_n = euler_to_C_b_n(g[:, 7], g[:, 8], g[:, 9])
-    lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
 
     # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
     # calibrated) and remove a calibrated scale error.
@@ -508,104 +476,34 @@ def load_akit(folder: str | Path, *, imu_axis_signs="auto", dvl_time_offset_s: f
                       RuntimeWarning, stacklevel=2)
         v_dvl[outside] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
     _note_dvl_outages(raw, v_dvl)
-
-    estimates = {}
-    detected = raw.axis_detection
     refused = _akit_refused(len(v_dvl), flagged, envelope, cfg.dvl)
-    if g is None:
-        return _mission_without_gt(folder, raw, cfg, v_dvl, envelope, dvl_time_offset_s, beam_seed, name,
-                                   rescale_stamps, refused)
-    if gt_time_offset_s == "auto" and detected is not None and detected.gt_offset is not None \
-            and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
-        gt_time_offset_s = detected.gt_offset.offset_s
-        estimates["gt"] = detected.gt_offset
-    if gt_time_offset_s == "auto":
-        from graphnav.calibration.reference import estimate_gt_time_offset
-        est = estimate_gt_time_offset(t_imu, omega_b, g[:, 0], C_b_n, lat_for_rate)
-        gt_time_offset_s = est.offset_s
-        estimates["gt"] = est
-    if g is not None:
-        from graphnav.calibration.reference import Reference, estimate_dvl_time_offset
-        ref = Reference(t_imu, f_b, omega_b, g[:, 0] + float(gt_time_offset_s), v_n, C_b_n,
-                        cfg.gravity_mps2, lat_for_rate, cfg.dvl)
-        auto = dvl_time_offset_s == "auto"
-        # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
-        coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg) if auto else float(dvl_time_offset_s)
-        try:
-            # against the published GT point the DVL sits at lever arm + IMU position
-            est = estimate_dvl_time_offset(ref, raw.dvl[:, 0] + coarse, v_dvl,
-                                           cfg.dvl.lever_arm_b + imu_position_b)
-        except DataError:
-            if auto:
-                raise
-            est = None          # a given offset the GT cannot check (too little overlap): the user's call
-        if est is not None:
-            # with a given offset too: a DVL in another frame follows the GT at no offset near it
-            _check_dvl_follows_gt(est.rms, raw.files["DVL"])
-        if auto:
-            est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
-            dvl_time_offset_s = est.offset_s
-            estimates["dvl"] = est
-    cfg.gt_time_offset_s = float(gt_time_offset_s)
-    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
 
-    t_gt = g[:, 0] + cfg.gt_time_offset_s
     src = {k: str(p) for k, p in raw.files.items()}
-    gt = GroundTruth(t_gt, p_n, v_n, C_b_n, (float(lat0), float(lon0), 0.0), source=src["GT"])
-    if np.any(imu_position_b):
-        from graphnav.calibration.reference import move_ground_truth
-        gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
-    depth = DepthData(t_gt, gt.p_n[:, 2].copy(), source=src["GT"])
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
     # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
                                                      beam_seed), np.nan)
-    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
-                  v_dvl, source=src["DVL"])
+    dvl = DvlData(raw.dvl[:, 0].copy(), beams, np.repeat(valid_ping[:, None], 4, axis=1), v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
+    gt = depth = None
+    if g is not None:
+        gt = GroundTruth(g[:, 0].copy(), p_n, g[:, 4:7], C_b_n, (float(lat0), float(lon0), 0.0), source=src["GT"])
+        depth = DepthData(gt.t, gt.p_n[:, 2].copy(), source=src["GT"])
+    given = {k: v for k, v in (given or {}).items() if k in PREPARE_KEYS}
     meta = {"streams": raw.meta.get("streams", {}),
-            "source": str(folder), "files": src, "depth_source": "gt", "rescale_stamps": rescale_stamps,
-            "beam_seed": beam_seed, "gt_point_b": imu_position_b.tolist(),
+            "source": str(folder), "files": src, "depth_source": "gt" if g is not None else None,
+            **({} if g is not None else {"ground_truth": False}),
+            "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
-            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
-                               "decided": None if detected is None else detected.decided},
-            "gt_velocity_sigma_n": list(AKIT_GT_VELOCITY_SIGMA_N),
-            "time_offsets": {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
-                             for k, e in estimates.items()}, **raw.meta}
-    _record_akit_streams(meta, imu, dvl, depth, gt, refused, cfg, rescale_stamps, estimates)
+            "prepared": False,
+            "prepare": {"format": "akit", "imu_position_b": imu_position_b.tolist(),
+                        "gt_mean_depth_m": None if g is None else float(np.mean(-g[:, 3])), "given": given},
+            **raw.meta}
+    if g is not None:
+        meta["gt_point_b"] = [0.0, 0.0, 0.0]          # the published point until prepared
+        meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
+    _record_akit_streams(meta, imu, dvl, depth, gt, refused, rescale_stamps)
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
-
-
-#: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
-#: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
-#: the one that starts at the surface); a DVL in another frame (axes swapped, a wrong C_d_b) or other units
-#: leaves residuals of the vehicle's speed, ~1 m/s. A bound, not a fit: 4.5x the worst clean trajectory.
-DVL_GT_RMS_MAX_MPS = 0.2
-
-
-def _check_dvl_follows_gt(rms: float, source) -> None:
-    """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`)."""
-    if rms > DVL_GT_RMS_MAX_MPS:
-        raise DataError(f"the DVL velocity does not follow the ground truth's body velocity at any time offset "
-                        f"(RMS residual {rms:.3g} m/s per axis at the best one; 0.007-0.044 m/s on the shared "
-                        "trajectories): the DVL is in another frame (axes swapped, dvl.C_d_b) or other units",
-                        str(source), field="DVL X/Y/Z")
-
-
-def _coarse_dvl_clock(t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, raw: AkitRaw, v_dvl: np.ndarray,
-                      cfg: SensorConfig) -> float:
-    """0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's clock offset
-    from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``raw.meta``), or
-    DataError when it cannot be found."""
-    t_dvl = raw.dvl[:, 0]
-    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
-        return 0.0
-    from graphnav.calibration.clock import align_stream_clocks
-    n = len(t_dvl)
-    dvl = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v_dvl, source=str(raw.files["DVL"]))
-    aligned, _ = align_stream_clocks(ImuData(t_imu, f_b, omega_b, str(raw.files["IMU"])), dvl, None, raw.meta,
-                                     cfg)
-    return float(aligned.t[0] - t_dvl[0])
 
 
 def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str, np.ndarray]:
@@ -620,24 +518,16 @@ def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str
     return out
 
 
-def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, cfg: SensorConfig, rescale_stamps: bool,
-                         estimates: dict) -> None:
-    """``meta["streams"]`` of an A-KIT mission: counts, refusals and what the loader did to each stream."""
-    from graphnav.core.streams import add_note
+def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, rescale_stamps: bool) -> None:
+    """``meta["streams"]`` of an A-KIT mission as read: counts, refusals and what the reader did to each stream
+    (``prepare`` adds the axis signs and time offsets)."""
     from graphnav.io.stream_counts import record_streams
     record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused)
     if rescale_stamps:
         for stream in ("imu", "dvl", "gt"):
             if stream in meta["streams"]:
                 add_note(meta, stream, "stamps rescaled by (N-1)/N (the published linspace(0, 400, N) period)")
-    signs = meta["imu_axis_signs"]
-    add_note(meta, "imu", f"axis signs {signs['signs']} applied to accelerometer and gyro"
-                          + (" (detected at load time)" if signs["detected"] else " (given)"))
     add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no beams)")
-    for stream, offset in (("dvl", cfg.dvl_time_offset_s), ("gt", cfg.gt_time_offset_s)):
-        if stream in meta["streams"]:
-            how = "estimated against the GT" if stream in estimates else "given or the vehicle's default"
-            add_note(meta, stream, f"time offset {offset:+.3f} s added ({how})")
     if depth is not None:
         add_note(meta, "depth", "depth is the GT's altitude (the files carry no depth sensor)")
 
@@ -650,60 +540,6 @@ def _note_dvl_outages(raw: AkitRaw, v_dvl: np.ndarray) -> None:
     rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     note_outages(raw.meta, t, usable, rate, str(raw.files["DVL"]))
     check_refused_fraction(raw.meta)
-
-
-def _mission_without_gt(folder: Path, raw: AkitRaw, cfg: SensorConfig, v_dvl: np.ndarray, envelope: dict,
-                        dvl_time_offset_s, beam_seed: int, name: str | None, rescale_stamps: bool,
-                        refused: dict | None = None) -> Mission:
-    """An A-KIT folder with IMU and DVL files only, as a vehicle has them: no ground truth, no depth (the
-    published depth is the GT's), latitude and gravity from the configuration, and the DVL time offset
-    given, or :data:`AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated against a missing GT)."""
-    t_imu, f_b, omega_b = (np.ascontiguousarray(raw.imu[:, sl]) for sl in (0, slice(1, 4), slice(4, 7)))
-    coarse = _coarse_dvl_clock(t_imu, f_b, omega_b, raw, v_dvl, cfg) if dvl_time_offset_s == "auto" else 0.0
-    if dvl_time_offset_s == "auto" and coarse:
-        dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
-    if dvl_time_offset_s == "auto":
-        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
-        warnings.warn(f"{folder}: no GT file, so the DVL time offset cannot be estimated; using this vehicle's "
-                      f"{AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared trajectories, "
-                      "spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
-                      RuntimeWarning, stacklevel=3)
-    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
-    cfg.gt_time_offset_s = 0.0
-    valid_ping = np.all(np.isfinite(v_dvl), axis=1)
-    beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
-                                                     beam_seed), np.nan)
-    src = {k: str(p) for k, p in raw.files.items()}
-    dvl = DvlData(raw.dvl[:, 0] + cfg.dvl_time_offset_s, beams, np.repeat(valid_ping[:, None], 4, axis=1),
-                  v_dvl, source=src["DVL"])
-    imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
-    detected = raw.axis_detection
-    meta = {"streams": raw.meta.get("streams", {}),
-            "source": str(folder), "files": src, "depth_source": None, "ground_truth": False,
-            "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
-            "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
-            "imu_axis_signs": {"signs": raw.axis_signs.tolist(), "detected": detected is not None,
-                               "decided": None if detected is None else detected.decided},
-            "time_offsets": {}, **raw.meta}
-    _record_akit_streams(meta, imu, dvl, None, None, refused or {}, cfg, rescale_stamps, {})
-    return Mission(name or folder.name, imu, dvl, cfg, None, None, meta)
-
-
-def gt_offset_drift(folder: str | Path, rescale_stamps: bool, window: int = 100) -> float:
-    """Drift of the IMU-to-GT time offset over a trajectory, s per s (the check behind ``rescale_stamps``).
-
-    The offset is estimated in consecutive ``window``-sample GT windows and a line is fitted through them:
-    with the published ``linspace`` stamps it drifts by about -2.5 ms/s, with rescaled stamps by ~0.
-    """
-    from graphnav.calibration.reference import estimate_gt_time_offset
-    raw = read_akit(folder, rescale_stamps=rescale_stamps)
-    C_b_n = euler_to_C_b_n(raw.gt[:, 7], raw.gt[:, 8], raw.gt[:, 9])
-    t_imu, omega_b = np.ascontiguousarray(raw.imu[:, 0]), raw.imu[:, 4:7]
-    starts = range(0, len(raw.gt) - window + 1, window)
-    mid = [raw.gt[s + window // 2, 0] for s in starts]
-    offsets = [estimate_gt_time_offset(t_imu, omega_b, raw.gt[s:s + window, 0], C_b_n[s:s + window]).offset_s
-               for s in starts]
-    return float(np.polyfit(mid, offsets, 1)[0])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -744,38 +580,44 @@ def beamsnet_split(V: np.ndarray, train_fraction: float = BEAMSNET_TRAIN_FRACTIO
 
 
 # ------------------------------------------------------------------------------------------------
-# The entry point of the CLI commands
+# The reading entry point of the CLI commands
 # ------------------------------------------------------------------------------------------------
-def load_mission(data: str | Path | None = None, config_path: str | Path | None = None,
-                 topics: dict[str, str] | None = None, **sim_kwargs) -> Mission:
-    """The mission a ``graphnav`` command works on.
+def read_mission(data: str | Path, config_path: str | Path | None = None,
+                 topics: dict[str, str] | None = None, **akit_kwargs) -> Mission:
+    """Read the recorded mission a ``graphnav`` command works on; nothing is estimated.
 
     Args:
-        data: what to load, by its form:
+        data: what to read, by its form:
 
-            * None: the simulated default mission;
             * a ROS bag, recognised by its content: ROS 1, MCAP, sqlite3 or a rosbag2 folder
               (:func:`graphnav.io.bags.load_bag`);
             * a Teledyne RDI PD0 file, recognised by content (``.pd0``, ``.000``, VmDAS ``.ENR/.ENS/.ENX``, any
               name), in any RDI frame (:func:`graphnav.io.generic_csv.load_pd0`);
             * a ``.csv`` file or a folder, read through the ``csv_columns`` map of the configuration
               (:func:`graphnav.io.generic_csv.load_csv_mission`);
-            * an A-KIT ``TrajectoryN`` folder.
+            * an A-KIT ``TrajectoryN`` folder (:func:`read_akit_mission`).
         config_path: a SensorConfig JSON (e.g. written by ``graphnav calibrate``) or None.
         topics: bag stream -> topic overrides (``{"imu": "/imu/data"}``); bags only.
-        **sim_kwargs: passed to :func:`graphnav.sim.simulate.simulate_mission` when ``data`` is None, or to
-            :func:`load_akit` otherwise (e.g. ``beam_seed``).
+        **akit_kwargs: passed to :func:`read_akit_mission` (e.g. ``beam_seed``); A-KIT folders only.
 
     A configuration file may be partial: the keys it sets replace the loader's defaults one by one and the
     others stay the loader's (``{}`` is no configuration). On A-KIT folders the defaults are
-    :func:`akit_default_config` with the axis signs and time offsets estimated at load time; a config that
-    sets ``imu_axis_signs``, ``gt_time_offset_s`` or ``dvl_time_offset_s`` fixes them instead (the config is the
-    calibration). A key the data itself replaces (e.g. the latitude from the ground truth) is warned about.
+    :func:`akit_default_config`; the ``imu_axis_signs``, ``gt_time_offset_s`` or ``dvl_time_offset_s`` a config
+    sets are kept in ``meta["prepare"]["given"]`` for :func:`graphnav.calibration.preparation.prepare`, which applies
+    them instead of estimating them (the config is the calibration). A key the data itself replaces (e.g. the
+    latitude from the ground truth) is warned about.
+
+    Returns:
+        A mission with ``meta["prepared"]`` False: :func:`graphnav.calibration.preparation.prepare` puts its
+        streams on the IMU clock and axes (what it estimates is listed in its docstring).
     """
+    if data is None:
+        raise ConfigError("read_mission reads recorded data; the simulated default mission is "
+                          "graphnav.load_mission(None) (graphnav.sim.simulate.simulate_mission)")
     overrides = read_config(config_path) if config_path else None
-    mission = _load(data, overrides, topics, sim_kwargs)
+    mission = _read(data, overrides, topics, akit_kwargs)
     if overrides:
-        _warn_replaced(overrides, mission)
+        warn_replaced(overrides, mission)
     return mission
 
 
@@ -787,50 +629,43 @@ def akit_default_config() -> SensorConfig:
     return cfg
 
 
-def _load(data, overrides: ConfigOverrides | None, topics, sim_kwargs) -> Mission:
-    """The mission of :func:`load_mission`, each loader's defaults overridden by the keys a config sets."""
+def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Mission:
+    """The mission of :func:`read_mission`, each loader's defaults overridden by the keys a config sets."""
     def over(base: SensorConfig) -> SensorConfig | None:
         return overrides.over(base) if overrides else None
 
-    if data is None:
-        from graphnav.sim.simulate import default_config, simulate_mission
-        config = over(default_config())
-        if config is not None:
-            sim_kwargs.setdefault("config", config)
-        return simulate_mission(**sim_kwargs)
     path = Path(data)
     from graphnav.io import bags, generic_csv, pd0
     if topics and not bags.is_bag(path):
         raise ConfigError(f"--topic applies to ROS bags only; {path} is not one")
-    from graphnav.io.stream_counts import record_outside_span
+    if akit_kwargs and (bags.is_bag(path) or pd0.is_pd0(path) or not path.is_dir()):
+        raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only; {path} is not one")
     config = over(SensorConfig())
     if bags.is_bag(path):
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
         atm = bool(overrides) and overrides.sets("atmospheric_pressure_pa")
-        mission = screen_mission(bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm))
-    elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
-        mission = screen_mission(generic_csv.load_pd0(path, config))
-    elif generic_csv.uses_column_map(path, config):
-        mission = screen_mission(generic_csv.load_csv_mission(path, config))
-    elif not path.is_dir():
+        return screen_mission(bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm))
+    if pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
+        return screen_mission(generic_csv.load_pd0(path, config))
+    if generic_csv.uses_column_map(path, config):
+        return screen_mission(generic_csv.load_csv_mission(path, config))
+    if not path.is_dir():
         raise DataError("data folder not found", str(path))
-    else:
-        config = over(akit_default_config())
-        if config is not None:
-            if overrides.sets("imu_axis_signs"):     # else the load-time detection decides
-                sim_kwargs.setdefault("imu_axis_signs", tuple(config.imu_axis_signs))
-            for key in ("gt_time_offset_s", "dvl_time_offset_s"):    # else estimated at load time
-                if overrides.sets(key):
-                    sim_kwargs.setdefault(key, getattr(config, key))
-        mission = load_akit(path, config=config, **sim_kwargs)
-    record_outside_span(mission)
-    return mission
+    config = over(akit_default_config())
+    given = {}
+    if config is not None:
+        given = {key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
+                 for key in PREPARE_KEYS if overrides.sets(key)}
+    return read_akit_mission(path, config=config, given=given, **akit_kwargs)
 
 
-def _warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
-    """Warn (and note in the mission's streams) every configuration key the loader replaced from the data."""
-    from graphnav.core.streams import add_note
+def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
+    """Warn (and note in the mission's streams) every configuration key the loader replaced from the data (the
+    keys ``prepare`` applies are kept for it, not replaced)."""
+    pending = mission.meta.get("prepare", {}).get("given", {})
     for key, given, used in overrides.differences(mission.config):
+        if key in pending:
+            continue
         note = (f"{overrides.source}: key '{key}' = {np.round(given, 6).tolist() if isinstance(given, np.ndarray) else given}"
                 f" replaced by {np.round(used, 6).tolist() if isinstance(used, np.ndarray) else used} from the data")
         warnings.warn(note, RuntimeWarning, stacklevel=3)
@@ -883,4 +718,5 @@ def screen_mission(mission: Mission) -> Mission:
     if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
         return mission
     return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
+
 

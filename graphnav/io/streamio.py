@@ -62,7 +62,6 @@ import numpy as np
 
 from graphnav.core.config import ConfigOverrides
 from graphnav.core.errors import ConfigError
-from graphnav.estimators.replay import replay
 from graphnav.io.units import DECLARED_UNITS
 
 #: Fields each record type needs (besides ``type``).
@@ -78,33 +77,6 @@ MAX_STAMP_S = 1e10
 MAX_RATE_RADPS = 10.0
 MIN_ACCEL_MPS2 = 3.0
 MAX_ACCEL_MPS2 = 50.0
-
-
-def _num(x: float):
-    return None if x is None or not math.isfinite(x) else x
-
-
-def mission_records(mission, config: bool = True) -> Iterator[dict]:
-    """A recorded mission as stream records (a config line first, then its samples; never its ground
-    truth)."""
-    if config:
-        yield {"type": "config", "config": mission.config.to_dict()}
-    for kind, t, payload in replay(mission):
-        if kind == "imu":
-            yield {"type": "imu", "t": t, "f_b": list(payload[0]), "omega_b": list(payload[1])}
-        elif kind == "dvl":
-            yield {"type": "dvl", "t": t, "beams": [_num(b) for b in payload[0]], "valid": list(payload[1])}
-        elif kind == "dvl_velocity":
-            rec = {"type": "dvl_velocity", "t": t, "v_d": list(payload[0])}
-            if all(math.isfinite(x) for x in payload[1]):
-                rec["sigma"] = list(payload[1])
-            yield rec
-        elif kind == "heading":
-            yield {"type": "heading", "t": t, "yaw": payload[0], "sigma": payload[1]}
-        elif kind == "fix":
-            yield {"type": "fix", "t": t, "lat": payload[0], "lon": payload[1], "sigma_m": payload[2]}
-        else:
-            yield {"type": "depth", "t": t, "depth_m": payload[0]}
 
 
 def write_records(records, out: IO[str]) -> int:

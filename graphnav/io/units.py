@@ -127,8 +127,7 @@ def gyro_tilt_scale(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tupl
     t = np.asarray(t, float)
     if t.size < 3 or t[-1] - t[0] < 10.0:
         return float("nan"), 0.0
-    from graphnav.calibration.reference import cumulative_integral
-    from graphnav.core.timeseries import interp_rows
+    from graphnav.core.timeseries import cumulative_integral, interp_rows
     t = np.ascontiguousarray(t)
     edges = np.arange(t[0], t[-1], 1.0)
     f = np.diff(interp_rows(edges, t, np.asfortranarray(cumulative_integral(t, f_b))), axis=0)

@@ -98,10 +98,12 @@ def mission_collection(data: str | None, config_path: str | None = None) -> list
 
 def load_source(source: TrajectorySource) -> Mission:
     """The mission of a trajectory source, as recorded (or simulated at navigation grade)."""
-    from graphnav.io.loaders import load_mission
     if source.folder is None:
-        return load_mission(None, source.config_path, duration_s=source.duration_s, seed=source.seed)
-    return load_mission(source.folder, source.config_path)
+        from graphnav.missions import simulated_mission
+        return simulated_mission(source.config_path, duration_s=source.duration_s, seed=source.seed)
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.loaders import read_mission
+    return prepare(read_mission(source.folder, source.config_path))
 
 
 def degrade_imu(mission: Mission, grade: str, seed: int) -> Mission:

@@ -1,0 +1,327 @@
+"""The prepare step: what a recorded mission needs estimated from its own data before an estimator runs.
+
+The loaders (:mod:`graphnav.io`) only read: they parse, check, screen and convert, and leave a mission with
+``meta["prepared"] = False`` and, in ``meta["prepare"]``, the facts this step needs. :func:`prepare` then does
+what the loaders used to do at load time, in the same order and with the same defaults, so that
+``prepare(read_mission(path))`` is the mission ``load_mission(path)`` always gave:
+
+A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstring of
+:mod:`graphnav.io.loaders` gives the reasons):
+
+1. **IMU axes.** ``imu_axis_signs="auto"`` detects the file's convention
+   (:func:`graphnav.calibration.axes.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
+   consistency without GT) and warns what it chose; the signs multiply the accelerometer and gyro x/y/z.
+2. **Time offsets.** ``gt_time_offset_s="auto"`` matches gyro-integrated attitude increments with the GT's
+   (reusing the axis check's estimate), then ``dvl_time_offset_s="auto"`` regresses the DVL velocity on the GT
+   body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
+   DVL stamps lie off the IMU span (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
+   DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
+   A DVL that follows the GT at no offset (another frame, other units) is a DataError.
+3. **GT point.** The GT is moved from the published INS point to the IMU point
+   (:func:`graphnav.calibration.reference.move_ground_truth`), and the depth stream with it.
+
+Bags, CSV logs and PD0 files: a DVL on a clock of its own is put on the IMU's
+(:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
+without a heading source is told whether the configured gyro can gyrocompass.
+
+Every mission: DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`).
+What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
+``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
+``meta["prepared"]``) is prepared already and comes back unchanged.
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.earth import gravity_magnitude
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.streams import add_note, set_span
+
+#: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
+#: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
+#: the one that starts at the surface); a DVL in another frame (axes swapped, a wrong C_d_b) or other units
+#: leaves residuals of the vehicle's speed, ~1 m/s. A bound, not a fit: 4.5x the worst clean trajectory.
+DVL_GT_RMS_MAX_MPS = 0.2
+
+AUTO = "auto"
+
+
+def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | str = AUTO,
+            dvl_time_offset_s: float | str = AUTO) -> Mission:
+    """The mission on the IMU clock and axes, its GT at the IMU point (module docstring).
+
+    Args:
+        mission: a mission from a loader (``meta["prepared"]`` False); a prepared one comes back unchanged.
+        imu_axis_signs: signs applied to the file's IMU x, y, z (accelerometer and gyro), or ``"auto"``: the
+            ones a configuration file set (``meta["prepare"]["given"]``), else detected with a warning.
+        gt_time_offset_s: seconds added to the GT stamps, or ``"auto"``: the configured one, else estimated.
+        dvl_time_offset_s: seconds added to the DVL stamps, or ``"auto"``: the configured one, else estimated
+            (without GT: the DVL's coarse clock offset, or the vehicle's default with a warning).
+        The three apply to A-KIT folders; other formats take ``"auto"`` only.
+
+    Returns:
+        A new mission (the given one is not changed) with ``meta["prepared"]`` True.
+
+    Raises:
+        ConfigError: an explicit value for a mission it does not apply to, or signs that are not +-1.
+        DataError: no IMU axis convention fits, the DVL does not follow the GT, or a DVL clock cannot be found.
+    """
+    explicit = {k: v for k, v in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
+                                  ("dvl_time_offset_s", dvl_time_offset_s)) if not _is_auto(v)}
+    if mission.meta.get("prepared", True):
+        if explicit:
+            raise ConfigError(f"{sorted(explicit)} given for mission {mission.name!r}, which is prepared already "
+                              "(simulated, or prepared before): read it again to apply them")
+        return mission
+    meta = copy.deepcopy(mission.meta)
+    facts = meta.get("prepare", {})
+    if facts.get("format") == "akit":
+        mission = _prepare_akit(mission, meta, facts, imu_axis_signs, gt_time_offset_s, dvl_time_offset_s)
+    else:
+        if explicit:
+            raise ConfigError(f"{sorted(explicit)} apply to A-KIT folders; {meta.get('source', mission.name)} is "
+                              f"{facts.get('format', 'another format')}: set them in its configuration instead")
+        mission = _prepare_streams(mission, meta, facts)
+    from graphnav.io.stream_counts import record_outside_span
+    record_outside_span(mission)
+    return mission
+
+
+def _is_auto(value) -> bool:
+    return isinstance(value, str) and value == AUTO
+
+
+def _pick(value, facts: dict, key: str):
+    """The explicit value, else the one a configuration file set, else ``"auto"``."""
+    return facts.get("given", {}).get(key, AUTO) if _is_auto(value) else value
+
+
+# ------------------------------------------------------------------------------------------------
+# A-KIT
+# ------------------------------------------------------------------------------------------------
+def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_time_offset_s,
+                  dvl_time_offset_s) -> Mission:
+    from graphnav.calibration.reference import Reference, estimate_dvl_time_offset, estimate_gt_time_offset
+    imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
+    gt_time_offset_s = _pick(gt_time_offset_s, facts, "gt_time_offset_s")
+    dvl_time_offset_s = _pick(dvl_time_offset_s, facts, "dvl_time_offset_s")
+    signs, detected = _axis_signs(mission, meta, facts, imu_axis_signs)
+    cfg = dataclasses.replace(mission.config)
+    cfg.imu_axis_signs = signs
+    t_imu = mission.imu.t
+    f_b, omega_b = mission.imu.f_b * signs, mission.imu.omega_b * signs
+    imu = ImuData(t_imu, f_b, omega_b, source=mission.imu.source)
+    t_dvl, v_dvl = mission.dvl.t, mission.dvl.v_b
+    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": detected is not None,
+                              "decided": None if detected is None else detected.decided}
+    g = mission.gt
+    if g is None:
+        return _prepare_akit_without_gt(mission, meta, cfg, imu, dvl_time_offset_s)
+    imu_position_b = np.asarray(facts["imu_position_b"], float)
+    lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
+    estimates = {}
+    if _is_auto(gt_time_offset_s) and detected is not None and detected.gt_offset is not None \
+            and cfg.earth_rotation:       # the axis check already estimated it (same function, same inputs)
+        gt_time_offset_s = detected.gt_offset.offset_s
+        estimates["gt"] = detected.gt_offset
+    if _is_auto(gt_time_offset_s):
+        est = estimate_gt_time_offset(t_imu, omega_b, g.t, g.C_b_n, lat_for_rate)
+        gt_time_offset_s = est.offset_s
+        estimates["gt"] = est
+    ref = Reference(t_imu, f_b, omega_b, g.t + float(gt_time_offset_s), g.v_n, g.C_b_n, cfg.gravity_mps2,
+                    lat_for_rate, cfg.dvl)
+    auto = _is_auto(dvl_time_offset_s)
+    # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
+    coarse = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else float(dvl_time_offset_s)
+    try:
+        # against the published GT point the DVL sits at lever arm + IMU position
+        est = estimate_dvl_time_offset(ref, t_dvl + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
+    except DataError:
+        if auto:
+            raise
+        est = None          # a given offset the GT cannot check (too little overlap): the user's call
+    if est is not None:
+        # with a given offset too: a DVL in another frame follows the GT at no offset near it
+        _check_dvl_follows_gt(est.rms, mission.dvl.source)
+    if auto:
+        est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
+        dvl_time_offset_s = est.offset_s
+        estimates["dvl"] = est
+    cfg.gt_time_offset_s = float(gt_time_offset_s)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+
+    t_gt = g.t + cfg.gt_time_offset_s
+    gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
+    if np.any(imu_position_b):
+        from graphnav.calibration.reference import move_ground_truth
+        gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
+    depth = DepthData(t_gt, gt.p_n[:, 2].copy(), source=mission.depth.source)
+    dvl = dataclasses.replace(mission.dvl, t=t_dvl + cfg.dvl_time_offset_s)
+    meta["gt_point_b"] = imu_position_b.tolist()
+    meta["time_offsets"] = {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
+                            for k, e in estimates.items()}
+    _note_akit(meta, cfg, dvl, gt, estimates)
+    meta["prepared"] = True
+    return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, imu: ImuData,
+                             dvl_time_offset_s) -> Mission:
+    """An A-KIT folder with IMU and DVL files only, as a vehicle has them: the DVL time offset given, its coarse
+    clock offset, or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated
+    against a missing GT)."""
+    from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
+    auto = _is_auto(dvl_time_offset_s)
+    coarse = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else 0.0
+    if auto and coarse:
+        dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
+    if _is_auto(dvl_time_offset_s):
+        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
+        warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
+                      f"vehicle's {AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared "
+                      "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                      RuntimeWarning, stacklevel=4)
+    cfg.dvl_time_offset_s = float(dvl_time_offset_s)
+    cfg.gt_time_offset_s = 0.0
+    dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
+    meta["time_offsets"] = {}
+    _note_akit(meta, cfg, dvl, None, {})
+    meta["prepared"] = True
+    return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
+
+
+def _axis_signs(mission: Mission, meta: dict, facts: dict, imu_axis_signs) -> tuple[np.ndarray, object]:
+    """(signs (3,), the detection or None): the given +-1 triple, or the detected convention for ``"auto"``."""
+    if isinstance(imu_axis_signs, str):
+        if not _is_auto(imu_axis_signs):
+            raise ConfigError(f"imu_axis_signs must be 'auto' or three +-1 values, got {imu_axis_signs!r}")
+        detection = detect_akit_axis_signs(mission, facts.get("gt_mean_depth_m"))
+        if not detection.decided:
+            add_note(meta, "imu", f"IMU axis convention undecided from the data; the configured "
+                     f"{tuple(int(x) for x in detection.signs)} is used ({'; '.join(detection.notes)})")
+        return np.asarray(detection.signs, float), detection
+    signs = np.asarray(imu_axis_signs, float).reshape(3)
+    if not np.all(np.abs(signs) == 1):
+        raise ConfigError(f"imu_axis_signs must be +-1, got {signs.tolist()}")
+    return signs, None
+
+
+def detect_akit_axis_signs(mission: Mission, gt_mean_depth_m: float | None):
+    """:func:`graphnav.calibration.axes.detect_imu_axis_signs` on an A-KIT mission as read (IMU axes of the file,
+    GT at its published point and stamps), with its warning. ``gt_mean_depth_m``: the GT's mean depth, m (the
+    gravity of the check). Adds ~0.1-0.3 s (the GT offset it finds is reused)."""
+    from graphnav.calibration.axes import detect_imu_axis_signs
+    imu = mission.imu
+    # the (N,7) rows the loader always handed the check: the same arrays, the same arithmetic
+    rows = np.column_stack([imu.t, imu.f_b, imu.omega_b])
+    imu_data = ImuData(np.ascontiguousarray(rows[:, 0]), rows[:, 1:4], rows[:, 4:7], source=imu.source)
+    gt_data, config = None, SensorConfig()
+    g = mission.gt
+    if g is not None:
+        lat0 = g.origin_lla[0]
+        config.lat_rad = float(lat0)
+        config.gravity_mps2 = gravity_magnitude(lat0, gt_mean_depth_m)
+        gt_data = GroundTruth(g.t, np.zeros((len(g.t), 3)), g.v_n, g.C_b_n)
+    detection = detect_imu_axis_signs(imu_data, config, gt_data, imu.source)
+    warnings.warn(detection.message(imu.source), UserWarning, stacklevel=4)
+    return detection
+
+
+def _check_dvl_follows_gt(rms: float, source) -> None:
+    """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`)."""
+    if rms > DVL_GT_RMS_MAX_MPS:
+        raise DataError(f"the DVL velocity does not follow the ground truth's body velocity at any time offset "
+                        f"(RMS residual {rms:.3g} m/s per axis at the best one; 0.007-0.044 m/s on the shared "
+                        "trajectories): the DVL is in another frame (axes swapped, dvl.C_d_b) or other units",
+                        str(source), field="DVL X/Y/Z")
+
+
+def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> float:
+    """0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's clock offset
+    from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta``), or DataError
+    when it cannot be found."""
+    t_dvl, t_imu = dvl.t, imu.t
+    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
+        return 0.0
+    from graphnav.calibration.clock import align_stream_clocks
+    n = len(t_dvl)
+    velocity_only = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), dvl.v_b, source=dvl.source)
+    aligned, _ = align_stream_clocks(imu, velocity_only, None, meta, cfg)
+    return float(aligned.t[0] - t_dvl[0])
+
+
+def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | None, estimates: dict) -> None:
+    """``meta["streams"]``: the prepared stamps' spans, the axis signs and the time offsets added."""
+    for stream, data in (("dvl", dvl), ("gt", gt), ("depth", gt)):
+        if data is not None and stream in meta["streams"]:
+            set_span(meta, stream, data.t)
+    signs = meta["imu_axis_signs"]
+    add_note(meta, "imu", f"axis signs {signs['signs']} applied to accelerometer and gyro"
+                          + (" (detected at load time)" if signs["detected"] else " (given)"))
+    for stream, offset in (("dvl", cfg.dvl_time_offset_s), ("gt", cfg.gt_time_offset_s)):
+        if stream in meta["streams"]:
+            how = "estimated against the GT" if stream in estimates else "given or the vehicle's default"
+            add_note(meta, stream, f"time offset {offset:+.3f} s added ({how})")
+
+
+# ------------------------------------------------------------------------------------------------
+# Bags, CSV logs, PD0
+# ------------------------------------------------------------------------------------------------
+def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
+    """A DVL on its own clock put on the IMU's; a bag without heading told whether it can gyrocompass."""
+    dvl, depth = mission.dvl, mission.depth
+    if facts.get("dvl_clock") == AUTO:
+        from graphnav.calibration.clock import align_stream_clocks
+        dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
+        for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
+            if new is not old and stream in meta.get("streams", {}):
+                set_span(meta, stream, new.t)       # the stamps as the mission holds them
+    if facts.get("format") == "bag" and meta.get("heading_source") == "none":
+        _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
+    meta["prepared"] = True
+    return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _warn_no_heading(config: SensorConfig, source: str, meta: dict) -> None:
+    """Said when the bag is prepared, not after an alignment fails: what to add for a heading."""
+    from graphnav.estimators.align import AlignOptions, gyrocompass_heading_terms
+    limit = gyrocompass_heading_terms(config, 1.0, 1, 0.0, config.lat_rad)["gyro_bias"]
+    can = limit <= AlignOptions().max_heading_sigma_rad
+    msg = ("no heading source in the bag (no sensor_msgs/Imu with its orientation filled, no Float64 topic named "
+           "heading, no PoseWithCovarianceStamped): the heading must come from gyrocompassing, which "
+           + (f"the configured gyro allows (bias limit {np.degrees(limit):.2f} deg)" if can else
+              f"the configured gyro cannot do (its bias alone gives {np.degrees(limit):.1f} deg; a MEMS or 10 Hz "
+              "IMU never can)")
+           + "; add an AHRS/compass topic (--topic heading=TOPIC) or give the initial heading")
+    add_note(meta, "heading", msg)
+    meta["heading_source"] = "none"
+    warnings.warn(f"{source}: {msg}", RuntimeWarning, stacklevel=4)
+
+
+# ------------------------------------------------------------------------------------------------
+# The check behind rescale_stamps
+# ------------------------------------------------------------------------------------------------
+def gt_offset_drift(folder: str | Path, rescale_stamps: bool, window: int = 100) -> float:
+    """Drift of the IMU-to-GT time offset over an A-KIT trajectory, s per s (the check behind
+    ``rescale_stamps`` of :func:`graphnav.io.loaders.read_akit`).
+
+    The offset is estimated in consecutive ``window``-sample GT windows and a line is fitted through them:
+    with the published ``linspace`` stamps it drifts by about -2.5 ms/s, with rescaled stamps by ~0.
+    """
+    from graphnav.calibration.reference import estimate_gt_time_offset
+    from graphnav.io.loaders import read_akit_mission
+    m = read_akit_mission(folder, rescale_stamps=rescale_stamps)
+    signs = np.asarray(detect_akit_axis_signs(m, m.meta["prepare"]["gt_mean_depth_m"]).signs, float)
+    t_imu, omega_b, t_gt, C_b_n = m.imu.t, m.imu.omega_b * signs, m.gt.t, m.gt.C_b_n
+    starts = range(0, len(t_gt) - window + 1, window)
+    mid = [t_gt[s + window // 2] for s in starts]
+    offsets = [estimate_gt_time_offset(t_imu, omega_b, t_gt[s:s + window], C_b_n[s:s + window]).offset_s
+               for s in starts]
+    return float(np.polyfit(mid, offsets, 1)[0])
