@@ -11,7 +11,8 @@ import pytest
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit, read_csv
+from graphnav.calibration.preparation import prepare
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit_mission, read_csv
 from graphnav.missions import load_akit, load_mission
 
 TRAJ = ("Trajectory2", "Trajectory11")   # Trajectory11: little roll, the accelerometer check is undecided
@@ -38,6 +39,11 @@ def _negate_y(imu):
     imu = imu.copy()
     imu[:, [2, 5]] *= -1          # ACC Y, GYRO Y: the authors' corrected files (y in the body frame)
     return imu
+
+
+def read_and_prepare(folder):
+    """The folder read and prepared (the axis check runs in ``prepare``)."""
+    return prepare(read_akit_mission(folder))
 
 
 def _auto(load, *args, **kwargs):
@@ -73,9 +79,9 @@ def test_y_in_body_frame_detected(akit_dir, tmp_path, name):
 @pytest.mark.parametrize("transform, signs", [(None, [1, -1, 1]), (_negate_y, [1, 1, 1])])
 def test_without_gt_gravity_and_gyro_decide(akit_dir, tmp_path, transform, signs):
     folder = _copy(akit_dir / TRAJ[0], tmp_path, transform, with_gt=False)
-    raw, msg = _auto(read_akit, folder)
+    raw, msg = _auto(read_and_prepare, folder)
     assert raw.gt is None and "no GT" in msg
-    np.testing.assert_array_equal(raw.axis_signs, signs)
+    np.testing.assert_array_equal(raw.config.imu_axis_signs, signs)
     with pytest.warns(RuntimeWarning, match="no GT file"):        # a vehicle's folder: IMU and DVL only
         m = load_akit(folder)
     assert m.gt is None and m.depth is None
@@ -108,7 +114,7 @@ def test_no_convention_fits_names_the_axis(akit_dir, tmp_path):
         return imu
     folder = _copy(akit_dir / TRAJ[0], tmp_path, swap_xy)
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
-        read_akit(folder)
+        read_and_prepare(folder)
     assert err.value.field.split()[-1] in "xy"
 
 
@@ -119,7 +125,7 @@ def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
         return imu
     folder = _copy(akit_dir / TRAJ[0], tmp_path, flip_accel_y_only, with_gt=False)
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
-        read_akit(folder)
+        read_and_prepare(folder)
     assert "y" in err.value.field
 
 
@@ -161,7 +167,7 @@ def test_without_gt_undecided_falls_back_to_the_configured_convention(akit_dir, 
     np.testing.assert_array_equal(det.signs, [1, 1, 1])
     # through the loader: a warning, the published A-KIT convention, and a note in meta["streams"]
     folder = _copy(akit_dir / TRAJ[0], tmp_path, _static, with_gt=False)
-    raw, msg = _auto(read_akit, folder)
+    raw, msg = _auto(read_and_prepare, folder)
     assert "could not tell the conventions apart" in msg
-    np.testing.assert_array_equal(raw.axis_signs, [1, -1, 1])
+    np.testing.assert_array_equal(raw.config.imu_axis_signs, [1, -1, 1])
     assert "undecided" in raw.meta["streams"]["imu"]["notes"][0]

@@ -355,13 +355,13 @@ def test_written_headers_are_the_published_ones(tmp_path, akit_dir):
 
 
 def test_written_mission_loads_back(tmp_path):
-    loaders = pytest.importorskip("graphnav.io.loaders")
+    missions = pytest.importorskip("graphnav.missions")
     from graphnav.io.export import write_akit
     sim = simulate_mission(60.0, seed=2, noiseless=True)
     write_akit(sim, tmp_path)
     # imu_position_b=0: the simulated GT is already at the IMU point (the A-KIT default moves it there)
-    back = loaders.load_akit(tmp_path / "Trajectory1", imu_axis_signs=(1, 1, 1), dvl_time_offset_s=0.0,
-                             gt_time_offset_s=0.0, rescale_stamps=False, imu_position_b=(0, 0, 0))
+    back = missions.load_akit(tmp_path / "Trajectory1", imu_axis_signs=(1, 1, 1), dvl_time_offset_s=0.0,
+                              gt_time_offset_s=0.0, rescale_stamps=False, imu_position_b=(0, 0, 0))
     np.testing.assert_allclose(back.imu.t, sim.imu.t, atol=1e-12)
     np.testing.assert_allclose(back.imu.f_b, sim.imu.f_b, atol=1e-12)
     np.testing.assert_allclose(back.imu.omega_b, sim.imu.omega_b, atol=1e-15)

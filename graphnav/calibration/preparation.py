@@ -206,6 +206,8 @@ def _axis_signs(mission: Mission, meta: dict, facts: dict, imu_axis_signs) -> tu
         if not detection.decided:
             add_note(meta, "imu", f"IMU axis convention undecided from the data; the configured "
                      f"{tuple(int(x) for x in detection.signs)} is used ({'; '.join(detection.notes)})")
+            notes = meta["streams"]["imu"]["notes"]
+            notes.insert(0, notes.pop())    # the first thing to know about the IMU stream, as the loader put it
         return np.asarray(detection.signs, float), detection
     signs = np.asarray(imu_axis_signs, float).reshape(3)
     if not np.all(np.abs(signs) == 1):
