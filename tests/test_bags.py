@@ -169,11 +169,13 @@ def driver(tmp_path_factory):
 
 def _load(path, config, **kw):
     """The mission and every warning its loading gave (``config`` a SensorConfig, or a path/None through
-    load_mission)."""
+    load_mission), read and prepared."""
     import warnings
+
+    from graphnav.calibration.preparation import prepare
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        m = bags.load_bag(path, config, **kw) if hasattr(config, "dvl") else load_mission(path, config, **kw)
+        m = prepare(bags.load_bag(path, config, **kw)) if hasattr(config, "dvl") else load_mission(path, config, **kw)
     return m, [str(w.message) for w in caught]
 
 

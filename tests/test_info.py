@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from graphnav import cli
+from graphnav.calibration.preparation import prepare
 from graphnav.core.dvl_log import DvlLog
 from graphnav.core.errors import DataError
 from graphnav.estimators.dead_reckoning import dvl_dead_reckoning
@@ -123,7 +124,7 @@ def test_info_on_a_bag(sim, tmp_path):
     import dataclasses
     mission = dataclasses.replace(sim, dvl=dataclasses.replace(sim.dvl, v_b=None))
     bag = write_mission_bag(mission, tmp_path / "sim.mcap")
-    d = describe(bag)
+    d = describe(bag, prepare=prepare)
     assert d["format"] == "rosbag2" and d["usable"] and d["ground_truth"]
     s = d["streams"]
     assert s["imu"]["read"] == len(sim.imu.t) and s["imu"]["rate_hz"] == pytest.approx(100.0, rel=1e-6)
@@ -144,7 +145,7 @@ def test_info_on_akit_files_written_from_a_simulation(sim, tmp_path):
     from graphnav.io.export import write_akit
     write_akit(sim, tmp_path, number=7)
     folder = tmp_path / "Trajectory7"
-    d = describe(folder)
+    d = describe(folder, prepare=prepare)
     assert d["format"] == "akit" and d["usable"]
     s = d["streams"]
     assert s["imu"]["read"] == len(sim.imu.t) and s["gt"]["read"] == len(sim.gt.t)
@@ -330,7 +331,7 @@ def test_info_on_a_pd0_file_alone_and_with_the_imu_of_the_column_map(tmp_path, c
     cfg["csv_columns"] = {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
                                   "omega_b": ["gx", "gy", "gz"]}}
     (tmp_path / "config.json").write_text(json.dumps(cfg))
-    with_imu = describe(tmp_path / "dvl.000", tmp_path / "config.json")
+    with_imu = describe(tmp_path / "dvl.000", tmp_path / "config.json", prepare=prepare)
     assert with_imu["usable"] and "IMU/DVL estimators" in with_imu["use"]
     assert with_imu["streams"]["imu"]["read"] == len(mission.imu.t) and with_imu["streams"]["dvl"]["read"] == n + 1
     # the pressure sensor at the pings, to the decapascal of PD0
