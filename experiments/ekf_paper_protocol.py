@@ -5,7 +5,7 @@ Protocol (the paper's, on every mission): a 30 s window with 2 missing beams (be
 beams (only beam 2 kept) placed at ``graphnav.core.scenarios.window_starts(t0, t1)`` (first window after 60 s
 of full beams, 60 s of full beams between windows, last window ending before t1 - 5 s; 4 windows in a
 400 s mission), one run per window. Missions: the shared real A-KIT trajectories (``graphnav.io.paths.akit_trajectories``,
-loaded with ``graphnav.io.loaders.load_akit``: IMU y axis corrected, time offsets estimated, beams made from
+loaded with ``graphnav.missions.load_akit``: IMU y axis corrected, time offsets estimated, beams made from
 the recorded DVL velocity with the paper's error model) and the simulated default mission.
 
 Printed per mission set and scenario: VRMSE in the window (mean and worst over missions x windows), VRMSE over

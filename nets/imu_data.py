@@ -1,6 +1,6 @@
 """Training and evaluation data of the IMU-aware beam completer: A-KIT trajectories with IMU and DVL.
 
-Each trajectory is loaded with :func:`graphnav.io.loaders.load_akit` (IMU and DVL on the IMU clock, the DVL time
+Each trajectory is loaded with :func:`graphnav.missions.load_akit` (IMU and DVL on the IMU clock, the DVL time
 offset estimated, the IMU y axis corrected). Beams are made from the recorded DVL velocities with the DVL
 error model (:func:`graphnav.core.dvl.make_beams`, default :class:`~graphnav.core.config.DvlSpec`, seed
 ``beam_seed + 100 * draw + N`` for trajectory N), as the loader does. A sample at ping k is the beam-only

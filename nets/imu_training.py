@@ -227,7 +227,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         "n_parameters": int(sum(p.numel() for p in model.parameters())),
         "data": {
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
-                      "via graphnav.io.loaders.load_akit",
+                      "via graphnav.missions.load_akit",
             "DVL_sha256": {s.name: file_sha256(d / s.name / f"DVL_trajectory{s.name.removeprefix('Trajectory')}.csv")
                            for s in base},
             "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},

@@ -2,7 +2,7 @@
 
 The window is the last ``n_samples`` IMU samples up to the ping (the last sample at or before the ping time,
 oldest first, at ``rate_hz``): specific force ``f_b`` (n, 3) m/s^2 and angular rate ``omega_b`` (n, 3) rad/s
-in the body frame (FRD, as :func:`graphnav.io.loaders.load_akit` gives them).
+in the body frame (FRD, as :func:`graphnav.missions.load_akit` gives them).
 
 :func:`preintegrate` turns it into what the network needs, in the body frame *of the ping* (``now``), for
 each of the N past pings j (``tau_j`` seconds before the ping):

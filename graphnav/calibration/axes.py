@@ -1,5 +1,6 @@
 """IMU axis conventions: the check of the gyro and accelerometer axes against the GT attitude or against
-gravity and each other, and the detection the loaders run at load time."""
+gravity and each other, and the detection the prepare step runs on a mission as read
+(:mod:`graphnav.calibration.preparation`)."""
 from __future__ import annotations
 
 import dataclasses

@@ -246,7 +246,7 @@ def swap_csv_lines(path: str | Path, line: int) -> None:
 def write_and_load(mission: Mission, workdir: str | Path, damage: Callable[[dict], None] | None = None,
                    **load_kwargs) -> Mission:
     """Write ``mission`` in the A-KIT layout under ``workdir``, apply ``damage(paths)`` to the files and
-    load them back with :func:`graphnav.io.loaders.load_akit` (no time-offset estimation, FRD axes, GT at the
+    load them back with :func:`graphnav.missions.load_akit` (no time-offset estimation, FRD axes, GT at the
     IMU point: the simulated mission comes back as it went out)."""
     from graphnav.io.export import write_akit
     from graphnav.missions import load_akit

@@ -18,7 +18,7 @@ overrides the choice. Streams and the types read:
 * ``heading``: an AHRS (a ``sensor_msgs/msg/Imu`` whose orientation is filled), a ``Float64``/``Float32``
   topic named like heading or compass (a compass heading: clockwise from north), or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
   ``Mission.heading`` (the replay feeds it to ``Navigator.add_heading``; the aligner uses it instead of
-  gyrocompassing). A bag without any says so when it is loaded;
+  gyrocompassing). A bag without any says so when it is prepared (:mod:`graphnav.calibration.preparation`);
 * ``fix``: ``sensor_msgs/msg/NavSatFix`` GNSS fixes into ``Mission.fixes`` (the replay feeds them to
   ``Navigator.add_position_fix``): no-fix messages refused, sigma from ``position_covariance``;
 * ``gt`` (optional reference for scoring): ``nav_msgs/msg/Odometry``.

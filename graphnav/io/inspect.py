@@ -8,8 +8,8 @@ beams per ping, depth range, and the notes and warnings the loaders made. It nev
 input graphnav cannot use is described with the reason (``usable`` False, ``reason``). Only a path that is
 none of these formats gives ``format`` None.
 
-Reading an A-KIT folder runs the loader's load-time checks (IMU axes, time offsets against the GT): a few
-seconds.
+With ``prepare`` (``graphnav info`` passes :func:`graphnav.calibration.preparation.prepare`), an A-KIT folder
+gets its IMU axes and time offsets estimated against the GT, a log its DVL clock: a few seconds.
 """
 from __future__ import annotations
 

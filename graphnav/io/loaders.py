@@ -1,11 +1,15 @@
-"""Loaders for the published real data sets, and the one mission entry point the CLI commands share.
+"""Readers for the published real data sets, and the one reading entry point the CLI commands share.
 
 A-KIT (``ansfl/A-KIT``, Snapir AUV, June 2022): one folder ``TrajectoryN/`` with
 ``IMU_trajectoryN.csv`` (100 Hz), ``DVL_trajectoryN.csv`` and ``GT_trajectoryN.csv`` (1 Hz).
 BeamsNet (``ansfl/BeamsNet``, May 2021): ``V.npy`` (3,N) and ``V_test.npy`` DVL body velocities at 1 Hz.
 Please cite the data authors (A-KIT: Cohen & Klein; BeamsNet: Cohen & Klein) when using them.
 
-What :func:`load_akit` does to the recorded files, and why (each step is a parameter):
+What reading an A-KIT folder (:func:`read_akit_mission`) and preparing it
+(:func:`graphnav.calibration.preparation.prepare`) do to the recorded files, and why (each step is a parameter).
+The reader only reads: steps 1, 4 (NED, attitude, depth) and 5; what needs estimating from the data, steps 2
+and 3 and the move of the GT to the IMU point, is the prepare step's (the read mission has
+``meta["prepared"] = False``):
 
 1. **Stamps.** The published stamps are ``linspace(0, 400, N)``: period 400/(N-1), i.e. 1.0025 s for the
    1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
@@ -20,17 +24,17 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
    published IMU files predate the authors' "corrected the transformation" commit: their y axis is
    flipped (``(1, -1, 1)``); the corrected files have y in the body frame (``(1, 1, 1)``). The default
-   ``"auto"`` detects the convention at load time with the IMU axis check
+   ``"auto"`` detects the convention when the mission is prepared, with the IMU axis check
    (:func:`graphnav.calibration.axes.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
    consistency without GT) and warns what it chose; an explicit tuple (or a ``--config`` that sets
    ``imu_axis_signs``) is used as given. No fitting sign convention (swapped axes, gyro and accelerometer
    flipped differently) is a DataError naming the axis.
 3. **Time offsets.** Every stream ends on the IMU clock: ``t = t_file (rescaled) + offset``.
-   ``config.gt_time_offset_s`` and ``config.dvl_time_offset_s`` record the offsets added. ``"auto"``
-   estimates them at load time (about 0.2 s per trajectory, see
+   ``config.gt_time_offset_s`` and ``config.dvl_time_offset_s`` record the offsets added (0 until prepared).
+   ``"auto"`` estimates them in the prepare step (about 0.2 s per trajectory, see
    :mod:`graphnav.calibration.reference`): the GT offset by matching gyro-integrated attitude increments
    with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
-   ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating at load time rather than shipping a
+   ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating from the data rather than shipping a
    table works for any A-KIT folder, including the three not in ``../shared/data``.
 4. **GT.** lat/lon/alt -> NED with the project's one position convention
    (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
@@ -52,7 +56,8 @@ What :func:`load_akit` does to the recorded files, and why (each step is a param
    by ``beam_seed``). NaN rows are invalid pings.
 6. **IMU error model** (:data:`PHINS_RECORDED`): see its docstring.
 
-``load_mission`` is what every ``graphnav`` subcommand calls: a data folder or None (the simulated default).
+``read_mission`` is what every ``graphnav`` subcommand reads with (then ``prepare``; the simulated default and
+the one-call ``load_mission`` are :mod:`graphnav.missions`').
 """
 from __future__ import annotations
 
@@ -107,9 +112,9 @@ AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
 AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 
 #: Position of the IMU's measurement point relative to the published GT reference point, body frame, m.
-#: The estimators navigate the IMU point, so the loader moves the GT there (``imu_position_b``) and gives the
-#: DVL time offset of the published A-KIT files (s added to the rescaled DVL stamps), for folders without a GT
-#: file: the mean of the load-time estimates against the GT on the ten shared trajectories (0.976-1.061 s, spread
+#: The estimators navigate the IMU point, so the prepare step moves the GT there (``imu_position_b``).
+#: The DVL time offset of the published A-KIT files (s added to the rescaled DVL stamps), for folders without a GT
+#: file: the mean of the prepare step's estimates against the GT on the ten shared trajectories (0.976-1.061 s, spread
 #: 0.025 s; ``experiments/no_gt_runs.py`` prints them).
 AKIT_DVL_TIME_OFFSET_S = 1.02
 
