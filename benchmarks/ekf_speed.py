@@ -44,8 +44,8 @@ FIELDS = ("v_n", "p_n", "C_b_n", "bias_acc", "bias_gyro", "cov_v_n", "cov_p_n", 
 def mission(akit: bool):
     if not akit:
         return "simulated 400 s (seed 7)", simulate_mission(400.0, seed=7)
-    from graphnav.missions import load_akit
     from graphnav.io.paths import akit_trajectories
+    from graphnav.missions import load_akit
     folder = akit_trajectories()[0]
     return f"A-KIT {folder.name}", load_akit(folder)
 

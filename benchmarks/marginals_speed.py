@@ -22,8 +22,8 @@ import numpy as np
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.graph.options import MARGINAL_LEVELS
 from graphnav.estimators.runs import run_graph
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 from graphnav.sim.simulate import simulate_mission
 
 

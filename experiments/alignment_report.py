@@ -30,8 +30,8 @@ from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 
 def wrap_deg(x):

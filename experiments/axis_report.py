@@ -1,10 +1,10 @@
-"""IMU axis convention detected at load time on the shared A-KIT trajectories, in both conventions.
+"""IMU axis convention detected by the prepare step on the shared A-KIT trajectories, in both conventions.
 
 For each trajectory: the files as published (IMU y flipped) and a temporary copy with the IMU y columns
 negated (y already in the body frame, as in the authors' corrected files), each with the GT file (gyro
 against the GT attitude) and without it (gravity and gyro consistency); prints the signs
-``read_akit(imu_axis_signs="auto")`` chose (expected (1,-1,1) and (1,1,1)) and the CPU time the detection
-adds to a ``load_akit`` (against an explicit convention).
+the axis check of ``prepare`` (``imu_axis_signs="auto"``) chose (expected (1,-1,1) and (1,1,1)) and the CPU
+time the detection adds to a ``load_akit`` (against an explicit convention).
 
     .venv/bin/python experiments/axis_report.py
 """
@@ -19,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit, read_csv
-from graphnav.missions import load_akit
+from graphnav.calibration.preparation import detect_akit_axis_signs
+from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit_mission, read_csv
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 EXPECTED = {"published": (1, -1, 1), "y in body": (1, 1, 1)}
 
@@ -65,7 +66,9 @@ def main(argv=None) -> int:
                 chosen = {}
                 for with_gt in (True, False):
                     d = copy_folder(folder, Path(tmp) / f"{conv}-{with_gt}".replace(" ", "_"), negate, with_gt)
-                    chosen[with_gt] = tuple(int(s) for s in read_akit(d).axis_signs)
+                    read = read_akit_mission(d)
+                    detection = detect_akit_axis_signs(read, read.meta["prepare"]["gt_mean_depth_m"])
+                    chosen[with_gt] = tuple(int(s) for s in detection.signs)
                     n_wrong += chosen[with_gt] != EXPECTED[conv]
                     if with_gt:
                         added = cpu(lambda: load_akit(d)) - cpu(lambda: load_akit(d, imu_axis_signs=EXPECTED[conv]))

@@ -20,9 +20,9 @@ from graphnav.evaluation.bench import mission_nees
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import nees_velocity
 from graphnav.evaluation.score import evaluate
-from graphnav.missions import load_mission
 from graphnav.io.outputs import read_trajectory_csv, write_trajectory_csv
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_mission
 
 
 def main(argv=None) -> int:

@@ -18,9 +18,9 @@ import time
 
 import numpy as np
 
+from graphnav.calibration.preparation import gt_offset_drift
 from graphnav.calibration.reference import dvl_consistency, gyro_attitude_error
 from graphnav.io import paths
-from graphnav.calibration.preparation import gt_offset_drift
 from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
 from graphnav.missions import load_akit
 

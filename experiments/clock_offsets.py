@@ -15,8 +15,8 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.clock import estimate_dvl_clock_offset
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 
 def main(argv=None) -> int:

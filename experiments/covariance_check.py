@@ -19,8 +19,8 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import attitude_error, heading_variance, yaw_jacobian
 from graphnav.evaluation.methods import check_method, run_method
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 
 def end_of_run(sol, mission) -> dict:

@@ -18,8 +18,8 @@ import numpy as np
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import horizontal_position_error, nees_velocity, vrmse
-from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_mission
 
 CANDIDATES = [(None, 2e-4), (0.002, 2e-4), (0.002, 2e-5), (0.005, 5e-5)]
 

@@ -13,8 +13,8 @@ import numpy as np
 from graphnav.estimators.graph import GraphOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import horizontal_position_error, vrmse
-from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_mission
 
 
 def main(argv=None) -> int:

@@ -58,8 +58,8 @@ def network_completer(scenario: str):
 
 
 def load_real(trajectories: list[str] | None, imu_axis_signs=(1, -1, 1), data=None):
-    from graphnav.missions import load_akit
     from graphnav.io.paths import akit_trajectories
+    from graphnav.missions import load_akit
     folders = akit_trajectories(data, names=trajectories)
     return [load_akit(f, imu_axis_signs=imu_axis_signs) for f in folders]
 

@@ -27,8 +27,8 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.evaluation import metrics
 from graphnav.evaluation.methods import run_method
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 #: the filters compared: the 15-state default and the paper's 12-state filter
 FILTERS = ("TC", "TC-12")

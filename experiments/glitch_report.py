@@ -40,8 +40,8 @@ from graphnav.evaluation.faults import dvl_glitches, glitch_csv
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io.loaders import akit_files
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 from graphnav.sim.simulate import simulate_mission
 
 BOUND = 1.2

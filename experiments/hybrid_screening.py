@@ -18,8 +18,8 @@ import numpy as np
 from graphnav.core.scenarios import scenario_outage, window_starts
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
-from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_mission
 
 PLAIN = {"regressed_correlation": 0.0, "regressed_adaptive": False}
 

@@ -21,8 +21,8 @@ import numpy as np
 from graphnav.calibration.noise import identify
 from graphnav.evaluation.methods import network_completer
 from graphnav.evaluation.tasks import run_tasks
-from graphnav.missions import load_mission
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_mission
 
 
 def one(folder: str) -> dict:

@@ -58,8 +58,8 @@ def main(argv=None) -> int:
     from graphnav.estimators.ekf import EkfOptions
     from graphnav.estimators.runs import _initial_state, run_ekf
     from graphnav.evaluation.metrics import vrmse
-    from graphnav.missions import load_mission
     from graphnav.io.paths import akit_dir, akit_trajectories
+    from graphnav.missions import load_mission
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cases = [("simulated 120 s, seed 1", load_mission(None, None, duration_s=120, seed=1))]

@@ -30,9 +30,9 @@ import numpy as np
 
 from graphnav.cli import main as graphnav
 from graphnav.evaluation.metrics import vrmse
-from graphnav.missions import load_akit
 from graphnav.io.outputs import read_trajectory_csv
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 
 def run_online(folder: Path, out: Path, *extra: str) -> tuple:

@@ -27,8 +27,8 @@ import numpy as np
 from graphnav.core.screening import StreamScreen
 from graphnav.estimators.align import align_mission
 from graphnav.estimators.replay import replay
-from graphnav.missions import load_akit
 from graphnav.io.paths import akit_trajectories
+from graphnav.missions import load_akit
 
 
 def clean_table(root: Path | None) -> None:

@@ -55,8 +55,8 @@ def main(argv=None) -> None:
     for seed in args.seeds:
         missions.append((f"sim seed {seed}", simulate_mission(args.duration, seed=seed, config=config), True))
     if args.akit:
-        from graphnav.missions import load_akit
         from graphnav.io.paths import akit_trajectories
+        from graphnav.missions import load_akit
         for n, folder in zip(args.akit, akit_trajectories(args.data, names=args.akit)):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)

@@ -9,9 +9,9 @@ import warnings
 import numpy as np
 import pytest
 
+from graphnav.calibration.preparation import prepare
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.calibration.preparation import prepare
 from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_akit_mission, read_csv
 from graphnav.missions import load_akit, load_mission
 

@@ -23,9 +23,9 @@ from graphnav.core.config import (
 )
 from graphnav.core.errors import ConfigError
 from graphnav.io.loaders import akit_default_config
-from graphnav.missions import load_mission
 from graphnav.io.paths import akit_dir
 from graphnav.io.streamio import StreamReader
+from graphnav.missions import load_mission
 from graphnav.sim.simulate import default_config
 
 

@@ -30,10 +30,9 @@ from graphnav.estimators.graph.batch import StackedBeams
 from graphnav.estimators.graph.builder import BeamGroup, GraphContext
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.navigator import Navigator, feed_mission
-from graphnav.estimators.replay import replay
+from graphnav.estimators.replay import replay, mission_records
 from graphnav.estimators.runs import initial_state, run_ekf, run_graph
 from graphnav.evaluation.metrics import vrmse
-from graphnav.estimators.replay import mission_records
 from graphnav.io.streamio import StreamReader, feed, write_records
 from graphnav.sim.simulate import simulate_mission
 

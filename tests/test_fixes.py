@@ -10,9 +10,8 @@ import pytest
 
 from graphnav.core.errors import DataError
 from graphnav.core.mission import PositionFixData
-from graphnav.estimators.replay import replay
+from graphnav.estimators.replay import replay, mission_records
 from graphnav.evaluation.fixes import drift_before_surfacings, path_length, run_case, study_mission
-from graphnav.estimators.replay import mission_records
 from graphnav.sim.simulate import DEFAULT_ORIGIN_LLA, SurfacingProfile, simulate_mission
 
 #: A short mission with two surfacings: every 75 s, 20 s at the surface, survey at 6-8 m.

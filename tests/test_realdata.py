@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from graphnav.calibration.reference import dvl_consistency, gyro_check
 from graphnav.calibration.preparation import gt_offset_drift
+from graphnav.calibration.reference import dvl_consistency, gyro_check
 from graphnav.io.loaders import beamsnet_split, list_akit, load_beamsnet
 from graphnav.missions import load_akit
 

@@ -11,7 +11,6 @@ import pytest
 
 from graphnav.core.errors import DataError
 from graphnav.io.loaders import AKIT_COLUMNS, akit_files, list_akit, read_csv
-from graphnav.missions import load_akit
 from graphnav.io.units import (
     check_units,
     dvl_speed_scale,
@@ -20,6 +19,7 @@ from graphnav.io.units import (
     stamps_in_seconds,
     time_scale,
 )
+from graphnav.missions import load_akit
 from graphnav.sim.simulate import simulate_mission
 
 

@@ -732,8 +732,8 @@ def make_workspace(root: str | Path, data: str | Path | None = None, trajectory:
     """Write the clean inputs under ``root``: the simulated mission (A-KIT layout, config, stream), and with
     ``data`` (the shared data folder or its ``snapir-2022-akit``) the first :data:`REAL_DURATION_S` s of
     ``TrajectoryN``."""
-    from graphnav.io.export import write_akit
     from graphnav.estimators.replay import mission_records
+    from graphnav.io.export import write_akit
     from graphnav.io.streamio import write_records
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
