@@ -1,0 +1,64 @@
+"""Loaders that only read, and the prepare step that estimates what a read mission needs (axis signs, time
+offsets, a DVL clock, the GT at the IMU point): docs/decisions/loading-and-prepare.md."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.calibration.preparation import prepare
+from graphnav.core.errors import ConfigError
+from graphnav.io.loaders import read_mission
+from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
+
+
+def _quiet(fn, *args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fn(*args, **kwargs)
+
+
+def test_read_mission_only_reads(akit_dir):
+    read = _quiet(read_mission, akit_dir / "Trajectory5")
+    assert read.meta["prepared"] is False and read.meta["prepare"]["format"] == "akit"
+    np.testing.assert_array_equal(read.config.imu_axis_signs, [1, 1, 1])         # the file's axes
+    assert read.config.gt_time_offset_s == 0.0 and read.config.dvl_time_offset_s == 0.0
+    assert read.dvl.t[0] == read.gt.t[0]                                        # the files' own stamps
+    assert "time_offsets" not in read.meta and read.meta["gt_point_b"] == [0.0, 0.0, 0.0]
+
+
+def test_prepare_of_read_is_load_mission(akit_dir):
+    read = _quiet(read_mission, akit_dir / "Trajectory5")
+    with pytest.warns(UserWarning, match="IMU axis convention"):
+        prepared = prepare(read)
+    loaded = _quiet(load_mission, akit_dir / "Trajectory5")
+    assert read.meta["prepared"] is False                      # the mission read is not changed
+    assert prepared.meta["prepared"] is True and set(prepared.meta["time_offsets"]) == {"gt", "dvl"}
+    for a, b in ((prepared.imu.f_b, loaded.imu.f_b), (prepared.dvl.t, loaded.dvl.t), (prepared.gt.p_n, loaded.gt.p_n),
+                 (prepared.depth.depth, loaded.depth.depth), (prepared.dvl.beams, loaded.dvl.beams)):
+        np.testing.assert_array_equal(a, b)
+    assert prepared.config.dvl_time_offset_s == loaded.config.dvl_time_offset_s
+    np.testing.assert_array_equal(prepared.imu.omega_b[:, 1], -read.imu.omega_b[:, 1])     # y flipped
+
+
+def test_explicit_values_are_used_as_given(akit_dir):
+    read = _quiet(read_mission, akit_dir / "Trajectory5")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*IMU axis convention")
+        m = prepare(read, imu_axis_signs=(1, -1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=1.0)
+    np.testing.assert_array_equal(m.config.imu_axis_signs, [1, -1, 1])
+    np.testing.assert_allclose(m.dvl.t, read.dvl.t + 1.0)
+    assert m.meta["time_offsets"] == {}
+    with pytest.raises(ConfigError, match=r"\+-1"):
+        prepare(read, imu_axis_signs=(1, 2, 1))
+
+
+def test_prepared_and_simulated_missions_pass_through():
+    sim = simulate_mission(20.0, seed=1)
+    assert prepare(sim) is sim
+    with pytest.raises(ConfigError, match="prepared already"):
+        prepare(sim, dvl_time_offset_s=0.5)
+    with pytest.raises(ConfigError, match="simulated default"):
+        read_mission(None)
