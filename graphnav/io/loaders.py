@@ -643,17 +643,20 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
     from graphnav.io import bags, generic_csv, pd0
     if topics and not bags.is_bag(path):
         raise ConfigError(f"--topic applies to ROS bags only; {path} is not one")
-    if akit_kwargs and (bags.is_bag(path) or pd0.is_pd0(path) or not path.is_dir()):
-        raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only; {path} is not one")
     config = over(SensorConfig())
+    reader = None
     if bags.is_bag(path):
         # a configured surface pressure is used as given; otherwise the bag's own start at the surface sets it
         atm = bool(overrides) and overrides.sets("atmospheric_pressure_pa")
-        return screen_mission(bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm))
-    if pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
-        return screen_mission(generic_csv.load_pd0(path, config))
-    if generic_csv.uses_column_map(path, config):
-        return screen_mission(generic_csv.load_csv_mission(path, config))
+        reader = lambda: bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)  # noqa: E731
+    elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
+        reader = lambda: generic_csv.load_pd0(path, config)  # noqa: E731
+    elif generic_csv.uses_column_map(path, config):
+        reader = lambda: generic_csv.load_csv_mission(path, config)  # noqa: E731
+    if reader is not None:
+        if akit_kwargs:
+            raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only; {path} is not one")
+        return screen_mission(reader())
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
     config = over(akit_default_config())
