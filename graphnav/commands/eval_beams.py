@@ -7,7 +7,7 @@ import json
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "eval-beams", help="evaluate the missing-beam networks against the average estimator",
-        description="Beam RMSE and velocity RMSE (least squares on the completed beams vs the true DVL "
+        description="Beam RMSE and velocity RMSE (least squares on the measured plus regressed beams vs the true DVL "
                     "velocity), and sigma calibration (fraction of errors within 1 and 2 sigma), of the "
                     "network and the average estimator, for 2 and 3 missing beams, on the validation split "
                     "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
