@@ -130,9 +130,10 @@ def cpp_only_run(mission, keyframes, options: GraphOptions) -> dict:
         graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
         start = time.thread_time()
         if k == 0:
+            priors = options.priors
             graph.add(gtsam.PriorFactorPose3(X(0), pose, gtsam.noiseModel.Diagonal.Sigmas(
-                np.r_[np.full(3, options.priors.attitude_sigma_for("graph")), np.full(3, options.priors.position_sigma)])))
-            graph.add(gtsam.PriorFactorVector(V(0), v_n, gtsam.noiseModel.Isotropic.Sigma(3, options.priors.velocity_sigma)))
+                np.r_[np.full(3, priors.attitude_sigma_for("graph")), np.full(3, priors.position_sigma)])))
+            graph.add(gtsam.PriorFactorVector(V(0), v_n, gtsam.noiseModel.Isotropic.Sigma(3, priors.velocity_sigma)))
             graph.add(gtsam.PriorFactorConstantBias(B(0), bias, gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)))
         else:
             ctx.set_gravity(kf, pose.translation(), v_n)

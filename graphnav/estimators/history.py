@@ -75,8 +75,8 @@ class BeamHistory:
 
         Returns:
             (beams (4,), sigma (4,)): the full vector and the per-beam sigma (0 for measured beams), or
-            ``None`` when the ping's missing beams cannot be regressed yet (history not full) -- the caller then uses the
-            measured beams alone. Full pings always go into the history.
+            ``None`` when the ping's missing beams cannot be regressed yet (history not full) -- the caller then
+            uses the measured beams alone. Full pings always go into the history.
         """
         valid = np.asarray(valid, dtype=bool)
         self._run_sigma[valid] = 0.0

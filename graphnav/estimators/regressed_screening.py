@@ -1,5 +1,6 @@
-"""Screening of regressed beams (beams the DVL did not measure, regressed by a completer) against an estimator's own predicted beams, shared by the factor
-graph (:func:`graphnav.estimators.graph.regressed.screen_regressed`) and the EKF
+"""Screening of regressed beams (beams the DVL did not measure, regressed by a completer) against an
+estimator's own predicted beams, shared by the factor graph
+(:func:`graphnav.estimators.graph.regressed.screen_regressed`) and the EKF
 (:meth:`graphnav.estimators.ekf.ErrorStateEkf.screen_regressed`).
 
 The rules (correlation with the prediction, adaptive variance, joint-covariance gate) and the measurements
@@ -14,7 +15,8 @@ def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2:
                               ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The checks of :mod:`graphnav.estimators.graph.regressed`'s docstring for completions ``y`` (m,) m/s of
     variance ``s2`` (m,) (m/s)^2 against the estimator's predicted beams ``y_p`` (m,) of variance ``a`` (m,).
-    ``options`` is the estimator's :class:`graphnav.estimators.options.RegressedScreeningOptions`. Returns (keep (m,) bool, variance (m,), counters)."""
+    ``options`` is the estimator's :class:`graphnav.estimators.options.RegressedScreeningOptions`. Returns
+    (keep (m,) bool, variance (m,), counters)."""
     keep = np.ones(len(y), dtype=bool)
     stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     a = np.maximum(np.asarray(a, float), 1e-12) * options.prediction_var_scale

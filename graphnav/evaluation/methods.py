@@ -397,6 +397,6 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         sol.info["completer_fallbacks"] = counts
         if any(counts.values()):
             warnings.warn(f"{m.name}: the average estimator regressed the beams of {counts['envelope']} ping(s) "
-                          f"whose inputs left the network's training envelope and {counts['pattern']} with a missing-beam pattern "
-                          f"the network was not trained for", RuntimeWarning, stacklevel=2)
+                          f"whose inputs left the network's training envelope and {counts['pattern']} with a "
+                          f"missing-beam pattern the network was not trained for", RuntimeWarning, stacklevel=2)
     return sol

@@ -40,8 +40,8 @@ Chosen defaults and why:
   preintegration short.
 - DVL error states (``dvl_error_states``): a Vector7 ``D(k)`` per keyframe, [scale per DVL axis (3),
   bias per beam (4) m/s] in the beam model ``y = T_d[(1 + s) v_d] + b`` (the EKF's ``dvl_error_states``),
-  prior at the first keyframe (sigmas ``PriorOptions.dvl_scale_sigma`` / ``dvl_bias_sigma``, shared with the EKF) and a random walk between
-  keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
+  prior at the first keyframe (sigmas ``PriorOptions.dvl_scale_sigma`` / ``dvl_bias_sigma``, shared with the
+  EKF) and a random walk between keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
   the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
   ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
   100 s); ``experiments/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above

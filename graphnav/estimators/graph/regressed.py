@@ -1,14 +1,15 @@
 """Regressed beams that earn their place, and the model-based motion prior used where no beam is measured.
 
-A regressed beam (one the DVL did not measure, regressed by a completer) is a prediction made from past pings, not a measurement. Before it becomes a
-factor it is compared with the graph's own prediction of the same beam (:func:`screen_regressed`):
+A regressed beam (one the DVL did not measure, regressed by a completer) is a prediction made from past
+pings, not a measurement. Before it becomes a factor it is compared with the graph's own prediction of the same beam (:func:`screen_regressed`):
 
 - predicted beam ``y_p = b^T (R^T v_pred + (omega - b_g) x l)`` from the IMU-propagated state, with variance
   ``a = b^T R^T P_v R b``, ``P_v`` = the marginal velocity covariance of the previous keyframe plus the
   preintegrated velocity noise up to this one;
 - completion ``y_c`` with the completer's variance ``s_c^2``.
 
-Options (``GraphOptions.screening``, ``EkfOptions.screening``: :class:`graphnav.estimators.options.RegressedScreeningOptions`):
+Options (``GraphOptions.screening``, ``EkfOptions.screening``:
+:class:`graphnav.estimators.options.RegressedScreeningOptions`):
 
 - ``correlation`` (rho): the completion is made from pings that are already factors, so its error
   is correlated with the graph's prediction error. With covariance ``c = rho sqrt(a s_c^2)`` the best
