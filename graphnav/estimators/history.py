@@ -34,7 +34,7 @@ class BeamHistory:
         self.n_past = n_past
         self.drift_std = drift_std
         self._buf: deque[np.ndarray] = deque(maxlen=n_past)
-        self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of fills
+        self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
 
     def __len__(self) -> int:
         return len(self._buf)

@@ -223,7 +223,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
     Args:
         mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
         tight: every measured beam is a measurement (TC); False: a velocity fix from 3+ beams (LC).
-        completer: fills the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
+        completer: regresses the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
             the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the regressed beams enter
             with their variance inflated by the completer's sigma^2. None: measured beams only.
         options: :class:`EkfOptions` (default: the 15-state filter).
