@@ -57,13 +57,13 @@ def table(title, header, rows):
         print(row(r, widths))
 
 
-def stream(mission, mode, options=None, completer=None):
+def stream(mission, backend, options=None, completer=None):
     """Run an incremental estimator without keeping its output; return (total s, update times, RSS increase MB)."""
     gc.collect()
     base = peak = rss_mb()
     updates = []
     start = time.perf_counter()
-    for est in iterate_graph(mission, completer=completer, options=options, mode=mode):
+    for est in iterate_graph(mission, completer=completer, options=options, backend=backend):
         updates.append(est.update_s)
         if est.index % 200 == 0:
             peak = max(peak, rss_mb())
@@ -91,15 +91,15 @@ def online_400(m400):
 def growth(missions, online_max_s):
     rows = []
     for m in missions:
-        for mode in ("online", "fixed-lag"):
-            if mode == "online" and m.duration > online_max_s:
-                rows.append([f"{m.duration:.0f}", mode, "skipped (grows with the graph)", "", "", "", ""])
+        for backend in ("isam2", "fixed-lag"):
+            if backend == "isam2" and m.duration > online_max_s:
+                rows.append([f"{m.duration:.0f}", backend, "skipped (grows with the graph)", "", "", "", ""])
                 continue
-            total, u, drss, peak = stream(m, mode)
-            rows.append([f"{m.duration:.0f}", mode, f"{total:.1f}", ms(np.median(u)), ms(np.percentile(u, 99)),
+            total, u, drss, peak = stream(m, backend)
+            rows.append([f"{m.duration:.0f}", backend, f"{total:.1f}", ms(np.median(u)), ms(np.percentile(u, 99)),
                          f"{drss:.0f}", f"{peak:.0f}"])
     table("2. Cost growth with mission length (Graph-TC; fixed-lag lag = 30 s)",
-          ["mission s", "mode", "total s", "upd median ms", "upd p99 ms", "RSS increase MB", "RSS peak MB"], rows)
+          ["mission s", "backend", "total s", "upd median ms", "upd p99 ms", "RSS increase MB", "RSS peak MB"], rows)
 
 
 def batch(missions, lm_max_s):
@@ -107,12 +107,12 @@ def batch(missions, lm_max_s):
     for m in missions:
         mission = m.with_outage(scenario_outage("2-missing", m.t0 + 200.0, 30.0))
         comp = AverageCompleter(3)
-        sol = run_graph(mission, batch=True, completer=comp, mode="fixed-lag")
+        sol = run_graph(mission, batch=True, completer=comp, backend="fixed-lag")
         info = sol.info
         rows.append([f"{m.duration:.0f}", "vectorized GN", f"{sol.runtime_s:.1f}", f"{info['online_s']:.1f}",
                      f"{info['batch_s']:.2f}", info["batch_iterations"], f"{vrmse(sol, m.gt):.4f}", ""])
         if m.duration <= lm_max_s:
-            ref = run_graph(mission, batch=True, completer=comp, mode="fixed-lag",
+            ref = run_graph(mission, batch=True, completer=comp, backend="fixed-lag",
                             options=GraphOptions(batch_solver="lm"))
             diff = np.abs(ref.v_n - sol.v_n).max()
             rows.append([f"{m.duration:.0f}", "GTSAM LM (CustomFactor)", f"{ref.runtime_s:.1f}",

@@ -27,11 +27,11 @@ from graphnav.missions import load_akit
 from graphnav.sim.simulate import simulate_mission
 
 
-def timed(mission, mode, level, batch, repeats):
+def timed(mission, backend, level, batch, repeats):
     best = None
     for _ in range(repeats):
         start = time.perf_counter()
-        sol = run_graph(mission, mode=mode, batch=batch, options=GraphOptions(marginals=level))
+        sol = run_graph(mission, backend=backend, batch=batch, options=GraphOptions(marginals=level))
         wall = time.perf_counter() - start
         if best is None or wall < best[0]:
             best = (wall, sol)
@@ -40,15 +40,15 @@ def timed(mission, mode, level, batch, repeats):
 
 def bench(label, mission, repeats):
     rows = []
-    for mode, batch in (("fixed-lag", False), ("online", False), ("fixed-lag", True)):
+    for backend, batch in (("fixed-lag", False), ("isam2", False), ("fixed-lag", True)):
         reference = None
         for level in MARGINAL_LEVELS:
-            wall, sol = timed(mission, mode, level, batch, repeats)
+            wall, sol = timed(mission, backend, level, batch, repeats)
             reference = reference or sol
             dp = float(np.max(np.abs(sol.p_n - reference.p_n)))
             dv = float(np.max(np.abs(sol.v_n - reference.v_n)))
             upd = 1e3 * np.asarray(sol.info["update_s"])
-            what = "batch" if batch else ("ISAM2" if mode == "online" else "fixed-lag")
+            what = "batch" if batch else ("ISAM2" if backend == "isam2" else "fixed-lag")
             marg = sol.info.get("batch_marginals_s", float("nan"))
             rows.append((label, what, level, f"{wall:.2f}", f"{np.median(upd):.2f}", f"{np.percentile(upd, 99):.2f}",
                          "" if not batch else f"{marg:.2f}", f"{dp:.1e}", f"{dv:.1e}"))

@@ -130,9 +130,10 @@ def cpp_only_run(mission, keyframes, options: GraphOptions) -> dict:
         graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
         start = time.thread_time()
         if k == 0:
+            priors = options.priors
             graph.add(gtsam.PriorFactorPose3(X(0), pose, gtsam.noiseModel.Diagonal.Sigmas(
-                np.r_[np.full(3, options.prior_rot_sigma), np.full(3, options.prior_pos_sigma)])))
-            graph.add(gtsam.PriorFactorVector(V(0), v_n, gtsam.noiseModel.Isotropic.Sigma(3, options.prior_vel_sigma)))
+                np.r_[np.full(3, priors.attitude_sigma_for("graph")), np.full(3, priors.position_sigma)])))
+            graph.add(gtsam.PriorFactorVector(V(0), v_n, gtsam.noiseModel.Isotropic.Sigma(3, priors.velocity_sigma)))
             graph.add(gtsam.PriorFactorConstantBias(B(0), bias, gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)))
         else:
             ctx.set_gravity(kf, pose.translation(), v_n)
@@ -249,7 +250,7 @@ def batch_table(hours: float) -> None:
     m = simulate_mission(hours * 3600.0, seed=0)
     mission = m.with_outage(scenario_outage("2-missing", m.t0 + 200.0, 30.0))
     cpu = time.process_time()
-    sol = run_graph(mission, batch=True, completer=AverageCompleter(3), mode="fixed-lag")
+    sol = run_graph(mission, batch=True, completer=AverageCompleter(3), backend="fixed-lag")
     cpu = time.process_time() - cpu
     info = sol.info
     print(f"\n2. Graph-HN-batch, simulated {hours:g} h mission ({len(sol.t)} keyframes; AverageCompleter, one 30 s "

@@ -27,6 +27,7 @@ from graphnav.core.rotations import C_b_n_to_euler
 from graphnav.estimators.align import AlignOptions, align_mission
 from graphnav.estimators.graph import InitialState
 from graphnav.estimators.graph.options import GraphOptions
+from graphnav.estimators.options import PriorOptions
 from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import vrmse
@@ -53,8 +54,9 @@ def graph_options(alignment) -> GraphOptions:
     largest 1-sigma of each (the heading's, for the attitude) is used."""
     def largest(cov):
         return float(np.sqrt(np.linalg.eigvalsh(cov)[-1]))
-    return GraphOptions(prior_rot_sigma=largest(alignment.cov_rot), prior_vel_sigma=largest(alignment.cov_v_n),
-                        prior_pos_sigma=largest(alignment.cov_p_n))
+    return GraphOptions(priors=PriorOptions(attitude_sigma=largest(alignment.cov_rot),
+                                            velocity_sigma=largest(alignment.cov_v_n),
+                                            position_sigma=largest(alignment.cov_p_n)))
 
 
 def initial_state(alignment) -> InitialState:

@@ -1,7 +1,7 @@
 """The DVL beam-bias model of the graph's DVL error states, chosen by leave-one-trajectory-out on the ten shared
 A-KIT trajectories (Graph-TC fixed-lag, all beams, whole trajectory).
 
-Candidates are (prior_dvl_bias_sigma m/s, dvl_bias_rw m/s/sqrt(s)); None = the GraphOptions default
+Candidates are (priors.dvl_bias_sigma m/s, dvl_bias_rw m/s/sqrt(s)); None = the GraphOptions default
 (``max(|config.dvl.beam_bias|, 0.005)``, i.e. 0.01 m/s on these beams). Per fold (one held-out trajectory) the
 candidate with the lowest mean VRMSE on the other nine is chosen, and its numbers on the held-out one are the
 out-of-fold result.
@@ -16,6 +16,7 @@ import warnings
 import numpy as np
 
 from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.options import PriorOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.evaluation.metrics import horizontal_position_error, nees_velocity, vrmse
 from graphnav.io.paths import akit_trajectories
@@ -37,13 +38,13 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore")
             mission = load_mission(folder)
             for j, (prior, rw) in enumerate(CANDIDATES):
-                sol = run_graph(mission, mode="fixed-lag",
-                                options=GraphOptions(prior_dvl_bias_sigma=prior, dvl_bias_rw=rw))
+                sol = run_graph(mission, backend="fixed-lag",
+                                options=GraphOptions(priors=PriorOptions(dvl_bias_sigma=prior), dvl_bias_rw=rw))
                 metrics[i, j] = (vrmse(sol, mission.gt),
                                  float(np.atleast_1d(horizontal_position_error(sol, mission.gt))[-1]),
                                  float(np.nanmean(nees_velocity(sol, mission.gt))))
         print(f"{folder.name:12s} " + "  ".join(f"{m[0]:.4f}/{m[1]:6.2f}/{m[2]:5.2f}" for m in metrics[i]), flush=True)
-    print("\ncandidates (prior_dvl_bias_sigma, dvl_bias_rw):", CANDIDATES)
+    print("\ncandidates (priors.dvl_bias_sigma, dvl_bias_rw):", CANDIDATES)
     print("mean VRMSE / end error m / NEES:", "  ".join(f"{m[0]:.4f}/{m[1]:.2f}/{m[2]:.2f}"
                                                         for m in metrics.mean(axis=0)))
     print("\n| held out | chosen | VRMSE out-of-fold | default | end error m | default |")

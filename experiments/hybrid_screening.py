@@ -1,4 +1,4 @@
-"""What the screening of completed beams (``EkfOptions.regressed_correlation`` / ``regressed_adaptive``, on for
+"""What the screening of completed beams (``EkfOptions.screening.correlation`` / ``.adaptive``, on for
 the hybrid EKF methods) does on the bench's outage windows of the shared trajectories.
 
 For each trajectory and scenario the paper-style windows (:func:`graphnav.core.scenarios.window_starts`, 30 s)
@@ -21,7 +21,7 @@ from graphnav.evaluation.metrics import vrmse
 from graphnav.io.paths import akit_trajectories
 from graphnav.missions import load_mission
 
-PLAIN = {"regressed_correlation": 0.0, "regressed_adaptive": False}
+PLAIN = {"screening.correlation": 0.0, "screening.adaptive": False}
 
 
 def main(argv=None) -> int:

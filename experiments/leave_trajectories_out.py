@@ -40,7 +40,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", help="folder of A-KIT trajectory folders (a folder of symlinks selects some)")
     ap.add_argument("--out", default="out/loto", help="output folder (grid.json, report.md, crossval.json)")
     ap.add_argument("--params", nargs="+", default=["imu_noise_scale", "dvl_bias_rw", "dvl_scale_rw"],
-                    choices=list(crossval.PARAMETERS))
+                    choices=list(crossval.PARAMETERS), type=crossval.parameter_name)
     ap.add_argument("--scenarios", nargs="+", default=["none", "3-missing"])
     ap.add_argument("--methods", nargs="+", default=list(crossval.STUDY_METHODS))
     ap.add_argument("--graph-base", nargs="*", default=[], metavar="NAME=VALUE",
@@ -61,11 +61,13 @@ def main(argv=None) -> int:
     graph_base, config_base = parse_pairs(args.graph_base), parse_pairs(args.config_base)
     for item in args.grid:
         name, _, values = item.partition("=")
+        name = crossval.parameter_name(name)
         if name not in crossval.PARAMETERS or not values:
             raise SystemExit(f"--grid {item}: expected one of {', '.join(crossval.PARAMETERS)}=V1,V2,...")
         spec = crossval.PARAMETERS[name]
         crossval.PARAMETERS[name] = dataclasses.replace(spec, grid=tuple(float(v) for v in values.split(",")))
     for name, value in parse_pairs(args.study_defaults).items():
+        name = crossval.parameter_name(name)
         crossval.PARAMETERS[name] = dataclasses.replace(crossval.PARAMETERS[name], default=value)
     try:
         if not args.report_only:

@@ -10,7 +10,7 @@ History: written from the whole-mission estimators before the Navigator; regener
 sample stamps); regenerated again for the Earth model (position-dependent gravity in the simulator and every
 estimator, sample axes frozen in inertial space, GTSAM's centrifugal term undone): the stored velocities moved
 by up to 1.3e-4 m/s, positions by 1e-2 m. The initial states (``initial/*``) are kept as stored, so that the comparison keeps isolating
-the streaming code path; every solution key (``tag/method/mode/{t,v_n,p_n,cov_v_n}``) is recomputed on the
+the streaming code path; every solution key (``tag/method/backend/{t,v_n,p_n,cov_v_n}``) is recomputed on the
 same missions as the test's (``simulate_mission(200 s, seed 3)``: clean, a 3-missing 30 s outage at 80 s, a
 DVL gap 100-109.5 s). Refreshed with ``--only fixed-lag`` for one DVL factor per ping (all its beams, a per-row
 Huber kernel, instead of one factor per beam): the fixed-lag Graph-TC velocities moved by up to 1.6e-7 m/s
@@ -46,13 +46,13 @@ def missions() -> dict:
     return {"clean": m, "outage": m.with_outage(scenario_outage("3-missing", 80.0, 30.0)), "gap": gap}
 
 
-def solve(ref, m, tag: str, method: str, mode: str):
+def solve(ref, m, tag: str, method: str, backend: str):
     graph = method.startswith("Graph")
     a = ref[f"initial/{'graph' if graph else 'ekf'}/{'gap' if tag == 'gap' else 'clean'}"]
     initial = InitialState(gtsam.Pose3(gtsam.Rot3(a[1:10].reshape(3, 3)), a[13:16]), a[10:13], t=float(a[0]))
     completer = AverageCompleter(5) if "HN" in method else None
     if graph:
-        return run_graph(m, completer=completer, batch=METHODS[method].batch, mode=mode, initial=initial)
+        return run_graph(m, completer=completer, batch=METHODS[method].batch, backend=backend, initial=initial)
     # the paper's 12-state EKF (the reference predates the 15-state filter, and the 12-state results are unchanged)
     return run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial,
                    options=EkfOptions(position_states=False, dvl_error_states=False))
@@ -74,8 +74,8 @@ def main(argv=None) -> None:
     print("| case | max abs change v_n m/s | p_n m | cov_v_n (m/s)^2 |")
     print("|---|---|---|---|")
     for case in cases:
-        tag, method, mode = case.split("/")
-        sol = solve(ref, ms[tag], tag, method, None if mode == "None" else mode)
+        tag, method, backend = case.split("/")
+        sol = solve(ref, ms[tag], tag, method, None if backend == "None" else backend)
         if not np.array_equal(sol.t, ref[case + "/t"]):
             raise SystemExit(f"{case}: the output stamps changed; this script only refreshes values")
         new[case + "/t"] = sol.t

@@ -16,7 +16,7 @@ import numpy as np
 from graphnav.evaluation.methods import MOTION_PRIOR_SETTINGS, REGRESSED_SCREENING
 
 #: The hybrid without any screening or motion prior.
-PLAIN = {"regressed_gate_k": None, "regressed_adaptive": False, "regressed_correlation": 0.0, "motion_prior": "off"}
+PLAIN = {"screening.gate_k": None, "screening.adaptive": False, "screening.correlation": 0.0, "motion_prior": "off"}
 CANDIDATES: dict[str, tuple[str, dict]] = {
     "Graph-TC": ("Graph-TC", {}),
     "Graph-MP": ("Graph-MP", {}),
@@ -27,17 +27,17 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "MP rw x4 heave0.2": ("Graph-MP", {"motion_prior_rw": (0.2, 0.32, 0.12), "motion_prior_heave_sigma": 0.2}),
     "MP rw x8 nohv": ("Graph-MP", {"motion_prior_rw": (0.4, 0.64, 0.24), "motion_prior_heave_sigma": None}),
     "HN plain": ("Graph-HN", {}),
-    "HN gate3": ("Graph-HN", {"regressed_gate_k": 3.0}),
-    "HN adaptive": ("Graph-HN", {"regressed_adaptive": True}),
-    "HN adapt+gate3": ("Graph-HN", {"regressed_adaptive": True, "regressed_gate_k": 3.0}),
-    "HN corr0.5": ("Graph-HN", {"regressed_correlation": 0.5}),
-    "HN corr0.9": ("Graph-HN", {"regressed_correlation": 0.9}),
-    "HN corr0.5+adapt": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True}),
-    "HN corr0.5+adapt a x4": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
-                                           "regressed_prediction_var_scale": 4.0}),
-    "HN corr0.5+adapt a x8": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
-                                           "regressed_prediction_var_scale": 8.0}),
-    "HN corr0.5+adapt MP-total": ("Graph-HN", {"regressed_correlation": 0.5, "regressed_adaptive": True,
+    "HN gate3": ("Graph-HN", {"screening.gate_k": 3.0}),
+    "HN adaptive": ("Graph-HN", {"screening.adaptive": True}),
+    "HN adapt+gate3": ("Graph-HN", {"screening.adaptive": True, "screening.gate_k": 3.0}),
+    "HN corr0.5": ("Graph-HN", {"screening.correlation": 0.5}),
+    "HN corr0.9": ("Graph-HN", {"screening.correlation": 0.9}),
+    "HN corr0.5+adapt": ("Graph-HN", {"screening.correlation": 0.5, "screening.adaptive": True}),
+    "HN corr0.5+adapt a x4": ("Graph-HN", {"screening.correlation": 0.5, "screening.adaptive": True,
+                                           "screening.prediction_var_scale": 4.0}),
+    "HN corr0.5+adapt a x8": ("Graph-HN", {"screening.correlation": 0.5, "screening.adaptive": True,
+                                           "screening.prediction_var_scale": 8.0}),
+    "HN corr0.5+adapt MP-total": ("Graph-HN", {"screening.correlation": 0.5, "screening.adaptive": True,
                                                "motion_prior": "total", "motion_prior_rw": (0.2, 0.32, 0.12),
                                                "motion_prior_heave_sigma": 0.2}),
     **{f"HN MP-if-uncertain {std:g}": ("Graph-HN", {**REGRESSED_SCREENING, **MOTION_PRIOR_SETTINGS,
@@ -50,11 +50,11 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                                                         "motion_prior_switch_std": 0.2}),
     "HN +MP": ("Graph-HN", {"motion_prior": "partial"}),
     "HN MP-total": ("Graph-HN", {"motion_prior": "total"}),
-    "HN adapt+MP": ("Graph-HN", {"regressed_adaptive": True, "motion_prior": "partial"}),
+    "HN adapt+MP": ("Graph-HN", {"screening.adaptive": True, "motion_prior": "partial"}),
     # the same screenings with the IMU-aware completer (Graph-HNI; "HNI corr0.5+adapt" is its default)
     "HNI plain": ("Graph-HNI", {}),
-    "HNI adaptive": ("Graph-HNI", {"regressed_adaptive": True}),
-    "HNI corr0.5+adapt": ("Graph-HNI", {"regressed_correlation": 0.5, "regressed_adaptive": True}),
+    "HNI adaptive": ("Graph-HNI", {"screening.adaptive": True}),
+    "HNI corr0.5+adapt": ("Graph-HNI", {"screening.correlation": 0.5, "screening.adaptive": True}),
 }
 
 

@@ -3,7 +3,7 @@
 For every regressed beam the plain hybrid (Graph-HN without screening) offers, records the completion error
 ``e_c = y_c - y_true`` and the graph's prediction error ``e_p = y_p - y_true`` (``y_true`` from the ground-truth
 velocity and attitude, lever-arm term included) with the prediction variance ``a`` and the completer's
-``s_c^2``, and prints per grade and scenario: corr(e_c, e_p) (the rho of ``regressed_correlation``), RMS of
+``s_c^2``, and prints per grade and scenario: corr(e_c, e_p) (the rho of ``screening.correlation``), RMS of
 both errors, and ``mean(e^2) / mean(sigma^2)`` for each (1 = the stated sigma is right). Usage::
 
     nice -n 10 .venv/bin/python experiments/regressed_correlation.py --data ../shared/data/snapir-2022-akit \
@@ -52,8 +52,8 @@ def collect(mission, scenario: str, window_s: float) -> np.ndarray:
     inc_mod.keyframe_factors, builder_mod.screen_regressed = kf_hook, screen_hook
     try:
         # a gate that never fires makes the graph compute its prediction without changing the plain hybrid
-        run_method(run, "Graph-HN", scenario, options={"regressed_gate_k": 1e9, "regressed_adaptive": False,
-                                                      "regressed_correlation": 0.0, "motion_prior": "off"})
+        run_method(run, "Graph-HN", scenario, options={"screening.gate_k": 1e9, "screening.adaptive": False,
+                                                      "screening.correlation": 0.0, "motion_prior": "off"})
     finally:
         inc_mod.keyframe_factors, builder_mod.screen_regressed = orig_kf, orig_screen
     return np.array(rows).reshape(-1, 4)

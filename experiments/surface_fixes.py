@@ -34,16 +34,18 @@ def main(argv=None) -> None:
     ap.add_argument("--only-on", action="store_true", help="DVL error states on only (no reference runs without)")
     ap.add_argument("--dvl-scale-rw", type=float, default=None, help="GraphOptions.dvl_scale_rw, 1/sqrt(s)")
     ap.add_argument("--dvl-bias-rw", type=float, default=None, help="GraphOptions.dvl_bias_rw, m/s/sqrt(s)")
-    ap.add_argument("--prior-dvl-bias-sigma", type=float, default=None, help="GraphOptions.prior_dvl_bias_sigma, m/s")
+    ap.add_argument("--prior-dvl-bias-sigma", type=float, default=None, help="GraphOptions.priors.dvl_bias_sigma, m/s")
     ap.add_argument("--json", default=None, help="write the summary and the per-run series here")
     ap.add_argument("--plot", default=None, help="write a figure (scale, error, sigma over time) here")
     args = ap.parse_args(argv)
 
     options = GraphOptions()
-    for name in ("dvl_scale_rw", "dvl_bias_rw", "prior_dvl_bias_sigma"):
+    for name in ("dvl_scale_rw", "dvl_bias_rw"):
         value = getattr(args, name)
         if value is not None:
             setattr(options, name, value)
+    if args.prior_dvl_bias_sigma is not None:
+        options.priors.dvl_bias_sigma = args.prior_dvl_bias_sigma
     profile = SurfacingProfile(interval_s=args.interval, stay_s=args.stay)
     cases = [(False, True), (True, True)] if args.only_on else None
     start = time.time()

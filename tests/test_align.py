@@ -144,8 +144,8 @@ def test_mems_with_heading_source_aligns():
 def test_given_initial_heading_is_used():
     mission = simulate_mission(30.0, "tactical", 3)
     yaw0 = C_b_n_to_euler(mission.gt.C_b_n[0])[2]
-    a = align_mission(mission, AlignOptions(levelling_duration_s=20.0), initial_heading_rad=yaw0,
-                      heading_sigma_rad=np.deg2rad(1.0))
+    a = align_mission(mission, AlignOptions(levelling_duration_s=20.0, initial_heading_rad=yaw0,
+                                         heading_sigma_rad=np.deg2rad(1.0)))
     assert a.heading_source == "given"
     err = wrap(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(truth(mission, a.t)[0])[2])
     assert abs(err) < np.deg2rad(0.3)                  # exact start heading + 20 s of a 1 deg/h gyro

@@ -89,7 +89,9 @@ def test_one_method_registry():
             target = node.target if isinstance(node, ast.AnnAssign) else (
                 node.targets[0] if isinstance(node, ast.Assign) else None)
             if isinstance(target, ast.Name) and target.id.endswith("METHODS") and isinstance(node.value, ast.Tuple):
-                selections[target.id] = [ast.literal_eval(e) for e in node.value.elts]
+                # registry constants (methods.GRAPH_TC ...) or literals
+                selections[target.id] = [getattr(methods, e.id) if isinstance(e, ast.Name) else ast.literal_eval(e)
+                                         for e in node.value.elts]
     assert set(selections) == {"FAULT_METHODS", "REGIME_METHODS"}, selections
     assert all(set(names) <= set(graphnav.METHODS) for names in selections.values())
 

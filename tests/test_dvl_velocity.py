@@ -30,7 +30,8 @@ from graphnav.estimators.graph.batch import StackedBeams
 from graphnav.estimators.graph.builder import BeamGroup, GraphContext
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.navigator import Navigator, feed_mission
-from graphnav.estimators.replay import replay, mission_records
+from graphnav.estimators.options import PriorOptions
+from graphnav.estimators.replay import mission_records, replay
 from graphnav.estimators.runs import initial_state, run_ekf, run_graph
 from graphnav.evaluation.metrics import vrmse
 from graphnav.io.streamio import StreamReader, feed, write_records
@@ -463,7 +464,7 @@ def test_ekf_locked_out_by_velocities_reacquires_from_the_velocity():
     omega = np.array([0.0, 0.0, 0.05])
     v_d = config.dvl.C_d_b.T @ (C.T @ v_true + np.cross(omega, LEVER))
     ekf = ErrorStateEkf(config, StrapdownState(0.0, C, v_true + [3.0, 0.0, 0.0], np.zeros(3)),
-                        EkfOptions(sigma_v0=0.01, lever_arm=True, relevel=False))
+                        EkfOptions(priors=PriorOptions(velocity_sigma=0.01), lever_arm=True, relevel=False))
     with pytest.warns(RuntimeWarning, match="re-acquired after a lockout"):
         accepted = [ekf.update_velocity(v_d, omega) for _ in range(ekf.options.health.lockout_rejections)]
     assert not any(accepted[:-1]) and accepted[-1]

@@ -28,6 +28,7 @@ from graphnav.estimators.ekf import (
     so3_exp,
 )
 from graphnav.estimators.ins import StrapdownState
+from graphnav.estimators.options import PriorOptions
 from graphnav.estimators.runs import run_ekf
 from graphnav.evaluation import metrics
 from graphnav.evaluation.methods import EKF_METHODS, run_method
@@ -307,10 +308,10 @@ def test_dvl_error_states_absorb_a_large_dvl_scale_and_bias():
                               beam_bias=np.array([0.01, -0.01, 0.02, 0.0]))
     m = simulate_mission(400.0, seed=0, config=dataclasses.replace(base, dvl=dvl))
     paper = run_ekf(m, options=EkfOptions(position_states=False, dvl_error_states=False))
-    augmented = run_ekf(m, options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
-                                              sigma_beam_bias0=0.02, position_states=False))
-    augmented15 = run_ekf(m, options=EkfOptions(dvl_error_states=True, sigma_dvl_scale0=0.02,
-                                                sigma_beam_bias0=0.02))
+    augmented = run_ekf(m, options=EkfOptions(dvl_error_states=True, position_states=False,
+                                              priors=PriorOptions(dvl_scale_sigma=0.02, dvl_bias_sigma=0.02)))
+    augmented15 = run_ekf(m, options=EkfOptions(dvl_error_states=True,
+                                                priors=PriorOptions(dvl_scale_sigma=0.02, dvl_bias_sigma=0.02)))
     assert metrics.vrmse(augmented15, m.gt, 100.0) < 0.8 * metrics.vrmse(paper, m.gt, 100.0)
     assert np.abs(augmented15.info["beam_bias"] - dvl.beam_bias).max() < 0.015
     assert metrics.vrmse(augmented, m.gt, 100.0) < 0.8 * metrics.vrmse(paper, m.gt, 100.0)
@@ -323,7 +324,7 @@ def test_dvl_error_states_absorb_a_large_dvl_scale_and_bias():
 def _moving_filter(options=None):
     """A 15-state filter after 1 s of manoeuvring from 20 m depth: position and velocity errors correlated."""
     s = StrapdownState(0.0, euler_to_C_b_n(0.03, -0.1, 0.7), np.array([1.2, -0.4, 0.2]), np.array([10.0, -5.0, 20.0]))
-    ekf = ErrorStateEkf(SensorConfig(), s, options or EkfOptions(sigma_p0=2.0))
+    ekf = ErrorStateEkf(SensorConfig(), s, options or EkfOptions(priors=PriorOptions(position_sigma=2.0)))
     ekf.predict(*_manoeuvre())
     return ekf
 
@@ -363,7 +364,7 @@ def test_position_fix_update_reduces_the_horizontal_variance_and_moves_the_estim
 
 
 def test_position_updates_gate_then_reinitialise_and_the_paper_filter_has_none():
-    ekf = _moving_filter(EkfOptions(sigma_p0=1.0, aiding_lockout=3))
+    ekf = _moving_filter(EkfOptions(priors=PriorOptions(position_sigma=1.0), aiding_lockout=3))
     far = ekf.state.p_n[:2] + 1000.0
     assert not ekf.update_position_ne(far, 2.0) and not ekf.update_position_ne(far, 2.0)
     with pytest.warns(RuntimeWarning, match="3 fix measurements in a row rejected.*re-initialised"):
@@ -385,9 +386,9 @@ def _start_from_p0(m, options, rng):
     initial error is what P_0 says it is)."""
     t0 = float(max(m.imu.t[0], m.gt.t[0]))
     p, v, C = m.gt.at(t0, m.imu)
-    eps = rng.normal(0.0, np.asarray(options.sigma_att0_rad))
-    return StrapdownState(t0, so3_exp_batch(eps[None])[0] @ C, v + rng.normal(0.0, options.sigma_v0, 3),
-                          p + rng.normal(0.0, options.sigma_p0, 3))
+    eps = rng.normal(0.0, np.asarray(options.priors.attitude_sigma_for("ekf")))
+    return StrapdownState(t0, so3_exp_batch(eps[None])[0] @ C, v + rng.normal(0.0, options.priors.velocity_sigma, 3),
+                          p + rng.normal(0.0, options.priors.position_sigma, 3))
 
 
 def test_horizontal_position_nees_over_seeds_is_inside_its_chi_square_band():
@@ -397,7 +398,7 @@ def test_horizontal_position_nees_over_seeds_is_inside_its_chi_square_band():
     exactly the integrated velocity and heading errors the filter must account for."""
     base = simulate_mission(10.0, seed=0).config
     dvl = dataclasses.replace(base.dvl, beam_bias=np.zeros(4), scale_factor=np.zeros(3))
-    options = EkfOptions(sigma_p0=0.5)
+    options = EkfOptions(priors=PriorOptions(position_sigma=0.5))
     runs, nees = 10, []
     rng = np.random.default_rng(7)
     for seed in range(runs):

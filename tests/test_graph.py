@@ -100,11 +100,11 @@ def test_noiseless_mission_recovers_truth():
     assert vrmse(sol, m.gt) < 5e-4
 
 
-@pytest.mark.parametrize("mode", ["online", "fixed-lag"])
-def test_all_beams_filtered_velocity_is_consistent(steady_missions, mode):
+@pytest.mark.parametrize("backend", ["isam2", "fixed-lag"])
+def test_all_beams_filtered_velocity_is_consistent(steady_missions, backend):
     """Mean NEES of the filtered velocity in a loose band around 3 and VRMSE below one beam's noise."""
     for m in steady_missions:
-        sol = run_graph(m, mode=mode)
+        sol = run_graph(m, backend=backend)
         nees = nees_velocity(sol, m.gt, t_start=20.0)
         assert 1.5 < nees.mean() < 5.0, nees.mean()
         assert vrmse(sol, m.gt) < m.config.dvl.beam_noise_std
@@ -114,8 +114,8 @@ def test_all_beams_filtered_velocity_is_consistent(steady_missions, mode):
 
 def test_fixed_lag_filtered_output_equals_isam2(steady_missions):
     m = steady_missions[0]
-    a = run_graph(m, mode="online")
-    b = run_graph(m, mode="fixed-lag", options=GraphOptions(lag_s=10.0))
+    a = run_graph(m, backend="isam2")
+    b = run_graph(m, backend="fixed-lag", options=GraphOptions(lag_s=10.0))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=2e-4)
     # with the DVL error states (default) the marginalised D(k) prior moves the off-diagonal velocity
     # covariance by ~1e-7 (m/s)^2, 5e-5 of the diagonal (2e-3)
@@ -204,8 +204,8 @@ def test_imu_only_gaps_do_not_crash(nav_mission):
     keep = (m.dvl.t < 60.0) | (m.dvl.t >= 120.0)
     silent = dataclasses.replace(m, dvl=m.dvl.take(keep))
     for mission in (invalid, silent):
-        for completer, batch, mode in [(None, False, "online"), (AverageCompleter(3), True, "fixed-lag")]:
-            sol = run_graph(mission, completer=completer, batch=batch, mode=mode)
+        for completer, batch, backend in [(None, False, "isam2"), (AverageCompleter(3), True, "fixed-lag")]:
+            sol = run_graph(mission, completer=completer, batch=batch, backend=backend)
             assert np.all(np.isfinite(sol.v_n)) and np.all(np.isfinite(sol.cov_v_n))
             assert vrmse(sol, m.gt) < 0.5
     sol = run_graph(silent)
@@ -244,7 +244,7 @@ def test_callback_iterator_and_errors(nav_mission):
         run_graph(m, "Graph-TC")
     assert sol.method == "Graph-TC" and run_graph(m, name="mine").method == "mine"
     with pytest.raises(ConfigError):
-        run_graph(m, mode="sideways")
+        run_graph(m, backend="sideways")
     with pytest.raises(ConfigError):
         GraphOptions(beam_factor_mode="per-ping")
 
@@ -257,8 +257,8 @@ def biased_missions():
     return missions
 
 
-@pytest.mark.parametrize("mode", ["online", "fixed-lag"])
-def test_dvl_error_states_make_biased_beams_consistent(biased_missions, mode):
+@pytest.mark.parametrize("backend", ["isam2", "fixed-lag"])
+def test_dvl_error_states_make_biased_beams_consistent(biased_missions, backend):
     """With beam bias and scale in the data, the DVL error states keep the filtered NEES (mean over four
     missions: one mission's mean is dominated by a few slow error excursions) in its band and estimate the
     common beam bias (observable through the depth factor)."""
@@ -266,7 +266,7 @@ def test_dvl_error_states_make_biased_beams_consistent(biased_missions, mode):
     nees, bias, err = [], [], []
     for m in biased_missions:
         seen = []
-        sol = run_graph(m, mode=mode, options=opts, callback=seen.append)
+        sol = run_graph(m, backend=backend, options=opts, callback=seen.append)
         nees.append(nees_velocity(sol, m.gt, t_start=20.0).mean())
         err.append(vrmse(sol, m.gt))
         d = seen[-2].dvl_errors          # D(k) is read back when keyframe k + 1 is added

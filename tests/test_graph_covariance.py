@@ -21,6 +21,7 @@ from graphnav.core.rotations import (
 from graphnav.estimators.graph import GraphOptions, InitialState
 from graphnav.estimators.graph.marginals import keyframe_marginals, pose_covariances
 from graphnav.estimators.replay import first_ping_time
+from graphnav.estimators.options import PriorOptions
 from graphnav.estimators.runs import run_graph
 from graphnav.sim.simulate import default_config, simulate_mission
 
@@ -91,9 +92,9 @@ def short_mission():
     return simulate_mission(40, imu_grade="tactical", seed=4)
 
 
-@pytest.mark.parametrize("mode", ["fixed-lag", "online"])
-def test_marginal_levels_leave_the_estimates_bit_equal(short_mission, mode):
-    sols = {level: run_graph(short_mission, mode=mode, options=GraphOptions(marginals=level))
+@pytest.mark.parametrize("backend", ["fixed-lag", "isam2"])
+def test_marginal_levels_leave_the_estimates_bit_equal(short_mission, backend):
+    sols = {level: run_graph(short_mission, backend=backend, options=GraphOptions(marginals=level))
             for level in ("none", "velocity", "full")}
     for level, sol in sols.items():
         assert np.array_equal(sol.p_n, sols["none"].p_n) and np.array_equal(sol.v_n, sols["none"].v_n)
@@ -106,10 +107,10 @@ def test_marginal_levels_leave_the_estimates_bit_equal(short_mission, mode):
     for cov in (full.cov_p_n, full.cov_rot_b, full.cov_bias):
         np.testing.assert_array_equal(cov, np.swapaxes(cov, 1, 2))
         assert np.all(np.linalg.eigvalsh(cov) > 0)
-    # the first keyframe carries its prior: position sigma prior_pos_sigma, attitude prior_rot_sigma
+    # the first keyframe carries its prior: position sigma priors.position_sigma, attitude priors.attitude_sigma
     o = GraphOptions()
-    np.testing.assert_allclose(np.sqrt(np.diagonal(full.cov_p_n[0])[:2]), o.prior_pos_sigma, rtol=0.02)
-    np.testing.assert_allclose(np.sqrt(full.cov_rot_b[0, 2, 2]), o.prior_rot_sigma, rtol=0.05)
+    np.testing.assert_allclose(np.sqrt(np.diagonal(full.cov_p_n[0])[:2]), o.priors.position_sigma, rtol=0.02)
+    np.testing.assert_allclose(np.sqrt(full.cov_rot_b[0, 2, 2]), o.priors.attitude_sigma_for("graph"), rtol=0.05)
     # horizontal position is not observed: its sigma grows over the run
     assert np.all(np.diff(full.cov_p_n[:, 0, 0] + full.cov_p_n[:, 1, 1]) > -1e-9)
 
@@ -117,8 +118,8 @@ def test_marginal_levels_leave_the_estimates_bit_equal(short_mission, mode):
 def test_position_covariance_continues_across_a_reanchor(short_mission):
     """The fixed-lag smoother's restarts (reanchor_interval_s) carry the joint marginal of the last state as a
     prior: the position and attitude covariances go on as without a restart."""
-    a = run_graph(short_mission, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
-    b = run_graph(short_mission, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=10.0))
+    a = run_graph(short_mission, backend="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
+    b = run_graph(short_mission, backend="fixed-lag", options=GraphOptions(reanchor_interval_s=10.0))
     assert b.info["reanchored"] >= 3
     for name in ("cov_p_n", "cov_rot_b"):
         restarted, reference = getattr(b, name), getattr(a, name)
@@ -130,18 +131,18 @@ def test_position_covariance_continues_across_a_reanchor(short_mission):
 
 
 def test_batch_marginal_levels(short_mission):
-    full = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(marginals="full"))
-    velocity = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(marginals="velocity"))
+    full = run_graph(short_mission, backend="fixed-lag", batch=True, options=GraphOptions(marginals="full"))
+    velocity = run_graph(short_mission, backend="fixed-lag", batch=True, options=GraphOptions(marginals="velocity"))
     assert np.array_equal(full.p_n, velocity.p_n) and np.array_equal(full.v_n, velocity.v_n)
     np.testing.assert_allclose(full.cov_v_n, velocity.cov_v_n, rtol=1e-9, atol=1e-15)
     assert velocity.cov_p_n is None and full.cov_p_n.shape == (len(full.t), 3, 3)
     # smoothed: the middle of the run knows the future, so its velocity is no less certain than the filter's
-    filtered = run_graph(short_mission, mode="fixed-lag", options=GraphOptions(marginals="full"))
+    filtered = run_graph(short_mission, backend="fixed-lag", options=GraphOptions(marginals="full"))
     k = len(full.t) // 2
     assert np.trace(full.cov_v_n[k]) <= np.trace(filtered.cov_v_n[k]) * (1 + 1e-6)
     assert full.info["batch_marginals_s"] > 0
     # QR elimination's marginals (taken from R) are Cholesky's
-    qr = run_graph(short_mission, mode="fixed-lag", batch=True, options=GraphOptions(batch_factorization="QR"))
+    qr = run_graph(short_mission, backend="fixed-lag", batch=True, options=GraphOptions(batch_factorization="QR"))
     for name in ("cov_v_n", "cov_p_n", "cov_rot_b", "cov_bias"):
         np.testing.assert_allclose(getattr(qr, name), getattr(full, name), rtol=1e-5,
                                    atol=1e-9 * np.abs(getattr(full, name)).max())
@@ -160,7 +161,7 @@ def monte_carlo_nees(seeds, duration_s: float):
     whose filtered estimates the callback keeps). Each seed draws the initial pose and velocity error from the
     graph's prior and the DVL scale and beam biases from :data:`DVL_SCALE_SIGMA`, :data:`DVL_BIAS_SIGMA`; the IMU
     biases come from the IMU grade's spec as the graph's bias prior."""
-    options = GraphOptions(prior_dvl_scale_sigma=DVL_SCALE_SIGMA, prior_dvl_bias_sigma=DVL_BIAS_SIGMA)
+    options = GraphOptions(priors=PriorOptions(dvl_scale_sigma=DVL_SCALE_SIGMA, dvl_bias_sigma=DVL_BIAS_SIGMA))
     out = {"fixed-lag": [], "batch": []}
     for seed in seeds:
         rng = np.random.default_rng(1000 + seed)
@@ -169,11 +170,11 @@ def monte_carlo_nees(seeds, duration_s: float):
         config.dvl.beam_bias = rng.normal(0.0, DVL_BIAS_SIGMA, 4)
         mission = simulate_mission(duration_s, imu_grade="tactical", seed=seed, config=config)
         initial = InitialState.from_ground_truth(mission, first_ping_time(mission))
-        initial.pose = initial.pose.retract(np.r_[rng.normal(0.0, options.prior_rot_sigma, 3),
-                                                  rng.normal(0.0, options.prior_pos_sigma, 3)])
-        initial.v_n = initial.v_n + rng.normal(0.0, options.prior_vel_sigma, 3)
+        initial.pose = initial.pose.retract(np.r_[rng.normal(0.0, options.priors.attitude_sigma_for("graph"), 3),
+                                                  rng.normal(0.0, options.priors.position_sigma, 3)])
+        initial.v_n = initial.v_n + rng.normal(0.0, options.priors.velocity_sigma, 3)
         filtered = []
-        sol = run_graph(mission, mode="fixed-lag", batch=True, options=options, initial=initial,
+        sol = run_graph(mission, backend="fixed-lag", batch=True, options=options, initial=initial,
                         callback=filtered.append)
         last = filtered[-1]
         for name, (t, p_n, C, cov_p, cov_rot) in {

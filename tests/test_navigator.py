@@ -46,14 +46,14 @@ def _missions(m):
     return {"clean": m, "outage": m.with_outage(scenario_outage("3-missing", 80.0, 30.0)), "gap": gap}
 
 
-CASES = [("clean", "Graph-TC", "online", "3-missing"), ("clean", "Graph-TC", "fixed-lag", "3-missing"),
-         ("outage", "Graph-HN", "online", "3-missing"), ("outage", "Graph-HN-batch", "fixed-lag", "3-missing"),
+CASES = [("clean", "Graph-TC", "isam2", "3-missing"), ("clean", "Graph-TC", "fixed-lag", "3-missing"),
+         ("outage", "Graph-HN", "isam2", "3-missing"), ("outage", "Graph-HN-batch", "fixed-lag", "3-missing"),
          ("clean", "TC", None, "3-missing"), ("outage", "LC", None, "3-missing"),
-         ("outage", "HNTC", None, "3-missing"), ("gap", "Graph-TC", "online", "none"), ("gap", "TC", None, "none")]
+         ("outage", "HNTC", None, "3-missing"), ("gap", "Graph-TC", "isam2", "none"), ("gap", "TC", None, "none")]
 
 
-@pytest.mark.parametrize("tag, method, mode, scenario", CASES)
-def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission, reference, tag, method, mode,
+@pytest.mark.parametrize("tag, method, backend, scenario", CASES)
+def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission, reference, tag, method, backend,
                                                                         scenario):
     """Tolerance: the graph methods reproduce the old results to 1e-9 (identical keyframes and factors);
     the EKF to 1e-5 m/s, 1e-4 m: IMU-only keyframes in a DVL gap split its prediction into more calls, and the
@@ -66,11 +66,11 @@ def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission
     a = reference[f"initial/{'graph' if graph else 'ekf'}/{'gap' if tag == 'gap' else 'clean'}"]
     initial = InitialState(gtsam.Pose3(gtsam.Rot3(a[1:10].reshape(3, 3)), a[13:16]), a[10:13], t=float(a[0]))
     if graph:
-        sol = run_graph(m, completer=completer, batch=METHODS[method].batch, mode=mode, initial=initial)
+        sol = run_graph(m, completer=completer, batch=METHODS[method].batch, backend=backend, initial=initial)
     else:   # the stored EKF solutions are the paper's 12-state filter (no depth), whose results did not change
         sol = run_ekf(m, tight=METHODS[method].tight, completer=completer, initial=initial,
                       options=EkfOptions(position_states=False, dvl_error_states=False))
-    key = f"{tag}/{method}/{mode}"
+    key = f"{tag}/{method}/{backend}"
     np.testing.assert_array_equal(sol.t, reference[key + "/t"])
     v_tol, p_tol = (1e-9, 1e-9) if method.startswith("Graph") else (1e-5, 1e-4)
     np.testing.assert_allclose(sol.v_n, reference[key + "/v_n"], rtol=0, atol=v_tol)
@@ -276,8 +276,8 @@ def test_fixed_lag_restart_from_the_joint_marginal_changes_nothing(mission):
     measured 2.6e-4 just after a restart, where the window's older keyframes can no longer be relinearised) of
     an unrestarted run."""
     m = mission.slice(0, 120)
-    a = run_graph(m, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
-    b = run_graph(m, mode="fixed-lag", options=GraphOptions(reanchor_interval_s=20.0))
+    a = run_graph(m, backend="fixed-lag", options=GraphOptions(reanchor_interval_s=None))
+    b = run_graph(m, backend="fixed-lag", options=GraphOptions(reanchor_interval_s=20.0))
     assert b.info["reanchored"] == 6 and a.info["reanchored"] == 0      # at 20, 40, ..., 120 s
     np.testing.assert_allclose(b.v_n, a.v_n, atol=5e-4)
     np.testing.assert_allclose(b.cov_v_n, a.cov_v_n, rtol=0.05, atol=1e-7)   # diagonal ~4e-4..2e-3

@@ -222,12 +222,13 @@ def test_status_while_aligning(tmp_path):
     record, then every `every_s` of (fake) wall time, saying what it waits for; one more when it navigates."""
     import io
 
-    from graphnav.estimators.navigator import Navigator
+    from graphnav.estimators.align import AlignOptions
+    from graphnav.estimators.navigator import Navigator, NavigatorOptions
     from graphnav.estimators.replay import mission_records
     from graphnav.io.streamio import feed
     from graphnav.sim.simulate import simulate_mission
     mission = simulate_mission(40.0, seed=1)
-    nav = Navigator(mission.config, "ekf", aligner_kwargs={"initial_heading_rad": 0.0})
+    nav = Navigator(mission.config, "ekf", options=NavigatorOptions(align=AlignOptions(initial_heading_rad=0.0)))
     ticks = iter(np.arange(0.0, 1e4, 0.01))
     out, err = io.StringIO(), io.StringIO()
     status = online_cmd.StatusReporter(1.0, out=out, err=err, clock=lambda: float(next(ticks)))

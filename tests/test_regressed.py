@@ -6,6 +6,7 @@ import pytest
 
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.graph import GraphOptions
+from graphnav.estimators.options import RegressedScreeningOptions
 from graphnav.estimators.graph.regressed import (
     VelocityPrediction,
     OutagePriorSwitch,
@@ -22,7 +23,7 @@ V_TRUE = np.array([1.5, 0.2, 0.05])
 def screen(y, sigma, cov, **opts):
     pred = VelocityPrediction(V_TRUE, cov, np.zeros(3))
     return screen_regressed(ROWS, np.asarray(y), np.asarray(sigma), C, np.zeros(3), np.zeros(3), pred,
-                            GraphOptions(**opts))
+                            GraphOptions(screening=RegressedScreeningOptions(**opts)))
 
 
 def test_plain_options_pass_beams_through():
@@ -30,19 +31,19 @@ def test_plain_options_pass_beams_through():
     keep, sigma, stats = screen(y, [0.05, 0.05], np.eye(3) * 1e-4)
     assert keep.all() and np.allclose(sigma, 0.05) and not any(stats.values())
     keep, sigma, _ = screen_regressed(ROWS, y, np.array([0.05, 0.05]), C, np.zeros(3), np.zeros(3), None,
-                                      GraphOptions(regressed_gate_k=3.0, regressed_adaptive=True))
+                                      GraphOptions(screening=RegressedScreeningOptions(gate_k=3.0, adaptive=True)))
     assert keep.all() and np.allclose(sigma, 0.05)     # nothing to compare with on the first keyframe
 
 
 def test_gate_and_adaptive_sigma_use_the_joint_covariance():
     y = ROWS @ V_TRUE + [0.02, 0.5]                    # second beam 0.5 m/s off the prediction
     cov = np.eye(3) * 0.01 ** 2
-    keep, _, stats = screen(y, [0.05, 0.05], cov, regressed_gate_k=3.0)
+    keep, _, stats = screen(y, [0.05, 0.05], cov, gate_k=3.0)
     assert keep.tolist() == [True, False] and stats["gated"] == 1
     # a wide prediction (0.3 m/s) makes the same completion plausible
-    keep, _, _ = screen(y, [0.05, 0.05], np.eye(3) * 0.3 ** 2, regressed_gate_k=3.0)
+    keep, _, _ = screen(y, [0.05, 0.05], np.eye(3) * 0.3 ** 2, gate_k=3.0)
     assert keep.all()
-    keep, sigma, stats = screen(y, [0.05, 0.05], cov, regressed_adaptive=True)
+    keep, sigma, stats = screen(y, [0.05, 0.05], cov, adaptive=True)
     a = 0.01 ** 2   # unit rows: b^T P b = 1e-4
     assert keep.all() and sigma[0] == pytest.approx(0.05)
     assert sigma[1] == pytest.approx(np.sqrt(0.5 ** 2 - a)) and stats["inflated"] == 1
@@ -51,21 +52,21 @@ def test_gate_and_adaptive_sigma_use_the_joint_covariance():
 def test_correlation_drops_redundant_completions_and_weakens_the_rest():
     y = ROWS @ V_TRUE
     # sharp prediction (0.01 m/s) vs a 0.05 m/s completion with rho 0.5: c = 0.5*0.01*0.05 > a -> redundant
-    keep, _, stats = screen(y, [0.05, 0.05], np.eye(3) * 0.01 ** 2, regressed_correlation=0.5)
+    keep, _, stats = screen(y, [0.05, 0.05], np.eye(3) * 0.01 ** 2, correlation=0.5)
     assert not keep.any() and stats["decorrelated_out"] == 2
     # wide prediction (0.3 m/s): kept, variance a (s^2 - c) / (a - c) > s^2
     a, s2 = 0.09, 0.05 ** 2
     c = 0.5 * np.sqrt(a * s2)
-    keep, sigma, _ = screen(y, [0.05, 0.05], np.eye(3) * a, regressed_correlation=0.5)
+    keep, sigma, _ = screen(y, [0.05, 0.05], np.eye(3) * a, correlation=0.5)
     assert c > s2    # no equivalent factor: the floor s^2 (1 - rho^2)
     assert keep.all() and sigma[0] == pytest.approx(np.sqrt(s2 * 0.75))
     a = 0.012 ** 2   # 0.012 m/s prediction vs 0.02 m/s completion: c = 0.5*0.012*0.02 < a, kept, weaker
     s2 = 0.02 ** 2
     c = 0.5 * np.sqrt(a * s2)
-    keep, sigma, _ = screen(y, [0.02, 0.02], np.eye(3) * a, regressed_correlation=0.5)
+    keep, sigma, _ = screen(y, [0.02, 0.02], np.eye(3) * a, correlation=0.5)
     assert keep.all() and sigma[0] == pytest.approx(np.sqrt(a * (s2 - c) / (a - c)), rel=1e-3) and sigma[0] > 0.02
     with pytest.raises(ConfigError):
-        GraphOptions(regressed_correlation=1.0)
+        GraphOptions(screening=RegressedScreeningOptions(correlation=1.0))
 
 
 def test_motion_prior_factors_and_modes():

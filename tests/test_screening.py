@@ -29,7 +29,7 @@ from graphnav.core.screening import (
 from graphnav.core.streams import count_read
 from graphnav.estimators.align import AlignOptions, Aligner, align_mission
 from graphnav.estimators.types import InitialState
-from graphnav.estimators.navigator import Navigator
+from graphnav.estimators.navigator import Navigator, NavigatorOptions
 from graphnav.estimators.replay import first_ping_time, replay
 from graphnav.sim.simulate import simulate_mission
 
@@ -128,7 +128,7 @@ def test_dvl_beam_of_1e6_on_the_stream_does_not_touch_the_alignment(mission):
     dropped = events[:k] + events[k + 1:]
     runs = {}
     for name, evs in (("bad", bad), ("dropped", dropped)):
-        nav = Navigator(mission.config, "ekf", align_options=opts)
+        nav = Navigator(mission.config, "ekf", options=NavigatorOptions(align=opts))
         with warnings.catch_warnings(record=True) as rec:
             warnings.simplefilter("always")
             _feed(nav, evs)

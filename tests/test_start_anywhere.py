@@ -78,13 +78,13 @@ def test_hybrid_ekf_screens_completions_through_an_outage_inside_a_manoeuvre(aki
     mission = _load(akit_dir / "Trajectory11")
     piece = mission.slice(180.0, 240.0).with_outage(scenario_outage("2-missing", 210.0, 30.0))
 
-    def outage_vrmse(method, **options):
+    def outage_vrmse(method, options=None):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sol = run_method(piece, method, "2-missing", options=options or None)
+            sol = run_method(piece, method, "2-missing", options=options)
         return vrmse(sol, piece.gt, 210.0, 240.0), sol
     screened, sol = outage_vrmse("Average-TC")
-    plain, _ = outage_vrmse("Average-TC", regressed_correlation=0.0, regressed_adaptive=False)
+    plain, _ = outage_vrmse("Average-TC", {"screening.correlation": 0.0, "screening.adaptive": False})
     tc, _ = outage_vrmse("TC")
     assert sol.info["regressed_screening"]["decorrelated_out"] > 0
     assert screened < 1.2 * tc < START_VRMSE_LIMIT <= plain

@@ -82,16 +82,18 @@ def add_init_arguments(parser: argparse.ArgumentParser) -> None:
                    help="1-sigma of --initial-heading, degrees")
 
 
-def aligner_kwargs(args) -> dict:
-    """The Aligner's keyword arguments from --initial-position / --initial-heading."""
+def align_options(args):
+    """The alignment's :class:`~graphnav.estimators.align.AlignOptions` with --initial-position /
+    --initial-heading."""
     import math
+    from graphnav.estimators.align import AlignOptions
     kw = {}
     if args.initial_position is not None:
         kw["initial_lla"] = (math.radians(args.initial_position[0]), math.radians(args.initial_position[1]), 0.0)
     if args.initial_heading is not None:
         kw["initial_heading_rad"] = math.radians(args.initial_heading)
         kw["heading_sigma_rad"] = math.radians(args.heading_sigma)
-    return kw
+    return AlignOptions(**kw)
 
 
 def recorded_mission(args):

@@ -12,7 +12,7 @@ import sys
 from graphnav.commands.common import HelpFormatter, add_out_arguments, add_parallel_arguments, methods_help
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.evaluation.consistency_study import SETTINGS
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HN_BATCH, GRAPH_TC, METHODS, TC
 
 ROWS_FILE = "consistency.json"
 TABLE_FILE = "table.md"
@@ -44,7 +44,7 @@ def register(subparsers) -> None:
                    help="without --data: simulated missions (seeds 0..N-1)")
     p.add_argument("--sim-duration", type=float, default=400.0, metavar="S",
                    help="without --data: simulated mission length, s")
-    p.add_argument("--methods", nargs="+", default=["Graph-TC", "Graph-HN", "Graph-HN-batch", "TC"], choices=METHODS, metavar="METHOD",
+    p.add_argument("--methods", nargs="+", default=[GRAPH_TC, GRAPH_HN, GRAPH_HN_BATCH, TC], choices=METHODS, metavar="METHOD",
                    help=f"methods to score ({methods_help()})")
     p.add_argument("--scenario", nargs="+", default=["none", "2-missing", "3-missing"], choices=sorted(SCENARIOS),
                    help="beam-outage scenarios (the mission NEES needs none)")

@@ -7,12 +7,13 @@ import json
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "eval-beams", help="evaluate the missing-beam networks against the average estimator",
-        description="Beam RMSE and velocity RMSE (least squares on the completed beams vs the true DVL "
+        description="Beam RMSE and velocity RMSE (least squares on the measured plus regressed beams vs the true DVL "
                     "velocity), and sigma calibration (fraction of errors within 1 and 2 sigma), of the "
                     "network and the average estimator, for 2 and 3 missing beams, on the validation split "
-                    "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' completes every "
-                    "ping from the true past; 'outage 30 s' completes 30-ping outages recursively, as the "
-                    "estimators do. '4-beam vel RMSE' is least squares on all four beams (the floor). --folds "
+                    "of V.npy, on V_test.npy and on the A-KIT DVL velocities. 'per ping' regresses the "
+                    "missing beams of every ping from the true past; 'outage 30 s' regresses 30-ping outages "
+                    "recursively, as the estimators do. '4-beam vel RMSE' is least squares on all four beams "
+                    "(the floor). --folds "
                     "cross-validates training recipes instead, holding out whole trajectories: the numbers that "
                     "predict unseen motion.",
 )

@@ -29,7 +29,7 @@ from graphnav.commands.common import (
     add_init_arguments,
     add_mission_arguments,
     add_out_arguments,
-    aligner_kwargs,
+    align_options,
     check_out,
     clear_out,
     make_plots,
@@ -39,7 +39,7 @@ from graphnav.commands.common import (
     run_health_record,
 )
 from graphnav.core.errors import ConfigError
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import GRAPH_TC, METHODS
 from graphnav.evaluation.metrics import drift_summary
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
@@ -72,7 +72,7 @@ def register(subparsers) -> None:
                    help="with --stream: while aligning, a status line on standard error and a status JSON line "
                         "on standard output every S seconds of wall time")
     add_out_arguments(p, "out/online")
-    p.add_argument("--method", default="Graph-TC", choices=STREAMING_METHODS,
+    p.add_argument("--method", default=GRAPH_TC, choices=STREAMING_METHODS,
                    help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
                         "data, see docs/decisions/regressed-beams.md); Graph-HN adds the completer's regressed beams as weak factors; "
                         "Graph-MP a motion prior where fewer than 3 beams are measured; the others run the "
@@ -170,8 +170,8 @@ def make_navigator(args, config, mission=None):
     graph_options = None if ekf else estimator_options(
         method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
     ekf_options = estimator_options(method.name) if ekf else None   # e.g. the -12 methods' 12-state filter
-    nav_options = NavigatorOptions() if args.reorder_window is None else NavigatorOptions(
-        reorder_window_s=args.reorder_window)
+    reorder = {} if args.reorder_window is None else {"reorder_window_s": args.reorder_window}
+    nav_options = NavigatorOptions(align=align_options(args), **reorder)
     initial = None
     if mission is not None:
         initial = initial_state(mission, None, args.init, first_ping_time(mission))
@@ -179,7 +179,7 @@ def make_navigator(args, config, mission=None):
         from graphnav.core.errors import ConfigError
         raise ConfigError("--init gt needs a mission with ground truth; a stream has none (use --init sensors)")
     nav = Navigator(config, backend, completer=completer, initial=initial, graph_options=graph_options,
-                    ekf_options=ekf_options, tight=method.tight, options=nav_options, aligner_kwargs=aligner_kwargs(args))
+                    ekf_options=ekf_options, tight=method.tight, options=nav_options)
     return nav, described
 
 

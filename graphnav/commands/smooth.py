@@ -18,7 +18,7 @@ from graphnav.commands.common import (
     add_out_arguments,
     check_out,
     clear_out,
-    aligner_kwargs,
+    align_options,
     exit_status,
     make_plots,
     methods_help,
@@ -28,7 +28,7 @@ from graphnav.commands.common import (
 )
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.health import EXIT_DIVERGED
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import GRAPH_HN_BATCH, METHODS
 from graphnav.evaluation.metrics import drift_summary
 
 
@@ -54,7 +54,7 @@ def register(subparsers) -> None:
     add_mission_arguments(p)
     add_init_arguments(p)
     add_out_arguments(p, "out/smooth")
-    p.add_argument("--method", default="Graph-HN-batch", choices=METHODS, metavar="METHOD",
+    p.add_argument("--method", default=GRAPH_HN_BATCH, choices=METHODS, metavar="METHOD",
                    help=f"method to run ({methods_help()})")
     p.add_argument("--compare", nargs="*", default=[], choices=METHODS, metavar="METHOD",
                    help="also run these methods and draw them in the plots (e.g. HNTC Graph-HN)")
@@ -102,7 +102,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         return smooth_dvl_only(args, out, final)
     mission, outages = mission_from_args(args)
     start = time.perf_counter()
-    init = {"init": args.init, "aligner_kwargs": aligner_kwargs(args)}
+    init = {"init": args.init, "align": align_options(args)}
     sol = run_method(mission, args.method, args.scenario, options=_printed_covariances(args.method), **init)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),

@@ -7,6 +7,7 @@ _PUBLIC = {
     "graph": ("GraphOptions",),
     "types": ("InitialState", "EpochEstimate"),
     "align": ("AlignOptions",),
+    "options": ("PriorOptions", "RegressedScreeningOptions"),
     "health": ("HealthOptions",),
     "runs": ("run_ekf", "run_graph", "iterate_graph"),
     "dead_reckoning": ("dvl_dead_reckoning",),

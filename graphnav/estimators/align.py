@@ -126,6 +126,14 @@ class AlignOptions:
             the spec's turn-on sigma is its prior); False holds it at zero.
         velocity_window_s: the velocity at the output stamp is the mean of the pings within half this window of
             it, each carried there with the aligned IMU, s (one ping has ~0.09 m/s noise per horizontal axis).
+        initial_position_n, initial_lla, initial_heading_rad, heading_sigma_rad: what is known at the start
+            (None = unknown), below.
+        initial_position_n: (3,) NED position at the first IMU sample relative to the local origin, m (the
+            local origin is then the user's; default (0, 0, depth)).
+        initial_lla: (lat rad, lon rad, alt m) of the vehicle at the first IMU sample: the NED origin when no
+            fix arrives (a fix still sets the origin when it does).
+        initial_heading_rad: yaw at the first IMU sample, rad (e.g. from the launch); heading source "given".
+        heading_sigma_rad: its 1-sigma, rad; None = ``given_heading_sigma_rad``.
     """
 
     duration_s: float = 300.0
@@ -140,8 +148,14 @@ class AlignOptions:
     coriolis_iterations: int = 2
     estimate_accel_bias: bool = True
     velocity_window_s: float = 10.0
+    initial_position_n: tuple[float, float, float] | np.ndarray | None = None
+    initial_lla: tuple[float, float, float] | None = None
+    initial_heading_rad: float | None = None
+    heading_sigma_rad: float | None = None
 
     def __post_init__(self):
+        if self.initial_heading_rad is not None and not np.isfinite(self.initial_heading_rad):
+            raise ConfigError(f"AlignOptions.initial_heading_rad must be finite, got {self.initial_heading_rad}")
         for name in ("duration_s", "min_duration_s", "levelling_duration_s", "max_heading_sigma_rad",
                      "given_heading_sigma_rad", "local_origin_sigma_m", "unknown_depth_sigma_m", "max_window_s", "velocity_window_s"):
             if not getattr(self, name) > 0:
@@ -232,28 +246,19 @@ class Aligner:
     Args:
         config: sensor configuration: IMU spec (decides whether gyrocompassing is possible), DVL geometry and
             lever arm, gravity, latitude (a fix's latitude replaces it), Earth rotation.
-        options: :class:`AlignOptions`.
-        initial_position_n: (3,) NED position at the first IMU sample relative to the local origin, m (the
-            local origin is then the user's; default (0, 0, depth)).
-        initial_lla: (lat rad, lon rad, alt m) of the vehicle at the first IMU sample: the NED origin when no
-            fix arrives (a fix still sets the origin when it does).
-        initial_heading_rad: yaw at the first IMU sample, rad (e.g. from the launch); heading source "given".
-        heading_sigma_rad: its 1-sigma, rad (default ``options.given_heading_sigma_rad``).
+        options: :class:`AlignOptions`, with what is known at the start (initial heading, position).
     """
 
-    def __init__(self, config: SensorConfig, options: AlignOptions | None = None, *,
-                 initial_position_n=None, initial_lla=None, initial_heading_rad=None, heading_sigma_rad=None):
+    def __init__(self, config: SensorConfig, options: AlignOptions | None = None):
         self.config = config
-        self.options = options or AlignOptions()
+        self.options = o = options or AlignOptions()
         self.geometry = DvlGeometry.from_spec(config.dvl)
-        self.initial_position_n = None if initial_position_n is None else \
-            np.asarray(initial_position_n, float).reshape(3)
-        self.initial_lla = None if initial_lla is None else tuple(float(x) for x in initial_lla)
-        if initial_heading_rad is not None and not np.isfinite(initial_heading_rad):
-            raise ConfigError(f"initial_heading_rad must be finite, got {initial_heading_rad}")
-        self.initial_heading_rad = initial_heading_rad
-        self.heading_sigma_rad = self.options.given_heading_sigma_rad if heading_sigma_rad is None \
-            else float(heading_sigma_rad)
+        self.initial_position_n = None if o.initial_position_n is None else \
+            np.asarray(o.initial_position_n, float).reshape(3)
+        self.initial_lla = None if o.initial_lla is None else tuple(float(x) for x in o.initial_lla)
+        self.initial_heading_rad = o.initial_heading_rad
+        self.heading_sigma_rad = o.given_heading_sigma_rad if o.heading_sigma_rad is None \
+            else float(o.heading_sigma_rad)
         self._imu: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._dvl: list[tuple[float, np.ndarray]] = []       # (t, velocity of the DVL head in body, m/s)
         self._depth: list[tuple[float, float]] = []
@@ -362,7 +367,7 @@ class Aligner:
                        f"give a heading error of {np.degrees(limit):.1f} deg (limit "
                        f"{np.degrees(o.max_heading_sigma_rad):g} deg, AlignOptions.max_heading_sigma_rad)")
                 out.append(f"heading cannot be determined by gyrocompassing: {why}; supply a heading source "
-                           "(add_heading from an AHRS/magnetometer, or Aligner(initial_heading_rad=...))")
+                           "(add_heading from an AHRS/magnetometer, or AlignOptions.initial_heading_rad)")
         return out
 
     def _needed_s(self, end_of_data: bool = False) -> float:
@@ -703,16 +708,16 @@ def _orthonormalise(C: np.ndarray) -> np.ndarray:
 
 
 def align_mission(mission, options: AlignOptions | None = None, *, use_depth: bool = True,
-                  t_end: float | None = None, t_result: float | None = None, **kwargs) -> Alignment:
+                  t_end: float | None = None, t_result: float | None = None) -> Alignment:
     """Feed a recorded :class:`~graphnav.core.mission.Mission` to an :class:`Aligner` in time order (IMU, DVL and,
     with ``use_depth``, the depth stream, and the mission's heading aiding; never the ground truth) until it is ready (or until ``t_end``, s).
 
     The state is given at the last sample used, or at ``t_result`` (s, inside the data used; e.g.
-    ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`). ``kwargs`` go to
-    :class:`Aligner` (initial heading, position). Raises :class:`AlignmentError` when the mission ends (or
+    ``mission.t0`` to smooth a whole record offline, see :meth:`Aligner.result_at`); what is known at the
+    start (initial heading, position) is in ``options``. Raises :class:`AlignmentError` when the mission ends (or
     ``t_end`` comes) before the aligner is ready.
     """
-    aligner = Aligner(mission.config, options, **kwargs)
+    aligner = Aligner(mission.config, options)
     events = [(t, 0, i) for i, t in enumerate(mission.imu.t)]
     events += [(t, 1, i) for i, t in enumerate(mission.dvl.t)]
     if use_depth and mission.depth is not None:

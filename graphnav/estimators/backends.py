@@ -89,7 +89,7 @@ class GraphBackend(_Aided):
             gkf.fix_ne = self.fix_ne(kf, p_pred)
         self.estimator.add(gkf)
         est = self.estimator.update()
-        #: a DVL factor (measured or completed beams) entered at this keyframe (the Navigator's coasting check)
+        #: a DVL factor (measured or regressed beams) entered at this keyframe (the Navigator's coasting check)
         self.last_aided = est.n_measured + est.n_regressed > 0
         return est
 
@@ -99,7 +99,7 @@ class GraphBackend(_Aided):
         return self.estimator.health
 
     def screening_counts(self) -> dict:
-        """What the graph did with completed beams so far: ``regressed_screening`` (gated, decorrelated out,
+        """What the graph did with regressed beams so far: ``regressed_screening`` (gated, decorrelated out,
         inflated) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
         decisions)."""
         out = {"regressed_screening": dict(self.ctx.screening)}
@@ -150,7 +150,7 @@ class EkfBackend(_Aided):
     """Error-state EKF backend (the paper's filter; see :mod:`graphnav.estimators.ekf`).
 
     Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
-    the ping (``tight``: one row per beam, else least squares from >= 3 beams; completed beams add their
+    the ping (``tight``: one row per beam, else least squares from >= 3 beams; regressed beams add their
     completer sigma^2; a DVL-frame velocity ping, TC or LC: :meth:`~graphnav.estimators.ekf.ErrorStateEkf.
     update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
     filter (``EkfOptions.position_states``, the default) also updates with the keyframe's depth (the graph's
@@ -172,14 +172,17 @@ class EkfBackend(_Aided):
                  name: str = "EKF"):
         options = options or EkfOptions()
         C = initial.pose.rotation().matrix()
+        priors = options.priors
         if initial.cov_pose is not None:       # body-frame rotation tangent -> NED misalignment (diagonal)
             cov_eps = C @ np.asarray(initial.cov_pose)[:3, :3] @ C.T
-            options = dataclasses.replace(options, sigma_att0_rad=np.sqrt(np.diag(cov_eps)))
+            priors = dataclasses.replace(priors, attitude_sigma=np.sqrt(np.diag(cov_eps)))
         if initial.cov_v_n is not None:
-            options = dataclasses.replace(options, sigma_v0=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
+            priors = dataclasses.replace(priors, velocity_sigma=float(np.sqrt(np.max(np.diag(initial.cov_v_n)))))
         if initial.cov_pose is not None and options.position_states:   # body-frame translation -> NED
             cov_p = C @ np.asarray(initial.cov_pose)[3:, 3:] @ C.T
-            options = dataclasses.replace(options, sigma_p0=np.sqrt(np.diag(cov_p)))
+            priors = dataclasses.replace(priors, position_sigma=np.sqrt(np.diag(cov_p)))
+        if priors is not options.priors:
+            options = dataclasses.replace(options, priors=priors)
         state = StrapdownState(float(initial.t), C, np.asarray(initial.v_n, float).copy(),
                                np.asarray(initial.pose.translation(), float).copy())
         self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),

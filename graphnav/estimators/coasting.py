@@ -59,7 +59,7 @@ class CoastingMonitor:
         self._warned = False            # the stretch under way has passed max_s (and was warned)
 
     def update(self, t: float, aided: bool, cov_v_n=None) -> None:
-        """One output epoch at t (s): whether a DVL update (measured or completed beams) entered there, and the
+        """One output epoch at t (s): whether a DVL update (measured or regressed beams) entered there, and the
         velocity covariance (3,3) m^2/s^2 after it (or None)."""
         t = float(t)
         if aided:

@@ -80,7 +80,7 @@ Beam noise: the beams carry a bias (0.01 m/s) and scale factor (0.7 %) besides w
 from the configuration by default, see :class:`EkfOptions`); it then averages many pings and becomes
 overconfident (velocity NEES ~8 on the simulated default mission). ``EkfOptions.dvl_error_states`` adds the
 scale factor per DVL axis and the bias per beam as 7 random-constant states (beam model
-``y = T_d [(1 + s) C_d_b^T v_d_b] + b``, rows ``H_s = T_d diag(v_d)``, ``H_b = I``). Completed beams add
+``y = T_d [(1 + s) C_d_b^T v_d_b] + b``, rows ``H_s = T_d diag(v_d)``, ``H_b = I``). Regressed beams add
 their completer sigma^2.
 
 Update: ``K = P H^T S^-1``, Joseph form ``P = (I-KH) P (I-KH)^T + K R K^T``, optional chi-square gating on the
@@ -109,6 +109,7 @@ from graphnav.core.rotations import skew, so3_exp_batch
 from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
 from graphnav.estimators.health import HealthOptions, NisMonitor
 from graphnav.estimators.ins import Strapdown, StrapdownState
+from graphnav.estimators.options import DVL_ERROR_STATES, PriorOptions, RegressedScreeningOptions
 from graphnav.estimators.regressed_screening import screen_against_prediction
 
 #: the paper's error state [dv_n, eps_n, db_a, db_g]
@@ -131,7 +132,11 @@ class EkfOptions:
             position fixes are measurement updates. False: the paper's 12-state filter (position integrated
             from velocity; a fix resets the horizontal position; no depth), kept to reproduce its numbers
             (the registry's ``-12`` methods).
-        sigma_p0: initial position sigma per NED axis, m (15-state only; the graph's first-keyframe prior).
+        priors: :class:`graphnav.estimators.options.PriorOptions`, the initial sigmas, named as the graph's
+            first-keyframe priors: position per NED axis (15-state only), velocity (the filter starts on the
+            ground truth; it covers GT error and the time offsets of real data), attitude per NED axis (None =
+            0.1 deg), biases (None = the IMU spec's turn-on sigmas), DVL error states (None =
+            ``max(|config value|, 0.005)``).
         use_depth: update with the depth sensor (15-state only; the paper's filter never uses depth).
         depth_sigma: depth noise, m (None: ``config.depth_noise_std``, as the graph's depth factor).
         aiding_lockout: a depth reading or a position fix is gated like a DVL ping (``gate_prob``, its own
@@ -149,11 +154,6 @@ class EkfOptions:
         beam_bias_std: inflation for the unmodelled beam bias, m/s (None: max |config.dvl.beam_bias|).
         beam_scale_std: inflation for the unmodelled scale factor, unitless, multiplies |beam| (None: max
             |config.dvl.scale_factor|).
-        sigma_v0: initial velocity sigma, m/s (the filter starts on the ground truth; this covers GT error and
-            the time offsets of real data).
-        sigma_att0_rad: initial misalignment sigma per NED axis, rad.
-        sigma_ba0: initial accelerometer bias sigma, m/s^2 (None: ``config.imu.accel_bias_sigma``).
-        sigma_bg0: initial gyro bias sigma, rad/s (None: ``config.imu.gyro_bias_sigma``).
         phi_order: order of the truncated series for Phi.
         imu_noise_scale: factor on the IMU white-noise densities of ``config.imu`` in Q. 1 for simulated
             data; on the recorded A-KIT data the INS disagrees with the ground truth far more than the
@@ -169,8 +169,6 @@ class EkfOptions:
             every leave-two-out fold), the velocity NEES from 3.02 to 2.02 and the horizontal position NEES
             from 6.58 to 1.97 (docs/decisions/ekf-position-states.md). The paper's 12-state filter (the
             ``-12`` methods) keeps them off.
-        sigma_dvl_scale0: prior sigma of each scale state, unitless (None: max(|config scale|, 0.005)).
-        sigma_beam_bias0: prior sigma of each beam bias state, m/s (None: max(|config bias|, 0.005)).
         health: :class:`graphnav.estimators.health.HealthOptions` of the NIS monitor; its ``lockout_rejections``
             consecutive gated pings trigger a re-acquisition.
         reacquire: after a lockout, re-acquire (see :meth:`ErrorStateEkf.reacquire`) instead of staying
@@ -184,8 +182,8 @@ class EkfOptions:
         sigma_v_reacq: floor of the velocity sigma set at a re-acquisition without a >= 3-beam fix, m/s.
         relevel: at a re-acquisition with a >= 3-measured-beam fix, re-level roll and pitch from the fixes and
             the accelerometers over the rejection run (:meth:`ErrorStateEkf.relevel`).
-        regressed_correlation, regressed_adaptive, regressed_gate_k, regressed_prediction_var_scale: the
-            screening of completed (regressed) beams against the filter's own predicted beam with their joint
+        screening: :class:`graphnav.estimators.options.RegressedScreeningOptions`, the
+            screening of regressed beams against the filter's own predicted beam with their joint
             covariance, as the graph's (:mod:`graphnav.estimators.graph.regressed`; same meaning):
             :meth:`ErrorStateEkf.screen_regressed`. Off by default (the paper's hybrid filter takes the
             completions at the completer's sigma); ``graphnav.evaluation.methods`` switches it on for the
@@ -195,7 +193,7 @@ class EkfOptions:
     """
 
     position_states: bool = True
-    sigma_p0: float | np.ndarray = 1.0
+    priors: PriorOptions = field(default_factory=PriorOptions)
     use_depth: bool = True
     depth_sigma: float | None = None
     aiding_lockout: int = 3
@@ -205,15 +203,9 @@ class EkfOptions:
     beam_noise_std: float | None = None
     beam_bias_std: float | None = None
     beam_scale_std: float | None = None
-    sigma_v0: float = 0.05
-    sigma_att0_rad: np.ndarray = field(default_factory=lambda: np.deg2rad([0.1, 0.1, 0.1]))
-    sigma_ba0: float | None = None
-    sigma_bg0: float | None = None
     phi_order: int = 2
     imu_noise_scale: float = 1.0
-    dvl_error_states: bool = True
-    sigma_dvl_scale0: float | None = None
-    sigma_beam_bias0: float | None = None
+    dvl_error_states: bool = DVL_ERROR_STATES
     health: HealthOptions = field(default_factory=HealthOptions)
     reacquire: bool = True
     sigma_att_reacq_rad: float = float(np.deg2rad(2.0))
@@ -221,10 +213,7 @@ class EkfOptions:
     sigma_att_reacq_max_rad: float = float(np.deg2rad(30.0))
     sigma_v_reacq: float = 0.5
     relevel: bool = True
-    regressed_correlation: float = 0.0
-    regressed_adaptive: bool = False
-    regressed_gate_k: float | None = None
-    regressed_prediction_var_scale: float = 1.0
+    screening: RegressedScreeningOptions = field(default_factory=RegressedScreeningOptions)
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
 
 
@@ -297,25 +286,23 @@ class ErrorStateEkf:
         self.bias_acc = np.zeros(3) if bias_acc is None else np.asarray(bias_acc, float).copy()
         self.bias_gyro = np.zeros(3) if bias_gyro is None else np.asarray(bias_gyro, float).copy()
         imu = config.imu
-        sba0 = imu.accel_bias_sigma if opts.sigma_ba0 is None else opts.sigma_ba0
-        sbg0 = imu.gyro_bias_sigma if opts.sigma_bg0 is None else opts.sigma_bg0
-        variances = [np.full(3, opts.sigma_v0 ** 2), np.broadcast_to(np.asarray(opts.sigma_att0_rad) ** 2, (3,)),
+        priors = opts.priors
+        sba0, sbg0 = priors.bias_sigmas(imu)
+        variances = [np.full(3, priors.velocity_sigma ** 2),
+                     np.broadcast_to(np.asarray(priors.attitude_sigma_for("ekf")) ** 2, (3,)),
                      np.full(3, sba0 ** 2), np.full(3, sbg0 ** 2)]
         #: whether the position error is a state (15-state filter) and the number of navigation states, where
         #: the optional DVL error states start
         self.position_states = bool(opts.position_states)
         self.n_nav = N_STATES_15 if self.position_states else N_STATES
         if self.position_states:
-            variances.append(np.broadcast_to(np.asarray(opts.sigma_p0, float) ** 2, (3,)))
+            variances.append(np.broadcast_to(np.asarray(priors.position_sigma, float) ** 2, (3,)))
         self.i_scale = slice(self.n_nav, self.n_nav + 3)
         self.i_bias = slice(self.n_nav + 3, self.n_nav + N_DVL_STATES)
         dvl = config.dvl
         self.n_states = self.n_nav + (N_DVL_STATES if opts.dvl_error_states else 0)
         if opts.dvl_error_states:
-            ss0 = (max(float(np.max(np.abs(dvl.scale_factor))), 0.005) if opts.sigma_dvl_scale0 is None
-                   else opts.sigma_dvl_scale0)
-            sb0 = (max(float(np.max(np.abs(dvl.beam_bias))), 0.005) if opts.sigma_beam_bias0 is None
-                   else opts.sigma_beam_bias0)
+            ss0, sb0 = priors.dvl_error_sigmas(dvl)
             variances += [np.full(3, ss0 ** 2), np.full(4, sb0 ** 2)]
         self.P = np.diag(np.concatenate(variances))
         #: DVL scale factor per DVL axis (3,) and beam biases (4,) m/s; stay zero without dvl_error_states
@@ -364,7 +351,7 @@ class ErrorStateEkf:
         self._gamma: tuple[np.ndarray, np.ndarray] | None = None     # (where, Gamma) of gravity_gradient
         # velocity corrections made by depth/fix updates since _run_start (relevel removes them from the residual)
         self._run_aiding_dv = np.zeros(3)
-        #: completed beams screened against the prediction (:meth:`screen_regressed`): counters
+        #: regressed beams screened against the prediction (:meth:`screen_regressed`): counters
         self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0}
         #: depth and position-fix updates (15-state): used, gated, re-initialised after ``aiding_lockout``
         self.aiding = {kind: {"used": 0, "gated": 0, "reset": 0} for kind in ("depth", "fix")}
@@ -617,7 +604,7 @@ class ErrorStateEkf:
 
         ``v = G y``, ``G = (A^T W A)^-1 A^T W`` over the used beams (A their body-frame unit vectors, W the
         inverse beam variances), ``R_v = (A^T W A)^-1`` and the prediction ``G h(x)``. ``sigma_extra`` (4,)
-        m/s is added in quadrature to the beam noise (completed beams). With fewer than three beams there
+        m/s is added in quadrature to the beam noise (regressed beams). With fewer than three beams there
         is no update (pure inertial) and False is returned.
         """
         beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
@@ -639,7 +626,7 @@ class ErrorStateEkf:
     def update_tc(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None = None) -> bool:
         """Tightly coupled update, one row per finite beam of ``beams`` (4,) m/s (NaN = missing).
 
-        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (completed beams).
+        ``sigma_extra`` (4,) m/s is added in quadrature to the beam noise (regressed beams).
         """
         beams, sigma_extra = self.screen_regressed(beams, omega_b, sigma_extra)
         used = np.isfinite(beams)
@@ -657,7 +644,7 @@ class ErrorStateEkf:
 
     def screen_regressed(self, beams: np.ndarray, omega_b: np.ndarray, sigma_extra: np.ndarray | None,
                          ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Completed beams (``sigma_extra`` > 0) checked against the filter's own predicted beams before an
+        """Regressed beams (``sigma_extra`` > 0) checked against the filter's own predicted beams before an
         update: :func:`graphnav.estimators.regressed_screening.screen_against_prediction` with the predicted
         beam's variance ``a = H_i P H_i^T`` (velocity, attitude and gyro-bias uncertainty) and the completion's
         ``beam variance + sigma_extra^2``. A completion is made from past pings the filter has already used, so
@@ -667,8 +654,7 @@ class ErrorStateEkf:
         completion that is wrong by more than its sigma (a 30 s outage inside a manoeuvre) pulls the filter
         off and the gate, set for the sum of all rows, does not see it. Returns (beams, sigma_extra)."""
         opts = self.options
-        if sigma_extra is None or not (opts.regressed_correlation or opts.regressed_adaptive
-                                       or opts.regressed_gate_k is not None):
+        if sigma_extra is None or not opts.screening.active:
             return beams, sigma_extra
         regressed = np.isfinite(beams) & (np.nan_to_num(sigma_extra, nan=0.0) > 0)
         if not regressed.any():
@@ -678,7 +664,7 @@ class ErrorStateEkf:
         a = np.einsum("mi,ij,mj->m", Hr, self.P, Hr)
         var_beam = self.beam_variance(beams[regressed])
         keep, s2, stats = screen_against_prediction(beams[regressed], h[regressed], a,
-                                                    var_beam + sigma_extra[regressed] ** 2, opts)
+                                                    var_beam + sigma_extra[regressed] ** 2, opts.screening)
         self.regressed_screening["offered"] += int(regressed.sum())
         for k, n in stats.items():
             self.regressed_screening[k] += n
@@ -714,7 +700,7 @@ class ErrorStateEkf:
 
     def _velocity_fix(self, beams: np.ndarray, sigma_extra: np.ndarray | None):
         """Weighted least-squares DVL-head velocity (3,) m/s, body axes, and its covariance from the *measured*
-        beams of a ping (completed beams never make a fix: the gate may have been right to reject them); None
+        beams of a ping (regressed beams never make a fix: the gate may have been right to reject them); None
         with fewer than three."""
         used = np.isfinite(beams)
         if sigma_extra is not None:
@@ -784,7 +770,7 @@ class ErrorStateEkf:
         the usual cause and must be observable again through the velocity updates. Before the fix, with
         ``EkfOptions.relevel``, roll and pitch are re-levelled from the fixes and the accelerometers over the
         rejection run (:meth:`relevel`): a tilt error of more than a few degrees is otherwise not covered by the
-        filter's first-order error model and the gate keeps rejecting. Completed (regressed) beams never
+        filter's first-order error model and the gate keeps rejecting. Regressed beams never
         enter the fix.
         ``fix`` = ``(v_d_b (3,) m/s body axes, R_v (3,3), description)``: a velocity the ping measured itself (a
         DVL-frame velocity), used as the fix instead of one from ``beams``.
@@ -793,7 +779,7 @@ class ErrorStateEkf:
         opts = self.options
         used = np.isfinite(beams)
         if sigma_extra is not None:
-            # completed (regressed) beams never make the fix: the gate may have been right to reject them
+            # regressed beams never make the fix: the gate may have been right to reject them
             used = used & (np.nan_to_num(sigma_extra, nan=np.inf) == 0)
         if fix is None:
             fix = self._velocity_fix(beams, sigma_extra)

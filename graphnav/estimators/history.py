@@ -1,18 +1,18 @@
 """The beam history every hybrid estimator keeps for its completer.
 
 The completer sees the N most recent *full* beam vectors. Epochs with all four beams valid push the
-measurement; epochs with missing beams push the completed vector (measured beams plus regressed ones),
+measurement; epochs with missing beams push the measured beams plus the regressed ones,
 so during an outage earlier completions stand in for missing beams, as in the paper.
 
 Completers are calibrated one ping ahead from a measured past. Once the past holds their own completions,
 errors compound: the regressed beam of a 30 s outage is off by 1.2-2x its one-step sigma (``nets/weights/
 README.md``, recursive outages), and the average estimator's spread collapses to zero on a constant
-history. The history therefore keeps, per beam, the sigma it handed on in the current run of filled pings
+history. The history therefore keeps, per beam, the sigma it handed on in the current run of pings with regressed beams
 and makes it non-decreasing through the run, growing like a random walk:
-``sigma_k = sqrt(max(sigma_completer, sigma_{k-1})^2 + drift_std^2)`` (first filled ping: the completer's
+``sigma_k = sqrt(max(sigma_completer, sigma_{k-1})^2 + drift_std^2)`` (first regressed ping: the completer's
 sigma). ``drift_std`` (m/s per ping) is the completer's attribute of that name when it has one (a completer
 whose errors do not compound sets 0), else the history's, 0.03 by default: on recursive 30-ping outages of
-the A-KIT DVL data it makes the RMS of (filled-beam error / sigma) 0.91-1.00 for the network and the average
+the A-KIT DVL data it makes the RMS of (regressed-beam error / sigma) 0.91-1.00 for the network and the average
 estimator, 2 and 3 missing beams, the variance a least-squares weight needs (the error tails are heavier
 than Gaussian: 75-79 % within 1 sigma). Measured with ``experiments/calibrate_drift.py``; on the ten shared
 trajectories it lowers every hybrid method's window VRMSE against 0.02 (HNTC 0.204 -> 0.141 m/s, Graph-HN
@@ -34,7 +34,7 @@ class BeamHistory:
         self.n_past = n_past
         self.drift_std = drift_std
         self._buf: deque[np.ndarray] = deque(maxlen=n_past)
-        self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of fills
+        self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
 
     def __len__(self) -> int:
         return len(self._buf)
@@ -53,7 +53,7 @@ class BeamHistory:
 
     def push_measured(self, beams: np.ndarray) -> None:
         """Append a measured full (4,) beam vector from outside :meth:`complete` (e.g. the beams a DVL-frame
-        velocity implies): a run of filled pings ends there."""
+        velocity implies): a run of regressed pings ends there."""
         self.push(beams)
         self._run_sigma[:] = 0.0
 
@@ -75,8 +75,8 @@ class BeamHistory:
 
         Returns:
             (beams (4,), sigma (4,)): the full vector and the per-beam sigma (0 for measured beams), or
-            ``None`` when the ping cannot be completed yet (history not full) -- the caller then uses the
-            measured beams alone. Full pings always go into the history.
+            ``None`` when the ping's missing beams cannot be regressed yet (history not full) -- the caller then
+            uses the measured beams alone. Full pings always go into the history.
         """
         valid = np.asarray(valid, dtype=bool)
         self._run_sigma[valid] = 0.0
@@ -91,11 +91,11 @@ class BeamHistory:
             full, sigma = completer.complete(self.past(), measured, imu=imu)
         else:
             full, sigma = completer.complete(self.past(), measured)
-        filled = ~valid
-        continuing = filled & (self._run_sigma > 0)
+        regressed = ~valid
+        continuing = regressed & (self._run_sigma > 0)
         drift_std = getattr(completer, "drift_std", self.drift_std)
         grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)
         sigma = np.where(continuing, grown, sigma)
-        self._run_sigma = np.where(filled, sigma, 0.0)
+        self._run_sigma = np.where(regressed, sigma, 0.0)
         self.push(full)
         return full, sigma

@@ -51,6 +51,7 @@ from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
+from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
 from graphnav.estimators.ekf import EkfOptions
@@ -78,6 +79,9 @@ class NavigatorOptions:
             and run it through the samples buffered meanwhile, so that the estimates cover the alignment time
             too (they all arrive when the alignment completes); False starts it where the alignment ends.
         align_buffer_s: the longest stretch of samples kept for the catch-up, s (the newest).
+        align: settings of the :class:`~graphnav.estimators.align.Aligner` that starts the estimator when no
+            initial state is given, with what is known at the start (initial heading, position)
+            (:class:`~graphnav.estimators.align.AlignOptions`).
     """
 
     reorder_window_s: float = 0.2
@@ -85,6 +89,7 @@ class NavigatorOptions:
     max_extrapolation_s: float = 0.1
     align_catch_up: bool = True
     align_buffer_s: float = 600.0
+    align: AlignOptions = field(default_factory=AlignOptions)
 
     def __post_init__(self):
         if self.reorder_window_s < 0:
@@ -115,9 +120,7 @@ class Navigator:
         initial: the initial state and its stamp (``initial.t``); None = align from the sensors.
         graph_options, ekf_options: the backend's settings.
         tight: EKF backend only: tightly (True) or loosely coupled beam updates.
-        options: streaming settings.
-        align_options: settings of the :class:`~graphnav.estimators.align.Aligner` (when ``initial`` is None).
-        aligner_kwargs: keyword arguments of the Aligner (e.g. ``initial_heading_rad``, ``initial_lla``).
+        options: streaming and alignment settings (``options.align`` when ``initial`` is None).
         keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards).
         name: the estimator's name in health warnings (e.g. the method name).
     """
@@ -125,8 +128,7 @@ class Navigator:
     def __init__(self, config: SensorConfig, backend: str = "fixed-lag", *, completer=None,
                  initial: InitialState | None = None, graph_options: GraphOptions | None = None,
                  ekf_options: EkfOptions | None = None, tight: bool = True,
-                 options: NavigatorOptions | None = None, align_options=None, aligner_kwargs: dict | None = None,
-                 keep_keyframe_graphs: bool = False, name: str | None = None):
+                 options: NavigatorOptions | None = None, keep_keyframe_graphs: bool = False, name: str | None = None):
         if backend not in BACKENDS:
             raise ConfigError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
         self.config = config
@@ -168,7 +170,7 @@ class Navigator:
             self._start(initial)
         else:
             from graphnav.estimators.align import Aligner
-            self.aligner = Aligner(config, align_options, **(aligner_kwargs or {}))
+            self.aligner = Aligner(config, self.options.align)
 
     # --- inputs -------------------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> list[EpochEstimate]:

@@ -1,5 +1,6 @@
-"""Screening of regressed (completed) beams against an estimator's own predicted beams, shared by the factor
-graph (:func:`graphnav.estimators.graph.regressed.screen_regressed`) and the EKF
+"""Screening of regressed beams (beams the DVL did not measure, regressed by a completer) against an
+estimator's own predicted beams, shared by the factor graph
+(:func:`graphnav.estimators.graph.regressed.screen_regressed`) and the EKF
 (:meth:`graphnav.estimators.ekf.ErrorStateEkf.screen_regressed`).
 
 The rules (correlation with the prediction, adaptive variance, joint-covariance gate) and the measurements
@@ -14,13 +15,13 @@ def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2:
                               ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The checks of :mod:`graphnav.estimators.graph.regressed`'s docstring for completions ``y`` (m,) m/s of
     variance ``s2`` (m,) (m/s)^2 against the estimator's predicted beams ``y_p`` (m,) of variance ``a`` (m,).
-    ``options`` carries ``regressed_correlation``, ``regressed_adaptive``, ``regressed_gate_k`` and
-    ``regressed_prediction_var_scale``. Returns (keep (m,) bool, variance (m,), counters)."""
+    ``options`` is the estimator's :class:`graphnav.estimators.options.RegressedScreeningOptions`. Returns
+    (keep (m,) bool, variance (m,), counters)."""
     keep = np.ones(len(y), dtype=bool)
     stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
-    a = np.maximum(np.asarray(a, float), 1e-12) * options.regressed_prediction_var_scale
+    a = np.maximum(np.asarray(a, float), 1e-12) * options.prediction_var_scale
     s2 = np.asarray(s2, float)
-    rho = options.regressed_correlation
+    rho = options.correlation
     if rho:
         c = rho * np.sqrt(a * s2)
         informative = c < a
@@ -31,12 +32,12 @@ def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2:
         # is the floor
         s2 = np.where(informative, np.maximum(a * (s2 - c) / np.maximum(a - c, 1e-12), s2 * (1 - rho ** 2)), s2)
     innov2 = (np.asarray(y, float) - y_p) ** 2
-    if options.regressed_adaptive:
+    if options.adaptive:
         raised = innov2 - a > s2
         stats["inflated"] = int((raised & keep).sum())
         s2 = np.where(raised, innov2 - a, s2)
-    if options.regressed_gate_k is not None:
-        outside = innov2 > options.regressed_gate_k ** 2 * (a + s2)
+    if options.gate_k is not None:
+        outside = innov2 > options.gate_k ** 2 * (a + s2)
         stats["gated"] = int((outside & keep).sum())
         keep &= ~outside
     return keep, s2, stats

@@ -5,8 +5,8 @@ vehicle runs. The runners take objects and flags, not method names (the names li
 
 - :func:`run_graph`: the factor graph over the measured beams (``Graph-TC``), plus a completer's regressed
   beams as weaker factors (``completer=...``: ``Graph-HN``), then optionally the batch smoother over the whole
-  mission (``batch=True``: ``Graph-HN-batch``, :mod:`graphnav.estimators.graph.batch`). ``mode="online"`` is
-  ISAM2 over the whole mission, ``mode="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and
+  mission (``batch=True``: ``Graph-HN-batch``, :mod:`graphnav.estimators.graph.batch`). ``backend="isam2"`` is
+  ISAM2 over the whole mission, ``backend="fixed-lag"`` GTSAM's IncrementalFixedLagSmoother (bounded memory and
   time per update). Output stamps are the keyframes: every DVL ping plus IMU-only keyframes in DVL gaps
   (``info["kind"]``).
 - :func:`run_ekf`: the error-state EKF, tightly (``tight=True``: TC) or loosely (LC) coupled, with a
@@ -29,18 +29,19 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
-from graphnav.estimators.backends import GraphBackend
+from graphnav.estimators.align import AlignOptions
+from graphnav.estimators.backends import BACKENDS, GraphBackend
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
 from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
-from graphnav.estimators.navigator import Navigator, feed_mission, stream_adders
+from graphnav.estimators.navigator import Navigator, NavigatorOptions, feed_mission, stream_adders
 from graphnav.estimators.replay import first_ping_time, replay
 from graphnav.estimators.types import EpochEstimate, InitialState
 
-#: run_graph's modes and the Navigator backend each one is.
-MODES = {"online": "isam2", "fixed-lag": "fixed-lag"}
+#: The Navigator backends :func:`run_graph` can run (the graph's; :data:`graphnav.estimators.backends.BACKENDS`).
+GRAPH_BACKENDS = tuple(b for b in BACKENDS if b != "ekf")
 
 
 def graph_label(completer=None, batch: bool = False) -> str:
@@ -50,24 +51,31 @@ def graph_label(completer=None, batch: bool = False) -> str:
 
 
 def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions | None = None,
-                    mode: str = "online", initial: InitialState | None = None, init: str = "auto",
+                    backend: str = "isam2", initial: InitialState | None = None, init: str = "auto",
                     navigator_options=None, keep_keyframe_graphs: bool = False,
-                    aligner_kwargs: dict | None = None, name: str | None = None):
+                    align: AlignOptions | None = None, name: str | None = None):
     """The :class:`~graphnav.estimators.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
 
     ``completer``: regressed beams for the pings with missing beams (None: measured beams only).
 
     ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
     ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
-    ``aligner_kwargs`` go to the :class:`~graphnav.estimators.align.Aligner` (e.g. ``initial_heading_rad``).
+    ``align``: the sensor alignment's settings (e.g. ``initial_heading_rad``), ``navigator_options.align``.
     """
-    if mode not in MODES:
-        raise ConfigError(f"unknown graph mode '{mode}'; choose one of {tuple(MODES)}")
+    if backend not in GRAPH_BACKENDS:
+        raise ConfigError(f"unknown graph backend '{backend}'; choose one of {GRAPH_BACKENDS}")
     initial = initial_state(mission, initial, init, first_ping_time(mission))
-    return Navigator(mission.config, MODES[mode], completer=completer, initial=initial,
-                     graph_options=options or GraphOptions(), options=navigator_options,
-                     keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs,
-                     name=name or graph_label(completer))
+    return Navigator(mission.config, backend, completer=completer, initial=initial,
+                     graph_options=options or GraphOptions(), options=with_align(navigator_options, align),
+                     keep_keyframe_graphs=keep_keyframe_graphs, name=name or graph_label(completer))
+
+
+def with_align(navigator_options, align: AlignOptions | None):
+    """``navigator_options`` (default :class:`~graphnav.estimators.navigator.NavigatorOptions`) with ``align``
+    as its alignment settings when given."""
+    if align is None:
+        return navigator_options
+    return dataclasses.replace(navigator_options or NavigatorOptions(), align=align)
 
 
 def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:
@@ -83,14 +91,15 @@ def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialSta
 
 
 def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | None = None,
-                  mode: str = "online", initial: InitialState | None = None, name: str | None = None):
+                  backend: str = "isam2", initial: InitialState | None = None, name: str | None = None):
     """Generator over the filtered :class:`EpochEstimate` of every keyframe, as each is computed (the
     arguments as :func:`run_graph`'s).
 
     Nothing is kept between keyframes except the estimator itself (bounded memory with
-    ``mode="fixed-lag"``); there is no batch pass.
+    ``backend="fixed-lag"``); there is no batch pass.
     """
-    nav = graph_navigator(mission, completer=completer, options=options, mode=mode, initial=initial, name=name)
+    nav = graph_navigator(mission, completer=completer, options=options, backend=backend, initial=initial,
+                          name=name)
     adders = stream_adders(nav)
     for kind, t, payload in replay(mission):
         yield from adders[kind](t, *payload)
@@ -98,9 +107,9 @@ def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | N
 
 
 def run_graph(mission: Mission, *, completer=None, batch: bool = False, options: GraphOptions | None = None,
-              callback: Callable[[EpochEstimate], None] | None = None, mode: str = "online",
+              callback: Callable[[EpochEstimate], None] | None = None, backend: str = "isam2",
               initial: InitialState | None = None, init: str = "auto",
-              aligner_kwargs: dict | None = None, name: str | None = None) -> NavSolution:
+              align: AlignOptions | None = None, name: str | None = None) -> NavSolution:
     """Run the factor graph over a recorded mission (a sample-by-sample replay through the Navigator).
 
     Args:
@@ -110,17 +119,18 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
         batch: after the filtered pass, the batch smoother over the whole mission (Graph-HN-batch).
         options: :class:`GraphOptions` (defaults when None).
         callback: called with the filtered :class:`EpochEstimate` after each keyframe update.
-        mode: ``"online"`` (ISAM2) or ``"fixed-lag"`` (lag ``options.lag_s``).
+        backend: ``"isam2"`` or ``"fixed-lag"`` (lag ``options.lag_s``), as the Navigator's backends.
         initial: state at the first keyframe (stamp ``initial.t``, default the first DVL ping).
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
-        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+        align: settings of the sensor alignment (:class:`~graphnav.estimators.align.AlignOptions`, e.g.
+            ``initial_heading_rad``, ``initial_lla``).
         name: the solution's label, also used in messages (default :func:`graph_label`).
 
     Returns:
         NavSolution at the keyframes, with the covariances ``options.marginals`` asks for (default ``"full"``:
         velocity, position, attitude and biases; the batch's are the smoothed marginals); ``info`` holds ``update_s`` (per-keyframe solver times), ``kind``,
-        ``n_measured``/``n_regressed`` per keyframe, ``mode``, ``recovered`` (indeterminant-system
+        ``n_measured``/``n_regressed`` per keyframe, ``mode`` (the backend), ``recovered`` (indeterminant-system
         recoveries), the Navigator's counters (``refused``, ``imu_gaps``, ``alignment`` ...) and, for the
         batch, ``batch_iterations``, ``batch_costs``, ``batch_solve_s`` -- or ``batch_failed`` (the reason)
         when the batch system was indeterminant and the filtered estimates are returned instead (with a
@@ -132,13 +142,13 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
-    nav = graph_navigator(mission, completer=completer, options=first_pass, mode=mode, initial=initial, init=init,
-                          keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name)
+    nav = graph_navigator(mission, completer=completer, options=first_pass, backend=backend, initial=initial,
+                          init=init, keep_keyframe_graphs=batch, align=align, name=name)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
-    info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
+    info = {**nav.info, "mode": backend, "online_s": time.perf_counter() - start}
     if isinstance(nav.backend, GraphBackend):
         info.update(nav.backend.screening_counts())
     if batch:
@@ -203,7 +213,7 @@ def ekf_label(tight: bool = True, completer=None) -> str:
 
 
 def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: EkfOptions | None = None,
-            initial=None, init: str = "auto", aligner_kwargs: dict | None = None,
+            initial=None, init: str = "auto", align: AlignOptions | None = None,
             name: str | None = None) -> NavSolution:
     """Run the error-state EKF over a recorded mission and return the solution at every DVL ping (post update): a
     sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``). The
@@ -213,8 +223,8 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
     Args:
         mission: the mission (IMU, DVL beams and valid mask, config; ground truth only for the initial state).
         tight: every measured beam is a measurement (TC); False: a velocity fix from 3+ beams (LC).
-        completer: fills the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
-            the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the completed beams enter
+        completer: regresses the missing beams (the hybrids: Average-*, HN*), e.g. ``AverageCompleter(n_past)`` or
+            the network's, through :class:`~graphnav.estimators.history.BeamHistory`; the regressed beams enter
             with their variance inflated by the completer's sigma^2. None: measured beams only.
         options: :class:`EkfOptions` (default: the 15-state filter).
         initial: initial state (:class:`~graphnav.estimators.ins.StrapdownState` or :class:`~graphnav.estimators.types.InitialState`
@@ -223,7 +233,8 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
             covers the ground truth's own error).
         init: without ``initial``: ``"auto"`` (ground truth when there is one, else align from the sensors),
             ``"gt"`` or ``"sensors"``.
-        aligner_kwargs: for the sensor alignment, e.g. ``initial_heading_rad``, ``initial_lla``.
+        align: settings of the sensor alignment (:class:`~graphnav.estimators.align.AlignOptions`, e.g.
+            ``initial_heading_rad``, ``initial_lla``).
         name: the solution's label, also used in messages (default :func:`ekf_label`).
 
     Returns:
@@ -241,7 +252,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         t0 = max(t0, float(mission.gt.t[0]))     # the paper's start: the first instant with IMU and GT
     initial = initial_state(mission, initial, init, t0)
     nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
-                    aligner_kwargs=aligner_kwargs, name=f"EKF {name}")
+                    options=with_align(None, align), name=f"EKF {name}")
     estimates = [e for e in feed_mission(nav, mission, depth=depth) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))

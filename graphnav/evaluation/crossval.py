@@ -19,7 +19,7 @@ Parameters (:data:`PARAMETERS`):
   for the filter alone.
 - ``dvl_bias_rw``, ``dvl_scale_rw``: the graph's DVL error-state random walks (``GraphOptions``; m/s/sqrt(s)
   and 1/sqrt(s)).
-- ``prior_dvl_bias_sigma``: the graph's first-keyframe prior sigma of the beam bias states (m/s).
+- ``priors.dvl_bias_sigma``: the graph's first-keyframe prior sigma of the beam bias states (m/s).
 - ``dvl_lever_x``, ``dvl_lever_y``: the DVL's position relative to the IMU point, body x / y (m), added to the
   loader's default lever arm (A-KIT: :data:`graphnav.io.loaders.AKIT_LEVER_ARM_B` minus
   :data:`~graphnav.io.loaders.AKIT_IMU_POSITION_B`, zero). The mission is loaded again with it, since the
@@ -54,6 +54,7 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.folds import check_folds
 from graphnav.core.mission import Mission
+from graphnav.evaluation.methods import GRAPH_TC, GRAPH_TC_BATCH
 
 #: Velocity NEES of a consistent 3-D estimate.
 NEES_TARGET = 3.0
@@ -105,7 +106,7 @@ def _parameters() -> dict[str, Parameter]:
         Parameter("imu_noise_scale", "config", 1.0, (0.5, 0.7, 1.0, 1.4, 2.0, 3.0), unit="x the IMU model's densities"),
         Parameter("dvl_bias_rw", "graph", g.dvl_bias_rw, (1e-4, 2e-4, 5e-4, 1e-3, 2e-3), unit="m/s/sqrt(s)"),
         Parameter("dvl_scale_rw", "graph", g.dvl_scale_rw, (2e-5, 1e-4, 5e-4), unit="1/sqrt(s)"),
-        Parameter("prior_dvl_bias_sigma", "graph", 0.01, (0.005, 0.01, 0.02), unit="m/s"),
+        Parameter("priors.dvl_bias_sigma", "graph", 0.01, (0.005, 0.01, 0.02), unit="m/s"),
         Parameter("dvl_lever_x", "load", 0.0, (0.0, 0.04, 0.08, 0.12, 0.16), rule="vrmse",
                   unit="m, DVL forward of the IMU point"),
         Parameter("dvl_lever_y", "load", 0.0, (-0.04, 0.0, 0.04, 0.08), rule="vrmse",
@@ -115,8 +116,16 @@ def _parameters() -> dict[str, Parameter]:
 
 #: The parameters of the study by name (grids around the current defaults, one parameter at a time).
 PARAMETERS: dict[str, Parameter] = _parameters()
+
+
+def parameter_name(name: str) -> str:
+    """``name`` as :data:`PARAMETERS` calls it: an option name of before the option groups (e.g.
+    ``prior_dvl_bias_sigma``) is mapped to its new one with a DeprecationWarning
+    (:func:`graphnav.estimators.options.current_name`)."""
+    from graphnav.estimators.options import current_name
+    return current_name(name, stacklevel=4)
 #: Graph methods whose filtered and batch solutions come from one run (the batch's first pass is Graph-TC).
-GRAPH_PAIR = ("Graph-TC", "Graph-TC-batch")
+GRAPH_PAIR = (GRAPH_TC, GRAPH_TC_BATCH)
 
 
 def _study_methods() -> tuple[str, ...]:
@@ -315,11 +324,11 @@ def run_methods(mission: Mission, methods: Sequence[str], scenario: str, options
     todo = list(methods)
     if all(m in todo for m in GRAPH_PAIR):
         filtered = []
-        out["Graph-TC-batch"] = run_method(mission, "Graph-TC-batch", scenario, options=options,
+        out[GRAPH_TC_BATCH] = run_method(mission, GRAPH_TC_BATCH, scenario, options=options,
                                            callback=filtered.append)
-        sol = solution_from_estimates("Graph-TC", filtered)
+        sol = solution_from_estimates(GRAPH_TC, filtered)
         sol.runtime_s = float("nan")
-        out["Graph-TC"] = sol
+        out[GRAPH_TC] = sol
         todo = [m for m in todo if m not in GRAPH_PAIR]
     for m in todo:
         family = get_method(m).family

@@ -38,11 +38,12 @@ from graphnav.core.errors import ConfigError, GraphnavError
 from graphnav.core.mission import RDI_BAD_VELOCITY, DvlData, ImuData, Mission
 from graphnav.core.scenarios import Outage
 from graphnav.core.solution import NavSolution
+from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HN_BATCH, GRAPH_TC, HNTC, TC
 
 #: The methods the fault suite runs (graph online, graph batch, EKF; measured-only and hybrid), by their
 #: registry names (:data:`graphnav.evaluation.methods.METHODS`). The hybrids run with the average estimator
 #: (:func:`fault_completer`) in place of the network, so that the suite needs no weights and stays fast.
-FAULT_METHODS = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "TC", "HNTC")
+FAULT_METHODS = (GRAPH_TC, GRAPH_HN, GRAPH_HN_BATCH, TC, HNTC)
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -127,7 +127,7 @@ def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool 
     without its fixes; returns one :class:`FixRun` per method."""
     options = dataclasses.replace(options or GraphOptions(), dvl_error_states=dvl_error_states)
     run_mission = mission if fixes else dataclasses.replace(mission, fixes=None)
-    nav = graph_navigator(run_mission, options=options, mode="fixed-lag", init="gt", keep_keyframe_graphs=batch,
+    nav = graph_navigator(run_mission, options=options, backend="fixed-lag", init="gt", keep_keyframe_graphs=batch,
                           name="Graph-TC fixed-lag")
     covs, scale = [], []
     next_sample = [-np.inf]

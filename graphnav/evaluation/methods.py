@@ -72,6 +72,13 @@ from graphnav.core.scenarios import SCENARIOS
 from graphnav.core.solution import NavSolution
 from graphnav.nets.average import AVERAGE_N_PAST
 
+#: Names of the methods other modules refer to (every name is a record of :data:`METHODS`; library code takes
+#: names from here, not from literals).
+TC, LC, HNTC, HNTC_IMU = "TC", "LC", "HNTC", "HNTC-IMU"
+GRAPH_TC, GRAPH_TC_BATCH, GRAPH_MP = "Graph-TC", "Graph-TC-batch", "Graph-MP"
+GRAPH_HN, GRAPH_HN_BATCH = "Graph-HN", "Graph-HN-batch"
+GRAPH_HNI, GRAPH_HNI_BATCH = "Graph-HNI", "Graph-HNI-batch"
+
 #: Which network (number of missing beams it was trained for) serves each scenario.
 NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto", "0-beams": "auto",
                                               "markov": "auto"}
@@ -79,7 +86,7 @@ NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "n
 #: EKF: ErrorStateEkf.screen_regressed): their error is taken as correlated with the prediction's (rho = 0.5: both
 #: come from the same past pings) and their sigma is raised to what the innovation shows. Measured with
 #: experiments/regressed_candidates.py; numbers in docs/decisions/regressed-beams.md.
-REGRESSED_SCREENING: Mapping = types.MappingProxyType({"regressed_correlation": 0.5, "regressed_adaptive": True})
+REGRESSED_SCREENING: Mapping = types.MappingProxyType({"screening.correlation": 0.5, "screening.adaptive": True})
 #: The motion prior's settings (Graph-MP; the hybrid's GraphOptions.motion_prior="total" / "total-if-uncertain").
 #: The densities are 4x the median 1-s body-velocity changes of the A-KIT ground truth and the heave sigma
 #: 0.2 m/s (5x its spread): tighter values
@@ -97,7 +104,7 @@ GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
-#: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of completed beams
+#: EKF settings of the hybrid EKF methods (Average-LC/-TC, HNLC, HNTC): the same screening of regressed beams
 #: against the filter's own prediction (graphnav.estimators.ekf.ErrorStateEkf.screen_regressed). Without it a
 #: 30 s outage inside a manoeuvre made the completions wrong by 2.3-3.7x their sigma (RMS 0.31-0.46 m/s) and
 #: pulled the filter to 0.53-0.78 m/s window VRMSE (graphnav start-sweep).
@@ -175,17 +182,17 @@ class Method:
 
 
 _EKF_RECORDS = (
-    Method("LC", "ekf", tight=False, completer="none",
+    Method(LC, "ekf", tight=False, completer="none",
            description="loosely coupled 15-state EKF: a velocity fix from 3+ measured beams (else it coasts), depth"),
-    Method("TC", "ekf", tight=True, completer="none",
+    Method(TC, "ekf", tight=True, completer="none",
            description="tightly coupled 15-state EKF: every measured beam is a measurement, depth"),
     Method("Average-LC", "ekf", tight=False, completer="average", defaults=EKF_HYBRID_OPTIONS,
-           description="LC with the missing beams filled in by the average estimator, screened against the filter"),
+           description="LC with the missing beams regressed by the average estimator, screened against the filter"),
     Method("Average-TC", "ekf", tight=True, completer="average", defaults=EKF_HYBRID_OPTIONS,
-           description="TC with the missing beams filled in by the average estimator, screened against the filter"),
+           description="TC with the missing beams regressed by the average estimator, screened against the filter"),
     Method("HNLC", "ekf", tight=False, completer="network", defaults=EKF_HYBRID_OPTIONS,
            description="LC with the network's regressed beams (the paper's hybrid), screened against the filter"),
-    Method("HNTC", "ekf", tight=True, completer="network", defaults=EKF_HYBRID_OPTIONS,
+    Method(HNTC, "ekf", tight=True, completer="network", defaults=EKF_HYBRID_OPTIONS,
            description="TC with the network's regressed beams (the paper's hybrid), screened against the filter"),
 )
 
@@ -199,15 +206,15 @@ def _paper_filter(m: Method) -> Method:
 
 _RECORDS = (
     *_EKF_RECORDS,
-    Method("Graph-TC", "graph", tight=True, completer="none",
+    Method(GRAPH_TC, "graph", tight=True, completer="none",
            description="factor graph (ISAM2, filtered output), measured beams only"),
-    Method("Graph-HN", "graph", tight=True, completer=HYBRID_COMPLETER, defaults=GRAPH_HN_OPTIONS,
-           description="factor graph (ISAM2, filtered output) plus screened completed beams (average estimator)"),
-    Method("Graph-HN-batch", "graph", tight=True, completer=HYBRID_COMPLETER, batch=True, defaults=GRAPH_HN_OPTIONS,
+    Method(GRAPH_HN, "graph", tight=True, completer=HYBRID_COMPLETER, defaults=GRAPH_HN_OPTIONS,
+           description="factor graph (ISAM2, filtered output) plus screened regressed beams (average estimator)"),
+    Method(GRAPH_HN_BATCH, "graph", tight=True, completer=HYBRID_COMPLETER, batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN, then the batch smoother over the whole mission"),
-    Method("Graph-TC-batch", "graph", tight=True, completer="none", batch=True,
+    Method(GRAPH_TC_BATCH, "graph", tight=True, completer="none", batch=True,
            description="Graph-TC, then the batch smoother over the whole mission (no completions)"),
-    Method("Graph-MP", "graph", tight=True, completer="none", defaults=GRAPH_MP_OPTIONS,
+    Method(GRAPH_MP, "graph", tight=True, completer="none", defaults=GRAPH_MP_OPTIONS,
            description="Graph-TC with a motion prior at keyframes with fewer than 3 measured beams"),
     Method("Graph-HN-net", "graph", tight=True, completer="network", defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN with the beam-only network's regressed beams; experimental (worse than the "
@@ -215,13 +222,13 @@ _RECORDS = (
     Method("Graph-HN-net-batch", "graph", tight=True, completer="network", batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN-net, then the batch smoother over the whole mission; experimental",
            experimental=True),
-    Method("HNTC-IMU", "ekf", tight=True, completer="imu-network", defaults=EKF_HYBRID_OPTIONS,
+    Method(HNTC_IMU, "ekf", tight=True, completer="imu-network", defaults=EKF_HYBRID_OPTIONS,
            description="HNTC with the IMU-aware completer (beam-only without a 20 s IMU window); experimental",
            experimental=True),
-    Method("Graph-HNI", "graph", tight=True, completer="imu-network", defaults=GRAPH_HN_OPTIONS,
+    Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HN_OPTIONS,
            description="Graph-HN with the IMU-aware completer (beam-only without a 20 s IMU window); experimental",
            experimental=True),
-    Method("Graph-HNI-batch", "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
+    Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
     *(_paper_filter(m) for m in _EKF_RECORDS),
 )
@@ -330,18 +337,22 @@ def completer_for(name: str, scenario: str, noise_std: float = 0.042):
 def estimator_options(name: str, options=None):
     """The options object a method's estimator runs with: ``options`` as given when it is an options object,
     else :class:`~graphnav.estimators.ekf.EkfOptions` / :class:`~graphnav.estimators.graph.GraphOptions` from
-    the method's ``defaults`` updated by the dict ``options``."""
+    the method's ``defaults`` updated by the dict ``options`` (names as
+    :func:`graphnav.estimators.options.build_options` reads them: ``"lag_s"``, ``"priors.velocity_sigma"``;
+    a name of before the option groups is mapped with a DeprecationWarning)."""
     m = get_method(name)
     if options is not None and not isinstance(options, dict):
         return options
     from graphnav.estimators.ekf import EkfOptions
     from graphnav.estimators.graph import GraphOptions
-    return (EkfOptions if m.family == "ekf" else GraphOptions)(**{**m.defaults, **(options or {})})
+    from graphnav.estimators.options import build_options, current_name
+    given = {current_name(k, stacklevel=4): v for k, v in (options or {}).items()}
+    return build_options(EkfOptions if m.family == "ekf" else GraphOptions, {**m.defaults, **given})
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
-               options=None, callback=None, mode: str = "online", init: str = "auto",
-               aligner_kwargs: dict | None = None) -> NavSolution:
+               options=None, callback=None, backend: str = "isam2", init: str = "auto",
+               align=None) -> NavSolution:
     """Run one method of :data:`METHODS` on a mission and return its :class:`NavSolution`.
 
     The scenario only chooses the completer (the outage itself is already in ``mission``'s valid mask,
@@ -349,9 +360,10 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     such as TC or Graph-TC, runs without one). ``options`` go to the estimator: its options object
     (:class:`graphnav.estimators.ekf.EkfOptions`, :class:`graphnav.estimators.graph.GraphOptions`) as is, or a
     dict of its fields on top of the method's defaults. Graph methods only: ``callback`` receives each filtered
-    :class:`graphnav.estimators.types.EpochEstimate` as it is produced, and ``mode`` is ``"online"`` (ISAM2) or
+    :class:`graphnav.estimators.types.EpochEstimate` as it is produced, and ``backend`` is ``"isam2"`` or
     ``"fixed-lag"`` (lag ``options.lag_s``). ``init``: the initial state from the ground truth (``"gt"``),
-    from the sensors (``"sensors"``, with ``aligner_kwargs`` such as ``initial_heading_rad``), or ``"auto"``
+    from the sensors (``"sensors"``, with ``align``, an :class:`~graphnav.estimators.align.AlignOptions`, e.g. with
+    ``initial_heading_rad``), or ``"auto"``
     (ground truth when the mission has it).
     ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer and, for a network
     completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
@@ -370,10 +382,10 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     start = time.perf_counter()
     if m.family == "ekf":
         sol = run_ekf(mission, tight=m.tight, completer=completer, options=options, init=init,
-                      aligner_kwargs=aligner_kwargs, name=m.name)
+                      align=align, name=m.name)
     else:
-        sol = run_graph(mission, completer=completer, batch=m.batch, options=options, callback=callback, mode=mode,
-                        init=init, aligner_kwargs=aligner_kwargs, name=m.name)
+        sol = run_graph(mission, completer=completer, batch=m.batch, options=options, callback=callback,
+                        backend=backend, init=init, align=align, name=m.name)
     wall = time.perf_counter() - start
     if not sol.runtime_s == sol.runtime_s:  # NaN: the estimator did not time itself
         sol.runtime_s = wall
@@ -384,7 +396,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts
         if any(counts.values()):
-            warnings.warn(f"{m.name}: the average estimator filled {counts['envelope']} ping(s) whose inputs left "
-                          f"the network's training envelope and {counts['pattern']} with a missing-beam pattern "
-                          f"the network was not trained for", RuntimeWarning, stacklevel=2)
+            warnings.warn(f"{m.name}: the average estimator regressed the beams of {counts['envelope']} ping(s) "
+                          f"whose inputs left the network's training envelope and {counts['pattern']} with a "
+                          f"missing-beam pattern the network was not trained for", RuntimeWarning, stacklevel=2)
     return sol

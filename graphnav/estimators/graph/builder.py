@@ -44,7 +44,7 @@ class DvlMeasurement:
         rows_b: (m,3) beam unit vectors in the body frame (a velocity: the rows of ``C_d_b^T``, ``T_d`` = I).
         y: (m,) beam velocities of the DVL head, m/s (measured or regressed); a velocity: ``v_d`` (3,).
         sigma: (m,) noise std per beam (per DVL axis for a velocity), m/s.
-        regressed: (m,) True for beams filled in by the completer.
+        regressed: (m,) True for beams regressed by the completer.
         omega_b: (3,) raw gyro rate at the ping (interpolated, :func:`graphnav.estimators.keyframes.gyro_at`), rad/s.
         velocity: True when the rows are a DVL-frame velocity measured by the instrument (its three axes
             count as three measured rows).
@@ -205,7 +205,7 @@ class GraphContext:
         kf.params.n_gravity = preintegration_gravity(self.earth, p_n, v_n, kf.pim.deltaTij())
 
     def dvl_measurement(self, ping: Ping) -> DvlMeasurement | None:
-        """The beams of a ping as graph measurements: measured beams at the beam sigma, completed ones at the
+        """The beams of a ping as graph measurements: measured beams at the beam sigma, regressed ones at the
         completer's sigma (floored); None when no beam is usable. A velocity ping gives its DVL-frame velocity
         (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
         if ping.is_velocity:
@@ -280,7 +280,7 @@ class BeamGroup:
         huber_k: Huber threshold in sigmas, or None (Gaussian).
         omega_b: (3,) body rate for the lever-arm term (Earth rate removed when configured), rad/s.
         lever_arm_b: (3,) m.
-        regressed: whether these are regressed (completed) beams.
+        regressed: whether these are regressed beams.
         beam_index: (m,) beam number 0..3 of each row when the DVL error states ``D(k)`` (scale, beam bias)
             act on these beams (``GraphOptions.dvl_error_states``), else None.
         C_d_b: (3,3) DVL-to-body rotation, with ``beam_index``.

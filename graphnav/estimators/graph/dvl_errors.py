@@ -24,12 +24,8 @@ MIN_STEP_SIGMA = 1e-9
 
 
 def prior_sigmas(config: SensorConfig, options: GraphOptions) -> np.ndarray:
-    """(7,) first-keyframe sigmas: scale (unitless) then beam bias (m/s); defaults as the EKF's."""
-    dvl = config.dvl
-    s0 = (max(float(np.max(np.abs(dvl.scale_factor))), 0.005) if options.prior_dvl_scale_sigma is None
-          else options.prior_dvl_scale_sigma)
-    b0 = (max(float(np.max(np.abs(dvl.beam_bias))), 0.005) if options.prior_dvl_bias_sigma is None
-          else options.prior_dvl_bias_sigma)
+    """(7,) first-keyframe sigmas: scale (unitless) then beam bias (m/s), ``options.priors`` (as the EKF's)."""
+    s0, b0 = options.priors.dvl_error_sigmas(config.dvl)
     return np.r_[np.full(3, s0), np.full(4, b0)]
 
 

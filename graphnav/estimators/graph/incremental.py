@@ -50,14 +50,13 @@ def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0,
     ``builder.options`` (bias: IMU spec turn-on sigmas); and on the DVL error states D(k) (mean
     ``dvl_errors_mean``, default zero) when they are enabled."""
     o, imu = builder.options, builder.config.imu
-    acc = o.prior_acc_bias_sigma if o.prior_acc_bias_sigma is not None else imu.accel_bias_sigma
-    gyro = o.prior_gyro_bias_sigma if o.prior_gyro_bias_sigma is not None else imu.gyro_bias_sigma
+    acc, gyro = o.priors.bias_sigmas(imu)
     graph = gtsam.NonlinearFactorGraph()
     pose_noise = (gtsam.noiseModel.Gaussian.Covariance(np.asarray(initial.cov_pose, float))
                   if initial.cov_pose is not None else gtsam.noiseModel.Diagonal.Sigmas(
-                      np.r_[np.full(3, o.prior_rot_sigma), np.full(3, o.prior_pos_sigma)]))
+                      np.r_[np.full(3, o.priors.attitude_sigma_for("graph")), np.full(3, o.priors.position_sigma)]))
     vel_noise = (gtsam.noiseModel.Gaussian.Covariance(np.asarray(initial.cov_v_n, float))
-                 if initial.cov_v_n is not None else gtsam.noiseModel.Isotropic.Sigma(3, o.prior_vel_sigma))
+                 if initial.cov_v_n is not None else gtsam.noiseModel.Isotropic.Sigma(3, o.priors.velocity_sigma))
     graph.add(gtsam.PriorFactorPose3(X(k), initial.pose, pose_noise))
     graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, vel_noise))
     graph.add(gtsam.PriorFactorConstantBias(B(k), initial.bias, gtsam.noiseModel.Diagonal.Sigmas(
@@ -121,7 +120,7 @@ class _IncrementalGraph:
         self._recovering_at: int | None = None     # keyframe of the last solver restart (a second one raises)
         self._t_anchor: float | None = None        # first keyframe of the current solver
         self.factorization = self.options.factorization
-        self.health = NisMonitor("graph")
+        self.health = NisMonitor("graph", self.options.health)
         #: (keyframe index, value) of the newest DVL error-state estimate (``options.dvl_error_states``)
         self.dvl_errors: tuple[int, np.ndarray] | None = None
 
@@ -167,8 +166,7 @@ class _IncrementalGraph:
         """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened or
         ``motion_prior="total-if-uncertain"`` must choose at a keyframe without measured beams."""
         o = self.options
-        screening = o.regressed_gate_k is not None or o.regressed_adaptive or o.regressed_correlation > 0
-        needed = (screening and kf.dvl is not None and kf.dvl.n_regressed
+        needed = (o.screening.active and kf.dvl is not None and kf.dvl.n_regressed
                   or o.motion_prior == "total-if-uncertain" and (kf.dvl is None or not kf.dvl.n_measured))
         if not needed or kf.index == 0:
             return None
@@ -216,7 +214,7 @@ class _IncrementalGraph:
         C = pose.rotation().matrix()
         if kf.index == 0:
             P_v = (np.asarray(self.initial.cov_v_n, float) if self.initial.cov_v_n is not None
-                   else np.eye(3) * self.options.prior_vel_sigma ** 2)
+                   else np.eye(3) * self.options.priors.velocity_sigma ** 2)
         else:
             last = self._last
             C_prev = last.pose.rotation().matrix()

@@ -40,8 +40,8 @@ Chosen defaults and why:
   preintegration short.
 - DVL error states (``dvl_error_states``): a Vector7 ``D(k)`` per keyframe, [scale per DVL axis (3),
   bias per beam (4) m/s] in the beam model ``y = T_d[(1 + s) v_d] + b`` (the EKF's ``dvl_error_states``),
-  prior at the first keyframe (sigmas ``max(|config value|, 0.005)`` as the EKF's) and a random walk between
-  keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
+  prior at the first keyframe (sigmas ``PriorOptions.dvl_scale_sigma`` / ``dvl_bias_sigma``, shared with the
+  EKF) and a random walk between keyframes: ``BetweenFactorVector`` with sigma ``rw * sqrt(dt)``. The synthetic beam errors are constant and
   the recorded DVL's own errors drift slowly (sound speed, bottom type), so the walk is small:
   ``dvl_scale_rw`` = 2e-5 /sqrt(s) (2e-4 over 100 s) and ``dvl_bias_rw`` = 2e-4 m/s/sqrt(s) (0.002 m/s over
   100 s); ``experiments/identify_noise.py`` bounds the recorded DVL's drift against the IMU-carried GT from above
@@ -58,16 +58,18 @@ Chosen defaults and why:
   the batch; the estimates are bit-equal at every level (``docs/decisions/covariance-out.md``,
   ``benchmarks/marginals_speed.py``).
 - Priors on the first keyframe come from the ground truth of the mission at that time (or an explicit
-  initial state), with sigmas ``prior_*`` below; bias priors are the IMU spec's turn-on sigmas.
+  initial state), with sigmas ``priors`` below; bias priors are the IMU spec's turn-on sigmas.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from graphnav.core.errors import ConfigError
 from graphnav.estimators.coasting import MAX_PURE_INERTIAL_S
+from graphnav.estimators.health import HealthOptions
+from graphnav.estimators.options import DVL_ERROR_STATES, PriorOptions, RegressedScreeningOptions
 
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
@@ -100,9 +102,10 @@ class GraphOptions:
         relin_window_s: online ISAM2 holds keyframes older than this at their linearisation point
             (``noRelinKeys``); None = any keyframe may be relinearised.
         wildfire_threshold: ISAM2 Gauss-Newton back-substitution stops where the update is smaller.
-        prior_rot_sigma, prior_pos_sigma, prior_vel_sigma: first-keyframe prior sigmas (rad, m, m/s).
-        prior_acc_bias_sigma, prior_gyro_bias_sigma: bias prior sigmas; None = the IMU spec's turn-on sigma.
-        lag_s: fixed-lag smoother lag, s; used by ``mode="fixed-lag"`` of :func:`run_graph`.
+        priors: :class:`graphnav.estimators.options.PriorOptions`, the first-keyframe prior sigmas (position,
+            velocity, attitude -- None = 0.05 deg --, biases -- None = the IMU spec's turn-on sigmas --, DVL
+            error states), named as the EKF's.
+        lag_s: fixed-lag smoother lag, s; used by the ``"fixed-lag"`` backend.
         reanchor_interval_s: the fixed-lag smoother is restarted from the last estimate (priors: its marginal
             covariances, block-diagonal) every this many seconds; None = never. GTSAM's smoother slows down
             over hours (update p99 5 ms in hour 1, 18 ms in hour 21 without it:
@@ -117,18 +120,13 @@ class GraphOptions:
             (``docs/decisions/covariance-out.md``). ``True`` / ``False`` are read as ``"velocity"`` / ``"none"``.
         max_pure_inertial_s: warn when no DVL factor enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
-        regressed_gate_k: joint-covariance gate of a regressed beam against the graph's predicted beam
-            (sigmas); None = no gate. See :mod:`.regressed`.
-        regressed_adaptive: raise a regressed beam's variance to its innovation's excess over the
-            prediction variance.
-        regressed_correlation: assumed correlation (0..1) between a completion's error and the graph's
-            prediction error (both come from the same past pings); 0 = independent.
-        regressed_prediction_var_scale: factor on the graph's predicted beam variance in the screening (its
-            marginal is over-confident on real data; see :mod:`.regressed`).
+        screening: :class:`graphnav.estimators.options.RegressedScreeningOptions`, the screening of regressed
+            beams against the graph's predicted beam (see :mod:`.regressed`); off by default.
+        health: :class:`graphnav.estimators.health.HealthOptions` of the graph's NIS monitor.
         motion_prior: ``"off"``; ``"partial"`` = model-aided motion prior (body-velocity random walk + small
             heave, :func:`.regressed.motion_prior_factors`) at keyframes with fewer than 3 measured beams;
             ``"total"`` = only at keyframes without any measured beam. With a completer, pings without any
-            measured beam are then not completed (the prior replaces the completion);
+            measured beam then get no regressed beams (the prior replaces them);
             ``"total-if-uncertain"`` = at keyframes without any measured beam, the prior once the graph's
             predicted sway/heave velocity std exceeds ``motion_prior_switch_std`` (then until a beam is
             measured again), next to the (screened) completions, which stay
@@ -144,8 +142,6 @@ class GraphOptions:
             as the DVL measures them, bias and scale included); False = regressed beams enter without them.
         dvl_scale_rw: random walk of each scale state, 1/sqrt(s).
         dvl_bias_rw: random walk of each beam bias state, m/s/sqrt(s).
-        prior_dvl_scale_sigma, prior_dvl_bias_sigma: first-keyframe prior sigmas (unitless, m/s); None =
-            ``max(|config.dvl.scale_factor|, 0.005)`` and ``max(|config.dvl.beam_bias|, 0.005)``.
         relin_dvl_scale, relin_dvl_bias: ISAM2 relinearisation thresholds of the DVL error states.
     """
 
@@ -168,31 +164,23 @@ class GraphOptions:
     relin_bias_gyro: float = 1e-5
     relin_window_s: float | None = 5.0
     wildfire_threshold: float = 1e-2
-    prior_rot_sigma: float = np.deg2rad(0.05)
-    prior_pos_sigma: float = 1.0
-    prior_vel_sigma: float = 0.05
-    prior_acc_bias_sigma: float | None = None
-    prior_gyro_bias_sigma: float | None = None
+    priors: PriorOptions = field(default_factory=PriorOptions)
     lag_s: float = 30.0
     reanchor_interval_s: float | None = 600.0
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
     marginals: str = "full"
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
-    regressed_gate_k: float | None = None
-    regressed_adaptive: bool = False
-    regressed_correlation: float = 0.0
-    regressed_prediction_var_scale: float = 1.0
+    screening: RegressedScreeningOptions = field(default_factory=RegressedScreeningOptions)
+    health: HealthOptions = field(default_factory=HealthOptions)
     motion_prior: str = "off"
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
     motion_prior_switch_std: float = 0.2
-    dvl_error_states: bool = True
+    dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
     dvl_bias_rw: float = 2e-4
-    prior_dvl_scale_sigma: float | None = None
-    prior_dvl_bias_sigma: float | None = None
     relin_dvl_scale: float = 1e-3
     relin_dvl_bias: float = 1e-3
 
@@ -214,10 +202,6 @@ class GraphOptions:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
         if not self.motion_prior_switch_std > 0:
             raise ConfigError(f"motion_prior_switch_std must be > 0 m/s, got {self.motion_prior_switch_std}")
-        if not self.regressed_prediction_var_scale > 0:
-            raise ConfigError(f"regressed_prediction_var_scale must be > 0, got {self.regressed_prediction_var_scale}")
-        if not 0.0 <= self.regressed_correlation < 1.0:
-            raise ConfigError(f"regressed_correlation must be in [0, 1), got {self.regressed_correlation}")
         if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:
             raise ConfigError("dvl_scale_rw and dvl_bias_rw must be >= 0")
         if self.batch_solver not in BATCH_SOLVERS:

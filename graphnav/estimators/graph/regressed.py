@@ -1,36 +1,37 @@
 """Regressed beams that earn their place, and the model-based motion prior used where no beam is measured.
 
-A regressed (completed) beam is a prediction made from past pings, not a measurement. Before it becomes a
-factor it is compared with the graph's own prediction of the same beam (:func:`screen_regressed`):
+A regressed beam (one the DVL did not measure, regressed by a completer) is a prediction made from past
+pings, not a measurement. Before it becomes a factor it is compared with the graph's own prediction of the same beam (:func:`screen_regressed`):
 
 - predicted beam ``y_p = b^T (R^T v_pred + (omega - b_g) x l)`` from the IMU-propagated state, with variance
   ``a = b^T R^T P_v R b``, ``P_v`` = the marginal velocity covariance of the previous keyframe plus the
   preintegrated velocity noise up to this one;
 - completion ``y_c`` with the completer's variance ``s_c^2``.
 
-Options (:class:`~graphnav.estimators.graph.GraphOptions`):
+Options (``GraphOptions.screening``, ``EkfOptions.screening``:
+:class:`graphnav.estimators.options.RegressedScreeningOptions`):
 
-- ``regressed_correlation`` (rho): the completion is made from pings that are already factors, so its error
+- ``correlation`` (rho): the completion is made from pings that are already factors, so its error
   is correlated with the graph's prediction error. With covariance ``c = rho sqrt(a s_c^2)`` the best
   linear fusion of the two gives gain ``K = (a - c) / (a + s_c^2 - 2c)``; the equivalent independent factor
   at ``y_c`` has variance ``a (s_c^2 - c) / (a - c)`` (= ``s_c^2`` for rho = 0), floored at
   ``s_c^2 (1 - rho^2)``. When ``c >= a`` (the graph's prediction is sharper than rho times the completion)
   the completion carries nothing the graph does not already know and is dropped.
-- ``regressed_adaptive``: the variance is raised to the innovation's excess, ``max(s^2, (y_c - y_p)^2 - a)``
+- ``adaptive``: the variance is raised to the innovation's excess, ``max(s^2, (y_c - y_p)^2 - a)``
   (one-sample covariance matching): a completion that disagrees with the IMU gets the sigma the
   disagreement shows.
-- ``regressed_gate_k``: joint-covariance gate, ``|y_c - y_p| / sqrt(a + s^2) > k`` -> dropped.
+- ``gate_k``: joint-covariance gate, ``|y_c - y_p| / sqrt(a + s^2) > k`` -> dropped.
 
 Measured on the A-KIT data (``experiments/regressed_correlation.py``, Trajectory1 and 5, 60 s windows, plain
 hybrid): the completion's error correlates with the graph's prediction error (rho 0.27-0.68 over tactical /
 MEMS IMU and 2 / 3 / 0 measured beams), and it is 1.7-3.7x larger (RMS 0.13 m/s vs 0.035-0.075 m/s), so in
 those regimes the completions carry nothing the IMU and the measured beams do not already give better. With
-``regressed_correlation=0.5`` they are dropped there (on Trajectory1 all of them with the tactical IMU, 81 % in the
+``correlation=0.5`` they are dropped there (on Trajectory1 all of them with the tactical IMU, 81 % in the
 MEMS total outage, where the kept ones lower the window VRMSE by 8 % on Trajectory1, 5 and 8). The gate alone
 fires on almost nothing (the completions are wrong by a steady 0.13 m/s, not by outliers), and the adaptive
 sigma alone cuts Graph-HN's excess over Graph-TC by 18-82 % but still leaves it 1.02-1.96x Graph-TC
 (``experiments/regressed_candidates.py``; docs/decisions/regressed-beams.md). The graph's predicted beam variance is
-over-confident on these data (mean e_p^2 / a = 2.7-8.7); scaling it (``regressed_prediction_var_scale``) by 4
+over-confident on these data (mean e_p^2 / a = 2.7-8.7); scaling it (``prediction_var_scale``) by 4
 keeps more completions: tactical total outage 0.82x Graph-TC instead of 1.00x, but MEMS total outage 0.96x
 instead of 0.88x and MEMS 2-missing 1.02x (x8: 1.10x / 1.21x), so the default stays 1.
 
@@ -89,7 +90,7 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
         rows_b (m,3), y (m,), sigma (m,): the regressed beams (body-frame unit vectors, m/s, m/s).
         C_b_n: predicted attitude; omega_b: body rate for the lever-arm term (rad/s); lever_arm_b: m.
         prediction: the graph's prediction, or None (first keyframe: nothing to compare with).
-        options: :class:`~graphnav.estimators.graph.GraphOptions`.
+        options: :class:`~graphnav.estimators.graph.GraphOptions` (its ``screening``).
 
     Returns:
         (keep (m,) bool, sigma (m,) m/s, counters {"gated", "decorrelated_out", "inflated"}).
@@ -100,7 +101,7 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     predicted = BeamModel(rows_b).predict(C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
     y_p, H = predicted.h, predicted.d_v()
     a = np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H)
-    keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options)
+    keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options.screening)
     return keep, np.sqrt(s2), stats
 
 

@@ -12,12 +12,24 @@ from graphnav.core.config import imu_grade as imu_grade_spec
 from graphnav.evaluation.bench.cases import IMU_GRADE_CHOICES, SCENARIO_NAMES
 from graphnav.evaluation.bench.scoring import DIVERGED_VRMSE_MPS
 from graphnav.evaluation.consistency import NEES_SETTLE_S
-from graphnav.evaluation.methods import METHODS
+from graphnav.evaluation.methods import (
+    GRAPH_HN,
+    GRAPH_HN_BATCH,
+    GRAPH_HNI,
+    GRAPH_HNI_BATCH,
+    GRAPH_MP,
+    GRAPH_TC,
+    GRAPH_TC_BATCH,
+    HNTC,
+    HNTC_IMU,
+    METHODS,
+    TC,
+)
 
 
 #: Methods of the regime summary (report section "Regimes"), the hybrid first, its reference second.
-REGIME_METHODS: tuple[str, ...] = ("Graph-TC", "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "TC",
-                                    "HNTC", "Graph-HNI", "Graph-HNI-batch", "HNTC-IMU")
+REGIME_METHODS: tuple[str, ...] = (GRAPH_TC, GRAPH_HN, GRAPH_HN_BATCH, GRAPH_TC_BATCH, GRAPH_MP, TC,
+                                    HNTC, GRAPH_HNI, GRAPH_HNI_BATCH, HNTC_IMU)
 
 
 def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
@@ -194,7 +206,7 @@ def _pct(x: float) -> str:
     return "-" if not math.isfinite(x) else f"{x:+.0f}%"
 
 
-def headline(agg: dict, grade: str, scenario: str, model: str = "Graph-HN", ref: str = "HNTC") -> str | None:
+def headline(agg: dict, grade: str, scenario: str, model: str = GRAPH_HN, ref: str = HNTC) -> str | None:
     """One sentence: does ``model`` beat ``ref`` in this grade and scenario, by how much, in how many windows."""
     a, b = agg.get((grade, scenario, model)), agg.get((grade, scenario, ref))
     if not a or not b or not a["n_windows"] or not b["n_windows"]:
@@ -218,7 +230,7 @@ def aggregate_regimes(records: list[dict]) -> dict:
                 "n": len(v), "drift_pct": drift_pct_of(v)} for k, v in groups.items()}
 
 
-def _ratio(agg: dict, regime: tuple, model: str, ref: str = "Graph-TC", model_regime: tuple | None = None) -> float:
+def _ratio(agg: dict, regime: tuple, model: str, ref: str = GRAPH_TC, model_regime: tuple | None = None) -> float:
     """Mean window VRMSE of ``model`` (in ``model_regime``, default ``regime``) over ``ref``'s in ``regime``."""
     a, b = agg.get((*(model_regime or regime), model)), agg.get((*regime, ref))
     if not a or not b or not (b["mean"] > 0):
@@ -230,7 +242,7 @@ def _all_beams_ratio(agg: dict, regime: tuple) -> float:
     """Graph-TC with every beam measured (scenario ``none``) over Graph-TC in ``regime``, on the same grade
     and window length: the lowest ratio to Graph-TC a completion can give, since a completion made from past
     pings and the IMU carries no more than the beam it stands for."""
-    return _ratio(agg, regime, "Graph-TC", model_regime=(regime[0], "none", regime[2]))
+    return _ratio(agg, regime, GRAPH_TC, model_regime=(regime[0], "none", regime[2]))
 
 
 #: Ratio thresholds of the regime verdicts (mean window VRMSE of a method / Graph-TC's).
@@ -246,7 +258,7 @@ def regime_summary(records: list[dict]) -> list[str]:
         list(dict.fromkeys((*IMU_GRADE_CHOICES, r[0]))).index(r[0]),
         list(dict.fromkeys((*SCENARIO_NAMES, r[1]))).index(r[1]), r[2]))
     methods = [m for m in REGIME_METHODS if any(k[3] == m for k in agg)]
-    if not regimes or "Graph-TC" not in methods:
+    if not regimes or GRAPH_TC not in methods:
         return []
     lines = ["## Regimes", "",
              "Window VRMSE, m/s, mean (worst) over all windows of all trajectories, per IMU grade, scenario and "
@@ -261,17 +273,17 @@ def regime_summary(records: list[dict]) -> list[str]:
     for reg in regimes:
         cells = [f"{_f(agg[(*reg, m)]['mean'])} ({_f(agg[(*reg, m)]['worst'])})" if (*reg, m) in agg else "-"
                  for m in methods]
-        n = agg.get((*reg, "Graph-TC"), {}).get("n", 0)
+        n = agg.get((*reg, GRAPH_TC), {}).get("n", 0)
         lines.append(f"| {reg[0]} | {reg[1]} | {reg[2]:g} | " + " | ".join(cells) +
-                     f" | {_f(_ratio(agg, reg, 'Graph-HN'), 2)} | {_f(_ratio(agg, reg, 'Graph-HN-batch'), 2)}"
+                     f" | {_f(_ratio(agg, reg, GRAPH_HN), 2)} | {_f(_ratio(agg, reg, GRAPH_HN_BATCH), 2)}"
                      f" | {_f(_all_beams_ratio(agg, reg), 2)} | "
                      + " / ".join(_f(agg.get((*reg, m), {}).get("drift_pct", float("nan")), 2)
-                                  for m in ("Graph-TC", "Graph-HN", "Graph-HN-batch"))
+                                  for m in (GRAPH_TC, GRAPH_HN, GRAPH_HN_BATCH))
                      + f" | {n} |")
     lines.append("")
     lossy = [r for r in regimes if r[1] != "none"]
 
-    def verdicts(model: str, ref: str = "Graph-TC") -> list[str]:
+    def verdicts(model: str, ref: str = GRAPH_TC) -> list[str]:
         rated = [(r, _ratio(agg, r, model, ref)) for r in lossy]
         rated = [(r, x) for r, x in rated if math.isfinite(x)]
         if not rated:
@@ -292,14 +304,14 @@ def regime_summary(records: list[dict]) -> list[str]:
         return out
 
     lines += ["Where the hybrid helps (generated from the table):", ""]
-    for model in ("Graph-HN", "Graph-HN-batch", "Graph-MP"):
+    for model in (GRAPH_HN, GRAPH_HN_BATCH, GRAPH_MP):
         lines += verdicts(model)
     # the batch's gain split: smoothing alone (Graph-TC-batch) against what the completions add to it
-    lines += verdicts("Graph-TC-batch")
-    lines += verdicts("Graph-HN-batch", "Graph-TC-batch")
+    lines += verdicts(GRAPH_TC_BATCH)
+    lines += verdicts(GRAPH_HN_BATCH, GRAPH_TC_BATCH)
     # the hybrid's targets, checked on the same numbers
     checks = []
-    hn = [(r, _ratio(agg, r, "Graph-HN")) for r in lossy]
+    hn = [(r, _ratio(agg, r, GRAPH_HN)) for r in lossy]
     hn = [(r, x) for r, x in hn if math.isfinite(x)]
     if hn:
         bad = [r for r, x in hn if x > HURTS_ABOVE]
@@ -315,7 +327,7 @@ def regime_summary(records: list[dict]) -> list[str]:
                       + (f"; in {len(out_of_reach)} of these even Graph-TC with all four beams measured is above "
                          f"0.7x ({', '.join(f'{r[0]}/{r[1]}/{r[2]:g} s' for r in out_of_reach)})"
                          if out_of_reach else ""))
-    bt = [(r, _ratio(agg, r, "Graph-HN-batch")) for r in lossy]
+    bt = [(r, _ratio(agg, r, GRAPH_HN_BATCH)) for r in lossy]
     bt = [(r, x) for r, x in bt if math.isfinite(x)]
     if bt:
         bad = [r for r, x in bt if x > 0.8]
@@ -391,7 +403,7 @@ def make_report(records: list[dict], meta: dict | None = None) -> str:
             lines.append(f"| {sc} | " + " | ".join(cells) + " |")
         lines.append("")
         for sc in scenarios:
-            heads = [h for h in (headline(agg, grade, sc), headline(agg, grade, sc, "Graph-HN-batch"))
+            heads = [h for h in (headline(agg, grade, sc), headline(agg, grade, sc, GRAPH_HN_BATCH))
                      if h]
             lines += [f"### {grade}, {sc}", ""] + [f"- {h}" for h in heads] + ([""] if heads else [])
             lines += ["| method | VRMSE window mean | worst | VRMSE mission | drift (m) | % DT window | % DT mission "
