@@ -207,17 +207,9 @@ class EkfBackend(_Aided):
         ping = kf.ping
         #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
         self.last_aided = False
-        if ping is not None and ping.is_velocity:
-            # a velocity is loosely coupled by nature: the same update for TC and LC
-            self.last_aided = ekf.update_velocity(ping.v_d, ping.omega_b, ping.v_d_sigma)
-        elif ping is not None:
-            sigma = ping.sigma_regressed if ping.n_regressed else None
-            if ping.completed:
-                self.n_completed += 1
-            if self.tight:
-                self.last_aided = ekf.update_tc(ping.beams, ping.omega_b, sigma)
-            else:
-                self.last_aided = ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
+        if ping is not None:
+            self.n_completed += ping.has_regressed
+            self.last_aided = ekf.update_ping(ping, self.tight)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
         if ekf.position_states:

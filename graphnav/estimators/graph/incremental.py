@@ -168,8 +168,8 @@ class _IncrementalGraph:
         ``motion_prior="total-if-uncertain"`` must choose at a keyframe without measured beams."""
         o = self.options
         screening = o.regressed_gate_k is not None or o.regressed_adaptive or o.regressed_correlation > 0
-        needed = (screening and kf.dvl is not None and kf.dvl.n_regressed
-                  or o.motion_prior == "total-if-uncertain" and (kf.dvl is None or not kf.dvl.n_measured))
+        needed = (screening and kf.n_regressed
+                  or o.motion_prior == "total-if-uncertain" and not kf.n_measured)
         if not needed or kf.index == 0:
             return None
         from graphnav.estimators.graph.regressed import predict_state
@@ -198,9 +198,8 @@ class _IncrementalGraph:
         covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
         elapsed = time.perf_counter() - start
         self.update_times.append(elapsed)
-        m = kf.dvl
         self._last = EpochEstimate(k, kf.t, kf.kind, pose, v_n, bias, covs.get("cov_v_n"),
-                                   0 if m is None else m.n_measured, 0 if m is None else m.n_regressed, elapsed,
+                                   kf.n_measured, kf.n_regressed, elapsed,
                                    cov_p_n=covs.get("cov_p_n"), cov_rot_b=covs.get("cov_rot_b"),
                                    cov_bias=covs.get("cov_bias"))
         self._pending_factors = gtsam.NonlinearFactorGraph()
