@@ -104,7 +104,7 @@ class _IncrementalGraph:
     bound and the NIS an upper bound (conservative for the divergence test).
     """
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
         self.builder = builder
         self.options = builder.options
         self.initial = initial
@@ -114,7 +114,7 @@ class _IncrementalGraph:
         self._last: EpochEstimate | None = None
         # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
         self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]] = []
-        self.keep_keyframe_graphs = False
+        self.keep_keyframe_graphs = keep_keyframe_graphs
         self.update_times: list[float] = []
         self.n_recovered = 0
         self.n_reanchored = 0
@@ -233,6 +233,16 @@ class _IncrementalGraph:
         if self._last is None:
             raise ConfigError("no keyframe has been updated yet")
         return self._last
+
+    @property
+    def latest(self) -> EpochEstimate | None:
+        """The estimate of the newest updated keyframe, None before the first update."""
+        return self._last
+
+    def dvl_error_state(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """The DVL error states ``D(index)`` of a keyframe still in the solver: estimate (7,) [scale per DVL axis,
+        bias per beam m/s] and marginal covariance (7,7)."""
+        return (np.asarray(self._value(D(index), "Vector"), float), np.asarray(self._marginal(D(index)), float))
 
     def _recover(self, kf: GraphKeyframe, exc: Exception) -> None:
         """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state
@@ -374,8 +384,8 @@ class OnlineGraph(_IncrementalGraph):
     every keyframe, so its cost grows with the mission (use :class:`FixedLagGraph` for long missions).
     """
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
-        super().__init__(builder, initial)
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
+        super().__init__(builder, initial, keep_keyframe_graphs)
         self._times: list[float] = []
         self._restart()
 
@@ -423,8 +433,8 @@ class FixedLagGraph(_IncrementalGraph):
     # Restarting it from the last estimate's marginals keeps it flat (options.reanchor_interval_s).
     reanchors = True
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
-        super().__init__(builder, initial)
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
+        super().__init__(builder, initial, keep_keyframe_graphs)
         self._restart()
 
     def _restart(self):
