@@ -148,9 +148,9 @@ class EkfBackend(_Aided):
     """Error-state EKF backend (the paper's filter; see :mod:`graphnav.estimators.ekf`).
 
     Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
-    the ping (``tight``: one row per beam, else least squares from >= 3 beams; completed beams add their
-    completer sigma^2; a DVL-frame velocity ping, TC or LC: :meth:`~graphnav.estimators.ekf.ErrorStateEkf.
-    update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
+    the ping as it is (:meth:`~graphnav.estimators.ekf.ErrorStateEkf.update_ping`: ``tight``, one row per beam,
+    else least squares from >= 3 beams; regressed beams add their completer sigma^2; a DVL-frame velocity ping
+    the same for TC and LC) at the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
     filter (``EkfOptions.position_states``, the default) also updates with the keyframe's depth (the graph's
     measurement: the pressure depth turned into the navigation frame's down by
     :func:`~graphnav.estimators.graph.builder.tangent_down`, sigma ``EkfOptions.depth_sigma`` or

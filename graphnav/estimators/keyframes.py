@@ -121,8 +121,9 @@ class KeyframerStats:
 class Keyframer:
     """Assemble keyframes from time-ordered samples (see the module docstring).
 
-    Feed samples in time order with :meth:`add_imu`, :meth:`add_dvl`, :meth:`add_depth`, :meth:`add_heading`,
-    :meth:`add_fix` (each returns the keyframes it closed); :meth:`start` sets the initial epoch (before it,
+    Feed samples in time order with :meth:`add_imu`, :meth:`add_ping` (a replayed sample: :meth:`add_dvl`,
+    :meth:`add_dvl_velocity`), :meth:`add_depth`, :meth:`add_heading`, :meth:`add_fix` (each returns the
+    keyframes it closed); :meth:`start` sets the initial epoch (before it,
     only the last IMU sample is kept); :meth:`finish` closes what the end of the data allows.
 
     Args:

@@ -122,7 +122,8 @@ class Navigator:
         options: streaming settings.
         align_options: settings of the :class:`~graphnav.estimators.align.Aligner` (when ``initial`` is None).
         aligner_kwargs: keyword arguments of the Aligner (e.g. ``initial_heading_rad``, ``initial_lla``).
-        keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards).
+        keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards,
+            :meth:`keyframe_graphs`).
         name: the estimator's name in health warnings (e.g. the method name).
     """
 
