@@ -118,7 +118,7 @@ def cpp_only_run(mission, keyframes, options: GraphOptions) -> dict:
     t0 = keyframes[0].t
     initial = InitialState.from_ground_truth(mission, t0)
     smoother = gtsam.IncrementalFixedLagSmoother(options.lag_s, isam2_params(options))
-    v_dvl = [np.asarray(mission.gt.at(kf.t, mission.imu)[1], float) if kf.dvl is not None else None
+    v_dvl = [np.asarray(mission.gt.at(kf.t, mission.imu)[1], float) if kf.ping is not None else None
              for kf in keyframes]     # the DVL keyframes' velocity "measurement" (ground truth), not timed
     v_sigma = gtsam.noiseModel.Isotropic.Sigma(3, 0.01)
     depth_sigma = options.depth_sigma if options.depth_sigma is not None else mission.config.depth_noise_std
@@ -140,7 +140,7 @@ def cpp_only_run(mission, keyframes, options: GraphOptions) -> dict:
             nav = kf.pim.predict(gtsam.NavState(pose, v_n), bias)
             pose, v_n = nav.pose(), nav.velocity()
             graph.add(gtsam.CombinedImuFactor(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), B(k), kf.pim))
-        if kf.dvl is not None:
+        if kf.ping is not None:
             graph.add(gtsam.PriorFactorVector(V(k), v_dvl[k], v_sigma))
         if kf.depth is not None:
             graph.add(depth_factor(X(k), tangent_down(ctx.earth, kf.depth, pose.translation()), depth_sigma,

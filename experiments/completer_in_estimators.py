@@ -55,7 +55,7 @@ def completions(data: str, window_s: float) -> None:
                     kfs += kfr.finish()
                     for kf in kfs:
                         p = kf.ping
-                        if p is None or not p.completed:
+                        if p is None or not p.has_regressed:
                             continue
                         truth = recorded[int(np.argmin(np.abs(run.dvl.t - p.t)))]
                         sel = p.regressed & np.isfinite(truth)

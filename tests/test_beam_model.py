@@ -204,7 +204,7 @@ def test_ekf_h_matches_a_numerical_derivative_in_its_own_error_convention(dvl_er
 def test_gyro_rate_at_a_ping_is_interpolated_between_the_imu_interval_centres():
     """IMU samples are mean rates over [t_k, t_k+1] (for a linear rate: the rate at the interval's centre), so
     a linear rate is recovered exactly at a ping between samples; the Keyframer's Ping carries that rate to
-    the graph's DvlMeasurement and to the EKF."""
+    the graph's keyframe and to the EKF."""
     config = SensorConfig()
     keyframer = kfs.Keyframer(config)
     rate = lambda t: np.array([0.1 * t, -0.2 * t, 0.05 + 0.3 * t])  # noqa: E731
@@ -226,7 +226,7 @@ def test_gyro_rate_at_a_ping_is_interpolated_between_the_imu_interval_centres():
     np.testing.assert_array_equal(kfs.gyro_at(-1.0, samples), mean(0))
     np.testing.assert_array_equal(kfs.gyro_at(0.5, samples[:1]), mean(0))
     np.testing.assert_array_equal(kfs.gyro_at(0.0312, samples[:5]), kfs.gyro_at(0.0312, samples))
-    from graphnav.estimators.graph.builder import GraphContext
+    from graphnav.estimators.graph.builder import GraphContext, graph_keyframe
     from graphnav.estimators.graph.options import GraphOptions
-    m = GraphContext(config, GraphOptions()).dvl_measurement(pings[0])
-    np.testing.assert_array_equal(m.omega_b, pings[0].omega_b)
+    gkf = graph_keyframe(next(kf for kf in out if kf.ping is not None), GraphContext(config, GraphOptions()))
+    np.testing.assert_array_equal(gkf.ping.omega_b, pings[0].omega_b)

@@ -100,10 +100,11 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
     for kf in mission_keyframes(shifted, options):
         k = kf.index
         n_keyframes += 1
+        dvl = None if kf.ping is None else gravity.beam_rows(kf.ping, kf.beams_used)
         if k == 0:
             v_b = np.zeros(3)
-            if kf.dvl is not None and len(kf.dvl.y) >= 3:
-                v_b = np.linalg.lstsq(kf.dvl.rows_b, kf.dvl.y, rcond=None)[0]
+            if dvl is not None and len(dvl.y) >= 3:
+                v_b = np.linalg.lstsq(dvl.rows_b, dvl.y, rcond=None)[0]
             pose = gtsam.Pose3(gtsam.Rot3(C0), np.zeros(3))
             if kf.depth is not None:
                 pose = gtsam.Pose3(gtsam.Rot3(C0), np.array([0.0, 0.0, kf.depth]))
@@ -117,20 +118,20 @@ def solve_calibration_graph(mission: Mission, offset_s: float = 0.0, lever_prior
             gravity.set_gravity(kf, state.position(), state.velocity())
             graph.add(imu_factor(kf))
             state = kf.pim.predict(state, bias0)
-        if kf.dvl is not None and len(kf.dvl.y) >= 3:
+        if dvl is not None and len(dvl.y) >= 3:
             # re-anchor the initial velocity on the DVL (the IMU alone would drift)
-            v_b = np.linalg.lstsq(kf.dvl.rows_b, kf.dvl.y, rcond=None)[0]
+            v_b = np.linalg.lstsq(dvl.rows_b, dvl.y, rcond=None)[0]
             state = gtsam.NavState(state.pose(), state.attitude().matrix() @ v_b)
         values.insert(X(k), state.pose())
         values.insert(V(k), state.velocity())
         values.insert(B(k), bias0)
-        if kf.dvl is not None:
-            omega = kf.dvl.omega_b
+        if dvl is not None:
+            omega = kf.ping.omega_b
             if options.earth_rate_in_lever_arm:
                 omega = omega - state.attitude().matrix().T @ w_ie
-            graph.add(beam_factor_lever_arm(X(k), V(k), B(k), L(0), kf.dvl.rows_b, kf.dvl.y,
-                                            beam_noise(kf.dvl.sigma), omega))
-            n_beams += len(kf.dvl.y)
+            graph.add(beam_factor_lever_arm(X(k), V(k), B(k), L(0), dvl.rows_b, dvl.y,
+                                            beam_noise(dvl.sigma), omega))
+            n_beams += len(dvl.y)
         if kf.depth is not None and options.use_depth:
             sigma = options.depth_sigma if options.depth_sigma is not None else cfg.depth_noise_std
             graph.add(depth_factor(X(k), kf.depth, sigma, state.pose().translation()[:2]))

@@ -284,6 +284,14 @@ class Aligner:
         self._imu.append((float(t), f, w))
         self._trim()
 
+    def add_ping(self, ping) -> None:
+        """A DVL ping as the Navigator made it (:class:`~graphnav.estimators.types.Ping`): its DVL-frame velocity
+        (:meth:`add_dvl_velocity`) or its measured beams (:meth:`add_dvl`)."""
+        if ping.is_velocity:
+            self.add_dvl_velocity(ping.t, ping.v_d, ping.v_d_sigma)
+        else:
+            self.add_dvl(ping.t, ping.beams, ping.measured)
+
     def add_dvl(self, t: float, beams, valid) -> None:
         """DVL ping: along-beam velocities (4,) m/s and the valid mask (4,) bool (>= 3 valid beams used)."""
         beams = np.asarray(beams, float).reshape(4)

@@ -62,12 +62,12 @@ class GraphBackend(_Aided):
     """
 
     def __init__(self, config: SensorConfig, options: GraphOptions | None, mode: str, initial: InitialState,
-                 name: str = "graph"):
+                 name: str = "graph", keep_keyframe_graphs: bool = False):
         self.ctx = GraphContext(config, options or GraphOptions())
         if mode == "isam2":
-            self.estimator = OnlineGraph(self.ctx, initial)
+            self.estimator = OnlineGraph(self.ctx, initial, keep_keyframe_graphs)
         elif mode == "fixed-lag":
-            self.estimator = FixedLagGraph(self.ctx, initial)
+            self.estimator = FixedLagGraph(self.ctx, initial, keep_keyframe_graphs)
         else:
             raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag' or 'isam2'")
         self.estimator.health.estimator = name
@@ -80,7 +80,7 @@ class GraphBackend(_Aided):
     def process(self, kf: Keyframe) -> EpochEstimate:
         gkf = graph_keyframe(kf, self.ctx)
         if kf.fix is not None:
-            last = self.estimator._last
+            last = self.estimator.latest
             if last is None:
                 p_pred = self._initial.pose.translation()
             else:
@@ -110,11 +110,9 @@ class GraphBackend(_Aided):
     def dvl_errors(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """The DVL error states ``D(index)`` of a keyframe still in the smoother: estimate (7,) [scale per DVL
         axis, bias per beam m/s] and marginal covariance (7,7). ConfigError without ``dvl_error_states``."""
-        from gtsam.symbol_shorthand import D
         if not self.ctx.options.dvl_error_states:
             raise ConfigError(f"{self.name}: no DVL error states (GraphOptions.dvl_error_states is off)")
-        return (np.asarray(self.estimator._value(D(index), "Vector"), float),
-                np.asarray(self.estimator._marginal(D(index)), float))
+        return self.estimator.dvl_error_state(index)
 
     def keyframe_graphs(self) -> list:
         """Every keyframe's factors so far, one (link factors, :class:`~.graph.builder.KeyframeFactors`) per
@@ -150,9 +148,9 @@ class EkfBackend(_Aided):
     """Error-state EKF backend (the paper's filter; see :mod:`graphnav.estimators.ekf`).
 
     Per keyframe: predict over its IMU segments (covariance inflated over bridged IMU gaps), then update with
-    the ping (``tight``: one row per beam, else least squares from >= 3 beams; regressed beams add their
-    completer sigma^2; a DVL-frame velocity ping, TC or LC: :meth:`~graphnav.estimators.ekf.ErrorStateEkf.
-    update_velocity`) using the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
+    the ping as it is (:meth:`~graphnav.estimators.ekf.ErrorStateEkf.update_ping`: ``tight``, one row per beam,
+    else least squares from >= 3 beams; regressed beams add their completer sigma^2; a DVL-frame velocity ping
+    the same for TC and LC) at the gyro rate interpolated at the ping, and with a heading measurement. The 15-state
     filter (``EkfOptions.position_states``, the default) also updates with the keyframe's depth (the graph's
     measurement: the pressure depth turned into the navigation frame's down by
     :func:`~graphnav.estimators.graph.builder.tangent_down`, sigma ``EkfOptions.depth_sigma`` or
@@ -210,17 +208,9 @@ class EkfBackend(_Aided):
         ping = kf.ping
         #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
         self.last_aided = False
-        if ping is not None and ping.is_velocity:
-            # a velocity is loosely coupled by nature: the same update for TC and LC
-            self.last_aided = ekf.update_velocity(ping.v_d, ping.omega_b, ping.v_d_sigma)
-        elif ping is not None:
-            sigma = ping.sigma_regressed if ping.n_regressed else None
-            if ping.completed:
-                self.n_completed += 1
-            if self.tight:
-                self.last_aided = ekf.update_tc(ping.beams, ping.omega_b, sigma)
-            else:
-                self.last_aided = ekf.update_lc_beams(ping.beams, ping.omega_b, sigma)
+        if ping is not None:
+            self.n_completed += ping.has_regressed
+            self.last_aided = ekf.update_ping(ping, self.tight)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
         if ekf.position_states:
@@ -291,7 +281,6 @@ def make_backend(name: str, config: SensorConfig, initial: InitialState, *, grap
     if name == "ekf":
         return EkfBackend(config, ekf_options, tight, initial, name=label or f"EKF {'TC' if tight else 'LC'}")
     if name in ("fixed-lag", "isam2"):
-        backend = GraphBackend(config, graph_options, name, initial, name=label or f"graph {name}")
-        backend.estimator.keep_keyframe_graphs = keep_keyframe_graphs
-        return backend
+        return GraphBackend(config, graph_options, name, initial, name=label or f"graph {name}",
+                            keep_keyframe_graphs=keep_keyframe_graphs)
     raise ConfigError(f"unknown backend '{name}'; choose one of {', '.join(BACKENDS)}")

@@ -484,6 +484,19 @@ class ErrorStateEkf:
         return (np.asarray(white, float) ** 2 + (self._velocity_gain * self.beam_bias_std) ** 2
                 + (self.beam_scale_std * np.asarray(v_d, float)) ** 2)
 
+    def update_ping(self, ping, tight: bool = True) -> bool:
+        """Update with one :class:`~graphnav.estimators.types.Ping` at the gyro rate ``ping.omega_b``: a velocity
+        ping with its DVL-frame velocity (:meth:`update_velocity`, the same for TC and LC: a velocity is loosely
+        coupled by nature), a beam ping one row per beam (``tight``, :meth:`update_tc`) or as a least-squares
+        velocity (:meth:`update_lc_beams`), regressed beams with the completer's sigma added. Returns whether
+        the update entered (not gated; LC: >= 3 beams)."""
+        if ping.is_velocity:
+            return self.update_velocity(ping.v_d, ping.omega_b, ping.v_d_sigma)
+        sigma = ping.sigma_regressed if ping.n_regressed else None
+        if tight:
+            return self.update_tc(ping.beams, ping.omega_b, sigma)
+        return self.update_lc_beams(ping.beams, ping.omega_b, sigma)
+
     def update_velocity(self, v_d: np.ndarray, omega_b: np.ndarray, sigma: np.ndarray | None = None) -> bool:
         """Update with a DVL-frame velocity of the DVL head measured by the instrument, ``v_d`` (3,) m/s, with
         one-sigma ``sigma`` (3,) m/s per DVL axis (None/NaN: the configured one). A lockout re-acquires from the

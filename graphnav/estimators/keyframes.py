@@ -13,9 +13,10 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   are dropped and gaps longer than :data:`graphnav.core.mission.IMU_GAP_PERIODS` periods are bridged by linear
   interpolation (warning, counted); the keyframe intervals over a gap carry the extra velocity and attitude
   variance of :func:`graphnav.core.mission.gap_variances`.
-- **DVL.** A ping's beams are completed through the shared :class:`~graphnav.estimators.history.BeamHistory` when a
-  completer is set (hybrid methods). :class:`Ping` is the one per-ping measurement every estimator uses
-  (beams, measured mask, completer sigmas, gyro rate); the gyro rate at the ping (for the lever-arm term) is
+- **DVL.** A ping arrives as the :class:`Ping` the Navigator made (:meth:`Keyframer.add_ping`) and leaves in its
+  keyframe as a copy (``dataclasses.replace``) that adds what the keyframer knows: the gyro rate at the ping
+  and, when a completer is set (hybrid methods), the regressed beams and their sigmas from the shared
+  :class:`~graphnav.estimators.history.BeamHistory`. The gyro rate at the ping (for the lever-arm term) is
   interpolated linearly between the centres of the IMU sample intervals around the ping (:func:`gyro_at`),
   the same for the graph and the EKF. An IMU-aware completer (``needs_imu``) also gets the last
   ``completer.imu_samples`` IMU samples up to the ping (:class:`~graphnav.estimators.imu_buffer.ImuWindowBuffer`,
@@ -35,6 +36,7 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 import warnings
 from collections import deque
@@ -82,13 +84,13 @@ class KeyframeOptions:
 class _Pending:
     t: float
     kind: str
-    ping: tuple | None = None          # (beams, valid)
-    velocity: tuple | None = None      # (v_d, sigma)
+    beams: Ping | None = None          # a beam ping at t, as it entered
+    velocity: Ping | None = None       # a velocity ping at t, as it entered
     fix: PositionFix | None = None
 
     @property
     def has_ping(self) -> bool:
-        return self.ping is not None or self.velocity is not None
+        return self.beams is not None or self.velocity is not None
 
 
 @dataclass
@@ -119,8 +121,9 @@ class KeyframerStats:
 class Keyframer:
     """Assemble keyframes from time-ordered samples (see the module docstring).
 
-    Feed samples in time order with :meth:`add_imu`, :meth:`add_dvl`, :meth:`add_depth`, :meth:`add_heading`,
-    :meth:`add_fix` (each returns the keyframes it closed); :meth:`start` sets the initial epoch (before it,
+    Feed samples in time order with :meth:`add_imu`, :meth:`add_ping` (a replayed sample: :meth:`add_dvl`,
+    :meth:`add_dvl_velocity`), :meth:`add_depth`, :meth:`add_heading`, :meth:`add_fix` (each returns the
+    keyframes it closed); :meth:`start` sets the initial epoch (before it,
     only the last IMU sample is kept); :meth:`finish` closes what the end of the data allows.
 
     Args:
@@ -198,41 +201,33 @@ class Keyframer:
             return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)
 
-    def add_dvl(self, t: float, beams, valid) -> list[Keyframe]:
+    def add_ping(self, ping: Ping) -> list[Keyframe]:
+        """A DVL ping as it entered (:meth:`Ping.from_beams` or :meth:`Ping.from_velocity`), in time order; a
+        beam ping and a velocity ping at the same stamp are one ping (see the module docstring)."""
         if not self._started:
             self.stats.pings_before_start += 1
             return []
-        beams = np.asarray(beams, float).reshape(4)
-        valid = np.asarray(valid, bool).reshape(4)
+        slot = "velocity" if ping.is_velocity else "beams"
         for p in self._pending:
-            if abs(p.t - t) <= 1e-9:                     # the initial epoch or a fix at the same stamp
-                p.kind, p.ping = "dvl", (beams, valid)
+            if abs(p.t - ping.t) <= 1e-9:       # the initial epoch, a fix or the other half of this ping
+                p.kind = "dvl"
+                setattr(p, slot, ping)
                 break
         else:
-            if t <= self._t_kf_or_start():               # at or before the newest keyframe: no place for it
+            if ping.t <= self._t_kf_or_start():       # at or before the newest keyframe: no place for it
                 self.stats.pings_before_start += 1
                 return []
-            self._insert_pending(_Pending(t, "dvl", ping=(beams, valid)))
+            self._insert_pending(_Pending(ping.t, "dvl", **{slot: ping}))
         return self._close_ready()
+
+    def add_dvl(self, t: float, beams, valid) -> list[Keyframe]:
+        """A beam ping from a replayed sample (``beams`` (4,) m/s, ``valid`` (4,) bool): :meth:`add_ping`."""
+        return self.add_ping(Ping.from_beams(t, beams, valid))
 
     def add_dvl_velocity(self, t: float, v_d, sigma) -> list[Keyframe]:
         """A DVL-frame velocity of the DVL head (``v_d`` (3,) m/s) measured by the instrument, with its one-sigma
-        per DVL axis (``sigma`` (3,) m/s, NaN = the configured one); a ping at its stamp (see the module
-        docstring for a ping that also has beams)."""
-        if not self._started:
-            self.stats.pings_before_start += 1
-            return []
-        velocity = (np.asarray(v_d, float).reshape(3), np.asarray(sigma, float).reshape(3))
-        for p in self._pending:
-            if abs(p.t - t) <= 1e-9:                     # the initial epoch, a fix or the beams of this ping
-                p.kind, p.velocity = "dvl", velocity
-                break
-        else:
-            if t <= self._t_kf_or_start():
-                self.stats.pings_before_start += 1
-                return []
-            self._insert_pending(_Pending(t, "dvl", velocity=velocity))
-        return self._close_ready()
+        per DVL axis (``sigma`` (3,) m/s, NaN = the configured one), from a replayed sample: :meth:`add_ping`."""
+        return self.add_ping(Ping.from_velocity(t, v_d, sigma))
 
     def add_depth(self, t: float, depth_m: float) -> list[Keyframe]:
         self._depth.append((t, depth_m))
@@ -391,52 +386,52 @@ class Keyframer:
     def _choose_ping(self, p: _Pending) -> Ping:
         """The ping of a pending keyframe: its beams or its DVL-frame velocity, never both (module docstring)."""
         if p.velocity is None:
-            return self._ping(p.t, *p.ping)
-        n_beams = 0 if p.ping is None else int((p.ping[1] & np.isfinite(p.ping[0])).sum())
+            return self._beam_ping(p.beams)
+        n_beams = 0 if p.beams is None else p.beams.n_measured
         if n_beams >= MIN_BEAMS_OVER_VELOCITY:
             self.stats.velocity_superseded += 1
-            return self._ping(p.t, *p.ping)
+            return self._beam_ping(p.beams)
         if n_beams:
             self.stats.beams_superseded += n_beams
             if self.stats.beams_superseded == n_beams:
                 warnings.warn(f"dvl: {n_beams} beam(s) of the ping at t = {p.t:.3f} s not used: the ping has fewer "
                               f"than {MIN_BEAMS_OVER_VELOCITY} and a DVL-frame velocity, which is used instead; "
                               "further ones are counted (beams_superseded)", RuntimeWarning, stacklevel=5)
-        return self._velocity_ping(p.t, *p.velocity)
+        return self._velocity_ping(p.velocity)
 
-    def _velocity_ping(self, t: float, v_d: np.ndarray, sigma: np.ndarray) -> Ping:
+    def _velocity_ping(self, ping: Ping) -> Ping:
+        """The velocity ping with its gyro rate (no completer runs on it)."""
         self.stats.velocity_pings += 1
         if self.history is not None:
             # a measured ping for the completer's history: the beams the velocity implies
-            self.history.push_measured(self._T_d @ v_d)
-            self._ping_t.append(t)
-        nan = np.full(4, np.nan)
-        return Ping(t, nan, np.zeros(4, bool), np.zeros(4), False, gyro_at(t, self._samples), v_d.copy(),
-                    sigma.copy())
+            self.history.push_measured(self._T_d @ ping.v_d)
+            self._ping_t.append(ping.t)
+        return dataclasses.replace(ping, omega_b=gyro_at(ping.t, self._samples))
 
-    def _ping(self, t: float, beams: np.ndarray, valid: np.ndarray) -> Ping:
-        measured = valid & np.isfinite(beams)
-        full = np.where(measured, beams, np.nan)
-        sigma = np.zeros(4)
-        completed = False
-        if self.history is not None:
-            imu = None
-            if self._imu_buffer is not None and self.history.ready and not measured.all():
-                imu, reason = self._imu_buffer.window(t)
-                if reason is None and not self._pings_one_period_apart(t):
-                    imu, reason = None, "ping_dt"
-                if reason is not None:
-                    self.stats.imu_window_missing[reason] += 1
-            self._ping_t.append(t)
-            result = self.history.complete(self.completer, np.where(measured, beams, 0.0), measured, imu=imu)
-            if result is not None:
-                full, sigma = result
-                completed = not measured.all()
-                if completed:
-                    self.stats.completed_pings += 1
-                    self.stats.completed_beams += int((np.isfinite(full) & ~measured).sum())
-        return Ping(t, np.asarray(full, float), measured, np.asarray(sigma, float), completed,
-                    gyro_at(t, self._samples))
+    def _beam_ping(self, ping: Ping) -> Ping:
+        """The beam ping with its gyro rate and, with a completer, its regressed beams and their sigmas."""
+        t, measured = ping.t, ping.measured
+        omega_b = gyro_at(t, self._samples)
+        if self.history is None:
+            return dataclasses.replace(ping, omega_b=omega_b)
+        imu = None
+        if self._imu_buffer is not None and self.history.ready and not measured.all():
+            imu, reason = self._imu_buffer.window(t)
+            if reason is None and not self._pings_one_period_apart(t):
+                imu, reason = None, "ping_dt"
+            if reason is not None:
+                self.stats.imu_window_missing[reason] += 1
+        self._ping_t.append(t)
+        result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu)
+        if result is None:
+            return dataclasses.replace(ping, omega_b=omega_b)
+        beams, sigma = np.asarray(result[0], float), np.asarray(result[1], float)
+        has_regressed = not measured.all()
+        if has_regressed:
+            self.stats.completed_pings += 1
+            self.stats.completed_beams += int((np.isfinite(beams) & ~measured).sum())
+        return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
+                                   omega_b=omega_b)
 
     def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
         """Whether the history's pings and the ping at ``t`` (s) are the IMU-aware completer's ``ping_dt``

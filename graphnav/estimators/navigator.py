@@ -60,7 +60,11 @@ from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
-from graphnav.estimators.types import EpochEstimate, InitialState
+from graphnav.estimators.types import EpochEstimate, InitialState, Ping
+
+#: the streams whose samples are a :class:`~graphnav.estimators.types.Ping` (made once, in ``add_dvl`` and
+#: ``add_dvl_velocity``), handed on as it is
+PING_STREAMS = ("dvl", "dvl_velocity")
 
 
 @dataclass
@@ -121,7 +125,8 @@ class Navigator:
         graph_options, ekf_options: the backend's settings.
         tight: EKF backend only: tightly (True) or loosely coupled beam updates.
         options: streaming and alignment settings (``options.align`` when ``initial`` is None).
-        keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards).
+        keep_keyframe_graphs: graph backends keep every keyframe's factors (for a batch smoother afterwards,
+            :meth:`keyframe_graphs`).
         name: the estimator's name in health warnings (e.g. the method name).
     """
 
@@ -241,7 +246,7 @@ class Navigator:
             i, why = next(iter(screened.items()))
             return self._refuse("dvl", t, why, f"beam {i + 1} = {b[i]:.6g} m/s ({why}; DvlSpec max_speed_mps, "
                                 "max_accel_mps2, jump_tolerance_mps)", screened=True)
-        return self._push("dvl", t, (tuple(np.where(v, b, np.nan).tolist()), tuple(v.tolist())))
+        return self._push("dvl", t, (Ping.from_beams(t, b, v),))
 
     def add_dvl_velocity(self, t: float, v_d, sigma=None) -> list[EpochEstimate]:
         """A velocity of the DVL head in the DVL frame measured by the instrument itself: ``v_d`` (3,) m/s (a
@@ -266,7 +271,7 @@ class Navigator:
                                 f"got {list(s)}")
         if not self._accept("dvl_velocity", t):
             return []
-        return self._push("dvl_velocity", t, (v, s))
+        return self._push("dvl_velocity", t, (Ping.from_velocity(t, v, s),))
 
     def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:
         """Depth of the IMU (m, positive down) from a pressure sensor."""
@@ -407,6 +412,32 @@ class Navigator:
                                  "completed_t": self.alignment_ready_t}
         return info
 
+    def keyframe_graphs(self) -> list:
+        """Every keyframe's factors so far, one (link factors, :class:`~graphnav.estimators.graph.builder.
+        KeyframeFactors`) per keyframe, for :func:`graphnav.estimators.graph.batch.batch_smooth` afterwards.
+        ConfigError unless the Navigator runs a graph backend made with ``keep_keyframe_graphs=True``."""
+        return self._graph_backend("keyframe factors").keyframe_graphs()
+
+    def dvl_errors(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """The DVL error states of keyframe ``index`` while it is still in the graph: estimate (7,) [scale per DVL
+        axis, bias per beam m/s] and marginal covariance (7,7). ConfigError without a graph backend with
+        ``GraphOptions.dvl_error_states``."""
+        return self._graph_backend("DVL error states").dvl_errors(index)
+
+    def screening_counts(self) -> dict:
+        """What a graph backend did with regressed beams so far (``regressed_screening``) and the motion-prior
+        switch's counters (:meth:`graphnav.estimators.backends.GraphBackend.screening_counts`); {} before the
+        start and for the EKF, whose counts are in :attr:`info`."""
+        if self.backend is None or not hasattr(self.backend, "screening_counts"):
+            return {}
+        return self.backend.screening_counts()
+
+    def _graph_backend(self, what: str):
+        if self.backend is None or not hasattr(self.backend, "keyframe_graphs"):
+            state = "has not started" if self.backend is None else f"runs the '{self.backend_name}' backend"
+            raise ConfigError(f"navigator: no {what}: the navigator {state}, not a graph backend")
+        return self.backend
+
     # --- internals ----------------------------------------------------------------------------------
     def _refuse(self, stream: str, t, field_name: str, why: str, screened: bool = False) -> list:
         """Count and warn (three times per stream and key). ``field_name`` is the count key: the field for
@@ -532,7 +563,10 @@ class Navigator:
                 while events[0][1] < t - self.options.align_buffer_s:
                     events.popleft()
             return self._align(stream, t, payload)
-        kfs = getattr(self.keyframer, "add_" + stream)(t, *payload)
+        if stream in PING_STREAMS:
+            kfs = self.keyframer.add_ping(*payload)
+        else:
+            kfs = getattr(self.keyframer, "add_" + stream)(t, *payload)
         return self._process(kfs) if kfs else []
 
     def _process(self, kfs) -> list[EpochEstimate]:
@@ -563,7 +597,10 @@ class Navigator:
 
     def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         a = self.aligner
-        getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
+        if stream in PING_STREAMS:
+            a.add_ping(*payload)
+        else:
+            getattr(a, "add_position_fix" if stream == "fix" else "add_" + stream)(t, *payload)
         if stream != "imu" or not a.ready:
             return []
         return self._start_from_aligner(t)

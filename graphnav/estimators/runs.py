@@ -30,7 +30,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
 from graphnav.estimators.align import AlignOptions
-from graphnav.estimators.backends import BACKENDS, GraphBackend
+from graphnav.estimators.backends import BACKENDS
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
 from graphnav.estimators.graph.incremental import is_indeterminant
@@ -149,11 +149,10 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": backend, "online_s": time.perf_counter() - start}
-    if isinstance(nav.backend, GraphBackend):
-        info.update(nav.backend.screening_counts())
+    info.update(nav.screening_counts())
     if batch:
         try:
-            estimates, batch_info = batch_smooth(nav.backend.keyframe_graphs(), estimates, options)
+            estimates, batch_info = batch_smooth(nav.keyframe_graphs(), estimates, options)
             info.update({"batch_" + k: v for k, v in batch_info.items()})
         except RuntimeError as exc:
             if not is_indeterminant(exc):

@@ -114,17 +114,26 @@ class ImuSegments:
     var_att: float = 0.0
 
 
-@dataclass
+@dataclass(frozen=True)
 class Ping:
-    """One DVL ping as the estimators use it.
+    """One DVL ping, the one object that carries it from :meth:`graphnav.estimators.navigator.Navigator.add_dvl`
+    (or ``add_dvl_velocity``) to the graph's DVL factors and the EKF's update.
+
+    Made once where the ping enters (:meth:`from_beams`, :meth:`from_velocity`); the keyframer
+    (:mod:`graphnav.estimators.keyframes`) hands the estimators an enriched copy (``dataclasses.replace``) that
+    adds the gyro rate at the ping and, with a completer, the regressed beams and their sigmas. Frozen: no
+    one changes a ping after it was made.
 
     Attributes:
         t: stamp (IMU clock), s.
-        beams: (4,) along-beam velocities, m/s: measured, or completed; NaN where unusable.
-        measured: (4,) True for beams measured at this ping (valid and finite).
-        sigma_regressed: (4,) completer sigma of completed beams, m/s (0 elsewhere).
-        completed: True when the completer filled missing beams of this ping.
-        omega_b: (3,) raw gyro rate at the ping (:func:`graphnav.estimators.keyframes.gyro_at`), rad/s.
+        beams: (4,) along-beam velocities of the DVL head, m/s (beam directions of ``DvlGeometry.T_d``):
+            measured, or regressed (the completer's value for an unmeasured beam, set by the keyframer); NaN
+            where neither.
+        measured: (4,) True for beams measured at this ping (the instrument's valid mask, finite values only).
+        sigma_regressed: (4,) completer one-sigma of regressed beams, m/s (0 elsewhere).
+        has_regressed: True when the completer supplied regressed beams for this ping.
+        omega_b: (3,) raw gyro rate at the ping, body frame, rad/s
+            (:func:`graphnav.estimators.keyframes.gyro_at`); None until the keyframer sets it.
         v_d: (3,) velocity of the DVL head in the DVL frame measured by the instrument, m/s, on a velocity
             ping (its beams are then all NaN and unmeasured); None on a beam ping.
         v_d_sigma: (3,) one-sigma of ``v_d`` per DVL axis, m/s; NaN where the ping gave none (the estimator's
@@ -135,10 +144,25 @@ class Ping:
     beams: np.ndarray
     measured: np.ndarray
     sigma_regressed: np.ndarray
-    completed: bool
-    omega_b: np.ndarray
+    has_regressed: bool
+    omega_b: np.ndarray | None = None
     v_d: np.ndarray | None = None
     v_d_sigma: np.ndarray | None = None
+
+    @classmethod
+    def from_beams(cls, t: float, beams, valid) -> "Ping":
+        """A beam ping as the instrument gave it: along-beam velocities ``beams`` (4,) m/s and their validity
+        ``valid`` (4,) bool; a beam is measured where valid and finite (the others become NaN)."""
+        b = np.asarray(beams, float).reshape(4)
+        measured = np.asarray(valid, bool).reshape(4) & np.isfinite(b)
+        return cls(float(t), np.where(measured, b, np.nan), measured, np.zeros(4), False)
+
+    @classmethod
+    def from_velocity(cls, t: float, v_d, sigma) -> "Ping":
+        """A velocity ping: ``v_d`` (3,) m/s of the DVL head in the DVL frame and its one-sigma per DVL axis
+        ``sigma`` (3,) m/s (NaN = the configured one); no beams."""
+        return cls(float(t), np.full(4, np.nan), np.zeros(4, bool), np.zeros(4), False,
+                   v_d=np.array(v_d, float).reshape(3), v_d_sigma=np.array(sigma, float).reshape(3))
 
     @property
     def is_velocity(self) -> bool:
@@ -147,6 +171,7 @@ class Ping:
 
     @property
     def regressed(self) -> np.ndarray:
+        """(4,) True for beams the completer supplied (finite and not measured)."""
         return np.isfinite(self.beams) & ~self.measured
 
     @property

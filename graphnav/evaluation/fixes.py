@@ -144,7 +144,7 @@ def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool 
         next_sample[0] = est.t + sample_s
         covs.append(None if est.cov_p_n is None else np.asarray(est.cov_p_n))
         if dvl_error_states:
-            d, cov_d = nav.backend.dvl_errors(est.index)
+            d, cov_d = nav.dvl_errors(est.index)
             scale.append((est.t, d[0], float(np.sqrt(cov_d[0, 0]))))
 
     with warnings.catch_warnings():
@@ -153,7 +153,7 @@ def run_case(mission: Mission, fixes: bool, dvl_error_states: bool, batch: bool 
     truth = float(mission.meta["dvl_errors"]["scale_factor"][0])
     runs = [_fix_run(mission, "fixed-lag", fixes, dvl_error_states, estimates, covs, scale, truth)]
     if batch:
-        smoothed, info = batch_smooth(nav.backend.keyframe_graphs(), estimates,
+        smoothed, info = batch_smooth(nav.keyframe_graphs(), estimates,
                                       dataclasses.replace(options, marginals=False))
         d = info.get("dvl_errors")
         t = np.array([e.t for e in smoothed])

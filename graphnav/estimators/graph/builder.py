@@ -2,15 +2,17 @@
 
 :class:`GraphContext` holds what every graph factor needs (options, configuration, DVL geometry, GTSAM's
 preintegration settings); :func:`graph_keyframe` preintegrates a keyframe's IMU segments (zero-order hold,
-GTSAM's convention, a split sample integrated over its part only) and turns its ping into the beams the
-graph uses. The estimators in this package consume :class:`GraphKeyframe` objects and make their factors with
-:func:`keyframe_factors` (which needs the predicted attitude, for the Earth rate in the lever-arm term).
+GTSAM's convention, a split sample integrated over its part only) and keeps its
+:class:`~graphnav.estimators.types.Ping` as it is, with the mask of the beams that become factors. The
+estimators in this package consume :class:`GraphKeyframe` objects and make their factors with
+:func:`keyframe_factors` (which needs the predicted attitude, for the Earth rate in the lever-arm term); the
+ping becomes factor rows in one place, :meth:`GraphContext.beam_rows`.
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Iterator, NamedTuple
 
 import gtsam
 import numpy as np
@@ -35,36 +37,20 @@ from graphnav.factors import (
 )
 
 
-@dataclass
-class DvlMeasurement:
-    """The beams of one DVL ping that go into the graph, or its DVL-frame velocity.
+class BeamRows(NamedTuple):
+    """The rows a ping gives the DVL factors (:meth:`GraphContext.beam_rows`).
 
     Attributes:
-        t: DVL stamp (IMU clock), s.
-        rows_b: (m,3) beam unit vectors in the body frame (a velocity: the rows of ``C_d_b^T``, ``T_d`` = I).
-        y: (m,) beam velocities of the DVL head, m/s (measured or regressed); a velocity: ``v_d`` (3,).
+        rows_b: (m,3) beam unit vectors in the body frame (a velocity ping: the rows of ``C_d_b^T``, ``T_d`` = I).
+        y: (m,) beam velocities of the DVL head, m/s (measured or regressed); a velocity ping: ``v_d`` (3,).
         sigma: (m,) noise std per beam (per DVL axis for a velocity), m/s.
-        regressed: (m,) True for beams regressed by the completer.
-        omega_b: (3,) raw gyro rate at the ping (interpolated, :func:`graphnav.estimators.keyframes.gyro_at`), rad/s.
-        velocity: True when the rows are a DVL-frame velocity measured by the instrument (its three axes
-            count as three measured rows).
+        regressed: (m,) True for beams the completer supplied.
     """
 
-    t: float
     rows_b: np.ndarray
     y: np.ndarray
     sigma: np.ndarray
     regressed: np.ndarray
-    omega_b: np.ndarray
-    velocity: bool = False
-
-    @property
-    def n_measured(self) -> int:
-        return int((~self.regressed).sum())
-
-    @property
-    def n_regressed(self) -> int:
-        return int(self.regressed.sum())
 
 
 @dataclass
@@ -75,7 +61,10 @@ class GraphKeyframe:
         index: k, 0-based; keys are ``X(k)``, ``V(k)``, ``B(k)``.
         t: stamp, s.
         pim: preintegrated IMU from keyframe k-1 to k (None for k = 0).
-        dvl: the DVL ping at this keyframe, or None (IMU-only keyframe, or a ping with no usable beam).
+        ping: the DVL ping at this keyframe (the keyframer's :class:`~graphnav.estimators.types.Ping`), or None
+            (IMU-only keyframe, or a ping with no usable beam).
+        beams_used: (4,) True for the ping's beams that become factors (:meth:`GraphContext.usable_beams`);
+            None for a velocity ping or without a ping.
         depth: depth of the IMU at t (m, down), or None.
         kind: ``"init"``, ``"dvl"`` (a DVL stamp), ``"imu"`` (filler inside a DVL gap) or ``"fix"``.
         heading: (yaw rad, sigma rad) from a heading sensor, or None.
@@ -85,7 +74,7 @@ class GraphKeyframe:
     index: int
     t: float
     pim: gtsam.PreintegratedCombinedMeasurements | None
-    dvl: DvlMeasurement | None
+    ping: Ping | None
     depth: float | None
     kind: str
     heading: tuple[float, float] | None = None
@@ -93,6 +82,23 @@ class GraphKeyframe:
     fix_sigma: float = 0.0
     #: the preintegration settings of ``pim`` alone (its gravity is set by :meth:`GraphContext.set_gravity`)
     params: gtsam.PreintegrationCombinedParams | None = None
+    beams_used: np.ndarray | None = None
+
+    @property
+    def n_measured(self) -> int:
+        """Measured rows of this keyframe's DVL factors (a velocity ping's three axes count as three)."""
+        if self.ping is None:
+            return 0
+        if self.ping.is_velocity:
+            return 3
+        return int((self.beams_used & self.ping.measured).sum())
+
+    @property
+    def n_regressed(self) -> int:
+        """Regressed beams of this keyframe's DVL factors."""
+        if self.ping is None or self.ping.is_velocity:
+            return 0
+        return int((self.beams_used & ~self.ping.measured).sum())
 
 
 def preintegration_params(config: SensorConfig, options: GraphOptions) -> gtsam.PreintegrationCombinedParams:
@@ -204,24 +210,25 @@ class GraphContext:
             return
         kf.params.n_gravity = preintegration_gravity(self.earth, p_n, v_n, kf.pim.deltaTij())
 
-    def dvl_measurement(self, ping: Ping) -> DvlMeasurement | None:
-        """The beams of a ping as graph measurements: measured beams at the beam sigma, regressed ones at the
-        completer's sigma (floored); None when no beam is usable. A velocity ping gives its DVL-frame velocity
-        (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
-        if ping.is_velocity:
-            sigma = np.where(np.isfinite(ping.v_d_sigma), ping.v_d_sigma, self.velocity_sigma)
-            return DvlMeasurement(ping.t, self.geometry.C_d_b.T.copy(), ping.v_d.copy(), sigma, np.zeros(3, bool),
-                                  ping.omega_b.copy(), velocity=True)
+    def usable_beams(self, ping: Ping) -> np.ndarray | None:
+        """(4,) True for the beams of a beam ping that become factors (measured, or regressed unless the
+        motion prior replaces a ping without any measured beam); None when none is usable."""
         usable = np.isfinite(ping.beams)
         if self.options.motion_prior in ("partial", "total") and not ping.measured.any():
             # without any measured beam the completers extrapolate blind; the motion prior takes over
             usable = ping.measured
-        if not usable.any():
-            return None
-        regressed = usable & ~ping.measured
+        return usable if usable.any() else None
+
+    def beam_rows(self, ping: Ping, used: np.ndarray | None) -> BeamRows:
+        """The one place a ping becomes the arrays of its DVL factors: the ``used`` beams (:meth:`usable_beams`)
+        as body-frame rows, measured ones at the beam sigma, regressed ones at the completer's sigma (floored);
+        a velocity ping as its DVL-frame velocity (per-axis sigma from the ping, else :attr:`velocity_sigma`)."""
+        if ping.is_velocity:
+            sigma = np.where(np.isfinite(ping.v_d_sigma), ping.v_d_sigma, self.velocity_sigma)
+            return BeamRows(self.geometry.C_d_b.T.copy(), ping.v_d.copy(), sigma, np.zeros(3, bool))
+        regressed = used & ~ping.measured
         sigma = np.where(regressed, np.maximum(ping.sigma_regressed, self.regressed_floor), self.beam_sigma)
-        return DvlMeasurement(ping.t, self.geometry.T_b[usable], ping.beams[usable], sigma[usable],
-                              regressed[usable], ping.omega_b.copy())
+        return BeamRows(self.geometry.T_b[used], ping.beams[used], sigma[used], regressed[used])
 
 
 def tangent_down(earth: EarthModel, depth_m: float, p_n_pred: np.ndarray | None) -> float:
@@ -238,10 +245,14 @@ def graph_keyframe(kf: Keyframe, ctx: GraphContext) -> GraphKeyframe:
     """A streamed keyframe as the graph estimators use it (a position fix's NED ``fix_ne`` is set by the caller,
     who knows the navigation origin)."""
     pim, params = ctx.preintegrate(kf.imu) if kf.imu is not None else (None, None)
-    dvl = ctx.dvl_measurement(kf.ping) if kf.ping is not None else None
+    ping, used = kf.ping, None
+    if ping is not None and not ping.is_velocity:
+        used = ctx.usable_beams(ping)
+        if used is None:
+            ping = None
     depth = kf.depth if ctx.options.use_depth else None
-    return GraphKeyframe(kf.index, kf.t, pim, dvl, depth, kf.kind, kf.heading, None,
-                    kf.fix.sigma_m if kf.fix is not None else 0.0, params)
+    return GraphKeyframe(kf.index, kf.t, pim, ping, depth, kf.kind, kf.heading, None,
+                         kf.fix.sigma_m if kf.fix is not None else 0.0, params, used)
 
 
 def mission_keyframes(mission, options: GraphOptions, completer=None,
@@ -361,15 +372,16 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
     groups: list[BeamGroup] = []
     other = gtsam.NonlinearFactorGraph()
     k = kf.index
-    n_measured = 0 if kf.dvl is None else kf.dvl.n_measured
+    n_measured = kf.n_measured
     if options.motion_prior == "total-if-uncertain":
         use_prior = builder.outage_switch.decide(n_measured, prediction, C_b_n_pred)
     else:
         use_prior = k > 0 and (options.motion_prior == "partial" and n_measured < 3
                                or options.motion_prior == "total" and n_measured == 0)
-    if kf.dvl is not None:
-        m = kf.dvl
-        omega = m.omega_b
+    if kf.ping is not None:
+        velocity = kf.ping.is_velocity
+        m = builder.beam_rows(kf.ping, kf.beams_used)
+        omega = kf.ping.omega_b.copy()
         if options.earth_rate_in_lever_arm and config.earth_rotation:
             omega = omega - C_b_n_pred.T @ earth_rate_n(config.lat_rad)
         lever = builder.geometry.lever_arm_b
@@ -377,7 +389,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
         # velocity's rows take the scale only (beam index -1)
         index = None
         if options.dvl_error_states:
-            index = np.full(len(m.y), -1) if m.velocity else beam_index(m.rows_b, builder.geometry.T_b)
+            index = np.full(len(m.y), -1) if velocity else beam_index(m.rows_b, builder.geometry.T_b)
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
@@ -393,12 +405,12 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             if sel.size == 0:
                 continue
             # a velocity is one measurement: one factor (a robust kernel on its whole residual)
-            split = not m.velocity and options.beam_factor_mode == "beam"
+            split = not velocity and options.beam_factor_mode == "beam"
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
                                         regressed, index[part] if use_d else None, C_d_b if use_d else None,
-                                        m.velocity))
+                                        velocity))
     if use_prior and k > 0:
         other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
     if kf.depth is not None:

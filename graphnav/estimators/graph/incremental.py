@@ -103,7 +103,7 @@ class _IncrementalGraph:
     bound and the NIS an upper bound (conservative for the divergence test).
     """
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
         self.builder = builder
         self.options = builder.options
         self.initial = initial
@@ -113,7 +113,7 @@ class _IncrementalGraph:
         self._last: EpochEstimate | None = None
         # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
         self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]] = []
-        self.keep_keyframe_graphs = False
+        self.keep_keyframe_graphs = keep_keyframe_graphs
         self.update_times: list[float] = []
         self.n_recovered = 0
         self.n_reanchored = 0
@@ -166,8 +166,8 @@ class _IncrementalGraph:
         """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened or
         ``motion_prior="total-if-uncertain"`` must choose at a keyframe without measured beams."""
         o = self.options
-        needed = (o.screening.active and kf.dvl is not None and kf.dvl.n_regressed
-                  or o.motion_prior == "total-if-uncertain" and (kf.dvl is None or not kf.dvl.n_measured))
+        needed = (o.screening.active and kf.n_regressed
+                  or o.motion_prior == "total-if-uncertain" and not kf.n_measured)
         if not needed or kf.index == 0:
             return None
         from graphnav.estimators.graph.regressed import predict_state
@@ -196,9 +196,8 @@ class _IncrementalGraph:
         covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
         elapsed = time.perf_counter() - start
         self.update_times.append(elapsed)
-        m = kf.dvl
         self._last = EpochEstimate(k, kf.t, kf.kind, pose, v_n, bias, covs.get("cov_v_n"),
-                                   0 if m is None else m.n_measured, 0 if m is None else m.n_regressed, elapsed,
+                                   kf.n_measured, kf.n_regressed, elapsed,
                                    cov_p_n=covs.get("cov_p_n"), cov_rot_b=covs.get("cov_rot_b"),
                                    cov_bias=covs.get("cov_bias"))
         self._pending_factors = gtsam.NonlinearFactorGraph()
@@ -232,6 +231,16 @@ class _IncrementalGraph:
         if self._last is None:
             raise ConfigError("no keyframe has been updated yet")
         return self._last
+
+    @property
+    def latest(self) -> EpochEstimate | None:
+        """The estimate of the newest updated keyframe, None before the first update."""
+        return self._last
+
+    def dvl_error_state(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """The DVL error states ``D(index)`` of a keyframe still in the solver: estimate (7,) [scale per DVL axis,
+        bias per beam m/s] and marginal covariance (7,7)."""
+        return (np.asarray(self._value(D(index), "Vector"), float), np.asarray(self._marginal(D(index)), float))
 
     def _recover(self, kf: GraphKeyframe, exc: Exception) -> None:
         """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state
@@ -373,8 +382,8 @@ class OnlineGraph(_IncrementalGraph):
     every keyframe, so its cost grows with the mission (use :class:`FixedLagGraph` for long missions).
     """
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
-        super().__init__(builder, initial)
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
+        super().__init__(builder, initial, keep_keyframe_graphs)
         self._times: list[float] = []
         self._restart()
 
@@ -422,8 +431,8 @@ class FixedLagGraph(_IncrementalGraph):
     # Restarting it from the last estimate's marginals keeps it flat (options.reanchor_interval_s).
     reanchors = True
 
-    def __init__(self, builder: GraphContext, initial: InitialState):
-        super().__init__(builder, initial)
+    def __init__(self, builder: GraphContext, initial: InitialState, keep_keyframe_graphs: bool = False):
+        super().__init__(builder, initial, keep_keyframe_graphs)
         self._restart()
 
     def _restart(self):
