@@ -32,6 +32,7 @@ from graphnav.core.solution import NavSolution
 from graphnav.estimators.backends import GraphBackend
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
+from graphnav.estimators.graph.first_pass import needs_filter
 from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
@@ -52,7 +53,7 @@ def graph_label(completer=None, batch: bool = False) -> str:
 def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions | None = None,
                     mode: str = "online", initial: InitialState | None = None, init: str = "auto",
                     navigator_options=None, keep_keyframe_graphs: bool = False,
-                    aligner_kwargs: dict | None = None, name: str | None = None):
+                    aligner_kwargs: dict | None = None, name: str | None = None, backend: str | None = None):
     """The :class:`~graphnav.estimators.navigator.Navigator` that ``run_graph`` replays ``mission`` into.
 
     ``completer``: regressed beams for the pings with missing beams (None: measured beams only).
@@ -60,11 +61,12 @@ def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions |
     ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
     ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
     ``aligner_kwargs`` go to the :class:`~graphnav.estimators.align.Aligner` (e.g. ``initial_heading_rad``).
+    ``backend`` replaces the one of ``mode`` (``"dead-reckoning"``: the batch's cheap first pass).
     """
     if mode not in MODES:
         raise ConfigError(f"unknown graph mode '{mode}'; choose one of {tuple(MODES)}")
     initial = initial_state(mission, initial, init, first_ping_time(mission))
-    return Navigator(mission.config, MODES[mode], completer=completer, initial=initial,
+    return Navigator(mission.config, backend or MODES[mode], completer=completer, initial=initial,
                      graph_options=options or GraphOptions(), options=navigator_options,
                      keep_keyframe_graphs=keep_keyframe_graphs, aligner_kwargs=aligner_kwargs,
                      name=name or graph_label(completer))
@@ -132,13 +134,18 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
+    dead_reckoning = (batch and callback is None and options.batch_first_pass == "dead-reckoning"
+                      and not needs_filter(options, completer))
     nav = graph_navigator(mission, completer=completer, options=first_pass, mode=mode, initial=initial, init=init,
-                          keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name)
+                          keep_keyframe_graphs=batch, aligner_kwargs=aligner_kwargs, name=name,
+                          backend="dead-reckoning" if dead_reckoning else None)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": mode, "online_s": time.perf_counter() - start}
+    if batch:
+        info["batch_first_pass"] = "dead-reckoning" if dead_reckoning else mode
     if isinstance(nav.backend, GraphBackend):
         info.update(nav.backend.screening_counts())
     if batch:
@@ -151,7 +158,8 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
             # Seen with a tiny integration_sigma (1e-4) or a huge rotation variance in one IMU factor: the
             # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
             reason = " ".join(str(exc).split())[:160]
-            warnings.warn(f"graph batch: {reason} -- returning the filtered (incremental) estimates instead of "
+            first = "dead-reckoned (first pass)" if dead_reckoning else "filtered (incremental)"
+            warnings.warn(f"graph batch: {reason} -- returning the {first} estimates instead of "
                           "smoothed ones (without covariances)", RuntimeWarning, stacklevel=2)
             info["batch_failed"] = reason
         info["batch_s"] = time.perf_counter() - start - info["online_s"]
