@@ -214,7 +214,7 @@ class EarthModel:
         lat, lon, alt = self.to_lla(p_n).tolist()
         cl, sl, co, so = math.cos(lat), math.sin(lat), math.cos(lon), math.sin(lon)
         _, C0 = self._origin
-        down = C0.T @ np.array([-cl * co, -cl * so, -sl])
+        down = np.einsum("ji,j->i", C0, np.array([-cl * co, -cl * so, -sl]))     # the array path's product
         mag = self.gravity_mps2 + (gravity_magnitude(lat, -alt) - gravity_magnitude(self.lat_rad, -self.alt_m))
         return down * mag
 
