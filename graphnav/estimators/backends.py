@@ -22,14 +22,16 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
 from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tangent_down
+from graphnav.estimators.graph.first_pass import DeadReckoningGraph
 from graphnav.estimators.graph.incremental import FixedLagGraph, OnlineGraph
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
 from graphnav.estimators.types import EpochEstimate, ImuSegments, InitialState, Keyframe
 from graphnav.factors.aiding import yaw_and_jacobian
 
-#: Backend names of the Navigator.
-BACKENDS = ("fixed-lag", "isam2", "ekf")
+#: Backend names of the Navigator. ``"dead-reckoning"``: graph keyframes and factors without a solver (IMU attitude,
+#: DVL velocity), the batch smoother's cheap first pass (:mod:`graphnav.estimators.graph.first_pass`).
+BACKENDS = ("fixed-lag", "isam2", "ekf", "dead-reckoning")
 
 
 class _Aided:
@@ -57,7 +59,8 @@ class GraphBackend(_Aided):
     Args:
         config: sensor configuration.
         options: graph settings.
-        mode: ``"fixed-lag"`` (lag ``options.lag_s``) or ``"isam2"``.
+        mode: ``"fixed-lag"`` (lag ``options.lag_s``), ``"isam2"`` or ``"dead-reckoning"`` (no solver: the batch's
+            first pass, :class:`~graphnav.estimators.graph.first_pass.DeadReckoningGraph`).
         initial: state at the first keyframe.
     """
 
@@ -68,8 +71,10 @@ class GraphBackend(_Aided):
             self.estimator = OnlineGraph(self.ctx, initial, keep_keyframe_graphs)
         elif mode == "fixed-lag":
             self.estimator = FixedLagGraph(self.ctx, initial, keep_keyframe_graphs)
+        elif mode == "dead-reckoning":
+            self.estimator = DeadReckoningGraph(self.ctx, initial, keep_keyframe_graphs)
         else:
-            raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag' or 'isam2'")
+            raise ConfigError(f"unknown graph backend '{mode}'; choose 'fixed-lag', 'isam2' or 'dead-reckoning'")
         self.estimator.health.estimator = name
         self.name = name
         self.last_aided = False
@@ -280,7 +285,7 @@ def make_backend(name: str, config: SensorConfig, initial: InitialState, *, grap
     health warnings)."""
     if name == "ekf":
         return EkfBackend(config, ekf_options, tight, initial, name=label or f"EKF {'TC' if tight else 'LC'}")
-    if name in ("fixed-lag", "isam2"):
+    if name in ("fixed-lag", "isam2", "dead-reckoning"):
         return GraphBackend(config, graph_options, name, initial, name=label or f"graph {name}",
                             keep_keyframe_graphs=keep_keyframe_graphs)
     raise ConfigError(f"unknown backend '{name}'; choose one of {', '.join(BACKENDS)}")

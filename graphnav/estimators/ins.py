@@ -142,10 +142,15 @@ class Strapdown:
     CHUNK_S = 10.0
     #: position change between two passes below which a chunk has converged, m
     CONVERGED_M = 1e-7
+    #: the gravity gradient is re-evaluated when a stretch starts this far from where it was last, m: it changes
+    #: by ~1e-9 s^-2 per km (g / R^2), so reusing it moves the gravity of a stretch by < 1e-10 m/s^2, while an
+    #: evaluation is six Earth-model round trips (a third of the strapdown's time at one keyframe per second)
+    GRADIENT_REUSE_M = 100.0
 
     def __init__(self, earth: EarthModel):
         self.earth = earth
         self.omega_ie_n = earth.omega_ie_n
+        self._gradient: tuple[np.ndarray, np.ndarray] | None = None    # (where, d g_n / d p_n)
 
     @classmethod
     def from_config(cls, config: SensorConfig) -> "Strapdown":
@@ -192,7 +197,7 @@ class Strapdown:
         f_n = np.einsum("nij,nj->ni", C, f_b - ba)
         # a sample's velocity increment is in the body axes of t_k frozen in inertial space (what an IMU
         # integrates); the n axes turn by omega_ie dt meanwhile: half of that turn, on average
-        f_n = f_n - 0.5 * dt[:, None] * np.cross(self.omega_ie_n, f_n)
+        f_n = f_n - 0.5 * dt[:, None] * _cross_rows(self.omega_ie_n, f_n)
         v_all = np.empty((n + 1, 3))
         p_all = np.empty((n + 1, 3))
         v_all[0], p_all[0] = state.v_n, state.p_n
@@ -203,6 +208,13 @@ class Strapdown:
                 f_n[i0:i1], dt[i0:i1], v_all[i0], p_all[i0])
         end = StrapdownState(state.t + tau[-1], _orthonormalise(C_all[-1]), v_all[-1], p_all[-1])
         return end, PropagationPath(C, f_n, v_all[:n], p_all[:n], dt)
+
+    def gravity_gradient(self, p_n: np.ndarray) -> np.ndarray:
+        """``d g_n / d p_n`` (3,3), s^-2, at ``p_n`` (m), re-evaluated only beyond :attr:`GRADIENT_REUSE_M`."""
+        cached = self._gradient
+        if cached is None or np.max(np.abs(p_n - cached[0])) > self.GRADIENT_REUSE_M:
+            cached = self._gradient = (np.array(p_n, dtype=float), self.earth.gravity_gradient_n(p_n))
+        return cached[1]
 
     def _translate(self, f_n: np.ndarray, dt: np.ndarray, v0: np.ndarray, p0: np.ndarray,
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -218,11 +230,11 @@ class Strapdown:
         # over a stretch (tens of metres) gravity is linear in the position to 1e-10 m/s^2: its value and
         # gradient at the start, instead of the exact model at every segment (3x faster EKF)
         g0 = self.earth.gravity_n(p0)
-        G = self.earth.gravity_gradient_n(p0)
+        G = self.gravity_gradient(p0)
         p_prev = None
         for _ in range(6):
             g = g0 + (p - p0) @ G.T
-            a = f_n + g - 2.0 * np.cross(self.omega_ie_n, v)
+            a = f_n + g - 2.0 * _cross_rows(self.omega_ie_n, v)
             dv = a * dt[:, None]
             v_end = v0 + np.cumsum(dv, axis=0)
             v_start = np.concatenate([v0[None], v_end[:-1]])
@@ -232,6 +244,14 @@ class Strapdown:
             p_prev = p_end
             v, p = v_start, np.concatenate([p0[None], p_end[:-1]])
         return v_end, p_end
+
+
+def _cross_rows(w: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``w x x_i`` for one 3-vector w and rows x (n,3): the products and differences of ``np.cross`` (the same
+    numbers), without its ~10 us of axis handling per call."""
+    w0, w1, w2 = w.tolist()
+    x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+    return np.stack([w1 * x2 - w2 * x1, w2 * x0 - w0 * x2, w0 * x1 - w1 * x0], axis=-1)
 
 
 def _orthonormalise(C: np.ndarray) -> np.ndarray:

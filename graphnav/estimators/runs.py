@@ -33,6 +33,7 @@ from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
+from graphnav.estimators.graph.first_pass import needs_filter
 from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
@@ -61,6 +62,7 @@ def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions |
     ``init``: ``"auto"`` (the ground truth at the first ping when the mission has one, else the sensors),
     ``"gt"`` or ``"sensors"``; an explicit ``initial`` wins (its ``t`` defaults to the first ping).
     ``align``: the sensor alignment's settings (e.g. ``initial_heading_rad``), ``navigator_options.align``.
+    ``backend``: a Navigator graph backend (``"dead-reckoning"``: the batch's cheap first pass, no solver).
     """
     if backend not in GRAPH_BACKENDS:
         raise ConfigError(f"unknown graph backend '{backend}'; choose one of {GRAPH_BACKENDS}")
@@ -142,13 +144,18 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
-    nav = graph_navigator(mission, completer=completer, options=first_pass, backend=backend, initial=initial,
+    dead_reckoning = (batch and callback is None and options.batch_first_pass == "dead-reckoning"
+                      and not needs_filter(options, completer))
+    nav = graph_navigator(mission, completer=completer, options=first_pass,
+                          backend="dead-reckoning" if dead_reckoning else backend, initial=initial,
                           init=init, keep_keyframe_graphs=batch, align=align, name=name)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
                           f"({'alignment did not finish' if not nav.initialised else 'no keyframe closed'})")
     info = {**nav.info, "mode": backend, "online_s": time.perf_counter() - start}
+    if batch:
+        info["batch_first_pass"] = "dead-reckoning" if dead_reckoning else backend
     info.update(nav.screening_counts())
     if batch:
         try:
@@ -160,7 +167,8 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
             # Seen with a tiny integration_sigma (1e-4) or a huge rotation variance in one IMU factor: the
             # whole-mission system is too poorly conditioned. The filtered pass is a valid answer; keep it.
             reason = " ".join(str(exc).split())[:160]
-            warnings.warn(f"graph batch: {reason} -- returning the filtered (incremental) estimates instead of "
+            first = "dead-reckoned (first pass)" if dead_reckoning else "filtered (incremental)"
+            warnings.warn(f"graph batch: {reason} -- returning the {first} estimates instead of "
                           "smoothed ones (without covariances)", RuntimeWarning, stacklevel=2)
             info["batch_failed"] = reason
         info["batch_s"] = time.perf_counter() - start - info["online_s"]

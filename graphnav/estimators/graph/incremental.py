@@ -110,6 +110,7 @@ class _IncrementalGraph:
         self._pending_factors = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
         self._pending_kf: GraphKeyframe | None = None
+        self._pending_local: KeyframeFactors | None = None      # the queued keyframe's DVL groups and factors
         self._last: EpochEstimate | None = None
         # per keyframe (link to the past: priors or IMU factor, own DVL/depth factors); the batch reuses them
         self.keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, KeyframeFactors]] = []
@@ -161,6 +162,7 @@ class _IncrementalGraph:
         if self.options.dvl_error_states:
             self._pending_values.insert(D(k), d)
         self._pending_kf = kf
+        self._pending_local = local
 
     def _prediction(self, kf: GraphKeyframe, v_n_pred, bias):
         """The graph's predicted velocity and covariance at kf, when its regressed beams are to be screened or

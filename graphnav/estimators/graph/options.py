@@ -74,6 +74,8 @@ from graphnav.estimators.options import DVL_ERROR_STATES, PriorOptions, Regresse
 BEAM_FACTOR_MODES = ("epoch", "beam")
 FACTORIZATIONS = ("CHOLESKY", "QR")
 BATCH_SOLVERS = ("vectorized", "lm")
+#: Where the batch smoother's factors and initial values come from (GraphOptions.batch_first_pass).
+BATCH_FIRST_PASSES = ("incremental", "dead-reckoning")
 #: What ``GraphOptions.marginals`` may ask for at every output keyframe (see its docstring).
 MARGINAL_LEVELS = ("none", "velocity", "full")
 MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
@@ -113,6 +115,11 @@ class GraphOptions:
         batch_solver: ``"vectorized"`` (Gauss-Newton with numpy-linearised DVL factors, O(N) per
             iteration) or ``"lm"`` (GTSAM LM on the CustomFactor graph, O(N^2)); see :mod:`.batch`.
         batch_max_iterations: iteration cap of the batch solver.
+        batch_first_pass: where the batch's factors and initial values come from: ``"incremental"`` (the
+            ``mode`` smoother of :func:`~graphnav.estimators.runs.run_graph`, fixed-lag or ISAM2) or
+            ``"dead-reckoning"`` (the same factors, states from a DVL-aided dead reckoning without a solver:
+            :mod:`.first_pass`; the incremental smoother is used anyway where the factors need its velocity
+            covariance, and when a callback asks for the filtered estimates). See docs/decisions/speed.md.
         marginals: the marginal covariances computed at every output keyframe: ``"none"``; ``"velocity"``
             (``cov_v_n``, which the health monitor's innovation test and the regressed-beam screening use);
             ``"full"`` (also position ``cov_p_n`` in NED, attitude ``cov_rot_b`` and biases ``cov_bias``, what the
@@ -169,6 +176,7 @@ class GraphOptions:
     reanchor_interval_s: float | None = 600.0
     batch_solver: str = "vectorized"
     batch_max_iterations: int = 20
+    batch_first_pass: str = "incremental"
     marginals: str = "full"
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
     screening: RegressedScreeningOptions = field(default_factory=RegressedScreeningOptions)
@@ -206,3 +214,5 @@ class GraphOptions:
             raise ConfigError("dvl_scale_rw and dvl_bias_rw must be >= 0")
         if self.batch_solver not in BATCH_SOLVERS:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")
+        if self.batch_first_pass not in BATCH_FIRST_PASSES:
+            raise ConfigError(f"batch_first_pass must be one of {BATCH_FIRST_PASSES}, got '{self.batch_first_pass}'")
