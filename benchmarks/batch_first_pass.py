@@ -27,7 +27,7 @@ from graphnav.estimators.graph import GraphOptions
 from graphnav.evaluation.metrics import vrmse
 
 #: (label, run_graph mode, batch_first_pass)
-PASSES = (("isam2", "online", "incremental"), ("fixed-lag", "fixed-lag", "incremental"),
+PASSES = (("isam2", "isam2", "incremental"), ("fixed-lag", "fixed-lag", "incremental"),
           ("dead-reckoning", "fixed-lag", "dead-reckoning"))
 
 
@@ -38,7 +38,7 @@ def run_passes(mission, gt) -> dict:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             t0 = time.process_time()
-            sol = run_graph(mission, batch=True, mode=mode, options=GraphOptions(batch_first_pass=first),
+            sol = run_graph(mission, batch=True, backend=mode, options=GraphOptions(batch_first_pass=first),
                             name="Graph-TC-batch")
             out[label] = (sol, time.process_time() - t0)
     return out
@@ -75,7 +75,7 @@ def long_mission(hours: float) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             t0, w0 = time.process_time(), time.perf_counter()
-            sol = run_graph(m, batch=True, mode=mode, options=GraphOptions(batch_first_pass=first))
+            sol = run_graph(m, batch=True, backend=mode, options=GraphOptions(batch_first_pass=first))
             cpu, wall = time.process_time() - t0, time.perf_counter() - w0
         ref = sol if ref is None else ref
         rows.append([f"{hours:g} h", "none", label, f"{np.abs(sol.v_n - ref.v_n).max():.1e}",

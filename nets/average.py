@@ -15,12 +15,22 @@ class AverageCompleter:
 
     Sigma of a filled beam (m/s): ``sqrt(noise_std^2 (1 + 1/N) + var_past)``, the beam noise of the mean
     and of the new ping plus the spread of the past values (a proxy for how fast the beam is changing).
-    Pass ``sigma`` to use fixed per-beam values instead (e.g. calibrated on validation data).
+    Pass ``sigma`` to use fixed per-beam values instead (e.g. calibrated on validation data). ``drift_std``
+    (m/s per ping) is the growth :class:`graphnav.estimators.history.BeamHistory` gives the sigma through a run
+    of filled pings; None leaves the history's default (docs/decisions/completers.md).
     """
 
-    def __init__(self, n_past: int = 3, noise_std: float = 0.042, sigma: np.ndarray | float | None = None):
+    #: sigma growth per filled ping, m/s (None: BeamHistory's default)
+    drift_std: float | None = None
+
+    def __init__(self, n_past: int = 3, noise_std: float = 0.042, sigma: np.ndarray | float | None = None,
+                 drift_std: float | None = None):
         if n_past < 1:
             raise ValueError(f"n_past must be >= 1, got {n_past}")
+        if drift_std is not None:
+            if not drift_std >= 0:
+                raise ValueError(f"drift_std must be >= 0 m/s per ping or None, got {drift_std}")
+            self.drift_std = drift_std
         self.n_past = n_past
         self.noise_std = noise_std
         self.sigma = None if sigma is None else np.broadcast_to(np.asarray(sigma, float), (4,)).copy()

@@ -249,6 +249,26 @@ def test_window_lengths_and_regime_summary(fake_world):
     assert "batch smoother <= 0.8x Graph-TC in every cell with missing beams: holds" in text
 
 
+def test_regime_targets_per_cell():
+    """Per cell: never worse than Graph-TC (<= 1.02x), and <= 0.7x only where all four beams measured give
+    <= 0.5x Graph-TC; without an all-beams run the second target is not judged."""
+    from graphnav.evaluation.bench import regime_summary
+    records = []
+    for grade, scenario, w, hn, all_beams in (("tactical", "0-beams", 60.0, 0.06, 0.04),
+                                              ("mems", "0-beams", 60.0, 0.08, 0.07),
+                                              ("mems", "3-missing", 120.0, 0.103, None)):
+        for method, v in (("Graph-TC", 0.1), ("Graph-HN", hn)):
+            records.append({"trajectory": "a", "scenario": scenario, "imu_grade": grade, "window_s": w,
+                            "window_start_s": 60.0, "method": method, "vrmse_window": v})
+        if all_beams is not None:
+            records.append({"trajectory": "a", "scenario": "none", "imu_grade": grade, "window_s": w,
+                            "window_start_s": 60.0, "method": "Graph-TC", "vrmse_window": all_beams})
+    text = "\n".join(regime_summary(records))
+    assert "| tactical | 0-beams | 60 | 0.60 | 0.40 | pass | pass |" in text
+    assert "| mems | 0-beams | 60 | 0.80 | 0.70 | pass | not required |" in text
+    assert "| mems | 3-missing | 120 | 1.03 | - | fail | - (no all-beams run) |" in text
+
+
 def test_records_carry_drift_in_percent_of_distance_and_pose_nees(fake_world, monkeypatch):
     """Window and mission % DT from the fake's known drift; position and heading NEES from a covariance the
     fake states (heading 1 deg off with a 0.5 deg sigma: NEES 4); None where the run carries no covariance."""

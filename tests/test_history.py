@@ -47,3 +47,18 @@ def test_completer_drift_std_overrides_the_history_default():
     valid = np.array([0, 1, 1, 1], bool)
     sig = [h.complete(Exact(3, sigma=0.05), np.ones(4), valid)[1][0] for _ in range(5)]
     np.testing.assert_allclose(sig, 0.05)
+
+
+def test_average_completer_drift_std_none_leaves_the_history_default_and_a_value_replaces_it():
+    """``AverageCompleter(drift_std=None)`` grows like the history's default; a value (the out-of-fold fit of
+    docs/decisions/completers.md) replaces it; a negative one is refused."""
+    valid = np.array([0, 1, 1, 1], bool)
+    for drift, expected in ((None, 0.02), (0.01, 0.01)):
+        h = BeamHistory(3, drift_std=0.02)
+        for _ in range(3):
+            h.push(np.ones(4))
+        comp = AverageCompleter(3, sigma=0.05, drift_std=drift)
+        sig = [h.complete(comp, np.ones(4), valid)[1][0] for _ in range(4)]
+        np.testing.assert_allclose(sig, np.sqrt(0.05 ** 2 + expected ** 2 * np.arange(4)))
+    with pytest.raises(ValueError, match="drift_std"):
+        AverageCompleter(3, drift_std=-0.01)

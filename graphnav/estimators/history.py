@@ -10,8 +10,8 @@ README.md``, recursive outages), and the average estimator's spread collapses to
 history. The history therefore keeps, per beam, the sigma it handed on in the current run of pings with regressed beams
 and makes it non-decreasing through the run, growing like a random walk:
 ``sigma_k = sqrt(max(sigma_completer, sigma_{k-1})^2 + drift_std^2)`` (first regressed ping: the completer's
-sigma). ``drift_std`` (m/s per ping) is the completer's attribute of that name when it has one (a completer
-whose errors do not compound sets 0), else the history's, 0.03 by default: on recursive 30-ping outages of
+sigma). ``drift_std`` (m/s per ping) is the completer's attribute of that name when it has one that is not
+None (a completer whose errors do not compound sets 0), else the history's, 0.03 by default: on recursive 30-ping outages of
 the A-KIT DVL data it makes the RMS of (regressed-beam error / sigma) 0.91-1.00 for the network and the average
 estimator, 2 and 3 missing beams, the variance a least-squares weight needs (the error tails are heavier
 than Gaussian: 75-79 % within 1 sigma). Measured with ``experiments/calibrate_drift.py``; on the ten shared
@@ -93,7 +93,9 @@ class BeamHistory:
             full, sigma = completer.complete(self.past(), measured)
         regressed = ~valid
         continuing = regressed & (self._run_sigma > 0)
-        drift_std = getattr(completer, "drift_std", self.drift_std)
+        drift_std = getattr(completer, "drift_std", None)
+        if drift_std is None:
+            drift_std = self.drift_std
         grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)
         sigma = np.where(continuing, grown, sigma)
         self._run_sigma = np.where(regressed, sigma, 0.0)
