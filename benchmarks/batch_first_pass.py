@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     rows = []
     if args.trajectories > 0:
-        from graphnav.io.loaders import load_mission
+        from graphnav.missions import load_mission
         from graphnav.io.paths import akit_trajectories
         for folder in akit_trajectories(args.data, args.only)[:args.trajectories]:
             with warnings.catch_warnings():

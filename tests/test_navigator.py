@@ -55,7 +55,8 @@ CASES = [("clean", "Graph-TC", "isam2", "3-missing"), ("clean", "Graph-TC", "fix
 @pytest.mark.parametrize("tag, method, backend, scenario", CASES)
 def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission, reference, tag, method, backend,
                                                                         scenario):
-    """Tolerance: the graph methods reproduce the old results to 1e-9 (identical keyframes and factors);
+    """Tolerance: the graph methods reproduce the old results to 1e-9 m/s and 1e-8 m (identical keyframes and
+    factors);
     the EKF to 1e-5 m/s, 1e-4 m: IMU-only keyframes in a DVL gap split its prediction into more calls, and the
     strapdown's Coriolis approximation is per call (measured: 1.0e-6 m/s, 1.9e-5 m)."""
     m = _missions(mission)[tag]
@@ -72,7 +73,9 @@ def test_sample_by_sample_replay_reproduces_the_whole_mission_estimators(mission
                       options=EkfOptions(position_states=False, dvl_error_states=False))
     key = f"{tag}/{method}/{backend}"
     np.testing.assert_array_equal(sol.t, reference[key + "/t"])
-    v_tol, p_tol = (1e-9, 1e-9) if method.startswith("Graph") else (1e-5, 1e-4)
+    # graph positions to 1e-8 m: on another CPU (the same GTSAM wheel) the stored graph positions differ by
+    # 2.1-2.8e-9 m after 400 s (1e-11 relative), rounding of the vectorised linear algebra, not of our code
+    v_tol, p_tol = (1e-9, 1e-8) if method.startswith("Graph") else (1e-5, 1e-4)
     np.testing.assert_allclose(sol.v_n, reference[key + "/v_n"], rtol=0, atol=v_tol)
     np.testing.assert_allclose(sol.p_n, reference[key + "/p_n"], rtol=0, atol=p_tol)
     if key + "/cov_v_n" in reference:

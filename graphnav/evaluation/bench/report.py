@@ -254,7 +254,7 @@ HELPS_BELOW, HURTS_ABOVE = 0.95, 1.02
 HELPS_TARGET, ALL_BEAMS_REACH = 0.7, 0.5
 
 
-def target_cells(agg: dict, regimes: list[tuple], model: str = "Graph-HN") -> list[str]:
+def target_cells(agg: dict, regimes: list[tuple], model: str = GRAPH_HN) -> list[str]:
     """Markdown table: per regime ``model``/Graph-TC, all-beams/Graph-TC and pass / fail against the two
     targets (never worse: <= :data:`HURTS_ABOVE`; helps: <= :data:`HELPS_TARGET` where all-beams/TC <=
     :data:`ALL_BEAMS_REACH`, else not required)."""
