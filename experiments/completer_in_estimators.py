@@ -89,7 +89,7 @@ def results_table(path: str) -> None:
             continue
         seen.add(key + (r["trajectory"],))
         s, u = r.get("regressed_screening") or {}, r.get("completer_usage") or {}
-        counts[key] += [r.get("completed_beams", 0), s.get("gated", 0) + s.get("decorrelated_out", 0),
+        counts[key] += [r.get("regressed_beams", 0), s.get("gated", 0) + s.get("decorrelated_out", 0),
                         u.get("imu", 0), u.get("no_imu", 0), u.get("pattern", 0)]
     methods = [m for m in ORDER if any(k[3] == m for k in vrmse)]
     regimes = sorted({k[:3] for k in vrmse}, key=lambda r: (GRADES.index(r[0]) if r[0] in GRADES else 9, r[1], r[2]))

@@ -71,9 +71,9 @@ def run_one(args):
         options = {**PLAIN, **options}
     sol = run_method(run, method, scenario, options=dict(options))
     dropped = sol.info.get("regressed_screening", {})
-    kept = sol.info.get("completed_beams", 0) - dropped.get("gated", 0) - dropped.get("decorrelated_out", 0)
+    kept = sol.info.get("regressed_beams", 0) - dropped.get("gated", 0) - dropped.get("decorrelated_out", 0)
     return (grade, scenario, window_s, name), ([r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
-                                               [kept, sol.info.get("completed_beams", 0)])
+                                               [kept, sol.info.get("regressed_beams", 0)])
 
 
 def main(argv=None) -> int:

@@ -111,7 +111,7 @@ def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(
             assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), t
     assert kfr.stats.imu_window_missing == expected
     assert expected["not_full"] >= 10 and expected["gap"] >= 15 and n_used >= 15
-    assert kfr.stats.completed_pings == len(completed) and kfr.stats.completed_beams == 2 * len(completed)
+    assert kfr.stats.regressed_pings == len(completed) and kfr.stats.regressed_beams == 2 * len(completed)
 
 
 def test_keyframer_withholds_the_window_when_a_ping_is_missing(gapped_mission):
@@ -171,6 +171,6 @@ def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
     usage, missing = info["completer_usage"], info["imu_window_missing"]
     assert info["completer"].startswith("imu-network")
     assert usage["pattern"] == 0 and usage["no_imu"] == sum(missing.values()) and usage["imu"] >= 15
-    assert usage["imu"] + usage["no_imu"] == info["completed_pings"]
+    assert usage["imu"] + usage["no_imu"] == info["regressed_pings"]
     assert missing["not_full"] >= 10 and missing["gap"] >= 15 and missing["rate"] == missing["ping_dt"] == 0
     assert np.all(np.isfinite(sol.v_n))

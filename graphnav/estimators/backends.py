@@ -194,7 +194,7 @@ class EkfBackend(_Aided):
         self.name = name
         self.last_aided = False
         self.origin_lla = initial.origin_lla
-        self.n_completed = 0
+        self.n_regressed_pings = 0
         self.n_imu_segments = 0
         self.n_imu_gaps = 0
         self.n_fix_origin = 0
@@ -214,7 +214,7 @@ class EkfBackend(_Aided):
         #: a DVL update entered at this keyframe (not gated; LC: >= 3 beams), for the Navigator's coasting check
         self.last_aided = False
         if ping is not None:
-            self.n_completed += ping.has_regressed
+            self.n_regressed_pings += ping.has_regressed
             self.last_aided = ekf.update_ping(ping, self.tight)
         if kf.heading is not None:
             self._update_heading(*kf.heading)
@@ -269,7 +269,7 @@ class EkfBackend(_Aided):
     @property
     def info(self) -> dict:
         e = self.ekf
-        return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_completed": self.n_completed,
+        return {"n_updates": e.n_updates, "n_gated": e.n_gated, "n_regressed_pings": self.n_regressed_pings,
                 "n_velocity_updates": e.n_velocity_updates, "states": e.n_states,
                 "n_fix_origin": self.n_fix_origin, "aiding": {k: dict(v) for k, v in e.aiding.items()},
                 "dvl_scale": e.dvl_scale.copy(), "beam_bias": e.beam_bias.copy(),

@@ -97,7 +97,7 @@ class _Pending:
 class KeyframerStats:
     """Counters of what the keyframer dropped or repaired, and of the completions it made.
 
-    ``completed_pings`` / ``completed_beams``: pings with beams filled in by the completer, and those beams.
+    ``regressed_pings`` / ``regressed_beams``: pings with beams regressed by the completer, and those beams.
     ``imu_window_missing``: pings an IMU-aware completer completed without an IMU window, per reason of
     :data:`~graphnav.estimators.imu_buffer.NO_WINDOW_REASONS` (None without an IMU-aware completer).
     ``velocity_pings``: pings that carry a DVL-frame velocity (:attr:`Ping.v_d`); ``velocity_superseded``:
@@ -110,8 +110,8 @@ class KeyframerStats:
     fixes_decimated: int = 0
     pings_before_start: int = 0
     pings_after_end: int = 0
-    completed_pings: int = 0
-    completed_beams: int = 0
+    regressed_pings: int = 0
+    regressed_beams: int = 0
     imu_window_missing: dict | None = None
     velocity_pings: int = 0
     velocity_superseded: int = 0
@@ -428,8 +428,8 @@ class Keyframer:
         beams, sigma = np.asarray(result[0], float), np.asarray(result[1], float)
         has_regressed = not measured.all()
         if has_regressed:
-            self.stats.completed_pings += 1
-            self.stats.completed_beams += int((np.isfinite(beams) & ~measured).sum())
+            self.stats.regressed_pings += 1
+            self.stats.regressed_beams += int((np.isfinite(beams) & ~measured).sum())
         return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
                                    omega_b=omega_b)
 

@@ -397,8 +397,8 @@ class Navigator:
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
-                "pings_after_end": stats.pings_after_end, "completed_pings": stats.completed_pings,
-                "completed_beams": stats.completed_beams, "velocity_pings": stats.velocity_pings,
+                "pings_after_end": stats.pings_after_end, "regressed_pings": stats.regressed_pings,
+                "regressed_beams": stats.regressed_beams, "velocity_pings": stats.velocity_pings,
                 "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
         if stats.imu_window_missing is not None:
             info["imu_window_missing"] = dict(stats.imu_window_missing)

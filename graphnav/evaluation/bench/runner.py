@@ -90,7 +90,7 @@ def run_case(case: BenchCase) -> list[dict]:
         extra = {"runtime_s": runtime, "mission_duration_s": mission.duration,
                  "completer": sol.info.get("completer", "none"),
                  # what the completer did and how much of it the estimator's screening dropped
-                 **{k: sol.info[k] for k in ("completed_beams", "regressed_screening", "completer_usage",
+                 **{k: sol.info[k] for k in ("regressed_beams", "regressed_screening", "completer_usage",
                                              "imu_window_missing", "completer_fallbacks") if k in sol.info},
                  "health_divergences": health.get("n_divergences"), "health_reacquired": health.get("n_reacquired"),
                  "health_nis_per_dof": health.get("nis_mean_per_dof"),
