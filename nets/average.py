@@ -13,14 +13,14 @@ AVERAGE_N_PAST: dict[str, int] = {"2-missing": 3, "3-missing": 5, "none": 5, "0-
 class AverageCompleter:
     """Fill missing beams with the mean of the past ``n_past`` values of the same beam.
 
-    Sigma of a filled beam (m/s): ``sqrt(noise_std^2 (1 + 1/N) + var_past)``, the beam noise of the mean
+    Sigma of a regressed beam (m/s): ``sqrt(noise_std^2 (1 + 1/N) + var_past)``, the beam noise of the mean
     and of the new ping plus the spread of the past values (a proxy for how fast the beam is changing).
     Pass ``sigma`` to use fixed per-beam values instead (e.g. calibrated on validation data). ``drift_std``
     (m/s per ping) is the growth :class:`graphnav.estimators.history.BeamHistory` gives the sigma through a run
-    of filled pings; None leaves the history's default (docs/decisions/completers.md).
+    of pings with regressed beams; None leaves the history's default (docs/decisions/completers.md).
     """
 
-    #: sigma growth per filled ping, m/s (None: BeamHistory's default)
+    #: sigma growth per ping with regressed beams, m/s (None: BeamHistory's default)
     drift_std: float | None = None
 
     def __init__(self, n_past: int = 3, noise_std: float = 0.042, sigma: np.ndarray | float | None = None,

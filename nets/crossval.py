@@ -302,7 +302,7 @@ def fine_tune_recursive(model, fit_s, select_s, variant: Variant, seed: int) -> 
 
 def predict_batch(completer, samples: beamdata.BeamSamples, missing) -> tuple[np.ndarray, np.ndarray]:
     """What ``completer.complete`` gives on every sample, computed in one batch for the average estimator and
-    the beam-only network (pings outside the network's envelope filled by its average fallback, as
+    the beam-only network (pings outside the network's envelope regressed by its average fallback, as
     :meth:`~graphnav.nets.network.NetworkCompleter.complete` does); other completers one ping at a time."""
     from .network import NetworkCompleter
 

@@ -56,7 +56,7 @@ class ImuNetworkCompleter:
         card: its model card.
         sigma_scale: factor on the returned sigma (1: calibrated per ping on held-out pings).
 
-    No ``drift_std`` of its own: :class:`graphnav.estimators.history.BeamHistory` grows the sigma through a run of filled
+    No ``drift_std`` of its own: :class:`graphnav.estimators.history.BeamHistory` grows the sigma through a run of regressed
     pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
     """
 

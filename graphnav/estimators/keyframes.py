@@ -98,7 +98,7 @@ class KeyframerStats:
     """Counters of what the keyframer dropped or repaired, and of the completions it made.
 
     ``regressed_pings`` / ``regressed_beams``: pings with beams regressed by the completer, and those beams.
-    ``imu_window_missing``: pings an IMU-aware completer completed without an IMU window, per reason of
+    ``imu_window_missing``: pings an IMU-aware completer regressed without an IMU window, per reason of
     :data:`~graphnav.estimators.imu_buffer.NO_WINDOW_REASONS` (None without an IMU-aware completer).
     ``velocity_pings``: pings that carry a DVL-frame velocity (:attr:`Ping.v_d`); ``velocity_superseded``:
     velocities not used because their ping had >= :data:`MIN_BEAMS_OVER_VELOCITY` measured beams;
@@ -148,7 +148,7 @@ class Keyframer:
             self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
             if abs(config.imu_rate_hz - completer.imu_rate_hz) > 0.02 * completer.imu_rate_hz:
                 warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
-                              f"{completer.imu_rate_hz:g} Hz: every ping will be completed beam-only "
+                              f"{completer.imu_rate_hz:g} Hz: every ping's beams will be regressed beam-only "
                               "(counted in imu_window_missing['rate'])", RuntimeWarning, stacklevel=2)
         # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
         self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
