@@ -118,7 +118,8 @@ class Navigator:
     Args:
         config: sensor configuration (IMU noise, DVL geometry and lever arm, latitude, gravity).
         backend: ``"fixed-lag"`` (default: bounded time and memory for missions of any length), ``"isam2"``
-            or ``"ekf"``.
+            or ``"ekf"``; ``"dead-reckoning"`` builds the graph's keyframe factors without a solver (states from
+            the IMU and the DVL's least-squares velocity): the batch smoother's cheap first pass, not a navigator.
         completer: a beam completer (``complete(past, measured)``, ``n_past``) for the hybrid methods: missing
             beams are regressed and enter as weaker factors (graph) or inflated updates (EKF).
         initial: the initial state and its stamp (``initial.t``); None = align from the sensors.
