@@ -51,6 +51,9 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
                    help="bags: read STREAM (imu, dvl, depth, heading, gt) from TOPIC instead of the topic chosen "
                         "by message type and plausibility (repeatable)")
     g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
+    g.add_argument("--repair-stamps", action="store_true",
+                   help="A-KIT folders: drop rows whose stamp repeats an earlier one and sort the rest (warned "
+                        "and counted) instead of refusing the file")
     g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",
                    help="simulated mission length in s when --data is not given")
@@ -105,7 +108,9 @@ def recorded_mission(args):
     from graphnav.calibration.preparation import prepare
     from graphnav.io.bags import parse_topics
     from graphnav.io.loaders import read_mission
-    return prepare(read_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None))))
+    # only when asked: read_mission refuses A-KIT-only arguments for every other format
+    repair = {"repair": True} if getattr(args, "repair_stamps", False) else {}
+    return prepare(read_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None)), **repair))
 
 
 def mission_from_args(args):

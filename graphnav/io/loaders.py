@@ -281,7 +281,7 @@ def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: 
         i = bad[0] + 1
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
         raise DataError(f"time stamp {kind} ({float(data[i - 1, 0])!r} s then {float(data[i, 0])!r} s); "
-                        f"{bad.size} such line(s); pass repair=True to drop duplicates and sort",
+                        f"{bad.size} such line(s); pass repair=True (command line: --repair-stamps) to drop duplicates and sort",
                         source, int(line_no[i]), time_col)
     order = np.argsort(data[:, 0], kind="stable")
     data = data[order]
