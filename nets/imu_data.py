@@ -17,10 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.core.config import DvlSpec
+from graphnav.core.config import DvlSpec, imu_grade
 from graphnav.core.dvl import make_beams
 from graphnav.core.errors import DataError
+from graphnav.core.mission import ImuData
 from graphnav.missions import load_akit
+from graphnav.sim.imu_errors import corrupt_imu
 
 from .data import BeamSamples, _data_dir
 from .imu_window import IMU_RATE_HZ, IMU_WINDOW_S, ImuFeatures, preintegrate
@@ -69,6 +71,14 @@ class ImuBeamSeries:
 
     def with_beams(self, beams: np.ndarray) -> "ImuBeamSeries":
         return ImuBeamSeries(self.name, self.t, self.v_b, beams, self.f_b, self.omega_b, self.imu_end,
+                             self.imu_rate_hz)
+
+    def with_imu_grade(self, grade: str, seed: int) -> "ImuBeamSeries":
+        """A copy whose IMU stream carries the errors of IMU grade ``grade`` (:data:`graphnav.core.config.IMU_GRADES`,
+        added by :func:`graphnav.sim.imu_errors.corrupt_imu` with ``seed``) on top of the recorded IMU's own."""
+        imu = ImuData(np.arange(len(self.f_b)) / self.imu_rate_hz, self.f_b, self.omega_b, source=self.name)
+        bad, _ = corrupt_imu(imu, imu_grade(grade), seed, rate_hz=self.imu_rate_hz)
+        return ImuBeamSeries(self.name, self.t, self.v_b, self.beams, bad.f_b, bad.omega_b, self.imu_end,
                              self.imu_rate_hz)
 
 

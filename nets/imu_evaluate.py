@@ -33,7 +33,8 @@ def predict_imu_network(model, samples: ImuBeamSamples, batch: int = 4096):
 
 def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"], directory=None,
                  akit_dir=None, beam_seed: int = 1000, outage: bool = True, completers=None,
-                 tail_fraction: float | None = None) -> list[dict]:
+                 tail_fraction: float | None = None, imu_grade: str | None = None,
+                 imu_seed: int = 5000) -> list[dict]:
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
@@ -43,11 +44,15 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     ``tail_fraction``: only the last part of each trajectory (the selection pings of the training
     trajectories, :class:`~graphnav.nets.imu_training.ImuTrainOptions` ``select_fraction``); the outage windows
     then follow one another from the first ping with a full past.
+    ``imu_grade``: add that grade's IMU errors to each trajectory's recorded IMU (seed ``imu_seed`` +
+    trajectory number; :meth:`~graphnav.nets.imu_data.ImuBeamSeries.with_imu_grade`).
     """
     from .average import AVERAGE_N_PAST
     from .network import load_completer
 
     series = akit_imu_series(trajectories, akit_dir, beam_seed)
+    if imu_grade is not None:
+        series = [s.with_imu_grade(imu_grade, imu_seed + int(s.name.removeprefix("Trajectory"))) for s in series]
     settle, gap = OUTAGE_SETTLE, 60
     if tail_fraction is not None:
         series = [s.tail(tail_fraction) for s in series]

@@ -67,6 +67,8 @@ class ImuTrainOptions:
     seed: int = 0
     beam_seed: int = 0
     threads: int = 1
+    imu_grades: tuple[str, ...] = ()    # extra training copies with these IMU grades' errors added (out-of-fold study)
+    imu_seed: int = 0                   # seed of those errors: imu_seed + 100 * copy + trajectory number
 
 
 def _tensors(model: ImuBeamRegressor, samples: imu_data.ImuBeamSamples):
@@ -165,9 +167,23 @@ def _samples(series, opt: ImuTrainOptions, part: str):
     return imu_data.ImuBeamSamples.concatenate(out)
 
 
+def _with_imu_grades(base, opt: ImuTrainOptions):
+    """``base`` followed by one copy of it per grade of ``opt.imu_grades`` (same beams, IMU errors added)."""
+    out = list(base)
+    for c, grade in enumerate(opt.imu_grades, start=1):
+        out += [s.with_imu_grade(grade, opt.imu_seed + 100 * c + int(s.name.removeprefix("Trajectory")))
+                for s in base]
+    return out
+
+
 def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_dir=None,
-              progress: bool = True, evaluate: bool = True) -> TrainResult:
-    """Train the IMU-aware network for ``missing`` and build its model card (module docstring)."""
+              progress: bool = True, evaluate: bool = True, trajectories=None) -> TrainResult:
+    """Train the IMU-aware network for ``missing`` and build its model card (module docstring).
+
+    ``trajectories``: the A-KIT trajectory numbers trained on (default ``AKIT_SPLIT["train"]``); with
+    ``options.imu_grades`` every training trajectory also comes with each grade's IMU errors (its training,
+    selection and rollout pings), so that the network sees IMU errors the recorded IMU does not have.
+    """
     missing = normalize_missing(missing)
     opt = replace(options or ImuTrainOptions())
     if opt.n_past is None:
@@ -180,7 +196,9 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         model = ImuBeamRegressor(missing, opt.n_past, opt.hidden, opt.sigma_hidden, imu_window_s=opt.imu_window_s,
                                  blend=opt.blend, relative=opt.relative,
                                  correction_sees_imu=opt.correction_sees_imu)
-        base = imu_data.akit_imu_series(imu_data.AKIT_SPLIT["train"], d, opt.beam_seed)
+        train_numbers = tuple(trajectories) if trajectories is not None else imu_data.AKIT_SPLIT["train"]
+        recorded = imu_data.akit_imu_series(train_numbers, d, opt.beam_seed)
+        base = _with_imu_grades(recorded, opt)
         spec = DvlSpec()
         train_parts, select, draws = [], _samples(base, opt, "select"), []
         for draw in range(opt.draws):
@@ -229,12 +247,12 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
                       "via graphnav.missions.load_akit",
             "DVL_sha256": {s.name: file_sha256(d / s.name / f"DVL_trajectory{s.name.removeprefix('Trajectory')}.csv")
-                           for s in base},
+                           for s in recorded},
             "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},
             "beam_seed": opt.beam_seed, "draws": opt.draws,
         },
-        "split": {"train_trajectories": list(imu_data.AKIT_SPLIT["train"]),
-                  "val_trajectories": list(imu_data.AKIT_SPLIT["val"]),
+        "split": {"train_trajectories": list(train_numbers),
+                  "val_trajectories": list(imu_data.AKIT_SPLIT["val"]) if trajectories is None else [],
                   "selection": f"last {opt.select_fraction:.0%} of each training trajectory (best epoch, "
                                "sigma gain)",
                   "train_samples": len(train), "selection_samples": len(select),
