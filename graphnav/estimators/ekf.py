@@ -100,7 +100,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import chi2
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry
@@ -333,6 +332,7 @@ class ErrorStateEkf:
         self.velocity_noise_std = (dvl.velocity_noise_std if dvl.velocity_noise_std is not None
                                    else self._velocity_gain * self.beam_noise_std)
         self.n_velocity_updates = 0
+        from scipy.stats import chi2    # here, not at import: scipy.stats takes ~1 s to import (CLI start-up)
         self._gate = {m: chi2.ppf(opts.gate_prob, m) for m in range(1, 5)}
         self._skew_wie = skew(self.strapdown.omega_ie_n)
         # constant blocks of F and index helpers of the hot paths (no per-call allocation)

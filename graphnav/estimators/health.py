@@ -44,7 +44,6 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
 
 
 @dataclass
@@ -132,6 +131,7 @@ class NisMonitor:
             self._block_dof += dof
             self._block_n += 1
         if self._block_n == o.window:
+            from scipy.stats import chi2    # here, not at import: scipy.stats takes ~1 s to import (CLI start-up)
             lo, hi = chi2.ppf([(1 - o.band_prob) / 2, (1 + o.band_prob) / 2], self._block_dof)
             self.n_blocks += 1
             if self._block_nis > hi:

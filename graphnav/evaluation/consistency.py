@@ -38,7 +38,6 @@ the velocity NEES uses.
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2
 
 from graphnav.core.mission import GroundTruth
 from graphnav.core.solution import NavSolution
@@ -64,6 +63,7 @@ MIN_DECORRELATION_S = 10.0
 def chi2_band(n_independent: int, dof: int = DOF, prob: float = 0.95) -> tuple[float, float]:
     """(low, high) of the mean NEES of ``n_independent`` epochs with probability ``prob``."""
     n = max(int(n_independent), 1)
+    from scipy.stats import chi2    # here, not at import: scipy.stats takes ~1 s to import (CLI start-up)
     lo, hi = chi2.ppf([(1 - prob) / 2, (1 + prob) / 2], dof * n)
     return float(lo / n), float(hi / n)
 
