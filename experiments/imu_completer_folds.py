@@ -53,19 +53,27 @@ def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_d
 
 
 def coverage_table(rows: list[dict]) -> str:
-    """Sigma coverage of the IMU-aware network per evaluation IMU and mode: per fold and pooled (weighted by n)."""
-    lines = ["| eval IMU | mode | " + " | ".join(f"fold {f}" for f in sorted({r['fold'] for r in rows}))
+    """Sigma coverage of the IMU-aware network per scenario, evaluation IMU and mode: per fold and pooled
+    (weighted by n)."""
+    folds = sorted({r["fold"] for r in rows})
+    lines = ["| scenario | eval IMU | mode | " + " | ".join(f"fold {f}" for f in folds)
              + " | pooled in 1s / 2s | z RMS pooled |",
-             "| --- | --- | " + " | ".join("---" for _ in sorted({r['fold'] for r in rows})) + " | --- | --- |"]
-    for var in dict.fromkeys(r["variant"] for r in rows):
-        for mode in dict.fromkeys(r["mode"] for r in rows):
-            sel = [r for r in rows if (r["variant"], r["mode"], r["method"]) == (var, mode, "network")]
-            n = np.array([r["n"] for r in sel], float)
-            cells = [f"{r['within_1sigma']:.2f} / {r['within_2sigma']:.2f}" for r in sorted(sel, key=lambda r: r["fold"])]
-            p1 = float(np.sum(n * [r["within_1sigma"] for r in sel]) / n.sum())
-            p2 = float(np.sum(n * [r["within_2sigma"] for r in sel]) / n.sum())
-            z = float(np.sqrt(np.sum(n * np.array([r["z_rms"] for r in sel]) ** 2) / n.sum()))
-            lines.append(f"| {var} | {mode} | " + " | ".join(cells) + f" | {p1:.3f} / {p2:.3f} | {z:.2f} |")
+             "| --- | --- | --- | " + " | ".join("---" for _ in folds) + " | --- | --- |"]
+    for scen in dict.fromkeys(r["scenario"] for r in rows):
+        for var in dict.fromkeys(r["variant"] for r in rows):
+            for mode in dict.fromkeys(r["mode"] for r in rows):
+                sel = [r for r in rows if (r["scenario"], r["variant"], r["mode"], r["method"])
+                       == (scen, var, mode, "network")]
+                if not sel:
+                    continue
+                n = np.array([r["n"] for r in sel], float)
+                cells = [f"{r['within_1sigma']:.2f} / {r['within_2sigma']:.2f}"
+                         for r in sorted(sel, key=lambda r: r["fold"])]
+                p1 = float(np.sum(n * [r["within_1sigma"] for r in sel]) / n.sum())
+                p2 = float(np.sum(n * [r["within_2sigma"] for r in sel]) / n.sum())
+                z = float(np.sqrt(np.sum(n * np.array([r["z_rms"] for r in sel]) ** 2) / n.sum()))
+                lines.append(f"| {scen} | {var} | {mode} | " + " | ".join(cells)
+                             + f" | {p1:.3f} / {p2:.3f} | {z:.2f} |")
     return "\n".join(lines)
 
 
