@@ -30,34 +30,50 @@ import numpy as np
 EVAL_GRADES = ("recorded", "tactical", "mems")
 
 
-def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_dir) -> list[dict]:
+def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_dir, fused: bool = False
+              ) -> list[dict]:
     """:func:`evaluate_imu` rows of one fold's network on its held-out pair, per evaluation IMU, renamed for
-    :func:`graphnav.nets.crossval.summarise` (the IMU-aware network is ``network``; the grade is the variant)."""
+    :func:`graphnav.nets.crossval.summarise` (the IMU-aware network is ``network``; the grade is the variant).
+    With ``fused``, the network combined with the average by their sigmas (``imu+average``) is the ``network``
+    of the variant "IMU <grade>, fused", beside a copy of the average's rows."""
     from graphnav.nets.imu_evaluate import evaluate_imu
     rows = []
     for grade in EVAL_GRADES:
         for r in evaluate_imu((scenario,), held, akit_dir=akit_dir, completers={scenario: completer},
-                              imu_grade=None if grade == "recorded" else grade):
+                              imu_grade=None if grade == "recorded" else grade, fused=fused):
+            base = {**r, "fold": fold, "held_out": list(held), "dataset": "A-KIT"}
+            if r["method"] == "imu+average":
+                rows.append({**base, "method": "network", "variant": f"IMU {grade}, fused"})
+                continue
             method = {"imu-network": "network", "network": "beam-network"}.get(r["method"], r["method"])
-            rows.append({**r, "method": method, "variant": f"IMU {grade}", "fold": fold, "held_out": list(held),
-                         "dataset": "A-KIT"})
+            rows.append({**base, "method": method, "variant": f"IMU {grade}"})
+            if fused and method == "average":
+                rows.append({**base, "method": method, "variant": f"IMU {grade}, fused"})
     return rows
 
 
 def coverage_table(rows: list[dict]) -> str:
-    """Sigma coverage of the IMU-aware network per evaluation IMU and mode: per fold and pooled (weighted by n)."""
-    lines = ["| eval IMU | mode | " + " | ".join(f"fold {f}" for f in sorted({r['fold'] for r in rows}))
+    """Sigma coverage of the IMU-aware network per scenario, evaluation IMU and mode: per fold and pooled
+    (weighted by n)."""
+    folds = sorted({r["fold"] for r in rows})
+    lines = ["| scenario | eval IMU | mode | " + " | ".join(f"fold {f}" for f in folds)
              + " | pooled in 1s / 2s | z RMS pooled |",
-             "| --- | --- | " + " | ".join("---" for _ in sorted({r['fold'] for r in rows})) + " | --- | --- |"]
-    for var in dict.fromkeys(r["variant"] for r in rows):
-        for mode in dict.fromkeys(r["mode"] for r in rows):
-            sel = [r for r in rows if (r["variant"], r["mode"], r["method"]) == (var, mode, "network")]
-            n = np.array([r["n"] for r in sel], float)
-            cells = [f"{r['within_1sigma']:.2f} / {r['within_2sigma']:.2f}" for r in sorted(sel, key=lambda r: r["fold"])]
-            p1 = float(np.sum(n * [r["within_1sigma"] for r in sel]) / n.sum())
-            p2 = float(np.sum(n * [r["within_2sigma"] for r in sel]) / n.sum())
-            z = float(np.sqrt(np.sum(n * np.array([r["z_rms"] for r in sel]) ** 2) / n.sum()))
-            lines.append(f"| {var} | {mode} | " + " | ".join(cells) + f" | {p1:.3f} / {p2:.3f} | {z:.2f} |")
+             "| --- | --- | --- | " + " | ".join("---" for _ in folds) + " | --- | --- |"]
+    for scen in dict.fromkeys(r["scenario"] for r in rows):
+        for var in dict.fromkeys(r["variant"] for r in rows):
+            for mode in dict.fromkeys(r["mode"] for r in rows):
+                sel = [r for r in rows if (r["scenario"], r["variant"], r["mode"], r["method"])
+                       == (scen, var, mode, "network")]
+                if not sel:
+                    continue
+                n = np.array([r["n"] for r in sel], float)
+                cells = [f"{r['within_1sigma']:.2f} / {r['within_2sigma']:.2f}"
+                         for r in sorted(sel, key=lambda r: r["fold"])]
+                p1 = float(np.sum(n * [r["within_1sigma"] for r in sel]) / n.sum())
+                p2 = float(np.sum(n * [r["within_2sigma"] for r in sel]) / n.sum())
+                z = float(np.sqrt(np.sum(n * np.array([r["z_rms"] for r in sel]) ** 2) / n.sum()))
+                lines.append(f"| {scen} | {var} | {mode} | " + " | ".join(cells)
+                             + f" | {p1:.3f} / {p2:.3f} | {z:.2f} |")
     return "\n".join(lines)
 
 
@@ -85,6 +101,8 @@ def main(argv=None) -> int:
     p.add_argument("--draws", type=int, default=2, help="beam-noise draws per IMU copy (shipped: 6)")
     p.add_argument("--sigma-epochs", type=int, default=10, help="sigma-head epochs (shipped: 20)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--fused", action="store_true", help="also the network combined with the average by their "
+                   "sigmas (graphnav.nets.fused), reported as the variants 'IMU <grade>, fused'")
     p.add_argument("--out", default="out/imu_folds/rows.json", help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs "
                    "(several files: folds run in separate processes, joined)")
@@ -115,7 +133,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         result = train_imu(scenario, opt, akit_dir, progress=False, evaluate=False, trajectories=train)
         t1 = time.perf_counter()
-        new = fold_rows(f, held, scenario, ImuNetworkCompleter(result.model, result.card), akit_dir)
+        new = fold_rows(f, held, scenario, ImuNetworkCompleter(result.model, result.card), akit_dir, a.fused)
         for r in new:
             r["train_time_s"] = result.card["training"]["time_s"]
         rows += new

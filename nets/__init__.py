@@ -11,6 +11,9 @@ otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-be
 ``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
 window, ``load_completer("auto")`` otherwise (:mod:`graphnav.nets.imu_auto`).
 
+``FusedCompleter(first, second)`` combines two completers' regressed beams by their sigmas
+(:mod:`graphnav.nets.fused`; a study, not a default).
+
 ``graphnav.nets.crossval`` cross-validates training recipes of the beam-only network against the average estimator
 with whole trajectories held out (``graphnav eval-beams --folds``); the hybrid graph methods complete with the
 average estimator because no recipe matched it in every held-out fold (``docs/decisions/completers.md``).
@@ -32,6 +35,7 @@ _LAZY = {
     "ImuBeamRegressor": "imu_model", "ImuNetworkCompleter": "imu_network", "load_imu_completer": "imu_network",
     "load_imu_model": "imu_network", "ImuTrainOptions": "imu_training", "train_imu": "imu_training",
     "ImuAutoCompleter": "imu_auto", "load_imu_auto_completer": "imu_auto",
+    "FusedCompleter": "fused",
 }
 
 __all__ = ["AverageCompleter", "BeamCompleter", "check_inputs", *_LAZY]

@@ -34,7 +34,7 @@ def predict_imu_network(model, samples: ImuBeamSamples, batch: int = 4096):
 def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["val"], directory=None,
                  akit_dir=None, beam_seed: int = 1000, outage: bool = True, completers=None,
                  tail_fraction: float | None = None, imu_grade: str | None = None,
-                 imu_seed: int = 5000) -> list[dict]:
+                 imu_seed: int = 5000, fused: bool = False) -> list[dict]:
     """Rows of metrics: per scenario, mode (per ping / outage 30 s) and method.
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
@@ -46,7 +46,10 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     then follow one another from the first ping with a full past.
     ``imu_grade``: add that grade's IMU errors to each trajectory's recorded IMU (seed ``imu_seed`` +
     trajectory number; :meth:`~graphnav.nets.imu_data.ImuBeamSeries.with_imu_grade`).
+    ``fused``: also ``imu+average``, the IMU-aware network and the average combined by their sigmas
+    (:class:`graphnav.nets.fused.FusedCompleter`).
     """
+    from .fused import FusedCompleter, fuse
     from .average import AVERAGE_N_PAST
     from .network import load_completer
 
@@ -65,6 +68,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
         n_past = max(c.n_past for c in methods.values())
         samples = imu_windows(series, n_past, imu_net.imu_samples, imu_net.ping_dt)
         floor = full_beam_vel_rmse(samples)
+        made = {}
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
                 # the same pings: those with the longest past window (the IMU window is full from ping n_past
@@ -75,8 +79,14 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
                 full, sigma = predict_imu_network(comp.model, own)
             else:
                 full, sigma = predict_completer(comp, samples, imu_net.missing)
+            made[name] = full, sigma
             rows.append({"scenario": scen, "mode": "per ping", "method": name,
                          **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
+        if fused:
+            full, sigma = fuse(*made["imu-network"], *made["average"])
+            rows.append({"scenario": scen, "mode": "per ping", "method": "imu+average",
+                         **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
+            methods["imu+average"] = FusedCompleter(imu_net, methods["average"])
         if outage:
             for name, comp in methods.items():
                 full, sigma, osamples = outage_rollout(comp, series, imu_net.missing, gap=gap, settle=settle)
