@@ -19,11 +19,11 @@ def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray) -> tupl
     > 0; elsewhere (measured beams, sigma 0) the first completion with sigma 0."""
     b1, s1, b2, s2 = (np.asarray(x, float) for x in (b1, s1, b2, s2))
     regressed = (s1 > 0) & (s2 > 0)
-    w1 = np.where(regressed, 1.0 / np.where(regressed, s1, 1.0) ** 2, 0.0)
-    w2 = np.where(regressed, 1.0 / np.where(regressed, s2, 1.0) ** 2, 0.0)
-    total = np.where(regressed, w1 + w2, 1.0)
-    beams = np.where(regressed, (w1 * b1 + w2 * b2) / total, b1)
-    sigma = np.where(regressed, total ** -0.5, 0.0)
+    # weights where both are regressed; 1 elsewhere only to keep the arithmetic finite (those entries are replaced)
+    w1 = np.where(regressed, s1, 1.0) ** -2
+    w2 = np.where(regressed, s2, 1.0) ** -2
+    beams = np.where(regressed, (w1 * b1 + w2 * b2) / (w1 + w2), b1)
+    sigma = np.where(regressed, (w1 + w2) ** -0.5, 0.0)
     return beams, sigma
 
 

@@ -42,6 +42,7 @@ import math
 import warnings
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Iterator
 
 import gtsam
 import numpy as np
@@ -680,26 +681,25 @@ def stream_adders(nav: Navigator) -> dict:
             "heading": nav.add_heading, "fix": nav.add_position_fix}
 
 
-def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:
-    """Replay a recorded mission into ``nav`` sample by sample in time order (never its ground truth) and
-    return every estimate; ``callback(estimate)`` is called as each is made. ``stop()``, when given, is asked
+def navigate(nav: Navigator, mission, depth: bool = True, stop=None) -> Iterator[EpochEstimate]:
+    """Replay a recorded mission into ``nav`` sample by sample in time order (never its ground truth) and yield
+    every estimate as it is made, those of :meth:`Navigator.finish` last. ``stop()``, when given, is asked
     between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
     interrupt delivered inside a GTSAM call can surface as another exception)."""
-    out = []
     adders = stream_adders(nav)
     for kind, t, payload in replay(mission, depth=depth):
         if stop is not None and stop():
             raise KeyboardInterrupt
-        new = adders[kind](t, *payload)
-        if new:
-            out += new
-            if callback is not None:
-                for est in new:
-                    callback(est)
-    new = nav.finish()
-    out += new
-    if callback is not None:
-        for est in new:
+        yield from adders[kind](t, *payload)
+    yield from nav.finish()
+
+
+def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:
+    """:func:`navigate` to the end: every estimate, ``callback(estimate)`` called as each is made."""
+    out = []
+    for est in navigate(nav, mission, depth, stop):
+        out.append(est)
+        if callback is not None:
             callback(est)
     return out
 

@@ -37,8 +37,8 @@ from graphnav.estimators.graph.first_pass import needs_filter
 from graphnav.estimators.graph.incremental import is_indeterminant
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.ins import StrapdownState
-from graphnav.estimators.navigator import Navigator, NavigatorOptions, feed_mission, stream_adders
-from graphnav.estimators.replay import first_ping_time, replay
+from graphnav.estimators.navigator import Navigator, NavigatorOptions, feed_mission, navigate
+from graphnav.estimators.replay import first_ping_time
 from graphnav.estimators.types import EpochEstimate, InitialState
 
 #: The Navigator backends :func:`run_graph` can run (the graph's; :data:`graphnav.estimators.backends.BACKENDS`).
@@ -102,10 +102,7 @@ def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | N
     """
     nav = graph_navigator(mission, completer=completer, options=options, backend=backend, initial=initial,
                           name=name)
-    adders = stream_adders(nav)
-    for kind, t, payload in replay(mission):
-        yield from adders[kind](t, *payload)
-    yield from nav.finish()
+    yield from navigate(nav, mission)
 
 
 def run_graph(mission: Mission, *, completer=None, batch: bool = False, options: GraphOptions | None = None,
