@@ -12,10 +12,21 @@ within 1 and 2 sigma (Gaussian 0.683 / 0.954). Pooled (sample-weighted) numbers 
 
 The schedule is shorter than the shipped one (``ImuTrainOptions``: 60 epochs, 20 rollout epochs, 6 beam-noise
 draws) so that five trainings fit on the shared machine; the defaults below are what the decision page reports.
-Rows are written to ``--out`` after every fold; ``--report`` prints the tables of such a file again. Usage::
+Rows are written to ``--out`` after every fold; ``--report`` prints the tables of such a file again.
+
+Calibration (``--calibrate DIR`` on the fold networks ``--save-nets DIR`` wrote): every fold network's and the
+average's completions on its held-out pair are kept; then for fold k, from the **other four folds'** held-out
+errors only (:mod:`graphnav.nets.outage_calibration`), the correlation of the network's and the average's errors
+per ping, each one's sigma growth through an outage, and the network's ``drift_std`` for a calibrated 1-sigma band
+are fitted, and fold k is scored with them: the network with that ``drift_std`` (its completions do not change,
+its outage sigma does), and :class:`graphnav.nets.fused.FusedCompleter` with the correlation and growths. The
+other folds' networks were trained on fold k's trajectories, but no error measured on fold k enters its numbers.
+Usage::
 
     nice -n 10 .venv/bin/python experiments/imu_completer_folds.py --out out/imu_folds/rows.json
     .venv/bin/python experiments/imu_completer_folds.py --report out/imu_folds/rows.json
+    nice -n 10 .venv/bin/python experiments/imu_completer_folds.py --missing 2-missing --save-nets out/imu_folds/nets2 --train-only
+    .venv/bin/python experiments/imu_completer_folds.py --missing 2-missing --calibrate out/imu_folds/nets2 --out out/imu_folds/cal2.json
 """
 from __future__ import annotations
 
@@ -77,6 +88,166 @@ def coverage_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+class _RawSigma:
+    """A completer that records the sigma it returned at every call (before the history grows it)."""
+
+    def __init__(self, completer):
+        self.completer, self.raw = completer, []
+        self.n_past = completer.n_past
+        self.needs_imu = getattr(completer, "needs_imu", False)
+        if self.needs_imu:
+            self.imu_samples, self.ping_dt = completer.imu_samples, completer.ping_dt
+
+    def complete(self, past, measured, **kwargs):
+        beams, sigma = self.completer.complete(past, measured, **kwargs)
+        self.raw.append(sigma)
+        return beams, sigma
+
+
+def held_out_arrays(held, scenario: str, network, akit_dir, grade: str) -> dict:
+    """One fold network's and the average's completions on the held-out trajectories with evaluation IMU
+    ``grade``: per ping (``pp_*``) and through the 30-ping recursive outages of
+    :func:`graphnav.nets.imu_evaluate.evaluate_imu` (``out_*``; ``out_raw_*`` the completer's own sigma,
+    before the history's growth), with the recorded beams and velocity of the same pings."""
+    from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
+    from graphnav.nets.evaluate import outage_rollout, predict_completer
+    from graphnav.nets.imu_data import akit_imu_series, graded_series, imu_windows
+    from graphnav.nets.imu_evaluate import OUTAGE_SETTLE, predict_imu_network
+    series = graded_series(akit_imu_series(held, akit_dir, 1000), grade, 5000)
+    average = AverageCompleter(AVERAGE_N_PAST[scenario])
+    n_past = max(network.n_past, average.n_past)
+    samples = imu_windows(series, n_past, network.imu_samples, network.ping_dt)
+    own = imu_windows(series, network.n_past, network.imu_samples, network.ping_dt, pings=slice(n_past, None))
+    if not np.array_equal(own.beams, samples.beams):
+        raise RuntimeError("IMU network samples are not the pings of the average")
+    out = {"pp_beams": samples.beams, "pp_v_b": samples.v_b}
+    out["pp_full_net"], out["pp_sigma_net"] = predict_imu_network(network.model, own)
+    out["pp_full_avg"], out["pp_sigma_avg"] = predict_completer(average, samples, network.missing)
+    for name, comp in (("net", network), ("avg", average)):
+        rec = _RawSigma(comp)
+        full, _, osamples = outage_rollout(rec, series, network.missing, gap=60, settle=OUTAGE_SETTLE)
+        out[f"out_full_{name}"], out[f"out_raw_{name}"] = full, np.array(rec.raw)
+        out["out_beams"], out["out_v_b"] = osamples.beams, osamples.v_b
+    return out
+
+
+def fit_fold(others: list[dict], missing) -> dict:
+    """Calibration numbers from other folds' held-out arrays (:func:`held_out_arrays`), :mod:`graphnav.nets.
+    outage_calibration`: the network-average error correlation per ping, each member's growth for the fusion
+    (variance target, :func:`member_sigma`) and the network's ``drift_std`` for the sigma it hands on through
+    an outage (1-sigma coverage target, the history's growth)."""
+    from graphnav.nets.outage_calibration import error_correlation, fit_drift, member_sigma
+    m = list(missing)
+
+    def cat(key, windows=False):
+        parts = [o[key][:, m] for o in others]
+        return np.concatenate([x.reshape(-1, 30, len(m)) for x in parts]) if windows else np.concatenate(parts)
+    rho = error_correlation(cat("pp_full_net") - cat("pp_beams"), cat("pp_sigma_net"),
+                            cat("pp_full_avg") - cat("pp_beams"), cat("pp_sigma_avg"))
+    fit = {"rho": rho}
+    for name in ("net", "avg"):
+        err = cat(f"out_full_{name}", True) - cat("out_beams", True)
+        raw = cat(f"out_raw_{name}", True)
+        fit[f"growth_{name}"] = fit_drift(err, raw, member_sigma, "variance")
+        fit[f"drift_{name}"] = fit_drift(err, raw)
+    return fit
+
+
+def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: str, arrays: dict, fit: dict
+                    ) -> list[dict]:
+    """Rows of fold ``fold`` for :func:`graphnav.nets.crossval.summarise`, variant "IMU <grade>, calibrated":
+    the network with the fitted outage ``drift_std`` and the fused completer with the fitted correlation and
+    growths, each beside the average (history default growth), scored on the held-out pair."""
+    from graphnav.estimators.history import BeamHistory
+    from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
+    from graphnav.nets.data import BeamSamples
+    from graphnav.nets.evaluate import completion_metrics, outage_rollout
+    from graphnav.nets.fused import FusedCompleter, fuse
+    from graphnav.nets.imu_data import akit_imu_series, graded_series
+    from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
+    from graphnav.nets.outage_calibration import history_sigma
+    miss = list(network.missing)
+    a = arrays
+    pp = BeamSamples(np.zeros((len(a["pp_beams"]), 0, 4)), a["pp_beams"], a["pp_v_b"])
+    osamp = BeamSamples(np.zeros((len(a["out_beams"]), 0, 4)), a["out_beams"], a["out_v_b"])
+
+    def grown(raw, drift):
+        return history_sigma(raw.reshape(-1, 30, 4), drift).reshape(-1, 4)
+    default = BeamHistory(1).drift_std
+    fused_pp = fuse(a["pp_full_net"], a["pp_sigma_net"], a["pp_full_avg"], a["pp_sigma_avg"], fit["rho"])
+    series = graded_series(akit_imu_series(held, akit_dir, 1000), grade, 5000)
+    fused = FusedCompleter(network, AverageCompleter(AVERAGE_N_PAST[scenario]), fit["rho"],
+                           (fit["growth_net"], fit["growth_avg"]))
+    f_full, f_sigma, f_samp = outage_rollout(fused, series, miss, gap=60, settle=OUTAGE_SETTLE)
+    if not np.array_equal(f_samp.beams, osamp.beams):
+        raise RuntimeError("the fused rollout's pings are not the stored ones")
+    made = {
+        ("network, outage drift fitted", "per ping"): (a["pp_full_net"], a["pp_sigma_net"], pp),
+        ("network, outage drift fitted", "outage 30 s"): (a["out_full_net"], grown(a["out_raw_net"],
+                                                                                   fit["drift_net"]), osamp),
+        ("fused, rho and growth fitted", "per ping"): (*fused_pp, pp),
+        ("fused, rho and growth fitted", "outage 30 s"): (f_full, f_sigma, osamp),
+    }
+    rows = []
+    for (what, mode), (full, sigma, samp) in made.items():
+        variant = f"IMU {grade}, {what}"
+        avg = ((a["pp_full_avg"], a["pp_sigma_avg"]) if mode == "per ping"
+               else (a["out_full_avg"], grown(a["out_raw_avg"], default)))
+        base = {"fold": fold, "held_out": list(held), "dataset": "A-KIT", "scenario": scenario, "mode": mode,
+                "variant": variant, **{k: v for k, v in fit.items()}}
+        net_m = completion_metrics(full, sigma, samp, miss)
+        avg_m = completion_metrics(*avg, samp, miss)
+        rows.append({**base, "method": "network", **net_m,
+                     "beam_gain_pct": 100 * (1 - net_m["beam_rmse"] / avg_m["beam_rmse"]),
+                     "vel_gain_pct": 100 * (1 - net_m["vel_rmse"] / avg_m["vel_rmse"])})
+        rows.append({**base, "method": "average", **avg_m, "beam_gain_pct": 0.0, "vel_gain_pct": 0.0})
+    return rows
+
+
+def calibrate(nets_dir: Path, scenario: str, akit_dir, out: Path) -> list[dict]:
+    """The calibration study (module docstring): held-out arrays of every fold network (cached as
+    ``nets_dir/fold<k>_<grade>.npz``), then each fold scored with numbers fitted on the other folds."""
+    from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.imu_network import load_imu_completer
+    nets = {f: load_imu_completer(scenario, nets_dir / f"fold{f}") for f in range(len(AKIT_FOLDS))}
+    arrays = {}
+    for f, net in nets.items():
+        for grade in EVAL_GRADES:
+            cache = nets_dir / f"fold{f}_{grade}.npz"
+            if not cache.exists():
+                t0 = time.perf_counter()
+                np.savez(cache, **held_out_arrays(AKIT_FOLDS[f], scenario, net, akit_dir, grade))
+                print(f"fold {f} {grade}: held-out arrays in {time.perf_counter() - t0:.0f} s", file=sys.stderr,
+                      flush=True)
+            arrays[f, grade] = dict(np.load(cache))
+    rows = json.loads(out.read_text()) if out.exists() else []
+    done = {(r["fold"], r["variant"].split(",")[0]) for r in rows}
+    for f, net in nets.items():
+        for grade in EVAL_GRADES:
+            if (f, f"IMU {grade}") in done:
+                continue
+            fit = fit_fold([arrays[g, grade] for g in nets if g != f], net.missing)
+            print(f"fold {f} {grade}: fitted on the other folds {fit}", file=sys.stderr, flush=True)
+            rows += calibrated_rows(f, AKIT_FOLDS[f], scenario, net, akit_dir, grade, arrays[f, grade], fit)
+            out.write_text(json.dumps(rows, indent=1))
+    return rows
+
+
+def fit_table(rows: list[dict]) -> str:
+    """The fitted numbers per scenario, evaluation IMU and fold."""
+    lines = ["| scenario | eval IMU | fold | rho | fused growth net / avg m/s/ping | network drift_std m/s/ping |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    seen = set()
+    for r in rows:
+        key = (r["scenario"], r["variant"].split(",")[0], r["fold"])
+        if "rho" not in r or key in seen:
+            continue
+        seen.add(key)
+        lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {r['rho']:.3f} | {r['growth_net']:.4f} / "
+                     f"{r['growth_avg']:.4f} | {r['drift_net']:.4f} |")
+    return "\n".join(lines)
+
+
 def report(rows: list[dict]) -> str:
     from graphnav.nets.crossval import format_fold_gains, format_summary, summarise
     return "\n\n".join([
@@ -85,7 +256,8 @@ def report(rows: list[dict]) -> str:
         "Gain against the average per fold (beam / velocity RMSE):",
         format_fold_gains(rows),
         "Sigma coverage of the IMU-aware network (Gaussian 0.683 / 0.954):",
-        coverage_table(rows)])
+        coverage_table(rows)] + (["Fitted on the other folds:", fit_table(rows)]
+                                 if any("rho" in r for r in rows) else []))
 
 
 def main(argv=None) -> int:
@@ -103,6 +275,11 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--fused", action="store_true", help="also the network combined with the average by their "
                    "sigmas (graphnav.nets.fused), reported as the variants 'IMU <grade>, fused'")
+    p.add_argument("--save-nets", metavar="DIR", help="also write each fold's network to DIR/fold<k> (weights and "
+                   "card), for --calibrate")
+    p.add_argument("--calibrate", metavar="DIR", help="the calibration study on the fold networks --save-nets "
+                   "wrote to DIR: correlation and outage growth fitted on the other folds' held-out errors")
+    p.add_argument("--train-only", action="store_true", help="with --save-nets: train and save, score nothing")
     p.add_argument("--out", default="out/imu_folds/rows.json", help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs "
                    "(several files: folds run in separate processes, joined)")
@@ -114,6 +291,7 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_network import ImuNetworkCompleter
     from graphnav.nets.imu_training import ImuTrainOptions, train_imu
+    from graphnav.nets.training import save
     from graphnav.nets.model import normalize_missing, scenario_name
     akit_dir = akit_trajectories(a.data)[0].parent
     scenario = scenario_name(normalize_missing(a.missing))
@@ -122,6 +300,9 @@ def main(argv=None) -> int:
                           imu_grades=tuple(a.grades))
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
+    if a.calibrate:
+        print(report(calibrate(Path(a.calibrate), scenario, akit_dir, out)))
+        return 0
     rows = json.loads(out.read_text()) if out.exists() else []
     done = {r["fold"] for r in rows}
     for f in a.folds if a.folds is not None else range(len(AKIT_FOLDS)):
@@ -133,6 +314,11 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         result = train_imu(scenario, opt, akit_dir, progress=False, evaluate=False, trajectories=train)
         t1 = time.perf_counter()
+        if a.save_nets:
+            save(result, Path(a.save_nets) / f"fold{f}")
+        if a.train_only:
+            print(f"fold {f} {list(held)}: trained in {t1 - t0:.0f} s", file=sys.stderr, flush=True)
+            continue
         new = fold_rows(f, held, scenario, ImuNetworkCompleter(result.model, result.card), akit_dir, a.fused)
         for r in new:
             r["train_time_s"] = result.card["training"]["time_s"]
@@ -140,7 +326,8 @@ def main(argv=None) -> int:
         out.write_text(json.dumps(rows, indent=1))
         print(f"fold {f} {list(held)}: training {t1 - t0:.0f} s (stages {result.card['training']['time_s']} s), "
               f"scoring {time.perf_counter() - t1:.0f} s", file=sys.stderr, flush=True)
-    print(report(rows))
+    if not a.train_only:
+        print(report(rows))
     return 0
 
 

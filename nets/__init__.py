@@ -11,8 +11,9 @@ otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-be
 ``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
 window, ``load_completer("auto")`` otherwise (:mod:`graphnav.nets.imu_auto`).
 
-``FusedCompleter(first, second)`` combines two completers' regressed beams by their sigmas
-(:mod:`graphnav.nets.fused`; a study, not a default).
+``FusedCompleter(first, second, rho, growth)`` combines two completers' regressed beams by their sigmas, their
+error correlation and each one's sigma growth through an outage (:mod:`graphnav.nets.fused`; a study, not a
+default); :mod:`graphnav.nets.outage_calibration` fits those numbers from held-out errors.
 
 ``graphnav.nets.crossval`` cross-validates training recipes of the beam-only network against the average estimator
 with whole trajectories held out (``graphnav eval-beams --folds``); the hybrid graph methods complete with the

@@ -1,48 +1,97 @@
-"""Two completers' regressed beams combined by their own sigmas (inverse-variance weights).
+"""Two completers' regressed beams combined by their own sigmas.
 
-For a missing beam with completions ``b1``, ``b2`` and sigmas ``s1``, ``s2``::
+For a missing beam with completions ``b1``, ``b2``, sigmas ``s1``, ``s2`` and error correlation ``rho``, the best
+linear unbiased combination is ``b = w1 b1 + (1 - w1) b2`` with::
 
-    b = (b1 / s1^2 + b2 / s2^2) / (1 / s1^2 + 1 / s2^2),    sigma = (1 / s1^2 + 1 / s2^2) ** -0.5
+    w1 = (s2^2 - rho s1 s2) / (s1^2 + s2^2 - 2 rho s1 s2)
+    sigma^2 = w1^2 s1^2 + w2^2 s2^2 + 2 w1 w2 rho s1 s2          (w2 = 1 - w1)
 
-the best linear combination when the two errors are independent and the sigmas are right. It has no fitted
-parameter, so it needs no fold of its own: it leans on the completer that says it is surer, ping by ping. The two
-completions are made from the same past beams, so their errors are correlated in practice and the combined sigma
-is a lower bound (``docs/decisions/completers.md`` reports its coverage).
+With ``rho = 0`` that is the inverse-variance weighting. Both completions are made from the same past beams, so
+their errors are correlated (``docs/decisions/completers.md`` measures it); ``rho`` is then a fitted number and
+must come from data the scored trajectories are not in.
+
+Through a run of regressed pings each member's errors compound at their own rate: with ``growth = (d1, d2)``
+(m/s per ping) member ``i``'s sigma at the ``k``-th regressed ping of the run is ``sqrt(s_i^2 + k d_i^2)`` before
+the weights are made, so the fusion leans on the member whose errors grow more slowly as the outage lengthens.
+Such a completer takes ``run_steps`` from :class:`graphnav.estimators.history.BeamHistory` and has
+``drift_std = 0``: the growth is already in the sigma it hands on.
 """
 from __future__ import annotations
 
 import numpy as np
 
 
-def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse-variance combination of two completions (arrays of any equal shape, m/s) where both sigmas are
-    > 0; elsewhere (measured beams, sigma 0) the first completion with sigma 0."""
+def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: float = 0.0
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """Combination of two completions (arrays of any equal shape, m/s) with error correlation ``rho`` where both
+    sigmas are > 0; elsewhere (measured beams, sigma 0) the first completion with sigma 0.
+
+    The weight of each completion is kept in [0, 1]: with ``rho`` above ``s1 / s2`` the unconstrained weight would
+    extrapolate past the sharper completion, which leans on ``rho`` being exact; the clipped weight takes the
+    sharper one alone. The returned sigma is the standard deviation of the combination actually made."""
+    if not -1.0 < rho < 1.0:
+        raise ValueError(f"rho must be in (-1, 1), got {rho}")
     b1, s1, b2, s2 = (np.asarray(x, float) for x in (b1, s1, b2, s2))
     regressed = (s1 > 0) & (s2 > 0)
-    # weights where both are regressed; 1 elsewhere only to keep the arithmetic finite (those entries are replaced)
-    w1 = np.where(regressed, s1, 1.0) ** -2
-    w2 = np.where(regressed, s2, 1.0) ** -2
-    beams = np.where(regressed, (w1 * b1 + w2 * b2) / (w1 + w2), b1)
-    sigma = np.where(regressed, (w1 + w2) ** -0.5, 0.0)
+    # 1 where a sigma is 0 only to keep the arithmetic finite (those entries are replaced)
+    v1 = np.where(regressed, s1, 1.0) ** 2
+    v2 = np.where(regressed, s2, 1.0) ** 2
+    c = rho * np.sqrt(v1 * v2)
+    w1 = np.clip((v2 - c) / (v1 + v2 - 2.0 * c), 0.0, 1.0)
+    w2 = 1.0 - w1
+    beams = np.where(regressed, w1 * b1 + w2 * b2, b1)
+    var = w1 ** 2 * v1 + w2 ** 2 * v2 + 2.0 * w1 * w2 * c
+    sigma = np.where(regressed, np.sqrt(var), 0.0)
     return beams, sigma
 
 
 class FusedCompleter:
-    """A completer (``complete(past, measured[, imu])``, ``n_past``) that asks ``first`` and ``second`` and
-    combines their regressed beams with :func:`fuse`. ``needs_imu`` (and ``imu_samples``, ``ping_dt``) follow an
-    IMU-aware member, which alone is handed the IMU window."""
+    """A completer (``complete(past, measured[, imu][, run_steps])``, ``n_past``) that asks ``first`` and ``second``
+    and combines their regressed beams with :func:`fuse`.
 
-    def __init__(self, first, second):
+    Args:
+        first, second: completers; ``needs_imu`` (and ``imu_samples``, ``imu_rate_hz``, ``ping_dt``, ``beam_only``
+            and the ``usage`` / ``fallbacks`` counters) follow an IMU-aware member, which alone is handed the IMU
+            window. In an estimator that member must complete a ping without one (``imu=None``, e.g.
+            :class:`graphnav.nets.ImuAutoCompleter`).
+        rho: correlation of the two members' errors per ping (0: independent).
+        growth: (d1, d2), each member's sigma growth per regressed ping of a run, m/s (module docstring); None:
+            no growth of its own, and the history grows the fused sigma by its default.
+    """
+
+    def __init__(self, first, second, rho: float = 0.0, growth: tuple[float, float] | None = None):
+        if not -1.0 < rho < 1.0:
+            raise ValueError(f"rho must be in (-1, 1), got {rho}")
+        if growth is not None and (len(growth) != 2 or not all(np.isfinite(g) and g >= 0 for g in growth)):
+            raise ValueError(f"growth must be two finite values >= 0 (m/s per ping), got {growth}")
         self.first, self.second = first, second
+        self.rho = float(rho)
+        self.growth = None if growth is None else (float(growth[0]), float(growth[1]))
+        self.takes_run_steps = self.growth is not None
+        if self.growth is not None:
+            self.drift_std = 0.0
         self.n_past = max(first.n_past, second.n_past)
         imu_member = next((c for c in (first, second) if getattr(c, "needs_imu", False)), None)
         self.needs_imu = imu_member is not None
+        self._imu_member = imu_member
         if imu_member is not None:
             self.imu_samples, self.ping_dt = imu_member.imu_samples, imu_member.ping_dt
+            self.imu_rate_hz = getattr(imu_member, "imu_rate_hz", None)
+            self.beam_only = getattr(imu_member, "beam_only", None)
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
-        """(beams (4,), sigma (4,)) from the past full beam vectors ``past`` (N >= ``n_past``, 4), oldest first,
-        and the ``measured`` beams (4,) with NaN where missing, m/s."""
+    @property
+    def usage(self) -> dict:
+        """The IMU-aware member's routes (:class:`graphnav.nets.ImuAutoCompleter`), empty without one."""
+        return dict(getattr(self._imu_member, "usage", {}))
+
+    @property
+    def fallbacks(self) -> dict:
+        """The IMU-aware member's beam-only fallbacks, empty without one."""
+        return dict(getattr(self._imu_member, "fallbacks", {}))
+
+    def members(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
+        """``(b1, s1, b2, s2)``: both members' completions (4,) and sigmas (4,), the sigmas grown by ``growth``
+        over ``run_steps`` (arguments of :meth:`complete`)."""
         past = np.asarray(past, float)
         outs = []
         for c in (self.first, self.second):
@@ -50,4 +99,15 @@ class FusedCompleter:
             outs.append(c.complete(own, measured, imu=imu) if getattr(c, "needs_imu", False)
                         else c.complete(own, measured))
         (b1, s1), (b2, s2) = outs
-        return fuse(b1, s1, b2, s2)
+        if self.growth is not None and run_steps is not None:
+            k = np.asarray(run_steps, float)
+            s1 = np.where(s1 > 0, np.sqrt(s1 ** 2 + k * self.growth[0] ** 2), 0.0)
+            s2 = np.where(s2 > 0, np.sqrt(s2 ** 2 + k * self.growth[1] ** 2), 0.0)
+        return b1, s1, b2, s2
+
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(beams (4,), sigma (4,)) from the past full beam vectors ``past`` (N >= ``n_past``, 4), oldest first,
+        and the ``measured`` beams (4,) with NaN where missing, m/s. ``run_steps`` (4,): regressed pings of each
+        beam earlier in the run (0 or None: a first regressed ping)."""
+        return fuse(*self.members(past, measured, imu, run_steps), self.rho)

@@ -94,6 +94,14 @@ class ImuBeamSamples(BeamSamples):
                               imu=ImuFeatures.concatenate([p.imu for p in parts]))
 
 
+def graded_series(series: list[ImuBeamSeries], grade: str | None, seed: int) -> list[ImuBeamSeries]:
+    """``series`` with IMU grade ``grade``'s errors added to each one's IMU (seed ``seed`` + its trajectory
+    number, :meth:`ImuBeamSeries.with_imu_grade`); ``grade`` None or ``"recorded"``: ``series`` as they are."""
+    if grade is None or grade == "recorded":
+        return list(series)
+    return [s.with_imu_grade(grade, seed + int(s.name.removeprefix("Trajectory"))) for s in series]
+
+
 def akit_imu_series(numbers, data_dir: str | Path | None = None, beam_seed: int = 0, draw: int = 0,
                     spec: DvlSpec | None = None) -> list[ImuBeamSeries]:
     """The A-KIT trajectories ``numbers`` (e.g. ``AKIT_SPLIT["val"]``) with beams of noise draw ``draw``."""

@@ -18,7 +18,7 @@ from .evaluate import (
     predict_completer,
     predict_network,
 )
-from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, imu_windows
+from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, graded_series, imu_windows
 from .imu_network import ImuNetworkCompleter, load_imu_completer, model_inputs
 from .imu_window import IMU_WINDOW_S
 
@@ -53,9 +53,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     from .average import AVERAGE_N_PAST
     from .network import load_completer
 
-    series = akit_imu_series(trajectories, akit_dir, beam_seed)
-    if imu_grade is not None:
-        series = [s.with_imu_grade(imu_grade, imu_seed + int(s.name.removeprefix("Trajectory"))) for s in series]
+    series = graded_series(akit_imu_series(trajectories, akit_dir, beam_seed), imu_grade, imu_seed)
     settle, gap = OUTAGE_SETTLE, 60
     if tail_fraction is not None:
         series = [s.tail(tail_fraction) for s in series]

@@ -171,8 +171,7 @@ def _with_imu_grades(base, opt: ImuTrainOptions):
     """``base`` followed by one copy of it per grade of ``opt.imu_grades`` (same beams, IMU errors added)."""
     out = list(base)
     for c, grade in enumerate(opt.imu_grades, start=1):
-        out += [s.with_imu_grade(grade, opt.imu_seed + 100 * c + int(s.name.removeprefix("Trajectory")))
-                for s in base]
+        out += imu_data.graded_series(base, grade, opt.imu_seed + 100 * c)
     return out
 
 

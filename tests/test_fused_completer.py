@@ -41,3 +41,70 @@ def test_fused_completer_is_fuse_of_its_members():
     np.testing.assert_array_equal(b, expect[0])
     np.testing.assert_array_equal(s, expect[1])
     assert np.all(s[[1, 3]] > 0) and np.all(s[[0, 2]] == 0)
+
+
+def _correlated(rng, n, s1, s2, rho):
+    """Errors of two completions with sigmas s1, s2 and correlation rho."""
+    z1, z2 = rng.normal(size=(2, n))
+    return s1 * z1, s2 * (rho * z1 + np.sqrt(1 - rho ** 2) * z2)
+
+
+def test_correlated_errors_weights_minimise_the_combined_error_and_sigma_is_its_rms():
+    """Errors of 0.05 and 0.10 m/s correlated by 0.3: the weights from the formula give the smallest RMS of any
+    fixed weight (grid, Monte Carlo), and the returned sigma is that RMS; the independent formula states a smaller
+    sigma than its combination achieves."""
+    rng = np.random.default_rng(2)
+    n, s1, s2, rho = 200000, 0.05, 0.10, 0.3
+    e1, e2 = _correlated(rng, n, s1, s2, rho)
+    b, s = fuse(e1, np.full(n, s1), e2, np.full(n, s2), rho)
+    rms = np.sqrt(np.mean(b ** 2))
+    assert abs(rms / s[0] - 1) < 0.01
+    grid = [np.sqrt(np.mean((w * e1 + (1 - w) * e2) ** 2)) for w in np.linspace(0, 1, 101)]
+    assert rms <= min(grid) * 1.001
+    b0, s0 = fuse(e1, np.full(n, s1), e2, np.full(n, s2))
+    assert np.sqrt(np.mean(b0 ** 2)) > 1.05 * s0[0]
+
+
+def test_correlation_above_the_sigma_ratio_takes_the_sharper_completion_alone():
+    b, s = fuse(np.array([1.0]), np.array([0.05]), np.array([2.0]), np.array([0.10]), rho=0.6)
+    assert b[0] == 1.0 and np.isclose(s[0], 0.05)
+    b, s = fuse(np.array([1.0]), np.array([0.20]), np.array([2.0]), np.array([0.10]), rho=0.6)
+    assert b[0] == 2.0 and np.isclose(s[0], 0.10)
+
+
+def test_rho_outside_the_open_interval_is_refused():
+    import pytest
+    with pytest.raises(ValueError, match="rho"):
+        fuse(np.ones(1), np.ones(1), np.ones(1), np.ones(1), rho=1.0)
+    with pytest.raises(ValueError, match="growth"):
+        FusedCompleter(AverageCompleter(3), AverageCompleter(5), growth=(0.01, -1.0))
+
+
+def test_member_growth_through_a_history_run_shifts_the_weight_to_the_slower_growing_member():
+    """Through BeamHistory, a fused completer with growth is handed the run length: at the k-th regressed ping
+    each member's sigma is sqrt(s^2 + k d^2) before fusing; a full ping ends the run."""
+    from graphnav.estimators.history import BeamHistory
+
+    class Fixed:
+        def __init__(self, value, sigma):
+            self.value, self.sigma, self.n_past = value, sigma, 3
+
+        def complete(self, past, measured):
+            miss = ~np.isfinite(measured)
+            return np.where(miss, self.value, measured), np.where(miss, self.sigma, 0.0)
+
+    fused = FusedCompleter(Fixed(1.0, 0.05), Fixed(2.0, 0.05), growth=(0.05, 0.0))
+    assert fused.takes_run_steps and fused.drift_std == 0.0
+    h = BeamHistory(3)
+    for _ in range(3):
+        h.push(np.ones(4))
+    valid = np.array([True, True, False, True])
+    got = [h.complete(fused, np.ones(4), valid) for _ in range(4)]
+    for k, (b, s) in enumerate(got):
+        expect = fuse(np.array([1.0]), np.array([np.sqrt(0.05 ** 2 + k * 0.05 ** 2)]),
+                      np.array([2.0]), np.array([0.05]))
+        assert np.isclose(b[2], expect[0][0]) and np.isclose(s[2], expect[1][0])
+    assert got[0][0][2] == 1.5 and got[3][0][2] > 1.7      # equal at first, then the non-growing member leads
+    h.complete(fused, np.ones(4), np.ones(4, bool))         # a full ping ends the run
+    b, _ = h.complete(fused, np.ones(4), valid)
+    assert b[2] == 1.5

@@ -84,16 +84,23 @@ def test_window_buffer_reasons():
     assert bridged.window(2.9) == (None, "gap") and bridged.window(3.3)[1] is None    # 3.3: samples 131..330
 
 
+def run_keyframer(mission, completer):
+    """(the keyframer, its keyframes) after replaying ``mission`` without depth through a keyframer with
+    ``completer``; the mission's bridged IMU gap warns."""
+    kfr = Keyframer(mission.config, completer=completer)
+    kfr.start(float(mission.imu.t[0]))
+    keyframes = []
+    with pytest.warns(RuntimeWarning, match="gap"):
+        for kind, t, payload in replay(mission, depth=False):
+            keyframes += getattr(kfr, "add_" + kind)(t, *payload)
+        keyframes += kfr.finish()
+    return kfr, keyframes
+
+
 def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(gapped_mission):
     m = gapped_mission
     spy = SpyImuCompleter()
-    kfr = Keyframer(m.config, completer=spy)
-    kfr.start(float(m.imu.t[0]))
-    keyframes = []
-    with pytest.warns(RuntimeWarning, match="gap"):
-        for kind, t, payload in replay(m, depth=False):
-            keyframes += getattr(kfr, "add_" + kind)(t, *payload)
-        keyframes += kfr.finish()
+    kfr, keyframes = run_keyframer(m, spy)
     completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.has_regressed]
     assert len(completed) == len(spy.windows) > 40
     expected = {"not_full": 0, "rate": 0, "gap": 0, "late": 0, "ping_dt": 0}
@@ -124,12 +131,7 @@ def test_keyframer_withholds_the_window_when_a_ping_is_missing(gapped_mission):
                               v_b=None if m.dvl.v_b is None else m.dvl.v_b[keep])
     spy = SpyImuCompleter()
     spy.ping_dt = 1.0
-    kfr = Keyframer(m.config, completer=spy)
-    kfr.start(float(m.imu.t[0]))
-    with pytest.warns(RuntimeWarning, match="gap"):
-        for kind, t, payload in replay(dataclasses.replace(m, dvl=dvl), depth=False):
-            getattr(kfr, "add_" + kind)(t, *payload)
-        kfr.finish()
+    kfr, _ = run_keyframer(dataclasses.replace(m, dvl=dvl), spy)
     assert kfr.stats.imu_window_missing["ping_dt"] == spy.n_past       # the 3 pings whose history spans it
     assert spy.windows[-1] is not None                                 # one period apart again
 
@@ -174,3 +176,27 @@ def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
     assert usage["imu"] + usage["no_imu"] == info["regressed_pings"]
     assert missing["not_full"] >= 10 and missing["gap"] >= 15 and missing["rate"] == missing["ping_dt"] == 0
     assert np.all(np.isfinite(sol.v_n))
+
+
+def test_fused_imu_completer_runs_in_the_keyframer_with_its_run_lengths(gapped_mission):
+    """A FusedCompleter whose IMU-aware member is an ImuAutoCompleter passes the keyframer's check (it inherits
+    the member's beam-only route) and, with growth, is handed each beam's run length by the history at every
+    regressed ping. With a bare IMU network it is refused."""
+    from graphnav.nets import FusedCompleter, ImuAutoCompleter, load_imu_completer
+    m = gapped_mission
+    auto = ImuAutoCompleter([load_imu_completer(2)], AverageCompleter(3))
+    fused = FusedCompleter(auto, AverageCompleter(3), rho=0.5, growth=(0.02, 0.01))
+    assert fused.beam_only is auto.beam_only and fused.imu_rate_hz == auto.imu_rate_hz
+    seen = []
+    orig = fused.complete
+
+    def spy(past, measured, imu=None, run_steps=None):
+        seen.append(run_steps)
+        return orig(past, measured, imu=imu, run_steps=run_steps)
+    fused.complete = spy
+    run_keyframer(m, fused)
+    assert len(seen) > 40 and all(s is not None for s in seen)
+    assert max(int(s.max()) for s in seen) >= 5                 # runs of regressed pings are counted through
+    assert fused.usage["imu"] > 0 and fused.usage["no_imu"] > 0
+    with pytest.raises(ConfigError, match="ImuAutoCompleter"):
+        Keyframer(m.config, completer=FusedCompleter(load_imu_completer(2), AverageCompleter(3)))

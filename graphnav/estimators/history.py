@@ -17,6 +17,10 @@ estimator, 2 and 3 missing beams, the variance a least-squares weight needs (the
 than Gaussian: 75-79 % within 1 sigma). Measured with ``experiments/calibrate_drift.py``; on the ten shared
 trajectories it lowers every hybrid method's window VRMSE against 0.02 (HNTC 0.204 -> 0.141 m/s, Graph-HN
 0.124 -> 0.105 m/s with 2 missing beams).
+
+A completer that grows its own sigma through the run (:class:`graphnav.nets.fused.FusedCompleter` with outage
+growth) sets ``takes_run_steps = True``: it is then also handed ``run_steps`` (4,), the pings each beam has been
+regressed before this one in the current run (0 on its first regressed ping).
 """
 from __future__ import annotations
 
@@ -35,6 +39,7 @@ class BeamHistory:
         self.drift_std = drift_std
         self._buf: deque[np.ndarray] = deque(maxlen=n_past)
         self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
+        self._run_steps = np.zeros(4, dtype=int)   # regressed pings of each beam in the current run so far
 
     def __len__(self) -> int:
         return len(self._buf)
@@ -56,6 +61,7 @@ class BeamHistory:
         velocity implies): a run of regressed pings ends there."""
         self.push(beams)
         self._run_sigma[:] = 0.0
+        self._run_steps[:] = 0
 
     def past(self) -> np.ndarray:
         """(n_past, 4) oldest first."""
@@ -80,17 +86,21 @@ class BeamHistory:
         """
         valid = np.asarray(valid, dtype=bool)
         self._run_sigma[valid] = 0.0
+        self._run_steps[valid] = 0
         if valid.all():
             self.push(beams)
             return np.asarray(beams, dtype=float), np.zeros(4)
         if not self.ready:
             self._run_sigma[:] = 0.0
+            self._run_steps[:] = 0
             return None
         measured = np.where(valid, beams, np.nan)
+        kwargs = {}
         if getattr(completer, "needs_imu", False):
-            full, sigma = completer.complete(self.past(), measured, imu=imu)
-        else:
-            full, sigma = completer.complete(self.past(), measured)
+            kwargs["imu"] = imu
+        if getattr(completer, "takes_run_steps", False):
+            kwargs["run_steps"] = self._run_steps.copy()
+        full, sigma = completer.complete(self.past(), measured, **kwargs)
         regressed = ~valid
         continuing = regressed & (self._run_sigma > 0)
         drift_std = getattr(completer, "drift_std", None)
@@ -99,5 +109,6 @@ class BeamHistory:
         grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)
         sigma = np.where(continuing, grown, sigma)
         self._run_sigma = np.where(regressed, sigma, 0.0)
+        self._run_steps = np.where(regressed, self._run_steps + 1, 0)
         self.push(full)
         return full, sigma

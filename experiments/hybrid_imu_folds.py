@@ -1,0 +1,169 @@
+"""The IMU-aware completer inside the factor graph, out of fold: the hybrid's regime cells on held-out trajectories
+(docs/decisions/completers.md).
+
+``graphnav bench`` loads one set of weights for every trajectory, so it cannot score a fold's network on that
+fold's held-out pair only. This study does: per leave-trajectories-out fold (``nets.crossval.AKIT_FOLDS``) the fold's
+IMU-aware network (``experiments/imu_completer_folds.py --save-nets DIR``, trained without the pair) runs in
+``Graph-HN`` in place of the average estimator on the pair's bench windows (``case_windows``, ``--max-windows``;
+the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepared_mission`). Methods per window:
+
+- ``Graph-TC``: measured beams only; ``all beams``: Graph-TC without the outage (the room there is to help);
+- ``Graph-HN``: the average estimator (the default completer);
+- ``HNI fold``: the fold's IMU-aware network, beam-only (the average) where it has no IMU window, as ``Graph-HNI``;
+- ``HNI fused``: the same fused with the average (:class:`graphnav.nets.fused.FusedCompleter`) with the fold's
+  correlation and outage growths, fitted on the other folds (``imu_completer_folds.py --calibrate``, rows of the
+  evaluation IMU of the run's grade);
+- ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted).
+
+Printed: window VRMSE mean per cell and method, the ratio to Graph-TC pooled and per fold (targets: <= 1.02x
+everywhere, <= 0.7x where all beams give <= 0.5x). Usage::
+
+    nice -n 10 .venv/bin/python experiments/hybrid_imu_folds.py --nets out/imu_folds/nets3 \\
+        --calibration out/imu_folds/cal3.json --out out/imu_folds/hybrid3.json --jobs 2
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: The study's runs per window (registry methods with a given completer; module docstring).
+VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI fold", "HNI fused", "HNI fused plain")
+
+
+def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float):
+    """The completer of one study method (None: the method's own)."""
+    from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
+    from graphnav.nets.fused import FusedCompleter
+    from graphnav.nets.imu_auto import ImuAutoCompleter
+    from graphnav.nets.imu_network import load_imu_completer
+    if not method.startswith("HNI"):
+        return None
+    average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
+    hni = ImuAutoCompleter([load_imu_completer(scenario, Path(nets_dir) / f"fold{fold}")], average)
+    if method == "HNI fold":
+        return hni
+    average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
+    if method == "HNI fused plain":
+        return FusedCompleter(hni, average)
+    return FusedCompleter(hni, average, fit["rho"], (fit["growth_net"], fit["growth_avg"]))
+
+
+def window_task(item):
+    """Window VRMSE (m/s) of one method on one held-out trajectory, grade and window length."""
+    source, grade, scenario, window_s, max_windows, method, nets_dir, fold, fit = item
+    import warnings
+    warnings.simplefilter("ignore")
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation.bench.cases import case_windows, prepared_mission
+    from graphnav.evaluation.bench.scoring import score_case
+    from graphnav.evaluation.methods import run_method
+    mission = prepared_mission(source, grade)
+    starts = case_windows(mission, window_s, max_windows)
+    run = mission if method == "all beams" else mission.with_outage(
+        *[scenario_outage(scenario, s, window_s) for s in starts])
+    comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std)
+    name = "Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith("HNI") else method
+    sol = run_method(run, name, scenario, completer=comp)
+    return ((source.name, grade, window_s, method),
+            [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)])
+
+
+def table(results: dict, folds, grades, windows) -> str:
+    """Per cell: mean window VRMSE per method and the ratios to Graph-TC, pooled and the worst fold."""
+    name = lambda n: f"Trajectory{n}"  # noqa: E731
+    hni = [m for m in VARIANTS if m.startswith("HNI")]
+    lines = ["| IMU | window s | " + " | ".join(f"{m} m/s" for m in VARIANTS) + " | all/TC | HN/TC (worst fold) | "
+             + " | ".join(f"{m}/TC (worst fold)" for m in hni) + " |",
+             "| --- | --- | " + " | ".join("---" for _ in VARIANTS) + " | --- | --- | " + " | ".join("---" for _ in hni)
+             + " |"]
+    for g in grades:
+        for w in windows:
+            def mean(method, pair):
+                v = [x for k in pair for x in results.get((name(k), g, w, method), [])]
+                return float(np.mean(v)) if v else float("nan")
+            everything = [k for pair in folds for k in pair]
+            means = {m: mean(m, everything) for m in VARIANTS}
+            tc = means["Graph-TC"]
+
+            def worst(method):
+                ratios = [(mean(method, pair) / mean("Graph-TC", pair), f) for f, pair in enumerate(folds)]
+                r, f = max(ratios)
+                return f"{means[method] / tc:.2f} ({r:.2f}, fold {f})"
+            lines.append(f"| {g} | {w:g} | " + " | ".join(f"{means[m]:.3f}" for m in VARIANTS)
+                         + f" | {means['all beams'] / tc:.2f} | {worst('Graph-HN')} | "
+                         + " | ".join(worst(m) for m in hni) + " |")
+    return "\n".join(lines)
+
+
+def fold_table(results: dict, folds, grades, windows) -> str:
+    """Per cell and fold: each completing method's window VRMSE mean over Graph-TC's on the fold's pair."""
+    name = lambda n: f"Trajectory{n}"  # noqa: E731
+    methods = [m for m in VARIANTS if m not in ("Graph-TC", "all beams")]
+    lines = ["Per fold, " + " / ".join(methods) + " over Graph-TC:",
+             "| IMU | window s | " + " | ".join(f"fold {f} ({', '.join(map(str, p))})" for f, p in enumerate(folds))
+             + " |", "| --- | --- | " + " | ".join("---" for _ in folds) + " |"]
+    for g in grades:
+        for w in windows:
+            cells = []
+            for pair in folds:
+                tc = np.mean([x for k in pair for x in results.get((name(k), g, w, "Graph-TC"), [])])
+                cells.append(" / ".join(
+                    f"{np.mean([x for k in pair for x in results.get((name(k), g, w, m), [])]) / tc:.2f}"
+                    for m in methods))
+            lines.append(f"| {g} | {w:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--nets", required=True, help="the fold networks (imu_completer_folds.py --save-nets DIR)")
+    p.add_argument("--calibration", required=True, help="rows of imu_completer_folds.py --calibrate (JSON)")
+    p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
+    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
+    p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+    p.add_argument("--out", default="out/imu_folds/hybrid.json", help="results (JSON), kept for --resume")
+    a = p.parse_args(argv)
+    from graphnav.evaluation.bench import find_trajectories
+    from graphnav.evaluation.tasks import run_tasks
+    from graphnav.io.paths import akit_trajectories
+    from graphnav.nets.crossval import AKIT_FOLDS
+    folders = akit_trajectories(a.data)
+    sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
+    cal = json.loads(Path(a.calibration).read_text())
+    fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r for r in cal
+            if r["scenario"] == a.scenario and "rho" in r}
+    out = Path(a.out)
+    results = {tuple(k): v for k, v in json.loads(out.read_text())} if out.exists() else {}
+    items = []
+    for f, pair in enumerate(AKIT_FOLDS):
+        for k in pair:
+            for g in a.grades:
+                fit = fits[f, g]
+                fit = {key: fit[key] for key in ("rho", "growth_net", "growth_avg")}
+                for w in a.window_s:
+                    for m in VARIANTS:
+                        if (f"Trajectory{k}", g, w, m) not in results:
+                            items.append((sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, m, a.nets, f,
+                                          fit))
+
+    def finished(r):
+        results[r[0]] = r[1]
+        out.write_text(json.dumps([[list(k), v] for k, v in results.items()]))
+    print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
+    run_tasks(window_task, items, finished, jobs=a.jobs)
+    print(f"{a.scenario}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")
+    print(table(results, AKIT_FOLDS, a.grades, a.window_s))
+    print()
+    print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
