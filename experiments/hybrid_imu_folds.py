@@ -53,8 +53,11 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
 
 
 def window_task(item):
-    """Window VRMSE (m/s) of one method on one held-out trajectory, grade and window length."""
-    source, grade, scenario, window_s, max_windows, method, nets_dir, fold, fit = item
+    """Window VRMSE (m/s) of one study variant on one held-out trajectory, grade and window length. ``item``:
+    (source, grade, scenario, window_s, max_windows, variant, nets_dir, fold, fit[, options]); ``options``: the
+    estimator's options on top of the method's (``run_method``), e.g. ``{"screening.correlation": 0.3}``."""
+    source, grade, scenario, window_s, max_windows, method, nets_dir, fold, fit, *rest = item
+    options = rest[0] if rest else None
     import warnings
     warnings.simplefilter("ignore")
     from graphnav.core.scenarios import scenario_outage
@@ -66,43 +69,44 @@ def window_task(item):
     run = mission if method == "all beams" else mission.with_outage(
         *[scenario_outage(scenario, s, window_s) for s in starts])
     comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std)
-    name = "Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith("HNI") else method
-    sol = run_method(run, name, scenario, completer=comp)
+    name = ("Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith(("HNI", "Graph-HN"))
+            else method)
+    sol = run_method(run, name, scenario, completer=comp, options=options)
     return ((source.name, grade, window_s, method),
             [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)])
 
 
-def table(results: dict, folds, grades, windows) -> str:
-    """Per cell: mean window VRMSE per method and the ratios to Graph-TC, pooled and the worst fold."""
+def table(results: dict, folds, grades, windows, variants=VARIANTS) -> str:
+    """Per cell: mean window VRMSE per variant and each completing variant's ratio to Graph-TC, pooled and in the
+    worst fold."""
     name = lambda n: f"Trajectory{n}"  # noqa: E731
-    hni = [m for m in VARIANTS if m.startswith("HNI")]
-    lines = ["| IMU | window s | " + " | ".join(f"{m} m/s" for m in VARIANTS) + " | all/TC | HN/TC (worst fold) | "
-             + " | ".join(f"{m}/TC (worst fold)" for m in hni) + " |",
-             "| --- | --- | " + " | ".join("---" for _ in VARIANTS) + " | --- | --- | " + " | ".join("---" for _ in hni)
-             + " |"]
+    compared = [m for m in variants if m not in ("Graph-TC", "all beams")]
+    lines = ["| IMU | window s | " + " | ".join(f"{m} m/s" for m in variants) + " | all/TC | "
+             + " | ".join(f"{m}/TC (worst fold)" for m in compared) + " |",
+             "| --- | --- | " + " | ".join("---" for _ in variants) + " | --- | "
+             + " | ".join("---" for _ in compared) + " |"]
     for g in grades:
         for w in windows:
             def mean(method, pair):
                 v = [x for k in pair for x in results.get((name(k), g, w, method), [])]
                 return float(np.mean(v)) if v else float("nan")
             everything = [k for pair in folds for k in pair]
-            means = {m: mean(m, everything) for m in VARIANTS}
+            means = {m: mean(m, everything) for m in variants}
             tc = means["Graph-TC"]
 
             def worst(method):
                 ratios = [(mean(method, pair) / mean("Graph-TC", pair), f) for f, pair in enumerate(folds)]
                 r, f = max(ratios)
                 return f"{means[method] / tc:.2f} ({r:.2f}, fold {f})"
-            lines.append(f"| {g} | {w:g} | " + " | ".join(f"{means[m]:.3f}" for m in VARIANTS)
-                         + f" | {means['all beams'] / tc:.2f} | {worst('Graph-HN')} | "
-                         + " | ".join(worst(m) for m in hni) + " |")
+            lines.append(f"| {g} | {w:g} | " + " | ".join(f"{means[m]:.3f}" for m in variants)
+                         + f" | {means['all beams'] / tc:.2f} | " + " | ".join(worst(m) for m in compared) + " |")
     return "\n".join(lines)
 
 
-def fold_table(results: dict, folds, grades, windows) -> str:
-    """Per cell and fold: each completing method's window VRMSE mean over Graph-TC's on the fold's pair."""
+def fold_table(results: dict, folds, grades, windows, variants=VARIANTS) -> str:
+    """Per cell and fold: each completing variant's window VRMSE mean over Graph-TC's on the fold's pair."""
     name = lambda n: f"Trajectory{n}"  # noqa: E731
-    methods = [m for m in VARIANTS if m not in ("Graph-TC", "all beams")]
+    methods = [m for m in variants if m not in ("Graph-TC", "all beams")]
     lines = ["Per fold, " + " / ".join(methods) + " over Graph-TC:",
              "| IMU | window s | " + " | ".join(f"fold {f} ({', '.join(map(str, p))})" for f, p in enumerate(folds))
              + " |", "| --- | --- | " + " | ".join("---" for _ in folds) + " |"]

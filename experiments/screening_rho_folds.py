@@ -1,0 +1,115 @@
+"""The screening's correlation between a completion and the graph's own prediction, fitted out of fold
+(docs/decisions/completers.md).
+
+The hybrid's screening treats the error of a completed beam as correlated with the error of the graph's
+prediction of that beam with a fixed ``rho`` (``screening.correlation``, 0.5). ``experiments/regressed_correlation.py``
+measures the true correlation in the plain hybrid: 0.15-0.59 depending on the IMU and the outage. This study fits
+it per leave-trajectories-out fold (``nets.crossval.AKIT_FOLDS``): on the fold's eight training trajectories, per
+IMU grade and scenario, from every regressed beam of every bench window of both lengths (the average
+estimator's completions, which fit nothing on the data); then it runs ``Graph-HN`` with that ``rho`` on the
+held-out pair's bench windows (``--max-windows``), beside Graph-TC, all beams and the default Graph-HN on the
+same windows (``experiments/hybrid_imu_folds.py``'s task and tables). Usage::
+
+    nice -n 5 .venv/bin/python experiments/screening_rho_folds.py --scenario 3-missing 0-beams --jobs 2 \\
+        --out out/screening_rho
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "Graph-HN rho fitted")
+
+
+def correlation_task(item):
+    """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one trajectory's plain hybrid (``collect``)."""
+    source, grade, scenario, window_s = item
+    import warnings
+    warnings.simplefilter("ignore")
+    from graphnav.evaluation.bench import prepared_mission
+    from regressed_correlation import collect
+    return (source.name, grade, scenario, window_s), collect(prepared_mission(source, grade), scenario,
+                                                             window_s).tolist()
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--scenario", nargs="+", default=["3-missing", "0-beams"], help="scenarios")
+    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
+    p.add_argument("--max-windows", type=int, default=2, help="held-out windows per trajectory (regime table)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+    p.add_argument("--out", default="out/screening_rho", help="folder for the collected errors and the runs")
+    a = p.parse_args(argv)
+    from hybrid_imu_folds import fold_table, table, window_task
+
+    from graphnav.evaluation.bench import find_trajectories
+    from graphnav.evaluation.tasks import run_tasks
+    from graphnav.io.paths import akit_trajectories
+    from graphnav.nets.crossval import AKIT_FOLDS
+    folders = akit_trajectories(a.data)
+    sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    name = lambda n: f"Trajectory{n}"  # noqa: E731
+    names = [name(k) for pair in AKIT_FOLDS for k in pair]
+
+    errs_file = out / "errors.json"
+    errors = {tuple(k): np.array(v).reshape(-1, 4) for k, v in json.loads(errs_file.read_text())} \
+        if errs_file.exists() else {}
+    todo = [(sources[n], g, sc, w) for n in names for g in a.grades for sc in a.scenario for w in a.window_s
+            if (n, g, sc, w) not in errors]
+
+    def got_errors(r):
+        errors[r[0]] = np.array(r[1]).reshape(-1, 4)
+        errs_file.write_text(json.dumps([[list(k), v.tolist()] for k, v in errors.items()]))
+    print(f"{len(todo)} correlation runs to do", file=sys.stderr, flush=True)
+    run_tasks(correlation_task, todo, got_errors, jobs=a.jobs)
+
+    rho = {}
+    print("Fitted on each fold's training trajectories: corr(e_c, e_p) (the regressed beams, both window lengths)")
+    print("| IMU | scenario | " + " | ".join(f"fold {f}" for f in range(len(AKIT_FOLDS))) + " | all ten |")
+    print("| --- | --- | " + " | ".join("---" for _ in AKIT_FOLDS) + " | --- |")
+    for g in a.grades:
+        for sc in a.scenario:
+            cells = []
+            for f, pair in enumerate([*AKIT_FOLDS, ()]):
+                d = np.vstack([errors[n, g, sc, w] for n in names if n not in {name(k) for k in pair}
+                               for w in a.window_s])
+                rho[f, g, sc] = float(np.corrcoef(d[:, 0], d[:, 1])[0, 1])
+                cells.append(f"{rho[f, g, sc]:.2f}")
+            print(f"| {g} | {sc} | " + " | ".join(cells) + " |")
+
+    for sc in a.scenario:
+        runs_file = out / f"runs-{sc}.json"
+        results = {tuple(k): v for k, v in json.loads(runs_file.read_text())} if runs_file.exists() else {}
+        items = []
+        for f, pair in enumerate(AKIT_FOLDS):
+            for k in pair:
+                for g in a.grades:
+                    for w in a.window_s:
+                        for v in VARIANTS:
+                            if (name(k), g, w, v) in results:
+                                continue
+                            options = {"screening.correlation": rho[f, g, sc]} if v.endswith("fitted") else None
+                            items.append((sources[name(k)], g, sc, w, a.max_windows, v, None, f, None, options))
+
+        def got_run(r, results=results, runs_file=runs_file):
+            results[r[0]] = r[1]
+            runs_file.write_text(json.dumps([[list(k), v] for k, v in results.items()]))
+        print(f"{sc}: {len(items)} runs to do", file=sys.stderr, flush=True)
+        run_tasks(window_task, items, got_run, jobs=a.jobs)
+        print(f"\n{sc}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")
+        print(table(results, AKIT_FOLDS, a.grades, a.window_s, VARIANTS))
+        print()
+        print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s, VARIANTS))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
