@@ -75,7 +75,9 @@ def main(argv=None) -> int:
     akit = akit_trajectories(a.data)[0].parent
     nets_dir = Path(a.nets)
     fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r
-            for r in json.loads(Path(a.calibration).read_text()) if "rho" in r}
+            for r in json.loads(Path(a.calibration).read_text()) if "rho" in r and r["scenario"] == a.missing}
+    if not fits:
+        raise SystemExit(f"{a.calibration} has no calibration rows of {a.missing}")
     res = {}
     for f, held in enumerate(AKIT_FOLDS):
         net = load_imu_completer(a.missing, nets_dir / f"fold{f}")

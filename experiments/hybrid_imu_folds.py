@@ -9,7 +9,8 @@ the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepare
 
 - ``Graph-TC``: measured beams only; ``all beams``: Graph-TC without the outage (the room there is to help);
 - ``Graph-HN``: the average estimator (the default completer);
-- ``HNI fold``: the fold's IMU-aware network, beam-only (the average) where it has no IMU window, as ``Graph-HNI``;
+- ``HNI fold``: the fold's IMU-aware network, the average where it has no IMU window (``Graph-HNI`` falls
+  back to the beam-only networks instead);
 - ``HNI fused``: the same fused with the average (:class:`graphnav.nets.fused.FusedCompleter`) with the fold's
   correlation and outage growths, fitted on the other folds (``imu_completer_folds.py --calibrate``, rows of the
   evaluation IMU of the run's grade);
@@ -122,6 +123,24 @@ def fold_table(results: dict, folds, grades, windows, variants=VARIANTS) -> str:
     return "\n".join(lines)
 
 
+def load_runs(path: Path, settings: dict) -> tuple[dict, dict]:
+    """(runs keyed (trajectory, grade, window_s, variant), the file's other entries) of a results file written
+    with the same ``settings`` (scenario, windows, ...); an absent file: nothing yet. A file of other settings is
+    refused: its window errors would stand in for these."""
+    if not path.exists():
+        return {}, {}
+    saved = json.loads(path.read_text())
+    if not isinstance(saved, dict) or saved.get("settings") != settings:
+        raise SystemExit(f"{path} holds runs of other settings ({saved.get('settings') if isinstance(saved, dict) else 'none'}"
+                         f", here {settings}): give another --out or delete it")
+    return {tuple(k): v for k, v in saved["runs"]}, {k: v for k, v in saved.items() if k not in ("settings", "runs")}
+
+
+def save_runs(path: Path, settings: dict, runs: dict, **extra) -> None:
+    """Write ``runs`` with their ``settings`` (and ``extra`` entries) for :func:`load_runs`."""
+    path.write_text(json.dumps({"settings": settings, **extra, "runs": [[list(k), v] for k, v in runs.items()]}))
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
@@ -132,7 +151,8 @@ def main(argv=None) -> int:
     p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
     p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
-    p.add_argument("--out", default="out/imu_folds/hybrid.json", help="results (JSON), kept for --resume")
+    p.add_argument("--out", default="out/imu_folds/hybrid.json", help="results (JSON); a rerun with the same "
+                   "settings resumes from it")
     a = p.parse_args(argv)
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
@@ -144,7 +164,9 @@ def main(argv=None) -> int:
     fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r for r in cal
             if r["scenario"] == a.scenario and "rho" in r}
     out = Path(a.out)
-    results = {tuple(k): v for k, v in json.loads(out.read_text())} if out.exists() else {}
+    settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": str(Path(a.nets).resolve()),
+                "calibration": str(Path(a.calibration).resolve())}
+    results, _ = load_runs(out, settings)
     items = []
     for f, pair in enumerate(AKIT_FOLDS):
         for k in pair:
@@ -159,7 +181,7 @@ def main(argv=None) -> int:
 
     def finished(r):
         results[r[0]] = r[1]
-        out.write_text(json.dumps([[list(k), v] for k, v in results.items()]))
+        save_runs(out, settings, results)
     print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
     run_tasks(window_task, items, finished, jobs=a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")

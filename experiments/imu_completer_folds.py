@@ -126,6 +126,8 @@ def held_out_arrays(held, scenario: str, network, akit_dir, grade: str) -> dict:
     for name, comp in (("net", network), ("avg", average)):
         rec = _RawSigma(comp)
         full, _, osamples = outage_rollout(rec, series, network.missing, gap=60, settle=OUTAGE_SETTLE)
+        if "out_beams" in out and not np.array_equal(out["out_beams"], osamples.beams):
+            raise RuntimeError("the network's and the average's outage pings differ")
         out[f"out_full_{name}"], out[f"out_raw_{name}"] = full, np.array(rec.raw)
         out["out_beams"], out["out_v_b"] = osamples.beams, osamples.v_b
     return out
@@ -155,9 +157,10 @@ def fit_fold(others: list[dict], missing) -> dict:
 
 def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: str, arrays: dict, fit: dict
                     ) -> list[dict]:
-    """Rows of fold ``fold`` for :func:`graphnav.nets.crossval.summarise`, variant "IMU <grade>, calibrated":
-    the network with the fitted outage ``drift_std`` and the fused completer with the fitted correlation and
-    growths, each beside the average (history default growth), scored on the held-out pair."""
+    """Rows of fold ``fold`` for :func:`graphnav.nets.crossval.summarise`: variant "IMU <grade>, network, outage
+    drift fitted" (the network's completions, its outage sigma grown with the fitted ``drift_std``) and "IMU
+    <grade>, fused, rho and growth fitted" (:class:`~graphnav.nets.fused.FusedCompleter` with the fitted
+    correlation and growths), each beside the average (history default growth), scored on the held-out pair."""
     from graphnav.estimators.history import BeamHistory
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.data import BeamSamples
@@ -221,7 +224,9 @@ def calibrate(nets_dir: Path, scenario: str, akit_dir, out: Path) -> list[dict]:
                       flush=True)
             arrays[f, grade] = dict(np.load(cache))
     rows = json.loads(out.read_text()) if out.exists() else []
-    done = {(r["fold"], r["variant"].split(",")[0]) for r in rows}
+    # only calibration rows (they carry the fitted numbers) count as done: a plain study's rows in the same file
+    # must not stand in for them
+    done = {(r["fold"], r["variant"].split(",")[0]) for r in rows if "rho" in r}
     for f, net in nets.items():
         for grade in EVAL_GRADES:
             if (f, f"IMU {grade}") in done:

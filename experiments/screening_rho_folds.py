@@ -6,7 +6,10 @@ prediction of that beam with a fixed ``rho`` (``screening.correlation``, 0.5). `
 measures the true correlation in the plain hybrid: 0.15-0.59 depending on the IMU and the outage. This study fits
 it per leave-trajectories-out fold (``nets.crossval.AKIT_FOLDS``): on the fold's eight training trajectories, per
 IMU grade and scenario, from every regressed beam of every bench window of both lengths (the average
-estimator's completions, which fit nothing on the data); then it runs ``Graph-HN`` with that ``rho`` on the
+estimator's completions, which fit nothing on the data), as the correlation of the completion's error over its
+sigma and the prediction's error over its sigma (the screening's model: ``cov = rho sqrt(a s_c^2)`` per beam;
+``collect`` runs the plain hybrid, screening off, and ``a`` without ``prediction_var_scale``, a constant factor
+this correlation does not see); then it runs ``Graph-HN`` with that ``rho`` on the
 held-out pair's bench windows (``--max-windows``), beside Graph-TC, all beams and the default Graph-HN on the
 same windows (``experiments/hybrid_imu_folds.py``'s task and tables). Usage::
 
@@ -46,12 +49,13 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", default="out/screening_rho", help="folder for the collected errors and the runs")
     a = p.parse_args(argv)
-    from hybrid_imu_folds import fold_table, table, window_task
+    from hybrid_imu_folds import fold_table, load_runs, save_runs, table, window_task
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.outage_calibration import error_correlation
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     out = Path(a.out)
@@ -72,7 +76,8 @@ def main(argv=None) -> int:
     run_tasks(correlation_task, todo, got_errors, jobs=a.jobs)
 
     rho = {}
-    print("Fitted on each fold's training trajectories: corr(e_c, e_p) (the regressed beams, both window lengths)")
+    print("Fitted on each fold's training trajectories: the correlation of e_c / s_c and e_p / sqrt(a) (the "
+          "regressed beams, both window lengths)")
     print("| IMU | scenario | " + " | ".join(f"fold {f}" for f in range(len(AKIT_FOLDS))) + " | all ten |")
     print("| --- | --- | " + " | ".join("---" for _ in AKIT_FOLDS) + " | --- |")
     for g in a.grades:
@@ -81,13 +86,20 @@ def main(argv=None) -> int:
             for f, pair in enumerate([*AKIT_FOLDS, ()]):
                 d = np.vstack([errors[n, g, sc, w] for n in names if n not in {name(k) for k in pair}
                                for w in a.window_s])
-                rho[f, g, sc] = float(np.corrcoef(d[:, 0], d[:, 1])[0, 1])
+                # the screening's model: cov(e_c, e_p) = rho sqrt(a s_c^2) per beam, so the correlation of the
+                # errors each over its own sigma (kept in [0, 0.99], the range the option takes)
+                r = error_correlation(d[:, 0], np.sqrt(d[:, 3]), d[:, 1], np.sqrt(d[:, 2]))
+                rho[f, g, sc] = float(np.clip(r, 0.0, 0.99))
                 cells.append(f"{rho[f, g, sc]:.2f}")
             print(f"| {g} | {sc} | " + " | ".join(cells) + " |")
 
     for sc in a.scenario:
         runs_file = out / f"runs-{sc}.json"
-        results = {tuple(k): v for k, v in json.loads(runs_file.read_text())} if runs_file.exists() else {}
+        settings = {"scenario": sc, "max_windows": a.max_windows, "window_s": a.window_s, "grades": a.grades}
+        fitted = {f"{f} {g}": rho[f, g, sc] for f in range(len(AKIT_FOLDS)) for g in a.grades}
+        results, extra = load_runs(runs_file, settings)
+        if extra.get("rho") != fitted:      # runs with another fit of rho are not these
+            results = {k: v for k, v in results.items() if not k[3].endswith("fitted")}
         items = []
         for f, pair in enumerate(AKIT_FOLDS):
             for k in pair:
@@ -99,9 +111,9 @@ def main(argv=None) -> int:
                             options = {"screening.correlation": rho[f, g, sc]} if v.endswith("fitted") else None
                             items.append((sources[name(k)], g, sc, w, a.max_windows, v, None, f, None, options))
 
-        def got_run(r, results=results, runs_file=runs_file):
+        def got_run(r, results=results, runs_file=runs_file, settings=settings, fitted=fitted):
             results[r[0]] = r[1]
-            runs_file.write_text(json.dumps([[list(k), v] for k, v in results.items()]))
+            save_runs(runs_file, settings, results, rho=fitted)
         print(f"{sc}: {len(items)} runs to do", file=sys.stderr, flush=True)
         run_tasks(window_task, items, got_run, jobs=a.jobs)
         print(f"\n{sc}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")

@@ -14,7 +14,9 @@ Through a run of regressed pings each member's errors compound at their own rate
 (m/s per ping) member ``i``'s sigma at the ``k``-th regressed ping of the run is ``sqrt(s_i^2 + k d_i^2)`` before
 the weights are made, so the fusion leans on the member whose errors grow more slowly as the outage lengthens.
 Such a completer takes ``run_steps`` from :class:`graphnav.estimators.history.BeamHistory` and has
-``drift_std = 0``: the growth is already in the sigma it hands on.
+``drift_std = 0``: the growth is already in the sigma it hands on. The history still keeps that sigma from falling
+within a run (``max(sigma, previous)``), so a fused sigma that drops when the weights move to the other member is
+handed on at its earlier value.
 """
 from __future__ import annotations
 
@@ -26,9 +28,9 @@ def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: fl
     """Combination of two completions (arrays of any equal shape, m/s) with error correlation ``rho`` where both
     sigmas are > 0; elsewhere (measured beams, sigma 0) the first completion with sigma 0.
 
-    The weight of each completion is kept in [0, 1]: with ``rho`` above ``s1 / s2`` the unconstrained weight would
-    extrapolate past the sharper completion, which leans on ``rho`` being exact; the clipped weight takes the
-    sharper one alone. The returned sigma is the standard deviation of the combination actually made."""
+    The weight of each completion is kept in [0, 1]: with ``rho`` above ``min(s1, s2) / max(s1, s2)`` the
+    unconstrained weight would extrapolate past the sharper completion, which leans on ``rho`` being exact; the
+    clipped weight takes the sharper one alone. The returned sigma is the standard deviation of the combination actually made."""
     if not -1.0 < rho < 1.0:
         raise ValueError(f"rho must be in (-1, 1), got {rho}")
     b1, s1, b2, s2 = (np.asarray(x, float) for x in (b1, s1, b2, s2))

@@ -169,8 +169,10 @@ def _samples(series, opt: ImuTrainOptions, part: str):
 
 def _with_imu_grades(base, opt: ImuTrainOptions):
     """``base`` followed by one copy of it per grade of ``opt.imu_grades`` (same beams, IMU errors added)."""
+    from graphnav.core.config import imu_grade
     out = list(base)
     for c, grade in enumerate(opt.imu_grades, start=1):
+        imu_grade(grade)      # a grade preset ("recorded" is not one: it would only copy the recorded IMU)
         out += imu_data.graded_series(base, grade, opt.imu_seed + 100 * c)
     return out
 
