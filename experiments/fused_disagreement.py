@@ -19,7 +19,6 @@ recursive outages of the calibration study (the same pings), against the average
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -69,21 +68,18 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.data import BeamSamples
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
-    from graphnav.nets.imu_data import akit_imu_series, graded_series
+    from imu_completer_folds import calibration_fits, held_out_series
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     from graphnav.nets.imu_network import load_imu_completer
     akit = akit_trajectories(a.data)[0].parent
     nets_dir = Path(a.nets)
-    fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r
-            for r in json.loads(Path(a.calibration).read_text()) if "rho" in r and r["scenario"] == a.missing}
-    if not fits:
-        raise SystemExit(f"{a.calibration} has no calibration rows of {a.missing}")
+    fits = calibration_fits(a.calibration, a.missing)
     res = {}
     for f, held in enumerate(AKIT_FOLDS):
         net = load_imu_completer(a.missing, nets_dir / f"fold{f}")
         for grade in a.grades:
             arrays = dict(np.load(nets_dir / f"fold{f}_{grade}.npz"))
-            series = graded_series(akit_imu_series(held, akit, 1000), grade, 5000)
+            series = held_out_series(held, akit, grade)
             samples = BeamSamples(np.zeros((len(arrays["out_beams"]), 0, 4)), arrays["out_beams"], arrays["out_v_b"])
             avg = completion_metrics(arrays["out_full_avg"], np.ones_like(arrays["out_full_avg"]), samples,
                                      net.missing)

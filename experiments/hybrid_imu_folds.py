@@ -47,7 +47,7 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     hni = ImuAutoCompleter([load_imu_completer(scenario, Path(nets_dir) / f"fold{fold}")], average)
     if method == "HNI fold":
         return hni
-    average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
+    # the average keeps no state: the fallback and the fused member can be the same one
     if method == "HNI fused plain":
         return FusedCompleter(hni, average)
     return FusedCompleter(hni, average, fit["rho"], (fit["growth_net"], fit["growth_avg"]))
@@ -160,9 +160,8 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    cal = json.loads(Path(a.calibration).read_text())
-    fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r for r in cal
-            if r["scenario"] == a.scenario and "rho" in r}
+    from imu_completer_folds import calibration_fits
+    fits = calibration_fits(a.calibration, a.scenario)
     out = Path(a.out)
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": str(Path(a.nets).resolve()),
                 "calibration": str(Path(a.calibration).resolve())}

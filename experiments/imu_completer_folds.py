@@ -39,6 +39,25 @@ from pathlib import Path
 import numpy as np
 
 EVAL_GRADES = ("recorded", "tactical", "mems")
+#: Beam-noise seed and evaluation-IMU seed base of every held-out scoring (evaluate_imu's defaults; never trained
+#: on): every study that compares against the calibration study's pings makes its series with these.
+HELD_OUT_BEAM_SEED, HELD_OUT_IMU_SEED = 1000, 5000
+
+
+def held_out_series(held, akit_dir, grade: str) -> list:
+    """The held-out trajectories ``held`` as every scoring here sees them, with evaluation IMU ``grade``."""
+    from graphnav.nets.imu_data import akit_imu_series, graded_series
+    return graded_series(akit_imu_series(held, akit_dir, HELD_OUT_BEAM_SEED), grade, HELD_OUT_IMU_SEED)
+
+
+def calibration_fits(path, scenario: str) -> dict:
+    """The ``--calibrate`` rows of ``scenario`` in the file ``path`` by (fold, evaluation IMU): each row carries the
+    numbers fitted for that fold (``rho``, ``growth_net``, ``growth_avg``, ``drift_net``)."""
+    fits = {(r["fold"], r["variant"].split(",")[0].removeprefix("IMU ")): r
+            for r in json.loads(Path(path).read_text()) if "rho" in r and r["scenario"] == scenario}
+    if not fits:
+        raise SystemExit(f"{path} has no calibration rows of {scenario}")
+    return fits
 
 
 def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_dir, fused: bool = False
@@ -51,7 +70,8 @@ def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_d
     rows = []
     for grade in EVAL_GRADES:
         for r in evaluate_imu((scenario,), held, akit_dir=akit_dir, completers={scenario: completer},
-                              imu_grade=None if grade == "recorded" else grade, fused=fused):
+                              imu_grade=None if grade == "recorded" else grade, fused=fused,
+                              beam_seed=HELD_OUT_BEAM_SEED, imu_seed=HELD_OUT_IMU_SEED):
             base = {**r, "fold": fold, "held_out": list(held), "dataset": "A-KIT"}
             if r["method"] == "imu+average":
                 rows.append({**base, "method": "network", "variant": f"IMU {grade}, fused"})
@@ -111,9 +131,9 @@ def held_out_arrays(held, scenario: str, network, akit_dir, grade: str) -> dict:
     before the history's growth), with the recorded beams and velocity of the same pings."""
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.evaluate import outage_rollout, predict_completer
-    from graphnav.nets.imu_data import akit_imu_series, graded_series, imu_windows
+    from graphnav.nets.imu_data import imu_windows
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE, predict_imu_network
-    series = graded_series(akit_imu_series(held, akit_dir, 1000), grade, 5000)
+    series = held_out_series(held, akit_dir, grade)
     average = AverageCompleter(AVERAGE_N_PAST[scenario])
     n_past = max(network.n_past, average.n_past)
     samples = imu_windows(series, n_past, network.imu_samples, network.ping_dt)
@@ -166,7 +186,6 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
     from graphnav.nets.data import BeamSamples
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
     from graphnav.nets.fused import FusedCompleter, fuse
-    from graphnav.nets.imu_data import akit_imu_series, graded_series
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     from graphnav.nets.outage_calibration import history_sigma
     miss = list(network.missing)
@@ -178,7 +197,7 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
         return history_sigma(raw.reshape(-1, 30, 4), drift).reshape(-1, 4)
     default = BeamHistory(1).drift_std
     fused_pp = fuse(a["pp_full_net"], a["pp_sigma_net"], a["pp_full_avg"], a["pp_sigma_avg"], fit["rho"])
-    series = graded_series(akit_imu_series(held, akit_dir, 1000), grade, 5000)
+    series = held_out_series(held, akit_dir, grade)
     fused = FusedCompleter(network, AverageCompleter(AVERAGE_N_PAST[scenario]), fit["rho"],
                            (fit["growth_net"], fit["growth_avg"]))
     f_full, f_sigma, f_samp = outage_rollout(fused, series, miss, gap=60, settle=OUTAGE_SETTLE)
