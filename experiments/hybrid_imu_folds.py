@@ -41,6 +41,7 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.fused import FusedCompleter
     from graphnav.nets.imu_auto import ImuAutoCompleter
     from graphnav.nets.imu_network import load_imu_completer
+    method = method.removesuffix(" rho fitted")    # screening_rho_folds.py: the same completer, another rho
     if not method.startswith("HNI"):
         return None
     average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
@@ -131,8 +132,9 @@ def load_runs(path: Path, settings: dict) -> tuple[dict, dict]:
         return {}, {}
     saved = json.loads(path.read_text())
     if not isinstance(saved, dict) or saved.get("settings") != settings:
-        raise SystemExit(f"{path} holds runs of other settings ({saved.get('settings') if isinstance(saved, dict) else 'none'}"
-                         f", here {settings}): give another --out or delete it")
+        found = saved.get("settings") if isinstance(saved, dict) else "none"
+        raise SystemExit(f"{path} holds runs of other settings ({found}, here {settings}): give another --out or "
+                         "delete it")
     return {tuple(k): v for k, v in saved["runs"]}, {k: v for k, v in saved.items() if k not in ("settings", "runs")}
 
 

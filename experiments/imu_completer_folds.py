@@ -10,8 +10,10 @@ outages, against the average estimator (N = 5 for 3 missing beams) on the same p
 within 1 and 2 sigma (Gaussian 0.683 / 0.954). Pooled (sample-weighted) numbers and the worst fold come from
 :func:`graphnav.nets.crossval.summarise`.
 
-The schedule is shorter than the shipped one (``ImuTrainOptions``: 60 epochs, 20 rollout epochs, 6 beam-noise
-draws) so that five trainings fit on the shared machine; the defaults below are what the decision page reports.
+The schedule and IMU-grade copies are ``graphnav.nets.imu_training.IMU_RECIPES["graded"]``, shorter than the full
+``ImuTrainOptions`` (60 epochs, 20 rollout epochs, 6 beam-noise draws) so that five trainings fit on the shared
+machine; it is what the decision page reports, and the recipe the shipped weights were trained with on all ten
+trajectories (``graphnav train-beams --imu --recipe graded``).
 Rows are written to ``--out`` after every fold; ``--report`` prints the tables of such a file again.
 
 Calibration (``--calibrate DIR`` on the fold networks ``--save-nets DIR`` wrote): every fold network's and the
@@ -288,14 +290,19 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--missing", default="3-missing", help="scenario (default 3-missing)")
-    p.add_argument("--grades", nargs="*", default=["tactical", "mems"], help="IMU grades of the extra training "
-                   "copies (default tactical mems; none: recorded IMU only)")
+    from graphnav.nets.imu_training import IMU_RECIPES, ImuTrainOptions
+    study, full = IMU_RECIPES["graded"], ImuTrainOptions()     # the study's schedule; the full one
+    p.add_argument("--grades", nargs="*", default=list(study.imu_grades), help="IMU grades of the extra training "
+                   f"copies (default {' '.join(study.imu_grades)}; none: recorded IMU only)")
     p.add_argument("--folds", nargs="+", type=int, help="fold indices to run (default all five)")
-    p.add_argument("--epochs", type=int, default=15, help="one-step epochs (shipped: 60)")
-    p.add_argument("--rollout-epochs", type=int, default=3, help="recursive-stage epochs (shipped: 20)")
-    p.add_argument("--rollout-stride", type=int, default=6, help="pings between rollout starts (shipped: 3)")
-    p.add_argument("--draws", type=int, default=2, help="beam-noise draws per IMU copy (shipped: 6)")
-    p.add_argument("--sigma-epochs", type=int, default=10, help="sigma-head epochs (shipped: 20)")
+    p.add_argument("--epochs", type=int, default=study.epochs, help=f"one-step epochs (full: {full.epochs})")
+    p.add_argument("--rollout-epochs", type=int, default=study.rollout_epochs,
+                   help=f"recursive-stage epochs (full: {full.rollout_epochs})")
+    p.add_argument("--rollout-stride", type=int, default=study.rollout_stride,
+                   help=f"pings between rollout starts (full: {full.rollout_stride})")
+    p.add_argument("--draws", type=int, default=study.draws, help=f"beam-noise draws per IMU copy (full: {full.draws})")
+    p.add_argument("--sigma-epochs", type=int, default=study.sigma_epochs,
+                   help=f"sigma-head epochs (full: {full.sigma_epochs})")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--fused", action="store_true", help="also the network combined with the average by their "
                    "sigmas (graphnav.nets.fused), reported as the variants 'IMU <grade>, fused'")
@@ -314,7 +321,7 @@ def main(argv=None) -> int:
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_network import ImuNetworkCompleter
-    from graphnav.nets.imu_training import ImuTrainOptions, train_imu
+    from graphnav.nets.imu_training import train_imu
     from graphnav.nets.training import save
     from graphnav.nets.model import normalize_missing, scenario_name
     akit_dir = akit_trajectories(a.data)[0].parent

@@ -18,8 +18,8 @@ import warnings
 import numpy as np
 
 
-def collect(mission, scenario: str, window_s: float) -> np.ndarray:
-    """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one run."""
+def collect(mission, scenario: str, window_s: float, completer=None) -> np.ndarray:
+    """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one run (``completer``: the hybrid's own when None)."""
     from graphnav.factors import predict_beams
 
     from graphnav.core.scenarios import scenario_outage
@@ -52,8 +52,9 @@ def collect(mission, scenario: str, window_s: float) -> np.ndarray:
     inc_mod.keyframe_factors, builder_mod.screen_regressed = kf_hook, screen_hook
     try:
         # a gate that never fires makes the graph compute its prediction without changing the plain hybrid
-        run_method(run, "Graph-HN", scenario, options={"screening.gate_k": 1e9, "screening.adaptive": False,
-                                                      "screening.correlation": 0.0, "motion_prior": "off"})
+        run_method(run, "Graph-HN", scenario, completer=completer,
+                   options={"screening.gate_k": 1e9, "screening.adaptive": False, "screening.correlation": 0.0,
+                            "motion_prior": "off"})
     finally:
         inc_mod.keyframe_factors, builder_mod.screen_regressed = orig_kf, orig_screen
     return np.array(rows).reshape(-1, 4)

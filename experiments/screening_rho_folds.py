@@ -11,10 +11,19 @@ sigma and the prediction's error over its sigma (the screening's model: ``cov = 
 ``collect`` runs the plain hybrid, screening off, and ``a`` without ``prediction_var_scale``, a constant factor
 this correlation does not see); then it runs ``Graph-HN`` with that ``rho`` on the
 held-out pair's bench windows (``--max-windows``), beside Graph-TC, all beams and the default Graph-HN on the
-same windows (``experiments/hybrid_imu_folds.py``'s task and tables). Usage::
+same windows (``experiments/hybrid_imu_folds.py``'s task and tables).
+
+With ``--completer`` one of ``hybrid_imu_folds.py``'s IMU-aware completers (``HNI fold``, ``HNI fused``, ``HNI
+fused plain``; ``--nets`` and ``--calibration`` as there), the errors of every trajectory are those of the network of
+the fold that holds that trajectory out, so the ``rho`` of fold k comes from the other folds' networks on
+trajectories they never saw (cross-fitted, as ``imu_completer_folds.py --calibrate``); then that completer runs
+with the default ``rho`` and with the fitted one on fold k's pair. The IMU-aware completer needs a measured beam:
+3-missing only. Usage::
 
     nice -n 5 .venv/bin/python experiments/screening_rho_folds.py --scenario 3-missing 0-beams --jobs 2 \\
         --out out/screening_rho
+    nice -n 5 .venv/bin/python experiments/screening_rho_folds.py --scenario 3-missing --completer "HNI fused" \\
+        --nets out/imu_folds/nets3 --calibration out/imu_folds/cal3.json --jobs 2 --out out/screening_rho_hni
 """
 from __future__ import annotations
 
@@ -25,18 +34,30 @@ from pathlib import Path
 
 import numpy as np
 
-VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "Graph-HN rho fitted")
+FITTED = " rho fitted"
+
+
+def variants(completer: str) -> tuple[str, ...]:
+    """The runs per window: Graph-TC, all beams, the default Graph-HN, the study's completer with the default and
+    the fitted ``rho`` (the average's default run is Graph-HN itself)."""
+    if completer == "average":
+        return ("Graph-TC", "all beams", "Graph-HN", "Graph-HN" + FITTED)
+    return ("Graph-TC", "all beams", "Graph-HN", completer, completer + FITTED)
 
 
 def correlation_task(item):
-    """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one trajectory's plain hybrid (``collect``)."""
-    source, grade, scenario, window_s = item
+    """Rows (e_c, e_p, a, s_c^2) of every regressed beam of one trajectory's plain hybrid (``collect``), with the
+    completer of ``hybrid_imu_folds.completer`` (method, nets, fold, fit; the average when the method is not
+    an IMU-aware one)."""
+    source, grade, scenario, window_s, method, nets_dir, fold, fit = item
     import warnings
     warnings.simplefilter("ignore")
     from graphnav.evaluation.bench import prepared_mission
+    from hybrid_imu_folds import completer
     from regressed_correlation import collect
-    return (source.name, grade, scenario, window_s), collect(prepared_mission(source, grade), scenario,
-                                                             window_s).tolist()
+    mission = prepared_mission(source, grade)
+    comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std)
+    return (source.name, grade, scenario, window_s), collect(mission, scenario, window_s, comp).tolist()
 
 
 def main(argv=None) -> int:
@@ -48,8 +69,19 @@ def main(argv=None) -> int:
     p.add_argument("--max-windows", type=int, default=2, help="held-out windows per trajectory (regime table)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", default="out/screening_rho", help="folder for the collected errors and the runs")
+    p.add_argument("--completer", default="average", choices=["average", "HNI fold", "HNI fused", "HNI fused plain"],
+                   help="the hybrid's completer (default the average estimator; the others: hybrid_imu_folds.py)")
+    p.add_argument("--nets", help="fold networks of an IMU-aware --completer (imu_completer_folds.py --save-nets)")
+    p.add_argument("--calibration", help="fitted rows of --completer 'HNI fused' (imu_completer_folds.py --calibrate)")
     a = p.parse_args(argv)
     from hybrid_imu_folds import fold_table, load_runs, save_runs, table, window_task
+    study = variants(a.completer)
+    imu = a.completer != "average"
+    if imu and (a.nets is None or (a.completer == "HNI fused" and a.calibration is None)):
+        p.error(f"--completer {a.completer!r} needs --nets"
+                + (" and --calibration" if a.completer == "HNI fused" else ""))
+    if imu and a.scenario != ["3-missing"]:
+        p.error("an IMU-aware --completer needs a measured beam: --scenario 3-missing only")
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
@@ -63,15 +95,28 @@ def main(argv=None) -> int:
     name = lambda n: f"Trajectory{n}"  # noqa: E731
     names = [name(k) for pair in AKIT_FOLDS for k in pair]
 
+    from imu_completer_folds import calibration_fits
+    fits = calibration_fits(a.calibration, "3-missing") if a.completer == "HNI fused" else {}
+    fold_of = {name(k): f for f, pair in enumerate(AKIT_FOLDS) for k in pair}
+
+    def fit(f, g):
+        return {key: fits[f, g][key] for key in ("rho", "growth_net", "growth_avg")} if fits else None
+    # what made the errors: the average's file keeps its first form (no settings)
+    source_settings = {"completer": a.completer, "nets": str(Path(a.nets).resolve()),
+                       "calibration": a.calibration and str(Path(a.calibration).resolve())} if imu else {}
     errs_file = out / "errors.json"
-    errors = {tuple(k): np.array(v).reshape(-1, 4) for k, v in json.loads(errs_file.read_text())} \
-        if errs_file.exists() else {}
-    todo = [(sources[n], g, sc, w) for n in names for g in a.grades for sc in a.scenario for w in a.window_s
-            if (n, g, sc, w) not in errors]
+    loaded, _ = load_runs(errs_file, source_settings) if imu else (
+        {tuple(k): v for k, v in json.loads(errs_file.read_text())} if errs_file.exists() else {}, None)
+    errors = {k: np.array(v).reshape(-1, 4) for k, v in loaded.items()}
+    todo = [(sources[n], g, sc, w, a.completer, a.nets, fold_of[n], fit(fold_of[n], g))
+            for n in names for g in a.grades for sc in a.scenario for w in a.window_s if (n, g, sc, w) not in errors]
 
     def got_errors(r):
         errors[r[0]] = np.array(r[1]).reshape(-1, 4)
-        errs_file.write_text(json.dumps([[list(k), v.tolist()] for k, v in errors.items()]))
+        if imu:
+            save_runs(errs_file, source_settings, {k: v.tolist() for k, v in errors.items()})
+        else:
+            errs_file.write_text(json.dumps([[list(k), v.tolist()] for k, v in errors.items()]))
     print(f"{len(todo)} correlation runs to do", file=sys.stderr, flush=True)
     run_tasks(correlation_task, todo, got_errors, jobs=a.jobs)
 
@@ -95,21 +140,23 @@ def main(argv=None) -> int:
 
     for sc in a.scenario:
         runs_file = out / f"runs-{sc}.json"
-        settings = {"scenario": sc, "max_windows": a.max_windows, "window_s": a.window_s, "grades": a.grades}
+        settings = {"scenario": sc, "max_windows": a.max_windows, "window_s": a.window_s, "grades": a.grades,
+                    **source_settings}
         fitted = {f"{f} {g}": rho[f, g, sc] for f in range(len(AKIT_FOLDS)) for g in a.grades}
         results, extra = load_runs(runs_file, settings)
         if extra.get("rho") != fitted:      # runs with another fit of rho are not these
-            results = {k: v for k, v in results.items() if not k[3].endswith("fitted")}
+            results = {k: v for k, v in results.items() if not k[3].endswith(FITTED)}
         items = []
         for f, pair in enumerate(AKIT_FOLDS):
             for k in pair:
                 for g in a.grades:
                     for w in a.window_s:
-                        for v in VARIANTS:
+                        for v in study:
                             if (name(k), g, w, v) in results:
                                 continue
-                            options = {"screening.correlation": rho[f, g, sc]} if v.endswith("fitted") else None
-                            items.append((sources[name(k)], g, sc, w, a.max_windows, v, None, f, None, options))
+                            options = {"screening.correlation": rho[f, g, sc]} if v.endswith(FITTED) else None
+                            items.append((sources[name(k)], g, sc, w, a.max_windows, v, a.nets, f, fit(f, g),
+                                          options))
 
         def got_run(r, results=results, runs_file=runs_file, settings=settings, fitted=fitted):
             results[r[0]] = r[1]
@@ -117,9 +164,9 @@ def main(argv=None) -> int:
         print(f"{sc}: {len(items)} runs to do", file=sys.stderr, flush=True)
         run_tasks(window_task, items, got_run, jobs=a.jobs)
         print(f"\n{sc}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")
-        print(table(results, AKIT_FOLDS, a.grades, a.window_s, VARIANTS))
+        print(table(results, AKIT_FOLDS, a.grades, a.window_s, study))
         print()
-        print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s, VARIANTS))
+        print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s, study))
     return 0
 
 

@@ -50,7 +50,7 @@ class Variant:
 
     Attributes:
         name: short label in tables.
-        akit: also train on the fold's A-KIT training trajectories (else BeamsNet only, as shipped).
+        akit: also train on the fold's A-KIT training trajectories (else BeamsNet only, as the paper).
         residual: the network regresses the change from the average of the past window
             (:class:`~graphnav.nets.model.BeamRegressor` ``residual``).
         copies: augmented copies of every training recording (0: none); each copy turns the velocity by a
@@ -79,7 +79,7 @@ class Variant:
 #: The recipes the out-of-fold table can compare (``graphnav eval-beams --folds --variant NAME``); the default
 #: run is :data:`DEFAULT_VARIANTS`.
 VARIANTS: dict[str, Variant] = {v.name: v for v in (
-    Variant("shipped-recipe"),                                   # BeamsNet only, values (the shipped networks)
+    Variant("paper-recipe"),                                     # BeamsNet only, values (the paper's networks)
     Variant("akit", akit=True),                                  # + A-KIT training folds
     Variant("akit-residual", akit=True, residual=True),          # + change from the average
     Variant("akit-residual-aug", akit=True, residual=True, copies=2),   # + yaw/speed/noise augmentation
@@ -87,7 +87,7 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
 )}
 #: The recipes ``graphnav eval-beams --folds`` runs without ``--variant``: the recursive stage is left out (its
 #: rollouts cost about 8 min of one core per fold on the shared machine, 15x the one-step recipe).
-DEFAULT_VARIANTS: tuple[str, ...] = ("shipped-recipe", "akit", "akit-residual", "akit-residual-aug")
+DEFAULT_VARIANTS: tuple[str, ...] = ("paper-recipe", "akit", "akit-residual", "akit-residual-aug")
 
 
 def check_folds(folds) -> tuple[tuple[int, ...], ...]:
@@ -349,7 +349,7 @@ def _windowable(series, n: int):
     return [s for s in series if len(s.beams) > n]
 
 
-def crossval(data: FoldData, missing, variant: Variant | str = "shipped-recipe", seed: int = 0,
+def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", seed: int = 0,
              outage: bool = True, progress: bool = False, log=None) -> list[dict]:
     """Network (trained per fold with ``variant``) vs average estimator on each fold's held-out recordings.
 
@@ -476,6 +476,25 @@ def with_epochs(variant: Variant, epochs: int) -> Variant:
     return replace(variant, epochs=epochs)
 
 
+def final_metrics(net, train: dict[str, list], variant: Variant, beamsnet_dir, beam_seed: int) -> dict:
+    """Completion metrics of a network trained on everything (:func:`train_final`): ``val`` on the selection part
+    of its recordings (the last :data:`INNER_VAL_FRACTION` of each, which chose the epoch and was never a gradient
+    step), ``test`` on BeamsNet ``V_test.npy`` when the BeamsNet data are there (never trained on)."""
+    from .evaluate import full_beam_vel_rmse, predict_network
+
+    n = net.model.n_past
+    _, select_s = inner_split(train["beamsnet"] + (train["akit"] if variant.akit else []))
+    splits = {"val": beamdata.windows([s for s in select_s if len(s.beams) > n], n)}
+    if train["beamsnet"]:
+        splits["test"] = beamdata.windows(beamdata.beamsnet_series("test", beamsnet_dir, beam_seed), n)
+    metrics = {}
+    for split, samples in splits.items():
+        full, sigma = predict_network(net.model, samples)
+        metrics[split] = completion_metrics(full, sigma, samples, net.missing)
+        metrics[split]["all_beams_vel_rmse"] = full_beam_vel_rmse(samples)
+    return metrics
+
+
 def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=None, beam_seed: int = 0,
                 seed: int = 0, summary: list[dict] | None = None, progress: bool = False):
     """Train ``variant`` on every recording (all ten A-KIT trajectories and all of ``V.npy``; ``V_test`` stays
@@ -492,6 +511,8 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
              "beamsnet": [s for block in data.beamsnet for s in block]}
     t0 = time.perf_counter()
     net = train_network(train, missing, variant, seed, progress)
+    train_time = time.perf_counter() - t0
+    metrics = final_metrics(net, train, variant, beamsnet_dir, beam_seed)
     scen = scenario_name(missing)
     card = {
         **card_header(net.model),
@@ -501,9 +522,12 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
                  "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy")
                  if data.beamsnet else None},
         "split": {"selection": f"last {INNER_VAL_FRACTION:.0%} of every recording (epoch only)"},
-        "training": {**variant_dict(variant), "seed": seed, "time_s": round(time.perf_counter() - t0, 1)},
+        "training": {**variant_dict(variant), "seed": seed, "time_s": round(train_time, 1)},
         "normalisation": {"beam_mean": net.model.beam_mean.tolist(), "beam_std": net.model.beam_std.tolist()},
         "envelope": net.card["envelope"],
+        # one sigma per beam, the selection part's residual RMS (``load_completer(sigma="constant")``)
+        "constant_sigma": metrics["val"]["beam_rmse_per_beam"],
+        "metrics": metrics,
         "selected_by": "leave-trajectories-out cross-validation, graphnav.nets.crossval (graphnav eval-beams "
                        f"--folds): A-KIT folds {[list(f) for f in AKIT_FOLDS]} with BeamsNet mission blocks",
         "out_of_fold": [r for r in (summary or []) if r["variant"] == variant.name and r["scenario"] == scen],

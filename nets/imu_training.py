@@ -71,6 +71,17 @@ class ImuTrainOptions:
     imu_seed: int = 0                   # seed of those errors: imu_seed + 100 * copy + trajectory number
 
 
+#: Recipes of the IMU-aware network chosen by leave-trajectories-out cross-validation
+#: (``experiments/imu_completer_folds.py``, ``docs/decisions/completers.md``), trained on every A-KIT trajectory by
+#: ``graphnav train-beams --imu --recipe NAME``. ``graded``: the schedule the five folds were trained and scored
+#: with, and one copy of every trajectory with tactical and one with MEMS IMU errors (out of fold, the copies made
+#: the worst folds' outages much less bad than the recorded IMU alone).
+IMU_RECIPES = {
+    "graded": ImuTrainOptions(epochs=15, rollout_epochs=3, rollout_stride=6, draws=2, sigma_epochs=10,
+                              imu_grades=("tactical", "mems")),
+}
+
+
 def _tensors(model: ImuBeamRegressor, samples: imu_data.ImuBeamSamples):
     past = torch.as_tensor(samples.past[:, -model.n_past:], dtype=torch.float32)
     meas = torch.as_tensor(samples.beams[:, list(model.kept)], dtype=torch.float32)

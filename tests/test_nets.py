@@ -204,15 +204,17 @@ def test_metrics_and_average_baseline_on_synthetic_data():
 
 
 @pytest.mark.realdata
-def test_shipped_network_beats_the_average_on_validation(beamsnet_dir):
+def test_shipped_network_beats_the_average_on_a_mission_it_never_saw(beamsnet_dir):
+    """V_test (another date, a slow mission moving forward and backward) was never trained on; the sigma is
+    known to be somewhat small there (the model card), not far off."""
     for missing in (2, 3):
         comp = load_completer(missing)
-        samples = beamdata.windows(beamdata.beamsnet_series("val", beamsnet_dir, seed=7), comp.n_past)
+        samples = beamdata.windows(beamdata.beamsnet_series("test", beamsnet_dir, seed=7), comp.n_past)
         net = completion_metrics(*predict_network(comp.model, samples), samples, comp.missing)
         avg = completion_metrics(*predict_completer(AverageCompleter(comp.n_past), samples, comp.missing),
                                  samples, comp.missing)
-        assert net["beam_rmse"] < 0.8 * avg["beam_rmse"]
-        assert 0.55 < net["within_1sigma"] < 0.8 and 0.9 < net["within_2sigma"] < 0.99
+        assert net["beam_rmse"] < 0.8 * avg["beam_rmse"] and net["vel_rmse"] < avg["vel_rmse"]
+        assert 0.5 < net["within_1sigma"] < 0.8 and 0.85 < net["within_2sigma"] < 0.99
 
 
 @pytest.mark.realdata

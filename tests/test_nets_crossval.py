@@ -91,7 +91,7 @@ def test_batch_prediction_matches_complete_ping_by_ping(missing):
     assert 0 < net.fallbacks["envelope"] < len(samples)
 
 
-def test_protocol_on_tiny_synthetic_folds():
+def test_protocol_on_tiny_synthetic_folds(tmp_path):
     akit = {t: [_series(f"Trajectory{t}", seed=t, phase=13.0 * t)] for t in (1, 2, 3, 4)}
     data = cv.FoldData(akit, [], [], cv.check_folds([(1, 2), (3, 4)]))
     variant = cv.Variant("tiny", akit=True, residual=True, epochs=2, patience=1, sigma_epochs=1, batch_size=64)
@@ -120,6 +120,21 @@ def test_protocol_on_tiny_synthetic_folds():
     avg0 = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (0, "per ping", "average"))
     assert f"{100 * (1 - net0['beam_rmse'] / avg0['beam_rmse']):+.1f} %" in gains[2]
 
+    # the rows that chose a recipe go into its model card (train-beams --recipe --out-of-fold)
+    import json
+
+    from graphnav.commands.train_beams import out_of_fold_summary
+    from graphnav.core.errors import ConfigError
+    other = [{**r, "variant": "other", "beam_rmse": 1.0} for r in rows]
+    folds_json = tmp_path / "cv.json"
+    folds_json.write_text(json.dumps(rows + other))
+    assert out_of_fold_summary([str(folds_json)], "tiny", ["2-missing"]) == summary
+    with pytest.raises(ConfigError, match="no rows of recipe 'tiny' for 3-missing"):
+        out_of_fold_summary([str(folds_json)], "tiny", ["2-missing", "3-missing"])
+    (tmp_path / "bench.json").write_text(json.dumps({"runs": []}))
+    with pytest.raises(ConfigError, match="bench.json: not the fold rows"):
+        out_of_fold_summary([str(tmp_path / "bench.json")], "tiny", ["2-missing"])
+
 
 def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():
     s = _series("a")
@@ -130,6 +145,10 @@ def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():
         ratio = np.linalg.norm(c.v_b, axis=1) / np.linalg.norm(s.v_b, axis=1)
         assert np.ptp(ratio) < 1e-9 and 0.9 <= ratio[0] <= 1.1
         assert not np.allclose(c.beams, s.beams)
+
+
+def beamsnet_series_test(beamsnet_dir):
+    return beamdata.beamsnet_series("test", beamsnet_dir).beams
 
 
 def test_real_folds_and_final_training_round_trip(akit_dir, beamsnet_dir, tmp_path):
@@ -150,3 +169,12 @@ def test_real_folds_and_final_training_round_trip(akit_dir, beamsnet_dir, tmp_pa
     completer = load_completer(2, directory=tmp_path)
     assert completer.model.residual and "cross-validation" in completer.card["selected_by"]
     assert completer.card["training"]["name"] == "tiny"
+    # its metrics: the selection part of the recordings and V_test (never trained on); one sigma per beam
+    metrics = completer.card["metrics"]
+    test_beams = beamsnet_series_test(beamsnet_dir)
+    assert metrics["test"]["n"] == len(test_beams) - completer.n_past
+    assert 0 < metrics["val"]["beam_rmse"] < 1 and 0 < metrics["test"]["beam_rmse"] < 1
+    constant = load_completer(2, directory=tmp_path, sigma="constant")
+    past, measured = test_beams[100:103], test_beams[103].copy()
+    measured[[0, 2]] = np.nan
+    np.testing.assert_allclose(constant.complete(past, measured)[1][[0, 2]], completer.card["constant_sigma"])

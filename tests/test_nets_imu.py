@@ -152,8 +152,10 @@ def test_shipped_imu_weights_load_and_predict_deterministically(missing, pattern
     comp = load_imu_completer(missing)
     assert comp.needs_imu and comp.missing == pattern and comp.imu_samples == 2000
     assert comp.n_past == {2: 5, 3: 3}[missing]
-    assert comp.card["split"]["val_trajectories"] == [3, 5, 6]
-    assert not set(comp.card["split"]["val_trajectories"]) & set(comp.card["split"]["train_trajectories"])
+    # chosen out of fold, then trained on every A-KIT trajectory: the card says so
+    assert "cross-validation" in comp.card["selected_by"] and comp.card["split"]["val_trajectories"] == []
+    assert comp.card["split"]["train_trajectories"] == [1, 2, 3, 4, 5, 6, 8, 10, 11, 13]
+    assert comp.card["training"]["imu_grades"] == ["tactical", "mems"]
     f_b, omega_b, v = _steady_turn()
     T = DvlGeometry.from_spec(DvlSpec()).T_b
     beams = v @ T.T
@@ -294,3 +296,21 @@ def test_cli_parsers_imu():
     assert args.imu and args.imu_epochs == 3
     args = build_parser().parse_args(["eval-beams", "--imu", "--trajectories", "3,5"])
     assert args.imu and args.trajectories == "3,5"
+
+
+def test_train_beams_refuses_recipes_it_does_not_know_before_training(tmp_path):
+    from graphnav.cli import build_parser
+    from graphnav.commands import train_beams
+    from graphnav.core.errors import ConfigError
+    from graphnav.nets.imu_training import IMU_RECIPES
+
+    assert IMU_RECIPES["graded"].imu_grades == ("tactical", "mems")
+    parse = build_parser().parse_args
+    out = str(tmp_path / "out")
+    with pytest.raises(ConfigError, match="--imu --recipe 'akit-residual-aug' unknown; choose from \\['graded'\\]"):
+        train_beams.run(parse(["train-beams", "--imu", "--recipe", "akit-residual-aug", "--out", out]))
+    with pytest.raises(ConfigError, match="--out-of-fold goes with a beam-only --recipe"):
+        train_beams.run(parse(["train-beams", "--imu", "--recipe", "graded", "--out-of-fold", "cv.json", "--out", out]))
+    with pytest.raises(ConfigError, match="--out-of-fold goes with a beam-only --recipe"):
+        train_beams.run(parse(["train-beams", "--out-of-fold", "cv.json", "--out", out]))
+    assert not (tmp_path / "out").exists()

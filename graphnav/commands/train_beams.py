@@ -49,7 +49,8 @@ def register(subparsers) -> None:
                         "(IMU + DVL), split by trajectory (train 1 2 4 8 10 11 13, validation 3 5 6), Adam, "
                         "early stopping on the last 20 %% of each training trajectory; prints the validation "
                         "table. Uses --scenario, --seed, --beam-seed, --threads, --out; --data is the "
-                        "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule")
+                        "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule; --recipe graded "
+                        "trains the recipe chosen out of fold on all ten trajectories instead")
     p.add_argument("--imu-epochs", type=int, default=60, help="maximum epochs of the IMU-aware network (default 60)")
     p.add_argument("--imu-draws", type=int, default=6,
                    help="beam-noise draws of the training trajectories for the IMU-aware network (default 6)")
@@ -57,32 +58,54 @@ def register(subparsers) -> None:
                    help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (e.g. akit-residual-aug) "
                         "on all ten A-KIT trajectories and all of V.npy instead of the paper's BeamsNet split; "
                         "--data is then the folder holding snapir-2022-akit and snapir-2021-beamsnet (default: "
-                        "GRAPHNAV_DATA); uses --scenario, --seed, --beam-seed, --threads, --out")
+                        "GRAPHNAV_DATA); uses --scenario, --seed, --beam-seed, --threads, --out. With --imu: a "
+                        "recipe of graphnav.nets.imu_training.IMU_RECIPES (graded: the schedule and IMU-grade "
+                        "copies of the leave-trajectories-out study) trained on all ten A-KIT trajectories")
+    p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
+                   help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
+                        "and worst-fold numbers of this recipe go into the model card ('out_of_fold')")
     p.set_defaults(func=run)
 
 
 def run_imu(args, out: Path) -> list[Path]:
     """``--imu``: train the IMU-aware networks into ``out`` and print their validation table; returns the
     files written."""
+    from dataclasses import replace
+
+    from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_evaluate import format_imu_table
-    from graphnav.nets.imu_training import ImuTrainOptions, train_imu
+    from graphnav.nets.imu_training import IMU_RECIPES, ImuTrainOptions, train_imu
     from graphnav.nets.training import save
 
     if args.missing is not None:
         raise ConfigError("--imu trains the 2-missing and 3-missing scenarios; use --scenario, not --missing")
+    if args.recipe is not None and args.recipe not in IMU_RECIPES:
+        raise ConfigError(f"--imu --recipe {args.recipe!r} unknown; choose from {list(IMU_RECIPES)}")
     written = []
-    opt = ImuTrainOptions(epochs=args.imu_epochs, draws=args.imu_draws, seed=args.seed, beam_seed=args.beam_seed,
-                          threads=args.threads)
+    if args.recipe:     # chosen out of fold: trained on every trajectory, nothing left to validate on
+        opt = replace(IMU_RECIPES[args.recipe], seed=args.seed, beam_seed=args.beam_seed, threads=args.threads)
+        trajectories = sorted(t for pair in AKIT_FOLDS for t in pair)
+    else:
+        opt = ImuTrainOptions(epochs=args.imu_epochs, draws=args.imu_draws, seed=args.seed,
+                              beam_seed=args.beam_seed, threads=args.threads)
+        trajectories = None
     for scenario in args.scenario or ["2-missing", "3-missing"]:
-        result = train_imu(scenario, opt, args.data, progress=not args.no_progress)
+        result = train_imu(scenario, opt, args.data, progress=not args.no_progress, evaluate=not args.recipe,
+                           trajectories=trajectories)
+        card = result.card
+        if args.recipe:
+            card["selected_by"] = ("leave-trajectories-out cross-validation, experiments/imu_completer_folds.py: "
+                                   f"A-KIT folds {[list(f) for f in AKIT_FOLDS]}, recipe {args.recipe!r}")
         pt, js = save(result, out)
         written += [pt, js]
-        card = result.card
         print(f"{card['name']}: N={card['n_past']} IMU window {card['imu_samples']} samples, "
               f"{card['n_parameters']} parameters, epochs={card['training']['epochs_run']} "
               f"(best {card['training']['best_epoch']}) time={card['training']['time_s']:.1f} s; "
-              f"validation trajectories {card['split']['val_trajectories']}")
-        print(format_imu_table(card["metrics_val"]))
+              + (f"validation trajectories {card['split']['val_trajectories']}" if not args.recipe
+                 else f"trained on trajectories {card['split']['train_trajectories']}, chosen by "
+                      f"{card['selected_by']}"))
+        if "metrics_val" in card:
+            print(format_imu_table(card["metrics_val"]))
     return written
 
 
@@ -95,30 +118,56 @@ def run_recipe(args, out: Path) -> list[Path]:
 
     if args.recipe not in crossval.VARIANTS:
         raise ConfigError(f"--recipe {args.recipe!r} unknown; choose from {list(crossval.VARIANTS)}")
-    if args.imu or args.missing is not None:
-        raise ConfigError("--recipe trains the beam-only 2-missing / 3-missing networks; drop --imu / --missing")
+    if args.missing is not None:
+        raise ConfigError("--recipe trains the 2-missing / 3-missing networks; drop --missing")
     akit = beamsnet = None
     if args.data:
         akit, beamsnet = Path(args.data) / "snapir-2022-akit", Path(args.data) / "snapir-2021-beamsnet"
+    scenarios = args.scenario or ["2-missing", "3-missing"]
+    summary = out_of_fold_summary(args.out_of_fold, args.recipe, scenarios) if args.out_of_fold else None
     torch.set_num_threads(args.threads)
     written = []
-    for scenario in args.scenario or ["2-missing", "3-missing"]:
+    for scenario in scenarios:
         result = crossval.train_final(scenario, args.recipe, akit, beamsnet, args.beam_seed, args.seed,
-                                      progress=not args.no_progress)
+                                      summary=summary, progress=not args.no_progress)
         written += list(save(result, out))
         print(f"{scenario}: recipe {args.recipe}, {result.card['training']['time_s']:.1f} s; "
               f"chosen by {result.card['selected_by']}")
     return written
 
 
+def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> list[dict]:
+    """Pooled and worst-fold rows (:func:`graphnav.nets.crossval.summarise`) of ``recipe`` from the fold rows in
+    ``files`` (``eval-beams --folds --json``); a file that is not such rows, or rows missing a scenario, is a
+    ``ConfigError`` naming it."""
+    from graphnav.nets import crossval
+
+    rows = []
+    for name in files:
+        try:
+            loaded = json.loads(Path(name).read_text())
+        except (OSError, ValueError) as exc:
+            raise ConfigError(f"--out-of-fold {name}: cannot read it as JSON ({exc})") from exc
+        if not isinstance(loaded, list) or not all(isinstance(r, dict) and "fold" in r for r in loaded):
+            raise ConfigError(f"--out-of-fold {name}: not the fold rows of 'graphnav eval-beams --folds --json'")
+        rows += [r for r in loaded if r.get("variant") == recipe]
+    missing = [s for s in scenarios if not any(r.get("scenario") == s for r in rows)]
+    if missing:
+        raise ConfigError(f"--out-of-fold {' '.join(files)}: no rows of recipe {recipe!r} for {', '.join(missing)}")
+    return crossval.summarise(rows)
+
+
 def run(args) -> int:
     from graphnav.commands.common import StagedOut
 
+    if args.out_of_fold and (not args.recipe or args.imu):
+        raise ConfigError("--out-of-fold goes with a beam-only --recipe: it names the rows that chose the recipe")
+
     with StagedOut(args.out, args.force) as staged:
-        if args.recipe:
-            written = run_recipe(args, staged.path)
+        if args.imu:
+            written = run_imu(args, staged.path)
         else:
-            written = run_imu(args, staged.path) if args.imu else run_beams(args, staged.path)
+            written = run_recipe(args, staged.path) if args.recipe else run_beams(args, staged.path)
     finals = [Path(staged.final(p)) for p in written]
     print("wrote " + ", ".join(str(p) for p in finals))
     if args.install_weights:
