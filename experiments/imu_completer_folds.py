@@ -36,6 +36,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +79,9 @@ def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_d
             if r["method"] == "imu+average":
                 rows.append({**base, "method": "network", "variant": f"IMU {grade}, fused"})
                 continue
-            method = {"imu-network": "network", "network": "beam-network"}.get(r["method"], r["method"])
+            if r["method"] == "network":    # the shipped beam-only network, trained on every trajectory
+                continue
+            method = {"imu-network": "network"}.get(r["method"], r["method"])
             rows.append({**base, "method": method, "variant": f"IMU {grade}"})
             if fused and method == "average":
                 rows.append({**base, "method": method, "variant": f"IMU {grade}, fused"})
@@ -326,9 +329,8 @@ def main(argv=None) -> int:
     from graphnav.nets.model import normalize_missing, scenario_name
     akit_dir = akit_trajectories(a.data)[0].parent
     scenario = scenario_name(normalize_missing(a.missing))
-    opt = ImuTrainOptions(epochs=a.epochs, rollout_epochs=a.rollout_epochs, rollout_stride=a.rollout_stride,
-                          draws=a.draws, sigma_epochs=a.sigma_epochs, seed=a.seed, threads=1,
-                          imu_grades=tuple(a.grades))
+    opt = replace(study, epochs=a.epochs, rollout_epochs=a.rollout_epochs, rollout_stride=a.rollout_stride,
+                  draws=a.draws, sigma_epochs=a.sigma_epochs, seed=a.seed, threads=1, imu_grades=tuple(a.grades))
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if a.calibrate:

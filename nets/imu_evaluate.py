@@ -39,7 +39,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
     the estimators use it, :data:`graphnav.nets.average.AVERAGE_N_PAST`) and
-    ``network`` (the shipped beam-only network of the paper). ``completers`` maps a scenario to an
+    ``network`` (the shipped beam-only network). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     ``tail_fraction``: only the last part of each trajectory (the selection pings of the training
     trajectories, :class:`~graphnav.nets.imu_training.ImuTrainOptions` ``select_fraction``); the outage windows

@@ -4,7 +4,7 @@ Stage 1 is the paper's recipe: MSE on normalised beams, RMSprop, batch 4, learni
 every 35 epochs, at most 100 epochs; the weights of the epoch with the lowest validation MSE are kept.
 With ``patience`` (30 epochs by default) training stops early; the weights are then the same as after
 all 100 epochs whenever the best epoch comes more than ``patience`` epochs before the end, as it did for
-both shipped networks (best epochs 6 and 22 of 100). Stage 2 freezes that network and fits the sigma
+both networks shipped with this recipe (best epochs 6 and 22 of 100). Stage 2 freezes that network and fits the sigma
 head with the Gaussian negative log-likelihood (Adam), again keeping the best validation epoch.
 Everything is seeded; with one thread (the default) a rerun gives the same weights bit for bit.
 """

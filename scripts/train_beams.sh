@@ -4,7 +4,7 @@
 # Usage: scripts/train_beams.sh [OUT_DIR]   (default out/train-beams; needs ../shared/data or GRAPHNAV_DATA).
 # Beam-only (akit-residual-aug): its out-of-fold rows first, for the model card (about 6 min per scenario), then
 # about 1.5 min of training; IMU-aware (graded, all ten A-KIT trajectories): about 2 min of training per
-# scenario, 5-8 min with loading. One thread each, seeded: a rerun gives the same weights.
+# scenario, 5-8 min for both with loading. One thread each, seeded: a rerun gives the same weights.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-.venv/bin/python}
@@ -12,7 +12,7 @@ OUT=${1:-out/train-beams}
 DATA=${GRAPHNAV_DATA:-../shared/data}
 mkdir -p "$OUT"
 for s in 2-missing 3-missing; do
-  $PY -m graphnav eval-beams --folds --variant akit-residual-aug --scenario "$s" --akit "$DATA/snapir-2022-akit" \
+  nice -n 10 $PY -m graphnav eval-beams --folds --variant akit-residual-aug --scenario "$s" --akit "$DATA/snapir-2022-akit" \
     --beamsnet "$DATA/snapir-2021-beamsnet" --json "$OUT/cv-$s.json"
 done
 $PY -m graphnav train-beams --recipe akit-residual-aug --data "$DATA" --out "$OUT/beams" --force --no-progress \

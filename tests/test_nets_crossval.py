@@ -131,6 +131,12 @@ def test_protocol_on_tiny_synthetic_folds(tmp_path):
     assert out_of_fold_summary([str(folds_json)], "tiny", ["2-missing"]) == summary
     with pytest.raises(ConfigError, match="no rows of recipe 'tiny' for 3-missing"):
         out_of_fold_summary([str(folds_json)], "tiny", ["2-missing", "3-missing"])
+    with pytest.raises(ConfigError, match="a fold's rows appear twice"):
+        out_of_fold_summary([str(folds_json), str(folds_json)], "tiny", ["2-missing"])
+    unfinished = tmp_path / "unfinished.json"
+    unfinished.write_text(json.dumps([r for r in rows if not (r["fold"] == 1 and r["mode"] == "per ping")]))
+    with pytest.raises(ConfigError, match="not every scenario and mode has the same folds"):
+        out_of_fold_summary([str(unfinished)], "tiny", ["2-missing"])
     (tmp_path / "bench.json").write_text(json.dumps({"runs": []}))
     with pytest.raises(ConfigError, match="bench.json: not the fold rows"):
         out_of_fold_summary([str(tmp_path / "bench.json")], "tiny", ["2-missing"])

@@ -81,6 +81,8 @@ def run_imu(args, out: Path) -> list[Path]:
         raise ConfigError("--imu trains the 2-missing and 3-missing scenarios; use --scenario, not --missing")
     if args.recipe is not None and args.recipe not in IMU_RECIPES:
         raise ConfigError(f"--imu --recipe {args.recipe!r} unknown; choose from {list(IMU_RECIPES)}")
+    if args.recipe is not None and (args.imu_epochs, args.imu_draws) != (ImuTrainOptions.epochs, ImuTrainOptions.draws):
+        raise ConfigError("--imu --recipe sets its own schedule; drop --imu-epochs / --imu-draws")
     written = []
     if args.recipe:     # chosen out of fold: trained on every trajectory, nothing left to validate on
         opt = replace(IMU_RECIPES[args.recipe], seed=args.seed, beam_seed=args.beam_seed, threads=args.threads)
@@ -154,6 +156,15 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> 
     missing = [s for s in scenarios if not any(r.get("scenario") == s for r in rows)]
     if missing:
         raise ConfigError(f"--out-of-fold {' '.join(files)}: no rows of recipe {recipe!r} for {', '.join(missing)}")
+    keys = [(r.get("dataset"), r.get("scenario"), r.get("mode"), r.get("method"), r["fold"]) for r in rows]
+    if len(set(keys)) < len(keys):
+        raise ConfigError(f"--out-of-fold {' '.join(files)}: a fold's rows appear twice (the same file or fold given "
+                          "twice)")
+    folds = {(d, sc, mode): {f for d2, sc2, m2, _, f in keys if (d2, sc2, m2) == (d, sc, mode)} for d, sc, mode, _, _
+             in keys}
+    if len({frozenset(f) for f in folds.values()}) > 1:
+        raise ConfigError(f"--out-of-fold {' '.join(files)}: not every scenario and mode has the same folds (an "
+                          "unfinished run?)")
     return crossval.summarise(rows)
 
 

@@ -236,8 +236,8 @@ _RECORDS = (
 #: Every method by name, in the order tables and plots show them (iterating gives the names).
 METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECORDS})
 #: The default method list of ``graphnav bench`` and the start sweep: every method but the experimental ones
-#: (the IMU-aware completer's: with the MEMS IMU they are worse than Graph-TC / TC -- Graph-HNI 0.386 vs 0.317
-#: m/s in 120 s 3-missing windows on its validation trajectories 3, 5, 6; docs/decisions/regressed-beams.md).
+#: (the IMU-aware completer's: out of fold, 1.06x Graph-TC in its worst fold with a MEMS IMU, and with the
+#: screening's correlation fitted for it no help; docs/decisions/completers.md, regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))
 #: The EKF methods and the graph methods, in table order.
 EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")
