@@ -14,7 +14,11 @@ the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepare
 - ``HNI fused``: the same fused with the average (:class:`graphnav.nets.fused.FusedCompleter`) with the fold's
   correlation and outage growths, fitted on the other folds (``imu_completer_folds.py --calibrate``, rows of the
   evaluation IMU of the run's grade);
-- ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted).
+- ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted);
+- ``HN-net fold`` (with ``--beam-nets DIR``, ``graphnav eval-beams --folds --save-nets``): the fold's beam-only
+  network, as ``Graph-HN-net`` runs the shipped one.
+
+``--variants`` picks the runs (default the six above; Graph-TC and all beams are needed for the tables).
 
 Printed: window VRMSE mean per cell and method, the ratio to Graph-TC pooled and per fold (targets: <= 1.02x
 everywhere, <= 0.7x where all beams give <= 0.5x). Usage::
@@ -41,7 +45,10 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.fused import FusedCompleter
     from graphnav.nets.imu_auto import ImuAutoCompleter
     from graphnav.nets.imu_network import load_imu_completer
+    from graphnav.nets.network import load_completer
     method = method.removesuffix(" rho fitted")    # screening_rho_folds.py: the same completer, another rho
+    if method == "HN-net fold":
+        return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):
         return None
     average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
@@ -71,7 +78,7 @@ def window_task(item):
     run = mission if method == "all beams" else mission.with_outage(
         *[scenario_outage(scenario, s, window_s) for s in starts])
     comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std)
-    name = ("Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith(("HNI", "Graph-HN"))
+    name = ("Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith(("HNI", "HN-net", "Graph-HN"))
             else method)
     sol = run_method(run, name, scenario, completer=comp, options=options)
     return ((source.name, grade, window_s, method),
@@ -146,8 +153,12 @@ def save_runs(path: Path, settings: dict, runs: dict, **extra) -> None:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
-    p.add_argument("--nets", required=True, help="the fold networks (imu_completer_folds.py --save-nets DIR)")
-    p.add_argument("--calibration", required=True, help="rows of imu_completer_folds.py --calibrate (JSON)")
+    p.add_argument("--nets", help="the IMU-aware fold networks (imu_completer_folds.py --save-nets DIR)")
+    p.add_argument("--calibration", help="rows of imu_completer_folds.py --calibrate (JSON), for 'HNI fused'")
+    p.add_argument("--beam-nets", help="the beam-only fold networks of one recipe (graphnav eval-beams --folds "
+                   "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
+    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=[*VARIANTS, "HN-net fold"],
+                   help="the runs per window (default: " + ", ".join(VARIANTS) + ")")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
     p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
@@ -156,6 +167,13 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="out/imu_folds/hybrid.json", help="results (JSON); a rerun with the same "
                    "settings resumes from it")
     a = p.parse_args(argv)
+    if not {"Graph-TC", "all beams"} <= set(a.variants):
+        p.error("--variants needs Graph-TC and all beams: the tables are ratios to Graph-TC, beside all beams")
+    for needs, arg, flag in (("HNI", a.nets, "--nets"), ("HNI fused", a.calibration, "--calibration"),
+                             ("HN-net", a.beam_nets, "--beam-nets")):
+        used = [v for v in a.variants if v == needs or (needs != "HNI fused" and v.startswith(needs))]
+        if used and arg is None:
+            p.error(f"{', '.join(used)} need {flag}")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
@@ -163,21 +181,24 @@ def main(argv=None) -> int:
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     from imu_completer_folds import calibration_fits
-    fits = calibration_fits(a.calibration, a.scenario)
+    fits = calibration_fits(a.calibration, a.scenario) if a.calibration else {}
     out = Path(a.out)
-    settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": str(Path(a.nets).resolve()),
-                "calibration": str(Path(a.calibration).resolve())}
+    resolved = lambda path: path and str(Path(path).resolve())  # noqa: E731
+    settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": resolved(a.nets),
+                "calibration": resolved(a.calibration)}
+    if a.beam_nets:     # files of the first form (no beam-only networks) keep their settings
+        settings["beam_nets"] = resolved(a.beam_nets)
     results, _ = load_runs(out, settings)
     items = []
     for f, pair in enumerate(AKIT_FOLDS):
         for k in pair:
             for g in a.grades:
-                fit = fits[f, g]
-                fit = {key: fit[key] for key in ("rho", "growth_net", "growth_avg")}
+                fit = {key: fits[f, g][key] for key in ("rho", "growth_net", "growth_avg")} if fits else None
                 for w in a.window_s:
-                    for m in VARIANTS:
+                    for m in a.variants:
                         if (f"Trajectory{k}", g, w, m) not in results:
-                            items.append((sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, m, a.nets, f,
+                            nets = a.beam_nets if m.startswith("HN-net") else a.nets
+                            items.append((sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, m, nets, f,
                                           fit))
 
     def finished(r):
@@ -186,9 +207,9 @@ def main(argv=None) -> int:
     print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
     run_tasks(window_task, items, finished, jobs=a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")
-    print(table(results, AKIT_FOLDS, a.grades, a.window_s))
+    print(table(results, AKIT_FOLDS, a.grades, a.window_s, a.variants))
     print()
-    print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s))
+    print(fold_table(results, AKIT_FOLDS, a.grades, a.window_s, a.variants))
     return 0
 
 

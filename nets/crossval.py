@@ -350,11 +350,14 @@ def _windowable(series, n: int):
 
 
 def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", seed: int = 0,
-             outage: bool = True, progress: bool = False, log=None) -> list[dict]:
+             outage: bool = True, progress: bool = False, log=None, save_dir=None) -> list[dict]:
     """Network (trained per fold with ``variant``) vs average estimator on each fold's held-out recordings.
 
     Per-ping samples need the network's past window (N = 3 for 2 missing, 5 for 3 missing, as the average's),
     so both completers are scored on the same pings. Outage windows start at ping 10 of a recording.
+    ``save_dir``: also save fold i's network (weights and card, loadable by
+    :func:`graphnav.nets.load_completer` with ``directory``) to ``save_dir/fold<i>``, for studies that run it on
+    fold i's held-out trajectories only.
 
     Returns:
         rows: fold (index), held_out (names), dataset, scenario, mode, method, variant and the
@@ -368,6 +371,16 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
         t0 = time.perf_counter()
         train, held = data.split(i)
         net = train_network(train, missing, variant, seed + i, progress)
+        if save_dir is not None:
+            from pathlib import Path
+
+            from .training import TrainResult, card_header, save
+            save(TrainResult(net.model, {
+                **card_header(net.model), "data": {"source": "crossval fold", "held_out": list(data.folds[i])},
+                "training": {**variant_dict(variant), "seed": seed + i},
+                "normalisation": {"beam_mean": net.model.beam_mean.tolist(),
+                                  "beam_std": net.model.beam_std.tolist()},
+                "envelope": net.card["envelope"]}), Path(save_dir) / f"fold{i}")
         avg = AverageCompleter(AVERAGE_N_PAST.get(scen, net.n_past))
         for dname, series in held.items():
             series = _windowable(series, max(net.n_past, avg.n_past) + 1)

@@ -95,7 +95,16 @@ def test_protocol_on_tiny_synthetic_folds(tmp_path):
     akit = {t: [_series(f"Trajectory{t}", seed=t, phase=13.0 * t)] for t in (1, 2, 3, 4)}
     data = cv.FoldData(akit, [], [], cv.check_folds([(1, 2), (3, 4)]))
     variant = cv.Variant("tiny", akit=True, residual=True, epochs=2, patience=1, sigma_epochs=1, batch_size=64)
-    rows = cv.crossval(data, "2-missing", variant)
+    rows = cv.crossval(data, "2-missing", variant, save_dir=tmp_path / "nets")
+    # each fold's network is kept, loadable, and completes the held-out pings as it was scored
+    from graphnav.nets import load_completer
+    from graphnav.nets.evaluate import completion_metrics, predict_network
+    fold1 = load_completer(2, directory=tmp_path / "nets" / "fold1")
+    assert fold1.card["data"]["held_out"] == [3, 4] and fold1.model.residual
+    held = beamdata.windows([akit[t][0] for t in (3, 4)], fold1.n_past)
+    scored = next(r for r in rows if (r["fold"], r["mode"], r["method"]) == (1, "per ping", "network"))
+    assert completion_metrics(*predict_network(fold1.model, held), held, (0, 2))["beam_rmse"] == pytest.approx(
+        scored["beam_rmse"], rel=1e-6)
     assert {(r["fold"], r["mode"], r["method"]) for r in rows} == {
         (f, m, k) for f in (0, 1) for m in ("per ping", "outage 30 s") for k in ("network", "average")}
     # the average's per-ping numbers, computed here independently

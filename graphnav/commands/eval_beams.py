@@ -49,6 +49,9 @@ def register(subparsers) -> None:
                         "graphnav.nets.crossval.VARIANTS; default: paper-recipe, akit, akit-residual, "
                         "akit-residual-aug)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
+    p.add_argument("--save-nets", default=None, metavar="DIR",
+                   help="with --folds: also save each fold's network to DIR/<variant>/fold<k> (weights and card), "
+                        "for studies that run it on that fold's held-out trajectories")
     p.set_defaults(func=run)
 
 
@@ -132,7 +135,8 @@ def run_folds(args) -> int:
     for name in names:
         for scen in args.scenario or ("2-missing", "3-missing"):
             rows += crossval.crossval(data, scen, name, outage=not args.no_outage,
-                                      log=lambda msg: print(msg, file=sys.stderr, flush=True))
+                                      log=lambda msg: print(msg, file=sys.stderr, flush=True),
+                                      save_dir=f"{args.save_nets}/{name}" if args.save_nets else None)
             if args.json:
                 with open(args.json, "w") as fh:
                     json.dump(rows, fh, indent=1)
