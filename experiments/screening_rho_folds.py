@@ -13,12 +13,13 @@ this correlation does not see); then it runs ``Graph-HN`` with that ``rho`` on t
 held-out pair's bench windows (``--max-windows``), beside Graph-TC, all beams and the default Graph-HN on the
 same windows (``experiments/hybrid_imu_folds.py``'s task and tables).
 
-With ``--completer`` one of ``hybrid_imu_folds.py``'s IMU-aware completers (``HNI fold``, ``HNI fused``, ``HNI
-fused plain``; ``--nets`` and ``--calibration`` as there), the errors of every trajectory are those of the network of
+With ``--completer`` one of ``hybrid_imu_folds.py``'s fold-network completers (the IMU-aware ``HNI fold``, ``HNI
+fused``, ``HNI fused plain``, or the beam-only ``HN-net fold``; ``--nets`` and ``--calibration`` as there), the errors
+of every trajectory are those of the network of
 the fold that holds that trajectory out, so the ``rho`` of fold k comes from the other folds' networks on
 trajectories they never saw (cross-fitted, as ``imu_completer_folds.py --calibrate``); then that completer runs
-with the default ``rho`` and with the fitted one on fold k's pair. The IMU-aware completer needs a measured beam:
-3-missing only. Usage::
+with the default ``rho`` and with the fitted one on fold k's pair. The networks need a measured beam: one scenario,
+2-missing or 3-missing. Usage::
 
     nice -n 5 .venv/bin/python experiments/screening_rho_folds.py --scenario 3-missing 0-beams --jobs 2 \\
         --out out/screening_rho
@@ -69,19 +70,21 @@ def main(argv=None) -> int:
     p.add_argument("--max-windows", type=int, default=2, help="held-out windows per trajectory (regime table)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", default="out/screening_rho", help="folder for the collected errors and the runs")
-    p.add_argument("--completer", default="average", choices=["average", "HNI fold", "HNI fused", "HNI fused plain"],
+    p.add_argument("--completer", default="average",
+                   choices=["average", "HNI fold", "HNI fused", "HNI fused plain", "HN-net fold"],
                    help="the hybrid's completer (default the average estimator; the others: hybrid_imu_folds.py)")
-    p.add_argument("--nets", help="fold networks of an IMU-aware --completer (imu_completer_folds.py --save-nets)")
+    p.add_argument("--nets", help="fold networks of a network --completer (imu_completer_folds.py --save-nets DIR; "
+                   "for 'HN-net fold', graphnav eval-beams --folds --save-nets DIR: DIR/<recipe>)")
     p.add_argument("--calibration", help="fitted rows of --completer 'HNI fused' (imu_completer_folds.py --calibrate)")
     a = p.parse_args(argv)
     from hybrid_imu_folds import fold_table, load_runs, save_runs, table, window_task
     study = variants(a.completer)
-    imu = a.completer != "average"
+    imu = a.completer != "average"     # a fold network: each trajectory completed by the fold that holds it out
     if imu and (a.nets is None or (a.completer == "HNI fused" and a.calibration is None)):
         p.error(f"--completer {a.completer!r} needs --nets"
                 + (" and --calibration" if a.completer == "HNI fused" else ""))
-    if imu and a.scenario != ["3-missing"]:
-        p.error("an IMU-aware --completer needs a measured beam: --scenario 3-missing only")
+    if imu and (len(a.scenario) != 1 or a.scenario[0] not in ("2-missing", "3-missing")):
+        p.error("a network --completer needs a measured beam: one --scenario, 2-missing or 3-missing")
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
@@ -96,7 +99,7 @@ def main(argv=None) -> int:
     names = [name(k) for pair in AKIT_FOLDS for k in pair]
 
     from imu_completer_folds import calibration_fits
-    fits = calibration_fits(a.calibration, "3-missing") if a.completer == "HNI fused" else {}
+    fits = calibration_fits(a.calibration, a.scenario[0]) if a.completer == "HNI fused" else {}
     fold_of = {name(k): f for f, pair in enumerate(AKIT_FOLDS) for k in pair}
 
     def fit(f, g):
