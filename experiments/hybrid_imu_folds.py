@@ -169,11 +169,12 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     if not {"Graph-TC", "all beams"} <= set(a.variants):
         p.error("--variants needs Graph-TC and all beams: the tables are ratios to Graph-TC, beside all beams")
-    for needs, arg, flag in (("HNI", a.nets, "--nets"), ("HNI fused", a.calibration, "--calibration"),
-                             ("HN-net", a.beam_nets, "--beam-nets")):
-        used = [v for v in a.variants if v == needs or (needs != "HNI fused" and v.startswith(needs))]
-        if used and arg is None:
-            p.error(f"{', '.join(used)} need {flag}")
+    if a.nets is None and any(v.startswith("HNI") for v in a.variants):
+        p.error("the HNI variants need --nets")
+    if a.calibration is None and "HNI fused" in a.variants:
+        p.error("HNI fused needs --calibration")
+    if a.beam_nets is None and "HN-net fold" in a.variants:
+        p.error("HN-net fold needs --beam-nets")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories

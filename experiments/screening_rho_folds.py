@@ -29,7 +29,6 @@ with the default ``rho`` and with the fitted one on fold k's pair. The networks 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -79,11 +78,11 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     from hybrid_imu_folds import fold_table, load_runs, save_runs, table, window_task
     study = variants(a.completer)
-    imu = a.completer != "average"     # a fold network: each trajectory completed by the fold that holds it out
-    if imu and (a.nets is None or (a.completer == "HNI fused" and a.calibration is None)):
+    fold_nets = a.completer != "average"     # each trajectory completed by the fold network that holds it out
+    if fold_nets and (a.nets is None or (a.completer == "HNI fused" and a.calibration is None)):
         p.error(f"--completer {a.completer!r} needs --nets"
                 + (" and --calibration" if a.completer == "HNI fused" else ""))
-    if imu and (len(a.scenario) != 1 or a.scenario[0] not in ("2-missing", "3-missing")):
+    if fold_nets and (len(a.scenario) != 1 or a.scenario[0] not in ("2-missing", "3-missing")):
         p.error("a network --completer needs a measured beam: one --scenario, 2-missing or 3-missing")
 
     from graphnav.evaluation.bench import find_trajectories
@@ -104,22 +103,17 @@ def main(argv=None) -> int:
 
     def fit(f, g):
         return {key: fits[f, g][key] for key in ("rho", "growth_net", "growth_avg")} if fits else None
-    # what made the errors: the average's file keeps its first form (no settings)
+    # what made the errors (the average fits nothing: no settings)
     source_settings = {"completer": a.completer, "nets": str(Path(a.nets).resolve()),
-                       "calibration": a.calibration and str(Path(a.calibration).resolve())} if imu else {}
+                       "calibration": a.calibration and str(Path(a.calibration).resolve())} if fold_nets else {}
     errs_file = out / "errors.json"
-    loaded, _ = load_runs(errs_file, source_settings) if imu else (
-        {tuple(k): v for k, v in json.loads(errs_file.read_text())} if errs_file.exists() else {}, None)
-    errors = {k: np.array(v).reshape(-1, 4) for k, v in loaded.items()}
+    errors = {k: np.array(v).reshape(-1, 4) for k, v in load_runs(errs_file, source_settings)[0].items()}
     todo = [(sources[n], g, sc, w, a.completer, a.nets, fold_of[n], fit(fold_of[n], g))
             for n in names for g in a.grades for sc in a.scenario for w in a.window_s if (n, g, sc, w) not in errors]
 
     def got_errors(r):
         errors[r[0]] = np.array(r[1]).reshape(-1, 4)
-        if imu:
-            save_runs(errs_file, source_settings, {k: v.tolist() for k, v in errors.items()})
-        else:
-            errs_file.write_text(json.dumps([[list(k), v.tolist()] for k, v in errors.items()]))
+        save_runs(errs_file, source_settings, {k: v.tolist() for k, v in errors.items()})
     print(f"{len(todo)} correlation runs to do", file=sys.stderr, flush=True)
     run_tasks(correlation_task, todo, got_errors, jobs=a.jobs)
 

@@ -374,13 +374,10 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
         if save_dir is not None:
             from pathlib import Path
 
-            from .training import TrainResult, card_header, save
-            save(TrainResult(net.model, {
-                **card_header(net.model), "data": {"source": "crossval fold", "held_out": list(data.folds[i])},
-                "training": {**variant_dict(variant), "seed": seed + i},
-                "normalisation": {"beam_mean": net.model.beam_mean.tolist(),
-                                  "beam_std": net.model.beam_std.tolist()},
-                "envelope": net.card["envelope"]}), Path(save_dir) / f"fold{i}")
+            from .training import TrainResult, save
+            card = network_card(net, variant, seed + i, data={"source": "crossval fold",
+                                                               "held_out": list(data.folds[i])})
+            save(TrainResult(net.model, card), Path(save_dir) / f"fold{i}")
         avg = AverageCompleter(AVERAGE_N_PAST.get(scen, net.n_past))
         for dname, series in held.items():
             series = _windowable(series, max(net.n_past, avg.n_past) + 1)
@@ -489,23 +486,31 @@ def with_epochs(variant: Variant, epochs: int) -> Variant:
     return replace(variant, epochs=epochs)
 
 
+def network_card(net, variant: Variant, seed: int, data: dict, time_s: float | None = None) -> dict:
+    """The model card of a network trained with ``variant`` (what :func:`graphnav.nets.load_completer` reads):
+    header, ``data`` (what it was trained on), training recipe and seed, normalisation and input envelope."""
+    from .training import card_header
+
+    training = {**variant_dict(variant), "seed": seed}
+    if time_s is not None:
+        training["time_s"] = round(time_s, 1)
+    return {**card_header(net.model), "data": data, "training": training,
+            "normalisation": {"beam_mean": net.model.beam_mean.tolist(), "beam_std": net.model.beam_std.tolist()},
+            "envelope": net.card["envelope"]}
+
+
 def final_metrics(net, train: dict[str, list], variant: Variant, beamsnet_dir, beam_seed: int) -> dict:
     """Completion metrics of a network trained on everything (:func:`train_final`): ``val`` on the selection part
     of its recordings (the last :data:`INNER_VAL_FRACTION` of each, which chose the epoch and was never a gradient
     step), ``test`` on BeamsNet ``V_test.npy`` when the BeamsNet data are there (never trained on)."""
-    from .evaluate import full_beam_vel_rmse, predict_network
+    from .evaluate import network_metrics
 
     n = net.model.n_past
     _, select_s = inner_split(train["beamsnet"] + (train["akit"] if variant.akit else []))
     splits = {"val": beamdata.windows([s for s in select_s if len(s.beams) > n], n)}
     if train["beamsnet"]:
         splits["test"] = beamdata.windows(beamdata.beamsnet_series("test", beamsnet_dir, beam_seed), n)
-    metrics = {}
-    for split, samples in splits.items():
-        full, sigma = predict_network(net.model, samples)
-        metrics[split] = completion_metrics(full, sigma, samples, net.missing)
-        metrics[split]["all_beams_vel_rmse"] = full_beam_vel_rmse(samples)
-    return metrics
+    return {split: network_metrics(net.model, samples, net.missing) for split, samples in splits.items()}
 
 
 def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=None, beam_seed: int = 0,
@@ -515,7 +520,7 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
     model card says which protocol chose the recipe and, given ``summary`` (:func:`summarise` rows), its
     out-of-fold numbers. Save it with :func:`graphnav.nets.training.save`."""
     from .storage import file_sha256
-    from .training import TrainResult, card_header
+    from .training import TrainResult
 
     variant = VARIANTS[variant] if isinstance(variant, str) else variant
     missing = normalize_missing(missing)
@@ -527,17 +532,14 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
     train_time = time.perf_counter() - t0
     metrics = final_metrics(net, train, variant, beamsnet_dir, beam_seed)
     scen = scenario_name(missing)
+    card = network_card(net, variant, seed, time_s=train_time, data={
+        "source": "A-KIT trajectories " + ", ".join(map(str, sorted(data.akit)))
+                  + (" and snapir-2021-beamsnet V.npy (all)" if data.beamsnet else ""),
+        "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
+        "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy") if data.beamsnet else None})
     card = {
-        **card_header(net.model),
-        "data": {"source": "A-KIT trajectories " + ", ".join(map(str, sorted(data.akit)))
-                           + (" and snapir-2021-beamsnet V.npy (all)" if data.beamsnet else ""),
-                 "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
-                 "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy")
-                 if data.beamsnet else None},
+        **card,
         "split": {"selection": f"last {INNER_VAL_FRACTION:.0%} of every recording (epoch only)"},
-        "training": {**variant_dict(variant), "seed": seed, "time_s": round(train_time, 1)},
-        "normalisation": {"beam_mean": net.model.beam_mean.tolist(), "beam_std": net.model.beam_std.tolist()},
-        "envelope": net.card["envelope"],
         # one sigma per beam, the selection part's residual RMS (``load_completer(sigma="constant")``)
         "constant_sigma": metrics["val"]["beam_rmse_per_beam"],
         "metrics": metrics,

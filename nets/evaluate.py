@@ -176,6 +176,13 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
     return rows
 
 
+def network_metrics(model: BeamRegressor, samples: BeamSamples, missing) -> dict:
+    """:func:`completion_metrics` of ``model``'s completions of ``samples`` (per ping), with ``all_beams_vel_rmse``
+    (least squares on all four made beams, the floor): the metrics of a model card."""
+    full, sigma = predict_network(model, samples)
+    return {**completion_metrics(full, sigma, samples, missing), "all_beams_vel_rmse": full_beam_vel_rmse(samples)}
+
+
 def format_table(rows: list[dict]) -> str:
     """Markdown table of :func:`evaluate_all` rows (m/s; 'in 1s/2s' = fraction within 1/2 sigma)."""
     head = ("| dataset | scenario | mode | method | beam RMSE | vel RMSE | 4-beam vel RMSE | in 1s | in 2s | n |\n"

@@ -23,7 +23,7 @@ import graphnav
 from graphnav.core.config import DvlSpec
 
 from . import data as beamdata
-from .evaluate import completion_metrics, full_beam_vel_rmse, predict_network
+from .evaluate import network_metrics
 from .model import BeamRegressor, normalize_missing, scenario_name
 from .storage import FORMAT_VERSION, file_sha256, weights_dir
 
@@ -166,11 +166,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
     t0 = time.perf_counter()
     history = fit(model, samples["train"], samples["val"], opt, progress)
     train_time = time.perf_counter() - t0
-    metrics = {}
-    for split in ("val", "test"):
-        full, sigma = predict_network(model, samples[split])
-        metrics[split] = completion_metrics(full, sigma, samples[split], missing)
-        metrics[split]["all_beams_vel_rmse"] = full_beam_vel_rmse(samples[split])
+    metrics = {split: network_metrics(model, samples[split], missing) for split in ("val", "test")}
     # The minimum calibrated alternative to the head: one sigma per beam, the validation residual RMS.
     constant_sigma = metrics["val"]["beam_rmse_per_beam"]
     mse_hist = [h for h in history if h["stage"] == "mse"]

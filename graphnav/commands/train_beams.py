@@ -8,6 +8,8 @@ from graphnav.core.errors import ConfigError
 
 
 def register(subparsers) -> None:
+    from graphnav.nets.imu_training import ImuTrainOptions
+
     p = subparsers.add_parser(
         "train-beams", help="train the missing-beam regressor (2 and/or 3 missing beams)",
         description="Train the paper's missing-beam regressor on beams made from the BeamsNet V.npy DVL "
@@ -51,9 +53,10 @@ def register(subparsers) -> None:
                         "table. Uses --scenario, --seed, --beam-seed, --threads, --out; --data is the "
                         "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule; --recipe graded "
                         "trains the recipe chosen out of fold on all ten trajectories instead")
-    p.add_argument("--imu-epochs", type=int, default=60, help="maximum epochs of the IMU-aware network (default 60)")
-    p.add_argument("--imu-draws", type=int, default=6,
-                   help="beam-noise draws of the training trajectories for the IMU-aware network (default 6)")
+    p.add_argument("--imu-epochs", type=int, default=None,
+                   help=f"maximum epochs of the IMU-aware network (default {ImuTrainOptions.epochs})")
+    p.add_argument("--imu-draws", type=int, default=None, help="beam-noise draws of the training trajectories for the "
+                   f"IMU-aware network (default {ImuTrainOptions.draws})")
     p.add_argument("--recipe", default=None, metavar="NAME",
                    help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (e.g. akit-residual-aug) "
                         "on all ten A-KIT trajectories and all of V.npy instead of the paper's BeamsNet split; "
@@ -81,15 +84,15 @@ def run_imu(args, out: Path) -> list[Path]:
         raise ConfigError("--imu trains the 2-missing and 3-missing scenarios; use --scenario, not --missing")
     if args.recipe is not None and args.recipe not in IMU_RECIPES:
         raise ConfigError(f"--imu --recipe {args.recipe!r} unknown; choose from {list(IMU_RECIPES)}")
-    if args.recipe is not None and (args.imu_epochs, args.imu_draws) != (ImuTrainOptions.epochs, ImuTrainOptions.draws):
+    schedule = {k: v for k, v in (("epochs", args.imu_epochs), ("draws", args.imu_draws)) if v is not None}
+    if args.recipe is not None and schedule:
         raise ConfigError("--imu --recipe sets its own schedule; drop --imu-epochs / --imu-draws")
     written = []
     if args.recipe:     # chosen out of fold: trained on every trajectory, nothing left to validate on
         opt = replace(IMU_RECIPES[args.recipe], seed=args.seed, beam_seed=args.beam_seed, threads=args.threads)
         trajectories = sorted(t for pair in AKIT_FOLDS for t in pair)
     else:
-        opt = ImuTrainOptions(epochs=args.imu_epochs, draws=args.imu_draws, seed=args.seed,
-                              beam_seed=args.beam_seed, threads=args.threads)
+        opt = ImuTrainOptions(**schedule, seed=args.seed, beam_seed=args.beam_seed, threads=args.threads)
         trajectories = None
     for scenario in args.scenario or ["2-missing", "3-missing"]:
         result = train_imu(scenario, opt, args.data, progress=not args.no_progress, evaluate=not args.recipe,
@@ -160,8 +163,9 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> 
     if len(set(keys)) < len(keys):
         raise ConfigError(f"--out-of-fold {' '.join(files)}: a fold's rows appear twice (the same file or fold given "
                           "twice)")
-    folds = {(d, sc, mode): {f for d2, sc2, m2, _, f in keys if (d2, sc2, m2) == (d, sc, mode)} for d, sc, mode, _, _
-             in keys}
+    folds: dict[tuple, set] = {}
+    for dataset, scenario, mode, _, fold in keys:
+        folds.setdefault((dataset, scenario, mode), set()).add(fold)
     if len({frozenset(f) for f in folds.values()}) > 1:
         raise ConfigError(f"--out-of-fold {' '.join(files)}: not every scenario and mode has the same folds (an "
                           "unfinished run?)")
