@@ -46,7 +46,8 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.imu_auto import ImuAutoCompleter
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
-    method = method.removesuffix(" rho fitted")    # screening_rho_folds.py: the same completer, another rho
+    # screening_rho_folds.py: the same completer, other screening options
+    method = method.removesuffix(" rho fitted").removesuffix(" rho, tau fitted")
     if method == "HN-net fold":
         return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):

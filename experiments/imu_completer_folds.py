@@ -10,7 +10,7 @@ outages, against the average estimator (N = 5 for 3 missing beams) on the same p
 within 1 and 2 sigma (Gaussian 0.683 / 0.954). Pooled (sample-weighted) numbers and the worst fold come from
 :func:`graphnav.nets.crossval.summarise`.
 
-The schedule and IMU-grade copies are ``graphnav.nets.imu_training.IMU_RECIPES["graded"]``, shorter than the full
+The schedule and IMU-grade copies are ``graphnav.nets.imu_recipes.IMU_RECIPES["graded"]``, shorter than the full
 ``ImuTrainOptions`` (60 epochs, 20 rollout epochs, 6 beam-noise draws) so that five trainings fit on the shared
 machine; it is what the decision page reports, and the recipe the shipped weights were trained with on all ten
 trajectories (``graphnav train-beams --imu --recipe graded``).
@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--missing", default="3-missing", help="scenario (default 3-missing)")
-    from graphnav.nets.imu_training import IMU_RECIPES, ImuTrainOptions
+    from graphnav.nets.imu_recipes import IMU_RECIPES, ImuTrainOptions
     study, full = IMU_RECIPES["graded"], ImuTrainOptions()     # the study's schedule; the full one
     p.add_argument("--grades", nargs="*", default=list(study.imu_grades), help="IMU grades of the extra training "
                    f"copies (default {' '.join(study.imu_grades)}; none: recorded IMU only)")

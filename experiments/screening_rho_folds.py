@@ -19,7 +19,12 @@ of every trajectory are those of the network of
 the fold that holds that trajectory out, so the ``rho`` of fold k comes from the other folds' networks on
 trajectories they never saw (cross-fitted, as ``imu_completer_folds.py --calibrate``); then that completer runs
 with the default ``rho`` and with the fitted one on fold k's pair. The networks need a measured beam: one scenario,
-2-missing or 3-missing. Usage::
+2-missing or 3-missing.
+
+Each fold also gets ``tau``, the integrated autocorrelation time (pings) of the completion errors over their sigma
+(``nets.outage_calibration.integrated_autocorrelation``, from the same errors): the run `` rho, tau fitted`` adds
+``screening.completion_var_scale = tau`` to the fitted ``rho`` (completions that stay off for many pings together
+weigh as about n / tau independent ones). Usage::
 
     nice -n 5 .venv/bin/python experiments/screening_rho_folds.py --scenario 3-missing 0-beams --jobs 2 \\
         --out out/screening_rho
@@ -35,14 +40,27 @@ from pathlib import Path
 import numpy as np
 
 FITTED = " rho fitted"
+#: the run with the fitted ``rho`` and the completer's variance scaled by its errors' integrated autocorrelation time
+SERIAL = " rho, tau fitted"
 
 
 def variants(completer: str) -> tuple[str, ...]:
     """The runs per window: Graph-TC, all beams, the default Graph-HN, the study's completer with the default and
     the fitted ``rho`` (the average's default run is Graph-HN itself)."""
     if completer == "average":
-        return ("Graph-TC", "all beams", "Graph-HN", "Graph-HN" + FITTED)
-    return ("Graph-TC", "all beams", "Graph-HN", completer, completer + FITTED)
+        return ("Graph-TC", "all beams", "Graph-HN", "Graph-HN" + FITTED, "Graph-HN" + SERIAL)
+    return ("Graph-TC", "all beams", "Graph-HN", completer, completer + FITTED, completer + SERIAL)
+
+
+def beam_sequences(rows: np.ndarray, scenario: str) -> list[np.ndarray]:
+    """The normalised errors e_c / s_c of one run's regressed beams (``collect`` rows, keyframe by keyframe, the
+    scenario's missing beams at each), one sequence per beam."""
+    from graphnav.core.scenarios import SCENARIOS
+    m = len(SCENARIOS[scenario])
+    if len(rows) % m:
+        raise ValueError(f"{len(rows)} regressed beams are not {m} per keyframe ({scenario})")
+    z = (rows[:, 0] / np.sqrt(rows[:, 3])).reshape(-1, m)
+    return [z[:, b] for b in range(m)]
 
 
 def correlation_task(item):
@@ -89,7 +107,7 @@ def main(argv=None) -> int:
     from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
-    from graphnav.nets.outage_calibration import error_correlation
+    from graphnav.nets.outage_calibration import error_correlation, integrated_autocorrelation
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     out = Path(a.out)
@@ -117,22 +135,23 @@ def main(argv=None) -> int:
     print(f"{len(todo)} correlation runs to do", file=sys.stderr, flush=True)
     run_tasks(correlation_task, todo, got_errors, jobs=a.jobs)
 
-    rho = {}
-    print("Fitted on each fold's training trajectories: the correlation of e_c / s_c and e_p / sqrt(a) (the "
-          "regressed beams, both window lengths)")
+    rho, tau = {}, {}
+    print("Fitted on each fold's training trajectories (the regressed beams, both window lengths): rho, the "
+          "correlation of e_c / s_c and e_p / sqrt(a); tau, the integrated autocorrelation time of e_c / s_c (pings)")
     print("| IMU | scenario | " + " | ".join(f"fold {f}" for f in range(len(AKIT_FOLDS))) + " | all ten |")
     print("| --- | --- | " + " | ".join("---" for _ in AKIT_FOLDS) + " | --- |")
     for g in a.grades:
         for sc in a.scenario:
             cells = []
             for f, pair in enumerate([*AKIT_FOLDS, ()]):
-                d = np.vstack([errors[n, g, sc, w] for n in names if n not in {name(k) for k in pair}
-                               for w in a.window_s])
+                runs = [errors[n, g, sc, w] for n in names if n not in {name(k) for k in pair} for w in a.window_s]
+                d = np.vstack(runs)
                 # the screening's model: cov(e_c, e_p) = rho sqrt(a s_c^2) per beam, so the correlation of the
                 # errors each over its own sigma (kept in [0, 0.99], the range the option takes)
                 r = error_correlation(d[:, 0], np.sqrt(d[:, 3]), d[:, 1], np.sqrt(d[:, 2]))
                 rho[f, g, sc] = float(np.clip(r, 0.0, 0.99))
-                cells.append(f"{rho[f, g, sc]:.2f}")
+                tau[f, g, sc] = integrated_autocorrelation([z for run in runs for z in beam_sequences(run, sc)])
+                cells.append(f"{rho[f, g, sc]:.2f}, {tau[f, g, sc]:.1f}")
             print(f"| {g} | {sc} | " + " | ".join(cells) + " |")
 
     for sc in a.scenario:
@@ -140,9 +159,12 @@ def main(argv=None) -> int:
         settings = {"scenario": sc, "max_windows": a.max_windows, "window_s": a.window_s, "grades": a.grades,
                     **source_settings}
         fitted = {f"{f} {g}": rho[f, g, sc] for f in range(len(AKIT_FOLDS)) for g in a.grades}
+        fitted_tau = {f"{f} {g}": tau[f, g, sc] for f in range(len(AKIT_FOLDS)) for g in a.grades}
         results, extra = load_runs(runs_file, settings)
-        if extra.get("rho") != fitted:      # runs with another fit of rho are not these
-            results = {k: v for k, v in results.items() if not k[3].endswith(FITTED)}
+        if extra.get("rho") != fitted:      # runs with another fit are not these
+            results = {k: v for k, v in results.items() if not k[3].endswith((FITTED, SERIAL))}
+        if extra.get("tau") != fitted_tau:
+            results = {k: v for k, v in results.items() if not k[3].endswith(SERIAL)}
         items = []
         for f, pair in enumerate(AKIT_FOLDS):
             for k in pair:
@@ -151,13 +173,16 @@ def main(argv=None) -> int:
                         for v in study:
                             if (name(k), g, w, v) in results:
                                 continue
-                            options = {"screening.correlation": rho[f, g, sc]} if v.endswith(FITTED) else None
+                            options = ({"screening.correlation": rho[f, g, sc]} if v.endswith(FITTED) else
+                                       {"screening.correlation": rho[f, g, sc],
+                                        "screening.completion_var_scale": tau[f, g, sc]} if v.endswith(SERIAL)
+                                       else None)
                             items.append((sources[name(k)], g, sc, w, a.max_windows, v, a.nets, f, fit(f, g),
                                           options))
 
-        def got_run(r, results=results, runs_file=runs_file, settings=settings, fitted=fitted):
+        def got_run(r, results=results, runs_file=runs_file, settings=settings, fitted=fitted, fitted_tau=fitted_tau):
             results[r[0]] = r[1]
-            save_runs(runs_file, settings, results, rho=fitted)
+            save_runs(runs_file, settings, results, rho=fitted, tau=fitted_tau)
         print(f"{sc}: {len(items)} runs to do", file=sys.stderr, flush=True)
         run_tasks(window_task, items, got_run, jobs=a.jobs)
         print(f"\n{sc}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")

@@ -1,9 +1,10 @@
 """Missing-beam completers (installed as ``graphnav.nets``).
 
 ``AverageCompleter`` is the paper's average estimator; ``BeamRegressor`` is the paper's missing-beam
-network with a calibrated sigma head. ``load_completer(missing=2|3)`` loads the shipped weights as a
-completer, ``load_completer("auto")`` serves every missing pattern (network where trained, average
-otherwise). ``train`` trains a network on the BeamsNet data (``graphnav train-beams``).
+network with a calibrated sigma head, ``BeamEnsemble`` several of them averaged (the shipped beam-only
+networks are five). ``load_completer(missing=2|3)`` loads the shipped weights as a completer,
+``load_completer("auto")`` serves every missing pattern (network where trained, average otherwise). ``train``
+trains a network on the BeamsNet data (``graphnav train-beams``).
 
 ``load_imu_completer(2|3)`` loads the IMU-aware network (``ImuBeamRegressor``, trained on A-KIT IMU + DVL with
 ``train_imu`` / ``graphnav train-beams --imu``); it needs the IMU window:
@@ -28,13 +29,13 @@ from .average import AverageCompleter
 from .completer import BeamCompleter, check_inputs
 
 _LAZY = {
-    "BeamRegressor": "model",
+    "BeamRegressor": "model", "BeamEnsemble": "model",
     "AutoCompleter": "network", "NetworkCompleter": "network", "load_completer": "network",
     "load_model": "network",
     "TrainOptions": "training", "TrainResult": "training", "fit": "training", "save": "training",
     "train": "training",
     "ImuBeamRegressor": "imu_model", "ImuNetworkCompleter": "imu_network", "load_imu_completer": "imu_network",
-    "load_imu_model": "imu_network", "ImuTrainOptions": "imu_training", "train_imu": "imu_training",
+    "load_imu_model": "imu_network", "ImuTrainOptions": "imu_recipes", "train_imu": "imu_training",
     "ImuAutoCompleter": "imu_auto", "load_imu_auto_completer": "imu_auto",
     "FusedCompleter": "fused",
 }

@@ -59,6 +59,10 @@ class Variant:
         epochs, batch_size, lr, patience, sigma_epochs: the schedule (RMSprop, lr x0.1 every 35 epochs).
         rollout: after the one-step training, fine-tune the mean network on its own completions fed back
             through ``rollout``-ping outages (0: no such stage; :func:`fine_tune_recursive`).
+        velocity_weight: weight of the velocity error in the mean network's loss
+            (:func:`graphnav.nets.training.mean_loss`; 0: beam MSE only, as the paper).
+        members: networks trained alike from different seeds (and augmentation draws) and averaged
+            (:class:`~graphnav.nets.model.BeamEnsemble`); 1: one network. Member 0 is the one network.
     """
 
     name: str
@@ -74,6 +78,8 @@ class Variant:
     sigma_epochs: int = 8
     rollout: int = 0
     rollout_epochs: int = 6
+    velocity_weight: float = 0.0
+    members: int = 1
 
 
 #: The recipes the out-of-fold table can compare (``graphnav eval-beams --folds --variant NAME``); the default
@@ -84,6 +90,8 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("akit-residual", akit=True, residual=True),          # + change from the average
     Variant("akit-residual-aug", akit=True, residual=True, copies=2),   # + yaw/speed/noise augmentation
     Variant("akit-residual-recursive", akit=True, residual=True, rollout=15),  # + trained on its own completions
+    Variant("akit-residual-aug-ens5", akit=True, residual=True, copies=2, members=5),   # + mean of 5 seeds
+    Variant("akit-residual-aug-vel", akit=True, residual=True, copies=2, velocity_weight=1.0),  # + velocity loss
 )}
 #: The recipes ``graphnav eval-beams --folds`` runs without ``--variant``: the recursive stage is left out (its
 #: rollouts cost about 8 min of one core per fold on the shared machine, 15x the one-step recipe).
@@ -209,23 +217,45 @@ def inner_split(series: list[beamdata.BeamSeries], fraction: float = INNER_VAL_F
 
 
 def train_network(train: dict[str, list], missing, variant: Variant, seed: int = 0, progress: bool = False):
-    """A :class:`~graphnav.nets.network.NetworkCompleter` trained on one fold's recordings with ``variant``."""
-    import torch
-
-    from .model import BeamRegressor
+    """A :class:`~graphnav.nets.network.NetworkCompleter` trained on one fold's recordings with ``variant``: one
+    network, or with ``variant.members`` > 1 the ensemble of networks trained with seeds ``seed + MEMBER_SEED_STEP
+    * j`` (member 0 is the one network of ``seed``). Its input envelope covers every member's training data."""
+    from .model import BeamEnsemble
     from .network import NetworkCompleter
-    from .training import TrainOptions, fit, training_envelope
+    from .training import training_envelope
 
     recordings = train["beamsnet"] + (train["akit"] if variant.akit else [])
     if not recordings:
         raise DataError("no training recordings in this fold", "crossval")
     fit_s, select_s = inner_split(recordings)
+    models, seen = [], list(fit_s)
+    for j in range(variant.members):
+        model, member_fit = _train_member(fit_s, select_s, missing, variant, seed + MEMBER_SEED_STEP * j, progress)
+        models.append(model)
+        seen += member_fit[len(fit_s):]      # its augmented copies (the recordings themselves are in already)
+    model = models[0] if len(models) == 1 else BeamEnsemble.of(models)
+    return NetworkCompleter(model, card={"envelope": training_envelope(seen)})
+
+
+#: Seed offset between ensemble members (larger than any fold index, so no member repeats another fold's seed).
+MEMBER_SEED_STEP = 1000
+
+
+def _train_member(fit_s, select_s, missing, variant: Variant, seed: int, progress: bool):
+    """One network of ``variant`` trained on ``fit_s`` (augmented with ``seed``), its epoch chosen on
+    ``select_s``; returns (model, the recordings it was fitted on)."""
+    import torch
+
+    from .model import BeamRegressor
+    from .training import TrainOptions, fit
+
     fit_s = augment(fit_s, variant, seed)
     torch.manual_seed(seed)
     model = BeamRegressor(missing, residual=variant.residual)
     n = model.n_past
     opt = TrainOptions(epochs=variant.epochs, batch_size=variant.batch_size, lr=variant.lr,
-                       patience=variant.patience, sigma_epochs=variant.sigma_epochs, seed=seed, threads=1)
+                       patience=variant.patience, sigma_epochs=variant.sigma_epochs, seed=seed, threads=1,
+                       velocity_weight=variant.velocity_weight)
     fit_w = beamdata.windows([s for s in fit_s if len(s.beams) > n], n)
     select_w = beamdata.windows([s for s in select_s if len(s.beams) > n], n)
     fit(model, fit_w, select_w, opt, progress)
@@ -236,7 +266,7 @@ def train_network(train: dict[str, list], missing, variant: Variant, seed: int =
                    _gaussian_nll, "nll", variant.sigma_epochs, 64, torch.optim.Adam, 3e-3, None, 1.0, None,
                    seed + 1, progress)
         model.eval()
-    return NetworkCompleter(model, card={"envelope": training_envelope(fit_s)})
+    return model, fit_s
 
 
 def rollout_sequences(series: list[beamdata.BeamSeries], n_past: int, length: int, stride: int = 3) -> np.ndarray:

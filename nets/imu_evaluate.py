@@ -42,7 +42,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     ``network`` (the shipped beam-only network). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     ``tail_fraction``: only the last part of each trajectory (the selection pings of the training
-    trajectories, :class:`~graphnav.nets.imu_training.ImuTrainOptions` ``select_fraction``); the outage windows
+    trajectories, :class:`~graphnav.nets.imu_recipes.ImuTrainOptions` ``select_fraction``); the outage windows
     then follow one another from the first ping with a full past.
     ``imu_grade``: add that grade's IMU errors to each trajectory's recorded IMU (seed ``imu_seed`` +
     trajectory number; :meth:`~graphnav.nets.imu_data.ImuBeamSeries.with_imu_grade`).

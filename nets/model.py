@@ -134,3 +134,64 @@ class BeamRegressor(nn.Module):
         if self.residual:       # absent in the cards of networks that predict values
             arch["residual"] = True
         return arch
+
+
+class BeamEnsemble(nn.Module):
+    """A deep ensemble of :class:`BeamRegressor` networks trained alike from different seeds.
+
+    The completion is the members' mean; its variance is the members' mean variance plus the spread of their
+    means (the mixture's variance), so disagreement between members widens the sigma where the training data
+    did not pin the answer down. Same interface as one network (``missing``, ``kept``, ``n_past``,
+    ``forward``, ``architecture``), so completers, evaluation and model cards take either.
+
+    Args:
+        members: number of networks (>= 2).
+        member_arch: :meth:`BeamRegressor.architecture` of each (they share it).
+    """
+
+    def __init__(self, members: int = 2, **member_arch):
+        super().__init__()
+        if int(members) < 2:
+            raise ConfigError(f"an ensemble needs at least 2 members, got {members}")
+        self.members = nn.ModuleList(BeamRegressor(**member_arch) for _ in range(int(members)))
+        first = self.members[0]
+        self.missing, self.kept, self.n_past = first.missing, first.kept, first.n_past
+
+    @classmethod
+    def of(cls, networks: list[BeamRegressor]) -> "BeamEnsemble":
+        """The ensemble of trained ``networks`` (same architecture and normalisation)."""
+        ens = cls(len(networks), **networks[0].architecture())
+        for member, net in zip(ens.members, networks):
+            if net.architecture() != networks[0].architecture():
+                raise ConfigError("ensemble members differ in architecture")
+            member.load_state_dict(net.state_dict())
+        return ens.eval()
+
+    @property
+    def beam_mean(self) -> torch.Tensor:
+        """Input normalisation (m/s) of the first member (every member is trained on the same beams)."""
+        return self.members[0].beam_mean
+
+    @property
+    def beam_std(self) -> torch.Tensor:
+        return self.members[0].beam_std
+
+    def forward(self, past: torch.Tensor, measured: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Missing beams (the members' mean) and sigma (``sqrt(mean sigma_i^2 + var mu_i)``), m/s, as
+        :meth:`BeamRegressor.forward`."""
+        outs = [m(past, measured) for m in self.members]
+        mu = torch.stack([o[0] for o in outs])
+        var = torch.stack([o[1] ** 2 for o in outs]).mean(0) + mu.var(0, unbiased=False)
+        return mu.mean(0), var.sqrt()
+
+    def architecture(self) -> dict:
+        """Constructor arguments, for the model card: the members' architecture and their number."""
+        return {**self.members[0].architecture(), "members": len(self.members)}
+
+
+def beam_model(**architecture) -> nn.Module:
+    """The beam-only model a card's ``architecture`` describes: a :class:`BeamEnsemble` when it has
+    ``members``, else one :class:`BeamRegressor`."""
+    if "members" in architecture:
+        return BeamEnsemble(**architecture)
+    return BeamRegressor(**architecture)

@@ -19,7 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs
-from .model import BeamRegressor, normalize_missing, scenario_name
+from .model import BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import FORMAT_VERSION, file_sha256, weights_dir
 
 #: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
@@ -64,7 +64,8 @@ class InputEnvelope:
 
 
 class NetworkCompleter:
-    """A trained :class:`BeamRegressor` behind the completer interface.
+    """A trained :class:`BeamRegressor` (or :class:`~graphnav.nets.model.BeamEnsemble`) behind the completer
+    interface.
 
     Args:
         model: the trained network (its ``missing`` pattern is the only one it serves).
@@ -214,14 +215,16 @@ def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | N
 
 
 def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
-    """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones).
+    """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones): one
+    :class:`BeamRegressor`, or a :class:`~graphnav.nets.model.BeamEnsemble` when the card's architecture has
+    ``members``.
 
     Raises:
         ConfigError: files missing, format version or scenario mismatch, tensor shapes that do not match
             the architecture in the card, or weights that are not the ones the card describes.
     """
     missing = normalize_missing(missing)
-    return load_weights(BeamRegressor, scenario_name(missing), missing, directory,
+    return load_weights(beam_model, scenario_name(missing), missing, directory,
                         train_hint=f"graphnav train-beams --missing {','.join(map(str, missing))}")
 
 

@@ -68,3 +68,22 @@ def error_correlation(err1: np.ndarray, sigma1: np.ndarray, err2: np.ndarray, si
     z1 = np.asarray(err1, float) / np.asarray(sigma1, float)
     z2 = np.asarray(err2, float) / np.asarray(sigma2, float)
     return float(np.sum(z1 * z2) / np.sqrt(np.sum(z1 ** 2) * np.sum(z2 ** 2)))
+
+
+def integrated_autocorrelation(sequences, max_lag: int = 60) -> float:
+    """Integrated autocorrelation time (pings) of normalised completion errors ``z`` (error / sigma), one
+    sequence per beam and outage run: ``tau = 1 + 2 sum_k r_k`` with ``r_k = sum_t z_t z_t+k / sum_t z_t^2`` pooled
+    over the sequences (no mean removed: an error that stays off for a whole window is what it measures), summed
+    from lag 1 while ``r_k > 0`` and ``k <= max_lag`` (the initial positive sequence). n pings of such errors carry
+    about n / tau independent pings' worth of information; white errors give 1."""
+    seqs = [np.asarray(z, float) for z in sequences]
+    den = sum(float(np.sum(z * z)) for z in seqs)
+    if not den > 0:
+        raise ValueError("no non-zero errors to fit the autocorrelation on")
+    tau = 1.0
+    for k in range(1, max_lag + 1):
+        r = sum(float(np.sum(z[:-k] * z[k:])) for z in seqs if len(z) > k) / den
+        if r <= 0:
+            break
+        tau += 2.0 * r
+    return tau

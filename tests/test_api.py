@@ -49,6 +49,15 @@ def test_import_graphnav_is_light():
     assert out.strip() == "[]"
 
 
+def test_the_command_line_parser_does_not_import_torch():
+    """Every ``graphnav`` call builds the whole parser; torch (about 2 s to import) is for the commands that run a
+    network, not for parsing (the IMU-aware recipes' defaults the help prints live in a torch-free module)."""
+    code = ("import sys; from graphnav.cli import build_parser; build_parser(); "
+            "print('torch' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
+
+
 def test_readme_lists_the_public_names():
     line = next(ln for ln in (ROOT / "README.md").read_text().splitlines()
                 if ln.startswith("Public names (`graphnav.__all__`):"))

@@ -151,6 +151,69 @@ def test_protocol_on_tiny_synthetic_folds(tmp_path):
         out_of_fold_summary([str(tmp_path / "bench.json")], "tiny", ["2-missing"])
 
 
+def test_ensemble_is_the_mixture_of_its_members_and_round_trips_through_a_card(tmp_path):
+    """A two-member recipe: member 0 is the one network of the same seed, the completion is the members' mean
+    and its variance the mixture's (mean variance + spread of the means), and the saved ensemble loads back."""
+    akit = {t: [_series(f"Trajectory{t}", seed=t, phase=13.0 * t)] for t in (1, 2, 3)}
+    train = {"akit": [s for ss in akit.values() for s in ss], "beamsnet": []}
+    single = cv.Variant("one", akit=True, residual=True, copies=1, epochs=2, patience=1, sigma_epochs=1, batch_size=64)
+    pair = cv.Variant("two", akit=True, residual=True, copies=1, epochs=2, patience=1, sigma_epochs=1, batch_size=64,
+                      members=2)
+    one = cv.train_network(train, "3-missing", single, seed=4)
+    ens = cv.train_network(train, "3-missing", pair, seed=4)
+    assert ens.model.architecture() == {**one.model.architecture(), "members": 2}
+    for a, b in zip(ens.model.members[0].state_dict().values(), one.model.state_dict().values()):
+        assert torch.equal(a, b)
+    samples = beamdata.windows(_series("held", seed=9, phase=5.0), 5)
+    past = torch.as_tensor(samples.past, dtype=torch.float32)
+    meas = torch.as_tensor(samples.beams[:, [1]], dtype=torch.float32)
+    with torch.no_grad():
+        (m0, s0), (m1, s1) = (m(past, meas) for m in ens.model.members)
+        mean, sigma = ens.model(past, meas)
+    assert not torch.allclose(m0, m1)                       # another seed and augmentation draw
+    np.testing.assert_allclose(mean, (m0 + m1) / 2, atol=1e-6)
+    np.testing.assert_allclose(sigma ** 2, (s0 ** 2 + s1 ** 2) / 2 + ((m0 - m1) / 2) ** 2, rtol=1e-5)
+    # the envelope covers both members' training data (each draws its own augmented copies)
+    assert ens.card["envelope"]["samples"] > one.card["envelope"]["samples"]
+    from graphnav.nets import load_completer
+    from graphnav.nets.model import BeamEnsemble
+    from graphnav.nets.training import TrainResult, save
+    save(TrainResult(ens.model, cv.network_card(ens, pair, 4, data={"source": "test"})), tmp_path)
+    loaded = load_completer(3, directory=tmp_path)
+    assert isinstance(loaded.model, BeamEnsemble) and len(loaded.model.members) == 2
+    np.testing.assert_allclose(cv.predict_batch(loaded, samples, (0, 2, 3))[0],
+                               cv.predict_batch(ens, samples, (0, 2, 3))[0], atol=1e-6)
+    with pytest.raises(ConfigError, match="at least 2 members"):
+        BeamEnsemble(1, missing="3-missing")
+
+
+@pytest.mark.parametrize("missing", ["2-missing", "3-missing"])
+def test_velocity_loss_weighs_beam_errors_as_least_squares_does(missing):
+    """The velocity term of the mean loss is the velocity error least squares on the four beams makes of the
+    missing beams' errors (checked against DvlGeometry.velocity_from_beams), added to the beam MSE."""
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.training import _normalised_mse, mean_loss, velocity_of_missing
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    model = BeamRegressor(missing)
+    L = velocity_of_missing(missing)
+    rng = np.random.default_rng(3)
+    beams = rng.normal(0.0, 1.0, 4)
+    err = rng.normal(0.0, 0.1, len(model.missing))
+    damaged = beams.copy()
+    damaged[list(model.missing)] += err
+    np.testing.assert_allclose(geometry.velocity_from_beams(damaged) - geometry.velocity_from_beams(beams), L @ err,
+                               atol=1e-12)
+    torch.manual_seed(0)
+    past, meas = torch.randn(8, model.n_past, 4), torch.randn(8, len(model.kept))
+    target = torch.randn(8, len(model.missing))
+    assert mean_loss(0.0, missing) is _normalised_mse
+    with torch.no_grad():
+        pred, _ = model(past, meas)
+        e = ((pred - target) / model.beam_std[list(model.missing)]).double().numpy()
+        expected = np.mean(e ** 2) + 0.5 * np.mean(np.sum((e @ L.T) ** 2, axis=1))
+        assert mean_loss(0.5, missing)(model, past, meas, target).item() == pytest.approx(expected, rel=1e-5)
+
+
 def test_augmented_copies_keep_speed_within_the_scale_and_draw_new_noise():
     s = _series("a")
     variant = cv.Variant("aug", copies=2, yaw_deg=10.0, speed_scale=0.1)

@@ -304,7 +304,7 @@ def test_train_beams_refuses_recipes_it_does_not_know_before_training(tmp_path):
     from graphnav.cli import build_parser
     from graphnav.commands import train_beams
     from graphnav.core.errors import ConfigError
-    from graphnav.nets.imu_training import IMU_RECIPES
+    from graphnav.nets.imu_recipes import IMU_RECIPES
 
     assert IMU_RECIPES["graded"].imu_grades == ("tactical", "mems")
     parse = build_parser().parse_args

@@ -9,6 +9,7 @@ from graphnav.nets.outage_calibration import (
     error_correlation,
     fit_drift,
     history_sigma,
+    integrated_autocorrelation,
     member_sigma,
 )
 
@@ -61,3 +62,22 @@ def test_error_correlation_of_known_correlated_errors():
     z1, z2 = rng.normal(size=(2, 100000))
     e1, e2 = 0.05 * z1, 0.2 * (0.4 * z1 + np.sqrt(1 - 0.16) * z2)
     assert abs(error_correlation(e1, np.full_like(e1, 0.05), e2, np.full_like(e2, 0.2)) - 0.4) < 0.01
+
+
+def test_integrated_autocorrelation_of_white_and_ar1_errors():
+    """tau of an AR(1) sequence z_t = phi z_t-1 + w_t is (1 + phi) / (1 - phi): 9 for phi 0.8; white errors give 1."""
+    rng = np.random.default_rng(5)
+    seqs = []
+    for _ in range(40):
+        z = np.zeros(2000)
+        w = rng.normal(size=2000)
+        for t in range(1, 2000):
+            z[t] = 0.8 * z[t - 1] + w[t]
+        seqs.append(z)
+    assert integrated_autocorrelation(seqs, max_lag=100) == pytest.approx(9.0, rel=0.1)
+    assert integrated_autocorrelation(list(rng.normal(size=(20, 500))), max_lag=100) < 1.1
+    # an error that stays off for the whole sequence: tau grows with the lags summed
+    biased = [np.full(100, 1.0) + 0.1 * rng.normal(size=100) for _ in range(5)]
+    assert integrated_autocorrelation(biased, max_lag=60) > 50
+    with pytest.raises(ValueError, match="no non-zero errors"):
+        integrated_autocorrelation([np.zeros(10)])

@@ -69,6 +69,25 @@ def test_correlation_drops_redundant_completions_and_weakens_the_rest():
         GraphOptions(screening=RegressedScreeningOptions(correlation=1.0))
 
 
+def test_completion_variance_scale_weakens_what_the_correlation_rule_keeps():
+    """A completer whose errors stay off for many pings carries less than its per-ping sigma says: the variance the
+    correlation rule leaves (rho 0.5, as the default) is scaled; which completions are kept does not change."""
+    y = ROWS @ V_TRUE
+    a = 0.3 ** 2
+    keep, sigma, _ = screen(y, [0.05, 0.05], np.eye(3) * a, completion_var_scale=4.0)
+    assert keep.all() and np.allclose(sigma, 0.1)
+    assert RegressedScreeningOptions(completion_var_scale=4.0).active
+    a = 0.012 ** 2
+    s2 = 0.02 ** 2
+    c = 0.5 * np.sqrt(a * s2)
+    keep, sigma, _ = screen(y, [0.02, 0.02], np.eye(3) * a, completion_var_scale=4.0, correlation=0.5)
+    assert keep.all() and sigma[0] == pytest.approx(2 * np.sqrt(a * (s2 - c) / (a - c)), rel=1e-3)
+    keep, _, stats = screen(y, [0.05, 0.05], np.eye(3) * 0.01 ** 2, completion_var_scale=4.0, correlation=0.5)
+    assert not keep.any() and stats["decorrelated_out"] == 2       # redundant with the prediction, as unscaled
+    with pytest.raises(ConfigError, match="completion_var_scale must be > 0"):
+        RegressedScreeningOptions(completion_var_scale=0.0)
+
+
 def test_motion_prior_factors_and_modes():
     graph = motion_prior_factors(5, 1.0, GraphOptions())
     assert graph.size() == 2                            # body-velocity random walk + heave

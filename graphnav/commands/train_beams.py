@@ -8,7 +8,7 @@ from graphnav.core.errors import ConfigError
 
 
 def register(subparsers) -> None:
-    from graphnav.nets.imu_training import ImuTrainOptions
+    from graphnav.nets.imu_recipes import ImuTrainOptions
 
     p = subparsers.add_parser(
         "train-beams", help="train the missing-beam regressor (2 and/or 3 missing beams)",
@@ -58,11 +58,12 @@ def register(subparsers) -> None:
     p.add_argument("--imu-draws", type=int, default=None, help="beam-noise draws of the training trajectories for the "
                    f"IMU-aware network (default {ImuTrainOptions.draws})")
     p.add_argument("--recipe", default=None, metavar="NAME",
-                   help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (e.g. akit-residual-aug) "
+                   help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (akit-residual-aug-ens5 "
+                        "is the shipped one) "
                         "on all ten A-KIT trajectories and all of V.npy instead of the paper's BeamsNet split; "
                         "--data is then the folder holding snapir-2022-akit and snapir-2021-beamsnet (default: "
                         "GRAPHNAV_DATA); uses --scenario, --seed, --beam-seed, --threads, --out. With --imu: a "
-                        "recipe of graphnav.nets.imu_training.IMU_RECIPES (graded: the schedule and IMU-grade "
+                        "recipe of graphnav.nets.imu_recipes.IMU_RECIPES (graded: the schedule and IMU-grade "
                         "copies of the leave-trajectories-out study) trained on all ten A-KIT trajectories")
     p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
                    help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
@@ -77,7 +78,8 @@ def run_imu(args, out: Path) -> list[Path]:
 
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_evaluate import format_imu_table
-    from graphnav.nets.imu_training import IMU_RECIPES, ImuTrainOptions, train_imu
+    from graphnav.nets.imu_recipes import IMU_RECIPES, ImuTrainOptions
+    from graphnav.nets.imu_training import train_imu
     from graphnav.nets.training import save
 
     if args.missing is not None:

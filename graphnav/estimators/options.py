@@ -107,23 +107,31 @@ class RegressedScreeningOptions:
         gate_k: joint-covariance gate in sigmas; None = no gate.
         prediction_var_scale: factor (> 0) on the estimator's predicted beam variance (the graph's marginal
             is over-confident on real data).
+        completion_var_scale: factor (> 0) on the completer's variance after the correlation rule (which
+            decides what is kept, on the unscaled variance) and before the adaptive rule and the gate. A
+            completer's errors through one outage are serially correlated (off for many pings together), which the per-ping factors
+            do not model; n completions then hold about n / tau pings' worth of information, tau the errors'
+            integrated autocorrelation time (pings; :func:`graphnav.nets.outage_calibration.integrated_autocorrelation`).
+            1: the errors taken as independent from ping to ping.
     """
 
     correlation: float = 0.0
     adaptive: bool = False
     gate_k: float | None = None
     prediction_var_scale: float = 1.0
+    completion_var_scale: float = 1.0
 
     def __post_init__(self):
-        if not self.prediction_var_scale > 0:
-            raise ConfigError(f"screening.prediction_var_scale must be > 0, got {self.prediction_var_scale}")
+        for name in ("prediction_var_scale", "completion_var_scale"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"screening.{name} must be > 0, got {getattr(self, name)}")
         if not 0.0 <= self.correlation < 1.0:
             raise ConfigError(f"screening.correlation must be in [0, 1), got {self.correlation}")
 
     @property
     def active(self) -> bool:
         """Whether any rule is on (else regressed beams enter at the completer's sigma unscreened)."""
-        return self.gate_k is not None or self.adaptive or self.correlation > 0
+        return self.gate_k is not None or self.adaptive or self.correlation > 0 or self.completion_var_scale != 1.0
 
 
 #: Option names of before the groups -> their name now (``group.field``), accepted by :func:`build_options`
