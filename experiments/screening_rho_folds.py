@@ -54,7 +54,9 @@ def variants(completer: str) -> tuple[str, ...]:
 
 def beam_sequences(rows: np.ndarray, scenario: str) -> list[np.ndarray]:
     """The normalised errors e_c / s_c of one run's regressed beams (``collect`` rows, keyframe by keyframe, the
-    scenario's missing beams at each), one sequence per beam."""
+    scenario's missing beams at each), one sequence per beam. The rows do not say where one outage window ends,
+    so a run's windows stay joined and the longer lags pair the end of one window with the start of the next (an
+    approximation of this study); a keyframe with another number of regressed beams is refused."""
     from graphnav.core.scenarios import SCENARIOS
     m = len(SCENARIOS[scenario])
     if len(rows) % m:

@@ -81,6 +81,11 @@ class Variant:
     velocity_weight: float = 0.0
     members: int = 1
 
+    def __post_init__(self):
+        if self.members < 1 or self.velocity_weight < 0:
+            raise ConfigError(f"recipe {self.name!r}: members must be >= 1 and velocity_weight >= 0, got "
+                              f"{self.members} and {self.velocity_weight}")
+
 
 #: The recipes the out-of-fold table can compare (``graphnav eval-beams --folds --variant NAME``); the default
 #: run is :data:`DEFAULT_VARIANTS`.
@@ -219,7 +224,9 @@ def inner_split(series: list[beamdata.BeamSeries], fraction: float = INNER_VAL_F
 def train_network(train: dict[str, list], missing, variant: Variant, seed: int = 0, progress: bool = False):
     """A :class:`~graphnav.nets.network.NetworkCompleter` trained on one fold's recordings with ``variant``: one
     network, or with ``variant.members`` > 1 the ensemble of networks trained with seeds ``seed + MEMBER_SEED_STEP
-    * j`` (member 0 is the one network of ``seed``). Its input envelope covers every member's training data."""
+    * j`` (member 0 is the one network of ``seed``). Its input envelope is the union of the members' training
+    data (each draws its own augmented copies). Out of fold, the range common to all members sent more unseen
+    pings to the average estimator and was worse (docs/decisions/completers.md, "Five seeds averaged")."""
     from .model import BeamEnsemble
     from .network import NetworkCompleter
     from .training import training_envelope

@@ -159,7 +159,7 @@ class BeamEnsemble(nn.Module):
 
     @classmethod
     def of(cls, networks: list[BeamRegressor]) -> "BeamEnsemble":
-        """The ensemble of trained ``networks`` (same architecture and normalisation)."""
+        """The ensemble of trained ``networks`` (same architecture; each keeps its own input normalisation)."""
         ens = cls(len(networks), **networks[0].architecture())
         for member, net in zip(ens.members, networks):
             if net.architecture() != networks[0].architecture():
@@ -169,7 +169,8 @@ class BeamEnsemble(nn.Module):
 
     @property
     def beam_mean(self) -> torch.Tensor:
-        """Input normalisation (m/s) of the first member (every member is trained on the same beams)."""
+        """Input normalisation (m/s) of member 0, what the model card records. Each member normalises with its
+        own (from its own augmented copies; they differ by about 0.02 m/s) inside its ``forward``."""
         return self.members[0].beam_mean
 
     @property

@@ -19,7 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs
-from .model import BeamRegressor, beam_model, normalize_missing, scenario_name
+from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import FORMAT_VERSION, file_sha256, weights_dir
 
 #: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
@@ -83,8 +83,8 @@ class NetworkCompleter:
     ``info["completer_fallbacks"]``).
     """
 
-    def __init__(self, model: BeamRegressor, sigma: str = "head", constant_sigma=None, card: dict | None = None,
-                 sigma_scale: float = 1.0):
+    def __init__(self, model: BeamRegressor | BeamEnsemble, sigma: str = "head", constant_sigma=None,
+                 card: dict | None = None, sigma_scale: float = 1.0):
         if sigma not in ("head", "constant"):
             raise ConfigError(f"sigma must be 'head' or 'constant', got '{sigma}'")
         if sigma == "constant" and constant_sigma is None:
@@ -214,7 +214,7 @@ def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | N
     return model.eval(), card
 
 
-def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor, dict]:
+def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegressor | BeamEnsemble, dict]:
     """Load the weights and model card of scenario ``missing`` from ``directory`` (default: shipped ones): one
     :class:`BeamRegressor`, or a :class:`~graphnav.nets.model.BeamEnsemble` when the card's architecture has
     ``members``.

@@ -70,9 +70,9 @@ def _normalised_mse(model, past, meas, target):
 
 def velocity_of_missing(missing, spec: DvlSpec | None = None) -> np.ndarray:
     """(3, n_missing): the body-frame least-squares velocity error (m/s) per m/s of error in each missing beam,
-    the ``missing`` columns of ``C_d_b (T_d^T T_d)^-1 T_d^T`` (:meth:`~graphnav.core.dvl.DvlGeometry.velocity_from_beams`
-    on four beams). For the Janus geometry at 20 deg a beam's error enters the horizontal velocity 1.46x, the
-    vertical 0.27x."""
+    the ``missing`` columns of ``C_d_b (T_d^T T_d)^-1 T_d^T``
+    (:meth:`~graphnav.core.dvl.DvlGeometry.velocity_from_beams` on four beams). For the Janus geometry at 20 deg a
+    beam's error enters the horizontal velocity 1.46x, the vertical 0.27x."""
     from graphnav.core.dvl import DvlGeometry
     geometry = DvlGeometry.from_spec(spec or DvlSpec())
     T = geometry.T_d

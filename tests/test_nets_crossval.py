@@ -174,7 +174,12 @@ def test_ensemble_is_the_mixture_of_its_members_and_round_trips_through_a_card(t
     np.testing.assert_allclose(mean, (m0 + m1) / 2, atol=1e-6)
     np.testing.assert_allclose(sigma ** 2, (s0 ** 2 + s1 ** 2) / 2 + ((m0 - m1) / 2) ** 2, rtol=1e-5)
     # the envelope covers both members' training data (each draws its own augmented copies)
-    assert ens.card["envelope"]["samples"] > one.card["envelope"]["samples"]
+    env, env0 = ens.card["envelope"], one.card["envelope"]
+    assert np.all(np.array(env["beam_min"]) <= env0["beam_min"])
+    assert np.all(np.array(env["beam_max"]) >= env0["beam_max"])
+    assert env["samples"] > env0["samples"]
+    with pytest.raises(ConfigError, match="members must be >= 1"):
+        cv.Variant("none", members=0)
     from graphnav.nets import load_completer
     from graphnav.nets.model import BeamEnsemble
     from graphnav.nets.training import TrainResult, save

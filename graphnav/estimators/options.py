@@ -109,10 +109,11 @@ class RegressedScreeningOptions:
             is over-confident on real data).
         completion_var_scale: factor (> 0) on the completer's variance after the correlation rule (which
             decides what is kept, on the unscaled variance) and before the adaptive rule and the gate. A
-            completer's errors through one outage are serially correlated (off for many pings together), which the per-ping factors
-            do not model; n completions then hold about n / tau pings' worth of information, tau the errors'
-            integrated autocorrelation time (pings; :func:`graphnav.nets.outage_calibration.integrated_autocorrelation`).
-            1: the errors taken as independent from ping to ping.
+            completer's errors through one outage are serially correlated (off for many pings together), which
+            the per-ping factors do not model; n completions then hold about n / tau pings' worth of
+            information, tau the errors' integrated autocorrelation time (pings;
+            :func:`graphnav.nets.outage_calibration.integrated_autocorrelation`). 1: the errors taken as
+            independent from ping to ping.
     """
 
     correlation: float = 0.0

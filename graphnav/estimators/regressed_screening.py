@@ -31,8 +31,8 @@ def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2:
         # the conditional variance of the completion's error given the prediction's, s_c^2 (1 - rho^2),
         # is the floor
         s2 = np.where(informative, np.maximum(a * (s2 - c) / np.maximum(a - c, 1e-12), s2 * (1 - rho ** 2)), s2)
-    # the serial correlation of a completer's errors weakens what the prediction leaves of it; scaled before the
-    # rule above, a wide variance would look redundant with the prediction and be dropped instead
+    # the serial correlation of a completer's errors weakens what the prediction leaves of it. Scaling before the
+    # rule above would make a wide variance look redundant with the prediction and drop the completion instead
     s2 = s2 * options.completion_var_scale
     innov2 = (np.asarray(y, float) - y_p) ** 2
     if options.adaptive:

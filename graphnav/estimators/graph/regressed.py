@@ -22,7 +22,7 @@ Options (``GraphOptions.screening``, ``EkfOptions.screening``:
   disagreement shows.
 - ``completion_var_scale``: the variance the correlation rule leaves is multiplied by it (1 by default). A
   completer's errors stay off for many pings together (integrated autocorrelation time 18-24 pings for the
-  beam-only network through 60-120 s outages), which per-ping factors treat as independent.
+  beam-only ensemble through 60-120 s outages), which per-ping factors treat as independent.
 - ``gate_k``: joint-covariance gate, ``|y_c - y_p| / sqrt(a + s^2) > k`` -> dropped.
 
 Measured on the A-KIT data (``experiments/regressed_correlation.py``, Trajectory1 and 5, 60 s windows, plain
