@@ -20,7 +20,7 @@ from graphnav.core.errors import ConfigError, DataError
 from .average import AverageCompleter
 from .completer import check_inputs
 from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
-from .storage import FORMAT_VERSION, file_sha256, weights_dir
+from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
 #: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
 #: ping at the edge of the training data does not switch completers.
@@ -179,8 +179,9 @@ def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | N
                  kind: str | None = None, train_hint: str = "graphnav train-beams"):
     """Load ``<name>.pt`` and its card ``<name>.json`` from ``directory`` (default: the shipped weights).
 
-    The card must have this :data:`FORMAT_VERSION`, the ``kind`` (None for the beam-only networks), the
-    ``missing`` beams and the sha256 of the ``.pt``; the tensors must match ``model_cls(**card["architecture"])``.
+    The card must have a format version of :data:`~graphnav.nets.storage.READABLE_VERSIONS`, the ``kind`` (None for
+    the beam-only networks), the ``missing`` beams and the sha256 of the ``.pt``; the tensors must match
+    ``model_cls(**card["architecture"])``.
 
     Raises:
         ConfigError: naming the file and what does not match (``train_hint`` says how to make the files).
@@ -191,10 +192,10 @@ def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | N
         raise ConfigError(f"no trained weights for '{name}' in {directory} (need {pt.name} and {js.name}); "
                           f"train them with: {train_hint}")
     card = json.loads(js.read_text())
-    if card.get("format_version") != FORMAT_VERSION or card.get("kind") != kind:
+    if card.get("format_version") not in READABLE_VERSIONS or card.get("kind") != kind:
         raise ConfigError(f"{js}: weights format version {card.get('format_version')} of kind "
-                          f"{card.get('kind')!r}, this graphnav reads version {FORMAT_VERSION} of kind {kind!r}; "
-                          f"retrain with {train_hint}")
+                          f"{card.get('kind')!r}, this graphnav reads versions {list(READABLE_VERSIONS)} of kind "
+                          f"{kind!r}; retrain with {train_hint}")
     if tuple(card.get("missing", ())) != missing:
         raise ConfigError(f"{js}: card is for missing beams {card.get('missing')}, expected {list(missing)}")
     if card.get("graphnav_version") != graphnav.__version__:

@@ -4,8 +4,17 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-#: Version of the weights file layout and model card; bump when either changes incompatibly.
-FORMAT_VERSION = 1
+#: Version of the weights file layout and model card; bump when either changes incompatibly. Version 2: an
+#: ensemble (``"members"`` in the card's architecture), which a reader of version 1 cannot build; a single network
+#: is still written as version 1, so earlier graphnav versions keep reading it.
+FORMAT_VERSION = 2
+#: The versions this graphnav reads.
+READABLE_VERSIONS = (1, 2)
+
+
+def card_format_version(architecture: dict) -> int:
+    """The oldest format version that describes a model of this ``architecture``."""
+    return 2 if "members" in architecture else 1
 
 
 def file_sha256(path: Path) -> str:

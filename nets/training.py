@@ -25,7 +25,7 @@ from graphnav.core.config import DvlSpec
 from . import data as beamdata
 from .evaluate import network_metrics
 from .model import BeamRegressor, normalize_missing, scenario_name
-from .storage import FORMAT_VERSION, file_sha256, weights_dir
+from .storage import card_format_version, file_sha256, weights_dir
 
 
 @dataclass
@@ -243,7 +243,7 @@ def training_envelope(series) -> dict:
 def card_header(model) -> dict:
     """Model-card fields every trained regressor shares: versions, scenario, beams, architecture, shapes."""
     return {
-        "format_version": FORMAT_VERSION,
+        "format_version": card_format_version(model.architecture()),
         "graphnav_version": graphnav.__version__,
         "torch_version": torch.__version__,
         "scenario": scenario_name(model.missing),

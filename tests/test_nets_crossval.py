@@ -186,6 +186,9 @@ def test_ensemble_is_the_mixture_of_its_members_and_round_trips_through_a_card(t
     save(TrainResult(ens.model, cv.network_card(ens, pair, 4, data={"source": "test"})), tmp_path)
     loaded = load_completer(3, directory=tmp_path)
     assert isinstance(loaded.model, BeamEnsemble) and len(loaded.model.members) == 2
+    # an ensemble card is format version 2 (a version-1 reader could not build it); one network stays version 1
+    assert loaded.card["format_version"] == 2
+    assert cv.network_card(one, single, 4, data={})["format_version"] == 1
     np.testing.assert_allclose(cv.predict_batch(loaded, samples, (0, 2, 3))[0],
                                cv.predict_batch(ens, samples, (0, 2, 3))[0], atol=1e-6)
     with pytest.raises(ConfigError, match="at least 2 members"):
