@@ -36,6 +36,10 @@ from pathlib import Path
 import numpy as np
 
 #: The study's runs per window (registry methods with a given completer; module docstring).
+#: Suffixes of screening_rho_folds.py's runs: the same completer with the fitted ``rho``, and with it the completion
+#: variance scaled by the errors' autocorrelation time ``tau``.
+FITTED = " rho fitted"
+SERIAL = " rho, tau fitted"
 VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI fold", "HNI fused", "HNI fused plain")
 
 
@@ -46,8 +50,7 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.imu_auto import ImuAutoCompleter
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
-    # screening_rho_folds.py: the same completer, other screening options
-    method = method.removesuffix(" rho fitted").removesuffix(" rho, tau fitted")
+    method = method.removesuffix(FITTED).removesuffix(SERIAL)
     if method == "HN-net fold":
         return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):

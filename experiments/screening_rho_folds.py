@@ -39,14 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
-FITTED = " rho fitted"
-#: the run with the fitted ``rho`` and the completer's variance scaled by its errors' integrated autocorrelation time
-SERIAL = " rho, tau fitted"
-
 
 def variants(completer: str) -> tuple[str, ...]:
     """The runs per window: Graph-TC, all beams, the default Graph-HN, the study's completer with the default and
     the fitted ``rho`` (the average's default run is Graph-HN itself)."""
+    from hybrid_imu_folds import FITTED, SERIAL
     if completer == "average":
         return ("Graph-TC", "all beams", "Graph-HN", "Graph-HN" + FITTED, "Graph-HN" + SERIAL)
     return ("Graph-TC", "all beams", "Graph-HN", completer, completer + FITTED, completer + SERIAL)
@@ -96,7 +93,7 @@ def main(argv=None) -> int:
                    "for 'HN-net fold', graphnav eval-beams --folds --save-nets DIR: DIR/<recipe>)")
     p.add_argument("--calibration", help="fitted rows of --completer 'HNI fused' (imu_completer_folds.py --calibrate)")
     a = p.parse_args(argv)
-    from hybrid_imu_folds import fold_table, load_runs, save_runs, table, window_task
+    from hybrid_imu_folds import FITTED, SERIAL, fold_table, load_runs, save_runs, table, window_task
     study = variants(a.completer)
     fold_nets = a.completer != "average"     # each trajectory completed by the fold network that holds it out
     if fold_nets and (a.nets is None or (a.completer == "HNI fused" and a.calibration is None)):
@@ -175,10 +172,11 @@ def main(argv=None) -> int:
                         for v in study:
                             if (name(k), g, w, v) in results:
                                 continue
-                            options = ({"screening.correlation": rho[f, g, sc]} if v.endswith(FITTED) else
-                                       {"screening.correlation": rho[f, g, sc],
-                                        "screening.completion_var_scale": tau[f, g, sc]} if v.endswith(SERIAL)
-                                       else None)
+                            options = None
+                            if v.endswith((FITTED, SERIAL)):
+                                options = {"screening.correlation": rho[f, g, sc]}
+                            if v.endswith(SERIAL):
+                                options["screening.completion_var_scale"] = tau[f, g, sc]
                             items.append((sources[name(k)], g, sc, w, a.max_windows, v, a.nets, f, fit(f, g),
                                           options))
 

@@ -9,12 +9,12 @@ from pathlib import Path
 #: is still written as version 1, so earlier graphnav versions keep reading it.
 FORMAT_VERSION = 2
 #: The versions this graphnav reads.
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = tuple(range(1, FORMAT_VERSION + 1))
 
 
 def card_format_version(architecture: dict) -> int:
     """The oldest format version that describes a model of this ``architecture``."""
-    return 2 if "members" in architecture else 1
+    return FORMAT_VERSION if "members" in architecture else 1
 
 
 def file_sha256(path: Path) -> str:

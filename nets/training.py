@@ -62,10 +62,13 @@ def _tensors(model: BeamRegressor, samples: beamdata.BeamSamples):
     return past, meas, target
 
 
-def _normalised_mse(model, past, meas, target):
+def _normalised_errors(model, past, meas, target):
     pred, _ = model(past, meas)
-    scale = model.beam_std[list(model.missing)]
-    return torch.mean(((pred - target) / scale) ** 2)
+    return (pred - target) / model.beam_std[list(model.missing)]
+
+
+def _normalised_mse(model, past, meas, target):
+    return torch.mean(_normalised_errors(model, past, meas, target) ** 2)
 
 
 def velocity_of_missing(missing, spec: DvlSpec | None = None) -> np.ndarray:
@@ -92,8 +95,7 @@ def mean_loss(velocity_weight: float, missing):
     L = torch.as_tensor(velocity_of_missing(missing), dtype=torch.float32)
 
     def loss(model, past, meas, target):
-        pred, _ = model(past, meas)
-        err = (pred - target) / model.beam_std[list(model.missing)]
+        err = _normalised_errors(model, past, meas, target)
         return torch.mean(err ** 2) + velocity_weight * torch.mean(torch.sum((err @ L.T) ** 2, dim=1))
     return loss
 
@@ -117,9 +119,8 @@ def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: 
         model.set_normalisation(torch.as_tensor(train_samples.beams, dtype=torch.float32))
         tr, va = _tensors(model, train_samples), _tensors(model, val_samples)
         history = _run_stage(model, model.mean_parameters(), tr, va, mean_loss(opt.velocity_weight, model.missing),
-                             "mse", opt.epochs,
-                             opt.batch_size, torch.optim.RMSprop, opt.lr, opt.lr_step_epochs, opt.lr_gamma,
-                             opt.patience, opt.seed, progress)
+                             "mse", opt.epochs, opt.batch_size, torch.optim.RMSprop, opt.lr, opt.lr_step_epochs,
+                             opt.lr_gamma, opt.patience, opt.seed, progress)
         history += _run_stage(model, list(model.sigma_head.parameters()), tr, va, _gaussian_nll, "nll",
                               opt.sigma_epochs, opt.sigma_batch_size, torch.optim.Adam, opt.sigma_lr,
                               None, 1.0, None, opt.seed + 1, progress)
