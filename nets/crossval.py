@@ -63,6 +63,9 @@ class Variant:
             (:func:`graphnav.nets.training.mean_loss`; 0: beam MSE only, as the paper).
         members: networks trained alike from different seeds (and augmentation draws) and averaged
             (:class:`~graphnav.nets.model.BeamEnsemble`); 1: one network. Member 0 is the one network.
+        run_decay: ``(scenario, gamma)`` pairs: the completer's fading from the network to the average through a
+            run of regressed pings (:class:`~graphnav.nets.network.NetworkCompleter` ``run_decay``); it changes
+            no training, only how the trained network completes an outage (absent scenario: 1, no fading).
     """
 
     name: str
@@ -80,11 +83,18 @@ class Variant:
     rollout_epochs: int = 6
     velocity_weight: float = 0.0
     members: int = 1
+    run_decay: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
         if self.members < 1 or self.velocity_weight < 0:
             raise ConfigError(f"recipe {self.name!r}: members must be >= 1 and velocity_weight >= 0, got "
                               f"{self.members} and {self.velocity_weight}")
+        if any(not 0.0 < g <= 1.0 for _, g in self.run_decay):
+            raise ConfigError(f"recipe {self.name!r}: run_decay must be in (0, 1], got {self.run_decay}")
+
+    def decay(self, missing) -> float:
+        """The ``run_decay`` of scenario ``missing`` (1 when the recipe names none)."""
+        return dict(self.run_decay).get(scenario_name(missing), 1.0)
 
 
 #: The recipes the out-of-fold table can compare (``graphnav eval-beams --folds --variant NAME``); the default
@@ -97,6 +107,9 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("akit-residual-recursive", akit=True, residual=True, rollout=15),  # + trained on its own completions
     Variant("akit-residual-aug-ens5", akit=True, residual=True, copies=2, members=5),   # + mean of 5 seeds
     Variant("akit-residual-aug-vel", akit=True, residual=True, copies=2, velocity_weight=1.0),  # + velocity loss
+    # + fading to the average through an outage; gamma chosen out of fold by experiments/completer_fade_folds.py
+    Variant("akit-residual-aug-ens5-fade", akit=True, residual=True, copies=2, members=5,
+            run_decay=(("2-missing", 0.9), ("3-missing", 0.98))),
 )}
 #: The recipes ``graphnav eval-beams --folds`` runs without ``--variant``: the recursive stage is left out (its
 #: rollouts cost about 8 min of one core per fold on the shared machine, 15x the one-step recipe).
@@ -241,7 +254,7 @@ def train_network(train: dict[str, list], missing, variant: Variant, seed: int =
         models.append(model)
         seen += member_fit[len(fit_s):]      # its augmented copies (the recordings themselves are in already)
     model = models[0] if len(models) == 1 else BeamEnsemble.of(models)
-    return NetworkCompleter(model, card={"envelope": training_envelope(seen)})
+    return NetworkCompleter(model, card={"envelope": training_envelope(seen)}, run_decay=variant.decay(missing))
 
 
 #: Seed offset between ensemble members (larger than any fold index, so no member repeats another fold's seed).
@@ -531,9 +544,12 @@ def network_card(net, variant: Variant, seed: int, data: dict, time_s: float | N
     training = {**variant_dict(variant), "seed": seed}
     if time_s is not None:
         training["time_s"] = round(time_s, 1)
-    return {**card_header(net.model), "data": data, "training": training,
+    card = {**card_header(net.model), "data": data, "training": training,
             "normalisation": {"beam_mean": net.model.beam_mean.tolist(), "beam_std": net.model.beam_std.tolist()},
             "envelope": net.card["envelope"]}
+    if net.run_decay < 1.0:     # absent: no fading (cards written before it existed read the same)
+        card["run_decay"] = net.run_decay
+    return card
 
 
 def final_metrics(net, train: dict[str, list], variant: Variant, beamsnet_dir, beam_seed: int) -> dict:

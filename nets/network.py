@@ -75,6 +75,15 @@ class NetworkCompleter:
         sigma_scale: factor on every returned sigma (default 1: per ping the sigma is calibrated).
             Through recursive 30 s outages the RMS of error/sigma is 1.2-2.0 (model card); the growth
             that :class:`graphnav.estimators.history.BeamHistory` adds over a run of filled pings covers that.
+        run_decay: ``gamma`` in (0, 1]: through a run of pings with regressed beams the completion fades from the
+            network's to the average estimator's over the same past, ``w b_net + (1 - w) b_avg`` with
+            ``w = gamma^k`` at the k-th regressed ping of the run (k from 0: a ping after a measured past is the
+            network's alone), and the sigma likewise ``w s_net + (1 - w) s_avg`` (the sigma of the blend if the
+            two errors were fully correlated, a bound). Fed its own completions, the network can walk away from
+            motion it was not trained on, where the average holds the last beams; 1 (default): no fading. The
+            estimators hand over ``k`` (``takes_run_steps``, :class:`graphnav.estimators.history.BeamHistory`); a
+            call without ``run_steps`` is a first regressed ping. Chosen out of fold
+            (``experiments/completer_fade_folds.py``, docs/decisions/completers.md).
 
     A network extrapolates badly outside the data it was trained on (no-bottom-lock samples in its past
     window put its beams 0.1-0.3 m/s off, where the average estimator stays bounded): a ping whose inputs
@@ -84,7 +93,7 @@ class NetworkCompleter:
     """
 
     def __init__(self, model: BeamRegressor | BeamEnsemble, sigma: str = "head", constant_sigma=None,
-                 card: dict | None = None, sigma_scale: float = 1.0):
+                 card: dict | None = None, sigma_scale: float = 1.0, run_decay: float = 1.0):
         if sigma not in ("head", "constant"):
             raise ConfigError(f"sigma must be 'head' or 'constant', got '{sigma}'")
         if sigma == "constant" and constant_sigma is None:
@@ -97,17 +106,22 @@ class NetworkCompleter:
         if not sigma_scale > 0:
             raise ConfigError(f"sigma_scale must be > 0, got {sigma_scale}")
         self.sigma_scale = float(sigma_scale)
+        if not 0.0 < run_decay <= 1.0:
+            raise ConfigError(f"run_decay must be in (0, 1], got {run_decay}")
+        self.run_decay = float(run_decay)
+        self.takes_run_steps = self.run_decay < 1.0
         self.card = card or {}
         self.envelope = InputEnvelope.from_card(self.card)
         self.fallback = AverageCompleter(self.n_past)
         self.fallbacks = {"envelope": 0, "pattern": 0}
 
-    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping.
 
         Args:
             past: (n_past, 4) the last full beam vectors, oldest first, m/s.
             measured: (4,) beams of this ping, NaN exactly at the network's missing beams, m/s.
+            run_steps: (4,) regressed pings of each beam earlier in the current run (``run_decay``; None: 0).
 
         Returns:
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
@@ -141,6 +155,11 @@ class NetworkCompleter:
         beams[list(self.missing)] = out[0].double().numpy()
         sigma[list(self.missing)] = self.sigma_scale * (self.constant_sigma if self.sigma_mode == "constant"
                                                         else sig[0].double().numpy())
+        if self.run_decay < 1.0 and run_steps is not None:
+            w = np.where(np.isfinite(measured), 1.0, self.run_decay ** np.asarray(run_steps, float))
+            avg_beams, avg_sigma = self.fallback.complete(past, measured)
+            beams = w * beams + (1.0 - w) * avg_beams
+            sigma = w * sigma + (1.0 - w) * avg_sigma
         return beams, sigma
 
 
@@ -155,6 +174,7 @@ class AutoCompleter:
         self.networks = {net.missing: net for net in networks}
         self.fallback = fallback
         self.n_past = max([net.n_past for net in networks] + [fallback.n_past])
+        self.takes_run_steps = any(net.takes_run_steps for net in networks)
 
     @property
     def fallbacks(self) -> dict[str, int]:
@@ -167,11 +187,13 @@ class AutoCompleter:
         pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(np.asarray(measured, float))))
         return self.networks.get(pattern, self.fallback)
 
-    def complete(self, past: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
         past, measured = check_inputs(past, measured, self.n_past)
         if np.all(np.isfinite(measured)):
             return measured.copy(), np.zeros(4)
         chosen = self.completer_for(measured)
+        if getattr(chosen, "takes_run_steps", False):
+            return chosen.complete(past[-chosen.n_past:], measured, run_steps=run_steps)
         return chosen.complete(past[-chosen.n_past:], measured)
 
 
@@ -230,7 +252,7 @@ def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegres
 
 
 def load_completer(missing=2, sigma: str = "head", directory: str | Path | None = None,
-                   fallback_n_past: int = 3, sigma_scale: float = 1.0):
+                   fallback_n_past: int = 3, sigma_scale: float = 1.0, run_decay: float | None = None):
     """A beam completer with the shipped (or ``directory``'s) weights.
 
     Args:
@@ -240,9 +262,12 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
         sigma: ``"head"`` (per-ping heteroscedastic sigma) or ``"constant"`` (validation RMS per beam).
         fallback_n_past: window of the average estimator used by ``"auto"`` for untrained patterns.
         sigma_scale: factor on the network's sigma (see :class:`NetworkCompleter`).
+        run_decay: fading to the average through a run of regressed pings (see :class:`NetworkCompleter`);
+            None: the model card's ``"run_decay"`` (1, no fading, when the card has none).
     """
     if missing == "auto":
-        nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale) for m in ("2-missing", "3-missing")]
+        nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale, run_decay=run_decay)
+                for m in ("2-missing", "3-missing")]
         return AutoCompleter(nets, AverageCompleter(fallback_n_past))
     if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
         if missing not in (2, 3):
@@ -250,4 +275,5 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
                               "use 'auto' for other patterns")
         missing = f"{missing}-missing"
     model, card = load_model(missing, directory)
-    return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale)
+    return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale,
+                            card.get("run_decay", 1.0) if run_decay is None else run_decay)

@@ -2,15 +2,16 @@
 # Retrain the shipped missing-beam networks with the recipes chosen out of fold, install them over the shipped
 # weights, and print the beam-only networks' table (V_test is the only data they were not trained on).
 # Usage: scripts/train_beams.sh [OUT_DIR]   (default out/train-beams; needs ../shared/data or GRAPHNAV_DATA).
-# Beam-only (akit-residual-aug-ens5, five seeds averaged): its out-of-fold rows first, for the model card (about
-# 15 min per scenario), then about 8 min of training; IMU-aware (graded, all ten A-KIT trajectories): about 2 min
-# of training per scenario, 5-8 min for both with loading. One thread each, seeded: a rerun gives the same weights.
+# Beam-only (akit-residual-aug-ens5-fade: five seeds averaged, fading to the average through an outage): its
+# out-of-fold rows first, for the model card (about 20 min per scenario), then about 8 min of training; IMU-aware
+# (graded, all ten A-KIT trajectories): about 2 min of training per scenario, 5-8 min for both with loading. One
+# thread each, seeded: a rerun gives the same weights.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-.venv/bin/python}
 OUT=${1:-out/train-beams}
 DATA=${GRAPHNAV_DATA:-../shared/data}
-RECIPE=akit-residual-aug-ens5
+RECIPE=akit-residual-aug-ens5-fade
 mkdir -p "$OUT"
 for s in 2-missing 3-missing; do
   nice -n 10 $PY -m graphnav eval-beams --folds --variant "$RECIPE" --scenario "$s" --akit "$DATA/snapir-2022-akit" \

@@ -262,3 +262,43 @@ def test_akit_series_splits_at_invalid_pings(tmp_path):
     assert [len(s.beams) for s in series] == [5, 6]
     assert all(np.all(np.isfinite(s.beams)) for s in series)
     assert len(beamdata.windows(series, 3)) == (5 - 3) + (6 - 3)
+
+
+def test_run_decay_fades_the_network_to_the_average_through_a_run():
+    """With ``run_decay`` gamma the k-th regressed ping of a run is ``gamma^k`` network + the rest average (beams
+    and sigma); the first one (k = 0, or no ``run_steps``) is the network's; measured beams pass through."""
+    net, fade, avg = load_completer(2, run_decay=1.0), load_completer(2, run_decay=0.9), AverageCompleter(3)
+    assert fade.takes_run_steps and not net.takes_run_steps
+    assert load_completer(2).run_decay == load_completer(2).card.get("run_decay", 1.0)   # the card's, by default
+    rng = np.random.default_rng(7)
+    past = make_beams(np.array([1.6, 0.1, 0.02]) + 0.05 * rng.standard_normal((3, 3)), DvlSpec(), 8)
+    measured = make_beams(np.array([[1.6, 0.1, 0.02]]), DvlSpec(), 9)[0]
+    measured[[0, 2]] = np.nan
+    b_net, s_net = net.complete(past, measured)
+    b_avg, s_avg = avg.complete(past, measured)
+    assert not np.allclose(b_net, b_avg)                        # the ping is inside the network's envelope
+    for steps in (None, np.zeros(4, int)):
+        np.testing.assert_array_equal(fade.complete(past, measured, run_steps=steps)[0], b_net)
+    w = 0.9 ** 5
+    b, s = fade.complete(past, measured, run_steps=np.array([5, 0, 5, 0]))
+    np.testing.assert_allclose(b, w * b_net + (1 - w) * b_avg, rtol=1e-12)
+    np.testing.assert_allclose(s, w * s_net + (1 - w) * s_avg, rtol=1e-12)
+    np.testing.assert_array_equal(b[[1, 3]], measured[[1, 3]])
+    assert np.all(s[[1, 3]] == 0)
+    # the auto completer hands the run on to the network it dispatches to
+    auto = load_completer("auto", run_decay=0.9)
+    assert auto.takes_run_steps
+    full_past = np.vstack([past[:2], past])
+    np.testing.assert_array_equal(auto.complete(full_past, measured, run_steps=np.array([5, 0, 5, 0]))[0], b)
+    # through an outage the history counts the run: with a tiny gamma every ping after the first is the average's
+    from graphnav.nets.evaluate import outage_rollout
+    s = _series(120)
+    full, _, _ = outage_rollout(load_completer(2, run_decay=1e-12), s, (0, 2), window=20, gap=60, settle=10)
+    first, _ = net.complete(s.beams[7:10], np.where([False, True, False, True], s.beams[10], np.nan))
+    np.testing.assert_allclose(full[0], first)
+    for k in range(1, 20):
+        hist = np.vstack([s.beams[7:10], full[:k]])[-3:]
+        np.testing.assert_allclose(full[k, [0, 2]], hist[:, [0, 2]].mean(axis=0), atol=1e-9)
+    for bad in (0.0, 1.5):
+        with pytest.raises(ConfigError, match="run_decay"):
+            load_completer(2, run_decay=bad)

@@ -1,6 +1,8 @@
 """Tests of the leave-trajectories-out cross-validation of the beam completers (graphnav.nets.crossval)."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -264,3 +266,24 @@ def test_real_folds_and_final_training_round_trip(akit_dir, beamsnet_dir, tmp_pa
     past, measured = test_beams[100:103], test_beams[103].copy()
     measured[[0, 2]] = np.nan
     np.testing.assert_allclose(constant.complete(past, measured)[1][[0, 2]], completer.card["constant_sigma"])
+
+
+def test_fading_recipe_reaches_the_completer_and_its_card(tmp_path):
+    """A recipe's ``run_decay`` changes no training: the fold network completes outages with it, its card records
+    it, and a completer loaded from that card fades alike (an explicit ``run_decay`` overrides the card)."""
+    train = {"akit": [_series(f"Trajectory{t}", seed=t, phase=13.0 * t) for t in (1, 2)], "beamsnet": []}
+    plain = cv.Variant("plain", akit=True, residual=True, epochs=1, patience=1, sigma_epochs=1, batch_size=64)
+    fading = replace(plain, name="fading", run_decay=(("3-missing", 0.9),))
+    assert fading.decay("3-missing") == 0.9 and fading.decay("2-missing") == 1.0 and plain.decay((0, 2, 3)) == 1.0
+    a, b = (cv.train_network(train, "3-missing", v, seed=2) for v in (plain, fading))
+    for x, y in zip(a.model.state_dict().values(), b.model.state_dict().values()):
+        assert torch.equal(x, y)
+    assert (a.run_decay, a.takes_run_steps, b.run_decay, b.takes_run_steps) == (1.0, False, 0.9, True)
+    assert "run_decay" not in cv.network_card(a, plain, 2, data={})
+    from graphnav.nets import load_completer
+    from graphnav.nets.training import TrainResult, save
+    save(TrainResult(b.model, cv.network_card(b, fading, 2, data={"source": "test"})), tmp_path)
+    assert load_completer(3, directory=tmp_path).run_decay == 0.9
+    assert load_completer(3, directory=tmp_path, run_decay=1.0).takes_run_steps is False
+    with pytest.raises(ConfigError, match="run_decay"):
+        cv.Variant("bad", run_decay=(("2-missing", 0.0),))

@@ -47,8 +47,8 @@ def register(subparsers) -> None:
     p.add_argument("--variant", action="append", default=None,
                    help="with --folds: training recipe to cross-validate (repeat; one of "
                         "graphnav.nets.crossval.VARIANTS; default: paper-recipe, akit, akit-residual, "
-                        "akit-residual-aug; the shipped akit-residual-aug-ens5 trains five networks per fold, "
-                        "so it runs only when named)")
+                        "akit-residual-aug; the ensembles akit-residual-aug-ens5 and the shipped "
+                        "akit-residual-aug-ens5-fade train five networks per fold, so they run only when named)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
     p.add_argument("--save-nets", default=None, metavar="DIR",
                    help="with --folds: also save each fold's network to DIR/<variant>/fold<k> (weights and card), "

@@ -58,7 +58,7 @@ def register(subparsers) -> None:
     p.add_argument("--imu-draws", type=int, default=None, help="beam-noise draws of the training trajectories for the "
                    f"IMU-aware network (default {ImuTrainOptions.draws})")
     p.add_argument("--recipe", default=None, metavar="NAME",
-                   help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (akit-residual-aug-ens5 "
+                   help="train a cross-validated recipe of graphnav.nets.crossval.VARIANTS (akit-residual-aug-ens5-fade "
                         "is the shipped one) "
                         "on all ten A-KIT trajectories and all of V.npy instead of the paper's BeamsNet split; "
                         "--data is then the folder holding snapir-2022-akit and snapir-2021-beamsnet (default: "
