@@ -302,3 +302,23 @@ def test_run_decay_fades_the_network_to_the_average_through_a_run():
     for bad in (0.0, 1.5):
         with pytest.raises(ConfigError, match="run_decay"):
             load_completer(2, run_decay=bad)
+
+
+def test_eval_beams_folds_trains_with_the_given_seed(monkeypatch):
+    """``eval-beams --folds --seed`` reaches the cross-validation (another training draw of the same table)."""
+    from graphnav.cli import build_parser
+    from graphnav.nets import crossval
+    seen = {}
+
+    def fake_crossval(data, scenario, variant, seed=0, **kwargs):
+        seen[scenario, variant] = seed
+        return []
+    monkeypatch.setattr(crossval, "load_fold_data", lambda *a, **k: None)
+    monkeypatch.setattr(crossval, "crossval", fake_crossval)
+    for name in ("fold_table", "format_fold_rows", "format_fold_gains", "format_summary"):
+        monkeypatch.setattr(crossval, name, lambda *a, **k: "")
+    monkeypatch.setattr(crossval, "summarise", lambda rows: [])
+    for argv, seed in ((["--seed", "100"], 100), ([], 0)):
+        args = build_parser().parse_args(["eval-beams", "--folds", "--variant", "akit", "--scenario", "2-missing", *argv])
+        assert args.func(args) == 0
+        assert seen[("2-missing", "akit")] == seed

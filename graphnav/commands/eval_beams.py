@@ -50,6 +50,9 @@ def register(subparsers) -> None:
                         "akit-residual-aug; the ensembles akit-residual-aug-ens5 and the shipped "
                         "akit-residual-aug-ens5-fade train five networks per fold, so they run only when named)")
     p.add_argument("--threads", type=int, default=1, help="with --folds: torch threads (default 1)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="with --folds: training seed (default 0; fold k trains with seed + k, an ensemble's member j "
+                        "with seed + k + 1000 j): another seed measures how much a table owes to one training draw")
     p.add_argument("--save-nets", default=None, metavar="DIR",
                    help="with --folds: also save each fold's network to DIR/<variant>/fold<k> (weights and card), "
                         "for studies that run it on that fold's held-out trajectories")
@@ -135,7 +138,7 @@ def run_folds(args) -> int:
     rows = []
     for name in names:
         for scen in args.scenario or ("2-missing", "3-missing"):
-            rows += crossval.crossval(data, scen, name, outage=not args.no_outage,
+            rows += crossval.crossval(data, scen, name, seed=args.seed, outage=not args.no_outage,
                                       log=lambda msg: print(msg, file=sys.stderr, flush=True),
                                       save_dir=f"{args.save_nets}/{name}" if args.save_nets else None)
             if args.json:
