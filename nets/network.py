@@ -275,5 +275,9 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
                               "use 'auto' for other patterns")
         missing = f"{missing}-missing"
     model, card = load_model(missing, directory)
-    return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale,
-                            card.get("run_decay", 1.0) if run_decay is None else run_decay)
+    if run_decay is None:
+        run_decay = card.get("run_decay", 1.0)
+        if isinstance(run_decay, bool) or not isinstance(run_decay, (int, float)) or not 0.0 < run_decay <= 1.0:
+            card_file = Path(directory or weights_dir()) / f"{scenario_name(normalize_missing(missing))}.json"
+            raise ConfigError(f"{card_file}: run_decay {run_decay!r} is not a number in (0, 1]")
+    return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale, run_decay)

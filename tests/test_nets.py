@@ -171,6 +171,10 @@ def test_loading_checks_versions_and_shapes(tmp_path):
     (tmp_path / "2-missing.json").write_text(json.dumps({**card, "weights_sha256": "0" * 64}))
     with pytest.raises(ConfigError, match="checksum"):
         load_model("2-missing", tmp_path)
+    for bad in (1.5, "0.9", None):       # a damaged fading factor names the card and the field
+        (tmp_path / "2-missing.json").write_text(json.dumps({**card, "run_decay": bad}))
+        with pytest.raises(ConfigError, match=r"2-missing\.json: run_decay"):
+            load_completer(2, directory=tmp_path)
     with pytest.raises(ConfigError, match="train-beams"):
         load_model("3-missing", tmp_path)
 
