@@ -16,7 +16,7 @@ from typing import Protocol
 
 import numpy as np
 
-from graphnav.core.errors import DataError
+from graphnav.core.errors import ConfigError, DataError
 
 
 class BeamCompleter(Protocol):
@@ -38,3 +38,12 @@ def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[n
     if measured.shape != (4,):
         raise DataError(f"shape {measured.shape}, expected (4,)", "completer", field="measured")
     return past, measured
+
+
+def check_run_decay(value, source: str) -> float:
+    """``value`` as a fading factor ``run_decay`` in (0, 1] (:class:`graphnav.nets.network.NetworkCompleter`);
+    otherwise a :class:`ConfigError` naming ``source`` (a model card, a recipe, the argument)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value <= 1.0:
+        raise ConfigError(f"{source}: run_decay {value!r} is not a number in (0, 1]")
+    return float(value)
+

@@ -25,6 +25,7 @@ from graphnav.core.folds import check_folds as core_check_folds
 
 from . import data as beamdata
 from .average import AVERAGE_N_PAST, AverageCompleter
+from .completer import check_run_decay
 from .evaluate import completion_metrics, outage_rollout, predict_completer
 from .model import normalize_missing, scenario_name
 
@@ -89,8 +90,8 @@ class Variant:
         if self.members < 1 or self.velocity_weight < 0:
             raise ConfigError(f"recipe {self.name!r}: members must be >= 1 and velocity_weight >= 0, got "
                               f"{self.members} and {self.velocity_weight}")
-        if any(not 0.0 < g <= 1.0 for _, g in self.run_decay):
-            raise ConfigError(f"recipe {self.name!r}: run_decay must be in (0, 1], got {self.run_decay}")
+        for _, gamma in self.run_decay:
+            check_run_decay(gamma, f"recipe {self.name!r}")
 
     def decay(self, missing) -> float:
         """The ``run_decay`` of scenario ``missing`` (1 when the recipe names none)."""

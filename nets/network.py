@@ -18,7 +18,7 @@ import graphnav
 from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
-from .completer import check_inputs
+from .completer import check_inputs, check_run_decay
 from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
@@ -106,9 +106,7 @@ class NetworkCompleter:
         if not sigma_scale > 0:
             raise ConfigError(f"sigma_scale must be > 0, got {sigma_scale}")
         self.sigma_scale = float(sigma_scale)
-        if not 0.0 < run_decay <= 1.0:
-            raise ConfigError(f"run_decay must be in (0, 1], got {run_decay}")
-        self.run_decay = float(run_decay)
+        self.run_decay = check_run_decay(run_decay, "NetworkCompleter")
         self.takes_run_steps = self.run_decay < 1.0
         self.card = card or {}
         self.envelope = InputEnvelope.from_card(self.card)
@@ -275,9 +273,7 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
                               "use 'auto' for other patterns")
         missing = f"{missing}-missing"
     model, card = load_model(missing, directory)
-    if run_decay is None:
-        run_decay = card.get("run_decay", 1.0)
-        if isinstance(run_decay, bool) or not isinstance(run_decay, (int, float)) or not 0.0 < run_decay <= 1.0:
-            card_file = Path(directory or weights_dir()) / f"{scenario_name(normalize_missing(missing))}.json"
-            raise ConfigError(f"{card_file}: run_decay {run_decay!r} is not a number in (0, 1]")
+    if run_decay is None:     # the card's, checked here to name the card file
+        card_file = Path(directory or weights_dir()) / f"{scenario_name(normalize_missing(missing))}.json"
+        run_decay = check_run_decay(card.get("run_decay", 1.0), str(card_file))
     return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale, run_decay)
