@@ -18,7 +18,7 @@ default); :mod:`graphnav.nets.outage_calibration` fits those numbers from held-o
 
 ``graphnav.nets.crossval`` cross-validates training recipes of the beam-only network against the average estimator
 with whole trajectories held out (``graphnav eval-beams --folds``); the hybrid graph methods complete with the
-average estimator because no recipe matched it in every held-out fold (``docs/decisions/completers.md``).
+average estimator because no recipe helps the estimators in every held-out fold (``docs/decisions/completers.md``).
 
 The torch-based names are imported on first use, so ``from graphnav.nets import AverageCompleter`` does
 not load torch.

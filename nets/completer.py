@@ -40,6 +40,18 @@ def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[n
     return past, measured
 
 
+def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
+    """``completer.complete(past, measured)``, handing the IMU window to a completer with ``needs_imu`` and the run
+    steps (:class:`graphnav.estimators.history.BeamHistory`) to one with ``takes_run_steps``: how a completer that
+    wraps others (auto, IMU-aware auto, fused) calls them, so that neither argument is dropped on the way."""
+    kwargs = {}
+    if getattr(completer, "needs_imu", False):
+        kwargs["imu"] = imu
+    if getattr(completer, "takes_run_steps", False):
+        kwargs["run_steps"] = run_steps
+    return completer.complete(past, measured, **kwargs)
+
+
 def check_run_decay(value, source: str) -> float:
     """``value`` as a fading factor ``run_decay`` in (0, 1] (:class:`graphnav.nets.network.NetworkCompleter`);
     otherwise a :class:`ConfigError` naming ``source`` (a model card, a recipe, the argument)."""

@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .completer import complete_with
+
 
 def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: float = 0.0
          ) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +71,9 @@ class FusedCompleter:
         self.first, self.second = first, second
         self.rho = float(rho)
         self.growth = None if growth is None else (float(growth[0]), float(growth[1]))
-        self.takes_run_steps = self.growth is not None
+        # its own growth, or a member that fades through the run (a beam-only network's run_decay)
+        self.takes_run_steps = self.growth is not None or any(getattr(c, "takes_run_steps", False)
+                                                              for c in (first, second))
         if self.growth is not None:
             self.drift_std = 0.0
         self.n_past = max(first.n_past, second.n_past)
@@ -97,9 +101,7 @@ class FusedCompleter:
         past = np.asarray(past, float)
         outs = []
         for c in (self.first, self.second):
-            own = past[-c.n_past:]
-            outs.append(c.complete(own, measured, imu=imu) if getattr(c, "needs_imu", False)
-                        else c.complete(own, measured))
+            outs.append(complete_with(c, past[-c.n_past:], measured, imu=imu, run_steps=run_steps))
         (b1, s1), (b2, s2) = outs
         if self.growth is not None and run_steps is not None:
             k = np.asarray(run_steps, float)

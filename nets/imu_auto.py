@@ -14,7 +14,7 @@ import numpy as np
 
 from graphnav.core.errors import ConfigError
 
-from .completer import check_inputs
+from .completer import check_inputs, complete_with
 
 
 class ImuAutoCompleter:
@@ -46,15 +46,19 @@ class ImuAutoCompleter:
         self.beam_only = beam_only
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
         self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
+        # a fading beam-only completer needs the run steps that BeamHistory hands to completers taking them
+        self.takes_run_steps = getattr(beam_only, "takes_run_steps", False)
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
 
     @property
     def fallbacks(self) -> dict[str, int]:
         return dict(getattr(self.beam_only, "fallbacks", {"envelope": 0, "pattern": 0}))
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+                 ) -> tuple[np.ndarray, np.ndarray]:
         """Complete one ping: ``past`` (n_past, 4) and ``measured`` (4,) m/s as every completer, ``imu`` the
-        ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window)."""
+        ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window), ``run_steps``
+        passed on to the beam-only completer (its ``run_decay``)."""
         past, measured = check_inputs(past, measured, self.n_past)
         missing = ~np.isfinite(measured)
         if not missing.any():
@@ -64,7 +68,7 @@ class ImuAutoCompleter:
             self.usage["imu"] += 1
             return net.complete(past[-net.n_past:], measured, imu=imu)
         self.usage["no_imu" if net is not None else "pattern"] += 1
-        return self.beam_only.complete(past[-self.beam_only.n_past:], measured)
+        return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, run_steps=run_steps)
 
 
 def load_imu_auto_completer(directory=None, beam_only=None) -> ImuAutoCompleter:

@@ -18,7 +18,7 @@ import graphnav
 from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
-from .completer import check_inputs, check_run_decay
+from .completer import check_inputs, check_run_decay, complete_with
 from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
@@ -190,9 +190,7 @@ class AutoCompleter:
         if np.all(np.isfinite(measured)):
             return measured.copy(), np.zeros(4)
         chosen = self.completer_for(measured)
-        if getattr(chosen, "takes_run_steps", False):
-            return chosen.complete(past[-chosen.n_past:], measured, run_steps=run_steps)
-        return chosen.complete(past[-chosen.n_past:], measured)
+        return complete_with(chosen, past[-chosen.n_past:], measured, run_steps=run_steps)
 
 
 def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | None = None,

@@ -326,3 +326,24 @@ def test_eval_beams_folds_trains_with_the_given_seed(monkeypatch):
         args = build_parser().parse_args(["eval-beams", "--folds", "--variant", "akit", "--scenario", "2-missing", *argv])
         assert args.func(args) == 0
         assert seen[("2-missing", "akit")] == seed
+
+
+def test_completers_that_wrap_a_fading_network_hand_the_run_on():
+    """The IMU-aware auto completer (its beam-only route) and the fused completer pass the run steps to a fading
+    beam-only network, so the fading of its model card holds on every route an estimator takes."""
+    from graphnav.nets import FusedCompleter, load_imu_auto_completer
+    fade = load_completer("auto", run_decay=0.9)
+    rng = np.random.default_rng(3)
+    past = make_beams(np.array([1.6, 0.1, 0.02]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 4)
+    measured = make_beams(np.array([[1.6, 0.1, 0.02]]), DvlSpec(), 5)[0]
+    measured[[0, 2]] = np.nan
+    steps = np.array([5, 0, 5, 0])
+    faded = fade.complete(past, measured, run_steps=steps)[0]
+    assert not np.allclose(faded, fade.complete(past, measured)[0])     # the run changes the completion
+    imu_auto = load_imu_auto_completer(beam_only=fade)
+    assert imu_auto.takes_run_steps
+    np.testing.assert_array_equal(imu_auto.complete(past, measured, imu=None, run_steps=steps)[0], faded)
+    fused = FusedCompleter(fade, AverageCompleter(3))
+    assert fused.takes_run_steps
+    np.testing.assert_array_equal(fused.members(past, measured, run_steps=steps)[0], faded)
+    assert not load_imu_auto_completer(beam_only=load_completer("auto", run_decay=1.0)).takes_run_steps

@@ -18,8 +18,9 @@ than Gaussian: 75-79 % within 1 sigma). Measured with ``experiments/calibrate_dr
 trajectories it lowers every hybrid method's window VRMSE against 0.02 (HNTC 0.204 -> 0.141 m/s, Graph-HN
 0.124 -> 0.105 m/s with 2 missing beams).
 
-A completer that grows its own sigma through the run (:class:`graphnav.nets.fused.FusedCompleter` with outage
-growth) sets ``takes_run_steps = True``: it is then also handed ``run_steps`` (4,), the pings each beam has been
+A completer that changes through the run (:class:`graphnav.nets.fused.FusedCompleter` with outage growth, a
+:class:`graphnav.nets.network.NetworkCompleter` fading to the average with ``run_decay``, and the completers that
+wrap one) sets ``takes_run_steps = True``: it is then also handed ``run_steps`` (4,), the pings each beam has been
 regressed before this one in the current run (0 on its first regressed ping).
 """
 from __future__ import annotations
