@@ -1,4 +1,4 @@
-"""Out-of-fold choice of the beam-only completer's fading to the average through an outage (``run_decay``).
+"""Out-of-fold choice of a completer's fading to the average through an outage (``run_decay``).
 
 Fed its own completions through a recursive outage, the network can walk away from motion it was not trained on,
 where the average estimator holds the last beams. With ``run_decay`` gamma the completion at the k-th regressed
@@ -9,9 +9,16 @@ completion (a measured past) is the network's alone whatever gamma is: only outa
 
 The rule that chooses gamma: fewest fold cells (fold x beam / velocity RMSE) worse than the average, then the
 largest smaller of the two pooled gains. The study also applies the rule leave-one-fold-out (gamma chosen on the
-other four folds, scored on the fifth), to show how much of the choice rests on one fold. Usage::
+other four folds, scored on the fifth), to show how much of the choice rests on one fold.
+
+With ``--imu`` the same for the IMU-aware fold networks (``experiments/imu_completer_folds.py --save-nets DIR``,
+:class:`graphnav.nets.imu_network.ImuNetworkCompleter` ``run_decay``), scored with each evaluation IMU (recorded,
+tactical, MEMS) on that study's pings and outage windows; the rule then counts the worse fold cells over all three.
+The sigma coverage through the outages (what ``BeamHistory`` hands on) is printed for no fading and the chosen gamma.
+Usage::
 
     .venv/bin/python experiments/completer_fade_folds.py --nets out/ens2/akit-residual-aug-ens5 --scenario 2-missing
+    .venv/bin/python experiments/completer_fade_folds.py --imu --nets out/imu_folds/nets2 --scenario 2-missing
 """
 from __future__ import annotations
 
@@ -25,11 +32,11 @@ METRICS = ("beam_rmse", "vel_rmse")
 
 
 def score(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) -> list[dict]:
-    """Rows (fold, method, decay, beam_rmse, vel_rmse, n) of every fold's network with each decay and of the
-    average estimator, through recursive 30-ping outages of the fold's held-out A-KIT trajectories."""
+    """Rows (fold, variant, method, decay, beam_rmse, vel_rmse, n) of every fold's beam-only network with each
+    decay and of the average estimator, through recursive 30-ping outages of the fold's held-out A-KIT
+    trajectories."""
     from graphnav.nets import crossval
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
-    from graphnav.nets.evaluate import completion_metrics, outage_rollout
     from graphnav.nets.model import normalize_missing
     from graphnav.nets.network import load_completer
 
@@ -38,20 +45,50 @@ def score(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) -> l
     rows = []
     for i in range(len(data.folds)):
         series = [s for s in data.split(i)[1]["A-KIT"] if len(s.beams) > 7]
-        avg = AverageCompleter(AVERAGE_N_PAST[scenario])
-        comps = [("average", 1.0, avg)] + [("network", g, load_completer(scenario, directory=f"{nets_dir}/fold{i}",
-                                                                          run_decay=g)) for g in decays]
-        for method, g, comp in comps:
-            full, sigma, samples = outage_rollout(comp, series, missing)
-            m = completion_metrics(full, sigma, samples, missing)
-            rows.append({"fold": i, "method": method, "decay": g, **{k: m[k] for k in (*METRICS, "n")}})
+        comps = [("average", 1.0, AverageCompleter(AVERAGE_N_PAST[scenario]))] + [
+            ("network", g, load_completer(scenario, directory=f"{nets_dir}/fold{i}", run_decay=g)) for g in decays]
+        rows += _rollouts(comps, series, missing, {"fold": i, "variant": "beam-only"})
         print(f"fold {i} {list(data.folds[i])} done", file=sys.stderr, flush=True)
+    return rows
+
+
+def score_imu(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) -> list[dict]:
+    """The same rows for the IMU-aware fold networks (``experiments/imu_completer_folds.py --save-nets DIR``),
+    one variant per evaluation IMU (recorded, tactical, MEMS), on the pings and outage windows of that study."""
+    from imu_completer_folds import EVAL_GRADES, held_out_series
+
+    from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
+    from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
+    from graphnav.nets.imu_network import load_imu_completer
+    from graphnav.nets.model import normalize_missing
+
+    missing = list(normalize_missing(scenario))
+    rows = []
+    for i, held in enumerate(AKIT_FOLDS):
+        comps = [("average", 1.0, AverageCompleter(AVERAGE_N_PAST[scenario]))] + [
+            ("network", g, load_imu_completer(scenario, f"{nets_dir}/fold{i}", run_decay=g)) for g in decays]
+        for grade in EVAL_GRADES:
+            rows += _rollouts(comps, held_out_series(held, akit_dir, grade), missing,
+                              {"fold": i, "variant": f"IMU {grade}"}, settle=OUTAGE_SETTLE)
+        print(f"fold {i} {list(held)} done", file=sys.stderr, flush=True)
+    return rows
+
+
+def _rollouts(comps, series, missing, keys: dict, settle: int = 10) -> list[dict]:
+    from graphnav.nets.evaluate import completion_metrics, outage_rollout
+    rows = []
+    for method, g, comp in comps:
+        full, sigma, samples = outage_rollout(comp, series, missing, gap=60, settle=settle)
+        m = completion_metrics(full, sigma, samples, missing)
+        rows.append({**keys, "method": method, "decay": g,
+                     **{k: m[k] for k in (*METRICS, "within_1sigma", "within_2sigma", "n")}})
     return rows
 
 
 def gains(rows: list[dict], decay: float, folds) -> tuple[list[float], dict[int, list[float]]]:
     """Pooled gains (beam, velocity) over ``folds`` and each fold's, of the network with ``decay`` against the
-    average (1 - network / average RMSE; positive: the network is better)."""
+    average (1 - network / average RMSE; positive: the network is better), in ``rows`` of one variant."""
     net = {r["fold"]: r for r in rows if r["method"] == "network" and r["decay"] == decay and r["fold"] in folds}
     avg = {r["fold"]: r for r in rows if r["method"] == "average" and r["fold"] in folds}
     pooled = [1 - np.sqrt(sum(net[f][m] ** 2 * net[f]["n"] for f in folds) / sum(avg[f][m] ** 2 * avg[f]["n"]
@@ -59,50 +96,80 @@ def gains(rows: list[dict], decay: float, folds) -> tuple[list[float], dict[int,
     return pooled, {f: [1 - net[f][m] / avg[f][m] for m in METRICS] for f in folds}
 
 
+def coverage(rows: list[dict], label: str, decay: float) -> str:
+    """Pooled (weighted by pings) fractions of filled-beam errors within 1 and 2 sigma of the average (``label``
+    "average") or of the network with ``decay``."""
+    sel = [r for r in rows if r["method"] == ("average" if label == "average" else "network") and r["decay"] == decay]
+    n = np.array([r["n"] for r in sel], float)
+    return "{:.3f} / {:.3f}".format(*(float(n @ [r[k] for r in sel] / n.sum()) for k in ("within_1sigma",
+                                                                                          "within_2sigma")))
+
+
+def by_variant(rows: list[dict]) -> dict[str, list[dict]]:
+    """``rows`` split by variant (the evaluation IMU of the IMU-aware study; one for the beam-only networks)."""
+    return {v: [r for r in rows if r.get("variant", "beam-only") == v]
+            for v in dict.fromkeys(r.get("variant", "beam-only") for r in rows)}
+
+
 def choose(rows: list[dict], decays: list[float], folds) -> float:
-    """The rule: fewest fold cells worse than the average, then the largest smaller pooled gain."""
+    """The rule: fewest fold cells worse than the average (over every variant), then the largest smallest pooled
+    gain (over both metrics and every variant)."""
+    parts = by_variant(rows).values()
+
     def key(g):
-        pooled, per_fold = gains(rows, g, folds)
-        return (sum(x < 0 for fg in per_fold.values() for x in fg), -min(pooled))
+        scored = [gains(part, g, folds) for part in parts]
+        worse = sum(x < 0 for _, per_fold in scored for fg in per_fold.values() for x in fg)
+        return (worse, -min(min(pooled) for pooled, _ in scored))
     return min(decays, key=key)
 
 
 def report(rows: list[dict], decays: list[float]) -> str:
     folds = sorted({r["fold"] for r in rows})
-    lines = ["| gamma | pooled beam / vel | " + " | ".join(f"fold {f}" for f in folds) + " | worse cells |",
-             "| --- | --- | " + " | ".join("---" for _ in folds) + " | --- |"]
-    for g in decays:
-        pooled, per_fold = gains(rows, g, folds)
-        worse = sum(x < 0 for fg in per_fold.values() for x in fg)
-        lines.append(f"| {g:g} | {100 * pooled[0]:+.1f} / {100 * pooled[1]:+.1f} % | "
-                     + " | ".join(f"{100 * per_fold[f][0]:+.1f} / {100 * per_fold[f][1]:+.1f}" for f in folds)
-                     + f" | {worse} |")
+    lines = ["| variant | gamma | pooled beam / vel | " + " | ".join(f"fold {f}" for f in folds) + " | worse cells |",
+             "| --- | --- | --- | " + " | ".join("---" for _ in folds) + " | --- |"]
+    for variant, part in by_variant(rows).items():
+        for g in decays:
+            pooled, per_fold = gains(part, g, folds)
+            worse = sum(x < 0 for fg in per_fold.values() for x in fg)
+            lines.append(f"| {variant} | {g:g} | {100 * pooled[0]:+.1f} / {100 * pooled[1]:+.1f} % | "
+                         + " | ".join(f"{100 * per_fold[f][0]:+.1f} / {100 * per_fold[f][1]:+.1f}" for f in folds)
+                         + f" | {worse} |")
     chosen = choose(rows, decays, folds)
     lines.append(f"\nchosen on all folds: gamma {chosen:g}")
+    if 1.0 in decays:
+        lines.append("sigma coverage through the outages, pooled within 1 / 2 sigma (Gaussian 0.683 / 0.954; the "
+                     "sigma BeamHistory hands on): " + "; ".join(
+                         f"{v} " + ", ".join(f"{m} {coverage(part, m, g)}" for m, g in
+                                             (("average", 1.0), ("gamma 1", 1.0), (f"gamma {chosen:g}", chosen)))
+                         for v, part in by_variant(rows).items()))
     nested = []
     for f in folds:
         g = choose(rows, decays, [o for o in folds if o != f])
-        fg = gains(rows, g, [f])[1][f]
-        nested.append(f"fold {f}: gamma {g:g} -> {100 * fg[0]:+.1f} / {100 * fg[1]:+.1f} %")
-    lines.append("chosen without the fold it is scored on: " + "; ".join(nested))
+        cells = ", ".join(f"{v} " + "{:+.1f} / {:+.1f} %".format(*(100 * x for x in gains(part, g, [f])[1][f]))
+                          for v, part in by_variant(rows).items())
+        nested.append(f"fold {f}: gamma {g:g} -> {cells}")
+    lines.append("chosen without the fold it is scored on:\n" + "\n".join(nested))
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--nets", required=True, help="fold networks: DIR/<recipe> of graphnav eval-beams --folds --save-nets DIR")
+    p.add_argument("--nets", required=True, help="fold networks: DIR/<recipe> of graphnav eval-beams --folds "
+                   "--save-nets DIR (with --imu: DIR of experiments/imu_completer_folds.py --save-nets DIR)")
+    p.add_argument("--imu", action="store_true", help="the IMU-aware fold networks, scored with each evaluation "
+                   "IMU (recorded, tactical, MEMS)")
     p.add_argument("--scenario", required=True, choices=["2-missing", "3-missing"])
     p.add_argument("--decays", nargs="+", type=float, default=[1.0, 0.98, 0.95, 0.9, 0.8],
                    help="gammas to score (default 1 0.98 0.95 0.9 0.8)")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--json", help="also write the rows here")
     a = p.parse_args(argv)
-    rows = score(a.nets, a.scenario, a.decays, a.data)
+    rows = (score_imu if a.imu else score)(a.nets, a.scenario, a.decays, a.data)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=1)
     print(f"{a.scenario}: gain against the average through recursive 30-ping outages, A-KIT held out "
-          "(beam / velocity RMSE)")
+          f"(beam / velocity RMSE){', IMU-aware networks' if a.imu else ''}")
     print(report(rows, a.decays))
     return 0
 

@@ -15,6 +15,8 @@ the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepare
   correlation and outage growths, fitted on the other folds (``imu_completer_folds.py --calibrate``, rows of the
   evaluation IMU of the run's grade);
 - ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted);
+- ``HNI fold fading``: ``HNI fold`` with the network fading to the average through a run of regressed pings
+  (``run_decay`` :data:`IMU_FADE`, chosen out of fold by ``experiments/completer_fade_folds.py --imu``);
 - ``HN-net fold`` (with ``--beam-nets DIR``, ``graphnav eval-beams --folds --save-nets``): the fold's beam-only
   network, as ``Graph-HN-net`` runs the shipped one.
 
@@ -41,6 +43,8 @@ import numpy as np
 FITTED = " rho fitted"
 SERIAL = " rho, tau fitted"
 VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI fold", "HNI fused", "HNI fused plain")
+#: ``run_decay`` of the variant "HNI fold fading" (the fade study's choice, 2 and 3 missing beams)
+IMU_FADE = 0.95
 
 
 def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float):
@@ -56,8 +60,9 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     if not method.startswith("HNI"):
         return None
     average = AverageCompleter(n_past=AVERAGE_N_PAST[scenario], noise_std=noise_std)
-    hni = ImuAutoCompleter([load_imu_completer(scenario, Path(nets_dir) / f"fold{fold}")], average)
-    if method == "HNI fold":
+    decay = IMU_FADE if method == "HNI fold fading" else 1.0     # the other variants never fade
+    hni = ImuAutoCompleter([load_imu_completer(scenario, Path(nets_dir) / f"fold{fold}", run_decay=decay)], average)
+    if method in ("HNI fold", "HNI fold fading"):
         return hni
     # the average keeps no state: the fallback and the fused member can be the same one
     if method == "HNI fused plain":
@@ -161,7 +166,7 @@ def main(argv=None) -> int:
     p.add_argument("--calibration", help="rows of imu_completer_folds.py --calibrate (JSON), for 'HNI fused'")
     p.add_argument("--beam-nets", help="the beam-only fold networks of one recipe (graphnav eval-beams --folds "
                    "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
-    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=[*VARIANTS, "HN-net fold"],
+    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=[*VARIANTS, "HN-net fold", "HNI fold fading"],
                    help="the runs per window (default: " + ", ".join(VARIANTS) + ")")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")

@@ -120,6 +120,7 @@ class _RawSigma:
         self.completer, self.raw = completer, []
         self.n_past = completer.n_past
         self.needs_imu = getattr(completer, "needs_imu", False)
+        self.takes_run_steps = getattr(completer, "takes_run_steps", False)
         if self.needs_imu:
             self.imu_samples, self.ping_dt = completer.imu_samples, completer.ping_dt
 

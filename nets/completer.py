@@ -52,6 +52,19 @@ def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, r
     return completer.complete(past, measured, **kwargs)
 
 
+def fade_to_average(beams: np.ndarray, sigma: np.ndarray, measured: np.ndarray, run_steps, run_decay: float,
+                    average: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """A network's completion ``(beams, sigma)`` faded to the average estimator's ``average`` = (beams, sigma)
+    through a run of regressed pings: ``w b_net + (1 - w) b_avg`` and ``w s_net + (1 - w) s_avg`` per missing
+    beam with ``w = run_decay^k`` at its k-th regressed ping of the run (``run_steps``, k = 0 after a measured
+    past); measured beams pass through. The sigma is the blend's if the two errors were fully correlated, a bound.
+    ``run_steps`` None: a first regressed ping (no fading)."""
+    if run_decay >= 1.0 or run_steps is None:
+        return beams, sigma
+    w = np.where(np.isfinite(measured), 1.0, run_decay ** np.asarray(run_steps, float))
+    return w * beams + (1.0 - w) * average[0], w * sigma + (1.0 - w) * average[1]
+
+
 def check_run_decay(value, source: str) -> float:
     """``value`` as a fading factor ``run_decay`` in (0, 1] (:class:`graphnav.nets.network.NetworkCompleter`);
     otherwise a :class:`ConfigError` naming ``source`` (a model card, a recipe, the argument)."""

@@ -46,8 +46,8 @@ class ImuAutoCompleter:
         self.beam_only = beam_only
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
         self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
-        # a fading beam-only completer needs the run steps that BeamHistory hands to completers taking them
-        self.takes_run_steps = getattr(beam_only, "takes_run_steps", False)
+        # a fading completer needs the run steps that BeamHistory hands to completers taking them
+        self.takes_run_steps = any(getattr(c, "takes_run_steps", False) for c in (*imu_networks, beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
 
     @property
@@ -58,7 +58,7 @@ class ImuAutoCompleter:
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Complete one ping: ``past`` (n_past, 4) and ``measured`` (4,) m/s as every completer, ``imu`` the
         ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window), ``run_steps``
-        passed on to the beam-only completer (its ``run_decay``)."""
+        passed on to the completer that serves the ping (its ``run_decay``)."""
         past, measured = check_inputs(past, measured, self.n_past)
         missing = ~np.isfinite(measured)
         if not missing.any():
@@ -66,7 +66,7 @@ class ImuAutoCompleter:
         net = self.networks.get(tuple(int(b) for b in np.flatnonzero(missing)))
         if net is not None and imu is not None:
             self.usage["imu"] += 1
-            return net.complete(past[-net.n_past:], measured, imu=imu)
+            return complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
         self.usage["no_imu" if net is not None else "pattern"] += 1
         return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, run_steps=run_steps)
 

@@ -28,11 +28,12 @@ import torch
 
 from graphnav.core.errors import ConfigError, DataError
 
-from .completer import check_inputs
+from .average import AVERAGE_N_PAST, AverageCompleter
+from .completer import check_inputs, check_run_decay, fade_to_average
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
-from .network import load_weights
+from .network import card_run_decay, load_weights
 
 
 def imu_weights_name(missing) -> str:
@@ -55,6 +56,12 @@ class ImuNetworkCompleter:
         model: the trained network; it serves its ``missing`` pattern only.
         card: its model card.
         sigma_scale: factor on the returned sigma (1: calibrated per ping on held-out pings).
+        run_decay: ``gamma`` in (0, 1]: through a run of regressed pings the completion fades to the mean of the
+            last ``min(n_past, AVERAGE_N_PAST[scenario])`` pings of the past window (3 for 2 and 3 missing beams;
+            the average estimator's N = 5 of 3 missing beams does not fit the network's 3-ping window), with
+            ``gamma^k`` the network's weight at the k-th regressed ping of the run, as
+            :class:`graphnav.nets.network.NetworkCompleter` fades; 1 (default): no fading.
+            :func:`load_imu_completer` takes it from the model card.
 
     No ``drift_std`` of its own: :class:`graphnav.estimators.history.BeamHistory` grows the sigma through a run of regressed
     pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
@@ -62,9 +69,12 @@ class ImuNetworkCompleter:
 
     needs_imu = True
 
-    def __init__(self, model: ImuBeamRegressor, card: dict | None = None, sigma_scale: float = 1.0):
+    def __init__(self, model: ImuBeamRegressor, card: dict | None = None, sigma_scale: float = 1.0,
+                 run_decay: float = 1.0):
         if not sigma_scale > 0:
             raise ConfigError(f"sigma_scale must be > 0, got {sigma_scale}")
+        self.run_decay = check_run_decay(run_decay, "ImuNetworkCompleter")
+        self.takes_run_steps = self.run_decay < 1.0
         self.model = model.eval()
         self.missing = model.missing
         self.n_past = model.n_past
@@ -73,9 +83,13 @@ class ImuNetworkCompleter:
         self.ping_dt = model.ping_dt
         self.sigma_scale = float(sigma_scale)
         self.card = card or {}
+        # the paper's N where the pattern has one (2 or 3 missing beams), else the network's window
+        self.fallback = AverageCompleter(min(self.n_past, AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)))
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
-        """Fill the missing beams of one ping (module docstring for the inputs).
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Fill the missing beams of one ping (module docstring for the inputs; ``run_steps`` (4,): regressed
+        pings of each beam earlier in the current run, for ``run_decay``).
 
         Raises:
             DataError: wrong shape or non-finite past/IMU, no IMU window, or a missing pattern the network
@@ -95,6 +109,9 @@ class ImuNetworkCompleter:
         beams, sigma = measured.copy(), np.zeros(4)
         beams[list(self.missing)] = out[0].double().numpy()
         sigma[list(self.missing)] = self.sigma_scale * sig[0].double().numpy()
+        if self.takes_run_steps and run_steps is not None:
+            beams, sigma = fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
+                                           self.fallback.complete(past[-self.fallback.n_past:], measured))
         return beams, sigma
 
 
@@ -110,11 +127,15 @@ def load_imu_model(missing, directory: str | Path | None = None) -> tuple[ImuBea
                         train_hint=f"graphnav train-beams --imu --scenario {scenario_name(missing)}")
 
 
-def load_imu_completer(missing=2, directory: str | Path | None = None, sigma_scale: float = 1.0):
-    """The IMU-aware completer for ``missing`` (2 / 3 / scenario name / 0-based indices with weights)."""
+def load_imu_completer(missing=2, directory: str | Path | None = None, sigma_scale: float = 1.0,
+                       run_decay: float | None = None):
+    """The IMU-aware completer for ``missing`` (2 / 3 / scenario name / 0-based indices with weights);
+    ``run_decay`` None: the model card's ``"run_decay"`` (1, no fading, when the card has none)."""
     if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
         if missing not in (2, 3):
             raise ConfigError(f"missing={missing}: IMU-aware networks are shipped for 2 and 3 missing beams")
         missing = f"{missing}-missing"
     model, card = load_imu_model(missing, directory)
-    return ImuNetworkCompleter(model, card, sigma_scale)
+    if run_decay is None:
+        run_decay = card_run_decay(card, imu_weights_name(missing), directory)
+    return ImuNetworkCompleter(model, card, sigma_scale, run_decay)

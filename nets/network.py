@@ -18,7 +18,7 @@ import graphnav
 from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
-from .completer import check_inputs, check_run_decay, complete_with
+from .completer import check_inputs, check_run_decay, complete_with, fade_to_average
 from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
@@ -153,11 +153,9 @@ class NetworkCompleter:
         beams[list(self.missing)] = out[0].double().numpy()
         sigma[list(self.missing)] = self.sigma_scale * (self.constant_sigma if self.sigma_mode == "constant"
                                                         else sig[0].double().numpy())
-        if self.run_decay < 1.0 and run_steps is not None:
-            w = np.where(np.isfinite(measured), 1.0, self.run_decay ** np.asarray(run_steps, float))
-            avg_beams, avg_sigma = self.fallback.complete(past, measured)
-            beams = w * beams + (1.0 - w) * avg_beams
-            sigma = w * sigma + (1.0 - w) * avg_sigma
+        if self.takes_run_steps and run_steps is not None:
+            beams, sigma = fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
+                                           self.fallback.complete(past, measured))
         return beams, sigma
 
 
@@ -191,6 +189,13 @@ class AutoCompleter:
             return measured.copy(), np.zeros(4)
         chosen = self.completer_for(measured)
         return complete_with(chosen, past[-chosen.n_past:], measured, run_steps=run_steps)
+
+
+def card_run_decay(card: dict, name: str, directory: str | Path | None = None) -> float:
+    """The model card's ``"run_decay"`` (1 when it has none), checked; an error names the card file
+    ``directory/<name>.json`` (default folder: the shipped weights)."""
+    card_file = Path(directory or weights_dir()) / f"{name}.json"
+    return check_run_decay(card.get("run_decay", 1.0), str(card_file))
 
 
 def load_weights(model_cls, name: str, missing: tuple, directory: str | Path | None = None,
@@ -271,7 +276,6 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
                               "use 'auto' for other patterns")
         missing = f"{missing}-missing"
     model, card = load_model(missing, directory)
-    if run_decay is None:     # the card's, checked here to name the card file
-        card_file = Path(directory or weights_dir()) / f"{scenario_name(normalize_missing(missing))}.json"
-        run_decay = check_run_decay(card.get("run_decay", 1.0), str(card_file))
+    if run_decay is None:
+        run_decay = card_run_decay(card, scenario_name(normalize_missing(missing)), directory)
     return NetworkCompleter(model, sigma, card.get("constant_sigma"), card, sigma_scale, run_decay)

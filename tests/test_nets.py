@@ -346,4 +346,8 @@ def test_completers_that_wrap_a_fading_network_hand_the_run_on():
     fused = FusedCompleter(fade, AverageCompleter(3))
     assert fused.takes_run_steps
     np.testing.assert_array_equal(fused.members(past, measured, run_steps=steps)[0], faded)
-    assert not load_imu_auto_completer(beam_only=load_completer("auto", run_decay=1.0)).takes_run_steps
+    from graphnav.nets import ImuAutoCompleter, load_imu_completer
+    plain = [load_imu_completer(m, run_decay=1.0) for m in (2, 3)]
+    assert not ImuAutoCompleter(plain, load_completer("auto", run_decay=1.0)).takes_run_steps
+    # the shipped IMU-aware networks fade themselves (their cards' run_decay)
+    assert load_imu_auto_completer(beam_only=load_completer("auto", run_decay=1.0)).takes_run_steps

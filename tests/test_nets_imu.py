@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -307,9 +308,13 @@ def test_train_beams_refuses_recipes_it_does_not_know_before_training(tmp_path):
     from graphnav.nets.imu_recipes import IMU_RECIPES
 
     assert IMU_RECIPES["graded"].imu_grades == ("tactical", "mems")
+    # the shipped recipe: the same training, only the fading through an outage differs
+    assert IMU_RECIPES["graded-fade"] == replace(IMU_RECIPES["graded"], run_decay=0.95)
+    with pytest.raises(ConfigError, match="ImuTrainOptions: run_decay 0"):
+        replace(IMU_RECIPES["graded"], run_decay=0.0)
     parse = build_parser().parse_args
     out = str(tmp_path / "out")
-    with pytest.raises(ConfigError, match="--imu --recipe 'akit-residual-aug' unknown; choose from \\['graded'\\]"):
+    with pytest.raises(ConfigError, match="--imu --recipe 'akit-residual-aug' unknown; choose from \\['graded', 'graded-fade'\\]"):
         train_beams.run(parse(["train-beams", "--imu", "--recipe", "akit-residual-aug", "--out", out]))
     with pytest.raises(ConfigError, match="--out-of-fold goes with a beam-only --recipe"):
         train_beams.run(parse(["train-beams", "--imu", "--recipe", "graded", "--out-of-fold", "cv.json", "--out", out]))
@@ -318,3 +323,53 @@ def test_train_beams_refuses_recipes_it_does_not_know_before_training(tmp_path):
     with pytest.raises(ConfigError, match="sets its own schedule"):
         train_beams.run(parse(["train-beams", "--imu", "--recipe", "graded", "--imu-epochs", "3", "--out", out]))
     assert not (tmp_path / "out").exists()
+
+
+def test_imu_completer_serves_other_patterns_with_a_window_average():
+    """A network for a pattern without the paper's N (one missing beam) still builds; its fading averages its own
+    window."""
+    from graphnav.nets.imu_network import ImuNetworkCompleter
+    comp = ImuNetworkCompleter(ImuBeamRegressor((1,), n_past=3), {}, run_decay=0.9)
+    assert comp.fallback.n_past == 3 and comp.takes_run_steps
+
+
+def test_imu_completer_fades_to_the_average_through_a_run(tmp_path):
+    """``run_decay`` on the IMU-aware completer: the k-th regressed ping of a run is ``gamma^k`` network + the rest
+    the average over the last ``min(n_past, N)`` pings (beams and sigma); a first ping is the network's; the IMU-aware
+    auto completer hands the run on; the card's value is the default and a damaged one is refused naming the file."""
+    from graphnav.nets import AverageCompleter, ImuAutoCompleter
+    from graphnav.nets.average import AVERAGE_N_PAST
+    f_b, omega_b, v = _steady_turn()
+    T = DvlGeometry.from_spec(DvlSpec()).T_b
+    rng = np.random.default_rng(11)
+    for missing, pattern in ((2, [0, 2]), (3, [0, 2, 3])):
+        net, fade = load_imu_completer(missing, run_decay=1.0), load_imu_completer(missing, run_decay=0.9)
+        assert fade.takes_run_steps and not net.takes_run_steps
+        past = (v + 0.05 * rng.standard_normal((net.n_past, 3))) @ T.T
+        measured = v @ T.T
+        measured[pattern] = np.nan
+        b_net, s_net = net.complete(past, measured, imu=(f_b, omega_b))
+        n_avg = min(net.n_past, AVERAGE_N_PAST[f"{missing}-missing"])
+        b_avg, s_avg = AverageCompleter(n_avg).complete(past[-n_avg:], measured)
+        assert not np.allclose(b_net, b_avg)
+        np.testing.assert_array_equal(fade.complete(past, measured, imu=(f_b, omega_b),
+                                                    run_steps=np.zeros(4, int))[0], b_net)
+        steps = np.where(np.isfinite(measured), 0, 4)
+        b, s = fade.complete(past, measured, imu=(f_b, omega_b), run_steps=steps)
+        w = 0.9 ** 4
+        np.testing.assert_allclose(b, w * b_net + (1 - w) * b_avg, rtol=1e-12)
+        np.testing.assert_allclose(s, w * s_net + (1 - w) * s_avg, rtol=1e-12)
+        auto = ImuAutoCompleter([fade], AverageCompleter(AVERAGE_N_PAST[f"{missing}-missing"]))
+        assert auto.takes_run_steps
+        full_past = np.vstack([np.tile(past[:1], (auto.n_past - net.n_past, 1)), past])
+        np.testing.assert_array_equal(auto.complete(full_past, measured, imu=(f_b, omega_b), run_steps=steps)[0], b)
+    # the shipped cards fade (recipe graded-fade), and an explicit run_decay overrides the card
+    assert load_imu_completer(2).run_decay == load_imu_completer(3).run_decay == 0.95
+    shutil.copytree(weights_dir(), tmp_path / "w")
+    card = tmp_path / "w" / "imu-2-missing.json"
+    import json
+    import re
+    card.write_text(json.dumps({**json.loads(card.read_text()), "run_decay": 1.5}))
+    with pytest.raises(ConfigError, match=re.escape(f"{tmp_path / 'w' / 'imu-2-missing.json'}: run_decay 1.5")):
+        load_imu_completer(2, tmp_path / "w")
+    assert load_imu_completer(2, tmp_path / "w", run_decay=0.95).run_decay == 0.95
