@@ -598,7 +598,9 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
         "constant_sigma": metrics["val"]["beam_rmse_per_beam"],
         "metrics": metrics,
         "selected_by": "leave-trajectories-out cross-validation, graphnav.nets.crossval (graphnav eval-beams "
-                       f"--folds): A-KIT folds {[list(f) for f in AKIT_FOLDS]} with BeamsNet mission blocks",
+                       f"--folds): A-KIT folds {[list(f) for f in AKIT_FOLDS]} with BeamsNet mission blocks"
+                       + ("; run_decay chosen on the same folds' networks by experiments/completer_fade_folds.py"
+                          if variant.decay(scen) < 1.0 else ""),
         "out_of_fold": [r for r in (summary or []) if r["variant"] == variant.name and r["scenario"] == scen],
     }
     return TrainResult(net.model, card)

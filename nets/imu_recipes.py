@@ -2,8 +2,9 @@
 line's help reads their defaults, and importing torch for it would cost every ``graphnav`` call about 2 s."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from .completer import check_run_decay
 from .imu_window import IMU_WINDOW_S
 
 
@@ -39,6 +40,11 @@ class ImuTrainOptions:
     threads: int = 1
     imu_grades: tuple[str, ...] = ()    # extra training copies with these IMU grades' errors added (out-of-fold study)
     imu_seed: int = 0                   # seed of those errors: imu_seed + 100 * copy + trajectory number
+    run_decay: float = 1.0              # the completer's fading to the average through an outage (model card);
+    #                                     changes no training (ImuNetworkCompleter run_decay)
+
+    def __post_init__(self):
+        check_run_decay(self.run_decay, "ImuTrainOptions")
 
 
 #: Recipes of the IMU-aware network chosen by leave-trajectories-out cross-validation
@@ -46,7 +52,12 @@ class ImuTrainOptions:
 #: ``graphnav train-beams --imu --recipe NAME``. ``graded``: the schedule the five folds were trained and scored
 #: with, and one copy of every trajectory with tactical and one with MEMS IMU errors (out of fold, the copies made
 #: the worst folds' outages much less bad than the recorded IMU alone).
+#: ``graded-fade``: the same networks, completing an outage with a fade to the average estimator (``run_decay``
+#: 0.95 for 2 and 3 missing beams, chosen out of fold by ``experiments/completer_fade_folds.py --imu``): the
+#: shipped recipe.
+_GRADED = ImuTrainOptions(epochs=15, rollout_epochs=3, rollout_stride=6, draws=2, sigma_epochs=10,
+                          imu_grades=("tactical", "mems"))
 IMU_RECIPES = {
-    "graded": ImuTrainOptions(epochs=15, rollout_epochs=3, rollout_stride=6, draws=2, sigma_epochs=10,
-                              imu_grades=("tactical", "mems")),
+    "graded": _GRADED,
+    "graded-fade": replace(_GRADED, run_decay=0.95),
 }

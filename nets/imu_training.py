@@ -231,11 +231,13 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
                      "time_s": round(train_time, 1)},
         "lag_weights": torch.softmax(model.lag_logits.detach(), 0).tolist(),
         "sigma_gain": float(model.sigma_gain),
+        "run_decay": opt.run_decay,
     }
     if evaluate:
         from .imu_evaluate import evaluate_imu
         name = scenario_name(missing)
         if name in ("2-missing", "3-missing"):
             card["metrics_val"] = evaluate_imu((name,), directory=None, akit_dir=d,
-                                               completers={name: ImuNetworkCompleter(model, card)})
+                                               completers={name: ImuNetworkCompleter(model, card,
+                                                                                      run_decay=opt.run_decay)})
     return TrainResult(model, card, history)

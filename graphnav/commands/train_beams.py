@@ -51,8 +51,8 @@ def register(subparsers) -> None:
                         "(IMU + DVL), split by trajectory (train 1 2 4 8 10 11 13, validation 3 5 6), Adam, "
                         "early stopping on the last 20 %% of each training trajectory; prints the validation "
                         "table. Uses --scenario, --seed, --beam-seed, --threads, --out; --data is the "
-                        "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule; --recipe graded "
-                        "trains the recipe chosen out of fold on all ten trajectories instead")
+                        "snapir-2022-akit folder; --imu-epochs, --imu-draws set its schedule; --recipe graded-fade "
+                        "trains the shipped recipe, chosen out of fold, on all ten trajectories instead")
     p.add_argument("--imu-epochs", type=int, default=None,
                    help=f"maximum epochs of the IMU-aware network (default {ImuTrainOptions.epochs})")
     p.add_argument("--imu-draws", type=int, default=None, help="beam-noise draws of the training trajectories for the "
@@ -64,7 +64,8 @@ def register(subparsers) -> None:
                         "--data is then the folder holding snapir-2022-akit and snapir-2021-beamsnet (default: "
                         "GRAPHNAV_DATA); uses --scenario, --seed, --beam-seed, --threads, --out. With --imu: a "
                         "recipe of graphnav.nets.imu_recipes.IMU_RECIPES (graded: the schedule and IMU-grade "
-                        "copies of the leave-trajectories-out study) trained on all ten A-KIT trajectories")
+                        "copies of the leave-trajectories-out study; graded-fade, the shipped one: the same "
+                        "networks fading to the average through an outage) trained on all ten A-KIT trajectories")
     p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
                    help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
                         "and worst-fold numbers of this recipe go into the model card ('out_of_fold')")
@@ -102,7 +103,9 @@ def run_imu(args, out: Path) -> list[Path]:
         card = result.card
         if args.recipe:
             card["selected_by"] = ("leave-trajectories-out cross-validation, experiments/imu_completer_folds.py: "
-                                   f"A-KIT folds {[list(f) for f in AKIT_FOLDS]}, recipe {args.recipe!r}")
+                                   f"A-KIT folds {[list(f) for f in AKIT_FOLDS]}, recipe {args.recipe!r}"
+                                   + ("; run_decay chosen on the same folds' networks by "
+                                      "experiments/completer_fade_folds.py --imu" if opt.run_decay < 1.0 else ""))
         pt, js = save(result, out)
         written += [pt, js]
         print(f"{card['name']}: N={card['n_past']} IMU window {card['imu_samples']} samples, "
