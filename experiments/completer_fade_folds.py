@@ -14,7 +14,9 @@ other four folds, scored on the fifth), to show how much of the choice rests on 
 With ``--imu`` the same for the IMU-aware fold networks (``experiments/imu_completer_folds.py --save-nets DIR``,
 :class:`graphnav.nets.imu_network.ImuNetworkCompleter` ``run_decay``), scored with each evaluation IMU (recorded,
 tactical, MEMS) on that study's pings and outage windows; the rule then counts the worse fold cells over all three.
-The sigma coverage through the outages (what ``BeamHistory`` hands on) is printed for no fading and the chosen gamma.
+The sigma coverage through the outages (what ``BeamHistory`` hands on) is printed for no fading and the chosen gamma,
+and for the chosen gamma each fold's 90 % interval of its gain when its outage windows are drawn again with
+replacement: a fold's outage cell rests on 8-10 windows whose errors are correlated within each window.
 Usage::
 
     .venv/bin/python experiments/completer_fade_folds.py --nets out/ens2/akit-residual-aug-ens5 --scenario 2-missing
@@ -75,15 +77,42 @@ def score_imu(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) 
     return rows
 
 
+WINDOW = 30     # pings per outage window (outage_rollout's default)
+
+
 def _rollouts(comps, series, missing, keys: dict, settle: int = 10) -> list[dict]:
+    """One row per completer; ``window_sq`` keeps each outage window's summed squared beam and velocity errors for
+    the interval over windows (:func:`window_interval`)."""
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
+    geometry = DvlGeometry.from_spec(DvlSpec())
     rows = []
     for method, g, comp in comps:
-        full, sigma, samples = outage_rollout(comp, series, missing, gap=60, settle=settle)
-        m = completion_metrics(full, sigma, samples, missing)
+        full, sigma, samples = outage_rollout(comp, series, missing, window=WINDOW, gap=60, settle=settle)
+        m = completion_metrics(full, sigma, samples, missing, geometry)
+        sq_beam = np.sum((full[:, missing] - samples.beams[:, missing]) ** 2, axis=1)
+        sq_vel = np.sum((geometry.velocity_from_beams(full) - samples.v_b) ** 2, axis=1)
         rows.append({**keys, "method": method, "decay": g,
-                     **{k: m[k] for k in (*METRICS, "within_1sigma", "within_2sigma", "n")}})
+                     **{k: m[k] for k in (*METRICS, "within_1sigma", "within_2sigma", "n")},
+                     "window_sq": [sq.reshape(-1, WINDOW).sum(axis=1).tolist() for sq in (sq_beam, sq_vel)]})
     return rows
+
+
+def window_interval(rows: list[dict], decay: float, fold: int, draws: int = 2000, seed: int = 0
+                    ) -> list[tuple[float, float]]:
+    """90 % interval of one fold's gain (beam, velocity) against the average when its outage windows are drawn again
+    with replacement (the errors within a window are strongly correlated, so a window is the unit of evidence)."""
+    net = next(r for r in rows if r["method"] == "network" and r["decay"] == decay and r["fold"] == fold)
+    avg = next(r for r in rows if r["method"] == "average" and r["fold"] == fold)
+    rng = np.random.default_rng(seed)
+    out = []
+    for j in range(len(METRICS)):
+        a, b = np.asarray(net["window_sq"][j]), np.asarray(avg["window_sq"][j])
+        idx = rng.integers(0, len(a), (draws, len(a)))
+        gain = 1 - np.sqrt(a[idx].sum(axis=1) / b[idx].sum(axis=1))
+        out.append(tuple(float(x) for x in np.percentile(gain, [5, 95])))
+    return out
 
 
 def gains(rows: list[dict], decay: float, folds) -> tuple[list[float], dict[int, list[float]]]:
@@ -136,6 +165,16 @@ def report(rows: list[dict], decays: list[float]) -> str:
                          + f" | {worse} |")
     chosen = choose(rows, decays, folds)
     lines.append(f"\nchosen on all folds: gamma {chosen:g}")
+    intervals = []
+    for variant, part in by_variant(rows).items():
+        cells = []
+        for f in folds:
+            (b0, b1), (v0, v1) = window_interval(part, chosen, f)
+            n_windows = len(next(r for r in part if r["fold"] == f)["window_sq"][0])
+            cells.append(f"fold {f} ({n_windows} windows) {100 * b0:+.0f}..{100 * b1:+.0f} / {100 * v0:+.0f}..{100 * v1:+.0f}")
+        intervals.append(f"{variant}: " + "; ".join(cells))
+    lines.append(f"90 % interval of each fold's gain with gamma {chosen:g} over its outage windows drawn again "
+                 "(beam / velocity, %):\n" + "\n".join(intervals))
     if 1.0 in decays:
         lines.append("sigma coverage through the outages, pooled within 1 / 2 sigma (Gaussian 0.683 / 0.954; the "
                      "sigma BeamHistory hands on): " + "; ".join(
