@@ -171,7 +171,8 @@ def report(rows: list[dict], decays: list[float]) -> str:
         for f in folds:
             (b0, b1), (v0, v1) = window_interval(part, chosen, f)
             n_windows = len(next(r for r in part if r["fold"] == f)["window_sq"][0])
-            cells.append(f"fold {f} ({n_windows} windows) {100 * b0:+.0f}..{100 * b1:+.0f} / {100 * v0:+.0f}..{100 * v1:+.0f}")
+            cells.append(f"fold {f} ({n_windows} windows) {100 * b0:+.0f}..{100 * b1:+.0f} / "
+                         f"{100 * v0:+.0f}..{100 * v1:+.0f}")
         intervals.append(f"{variant}: " + "; ".join(cells))
     lines.append(f"90 % interval of each fold's gain with gamma {chosen:g} over its outage windows drawn again "
                  "(beam / velocity, %):\n" + "\n".join(intervals))

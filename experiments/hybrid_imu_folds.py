@@ -166,7 +166,8 @@ def main(argv=None) -> int:
     p.add_argument("--calibration", help="rows of imu_completer_folds.py --calibrate (JSON), for 'HNI fused'")
     p.add_argument("--beam-nets", help="the beam-only fold networks of one recipe (graphnav eval-beams --folds "
                    "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
-    p.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=[*VARIANTS, "HN-net fold", "HNI fold fading"],
+    p.add_argument("--variants", nargs="+", default=list(VARIANTS),
+                   choices=[*VARIANTS, "HN-net fold", "HNI fold fading"],
                    help="the runs per window (default: " + ", ".join(VARIANTS) + ")")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")

@@ -53,16 +53,18 @@ def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, r
 
 
 def fade_to_average(beams: np.ndarray, sigma: np.ndarray, measured: np.ndarray, run_steps, run_decay: float,
-                    average: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """A network's completion ``(beams, sigma)`` faded to the average estimator's ``average`` = (beams, sigma)
-    through a run of regressed pings: ``w b_net + (1 - w) b_avg`` and ``w s_net + (1 - w) s_avg`` per missing
-    beam with ``w = run_decay^k`` at its k-th regressed ping of the run (``run_steps``, k = 0 after a measured
-    past); measured beams pass through. The sigma is the blend's if the two errors were fully correlated, a bound.
-    ``run_steps`` None: a first regressed ping (no fading)."""
+                    average) -> tuple[np.ndarray, np.ndarray]:
+    """A network's completion ``(beams, sigma)`` faded to the average estimator's through a run of regressed pings:
+    ``w b_net + (1 - w) b_avg`` and ``w s_net + (1 - w) s_avg`` per missing beam with ``w = run_decay^k`` at its
+    k-th regressed ping of the run (``run_steps``, k = 0 after a measured past); measured beams pass through. The
+    sigma is the blend's if the two errors were fully correlated, a bound. ``average()`` returns the average's
+    ``(beams, sigma)``; it is called only when there is something to fade (``run_decay`` < 1 and ``run_steps``
+    given: None is a first regressed ping)."""
     if run_decay >= 1.0 or run_steps is None:
         return beams, sigma
+    b_avg, s_avg = average()
     w = np.where(np.isfinite(measured), 1.0, run_decay ** np.asarray(run_steps, float))
-    return w * beams + (1.0 - w) * average[0], w * sigma + (1.0 - w) * average[1]
+    return w * beams + (1.0 - w) * b_avg, w * sigma + (1.0 - w) * s_avg
 
 
 def check_run_decay(value, source: str) -> float:
@@ -71,4 +73,3 @@ def check_run_decay(value, source: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value <= 1.0:
         raise ConfigError(f"{source}: run_decay {value!r} is not a number in (0, 1]")
     return float(value)
-

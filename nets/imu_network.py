@@ -84,7 +84,8 @@ class ImuNetworkCompleter:
         self.sigma_scale = float(sigma_scale)
         self.card = card or {}
         # the paper's N where the pattern has one (2 or 3 missing beams), else the network's window
-        self.fallback = AverageCompleter(min(self.n_past, AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)))
+        n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
+        self.fallback = AverageCompleter(min(self.n_past, n_average))
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -109,10 +110,8 @@ class ImuNetworkCompleter:
         beams, sigma = measured.copy(), np.zeros(4)
         beams[list(self.missing)] = out[0].double().numpy()
         sigma[list(self.missing)] = self.sigma_scale * sig[0].double().numpy()
-        if self.takes_run_steps and run_steps is not None:
-            beams, sigma = fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
-                                           self.fallback.complete(past[-self.fallback.n_past:], measured))
-        return beams, sigma
+        return fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
+                               lambda: self.fallback.complete(past[-self.fallback.n_past:], measured))
 
 
 def load_imu_model(missing, directory: str | Path | None = None) -> tuple[ImuBeamRegressor, dict]:

@@ -153,10 +153,8 @@ class NetworkCompleter:
         beams[list(self.missing)] = out[0].double().numpy()
         sigma[list(self.missing)] = self.sigma_scale * (self.constant_sigma if self.sigma_mode == "constant"
                                                         else sig[0].double().numpy())
-        if self.takes_run_steps and run_steps is not None:
-            beams, sigma = fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
-                                           self.fallback.complete(past, measured))
-        return beams, sigma
+        return fade_to_average(beams, sigma, measured, run_steps, self.run_decay,
+                               lambda: self.fallback.complete(past, measured))
 
 
 class AutoCompleter:

@@ -314,7 +314,8 @@ def test_train_beams_refuses_recipes_it_does_not_know_before_training(tmp_path):
         replace(IMU_RECIPES["graded"], run_decay=0.0)
     parse = build_parser().parse_args
     out = str(tmp_path / "out")
-    with pytest.raises(ConfigError, match="--imu --recipe 'akit-residual-aug' unknown; choose from \\['graded', 'graded-fade'\\]"):
+    with pytest.raises(ConfigError,
+                       match="--imu --recipe 'akit-residual-aug' unknown; choose from \\['graded', 'graded-fade'\\]"):
         train_beams.run(parse(["train-beams", "--imu", "--recipe", "akit-residual-aug", "--out", out]))
     with pytest.raises(ConfigError, match="--out-of-fold goes with a beam-only --recipe"):
         train_beams.run(parse(["train-beams", "--imu", "--recipe", "graded", "--out-of-fold", "cv.json", "--out", out]))

@@ -20,8 +20,9 @@ trajectories it lowers every hybrid method's window VRMSE against 0.02 (HNTC 0.2
 
 A completer that changes through the run (:class:`graphnav.nets.fused.FusedCompleter` with outage growth, a
 :class:`graphnav.nets.network.NetworkCompleter` or :class:`graphnav.nets.imu_network.ImuNetworkCompleter` fading to
-the average with ``run_decay``, and the completers that wrap one) sets ``takes_run_steps = True``: it is then also handed ``run_steps`` (4,), the pings each beam has been
-regressed before this one in the current run (0 on its first regressed ping).
+the average with ``run_decay``, and the completers that wrap one) sets ``takes_run_steps = True``: it is then also
+handed ``run_steps`` (4,), the pings each beam has been regressed before this one in the current run (0 on its first
+regressed ping).
 """
 from __future__ import annotations
 
