@@ -105,10 +105,16 @@ def window_interval(rows: list[dict], decay: float, fold: int, draws: int = 2000
     with replacement (the errors within a window are strongly correlated, so a window is the unit of evidence)."""
     net = next(r for r in rows if r["method"] == "network" and r["decay"] == decay and r["fold"] == fold)
     avg = next(r for r in rows if r["method"] == "average" and r["fold"] == fold)
+    return gain_interval(net["window_sq"], avg["window_sq"], draws, seed)
+
+
+def gain_interval(net_sq, avg_sq, draws: int = 2000, seed: int = 0) -> list[tuple[float, float]]:
+    """90 % interval of the gain ``1 - sqrt(sum net / sum avg)`` per metric when the windows (``net_sq[j]``,
+    ``avg_sq[j]``: each window's summed squared errors of metric j) are drawn again with replacement."""
     rng = np.random.default_rng(seed)
     out = []
-    for j in range(len(METRICS)):
-        a, b = np.asarray(net["window_sq"][j]), np.asarray(avg["window_sq"][j])
+    for a, b in zip(net_sq, avg_sq):
+        a, b = np.asarray(a), np.asarray(b)
         idx = rng.integers(0, len(a), (draws, len(a)))
         gain = 1 - np.sqrt(a[idx].sum(axis=1) / b[idx].sum(axis=1))
         out.append(tuple(float(x) for x in np.percentile(gain, [5, 95])))

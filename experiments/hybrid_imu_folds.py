@@ -17,6 +17,9 @@ the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepare
 - ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted);
 - ``HNI fold fading``: ``HNI fold`` with the network fading to the average through a run of regressed pings
   (``run_decay`` :data:`IMU_FADE`, chosen out of fold by ``experiments/completer_fade_folds.py --imu``);
+- ``HNI fold fused`` (with ``--beam-nets DIR`` too): ``HNI fold fading`` fused with the fold's beam-only network
+  (fading with the shipped card's ``run_decay``), which also serves the pings without an IMU window
+  (:class:`graphnav.nets.ImuAutoCompleter` ``beam_correlation``, as ``Graph-HNI`` runs the shipped pair);
 - ``HN-net fold`` (with ``--beam-nets DIR``, ``graphnav eval-beams --folds --save-nets``): the fold's beam-only
   network, as ``Graph-HN-net`` runs the shipped one.
 
@@ -55,6 +58,13 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
     method = method.removesuffix(FITTED).removesuffix(SERIAL)
+    if method == "HNI fold fused":
+        from graphnav.nets.imu_auto import IMU_BEAM_ERROR_CORRELATION
+        imu_dir, beam_dir = nets_dir
+        beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}",
+                              run_decay=load_completer(scenario).run_decay)
+        net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=IMU_FADE)
+        return ImuAutoCompleter([net], beam, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]})
     if method == "HN-net fold":
         return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):
@@ -167,7 +177,7 @@ def main(argv=None) -> int:
     p.add_argument("--beam-nets", help="the beam-only fold networks of one recipe (graphnav eval-beams --folds "
                    "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
     p.add_argument("--variants", nargs="+", default=list(VARIANTS),
-                   choices=[*VARIANTS, "HN-net fold", "HNI fold fading"],
+                   choices=[*VARIANTS, "HN-net fold", "HNI fold fading", "HNI fold fused"],
                    help="the runs per window (default: " + ", ".join(VARIANTS) + ")")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
@@ -183,8 +193,8 @@ def main(argv=None) -> int:
         p.error("the HNI variants need --nets")
     if a.calibration is None and "HNI fused" in a.variants:
         p.error("HNI fused needs --calibration")
-    if a.beam_nets is None and "HN-net fold" in a.variants:
-        p.error("HN-net fold needs --beam-nets")
+    if a.beam_nets is None and {"HN-net fold", "HNI fold fused"} & set(a.variants):
+        p.error("HN-net fold and HNI fold fused need --beam-nets")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
@@ -208,7 +218,8 @@ def main(argv=None) -> int:
                 for w in a.window_s:
                     for m in a.variants:
                         if (f"Trajectory{k}", g, w, m) not in results:
-                            nets = a.beam_nets if m.startswith("HN-net") else a.nets
+                            nets = (a.beam_nets if m.startswith("HN-net") else (a.nets, a.beam_nets)
+                                    if m == "HNI fold fused" else a.nets)
                             items.append((sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, m, nets, f,
                                           fit))
 

@@ -278,13 +278,16 @@ def fit_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def report(rows: list[dict]) -> str:
+def fold_tables(rows: list[dict], what: str = "IMU-aware network") -> list[str]:
+    """The pooled table (:func:`graphnav.nets.crossval.summarise`) and the per-fold gains of ``rows``, titled."""
     from graphnav.nets.crossval import format_fold_gains, format_summary, summarise
-    return "\n\n".join([
-        "Pooled over the folds (IMU-aware network / average, m/s; gain = 1 - net/avg; worst fold = largest ratio):",
-        format_summary(summarise(rows)),
-        "Gain against the average per fold (beam / velocity RMSE):",
-        format_fold_gains(rows),
+    return [f"Pooled over the folds ({what} / average, m/s; gain = 1 - {what}/average; worst fold = largest "
+            "ratio):", format_summary(summarise(rows)),
+            "Gain against the average per fold (beam / velocity RMSE):", format_fold_gains(rows)]
+
+
+def report(rows: list[dict]) -> str:
+    return "\n\n".join(fold_tables(rows) + [
         "Sigma coverage of the IMU-aware network (Gaussian 0.683 / 0.954):",
         coverage_table(rows)] + (["Fitted on the other folds:", fit_table(rows)]
                                  if any("rho" in r for r in rows) else []))

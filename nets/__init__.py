@@ -10,7 +10,8 @@ trains a network on the BeamsNet data (``graphnav train-beams``).
 ``train_imu`` / ``graphnav train-beams --imu``); it needs the IMU window:
 ``complete(past, measured, imu=(f_b, omega_b))`` (see :mod:`graphnav.nets.imu_network`).
 ``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
-window, ``load_completer("auto")`` otherwise (:mod:`graphnav.nets.imu_auto`).
+window, each completion fused with ``load_completer("auto")``'s by their sigmas, and ``load_completer("auto")``
+alone otherwise (:mod:`graphnav.nets.imu_auto`).
 
 ``FusedCompleter(first, second, rho, growth)`` combines two completers' regressed beams by their sigmas, their
 error correlation and each one's sigma growth through an outage (:mod:`graphnav.nets.fused`; a study, not a

@@ -25,16 +25,21 @@ import numpy as np
 from .completer import complete_with
 
 
-def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: float = 0.0
-         ) -> tuple[np.ndarray, np.ndarray]:
+def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: float = 0.0,
+         sigma_rho: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Combination of two completions (arrays of any equal shape, m/s) with error correlation ``rho`` where both
     sigmas are > 0; elsewhere (measured beams, sigma 0) the first completion with sigma 0.
 
     The weight of each completion is kept in [0, 1]: with ``rho`` above ``min(s1, s2) / max(s1, s2)`` the
     unconstrained weight would extrapolate past the sharper completion, which leans on ``rho`` being exact; the
-    clipped weight takes the sharper one alone. The returned sigma is the standard deviation of the combination actually made."""
-    if not -1.0 < rho < 1.0:
-        raise ValueError(f"rho must be in (-1, 1), got {rho}")
+    clipped weight takes the sharper one alone. The returned sigma is the standard deviation of the combination
+    actually made, with the errors correlated by ``sigma_rho`` (default ``rho``): weights made with ``rho = 0``
+    (inverse variance) and the sigma with the measured correlation keep a sigma that does not claim the
+    independence the weights assumed."""
+    sigma_rho = rho if sigma_rho is None else sigma_rho
+    for name, value in (("rho", rho), ("sigma_rho", sigma_rho)):
+        if not -1.0 < value < 1.0:
+            raise ValueError(f"{name} must be in (-1, 1), got {value}")
     b1, s1, b2, s2 = (np.asarray(x, float) for x in (b1, s1, b2, s2))
     regressed = (s1 > 0) & (s2 > 0)
     # 1 where a sigma is 0 only to keep the arithmetic finite (those entries are replaced)
@@ -44,7 +49,7 @@ def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: fl
     w1 = np.clip((v2 - c) / (v1 + v2 - 2.0 * c), 0.0, 1.0)
     w2 = 1.0 - w1
     beams = np.where(regressed, w1 * b1 + w2 * b2, b1)
-    var = w1 ** 2 * v1 + w2 ** 2 * v2 + 2.0 * w1 * w2 * c
+    var = w1 ** 2 * v1 + w2 ** 2 * v2 + 2.0 * w1 * w2 * sigma_rho * np.sqrt(v1 * v2)
     sigma = np.where(regressed, np.sqrt(var), 0.0)
     return beams, sigma
 
@@ -58,18 +63,21 @@ class FusedCompleter:
             and the ``usage`` / ``fallbacks`` counters) follow an IMU-aware member, which alone is handed the IMU
             window. In an estimator that member must complete a ping without one (``imu=None``, e.g.
             :class:`graphnav.nets.ImuAutoCompleter`).
-        rho: correlation of the two members' errors per ping (0: independent).
+        rho: correlation of the two members' errors per ping that the weights assume (0: independent, inverse
+            variance).
+        sigma_rho: the correlation the fused sigma is computed with (default ``rho``; :func:`fuse`).
         growth: (d1, d2), each member's sigma growth per regressed ping of a run, m/s (module docstring); None:
             no growth of its own, and the history grows the fused sigma by its default.
     """
 
-    def __init__(self, first, second, rho: float = 0.0, growth: tuple[float, float] | None = None):
-        if not -1.0 < rho < 1.0:
-            raise ValueError(f"rho must be in (-1, 1), got {rho}")
+    def __init__(self, first, second, rho: float = 0.0, growth: tuple[float, float] | None = None,
+                 sigma_rho: float | None = None):
+        fuse(np.ones(1), np.ones(1), np.ones(1), np.ones(1), rho, sigma_rho)    # refuses a bad rho / sigma_rho
         if growth is not None and (len(growth) != 2 or not all(np.isfinite(g) and g >= 0 for g in growth)):
             raise ValueError(f"growth must be two finite values >= 0 (m/s per ping), got {growth}")
         self.first, self.second = first, second
         self.rho = float(rho)
+        self.sigma_rho = self.rho if sigma_rho is None else float(sigma_rho)
         self.growth = None if growth is None else (float(growth[0]), float(growth[1]))
         # its own growth, or a member that fades through the run (a beam-only network's run_decay)
         self.takes_run_steps = self.growth is not None or any(getattr(c, "takes_run_steps", False)
@@ -114,4 +122,4 @@ class FusedCompleter:
         """(beams (4,), sigma (4,)) from the past full beam vectors ``past`` (N >= ``n_past``, 4), oldest first,
         and the ``measured`` beams (4,) with NaN where missing, m/s. ``run_steps`` (4,): regressed pings of each
         beam earlier in the run (0 or None: a first regressed ping)."""
-        return fuse(*self.members(past, measured, imu, run_steps), self.rho)
+        return fuse(*self.members(past, measured, imu, run_steps), self.rho, self.sigma_rho)

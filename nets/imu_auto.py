@@ -7,6 +7,12 @@ mission, after a bridged IMU gap or with an IMU at another rate; the keyframer
 network (no beam measured, the random dropouts' other patterns) are not what it was trained for either.
 :class:`ImuAutoCompleter` sends those pings to a beam-only completer (``load_completer("auto")``: the
 beam-only networks where trained, the average estimator otherwise) and counts each route in ``usage``.
+
+With ``beam_correlation`` the IMU-aware completion is fused with the beam-only one of the same ping
+(:func:`graphnav.nets.fused.fuse`): inverse-variance weights, and the sigma of that combination with the two errors
+correlated as measured out of fold (:data:`IMU_BEAM_ERROR_CORRELATION`). The two see different things (the IMU's
+turn, the past beams' trend) and fail on different trajectories; out of fold the fusion is better than either
+alone (``docs/decisions/completers.md``, "The IMU-aware completer fused with the beam-only one").
 """
 from __future__ import annotations
 
@@ -15,6 +21,13 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 
 from .completer import check_inputs, complete_with
+from .fused import fuse
+from .model import scenario_name
+
+#: Correlation of the IMU-aware and the beam-only fading completers' per-ping errors (each over its own sigma):
+#: every A-KIT fold's two networks on the fold's held-out pair, recorded IMU
+#: (``experiments/imu_beam_fused_folds.py``); the sigma of the fused completion uses it.
+IMU_BEAM_ERROR_CORRELATION = {"2-missing": 0.80, "3-missing": 0.71}
 
 
 class ImuAutoCompleter:
@@ -25,6 +38,9 @@ class ImuAutoCompleter:
             same ``imu_samples`` and ``imu_rate_hz``.
         beam_only: completer for the other pings (``complete(past, measured)``, ``n_past``), e.g.
             ``load_completer("auto")``.
+        beam_correlation: scenario name ("2-missing", ...) -> correlation of the IMU-aware network's and
+            ``beam_only``'s errors; the IMU-aware completion of those patterns is fused with ``beam_only``'s
+            (module docstring). None (default): the IMU-aware network alone.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
@@ -33,7 +49,7 @@ class ImuAutoCompleter:
 
     needs_imu = True
 
-    def __init__(self, imu_networks, beam_only):
+    def __init__(self, imu_networks, beam_only, beam_correlation: dict[str, float] | None = None):
         imu_networks = list(imu_networks)
         if not imu_networks:
             raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
@@ -44,6 +60,14 @@ class ImuAutoCompleter:
             raise ConfigError(f"ImuAutoCompleter: the IMU-aware networks want different IMU windows {sorted(windows)}")
         self.networks = {tuple(n.missing): n for n in imu_networks}
         self.beam_only = beam_only
+        self.beam_correlation = dict(beam_correlation or {})
+        unknown = set(self.beam_correlation) - {scenario_name(m) for m in self.networks}
+        if unknown:
+            raise ConfigError(f"ImuAutoCompleter: beam_correlation for {sorted(unknown)}, which has no IMU-aware "
+                              "network")
+        for name, rho in self.beam_correlation.items():
+            if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not -1.0 < rho < 1.0:
+                raise ConfigError(f"ImuAutoCompleter: beam_correlation[{name!r}] = {rho!r} is not in (-1, 1)")
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
         self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
         # a fading completer needs the run steps that BeamHistory hands to completers taking them
@@ -66,15 +90,23 @@ class ImuAutoCompleter:
         net = self.networks.get(tuple(int(b) for b in np.flatnonzero(missing)))
         if net is not None and imu is not None:
             self.usage["imu"] += 1
-            return complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
+            b_imu, s_imu = complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
+            rho = self.beam_correlation.get(scenario_name(net.missing))
+            if rho is None:
+                return b_imu, s_imu
+            b_beam, s_beam = complete_with(self.beam_only, past[-self.beam_only.n_past:], measured,
+                                           run_steps=run_steps)
+            return fuse(b_imu, s_imu, b_beam, s_beam, 0.0, rho)
         self.usage["no_imu" if net is not None else "pattern"] += 1
         return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, run_steps=run_steps)
 
 
-def load_imu_auto_completer(directory=None, beam_only=None) -> ImuAutoCompleter:
+def load_imu_auto_completer(directory=None, beam_only=None, fused: bool = True) -> ImuAutoCompleter:
     """The shipped IMU-aware networks (2 and 3 missing beams) with ``beam_only`` (default
-    ``load_completer("auto")``) for the other pings; ``directory`` holds the IMU-aware weights."""
+    ``load_completer("auto")``) for the other pings; ``directory`` holds the IMU-aware weights. ``fused``
+    (default): each IMU-aware completion fused with ``beam_only``'s (:data:`IMU_BEAM_ERROR_CORRELATION`)."""
     from .imu_network import load_imu_completer
     from .network import load_completer
     nets = [load_imu_completer(m, directory) for m in (2, 3)]
-    return ImuAutoCompleter(nets, beam_only if beam_only is not None else load_completer("auto"))
+    return ImuAutoCompleter(nets, beam_only if beam_only is not None else load_completer("auto"),
+                            IMU_BEAM_ERROR_CORRELATION if fused else None)

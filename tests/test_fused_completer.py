@@ -108,3 +108,26 @@ def test_member_growth_through_a_history_run_shifts_the_weight_to_the_slower_gro
     h.complete(fused, np.ones(4), np.ones(4, bool))         # a full ping ends the run
     b, _ = h.complete(fused, np.ones(4), valid)
     assert b[2] == 1.5
+
+
+def test_inverse_variance_weights_with_the_sigma_of_correlated_errors():
+    """Weights made as if independent (rho 0) and the sigma with the errors' correlation (sigma_rho 0.8): the
+    completion is the inverse-variance one, and the sigma is the RMS that combination reaches (Monte Carlo), where
+    rho 0 alone states a sigma 18 % too small."""
+    rng = np.random.default_rng(4)
+    n, s1, s2, rho = 200000, 0.05, 0.06, 0.8
+    e1, e2 = _correlated(rng, n, s1, s2, rho)
+    b0, s0 = fuse(e1, np.full(n, s1), e2, np.full(n, s2))
+    b, s = fuse(e1, np.full(n, s1), e2, np.full(n, s2), 0.0, sigma_rho=rho)
+    np.testing.assert_array_equal(b, b0)
+    rms = np.sqrt(np.mean(b ** 2))
+    assert abs(rms / s[0] - 1) < 0.01 and rms > 1.15 * s0[0]
+    fused = FusedCompleter(AverageCompleter(3), AverageCompleter(5), sigma_rho=rho)
+    past = np.random.default_rng(5).normal(1.0, 0.2, (5, 4))
+    measured = np.array([0.9, np.nan, 1.1, np.nan])
+    expect = fuse(*AverageCompleter(3).complete(past[-3:], measured), *AverageCompleter(5).complete(past, measured),
+                  0.0, rho)
+    np.testing.assert_array_equal(fused.complete(past, measured)[1], expect[1])
+    import pytest
+    with pytest.raises(ValueError, match="sigma_rho"):
+        FusedCompleter(AverageCompleter(3), AverageCompleter(5), sigma_rho=-1.0)

@@ -7,6 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import make_beams
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import ImuData
 from graphnav.core.scenarios import scenario_outage
@@ -161,6 +163,38 @@ def test_imu_auto_completer_routes_and_counts():
     assert auto.usage == {"imu": 1, "no_imu": 1, "pattern": 1}
     with pytest.raises(ConfigError):
         ImuAutoCompleter(nets, nets[0])
+
+
+def test_imu_auto_completer_fuses_with_the_beam_only_completion():
+    """With beam_correlation the IMU-aware completion is fused with the beam-only one of the same ping (inverse
+    variance, sigma with the correlation); a ping without an IMU window is the beam-only one alone, not fused with
+    itself. The shipped completer fuses with the measured correlations; fused=False is the network alone."""
+    from graphnav.nets import ImuAutoCompleter, load_completer, load_imu_auto_completer, load_imu_completer
+    from graphnav.nets.fused import fuse
+    from graphnav.nets.imu_auto import IMU_BEAM_ERROR_CORRELATION
+    net, beam = load_imu_completer(2), load_completer(2)
+    auto = ImuAutoCompleter([net], beam, {"2-missing": 0.8})
+    rng = np.random.default_rng(0)
+    past = make_beams(np.array([1.5, 0.1, 0.05]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 4)
+    imu = (np.tile([0.0, 0.0, -9.8], (2000, 1)), np.zeros((2000, 3)))
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    b_imu, s_imu = net.complete(past, two, imu=imu)
+    b_beam, s_beam = beam.complete(past[-3:], two)
+    assert not np.allclose(b_imu, b_beam)
+    full, sigma = auto.complete(past, two, imu=imu)
+    expect = fuse(b_imu, s_imu, b_beam, s_beam, 0.0, 0.8)
+    np.testing.assert_array_equal(full, expect[0])
+    np.testing.assert_array_equal(sigma, expect[1])
+    assert np.all(sigma[[0, 2]] > fuse(b_imu, s_imu, b_beam, s_beam)[1][[0, 2]])   # wider than if independent
+    np.testing.assert_array_equal(auto.complete(past, two), (b_beam, s_beam))     # no window: beam-only alone
+    assert auto.usage == {"imu": 1, "no_imu": 1, "pattern": 0}
+    assert load_imu_auto_completer().beam_correlation == IMU_BEAM_ERROR_CORRELATION
+    assert load_imu_auto_completer(fused=False).beam_correlation == {}
+    with pytest.raises(ConfigError, match="3-missing"):
+        ImuAutoCompleter([net], beam, {"3-missing": 0.7})
+    with pytest.raises(ConfigError, match="not in"):
+        ImuAutoCompleter([net], beam, {"2-missing": 1.0})
 
 
 @pytest.mark.parametrize("method", ["HNTC-IMU", "Graph-HNI"])

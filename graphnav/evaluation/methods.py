@@ -19,9 +19,10 @@ Graph-HN-net-batch
 Graph-TC-batch     graph      none (batch smoothed): what smoothing alone gives, without completions
 Graph-MP           graph      none; model-aided motion prior (body-velocity random walk, small
                               heave) at keyframes with fewer than 3 measured beams
-HNTC-IMU           EKF        the IMU-aware completer (beam-only where it cannot serve)
-Graph-HNI          graph      the IMU-aware completer (ISAM2 filtered output)
-Graph-HNI-batch    graph      the IMU-aware completer (batch smoothed)
+HNTC-IMU           EKF        the IMU-aware completer fused with the beam-only one (beam-only where
+                              it cannot serve)
+Graph-HNI          graph      the same completer (ISAM2 filtered output)
+Graph-HNI-batch    graph      the same completer (batch smoothed)
 Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
 Average-TC-12,
 HNLC-12, HNTC-12
@@ -30,8 +31,8 @@ HNLC-12, HNTC-12
 The EKF methods run the standard 15-state error-state filter (velocity, attitude, both biases and the position
 error; :mod:`graphnav.estimators.ekf`), updated with the DVL, the depth sensor and position fixes. The ``-12``
 methods are the paper's 12-state filter (no position error state, no depth; a position fix resets the
-position), ``EkfOptions(position_states=False, dvl_error_states=False)`` in their :attr:`Method.defaults`: they reproduce the paper's
-numbers, are runnable by name and are left out of the default method list of ``graphnav bench``
+position), ``EkfOptions(position_states=False, dvl_error_states=False)`` in their :attr:`Method.defaults`: they
+reproduce the paper's numbers, are runnable by name and are left out of the default method list of ``graphnav bench``
 (:attr:`Method.reproduction`). A ``-12`` method is compared with the ``-12`` baseline and average estimator.
 
 The estimators themselves take objects and flags, not names (:func:`graphnav.estimators.runs.run_ekf`:
@@ -52,8 +53,9 @@ average estimator stands in, with a warning, and the solution's ``info["complete
 
 The IMU-aware completer (kind ``"imu-network"``) is ``graphnav.nets.load_imu_auto_completer()`` in every
 scenario: the IMU-aware networks (2 and 3 missing beams) at pings with their pattern and a usable IMU window
-(the last 20 s at 100 Hz, kept by the keyframer), the beam-only ``load_completer("auto")`` at the others (the
-first 20 s, after an IMU gap, no beam measured, other dropout patterns). ``info["completer_usage"]`` counts
+(the last 20 s at 100 Hz, kept by the keyframer), each completion fused with the beam-only one by their sigmas,
+and the beam-only ``load_completer("auto")`` alone at the others (the first 20 s, after an IMU gap, no beam
+measured, other dropout patterns). ``info["completer_usage"]`` counts
 the routes (``imu`` / ``no_imu`` / ``pattern``), ``info["imu_window_missing"]`` why a window was missing.
 When its weights cannot be loaded the scenario's beam-only network stands in, with a warning.
 """
@@ -223,10 +225,12 @@ _RECORDS = (
            description="Graph-HN-net, then the batch smoother over the whole mission; experimental",
            experimental=True),
     Method(HNTC_IMU, "ekf", tight=True, completer="imu-network", defaults=EKF_HYBRID_OPTIONS,
-           description="HNTC with the IMU-aware completer (beam-only without a 20 s IMU window); experimental",
+           description="HNTC with the IMU-aware completer fused with the beam-only one (beam-only alone "
+                       "without a 20 s IMU window); experimental",
            experimental=True),
     Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HN_OPTIONS,
-           description="Graph-HN with the IMU-aware completer (beam-only without a 20 s IMU window); experimental",
+           description="Graph-HN with the IMU-aware completer fused with the beam-only one (beam-only alone "
+                       "without a 20 s IMU window); experimental",
            experimental=True),
     Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
@@ -236,8 +240,9 @@ _RECORDS = (
 #: Every method by name, in the order tables and plots show them (iterating gives the names).
 METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECORDS})
 #: The default method list of ``graphnav bench`` and the start sweep: every method but the experimental ones
-#: (the IMU-aware completer's: out of fold, 1.06x Graph-TC in its worst fold with a MEMS IMU, and with the
-#: screening's correlation fitted for it no help; docs/decisions/completers.md, regressed-beams.md).
+#: (the IMU-aware completer's: out of fold, fused with the beam-only one, never worse than Graph-TC in any fold
+#: but within 0.02 of Graph-HN pooled, no help beyond the default's; docs/decisions/completers.md,
+#: regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))
 #: The EKF methods and the graph methods, in table order.
 EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")
@@ -313,7 +318,7 @@ def imu_network_completer(scenario: str, noise_std: float = 0.042):
     warning) when it cannot be loaded."""
     check_scenario(scenario)
     try:
-        return _imu_auto(), "imu-network(2, 3; beam-only auto without an IMU window)"
+        return _imu_auto(), "imu-network(2, 3, fused with beam-only auto; beam-only auto without an IMU window)"
     except (ImportError, AttributeError, OSError, ValueError, RuntimeError, KeyError, ConfigError) as exc:
         warnings.warn(f"IMU-aware completer unavailable ({exc}); using the beam-only completer instead",
                       RuntimeWarning, stacklevel=2)
