@@ -91,12 +91,19 @@ def _rollouts(comps, series, missing, keys: dict, settle: int = 10) -> list[dict
     for method, g, comp in comps:
         full, sigma, samples = outage_rollout(comp, series, missing, window=WINDOW, gap=60, settle=settle)
         m = completion_metrics(full, sigma, samples, missing, geometry)
-        sq_beam = np.sum((full[:, missing] - samples.beams[:, missing]) ** 2, axis=1)
-        sq_vel = np.sum((geometry.velocity_from_beams(full) - samples.v_b) ** 2, axis=1)
         rows.append({**keys, "method": method, "decay": g,
                      **{k: m[k] for k in (*METRICS, "within_1sigma", "within_2sigma", "n")},
-                     "window_sq": [sq.reshape(-1, WINDOW).sum(axis=1).tolist() for sq in (sq_beam, sq_vel)]})
+                     "window_sq": window_sq(full, samples, missing, geometry)})
     return rows
+
+
+def window_sq(full: np.ndarray, samples, missing, geometry) -> list[list[float]]:
+    """Each outage window's summed squared errors of the completed beams ``full`` (beam, velocity) against the
+    ``samples`` of :func:`graphnav.nets.evaluate.outage_rollout` (``WINDOW`` pings a window): the unit of evidence
+    of :func:`gain_interval`."""
+    sq_beam = np.sum((full[:, missing] - samples.beams[:, missing]) ** 2, axis=1)
+    sq_vel = np.sum((geometry.velocity_from_beams(full) - samples.v_b) ** 2, axis=1)
+    return [sq.reshape(-1, WINDOW).sum(axis=1).tolist() for sq in (sq_beam, sq_vel)]
 
 
 def window_interval(rows: list[dict], decay: float, fold: int, draws: int = 2000, seed: int = 0

@@ -35,7 +35,6 @@ from pathlib import Path
 
 import numpy as np
 
-OUTAGE_WINDOW = 30     # pings per outage window (outage_rollout's default)
 #: The combination :class:`graphnav.nets.ImuAutoCompleter` makes with ``beam_correlation`` (``Graph-HNI``).
 SHIPPED = "fused, rho 0, sigma with rho fitted"
 VARIANTS = ("IMU-aware, fading", "beam-only, fading", "fused, rho 0", "fused, rho fitted",
@@ -88,6 +87,8 @@ def fitted_rho(others: list[dict], missing) -> float:
 def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, series, pp: dict, rho: float
               ) -> list[dict]:
     """Rows for :func:`graphnav.nets.crossval.summarise` (each variant the ``network`` beside the average)."""
+    from completer_fade_folds import WINDOW, window_sq
+
     from graphnav.core.config import DvlSpec
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -109,18 +110,12 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
               "equal weights": EqualBlend(FusedCompleter(imu_net, beam_net))}
     made_out, out_samples = {}, None
     for name, comp in outage.items():
-        full, sigma, osamp = outage_rollout(comp, series, miss, gap=60, settle=OUTAGE_SETTLE)
+        full, sigma, osamp = outage_rollout(comp, series, miss, window=WINDOW, gap=60, settle=OUTAGE_SETTLE)
         if out_samples is not None and not np.array_equal(osamp.beams, out_samples.beams):
             raise RuntimeError(f"the outage pings of {name} differ from the average's")
         made_out[name], out_samples = (full, sigma), osamp
     base = {"fold": fold, "held_out": list(held), "dataset": "A-KIT", "scenario": scenario, "rho": rho}
     geometry = DvlGeometry.from_spec(DvlSpec())
-
-    def window_sq(full):
-        """Summed squared beam and velocity errors of each outage window (the unit of :func:`window_interval`)."""
-        sq_beam = np.sum((full[:, miss] - out_samples.beams[:, miss]) ** 2, axis=1)
-        sq_vel = np.sum((geometry.velocity_from_beams(full) - out_samples.v_b) ** 2, axis=1)
-        return [sq.reshape(-1, OUTAGE_WINDOW).sum(axis=1).tolist() for sq in (sq_beam, sq_vel)]
     rows = []
     for mode, made, samp, avg in (("per ping", made_pp, pp_samples, pp["average"]),
                                   ("outage 30 s", made_out, out_samples, made_out["average"])):
@@ -128,8 +123,8 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
         for variant in VARIANTS:
             net_m = completion_metrics(*made[variant], samp, miss)
             v = f"IMU {grade}, {variant}"
-            extra = ({"window_sq": window_sq(made[variant][0])}, {"window_sq": window_sq(avg[0])}) \
-                if mode == "outage 30 s" else ({}, {})
+            extra = ({"window_sq": window_sq(made[variant][0], samp, miss, geometry)},
+                     {"window_sq": window_sq(avg[0], samp, miss, geometry)}) if mode == "outage 30 s" else ({}, {})
             rows.append({**base, "mode": mode, "variant": v, "method": "network", **net_m, **extra[0]})
             rows.append({**base, "mode": mode, "variant": v, "method": "average", **avg_m, **extra[1]})
     return rows
@@ -139,9 +134,9 @@ def window_interval(rows: list[dict], scenario: str, variant: str, fold: int, dr
                     ) -> list[tuple[float, float]]:
     """90 % interval of one fold's outage gain (beam, velocity; %) when its outage windows are drawn again with
     replacement (errors within a window are correlated: a window is the unit of evidence)."""
+    from completer_fade_folds import gain_interval
     sel = [r for r in rows if (r["scenario"], r["mode"], r["variant"], r["fold"]) == (scenario, "outage 30 s",
                                                                                        variant, fold)]
-    from completer_fade_folds import gain_interval
     net, avg = (next(r for r in sel if r["method"] == m) for m in ("network", "average"))
     return [(100 * lo, 100 * hi) for lo, hi in gain_interval(net["window_sq"], avg["window_sq"], draws, seed)]
 

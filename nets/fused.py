@@ -25,6 +25,12 @@ import numpy as np
 from .completer import complete_with
 
 
+def check_correlation(name: str, value: float) -> None:
+    """A :class:`ValueError` naming ``name`` unless ``value`` is an error correlation in (-1, 1)."""
+    if not -1.0 < value < 1.0:
+        raise ValueError(f"{name} must be in (-1, 1), got {value}")
+
+
 def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: float = 0.0,
          sigma_rho: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Combination of two completions (arrays of any equal shape, m/s) with error correlation ``rho`` where both
@@ -37,9 +43,8 @@ def fuse(b1: np.ndarray, s1: np.ndarray, b2: np.ndarray, s2: np.ndarray, rho: fl
     (inverse variance) and the sigma with the measured correlation keep a sigma that does not claim the
     independence the weights assumed."""
     sigma_rho = rho if sigma_rho is None else sigma_rho
-    for name, value in (("rho", rho), ("sigma_rho", sigma_rho)):
-        if not -1.0 < value < 1.0:
-            raise ValueError(f"{name} must be in (-1, 1), got {value}")
+    check_correlation("rho", rho)
+    check_correlation("sigma_rho", sigma_rho)
     b1, s1, b2, s2 = (np.asarray(x, float) for x in (b1, s1, b2, s2))
     regressed = (s1 > 0) & (s2 > 0)
     # 1 where a sigma is 0 only to keep the arithmetic finite (those entries are replaced)
@@ -72,7 +77,9 @@ class FusedCompleter:
 
     def __init__(self, first, second, rho: float = 0.0, growth: tuple[float, float] | None = None,
                  sigma_rho: float | None = None):
-        fuse(np.ones(1), np.ones(1), np.ones(1), np.ones(1), rho, sigma_rho)    # refuses a bad rho / sigma_rho
+        check_correlation("rho", rho)
+        if sigma_rho is not None:
+            check_correlation("sigma_rho", sigma_rho)
         if growth is not None and (len(growth) != 2 or not all(np.isfinite(g) and g >= 0 for g in growth)):
             raise ValueError(f"growth must be two finite values >= 0 (m/s per ping), got {growth}")
         self.first, self.second = first, second

@@ -68,6 +68,8 @@ class ImuAutoCompleter:
         for name, rho in self.beam_correlation.items():
             if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not -1.0 < rho < 1.0:
                 raise ConfigError(f"ImuAutoCompleter: beam_correlation[{name!r}] = {rho!r} is not in (-1, 1)")
+        # per missing pattern, so that a ping looks its correlation up by the pattern it already has
+        self._fuse_rho = {m: self.beam_correlation.get(scenario_name(m)) for m in self.networks}
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
         self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
         # a fading completer needs the run steps that BeamHistory hands to completers taking them
@@ -87,11 +89,12 @@ class ImuAutoCompleter:
         missing = ~np.isfinite(measured)
         if not missing.any():
             return measured.copy(), np.zeros(4)
-        net = self.networks.get(tuple(int(b) for b in np.flatnonzero(missing)))
+        pattern = tuple(int(b) for b in np.flatnonzero(missing))
+        net = self.networks.get(pattern)
         if net is not None and imu is not None:
             self.usage["imu"] += 1
             b_imu, s_imu = complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
-            rho = self.beam_correlation.get(scenario_name(net.missing))
+            rho = self._fuse_rho[pattern]
             if rho is None:
                 return b_imu, s_imu
             b_beam, s_beam = complete_with(self.beam_only, past[-self.beam_only.n_past:], measured,
