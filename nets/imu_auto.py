@@ -13,6 +13,15 @@ With ``beam_correlation`` the IMU-aware completion is fused with the beam-only o
 correlated as measured out of fold (:data:`IMU_BEAM_ERROR_CORRELATION`). The two see different things (the IMU's
 turn, the past beams' trend) and fail on different trajectories; out of fold the fusion is better than either
 alone (``docs/decisions/completers.md``, "The IMU-aware completer fused with the beam-only one").
+
+``drift_std`` (m/s per ping) is the growth :class:`graphnav.estimators.history.BeamHistory` gives its sigma through a
+run of pings with regressed beams (None: the history's 0.03). The shipped completer keeps the history's growth on
+purpose. In 60-120 s outages inside the graph, out of fold, that sigma is 1.8x the fused completion's error (0.90-0.92
+of the errors within 1 sigma) and the screening drops 87-100 % of the completions. A calibrated growth (0.01: 0.71-0.73
+within 1 sigma) lets them in and helps the graph pooled over the trajectories, but makes the steadiest held-out
+trajectory up to 2.2x worse than Graph-TC with a tactical IMU, and chosen leave-one-fold-out it picks that growth for
+the fold it harms (``experiments/oracle_completions.py``; ``docs/decisions/completers.md``, "How good a completion
+would have to be").
 """
 from __future__ import annotations
 
@@ -41,6 +50,8 @@ class ImuAutoCompleter:
         beam_correlation: scenario name ("2-missing", ...) -> correlation of the IMU-aware network's and
             ``beam_only``'s errors; the IMU-aware completion of those patterns is fused with ``beam_only``'s
             (module docstring). None (default): the IMU-aware network alone.
+        drift_std: sigma growth per ping through a run of regressed pings, m/s (module docstring); None
+            (default): the history's.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
@@ -49,7 +60,8 @@ class ImuAutoCompleter:
 
     needs_imu = True
 
-    def __init__(self, imu_networks, beam_only, beam_correlation: dict[str, float] | None = None):
+    def __init__(self, imu_networks, beam_only, beam_correlation: dict[str, float] | None = None,
+                 drift_std: float | None = None):
         imu_networks = list(imu_networks)
         if not imu_networks:
             raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
@@ -68,6 +80,11 @@ class ImuAutoCompleter:
         for name, rho in self.beam_correlation.items():
             if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not -1.0 < rho < 1.0:
                 raise ConfigError(f"ImuAutoCompleter: beam_correlation[{name!r}] = {rho!r} is not in (-1, 1)")
+        if drift_std is not None and (isinstance(drift_std, bool) or not isinstance(drift_std, (int, float))
+                                      or not 0.0 <= drift_std < float("inf")):
+            raise ConfigError(f"ImuAutoCompleter: drift_std = {drift_std!r} is not a growth >= 0 m/s per ping")
+        #: read by BeamHistory (None: the history's own growth)
+        self.drift_std = None if drift_std is None else float(drift_std)
         # per missing pattern, so that a ping looks its correlation up by the pattern it already has
         self._fuse_rho = {m: self.beam_correlation.get(scenario_name(m)) for m in self.networks}
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows

@@ -197,6 +197,40 @@ def test_imu_auto_completer_fuses_with_the_beam_only_completion():
         ImuAutoCompleter([net], beam, {"2-missing": 1.0})
 
 
+def test_imu_auto_completer_sigma_grows_by_its_own_drift_through_an_outage():
+    """The history grows a completer's sigma through a run of regressed pings by the completer's drift_std; None
+    (the shipped completer's) leaves the history's 0.03. A growth that is negative, NaN or not a number is
+    refused."""
+    from graphnav.estimators.history import BeamHistory
+    from graphnav.nets import ImuAutoCompleter, load_completer, load_imu_auto_completer, load_imu_completer
+    net, beam = load_imu_completer(2), load_completer(2)
+    rng = np.random.default_rng(1)
+    past = make_beams(np.array([1.5, 0.1, 0.05]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 4)
+    imu = (np.tile([0.0, 0.0, -9.8], (2000, 1)), np.zeros((2000, 3)))
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    valid = np.isfinite(two)
+
+    def run(completer, pings=4):
+        history = BeamHistory(completer.n_past)
+        for row in past:
+            history.push(row)
+        handed, own = [], []
+        for k in range(pings):     # run steps: the pings each missing beam was regressed before this one
+            own.append(completer.complete(history.past(), two, imu=imu, run_steps=np.where(valid, 0, k))[1][[0, 2]])
+            handed.append(history.complete(completer, two, valid, imu=imu)[1][[0, 2]])
+        return np.array(handed), np.array(own)
+    for drift, expected in ((0.004, 0.004), (None, 0.03)):
+        handed, own = run(ImuAutoCompleter([net], beam, {"2-missing": 0.8}, drift_std=drift))
+        np.testing.assert_allclose(handed[0], own[0])
+        for k in range(1, len(handed)):
+            np.testing.assert_allclose(handed[k], np.sqrt(np.maximum(own[k], handed[k - 1]) ** 2 + expected ** 2))
+    assert load_imu_auto_completer().drift_std is None and load_imu_auto_completer(fused=False).drift_std is None
+    for bad in (-0.01, float("nan"), True, "0.01"):
+        with pytest.raises(ConfigError, match="drift_std"):
+            ImuAutoCompleter([net], beam, drift_std=bad)
+
+
 @pytest.mark.parametrize("method", ["HNTC-IMU", "Graph-HNI"])
 def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
     from graphnav.evaluation.methods import get_method, run_method

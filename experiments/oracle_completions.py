@@ -1,0 +1,283 @@
+"""How accurate a completer would have to be for the hybrid to help: completions with a known error, in the graph.
+
+The regime table (``experiments/hybrid_imu_folds.py``) asks the hybrid for <= 0.7x Graph-TC wherever all four beams
+measured would give <= 0.5x. No completer reaches it (docs/decisions/completers.md). This study asks what accuracy
+would: in the same windows (``max_windows`` per trajectory, every A-KIT trajectory, tactical and MEMS IMU), Graph-HN
+runs as shipped (default screening), but every regressed beam is replaced by the **true** beam (ground-truth
+velocity and attitude, lever-arm term included) plus an error of known size, stated to the graph as its sigma:
+
+- ``white s``: independent N(0, s^2) per beam and ping;
+- ``serial s``: a first-order Gauss-Markov error per beam, standard deviation ``s``, correlation time
+  :data:`SERIAL_TAU_PINGS` pings (the completers' errors stay off for about that long, integrated autocorrelation
+  time 18-24 pings), stated sigma ``s`` as a completer would state it.
+
+With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` it also runs the shipped ``Graph-HNI``
+completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
+error against the same truth: RMS through the windows, the sigma the graph was given, and how often the screening
+kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
+the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out.
+The table prints each variant's window VRMSE over Graph-TC's, pooled over the ten trajectories and (in brackets)
+the worst fold, beside all beams. ``--reference`` is the regime study's results file of the same scenario (its
+Graph-TC, all-beams and Graph-HN runs). Usage::
+
+    .venv/bin/python experiments/oracle_completions.py --scenario 3-missing --reference out/fusedens/hybrid3.json \\
+        --record out/imu_folds/nets3 --beam-nets out/ens/akit-residual-aug-ens5 --drift 0 0.01 0.02 \\
+        --out out/oracle/oracle3.json --jobs 2
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+#: correlation time of the serial oracle's errors, pings (1 Hz DVL)
+SERIAL_TAU_PINGS = 20.0
+#: error sizes (m/s) of the oracle completions
+SIGMAS = (0.02, 0.05, 0.1)
+RECORDED = "Graph-HNI (fold)"
+
+
+def oracle_variants(sigmas=SIGMAS) -> list[str]:
+    return [f"{kind} {s:g}" for kind in ("white", "serial") for s in sigmas]
+
+
+class TruthBeams:
+    """The true beams of a mission at a ping (m/s): ``predict_beams`` at the ground-truth attitude and velocity."""
+
+    def __init__(self, mission):
+        self.gt = mission.gt
+        self.lever_arm_b = None
+
+    def at(self, t: float, rows_b: np.ndarray, omega_b: np.ndarray, lever_arm_b: np.ndarray) -> np.ndarray:
+        from graphnav.core.timeseries import interp_rows
+        from graphnav.factors import predict_beams
+        i = int(np.argmin(np.abs(self.gt.t - t)))
+        return predict_beams(rows_b, self.gt.C_b_n[i], interp_rows(t, self.gt.t, self.gt.v_n), omega_b,
+                             np.zeros(3), lever_arm_b)
+
+
+class OracleError:
+    """Per-beam errors (m/s) of one oracle: white, or Gauss-Markov with correlation time ``tau`` pings."""
+
+    def __init__(self, sigma: float, tau: float | None, seed: int):
+        self.sigma, self.rng = sigma, np.random.default_rng(seed)
+        self.phi = 0.0 if tau is None else float(np.exp(-1.0 / tau))
+        self.e = self.rng.normal(0.0, sigma, 4)
+        self.t = None
+
+    def at(self, t: float) -> np.ndarray:
+        """The four beams' errors at ping time t (advanced once per new ping)."""
+        if self.t is None or t != self.t:
+            if self.t is not None:
+                self.e = self.phi * self.e + np.sqrt(1 - self.phi ** 2) * self.rng.normal(0.0, self.sigma, 4)
+            self.t = t
+        return self.e
+
+
+def oracle_task(item):
+    """Window VRMSE (m/s) of one run, and for the recorded completer its completion errors. ``item``: (source,
+    grade, scenario, window_s, max_windows, variant, nets, fold)."""
+    source, grade, scenario, window_s, max_windows, variant, nets, fold = item
+    import warnings
+    warnings.simplefilter("ignore")
+    from hybrid_imu_folds import completer
+
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.estimators.graph import builder as builder_mod
+    from graphnav.estimators.graph.dvl_errors import beam_index
+    from graphnav.evaluation.bench.cases import case_windows, prepared_mission
+    from graphnav.evaluation.bench.scoring import score_case
+    from graphnav.evaluation.methods import run_method
+    mission = prepared_mission(source, grade)
+    starts = case_windows(mission, window_s, max_windows)
+    run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
+    truth = TruthBeams(mission)
+    errors: list[float] = []
+    stated: list[float] = []
+    original = builder_mod.GraphContext.beam_rows
+    if variant.startswith(RECORDED):
+        comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
+        if variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma growth per ping, m/s
+            from graphnav.nets.imu_auto import ImuAutoCompleter
+            comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
+                                    drift_std=float(variant.split()[-1]))
+
+        def beam_rows(self, ping, used):
+            rows = original(self, ping, used)
+            if rows.regressed.any():
+                sel = rows.regressed
+                y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
+                errors.extend((rows.y[sel] - y_true).tolist())
+                stated.extend(rows.sigma[sel].tolist())
+            return rows
+    else:
+        comp = None
+        kind, size = variant.split()
+        seed = zlib.crc32(repr((source.name, grade, scenario, window_s, variant)).encode())
+        oracle = OracleError(float(size), SERIAL_TAU_PINGS if kind == "serial" else None, seed)
+
+        def beam_rows(self, ping, used):
+            rows = original(self, ping, used)
+            if rows.regressed.any():
+                sel = rows.regressed
+                y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
+                rows.y[sel] = y_true + oracle.at(ping.t)[beam_index(rows.rows_b[sel], self.geometry.T_b)]
+                rows.sigma[sel] = max(oracle.sigma, 1e-4)
+            return rows
+    builder_mod.GraphContext.beam_rows = beam_rows
+    try:
+        sol = run_method(run, "Graph-HN", scenario, completer=comp)
+    finally:
+        builder_mod.GraphContext.beam_rows = original
+    screening = sol.info.get("regressed_screening", {})
+    return ((source.name, grade, window_s, variant),
+            {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
+             "errors": errors, "stated_sigma": stated, "screening": screening})
+
+
+def _vrmse(runs: dict, reference: dict, name: str, g: str, w: float, method: str) -> list[float]:
+    if method in ("Graph-TC", "all beams", "Graph-HN"):
+        return reference[(name, g, w, method)]
+    return runs[(name, g, w, method)]["vrmse"]
+
+
+def ratio(runs: dict, reference: dict, folds, g: str, w: float, method: str) -> float:
+    """Mean window VRMSE of ``method`` over Graph-TC's on the trajectories of ``folds`` (indices of AKIT_FOLDS)."""
+    from graphnav.nets.crossval import AKIT_FOLDS
+    names = [f"Trajectory{k}" for f in folds for k in AKIT_FOLDS[f]]
+    return float(np.mean(np.concatenate([_vrmse(runs, reference, n, g, w, method) for n in names]))
+                 / np.mean(np.concatenate([_vrmse(runs, reference, n, g, w, "Graph-TC") for n in names])))
+
+
+def table(runs: dict, reference: dict, grades, windows, variants) -> str:
+    """Window VRMSE over Graph-TC's (the reference file's runs of the same windows) per cell: pooled over the ten
+    trajectories, and (in brackets) the worst fold (a fold's pair pooled)."""
+    from graphnav.nets.crossval import AKIT_FOLDS
+    folds = range(len(AKIT_FOLDS))
+    lines = ["| IMU | window s | all beams | Graph-HN (average) | " + " | ".join(variants) + " |",
+             "| --- | --- | --- | --- | " + " | ".join("---" for _ in variants) + " |"]
+    for g in grades:
+        for w in windows:
+            cells = []
+            for m in ("all beams", "Graph-HN", *variants):
+                try:
+                    worst = max(ratio(runs, reference, [f], g, w, m) for f in folds)
+                    cells.append(f"{ratio(runs, reference, folds, g, w, m):.2f} ({worst:.2f})")
+                except KeyError:
+                    cells.append("-")
+            lines.append(f"| {g} | {w:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def drift_choice(runs: dict, reference: dict, grades, windows, candidates: dict) -> str:
+    """The recorded completer's sigma growth chosen by the regime rule (fewest fold cells over 1.02x Graph-TC, then
+    the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold scored with the growth chosen
+    on the other four (``candidates``: growth label -> variant)."""
+    from graphnav.nets.crossval import AKIT_FOLDS
+    folds = list(range(len(AKIT_FOLDS)))
+    cells = [(g, w) for g in grades for w in windows]
+
+    def key(use, label):
+        m = candidates[label]
+        worse = sum(ratio(runs, reference, [f], g, w, m) > 1.02 for f in use for g, w in cells)
+        return worse, float(np.mean([ratio(runs, reference, use, g, w, m) for g, w in cells]))
+    lines = ["growth per ping (m/s): fold cells over 1.02x, mean pooled ratio: " + "; ".join(
+        f"{c}: {key(folds, c)[0]}, {key(folds, c)[1]:.3f}" for c in candidates),
+        f"chosen on all folds: {min(candidates, key=lambda c: key(folds, c))}"]
+    picks = {f: min(candidates, key=lambda c: key([o for o in folds if o != f], c)) for f in folds}
+    lines.append("chosen without fold f: " + ", ".join(f"fold {f}: {c}" for f, c in picks.items()))
+    lines += ["| IMU | window s | out of fold, pooled (worst fold) | folds 0-4 |", "| --- | --- | --- | --- |"]
+    for g, w in cells:
+        per = [ratio(runs, reference, [f], g, w, candidates[picks[f]]) for f in folds]
+        num = sum(np.sum(_vrmse(runs, reference, f"Trajectory{k}", g, w, candidates[picks[f]]))
+                  for f in folds for k in AKIT_FOLDS[f])
+        den = sum(np.sum(_vrmse(runs, reference, f"Trajectory{k}", g, w, "Graph-TC")) for f in folds for k in AKIT_FOLDS[f])
+        lines.append(f"| {g} | {w:g} | {num / den:.2f} ({max(per):.2f}) | " + ", ".join(f"{p:.2f}" for p in per) + " |")
+    return "\n".join(lines)
+
+
+def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
+    """RMS of the recorded completer's completions against the truth, and the share the screening kept."""
+    lines = ["| IMU | window s | completions | RMS error m/s | RMS stated sigma m/s | within 1 / 2 sigma | kept by the "
+             "screening |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for g in grades:
+        for w in windows:
+            sel = [r for k, r in runs.items() if k[1:] == (g, w, variant)]
+            if not sel:
+                continue
+            e = np.concatenate([r["errors"] for r in sel])
+            s = np.concatenate([r["stated_sigma"] for r in sel])
+            z = np.abs(e) / s
+            dropped = sum(r["screening"].get("decorrelated_out", 0) + r["screening"].get("gated", 0) for r in sel)
+            lines.append(f"| {g} | {w:g} | {len(e)} | {np.sqrt(np.mean(e ** 2)):.3f} | "
+                         f"{np.sqrt(np.mean(s ** 2)):.3f} | {np.mean(z < 1):.2f} / {np.mean(z < 2):.2f} | {1 - dropped / max(len(e), 1):.2f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
+    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
+    p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
+    p.add_argument("--sigmas", nargs="+", type=float, default=list(SIGMAS), help="oracle error sizes, m/s")
+    p.add_argument("--reference", required=True, help="hybrid_imu_folds.py results (JSON) of the same scenario "
+                   "and windows: its Graph-TC, all beams and Graph-HN runs")
+    p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer")
+    p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer")
+    p.add_argument("--drift", nargs="*", type=float, default=[], help="the recorded completer again with these "
+                   "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
+    p.add_argument("--no-oracle", action="store_true", help="only the recorded completer's runs")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+    p.add_argument("--out", required=True, help="results (JSON); a rerun resumes from it")
+    a = p.parse_args(argv)
+    if bool(a.record) != bool(a.beam_nets):
+        p.error("--record and --beam-nets go together")
+    sys.path.insert(0, str(Path(__file__).parent))
+    from hybrid_imu_folds import load_runs
+
+    from graphnav.evaluation.bench import find_trajectories
+    from graphnav.evaluation.tasks import run_tasks
+    from graphnav.io.paths import akit_trajectories
+    from graphnav.nets.crossval import AKIT_FOLDS
+    reference_path = Path(a.reference)
+    saved = json.loads(reference_path.read_text())
+    if saved["settings"]["scenario"] != a.scenario or saved["settings"]["max_windows"] != a.max_windows:
+        raise SystemExit(f"{reference_path} holds {saved['settings']}, not {a.scenario} with {a.max_windows} windows")
+    reference, _ = load_runs(reference_path, saved["settings"])
+    folders = akit_trajectories(a.data)
+    sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
+    out = Path(a.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    runs = {tuple(k): v for k, v in json.loads(out.read_text())} if out.exists() else {}
+    recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
+    variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + recorded
+    items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
+              (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
+             for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants
+             if (f"Trajectory{k}", g, w, v) not in runs]
+
+    def finished(r):
+        runs[r[0]] = r[1]
+        out.write_text(json.dumps([[list(k), v] for k, v in runs.items()]))
+    print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
+    run_tasks(oracle_task, items, finished, jobs=a.jobs)
+    print(f"{a.scenario}, {a.max_windows} windows per trajectory; window VRMSE over Graph-TC's, pooled")
+    print(table(runs, reference, a.grades, a.window_s, variants))
+    for v in recorded:
+        print(f"\n{v}")
+        print(recorded_table(runs, a.grades, a.window_s, v))
+    if a.drift:
+        print("\nthe recorded completer's sigma growth, chosen by the regime rule")
+        print(drift_choice(runs, reference, a.grades, a.window_s,
+                           {"0.03 (history's)": RECORDED, **{f"{d:g}": f"{RECORDED} drift {d:g}" for d in a.drift}}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
