@@ -9,12 +9,16 @@ velocity and attitude, lever-arm term included) plus an error of known size, sta
 - ``white s``: independent N(0, s^2) per beam and ping;
 - ``serial s``: a first-order Gauss-Markov error per beam, standard deviation ``s``, correlation time
   :data:`SERIAL_TAU_PINGS` pings (the completers' errors stay off for about that long, integrated autocorrelation
-  time 18-24 pings), stated sigma ``s`` as a completer would state it.
+  time 18-24 pings), stated sigma ``s`` as a completer would state it. The error advances once per ping with
+  regressed beams (the windows are minutes apart, so a window starts from the last one's error).
+
+The oracle's sigma is given as is, without the graph's floor for regressed beams (the beam noise, 0.042 m/s): an
+oracle is as good as it says.
 
 With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` it also runs the shipped ``Graph-HNI``
 completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
-error against the same truth: RMS through the windows, the sigma the graph was given, and how often the screening
-kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
+error against the same truth: RMS through the windows, the sigma the history handed on (before the screening's
+adaptive inflation), and how often the screening kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
 the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out.
 The table prints each variant's window VRMSE over Graph-TC's, pooled over the ten trajectories and (in brackets)
 the worst fold, beside all beams. ``--reference`` is the regime study's results file of the same scenario (its
@@ -50,7 +54,6 @@ class TruthBeams:
 
     def __init__(self, mission):
         self.gt = mission.gt
-        self.lever_arm_b = None
 
     def at(self, t: float, rows_b: np.ndarray, omega_b: np.ndarray, lever_arm_b: np.ndarray) -> np.ndarray:
         from graphnav.core.timeseries import interp_rows
@@ -202,7 +205,7 @@ def drift_choice(runs: dict, reference: dict, grades, windows, candidates: dict)
 
 def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
     """RMS of the recorded completer's completions against the truth, and the share the screening kept."""
-    lines = ["| IMU | window s | completions | RMS error m/s | RMS stated sigma m/s | within 1 / 2 sigma | kept by the "
+    lines = ["| IMU | window s | completions | RMS error m/s | RMS sigma handed on m/s | within 1 / 2 sigma | kept by the "
              "screening |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for g in grades:
         for w in windows:
@@ -234,12 +237,15 @@ def main(argv=None) -> int:
                    "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
     p.add_argument("--no-oracle", action="store_true", help="only the recorded completer's runs")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
-    p.add_argument("--out", required=True, help="results (JSON); a rerun resumes from it")
+    p.add_argument("--out", required=True, help="results (JSON); a rerun with the same scenario and windows resumes "
+                   "from it")
     a = p.parse_args(argv)
     if bool(a.record) != bool(a.beam_nets):
         p.error("--record and --beam-nets go together")
+    if a.drift and not a.record:
+        p.error("--drift varies the recorded completer: give --record and --beam-nets")
     sys.path.insert(0, str(Path(__file__).parent))
-    from hybrid_imu_folds import load_runs
+    from hybrid_imu_folds import load_runs, save_runs
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.tasks import run_tasks
@@ -254,7 +260,8 @@ def main(argv=None) -> int:
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    runs = {tuple(k): v for k, v in json.loads(out.read_text())} if out.exists() else {}
+    settings = {"scenario": a.scenario, "max_windows": a.max_windows, "oracle_tau_pings": SERIAL_TAU_PINGS}
+    runs, _ = load_runs(out, settings)     # a file of another scenario or windows is refused
     recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
     variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + recorded
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
@@ -264,7 +271,7 @@ def main(argv=None) -> int:
 
     def finished(r):
         runs[r[0]] = r[1]
-        out.write_text(json.dumps([[list(k), v] for k, v in runs.items()]))
+        save_runs(out, settings, runs)
     print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
     run_tasks(oracle_task, items, finished, jobs=a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per trajectory; window VRMSE over Graph-TC's, pooled")

@@ -19,8 +19,8 @@ run of pings with regressed beams (None: the history's 0.03). The shipped comple
 purpose. In 60-120 s outages inside the graph, out of fold, that sigma is 1.8x the fused completion's error (0.90-0.92
 of the errors within 1 sigma) and the screening drops 87-100 % of the completions. A calibrated growth (0.01: 0.71-0.73
 within 1 sigma) lets them in and helps the graph pooled over the trajectories, but makes the steadiest held-out
-trajectory up to 2.2x worse than Graph-TC with a tactical IMU, and chosen leave-one-fold-out it picks that growth for
-the fold it harms (``experiments/oracle_completions.py``; ``docs/decisions/completers.md``, "How good a completion
+trajectory up to 2.2x worse than Graph-TC, and chosen leave-one-fold-out it picks that growth for the fold it harms
+(``experiments/oracle_completions.py``; ``docs/decisions/completers.md``, "How good a completion
 would have to be").
 """
 from __future__ import annotations

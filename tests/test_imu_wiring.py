@@ -220,7 +220,7 @@ def test_imu_auto_completer_sigma_grows_by_its_own_drift_through_an_outage():
             own.append(completer.complete(history.past(), two, imu=imu, run_steps=np.where(valid, 0, k))[1][[0, 2]])
             handed.append(history.complete(completer, two, valid, imu=imu)[1][[0, 2]])
         return np.array(handed), np.array(own)
-    for drift, expected in ((0.004, 0.004), (None, 0.03)):
+    for drift, expected in ((0.004, 0.004), (0.0, 0.0), (None, 0.03)):
         handed, own = run(ImuAutoCompleter([net], beam, {"2-missing": 0.8}, drift_std=drift))
         np.testing.assert_allclose(handed[0], own[0])
         for k in range(1, len(handed)):
