@@ -34,6 +34,7 @@ everywhere, <= 0.7x where all beams give <= 0.5x). Usage::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from pathlib import Path
@@ -50,6 +51,13 @@ VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI fold", "HNI fused", "HNI f
 IMU_FADE = 0.95
 
 
+@functools.lru_cache(maxsize=None)
+def shipped_run_decay(scenario: str) -> float:
+    """The shipped beam-only completer's ``run_decay`` (the fold ensembles fade as it does); loaded once per process."""
+    from graphnav.nets.network import load_completer
+    return load_completer(scenario).run_decay
+
+
 def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float):
     """The completer of one study method (None: the method's own)."""
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -61,8 +69,7 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     if method == "HNI fold fused":
         from graphnav.nets.imu_auto import IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
-        beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}",
-                              run_decay=load_completer(scenario).run_decay)
+        beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=shipped_run_decay(scenario))
         net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=IMU_FADE)
         return ImuAutoCompleter([net], beam, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]})
     if method == "HN-net fold":
