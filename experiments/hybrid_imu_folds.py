@@ -176,6 +176,18 @@ def save_runs(path: Path, settings: dict, runs: dict, **extra) -> None:
     path.write_text(json.dumps({"settings": settings, **extra, "runs": [[list(k), v] for k, v in runs.items()]}))
 
 
+def run_saving(task, items: list, runs: dict, out: Path, settings: dict, jobs: int) -> None:
+    """Run ``task`` on every item (``graphnav.evaluation.tasks``), each result ``(key, value)`` going into ``runs``
+    and the file ``out`` (:func:`save_runs`) as it comes, so that an interrupted study resumes."""
+    from graphnav.evaluation.tasks import run_tasks
+
+    def finished(r):
+        runs[r[0]] = r[1]
+        save_runs(out, settings, runs)
+    print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
+    run_tasks(task, items, finished, jobs=jobs)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
@@ -203,7 +215,6 @@ def main(argv=None) -> int:
     if a.beam_nets is None and {"HN-net fold", "HNI fold fused"} & set(a.variants):
         p.error("HN-net fold and HNI fold fused need --beam-nets")
     from graphnav.evaluation.bench import find_trajectories
-    from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
@@ -230,11 +241,7 @@ def main(argv=None) -> int:
                             items.append((sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, m, nets, f,
                                           fit))
 
-    def finished(r):
-        results[r[0]] = r[1]
-        save_runs(out, settings, results)
-    print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
-    run_tasks(window_task, items, finished, jobs=a.jobs)
+    run_saving(window_task, items, results, out, settings, a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per held-out trajectory; window VRMSE mean, ratio to Graph-TC")
     print(table(results, AKIT_FOLDS, a.grades, a.window_s, a.variants))
     print()

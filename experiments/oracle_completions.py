@@ -245,10 +245,9 @@ def main(argv=None) -> int:
     if a.drift and not a.record:
         p.error("--drift varies the recorded completer: give --record and --beam-nets")
     sys.path.insert(0, str(Path(__file__).parent))
-    from hybrid_imu_folds import load_runs, save_runs
+    from hybrid_imu_folds import load_runs, run_saving
 
     from graphnav.evaluation.bench import find_trajectories
-    from graphnav.evaluation.tasks import run_tasks
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     reference_path = Path(a.reference)
@@ -269,11 +268,7 @@ def main(argv=None) -> int:
              for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants
              if (f"Trajectory{k}", g, w, v) not in runs]
 
-    def finished(r):
-        runs[r[0]] = r[1]
-        save_runs(out, settings, runs)
-    print(f"{len(items)} runs to do", file=sys.stderr, flush=True)
-    run_tasks(oracle_task, items, finished, jobs=a.jobs)
+    run_saving(oracle_task, items, runs, out, settings, a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per trajectory; window VRMSE over Graph-TC's, pooled")
     print(table(runs, reference, a.grades, a.window_s, variants))
     for v in recorded:
