@@ -101,7 +101,6 @@ def oracle_task(item):
     truth = TruthBeams(mission)
     errors: list[float] = []
     stated: list[float] = []
-    original = builder_mod.GraphContext.beam_rows
     if variant.startswith(RECORDED):
         comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
         if variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma growth per ping, m/s
@@ -109,28 +108,29 @@ def oracle_task(item):
             comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
                                     drift_std=float(variant.split()[-1]))
 
-        def beam_rows(self, ping, used):
-            rows = original(self, ping, used)
-            if rows.regressed.any():
-                sel = rows.regressed
-                y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
-                errors.extend((rows.y[sel] - y_true).tolist())
-                stated.extend(rows.sigma[sel].tolist())
-            return rows
+        def at_regressed(rows, sel, y_true, t, geometry):
+            errors.extend((rows.y[sel] - y_true).tolist())
+            stated.extend(rows.sigma[sel].tolist())
     else:
         comp = None
         kind, size = variant.split()
         seed = zlib.crc32(repr((source.name, grade, scenario, window_s, variant)).encode())
         oracle = OracleError(float(size), SERIAL_TAU_PINGS if kind == "serial" else None, seed)
 
-        def beam_rows(self, ping, used):
-            rows = original(self, ping, used)
-            if rows.regressed.any():
-                sel = rows.regressed
-                y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
-                rows.y[sel] = y_true + oracle.at(ping.t)[beam_index(rows.rows_b[sel], self.geometry.T_b)]
-                rows.sigma[sel] = max(oracle.sigma, 1e-4)
-            return rows
+        def at_regressed(rows, sel, y_true, t, geometry):
+            rows.y[sel] = y_true + oracle.at(t)[beam_index(rows.rows_b[sel], geometry.T_b)]
+            rows.sigma[sel] = max(oracle.sigma, 1e-4)
+    original = builder_mod.GraphContext.beam_rows
+
+    def beam_rows(self, ping, used):
+        """The ping's rows as the graph makes them, with ``at_regressed`` given its regressed beams' true values
+        (rows.y and rows.sigma are the rows' own copies)."""
+        rows = original(self, ping, used)
+        if rows.regressed.any():
+            sel = rows.regressed
+            y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
+            at_regressed(rows, sel, y_true, ping.t, self.geometry)
+        return rows
     builder_mod.GraphContext.beam_rows = beam_rows
     try:
         sol = run_method(run, "Graph-HN", scenario, completer=comp)
@@ -188,9 +188,10 @@ def drift_choice(runs: dict, reference: dict, grades, windows, candidates: dict)
         m = candidates[label]
         worse = sum(ratio(runs, reference, [f], g, w, m) > 1.02 for f in use for g, w in cells)
         return worse, float(np.mean([ratio(runs, reference, use, g, w, m) for g, w in cells]))
+    scores = {c: key(folds, c) for c in candidates}
     lines = ["growth per ping (m/s): fold cells over 1.02x, mean pooled ratio: " + "; ".join(
-        f"{c}: {key(folds, c)[0]}, {key(folds, c)[1]:.3f}" for c in candidates),
-        f"chosen on all folds: {min(candidates, key=lambda c: key(folds, c))}"]
+        f"{c}: {worse}, {mean:.3f}" for c, (worse, mean) in scores.items()),
+        f"chosen on all folds: {min(scores, key=scores.get)}"]
     picks = {f: min(candidates, key=lambda c: key([o for o in folds if o != f], c)) for f in folds}
     lines.append("chosen without fold f: " + ", ".join(f"fold {f}: {c}" for f, c in picks.items()))
     lines += ["| IMU | window s | out of fold, pooled (worst fold) | folds 0-4 |", "| --- | --- | --- | --- |"]

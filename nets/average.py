@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .completer import check_inputs
+from .completer import check_drift_std, check_inputs
 
 #: Past pings the average estimator uses per beam-outage scenario (the paper's N: 3 for 2 missing beams, 5 for
 #: 3; 5 for the others), as the estimators and the network evaluation use it.
@@ -28,9 +28,7 @@ class AverageCompleter:
         if n_past < 1:
             raise ValueError(f"n_past must be >= 1, got {n_past}")
         if drift_std is not None:
-            if not drift_std >= 0:
-                raise ValueError(f"drift_std must be >= 0 m/s per ping or None, got {drift_std}")
-            self.drift_std = drift_std
+            self.drift_std = check_drift_std("AverageCompleter", drift_std)
         self.n_past = n_past
         self.noise_std = noise_std
         self.sigma = None if sigma is None else np.broadcast_to(np.asarray(sigma, float), (4,)).copy()

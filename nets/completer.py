@@ -26,6 +26,17 @@ class BeamCompleter(Protocol):
         ...
 
 
+def check_drift_std(owner: str, drift_std) -> float | None:
+    """A completer's ``drift_std`` (m/s per ping, the growth :class:`graphnav.estimators.history.BeamHistory` gives
+    its sigma through a run of regressed pings) as a float, or None (the history's own); :class:`ConfigError`
+    naming ``owner`` unless it is a finite number >= 0."""
+    if drift_std is None:
+        return None
+    if isinstance(drift_std, bool) or not isinstance(drift_std, (int, float)) or not 0.0 <= drift_std < float("inf"):
+        raise ConfigError(f"{owner}: drift_std = {drift_std!r} is not a growth >= 0 m/s per ping (or None)")
+    return float(drift_std)
+
+
 def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[np.ndarray, np.ndarray]:
     """Validate and convert completer inputs; raise :class:`DataError` naming the bad field."""
     past = np.asarray(past, dtype=float)

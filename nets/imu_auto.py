@@ -29,7 +29,7 @@ import numpy as np
 
 from graphnav.core.errors import ConfigError
 
-from .completer import check_inputs, complete_with
+from .completer import check_drift_std, check_inputs, complete_with
 from .fused import fuse
 from .model import scenario_name
 
@@ -80,11 +80,8 @@ class ImuAutoCompleter:
         for name, rho in self.beam_correlation.items():
             if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not -1.0 < rho < 1.0:
                 raise ConfigError(f"ImuAutoCompleter: beam_correlation[{name!r}] = {rho!r} is not in (-1, 1)")
-        if drift_std is not None and (isinstance(drift_std, bool) or not isinstance(drift_std, (int, float))
-                                      or not 0.0 <= drift_std < float("inf")):
-            raise ConfigError(f"ImuAutoCompleter: drift_std = {drift_std!r} is not a growth >= 0 m/s per ping")
         #: read by BeamHistory (None: the history's own growth)
-        self.drift_std = None if drift_std is None else float(drift_std)
+        self.drift_std = check_drift_std("ImuAutoCompleter", drift_std)
         # per missing pattern, so that a ping looks its correlation up by the pattern it already has
         self._fuse_rho = {m: self.beam_correlation.get(scenario_name(m)) for m in self.networks}
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
