@@ -20,6 +20,12 @@ completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused`
 error against the same truth: RMS through the windows, the sigma the history handed on (before the screening's
 adaptive inflation), and how often the screening kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
 the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out.
+``--average`` records Graph-HN's own completer (the average estimator) the same way. ``--tau T ...`` runs the serial
+oracles, the average and the recorded completer again with a run of regressed beams screened only until one of its
+completions is kept (``GraphOptions.regressed_runs="screen-first"``) and, for T > 0, the graph modelling their errors
+as a Gauss-Markov process of correlation time T s (``GraphOptions.regressed_error_tau_s``: the run's later
+completions enter as whitened differences with the previous ones); it prints the T the regime rule chooses, on all
+folds and leave-one-fold-out (with ``--joint``, on the cells of several scenarios together).
 The table prints each variant's window VRMSE over Graph-TC's, pooled over the ten trajectories and (in brackets)
 the worst fold, beside all beams. ``--reference`` is the regime study's results file of the same scenario (its
 Graph-TC, all-beams and Graph-HN runs). Usage::
@@ -43,6 +49,10 @@ SERIAL_TAU_PINGS = 20.0
 #: error sizes (m/s) of the oracle completions
 SIGMAS = (0.02, 0.05, 0.1)
 RECORDED = "Graph-HNI (fold)"
+#: Graph-HN's default completer (the average estimator), recorded like the fold networks
+AVERAGE = "Graph-HN (average)"
+#: variant suffix: the graph models the completion errors' correlation (GraphOptions.regressed_error_tau_s, s)
+TAU = " tau "
 
 
 def oracle_variants(sigmas=SIGMAS) -> list[str]:
@@ -84,12 +94,18 @@ class OracleError:
 def oracle_task(item):
     """Window VRMSE (m/s) of one run, and for the recorded completer its completion errors. ``item``: (source,
     grade, scenario, window_s, max_windows, variant, nets, fold)."""
-    source, grade, scenario, window_s, max_windows, variant, nets, fold = item
+    source, grade, scenario, window_s, max_windows, full_variant, nets, fold = item
+    # "<variant> tau <T>": a run of regressed beams is screened until one is kept (regressed_runs="screen-first"),
+    # and with T > 0 the graph models their errors as Gauss-Markov with correlation time T s
+    variant, _, tau = full_variant.partition(TAU)
+    options = None
+    if tau:
+        options = {"regressed_runs": "screen-first", "regressed_error_tau_s": float(tau) if float(tau) > 0 else None}
     import warnings
     warnings.simplefilter("ignore")
     from hybrid_imu_folds import completer
 
-    from graphnav.core.scenarios import scenario_outage
+    from graphnav.core.scenarios import is_total_outage, scenario_outage
     from graphnav.estimators.graph import builder as builder_mod
     from graphnav.estimators.graph.dvl_errors import beam_index
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
@@ -101,10 +117,17 @@ def oracle_task(item):
     truth = TruthBeams(mission)
     errors: list[float] = []
     stated: list[float] = []
-    if variant.startswith(RECORDED):
-        comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
-        if variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma growth per ping, m/s
-            from graphnav.nets.imu_auto import ImuAutoCompleter
+    if variant.startswith((RECORDED, AVERAGE)):
+        comp = None     # AVERAGE: Graph-HN's own completer (the average estimator)
+        if variant.startswith(RECORDED) and is_total_outage(scenario):
+            # a total outage: no network serves a ping without a measured beam, and Graph-HNI's completer fills them
+            # with its beam-only fallback's average; nothing fitted runs, so the shipped completer is out of fold
+            from graphnav.evaluation.methods import completer_for
+            comp = completer_for("Graph-HNI", scenario, mission.config.dvl.beam_noise_std)[0]
+        elif variant.startswith(RECORDED):
+            comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
+        if variant.startswith(RECORDED) and variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma
+            from graphnav.nets.imu_auto import ImuAutoCompleter     # growth per ping, m/s
             comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
                                     drift_std=float(variant.split()[-1]))
 
@@ -133,11 +156,11 @@ def oracle_task(item):
         return rows
     builder_mod.GraphContext.beam_rows = beam_rows
     try:
-        sol = run_method(run, "Graph-HN", scenario, completer=comp)
+        sol = run_method(run, "Graph-HN", scenario, completer=comp, options=options)
     finally:
         builder_mod.GraphContext.beam_rows = original
     screening = sol.info.get("regressed_screening", {})
-    return ((source.name, grade, window_s, variant),
+    return ((source.name, grade, window_s, full_variant),
             {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
              "errors": errors, "stated_sigma": stated, "screening": screening})
 
@@ -176,38 +199,47 @@ def table(runs: dict, reference: dict, grades, windows, variants) -> str:
     return "\n".join(lines)
 
 
-def drift_choice(runs: dict, reference: dict, grades, windows, candidates: dict) -> str:
-    """The recorded completer's sigma growth chosen by the regime rule (fewest fold cells over 1.02x Graph-TC, then
-    the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold scored with the growth chosen
-    on the other four (``candidates``: growth label -> variant)."""
+def regime_choice(sets: dict, grades, windows, candidates: dict, what: str) -> str:
+    """The candidate (``what``: e.g. the recorded completer's sigma growth) chosen by the regime rule (fewest fold
+    cells over 1.02x Graph-TC, then the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold
+    scored with the candidate chosen on the other four (``candidates``: label -> variant). ``sets``: scenario ->
+    (runs, reference) of that scenario; the cells are every scenario's IMUs and windows."""
     from graphnav.nets.crossval import AKIT_FOLDS
     folds = list(range(len(AKIT_FOLDS)))
-    cells = [(g, w) for g in grades for w in windows]
+    cells = [(sc, g, w) for sc in sets for g in grades for w in windows]
+
+    def r(use, sc, g, w, m):
+        return ratio(*sets[sc], use, g, w, m)
 
     def key(use, label):
         m = candidates[label]
-        worse = sum(ratio(runs, reference, [f], g, w, m) > 1.02 for f in use for g, w in cells)
-        return worse, float(np.mean([ratio(runs, reference, use, g, w, m) for g, w in cells]))
+        worse = sum(r([f], sc, g, w, m) > 1.02 for f in use for sc, g, w in cells)
+        return worse, float(np.mean([r(use, sc, g, w, m) for sc, g, w in cells]))
     scores = {c: key(folds, c) for c in candidates}
-    lines = ["growth per ping (m/s): fold cells over 1.02x, mean pooled ratio: " + "; ".join(
+    lines = [f"{what}: fold cells over 1.02x, mean pooled ratio: " + "; ".join(
         f"{c}: {worse}, {mean:.3f}" for c, (worse, mean) in scores.items()),
         f"chosen on all folds: {min(scores, key=scores.get)}"]
     picks = {f: min(candidates, key=lambda c: key([o for o in folds if o != f], c)) for f in folds}
     lines.append("chosen without fold f: " + ", ".join(f"fold {f}: {c}" for f, c in picks.items()))
-    lines += ["| IMU | window s | out of fold, pooled (worst fold) | folds 0-4 |", "| --- | --- | --- | --- |"]
-    for g, w in cells:
-        per = [ratio(runs, reference, [f], g, w, candidates[picks[f]]) for f in folds]
+    lines += ["| scenario | IMU | window s | out of fold, pooled (worst fold) | folds 0-4 |",
+              "| --- | --- | --- | --- | --- |"]
+    for sc, g, w in cells:
+        runs, reference = sets[sc]
+        per = [r([f], sc, g, w, candidates[picks[f]]) for f in folds]
         num = sum(np.sum(_vrmse(runs, reference, f"Trajectory{k}", g, w, candidates[picks[f]]))
                   for f in folds for k in AKIT_FOLDS[f])
-        den = sum(np.sum(_vrmse(runs, reference, f"Trajectory{k}", g, w, "Graph-TC")) for f in folds for k in AKIT_FOLDS[f])
-        lines.append(f"| {g} | {w:g} | {num / den:.2f} ({max(per):.2f}) | " + ", ".join(f"{p:.2f}" for p in per) + " |")
+        den = sum(np.sum(_vrmse(runs, reference, f"Trajectory{k}", g, w, "Graph-TC"))
+                  for f in folds for k in AKIT_FOLDS[f])
+        lines.append(f"| {sc} | {g} | {w:g} | {num / den:.2f} ({max(per):.2f}) | " + ", ".join(f"{p:.2f}" for p in per)
+                     + " |")
     return "\n".join(lines)
 
 
 def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
-    """RMS of the recorded completer's completions against the truth, and the share the screening kept."""
-    lines = ["| IMU | window s | completions | RMS error m/s | RMS sigma handed on m/s | within 1 / 2 sigma | kept by the "
-             "screening |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    """RMS of the recorded completer's completions against the truth, the share that became factors (not dropped by the
+    screening) and the share of those that entered as whitened differences (``regressed_error_tau_s``)."""
+    lines = ["| IMU | window s | completions | RMS error m/s | RMS sigma handed on m/s | within 1 / 2 sigma | factors "
+             "| of which differenced |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for g in grades:
         for w in windows:
             sel = [r for k, r in runs.items() if k[1:] == (g, w, variant)]
@@ -217,8 +249,10 @@ def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
             s = np.concatenate([r["stated_sigma"] for r in sel])
             z = np.abs(e) / s
             dropped = sum(r["screening"].get("decorrelated_out", 0) + r["screening"].get("gated", 0) for r in sel)
+            differenced = sum(r["screening"].get("differenced", 0) for r in sel)
             lines.append(f"| {g} | {w:g} | {len(e)} | {np.sqrt(np.mean(e ** 2)):.3f} | "
-                         f"{np.sqrt(np.mean(s ** 2)):.3f} | {np.mean(z < 1):.2f} / {np.mean(z < 2):.2f} | {1 - dropped / max(len(e), 1):.2f} |")
+                         f"{np.sqrt(np.mean(s ** 2)):.3f} | {np.mean(z < 1):.2f} / {np.mean(z < 2):.2f} | "
+                         f"{1 - dropped / max(len(e), 1):.2f} | {differenced / max(len(e) - dropped, 1):.2f} |")
     return "\n".join(lines)
 
 
@@ -236,7 +270,16 @@ def main(argv=None) -> int:
     p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer")
     p.add_argument("--drift", nargs="*", type=float, default=[], help="the recorded completer again with these "
                    "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
-    p.add_argument("--no-oracle", action="store_true", help="only the recorded completer's runs")
+    p.add_argument("--joint", nargs="*", default=[], metavar="FILE", help="pairs of another scenario's results and "
+                   "reference files (OUT REFERENCE ...): the correlation time is then chosen on the cells of every "
+                   "scenario together")
+    p.add_argument("--no-oracle", action="store_true", help="no oracle runs")
+    p.add_argument("--average", action="store_true", help="also Graph-HN's own completer (the average estimator) "
+                   "recorded against the truth")
+    p.add_argument("--tau", nargs="*", type=float, default=[], help="the serial oracles, the average and the recorded "
+                   "completer again with a run of regressed beams screened until one is kept (GraphOptions."
+                   "regressed_runs='screen-first') and the graph modelling their errors as Gauss-Markov with these "
+                   "correlation times (s; GraphOptions.regressed_error_tau_s; 0: independent errors)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", required=True, help="results (JSON); a rerun with the same scenario and windows resumes "
                    "from it")
@@ -263,7 +306,9 @@ def main(argv=None) -> int:
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "oracle_tau_pings": SERIAL_TAU_PINGS}
     runs, _ = load_runs(out, settings)     # a file of another scenario or windows is refused
     recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
-    variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + recorded
+    variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + recorded
+    variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith("serial") or v == RECORDED
+                 for t in a.tau]
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
               (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
              for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants
@@ -272,13 +317,26 @@ def main(argv=None) -> int:
     run_saving(oracle_task, items, runs, out, settings, a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per trajectory; window VRMSE over Graph-TC's, pooled")
     print(table(runs, reference, a.grades, a.window_s, variants))
-    for v in recorded:
+    for v in [v for v in variants if v.startswith((RECORDED, AVERAGE))]:
         print(f"\n{v}")
         print(recorded_table(runs, a.grades, a.window_s, v))
     if a.drift:
         print("\nthe recorded completer's sigma growth, chosen by the regime rule")
-        print(drift_choice(runs, reference, a.grades, a.window_s,
-                           {"0.03 (history's)": RECORDED, **{f"{d:g}": f"{RECORDED} drift {d:g}" for d in a.drift}}))
+        print(regime_choice({a.scenario: (runs, reference)}, a.grades, a.window_s,
+                            {"0.03 (history's)": RECORDED, **{f"{d:g}": f"{RECORDED} drift {d:g}" for d in a.drift}},
+                            "growth per ping (m/s)"))
+    for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau):
+        print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
+              "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
+        sets = {a.scenario: (runs, reference)}
+        if a.joint:      # one choice for the cells of every scenario
+            for out_path, ref_path in zip(a.joint[::2], a.joint[1::2]):
+                other = json.loads(Path(ref_path).read_text())["settings"]
+                sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
+                                           load_runs(Path(ref_path), other)[0])
+        print(regime_choice(sets, a.grades, a.window_s,
+                            {"screen-each": base, **{"screen-first" + (f", tau {t:g} s" if t else ""): f"{base}{TAU}{t:g}"
+                                                     for t in a.tau}}, "regressed runs"))
     return 0
 
 

@@ -6,6 +6,7 @@ from .aiding import heading_factor, horizontal_position_factor
 from .depth import depth_factor
 from .dvl import (
                   N_DVL_ERRORS,
+                  beam_difference_factor,
                   beam_factor,
                   beam_factor_dvl_errors,
                   beam_factor_lever_arm,
@@ -17,6 +18,6 @@ from .dvl import (
 )
 from .motion import body_velocity_change_factor, nonholonomic_factor
 
-__all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
-           "body_velocity_change_factor", "body_velocity_factor", "depth_factor", "dvl_factor", "dvl_velocity_factor",
+__all__ = ["N_DVL_ERRORS", "beam_difference_factor", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm",
+           "beam_noise", "body_velocity_change_factor", "body_velocity_factor", "depth_factor", "dvl_factor", "dvl_velocity_factor",
            "heading_factor", "horizontal_position_factor", "nonholonomic_factor", "predict_beams"]

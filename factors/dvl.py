@@ -39,8 +39,8 @@ import numpy as np
 
 from graphnav.core.beam_model import N_DVL_ERRORS, BeamModel
 
-__all__ = ["N_DVL_ERRORS", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm", "beam_noise",
-           "body_velocity_factor", "dvl_factor", "dvl_velocity_factor", "predict_beams"]
+__all__ = ["N_DVL_ERRORS", "beam_difference_factor", "beam_factor", "beam_factor_dvl_errors", "beam_factor_lever_arm",
+           "beam_noise", "body_velocity_factor", "dvl_factor", "dvl_velocity_factor", "predict_beams"]
 
 
 def beam_noise(sigmas: np.ndarray, huber_k: float | None = None, per_row: bool = False) -> gtsam.noiseModel.Base:
@@ -216,3 +216,66 @@ def dvl_velocity_factor(x_key: int, v_key: int, b_key: int, C_d_b: np.ndarray, v
     C_d_b = np.asarray(C_d_b, dtype=float).reshape(3, 3)
     return dvl_factor(x_key, v_key, b_key, C_d_b.T, v_d, noise, omega_b, lever_arm_b, l_key=l_key, d_key=d_key,
                       beam_index=None if d_key is None else np.full(3, -1), C_d_b=None if d_key is None else C_d_b)
+
+
+def beam_difference_factor(keys_prev: tuple, keys: tuple, rows_b: np.ndarray, y_prev: np.ndarray, y: np.ndarray,
+                           phi: float, noise: gtsam.noiseModel.Base | np.ndarray, omega_prev_b: np.ndarray,
+                           omega_b: np.ndarray, lever_arm_b: np.ndarray, *, beam_index: np.ndarray | None = None,
+                           C_d_b: np.ndarray | None = None) -> gtsam.CustomFactor:
+    """Beams whose errors are serially correlated, as a first-order Gauss-Markov process ``e_k = phi e_(k-1) + w_k``,
+    seen at two consecutive keyframes: the whitened difference (Bryson and Henrikson's measurement differencing)
+
+        r = (h_k - phi h_(k-1)) - (y_k - phi y_(k-1)),   r ~ N(0, var(w_k)),
+
+    with ``h`` the beam model of :func:`dvl_factor` at each keyframe's state. In a smoother that holds both states
+    this is exact: the errors ``e`` need no variables of their own. Used for regressed beams (a completer's
+    errors stay off for many pings together), after one plain factor for the first ping of the run.
+
+    Args:
+        keys_prev, keys: (x, v, b) or, with the DVL error states, (x, v, b, d) keys of keyframes k-1 and k.
+        rows_b: (m,3) body-frame unit vectors of the m beams (the same beams at both keyframes).
+        y_prev, y: (m,) the beams at k-1 and k, m/s.
+        phi: the Gauss-Markov coefficient ``exp(-dt / tau)`` (0 = independent errors: the plain factor at k).
+        noise: an m-dimensional noise model, or (m,) sigmas of ``w_k`` (m/s).
+        omega_prev_b, omega_b: (3,) body rates at the two pings (rad/s, as :func:`dvl_factor`).
+        lever_arm_b: (3,) m.
+        beam_index, C_d_b: with the DVL error states (a fourth key in each tuple), as :func:`dvl_factor`.
+
+    Keys (and Jacobians) in the order keys_prev then keys.
+    """
+    B = np.array(rows_b, dtype=float).reshape(-1, 3)
+    y_prev, y = (np.array(v, dtype=float).reshape(-1) for v in (y_prev, y))
+    if not B.shape[0] == len(y_prev) == len(y):
+        raise ValueError(f"{B.shape[0]} beam rows but {len(y_prev)} and {len(y)} measurements")
+    with_d = len(keys) == 4
+    if len(keys) != len(keys_prev) or len(keys) not in (3, 4) or with_d != (beam_index is not None):
+        raise ValueError("give (x, v, b) keys at both keyframes, or (x, v, b, d) keys with beam_index")
+    if not isinstance(noise, gtsam.noiseModel.Base):
+        noise = beam_noise(noise)
+    model = BeamModel(B, beam_index, C_d_b) if with_d else BeamModel(B)
+    lever = np.array(lever_arm_b, dtype=float).reshape(3)
+    states = [(tuple(int(k) for k in keys_prev), np.array(omega_prev_b, dtype=float).reshape(3), -float(phi)),
+              (tuple(int(k) for k in keys), np.array(omega_b, dtype=float).reshape(3), 1.0)]
+    z = y - phi * y_prev
+    m = B.shape[0]
+
+    def error(_factor, values, H):
+        r = -z
+        for i, (ks, omega, w) in enumerate(states):
+            R = values.atPose3(ks[0]).rotation().matrix()
+            d = values.atVector(ks[3]) if with_d else None
+            h, J, J_d = model.linearize_one(R, values.atVector(ks[1]), omega,
+                                            values.atConstantBias(ks[2]).gyroscope(), lever, d)
+            r = r + w * h
+            if H is not None:
+                n = len(ks)
+                H_x = np.zeros((m, 6))
+                H_x[:, :3] = w * J[:, :3]
+                H_b = np.zeros((m, 6))
+                H_b[:, 3:] = w * J[:, 6:]
+                H[i * n], H[i * n + 1], H[i * n + 2] = H_x, w * J[:, 3:6], H_b
+                if with_d:
+                    H[i * n + 3] = w * J_d
+        return r
+
+    return gtsam.CustomFactor(noise, [*states[0][0], *states[1][0]], error)

@@ -271,3 +271,104 @@ def test_heading_variance_matches_a_sampled_attitude_cloud():
     yaw0 = C_b_n_to_euler(C)[2]
     d = np.remainder(yaw - yaw0 + np.pi, 2 * np.pi) - np.pi
     assert float(heading_variance(C, cov)) == pytest.approx(float(np.var(d)), rel=0.05)
+
+
+# --- serially correlated beams: the whitened difference of two keyframes (factors/dvl.py) ---------------------
+def _numeric_jacobian_any(factor, values, keys):
+    """Whitened Jacobian by central differences on each variable's tangent space (Pose3, ConstantBias, Vector)."""
+    cols = []
+    for key in keys:
+        kind = chr(gtsam.Symbol(key).chr())
+        base = {"x": values.atPose3, "b": values.atConstantBias}.get(kind, values.atVector)(key)
+        dim = 6 if kind in "xb" else len(base)
+        for d in range(dim):
+            delta = np.zeros(dim)
+            delta[d] = 1e-6
+            out = []
+            for sign in (1.0, -1.0):
+                vals = gtsam.Values(values)
+                vals.update(key, base.retract(sign * delta) if kind in "xb" else base + sign * delta)
+                out.append(factor.whitenedError(vals))
+            cols.append((out[0] - out[1]) / 2e-6)
+    return np.column_stack(cols)
+
+
+@pytest.mark.parametrize("seed,with_d", [(0, False), (1, True), (2, True)])
+def test_beam_difference_factor_residual_and_jacobians(seed, with_d):
+    """The whitened difference of two pings' beams: residual (h_k - phi h_k-1) - (y_k - phi y_k-1) from the one beam
+    model, every Jacobian block equal to central differences, and with phi = 0 the plain factor at keyframe k."""
+    from graphnav.core.beam_model import BeamModel
+    from graphnav.factors import beam_difference_factor
+    rng = np.random.default_rng(seed)
+    geo = geometry(rng)
+    beams = np.array([0, 2, 3])
+    rows = geo.T_b[beams]
+    values = gtsam.Values()
+    states, omegas, ds = [], [rng.normal(0, 0.1, 3) for _ in range(2)], []
+    for k in range(2):
+        pose, v_n, bias = random_state(rng)
+        d = np.r_[rng.normal(0, 0.01, 3), rng.normal(0, 0.02, 4)]
+        values.insert(X(k), pose)
+        values.insert(V(k), v_n)
+        values.insert(B(k), bias)
+        if with_d:
+            values.insert(D(k), d)
+        states.append((pose, v_n, bias))
+        ds.append(d)
+    model = BeamModel(rows, beams, geo.C_d_b) if with_d else BeamModel(rows)
+    h = [model.predict(s[0].rotation().matrix(), s[1], omegas[k], s[2].gyroscope(), LEVER,
+                       ds[k] if with_d else None).h for k, s in enumerate(states)]
+    y_prev, y = rng.normal(0, 1, 3), rng.normal(0, 1, 3)
+    keys = [(X(k), V(k), B(k)) + ((D(k),) if with_d else ()) for k in range(2)]
+    extra = {"beam_index": beams, "C_d_b": geo.C_d_b} if with_d else {}
+    phi, sigmas = 0.93, np.array([0.02, 0.03, 0.05])
+    f = beam_difference_factor(keys[0], keys[1], rows, y_prev, y, phi, sigmas, omegas[0], omegas[1], LEVER, **extra)
+    np.testing.assert_allclose(f.unwhitenedError(values), (h[1] - phi * h[0]) - (y - phi * y_prev), atol=1e-12)
+    all_keys = [*keys[0], *keys[1]]
+    np.testing.assert_allclose(f.linearize(values).jacobian()[0], _numeric_jacobian_any(f, values, all_keys),
+                               rtol=1e-5, atol=1e-4)
+    # phi = 0: the plain beam factor of keyframe k, nothing on keyframe k-1
+    plain = beam_difference_factor(keys[0], keys[1], rows, y_prev, y, 0.0, sigmas, omegas[0], omegas[1], LEVER,
+                                   **extra)
+    single = (beam_factor_dvl_errors(*keys[1], rows, beams, geo.C_d_b, y, sigmas, omegas[1], LEVER) if with_d
+              else beam_factor(*keys[1], rows, y, sigmas, omegas[1], LEVER))
+    np.testing.assert_allclose(plain.unwhitenedError(values), single.unwhitenedError(values), atol=1e-12)
+    A = plain.linearize(values).jacobian()[0]
+    n_prev = sum(6 if chr(gtsam.Symbol(k).chr()) in "xb" else 3 if chr(gtsam.Symbol(k).chr()) == "v" else 7
+                 for k in keys[0])
+    np.testing.assert_allclose(A[:, :n_prev], 0.0, atol=1e-12)
+    np.testing.assert_allclose(A[:, n_prev:], single.linearize(values).jacobian()[0], atol=1e-9)
+    with pytest.raises(ValueError):
+        beam_difference_factor(keys[0], keys[1][:3] if with_d else keys[1] + (D(1),), rows, y_prev, y, phi, sigmas,
+                               omegas[0], omegas[1], LEVER, **extra)
+
+
+def test_beam_difference_chain_is_the_gauss_markov_likelihood():
+    """A plain factor at the first ping and whitened differences after it give, at any states, the Mahalanobis
+    distance of the beam errors under the Gauss-Markov covariance cov(e_i, e_j) = phi^|i-j| s_min(i,j)^2 (a
+    sigma growing through the run, as a completer's does): the chain is that likelihood, not an approximation."""
+    from graphnav.factors import beam_difference_factor
+    rng = np.random.default_rng(7)
+    geo = geometry(rng)
+    rows = geo.T_b[[1, 2]]
+    n, phi = 6, 0.9
+    sigma = 0.05 + 0.01 * np.arange(n)              # the completer's sigma, growing through the run
+    values, omegas, e = gtsam.Values(), [], []
+    y = rng.normal(0, 1, (n, 2))
+    for k in range(n):
+        pose, v_n, bias = random_state(rng)
+        for key, val in ((X(k), pose), (V(k), v_n), (B(k), bias)):
+            values.insert(key, val)
+        omegas.append(rng.normal(0, 0.1, 3))
+        e.append(predict_beams(rows, pose.rotation().matrix(), v_n, omegas[k], bias.gyroscope(), LEVER) - y[k])
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(beam_factor(X(0), V(0), B(0), rows, y[0], np.full(2, sigma[0]), omegas[0], LEVER))
+    for k in range(1, n):
+        s_w = np.sqrt(sigma[k] ** 2 - phi ** 2 * sigma[k - 1] ** 2)
+        graph.add(beam_difference_factor((X(k - 1), V(k - 1), B(k - 1)), (X(k), V(k), B(k)), rows, y[k - 1], y[k],
+                                         phi, np.full(2, s_w), omegas[k - 1], omegas[k], LEVER))
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    cov = phi ** np.abs(i - j) * sigma[np.minimum(i, j)] ** 2
+    e = np.array(e)
+    expected = sum(e[:, b] @ np.linalg.solve(cov, e[:, b]) for b in range(2))
+    assert 2 * graph.error(values) == pytest.approx(expected, rel=1e-10)

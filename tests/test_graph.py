@@ -305,3 +305,75 @@ def test_dvl_error_states_only_on_measured_beams_batch_equals_lm(biased_missions
                   options=dataclasses.replace(opts, batch_solver="lm"))
     np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
     np.testing.assert_allclose(a.cov_v_n, b.cov_v_n, rtol=1e-4, atol=1e-12)
+
+
+class SerialOracleCompleter(OracleCompleter):
+    """True beams plus a first-order Gauss-Markov error per beam (sigma, correlation time tau pings), as a
+    completer's errors through an outage: off by about the same amount for many pings together."""
+
+    def __init__(self, mission, sigma=0.1, tau=20.0, seed=0):
+        super().__init__(mission, sigma=0.0, seed=seed)
+        rng = np.random.default_rng(seed)
+        phi = np.exp(-1.0 / tau)
+        e = np.zeros((len(mission.dvl.t), 4))
+        e[0] = rng.normal(0, sigma, 4)
+        for j in range(1, len(e)):
+            e[j] = phi * e[j - 1] + np.sqrt(1 - phi ** 2) * rng.normal(0, sigma, 4)
+        self._by_measured = {key: truth + e[j] for j, (key, truth) in enumerate(self._by_measured.items())}
+        self.sigma = sigma
+
+
+def test_regressed_error_correlation_chains_regressed_beams(tactical_mission):
+    """With regressed_error_tau_s, a beam regressed at consecutive keyframes enters after its first ping as a
+    whitened difference (counted, not screened): serially correlated completions then no longer pull the
+    estimate as if each ping were new information, and the vectorised batch still equals GTSAM's LM."""
+    m = tactical_mission.with_outage(scenario_outage("3-missing", 60.0, 60.0))
+    comp = SerialOracleCompleter(m)
+    window = dict(t_start=60.0, t_end=120.0)
+    plain = run_graph(m, completer=comp)
+    first = GraphOptions(regressed_runs="screen-first")
+    chained = run_graph(m, completer=comp, options=dataclasses.replace(first, regressed_error_tau_s=20.0))
+    n_regressed = int(chained.info["n_regressed"].sum())
+    assert n_regressed == 3 * 60 and plain.info["regressed_screening"]["continued"] == 0
+    assert chained.info["regressed_screening"]["continued"] == n_regressed - 3    # all but each beam's first ping
+    e_plain, e_chained = vrmse(plain, m.gt, **window), vrmse(chained, m.gt, **window)
+    assert e_chained < 0.8 * e_plain
+    assert nees_velocity(chained, m.gt, **window).mean() < nees_velocity(plain, m.gt, **window).mean()
+    # the fixed-lag smoother, restarted from its marginals inside the outage, holds the keyframe before each
+    # difference: its filtered output follows ISAM2's
+    lag = run_graph(m, completer=comp, backend="fixed-lag",
+                    options=dataclasses.replace(first, regressed_error_tau_s=20.0, lag_s=10.0, reanchor_interval_s=25.0))
+    assert lag.info["reanchored"] >= 2 and lag.info["regressed_screening"]["continued"] == n_regressed - 3
+    assert np.abs(lag.v_n - chained.v_n).max() < 0.01 and vrmse(lag, m.gt, **window) < 1.1 * e_chained
+    short = m.slice(0, 90)
+    opts = dataclasses.replace(first, regressed_error_tau_s=20.0, huber_regressed_k=1.0)
+    a = run_graph(short, batch=True, completer=comp, options=opts)
+    b = run_graph(short, batch=True, completer=comp, options=dataclasses.replace(opts, batch_solver="lm"))
+    np.testing.assert_allclose(a.v_n, b.v_n, atol=1e-6)
+    assert a.info["regressed_screening"]["continued"] > 0
+    for bad in ({"regressed_error_tau_s": 0.0, "regressed_runs": "screen-first"}, {"regressed_error_tau_s": 20.0},
+                {"regressed_runs": "screen-all"}, {"regressed_error_tau_s": True, "regressed_runs": "screen-first"}):
+        with pytest.raises(ConfigError):
+            GraphOptions(**bad)
+
+
+def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):
+    """regressed_runs="screen-first": the screening decides per ping until one completion of a beam's run is kept;
+    the rest of the run enters at the completer's sigma, unscreened. With a screening that drops whatever the graph
+    predicts well (correlation 0.5), "screen-first" drops completions only before each run's first kept one; without
+    any screening the two are the same graph."""
+    from graphnav.estimators.options import RegressedScreeningOptions
+    m = tactical_mission.with_outage(scenario_outage("3-missing", 60.0, 60.0))
+    comp = SerialOracleCompleter(m, sigma=0.05)
+    screening = RegressedScreeningOptions(correlation=0.5, adaptive=True)
+    each = run_graph(m, completer=comp, options=GraphOptions(screening=screening))
+    first = run_graph(m, completer=comp, options=GraphOptions(screening=screening, regressed_runs="screen-first"))
+    n = int(first.info["n_regressed"].sum())
+    s_each, s_first = each.info["regressed_screening"], first.info["regressed_screening"]
+    dropped_first = s_first["decorrelated_out"] + s_first["gated"]
+    assert s_first["continued"] > 0 and s_each["continued"] == 0
+    # each beam's run: pings dropped by the screening, at most one kept by it, then the run continued unscreened
+    assert 1 <= n - dropped_first - s_first["continued"] <= 3
+    plain = run_graph(m, completer=comp)
+    unscreened_first = run_graph(m, completer=comp, options=GraphOptions(regressed_runs="screen-first"))
+    np.testing.assert_allclose(unscreened_first.v_n, plain.v_n, atol=1e-9)

@@ -52,6 +52,14 @@ def test_named_options_fill_groups_on_top_of_the_method_defaults():
         o = estimator_options("Graph-HN", {"screening.gate_k": 3.0, "priors.velocity_sigma": 0.1, "lag_s": 5.0})
     assert o.screening == RegressedScreeningOptions(correlation=0.5, adaptive=True, gate_k=3.0)
     assert o.priors.velocity_sigma == 0.1 and o.lag_s == 5.0
+    # the fused IMU-aware hybrid screens a run of regressed beams until one is kept and models its errors' correlation;
+    # the default hybrid screens each ping
+    assert (o.regressed_runs, o.regressed_error_tau_s) == ("screen-each", None)
+    for method in ("Graph-HNI", "Graph-HNI-batch"):
+        hni = estimator_options(method)
+        assert (hni.regressed_runs, hni.regressed_error_tau_s) == ("screen-first", 3.0)
+        assert hni.screening == RegressedScreeningOptions(correlation=0.5, adaptive=True)
+    assert estimator_options("Graph-HNI", {"regressed_error_tau_s": None}).regressed_error_tau_s is None
     whole = build_options(EkfOptions, {"priors": PriorOptions(position_sigma=2.0), "priors.velocity_sigma": 0.2})
     assert whole.priors.position_sigma == 2.0 and whole.priors.velocity_sigma == 0.2
 

@@ -103,6 +103,16 @@ MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2
 #: is better-or-equal in every regime of the ten shared trajectories (docs/decisions/regressed-beams.md,
 #: measured with experiments/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
+#: Graph settings of Graph-HNI and Graph-HNI-batch: the screening, and a run of regressed beams screened only until
+#: one of its completions is kept, its later ones entering as whitened differences with a 3 s Gauss-Markov
+#: correlation time (GraphOptions.regressed_runs, regressed_error_tau_s). Chosen by the regime rule (never worse
+#: than Graph-TC in any fold cell, then the lowest mean ratio) over the 2-missing, 3-missing and total-outage cells
+#: of the ten shared trajectories, each fold with its own networks, on all folds and again leaving each fold out
+#: (every fold chose 3 s; out of fold no cell worse than 1.01x, MEMS over 120 s 0.65x Graph-TC instead of 0.78x with
+#: 3 missing beams). With the average estimator (Graph-HN) the same rule keeps screening each ping: there every
+#: setting is worse than Graph-TC in some fold (docs/decisions/completers.md, experiments/oracle_completions.py).
+GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, "regressed_runs": "screen-first",
+                                                     "regressed_error_tau_s": 3.0})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
@@ -142,8 +152,8 @@ class Method:
         batch: graph only: the batch smoother over the whole mission after the filtered pass.
         defaults: the fields of the estimator's options (:class:`~graphnav.estimators.ekf.EkfOptions` or
             :class:`~graphnav.estimators.graph.GraphOptions`) that differ from their defaults
-            (:data:`EKF_HYBRID_OPTIONS`, :data:`GRAPH_HN_OPTIONS`, :data:`GRAPH_MP_OPTIONS`); options given to
-            :func:`run_method` as a dict go on top.
+            (:data:`EKF_HYBRID_OPTIONS`, :data:`GRAPH_HN_OPTIONS`, :data:`GRAPH_HNI_OPTIONS`,
+            :data:`GRAPH_MP_OPTIONS`); options given to :func:`run_method` as a dict go on top.
         description: one line for tables and ``--help``.
         experimental: runnable by name, but left out of the default method list of ``graphnav bench`` and
             the start sweep (:data:`BENCH_METHODS`) because a measurement says it should not be used as is.
@@ -228,11 +238,11 @@ _RECORDS = (
            description="HNTC with the IMU-aware completer fused with the beam-only one (beam-only alone "
                        "without a 20 s IMU window); experimental",
            experimental=True),
-    Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HN_OPTIONS,
+    Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HN with the IMU-aware completer fused with the beam-only one (beam-only alone "
                        "without a 20 s IMU window); experimental",
            experimental=True),
-    Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HN_OPTIONS,
+    Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
     *(_paper_filter(m) for m in _EKF_RECORDS),
 )

@@ -27,6 +27,7 @@ from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping
 from graphnav.factors import (
+    beam_difference_factor,
     beam_factor,
     beam_factor_dvl_errors,
     beam_noise,
@@ -35,6 +36,18 @@ from graphnav.factors import (
     heading_factor,
     horizontal_position_factor,
 )
+
+
+class RegressedLink(NamedTuple):
+    """A regressed beam that became a factor at keyframe ``k`` (stamp ``t`` s): its value ``y`` and the completer's
+    sigma ``sigma`` (m/s), the body rate ``omega_b`` (rad/s) of its ping, and whether it used the DVL error states."""
+
+    k: int
+    t: float
+    y: float
+    sigma: float
+    omega_b: np.ndarray
+    use_d: bool
 
 
 class BeamRows(NamedTuple):
@@ -167,9 +180,12 @@ class GraphContext:
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
         #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
-        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
+        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0, "continued": 0}
         #: the choice of motion_prior="total-if-uncertain" (state across keyframes, counters)
         self.outage_switch = OutagePriorSwitch(options)
+        #: with ``options.regressed_runs="screen-first"``: the regressed beams that became factors at the last keyframe
+        #: with a ping, by beam number (the previous link of each beam's Gauss-Markov chain)
+        self.regressed_links: dict[int, RegressedLink] = {}
 
     def count_screening(self, stats: dict) -> None:
         for key, n in stats.items():
@@ -352,6 +368,45 @@ class KeyframeFactors:
         return graph
 
 
+def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRows, sel: np.ndarray,
+                            omega_b: np.ndarray, use_d: bool):
+    """``options.regressed_runs="screen-first"``: the regressed rows ``sel`` of keyframe ``kf`` (rows of ``m``) whose
+    beam was a regressed factor at keyframe k-1 too continue their run without the screening, as plain rows at the
+    completer's sigma or, with ``options.regressed_error_tau_s``, as one whitened difference factor
+    (:func:`graphnav.factors.beam_difference_factor`; see :class:`~.options.GraphOptions`).
+
+    Returns (the rows left for the screening, the plain continued rows, the difference factor or None, the chain
+    links of the continued beams at kf)."""
+    options, k = builder.options, kf.index
+    beams = beam_index(m.rows_b[sel], builder.geometry.T_b)
+    prev = [builder.regressed_links.get(int(j)) for j in beams]
+    chained = np.array([p is not None and p.k == k - 1 and p.use_d == use_d for p in prev], dtype=bool)
+    rows = sel[chained]
+    builder.screening["continued"] += len(rows)
+    links = regressed_links(kf, m, rows, beams[chained], omega_b, use_d)
+    tau = options.regressed_error_tau_s
+    if not chained.any() or tau is None:
+        return sel[~chained], rows, None, links
+    prev = [p for p, c in zip(prev, chained) if c]
+    phi = np.exp(-max(kf.t - prev[0].t, 0.0) / tau)
+    s_k, s_prev = m.sigma[rows], np.array([p.sigma for p in prev])
+    sigma_w = np.sqrt(np.maximum(s_k ** 2 - phi ** 2 * s_prev ** 2, (1.0 - phi ** 2) * s_k ** 2))
+    keys = [(X(j), V(j), B(j)) + ((D(j),) if use_d else ()) for j in (k - 1, k)]
+    extra = {"beam_index": beams[chained], "C_d_b": builder.geometry.C_d_b} if use_d else {}
+    factor = beam_difference_factor(keys[0], keys[1], m.rows_b[rows], np.array([p.y for p in prev]), m.y[rows], phi,
+                                    beam_noise(sigma_w, options.huber_regressed_k, per_row=True), prev[0].omega_b,
+                                    omega_b, builder.geometry.lever_arm_b, **extra)
+    return sel[~chained], rows[:0], factor, links
+
+
+def regressed_links(kf: GraphKeyframe, m: BeamRows, rows: np.ndarray, beams: np.ndarray, omega_b: np.ndarray,
+                    use_d: bool) -> dict[int, RegressedLink]:
+    """The chain links (by beam number ``beams``) of the regressed rows ``rows`` of ``m`` that became factors at
+    keyframe ``kf``."""
+    return {int(j): RegressedLink(kf.index, kf.t, float(m.y[i]), float(m.sigma[i]), omega_b, use_d)
+            for i, j in zip(rows, beams)}
+
+
 def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
                      p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
@@ -391,9 +446,16 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
         if options.dvl_error_states:
             index = np.full(len(m.y), -1) if velocity else beam_index(m.rows_b, builder.geometry.T_b)
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
+        links: dict[int, RegressedLink] = {}
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
+            use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
+            continued = sel[:0]
+            if regressed and sel.size and options.regressed_runs == "screen-first":
+                sel, continued, difference, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
+                if difference is not None:
+                    other.add(difference)
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
@@ -402,15 +464,19 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
                 sigma = m.sigma.copy()
                 sigma[sel] = sigma_sel
                 sel = sel[keep]
+            if regressed and options.regressed_runs == "screen-first":
+                links.update(regressed_links(kf, m, sel, beam_index(m.rows_b[sel], builder.geometry.T_b), omega,
+                                             use_d))
+                sel = np.sort(np.r_[sel, continued])      # continued rows keep the completer's sigma
             if sel.size == 0:
                 continue
             # a velocity is one measurement: one factor (a robust kernel on its whole residual)
             split = not velocity and options.beam_factor_mode == "beam"
-            use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             for part in ([[i] for i in sel] if split else [sel]):
                 groups.append(BeamGroup(k, m.rows_b[part], m.y[part], sigma[part], huber, omega, lever,
                                         regressed, index[part] if use_d else None, C_d_b if use_d else None,
                                         velocity))
+        builder.regressed_links = links
     if use_prior and k > 0:
         other.push_back(motion_prior_factors(k, kf.pim.deltaTij(), options))
     if kf.depth is not None:

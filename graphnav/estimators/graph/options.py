@@ -79,6 +79,8 @@ BATCH_FIRST_PASSES = ("incremental", "dead-reckoning")
 #: What ``GraphOptions.marginals`` may ask for at every output keyframe (see its docstring).
 MARGINAL_LEVELS = ("none", "velocity", "full")
 MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
+#: How a run of regressed beams meets the screening (GraphOptions.regressed_runs).
+REGRESSED_RUNS = ("screen-each", "screen-first")
 
 
 @dataclass
@@ -143,6 +145,20 @@ class GraphOptions:
             vehicle model allows its small body velocities (0.1 m/s and always-on were worse: docs/decisions/regressed-beams.md).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
+        regressed_runs: how a run of regressed beams (a beam regressed at consecutive keyframes) meets the
+            screening: ``"screen-each"`` = every completion is screened against the graph's prediction
+            (:mod:`.regressed`); ``"screen-first"`` = until one completion of the run is kept, then the rest of the
+            run enters without the screening, at the completer's sigma (the screening compares a completion with a
+            prediction the run's earlier completions have already pulled, and would drop most of them as redundant
+            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` = 3 s
+            (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen leave-one-fold-out); with the average
+            estimator it made some folds worse than Graph-TC, so the other methods screen each ping
+            (docs/decisions/completers.md).
+        regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
+            errors, modelled as a first-order Gauss-Markov process per beam: the run's later completions enter as
+            the whitened difference with the previous one (:func:`graphnav.factors.beam_difference_factor`,
+            ``phi = exp(-dt / tau)``, variance ``max(s_k^2 - phi^2 s_(k-1)^2, (1 - phi^2) s_k^2)`` from the
+            completer's sigmas); None = independent from ping to ping.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -185,6 +201,8 @@ class GraphOptions:
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
     motion_prior_switch_std: float = 0.2
+    regressed_runs: str = "screen-each"
+    regressed_error_tau_s: float | None = None
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -208,6 +226,15 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
+        tau = self.regressed_error_tau_s
+        if tau is not None and not (isinstance(tau, (int, float)) and not isinstance(tau, bool)
+                                    and 0 < tau < float("inf")):
+            raise ConfigError(f"regressed_error_tau_s must be a time > 0 s or None, got {self.regressed_error_tau_s!r}")
+        if self.regressed_runs not in REGRESSED_RUNS:
+            raise ConfigError(f"regressed_runs must be one of {REGRESSED_RUNS}, got {self.regressed_runs!r}")
+        if self.regressed_error_tau_s is not None and self.regressed_runs != "screen-first":
+            raise ConfigError("regressed_error_tau_s models the errors of a run of regressed beams kept without the "
+                              "screening: it needs regressed_runs='screen-first'")
         if not self.motion_prior_switch_std > 0:
             raise ConfigError(f"motion_prior_switch_std must be > 0 m/s, got {self.motion_prior_switch_std}")
         if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:

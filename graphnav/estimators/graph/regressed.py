@@ -25,6 +25,11 @@ Options (``GraphOptions.screening``, ``EkfOptions.screening``:
   beam-only ensemble through 60-120 s outages), which per-ping factors treat as independent.
 - ``gate_k``: joint-covariance gate, ``|y_c - y_p| / sqrt(a + s^2) > k`` -> dropped.
 
+A beam regressed at consecutive keyframes (a run) is screened at every ping by default. With
+``GraphOptions.regressed_runs="screen-first"`` only until one of its completions is kept: after that the graph's
+prediction has been pulled by the run itself (:func:`graphnav.estimators.graph.builder.continue_regressed_runs`;
+with ``regressed_error_tau_s`` the run's errors are modelled as Gauss-Markov).
+
 Measured on the A-KIT data (``experiments/regressed_correlation.py``, Trajectory1 and 5, 60 s windows, plain
 hybrid): the completion's error correlates with the graph's prediction error (rho 0.27-0.68 over tactical /
 MEMS IMU and 2 / 3 / 0 measured beams), and it is 1.7-3.7x larger (RMS 0.13 m/s vs 0.035-0.075 m/s), so in
