@@ -237,9 +237,9 @@ def regime_choice(sets: dict, grades, windows, candidates: dict, what: str) -> s
 
 def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
     """RMS of the recorded completer's completions against the truth, the share that became factors (not dropped by the
-    screening) and the share of those that entered as whitened differences (``regressed_error_tau_s``)."""
+    screening) and the share of those that continued a run without being screened (``regressed_runs='screen-first'``)."""
     lines = ["| IMU | window s | completions | RMS error m/s | RMS sigma handed on m/s | within 1 / 2 sigma | factors "
-             "| of which differenced |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| of which continued unscreened |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for g in grades:
         for w in windows:
             sel = [r for k, r in runs.items() if k[1:] == (g, w, variant)]
@@ -249,10 +249,10 @@ def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
             s = np.concatenate([r["stated_sigma"] for r in sel])
             z = np.abs(e) / s
             dropped = sum(r["screening"].get("decorrelated_out", 0) + r["screening"].get("gated", 0) for r in sel)
-            differenced = sum(r["screening"].get("differenced", 0) for r in sel)
+            continued = sum(r["screening"].get("continued", 0) for r in sel)
             lines.append(f"| {g} | {w:g} | {len(e)} | {np.sqrt(np.mean(e ** 2)):.3f} | "
                          f"{np.sqrt(np.mean(s ** 2)):.3f} | {np.mean(z < 1):.2f} / {np.mean(z < 2):.2f} | "
-                         f"{1 - dropped / max(len(e), 1):.2f} | {differenced / max(len(e) - dropped, 1):.2f} |")
+                         f"{1 - dropped / max(len(e), 1):.2f} | {continued / max(len(e) - dropped, 1):.2f} |")
     return "\n".join(lines)
 
 

@@ -99,6 +99,27 @@ def test_smooth_outputs(tmp_path, capsys):
     assert drift["drift_pct"] == pytest.approx(100 * drift["end_error_m"] / drift["reference_distance_m"])
     assert drift["distance_m"] == pytest.approx(drift["reference_distance_m"], rel=0.05)
     assert "horizontal distance travelled" in printed and "% DT against the reference" in printed
+    # what became of the completer's beams: one 30 s window at 1 Hz, two beams regressed per ping
+    regressed = summary["regressed_beams"]
+    assert regressed["regressed"] == 60
+    assert regressed["entered"] == regressed["regressed"] - regressed["decorrelated_out"] - regressed["gated"]
+    assert summary["compared"] == {}                                  # --compare not given
+    assert f"regressed beams: {regressed['entered']} of 60 entered" in printed
+
+
+def test_regressed_beams_record_counts_what_entered():
+    from graphnav.commands.common import regressed_beams_line, regressed_beams_summary
+    # no beam regressed (a method without a completer, or no outage): no record
+    assert regressed_beams_summary({"regressed_beams": 0, "regressed_screening": {"entered": 0}}) is None
+    assert regressed_beams_summary({"health": {}}) is None
+    # the EKF's screening also counts what it was offered; the record takes that from the keyframe statistics
+    record = regressed_beams_summary({"regressed_beams": 10, "regressed_screening": {
+        "offered": 10, "gated": 1, "decorrelated_out": 6, "inflated": 2, "entered": 3}})
+    assert record == {"regressed": 10, "entered": 3, "gated": 1, "decorrelated_out": 6, "inflated": 2}
+    line = regressed_beams_line(record)
+    assert line.startswith("regressed beams: 3 of 10 entered (2 with a widened sigma)")
+    assert "6 added nothing" in line and "1 gated" in line and "motion prior" not in line
+    assert regressed_beams_line(None) == ""
 
 
 def _online(out, *extra):
@@ -210,3 +231,18 @@ def test_resume_skips_the_last_written_epoch_despite_the_csv_rounding(tmp_path):
             sink(SimpleNamespace(t=t, p_n=np.zeros(3), v_n=np.zeros(3), C_b_n=np.eye(3), cov_v_n=None, bias=None))
     assert sink.n_replayed == 1 and sink.n_new == 1
     assert len(path.read_text().splitlines()) == 3
+
+
+def test_ekf_hybrid_counts_the_completions_it_updates_with():
+    """The EKF hybrid's record: every completion its screening was offered was dropped or went into the update,
+    and the summary reports the same."""
+    from graphnav.commands.common import regressed_beams_summary
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.sim.simulate import simulate_mission
+    m = simulate_mission(120, imu_grade="mems", seed=3).with_outage(scenario_outage("2-missing", 40.0, 40.0))
+    sol = methods.run_method(m, "Average-TC", "2-missing")
+    screening = sol.info["regressed_screening"]
+    assert screening["offered"] == sol.info["regressed_beams"] == 2 * 40
+    assert screening["entered"] == screening["offered"] - screening["decorrelated_out"] - screening["gated"]
+    record = regressed_beams_summary(sol.info)
+    assert record["regressed"] == 80 and record["entered"] == screening["entered"] and "offered" not in record

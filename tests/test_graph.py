@@ -374,6 +374,57 @@ def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):
     assert s_first["continued"] > 0 and s_each["continued"] == 0
     # each beam's run: pings dropped by the screening, at most one kept by it, then the run continued unscreened
     assert 1 <= n - dropped_first - s_first["continued"] <= 3
+    # what became factors: every offered completion is either dropped or entered
+    assert s_first["entered"] == n - dropped_first
+    assert s_each["entered"] == int(each.info["n_regressed"].sum()) - s_each["decorrelated_out"] - s_each["gated"]
     plain = run_graph(m, completer=comp)
     unscreened_first = run_graph(m, completer=comp, options=GraphOptions(regressed_runs="screen-first"))
     np.testing.assert_allclose(unscreened_first.v_n, plain.v_n, atol=1e-9)
+
+
+def test_completions_the_motion_prior_replaces_are_neither_entered_nor_dropped(tactical_mission):
+    """With motion_prior="total" a ping without any measured beam gets the motion prior instead of its completions:
+    the run's record counts them as regressed, entered by none, dropped by none, and says so."""
+    from graphnav.commands.common import regressed_beams_line, regressed_beams_summary
+    m = tactical_mission.with_outage(scenario_outage("0-beams", 60.0, 20.0))
+    sol = run_graph(m, completer=AverageCompleter(3), options=GraphOptions(motion_prior="total"))
+    record = regressed_beams_summary(sol.info)
+    assert record["regressed"] == 4 * 20 and record["entered"] == 0
+    assert record["decorrelated_out"] == record["gated"] == 0
+    assert regressed_beams_line(record).endswith("80 replaced by the motion prior")
+    assert regressed_beams_summary(run_graph(m, options=GraphOptions(motion_prior="total")).info) is None
+
+
+@pytest.mark.parametrize("huber", [1.5, None])
+def test_run_differences_are_one_factor_per_beam_under_a_huber_kernel(huber):
+    """With a Huber kernel on regressed beams, each continued beam's whitened difference is a factor of its own: the
+    graph's nonlinear error (the batch step test's, Levenberg-Marquardt's) is then the sum of the per-beam Huber
+    losses the linearisation reweights by, not one loss of the ping's whole residual. Without a kernel the ping's
+    continued beams are one factor."""
+    import gtsam
+    from types import SimpleNamespace
+    from graphnav.estimators.graph.builder import BeamRows, RegressedLink, continue_regressed_runs
+    from gtsam.symbol_shorthand import B, V, X
+    config = simulate_mission(5, seed=1).config
+    ctx = GraphContext(config, GraphOptions(regressed_runs="screen-first", regressed_error_tau_s=3.0,
+                                            huber_regressed_k=huber))
+    T_b = ctx.geometry.T_b
+    omega_b = np.array([0.01, -0.02, 0.03])
+    y_prev, y, sigma = np.array([0.5, -0.3, 0.2]), np.array([0.6, -0.1, 1.5]), np.array([0.05, 0.05, 0.05])
+    ctx.regressed_links = {j: RegressedLink(3, 3.0, y_prev[i], sigma[i], omega_b, False) for i, j in enumerate((0, 1, 2))}
+    m = BeamRows(T_b[:3], y, sigma, np.ones(3, dtype=bool))
+    left, plain, factors, links = continue_regressed_runs(SimpleNamespace(index=4, t=4.0), ctx, m, np.arange(3),
+                                                          omega_b, False)
+    assert left.size == 0 and plain.size == 0 and sorted(links) == [0, 1, 2]
+    assert [f.dim() for f in factors] == ([1, 1, 1] if huber else [3])
+    values = gtsam.Values()
+    for k in (3, 4):
+        values.insert(X(k), gtsam.Pose3())
+        values.insert(V(k), np.array([1.0, 0.0, 0.0]))
+        values.insert(B(k), gtsam.imuBias.ConstantBias())
+    sigma_w = sigma * np.sqrt(1.0 - np.exp(-2.0 * 1.0 / 3.0))      # steady sigma, 1 s apart, tau 3 s
+    whitened = np.concatenate([f.unwhitenedError(values) for f in factors]) / sigma_w
+    assert np.abs(whitened).max() > 5.0        # one beam far out: where a block and per-beam losses differ
+    expected = sum((0.5 * z ** 2 if abs(z) <= huber else huber * abs(z) - 0.5 * huber ** 2) for z in whitened) \
+        if huber else 0.5 * np.sum(whitened ** 2)
+    assert sum(f.error(values) for f in factors) == pytest.approx(expected, rel=1e-9)

@@ -144,6 +144,39 @@ def accuracy_summary(sol, mission, outages) -> dict:
     }
 
 
+def regressed_beams_summary(sol_info: dict) -> dict | None:
+    """What became of the beams a completer regressed in a run: ``regressed`` (beams handed to the estimator),
+    ``entered`` (those that became factors of the graph, or went into the EKF's update, whose innovation gate can
+    still reject the whole ping), and the screening's counters (``decorrelated_out``: no information beyond the
+    estimator's own prediction of the beam; ``gated``: too far from it; ``inflated``: entered with a wider
+    sigma; ``continued``: entered unscreened as the rest of a run,
+    :attr:`graphnav.estimators.graph.GraphOptions.regressed_runs`). Beams neither entered nor dropped were
+    replaced by the graph's motion prior (a ping without any measured beam). None when no beam was regressed
+    (a method without a completer, or no outage). A hybrid whose completions all drop out gives the tightly
+    coupled method's answer; this record is where a user sees it."""
+    screening = sol_info.get("regressed_screening") or {}
+    regressed = int(sol_info.get("regressed_beams") or 0)
+    if not regressed or "entered" not in screening:
+        return None
+    return {"regressed": regressed, **{k: int(v) for k, v in screening.items() if k != "offered"}}
+
+
+def regressed_beams_line(record: dict | None) -> str:
+    """One line of :func:`regressed_beams_summary` for command output ("" without a record)."""
+    if not record:
+        return ""
+    extra = [f"{record[k]} {what}" for k, what in (("inflated", "with a widened sigma"),
+                                                    ("continued", "unscreened as a run's continuation"))
+             if record.get(k)]
+    dropped = record.get("decorrelated_out", 0) + record.get("gated", 0)
+    replaced = record["regressed"] - record["entered"] - dropped
+    return (f"regressed beams: {record['entered']} of {record['regressed']} entered"
+            + (f" ({', '.join(extra)})" if extra else "")
+            + f"; {record.get('decorrelated_out', 0)} added nothing to the estimator's own prediction, "
+            f"{record.get('gated', 0)} gated as too far from it"
+            + (f", {replaced} replaced by the motion prior" if replaced > 0 else ""))
+
+
 def consistency_summary(sol, mission) -> dict:
     """Velocity (3 dof), horizontal position (2 dof) and heading (1 dof) NEES over the mission after the
     settling time against the IMU-carried reference, each with its 95 % chi-square band, as the benchmark
@@ -211,11 +244,17 @@ def print_summary(summary: dict, file=None) -> None:
             out("  NEES (consistent = dof; 95 % band): " + ", ".join(
                 f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f})" if c else f"{name} -"
                 for name, c in cons.items()))
+    line = regressed_beams_line(summary.get("regressed_beams"))
+    if line:
+        out(f"  {line}")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])
             out(f"  compared {name}: VRMSE mission {other['vrmse_mission_mps']:.4f} m/s"
                   + (f", windows {windows} m/s" if windows else ""))
+        line = regressed_beams_line(other.get("regressed_beams"))
+        if line:
+            out(f"  compared {name} {line}")
         if other.get("health") and other["health"].get("state", "ok") != "ok":
             out(f"  compared {name} {health_line(other['health'])}")
     if summary.get("drift"):

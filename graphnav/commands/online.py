@@ -36,6 +36,7 @@ from graphnav.commands.common import (
     exit_status,
     mission_from_args,
     print_summary,
+    regressed_beams_summary,
     run_health_record,
 )
 from graphnav.core.errors import ConfigError
@@ -228,7 +229,7 @@ def run(args) -> int:
             bar.close()
         wall = time.perf_counter() - start
         n_total = writer.n_written
-    info = nav.info
+    info = {**nav.info, **nav.screening_counts()}
     written = read_trajectory_csv(csv_path, method=args.method)
     duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {
@@ -246,7 +247,7 @@ def run(args) -> int:
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
-        "uncertainty": uncertainty_summary(written),
+        "uncertainty": uncertainty_summary(written), "regressed_beams": regressed_beams_summary(info),
         "files": {"online_csv": str(csv_path)},
     }
     if not args.no_plots and mission is not None and len(written.t):

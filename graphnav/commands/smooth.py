@@ -24,6 +24,7 @@ from graphnav.commands.common import (
     methods_help,
     mission_from_args,
     print_summary,
+    regressed_beams_summary,
     run_health_record,
 )
 from graphnav.core.errors import ConfigError
@@ -83,7 +84,7 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
 def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose covariances
-    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas).
+    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas, and ``regressed_beams``, what became of a completer's beams).
     Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
     to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method
@@ -130,11 +131,11 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages), "health": run_health_record(sol.info, mission),
-        "drift": drift_summary(sol, mission.gt),
-        "accuracy": accuracy_summary(sol, mission, outages), "uncertainty": uncertainty_summary(sol),
-        "health": run_health_record(sol.info, mission),
-        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission)}
+        "accuracy": accuracy_summary(sol, mission, outages), "drift": drift_summary(sol, mission.gt),
+        "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
+        "regressed_beams": regressed_beams_summary(sol.info),
+        "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission),
+                                "regressed_beams": regressed_beams_summary(o.info)}
                      for o in others},
         "streams": ensure_streams(mission),
     }

@@ -105,7 +105,8 @@ class GraphBackend(_Aided):
 
     def screening_counts(self) -> dict:
         """What the graph did with regressed beams so far: ``regressed_screening`` (gated, decorrelated out,
-        inflated) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
+        inflated, and continued: entered unscreened as the continuation of a run with
+        ``regressed_runs="screen-first"``) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
         decisions)."""
         out = {"regressed_screening": dict(self.ctx.screening)}
         if self.ctx.options.motion_prior == "total-if-uncertain":

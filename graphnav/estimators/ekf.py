@@ -352,7 +352,9 @@ class ErrorStateEkf:
         # velocity corrections made by depth/fix updates since _run_start (relevel removes them from the residual)
         self._run_aiding_dv = np.zeros(3)
         #: regressed beams screened against the prediction (:meth:`screen_regressed`): counters
-        self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0}
+        #: regressed beams offered to the screening, dropped (gated, decorrelated out), given a larger variance, and
+        #: passed to the update (``entered``; the update's innovation gate can still reject the whole ping)
+        self.regressed_screening = {"offered": 0, "gated": 0, "decorrelated_out": 0, "inflated": 0, "entered": 0}
         #: depth and position-fix updates (15-state): used, gated, re-initialised after ``aiding_lockout``
         self.aiding = {kind: {"used": 0, "gated": 0, "reset": 0} for kind in ("depth", "fix")}
         self._aiding_run = {"depth": 0, "fix": 0}
@@ -667,10 +669,11 @@ class ErrorStateEkf:
         completion that is wrong by more than its sigma (a 30 s outage inside a manoeuvre) pulls the filter
         off and the gate, set for the sum of all rows, does not see it. Returns (beams, sigma_extra)."""
         opts = self.options
-        if sigma_extra is None or not opts.screening.active:
+        if sigma_extra is None:
             return beams, sigma_extra
         regressed = np.isfinite(beams) & (np.nan_to_num(sigma_extra, nan=0.0) > 0)
-        if not regressed.any():
+        if not regressed.any() or not opts.screening.active:
+            self.regressed_screening["entered"] += int(regressed.sum())
             return beams, sigma_extra
         h, H = self.predicted_beams(omega_b)
         Hr = H[regressed]
@@ -679,7 +682,7 @@ class ErrorStateEkf:
         keep, s2, stats = screen_against_prediction(beams[regressed], h[regressed], a,
                                                     var_beam + sigma_extra[regressed] ** 2, opts.screening)
         self.regressed_screening["offered"] += int(regressed.sum())
-        for k, n in stats.items():
+        for k, n in {**stats, "entered": int(keep.sum())}.items():
             self.regressed_screening[k] += n
         beams, sigma_extra = beams.copy(), np.asarray(sigma_extra, float).copy()
         idx = np.flatnonzero(regressed)

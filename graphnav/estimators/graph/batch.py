@@ -5,8 +5,10 @@ copies the whole ``Values`` (pybind11 casts the ``const Values&`` argument by va
 linearisation of an N-keyframe graph costs O(N^2) (probe: LM 393 s at 1 h). The default solver here,
 ``"vectorized"``, is Gauss-Newton where
 
-- the C++ factors (priors, CombinedImuFactor, depth) are linearised by GTSAM, and
-- all DVL beam factors are linearised at once in numpy (the one beam model of
+- the C++ factors (priors, CombinedImuFactor, depth) and the whitened differences of a run of regressed beams
+  (``GraphOptions.regressed_error_tau_s``; Python factors, so each costs a copy of the ``Values`` as above and
+  a long regressed run makes a batch slower) are linearised by GTSAM, and
+- all other DVL beam factors are linearised at once in numpy (the one beam model of
   :mod:`graphnav.core.beam_model`, as in :func:`graphnav.factors.dvl_factor`; Huber kernels by iteratively reweighted least squares, as GTSAM's
   robust noise model does) and added as ``JacobianFactor`` s,
 

@@ -179,8 +179,9 @@ class GraphContext:
                                else self.geometry.velocity_sigma_d(self.beam_sigma))
         self.regressed_floor = (options.regressed_sigma_floor if options.regressed_sigma_floor is not None
                                 else self.beam_sigma)
-        #: regressed beams dropped by the gate / as redundant, and given a larger sigma (see .regressed)
-        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0, "continued": 0}
+        #: regressed beams dropped by the gate / as redundant, given a larger sigma (see .regressed), continuing a
+        #: run unscreened, and all that became factors (a completion the motion prior replaced is in none)
+        self.screening = {"gated": 0, "decorrelated_out": 0, "inflated": 0, "continued": 0, "entered": 0}
         #: the choice of motion_prior="total-if-uncertain" (state across keyframes, counters)
         self.outage_switch = OutagePriorSwitch(options)
         #: with ``options.regressed_runs="screen-first"``: the regressed beams that became factors at the last keyframe
@@ -373,30 +374,37 @@ def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRow
     """``options.regressed_runs="screen-first"``: the regressed rows ``sel`` of keyframe ``kf`` (rows of ``m``) whose
     beam was a regressed factor at keyframe k-1 too continue their run without the screening, as plain rows at the
     completer's sigma or, with ``options.regressed_error_tau_s``, as one whitened difference factor
-    (:func:`graphnav.factors.beam_difference_factor`; see :class:`~.options.GraphOptions`).
+    (:func:`graphnav.factors.beam_difference_factor`; see :class:`~.options.GraphOptions`). With a Huber kernel
+    on regressed beams each beam's difference is a factor of its own, so that the factor's nonlinear error (which
+    the batch smoother's step test and Levenberg-Marquardt use) is the sum of per-beam losses its linearisation
+    reweights by.
 
-    Returns (the rows left for the screening, the plain continued rows, the difference factor or None, the chain
-    links of the continued beams at kf)."""
+    Returns (the rows left for the screening, the plain continued rows, the difference factors, the chain links of
+    the continued beams at kf)."""
     options, k = builder.options, kf.index
     beams = beam_index(m.rows_b[sel], builder.geometry.T_b)
     prev = [builder.regressed_links.get(int(j)) for j in beams]
     chained = np.array([p is not None and p.k == k - 1 and p.use_d == use_d for p in prev], dtype=bool)
     rows = sel[chained]
     builder.screening["continued"] += len(rows)
+    builder.screening["entered"] += len(rows)
     links = regressed_links(kf, m, rows, beams[chained], omega_b, use_d)
     tau = options.regressed_error_tau_s
     if not chained.any() or tau is None:
-        return sel[~chained], rows, None, links
+        return sel[~chained], rows, [], links
     prev = [p for p, c in zip(prev, chained) if c]
     phi = np.exp(-max(kf.t - prev[0].t, 0.0) / tau)
     s_k, s_prev = m.sigma[rows], np.array([p.sigma for p in prev])
     sigma_w = np.sqrt(np.maximum(s_k ** 2 - phi ** 2 * s_prev ** 2, (1.0 - phi ** 2) * s_k ** 2))
     keys = [(X(j), V(j), B(j)) + ((D(j),) if use_d else ()) for j in (k - 1, k)]
-    extra = {"beam_index": beams[chained], "C_d_b": builder.geometry.C_d_b} if use_d else {}
-    factor = beam_difference_factor(keys[0], keys[1], m.rows_b[rows], np.array([p.y for p in prev]), m.y[rows], phi,
-                                    beam_noise(sigma_w, options.huber_regressed_k, per_row=True), prev[0].omega_b,
-                                    omega_b, builder.geometry.lever_arm_b, **extra)
-    return sel[~chained], rows[:0], factor, links
+    y_prev, huber = np.array([p.y for p in prev]), options.huber_regressed_k
+    factors = []
+    for part in ([[i] for i in range(len(rows))] if huber is not None else [np.arange(len(rows))]):
+        extra = {"beam_index": beams[chained][part], "C_d_b": builder.geometry.C_d_b} if use_d else {}
+        factors.append(beam_difference_factor(keys[0], keys[1], m.rows_b[rows[part]], y_prev[part], m.y[rows[part]],
+                                              phi, beam_noise(sigma_w[part], huber, per_row=True), prev[0].omega_b,
+                                              omega_b, builder.geometry.lever_arm_b, **extra))
+    return sel[~chained], rows[:0], factors, links
 
 
 def regressed_links(kf: GraphKeyframe, m: BeamRows, rows: np.ndarray, beams: np.ndarray, omega_b: np.ndarray,
@@ -453,14 +461,14 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             continued = sel[:0]
             if regressed and sel.size and options.regressed_runs == "screen-first":
-                sel, continued, difference, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
-                if difference is not None:
-                    other.add(difference)
+                sel, continued, differences, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
+                for factor in differences:
+                    other.add(factor)
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
                                                           options)
-                builder.count_screening(stats)
+                builder.count_screening({**stats, "entered": int(keep.sum())})
                 sigma = m.sigma.copy()
                 sigma[sel] = sigma_sel
                 sel = sel[keep]

@@ -145,7 +145,8 @@ class GraphOptions:
             vehicle model allows its small body velocities (0.1 m/s and always-on were worse: docs/decisions/regressed-beams.md).
         motion_prior_rw: body-velocity random-walk densities (surge, sway, heave), m/s/sqrt(s); None = none.
         motion_prior_heave_sigma: heave velocity ~ 0 with this sigma, m/s; None = no heave prior.
-        regressed_runs: how a run of regressed beams (a beam regressed at consecutive keyframes) meets the
+        regressed_runs: how a run of regressed beams (a beam regressed at consecutive keyframes; a keyframe
+            where it is measured, dropped or absent, such as a position fix between pings, ends the run) meets the
             screening: ``"screen-each"`` = every completion is screened against the graph's prediction
             (:mod:`.regressed`); ``"screen-first"`` = until one completion of the run is kept, then the rest of the
             run enters without the screening, at the completer's sigma (the screening compares a completion with a
