@@ -19,7 +19,8 @@ With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` it a
 completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
 error against the same truth: RMS through the windows, the sigma the history handed on (before the screening's
 adaptive inflation), and how often the screening kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
-the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out.
+the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out
+(with ``--tau`` too, every growth also with each run setting, and the pair chosen together).
 ``--average`` records Graph-HN's own completer (the average estimator) the same way. ``--tau T ...`` runs the serial
 oracles, the average and the recorded completer again with a run of regressed beams screened only until one of its
 completions is kept (``GraphOptions.regressed_runs="screen-first"``) and, for T > 0, the graph modelling their errors
@@ -307,7 +308,7 @@ def main(argv=None) -> int:
     runs, _ = load_runs(out, settings)     # a file of another scenario or windows is refused
     recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
     variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + recorded
-    variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith("serial") or v == RECORDED
+    variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith(("serial", RECORDED))
                  for t in a.tau]
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
               (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
@@ -325,18 +326,27 @@ def main(argv=None) -> int:
         print(regime_choice({a.scenario: (runs, reference)}, a.grades, a.window_s,
                             {"0.03 (history's)": RECORDED, **{f"{d:g}": f"{RECORDED} drift {d:g}" for d in a.drift}},
                             "growth per ping (m/s)"))
+    sets = {a.scenario: (runs, reference)}
+    if a.joint:      # one choice for the cells of every scenario
+        for out_path, ref_path in zip(a.joint[::2], a.joint[1::2]):
+            other = json.loads(Path(ref_path).read_text())["settings"]
+            sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
+                                       load_runs(Path(ref_path), other)[0])
+
+    def run_settings(base: str, prefix: str = "") -> dict:
+        return {prefix + "screen-each": base, **{prefix + "screen-first" + (f", tau {t:g} s" if t else ""):
+                                                 f"{base}{TAU}{t:g}" for t in a.tau}}
+
     for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
               "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
-        sets = {a.scenario: (runs, reference)}
-        if a.joint:      # one choice for the cells of every scenario
-            for out_path, ref_path in zip(a.joint[::2], a.joint[1::2]):
-                other = json.loads(Path(ref_path).read_text())["settings"]
-                sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
-                                           load_runs(Path(ref_path), other)[0])
+        print(regime_choice(sets, a.grades, a.window_s, run_settings(base), "regressed runs"))
+    if a.drift and a.tau:
+        print(f"\n{RECORDED}: its sigma growth and the run screening chosen together by the regime rule")
         print(regime_choice(sets, a.grades, a.window_s,
-                            {"screen-each": base, **{"screen-first" + (f", tau {t:g} s" if t else ""): f"{base}{TAU}{t:g}"
-                                                     for t in a.tau}}, "regressed runs"))
+                            {k: v for base, growth in zip(recorded, ["0.03"] + [f"{d:g}" for d in a.drift])
+                             for k, v in run_settings(base, f"growth {growth}, ").items()},
+                            "growth per ping (m/s) and regressed runs"))
     return 0
 
 
