@@ -229,7 +229,7 @@ def run(args) -> int:
             bar.close()
         wall = time.perf_counter() - start
         n_total = writer.n_written
-    info = {**nav.info, **nav.screening_counts()}
+    info = nav.info
     written = read_trajectory_csv(csv_path, method=args.method)
     duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {

@@ -84,7 +84,8 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
 def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
     ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose covariances
-    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas, and ``regressed_beams``, what became of a completer's beams).
+    (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas, and
+    ``regressed_beams``, what became of a completer's beams).
     Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``
     to the one the summary names (where a staged folder will be moved)."""
     from graphnav.evaluation.methods import run_method

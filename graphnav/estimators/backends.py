@@ -105,9 +105,9 @@ class GraphBackend(_Aided):
 
     def screening_counts(self) -> dict:
         """What the graph did with regressed beams so far: ``regressed_screening`` (gated, decorrelated out,
-        inflated, and continued: entered unscreened as the continuation of a run with
-        ``regressed_runs="screen-first"``) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
-        decisions)."""
+        inflated, continued: entered unscreened as the continuation of a run with ``regressed_runs="screen-first"``,
+        and entered) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
+        decisions); also in :attr:`info`."""
         out = {"regressed_screening": dict(self.ctx.screening)}
         if self.ctx.options.motion_prior == "total-if-uncertain":
             out["motion_prior_switch"] = dict(self.ctx.outage_switch.counts)
@@ -134,7 +134,7 @@ class GraphBackend(_Aided):
         e = self.estimator
         return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
                 "reanchored": e.n_reanchored,
-                "health": e.health.summary()}
+                "health": e.health.summary(), **self.screening_counts()}
 
 
 def split_specific_force(imu: ImuSegments) -> np.ndarray:

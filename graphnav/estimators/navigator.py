@@ -428,8 +428,8 @@ class Navigator:
 
     def screening_counts(self) -> dict:
         """What a graph backend did with regressed beams so far (``regressed_screening``) and the motion-prior
-        switch's counters (:meth:`graphnav.estimators.backends.GraphBackend.screening_counts`); {} before the
-        start and for the EKF, whose counts are in :attr:`info`."""
+        switch's counters (:meth:`graphnav.estimators.backends.GraphBackend.screening_counts`, also in :attr:`info`);
+        {} before the start and for the EKF, whose counts are in :attr:`info` only."""
         if self.backend is None or not hasattr(self.backend, "screening_counts"):
             return {}
         return self.backend.screening_counts()

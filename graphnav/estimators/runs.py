@@ -153,7 +153,6 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     info = {**nav.info, "mode": backend, "online_s": time.perf_counter() - start}
     if batch:
         info["batch_first_pass"] = "dead-reckoning" if dead_reckoning else backend
-    info.update(nav.screening_counts())
     if batch:
         try:
             estimates, batch_info = batch_smooth(nav.keyframe_graphs(), estimates, options)
