@@ -27,6 +27,9 @@ completions is kept (``GraphOptions.regressed_runs="screen-first"``) and, for T 
 as a Gauss-Markov process of correlation time T s (``GraphOptions.regressed_error_tau_s``: the run's later
 completions enter as whitened differences with the previous ones); it prints the T the regime rule chooses, on all
 folds and leave-one-fold-out (with ``--joint``, on the cells of several scenarios together).
+``--oracle-draws N`` runs every oracle N times with other draws of its errors (the same model and sigma) and prints,
+per cell, the spread of its pooled and worst-fold ratios over the draws and how many fold cells each draw has over
+1.02x: how often a completion the graph is told correctly fails "never worse" by chance in these windows.
 The table prints each variant's window VRMSE over Graph-TC's, pooled over the ten trajectories and (in brackets)
 the worst fold, beside all beams. ``--reference`` is the regime study's results file of the same scenario (its
 Graph-TC, all-beams and Graph-HN runs). Usage::
@@ -54,6 +57,8 @@ RECORDED = "Graph-HNI (fold)"
 AVERAGE = "Graph-HN (average)"
 #: variant suffix: the graph models the completion errors' correlation (GraphOptions.regressed_error_tau_s, s)
 TAU = " tau "
+#: variant suffix of an oracle: another draw of its errors (the same model, another seed)
+DRAW = " draw "
 
 
 def oracle_variants(sigmas=SIGMAS) -> list[str]:
@@ -98,7 +103,8 @@ def oracle_task(item):
     source, grade, scenario, window_s, max_windows, full_variant, nets, fold = item
     # "<variant> tau <T>": a run of regressed beams is screened until one is kept (regressed_runs="screen-first"),
     # and with T > 0 the graph models their errors as Gauss-Markov with correlation time T s
-    variant, _, tau = full_variant.partition(TAU)
+    variant, _, tau = full_variant.partition(DRAW)[0].partition(TAU)
+    draw = full_variant.partition(DRAW)[2]      # "" for the first draw, whose seed is the variant's alone
     options = None
     if tau:
         options = {"regressed_runs": "screen-first", "regressed_error_tau_s": float(tau) if float(tau) > 0 else None}
@@ -138,7 +144,8 @@ def oracle_task(item):
     else:
         comp = None
         kind, size = variant.split()
-        seed = zlib.crc32(repr((source.name, grade, scenario, window_s, variant)).encode())
+        seed = zlib.crc32(repr((source.name, grade, scenario, window_s, variant) + ((int(draw),) if draw else ()))
+                          .encode())
         oracle = OracleError(float(size), SERIAL_TAU_PINGS if kind == "serial" else None, seed)
 
         def at_regressed(rows, sel, y_true, t, geometry):
@@ -197,6 +204,32 @@ def table(runs: dict, reference: dict, grades, windows, variants) -> str:
                 except KeyError:
                     cells.append("-")
             lines.append(f"| {g} | {w:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def draws_table(runs: dict, reference: dict, grades, windows, oracles, draws: int) -> str:
+    """Per oracle and cell: the range over ``draws`` draws of its errors of the pooled ratio to Graph-TC and of the
+    worst fold's, and per oracle the fold cells over 1.02x in each draw (draw 1 is the variant itself)."""
+    from graphnav.nets.crossval import AKIT_FOLDS
+    folds = range(len(AKIT_FOLDS))
+    lines = ["| oracle | IMU | window s | pooled, min-max over draws | worst fold, min-max over draws |",
+             "| --- | --- | --- | --- | --- |"]
+    over = {}
+    for v in oracles:
+        names = [v] + [f"{v}{DRAW}{k}" for k in range(2, draws + 1)]
+        for g in grades:
+            for w in windows:
+                pooled = [ratio(runs, reference, folds, g, w, n) for n in names]
+                per_fold = [[ratio(runs, reference, [f], g, w, n) for f in folds] for n in names]
+                for n, per in zip(names, per_fold):
+                    over[v, n] = over.get((v, n), 0) + sum(x > 1.02 for x in per)
+                worst = [max(per) for per in per_fold]
+                lines.append(f"| {v} | {g} | {w:g} | {min(pooled):.2f}-{max(pooled):.2f} | "
+                             f"{min(worst):.2f}-{max(worst):.2f} |")
+    for v in oracles:
+        counts = [over[v, n] for (o, n) in over if o == v]
+        lines.append(f"{v}: fold cells over 1.02x per draw: {', '.join(map(str, counts))} "
+                     f"(of {len(grades) * len(windows) * len(folds)})")
     return "\n".join(lines)
 
 
@@ -281,6 +314,8 @@ def main(argv=None) -> int:
                    "completer again with a run of regressed beams screened until one is kept (GraphOptions."
                    "regressed_runs='screen-first') and the graph modelling their errors as Gauss-Markov with these "
                    "correlation times (s; GraphOptions.regressed_error_tau_s; 0: independent errors)")
+    p.add_argument("--oracle-draws", type=int, default=1, help="draws of each oracle's errors (default 1; more: "
+                   "the spread of its ratios over the draws)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", required=True, help="results (JSON); a rerun with the same scenario and windows resumes "
                    "from it")
@@ -310,6 +345,8 @@ def main(argv=None) -> int:
     variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + recorded
     variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith(("serial", RECORDED))
                  for t in a.tau]
+    oracles = [v for v in variants if v.startswith(("white", "serial"))]
+    variants += [f"{v}{DRAW}{k}" for v in oracles for k in range(2, a.oracle_draws + 1)]
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
               (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
              for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants
@@ -317,7 +354,10 @@ def main(argv=None) -> int:
 
     run_saving(oracle_task, items, runs, out, settings, a.jobs)
     print(f"{a.scenario}, {a.max_windows} windows per trajectory; window VRMSE over Graph-TC's, pooled")
-    print(table(runs, reference, a.grades, a.window_s, variants))
+    print(table(runs, reference, a.grades, a.window_s, [v for v in variants if DRAW not in v]))
+    if a.oracle_draws > 1:
+        print(f"\nthe oracles over {a.oracle_draws} draws of their errors")
+        print(draws_table(runs, reference, a.grades, a.window_s, oracles, a.oracle_draws))
     for v in [v for v in variants if v.startswith((RECORDED, AVERAGE))]:
         print(f"\n{v}")
         print(recorded_table(runs, a.grades, a.window_s, v))

@@ -1,0 +1,119 @@
+"""The arithmetic of two completer studies checked against numbers worked out by hand: the run-error study's
+whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``) and the recent-error mixture's
+outage windows and weights (``experiments/recent_error_mixture.py``). The studies themselves run for minutes on the
+shared data and are not run here."""
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _study(name: str):
+    spec = importlib.util.spec_from_file_location(f"_study_{name}", ROOT / "experiments" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _gauss_markov(rng, n_windows: int, pings: int, beams: int, tau_pings: float, std: float) -> list[np.ndarray]:
+    """Stationary first-order Gauss-Markov errors, one independent series per window and beam."""
+    phi = np.exp(-1.0 / tau_pings)
+    out = []
+    for _ in range(n_windows):
+        e = np.empty((pings, beams))
+        e[0] = std * rng.standard_normal(beams)
+        for k in range(1, pings):
+            e[k] = phi * e[k - 1] + std * np.sqrt(1.0 - phi ** 2) * rng.standard_normal(beams)
+        out.append(e)
+    return out
+
+
+def test_whitened_differences_have_nees_one_at_the_true_correlation_time():
+    study = _study("run_error_model")
+    rng = np.random.default_rng(3)
+    errors = _gauss_markov(rng, n_windows=300, pings=120, beams=3, tau_pings=20.0, std=0.1)
+    windows = [(e, np.full_like(e, 0.1)) for e in errors]
+    rms, nees = study.difference_check(windows, tau=20.0)
+    assert nees == pytest.approx(1.0, abs=0.03)
+    assert rms == pytest.approx(0.1 * np.sqrt(1 - np.exp(-2 / 20)), rel=0.03)
+    # a shorter model time: var(e_k - phi e_k-1) = s^2 (1 + phi^2 - 2 phi phi_T) over (1 - phi^2) s^2
+    phi, phi_true = np.exp(-1 / 3), np.exp(-1 / 20)
+    expected = (1 + phi ** 2 - 2 * phi * phi_true) / (1 - phi ** 2)
+    assert study.difference_check(windows, tau=3.0)[1] == pytest.approx(expected, rel=0.05)
+    assert expected < 0.35                    # the short model time gives the differences a third of their weight
+
+
+def test_gauss_markov_fit_finds_the_correlation_time_and_the_white_share():
+    study = _study("run_error_model")
+    rng = np.random.default_rng(4)
+    slow = _gauss_markov(rng, n_windows=400, pings=120, beams=3, tau_pings=15.0, std=0.1)
+    acf = {k: study.autocorrelation(slow, k) for k in range(1, 31)}
+    a, t = study.gauss_markov_fit(acf)
+    assert a > 0.9 and 11.0 <= t <= 19.0
+    # a white share of 0.3 of the variance lowers a by that much and leaves the time
+    mixed = [np.sqrt(0.7) * e + np.sqrt(0.3) * 0.1 * rng.standard_normal(e.shape) for e in slow]
+    a_mixed, t_mixed = study.gauss_markov_fit({k: study.autocorrelation(mixed, k) for k in range(1, 31)})
+    assert a_mixed == pytest.approx(0.7, abs=0.06) and 11.0 <= t_mixed <= 19.0
+
+
+def test_runs_of_splits_windows_and_skips_records_that_are_not_whole(tmp_path, capsys):
+    study = _study("run_error_model")
+    pings = 5
+    e = np.arange(2 * pings * 3, dtype=float)          # two windows, three regressed beams per ping
+    runs = [[["Trajectory1", "mems", float(pings), "Graph-HNI (fold)"],
+             {"errors": e.tolist(), "stated_sigma": (e + 1).tolist()}],
+            [["Trajectory2", "mems", float(pings), "Graph-HNI (fold)"],
+             {"errors": e[:-1].tolist(), "stated_sigma": e[:-1].tolist()}],
+            [["Trajectory1", "mems", float(pings), "another"], {"errors": e.tolist(), "stated_sigma": e.tolist()}]]
+    path = tmp_path / "runs.json"
+    path.write_text(json.dumps({"settings": {"scenario": "3-missing"}, "runs": runs}))
+    scenario, windows = study.runs_of(path, "Graph-HNI (fold)")
+    assert scenario == "3-missing" and len(windows) == 2
+    np.testing.assert_array_equal(windows[1][0][0], [15.0, 16.0, 17.0])     # ping 0 of window 2, beams in order
+    np.testing.assert_array_equal(windows[0][1], windows[0][0] + 1)
+    assert "Trajectory2" in capsys.readouterr().err                         # 29 errors: not whole windows
+
+
+def test_outage_starts_are_the_rollout_windows_and_mixing_weights_as_stated():
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSeries
+    from graphnav.nets.evaluate import outage_rollout
+    study = _study("recent_error_mixture")
+    rng = np.random.default_rng(5)
+    series = [BeamSeries(f"s{i}", np.zeros((n, 3)), rng.standard_normal((n, 4))) for i, n in enumerate((200, 131))]
+    average = AverageCompleter(3)
+    _, _, samples = outage_rollout(average, series, [0, 1], window=study.WINDOW, gap=study.GAP, settle=25)
+    starts = study.outage_starts(series, average.n_past, 25)
+    assert starts == [(0, 25), (0, 115), (1, 25)]         # 200 pings: 25 and 115 (205 > 200 - 30); 131: 25 only
+    assert len(starts) * study.WINDOW == len(samples.beams)
+    for w, (si, start) in enumerate(starts):
+        np.testing.assert_array_equal(samples.beams[w * study.WINDOW], series[si].beams[start])
+
+    fused, average_b = np.full((3, 4), 1.0), np.full((3, 4), 3.0)
+    errors = {0: (0.01, 0.03), 1: (0.04, 0.01)}             # row 2 has none: it keeps the fused completion
+    np.testing.assert_allclose(study.mixed(fused, average_b, errors, "select")[:, 0], [1.0, 3.0, 1.0])
+    # inverse mean squared error: w = e_A / (e_F + e_A) on the fused completion
+    np.testing.assert_allclose(study.mixed(fused, average_b, errors, "inverse")[:, 0], [1.5, 2.6, 1.0], atol=1e-9)
+
+
+def test_oracle_draws_table_counts_fold_cells_over_the_bound_per_draw():
+    from graphnav.nets.crossval import AKIT_FOLDS
+    study = _study("oracle_completions")
+    names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
+    reference = {(n, "mems", 60.0, "Graph-TC"): [1.0, 1.0] for n in names}
+    runs = {}
+    for n in names:
+        runs[n, "mems", 60.0, "serial 0.1"] = {"vrmse": [0.9, 0.9]}
+        runs[n, "mems", 60.0, "serial 0.1 draw 2"] = {"vrmse": [0.9, 0.9]}
+    pair = [f"Trajectory{k}" for k in AKIT_FOLDS[3]]
+    for n in pair:                                    # draw 2 makes fold 3 1.1x Graph-TC
+        runs[n, "mems", 60.0, "serial 0.1 draw 2"] = {"vrmse": [1.1, 1.1]}
+    text = study.draws_table(runs, reference, ["mems"], [60.0], ["serial 0.1"], 2)
+    assert "| serial 0.1 | mems | 60 | 0.90-0.94 | 0.90-1.10 |" in text
+    assert "serial 0.1: fold cells over 1.02x per draw: 0, 1 (of 5)" in text
