@@ -65,6 +65,13 @@ def oracle_variants(sigmas=SIGMAS) -> list[str]:
     return [f"{kind} {s:g}" for kind in ("white", "serial") for s in sigmas]
 
 
+def oracle_seed(trajectory: str, grade: str, scenario: str, window_s: float, variant: str, draw: str = "") -> int:
+    """The seed of an oracle's errors in one run: the run's own (``draw`` "" or "1", so stored runs stay valid) or,
+    for draw k > 1, another one."""
+    key = (trajectory, grade, scenario, window_s, variant)
+    return zlib.crc32(repr(key + ((int(draw),) if draw and int(draw) > 1 else ())).encode())
+
+
 class TruthBeams:
     """The true beams of a mission at a ping (m/s): ``predict_beams`` at the ground-truth attitude and velocity."""
 
@@ -144,8 +151,7 @@ def oracle_task(item):
     else:
         comp = None
         kind, size = variant.split()
-        seed = zlib.crc32(repr((source.name, grade, scenario, window_s, variant) + ((int(draw),) if draw else ()))
-                          .encode())
+        seed = oracle_seed(source.name, grade, scenario, window_s, variant, draw)
         oracle = OracleError(float(size), SERIAL_TAU_PINGS if kind == "serial" else None, seed)
 
         def at_regressed(rows, sel, y_true, t, geometry):

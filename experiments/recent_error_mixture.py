@@ -68,11 +68,13 @@ def outage_starts(series, n_past: int, settle: int) -> list[tuple[int, int]]:
 
 def rehearsal_errors(completers, s, missing, start: int, k_pings: int) -> tuple[float, ...] | None:
     """Each completer's mean squared error of the missing beams when it completes pings ``start - K .. start - 1``
-    of series ``s`` recursively, as if they had been missing (None where the IMU window or the past is too short)."""
+    of series ``s`` recursively, as if they had been missing (None where the IMU window or the past is too short, or
+    a beam it would read is not finite). Nothing from ``start`` on is read."""
     from graphnav.estimators.history import BeamHistory
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     first = start - k_pings
-    if first < OUTAGE_SETTLE or any(first - c.n_past < 0 for c in completers):
+    n_past = max(c.n_past for c in completers)
+    if first < OUTAGE_SETTLE or first - n_past < 0 or not np.all(np.isfinite(s.beams[first - n_past:start])):
         return None
     valid = np.ones(4, dtype=bool)
     valid[missing] = False

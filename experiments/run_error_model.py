@@ -7,8 +7,12 @@ exp(-dt / tau)``) with variance ``max(s_k^2 - phi^2 s_k-1^2, (1 - phi^2) s_k^2)`
 ``experiments/oracle_completions.py --record`` wrote (each regressed beam against the truth, with the sigma the
 history handed on, ping after ping through each regime window) and prints, per scenario:
 
-- the errors' RMS and the RMS of error / sigma;
-- their autocorrelation at a few lags, and a fit of ``a exp(-lag / T)`` on lags 1-20 (``1 - a``: the white share);
+- the errors' RMS and the RMS of error / sigma, and their RMS by ping into the window (how they grow from the
+  outage's start);
+- their autocorrelation at a few lags (about zero, as the graph's model has them), and a fit of ``a exp(-lag / T)``
+  on lags 1-20 (``1 - a``: the white share); then the autocorrelation about each window's own mean per beam: what is
+  left once a window's offset is taken out (the errors are not stationary, so ``T`` mixes offset, growth and
+  wander);
 - for each ``tau``, the RMS of the whitened differences and their NEES: mean ``d_k^2`` over the variance the graph
   gives them (1 = the model's size; below 1 the differences weigh less in the graph than their accuracy would
   allow).
@@ -53,11 +57,17 @@ def runs_of(path: Path, variant: str) -> tuple[str, list[tuple[np.ndarray, np.nd
 
 
 def autocorrelation(series: list[np.ndarray], lag: int) -> float:
-    """Pooled autocorrelation at ``lag`` of zero-mean series (each (pings, beams), beams apart)."""
+    """Pooled autocorrelation at ``lag`` of series taken as zero-mean (each (pings, beams), beams apart)."""
     num = sum(float(np.sum(x[lag:] * x[:len(x) - lag])) for x in series)
     cnt = sum(x[lag:].size for x in series)
     var = sum(float(np.sum(x ** 2)) for x in series) / sum(x.size for x in series)
     return num / cnt / var
+
+
+def rms_by_ping(series: list[np.ndarray], pings) -> dict[int, float]:
+    """RMS over windows and beams of the error at each ping index in ``pings`` (windows long enough)."""
+    return {k: float(np.sqrt(np.mean(np.concatenate([x[k] ** 2 for x in series if len(x) > k])))) for k in pings
+            if any(len(x) > k for x in series)}
 
 
 def difference_check(windows, tau: float, dt: float = 1.0) -> tuple[float, float]:
@@ -93,10 +103,18 @@ def report(paths: list[Path], variant: str) -> str:
         rms = np.sqrt(np.mean(np.concatenate([e.ravel() ** 2 for e, _ in windows])))
         z = np.sqrt(np.mean(np.concatenate([(e / s).ravel() ** 2 for e, s in windows])))
         a, t = gauss_markov_fit(acf)
+        about_mean = [e - e.mean(axis=0) for e in errors]
+        acf_mean = {k: autocorrelation(about_mean, k) for k in LAGS}
+        by_ping = rms_by_ping(errors, (0, 10, 30, 59, 119))
+        offset = np.sqrt(np.mean(np.concatenate([e.mean(axis=0) ** 2 for e in errors])))
         lines += [f"{scenario} ({path}, {len(windows)} windows, '{variant}'): error RMS {rms:.3f} m/s, "
                   f"error / sigma RMS {z:.2f}",
+                  "  RMS by ping into the window " + ", ".join(f"{k}: {v:.3f}" for k, v in by_ping.items())
+                  + f" m/s; RMS of the windows' mean per beam {offset:.3f} m/s",
                   "  autocorrelation at lags " + ", ".join(f"{k}: {acf[k]:.2f}" for k in LAGS),
                   f"  fit a exp(-lag / T) on lags 1-20: a = {a:.2f} (white share {1 - a:.2f}), T = {t:.0f} pings",
+                  "  about each window's mean: autocorrelation at lags "
+                  + ", ".join(f"{k}: {acf_mean[k]:.2f}" for k in LAGS),
                   "  | tau s | RMS of the whitened differences m/s | their NEES in the graph |",
                   "  | --- | --- | --- |"]
         for tau in TAUS:

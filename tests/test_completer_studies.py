@@ -46,7 +46,21 @@ def test_whitened_differences_have_nees_one_at_the_true_correlation_time():
     phi, phi_true = np.exp(-1 / 3), np.exp(-1 / 20)
     expected = (1 + phi ** 2 - 2 * phi * phi_true) / (1 - phi ** 2)
     assert study.difference_check(windows, tau=3.0)[1] == pytest.approx(expected, rel=0.05)
-    assert expected < 0.35                    # the short model time gives the differences a third of their weight
+
+
+def test_whitened_difference_variance_takes_the_growing_sigma_where_it_is_larger():
+    study = _study("run_error_model")
+    phi = np.exp(-1.0 / 10.0)
+    e = np.array([[0.1], [0.3], [0.2]])
+    s = np.array([[0.1], [0.3], [0.3]])
+    # ping 1: sigma grew, s1^2 - phi^2 s0^2 beats (1 - phi^2) s1^2; ping 2: steady, the stationary branch
+    v1 = 0.3 ** 2 - phi ** 2 * 0.1 ** 2
+    v2 = (1 - phi ** 2) * 0.3 ** 2
+    assert v1 > (1 - phi ** 2) * 0.3 ** 2
+    d1, d2 = 0.3 - phi * 0.1, 0.2 - phi * 0.3
+    rms, nees = study.difference_check([(e, s)], tau=10.0)
+    assert nees == pytest.approx((d1 ** 2 / v1 + d2 ** 2 / v2) / 2)
+    assert rms == pytest.approx(np.sqrt((d1 ** 2 + d2 ** 2) / 2))
 
 
 def test_gauss_markov_fit_finds_the_correlation_time_and_the_white_share():
@@ -117,3 +131,47 @@ def test_oracle_draws_table_counts_fold_cells_over_the_bound_per_draw():
     text = study.draws_table(runs, reference, ["mems"], [60.0], ["serial 0.1"], 2)
     assert "| serial 0.1 | mems | 60 | 0.90-0.94 | 0.90-1.10 |" in text
     assert "serial 0.1: fold cells over 1.02x per draw: 0, 1 (of 5)" in text
+
+
+def test_rehearsal_is_the_outage_rollout_of_the_pings_before_and_reads_nothing_after():
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSeries
+    from graphnav.nets.evaluate import outage_rollout
+    study = _study("recent_error_mixture")
+    rng = np.random.default_rng(6)
+    beams = np.cumsum(0.02 * rng.standard_normal((120, 4)), axis=0)
+    series = BeamSeries("s", np.zeros((120, 3)), beams)
+    average, start, k = AverageCompleter(3), 70, 20
+    (mse,) = study.rehearsal_errors((average,), series, [0, 1], start, k)
+    full, _, samples = outage_rollout(average, series, [0, 1], window=k, gap=1000, settle=start - k)
+    assert len(full) == k and np.array_equal(samples.beams[0], beams[start - k])
+    assert mse == pytest.approx(np.sum((full[:, :2] - samples.beams[:, :2]) ** 2) / k)
+    damaged = BeamSeries("s", series.v_b, beams.copy())
+    damaged.beams[start:] = np.nan                      # the outage and after: never read
+    assert study.rehearsal_errors((average,), damaged, [0, 1], start, k) == (mse,)
+    damaged.beams[start - 1, 0] = np.nan                # a bad beam it would read: no rehearsal, not a NaN weight
+    assert study.rehearsal_errors((average,), damaged, [0, 1], start, k) is None
+    assert study.rehearsal_errors((average,), series, [0, 1], 30, k) is None      # before the IMU window is full
+
+
+def test_row_index_lays_out_the_usable_pings_from_n_past_on_series_after_series():
+    study = _study("recent_error_mixture")
+
+    class Usable:
+        def __init__(self, mask):
+            self.mask = np.asarray(mask, bool)
+
+        def usable(self, n_past, n_imu):
+            return self.mask.copy()
+
+    rows = study.row_index([Usable([1, 1, 1, 0, 1]), Usable([0, 1, 1, 1])], n_past=2, n_imu=10)
+    assert rows == {(0, 2): 0, (0, 4): 1, (1, 2): 2, (1, 3): 3}
+
+
+def test_oracle_first_draw_keeps_the_stored_runs_seed():
+    import zlib
+    study = _study("oracle_completions")
+    key = ("Trajectory6", "mems", "3-missing", 60.0, "serial 0.1")
+    stored = zlib.crc32(repr(key).encode())
+    assert study.oracle_seed(*key) == stored == study.oracle_seed(*key, draw="1")
+    assert len({study.oracle_seed(*key, draw=str(k)) for k in range(1, 6)}) == 5
