@@ -141,19 +141,26 @@ def window_interval(rows: list[dict], scenario: str, variant: str, fold: int, dr
     return [(100 * lo, 100 * hi) for lo, hi in gain_interval(net["window_sq"], avg["window_sq"], draws, seed)]
 
 
-def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_decay: float | None,
-        beam_decay: float | None) -> list[dict]:
-    from imu_completer_folds import EVAL_GRADES, held_out_series
-
+def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float | None = None,
+                  beam_decay: float | None = None) -> dict:
+    """Fold -> (IMU-aware network, beam-only network) of ``scenario``, each fading with ``run_decay`` (default: the
+    shipped card's)."""
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
-    shipped_imu = load_imu_completer(scenario).run_decay if imu_decay is None else imu_decay
-    shipped_beam = load_completer(scenario).run_decay if beam_decay is None else beam_decay
-    print(f"run_decay: IMU-aware {shipped_imu:g}, beam-only {shipped_beam:g}", file=sys.stderr, flush=True)
-    nets = {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=shipped_imu),
-                load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=shipped_beam))
+    imu_decay = load_imu_completer(scenario).run_decay if imu_decay is None else imu_decay
+    beam_decay = load_completer(scenario).run_decay if beam_decay is None else beam_decay
+    print(f"run_decay: IMU-aware {imu_decay:g}, beam-only {beam_decay:g}", file=sys.stderr, flush=True)
+    return {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay),
+                load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=beam_decay))
             for f in range(len(AKIT_FOLDS))}
+
+
+def held_out_per_ping(nets: dict, scenario: str, akit_dir) -> tuple[dict, dict]:
+    """Each fold's held-out series and :func:`per_ping` completions by (fold, evaluation IMU)."""
+    from imu_completer_folds import EVAL_GRADES, held_out_series
+
+    from graphnav.nets.crossval import AKIT_FOLDS
     series, pp = {}, {}
     for f, held in enumerate(AKIT_FOLDS):
         t0 = time.perf_counter()
@@ -161,6 +168,16 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_dec
             series[f, grade] = held_out_series(held, akit_dir, grade)
             pp[f, grade] = per_ping(*nets[f], scenario, series[f, grade])
         print(f"fold {f}: per ping in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    return series, pp
+
+
+def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_decay: float | None,
+        beam_decay: float | None) -> list[dict]:
+    from imu_completer_folds import EVAL_GRADES
+
+    from graphnav.nets.crossval import AKIT_FOLDS
+    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay)
+    series, pp = held_out_per_ping(nets, scenario, akit_dir)
     rows = []
     # the correlation for completers trained on all ten trajectories: every fold network on its held-out pair
     rho_all = {grade: fitted_rho([pp[g, grade] for g in nets], nets[0][0].missing) for grade in EVAL_GRADES}

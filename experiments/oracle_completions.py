@@ -65,6 +65,11 @@ def oracle_variants(sigmas=SIGMAS) -> list[str]:
     return [f"{kind} {s:g}" for kind in ("white", "serial") for s in sigmas]
 
 
+def draw_names(oracle: str, draws: int) -> list[str]:
+    """The variant names of ``draws`` draws of an oracle's errors (the first is the oracle itself)."""
+    return [oracle] + [f"{oracle}{DRAW}{k}" for k in range(2, draws + 1)]
+
+
 def oracle_seed(trajectory: str, grade: str, scenario: str, window_s: float, variant: str, draw: str = "") -> int:
     """The seed of an oracle's errors in one run: the run's own (``draw`` "" or "1", so stored runs stay valid) or,
     for draw k > 1, another one."""
@@ -110,8 +115,8 @@ def oracle_task(item):
     source, grade, scenario, window_s, max_windows, full_variant, nets, fold = item
     # "<variant> tau <T>": a run of regressed beams is screened until one is kept (regressed_runs="screen-first"),
     # and with T > 0 the graph models their errors as Gauss-Markov with correlation time T s
-    variant, _, tau = full_variant.partition(DRAW)[0].partition(TAU)
-    draw = full_variant.partition(DRAW)[2]      # "" for the first draw, whose seed is the variant's alone
+    drawn, _, draw = full_variant.partition(DRAW)    # draw "" for the first, whose seed is the variant's alone
+    variant, _, tau = drawn.partition(TAU)
     options = None
     if tau:
         options = {"regressed_runs": "screen-first", "regressed_error_tau_s": float(tau) if float(tau) > 0 else None}
@@ -220,22 +225,20 @@ def draws_table(runs: dict, reference: dict, grades, windows, oracles, draws: in
     folds = range(len(AKIT_FOLDS))
     lines = ["| oracle | IMU | window s | pooled, min-max over draws | worst fold, min-max over draws |",
              "| --- | --- | --- | --- | --- |"]
-    over = {}
+    counts = {}      # oracle -> fold cells over 1.02x in each draw
     for v in oracles:
-        names = [v] + [f"{v}{DRAW}{k}" for k in range(2, draws + 1)]
+        names = draw_names(v, draws)
+        counts[v] = [0] * len(names)
         for g in grades:
             for w in windows:
                 pooled = [ratio(runs, reference, folds, g, w, n) for n in names]
                 per_fold = [[ratio(runs, reference, [f], g, w, n) for f in folds] for n in names]
-                for n, per in zip(names, per_fold):
-                    over[v, n] = over.get((v, n), 0) + sum(x > 1.02 for x in per)
+                counts[v] = [c + sum(x > 1.02 for x in per) for c, per in zip(counts[v], per_fold)]
                 worst = [max(per) for per in per_fold]
                 lines.append(f"| {v} | {g} | {w:g} | {min(pooled):.2f}-{max(pooled):.2f} | "
                              f"{min(worst):.2f}-{max(worst):.2f} |")
-    for v in oracles:
-        counts = [over[v, n] for (o, n) in over if o == v]
-        lines.append(f"{v}: fold cells over 1.02x per draw: {', '.join(map(str, counts))} "
-                     f"(of {len(grades) * len(windows) * len(folds)})")
+    lines += [f"{v}: fold cells over 1.02x per draw: {', '.join(map(str, c))} "
+              f"(of {len(grades) * len(windows) * len(folds)})" for v, c in counts.items()]
     return "\n".join(lines)
 
 
@@ -352,7 +355,7 @@ def main(argv=None) -> int:
     variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith(("serial", RECORDED))
                  for t in a.tau]
     oracles = [v for v in variants if v.startswith(("white", "serial"))]
-    variants += [f"{v}{DRAW}{k}" for v in oracles for k in range(2, a.oracle_draws + 1)]
+    variants += [n for v in oracles for n in draw_names(v, a.oracle_draws)[1:]]
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
               (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
              for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants

@@ -57,13 +57,9 @@ def row_index(series, n_past: int, n_imu: int) -> dict:
 
 def outage_starts(series, n_past: int, settle: int) -> list[tuple[int, int]]:
     """(series index, first ping) of every outage window of :func:`graphnav.nets.evaluate.outage_rollout`."""
-    starts = []
-    for si, s in enumerate(series):
-        start = max(settle, n_past)
-        while start + WINDOW <= len(s.beams):
-            starts.append((si, start))
-            start += WINDOW + GAP
-    return starts
+    from graphnav.nets.evaluate import outage_window_starts
+    return [(si, start) for si, s in enumerate(series)
+            for start in outage_window_starts(len(s.beams), n_past, WINDOW, GAP, settle)]
 
 
 def rehearsal_errors(completers, s, missing, start: int, k_pings: int) -> tuple[float, ...] | None:
@@ -175,21 +171,10 @@ def fold_rows(fold: int, grade: str, scenario: str, nets, series, pp: dict, rho:
 
 
 def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path) -> list[dict]:
-    from imu_beam_fused_folds import fitted_rho, per_ping
-    from imu_completer_folds import EVAL_GRADES, held_out_series
-
-    from graphnav.nets.crossval import AKIT_FOLDS
-    from graphnav.nets.imu_network import load_imu_completer
-    from graphnav.nets.network import load_completer
-    imu_decay, beam_decay = load_imu_completer(scenario).run_decay, load_completer(scenario).run_decay
-    nets = {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay),
-                load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=beam_decay))
-            for f in range(len(AKIT_FOLDS))}
-    series, pp = {}, {}
-    for f, held in enumerate(AKIT_FOLDS):
-        for grade in EVAL_GRADES:
-            series[f, grade] = held_out_series(held, akit_dir, grade)
-            pp[f, grade] = per_ping(*nets[f], scenario, series[f, grade])
+    from imu_beam_fused_folds import fitted_rho, fold_networks, held_out_per_ping
+    from imu_completer_folds import EVAL_GRADES
+    nets = fold_networks(scenario, imu_dir, beam_dir)
+    series, pp = held_out_per_ping(nets, scenario, akit_dir)
     rows = []
     for f in nets:
         t0 = time.perf_counter()

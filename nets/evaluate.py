@@ -84,6 +84,12 @@ def full_beam_vel_rmse(samples: BeamSamples, geometry: DvlGeometry | None = None
     return float(np.sqrt(np.mean(np.sum((v - samples.v_b) ** 2, axis=1))))
 
 
+def outage_window_starts(n_pings: int, n_past: int, window: int = 30, gap: int = 60, settle: int = 10) -> list[int]:
+    """First pings of the outage windows :func:`outage_rollout` makes in a series of ``n_pings`` pings: from ping
+    ``settle`` (at least ``n_past``), every ``window + gap`` pings, while a whole window fits."""
+    return list(range(max(settle, n_past), n_pings - window + 1, window + gap))
+
+
 def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, settle: int = 10):
     """Complete 30-ping outages recursively, as an estimator does (:class:`graphnav.estimators.history.BeamHistory`).
 
@@ -107,8 +113,7 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
     valid[missing] = False
     full, sigma, beams, v = [], [], [], []
     for s in series:
-        start = max(settle, completer.n_past)
-        while start + window <= len(s.beams):
+        for start in outage_window_starts(len(s.beams), completer.n_past, window, gap, settle):
             hist = BeamHistory(completer.n_past)
             for k in range(start - completer.n_past, start):
                 hist.push(s.beams[k])
@@ -120,7 +125,6 @@ def outage_rollout(completer, series, missing, window: int = 30, gap: int = 60, 
                 sigma.append(sg)
                 beams.append(s.beams[k])
                 v.append(s.v_b[k])
-            start += window + gap
     samples = BeamSamples(np.zeros((len(beams), 0, 4)), np.array(beams), np.array(v))
     return np.array(full), np.array(sigma), samples
 
