@@ -65,7 +65,7 @@ class FusedCompleter:
 
     Args:
         first, second: completers; ``needs_imu`` (and ``imu_samples``, ``imu_rate_hz``, ``ping_dt``, ``beam_only``
-            and the ``usage`` / ``fallbacks`` counters) follow an IMU-aware member, which alone is handed the IMU
+            and the ``usage`` counters) follow an IMU-aware member, which alone is handed the IMU
             window. In an estimator that member must complete a ping without one (``imu=None``, e.g.
             :class:`graphnav.nets.ImuAutoCompleter`).
         rho: correlation of the two members' errors per ping that the weights assume (0: independent, inverse
@@ -107,8 +107,13 @@ class FusedCompleter:
 
     @property
     def fallbacks(self) -> dict:
-        """The IMU-aware member's beam-only fallbacks, empty without one."""
-        return dict(getattr(self._imu_member, "fallbacks", {}))
+        """Both members' fallback counters summed by kind (``"envelope"``, ``"pattern"``), empty when neither
+        counts."""
+        counts: dict = {}
+        for c in (self.first, self.second):
+            for k, n in getattr(c, "fallbacks", {}).items():
+                counts[k] = counts.get(k, 0) + n
+        return counts
 
     def members(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
         """``(b1, s1, b2, s2)``: both members' completions (4,) and sigmas (4,), the sigmas grown by ``growth``

@@ -55,7 +55,8 @@ class ImuAutoCompleter:
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
-    ``fallbacks`` are the beam-only completer's own counters (inputs outside a beam-only network's envelope).
+    ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
+    network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completer's).
     """
 
     needs_imu = True
@@ -92,7 +93,10 @@ class ImuAutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        return dict(getattr(self.beam_only, "fallbacks", {"envelope": 0, "pattern": 0}))
+        counts = dict(getattr(self.beam_only, "fallbacks", {"envelope": 0, "pattern": 0}))
+        counts["envelope"] = counts.get("envelope", 0) + sum(getattr(n, "fallbacks", {}).get("envelope", 0)
+                                                             for n in self.networks.values())
+        return counts
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:

@@ -33,7 +33,7 @@ from .completer import check_inputs, check_run_decay, fade_to_average
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
-from .network import card_run_decay, load_weights
+from .network import InputEnvelope, card_run_decay, load_weights
 
 
 def imu_weights_name(missing) -> str:
@@ -65,6 +65,13 @@ class ImuNetworkCompleter:
 
     No ``drift_std`` of its own: :class:`graphnav.estimators.history.BeamHistory` grows the sigma through a run of regressed
     pings by its default (0.03 m/s per ping), conservative for this network (model card, outage coverage).
+
+    A ping whose beams leave the card's ``"envelope"`` (the training beams' per-beam range and largest
+    ping-to-ping change, :class:`graphnav.nets.network.InputEnvelope`) is completed by the average estimator over
+    the same past and counted in ``fallbacks["envelope"]``, as the beam-only network does: out of fold, a
+    trajectory slower than any the network was trained on (under 1 m/s, near the surface) made its outage
+    completions several times worse than the average's (``docs/decisions/completers.md``, "Where the outages
+    fall"). A card without an envelope (weights saved before it) checks nothing.
     """
 
     needs_imu = True
@@ -86,6 +93,8 @@ class ImuNetworkCompleter:
         # the paper's N where the pattern has one (2 or 3 missing beams), else the network's window
         n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
         self.fallback = AverageCompleter(min(self.n_past, n_average))
+        self.envelope = InputEnvelope.from_card(self.card) if "envelope" in self.card else None
+        self.fallbacks = {"envelope": 0, "pattern": 0}
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -102,6 +111,9 @@ class ImuNetworkCompleter:
         if pattern != self.missing:
             raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
                             f"{list(self.missing)}", "completer", field="measured")
+        if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
+            self.fallbacks["envelope"] += 1
+            return self.fallback.complete(past[-self.fallback.n_past:], measured)
         feats = preintegrate(f_b, omega_b, self.n_past, self.imu_rate_hz, self.ping_dt)
         with torch.no_grad():
             out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],

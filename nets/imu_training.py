@@ -35,7 +35,7 @@ from .imu_recipes import ImuTrainOptions
 from .imu_window import preintegrate
 from .model import normalize_missing, scenario_name
 from .storage import file_sha256
-from .training import TrainResult, _run_stage, card_header
+from .training import TrainResult, _run_stage, card_header, training_envelope
 
 
 def _tensors(model: ImuBeamRegressor, samples: imu_data.ImuBeamSamples):
@@ -144,6 +144,26 @@ def _with_imu_grades(base, opt: ImuTrainOptions):
     return out
 
 
+def card_envelope(card: dict, data_dir=None) -> dict:
+    """The input envelope of a trained IMU-aware network (:func:`graphnav.nets.training.training_envelope` of the
+    beams it was trained on), rebuilt from its card: the card's training trajectories and beam seed, read from
+    ``data_dir`` (default: the shared A-KIT data). For cards written before :func:`train_imu` stored one.
+
+    Raises:
+        DataError: a trajectory's DVL file is not the one the card was trained on (sha256).
+    """
+    from graphnav.core.errors import DataError
+    d = _data_dir(data_dir, "akit")
+    numbers = card["split"]["train_trajectories"]
+    for k in numbers:
+        path = d / f"Trajectory{k}" / f"DVL_trajectory{k}.csv"
+        expected = card["data"]["DVL_sha256"].get(f"Trajectory{k}")
+        if expected is not None and file_sha256(path) != expected:
+            raise DataError(f"{path}: not the DVL file the network was trained on (sha256 differs from its card)",
+                            "akit")
+    return training_envelope(imu_data.akit_imu_series(numbers, d, card["data"]["beam_seed"]))
+
+
 def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_dir=None,
               progress: bool = True, evaluate: bool = True, trajectories=None) -> TrainResult:
     """Train the IMU-aware network for ``missing`` and build its model card (module docstring).
@@ -232,6 +252,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         "lag_weights": torch.softmax(model.lag_logits.detach(), 0).tolist(),
         "sigma_gain": float(model.sigma_gain),
         "run_decay": opt.run_decay,
+        "envelope": training_envelope(recorded),
     }
     if evaluate:
         from .imu_evaluate import evaluate_imu

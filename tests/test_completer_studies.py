@@ -175,3 +175,42 @@ def test_oracle_first_draw_keeps_the_stored_runs_seed():
     stored = zlib.crc32(repr(key).encode())
     assert study.oracle_seed(*key) == stored == study.oracle_seed(*key, draw="1")
     assert len({study.oracle_seed(*key, draw=str(k)) for k in range(1, 6)}) == 5
+
+
+def test_every_placement_holds_the_studies_windows_at_placement_zero_and_blocks_of_ninety_pings():
+    import sys
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSeries
+    from graphnav.nets.evaluate import outage_rollout
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("outage_placement")
+    fade = _study("completer_fade_folds")
+    rng = np.random.default_rng(7)
+    series = []
+    for i, n in enumerate((400, 150)):
+        beams = np.cumsum(0.03 * rng.standard_normal((n, 4)), axis=0)
+        series.append(BeamSeries(f"s{i}", DvlGeometry.from_spec(DvlSpec()).velocity_from_beams(beams)
+                                 + 0.01 * rng.standard_normal((n, 3)), beams))
+    comps = {"average": AverageCompleter(3), "long": AverageCompleter(12)}
+    sq, starts = study.rollout_windows(comps, series, [0, 1], settle=25, stride=10)
+    # 400 pings: 25, 35, ..., 365 (35 windows); 150 pings: 25 .. 115 (10)
+    assert starts[:2] == [(0, 25), (0, 35)] and starts[34] == (0, 365) and starts[35:] == [(1, 25 + 10 * k)
+                                                                                          for k in range(10)]
+    place, blocks = study.placement_of(starts, 25, 10), study.block_of(starts, 25)
+    assert list(place[:11]) == [0, 1, 2, 3, 4, 5, 6, 7, 8, 0, 1]
+    assert blocks[0] == blocks[8] != blocks[9] and blocks[35] != blocks[34]
+    # placement 0 is the studies' layout: a window every 90 pings from the settle ping, the same errors
+    full, _, samples = outage_rollout(comps["long"], series, [0, 1], window=30, gap=60, settle=25)
+    own = fade.window_sq(full, samples, [0, 1], DvlGeometry.from_spec(DvlSpec()))
+    for m in (0, 1):
+        np.testing.assert_allclose(np.asarray(sq["long"][m])[place == 0], own[m])
+    g = study.gain(sq["long"], sq["average"], place == 0)
+    assert g[1] == pytest.approx(100 * (1 - np.sqrt(np.sum(own[1]) / np.sum(np.asarray(sq["average"][1])[place == 0]))))
+    lo, hi = study.block_interval(sq["long"], sq["average"], blocks)[1]
+    assert lo <= study.gain(sq["long"], sq["average"])[1] <= hi
+    # blocks that are all alike: no spread to draw
+    same = [[1.0] * 9, [2.0] * 9], [[2.0] * 9, [2.0] * 9]
+    (blo, bhi), (vlo, vhi) = study.block_interval(*same, np.repeat(np.arange(3), 3))
+    assert blo == bhi == pytest.approx(100 * (1 - np.sqrt(0.5))) and vlo == vhi == 0.0

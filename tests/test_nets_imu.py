@@ -374,3 +374,61 @@ def test_imu_completer_fades_to_the_average_through_a_run(tmp_path):
     with pytest.raises(ConfigError, match=re.escape(f"{tmp_path / 'w' / 'imu-2-missing.json'}: run_decay 1.5")):
         load_imu_completer(2, tmp_path / "w")
     assert load_imu_completer(2, tmp_path / "w", run_decay=0.95).run_decay == 0.95
+
+
+def test_imu_completer_leaves_pings_outside_its_training_envelope_to_the_average():
+    """A card's ``envelope`` (the training beams' range and steps): a ping inside is the network's, one outside (a
+    vehicle slower than any it was trained on) the average over the same past, counted; the fused and auto
+    completers add the count to their own ``fallbacks``; a card without one checks nothing."""
+    from graphnav.nets import AverageCompleter, ImuAutoCompleter
+    from graphnav.nets.average import AVERAGE_N_PAST
+    from graphnav.nets.fused import FusedCompleter
+    from graphnav.nets.imu_network import ImuNetworkCompleter
+    f_b, omega_b, v = _steady_turn()
+    T = DvlGeometry.from_spec(DvlSpec()).T_b
+    shipped = load_imu_completer(2)
+    beams = v @ T.T
+    envelope = {"beam_min": (beams - 0.05).tolist(), "beam_max": (beams + 0.05).tolist(), "max_step": [0.05] * 4}
+    assert shipped.envelope is not None               # the shipped cards carry their training envelope
+    card = {k: v for k, v in shipped.card.items() if k != "envelope"}
+    plain = ImuNetworkCompleter(shipped.model, card, run_decay=1.0)
+    bounded = ImuNetworkCompleter(shipped.model, {**card, "envelope": envelope}, run_decay=1.0)
+    assert plain.envelope is None
+    measured = beams.copy()
+    measured[[0, 2]] = np.nan
+    past = np.tile(beams, (shipped.n_past, 1))
+    np.testing.assert_array_equal(bounded.complete(past, measured, imu=(f_b, omega_b))[0],
+                                  plain.complete(past, measured, imu=(f_b, omega_b))[0])
+    assert bounded.fallbacks == {"envelope": 0, "pattern": 0}
+    slow = 0.5 * beams                                  # 0.8 m/s instead of 1.6: outside the trained range
+    measured = slow.copy()
+    measured[[0, 2]] = np.nan
+    past = np.tile(slow, (shipped.n_past, 1))
+    n_avg = min(shipped.n_past, AVERAGE_N_PAST["2-missing"])
+    average = AverageCompleter(n_avg).complete(past[-n_avg:], measured)
+    got = bounded.complete(past, measured, imu=(f_b, omega_b))
+    np.testing.assert_array_equal(got[0], average[0])
+    np.testing.assert_array_equal(got[1], average[1])
+    assert not np.allclose(plain.complete(past, measured, imu=(f_b, omega_b))[0], average[0])
+    assert bounded.fallbacks["envelope"] == 1 and plain.fallbacks["envelope"] == 0
+    fused = FusedCompleter(bounded, AverageCompleter(AVERAGE_N_PAST["2-missing"]))
+    fused.complete(past, measured, imu=(f_b, omega_b))
+    assert fused.fallbacks == {"envelope": 2, "pattern": 0}
+    auto = ImuAutoCompleter([bounded], AverageCompleter(AVERAGE_N_PAST["2-missing"]))
+    auto.complete(np.tile(slow, (auto.n_past, 1)), measured, imu=(f_b, omega_b))
+    assert auto.fallbacks["envelope"] == 3
+
+
+def test_card_envelope_rebuilds_the_training_beams_range_and_checks_the_files(akit_dir):
+    from graphnav.nets.imu_data import akit_imu_series
+    from graphnav.nets.imu_training import card_envelope
+    from graphnav.nets.storage import file_sha256
+    from graphnav.nets.training import training_envelope
+    dvl = akit_dir / "Trajectory2" / "DVL_trajectory2.csv"
+    card = {"split": {"train_trajectories": [2]}, "data": {"beam_seed": 0, "DVL_sha256": {"Trajectory2": file_sha256(dvl)}}}
+    envelope = card_envelope(card, akit_dir)
+    assert envelope == training_envelope(akit_imu_series((2,), akit_dir, 0))
+    assert np.all(np.isfinite(envelope["beam_min"])) and np.all(np.array(envelope["max_step"]) > 0)
+    card["data"]["DVL_sha256"]["Trajectory2"] = "0" * 64
+    with pytest.raises(DataError, match="DVL_trajectory2.csv: not the DVL file the network was trained on"):
+        card_envelope(card, akit_dir)
