@@ -237,8 +237,9 @@ def training_envelope(series) -> dict:
     series = [series] if isinstance(series, beamdata.BeamSeries) else list(series)
     beams = np.concatenate([s.beams for s in series])
     steps = np.concatenate([np.abs(np.diff(s.beams, axis=0)) for s in series if len(s.beams) > 1])
-    return {"beam_min": beams.min(axis=0).tolist(), "beam_max": beams.max(axis=0).tolist(),
-            "max_step": steps.max(axis=0).tolist(), "source": "training split beams", "samples": int(len(beams))}
+    # pings without a beam (NaN) bound nothing: a NaN bound would let every input in, or none
+    return {"beam_min": np.nanmin(beams, axis=0).tolist(), "beam_max": np.nanmax(beams, axis=0).tolist(),
+            "max_step": np.nanmax(steps, axis=0).tolist(), "source": "training split beams", "samples": int(len(beams))}
 
 
 def card_header(model) -> dict:

@@ -429,6 +429,9 @@ def test_card_envelope_rebuilds_the_training_beams_range_and_checks_the_files(ak
     envelope = card_envelope(card, akit_dir)
     assert envelope == training_envelope(akit_imu_series((2,), akit_dir, 0))
     assert np.all(np.isfinite(envelope["beam_min"])) and np.all(np.array(envelope["max_step"]) > 0)
+    series = akit_imu_series((2,), akit_dir, 0)
+    series[0].beams[10, 1] = np.nan                     # a ping without beam 1 bounds nothing
+    assert training_envelope(series) == envelope
     card["data"]["DVL_sha256"]["Trajectory2"] = "0" * 64
     with pytest.raises(DataError, match="DVL_trajectory2.csv: not the DVL file the network was trained on"):
         card_envelope(card, akit_dir)
