@@ -18,10 +18,14 @@ estimator as the beam-only network does), it keeps every window's summed squared
 average estimator's on the same window. The report gives per fold the gain against the average at p = 0, its
 range over the placements, the gain over every placement with a 90 % interval (the windows of one 90-ping block of
 a trajectory drawn again together: overlapping windows are not independent evidence), and in how many placements
-the fold is worse. Usage::
+the fold is worse. ``--completers`` scores only some of them (the average is always run); the two fused ones alone
+take about half the time. Usage::
 
     .venv/bin/python experiments/outage_placement.py --scenario 2-missing --imu-nets out/imu_folds/nets2 \\
         --beam-nets out/ens2/akit-residual-aug-ens5 --out out/placement/rows2.json
+    .venv/bin/python experiments/outage_placement.py --scenario 2-missing --imu-nets out/imu_folds/nets2s100 \\
+        --beam-nets out/ens2-s100/akit-residual-aug-ens5 --completers fused "fused, envelope" \\
+        --out out/placement/s100_2.json
     .venv/bin/python experiments/outage_placement.py --report out/placement/rows2.json out/placement/rows3.json
 """
 from __future__ import annotations
@@ -115,7 +119,10 @@ def envelope_variants(net, akit_dir):
                                                  run_decay=net.run_decay)
 
 
-def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride: int) -> list[dict]:
+def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride: int,
+        names=COMPLETERS) -> list[dict]:
+    """Rows of :func:`rollout_windows` per fold and evaluation IMU for the completers ``names`` (a subset of
+    :data:`COMPLETERS`; the average is always run), rewritten to ``out`` after every fold."""
     import json
 
     from completer_fade_folds import WINDOW
@@ -136,14 +143,23 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:
             series = held_out_series(held, akit_dir, grade)
+            # the IMU-aware network whose envelope fallbacks are counted: its own completer's if it runs, else the
+            # fused one's member (the beam-only member keeps counters of its own)
             enveloped = imu(True)
-            completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario]), "IMU-aware, fading": imu(False),
-                          "beam-only, fading": beam_net, "fused": FusedCompleter(imu(False), beam_net),
-                          "IMU-aware, envelope": enveloped, "fused, envelope": FusedCompleter(imu(True), beam_net)}
+            counted = "IMU-aware, envelope" if "IMU-aware, envelope" in names else "fused, envelope"
+            makers = {"IMU-aware, fading": lambda: imu(False), "beam-only, fading": lambda: beam_net,
+                      "fused": lambda: FusedCompleter(imu(False), beam_net),
+                      "IMU-aware, envelope": lambda: enveloped,
+                      "fused, envelope": lambda: FusedCompleter(enveloped if counted == "fused, envelope" else imu(True),
+                                                                beam_net)}
+            completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario])} | {n: makers[n]() for n in names}
             sq, starts = rollout_windows(completers, series, list(net.missing), OUTAGE_SETTLE, stride)
-            rows.append({"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade,
-                         "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq,
-                         "envelope_fallbacks": enveloped.fallbacks["envelope"], "completions": len(starts) * WINDOW})
+            row = {"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade,
+                   "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq}
+            if counted in names:
+                row |= {"envelope_fallbacks": enveloped.fallbacks["envelope"], "envelope_counted_in": counted,
+                        "completions": len(starts) * WINDOW}
+            rows.append(row)
         out.write_text(json.dumps(rows))
         print(f"fold {f} {list(held)}: {len(starts)} windows a grade in {time.perf_counter() - t0:.0f} s",
               file=sys.stderr, flush=True)
@@ -190,7 +206,8 @@ def report(rows: list[dict]) -> str:
                 lines.append(f"| {name} | pooled | {p0[0]:+.1f} / {p0[1]:+.1f} | {min(pv):+.1f}..{max(pv):+.1f} | "
                              f"{g_all[0]:+.1f} / {g_all[1]:+.1f} | | {sum(v < 0 for v in pv)} of {n_place} |")
             if "envelope_fallbacks" in sel[0]:
-                lines += ["", "Completions the IMU-aware network left to the average (outside its envelope): " + "; ".join(
+                lines += ["", "Completions the IMU-aware network left to the average (outside its envelope; in "
+                          f"`{sel[0].get('envelope_counted_in', 'IMU-aware, envelope')}`): " + "; ".join(
                     f"fold {r['fold']} {r['envelope_fallbacks']} of {r['completions']}" for r in sel)]
             lines.append("")
     return "\n".join(lines)
@@ -201,8 +218,12 @@ def main(argv=None) -> int:
     from imu_beam_fused_folds import fold_network_parser, report_or_run
     p = fold_network_parser(__doc__, "out/placement/rows.json")
     p.add_argument("--stride", type=int, default=10, help="pings between window starts (divides 90; default 10)")
+    p.add_argument("--completers", nargs="+", choices=COMPLETERS, default=list(COMPLETERS), metavar="NAME",
+                   help="completers scored against the average (default all: " + ", ".join(f"'{n}'" for n in COMPLETERS)
+                   + "); the two fused ones alone take about half the time")
     a = p.parse_args(argv)
-    return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out, a.stride))
+    return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out, a.stride,
+                                                       a.completers))
 
 
 if __name__ == "__main__":
