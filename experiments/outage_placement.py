@@ -179,7 +179,7 @@ def report(rows: list[dict]) -> str:
             lines += [f"### {sc}, {grade} IMU ({n_place} placements, a window every {stride} pings)", "",
                       "| completer | fold | p = 0 | range over placements (velocity) | every placement | 90 % "
                       "interval (velocity) | worse in |", "| --- | --- | --- | --- | --- | --- | --- |"]
-            for name in (n for n in COMPLETERS if n in sel[0]["sq"]):
+            for name in (n for n in COMPLETERS if all(n in r["sq"] for r in sel)):
                 pooled = {"p0": [[], []], "all": [[], []], "avg_p0": [[], []], "avg_all": [[], []]}
                 place_pooled = [[[0.0, 0.0], [0.0, 0.0]] for _ in range(n_place)]
                 for r in sel:
