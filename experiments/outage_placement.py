@@ -136,6 +136,9 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     if PERIOD % stride:
         raise ValueError(f"--stride must divide {PERIOD} so that every placement has the studies' spacing")
     nets = fold_networks(scenario, imu_dir, beam_dir)
+    # the IMU-aware network whose envelope fallbacks are counted: its own completer's if it runs, else the fused
+    # one's member (the beam-only member keeps counters of its own)
+    counted = "IMU-aware, envelope" if "IMU-aware, envelope" in names else "fused, envelope"
     rows = []
     for f, held in enumerate(AKIT_FOLDS):
         net, beam_net = nets[f]
@@ -143,10 +146,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:
             series = held_out_series(held, akit_dir, grade)
-            # the IMU-aware network whose envelope fallbacks are counted: its own completer's if it runs, else the
-            # fused one's member (the beam-only member keeps counters of its own)
             enveloped = imu(True)
-            counted = "IMU-aware, envelope" if "IMU-aware, envelope" in names else "fused, envelope"
             makers = {"IMU-aware, fading": lambda: imu(False), "beam-only, fading": lambda: beam_net,
                       "fused": lambda: FusedCompleter(imu(False), beam_net),
                       "IMU-aware, envelope": lambda: enveloped,

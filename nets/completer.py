@@ -63,6 +63,18 @@ def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, r
     return completer.complete(past, measured, **kwargs)
 
 
+
+def summed_fallbacks(completers) -> dict[str, int]:
+    """The ``fallbacks`` counters of ``completers`` (pings a network left to the average estimator, by kind:
+    ``"envelope"``, ``"pattern"``) summed by kind; a completer without counters adds nothing. How a completer that
+    wraps others (IMU-aware auto, fused) reports its members'."""
+    counts: dict[str, int] = {}
+    for c in completers:
+        for kind, n in getattr(c, "fallbacks", {}).items():
+            counts[kind] = counts.get(kind, 0) + n
+    return counts
+
+
 def fade_to_average(beams: np.ndarray, sigma: np.ndarray, measured: np.ndarray, run_steps, run_decay: float,
                     average) -> tuple[np.ndarray, np.ndarray]:
     """A network's completion ``(beams, sigma)`` faded to the average estimator's through a run of regressed pings:

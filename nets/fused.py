@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .completer import complete_with
+from .completer import complete_with, summed_fallbacks
 
 
 def check_correlation(name: str, value: float) -> None:
@@ -109,11 +109,7 @@ class FusedCompleter:
     def fallbacks(self) -> dict:
         """Both members' fallback counters summed by kind (``"envelope"``, ``"pattern"``), empty when neither
         counts."""
-        counts: dict = {}
-        for c in (self.first, self.second):
-            for k, n in getattr(c, "fallbacks", {}).items():
-                counts[k] = counts.get(k, 0) + n
-        return counts
+        return summed_fallbacks((self.first, self.second))
 
     def members(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
         """``(b1, s1, b2, s2)``: both members' completions (4,) and sigmas (4,), the sigmas grown by ``growth``

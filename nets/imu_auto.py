@@ -29,7 +29,7 @@ import numpy as np
 
 from graphnav.core.errors import ConfigError
 
-from .completer import check_drift_std, check_inputs, complete_with
+from .completer import check_drift_std, check_inputs, complete_with, summed_fallbacks
 from .fused import fuse
 from .model import scenario_name
 
@@ -93,10 +93,7 @@ class ImuAutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        counts = dict(getattr(self.beam_only, "fallbacks", {"envelope": 0, "pattern": 0}))
-        counts["envelope"] = counts.get("envelope", 0) + sum(getattr(n, "fallbacks", {}).get("envelope", 0)
-                                                             for n in self.networks.values())
-        return counts
+        return {"envelope": 0, "pattern": 0} | summed_fallbacks([self.beam_only, *self.networks.values()])
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:

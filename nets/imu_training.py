@@ -26,6 +26,7 @@ import torch
 
 from graphnav.core.config import DvlSpec
 from graphnav.core.dvl import make_beams
+from graphnav.io.loaders import akit_files
 
 from . import imu_data
 from .data import _data_dir
@@ -156,7 +157,7 @@ def card_envelope(card: dict, data_dir=None) -> dict:
     d = _data_dir(data_dir, "akit")
     numbers = card["split"]["train_trajectories"]
     for k in numbers:
-        path = d / f"Trajectory{k}" / f"DVL_trajectory{k}.csv"
+        path = akit_files(d / f"Trajectory{k}", require_gt=False)["DVL"]
         expected = card["data"]["DVL_sha256"].get(f"Trajectory{k}")
         if expected is not None and file_sha256(path) != expected:
             raise DataError(f"{path}: not the DVL file the network was trained on (sha256 differs from its card)",
@@ -234,8 +235,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         "data": {
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
                       "via graphnav.missions.load_akit",
-            "DVL_sha256": {s.name: file_sha256(d / s.name / f"DVL_trajectory{s.name.removeprefix('Trajectory')}.csv")
-                           for s in recorded},
+            "DVL_sha256": {s.name: file_sha256(akit_files(d / s.name, require_gt=False)["DVL"]) for s in recorded},
             "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},
             "beam_seed": opt.beam_seed, "draws": opt.draws,
         },
