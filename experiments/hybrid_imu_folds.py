@@ -17,8 +17,9 @@ the bench's IMU grades and seeds, :func:`graphnav.evaluation.bench.cases.prepare
 - ``HNI fused plain``: the same fusion with independent errors and no growth of its own (nothing fitted);
 - ``HNI fold fading``: ``HNI fold`` with the network fading to the average through a run of regressed pings
   (``run_decay`` :data:`IMU_FADE`, chosen out of fold by ``experiments/completer_fade_folds.py --imu``);
-- ``HNI fold fused`` (with ``--beam-nets DIR`` too): ``HNI fold fading`` fused with the fold's beam-only network
-  (fading with the shipped card's ``run_decay``), which also serves the pings without an IMU window
+- ``HNI fold fused`` (with ``--beam-nets DIR`` too): the fold's IMU-aware network fused with its beam-only network,
+  both fading as the shipped fused completer's members do (:data:`graphnav.nets.imu_auto.FUSED_RUN_DECAY`); the
+  beam-only network with its card's ``run_decay`` serves the pings without an IMU window
   (:class:`graphnav.nets.ImuAutoCompleter` ``beam_correlation``, as ``Graph-HNI`` runs the shipped pair);
 - ``HN-net fold`` (with ``--beam-nets DIR``, ``graphnav eval-beams --folds --save-nets``): the fold's beam-only
   network, as ``Graph-HN-net`` runs the shipped one.
@@ -67,11 +68,14 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.network import load_completer
     method = method.removesuffix(FITTED).removesuffix(SERIAL)
     if method == "HNI fold fused":
-        from graphnav.nets.imu_auto import IMU_BEAM_ERROR_CORRELATION
+        from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
+        decays = FUSED_RUN_DECAY[scenario]
         beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=shipped_run_decay(scenario))
-        net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=IMU_FADE)
-        return ImuAutoCompleter([net], beam, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]})
+        fused_beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=decays["beam-only"])
+        net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])
+        return ImuAutoCompleter([net], beam, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]},
+                                fused_beam_only=fused_beam)
     if method == "HN-net fold":
         return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):

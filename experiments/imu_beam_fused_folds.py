@@ -286,8 +286,8 @@ def report(rows: list[dict]) -> str:
 
 
 def fold_network_parser(description: str, out_default: str) -> argparse.ArgumentParser:
-    """The command line of a study on each fold's two networks: scenario, the networks' folders, the data, the rows
-    file and ``--report``."""
+    """The command line of a study on each fold's two networks: scenario, the networks' folders, their fadings'
+    ``run_decay``, the data, the rows file and ``--report``."""
     p = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scenario", choices=["2-missing", "3-missing"])
     p.add_argument("--imu-nets", help="IMU-aware fold networks (experiments/imu_completer_folds.py --save-nets DIR)")
@@ -296,6 +296,8 @@ def fold_network_parser(description: str, out_default: str) -> argparse.Argument
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--out", default=out_default, help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs")
+    p.add_argument("--imu-decay", type=float, help="IMU-aware run_decay (default: the shipped card's)")
+    p.add_argument("--beam-decay", type=float, help="beam-only run_decay (default: the shipped card's)")
     return p
 
 
@@ -303,6 +305,8 @@ def report_or_run(p: argparse.ArgumentParser, a: argparse.Namespace, report_rows
     """Print ``report_rows`` of the ``--report`` files, or of ``run_rows(out_path)`` (the networks' arguments
     required)."""
     if a.report:
+        if a.imu_decay is not None or a.beam_decay is not None:
+            p.error("--imu-decay / --beam-decay set a run; --report reads the decays its rows were run with")
         print(report_rows([r for path in a.report for r in json.loads(Path(path).read_text())]))
         return 0
     if not (a.scenario and a.imu_nets and a.beam_nets):
@@ -315,8 +319,6 @@ def report_or_run(p: argparse.ArgumentParser, a: argparse.Namespace, report_rows
 
 def main(argv=None) -> int:
     p = fold_network_parser(__doc__, "out/fusedens/rows.json")
-    p.add_argument("--imu-decay", type=float, help="IMU-aware run_decay (default: the shipped card's)")
-    p.add_argument("--beam-decay", type=float, help="beam-only run_decay (default: the shipped card's)")
     a = p.parse_args(argv)
     return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out,
                                                        a.imu_decay, a.beam_decay))

@@ -148,7 +148,7 @@ def oracle_task(item):
         if variant.startswith(RECORDED) and variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma
             from graphnav.nets.imu_auto import ImuAutoCompleter     # growth per ping, m/s
             comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
-                                    drift_std=float(variant.split()[-1]))
+                                    drift_std=float(variant.split()[-1]), fused_beam_only=comp.fused_beam_only)
 
         def at_regressed(rows, sel, y_true, t, geometry):
             errors.extend((rows.y[sel] - y_true).tolist())

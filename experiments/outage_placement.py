@@ -27,9 +27,22 @@ take about half the time. Usage::
         --beam-nets out/ens2-s100/akit-residual-aug-ens5 --completers fused "fused, envelope" \\
         --out out/placement/s100_2.json
     .venv/bin/python experiments/outage_placement.py --report out/placement/rows2.json out/placement/rows3.json
+
+``--imu-decay`` / ``--beam-decay`` run the two fadings with another ``run_decay`` (default: the cards', each chosen
+for its completer alone; ``Graph-HNI`` fuses them with :data:`graphnav.nets.imu_auto.FUSED_RUN_DECAY`), and
+``--report FILES --choose-decays`` applies the fadings' rule (fewest fold cells worse than the average, then the
+largest smallest pooled gain) to the pairs the files hold, over every placement and every training draw they hold
+(a row names its fold networks): on all folds, and leave-one-fold-out with each fold scored on the pair the other
+four chose::
+
+    .venv/bin/python experiments/outage_placement.py --scenario 2-missing --imu-nets out/imu_folds/nets2 \\
+        --beam-nets out/ens2/akit-residual-aug-ens5 --completers "fused, envelope" --imu-decay 1 --beam-decay 1 \\
+        --out out/decay/2_i1_b1.json
+    .venv/bin/python experiments/outage_placement.py --report out/decay/2_*.json --choose-decays
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -120,7 +133,7 @@ def envelope_variants(net, akit_dir):
 
 
 def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride: int,
-        names=COMPLETERS) -> list[dict]:
+        names=COMPLETERS, imu_decay: float | None = None, beam_decay: float | None = None) -> list[dict]:
     """Rows of :func:`rollout_windows` per fold and evaluation IMU for the completers ``names`` (a subset of
     :data:`COMPLETERS`; the average is always run), rewritten to ``out`` after every fold."""
     import json
@@ -135,7 +148,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     if PERIOD % stride:
         raise ValueError(f"--stride must divide {PERIOD} so that every placement has the studies' spacing")
-    nets = fold_networks(scenario, imu_dir, beam_dir)
+    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay)
     # the IMU-aware network whose envelope fallbacks are counted: its own completer's if it runs, else the fused
     # one's member (the beam-only member keeps counters of its own)
     counted = "IMU-aware, envelope" if "IMU-aware, envelope" in names else "fused, envelope"
@@ -155,7 +168,9 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
             completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario])} | {n: makers[n]() for n in names}
             sq, starts = rollout_windows(completers, series, list(net.missing), OUTAGE_SETTLE, stride)
             row = {"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade,
-                   "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq}
+                   "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq,
+                   "run_decay": {"IMU-aware": net.run_decay, "beam-only": beam_net.run_decay},
+                   "nets": {"IMU-aware": str(imu_dir), "beam-only": str(beam_dir)}}
             if counted in names:
                 row |= {"envelope_fallbacks": enveloped.fallbacks["envelope"], "envelope_counted_in": counted,
                         "completions": len(starts) * WINDOW}
@@ -166,17 +181,143 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     return rows
 
 
+def row_decays(row: dict) -> tuple[float, float]:
+    """(IMU-aware, beam-only) ``run_decay`` a row was scored with."""
+    if "run_decay" not in row:
+        raise ValueError("a row without 'run_decay' (the fadings it was scored with): run it again to choose decays")
+    return row["run_decay"]["IMU-aware"], row["run_decay"]["beam-only"]
+
+
+def placements_worse(rows: list[dict], name: str) -> tuple[int, int]:
+    """(worse, all): the (fold, evaluation IMU, placement) cells of ``rows`` (placements that hold a window) in
+    which ``name``'s velocity gain against the average is negative."""
+    worse = total = 0
+    for r in rows:
+        place = placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"])
+        for p in np.unique(place):
+            worse += gain(r["sq"][name], r["sq"]["average"], place == p)[1] < 0
+            total += 1
+    return worse, total
+
+
+def row_draw(row: dict) -> str:
+    """The training draw a row was scored on: the folder of its IMU-aware fold networks."""
+    if "nets" not in row:
+        raise ValueError("a row without 'nets' (the fold networks it was scored on): run it again to choose decays")
+    return os.path.normpath(row["nets"]["IMU-aware"])
+
+
+def decay_gains(rows: list[dict], name: str, folds) -> tuple[dict, dict]:
+    """Over every placement, for the completer ``name`` in ``rows`` of one scenario and one decay pair (one or more
+    training draws, :func:`row_draw`): the pooled gain over ``folds`` per (draw, evaluation IMU, metric) and each
+    fold's per (draw, fold, IMU, metric), in %."""
+    pooled, per_fold = {}, {}
+    for draw in dict.fromkeys(map(row_draw, rows)):
+        for grade in dict.fromkeys(r["grade"] for r in rows):
+            sel = [r for r in rows if row_draw(r) == draw and r["grade"] == grade and r["fold"] in folds]
+            for m in (0, 1):
+                net = sum(np.sum(r["sq"][name][m]) for r in sel)
+                avg = sum(np.sum(r["sq"]["average"][m]) for r in sel)
+                pooled[draw, grade, m] = 100.0 * (1.0 - np.sqrt(net / avg))
+            for r in sel:
+                for m, g in enumerate(gain(r["sq"][name], r["sq"]["average"])):
+                    per_fold[draw, r["fold"], grade, m] = g
+    return pooled, per_fold
+
+
+def choose_decays(by_pair: dict, name: str, folds):
+    """The fadings' rule over every placement: the (IMU-aware, beam-only) ``run_decay`` pair with the fewest fold
+    cells (training draw x fold x evaluation IMU x beam / velocity) worse than the average, then the largest smallest
+    pooled gain (over draws, IMUs and metrics)."""
+    def key(pair):
+        pooled, per_fold = decay_gains(by_pair[pair], name, folds)
+        return sum(g < 0 for g in per_fold.values()), -min(pooled.values()), pair   # a tie: the faster fading
+    return min(by_pair, key=key)
+
+
+def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
+    """Per scenario, every (IMU-aware, beam-only) ``run_decay`` pair the rows hold in every training draw they hold,
+    scored over every placement; the pair :func:`choose_decays` picks on all folds and, leave-one-fold-out, the pair
+    each fold gets from the other folds with that fold's gains and the pooled out-of-fold gains (each fold scored
+    with its own pair), per draw."""
+    lines = [f"`run_decay` of the two fadings for `{name}` over every placement (gain against the average, %, "
+             "beam / velocity; worse: fold x IMU x metric cells below the average; placements worse: fold x IMU x "
+             "placement cells whose velocity gain is below the average's, which the rule does not count)", ""]
+    if not rows:
+        raise ValueError("no rows to choose run_decay from")
+    for sc in dict.fromkeys(r["scenario"] for r in rows):
+        sel = [r for r in rows if r["scenario"] == sc and name in r["sq"]]
+        if len({(r["settle"], r["stride"]) for r in sel}) > 1:
+            raise ValueError(f"{sc}: the rows place their windows differently (settle, stride "
+                             f"{sorted({(r['settle'], r['stride']) for r in sel})}); choose over one layout")
+        draws = list(dict.fromkeys(map(row_draw, sel)))
+        folds = sorted({r["fold"] for r in sel})
+        by_pair: dict = {}
+        seen = set()
+        for r in sel:
+            key = (tuple(row_decays(r)), row_draw(r), r["fold"], r["grade"])
+            if key in seen:
+                raise ValueError(f"{sc}: two rows of run_decay {key[0]}, networks {key[1]}, fold {key[2]}, "
+                                 f"{key[3]} IMU (a file given twice?)")
+            seen.add(key)
+            by_pair.setdefault(key[0], []).append(r)
+        # a pair is compared only where it holds every fold of every draw
+        by_pair = {k: v for k, v in by_pair.items()
+                   if {(row_draw(r), r["fold"]) for r in v} == {(d, f) for d in draws for f in folds}}
+        if not by_pair:
+            raise ValueError(f"{sc}: no run_decay pair holds every fold of every training draw {draws}")
+        grades = list(dict.fromkeys(r["grade"] for r in sel))
+        lines += [f"### {sc} (training draws: " + ", ".join(f"{k + 1} = {d}" for k, d in enumerate(draws)) + ")", "",
+                  "| IMU-aware / beam-only decay | draw | " + " | ".join(f"pooled, {g}" for g in grades)
+                  + " | worst fold cell | worse | placements worse (velocity) |",
+                  "| --- | --- |" + " --- |" * (len(grades) + 3)]
+        for pair in sorted(by_pair):
+            for k, draw in enumerate(draws):
+                part = [r for r in by_pair[pair] if row_draw(r) == draw]
+                pooled, per_fold = decay_gains(part, name, folds)
+                worst = min(per_fold, key=per_fold.get)
+                lines.append(f"| {pair[0]:g} / {pair[1]:g} | {k + 1} | " + " | ".join(
+                    f"{pooled[draw, g, 0]:+.1f} / {pooled[draw, g, 1]:+.1f}" for g in grades)
+                    + f" | {per_fold[worst]:+.1f} (fold {worst[1]}, {worst[2]}, {('beam', 'velocity')[worst[3]]}) | "
+                    f"{sum(g < 0 for g in per_fold.values())} | {'{} of {}'.format(*placements_worse(part, name))} |")
+        chosen = choose_decays(by_pair, name, folds)
+        lines += ["", f"Chosen on all folds: {chosen[0]:g} / {chosen[1]:g}. Chosen without the fold it is scored on:"]
+        oof = {(d, g, m): [0.0, 0.0] for d in draws for g in grades for m in (0, 1)}
+        worse = 0
+        for f in folds:
+            pair = choose_decays(by_pair, name, [o for o in folds if o != f])
+            _, per_fold = decay_gains(by_pair[pair], name, [f])
+            worse += sum(g < 0 for g in per_fold.values())
+            lines.append(f"- fold {f}: {pair[0]:g} / {pair[1]:g} -> " + "; ".join(
+                f"draw {k + 1} " + ", ".join(f"{g} {per_fold[d, f, g, 0]:+.1f} / {per_fold[d, f, g, 1]:+.1f}"
+                                             for g in grades) for k, d in enumerate(draws)))
+            for r in by_pair[pair]:
+                if r["fold"] == f:
+                    for m in (0, 1):
+                        oof[row_draw(r), r["grade"], m][0] += float(np.sum(r["sq"][name][m]))
+                        oof[row_draw(r), r["grade"], m][1] += float(np.sum(r["sq"]["average"][m]))
+        lines += ["", "Out of fold, pooled: " + "; ".join(f"draw {k + 1} " + ", ".join(
+            f"{g} " + " / ".join(f"{100 * (1 - np.sqrt(n / d)):+.1f}" for n, d in (oof[draw, g, 0], oof[draw, g, 1]))
+            for g in grades) for k, draw in enumerate(draws)) + f"; fold cells worse: {worse}", ""]
+    return "\n".join(lines)
+
+
 def report(rows: list[dict]) -> str:
     lines = ["Gain against the average estimator through recursive 30-ping outages, beam / velocity RMSE (%): at the "
              "studies' placement (p = 0), the range over the placements, and over every placement with its 90 % "
              "interval (90-ping blocks drawn again); `worse in` counts the placements where the fold's velocity "
              "gain is negative.", ""]
-    for sc in dict.fromkeys(r["scenario"] for r in rows):
-        for grade in dict.fromkeys(r["grade"] for r in rows if r["scenario"] == sc):
-            sel = sorted((r for r in rows if (r["scenario"], r["grade"]) == (sc, grade)), key=lambda r: r["fold"])
+    # rows written before rows held their run_decay ran the cards' fadings
+    decays = [tuple(row_decays(r)) if "run_decay" in r else None for r in rows]
+    for sc, pair in dict.fromkeys((r["scenario"], d) for r, d in zip(rows, decays)):
+        for grade in dict.fromkeys(r["grade"] for r, d in zip(rows, decays) if (r["scenario"], d) == (sc, pair)):
+            sel = sorted((r for r, d in zip(rows, decays) if (r["scenario"], r["grade"], d) == (sc, grade, pair)),
+                         key=lambda r: r["fold"])
             settle, stride = sel[0]["settle"], sel[0]["stride"]
             n_place = PERIOD // stride
-            lines += [f"### {sc}, {grade} IMU ({n_place} placements, a window every {stride} pings)", "",
+            fading = "the cards'" if pair is None else f"{pair[0]:g} / {pair[1]:g}"
+            lines += [f"### {sc}, {grade} IMU, run_decay {fading} ({n_place} placements, a window every {stride} "
+                      "pings)", "",
                       "| completer | fold | p = 0 | range over placements (velocity) | every placement | 90 % "
                       "interval (velocity) | worse in |", "| --- | --- | --- | --- | --- | --- | --- |"]
             for name in (n for n in COMPLETERS if all(n in r["sq"] for r in sel)):
@@ -221,9 +362,16 @@ def main(argv=None) -> int:
     p.add_argument("--completers", nargs="+", choices=COMPLETERS, default=list(COMPLETERS), metavar="NAME",
                    help="completers scored against the average (default all: " + ", ".join(f"'{n}'" for n in COMPLETERS)
                    + "); the two fused ones alone take about half the time")
+    p.add_argument("--choose-decays", metavar="NAME", nargs="?", const="fused, envelope", choices=COMPLETERS,
+                   help="with --report: choose the two fadings' run_decay pair for NAME (default 'fused, envelope') "
+                   "over every placement and training draw, on all folds and leave-one-fold-out, among the pairs "
+                   "the rows were run with (each row records its run_decay and fold networks)")
     a = p.parse_args(argv)
-    return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out, a.stride,
-                                                       a.completers))
+    if a.choose_decays and not a.report:
+        p.error("--choose-decays reads finished runs: give them with --report")
+    chosen_report = (lambda rows: decay_report(rows, a.choose_decays)) if a.choose_decays else report
+    return report_or_run(p, a, chosen_report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out, a.stride,
+                                                       a.completers, a.imu_decay, a.beam_decay))
 
 
 if __name__ == "__main__":

@@ -170,10 +170,11 @@ def fold_rows(fold: int, grade: str, scenario: str, nets, series, pp: dict, rho:
     return out + [{**base, "mode": "outage 30 s", "sq": made, "picks": picks}]
 
 
-def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path) -> list[dict]:
+def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_decay: float | None = None,
+        beam_decay: float | None = None) -> list[dict]:
     from imu_beam_fused_folds import fitted_rho, fold_networks, held_out_per_ping
     from imu_completer_folds import EVAL_GRADES
-    nets = fold_networks(scenario, imu_dir, beam_dir)
+    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay)
     series, pp = held_out_per_ping(nets, scenario, akit_dir)
     rows = []
     for f in nets:
@@ -227,7 +228,8 @@ def main(argv=None) -> int:
     from imu_beam_fused_folds import fold_network_parser, report_or_run
     p = fold_network_parser(__doc__, "out/mixture/mix.json")
     a = p.parse_args(argv)
-    return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out))
+    return report_or_run(p, a, report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out,
+                                                       a.imu_decay, a.beam_decay))
 
 
 if __name__ == "__main__":

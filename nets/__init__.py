@@ -10,8 +10,9 @@ trains a network on the BeamsNet data (``graphnav train-beams``).
 ``train_imu`` / ``graphnav train-beams --imu``); it needs the IMU window:
 ``complete(past, measured, imu=(f_b, omega_b))`` (see :mod:`graphnav.nets.imu_network`).
 ``load_imu_auto_completer()`` serves every pattern: the IMU-aware networks where trained and given an IMU
-window, each completion fused with ``load_completer("auto")``'s by their sigmas, and ``load_completer("auto")``
-alone otherwise (:mod:`graphnav.nets.imu_auto`).
+window, each completion fused with ``load_completer("auto")``'s by their sigmas (both members fading as
+``FUSED_RUN_DECAY`` says: not at all), and ``load_completer("auto")`` alone otherwise, fading as its cards say
+(:mod:`graphnav.nets.imu_auto`).
 
 ``FusedCompleter(first, second, rho, growth)`` combines two completers' regressed beams by their sigmas, their
 error correlation and each one's sigma growth through an outage (:mod:`graphnav.nets.fused`; a study, not a
@@ -37,7 +38,7 @@ _LAZY = {
     "train": "training",
     "ImuBeamRegressor": "imu_model", "ImuNetworkCompleter": "imu_network", "load_imu_completer": "imu_network",
     "load_imu_model": "imu_network", "ImuTrainOptions": "imu_recipes", "train_imu": "imu_training",
-    "ImuAutoCompleter": "imu_auto", "load_imu_auto_completer": "imu_auto",
+    "ImuAutoCompleter": "imu_auto", "load_imu_auto_completer": "imu_auto", "load_fused_beam_only": "imu_auto",
     "FusedCompleter": "fused",
 }
 

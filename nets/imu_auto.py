@@ -12,7 +12,11 @@ With ``beam_correlation`` the IMU-aware completion is fused with the beam-only o
 (:func:`graphnav.nets.fused.fuse`): inverse-variance weights, and the sigma of that combination with the two errors
 correlated as measured out of fold (:data:`IMU_BEAM_ERROR_CORRELATION`). The two see different things (the IMU's
 turn, the past beams' trend) and fail on different trajectories; out of fold the fusion is better than either
-alone (``docs/decisions/completers.md``, "The IMU-aware completer fused with the beam-only one").
+alone (``docs/decisions/completers.md``, "The IMU-aware completer fused with the beam-only one"). Each network's
+card fades it to the average through a run of regressed pings, a fading chosen for that network alone; fused, the
+members fade as :data:`FUSED_RUN_DECAY` says (not at all: over every placement of the outages and two training
+draws, the fusion without fading is better than the average in every fold and by more than with the cards'
+fadings), the fused member being a second beam-only completer (``fused_beam_only``).
 
 ``drift_std`` (m/s per ping) is the growth :class:`graphnav.estimators.history.BeamHistory` gives its sigma through a
 run of pings with regressed beams (None: the history's 0.03). The shipped completer keeps the history's growth on
@@ -38,6 +42,14 @@ from .model import scenario_name
 #: (``experiments/imu_beam_fused_folds.py``); the sigma of the fused completion uses it.
 IMU_BEAM_ERROR_CORRELATION = {"2-missing": 0.80, "3-missing": 0.71}
 
+#: ``run_decay`` of the two members when fused, 1 = no fading (their cards' values were chosen for each alone):
+#: the fadings' rule (fewest fold cells worse than the average, then the largest smallest pooled gain) applied to
+#: the fused completer over every placement of 30-ping outages in two training draws, also leave-one-fold-out
+#: (``experiments/outage_placement.py --choose-decays``; ``docs/decisions/completers.md``, "The fadings chosen
+#: again for the fused completer").
+FUSED_RUN_DECAY = {"2-missing": {"IMU-aware": 1.0, "beam-only": 1.0},
+                   "3-missing": {"IMU-aware": 1.0, "beam-only": 1.0}}
+
 
 class ImuAutoCompleter:
     """IMU-aware networks where they apply, a beam-only completer elsewhere (module docstring).
@@ -48,31 +60,38 @@ class ImuAutoCompleter:
         beam_only: completer for the other pings (``complete(past, measured)``, ``n_past``), e.g.
             ``load_completer("auto")``.
         beam_correlation: scenario name ("2-missing", ...) -> correlation of the IMU-aware network's and
-            ``beam_only``'s errors; the IMU-aware completion of those patterns is fused with ``beam_only``'s
-            (module docstring). None (default): the IMU-aware network alone.
+            ``fused_beam_only``'s errors; the IMU-aware completion of those patterns is fused with
+            ``fused_beam_only``'s (module docstring). None (default): the IMU-aware network alone.
         drift_std: sigma growth per ping through a run of regressed pings, m/s (module docstring); None
             (default): the history's.
+        fused_beam_only: the beam-only completer whose completion is fused with the IMU-aware one (e.g. the same
+            networks fading as :data:`FUSED_RUN_DECAY` says); None (default): ``beam_only``.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
-    network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completer's).
+    network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completers', ``beam_only``
+    and ``fused_beam_only`` both counted when they are two).
     """
 
     needs_imu = True
 
     def __init__(self, imu_networks, beam_only, beam_correlation: dict[str, float] | None = None,
-                 drift_std: float | None = None):
+                 drift_std: float | None = None, fused_beam_only=None):
         imu_networks = list(imu_networks)
         if not imu_networks:
             raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
-        if any(not getattr(n, "needs_imu", False) for n in imu_networks) or getattr(beam_only, "needs_imu", False):
-            raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU and beam_only must not")
+        fused_beam_only = beam_only if fused_beam_only is None else fused_beam_only
+        if (any(not getattr(n, "needs_imu", False) for n in imu_networks)
+                or any(getattr(c, "needs_imu", False) for c in (beam_only, fused_beam_only))):
+            raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU and beam_only / fused_beam_only "
+                              "must not")
         windows = {(n.imu_samples, n.imu_rate_hz, n.ping_dt) for n in imu_networks}
         if len(windows) != 1:
             raise ConfigError(f"ImuAutoCompleter: the IMU-aware networks want different IMU windows {sorted(windows)}")
         self.networks = {tuple(n.missing): n for n in imu_networks}
         self.beam_only = beam_only
+        self.fused_beam_only = fused_beam_only
         self.beam_correlation = dict(beam_correlation or {})
         unknown = set(self.beam_correlation) - {scenario_name(m) for m in self.networks}
         if unknown:
@@ -86,14 +105,16 @@ class ImuAutoCompleter:
         # per missing pattern, so that a ping looks its correlation up by the pattern it already has
         self._fuse_rho = {m: self.beam_correlation.get(scenario_name(m)) for m in self.networks}
         (self.imu_samples, self.imu_rate_hz, self.ping_dt), = windows
-        self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past])
+        self.n_past = max([n.n_past for n in imu_networks] + [beam_only.n_past, fused_beam_only.n_past])
         # a fading completer needs the run steps that BeamHistory hands to completers taking them
-        self.takes_run_steps = any(getattr(c, "takes_run_steps", False) for c in (*imu_networks, beam_only))
+        self.takes_run_steps = any(getattr(c, "takes_run_steps", False)
+                                   for c in (*imu_networks, beam_only, fused_beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        return {"envelope": 0, "pattern": 0} | summed_fallbacks([self.beam_only, *self.networks.values()])
+        beam_only = [self.beam_only] + [self.fused_beam_only] * (self.fused_beam_only is not self.beam_only)
+        return {"envelope": 0, "pattern": 0} | summed_fallbacks([*beam_only, *self.networks.values()])
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -112,19 +133,41 @@ class ImuAutoCompleter:
             rho = self._fuse_rho[pattern]
             if rho is None:
                 return b_imu, s_imu
-            b_beam, s_beam = complete_with(self.beam_only, past[-self.beam_only.n_past:], measured,
+            b_beam, s_beam = complete_with(self.fused_beam_only, past[-self.fused_beam_only.n_past:], measured,
                                            run_steps=run_steps)
             return fuse(b_imu, s_imu, b_beam, s_beam, 0.0, rho)
         self.usage["no_imu" if net is not None else "pattern"] += 1
         return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, run_steps=run_steps)
 
 
-def load_imu_auto_completer(directory=None, beam_only=None, fused: bool = True) -> ImuAutoCompleter:
+def load_fused_beam_only(directory=None):
+    """The beam-only member :func:`load_imu_auto_completer` fuses with: ``load_completer("auto")`` (``directory``:
+    its weights, default the shipped ones) fading as :data:`FUSED_RUN_DECAY` says."""
+    from .network import load_completer
+    return load_completer("auto", directory=directory,
+                          run_decay={name: d["beam-only"] for name, d in FUSED_RUN_DECAY.items()})
+
+
+def load_imu_auto_completer(directory=None, beam_only=None, fused: bool = True,
+                            fused_beam_only=None) -> ImuAutoCompleter:
     """The shipped IMU-aware networks (2 and 3 missing beams) with ``beam_only`` (default
-    ``load_completer("auto")``) for the other pings; ``directory`` holds the IMU-aware weights. ``fused``
-    (default): each IMU-aware completion fused with ``beam_only``'s (:data:`IMU_BEAM_ERROR_CORRELATION`)."""
+    ``load_completer("auto")``, fading as its cards say) for the other pings; ``directory`` holds the IMU-aware
+    weights. ``fused`` (default): each IMU-aware completion fused with ``fused_beam_only``'s
+    (:data:`IMU_BEAM_ERROR_CORRELATION`; default :func:`load_fused_beam_only`), both members fading as
+    :data:`FUSED_RUN_DECAY` says. Not fused: the IMU-aware networks fade with their cards' ``run_decay``.
+
+    Raises:
+        ConfigError: fused with a ``beam_only`` of the caller's but no ``fused_beam_only`` (which networks the
+            IMU-aware ones are fused with must be said, not taken from the shipped weights behind the caller's back).
+    """
     from .imu_network import load_imu_completer
     from .network import load_completer
-    nets = [load_imu_completer(m, directory) for m in (2, 3)]
-    return ImuAutoCompleter(nets, beam_only if beam_only is not None else load_completer("auto"),
-                            IMU_BEAM_ERROR_CORRELATION if fused else None)
+    if fused and beam_only is not None and fused_beam_only is None:
+        raise ConfigError("load_imu_auto_completer: with a beam_only of your own, give fused_beam_only too (e.g. "
+                          "load_fused_beam_only(directory)): the fused member fades as FUSED_RUN_DECAY says")
+    beam_only = beam_only if beam_only is not None else load_completer("auto")
+    if not fused:
+        return ImuAutoCompleter([load_imu_completer(m, directory) for m in (2, 3)], beam_only)
+    nets = [load_imu_completer(m, directory, run_decay=FUSED_RUN_DECAY[f"{m}-missing"]["IMU-aware"]) for m in (2, 3)]
+    fused_beam_only = fused_beam_only if fused_beam_only is not None else load_fused_beam_only()
+    return ImuAutoCompleter(nets, beam_only, IMU_BEAM_ERROR_CORRELATION, fused_beam_only=fused_beam_only)

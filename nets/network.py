@@ -251,7 +251,8 @@ def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegres
 
 
 def load_completer(missing=2, sigma: str = "head", directory: str | Path | None = None,
-                   fallback_n_past: int = 3, sigma_scale: float = 1.0, run_decay: float | None = None):
+                   fallback_n_past: int = 3, sigma_scale: float = 1.0,
+                   run_decay: float | dict[str, float] | None = None):
     """A beam completer with the shipped (or ``directory``'s) weights.
 
     Args:
@@ -262,10 +263,16 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
         fallback_n_past: window of the average estimator used by ``"auto"`` for untrained patterns.
         sigma_scale: factor on the network's sigma (see :class:`NetworkCompleter`).
         run_decay: fading to the average through a run of regressed pings (see :class:`NetworkCompleter`);
-            None: the model card's ``"run_decay"`` (1, no fading, when the card has none).
+            None: the model card's ``"run_decay"`` (1, no fading, when the card has none). With ``"auto"`` also
+            a mapping scenario ("2-missing", "3-missing") -> run_decay (a scenario it lacks: the card's).
     """
     if missing == "auto":
-        nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale, run_decay=run_decay)
+        decays = run_decay if isinstance(run_decay, dict) else dict.fromkeys(("2-missing", "3-missing"), run_decay)
+        unknown = set(decays) - {"2-missing", "3-missing"}
+        if unknown:
+            raise ConfigError(f"run_decay names {sorted(unknown)}; the auto completer's networks are "
+                              "'2-missing' and '3-missing'")
+        nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale, run_decay=decays.get(m))
                 for m in ("2-missing", "3-missing")]
         return AutoCompleter(nets, AverageCompleter(fallback_n_past))
     if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
@@ -273,6 +280,8 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
             raise ConfigError(f"missing={missing}: shipped networks exist for 2 and 3 missing beams; "
                               "use 'auto' for other patterns")
         missing = f"{missing}-missing"
+    if isinstance(run_decay, dict):
+        raise ConfigError("run_decay per scenario is for missing='auto'; give one network one run_decay")
     model, card = load_model(missing, directory)
     if run_decay is None:
         run_decay = card_run_decay(card, scenario_name(normalize_missing(missing)), directory)

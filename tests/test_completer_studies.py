@@ -214,3 +214,65 @@ def test_every_placement_holds_the_studies_windows_at_placement_zero_and_blocks_
     same = [[1.0] * 9, [2.0] * 9], [[2.0] * 9, [2.0] * 9]
     (blo, bhi), (vlo, vhi) = study.block_interval(*same, np.repeat(np.arange(3), 3))
     assert blo == bhi == pytest.approx(100 * (1 - np.sqrt(0.5))) and vlo == vhi == 0.0
+
+
+def test_decay_choice_over_every_placement_counts_worse_folds_first_and_scores_each_fold_out_of_fold():
+    study = _study("outage_placement")
+
+    def row(fold, pair, ratio, draw="nets"):
+        # two windows a fold; the completer's squared errors are ratio^2 the average's in both metrics
+        avg = [[1.0, 3.0], [2.0, 2.0]]
+        return {"scenario": "2-missing", "fold": fold, "grade": "mems", "settle": 10, "stride": 10,
+                "starts": [[0, 10], [0, 110]], "nets": {"IMU-aware": draw, "beam-only": "beams"},
+                "run_decay": {"IMU-aware": pair[0], "beam-only": pair[1]},
+                "sq": {"average": avg, "fused, envelope": [[ratio ** 2 * x for x in m] for m in avg]}}
+    safe, bold = (0.95, 0.9), (0.98, 0.95)
+    rows = [row(f, safe, 0.9) for f in range(3)] + [row(f, bold, r) for f, r in enumerate((0.5, 0.6, 1.2))]
+    by_pair = {safe: rows[:3], bold: rows[3:]}
+    pooled, per_fold = study.decay_gains(by_pair[bold], "fused, envelope", [0, 1])
+    assert pooled["nets", "mems", 1] == pytest.approx(100 * (1 - np.sqrt((0.25 * 4 + 0.36 * 4) / 8)))
+    assert per_fold["nets", 1, "mems", 0] == pytest.approx(40.0)
+    # on all three folds the bold pair leaves fold 2 worse: the safe one wins although its pooled gain is smaller
+    assert study.choose_decays(by_pair, "fused, envelope", [0, 1, 2]) == safe
+    # without fold 2 nothing is worse and the bold pair's larger gain decides; fold 2 then pays for it out of fold
+    assert study.choose_decays(by_pair, "fused, envelope", [0, 1]) == bold
+    # the windows are placements 0 and 1 (of nine; the others hold none): fold 2 is worse in both, with the bold
+    # pair only
+    assert study.placements_worse(by_pair[bold], "fused, envelope") == (2, 6)
+    assert study.placements_worse(by_pair[safe], "fused, envelope")[0] == 0
+    text = study.decay_report(rows)
+    bold_pooled = 100 * (1 - np.sqrt((0.25 + 0.36 + 1.44) / 3))
+    assert f"| 0.98 / 0.95 | 1 | {bold_pooled:+.1f} / {bold_pooled:+.1f} | -20.0 (fold 2, mems, beam) | 2 | 2 of 6 |" in text
+    assert "Chosen on all folds: 0.95 / 0.9." in text
+    assert "- fold 2: 0.98 / 0.95 -> draw 1 mems -20.0 / -20.0" in text
+    assert "- fold 0: 0.95 / 0.9 -> draw 1 mems +10.0 / +10.0" in text
+    oof = 100 * (1 - np.sqrt((0.81 * 4 + 0.81 * 4 + 1.44 * 4) / 12))
+    assert f"Out of fold, pooled: draw 1 mems {oof:+.1f} / {oof:+.1f}; fold cells worse: 2" in text
+    # a second training draw in which the bold pair is worse in fold 0 too: on both draws it loses even without
+    # fold 2, and a pair missing from the second draw is left out
+    second = [row(f, safe, 0.9, "nets2") for f in range(3)] + [row(f, bold, r, "nets2") for f, r in enumerate((1.1, 0.6, 0.6))]
+    both = rows + second + [row(f, (1.0, 1.0), 0.1) for f in range(3)]
+    assert study.choose_decays({safe: rows[:3] + second[:3], bold: rows[3:] + second[3:]}, "fused, envelope",
+                               [0, 1]) == safe
+    text = study.decay_report(both)
+    assert "1 = nets, 2 = nets2" in text and "| 1 / 1 |" not in text
+    assert "- fold 2: 0.95 / 0.9 -> draw 1 mems +10.0 / +10.0; draw 2 mems +10.0 / +10.0" in text
+    # rows of two window layouts are not pooled into one choice, nor rows that do not say their networks
+    with pytest.raises(ValueError, match="place their windows differently"):
+        study.decay_report(rows + [{**row(0, (0.9, 0.9), 1.0), "stride": 90}])
+    with pytest.raises(ValueError, match="no rows"):
+        study.decay_report([])
+    with pytest.raises(ValueError, match="no run_decay pair"):
+        study.decay_report(rows, "fused")
+    with pytest.raises(ValueError, match="without 'nets'"):
+        study.decay_report([{k: v for k, v in r.items() if k != "nets"} for r in rows])
+    with pytest.raises(ValueError, match="without 'run_decay'"):
+        study.decay_report([{k: v for k, v in r.items() if k != "run_decay"} for r in rows])
+    with pytest.raises(ValueError, match="given twice"):
+        study.decay_report(rows + rows[:1])
+    # a draw is its networks' folder however it was spelt
+    assert study.decay_report(rows + [{**r, "nets": {**r["nets"], "IMU-aware": "nets2/"}} for r in second]) \
+        == study.decay_report(rows + second)
+    # tied pairs: the faster fading wins, whatever the order of the rows
+    twin = [{**r, "run_decay": {"IMU-aware": 1.0, "beam-only": 1.0}} for r in rows[:3]]
+    assert study.choose_decays({(1.0, 1.0): twin, safe: rows[:3]}, "fused, envelope", [0, 1, 2]) == safe

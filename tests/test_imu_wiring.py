@@ -197,6 +197,60 @@ def test_imu_auto_completer_fuses_with_the_beam_only_completion():
         ImuAutoCompleter([net], beam, {"2-missing": 1.0})
 
 
+def test_the_fused_members_fade_as_chosen_for_the_fusion_and_a_ping_without_imu_as_the_beam_only_card_says():
+    """Fused, the IMU-aware networks and the beam-only member fade with FUSED_RUN_DECAY; the pings without an IMU
+    window go to the beam-only completer with its own card's run_decay; the fallbacks of both beam-only completers
+    are counted."""
+    from graphnav.nets import ImuAutoCompleter, load_completer, load_imu_auto_completer, load_imu_completer
+    from graphnav.nets.fused import fuse
+    from graphnav.nets.imu_auto import FUSED_RUN_DECAY
+    shipped = load_imu_auto_completer()
+    for m in (2, 3):
+        name, pattern = f"{m}-missing", tuple(load_completer(m).missing)
+        assert shipped.networks[pattern].run_decay == FUSED_RUN_DECAY[name]["IMU-aware"]
+        assert shipped.fused_beam_only.networks[pattern].run_decay == FUSED_RUN_DECAY[name]["beam-only"]
+        assert shipped.beam_only.networks[pattern].run_decay == load_completer(m).run_decay
+    assert (load_imu_auto_completer(fused=False).networks[tuple(load_completer(2).missing)].run_decay
+            == load_imu_completer(2).run_decay)
+    # a fused member that fades otherwise than the no-IMU route: each route takes its own
+    net, slow, fast = load_imu_completer(2, run_decay=0.98), load_completer(2, run_decay=1.0), load_completer(2, run_decay=0.5)
+    auto = ImuAutoCompleter([net], fast, {"2-missing": 0.8}, fused_beam_only=slow)
+    assert auto.takes_run_steps and auto.n_past == 5
+    rng = np.random.default_rng(1)
+    past = make_beams(np.array([1.5, 0.1, 0.05]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 4)
+    imu = (np.tile([0.0, 0.0, -9.8], (2000, 1)), np.zeros((2000, 3)))
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    steps = np.array([6, 0, 6, 0])
+    b_imu, s_imu = net.complete(past, two, imu=imu, run_steps=steps)
+    b_slow, s_slow = slow.complete(past[-3:], two, run_steps=steps)
+    assert not np.allclose(b_slow, fast.complete(past[-3:], two, run_steps=steps)[0])
+    expect = fuse(b_imu, s_imu, b_slow, s_slow, 0.0, 0.8)
+    np.testing.assert_array_equal(auto.complete(past, two, imu=imu, run_steps=steps)[0], expect[0])
+    np.testing.assert_array_equal(auto.complete(past, two, run_steps=steps)[0],
+                                  fast.complete(past[-3:], two, run_steps=steps)[0])
+    fast.fallbacks["envelope"], slow.fallbacks["envelope"] = 2, 3
+    assert auto.fallbacks["envelope"] == 5 + net.fallbacks["envelope"]
+    with pytest.raises(ConfigError, match="fused_beam_only"):
+        ImuAutoCompleter([net], fast, fused_beam_only=net)
+    # a beam-only completer of the caller's is not fused with the shipped weights unasked
+    with pytest.raises(ConfigError, match="give fused_beam_only too"):
+        load_imu_auto_completer(beam_only=fast)
+    mine = load_imu_auto_completer(beam_only=fast, fused_beam_only=slow)
+    assert mine.beam_only is fast and mine.fused_beam_only is slow
+
+
+def test_auto_beam_completer_takes_a_run_decay_per_scenario():
+    from graphnav.nets import load_completer
+    auto = load_completer("auto", run_decay={"2-missing": 0.97})
+    assert auto.networks[tuple(load_completer(2).missing)].run_decay == 0.97
+    assert auto.networks[tuple(load_completer(3).missing)].run_decay == load_completer(3).run_decay
+    with pytest.raises(ConfigError, match="4-missing"):
+        load_completer("auto", run_decay={"4-missing": 0.9})
+    with pytest.raises(ConfigError, match="for missing='auto'"):
+        load_completer(2, run_decay={"2-missing": 0.9})
+
+
 def test_imu_auto_completer_sigma_grows_by_its_own_drift_through_an_outage():
     """The history grows a completer's sigma through a run of regressed pings by the completer's drift_std; None
     (the shipped completer's) leaves the history's 0.03. A growth that is negative, NaN or not a number is

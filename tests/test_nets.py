@@ -340,7 +340,7 @@ def test_completers_that_wrap_a_fading_network_hand_the_run_on():
     steps = np.array([5, 0, 5, 0])
     faded = fade.complete(past, measured, run_steps=steps)[0]
     assert not np.allclose(faded, fade.complete(past, measured)[0])     # the run changes the completion
-    imu_auto = load_imu_auto_completer(beam_only=fade)
+    imu_auto = load_imu_auto_completer(beam_only=fade, fused_beam_only=fade)
     assert imu_auto.takes_run_steps
     np.testing.assert_array_equal(imu_auto.complete(past, measured, imu=None, run_steps=steps)[0], faded)
     fused = FusedCompleter(fade, AverageCompleter(3))
@@ -349,5 +349,5 @@ def test_completers_that_wrap_a_fading_network_hand_the_run_on():
     from graphnav.nets import ImuAutoCompleter, load_imu_completer
     plain = [load_imu_completer(m, run_decay=1.0) for m in (2, 3)]
     assert not ImuAutoCompleter(plain, load_completer("auto", run_decay=1.0)).takes_run_steps
-    # the shipped IMU-aware networks fade themselves (their cards' run_decay)
-    assert load_imu_auto_completer(beam_only=load_completer("auto", run_decay=1.0)).takes_run_steps
+    # alone, the shipped IMU-aware networks fade themselves (their cards' run_decay)
+    assert load_imu_auto_completer(beam_only=load_completer("auto", run_decay=1.0), fused=False).takes_run_steps

@@ -54,8 +54,9 @@ average estimator stands in, with a warning, and the solution's ``info["complete
 
 The IMU-aware completer (kind ``"imu-network"``) is ``graphnav.nets.load_imu_auto_completer()`` in every
 scenario: the IMU-aware networks (2 and 3 missing beams) at pings with their pattern and a usable IMU window
-(the last 20 s at 100 Hz, kept by the keyframer), each completion fused with the beam-only one by their sigmas,
-and the beam-only ``load_completer("auto")`` alone at the others (the first 20 s, after an IMU gap, no beam
+(the last 20 s at 100 Hz, kept by the keyframer), each completion fused with the beam-only one by their sigmas
+(neither fading through an outage, ``graphnav.nets.imu_auto.FUSED_RUN_DECAY``), and the beam-only
+``load_completer("auto")`` alone, fading as its cards say, at the others (the first 20 s, after an IMU gap, no beam
 measured, other dropout patterns). ``info["completer_usage"]`` counts
 the routes (``imu`` / ``no_imu`` / ``pattern``), ``info["imu_window_missing"]`` why a window was missing.
 When its weights cannot be loaded the scenario's beam-only network stands in, with a warning.
@@ -324,7 +325,7 @@ def network_completer(scenario: str, noise_std: float = 0.042):
 def _imu_auto():
     """The IMU-aware completer, loaded once per process (its beam-only part is :func:`_network`'s "auto")."""
     from graphnav import nets
-    return nets.load_imu_auto_completer(beam_only=_network("auto"))
+    return nets.load_imu_auto_completer(beam_only=_network("auto"), fused_beam_only=nets.load_fused_beam_only())
 
 
 def imu_network_completer(scenario: str, noise_std: float = 0.042):
