@@ -369,7 +369,13 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     if a.choose_decays and not a.report:
         p.error("--choose-decays reads finished runs: give them with --report")
-    chosen_report = (lambda rows: decay_report(rows, a.choose_decays)) if a.choose_decays else report
+    def chosen_report(rows):
+        if not a.choose_decays:
+            return report(rows)
+        try:
+            return decay_report(rows, a.choose_decays)
+        except ValueError as exc:     # rows that cannot be compared: say why, without a traceback
+            p.error(f"--choose-decays: {exc}")
     return report_or_run(p, a, chosen_report, lambda out: run(a.scenario, a.imu_nets, a.beam_nets, a.data, out, a.stride,
                                                        a.completers, a.imu_decay, a.beam_decay))
 

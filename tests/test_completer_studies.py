@@ -276,3 +276,15 @@ def test_decay_choice_over_every_placement_counts_worse_folds_first_and_scores_e
     # tied pairs: the faster fading wins, whatever the order of the rows
     twin = [{**r, "run_decay": {"IMU-aware": 1.0, "beam-only": 1.0}} for r in rows[:3]]
     assert study.choose_decays({(1.0, 1.0): twin, safe: rows[:3]}, "fused, envelope", [0, 1, 2]) == safe
+
+
+def test_choose_decays_on_the_command_line_refuses_what_it_cannot_compare(tmp_path, capsys):
+    study = _study("outage_placement")
+    empty = tmp_path / "rows.json"
+    empty.write_text("[]")
+    for argv, says in ((["--choose-decays"], "give them with --report"),
+                       (["--report", str(empty), "--choose-decays"], "no rows to choose run_decay from"),
+                       (["--report", str(empty), "--imu-decay", "1"], "--report reads the decays")):
+        with pytest.raises(SystemExit) as stop:
+            study.main(argv)
+        assert stop.value.code == 2 and says in capsys.readouterr().err
