@@ -215,10 +215,9 @@ def decay_gains(rows: list[dict], name: str, folds) -> tuple[dict, dict]:
     for draw in dict.fromkeys(map(row_draw, rows)):
         for grade in dict.fromkeys(r["grade"] for r in rows):
             sel = [r for r in rows if row_draw(r) == draw and r["grade"] == grade and r["fold"] in folds]
-            for m in (0, 1):
-                net = sum(np.sum(r["sq"][name][m]) for r in sel)
-                avg = sum(np.sum(r["sq"]["average"][m]) for r in sel)
-                pooled[draw, grade, m] = 100.0 * (1.0 - np.sqrt(net / avg))
+            windows = {c: [[x for r in sel for x in r["sq"][c][m]] for m in (0, 1)] for c in (name, "average")}
+            for m, g in enumerate(gain(windows[name], windows["average"])):
+                pooled[draw, grade, m] = g
             for r in sel:
                 for m, g in enumerate(gain(r["sq"][name], r["sq"]["average"])):
                     per_fold[draw, r["fold"], grade, m] = g
@@ -282,8 +281,7 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
                     f"{sum(g < 0 for g in per_fold.values())} | {'{} of {}'.format(*placements_worse(part, name))} |")
         chosen = choose_decays(by_pair, name, folds)
         lines += ["", f"Chosen on all folds: {chosen[0]:g} / {chosen[1]:g}. Chosen without the fold it is scored on:"]
-        oof = {(d, g, m): [0.0, 0.0] for d in draws for g in grades for m in (0, 1)}
-        worse = 0
+        oof_rows, worse = [], 0
         for f in folds:
             pair = choose_decays(by_pair, name, [o for o in folds if o != f])
             _, per_fold = decay_gains(by_pair[pair], name, [f])
@@ -291,14 +289,11 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
             lines.append(f"- fold {f}: {pair[0]:g} / {pair[1]:g} -> " + "; ".join(
                 f"draw {k + 1} " + ", ".join(f"{g} {per_fold[d, f, g, 0]:+.1f} / {per_fold[d, f, g, 1]:+.1f}"
                                              for g in grades) for k, d in enumerate(draws)))
-            for r in by_pair[pair]:
-                if r["fold"] == f:
-                    for m in (0, 1):
-                        oof[row_draw(r), r["grade"], m][0] += float(np.sum(r["sq"][name][m]))
-                        oof[row_draw(r), r["grade"], m][1] += float(np.sum(r["sq"]["average"][m]))
+            oof_rows += [r for r in by_pair[pair] if r["fold"] == f]
+        oof, _ = decay_gains(oof_rows, name, folds)     # each fold with the pair the other folds chose
         lines += ["", "Out of fold, pooled: " + "; ".join(f"draw {k + 1} " + ", ".join(
-            f"{g} " + " / ".join(f"{100 * (1 - np.sqrt(n / d)):+.1f}" for n, d in (oof[draw, g, 0], oof[draw, g, 1]))
-            for g in grades) for k, draw in enumerate(draws)) + f"; fold cells worse: {worse}", ""]
+            f"{g} {oof[draw, g, 0]:+.1f} / {oof[draw, g, 1]:+.1f}" for g in grades) for k, draw in enumerate(draws))
+            + f"; fold cells worse: {worse}", ""]
     return "\n".join(lines)
 
 

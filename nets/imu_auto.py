@@ -113,8 +113,8 @@ class ImuAutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        beam_only = [self.beam_only] + [self.fused_beam_only] * (self.fused_beam_only is not self.beam_only)
-        return {"envelope": 0, "pattern": 0} | summed_fallbacks([*beam_only, *self.networks.values()])
+        return {"envelope": 0, "pattern": 0} | summed_fallbacks([self.beam_only, self.fused_beam_only,
+                                                                 *self.networks.values()])
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:

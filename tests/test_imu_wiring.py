@@ -231,6 +231,8 @@ def test_the_fused_members_fade_as_chosen_for_the_fusion_and_a_ping_without_imu_
                                   fast.complete(past[-3:], two, run_steps=steps)[0])
     fast.fallbacks["envelope"], slow.fallbacks["envelope"] = 2, 3
     assert auto.fallbacks["envelope"] == 5 + net.fallbacks["envelope"]
+    # one completer serving both routes is counted once
+    assert ImuAutoCompleter([net], fast).fallbacks["envelope"] == 2 + net.fallbacks["envelope"]
     with pytest.raises(ConfigError, match="fused_beam_only"):
         ImuAutoCompleter([net], fast, fused_beam_only=net)
     # a beam-only completer of the caller's is not fused with the shipped weights unasked
