@@ -20,12 +20,13 @@ fadings), the fused member being a second beam-only completer (``fused_beam_only
 
 ``drift_std`` (m/s per ping) is the growth :class:`graphnav.estimators.history.BeamHistory` gives its sigma through a
 run of pings with regressed beams (None: the history's 0.03). The shipped completer keeps the history's growth on
-purpose. In 60-120 s outages inside the graph, out of fold, that sigma is 1.8x the fused completion's error (0.90-0.92
-of the errors within 1 sigma) and the screening drops 87-100 % of the completions. A calibrated growth (0.01: 0.71-0.73
-within 1 sigma) lets them in and helps the graph pooled over the trajectories, but makes the steadiest held-out
-trajectory up to 2.2x worse than Graph-TC, and chosen leave-one-fold-out it picks that growth for the fold it harms
+purpose. In 60-120 s outages inside the graph, out of fold, that sigma is about twice the fused completion's error
+(0.93-0.95 of the errors within 1 sigma with the members not fading) and the screening drops most of the completions.
+A calibrated growth (0.01: 0.71-0.76 within 1 sigma) lets them in and helps the graph pooled over the trajectories,
+but makes the steadiest held-out trajectory up to 1.37x worse than Graph-TC (2.2x with the cards' fadings), and
+chosen leave-one-fold-out the rule gives that fold a smaller growth than 0.03, which harms it
 (``experiments/oracle_completions.py``; ``docs/decisions/completers.md``, "How good a completion
-would have to be").
+would have to be" and "The sigma growth checked again for the completer without fading").
 """
 from __future__ import annotations
 
