@@ -23,8 +23,8 @@ run of pings with regressed beams (None: the history's 0.03). The shipped comple
 purpose. In 60-120 s outages inside the graph, out of fold, that sigma is about twice the fused completion's error
 (0.93-0.95 of the errors within 1 sigma with the members not fading) and the screening drops most of the completions.
 A calibrated growth (0.01: 0.71-0.76 within 1 sigma) lets them in and helps the graph pooled over the trajectories,
-but makes the steadiest held-out trajectory up to 1.37x worse than Graph-TC (2.2x with the cards' fadings), and
-chosen leave-one-fold-out the rule gives that fold a smaller growth than 0.03, which harms it
+but makes the steadiest held-out fold (trajectories 6 and 13) up to 1.37x worse than Graph-TC, trajectory 6 alone
+up to 2.4x, and chosen leave-one-fold-out the rule gives that fold a smaller growth than 0.03, which harms it
 (``experiments/oracle_completions.py``; ``docs/decisions/completers.md``, "How good a completion
 would have to be" and "The sigma growth checked again for the completer without fading").
 """
