@@ -267,13 +267,14 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
             a mapping scenario ("2-missing", "3-missing") -> run_decay (a scenario it lacks: the card's).
     """
     if missing == "auto":
-        decays = run_decay if isinstance(run_decay, dict) else dict.fromkeys(("2-missing", "3-missing"), run_decay)
-        unknown = set(decays) - {"2-missing", "3-missing"}
+        trained = ("2-missing", "3-missing")     # the auto completer's networks
+        decays = run_decay if isinstance(run_decay, dict) else dict.fromkeys(trained, run_decay)
+        unknown = set(decays) - set(trained)
         if unknown:
             raise ConfigError(f"run_decay names {sorted(unknown)}; the auto completer's networks are "
                               "'2-missing' and '3-missing'")
         nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale, run_decay=decays.get(m))
-                for m in ("2-missing", "3-missing")]
+                for m in trained]
         return AutoCompleter(nets, AverageCompleter(fallback_n_past))
     if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
         if missing not in (2, 3):
