@@ -288,3 +288,60 @@ def test_choose_decays_on_the_command_line_refuses_what_it_cannot_compare(tmp_pa
         with pytest.raises(SystemExit) as stop:
             study.main(argv)
         assert stop.value.code == 2 and says in capsys.readouterr().err
+
+
+def test_departure_gate_measures_the_first_ping_and_hands_gated_windows_to_the_average():
+    import sys
+
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSeries
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("departure_gate")
+    rng = np.random.default_rng(3)
+    beams = np.cumsum(0.05 * rng.standard_normal((80, 4)), axis=0)
+    series = [BeamSeries("s", DvlGeometry.from_spec(DvlSpec()).velocity_from_beams(beams), beams)]
+    # a slow average stands in for the fused completer: z0 is its first completion's departure from the
+    # paper's average (3 pings) in that average's sigma, from the true pings before the window
+    slow, fast = AverageCompleter(12), AverageCompleter(3)
+    z0 = study.first_ping_departure(slow, fast, series, [(0, 20), (0, 50)], [1, 2])
+    for (_, start), z in zip([(0, 20), (0, 50)], z0):
+        b_slow, b_fast = beams[start - 12:start].mean(axis=0), beams[start - 3:start].mean(axis=0)
+        s_fast = np.sqrt(0.042 ** 2 * (1 + 1 / 3) + beams[start - 3:start].var(axis=0))
+        assert z == pytest.approx(np.max(np.abs(b_slow - b_fast)[[1, 2]] / s_fast[[1, 2]]))
+
+    def row(fold, net_sq, z):
+        return {"scenario": "2-missing", "fold": fold, "grade": "mems", "settle": 10, "stride": 10,
+                "starts": [[0, 10 + 10 * k] for k in range(len(z))], "nets": {"IMU-aware": "nets"},
+                "sq": {"average": [[1.0] * len(z)] * 2, "fused, envelope": [net_sq] * 2}, "z0": z}
+    # fold 0: the completer better everywhere, never far from the average; fold 1: two windows that start far
+    # from the average (z0 = 5) and go badly, enough to make the fold worse than the average ungated
+    rows = [row(0, [0.5] * 4, [0.2] * 4), row(1, [0.5, 0.5, 3.0, 3.0], [0.2, 0.2, 5.0, 5.0])]
+    gated, average = study.gated_sq(rows[1], 4.0)
+    assert list(gated[1]) == [0.5, 0.5, 1.0, 1.0] and list(average[1]) == [1.0] * 4
+    assert list(study.gated_sq(rows[1], 6.0)[0][1]) == [0.5, 0.5, 3.0, 3.0]
+    pooled, per_fold, share = study.gate_gains(rows, 4.0, [0, 1])
+    assert per_fold["nets", 1, "mems", 1] == pytest.approx(100 * (1 - np.sqrt(3.0 / 4.0))) and share == 0.25
+    assert study.gate_gains(rows, float("inf"), [0, 1])[1]["nets", 1, "mems", 1] < 0
+    # placement 0 holds only the first window of each fold (its windows start 10 pings apart)
+    assert study.gate_gains(rows, 4.0, [0, 1], placement=0)[0]["nets", "mems", 1] == pytest.approx(
+        100 * (1 - np.sqrt(0.5)))
+    # every threshold up to 4 gates the bad windows alone: fewest worse folds, then the tie goes to less gating
+    assert study.choose_threshold(rows, [0, 1]) == 4.0
+    # without fold 1 no gating shows any use, so fold 1 left out gets none
+    assert study.choose_threshold(rows, [0]) == float("inf")
+    assert "Chosen on all folds: Z = 4." in study.report(rows)
+
+
+def test_departure_gate_names_the_file_it_cannot_use(tmp_path, capsys):
+    study = _study("departure_gate")
+    placement_rows = tmp_path / "rows.json"
+    placement_rows.write_text(json.dumps([{"scenario": "2-missing", "fold": 0, "grade": "mems", "starts": [[0, 10]],
+                                           "settle": 10, "stride": 10, "sq": {}, "nets": {}, "run_decay": {}}]))
+    for argv, said in ((["--report", str(placement_rows)], "rows without 'z0' (run --rows ... --out first)"),
+                       (["--report", str(tmp_path / "absent.json")], "absent.json: cannot read rows"),
+                       (["--rows", str(placement_rows)], "--rows and --out are needed")):
+        with pytest.raises(SystemExit):
+            study.main(argv)
+        assert said in capsys.readouterr().err
