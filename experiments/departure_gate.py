@@ -2,7 +2,7 @@
 
 The fused completer (``Graph-HNI``'s: the IMU-aware fold network with its input envelope and the beam-only fold
 ensemble, neither fading) is better than the average estimator over every placement of recursive 30-ping outages,
-and worse at single placements (fold 3; fold 1 with MEMS in the second training draw). This study asks whether the
+and worse at single placements (fold 1 with MEMS, fold 3). This study asks whether the
 completer could tell such an outage at its start: at the outage's first ping (the history still holds true beams)
 it measures how far the fused completion departs from the average's, in the average's own sigma,
 
@@ -116,8 +116,9 @@ def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
         folds = sorted({r["fold"] for r in sel})
         grades = list(dict.fromkeys(r["grade"] for r in sel))
         lines += [f"### {scenario} (draws: " + ", ".join(f"{k + 1} = {d}" for k, d in enumerate(draws)) + ")", "",
-                  "Velocity gain against the average (%), the gated completer; pooled per draw over "
-                  + " / ".join(grades) + "; worst fold cell (beam or velocity) and fold cells worse", "",
+                  "Gain against the average (%) of the gated completer: velocity, pooled per draw over "
+                  + " / ".join(grades) + "; the worst pooled cell and the worst fold cell over beam and velocity, "
+                  "and the fold cells worse", "",
                   "| Z | windows gated | " + " | ".join(f"pooled, draw {k + 1}" for k in range(len(draws)))
                   + " | worst fold cell | worse | at p = 0: worst pooled | worst fold cell | worse |",
                   "| --- " * (7 + len(draws)) + "|"]

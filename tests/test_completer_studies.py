@@ -311,27 +311,31 @@ def test_departure_gate_measures_the_first_ping_and_hands_gated_windows_to_the_a
         s_fast = np.sqrt(0.042 ** 2 * (1 + 1 / 3) + beams[start - 3:start].var(axis=0))
         assert z == pytest.approx(np.max(np.abs(b_slow - b_fast)[[1, 2]] / s_fast[[1, 2]]))
 
-    def row(fold, net_sq, z):
+    def row(fold, avg_sq, net_sq, z):
         return {"scenario": "2-missing", "fold": fold, "grade": "mems", "settle": 10, "stride": 10,
                 "starts": [[0, 10 + 10 * k] for k in range(len(z))], "nets": {"IMU-aware": "nets"},
-                "sq": {"average": [[1.0] * len(z)] * 2, "fused, envelope": [net_sq] * 2}, "z0": z}
-    # fold 0: the completer better everywhere, never far from the average; fold 1: two windows that start far
-    # from the average (z0 = 5) and go badly, enough to make the fold worse than the average ungated
-    rows = [row(0, [0.5] * 4, [0.2] * 4), row(1, [0.5, 0.5, 3.0, 3.0], [0.2, 0.2, 5.0, 5.0])]
-    gated, average = study.gated_sq(rows[1], 4.0)
-    assert list(gated[1]) == [0.5, 0.5, 1.0, 1.0] and list(average[1]) == [1.0] * 4
-    assert list(study.gated_sq(rows[1], 6.0)[0][1]) == [0.5, 0.5, 3.0, 3.0]
-    pooled, per_fold, share = study.gate_gains(rows, 4.0, [0, 1])
+                "sq": {"average": [avg_sq] * 2, "fused, envelope": [net_sq] * 2}, "z0": z}
+    # fold 0: the completer better everywhere, never far from the average; fold 1: two windows that start far from
+    # the average (z0 1.5 and 5) and go badly, enough to make the fold worse than the average ungated
+    rows = [row(0, [4.0] * 4, [2.0] * 4, [0.2] * 4), row(1, [1.0] * 4, [0.5, 0.5, 1.5, 3.0], [0.2, 0.2, 1.5, 5.0])]
+    gated, average = study.gated_sq(rows[1], 1.5)
+    assert list(gated[1]) == [0.5, 0.5, 1.5, 1.0] and list(average[1]) == [1.0] * 4    # 1.5 is not above 1.5
+    assert list(study.gated_sq(rows[1], 1.0)[0][1]) == [0.5, 0.5, 1.0, 1.0]
+    assert list(study.gated_sq(rows[1], 6.0)[0][1]) == [0.5, 0.5, 1.5, 3.0]
+    pooled, per_fold, share = study.gate_gains(rows, 1.0, [0, 1])
     assert per_fold["nets", 1, "mems", 1] == pytest.approx(100 * (1 - np.sqrt(3.0 / 4.0))) and share == 0.25
+    # pooled over the windows, not the mean of the folds' gains
+    assert pooled["nets", "mems", 1] == pytest.approx(100 * (1 - np.sqrt(11.0 / 20.0)))
     assert study.gate_gains(rows, float("inf"), [0, 1])[1]["nets", 1, "mems", 1] < 0
     # placement 0 holds only the first window of each fold (its windows start 10 pings apart)
-    assert study.gate_gains(rows, 4.0, [0, 1], placement=0)[0]["nets", "mems", 1] == pytest.approx(
-        100 * (1 - np.sqrt(0.5)))
-    # every threshold up to 4 gates the bad windows alone: fewest worse folds, then the tie goes to less gating
-    assert study.choose_threshold(rows, [0, 1]) == 4.0
+    assert study.gate_gains(rows, 1.0, [0, 1], placement=0)[0]["nets", "mems", 1] == pytest.approx(
+        100 * (1 - np.sqrt(2.5 / 5.0)))
+    # every threshold up to 4 leaves no fold worse; then the larger smallest pooled gain: 0.5 and 1 gate both bad
+    # windows, and of the two the tie goes to less gating
+    assert study.choose_threshold(rows, [0, 1]) == 1.0
     # without fold 1 no gating shows any use, so fold 1 left out gets none
     assert study.choose_threshold(rows, [0]) == float("inf")
-    assert "Chosen on all folds: Z = 4." in study.report(rows)
+    assert "Chosen on all folds: Z = 1." in study.report(rows)
 
 
 def test_departure_gate_names_the_file_it_cannot_use(tmp_path, capsys):
