@@ -76,26 +76,17 @@ def gated_sq(row: dict, threshold: float, select=None) -> tuple[list, list]:
 def gate_gains(rows: list[dict], threshold: float, folds, placement: int | None = None):
     """(pooled, per_fold, share gated): velocity and beam gains (%) against the average of the gated completer,
     pooled over ``folds`` per (draw, IMU, metric) and per (draw, fold, IMU, metric), over every placement or only
-    ``placement``."""
-    from outage_placement import gain, placement_of, row_draw
-    pooled, per_fold, gated = {}, {}, []
-    for draw in dict.fromkeys(map(row_draw, rows)):
-        for grade in dict.fromkeys(r["grade"] for r in rows):
-            sel = [r for r in rows if row_draw(r) == draw and r["grade"] == grade and r["fold"] in folds]
-            if not sel:
-                continue
-            parts = []
-            for r in sel:
-                mask = (None if placement is None else
-                        placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"]) == placement)
-                parts.append(gated_sq(r, threshold, mask))
-                gated.append(float(np.mean(np.asarray(r["z0"]) > threshold)))
-                for m, g in enumerate(gain(*parts[-1])):
-                    per_fold[draw, r["fold"], grade, m] = g
-            for m, g in enumerate(gain([np.concatenate([p[0][k] for p in parts]) for k in (0, 1)],
-                                       [np.concatenate([p[1][k] for p in parts]) for k in (0, 1)])):
-                pooled[draw, grade, m] = g
-    return pooled, per_fold, float(np.mean(gated))
+    ``placement``: the placement study's :func:`decay_gains` on the gated windows."""
+    from outage_placement import decay_gains, placement_of
+    scored = []
+    for r in rows:
+        mask = (None if placement is None else
+                placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"]) == placement)
+        gated, average = gated_sq(r, threshold, mask)
+        scored.append({**r, "sq": {NAME: gated, "average": average}})
+    pooled, per_fold = decay_gains(scored, NAME, folds)
+    share = np.mean([np.mean(np.asarray(r["z0"]) > threshold) for r in rows if r["fold"] in folds])
+    return pooled, per_fold, float(share)
 
 
 def choose_threshold(rows: list[dict], folds, thresholds=THRESHOLDS) -> float:
@@ -122,14 +113,14 @@ def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
                   "| Z | windows gated | " + " | ".join(f"pooled, draw {k + 1}" for k in range(len(draws)))
                   + " | worst fold cell | worse | at p = 0: worst pooled | worst fold cell | worse |",
                   "| --- " * (7 + len(draws)) + "|"]
+
+        def cell(key, v):
+            return f"{v:+.1f} (draw {draws.index(key[0]) + 1}, fold {key[1]}, {key[2]}, {('beam', 'velocity')[key[3]]})"
         for z in thresholds:
             pooled, per_fold, share = gate_gains(sel, z, folds)
             p0, f0, _ = gate_gains(sel, z, folds, placement=0)
             worst = min(per_fold, key=per_fold.get)
             worst0 = min(f0, key=f0.get)
-
-            def cell(key, v):
-                return f"{v:+.1f} (draw {draws.index(key[0]) + 1}, fold {key[1]}, {key[2]}, {('beam', 'velocity')[key[3]]})"
             lines.append(f"| {z:g} | {share:.2f} | " + " | ".join(
                 " / ".join(f"{pooled[d, g, 1]:+.1f}" for g in grades) for d in draws)
                 + f" | {cell(worst, per_fold[worst])} | {sum(v < 0 for v in per_fold.values())} | "
@@ -146,9 +137,9 @@ def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
     return "\n".join(lines)
 
 
-def run(rows_path: Path, out: Path, data=None) -> list[dict]:
-    """``z0`` of every window of ``outage_placement.py`` rows (``NAME`` scored), with the rows' fold networks and
-    fadings; the rows with ``z0`` added are written to ``out``."""
+def run(rows: list[dict], rows_path: Path, out: Path, data=None) -> list[dict]:
+    """``z0`` of every window of ``outage_placement.py`` ``rows`` (read from ``rows_path``, ``NAME`` scored), with
+    the rows' fold networks and fadings; the rows with ``z0`` added are written to ``out``."""
     from imu_beam_fused_folds import fold_networks
     from imu_completer_folds import held_out_series
     from outage_placement import envelope_variants
@@ -156,7 +147,6 @@ def run(rows_path: Path, out: Path, data=None) -> list[dict]:
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.fused import FusedCompleter
-    rows = json.loads(Path(rows_path).read_text())
     if not rows or any(NAME not in r["sq"] for r in rows) or len({r["scenario"] for r in rows}) != 1:
         raise SystemExit(f"{rows_path}: not outage_placement.py rows of one scenario scoring '{NAME}'")
     scenario = rows[0]["scenario"]
@@ -202,8 +192,8 @@ def main(argv=None) -> int:
         return 0
     if not (a.rows and a.out):
         p.error("--rows and --out are needed (or --report)")
-    rows_of(a.rows, row_keys + ("run_decay",))
-    print(report(run(Path(a.rows), Path(a.out), a.data)))
+    rows = rows_of(a.rows, row_keys + ("run_decay",))
+    print(report(run(rows, Path(a.rows), Path(a.out), a.data)))
     return 0
 
 
