@@ -98,7 +98,16 @@ def choose_threshold(rows: list[dict], folds, thresholds=THRESHOLDS) -> float:
     return min(thresholds, key=key)
 
 
-def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
+def variants_report(rows: list[dict], variants, score, choose, label, extra=None, what="gated completer",
+                    scope="every placement") -> str:
+    """Per scenario of ``rows``: a table of each variant's velocity gains against the average, pooled per training
+    draw and evaluation IMU, its worst fold cell and the fold cells worse, over every window and at p = 0; then the
+    variant the rule picks on all folds and for each fold left out, with that fold's worst velocity cell.
+
+    ``variants(sel)`` lists the variants of one scenario's rows ``sel``; ``score(sel, v, folds, placement)`` gives
+    (pooled, per_fold) gains (:func:`outage_placement.decay_gains`' keys); ``choose(sel, folds, variants)`` the rule;
+    ``label(v)`` the text of a variant (``label(None)``: of the variants' parameter); ``extra``: an optional (header,
+    ``cell(sel, v, folds)``) column; ``what`` and ``scope`` name the completer and the windows scored."""
     from outage_placement import row_draw
     lines = []
     for scenario in dict.fromkeys(r["scenario"] for r in rows):
@@ -106,35 +115,58 @@ def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
         draws = list(dict.fromkeys(map(row_draw, sel)))
         folds = sorted({r["fold"] for r in sel})
         grades = list(dict.fromkeys(r["grade"] for r in sel))
+        names = variants(sel)
+        head = [label(None)] + ([extra[0]] if extra else [])
         lines += [f"### {scenario} (draws: " + ", ".join(f"{k + 1} = {d}" for k, d in enumerate(draws)) + ")", "",
-                  "Gain against the average (%) of the gated completer: velocity, pooled per draw over "
+                  f"Gain against the average (%) of the {what}: velocity, pooled per draw over "
                   + " / ".join(grades) + "; the worst pooled cell and the worst fold cell over beam and velocity, "
                   "and the fold cells worse", "",
-                  "| Z | windows gated | " + " | ".join(f"pooled, draw {k + 1}" for k in range(len(draws)))
+                  "| " + " | ".join(head) + " | " + " | ".join(f"pooled, draw {k + 1}" for k in range(len(draws)))
                   + " | worst fold cell | worse | at p = 0: worst pooled | worst fold cell | worse |",
-                  "| --- " * (7 + len(draws)) + "|"]
+                  "| --- " * (5 + len(head) + len(draws)) + "|"]
 
         def cell(key, v):
             return f"{v:+.1f} (draw {draws.index(key[0]) + 1}, fold {key[1]}, {key[2]}, {('beam', 'velocity')[key[3]]})"
-        for z in thresholds:
-            pooled, per_fold, share = gate_gains(sel, z, folds)
-            p0, f0, _ = gate_gains(sel, z, folds, placement=0)
+        for v in names:
+            pooled, per_fold = score(sel, v, folds, None)
+            p0, f0 = score(sel, v, folds, 0)
             worst = min(per_fold, key=per_fold.get)
             worst0 = min(f0, key=f0.get)
-            lines.append(f"| {z:g} | {share:.2f} | " + " | ".join(
+            lines.append(f"| {label(v)} | " + (f"{extra[1](sel, v, folds)} | " if extra else "") + " | ".join(
                 " / ".join(f"{pooled[d, g, 1]:+.1f}" for g in grades) for d in draws)
-                + f" | {cell(worst, per_fold[worst])} | {sum(v < 0 for v in per_fold.values())} | "
-                f"{min(p0.values()):+.1f} | {cell(worst0, f0[worst0])} | {sum(v < 0 for v in f0.values())} |")
-        lines += ["", f"Chosen on all folds: Z = {choose_threshold(sel, folds, thresholds):g}. Chosen without the "
-                  "fold it is scored on (that fold's worst velocity cell, every placement; at p = 0):"]
+                + f" | {cell(worst, per_fold[worst])} | {sum(x < 0 for x in per_fold.values())} | "
+                f"{min(p0.values()):+.1f} | {cell(worst0, f0[worst0])} | {sum(x < 0 for x in f0.values())} |")
+        lines += ["", f"Chosen on all folds: {label(None)} = {label(choose(sel, folds, names))}. Chosen without the "
+                  f"fold it is scored on (that fold's worst velocity cell, {scope}; at p = 0):"]
         for f in folds:
-            z = choose_threshold(sel, [g for g in folds if g != f], thresholds)
-            _, per_fold, _ = gate_gains(sel, z, [f])
-            _, f0, _ = gate_gains(sel, z, [f], placement=0)
-            lines.append(f"- fold {f}: Z = {z:g} -> {min(v for k, v in per_fold.items() if k[3] == 1):+.1f}; "
-                         f"{min(v for k, v in f0.items() if k[3] == 1):+.1f}")
+            v = choose(sel, [g for g in folds if g != f], names)
+            _, per_fold = score(sel, v, [f], None)
+            _, f0 = score(sel, v, [f], 0)
+            lines.append(f"- fold {f}: {label(None)} = {label(v)} -> "
+                         f"{min(x for k, x in per_fold.items() if k[3] == 1):+.1f}; "
+                         f"{min(x for k, x in f0.items() if k[3] == 1):+.1f}")
         lines.append("")
     return "\n".join(lines)
+
+
+def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
+    return variants_report(
+        rows, lambda sel: thresholds, lambda sel, z, folds, placement: gate_gains(sel, z, folds, placement)[:2],
+        lambda sel, folds, names: choose_threshold(sel, folds, names), lambda z: "Z" if z is None else f"{z:g}",
+        ("windows gated", lambda sel, z, folds: f"{gate_gains(sel, z, folds)[2]:.2f}"))
+
+
+def read_rows(parser, path: str, needs: tuple[str, ...], hint: str = "") -> list[dict]:
+    """The rows of the JSON file ``path``; ``parser.error`` names the file if it cannot be read or a row lacks a key
+    of ``needs`` (``hint`` added after the keys)."""
+    try:
+        rows = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        parser.error(f"{path}: cannot read rows ({exc})")
+    missing = [k for k in needs if not (isinstance(rows, list) and rows and all(k in r for r in rows))]
+    if missing:
+        parser.error(f"{path}: rows without {', '.join(repr(k) for k in missing)}" + hint)
+    return rows
 
 
 def run(rows: list[dict], rows_path: Path, out: Path, data=None) -> list[dict]:
@@ -175,24 +207,14 @@ def main(argv=None) -> int:
     p.add_argument("--report", nargs="+", metavar="GATE_JSON", help="only print the tables of finished runs")
     a = p.parse_args(argv)
 
-    def rows_of(path: str, needs: tuple[str, ...]) -> list[dict]:
-        try:
-            rows = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as exc:
-            p.error(f"{path}: cannot read rows ({exc})")
-        missing = [k for k in needs if not (isinstance(rows, list) and rows and all(k in r for r in rows))]
-        if missing:
-            p.error(f"{path}: rows without {', '.join(repr(k) for k in missing)}"
-                    + (" (run --rows ... --out first)" if "z0" in missing else ""))
-        return rows
-
     row_keys = ("scenario", "fold", "grade", "starts", "settle", "stride", "sq", "nets")
     if a.report:
-        print(report([r for path in a.report for r in rows_of(path, row_keys + ("z0",))]))
+        print(report([r for path in a.report for r in read_rows(
+            p, path, row_keys + ("z0",), " (run --rows ... --out first)")]))
         return 0
     if not (a.rows and a.out):
         p.error("--rows and --out are needed (or --report)")
-    rows = rows_of(a.rows, row_keys + ("run_decay",))
+    rows = read_rows(p, a.rows, row_keys + ("run_decay",))
     print(report(run(rows, Path(a.rows), Path(a.out), a.data)))
     return 0
 

@@ -1,6 +1,8 @@
-"""The arithmetic of two completer studies checked against numbers worked out by hand: the run-error study's
-whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``) and the recent-error mixture's
-outage windows and weights (``experiments/recent_error_mixture.py``). The studies themselves run for minutes on the
+"""The arithmetic of the completer studies checked against numbers worked out by hand: the run-error study's
+whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``), the recent-error mixture's outage
+windows and weights (``experiments/recent_error_mixture.py``), the placement study's windows and the fadings' rule
+(``experiments/outage_placement.py``), and the gate and the bound on the fused completer's departure from the average
+(``experiments/departure_gate.py``, ``experiments/departure_clip.py``). The studies themselves run for minutes on the
 shared data and are not run here."""
 from __future__ import annotations
 
@@ -32,6 +34,16 @@ def _gauss_markov(rng, n_windows: int, pings: int, beams: int, tau_pings: float,
             e[k] = phi * e[k - 1] + std * np.sqrt(1.0 - phi ** 2) * rng.standard_normal(beams)
         out.append(e)
     return out
+
+
+def _random_walk_beams(seed: int, pings: int, step: float = 0.05):
+    """(beams (pings, 4), a one-series list of :class:`graphnav.nets.data.BeamSeries`): beams that random-walk by
+    ``step`` m/s per ping, the velocity solved from them exactly."""
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.data import BeamSeries
+    beams = np.cumsum(step * np.random.default_rng(seed).standard_normal((pings, 4)), axis=0)
+    return beams, [BeamSeries("s", DvlGeometry.from_spec(DvlSpec()).velocity_from_beams(beams), beams)]
 
 
 def test_whitened_differences_have_nees_one_at_the_true_correlation_time():
@@ -293,15 +305,10 @@ def test_choose_decays_on_the_command_line_refuses_what_it_cannot_compare(tmp_pa
 def test_departure_gate_measures_the_first_ping_and_hands_gated_windows_to_the_average():
     import sys
 
-    from graphnav.core.config import DvlSpec
-    from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.average import AverageCompleter
-    from graphnav.nets.data import BeamSeries
     sys.path.insert(0, str(ROOT / "experiments"))
     study = _study("departure_gate")
-    rng = np.random.default_rng(3)
-    beams = np.cumsum(0.05 * rng.standard_normal((80, 4)), axis=0)
-    series = [BeamSeries("s", DvlGeometry.from_spec(DvlSpec()).velocity_from_beams(beams), beams)]
+    beams, series = _random_walk_beams(3, 80)
     # a slow average stands in for the fused completer: z0 is its first completion's departure from the
     # paper's average (3 pings) in that average's sigma, from the true pings before the window
     slow, fast = AverageCompleter(12), AverageCompleter(3)
@@ -346,6 +353,83 @@ def test_departure_gate_names_the_file_it_cannot_use(tmp_path, capsys):
     for argv, said in ((["--report", str(placement_rows)], "rows without 'z0' (run --rows ... --out first)"),
                        (["--report", str(tmp_path / "absent.json")], "absent.json: cannot read rows"),
                        (["--rows", str(placement_rows)], "--rows and --out are needed")):
+        with pytest.raises(SystemExit):
+            study.main(argv)
+        assert said in capsys.readouterr().err
+
+
+def test_departure_clip_bounds_the_completion_around_the_average_s_own_recursion():
+    import sys
+
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.evaluate import outage_rollout
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("departure_clip")
+    beams, series = _random_walk_beams(5, 200)
+    missing = [1, 2]
+
+    def rollout(c):
+        return outage_rollout(c, series, missing, window=30, gap=0, settle=20)[0]
+    # a slow average stands in for the fused completer; the paper's 3-ping average is the anchor
+    slow, fast = AverageCompleter(12), AverageCompleter(3)
+    # Z = 0 is the average estimator's own recursion, Z = inf the inner completer, to the last bit
+    np.testing.assert_array_equal(rollout(study.DepartureClip(slow, 3, 0.0)), rollout(fast))
+    np.testing.assert_array_equal(rollout(study.DepartureClip(slow, 3, float("inf"))), rollout(slow))
+    # in between: each window's first ping by hand (a fresh run from the true past), then the bound through it
+    clipped, anchor, free = (rollout(c) for c in (study.DepartureClip(slow, 3, 1.0), fast, slow))
+    for w, start in enumerate(range(20, 200 - 30 + 1, 30)):
+        past3, past12 = beams[start - 3:start], beams[start - 12:start]
+        s0 = np.sqrt(0.042 ** 2 * (1 + 1 / 3) + past3.var(axis=0))
+        want = past3.mean(axis=0) + np.clip(past12.mean(axis=0) - past3.mean(axis=0), -s0, s0)
+        np.testing.assert_allclose(clipped[30 * w, missing], want[missing])
+        k = np.arange(30)[:, None]
+        bound = np.sqrt(s0[missing] ** 2 + k * study.GROWTH ** 2)
+        gap = clipped[30 * w:30 * w + 30, missing] - anchor[30 * w:30 * w + 30, missing]
+        assert np.all(np.abs(gap) <= bound + 1e-12)
+        np.testing.assert_array_equal(clipped[30 * w:30 * w + 30][:, [0, 3]], beams[start:start + 30][:, [0, 3]])
+    # the bound binds somewhere, and not everywhere: the clip is neither completer
+    assert not np.array_equal(clipped, anchor) and not np.array_equal(clipped, free)
+    with pytest.raises(ValueError, match="z must be >= 0"):
+        study.DepartureClip(slow, 3, -1.0)
+
+
+def test_departure_clip_cuts_the_placement_rows_and_chooses_by_the_fadings_rule(tmp_path, capsys):
+    import sys
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("departure_clip")
+    # nine windows 10 pings apart: placements 0..8; a 30-ping layout keeps placements 0, 3 and 6
+    row = {"scenario": "2-missing", "fold": 0, "grade": "mems", "settle": 10, "stride": 10, "nets": {"IMU-aware": "n"},
+           "starts": [[0, 10 + 10 * k] for k in range(9)], "sq": {"average": [list(range(9)), list(range(9, 18))]}}
+    cut = study.placement_rows([row], 30)[0]
+    assert cut["starts"] == [[0, 10], [0, 40], [0, 70]] and cut["stride"] == 30
+    assert [list(m) for m in cut["sq"]["average"]] == [[0, 3, 6], [9, 12, 15]]
+    with pytest.raises(ValueError, match="not a multiple"):
+        study.placement_rows([row], 25)
+
+    def clipped(fold, ratios):
+        # three windows a fold; each Z's squared errors are ratio^2 the average's in both metrics
+        avg = [1.0, 2.0, 3.0]
+        return {"scenario": "2-missing", "fold": fold, "grade": "mems", "settle": 10, "stride": 30,
+                "starts": [[0, 10], [0, 40], [0, 70]], "nets": {"IMU-aware": "n"},
+                "sq": {"average": [avg, avg]} | {f"Z={z}": [[r ** 2 * a for a in avg]] * 2 for z, r in ratios.items()}}
+    # the unclipped completer is best pooled but leaves fold 1 worse; Z = 1 holds every fold, Z = 0.5 too but gains less
+    rows = [clipped(0, {"0.5": 0.95, "1": 0.8, "inf": 0.5}), clipped(1, {"0.5": 0.95, "1": 0.9, "inf": 1.1})]
+    assert study.clip_names(rows) == ["Z=0.5", "Z=1", "Z=inf"]
+    assert study.choose(rows, [0, 1], study.clip_names(rows)) == "Z=1"
+    # without fold 1 nothing is worse and the larger pooled gain decides: fold 1 then pays for it
+    assert study.choose(rows, [0], study.clip_names(rows)) == "Z=inf"
+    pooled, per_fold = study.clip_gains(rows, "Z=1", [0, 1])
+    assert pooled["n", "mems", 1] == pytest.approx(100 * (1 - np.sqrt((0.64 * 6 + 0.81 * 6) / 12)))
+    assert study.clip_gains(rows, "Z=inf", [0, 1], placement=0)[1]["n", 1, "mems", 1] == pytest.approx(-10.0)
+    text = study.report(rows)
+    assert "Chosen on all folds: Z = 1." in text and "- fold 1: Z = inf -> -10.0; -10.0" in text
+    # the command line names what it cannot use
+    path = tmp_path / "rows.json"
+    path.write_text(json.dumps([{k: v for k, v in row.items() if k != "nets"}]))
+    for argv, said in ((["--report", str(path)], "rows without 'nets'"),
+                       (["--report", str(tmp_path / "absent.json")], "absent.json: cannot read rows"),
+                       (["--rows", str(path)], "--rows and --out are needed"),
+                       (["--rows", str(path), "--out", str(tmp_path / "o.json"), "--z", "-1"], "bounds must be >= 0")):
         with pytest.raises(SystemExit):
             study.main(argv)
         assert said in capsys.readouterr().err
