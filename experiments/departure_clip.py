@@ -98,7 +98,9 @@ def placement_rows(rows: list[dict], stride: int) -> list[dict]:
             raise ValueError(f"--stride {stride} is not a multiple of the rows' stride {r['stride']}")
         place = placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"])
         keep = place % (stride // r["stride"]) == 0
-        out.append({**r, "stride": stride, "starts": [s for s, k in zip(r["starts"], keep) if k],
+        # the envelope counters were counted over every window: dropped rather than left to mislead
+        kept = {k: v for k, v in r.items() if k not in ("envelope_fallbacks", "envelope_counted_in", "completions")}
+        out.append({**kept, "stride": stride, "starts": [s for s, k in zip(r["starts"], keep) if k],
                     "sq": {c: [list(np.asarray(m)[keep]) for m in v] for c, v in r["sq"].items()}})
     return out
 
@@ -201,6 +203,9 @@ def main(argv=None) -> int:
         return 0
     if not (a.rows and a.out):
         p.error("--rows and --out are needed (or --report)")
+    from outage_placement import PERIOD
+    if a.stride < 1 or PERIOD % a.stride:
+        p.error(f"--stride must divide {PERIOD} (the placement study's period), got {a.stride}")
     if any(not z >= 0 for z in a.z):
         p.error(f"--z: bounds must be >= 0, got {a.z}")
     if a.threads < 1:

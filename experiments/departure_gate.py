@@ -156,16 +156,17 @@ def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
         ("windows gated", lambda sel, z, folds: f"{gate_gains(sel, z, folds)[2]:.2f}"))
 
 
-def read_rows(parser, path: str, needs: tuple[str, ...], hint: str = "") -> list[dict]:
+def read_rows(parser, path: str, needs: tuple[str, ...], hints: dict | None = None) -> list[dict]:
     """The rows of the JSON file ``path``; ``parser.error`` names the file if it cannot be read or a row lacks a key
-    of ``needs`` (``hint`` added after the keys)."""
+    of ``needs`` (with ``hints[key]`` added after the keys when that key is among the missing)."""
     try:
         rows = json.loads(Path(path).read_text())
     except (OSError, ValueError) as exc:
         parser.error(f"{path}: cannot read rows ({exc})")
     missing = [k for k in needs if not (isinstance(rows, list) and rows and all(k in r for r in rows))]
     if missing:
-        parser.error(f"{path}: rows without {', '.join(repr(k) for k in missing)}" + hint)
+        parser.error(f"{path}: rows without {', '.join(repr(k) for k in missing)}"
+                     + "".join(text for k, text in (hints or {}).items() if k in missing))
     return rows
 
 
@@ -210,7 +211,7 @@ def main(argv=None) -> int:
     row_keys = ("scenario", "fold", "grade", "starts", "settle", "stride", "sq", "nets")
     if a.report:
         print(report([r for path in a.report for r in read_rows(
-            p, path, row_keys + ("z0",), " (run --rows ... --out first)")]))
+            p, path, row_keys + ("z0",), {"z0": " (run --rows ... --out first)"})]))
         return 0
     if not (a.rows and a.out):
         p.error("--rows and --out are needed (or --report)")

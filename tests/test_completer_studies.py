@@ -356,6 +356,14 @@ def test_departure_gate_names_the_file_it_cannot_use(tmp_path, capsys):
         with pytest.raises(SystemExit):
             study.main(argv)
         assert said in capsys.readouterr().err
+    # the hint to run the study first is for rows without z0 only
+    no_nets = tmp_path / "gated.json"
+    no_nets.write_text(json.dumps([{k: v for k, v in json.loads(placement_rows.read_text())[0].items() if k != "nets"}
+                                   | {"z0": [0.1]}]))
+    with pytest.raises(SystemExit):
+        study.main(["--report", str(no_nets)])
+    err = capsys.readouterr().err
+    assert "rows without 'nets'" in err and "run --rows" not in err
 
 
 def test_departure_clip_bounds_the_completion_around_the_average_s_own_recursion():
@@ -375,18 +383,22 @@ def test_departure_clip_bounds_the_completion_around_the_average_s_own_recursion
     # Z = 0 is the average estimator's own recursion, Z = inf the inner completer, to the last bit
     np.testing.assert_array_equal(rollout(study.DepartureClip(slow, 3, 0.0)), rollout(fast))
     np.testing.assert_array_equal(rollout(study.DepartureClip(slow, 3, float("inf"))), rollout(slow))
-    # in between: each window's first ping by hand (a fresh run from the true past), then the bound through it
-    clipped, anchor, free = (rollout(c) for c in (study.DepartureClip(slow, 3, 1.0), fast, slow))
+    # in between, by hand: the inner 12-ping average over a history of the clipped outputs, the anchor's own 3-ping
+    # recursion and its sigma from the true past, both restarted at every window
+    z = 0.7
+    clipped, anchor, free = (rollout(c) for c in (study.DepartureClip(slow, 3, z), fast, slow))
     for w, start in enumerate(range(20, 200 - 30 + 1, 30)):
-        past3, past12 = beams[start - 3:start], beams[start - 12:start]
-        s0 = np.sqrt(0.042 ** 2 * (1 + 1 / 3) + past3.var(axis=0))
-        want = past3.mean(axis=0) + np.clip(past12.mean(axis=0) - past3.mean(axis=0), -s0, s0)
-        np.testing.assert_allclose(clipped[30 * w, missing], want[missing])
-        k = np.arange(30)[:, None]
-        bound = np.sqrt(s0[missing] ** 2 + k * study.GROWTH ** 2)
-        gap = clipped[30 * w:30 * w + 30, missing] - anchor[30 * w:30 * w + 30, missing]
-        assert np.all(np.abs(gap) <= bound + 1e-12)
-        np.testing.assert_array_equal(clipped[30 * w:30 * w + 30][:, [0, 3]], beams[start:start + 30][:, [0, 3]])
+        history, own = list(beams[start - 12:start]), list(beams[start - 3:start])
+        s0 = np.sqrt(0.042 ** 2 * (1 + 1 / 3) + beams[start - 3:start].var(axis=0))
+        for k in range(30):
+            inner, mean3 = np.mean(history[-12:], axis=0), np.mean(own[-3:], axis=0)
+            bound = z * np.sqrt(s0 ** 2 + k * study.GROWTH ** 2)
+            want, anchor_k = beams[start + k].copy(), beams[start + k].copy()
+            want[missing] = (mean3 + np.clip(inner - mean3, -bound, bound))[missing]
+            anchor_k[missing] = mean3[missing]
+            np.testing.assert_allclose(clipped[30 * w + k], want, rtol=0, atol=1e-12)
+            history.append(want)
+            own.append(anchor_k)
     # the bound binds somewhere, and not everywhere: the clip is neither completer
     assert not np.array_equal(clipped, anchor) and not np.array_equal(clipped, free)
     with pytest.raises(ValueError, match="z must be >= 0"):
@@ -407,22 +419,42 @@ def test_departure_clip_cuts_the_placement_rows_and_chooses_by_the_fadings_rule(
         study.placement_rows([row], 25)
 
     def clipped(fold, ratios):
-        # three windows a fold; each Z's squared errors are ratio^2 the average's in both metrics
+        # three windows a fold (placements 0, 1, 2 of a 30-ping layout); each Z's squared errors are the given
+        # (beam, velocity) ratios squared, window by window, times the average's
         avg = [1.0, 2.0, 3.0]
         return {"scenario": "2-missing", "fold": fold, "grade": "mems", "settle": 10, "stride": 30,
                 "starts": [[0, 10], [0, 40], [0, 70]], "nets": {"IMU-aware": "n"},
-                "sq": {"average": [avg, avg]} | {f"Z={z}": [[r ** 2 * a for a in avg]] * 2 for z, r in ratios.items()}}
-    # the unclipped completer is best pooled but leaves fold 1 worse; Z = 1 holds every fold, Z = 0.5 too but gains less
-    rows = [clipped(0, {"0.5": 0.95, "1": 0.8, "inf": 0.5}), clipped(1, {"0.5": 0.95, "1": 0.9, "inf": 1.1})]
-    assert study.clip_names(rows) == ["Z=0.5", "Z=1", "Z=inf"]
-    assert study.choose(rows, [0, 1], study.clip_names(rows)) == "Z=1"
+                "sq": {"average": [avg, avg]} | {f"Z={z}": [[r ** 2 * a for r, a in zip(m, avg)] for m in rs]
+                                                for z, rs in ratios.items()}}
+    # fold 0: the unbounded completer far better; fold 1: it loses its p = 0 window badly (velocity ratio 1.5),
+    # enough to make the fold worse in velocity; Z = 1 and 2 hold every fold alike (a tie: the larger wins); Z = 1.5
+    # holds them with the largest mean but the smallest least pooled gain (beam); Z = 3 has the largest least pooled
+    # gain of the bounds but leaves fold 1 worse in beam; Z = 0.5 gains little
+    same = {z: ([r] * 3, [r] * 3) for z, r in (("0.5", 0.95), ("1", 0.8), ("2", 0.8))}
+    rows = [clipped(0, same | {"1.5": ([0.97] * 3, [0.6] * 3), "3": ([0.5] * 3, [0.5] * 3),
+                               "inf": ([0.3] * 3, [0.3] * 3)}),
+            clipped(1, {"0.5": ([0.95] * 3, [0.95] * 3), "1": ([0.95] * 3, [0.9] * 3), "2": ([0.95] * 3, [0.9] * 3),
+                        "1.5": ([0.97] * 3, [0.6] * 3), "3": ([1.05] * 3, [0.6] * 3),
+                        "inf": ([0.9] * 3, [1.5, 0.9, 0.9])})]
+    names = study.clip_names(rows)
+    assert names == ["Z=0.5", "Z=1", "Z=1.5", "Z=2", "Z=3", "Z=inf"]
+    assert min(study.clip_gains(rows, "Z=3", [0, 1])[0].values()) > min(study.clip_gains(rows, "Z=2", [0, 1])[0].values())
+    pooled, per_fold = study.clip_gains(rows, "Z=inf", [0, 1])
+    assert pooled["n", "mems", 1] == pytest.approx(100 * (1 - np.sqrt((0.09 * 6 + 2.25 + 0.81 * 5) / 12)))
+    assert pooled["n", "mems", 1] > study.clip_gains(rows, "Z=1", [0, 1])[0]["n", "mems", 1]
+    assert per_fold["n", 1, "mems", 1] == pytest.approx(100 * (1 - np.sqrt((2.25 + 0.81 * 5) / 6)))
+    assert per_fold["n", 1, "mems", 0] == pytest.approx(10.0)
+    # p = 0 is the first window alone
+    p0 = study.clip_gains(rows, "Z=inf", [0, 1], placement=0)[1]
+    assert p0["n", 1, "mems", 1] == pytest.approx(-50.0) and p0["n", 0, "mems", 1] == pytest.approx(70.0)
+    # the first key (beam cells counted too) keeps the unbounded completer and Z = 3 out; then the least pooled gain,
+    # not the mean, and a tie to the larger Z
+    assert study.choose(rows, [0, 1], names) == "Z=2"
     # without fold 1 nothing is worse and the larger pooled gain decides: fold 1 then pays for it
-    assert study.choose(rows, [0], study.clip_names(rows)) == "Z=inf"
-    pooled, per_fold = study.clip_gains(rows, "Z=1", [0, 1])
-    assert pooled["n", "mems", 1] == pytest.approx(100 * (1 - np.sqrt((0.64 * 6 + 0.81 * 6) / 12)))
-    assert study.clip_gains(rows, "Z=inf", [0, 1], placement=0)[1]["n", 1, "mems", 1] == pytest.approx(-10.0)
+    assert study.choose(rows, [0], names) == "Z=inf"
     text = study.report(rows)
-    assert "Chosen on all folds: Z = 1." in text and "- fold 1: Z = inf -> -10.0; -10.0" in text
+    fold1 = 100 * (1 - np.sqrt((2.25 + 0.81 * 5) / 6))
+    assert "Chosen on all folds: Z = 2." in text and f"- fold 1: Z = inf -> {fold1:+.1f}; -50.0" in text
     # the command line names what it cannot use
     path = tmp_path / "rows.json"
     path.write_text(json.dumps([{k: v for k, v in row.items() if k != "nets"}]))
