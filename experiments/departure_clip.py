@@ -77,8 +77,9 @@ class DepartureClip:
             self._shadow = past[-n:].copy()
         # a beam's run starts: its anchor restarts from the true past, its sigma is the average's there
         self._shadow[:, fresh] = past[-n:, fresh]
-        _, s_first = self.average.complete(past[-n:], measured)
-        self._s0 = np.where(fresh, s_first, self._s0)
+        if fresh.any():
+            _, s_first = self.average.complete(past[-n:], measured)
+            self._s0 = np.where(fresh, s_first, self._s0)
         anchor, _ = self.average.complete(self._shadow, measured)
         beams, sigma = complete_with(self.inner, past[-self.inner.n_past:], measured, imu=imu, run_steps=run_steps)
         self._shadow = np.vstack([self._shadow[1:], anchor])
@@ -91,13 +92,12 @@ class DepartureClip:
 def placement_rows(rows: list[dict], stride: int) -> list[dict]:
     """The placement study's ``rows`` cut to the windows of a ``stride``-ping layout (placements ``k * stride /
     row stride``), in the rollout's order."""
-    from outage_placement import placement_of
+    from outage_placement import row_placements
     out = []
     for r in rows:
         if stride % r["stride"]:
             raise ValueError(f"--stride {stride} is not a multiple of the rows' stride {r['stride']}")
-        place = placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"])
-        keep = place % (stride // r["stride"]) == 0
+        keep = row_placements(r) % (stride // r["stride"]) == 0
         # the envelope counters were counted over every window: dropped rather than left to mislead
         kept = {k: v for k, v in r.items() if k not in ("envelope_fallbacks", "envelope_counted_in", "completions")}
         out.append({**kept, "stride": stride, "starts": [s for s, k in zip(r["starts"], keep) if k],
@@ -109,25 +109,19 @@ def run(rows: list[dict], rows_path: Path, out: Path, stride: int = STRIDE, thre
         data=None) -> list[dict]:
     """Each row of ``rows`` (read from ``rows_path``) cut to ``stride`` with the clipped completer's errors for each
     of ``thresholds`` added as ``"Z=<z>"``, rewritten to ``out`` after every row."""
-    from imu_beam_fused_folds import fold_networks
+    from departure_gate import row_networks, rows_scenario
     from imu_completer_folds import held_out_series
     from outage_placement import envelope_variants, rollout_windows
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.fused import FusedCompleter
-    if not rows or any(NAME not in r["sq"] for r in rows) or len({r["scenario"] for r in rows}) != 1:
-        raise SystemExit(f"{rows_path}: not outage_placement.py rows of one scenario scoring '{NAME}'")
-    scenario = rows[0]["scenario"]
-    n_avg = AVERAGE_N_PAST[scenario]
+    n_avg = AVERAGE_N_PAST[rows_scenario(rows, rows_path)]
     nets, done = {}, []
     out.parent.mkdir(parents=True, exist_ok=True)
     for r in placement_rows(rows, stride):
         t0 = time.perf_counter()
-        key = (r["nets"]["IMU-aware"], r["nets"]["beam-only"], r["run_decay"]["IMU-aware"], r["run_decay"]["beam-only"])
-        if key not in nets:
-            nets[key] = fold_networks(scenario, *key)
-        net, beam_net = nets[key][r["fold"]]
+        net, beam_net = row_networks(r, nets)
         imu = envelope_variants(net, data)
         series = held_out_series(AKIT_FOLDS[r["fold"]], data, r["grade"])
         completers = {"average": AverageCompleter(n_avg)} | {
@@ -156,11 +150,10 @@ def clip_names(rows: list[dict]) -> list[str]:
 def clip_gains(rows: list[dict], name: str, folds, placement: int | None = None):
     """(pooled, per_fold) gains (%) of the completer ``name`` against the average (the placement study's
     :func:`decay_gains`), over every window or only the placement study's ``placement``."""
-    from outage_placement import decay_gains, placement_of
+    from outage_placement import decay_gains, row_placements
     scored = []
     for r in rows:
-        mask = (np.ones(len(r["starts"]), bool) if placement is None else
-                placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"]) == placement)
+        mask = np.ones(len(r["starts"]), bool) if placement is None else row_placements(r) == placement
         scored.append({**r, "sq": {c: [np.asarray(m)[mask] for m in r["sq"][c]] for c in (name, "average")}})
     return decay_gains(scored, name, folds)
 
@@ -168,16 +161,13 @@ def clip_gains(rows: list[dict], name: str, folds, placement: int | None = None)
 def choose(rows: list[dict], folds, names) -> str:
     """The fadings' rule over ``names`` on ``folds``: fewest fold cells worse than the average, then the largest
     smallest pooled gain, then the larger Z."""
-    def key(name):
-        pooled, per_fold = clip_gains(rows, name, folds)
-        return sum(g < 0 for g in per_fold.values()), -min(pooled.values()), -float(name[2:])
-    return min(names, key=key)
+    from outage_placement import rule_key
+    return min(names, key=lambda name: (*rule_key(*clip_gains(rows, name, folds)), -float(name[2:])))
 
 
 def report(rows: list[dict]) -> str:
     from departure_gate import variants_report
-    return variants_report(rows, clip_names, lambda sel, name, folds, placement: clip_gains(sel, name, folds, placement),
-                           choose, lambda name: "Z" if name is None else name[2:],
+    return variants_report(rows, clip_names, clip_gains, choose, lambda name: "Z" if name is None else name[2:],
                            what=f"clipped completer, windows every {rows[0]['stride']} pings",
                            scope=f"windows every {rows[0]['stride']} pings")
 

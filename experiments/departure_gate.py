@@ -77,11 +77,10 @@ def gate_gains(rows: list[dict], threshold: float, folds, placement: int | None 
     """(pooled, per_fold, share gated): velocity and beam gains (%) against the average of the gated completer,
     pooled over ``folds`` per (draw, IMU, metric) and per (draw, fold, IMU, metric), over every placement or only
     ``placement``: the placement study's :func:`decay_gains` on the gated windows."""
-    from outage_placement import decay_gains, placement_of
+    from outage_placement import decay_gains, row_placements
     scored = []
     for r in rows:
-        mask = (None if placement is None else
-                placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"]) == placement)
+        mask = None if placement is None else row_placements(r) == placement
         gated, average = gated_sq(r, threshold, mask)
         scored.append({**r, "sq": {NAME: gated, "average": average}})
     pooled, per_fold = decay_gains(scored, NAME, folds)
@@ -92,10 +91,8 @@ def gate_gains(rows: list[dict], threshold: float, folds, placement: int | None 
 def choose_threshold(rows: list[dict], folds, thresholds=THRESHOLDS) -> float:
     """The fadings' rule over ``thresholds`` on ``folds``: fewest fold cells worse than the average, then the
     largest smallest pooled gain, then the larger threshold (less gating)."""
-    def key(z):
-        pooled, per_fold, _ = gate_gains(rows, z, folds)
-        return sum(g < 0 for g in per_fold.values()), -min(pooled.values()), -z
-    return min(thresholds, key=key)
+    from outage_placement import rule_key
+    return min(thresholds, key=lambda z: (*rule_key(*gate_gains(rows, z, folds)[:2]), -z))
 
 
 def variants_report(rows: list[dict], variants, score, choose, label, extra=None, what="gated completer",
@@ -152,7 +149,7 @@ def variants_report(rows: list[dict], variants, score, choose, label, extra=None
 def report(rows: list[dict], thresholds=THRESHOLDS) -> str:
     return variants_report(
         rows, lambda sel: thresholds, lambda sel, z, folds, placement: gate_gains(sel, z, folds, placement)[:2],
-        lambda sel, folds, names: choose_threshold(sel, folds, names), lambda z: "Z" if z is None else f"{z:g}",
+        choose_threshold, lambda z: "Z" if z is None else f"{z:g}",
         ("windows gated", lambda sel, z, folds: f"{gate_gains(sel, z, folds)[2]:.2f}"))
 
 
@@ -170,25 +167,38 @@ def read_rows(parser, path: str, needs: tuple[str, ...], hints: dict | None = No
     return rows
 
 
+def rows_scenario(rows: list[dict], rows_path) -> str:
+    """The one scenario of ``outage_placement.py`` ``rows`` (read from ``rows_path``) that score ``NAME``; a
+    :class:`SystemExit` naming the file otherwise."""
+    if not rows or any(NAME not in r["sq"] for r in rows) or len({r["scenario"] for r in rows}) != 1:
+        raise SystemExit(f"{rows_path}: not outage_placement.py rows of one scenario scoring '{NAME}'")
+    return rows[0]["scenario"]
+
+
+def row_networks(row: dict, loaded: dict):
+    """(IMU-aware, beam-only) fold networks a row was scored with (its networks' folders and fadings), loaded once
+    per folders and fadings into ``loaded``."""
+    from imu_beam_fused_folds import fold_networks
+    key = (row["nets"]["IMU-aware"], row["nets"]["beam-only"], row["run_decay"]["IMU-aware"],
+           row["run_decay"]["beam-only"])
+    if key not in loaded:
+        loaded[key] = fold_networks(row["scenario"], *key)
+    return loaded[key][row["fold"]]
+
+
 def run(rows: list[dict], rows_path: Path, out: Path, data=None) -> list[dict]:
     """``z0`` of every window of ``outage_placement.py`` ``rows`` (read from ``rows_path``, ``NAME`` scored), with
     the rows' fold networks and fadings; the rows with ``z0`` added are written to ``out``."""
-    from imu_beam_fused_folds import fold_networks
     from imu_completer_folds import held_out_series
     from outage_placement import envelope_variants
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.fused import FusedCompleter
-    if not rows or any(NAME not in r["sq"] for r in rows) or len({r["scenario"] for r in rows}) != 1:
-        raise SystemExit(f"{rows_path}: not outage_placement.py rows of one scenario scoring '{NAME}'")
-    scenario = rows[0]["scenario"]
+    scenario = rows_scenario(rows, rows_path)
     nets = {}
     for r in rows:
-        key = (r["nets"]["IMU-aware"], r["nets"]["beam-only"], r["run_decay"]["IMU-aware"], r["run_decay"]["beam-only"])
-        if key not in nets:
-            nets[key] = fold_networks(scenario, *key)
-        net, beam_net = nets[key][r["fold"]]
+        net, beam_net = row_networks(r, nets)
         fused = FusedCompleter(envelope_variants(net, data)(True), beam_net)
         series = held_out_series(AKIT_FOLDS[r["fold"]], data, r["grade"])
         r["z0"] = first_ping_departure(fused, AverageCompleter(AVERAGE_N_PAST[scenario]), series,

@@ -87,6 +87,11 @@ def placement_of(starts: list[tuple[int, int]], settle: int, stride: int) -> np.
     return np.array([((start - settle) % PERIOD) // stride for _, start in starts])
 
 
+def row_placements(row: dict) -> np.ndarray:
+    """:func:`placement_of` each window of a row of :func:`run` (its ``starts``, ``settle`` and ``stride``)."""
+    return placement_of([tuple(st) for st in row["starts"]], row["settle"], row["stride"])
+
+
 def block_of(starts: list[tuple[int, int]], settle: int) -> np.ndarray:
     """Block of each window: windows starting in the same 90-ping stretch of the same series share one."""
     keys = [(i, (start - settle) // PERIOD) for i, start in starts]
@@ -193,7 +198,7 @@ def placements_worse(rows: list[dict], name: str) -> tuple[int, int]:
     which ``name``'s velocity gain against the average is negative."""
     worse = total = 0
     for r in rows:
-        place = placement_of([tuple(s) for s in r["starts"]], r["settle"], r["stride"])
+        place = row_placements(r)
         for p in np.unique(place):
             worse += gain(r["sq"][name], r["sq"]["average"], place == p)[1] < 0
             total += 1
@@ -224,13 +229,18 @@ def decay_gains(rows: list[dict], name: str, folds) -> tuple[dict, dict]:
     return pooled, per_fold
 
 
+def rule_key(pooled: dict, per_fold: dict) -> tuple[int, float]:
+    """The fadings' rule as a sort key on :func:`decay_gains`' output (smaller is better): the fold cells worse than
+    the average, then the smallest pooled gain, negated. Each study adds its own tie-break."""
+    return sum(g < 0 for g in per_fold.values()), -min(pooled.values())
+
+
 def choose_decays(by_pair: dict, name: str, folds):
     """The fadings' rule over every placement: the (IMU-aware, beam-only) ``run_decay`` pair with the fewest fold
     cells (training draw x fold x evaluation IMU x beam / velocity) worse than the average, then the largest smallest
     pooled gain (over draws, IMUs and metrics)."""
     def key(pair):
-        pooled, per_fold = decay_gains(by_pair[pair], name, folds)
-        return sum(g < 0 for g in per_fold.values()), -min(pooled.values()), pair   # a tie: the faster fading
+        return *rule_key(*decay_gains(by_pair[pair], name, folds)), pair   # a tie: the faster fading
     return min(by_pair, key=key)
 
 
