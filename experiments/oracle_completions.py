@@ -27,6 +27,10 @@ completions is kept (``GraphOptions.regressed_runs="screen-first"``) and, for T 
 as a Gauss-Markov process of correlation time T s (``GraphOptions.regressed_error_tau_s``: the run's later
 completions enter as whitened differences with the previous ones); it prints the T the regime rule chooses, on all
 folds and leave-one-fold-out (with ``--joint``, on the cells of several scenarios together).
+``--over-draws`` runs nothing: given each training draw's results files (one ``--over-draws`` per draw, the files of
+its scenarios) and ``--references`` (one per scenario), it prints the run setting the regime rule chooses with every
+draw's cells counted together (fold cells over 1.02x summed over the draws, then the mean pooled ratio over all of
+them), on all folds and leave-one-fold-out: a default that must hold for whichever draw of the weights is shipped.
 ``--oracle-draws N`` runs every oracle N times with other draws of its errors (the same model and sigma) and prints,
 per cell, the spread of its pooled and worst-fold ratios over the draws and how many fold cells each draw has over
 1.02x: how often a completion the graph is told correctly fails "never worse" by chance in these windows.
@@ -278,6 +282,53 @@ def regime_choice(sets: dict, grades, windows, candidates: dict, what: str) -> s
     return "\n".join(lines)
 
 
+def run_settings(base: str, taus, prefix: str = "") -> dict:
+    """The run settings of variant ``base`` as regime-rule candidates (label -> variant): screened at each ping, or
+    until one completion is kept with each correlation time in ``taus`` (0: independent errors)."""
+    return {prefix + "screen-each": base, **{prefix + "screen-first" + (f", tau {t:g} s" if t else ""):
+                                             f"{base}{TAU}{t:g}" for t in taus}}
+
+
+def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED) -> str:
+    """The regime rule's choice among ``base``'s run settings with the cells of every training draw together.
+    ``draws``: per draw, its results files (one per scenario; a scenario's runs that use no fitted network, as the
+    total outage's, may be the same file in every draw); ``references``: one hybrid_imu_folds.py file per scenario.
+    Every draw's cells count: a fold cell over 1.02x in any draw counts against the setting."""
+    from hybrid_imu_folds import load_runs
+
+    from graphnav.nets.crossval import AKIT_FOLDS
+    refs = {}
+    for path in map(Path, references):
+        settings = json.loads(path.read_text())["settings"]
+        refs[settings["scenario"]] = (load_runs(path, settings)[0], settings["max_windows"])
+    candidates = run_settings(base, taus)
+    folds = range(len(AKIT_FOLDS))
+    names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
+    sets = {}
+    for d, files in enumerate(draws, 1):
+        for path in map(Path, files):
+            settings = json.loads(path.read_text())["settings"]
+            scenario = settings["scenario"]
+            if scenario not in refs:
+                raise SystemExit(f"{path}: no --references file for scenario {scenario}")
+            if settings["max_windows"] != refs[scenario][1]:
+                raise SystemExit(f"{path} has {settings['max_windows']} windows per trajectory, its reference "
+                                 f"{refs[scenario][1]}")
+            runs = load_runs(path, settings)[0]
+            missing = [(n, g, w, v) for n in names for g in grades for w in windows for v in candidates.values()
+                       if (n, g, w, v) not in runs]
+            if missing:
+                raise SystemExit(f"{path}: {len(missing)} of the runs the choice reads are not there (the first: "
+                                 f"{missing[0]}); finish the study with --tau {' '.join(f'{t:g}' for t in taus)}")
+            sets[f"{scenario}, draw {d}"] = (runs, refs[scenario][0])
+    per_draw = {c: [sum(ratio(*sets[key], [f], g, w, v) > 1.02 for key in sets if key.endswith(f", draw {d}")
+                        for g in grades for w in windows for f in folds) for d in range(1, len(draws) + 1)]
+                for c, v in candidates.items()}
+    return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
+                          f"{'s' * (len(draws) > 1)}: regressed runs") + "\nfold cells over 1.02x per draw: "
+            + "; ".join(f"{c}: {', '.join(map(str, n))}" for c, n in per_draw.items()))
+
+
 def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
     """RMS of the recorded completer's completions against the truth, the share that became factors (not dropped by the
     screening) and the share of those that continued a run without being screened (``regressed_runs='screen-first'``)."""
@@ -307,7 +358,7 @@ def main(argv=None) -> int:
     p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
     p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
     p.add_argument("--sigmas", nargs="+", type=float, default=list(SIGMAS), help="oracle error sizes, m/s")
-    p.add_argument("--reference", required=True, help="hybrid_imu_folds.py results (JSON) of the same scenario "
+    p.add_argument("--reference", help="hybrid_imu_folds.py results (JSON) of the same scenario "
                    "and windows: its Graph-TC, all beams and Graph-HN runs")
     p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer")
     p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer")
@@ -326,14 +377,24 @@ def main(argv=None) -> int:
     p.add_argument("--oracle-draws", type=int, default=1, help="draws of each oracle's errors (default 1; more: "
                    "the spread of its ratios over the draws)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
-    p.add_argument("--out", required=True, help="results (JSON); a rerun with the same scenario and windows resumes "
+    p.add_argument("--over-draws", action="append", nargs="+", metavar="FILE", help="one training draw's results "
+                   "files (its scenarios' --out): with --references and --tau, run nothing and print the run setting "
+                   "the regime rule chooses over every draw given (repeat per draw)")
+    p.add_argument("--references", nargs="+", default=[], metavar="FILE", help="with --over-draws: the reference "
+                   "file (hybrid_imu_folds.py) of each scenario")
+    p.add_argument("--out", help="results (JSON); a rerun with the same scenario and windows resumes "
                    "from it")
     a = p.parse_args(argv)
+    sys.path.insert(0, str(Path(__file__).parent))
+    if a.over_draws:
+        print(choice_over_draws(a.over_draws, a.references, a.tau, a.grades, a.window_s))
+        return 0
+    if not (a.reference and a.out):
+        p.error("--reference and --out are required (but with --over-draws)")
     if bool(a.record) != bool(a.beam_nets):
         p.error("--record and --beam-nets go together")
     if a.drift and not a.record:
         p.error("--drift varies the recorded completer: give --record and --beam-nets")
-    sys.path.insert(0, str(Path(__file__).parent))
     from hybrid_imu_folds import load_runs, run_saving
 
     from graphnav.evaluation.bench import find_trajectories
@@ -382,19 +443,15 @@ def main(argv=None) -> int:
             sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
                                        load_runs(Path(ref_path), other)[0])
 
-    def run_settings(base: str, prefix: str = "") -> dict:
-        return {prefix + "screen-each": base, **{prefix + "screen-first" + (f", tau {t:g} s" if t else ""):
-                                                 f"{base}{TAU}{t:g}" for t in a.tau}}
-
     for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
               "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
-        print(regime_choice(sets, a.grades, a.window_s, run_settings(base), "regressed runs"))
+        print(regime_choice(sets, a.grades, a.window_s, run_settings(base, a.tau), "regressed runs"))
     if a.drift and a.tau:
         print(f"\n{RECORDED}: its sigma growth and the run screening chosen together by the regime rule")
         print(regime_choice(sets, a.grades, a.window_s,
                             {k: v for base, growth in zip(recorded, ["0.03"] + [f"{d:g}" for d in a.drift])
-                             for k, v in run_settings(base, f"growth {growth}, ").items()},
+                             for k, v in run_settings(base, a.tau, f"growth {growth}, ").items()},
                             "growth per ping (m/s) and regressed runs"))
     return 0
 

@@ -465,3 +465,44 @@ def test_departure_clip_cuts_the_placement_rows_and_chooses_by_the_fadings_rule(
         with pytest.raises(SystemExit):
             study.main(argv)
         assert said in capsys.readouterr().err
+
+
+def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(tmp_path):
+    import sys
+    from graphnav.nets.crossval import AKIT_FOLDS
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("oracle_completions")
+    from hybrid_imu_folds import save_runs
+    names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
+    first, each = f"{study.RECORDED}{study.TAU}3", study.RECORDED
+
+    def write(path, scenario, ratios):
+        """Runs whose window VRMSE is ``ratios[variant]`` (per trajectory) times Graph-TC's 1.0."""
+        runs = {(n, "mems", 60.0, v): {"vrmse": [r(n)] * 2} for v, r in ratios.items() for n in names}
+        save_runs(path, {"scenario": scenario, "max_windows": 2, "oracle_tau_pings": study.SERIAL_TAU_PINGS}, runs)
+        return str(path)
+
+    fold1 = set(f"Trajectory{k}" for k in AKIT_FOLDS[1])
+    ref = tmp_path / "ref.json"
+    save_runs(ref, {"scenario": "2-missing", "max_windows": 2},
+              {(n, "mems", 60.0, m): [1.0, 1.0] for n in names for m in ("Graph-TC", "all beams", "Graph-HN")})
+    # draw 1: screening once is better everywhere; draw 2: it puts fold 1 at 1.05x Graph-TC
+    d1 = write(tmp_path / "d1.json", "2-missing", {first: lambda n: 0.8, each: lambda n: 0.9})
+    d2 = write(tmp_path / "d2.json", "2-missing", {first: lambda n: 1.05 if n in fold1 else 0.8,
+                                                   each: lambda n: 0.9})
+    one = study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0])
+    assert "chosen on all folds: screen-first, tau 3 s" in one
+    both = study.choice_over_draws([[d1], [d2]], [str(ref)], [3.0], ["mems"], [60.0])
+    # 1 fold cell over 1.02x (draw 2, fold 1) against none; the means (0.8 + 0.85) / 2 and 0.9 are not read
+    assert "screen-each: 0, 0.900; screen-first, tau 3 s: 1, 0.825" in both
+    assert "chosen on all folds: screen-each" in both
+    assert both.endswith("fold cells over 1.02x per draw: screen-each: 0, 0; screen-first, tau 3 s: 0, 1")
+    # left out, fold 1 is chosen for by the other folds, where screening once never fails: it gets screen-first
+    assert "fold 1: screen-first, tau 3 s" in both and "fold 0: screen-each" in both
+    # out of fold: fold 1 at 1.05x, the other eight trajectories screened at each ping (0.9)
+    assert "| 2-missing, draw 2 | mems | 60 | 0.93 (1.05) | 0.90, 1.05, 0.90, 0.90, 0.90 |" in both
+    with pytest.raises(SystemExit, match="runs the choice reads are not there"):     # a study not finished
+        study.choice_over_draws([[d1]], [str(ref)], [3.0, 10.0], ["mems"], [60.0])
+    with pytest.raises(SystemExit, match="no --references file for scenario 3-missing"):
+        study.choice_over_draws([[write(tmp_path / "d3.json", "3-missing", {each: lambda n: 1.0})]], [str(ref)],
+                                [3.0], ["mems"], [60.0])

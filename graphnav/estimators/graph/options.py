@@ -151,8 +151,9 @@ class GraphOptions:
             (:mod:`.regressed`); ``"screen-first"`` = until one completion of the run is kept, then the rest of the
             run enters without the screening, at the completer's sigma (the screening compares a completion with a
             prediction the run's earlier completions have already pulled, and would drop most of them as redundant
-            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` = 3 s
-            (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen leave-one-fold-out); with the average
+            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` = 10 s
+            (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of three training
+            draws); with the average
             estimator it made some folds worse than Graph-TC, so the other methods screen each ping
             (docs/decisions/completers.md).
         regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
