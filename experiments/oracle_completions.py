@@ -31,6 +31,8 @@ folds and leave-one-fold-out (with ``--joint``, on the cells of several scenario
 its scenarios) and ``--references`` (one per scenario), it prints the run setting the regime rule chooses with every
 draw's cells counted together (fold cells over 1.02x summed over the draws, then the mean pooled ratio over all of
 them), on all folds and leave-one-fold-out: a default that must hold for whichever draw of the weights is shipped.
+``--recorded-draw T@F ...`` adds the fold cells over 1.02x of a draw whose runs were not kept (setting T s, or
+``each``, in fold F) to the counts, not to the means.
 ``--oracle-draws N`` runs every oracle N times with other draws of its errors (the same model and sigma) and prints,
 per cell, the spread of its pooled and worst-fold ratios over the draws and how many fold cells each draw has over
 1.02x: how often a completion the graph is told correctly fails "never worse" by chance in these windows.
@@ -246,11 +248,14 @@ def draws_table(runs: dict, reference: dict, grades, windows, oracles, draws: in
     return "\n".join(lines)
 
 
-def regime_choice(sets: dict, grades, windows, candidates: dict, what: str) -> str:
+def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, recorded_over: dict | None = None) -> str:
     """The candidate (``what``: e.g. the recorded completer's sigma growth) chosen by the regime rule (fewest fold
     cells over 1.02x Graph-TC, then the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold
     scored with the candidate chosen on the other four (``candidates``: label -> variant). ``sets``: scenario ->
-    (runs, reference) of that scenario; the cells are every scenario's IMUs and windows."""
+    (runs, reference) of that scenario; the cells are every scenario's IMUs and windows. ``recorded_over``: label ->
+    folds of further cells over 1.02x known only as counts (a draw whose runs were not kept): they add to the count
+    (left out with their fold), not to the mean."""
+    recorded_over = recorded_over or {}
     from graphnav.nets.crossval import AKIT_FOLDS
     folds = list(range(len(AKIT_FOLDS)))
     cells = [(sc, g, w) for sc in sets for g in grades for w in windows]
@@ -261,6 +266,7 @@ def regime_choice(sets: dict, grades, windows, candidates: dict, what: str) -> s
     def key(use, label):
         m = candidates[label]
         worse = sum(r([f], sc, g, w, m) > 1.02 for f in use for sc, g, w in cells)
+        worse += sum(f in use for f in recorded_over.get(label, []))
         return worse, float(np.mean([r(use, sc, g, w, m) for sc, g, w in cells]))
     scores = {c: key(folds, c) for c in candidates}
     lines = [f"{what}: fold cells over 1.02x, mean pooled ratio: " + "; ".join(
@@ -289,11 +295,14 @@ def run_settings(base: str, taus, prefix: str = "") -> dict:
                                              f"{base}{TAU}{t:g}" for t in taus}}
 
 
-def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED) -> str:
+def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED,
+                      recorded: list = ()) -> str:
     """The regime rule's choice among ``base``'s run settings with the cells of every training draw together.
     ``draws``: per draw, its results files (one per scenario; a scenario's runs that use no fitted network, as the
     total outage's, may be the same file in every draw); ``references``: one hybrid_imu_folds.py file per scenario.
-    Every draw's cells count: a fold cell over 1.02x in any draw counts against the setting."""
+    The fold cells over 1.02x are summed over the draws. ``recorded``: ``"T@F"`` (or ``"each@F"``), one per fold
+    cell over 1.02x of a further draw whose runs were not kept, known as a count: setting T s in fold F; they count
+    against the setting (leave-one-fold-out, not when F is left out) and do not enter the mean."""
     from hybrid_imu_folds import load_runs
 
     from graphnav.nets.crossval import AKIT_FOLDS
@@ -303,12 +312,22 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         refs[settings["scenario"]] = (load_runs(path, settings)[0], settings["max_windows"])
     candidates = run_settings(base, taus)
     folds = range(len(AKIT_FOLDS))
+    by_setting = {"each": "screen-each", **{f"{t:g}": c for t, c in zip(taus, list(candidates)[1:])}}
+    recorded_over: dict = {}
+    for entry in recorded:
+        setting, _, fold = entry.partition("@")
+        if setting not in by_setting or not fold.isdigit() or int(fold) not in folds:
+            raise SystemExit(f"--recorded-draw {entry}: give SETTING@FOLD, SETTING one of {', '.join(by_setting)} "
+                             f"and FOLD 0-{len(folds) - 1}")
+        recorded_over.setdefault(by_setting[setting], []).append(int(fold))
     names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
     sets = {}
     for d, files in enumerate(draws, 1):
         for path in map(Path, files):
             settings = json.loads(path.read_text())["settings"]
             scenario = settings["scenario"]
+            if f"{scenario}, draw {d}" in sets:
+                raise SystemExit(f"{path}: a second {scenario} file in draw {d}")
             if scenario not in refs:
                 raise SystemExit(f"{path}: no --references file for scenario {scenario}")
             if settings["max_windows"] != refs[scenario][1]:
@@ -321,12 +340,21 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
                 raise SystemExit(f"{path}: {len(missing)} of the runs the choice reads are not there (the first: "
                                  f"{missing[0]}); finish the study with --tau {' '.join(f'{t:g}' for t in taus)}")
             sets[f"{scenario}, draw {d}"] = (runs, refs[scenario][0])
+    scenarios = [{k.rsplit(", draw ", 1)[0] for k in sets if k.endswith(f", draw {d}")}
+                 for d in range(1, len(draws) + 1)]
+    if any(sc != scenarios[0] for sc in scenarios):
+        raise SystemExit(f"the draws hold different scenarios ({'; '.join(', '.join(sorted(sc)) for sc in scenarios)}): "
+                         "each draw's cells must be the same")
     per_draw = {c: [sum(ratio(*sets[key], [f], g, w, v) > 1.02 for key in sets if key.endswith(f", draw {d}")
                         for g in grades for w in windows for f in folds) for d in range(1, len(draws) + 1)]
                 for c, v in candidates.items()}
+    extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
-                          f"{'s' * (len(draws) > 1)}: regressed runs") + "\nfold cells over 1.02x per draw: "
-            + "; ".join(f"{c}: {', '.join(map(str, n))}" for c, n in per_draw.items()))
+                          f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
+            + "\nfold cells over 1.02x per draw: "
+            + "; ".join(f"{c}: {', '.join(map(str, n))}" + (f" (recorded: folds {', '.join(map(str, recorded_over[c]))})"
+                                                           if c in recorded_over else "")
+                        for c, n in per_draw.items()))
 
 
 def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
@@ -380,6 +408,9 @@ def main(argv=None) -> int:
     p.add_argument("--over-draws", action="append", nargs="+", metavar="FILE", help="one training draw's results "
                    "files (its scenarios' --out): with --references and --tau, run nothing and print the run setting "
                    "the regime rule chooses over every draw given (repeat per draw)")
+    p.add_argument("--recorded-draw", nargs="+", default=[], metavar="SETTING@FOLD", help="with --over-draws: the "
+                   "fold cells over 1.02x of a further draw whose runs were not kept, one per cell (SETTING: a --tau "
+                   "value or 'each'): they count against the setting, not in the mean")
     p.add_argument("--references", nargs="+", default=[], metavar="FILE", help="with --over-draws: the reference "
                    "file (hybrid_imu_folds.py) of each scenario")
     p.add_argument("--out", help="results (JSON); a rerun with the same scenario and windows resumes "
@@ -387,10 +418,14 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     sys.path.insert(0, str(Path(__file__).parent))
     if a.over_draws:
-        print(choice_over_draws(a.over_draws, a.references, a.tau, a.grades, a.window_s))
+        if not (a.tau and a.references):
+            p.error("--over-draws needs --tau (the settings to choose from) and --references")
+        print(choice_over_draws(a.over_draws, a.references, a.tau, a.grades, a.window_s, recorded=a.recorded_draw))
         return 0
+    if a.recorded_draw:
+        p.error("--recorded-draw goes with --over-draws")
     if not (a.reference and a.out):
-        p.error("--reference and --out are required (but with --over-draws)")
+        p.error("--reference and --out are required (unless --over-draws is given)")
     if bool(a.record) != bool(a.beam_nets):
         p.error("--record and --beam-nets go together")
     if a.drift and not a.record:

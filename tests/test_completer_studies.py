@@ -483,24 +483,38 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
         return str(path)
 
     fold1 = set(f"Trajectory{k}" for k in AKIT_FOLDS[1])
+    fold2 = set(f"Trajectory{k}" for k in AKIT_FOLDS[2])
     ref = tmp_path / "ref.json"
     save_runs(ref, {"scenario": "2-missing", "max_windows": 2},
               {(n, "mems", 60.0, m): [1.0, 1.0] for n in names for m in ("Graph-TC", "all beams", "Graph-HN")})
-    # draw 1: screening once is better everywhere; draw 2: it puts fold 1 at 1.05x Graph-TC
+    # draw 1: screening once is better everywhere; draw 2: it puts fold 1 at 1.05x Graph-TC and fold 2 at the bound
     d1 = write(tmp_path / "d1.json", "2-missing", {first: lambda n: 0.8, each: lambda n: 0.9})
-    d2 = write(tmp_path / "d2.json", "2-missing", {first: lambda n: 1.05 if n in fold1 else 0.8,
+    d2 = write(tmp_path / "d2.json", "2-missing", {first: lambda n: 1.05 if n in fold1 else 1.02 if n in fold2 else 0.8,
                                                    each: lambda n: 0.9})
     one = study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0])
     assert "chosen on all folds: screen-first, tau 3 s" in one
     both = study.choice_over_draws([[d1], [d2]], [str(ref)], [3.0], ["mems"], [60.0])
-    # 1 fold cell over 1.02x (draw 2, fold 1) against none; the means (0.8 + 0.85) / 2 and 0.9 are not read
-    assert "screen-each: 0, 0.900; screen-first, tau 3 s: 1, 0.825" in both
+    # 1 fold cell over 1.02x (draw 2, fold 1; fold 2 at 1.02x is not over) against none; the means
+    # (0.8 + 0.894) / 2 and 0.9 are not read
+    assert "screen-each: 0, 0.900; screen-first, tau 3 s: 1, 0.847" in both
     assert "chosen on all folds: screen-each" in both
     assert both.endswith("fold cells over 1.02x per draw: screen-each: 0, 0; screen-first, tau 3 s: 0, 1")
     # left out, fold 1 is chosen for by the other folds, where screening once never fails: it gets screen-first
     assert "fold 1: screen-first, tau 3 s" in both and "fold 0: screen-each" in both
     # out of fold: fold 1 at 1.05x, the other eight trajectories screened at each ping (0.9)
     assert "| 2-missing, draw 2 | mems | 60 | 0.93 (1.05) | 0.90, 1.05, 0.90, 0.90, 0.90 |" in both
+    # the same fold cell known only as a count of a draw whose runs were not kept
+    counted = study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0], recorded=["3@1"])
+    assert "screen-each: 0, 0.900; screen-first, tau 3 s: 1, 0.800" in counted
+    assert "chosen on all folds: screen-each" in counted and "fold 1: screen-first, tau 3 s" in counted
+    assert counted.endswith("screen-first, tau 3 s: 0 (recorded: folds 1)")
+    for bad in (["3@7"], ["4@1"], ["3"]):
+        with pytest.raises(SystemExit, match="SETTING@FOLD"):
+            study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0], recorded=bad)
+    with pytest.raises(SystemExit, match="a second 2-missing file in draw 1"):
+        study.choice_over_draws([[d1, d2]], [str(ref)], [3.0], ["mems"], [60.0])
+    with pytest.raises(SystemExit):                      # the command needs the settings to choose from
+        study.main(["--over-draws", d1, "--references", str(ref)])
     with pytest.raises(SystemExit, match="runs the choice reads are not there"):     # a study not finished
         study.choice_over_draws([[d1]], [str(ref)], [3.0, 10.0], ["mems"], [60.0])
     with pytest.raises(SystemExit, match="no --references file for scenario 3-missing"):
