@@ -248,6 +248,12 @@ def draws_table(runs: dict, reference: dict, grades, windows, oracles, draws: in
     return "\n".join(lines)
 
 
+def fold_cells_over(sets: dict, keys, folds, grades, windows, variant: str) -> int:
+    """Fold cells of ``variant`` over 1.02x Graph-TC in the scenarios ``keys`` of ``sets`` (key -> (runs, reference)),
+    with every IMU grade and window, in each of ``folds``."""
+    return sum(ratio(*sets[k], [f], g, w, variant) > 1.02 for k in keys for g in grades for w in windows for f in folds)
+
+
 def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, recorded_over: dict | None = None) -> str:
     """The candidate (``what``: e.g. the recorded completer's sigma growth) chosen by the regime rule (fewest fold
     cells over 1.02x Graph-TC, then the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold
@@ -265,7 +271,7 @@ def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, reco
 
     def key(use, label):
         m = candidates[label]
-        worse = sum(r([f], sc, g, w, m) > 1.02 for f in use for sc, g, w in cells)
+        worse = fold_cells_over(sets, sets, use, grades, windows, m)
         worse += sum(f in use for f in recorded_over.get(label, []))
         return worse, float(np.mean([r(use, sc, g, w, m) for sc, g, w in cells]))
     scores = {c: key(folds, c) for c in candidates}
@@ -322,11 +328,13 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         recorded_over.setdefault(by_setting[setting], []).append(int(fold))
     names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
     sets = {}
+    draw_scenarios: list[list[str]] = []     # per draw, its scenarios (keys of sets: "<scenario>, draw <d>")
     for d, files in enumerate(draws, 1):
+        draw_scenarios.append([])
         for path in map(Path, files):
             settings = json.loads(path.read_text())["settings"]
             scenario = settings["scenario"]
-            if f"{scenario}, draw {d}" in sets:
+            if scenario in draw_scenarios[-1]:
                 raise SystemExit(f"{path}: a second {scenario} file in draw {d}")
             if scenario not in refs:
                 raise SystemExit(f"{path}: no --references file for scenario {scenario}")
@@ -340,14 +348,12 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
                 raise SystemExit(f"{path}: {len(missing)} of the runs the choice reads are not there (the first: "
                                  f"{missing[0]}); finish the study with --tau {' '.join(f'{t:g}' for t in taus)}")
             sets[f"{scenario}, draw {d}"] = (runs, refs[scenario][0])
-    scenarios = [{k.rsplit(", draw ", 1)[0] for k in sets if k.endswith(f", draw {d}")}
-                 for d in range(1, len(draws) + 1)]
-    if any(sc != scenarios[0] for sc in scenarios):
-        raise SystemExit(f"the draws hold different scenarios ({'; '.join(', '.join(sorted(sc)) for sc in scenarios)}): "
-                         "each draw's cells must be the same")
-    per_draw = {c: [sum(ratio(*sets[key], [f], g, w, v) > 1.02 for key in sets if key.endswith(f", draw {d}")
-                        for g in grades for w in windows for f in folds) for d in range(1, len(draws) + 1)]
-                for c, v in candidates.items()}
+            draw_scenarios[-1].append(scenario)
+    if any(set(sc) != set(draw_scenarios[0]) for sc in draw_scenarios):
+        raise SystemExit(f"the draws hold different scenarios "
+                         f"({'; '.join(', '.join(sorted(sc)) for sc in draw_scenarios)}): each draw's cells must be the same")
+    per_draw = {c: [fold_cells_over(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
+                    for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
