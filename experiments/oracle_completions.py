@@ -350,16 +350,16 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
             sets[f"{scenario}, draw {d}"] = (runs, refs[scenario][0])
             draw_scenarios[-1].append(scenario)
     if any(set(sc) != set(draw_scenarios[0]) for sc in draw_scenarios):
-        raise SystemExit(f"the draws hold different scenarios "
-                         f"({'; '.join(', '.join(sorted(sc)) for sc in draw_scenarios)}): each draw's cells must be the same")
+        held = "; ".join(", ".join(sorted(sc)) for sc in draw_scenarios)
+        raise SystemExit(f"the draws hold different scenarios ({held}): each draw's cells must be the same")
     per_draw = {c: [fold_cells_over(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
                     for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
             + "\nfold cells over 1.02x per draw: "
-            + "; ".join(f"{c}: {', '.join(map(str, n))}" + (f" (recorded: folds {', '.join(map(str, recorded_over[c]))})"
-                                                           if c in recorded_over else "")
+            + "; ".join(f"{c}: {', '.join(map(str, n))}"
+                        + (f" (recorded: folds {', '.join(map(str, recorded_over[c]))})" if c in recorded_over else "")
                         for c, n in per_draw.items()))
 
 
