@@ -114,8 +114,8 @@ GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: (3 s 1.03x, 5 s just over 1.02x; 2 missing beams, MEMS over 60 s); 10 s and screening each ping kept every fold
 #: within 1.02x in all three, and 10 s had the lower mean ratio. It costs the 0.7x "helps" target with 3 missing
 #: beams and MEMS over 120 s (0.72-0.74x against 3 s's 0.66-0.69x). With the average estimator (Graph-HN) the same
-#: rule keeps screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in some fold (docs/decisions/completers.md,
-#: experiments/oracle_completions.py). A position-fix keyframe between pings ends a run.
+#: rule keeps screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in some fold
+#: (docs/decisions/completers.md, experiments/oracle_completions.py). A position-fix keyframe between pings ends a run.
 GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, "regressed_runs": "screen-first",
                                                      "regressed_error_tau_s": 10.0})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
