@@ -65,6 +65,8 @@ AVERAGE = "Graph-HN (average)"
 TAU = " tau "
 #: variant suffix of an oracle: another draw of its errors (the same model, another seed)
 DRAW = " draw "
+#: the regime-rule label of a run screened at each ping (``screen_first_label`` gives the others)
+SCREEN_EACH = "screen-each"
 
 
 def oracle_variants(sigmas=SIGMAS) -> list[str]:
@@ -294,11 +296,16 @@ def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, reco
     return "\n".join(lines)
 
 
+def screen_first_label(tau: float) -> str:
+    """The regime-rule label of a run screened until one completion is kept, its errors correlated over ``tau`` s
+    (0: independent errors)."""
+    return "screen-first" + (f", tau {tau:g} s" if tau else "")
+
+
 def run_settings(base: str, taus, prefix: str = "") -> dict:
     """The run settings of variant ``base`` as regime-rule candidates (label -> variant): screened at each ping, or
     until one completion is kept with each correlation time in ``taus`` (0: independent errors)."""
-    return {prefix + "screen-each": base, **{prefix + "screen-first" + (f", tau {t:g} s" if t else ""):
-                                             f"{base}{TAU}{t:g}" for t in taus}}
+    return {prefix + SCREEN_EACH: base, **{prefix + screen_first_label(t): f"{base}{TAU}{t:g}" for t in taus}}
 
 
 def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED,
@@ -318,7 +325,7 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         refs[settings["scenario"]] = (load_runs(path, settings)[0], settings["max_windows"])
     candidates = run_settings(base, taus)
     folds = range(len(AKIT_FOLDS))
-    by_setting = {"each": "screen-each", **{f"{t:g}": c for t, c in zip(taus, list(candidates)[1:])}}
+    by_setting = {"each": SCREEN_EACH, **{f"{t:g}": screen_first_label(t) for t in taus}}
     recorded_over: dict = {}
     for entry in recorded:
         setting, _, fold = entry.partition("@")
