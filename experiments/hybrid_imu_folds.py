@@ -172,7 +172,20 @@ def load_runs(path: Path, settings: dict) -> tuple[dict, dict]:
         found = saved.get("settings") if isinstance(saved, dict) else "none"
         raise SystemExit(f"{path} holds runs of other settings ({found}, here {settings}): give another --out or "
                          "delete it")
-    return {tuple(k): v for k, v in saved["runs"]}, {k: v for k, v in saved.items() if k not in ("settings", "runs")}
+    return _runs_of(saved), {k: v for k, v in saved.items() if k not in ("settings", "runs")}
+
+
+def read_results(path: Path) -> tuple[dict, dict]:
+    """(settings, runs) of an existing results file of :func:`save_runs`, whatever its settings: for a reader that
+    takes them from the file (parsed once)."""
+    saved = json.loads(path.read_text())
+    if not isinstance(saved, dict) or "settings" not in saved or "runs" not in saved:
+        raise SystemExit(f"{path} is not a results file (no settings and runs)")
+    return saved["settings"], _runs_of(saved)
+
+
+def _runs_of(saved: dict) -> dict:
+    return {tuple(k): v for k, v in saved["runs"]}
 
 
 def save_runs(path: Path, settings: dict, runs: dict, **extra) -> None:

@@ -47,7 +47,6 @@ Graph-TC, all-beams and Graph-HN runs). Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import zlib
 from pathlib import Path
@@ -316,13 +315,13 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
     The fold cells over 1.02x are summed over the draws. ``recorded``: ``"T@F"`` (or ``"each@F"``), one per fold
     cell over 1.02x of a further draw whose runs were not kept, known as a count: setting T s in fold F; they count
     against the setting (leave-one-fold-out, not when F is left out) and do not enter the mean."""
-    from hybrid_imu_folds import load_runs
+    from hybrid_imu_folds import read_results
 
     from graphnav.nets.crossval import AKIT_FOLDS
     refs = {}
     for path in map(Path, references):
-        settings = json.loads(path.read_text())["settings"]
-        refs[settings["scenario"]] = (load_runs(path, settings)[0], settings["max_windows"])
+        settings, runs = read_results(path)
+        refs[settings["scenario"]] = (runs, settings["max_windows"])
     candidates = run_settings(base, taus)
     folds = range(len(AKIT_FOLDS))
     by_setting = {"each": SCREEN_EACH, **{f"{t:g}": screen_first_label(t) for t in taus}}
@@ -339,7 +338,7 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
     for d, files in enumerate(draws, 1):
         draw_scenarios.append([])
         for path in map(Path, files):
-            settings = json.loads(path.read_text())["settings"]
+            settings, runs = read_results(path)
             scenario = settings["scenario"]
             if scenario in draw_scenarios[-1]:
                 raise SystemExit(f"{path}: a second {scenario} file in draw {d}")
@@ -348,7 +347,6 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
             if settings["max_windows"] != refs[scenario][1]:
                 raise SystemExit(f"{path} has {settings['max_windows']} windows per trajectory, its reference "
                                  f"{refs[scenario][1]}")
-            runs = load_runs(path, settings)[0]
             missing = [(n, g, w, v) for n in names for g in grades for w in windows for v in candidates.values()
                        if (n, g, w, v) not in runs]
             if missing:
@@ -443,16 +441,15 @@ def main(argv=None) -> int:
         p.error("--record and --beam-nets go together")
     if a.drift and not a.record:
         p.error("--drift varies the recorded completer: give --record and --beam-nets")
-    from hybrid_imu_folds import load_runs, run_saving
+    from hybrid_imu_folds import load_runs, read_results, run_saving
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     reference_path = Path(a.reference)
-    saved = json.loads(reference_path.read_text())
-    if saved["settings"]["scenario"] != a.scenario or saved["settings"]["max_windows"] != a.max_windows:
-        raise SystemExit(f"{reference_path} holds {saved['settings']}, not {a.scenario} with {a.max_windows} windows")
-    reference, _ = load_runs(reference_path, saved["settings"])
+    reference_settings, reference = read_results(reference_path)
+    if reference_settings["scenario"] != a.scenario or reference_settings["max_windows"] != a.max_windows:
+        raise SystemExit(f"{reference_path} holds {reference_settings}, not {a.scenario} with {a.max_windows} windows")
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     out = Path(a.out)
@@ -487,9 +484,9 @@ def main(argv=None) -> int:
     sets = {a.scenario: (runs, reference)}
     if a.joint:      # one choice for the cells of every scenario
         for out_path, ref_path in zip(a.joint[::2], a.joint[1::2]):
-            other = json.loads(Path(ref_path).read_text())["settings"]
+            other, other_reference = read_results(Path(ref_path))
             sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
-                                       load_runs(Path(ref_path), other)[0])
+                                       other_reference)
 
     for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "

@@ -520,3 +520,6 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
     with pytest.raises(SystemExit, match="no --references file for scenario 3-missing"):
         study.choice_over_draws([[write(tmp_path / "d3.json", "3-missing", {each: lambda n: 1.0})]], [str(ref)],
                                 [3.0], ["mems"], [60.0])
+    (tmp_path / "notes.json").write_text('{"rows": []}')
+    with pytest.raises(SystemExit, match="notes.json is not a results file"):
+        study.choice_over_draws([[d1]], [str(tmp_path / "notes.json")], [3.0], ["mems"], [60.0])
