@@ -65,3 +65,29 @@ def test_relative_links_resolve(page):
     assert links
     broken = [link for link in links if not (path.parent / link).exists()]
     assert not broken, f"{page}: links to missing files {broken}"
+
+
+def heading_anchors(text: str) -> set[str]:
+    """The anchors a Markdown renderer such as GitHub's gives the page's headings: lower case, punctuation
+    dropped but for hyphens and underscores, spaces turned into hyphens, a repeated one numbered."""
+    anchors, seen = set(), {}
+    for heading in re.findall(r"^#{1,6} (.+)$", text, flags=re.M):
+        slug = re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+        n = seen.get(slug, 0)
+        seen[slug] = n + 1
+        anchors.add(f"{slug}-{n}" if n else slug)
+    return anchors
+
+
+def test_heading_anchors_follow_the_renderer():
+    text = "# A page\n## Protocol (`x.y`)\n## Out-of-fold table, A-KIT (m/s; gain = 1 - a/b)\n## Reading\n## Reading\n"
+    assert heading_anchors(text) == {"a-page", "protocol-xy", "out-of-fold-table-a-kit-ms-gain--1---ab", "reading",
+                                     "reading-1"}
+
+
+@pytest.mark.parametrize("page", sorted(p.name for p in (DOCS / "decisions").glob("*.md")))
+def test_links_within_a_decision_page_land_on_a_heading(page):
+    text = (DOCS / "decisions" / page).read_text()
+    targets = set(re.findall(r"\]\(#([^)]+)\)", re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)))
+    missing = targets - heading_anchors(text)
+    assert not missing, f"docs/decisions/{page}: links to no heading {sorted(missing)}"
