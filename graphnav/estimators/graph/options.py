@@ -153,8 +153,8 @@ class GraphOptions:
             prediction the run's earlier completions have already pulled, and would drop most of them as redundant
             with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` = 10 s
             (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of three training
-            draws, held in a fourth); with the average estimator it made some folds worse than Graph-TC, so the
-            other methods screen each ping (docs/decisions/completers.md).
+            draws, held in a fourth and a fifth); with the average estimator it made some folds worse than
+            Graph-TC, so the other methods screen each ping (docs/decisions/completers.md).
         regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
             errors, modelled as a first-order Gauss-Markov process per beam: the run's later completions enter as
             the whitened difference with the previous one (:func:`graphnav.factors.beam_difference_factor`,
