@@ -57,10 +57,15 @@ def test_docs_index_lists_every_decision_page():
     assert not missing, f"docs/README.md does not list {missing}"
 
 
+def without_code(text: str) -> str:
+    """The page without its fenced code blocks: a link or a ``#`` line in code is neither a link nor a heading."""
+    return re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+
+
 @pytest.mark.parametrize("page", ["README.md", "docs/README.md"])
 def test_relative_links_resolve(page):
     path = README.parent / page
-    text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.S | re.M)     # code is not links
+    text = without_code(path.read_text())
     links = re.findall(r"\]\(([^)#:]+)\)", text)
     assert links
     broken = [link for link in links if not (path.parent / link).exists()]
@@ -87,7 +92,7 @@ def test_heading_anchors_follow_the_renderer():
 
 @pytest.mark.parametrize("page", sorted(p.name for p in (DOCS / "decisions").glob("*.md")))
 def test_links_within_a_decision_page_land_on_a_heading(page):
-    text = (DOCS / "decisions" / page).read_text()
-    targets = set(re.findall(r"\]\(#([^)]+)\)", re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)))
+    text = without_code((DOCS / "decisions" / page).read_text())
+    targets = set(re.findall(r"\]\(#([^)]+)\)", text))
     missing = targets - heading_anchors(text)
     assert not missing, f"docs/decisions/{page}: links to no heading {sorted(missing)}"
