@@ -30,7 +30,8 @@ folds and leave-one-fold-out (with ``--joint``, on the cells of several scenario
 ``--over-draws`` runs nothing: given each training draw's results files (one ``--over-draws`` per draw, the files of
 its scenarios) and ``--references`` (one per scenario), it prints the run setting the regime rule chooses with every
 draw's cells counted together (fold cells over 1.02x summed over the draws, then the mean pooled ratio over all of
-them), on all folds and leave-one-fold-out: a default that must hold for whichever draw of the weights is shipped.
+them), on all folds and leave-one-fold-out: a default that must hold for whichever draw of the weights is shipped;
+and, per setting and draw, its worst fold cell (the ratio to Graph-TC and where it is) and its fold cells over 1.02x.
 ``--recorded-draw T@F ...`` adds the fold cells over 1.02x of a draw whose runs were not kept (setting T s, or
 ``each``, in fold F) to the counts, not to the means.
 ``--oracle-draws N`` runs every oracle N times with other draws of its errors (the same model and sigma) and prints,
@@ -255,6 +256,14 @@ def fold_cells_over(sets: dict, keys, folds, grades, windows, variant: str) -> i
     return sum(ratio(*sets[k], [f], g, w, variant) > 1.02 for k in keys for g in grades for w in windows for f in folds)
 
 
+def worst_fold_cell(sets: dict, keys, folds, grades, windows, variant: str) -> tuple:
+    """The fold cell of ``variant`` farthest over Graph-TC in the scenarios ``keys`` of ``sets``: (ratio, scenario key,
+    IMU grade, window s, fold); the first such cell in the order of ``keys``, grades, windows and folds on a tie."""
+    cells = [(ratio(*sets[k], [f], g, w, variant), k, g, w, f) for k in keys for g in grades for w in windows
+             for f in folds]
+    return max(cells, key=lambda c: c[0])
+
+
 def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, recorded_over: dict | None = None) -> str:
     """The candidate (``what``: e.g. the recorded completer's sigma growth) chosen by the regime rule (fewest fold
     cells over 1.02x Graph-TC, then the smallest mean pooled ratio) on all folds, and leave-one-fold-out: each fold
@@ -359,9 +368,14 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         raise SystemExit(f"the draws hold different scenarios ({held}): each draw's cells must be the same")
     per_draw = {c: [fold_cells_over(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
                     for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
+    worst = {c: [worst_fold_cell(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
+                 for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
+            + "\nworst fold cell per draw (ratio to Graph-TC, IMU, window, fold): "
+            + "; ".join(f"{c}: " + ", ".join(f"{x:.3f} ({k.partition(', draw')[0]}, {g}, {w:g} s, fold {f})"
+                                             for x, k, g, w, f in cs) for c, cs in worst.items())
             + "\nfold cells over 1.02x per draw: "
             + "; ".join(f"{c}: {', '.join(map(str, n))}"
                         + (f" (recorded: folds {', '.join(map(str, recorded_over[c]))})" if c in recorded_over else "")
