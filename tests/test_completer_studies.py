@@ -507,6 +507,15 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
     assert "fold 1: screen-first, tau 3 s" in both and "fold 0: screen-each" in both
     # out of fold: fold 1 at 1.05x, the other eight trajectories screened at each ping (0.9)
     assert "| 2-missing, draw 2 | mems | 60 | 0.93 (1.05) | 0.90, 1.05, 0.90, 0.90, 0.90 |" in both
+    # with two scenarios the worst cell is looked for in both and named by its scenario
+    ref3 = tmp_path / "ref3.json"
+    save_runs(ref3, {"scenario": "3-missing", "max_windows": 2},
+              {(n, "mems", 60.0, m): [1.0, 1.0] for n in names for m in ("Graph-TC", "all beams", "Graph-HN")})
+    d1_3 = write(tmp_path / "d1_3.json", "3-missing", {first: lambda n: 1.04 if n in fold2 else 0.8,
+                                                      each: lambda n: 0.9})
+    two = study.choice_over_draws([[d1, d1_3]], [str(ref), str(ref3)], [3.0], ["mems"], [60.0])
+    assert "screen-first, tau 3 s: 1.040 (3-missing, mems, 60 s, fold 2)" in two
+    assert two.endswith("fold cells over 1.02x per draw: screen-each: 0; screen-first, tau 3 s: 1")
     # the same fold cell known only as a count of a draw whose runs were not kept
     counted = study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0], recorded=["3@1"])
     assert "screen-each: 0, 0.900; screen-first, tau 3 s: 1, 0.800" in counted
