@@ -257,7 +257,7 @@ def fold_cells_over(sets: dict, keys, folds, grades, windows, variant: str) -> i
 
 
 def worst_fold_cell(sets: dict, keys, folds, grades, windows, variant: str) -> tuple:
-    """The fold cell of ``variant`` farthest over Graph-TC in the scenarios ``keys`` of ``sets``: (ratio, scenario key,
+    """The fold cell of ``variant`` with the highest ratio to Graph-TC in the scenarios ``keys`` of ``sets``: (ratio, scenario key,
     IMU grade, window s, fold); the first such cell in the order of ``keys``, grades, windows and folds on a tie."""
     cells = [(ratio(*sets[k], [f], g, w, variant), k, g, w, f) for k in keys for g in grades for w in windows
              for f in folds]
@@ -373,7 +373,7 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
-            + "\nworst fold cell per draw (ratio to Graph-TC, IMU, window, fold): "
+            + "\nworst fold cell per draw (ratio to Graph-TC, scenario, IMU, window, fold): "
             + "; ".join(f"{c}: " + ", ".join(f"{x:.3f} ({k.partition(', draw')[0]}, {g}, {w:g} s, fold {f})"
                                              for x, k, g, w, f in cs) for c, cs in worst.items())
             + "\nfold cells over 1.02x per draw: "

@@ -500,7 +500,7 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
     assert "chosen on all folds: screen-each" in both
     assert both.endswith("fold cells over 1.02x per draw: screen-each: 0, 0; screen-first, tau 3 s: 0, 1")
     # each setting's worst fold cell in each draw, and where it is (fold 0 on a tie: every fold at 0.9 or 0.8)
-    assert ("worst fold cell per draw (ratio to Graph-TC, IMU, window, fold): screen-each: 0.900 (2-missing, mems, "
+    assert ("worst fold cell per draw (ratio to Graph-TC, scenario, IMU, window, fold): screen-each: 0.900 (2-missing, mems, "
             "60 s, fold 0), 0.900 (2-missing, mems, 60 s, fold 0); screen-first, tau 3 s: 0.800 (2-missing, mems, "
             "60 s, fold 0), 1.050 (2-missing, mems, 60 s, fold 1)") in both
     # left out, fold 1 is chosen for by the other folds, where screening once never fails: it gets screen-first
