@@ -250,18 +250,17 @@ def draws_table(runs: dict, reference: dict, grades, windows, oracles, draws: in
     return "\n".join(lines)
 
 
+def fold_cell_ratios(sets: dict, keys, folds, grades, windows, variant: str) -> list[tuple]:
+    """Every fold cell of ``variant`` in the scenarios ``keys`` of ``sets`` (key -> (runs, reference)), with every IMU
+    grade and window, in each of ``folds``: (ratio to Graph-TC, scenario key, IMU grade, window s, fold), in that
+    order of keys, grades, windows and folds."""
+    return [(ratio(*sets[k], [f], g, w, variant), k, g, w, f) for k in keys for g in grades for w in windows
+            for f in folds]
+
+
 def fold_cells_over(sets: dict, keys, folds, grades, windows, variant: str) -> int:
-    """Fold cells of ``variant`` over 1.02x Graph-TC in the scenarios ``keys`` of ``sets`` (key -> (runs, reference)),
-    with every IMU grade and window, in each of ``folds``."""
-    return sum(ratio(*sets[k], [f], g, w, variant) > 1.02 for k in keys for g in grades for w in windows for f in folds)
-
-
-def worst_fold_cell(sets: dict, keys, folds, grades, windows, variant: str) -> tuple:
-    """The fold cell of ``variant`` with the highest ratio to Graph-TC in the scenarios ``keys`` of ``sets``: (ratio, scenario key,
-    IMU grade, window s, fold); the first such cell in the order of ``keys``, grades, windows and folds on a tie."""
-    cells = [(ratio(*sets[k], [f], g, w, variant), k, g, w, f) for k in keys for g in grades for w in windows
-             for f in folds]
-    return max(cells, key=lambda c: c[0])
+    """Fold cells of ``variant`` over 1.02x Graph-TC (:func:`fold_cell_ratios`)."""
+    return sum(cell[0] > 1.02 for cell in fold_cell_ratios(sets, keys, folds, grades, windows, variant))
 
 
 def regime_choice(sets: dict, grades, windows, candidates: dict, what: str, recorded_over: dict | None = None) -> str:
@@ -368,8 +367,10 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         raise SystemExit(f"the draws hold different scenarios ({held}): each draw's cells must be the same")
     per_draw = {c: [fold_cells_over(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
                     for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
-    worst = {c: [worst_fold_cell(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
-                 for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
+    # the highest ratio of each draw; max keeps the first cell on a tie
+    worst = {c: [max(fold_cell_ratios(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v),
+                     key=lambda cell: cell[0]) for d, scs in enumerate(draw_scenarios, 1)]
+             for c, v in candidates.items()}
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)

@@ -25,10 +25,8 @@ if [ "$INSTALLER" != uv ] && [ "$INSTALLER" != pip ]; then
     echo "setup_env.sh: GRAPHNAV_INSTALLER must be uv or pip, got '$INSTALLER'" >&2
     exit 2
 fi
-if [ "$INSTALLER" = uv ] && "${PIP[@]}" install "uv>=0.4,<1" \
-        && "$VENV/bin/uv" pip install --quiet --python "$VENV/bin/python" -e "$PROJECT"; then
-    :
-else
+if [ "$INSTALLER" = pip ] || ! { "${PIP[@]}" install "uv>=0.4,<1" \
+        && "$VENV/bin/uv" pip install --quiet --python "$VENV/bin/python" -e "$PROJECT"; }; then
     echo "setup_env.sh: installing with pip" >&2
     "${PIP[@]}" install -e "$PROJECT"
 fi
