@@ -357,6 +357,30 @@ def test_regressed_error_correlation_chains_regressed_beams(tactical_mission):
             GraphOptions(**bad)
 
 
+def test_regressed_error_correlation_by_measured_beams(tactical_mission):
+    """A mapping of correlation times serves each ping by its number of measured beams: with 3 missing beams (one
+    measured) ``{1: 20}`` is the scalar 20 s, and a mapping that names only other counts is independent errors."""
+    m = tactical_mission.slice(0, 80).with_outage(scenario_outage("3-missing", 30.0, 40.0))
+    comp = SerialOracleCompleter(m)
+    first = GraphOptions(regressed_runs="screen-first")
+    runs = {tau if not isinstance(tau, dict) else str(tau):
+            run_graph(m, completer=comp, options=dataclasses.replace(first, regressed_error_tau_s=tau))
+            for tau in (20.0, {1: 20.0, 2: None, 0: 3.0}, None, {0: 20.0, 2: 20.0})}
+    assert np.abs(runs[20.0].v_n - runs[None].v_n).max() > 1e-3          # the correlation time changes the run
+    np.testing.assert_array_equal(runs[str({1: 20.0, 2: None, 0: 3.0})].v_n, runs[20.0].v_n)
+    np.testing.assert_array_equal(runs[str({0: 20.0, 2: 20.0})].v_n, runs[None].v_n)
+    # as a configuration file gives it: keys as digits
+    from_file = GraphOptions(regressed_runs="screen-first", regressed_error_tau_s={"0": 3.0, "1": None, "2": 10.0})
+    assert from_file.regressed_error_tau_s == {0: 3.0, 1: None, 2: 10.0} and from_file.models_run_errors
+    assert [from_file.error_tau_for(n) for n in range(4)] == [3.0, None, 10.0, None]
+    assert not GraphOptions(regressed_error_tau_s={1: None}).models_run_errors   # nothing modelled: screen-each is fine
+    for bad in ({1: 0.0}, {-1: 3.0}, {"one": 3.0}, {True: 3.0}, {1: float("inf")}, {2: 10.0, 1: "3"}):
+        with pytest.raises(ConfigError, match="regressed_error_tau_s"):
+            GraphOptions(regressed_runs="screen-first", regressed_error_tau_s=bad)
+    with pytest.raises(ConfigError, match="screen-first"):
+        GraphOptions(regressed_error_tau_s={1: 3.0})
+
+
 def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):
     """regressed_runs="screen-first": the screening decides per ping until one completion of a beam's run is kept;
     the rest of the run enters at the completer's sigma, unscreened. With a screening that drops whatever the graph

@@ -57,7 +57,8 @@ def test_named_options_fill_groups_on_top_of_the_method_defaults():
     assert (o.regressed_runs, o.regressed_error_tau_s) == ("screen-each", None)
     for method in ("Graph-HNI", "Graph-HNI-batch"):
         hni = estimator_options(method)
-        assert (hni.regressed_runs, hni.regressed_error_tau_s) == ("screen-first", 10.0)
+        # by the number of measured beams: a total outage, 3, 2 and 1 missing
+        assert (hni.regressed_runs, hni.regressed_error_tau_s) == ("screen-first", {0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})
         assert hni.screening == RegressedScreeningOptions(correlation=0.5, adaptive=True)
     assert estimator_options("Graph-HNI", {"regressed_error_tau_s": None}).regressed_error_tau_s is None
     whole = build_options(EkfOptions, {"priors": PriorOptions(position_sigma=2.0), "priors.velocity_sigma": 0.2})

@@ -22,7 +22,8 @@ Graph-MP           graph      none; model-aided motion prior (body-velocity rand
 HNTC-IMU           EKF        the IMU-aware completer fused with the beam-only one (beam-only where
                               it cannot serve)
 Graph-HNI          graph      the same completer (ISAM2 filtered output); a run of regressed beams
-                              screened until one is kept, errors correlated over 10 s
+                              screened until one is kept, its errors correlated over 10 s with 2
+                              beams measured, 3 s with 0 or 1
 Graph-HNI-batch    graph      the same completer and runs (batch smoothed)
 Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
 Average-TC-12,
@@ -106,20 +107,22 @@ MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2
 #: measured with experiments/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: Graph settings of Graph-HNI and Graph-HNI-batch: the screening, and a run of regressed beams screened only until
-#: one of its completions is kept, its later ones entering as whitened differences with a 10 s Gauss-Markov
-#: correlation time (GraphOptions.regressed_runs, regressed_error_tau_s). Chosen by the regime rule (fewest fold
-#: cells over 1.02x Graph-TC, then the lowest mean ratio) over the 2-missing, 3-missing and total-outage cells of the
-#: ten shared trajectories, each fold with its own networks, with the cells of three training draws of those
-#: networks counted together: 3 s and 5 s had the lower mean ratio but put fold 1 over 1.02x in the third draw
-#: (3 s 1.03x, 5 s just over 1.02x; 2 missing beams, MEMS over 60 s); 10 s and screening each ping kept every fold
-#: within 1.02x in all three, and 10 s had the lower mean ratio (a fourth draw, held out, kept every fold within
-#: 1.02x with 10 s, fold 1 at 1.015x, and put it at 1.03x with 3 s again; a fifth kept every fold within 1.02x
-#: with every setting, 10 s at 1.003x at worst). It costs the 0.7x "helps" target with 3 missing beams and MEMS
-#: over 120 s (0.72-0.74x against 3 s's 0.66-0.69x). With the average estimator (Graph-HN) the same rule keeps
-#: screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in some fold
-#: (docs/decisions/completers.md, experiments/oracle_completions.py). A position-fix keyframe between pings ends a run.
-GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, "regressed_runs": "screen-first",
-                                                     "regressed_error_tau_s": 10.0})
+#: one of its completions is kept, its later ones entering as whitened differences with a Gauss-Markov correlation
+#: time that depends on how many beams the ping measured (GraphOptions.regressed_runs, regressed_error_tau_s): 3 s
+#: with none or one, 10 s with two (and with three, which no regime cell measures: the joint choice's value). Chosen
+#: by the regime rule (fewest fold cells over 1.02x Graph-TC, then the lowest mean ratio), each fold with its own
+#: networks, with the cells of five training draws of those networks counted together. Over the 2-missing, 3-missing
+#: and total-outage cells together the rule picked 10 s: 3 s and 5 s put fold 1 over 1.02x with 2 missing beams and
+#: MEMS over 60 s in two draws. Each number of measured beams is a different completer, and chosen each alone: with
+#: one beam measured 3 s (no fold cell over 1.02x in five draws; 0.66-0.69x with MEMS over 120 s against 10 s's
+#: 0.72-0.74x; independent errors, chosen on the first three draws, put fold 1 at 1.06x in the fifth), in a total
+#: outage (no network, the same in every draw) 3 s (0.44x with MEMS over 120 s). With the average estimator
+#: (Graph-HN) the rule keeps screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in
+#: some fold (docs/decisions/completers.md, experiments/oracle_completions.py). A position-fix keyframe between pings
+#: ends a run.
+GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({
+    **REGRESSED_SCREENING, "regressed_runs": "screen-first",
+    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
@@ -248,7 +251,8 @@ _RECORDS = (
     Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HN with the IMU-aware completer fused with the beam-only one (beam-only alone "
                        "without a 20 s IMU window), a run of regressed beams screened until one is kept and "
-                       "its errors correlated over 10 s; experimental",
+                       "its errors correlated over 10 s with 2 beams measured, 3 s with 0 or 1; "
+                       "experimental",
            experimental=True),
     Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),

@@ -389,7 +389,7 @@ def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRow
     builder.screening["continued"] += len(rows)
     builder.screening["entered"] += len(rows)
     links = regressed_links(kf, m, rows, beams[chained], omega_b, use_d)
-    tau = options.regressed_error_tau_s
+    tau = options.error_tau_for(int(np.count_nonzero(~m.regressed)))     # by the ping's measured beams
     if not chained.any() or tau is None:
         return sel[~chained], rows, [], links
     prev = [p for p, c in zip(prev, chained) if c]

@@ -63,6 +63,7 @@ Chosen defaults and why:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -81,6 +82,28 @@ MARGINAL_LEVELS = ("none", "velocity", "full")
 MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
 #: How a run of regressed beams meets the screening (GraphOptions.regressed_runs).
 REGRESSED_RUNS = ("screen-each", "screen-first")
+
+
+def checked_error_tau(tau):
+    """``GraphOptions.regressed_error_tau_s`` checked: None, a time > 0 s, or a mapping from a number of measured
+    beams (an int >= 0, or its digits, as a configuration file's keys come) to None or a time > 0 s, returned as
+    a new dict with int keys (a plain dict: options travel to worker processes by pickle). Raises
+    :class:`ConfigError` naming the bad entry."""
+    def time_or_none(value, where):
+        if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
+                             and 0 < value < float("inf")):
+            return value
+        raise ConfigError(f"regressed_error_tau_s{where} must be a time > 0 s or None, got {value!r}")
+
+    if not isinstance(tau, Mapping):
+        return time_or_none(tau, "")
+    by_count = {}
+    for key, value in tau.items():
+        count = int(key) if isinstance(key, str) and key.isdigit() else key
+        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
+            raise ConfigError(f"regressed_error_tau_s keys are numbers of measured beams (0, 1, 2, ...), got {key!r}")
+        by_count[count] = time_or_none(value, f"[{count}]")
+    return by_count
 
 
 @dataclass
@@ -151,15 +174,19 @@ class GraphOptions:
             (:mod:`.regressed`); ``"screen-first"`` = until one completion of the run is kept, then the rest of the
             run enters without the screening, at the completer's sigma (the screening compares a completion with a
             prediction the run's earlier completions have already pulled, and would drop most of them as redundant
-            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` = 10 s
-            (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of three training
-            draws, held in a fourth and a fifth); with the average estimator it made some folds worse than
+            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` by the
+            number of measured beams, 3 s / 3 s / 10 s / 10 s for 0 / 1 / 2 / 3
+            (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of five training
+            draws); with the average estimator it made some folds worse than
             Graph-TC, so the other methods screen each ping (docs/decisions/completers.md).
         regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
             errors, modelled as a first-order Gauss-Markov process per beam: the run's later completions enter as
             the whitened difference with the previous one (:func:`graphnav.factors.beam_difference_factor`,
             ``phi = exp(-dt / tau)``, variance ``max(s_k^2 - phi^2 s_(k-1)^2, (1 - phi^2) s_k^2)`` from the
-            completer's sigmas); None = independent from ping to ping.
+            completer's sigmas); None = independent from ping to ping. A mapping gives one per number of beams
+            measured at the ping (``{0: 3.0, 1: None, 2: 10.0}``: the completions of a total outage, of 3 and
+            of 2 missing beams come from different completers; :meth:`error_tau_for`), a count it does not
+            name taking independent errors.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -203,7 +230,7 @@ class GraphOptions:
     motion_prior_heave_sigma: float | None = 0.05
     motion_prior_switch_std: float = 0.2
     regressed_runs: str = "screen-each"
-    regressed_error_tau_s: float | None = None
+    regressed_error_tau_s: float | None | Mapping[int, float | None] = None
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -227,13 +254,10 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
-        tau = self.regressed_error_tau_s
-        if tau is not None and not (isinstance(tau, (int, float)) and not isinstance(tau, bool)
-                                    and 0 < tau < float("inf")):
-            raise ConfigError(f"regressed_error_tau_s must be a time > 0 s or None, got {self.regressed_error_tau_s!r}")
+        self.regressed_error_tau_s = checked_error_tau(self.regressed_error_tau_s)
         if self.regressed_runs not in REGRESSED_RUNS:
             raise ConfigError(f"regressed_runs must be one of {REGRESSED_RUNS}, got {self.regressed_runs!r}")
-        if self.regressed_error_tau_s is not None and self.regressed_runs != "screen-first":
+        if self.models_run_errors and self.regressed_runs != "screen-first":
             raise ConfigError("regressed_error_tau_s models the errors of a run of regressed beams kept without the "
                               "screening: it needs regressed_runs='screen-first'")
         if not self.motion_prior_switch_std > 0:
@@ -244,3 +268,15 @@ class GraphOptions:
             raise ConfigError(f"batch_solver must be 'vectorized' or 'lm', got '{self.batch_solver}'")
         if self.batch_first_pass not in BATCH_FIRST_PASSES:
             raise ConfigError(f"batch_first_pass must be one of {BATCH_FIRST_PASSES}, got '{self.batch_first_pass}'")
+
+    @property
+    def models_run_errors(self) -> bool:
+        """Whether some run of regressed beams enters with a correlation time (``regressed_error_tau_s``)."""
+        tau = self.regressed_error_tau_s
+        return any(t is not None for t in tau.values()) if isinstance(tau, Mapping) else tau is not None
+
+    def error_tau_for(self, n_measured: int) -> float | None:
+        """The correlation time (s) of the completions at a ping with ``n_measured`` measured beams; None =
+        independent errors."""
+        tau = self.regressed_error_tau_s
+        return tau.get(n_measured) if isinstance(tau, Mapping) else tau
