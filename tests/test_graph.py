@@ -374,7 +374,7 @@ def test_regressed_error_correlation_by_measured_beams(tactical_mission):
     assert from_file.regressed_error_tau_s == {0: 3.0, 1: None, 2: 10.0} and from_file.models_run_errors
     assert [from_file.error_tau_for(n) for n in range(4)] == [3.0, None, 10.0, None]
     assert not GraphOptions(regressed_error_tau_s={1: None}).models_run_errors   # nothing modelled: screen-each is fine
-    for bad in ({1: 0.0}, {-1: 3.0}, {"one": 3.0}, {True: 3.0}, {1: float("inf")}, {2: 10.0, 1: "3"}):
+    for bad in ({1: 0.0}, {-1: 3.0}, {"one": 3.0}, {True: 3.0}, {1: float("inf")}, {2: 10.0, 1: "3"}, {1: 3.0, "1": 5.0}):
         with pytest.raises(ConfigError, match="regressed_error_tau_s"):
             GraphOptions(regressed_runs="screen-first", regressed_error_tau_s=bad)
     with pytest.raises(ConfigError, match="screen-first"):

@@ -23,7 +23,7 @@ HNTC-IMU           EKF        the IMU-aware completer fused with the beam-only o
                               it cannot serve)
 Graph-HNI          graph      the same completer (ISAM2 filtered output); a run of regressed beams
                               screened until one is kept, its errors correlated over 10 s with 2
-                              beams measured, 3 s with 0 or 1
+                              or 3 beams measured, 3 s with 0 or 1
 Graph-HNI-batch    graph      the same completer and runs (batch smoothed)
 Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
 Average-TC-12,
@@ -251,7 +251,7 @@ _RECORDS = (
     Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HN with the IMU-aware completer fused with the beam-only one (beam-only alone "
                        "without a 20 s IMU window), a run of regressed beams screened until one is kept and "
-                       "its errors correlated over 10 s with 2 beams measured, 3 s with 0 or 1; "
+                       "its errors correlated over 10 s with 2 or 3 beams measured, 3 s with 0 or 1; "
                        "experimental",
            experimental=True),
     Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HNI_OPTIONS,

@@ -102,6 +102,8 @@ def checked_error_tau(tau):
         count = int(key) if isinstance(key, str) and key.isdigit() else key
         if not isinstance(count, int) or isinstance(count, bool) or count < 0:
             raise ConfigError(f"regressed_error_tau_s keys are numbers of measured beams (0, 1, 2, ...), got {key!r}")
+        if count in by_count:
+            raise ConfigError(f"regressed_error_tau_s names {count} measured beams twice ({key!r})")
         by_count[count] = time_or_none(value, f"[{count}]")
     return by_count
 
@@ -184,9 +186,9 @@ class GraphOptions:
             the whitened difference with the previous one (:func:`graphnav.factors.beam_difference_factor`,
             ``phi = exp(-dt / tau)``, variance ``max(s_k^2 - phi^2 s_(k-1)^2, (1 - phi^2) s_k^2)`` from the
             completer's sigmas); None = independent from ping to ping. A mapping gives one per number of beams
-            measured at the ping (``{0: 3.0, 1: None, 2: 10.0}``: the completions of a total outage, of 3 and
-            of 2 missing beams come from different completers; :meth:`error_tau_for`), a count it does not
-            name taking independent errors.
+            measured at the ping (``{0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0}``: the completions of a total outage, of
+            3, 2 and 1 missing beams come from different completers; :meth:`error_tau_for`), a count it does not
+            name taking independent errors. A run whose count changes keeps its chain, at the current ping's time.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
