@@ -365,12 +365,12 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
     if any(set(sc) != set(draw_scenarios[0]) for sc in draw_scenarios):
         held = "; ".join(", ".join(sorted(sc)) for sc in draw_scenarios)
         raise SystemExit(f"the draws hold different scenarios ({held}): each draw's cells must be the same")
-    per_draw = {c: [fold_cells_over(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
-                    for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
-    # the highest ratio of each draw; max keeps the first cell on a tie
-    worst = {c: [max(fold_cell_ratios(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v),
-                     key=lambda cell: cell[0]) for d, scs in enumerate(draw_scenarios, 1)]
-             for c, v in candidates.items()}
+    # every fold cell of each setting, per draw: counted over 1.02x, and its highest ratio (max keeps the first cell
+    # on a tie)
+    cells = {c: [fold_cell_ratios(sets, [f"{sc}, draw {d}" for sc in scs], folds, grades, windows, v)
+                 for d, scs in enumerate(draw_scenarios, 1)] for c, v in candidates.items()}
+    per_draw = {c: [sum(cell[0] > 1.02 for cell in draw) for draw in by_draw] for c, by_draw in cells.items()}
+    worst = {c: [max(draw, key=lambda cell: cell[0]) for draw in by_draw] for c, by_draw in cells.items()}
     extra = f" and {len(recorded)} recorded fold cells" if recorded else ""
     return (regime_choice(sets, grades, windows, candidates, f"{base} over {len(draws)} training draw"
                           f"{'s' * (len(draws) > 1)}{extra}: regressed runs", recorded_over)
