@@ -205,6 +205,15 @@ def run_saving(task, items: list, runs: dict, out: Path, settings: dict, jobs: i
     run_tasks(task, items, finished, jobs=jobs)
 
 
+def add_regime_window_arguments(p: argparse.ArgumentParser) -> None:
+    """The regime table's windows as a study's options: ``--grades``, ``--window-s``, ``--max-windows`` (per
+    trajectory) and ``--jobs`` (worker processes)."""
+    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
+    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
+    p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
@@ -216,10 +225,7 @@ def main(argv=None) -> int:
                    choices=[*VARIANTS, "HN-net fold", "HNI fold fading", "HNI fold fused"],
                    help="the runs per window (default: " + ", ".join(VARIANTS) + ")")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
-    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
-    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
-    p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+    add_regime_window_arguments(p)
     p.add_argument("--out", default="out/imu_folds/hybrid.json", help="results (JSON); a rerun with the same "
                    "settings resumes from it")
     a = p.parse_args(argv)

@@ -405,12 +405,12 @@ def recorded_table(runs: dict, grades, windows, variant: str = RECORDED) -> str:
 
 
 def main(argv=None) -> int:
+    sys.path.insert(0, str(Path(__file__).parent))
+    from hybrid_imu_folds import add_regime_window_arguments, load_runs, read_results, run_saving
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--scenario", default="3-missing", help="beam-outage scenario (default 3-missing)")
-    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
-    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
-    p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
+    add_regime_window_arguments(p)
     p.add_argument("--sigmas", nargs="+", type=float, default=list(SIGMAS), help="oracle error sizes, m/s")
     p.add_argument("--reference", help="hybrid_imu_folds.py results (JSON) of the same scenario "
                    "and windows: its Graph-TC, all beams and Graph-HN runs")
@@ -430,7 +430,6 @@ def main(argv=None) -> int:
                    "correlation times (s; GraphOptions.regressed_error_tau_s; 0: independent errors)")
     p.add_argument("--oracle-draws", type=int, default=1, help="draws of each oracle's errors (default 1; more: "
                    "the spread of its ratios over the draws)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--over-draws", action="append", nargs="+", metavar="FILE", help="one training draw's results "
                    "files (its scenarios' --out): with --references and --tau, run nothing and print the run setting "
                    "the regime rule chooses over every draw given (repeat per draw)")
@@ -442,7 +441,6 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="results (JSON); a rerun with the same scenario and windows resumes "
                    "from it")
     a = p.parse_args(argv)
-    sys.path.insert(0, str(Path(__file__).parent))
     if a.over_draws:
         if not (a.tau and a.references):
             p.error("--over-draws needs --tau (the settings to choose from) and --references")
@@ -456,7 +454,6 @@ def main(argv=None) -> int:
         p.error("--record and --beam-nets go together")
     if a.drift and not a.record:
         p.error("--drift varies the recorded completer: give --record and --beam-nets")
-    from hybrid_imu_folds import load_runs, read_results, run_saving
 
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories

@@ -78,13 +78,12 @@ def correlation_task(item):
 
 
 def main(argv=None) -> int:
+    sys.path.insert(0, str(Path(__file__).parent))
+    from hybrid_imu_folds import add_regime_window_arguments
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--scenario", nargs="+", default=["3-missing", "0-beams"], help="scenarios")
-    p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades (default tactical mems)")
-    p.add_argument("--window-s", nargs="+", type=float, default=[60.0, 120.0], help="outage lengths, s")
-    p.add_argument("--max-windows", type=int, default=2, help="held-out windows per trajectory (regime table)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
+    add_regime_window_arguments(p)
     p.add_argument("--out", default="out/screening_rho", help="folder for the collected errors and the runs")
     p.add_argument("--completer", default="average",
                    choices=["average", "HNI fold", "HNI fused", "HNI fused plain", "HN-net fold"],

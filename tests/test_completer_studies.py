@@ -2,7 +2,8 @@
 whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``), the recent-error mixture's outage
 windows and weights (``experiments/recent_error_mixture.py``), the placement study's windows and the fadings' rule
 (``experiments/outage_placement.py``), and the gate and the bound on the fused completer's departure from the average
-(``experiments/departure_gate.py``, ``experiments/departure_clip.py``). The studies themselves run for minutes on the
+(``experiments/departure_gate.py``, ``experiments/departure_clip.py``), and the stress and report of runs whose number
+of measured beams changes (``experiments/count_change_runs.py``). The studies themselves run for minutes on the
 shared data and are not run here."""
 from __future__ import annotations
 
@@ -536,3 +537,60 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
     (tmp_path / "notes.json").write_text('{"rows": []}')
     with pytest.raises(SystemExit, match="notes.json is not a results file"):
         study.choice_over_draws([[d1]], [str(tmp_path / "notes.json")], [3.0], ["mems"], [60.0])
+
+
+def test_count_change_stress_keeps_the_pair_out_and_flickers_the_fourth_beam_the_same_way_each_run():
+    study = _study("count_change_runs")
+    t = np.arange(0.0, 400.0, 1.0)
+    starts = [60.0, 240.0]
+    mask = np.zeros((len(t), 4), dtype=bool)
+    for outage in study.outages(starts, 120.0):
+        mask |= outage.mask(t)
+    inside = ((t >= 60) & (t < 180)) | ((t >= 240) & (t < 360))
+    assert mask[inside][:, [0, 2]].all() and not mask[inside][:, 1].any()
+    assert not mask[~inside].any()
+    measured = 4 - mask[inside].sum(axis=1)
+    # both counts occur, beam 4 out about half the time (p_drop = p_recover), in runs of several pings
+    assert set(measured) == {1, 2} and 0.3 < np.mean(measured == 1) < 0.7
+    flips = np.count_nonzero(np.diff(mask[(t >= 60) & (t < 180), 3].astype(int)))
+    assert 3 <= flips <= 40
+    again = np.zeros_like(mask)
+    for outage in study.outages(starts, 120.0):
+        again |= outage.mask(t)
+    assert np.array_equal(mask, again)                  # seeded by the window start: every run the same pattern
+    assert study.variant_options("HNI shipped") is None and study.variant_options("HNI restart") is None
+    assert study.variant_options("HNI tau 10") == {"regressed_error_tau_s": 10.0}
+    assert study.variant_options("HNI independent") == {"regressed_error_tau_s": None}
+    assert study.variant_options("HNI each ping") == {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
+    with pytest.raises(ValueError, match="unknown variant"):
+        study.variant_options("HNI sometimes")
+
+
+def test_count_change_report_counts_fold_cells_over_the_bound_in_each_draw(tmp_path):
+    import sys
+    from graphnav.nets.crossval import AKIT_FOLDS
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("count_change_runs")
+    from hybrid_imu_folds import save_runs
+    names = [f"Trajectory{k}" for pair in AKIT_FOLDS for k in pair]
+    fold3 = {f"Trajectory{k}" for k in AKIT_FOLDS[3]}
+
+    def runs(hni_in_fold3):
+        out = {(n, "mems", 120.0, "Graph-TC"): {"vrmse": [0.2, 0.2]} for n in names}
+        out.update({(n, "mems", 120.0, "HNI shipped"): {"vrmse": [0.2 * (hni_in_fold3 if n in fold3 else 0.5)] * 2,
+                                                          "continued_pings": 3, "changes_in_runs": 1,
+                                                          "one_measured": 0.5} for n in names})
+        return out
+    first, second = runs(0.9), runs(1.03)
+    table = study.report(first, ["mems"], [120.0], ["Graph-TC", "HNI shipped"])
+    # pooled: (8 x 0.5 + 2 x 0.9) / 10 = 0.58; worst fold 0.90
+    assert "| mems | 120 | 0.200 | 0.58 (0.90) |" in table
+    assert "fold cells over 1.02x Graph-TC (of 5): HNI shipped: 0" in table
+    assert table.endswith("pings with one measured beam inside the windows: 0.50\n"
+                          "HNI shipped: pings continuing a run 30, of them after a change of measured beams 10")
+    paths = []
+    for k, r in enumerate((first, second)):
+        paths.append(str(tmp_path / f"d{k}.json"))
+        save_runs(Path(paths[-1]), {"max_windows": 2}, r)
+    summary = study.over_draws(paths, ["mems"], [120.0])
+    assert "| HNI shipped | 0, 1 | 0.900, 1.030 | 0.58-0.61 |" in summary

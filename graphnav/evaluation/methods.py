@@ -264,9 +264,10 @@ METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECO
 #: The default method list of ``graphnav bench`` and the start sweep: every method but the experimental ones
 #: (the IMU-aware completer's: fused with the beam-only one and with its runs screened once, each fold with its own
 #: networks, no fold worse than 1.02x Graph-TC in five training draws and better than Graph-HN with MEMS over
-#: 120 s, 0.72-0.74x against Graph-HN's 0.80x with 3 missing beams; but leave-one-fold-out fold 1 is 1.03x in two
-#: of five draws, the completer itself is still worse than the average through outages in one fold, and it helps
-#: in 1 of the 10 regime cells that ask for it; docs/decisions/completers.md, regressed-beams.md).
+#: 120 s, 0.66-0.69x against Graph-HN's 0.80x with 3 missing beams; but chosen leave-one-fold-out fold 1 is over
+#: 1.02x (1.03x with 2 missing beams in two of five draws, 1.06x with 3 in one), the completer itself is still
+#: worse than the average through outages in one fold, and it helps in 2 of the 10 regime cells that ask for it;
+#: docs/decisions/completers.md, regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))
 #: The EKF methods and the graph methods, in table order.
 EKF_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.family == "ekf")
