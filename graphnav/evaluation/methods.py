@@ -116,7 +116,8 @@ GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 #: MEMS over 60 s in two draws. Each number of measured beams is a different completer, and chosen each alone: with
 #: one beam measured 3 s (no fold cell over 1.02x in five draws; 0.66-0.69x with MEMS over 120 s against 10 s's
 #: 0.72-0.74x; independent errors, chosen on the first three draws, put fold 1 at 1.06x in the fifth), in a total
-#: outage (no network, the same in every draw) 3 s (0.44x with MEMS over 120 s). With the average estimator
+#: outage (no network, the same in every draw) 3 s (0.44x with MEMS over 120 s), with two beams measured 10 s (no
+#: fold cell over 1.02x in five draws; 3 s 1.03x and independent errors 1.09x in fold 1). With the average estimator
 #: (Graph-HN) the rule keeps screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in
 #: some fold (docs/decisions/completers.md, experiments/oracle_completions.py). A position-fix keyframe between pings
 #: ends a run.
@@ -265,7 +266,7 @@ METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECO
 #: (the IMU-aware completer's: fused with the beam-only one and with its runs screened once, each fold with its own
 #: networks, no fold worse than 1.02x Graph-TC in five training draws and better than Graph-HN with MEMS over
 #: 120 s, 0.66-0.69x against Graph-HN's 0.80x with 3 missing beams; but chosen leave-one-fold-out fold 1 is over
-#: 1.02x (1.03x with 2 missing beams in two of five draws, 1.06x with 3 in one), the completer itself is still
+#: 1.02x (1.09x with 2 missing beams in two of five draws, 1.06x with 3 in one), the completer itself is still
 #: worse than the average through outages in one fold, and it helps in 2 of the 10 regime cells that ask for it;
 #: docs/decisions/completers.md, regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))
