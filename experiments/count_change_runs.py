@@ -6,8 +6,9 @@ whitened differences with a correlation time chosen by the ping's number of meas
 (``GraphOptions.regressed_error_tau_s``, shipped 10 s with two measured, 3 s with one). The regime windows never
 change that number inside a run. Here they do: in each bench window (:func:`case_windows`, ``--max-windows``, the
 bench's IMU grades and seeds) beams 1 and 3 are missing throughout (the ``2-missing`` preset) and beam 4 drops
-in and out as a two-state Markov chain (``--flicker P_DROP P_RECOVER`` per ping, seeded by the window start so
-that every run sees the same pattern). The pings alternate between two measured beams (the 2-missing networks
+in and out as a two-state Markov chain (``--flicker P_DROP P_RECOVER`` per ping, seeded by the trajectory and the
+window start, :func:`flicker_seed`, so that each trajectory and window has its own pattern and every run of it the
+same). The pings alternate between two measured beams (the 2-missing networks
 complete) and one (the 3-missing networks complete), and the chains of beams 1 and 3 run through the changes.
 
 Per held-out trajectory the completer is its fold's: the IMU-aware networks of both patterns
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +48,16 @@ FLICKER_BEAM = 3
 STEADY_MISSING = (0, 2)
 #: (p_drop, p_recover) per ping of the flickering beam: out half the time, in runs of 10 pings on average
 FLICKER = (0.1, 0.1)
+
+
+def _tau_variant(variant: str) -> bool:
+    """True for "HNI tau T" with a time T > 0 s."""
+    if not variant.startswith("HNI tau "):
+        return False
+    try:
+        return float(variant.split()[-1]) > 0
+    except ValueError:
+        return False
 
 
 def variant_options(variant: str) -> dict | None:
@@ -63,7 +75,8 @@ def variant_options(variant: str) -> dict | None:
 
 def fold_completer(imu_dirs, beam_dirs, fold: int):
     """The shipped ``Graph-HNI`` completer with fold ``fold``'s networks of both patterns: ``imu_dirs`` and
-    ``beam_dirs`` are (2-missing, 3-missing) directories holding ``fold<k>``."""
+    ``beam_dirs`` are (2-missing, 3-missing) directories holding ``fold<k>``. The beam-only fold ensembles fade as the
+    shipped beam-only networks' cards say where they serve alone, and not at all as the fused member."""
     from hybrid_imu_folds import shipped_run_decay
 
     from graphnav.nets.average import AverageCompleter
@@ -82,17 +95,56 @@ def fold_completer(imu_dirs, beam_dirs, fold: int):
                             fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]))
 
 
-def outages(starts, window_s: float, flicker=FLICKER):
-    """The stress's outages in windows starting at ``starts`` (s), ``window_s`` long."""
-    from graphnav.core.scenarios import Outage
-    return [o for s in starts for o in (Outage(s, window_s, STEADY_MISSING),
-                                        Outage(s, window_s, (FLICKER_BEAM,), tuple(flicker)))]
+def flicker_seed(trajectory: str, start_s: float) -> int:
+    """Seed of the flickering beam's chain in one window: from the trajectory's name and the window's start (ms), so
+    that each trajectory and window has a pattern of its own (the bench puts every trajectory's windows at the same
+    times) and every run of them the same one."""
+    return zlib.crc32(f"{trajectory}@{round(start_s * 1e3)}".encode())
+
+
+def stress_mask(t: np.ndarray, starts, window_s: float, trajectory: str, flicker=FLICKER) -> np.ndarray:
+    """(M, 4) bool, True where the stress removes a beam at the DVL stamps ``t`` (s): beams 1 and 3 through each window
+    starting at ``starts`` (s), ``window_s`` long, and beam 4 where its two-state Markov chain (``flicker``: per-ping
+    p_drop, p_recover; :func:`graphnav.core.scenarios.markov_dropout`, seeded by :func:`flicker_seed`) is off."""
+    from graphnav.core.scenarios import markov_dropout
+    mask = np.zeros((len(t), 4), dtype=bool)
+    for start in starts:
+        inside = (t >= start) & (t < start + window_s)
+        mask[np.ix_(inside, list(STEADY_MISSING))] = True
+        on = markov_dropout(int(inside.sum()), *flicker, seed=flicker_seed(trajectory, start))
+        mask[inside, FLICKER_BEAM] = ~on[:, FLICKER_BEAM]
+    return mask
+
+
+class RunCounter:
+    """:func:`graphnav.estimators.graph.builder.continue_regressed_runs` (``original``) wrapped: it counts the pings at
+    which some regressed beam continues its run (``continued_pings``) and, of them, those whose number of measured
+    beams differs from the previous such call's (``changes_in_runs``). With ``restart`` a change of that number first
+    ends every run (``builder.regressed_links`` cleared): the ping's regressed beams meet the screening again, as at
+    an outage's start."""
+
+    def __init__(self, original, restart: bool = False):
+        self.original, self.restart = original, restart
+        self.counts = {"changes_in_runs": 0, "continued_pings": 0}
+        self.last_measured: int | None = None
+
+    def __call__(self, kf, builder, m, sel, omega_b, use_d):
+        measured = int(np.count_nonzero(~m.regressed))
+        changed = self.last_measured not in (None, measured)
+        if self.restart and changed:
+            builder.regressed_links.clear()
+        result = self.original(kf, builder, m, sel, omega_b, use_d)
+        if len(sel) > len(result[0]):          # the rows left for the screening are the ones not continued
+            self.counts["continued_pings"] += 1
+            self.counts["changes_in_runs"] += int(changed)
+        self.last_measured = measured
+        return result
 
 
 def window_task(item):
-    """(key, {"vrmse": window VRMSEs, "one_measured": share of window pings with one measured beam, "changes_in_runs":
-    measured-beam changes between consecutive pings whose steady pair both continued a run}) of one run. ``item``:
-    (source, grade, window_s, max_windows, variant, imu_dirs, beam_dirs, fold, flicker)."""
+    """(key, {"vrmse": window VRMSEs, "one_measured": share of window pings with one measured beam, and for the HNI
+    variants the :class:`RunCounter` counts and the screening's}) of one run. ``item``: (source, grade, window_s,
+    max_windows, variant, imu_dirs, beam_dirs, fold, flicker)."""
     source, grade, window_s, max_windows, variant, imu_dirs, beam_dirs, fold, flicker = item
     import warnings
     warnings.simplefilter("ignore")
@@ -104,34 +156,21 @@ def window_task(item):
     if variant == "all beams":
         sol = run_method(mission, "Graph-TC")
         return (source.name, grade, window_s, variant), {"vrmse": _vrmse(sol, mission, starts, window_s)}
-    run = mission.with_outage(*outages(starts, window_s, flicker))
-    counted = {"changes_in_runs": 0, "continued_pings": 0}
-    last_measured = [None]
-    restart = variant == "HNI restart"
+    stressed = mission.dvl.valid & ~stress_mask(mission.dvl.t, starts, window_s, source.name, flicker)
+    run = mission.with_dvl_valid(stressed)
     original = builder_mod.continue_regressed_runs
-
-    def continue_counted(kf, builder, m, sel, omega_b, use_d):
-        """continue_regressed_runs, counting the pings whose runs continue across a change of measured beams."""
-        n = int(np.count_nonzero(~m.regressed))
-        if restart and last_measured[0] not in (None, n):
-            builder.regressed_links.clear()
-        result = original(kf, builder, m, sel, omega_b, use_d)
-        continued = len(sel) - len(result[0])
-        if continued:
-            counted["continued_pings"] += 1
-            counted["changes_in_runs"] += int(last_measured[0] not in (None, n))
-        last_measured[0] = n
-        return result
+    counter = RunCounter(original, restart=variant == "HNI restart")
     if variant in ("Graph-TC", "Graph-HN"):
+        # Graph-HN: the average estimator of the 2-missing preset (N = 3) at every ping, one measured beam or two
         sol = run_method(run, variant, "2-missing")
     else:
         comp = fold_completer(imu_dirs, beam_dirs, fold)
-        builder_mod.continue_regressed_runs = continue_counted
+        builder_mod.continue_regressed_runs = counter
         try:
             sol = run_method(run, "Graph-HNI", "2-missing", completer=comp, options=variant_options(variant))
         finally:
             builder_mod.continue_regressed_runs = original
-    result = {"vrmse": _vrmse(sol, mission, starts, window_s), **counted,
+    result = {"vrmse": _vrmse(sol, mission, starts, window_s), **counter.counts,
               "screening": sol.info.get("regressed_screening", {})}
     t = run.dvl.t
     inside = np.zeros(len(t), dtype=bool)
@@ -234,9 +273,10 @@ def main(argv=None) -> int:
         return 0
     if not (a.imu_nets and a.beam_nets):
         p.error("--imu-nets and --beam-nets are needed (or --over-draws)")
-    unknown = [v for v in a.variants if v not in VARIANTS and not v.startswith("HNI tau ")]
+    unknown = [v for v in a.variants if v not in VARIANTS and not _tau_variant(v)]
     if unknown or "Graph-TC" not in a.variants:
-        p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' (unknown: {unknown})")
+        p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' with T > 0 s "
+                f"(unknown: {unknown})")
     if not all(0.0 < x <= 1.0 for x in a.flicker):
         p.error("--flicker probabilities must be in (0, 1]")
     from graphnav.evaluation.bench import find_trajectories
@@ -245,7 +285,8 @@ def main(argv=None) -> int:
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     resolved = [str(Path(d).resolve()) for d in (*a.imu_nets, *a.beam_nets)]
-    settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker)}
+    settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
+                "flicker_seed": "trajectory and window start"}
     out = Path(a.out)
     runs, _ = load_runs(out, settings)
     items = [(sources[f"Trajectory{k}"], g, w, a.max_windows, v, a.imu_nets, a.beam_nets, f, a.flicker)

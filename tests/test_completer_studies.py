@@ -543,9 +543,7 @@ def test_count_change_stress_keeps_the_pair_out_and_flickers_the_fourth_beam_the
     study = _study("count_change_runs")
     t = np.arange(0.0, 400.0, 1.0)
     starts = [60.0, 240.0]
-    mask = np.zeros((len(t), 4), dtype=bool)
-    for outage in study.outages(starts, 120.0):
-        mask |= outage.mask(t)
+    mask = study.stress_mask(t, starts, 120.0, "Trajectory6")
     inside = ((t >= 60) & (t < 180)) | ((t >= 240) & (t < 360))
     assert mask[inside][:, [0, 2]].all() and not mask[inside][:, 1].any()
     assert not mask[~inside].any()
@@ -554,10 +552,11 @@ def test_count_change_stress_keeps_the_pair_out_and_flickers_the_fourth_beam_the
     assert set(measured) == {1, 2} and 0.3 < np.mean(measured == 1) < 0.7
     flips = np.count_nonzero(np.diff(mask[(t >= 60) & (t < 180), 3].astype(int)))
     assert 3 <= flips <= 40
-    again = np.zeros_like(mask)
-    for outage in study.outages(starts, 120.0):
-        again |= outage.mask(t)
-    assert np.array_equal(mask, again)                  # seeded by the window start: every run the same pattern
+    # seeded by the trajectory and the window: every run the same pattern, each trajectory and window its own
+    assert np.array_equal(mask, study.stress_mask(t, starts, 120.0, "Trajectory6"))
+    other = study.stress_mask(t, starts, 120.0, "Trajectory13")
+    assert np.array_equal(other[:, [0, 1, 2]], mask[:, [0, 1, 2]]) and not np.array_equal(other[:, 3], mask[:, 3])
+    assert not np.array_equal(mask[60:180, 3], mask[240:360, 3])
     assert study.variant_options("HNI shipped") is None and study.variant_options("HNI restart") is None
     assert study.variant_options("HNI tau 10") == {"regressed_error_tau_s": 10.0}
     assert study.variant_options("HNI independent") == {"regressed_error_tau_s": None}
@@ -594,3 +593,31 @@ def test_count_change_report_counts_fold_cells_over_the_bound_in_each_draw(tmp_p
         save_runs(Path(paths[-1]), {"max_windows": 2}, r)
     summary = study.over_draws(paths, ["mems"], [120.0])
     assert "| HNI shipped | 0, 1 | 0.900, 1.030 | 0.58-0.61 |" in summary
+
+
+def test_run_counter_counts_continued_pings_after_a_change_and_restart_ends_the_runs():
+    from types import SimpleNamespace
+    study = _study("count_change_runs")
+
+    def original(kf, builder, m, sel, omega_b, use_d):
+        """continue_regressed_runs reduced to its bookkeeping: a regressed row continues if its beam has a link."""
+        chained = np.array([int(i) in builder.regressed_links for i in sel], dtype=bool)
+        builder.regressed_links = {int(i): "link" for i in sel}
+        return sel[~chained], sel[chained], [], {}
+
+    def run(restart):
+        counter, builder = study.RunCounter(original, restart), SimpleNamespace(regressed_links={})
+        left = []
+        # pings: two beams regressed with two measured, then with one measured (beam 3 lost), then two again
+        for regressed in ([1, 0, 1, 0], [1, 0, 1, 0], [1, 0, 1, 1], [1, 0, 1, 1], [1, 0, 1, 0]):
+            m = SimpleNamespace(regressed=np.array(regressed, dtype=bool))
+            left.append(len(counter(None, builder, m, np.flatnonzero(m.regressed), None, False)[0]))
+        return counter.counts, left
+    counts, left = run(restart=False)
+    # continued at pings 2-5; pings 3 and 5 follow a change of the measured count (2 -> 1, 1 -> 2)
+    assert counts == {"continued_pings": 4, "changes_in_runs": 2}
+    assert left == [2, 0, 1, 0, 0]                     # ping 3: only the newly lost beam meets the screening
+    counts, left = run(restart=True)
+    # a change ends every run: pings 3 and 5 screen all their regressed beams, nothing continues across a change
+    assert counts == {"continued_pings": 2, "changes_in_runs": 0}
+    assert left == [2, 0, 3, 0, 2]

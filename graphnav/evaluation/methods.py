@@ -266,7 +266,7 @@ METHODS: Mapping[str, Method] = types.MappingProxyType({m.name: m for m in _RECO
 #: (the IMU-aware completer's: fused with the beam-only one and with its runs screened once, each fold with its own
 #: networks, no fold worse than 1.02x Graph-TC in five training draws and better than Graph-HN with MEMS over
 #: 120 s, 0.66-0.69x against Graph-HN's 0.80x with 3 missing beams; but chosen leave-one-fold-out fold 1 is over
-#: 1.02x (1.09x with 2 missing beams in two of five draws, 1.06x with 3 in one), the completer itself is still
+#: 1.02x (1.08-1.09x with 2 missing beams in two of five draws, 1.06x with 3 in one), the completer itself is still
 #: worse than the average through outages in one fold, and it helps in 2 of the 10 regime cells that ask for it;
 #: docs/decisions/completers.md, regressed-beams.md).
 BENCH_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if not (m.experimental or m.reproduction))

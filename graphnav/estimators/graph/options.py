@@ -189,8 +189,8 @@ class GraphOptions:
             measured at the ping (``{0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0}``: the completions of a total outage, of
             3, 2 and 1 missing beams come from different completers; :meth:`error_tau_for`), a count it does not
             name taking independent errors. A run whose count changes keeps its chain, at the current ping's time
-            (out of fold, with a beam dropping in and out of a 2-missing outage, better than ending the run there;
-            docs/decisions/completers.md, "Runs whose number of measured beams changes").
+            (out of fold, with a beam dropping in and out of a 2-missing outage, pooled better than ending the run
+            there; docs/decisions/completers.md, "Runs whose number of measured beams changes").
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
