@@ -156,8 +156,8 @@ def window_task(item):
     if variant == "all beams":
         sol = run_method(mission, "Graph-TC")
         return (source.name, grade, window_s, variant), {"vrmse": _vrmse(sol, mission, starts, window_s)}
-    stressed = mission.dvl.valid & ~stress_mask(mission.dvl.t, starts, window_s, source.name, flicker)
-    run = mission.with_dvl_valid(stressed)
+    removed = stress_mask(mission.dvl.t, starts, window_s, source.name, flicker)
+    run = mission.with_dvl_valid(mission.dvl.valid & ~removed)
     original = builder_mod.continue_regressed_runs
     counter = RunCounter(original, restart=variant == "HNI restart")
     if variant in ("Graph-TC", "Graph-HN"):
@@ -172,10 +172,7 @@ def window_task(item):
             builder_mod.continue_regressed_runs = original
     result = {"vrmse": _vrmse(sol, mission, starts, window_s), **counter.counts,
               "screening": sol.info.get("regressed_screening", {})}
-    t = run.dvl.t
-    inside = np.zeros(len(t), dtype=bool)
-    for s in starts:
-        inside |= (t >= s) & (t < s + window_s)
+    inside = removed[:, STEADY_MISSING[0]]          # the steady pair is out exactly inside the windows
     result["one_measured"] = float(np.mean(run.dvl.valid[inside].sum(axis=1) == 1))
     return (source.name, grade, window_s, variant), result
 
