@@ -27,13 +27,18 @@ completions is kept (``GraphOptions.regressed_runs="screen-first"``) and, for T 
 as a Gauss-Markov process of correlation time T s (``GraphOptions.regressed_error_tau_s``: the run's later
 completions enter as whitened differences with the previous ones); it prints the T the regime rule chooses, on all
 folds and leave-one-fold-out (with ``--joint``, on the cells of several scenarios together).
+``--anchored`` runs the recorded completer (and with ``--average`` the average estimator) again screened at each
+ping against the prediction of the graph without completions (``Graph-TC`` on the same run, :func:`twin_predictions`)
+instead of the graph's own, which the completions already kept have pulled: a prediction anchored at the outage's
+last measured state, carried through the outage by the IMU and the measured beams only.
 ``--over-draws`` runs nothing: given each training draw's results files (one ``--over-draws`` per draw, the files of
-its scenarios) and ``--references`` (one per scenario), it prints the run setting the regime rule chooses with every
-draw's cells counted together (fold cells over 1.02x summed over the draws, then the mean pooled ratio over all of
-them), on all folds and leave-one-fold-out: a default that must hold for whichever draw of the weights is shipped;
-and, per setting and draw, its worst fold cell (the ratio to Graph-TC and where it is) and its fold cells over 1.02x.
-``--recorded-draw T@F ...`` adds the fold cells over 1.02x of a draw whose runs were not kept (setting T s, or
-``each``, in fold F) to the counts, not to the means.
+its scenarios) and ``--references`` (one per scenario), it prints the run setting (with ``--anchored``, the
+anchored screening among them) the regime rule chooses with every draw's cells counted together (fold cells over
+1.02x summed over the draws, then the mean pooled ratio over all of them), on all folds and leave-one-fold-out: a
+default that must hold for whichever draw of the weights is shipped; and, per setting and draw, its worst fold cell
+(the ratio to Graph-TC and where it is) and its fold cells over 1.02x.
+``--recorded-draw T@F ...`` adds the fold cells over 1.02x of a draw whose runs were not kept (setting T s,
+``each`` or ``anchored``, in fold F) to the counts, not to the means.
 ``--oracle-draws N`` runs every oracle N times with other draws of its errors (the same model and sigma) and prints,
 per cell, the spread of its pooled and worst-fold ratios over the draws and how many fold cells each draw has over
 1.02x: how often a completion the graph is told correctly fails "never worse" by chance in these windows.
@@ -65,6 +70,10 @@ AVERAGE = "Graph-HN (average)"
 TAU = " tau "
 #: variant suffix of an oracle: another draw of its errors (the same model, another seed)
 DRAW = " draw "
+#: variant suffix: screened at each ping against the graph without completions (:func:`twin_predictions`)
+ANCHORED = " anchored"
+#: its regime-rule label
+ANCHORED_LABEL = "screen-each, anchored"
 #: the regime-rule label of a run screened at each ping (``screen_first_label`` gives the others)
 SCREEN_EACH = "screen-each"
 
@@ -124,7 +133,8 @@ def oracle_task(item):
     # "<variant> tau <T>": a run of regressed beams is screened until one is kept (regressed_runs="screen-first"),
     # and with T > 0 the graph models their errors as Gauss-Markov with correlation time T s
     drawn, _, draw = full_variant.partition(DRAW)    # draw "" for the first, whose seed is the variant's alone
-    variant, _, tau = drawn.partition(TAU)
+    anchored = drawn.endswith(ANCHORED)
+    variant, _, tau = drawn.removesuffix(ANCHORED).partition(TAU)
     options = None
     if tau:
         options = {"regressed_runs": "screen-first", "regressed_error_tau_s": float(tau) if float(tau) > 0 else None}
@@ -153,7 +163,7 @@ def oracle_task(item):
             comp = completer_for("Graph-HNI", scenario, mission.config.dvl.beam_noise_std)[0]
         elif variant.startswith(RECORDED):
             comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
-        if variant.startswith(RECORDED) and variant != RECORDED:     # "<RECORDED> drift <d>": the history's sigma
+        if variant.startswith(RECORDED + " drift "):     # "<RECORDED> drift <d>": the history's sigma
             from graphnav.nets.imu_auto import ImuAutoCompleter     # growth per ping, m/s
             comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
                                     drift_std=float(variant.split()[-1]), fused_beam_only=comp.fused_beam_only)
@@ -181,15 +191,73 @@ def oracle_task(item):
             y_true = truth.at(ping.t, rows.rows_b[sel], ping.omega_b, self.geometry.lever_arm_b)
             at_regressed(rows, sel, y_true, ping.t, self.geometry)
         return rows
+    twin = twin_predictions(run, scenario) if anchored else None
     builder_mod.GraphContext.beam_rows = beam_rows
     try:
-        sol = run_method(run, "Graph-HN", scenario, completer=comp, options=options)
+        with screened_against(twin) as anchored_count:
+            sol = run_method(run, "Graph-HN", scenario, completer=comp, options=options)
     finally:
         builder_mod.GraphContext.beam_rows = original
     screening = sol.info.get("regressed_screening", {})
+    if anchored:
+        screening = {**screening, "anchored": anchored_count[0]}
     return ((source.name, grade, window_s, full_variant),
             {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
              "errors": errors, "stated_sigma": stated, "screening": screening})
+
+
+def twin_predictions(run, scenario: str) -> dict:
+    """The graph's predictions (:class:`graphnav.estimators.graph.regressed.VelocityPrediction`, by keyframe time s) of
+    ``Graph-TC`` on the mission ``run``: the graph without completions, whose prediction through an outage is its
+    last measured state carried by the IMU and the measured beams alone. Computed at every keyframe after the first
+    as the hybrid computes its own (the previous keyframe's marginal velocity covariance plus the preintegrated
+    noise)."""
+    from gtsam.symbol_shorthand import V
+
+    from graphnav.estimators.graph import incremental
+    from graphnav.estimators.graph.regressed import predict_state
+    from graphnav.evaluation.methods import run_method
+    predictions: dict = {}
+    original = incremental._IncrementalGraph._prediction
+
+    def record(self, kf, v_n_pred, bias):
+        if kf.index > 0:
+            last = self._last
+            cov = last.cov_v_n if last.cov_v_n is not None else self._marginal(V(last.index))
+            predictions[kf.t] = predict_state(cov, last.C_b_n, kf.pim, v_n_pred, bias.gyroscope())
+        return original(self, kf, v_n_pred, bias)
+    incremental._IncrementalGraph._prediction = record
+    try:
+        run_method(run, "Graph-TC", scenario)
+    finally:
+        incremental._IncrementalGraph._prediction = original
+    return predictions
+
+
+class screened_against:
+    """Context in which the hybrid screens its regressed beams against ``predictions`` (keyframe time s ->
+    prediction, :func:`twin_predictions`) instead of its own prediction; None: its own (nothing changes). The value
+    of the ``with`` is a one-element list counting the keyframes screened against ``predictions``."""
+
+    def __init__(self, predictions: dict | None):
+        self.predictions, self.count = predictions, [0]
+
+    def __enter__(self):
+        from graphnav.estimators.graph import incremental
+        self.original = incremental.keyframe_factors
+        if self.predictions is not None:
+            def keyframe_factors(kf, builder, C_b_n_pred, p_n_pred=None, prediction=None):
+                if prediction is not None and kf.n_regressed and kf.t in self.predictions:
+                    prediction = self.predictions[kf.t]
+                    self.count[0] += 1
+                return self.original(kf, builder, C_b_n_pred, p_n_pred, prediction)
+            incremental.keyframe_factors = keyframe_factors
+        return self.count
+
+    def __exit__(self, *exc):
+        from graphnav.estimators.graph import incremental
+        incremental.keyframe_factors = self.original
+        return False
 
 
 def _vrmse(runs: dict, reference: dict, name: str, g: str, w: float, method: str) -> list[float]:
@@ -316,13 +384,14 @@ def run_settings(base: str, taus, prefix: str = "") -> dict:
 
 
 def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED,
-                      recorded: list = ()) -> str:
+                      recorded: list = (), anchored: bool = False) -> str:
     """The regime rule's choice among ``base``'s run settings with the cells of every training draw together.
     ``draws``: per draw, its results files (one per scenario; a scenario's runs that use no fitted network, as the
     total outage's, may be the same file in every draw); ``references``: one hybrid_imu_folds.py file per scenario.
     The fold cells over 1.02x are summed over the draws. ``recorded``: ``"T@F"`` (or ``"each@F"``), one per fold
     cell over 1.02x of a further draw whose runs were not kept, known as a count: setting T s in fold F; they count
-    against the setting (leave-one-fold-out, not when F is left out) and do not enter the mean."""
+    against the setting (leave-one-fold-out, not when F is left out) and do not enter the mean. ``anchored``: the
+    screening against the graph without completions (``--anchored``) is a candidate too."""
     from hybrid_imu_folds import read_results
 
     from graphnav.nets.crossval import AKIT_FOLDS
@@ -331,8 +400,11 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
         settings, runs = read_results(path)
         refs[settings["scenario"]] = (runs, settings["max_windows"])
     candidates = run_settings(base, taus)
+    if anchored:
+        candidates[ANCHORED_LABEL] = base + ANCHORED
     folds = range(len(AKIT_FOLDS))
-    by_setting = {"each": SCREEN_EACH, **{f"{t:g}": screen_first_label(t) for t in taus}}
+    by_setting = {"each": SCREEN_EACH, **{f"{t:g}": screen_first_label(t) for t in taus},
+                  **({"anchored": ANCHORED_LABEL} if anchored else {})}
     recorded_over: dict = {}
     for entry in recorded:
         setting, _, fold = entry.partition("@")
@@ -359,7 +431,8 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
                        if (n, g, w, v) not in runs]
             if missing:
                 raise SystemExit(f"{path}: {len(missing)} of the runs the choice reads are not there (the first: "
-                                 f"{missing[0]}); finish the study with --tau {' '.join(f'{t:g}' for t in taus)}")
+                                 f"{missing[0]}); finish the study with --tau {' '.join(f'{t:g}' for t in taus)}"
+                                 + " --anchored" * anchored)
             sets[f"{scenario}, draw {d}"] = (runs, refs[scenario][0])
             draw_scenarios[-1].append(scenario)
     if any(set(sc) != set(draw_scenarios[0]) for sc in draw_scenarios):
@@ -428,6 +501,9 @@ def main(argv=None) -> int:
                    "completer again with a run of regressed beams screened until one is kept (GraphOptions."
                    "regressed_runs='screen-first') and the graph modelling their errors as Gauss-Markov with these "
                    "correlation times (s; GraphOptions.regressed_error_tau_s; 0: independent errors)")
+    p.add_argument("--anchored", action="store_true", help="the recorded completer (and with --average the "
+                   "average) again, screened at each ping against the prediction of the graph without completions "
+                   "(Graph-TC on the same run) instead of its own")
     p.add_argument("--oracle-draws", type=int, default=1, help="draws of each oracle's errors (default 1; more: "
                    "the spread of its ratios over the draws)")
     p.add_argument("--over-draws", action="append", nargs="+", metavar="FILE", help="one training draw's results "
@@ -435,7 +511,7 @@ def main(argv=None) -> int:
                    "the regime rule chooses over every draw given (repeat per draw)")
     p.add_argument("--recorded-draw", nargs="+", default=[], metavar="SETTING@FOLD", help="with --over-draws: the "
                    "fold cells over 1.02x of a further draw whose runs were not kept, one per cell (SETTING: a --tau "
-                   "value or 'each'): they count against the setting, not in the mean")
+                   "value, 'each' or with --anchored 'anchored'): they count against the setting, not in the mean")
     p.add_argument("--references", nargs="+", default=[], metavar="FILE", help="with --over-draws: the reference "
                    "file (hybrid_imu_folds.py) of each scenario")
     p.add_argument("--out", help="results (JSON); a rerun with the same scenario and windows resumes "
@@ -444,10 +520,15 @@ def main(argv=None) -> int:
     if a.over_draws:
         if not (a.tau and a.references):
             p.error("--over-draws needs --tau (the settings to choose from) and --references")
-        print(choice_over_draws(a.over_draws, a.references, a.tau, a.grades, a.window_s, recorded=a.recorded_draw))
+        print(choice_over_draws(a.over_draws, a.references, a.tau, a.grades, a.window_s, recorded=a.recorded_draw,
+                                anchored=a.anchored))
         return 0
     if a.recorded_draw:
         p.error("--recorded-draw goes with --over-draws")
+    from graphnav.core.scenarios import is_total_outage
+    if a.anchored and is_total_outage(a.scenario):
+        p.error("--anchored with a total outage: the prediction also chooses the motion prior there "
+                "(GraphOptions.motion_prior='total-if-uncertain'), which the screening's comparison would not separate")
     if not (a.reference and a.out):
         p.error("--reference and --out are required (unless --over-draws is given)")
     if bool(a.record) != bool(a.beam_nets):
@@ -472,6 +553,8 @@ def main(argv=None) -> int:
     variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + recorded
     variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith(("serial", RECORDED))
                  for t in a.tau]
+    if a.anchored:
+        variants += [f"{v}{ANCHORED}" for v in [AVERAGE] * a.average + recorded[:1]]
     oracles = [v for v in variants if v.startswith(("white", "serial"))]
     variants += [n for v in oracles for n in draw_names(v, a.oracle_draws)[1:]]
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
@@ -500,10 +583,13 @@ def main(argv=None) -> int:
             sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
                                        other_reference)
 
-    for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau):
+    for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau or a.anchored):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
               "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
-        print(regime_choice(sets, a.grades, a.window_s, run_settings(base, a.tau), "regressed runs"))
+        candidates = run_settings(base, a.tau)
+        if a.anchored:
+            candidates[ANCHORED_LABEL] = base + ANCHORED
+        print(regime_choice(sets, a.grades, a.window_s, candidates, "regressed runs"))
     if a.drift and a.tau:
         print(f"\n{RECORDED}: its sigma growth and the run screening chosen together by the regime rule")
         print(regime_choice(sets, a.grades, a.window_s,

@@ -2,8 +2,9 @@
 whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``), the recent-error mixture's outage
 windows and weights (``experiments/recent_error_mixture.py``), the placement study's windows and the fadings' rule
 (``experiments/outage_placement.py``), and the gate and the bound on the fused completer's departure from the average
-(``experiments/departure_gate.py``, ``experiments/departure_clip.py``), and the stress and report of runs whose number
-of measured beams changes (``experiments/count_change_runs.py``). The studies themselves run for minutes on the
+(``experiments/departure_gate.py``, ``experiments/departure_clip.py``), the stress and report of runs whose number
+of measured beams changes (``experiments/count_change_runs.py``), and the screening against the graph without
+completions (``experiments/oracle_completions.py --anchored``). The studies themselves run for minutes on the
 shared data and are not run here."""
 from __future__ import annotations
 
@@ -468,7 +469,7 @@ def test_departure_clip_cuts_the_placement_rows_and_chooses_by_the_fadings_rule(
         assert said in capsys.readouterr().err
 
 
-def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(tmp_path):
+def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(tmp_path, capsys):
     import sys
     from graphnav.nets.crossval import AKIT_FOLDS
     sys.path.insert(0, str(ROOT / "experiments"))
@@ -534,6 +535,25 @@ def test_run_setting_choice_over_draws_counts_a_fold_over_the_bound_in_any_draw(
     with pytest.raises(SystemExit, match="no --references file for scenario 3-missing"):
         study.choice_over_draws([[write(tmp_path / "d3.json", "3-missing", {each: lambda n: 1.0})]], [str(ref)],
                                 [3.0], ["mems"], [60.0])
+    # the anchored screening as a further candidate: read only when asked for, and missing runs named
+    anchored = f"{study.RECORDED}{study.ANCHORED}"
+    d1_a = write(tmp_path / "d1a.json", "2-missing", {first: lambda n: 0.8, each: lambda n: 0.9,
+                                                      anchored: lambda n: 1.03 if n in fold1 else 0.85})
+    assert "anchored" not in study.choice_over_draws([[d1_a]], [str(ref)], [3.0], ["mems"], [60.0])
+    with_anchored = study.choice_over_draws([[d1_a]], [str(ref)], [3.0], ["mems"], [60.0], anchored=True)
+    assert with_anchored.endswith("screen-first, tau 3 s: 0; screen-each, anchored: 1")
+    assert "screen-each, anchored: 1, 0.886" in with_anchored      # (8 x 0.85 + 2 x 1.03) / 10 pooled
+    counted = study.choice_over_draws([[d1_a]], [str(ref)], [3.0], ["mems"], [60.0], recorded=["anchored@2"],
+                                      anchored=True)
+    assert counted.endswith("screen-each, anchored: 1 (recorded: folds 2)")
+    assert "screen-each, anchored: 2, 0.886" in counted
+    with pytest.raises(SystemExit, match="SETTING@FOLD"):           # not a candidate unless asked for
+        study.choice_over_draws([[d1_a]], [str(ref)], [3.0], ["mems"], [60.0], recorded=["anchored@2"])
+    with pytest.raises(SystemExit, match="--anchored"):
+        study.choice_over_draws([[d1]], [str(ref)], [3.0], ["mems"], [60.0], anchored=True)
+    with pytest.raises(SystemExit):                      # a total outage: the prediction also steers the motion prior
+        study.main(["--scenario", "0-beams", "--anchored", "--reference", str(ref), "--out", str(tmp_path / "o.json")])
+    assert "--anchored with a total outage" in capsys.readouterr().err and not (tmp_path / "o.json").exists()
     (tmp_path / "notes.json").write_text('{"rows": []}')
     with pytest.raises(SystemExit, match="notes.json is not a results file"):
         study.choice_over_draws([[d1]], [str(tmp_path / "notes.json")], [3.0], ["mems"], [60.0])
@@ -621,3 +641,72 @@ def test_run_counter_counts_continued_pings_after_a_change_and_restart_ends_the_
     # a change ends every run: pings 3 and 5 screen all their regressed beams, nothing continues across a change
     assert counts == {"continued_pings": 2, "changes_in_runs": 0}
     assert left == [2, 0, 3, 0, 2]
+
+
+class _TrueBeams:
+    """A completer that fills missing beams with the true beams plus a constant offset (m/s), stated sigma
+    ``sigma``: the graph keeps its completions, so its own prediction through an outage is pulled by them."""
+
+    drift_std = 0.0
+
+    def __init__(self, mission, offset=0.05, sigma=0.03):
+        from graphnav.core.dvl import DvlGeometry
+        self.n_past, self.sigma = 3, sigma
+        state = mission.meta["trajectory"].state(mission.dvl.t)
+        truth = DvlGeometry.from_spec(mission.config.dvl).beams_from_velocity(state.v_b, state.omega_nb_b) + offset
+        self._by_measured = {tuple(np.round(b[v], 12)): tr for b, v, tr in zip(mission.dvl.beams, mission.dvl.valid,
+                                                                                truth)}
+
+    def complete(self, past, measured):
+        valid = np.isfinite(measured)
+        return (np.where(valid, measured, self._by_measured[tuple(np.round(measured[valid], 12))]),
+                np.where(valid, 0.0, self.sigma))
+
+
+def test_anchored_screening_hands_the_hybrid_the_prediction_of_the_graph_without_completions():
+    """``oracle_completions.py --anchored``: the twin (Graph-TC on the same run) predicts every keyframe after the
+    first; through an outage whose completions the hybrid keeps, the hybrid's own prediction is sharper than the
+    twin's (the completions pulled it), and screening against the twin changes the run. Handed its own predictions
+    instead, the hybrid runs to the bit as without the context, which counts the keyframes it served."""
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.estimators.graph import incremental
+    from graphnav.evaluation.methods import run_method
+    from graphnav.sim.simulate import simulate_mission
+    study = _study("oracle_completions")
+    m = simulate_mission(90, imu_grade="tactical", seed=3).with_outage(scenario_outage("2-missing", 30.0, 50.0))
+    comp = _TrueBeams(m)
+    twin = study.twin_predictions(m, "2-missing")
+    n_keyframes = len(m.dvl.t)
+    assert len(twin) >= n_keyframes - 2 and all(p.cov_v_n.shape == (3, 3) for p in twin.values())
+
+    own: dict = {}
+    original = incremental._IncrementalGraph._prediction
+
+    def record(self, kf, v_n_pred, bias):
+        prediction = original(self, kf, v_n_pred, bias)
+        if prediction is not None:
+            own[kf.t] = prediction
+        return prediction
+    incremental._IncrementalGraph._prediction = record
+    try:
+        plain = run_method(m, "Graph-HN", "2-missing", completer=comp)
+    finally:
+        incremental._IncrementalGraph._prediction = original
+    kept = plain.info["regressed_screening"]["entered"]
+    assert kept > 10                                   # the completions are good: the screening keeps them
+    late = [t for t in own if 70.0 < t < 80.0]
+    assert late and all(np.trace(own[t].cov_v_n) < 0.8 * np.trace(twin[t].cov_v_n) for t in late)
+
+    with study.screened_against(None) as count:
+        same = run_method(m, "Graph-HN", "2-missing", completer=comp)
+    np.testing.assert_array_equal(same.v_n, plain.v_n)
+    assert count == [0]
+    with study.screened_against(own) as count:
+        mirrored = run_method(m, "Graph-HN", "2-missing", completer=comp)
+    np.testing.assert_array_equal(mirrored.v_n, plain.v_n)
+    assert count[0] == len(own)                       # every screened keyframe was served from the dict
+    with study.screened_against(twin) as count:
+        anchored = run_method(m, "Graph-HN", "2-missing", completer=comp)
+    assert count[0] == len(own)
+    assert np.abs(anchored.v_n - plain.v_n).max() > 1e-4
+    assert incremental.keyframe_factors.__module__ == "graphnav.estimators.graph.builder"   # the context undone
