@@ -212,19 +212,14 @@ def twin_predictions(run, scenario: str) -> dict:
     last measured state carried by the IMU and the measured beams alone. Computed at every keyframe after the first
     as the hybrid computes its own (the previous keyframe's marginal velocity covariance plus the preintegrated
     noise)."""
-    from gtsam.symbol_shorthand import V
-
     from graphnav.estimators.graph import incremental
-    from graphnav.estimators.graph.regressed import predict_state
     from graphnav.evaluation.methods import run_method
     predictions: dict = {}
     original = incremental._IncrementalGraph._prediction
 
     def record(self, kf, v_n_pred, bias):
         if kf.index > 0:
-            last = self._last
-            cov = last.cov_v_n if last.cov_v_n is not None else self._marginal(V(last.index))
-            predictions[kf.t] = predict_state(cov, last.C_b_n, kf.pim, v_n_pred, bias.gyroscope())
+            predictions[kf.t] = self.predicted_state(kf, v_n_pred, bias)
         return original(self, kf, v_n_pred, bias)
     incremental._IncrementalGraph._prediction = record
     try:

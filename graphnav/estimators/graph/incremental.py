@@ -172,6 +172,12 @@ class _IncrementalGraph:
                   or o.motion_prior == "total-if-uncertain" and not kf.n_measured)
         if not needed or kf.index == 0:
             return None
+        return self.predicted_state(kf, v_n_pred, bias)
+
+    def predicted_state(self, kf: GraphKeyframe, v_n_pred, bias):
+        """The :class:`.regressed.VelocityPrediction` at kf (index >= 1) from the last estimate: its marginal velocity
+        covariance plus the preintegrated velocity noise, the predicted velocity ``v_n_pred`` (NED, m/s) and the gyro
+        bias of ``bias``."""
         from graphnav.estimators.graph.regressed import predict_state
         last = self._last
         cov = last.cov_v_n if last.cov_v_n is not None else self._marginal(V(last.index))
