@@ -55,6 +55,7 @@ from __future__ import annotations
 import argparse
 import sys
 import zlib
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -229,30 +230,25 @@ def twin_predictions(run, scenario: str) -> dict:
     return predictions
 
 
-class screened_against:
+@contextmanager
+def screened_against(predictions: dict | None):
     """Context in which the hybrid screens its regressed beams against ``predictions`` (keyframe time s ->
     prediction, :func:`twin_predictions`) instead of its own prediction; None: its own (nothing changes). The value
     of the ``with`` is a one-element list counting the keyframes screened against ``predictions``."""
+    from graphnav.estimators.graph import incremental
+    original, count = incremental.keyframe_factors, [0]
 
-    def __init__(self, predictions: dict | None):
-        self.predictions, self.count = predictions, [0]
-
-    def __enter__(self):
-        from graphnav.estimators.graph import incremental
-        self.original = incremental.keyframe_factors
-        if self.predictions is not None:
-            def keyframe_factors(kf, builder, C_b_n_pred, p_n_pred=None, prediction=None):
-                if prediction is not None and kf.n_regressed and kf.t in self.predictions:
-                    prediction = self.predictions[kf.t]
-                    self.count[0] += 1
-                return self.original(kf, builder, C_b_n_pred, p_n_pred, prediction)
-            incremental.keyframe_factors = keyframe_factors
-        return self.count
-
-    def __exit__(self, *exc):
-        from graphnav.estimators.graph import incremental
-        incremental.keyframe_factors = self.original
-        return False
+    def keyframe_factors(kf, builder, C_b_n_pred, p_n_pred=None, prediction=None):
+        if prediction is not None and kf.n_regressed and kf.t in predictions:
+            prediction = predictions[kf.t]
+            count[0] += 1
+        return original(kf, builder, C_b_n_pred, p_n_pred, prediction)
+    if predictions is not None:
+        incremental.keyframe_factors = keyframe_factors
+    try:
+        yield count
+    finally:
+        incremental.keyframe_factors = original
 
 
 def _vrmse(runs: dict, reference: dict, name: str, g: str, w: float, method: str) -> list[float]:
