@@ -368,10 +368,12 @@ def screen_first_label(tau: float) -> str:
     return "screen-first" + (f", tau {tau:g} s" if tau else "")
 
 
-def run_settings(base: str, taus, prefix: str = "") -> dict:
+def run_settings(base: str, taus, prefix: str = "", anchored: bool = False) -> dict:
     """The run settings of variant ``base`` as regime-rule candidates (label -> variant): screened at each ping, or
-    until one completion is kept with each correlation time in ``taus`` (0: independent errors)."""
-    return {prefix + SCREEN_EACH: base, **{prefix + screen_first_label(t): f"{base}{TAU}{t:g}" for t in taus}}
+    until one completion is kept with each correlation time in ``taus`` (0: independent errors), and with ``anchored``
+    screened at each ping against the graph without completions."""
+    return {prefix + SCREEN_EACH: base, **{prefix + screen_first_label(t): f"{base}{TAU}{t:g}" for t in taus},
+            **({prefix + ANCHORED_LABEL: base + ANCHORED} if anchored else {})}
 
 
 def choice_over_draws(draws: list, references: list, taus, grades, windows, base: str = RECORDED,
@@ -390,9 +392,7 @@ def choice_over_draws(draws: list, references: list, taus, grades, windows, base
     for path in map(Path, references):
         settings, runs = read_results(path)
         refs[settings["scenario"]] = (runs, settings["max_windows"])
-    candidates = run_settings(base, taus)
-    if anchored:
-        candidates[ANCHORED_LABEL] = base + ANCHORED
+    candidates = run_settings(base, taus, anchored=anchored)
     folds = range(len(AKIT_FOLDS))
     by_setting = {"each": SCREEN_EACH, **{f"{t:g}": screen_first_label(t) for t in taus},
                   **({"anchored": ANCHORED_LABEL} if anchored else {})}
@@ -577,10 +577,8 @@ def main(argv=None) -> int:
     for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau or a.anchored):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
               "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
-        candidates = run_settings(base, a.tau)
-        if a.anchored:
-            candidates[ANCHORED_LABEL] = base + ANCHORED
-        print(regime_choice(sets, a.grades, a.window_s, candidates, "regressed runs"))
+        print(regime_choice(sets, a.grades, a.window_s, run_settings(base, a.tau, anchored=a.anchored),
+                            "regressed runs"))
     if a.drift and a.tau:
         print(f"\n{RECORDED}: its sigma growth and the run screening chosen together by the regime rule")
         print(regime_choice(sets, a.grades, a.window_s,
