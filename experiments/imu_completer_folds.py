@@ -8,7 +8,8 @@ tactical, MEMS; evaluation seeds ``5000 + trajectory``, never trained on) by
 :func:`graphnav.nets.imu_evaluate.evaluate_imu`: beam and velocity RMSE per ping and through recursive 30-ping
 outages, against the average estimator (N = 5 for 3 missing beams) on the same pings, and the fraction of errors
 within 1 and 2 sigma (Gaussian 0.683 / 0.954). Pooled (sample-weighted) numbers and the worst fold come from
-:func:`graphnav.nets.crossval.summarise`.
+:func:`graphnav.nets.crossval.summarise`. ``--missing 0-beams`` trains and scores a network for pings without a
+measured beam (total outages; N = 3 past pings as with 3 missing beams), against the average with N = 5.
 
 The schedule and IMU-grade copies are ``graphnav.nets.imu_recipes.IMU_RECIPES["graded"]``, shorter than the full
 ``ImuTrainOptions`` (60 epochs, 20 rollout epochs, 6 beam-noise draws) so that five trainings fit on the shared
@@ -296,7 +297,8 @@ def report(rows: list[dict]) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
-    p.add_argument("--missing", default="3-missing", help="scenario (default 3-missing)")
+    p.add_argument("--missing", default="3-missing", help="scenario (default 3-missing; 0-beams: a network for "
+                   "pings without a measured beam, scored against the average in total outages)")
     from graphnav.nets.imu_recipes import IMU_RECIPES, ImuTrainOptions
     study, full = IMU_RECIPES["graded"], ImuTrainOptions()     # the study's schedule; the full one
     p.add_argument("--grades", nargs="*", default=list(study.imu_grades), help="IMU grades of the extra training "

@@ -18,7 +18,10 @@ oracle is as good as it says.
 With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` it also runs the shipped ``Graph-HNI``
 completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
 error against the same truth: RMS through the windows, the sigma the history handed on (before the screening's
-adaptive inflation), and how often the screening kept them. ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
+adaptive inflation), and how often the screening kept them. In a total outage no shipped network serves a ping
+and the recorded completer is ``Graph-HNI``'s average fallback, unless ``--record`` also holds fold networks for
+pings without a measured beam (``imu_completer_folds.py --missing 0-beams --save-nets``): then every held-out
+trajectory completes with its fold's network (and the average where it has no IMU window). ``--drift D ...`` runs it again with those sigma growths per ping (``ImuAutoCompleter(drift_std=D)``;
 the history's default is 0.03) and prints the growth the regime rule chooses, on all folds and leave-one-fold-out
 (with ``--tau`` too, every growth also with each run setting, and the pair chosen together).
 ``--average`` records Graph-HN's own completer (the average estimator) the same way. ``--tau T ...`` runs the serial
@@ -157,9 +160,13 @@ def oracle_task(item):
     stated: list[float] = []
     if variant.startswith((RECORDED, AVERAGE)):
         comp = None     # AVERAGE: Graph-HN's own completer (the average estimator)
-        if variant.startswith(RECORDED) and is_total_outage(scenario):
-            # a total outage: no network serves a ping without a measured beam, and Graph-HNI's completer fills them
-            # with its beam-only fallback's average; nothing fitted runs, so the shipped completer is out of fold
+        if variant.startswith(RECORDED) and is_total_outage(scenario) and total_outage_network(nets[0], fold):
+            # the fold's IMU-aware network for pings without a measured beam (it serves every ping of a total outage
+            # with an IMU window; the average estimator the others)
+            comp = completer("HNI fold", scenario, nets[0], fold, None, mission.config.dvl.beam_noise_std)
+        elif variant.startswith(RECORDED) and is_total_outage(scenario):
+            # a total outage: no shipped network serves a ping without a measured beam, and Graph-HNI's completer
+            # fills them with its beam-only fallback's average; nothing fitted runs, so it is out of fold
             from graphnav.evaluation.methods import completer_for
             comp = completer_for("Graph-HNI", scenario, mission.config.dvl.beam_noise_std)[0]
         elif variant.startswith(RECORDED):
@@ -205,6 +212,13 @@ def oracle_task(item):
     return ((source.name, grade, window_s, full_variant),
             {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
              "errors": errors, "stated_sigma": stated, "screening": screening})
+
+
+def total_outage_network(nets_dir, fold: int) -> bool:
+    """Whether the fold networks in ``nets_dir`` include an IMU-aware network for pings without a measured beam
+    (``imu_completer_folds.py --missing 0-beams --save-nets``)."""
+    from graphnav.nets.imu_network import imu_weights_name
+    return (Path(nets_dir) / f"fold{fold}" / f"{imu_weights_name('0-beams')}.pt").exists()
 
 
 def twin_predictions(run, scenario: str) -> dict:
@@ -478,8 +492,10 @@ def main(argv=None) -> int:
     p.add_argument("--sigmas", nargs="+", type=float, default=list(SIGMAS), help="oracle error sizes, m/s")
     p.add_argument("--reference", help="hybrid_imu_folds.py results (JSON) of the same scenario "
                    "and windows: its Graph-TC, all beams and Graph-HN runs")
-    p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer")
-    p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer")
+    p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer "
+                   "(in a total outage: the folds' networks for pings without a measured beam, if DIR has them)")
+    p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer (not used in a total "
+                   "outage)")
     p.add_argument("--drift", nargs="*", type=float, default=[], help="the recorded completer again with these "
                    "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
     p.add_argument("--joint", nargs="*", default=[], metavar="FILE", help="pairs of another scenario's results and "
@@ -522,8 +538,11 @@ def main(argv=None) -> int:
                 "(GraphOptions.motion_prior='total-if-uncertain'), which the screening's comparison would not separate")
     if not (a.reference and a.out):
         p.error("--reference and --out are required (unless --over-draws is given)")
-    if bool(a.record) != bool(a.beam_nets):
-        p.error("--record and --beam-nets go together")
+    if a.beam_nets and not a.record:
+        p.error("--beam-nets goes with --record")
+    if a.record and not a.beam_nets and not is_total_outage(a.scenario):
+        p.error("--record needs --beam-nets (the fused completer's beam-only member) unless the scenario is a total "
+                "outage, where no beam-only network runs")
     if a.drift and not a.record:
         p.error("--drift varies the recorded completer: give --record and --beam-nets")
 

@@ -39,7 +39,7 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
 
     Methods: ``imu-network`` (the IMU-aware network), ``average`` (N = 3 for 2 missing beams, 5 for 3, as
     the estimators use it, :data:`graphnav.nets.average.AVERAGE_N_PAST`) and
-    ``network`` (the shipped beam-only network). ``completers`` maps a scenario to an
+    ``network`` (the shipped beam-only network; none in a total outage, ``0-beams``). ``completers`` maps a scenario to an
     :class:`ImuNetworkCompleter` to evaluate instead of the shipped one (used while training).
     ``tail_fraction``: only the last part of each trajectory (the selection pings of the training
     trajectories, :class:`~graphnav.nets.imu_recipes.ImuTrainOptions` ``select_fraction``); the outage windows
@@ -61,8 +61,9 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     rows = []
     for scen in scenarios:
         imu_net = (completers or {}).get(scen) or load_imu_completer(scen, directory)
-        beam_net = load_completer(scen)
-        methods = {"imu-network": imu_net, "average": AverageCompleter(AVERAGE_N_PAST[scen]), "network": beam_net}
+        methods = {"imu-network": imu_net, "average": AverageCompleter(AVERAGE_N_PAST[scen])}
+        if len(imu_net.missing) < 4:        # no beam-only network completes a ping without a measured beam
+            methods["network"] = load_completer(scen)
         n_past = max(c.n_past for c in methods.values())
         samples = imu_windows(series, n_past, imu_net.imu_samples, imu_net.ping_dt)
         floor = full_beam_vel_rmse(samples)

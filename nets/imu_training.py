@@ -67,8 +67,8 @@ def rollout(model: ImuBeamRegressor, past0, measured, imu_seq):
     Returns:
         completed missing beams (B, W, n_missing), m/s.
     """
-    kept = torch.as_tensor(model.kept)
-    miss = torch.as_tensor(model.missing)
+    kept = torch.as_tensor(model.kept, dtype=torch.long)     # empty in a total outage
+    miss = torch.as_tensor(model.missing, dtype=torch.long)
     past, out = past0, []
     for k in range(measured.shape[1]):
         pred, _ = model(past, measured[:, k], *(f[:, k] for f in imu_seq))

@@ -25,8 +25,8 @@ def normalize_missing(missing) -> tuple[int, ...]:
                               "or give 0-based beam indices")
         return tuple(SCENARIOS[missing])
     out = tuple(sorted({int(b) for b in missing}))
-    if not 1 <= len(out) <= 3 or any(b not in range(4) for b in out):
-        raise ConfigError(f"missing beams must be 1 to 3 distinct 0-based indices in 0..3, got {missing}")
+    if not 1 <= len(out) <= 4 or any(b not in range(4) for b in out):
+        raise ConfigError(f"missing beams must be 1 to 4 distinct 0-based indices in 0..3, got {missing}")
     return out
 
 
@@ -69,6 +69,9 @@ class BeamRegressor(nn.Module):
                  residual: bool = False):
         super().__init__()
         self.missing = normalize_missing(missing)
+        if len(self.missing) == 4:
+            raise ConfigError("a beam-only network needs a measured beam: a ping without one is completed by the "
+                              "average estimator (graphnav.nets.AverageCompleter)")
         self.kept = tuple(b for b in range(4) if b not in self.missing)
         self.n_past = int(n_past or DEFAULT_N_PAST[len(self.missing)])
         if self.n_past < 1:

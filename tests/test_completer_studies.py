@@ -3,9 +3,9 @@ whitened differences and Gauss-Markov fit (``experiments/run_error_model.py``), 
 windows and weights (``experiments/recent_error_mixture.py``), the placement study's windows and the fadings' rule
 (``experiments/outage_placement.py``), and the gate and the bound on the fused completer's departure from the average
 (``experiments/departure_gate.py``, ``experiments/departure_clip.py``), the stress and report of runs whose number
-of measured beams changes (``experiments/count_change_runs.py``), and the screening against the graph without
-completions (``experiments/oracle_completions.py --anchored``). The studies themselves run for minutes on the
-shared data and are not run here."""
+of measured beams changes (``experiments/count_change_runs.py``), the screening against the graph without
+completions (``experiments/oracle_completions.py --anchored``) and the fold networks that study runs in total
+outages. The studies themselves run for minutes on the shared data and are not run here."""
 from __future__ import annotations
 
 import importlib.util
@@ -710,3 +710,32 @@ def test_anchored_screening_hands_the_hybrid_the_prediction_of_the_graph_without
     assert count[0] == len(own)
     assert np.abs(anchored.v_n - plain.v_n).max() > 1e-4
     assert incremental.keyframe_factors.__module__ == "graphnav.estimators.graph.builder"   # the context undone
+
+
+def test_a_fold_network_for_total_outages_is_found_loaded_and_serves_pings_without_a_measured_beam(tmp_path, akit_dir):
+    """``oracle_completions.py --record DIR`` in a total outage: a fold whose folder holds a network for pings without
+    a measured beam (``imu_completer_folds.py --missing 0-beams --save-nets``) runs it, the others keep the average
+    fallback. A network trained for one epoch on one trajectory is saved, found in its fold only, loaded back from
+    its card, and completes a ping with no beam measured through the IMU-aware route (no fallback)."""
+    from dataclasses import replace
+
+    from graphnav.nets.imu_recipes import IMU_RECIPES
+    from graphnav.nets.imu_training import train_imu
+    from graphnav.nets.training import save
+    study = _study("oracle_completions")
+    folds = _study("hybrid_imu_folds")
+    opt = replace(IMU_RECIPES["graded"], epochs=1, rollout_epochs=1, draws=1, sigma_epochs=1, imu_grades=())
+    result = train_imu("0-beams", opt, akit_dir, progress=False, evaluate=False, trajectories=(2,))
+    save(result, tmp_path / "fold1")
+    assert study.total_outage_network(tmp_path, 1) and not study.total_outage_network(tmp_path, 0)
+
+    comp = folds.completer("HNI fold", "0-beams", str(tmp_path), 1, None, 0.04)
+    net = comp.networks[(0, 1, 2, 3)]
+    rng = np.random.default_rng(0)
+    past = np.tile([1.1, 0.3, -0.9, 0.2], (comp.n_past, 1)) + 0.01 * rng.standard_normal((comp.n_past, 4))
+    imu = (np.tile([0.0, 0.0, -9.81], (net.imu_samples, 1)), np.zeros((net.imu_samples, 3)))
+    beams, sigma = comp.complete(past, np.full(4, np.nan), imu=imu)
+    assert comp.usage == {"imu": 1, "no_imu": 0, "pattern": 0}
+    assert beams.shape == sigma.shape == (4,) and np.all(np.isfinite(beams)) and np.all(sigma > 0)
+    # a vehicle at rest in the IMU window with its past beams steady: the completion stays near them
+    np.testing.assert_allclose(beams, past[-1], atol=0.3)

@@ -82,6 +82,8 @@ def test_missing_sets_and_errors():
         BeamRegressor("none")
     with pytest.raises(ConfigError):
         BeamRegressor((0, 4))
+    with pytest.raises(ConfigError, match="needs a measured beam"):
+        BeamRegressor("0-beams")
 
 
 def test_windows_stay_inside_each_series():

@@ -211,6 +211,35 @@ def test_shipped_imu_weights_do_not_drift_through_a_recursive_outage_on_a_steady
         assert net_err <= STEADY_LEG_MARGIN * avg_err, (pitch, roll, v_b, net_err, avg_err)
 
 
+def test_a_total_outage_network_rolls_out_with_no_beam_measured_and_starts_from_the_held_body_velocity():
+    """A network for pings without a measured beam (``0-beams``): its correction starts at zero, so before training
+    it is its IMU-propagated prior, which holds a body velocity exactly through a pitched turn; fed its own
+    completions through a 6-ping outage it must stay on the true beams, and one step of the recursion must be
+    the model called on the past it built."""
+    from graphnav.nets.imu_training import rollout
+    from graphnav.nets.model import normalize_missing
+
+    assert normalize_missing("0-beams") == normalize_missing((3, 2, 1, 0)) == (0, 1, 2, 3)
+    with pytest.raises(ConfigError, match="1 to 4"):
+        normalize_missing((0, 4))
+    f_b, omega_b, v = _steady_turn()
+    feats = model_inputs(preintegrate(f_b, omega_b, 3))
+    T = DvlGeometry.from_spec(DvlSpec()).T_b
+    truth = torch.as_tensor(v @ T.T, dtype=torch.float32)
+    model = ImuBeamRegressor("0-beams", blend=True)
+    assert model.kept == () and model.n_past == 3
+    past0 = truth.repeat(2, 3, 1)
+    no_beams = torch.zeros(2, 6, 0)
+    fidx = torch.zeros(2, 6, dtype=torch.long)
+    with torch.no_grad():
+        out = rollout(model, past0, no_beams, [f[fidx] for f in feats])
+        assert out.shape == (2, 6, 4)
+        np.testing.assert_allclose(out.numpy(), np.broadcast_to(truth.numpy(), (2, 6, 4)), atol=5e-3)
+        step2, sigma = model(torch.cat([past0[:, 1:], out[:, :1]], 1), no_beams[:, 1], *(f[[0, 0]] for f in feats))
+    torch.testing.assert_close(out[:, 1], step2)
+    assert torch.all(sigma > 0)
+
+
 def test_bad_inputs_give_clear_errors():
     comp = load_imu_completer(2)
     f_b, omega_b, v = _steady_turn()
