@@ -16,6 +16,11 @@ from graphnav.core.scenarios import SCENARIOS
 DEFAULT_N_PAST = {1: 3, 2: 3, 3: 5}
 
 
+#: Why no beam-only network serves a ping without a measured beam (training or loading one is refused with it).
+NO_BEAM_ONLY_TOTAL_OUTAGE = ("a beam-only network needs a measured beam: a ping without one is completed by the "
+                             "average estimator (graphnav.nets.AverageCompleter)")
+
+
 def normalize_missing(missing) -> tuple[int, ...]:
     """Missing beams as a sorted tuple of 0-based indices from a scenario name or indices."""
     if isinstance(missing, str):
@@ -70,8 +75,7 @@ class BeamRegressor(nn.Module):
         super().__init__()
         self.missing = normalize_missing(missing)
         if len(self.missing) == 4:
-            raise ConfigError("a beam-only network needs a measured beam: a ping without one is completed by the "
-                              "average estimator (graphnav.nets.AverageCompleter)")
+            raise ConfigError(NO_BEAM_ONLY_TOTAL_OUTAGE)
         self.kept = tuple(b for b in range(4) if b not in self.missing)
         self.n_past = int(n_past or DEFAULT_N_PAST[len(self.missing)])
         if self.n_past < 1:

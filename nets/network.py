@@ -19,7 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs, check_run_decay, complete_with, fade_to_average
-from .model import BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
+from .model import NO_BEAM_ONLY_TOTAL_OUTAGE, BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
 #: Margin (m/s) around the training envelope: about two beam-noise sigmas (0.042 m/s), so that noise on a
@@ -246,6 +246,8 @@ def load_model(missing, directory: str | Path | None = None) -> tuple[BeamRegres
             the architecture in the card, or weights that are not the ones the card describes.
     """
     missing = normalize_missing(missing)
+    if len(missing) == 4:
+        raise ConfigError(NO_BEAM_ONLY_TOTAL_OUTAGE)
     return load_weights(beam_model, scenario_name(missing), missing, directory,
                         train_hint=f"graphnav train-beams --missing {','.join(map(str, missing))}")
 

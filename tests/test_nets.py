@@ -84,6 +84,8 @@ def test_missing_sets_and_errors():
         BeamRegressor((0, 4))
     with pytest.raises(ConfigError, match="needs a measured beam"):
         BeamRegressor("0-beams")
+    with pytest.raises(ConfigError, match="needs a measured beam"):
+        load_completer((0, 1, 2, 3))
 
 
 def test_windows_stay_inside_each_series():
