@@ -70,6 +70,10 @@ SIGMAS = (0.02, 0.05, 0.1)
 RECORDED = "Graph-HNI (fold)"
 #: Graph-HN's default completer (the average estimator), recorded like the fold networks
 AVERAGE = "Graph-HN (average)"
+#: the pivot completer (graphnav.nets.pivot) with the fold's pivot length fitted on the other folds, recorded likewise
+PIVOT = "Graph-HN (pivot)"
+#: the pivot completer fitting its pivot length online over the mission's measured pings (--pivot-online PRIOR)
+PIVOT_ONLINE = "Graph-HN (pivot online)"
 #: variant suffix: the graph models the completion errors' correlation (GraphOptions.regressed_error_tau_s, s)
 TAU = " tau "
 #: variant suffix of an oracle: another draw of its errors (the same model, another seed)
@@ -158,9 +162,13 @@ def oracle_task(item):
     truth = TruthBeams(mission)
     errors: list[float] = []
     stated: list[float] = []
-    if variant.startswith((RECORDED, AVERAGE)):
+    if variant.startswith((RECORDED, AVERAGE, PIVOT, PIVOT_ONLINE)):
         comp = None     # AVERAGE: Graph-HN's own completer (the average estimator)
-        if variant.startswith(RECORDED) and is_total_outage(scenario) and total_outage_network(nets[0], fold):
+        if variant.startswith(PIVOT):   # nets: the fold's pivot length, m
+            comp = pivot_completer(mission, scenario, nets)
+        elif variant.startswith(PIVOT_ONLINE):     # nets: its prior_turn
+            comp = pivot_completer(mission, scenario, None, nets)
+        elif variant.startswith(RECORDED) and is_total_outage(scenario) and total_outage_network(nets[0], fold):
             # the fold's IMU-aware network for pings without a measured beam (it serves every ping of a total outage
             # with an IMU window; the average estimator the others)
             comp = completer("HNI fold", scenario, nets[0], fold, None, mission.config.dvl.beam_noise_std)
@@ -212,6 +220,27 @@ def oracle_task(item):
     return ((source.name, grade, window_s, full_variant),
             {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
              "errors": errors, "stated_sigma": stated, "screening": screening})
+
+
+def pivot_completer(mission, scenario: str, pivot_m: float | None, prior_turn: float = 0.0):
+    """:class:`graphnav.nets.pivot.PivotCompleter` for ``mission``'s DVL with pivot length ``pivot_m`` (m; None: fitted
+    online with ``prior_turn``) and the average estimator's N of ``scenario``."""
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.average import AVERAGE_N_PAST
+    from graphnav.nets.pivot import PivotCompleter
+    geometry = DvlGeometry.from_spec(mission.config.dvl)
+    return PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m, n_past=AVERAGE_N_PAST[scenario],
+                          noise_std=mission.config.dvl.beam_noise_std, imu_rate_hz=mission.config.imu_rate_hz,
+                          prior_turn=prior_turn)
+
+
+def fold_pivot_lengths(sources: dict, folds) -> list[float]:
+    """Per fold, the pivot length (m) fitted on the other folds' trajectories
+    (:func:`graphnav.nets.pivot.fit_pivot_length`)."""
+    from graphnav.evaluation.bench.cases import load_source
+    from graphnav.nets.pivot import fit_pivot_length
+    missions = {k: load_source(sources[f"Trajectory{k}"]) for pair in folds for k in pair}
+    return [fit_pivot_length([missions[k] for other in folds if other != pair for k in other]) for pair in folds]
 
 
 def total_outage_network(nets_dir, fold: int) -> bool:
@@ -504,6 +533,10 @@ def main(argv=None) -> int:
     p.add_argument("--no-oracle", action="store_true", help="no oracle runs")
     p.add_argument("--average", action="store_true", help="also Graph-HN's own completer (the average estimator) "
                    "recorded against the truth")
+    p.add_argument("--pivot", action="store_true", help="also the pivot completer (graphnav.nets.pivot: the average "
+                   "with the hull's sideslip in turns), its pivot length fitted on the other folds, recorded likewise")
+    p.add_argument("--pivot-online", type=float, metavar="PRIOR", help="also the pivot completer fitting its pivot "
+                   "length online over the mission's measured pings, with this prior_turn ((rad/s)^2)")
     p.add_argument("--tau", nargs="*", type=float, default=[], help="the serial oracles, the average and the recorded "
                    "completer again with a run of regressed beams screened until one is kept (GraphOptions."
                    "regressed_runs='screen-first') and the graph modelling their errors as Gauss-Markov with these "
@@ -560,15 +593,21 @@ def main(argv=None) -> int:
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "oracle_tau_pings": SERIAL_TAU_PINGS}
     runs, _ = load_runs(out, settings)     # a file of another scenario or windows is refused
     recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
-    variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + recorded
-    variants += [f"{v}{TAU}{t:g}" for v in variants if v == AVERAGE or v.startswith(("serial", RECORDED))
+    variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + [PIVOT] * a.pivot \
+        + [PIVOT_ONLINE] * (a.pivot_online is not None) + recorded
+    variants += [f"{v}{TAU}{t:g}" for v in variants
+                 if v in (AVERAGE, PIVOT, PIVOT_ONLINE) or v.startswith(("serial", RECORDED))
                  for t in a.tau]
     if a.anchored:
         variants += [f"{v}{ANCHORED}" for v in [AVERAGE] * a.average + recorded[:1]]
     oracles = [v for v in variants if v.startswith(("white", "serial"))]
     variants += [n for v in oracles for n in draw_names(v, a.oracle_draws)[1:]]
+    pivots = fold_pivot_lengths(sources, AKIT_FOLDS) if a.pivot else None
+    if pivots:
+        print("pivot length per fold (fitted on the other folds), m: " + ", ".join(f"{x:.2f}" for x in pivots))
     items = [(sources[f"Trajectory{k}"], g, a.scenario, w, a.max_windows, v,
-              (a.record, a.beam_nets) if v.startswith(RECORDED) else None, f)
+              (a.record, a.beam_nets) if v.startswith(RECORDED) else pivots[f] if v.startswith(PIVOT)
+              else a.pivot_online if v.startswith(PIVOT_ONLINE) else None, f)
              for f, pair in enumerate(AKIT_FOLDS) for k in pair for g in a.grades for w in a.window_s for v in variants
              if (f"Trajectory{k}", g, w, v) not in runs]
 
@@ -578,7 +617,7 @@ def main(argv=None) -> int:
     if a.oracle_draws > 1:
         print(f"\nthe oracles over {a.oracle_draws} draws of their errors")
         print(draws_table(runs, reference, a.grades, a.window_s, oracles, a.oracle_draws))
-    for v in [v for v in variants if v.startswith((RECORDED, AVERAGE))]:
+    for v in [v for v in variants if v.startswith((RECORDED, AVERAGE, PIVOT, PIVOT_ONLINE))]:
         print(f"\n{v}")
         print(recorded_table(runs, a.grades, a.window_s, v))
     if a.drift:
@@ -593,7 +632,8 @@ def main(argv=None) -> int:
             sets[other["scenario"]] = (load_runs(Path(out_path), {**settings, "scenario": other["scenario"]})[0],
                                        other_reference)
 
-    for base in [AVERAGE] * a.average + recorded[:1] * bool(a.tau or a.anchored):
+    pivots_run = [PIVOT] * a.pivot + [PIVOT_ONLINE] * (a.pivot_online is not None)
+    for base in [AVERAGE] * a.average + pivots_run * bool(a.tau) + recorded[:1] * bool(a.tau or a.anchored):
         print(f"\n{base}: a run of regressed beams screened at each ping or until one is kept, with the errors' "
               "correlation time in the graph (regressed_runs, regressed_error_tau_s), chosen by the regime rule")
         print(regime_choice(sets, a.grades, a.window_s, run_settings(base, a.tau, anchored=a.anchored),

@@ -70,7 +70,7 @@ def test_one_method_registry():
     assert list(graphnav.METHODS) == ["LC", "TC", "Average-LC", "Average-TC", "HNLC", "HNTC", "Graph-TC",
                                       "Graph-HN", "Graph-HN-batch", "Graph-TC-batch", "Graph-MP", "Graph-HN-net",
                                       "Graph-HN-net-batch", "HNTC-IMU",
-                                      "Graph-HNI", "Graph-HNI-batch", "LC-12", "TC-12", "Average-LC-12",
+                                      "Graph-HNI", "Graph-HNI-batch", "Graph-HNP", "LC-12", "TC-12", "Average-LC-12",
                                       "Average-TC-12", "HNLC-12", "HNTC-12"]
     m = graphnav.METHODS["Graph-HN-batch"]
     assert (m.family, m.tight, m.completer, m.batch) == ("graph", True, "average", True)
@@ -78,6 +78,8 @@ def test_one_method_registry():
     assert (m.family, m.tight, m.completer, m.batch, m.experimental) == ("graph", True, "network", True, True)
     assert dict(graphnav.METHODS["Graph-MP"].defaults) == dict(methods.GRAPH_MP_OPTIONS)
     assert graphnav.METHODS["HNLC"].baseline == "LC" and graphnav.METHODS["Graph-HN"].average == "Average-TC"
+    m = graphnav.METHODS["Graph-HNP"]
+    assert (m.family, m.tight, m.completer, m.batch, m.experimental) == ("graph", True, "pivot", False, False)
     # the paper's 12-state EKF (no position or DVL error states): the method's own defaults plus the paper's,
     # compared within its family
     hn12 = graphnav.METHODS["HNTC-12"]

@@ -74,8 +74,10 @@ def register(subparsers) -> None:
                         "on standard output every S seconds of wall time")
     add_out_arguments(p, "out/online")
     p.add_argument("--method", default=GRAPH_TC, choices=STREAMING_METHODS,
-                   help="Graph-TC: measured beams only (the default: regressed beams do not help on the shared "
-                        "data, see docs/decisions/regressed-beams.md); Graph-HN adds the completer's regressed beams as weak factors; "
+                   help="Graph-TC: measured beams only (the default: with the shared data's own IMU regressed "
+                        "beams do not help, see docs/decisions/regressed-beams.md); Graph-HN adds the completer's "
+                        "regressed beams as weak factors; Graph-HNP the pivot completer's (the hull's turn from the "
+                        "gyro: it helps a MEMS IMU through long outages, docs/decisions/completers.md); "
                         "Graph-MP a motion prior where fewer than 3 beams are measured; the others run the "
                         "paper's EKF (TC/LC and their hybrids); the graph settings are the registry's "
                         "(graphnav.evaluation.methods)")
@@ -164,7 +166,7 @@ def make_navigator(args, config, mission=None):
     from graphnav.estimators.runs import initial_state
     from graphnav.evaluation.methods import completer_for, estimator_options, get_method
     method = get_method(args.method)
-    completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std)
+    completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std, config)
     ekf = method.family == "ekf"
     backend = "ekf" if ekf else ("fixed-lag" if args.lag is not None else args.backend)
     # the per-epoch CSV and the stream print the position and attitude sigmas: ask the graph for them

@@ -405,6 +405,7 @@ class Keyframer:
         if self.history is not None:
             # a measured ping for the completer's history: the beams the velocity implies
             self.history.push_measured(self._T_d @ ping.v_d)
+            self._observe(ping.t, self._T_d @ ping.v_d)
             self._ping_t.append(ping.t)
         return dataclasses.replace(ping, omega_b=gyro_at(ping.t, self._samples))
 
@@ -421,6 +422,8 @@ class Keyframer:
                 imu, reason = None, "ping_dt"
             if reason is not None:
                 self.stats.imu_window_missing[reason] += 1
+        elif measured.all():
+            self._observe(t, ping.beams)
         self._ping_t.append(t)
         result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu)
         if result is None:
@@ -432,6 +435,15 @@ class Keyframer:
             self.stats.regressed_beams += int((np.isfinite(beams) & ~measured).sum())
         return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
                                    omega_b=omega_b)
+
+    def _observe(self, t: float, beams: np.ndarray) -> None:
+        """Hand a ping whose four beams were all measured to a completer that learns from them (``observe``, e.g.
+        :class:`graphnav.nets.pivot.PivotCompleter`'s online fit), with its IMU window when there is one."""
+        observe = getattr(self.completer, "observe", None)
+        if observe is None:
+            return
+        imu = self._imu_buffer.window(t)[0] if self._imu_buffer is not None else None
+        observe(t, np.asarray(beams, float), imu)
 
     def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
         """Whether the history's pings and the ping at ``t`` (s) are the IMU-aware completer's ``ping_dt``

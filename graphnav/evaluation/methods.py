@@ -25,6 +25,11 @@ Graph-HNI          graph      the same completer (ISAM2 filtered output); a run 
                               screened until one is kept, its errors correlated over 10 s with 2
                               or 3 beams measured, 3 s with 0 or 1
 Graph-HNI-batch    graph      the same completer and runs (batch smoothed)
+Graph-HNP          graph      the pivot completer (:mod:`graphnav.nets.pivot`): the average estimator with
+                              the hull's sideslip in turns from the gyro, its pivot length fitted online
+                              over the mission's measured pings; a run of regressed beams screened until
+                              one is kept, its errors independent with a beam measured, correlated over
+                              3 s in a total outage
 Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
 Average-TC-12,
 HNLC-12, HNTC-12
@@ -83,6 +88,7 @@ TC, LC, HNTC, HNTC_IMU = "TC", "LC", "HNTC", "HNTC-IMU"
 GRAPH_TC, GRAPH_TC_BATCH, GRAPH_MP = "Graph-TC", "Graph-TC-batch", "Graph-MP"
 GRAPH_HN, GRAPH_HN_BATCH = "Graph-HN", "Graph-HN-batch"
 GRAPH_HNI, GRAPH_HNI_BATCH = "Graph-HNI", "Graph-HNI-batch"
+GRAPH_HNP = "Graph-HNP"
 
 #: Which network (number of missing beams it was trained for) serves each scenario.
 NETWORK_FOR_SCENARIO: dict[str, int | str] = {"2-missing": 2, "3-missing": 3, "none": "auto", "0-beams": "auto",
@@ -124,6 +130,17 @@ GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
 GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({
     **REGRESSED_SCREENING, "regressed_runs": "screen-first",
     "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})})
+#: Graph settings of Graph-HNP (the pivot completer): the screening, and a run of regressed beams screened only until
+#: one of its completions is kept, its later ones entering with independent errors where the ping measured a beam
+#: or more, and with errors correlated over 3 s in a total outage (GraphOptions.regressed_runs,
+#: regressed_error_tau_s). Chosen by the regime rule per number of measured beams on the pivot completer's own runs,
+#: on all folds and for every fold left out (with two and with one beam measured; in a total outage independent
+#: errors put one fold cell over 1.02x, 3 s none); with three measured, which no regime cell measures, as with two
+#: (experiments/oracle_completions.py --pivot-online; docs/decisions/completers.md, "A completer that models the
+#: turn").
+GRAPH_HNP_OPTIONS: Mapping = types.MappingProxyType({
+    **REGRESSED_SCREENING, "regressed_runs": "screen-first",
+    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: None, 2: None, 3: None})})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
@@ -144,8 +161,15 @@ PAPER_SUFFIX = "-12"
 #: Graph-HN-net-batch (and HNLC / HNTC, the paper's EKF hybrids).
 HYBRID_COMPLETER = "average"
 
+#: How much turning (``PivotFit``'s sum of squared yaw-rate changes times the beams' sway response, (rad/s)^2) the
+#: pivot completer's online fit must see before its pivot length counts fully (``PivotCompleter.prior_turn``): the
+#: fit is shrunk toward 0, the average estimator, by it. Chosen by the completer study's rule (fewest held-out fold
+#: cells worse than the average, then the largest smallest pooled gain) on all folds and for every fold left out
+#: (experiments/pivot_completer_folds.py; docs/decisions/completers.md, "A completer that models the turn").
+PIVOT_PRIOR_TURN = 0.1
+
 #: The completer kinds a method can have.
-COMPLETER_KINDS = ("none", "average", "network", "imu-network")
+COMPLETER_KINDS = ("none", "average", "network", "imu-network", "pivot")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -257,6 +281,10 @@ _RECORDS = (
            experimental=True),
     Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
+    Method(GRAPH_HNP, "graph", tight=True, completer="pivot", defaults=GRAPH_HNP_OPTIONS,
+           description="Graph-HN with the pivot completer: the past beams held with the hull's sideslip in turns "
+                       "(pivot length fitted online from the mission's measured pings), a run of regressed beams "
+                       "screened until one is kept"),
     *(_paper_filter(m) for m in _EKF_RECORDS),
 )
 
@@ -352,12 +380,30 @@ def imu_network_completer(scenario: str, noise_std: float = 0.042):
         return completer, described + " (IMU-aware unavailable)"
 
 
-def completer_for(name: str, scenario: str, noise_std: float = 0.042):
-    """(completer or None, description) for a method in a scenario (see the module table)."""
+def pivot_completer(scenario: str, config):
+    """The pivot completer (:class:`graphnav.nets.pivot.PivotCompleter`) for a mission's sensors ``config``
+    (:class:`~graphnav.core.config.SensorConfig`: the DVL's beams, lever arm, noise and rate, the IMU rate), with the
+    scenario's ``n_past`` and its pivot length fitted online over the mission's measured pings."""
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.pivot import PivotCompleter
+    geometry = DvlGeometry.from_spec(config.dvl)
+    return PivotCompleter(geometry.T_b, geometry.lever_arm_b, None, n_past=AVERAGE_N_PAST[check_scenario(scenario)],
+                          noise_std=config.dvl.beam_noise_std, imu_rate_hz=config.imu_rate_hz,
+                          ping_dt=1.0 / config.dvl.rate_hz, prior_turn=PIVOT_PRIOR_TURN)
+
+
+def completer_for(name: str, scenario: str, noise_std: float = 0.042, config=None):
+    """(completer or None, description) for a method in a scenario (see the module table). ``config``: the mission's
+    :class:`~graphnav.core.config.SensorConfig`, which the pivot completer is built for (the defaults without it)."""
     kind = get_method(name).completer
     check_scenario(scenario)
     if kind == "average":
         return average_completer(scenario, noise_std), f"average(n_past={AVERAGE_N_PAST[scenario]})"
+    if kind == "pivot":
+        from graphnav.core.config import SensorConfig
+        config = config if config is not None else SensorConfig()
+        return (pivot_completer(scenario, config),
+                f"pivot(n_past={AVERAGE_N_PAST[scenario]}, pivot length fitted online)")
     if kind == "network":
         return network_completer(scenario, noise_std)
     if kind == "imu-network":
@@ -404,7 +450,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     m = get_method(method)
     described = "given"
     if completer is None:
-        completer, described = completer_for(m.name, scenario, mission.config.dvl.beam_noise_std)
+        completer, described = completer_for(m.name, scenario, mission.config.dvl.beam_noise_std, mission.config)
     elif m.completer == "none":
         completer, described = None, "none"
     fallbacks_before = dict(getattr(completer, "fallbacks", {}))
@@ -423,6 +469,8 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     sol.info = {**sol.info, "completer": described, "scenario": scenario}
     if usage_before:
         sol.info["completer_usage"] = {k: completer.usage[k] - n for k, n in usage_before.items()}
+    if hasattr(completer, "length_m"):     # the pivot completer: the pivot length it completed with at the end, m
+        sol.info["pivot_length_m"] = completer.length_m
     if fallbacks_before:
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts

@@ -1,0 +1,239 @@
+"""The average estimator with the hull's sideslip in turns: a completer that models the vehicle's motion.
+
+A vehicle that turns does not move along its nose at every point: it turns about a pivot point ahead of its middle,
+and the points behind the pivot slide outward. In the body frame (FRD) the sway velocity at the IMU is then
+``v_y = v_y0 - L r`` with ``r`` the yaw rate (rad/s, ``omega_b[2]``) and ``L`` (m) the pivot point's distance ahead
+of the IMU, a property of the hull. The average estimator holds the past beams, so it holds the sway of the past
+pings through a turn that starts or ends in the outage. :class:`PivotCompleter` holds the past body velocity with
+the turn's sway taken out and puts the ping's own back in, from the gyro: per missing beam::
+
+    b = mean_j(past_j) + T_b (d_v + d_omega x l),
+    d_v = (0, -L (r - mean_j r_j), 0),    d_omega = omega - mean_j omega_j
+
+with ``T_b`` the beams' unit vectors in the body frame, ``l`` the DVL lever arm and the rates per ping the mean gyro
+over the ping's DVL period. With ``L = 0`` and no lever arm it is the average estimator exactly. Its sigma is the
+average estimator's with the spread of the past beams taken after their turn terms are removed.
+
+The yaw rate tells what the graph does not know: the hull's hydrodynamics, not more inertial information (the graph
+integrates the same gyro). ``L`` is fitted by least squares from a log with every beam measured
+(:func:`fit_pivot_length`). On the Snapir AUV the ten A-KIT trajectories give 3.4-3.6 m in every leave-two-out fold
+(``docs/decisions/completers.md``, "A completer that models the turn").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError
+
+from .average import AverageCompleter
+from .completer import check_inputs
+
+#: Outage pings after the hold that :func:`fit_pivot_length` fits ``L`` over (the studies' 30 s outages).
+FIT_HORIZON_PINGS = 30
+
+
+def ping_rates(omega_b: np.ndarray, n_pings: int, samples_per_ping: int) -> np.ndarray:
+    """Mean angular rate (n_pings, 3), rad/s, over each of the last ``n_pings`` DVL periods of an IMU window
+    ``omega_b`` (M, 3) whose last sample is at the newest ping, oldest first."""
+    tail = np.asarray(omega_b, float)[len(omega_b) - n_pings * samples_per_ping:]
+    return tail.reshape(n_pings, samples_per_ping, 3).mean(axis=1)
+
+
+def turn_terms(T_b: np.ndarray, lever_arm_b: np.ndarray, pivot_m: float, omega_b: np.ndarray) -> np.ndarray:
+    """The beams' turn terms (..., 4), m/s, at rates ``omega_b`` (..., 3): ``T_b (-L r e_y + omega x l)``, the part of
+    the beam velocities that the model ties to the rotation (module docstring)."""
+    omega_b = np.asarray(omega_b, float)
+    v = np.cross(omega_b, lever_arm_b)
+    v[..., 1] -= pivot_m * omega_b[..., 2]
+    return v @ np.asarray(T_b, float).T
+
+
+class PivotCompleter:
+    """Fill missing beams with the past beams held, turned with the hull (module docstring).
+
+    Args:
+        T_b: (4, 3) beam unit vectors in the body frame (:attr:`graphnav.core.dvl.DvlGeometry.T_b`).
+        lever_arm_b: (3,) DVL position relative to the IMU, body frame, m.
+        pivot_m: ``L``, the pivot point's distance ahead of the IMU along the body x axis, m; None: fitted online
+            over the mission's measured pings (:meth:`observe`, :class:`PivotFit`).
+        n_past: past pings held (the average estimator's N).
+        noise_std: beam noise, m/s (the average estimator's sigma formula).
+        imu_rate_hz: the IMU rate the window is cut at, Hz.
+        ping_dt: the DVL period, s (the past pings must be this far apart; the keyframer checks it).
+        prior_turn: with ``pivot_m`` None, how much turning the online fit must see before its ``L`` counts
+            (:attr:`length_m`), (rad/s)^2.
+
+    Without an IMU window (``imu=None``: the first seconds of a mission, after an IMU gap, a DVL period that
+    changed) a ping is completed by the average estimator, counted in ``usage["no_imu"]``.
+    """
+
+    needs_imu = True
+
+    def __init__(self, T_b: np.ndarray, lever_arm_b: np.ndarray, pivot_m: float | None = None, n_past: int = 5,
+                 noise_std: float = 0.042, imu_rate_hz: float = 100.0, ping_dt: float = 1.0,
+                 prior_turn: float = 0.0):
+        if pivot_m is not None and not np.isfinite(pivot_m):
+            raise ConfigError(f"PivotCompleter: pivot_m = {pivot_m!r} is not a distance in m")
+        if not np.isfinite(prior_turn) or prior_turn < 0:
+            raise ConfigError(f"PivotCompleter: prior_turn = {prior_turn!r} must be >= 0 ((rad/s)^2)")
+        samples = imu_rate_hz * ping_dt
+        if not np.isfinite(samples) or samples < 0.5:
+            raise ConfigError(f"PivotCompleter: the DVL period ({ping_dt} s) must hold an IMU sample at "
+                              f"{imu_rate_hz} Hz")
+        self.T_b = np.asarray(T_b, float)
+        self.lever_arm_b = np.asarray(lever_arm_b, float)
+        if self.T_b.shape != (4, 3) or self.lever_arm_b.shape != (3,):
+            raise ConfigError(f"PivotCompleter: T_b must be (4, 3) and lever_arm_b (3,), got {self.T_b.shape} and "
+                              f"{self.lever_arm_b.shape}")
+        self.pivot_m = None if pivot_m is None else float(pivot_m)
+        self.prior_turn = float(prior_turn)
+        self.average = AverageCompleter(n_past=n_past, noise_std=noise_std)
+        #: the completer of the pings without an IMU window (the keyframer asks for one)
+        self.beam_only = self.average
+        self.n_past = n_past
+        self.noise_std = noise_std
+        self.imu_rate_hz = float(imu_rate_hz)
+        self.ping_dt = float(ping_dt)
+        # the rate of a ping: the mean over the samples of its DVL period (rounded to whole samples)
+        self.samples_per_ping = max(1, int(round(samples)))
+        self.imu_samples = (n_past + 1) * self.samples_per_ping
+        self.usage = {"imu": 0, "no_imu": 0}
+        #: the online fit of L over the mission's measured pings (used when pivot_m is None)
+        self.fit = PivotFit(self.T_b, self.lever_arm_b, n_past, FIT_HORIZON_PINGS, ping_dt)
+
+    @property
+    def length_m(self) -> float:
+        """The ``L`` (m) completions use now: ``pivot_m``, or the online fit shrunk toward 0 (the average
+        estimator) by ``prior_turn``: ``num / (den + prior_turn)`` of :class:`PivotFit`."""
+        if self.pivot_m is not None:
+            return self.pivot_m
+        return self.fit.num / (self.fit.den + self.prior_turn) if self.fit.den + self.prior_turn > 0 else 0.0
+
+    def observe(self, t: float, beams: np.ndarray, imu=None) -> None:
+        """A ping at ``t`` (s) whose four ``beams`` (m/s) were all measured, with its IMU window (or None), for the
+        online fit of ``L``: the estimators' keyframer calls it on every such ping."""
+        if imu is None:
+            self.fit.break_run()
+            return
+        self.fit.add(t, beams, ping_rates(self._checked(imu), 1, self.samples_per_ping)[0])
+
+    def _checked(self, imu) -> np.ndarray:
+        """The angular rates (imu_samples, 3) of an IMU window, or a :class:`ConfigError` naming its shape."""
+        omega = np.asarray(imu[1], float)
+        if omega.shape != (self.imu_samples, 3):
+            raise ConfigError(f"PivotCompleter: IMU window of shape {omega.shape}, expected ({self.imu_samples}, 3)")
+        return omega
+
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
+        """(beams (4,), sigma (4,)) m/s from ``past`` (n_past, 4), oldest first, ``measured`` (4,) with NaN where
+        missing, and ``imu`` = (f_b, omega_b), the last ``imu_samples`` IMU samples up to the ping (or None)."""
+        past, measured = check_inputs(past, measured, self.n_past)
+        missing = ~np.isfinite(measured)
+        if not missing.any():
+            return measured.copy(), np.zeros(4)
+        self.fit.break_run()
+        if imu is None:
+            self.usage["no_imu"] += 1
+            return self.average.complete(past, measured)
+        rates = ping_rates(self._checked(imu), self.n_past + 1, self.samples_per_ping)
+        self.usage["imu"] += 1
+        turn = turn_terms(self.T_b, self.lever_arm_b, self.length_m, rates)
+        straight = past - turn[:-1]       # the past beams with their turn terms taken out
+        beams = straight.mean(axis=0) + turn[-1]
+        spread = np.sqrt(self.noise_std ** 2 * (1.0 + 1.0 / self.n_past) + straight.var(axis=0))
+        return np.where(missing, beams, measured), np.where(missing, spread, 0.0)
+
+
+class PivotFit:
+    """Least-squares fit of the pivot length ``L`` (m) from pings with every beam measured, one ping at a time.
+
+    For every new ping ``k`` and every lag ``h`` in 1..``horizon`` whose ``n_past + h`` pings up to ``k`` are all
+    measured and one DVL period apart, the ping is predicted from the ``n_past`` pings before ``k - h + 1`` as
+    :class:`PivotCompleter` would predict it ``h`` pings into an outage, and ``L`` minimises the squared error of
+    those predictions summed over every such pair (it enters linearly: ``d b / d L = -(r - mean r_j) T_b[:, 1]``;
+    the lever-arm term is known). :func:`fit_pivot_length` runs it over whole logs; :class:`PivotCompleter` runs it
+    online over the mission's own measured pings.
+    """
+
+    def __init__(self, T_b: np.ndarray, lever_arm_b: np.ndarray, n_past: int = 5, horizon: int = FIT_HORIZON_PINGS,
+                 ping_dt: float = 1.0):
+        self.T_b = np.asarray(T_b, float)
+        self.lever_arm_b = np.asarray(lever_arm_b, float)
+        self.n_past, self.horizon, self.ping_dt = int(n_past), int(horizon), float(ping_dt)
+        self.num = self.den = 0.0
+        self.pairs = 0
+        self._recent: list[tuple[float, np.ndarray, float]] = []     # (t, beams - lever terms, yaw rate)
+
+    def add(self, t: float, beams: np.ndarray, omega_b: np.ndarray) -> None:
+        """A ping at ``t`` (s) with all four ``beams`` (m/s) measured and ``omega_b`` (rad/s), the mean rate over
+        its DVL period."""
+        omega_b = np.asarray(omega_b, float)
+        straight = np.asarray(beams, float) - np.cross(omega_b, self.lever_arm_b) @ self.T_b.T
+        if self._recent and abs(t - self._recent[-1][0] - self.ping_dt) > 0.25 * self.ping_dt:
+            self._recent.clear()        # not one DVL period after the last: a new run of measured pings
+        self._recent.append((float(t), straight, float(omega_b[2])))
+        del self._recent[:-(self.n_past + self.horizon)]
+        newest, r_new = self._recent[-1][1], self._recent[-1][2]
+        e_y = self.T_b[:, 1]
+        for h in range(1, self.horizon + 1):
+            first = len(self._recent) - h - self.n_past
+            if first < 0:
+                break
+            held = self._recent[first:first + self.n_past]
+            resid = newest - np.mean([b for _, b, _ in held], axis=0)
+            grad = -(r_new - np.mean([r for _, _, r in held])) * e_y
+            self.num += float(grad @ resid)
+            self.den += float(grad @ grad)
+            self.pairs += 1
+
+    def break_run(self) -> None:
+        """The next ping does not follow the last one added (a ping with a missing beam came between)."""
+        self._recent.clear()
+
+    def length(self, min_turn: float = 0.0) -> float | None:
+        """The fitted ``L`` (m), or None while the turns seen give ``den`` (sum over the pairs of the squared
+        change of yaw rate times ``|T_b[:, 1]|^2``, (rad/s)^2) of ``min_turn`` or less."""
+        return self.num / self.den if self.den > max(min_turn, 1e-12) else None
+
+
+def measured_series(mission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(beams (M, 4) m/s, rates (M, 3) rad/s, usable (M,) bool) of a mission's pings: the rates are the mean gyro over
+    the DVL period before each ping; usable where every beam is valid and a full period of IMU precedes the ping."""
+    t, beams = mission.dvl.t, mission.dvl.beams
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    imu_t, omega = mission.imu.t, mission.imu.omega_b
+    lo = np.searchsorted(imu_t, t - dt, side="right")
+    hi = np.searchsorted(imu_t, t, side="right")
+    csum = np.vstack([np.zeros(3), np.cumsum(omega, axis=0)])
+    count = hi - lo
+    rates = (csum[hi] - csum[lo]) / np.maximum(count, 1)[:, None]
+    usable = mission.dvl.valid.all(axis=1) & (count > 0) & (t - dt >= imu_t[0])
+    return beams, rates, usable
+
+
+def fit_pivot_length(missions, n_past: int = 5, horizon: int = FIT_HORIZON_PINGS) -> float:
+    """``L`` (m) fitted by :class:`PivotFit` over the pings with every beam measured in logs of one vehicle
+    (:class:`graphnav.core.mission.Mission` objects; their DVL geometry is used). A :class:`ConfigError` when the
+    logs hold no run of ``n_past + 1`` measured pings or no turn."""
+    from graphnav.core.dvl import DvlGeometry
+    num = den = 0.0
+    pairs = 0
+    for mission in missions:
+        geometry = DvlGeometry.from_spec(mission.config.dvl)
+        t = mission.dvl.t
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+        fit = PivotFit(geometry.T_b, geometry.lever_arm_b, n_past, horizon, dt)
+        beams, rates, usable = measured_series(mission)
+        for k in range(len(t)):
+            if usable[k]:
+                fit.add(t[k], beams[k], rates[k])
+            else:
+                fit.break_run()
+        num, den, pairs = num + fit.num, den + fit.den, pairs + fit.pairs
+    if pairs == 0:
+        raise ConfigError(f"fit_pivot_length: no run of {n_past + 1} pings one DVL period apart with every beam "
+                          "measured in the logs")
+    if den <= 1e-12:
+        raise ConfigError("fit_pivot_length: the logs hold no turn (the yaw rate never changes), so L is not "
+                          "observable")
+    return num / den

@@ -1,0 +1,187 @@
+"""The pivot completer (:mod:`graphnav.nets.pivot`): the average estimator when there is no turn to model, exact on a
+hull that turns about its pivot point, its pivot length fitted from measured pings (offline and online, through the
+keyframer), and on the Snapir the pivot length from the DVL against the one the reference trajectory gives."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import ConfigError
+from graphnav.nets import AverageCompleter
+from graphnav.nets.pivot import PivotCompleter, PivotFit, fit_pivot_length, ping_rates
+
+RATE_HZ = 100.0
+N_PAST = 5
+
+
+def turning_hull(pivot_m: float, lever_b: np.ndarray, n_pings: int, seed: int, noise: float = 0.0):
+    """A hull that holds its surge and heave and turns about its pivot: (t (K,), rates (K, 3) per DVL period,
+    beams (K, 4), IMU rates (K * 100, 3) constant over each period, T_b). Yaw rate changes every few pings."""
+    rng = np.random.default_rng(seed)
+    T_b = DvlGeometry.from_spec(DvlSpec()).T_b
+    rates = np.zeros((n_pings, 3))
+    r = 0.0
+    for k in range(n_pings):
+        if k % 7 == 0:
+            r = rng.uniform(-0.08, 0.08)
+        rates[k] = [rng.normal(0, 0.01), rng.normal(0, 0.01), r]
+    v_b = np.array([1.8, -0.05, 0.02]) + np.outer(-pivot_m * rates[:, 2], [0.0, 1.0, 0.0])
+    beams = (v_b + np.cross(rates, lever_b)) @ T_b.T + rng.normal(0.0, noise, (n_pings, 4))
+    imu = np.repeat(rates, int(RATE_HZ), axis=0)
+    return np.arange(n_pings, dtype=float), rates, beams, imu, T_b
+
+
+def window(imu_rates: np.ndarray, k: int, samples: int):
+    """The IMU window a keyframer hands over for ping ``k`` (its last sample ends ping k's period); None before
+    there are ``samples``."""
+    if (k + 1) * int(RATE_HZ) < samples:
+        return None
+    omega = imu_rates[(k + 1) * int(RATE_HZ) - samples:(k + 1) * int(RATE_HZ)]
+    return np.zeros_like(omega), omega
+
+
+def test_without_a_pivot_or_lever_arm_it_is_the_average_estimator():
+    rng = np.random.default_rng(3)
+    T_b = DvlGeometry.from_spec(DvlSpec()).T_b
+    pivot = PivotCompleter(T_b, np.zeros(3), 0.0, n_past=N_PAST)
+    average = AverageCompleter(n_past=N_PAST)
+    for _ in range(20):
+        past = rng.normal(0.5, 0.3, (N_PAST, 4))
+        measured = rng.normal(0.5, 0.3, 4)
+        measured[rng.choice(4, rng.integers(1, 5), replace=False)] = np.nan
+        imu = (np.zeros((pivot.imu_samples, 3)), rng.normal(0, 0.1, (pivot.imu_samples, 3)))
+        b_p, s_p = pivot.complete(past, measured, imu=imu)
+        b_a, s_a = average.complete(past, measured)
+        np.testing.assert_allclose(b_p, b_a, atol=1e-12)
+        np.testing.assert_allclose(s_p, s_a, atol=1e-12)
+    assert pivot.usage == {"imu": 20, "no_imu": 0}
+    # without an IMU window a ping is the average's, counted
+    b, s = pivot.complete(past, measured)
+    assert np.array_equal(b, average.complete(past, measured)[0]) and pivot.usage["no_imu"] == 1
+
+
+def test_a_hull_turning_about_its_pivot_is_completed_exactly_where_the_average_holds_the_old_sway():
+    lever = np.array([0.6, 0.1, 0.3])
+    t, rates, beams, imu, T_b = turning_hull(2.5, lever, 60, seed=1)
+    completer = PivotCompleter(T_b, lever, 2.5, n_past=N_PAST)
+    average = AverageCompleter(n_past=N_PAST)
+    np.testing.assert_allclose(ping_rates(window(imu, 20, completer.imu_samples)[1], N_PAST + 1, 100),
+                               rates[15:21], atol=1e-12)
+    worst_average = 0.0
+    for k in range(N_PAST, 60):
+        measured = beams[k].copy()
+        measured[[0, 2, 3]] = np.nan
+        got, sigma = completer.complete(beams[k - N_PAST:k], measured, imu=window(imu, k, completer.imu_samples))
+        np.testing.assert_allclose(got, beams[k], atol=1e-12)
+        assert sigma[1] == 0.0 and np.all(sigma[[0, 2, 3]] > 0)
+        worst_average = max(worst_average, np.abs(average.complete(beams[k - N_PAST:k], measured)[0] - beams[k]).max())
+    assert worst_average > 0.05       # the turns are there to be modelled
+    with pytest.raises(ConfigError, match="IMU window"):
+        completer.complete(beams[:N_PAST], measured, imu=(np.zeros((10, 3)), np.zeros((10, 3))))
+
+
+def test_the_pivot_length_is_fitted_from_noisy_measured_pings_and_a_gap_starts_a_new_run():
+    lever = np.array([0.4, 0.0, 0.2])
+    t, rates, beams, imu, T_b = turning_hull(3.0, lever, 400, seed=7, noise=0.02)
+    fit = PivotFit(T_b, lever, N_PAST)
+    for k in range(400):
+        fit.add(t[k], beams[k], rates[k])
+    assert fit.length() == pytest.approx(3.0, abs=0.15)
+    assert fit.pairs == sum(min(30, k - N_PAST + 1) for k in range(N_PAST, 400))
+    # pings not one DVL period apart are not held together
+    gapped = PivotFit(T_b, lever, N_PAST)
+    for k in range(20):
+        gapped.add(2.0 * k, beams[k], rates[k])
+    assert gapped.pairs == 0 and gapped.length() is None
+    # online: the completer learns L from the pings it is shown, then completes with it
+    online = PivotCompleter(T_b, lever, None, n_past=N_PAST)
+    assert online.length_m == 0.0     # nothing seen yet: the average
+    for k in range(200):
+        online.observe(t[k], beams[k], window(imu, k, online.imu_samples))
+    assert online.length_m == pytest.approx(3.0, abs=0.2)
+    shrunk = PivotCompleter(T_b, lever, None, n_past=N_PAST, prior_turn=online.fit.den)
+    for k in range(200):
+        shrunk.observe(t[k], beams[k], window(imu, k, shrunk.imu_samples))
+    assert shrunk.length_m == pytest.approx(online.length_m / 2)
+    with pytest.raises(ConfigError, match="prior_turn"):
+        PivotCompleter(T_b, lever, None, prior_turn=-1.0)
+
+
+def test_the_keyframer_shows_the_completer_every_fully_measured_ping_with_its_imu_window():
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.estimators.keyframes import Keyframer
+    from graphnav.estimators.replay import replay
+    from graphnav.nets.imu_window import imu_window_at
+    from graphnav.sim.simulate import simulate_mission
+    mission = simulate_mission(40.0, "navigation", 1).with_outage(scenario_outage("3-missing", 25.0, 10.0))
+    geometry = DvlGeometry.from_spec(mission.config.dvl)
+
+    class Spy(PivotCompleter):
+        def __init__(self):
+            super().__init__(geometry.T_b, geometry.lever_arm_b, None, n_past=N_PAST)
+            self.seen = []
+
+        def observe(self, t, beams, imu=None):
+            self.seen.append((t, beams.copy(), imu))
+            super().observe(t, beams, imu)
+
+    spy = Spy()
+    kfr = Keyframer(mission.config, completer=spy)
+    kfr.start(float(mission.imu.t[0]))
+    for kind, t, payload in replay(mission, depth=False):
+        getattr(kfr, "add_" + kind)(t, *payload)
+    kfr.finish()
+    full = mission.dvl.valid.all(axis=1)
+    assert [s[0] for s in spy.seen] == list(mission.dvl.t[full])
+    for t, beams, imu in spy.seen:
+        np.testing.assert_array_equal(beams, mission.dvl.beams[mission.dvl.t == t][0])
+        want = imu_window_at(mission.imu, t, spy.imu_samples)
+        assert (imu is None) == (want is None)
+        if imu is not None:
+            np.testing.assert_array_equal(imu[1], want[1])
+    assert spy.fit.pairs > 100 and spy.usage["imu"] == int((~full).sum())
+
+
+def test_on_the_snapir_the_pivot_from_the_dvl_agrees_with_the_reference_trajectorys(akit_dir):
+    """The reference trajectory is another system's (the A-KIT ground truth): its sway at the IMU against the yaw
+    rate gives the pivot length without the DVL beams the fit uses."""
+    from graphnav.missions import load_akit
+    from graphnav.nets.pivot import measured_series
+    for k in (1, 4):
+        mission = load_akit(akit_dir / f"Trajectory{k}")
+        from_dvl = fit_pivot_length([mission])
+        _, rates, usable = measured_series(mission)
+        t = mission.dvl.t
+        inside = usable & (t >= mission.gt.t[0]) & (t <= mission.gt.t[-1])
+        _, v_n, C_b_n = mission.gt.at(t[inside])
+        sway = np.einsum("kji,kj->ki", C_b_n, v_n)[:, 1]
+        r = rates[inside, 2]
+        from_reference = -np.polyfit(r, sway, 1)[0]
+        assert 2.5 < from_dvl < 4.5, k
+        assert from_dvl == pytest.approx(from_reference, abs=0.4), k
+
+
+def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
+    import graphnav
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation import methods
+    mission = graphnav.simulate_mission(90.0, seed=2)
+    config = copy.deepcopy(mission.config)        # another installation of the DVL
+    config.dvl.lever_arm_b = np.array([0.5, 0.0, 0.2])
+    completer, described = methods.completer_for("Graph-HNP", "2-missing", config.dvl.beam_noise_std, config)
+    assert isinstance(completer, PivotCompleter) and completer.n_past == 3 and "online" in described
+    np.testing.assert_array_equal(completer.lever_arm_b, config.dvl.lever_arm_b)
+    assert completer.pivot_m is None and completer.prior_turn == methods.PIVOT_PRIOR_TURN
+    assert "Graph-HNP" in methods.BENCH_METHODS
+    options = methods.estimator_options("Graph-HNP")
+    assert options.regressed_runs == "screen-first" and options.error_tau_for(0) == 3.0
+    assert all(options.error_tau_for(n) is None for n in (1, 2, 3))
+    sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Graph-HNP", "3-missing")
+    assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0}
+    # the simulated vehicle turns without sideslip: the online fit finds (nearly) no pivot
+    assert abs(sol.info["pivot_length_m"]) < 0.5
+    assert np.all(np.isfinite(sol.v_n))
