@@ -31,9 +31,9 @@ AXES_NED = ("north", "east", "down")
 #: every figure; methods beyond fourteen reuse a colour with another marker and dash).
 _PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
             "#17becf", "#000000", "#f4a6a6", "#0b5d1e", "#c49c00", "#5e3c99", "#80cdc1", "#b35806", "#4d4d4d",
-            "#a6d854", "#fb9a99", "#01665e", "#762a83")
+            "#a6d854", "#fb9a99", "#01665e", "#762a83", "#e7298a")
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "h", "p", "d", "8", "H", "1", "2", "3", "4", "+",
-            "x", "|")
+            "x", "|", ".")
 #: Dashes by registry position: identical results drawn on top of each other stay visible as two patterns.
 _DASHES = ("-", "--", "-.", ":", (0, (5, 1.5)), (0, (3, 1, 1, 1, 1, 1)))
 #: Scenario colours and hatches of the bar charts: every scenario its own.
