@@ -185,3 +185,15 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     # the simulated vehicle turns without sideslip: the online fit finds (nearly) no pivot
     assert abs(sol.info["pivot_length_m"]) < 0.5
     assert np.all(np.isfinite(sol.v_n))
+
+
+def test_the_online_command_reports_the_pivot_length_it_fitted(tmp_path, capsys):
+    import json
+
+    from graphnav.cli import main
+    out = tmp_path / "hnp"
+    assert main(["online", "--duration", "90", "--scenario", "3-missing", "--method", "Graph-HNP",
+                 "--out", str(out), "--no-progress", "--no-plots"]) == 0
+    state = json.loads((out / "summary.json").read_text())["completer_state"]
+    assert state["pivot_fit_pairs"] > 100 and abs(state["pivot_length_m"]) < 0.5
+    assert "pivot length" in capsys.readouterr().out

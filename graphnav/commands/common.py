@@ -247,6 +247,11 @@ def print_summary(summary: dict, file=None) -> None:
     line = regressed_beams_line(summary.get("regressed_beams"))
     if line:
         out(f"  {line}")
+    state = summary.get("completer_state") or {}
+    if "pivot_length_m" in state:
+        how = (f"fitted online over {state['pivot_fit_pairs']} pairs of fully measured pings"
+               if "pivot_fit_pairs" in state else "given")
+        out(f"  pivot length {state['pivot_length_m']:.2f} m ahead of the IMU ({how})")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])

@@ -40,7 +40,7 @@ from graphnav.commands.common import (
     run_health_record,
 )
 from graphnav.core.errors import ConfigError
-from graphnav.evaluation.methods import GRAPH_TC, METHODS
+from graphnav.evaluation.methods import GRAPH_TC, METHODS, completer_state
 from graphnav.evaluation.metrics import drift_summary
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
@@ -250,6 +250,7 @@ def run(args) -> int:
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
         "uncertainty": uncertainty_summary(written), "regressed_beams": regressed_beams_summary(info),
+        "completer_state": completer_state(nav.completer),
         "files": {"online_csv": str(csv_path)},
     }
     if not args.no_plots and mission is not None and len(written.t):

@@ -325,6 +325,11 @@ class Navigator:
 
     # --- outputs ------------------------------------------------------------------------------------
     @property
+    def completer(self):
+        """The beam completer the hybrid methods regress missing beams with (None without one)."""
+        return self._completer
+
+    @property
     def initialised(self) -> bool:
         return self.backend is not None
 

@@ -427,6 +427,17 @@ def estimator_options(name: str, options=None):
     return build_options(EkfOptions if m.family == "ekf" else GraphOptions, {**m.defaults, **given})
 
 
+def completer_state(completer) -> dict:
+    """What a completer learned during the mission, for run summaries: the pivot completer's pivot length at the
+    end (``pivot_length_m``, m) and the number of ping pairs its online fit used (``pivot_fit_pairs``); empty for
+    the others."""
+    if not hasattr(completer, "length_m"):
+        return {}
+    fit = getattr(completer, "fit", None)
+    return {"pivot_length_m": float(completer.length_m),
+            **({} if fit is None or completer.pivot_m is not None else {"pivot_fit_pairs": int(fit.pairs)})}
+
+
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
                options=None, callback=None, backend: str = "isam2", init: str = "auto",
                align=None) -> NavSolution:
@@ -469,8 +480,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     sol.info = {**sol.info, "completer": described, "scenario": scenario}
     if usage_before:
         sol.info["completer_usage"] = {k: completer.usage[k] - n for k, n in usage_before.items()}
-    if hasattr(completer, "length_m"):     # the pivot completer: the pivot length it completed with at the end, m
-        sol.info["pivot_length_m"] = completer.length_m
+    sol.info.update(completer_state(completer))
     if fallbacks_before:
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts
