@@ -18,7 +18,8 @@ the beam-only ensembles with their cards' fading where there is no IMU window: t
 fold's weights. Variants per window:
 
 - ``Graph-TC`` (measured beams only), ``all beams`` (no outage), ``Graph-HN`` (the average estimator, screened
-  at each ping: the default hybrid);
+  at each ping: the default hybrid); ``Graph-HNP`` (the pivot completer fitted online, with its method's run
+  settings: no networks, so the same in every draw);
 - ``HNI shipped``: ``Graph-HNI`` as shipped (its method defaults);
 - ``HNI restart``: the same, but a change of the number of measured beams ends every run (the next completions
   meet the screening again, as at an outage's start);
@@ -41,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI shipped", "HNI restart", "HNI tau 10", "HNI tau 3",
+VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "Graph-HNP", "HNI shipped", "HNI restart", "HNI tau 10", "HNI tau 3",
             "HNI independent", "HNI each ping")
 #: the flickering beam (0-based: beam 4) and the steady pair (beams 1 and 3) of the stress
 FLICKER_BEAM = 3
@@ -163,6 +164,12 @@ def window_task(item):
     if variant in ("Graph-TC", "Graph-HN"):
         # Graph-HN: the average estimator of the 2-missing preset (N = 3) at every ping, one measured beam or two
         sol = run_method(run, variant, "2-missing")
+    elif variant == "Graph-HNP":
+        builder_mod.continue_regressed_runs = counter
+        try:
+            sol = run_method(run, variant, "2-missing")
+        finally:
+            builder_mod.continue_regressed_runs = original
     else:
         comp = fold_completer(imu_dirs, beam_dirs, fold)
         builder_mod.continue_regressed_runs = counter
@@ -268,8 +275,8 @@ def main(argv=None) -> int:
     if a.over_draws:
         print(over_draws(a.over_draws, a.grades, a.window_s))
         return 0
-    if not (a.imu_nets and a.beam_nets):
-        p.error("--imu-nets and --beam-nets are needed (or --over-draws)")
+    if any(v.startswith("HNI") for v in a.variants) and not (a.imu_nets and a.beam_nets):
+        p.error("the HNI variants need --imu-nets and --beam-nets (or --over-draws)")
     unknown = [v for v in a.variants if v not in VARIANTS and not _tau_variant(v)]
     if unknown or "Graph-TC" not in a.variants:
         p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' with T > 0 s "
@@ -281,7 +288,7 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    resolved = [str(Path(d).resolve()) for d in (*a.imu_nets, *a.beam_nets)]
+    resolved = [str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
     settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
                 "flicker_seed": "trajectory and window start"}
     out = Path(a.out)
