@@ -197,3 +197,15 @@ def test_the_online_command_reports_the_pivot_length_it_fitted(tmp_path, capsys)
     state = json.loads((out / "summary.json").read_text())["completer_state"]
     assert state["pivot_fit_pairs"] > 100 and abs(state["pivot_length_m"]) < 0.5
     assert "pivot length" in capsys.readouterr().out
+
+
+def test_the_ekf_hybrid_feeds_the_online_fit_through_the_same_keyframer():
+    import graphnav
+    from graphnav.core.scenarios import scenario_outage
+    from graphnav.evaluation import methods
+    mission = graphnav.simulate_mission(90.0, seed=3)
+    completer, _ = methods.completer_for("Graph-HNP", "3-missing", mission.config.dvl.beam_noise_std, mission.config)
+    sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Average-TC",
+                              "3-missing", completer=completer)
+    assert completer.fit.pairs > 100 and completer.usage == {"imu": 20, "no_imu": 0}
+    assert sol.info["pivot_length_m"] == completer.length_m and np.all(np.isfinite(sol.v_n))
