@@ -15,10 +15,10 @@ over the ping's DVL period. With ``L = 0`` and no lever arm it is the average es
 average estimator's with the spread of the past beams taken after their turn terms are removed.
 
 The yaw rate tells what the graph does not know: the hull's hydrodynamics, not more inertial information (the graph
-integrates the same gyro). ``L`` is fitted by least squares from a log with every beam measured
-(:func:`fit_pivot_length`). On the Snapir AUV the ten A-KIT trajectories give 3.4-3.6 m in every leave-two-out fold
-(``docs/decisions/completers.md``, "A completer that models the turn").
-"""
+integrates the same gyro). ``L`` is fitted by least squares from pings with every beam measured: over whole logs
+(:func:`fit_pivot_length`) or online over the mission's own (:class:`PivotFit`, :meth:`PivotCompleter.observe`). On
+the Snapir AUV the A-KIT trajectories give 3.59-3.63 m in every leave-two-out fold (N = 5; 3.62 m over all ten)
+(``docs/decisions/completers.md``, "A completer that models the turn")."""
 from __future__ import annotations
 
 import numpy as np
@@ -30,6 +30,14 @@ from .completer import check_inputs
 
 #: Outage pings after the hold that :func:`fit_pivot_length` fits ``L`` over (the studies' 30 s outages).
 FIT_HORIZON_PINGS = 30
+
+#: How much turning, (rad/s)^2, shrinks the online fit of ``L`` toward 0 (the average estimator): ``L = num / (den +
+#: prior_turn)`` of :class:`PivotFit`, so ``L`` is half the fit's where the turns seen give ``den = prior_turn``.
+#: Early in a mission, or on a straight run with gyro noise, the unshrunk fit can be tens of metres (with none, 36 of
+#: 180 held-out fold cells of the completer study were worse than the average). The study's rule picks 0.01; 0.1 is
+#: shipped by judgement, further from that cliff (experiments/pivot_completer_folds.py; docs/decisions/completers.md,
+#: "A completer that models the turn").
+DEFAULT_PRIOR_TURN = 0.1
 
 
 def ping_rates(omega_b: np.ndarray, n_pings: int, samples_per_ping: int) -> np.ndarray:
@@ -60,18 +68,21 @@ class PivotCompleter:
         noise_std: beam noise, m/s (the average estimator's sigma formula).
         imu_rate_hz: the IMU rate the window is cut at, Hz.
         ping_dt: the DVL period, s (the past pings must be this far apart; the keyframer checks it).
-        prior_turn: with ``pivot_m`` None, how much turning the online fit must see before its ``L`` counts
-            (:attr:`length_m`), (rad/s)^2.
+        prior_turn: with ``pivot_m`` None, the shrinkage of the online fit toward 0 (:attr:`length_m`,
+            :data:`DEFAULT_PRIOR_TURN`), (rad/s)^2; 0: none (the fit alone, wild while it has seen few turns).
 
     Without an IMU window (``imu=None``: the first seconds of a mission, after an IMU gap, a DVL period that
-    changed) a ping is completed by the average estimator, counted in ``usage["no_imu"]``.
+    changed) a ping is completed by the average estimator, counted in ``usage["no_imu"]``; so is a window with a
+    non-finite rate, counted in ``usage["imu_not_finite"]``. A fully measured ping shown to :meth:`observe` with a
+    non-finite beam or rate is left out of the fit and counted in :attr:`observations_refused`. The online fit
+    lasts as long as the object: a completer run over several missions fits ``L`` over all of them (one hull).
     """
 
     needs_imu = True
 
     def __init__(self, T_b: np.ndarray, lever_arm_b: np.ndarray, pivot_m: float | None = None, n_past: int = 5,
                  noise_std: float = 0.042, imu_rate_hz: float = 100.0, ping_dt: float = 1.0,
-                 prior_turn: float = 0.0):
+                 prior_turn: float = DEFAULT_PRIOR_TURN):
         if pivot_m is not None and not np.isfinite(pivot_m):
             raise ConfigError(f"PivotCompleter: pivot_m = {pivot_m!r} is not a distance in m")
         if not np.isfinite(prior_turn) or prior_turn < 0:
@@ -97,7 +108,9 @@ class PivotCompleter:
         # the rate of a ping: the mean over the samples of its DVL period (rounded to whole samples)
         self.samples_per_ping = max(1, int(round(samples)))
         self.imu_samples = (n_past + 1) * self.samples_per_ping
-        self.usage = {"imu": 0, "no_imu": 0}
+        self.usage = {"imu": 0, "no_imu": 0, "imu_not_finite": 0}
+        #: fully measured pings :meth:`observe` left out of the fit: a non-finite beam or rate
+        self.observations_refused = 0
         #: the online fit of L over the mission's measured pings (used when pivot_m is None)
         self.fit = PivotFit(self.T_b, self.lever_arm_b, n_past, FIT_HORIZON_PINGS, ping_dt)
 
@@ -112,10 +125,18 @@ class PivotCompleter:
     def observe(self, t: float, beams: np.ndarray, imu=None) -> None:
         """A ping at ``t`` (s) whose four ``beams`` (m/s) were all measured, with its IMU window (or None), for the
         online fit of ``L``: the estimators' keyframer calls it on every such ping."""
+        beams = np.asarray(beams, float)
+        if beams.shape != (4,):
+            raise ConfigError(f"PivotCompleter.observe: beams of shape {beams.shape}, expected (4,)")
         if imu is None:
             self.fit.break_run()
             return
-        self.fit.add(t, beams, ping_rates(self._checked(imu), 1, self.samples_per_ping)[0])
+        rate = ping_rates(self._checked(imu), 1, self.samples_per_ping)[0]
+        if not (np.all(np.isfinite(beams)) and np.all(np.isfinite(rate))):
+            self.observations_refused += 1
+            self.fit.break_run()
+            return
+        self.fit.add(t, beams, rate)
 
     def _checked(self, imu) -> np.ndarray:
         """The angular rates (imu_samples, 3) of an IMU window, or a :class:`ConfigError` naming its shape."""
@@ -136,6 +157,9 @@ class PivotCompleter:
             self.usage["no_imu"] += 1
             return self.average.complete(past, measured)
         rates = ping_rates(self._checked(imu), self.n_past + 1, self.samples_per_ping)
+        if not np.all(np.isfinite(rates)):
+            self.usage["imu_not_finite"] += 1
+            return self.average.complete(past, measured)
         self.usage["imu"] += 1
         turn = turn_terms(self.T_b, self.lever_arm_b, self.length_m, rates)
         straight = past - turn[:-1]       # the past beams with their turn terms taken out
@@ -148,10 +172,12 @@ class PivotFit:
     """Least-squares fit of the pivot length ``L`` (m) from pings with every beam measured, one ping at a time.
 
     For every new ping ``k`` and every lag ``h`` in 1..``horizon`` whose ``n_past + h`` pings up to ``k`` are all
-    measured and one DVL period apart, the ping is predicted from the ``n_past`` pings before ``k - h + 1`` as
-    :class:`PivotCompleter` would predict it ``h`` pings into an outage, and ``L`` minimises the squared error of
-    those predictions summed over every such pair (it enters linearly: ``d b / d L = -(r - mean r_j) T_b[:, 1]``;
-    the lever-arm term is known). :func:`fit_pivot_length` runs it over whole logs; :class:`PivotCompleter` runs it
+    measured and one DVL period apart, the ping is predicted from the mean of the ``n_past`` measured pings before
+    ``k - h + 1`` with the turn model, and ``L`` minimises the squared error of those predictions summed over every
+    such pair (it enters linearly: ``d b / d L = -(r - mean r_j) T_b[:, 1]``; the lever-arm term is known). At
+    ``h = 1`` that is :class:`PivotCompleter`'s prediction exactly; further into an outage the completer holds its
+    own completions too (a weighted mean of the measured pings), which the fit does not follow: it fits the model,
+    not the recursion. :func:`fit_pivot_length` runs it over whole logs; :class:`PivotCompleter` runs it
     online over the mission's own measured pings.
     """
 
@@ -198,7 +224,8 @@ class PivotFit:
 
 def measured_series(mission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(beams (M, 4) m/s, rates (M, 3) rad/s, usable (M,) bool) of a mission's pings: the rates are the mean gyro over
-    the DVL period before each ping; usable where every beam is valid and a full period of IMU precedes the ping."""
+    the DVL period before each ping (over the samples there are); usable where every beam is valid, the period
+    starts after the IMU's first sample and holds at least one."""
     t, beams = mission.dvl.t, mission.dvl.beams
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     imu_t, omega = mission.imu.t, mission.imu.omega_b

@@ -58,10 +58,14 @@ def test_without_a_pivot_or_lever_arm_it_is_the_average_estimator():
         b_a, s_a = average.complete(past, measured)
         np.testing.assert_allclose(b_p, b_a, atol=1e-12)
         np.testing.assert_allclose(s_p, s_a, atol=1e-12)
-    assert pivot.usage == {"imu": 20, "no_imu": 0}
+    assert pivot.usage == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     # without an IMU window a ping is the average's, counted
     b, s = pivot.complete(past, measured)
     assert np.array_equal(b, average.complete(past, measured)[0]) and pivot.usage["no_imu"] == 1
+    # so is a window with a non-finite rate, counted apart
+    imu[1][3, 2] = np.nan
+    b, s = pivot.complete(past, measured, imu=imu)
+    assert np.array_equal(b, average.complete(past, measured)[0]) and pivot.usage["imu_not_finite"] == 1
 
 
 def test_a_hull_turning_about_its_pivot_is_completed_exactly_where_the_average_holds_the_old_sway():
@@ -98,7 +102,7 @@ def test_the_pivot_length_is_fitted_from_noisy_measured_pings_and_a_gap_starts_a
         gapped.add(2.0 * k, beams[k], rates[k])
     assert gapped.pairs == 0 and gapped.length() is None
     # online: the completer learns L from the pings it is shown, then completes with it
-    online = PivotCompleter(T_b, lever, None, n_past=N_PAST)
+    online = PivotCompleter(T_b, lever, None, n_past=N_PAST, prior_turn=0.0)
     assert online.length_m == 0.0     # nothing seen yet: the average
     for k in range(200):
         online.observe(t[k], beams[k], window(imu, k, online.imu_samples))
@@ -109,6 +113,33 @@ def test_the_pivot_length_is_fitted_from_noisy_measured_pings_and_a_gap_starts_a
     assert shrunk.length_m == pytest.approx(online.length_m / 2)
     with pytest.raises(ConfigError, match="prior_turn"):
         PivotCompleter(T_b, lever, None, prior_turn=-1.0)
+
+
+def test_a_straight_run_with_gyro_noise_does_not_make_a_wild_pivot_and_bad_samples_stay_out_of_the_fit():
+    lever = np.array([0.4, 0.0, 0.2])
+    t, rates, beams, imu, T_b = turning_hull(0.0, lever, 40, seed=5, noise=0.02)
+    rng = np.random.default_rng(5)
+    imu = rng.normal(0.0, 1e-3, imu.shape)                  # no turn: the yaw rate is gyro noise
+    lengths = {}
+    for prior in (0.0, None):
+        kwargs = {} if prior is None else {"prior_turn": prior}
+        straight = PivotCompleter(T_b, lever, None, n_past=N_PAST, **kwargs)
+        for k in range(40):
+            straight.observe(t[k], beams[k], window(imu, k, straight.imu_samples))
+        lengths[prior] = straight.length_m
+    # unshrunk, noise alone gives a pivot of metres; the default shrinkage keeps it near the average's 0
+    assert abs(lengths[0.0]) > 1.0 and abs(lengths[None]) < 0.05
+    # a fully measured ping with a non-finite beam or rate is counted and left out of the fit
+    bad = PivotCompleter(T_b, lever, None, n_past=N_PAST)
+    bad_beams = beams.copy()
+    bad_beams[20, 1] = np.nan
+    bad_imu = imu.copy()
+    bad_imu[30 * int(RATE_HZ) + 5, 2] = np.inf
+    for k in range(40):
+        bad.observe(t[k], bad_beams[k], window(bad_imu, k, bad.imu_samples))
+    assert bad.observations_refused == 2 and np.isfinite(bad.length_m) and np.isfinite(bad.fit.num)
+    with pytest.raises(ConfigError, match="shape"):
+        bad.observe(41.0, 0.5, window(imu, 39, bad.imu_samples))
 
 
 def test_the_keyframer_shows_the_completer_every_fully_measured_ping_with_its_imu_window():
@@ -181,7 +212,7 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     assert options.regressed_runs == "screen-first" and options.error_tau_for(0) == 3.0
     assert all(options.error_tau_for(n) is None for n in (1, 2, 3))
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Graph-HNP", "3-missing")
-    assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0}
+    assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     # the simulated vehicle turns without sideslip: the online fit finds (nearly) no pivot
     assert abs(sol.info["pivot_length_m"]) < 0.5
     assert np.all(np.isfinite(sol.v_n))
@@ -207,5 +238,5 @@ def test_the_ekf_hybrid_feeds_the_online_fit_through_the_same_keyframer():
     completer, _ = methods.completer_for("Graph-HNP", "3-missing", mission.config.dvl.beam_noise_std, mission.config)
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Average-TC",
                               "3-missing", completer=completer)
-    assert completer.fit.pairs > 100 and completer.usage == {"imu": 20, "no_imu": 0}
+    assert completer.fit.pairs > 100 and completer.usage == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     assert sol.info["pivot_length_m"] == completer.length_m and np.all(np.isfinite(sol.v_n))

@@ -81,6 +81,7 @@ from graphnav.core.mission import Mission
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.core.solution import NavSolution
 from graphnav.nets.average import AVERAGE_N_PAST
+from graphnav.nets.pivot import DEFAULT_PRIOR_TURN
 
 #: Names of the methods other modules refer to (every name is a record of :data:`METHODS`; library code takes
 #: names from here, not from literals).
@@ -161,12 +162,9 @@ PAPER_SUFFIX = "-12"
 #: Graph-HN-net-batch (and HNLC / HNTC, the paper's EKF hybrids).
 HYBRID_COMPLETER = "average"
 
-#: How much turning (``PivotFit``'s sum of squared yaw-rate changes times the beams' sway response, (rad/s)^2) the
-#: pivot completer's online fit must see before its pivot length counts fully (``PivotCompleter.prior_turn``): the
-#: fit is shrunk toward 0, the average estimator, by it. Chosen by the completer study's rule (fewest held-out fold
-#: cells worse than the average, then the largest smallest pooled gain) on all folds and for every fold left out
-#: (experiments/pivot_completer_folds.py; docs/decisions/completers.md, "A completer that models the turn").
-PIVOT_PRIOR_TURN = 0.1
+#: The pivot completer's shrinkage of its online fit toward the average estimator, (rad/s)^2: the completer's own
+#: default, chosen (by judgement, the study's rule picks 0.01) in experiments/pivot_completer_folds.py.
+PIVOT_PRIOR_TURN = DEFAULT_PRIOR_TURN
 
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network", "imu-network", "pivot")
@@ -429,13 +427,18 @@ def estimator_options(name: str, options=None):
 
 def completer_state(completer) -> dict:
     """What a completer learned during the mission, for run summaries: the pivot completer's pivot length at the
-    end (``pivot_length_m``, m) and the number of ping pairs its online fit used (``pivot_fit_pairs``); empty for
-    the others."""
+    end (``pivot_length_m``, m), the number of ping pairs its online fit used since the completer was made
+    (``pivot_fit_pairs``) and the fully measured pings it left out of the fit for a non-finite beam or rate
+    (``pivot_observations_refused``, when any); empty for the others."""
     if not hasattr(completer, "length_m"):
         return {}
     fit = getattr(completer, "fit", None)
-    return {"pivot_length_m": float(completer.length_m),
-            **({} if fit is None or completer.pivot_m is not None else {"pivot_fit_pairs": int(fit.pairs)})}
+    state = {"pivot_length_m": float(completer.length_m)}
+    if fit is not None and completer.pivot_m is None:
+        state["pivot_fit_pairs"] = int(fit.pairs)
+    if getattr(completer, "observations_refused", 0):
+        state["pivot_observations_refused"] = int(completer.observations_refused)
+    return state
 
 
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
