@@ -13,7 +13,7 @@ from pathlib import Path
 
 from graphnav.commands.common import HelpFormatter, add_parallel_arguments, methods_help
 from graphnav.evaluation.bench import IMU_GRADE_CHOICES, SCENARIO_NAMES
-from graphnav.evaluation.methods import BENCH_METHODS, GRAPH_HN, GRAPH_HN_BATCH, GRAPH_TC, HNTC, METHODS, TC
+from graphnav.evaluation.methods import BENCH_METHODS, GRAPH_HN, GRAPH_HN_BATCH, GRAPH_HNP, GRAPH_TC, HNTC, METHODS, TC
 
 
 def register(subparsers) -> None:
@@ -94,7 +94,7 @@ def bench_plots(out: Path, records: list[dict], trajectories, grades, scenarios,
             files.append(plots.plot_trajectories(mission.gt, sols, outages, pdir / f"trajectory_{tag}.png",
                                                  f"{label}: North-East track"))
             # Sleeves need a covariance; show the strongest EKF and graph methods so the figure stays readable.
-            pick = [s for s in sols if s.method in (TC, HNTC, GRAPH_TC, GRAPH_HN, GRAPH_HN_BATCH)]
+            pick = [s for s in sols if s.method in (TC, HNTC, GRAPH_TC, GRAPH_HN, GRAPH_HNP, GRAPH_HN_BATCH)]
             if outages:
                 a, b = outages[0].start_s - 20.0, outages[0].end_s + 40.0
             else:
