@@ -214,11 +214,11 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Graph-HNP", "3-missing")
     assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     # the simulated vehicle turns without sideslip: the online fit finds (nearly) no pivot
-    assert abs(sol.info["pivot_length_m"]) < 0.5
+    assert abs(sol.info["completer_state"]["pivot_length_m"]) < 0.5
     assert np.all(np.isfinite(sol.v_n))
 
 
-def test_the_online_command_reports_the_pivot_length_it_fitted(tmp_path, capsys):
+def test_the_commands_report_the_pivot_length_they_fitted(tmp_path, capsys):
     import json
 
     from graphnav.cli import main
@@ -228,6 +228,11 @@ def test_the_online_command_reports_the_pivot_length_it_fitted(tmp_path, capsys)
     state = json.loads((out / "summary.json").read_text())["completer_state"]
     assert state["pivot_fit_pairs"] > 100 and abs(state["pivot_length_m"]) < 0.5
     assert "pivot length" in capsys.readouterr().out
+    # the post-mission command reports it the same way
+    assert main(["smooth", "--duration", "90", "--scenario", "3-missing", "--method", "Graph-HNP",
+                 "--out", str(tmp_path / "smooth"), "--no-plots"]) == 0
+    smoothed = json.loads((tmp_path / "smooth" / "summary.json").read_text())["completer_state"]
+    assert smoothed["pivot_fit_pairs"] > 100 and "pivot length" in capsys.readouterr().out
 
 
 def test_the_ekf_hybrid_feeds_the_online_fit_through_the_same_keyframer():
@@ -239,4 +244,4 @@ def test_the_ekf_hybrid_feeds_the_online_fit_through_the_same_keyframer():
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Average-TC",
                               "3-missing", completer=completer)
     assert completer.fit.pairs > 100 and completer.usage == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
-    assert sol.info["pivot_length_m"] == completer.length_m and np.all(np.isfinite(sol.v_n))
+    assert sol.info["completer_state"]["pivot_length_m"] == completer.length_m and np.all(np.isfinite(sol.v_n))

@@ -135,6 +135,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "accuracy": accuracy_summary(sol, mission, outages), "drift": drift_summary(sol, mission.gt),
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
+        "completer_state": sol.info.get("completer_state", {}),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission),
                                 "regressed_beams": regressed_beams_summary(o.info)}
                      for o in others},

@@ -458,7 +458,8 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     (ground truth when the mission has it).
     ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer and, for a network
     completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
-    (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for}``).
+    (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for}``);
+    ``info["completer_state"]`` is what the completer learned during the run (:func:`completer_state`, when any).
     """
     from graphnav.estimators.runs import run_ekf, run_graph
     m = get_method(method)
@@ -483,7 +484,9 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     sol.info = {**sol.info, "completer": described, "scenario": scenario}
     if usage_before:
         sol.info["completer_usage"] = {k: completer.usage[k] - n for k, n in usage_before.items()}
-    sol.info.update(completer_state(completer))
+    state = completer_state(completer)
+    if state:
+        sol.info["completer_state"] = state
     if fallbacks_before:
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts
