@@ -245,3 +245,18 @@ def test_the_ekf_hybrid_feeds_the_online_fit_through_the_same_keyframer():
                               "3-missing", completer=completer)
     assert completer.fit.pairs > 100 and completer.usage == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     assert sol.info["completer_state"]["pivot_length_m"] == completer.length_m and np.all(np.isfinite(sol.v_n))
+
+
+def test_on_a_simulated_hull_with_a_pivot_the_estimator_fits_its_length():
+    """The whole path on another hull than the Snapir: the simulator's sideslip in turns (``pivot_m``), IMU and DVL
+    errors, the lever arm, the keyframer's IMU windows and the shrinkage. Our simulator shares the turn model, so
+    this checks the plumbing and the fit, not that real hulls turn this way (the A-KIT test does)."""
+    import graphnav
+    fitted = {}
+    for pivot_m in (0.0, 3.0):
+        mission = graphnav.simulate_mission(600.0, imu_grade="mems", seed=4, pivot_m=pivot_m)
+        sway = mission.meta["trajectory"].state(mission.dvl.t).v_b[:, 1]
+        assert (np.ptp(sway) > 0.4) == (pivot_m > 0)
+        sol = graphnav.run_method(mission, "Graph-HNP", "none")
+        fitted[pivot_m] = sol.info["completer_state"]["pivot_length_m"]
+    assert abs(fitted[0.0]) < 0.5 and fitted[3.0] == pytest.approx(3.0, abs=0.5)

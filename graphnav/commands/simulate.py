@@ -47,6 +47,10 @@ def register(subparsers) -> None:
                              "records); default: never")
     parser.add_argument("--surface-stay", type=float, default=30.0, metavar="SECONDS",
                         help="time at the surface of each --surface-every surfacing, s")
+    parser.add_argument("--pivot", type=float, default=0.0, metavar="M",
+                        help="the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at "
+                             "the IMU by -M times the yaw rate, as a real hull does (the A-KIT Snapir: about 3.6; 0: "
+                             "no sideslip)")
     parser.set_defaults(func=run)
 
 
@@ -114,7 +118,7 @@ def run(args) -> int:
         check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output,
-                               start_ne_m=args.start_ne, surfacing=surfacing)
+                               start_ne_m=args.start_ne, surfacing=surfacing, pivot_m=args.pivot)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.estimators.replay import mission_records

@@ -166,6 +166,8 @@ class SimTrajectory:
         yaw, pitch, speed: smooth steps of yaw (rad), pitch (rad), forward speed u (m/s).
         roll_osc, pitch_osc, yaw_osc, u_osc, sway, heave: sinusoids (rad or m/s).
         bank_s: roll in turns = bank_s * yaw rate (s).
+        pivot_m: the hull's pivot point ahead of the IMU, m: in the turns (the yaw steps) the sway at the IMU gets
+            ``-pivot_m * yaw rate``, the sideslip of a hull turning about a point ahead of it (0: none).
         speed0: forward speed at t=0 before the speed steps, m/s.
         gravity_mps2, omega_ie_n: gravity magnitude at the origin (m/s^2) and Earth rate in NED (rad/s).
         earth: the Earth model of the IMU (position-dependent gravity); None: constant ``[0, 0, gravity_mps2]``
@@ -190,6 +192,7 @@ class SimTrajectory:
     sway: Sines = field(default_factory=Sines)
     heave: Sines = field(default_factory=Sines)
     bank_s: float = 0.3
+    pivot_m: float = 0.0
     earth: EarthModel | None = None
     gravity_track: tuple | None = None
     surface_windows: list = field(default_factory=list)
@@ -219,6 +222,8 @@ class SimTrajectory:
         roll_rate = roll_rate_o + self.bank_s * yaw_acc_s
         euler = np.stack([roll, pitch_s + pitch_o, self.yaw0 + yaw_s + yaw_o], axis=-1)
         euler_rate = np.stack([roll_rate, pitch_rate_s + pitch_rate_o, yaw_rate_s + yaw_rate_o], axis=-1)
+        v = v - self.pivot_m * yaw_rate_s
+        v_rate = v_rate - self.pivot_m * yaw_acc_s
         v_b = np.stack([self.speed0 + u_s + u_o, v, w], axis=-1)
         dv_b = np.stack([u_rate_s + u_rate_o, v_rate, w_rate], axis=-1)
         return euler, euler_rate, v_b, dv_b
@@ -431,17 +436,19 @@ def _depth_change(traj: SimTrajectory, ta: float, tb: float) -> float:
 
 def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: float,
                     omega_ie_n: np.ndarray, surfacing: SurfacingProfile | None = None,
-                    rng_surfacing: np.random.Generator | None = None, pattern: str = "lawnmower") -> SimTrajectory:
+                    rng_surfacing: np.random.Generator | None = None, pattern: str = "lawnmower",
+                    pivot_m: float = 0.0) -> SimTrajectory:
     """Random (seeded) survey covering at least ``duration_s`` seconds: a lawnmower (legs joined by pairs of
     90 deg turns in the same direction: every other leg flies back) or, ``pattern="transit"``, the same legs
     joined by a 90 deg turn and a turn back (a staircase along the first course: the vehicle keeps going
     away). With ``surfacing``, stays at the surface (their own random stream ``rng_surfacing``: the draws of
-    ``rng`` are those of a mission without them up to the first surfacing)."""
+    ``rng`` are those of a mission without them up to the first surfacing). ``pivot_m``: the hull's sideslip in
+    turns (:class:`SimTrajectory`)."""
     if pattern not in PATTERNS:
         raise ConfigError(f"pattern must be one of {PATTERNS}, got {pattern!r}")
     traj = SimTrajectory(yaw0=float(rng.uniform(-np.pi, np.pi)),
                          p0_n=np.array([0.0, 0.0, START_DEPTH_M]), speed0=1.3,
-                         gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float))
+                         gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float), pivot_m=float(pivot_m))
     # Sea-state and control oscillations: a few degrees, periods 8-20 s.
     for _ in range(2):
         traj.roll_osc.add(rng.uniform(1.0, 2.0) * DEG, rng.uniform(8.0, 20.0), rng.uniform(0, 2 * np.pi))
@@ -556,7 +563,8 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
                      dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0),
-                     surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower") -> Mission:
+                     surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower",
+                     pivot_m: float = 0.0) -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -590,6 +598,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
             numbers).
         pattern: ``"lawnmower"`` (default: every other leg flies back, so a DVL scale error largely cancels
             over a few legs) or ``"transit"`` (a staircase that keeps going away: the scale error accumulates).
+        pivot_m: the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at the IMU by
+            ``-pivot_m`` times the yaw rate, as a real hull does (the A-KIT Snapir about 3.6 m). Default 0: no
+            sideslip, the same mission as before the option existed.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -626,8 +637,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     # are those of the missions simulated before it existed
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
     earth = EarthModel.from_config(config)
+    if not np.isfinite(pivot_m):
+        raise ConfigError(f"pivot_m must be a distance in m, got {pivot_m!r}")
     traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf,
-                           pattern)
+                           pattern, pivot_m)
     if np.any(np.asarray(start_ne_m, float) != 0.0):
         lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
         lla[2] = earth.alt_m - traj.p0_n[2]
@@ -691,10 +704,11 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     grade = spec.name
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
         ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
-        ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "")
+        ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "") + \
+        (f"-pivot{pivot_m:g}m" if pivot_m else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
-        "dvl_output": dvl_output, "pattern": pattern,
+        "dvl_output": dvl_output, "pattern": pattern, "pivot_m": float(pivot_m),
         "imu_errors": imu_truth,
         "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
                                               "scale_factor": errors.scale_factor.copy(),
