@@ -251,7 +251,9 @@ def print_summary(summary: dict, file=None) -> None:
     if "pivot_length_m" in state:
         how = (f"fitted online over {state['pivot_fit_pairs']} pairs of fully measured pings"
                if "pivot_fit_pairs" in state else "given")
-        out(f"  pivot length {state['pivot_length_m']:.2f} m ahead of the IMU ({how})")
+        refused = state.get("pivot_observations_refused")
+        out(f"  pivot length {state['pivot_length_m']:.2f} m ahead of the IMU ({how}"
+            + (f"; {refused} fully measured ping(s) with a non-finite beam or rate left out" if refused else "") + ")")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):
             windows = ", ".join(f"{w['vrmse_window_mps']:.4f}" for w in other["windows"])

@@ -49,8 +49,8 @@ def register(subparsers) -> None:
                         help="time at the surface of each --surface-every surfacing, s")
     parser.add_argument("--pivot", type=float, default=0.0, metavar="M",
                         help="the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at "
-                             "the IMU by -M times the yaw rate, as a real hull does (the A-KIT Snapir: about 3.6; 0: "
-                             "no sideslip)")
+                             "the IMU by -M times the turn's yaw rate, as a real hull does (the A-KIT Snapir: about 3.6; "
+                             "0: no sideslip in turns)")
     parser.set_defaults(func=run)
 
 

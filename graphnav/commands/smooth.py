@@ -137,7 +137,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission),
-                                "regressed_beams": regressed_beams_summary(o.info)}
+                                "regressed_beams": regressed_beams_summary(o.info),
+                                "completer_state": o.info.get("completer_state", {})}
                      for o in others},
         "streams": ensure_streams(mission),
     }

@@ -599,14 +599,14 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         pattern: ``"lawnmower"`` (default: every other leg flies back, so a DVL scale error largely cancels
             over a few legs) or ``"transit"`` (a staircase that keeps going away: the scale error accumulates).
         pivot_m: the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at the IMU by
-            ``-pivot_m`` times the yaw rate, as a real hull does (the A-KIT Snapir about 3.6 m). Default 0: no
-            sideslip, the same mission as before the option existed.
+            ``-pivot_m`` times the turn's yaw rate, as a real hull does (the A-KIT Snapir about 3.6 m). Default 0:
+            no sideslip in turns (the small sway oscillation stays), the same mission as before the option existed.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
         ``imu_errors`` (:class:`graphnav.sim.imu_errors.ImuErrorTruth` with the true biases, None if noiseless),
         ``dvl_errors`` (dict of the true beam bias, scale factor and noise std), ``trajectory``
-        (:class:`SimTrajectory`, exact kinematics at any time) and, with ``surfacing``, ``surfacing`` (the
+        (:class:`SimTrajectory`, exact kinematics at any time), ``pivot_m`` and, with ``surfacing``, ``surfacing`` (the
         profile) and ``surface_windows`` (``(t_start, t_end)`` s of each stay at the surface).
     """
     if not 1.0 <= duration_s <= MAX_DURATION_S:
@@ -637,8 +637,12 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     # are those of the missions simulated before it existed
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
     earth = EarthModel.from_config(config)
+    try:
+        pivot_m = float(pivot_m)
+    except (TypeError, ValueError):
+        pivot_m = float("nan")
     if not np.isfinite(pivot_m):
-        raise ConfigError(f"pivot_m must be a distance in m, got {pivot_m!r}")
+        raise ConfigError("pivot_m (graphnav simulate --pivot) must be a finite distance in m")
     traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf,
                            pattern, pivot_m)
     if np.any(np.asarray(start_ne_m, float) != 0.0):
