@@ -739,3 +739,19 @@ def test_a_fold_network_for_total_outages_is_found_loaded_and_serves_pings_witho
     assert beams.shape == sigma.shape == (4,) and np.all(np.isfinite(beams)) and np.all(sigma > 0)
     # a vehicle at rest in the IMU window with its past beams steady: the completion stays near them
     np.testing.assert_allclose(beams, past[-1], atol=0.3)
+
+
+
+def test_the_position_study_reads_the_error_during_and_after_the_outage_less_the_start():
+    """A track 2 m north of the truth before an outage over [10, 40] s, 0.1 m/s more through it, 1 m more after."""
+    import types
+    study = _study("outage_position_drift")
+    t = np.arange(0.0, 100.0, 0.5)
+    north = 2.0 + np.where(t < 10.0, 0.0, np.where(t <= 40.0, 0.1 * (t - 10.0), 1.0))
+    sol = types.SimpleNamespace(t=t, p_n=np.stack([north, np.zeros_like(t), np.zeros_like(t)], axis=-1))
+    gt = types.SimpleNamespace(t=t, at=lambda s: (np.zeros((len(np.atleast_1d(s)), 3)),) * 2 + (None,))
+    np.testing.assert_allclose(study.horizontal_error(sol, gt, np.array([5.0, 40.0])), [[2.0, 0.0], [5.0, 0.0]])
+    got = study.position_metrics(sol, gt, 10.0, 30.0)
+    last = 0.1 * np.arange(20.0, 30.0 + 1e-9, 0.5)          # the outage's last 10 s, less the start's 2 m
+    assert got["end 10 s"] == pytest.approx(float(np.sqrt(np.mean(last ** 2))))
+    assert got["after 20-40 s"] == pytest.approx(1.0)
