@@ -13,6 +13,10 @@ window, against the horizontal error at its start (mean over the 5 s before it):
   window's end, which on 1.0025 s pings falls between the last outage ping and the first measured one, whose
   filtered position the returning beams already corrected).
 
+``--pivot-runs T ...`` adds ``Graph-HNP`` with other run settings: screened at each ping (``Graph-HNP each ping``,
+``Graph-HN``'s) and, per T, its completions' errors correlated over T s whatever the ping measured (``Graph-HNP tau
+T``), to see what the run setting trades between the velocity and the position after the outage.
+
 Every A-KIT trajectory with the bench's windows (``--max-windows``, the regime table's 2), each IMU grade and
 scenario; pooled and per fold (the folds of the completer studies), and each method's ratio to Graph-TC. About 2
 min on two cores for the default cells. Usage::
@@ -54,6 +58,17 @@ def window_metrics(sol, gt, start: float, window_s: float) -> dict:
             "bench": float(position_drift(sol, gt, start, start + window_s))}
 
 
+def variant_run(label: str) -> tuple[str, dict | None]:
+    """(registry method, graph options on top of its defaults) of a run label: a method name, ``Graph-HNP each
+    ping`` or ``Graph-HNP tau T``."""
+    from graphnav.evaluation.methods import GRAPH_HNP
+    if label == f"{GRAPH_HNP} each ping":
+        return GRAPH_HNP, {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
+    if label.startswith(f"{GRAPH_HNP} tau "):
+        return GRAPH_HNP, {"regressed_error_tau_s": float(label.rsplit(" ", 1)[1])}
+    return label, None
+
+
 def trajectory_task(item):
     """(key, {method: [window metrics]}) of one trajectory, grade, scenario and window length."""
     source, grade, scenario, window_s, max_windows, methods = item
@@ -67,7 +82,8 @@ def trajectory_task(item):
     run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
     result = {}
     for method in methods:
-        sol = run_method(run, method, scenario)
+        name, options = variant_run(method)
+        sol = run_method(run, name, scenario, options=options)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
     return (source.name, grade, scenario, window_s), result
 
@@ -107,6 +123,8 @@ def main(argv=None) -> int:
     from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HNP, GRAPH_TC
     p.add_argument("--methods", nargs="+", default=[GRAPH_TC, GRAPH_HN, GRAPH_HNP], help="graph methods (Graph-TC "
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
+    p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
+                   "and, per T, with its completions' errors correlated over T s (module docstring)")
     p.add_argument("--scenarios", nargs="+", default=["3-missing", "0-beams"], help="beam-outage scenarios")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades")
     p.add_argument("--window-s", nargs="+", type=float, default=[120.0], help="outage lengths, s")
@@ -117,6 +135,10 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     if a.methods[0] != GRAPH_TC:
         p.error("--methods must start with Graph-TC (the ratios are to it)")
+    if a.pivot_runs is not None:
+        if not all(t > 0 for t in a.pivot_runs):
+            p.error("--pivot-runs: correlation times must be > 0 s")
+        a.methods += [f"{GRAPH_HNP} each ping", *(f"{GRAPH_HNP} tau {t:g}" for t in a.pivot_runs)]
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
