@@ -194,23 +194,25 @@ class PivotFit:
         """A ping at ``t`` (s) with all four ``beams`` (m/s) measured and ``omega_b`` (rad/s), the mean rate over
         its DVL period."""
         omega_b = np.asarray(omega_b, float)
-        straight = np.asarray(beams, float) - np.cross(omega_b, self.lever_arm_b) @ self.T_b.T
+        straight = np.asarray(beams, float) - turn_terms(self.T_b, self.lever_arm_b, 0.0, omega_b)
         if self._recent and abs(t - self._recent[-1][0] - self.ping_dt) > 0.25 * self.ping_dt:
             self._recent.clear()        # not one DVL period after the last: a new run of measured pings
         self._recent.append((float(t), straight, float(omega_b[2])))
         del self._recent[:-(self.n_past + self.horizon)]
-        newest, r_new = self._recent[-1][1], self._recent[-1][2]
-        e_y = self.T_b[:, 1]
-        for h in range(1, self.horizon + 1):
-            first = len(self._recent) - h - self.n_past
-            if first < 0:
-                break
-            held = self._recent[first:first + self.n_past]
-            resid = newest - np.mean([b for _, b, _ in held], axis=0)
-            grad = -(r_new - np.mean([r for _, _, r in held])) * e_y
-            self.num += float(grad @ resid)
-            self.den += float(grad @ grad)
-            self.pairs += 1
+        n_lags = min(self.horizon, len(self._recent) - self.n_past)
+        if n_lags < 1:
+            return
+        # every lag at once (the keyframer calls this on every measured ping): the held pings of lag h are
+        # recent[m - h - n_past : m - h], their means from running sums
+        held = np.array([np.append(b, r) for _, b, r in self._recent[:-1]])     # (m - 1, 5): beams, yaw rate
+        sums = np.vstack([np.zeros(5), np.cumsum(held, axis=0)])
+        ends = len(held) + 1 - np.arange(1, n_lags + 1)                      # m - h
+        means = (sums[ends] - sums[ends - self.n_past]) / self.n_past
+        resid = straight - means[:, :4]
+        grad = -(float(omega_b[2]) - means[:, 4])[:, None] * self.T_b[:, 1]
+        self.num += float(np.sum(grad * resid))
+        self.den += float(np.sum(grad * grad))
+        self.pairs += int(n_lags)
 
     def break_run(self) -> None:
         """The next ping does not follow the last one added (a ping with a missing beam came between)."""
@@ -222,12 +224,17 @@ class PivotFit:
         return self.num / self.den if self.den > max(min_turn, 1e-12) else None
 
 
+def _ping_period(t: np.ndarray) -> float:
+    """A log's DVL period, s: the median step of its ping stamps ``t`` (1 s for a single ping)."""
+    return float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+
+
 def measured_series(mission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(beams (M, 4) m/s, rates (M, 3) rad/s, usable (M,) bool) of a mission's pings: the rates are the mean gyro over
     the DVL period before each ping (over the samples there are); usable where every beam is valid, the period
     starts after the IMU's first sample and holds at least one."""
     t, beams = mission.dvl.t, mission.dvl.beams
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    dt = _ping_period(t)
     imu_t, omega = mission.imu.t, mission.imu.omega_b
     lo = np.searchsorted(imu_t, t - dt, side="right")
     hi = np.searchsorted(imu_t, t, side="right")
@@ -248,8 +255,7 @@ def fit_pivot_length(missions, n_past: int = 5, horizon: int = FIT_HORIZON_PINGS
     for mission in missions:
         geometry = DvlGeometry.from_spec(mission.config.dvl)
         t = mission.dvl.t
-        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
-        fit = PivotFit(geometry.T_b, geometry.lever_arm_b, n_past, horizon, dt)
+        fit = PivotFit(geometry.T_b, geometry.lever_arm_b, n_past, horizon, _ping_period(t))
         beams, rates, usable = measured_series(mission)
         for k in range(len(t)):
             if usable[k]:
