@@ -164,17 +164,16 @@ def window_task(item):
     if variant in ("Graph-TC", "Graph-HN"):
         # Graph-HN: the average estimator of the 2-missing preset (N = 3) at every ping, one measured beam or two
         sol = run_method(run, variant, "2-missing")
-    elif variant == "Graph-HNP":
-        builder_mod.continue_regressed_runs = counter
-        try:
-            sol = run_method(run, variant, "2-missing")
-        finally:
-            builder_mod.continue_regressed_runs = original
     else:
-        comp = fold_completer(imu_dirs, beam_dirs, fold)
+        # the runs that continue regressed beams: counted through the builder's hook
+        if variant == "Graph-HNP":
+            method, kwargs = variant, {}
+        else:
+            method = "Graph-HNI"
+            kwargs = {"completer": fold_completer(imu_dirs, beam_dirs, fold), "options": variant_options(variant)}
         builder_mod.continue_regressed_runs = counter
         try:
-            sol = run_method(run, "Graph-HNI", "2-missing", completer=comp, options=variant_options(variant))
+            sol = run_method(run, method, "2-missing", **kwargs)
         finally:
             builder_mod.continue_regressed_runs = original
     result = {"vrmse": _vrmse(sol, mission, starts, window_s), **counter.counts,

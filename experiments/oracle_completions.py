@@ -155,7 +155,7 @@ def oracle_task(item):
     from graphnav.estimators.graph.dvl_errors import beam_index
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
     from graphnav.evaluation.bench.scoring import score_case
-    from graphnav.evaluation.methods import run_method
+    from graphnav.evaluation.methods import pivot_completer, run_method
     mission = prepared_mission(source, grade)
     starts = case_windows(mission, window_s, max_windows)
     run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
@@ -165,9 +165,9 @@ def oracle_task(item):
     if variant.startswith((RECORDED, AVERAGE, PIVOT, PIVOT_ONLINE)):
         comp = None     # AVERAGE: Graph-HN's own completer (the average estimator)
         if variant.startswith(PIVOT):   # nets: the fold's pivot length, m
-            comp = pivot_completer(mission, scenario, nets)
+            comp = pivot_completer(scenario, mission.config, pivot_m=nets)
         elif variant.startswith(PIVOT_ONLINE):     # nets: its prior_turn
-            comp = pivot_completer(mission, scenario, None, nets)
+            comp = pivot_completer(scenario, mission.config, prior_turn=nets)
         elif variant.startswith(RECORDED) and is_total_outage(scenario) and total_outage_network(nets[0], fold):
             # the fold's IMU-aware network for pings without a measured beam (it serves every ping of a total outage
             # with an IMU window; the average estimator the others)
@@ -220,18 +220,6 @@ def oracle_task(item):
     return ((source.name, grade, window_s, full_variant),
             {"vrmse": [r["vrmse_window"] for r in score_case(sol, mission, starts, window_s)],
              "errors": errors, "stated_sigma": stated, "screening": screening})
-
-
-def pivot_completer(mission, scenario: str, pivot_m: float | None, prior_turn: float = 0.0):
-    """:class:`graphnav.nets.pivot.PivotCompleter` for ``mission``'s DVL with pivot length ``pivot_m`` (m; None: fitted
-    online with ``prior_turn``) and the average estimator's N of ``scenario``."""
-    from graphnav.core.dvl import DvlGeometry
-    from graphnav.nets.average import AVERAGE_N_PAST
-    from graphnav.nets.pivot import PivotCompleter
-    geometry = DvlGeometry.from_spec(mission.config.dvl)
-    return PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m, n_past=AVERAGE_N_PAST[scenario],
-                          noise_std=mission.config.dvl.beam_noise_std, imu_rate_hz=mission.config.imu_rate_hz,
-                          prior_turn=prior_turn)
 
 
 def fold_pivot_lengths(sources: dict, folds) -> list[float]:

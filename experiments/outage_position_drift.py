@@ -36,8 +36,8 @@ METRICS = ("vrmse", "end 10 s", "after 20-40 s", "bench")
 
 def horizontal_error(sol, gt, t: np.ndarray) -> np.ndarray:
     """Estimate minus reference, north and east (len(t), 2) m, the estimate interpolated at ``t`` (s)."""
-    p = np.stack([np.interp(t, sol.t, sol.p_n[:, j]) for j in range(2)], axis=-1)
-    return p - gt.at(np.atleast_1d(t))[0][:, :2]
+    from graphnav.core.timeseries import interp_rows
+    return interp_rows(t, sol.t, sol.p_n[:, :2]) - gt.at(np.atleast_1d(t))[0][:, :2]
 
 
 def position_metrics(sol, gt, start: float, window_s: float) -> dict:

@@ -81,8 +81,8 @@ def trajectory_rows(source, grade: str, pivot_m: float, stride: int, outage: int
     from graphnav.core.dvl import DvlGeometry
     from graphnav.core.scenarios import SCENARIOS as PATTERNS
     from graphnav.evaluation.bench.cases import prepared_mission
+    from graphnav.evaluation.methods import pivot_completer
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
-    from graphnav.nets.pivot import PivotCompleter
     mission = prepared_mission(source, grade)
     geometry = DvlGeometry.from_spec(mission.config.dvl)
     T_pinv = np.linalg.pinv(geometry.T_b)
@@ -93,12 +93,9 @@ def trajectory_rows(source, grade: str, pivot_m: float, stride: int, outage: int
         n = AVERAGE_N_PAST[scenario]
         noise = mission.config.dvl.beam_noise_std
         members = {"average": AverageCompleter(n_past=n, noise_std=noise),
-                   "pivot": PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m, n_past=n, noise_std=noise,
-                                           imu_rate_hz=mission.config.imu_rate_hz)}
+                   "pivot": pivot_completer(scenario, mission.config, pivot_m=pivot_m)}
         for prior in priors:
-            members[f"online {prior:g}"] = PivotCompleter(geometry.T_b, geometry.lever_arm_b, None, n_past=n,
-                                                          noise_std=noise, imu_rate_hz=mission.config.imu_rate_hz,
-                                                          prior_turn=prior)
+            members[f"online {prior:g}"] = pivot_completer(scenario, mission.config, prior_turn=prior)
         fits = online_fits(mission, geometry, n) if priors else None
         first = 60      # the first minute settles (the IMU window needs its seconds too)
         for kind, length, step in (("per ping", 1, 1), ("outage", outage, stride)):

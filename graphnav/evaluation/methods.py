@@ -378,16 +378,17 @@ def imu_network_completer(scenario: str, noise_std: float = 0.042):
         return completer, described + " (IMU-aware unavailable)"
 
 
-def pivot_completer(scenario: str, config):
+def pivot_completer(scenario: str, config, pivot_m: float | None = None, prior_turn: float = PIVOT_PRIOR_TURN):
     """The pivot completer (:class:`graphnav.nets.pivot.PivotCompleter`) for a mission's sensors ``config``
     (:class:`~graphnav.core.config.SensorConfig`: the DVL's beams, lever arm, noise and rate, the IMU rate), with the
-    scenario's ``n_past`` and its pivot length fitted online over the mission's measured pings."""
+    scenario's ``n_past``; its pivot length ``pivot_m`` (m), or by default fitted online over the mission's measured
+    pings, shrunk by ``prior_turn``."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.pivot import PivotCompleter
     geometry = DvlGeometry.from_spec(config.dvl)
-    return PivotCompleter(geometry.T_b, geometry.lever_arm_b, None, n_past=AVERAGE_N_PAST[check_scenario(scenario)],
-                          noise_std=config.dvl.beam_noise_std, imu_rate_hz=config.imu_rate_hz,
-                          ping_dt=1.0 / config.dvl.rate_hz, prior_turn=PIVOT_PRIOR_TURN)
+    return PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m,
+                          n_past=AVERAGE_N_PAST[check_scenario(scenario)], noise_std=config.dvl.beam_noise_std,
+                          imu_rate_hz=config.imu_rate_hz, ping_dt=1.0 / config.dvl.rate_hz, prior_turn=prior_turn)
 
 
 def completer_for(name: str, scenario: str, noise_std: float = 0.042, config=None):
