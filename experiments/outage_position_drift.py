@@ -15,7 +15,12 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 
 ``--pivot-runs T ...`` adds ``Graph-HNP`` with other run settings: screened at each ping (``Graph-HNP each ping``,
 ``Graph-HN``'s) and, per T, its completions' errors correlated over T s whatever the ping measured (``Graph-HNP tau
-T``), to see what the run setting trades between the velocity and the position after the outage.
+T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
+outage. ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
+relinearised W``): how much Graph-TC's own readings move with an equally valid linearisation, the noise floor of a
+ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
+the beams return (``<method> retired``, ``GraphOptions.retire_completions``), or, for a method that does so by
+default, once more with its completions kept (``<method> kept``).
 
 Every A-KIT trajectory with the bench's windows (``--max-windows``, the regime table's 2), each IMU grade and
 scenario; pooled and per fold (the folds of the completer studies), and each method's ratio to Graph-TC. About 2
@@ -58,20 +63,47 @@ def window_metrics(sol, gt, start: float, window_s: float) -> dict:
             "bench": float(position_drift(sol, gt, start, start + window_s))}
 
 
+RETIRED = " retired"
+KEPT = " kept"
+RELINEARISED = " relinearised "
+
+
 def variant_run(label: str) -> tuple[str, dict | None]:
     """(registry method, graph options on top of its defaults) of a run label: a method name, ``Graph-HNP each
-    ping`` or ``Graph-HNP tau T``."""
+    ping``, ``Graph-HNP tau T`` (T = 0: independent errors), any of them followed by `` retired`` or `` kept`` (its
+    completions taken out of the graph when the beams return or not, ``GraphOptions.retire_completions``), or a method
+    followed by `` relinearised W`` (ISAM2 relinearising every update the keyframes of the last W s, instead of
+    every 10th update those of the last 5 s: the estimator's own sensitivity to its linearisation)."""
     from graphnav.evaluation.methods import GRAPH_HNP
+    if RELINEARISED in label:
+        name, window = label.split(RELINEARISED)
+        return name, {"relin_window_s": float(window), "relinearize_skip": 1}
+    for suffix, retire in ((RETIRED, True), (KEPT, False)):
+        if label.endswith(suffix):
+            name, options = variant_run(label[:-len(suffix)])
+            return name, {**(options or {}), "retire_completions": retire}
     if label == f"{GRAPH_HNP} each ping":
         return GRAPH_HNP, {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
     if label.startswith(f"{GRAPH_HNP} tau "):
-        return GRAPH_HNP, {"regressed_error_tau_s": float(label.rsplit(" ", 1)[1])}
+        tau = float(label.rsplit(" ", 1)[1])
+        return GRAPH_HNP, {"regressed_error_tau_s": tau if tau > 0 else None}
     return label, None
+
+
+def other_retirement(label: str) -> str | None:
+    """The run ``label`` (:func:`variant_run`) with its completions' retirement the other way round (None without
+    a completer)."""
+    from graphnav.evaluation.methods import get_method
+    name, options = variant_run(label)
+    method = get_method(name)
+    if method.completer == "none":
+        return None
+    return label + (KEPT if {**method.defaults, **(options or {})}.get("retire_completions") else RETIRED)
 
 
 def trajectory_task(item):
     """(key, {method: [window metrics]}) of one trajectory, grade, scenario and window length."""
-    source, grade, scenario, window_s, max_windows, methods = item
+    source, grade, scenario, window_s, max_windows, methods, backend = item
     import warnings
     warnings.simplefilter("ignore")
     from graphnav.core.scenarios import scenario_outage
@@ -83,35 +115,80 @@ def trajectory_task(item):
     result = {}
     for method in methods:
         name, options = variant_run(method)
-        sol = run_method(run, name, scenario, options=options)
+        sol = run_method(run, name, scenario, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
     return (source.name, grade, scenario, window_s), result
 
 
+def cells_of(runs: dict) -> list[tuple]:
+    """The (IMU, scenario, window s) cells of ``runs``, tactical first."""
+    return sorted({k[1:] for k in runs}, key=lambda c: (c[0] != "tactical", c[1], c[2]))
+
+
+def mean_metric(runs: dict, trajectories, cell, method: str, metric: str) -> float:
+    """``metric`` of ``method`` averaged over the windows of ``trajectories`` (A-KIT numbers) in ``cell``."""
+    vals = [w[metric] for k in trajectories if (f"Trajectory{k}", *cell) in runs
+            for w in runs[(f"Trajectory{k}", *cell)][method]]
+    return float(np.mean(vals)) if vals else float("nan")
+
+
+def tc_ratio(runs: dict, pairs, cell, method: str, metric: str) -> float:
+    """``method``'s mean ``metric`` over the trajectories of the folds ``pairs``, divided by Graph-TC's."""
+    trajectories = [k for pair in pairs for k in pair]
+    return mean_metric(runs, trajectories, cell, method, metric) / mean_metric(runs, trajectories, cell, "Graph-TC",
+                                                                               metric)
+
+
 def report(runs: dict, methods, folds) -> str:
     """Per cell: each metric's mean over the windows, pooled, and each method's ratio to Graph-TC (worst fold)."""
-    cells = sorted({k[1:] for k in runs}, key=lambda c: (c[0] != "tactical", c[1], c[2]))
     lines = ["| IMU | scenario | window s | method | " + " | ".join(f"{m} (m/s or m)" if m == "vrmse" else m
                                                                    for m in METRICS) + " |",
              "| --- | --- | --- | --- | " + " | ".join("---" for _ in METRICS) + " |"]
-
-    def mean(trajectories, cell, method, metric):
-        vals = [w[metric] for k in trajectories if (f"Trajectory{k}", *cell) in runs
-                for w in runs[(f"Trajectory{k}", *cell)][method]]
-        return float(np.mean(vals)) if vals else float("nan")
     everyone = [k for pair in folds for k in pair]
-    for cell in cells:
+    for cell in cells_of(runs):
         for method in methods:
             parts = []
             for metric in METRICS:
-                value = mean(everyone, cell, method, metric)
                 if method == "Graph-TC":
+                    value = mean_metric(runs, everyone, cell, method, metric)
                     parts.append(f"{value:.3f}" if metric == "vrmse" else f"{value:.2f}")
                     continue
-                ratios = [mean(pair, cell, method, metric) / mean(pair, cell, "Graph-TC", metric) for pair in folds]
-                pooled = value / mean(everyone, cell, "Graph-TC", metric)
-                parts.append(f"{pooled:.2f}x ({max(ratios):.2f}x)")
+                worst = max(tc_ratio(runs, [pair], cell, method, metric) for pair in folds)
+                parts.append(f"{tc_ratio(runs, folds, cell, method, metric):.2f}x ({worst:.2f}x)")
             lines.append(f"| {cell[0]} | {cell[1]} | {cell[2]:g} | {method} | " + " | ".join(parts) + " |")
+    return "\n".join(lines)
+
+
+#: The readings the choice scores: the velocity through the outage and the position after it.
+CHOICE_METRICS = ("vrmse", "after 20-40 s")
+
+
+def rule_key(runs: dict, folds, method: str) -> tuple[int, float]:
+    """The regime rule with both readings of :data:`CHOICE_METRICS`: (fold cells over 1.02x Graph-TC, counted per
+    reading, the mean pooled ratio over the cells and readings), on the folds ``folds``."""
+    cells = cells_of(runs)
+    over = sum(tc_ratio(runs, [pair], cell, method, m) > 1.02 for pair in folds for cell in cells
+               for m in CHOICE_METRICS)
+    return over, float(np.mean([tc_ratio(runs, folds, cell, method, m) for cell in cells for m in CHOICE_METRICS]))
+
+
+def choice(runs: dict, candidates: list[str], folds) -> str:
+    """The candidate run (of one registry method) the rule (:func:`rule_key`) picks on all folds and with each fold
+    left out, and each left-out fold's worst cell with the pick made without it."""
+    lines = ["| candidate | fold cells over 1.02x: velocity / position after | mean pooled ratio: velocity / "
+             "position after |", "| --- | --- | --- |"]
+    cells = cells_of(runs)
+    for c in candidates:
+        over = [sum(tc_ratio(runs, [pair], cell, c, m) > 1.02 for pair in folds for cell in cells)
+                for m in CHOICE_METRICS]
+        means = [np.mean([tc_ratio(runs, folds, cell, c, m) for cell in cells]) for m in CHOICE_METRICS]
+        lines.append(f"| {c} | {over[0]} / {over[1]} of {len(cells) * len(folds)} | {means[0]:.3f} / {means[1]:.3f} |")
+    lines.append(f"chosen on all folds: {min(candidates, key=lambda c: rule_key(runs, folds, c))}")
+    for f, pair in enumerate(folds):
+        pick = min(candidates, key=lambda c: rule_key(runs, [p for p in folds if p != pair], c))
+        worst = [max(tc_ratio(runs, [pair], cell, pick, m) for cell in cells) for m in CHOICE_METRICS]
+        lines.append(f"fold {f} left out: {pick}; its worst cell {worst[0]:.3f}x in velocity, {worst[1]:.3f}x in "
+                     "the position after")
     return "\n".join(lines)
 
 
@@ -125,10 +202,16 @@ def main(argv=None) -> int:
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
     p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
+    p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
+                   "keyframes of its last W s (module docstring)")
+    p.add_argument("--retired", action="store_true", help="also each method with a completer with its completions "
+                   "taken out when the beams return, or kept if it takes them out (module docstring)")
     p.add_argument("--scenarios", nargs="+", default=["3-missing", "0-beams"], help="beam-outage scenarios")
     p.add_argument("--grades", nargs="+", default=["tactical", "mems"], help="IMU grades")
     p.add_argument("--window-s", nargs="+", type=float, default=[120.0], help="outage lengths, s")
     p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
+    p.add_argument("--backend", default="isam2", choices=("isam2", "fixed-lag"), help="the graph's smoother (default: "
+                   "isam2, as the regime table; fixed-lag is graphnav online's default)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", default="out/position/drift.json", help="results (JSON); a rerun with the same "
                    "settings resumes from it")
@@ -136,25 +219,37 @@ def main(argv=None) -> int:
     if a.methods[0] != GRAPH_TC:
         p.error("--methods must start with Graph-TC (the ratios are to it)")
     if a.pivot_runs is not None:
-        if not all(t > 0 for t in a.pivot_runs):
-            p.error("--pivot-runs: correlation times must be > 0 s")
+        if not all(t >= 0 for t in a.pivot_runs):
+            p.error("--pivot-runs: correlation times must be >= 0 s (0: independent errors)")
         a.methods += [f"{GRAPH_HNP} each ping", *(f"{GRAPH_HNP} tau {t:g}" for t in a.pivot_runs)]
+    if a.relinearised is not None:
+        a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
+    if a.retired:
+        a.methods += [o for o in map(other_retirement, a.methods) if o is not None]
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS)}
+    settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS),
+                **({"backend": a.backend} if a.backend != "isam2" else {})}
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)
-    items = [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods)
+    items = [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend)
              for pair in AKIT_FOLDS for k in pair for g in a.grades for sc in a.scenarios for w in a.window_s
              if (f"Trajectory{k}", g, sc, w) not in runs]
     run_saving(trajectory_task, items, runs, out, settings, a.jobs)
     print(f"{a.max_windows} windows per trajectory; horizontal position error less the window start's, m; Graph-TC "
           "in its units, the others as ratios to it, pooled (worst fold)")
     print(report(runs, a.methods, AKIT_FOLDS))
+    families: dict[str, list[str]] = {}
+    for m in a.methods[1:]:
+        families.setdefault(variant_run(m)[0], []).append(m)
+    for name, candidates in families.items():
+        if len(candidates) > 1:
+            print(f"\n{name}: the run chosen on the velocity and the position after the outage")
+            print(choice(runs, candidates, AKIT_FOLDS))
     return 0
 
 

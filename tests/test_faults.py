@@ -227,11 +227,11 @@ def test_indeterminant_system_recovers_with_a_warning(mission, monkeypatch):
     original = OnlineGraph._solve
     calls = {"n": 0}
 
-    def failing(self, factors, values, kf, first_key=None):
+    def failing(self, factors, values, kf, first_key=None, remove=()):
         if kf.index == 60 and first_key is None and calls["n"] == 0:
             calls["n"] += 1
             raise RuntimeError("Indeterminant linear system detected while working near variable x60")
-        return original(self, factors, values, kf, first_key)
+        return original(self, factors, values, kf, first_key, remove)
 
     monkeypatch.setattr(OnlineGraph, "_solve", failing)
     with pytest.warns(RuntimeWarning, match="indeterminant linear system at keyframe 60"):

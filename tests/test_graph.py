@@ -381,6 +381,66 @@ def test_regressed_error_correlation_by_measured_beams(tactical_mission):
         GraphOptions(regressed_error_tau_s={1: 3.0})
 
 
+def test_completions_retired_when_the_beams_return_leave_the_graph_without_a_completer(tactical_mission):
+    """retire_completions: the regressed beams' factors leave the graph at the first ping whose measured beams give
+    the velocity. The filtered estimates up to it are those made with the completions; the graph left is the graph
+    without a completer, so ISAM2's estimate of every state, the outage's too, is Graph-TC's (to the linearisation
+    points: relinearised at every step they agree to 0.1 mm/s), while with the completions kept it is not."""
+    from graphnav.estimators.graph.builder import V, X
+    from graphnav.estimators.navigator import feed_mission
+    from graphnav.estimators.runs import graph_navigator
+    m = tactical_mission.slice(0, 90).with_outage(scenario_outage("3-missing", 30.0, 30.0))
+    comp = SerialOracleCompleter(m)
+    exact = GraphOptions(regressed_runs="screen-first", regressed_error_tau_s=10.0, relin_window_s=None,
+                         relinearize_skip=1, relin_rot=1e-9, relin_pos=1e-9, relin_vel=1e-9, relin_bias_acc=1e-9,
+                         relin_bias_gyro=1e-9, wildfire_threshold=0.0)
+
+    def replay(completer, options, backend="isam2"):
+        nav = graph_navigator(m, completer=completer, options=options, backend=backend)
+        return nav, feed_mission(nav, m)
+    tc, _ = replay(None, exact)
+    kept, e_kept = replay(comp, exact)
+    retired, e_retired = replay(comp, dataclasses.replace(exact, retire_completions=True))
+    # every regressed beam of the outage: its runs' first ping as one group, then the differences
+    assert retired.info["completions_retired"] == 3 * 30 and kept.info["completions_retired"] == 0
+    k_return = next(i for i, e in enumerate(e_retired) if e.t >= 60.0 and e.n_measured >= 3)
+    for a, b in zip(e_retired[:k_return], e_kept[:k_return]):
+        np.testing.assert_array_equal(a.v_n, b.v_n)
+    final = [nav.backend.estimator._estimates() for nav in (tc, kept, retired)]
+
+    def largest(a, b):
+        return (max(np.abs(a.atVector(V(k)) - b.atVector(V(k))).max() for k in range(len(e_kept))),
+                max(np.abs(a.atPose3(X(k)).translation() - b.atPose3(X(k)).translation()).max()
+                    for k in range(len(e_kept))))
+    dv, dp = largest(final[2], final[0])
+    assert dv < 1e-4 and dp < 1e-3
+    dv_kept, dp_kept = largest(final[1], final[0])
+    assert dv_kept > 1e-3 and dp_kept > 0.05
+    # the fixed-lag smoother holds the outage's keyframes beyond its 10 s lag until the return, and then answers as
+    # ISAM2 does; held for at most retire_hold_s, or restarted inside the outage, it takes out only the later ones
+    lag = dataclasses.replace(exact, retire_completions=True, lag_s=10.0, reanchor_interval_s=None)
+    nav, e_lag = replay(comp, lag, backend="fixed-lag")
+    assert nav.info["completions_retired"] == 3 * 30
+    assert np.abs(e_lag[-1].v_n - e_retired[-1].v_n).max() < 1e-4
+    _, e_lag_kept = replay(comp, dataclasses.replace(lag, retire_completions=False), backend="fixed-lag")
+    assert np.abs(e_lag_kept[-1].v_n - e_retired[-1].v_n).max() > 1e-3
+    # before the return, holding keyframes instead of marginalising them moves the estimates only through their
+    # linearisation points (a marginal freezes them): under 1 mm/s
+    assert max(np.abs(a.v_n - b.v_n).max() for a, b in zip(e_lag[:k_return], e_lag_kept[:k_return])) < 1e-3
+    short_hold, _ = replay(comp, dataclasses.replace(lag, retire_hold_s=5.0), backend="fixed-lag")
+    assert 3 * 10 <= short_hold.info["completions_retired"] <= 3 * 17
+    restarted, _ = replay(comp, dataclasses.replace(lag, reanchor_interval_s=45.0), backend="fixed-lag")
+    assert restarted.info["reanchored"] >= 1 and 3 * 10 <= restarted.info["completions_retired"] <= 3 * 16
+    with pytest.raises(ConfigError, match="retire_hold_s"):
+        GraphOptions(retire_hold_s=-1.0)
+    # what a user reads: the run's record of its regressed beams counts those taken out
+    from graphnav.commands.common import regressed_beams_line, regressed_beams_summary
+    record = regressed_beams_summary(run_graph(m, completer=comp, options=lag, backend="fixed-lag").info)
+    assert record["retired"] == 3 * 30
+    assert regressed_beams_line(record).endswith("90 taken out again when the measured beams returned")
+    assert "retired" not in regressed_beams_summary(run_graph(m, completer=comp).info)
+
+
 def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):
     """regressed_runs="screen-first": the screening decides per ping until one completion of a beam's run is kept;
     the rest of the run enters at the completer's sigma, unscreened. With a screening that drops whatever the graph

@@ -211,8 +211,12 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     options = methods.estimator_options("Graph-HNP")
     assert options.regressed_runs == "screen-first" and options.error_tau_for(0) == 3.0
     assert all(options.error_tau_for(n) is None for n in (1, 2, 3))
+    # the shipped hybrids take their completions out when the beams return; the experimental Graph-HNI keeps them
+    assert options.retire_completions and methods.estimator_options("Graph-HN").retire_completions
+    assert not methods.estimator_options("Graph-HNI").retire_completions
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Graph-HNP", "3-missing")
     assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
+    assert sol.info["completions_retired"] == sol.info["regressed_screening"]["entered"]
     # the simulated vehicle turns without sideslip: the online fit finds (nearly) no pivot
     assert abs(sol.info["completer_state"]["pivot_length_m"]) < 0.5
     assert np.all(np.isfinite(sol.v_n))

@@ -151,14 +151,16 @@ def regressed_beams_summary(sol_info: dict) -> dict | None:
     estimator's own prediction of the beam; ``gated``: too far from it; ``inflated``: entered with a wider
     sigma; ``continued``: entered unscreened as the rest of a run,
     :attr:`graphnav.estimators.graph.GraphOptions.regressed_runs`). Beams neither entered nor dropped were
-    replaced by the graph's motion prior (a ping without any measured beam). None when no beam was regressed
-    (a method without a completer, or no outage). A hybrid whose completions all drop out gives the tightly
-    coupled method's answer; this record is where a user sees it."""
+    replaced by the graph's motion prior (a ping without any measured beam). ``retired``: entered beams taken out
+    of the graph again when the measured beams returned (``GraphOptions.retire_completions``). None when no beam
+    was regressed (a method without a completer, or no outage). A hybrid whose completions all drop out gives the
+    tightly coupled method's answer; this record is where a user sees it."""
     screening = sol_info.get("regressed_screening") or {}
     regressed = int(sol_info.get("regressed_beams") or 0)
     if not regressed or "entered" not in screening:
         return None
-    return {"regressed": regressed, **{k: int(v) for k, v in screening.items() if k != "offered"}}
+    return {"regressed": regressed, **{k: int(v) for k, v in screening.items() if k != "offered"},
+            **({"retired": int(sol_info["completions_retired"])} if sol_info.get("completions_retired") else {})}
 
 
 def regressed_beams_line(record: dict | None) -> str:
@@ -174,7 +176,9 @@ def regressed_beams_line(record: dict | None) -> str:
             + (f" ({', '.join(extra)})" if extra else "")
             + f"; {record.get('decorrelated_out', 0)} added nothing to the estimator's own prediction, "
             f"{record.get('gated', 0)} gated as too far from it"
-            + (f", {replaced} replaced by the motion prior" if replaced > 0 else ""))
+            + (f", {replaced} replaced by the motion prior" if replaced > 0 else "")
+            + (f"; {record['retired']} taken out again when the measured beams returned" if record.get("retired")
+               else ""))
 
 
 def consistency_summary(sol, mission) -> dict:

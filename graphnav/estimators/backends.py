@@ -133,7 +133,7 @@ class GraphBackend(_Aided):
     def info(self) -> dict:
         e = self.estimator
         return {"mode": self.mode, "update_s": list(e.update_times), "recovered": e.n_recovered,
-                "reanchored": e.n_reanchored,
+                "reanchored": e.n_reanchored, "completions_retired": e.n_completions_retired,
                 "health": e.health.summary(), **self.screening_counts()}
 
 

@@ -107,12 +107,19 @@ REGRESSED_SCREENING: Mapping = types.MappingProxyType({"screening.correlation": 
 #: projection turns into horizontal velocity drift).
 MOTION_PRIOR_SETTINGS: Mapping = types.MappingProxyType({"motion_prior_rw": (0.2, 0.32, 0.12),
                                                          "motion_prior_heave_sigma": 0.2})
-#: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch) on top of the GraphOptions defaults:
-#: the screening only. In total outages the screened completion (the average estimator's held beams) carries
-#: the keyframes alone: neither the motion prior in its place nor motion_prior="total-if-uncertain" beside it
-#: is better-or-equal in every regime of the ten shared trajectories (docs/decisions/regressed-beams.md,
-#: measured with experiments/regressed_candidates.py).
-GRAPH_HN_OPTIONS: Mapping = REGRESSED_SCREENING
+#: The hybrids' completions leave the graph when the measured beams return (GraphOptions.retire_completions), so
+#: that the returning beams re-estimate the outage's states as without a completer; the estimates made during the
+#: outage keep them. Chosen by the regime rule scored on the velocity through the outage and the position 20-40 s
+#: after it (experiments/outage_position_drift.py --retired; docs/decisions/completers.md, "Completions taken out
+#: when the beams return"), on all folds and with each fold left out: with Graph-HN fold cells over 1.02x Graph-TC
+#: 2 instead of 8 of 120, all in the position after the outage.
+RETIRE_COMPLETIONS: Mapping = types.MappingProxyType({"retire_completions": True})
+#: Graph settings of the hybrid graph methods (Graph-HN, Graph-HN-batch, Graph-HN-net) on top of the GraphOptions
+#: defaults: the screening and RETIRE_COMPLETIONS. In total outages the screened completion (the average estimator's
+#: held beams) carries the keyframes alone: neither the motion prior in its place nor
+#: motion_prior="total-if-uncertain" beside it is better-or-equal in every regime of the ten shared trajectories
+#: (docs/decisions/regressed-beams.md, measured with experiments/regressed_candidates.py).
+GRAPH_HN_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, **RETIRE_COMPLETIONS})
 #: Graph settings of Graph-HNI and Graph-HNI-batch: the screening, and a run of regressed beams screened only until
 #: one of its completions is kept, its later ones entering as whitened differences with a Gauss-Markov correlation
 #: time that depends on how many beams the ping measured (GraphOptions.regressed_runs, regressed_error_tau_s): 3 s
@@ -138,10 +145,11 @@ GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({
 #: on all folds and for every fold left out (with two and with one beam measured; in a total outage independent
 #: errors put one fold cell over 1.02x, 3 s none); with three measured, which no regime cell measures, as with two
 #: (experiments/oracle_completions.py --pivot-online; docs/decisions/completers.md, "A completer that models the
-#: turn").
+#: turn"). Its completions leave the graph when the measured beams return, as Graph-HN's (fold cells over 1.02x
+#: Graph-TC in the velocity and the position after the outage 10 instead of 16 of 120).
 GRAPH_HNP_OPTIONS: Mapping = types.MappingProxyType({
     **REGRESSED_SCREENING, "regressed_runs": "screen-first",
-    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: None, 2: None, 3: None})})
+    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: None, 2: None, 3: None}), **RETIRE_COMPLETIONS})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 

@@ -178,6 +178,7 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
     values = gtsam.Values()
     for (link, local), e in zip(keyframe_graphs, estimates):
         cpp.push_back(link)
+        cpp.push_back(local.run_links)
         cpp.push_back(local.other)
         groups.extend(local.groups)
         values.insert(X(e.index), e.pose)

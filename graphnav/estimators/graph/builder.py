@@ -11,7 +11,7 @@ ping becomes factor rows in one place, :meth:`GraphContext.beam_rows`.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator, NamedTuple
 
 import gtsam
@@ -356,17 +356,26 @@ class BeamGroup:
 
 @dataclass
 class KeyframeFactors:
-    """What keyframe k adds besides its IMU link: DVL beam groups and C++ factors (depth)."""
+    """What keyframe k adds besides its IMU link: DVL beam groups, the difference factors that carry a run of
+    regressed beams with correlated errors (``run_links``) and the other factors (depth, fixes, motion prior)."""
 
     groups: list[BeamGroup]
     other: gtsam.NonlinearFactorGraph
+    run_links: gtsam.NonlinearFactorGraph = field(default_factory=gtsam.NonlinearFactorGraph)
 
     def graph(self) -> gtsam.NonlinearFactorGraph:
+        """The keyframe's factors: the groups' (in order), then ``run_links``, then ``other``."""
         graph = gtsam.NonlinearFactorGraph()
         for group in self.groups:
             graph.add(group.factor())
+        graph.push_back(self.run_links)
         graph.push_back(self.other)
         return graph
+
+    def completion_positions(self) -> list[int]:
+        """Positions in :meth:`graph` of the factors made from regressed beams (their groups and run links)."""
+        n = len(self.groups)
+        return [i for i, g in enumerate(self.groups) if g.regressed] + list(range(n, n + self.run_links.size()))
 
 
 def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRows, sel: np.ndarray,
@@ -433,7 +442,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
     """
     options, config = builder.options, builder.config
     groups: list[BeamGroup] = []
-    other = gtsam.NonlinearFactorGraph()
+    other, run_links = gtsam.NonlinearFactorGraph(), gtsam.NonlinearFactorGraph()
     k = kf.index
     n_measured = kf.n_measured
     if options.motion_prior == "total-if-uncertain":
@@ -463,7 +472,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             if regressed and sel.size and options.regressed_runs == "screen-first":
                 sel, continued, differences, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
                 for factor in differences:
-                    other.add(factor)
+                    run_links.add(factor)
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
@@ -496,4 +505,4 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
         other.add(horizontal_position_factor(X(k), kf.fix_ne, kf.fix_sigma, down))
     if kf.heading is not None:
         other.add(heading_factor(X(k), *kf.heading))
-    return KeyframeFactors(groups, other)
+    return KeyframeFactors(groups, other, run_links)

@@ -67,7 +67,7 @@ class DeadReckoningGraph(_IncrementalGraph):
     def _check_innovation(self, kf, local, pose, v_n, bias) -> None:
         """No filter, no innovation: the dead-reckoned velocity is the DVL's own."""
 
-    def _solve(self, factors, values, kf: GraphKeyframe, first_key=None):
+    def _solve(self, factors, values, kf: GraphKeyframe, first_key=None, remove=()):
         k = kf.index
         pose = values.atPose3(X(k))
         v_n = values.atVector(V(k))

@@ -124,6 +124,15 @@ class _IncrementalGraph:
         self.health = NisMonitor("graph", self.options.health)
         #: (keyframe index, value) of the newest DVL error-state estimate (``options.dvl_error_states``)
         self.dvl_errors: tuple[int, np.ndarray] | None = None
+        # ``options.retire_completions``: the solver's indices of the regressed beams' factors since the last
+        # return of the beams, and the positions of the queued keyframe's among its factors
+        self._completions: list[int] = []
+        self._pending_completions: list[int] = []
+        # (index, time s) of the keyframes since the first of them that took a regressed beam's factor, while
+        # their factors wait to be taken out: the fixed-lag smoother holds them (:meth:`FixedLagGraph._solve`)
+        self._held: list[tuple[int, float]] = []
+        #: regressed beams taken out of the graph when the beams returned (``options.retire_completions``)
+        self.n_completions_retired = 0
 
     # --- the cycle --------------------------------------------------------------------------------
     def add(self, kf: GraphKeyframe) -> None:
@@ -154,6 +163,7 @@ class _IncrementalGraph:
         self._check_innovation(kf, local, pose, v_n, bias)
         if self.keep_keyframe_graphs:
             self.keyframe_graphs.append((link, local))
+        self._pending_completions = [link.size() + i for i in local.completion_positions()]
         self._pending_factors.push_back(link)
         self._pending_factors.push_back(local.graph())
         self._pending_values.insert(X(k), pose)
@@ -192,13 +202,17 @@ class _IncrementalGraph:
         try:
             if self._reanchor_due(kf):
                 self.n_reanchored += 1
-                self._restart_from_last(kf)
+                new = self._restart_from_last(kf)
             else:
-                self._solve(self._pending_factors, self._pending_values, kf)
+                new = self._solve(self._pending_factors, self._pending_values, kf, remove=self._retired(kf))
         except RuntimeError as exc:
             if not is_indeterminant(exc):
                 raise
-            self._recover(kf, exc)
+            new = self._recover(kf, exc)
+        if new is not None:
+            self._completions += [new[i] for i in self._pending_completions]
+            if self.options.retire_completions and (self._held or self._pending_completions):
+                self._held.append((kf.index, kf.t))
         k = kf.index
         pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
         covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
@@ -212,6 +226,19 @@ class _IncrementalGraph:
         self._pending_values = gtsam.Values()
         self._pending_kf = None
         return self._last
+
+    def _retired(self, kf: GraphKeyframe) -> list[int]:
+        """The solver's indices of the regressed beams' factors to take out at keyframe ``kf``: with
+        ``options.retire_completions``, all those still in the solver once a ping's measured beams alone give the
+        velocity (3 or more rows); else none."""
+        if not (self.options.retire_completions and self._completions and kf.n_measured >= 3):
+            return []
+        graph = self._graph()
+        # the fixed-lag smoother has already marginalised the factors of keyframes older than its lag
+        retired = [i for i in self._completions if graph.exists(i)]
+        self._completions, self._held = [], []
+        self.n_completions_retired += sum(graph.at(i).dim() for i in retired)     # a row per regressed beam
+        return retired
 
     def _check_innovation(self, kf: GraphKeyframe, local, pose, v_n, bias) -> None:
         """NIS of keyframe kf's measured beams at the predicted state (see the class docstring)."""
@@ -250,9 +277,9 @@ class _IncrementalGraph:
         bias per beam m/s] and marginal covariance (7,7)."""
         return (np.asarray(self._value(D(index), "Vector"), float), np.asarray(self._marginal(D(index)), float))
 
-    def _recover(self, kf: GraphKeyframe, exc: Exception) -> None:
+    def _recover(self, kf: GraphKeyframe, exc: Exception) -> list[int] | None:
         """Indeterminant linear system: restart the solver (with QR factorisation) from the last good state
-        (:meth:`_restart_from_last`). A second failure at the same keyframe raises."""
+        (:meth:`_restart_from_last`, whose return this is). A second failure at the same keyframe raises."""
         self.n_recovered += 1
         warnings.warn(f"graph: indeterminant linear system at keyframe {kf.index} (t={kf.t:.2f} s): "
                       f"{str(exc).strip().splitlines()[0]} -- restarting the solver with QR factorisation from "
@@ -262,13 +289,15 @@ class _IncrementalGraph:
             raise exc
         self._recovering_at = kf.index
         self.factorization = "QR"
-        self._restart_from_last(kf)
+        return self._restart_from_last(kf)
 
-    def _restart_from_last(self, kf: GraphKeyframe) -> None:
+    def _restart_from_last(self, kf: GraphKeyframe) -> list[int] | None:
         """A new solver that starts with priors on keyframe k-1 at its estimate, with its marginal covariances
         (block-diagonal: pose, velocity, bias, DVL errors; the prior sigmas of the options if the old solver
         cannot give them), then takes keyframe k's factors. The filtered output continues; what is lost is
-        the cross-correlation between those blocks at the restart."""
+        the cross-correlation between those blocks at the restart, and the factors of regressed beams before it
+        can no longer be taken out (``options.retire_completions``). Returns the new solver's indices of keyframe
+        k's factors (None without a solver)."""
         last = self._last
         j = last.index
         with_d = self.options.dvl_error_states
@@ -303,7 +332,9 @@ class _IncrementalGraph:
         values.insert(B(j), last.bias)
         if with_d:
             values.insert(D(j), d_j)
-        self._solve(graph, values, kf, first_key=j)
+        self._completions, self._held = [], []
+        new = self._solve(graph, values, kf, first_key=j)
+        return None if new is None else new[graph.size() - self._pending_factors.size():]
 
     def _joint_prior(self, last: EpochEstimate, d_j: np.ndarray | None = None) -> gtsam.NonlinearFactorGraph | None:
         """The joint marginal of (pose, velocity, bias and, with ``dvl_error_states``, the DVL error states
@@ -355,6 +386,10 @@ class _IncrementalGraph:
         graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
+    def _state_keys(self, j: int) -> tuple[int, ...]:
+        """The variables of keyframe ``j``."""
+        return (X(j), V(j), B(j)) + ((D(j),) if self.options.dvl_error_states else ())
+
     def _reanchor_due(self, kf: GraphKeyframe) -> bool:
         interval = self.options.reanchor_interval_s
         if self._t_anchor is None:
@@ -363,7 +398,9 @@ class _IncrementalGraph:
                 and kf.t - self._t_anchor >= interval)
 
     # --- solver hooks -----------------------------------------------------------------------------
-    def _solve(self, factors, values, kf, first_key=None):
+    def _solve(self, factors, values, kf, first_key=None, remove=()) -> list[int] | None:
+        """One solver update with ``factors`` and the new ``values``, taking out the factors ``remove`` (the
+        solver's indices); returns the solver's indices of ``factors`` (None without a solver)."""
         raise NotImplementedError
 
     def _graph(self) -> gtsam.NonlinearFactorGraph:
@@ -402,19 +439,18 @@ class OnlineGraph(_IncrementalGraph):
         self._frozen = gtsam.KeyList()
         self._n_frozen = max(0, len(self._times) - 2)   # after a restart the oldest key is k-1
 
-    def _solve(self, factors, values, kf, first_key=None):
+    def _solve(self, factors, values, kf, first_key=None, remove=()):
         if first_key is None:
             self._times.append(kf.t)
         window = self.options.relin_window_s
         if window is None:
-            self.isam.update(factors, values)
-            return
+            return list(self.isam.update(factors, values, list(remove)).getNewFactorsIndices())
         while self._n_frozen < len(self._times) - 1 and kf.t - self._times[self._n_frozen] > window:
             j = self._n_frozen
-            for key in (X(j), V(j), B(j)) + ((D(j),) if self.options.dvl_error_states else ()):
+            for key in self._state_keys(j):
                 self._frozen.push_back(key)
             self._n_frozen += 1
-        self.isam.update(factors, values, [], None, self._frozen)
+        return list(self.isam.update(factors, values, list(remove), None, self._frozen).getNewFactorsIndices())
 
     def _value(self, key, kind):
         return getattr(self.isam, f"calculateEstimate{kind}")(key)
@@ -447,10 +483,16 @@ class FixedLagGraph(_IncrementalGraph):
         self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s,
                                                           isam2_params(self.options, self.factorization))
 
-    def _solve(self, factors, values, kf, first_key=None):
+    def _solve(self, factors, values, kf, first_key=None, remove=()):
         t_last = self._last.t if first_key is not None else kf.t
         stamps = {key: (t_last if gtsam.Symbol(key).index() == first_key else kf.t) for key in values.keys()}
-        self.smoother.update(factors, values, stamps)
+        # the keyframes of completions still to be taken out (options.retire_completions) are stamped anew, so that
+        # the smoother keeps them beyond its lag, for at most options.retire_hold_s
+        for j, t in self._held:
+            if kf.t - t <= self.options.retire_hold_s and first_key is None:
+                stamps.update({key: kf.t for key in self._state_keys(j)})
+        self.smoother.update(factors, values, stamps, list(remove))
+        return list(self.smoother.getISAM2Result().getNewFactorsIndices())
 
     def _value(self, key, kind):
         return getattr(self.smoother, f"calculateEstimate{kind}")(key)

@@ -191,6 +191,17 @@ class GraphOptions:
             name taking independent errors. A run whose count changes keeps its chain, at the current ping's time
             (out of fold, with a beam dropping in and out of a 2-missing outage, pooled better than ending the run
             there; docs/decisions/completers.md, "Runs whose number of measured beams changes").
+        retire_completions: the incremental smoothers take the factors of the regressed beams (their groups and
+            run links, :meth:`.builder.KeyframeFactors.completion_positions`) out of the graph at the first ping
+            whose measured beams alone give the velocity (3 or more), so that the returning beams re-estimate the
+            outage's states from the IMU and the measured beams only, as without a completer. The filtered
+            estimates made during the outage keep the completions. The fixed-lag smoother holds the keyframes
+            since a run's first completion beyond its lag until then, for at most ``retire_hold_s`` (a longer
+            outage's older completions go into its marginal and stay). The batch smoother keeps them. Off by
+            default (on in the registry's hybrids); see docs/decisions/completers.md, "Completions taken out when
+            the beams return".
+        retire_hold_s: with ``retire_completions``, how long the fixed-lag smoother holds a keyframe with
+            completions beyond its lag, s (its cost grows with what it holds).
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -235,6 +246,8 @@ class GraphOptions:
     motion_prior_switch_std: float = 0.2
     regressed_runs: str = "screen-each"
     regressed_error_tau_s: float | None | Mapping[int, float | None] = None
+    retire_completions: bool = False
+    retire_hold_s: float = 300.0
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -256,6 +269,8 @@ class GraphOptions:
                 raise ConfigError(f"{name} must be one of {FACTORIZATIONS}, got '{getattr(self, name)}'")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if not self.retire_hold_s >= 0:
+            raise ConfigError(f"retire_hold_s must be >= 0 s, got {self.retire_hold_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
         self.regressed_error_tau_s = checked_error_tau(self.regressed_error_tau_s)
