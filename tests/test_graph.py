@@ -429,6 +429,13 @@ def test_completions_retired_when_the_beams_return_leave_the_graph_without_a_com
     assert max(np.abs(a.v_n - b.v_n).max() for a, b in zip(e_lag[:k_return], e_lag_kept[:k_return])) < 1e-3
     short_hold, _ = replay(comp, dataclasses.replace(lag, retire_hold_s=5.0), backend="fixed-lag")
     assert 3 * 10 <= short_hold.info["completions_retired"] <= 3 * 17
+    # beams that never return: what the smoother holds and remembers stays within the hold and the lag
+    endless = tactical_mission.slice(0, 90).with_outage(scenario_outage("3-missing", 30.0, 100.0))
+    never = graph_navigator(endless, completer=SerialOracleCompleter(endless),
+                            options=dataclasses.replace(lag, retire_hold_s=5.0), backend="fixed-lag")
+    feed_mission(never, endless)
+    held = never.backend.estimator
+    assert held.n_completions_retired == 0 and len(held._held) <= 6 and 0 < len(held._completions) <= 16 * 4
     restarted, _ = replay(comp, dataclasses.replace(lag, reanchor_interval_s=45.0), backend="fixed-lag")
     assert restarted.info["reanchored"] >= 1 and 3 * 10 <= restarted.info["completions_retired"] <= 3 * 16
     with pytest.raises(ConfigError, match="retire_hold_s"):

@@ -124,9 +124,9 @@ class _IncrementalGraph:
         self.health = NisMonitor("graph", self.options.health)
         #: (keyframe index, value) of the newest DVL error-state estimate (``options.dvl_error_states``)
         self.dvl_errors: tuple[int, np.ndarray] | None = None
-        # ``options.retire_completions``: the solver's indices of the regressed beams' factors since the last
+        # ``options.retire_completions``: (keyframe time s, solver's index) of the regressed beams' factors since the last
         # return of the beams, and the positions of the queued keyframe's among its factors
-        self._completions: list[int] = []
+        self._completions: list[tuple[float, int]] = []
         self._pending_completions: list[int] = []
         # (index, time s) of the keyframes since the first of them that took a regressed beam's factor, while
         # their factors wait to be taken out: the fixed-lag smoother holds them (:meth:`FixedLagGraph._solve`)
@@ -209,10 +209,11 @@ class _IncrementalGraph:
             if not is_indeterminant(exc):
                 raise
             new = self._recover(kf, exc)
-        if new is not None:
-            self._completions += [new[i] for i in self._pending_completions]
-            if self.options.retire_completions and (self._held or self._pending_completions):
+        if new is not None and self.options.retire_completions:
+            self._completions += [(kf.t, new[i]) for i in self._pending_completions]
+            if self._held or self._pending_completions:
                 self._held.append((kf.index, kf.t))
+            self._forget_marginalised(kf.t)
         k = kf.index
         pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
         covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
@@ -235,7 +236,7 @@ class _IncrementalGraph:
             return []
         graph = self._graph()
         # the fixed-lag smoother has already marginalised the factors of keyframes older than its lag
-        retired = [i for i in self._completions if graph.exists(i)]
+        retired = [i for _, i in self._completions if graph.exists(i)]
         self._completions, self._held = [], []
         self.n_completions_retired += sum(graph.at(i).dim() for i in retired)     # a row per regressed beam
         return retired
@@ -386,6 +387,10 @@ class _IncrementalGraph:
         graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
+    def _forget_marginalised(self, t: float) -> None:
+        """Drop from the completions to take out those the solver can no longer hold at time ``t`` (s): none here
+        (ISAM2 keeps the whole mission); the fixed-lag smoother's bound keeps these lists bounded in a long outage."""
+
     def _state_keys(self, j: int) -> tuple[int, ...]:
         """The variables of keyframe ``j``."""
         return (X(j), V(j), B(j)) + ((D(j),) if self.options.dvl_error_states else ())
@@ -483,13 +488,19 @@ class FixedLagGraph(_IncrementalGraph):
         self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s,
                                                           isam2_params(self.options, self.factorization))
 
+    def _forget_marginalised(self, t: float) -> None:
+        # a keyframe stops being stamped anew retire_hold_s after it entered, and is marginalised lag_s later
+        hold = self.options.retire_hold_s
+        self._held = [(j, t_j) for j, t_j in self._held if t - t_j <= hold]
+        self._completions = [(t_c, i) for t_c, i in self._completions if t - t_c <= hold + self.options.lag_s]
+
     def _solve(self, factors, values, kf, first_key=None, remove=()):
         t_last = self._last.t if first_key is not None else kf.t
         stamps = {key: (t_last if gtsam.Symbol(key).index() == first_key else kf.t) for key in values.keys()}
         # the keyframes of completions still to be taken out (options.retire_completions) are stamped anew, so that
         # the smoother keeps them beyond its lag, for at most options.retire_hold_s
-        for j, t in self._held:
-            if kf.t - t <= self.options.retire_hold_s and first_key is None:
+        if first_key is None:
+            for j, _ in self._held:
                 stamps.update({key: kf.t for key in self._state_keys(j)})
         self.smoother.update(factors, values, stamps, list(remove))
         return list(self.smoother.getISAM2Result().getNewFactorsIndices())
