@@ -75,19 +75,39 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     followed by `` relinearised W`` (ISAM2 relinearising every update the keyframes of the last W s, instead of
     every 10th update those of the last 5 s: the estimator's own sensitivity to its linearisation)."""
     from graphnav.evaluation.methods import GRAPH_HNP
-    if RELINEARISED in label:
-        name, window = label.split(RELINEARISED)
-        return name, {"relin_window_s": float(window), "relinearize_skip": 1}
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
             return name, {**(options or {}), "retire_completions": retire}
+    if RELINEARISED in label:
+        name, window = label.split(RELINEARISED)
+        inner, options = variant_run(name)
+        return inner, {**(options or {}), "relin_window_s": float(window), "relinearize_skip": 1}
     if label == f"{GRAPH_HNP} each ping":
         return GRAPH_HNP, {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
     if label.startswith(f"{GRAPH_HNP} tau "):
         tau = float(label.rsplit(" ", 1)[1])
         return GRAPH_HNP, {"regressed_error_tau_s": tau if tau > 0 else None}
     return label, None
+
+
+def resolved_options(label: str) -> dict:
+    """Every setting the run ``label`` (:func:`variant_run`) gives its estimator, as JSON reads it back: a results
+    file is resumed only by runs of the same settings, so a registry default that changed since refuses it."""
+    import dataclasses
+    import json
+    from collections.abc import Mapping
+
+    from graphnav.evaluation.methods import estimator_options
+    name, options = variant_run(label)
+
+    def plain(value):
+        if isinstance(value, Mapping):
+            return dict(value)
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        raise TypeError(f"{label}: setting {value!r} is not JSON")
+    return json.loads(json.dumps(dataclasses.asdict(estimator_options(name, options)), default=plain))
 
 
 def other_retirement(label: str) -> str | None:
@@ -174,10 +194,15 @@ def rule_key(runs: dict, folds, method: str) -> tuple[int, float]:
 
 def choice(runs: dict, candidates: list[str], folds) -> str:
     """The candidate run (of one registry method) the rule (:func:`rule_key`) picks on all folds and with each fold
-    left out, and each left-out fold's worst cell with the pick made without it."""
+    left out, and each left-out fold's worst cell with the pick made without it. A tie goes to the first candidate
+    (the method's default run); a fold cell without runs stops the choice (it would count as within 1.02x)."""
+    cells = cells_of(runs)
+    missing = [(c, cell, f) for c in candidates for cell in cells for f, pair in enumerate(folds)
+               for m in CHOICE_METRICS if not np.isfinite(tc_ratio(runs, [pair], cell, c, m))]
+    if missing:
+        return f"not chosen: {len(missing)} fold cells have no runs, e.g. {missing[0]}"
     lines = ["| candidate | fold cells over 1.02x: velocity / position after | mean pooled ratio: velocity / "
              "position after |", "| --- | --- | --- |"]
-    cells = cells_of(runs)
     for c in candidates:
         over = [sum(tc_ratio(runs, [pair], cell, c, m) > 1.02 for pair in folds for cell in cells)
                 for m in CHOICE_METRICS]
@@ -231,8 +256,8 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS),
-                **({"backend": a.backend} if a.backend != "isam2" else {})}
+    settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
+                "estimator_options": {m: resolved_options(m) for m in a.methods}}
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)

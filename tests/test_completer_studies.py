@@ -755,3 +755,37 @@ def test_the_position_study_reads_the_error_during_and_after_the_outage_less_the
     last = 0.1 * np.arange(20.0, 30.0 + 1e-9, 0.5)          # the outage's last 10 s, less the start's 2 m
     assert got["end 10 s"] == pytest.approx(float(np.sqrt(np.mean(last ** 2))))
     assert got["after 20-40 s"] == pytest.approx(1.0)
+
+
+def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
+    """Run labels resolve to the registry method and its options (the retirement suffixes outermost); the choice
+    counts fold cells over 1.02x Graph-TC in the velocity and in the position after the outage, picks on all folds
+    and with each fold left out, and refuses to choose with a fold cell missing."""
+    study = _study("outage_position_drift")
+    assert study.variant_run("Graph-HNP tau 0 kept") == ("Graph-HNP", {"regressed_error_tau_s": None,
+                                                                       "retire_completions": False})
+    assert study.variant_run("Graph-TC relinearised 20") == ("Graph-TC", {"relin_window_s": 20.0,
+                                                                          "relinearize_skip": 1})
+    assert study.other_retirement("Graph-HN") == "Graph-HN kept"
+    assert study.other_retirement("Graph-HN kept") == "Graph-HN kept retired"
+    assert study.other_retirement("Graph-TC") is None
+    assert study.resolved_options("Graph-HN")["retire_completions"] is True
+    assert study.resolved_options("Graph-HN kept")["retire_completions"] is False
+    folds = [(1, 3), (2, 5), (4, 10), (6, 13), (8, 11)]
+
+    def window(v, after):
+        return {"vrmse": v, "after 20-40 s": after, "end 10 s": 1.0, "bench": 1.0}
+    runs = {}
+    for pair in folds:
+        for k in pair:
+            for cell in (("mems", "3-missing", 120.0), ("tactical", "3-missing", 120.0)):
+                worse = 1.10 if pair == (6, 13) and cell[0] == "mems" else 1.0
+                runs[(f"Trajectory{k}", *cell)] = {"Graph-TC": [window(1.0, 5.0)], "A": [window(0.9, 5.0 * worse)],
+                                                   "B": [window(0.95, 5.0)]}
+    text = study.choice(runs, ["A", "B"], folds)
+    assert "| A | 0 / 1 of 10 |" in text and "| B | 0 / 0 of 10 |" in text and "chosen on all folds: B" in text
+    # with the fold that harms A left out, the other four prefer A's lower mean ratio
+    assert "fold 3 left out: A; its worst cell 0.900x in velocity, 1.100x in the position after" in text
+    del runs[("Trajectory13", "mems", "3-missing", 120.0)]
+    del runs[("Trajectory6", "mems", "3-missing", 120.0)]
+    assert study.choice(runs, ["A", "B"], folds).startswith("not chosen")

@@ -446,6 +446,9 @@ def test_completions_retired_when_the_beams_return_leave_the_graph_without_a_com
     assert record["retired"] == 3 * 30
     assert regressed_beams_line(record).endswith("90 taken out again when the measured beams returned")
     assert "retired" not in regressed_beams_summary(run_graph(m, completer=comp).info)
+    # the batch smoother keeps every completion, and says none was taken out
+    batch = run_graph(m.slice(0, 75), completer=comp, batch=True, options=dataclasses.replace(lag, lag_s=30.0))
+    assert batch.info["completions_retired"] == 0 and "retired" not in regressed_beams_summary(batch.info)
 
 
 def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):

@@ -78,7 +78,9 @@ def register(subparsers) -> None:
                         "beams do not help, see docs/decisions/regressed-beams.md); Graph-HN adds the completer's "
                         "regressed beams as weak factors; Graph-HNP the pivot completer's (the hull's turn from the "
                         "gyro: it helps a MEMS IMU during long outages; both take their completions out of the "
-                        "graph when the beams return, docs/decisions/completers.md); "
+                        "graph when the beams return (the fixed-lag smoother: those of the last "
+                        "retire_hold_s + lag, 150 s by default), "
+                        "docs/decisions/completers.md); "
                         "Graph-MP a motion prior where fewer than 3 beams are measured; the others run the "
                         "paper's EKF (TC/LC and their hybrids); the graph settings are the registry's "
                         "(graphnav.evaluation.methods)")

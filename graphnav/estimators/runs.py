@@ -141,6 +141,9 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     # the batch computes its own marginals; its first pass only provides initial values (and the callback's
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
+    if batch:
+        # the batch smoother keeps every completion (GraphOptions.retire_completions is the online estimate's)
+        first_pass = dataclasses.replace(first_pass, retire_completions=False)
     dead_reckoning = (batch and callback is None and options.batch_first_pass == "dead-reckoning"
                       and not needs_filter(options, completer))
     nav = graph_navigator(mission, completer=completer, options=first_pass,

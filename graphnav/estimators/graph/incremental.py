@@ -204,7 +204,10 @@ class _IncrementalGraph:
                 self.n_reanchored += 1
                 new = self._restart_from_last(kf)
             else:
-                new = self._solve(self._pending_factors, self._pending_values, kf, remove=self._retired(kf))
+                retired, beams = self._retired(kf)
+                new = self._solve(self._pending_factors, self._pending_values, kf, remove=retired)
+                # counted once the solver has taken them out (a failed update restarts with them in its prior)
+                self.n_completions_retired += beams
         except RuntimeError as exc:
             if not is_indeterminant(exc):
                 raise
@@ -228,18 +231,17 @@ class _IncrementalGraph:
         self._pending_kf = None
         return self._last
 
-    def _retired(self, kf: GraphKeyframe) -> list[int]:
-        """The solver's indices of the regressed beams' factors to take out at keyframe ``kf``: with
+    def _retired(self, kf: GraphKeyframe) -> tuple[list[int], int]:
+        """(the solver's indices of the regressed beams' factors to take out at keyframe ``kf``, their beams): with
         ``options.retire_completions``, all those still in the solver once a ping's measured beams alone give the
         velocity (3 or more rows); else none."""
         if not (self.options.retire_completions and self._completions and kf.n_measured >= 3):
-            return []
+            return [], 0
         graph = self._graph()
-        # the fixed-lag smoother has already marginalised the factors of keyframes older than its lag
+        # the fixed-lag smoother has already marginalised those it held no longer (options.retire_hold_s)
         retired = [i for _, i in self._completions if graph.exists(i)]
         self._completions, self._held = [], []
-        self.n_completions_retired += sum(graph.at(i).dim() for i in retired)     # a row per regressed beam
-        return retired
+        return retired, sum(graph.at(i).dim() for i in retired)     # a row per regressed beam
 
     def _check_innovation(self, kf: GraphKeyframe, local, pose, v_n, bias) -> None:
         """NIS of keyframe kf's measured beams at the predicted state (see the class docstring)."""

@@ -195,13 +195,17 @@ class GraphOptions:
             run links, :meth:`.builder.KeyframeFactors.completion_positions`) out of the graph at the first ping
             whose measured beams alone give the velocity (3 or more), so that the returning beams re-estimate the
             outage's states from the IMU and the measured beams only, as without a completer. The filtered
-            estimates made during the outage keep the completions. The fixed-lag smoother holds the keyframes
-            since a run's first completion beyond its lag until then, for at most ``retire_hold_s`` (a longer
-            outage's older completions go into its marginal and stay). The batch smoother keeps them. Off by
-            default (on in the registry's hybrids); see docs/decisions/completers.md, "Completions taken out when
-            the beams return".
-        retire_hold_s: with ``retire_completions``, how long the fixed-lag smoother holds a keyframe with
-            completions beyond its lag, s (its cost grows with what it holds).
+            estimates made during the outage keep the completions. The fixed-lag smoother keeps every keyframe
+            since a run's first completion from being marginalised until then, each for at most
+            ``retire_hold_s`` (completions older than that plus its lag go into its marginal and stay; so do those
+            before a re-anchoring). A failed update's restart keeps them in its prior. The batch smoother keeps them
+            all. Off by default (on in the registry's hybrids); see docs/decisions/completers.md, "Completions
+            taken out when the beams return".
+        retire_hold_s: with ``retire_completions``, how long the fixed-lag smoother keeps a keyframe of a run of
+            completions beyond its lag, s. It relinearises what it keeps: with 2 beams lost for good, the update
+            took p99 106 ms with 120 s, 428 ms with 300 s, 14 ms without retiring (simulated 600 s;
+            docs/decisions/completers.md).
+            120 s covers outages up to 150 s with the default 30 s lag; 0 takes out only what the lag still holds.
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -247,7 +251,7 @@ class GraphOptions:
     regressed_runs: str = "screen-each"
     regressed_error_tau_s: float | None | Mapping[int, float | None] = None
     retire_completions: bool = False
-    retire_hold_s: float = 300.0
+    retire_hold_s: float = 120.0
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
