@@ -95,19 +95,10 @@ def resolved_options(label: str) -> dict:
     """Every setting the run ``label`` (:func:`variant_run`) gives its estimator, as JSON reads it back: a results
     file is resumed only by runs of the same settings, so a registry default that changed since refuses it."""
     import dataclasses
-    import json
-    from collections.abc import Mapping
 
     from graphnav.evaluation.methods import estimator_options
-    name, options = variant_run(label)
-
-    def plain(value):
-        if isinstance(value, Mapping):
-            return dict(value)
-        if isinstance(value, np.ndarray):
-            return value.tolist()
-        raise TypeError(f"{label}: setting {value!r} is not JSON")
-    return json.loads(json.dumps(dataclasses.asdict(estimator_options(name, options)), default=plain))
+    from graphnav.io.outputs import to_jsonable
+    return to_jsonable(dataclasses.asdict(estimator_options(*variant_run(label))))
 
 
 def other_retirement(label: str) -> str | None:
