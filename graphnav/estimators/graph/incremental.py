@@ -128,8 +128,8 @@ class _IncrementalGraph:
         # return of the beams, and the positions of the queued keyframe's among its factors
         self._completions: list[tuple[float, int]] = []
         self._pending_completions: list[int] = []
-        # (index, time s) of the keyframes since the first of them that took a regressed beam's factor, while
-        # their factors wait to be taken out: the fixed-lag smoother holds them (:meth:`FixedLagGraph._solve`)
+        # the fixed-lag smoother's (index, time s) of the keyframes since the first of them that took a regressed
+        # beam's factor, while their factors wait to be taken out: it holds them (:meth:`FixedLagGraph._track_hold`)
         self._held: list[tuple[int, float]] = []
         #: regressed beams taken out of the graph when the beams returned (``options.retire_completions``)
         self.n_completions_retired = 0
@@ -214,9 +214,7 @@ class _IncrementalGraph:
             new = self._recover(kf, exc)
         if new is not None and self.options.retire_completions:
             self._completions += [(kf.t, new[i]) for i in self._pending_completions]
-            if self._held or self._pending_completions:
-                self._held.append((kf.index, kf.t))
-            self._forget_marginalised(kf.t)
+            self._track_hold(kf)
         k = kf.index
         pose, v_n, bias = self._value(X(k), "Pose3"), self._value(V(k), "Vector"), self._value(B(k), "ConstantBias")
         covs = keyframe_marginals(self.options.marginals, k, pose, self._marginal)
@@ -389,9 +387,10 @@ class _IncrementalGraph:
         graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
-    def _forget_marginalised(self, t: float) -> None:
-        """Drop from the completions to take out those the solver can no longer hold at time ``t`` (s): none here
-        (ISAM2 keeps the whole mission); the fixed-lag smoother's bound keeps these lists bounded in a long outage."""
+    def _track_hold(self, kf: GraphKeyframe) -> None:
+        """After keyframe ``kf``'s update: what the solver must hold for the completions still to be taken out, and
+        those it can no longer hold. Nothing here (ISAM2 keeps the whole mission); the fixed-lag smoother's
+        (:class:`FixedLagGraph`), bounded by its hold and lag in a long outage."""
 
     def _state_keys(self, j: int) -> tuple[int, ...]:
         """The variables of keyframe ``j``."""
@@ -490,9 +489,11 @@ class FixedLagGraph(_IncrementalGraph):
         self.smoother = gtsam.IncrementalFixedLagSmoother(self.options.lag_s,
                                                           isam2_params(self.options, self.factorization))
 
-    def _forget_marginalised(self, t: float) -> None:
+    def _track_hold(self, kf: GraphKeyframe) -> None:
+        if self._held or self._pending_completions:
+            self._held.append((kf.index, kf.t))
         # a keyframe stops being stamped anew retire_hold_s after it entered, and is marginalised lag_s later
-        hold = self.options.retire_hold_s
+        t, hold = kf.t, self.options.retire_hold_s
         self._held = [(j, t_j) for j, t_j in self._held if t - t_j <= hold]
         self._completions = [(t_c, i) for t_c, i in self._completions if t - t_c <= hold + self.options.lag_s]
 
