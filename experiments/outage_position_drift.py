@@ -143,11 +143,27 @@ def mean_metric(runs: dict, trajectories, cell, method: str, metric: str) -> flo
     return float(np.mean(vals)) if vals else float("nan")
 
 
-def tc_ratio(runs: dict, pairs, cell, method: str, metric: str) -> float:
-    """``method``'s mean ``metric`` over the trajectories of the folds ``pairs``, divided by Graph-TC's."""
+def tc_ratio(runs: dict, pairs, cell, method: str, metric: str, reference: str = "Graph-TC") -> float:
+    """``method``'s mean ``metric`` over the trajectories of the folds ``pairs``, divided by ``reference``'s."""
     trajectories = [k for pair in pairs for k in pair]
-    return mean_metric(runs, trajectories, cell, method, metric) / mean_metric(runs, trajectories, cell, "Graph-TC",
+    return mean_metric(runs, trajectories, cell, method, metric) / mean_metric(runs, trajectories, cell, reference,
                                                                                metric)
+
+
+def against_reference(runs: dict, methods, reference: str, folds) -> str:
+    """Per run of ``methods``: its fold cells over 1.02x ``reference`` and the range of its fold-cell and pooled
+    ratios to it, per reading (:data:`CHOICE_METRICS` and ``end 10 s``): a batch against Graph-TC-batch, smoothing's
+    own gain left out."""
+    cells = cells_of(runs)
+    lines = [f"| run | reading | fold cells over 1.02x {reference} | fold-cell ratios | pooled ratios |",
+             "| --- | --- | --- | --- | --- |"]
+    for method in methods:
+        for metric in ("vrmse", "end 10 s", "after 20-40 s"):
+            per_fold = [tc_ratio(runs, [pair], cell, method, metric, reference) for pair in folds for cell in cells]
+            pooled = [tc_ratio(runs, folds, cell, method, metric, reference) for cell in cells]
+            lines.append(f"| {method} | {metric} | {sum(r > 1.02 for r in per_fold)} of {len(per_fold)} | "
+                         f"{min(per_fold):.3f}-{max(per_fold):.3f} | {min(pooled):.3f}-{max(pooled):.3f} |")
+    return "\n".join(lines)
 
 
 def report(runs: dict, methods, folds) -> str:
@@ -213,7 +229,7 @@ def main(argv=None) -> int:
     from hybrid_imu_folds import load_runs, run_saving
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
-    from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HNP, GRAPH_TC
+    from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HNP, GRAPH_TC, GRAPH_TC_BATCH, get_method
     p.add_argument("--methods", nargs="+", default=[GRAPH_TC, GRAPH_HN, GRAPH_HNP], help="graph methods (Graph-TC "
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
     p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
@@ -259,6 +275,10 @@ def main(argv=None) -> int:
     print(f"{a.max_windows} windows per trajectory; horizontal position error less the window start's, m; Graph-TC "
           "in its units, the others as ratios to it, pooled (worst fold)")
     print(report(runs, a.methods, AKIT_FOLDS))
+    batches = [m for m in a.methods if m != GRAPH_TC_BATCH and get_method(variant_run(m)[0]).batch]
+    if GRAPH_TC_BATCH in a.methods and batches:
+        print(f"\nThe batch runs against {GRAPH_TC_BATCH} (per fold cell and pooled)")
+        print(against_reference(runs, batches, GRAPH_TC_BATCH, AKIT_FOLDS))
     families: dict[str, list[str]] = {}
     for m in a.methods[1:]:
         families.setdefault(variant_run(m)[0], []).append(m)

@@ -784,6 +784,11 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
                                                    "B": [window(0.95, 5.0)]}
     text = study.choice(runs, ["A", "B"], folds)
     assert "| A | 0 / 1 of 10 |" in text and "| B | 0 / 0 of 10 |" in text and "chosen on all folds: B" in text
+    # against another reference (a batch against Graph-TC-batch): A's harmed fold over B in the position after, where
+    # pooled over the five folds A is (4 * 5 + 5.5) / 25 = 1.02x B
+    table = study.against_reference(runs, ["A"], "B", folds)
+    assert "| A | vrmse | 0 of 10 | 0.947-0.947 | 0.947-0.947 |" in table
+    assert "| A | after 20-40 s | 1 of 10 | 1.000-1.100 | 1.000-1.020 |" in table
     # with the fold that harms A left out, the other four prefer A's lower mean ratio
     assert "fold 3 left out: A; its worst cell 0.900x in velocity, 1.100x in the position after" in text
     del runs[("Trajectory13", "mems", "3-missing", 120.0)]

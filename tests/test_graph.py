@@ -446,9 +446,32 @@ def test_completions_retired_when_the_beams_return_leave_the_graph_without_a_com
     assert record["retired"] == 3 * 30
     assert regressed_beams_line(record).endswith("90 taken out again when the measured beams returned")
     assert "retired" not in regressed_beams_summary(run_graph(m, completer=comp).info)
-    # the batch smoother keeps every completion, and says none was taken out
-    batch = run_graph(m.slice(0, 75), completer=comp, batch=True, options=dataclasses.replace(lag, lag_s=30.0))
-    assert batch.info["completions_retired"] == 0 and "retired" not in regressed_beams_summary(batch.info)
+    # the batch smoother leaves out the completions of an outage the measured beams end: it smooths the graph
+    # without a completer, to its convergence; it keeps those of an outage the mission ends in
+    short = m.slice(0, 75)
+    batch_tc = run_graph(short, batch=True, options=exact)
+    batch = run_graph(short, completer=comp, batch=True, options=dataclasses.replace(exact, retire_completions=True))
+    assert batch.info["completions_retired"] == 3 * 30 and regressed_beams_summary(batch.info)["retired"] == 3 * 30
+    assert np.abs(batch.v_n - batch_tc.v_n).max() < 1e-5 and np.abs(batch.p_n - batch_tc.p_n).max() < 1e-3
+    batch_kept = run_graph(short, completer=comp, batch=True, options=exact)
+    assert batch_kept.info["completions_retired"] == 0 and "retired" not in regressed_beams_summary(batch_kept.info)
+    assert np.abs(batch_kept.v_n - batch_tc.v_n).max() > 1e-3 and np.abs(batch_kept.p_n - batch_tc.p_n).max() > 0.05
+    # ... and keeps those of an outage the mission ends in
+    unended = m.slice(0, 50)
+    batch_end = run_graph(unended, completer=comp, batch=True, options=dataclasses.replace(exact, retire_completions=True))
+    assert batch_end.info["completions_retired"] == 0
+    assert np.abs(batch_end.v_n - run_graph(unended, batch=True, options=exact).v_n).max() > 1e-3
+    # outages the beams end, and a beam lost with 3 measured up to the mission's end (its completions go at the next
+    # such ping, so the last one stays): the batch leaves out what ISAM2 took out by the mission's end, no more
+    from graphnav.core.scenarios import Outage
+    mixed = tactical_mission.slice(0, 85).with_outage(Outage(20.0, 15.0, (0, 1, 2)), Outage(45.0, 10.0, (1,)),
+                                                      Outage(60.0, 10.0, (0, 1, 2)), Outage(75.0, 20.0, (1,)))
+    on = dataclasses.replace(exact, retire_completions=True)
+    online = graph_navigator(mixed, completer=SerialOracleCompleter(mixed), options=on)
+    feed_mission(online, mixed)
+    batch_mixed = run_graph(mixed, completer=SerialOracleCompleter(mixed), batch=True, options=on)
+    assert batch_mixed.info["n_regressed"][-1] == 1 and batch_mixed.info["n_measured"][-1] == 3
+    assert batch_mixed.info["completions_retired"] == online.info["completions_retired"] > 3 * 15 + 10 + 3 * 10
 
 
 def test_screen_first_keeps_a_run_once_one_completion_is_kept(tactical_mission):

@@ -38,8 +38,10 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "smooth", help="batch-smooth a mission or a folder of missions (Graph-HN-batch); write CSV, TUM, JSON "
                        "summary and plots",
-        description="Batch-smooth a whole mission with the factor graph (Levenberg-Marquardt over all "
-                    "keyframes, regressed beams as weak factors) and write OUT/trajectory.csv, "
+        description="Batch-smooth a whole mission with the factor graph (Gauss-Newton over all keyframes; with "
+                    "the default Graph-HN-batch, regressed beams as weak factors only in an outage the mission "
+                    "ends in: one that measured beams end is bridged by the IMU from both sides) and write "
+                    "OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT at the estimate's stamps, "
                     "when the mission has GT: `evo_ape tum OUT/groundtruth.tum OUT/trajectory.tum` pairs every "
                     "epoch), OUT/trajectory_cov.csv (the position and attitude covariance of each TUM line), "

@@ -142,7 +142,9 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     # filtered estimates, which keep their covariance when a callback is given)
     first_pass = dataclasses.replace(options, marginals="none") if batch and callback is None else options
     if batch:
-        # the batch smoother keeps every completion (GraphOptions.retire_completions is the online estimate's)
+        # the batch leaves out the completions of the outages the measured beams end (GraphOptions.
+        # retire_completions) itself; its first pass keeps them all, as the online estimate made during each outage
+        # did (a failed batch returns those filtered estimates)
         first_pass = dataclasses.replace(first_pass, retire_completions=False)
     dead_reckoning = (batch and callback is None and options.batch_first_pass == "dead-reckoning"
                       and not needs_filter(options, completer))
@@ -159,6 +161,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
     if batch:
         try:
             estimates, batch_info = batch_smooth(nav.keyframe_graphs(), estimates, options)
+            info["completions_retired"] = batch_info.pop("completions_retired")
             info.update({"batch_" + k: v for k, v in batch_info.items()})
         except RuntimeError as exc:
             if not is_indeterminant(exc):

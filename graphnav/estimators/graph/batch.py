@@ -167,7 +167,8 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
             estimates' covariances).
 
     Returns:
-        (smoothed estimates per keyframe, info: iterations, cost history, timings).
+        (smoothed estimates per keyframe, info: iterations, cost history, timings, ``completions_retired``: the
+        regressed beams left out with ``options.retire_completions``).
     """
     if options.batch_solver not in BATCH_SOLVERS:
         raise ConfigError(f"batch_solver must be one of {BATCH_SOLVERS}, got '{options.batch_solver}'")
@@ -176,7 +177,18 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
     cpp = gtsam.NonlinearFactorGraph()
     groups: list[BeamGroup] = []
     values = gtsam.Values()
+    # GraphOptions.retire_completions: an outage that a ping's measured beams end (3 or more rows) is bridged by
+    # the IMU and the measured beams on both sides, as without a completer; the completions after the last such
+    # ping (an outage the mission ends in) stay
+    last_measured = max((e.index for e in estimates if e.n_measured >= 3), default=-1) \
+        if options.retire_completions else -1
+    retired = 0
+    if len(keyframe_graphs) != len(estimates):
+        raise ConfigError(f"batch: {len(keyframe_graphs)} keyframe graphs for {len(estimates)} estimates")
     for (link, local), e in zip(keyframe_graphs, estimates):
+        if e.index < last_measured:
+            local, beams = local.without_completions()
+            retired += beams
         cpp.push_back(link)
         cpp.push_back(local.run_links)
         cpp.push_back(local.other)
@@ -201,6 +213,7 @@ def batch_smooth(keyframe_graphs: list[tuple[gtsam.NonlinearFactorGraph, Keyfram
         result, info, covs = _solve(cpp, groups, values, n, options, True)
         info["qr_retry"] = True
     info["solve_s"] = time.perf_counter() - start
+    info["completions_retired"] = retired
     with_d = result.exists(D(0))
     out = [EpochEstimate(e.index, e.t, e.kind, result.atPose3(X(e.index)), result.atVector(V(e.index)),
                          result.atConstantBias(B(e.index)), covs[e.index].get("cov_v_n"), e.n_measured,

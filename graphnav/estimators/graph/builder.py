@@ -377,6 +377,13 @@ class KeyframeFactors:
         n = len(self.groups)
         return [i for i, g in enumerate(self.groups) if g.regressed] + list(range(n, n + self.run_links.size()))
 
+    def without_completions(self) -> tuple["KeyframeFactors", int]:
+        """(these factors without those made from regressed beams, the regressed beams left out: a row each, as
+        :meth:`completion_positions` counts them in the incremental smoothers)."""
+        beams = sum(len(g.y) for g in self.groups if g.regressed) + sum(
+            self.run_links.at(i).dim() for i in range(self.run_links.size()))
+        return KeyframeFactors([g for g in self.groups if not g.regressed], self.other), beams
+
 
 def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRows, sel: np.ndarray,
                             omega_b: np.ndarray, use_d: bool):

@@ -198,8 +198,9 @@ class GraphOptions:
             estimates made during the outage keep the completions. The fixed-lag smoother keeps every keyframe
             since a run's first completion from being marginalised until then, each for at most
             ``retire_hold_s`` (completions older than that plus its lag go into its marginal and stay; so do those
-            before a re-anchoring). A failed update's restart keeps them in its prior. The batch smoother keeps them
-            all. Off by default (on in the registry's hybrids); see docs/decisions/completers.md, "Completions
+            before a re-anchoring). A failed update's restart keeps them in its prior. The batch smoother leaves
+            out those before the mission's last such ping (an outage it ends in keeps its completions). Off by
+            default (on in the registry's hybrids); see docs/decisions/completers.md, "Completions
             taken out when the beams return".
         retire_hold_s: with ``retire_completions``, how long the fixed-lag smoother keeps a keyframe of a run of
             completions beyond its lag, s. It relinearises what it keeps: with 2 beams lost for good, the update

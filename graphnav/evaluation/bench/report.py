@@ -329,7 +329,8 @@ def regime_summary(records: list[dict]) -> list[str]:
     lines += ["Where the hybrid helps (generated from the table):", ""]
     for model in (GRAPH_HN, GRAPH_HN_BATCH, GRAPH_MP):
         lines += verdicts(model)
-    # the batch's gain split: smoothing alone (Graph-TC-batch) against what the completions add to it
+    # the batch's gain split: smoothing alone (Graph-TC-batch) against what the completions add to it (Graph-HN-batch
+    # leaves out those of an outage the measured beams end, so in the bench's windows about nothing)
     lines += verdicts(GRAPH_TC_BATCH)
     lines += verdicts(GRAPH_HN_BATCH, GRAPH_TC_BATCH)
     # the hybrid's targets, checked on the same numbers
