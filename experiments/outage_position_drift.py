@@ -14,8 +14,8 @@ window, against the horizontal error at its start (mean over the 5 s before it):
   filtered position the returning beams already corrected).
 
 ``--pivot-runs T ...`` adds ``Graph-HNP`` with other run settings: screened at each ping (``Graph-HNP each ping``,
-``Graph-HN``'s) and, per T, its completions' errors correlated over T s whatever the ping measured (``Graph-HNP tau
-T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
+``Graph-HN``'s) and, per T, a run of its completions screened until one is kept, their errors correlated over T s
+whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
 outage. ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
 relinearised W``): how much Graph-TC's own readings move with an equally valid linearisation, the noise floor of a
 ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
@@ -87,7 +87,7 @@ def variant_run(label: str) -> tuple[str, dict | None]:
         return GRAPH_HNP, {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
     if label.startswith(f"{GRAPH_HNP} tau "):
         tau = float(label.rsplit(" ", 1)[1])
-        return GRAPH_HNP, {"regressed_error_tau_s": tau if tau > 0 else None}
+        return GRAPH_HNP, {"regressed_runs": "screen-first", "regressed_error_tau_s": tau if tau > 0 else None}
     return label, None
 
 

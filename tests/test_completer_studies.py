@@ -762,7 +762,8 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     counts fold cells over 1.02x Graph-TC in the velocity and in the position after the outage, picks on all folds
     and with each fold left out, and refuses to choose with a fold cell missing."""
     study = _study("outage_position_drift")
-    assert study.variant_run("Graph-HNP tau 0 kept") == ("Graph-HNP", {"regressed_error_tau_s": None,
+    assert study.variant_run("Graph-HNP tau 0 kept") == ("Graph-HNP", {"regressed_runs": "screen-first",
+                                                                       "regressed_error_tau_s": None,
                                                                        "retire_completions": False})
     assert study.variant_run("Graph-TC relinearised 20") == ("Graph-TC", {"relin_window_s": 20.0,
                                                                           "relinearize_skip": 1})

@@ -381,6 +381,35 @@ def test_regressed_error_correlation_by_measured_beams(tactical_mission):
         GraphOptions(regressed_error_tau_s={1: 3.0})
 
 
+def test_regressed_runs_by_measured_beams(tactical_mission):
+    """A mapping of run settings serves each ping by its number of measured beams: with 3 missing beams (one
+    measured) ``{1: "screen-first"}`` is the plain "screen-first", and one that names only other counts screens each
+    ping; a correlation time needs "screen-first" at every count it models."""
+    from graphnav.estimators.options import RegressedScreeningOptions
+    m = tactical_mission.slice(0, 80).with_outage(scenario_outage("3-missing", 30.0, 40.0))
+    comp = SerialOracleCompleter(m, sigma=0.05)
+    screening = RegressedScreeningOptions(correlation=0.5, adaptive=True)
+    runs = {str(r): run_graph(m, completer=comp, options=GraphOptions(screening=screening, regressed_runs=r))
+            for r in ("screen-first", "screen-each", {1: "screen-first", 0: "screen-each"}, {0: "screen-first"})}
+    assert runs["screen-first"].info["regressed_screening"]["continued"] > 0
+    assert np.abs(runs["screen-first"].v_n - runs["screen-each"].v_n).max() > 1e-4
+    np.testing.assert_array_equal(runs[str({1: "screen-first", 0: "screen-each"})].v_n, runs["screen-first"].v_n)
+    np.testing.assert_array_equal(runs[str({0: "screen-first"})].v_n, runs["screen-each"].v_n)
+    from_file = GraphOptions(regressed_runs={"0": "screen-each", "1": "screen-first"},
+                             regressed_error_tau_s={"1": 10.0})
+    assert from_file.regressed_runs == {0: "screen-each", 1: "screen-first"}
+    assert [from_file.runs_for(n) for n in range(3)] == ["screen-each", "screen-first", "screen-each"]
+    for bad in ({1: "screen-all"}, {"one": "screen-first"}, {1: "screen-first", "1": "screen-each"}):
+        with pytest.raises(ConfigError, match="regressed_runs"):
+            GraphOptions(regressed_runs=bad)
+    with pytest.raises(ConfigError, match="with 0 measured beams"):
+        GraphOptions(regressed_runs={0: "screen-each", 1: "screen-first"}, regressed_error_tau_s={0: 3.0, 1: 10.0})
+    with pytest.raises(ConfigError, match="regressed_runs does not name"):   # a scalar time reaches every count
+        GraphOptions(regressed_runs={1: "screen-first"}, regressed_error_tau_s=10.0)
+    with pytest.raises(ConfigError, match="regressed_runs"):
+        GraphOptions(regressed_runs={"\u00b2": "screen-first"})
+
+
 def test_completions_retired_when_the_beams_return_leave_the_graph_without_a_completer(tactical_mission):
     """retire_completions: the regressed beams' factors leave the graph at the first ping whose measured beams give
     the velocity. The filtered estimates up to it are those made with the completions; the graph left is the graph

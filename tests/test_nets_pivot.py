@@ -209,8 +209,11 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     assert completer.pivot_m is None and completer.prior_turn == methods.PIVOT_PRIOR_TURN
     assert "Graph-HNP" in methods.BENCH_METHODS
     options = methods.estimator_options("Graph-HNP")
-    assert options.regressed_runs == "screen-first" and options.error_tau_for(0) == 3.0
-    assert all(options.error_tau_for(n) is None for n in (1, 2, 3))
+    # a total outage screened at each ping; with a beam measured a run screened once, its errors correlated over 10 s
+    # with one or two measured, independent with three (each taken out at the next ping that measures three)
+    assert options.runs_for(0) == "screen-each" and options.error_tau_for(0) is None
+    assert all(options.runs_for(n) == "screen-first" and options.error_tau_for(n) == 10.0 for n in (1, 2))
+    assert options.runs_for(3) == "screen-first" and options.error_tau_for(3) is None
     # the shipped hybrids take their completions out when the beams return; the experimental Graph-HNI keeps them
     assert options.retire_completions and methods.estimator_options("Graph-HN").retire_completions
     assert not methods.estimator_options("Graph-HNI").retire_completions

@@ -28,9 +28,9 @@ Graph-HNI          graph      the same completer (ISAM2 filtered output); a run 
 Graph-HNI-batch    graph      the same completer and runs (batch smoothed)
 Graph-HNP          graph      the pivot completer (:mod:`graphnav.nets.pivot`): the average estimator with
                               the hull's sideslip in turns from the gyro, its pivot length fitted online
-                              over the mission's measured pings; a run of regressed beams screened until
-                              one is kept, its errors independent with a beam measured, correlated over
-                              3 s in a total outage
+                              over the mission's measured pings; with a beam measured a run of regressed
+                              beams screened until one is kept, its errors correlated over 10 s with 1
+                              or 2 measured; in a total outage each completion screened
 Average-LC-12,     EKF        as without ``-12``, in the paper's 12-state filter
 Average-TC-12,
 HNLC-12, HNTC-12
@@ -143,18 +143,26 @@ GRAPH_HN_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, **RET
 GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({
     **REGRESSED_SCREENING, "regressed_runs": "screen-first",
     "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})})
-#: Graph settings of Graph-HNP (the pivot completer): the screening, and a run of regressed beams screened only until
-#: one of its completions is kept, its later ones entering with independent errors where the ping measured a beam
-#: or more, and with errors correlated over 3 s in a total outage (GraphOptions.regressed_runs,
-#: regressed_error_tau_s). Chosen by the regime rule per number of measured beams on the pivot completer's own runs,
-#: on all folds and for every fold left out (with two and with one beam measured; in a total outage independent
-#: errors put one fold cell over 1.02x, 3 s none); with three measured, which no regime cell measures, as with two
-#: (experiments/oracle_completions.py --pivot-online; docs/decisions/completers.md, "A completer that models the
-#: turn"). Its completions leave the graph when the measured beams return, as Graph-HN's (fold cells over 1.02x
-#: Graph-TC in the velocity and the position after the outage 10 instead of 16 of 120).
+#: Graph settings of Graph-HNP (the pivot completer): the screening; in a total outage every completion screened
+#: against the graph's prediction (as Graph-HN's), and with a beam or more measured a run of regressed beams screened
+#: only until one of its completions is kept, its later ones entering with errors correlated over 10 s (one or two
+#: measured)
+#: (GraphOptions.regressed_runs, regressed_error_tau_s, by the number of measured beams); its completions leave the
+#: graph when the measured beams return (RETIRE_COMPLETIONS). Chosen by the regime rule on both readings (fold cells
+#: over 1.02x Graph-TC in the velocity through the outage and the position 20-40 s after it, then the mean pooled
+#: ratio) per number of measured beams, with the completions taken out, on all folds: in a total outage screening each
+#: ping puts 0 / 1 of 20 fold cells over (3 s, chosen before the completions were taken out, 1 / 4: the velocity cell
+#: 1.031x), the same for every fold left out; with one beam measured 10 s 0 / 1 (independent errors 0 / 4), the same
+#: for every fold left out; with two 10 s 0 / 0 (independent 0 / 1), fold 3 left out getting independent errors
+#: (experiments/outage_position_drift.py --pivot-runs; docs/decisions/completers.md, "The pivot completer's runs
+#: chosen again with the completions taken out"). With three measured, which no regime cell measures, independent
+#: errors as before: the completions are taken out at every ping that measures three, and a difference factor would
+#: be left without the completion it differs from.
 GRAPH_HNP_OPTIONS: Mapping = types.MappingProxyType({
-    **REGRESSED_SCREENING, "regressed_runs": "screen-first",
-    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: None, 2: None, 3: None}), **RETIRE_COMPLETIONS})
+    **REGRESSED_SCREENING,
+    "regressed_runs": types.MappingProxyType({0: "screen-each", 1: "screen-first", 2: "screen-first",
+                                              3: "screen-first"}),
+    "regressed_error_tau_s": types.MappingProxyType({0: None, 1: 10.0, 2: 10.0, 3: None}), **RETIRE_COMPLETIONS})
 #: Graph settings of Graph-MP: the motion prior at keyframes with fewer than 3 measured beams.
 GRAPH_MP_OPTIONS: Mapping = types.MappingProxyType({"motion_prior": "partial", **MOTION_PRIOR_SETTINGS})
 
@@ -295,8 +303,8 @@ _RECORDS = (
            description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
     Method(GRAPH_HNP, "graph", tight=True, completer="pivot", defaults=GRAPH_HNP_OPTIONS,
            description="Graph-HN with the pivot completer: the past beams held with the hull's sideslip in turns "
-                       "(pivot length fitted online from the mission's measured pings), a run of regressed beams "
-                       "screened until one is kept"),
+                       "(pivot length fitted online from the mission's measured pings); with a beam measured a run "
+                       "of regressed beams screened until one is kept, in a total outage each completion screened"),
     *(_paper_filter(m) for m in _EKF_RECORDS),
 )
 

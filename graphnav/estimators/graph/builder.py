@@ -471,12 +471,13 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             index = np.full(len(m.y), -1) if velocity else beam_index(m.rows_b, builder.geometry.T_b)
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         links: dict[int, RegressedLink] = {}
+        screen_first = options.runs_for(int(np.count_nonzero(~m.regressed))) == "screen-first"
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             continued = sel[:0]
-            if regressed and sel.size and options.regressed_runs == "screen-first":
+            if regressed and sel.size and screen_first:
                 sel, continued, differences, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
                 for factor in differences:
                     run_links.add(factor)
@@ -488,7 +489,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
                 sigma = m.sigma.copy()
                 sigma[sel] = sigma_sel
                 sel = sel[keep]
-            if regressed and options.regressed_runs == "screen-first":
+            if regressed and screen_first:
                 links.update(regressed_links(kf, m, sel, beam_index(m.rows_b[sel], builder.geometry.T_b), omega,
                                              use_d))
                 sel = np.sort(np.r_[sel, continued])      # continued rows keep the completer's sigma

@@ -84,28 +84,43 @@ MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
 REGRESSED_RUNS = ("screen-each", "screen-first")
 
 
+def checked_by_count(value, name: str, check):
+    """A setting that is one value or a mapping from a number of measured beams (an int >= 0, or its digits, as a
+    configuration file's keys come) to a value, each value passed through ``check(value, where)``; a mapping is
+    returned as a new dict with int keys (a plain dict: options travel to worker processes by pickle). Raises
+    :class:`ConfigError` naming the setting ``name`` and the bad entry."""
+    if not isinstance(value, Mapping):
+        return check(value, "")
+    by_count = {}
+    for key, entry in value.items():
+        count = int(key) if isinstance(key, str) and key.isdecimal() and key.isascii() else key
+        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
+            raise ConfigError(f"{name} keys are numbers of measured beams (0, 1, 2, ...), got {key!r}")
+        if count in by_count:
+            raise ConfigError(f"{name} names {count} measured beams twice ({key!r})")
+        by_count[count] = check(entry, f"[{count}]")
+    return by_count
+
+
 def checked_error_tau(tau):
-    """``GraphOptions.regressed_error_tau_s`` checked: None, a time > 0 s, or a mapping from a number of measured
-    beams (an int >= 0, or its digits, as a configuration file's keys come) to None or a time > 0 s, returned as
-    a new dict with int keys (a plain dict: options travel to worker processes by pickle). Raises
-    :class:`ConfigError` naming the bad entry."""
+    """``GraphOptions.regressed_error_tau_s`` checked (:func:`checked_by_count`): None or a time > 0 s, or a
+    mapping of them by number of measured beams."""
     def time_or_none(value, where):
         if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
                              and 0 < value < float("inf")):
             return value
         raise ConfigError(f"regressed_error_tau_s{where} must be a time > 0 s or None, got {value!r}")
+    return checked_by_count(tau, "regressed_error_tau_s", time_or_none)
 
-    if not isinstance(tau, Mapping):
-        return time_or_none(tau, "")
-    by_count = {}
-    for key, value in tau.items():
-        count = int(key) if isinstance(key, str) and key.isdigit() else key
-        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
-            raise ConfigError(f"regressed_error_tau_s keys are numbers of measured beams (0, 1, 2, ...), got {key!r}")
-        if count in by_count:
-            raise ConfigError(f"regressed_error_tau_s names {count} measured beams twice ({key!r})")
-        by_count[count] = time_or_none(value, f"[{count}]")
-    return by_count
+
+def checked_regressed_runs(runs):
+    """``GraphOptions.regressed_runs`` checked (:func:`checked_by_count`): one of :data:`REGRESSED_RUNS`, or a
+    mapping of them by number of measured beams."""
+    def one_of(value, where):
+        if value in REGRESSED_RUNS:
+            return value
+        raise ConfigError(f"regressed_runs{where} must be one of {REGRESSED_RUNS}, got {value!r}")
+    return checked_by_count(runs, "regressed_runs", one_of)
 
 
 @dataclass
@@ -176,11 +191,14 @@ class GraphOptions:
             (:mod:`.regressed`); ``"screen-first"`` = until one completion of the run is kept, then the rest of the
             run enters without the screening, at the completer's sigma (the screening compares a completion with a
             prediction the run's earlier completions have already pulled, and would drop most of them as redundant
-            with themselves). ``Graph-HNI`` uses ``"screen-first"`` with ``regressed_error_tau_s`` by the
+            with themselves). A mapping gives one per number of beams measured at the ping (:meth:`runs_for`; a
+            count it does not name screens each ping). ``Graph-HNI`` uses ``"screen-first"`` with
+            ``regressed_error_tau_s`` by the
             number of measured beams, 3 s / 3 s / 10 s / 10 s for 0 / 1 / 2 / 3
             (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of five training
-            draws); with the average estimator it made some folds worse than
-            Graph-TC, so the other methods screen each ping (docs/decisions/completers.md).
+            draws); with the average estimator it made some folds worse than Graph-TC, so ``Graph-HN`` screens
+            each ping; ``Graph-HNP`` screens each ping in a total outage and a run once with a beam or more measured
+            (:data:`graphnav.evaluation.methods.GRAPH_HNP_OPTIONS`; docs/decisions/completers.md).
         regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
             errors, modelled as a first-order Gauss-Markov process per beam: the run's later completions enter as
             the whitened difference with the previous one (:func:`graphnav.factors.beam_difference_factor`,
@@ -249,7 +267,7 @@ class GraphOptions:
     motion_prior_rw: tuple[float, float, float] | None = (0.05, 0.08, 0.03)
     motion_prior_heave_sigma: float | None = 0.05
     motion_prior_switch_std: float = 0.2
-    regressed_runs: str = "screen-each"
+    regressed_runs: str | Mapping[int, str] = "screen-each"
     regressed_error_tau_s: float | None | Mapping[int, float | None] = None
     retire_completions: bool = False
     retire_hold_s: float = 120.0
@@ -279,11 +297,16 @@ class GraphOptions:
         if self.motion_prior not in MOTION_PRIOR_MODES:
             raise ConfigError(f"motion_prior must be one of {MOTION_PRIOR_MODES}, got '{self.motion_prior}'")
         self.regressed_error_tau_s = checked_error_tau(self.regressed_error_tau_s)
-        if self.regressed_runs not in REGRESSED_RUNS:
-            raise ConfigError(f"regressed_runs must be one of {REGRESSED_RUNS}, got {self.regressed_runs!r}")
-        if self.models_run_errors and self.regressed_runs != "screen-first":
-            raise ConfigError("regressed_error_tau_s models the errors of a run of regressed beams kept without the "
-                              "screening: it needs regressed_runs='screen-first'")
+        self.regressed_runs = checked_regressed_runs(self.regressed_runs)
+        # the counts either mapping names, then (-1) the counts neither names
+        named = sorted({c for v in (self.regressed_runs, self.regressed_error_tau_s) if isinstance(v, Mapping)
+                        for c in v}) + [-1]
+        for count in named:
+            if self.error_tau_for(count) is not None and self.runs_for(count) != "screen-first":
+                where = f" with {count} measured beams" if count >= 0 else \
+                    ("" if not named[:-1] else " at the numbers of measured beams that regressed_runs does not name")
+                raise ConfigError(f"regressed_error_tau_s models the errors of a run of regressed beams kept without "
+                                  f"the screening: it needs regressed_runs='screen-first'{where}")
         if not self.motion_prior_switch_std > 0:
             raise ConfigError(f"motion_prior_switch_std must be > 0 m/s, got {self.motion_prior_switch_std}")
         if self.dvl_scale_rw < 0 or self.dvl_bias_rw < 0:
@@ -298,6 +321,12 @@ class GraphOptions:
         """Whether some run of regressed beams enters with a correlation time (``regressed_error_tau_s``)."""
         tau = self.regressed_error_tau_s
         return any(t is not None for t in tau.values()) if isinstance(tau, Mapping) else tau is not None
+
+    def runs_for(self, n_measured: int) -> str:
+        """How a run of completions at a ping with ``n_measured`` measured beams meets the screening
+        (``regressed_runs``; a count a mapping does not name: ``"screen-each"``)."""
+        runs = self.regressed_runs
+        return runs.get(n_measured, "screen-each") if isinstance(runs, Mapping) else runs
 
     def error_tau_for(self, n_measured: int) -> float | None:
         """The correlation time (s) of the completions at a ping with ``n_measured`` measured beams; None =
