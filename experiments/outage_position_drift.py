@@ -190,13 +190,21 @@ def report(runs: dict, methods, folds) -> str:
 CHOICE_METRICS = ("vrmse", "after 20-40 s")
 
 
-def rule_key(runs: dict, folds, method: str) -> tuple[int, float]:
-    """The regime rule with both readings of :data:`CHOICE_METRICS`: (fold cells over 1.02x Graph-TC, counted per
-    reading, the mean pooled ratio over the cells and readings), on the folds ``folds``."""
+def reading_scores(runs: dict, folds, method: str) -> tuple[list[int], list[float]]:
+    """Per reading of :data:`CHOICE_METRICS`, on the folds ``folds``: ``method``'s fold cells over 1.02x Graph-TC,
+    and its pooled ratio to Graph-TC averaged over the cells."""
     cells = cells_of(runs)
-    over = sum(tc_ratio(runs, [pair], cell, method, m) > 1.02 for pair in folds for cell in cells
-               for m in CHOICE_METRICS)
-    return over, float(np.mean([tc_ratio(runs, folds, cell, method, m) for cell in cells for m in CHOICE_METRICS]))
+    over = [sum(tc_ratio(runs, [pair], cell, method, m) > 1.02 for pair in folds for cell in cells)
+            for m in CHOICE_METRICS]
+    means = [float(np.mean([tc_ratio(runs, folds, cell, method, m) for cell in cells])) for m in CHOICE_METRICS]
+    return over, means
+
+
+def rule_key(runs: dict, folds, method: str) -> tuple[int, float]:
+    """The regime rule with both readings of :data:`CHOICE_METRICS` (:func:`reading_scores`): (fold cells over
+    1.02x Graph-TC, counted per reading, the mean pooled ratio over the cells and readings)."""
+    over, means = reading_scores(runs, folds, method)
+    return sum(over), float(np.mean(means))
 
 
 def choice(runs: dict, candidates: list[str], folds) -> str:
@@ -211,9 +219,7 @@ def choice(runs: dict, candidates: list[str], folds) -> str:
     lines = ["| candidate | fold cells over 1.02x: velocity / position after | mean pooled ratio: velocity / "
              "position after |", "| --- | --- | --- |"]
     for c in candidates:
-        over = [sum(tc_ratio(runs, [pair], cell, c, m) > 1.02 for pair in folds for cell in cells)
-                for m in CHOICE_METRICS]
-        means = [np.mean([tc_ratio(runs, folds, cell, c, m) for cell in cells]) for m in CHOICE_METRICS]
+        over, means = reading_scores(runs, folds, c)
         lines.append(f"| {c} | {over[0]} / {over[1]} of {len(cells) * len(folds)} | {means[0]:.3f} / {means[1]:.3f} |")
     lines.append(f"chosen on all folds: {min(candidates, key=lambda c: rule_key(runs, folds, c))}")
     for f, pair in enumerate(folds):

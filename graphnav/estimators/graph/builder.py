@@ -471,7 +471,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             index = np.full(len(m.y), -1) if velocity else beam_index(m.rows_b, builder.geometry.T_b)
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         links: dict[int, RegressedLink] = {}
-        screen_first = options.runs_for(int(np.count_nonzero(~m.regressed))) == "screen-first"
+        screen_first = options.runs_for(n_measured) == "screen-first"
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
