@@ -52,6 +52,13 @@ VARIANTS = ("Graph-TC", "all beams", "Graph-HN", "HNI fold", "HNI fused", "HNI f
 IMU_FADE = 0.95
 
 
+#: Correlation of the IMU-aware network's and the pivot completer's per-ping errors (each over its own sigma), for the
+#: sigma of ``HNI fold fused`` with the pivot completer as the fused member: every A-KIT fold's network and pivot
+#: completer (its length fitted on the other folds) on the fold's held-out pair, recorded IMU
+#: (``imu_beam_fused_folds.py --beam-nets pivot``, first training draw; 0.71-0.72 / 0.75-0.76 with the other IMUs).
+IMU_PIVOT_ERROR_CORRELATION = {"2-missing": 0.72, "3-missing": 0.76}
+
+
 @functools.lru_cache(maxsize=None)
 def shipped_run_decay(scenario: str) -> float:
     """The shipped beam-only completer's ``run_decay`` (the fold ensembles fade as it does); loaded once per process."""
@@ -59,8 +66,11 @@ def shipped_run_decay(scenario: str) -> float:
     return load_completer(scenario).run_decay
 
 
-def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float):
-    """The completer of one study method (None: the method's own)."""
+def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float, config=None):
+    """The completer of one study method (None: the method's own). ``HNI fold fused`` with the beam-only networks'
+    folder ``pivot`` (``imu_beam_fused_folds.PIVOT_MEMBER``): the IMU-aware network fused with the pivot completer,
+    which also serves the pings the network cannot, its pivot length fitted online over the mission's measured pings
+    as ``Graph-HNP``'s (``config``: the mission's sensors, which it is built for)."""
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.fused import FusedCompleter
     from graphnav.nets.imu_auto import ImuAutoCompleter
@@ -71,6 +81,12 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
         from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
         decays = FUSED_RUN_DECAY[scenario]
+        if beam_dir == "pivot":
+            from graphnav.core.config import SensorConfig
+            from graphnav.evaluation.methods import pivot_completer
+            pivot = pivot_completer(scenario, config if config is not None else SensorConfig())
+            net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])
+            return ImuAutoCompleter([net], pivot, {scenario: IMU_PIVOT_ERROR_CORRELATION[scenario]})
         beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=shipped_run_decay(scenario))
         fused_beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=decays["beam-only"])
         net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])

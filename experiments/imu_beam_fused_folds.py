@@ -15,6 +15,10 @@ where each fails. For every A-KIT fold the fold's two networks (the IMU-aware on
   when the errors are correlated by the fitted correlation (``sigma_rho``);
 - ``equal weights``: the mean of the two completions (sigma: the members' mean, a bound).
 
+``--beam-nets pivot`` puts the pivot completer (:mod:`graphnav.nets.pivot`: the average estimator with the hull's
+sideslip in turns from the gyro), its pivot length fitted on the other four folds' trajectories, in the beam-only
+networks' place: the variants are then named with ``pivot`` for ``beam-only, fading``.
+
 Through a recursive 30-ping outage the fused completion goes back into the history, and each member fades with
 the run steps the history hands on. Every variant is scored beside the two members alone and the average
 estimator, per ping and through the outages of :mod:`graphnav.nets.imu_evaluate`, with each evaluation IMU
@@ -39,6 +43,25 @@ import numpy as np
 SHIPPED = "fused, rho 0, sigma with rho fitted"
 VARIANTS = ("IMU-aware, fading", "beam-only, fading", "fused, rho 0", "fused, rho fitted",
             "fused, rho 0, sigma with rho fitted", "equal weights")
+#: ``--beam-nets pivot``: the pivot completer (:mod:`graphnav.nets.pivot`), its pivot length fitted on the other
+#: folds' trajectories, is the second member in place of the beam-only networks (it reads the tail of the IMU-aware
+#: network's window)
+PIVOT_MEMBER = "pivot"
+
+
+def member_label(beam_dir: str) -> str:
+    """The second member's name in the rows: ``pivot`` or ``beam-only, fading``."""
+    return PIVOT_MEMBER if beam_dir == PIVOT_MEMBER else "beam-only, fading"
+
+
+def variants(second: str) -> tuple[str, ...]:
+    """:data:`VARIANTS` with the second member named ``second`` (:func:`member_label`)."""
+    return tuple(second if v == "beam-only, fading" else v for v in VARIANTS)
+
+
+def row_variants(rows: list[dict]) -> list[str]:
+    """The variants the rows hold (the part of ``variant`` after the evaluation IMU), in their order."""
+    return list(dict.fromkeys(r["variant"].split(", ", 1)[1] for r in rows))
 
 
 class EqualBlend:
@@ -70,9 +93,28 @@ def per_ping(imu_net, beam_net, scenario: str, series) -> dict:
     own = imu_windows(series, imu_net.n_past, imu_net.imu_samples, imu_net.ping_dt, pings=slice(n_past, None))
     if not np.array_equal(own.beams, samples.beams):
         raise RuntimeError("IMU network samples are not the pings of the other completers")
-    return {"samples": samples, "imu": predict_imu_network(imu_net.model, own),
-            "beam": predict_completer(beam_net, samples, imu_net.missing),
+    second = (predict_with_imu(beam_net, series, n_past, imu_net.imu_samples, imu_net.missing)
+              if getattr(beam_net, "needs_imu", False) else predict_completer(beam_net, samples, imu_net.missing))
+    if len(second[0]) != len(samples.beams):
+        raise RuntimeError("the second member's pings are not the IMU network's")
+    return {"samples": samples, "imu": predict_imu_network(imu_net.model, own), "beam": second,
             "average": predict_completer(average, samples, imu_net.missing)}
+
+
+def predict_with_imu(completer, series, n_past: int, n_imu: int, missing) -> tuple[np.ndarray, np.ndarray]:
+    """(full, sigma) (K, 4) of a completer that needs the IMU (the pivot completer) on the pings
+    :func:`graphnav.nets.imu_data.imu_windows` takes with ``n_past`` and ``n_imu``, each from its true past, with
+    the IMU window ending at the ping."""
+    full, sigma = [], []
+    for s in series:
+        for k in np.flatnonzero(s.usable(n_past, n_imu)):
+            measured = s.beams[k].copy()
+            measured[list(missing)] = np.nan
+            b, sg = completer.complete(s.beams[k - completer.n_past:k], measured,
+                                       imu=s.imu_window(k, completer.imu_samples))
+            full.append(b)
+            sigma.append(sg)
+    return np.array(full), np.array(sigma)
 
 
 def fitted_rho(others: list[dict], missing) -> float:
@@ -84,8 +126,8 @@ def fitted_rho(others: list[dict], missing) -> float:
     return error_correlation(err["imu"], sig["imu"], err["beam"], sig["beam"])
 
 
-def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, series, pp: dict, rho: float
-              ) -> list[dict]:
+def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, series, pp: dict, rho: float,
+              second: str = "beam-only, fading") -> list[dict]:
     """Rows for :func:`graphnav.nets.crossval.summarise` (each variant the ``network`` beside the average)."""
     from completer_fade_folds import WINDOW, window_sq
 
@@ -99,12 +141,12 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
     miss = list(imu_net.missing)
     samples = pp["samples"]
     pp_samples = BeamSamples(np.zeros((len(samples.beams), 0, 4)), samples.beams, samples.v_b)
-    made_pp = {"IMU-aware, fading": pp["imu"], "beam-only, fading": pp["beam"],
+    made_pp = {"IMU-aware, fading": pp["imu"], second: pp["beam"],
                "fused, rho 0": fuse(*pp["imu"], *pp["beam"]), "fused, rho fitted": fuse(*pp["imu"], *pp["beam"], rho),
                "fused, rho 0, sigma with rho fitted": fuse(*pp["imu"], *pp["beam"], 0.0, rho),
                "equal weights": (0.5 * (pp["imu"][0] + pp["beam"][0]), 0.5 * (pp["imu"][1] + pp["beam"][1]))}
     outage = {"average": AverageCompleter(AVERAGE_N_PAST[scenario]), "IMU-aware, fading": imu_net,
-              "beam-only, fading": beam_net, "fused, rho 0": FusedCompleter(imu_net, beam_net),
+              second: beam_net, "fused, rho 0": FusedCompleter(imu_net, beam_net),
               "fused, rho fitted": FusedCompleter(imu_net, beam_net, rho),
               "fused, rho 0, sigma with rho fitted": FusedCompleter(imu_net, beam_net, sigma_rho=rho),
               "equal weights": EqualBlend(FusedCompleter(imu_net, beam_net))}
@@ -120,7 +162,7 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
     for mode, made, samp, avg in (("per ping", made_pp, pp_samples, pp["average"]),
                                   ("outage 30 s", made_out, out_samples, made_out["average"])):
         avg_m = completion_metrics(*avg, samp, miss)
-        for variant in VARIANTS:
+        for variant in variants(second):
             net_m = completion_metrics(*made[variant], samp, miss)
             v = f"IMU {grade}, {variant}"
             extra = ({"window_sq": window_sq(made[variant][0], samp, miss, geometry)},
@@ -142,18 +184,45 @@ def window_interval(rows: list[dict], scenario: str, variant: str, fold: int, dr
 
 
 def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float | None = None,
-                  beam_decay: float | None = None) -> dict:
+                  beam_decay: float | None = None, akit_dir=None) -> dict:
     """Fold -> (IMU-aware network, beam-only network) of ``scenario``, each fading with ``run_decay`` (default: the
-    shipped card's)."""
+    shipped card's). ``beam_dir`` :data:`PIVOT_MEMBER`: the pivot completer with the fold's pivot length fitted on
+    the other folds' trajectories (``akit_dir``) in place of the beam-only network (it does not fade)."""
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
     imu_decay = load_imu_completer(scenario).run_decay if imu_decay is None else imu_decay
-    beam_decay = load_completer(scenario).run_decay if beam_decay is None else beam_decay
-    print(f"run_decay: IMU-aware {imu_decay:g}, beam-only {beam_decay:g}", file=sys.stderr, flush=True)
-    return {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay),
-                load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=beam_decay))
+    if beam_dir == PIVOT_MEMBER:
+        if beam_decay is not None:
+            raise SystemExit("--beam-decay: the pivot completer does not fade")
+        second = fold_pivot_completers(scenario, akit_dir)
+        print(f"run_decay: IMU-aware {imu_decay:g}; pivot lengths {[round(c.pivot_m, 2) for c in second]} m",
+              file=sys.stderr, flush=True)
+    else:
+        beam_decay = load_completer(scenario).run_decay if beam_decay is None else beam_decay
+        print(f"run_decay: IMU-aware {imu_decay:g}, beam-only {beam_decay:g}", file=sys.stderr, flush=True)
+        second = [load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=beam_decay)
+                  for f in range(len(AKIT_FOLDS))]
+    return {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay), second[f])
             for f in range(len(AKIT_FOLDS))}
+
+
+def fold_pivot_completers(scenario: str, akit_dir=None) -> list:
+    """Per A-KIT fold, the pivot completer (the scenario's N, the DVL geometry of the series the studies score) with
+    the pivot length fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``)."""
+    from oracle_completions import fold_pivot_lengths
+
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.evaluation.bench import find_trajectories
+    from graphnav.io.paths import akit_trajectories
+    from graphnav.nets.average import AVERAGE_N_PAST
+    from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.pivot import PivotCompleter
+    sources = {s.name: s for s in find_trajectories(str(akit_trajectories(akit_dir)[0].parent))}
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, length, n_past=AVERAGE_N_PAST[scenario])
+            for length in fold_pivot_lengths(sources, AKIT_FOLDS)]
 
 
 def held_out_per_ping(nets: dict, scenario: str, akit_dir) -> tuple[dict, dict]:
@@ -176,7 +245,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_dec
     from imu_completer_folds import EVAL_GRADES
 
     from graphnav.nets.crossval import AKIT_FOLDS
-    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay)
+    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay, akit_dir)
     series, pp = held_out_per_ping(nets, scenario, akit_dir)
     rows = []
     # the correlation for completers trained on all ten trajectories: every fold network on its held-out pair
@@ -186,7 +255,8 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_dec
         for grade in EVAL_GRADES:
             rho = fitted_rho([pp[g, grade] for g in nets if g != f], nets[f][0].missing)
             rows += [{**r, "rho_all_folds": rho_all[grade]}
-                     for r in fold_rows(f, held, scenario, grade, *nets[f], series[f, grade], pp[f, grade], rho)]
+                     for r in fold_rows(f, held, scenario, grade, *nets[f], series[f, grade], pp[f, grade], rho,
+                                        member_label(beam_dir))]
         out.write_text(json.dumps(rows, indent=1))
         print(f"fold {f} {list(held)}: outages in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     return rows
@@ -216,7 +286,7 @@ def choose(rows: list[dict], scenario: str, folds) -> str:
     def key(variant):
         pooled, per_fold = _gains(rows, scenario, variant, folds)
         return (sum(g < 0 for g in per_fold), -min(pooled))
-    return min(VARIANTS, key=key)
+    return min(row_variants(rows), key=key)
 
 
 def choice_table(rows: list[dict]) -> str:
@@ -226,7 +296,7 @@ def choice_table(rows: list[dict]) -> str:
     picks = []
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         folds = sorted({r["fold"] for r in rows if r["scenario"] == sc})
-        for v in VARIANTS:
+        for v in row_variants(rows):
             pooled, per_fold = _gains(rows, sc, v, folds)
             lines.append(f"| {sc} | {v} | {sum(g < 0 for g in per_fold)} | {min(pooled):+.1f} % |")
         nested = []
@@ -244,7 +314,7 @@ def coverage_table(rows: list[dict]) -> str:
     lines = ["| scenario | mode | variant | within 1 / 2 sigma | z RMS |", "| --- | --- | --- | --- | --- |"]
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         for mode in ("per ping", "outage 30 s"):
-            for v in VARIANTS:
+            for v in row_variants(rows):
                 sel = [r for r in rows if r["scenario"] == sc and r["mode"] == mode and r["method"] == "network"
                        and r["variant"].endswith(f", {v}")]
                 n = np.array([r["n"] for r in sel], float)
@@ -292,7 +362,8 @@ def fold_network_parser(description: str, out_default: str) -> argparse.Argument
     p.add_argument("--scenario", choices=["2-missing", "3-missing"])
     p.add_argument("--imu-nets", help="IMU-aware fold networks (experiments/imu_completer_folds.py --save-nets DIR)")
     p.add_argument("--beam-nets", help="beam-only fold networks (graphnav eval-beams --folds --save-nets DIR: "
-                   "DIR/<recipe>)")
+                   f"DIR/<recipe>), or '{PIVOT_MEMBER}': the pivot completer in their place, its pivot length fitted "
+                   "on the other folds' trajectories")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--out", default=out_default, help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs")

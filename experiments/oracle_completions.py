@@ -15,8 +15,9 @@ velocity and attitude, lever-arm term included) plus an error of known size, sta
 The oracle's sigma is given as is, without the graph's floor for regressed beams (the beam noise, 0.042 m/s): an
 oracle is as good as it says.
 
-With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` it also runs the shipped ``Graph-HNI``
-completer of each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
+With ``--record DIR`` (the IMU-aware fold networks) and ``--beam-nets DIR`` (or ``pivot``: the pivot completer, its
+pivot length fitted online, in the beam-only networks' place) it also runs the shipped ``Graph-HNI`` completer of
+each trajectory's fold (``hybrid_imu_folds.py``'s ``HNI fold fused``) and records its completions'
 error against the same truth: RMS through the windows, the sigma the history handed on (before the screening's
 adaptive inflation), and how often the screening kept them. In a total outage no shipped network serves a ping
 and the recorded completer is ``Graph-HNI``'s average fallback, unless ``--record`` also holds fold networks for
@@ -178,7 +179,8 @@ def oracle_task(item):
             from graphnav.evaluation.methods import completer_for
             comp = completer_for("Graph-HNI", scenario, mission.config.dvl.beam_noise_std)[0]
         elif variant.startswith(RECORDED):
-            comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std)
+            comp = completer("HNI fold fused", scenario, nets, fold, None, mission.config.dvl.beam_noise_std,
+                             mission.config)
         if variant.startswith(RECORDED + " drift "):     # "<RECORDED> drift <d>": the history's sigma
             from graphnav.nets.imu_auto import ImuAutoCompleter     # growth per ping, m/s
             comp = ImuAutoCompleter(comp.networks.values(), comp.beam_only, comp.beam_correlation,
@@ -512,7 +514,7 @@ def main(argv=None) -> int:
     p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer "
                    "(in a total outage: the folds' networks for pings without a measured beam, if DIR has them)")
     p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer (not used in a total "
-                   "outage)")
+                   "outage), or 'pivot': the pivot completer fitted online in their place")
     p.add_argument("--drift", nargs="*", type=float, default=[], help="the recorded completer again with these "
                    "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
     p.add_argument("--joint", nargs="*", default=[], metavar="FILE", help="pairs of another scenario's results and "

@@ -28,6 +28,9 @@ take about half the time. Usage::
         --out out/placement/s100_2.json
     .venv/bin/python experiments/outage_placement.py --report out/placement/rows2.json out/placement/rows3.json
 
+``--beam-nets pivot`` puts the pivot completer (its pivot length fitted on the other folds' trajectories) in the
+beam-only networks' place, named ``pivot`` in the rows.
+
 ``--imu-decay`` / ``--beam-decay`` run the two fadings with another ``run_decay`` (default: the cards', each chosen
 for its completer alone; ``Graph-HNI`` fuses them with :data:`graphnav.nets.imu_auto.FUSED_RUN_DECAY`), and
 ``--report FILES --choose-decays`` applies the fadings' rule (fewest fold cells worse than the average, then the
@@ -144,7 +147,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     import json
 
     from completer_fade_folds import WINDOW
-    from imu_beam_fused_folds import fold_networks
+    from imu_beam_fused_folds import PIVOT_MEMBER, fold_networks, member_label
     from imu_completer_folds import EVAL_GRADES, held_out_series
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -153,7 +156,8 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     if PERIOD % stride:
         raise ValueError(f"--stride must divide {PERIOD} so that every placement has the studies' spacing")
-    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay)
+    nets = fold_networks(scenario, imu_dir, beam_dir, imu_decay, beam_decay, akit_dir)
+    second = member_label(beam_dir)
     # the IMU-aware network whose envelope fallbacks are counted: its own completer's if it runs, else the fused
     # one's member (the beam-only member keeps counters of its own)
     counted = "IMU-aware, envelope" if "IMU-aware, envelope" in names else "fused, envelope"
@@ -165,17 +169,20 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
         for grade in EVAL_GRADES:
             series = held_out_series(held, akit_dir, grade)
             enveloped = imu(True)
-            makers = {"IMU-aware, fading": lambda: imu(False), "beam-only, fading": lambda: beam_net,
+            makers = {"IMU-aware, fading": lambda: imu(False), second: lambda: beam_net,
                       "fused": lambda: FusedCompleter(imu(False), beam_net),
                       "IMU-aware, envelope": lambda: enveloped,
                       "fused, envelope": lambda: FusedCompleter(enveloped if counted == "fused, envelope" else imu(True),
                                                                 beam_net)}
-            completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario])} | {n: makers[n]() for n in names}
+            own = [second if n == "beam-only, fading" else n for n in names]
+            completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario])} | {n: makers[n]() for n in own}
             sq, starts = rollout_windows(completers, series, list(net.missing), OUTAGE_SETTLE, stride)
             row = {"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade,
                    "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq,
-                   "run_decay": {"IMU-aware": net.run_decay, "beam-only": beam_net.run_decay},
+                   "run_decay": {"IMU-aware": net.run_decay, "beam-only": getattr(beam_net, "run_decay", 1.0)},
                    "nets": {"IMU-aware": str(imu_dir), "beam-only": str(beam_dir)}}
+            if beam_dir == PIVOT_MEMBER:
+                row["pivot_m"] = beam_net.pivot_m
             if counted in names:
                 row |= {"envelope_fallbacks": enveloped.fallbacks["envelope"], "envelope_counted_in": counted,
                         "completions": len(starts) * WINDOW}
@@ -325,7 +332,8 @@ def report(rows: list[dict]) -> str:
                       "pings)", "",
                       "| completer | fold | p = 0 | range over placements (velocity) | every placement | 90 % "
                       "interval (velocity) | worse in |", "| --- | --- | --- | --- | --- | --- | --- |"]
-            for name in (n for n in COMPLETERS if all(n in r["sq"] for r in sel)):
+            for name in (n for n in dict.fromkeys(k for r in sel for k in r["sq"])
+                         if n != "average" and all(n in r["sq"] for r in sel)):
                 pooled = {"p0": [[], []], "all": [[], []], "avg_p0": [[], []], "avg_all": [[], []]}
                 place_pooled = [[[0.0, 0.0], [0.0, 0.0]] for _ in range(n_place)]
                 for r in sel:

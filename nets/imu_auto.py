@@ -65,8 +65,13 @@ class ImuAutoCompleter:
             ``fused_beam_only``'s (module docstring). None (default): the IMU-aware network alone.
         drift_std: sigma growth per ping through a run of regressed pings, m/s (module docstring); None
             (default): the history's.
-        fused_beam_only: the beam-only completer whose completion is fused with the IMU-aware one (e.g. the same
-            networks fading as :data:`FUSED_RUN_DECAY` says); None (default): ``beam_only``.
+        fused_beam_only: the completer whose completion is fused with the IMU-aware one (e.g. the beam-only
+            networks fading as :data:`FUSED_RUN_DECAY` says, or the pivot completer); None (default): ``beam_only``.
+            ``beam_only`` and ``fused_beam_only`` may need the IMU themselves (the pivot completer, with a window no
+            longer than the networks'): they are handed the networks' window, or None where there is none.
+
+    With a member that learns from fully measured pings (the pivot completer), the completer has ``observe``, which
+    the keyframer calls on each such ping and which hands it on.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
@@ -83,13 +88,23 @@ class ImuAutoCompleter:
         if not imu_networks:
             raise ConfigError("ImuAutoCompleter needs at least one IMU-aware network")
         fused_beam_only = beam_only if fused_beam_only is None else fused_beam_only
-        if (any(not getattr(n, "needs_imu", False) for n in imu_networks)
-                or any(getattr(c, "needs_imu", False) for c in (beam_only, fused_beam_only))):
-            raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU and beam_only / fused_beam_only "
-                              "must not")
+        if any(not getattr(n, "needs_imu", False) for n in imu_networks):
+            raise ConfigError("ImuAutoCompleter: imu_networks must need the IMU")
         windows = {(n.imu_samples, n.imu_rate_hz, n.ping_dt) for n in imu_networks}
         if len(windows) != 1:
             raise ConfigError(f"ImuAutoCompleter: the IMU-aware networks want different IMU windows {sorted(windows)}")
+        (samples, rate_hz, ping_dt), = windows
+        # a member that needs the IMU too (the pivot completer) is handed the networks' window and reads its tail
+        # and completes a ping without a window itself (``completes_without_imu``)
+        for name, c in (("beam_only", beam_only), ("fused_beam_only", fused_beam_only)):
+            if not getattr(c, "needs_imu", False):
+                continue
+            if not getattr(c, "completes_without_imu", False):
+                raise ConfigError(f"ImuAutoCompleter: {name} needs the IMU and cannot complete a ping without a "
+                                  "window (it serves the pings the networks cannot)")
+            if c.imu_samples > samples or c.imu_rate_hz != rate_hz:
+                raise ConfigError(f"ImuAutoCompleter: {name} wants {c.imu_samples} IMU samples at {c.imu_rate_hz} "
+                                  f"Hz, the networks' window is {samples} at {rate_hz} Hz")
         self.networks = {tuple(n.missing): n for n in imu_networks}
         self.beam_only = beam_only
         self.fused_beam_only = fused_beam_only
@@ -111,6 +126,18 @@ class ImuAutoCompleter:
         self.takes_run_steps = any(getattr(c, "takes_run_steps", False)
                                    for c in (*imu_networks, beam_only, fused_beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
+        # the keyframer shows a completer with ``observe`` every fully measured ping with its IMU window: only when a
+        # member learns from them, so that the others cost no window per ping
+        self._learners = [c.observe for c in {id(c): c for c in (beam_only, fused_beam_only)}.values()
+                          if callable(getattr(c, "observe", None))]
+        if self._learners:
+            self.observe = self._hand_on
+
+    def _hand_on(self, t: float, beams: np.ndarray, imu=None) -> None:
+        """``observe``: a ping whose four beams were all measured, with its IMU window (or None), handed on to the
+        members that learn from such pings (the pivot completer's online fit of its pivot length)."""
+        for observe in self._learners:
+            observe(t, beams, imu)
 
     @property
     def fallbacks(self) -> dict[str, int]:
@@ -135,10 +162,10 @@ class ImuAutoCompleter:
             if rho is None:
                 return b_imu, s_imu
             b_beam, s_beam = complete_with(self.fused_beam_only, past[-self.fused_beam_only.n_past:], measured,
-                                           run_steps=run_steps)
+                                           imu=imu, run_steps=run_steps)
             return fuse(b_imu, s_imu, b_beam, s_beam, 0.0, rho)
         self.usage["no_imu" if net is not None else "pattern"] += 1
-        return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, run_steps=run_steps)
+        return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, imu=imu, run_steps=run_steps)
 
 
 def load_fused_beam_only(directory=None):

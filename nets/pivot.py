@@ -79,6 +79,8 @@ class PivotCompleter:
     """
 
     needs_imu = True
+    #: a ping without an IMU window is the average estimator's (a completer wrapping this one may hand it None)
+    completes_without_imu = True
 
     def __init__(self, T_b: np.ndarray, lever_arm_b: np.ndarray, pivot_m: float | None = None, n_past: int = 5,
                  noise_std: float = 0.042, imu_rate_hz: float = 100.0, ping_dt: float = 1.0,
@@ -139,15 +141,18 @@ class PivotCompleter:
         self.fit.add(t, beams, rate)
 
     def _checked(self, imu) -> np.ndarray:
-        """The angular rates (imu_samples, 3) of an IMU window, or a :class:`ConfigError` naming its shape."""
+        """The angular rates (imu_samples, 3) of an IMU window: its last ``imu_samples`` samples (a longer window,
+        as the IMU-aware networks it is fused with take, ends at the same ping), or a :class:`ConfigError` naming
+        its shape."""
         omega = np.asarray(imu[1], float)
-        if omega.shape != (self.imu_samples, 3):
-            raise ConfigError(f"PivotCompleter: IMU window of shape {omega.shape}, expected ({self.imu_samples}, 3)")
-        return omega
+        if omega.ndim != 2 or omega.shape[1] != 3 or len(omega) < self.imu_samples:
+            raise ConfigError(f"PivotCompleter: IMU window of shape {omega.shape}, expected at least "
+                              f"({self.imu_samples}, 3)")
+        return omega[len(omega) - self.imu_samples:]
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None) -> tuple[np.ndarray, np.ndarray]:
         """(beams (4,), sigma (4,)) m/s from ``past`` (n_past, 4), oldest first, ``measured`` (4,) with NaN where
-        missing, and ``imu`` = (f_b, omega_b), the last ``imu_samples`` IMU samples up to the ping (or None)."""
+        missing, and ``imu`` = (f_b, omega_b), the last ``imu_samples`` (or more) IMU samples up to the ping (or None)."""
         past, measured = check_inputs(past, measured, self.n_past)
         missing = ~np.isfinite(measured)
         if not missing.any():

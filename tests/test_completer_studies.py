@@ -795,3 +795,52 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     del runs[("Trajectory13", "mems", "3-missing", 120.0)]
     del runs[("Trajectory6", "mems", "3-missing", 120.0)]
     assert study.choice(runs, ["A", "B"], folds).startswith("not chosen")
+
+
+def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_studies(tmp_path):
+    """``--beam-nets pivot``: per ping the pivot completer is run from each usable ping's true past with the IMU
+    window ending at the ping (the pings the IMU-aware network is scored on), the rows name it ``pivot``, and the
+    regime study's ``HNI fold fused`` fuses the fold's IMU-aware network with a pivot completer fitted online that
+    also serves the pings the network cannot, with the correlation measured for that pair."""
+    import shutil
+
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.imu_data import ImuBeamSeries, imu_windows
+    from graphnav.nets.pivot import PivotCompleter
+    fused = _study("imu_beam_fused_folds")
+    assert fused.member_label("pivot") == "pivot" and fused.member_label("out/ens2/x") == "beam-only, fading"
+    assert fused.variants("pivot")[1] == "pivot" and fused.variants("beam-only, fading") == fused.VARIANTS
+    assert fused.row_variants([{"variant": "IMU mems, pivot"}, {"variant": "IMU mems, fused, rho 0"},
+                               {"variant": "IMU recorded, pivot"}]) == ["pivot", "fused, rho 0"]
+
+    rng = np.random.default_rng(3)
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    n, per_ping = 16, 100
+    v_b = np.array([1.5, 0.0, 0.1]) + 0.05 * rng.standard_normal((n, 3))
+    omega = np.zeros((n * per_ping, 3))
+    omega[:, 2] = 0.1 * np.sin(np.arange(n * per_ping) / 300.0)         # turning to and fro
+    series = [ImuBeamSeries("s", np.arange(n, dtype=float), v_b, v_b @ geometry.T_b.T,
+                            np.tile([0.0, 0.0, -9.8], (n * per_ping, 1)), omega,
+                            np.arange(n) * per_ping + per_ping - 1)]
+    pivot = PivotCompleter(geometry.T_b, geometry.lever_arm_b, 3.6, n_past=3)
+    n_imu = 800                                                          # longer than the pivot's own 400
+    full, sigma = fused.predict_with_imu(pivot, series, 5, n_imu, (0, 2))
+    samples = imu_windows(series, 5, n_imu)
+    assert full.shape == sigma.shape == samples.beams.shape
+    ks = np.flatnonzero(series[0].usable(5, n_imu))
+    k = ks[-1]
+    measured = series[0].beams[k].copy()
+    measured[[0, 2]] = np.nan
+    expect = pivot.complete(series[0].beams[k - 3:k], measured, imu=series[0].imu_window(k, pivot.imu_samples))
+    np.testing.assert_array_equal(full[-1], expect[0])
+    np.testing.assert_array_equal(full[:, [1, 3]], samples.beams[:, [1, 3]])   # the measured beams pass through
+
+    hybrid = _study("hybrid_imu_folds")
+    (tmp_path / "fold0").mkdir()
+    for suffix in ("pt", "json"):
+        shutil.copy(ROOT / "nets" / "weights" / f"imu-2-missing.{suffix}", tmp_path / "fold0")
+    comp = hybrid.completer("HNI fold fused", "2-missing", (str(tmp_path), "pivot"), 0, None, 0.042)
+    assert isinstance(comp.fused_beam_only, PivotCompleter) and comp.beam_only is comp.fused_beam_only
+    assert comp.fused_beam_only.pivot_m is None                          # fitted online, as Graph-HNP's
+    assert comp.beam_correlation == {"2-missing": hybrid.IMU_PIVOT_ERROR_CORRELATION["2-missing"]}

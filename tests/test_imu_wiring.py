@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from graphnav.core.config import DvlSpec
-from graphnav.core.dvl import make_beams
+from graphnav.core.dvl import DvlGeometry, make_beams
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import ImuData
 from graphnav.core.scenarios import scenario_outage
@@ -240,6 +240,44 @@ def test_the_fused_members_fade_as_chosen_for_the_fusion_and_a_ping_without_imu_
         load_imu_auto_completer(beam_only=fast)
     mine = load_imu_auto_completer(beam_only=fast, fused_beam_only=slow)
     assert mine.beam_only is fast and mine.fused_beam_only is slow
+
+
+def test_the_imu_aware_completion_fuses_with_the_pivot_completer_which_reads_the_tail_of_the_window():
+    """A fused member that needs the IMU itself (the pivot completer) is handed the networks' 20 s window and reads
+    its own last samples: the fused completion is the networks' and the pivot's on the exact window, fused; the
+    keyframer's fully measured pings reach its online fit through the wrapper; a ping without a window is the pivot's
+    average; a member that cannot complete without a window, or wants a longer one, is refused."""
+    from graphnav.nets import ImuAutoCompleter, load_imu_completer
+    from graphnav.nets.fused import fuse
+    from graphnav.nets.pivot import PivotCompleter
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    net = load_imu_completer(2, run_decay=1.0)
+    pivot = PivotCompleter(geometry.T_b, geometry.lever_arm_b, 3.6, n_past=3)
+    auto = ImuAutoCompleter([net], pivot, {"2-missing": 0.7})
+    assert auto.n_past == net.n_past and pivot.imu_samples < net.imu_samples
+    rng = np.random.default_rng(2)
+    past = make_beams(np.array([1.5, 0.1, 0.05]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 4)
+    omega = np.zeros((net.imu_samples, 3))
+    omega[-pivot.imu_samples:, 2] = np.repeat(np.linspace(0.0, 0.2, 4), pivot.samples_per_ping)   # a turn starting
+    imu = (np.tile([0.0, 0.0, -9.8], (net.imu_samples, 1)), omega)
+    tail = (imu[0][-pivot.imu_samples:], imu[1][-pivot.imu_samples:])
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    b_piv, s_piv = pivot.complete(past[-3:], two, imu=tail)
+    assert not np.allclose(b_piv, AverageCompleter(3).complete(past[-3:], two)[0])    # the turn is in it
+    expect = fuse(*net.complete(past, two, imu=imu), b_piv, s_piv, 0.0, 0.7)
+    np.testing.assert_array_equal(auto.complete(past, two, imu=imu)[0], expect[0])
+    np.testing.assert_array_equal(auto.complete(past, two)[0], AverageCompleter(3).complete(past[-3:], two)[0])
+    assert pivot.usage["no_imu"] == 1
+    full = make_beams(np.array([1.5, 0.1, 0.05]), DvlSpec(), 4)[0]
+    for k in range(8):
+        auto.observe(float(k), full, imu)
+    assert pivot.fit.pairs > 0
+    assert not hasattr(ImuAutoCompleter([net], AverageCompleter(3), {"2-missing": 0.7}), "observe")  # nothing learns
+    with pytest.raises(ConfigError, match="without a"):
+        ImuAutoCompleter([net], net)
+    with pytest.raises(ConfigError, match="IMU samples"):
+        ImuAutoCompleter([net], PivotCompleter(geometry.T_b, geometry.lever_arm_b, 3.6, n_past=3, imu_rate_hz=1000.0))
 
 
 def test_auto_beam_completer_takes_a_run_decay_per_scenario():
