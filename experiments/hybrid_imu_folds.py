@@ -123,7 +123,7 @@ def window_task(item):
     starts = case_windows(mission, window_s, max_windows)
     run = mission if method == "all beams" else mission.with_outage(
         *[scenario_outage(scenario, s, window_s) for s in starts])
-    comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std)
+    comp = completer(method, scenario, nets_dir, fold, fit, mission.config.dvl.beam_noise_std, mission.config)
     name = ("Graph-TC" if method == "all beams" else "Graph-HN" if method.startswith(("HNI", "HN-net", "Graph-HN"))
             else method)
     sol = run_method(run, name, scenario, completer=comp, options=options)
@@ -235,7 +235,8 @@ def main(argv=None) -> int:
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--nets", help="the IMU-aware fold networks (imu_completer_folds.py --save-nets DIR)")
     p.add_argument("--calibration", help="rows of imu_completer_folds.py --calibrate (JSON), for 'HNI fused'")
-    p.add_argument("--beam-nets", help="the beam-only fold networks of one recipe (graphnav eval-beams --folds "
+    p.add_argument("--beam-nets", help="'pivot' (HNI fold fused with the pivot completer fitted online in their place), or "
+                   "the beam-only fold networks of one recipe (graphnav eval-beams --folds "
                    "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
     p.add_argument("--variants", nargs="+", default=list(VARIANTS),
                    choices=[*VARIANTS, "HN-net fold", "HNI fold fading", "HNI fold fused"],
@@ -265,7 +266,7 @@ def main(argv=None) -> int:
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": resolved(a.nets),
                 "calibration": resolved(a.calibration)}
     if a.beam_nets:     # files of the first form (no beam-only networks) keep their settings
-        settings["beam_nets"] = resolved(a.beam_nets)
+        settings["beam_nets"] = a.beam_nets if a.beam_nets == "pivot" else resolved(a.beam_nets)
     results, _ = load_runs(out, settings)
     items = []
     for f, pair in enumerate(AKIT_FOLDS):

@@ -286,7 +286,7 @@ def choose(rows: list[dict], scenario: str, folds) -> str:
     def key(variant):
         pooled, per_fold = _gains(rows, scenario, variant, folds)
         return (sum(g < 0 for g in per_fold), -min(pooled))
-    return min(row_variants(rows), key=key)
+    return min(row_variants([r for r in rows if r["scenario"] == scenario]), key=key)
 
 
 def choice_table(rows: list[dict]) -> str:
@@ -296,7 +296,7 @@ def choice_table(rows: list[dict]) -> str:
     picks = []
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         folds = sorted({r["fold"] for r in rows if r["scenario"] == sc})
-        for v in row_variants(rows):
+        for v in row_variants([r for r in rows if r["scenario"] == sc]):
             pooled, per_fold = _gains(rows, sc, v, folds)
             lines.append(f"| {sc} | {v} | {sum(g < 0 for g in per_fold)} | {min(pooled):+.1f} % |")
         nested = []
@@ -314,7 +314,7 @@ def coverage_table(rows: list[dict]) -> str:
     lines = ["| scenario | mode | variant | within 1 / 2 sigma | z RMS |", "| --- | --- | --- | --- | --- |"]
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         for mode in ("per ping", "outage 30 s"):
-            for v in row_variants(rows):
+            for v in row_variants([r for r in rows if r["scenario"] == sc]):
                 sel = [r for r in rows if r["scenario"] == sc and r["mode"] == mode and r["method"] == "network"
                        and r["variant"].endswith(f", {v}")]
                 n = np.array([r["n"] for r in sel], float)

@@ -193,6 +193,11 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     return rows
 
 
+def is_pivot_row(row: dict) -> bool:
+    """Whether a row of :func:`run` had the pivot completer as its second member (``--beam-nets pivot``)."""
+    return row.get("nets", {}).get("beam-only") == "pivot"
+
+
 def row_decays(row: dict) -> tuple[float, float]:
     """(IMU-aware, beam-only) ``run_decay`` a row was scored with."""
     if "run_decay" not in row:
@@ -261,6 +266,9 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
              "placement cells whose velocity gain is below the average's, which the rule does not count)", ""]
     if not rows:
         raise ValueError("no rows to choose run_decay from")
+    if any(map(is_pivot_row, rows)):
+        raise ValueError("rows with the pivot completer as the second member (--beam-nets pivot): it does not fade, "
+                         "and the choice is between the beam-only networks' fadings")
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         sel = [r for r in rows if r["scenario"] == sc and name in r["sq"]]
         if len({(r["settle"], r["stride"]) for r in sel}) > 1:
@@ -319,15 +327,21 @@ def report(rows: list[dict]) -> str:
              "studies' placement (p = 0), the range over the placements, and over every placement with its 90 % "
              "interval (90-ping blocks drawn again); `worse in` counts the placements where the fold's velocity "
              "gain is negative.", ""]
-    # rows written before rows held their run_decay ran the cards' fadings
-    decays = [tuple(row_decays(r)) if "run_decay" in r else None for r in rows]
+    # rows written before rows held their run_decay ran the cards' fadings; a pivot row's second member is the
+    # pivot completer, which is another pair than the beam-only networks' whatever the decays
+    decays = [(tuple(row_decays(r)) if "run_decay" in r else None, is_pivot_row(r),
+               row_draw(r) if "nets" in r else None) for r in rows]    # rows of before rows named their networks
+    several_draws = len({d[2] for d in decays}) > 1
     for sc, pair in dict.fromkeys((r["scenario"], d) for r, d in zip(rows, decays)):
         for grade in dict.fromkeys(r["grade"] for r, d in zip(rows, decays) if (r["scenario"], d) == (sc, pair)):
             sel = sorted((r for r, d in zip(rows, decays) if (r["scenario"], r["grade"], d) == (sc, grade, pair)),
                          key=lambda r: r["fold"])
             settle, stride = sel[0]["settle"], sel[0]["stride"]
             n_place = PERIOD // stride
-            fading = "the cards'" if pair is None else f"{pair[0]:g} / {pair[1]:g}"
+            (fades, pivot, draw) = pair
+            fading = ("the cards'" if fades is None else f"{fades[0]:g} / {fades[1]:g}") if not pivot else \
+                f"{fades[0]:g} (IMU-aware), second member the pivot completer"
+            fading += f", networks {draw}" if several_draws else ""
             lines += [f"### {sc}, {grade} IMU, run_decay {fading} ({n_place} placements, a window every {stride} "
                       "pings)", "",
                       "| completer | fold | p = 0 | range over placements (velocity) | every placement | 90 % "

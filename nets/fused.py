@@ -65,9 +65,9 @@ class FusedCompleter:
 
     Args:
         first, second: completers; ``needs_imu`` (and ``imu_samples``, ``imu_rate_hz``, ``ping_dt``, ``beam_only``
-            and the ``usage`` counters) follow an IMU-aware member, which alone is handed the IMU
-            window. In an estimator that member must complete a ping without one (``imu=None``, e.g.
-            :class:`graphnav.nets.ImuAutoCompleter`).
+            and the ``usage`` counters) follow the first IMU-aware member, whose window every member that needs
+            the IMU is handed (the pivot completer reads its tail). In an estimator that member must complete a
+            ping without one (``imu=None``, e.g. :class:`graphnav.nets.ImuAutoCompleter`).
         rho: correlation of the two members' errors per ping that the weights assume (0: independent, inverse
             variance).
         sigma_rho: the correlation the fused sigma is computed with (default ``rho``; :func:`fuse`).

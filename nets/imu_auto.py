@@ -102,9 +102,11 @@ class ImuAutoCompleter:
             if not getattr(c, "completes_without_imu", False):
                 raise ConfigError(f"ImuAutoCompleter: {name} needs the IMU and cannot complete a ping without a "
                                   "window (it serves the pings the networks cannot)")
-            if c.imu_samples > samples or c.imu_rate_hz != rate_hz:
+            if (c.imu_samples > samples or c.imu_rate_hz != rate_hz
+                    or round(c.imu_rate_hz * c.ping_dt) != round(rate_hz * ping_dt)):
                 raise ConfigError(f"ImuAutoCompleter: {name} wants {c.imu_samples} IMU samples at {c.imu_rate_hz} "
-                                  f"Hz, the networks' window is {samples} at {rate_hz} Hz")
+                                  f"Hz, {c.ping_dt} s apart, the networks' window is {samples} at {rate_hz} Hz, "
+                                  f"{ping_dt} s apart")
         self.networks = {tuple(n.missing): n for n in imu_networks}
         self.beam_only = beam_only
         self.fused_beam_only = fused_beam_only

@@ -844,3 +844,26 @@ def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_s
     assert isinstance(comp.fused_beam_only, PivotCompleter) and comp.beam_only is comp.fused_beam_only
     assert comp.fused_beam_only.pivot_m is None                          # fitted online, as Graph-HNP's
     assert comp.beam_correlation == {"2-missing": hybrid.IMU_PIVOT_ERROR_CORRELATION["2-missing"]}
+
+
+def test_the_placement_report_keeps_the_pivot_pair_and_each_draw_apart_and_chooses_no_fading_for_it():
+    """Rows with the pivot completer as the second member are another pair than the beam-only networks' at the same
+    decays, and rows of two training draws are two groups; --choose-decays refuses pivot rows (the pivot does not
+    fade); rows of before rows named their networks still report."""
+    study = _study("outage_placement")
+    starts = [[0, study.PERIOD * k + 10] for k in range(2)]
+    sq = {"average": [[2.0, 2.0], [2.0, 2.0]], "fused": [[1.0, 1.0], [1.0, 1.0]]}
+
+    def row(nets, second, fold=0):
+        return {"scenario": "2-missing", "fold": fold, "grade": "recorded", "settle": 10, "stride": 90,
+                "starts": starts, "sq": sq, "run_decay": {"IMU-aware": 1.0, "beam-only": 1.0},
+                "nets": {"IMU-aware": nets, "beam-only": second}}
+    rows = [row("a/nets2", "pivot"), row("a/nets2", "ens2/x"), row("a/nets2s100", "pivot")]
+    assert [study.is_pivot_row(r) for r in rows] == [True, False, True]
+    headers = [line for line in study.report(rows).splitlines() if line.startswith("###")]
+    assert len(headers) == 3 and sum("pivot completer" in h for h in headers) == 2
+    assert any("nets2s100" in h for h in headers)
+    with pytest.raises(ValueError, match="pivot completer"):
+        study.decay_report(rows)
+    old = {k: v for k, v in row("a/nets2", "ens2/x").items() if k not in ("nets", "run_decay")}
+    assert "the cards'" in study.report([old])

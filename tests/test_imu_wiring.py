@@ -278,6 +278,8 @@ def test_the_imu_aware_completion_fuses_with_the_pivot_completer_which_reads_the
         ImuAutoCompleter([net], net)
     with pytest.raises(ConfigError, match="IMU samples"):
         ImuAutoCompleter([net], PivotCompleter(geometry.T_b, geometry.lever_arm_b, 3.6, n_past=3, imu_rate_hz=1000.0))
+    with pytest.raises(ConfigError, match="s apart"):       # pings 2 s apart: its rates would be cut otherwise
+        ImuAutoCompleter([net], PivotCompleter(geometry.T_b, geometry.lever_arm_b, 3.6, n_past=3, ping_dt=2.0))
 
 
 def test_auto_beam_completer_takes_a_run_decay_per_scenario():
