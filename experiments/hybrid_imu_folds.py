@@ -68,7 +68,7 @@ def shipped_run_decay(scenario: str) -> float:
 
 def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | None, noise_std: float, config=None):
     """The completer of one study method (None: the method's own). ``HNI fold fused`` with the beam-only networks'
-    folder ``pivot`` (``imu_beam_fused_folds.PIVOT_MEMBER``): the IMU-aware network fused with the pivot completer,
+    folder :data:`imu_beam_fused_folds.PIVOT_MEMBER` (``pivot``): the IMU-aware network fused with the pivot completer,
     which also serves the pings the network cannot, its pivot length fitted online over the mission's measured pings
     as ``Graph-HNP``'s (``config``: the mission's sensors, which it is built for)."""
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -81,7 +81,8 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
         from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
         decays = FUSED_RUN_DECAY[scenario]
-        if beam_dir == "pivot":
+        from imu_beam_fused_folds import PIVOT_MEMBER
+        if beam_dir == PIVOT_MEMBER:
             from graphnav.core.config import SensorConfig
             from graphnav.evaluation.methods import pivot_completer
             pivot = pivot_completer(scenario, config if config is not None else SensorConfig())
@@ -266,7 +267,8 @@ def main(argv=None) -> int:
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": resolved(a.nets),
                 "calibration": resolved(a.calibration)}
     if a.beam_nets:     # files of the first form (no beam-only networks) keep their settings
-        settings["beam_nets"] = a.beam_nets if a.beam_nets == "pivot" else resolved(a.beam_nets)
+        from imu_beam_fused_folds import PIVOT_MEMBER
+        settings["beam_nets"] = a.beam_nets if a.beam_nets == PIVOT_MEMBER else resolved(a.beam_nets)
     results, _ = load_runs(out, settings)
     items = []
     for f, pair in enumerate(AKIT_FOLDS):

@@ -195,7 +195,8 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
 
 def is_pivot_row(row: dict) -> bool:
     """Whether a row of :func:`run` had the pivot completer as its second member (``--beam-nets pivot``)."""
-    return row.get("nets", {}).get("beam-only") == "pivot"
+    from imu_beam_fused_folds import PIVOT_MEMBER
+    return row.get("nets", {}).get("beam-only") == PIVOT_MEMBER
 
 
 def row_decays(row: dict) -> tuple[float, float]:

@@ -837,6 +837,8 @@ def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_s
     np.testing.assert_array_equal(full[:, [1, 3]], samples.beams[:, [1, 3]])   # the measured beams pass through
 
     hybrid = _study("hybrid_imu_folds")
+    import sys
+    sys.path.insert(0, str(ROOT / "experiments"))      # the studies import their siblings
     (tmp_path / "fold0").mkdir()
     for suffix in ("pt", "json"):
         shutil.copy(ROOT / "nets" / "weights" / f"imu-2-missing.{suffix}", tmp_path / "fold0")
@@ -850,7 +852,9 @@ def test_the_placement_report_keeps_the_pivot_pair_and_each_draw_apart_and_choos
     """Rows with the pivot completer as the second member are another pair than the beam-only networks' at the same
     decays, and rows of two training draws are two groups; --choose-decays refuses pivot rows (the pivot does not
     fade); rows of before rows named their networks still report."""
+    import sys
     study = _study("outage_placement")
+    sys.path.insert(0, str(ROOT / "experiments"))
     starts = [[0, study.PERIOD * k + 10] for k in range(2)]
     sq = {"average": [[2.0, 2.0], [2.0, 2.0]], "fused": [[1.0, 1.0], [1.0, 1.0]]}
 
