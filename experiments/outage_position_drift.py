@@ -16,11 +16,22 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 ``--pivot-runs T ...`` adds ``Graph-HNP`` with other run settings: screened at each ping (``Graph-HNP each ping``,
 ``Graph-HN``'s) and, per T, a run of its completions screened until one is kept, their errors correlated over T s
 whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
-outage. ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
+outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``). ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
 relinearised W``): how much Graph-TC's own readings move with an equally valid linearisation, the noise floor of a
 ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
 the beams return (``<method> retired``, ``GraphOptions.retire_completions``), or, for a method that does so by
 default, once more with its completions kept (``<method> kept``).
+
+The methods with a network completer (``Graph-HNI``, ``Graph-HNI-batch``, ``Graph-HN-net``, ...) run out of fold:
+``--fold-nets SCENARIO IMU_DIR BEAM_DIR`` gives, per scenario with a measured beam, the IMU-aware fold networks
+(``imu_completer_folds.py --save-nets``) and the beam-only fold ensembles (``graphnav eval-beams --folds
+--save-nets``), and each trajectory runs the completer of the fold that held it out (``hybrid_imu_folds.py``'s ``HNI
+fold fused``, the shipped pair's structure, or ``HN-net fold``). Their shipped networks were trained on these
+trajectories, so a scenario with a measured beam and no fold networks is refused, and so is a fold network whose
+model card does not say the trajectory was held out. In a total outage
+no network serves a ping (the completer falls back to the average estimator) and the shipped completer runs.
+``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
+networks, a fold cell of every draw counted.
 
 Every A-KIT trajectory with the bench's windows (``--max-windows``, the regime table's 2), each IMU grade and
 scenario; pooled and per fold (the folds of the completer studies), and each method's ratio to Graph-TC. About 2
@@ -63,6 +74,9 @@ def window_metrics(sol, gt, start: float, window_s: float) -> dict:
             "bench": float(position_drift(sol, gt, start, start + window_s))}
 
 
+#: Run-label suffixes of other run settings (``<method> each ping``, ``<method> tau T``; ``--pivot-runs``, ``--hni-runs``).
+EACH_PING = " each ping"
+TAU = " tau "
 RETIRED = " retired"
 KEPT = " kept"
 RELINEARISED = " relinearised "
@@ -73,8 +87,8 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     ping``, ``Graph-HNP tau T`` (T = 0: independent errors), any of them followed by `` retired`` or `` kept`` (its
     completions taken out of the graph when the beams return or not, ``GraphOptions.retire_completions``), or a method
     followed by `` relinearised W`` (ISAM2 relinearising every update the keyframes of the last W s, instead of
-    every 10th update those of the last 5 s: the estimator's own sensitivity to its linearisation)."""
-    from graphnav.evaluation.methods import GRAPH_HNP
+    every 10th update those of the last 5 s: the estimator's own sensitivity to its linearisation); the same
+    ``each ping`` and ``tau T`` runs of ``Graph-HNI``."""
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -83,11 +97,12 @@ def variant_run(label: str) -> tuple[str, dict | None]:
         name, window = label.split(RELINEARISED)
         inner, options = variant_run(name)
         return inner, {**(options or {}), "relin_window_s": float(window), "relinearize_skip": 1}
-    if label == f"{GRAPH_HNP} each ping":
-        return GRAPH_HNP, {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
-    if label.startswith(f"{GRAPH_HNP} tau "):
-        tau = float(label.rsplit(" ", 1)[1])
-        return GRAPH_HNP, {"regressed_runs": "screen-first", "regressed_error_tau_s": tau if tau > 0 else None}
+    if label.endswith(EACH_PING):
+        return label[:-len(EACH_PING)], {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
+    if TAU in label:
+        name, tau = label.rsplit(TAU, 1)
+        tau = float(tau)
+        return name, {"regressed_runs": "screen-first", "regressed_error_tau_s": tau if tau > 0 else None}
     return label, None
 
 
@@ -112,11 +127,73 @@ def other_retirement(label: str) -> str | None:
     return label + (KEPT if {**method.defaults, **(options or {})}.get("retire_completions") else RETIRED)
 
 
+#: The registry's completer kinds that run trained networks (``Method.completer``), which run out of fold here
+#: (``--fold-nets``), each as the fold's networks of the study that made them.
+FOLD_NETWORK_COMPLETERS = {"imu-network": "HNI fold fused", "network": "HN-net fold"}
+
+
+def needs_fold_nets(method: str, scenario: str) -> bool:
+    """Whether the run ``method`` (:func:`variant_run`) in ``scenario`` must run a fold's networks: the methods whose
+    completer is a trained network, wherever a beam is measured (in a total outage no network serves a ping)."""
+    from graphnav.core.scenarios import is_total_outage
+    from graphnav.evaluation.methods import get_method
+    return get_method(variant_run(method)[0]).completer in FOLD_NETWORK_COMPLETERS and not is_total_outage(scenario)
+
+
+def check_held_out(card_path: Path, trajectory: int) -> None:
+    """Refuse a fold network whose model card does not say that A-KIT ``trajectory`` was held out from its training:
+    the IMU-aware cards list ``split.train_trajectories``, the beam-only fold cards ``data.held_out``."""
+    import json
+    card = json.loads(card_path.read_text())
+    trained = (card.get("split") or {}).get("train_trajectories")
+    held_out = (card.get("data") or {}).get("held_out")
+    if trained is None and held_out is None:
+        raise SystemExit(f"{card_path}: the card names neither its training nor its held-out trajectories, so it "
+                         f"cannot be run out of fold on trajectory {trajectory}")
+    if (trained is not None and trajectory in trained) or (held_out is not None and trajectory not in held_out):
+        raise SystemExit(f"{card_path}: trained on trajectory {trajectory}, which it would score (trained on "
+                         f"{trained}, held out {held_out}): give the folder of every fold's networks")
+
+
+def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, mission, trajectory: int):
+    """The completer of the run ``method`` on A-KIT ``trajectory``, held out by ``fold``: for
+    :func:`needs_fold_nets`, the fold's networks as ``hybrid_imu_folds.py`` runs them (``fold_nets[scenario]``:
+    (IMU-aware folder, beam-only folder)), after their cards confirm the trajectory was held out
+    (:func:`check_held_out`): the IMU-aware network fused with the beam-only ensemble, or the beam-only ensemble
+    alone for a method of the beam-only network; otherwise None (the method's own)."""
+    if not needs_fold_nets(method, scenario):
+        return None
+    from hybrid_imu_folds import completer
+
+    from graphnav.evaluation.methods import get_method
+    imu_dir, beam_dir = fold_nets[scenario]
+    variant = FOLD_NETWORK_COMPLETERS[get_method(variant_run(method)[0]).completer]
+    cards = [Path(beam_dir) / f"fold{fold}" / f"{scenario}.json"]
+    if variant == "HNI fold fused":
+        cards.append(Path(imu_dir) / f"fold{fold}" / f"imu-{scenario}.json")
+    for card in cards:
+        if card.is_file():      # an absent card: the loader names the missing files
+            check_held_out(card, trajectory)
+    nets = (imu_dir, beam_dir) if variant == "HNI fold fused" else beam_dir
+    return completer(variant, scenario, nets, fold, None, mission.config.dvl.beam_noise_std, mission.config)
+
+
+def study_items(sources: dict, a, fold_nets: dict, runs: dict, folds) -> list[tuple]:
+    """The :func:`trajectory_task` items not yet in ``runs``: every trajectory of ``folds`` (with the index of the
+    fold that holds it out, whose networks it runs), IMU grade, scenario and window length of the options ``a``."""
+    return [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend, fold_nets, f)
+            for f, pair in enumerate(folds) for k in pair for g in a.grades for sc in a.scenarios
+            for w in a.window_s if (f"Trajectory{k}", g, sc, w) not in runs]
+
+
 def trajectory_task(item):
-    """(key, {method: [window metrics]}) of one trajectory, grade, scenario and window length."""
-    source, grade, scenario, window_s, max_windows, methods, backend = item
+    """(key, {method: [window metrics]}) of one trajectory, grade, scenario and window length. ``item``: (source,
+    grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold), the last two for
+    :func:`fold_completer`."""
+    source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold = item
     import warnings
     warnings.simplefilter("ignore")
+    sys.path.insert(0, str(Path(__file__).parent))
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
     from graphnav.evaluation.methods import run_method
@@ -126,7 +203,8 @@ def trajectory_task(item):
     result = {}
     for method in methods:
         name, options = variant_run(method)
-        sol = run_method(run, name, scenario, options=options, backend=backend)
+        comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
+        sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
     return (source.name, grade, scenario, window_s), result
 
@@ -230,16 +308,52 @@ def choice(runs: dict, candidates: list[str], folds) -> str:
     return "\n".join(lines)
 
 
+def runs_over_draws(paths) -> tuple[dict, list[str]]:
+    """(runs, methods) of several results files, each a training draw of the networks the runs use, as one set of
+    cells: a later file's cells are told apart by ``@<its place>`` after the scenario, so that the rule
+    (:func:`choice`) counts a fold cell of every draw. Every file must hold the first one's runs with the same
+    settings (the estimators' options included), and no two the same fold networks."""
+    from hybrid_imu_folds import read_results
+    runs, first, networks = {}, None, []
+    for i, path in enumerate(paths):
+        settings, draw = read_results(Path(path))
+        same = {k: v for k, v in settings.items() if k != "fold_nets"}
+        if first is None:
+            first = same
+        elif same != first:
+            differ = sorted(k for k in {*same, *first} if same.get(k) != first.get(k))
+            raise SystemExit(f"{path} holds other runs or settings than {paths[0]} ({', '.join(differ)}): the draws "
+                             "must run the same ones")
+        if settings.get("fold_nets") is not None and settings["fold_nets"] in networks:
+            raise SystemExit(f"{path} ran the same fold networks as an earlier file: not another draw")
+        networks.append(settings.get("fold_nets"))
+        runs.update({(k[0], k[1], k[2] + (f"@{i}" if i else ""), k[3]): v for k, v in draw.items()})
+    return runs, first["methods"]
+
+
+def print_choices(runs: dict, methods: list[str], folds) -> None:
+    """For each registry method with several runs in ``methods``: the run the rule picks (:func:`choice`)."""
+    families: dict[str, list[str]] = {}
+    for m in methods[1:]:
+        families.setdefault(variant_run(m)[0], []).append(m)
+    for name, candidates in families.items():
+        if len(candidates) > 1:
+            print(f"\n{name}: the run chosen on the velocity and the position after the outage")
+            print(choice(runs, candidates, folds))
+
+
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).parent))
     from hybrid_imu_folds import load_runs, run_saving
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
-    from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HNP, GRAPH_TC, GRAPH_TC_BATCH, get_method
+    from graphnav.evaluation.methods import GRAPH_HN, GRAPH_HNI, GRAPH_HNP, GRAPH_TC, GRAPH_TC_BATCH, get_method
     p.add_argument("--methods", nargs="+", default=[GRAPH_TC, GRAPH_HN, GRAPH_HNP], help="graph methods (Graph-TC "
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
     p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
+    p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
+                   "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
                    "keyframes of its last W s (module docstring)")
     p.add_argument("--retired", action="store_true", help="also each method with a completer with its completions "
@@ -250,33 +364,51 @@ def main(argv=None) -> int:
     p.add_argument("--max-windows", type=int, default=2, help="windows per trajectory (as the regime table)")
     p.add_argument("--backend", default="isam2", choices=("isam2", "fixed-lag"), help="the graph's smoother (default: "
                    "isam2, as the regime table; fixed-lag is graphnav online's default)")
+    p.add_argument("--fold-nets", nargs=3, action="append", default=[], metavar=("SCENARIO", "IMU_DIR", "BEAM_DIR"),
+                   help="the fold networks of the methods with a network completer (Graph-HNI, Graph-HN-net, ...) "
+                        "for a scenario (repeat per scenario): the IMU-aware ones (imu_completer_folds.py "
+                        "--save-nets) and the beam-only ensembles (graphnav eval-beams --folds --save-nets); each "
+                        "trajectory runs its own fold's (module docstring)")
+    p.add_argument("--over-draws", nargs="+", metavar="FILE", help="run nothing: the choice over the results files "
+                   "of several training draws of the fold networks, their fold cells counted together")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
     p.add_argument("--out", default="out/position/drift.json", help="results (JSON); a rerun with the same "
                    "settings resumes from it")
     a = p.parse_args(argv)
+    from graphnav.nets.crossval import AKIT_FOLDS
+    if a.over_draws:
+        runs, methods = runs_over_draws(a.over_draws)
+        print(f"{len(a.over_draws)} training draws, their fold cells counted together")
+        print_choices(runs, methods, AKIT_FOLDS)
+        return 0
     if a.methods[0] != GRAPH_TC:
         p.error("--methods must start with Graph-TC (the ratios are to it)")
-    if a.pivot_runs is not None:
-        if not all(t >= 0 for t in a.pivot_runs):
-            p.error("--pivot-runs: correlation times must be >= 0 s (0: independent errors)")
-        a.methods += [f"{GRAPH_HNP} each ping", *(f"{GRAPH_HNP} tau {t:g}" for t in a.pivot_runs)]
+    for flag, method, times in (("--pivot-runs", GRAPH_HNP, a.pivot_runs), ("--hni-runs", GRAPH_HNI, a.hni_runs)):
+        if times is not None:
+            if not all(t >= 0 for t in times):
+                p.error(f"{flag}: correlation times must be >= 0 s (0: independent errors)")
+            a.methods += [f"{method} each ping", *(f"{method} tau {t:g}" for t in times)]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
         a.methods += [o for o in map(other_retirement, a.methods) if o is not None]
+    fold_nets = {scenario: [str(Path(imu)), str(Path(beam))] for scenario, imu, beam in a.fold_nets}
+    unserved = sorted({(m, sc) for m in a.methods for sc in a.scenarios
+                       if needs_fold_nets(m, sc) and sc not in fold_nets})
+    if unserved:
+        p.error(f"{unserved[0][0]} with {unserved[0][1]} runs its networks out of fold: give --fold-nets "
+                f"{unserved[0][1]} IMU_DIR BEAM_DIR (its shipped networks were trained on these trajectories)")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
-    from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
-                "estimator_options": {m: resolved_options(m) for m in a.methods}}
+                "estimator_options": {m: resolved_options(m) for m in a.methods},
+                **({"fold_nets": fold_nets} if fold_nets else {})}
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)
-    items = [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend)
-             for pair in AKIT_FOLDS for k in pair for g in a.grades for sc in a.scenarios for w in a.window_s
-             if (f"Trajectory{k}", g, sc, w) not in runs]
+    items = study_items(sources, a, fold_nets, runs, AKIT_FOLDS)
     run_saving(trajectory_task, items, runs, out, settings, a.jobs)
     print(f"{a.max_windows} windows per trajectory; horizontal position error less the window start's, m; Graph-TC "
           "in its units, the others as ratios to it, pooled (worst fold)")
@@ -285,13 +417,7 @@ def main(argv=None) -> int:
     if GRAPH_TC_BATCH in a.methods and batches:
         print(f"\nThe batch runs against {GRAPH_TC_BATCH} (per fold cell and pooled)")
         print(against_reference(runs, batches, GRAPH_TC_BATCH, AKIT_FOLDS))
-    families: dict[str, list[str]] = {}
-    for m in a.methods[1:]:
-        families.setdefault(variant_run(m)[0], []).append(m)
-    for name, candidates in families.items():
-        if len(candidates) > 1:
-            print(f"\n{name}: the run chosen on the velocity and the position after the outage")
-            print(choice(runs, candidates, AKIT_FOLDS))
+    print_choices(runs, a.methods, AKIT_FOLDS)
     return 0
 
 

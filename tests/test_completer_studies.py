@@ -765,6 +765,9 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     assert study.variant_run("Graph-HNP tau 0 kept") == ("Graph-HNP", {"regressed_runs": "screen-first",
                                                                        "regressed_error_tau_s": None,
                                                                        "retire_completions": False})
+    assert study.variant_run("Graph-HNI each ping retired") == ("Graph-HNI", {"regressed_runs": "screen-each",
+                                                                               "regressed_error_tau_s": None,
+                                                                               "retire_completions": True})
     assert study.variant_run("Graph-TC relinearised 20") == ("Graph-TC", {"relin_window_s": 20.0,
                                                                           "relinearize_skip": 1})
     assert study.other_retirement("Graph-HN") == "Graph-HN kept"
@@ -795,6 +798,85 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     del runs[("Trajectory13", "mems", "3-missing", 120.0)]
     del runs[("Trajectory6", "mems", "3-missing", 120.0)]
     assert study.choice(runs, ["A", "B"], folds).startswith("not chosen")
+
+
+def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_fold_networks(tmp_path, capsys):
+    """``Graph-HNI`` (any run of it) needs fold networks wherever a beam is measured, not in a total outage nor for
+    another method; with them a trajectory gets its fold's IMU-aware network fused with its fold's beam-only one, and
+    without them for a scenario that needs them the study refuses to start; networks whose cards do not say the
+    trajectory was held out are refused; the beam-only network's methods run the fold's beam-only ensemble. ``--over-draws`` keeps the draws' cells apart and refuses draws of other runs or
+    settings, or of the same networks."""
+    import shutil
+    import sys
+    import types
+
+    from graphnav.core.config import SensorConfig
+    from graphnav.core.errors import ConfigError
+    study = _study("outage_position_drift")
+    sys.path.insert(0, str(ROOT / "experiments"))      # the studies import their siblings
+    assert study.needs_fold_nets("Graph-HNI retired", "3-missing")
+    assert study.needs_fold_nets("Graph-HNI-batch", "2-missing")
+    assert not study.needs_fold_nets("Graph-HNI", "0-beams")
+    assert not study.needs_fold_nets("Graph-HN", "3-missing")
+    assert study.needs_fold_nets("Graph-HN-net", "2-missing")               # the beam-only network too
+    imu_dir, beam_dir = tmp_path / "imu", tmp_path / "beam"
+    for folder, prefix in ((imu_dir, "imu-"), (beam_dir, "")):
+        (folder / "fold2").mkdir(parents=True)
+        for suffix in ("pt", "json"):
+            shutil.copy(ROOT / "nets" / "weights" / f"{prefix}3-missing.{suffix}", folder / "fold2")
+    mission = types.SimpleNamespace(config=SensorConfig())
+    fold_nets = {"3-missing": [str(imu_dir), str(beam_dir)]}
+    # the shipped networks were trained on every trajectory: their cards refuse to score trajectory 4 (fold 2)
+    with pytest.raises(SystemExit, match="3-missing.json: the card names neither"):
+        study.fold_completer("Graph-HNI", "3-missing", fold_nets, 2, mission, 4)
+    beam_card = beam_dir / "fold2" / "3-missing.json"
+    beam_card.write_text(json.dumps({**json.loads(beam_card.read_text()), "data": {"held_out": [4, 10]}}))
+    with pytest.raises(SystemExit, match="imu-3-missing.json: trained on trajectory 4"):
+        study.fold_completer("Graph-HNI", "3-missing", fold_nets, 2, mission, 4)
+    imu_card = imu_dir / "fold2" / "imu-3-missing.json"
+    imu_card.write_text(json.dumps({**json.loads(imu_card.read_text()),
+                                    "split": {"train_trajectories": [1, 2, 3, 5, 6, 8, 11, 13]}}))
+    with pytest.raises(SystemExit, match="trained on trajectory 6"):
+        study.fold_completer("Graph-HNI", "3-missing", fold_nets, 2, mission, 6)
+    comp = study.fold_completer("Graph-HNI kept", "3-missing", fold_nets, 2, mission, 4)
+    assert [len(missing) for missing in comp.networks] == [3]             # the 3-missing network
+    assert comp.fused_beam_only is not None and comp.beam_only is not comp.fused_beam_only
+    assert study.fold_completer("Graph-HNI", "0-beams", fold_nets, 2, mission, 4) is None
+    assert study.fold_completer("Graph-HN", "3-missing", fold_nets, 2, mission, 4) is None
+    with pytest.raises(ConfigError, match="fold1"):                      # fold 1 has no networks here
+        study.fold_completer("Graph-HNI", "3-missing", fold_nets, 1, mission, 2)
+    beam_only = study.fold_completer("Graph-HN-net", "3-missing", fold_nets, 2, mission, 10)
+    assert beam_only.n_past and not hasattr(beam_only, "networks")          # the fold's beam-only ensemble alone
+    with pytest.raises(SystemExit) as refused:
+        study.main(["--methods", "Graph-TC", "Graph-HNI", "--scenarios", "3-missing", "--out", str(tmp_path / "o.json")])
+    assert refused.value.code == 2 and "--fold-nets 3-missing" in capsys.readouterr().err
+    # every trajectory runs the networks of the fold that holds it out
+    options = types.SimpleNamespace(grades=["mems"], scenarios=["3-missing"], window_s=[120.0], max_windows=2,
+                                    methods=["Graph-TC", "Graph-HNI"], backend="isam2")
+    folds = [(1, 3), (2, 5), (4, 10), (6, 13), (8, 11)]
+    sources = {f"Trajectory{k}": k for pair in folds for k in pair}
+    items = study.study_items(sources, options, fold_nets, {("Trajectory5", "mems", "3-missing", 120.0): {}}, folds)
+    assert {item[0]: item[-1] for item in items} == {1: 0, 3: 0, 2: 1, 4: 2, 10: 2, 6: 3, 13: 3, 8: 4, 11: 4}
+
+    # two training draws' files: the second draw's cells are told apart, so the rule counts the fold cells of both
+    from hybrid_imu_folds import save_runs
+    key = ("Trajectory6", "mems", "3-missing", 120.0)
+    window = {"vrmse": 1.0, "after 20-40 s": 2.0, "end 10 s": 1.0, "bench": 1.0}
+    both = ["Graph-TC", "Graph-HNI"]
+    for name, methods, backend, nets in (("a", both, "isam2", "n1"), ("b", both, "isam2", "n2"),
+                                         ("c", ["Graph-TC"], "isam2", "n3"), ("d", both, "fixed-lag", "n4"),
+                                         ("e", both, "isam2", "n1")):
+        save_runs(tmp_path / f"{name}.json", {"methods": methods, "backend": backend, "fold_nets": nets},
+                  {key: {m: [window] for m in methods}})
+    runs, methods = study.runs_over_draws([tmp_path / "a.json", tmp_path / "b.json"])
+    assert methods == both
+    assert sorted(runs) == [key, ("Trajectory6", "mems", "3-missing@1", 120.0)]
+    with pytest.raises(SystemExit, match="methods"):
+        study.runs_over_draws([tmp_path / "a.json", tmp_path / "c.json"])
+    with pytest.raises(SystemExit, match="backend"):
+        study.runs_over_draws([tmp_path / "a.json", tmp_path / "d.json"])
+    with pytest.raises(SystemExit, match="same fold networks"):
+        study.runs_over_draws([tmp_path / "a.json", tmp_path / "e.json"])
 
 
 def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_studies(tmp_path):

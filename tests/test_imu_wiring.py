@@ -342,6 +342,27 @@ def test_methods_report_where_the_imu_window_was_used(gapped_mission, method):
     assert np.all(np.isfinite(sol.v_n))
 
 
+def test_graph_hni_takes_its_completions_out_when_the_measured_beams_return():
+    """Every regressed beam Graph-HNI let into the graph through a 3-missing outage that the measured beams end (a
+    run screened once, its later completions entering as correlated differences) leaves the graph at their return,
+    and the batch variant then smooths the mission to Graph-TC-batch's estimate, where keeping them does not. On the
+    simulated vehicle the screening's correlation takes every completion out before it enters (the graph's own
+    prediction already holds what they know), so the test screens them as independent of it."""
+    from graphnav.evaluation.methods import run_method
+    mission = simulate_mission(90.0, "navigation", 2).with_outage(scenario_outage("3-missing", 50.0, 20.0))
+    independent = {"screening.correlation": 0.0}
+    sol = run_method(mission, "Graph-HNI", "3-missing", options=independent)
+    assert sol.info["completer_usage"]["imu"] == 20
+    screening = sol.info["regressed_screening"]
+    assert screening["continued"] > 0 and sol.info["completions_retired"] == screening["entered"] > 0
+    tc = run_method(mission, "Graph-TC-batch")
+    batch = run_method(mission, "Graph-HNI-batch", "3-missing", options=independent)
+    assert batch.info["completions_retired"] == screening["entered"]
+    np.testing.assert_allclose(batch.v_n, tc.v_n, atol=1e-4)
+    kept = run_method(mission, "Graph-HNI-batch", "3-missing", options={**independent, "retire_completions": False})
+    assert np.abs(kept.v_n - tc.v_n).max() > 1e-3
+
+
 def test_fused_imu_completer_runs_in_the_keyframer_with_its_run_lengths(gapped_mission):
     """A FusedCompleter whose IMU-aware member is an ImuAutoCompleter passes the keyframer's check (it inherits
     the member's beam-only route) and, with growth, is handed each beam's run length by the history at every

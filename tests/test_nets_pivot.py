@@ -214,9 +214,9 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     assert options.runs_for(0) == "screen-each" and options.error_tau_for(0) is None
     assert all(options.runs_for(n) == "screen-first" and options.error_tau_for(n) == 10.0 for n in (1, 2))
     assert options.runs_for(3) == "screen-first" and options.error_tau_for(3) is None
-    # the shipped hybrids take their completions out when the beams return; the experimental Graph-HNI keeps them
-    assert options.retire_completions and methods.estimator_options("Graph-HN").retire_completions
-    assert not methods.estimator_options("Graph-HNI").retire_completions
+    # every hybrid graph method takes its completions out when the beams return
+    assert all(methods.estimator_options(m).retire_completions
+               for m in ("Graph-HNP", "Graph-HN", "Graph-HN-batch", "Graph-HNI", "Graph-HNI-batch"))
     sol = graphnav.run_method(mission.with_outage(scenario_outage("3-missing", 50.0, 20.0)), "Graph-HNP", "3-missing")
     assert sol.info["completer_usage"] == {"imu": 20, "no_imu": 0, "imu_not_finite": 0}
     assert sol.info["completions_retired"] == sol.info["regressed_screening"]["entered"]

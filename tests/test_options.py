@@ -58,8 +58,10 @@ def test_named_options_fill_groups_on_top_of_the_method_defaults():
     for method in ("Graph-HNI", "Graph-HNI-batch"):
         hni = estimator_options(method)
         # by the number of measured beams: a total outage, 3, 2 and 1 missing
-        assert (hni.regressed_runs, hni.regressed_error_tau_s) == ("screen-first", {0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})
+        assert hni.regressed_runs == {0: "screen-each", 1: "screen-first", 2: "screen-first", 3: "screen-first"}
+        assert hni.regressed_error_tau_s == {0: None, 1: 3.0, 2: 10.0, 3: 10.0}
         assert hni.screening == RegressedScreeningOptions(correlation=0.5, adaptive=True)
+        assert hni.retire_completions                   # taken out when the measured beams return
     assert estimator_options("Graph-HNI", {"regressed_error_tau_s": None}).regressed_error_tau_s is None
     whole = build_options(EkfOptions, {"priors": PriorOptions(position_sigma=2.0), "priors.velocity_sigma": 0.2})
     assert whole.priors.position_sigma == 2.0 and whole.priors.velocity_sigma == 0.2

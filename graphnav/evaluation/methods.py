@@ -22,10 +22,13 @@ Graph-MP           graph      none; model-aided motion prior (body-velocity rand
                               heave) at keyframes with fewer than 3 measured beams
 HNTC-IMU           EKF        the IMU-aware completer fused with the beam-only one (beam-only where
                               it cannot serve)
-Graph-HNI          graph      the same completer (ISAM2 filtered output); a run of regressed beams
-                              screened until one is kept, its errors correlated over 10 s with 2
-                              or 3 beams measured, 3 s with 0 or 1
-Graph-HNI-batch    graph      the same completer and runs (batch smoothed)
+Graph-HNI          graph      the same completer (ISAM2 filtered output); with a beam measured a run of
+                              regressed beams screened until one is kept, its errors correlated over
+                              10 s with 2 or 3 beams measured, 3 s with 1; in a total outage each
+                              completion screened; its completions taken out when the measured beams
+                              return (:data:`RETIRE_COMPLETIONS`)
+Graph-HNI-batch    graph      the same completer and runs (batch smoothed; the completions of an outage
+                              the measured beams end are left out)
 Graph-HNP          graph      the pivot completer (:mod:`graphnav.nets.pivot`): the average estimator with
                               the hull's sideslip in turns from the gyro, its pivot length fitted online
                               over the mission's measured pings; with a beam measured a run of regressed
@@ -125,24 +128,36 @@ RETIRE_COMPLETIONS: Mapping = types.MappingProxyType({"retire_completions": True
 #: motion_prior="total-if-uncertain" beside it is better-or-equal in every regime of the ten shared trajectories
 #: (docs/decisions/regressed-beams.md, measured with experiments/regressed_candidates.py).
 GRAPH_HN_OPTIONS: Mapping = types.MappingProxyType({**REGRESSED_SCREENING, **RETIRE_COMPLETIONS})
-#: Graph settings of Graph-HNI and Graph-HNI-batch: the screening, and a run of regressed beams screened only until
-#: one of its completions is kept, its later ones entering as whitened differences with a Gauss-Markov correlation
-#: time that depends on how many beams the ping measured (GraphOptions.regressed_runs, regressed_error_tau_s): 3 s
-#: with none or one, 10 s with two (and with three, which no regime cell measures: the joint choice's value). Chosen
+#: Graph settings of Graph-HNI and Graph-HNI-batch: the screening, and with a beam measured a run of regressed beams
+#: screened only until one of its completions is kept, its later ones entering as whitened differences with a
+#: Gauss-Markov correlation time that depends on how many beams the ping measured (GraphOptions.regressed_runs,
+#: regressed_error_tau_s): 3 s with one, 10 s with two (and with three, which no regime cell measures: the joint
+#: choice's value); in a total outage each completion screened (below). Chosen
 #: by the regime rule (fewest fold cells over 1.02x Graph-TC, then the lowest mean ratio), each fold with its own
 #: networks, with the cells of five training draws of those networks counted together. Over the 2-missing, 3-missing
 #: and total-outage cells together the rule picked 10 s: 3 s and 5 s put fold 1 over 1.02x with 2 missing beams and
 #: MEMS over 60 s in two draws. Each number of measured beams is a different completer, and chosen each alone: with
 #: one beam measured 3 s (no fold cell over 1.02x in five draws; 0.66-0.69x with MEMS over 120 s against 10 s's
 #: 0.72-0.74x; independent errors, chosen on the first three draws, put fold 1 at 1.06x in the fifth), in a total
-#: outage (no network, the same in every draw) 3 s (0.44x with MEMS over 120 s), with two beams measured 10 s (no
+#: outage (no network, the same in every draw) 3 s with the completions kept (0.44x with MEMS over 120 s), with two
+#: beams measured 10 s (no
 #: fold cell over 1.02x in five draws; 3 s 1.03x and independent errors 1.09x in fold 1). With the average estimator
 #: (Graph-HN) the rule keeps screening each ping: there every screen-first setting is worse than 1.02x Graph-TC in
 #: some fold (docs/decisions/completers.md, experiments/oracle_completions.py). A position-fix keyframe between pings
-#: ends a run.
+#: ends a run. Its completions leave the graph when the measured beams return (RETIRE_COMPLETIONS), as Graph-HN's:
+#: chosen by the same rule on both readings (the velocity through the outage and the position 20-40 s after it),
+#: each trajectory with its own fold's networks, on all folds and with each fold left out, over two training draws
+#: (fold cells over 1.02x Graph-TC 1 / 6 of 100 against 0 / 14 kept; the batch, which leaves out the completions of
+#: every outage the measured beams end, 0 of 60 fold cells over 1.02x Graph-TC-batch against 8 kept). With them
+#: taken out, the total outage's setting was chosen again as Graph-HNP's was: each completion screened, 0 / 0 of 20
+#: fold cells over (3 s: 1 / 1, the velocity cell 1.029x), on all folds and with each fold left out, at a cost
+#: with MEMS over 120 s (0.48x Graph-TC against 0.44x) (experiments/outage_position_drift.py --fold-nets
+#: --hni-runs; docs/decisions/completers.md, "Graph-HNI's completions taken out when the beams return").
 GRAPH_HNI_OPTIONS: Mapping = types.MappingProxyType({
-    **REGRESSED_SCREENING, "regressed_runs": "screen-first",
-    "regressed_error_tau_s": types.MappingProxyType({0: 3.0, 1: 3.0, 2: 10.0, 3: 10.0})})
+    **REGRESSED_SCREENING,
+    "regressed_runs": types.MappingProxyType({0: "screen-each", 1: "screen-first", 2: "screen-first",
+                                              3: "screen-first"}),
+    "regressed_error_tau_s": types.MappingProxyType({0: None, 1: 3.0, 2: 10.0, 3: 10.0}), **RETIRE_COMPLETIONS})
 #: Graph settings of Graph-HNP (the pivot completer): the screening; in a total outage every completion screened
 #: against the graph's prediction (as Graph-HN's), and with a beam or more measured a run of regressed beams screened
 #: only until one of its completions is kept, its later ones entering with errors correlated over 10 s (one or two
@@ -295,12 +310,13 @@ _RECORDS = (
            experimental=True),
     Method(GRAPH_HNI, "graph", tight=True, completer="imu-network", defaults=GRAPH_HNI_OPTIONS,
            description="Graph-HN with the IMU-aware completer fused with the beam-only one (beam-only alone "
-                       "without a 20 s IMU window), a run of regressed beams screened until one is kept and "
-                       "its errors correlated over 10 s with 2 or 3 beams measured, 3 s with 0 or 1; "
-                       "experimental",
+                       "without a 20 s IMU window); with a beam measured a run of regressed beams screened until "
+                       "one is kept, its errors correlated over 10 s with 2 or 3 measured, 3 s with 1; in a total "
+                       "outage each completion screened; taken out when the measured beams return; experimental",
            experimental=True),
     Method(GRAPH_HNI_BATCH, "graph", tight=True, completer="imu-network", batch=True, defaults=GRAPH_HNI_OPTIONS,
-           description="Graph-HNI, then the batch smoother over the whole mission; experimental", experimental=True),
+           description="Graph-HNI, then the batch smoother over the whole mission (the completions of an outage "
+                       "the measured beams end left out); experimental", experimental=True),
     Method(GRAPH_HNP, "graph", tight=True, completer="pivot", defaults=GRAPH_HNP_OPTIONS,
            description="Graph-HN with the pivot completer: the past beams held with the hull's sideslip in turns "
                        "(pivot length fitted online from the mission's measured pings); with a beam measured a run "

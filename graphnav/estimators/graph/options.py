@@ -192,11 +192,12 @@ class GraphOptions:
             run enters without the screening, at the completer's sigma (the screening compares a completion with a
             prediction the run's earlier completions have already pulled, and would drop most of them as redundant
             with themselves). A mapping gives one per number of beams measured at the ping (:meth:`runs_for`; a
-            count it does not name screens each ping). ``Graph-HNI`` uses ``"screen-first"`` with
-            ``regressed_error_tau_s`` by the
-            number of measured beams, 3 s / 3 s / 10 s / 10 s for 0 / 1 / 2 / 3
+            count it does not name screens each ping). ``Graph-HNI`` uses ``"screen-first"`` with a beam or more
+            measured, with ``regressed_error_tau_s`` by the number of measured beams, 3 s / 10 s / 10 s for 1 / 2
+            / 3, and screens each ping in a total outage
             (:data:`graphnav.evaluation.methods.GRAPH_HNI_OPTIONS`, chosen over the folds of five training
-            draws); with the average estimator it made some folds worse than Graph-TC, so ``Graph-HN`` screens
+            draws, the total outage again with its completions taken out when the beams return); with the
+            average estimator it made some folds worse than Graph-TC, so ``Graph-HN`` screens
             each ping; ``Graph-HNP`` screens each ping in a total outage and a run once with a beam or more measured
             (:data:`graphnav.evaluation.methods.GRAPH_HNP_OPTIONS`; docs/decisions/completers.md).
         regressed_error_tau_s: with ``regressed_runs="screen-first"``, the correlation time (s) of a completer's
