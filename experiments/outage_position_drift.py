@@ -83,12 +83,12 @@ RELINEARISED = " relinearised "
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
-    """(registry method, graph options on top of its defaults) of a run label: a method name, ``Graph-HNP each
-    ping``, ``Graph-HNP tau T`` (T = 0: independent errors), any of them followed by `` retired`` or `` kept`` (its
-    completions taken out of the graph when the beams return or not, ``GraphOptions.retire_completions``), or a method
-    followed by `` relinearised W`` (ISAM2 relinearising every update the keyframes of the last W s, instead of
-    every 10th update those of the last 5 s: the estimator's own sensitivity to its linearisation); the same
-    ``each ping`` and ``tau T`` runs of ``Graph-HNI``."""
+    """(registry method, graph options on top of its defaults) of a run label: a method name, ``<method> each
+    ping``, ``<method> tau T`` (T = 0: independent errors; ``Graph-HNP``'s and ``Graph-HNI``'s in the studies), any
+    of them followed by `` retired`` or `` kept`` (its completions taken out of the graph when the beams return or
+    not, ``GraphOptions.retire_completions``), or a method followed by `` relinearised W`` (ISAM2 relinearising every
+    update the keyframes of the last W s, instead of every 10th update those of the last 5 s: the estimator's own
+    sensitivity to its linearisation)."""
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -140,18 +140,17 @@ def needs_fold_nets(method: str, scenario: str) -> bool:
     return get_method(variant_run(method)[0]).completer in FOLD_NETWORK_COMPLETERS and not is_total_outage(scenario)
 
 
-def check_held_out(card_path: Path, trajectory: int) -> None:
-    """Refuse a fold network whose model card does not say that A-KIT ``trajectory`` was held out from its training:
-    the IMU-aware cards list ``split.train_trajectories``, the beam-only fold cards ``data.held_out``."""
-    import json
-    card = json.loads(card_path.read_text())
+def check_held_out(card: dict, trajectory: int, where: str) -> None:
+    """Refuse a fold network (found in ``where``) whose model card does not say that A-KIT ``trajectory`` was held out
+    from its training: the IMU-aware cards list ``split.train_trajectories``, the beam-only fold cards
+    ``data.held_out``."""
     trained = (card.get("split") or {}).get("train_trajectories")
     held_out = (card.get("data") or {}).get("held_out")
     if trained is None and held_out is None:
-        raise SystemExit(f"{card_path}: the card names neither its training nor its held-out trajectories, so it "
+        raise SystemExit(f"{where}: the card names neither its training nor its held-out trajectories, so it "
                          f"cannot be run out of fold on trajectory {trajectory}")
     if (trained is not None and trajectory in trained) or (held_out is not None and trajectory not in held_out):
-        raise SystemExit(f"{card_path}: trained on trajectory {trajectory}, which it would score (trained on "
+        raise SystemExit(f"{where}: trained on trajectory {trajectory}, which it would score (trained on "
                          f"{trained}, held out {held_out}): give the folder of every fold's networks")
 
 
@@ -168,14 +167,16 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
     from graphnav.evaluation.methods import get_method
     imu_dir, beam_dir = fold_nets[scenario]
     variant = FOLD_NETWORK_COMPLETERS[get_method(variant_run(method)[0]).completer]
-    cards = [Path(beam_dir) / f"fold{fold}" / f"{scenario}.json"]
-    if variant == "HNI fold fused":
-        cards.append(Path(imu_dir) / f"fold{fold}" / f"imu-{scenario}.json")
-    for card in cards:
-        if card.is_file():      # an absent card: the loader names the missing files
-            check_held_out(card, trajectory)
-    nets = (imu_dir, beam_dir) if variant == "HNI fold fused" else beam_dir
-    return completer(variant, scenario, nets, fold, None, mission.config.dvl.beam_noise_std, mission.config)
+    fused = variant == "HNI fold fused"
+    comp = completer(variant, scenario, (imu_dir, beam_dir) if fused else beam_dir, fold, None,
+                     mission.config.dvl.beam_noise_std, mission.config)
+    # the cards the loaders read, of every network the completer runs (the fused pair's fallback is a second
+    # load of its fused beam-only member's folder)
+    members = ([(beam_dir, comp.fused_beam_only)] + [(imu_dir, n) for n in comp.networks.values()] if fused
+               else [(beam_dir, comp)])
+    for folder, network in members:
+        check_held_out(network.card, trajectory, f"{Path(folder) / f'fold{fold}'} ({scenario})")
+    return comp
 
 
 def study_items(sources: dict, a, fold_nets: dict, runs: dict, folds) -> list[tuple]:
@@ -193,7 +194,6 @@ def trajectory_task(item):
     source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold = item
     import warnings
     warnings.simplefilter("ignore")
-    sys.path.insert(0, str(Path(__file__).parent))
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
     from graphnav.evaluation.methods import run_method
