@@ -74,11 +74,14 @@ def variant_options(variant: str) -> dict | None:
     raise ValueError(f"unknown variant {variant!r}")
 
 
-def fold_completer(imu_dirs, beam_dirs, fold: int):
+def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     """The shipped ``Graph-HNI`` completer with fold ``fold``'s networks of both patterns: ``imu_dirs`` and
     ``beam_dirs`` are (2-missing, 3-missing) directories holding ``fold<k>``. The beam-only fold ensembles fade as the
-    shipped beam-only networks' cards say where they serve alone, and not at all as the fused member."""
-    from hybrid_imu_folds import shipped_run_decay
+    shipped beam-only networks' cards say where they serve alone, and not at all as the fused member. ``beam_dirs``
+    both :data:`imu_beam_fused_folds.PIVOT_MEMBER`: the pivot completer in their place (fitted online as
+    ``Graph-HNP``'s, for the mission's sensors ``config``), as ``hybrid_imu_folds.completer`` builds the pair."""
+    from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
+    from imu_beam_fused_folds import PIVOT_MEMBER
 
     from graphnav.nets.average import AverageCompleter
     from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION, ImuAutoCompleter
@@ -92,6 +95,14 @@ def fold_completer(imu_dirs, beam_dirs, fold: int):
         return AutoCompleter(nets, AverageCompleter(3))     # load_completer("auto")'s fallback window
     imu = [load_imu_completer(s, fold_dir(d), run_decay=FUSED_RUN_DECAY[s]["IMU-aware"])
            for s, d in zip(scenarios, imu_dirs)]
+    if PIVOT_MEMBER in beam_dirs:
+        if set(beam_dirs) != {PIVOT_MEMBER}:
+            raise SystemExit(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
+        from graphnav.core.config import SensorConfig
+        from graphnav.evaluation.methods import pivot_completer
+        # one pivot completer serves both patterns, as Graph-HNP's does in this stress
+        pivot = pivot_completer("2-missing", config if config is not None else SensorConfig())
+        return ImuAutoCompleter(imu, pivot, IMU_PIVOT_ERROR_CORRELATION)
     return ImuAutoCompleter(imu, beam_only(shipped_run_decay), IMU_BEAM_ERROR_CORRELATION,
                             fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]))
 
@@ -170,7 +181,8 @@ def window_task(item):
             method, kwargs = variant, {}
         else:
             method = "Graph-HNI"
-            kwargs = {"completer": fold_completer(imu_dirs, beam_dirs, fold), "options": variant_options(variant)}
+            kwargs = {"completer": fold_completer(imu_dirs, beam_dirs, fold, mission.config),
+                      "options": variant_options(variant)}
         builder_mod.continue_regressed_runs = counter
         try:
             sol = run_method(run, method, "2-missing", **kwargs)
@@ -263,7 +275,7 @@ def main(argv=None) -> int:
                    help="the IMU-aware fold networks of 2 and of 3 missing beams (imu_completer_folds.py --save-nets)")
     p.add_argument("--beam-nets", nargs=2, metavar=("DIR2", "DIR3"),
                    help="the beam-only fold ensembles of 2 and of 3 missing beams (eval-beams --folds --save-nets "
-                        "DIR: DIR/<recipe>)")
+                        "DIR: DIR/<recipe>), or 'pivot pivot': the pivot completer in their place")
     p.add_argument("--flicker", nargs=2, type=float, default=list(FLICKER), metavar=("P_DROP", "P_RECOVER"),
                    help=f"per-ping drop and recovery probabilities of beam 4 (default {FLICKER[0]:g} {FLICKER[1]:g})")
     p.add_argument("--variants", nargs="+", default=list(VARIANTS), help="runs per window (default: all)")
@@ -287,7 +299,8 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    resolved = [str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
+    from imu_beam_fused_folds import PIVOT_MEMBER
+    resolved = [d if d == PIVOT_MEMBER else str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
     settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
                 "flicker_seed": "trajectory and window start"}
     out = Path(a.out)

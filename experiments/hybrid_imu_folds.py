@@ -80,14 +80,18 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     if method == "HNI fold fused":
         from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
-        decays = FUSED_RUN_DECAY[scenario]
         from imu_beam_fused_folds import PIVOT_MEMBER
         if beam_dir == PIVOT_MEMBER:
             from graphnav.core.config import SensorConfig
+            from graphnav.core.scenarios import is_total_outage
             from graphnav.evaluation.methods import pivot_completer
             pivot = pivot_completer(scenario, config if config is not None else SensorConfig())
-            net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])
-            return ImuAutoCompleter([net], pivot, {scenario: IMU_PIVOT_ERROR_CORRELATION[scenario]})
+            # no network serves a total outage (the pivot completer does); the pair still holds the folder's
+            # 3-missing network, as a shipped pair would hold its networks whatever the outage
+            pattern = "3-missing" if is_total_outage(scenario) else scenario
+            net = load_imu_completer(pattern, Path(imu_dir) / f"fold{fold}", run_decay=FUSED_RUN_DECAY[pattern]["IMU-aware"])
+            return ImuAutoCompleter([net], pivot, {pattern: IMU_PIVOT_ERROR_CORRELATION[pattern]})
+        decays = FUSED_RUN_DECAY[scenario]
         beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=shipped_run_decay(scenario))
         fused_beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=decays["beam-only"])
         net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])

@@ -16,7 +16,9 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 ``--pivot-runs T ...`` adds ``Graph-HNP`` with other run settings: screened at each ping (``Graph-HNP each ping``,
 ``Graph-HN``'s) and, per T, a run of its completions screened until one is kept, their errors correlated over T s
 whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
-outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``). ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
+outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``).
+``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
+:data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
 relinearised W``): how much Graph-TC's own readings move with an equally valid linearisation, the noise floor of a
 ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
 the beams return (``<method> retired``, ``GraphOptions.retire_completions``), or, for a method that does so by
@@ -30,6 +32,10 @@ fold fused``, the shipped pair's structure, or ``HN-net fold``). Their shipped n
 trajectories, so a scenario with a measured beam and no fold networks is refused, and so is a fold network whose
 model card does not say the trajectory was held out. In a total outage
 no network serves a ping (the completer falls back to the average estimator) and the shipped completer runs.
+``BEAM_DIR`` ``pivot`` puts the pivot completer in the beam-only ensembles' place (the pair of section "The IMU-aware
+network fused with the pivot completer" in docs/decisions/completers.md); given for a total outage too
+(``--fold-nets 0-beams IMU_DIR pivot``, the folder's 3-missing networks), the pair runs there, its pivot member
+serving each ping.
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
 networks, a fold cell of every draw counted.
 
@@ -80,6 +86,7 @@ TAU = " tau "
 RETIRED = " retired"
 KEPT = " kept"
 RELINEARISED = " relinearised "
+PRIOR = " prior "
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -88,7 +95,10 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     of them followed by `` retired`` or `` kept`` (its completions taken out of the graph when the beams return or
     not, ``GraphOptions.retire_completions``), or a method followed by `` relinearised W`` (ISAM2 relinearising every
     update the keyframes of the last W s, instead of every 10th update those of the last 5 s: the estimator's own
-    sensitivity to its linearisation)."""
+    sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
+    :func:`pivot_prior`: no graph option)."""
+    if PRIOR in label:
+        return variant_run(label.rsplit(PRIOR, 1)[0])
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -104,6 +114,11 @@ def variant_run(label: str) -> tuple[str, dict | None]:
         tau = float(tau)
         return name, {"regressed_runs": "screen-first", "regressed_error_tau_s": tau if tau > 0 else None}
     return label, None
+
+
+def pivot_prior(label: str) -> float | None:
+    """The pivot completer's ``prior_turn`` ((rad/s)^2) of a run label ``<method> prior P``; None otherwise."""
+    return float(label.rsplit(PRIOR, 1)[1]) if PRIOR in label else None
 
 
 def resolved_options(label: str) -> dict:
@@ -159,21 +174,29 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
     :func:`needs_fold_nets`, the fold's networks as ``hybrid_imu_folds.py`` runs them (``fold_nets[scenario]``:
     (IMU-aware folder, beam-only folder)), after their cards confirm the trajectory was held out
     (:func:`check_held_out`): the IMU-aware network fused with the beam-only ensemble, or the beam-only ensemble
-    alone for a method of the beam-only network; otherwise None (the method's own)."""
-    if not needs_fold_nets(method, scenario):
-        return None
+    alone for a method of the beam-only network. A beam-only folder :data:`imu_beam_fused_folds.PIVOT_MEMBER`
+    (``pivot``) puts the pivot completer in the ensemble's place, in a total outage too (its pivot member serves
+    there). Otherwise None (the method's own)."""
     from hybrid_imu_folds import completer
+    from imu_beam_fused_folds import PIVOT_MEMBER
 
     from graphnav.evaluation.methods import get_method
+    kind = get_method(variant_run(method)[0]).completer
+    # the pivot pair runs in a total outage too: its pivot member serves there, as it would as shipped
+    pivot_pair = kind == "imu-network" and fold_nets.get(scenario, [None, None])[1] == PIVOT_MEMBER
+    if not (needs_fold_nets(method, scenario) or pivot_pair):
+        return None
     imu_dir, beam_dir = fold_nets[scenario]
-    variant = FOLD_NETWORK_COMPLETERS[get_method(variant_run(method)[0]).completer]
+    variant = FOLD_NETWORK_COMPLETERS[kind]
     fused = variant == "HNI fold fused"
+    if beam_dir == PIVOT_MEMBER and not fused:
+        raise SystemExit(f"{method}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
     comp = completer(variant, scenario, (imu_dir, beam_dir) if fused else beam_dir, fold, None,
                      mission.config.dvl.beam_noise_std, mission.config)
     # the cards the loaders read, of every network the completer runs (the fused pair's fallback is a second
-    # load of its fused beam-only member's folder)
-    members = ([(beam_dir, comp.fused_beam_only)] + [(imu_dir, n) for n in comp.networks.values()] if fused
-               else [(beam_dir, comp)])
+    # load of its fused beam-only member's folder; the pivot completer in its place has nothing trained)
+    beam_members = [] if beam_dir == PIVOT_MEMBER else [(beam_dir, comp.fused_beam_only if fused else comp)]
+    members = beam_members + ([(imu_dir, n) for n in comp.networks.values()] if fused else [])
     for folder, network in members:
         check_held_out(network.card, trajectory, f"{Path(folder) / f'fold{fold}'} ({scenario})")
     return comp
@@ -204,6 +227,9 @@ def trajectory_task(item):
     for method in methods:
         name, options = variant_run(method)
         comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
+        if pivot_prior(method) is not None:
+            from graphnav.evaluation.methods import pivot_completer
+            comp = pivot_completer(scenario, mission.config, prior_turn=pivot_prior(method))
         sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
     return (source.name, grade, scenario, window_s), result
@@ -352,6 +378,8 @@ def main(argv=None) -> int:
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
     p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
+    p.add_argument("--pivot-priors", nargs="+", type=float, metavar="P", help="also Graph-HNP with its pivot "
+                   "completer's prior_turn P instead of the shipped one (module docstring)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -388,11 +416,17 @@ def main(argv=None) -> int:
             if not all(t >= 0 for t in times):
                 p.error(f"{flag}: correlation times must be >= 0 s (0: independent errors)")
             a.methods += [f"{method} each ping", *(f"{method} tau {t:g}" for t in times)]
+    if a.pivot_priors:
+        if not all(prior >= 0 for prior in a.pivot_priors):
+            p.error("--pivot-priors: prior_turn must be >= 0 (rad/s)^2")
+        a.methods += [f"{GRAPH_HNP}{PRIOR}{prior:g}" for prior in a.pivot_priors]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
         a.methods += [o for o in map(other_retirement, a.methods) if o is not None]
-    fold_nets = {scenario: [str(Path(imu)), str(Path(beam))] for scenario, imu, beam in a.fold_nets}
+    from imu_beam_fused_folds import PIVOT_MEMBER
+    fold_nets = {scenario: [str(Path(imu)), beam if beam == PIVOT_MEMBER else str(Path(beam))]
+                 for scenario, imu, beam in a.fold_nets}
     unserved = sorted({(m, sc) for m in a.methods for sc in a.scenarios
                        if needs_fold_nets(m, sc) and sc not in fold_nets})
     if unserved:

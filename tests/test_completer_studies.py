@@ -615,6 +615,32 @@ def test_count_change_report_counts_fold_cells_over_the_bound_in_each_draw(tmp_p
     assert "| HNI shipped | 0, 1 | 0.900, 1.030 | 0.58-0.61 |" in summary
 
 
+def test_count_change_stress_puts_the_pivot_completer_in_the_beam_only_networks_place(tmp_path):
+    """``--beam-nets pivot pivot``: the fold's IMU-aware networks of both patterns fused with one pivot completer
+    fitted online for the mission's sensors, with the correlation measured for that pair; half a pivot refused."""
+    import shutil
+    import sys
+
+    from graphnav.core.config import SensorConfig
+    from graphnav.nets.pivot import PivotCompleter
+    sys.path.insert(0, str(ROOT / "experiments"))
+    study = _study("count_change_runs")
+    from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION
+    dirs = []
+    for scenario in ("2-missing", "3-missing"):
+        dirs.append(tmp_path / scenario)
+        (dirs[-1] / "fold1").mkdir(parents=True)
+        for suffix in ("pt", "json"):
+            shutil.copy(ROOT / "nets" / "weights" / f"imu-{scenario}.{suffix}", dirs[-1] / "fold1")
+    config = SensorConfig()
+    pair = study.fold_completer(dirs, ("pivot", "pivot"), 1, config)
+    assert sorted(len(missing) for missing in pair.networks) == [2, 3]
+    assert isinstance(pair.fused_beam_only, PivotCompleter) and pair.fused_beam_only.pivot_m is None
+    assert pair.beam_correlation == IMU_PIVOT_ERROR_CORRELATION
+    with pytest.raises(SystemExit, match="both patterns or for neither"):
+        study.fold_completer(dirs, ("pivot", str(tmp_path)), 1, config)
+
+
 def test_run_counter_counts_continued_pings_after_a_change_and_restart_ends_the_runs():
     from types import SimpleNamespace
     study = _study("count_change_runs")
@@ -770,6 +796,8 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
                                                                                "retire_completions": True})
     assert study.variant_run("Graph-TC relinearised 20") == ("Graph-TC", {"relin_window_s": 20.0,
                                                                           "relinearize_skip": 1})
+    assert study.variant_run("Graph-HNP prior 0.01") == ("Graph-HNP", None)      # a completer setting, no graph one
+    assert study.pivot_prior("Graph-HNP prior 0.01") == 0.01 and study.pivot_prior("Graph-HNP tau 3") is None
     assert study.other_retirement("Graph-HN") == "Graph-HN kept"
     assert study.other_retirement("Graph-HN kept") == "Graph-HN kept retired"
     assert study.other_retirement("Graph-TC") is None
@@ -847,6 +875,19 @@ def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_f
         study.fold_completer("Graph-HNI", "3-missing", fold_nets, 1, mission, 2)
     beam_only = study.fold_completer("Graph-HN-net", "3-missing", fold_nets, 2, mission, 10)
     assert beam_only.n_past and not hasattr(beam_only, "networks")          # the fold's beam-only ensemble alone
+    # the pivot completer in the beam-only networks' place: nothing trained to check on it, the network still checked
+    from graphnav.nets.pivot import PivotCompleter
+    pivot_nets = {"3-missing": [str(imu_dir), "pivot"]}
+    pair = study.fold_completer("Graph-HNI", "3-missing", pivot_nets, 2, mission, 4)
+    assert isinstance(pair.fused_beam_only, PivotCompleter) and pair.fused_beam_only.pivot_m is None
+    with pytest.raises(SystemExit, match="trained on trajectory 6"):
+        study.fold_completer("Graph-HNI", "3-missing", pivot_nets, 2, mission, 6)
+    with pytest.raises(SystemExit, match="fused pair only"):
+        study.fold_completer("Graph-HN-net", "3-missing", pivot_nets, 2, mission, 4)
+    # in a total outage the pair runs too (its pivot member serves, with that outage's past pings)
+    total = study.fold_completer("Graph-HNI", "0-beams", {"0-beams": [str(imu_dir), "pivot"]}, 2, mission, 4)
+    assert isinstance(total.beam_only, PivotCompleter) and total.beam_only.n_past == 5
+    assert study.fold_completer("Graph-HNP", "0-beams", {"0-beams": [str(imu_dir), "pivot"]}, 2, mission, 4) is None
     with pytest.raises(SystemExit) as refused:
         study.main(["--methods", "Graph-TC", "Graph-HNI", "--scenarios", "3-missing", "--out", str(tmp_path / "o.json")])
     assert refused.value.code == 2 and "--fold-nets 3-missing" in capsys.readouterr().err
