@@ -292,6 +292,9 @@ def main(argv=None) -> int:
     if unknown or "Graph-TC" not in a.variants:
         p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' with T > 0 s "
                 f"(unknown: {unknown})")
+    from imu_beam_fused_folds import PIVOT_MEMBER
+    if a.beam_nets and PIVOT_MEMBER in a.beam_nets and set(a.beam_nets) != {PIVOT_MEMBER}:
+        p.error(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
     if not all(0.0 < x <= 1.0 for x in a.flicker):
         p.error("--flicker probabilities must be in (0, 1]")
     from graphnav.evaluation.bench import find_trajectories
@@ -299,7 +302,6 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    from imu_beam_fused_folds import PIVOT_MEMBER
     resolved = [d if d == PIVOT_MEMBER else str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
     settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
                 "flicker_seed": "trajectory and window start"}

@@ -48,6 +48,7 @@ min on two cores for the default cells. Usage::
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -87,6 +88,8 @@ RETIRED = " retired"
 KEPT = " kept"
 RELINEARISED = " relinearised "
 PRIOR = " prior "
+#: `` prior P`` anywhere in a run label (P a number), the pivot completer's ``prior_turn``
+_PRIOR_RE = re.compile(r" prior ([0-9.eE+-]+)")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -96,9 +99,9 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     not, ``GraphOptions.retire_completions``), or a method followed by `` relinearised W`` (ISAM2 relinearising every
     update the keyframes of the last W s, instead of every 10th update those of the last 5 s: the estimator's own
     sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
-    :func:`pivot_prior`: no graph option)."""
-    if PRIOR in label:
-        return variant_run(label.rsplit(PRIOR, 1)[0])
+    :func:`pivot_prior`: no graph option; it may come before or after the other suffixes)."""
+    if _PRIOR_RE.search(label):
+        return variant_run(_PRIOR_RE.sub("", label, count=1))
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -117,8 +120,19 @@ def variant_run(label: str) -> tuple[str, dict | None]:
 
 
 def pivot_prior(label: str) -> float | None:
-    """The pivot completer's ``prior_turn`` ((rad/s)^2) of a run label ``<method> prior P``; None otherwise."""
-    return float(label.rsplit(PRIOR, 1)[1]) if PRIOR in label else None
+    """The pivot completer's ``prior_turn`` ((rad/s)^2) of a run label with `` prior P`` (:func:`variant_run`);
+    None otherwise."""
+    found = _PRIOR_RE.search(label)
+    return float(found.group(1)) if found else None
+
+
+def check_prior_method(label: str) -> None:
+    """Refuse a run label with `` prior P`` whose method does not complete with the pivot completer (the prior
+    would replace its completer)."""
+    from graphnav.evaluation.methods import get_method
+    name = variant_run(label)[0]
+    if get_method(name).completer != "pivot":
+        raise ValueError(f"{label}: a prior_turn is a setting of the pivot completer, which {name} does not run")
 
 
 def resolved_options(label: str) -> dict:
@@ -229,6 +243,7 @@ def trajectory_task(item):
         comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
         if pivot_prior(method) is not None:
             from graphnav.evaluation.methods import pivot_completer
+            check_prior_method(method)
             comp = pivot_completer(scenario, mission.config, prior_turn=pivot_prior(method))
         sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
@@ -395,8 +410,9 @@ def main(argv=None) -> int:
     p.add_argument("--fold-nets", nargs=3, action="append", default=[], metavar=("SCENARIO", "IMU_DIR", "BEAM_DIR"),
                    help="the fold networks of the methods with a network completer (Graph-HNI, Graph-HN-net, ...) "
                         "for a scenario (repeat per scenario): the IMU-aware ones (imu_completer_folds.py "
-                        "--save-nets) and the beam-only ensembles (graphnav eval-beams --folds --save-nets); each "
-                        "trajectory runs its own fold's (module docstring)")
+                        "--save-nets) and the beam-only ensembles (graphnav eval-beams --folds --save-nets), or "
+                        "'pivot' for the pivot completer in their place (a total outage too); each trajectory runs "
+                        "its own fold's (module docstring)")
     p.add_argument("--over-draws", nargs="+", metavar="FILE", help="run nothing: the choice over the results files "
                    "of several training draws of the fold networks, their fold cells counted together")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")
@@ -432,6 +448,15 @@ def main(argv=None) -> int:
     if unserved:
         p.error(f"{unserved[0][0]} with {unserved[0][1]} runs its networks out of fold: give --fold-nets "
                 f"{unserved[0][1]} IMU_DIR BEAM_DIR (its shipped networks were trained on these trajectories)")
+    kinds = {m: get_method(variant_run(m)[0]).completer for m in a.methods}
+    for m in a.methods:
+        try:
+            if pivot_prior(m) is not None:
+                check_prior_method(m)
+        except ValueError as e:
+            p.error(str(e))
+        if kinds[m] == "network" and any(fold_nets.get(sc, [None, None])[1] == PIVOT_MEMBER for sc in a.scenarios):
+            p.error(f"{m}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     folders = akit_trajectories(a.data)
@@ -439,6 +464,10 @@ def main(argv=None) -> int:
     settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
+    if "pivot" in kinds.values() or PIVOT_MEMBER in {beam for _, beam in fold_nets.values()}:
+        # the shipped prior of the runs that do not name theirs: a results file resumes only under the same one
+        from graphnav.evaluation.methods import PIVOT_PRIOR_TURN
+        settings["pivot_prior_turn"] = PIVOT_PRIOR_TURN
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)

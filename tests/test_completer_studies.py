@@ -639,6 +639,10 @@ def test_count_change_stress_puts_the_pivot_completer_in_the_beam_only_networks_
     assert pair.beam_correlation == IMU_PIVOT_ERROR_CORRELATION
     with pytest.raises(SystemExit, match="both patterns or for neither"):
         study.fold_completer(dirs, ("pivot", str(tmp_path)), 1, config)
+    with pytest.raises(SystemExit) as refused:       # refused before any run starts
+        study.main(["--imu-nets", *map(str, dirs), "--beam-nets", "pivot", str(tmp_path), "--variants", "Graph-TC",
+                    "HNI shipped", "--out", str(tmp_path / "c.json")])
+    assert refused.value.code == 2 and not (tmp_path / "c.json").exists()
 
 
 def test_run_counter_counts_continued_pings_after_a_change_and_restart_ends_the_runs():
@@ -798,6 +802,15 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
                                                                           "relinearize_skip": 1})
     assert study.variant_run("Graph-HNP prior 0.01") == ("Graph-HNP", None)      # a completer setting, no graph one
     assert study.pivot_prior("Graph-HNP prior 0.01") == 0.01 and study.pivot_prior("Graph-HNP tau 3") is None
+    # with the other suffixes, on either side of them
+    assert study.variant_run("Graph-HNP prior 0.01 kept") == ("Graph-HNP", {"retire_completions": False})
+    assert study.pivot_prior("Graph-HNP prior 1e-2 kept") == 0.01
+    assert study.variant_run("Graph-HNP prior 0.3 tau 3") == study.variant_run("Graph-HNP tau 3 prior 0.3")
+    assert study.pivot_prior("Graph-HNP tau 3 prior 0.3") == study.pivot_prior("Graph-HNP prior 0.3 tau 3") == 0.3
+    assert study.other_retirement("Graph-HNP prior 0.01") == "Graph-HNP prior 0.01 kept"
+    study.check_prior_method("Graph-HNP prior 0.01 kept")
+    with pytest.raises(ValueError, match="Graph-HNI does not run"):
+        study.check_prior_method("Graph-HNI prior 0.1")
     assert study.other_retirement("Graph-HN") == "Graph-HN kept"
     assert study.other_retirement("Graph-HN kept") == "Graph-HN kept retired"
     assert study.other_retirement("Graph-TC") is None
@@ -884,6 +897,15 @@ def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_f
         study.fold_completer("Graph-HNI", "3-missing", pivot_nets, 2, mission, 6)
     with pytest.raises(SystemExit, match="fused pair only"):
         study.fold_completer("Graph-HN-net", "3-missing", pivot_nets, 2, mission, 4)
+    # refused before any run starts: the pivot for a beam-only network's method, a prior for a method without it
+    for argv, refusal in ((["--methods", "Graph-TC", "Graph-HN-net", "--fold-nets", "3-missing", str(imu_dir), "pivot"],
+                           "fused pair only"),
+                          (["--methods", "Graph-TC", "Graph-HNI prior 0.1", "--fold-nets", "3-missing", str(imu_dir),
+                            "pivot"], "Graph-HNI does not run")):
+        with pytest.raises(SystemExit) as refused:
+            study.main(argv + ["--scenarios", "3-missing", "--out", str(tmp_path / "p.json")])
+        assert refused.value.code == 2 and refusal in capsys.readouterr().err
+    assert not (tmp_path / "p.json").exists()
     # in a total outage the pair runs too (its pivot member serves, with that outage's past pings)
     total = study.fold_completer("Graph-HNI", "0-beams", {"0-beams": [str(imu_dir), "pivot"]}, 2, mission, 4)
     assert isinstance(total.beam_only, PivotCompleter) and total.beam_only.n_past == 5
