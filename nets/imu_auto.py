@@ -68,13 +68,16 @@ class ImuAutoCompleter:
         fused_beam_only: the completer whose completion is fused with the IMU-aware one (e.g. the beam-only
             networks fading as :data:`FUSED_RUN_DECAY` says, or the pivot completer); None (default): ``beam_only``.
             ``beam_only`` and ``fused_beam_only`` may need the IMU themselves (the pivot completer, with a window no
-            longer than the networks'): they are handed the networks' window, or None where there is none.
+            longer than the networks'): they are handed the networks' window, and where the networks have none
+            (the first 20 s of a mission, an IMU gap) the keyframer hands ``beam_only`` the shorter window the
+            members read (``member_imu_samples``), or None.
 
     With a member that learns from fully measured pings (the pivot completer), the completer has ``observe``, which
-    the keyframer calls on each such ping and which hands it on.
+    the keyframer calls on each such ping with the window the learners read (``observe_imu_samples``) and which hands
+    it on: they learn from the pings they would learn from alone, not only from those with the networks' 20 s.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
-    (its pattern has one but no IMU window was passed) and ``"pattern"`` (no IMU-aware network for the pattern).
+    (its pattern has one but no IMU window was passed, or only the members' shorter one) and ``"pattern"`` (no IMU-aware network for the pattern).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
     network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completers', ``beam_only``
     and ``fused_beam_only`` both counted when they are two).
@@ -128,12 +131,19 @@ class ImuAutoCompleter:
         self.takes_run_steps = any(getattr(c, "takes_run_steps", False)
                                    for c in (*imu_networks, beam_only, fused_beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
+        # the longest window a member that needs the IMU reads alone: what the keyframer hands on where the
+        # networks have no window (None: no member needs the IMU)
+        self.member_imu_samples = max((c.imu_samples for c in (beam_only, fused_beam_only)
+                                       if getattr(c, "needs_imu", False)), default=None)
         # the keyframer shows a completer with ``observe`` every fully measured ping with its IMU window: only when a
         # member learns from them, so that the others cost no window per ping
         self._learners = [c.observe for c in {id(c): c for c in (beam_only, fused_beam_only)}.values()
                           if callable(getattr(c, "observe", None))]
         if self._learners:
             self.observe = self._hand_on
+            self.observe_imu_samples = max((c.imu_samples for c in (beam_only, fused_beam_only)
+                                            if callable(getattr(c, "observe", None)) and getattr(c, "needs_imu", False)),
+                                           default=None)
 
     def _hand_on(self, t: float, beams: np.ndarray, imu=None) -> None:
         """``observe``: a ping whose four beams were all measured, with its IMU window (or None), handed on to the
@@ -157,7 +167,8 @@ class ImuAutoCompleter:
             return measured.copy(), np.zeros(4)
         pattern = tuple(int(b) for b in np.flatnonzero(missing))
         net = self.networks.get(pattern)
-        if net is not None and imu is not None:
+        # a window shorter than the networks' is the members' own (the keyframer's, where the networks have none)
+        if net is not None and imu is not None and len(imu[1]) >= self.imu_samples:
             self.usage["imu"] += 1
             b_imu, s_imu = complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
             rho = self._fuse_rho[pattern]

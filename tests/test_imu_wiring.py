@@ -86,13 +86,14 @@ def test_window_buffer_reasons():
     assert bridged.window(2.9) == (None, "gap") and bridged.window(3.3)[1] is None    # 3.3: samples 131..330
 
 
-def run_keyframer(mission, completer):
+def run_keyframer(mission, completer, gap: bool = True):
     """(the keyframer, its keyframes) after replaying ``mission`` without depth through a keyframer with
-    ``completer``; the mission's bridged IMU gap warns."""
+    ``completer``; with ``gap`` the mission's bridged IMU gap warns."""
+    import contextlib
     kfr = Keyframer(mission.config, completer=completer)
     kfr.start(float(mission.imu.t[0]))
     keyframes = []
-    with pytest.warns(RuntimeWarning, match="gap"):
+    with pytest.warns(RuntimeWarning, match="gap") if gap else contextlib.nullcontext():
         for kind, t, payload in replay(mission, depth=False):
             keyframes += getattr(kfr, "add_" + kind)(t, *payload)
         keyframes += kfr.finish()
@@ -136,6 +137,55 @@ def test_keyframer_withholds_the_window_when_a_ping_is_missing(gapped_mission):
     kfr, _ = run_keyframer(dataclasses.replace(m, dvl=dvl), spy)
     assert kfr.stats.imu_window_missing["ping_dt"] == spy.n_past       # the 3 pings whose history spans it
     assert spy.windows[-1] is not None                                 # one period apart again
+
+
+class SpyMemberCompleter(SpyImuCompleter):
+    """The spy with a member that needs the IMU itself and reads a 6 s window of its own (as the pivot completer
+    inside :class:`graphnav.nets.ImuAutoCompleter`), and learns from the fully measured pings."""
+
+    member_imu_samples = 600
+    observe_imu_samples = 600
+
+    def __init__(self):
+        super().__init__()
+        self.observed = []
+
+    def observe(self, t, beams, imu=None):
+        self.observed.append((t, imu))
+
+
+def test_keyframer_hands_the_members_their_own_shorter_window_where_the_networks_have_none(gapped_mission):
+    """Where the networks' 20 s window is missing (the mission's first 20 s, a bridged IMU gap in it) a completer
+    whose members read a shorter window is handed that one, exactly the last samples, where it is clean; the
+    counters still say where the networks had none. Its learning members see every fully measured ping with their
+    own window, not only those with 20 s behind them."""
+    m = gapped_mission
+    spy = SpyMemberCompleter()
+    kfr, keyframes = run_keyframer(m, spy)
+    completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.has_regressed]
+    routes = {"networks": 0, "member": 0, "none": 0}
+    for t, got in zip(completed, spy.windows):
+        clean = {n: imu_window_at(m.imu, t, n) is not None and not (t > GAP[0] and t - n * 0.01 < GAP[1])
+                 for n in (2000, 600)}
+        n = 2000 if clean[2000] else 600 if clean[600] else None
+        if n is None:
+            routes["none"] += 1
+            assert got is None, t
+            continue
+        routes["networks" if n == 2000 else "member"] += 1
+        want = imu_window_at(m.imu, t, n)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), t
+    assert routes["member"] >= 15 and routes["networks"] >= 15 and routes["none"] >= 5
+    missing = kfr.stats.imu_window_missing
+    assert missing["not_full"] >= 10 and missing["gap"] >= 15 and sum(missing.values()) == len(completed) - routes["networks"]
+
+    straight = simulate_mission(30.0, "navigation", 2)           # every ping fully measured, no IMU gap
+    spy = SpyMemberCompleter()
+    run_keyframer(straight, spy, gap=False)
+    seen = [t for t, imu in spy.observed if imu is not None]
+    assert all(len(imu[1]) == 600 for _, imu in spy.observed if imu is not None)
+    assert len(seen) == sum(imu_window_at(straight.imu, t, 600) is not None for t, _ in spy.observed)
+    assert len(seen) > sum(imu_window_at(straight.imu, t, 2000) is not None for t, _ in spy.observed) + 10
 
 
 def test_keyframer_refuses_an_imu_completer_without_a_beam_only_fallback(gapped_mission):
@@ -273,6 +323,12 @@ def test_the_imu_aware_completion_fuses_with_the_pivot_completer_which_reads_the
     for k in range(8):
         auto.observe(float(k), full, imu)
     assert pivot.fit.pairs > 0
+    # where the networks have no window the keyframer hands the member's own shorter one: the pivot completes with it
+    assert auto.member_imu_samples == auto.observe_imu_samples == pivot.imu_samples
+    used = auto.usage["no_imu"]
+    np.testing.assert_array_equal(auto.complete(past, two, imu=tail)[0], b_piv)
+    assert auto.usage["no_imu"] == used + 1
+    assert ImuAutoCompleter([net], AverageCompleter(3), {"2-missing": 0.7}).member_imu_samples is None
     assert not hasattr(ImuAutoCompleter([net], AverageCompleter(3), {"2-missing": 0.7}), "observe")  # nothing learns
     with pytest.raises(ConfigError, match="without a"):
         ImuAutoCompleter([net], net)

@@ -60,15 +60,20 @@ class ImuWindowBuffer:
         self._w.append(omega_b)
         self._bridged.append(bool(bridged))
 
-    def window(self, t: float) -> tuple[tuple[np.ndarray, np.ndarray] | None, str | None]:
-        """``((f_b, omega_b), None)``, each (n_samples, 3), for a ping at ``t`` (s), or ``(None, reason)``
-        with a reason of :data:`NO_WINDOW_REASONS`."""
+    def window(self, t: float, n_samples: int | None = None
+               ) -> tuple[tuple[np.ndarray, np.ndarray] | None, str | None]:
+        """``((f_b, omega_b), None)``, each (n, 3), for a ping at ``t`` (s), or ``(None, reason)`` with a reason
+        of :data:`NO_WINDOW_REASONS`; ``n`` is ``n_samples`` (no more than the buffer's), by default the buffer's
+        window length (a member of the completer may read a shorter window of its own)."""
+        n = self.n_samples if n_samples is None else int(n_samples)
+        if not 2 <= n <= self.n_samples:
+            raise ConfigError(f"IMU window of {n} samples asked from a buffer of {self.n_samples}-sample windows")
         end = bisect.bisect_right(self._t, t)
-        if end < self.n_samples:
+        if end < n:
             # a full ring has dropped samples: the ping's window is gone, not still to come
             return None, "late" if len(self._t) == self._t.maxlen else "not_full"
-        start = end - self.n_samples
-        steps = np.diff(np.fromiter(islice(self._t, start, end), float, self.n_samples))
+        start = end - n
+        steps = np.diff(np.fromiter(islice(self._t, start, end), float, n))
         if abs(np.median(steps) - self.period) > self.rate_tol * self.period:
             return None, "rate"
         if any(islice(self._bridged, start, end)) or steps.max() > 1.5 * self.period:

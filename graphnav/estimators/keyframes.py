@@ -22,7 +22,9 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   ``completer.imu_samples`` IMU samples up to the ping (:class:`~graphnav.estimators.imu_buffer.ImuWindowBuffer`,
   kept from the first sample on); without a usable window (not yet full, a bridged gap, another rate) it gets
   ``imu=None`` and completes the ping beam-only (``nets.ImuAutoCompleter``), counted per reason in
-  :attr:`KeyframerStats.imu_window_missing`.
+  :attr:`KeyframerStats.imu_window_missing`. A completer whose beam-only members need a shorter window of their
+  own (``member_imu_samples``: the pivot completer fused with the networks) gets that one there instead, where it
+  is clean, and its learning members see each fully measured ping with their window (``observe_imu_samples``).
 - **DVL velocity.** A DVL-frame velocity the instrument measured itself (:meth:`Keyframer.add_dvl_velocity`:
   a velocity-only DVL, a 3-beam solution, an earth/ship-frame log) makes a ping too, carried in
   :attr:`Ping.v_d`. One ping is used once: when beams and a velocity arrive at the same stamp, a ping with at
@@ -139,12 +141,14 @@ class Keyframer:
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
         self.stats = KeyframerStats()
-        self._imu_buffer = None
+        self._imu_buffer, self._member_samples = None, None
         if getattr(completer, "needs_imu", False):
             if getattr(completer, "beam_only", None) is None:
                 raise ConfigError(f"{type(completer).__name__} needs the IMU window and has no beam-only completer for "
                                   "pings without one (the first 20 s, IMU gaps): wrap it in graphnav.nets.ImuAutoCompleter")
             self._imu_buffer = ImuWindowBuffer(completer.imu_samples, completer.imu_rate_hz)
+            # the shorter window its members that need the IMU read alone (None: none of them does)
+            self._member_samples = getattr(completer, "member_imu_samples", None)
             self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
             if abs(config.imu_rate_hz - completer.imu_rate_hz) > 0.02 * completer.imu_rate_hz:
                 warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
@@ -418,8 +422,11 @@ class Keyframer:
         imu = None
         if self._imu_buffer is not None and self.history.ready and not measured.all():
             imu, reason = self._imu_buffer.window(t)
-            if reason is None and not self._pings_one_period_apart(t):
-                imu, reason = None, "ping_dt"
+            if reason is not None and self._member_samples:
+                # no window for the networks (the first 20 s, a gap): the members read their own shorter one
+                imu = self._imu_buffer.window(t, self._member_samples)[0]
+            if imu is not None and not self._pings_one_period_apart(t):
+                imu, reason = None, reason or "ping_dt"
             if reason is not None:
                 self.stats.imu_window_missing[reason] += 1
         elif measured.all():
@@ -438,11 +445,14 @@ class Keyframer:
 
     def _observe(self, t: float, beams: np.ndarray) -> None:
         """Hand a ping whose four beams were all measured to a completer that learns from them (``observe``, e.g.
-        :class:`graphnav.nets.pivot.PivotCompleter`'s online fit), with its IMU window when there is one."""
+        :class:`graphnav.nets.pivot.PivotCompleter`'s online fit), with its IMU window when there is one: the
+        completer's, or the shorter one its learning members read (``observe_imu_samples``), so that they learn from
+        the pings they would learn from alone."""
         observe = getattr(self.completer, "observe", None)
         if observe is None:
             return
-        imu = self._imu_buffer.window(t)[0] if self._imu_buffer is not None else None
+        imu = (self._imu_buffer.window(t, getattr(self.completer, "observe_imu_samples", None))[0]
+               if self._imu_buffer is not None else None)
         observe(t, np.asarray(beams, float), imu)
 
     def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
