@@ -3,7 +3,8 @@
 The IMU-aware networks (:func:`graphnav.nets.load_imu_completer`) serve one pattern each and need the last
 ``imu_samples`` IMU samples at ``imu_rate_hz``. An estimator has no such window during the first 20 s of a
 mission, after a bridged IMU gap or with an IMU at another rate; the keyframer
-(:class:`graphnav.estimators.keyframes.Keyframer`) then passes ``imu=None``. Patterns without an IMU-aware
+(:class:`graphnav.estimators.keyframes.Keyframer`) then passes ``imu=None``, or the beam-only completer's own
+shorter window when it needs one (the pivot completer: ``member_imu_samples``). Patterns without an IMU-aware
 network (no beam measured, the random dropouts' other patterns) are not what it was trained for either.
 :class:`ImuAutoCompleter` sends those pings to a beam-only completer (``load_completer("auto")``: the
 beam-only networks where trained, the average estimator otherwise) and counts each route in ``usage``.
@@ -69,15 +70,16 @@ class ImuAutoCompleter:
             networks fading as :data:`FUSED_RUN_DECAY` says, or the pivot completer); None (default): ``beam_only``.
             ``beam_only`` and ``fused_beam_only`` may need the IMU themselves (the pivot completer, with a window no
             longer than the networks'): they are handed the networks' window, and where the networks have none
-            (the first 20 s of a mission, an IMU gap) the keyframer hands ``beam_only`` the shorter window the
-            members read (``member_imu_samples``), or None.
+            (the first 20 s of a mission, an IMU gap) the keyframer hands ``beam_only`` its own shorter window
+            (``member_imu_samples``), or None.
 
     With a member that learns from fully measured pings (the pivot completer), the completer has ``observe``, which
     the keyframer calls on each such ping with the window the learners read (``observe_imu_samples``) and which hands
     it on: they learn from the pings they would learn from alone, not only from those with the networks' 20 s.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
-    (its pattern has one but no IMU window was passed, or only the members' shorter one) and ``"pattern"`` (no IMU-aware network for the pattern).
+    (its pattern has one but no IMU window was passed, or only ``beam_only``'s shorter one) and ``"pattern"`` (no
+    IMU-aware network for the pattern).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
     network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completers', ``beam_only``
     and ``fused_beam_only`` both counted when they are two).
@@ -131,19 +133,19 @@ class ImuAutoCompleter:
         self.takes_run_steps = any(getattr(c, "takes_run_steps", False)
                                    for c in (*imu_networks, beam_only, fused_beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
-        # the longest window a member that needs the IMU reads alone: what the keyframer hands on where the
-        # networks have no window (None: no member needs the IMU)
-        self.member_imu_samples = max((c.imu_samples for c in (beam_only, fused_beam_only)
-                                       if getattr(c, "needs_imu", False)), default=None)
+        # the window ``beam_only`` reads alone, which the keyframer hands on where the networks have none (None:
+        # it needs no IMU; the fused member only ever completes with the networks, on their window)
+        self.member_imu_samples = beam_only.imu_samples if getattr(beam_only, "needs_imu", False) else None
         # the keyframer shows a completer with ``observe`` every fully measured ping with its IMU window: only when a
         # member learns from them, so that the others cost no window per ping
         self._learners = [c.observe for c in {id(c): c for c in (beam_only, fused_beam_only)}.values()
                           if callable(getattr(c, "observe", None))]
         if self._learners:
             self.observe = self._hand_on
+            # the longest window a learner that needs the IMU reads (None: the networks' window, as before)
             self.observe_imu_samples = max((c.imu_samples for c in (beam_only, fused_beam_only)
-                                            if callable(getattr(c, "observe", None)) and getattr(c, "needs_imu", False)),
-                                           default=None)
+                                            if callable(getattr(c, "observe", None))
+                                            and getattr(c, "needs_imu", False)), default=None)
 
     def _hand_on(self, t: float, beams: np.ndarray, imu=None) -> None:
         """``observe``: a ping whose four beams were all measured, with its IMU window (or None), handed on to the

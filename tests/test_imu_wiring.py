@@ -49,6 +49,25 @@ def gapped_mission():
     return dataclasses.replace(m, imu=imu).with_outage(scenario_outage("2-missing", 6.0, 53.0))
 
 
+def test_window_buffer_serves_a_shorter_window_and_refuses_a_longer_one():
+    buf = ImuWindowBuffer(200, 100.0)
+    for k in range(260):
+        buf.push(0.01 * k, (k, 0.0, 9.8), (0.0, 0.0, -k))
+    (f_b, _), reason = buf.window(2.305, 60)                     # samples 171..230, the last 60 of the full window
+    assert reason is None and f_b.shape == (60, 3) and f_b[0, 0] == 171 and f_b[-1, 0] == 230
+    assert buf.window(0.7, 60)[1] is None and buf.window(0.7)[1] == "not_full"     # 71 samples so far
+    for n in (1, 201):
+        with pytest.raises(ConfigError, match="samples"):
+            buf.window(2.305, n)
+
+
+def test_keyframer_refuses_a_member_window_longer_than_the_completers(gapped_mission):
+    spy = SpyMemberCompleter()
+    spy.member_imu_samples = 2400
+    with pytest.raises(ConfigError, match="member_imu_samples = 2400"):
+        Keyframer(gapped_mission.config, completer=spy)
+
+
 def test_window_buffer_reasons():
     buf = ImuWindowBuffer(200, 100.0)
     for k in range(199):
@@ -84,6 +103,16 @@ def test_window_buffer_reasons():
     for k in range(340):
         bridged.push(0.01 * k, (0.0, 0.0, 9.8), (0.0, 0.0, 0.0), bridged=(k == 120))
     assert bridged.window(2.9) == (None, "gap") and bridged.window(3.3)[1] is None    # 3.3: samples 131..330
+
+
+def without_ping(mission, t: float):
+    """(``mission`` with the DVL ping nearest ``t`` (s) left out, that ping's stamp): a missed ping."""
+    m = mission
+    drop = int(np.argmin(np.abs(m.dvl.t - t)))
+    keep = np.arange(len(m.dvl.t)) != drop
+    dvl = dataclasses.replace(m.dvl, t=m.dvl.t[keep], beams=m.dvl.beams[keep], valid=m.dvl.valid[keep],
+                              v_b=None if m.dvl.v_b is None else m.dvl.v_b[keep])
+    return dataclasses.replace(m, dvl=dvl), float(m.dvl.t[drop])
 
 
 def run_keyframer(mission, completer, gap: bool = True):
@@ -127,14 +156,9 @@ def test_keyframer_streams_exactly_the_last_imu_window_and_counts_the_fallbacks(
 def test_keyframer_withholds_the_window_when_a_ping_is_missing(gapped_mission):
     """The completer propagates each past ping over exactly ping_dt: after a missed ping its lags are wrong,
     so the keyframer hands no window (reason "ping_dt") until the history is one period apart again."""
-    m = gapped_mission
-    drop = int(np.argmin(np.abs(m.dvl.t - 54.0)))               # well after the IMU gap's 20 s shadow
-    keep = np.arange(len(m.dvl.t)) != drop
-    dvl = dataclasses.replace(m.dvl, t=m.dvl.t[keep], beams=m.dvl.beams[keep], valid=m.dvl.valid[keep],
-                              v_b=None if m.dvl.v_b is None else m.dvl.v_b[keep])
     spy = SpyImuCompleter()
     spy.ping_dt = 1.0
-    kfr, _ = run_keyframer(dataclasses.replace(m, dvl=dvl), spy)
+    kfr, _ = run_keyframer(without_ping(gapped_mission, 54.0)[0], spy)     # well after the IMU gap's 20 s shadow
     assert kfr.stats.imu_window_missing["ping_dt"] == spy.n_past       # the 3 pings whose history spans it
     assert spy.windows[-1] is not None                                 # one period apart again
 
@@ -163,6 +187,7 @@ def test_keyframer_hands_the_members_their_own_shorter_window_where_the_networks
     spy = SpyMemberCompleter()
     kfr, keyframes = run_keyframer(m, spy)
     completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.has_regressed]
+    assert len(completed) == len(spy.windows)
     routes = {"networks": 0, "member": 0, "none": 0}
     for t, got in zip(completed, spy.windows):
         clean = {n: imu_window_at(m.imu, t, n) is not None and not (t > GAP[0] and t - n * 0.01 < GAP[1])
@@ -177,7 +202,19 @@ def test_keyframer_hands_the_members_their_own_shorter_window_where_the_networks
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1]), t
     assert routes["member"] >= 15 and routes["networks"] >= 15 and routes["none"] >= 5
     missing = kfr.stats.imu_window_missing
-    assert missing["not_full"] >= 10 and missing["gap"] >= 15 and sum(missing.values()) == len(completed) - routes["networks"]
+    assert missing["not_full"] >= 10 and missing["gap"] >= 15
+    assert sum(missing.values()) == len(completed) - routes["networks"]
+
+    # a missed ping inside the first 20 s: the member's window is withheld too while the history spans it (its
+    # rates per ping would be cut wrongly), counted under the networks' own reason
+    dropped, t_drop = without_ping(m, 12.0)
+    spy = SpyMemberCompleter()
+    spy.ping_dt = 1.0
+    kfr, keyframes = run_keyframer(dropped, spy)
+    completed = [kf.ping.t for kf in keyframes if kf.ping is not None and kf.ping.has_regressed]
+    after = [got for t, got in zip(completed, spy.windows) if t_drop < t < 20.0]
+    assert [got is None for got in after[:spy.n_past + 1]] == [True] * spy.n_past + [False]
+    assert kfr.stats.imu_window_missing["ping_dt"] == 0          # the networks had no window there anyway
 
     straight = simulate_mission(30.0, "navigation", 2)           # every ping fully measured, no IMU gap
     spy = SpyMemberCompleter()

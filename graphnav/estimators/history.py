@@ -78,8 +78,9 @@ class BeamHistory:
                 ``complete(past, measured, imu=imu)``.
             beams: (4,) measured beams, m/s.
             valid: (4,) bool validity.
-            imu: ``(f_b, omega_b)``, each (``completer.imu_samples``, 3): the last IMU samples up to the ping
-                (oldest first, m/s^2 and rad/s, body frame), for completers that need it; ignored otherwise.
+            imu: ``(f_b, omega_b)``, each (``completer.imu_samples``, 3), or shorter (the beam-only member's own,
+                ``member_imu_samples``): the last IMU samples up to the ping (oldest first, m/s^2 and rad/s, body
+                frame), for completers that need it; ignored otherwise.
 
         Returns:
             (beams (4,), sigma (4,)): the full vector and the per-beam sigma (0 for measured beams), or

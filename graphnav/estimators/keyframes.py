@@ -100,7 +100,8 @@ class KeyframerStats:
     """Counters of what the keyframer dropped or repaired, and of the completions it made.
 
     ``regressed_pings`` / ``regressed_beams``: pings with beams regressed by the completer, and those beams.
-    ``imu_window_missing``: pings an IMU-aware completer regressed without an IMU window, per reason of
+    ``imu_window_missing``: pings an IMU-aware completer regressed without its own (``imu_samples``) IMU window
+    (with none, or with its beam-only member's shorter one), per reason of
     :data:`~graphnav.estimators.imu_buffer.NO_WINDOW_REASONS` (None without an IMU-aware completer).
     ``velocity_pings``: pings that carry a DVL-frame velocity (:attr:`Ping.v_d`); ``velocity_superseded``:
     velocities not used because their ping had >= :data:`MIN_BEAMS_OVER_VELOCITY` measured beams;
@@ -147,8 +148,14 @@ class Keyframer:
                 raise ConfigError(f"{type(completer).__name__} needs the IMU window and has no beam-only completer for "
                                   "pings without one (the first 20 s, IMU gaps): wrap it in graphnav.nets.ImuAutoCompleter")
             self._imu_buffer = ImuWindowBuffer(completer.imu_samples, completer.imu_rate_hz)
-            # the shorter window its members that need the IMU read alone (None: none of them does)
+            # the shorter window its beam-only member reads alone (None: it needs none), and the one its learning
+            # members read (None: the completer's): checked here, not at a ping in the middle of a mission
             self._member_samples = getattr(completer, "member_imu_samples", None)
+            for name in ("member_imu_samples", "observe_imu_samples"):
+                n = getattr(completer, name, None)
+                if n is not None and not 2 <= n <= completer.imu_samples:
+                    raise ConfigError(f"{type(completer).__name__}.{name} = {n}: a member's IMU window must be 2 to "
+                                      f"{completer.imu_samples} samples (the completer's own)")
             self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
             if abs(config.imu_rate_hz - completer.imu_rate_hz) > 0.02 * completer.imu_rate_hz:
                 warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
