@@ -74,6 +74,17 @@ def variant_options(variant: str) -> dict | None:
     raise ValueError(f"unknown variant {variant!r}")
 
 
+def uses_pivot(beam_dirs) -> bool:
+    """Whether ``--beam-nets`` puts the pivot completer in the beam-only networks' place (both patterns
+    :data:`imu_beam_fused_folds.PIVOT_MEMBER`); a :class:`ValueError` for one pattern only."""
+    from imu_beam_fused_folds import PIVOT_MEMBER
+    if PIVOT_MEMBER not in (beam_dirs or ()):
+        return False
+    if set(beam_dirs) != {PIVOT_MEMBER}:
+        raise ValueError(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
+    return True
+
+
 def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     """The shipped ``Graph-HNI`` completer with fold ``fold``'s networks of both patterns: ``imu_dirs`` and
     ``beam_dirs`` are (2-missing, 3-missing) directories holding ``fold<k>``. The beam-only fold ensembles fade as the
@@ -81,7 +92,6 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     both :data:`imu_beam_fused_folds.PIVOT_MEMBER`: the pivot completer in their place (fitted online as
     ``Graph-HNP``'s, for the mission's sensors ``config``), as ``hybrid_imu_folds.completer`` builds the pair."""
     from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
-    from imu_beam_fused_folds import PIVOT_MEMBER
 
     from graphnav.nets.average import AverageCompleter
     from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION, ImuAutoCompleter
@@ -95,9 +105,11 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
         return AutoCompleter(nets, AverageCompleter(3))     # load_completer("auto")'s fallback window
     imu = [load_imu_completer(s, fold_dir(d), run_decay=FUSED_RUN_DECAY[s]["IMU-aware"])
            for s, d in zip(scenarios, imu_dirs)]
-    if PIVOT_MEMBER in beam_dirs:
-        if set(beam_dirs) != {PIVOT_MEMBER}:
-            raise SystemExit(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
+    try:
+        pivot_member = uses_pivot(beam_dirs)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
+    if pivot_member:
         from graphnav.core.config import SensorConfig
         from graphnav.evaluation.methods import pivot_completer
         # one pivot completer serves both patterns, as Graph-HNP's does in this stress
@@ -292,9 +304,10 @@ def main(argv=None) -> int:
     if unknown or "Graph-TC" not in a.variants:
         p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' with T > 0 s "
                 f"(unknown: {unknown})")
-    from imu_beam_fused_folds import PIVOT_MEMBER
-    if a.beam_nets and PIVOT_MEMBER in a.beam_nets and set(a.beam_nets) != {PIVOT_MEMBER}:
-        p.error(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
+    try:
+        uses_pivot(a.beam_nets)
+    except ValueError as e:
+        p.error(str(e))
     if not all(0.0 < x <= 1.0 for x in a.flicker):
         p.error("--flicker probabilities must be in (0, 1]")
     from graphnav.evaluation.bench import find_trajectories
@@ -302,6 +315,7 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
+    from imu_beam_fused_folds import PIVOT_MEMBER
     resolved = [d if d == PIVOT_MEMBER else str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
     settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
                 "flicker_seed": "trajectory and window start"}

@@ -18,9 +18,9 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
 outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``).
 ``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
-:data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--relinearised W`` adds Graph-TC relinearising every update the keyframes of its last W s (``Graph-TC
-relinearised W``): how much Graph-TC's own readings move with an equally valid linearisation, the noise floor of a
-ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
+:data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--relinearised W`` adds Graph-TC
+relinearising every update the keyframes of its last W s (``Graph-TC relinearised W``): how much Graph-TC's own
+readings move with an equally valid linearisation, the noise floor of a ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
 the beams return (``<method> retired``, ``GraphOptions.retire_completions``), or, for a method that does so by
 default, once more with its completions kept (``<method> kept``).
 
@@ -81,7 +81,8 @@ def window_metrics(sol, gt, start: float, window_s: float) -> dict:
             "bench": float(position_drift(sol, gt, start, start + window_s))}
 
 
-#: Run-label suffixes of other run settings (``<method> each ping``, ``<method> tau T``; ``--pivot-runs``, ``--hni-runs``).
+#: Run-label suffixes of other run settings (``<method> each ping``, ``<method> tau T``: ``--pivot-runs``,
+#: ``--hni-runs``; the retirement, the relinearisation, the pivot prior).
 EACH_PING = " each ping"
 TAU = " tau "
 RETIRED = " retired"
@@ -124,6 +125,16 @@ def pivot_prior(label: str) -> float | None:
     None otherwise."""
     found = _PRIOR_RE.search(label)
     return float(found.group(1)) if found else None
+
+
+def check_pivot_member(label: str, beam_dir: str | None) -> None:
+    """Refuse the beam-only folder :data:`imu_beam_fused_folds.PIVOT_MEMBER` for a run label whose method runs the
+    beam-only networks alone (the pivot completer stands in for them only in the fused pair)."""
+    from imu_beam_fused_folds import PIVOT_MEMBER
+
+    from graphnav.evaluation.methods import get_method
+    if beam_dir == PIVOT_MEMBER and get_method(variant_run(label)[0]).completer == "network":
+        raise ValueError(f"{label}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
 
 
 def check_prior_method(label: str) -> None:
@@ -203,8 +214,10 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
     imu_dir, beam_dir = fold_nets[scenario]
     variant = FOLD_NETWORK_COMPLETERS[kind]
     fused = variant == "HNI fold fused"
-    if beam_dir == PIVOT_MEMBER and not fused:
-        raise SystemExit(f"{method}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
+    try:
+        check_pivot_member(method, beam_dir)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
     comp = completer(variant, scenario, (imu_dir, beam_dir) if fused else beam_dir, fold, None,
                      mission.config.dvl.beam_noise_std, mission.config)
     # the cards the loaders read, of every network the completer runs (the fused pair's fallback is a second
@@ -453,10 +466,10 @@ def main(argv=None) -> int:
         try:
             if pivot_prior(m) is not None:
                 check_prior_method(m)
+            for sc in a.scenarios:
+                check_pivot_member(m, fold_nets.get(sc, [None, None])[1])
         except ValueError as e:
             p.error(str(e))
-        if kinds[m] == "network" and any(fold_nets.get(sc, [None, None])[1] == PIVOT_MEMBER for sc in a.scenarios):
-            p.error(f"{m}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     folders = akit_trajectories(a.data)

@@ -138,14 +138,14 @@ class ImuAutoCompleter:
         self.member_imu_samples = beam_only.imu_samples if getattr(beam_only, "needs_imu", False) else None
         # the keyframer shows a completer with ``observe`` every fully measured ping with its IMU window: only when a
         # member learns from them, so that the others cost no window per ping
-        self._learners = [c.observe for c in {id(c): c for c in (beam_only, fused_beam_only)}.values()
-                          if callable(getattr(c, "observe", None))]
-        if self._learners:
+        learners = [c for c in {id(c): c for c in (beam_only, fused_beam_only)}.values()
+                    if callable(getattr(c, "observe", None))]
+        self._learners = [c.observe for c in learners]
+        if learners:
             self.observe = self._hand_on
             # the longest window a learner that needs the IMU reads (None: the networks' window, as before)
-            self.observe_imu_samples = max((c.imu_samples for c in (beam_only, fused_beam_only)
-                                            if callable(getattr(c, "observe", None))
-                                            and getattr(c, "needs_imu", False)), default=None)
+            self.observe_imu_samples = max((c.imu_samples for c in learners if getattr(c, "needs_imu", False)),
+                                           default=None)
 
     def _hand_on(self, t: float, beams: np.ndarray, imu=None) -> None:
         """``observe``: a ping whose four beams were all measured, with its IMU window (or None), handed on to the

@@ -60,14 +60,19 @@ class ImuWindowBuffer:
         self._w.append(omega_b)
         self._bridged.append(bool(bridged))
 
+    def check_length(self, n: int | None, what: str) -> None:
+        """Refuse a window of ``n`` samples (None: the buffer's own) that this buffer cannot serve: fewer than 2 or
+        more than its ``n_samples``; ``what`` names it in the error."""
+        if n is not None and not 2 <= n <= self.n_samples:
+            raise ConfigError(f"{what} = {n}: the windows of this IMU buffer are 2 to {self.n_samples} samples")
+
     def window(self, t: float, n_samples: int | None = None
                ) -> tuple[tuple[np.ndarray, np.ndarray] | None, str | None]:
         """``((f_b, omega_b), None)``, each (n, 3), for a ping at ``t`` (s), or ``(None, reason)`` with a reason
         of :data:`NO_WINDOW_REASONS`; ``n`` is ``n_samples`` (no more than the buffer's), by default the buffer's
         window length (a member of the completer may read a shorter window of its own)."""
         n = self.n_samples if n_samples is None else int(n_samples)
-        if not 2 <= n <= self.n_samples:
-            raise ConfigError(f"IMU window of {n} samples asked from a buffer of {self.n_samples}-sample windows")
+        self.check_length(n, "IMU window")
         end = bisect.bisect_right(self._t, t)
         if end < n:
             # a full ring has dropped samples: the ping's window is gone, not still to come

@@ -142,7 +142,7 @@ class Keyframer:
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
         self.stats = KeyframerStats()
-        self._imu_buffer, self._member_samples = None, None
+        self._imu_buffer, self._member_samples, self._observe_samples = None, None, None
         if getattr(completer, "needs_imu", False):
             if getattr(completer, "beam_only", None) is None:
                 raise ConfigError(f"{type(completer).__name__} needs the IMU window and has no beam-only completer for "
@@ -151,11 +151,10 @@ class Keyframer:
             # the shorter window its beam-only member reads alone (None: it needs none), and the one its learning
             # members read (None: the completer's): checked here, not at a ping in the middle of a mission
             self._member_samples = getattr(completer, "member_imu_samples", None)
-            for name in ("member_imu_samples", "observe_imu_samples"):
-                n = getattr(completer, name, None)
-                if n is not None and not 2 <= n <= completer.imu_samples:
-                    raise ConfigError(f"{type(completer).__name__}.{name} = {n}: a member's IMU window must be 2 to "
-                                      f"{completer.imu_samples} samples (the completer's own)")
+            self._observe_samples = getattr(completer, "observe_imu_samples", None)
+            for name, n in (("member_imu_samples", self._member_samples),
+                            ("observe_imu_samples", self._observe_samples)):
+                self._imu_buffer.check_length(n, f"{type(completer).__name__}.{name}")
             self.stats.imu_window_missing = dict.fromkeys(NO_WINDOW_REASONS, 0)
             if abs(config.imu_rate_hz - completer.imu_rate_hz) > 0.02 * completer.imu_rate_hz:
                 warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
@@ -458,8 +457,7 @@ class Keyframer:
         observe = getattr(self.completer, "observe", None)
         if observe is None:
             return
-        imu = (self._imu_buffer.window(t, getattr(self.completer, "observe_imu_samples", None))[0]
-               if self._imu_buffer is not None else None)
+        imu = self._imu_buffer.window(t, self._observe_samples)[0] if self._imu_buffer is not None else None
         observe(t, np.asarray(beams, float), imu)
 
     def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
