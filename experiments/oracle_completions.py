@@ -224,13 +224,15 @@ def oracle_task(item):
              "errors": errors, "stated_sigma": stated, "screening": screening})
 
 
-def fold_pivot_lengths(sources: dict, folds) -> list[float]:
+def fold_pivot_lengths(sources: dict, folds, axes: tuple[str, ...] = ("yaw",)) -> list:
     """Per fold, the pivot length (m) fitted on the other folds' trajectories
-    (:func:`graphnav.nets.pivot.fit_pivot_length`)."""
+    (:func:`graphnav.nets.pivot.fit_pivot_length`); with ``axes`` ``("yaw", "pitch")`` the pair ``(L, L_q)``
+    (:func:`graphnav.nets.pivot.fit_pivot_lengths`)."""
     from graphnav.evaluation.bench.cases import load_source
-    from graphnav.nets.pivot import fit_pivot_length
+    from graphnav.nets.pivot import fit_pivot_length, fit_pivot_lengths
     missions = {k: load_source(sources[f"Trajectory{k}"]) for pair in folds for k in pair}
-    return [fit_pivot_length([missions[k] for other in folds if other != pair for k in other]) for pair in folds]
+    fit = fit_pivot_length if tuple(axes) == ("yaw",) else lambda ms: list(fit_pivot_lengths(ms, axes=axes))
+    return [fit([missions[k] for other in folds if other != pair for k in other]) for pair in folds]
 
 
 def total_outage_network(nets_dir, fold: int) -> bool:

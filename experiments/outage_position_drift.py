@@ -18,7 +18,11 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
 outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``).
 ``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
-:data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--relinearised W`` adds Graph-TC
+:data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--pivot-axes A ...`` adds ``Graph-HNP``
+whose pivot completer models the turn axes A (``yaw`` or ``yaw+pitch``: the heave from the pitch rate too) instead of
+the shipped :data:`graphnav.evaluation.methods.PIVOT_AXES` (``Graph-HNP axes A``); ``--pivot-holds N ...`` adds
+``Graph-HNP`` holding N past pings instead of the average estimator's N of the scenario (``Graph-HNP hold N``; with
+``--pivot-axes``, each axes with each hold too). ``--relinearised W`` adds Graph-TC
 relinearising every update the keyframes of its last W s (``Graph-TC relinearised W``): how much Graph-TC's own
 readings move with an equally valid linearisation, the noise floor of a ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
 the beams return (``<method> retired``, ``GraphOptions.retire_completions``), or, for a method that does so by
@@ -91,6 +95,12 @@ RELINEARISED = " relinearised "
 PRIOR = " prior "
 #: `` prior P`` anywhere in a run label (P a number), the pivot completer's ``prior_turn``
 _PRIOR_RE = re.compile(r" prior ([0-9.eE+-]+)")
+AXES = " axes "
+#: `` axes A`` anywhere in a run label (A: ``yaw`` or ``yaw+pitch``), the pivot completer's turn axes
+_AXES_RE = re.compile(r" axes ([a-z+]+)")
+HOLD = " hold "
+#: `` hold N`` anywhere in a run label, the past pings the pivot completer holds
+_HOLD_RE = re.compile(r" hold ([0-9]+)")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -100,9 +110,11 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     not, ``GraphOptions.retire_completions``), or a method followed by `` relinearised W`` (ISAM2 relinearising every
     update the keyframes of the last W s, instead of every 10th update those of the last 5 s: the estimator's own
     sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
-    :func:`pivot_prior`: no graph option; it may come before or after the other suffixes)."""
-    if _PRIOR_RE.search(label):
-        return variant_run(_PRIOR_RE.sub("", label, count=1))
+    :func:`pivot_prior`), `` axes A`` (its turn axes, :func:`pivot_axes`) or `` hold N`` (the past pings it holds,
+    :func:`pivot_hold`): no graph option; they may come before or after the other suffixes)."""
+    for pattern in (_PRIOR_RE, _AXES_RE, _HOLD_RE):
+        if pattern.search(label):
+            return variant_run(pattern.sub("", label, count=1))
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -127,6 +139,25 @@ def pivot_prior(label: str) -> float | None:
     return float(found.group(1)) if found else None
 
 
+def pivot_axes(label: str) -> tuple[str, ...] | None:
+    """The turn axes of the pivot completer of a run label with `` axes A`` (``yaw+pitch``: ``("yaw", "pitch")``),
+    checked (:func:`graphnav.nets.pivot.check_axes`); None otherwise."""
+    from graphnav.nets.pivot import check_axes
+    found = _AXES_RE.search(label)
+    return check_axes(found.group(1).split("+")) if found else None
+
+
+def pivot_hold(label: str) -> int | None:
+    """The past pings the pivot completer of a run label with `` hold N`` holds; None otherwise."""
+    found = _HOLD_RE.search(label)
+    return int(found.group(1)) if found else None
+
+
+def pivot_setting(label: str) -> bool:
+    """Whether a run label sets its pivot completer (`` prior P``, `` axes A``, `` hold N``)."""
+    return any(f(label) is not None for f in (pivot_prior, pivot_axes, pivot_hold))
+
+
 def check_pivot_member(label: str, beam_dir: str | None) -> None:
     """Refuse the beam-only folder :data:`imu_beam_fused_folds.PIVOT_MEMBER` for a run label whose method runs the
     beam-only networks alone (the pivot completer stands in for them only in the fused pair)."""
@@ -138,12 +169,14 @@ def check_pivot_member(label: str, beam_dir: str | None) -> None:
 
 
 def check_prior_method(label: str) -> None:
-    """Refuse a run label with `` prior P`` whose method does not complete with the pivot completer (the prior
-    would replace its completer)."""
+    """Refuse a run label with `` prior P``, `` axes A`` or `` hold N`` whose method does not complete with the pivot
+    completer (the setting would replace its completer)."""
     from graphnav.evaluation.methods import get_method
     name = variant_run(label)[0]
     if get_method(name).completer != "pivot":
-        raise ValueError(f"{label}: a prior_turn is a setting of the pivot completer, which {name} does not run")
+        what = ("a prior_turn" if pivot_prior(label) is not None else "axes" if pivot_axes(label) is not None
+                else "a hold")
+        raise ValueError(f"{label}: {what} is a setting of the pivot completer, which {name} does not run")
 
 
 def resolved_options(label: str) -> dict:
@@ -254,10 +287,13 @@ def trajectory_task(item):
     for method in methods:
         name, options = variant_run(method)
         comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
-        if pivot_prior(method) is not None:
-            from graphnav.evaluation.methods import pivot_completer
+        if pivot_setting(method):
+            from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_PRIOR_TURN, pivot_completer
             check_prior_method(method)
-            comp = pivot_completer(scenario, mission.config, prior_turn=pivot_prior(method))
+            prior = pivot_prior(method)
+            comp = pivot_completer(scenario, mission.config,
+                                   prior_turn=PIVOT_PRIOR_TURN if prior is None else prior,
+                                   axes=pivot_axes(method) or PIVOT_AXES, n_past=pivot_hold(method))
         sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
     return (source.name, grade, scenario, window_s), result
@@ -408,6 +444,10 @@ def main(argv=None) -> int:
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
     p.add_argument("--pivot-priors", nargs="+", type=float, metavar="P", help="also Graph-HNP with its pivot "
                    "completer's prior_turn P instead of the shipped one (module docstring)")
+    p.add_argument("--pivot-axes", nargs="+", choices=("yaw", "yaw+pitch"), metavar="A", help="also Graph-HNP with "
+                   "its pivot completer modelling the turn axes A: yaw, yaw+pitch (module docstring)")
+    p.add_argument("--pivot-holds", nargs="+", type=int, metavar="N", help="also Graph-HNP with its pivot completer "
+                   "holding N past pings (module docstring)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -449,6 +489,13 @@ def main(argv=None) -> int:
         if not all(prior >= 0 for prior in a.pivot_priors):
             p.error("--pivot-priors: prior_turn must be >= 0 (rad/s)^2")
         a.methods += [f"{GRAPH_HNP}{PRIOR}{prior:g}" for prior in a.pivot_priors]
+    for axes in a.pivot_axes or []:
+        a.methods.append(f"{GRAPH_HNP}{AXES}{axes}")
+    if a.pivot_holds:
+        if not all(n >= 1 for n in a.pivot_holds):
+            p.error("--pivot-holds: the pivot completer holds at least 1 past ping")
+        a.methods += [f"{base}{HOLD}{n}" for base in [GRAPH_HNP, *(f"{GRAPH_HNP}{AXES}{x}" for x in a.pivot_axes or [])]
+                      for n in a.pivot_holds]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
@@ -464,7 +511,7 @@ def main(argv=None) -> int:
     kinds = {m: get_method(variant_run(m)[0]).completer for m in a.methods}
     for m in a.methods:
         try:
-            if pivot_prior(m) is not None:
+            if pivot_setting(m):
                 check_prior_method(m)
             for sc in a.scenarios:
                 check_pivot_member(m, fold_nets.get(sc, [None, None])[1])
@@ -479,8 +526,9 @@ def main(argv=None) -> int:
                 **({"fold_nets": fold_nets} if fold_nets else {})}
     if "pivot" in kinds.values() or PIVOT_MEMBER in {beam for _, beam in fold_nets.values()}:
         # the shipped prior of the runs that do not name theirs: a results file resumes only under the same one
-        from graphnav.evaluation.methods import PIVOT_PRIOR_TURN
+        from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_PRIOR_TURN
         settings["pivot_prior_turn"] = PIVOT_PRIOR_TURN
+        settings["pivot_axes"] = list(PIVOT_AXES)
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)

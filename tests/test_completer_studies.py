@@ -811,6 +811,18 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     study.check_prior_method("Graph-HNP prior 0.01 kept")
     with pytest.raises(ValueError, match="Graph-HNI does not run"):
         study.check_prior_method("Graph-HNI prior 0.1")
+    # the pivot completer's turn axes: a completer setting too, beside the others
+    assert study.variant_run("Graph-HNP axes yaw+pitch kept") == ("Graph-HNP", {"retire_completions": False})
+    assert study.pivot_axes("Graph-HNP axes yaw+pitch") == ("yaw", "pitch")
+    assert study.pivot_axes("Graph-HNP axes yaw") == ("yaw",) and study.pivot_axes("Graph-HNP prior 0.1") is None
+    assert study.pivot_axes("Graph-HNP prior 0.3 axes yaw+pitch") == ("yaw", "pitch")
+    assert study.pivot_prior("Graph-HNP prior 0.3 axes yaw+pitch") == 0.3
+    assert study.pivot_setting("Graph-HNP axes yaw") and not study.pivot_setting("Graph-HNP tau 3")
+    with pytest.raises(ValueError, match="axes is a setting of the pivot completer, which Graph-HN does not"):
+        study.check_prior_method("Graph-HN axes yaw+pitch")
+    from graphnav.core.errors import ConfigError
+    with pytest.raises(ConfigError, match="axes"):
+        study.pivot_axes("Graph-HNP axes pitch")
     assert study.other_retirement("Graph-HN") == "Graph-HN kept"
     assert study.other_retirement("Graph-HN kept") == "Graph-HN kept retired"
     assert study.other_retirement("Graph-TC") is None
@@ -1016,3 +1028,42 @@ def test_the_placement_report_keeps_the_pivot_pair_and_each_draw_apart_and_choos
         study.decay_report(rows)
     old = {k: v for k, v in row("a/nets2", "ens2/x").items() if k not in ("nets", "run_decay")}
     assert "the cards'" in study.report([old])
+
+
+def test_the_pivot_completers_hold_is_chosen_per_scenario_counting_worse_folds_first(tmp_path):
+    """``pivot_completer_folds.py --choose-n-past``: per scenario the hold with the fewest fold cells worse than the
+    average, then the largest smallest pooled gain; each fold left out gets the hold the others choose; a file run
+    with the completer's own holds is refused by name."""
+    study = _study("pivot_completer_folds")
+    folds = [(1, 3), (2, 5), (4, 10), (6, 13), (8, 11)]
+    member = "online+pitch 0.1"
+
+    def results(errors):
+        """Per trajectory the completer's squared errors against the average's 1.0: ``errors(scenario, fold)``."""
+        out = {}
+        for f, pair in enumerate(folds):
+            for k in pair:
+                rows = {}
+                for scenario in study.SCENARIOS:
+                    for kind in ("per ping", "outage"):
+                        rows[f"{scenario}|{kind}|average"] = [1.0, 1.0, 10]
+                        e = errors(scenario, f)
+                        rows[f"{scenario}|{kind}|{member}"] = [e, e, 10]
+                out[f"Trajectory{k}"] = {"as-recorded": rows}
+        return out
+    files = []
+    # hold 3: better pooled in 2-missing, but fold 3 worse than the average there; hold 4 a little better everywhere
+    for n, errors in ((3, lambda sc, f: 1.2 if (sc, f) == ("2-missing", 3) else 0.5),
+                      (4, lambda sc, f: 0.8)):
+        path = tmp_path / f"n{n}.json"
+        path.write_text(json.dumps({"pivot_n_past": n, "results": results(errors)}))
+        files.append(str(path))
+    text = study.choose_n_past(files, member)
+    assert text.splitlines()[1] == "2-missing: N 3: 4, +20.0 %; N 4: 0, +10.6 % -> N 4"
+    assert text.splitlines()[7] == "3-missing: N 3: 0, +29.3 %; N 4: 0, +10.6 % -> N 3"
+    # left out, fold 3 gets the others' choice (3, whose other folds are all better) and is then worse
+    assert "without fold 3: N 3; fold 3 with it: smallest gain -9.5 %, 4 cells worse" in text
+    default = tmp_path / "default.json"
+    default.write_text(json.dumps({"pivot_n_past": "default", "results": results(lambda sc, f: 0.8)}))
+    with pytest.raises(SystemExit, match="default.json"):
+        study.choose_n_past([*files, str(default)], member)

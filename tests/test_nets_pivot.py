@@ -12,15 +12,17 @@ from graphnav.core.config import DvlSpec
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.errors import ConfigError
 from graphnav.nets import AverageCompleter
-from graphnav.nets.pivot import PivotCompleter, PivotFit, fit_pivot_length, ping_rates
+from graphnav.nets.pivot import DEFAULT_AXES, PivotCompleter, PivotFit, fit_pivot_length, ping_rates
 
 RATE_HZ = 100.0
 N_PAST = 5
 
 
-def turning_hull(pivot_m: float, lever_b: np.ndarray, n_pings: int, seed: int, noise: float = 0.0):
-    """A hull that holds its surge and heave and turns about its pivot: (t (K,), rates (K, 3) per DVL period,
-    beams (K, 4), IMU rates (K * 100, 3) constant over each period, T_b). Yaw rate changes every few pings."""
+def turning_hull(pivot_m: float, lever_b: np.ndarray, n_pings: int, seed: int, noise: float = 0.0,
+                 pitch_pivot_m: float = 0.0):
+    """A hull that holds its surge and turns about its pivots (sway ``-L r``, heave ``+L_q q``): (t (K,), rates
+    (K, 3) per DVL period, beams (K, 4), IMU rates (K * 100, 3) constant over each period, T_b). Yaw rate changes
+    every few pings; the pitch rate is small and changes every ping."""
     rng = np.random.default_rng(seed)
     T_b = DvlGeometry.from_spec(DvlSpec()).T_b
     rates = np.zeros((n_pings, 3))
@@ -29,7 +31,8 @@ def turning_hull(pivot_m: float, lever_b: np.ndarray, n_pings: int, seed: int, n
         if k % 7 == 0:
             r = rng.uniform(-0.08, 0.08)
         rates[k] = [rng.normal(0, 0.01), rng.normal(0, 0.01), r]
-    v_b = np.array([1.8, -0.05, 0.02]) + np.outer(-pivot_m * rates[:, 2], [0.0, 1.0, 0.0])
+    v_b = (np.array([1.8, -0.05, 0.02]) + np.outer(-pivot_m * rates[:, 2], [0.0, 1.0, 0.0])
+           + np.outer(pitch_pivot_m * rates[:, 1], [0.0, 0.0, 1.0]))
     beams = (v_b + np.cross(rates, lever_b)) @ T_b.T + rng.normal(0.0, noise, (n_pings, 4))
     imu = np.repeat(rates, int(RATE_HZ), axis=0)
     return np.arange(n_pings, dtype=float), rates, beams, imu, T_b
@@ -70,8 +73,8 @@ def test_without_a_pivot_or_lever_arm_it_is_the_average_estimator():
 
 def test_a_hull_turning_about_its_pivot_is_completed_exactly_where_the_average_holds_the_old_sway():
     lever = np.array([0.6, 0.1, 0.3])
-    t, rates, beams, imu, T_b = turning_hull(2.5, lever, 60, seed=1)
-    completer = PivotCompleter(T_b, lever, 2.5, n_past=N_PAST)
+    t, rates, beams, imu, T_b = turning_hull(2.5, lever, 60, seed=1, pitch_pivot_m=1.5)
+    completer = PivotCompleter(T_b, lever, 2.5, n_past=N_PAST, pitch_pivot_m=1.5)
     average = AverageCompleter(n_past=N_PAST)
     np.testing.assert_allclose(ping_rates(window(imu, 20, completer.imu_samples)[1], N_PAST + 1, 100),
                                rates[15:21], atol=1e-12)
@@ -84,6 +87,12 @@ def test_a_hull_turning_about_its_pivot_is_completed_exactly_where_the_average_h
         assert sigma[1] == 0.0 and np.all(sigma[[0, 2, 3]] > 0)
         worst_average = max(worst_average, np.abs(average.complete(beams[k - N_PAST:k], measured)[0] - beams[k]).max())
     assert worst_average > 0.05       # the turns are there to be modelled
+    # without its pitch term the same hull is not completed exactly
+    yaw_only = PivotCompleter(T_b, lever, 2.5, n_past=N_PAST)
+    measured = beams[30].copy()
+    measured[[0, 2, 3]] = np.nan
+    got, _ = yaw_only.complete(beams[30 - N_PAST:30], measured, imu=window(imu, 30, yaw_only.imu_samples))
+    assert np.abs(got - beams[30]).max() > 1e-3
     with pytest.raises(ConfigError, match="IMU window"):
         completer.complete(beams[:N_PAST], measured, imu=(np.zeros((10, 3)), np.zeros((10, 3))))
 
@@ -95,6 +104,25 @@ def test_the_pivot_length_is_fitted_from_noisy_measured_pings_and_a_gap_starts_a
     for k in range(400):
         fit.add(t[k], beams[k], rates[k])
     assert fit.length() == pytest.approx(3.0, abs=0.15)
+    assert fit.lengths()[1] == pytest.approx(0.0, abs=0.5)       # this hull does not heave as it pitches
+    # a hull that does is fitted in both; the yaw-only fit of the same pings leaves its heave out
+    t, rates, beams, imu, T_b = turning_hull(3.0, lever, 400, seed=7, noise=0.02, pitch_pivot_m=2.0)
+    both, yaw_only = PivotFit(T_b, lever, N_PAST), PivotFit(T_b, lever, N_PAST, axes=("yaw",))
+    for k in range(400):
+        both.add(t[k], beams[k], rates[k])
+        yaw_only.add(t[k], beams[k], rates[k])
+    assert both.lengths() == pytest.approx([3.0, 2.0], abs=0.3), both.lengths()
+    assert yaw_only.lengths()[1] == 0.0 and yaw_only.length() == pytest.approx(3.0, abs=0.15)
+    with pytest.raises(ConfigError, match="axes"):
+        PivotFit(T_b, lever, N_PAST, axes=("pitch",))
+    # a hull that never pitches: the yaw is still fitted, unshrunk, and the pitch length is 0
+    level = PivotFit(T_b, lever, N_PAST)
+    level_rates = rates * [1.0, 0.0, 1.0]
+    for k in range(400):
+        level.add(t[k], beams[k] - (rates[k, 1] * 2.0) * T_b[:, 2], level_rates[k])
+    assert level.den[1, 1] == 0.0 and level.lengths()[1] == 0.0
+    assert level.lengths()[0] == pytest.approx(3.0, abs=0.15)
+    t, rates, beams, imu, T_b = turning_hull(3.0, lever, 400, seed=7, noise=0.02)
     assert fit.pairs == sum(min(30, k - N_PAST + 1) for k in range(N_PAST, 400))
     # pings not one DVL period apart are not held together
     gapped = PivotFit(T_b, lever, N_PAST)
@@ -107,10 +135,13 @@ def test_the_pivot_length_is_fitted_from_noisy_measured_pings_and_a_gap_starts_a
     for k in range(200):
         online.observe(t[k], beams[k], window(imu, k, online.imu_samples))
     assert online.length_m == pytest.approx(3.0, abs=0.2)
-    shrunk = PivotCompleter(T_b, lever, None, n_past=N_PAST, prior_turn=online.fit.den)
+    yaw_only = PivotCompleter(T_b, lever, None, n_past=N_PAST, prior_turn=0.0, axes=("yaw",))
+    for k in range(200):
+        yaw_only.observe(t[k], beams[k], window(imu, k, yaw_only.imu_samples))
+    shrunk = PivotCompleter(T_b, lever, None, n_past=N_PAST, prior_turn=yaw_only.fit.den[0, 0], axes=("yaw",))
     for k in range(200):
         shrunk.observe(t[k], beams[k], window(imu, k, shrunk.imu_samples))
-    assert shrunk.length_m == pytest.approx(online.length_m / 2)
+    assert shrunk.length_m == pytest.approx(yaw_only.length_m / 2) and shrunk.lengths_m[1] == 0.0
     with pytest.raises(ConfigError, match="prior_turn"):
         PivotCompleter(T_b, lever, None, prior_turn=-1.0)
 
@@ -137,7 +168,7 @@ def test_a_straight_run_with_gyro_noise_does_not_make_a_wild_pivot_and_bad_sampl
     bad_imu[30 * int(RATE_HZ) + 5, 2] = np.inf
     for k in range(40):
         bad.observe(t[k], bad_beams[k], window(bad_imu, k, bad.imu_samples))
-    assert bad.observations_refused == 2 and np.isfinite(bad.length_m) and np.isfinite(bad.fit.num)
+    assert bad.observations_refused == 2 and np.isfinite(bad.lengths_m).all() and np.isfinite(bad.fit.num).all()
     with pytest.raises(ConfigError, match="shape"):
         bad.observe(41.0, 0.5, window(imu, 39, bad.imu_samples))
 
@@ -179,21 +210,26 @@ def test_the_keyframer_shows_the_completer_every_fully_measured_ping_with_its_im
 
 def test_on_the_snapir_the_pivot_from_the_dvl_agrees_with_the_reference_trajectorys(akit_dir):
     """The reference trajectory is another system's (the A-KIT ground truth): its sway at the IMU against the yaw
-    rate gives the pivot length without the DVL beams the fit uses."""
+    rate, and its heave against the pitch rate, give the pivot lengths without the DVL beams the fit uses."""
     from graphnav.missions import load_akit
-    from graphnav.nets.pivot import measured_series
+    from graphnav.nets.pivot import fit_pivot_lengths, measured_series
     for k in (1, 4):
         mission = load_akit(akit_dir / f"Trajectory{k}")
         from_dvl = fit_pivot_length([mission])
+        yaw, pitch = fit_pivot_lengths([mission])
         _, rates, usable = measured_series(mission)
         t = mission.dvl.t
         inside = usable & (t >= mission.gt.t[0]) & (t <= mission.gt.t[-1])
         _, v_n, C_b_n = mission.gt.at(t[inside])
-        sway = np.einsum("kji,kj->ki", C_b_n, v_n)[:, 1]
-        r = rates[inside, 2]
-        from_reference = -np.polyfit(r, sway, 1)[0]
+        v_b = np.einsum("kji,kj->ki", C_b_n, v_n)
+        from_reference = -np.polyfit(rates[inside, 2], v_b[:, 1], 1)[0]
+        pitch_from_reference = np.polyfit(rates[inside, 1], v_b[:, 2], 1)[0]
         assert 2.5 < from_dvl < 4.5, k
         assert from_dvl == pytest.approx(from_reference, abs=0.4), k
+        assert yaw == pytest.approx(from_reference, abs=0.4), k
+        # the hull heaves as it pitches, about a point as far ahead (3.1-3.4 m)
+        assert 2.5 < pitch < 4.5, k
+        assert pitch == pytest.approx(pitch_from_reference, abs=0.4), k
 
 
 def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
@@ -207,6 +243,7 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     assert isinstance(completer, PivotCompleter) and completer.n_past == 3 and "online" in described
     np.testing.assert_array_equal(completer.lever_arm_b, config.dvl.lever_arm_b)
     assert completer.pivot_m is None and completer.prior_turn == methods.PIVOT_PRIOR_TURN
+    assert completer.axes == methods.PIVOT_AXES == ("yaw",)
     assert "Graph-HNP" in methods.BENCH_METHODS
     options = methods.estimator_options("Graph-HNP")
     # a total outage screened at each ping; with a beam measured a run screened once, its errors correlated over 10 s
@@ -266,4 +303,11 @@ def test_on_a_simulated_hull_with_a_pivot_the_estimator_fits_its_length():
         assert (np.ptp(sway) > 0.4) == (pivot_m > 0)
         sol = graphnav.run_method(mission, "Graph-HNP", "none")
         fitted[pivot_m] = sol.info["completer_state"]["pivot_length_m"]
+        assert "pitch_pivot_length_m" not in sol.info["completer_state"]     # Graph-HNP models the yaw alone
+        # the completer's own default models the pitch too: the simulated hull does not heave as it pitches
+        from graphnav.evaluation.methods import pivot_completer
+        both = pivot_completer("none", mission.config, axes=DEFAULT_AXES)
+        state = graphnav.run_method(mission, "Graph-HNP", "none", completer=both).info["completer_state"]
+        assert state["pivot_length_m"] == pytest.approx(fitted[pivot_m], abs=0.3)
+        assert abs(state["pitch_pivot_length_m"]) < 0.5, pivot_m
     assert abs(fitted[0.0]) < 0.5 and fitted[3.0] == pytest.approx(3.0, abs=0.5)

@@ -256,7 +256,8 @@ def print_summary(summary: dict, file=None) -> None:
         how = (f"fitted online over {state['pivot_fit_pairs']} pairs of fully measured pings"
                if "pivot_fit_pairs" in state else "given")
         refused = state.get("pivot_observations_refused")
-        out(f"  pivot length {state['pivot_length_m']:.2f} m ahead of the IMU ({how}"
+        pitch = (f", {state['pitch_pivot_length_m']:.2f} m in pitch" if "pitch_pivot_length_m" in state else "")
+        out(f"  pivot length {state['pivot_length_m']:.2f} m ahead of the IMU in yaw{pitch} ({how}"
             + (f"; {refused} fully measured ping(s) with a non-finite beam or rate left out" if refused else "") + ")")
     for name, other in summary.get("compared", {}).items():
         if other.get("ground_truth"):

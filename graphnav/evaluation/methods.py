@@ -202,6 +202,18 @@ HYBRID_COMPLETER = "average"
 #: default, chosen (by judgement, the study's rule picks 0.01) in experiments/pivot_completer_folds.py.
 PIVOT_PRIOR_TURN = DEFAULT_PRIOR_TURN
 
+#: The turn axes Graph-HNP's pivot completer models: the yaw alone. The completer's own default also models the heave
+#: from the pitch rate, which its study's rule picks (per-ping beam gain 14.5 % instead of 6.1 % with 2 missing
+#: beams); in the estimator, whose depth sensor already gives the heave, the two are alike (the same fold cells over
+#: 1.02x Graph-TC, mean ratios within 0.001) and the regime rule keeps the yaw alone, its worst fold in a 120 s MEMS
+#: total outage 0.72x against 0.81x (experiments/outage_position_drift.py --pivot-axes; docs/decisions/completers.md,
+#: "The hull's heave in pitch").
+PIVOT_AXES: tuple[str, ...] = ("yaw",)
+#: Past pings Graph-HNP's pivot completer holds per scenario: the average estimator's N. The completer's own
+#: (graphnav.nets.pivot.DEFAULT_N_PAST) holds 4 with 2 missing beams; in the estimator, with either turn model, 3 and
+#: 4 give the same fold cells and mean ratios within 0.001 (experiments/outage_position_drift.py --pivot-holds).
+PIVOT_N_PAST: Mapping = types.MappingProxyType(dict(AVERAGE_N_PAST))
+
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network", "imu-network", "pivot")
 
@@ -416,17 +428,21 @@ def imu_network_completer(scenario: str, noise_std: float = 0.042):
         return completer, described + " (IMU-aware unavailable)"
 
 
-def pivot_completer(scenario: str, config, pivot_m: float | None = None, prior_turn: float = PIVOT_PRIOR_TURN):
+def pivot_completer(scenario: str, config, pivot_m: float | None = None, prior_turn: float = PIVOT_PRIOR_TURN,
+                    pitch_pivot_m: float = 0.0, axes: tuple[str, ...] = PIVOT_AXES, n_past: int | None = None):
     """The pivot completer (:class:`graphnav.nets.pivot.PivotCompleter`) for a mission's sensors ``config``
     (:class:`~graphnav.core.config.SensorConfig`: the DVL's beams, lever arm, noise and rate, the IMU rate), with the
-    scenario's ``n_past``; its pivot length ``pivot_m`` (m), or by default fitted online over the mission's measured
-    pings, shrunk by ``prior_turn``."""
+    scenario's ``n_past``; its pivot lengths ``pivot_m`` and ``pitch_pivot_m`` (m), or by default those of the turn
+    ``axes`` fitted online over the mission's measured pings, shrunk by ``prior_turn``; ``n_past``: the past pings
+    held. The defaults are Graph-HNP's (:data:`PIVOT_AXES`, :data:`PIVOT_N_PAST`); the completer's own, chosen by
+    its study, are ``axes=graphnav.nets.pivot.DEFAULT_AXES, n_past=graphnav.nets.pivot.DEFAULT_N_PAST[scenario]``."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.pivot import PivotCompleter
     geometry = DvlGeometry.from_spec(config.dvl)
     return PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m,
-                          n_past=AVERAGE_N_PAST[check_scenario(scenario)], noise_std=config.dvl.beam_noise_std,
-                          imu_rate_hz=config.imu_rate_hz, ping_dt=1.0 / config.dvl.rate_hz, prior_turn=prior_turn)
+                          n_past=n_past or PIVOT_N_PAST[check_scenario(scenario)], noise_std=config.dvl.beam_noise_std,
+                          imu_rate_hz=config.imu_rate_hz, ping_dt=1.0 / config.dvl.rate_hz, prior_turn=prior_turn,
+                          pitch_pivot_m=pitch_pivot_m, axes=axes)
 
 
 def completer_for(name: str, scenario: str, noise_std: float = 0.042, config=None):
@@ -465,14 +481,17 @@ def estimator_options(name: str, options=None):
 
 
 def completer_state(completer) -> dict:
-    """What a completer learned during the mission, for run summaries: the pivot completer's pivot length at the
-    end (``pivot_length_m``, m), the number of ping pairs its online fit used since the completer was made
+    """What a completer learned during the mission, for run summaries: the pivot completer's pivot lengths at the
+    end (``pivot_length_m`` for the yaw, m; ``pitch_pivot_length_m`` for the pitch where it models one), the number of ping pairs its online fit used since the completer was made
     (``pivot_fit_pairs``) and the fully measured pings it left out of the fit for a non-finite beam or rate
     (``pivot_observations_refused``, when any); empty for the others."""
     if not hasattr(completer, "length_m"):
         return {}
     fit = getattr(completer, "fit", None)
-    state = {"pivot_length_m": float(completer.length_m)}
+    yaw, pitch = completer.lengths_m
+    state = {"pivot_length_m": float(yaw)}
+    if "pitch" in completer.axes if completer.pivot_m is None else pitch != 0.0:
+        state["pitch_pivot_length_m"] = float(pitch)
     if fit is not None and completer.pivot_m is None:
         state["pivot_fit_pairs"] = int(fit.pairs)
     if getattr(completer, "observations_refused", 0):
