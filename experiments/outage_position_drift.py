@@ -100,7 +100,7 @@ AXES = " axes "
 _AXES_RE = re.compile(r" axes ([a-z+]+)")
 HOLD = " hold "
 #: `` hold N`` anywhere in a run label, the past pings the pivot completer holds
-_HOLD_RE = re.compile(r" hold ([0-9]+)")
+_HOLD_RE = re.compile(r" hold ([0-9]+)(?![0-9.])")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -447,7 +447,7 @@ def main(argv=None) -> int:
     p.add_argument("--pivot-axes", nargs="+", choices=("yaw", "yaw+pitch"), metavar="A", help="also Graph-HNP with "
                    "its pivot completer modelling the turn axes A: yaw, yaw+pitch (module docstring)")
     p.add_argument("--pivot-holds", nargs="+", type=int, metavar="N", help="also Graph-HNP with its pivot completer "
-                   "holding N past pings (module docstring)")
+                   "holding N past pings in every scenario run, instead of the average's N of each (module docstring)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -526,9 +526,10 @@ def main(argv=None) -> int:
                 **({"fold_nets": fold_nets} if fold_nets else {})}
     if "pivot" in kinds.values() or PIVOT_MEMBER in {beam for _, beam in fold_nets.values()}:
         # the shipped prior of the runs that do not name theirs: a results file resumes only under the same one
-        from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_PRIOR_TURN
+        from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_N_PAST, PIVOT_PRIOR_TURN
         settings["pivot_prior_turn"] = PIVOT_PRIOR_TURN
         settings["pivot_axes"] = list(PIVOT_AXES)
+        settings["pivot_n_past"] = dict(PIVOT_N_PAST)
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)

@@ -124,7 +124,7 @@ def trajectory_rows(source, grade: str, pivot_m: float, stride: int, outage: int
         fits = ({suffix: online_fits(mission, geometry, held, axes) for suffix, axes in models.items()} if priors
                 else {})
         for kind, length, step in (("per ping", 1, 1), ("outage", outage, stride)):
-            starts = [s for s in range(first, n_pings - length + 1, step)
+            starts = [s for s in range(max(first, n, held), n_pings - length + 1, step)
                       if usable[s - max(n, held):s + length].all()]
             for name, completer in members.items():
                 got, true = completions(completer, mission, PATTERNS[scenario], starts, length,
@@ -155,9 +155,12 @@ def gains(results: dict, folds, grade: str, scenario: str, kind: str, member: st
 def report(saved: dict) -> str:
     from graphnav.nets.crossval import AKIT_FOLDS
     results = saved["results"]
+    hold = saved.get("pivot_n_past")
     lines = [f"pivot length per fold (fitted on the other folds), m: "
              + ", ".join(f"{x:.2f}" for x in saved["pivot_m"]) + f"; outages of {saved['outage']} pings, a start "
-             f"every {saved['stride']}",
+             f"every {saved['stride']} from ping {saved.get('first', 60)}; the pivot completers hold "
+             + ("the average's N" if hold is None else "their own N per scenario" if hold == "default"
+                else f"{hold} past pings"),
              "", "gain against the average, beam / velocity RMSE, pooled (worst fold)", "",
              "| completer | scenario | eval IMU | per ping | outage |", "| --- | --- | --- | --- | --- |"]
     suffixes = list(MODELS) if saved.get("pitch_pivots") else [""]
@@ -251,18 +254,36 @@ def choose_n_past(files: list[str], member: str) -> str:
     pooled gain; then the shorter hold) on all folds and with each fold left out; the text of the choice."""
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.crossval import AKIT_FOLDS
-    runs = {}
+    runs, same = {}, None
     for name in files:
         saved = json.loads(Path(name).read_text())
         if saved.get("pivot_n_past") == "default":
             raise SystemExit(f"--choose-n-past: {name} was run with the completer's own holds ('default'); give "
                              "files of one --pivot-n-past number each (or none: the average's N)")
-        runs[saved.get("pivot_n_past")] = saved
+        # the files must differ in the hold alone
+        setting = {k: saved.get(k) for k in ("outage", "stride", "priors", "pitch_pivots")}
+        setting["first"] = saved.get("first", 60)
+        first_rows = next(iter(saved["results"].values()))
+        setting["grades"] = sorted(first_rows)
+        if same is not None and setting != same[1]:
+            differ = ", ".join(f"{k} {setting[k]} against {same[1][k]}" for k in setting if setting[k] != same[1][k])
+            raise SystemExit(f"--choose-n-past: {name} differs from {same[0]} in more than the hold: {differ}")
+        if not any(key.endswith(f"|{member}") for rows in first_rows.values() for key in rows):
+            raise SystemExit(f"--choose-n-past: {name} holds no member '{member}' (run it with --pitch and --priors)")
+        same = same or (name, setting)
+        runs[name] = saved
     folds = list(range(len(AKIT_FOLDS)))
     lines = [f"the pivot completer's hold chosen per scenario, member '{member}': fold cells worse than the average, "
              "smallest pooled gain"]
     for scenario in SCENARIOS:
-        held = {n or AVERAGE_N_PAST[scenario]: saved for n, saved in runs.items()}
+        held = {}
+        for name, saved in runs.items():
+            n = saved.get("pivot_n_past") or AVERAGE_N_PAST[scenario]
+            if n in held:
+                raise SystemExit(f"--choose-n-past: two files hold {n} past pings with {scenario}: {held[n][0]} and "
+                                 f"{name} (a file run without --pivot-n-past holds the average's N)")
+            held[n] = (name, saved)
+        held = {n: saved for n, (_, saved) in held.items()}
         scores = {n: n_past_scores(saved, folds, scenario, member) for n, saved in sorted(held.items())}
         pick = min(scores, key=lambda n: (scores[n][0], -scores[n][1], n))
         lines.append(f"{scenario}: " + "; ".join(f"N {n}: {w}, {100 * g:+.1f} %" for n, (w, g) in scores.items())
@@ -299,6 +320,8 @@ def main(argv=None) -> int:
     p.add_argument("--member", default="online+pitch 0.1", help="the completer --choose-n-past chooses for "
                    "(default: online+pitch 0.1)")
     a = p.parse_args(argv)
+    if a.first < 1:
+        p.error(f"--first: {a.first} must be a ping after the first (the held pings come before it)")
     if a.pivot_n_past not in (None, "default"):
         if not a.pivot_n_past.isdigit() or int(a.pivot_n_past) < 1:
             p.error(f"--pivot-n-past: {a.pivot_n_past!r} is neither a number of pings (>= 1) nor 'default'")

@@ -42,7 +42,11 @@ FIT_HORIZON_PINGS = 30
 #: 180 held-out fold cells of the completer study were worse than the average). The study's rule picks 0.01; 0.1 is
 #: shipped by judgement, further from that cliff (experiments/pivot_completer_folds.py; docs/decisions/completers.md,
 #: "A completer that models the turn"). In the estimator 0.01 to 1 are alike (the same fold cells over 1.02x
-#: Graph-TC, mean ratios within 0.002: "The pivot completer's prior_turn in the estimator").
+#: Graph-TC, mean ratios within 0.002: "The pivot completer's prior_turn in the estimator"). With the pitch modelled
+#: too it is added to both diagonal terms of the fit's normal equations, ``(den + prior_turn I) (L, L_q) = num``; the
+#: beams' vertical components being larger than their lateral ones (sum of squares 3.5 against 0.23 on the Snapir's
+#: head), the same turn statistic is reached with a pitch-rate change about four times smaller, and ``L_q`` is shrunk
+#: less for it. For the two lengths the rule picks 0.01 again, by 0.2 point ("The hull's heave in pitch").
 DEFAULT_PRIOR_TURN = 0.1
 
 #: The turns the completer models by default: the sway from the yaw rate and the heave from the pitch rate. Out of fold
@@ -98,7 +102,8 @@ class PivotCompleter:
         pitch_pivot_m: ``L_q``, the pitch pivot's distance ahead of the IMU, m, used with a given ``pivot_m``.
         axes: the turns the online fit models: ``("yaw", "pitch")`` (:data:`DEFAULT_AXES`) or ``("yaw",)`` (the
             pitch term left out: ``L_q = 0``).
-        n_past: past pings held (the average estimator's N).
+        n_past: past pings held (the average estimator's N; the completer's chosen hold per beam-outage scenario is
+            :data:`DEFAULT_N_PAST`).
         noise_std: beam noise, m/s (the average estimator's sigma formula).
         imu_rate_hz: the IMU rate the window is cut at, Hz.
         ping_dt: the DVL period, s (the past pings must be this far apart; the keyframer checks it).
@@ -269,8 +274,9 @@ class PivotFit:
         means = (sums[ends] - sums[ends - self.n_past]) / self.n_past
         resid = straight - means[:, :4]                                       # (lags, 4)
         grad = (rates - means[:, 4:])[:, None, :] * self._per_length           # (lags, 4, n)
-        self.num += np.einsum("lbi,lb->i", grad, resid)
-        self.den += np.einsum("lbi,lbj->ij", grad, grad)
+        # summed per axis as the yaw-only fit always summed, so that fit is unchanged to the bit
+        self.num += [np.sum(grad[:, :, i] * resid) for i in range(n)]
+        self.den += [[np.sum(grad[:, :, i] * grad[:, :, j]) for j in range(n)] for i in range(n)]
         self.pairs += int(n_lags)
 
     def break_run(self) -> None:
@@ -283,7 +289,10 @@ class PivotFit:
         zeros while nothing is seen), and ``L_q = 0`` when only the yaw is fitted."""
         out = np.zeros(2)
         a = self.den + prior_turn * np.eye(len(self.axes))
-        out[:len(self.axes)] = np.linalg.pinv(a, rcond=1e-9, hermitian=True) @ self.num
+        if len(self.axes) == 1:
+            out[0] = self.num[0] / a[0, 0] if a[0, 0] > 0 else 0.0
+        else:
+            out[:len(self.axes)] = np.linalg.pinv(a, rcond=1e-9, hermitian=True) @ self.num
         return out
 
     def length(self, min_turn: float = 0.0) -> float | None:

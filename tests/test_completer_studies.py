@@ -1067,3 +1067,13 @@ def test_the_pivot_completers_hold_is_chosen_per_scenario_counting_worse_folds_f
     default.write_text(json.dumps({"pivot_n_past": "default", "results": results(lambda sc, f: 0.8)}))
     with pytest.raises(SystemExit, match="default.json"):
         study.choose_n_past([*files, str(default)], member)
+    # a file without a hold holds the average's N: 3 with 2 missing beams, the same as n3.json
+    average = tmp_path / "average.json"
+    average.write_text(json.dumps({"results": results(lambda sc, f: 0.8)}))
+    with pytest.raises(SystemExit, match="two files hold 3 past pings with 2-missing"):
+        study.choose_n_past([*files, str(average)], member)
+    # files that differ in more than the hold are not compared
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"pivot_n_past": 5, "stride": 90, "results": results(lambda sc, f: 0.8)}))
+    with pytest.raises(SystemExit, match="stride 90 against None"):
+        study.choose_n_past([*files, str(other)], member)

@@ -440,7 +440,8 @@ def pivot_completer(scenario: str, config, pivot_m: float | None = None, prior_t
     from graphnav.nets.pivot import PivotCompleter
     geometry = DvlGeometry.from_spec(config.dvl)
     return PivotCompleter(geometry.T_b, geometry.lever_arm_b, pivot_m,
-                          n_past=n_past or PIVOT_N_PAST[check_scenario(scenario)], noise_std=config.dvl.beam_noise_std,
+                          n_past=PIVOT_N_PAST[check_scenario(scenario)] if n_past is None else n_past,
+                          noise_std=config.dvl.beam_noise_std,
                           imu_rate_hz=config.imu_rate_hz, ping_dt=1.0 / config.dvl.rate_hz, prior_turn=prior_turn,
                           pitch_pivot_m=pitch_pivot_m, axes=axes)
 
@@ -482,15 +483,16 @@ def estimator_options(name: str, options=None):
 
 def completer_state(completer) -> dict:
     """What a completer learned during the mission, for run summaries: the pivot completer's pivot lengths at the
-    end (``pivot_length_m`` for the yaw, m; ``pitch_pivot_length_m`` for the pitch where it models one), the number of ping pairs its online fit used since the completer was made
-    (``pivot_fit_pairs``) and the fully measured pings it left out of the fit for a non-finite beam or rate
+    end (``pivot_length_m`` for the yaw, m; ``pitch_pivot_length_m`` for the pitch where it models one), the number
+    of ping pairs its online fit used since the completer was made (``pivot_fit_pairs``) and the fully measured pings it left out of the fit for a non-finite beam or rate
     (``pivot_observations_refused``, when any); empty for the others."""
     if not hasattr(completer, "length_m"):
         return {}
     fit = getattr(completer, "fit", None)
-    yaw, pitch = completer.lengths_m
+    yaw, pitch = getattr(completer, "lengths_m", (completer.length_m, 0.0))
     state = {"pivot_length_m": float(yaw)}
-    if "pitch" in completer.axes if completer.pivot_m is None else pitch != 0.0:
+    fitted_pitch = getattr(completer, "pivot_m", None) is None and "pitch" in getattr(completer, "axes", ())
+    if fitted_pitch or pitch != 0.0:
         state["pitch_pivot_length_m"] = float(pitch)
     if fit is not None and completer.pivot_m is None:
         state["pivot_fit_pairs"] = int(fit.pairs)
