@@ -484,8 +484,9 @@ def estimator_options(name: str, options=None):
 def completer_state(completer) -> dict:
     """What a completer learned during the mission, for run summaries: the pivot completer's pivot lengths at the
     end (``pivot_length_m`` for the yaw, m; ``pitch_pivot_length_m`` for the pitch where it models one), the number
-    of ping pairs its online fit used since the completer was made (``pivot_fit_pairs``) and the fully measured pings it left out of the fit for a non-finite beam or rate
-    (``pivot_observations_refused``, when any); empty for the others."""
+    of ping pairs its online fit used since the completer was made (``pivot_fit_pairs``) and the fully measured pings
+    it left out of the fit for a non-finite beam or rate (``pivot_observations_refused``, when any); empty for the
+    others."""
     if not hasattr(completer, "length_m"):
         return {}
     fit = getattr(completer, "fit", None)
