@@ -51,6 +51,9 @@ def register(subparsers) -> None:
                         help="the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at "
                              "the IMU by -M times the turn's yaw rate, as a real hull does (the A-KIT Snapir: about 3.6; "
                              "0: no sideslip in turns)")
+    parser.add_argument("--pitch-pivot", type=float, default=0.0, metavar="M",
+                        help="the hull's pitch pivot ahead of the IMU, m: the vehicle heaves at the IMU by M times "
+                             "its pitch rate, as a real hull does (the A-KIT Snapir: about 3; 0: no heave in pitch)")
     parser.set_defaults(func=run)
 
 
@@ -118,7 +121,8 @@ def run(args) -> int:
         check_out_file(args.stream, force=args.force, option="--stream")
     mission = simulate_mission(args.duration, args.imu_grade, args.seed, dropout=args.dropout,
                                gt_rate_hz=args.gt_rate, noiseless=args.noiseless, dvl_output=args.dvl_output,
-                               start_ne_m=args.start_ne, surfacing=surfacing, pivot_m=args.pivot)
+                               start_ne_m=args.start_ne, surfacing=surfacing, pivot_m=args.pivot,
+                               pitch_pivot_m=args.pitch_pivot)
     log = sys.stderr if args.stream == "-" else sys.stdout
     if args.stream is not None:
         from graphnav.estimators.replay import mission_records

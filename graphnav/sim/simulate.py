@@ -128,6 +128,15 @@ class Sines:
             rate += amp * w * np.cos(w * t + phase)
         return value, rate
 
+    def acceleration(self, t: np.ndarray) -> np.ndarray:
+        """Second time derivative at stamps t (s)."""
+        t = np.asarray(t, dtype=float)
+        out = np.zeros(len(t))
+        for amp, period, phase in zip(self.amp, self.period, self.phase):
+            w = 2.0 * np.pi / period
+            out -= amp * w * w * np.sin(w * t + phase)
+        return out
+
 
 @dataclass
 class TrueState:
@@ -168,6 +177,8 @@ class SimTrajectory:
         bank_s: roll in turns = bank_s * yaw rate (s).
         pivot_m: the hull's pivot point ahead of the IMU, m: in the turns (the yaw steps) the sway at the IMU gets
             ``-pivot_m * yaw rate``, the sideslip of a hull turning about a point ahead of it (0: none).
+        pitch_pivot_m: the hull's pitch pivot ahead of the IMU, m: the heave at the IMU gets ``pitch_pivot_m *
+            pitch rate`` (the steps' and the oscillations'), a hull pitching about a point ahead of it (0: none).
         speed0: forward speed at t=0 before the speed steps, m/s.
         gravity_mps2, omega_ie_n: gravity magnitude at the origin (m/s^2) and Earth rate in NED (rad/s).
         earth: the Earth model of the IMU (position-dependent gravity); None: constant ``[0, 0, gravity_mps2]``
@@ -193,6 +204,7 @@ class SimTrajectory:
     heave: Sines = field(default_factory=Sines)
     bank_s: float = 0.3
     pivot_m: float = 0.0
+    pitch_pivot_m: float = 0.0
     earth: EarthModel | None = None
     gravity_track: tuple | None = None
     surface_windows: list = field(default_factory=list)
@@ -211,7 +223,7 @@ class SimTrajectory:
         t = np.asarray(t, dtype=float)
         yaw_s, yaw_rate_s, yaw_acc_s = self.yaw.evaluate(t)
         yaw_o, yaw_rate_o = self.yaw_osc.evaluate(t)
-        pitch_s, pitch_rate_s, _ = self.pitch.evaluate(t)
+        pitch_s, pitch_rate_s, pitch_acc_s = self.pitch.evaluate(t)
         pitch_o, pitch_rate_o = self.pitch_osc.evaluate(t)
         roll_o, roll_rate_o = self.roll_osc.evaluate(t)
         u_s, u_rate_s, _ = self.speed.evaluate(t)
@@ -224,6 +236,9 @@ class SimTrajectory:
         euler_rate = np.stack([roll_rate, pitch_rate_s + pitch_rate_o, yaw_rate_s + yaw_rate_o], axis=-1)
         v = v - self.pivot_m * yaw_rate_s
         v_rate = v_rate - self.pivot_m * yaw_acc_s
+        if self.pitch_pivot_m:
+            w = w + self.pitch_pivot_m * (pitch_rate_s + pitch_rate_o)
+            w_rate = w_rate + self.pitch_pivot_m * (pitch_acc_s + self.pitch_osc.acceleration(t))
         v_b = np.stack([self.speed0 + u_s + u_o, v, w], axis=-1)
         dv_b = np.stack([u_rate_s + u_rate_o, v_rate, w_rate], axis=-1)
         return euler, euler_rate, v_b, dv_b
@@ -437,18 +452,19 @@ def _depth_change(traj: SimTrajectory, ta: float, tb: float) -> float:
 def plan_trajectory(duration_s: float, rng: np.random.Generator, gravity_mps2: float,
                     omega_ie_n: np.ndarray, surfacing: SurfacingProfile | None = None,
                     rng_surfacing: np.random.Generator | None = None, pattern: str = "lawnmower",
-                    pivot_m: float = 0.0) -> SimTrajectory:
+                    pivot_m: float = 0.0, pitch_pivot_m: float = 0.0) -> SimTrajectory:
     """Random (seeded) survey covering at least ``duration_s`` seconds: a lawnmower (legs joined by pairs of
     90 deg turns in the same direction: every other leg flies back) or, ``pattern="transit"``, the same legs
     joined by a 90 deg turn and a turn back (a staircase along the first course: the vehicle keeps going
     away). With ``surfacing``, stays at the surface (their own random stream ``rng_surfacing``: the draws of
-    ``rng`` are those of a mission without them up to the first surfacing). ``pivot_m``: the hull's sideslip in
-    turns (:class:`SimTrajectory`)."""
+    ``rng`` are those of a mission without them up to the first surfacing). ``pivot_m``, ``pitch_pivot_m``: the
+    hull's sideslip in turns and heave in pitch (:class:`SimTrajectory`)."""
     if pattern not in PATTERNS:
         raise ConfigError(f"pattern must be one of {PATTERNS}, got {pattern!r}")
     traj = SimTrajectory(yaw0=float(rng.uniform(-np.pi, np.pi)),
                          p0_n=np.array([0.0, 0.0, START_DEPTH_M]), speed0=1.3,
-                         gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float), pivot_m=float(pivot_m))
+                         gravity_mps2=gravity_mps2, omega_ie_n=np.asarray(omega_ie_n, float), pivot_m=float(pivot_m),
+                         pitch_pivot_m=float(pitch_pivot_m))
     # Sea-state and control oscillations: a few degrees, periods 8-20 s.
     for _ in range(2):
         traj.roll_osc.add(rng.uniform(1.0, 2.0) * DEG, rng.uniform(8.0, 20.0), rng.uniform(0, 2 * np.pi))
@@ -559,12 +575,23 @@ def _default_config(lever_arm_b) -> SensorConfig:
                         gravity_mps2=gravity_magnitude(lat))
 
 
+def _distance(value, name: str) -> float:
+    """``value`` as a finite distance in m, or a :class:`ConfigError` naming ``name``."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not np.isfinite(value):
+        raise ConfigError(f"{name} must be a finite distance in m")
+    return value
+
+
 def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navigation", seed: int = 0, *,
                      lever_arm_b=None, dropout: bool = False, config: SensorConfig | None = None,
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
                      dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0),
                      surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower",
-                     pivot_m: float = 0.0) -> Mission:
+                     pivot_m: float = 0.0, pitch_pivot_m: float = 0.0) -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -601,13 +628,17 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         pivot_m: the hull's pivot point ahead of the IMU, m: in turns the vehicle slides sideways at the IMU by
             ``-pivot_m`` times the turn's yaw rate, as a real hull does (the A-KIT Snapir about 3.6 m). Default 0:
             no sideslip in turns (the small sway oscillation stays), the same mission as before the option existed.
+        pitch_pivot_m: the hull's pitch pivot ahead of the IMU, m: the vehicle heaves at the IMU by ``pitch_pivot_m``
+            times its pitch rate (the A-KIT Snapir about 3 m). Default 0: no heave in pitch, the same mission as
+            before the option existed.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
         ``imu_errors`` (:class:`graphnav.sim.imu_errors.ImuErrorTruth` with the true biases, None if noiseless),
         ``dvl_errors`` (dict of the true beam bias, scale factor and noise std), ``trajectory``
-        (:class:`SimTrajectory`, exact kinematics at any time), ``pivot_m`` and, with ``surfacing``, ``surfacing`` (the
-        profile) and ``surface_windows`` (``(t_start, t_end)`` s of each stay at the surface).
+        (:class:`SimTrajectory`, exact kinematics at any time), ``pivot_m``, ``pitch_pivot_m`` and, with
+        ``surfacing``, ``surfacing`` (the profile) and ``surface_windows`` (``(t_start, t_end)`` s of each stay at
+        the surface).
     """
     if not 1.0 <= duration_s <= MAX_DURATION_S:
         raise ConfigError(f"duration_s must be in [1, {MAX_DURATION_S:.0f}] s, got {duration_s}")
@@ -637,14 +668,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     # are those of the missions simulated before it existed
     rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
     earth = EarthModel.from_config(config)
-    try:
-        pivot_m = float(pivot_m)
-    except (TypeError, ValueError):
-        pivot_m = float("nan")
-    if not np.isfinite(pivot_m):
-        raise ConfigError("pivot_m (graphnav simulate --pivot) must be a finite distance in m")
+    pivot_m = _distance(pivot_m, "pivot_m (graphnav simulate --pivot)")
+    pitch_pivot_m = _distance(pitch_pivot_m, "pitch_pivot_m (graphnav simulate --pitch-pivot)")
     traj = plan_trajectory(duration_s, rng_traj, config.gravity_mps2, earth.omega_ie_n, surfacing, rng_surf,
-                           pattern, pivot_m)
+                           pattern, pivot_m, pitch_pivot_m)
     if np.any(np.asarray(start_ne_m, float) != 0.0):
         lla = earth.to_lla(np.array([*np.asarray(start_ne_m, float).reshape(2), 0.0]))
         lla[2] = earth.alt_m - traj.p0_n[2]
@@ -709,10 +736,10 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
         ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
         ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "") + \
-        (f"-pivot{pivot_m:g}m" if pivot_m else "")
+        (f"-pivot{pivot_m:g}m" if pivot_m else "") + (f"-pitchpivot{pitch_pivot_m:g}m" if pitch_pivot_m else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
-        "dvl_output": dvl_output, "pattern": pattern, "pivot_m": float(pivot_m),
+        "dvl_output": dvl_output, "pattern": pattern, "pivot_m": float(pivot_m), "pitch_pivot_m": pitch_pivot_m,
         "imu_errors": imu_truth,
         "dvl_errors": None if noiseless else {"beam_bias": errors.beam_bias.copy(),
                                               "scale_factor": errors.scale_factor.copy(),
