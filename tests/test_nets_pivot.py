@@ -240,7 +240,9 @@ def test_graph_hnp_runs_the_pivot_completer_built_for_the_missions_sensors():
     config = copy.deepcopy(mission.config)        # another installation of the DVL
     config.dvl.lever_arm_b = np.array([0.5, 0.0, 0.2])
     completer, described = methods.completer_for("Graph-HNP", "2-missing", config.dvl.beam_noise_std, config)
-    assert isinstance(completer, PivotCompleter) and completer.n_past == 3 and "online" in described
+    # the completer's own hold with 2 missing beams, one ping longer than the average's
+    assert isinstance(completer, PivotCompleter) and completer.n_past == 4 and "online" in described
+    assert "n_past=4" in described and methods.PIVOT_N_PAST["3-missing"] == 5
     np.testing.assert_array_equal(completer.lever_arm_b, config.dvl.lever_arm_b)
     assert completer.pivot_m is None and completer.prior_turn == methods.PIVOT_PRIOR_TURN
     assert completer.axes == methods.PIVOT_AXES == ("yaw",)

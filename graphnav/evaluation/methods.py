@@ -85,7 +85,7 @@ from graphnav.core.mission import Mission
 from graphnav.core.scenarios import SCENARIOS
 from graphnav.core.solution import NavSolution
 from graphnav.nets.average import AVERAGE_N_PAST
-from graphnav.nets.pivot import DEFAULT_PRIOR_TURN
+from graphnav.nets.pivot import DEFAULT_N_PAST, DEFAULT_PRIOR_TURN
 
 #: Names of the methods other modules refer to (every name is a record of :data:`METHODS`; library code takes
 #: names from here, not from literals).
@@ -209,10 +209,12 @@ PIVOT_PRIOR_TURN = DEFAULT_PRIOR_TURN
 #: total outage 0.72x against 0.81x (experiments/outage_position_drift.py --pivot-axes; docs/decisions/completers.md,
 #: "The hull's heave in pitch").
 PIVOT_AXES: tuple[str, ...] = ("yaw",)
-#: Past pings Graph-HNP's pivot completer holds per scenario: the average estimator's N. The completer's own
-#: (graphnav.nets.pivot.DEFAULT_N_PAST) holds 4 with 2 missing beams; in the estimator, with either turn model, 3 and
-#: 4 give the same fold cells and mean ratios within 0.001 (experiments/outage_position_drift.py --pivot-holds).
-PIVOT_N_PAST: Mapping = types.MappingProxyType(dict(AVERAGE_N_PAST))
+#: Past pings Graph-HNP's pivot completer holds per scenario: the completer's own (graphnav.nets.pivot.DEFAULT_N_PAST:
+#: 4 with 2 missing beams, where the average holds 3; the average's N otherwise). With 2 missing beams the regime rule
+#: picks 4 over 3 with the yaw alone, on all folds and for four of the five folds left out, though by 0.001 of the mean
+#: ratio: every hold and turn model there gives the same fold cells, none over 1.02x Graph-TC
+#: (experiments/outage_position_drift.py --pivot-holds; docs/decisions/completers.md, "The hull's heave in pitch").
+PIVOT_N_PAST: Mapping = types.MappingProxyType(dict(DEFAULT_N_PAST))
 
 #: The completer kinds a method can have.
 COMPLETER_KINDS = ("none", "average", "network", "imu-network", "pivot")
@@ -457,7 +459,7 @@ def completer_for(name: str, scenario: str, noise_std: float = 0.042, config=Non
         from graphnav.core.config import SensorConfig
         config = config if config is not None else SensorConfig()
         return (pivot_completer(scenario, config),
-                f"pivot(n_past={AVERAGE_N_PAST[scenario]}, pivot length fitted online)")
+                f"pivot(n_past={PIVOT_N_PAST[scenario]}, pivot length fitted online)")
     if kind == "network":
         return network_completer(scenario, noise_std)
     if kind == "imu-network":
