@@ -21,7 +21,8 @@ outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI ea
 :data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--pivot-axes A ...`` adds ``Graph-HNP``
 whose pivot completer models the turn axes A (``yaw`` or ``yaw+pitch``: the heave from the pitch rate too) instead of
 the shipped :data:`graphnav.evaluation.methods.PIVOT_AXES` (``Graph-HNP axes A``); ``--pivot-holds N ...`` adds
-``Graph-HNP`` holding N past pings instead of the average estimator's N of the scenario (``Graph-HNP hold N``; with
+``Graph-HNP`` holding N past pings in every scenario instead of its shipped hold of the scenario
+(:data:`graphnav.evaluation.methods.PIVOT_N_PAST`; ``Graph-HNP hold N``; with
 ``--pivot-axes``, each axes with each hold too). ``--relinearised W`` adds Graph-TC
 relinearising every update the keyframes of its last W s (``Graph-TC relinearised W``): how much Graph-TC's own
 readings move with an equally valid linearisation, the noise floor of a ratio to it. ``--retired`` adds each method with a completer once more with its completions taken out of the graph when
@@ -447,7 +448,8 @@ def main(argv=None) -> int:
     p.add_argument("--pivot-axes", nargs="+", choices=("yaw", "yaw+pitch"), metavar="A", help="also Graph-HNP with "
                    "its pivot completer modelling the turn axes A: yaw, yaw+pitch (module docstring)")
     p.add_argument("--pivot-holds", nargs="+", type=int, metavar="N", help="also Graph-HNP with its pivot completer "
-                   "holding N past pings in every scenario run, instead of the average's N of each (module docstring)")
+                   "holding N past pings in every scenario run, instead of its shipped hold of each (module "
+                   "docstring)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "

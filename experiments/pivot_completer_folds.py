@@ -20,7 +20,7 @@ Printed: the gain against the average, ``1 - pivot / average`` of the beam and t
 least-squares DVL velocity of the four beams), pooled over the ten trajectories and in the worst fold, the folds'
 lengths, and the ``prior_turn`` the rule picks. Usage::
 
-    .venv/bin/python experiments/pivot_completer_folds.py --priors 0.1 --pitch --pivot-n-past default \
+    .venv/bin/python experiments/pivot_completer_folds.py --priors 0.1 --pitch --pivot-n-past default \\
         --out out/pivot/shipped.json
 """
 from __future__ import annotations

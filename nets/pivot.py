@@ -33,7 +33,8 @@ from graphnav.core.errors import ConfigError
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_inputs
 
-#: Outage pings after the hold that :func:`fit_pivot_length` fits ``L`` over (the studies' 30 s outages).
+#: Outage pings after the hold that :class:`PivotFit` (and :func:`fit_pivot_lengths`) fits the lengths over (the
+#: studies' 30 s outages).
 FIT_HORIZON_PINGS = 30
 
 #: How much turning, (rad/s)^2, shrinks the online fit of ``L`` toward 0 (the average estimator): ``L = num / (den +
