@@ -169,7 +169,7 @@ def check_pivot_member(label: str, beam_dir: str | None) -> None:
         raise ValueError(f"{label}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
 
 
-def check_prior_method(label: str) -> None:
+def check_pivot_setting(label: str) -> None:
     """Refuse a run label with `` prior P``, `` axes A`` or `` hold N`` whose method does not complete with the pivot
     completer (the setting would replace its completer)."""
     from graphnav.evaluation.methods import get_method
@@ -290,7 +290,7 @@ def trajectory_task(item):
         comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
         if pivot_setting(method):
             from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_PRIOR_TURN, pivot_completer
-            check_prior_method(method)
+            check_pivot_setting(method)
             prior = pivot_prior(method)
             comp = pivot_completer(scenario, mission.config,
                                    prior_turn=PIVOT_PRIOR_TURN if prior is None else prior,
@@ -514,7 +514,7 @@ def main(argv=None) -> int:
     for m in a.methods:
         try:
             if pivot_setting(m):
-                check_prior_method(m)
+                check_pivot_setting(m)
             for sc in a.scenarios:
                 check_pivot_member(m, fold_nets.get(sc, [None, None])[1])
         except ValueError as e:

@@ -204,54 +204,46 @@ def report(saved: dict) -> str:
     return "\n".join(lines)
 
 
-def prior_scores(saved: dict, folds, suffix: str = "") -> dict[float, tuple[int, float]]:
-    """Per ``prior_turn`` of the online completer of the model ``suffix`` (:data:`MODELS`), on ``folds`` (indices
-    into ``AKIT_FOLDS``): the fold cells (scenario x IMU x per ping / outage x beam / velocity) worse than the average,
-    and the smallest pooled gain."""
-    from graphnav.nets.crossval import AKIT_FOLDS
-    chosen = [AKIT_FOLDS[f] for f in folds]
-    grades = [g for g in GRADES if g in next(iter(saved["results"].values()))]
-    scores = {}
-    for prior in saved["priors"]:
-        worse, smallest = 0, np.inf
-        for scenario in SCENARIOS:
-            for grade in grades:
-                for kind in ("per ping", "outage"):
-                    pooled, per_fold = gains(saved["results"], chosen, grade, scenario, kind,
-                                             f"online{suffix} {prior:g}")
-                    worse += int((np.array(per_fold) < 0).sum())
-                    smallest = min(smallest, *pooled)
-        scores[prior] = (worse, smallest)
-    return scores
-
-
-def prior_rule(saved: dict, folds, suffix: str = "") -> tuple[float, int, float]:
-    """The ``prior_turn`` the rule picks on ``folds``: the fewest fold cells worse than the average, then the largest
-    smallest pooled gain (:func:`prior_scores`); ``(prior, cells worse, smallest pooled gain)``."""
-    scores = prior_scores(saved, folds, suffix)
-    prior = min(scores, key=lambda p: (scores[p][0], -scores[p][1], p))
-    return prior, *scores[prior]
-
-
-def n_past_scores(saved: dict, folds, scenario: str, member: str) -> tuple[int, float]:
-    """The fold cells (IMU x per ping / outage x beam / velocity) of ``member`` worse than the average on ``folds``
-    (indices into ``AKIT_FOLDS``) in ``scenario``, and its smallest pooled gain there."""
+def member_scores(saved: dict, folds, member: str, scenarios=SCENARIOS) -> tuple[int, float]:
+    """The fold cells (scenario x IMU x per ping / outage x beam / velocity) of ``member`` worse than the average on
+    ``folds`` (indices into ``AKIT_FOLDS``) in ``scenarios``, and its smallest pooled gain there."""
     from graphnav.nets.crossval import AKIT_FOLDS
     chosen = [AKIT_FOLDS[f] for f in folds]
     grades = [g for g in GRADES if g in next(iter(saved["results"].values()))]
     worse, smallest = 0, np.inf
-    for grade in grades:
-        for kind in ("per ping", "outage"):
-            pooled, per_fold = gains(saved["results"], chosen, grade, scenario, kind, member)
-            worse += int((np.array(per_fold) < 0).sum())
-            smallest = min(smallest, *pooled)
+    for scenario in scenarios:
+        for grade in grades:
+            for kind in ("per ping", "outage"):
+                pooled, per_fold = gains(saved["results"], chosen, grade, scenario, kind, member)
+                worse += int((np.array(per_fold) < 0).sum())
+                smallest = min(smallest, *pooled)
     return worse, smallest
+
+
+def rule_pick(scores: dict):
+    """The candidate the completer rule picks from ``scores`` (candidate -> (fold cells worse than the average,
+    smallest pooled gain)): the fewest cells worse, then the largest smallest gain, then the smaller candidate."""
+    return min(scores, key=lambda c: (scores[c][0], -scores[c][1], c))
+
+
+def prior_scores(saved: dict, folds, suffix: str = "") -> dict[float, tuple[int, float]]:
+    """Per ``prior_turn`` of the online completer of the model ``suffix`` (:data:`MODELS`), on ``folds`` (indices
+    into ``AKIT_FOLDS``): :func:`member_scores` over every scenario."""
+    return {prior: member_scores(saved, folds, f"online{suffix} {prior:g}") for prior in saved["priors"]}
+
+
+def prior_rule(saved: dict, folds, suffix: str = "") -> tuple[float, int, float]:
+    """The ``prior_turn`` the rule picks on ``folds`` (:func:`rule_pick` of :func:`prior_scores`); ``(prior, cells
+    worse, smallest pooled gain)``."""
+    scores = prior_scores(saved, folds, suffix)
+    prior = rule_pick(scores)
+    return prior, *scores[prior]
 
 
 def choose_n_past(files: list[str], member: str) -> str:
     """The pivot completer's hold (``--pivot-n-past``) chosen per scenario over the results ``files`` of one run per
-    hold, by the rule of :func:`prior_rule` (the fewest fold cells worse than the average, then the largest smallest
-    pooled gain; then the shorter hold) on all folds and with each fold left out; the text of the choice."""
+    hold, by the completer rule (:func:`rule_pick`: then the shorter hold) on all folds and with each fold left out;
+    the text of the choice."""
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.crossval import AKIT_FOLDS
     runs, same = {}, None
@@ -284,15 +276,14 @@ def choose_n_past(files: list[str], member: str) -> str:
                                  f"{name} (a file run without --pivot-n-past holds the average's N)")
             held[n] = (name, saved)
         held = {n: saved for n, (_, saved) in held.items()}
-        scores = {n: n_past_scores(saved, folds, scenario, member) for n, saved in sorted(held.items())}
-        pick = min(scores, key=lambda n: (scores[n][0], -scores[n][1], n))
+        scores = {n: member_scores(saved, folds, member, [scenario]) for n, saved in sorted(held.items())}
+        pick = rule_pick(scores)
         lines.append(f"{scenario}: " + "; ".join(f"N {n}: {w}, {100 * g:+.1f} %" for n, (w, g) in scores.items())
                      + f" -> N {pick}")
         for f in folds:
             rest = [g for g in folds if g != f]
-            left = {n: n_past_scores(saved, rest, scenario, member) for n, saved in held.items()}
-            n_f = min(left, key=lambda n: (left[n][0], -left[n][1], n))
-            worse, smallest = n_past_scores(held[n_f], [f], scenario, member)
+            n_f = rule_pick({n: member_scores(saved, rest, member, [scenario]) for n, saved in held.items()})
+            worse, smallest = member_scores(held[n_f], [f], member, [scenario])
             lines.append(f"  without fold {f}: N {n_f}; fold {f} with it: smallest gain {100 * smallest:+.1f} %, "
                          f"{worse} cells worse than the average")
     return "\n".join(lines)

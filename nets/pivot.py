@@ -288,18 +288,25 @@ class PivotFit:
         """``(L, L_q)`` (m) solving the normal equations with ``den`` shrunk toward 0 by ``prior_turn`` ((rad/s)^2
         on its diagonal); a length whose rate has not changed in the pings seen is 0 (the least-norm solution:
         zeros while nothing is seen), and ``L_q = 0`` when only the yaw is fitted."""
-        out = np.zeros(2)
-        a = self.den + prior_turn * np.eye(len(self.axes))
-        if len(self.axes) == 1:
-            out[0] = self.num[0] / a[0, 0] if a[0, 0] > 0 else 0.0
-        else:
-            out[:len(self.axes)] = np.linalg.pinv(a, rcond=1e-9, hermitian=True) @ self.num
-        return out
+        return solve_lengths(self.num, self.den, prior_turn)
 
     def length(self, min_turn: float = 0.0) -> float | None:
         """The fitted ``L`` (m), or None while the yaw turns seen give ``den[0, 0]`` (sum over the pairs of the
         squared change of yaw rate times ``|T_b[:, 1]|^2``, (rad/s)^2) of ``min_turn`` or less."""
         return float(self.lengths()[0]) if self.den[0, 0] > max(min_turn, 1e-12) else None
+
+
+def solve_lengths(num: np.ndarray, den: np.ndarray, prior_turn: float = 0.0) -> np.ndarray:
+    """``(L, L_q)`` (m) from the normal equations' sums ``num`` (n,) and ``den`` (n, n) of :class:`PivotFit` (n = 1:
+    the yaw alone, ``L_q = 0``), ``den`` shrunk toward 0 by ``prior_turn`` on its diagonal; the least-norm solution,
+    so a length whose rate never changed is 0."""
+    out = np.zeros(2)
+    a = den + prior_turn * np.eye(len(num))
+    if len(num) == 1:
+        out[0] = num[0] / a[0, 0] if a[0, 0] > 0 else 0.0      # the yaw-only fit's division, to the bit
+    else:
+        out[:len(num)] = np.linalg.pinv(a, rcond=1e-9, hermitian=True) @ num
+    return out
 
 
 def _ping_period(t: np.ndarray) -> float:
@@ -329,7 +336,8 @@ def fit_pivot_lengths(missions, n_past: int = 5, horizon: int = FIT_HORIZON_PING
     (:class:`graphnav.core.mission.Mission` objects; their DVL geometry is used); ``L_q = 0`` with ``axes``
     ``("yaw",)``. A :class:`ConfigError` when the logs hold no run of ``n_past + 1`` measured pings or no turn."""
     from graphnav.core.dvl import DvlGeometry
-    total = None
+    n = len(check_axes(axes))
+    num, den, pairs = np.zeros(n), np.zeros((n, n)), 0
     for mission in missions:
         geometry = DvlGeometry.from_spec(mission.config.dvl)
         t = mission.dvl.t
@@ -340,17 +348,14 @@ def fit_pivot_lengths(missions, n_past: int = 5, horizon: int = FIT_HORIZON_PING
                 fit.add(t[k], beams[k], rates[k])
             else:
                 fit.break_run()
-        if total is None:
-            total = fit
-        else:
-            total.num, total.den, total.pairs = total.num + fit.num, total.den + fit.den, total.pairs + fit.pairs
-    if total is None or total.pairs == 0:
+        num, den, pairs = num + fit.num, den + fit.den, pairs + fit.pairs
+    if pairs == 0:
         raise ConfigError(f"fit_pivot_lengths: no run of {n_past + 1} pings one DVL period apart with every beam "
                           "measured in the logs")
-    if total.den[0, 0] <= 1e-12:
+    if den[0, 0] <= 1e-12:
         raise ConfigError("fit_pivot_lengths: the logs hold no turn (the yaw rate never changes), so L is not "
                           "observable")
-    yaw, pitch = total.lengths()
+    yaw, pitch = solve_lengths(num, den)
     return float(yaw), float(pitch)
 
 

@@ -808,9 +808,9 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     assert study.variant_run("Graph-HNP prior 0.3 tau 3") == study.variant_run("Graph-HNP tau 3 prior 0.3")
     assert study.pivot_prior("Graph-HNP tau 3 prior 0.3") == study.pivot_prior("Graph-HNP prior 0.3 tau 3") == 0.3
     assert study.other_retirement("Graph-HNP prior 0.01") == "Graph-HNP prior 0.01 kept"
-    study.check_prior_method("Graph-HNP prior 0.01 kept")
+    study.check_pivot_setting("Graph-HNP prior 0.01 kept")
     with pytest.raises(ValueError, match="Graph-HNI does not run"):
-        study.check_prior_method("Graph-HNI prior 0.1")
+        study.check_pivot_setting("Graph-HNI prior 0.1")
     # the pivot completer's turn axes: a completer setting too, beside the others
     assert study.variant_run("Graph-HNP axes yaw+pitch kept") == ("Graph-HNP", {"retire_completions": False})
     assert study.pivot_axes("Graph-HNP axes yaw+pitch") == ("yaw", "pitch")
@@ -819,7 +819,7 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     assert study.pivot_prior("Graph-HNP prior 0.3 axes yaw+pitch") == 0.3
     assert study.pivot_setting("Graph-HNP axes yaw") and not study.pivot_setting("Graph-HNP tau 3")
     with pytest.raises(ValueError, match="axes is a setting of the pivot completer, which Graph-HN does not"):
-        study.check_prior_method("Graph-HN axes yaw+pitch")
+        study.check_pivot_setting("Graph-HN axes yaw+pitch")
     from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError, match="axes"):
         study.pivot_axes("Graph-HNP axes pitch")
