@@ -70,7 +70,8 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     """The completer of one study method (None: the method's own). ``HNI fold fused`` with the beam-only networks'
     folder :data:`imu_beam_fused_folds.PIVOT_MEMBER` (``pivot``): the IMU-aware network fused with the pivot completer,
     which also serves the pings the network cannot, its pivot length fitted online over the mission's measured pings
-    as ``Graph-HNP``'s (``config``: the mission's sensors, which it is built for)."""
+    as ``Graph-HNP``'s (``config``: the mission's sensors, which it is built for); with ``pivot-pitch`` the pivot
+    completer with its own defaults (yaw and pitch lengths fitted online, its own hold)."""
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.fused import FusedCompleter
     from graphnav.nets.imu_auto import ImuAutoCompleter
@@ -80,12 +81,14 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     if method == "HNI fold fused":
         from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
-        from imu_beam_fused_folds import PIVOT_MEMBER
-        if beam_dir == PIVOT_MEMBER:
+        from imu_beam_fused_folds import PIVOT_MEMBERS, PIVOT_PITCH_MEMBER
+        if beam_dir in PIVOT_MEMBERS:
             from graphnav.core.config import SensorConfig
             from graphnav.core.scenarios import is_total_outage
             from graphnav.evaluation.methods import pivot_completer
-            pivot = pivot_completer(scenario, config if config is not None else SensorConfig())
+            from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+            own = {"axes": DEFAULT_AXES, "n_past": DEFAULT_N_PAST[scenario]} if beam_dir == PIVOT_PITCH_MEMBER else {}
+            pivot = pivot_completer(scenario, config if config is not None else SensorConfig(), **own)
             # no network serves a total outage (the pivot completer does); the pair still holds the folder's
             # 3-missing network, as a shipped pair would hold its networks whatever the outage
             pattern = "3-missing" if is_total_outage(scenario) else scenario
@@ -240,7 +243,8 @@ def main(argv=None) -> int:
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--nets", help="the IMU-aware fold networks (imu_completer_folds.py --save-nets DIR)")
     p.add_argument("--calibration", help="rows of imu_completer_folds.py --calibrate (JSON), for 'HNI fused'")
-    p.add_argument("--beam-nets", help="'pivot' (HNI fold fused with the pivot completer fitted online in their place), or "
+    p.add_argument("--beam-nets", help="'pivot' (HNI fold fused with the pivot completer fitted online in their place, "
+                   "as Graph-HNP runs it), 'pivot-pitch' (the pivot completer with its own defaults there), or "
                    "the beam-only fold networks of one recipe (graphnav eval-beams --folds "
                    "--save-nets DIR: DIR/<recipe>), for 'HN-net fold'")
     p.add_argument("--variants", nargs="+", default=list(VARIANTS),
@@ -271,8 +275,8 @@ def main(argv=None) -> int:
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "nets": resolved(a.nets),
                 "calibration": resolved(a.calibration)}
     if a.beam_nets:     # files of the first form (no beam-only networks) keep their settings
-        from imu_beam_fused_folds import PIVOT_MEMBER
-        settings["beam_nets"] = a.beam_nets if a.beam_nets == PIVOT_MEMBER else resolved(a.beam_nets)
+        from imu_beam_fused_folds import PIVOT_MEMBERS
+        settings["beam_nets"] = a.beam_nets if a.beam_nets in PIVOT_MEMBERS else resolved(a.beam_nets)
     results, _ = load_runs(out, settings)
     items = []
     for f, pair in enumerate(AKIT_FOLDS):

@@ -17,7 +17,10 @@ where each fails. For every A-KIT fold the fold's two networks (the IMU-aware on
 
 ``--beam-nets pivot`` puts the pivot completer (:mod:`graphnav.nets.pivot`: the average estimator with the hull's
 sideslip in turns from the gyro), its pivot length fitted on the other four folds' trajectories, in the beam-only
-networks' place: the variants are then named with ``pivot`` for ``beam-only, fading``.
+networks' place: the variants are then named with ``pivot`` for ``beam-only, fading``. It models the yaw alone and
+holds the average's past pings, as ``Graph-HNP`` did when the study was first run. ``--beam-nets pivot-pitch`` puts
+the pivot completer with its own defaults there (the hull's heave in pitch beside its sway in yaw, both lengths
+fitted on the other folds, and its hold :data:`graphnav.nets.pivot.DEFAULT_N_PAST`), named ``pivot-pitch``.
 
 Through a recursive 30-ping outage the fused completion goes back into the history, and each member fades with
 the run steps the history hands on. Every variant is scored beside the two members alone and the average
@@ -45,13 +48,16 @@ VARIANTS = ("IMU-aware, fading", "beam-only, fading", "fused, rho 0", "fused, rh
             "fused, rho 0, sigma with rho fitted", "equal weights")
 #: ``--beam-nets pivot``: the pivot completer (:mod:`graphnav.nets.pivot`), its pivot length fitted on the other
 #: folds' trajectories, is the second member in place of the beam-only networks (it reads the tail of the IMU-aware
-#: network's window)
+#: network's window); the yaw alone, holding the average's past pings
 PIVOT_MEMBER = "pivot"
+#: ``--beam-nets pivot-pitch``: the pivot completer with its own defaults (yaw and pitch, its own hold)
+PIVOT_PITCH_MEMBER = "pivot-pitch"
+PIVOT_MEMBERS = (PIVOT_MEMBER, PIVOT_PITCH_MEMBER)
 
 
 def member_label(beam_dir: str) -> str:
-    """The second member's name in the rows: ``pivot`` or ``beam-only, fading``."""
-    return PIVOT_MEMBER if beam_dir == PIVOT_MEMBER else "beam-only, fading"
+    """The second member's name in the rows: one of :data:`PIVOT_MEMBERS` or ``beam-only, fading``."""
+    return beam_dir if beam_dir in PIVOT_MEMBERS else "beam-only, fading"
 
 
 def variants(second: str) -> tuple[str, ...]:
@@ -186,17 +192,18 @@ def window_interval(rows: list[dict], scenario: str, variant: str, fold: int, dr
 def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float | None = None,
                   beam_decay: float | None = None, akit_dir=None) -> dict:
     """Fold -> (IMU-aware network, beam-only network) of ``scenario``, each fading with ``run_decay`` (default: the
-    shipped card's). ``beam_dir`` :data:`PIVOT_MEMBER`: the pivot completer with the fold's pivot length fitted on
+    shipped card's). ``beam_dir`` one of :data:`PIVOT_MEMBERS`: the pivot completer with the fold's lengths fitted on
     the other folds' trajectories (``akit_dir``) in place of the beam-only network (it does not fade)."""
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
     imu_decay = load_imu_completer(scenario).run_decay if imu_decay is None else imu_decay
-    if beam_dir == PIVOT_MEMBER:
+    if beam_dir in PIVOT_MEMBERS:
         if beam_decay is not None:
             raise SystemExit("--beam-decay: the pivot completer does not fade")
-        second = fold_pivot_completers(scenario, akit_dir)
-        print(f"run_decay: IMU-aware {imu_decay:g}; pivot lengths {[round(c.pivot_m, 2) for c in second]} m",
+        second = fold_pivot_completers(scenario, akit_dir, pitch=beam_dir == PIVOT_PITCH_MEMBER)
+        print(f"run_decay: IMU-aware {imu_decay:g}; pivot lengths (yaw, pitch) "
+              f"{[tuple(round(x, 2) for x in c.lengths_m) for c in second]} m, holding {second[0].n_past}",
               file=sys.stderr, flush=True)
     else:
         beam_decay = load_completer(scenario).run_decay if beam_decay is None else beam_decay
@@ -207,9 +214,10 @@ def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float |
             for f in range(len(AKIT_FOLDS))}
 
 
-def fold_pivot_completers(scenario: str, akit_dir=None) -> list:
-    """Per A-KIT fold, the pivot completer (the scenario's N, the DVL geometry of the series the studies score) with
-    the pivot length fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``)."""
+def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> list:
+    """Per A-KIT fold, the pivot completer (the DVL geometry of the series the studies score) with the pivot length
+    fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``): the yaw alone holding the
+    average's N, or with ``pitch`` the completer's defaults (yaw and pitch lengths, its own hold)."""
     from oracle_completions import fold_pivot_lengths
 
     from graphnav.core.config import DvlSpec
@@ -218,11 +226,15 @@ def fold_pivot_completers(scenario: str, akit_dir=None) -> list:
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.crossval import AKIT_FOLDS
-    from graphnav.nets.pivot import PivotCompleter
+    from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST, PivotCompleter
     sources = {s.name: s for s in find_trajectories(str(akit_trajectories(akit_dir)[0].parent))}
     geometry = DvlGeometry.from_spec(DvlSpec())
-    return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, length, n_past=AVERAGE_N_PAST[scenario])
-            for length in fold_pivot_lengths(sources, AKIT_FOLDS)]
+    if not pitch:
+        return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, length, n_past=AVERAGE_N_PAST[scenario],
+                               axes=("yaw",)) for length in fold_pivot_lengths(sources, AKIT_FOLDS)]
+    return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, yaw, n_past=DEFAULT_N_PAST[scenario],
+                           pitch_pivot_m=pitch_m, axes=DEFAULT_AXES)
+            for yaw, pitch_m in fold_pivot_lengths(sources, AKIT_FOLDS, DEFAULT_AXES)]
 
 
 def held_out_per_ping(nets: dict, scenario: str, akit_dir) -> tuple[dict, dict]:
@@ -363,7 +375,9 @@ def fold_network_parser(description: str, out_default: str) -> argparse.Argument
     p.add_argument("--imu-nets", help="IMU-aware fold networks (experiments/imu_completer_folds.py --save-nets DIR)")
     p.add_argument("--beam-nets", help="beam-only fold networks (graphnav eval-beams --folds --save-nets DIR: "
                    f"DIR/<recipe>), or '{PIVOT_MEMBER}': the pivot completer in their place, its pivot length fitted "
-                   "on the other folds' trajectories")
+                   f"on the other folds' trajectories (the yaw alone, the average's hold), or '{PIVOT_PITCH_MEMBER}': "
+                   "the pivot completer with its own defaults (yaw and pitch lengths fitted on the other folds, its "
+                   "own hold)")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--out", default=out_default, help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs")

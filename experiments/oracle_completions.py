@@ -516,7 +516,8 @@ def main(argv=None) -> int:
     p.add_argument("--record", help="IMU-aware fold networks: also run and record the Graph-HNI fold completer "
                    "(in a total outage: the folds' networks for pings without a measured beam, if DIR has them)")
     p.add_argument("--beam-nets", help="beam-only fold networks of the recorded completer (not used in a total "
-                   "outage), or 'pivot': the pivot completer fitted online in their place")
+                   "outage), or 'pivot': the pivot completer fitted online in their place (as Graph-HNP runs it), "
+                   "or 'pivot-pitch': the pivot completer with its own defaults there")
     p.add_argument("--drift", nargs="*", type=float, default=[], help="the recorded completer again with these "
                    "sigma growths per ping (m/s; BeamHistory's drift_std, 0.03 by default)")
     p.add_argument("--joint", nargs="*", default=[], metavar="FILE", help="pairs of another scenario's results and "

@@ -29,7 +29,8 @@ take about half the time. Usage::
     .venv/bin/python experiments/outage_placement.py --report out/placement/rows2.json out/placement/rows3.json
 
 ``--beam-nets pivot`` puts the pivot completer (its pivot length fitted on the other folds' trajectories) in the
-beam-only networks' place, named ``pivot`` in the rows.
+beam-only networks' place, named ``pivot`` in the rows; ``--beam-nets pivot-pitch`` the pivot completer with its own
+defaults (yaw and pitch, its own hold), named ``pivot-pitch``.
 
 ``--imu-decay`` / ``--beam-decay`` run the two fadings with another ``run_decay`` (default: the cards', each chosen
 for its completer alone; ``Graph-HNI`` fuses them with :data:`graphnav.nets.imu_auto.FUSED_RUN_DECAY`), and
@@ -147,7 +148,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     import json
 
     from completer_fade_folds import WINDOW
-    from imu_beam_fused_folds import PIVOT_MEMBER, fold_networks, member_label
+    from imu_beam_fused_folds import PIVOT_MEMBERS, fold_networks, member_label
     from imu_completer_folds import EVAL_GRADES, held_out_series
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -181,8 +182,9 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
                    "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq,
                    "run_decay": {"IMU-aware": net.run_decay, "beam-only": getattr(beam_net, "run_decay", 1.0)},
                    "nets": {"IMU-aware": str(imu_dir), "beam-only": str(beam_dir)}}
-            if beam_dir == PIVOT_MEMBER:
-                row["pivot_m"] = beam_net.pivot_m
+            if beam_dir in PIVOT_MEMBERS:
+                row["pivot_m"], row["pitch_pivot_m"] = beam_net.lengths_m
+                row["pivot_n_past"] = beam_net.n_past
             if counted in names:
                 row |= {"envelope_fallbacks": enveloped.fallbacks["envelope"], "envelope_counted_in": counted,
                         "completions": len(starts) * WINDOW}
@@ -193,10 +195,12 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     return rows
 
 
-def is_pivot_row(row: dict) -> bool:
-    """Whether a row of :func:`run` had the pivot completer as its second member (``--beam-nets pivot``)."""
-    from imu_beam_fused_folds import PIVOT_MEMBER
-    return row.get("nets", {}).get("beam-only") == PIVOT_MEMBER
+def pivot_member(row: dict) -> str | None:
+    """The pivot completer a row of :func:`run` had as its second member (``--beam-nets pivot`` or
+    ``pivot-pitch``), or None."""
+    from imu_beam_fused_folds import PIVOT_MEMBERS
+    member = row.get("nets", {}).get("beam-only")
+    return member if member in PIVOT_MEMBERS else None
 
 
 def row_decays(row: dict) -> tuple[float, float]:
@@ -267,7 +271,7 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
              "placement cells whose velocity gain is below the average's, which the rule does not count)", ""]
     if not rows:
         raise ValueError("no rows to choose run_decay from")
-    if any(map(is_pivot_row, rows)):
+    if any(map(pivot_member, rows)):
         raise ValueError("rows with the pivot completer as the second member (--beam-nets pivot): it does not fade, "
                          "and the choice is between the beam-only networks' fadings")
     for sc in dict.fromkeys(r["scenario"] for r in rows):
@@ -330,7 +334,7 @@ def report(rows: list[dict]) -> str:
              "gain is negative.", ""]
     # rows written before rows held their run_decay ran the cards' fadings; a pivot row's second member is the
     # pivot completer, which is another pair than the beam-only networks' whatever the decays
-    decays = [(tuple(row_decays(r)) if "run_decay" in r else None, is_pivot_row(r),
+    decays = [(tuple(row_decays(r)) if "run_decay" in r else None, pivot_member(r),
                row_draw(r) if "nets" in r else None) for r in rows]    # rows of before rows named their networks
     several_draws = len({d[2] for d in decays}) > 1
     for sc, pair in dict.fromkeys((r["scenario"], d) for r, d in zip(rows, decays)):
@@ -341,7 +345,7 @@ def report(rows: list[dict]) -> str:
             n_place = PERIOD // stride
             (fades, pivot, draw) = pair
             fading = ("the cards'" if fades is None else f"{fades[0]:g} / {fades[1]:g}") if not pivot else \
-                f"{fades[0]:g} (IMU-aware), second member the pivot completer"
+                f"{fades[0]:g} (IMU-aware), second member the pivot completer ({pivot})"
             fading += f", networks {draw}" if several_draws else ""
             lines += [f"### {sc}, {grade} IMU, run_decay {fading} ({n_place} placements, a window every {stride} "
                       "pings)", "",

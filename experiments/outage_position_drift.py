@@ -38,7 +38,8 @@ trajectories, so a scenario with a measured beam and no fold networks is refused
 model card does not say the trajectory was held out. In a total outage
 no network serves a ping (the completer falls back to the average estimator) and the shipped completer runs.
 ``BEAM_DIR`` ``pivot`` puts the pivot completer in the beam-only ensembles' place (the pair of section "The IMU-aware
-network fused with the pivot completer" in docs/decisions/completers.md); given for a total outage too
+network fused with the pivot completer" in docs/decisions/completers.md), as ``Graph-HNP`` runs it; ``pivot-pitch``
+the pivot completer with its own defaults (the pitch too, its own hold); given for a total outage too
 (``--fold-nets 0-beams IMU_DIR pivot``, the folder's 3-missing networks), the pair runs there, its pivot member
 serving each ping.
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
@@ -160,13 +161,13 @@ def pivot_setting(label: str) -> bool:
 
 
 def check_pivot_member(label: str, beam_dir: str | None) -> None:
-    """Refuse the beam-only folder :data:`imu_beam_fused_folds.PIVOT_MEMBER` for a run label whose method runs the
+    """Refuse a beam-only folder of :data:`imu_beam_fused_folds.PIVOT_MEMBERS` for a run label whose method runs the
     beam-only networks alone (the pivot completer stands in for them only in the fused pair)."""
-    from imu_beam_fused_folds import PIVOT_MEMBER
+    from imu_beam_fused_folds import PIVOT_MEMBERS
 
     from graphnav.evaluation.methods import get_method
-    if beam_dir == PIVOT_MEMBER and get_method(variant_run(label)[0]).completer == "network":
-        raise ValueError(f"{label}: '{PIVOT_MEMBER}' stands in for the beam-only networks of the fused pair only")
+    if beam_dir in PIVOT_MEMBERS and get_method(variant_run(label)[0]).completer == "network":
+        raise ValueError(f"{label}: '{beam_dir}' stands in for the beam-only networks of the fused pair only")
 
 
 def check_pivot_setting(label: str) -> None:
@@ -233,16 +234,16 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
     :func:`needs_fold_nets`, the fold's networks as ``hybrid_imu_folds.py`` runs them (``fold_nets[scenario]``:
     (IMU-aware folder, beam-only folder)), after their cards confirm the trajectory was held out
     (:func:`check_held_out`): the IMU-aware network fused with the beam-only ensemble, or the beam-only ensemble
-    alone for a method of the beam-only network. A beam-only folder :data:`imu_beam_fused_folds.PIVOT_MEMBER`
-    (``pivot``) puts the pivot completer in the ensemble's place, in a total outage too (its pivot member serves
-    there). Otherwise None (the method's own)."""
+    alone for a method of the beam-only network. A beam-only folder of :data:`imu_beam_fused_folds.PIVOT_MEMBERS`
+    (``pivot``, ``pivot-pitch``) puts the pivot completer in the ensemble's place, in a total outage too (its pivot
+    member serves there). Otherwise None (the method's own)."""
     from hybrid_imu_folds import completer
-    from imu_beam_fused_folds import PIVOT_MEMBER
+    from imu_beam_fused_folds import PIVOT_MEMBERS
 
     from graphnav.evaluation.methods import get_method
     kind = get_method(variant_run(method)[0]).completer
     # the pivot pair runs in a total outage too: its pivot member serves there, as it would as shipped
-    pivot_pair = kind == "imu-network" and fold_nets.get(scenario, [None, None])[1] == PIVOT_MEMBER
+    pivot_pair = kind == "imu-network" and fold_nets.get(scenario, [None, None])[1] in PIVOT_MEMBERS
     if not (needs_fold_nets(method, scenario) or pivot_pair):
         return None
     imu_dir, beam_dir = fold_nets[scenario]
@@ -256,7 +257,7 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
                      mission.config.dvl.beam_noise_std, mission.config)
     # the cards the loaders read, of every network the completer runs (the fused pair's fallback is a second
     # load of its fused beam-only member's folder; the pivot completer in its place has nothing trained)
-    beam_members = [] if beam_dir == PIVOT_MEMBER else [(beam_dir, comp.fused_beam_only if fused else comp)]
+    beam_members = [] if beam_dir in PIVOT_MEMBERS else [(beam_dir, comp.fused_beam_only if fused else comp)]
     members = beam_members + ([(imu_dir, n) for n in comp.networks.values()] if fused else [])
     for folder, network in members:
         check_held_out(network.card, trajectory, f"{Path(folder) / f'fold{fold}'} ({scenario})")
@@ -466,7 +467,8 @@ def main(argv=None) -> int:
                    help="the fold networks of the methods with a network completer (Graph-HNI, Graph-HN-net, ...) "
                         "for a scenario (repeat per scenario): the IMU-aware ones (imu_completer_folds.py "
                         "--save-nets) and the beam-only ensembles (graphnav eval-beams --folds --save-nets), or "
-                        "'pivot' for the pivot completer in their place (a total outage too); each trajectory runs "
+                        "'pivot' for the pivot completer in their place as Graph-HNP runs it, or 'pivot-pitch' with its "
+                        "own defaults (a total outage too); each trajectory runs "
                         "its own fold's (module docstring)")
     p.add_argument("--over-draws", nargs="+", metavar="FILE", help="run nothing: the choice over the results files "
                    "of several training draws of the fold networks, their fold cells counted together")
@@ -502,8 +504,8 @@ def main(argv=None) -> int:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
         a.methods += [o for o in map(other_retirement, a.methods) if o is not None]
-    from imu_beam_fused_folds import PIVOT_MEMBER
-    fold_nets = {scenario: [str(Path(imu)), beam if beam == PIVOT_MEMBER else str(Path(beam))]
+    from imu_beam_fused_folds import PIVOT_MEMBERS
+    fold_nets = {scenario: [str(Path(imu)), beam if beam in PIVOT_MEMBERS else str(Path(beam))]
                  for scenario, imu, beam in a.fold_nets}
     unserved = sorted({(m, sc) for m in a.methods for sc in a.scenarios
                        if needs_fold_nets(m, sc) and sc not in fold_nets})
@@ -526,7 +528,7 @@ def main(argv=None) -> int:
     settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
-    if "pivot" in kinds.values() or PIVOT_MEMBER in {beam for _, beam in fold_nets.values()}:
+    if "pivot" in kinds.values() or set(PIVOT_MEMBERS) & {beam for _, beam in fold_nets.values()}:
         # the shipped prior of the runs that do not name theirs: a results file resumes only under the same one
         from graphnav.evaluation.methods import PIVOT_AXES, PIVOT_N_PAST, PIVOT_PRIOR_TURN
         settings["pivot_prior_turn"] = PIVOT_PRIOR_TURN

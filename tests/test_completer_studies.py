@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _study(name: str):
+    if str(ROOT / "experiments") not in sys.path:
+        sys.path.insert(0, str(ROOT / "experiments"))       # the studies import their siblings
     spec = importlib.util.spec_from_file_location(f"_study_{name}", ROOT / "experiments" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -909,6 +912,16 @@ def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_f
         study.fold_completer("Graph-HNI", "3-missing", pivot_nets, 2, mission, 6)
     with pytest.raises(SystemExit, match="fused pair only"):
         study.fold_completer("Graph-HN-net", "3-missing", pivot_nets, 2, mission, 4)
+    # 'pivot' is the pivot completer as Graph-HNP runs it (the yaw alone), 'pivot-pitch' with its own defaults
+    from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+    assert pair.fused_beam_only.axes == ("yaw",)
+    for scenario in ("3-missing", "0-beams"):
+        pitch_pair = study.fold_completer("Graph-HNI", scenario, {scenario: [str(imu_dir), "pivot-pitch"]}, 2, mission,
+                                          4)
+        assert pitch_pair.fused_beam_only.axes == DEFAULT_AXES and pitch_pair.fused_beam_only.pivot_m is None
+        assert pitch_pair.fused_beam_only.n_past == DEFAULT_N_PAST[scenario]
+    with pytest.raises(SystemExit, match="'pivot-pitch' stands in for the beam-only networks of the fused pair only"):
+        study.fold_completer("Graph-HN-net", "3-missing", {"3-missing": [str(imu_dir), "pivot-pitch"]}, 2, mission, 4)
     # refused before any run starts: the pivot for a beam-only network's method, a prior for a method without it
     for argv, refusal in ((["--methods", "Graph-TC", "Graph-HN-net", "--fold-nets", "3-missing", str(imu_dir), "pivot"],
                            "fused pair only"),
@@ -967,6 +980,7 @@ def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_s
     from graphnav.nets.pivot import PivotCompleter
     fused = _study("imu_beam_fused_folds")
     assert fused.member_label("pivot") == "pivot" and fused.member_label("out/ens2/x") == "beam-only, fading"
+    assert fused.member_label("pivot-pitch") == "pivot-pitch"
     assert fused.variants("pivot")[1] == "pivot" and fused.variants("beam-only, fading") == fused.VARIANTS
     assert fused.row_variants([{"variant": "IMU mems, pivot"}, {"variant": "IMU mems, fused, rho 0"},
                                {"variant": "IMU recorded, pivot"}]) == ["pivot", "fused, rho 0"]
@@ -1005,6 +1019,38 @@ def test_the_pivot_completer_stands_in_for_the_beam_only_networks_in_the_fused_s
     assert comp.beam_correlation == {"2-missing": hybrid.IMU_PIVOT_ERROR_CORRELATION["2-missing"]}
 
 
+def test_the_pitch_aware_pivot_member_has_the_completers_own_defaults_with_its_lengths_from_the_other_folds(
+        monkeypatch):
+    """``--beam-nets pivot-pitch``: each fold's pivot completer takes the yaw and pitch lengths fitted on the other
+    folds and holds the completer's own past pings; ``pivot`` keeps the yaw alone and the average's hold."""
+    import sys
+    sys.path.insert(0, str(ROOT / "experiments"))
+    fused = _study("imu_beam_fused_folds")
+    import oracle_completions
+
+    import graphnav.evaluation.bench as bench
+    import graphnav.io.paths as paths
+    from graphnav.nets.average import AVERAGE_N_PAST
+    from graphnav.nets.pivot import DEFAULT_N_PAST
+    asked = []
+
+    def lengths(sources, folds, axes=("yaw",)):
+        asked.append(tuple(axes))
+        return [(3.0 + f, 2.0 + f) if len(axes) == 2 else 3.5 + f for f in range(len(folds))]
+    monkeypatch.setattr(oracle_completions, "fold_pivot_lengths", lengths)
+    monkeypatch.setattr(paths, "akit_trajectories", lambda d=None: [Path("/nowhere/Trajectory1")])
+    monkeypatch.setattr(bench, "find_trajectories", lambda folder: [])
+    for scenario in ("2-missing", "3-missing"):
+        pitch = fused.fold_pivot_completers(scenario, pitch=True)
+        yaw = fused.fold_pivot_completers(scenario)
+        assert [c.lengths_m for c in pitch] == [(3.0 + f, 2.0 + f) for f in range(5)]
+        assert [c.lengths_m for c in yaw] == [(3.5 + f, 0.0) for f in range(5)]
+        assert {c.n_past for c in pitch} == {DEFAULT_N_PAST[scenario]}
+        assert {c.n_past for c in yaw} == {AVERAGE_N_PAST[scenario]}
+    assert DEFAULT_N_PAST["2-missing"] != AVERAGE_N_PAST["2-missing"]        # the two holds are told apart above
+    assert asked == [("yaw", "pitch"), ("yaw",)] * 2
+
+
 def test_the_placement_report_keeps_the_pivot_pair_and_each_draw_apart_and_chooses_no_fading_for_it():
     """Rows with the pivot completer as the second member are another pair than the beam-only networks' at the same
     decays, and rows of two training draws are two groups; --choose-decays refuses pivot rows (the pivot does not
@@ -1019,10 +1065,12 @@ def test_the_placement_report_keeps_the_pivot_pair_and_each_draw_apart_and_choos
         return {"scenario": "2-missing", "fold": fold, "grade": "recorded", "settle": 10, "stride": 90,
                 "starts": starts, "sq": sq, "run_decay": {"IMU-aware": 1.0, "beam-only": 1.0},
                 "nets": {"IMU-aware": nets, "beam-only": second}}
-    rows = [row("a/nets2", "pivot"), row("a/nets2", "ens2/x"), row("a/nets2s100", "pivot")]
-    assert [study.is_pivot_row(r) for r in rows] == [True, False, True]
+    rows = [row("a/nets2", "pivot"), row("a/nets2", "ens2/x"), row("a/nets2s100", "pivot"),
+            row("a/nets2", "pivot-pitch")]
+    assert [study.pivot_member(r) for r in rows] == ["pivot", None, "pivot", "pivot-pitch"]
     headers = [line for line in study.report(rows).splitlines() if line.startswith("###")]
-    assert len(headers) == 3 and sum("pivot completer" in h for h in headers) == 2
+    assert len(headers) == 4 and sum("pivot completer" in h for h in headers) == 3
+    assert sum("(pivot-pitch)" in h for h in headers) == 1
     assert any("nets2s100" in h for h in headers)
     with pytest.raises(ValueError, match="pivot completer"):
         study.decay_report(rows)
