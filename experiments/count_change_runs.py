@@ -74,15 +74,18 @@ def variant_options(variant: str) -> dict | None:
     raise ValueError(f"unknown variant {variant!r}")
 
 
-def uses_pivot(beam_dirs) -> bool:
-    """Whether ``--beam-nets`` puts the pivot completer in the beam-only networks' place (both patterns
-    :data:`imu_beam_fused_folds.PIVOT_MEMBER`); a :class:`ValueError` for one pattern only."""
-    from imu_beam_fused_folds import PIVOT_MEMBER
-    if PIVOT_MEMBER not in (beam_dirs or ()):
-        return False
-    if set(beam_dirs) != {PIVOT_MEMBER}:
-        raise ValueError(f"--beam-nets: '{PIVOT_MEMBER}' for both patterns or for neither")
-    return True
+def pivot_member_of(beam_dirs) -> str | None:
+    """The pivot completer ``--beam-nets`` puts in the beam-only networks' place (one of
+    :data:`imu_beam_fused_folds.PIVOT_MEMBERS`, the same for both patterns), or None; a :class:`ValueError` for a
+    pivot completer in one pattern only, or two different ones."""
+    from imu_beam_fused_folds import PIVOT_MEMBERS
+    pivots = set(beam_dirs or ()) & set(PIVOT_MEMBERS)
+    if not pivots:
+        return None
+    if len(set(beam_dirs)) != 1:
+        raise ValueError(f"--beam-nets: one of {', '.join(PIVOT_MEMBERS)} for both patterns or none, got "
+                         f"{' '.join(beam_dirs)}")
+    return pivots.pop()
 
 
 def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
@@ -90,7 +93,8 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     ``beam_dirs`` are (2-missing, 3-missing) directories holding ``fold<k>``. The beam-only fold ensembles fade as the
     shipped beam-only networks' cards say where they serve alone, and not at all as the fused member. ``beam_dirs``
     both :data:`imu_beam_fused_folds.PIVOT_MEMBER`: the pivot completer in their place (fitted online as
-    ``Graph-HNP``'s, for the mission's sensors ``config``), as ``hybrid_imu_folds.completer`` builds the pair."""
+    ``Graph-HNP``'s, for the mission's sensors ``config``), as ``hybrid_imu_folds.completer`` builds the pair; both
+    ``PIVOT_PITCH_MEMBER``: the pivot completer with its own defaults (the pitch too, its own hold)."""
     from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
 
     from graphnav.nets.average import AverageCompleter
@@ -106,14 +110,18 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     imu = [load_imu_completer(s, fold_dir(d), run_decay=FUSED_RUN_DECAY[s]["IMU-aware"])
            for s, d in zip(scenarios, imu_dirs)]
     try:
-        pivot_member = uses_pivot(beam_dirs)
+        pivot_member = pivot_member_of(beam_dirs)
     except ValueError as e:
         raise SystemExit(str(e)) from None
     if pivot_member:
+        from imu_beam_fused_folds import PIVOT_PITCH_MEMBER
+
         from graphnav.core.config import SensorConfig
         from graphnav.evaluation.methods import pivot_completer
+        from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+        own = {"axes": DEFAULT_AXES, "n_past": DEFAULT_N_PAST["2-missing"]} if pivot_member == PIVOT_PITCH_MEMBER else {}
         # one pivot completer serves both patterns, as Graph-HNP's does in this stress
-        pivot = pivot_completer("2-missing", config if config is not None else SensorConfig())
+        pivot = pivot_completer("2-missing", config if config is not None else SensorConfig(), **own)
         return ImuAutoCompleter(imu, pivot, IMU_PIVOT_ERROR_CORRELATION)
     return ImuAutoCompleter(imu, beam_only(shipped_run_decay), IMU_BEAM_ERROR_CORRELATION,
                             fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]))
@@ -287,7 +295,8 @@ def main(argv=None) -> int:
                    help="the IMU-aware fold networks of 2 and of 3 missing beams (imu_completer_folds.py --save-nets)")
     p.add_argument("--beam-nets", nargs=2, metavar=("DIR2", "DIR3"),
                    help="the beam-only fold ensembles of 2 and of 3 missing beams (eval-beams --folds --save-nets "
-                        "DIR: DIR/<recipe>), or 'pivot pivot': the pivot completer in their place")
+                        "DIR: DIR/<recipe>), or 'pivot pivot': the pivot completer in their place as Graph-HNP runs "
+                        "it, or 'pivot-pitch pivot-pitch': with its own defaults")
     p.add_argument("--flicker", nargs=2, type=float, default=list(FLICKER), metavar=("P_DROP", "P_RECOVER"),
                    help=f"per-ping drop and recovery probabilities of beam 4 (default {FLICKER[0]:g} {FLICKER[1]:g})")
     p.add_argument("--variants", nargs="+", default=list(VARIANTS), help="runs per window (default: all)")
@@ -305,7 +314,7 @@ def main(argv=None) -> int:
         p.error(f"variants: Graph-TC and any of {', '.join(VARIANTS)} or 'HNI tau T' with T > 0 s "
                 f"(unknown: {unknown})")
     try:
-        uses_pivot(a.beam_nets)
+        pivot_member_of(a.beam_nets)
     except ValueError as e:
         p.error(str(e))
     if not all(0.0 < x <= 1.0 for x in a.flicker):
@@ -315,8 +324,9 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
-    from imu_beam_fused_folds import PIVOT_MEMBER
-    resolved = [d if d == PIVOT_MEMBER else str(Path(d).resolve()) for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
+    from imu_beam_fused_folds import PIVOT_MEMBERS
+    resolved = [d if d in PIVOT_MEMBERS else str(Path(d).resolve())
+                for d in (*(a.imu_nets or ()), *(a.beam_nets or ()))]
     settings = {"max_windows": a.max_windows, "nets": resolved, "flicker": list(a.flicker),
                 "flicker_seed": "trajectory and window start"}
     out = Path(a.out)

@@ -584,6 +584,11 @@ def main(argv=None) -> int:
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     settings = {"scenario": a.scenario, "max_windows": a.max_windows, "oracle_tau_pings": SERIAL_TAU_PINGS}
+    if a.record:        # the recorded completer's networks: a file resumes only with the same ones
+        from imu_beam_fused_folds import PIVOT_MEMBERS
+        settings["record"] = str(Path(a.record).resolve())
+        if a.beam_nets:
+            settings["beam_nets"] = a.beam_nets if a.beam_nets in PIVOT_MEMBERS else str(Path(a.beam_nets).resolve())
     runs, _ = load_runs(out, settings)     # a file of another scenario or windows is refused
     recorded = [RECORDED] + [f"{RECORDED} drift {d:g}" for d in a.drift] if a.record else []
     variants = ([] if a.no_oracle else oracle_variants(a.sigmas)) + [AVERAGE] * a.average + [PIVOT] * a.pivot \

@@ -272,7 +272,8 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
     if not rows:
         raise ValueError("no rows to choose run_decay from")
     if any(map(pivot_member, rows)):
-        raise ValueError("rows with the pivot completer as the second member (--beam-nets pivot): it does not fade, "
+        raise ValueError("rows with the pivot completer as the second member (--beam-nets pivot or pivot-pitch): it "
+                         "does not fade, "
                          "and the choice is between the beam-only networks' fadings")
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         sel = [r for r in rows if r["scenario"] == sc and name in r["sq"]]

@@ -504,7 +504,7 @@ def main(argv=None) -> int:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
         a.methods += [o for o in map(other_retirement, a.methods) if o is not None]
-    from imu_beam_fused_folds import PIVOT_MEMBERS
+    from imu_beam_fused_folds import PIVOT_MEMBERS, PIVOT_PITCH_MEMBER
     fold_nets = {scenario: [str(Path(imu)), beam if beam in PIVOT_MEMBERS else str(Path(beam))]
                  for scenario, imu, beam in a.fold_nets}
     unserved = sorted({(m, sc) for m in a.methods for sc in a.scenarios
@@ -534,6 +534,10 @@ def main(argv=None) -> int:
         settings["pivot_prior_turn"] = PIVOT_PRIOR_TURN
         settings["pivot_axes"] = list(PIVOT_AXES)
         settings["pivot_n_past"] = dict(PIVOT_N_PAST)
+    if PIVOT_PITCH_MEMBER in {beam for _, beam in fold_nets.values()}:
+        # the pivot completer's own defaults, which that member runs
+        from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+        settings["pivot_pitch_member"] = {"axes": list(DEFAULT_AXES), "n_past": dict(DEFAULT_N_PAST)}
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)

@@ -640,8 +640,14 @@ def test_count_change_stress_puts_the_pivot_completer_in_the_beam_only_networks_
     assert sorted(len(missing) for missing in pair.networks) == [2, 3]
     assert isinstance(pair.fused_beam_only, PivotCompleter) and pair.fused_beam_only.pivot_m is None
     assert pair.beam_correlation == IMU_PIVOT_ERROR_CORRELATION
-    with pytest.raises(SystemExit, match="both patterns or for neither"):
-        study.fold_completer(dirs, ("pivot", str(tmp_path)), 1, config)
+    assert pair.fused_beam_only.axes == ("yaw",)                          # as Graph-HNP runs it
+    from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+    pitch_pair = study.fold_completer(dirs, ("pivot-pitch", "pivot-pitch"), 1, config)
+    assert pitch_pair.fused_beam_only.axes == DEFAULT_AXES and pitch_pair.fused_beam_only.pivot_m is None
+    assert pitch_pair.fused_beam_only.n_past == DEFAULT_N_PAST["2-missing"]
+    for half in (("pivot", str(tmp_path)), ("pivot", "pivot-pitch"), (str(tmp_path), "pivot-pitch")):
+        with pytest.raises(SystemExit, match="for both patterns or none"):
+            study.fold_completer(dirs, half, 1, config)
     with pytest.raises(SystemExit) as refused:       # refused before any run starts
         study.main(["--imu-nets", *map(str, dirs), "--beam-nets", "pivot", str(tmp_path), "--variants", "Graph-TC",
                     "HNI shipped", "--out", str(tmp_path / "c.json")])
