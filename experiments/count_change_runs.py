@@ -94,7 +94,8 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     shipped beam-only networks' cards say where they serve alone, and not at all as the fused member. ``beam_dirs``
     both :data:`imu_beam_fused_folds.PIVOT_MEMBER`: the pivot completer in their place (fitted online as
     ``Graph-HNP``'s, for the mission's sensors ``config``), as ``hybrid_imu_folds.completer`` builds the pair; both
-    ``PIVOT_PITCH_MEMBER``: the pivot completer with its own defaults (the pitch too, its own hold)."""
+    ``PIVOT_PITCH_MEMBER``: the pivot completer with its own defaults
+    (``imu_beam_fused_folds.pivot_member_options``)."""
     from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
 
     from graphnav.nets.average import AverageCompleter
@@ -114,14 +115,13 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     except ValueError as e:
         raise SystemExit(str(e)) from None
     if pivot_member:
-        from imu_beam_fused_folds import PIVOT_PITCH_MEMBER
+        from imu_beam_fused_folds import pivot_member_options
 
         from graphnav.core.config import SensorConfig
         from graphnav.evaluation.methods import pivot_completer
-        from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
-        own = {"axes": DEFAULT_AXES, "n_past": DEFAULT_N_PAST["2-missing"]} if pivot_member == PIVOT_PITCH_MEMBER else {}
         # one pivot completer serves both patterns, as Graph-HNP's does in this stress
-        pivot = pivot_completer("2-missing", config if config is not None else SensorConfig(), **own)
+        pivot = pivot_completer("2-missing", config if config is not None else SensorConfig(),
+                                **pivot_member_options(pivot_member, "2-missing"))
         return ImuAutoCompleter(imu, pivot, IMU_PIVOT_ERROR_CORRELATION)
     return ImuAutoCompleter(imu, beam_only(shipped_run_decay), IMU_BEAM_ERROR_CORRELATION,
                             fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]))

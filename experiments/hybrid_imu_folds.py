@@ -81,14 +81,13 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     if method == "HNI fold fused":
         from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
         imu_dir, beam_dir = nets_dir
-        from imu_beam_fused_folds import PIVOT_MEMBERS, PIVOT_PITCH_MEMBER
+        from imu_beam_fused_folds import PIVOT_MEMBERS, pivot_member_options
         if beam_dir in PIVOT_MEMBERS:
             from graphnav.core.config import SensorConfig
             from graphnav.core.scenarios import is_total_outage
             from graphnav.evaluation.methods import pivot_completer
-            from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
-            own = {"axes": DEFAULT_AXES, "n_past": DEFAULT_N_PAST[scenario]} if beam_dir == PIVOT_PITCH_MEMBER else {}
-            pivot = pivot_completer(scenario, config if config is not None else SensorConfig(), **own)
+            pivot = pivot_completer(scenario, config if config is not None else SensorConfig(),
+                                    **pivot_member_options(beam_dir, scenario))
             # no network serves a total outage (the pivot completer does); the pair still holds the folder's
             # 3-missing network, as a shipped pair would hold its networks whatever the outage
             pattern = "3-missing" if is_total_outage(scenario) else scenario

@@ -55,6 +55,14 @@ PIVOT_PITCH_MEMBER = "pivot-pitch"
 PIVOT_MEMBERS = (PIVOT_MEMBER, PIVOT_PITCH_MEMBER)
 
 
+def pivot_member_options(member: str, scenario: str) -> dict:
+    """The pivot completer's settings (``axes``, ``n_past``) of the pivot member ``member`` in ``scenario``, on top
+    of ``Graph-HNP``'s (:func:`graphnav.evaluation.methods.pivot_completer`): none for :data:`PIVOT_MEMBER`, the
+    completer's own defaults for :data:`PIVOT_PITCH_MEMBER`."""
+    from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST
+    return {"axes": DEFAULT_AXES, "n_past": DEFAULT_N_PAST[scenario]} if member == PIVOT_PITCH_MEMBER else {}
+
+
 def member_label(beam_dir: str) -> str:
     """The second member's name in the rows: one of :data:`PIVOT_MEMBERS` or ``beam-only, fading``."""
     return beam_dir if beam_dir in PIVOT_MEMBERS else "beam-only, fading"
@@ -226,14 +234,14 @@ def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> 
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.crossval import AKIT_FOLDS
-    from graphnav.nets.pivot import DEFAULT_AXES, DEFAULT_N_PAST, PivotCompleter
+    from graphnav.nets.pivot import DEFAULT_AXES, PivotCompleter
     sources = {s.name: s for s in find_trajectories(str(akit_trajectories(akit_dir)[0].parent))}
     geometry = DvlGeometry.from_spec(DvlSpec())
     if not pitch:
         return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, length, n_past=AVERAGE_N_PAST[scenario],
                                axes=("yaw",)) for length in fold_pivot_lengths(sources, AKIT_FOLDS)]
-    return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, yaw, n_past=DEFAULT_N_PAST[scenario],
-                           pitch_pivot_m=pitch_m, axes=DEFAULT_AXES)
+    return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, yaw, pitch_pivot_m=pitch_m,
+                           **pivot_member_options(PIVOT_PITCH_MEMBER, scenario))
             for yaw, pitch_m in fold_pivot_lengths(sources, AKIT_FOLDS, DEFAULT_AXES)]
 
 

@@ -467,9 +467,9 @@ def main(argv=None) -> int:
                    help="the fold networks of the methods with a network completer (Graph-HNI, Graph-HN-net, ...) "
                         "for a scenario (repeat per scenario): the IMU-aware ones (imu_completer_folds.py "
                         "--save-nets) and the beam-only ensembles (graphnav eval-beams --folds --save-nets), or "
-                        "'pivot' for the pivot completer in their place as Graph-HNP runs it, or 'pivot-pitch' with its "
-                        "own defaults (a total outage too); each trajectory runs "
-                        "its own fold's (module docstring)")
+                        "'pivot' for the pivot completer in their place as Graph-HNP runs it, or 'pivot-pitch' with "
+                        "its own defaults (a total outage too); each trajectory runs its own fold's (module "
+                        "docstring)")
     p.add_argument("--over-draws", nargs="+", metavar="FILE", help="run nothing: the choice over the results files "
                    "of several training draws of the fold networks, their fold cells counted together")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (graphnav.evaluation.tasks)")

@@ -193,14 +193,13 @@ def report(saved: dict) -> str:
             prior, worse, smallest = prior_rule(saved, folds, suffix)
             lines += [f"prior_turn chosen on all folds: {prior:g} ({worse} fold cells worse than the average, "
                       f"smallest pooled gain {100 * smallest:+.1f} %)"]
+            # a fold's cells: every scenario, IMU copy scored, per ping / outage and beam / velocity
+            n_cells = len(SCENARIOS) * len(next(iter(results.values()))) * 2 * 2
             for f in folds:
                 prior, _, _ = prior_rule(saved, [g for g in folds if g != f], suffix)
-                member = f"online{suffix} {prior:g}"
-                cells = [gain for scenario in SCENARIOS for grade in GRADES for kind in ("per ping", "outage")
-                         if f"{scenario}|{kind}|{member}" in saved["results"]["Trajectory1"].get(grade, {})
-                         for gain in gains(saved["results"], [AKIT_FOLDS[f]], grade, scenario, kind, member)[0]]
-                lines.append(f"without fold {f}: {prior:g}; fold {f} with it: smallest gain {100 * min(cells):+.1f} "
-                             f"%, {sum(c < 0 for c in cells)} of {len(cells)} cells worse than the average")
+                worse, smallest = member_scores(saved, [f], f"online{suffix} {prior:g}")
+                lines.append(f"without fold {f}: {prior:g}; fold {f} with it: smallest gain {100 * smallest:+.1f} "
+                             f"%, {worse} of {n_cells} cells worse than the average")
     return "\n".join(lines)
 
 
