@@ -65,9 +65,9 @@ def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, r
 
 def summed_fallbacks(completers) -> dict[str, int]:
     """The ``fallbacks`` counters of ``completers`` (pings a network left to the average estimator, by kind:
-    ``"envelope"``, ``"pattern"``) summed by kind; a completer without counters adds nothing. How a completer that
-    wraps others (IMU-aware auto, fused) reports its members'. A completer listed twice (one object serving two
-    routes) is counted once."""
+    ``"envelope"``, ``"pattern"``, ``"dvl"``) summed by kind; a completer without counters adds nothing. How a
+    completer that wraps others (IMU-aware auto, fused) reports its members'. A completer listed twice (one object
+    serving two routes) is counted once."""
     counts: dict[str, int] = {}
     for c in {id(c): c for c in completers}.values():
         for kind, n in getattr(c, "fallbacks", {}).items():

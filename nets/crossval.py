@@ -26,6 +26,7 @@ from graphnav.core.folds import check_folds as core_check_folds
 from . import data as beamdata
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_run_decay
+from .dvl_match import beam_model_record
 from .evaluate import completion_metrics, outage_rollout, predict_completer
 from .model import normalize_missing, scenario_name
 
@@ -589,7 +590,7 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
     card = network_card(net, variant, seed, time_s=train_time, data={
         "source": "A-KIT trajectories " + ", ".join(map(str, sorted(data.akit)))
                   + (" and snapir-2021-beamsnet V.npy (all)" if data.beamsnet else ""),
-        "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
+        "beam_model": beam_model_record(), "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
         "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy") if data.beamsnet else None})
     card = {
         **card,

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .completer import complete_with, summed_fallbacks
+from .dvl_match import bind_members
 
 
 def check_correlation(name: str, value: float) -> None:
@@ -100,6 +101,10 @@ class FusedCompleter:
             self.imu_rate_hz = getattr(imu_member, "imu_rate_hz", None)
             self.beam_only = getattr(imu_member, "beam_only", None)
 
+    def bind_dvl(self, T_b: np.ndarray) -> list[str]:
+        """Bind both members to a mission's DVL (:mod:`graphnav.nets.dvl_match`)."""
+        return bind_members(T_b, (self.first, self.second))
+
     @property
     def usage(self) -> dict:
         """The IMU-aware member's routes (:class:`graphnav.nets.ImuAutoCompleter`), empty without one."""
@@ -107,7 +112,7 @@ class FusedCompleter:
 
     @property
     def fallbacks(self) -> dict:
-        """Both members' fallback counters summed by kind (``"envelope"``, ``"pattern"``), empty when neither
+        """Both members' fallback counters summed by kind (``"envelope"``, ``"pattern"``, ``"dvl"``), empty when neither
         counts."""
         return summed_fallbacks((self.first, self.second))
 

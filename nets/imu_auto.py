@@ -36,6 +36,7 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 
 from .completer import check_drift_std, check_inputs, complete_with, summed_fallbacks
+from .dvl_match import bind_members
 from .fused import fuse
 from .model import scenario_name
 
@@ -79,7 +80,7 @@ class ImuAutoCompleter:
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
     (its pattern has one but no IMU window was passed, or only ``beam_only``'s shorter one) and ``"pattern"`` (no
-    IMU-aware network for the pattern).
+    IMU-aware network for the pattern, or one bound to a DVL it was not trained for: :meth:`bind_dvl`).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
     network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completers', ``beam_only``
     and ``fused_beam_only`` both counted when they are two).
@@ -155,8 +156,13 @@ class ImuAutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        return {"envelope": 0, "pattern": 0} | summed_fallbacks([self.beam_only, self.fused_beam_only,
-                                                                 *self.networks.values()])
+        return {"envelope": 0, "pattern": 0, "dvl": 0} | summed_fallbacks([self.beam_only, self.fused_beam_only,
+                                                                           *self.networks.values()])
+
+    def bind_dvl(self, T_b: np.ndarray) -> list[str]:
+        """Bind every member to a mission's DVL (:mod:`graphnav.nets.dvl_match`): an IMU-aware network trained for
+        another DVL serves none of its pattern's pings, ``beam_only`` does (counted in ``usage["pattern"]``)."""
+        return bind_members(T_b, [*self.networks.values(), self.beam_only, self.fused_beam_only])
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -169,6 +175,8 @@ class ImuAutoCompleter:
             return measured.copy(), np.zeros(4)
         pattern = tuple(int(b) for b in np.flatnonzero(missing))
         net = self.networks.get(pattern)
+        if net is not None and getattr(net, "dvl_mismatch", None) is not None:
+            net = None          # trained for another DVL: the pattern is beam_only's, as one without a network
         # a window shorter than the networks' is the members' own (the keyframer's, where the networks have none)
         if net is not None and imu is not None and len(imu[1]) >= self.imu_samples:
             self.usage["imu"] += 1

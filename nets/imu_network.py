@@ -30,6 +30,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_inputs, check_run_decay, fade_to_average
+from .dvl_match import TrainedForOneDvl, trained_beams_b
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
@@ -49,7 +50,7 @@ def model_inputs(features, idx=None) -> list[torch.Tensor]:
     return [torch.as_tensor(f, dtype=torch.float32) for f in fields]
 
 
-class ImuNetworkCompleter:
+class ImuNetworkCompleter(TrainedForOneDvl):
     """A trained :class:`ImuBeamRegressor` as a beam completer that needs the IMU window (module docstring).
 
     Args:
@@ -71,7 +72,9 @@ class ImuNetworkCompleter:
     the same past and counted in ``fallbacks["envelope"]``, as the beam-only network does: out of fold, a
     trajectory slower than any the network was trained on (under 1 m/s, near the surface) made its outage
     completions several times worse than the average's (``docs/decisions/completers.md``, "Where the outages
-    fall"). A card without an envelope (weights saved before it) checks nothing.
+    fall"). A card without an envelope (weights saved before it) checks nothing. Bound to a mission's DVL whose beams
+    are not those it was trained for (:meth:`bind_dvl`, :mod:`graphnav.nets.dvl_match`), it leaves every ping to the
+    average estimator, counted in ``fallbacks["dvl"]``.
     """
 
     needs_imu = True
@@ -94,7 +97,8 @@ class ImuNetworkCompleter:
         n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
         self.fallback = AverageCompleter(min(self.n_past, n_average))
         self.envelope = InputEnvelope.from_card(self.card) if "envelope" in self.card else None
-        self.fallbacks = {"envelope": 0, "pattern": 0}
+        self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
+        self.trained_T_b = trained_beams_b(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -111,6 +115,9 @@ class ImuNetworkCompleter:
         if pattern != self.missing:
             raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
                             f"{list(self.missing)}", "completer", field="measured")
+        if self.dvl_mismatch is not None:
+            self.fallbacks["dvl"] += 1
+            return self.fallback.complete(past[-self.fallback.n_past:], measured)
         if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
             self.fallbacks["envelope"] += 1
             return self.fallback.complete(past[-self.fallback.n_past:], measured)

@@ -30,6 +30,7 @@ from graphnav.io.loaders import akit_files
 
 from . import imu_data
 from .data import _data_dir
+from .dvl_match import beam_model_record
 from .imu_model import DEFAULT_IMU_N_PAST, ImuBeamRegressor
 from .imu_network import ImuNetworkCompleter, imu_weights_name, model_inputs
 from .imu_recipes import ImuTrainOptions
@@ -236,7 +237,7 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
             "source": "snapir-2022-akit (ansfl/A-KIT, June 2022), TrajectoryN/{IMU,DVL,GT}_trajectoryN.csv "
                       "via graphnav.missions.load_akit",
             "DVL_sha256": {s.name: file_sha256(akit_files(d / s.name, require_gt=False)["DVL"]) for s in recorded},
-            "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec).items()},
+            "beam_model": beam_model_record(spec),
             "beam_seed": opt.beam_seed, "draws": opt.draws,
         },
         "split": {"train_trajectories": list(train_numbers),

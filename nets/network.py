@@ -19,6 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs, check_run_decay, complete_with, fade_to_average
+from .dvl_match import TrainedForOneDvl, bind_members, trained_beams_b
 from .model import NO_BEAM_ONLY_TOTAL_OUTAGE, BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
@@ -63,7 +64,7 @@ class InputEnvelope:
                     and np.all(np.abs(measured[kept] - past[-1, kept]) <= self.max_step[kept]))
 
 
-class NetworkCompleter:
+class NetworkCompleter(TrainedForOneDvl):
     """A trained :class:`BeamRegressor` (or :class:`~graphnav.nets.model.BeamEnsemble`) behind the completer
     interface.
 
@@ -89,7 +90,9 @@ class NetworkCompleter:
     window put its beams 0.1-0.3 m/s off, where the average estimator stays bounded): a ping whose inputs
     leave the card's :class:`InputEnvelope` is filled by the average estimator over the same window, and
     counted in ``fallbacks["envelope"]`` (:func:`graphnav.evaluation.methods.run_method` puts the counts of a run in
-    ``info["completer_fallbacks"]``).
+    ``info["completer_fallbacks"]``). Bound to a mission's DVL whose beams are not those it was trained for
+    (:meth:`bind_dvl`, :mod:`graphnav.nets.dvl_match`), it leaves every ping to the average estimator, counted in
+    ``fallbacks["dvl"]``.
     """
 
     def __init__(self, model: BeamRegressor | BeamEnsemble, sigma: str = "head", constant_sigma=None,
@@ -111,7 +114,8 @@ class NetworkCompleter:
         self.card = card or {}
         self.envelope = InputEnvelope.from_card(self.card)
         self.fallback = AverageCompleter(self.n_past)
-        self.fallbacks = {"envelope": 0, "pattern": 0}
+        self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
+        self.trained_T_b = trained_beams_b(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping.
@@ -143,6 +147,9 @@ class NetworkCompleter:
             # inside an outage window): the network cannot serve it, the average estimator can
             self.fallbacks["pattern"] += 1
             return self.fallback.complete(past, measured)
+        if self.dvl_mismatch is not None:
+            self.fallbacks["dvl"] += 1
+            return self.fallback.complete(past, measured)
         if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
             self.fallbacks["envelope"] += 1
             return self.fallback.complete(past, measured)
@@ -172,9 +179,14 @@ class AutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        """Pings the networks handed to the average estimator (inputs outside their envelope); patterns
-        without a network go to the average estimator by design and are not counted."""
-        return {"envelope": sum(net.fallbacks["envelope"] for net in self.networks.values()), "pattern": 0}
+        """Pings the networks handed to the average estimator (inputs outside their envelope, a DVL they were not
+        trained for); patterns without a network go to the average estimator by design and are not counted."""
+        return {"envelope": sum(net.fallbacks["envelope"] for net in self.networks.values()), "pattern": 0,
+                "dvl": sum(net.fallbacks["dvl"] for net in self.networks.values())}
+
+    def bind_dvl(self, T_b: np.ndarray) -> list[str]:
+        """Bind every network to a mission's DVL (:meth:`NetworkCompleter.bind_dvl`)."""
+        return bind_members(T_b, self.networks.values())
 
     def completer_for(self, measured: np.ndarray):
         """The completer that serves the missing pattern (NaN) of ``measured``."""

@@ -23,6 +23,7 @@ import graphnav
 from graphnav.core.config import DvlSpec
 
 from . import data as beamdata
+from .dvl_match import beam_model_record
 from .evaluate import network_metrics
 from .model import BeamRegressor, normalize_missing, scenario_name
 from .storage import card_format_version, file_sha256, weights_dir
@@ -209,8 +210,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
         "data": {
             "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
             "V_sha256": file_sha256(d / "V.npy"),
-            "beam_model": {k: (v.tolist() if isinstance(v, np.ndarray) else v)
-                           for k, v in asdict(DvlSpec()).items()},
+            "beam_model": beam_model_record(),
             "beam_seed": opt.beam_seed,
             "align_yaw_deg": opt.align_yaw_deg,
         },

@@ -181,6 +181,22 @@ def regressed_beams_line(record: dict | None) -> str:
                else ""))
 
 
+#: what each kind of a network completer's fallback means, for the printed summary
+FALLBACK_REASONS = {"envelope": "inputs outside its training envelope",
+                    "pattern": "a missing-beam pattern it was not trained for",
+                    "dvl": "a DVL it was not trained for"}
+
+
+def completer_fallbacks_line(counts: dict | None) -> str:
+    """The summary line of the pings a network completer left to the average estimator, by reason (empty when
+    none)."""
+    counts = {k: n for k, n in (counts or {}).items() if n}
+    if not counts:
+        return ""
+    reasons = "; ".join(f"{n} for {FALLBACK_REASONS.get(k, k)}" for k, n in counts.items())
+    return f"network completer: {sum(counts.values())} ping(s) completed by the average estimator instead ({reasons})"
+
+
 def consistency_summary(sol, mission) -> dict:
     """Velocity (3 dof), horizontal position (2 dof) and heading (1 dof) NEES over the mission after the
     settling time against the IMU-carried reference, each with its 95 % chi-square band, as the benchmark
@@ -249,6 +265,9 @@ def print_summary(summary: dict, file=None) -> None:
                 f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f})" if c else f"{name} -"
                 for name, c in cons.items()))
     line = regressed_beams_line(summary.get("regressed_beams"))
+    if line:
+        out(f"  {line}")
+    line = completer_fallbacks_line(summary.get("completer_fallbacks"))
     if line:
         out(f"  {line}")
     state = summary.get("completer_state") or {}

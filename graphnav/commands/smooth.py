@@ -138,6 +138,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),
+        "completer_fallbacks": sol.info.get("completer_fallbacks", {}),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission),
                                 "regressed_beams": regressed_beams_summary(o.info),
                                 "completer_state": o.info.get("completer_state", {})}

@@ -25,6 +25,9 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   :attr:`KeyframerStats.imu_window_missing`. A completer whose beam-only members need a shorter window of their
   own (``member_imu_samples``: the pivot completer fused with the networks) gets that one there instead, where it
   is clean, and its learning members see each fully measured ping with their window (``observe_imu_samples``).
+  A completer with networks is bound to the mission's DVL first (``bind_dvl``, :mod:`graphnav.nets.dvl_match`): a
+  network trained for a DVL whose beams point elsewhere leaves its pings to the average estimator (warning; counted
+  in the completer's ``fallbacks["dvl"]``).
 - **DVL velocity.** A DVL-frame velocity the instrument measured itself (:meth:`Keyframer.add_dvl_velocity`:
   a velocity-only DVL, a 3-beam solution, an earth/ship-frame log) makes a ping too, carried in
   :attr:`Ping.v_d`. One ping is used once: when beams and a velocity arrive at the same stamp, a ping with at
@@ -160,6 +163,13 @@ class Keyframer:
                 warnings.warn(f"the IMU runs at {config.imu_rate_hz:g} Hz and the IMU-aware completer wants "
                               f"{completer.imu_rate_hz:g} Hz: every ping's beams will be regressed beam-only "
                               "(counted in imu_window_missing['rate'])", RuntimeWarning, stacklevel=2)
+        bind_dvl = getattr(completer, "bind_dvl", None)
+        if bind_dvl is not None:
+            unmatched = bind_dvl(DvlGeometry.from_spec(config.dvl).T_b)
+            if unmatched:
+                warnings.warn(f"the completer's networks were trained for another DVL: {'; '.join(unmatched)}. The "
+                              "average estimator completes the pings they would have (counted in their "
+                              "fallbacks['dvl'])", RuntimeWarning, stacklevel=2)
         # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
         self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
         self._T_d = DvlGeometry.from_spec(config.dvl).T_d

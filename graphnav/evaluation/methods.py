@@ -521,7 +521,8 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     (ground truth when the mission has it).
     ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer and, for a network
     completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
-    (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for}``);
+    (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for, "dvl": a DVL
+    whose beams are not those it was trained for}``);
     ``info["completer_state"]`` is what the completer learned during the run (:func:`completer_state`, when any).
     """
     from graphnav.estimators.runs import run_ekf, run_graph
@@ -555,6 +556,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         sol.info["completer_fallbacks"] = counts
         if any(counts.values()):
             warnings.warn(f"{m.name}: the average estimator regressed the beams of {counts['envelope']} ping(s) "
-                          f"whose inputs left the network's training envelope and {counts['pattern']} with a "
-                          f"missing-beam pattern the network was not trained for", RuntimeWarning, stacklevel=2)
+                          f"whose inputs left the network's training envelope, {counts['pattern']} with a "
+                          f"missing-beam pattern the network was not trained for and {counts.get('dvl', 0)} of a "
+                          "DVL the network was not trained for", RuntimeWarning, stacklevel=2)
     return sol

@@ -1,0 +1,101 @@
+"""Which DVL a network was trained for, and whether a mission's DVL is that one.
+
+A network completer learns how the missing beams of one DVL follow from its other beams (and, IMU-aware, from the
+vehicle's motion): the directions of that DVL's beams in the body frame are built into its weights. The shipped
+networks were trained for the Snapir's DVL as :class:`~graphnav.core.config.DvlSpec` describes it by default: beams
+20 deg from the vertical at azimuths 45, 135, 225 and 315 deg, the DVL along the body axes. On a DVL whose beams point
+elsewhere a network completes beams that this DVL does not have, and little in its inputs says so. On the A-KIT
+trajectories' motion with the beams of a convex RDI head (azimuths 270, 90, 0, 180 deg) the shipped beam-only networks'
+beam and velocity errors were 2.1-2.8x the average estimator's (2 missing beams) and 1.9-2.3x (3 missing), per ping
+and through 30-ping outages, and their training envelope caught 57-65 % of the pings; with the Snapir's head turned
+45 deg about the vertical it caught none, and through 3-missing outages they were 2.1x the average's in velocity
+(``experiments/network_on_other_dvl.py``; ``docs/decisions/completers.md``, "A network on a DVL it was not trained
+for").
+
+So a network completer is bound to the mission's DVL before it completes any of its pings (the estimators' keyframer
+calls ``bind_dvl`` with the mission's beam directions): when a beam's direction differs from the one the network was
+trained for by more than :data:`BEAM_DIRECTION_TOLERANCE_DEG`, the average estimator completes every ping the
+network would have, counted in ``fallbacks["dvl"]``, and the estimator warns once naming the beams. The binding is
+the completer object's (the registry's network completers are one object per process, bound again by each run's
+keyframer, as their counters are shared: one run at a time). Completers without a network (the average estimator, the pivot completer, which is built from the mission's own geometry) have
+nothing to bind.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+
+from graphnav.core.config import DvlSpec
+
+#: Largest angle (deg) between a beam's direction in the body frame on the DVL a network was trained for and on the
+#: mission's DVL for which the network still completes the mission's beams. A head turned about the vertical by D moves
+#: each 20 deg beam by about D sin(20 deg), so up to about 6 deg of turn passes. Measured with the shipped beam-only
+#: networks (the study above): at 5 deg of turn they are unchanged, at 10 deg still better than the average, at 20 deg
+#: (6.8 deg a beam) 6 % worse in velocity through 3-missing outages. Beams inclined 30 deg instead of 20 (10 deg a
+#: beam) still complete 2-23 % better than the average, yet in the paper's hybrid EKF through 120 s MEMS outages they
+#: put HNTC at 0.96-0.99x TC where the average gives 0.85-0.90x (6-8 of 20 windows over 1.02x Average-TC).
+BEAM_DIRECTION_TOLERANCE_DEG = 2.0
+
+#: The fields of :class:`DvlSpec` that set the beams' directions in the body frame.
+_GEOMETRY_FIELDS = ("theta_rad", "psi_rad", "C_d_b")
+
+
+def beam_model_record(spec: DvlSpec | None = None) -> dict:
+    """The DVL a network is trained for, as a model card stores it (``card["data"]["beam_model"]``): the fields of
+    ``spec`` (default :class:`DvlSpec`), arrays as lists."""
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec or DvlSpec()).items()}
+
+
+def trained_beams_b(card: dict) -> np.ndarray:
+    """(4, 3) unit vectors of the beams, body frame, of the DVL a model card's network was trained for: its
+    ``data["beam_model"]``, or the default :class:`DvlSpec` for a card without one (every beam-only card written
+    before the cards recorded it: :mod:`graphnav.nets.data` makes the training beams with that spec)."""
+    from graphnav.core.dvl import DvlGeometry
+    record = (card.get("data") or {}).get("beam_model") or {}
+    fields = {k: np.asarray(record[k], float) if k != "theta_rad" else float(record[k])
+              for k in _GEOMETRY_FIELDS if k in record}
+    return DvlGeometry.from_spec(DvlSpec(**fields)).T_b
+
+
+def beam_direction_mismatch(trained_T_b: np.ndarray, T_b: np.ndarray,
+                            tolerance_deg: float = BEAM_DIRECTION_TOLERANCE_DEG) -> str | None:
+    """None when every beam of the mission's DVL (``T_b``, (4, 3) unit vectors, body frame) points within
+    ``tolerance_deg`` of the trained DVL's (``trained_T_b``); else what differs, beam by beam (1-based, as the
+    paper numbers them)."""
+    a, b = np.asarray(trained_T_b, float), np.asarray(T_b, float)
+    cos = np.sum(a * b, axis=1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    if np.all(angle <= tolerance_deg):
+        return None
+    off = ", ".join(f"beam {i + 1} {angle[i]:.1f} deg" for i in np.flatnonzero(angle > tolerance_deg))
+    return f"the mission's beams point away from those it was trained for ({off}; tolerance {tolerance_deg:g} deg)"
+
+
+class TrainedForOneDvl:
+    """What a network completer shares: ``trained_T_b``, the (4, 3) body-frame beam directions of the DVL it was
+    trained for (:func:`trained_beams_b` of its card, set by the completer), and ``dvl_mismatch``, why the DVL it is
+    bound to is not that one (None: it is, or it was never bound)."""
+
+    trained_T_b: np.ndarray
+    dvl_mismatch: str | None = None
+
+    def bind_dvl(self, T_b: np.ndarray) -> list[str]:
+        """Bind the network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame): when its beams are not
+        those the network was trained for, every ping it would complete goes to the average estimator. Returns what
+        differs (empty: nothing)."""
+        self.dvl_mismatch = beam_direction_mismatch(self.trained_T_b, T_b)
+        return [] if self.dvl_mismatch is None else [self.dvl_mismatch]
+
+
+def bind_members(T_b: np.ndarray, members) -> list[str]:
+    """``bind_dvl(T_b)`` on each distinct member that has it (a completer made of others hands the mission's DVL on);
+    what they report, each message once."""
+    seen, messages = set(), []
+    for member in members:
+        bind = getattr(member, "bind_dvl", None)
+        if bind is None or id(member) in seen:
+            continue
+        seen.add(id(member))
+        messages += [m for m in bind(T_b) if m not in messages]
+    return messages

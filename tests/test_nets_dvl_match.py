@@ -1,0 +1,152 @@
+"""A network completer serves only the DVL it was trained for (:mod:`graphnav.nets.dvl_match`): bound to a mission
+whose beams point elsewhere it leaves every ping to the average estimator, counted, and the estimator says so."""
+from __future__ import annotations
+
+import dataclasses
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry, make_beams
+from graphnav.nets import AverageCompleter, load_completer
+from graphnav.nets.dvl_match import beam_direction_mismatch, beam_model_record, trained_beams_b
+
+#: a convex RDI head's beam azimuths (beam 3 forward), the layout most DVLs in the field have
+RDI_PSI = np.deg2rad([270.0, 90.0, 0.0, 180.0])
+
+
+def T_b(**changes) -> np.ndarray:
+    return DvlGeometry.from_spec(dataclasses.replace(DvlSpec(), **changes)).T_b
+
+
+def yawed(deg: float) -> np.ndarray:
+    return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+
+def turning_past(n: int = 5, seed: int = 4) -> np.ndarray:
+    """Full beam vectors of a vehicle whose sway and heave change from ping to ping (the network departs from the
+    average there)."""
+    rng = np.random.default_rng(seed)
+    v = np.array([1.5, 0.1, 0.05]) + np.cumsum(0.05 * rng.standard_normal((n, 3)), axis=0)
+    return make_beams(v, DvlSpec(), seed)
+
+
+def test_a_beam_more_than_the_tolerance_away_is_another_dvl():
+    trained = T_b()
+    assert beam_direction_mismatch(trained, trained) is None
+    # the head turned about the vertical by D moves each 20 deg beam by about D sin(20 deg)
+    assert beam_direction_mismatch(trained, T_b(C_d_b=yawed(5.0))) is None      # 1.7 deg a beam
+    off = beam_direction_mismatch(trained, T_b(C_d_b=yawed(10.0)))              # 3.4 deg
+    assert off is not None and all(f"beam {i}" in off for i in range(1, 5))
+    rdi = beam_direction_mismatch(trained, T_b(psi_rad=RDI_PSI))
+    assert "beam 1 36.8 deg" in rdi and "beam 2 15.0 deg" in rdi             # 135 and 45 deg of azimuth at 20 deg
+    assert beam_direction_mismatch(trained, T_b(theta_rad=np.deg2rad(25.0))) is not None
+
+
+def test_a_card_says_which_dvl_its_network_was_trained_for():
+    """A card records the spec (``beam_model``); one written before that is the default spec's, which the beam-only
+    training made its beams with. The shipped IMU-aware cards record the default spec."""
+    np.testing.assert_array_equal(trained_beams_b({}), T_b())
+    other = dataclasses.replace(DvlSpec(), psi_rad=RDI_PSI, C_d_b=yawed(10.0))
+    np.testing.assert_allclose(trained_beams_b({"data": {"beam_model": beam_model_record(other)}}),
+                               DvlGeometry.from_spec(other).T_b)
+    from graphnav.nets import load_imu_completer
+    np.testing.assert_allclose(load_imu_completer(2).trained_T_b, T_b())
+    assert "beam_model" not in load_completer(2).card["data"]       # the shipped beam-only cards predate it
+
+
+def test_a_network_bound_to_another_dvl_leaves_every_ping_to_the_average():
+    net = load_completer("auto")
+    past = turning_past()
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    assert net.bind_dvl(T_b()) == []
+    own, _ = net.complete(past, two)
+    average = AverageCompleter(3).complete(past[-3:], two)
+    assert not np.allclose(own, average[0])
+    before = net.fallbacks["dvl"]
+    messages = net.bind_dvl(T_b(psi_rad=RDI_PSI))
+    assert len(messages) == 1 and "beam 1" in messages[0]         # both networks, the same DVL: said once
+    np.testing.assert_array_equal(net.complete(past, two), average)
+    assert net.fallbacks["dvl"] == before + 1
+    net.bind_dvl(T_b())                                            # bound again to its own DVL: the network again
+    np.testing.assert_array_equal(net.complete(past, two)[0], own)
+
+
+def test_the_imu_aware_completer_on_another_dvl_is_its_beam_only_route():
+    """An IMU-aware network trained for another DVL serves none of its pattern's pings: the beam-only member does
+    (route ``pattern``), and its own networks, bound too, leave the ping to the average: counted once."""
+    from graphnav.nets import load_fused_beam_only, load_imu_auto_completer
+    auto = load_imu_auto_completer(beam_only=load_completer("auto"), fused_beam_only=load_fused_beam_only())
+    past = turning_past()
+    two = past[-1] + 0.01
+    two[[0, 2]] = np.nan
+    imu = (np.tile([0.0, 0.0, -9.8], (2000, 1)), np.zeros((2000, 3)))
+    assert auto.bind_dvl(T_b(psi_rad=RDI_PSI))
+    usage, fallbacks = dict(auto.usage), dict(auto.fallbacks)
+    np.testing.assert_array_equal(auto.complete(past, two, imu=imu), AverageCompleter(3).complete(past[-3:], two))
+    assert auto.usage["pattern"] == usage["pattern"] + 1 and auto.usage["imu"] == usage["imu"]
+    assert auto.fallbacks["dvl"] == fallbacks["dvl"] + 1
+    assert auto.bind_dvl(T_b()) == []
+    auto.complete(past, two, imu=imu)
+    assert auto.usage["imu"] == usage["imu"] + 1
+
+
+def test_an_estimator_on_another_dvl_says_so_and_completes_with_the_average():
+    """HNTC (the paper's hybrid EKF, network completer) on a mission whose DVL has an RDI head's beam layout warns,
+    counts every regressed ping in ``completer_fallbacks["dvl"]`` and is then Average-TC to the bit (the same
+    average, window and screening); on the DVL it was trained for it binds silently."""
+    from graphnav.evaluation import faults
+    from graphnav.evaluation.methods import run_method
+    from graphnav.sim.simulate import default_config, simulate_mission
+    config = default_config()
+    config = dataclasses.replace(config, dvl=dataclasses.replace(config.dvl, psi_rad=RDI_PSI))
+    mission = simulate_mission(200.0, "navigation", seed=1, config=config)
+    run = mission.with_outage(*[faults.Outage(s, 30.0, (0, 2)) for s in (60.0, 150.0)])
+    with pytest.warns(RuntimeWarning, match="trained for another DVL: .*beam 1 36.8 deg"):
+        hybrid = run_method(run, "HNTC", "2-missing")
+    average = run_method(run, "Average-TC", "2-missing")
+    counts = hybrid.info["completer_fallbacks"]
+    assert counts["dvl"] == 60 and counts["envelope"] == 0            # two 30 s outages at 1 Hz
+    np.testing.assert_array_equal(hybrid.v_n, average.v_n)
+    from graphnav.estimators.keyframes import Keyframer
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Keyframer(default_config(), completer=load_completer("auto"))
+
+
+def test_the_other_dvl_study_reports_the_network_over_the_average():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    import network_on_other_dvl as study
+    np.testing.assert_allclose(study.spec_of(study.DVLS["yaw45"][1]).C_d_b, yawed(45.0))
+    rows = [{"dvl": "X", "scenario": "2-missing", "mode": "per ping", "completer": name, "beam_rmse": b,
+             "vel_rmse": v, "pings": 10, "envelope": e, "dvl_fallbacks": 0, "bound_to_other_dvl": True}
+            for name, b, v, e in (("average", 0.1, 0.2, 0), ("network, unbound", 0.25, 0.3, 6),
+                                  ("network, bound", 0.1, 0.2, 0))]
+    assert "| X | 2-missing | per ping | 2.50 / 1.50 | 60% | 1.00 / 1.00 | yes |" in study.report(rows)
+
+
+def test_the_commands_say_how_many_pings_the_network_left_to_the_average(tmp_path, capsys):
+    """`graphnav smooth` and `graphnav online` with a configuration whose DVL is an RDI head: the summary counts the
+    pings under ``completer_fallbacks["dvl"]`` and prints them."""
+    import json
+
+    from graphnav.cli import main
+    from graphnav.commands.common import completer_fallbacks_line
+    config = tmp_path / "rdi.json"
+    config.write_text(json.dumps({"dvl": {"psi_rad": RDI_PSI.tolist()}}))
+    for command in ("smooth", "online"):
+        out = tmp_path / command
+        with pytest.warns(RuntimeWarning, match="trained for another DVL"):
+            assert main([command, "--duration", "200", "--config", str(config), "--scenario", "3-missing",
+                         "--method", "HNTC", "--out", str(out), "--no-plots"]) == 0
+        counts = json.loads((out / "summary.json").read_text())["completer_fallbacks"]
+        assert counts["dvl"] > 0 and counts["envelope"] == 0
+        assert completer_fallbacks_line(counts) in capsys.readouterr().out
+    assert completer_fallbacks_line({"envelope": 0, "dvl": 0}) == ""
+    assert "2 for inputs outside its training envelope" in completer_fallbacks_line({"envelope": 2, "dvl": 0})
