@@ -71,7 +71,7 @@ def online_fits(mission, geometry, n_past: int, axes: tuple[str, ...]) -> list[t
     there."""
     from graphnav.nets.pivot import PivotFit, measured_series
     beams, rates, usable = measured_series(mission)
-    fit = PivotFit(geometry.T_b, geometry.lever_arm_b, n_past, axes=axes)
+    fit = PivotFit(geometry.T_b, geometry.lever_arm_b, n_past, ping_dt=1.0 / mission.config.dvl.rate_hz, axes=axes)
     out = []
     for k, t in enumerate(mission.dvl.t):
         out.append((fit.num.copy(), fit.den.copy()))

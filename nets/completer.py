@@ -9,6 +9,10 @@ as the inflated measurement noise (EKF) or the weak factor's noise (graph).
 A completer that also needs the IMU sets ``needs_imu = True`` and takes it as a keyword,
 ``complete(past, measured, imu=(f_b, omega_b))`` with ``f_b``/``omega_b`` the last ``imu_samples`` IMU samples
 up to the ping (``graphnav.nets.imu_network``); :meth:`graphnav.estimators.history.BeamHistory.complete` forwards it.
+
+A completer with a network trained for one DVL has ``bind_dvl(T_b) -> list[str]``: the estimators' keyframer hands it
+the mission's beam directions (body frame) before any ping, and a network trained for other beams then leaves its
+pings to the average estimator (:mod:`graphnav.nets.dvl_match`). A completer that wraps one hands it on.
 """
 from __future__ import annotations
 

@@ -5,23 +5,25 @@ vehicle's motion): the directions of that DVL's beams in the body frame are buil
 networks were trained for the Snapir's DVL as :class:`~graphnav.core.config.DvlSpec` describes it by default: beams
 20 deg from the vertical at azimuths 45, 135, 225 and 315 deg, the DVL along the body axes. On a DVL whose beams point
 elsewhere a network completes beams that this DVL does not have, and little in its inputs says so. On the A-KIT
-trajectories' motion with the beams of a convex RDI head (azimuths 270, 90, 0, 180 deg) the shipped beam-only networks'
-beam and velocity errors were 2.1-2.8x the average estimator's (2 missing beams) and 1.9-2.3x (3 missing), per ping
-and through 30-ping outages, and their training envelope caught 57-65 % of the pings; with the Snapir's head turned
-45 deg about the vertical it caught none, and through 3-missing outages they were 2.1x the average's in velocity
+trajectories' motion with the beams of a convex RDI head (azimuths 270, 90, 0, 180 deg) the shipped networks' beam
+and velocity errors were 1.3-2.8x the average estimator's, per ping and through 30-ping outages, and their training
+envelope caught 57-95 % of the pings; with the Snapir's head turned 45 deg about the vertical the beam-only networks'
+envelope caught none, and through 3-missing outages they were 2.1x the average's in velocity
 (``experiments/network_on_other_dvl.py``; ``docs/decisions/completers.md``, "A network on a DVL it was not trained
 for").
 
 So a network completer is bound to the mission's DVL before it completes any of its pings (the estimators' keyframer
 calls ``bind_dvl`` with the mission's beam directions): when a beam's direction differs from the one the network was
 trained for by more than :data:`BEAM_DIRECTION_TOLERANCE_DEG`, the average estimator completes every ping the
-network would have, counted in ``fallbacks["dvl"]``, and the estimator warns once naming the beams. The binding is
-the completer object's (the registry's network completers are one object per process, bound again by each run's
-keyframer, as their counters are shared: one run at a time). Completers without a network (the average estimator, the pivot completer, which is built from the mission's own geometry) have
-nothing to bind.
+network would have, counted in ``fallbacks["dvl"]``, and the keyframer warns, naming the beams. The binding is the
+completer object's (the registry's network completers are one object per process, bound again by each run's
+keyframer, as their counters are shared: one run at a time). Completers without a network (the average estimator,
+the pivot completer, which is built from the mission's own geometry) have nothing to bind. A completer that wraps a
+network must hand ``bind_dvl`` on to it (as :func:`bind_members` does), or it is never bound.
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import asdict
 
 import numpy as np
@@ -58,18 +60,40 @@ def trained_beams_b(card: dict) -> np.ndarray:
     return DvlGeometry.from_spec(DvlSpec(**fields)).T_b
 
 
+def _angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle (deg) between the rows of ``a`` and ``b``."""
+    cos = np.sum(a * b, axis=1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def describe_beams(T_b: np.ndarray) -> str:
+    """Beams (rows of ``T_b``, body frame) as their angle from the body's z axis and their azimuths, deg."""
+    T_b = np.asarray(T_b, float)
+    tilt = np.degrees(np.arccos(np.clip(np.abs(T_b[:, 2]) / np.linalg.norm(T_b, axis=1), -1.0, 1.0)))
+    azimuth = np.degrees(np.arctan2(T_b[:, 1], T_b[:, 0])) % 360.0
+    tilts = f"{tilt[0]:.0f} deg" if np.ptp(tilt) < 0.5 else ", ".join(f"{x:.0f}" for x in tilt) + " deg"
+    return f"{tilts} from the vertical at azimuths {', '.join(f'{x:.0f}' for x in azimuth)} deg"
+
+
 def beam_direction_mismatch(trained_T_b: np.ndarray, T_b: np.ndarray,
                             tolerance_deg: float = BEAM_DIRECTION_TOLERANCE_DEG) -> str | None:
     """None when every beam of the mission's DVL (``T_b``, (4, 3) unit vectors, body frame) points within
-    ``tolerance_deg`` of the trained DVL's (``trained_T_b``); else what differs, beam by beam (1-based, as the
-    paper numbers them)."""
+    ``tolerance_deg`` of the trained DVL's (``trained_T_b``); else what differs: the two layouts and each beam's angle
+    (1-based, as the paper numbers them), and whether the same beams are there numbered differently."""
     a, b = np.asarray(trained_T_b, float), np.asarray(T_b, float)
-    cos = np.sum(a * b, axis=1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    angle = _angles_deg(a, b)
     if np.all(angle <= tolerance_deg):
         return None
     off = ", ".join(f"beam {i + 1} {angle[i]:.1f} deg" for i in np.flatnonzero(angle > tolerance_deg))
-    return f"the mission's beams point away from those it was trained for ({off}; tolerance {tolerance_deg:g} deg)"
+    text = (f"trained for beams {describe_beams(a)}, the mission's are {describe_beams(b)} ({off} away; "
+            f"tolerance {tolerance_deg:g} deg)")
+    for order in itertools.permutations(range(4)):
+        if np.all(_angles_deg(a[list(order)], b) <= tolerance_deg):
+            moved = [i for i, j in enumerate(order) if i != j]
+            theirs, ours = (", ".join(str(k + 1) for k in ks) for ks in (moved, [order[i] for i in moved]))
+            text += f": the same beams numbered differently (the mission's beams {theirs} are the trained DVL's {ours})"
+            break
+    return text
 
 
 class TrainedForOneDvl:
@@ -81,16 +105,16 @@ class TrainedForOneDvl:
     dvl_mismatch: str | None = None
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
-        """Bind the network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame): when its beams are not
-        those the network was trained for, every ping it would complete goes to the average estimator. Returns what
-        differs (empty: nothing)."""
+        """Bind the network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame, the DVL's beam order):
+        when its beams are not those the network was trained for, every ping it would complete goes to the average
+        estimator. Returns what differs (empty: nothing)."""
         self.dvl_mismatch = beam_direction_mismatch(self.trained_T_b, T_b)
         return [] if self.dvl_mismatch is None else [self.dvl_mismatch]
 
 
 def bind_members(T_b: np.ndarray, members) -> list[str]:
-    """``bind_dvl(T_b)`` on each distinct member that has it (a completer made of others hands the mission's DVL on);
-    what they report, each message once."""
+    """``bind_dvl(T_b)`` (``T_b``: (4, 3) beam unit vectors of the mission's DVL, body frame) on each distinct member
+    that has it: how a completer made of others hands the mission's DVL on. What they report, each message once."""
     seen, messages = set(), []
     for member in members:
         bind = getattr(member, "bind_dvl", None)

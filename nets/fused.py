@@ -102,7 +102,8 @@ class FusedCompleter:
             self.beam_only = getattr(imu_member, "beam_only", None)
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
-        """Bind both members to a mission's DVL (:mod:`graphnav.nets.dvl_match`)."""
+        """Bind both members to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame;
+        :mod:`graphnav.nets.dvl_match`)."""
         return bind_members(T_b, (self.first, self.second))
 
     @property

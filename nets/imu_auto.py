@@ -82,8 +82,9 @@ class ImuAutoCompleter:
     (its pattern has one but no IMU window was passed, or only ``beam_only``'s shorter one) and ``"pattern"`` (no
     IMU-aware network for the pattern, or one bound to a DVL it was not trained for: :meth:`bind_dvl`).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
-    network's training envelope, IMU-aware or beam-only) and ``"pattern"`` (the beam-only completers', ``beam_only``
-    and ``fused_beam_only`` both counted when they are two).
+    network's training envelope, IMU-aware or beam-only), ``"pattern"`` (the beam-only completers', ``beam_only``
+    and ``fused_beam_only`` both counted when they are two) and ``"dvl"`` (networks bound to a DVL they were not
+    trained for: :mod:`graphnav.nets.dvl_match`).
     """
 
     needs_imu = True
@@ -160,8 +161,9 @@ class ImuAutoCompleter:
                                                                            *self.networks.values()])
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
-        """Bind every member to a mission's DVL (:mod:`graphnav.nets.dvl_match`): an IMU-aware network trained for
-        another DVL serves none of its pattern's pings, ``beam_only`` does (counted in ``usage["pattern"]``)."""
+        """Bind every member to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame;
+        :mod:`graphnav.nets.dvl_match`): an IMU-aware network trained for another DVL serves none of its pattern's
+        pings, ``beam_only`` does (counted in ``usage["pattern"]``)."""
         return bind_members(T_b, [*self.networks.values(), self.beam_only, self.fused_beam_only])
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None

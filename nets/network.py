@@ -128,9 +128,10 @@ class NetworkCompleter(TrainedForOneDvl):
         Returns:
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
 
-        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), or
-        whose inputs lie outside its envelope, is filled by the average estimator over the same past
-        (counted in ``fallbacks["pattern"]`` / ``fallbacks["envelope"]``).
+        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), whose inputs
+        lie outside its envelope, or of a DVL the network is bound to and was not trained for (:meth:`bind_dvl`), is
+        filled by the average estimator over the same past (counted in ``fallbacks["pattern"]`` /
+        ``fallbacks["envelope"]`` / ``fallbacks["dvl"]``).
 
         Raises:
             DataError: wrong shape, non-finite past, or a missing pattern that is neither the network's nor
@@ -185,7 +186,8 @@ class AutoCompleter:
                 "dvl": sum(net.fallbacks["dvl"] for net in self.networks.values())}
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
-        """Bind every network to a mission's DVL (:meth:`NetworkCompleter.bind_dvl`)."""
+        """Bind every network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame;
+        :meth:`NetworkCompleter.bind_dvl`)."""
         return bind_members(T_b, self.networks.values())
 
     def completer_for(self, measured: np.ndarray):

@@ -97,27 +97,47 @@ def test_the_imu_aware_completer_on_another_dvl_is_its_beam_only_route():
     assert auto.usage["imu"] == usage["imu"] + 1
 
 
-def test_an_estimator_on_another_dvl_says_so_and_completes_with_the_average():
-    """HNTC (the paper's hybrid EKF, network completer) on a mission whose DVL has an RDI head's beam layout warns,
-    counts every regressed ping in ``completer_fallbacks["dvl"]`` and is then Average-TC to the bit (the same
-    average, window and screening); on the DVL it was trained for it binds silently."""
-    from graphnav.evaluation import faults
-    from graphnav.evaluation.methods import run_method
-    from graphnav.sim.simulate import default_config, simulate_mission
-    config = default_config()
-    config = dataclasses.replace(config, dvl=dataclasses.replace(config.dvl, psi_rad=RDI_PSI))
-    mission = simulate_mission(200.0, "navigation", seed=1, config=config)
-    run = mission.with_outage(*[faults.Outage(s, 30.0, (0, 2)) for s in (60.0, 150.0)])
-    with pytest.warns(RuntimeWarning, match="trained for another DVL: .*beam 1 36.8 deg"):
-        hybrid = run_method(run, "HNTC", "2-missing")
-    average = run_method(run, "Average-TC", "2-missing")
-    counts = hybrid.info["completer_fallbacks"]
-    assert counts["dvl"] == 60 and counts["envelope"] == 0            # two 30 s outages at 1 Hz
-    np.testing.assert_array_equal(hybrid.v_n, average.v_n)
+def test_an_estimator_on_another_dvl_completes_with_the_average_and_says_so():
+    """HNTC (the paper's hybrid EKF, network completer) on a simulated MEMS mission whose DVL has 30 deg beams, where
+    the network's envelope lets every ping through and the completions reach the filter: unbound (as it ran before)
+    it is not Average-TC; bound, it counts every regressed ping in ``completer_fallbacks["dvl"]``, warns, and is
+    Average-TC to the bit (the same average, window, noise and screening). On the trained DVL the keyframer binds
+    without a warning."""
     from graphnav.estimators.keyframes import Keyframer
+    from graphnav.evaluation import faults
+    from graphnav.evaluation.methods import network_completer, run_method
+    from graphnav.sim.simulate import default_config, simulate_mission
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    from network_on_other_dvl import Unbound
+    config = default_config()
+    config = dataclasses.replace(config, dvl=dataclasses.replace(config.dvl, theta_rad=np.deg2rad(30.0)))
+    mission = simulate_mission(200.0, "mems", seed=1, config=config)
+    run = mission.with_outage(*[faults.Outage(s, 30.0, (0, 2, 3)) for s in (60.0, 150.0)])
+    average = run_method(run, "Average-TC", "3-missing")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        unbound = run_method(run, "HNTC", "3-missing", completer=Unbound(network_completer("3-missing")[0]))
+    assert unbound.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 0}
+    assert np.abs(unbound.v_n - average.v_n).max() > 1e-3
+    with pytest.warns(RuntimeWarning, match="do not serve this DVL: .*30 deg from the vertical"):
+        hybrid = run_method(run, "HNTC", "3-missing")
+    assert hybrid.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 60}    # two 30 s outages, 1 Hz
+    np.testing.assert_array_equal(hybrid.v_n, average.v_n)
+    rdi = dataclasses.replace(config, dvl=dataclasses.replace(config.dvl, theta_rad=np.deg2rad(20.0), psi_rad=RDI_PSI))
+    with pytest.warns(RuntimeWarning, match="azimuths 270, 90, 0, 180 deg .*beam 1 36.8 deg"):
+        Keyframer(rdi, completer=load_completer("auto"))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         Keyframer(default_config(), completer=load_completer("auto"))
+
+
+def test_the_same_beams_numbered_differently_are_named_so():
+    """An RDI head turned 45 deg has the trained beams in another order: refused (the networks take the beams by
+    number), and the message says which is which."""
+    turned = T_b(psi_rad=RDI_PSI, C_d_b=yawed(45.0))
+    off = beam_direction_mismatch(T_b(), turned)
+    assert "numbered differently (the mission's beams 1, 3, 4 are the trained DVL's 4, 1, 3)" in off
+    np.testing.assert_allclose(T_b()[[3, 1, 0, 2]], turned, atol=1e-12)
 
 
 def test_the_other_dvl_study_reports_the_network_over_the_average():
@@ -137,16 +157,16 @@ def test_the_commands_say_how_many_pings_the_network_left_to_the_average(tmp_pat
     import json
 
     from graphnav.cli import main
-    from graphnav.commands.common import completer_fallbacks_line
+    from graphnav.evaluation.methods import completer_fallbacks_line
     config = tmp_path / "rdi.json"
     config.write_text(json.dumps({"dvl": {"psi_rad": RDI_PSI.tolist()}}))
     for command in ("smooth", "online"):
         out = tmp_path / command
-        with pytest.warns(RuntimeWarning, match="trained for another DVL"):
+        with pytest.warns(RuntimeWarning, match="do not serve this DVL"):
             assert main([command, "--duration", "200", "--config", str(config), "--scenario", "3-missing",
                          "--method", "HNTC", "--out", str(out), "--no-plots"]) == 0
         counts = json.loads((out / "summary.json").read_text())["completer_fallbacks"]
-        assert counts["dvl"] > 0 and counts["envelope"] == 0
+        assert counts == {"envelope": 0, "pattern": 0, "dvl": 60}     # this run's, not the process's
         assert completer_fallbacks_line(counts) in capsys.readouterr().out
     assert completer_fallbacks_line({"envelope": 0, "dvl": 0}) == ""
     assert "2 for inputs outside its training envelope" in completer_fallbacks_line({"envelope": 2, "dvl": 0})

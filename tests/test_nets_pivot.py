@@ -315,3 +315,41 @@ def test_on_a_simulated_hull_with_a_pivot_the_estimator_fits_its_length():
         pitch[pivot_m] = state["pitch_pivot_length_m"]
     assert abs(fitted[0.0]) < 0.5 and fitted[3.0] == pytest.approx(3.0, abs=0.5)
     assert abs(pitch[0.0]) < 0.5 and pitch[3.0] == pytest.approx(3.0, abs=0.5)
+
+
+def test_the_other_platforms_study_takes_the_yaw_rate_from_the_heading_and_the_hull_axis_from_the_course():
+    """experiments/pivot_other_platforms.py on the shared RiverPro file: the rate stream over a ping's period is the
+    heading's change over it (as the gyro's mean would be), the DVL's period is the file's, and the head, mounted with
+    its forward axis across the boat, is turned so that the body x axis is the course."""
+    import sys
+    import warnings
+    from pathlib import Path
+
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.io.paths import data_root
+    from graphnav.io.pd0 import read_pd0_log
+    from graphnav.nets.imu_window import imu_window_at
+    from graphnav.nets.pivot import ping_rates
+    pytest.importorskip("mhkit.dolfyn", reason="graphnav[pd0] not installed")
+    root = data_root()
+    path = None if root is None else root / "real-formats" / "pd0" / "RiverPro_test01.PD0"
+    if path is None or not path.is_file():
+        pytest.skip("shared PD0 file RiverPro_test01.PD0 not found (GRAPHNAV_DATA or ../shared/data)")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    from pivot_other_platforms import RATE_HZ, platform_mission
+    mission, period = platform_mission(path)
+    assert period == pytest.approx(0.67, abs=0.01) and mission.config.dvl.rate_hz == pytest.approx(1.0 / period)
+    np.testing.assert_allclose(mission.config.dvl.C_d_b[:, :2], [[0, -1], [1, 0], [0, 0]], atol=1e-12)
+    v_b = mission.dvl.beams[np.all(mission.dvl.valid, axis=1)] @ np.linalg.pinv(
+        DvlGeometry.from_spec(mission.config.dvl).T_b).T
+    assert np.median(v_b[:, 0]) > 0.5 > abs(np.median(v_b[:, 1]))          # moving along its body x
+    k = 100
+    t = mission.dvl.t
+    window = imu_window_at(mission.imu, t[k], int(round(RATE_HZ * (t[k] - t[k - 1]))))
+    assert window is not None
+    rate = ping_rates(window[1], 1, len(window[1]))[0, 2]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_pd0_log(path)
+    psi = np.unwrap(np.radians(log.attitude_deg[:, 0]))
+    assert rate == pytest.approx((psi[k] - psi[k - 1]) / (t[k] - t[k - 1]), rel=0.1, abs=2e-3)

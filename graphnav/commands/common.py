@@ -21,7 +21,7 @@ import numpy as np
 from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import SCENARIOS, scenario_outage, window_starts
 from graphnav.estimators.health import EXIT_DIVERGED, run_health
-from graphnav.evaluation.methods import METHODS, check_scenario
+from graphnav.evaluation.methods import METHODS, check_scenario, completer_fallbacks_line
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -179,22 +179,6 @@ def regressed_beams_line(record: dict | None) -> str:
             + (f", {replaced} replaced by the motion prior" if replaced > 0 else "")
             + (f"; {record['retired']} taken out again when the measured beams returned" if record.get("retired")
                else ""))
-
-
-#: what each kind of a network completer's fallback means, for the printed summary
-FALLBACK_REASONS = {"envelope": "inputs outside its training envelope",
-                    "pattern": "a missing-beam pattern it was not trained for",
-                    "dvl": "a DVL it was not trained for"}
-
-
-def completer_fallbacks_line(counts: dict | None) -> str:
-    """The summary line of the pings a network completer left to the average estimator, by reason (empty when
-    none)."""
-    counts = {k: n for k, n in (counts or {}).items() if n}
-    if not counts:
-        return ""
-    reasons = "; ".join(f"{n} for {FALLBACK_REASONS.get(k, k)}" for k, n in counts.items())
-    return f"network completer: {sum(counts.values())} ping(s) completed by the average estimator instead ({reasons})"
 
 
 def consistency_summary(sol, mission) -> dict:

@@ -254,7 +254,7 @@ def run(args) -> int:
         "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
         "uncertainty": uncertainty_summary(written), "regressed_beams": regressed_beams_summary(info),
         "completer_state": completer_state(nav.completer),
-        "completer_fallbacks": dict(getattr(nav.completer, "fallbacks", {})),
+        "completer_fallbacks": info.get("completer_fallbacks", {}),
         "files": {"online_csv": str(csv_path)},
     }
     if not args.no_plots and mission is not None and len(written.t):

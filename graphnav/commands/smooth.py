@@ -141,7 +141,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "completer_fallbacks": sol.info.get("completer_fallbacks", {}),
         "compared": {o.method: {**accuracy_summary(o, mission, outages), "health": run_health_record(o.info, mission),
                                 "regressed_beams": regressed_beams_summary(o.info),
-                                "completer_state": o.info.get("completer_state", {})}
+                                "completer_state": o.info.get("completer_state", {}),
+                                "completer_fallbacks": o.info.get("completer_fallbacks", {})}
                      for o in others},
         "streams": ensure_streams(mission),
     }

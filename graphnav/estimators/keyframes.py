@@ -167,9 +167,13 @@ class Keyframer:
         if bind_dvl is not None:
             unmatched = bind_dvl(DvlGeometry.from_spec(config.dvl).T_b)
             if unmatched:
-                warnings.warn(f"the completer's networks were trained for another DVL: {'; '.join(unmatched)}. The "
-                              "average estimator completes the pings they would have (counted in their "
-                              "fallbacks['dvl'])", RuntimeWarning, stacklevel=2)
+                # attributed here, not to the caller, so that the Navigator's second keyframer (after aligning)
+                # does not say it again under Python's default warning filter
+                warnings.warn(f"dvl: the completer's networks do not serve this DVL: {'; '.join(unmatched)}. The "
+                              "average estimator completes the pings they would have (counted in "
+                              "completer_fallbacks['dvl']). If the DVL is the one they were trained for, check "
+                              "dvl.theta_rad, dvl.psi_rad and dvl.C_d_b in the configuration; Graph-HN and Graph-HNP "
+                              "complete without networks", RuntimeWarning, stacklevel=1)
         # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
         self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
         self._T_d = DvlGeometry.from_spec(config.dvl).T_d

@@ -144,6 +144,8 @@ class Navigator:
         self._backend_kwargs = {"graph_options": graph_options, "ekf_options": ekf_options, "tight": tight,
                                 "keep_keyframe_graphs": keep_keyframe_graphs, "label": name}
         self._completer = completer
+        # a registry completer is shared within a process: its counters before this Navigator, for info's counts
+        self._fallbacks_before = dict(getattr(completer, "fallbacks", {}))
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
         self._align_events: deque = deque()       # released samples kept during alignment (catch-up)
         self.backend = None
@@ -396,7 +398,8 @@ class Navigator:
     @property
     def info(self) -> dict:
         """Counters and diagnostics: refused samples per stream and reason, keyframer repairs, backend info,
-        alignment summary."""
+        alignment summary; with a network completer, the pings it left to the average estimator since this Navigator
+        was made, by reason (``completer_fallbacks``, as :func:`graphnav.evaluation.methods.run_method` counts them)."""
         stats = self.keyframer.stats
         info = {"backend": self.backend_name, "estimates": self.n_estimates,
                 "refused": {k: dict(v) for k, v in self.refused.items()},
@@ -409,6 +412,9 @@ class Navigator:
                 "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
         if stats.imu_window_missing is not None:
             info["imu_window_missing"] = dict(stats.imu_window_missing)
+        if self._fallbacks_before:
+            info["completer_fallbacks"] = {k: self._completer.fallbacks[k] - n
+                                           for k, n in self._fallbacks_before.items()}
         if self.backend is not None:
             info.update(self.backend.info)
             info["n_fixes"] = self.backend.n_fixes

@@ -504,6 +504,21 @@ def completer_state(completer) -> dict:
     return state
 
 
+#: What each kind of a network completer's fallback (``info["completer_fallbacks"]``) means.
+FALLBACK_REASONS = {"envelope": "inputs outside its training envelope",
+                    "pattern": "a missing-beam pattern it was not trained for",
+                    "dvl": "a DVL it was not trained for"}
+
+
+def completer_fallbacks_line(counts: dict | None) -> str:
+    """One line on the pings a network completer left to the average estimator, by reason (empty when none)."""
+    counts = {k: n for k, n in (counts or {}).items() if n}
+    if not counts:
+        return ""
+    reasons = "; ".join(f"{n} for {FALLBACK_REASONS.get(k, k)}" for k, n in counts.items())
+    return f"network completer: {sum(counts.values())} ping(s) completed by the average estimator instead ({reasons})"
+
+
 def run_method(mission: Mission, method: str, scenario: str = "none", *, completer=None,
                options=None, callback=None, backend: str = "isam2", init: str = "auto",
                align=None) -> NavSolution:
@@ -555,8 +570,5 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
         sol.info["completer_fallbacks"] = counts
         if any(counts.values()):
-            warnings.warn(f"{m.name}: the average estimator regressed the beams of {counts['envelope']} ping(s) "
-                          f"whose inputs left the network's training envelope, {counts['pattern']} with a "
-                          f"missing-beam pattern the network was not trained for and {counts.get('dvl', 0)} of a "
-                          "DVL the network was not trained for", RuntimeWarning, stacklevel=2)
+            warnings.warn(f"{m.name}: {completer_fallbacks_line(counts)}", RuntimeWarning, stacklevel=2)
     return sol
