@@ -78,8 +78,9 @@ def describe_beams(T_b: np.ndarray) -> str:
 def beam_direction_mismatch(trained_T_b: np.ndarray, T_b: np.ndarray,
                             tolerance_deg: float = BEAM_DIRECTION_TOLERANCE_DEG) -> str | None:
     """None when every beam of the mission's DVL (``T_b``, (4, 3) unit vectors, body frame) points within
-    ``tolerance_deg`` of the trained DVL's (``trained_T_b``); else what differs: the two layouts and each beam's angle
-    (1-based, as the paper numbers them), and whether the same beams are there numbered differently."""
+    ``tolerance_deg`` of the trained DVL's (``trained_T_b``); else what differs: the two layouts, the beams further
+    off than that and their angles (1-based, as the paper numbers them), and whether the same beams are there numbered
+    differently."""
     a, b = np.asarray(trained_T_b, float), np.asarray(T_b, float)
     angle = _angles_deg(a, b)
     if np.all(angle <= tolerance_deg):
