@@ -55,46 +55,51 @@ def spec_of(changes: dict):
     return dataclasses.replace(DvlSpec(), **fields)
 
 
+def scored_row(dvl: str, scenario: str, mode: str, name: str, completer, complete, geometry, missing,
+               bound_to_other_dvl: bool) -> dict:
+    """One row: ``complete(completer)`` -> ``(full, sigma, scored)`` completions scored (beam / velocity RMSE, m/s,
+    velocity with the DVL's ``geometry``) and the fallbacks the completer counted while it made them."""
+    from graphnav.nets.evaluate import completion_metrics
+
+    before = dict(getattr(completer, "fallbacks", {}))
+    full, sigma, scored = complete(completer)
+    m = completion_metrics(full, sigma, scored, missing, geometry)
+    counts = {k: getattr(completer, "fallbacks", {}).get(k, 0) - n for k, n in before.items()}
+    return {"dvl": DVLS[dvl][0], "scenario": scenario, "mode": mode, "completer": name,
+            "beam_rmse": m["beam_rmse"], "vel_rmse": m["vel_rmse"], "pings": len(full),
+            "envelope": counts.get("envelope", 0), "dvl_fallbacks": counts.get("dvl", 0),
+            "bound_to_other_dvl": bound_to_other_dvl}
+
+
 def rows_for(dvl: str, scenario: str, akit_dir, seed: int) -> list[dict]:
     """Rows of one DVL and scenario: per completer and mode, beam / velocity RMSE (m/s) and the envelope's share."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets import AverageCompleter, load_completer
     from graphnav.nets import data as beamdata
-    from graphnav.nets.evaluate import completion_metrics, outage_rollout, predict_completer
+    from graphnav.nets.evaluate import outage_rollout, predict_completer
 
     spec = spec_of(DVLS[dvl][1])
     geometry = DvlGeometry.from_spec(spec)
     series = beamdata.akit_series(akit_dir, seed, spec=spec)
     unbound, bound = load_completer(scenario), load_completer(scenario)
-    mismatch = bound.bind_dvl(geometry.T_b)
+    mismatch = bool(bound.bind_dvl(geometry.T_b))
     completers = {"average": AverageCompleter(unbound.n_past), "network, unbound": unbound,
                   "network, bound": bound}
     samples = beamdata.windows(series, unbound.n_past)
-    out = []
-    for mode in ("per ping", "outage 30 s"):
-        for name, comp in completers.items():
-            before = dict(getattr(comp, "fallbacks", {}))
-            if mode == "per ping":
-                full, sigma = predict_completer(comp, samples, unbound.missing)
-                scored = samples
-            else:
-                full, sigma, scored = outage_rollout(comp, series, unbound.missing)
-            m = completion_metrics(full, sigma, scored, unbound.missing, geometry)
-            counts = {k: getattr(comp, "fallbacks", {}).get(k, 0) - n for k, n in before.items()}
-            out.append({"dvl": DVLS[dvl][0], "scenario": scenario, "mode": mode, "completer": name,
-                        "beam_rmse": m["beam_rmse"], "vel_rmse": m["vel_rmse"], "pings": len(full),
-                        "envelope": counts.get("envelope", 0), "dvl_fallbacks": counts.get("dvl", 0),
-                        "bound_to_other_dvl": bool(mismatch)})
-    return out
+    missing = unbound.missing
+    modes = {"per ping": lambda comp: (*predict_completer(comp, samples, missing), samples),
+             "outage 30 s": lambda comp: outage_rollout(comp, series, missing)}
+    return [scored_row(dvl, scenario, mode, name, comp, complete, geometry, missing, mismatch)
+            for mode, complete in modes.items() for name, comp in completers.items()]
 
 
 def imu_rows_for(dvl: str, scenario: str, akit_dir, seed: int) -> list[dict]:
     """The shipped IMU-aware network of ``scenario`` through recursive 30-ping outages (from ping
     :data:`graphnav.nets.imu_evaluate.OUTAGE_SETTLE`, its IMU window full) on one DVL's beams, recorded IMU: unbound,
-    bound, and the average estimator it falls back to (the rows of :func:`rows_for`, ``completer`` prefixed ``IMU``)."""
+    bound, and the average estimator it falls back to (rows as :func:`rows_for`'s, mode ``IMU-aware, outage 30 s``)."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets import load_imu_completer
-    from graphnav.nets.evaluate import completion_metrics, outage_rollout
+    from graphnav.nets.evaluate import outage_rollout
     from graphnav.nets.imu_data import AKIT_SPLIT, akit_imu_series
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
 
@@ -102,18 +107,13 @@ def imu_rows_for(dvl: str, scenario: str, akit_dir, seed: int) -> list[dict]:
     geometry = DvlGeometry.from_spec(spec)
     series = akit_imu_series(sorted(AKIT_SPLIT["train"] + AKIT_SPLIT["val"]), akit_dir, seed, spec=spec)
     unbound, bound = load_imu_completer(scenario), load_imu_completer(scenario)
-    mismatch = bound.bind_dvl(geometry.T_b)
-    out = []
-    for name, comp in (("average", unbound.fallback), ("network, unbound", unbound), ("network, bound", bound)):
-        before = dict(getattr(comp, "fallbacks", {}))
-        full, sigma, scored = outage_rollout(comp, series, unbound.missing, settle=OUTAGE_SETTLE)
-        m = completion_metrics(full, sigma, scored, unbound.missing, geometry)
-        counts = {k: getattr(comp, "fallbacks", {}).get(k, 0) - n for k, n in before.items()}
-        out.append({"dvl": DVLS[dvl][0], "scenario": scenario, "mode": "IMU-aware, outage 30 s", "completer": name,
-                    "beam_rmse": m["beam_rmse"], "vel_rmse": m["vel_rmse"], "pings": len(full),
-                    "envelope": counts.get("envelope", 0), "dvl_fallbacks": counts.get("dvl", 0),
-                    "bound_to_other_dvl": bool(mismatch)})
-    return out
+    mismatch = bool(bound.bind_dvl(geometry.T_b))
+    missing = unbound.missing
+
+    def complete(comp):
+        return outage_rollout(comp, series, missing, settle=OUTAGE_SETTLE)
+    return [scored_row(dvl, scenario, "IMU-aware, outage 30 s", name, comp, complete, geometry, missing, mismatch)
+            for name, comp in (("average", unbound.fallback), ("network, unbound", unbound), ("network, bound", bound))]
 
 
 def ping_rate_rows(rates, duration_s: float = 1200.0, seed: int = 2) -> list[str]:

@@ -98,12 +98,16 @@ def beam_direction_mismatch(trained_T_b: np.ndarray, T_b: np.ndarray,
 
 
 class TrainedForOneDvl:
-    """What a network completer shares: ``trained_T_b``, the (4, 3) body-frame beam directions of the DVL it was
-    trained for (:func:`trained_beams_b` of its card, set by the completer), and ``dvl_mismatch``, why the DVL it is
-    bound to is not that one (None: it is, or it was never bound)."""
+    """What a network completer with a model card (``card``) shares: the DVL it was trained for (:attr:`trained_T_b`)
+    and ``dvl_mismatch``, why the DVL it is bound to is not that one (None: it is, or it was never bound)."""
 
-    trained_T_b: np.ndarray
+    card: dict
     dvl_mismatch: str | None = None
+
+    @property
+    def trained_T_b(self) -> np.ndarray:
+        """(4, 3) body-frame beam directions of the DVL the network was trained for (:func:`trained_beams_b`)."""
+        return trained_beams_b(self.card)
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
         """Bind the network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame, the DVL's beam order):

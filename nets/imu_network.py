@@ -30,7 +30,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_inputs, check_run_decay, fade_to_average
-from .dvl_match import TrainedForOneDvl, trained_beams_b
+from .dvl_match import TrainedForOneDvl
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
@@ -98,7 +98,6 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         self.fallback = AverageCompleter(min(self.n_past, n_average))
         self.envelope = InputEnvelope.from_card(self.card) if "envelope" in self.card else None
         self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
-        self.trained_T_b = trained_beams_b(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
                  ) -> tuple[np.ndarray, np.ndarray]:

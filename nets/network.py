@@ -19,7 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
 from .completer import check_inputs, check_run_decay, complete_with, fade_to_average
-from .dvl_match import TrainedForOneDvl, bind_members, trained_beams_b
+from .dvl_match import TrainedForOneDvl, bind_members
 from .model import NO_BEAM_ONLY_TOTAL_OUTAGE, BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
 
@@ -115,7 +115,6 @@ class NetworkCompleter(TrainedForOneDvl):
         self.envelope = InputEnvelope.from_card(self.card)
         self.fallback = AverageCompleter(self.n_past)
         self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
-        self.trained_T_b = trained_beams_b(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping.

@@ -547,7 +547,6 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
         completer, described = completer_for(m.name, scenario, mission.config.dvl.beam_noise_std, mission.config)
     elif m.completer == "none":
         completer, described = None, "none"
-    fallbacks_before = dict(getattr(completer, "fallbacks", {}))
     usage_before = dict(getattr(completer, "usage", {}))
     options = estimator_options(m.name, options)
     start = time.perf_counter()
@@ -566,9 +565,7 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     state = completer_state(completer)
     if state:
         sol.info["completer_state"] = state
-    if fallbacks_before:
-        counts = {k: completer.fallbacks[k] - n for k, n in fallbacks_before.items()}
-        sol.info["completer_fallbacks"] = counts
-        if any(counts.values()):
-            warnings.warn(f"{m.name}: {completer_fallbacks_line(counts)}", RuntimeWarning, stacklevel=2)
+    counts = sol.info.get("completer_fallbacks")    # this run's, as the Navigator that ran it counted them
+    if counts and any(counts.values()):
+        warnings.warn(f"{m.name}: {completer_fallbacks_line(counts)}", RuntimeWarning, stacklevel=2)
     return sol
