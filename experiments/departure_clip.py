@@ -59,13 +59,13 @@ class DepartureClip:
         self.inner, self.z, self.growth = inner, float(z), float(growth)
         self.average = AverageCompleter(n_past_average)
         self.n_past = max(inner.n_past, n_past_average)
-        for attr in ("needs_imu", "imu_samples", "imu_rate_hz", "ping_dt", "drift_std"):
+        for attr in ("needs_imu", "imu_samples", "imu_rate_hz", "ping_dt", "drift_std", "takes_past_dt"):
             if hasattr(inner, attr):
                 setattr(self, attr, getattr(inner, attr))
         self._shadow = None      # (n_past_average, 4): the anchor's own history
         self._s0 = np.zeros(4)
 
-    def complete(self, past, measured, imu=None, run_steps=None):
+    def complete(self, past, measured, imu=None, run_steps=None, past_dt_s=None):
         from graphnav.nets.completer import complete_with
         past = np.asarray(past, float)
         measured = np.asarray(measured, float)
@@ -81,7 +81,7 @@ class DepartureClip:
             _, s_first = self.average.complete(past[-n:], measured)
             self._s0 = np.where(fresh, s_first, self._s0)
         anchor, _ = self.average.complete(self._shadow, measured)
-        beams, sigma = complete_with(self.inner, past[-self.inner.n_past:], measured, imu=imu, run_steps=run_steps)
+        beams, sigma = complete_with(self.inner, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
         self._shadow = np.vstack([self._shadow[1:], anchor])
         if np.isinf(self.z):
             return beams, sigma

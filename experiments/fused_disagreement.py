@@ -38,8 +38,8 @@ class DisagreementFused(FusedCompleter):
         super().__init__(first, second, rho, growth)
         self.rule, self.k = rule, float(k)
 
-    def complete(self, past, measured, imu=None, run_steps=None):
-        b1, s1, b2, s2 = self.members(past, measured, imu, run_steps)
+    def complete(self, past, measured, imu=None, run_steps=None, past_dt_s=None):
+        b1, s1, b2, s2 = self.members(past, measured, imu, run_steps, past_dt_s)
         regressed = (s1 > 0) & (s2 > 0)
         d2 = (b1 - b2) ** 2
         var_d = s1 ** 2 + s2 ** 2 - 2.0 * self.rho * s1 * s2

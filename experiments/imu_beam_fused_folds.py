@@ -85,12 +85,12 @@ class EqualBlend:
 
     def __init__(self, fused):
         self.fused = fused
-        for k in ("n_past", "needs_imu", "takes_run_steps", "imu_samples", "imu_rate_hz", "ping_dt"):
+        for k in ("n_past", "needs_imu", "takes_run_steps", "takes_past_dt", "imu_samples", "imu_rate_hz", "ping_dt"):
             if hasattr(fused, k):
                 setattr(self, k, getattr(fused, k))
 
-    def complete(self, past, measured, imu=None, run_steps=None):
-        b1, s1, b2, s2 = self.fused.members(past, measured, imu, run_steps)
+    def complete(self, past, measured, imu=None, run_steps=None, past_dt_s=None):
+        b1, s1, b2, s2 = self.fused.members(past, measured, imu, run_steps, past_dt_s)
         return 0.5 * (b1 + b2), 0.5 * (s1 + s2)
 
 

@@ -122,6 +122,7 @@ class _RawSigma:
         self.n_past = completer.n_past
         self.needs_imu = getattr(completer, "needs_imu", False)
         self.takes_run_steps = getattr(completer, "takes_run_steps", False)
+        self.takes_past_dt = getattr(completer, "takes_past_dt", False)
         if self.needs_imu:
             self.imu_samples, self.ping_dt = completer.imu_samples, completer.ping_dt
 

@@ -117,10 +117,12 @@ def imu_rows_for(dvl: str, scenario: str, akit_dir, seed: int) -> list[dict]:
 
 
 def ping_rate_rows(rates, duration_s: float = 1200.0, seed: int = 2) -> list[str]:
-    """Not bound yet: the DVL's ping period. The shipped beam-only networks per ping (true past) on simulated missions
+    """The DVL's ping period. The shipped beam-only networks per ping (true past) on simulated missions
     (``graphnav.simulate_mission``, navigation-grade IMU, seed ``seed``) whose DVL pings at each of ``rates`` Hz, their
     past window of N pings spanning N / rate s: beam / velocity RMSE over the average estimator's (same N), as table
-    rows."""
+    rows, unbound (no stamps: as the networks completed every ping before the ping period was checked) and bound (the
+    pings' stamps handed on as the estimators' history hands them), with the share of pings the bound network left to
+    the average estimator for their period."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets import AverageCompleter, load_completer
     from graphnav.sim.simulate import default_config, simulate_mission
@@ -130,25 +132,90 @@ def ping_rate_rows(rates, duration_s: float = 1200.0, seed: int = 2) -> list[str
         config = default_config()
         config.dvl = dataclasses.replace(config.dvl, rate_hz=float(rate))
         mission = simulate_mission(duration_s, "navigation", seed=seed, config=config)
-        beams, ok = mission.dvl.beams, mission.dvl.valid.all(axis=1)
+        t, beams, ok = mission.dvl.t, mission.dvl.beams, mission.dvl.valid.all(axis=1)
         T_pinv = np.linalg.pinv(DvlGeometry.from_spec(config.dvl).T_d)
         for scenario in ("2-missing", "3-missing"):
             net = load_completer(scenario)
             n, missing = net.n_past, list(net.missing)
             average = AverageCompleter(n)
-            err = {"average": [], "network": []}
+            err = {"average": [], "unbound": [], "bound": []}
+            before = net.fallbacks["period"]
             for k in range(n, len(beams)):
                 if not ok[k - n:k + 1].all():
                     continue
                 measured = beams[k].copy()
                 measured[missing] = np.nan
-                for name, comp in (("average", average), ("network", net)):
-                    err[name].append(comp.complete(beams[k - n:k], measured)[0] - beams[k])
+                past, past_dt_s = beams[k - n:k], np.diff(t[k - n:k + 1])
+                err["average"].append(average.complete(past, measured)[0] - beams[k])
+                err["unbound"].append(net.complete(past, measured)[0] - beams[k])
+                err["bound"].append(net.complete(past, measured, past_dt_s=past_dt_s)[0] - beams[k])
             e = {k: np.array(v) for k, v in err.items()}
-            beam = np.sqrt(np.mean(e["network"][:, missing] ** 2) / np.mean(e["average"][:, missing] ** 2))
-            vel = np.sqrt(np.mean(np.sum((e["network"] @ T_pinv.T) ** 2, axis=1))
-                          / np.mean(np.sum((e["average"] @ T_pinv.T) ** 2, axis=1)))
-            lines.append(f"| {rate:g} Hz | {scenario} | {len(e['average'])} | {beam:.2f} / {vel:.2f} |")
+            cells = []
+            for mode in ("unbound", "bound"):
+                beam = np.sqrt(np.mean(e[mode][:, missing] ** 2) / np.mean(e["average"][:, missing] ** 2))
+                vel = np.sqrt(np.mean(np.sum((e[mode] @ T_pinv.T) ** 2, axis=1))
+                              / np.mean(np.sum((e["average"] @ T_pinv.T) ** 2, axis=1)))
+                cells.append(f"{beam:.2f} / {vel:.2f}")
+            refused = (net.fallbacks["period"] - before) / len(e["average"])
+            lines.append(f"| simulated, {rate:g} Hz | {scenario} | {len(e['average'])} | {cells[0]} | {cells[1]} | "
+                         f"{100 * refused:.0f} % | - |")
+    return lines
+
+
+def ratios(net, samples, geometry) -> list[float]:
+    """Beam and velocity RMSE of the network ``net`` over the average estimator's (same N), per ping on ``samples``
+    (true past), velocity with the DVL's ``geometry``."""
+    from graphnav.nets import AverageCompleter
+    from graphnav.nets.evaluate import completion_metrics, predict_completer
+
+    m = {k: completion_metrics(*predict_completer(c, samples, net.missing), samples, net.missing, geometry)
+         for k, c in (("network", net), ("average", AverageCompleter(net.n_past)))}
+    return [m["network"][k] / m["average"][k] for k in ("beam_rmse", "vel_rmse")]
+
+
+def decimated_rows(steps, akit_dir, seed: int) -> list[str]:
+    """A slower DVL (or missed pings) on real motion: the beams of the A-KIT trajectories and of ``V_test.npy`` (the
+    BeamsNet recordings no network was trained on; noise seed ``seed``) keeping every ``step``-th ping, each of
+    ``steps`` (every phase, pooled), so that the networks' past pings are ``step`` s apart. The shipped beam-only
+    networks per ping: beam / velocity RMSE over the average estimator's (same N), unbound and bound (the average's,
+    1.00 / 1.00, where the spacing is refused), and the worst recording's velocity ratio unbound, as table rows.
+    A-KIT is in sample: the networks were trained on those trajectories at 1 Hz. A data set that is absent is left
+    out."""
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.errors import DataError
+    from graphnav.nets import load_completer
+    from graphnav.nets.data import BeamSeries, akit_series, beamsnet_series, windows
+
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    lines = []
+    for scenario in ("2-missing", "3-missing"):
+        net = load_completer(scenario)
+        data = {}
+        try:
+            data["A-KIT (in sample)"] = akit_series(akit_dir, seed)
+        except DataError:
+            pass
+        try:
+            yaw = net.card.get("data", {}).get("align_yaw_deg", 0.0)    # the frame the network was trained in
+            data["V_test (never trained on)"] = [beamsnet_series("test", None, seed, align_yaw_deg=yaw)]
+        except DataError:
+            pass
+        for name, series in data.items():
+            for step in steps:
+                slow = [BeamSeries(f"{s.name}/{step}:{phase}", s.v_b[phase::step], s.beams[phase::step])
+                        for s in series for phase in range(step)]
+                slow = [s for s in slow if len(s.beams) > net.n_past]
+                ratio = ratios(net, windows(slow, net.n_past), geometry)
+                # each recording alone (a trajectory's parts and phases together): the worst velocity ratio
+                groups = {s.name.split("/")[0].split("#")[0] for s in slow}
+                worst = max(ratios(net, windows([s for s in slow if s.name.split("/")[0].split("#")[0] == g],
+                                                net.n_past), geometry)[1] for g in groups)
+                pings = sum(len(s.beams) - net.n_past for s in slow)
+                cell = f"{ratio[0]:.2f} / {ratio[1]:.2f}"
+                refused = net.period_mismatch(np.full(net.n_past, float(step)))     # every past spaced alike
+                lines.append(f"| {name}, pings {step} s apart | {scenario} | {pings} | {cell} | "
+                             f"{'1.00 / 1.00' if refused else cell} | {100 if refused else 0} % | {worst:.2f} |")
     return lines
 
 
@@ -249,14 +316,22 @@ def main(argv=None) -> int:
     p.add_argument("--grade", default="as-recorded", choices=["as-recorded", "tactical", "mems"],
                    help="--estimator: IMU grade (default as-recorded)")
     p.add_argument("--ping-rates", nargs="+", type=float, metavar="HZ", help="instead: the beam-only networks on "
-                   "simulated missions whose DVL pings at these rates (Hz; the networks were trained at 1 Hz)")
+                   "simulated missions whose DVL pings at these rates (Hz, dividing the IMU's 100 Hz; the networks "
+                   "were trained at 1 Hz), unbound and bound to the ping period, and on A-KIT and V_test with every "
+                   "2nd, 3rd, 5th and 10th ping kept")
     p.add_argument("--imu", action="store_true", help="also the IMU-aware networks through outages (about 20 s "
                    "more a DVL)")
     a = p.parse_args(argv)
     if a.ping_rates:
-        print("| DVL rate | scenario | pings | network: beam / velocity x average, per ping |")
-        print("| --- | --- | --- | --- |")
+        print("| DVL pings | scenario | pings | network unbound: beam / velocity x average, per ping | bound | "
+              "pings left to the average (period) | unbound velocity, worst recording |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
         print("\n".join(ping_rate_rows(a.ping_rates)))
+        from graphnav.core.errors import ConfigError
+        try:
+            print("\n".join(decimated_rows((1, 2, 3, 5, 10), a.data, a.seed)))
+        except ConfigError as exc:
+            print(f"A-KIT rows skipped: {exc}", file=sys.stderr)
         return 0
     from graphnav.core.errors import ConfigError
     from graphnav.io.paths import akit_trajectories

@@ -13,6 +13,11 @@ up to the ping (``graphnav.nets.imu_network``); :meth:`graphnav.estimators.histo
 A completer with a network trained for one DVL has ``bind_dvl(T_b) -> list[str]``: the estimators' keyframer hands it
 the mission's beam directions (body frame) before any ping, and a network trained for other beams then leaves its
 pings to the average estimator (:mod:`graphnav.nets.dvl_match`). A completer that wraps one hands it on.
+
+A completer whose network was trained for one DVL ping period sets ``takes_past_dt = True``: it is also handed
+``past_dt_s`` (n_past,) s, the interval from each past ping to the next one (the newest past ping's to this ping),
+oldest first, when the stamps are known (:class:`graphnav.estimators.history.BeamHistory` keeps them), and leaves a
+ping whose past is not spaced as in training to the average estimator (:mod:`graphnav.nets.dvl_match`).
 """
 from __future__ import annotations
 
@@ -21,6 +26,17 @@ from typing import Protocol
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
+
+
+#: Why a network completer left a ping to the average estimator (its ``fallbacks`` counters): inputs outside its
+#: training envelope, a missing-beam pattern it was not trained for, a DVL whose beams are not those it was trained
+#: for, past pings not spaced as in training (closer together than the trained DVL period, or a long gap).
+FALLBACK_KINDS = ("envelope", "pattern", "dvl", "period")
+
+
+def new_fallbacks() -> dict[str, int]:
+    """A network completer's ``fallbacks`` counters, all 0 (:data:`FALLBACK_KINDS`)."""
+    return dict.fromkeys(FALLBACK_KINDS, 0)
 
 
 class BeamCompleter(Protocol):
@@ -55,21 +71,25 @@ def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[n
     return past, measured
 
 
-def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
-    """``completer.complete(past, measured)``, handing the IMU window to a completer with ``needs_imu`` and the run
-    steps (:class:`graphnav.estimators.history.BeamHistory`) to one with ``takes_run_steps``: how a completer that
-    wraps others (auto, IMU-aware auto, fused) calls them, so that neither argument is dropped on the way."""
+def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
+    """``completer.complete(past[-completer.n_past:], measured)``, handing the IMU window to a completer with
+    ``needs_imu``, the run steps (:class:`graphnav.estimators.history.BeamHistory`) to one with ``takes_run_steps``
+    and the past pings' intervals (``past_dt_s``, as long as ``past``; cut to the completer's window) to one with
+    ``takes_past_dt``: how the history and a completer that wraps others (auto, IMU-aware auto, fused) call a
+    completer, so that no argument is dropped on the way."""
     kwargs = {}
     if getattr(completer, "needs_imu", False):
         kwargs["imu"] = imu
     if getattr(completer, "takes_run_steps", False):
         kwargs["run_steps"] = run_steps
-    return completer.complete(past, measured, **kwargs)
+    if getattr(completer, "takes_past_dt", False):
+        kwargs["past_dt_s"] = None if past_dt_s is None else np.asarray(past_dt_s, float)[-completer.n_past:]
+    return completer.complete(np.asarray(past)[-completer.n_past:], measured, **kwargs)
 
 
 def summed_fallbacks(completers) -> dict[str, int]:
     """The ``fallbacks`` counters of ``completers`` (pings a network left to the average estimator, by kind:
-    ``"envelope"``, ``"pattern"``, ``"dvl"``) summed by kind; a completer without counters adds nothing. How a
+    :data:`FALLBACK_KINDS`) summed by kind; a completer without counters adds nothing. How a
     completer that wraps others (IMU-aware auto, fused) reports its members'. A completer listed twice (one object
     serving two routes) is counted once."""
     counts: dict[str, int] = {}

@@ -20,6 +20,20 @@ completer object's (the registry's network completers are one object per process
 keyframer, as their counters are shared: one run at a time). Completers without a network (the average estimator,
 the pivot completer, which is built from the mission's own geometry) have nothing to bind. A completer that wraps a
 network must hand ``bind_dvl`` on to it (as :func:`bind_members` does), or it is never bound.
+
+A network was also trained for one ping period: the past beams it reads are one DVL period apart (1 s for every
+shipped network: the A-KIT and BeamsNet DVLs ping at 1 Hz). On simulated missions whose DVL pings faster the
+beam-only networks lose their gain per ping: beam / velocity RMSE over the average estimator's, 0.91-0.93 / 0.97-1.00
+at 1 Hz, 0.99-1.02 / 1.01-1.03 at 2 Hz, 1.04-1.15 / 1.01-1.09 at 4 and 5 Hz. Past pings further apart cost far less:
+on real motion with every 2nd to 5th ping kept (a slower DVL, or missed pings) the networks still complete better
+than the average pooled (single recordings up to 1.03x in velocity, as at 1 s), and at 10 s apart no longer in every
+case (``experiments/network_on_other_dvl.py --ping-rates``; docs/decisions/completers.md, "A network on a DVL pinging
+at another rate"). So a network completer checks each ping's past (:meth:`TrainedForOneDvl.period_mismatch`,
+``past_dt_s`` from the history's stamps): an interval shorter than ``1 - PING_PERIOD_TOLERANCE`` of the trained period
+(:data:`graphnav.core.dvl.PING_PERIOD_TOLERANCE`) or longer than :data:`LONGEST_PAST_INTERVAL_PERIODS` periods leaves
+that ping to the average estimator, counted in ``fallbacks["period"]``. Where the stamps are not known (``past_dt_s`` None: a past made without them) nothing is
+checked. The IMU-aware networks propagate each past ping over exactly one period, so theirs may be no longer than
+``1 + PING_PERIOD_TOLERANCE`` periods.
 """
 from __future__ import annotations
 
@@ -29,6 +43,7 @@ from dataclasses import asdict
 import numpy as np
 
 from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import off_period
 
 #: Largest angle (deg) between a beam's direction in the body frame on the DVL a network was trained for and on the
 #: mission's DVL for which the network still completes the mission's beams. A head turned about the vertical by D moves
@@ -38,6 +53,14 @@ from graphnav.core.config import DvlSpec
 #: beam) still complete 2-23 % better than the average, yet in the paper's hybrid EKF through 120 s MEMS outages they
 #: put HNTC at 0.96-0.99x TC where the average gives 0.85-0.90x (6-8 of 20 windows over 1.02x Average-TC).
 BEAM_DIRECTION_TOLERANCE_DEG = 2.0
+
+#: Longest interval, in trained ping periods, between a beam-only network's past pings (and from the newest to the ping
+#: it completes) for which it still completes the ping. Chosen on real motion per ping, the networks fed every k-th
+#: ping (the study above): at 2, 3 and 5 periods every pooled cell (A-KIT, in sample; ``V_test.npy``, never trained
+#: on) still beats the average, 0.50-0.93 in beam and 0.77-0.93 in velocity RMSE, and no recording is worse than the
+#: worst at the trained period (1.03x); at 10 periods A-KIT with 3 missing beams is 1.07 / 1.02x the average (one
+#: trajectory 1.13x).
+LONGEST_PAST_INTERVAL_PERIODS = 5.0
 
 #: The fields of :class:`DvlSpec` that set the beams' directions in the body frame.
 _GEOMETRY_FIELDS = ("theta_rad", "psi_rad", "C_d_b")
@@ -58,6 +81,13 @@ def trained_beams_b(card: dict) -> np.ndarray:
     fields = {k: np.asarray(record[k], float) if k != "theta_rad" else float(record[k])
               for k in _GEOMETRY_FIELDS if k in record}
     return DvlGeometry.from_spec(DvlSpec(**fields)).T_b
+
+
+def trained_ping_period_s(card: dict) -> float:
+    """The DVL ping period (s) a model card's network was trained for: ``1 / rate_hz`` of its ``data["beam_model"]``,
+    or of the default :class:`DvlSpec` (1 Hz, the A-KIT and BeamsNet DVLs) for a card without one."""
+    record = (card.get("data") or {}).get("beam_model") or {}
+    return 1.0 / float(record.get("rate_hz", DvlSpec().rate_hz))
 
 
 def _angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -98,11 +128,45 @@ def beam_direction_mismatch(trained_T_b: np.ndarray, T_b: np.ndarray,
 
 
 class TrainedForOneDvl:
-    """What a network completer with a model card (``card``) shares: the DVL it was trained for (:attr:`trained_T_b`)
-    and ``dvl_mismatch``, why the DVL it is bound to is not that one (None: it is, or it was never bound)."""
+    """What a network completer with a model card (``card``) shares: the DVL it was trained for (:attr:`trained_T_b`,
+    :attr:`trained_ping_period_s`), ``dvl_mismatch``, why the DVL it is bound to is not that one (None: it is, or it
+    was never bound), and the check of each ping's past against the trained ping period (:meth:`period_mismatch`)."""
 
     card: dict
     dvl_mismatch: str | None = None
+    #: the estimators' history hands it ``past_dt_s`` (:func:`graphnav.nets.completer.complete_with`)
+    takes_past_dt = True
+    #: longest interval of its past pings, in trained periods (:meth:`period_mismatch`)
+    longest_past_interval = LONGEST_PAST_INTERVAL_PERIODS
+
+    @property
+    def trained_ping_period_s(self) -> float:
+        """The DVL ping period (s) the network was trained for (:func:`trained_ping_period_s`)."""
+        return trained_ping_period_s(self.card)
+
+    def period_mismatch(self, past_dt_s) -> bool:
+        """Whether a ping's past (``past_dt_s``, (n_past,) s: the interval from each past ping to the next, the newest
+        one's to this ping) is not the past the network was trained on: an interval shorter than
+        ``1 - PING_PERIOD_TOLERANCE`` trained periods or longer than :attr:`longest_past_interval` periods (None:
+        stamps unknown, nothing to check).
+
+        Raises:
+            ValueError: an interval that is not a finite number."""
+        return past_dt_s is not None and off_period(past_dt_s, self.trained_ping_period_s, self.longest_past_interval)
+
+    def refusal(self, past: np.ndarray, measured: np.ndarray, past_dt_s=None) -> str | None:
+        """Why the network leaves a ping of its own pattern to the average estimator, as its ``fallbacks`` key: bound
+        to a DVL it was not trained for (``"dvl"``), past pings not spaced as in training (``"period"``), inputs
+        outside its training envelope (``"envelope"``, when the completer has an ``envelope``); None: it completes
+        the ping. ``past`` (n_past, 4) and ``measured`` (4,) m/s, ``past_dt_s`` as :meth:`period_mismatch` takes it."""
+        if self.dvl_mismatch is not None:
+            return "dvl"
+        if self.period_mismatch(past_dt_s):
+            return "period"
+        envelope = getattr(self, "envelope", None)
+        if envelope is not None and not envelope.contains(past, measured, self.model.kept):
+            return "envelope"
+        return None
 
     @property
     def trained_T_b(self) -> np.ndarray:

@@ -90,6 +90,7 @@ class FusedCompleter:
         # its own growth, or a member that fades through the run (a beam-only network's run_decay)
         self.takes_run_steps = self.growth is not None or any(getattr(c, "takes_run_steps", False)
                                                               for c in (first, second))
+        self.takes_past_dt = any(getattr(c, "takes_past_dt", False) for c in (first, second))
         if self.growth is not None:
             self.drift_std = 0.0
         self.n_past = max(first.n_past, second.n_past)
@@ -113,17 +114,16 @@ class FusedCompleter:
 
     @property
     def fallbacks(self) -> dict:
-        """Both members' fallback counters summed by kind (``"envelope"``, ``"pattern"``, ``"dvl"``), empty when neither
-        counts."""
+        """Both members' fallback counters summed by kind (:data:`graphnav.nets.completer.FALLBACK_KINDS`), empty when
+        neither counts."""
         return summed_fallbacks((self.first, self.second))
 
-    def members(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None):
+    def members(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
         """``(b1, s1, b2, s2)``: both members' completions (4,) and sigmas (4,), the sigmas grown by ``growth``
         over ``run_steps`` (arguments of :meth:`complete`)."""
         past = np.asarray(past, float)
-        outs = []
-        for c in (self.first, self.second):
-            outs.append(complete_with(c, past[-c.n_past:], measured, imu=imu, run_steps=run_steps))
+        outs = [complete_with(c, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
+                for c in (self.first, self.second)]
         (b1, s1), (b2, s2) = outs
         if self.growth is not None and run_steps is not None:
             k = np.asarray(run_steps, float)
@@ -131,9 +131,10 @@ class FusedCompleter:
             s2 = np.where(s2 > 0, np.sqrt(s2 ** 2 + k * self.growth[1] ** 2), 0.0)
         return b1, s1, b2, s2
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(beams (4,), sigma (4,)) from the past full beam vectors ``past`` (N >= ``n_past``, 4), oldest first,
         and the ``measured`` beams (4,) with NaN where missing, m/s. ``run_steps`` (4,): regressed pings of each
-        beam earlier in the run (0 or None: a first regressed ping)."""
-        return fuse(*self.members(past, measured, imu, run_steps), self.rho, self.sigma_rho)
+        beam earlier in the run (0 or None: a first regressed ping); ``past_dt_s`` (N,) s: the past pings'
+        intervals, for members trained for one ping period (None: unknown)."""
+        return fuse(*self.members(past, measured, imu, run_steps, past_dt_s), self.rho, self.sigma_rho)

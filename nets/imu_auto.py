@@ -35,7 +35,7 @@ import numpy as np
 
 from graphnav.core.errors import ConfigError
 
-from .completer import check_drift_std, check_inputs, complete_with, summed_fallbacks
+from .completer import check_drift_std, check_inputs, complete_with, new_fallbacks, summed_fallbacks
 from .dvl_match import bind_members
 from .fused import fuse
 from .model import scenario_name
@@ -79,12 +79,14 @@ class ImuAutoCompleter:
     it on: they learn from the pings they would learn from alone, not only from those with the networks' 20 s.
 
     ``usage`` counts the pings with missing beams by route: ``"imu"`` (an IMU-aware network), ``"no_imu"``
-    (its pattern has one but no IMU window was passed, or only ``beam_only``'s shorter one) and ``"pattern"`` (no
+    (its pattern has one but no IMU window was passed, or only ``beam_only``'s shorter one, or past pings not spaced as
+    the network propagates them: ``past_dt_s``) and ``"pattern"`` (no
     IMU-aware network for the pattern, or one bound to a DVL it was not trained for: :meth:`bind_dvl`).
     ``fallbacks`` count the pings the networks left to the average estimator: ``"envelope"`` (inputs outside a
     network's training envelope, IMU-aware or beam-only), ``"pattern"`` (the beam-only completers', ``beam_only``
-    and ``fused_beam_only`` both counted when they are two) and ``"dvl"`` (networks bound to a DVL they were not
-    trained for: :mod:`graphnav.nets.dvl_match`).
+    and ``fused_beam_only`` both counted when they are two), ``"dvl"`` (networks bound to a DVL they were not
+    trained for: :mod:`graphnav.nets.dvl_match`) and ``"period"`` (past pings not spaced as a network was trained
+    for).
     """
 
     needs_imu = True
@@ -134,6 +136,8 @@ class ImuAutoCompleter:
         # a fading completer needs the run steps that BeamHistory hands to completers taking them
         self.takes_run_steps = any(getattr(c, "takes_run_steps", False)
                                    for c in (*imu_networks, beam_only, fused_beam_only))
+        self.takes_past_dt = any(getattr(c, "takes_past_dt", False)
+                                 for c in (*imu_networks, beam_only, fused_beam_only))
         self.usage = {"imu": 0, "no_imu": 0, "pattern": 0}
         # the window ``beam_only`` reads alone, which the keyframer hands on where the networks have none (None:
         # it needs no IMU; the fused member only ever completes with the networks, on their window)
@@ -157,8 +161,7 @@ class ImuAutoCompleter:
 
     @property
     def fallbacks(self) -> dict[str, int]:
-        return {"envelope": 0, "pattern": 0, "dvl": 0} | summed_fallbacks([self.beam_only, self.fused_beam_only,
-                                                                           *self.networks.values()])
+        return new_fallbacks() | summed_fallbacks([self.beam_only, self.fused_beam_only, *self.networks.values()])
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
         """Bind every member to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame;
@@ -166,11 +169,12 @@ class ImuAutoCompleter:
         pings, ``beam_only`` does (counted in ``usage["pattern"]``)."""
         return bind_members(T_b, [*self.networks.values(), self.beam_only, self.fused_beam_only])
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Complete one ping: ``past`` (n_past, 4) and ``measured`` (4,) m/s as every completer, ``imu`` the
-        ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window), ``run_steps``
-        passed on to the completer that serves the ping (its ``run_decay``)."""
+        ``(f_b, omega_b)`` window of :mod:`graphnav.nets.imu_network` or None (no usable window), ``run_steps`` and
+        ``past_dt_s`` (the past pings' intervals, s) passed on to the completer that serves the ping (its
+        ``run_decay``, its ping period)."""
         past, measured = check_inputs(past, measured, self.n_past)
         missing = ~np.isfinite(measured)
         if not missing.any():
@@ -179,18 +183,20 @@ class ImuAutoCompleter:
         net = self.networks.get(pattern)
         if net is not None and getattr(net, "dvl_mismatch", None) is not None:
             net = None          # trained for another DVL: the pattern is beam_only's, as one without a network
-        # a window shorter than the networks' is the members' own (the keyframer's, where the networks have none)
-        if net is not None and imu is not None and len(imu[1]) >= self.imu_samples:
+        # a window shorter than the networks' is the members' own (the keyframer's, where the networks have none); a
+        # past not spaced as the network propagates it is beam_only's too (the keyframer sends none such with a window)
+        if (net is not None and imu is not None and len(imu[1]) >= self.imu_samples
+                and not net.period_mismatch(None if past_dt_s is None else np.asarray(past_dt_s)[-net.n_past:])):
             self.usage["imu"] += 1
-            b_imu, s_imu = complete_with(net, past[-net.n_past:], measured, imu=imu, run_steps=run_steps)
+            b_imu, s_imu = complete_with(net, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
             rho = self._fuse_rho[pattern]
             if rho is None:
                 return b_imu, s_imu
-            b_beam, s_beam = complete_with(self.fused_beam_only, past[-self.fused_beam_only.n_past:], measured,
-                                           imu=imu, run_steps=run_steps)
+            b_beam, s_beam = complete_with(self.fused_beam_only, past, measured, imu=imu, run_steps=run_steps,
+                                           past_dt_s=past_dt_s)
             return fuse(b_imu, s_imu, b_beam, s_beam, 0.0, rho)
         self.usage["no_imu" if net is not None else "pattern"] += 1
-        return complete_with(self.beam_only, past[-self.beam_only.n_past:], measured, imu=imu, run_steps=run_steps)
+        return complete_with(self.beam_only, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
 
 
 def load_fused_beam_only(directory=None):

@@ -26,10 +26,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from graphnav.core.dvl import PING_PERIOD_TOLERANCE
 from graphnav.core.errors import ConfigError, DataError
 
 from .average import AVERAGE_N_PAST, AverageCompleter
-from .completer import check_inputs, check_run_decay, fade_to_average
+from .completer import check_inputs, check_run_decay, fade_to_average, new_fallbacks
 from .dvl_match import TrainedForOneDvl
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
@@ -74,10 +75,14 @@ class ImuNetworkCompleter(TrainedForOneDvl):
     completions several times worse than the average's (``docs/decisions/completers.md``, "Where the outages
     fall"). A card without an envelope (weights saved before it) checks nothing. Bound to a mission's DVL whose beams
     are not those it was trained for (:meth:`bind_dvl`, :mod:`graphnav.nets.dvl_match`), it leaves every ping to the
-    average estimator, counted in ``fallbacks["dvl"]``.
+    average estimator, counted in ``fallbacks["dvl"]``, and so a ping whose past pings are not ``ping_dt`` apart
+    (``past_dt_s``), counted in ``fallbacks["period"]`` (in the estimators the keyframer has already sent such a ping
+    to the beam-only route, without the IMU window).
     """
 
     needs_imu = True
+    #: it propagates each past ping over exactly one period (``ping_dt``): no longer interval passes
+    longest_past_interval = 1.0 + PING_PERIOD_TOLERANCE
 
     def __init__(self, model: ImuBeamRegressor, card: dict | None = None, sigma_scale: float = 1.0,
                  run_decay: float = 1.0):
@@ -97,12 +102,18 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
         self.fallback = AverageCompleter(min(self.n_past, n_average))
         self.envelope = InputEnvelope.from_card(self.card) if "envelope" in self.card else None
-        self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
+        self.fallbacks = new_fallbacks()
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None
+    @property
+    def trained_ping_period_s(self) -> float:
+        """The ping period (s) the network propagates its past pings over: its model's ``ping_dt``."""
+        return float(self.ping_dt)
+
+    def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping (module docstring for the inputs; ``run_steps`` (4,): regressed
-        pings of each beam earlier in the current run, for ``run_decay``).
+        pings of each beam earlier in the current run, for ``run_decay``; ``past_dt_s`` (n_past,) s: the intervals
+        of the past pings, the newest one's to this ping, checked against ``ping_dt`` (None: not checked)).
 
         Raises:
             DataError: wrong shape or non-finite past/IMU, no IMU window, or a missing pattern the network
@@ -114,11 +125,9 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         if pattern != self.missing:
             raise DataError(f"missing beams {list(pattern)} (0-based) do not match the network's "
                             f"{list(self.missing)}", "completer", field="measured")
-        if self.dvl_mismatch is not None:
-            self.fallbacks["dvl"] += 1
-            return self.fallback.complete(past[-self.fallback.n_past:], measured)
-        if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
-            self.fallbacks["envelope"] += 1
+        reason = self.refusal(past, measured, past_dt_s)
+        if reason is not None:
+            self.fallbacks[reason] += 1
             return self.fallback.complete(past[-self.fallback.n_past:], measured)
         feats = preintegrate(f_b, omega_b, self.n_past, self.imu_rate_hz, self.ping_dt)
         with torch.no_grad():

@@ -18,7 +18,8 @@ import graphnav
 from graphnav.core.errors import ConfigError, DataError
 
 from .average import AverageCompleter
-from .completer import check_inputs, check_run_decay, complete_with, fade_to_average
+from .completer import (FALLBACK_KINDS, check_inputs, check_run_decay, complete_with, fade_to_average, new_fallbacks,
+                        summed_fallbacks)
 from .dvl_match import TrainedForOneDvl, bind_members
 from .model import NO_BEAM_ONLY_TOTAL_OUTAGE, BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir
@@ -92,7 +93,9 @@ class NetworkCompleter(TrainedForOneDvl):
     counted in ``fallbacks["envelope"]`` (:func:`graphnav.evaluation.methods.run_method` puts the counts of a run in
     ``info["completer_fallbacks"]``). Bound to a mission's DVL whose beams are not those it was trained for
     (:meth:`bind_dvl`, :mod:`graphnav.nets.dvl_match`), it leaves every ping to the average estimator, counted in
-    ``fallbacks["dvl"]``.
+    ``fallbacks["dvl"]``; a ping whose past pings are closer together than the trained DVL period allows (a DVL
+    pinging faster) or further apart than a few periods (a long gap; ``past_dt_s``,
+    :meth:`~graphnav.nets.dvl_match.TrainedForOneDvl.period_mismatch`), counted in ``fallbacks["period"]``.
     """
 
     def __init__(self, model: BeamRegressor | BeamEnsemble, sigma: str = "head", constant_sigma=None,
@@ -114,23 +117,27 @@ class NetworkCompleter(TrainedForOneDvl):
         self.card = card or {}
         self.envelope = InputEnvelope.from_card(self.card)
         self.fallback = AverageCompleter(self.n_past)
-        self.fallbacks = {"envelope": 0, "pattern": 0, "dvl": 0}
+        self.fallbacks = new_fallbacks()
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None, past_dt_s=None
+                 ) -> tuple[np.ndarray, np.ndarray]:
         """Fill the missing beams of one ping.
 
         Args:
             past: (n_past, 4) the last full beam vectors, oldest first, m/s.
             measured: (4,) beams of this ping, NaN exactly at the network's missing beams, m/s.
             run_steps: (4,) regressed pings of each beam earlier in the current run (``run_decay``; None: 0).
+            past_dt_s: (n_past,) s, the interval from each past ping to the next (the newest one's to this ping);
+                None: stamps unknown, not checked.
 
         Returns:
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
 
-        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), whose inputs
-        lie outside its envelope, or of a DVL the network is bound to and was not trained for (:meth:`bind_dvl`), is
-        filled by the average estimator over the same past (counted in ``fallbacks["pattern"]`` /
-        ``fallbacks["envelope"]`` / ``fallbacks["dvl"]``).
+        A ping that lacks more beams than the network's pattern (one of its inputs is missing too), of a DVL the
+        network is bound to and was not trained for (:meth:`bind_dvl`), whose past pings are not the trained ping
+        period apart (:meth:`period_mismatch`), or whose inputs lie outside its envelope, is filled by the average
+        estimator over the same past (counted in ``fallbacks["pattern"]`` / ``["dvl"]`` / ``["period"]`` /
+        ``["envelope"]``).
 
         Raises:
             DataError: wrong shape, non-finite past, or a missing pattern that is neither the network's nor
@@ -147,11 +154,9 @@ class NetworkCompleter(TrainedForOneDvl):
             # inside an outage window): the network cannot serve it, the average estimator can
             self.fallbacks["pattern"] += 1
             return self.fallback.complete(past, measured)
-        if self.dvl_mismatch is not None:
-            self.fallbacks["dvl"] += 1
-            return self.fallback.complete(past, measured)
-        if self.envelope is not None and not self.envelope.contains(past, measured, self.model.kept):
-            self.fallbacks["envelope"] += 1
+        reason = self.refusal(past, measured, past_dt_s)
+        if reason is not None:
+            self.fallbacks[reason] += 1
             return self.fallback.complete(past, measured)
         with torch.no_grad():
             out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],
@@ -176,13 +181,15 @@ class AutoCompleter:
         self.fallback = fallback
         self.n_past = max([net.n_past for net in networks] + [fallback.n_past])
         self.takes_run_steps = any(net.takes_run_steps for net in networks)
+        self.takes_past_dt = any(getattr(net, "takes_past_dt", False) for net in networks)
 
     @property
     def fallbacks(self) -> dict[str, int]:
         """Pings the networks handed to the average estimator (inputs outside their envelope, a DVL they were not
-        trained for); patterns without a network go to the average estimator by design and are not counted."""
-        return {"envelope": sum(net.fallbacks["envelope"] for net in self.networks.values()), "pattern": 0,
-                "dvl": sum(net.fallbacks["dvl"] for net in self.networks.values())}
+        trained for, past pings not spaced as they were trained for); patterns without a network go to the average
+        estimator by design and are not counted."""
+        counts = summed_fallbacks(self.networks.values())
+        return {kind: 0 if kind == "pattern" else counts.get(kind, 0) for kind in FALLBACK_KINDS}
 
     def bind_dvl(self, T_b: np.ndarray) -> list[str]:
         """Bind every network to a mission's DVL (``T_b``: (4, 3) beam unit vectors, body frame;
@@ -194,12 +201,12 @@ class AutoCompleter:
         pattern = tuple(int(b) for b in np.flatnonzero(~np.isfinite(np.asarray(measured, float))))
         return self.networks.get(pattern, self.fallback)
 
-    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None) -> tuple[np.ndarray, np.ndarray]:
+    def complete(self, past: np.ndarray, measured: np.ndarray, run_steps=None, past_dt_s=None
+                 ) -> tuple[np.ndarray, np.ndarray]:
         past, measured = check_inputs(past, measured, self.n_past)
         if np.all(np.isfinite(measured)):
             return measured.copy(), np.zeros(4)
-        chosen = self.completer_for(measured)
-        return complete_with(chosen, past[-chosen.n_past:], measured, run_steps=run_steps)
+        return complete_with(self.completer_for(measured), past, measured, run_steps=run_steps, past_dt_s=past_dt_s)
 
 
 def card_run_decay(card: dict, name: str, directory: str | Path | None = None) -> float:

@@ -468,9 +468,10 @@ def test_fused_imu_completer_runs_in_the_keyframer_with_its_run_lengths(gapped_m
     seen = []
     orig = fused.complete
 
-    def spy(past, measured, imu=None, run_steps=None):
+    def spy(past, measured, imu=None, run_steps=None, past_dt_s=None):
         seen.append(run_steps)
-        return orig(past, measured, imu=imu, run_steps=run_steps)
+        assert np.allclose(past_dt_s, 1.0)                       # the pings' stamps are handed on: 1 Hz
+        return orig(past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
     fused.complete = spy
     run_keyframer(m, fused)
     assert len(seen) > 40 and all(s is not None for s in seen)

@@ -117,11 +117,12 @@ def test_an_estimator_on_another_dvl_completes_with_the_average_and_says_so():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         unbound = run_method(run, "HNTC", "3-missing", completer=Unbound(network_completer("3-missing")[0]))
-    assert unbound.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 0}
+    assert unbound.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 0, "period": 0}
     assert np.abs(unbound.v_n - average.v_n).max() > 1e-3
     with pytest.warns(RuntimeWarning, match="do not serve this DVL: .*30 deg from the vertical"):
         hybrid = run_method(run, "HNTC", "3-missing")
-    assert hybrid.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 60}    # two 30 s outages, 1 Hz
+    # two 30 s outages, 1 Hz
+    assert hybrid.info["completer_fallbacks"] == {"envelope": 0, "pattern": 0, "dvl": 60, "period": 0}
     np.testing.assert_array_equal(hybrid.v_n, average.v_n)
     rdi = dataclasses.replace(config, dvl=dataclasses.replace(config.dvl, theta_rad=np.deg2rad(20.0), psi_rad=RDI_PSI))
     with pytest.warns(RuntimeWarning, match="azimuths 270, 90, 0, 180 deg .*beam 1 36.8 deg"):
@@ -166,7 +167,7 @@ def test_the_commands_say_how_many_pings_the_network_left_to_the_average(tmp_pat
             assert main([command, "--duration", "200", "--config", str(config), "--scenario", "3-missing",
                          "--method", "HNTC", "--out", str(out), "--no-plots"]) == 0
         counts = json.loads((out / "summary.json").read_text())["completer_fallbacks"]
-        assert counts == {"envelope": 0, "pattern": 0, "dvl": 60}     # this run's, not the process's
+        assert counts == {"envelope": 0, "pattern": 0, "dvl": 60, "period": 0}     # this run's, not the process's
         assert completer_fallbacks_line(counts) in capsys.readouterr().out
     assert completer_fallbacks_line({"envelope": 0, "dvl": 0}) == ""
     assert "2 for inputs outside its training envelope" in completer_fallbacks_line({"envelope": 2, "dvl": 0})

@@ -428,7 +428,7 @@ def test_imu_completer_leaves_pings_outside_its_training_envelope_to_the_average
     past = np.tile(beams, (shipped.n_past, 1))
     np.testing.assert_array_equal(bounded.complete(past, measured, imu=(f_b, omega_b))[0],
                                   plain.complete(past, measured, imu=(f_b, omega_b))[0])
-    assert bounded.fallbacks == {"envelope": 0, "pattern": 0, "dvl": 0}
+    assert bounded.fallbacks == {"envelope": 0, "pattern": 0, "dvl": 0, "period": 0}
     slow = 0.5 * beams                                  # 0.8 m/s instead of 1.6: outside the trained range
     measured = slow.copy()
     measured[[0, 2]] = np.nan
@@ -442,7 +442,7 @@ def test_imu_completer_leaves_pings_outside_its_training_envelope_to_the_average
     assert bounded.fallbacks["envelope"] == 1 and plain.fallbacks["envelope"] == 0
     fused = FusedCompleter(bounded, AverageCompleter(AVERAGE_N_PAST["2-missing"]))
     fused.complete(past, measured, imu=(f_b, omega_b))
-    assert fused.fallbacks == {"envelope": 2, "pattern": 0, "dvl": 0}
+    assert fused.fallbacks == {"envelope": 2, "pattern": 0, "dvl": 0, "period": 0}
     auto = ImuAutoCompleter([bounded], AverageCompleter(AVERAGE_N_PAST["2-missing"]))
     auto.complete(np.tile(slow, (auto.n_past, 1)), measured, imu=(f_b, omega_b))
     assert auto.fallbacks["envelope"] == 3

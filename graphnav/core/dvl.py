@@ -35,6 +35,27 @@ from graphnav.core.errors import GeometryError
 from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings  # noqa: F401
 
 
+#: Largest relative difference between the interval of two consecutive DVL pings and the ping period a completer
+#: network was trained for, on the short side (and, by default, the long side) (:func:`off_period`): past pings
+#: closer together are not the past the network learned from. A safety bound, not a fitted one: a quarter of a period
+#: is far outside a DVL's stamp jitter, and DVLs pinging more than 4/3 times the trained rate are refused
+#: (docs/decisions/completers.md, "A network on a DVL pinging at another rate").
+PING_PERIOD_TOLERANCE = 0.25
+
+
+def off_period(intervals_s, period_s: float, longest: float = 1.0 + PING_PERIOD_TOLERANCE) -> bool:
+    """Whether any of the ping intervals ``intervals_s`` (s) is shorter than ``1 - PING_PERIOD_TOLERANCE`` periods
+    ``period_s`` (s) or longer than ``longest`` periods.
+
+    Raises:
+        ValueError: an interval that is not a finite number (stamps that are not known have no intervals to check).
+    """
+    x = np.asarray(intervals_s, float) / period_s
+    if x.ndim != 1 or not np.all(np.isfinite(x)):
+        raise ValueError(f"ping intervals must be finite numbers (s), got {intervals_s!r}")
+    return bool(np.any((x < 1.0 - PING_PERIOD_TOLERANCE) | (x > longest)))
+
+
 def beam_matrix(theta_rad: float, psi_rad: np.ndarray) -> np.ndarray:
     """The (4,3) matrix T of beam unit vectors in the DVL frame."""
     psi = np.asarray(psi_rad, dtype=float)

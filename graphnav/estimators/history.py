@@ -23,6 +23,11 @@ A completer that changes through the run (:class:`graphnav.nets.fused.FusedCompl
 the average with ``run_decay``, and the completers that wrap one) sets ``takes_run_steps = True``: it is then also
 handed ``run_steps`` (4,), the pings each beam has been regressed before this one in the current run (0 on its first
 regressed ping).
+
+The history also keeps each ping's stamp when it is given one (``t``, s): a completer trained for one DVL ping period
+(``takes_past_dt``: the network completers, :mod:`graphnav.nets.dvl_match`) is handed ``past_dt_s``, the interval
+from each past ping to the next and from the newest to the ping it completes, and leaves a ping whose past is not
+spaced as in training to the average estimator.
 """
 from __future__ import annotations
 
@@ -40,6 +45,7 @@ class BeamHistory:
         self.n_past = n_past
         self.drift_std = drift_std
         self._buf: deque[np.ndarray] = deque(maxlen=n_past)
+        self._t: deque[float | None] = deque(maxlen=n_past)        # stamps of the pings in _buf (None: not given)
         self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
         self._run_steps = np.zeros(4, dtype=int)   # regressed pings of each beam in the current run so far
 
@@ -51,17 +57,18 @@ class BeamHistory:
         """True once ``n_past`` full vectors have been pushed."""
         return len(self._buf) == self.n_past
 
-    def push(self, beams: np.ndarray) -> None:
-        """Append one full (4,) beam vector; it must be finite."""
+    def push(self, beams: np.ndarray, t: float | None = None) -> None:
+        """Append one full (4,) beam vector (it must be finite) of the ping at ``t`` (s; None: not known)."""
         beams = np.asarray(beams, dtype=float).reshape(4)
         if not np.all(np.isfinite(beams)):
             raise ValueError("BeamHistory.push needs a full finite beam vector")
         self._buf.append(beams.copy())
+        self._t.append(None if t is None else float(t))
 
-    def push_measured(self, beams: np.ndarray) -> None:
+    def push_measured(self, beams: np.ndarray, t: float | None = None) -> None:
         """Append a measured full (4,) beam vector from outside :meth:`complete` (e.g. the beams a DVL-frame
-        velocity implies): a run of regressed pings ends there."""
-        self.push(beams)
+        velocity implies) of the ping at ``t`` (s): a run of regressed pings ends there."""
+        self.push(beams, t)
         self._run_sigma[:] = 0.0
         self._run_steps[:] = 0
 
@@ -69,7 +76,14 @@ class BeamHistory:
         """(n_past, 4) oldest first."""
         return np.array(self._buf)
 
-    def complete(self, completer, beams: np.ndarray, valid: np.ndarray, imu=None):
+    def past_dt(self, t: float | None) -> np.ndarray | None:
+        """(len,) s: the interval from each past ping to the next, the newest one's to a ping at ``t`` (s), oldest
+        first; None when a stamp is not known."""
+        if t is None or any(s is None for s in self._t):
+            return None
+        return np.diff([*self._t, float(t)])
+
+    def complete(self, completer, beams: np.ndarray, valid: np.ndarray, imu=None, t: float | None = None):
         """Complete one ping and update the history.
 
         Args:
@@ -81,6 +95,8 @@ class BeamHistory:
             imu: ``(f_b, omega_b)``, each (``completer.imu_samples``, 3), or shorter (the beam-only member's own,
                 ``member_imu_samples``): the last IMU samples up to the ping (oldest first, m/s^2 and rad/s, body
                 frame), for completers that need it; ignored otherwise.
+            t: the ping's stamp, s (None: not known): kept with the ping, and the past pings' intervals up to it handed
+                to a completer with ``takes_past_dt`` as ``past_dt_s``.
 
         Returns:
             (beams (4,), sigma (4,)): the full vector and the per-beam sigma (0 for measured beams), or
@@ -91,18 +107,21 @@ class BeamHistory:
         self._run_sigma[valid] = 0.0
         self._run_steps[valid] = 0
         if valid.all():
-            self.push(beams)
+            self.push(beams, t)
             return np.asarray(beams, dtype=float), np.zeros(4)
         if not self.ready:
             self._run_sigma[:] = 0.0
             self._run_steps[:] = 0
             return None
         measured = np.where(valid, beams, np.nan)
+        # what each completer takes, as graphnav.nets.completer.complete_with hands it on inside a composite
         kwargs = {}
         if getattr(completer, "needs_imu", False):
             kwargs["imu"] = imu
         if getattr(completer, "takes_run_steps", False):
             kwargs["run_steps"] = self._run_steps.copy()
+        if getattr(completer, "takes_past_dt", False):
+            kwargs["past_dt_s"] = self.past_dt(t)
         full, sigma = completer.complete(self.past(), measured, **kwargs)
         regressed = ~valid
         continuing = regressed & (self._run_sigma > 0)
@@ -113,5 +132,5 @@ class BeamHistory:
         sigma = np.where(continuing, grown, sigma)
         self._run_sigma = np.where(regressed, sigma, 0.0)
         self._run_steps = np.where(regressed, self._run_steps + 1, 0)
-        self.push(full)
+        self.push(full, t)
         return full, sigma

@@ -27,7 +27,9 @@ No look-ahead: a keyframe is closed as soon as the IMU has passed its stamp, fro
   is clean, and its learning members see each fully measured ping with their window (``observe_imu_samples``).
   A completer with networks is bound to the mission's DVL first (``bind_dvl``, :mod:`graphnav.nets.dvl_match`): a
   network trained for a DVL whose beams point elsewhere leaves its pings to the average estimator (warning; counted
-  in the completer's ``fallbacks["dvl"]``).
+  in the completer's ``fallbacks["dvl"]``). Each ping enters the history with its stamp, so that a network also
+  leaves to the average estimator a ping whose past pings are not spaced as it was trained for (a DVL pinging faster,
+  a gap of several pings; ``fallbacks["period"]``, :mod:`graphnav.nets.dvl_match`), and the keyframer warns once.
 - **DVL velocity.** A DVL-frame velocity the instrument measured itself (:meth:`Keyframer.add_dvl_velocity`:
   a velocity-only DVL, a 3-beam solution, an earth/ship-frame log) makes a ping too, carried in
   :attr:`Ping.v_d`. One ping is used once: when beams and a velocity arrive at the same stamp, a ping with at
@@ -50,7 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.dvl import DvlGeometry
+from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, check_imu_gap, gap_variances
 from graphnav.estimators.history import BeamHistory
@@ -174,8 +176,7 @@ class Keyframer:
                               "completer_fallbacks['dvl']). If the DVL is the one they were trained for, check "
                               "dvl.theta_rad, dvl.psi_rad and dvl.C_d_b in the configuration; Graph-HN and Graph-HNP "
                               "complete without networks", RuntimeWarning, stacklevel=1)
-        # stamps of the pings in the completer's history (newest last), to check they are one DVL period apart
-        self._ping_t: deque = deque(maxlen=completer.n_past) if completer is not None else deque(maxlen=0)
+        self._warned_period = False                              # said once: a ping whose past is off the period
         self._T_d = DvlGeometry.from_spec(config.dvl).T_d
         self._period = 1.0 / config.imu_rate_hz
         self._gap_limit = IMU_GAP_PERIODS * self._period
@@ -428,9 +429,8 @@ class Keyframer:
         self.stats.velocity_pings += 1
         if self.history is not None:
             # a measured ping for the completer's history: the beams the velocity implies
-            self.history.push_measured(self._T_d @ ping.v_d)
+            self.history.push_measured(self._T_d @ ping.v_d, ping.t)
             self._observe(ping.t, self._T_d @ ping.v_d)
-            self._ping_t.append(ping.t)
         return dataclasses.replace(ping, omega_b=gyro_at(ping.t, self._samples))
 
     def _beam_ping(self, ping: Ping) -> Ping:
@@ -451,8 +451,17 @@ class Keyframer:
                 self.stats.imu_window_missing[reason] += 1
         elif measured.all():
             self._observe(t, ping.beams)
-        self._ping_t.append(t)
-        result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu)
+        off_period_before, past_dt = self._period_fallbacks(), self.history.past_dt(t)
+        result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu, t=t)
+        if self._period_fallbacks() > off_period_before and not self._warned_period:
+            self._warned_period = True
+            # no stamp in the text, so that the Navigator's second keyframer (after aligning) does not say it again
+            warnings.warn("dvl: a ping is completed by the average estimator, not the completer's network: the "
+                          f"intervals of its past pings are {', '.join(f'{x:.3g}' for x in past_dt)} s "
+                          "which is not the spacing the network was trained for (a DVL pinging faster than the one it "
+                          "was trained for, or a gap of several pings); further ones are counted in "
+                          "completer_fallbacks['period']",
+                          RuntimeWarning, stacklevel=1)
         if result is None:
             return dataclasses.replace(ping, omega_b=omega_b)
         beams, sigma = np.asarray(result[0], float), np.asarray(result[1], float)
@@ -462,6 +471,10 @@ class Keyframer:
             self.stats.regressed_beams += int((np.isfinite(beams) & ~measured).sum())
         return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
                                    omega_b=omega_b)
+
+    def _period_fallbacks(self) -> int:
+        """The pings the completer's networks have left to the average estimator for their past's ping period."""
+        return getattr(self.completer, "fallbacks", {}).get("period", 0)
 
     def _observe(self, t: float, beams: np.ndarray) -> None:
         """Hand a ping whose four beams were all measured to a completer that learns from them (``observe``, e.g.
@@ -474,14 +487,14 @@ class Keyframer:
         imu = self._imu_buffer.window(t, self._observe_samples)[0] if self._imu_buffer is not None else None
         observe(t, np.asarray(beams, float), imu)
 
-    def _pings_one_period_apart(self, t: float, tol: float = 0.25) -> bool:
+    def _pings_one_period_apart(self, t: float) -> bool:
         """Whether the history's pings and the ping at ``t`` (s) are the IMU-aware completer's ``ping_dt``
-        apart (within ``tol`` of it): it propagates each past ping over that many seconds."""
+        apart (within :data:`~graphnav.core.dvl.PING_PERIOD_TOLERANCE` of it): it propagates each past ping
+        over that many seconds."""
         dt = getattr(self.completer, "ping_dt", None)
         if dt is None:
             return True
-        steps = np.diff([*self._ping_t, t])
-        return bool(np.all(np.abs(steps - dt) <= tol * dt))
+        return not off_period(self.history.past_dt(t), dt)
 
     def _sample(self, samples: deque, t: float) -> float | None:
         """Interpolate (or extrapolate from the last two) a scalar stream at t; None when too old."""

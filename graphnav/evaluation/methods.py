@@ -507,7 +507,8 @@ def completer_state(completer) -> dict:
 #: What each kind of a network completer's fallback (``info["completer_fallbacks"]``) means.
 FALLBACK_REASONS = {"envelope": "inputs outside its training envelope",
                     "pattern": "a missing-beam pattern it was not trained for",
-                    "dvl": "a DVL it was not trained for"}
+                    "dvl": "a DVL it was not trained for",
+                    "period": "past pings not spaced as it was trained for"}
 
 
 def completer_fallbacks_line(counts: dict | None) -> str:
@@ -537,7 +538,8 @@ def run_method(mission: Mission, method: str, scenario: str = "none", *, complet
     ``runtime_s`` is the estimator's wall time; ``info["completer"]`` names the completer and, for a network
     completer, ``info["completer_fallbacks"]`` counts the pings it left to the average estimator
     (``{"envelope": inputs outside its training envelope, "pattern": a pattern it was not trained for, "dvl": a DVL
-    whose beams are not those it was trained for}``);
+    whose beams are not those it was trained for, "period": past pings closer together than the DVL period it was
+    trained for, or gaps of several periods}``);
     ``info["completer_state"]`` is what the completer learned during the run (:func:`completer_state`, when any).
     """
     from graphnav.estimators.runs import run_ekf, run_graph
