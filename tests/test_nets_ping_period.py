@@ -146,7 +146,7 @@ def test_an_estimator_on_a_dvl_pinging_faster_completes_with_the_average_and_say
         unstamped = run_method(run, "HNTC", "3-missing", options=unscreened,
                                completer=WithoutStamps(network_completer("3-missing")[0]))
     assert np.abs(unstamped.v_n - average.v_n).max() > 1e-3
-    said = r"intervals of its past pings are 0.25, .*completer_fallbacks\['period'\]"
+    said = r"intervals of its past pings \(the newest one's to the ping\) are 0.25, .*completer_fallbacks\['period'\]"
     with (pytest.warns(RuntimeWarning, match=said),
           pytest.warns(RuntimeWarning, match="120 for past pings not spaced as it was trained for")):
         hybrid = run_method(run, "HNTC", "3-missing", options=unscreened)

@@ -457,10 +457,10 @@ class Keyframer:
             self._warned_period = True
             # no stamp in the text, so that the Navigator's second keyframer (after aligning) does not say it again
             warnings.warn("dvl: a ping is completed by the average estimator, not the completer's network: the "
-                          f"intervals of its past pings are {', '.join(f'{x:.3g}' for x in past_dt)} s "
-                          "which is not the spacing the network was trained for (a DVL pinging faster than the one it "
-                          "was trained for, or a gap of several pings); further ones are counted in "
-                          "completer_fallbacks['period']",
+                          "intervals of its past pings (the newest one's to the ping) are "
+                          f"{', '.join(f'{x:.3g}' for x in past_dt)} s, not the spacing the network was trained "
+                          "for (a DVL pinging faster than the one it was trained for, or a gap of several pings); "
+                          "further ones are counted in completer_fallbacks['period']",
                           RuntimeWarning, stacklevel=1)
         if result is None:
             return dataclasses.replace(ping, omega_b=omega_b)
