@@ -116,6 +116,16 @@ def imu_rows_for(dvl: str, scenario: str, akit_dir, seed: int) -> list[dict]:
             for name, comp in (("average", unbound.fallback), ("network, unbound", unbound), ("network, bound", bound))]
 
 
+def write_config(dvl: str, path: str) -> None:
+    """A sensor configuration (JSON) whose DVL is the :data:`DVLS` entry ``dvl``: for ``graphnav train-beams --config``
+    and ``graphnav eval-beams --folds --config`` (networks trained for that DVL)."""
+    import json
+    from pathlib import Path
+    spec = spec_of(DVLS[dvl][1])
+    fields = {k: np.asarray(getattr(spec, k)).tolist() for k in DVLS[dvl][1]}
+    Path(path).write_text(json.dumps({"dvl": fields}, indent=1) + "\n")
+
+
 def ping_rate_rows(rates, duration_s: float = 1200.0, seed: int = 2) -> list[str]:
     """The DVL's ping period. The shipped beam-only networks per ping (true past) on simulated missions
     (``graphnav.simulate_mission``, navigation-grade IMU, seed ``seed``) whose DVL pings at each of ``rates`` Hz, their
@@ -233,12 +243,14 @@ class Unbound:
         return getattr(self._completer, name)
 
 
-def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, grade: str = "as-recorded"
-                   ) -> list[dict]:
+def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, grade: str = "as-recorded",
+                   fold_nets=None) -> list[dict]:
     """The paper's hybrid EKF (HNTC, beam-only networks) on each A-KIT trajectory with ``dvl``'s beams, through the
     bench's outage windows of ``window_s`` (``graphnav.evaluation.bench.case_windows``) with IMU ``grade`` (the bench's
     errors and seed): window VRMSE (m/s) of TC (no completer), Average-TC, HNTC unbound and HNTC as it runs now (bound:
-    on another DVL it is Average-TC)."""
+    on another DVL it is Average-TC). ``fold_nets``: a folder of networks trained for this DVL out of fold
+    (``graphnav eval-beams --folds --config ... --save-nets``: ``fold<k>`` folders whose cards name the trajectories
+    they held out); each trajectory is then also run with the one that held it out ("HNTC, trained for it")."""
     import warnings
     import zlib
 
@@ -265,24 +277,46 @@ def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, gr
                     "HNTC, unbound": run_method(run, "HNTC", scenario,
                                                 completer=Unbound(network_completer(scenario)[0])),
                     "HNTC": run_method(run, "HNTC", scenario)}
+            if fold_nets is not None:
+                sols["HNTC, trained for it"] = run_method(run, "HNTC", scenario,
+                                                          completer=held_out_network(fold_nets, scenario, traj.name))
         for s in starts:
             out.append({"dvl": DVLS[dvl][0], "scenario": scenario, "trajectory": traj.name, "start_s": s,
                         **{name: vrmse(sol, mission.gt, s, s + window_s) for name, sol in sols.items()}})
     return out
 
 
+def held_out_network(folder, scenario: str, trajectory: str):
+    """The network of ``folder`` (``fold<k>`` subfolders of ``eval-beams --folds --save-nets``, any depth) whose
+    fold held out ``trajectory`` (``TrajectoryN``)."""
+    import json
+    from pathlib import Path
+
+    from graphnav.nets import load_completer
+    number = int(trajectory.removeprefix("Trajectory"))
+    for card in sorted(Path(folder).rglob(f"{scenario}.json")):
+        if number in json.loads(card.read_text())["data"].get("held_out", []):
+            return load_completer(scenario, directory=card.parent)
+    raise FileNotFoundError(f"{folder}: no {scenario} fold network held out {trajectory}")
+
+
 def estimator_report(rows: list[dict]) -> str:
-    """Mean window VRMSE over TC's, per DVL and scenario, and how many windows HNTC unbound made worse than
-    Average-TC by more than 2 %."""
+    """Mean window VRMSE over TC's, per DVL and scenario, how many windows HNTC unbound made worse than Average-TC by
+    more than 2 %, and, where the rows have them, the networks trained for the DVL out of fold (their mean and how many
+    windows they made worse than Average-TC by more than 2 %)."""
+    own = any("HNTC, trained for it" in r for r in rows)
     lines = ["| DVL | scenario | windows | Average-TC | HNTC, unbound | HNTC | "
-             "windows HNTC unbound > 1.02x Average-TC |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+             "windows HNTC unbound > 1.02x Average-TC |" + (" HNTC, trained for it | windows > 1.02x Average-TC |"
+                                                           if own else ""),
+             "| --- | --- | --- | --- | --- | --- | --- |" + (" --- | --- |" if own else "")]
     for key in dict.fromkeys((r["dvl"], r["scenario"]) for r in rows):
         sel = [r for r in rows if (r["dvl"], r["scenario"]) == key]
-        ratio = {k: np.mean([r[k] / r["TC"] for r in sel]) for k in ("Average-TC", "HNTC, unbound", "HNTC")}
-        worse = sum(r["HNTC, unbound"] > 1.02 * r["Average-TC"] for r in sel)
+        names = ("Average-TC", "HNTC, unbound", "HNTC") + (("HNTC, trained for it",) if own else ())
+        ratio = {k: np.mean([r[k] / r["TC"] for r in sel]) for k in names}
+        worse = {k: sum(r[k] > 1.02 * r["Average-TC"] for r in sel) for k in names}
         lines.append(f"| {key[0]} | {key[1]} | {len(sel)} | {ratio['Average-TC']:.3f} | {ratio['HNTC, unbound']:.3f} "
-                     f"| {ratio['HNTC']:.3f} | {worse} |")
+                     f"| {ratio['HNTC']:.3f} | {worse['HNTC, unbound']} |"
+                     + (f" {ratio['HNTC, trained for it']:.3f} | {worse['HNTC, trained for it']} |" if own else ""))
     return "\n".join(lines)
 
 
@@ -312,6 +346,9 @@ def main(argv=None) -> int:
     p.add_argument("--estimator", action="store_true", help="also HNTC through the bench's outage windows of every "
                    "trajectory (about 2 min a DVL at 120 s; the DVLs with the head along the body axes: the loader "
                    "refuses a turned head's velocities, which are the recorded ones)")
+    p.add_argument("--fold-nets", metavar="PREFIX", help="--estimator: also HNTC with networks trained for the DVL out "
+                   "of fold, from PREFIX_<scenario> (graphnav eval-beams --folds --config C --scenario S --save-nets "
+                   "PREFIX_S); each trajectory with the fold network that held it out")
     p.add_argument("--window-s", type=float, default=30.0, help="--estimator: outage length, s (default 30)")
     p.add_argument("--grade", default="as-recorded", choices=["as-recorded", "tactical", "mems"],
                    help="--estimator: IMU grade (default as-recorded)")
@@ -321,7 +358,12 @@ def main(argv=None) -> int:
                    "2nd, 3rd, 5th and 10th ping kept")
     p.add_argument("--imu", action="store_true", help="also the IMU-aware networks through outages (about 20 s "
                    "more a DVL)")
+    p.add_argument("--write-config", nargs=2, metavar=("DVL", "FILE"), help="instead: write a sensor configuration "
+                   "whose DVL is DVL (one of --dvls' names) to FILE, for graphnav train-beams / eval-beams --config")
     a = p.parse_args(argv)
+    if a.write_config:
+        write_config(*a.write_config)
+        return 0
     if a.ping_rates:
         print("| DVL pings | scenario | pings | network unbound: beam / velocity x average, per ping | bound | "
               "pings left to the average (period) | unbound velocity, worst recording |")
@@ -348,7 +390,8 @@ def main(argv=None) -> int:
                 rows += imu_rows_for(dvl, scenario, a.data, a.seed)
             # a turned head's recorded velocities would be turned as well, and the loader refuses them (rightly)
             if a.estimator and "C_d_b" not in DVLS[dvl][1]:
-                est += estimator_rows(dvl, scenario, a.data, a.window_s, a.grade)
+                est += estimator_rows(dvl, scenario, a.data, a.window_s, a.grade,
+                                      f"{a.fold_nets}_{scenario}" if a.fold_nets else None)
     print(report(rows))
     if est:
         print(f"\nIn the estimator ({a.window_s:g} s outages, IMU {a.grade}), window VRMSE over TC's (mean over the "

@@ -14,12 +14,12 @@ Every choice between recipes (:data:`VARIANTS`) is made on these out-of-fold num
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from graphnav.core.config import DvlSpec
-from graphnav.core.dvl import make_beams
+from graphnav.core.dvl import DvlGeometry, make_beams
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.folds import check_folds as core_check_folds
 
@@ -162,12 +162,15 @@ class FoldData:
         beamsnet: per fold, the BeamsNet recordings it holds out (empty lists without BeamsNet data).
         test: recordings never trained on (``V_test.npy``), scored by every fold's network.
         folds: the A-KIT trajectory numbers held out per fold.
+        spec: the DVL whose beams the recordings are (made from the recorded velocities with it), which the
+            networks are trained for and scored with.
     """
 
     akit: dict[int, list[beamdata.BeamSeries]]
     beamsnet: list[list[beamdata.BeamSeries]]
     test: list[beamdata.BeamSeries]
     folds: tuple[tuple[int, ...], ...]
+    spec: DvlSpec = field(default_factory=DvlSpec)
 
     def split(self, i: int) -> tuple[dict[str, list], dict[str, list]]:
         """(training recordings, held-out recordings by data set) of fold ``i``."""
@@ -183,8 +186,9 @@ class FoldData:
 
 
 def load_fold_data(akit_dir=None, beamsnet_dir=None, beam_seed: int = 1000,
-                   folds=AKIT_FOLDS) -> FoldData:
-    """The ten A-KIT trajectories and the BeamsNet missions, beams made with ``beam_seed``, in ``folds``.
+                   folds=AKIT_FOLDS, spec: DvlSpec | None = None) -> FoldData:
+    """The ten A-KIT trajectories and the BeamsNet missions, beams made with ``beam_seed`` for the DVL ``spec``
+    (default :class:`DvlSpec`: the Snapir's, the one the recordings were made with), in ``folds``.
 
     BeamsNet data are optional (absent folder: A-KIT only); A-KIT data are required.
 
@@ -192,23 +196,24 @@ def load_fold_data(akit_dir=None, beamsnet_dir=None, beam_seed: int = 1000,
         DataError: no A-KIT folder, or a fold names a trajectory that is not there.
     """
     folds = check_folds(folds)
+    spec = beamdata.training_spec(spec)
     akit: dict[int, list[beamdata.BeamSeries]] = {}
-    for s in beamdata.akit_series(akit_dir, beam_seed):
+    for s in beamdata.akit_series(akit_dir, beam_seed, spec):
         akit.setdefault(int(s.name.split("#")[0].removeprefix("Trajectory")), []).append(s)
     absent = sorted(t for f in folds for t in f if t not in akit)
     if absent:
         raise DataError(f"fold trajectories {absent} not found (have {sorted(akit)})", "A-KIT", field="folds")
     beamsnet, test = [], []
     try:
-        whole = beamdata.beamsnet_series("all", beamsnet_dir, beam_seed)
-        test = [beamdata.beamsnet_series("test", beamsnet_dir, beam_seed)]
+        whole = beamdata.beamsnet_series("all", beamsnet_dir, beam_seed, spec)
+        test = [beamdata.beamsnet_series("test", beamsnet_dir, beam_seed, spec)]
     except DataError:
         whole = None
     if whole is not None:
         for j, block in enumerate(beamsnet_blocks(beamsnet_missions(whole.v_b), len(folds))):
             beamsnet.append([beamdata.BeamSeries(f"V[{p.start}:{p.stop}]", whole.v_b[p], whole.beams[p])
                              for p in block])
-    return FoldData(akit, beamsnet, test, folds)
+    return FoldData(akit, beamsnet, test, folds, spec)
 
 
 def augment(series: list[beamdata.BeamSeries], variant: Variant, seed: int,
@@ -236,12 +241,15 @@ def inner_split(series: list[beamdata.BeamSeries], fraction: float = INNER_VAL_F
     return fit, select
 
 
-def train_network(train: dict[str, list], missing, variant: Variant, seed: int = 0, progress: bool = False):
+def train_network(train: dict[str, list], missing, variant: Variant, seed: int = 0, progress: bool = False,
+                  spec: DvlSpec | None = None):
     """A :class:`~graphnav.nets.network.NetworkCompleter` trained on one fold's recordings with ``variant``: one
     network, or with ``variant.members`` > 1 the ensemble of networks trained with seeds ``seed + MEMBER_SEED_STEP
-    * j`` (member 0 is the one network of ``seed``). Its input envelope is the union of the members' training
-    data (each draws its own augmented copies). Out of fold, the range common to all members sent more unseen
-    pings to the average estimator and was worse (docs/decisions/completers.md, "Five seeds averaged")."""
+    * j`` (member 0 is the one network of ``seed``). ``spec``: the DVL of the recordings' beams (default
+    :class:`DvlSpec`), which its augmented copies are made for and its card records. Its input envelope is the union
+    of the members' training data (each draws its own augmented copies). Out of fold, the range common to all members
+    sent more unseen pings to the average estimator and was worse (docs/decisions/completers.md, "Five seeds
+    averaged")."""
     from .model import BeamEnsemble
     from .network import NetworkCompleter
     from .training import training_envelope
@@ -252,26 +260,28 @@ def train_network(train: dict[str, list], missing, variant: Variant, seed: int =
     fit_s, select_s = inner_split(recordings)
     models, seen = [], list(fit_s)
     for j in range(variant.members):
-        model, member_fit = _train_member(fit_s, select_s, missing, variant, seed + MEMBER_SEED_STEP * j, progress)
+        model, member_fit = _train_member(fit_s, select_s, missing, variant, seed + MEMBER_SEED_STEP * j, progress,
+                                          spec)
         models.append(model)
         seen += member_fit[len(fit_s):]      # its augmented copies (the recordings themselves are in already)
     model = models[0] if len(models) == 1 else BeamEnsemble.of(models)
-    return NetworkCompleter(model, card={"envelope": training_envelope(seen)}, run_decay=variant.decay(missing))
+    card = {"envelope": training_envelope(seen), "data": {"beam_model": beam_model_record(spec)}}
+    return NetworkCompleter(model, card=card, run_decay=variant.decay(missing))
 
 
 #: Seed offset between ensemble members (larger than any fold index, so no member repeats another fold's seed).
 MEMBER_SEED_STEP = 1000
 
 
-def _train_member(fit_s, select_s, missing, variant: Variant, seed: int, progress: bool):
-    """One network of ``variant`` trained on ``fit_s`` (augmented with ``seed``), its epoch chosen on
-    ``select_s``; returns (model, the recordings it was fitted on)."""
+def _train_member(fit_s, select_s, missing, variant: Variant, seed: int, progress: bool, spec: DvlSpec | None = None):
+    """One network of ``variant`` trained on ``fit_s`` (augmented with ``seed``, beams of the DVL ``spec``), its
+    epoch chosen on ``select_s``; returns (model, the recordings it was fitted on)."""
     import torch
 
     from .model import BeamRegressor
     from .training import TrainOptions, fit
 
-    fit_s = augment(fit_s, variant, seed)
+    fit_s = augment(fit_s, variant, seed, spec)
     torch.manual_seed(seed)
     model = BeamRegressor(missing, residual=variant.residual)
     n = model.n_past
@@ -280,7 +290,7 @@ def _train_member(fit_s, select_s, missing, variant: Variant, seed: int, progres
                        velocity_weight=variant.velocity_weight)
     fit_w = beamdata.windows([s for s in fit_s if len(s.beams) > n], n)
     select_w = beamdata.windows([s for s in select_s if len(s.beams) > n], n)
-    fit(model, fit_w, select_w, opt, progress)
+    fit(model, fit_w, select_w, opt, progress, spec)
     if variant.rollout:
         fine_tune_recursive(model, fit_s, select_s, variant, seed)
         from .training import _gaussian_nll, _run_stage, _tensors
@@ -387,14 +397,15 @@ def predict_batch(completer, samples: beamdata.BeamSamples, missing) -> tuple[np
     return full, sigma
 
 
-def _score(completer, series, missing, mode: str) -> dict:
-    """Metrics of one completer through its ``complete`` (as an estimator calls it, envelope fallback included)."""
+def _score(completer, series, missing, mode: str, geometry=None) -> dict:
+    """Metrics of one completer through its ``complete`` (as an estimator calls it, envelope fallback included);
+    velocities with the DVL ``geometry`` (default :class:`DvlSpec`'s)."""
     if mode == "per ping":
         samples = beamdata.windows(series, completer.n_past)
         full, sigma = predict_batch(completer, samples, missing)
     else:
         full, sigma, samples = outage_rollout(completer, series, missing)
-    return completion_metrics(full, sigma, samples, missing)
+    return completion_metrics(full, sigma, samples, missing, geometry)
 
 
 def _windowable(series, n: int):
@@ -418,17 +429,19 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
     variant = VARIANTS[variant] if isinstance(variant, str) else variant
     missing = normalize_missing(missing)
     scen = scenario_name(missing)
+    geometry = DvlGeometry.from_spec(data.spec)
     rows = []
     for i in range(len(data.folds)):
         t0 = time.perf_counter()
         train, held = data.split(i)
-        net = train_network(train, missing, variant, seed + i, progress)
+        net = train_network(train, missing, variant, seed + i, progress, data.spec)
         if save_dir is not None:
             from pathlib import Path
 
             from .training import TrainResult, save
             card = network_card(net, variant, seed + i, data={"source": "crossval fold",
-                                                               "held_out": list(data.folds[i])})
+                                                               "held_out": list(data.folds[i]),
+                                                               "beam_model": beam_model_record(data.spec)})
             save(TrainResult(net.model, card), Path(save_dir) / f"fold{i}")
         avg = AverageCompleter(AVERAGE_N_PAST.get(scen, net.n_past))
         for dname, series in held.items():
@@ -439,7 +452,8 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
                 for mname, comp in (("network", net), ("average", avg)):
                     rows.append({"fold": i, "held_out": list(data.folds[i]) if dname == "A-KIT" else
                                  [s.name for s in series], "dataset": dname, "scenario": scen, "mode": mode,
-                                 "method": mname, "variant": variant.name, **_score(comp, series, missing, mode)})
+                                 "method": mname, "variant": variant.name,
+                                 **_score(comp, series, missing, mode, geometry)})
         if log is not None:
             log(f"{scen} {variant.name} fold {i} {list(data.folds[i])}: {time.perf_counter() - t0:.0f} s")
     return rows
@@ -554,43 +568,49 @@ def network_card(net, variant: Variant, seed: int, data: dict, time_s: float | N
     return card
 
 
-def final_metrics(net, train: dict[str, list], variant: Variant, beamsnet_dir, beam_seed: int) -> dict:
+def final_metrics(net, train: dict[str, list], variant: Variant, beamsnet_dir, beam_seed: int,
+                  spec: DvlSpec | None = None) -> dict:
     """Completion metrics of a network trained on everything (:func:`train_final`): ``val`` on the selection part
     of its recordings (the last :data:`INNER_VAL_FRACTION` of each, which chose the epoch and was never a gradient
-    step), ``test`` on BeamsNet ``V_test.npy`` when the BeamsNet data are there (never trained on)."""
+    step), ``test`` on BeamsNet ``V_test.npy`` when the BeamsNet data are there (never trained on); beams and
+    velocities of the DVL ``spec`` (default :class:`DvlSpec`)."""
     from .evaluate import network_metrics
 
     n = net.model.n_past
     _, select_s = inner_split(train["beamsnet"] + (train["akit"] if variant.akit else []))
     splits = {"val": beamdata.windows([s for s in select_s if len(s.beams) > n], n)}
     if train["beamsnet"]:
-        splits["test"] = beamdata.windows(beamdata.beamsnet_series("test", beamsnet_dir, beam_seed), n)
-    return {split: network_metrics(net.model, samples, net.missing) for split, samples in splits.items()}
+        splits["test"] = beamdata.windows(beamdata.beamsnet_series("test", beamsnet_dir, beam_seed, spec), n)
+    geometry = DvlGeometry.from_spec(spec or DvlSpec())
+    return {split: network_metrics(net.model, samples, net.missing, geometry) for split, samples in splits.items()}
 
 
 def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=None, beam_seed: int = 0,
-                seed: int = 0, summary: list[dict] | None = None, progress: bool = False):
+                seed: int = 0, summary: list[dict] | None = None, progress: bool = False,
+                spec: DvlSpec | None = None):
     """Train ``variant`` on every recording (all ten A-KIT trajectories and all of ``V.npy``; ``V_test`` stays
     out) after the recipe was chosen out of fold; returns a :class:`~graphnav.nets.training.TrainResult` whose
     model card says which protocol chose the recipe and, given ``summary`` (:func:`summarise` rows), its
-    out-of-fold numbers. Save it with :func:`graphnav.nets.training.save`."""
+    out-of-fold numbers. Save it with :func:`graphnav.nets.training.save`. ``spec``: the DVL the network is trained
+    for, its beams made from the recorded velocities (default :class:`DvlSpec`, the Snapir's); the card records it
+    and the estimators bind the network to it (:mod:`graphnav.nets.dvl_match`)."""
     from .storage import file_sha256
     from .training import TrainResult
 
     variant = VARIANTS[variant] if isinstance(variant, str) else variant
     missing = normalize_missing(missing)
-    data = load_fold_data(akit_dir, beamsnet_dir, beam_seed)
+    data = load_fold_data(akit_dir, beamsnet_dir, beam_seed, spec=spec)
     train = {"akit": [s for ss in data.akit.values() for s in ss],
              "beamsnet": [s for block in data.beamsnet for s in block]}
     t0 = time.perf_counter()
-    net = train_network(train, missing, variant, seed, progress)
+    net = train_network(train, missing, variant, seed, progress, data.spec)
     train_time = time.perf_counter() - t0
-    metrics = final_metrics(net, train, variant, beamsnet_dir, beam_seed)
+    metrics = final_metrics(net, train, variant, beamsnet_dir, beam_seed, data.spec)
     scen = scenario_name(missing)
     card = network_card(net, variant, seed, time_s=train_time, data={
         "source": "A-KIT trajectories " + ", ".join(map(str, sorted(data.akit)))
                   + (" and snapir-2021-beamsnet V.npy (all)" if data.beamsnet else ""),
-        "beam_model": beam_model_record(), "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
+        "beam_model": beam_model_record(data.spec), "beam_seed": beam_seed, "align_yaw_deg": beamdata.BEAMSNET_YAW_DEG,
         "V_sha256": file_sha256(beamdata._data_dir(beamsnet_dir, "beamsnet") / "V.npy") if data.beamsnet else None})
     card = {
         **card,

@@ -8,6 +8,7 @@ train/validation split of ``V.npy`` (first 75 % train, last 25 % validation, the
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,6 +35,16 @@ TRAIN_FRACTION = BEAMSNET_TRAIN_FRACTION
 #: the BeamsNet files are in a frame turned 45 deg from the body (the DVL mounting). Beams made from the
 #: unrotated file would teach the network a velocity direction the estimators never see.
 BEAMSNET_YAW_DEG = 45.0
+
+#: Ping rate (Hz) of the recordings the networks are trained on: the A-KIT and BeamsNet DVLs ping at 1 Hz.
+RECORDED_PING_RATE_HZ = 1.0
+
+
+def training_spec(spec: DvlSpec | None = None) -> DvlSpec:
+    """The DVL the training beams are made for: ``spec``'s beams and errors (default :class:`DvlSpec`, the Snapir's)
+    at the recordings' ping rate, :data:`RECORDED_PING_RATE_HZ` (the beams come from their velocities, one a ping,
+    whatever the rate of the DVL they are made for): what a model card records and the estimators bind to."""
+    return dataclasses.replace(spec or DvlSpec(), rate_hz=RECORDED_PING_RATE_HZ)
 
 
 @dataclass

@@ -31,9 +31,9 @@ case (``experiments/network_on_other_dvl.py --ping-rates``; docs/decisions/compl
 at another rate"). So a network completer checks each ping's past (:meth:`TrainedForOneDvl.period_mismatch`,
 ``past_dt_s`` from the history's stamps): an interval shorter than ``1 - PING_PERIOD_TOLERANCE`` of the trained period
 (:data:`graphnav.core.dvl.PING_PERIOD_TOLERANCE`) or longer than :data:`LONGEST_PAST_INTERVAL_PERIODS` periods leaves
-that ping to the average estimator, counted in ``fallbacks["period"]``. Where the stamps are not known (``past_dt_s`` None: a past made without them) nothing is
-checked. The IMU-aware networks propagate each past ping over exactly one period, so theirs may be no longer than
-``1 + PING_PERIOD_TOLERANCE`` periods.
+that ping to the average estimator, counted in ``fallbacks["period"]``. Where the stamps are not known (``past_dt_s``
+None: a past made without them) nothing is checked. The IMU-aware networks propagate each past ping over exactly one
+period, so theirs may be no longer than ``1 + PING_PERIOD_TOLERANCE`` periods.
 """
 from __future__ import annotations
 

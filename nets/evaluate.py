@@ -180,11 +180,13 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
     return rows
 
 
-def network_metrics(model: BeamRegressor, samples: BeamSamples, missing) -> dict:
+def network_metrics(model: BeamRegressor, samples: BeamSamples, missing, geometry: DvlGeometry | None = None) -> dict:
     """:func:`completion_metrics` of ``model``'s completions of ``samples`` (per ping), with ``all_beams_vel_rmse``
-    (least squares on all four made beams, the floor): the metrics of a model card."""
+    (least squares on all four made beams, the floor): the metrics of a model card. ``geometry``: the DVL of the
+    beams (default :class:`DvlSpec`'s)."""
     full, sigma = predict_network(model, samples)
-    return {**completion_metrics(full, sigma, samples, missing), "all_beams_vel_rmse": full_beam_vel_rmse(samples)}
+    return {**completion_metrics(full, sigma, samples, missing, geometry),
+            "all_beams_vel_rmse": full_beam_vel_rmse(samples, geometry)}
 
 
 def format_table(rows: list[dict]) -> str:

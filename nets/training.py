@@ -21,6 +21,7 @@ from tqdm.auto import tqdm
 
 import graphnav
 from graphnav.core.config import DvlSpec
+from graphnav.core.dvl import DvlGeometry
 
 from . import data as beamdata
 from .dvl_match import beam_model_record
@@ -77,23 +78,22 @@ def velocity_of_missing(missing, spec: DvlSpec | None = None) -> np.ndarray:
     the ``missing`` columns of ``C_d_b (T_d^T T_d)^-1 T_d^T``
     (:meth:`~graphnav.core.dvl.DvlGeometry.velocity_from_beams` on four beams). For the Janus geometry at 20 deg a
     beam's error enters the horizontal velocity 1.46x, the vertical 0.27x."""
-    from graphnav.core.dvl import DvlGeometry
     geometry = DvlGeometry.from_spec(spec or DvlSpec())
     T = geometry.T_d
     return (geometry.C_d_b @ np.linalg.solve(T.T @ T, T.T))[:, list(normalize_missing(missing))]
 
 
-def mean_loss(velocity_weight: float, missing):
+def mean_loss(velocity_weight: float, missing, spec: DvlSpec | None = None):
     """The mean network's loss: normalised beam MSE plus, with ``velocity_weight`` w > 0, w times the squared
     velocity error the normalised beam errors make through least squares on four beams (:func:`velocity_of_missing`).
 
     Beam MSE weighs the sum and the difference of two opposite beams' errors alike, but the difference moves
     the horizontal velocity about 30x more in squared error (1.46x per beam horizontally, 0.27x vertically), so
     a network can cut the beam RMSE a quarter and the velocity RMSE a tenth; the velocity term weighs the errors
-    as the velocity feels them."""
+    as the velocity feels them. ``spec``: the DVL whose beams the network completes (default :class:`DvlSpec`)."""
     if not velocity_weight:
         return _normalised_mse
-    L = torch.as_tensor(velocity_of_missing(missing), dtype=torch.float32)
+    L = torch.as_tensor(velocity_of_missing(missing, spec), dtype=torch.float32)
 
     def loss(model, past, meas, target):
         err = _normalised_errors(model, past, meas, target)
@@ -107,10 +107,11 @@ def _gaussian_nll(model, past, meas, target):
 
 
 def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: beamdata.BeamSamples,
-        options: TrainOptions | None = None, progress: bool = True) -> list[dict]:
+        options: TrainOptions | None = None, progress: bool = True, spec: DvlSpec | None = None) -> list[dict]:
     """Train ``model`` in place (both stages); returns the per-epoch history.
 
-    The normalisation is set from the training beams. Validation samples select the best epoch.
+    The normalisation is set from the training beams. Validation samples select the best epoch. ``spec``: the DVL
+    whose beams the samples are (default :class:`DvlSpec`; the velocity term of the loss projects with it).
     """
     opt = options or TrainOptions()
     prev_threads = torch.get_num_threads()
@@ -119,9 +120,10 @@ def fit(model: BeamRegressor, train_samples: beamdata.BeamSamples, val_samples: 
         torch.manual_seed(opt.seed)
         model.set_normalisation(torch.as_tensor(train_samples.beams, dtype=torch.float32))
         tr, va = _tensors(model, train_samples), _tensors(model, val_samples)
-        history = _run_stage(model, model.mean_parameters(), tr, va, mean_loss(opt.velocity_weight, model.missing),
-                             "mse", opt.epochs, opt.batch_size, torch.optim.RMSprop, opt.lr, opt.lr_step_epochs,
-                             opt.lr_gamma, opt.patience, opt.seed, progress)
+        history = _run_stage(model, model.mean_parameters(), tr, va,
+                             mean_loss(opt.velocity_weight, model.missing, spec), "mse", opt.epochs, opt.batch_size,
+                             torch.optim.RMSprop, opt.lr, opt.lr_step_epochs, opt.lr_gamma, opt.patience, opt.seed,
+                             progress)
         history += _run_stage(model, list(model.sigma_head.parameters()), tr, va, _gaussian_nll, "nll",
                               opt.sigma_epochs, opt.sigma_batch_size, torch.optim.Adam, opt.sigma_lr,
                               None, 1.0, None, opt.seed + 1, progress)
@@ -182,25 +184,28 @@ def _run_stage(model, params, tr, va, loss_fn, name, epochs, batch_size, optim_c
 
 
 def train(missing="2-missing", n_past: int | None = None, options: TrainOptions | None = None,
-          data_dir: str | Path | None = None, progress: bool = True) -> TrainResult:
+          data_dir: str | Path | None = None, progress: bool = True, spec: DvlSpec | None = None) -> TrainResult:
     """Train the regressor for ``missing`` on the BeamsNet ``V.npy`` data and build its model card.
 
-    Beams are made from ``V.npy`` with the default :class:`~graphnav.core.config.DvlSpec` error model and
-    ``options.beam_seed``; the first 75 % of the pings train, the last 25 % validate (no window crosses
-    the cut); metrics on ``V_test.npy`` are added to the card.
+    Beams are made from ``V.npy`` with the DVL ``spec`` (default :class:`~graphnav.core.config.DvlSpec`: the
+    Snapir's; the card records it, and the estimators bind the network to it) and ``options.beam_seed``; the first
+    75 % of the pings train, the last 25 % validate (no window crosses the cut); metrics on ``V_test.npy`` are added to
+    the card.
     """
     opt = options or TrainOptions()
     missing = normalize_missing(missing)
+    spec = beamdata.training_spec(spec)
     torch.manual_seed(opt.seed)
     model = BeamRegressor(missing, n_past)
     d = beamdata._data_dir(data_dir, "beamsnet")
-    series = {s: beamdata.beamsnet_series(s, d, opt.beam_seed, align_yaw_deg=opt.align_yaw_deg)
+    series = {s: beamdata.beamsnet_series(s, d, opt.beam_seed, spec, align_yaw_deg=opt.align_yaw_deg)
               for s in ("train", "val", "test")}
     samples = {s: beamdata.windows(v, model.n_past) for s, v in series.items()}
     t0 = time.perf_counter()
-    history = fit(model, samples["train"], samples["val"], opt, progress)
+    history = fit(model, samples["train"], samples["val"], opt, progress, spec)
     train_time = time.perf_counter() - t0
-    metrics = {split: network_metrics(model, samples[split], missing) for split in ("val", "test")}
+    geometry = DvlGeometry.from_spec(spec)
+    metrics = {split: network_metrics(model, samples[split], missing, geometry) for split in ("val", "test")}
     # The minimum calibrated alternative to the head: one sigma per beam, the validation residual RMS.
     constant_sigma = metrics["val"]["beam_rmse_per_beam"]
     mse_hist = [h for h in history if h["stage"] == "mse"]
@@ -210,7 +215,7 @@ def train(missing="2-missing", n_past: int | None = None, options: TrainOptions 
         "data": {
             "source": "snapir-2021-beamsnet (ansfl/BeamsNet, May 2021), V.npy; test V_test.npy",
             "V_sha256": file_sha256(d / "V.npy"),
-            "beam_model": beam_model_record(),
+            "beam_model": beam_model_record(spec),
             "beam_seed": opt.beam_seed,
             "align_yaw_deg": opt.align_yaw_deg,
         },

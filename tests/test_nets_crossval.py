@@ -287,3 +287,43 @@ def test_fading_recipe_reaches_the_completer_and_its_card(tmp_path):
     assert load_completer(3, directory=tmp_path, run_decay=1.0).takes_run_steps is False
     with pytest.raises(ConfigError, match="run_decay"):
         cv.Variant("bad", run_decay=(("2-missing", 0.0),))
+
+
+def test_a_recipe_trained_for_another_dvl_is_bound_to_that_dvl():
+    """``train_network(..., spec=)`` (what ``graphnav train-beams --recipe NAME --config JSON`` runs): its augmented
+    copies are that DVL's beams, and its card records that DVL, so an estimator on that DVL lets it complete and one
+    on the Snapir's DVL does not."""
+    from graphnav.core.dvl import DvlGeometry
+    rdi = replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    T_rdi, T_default = DvlGeometry.from_spec(rdi).T_b, DvlGeometry.from_spec(DvlSpec()).T_b
+
+    def rdi_series(name, seed, phase):
+        s = _series(name, seed=seed, phase=phase)
+        return beamdata.BeamSeries(name, s.v_b, make_beams(s.v_b, rdi, seed))
+    train = {"akit": [rdi_series(f"Trajectory{t}", t, 13.0 * t) for t in (1, 2)], "beamsnet": []}
+    tiny = cv.Variant("tiny", akit=True, residual=True, copies=1, epochs=1, patience=1, sigma_epochs=1,
+                      batch_size=64)
+    copy = cv.augment(train["akit"][:1], tiny, seed=0, spec=rdi)[1]
+    # the copy's beams are the RDI head's (noise 0.042 m/s, bias 0.01 m/s), not the Snapir head's
+    assert np.abs(copy.beams - copy.v_b @ T_rdi.T).max() < 0.25
+    assert np.abs(copy.beams - copy.v_b @ T_default.T).max() > 0.5
+    net = cv.train_network(train, "3-missing", tiny, seed=1, spec=rdi)
+    np.testing.assert_allclose(net.trained_T_b, T_rdi)
+    assert net.bind_dvl(T_rdi) == []
+    assert "azimuths 45, 135, 225, 315 deg" in net.bind_dvl(T_default)[0]
+    assert net.trained_ping_period_s == 1.0                  # the recordings' rate
+    default = cv.train_network({"akit": [_series("Trajectory1", seed=1)], "beamsnet": []}, "3-missing", tiny, seed=1)
+    assert default.bind_dvl(T_default) == []
+
+
+def test_the_training_commands_take_a_dvl_and_refuse_it_where_they_cannot(tmp_path, capsys):
+    from graphnav.cli import main
+    assert main(["train-beams", "--imu", "--config", str(tmp_path / "none.json"), "--out", str(tmp_path / "o")]) != 0
+    assert "--imu cannot be trained for another DVL" in capsys.readouterr().err
+    assert main(["eval-beams", "--config", str(tmp_path / "none.json")]) != 0
+    assert "--config goes with --folds" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"dvl": {"psi_rad": [0.0, 1.0]}}')
+    assert main(["train-beams", "--recipe", "akit-residual-aug-ens5-fade", "--config", str(bad), "--out",
+                 str(tmp_path / "o")]) != 0
+    assert "bad.json" in capsys.readouterr().err and not (tmp_path / "o").exists()

@@ -487,3 +487,9 @@ def exit_status(summary: dict) -> int:
     """:data:`EXIT_DIVERGED` when the run's health state is diverged, else 0."""
     return EXIT_DIVERGED if (summary.get("health") or {}).get("state") == "diverged" else 0
 
+
+def config_dvl(path):
+    """The DVL of the sensor configuration ``path`` (``--config``), None without one (the default, the Snapir's);
+    :class:`ConfigError` naming the file on a bad one."""
+    from graphnav.core.config import SensorConfig
+    return SensorConfig.load(path).dvl if path else None

@@ -56,6 +56,10 @@ def register(subparsers) -> None:
     p.add_argument("--save-nets", default=None, metavar="DIR",
                    help="with --folds: also save each fold's network to DIR/<variant>/fold<k> (weights and card), "
                         "for studies that run it on that fold's held-out trajectories")
+    p.add_argument("--config", metavar="JSON", default=None,
+                   help="with --folds: the DVL of this sensor configuration (its beam directions and errors): the "
+                        "recordings' beams are made for it, each fold's networks trained for it and scored with it "
+                        "(default: the Snapir's DVL), as `graphnav train-beams --recipe NAME --config JSON` trains")
     p.set_defaults(func=run)
 
 
@@ -133,8 +137,13 @@ def run_folds(args) -> int:
     if unknown:
         raise ConfigError(f"--variant {unknown[0]!r} unknown; choose from {list(crossval.VARIANTS)}")
     torch.set_num_threads(args.threads)
-    data = crossval.load_fold_data(args.akit, args.beamsnet, args.beam_seed)
+    from graphnav.commands.common import config_dvl
+    data = crossval.load_fold_data(args.akit, args.beamsnet, args.beam_seed, spec=config_dvl(args.config))
     print(crossval.fold_table(data))
+    if args.config:
+        from graphnav.core.dvl import DvlGeometry
+        from graphnav.nets.dvl_match import describe_beams
+        print(f"DVL of {args.config}: beams {describe_beams(DvlGeometry.from_spec(data.spec).T_b)}")
     rows = []
     for name in names:
         for scen in args.scenario or ("2-missing", "3-missing"):
@@ -157,6 +166,10 @@ def run(args) -> int:
     from graphnav.nets.evaluate import evaluate_all, format_table
 
     check_out_file(args.json, force=True, option="--json")
+    if args.config and not args.folds:
+        from graphnav.core.errors import ConfigError
+        raise ConfigError("--config goes with --folds (the other tables score the shipped networks on the DVL they "
+                          "were trained for)")
     if args.folds:
         return run_folds(args)
     if args.imu:

@@ -66,6 +66,11 @@ def register(subparsers) -> None:
                         "recipe of graphnav.nets.imu_recipes.IMU_RECIPES (graded: the schedule and IMU-grade "
                         "copies of the leave-trajectories-out study; graded-fade, the shipped one: the same "
                         "networks fading to the average through an outage) trained on all ten A-KIT trajectories")
+    p.add_argument("--config", metavar="JSON", default=None,
+                   help="train the beam-only networks for the DVL of this sensor configuration (its dvl.theta_rad, "
+                        "dvl.psi_rad, dvl.C_d_b and beam errors; e.g. from `graphnav calibrate`): their beams are made "
+                        "from the recorded velocities with it, the model card records it, and the estimators bind the "
+                        "networks to it (default: the Snapir's DVL, DvlSpec's default). Not with --imu")
     p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
                    help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
                         "and worst-fold numbers of this recipe go into the model card ('out_of_fold')")
@@ -123,6 +128,7 @@ def run_recipe(args, out: Path) -> list[Path]:
     """``--recipe``: train a cross-validated recipe on every recording into ``out``; returns the files written."""
     import torch
 
+    from graphnav.commands.common import config_dvl
     from graphnav.nets import crossval
     from graphnav.nets.training import save
 
@@ -139,7 +145,7 @@ def run_recipe(args, out: Path) -> list[Path]:
     written = []
     for scenario in scenarios:
         result = crossval.train_final(scenario, args.recipe, akit, beamsnet, args.beam_seed, args.seed,
-                                      summary=summary, progress=not args.no_progress)
+                                      summary=summary, progress=not args.no_progress, spec=config_dvl(args.config))
         written += list(save(result, out))
         print(f"{scenario}: recipe {args.recipe}, {result.card['training']['time_s']:.1f} s; "
               f"chosen by {result.card['selected_by']}")
@@ -178,8 +184,14 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> 
 
 
 def run(args) -> int:
-    from graphnav.commands.common import StagedOut
+    from graphnav.commands.common import StagedOut, config_dvl
 
+    if args.config and args.imu:
+        raise ConfigError("--config trains the beam-only networks for another DVL; the IMU-aware network holds the "
+                          "Snapir DVL's beam geometry in its architecture (ImuBeamRegressor.T_b), so --imu cannot be "
+                          "trained for another DVL yet: drop --config, or --imu")
+    if args.config:
+        config_dvl(args.config)          # a bad file is said before any training
     if args.out_of_fold and (not args.recipe or args.imu):
         raise ConfigError("--out-of-fold goes with a beam-only --recipe: it names the rows that chose the recipe")
 
@@ -211,6 +223,7 @@ def install_weights(files: list[Path]) -> None:
 
 def run_beams(args, out: Path) -> list[Path]:
     """Train the beam-only regressors into ``out``; returns the files written."""
+    from graphnav.commands.common import config_dvl
     from graphnav.nets.training import TrainOptions, save, train
 
     written = []
@@ -226,7 +239,8 @@ def run_beams(args, out: Path) -> list[Path]:
                        beam_seed=args.beam_seed, threads=args.threads,
                        align_yaw_deg=args.align_yaw)
     for missing in targets:
-        result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress)
+        result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress,
+                       spec=config_dvl(args.config))
         pt, js = save(result, out)
         written += [pt, js]
         card = result.card
