@@ -123,6 +123,7 @@ def write_config(dvl: str, path: str) -> None:
     from pathlib import Path
     spec = spec_of(DVLS[dvl][1])
     fields = {k: np.asarray(getattr(spec, k)).tolist() for k in DVLS[dvl][1]}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps({"dvl": fields}, indent=1) + "\n")
 
 
@@ -361,6 +362,10 @@ def main(argv=None) -> int:
     p.add_argument("--write-config", nargs=2, metavar=("DVL", "FILE"), help="instead: write a sensor configuration "
                    "whose DVL is DVL (one of --dvls' names) to FILE, for graphnav train-beams / eval-beams --config")
     a = p.parse_args(argv)
+    if a.write_config and a.write_config[0] not in DVLS:
+        p.error(f"--write-config: no DVL {a.write_config[0]!r}; choose from {', '.join(DVLS)}")
+    if a.fold_nets and not (a.estimator and len(a.dvls) == 1):
+        p.error("--fold-nets goes with --estimator and the one DVL its networks were trained for (--dvls NAME)")
     if a.write_config:
         write_config(*a.write_config)
         return 0

@@ -254,6 +254,7 @@ def train_network(train: dict[str, list], missing, variant: Variant, seed: int =
     from .network import NetworkCompleter
     from .training import training_envelope
 
+    spec = beamdata.training_spec(spec)
     recordings = train["beamsnet"] + (train["akit"] if variant.akit else [])
     if not recordings:
         raise DataError("no training recordings in this fold", "crossval")
@@ -430,6 +431,7 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
     missing = normalize_missing(missing)
     scen = scenario_name(missing)
     geometry = DvlGeometry.from_spec(data.spec)
+    dvl = dvl_name(data.spec)
     rows = []
     for i in range(len(data.folds)):
         t0 = time.perf_counter()
@@ -452,11 +454,18 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
                 for mname, comp in (("network", net), ("average", avg)):
                     rows.append({"fold": i, "held_out": list(data.folds[i]) if dname == "A-KIT" else
                                  [s.name for s in series], "dataset": dname, "scenario": scen, "mode": mode,
-                                 "method": mname, "variant": variant.name,
+                                 "method": mname, "variant": variant.name, "dvl": dvl,
                                  **_score(comp, series, missing, mode, geometry)})
         if log is not None:
             log(f"{scen} {variant.name} fold {i} {list(data.folds[i])}: {time.perf_counter() - t0:.0f} s")
     return rows
+
+
+def dvl_name(spec: DvlSpec | None = None) -> str:
+    """How fold rows name the DVL they were made for (its beams, :func:`graphnav.nets.dvl_match.describe_beams`);
+    rows without one are the default :class:`DvlSpec`'s."""
+    from .dvl_match import describe_beams
+    return describe_beams(DvlGeometry.from_spec(spec or DvlSpec()).T_b)
 
 
 def summarise(rows: list[dict]) -> list[dict]:

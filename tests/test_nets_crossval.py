@@ -289,12 +289,12 @@ def test_fading_recipe_reaches_the_completer_and_its_card(tmp_path):
         cv.Variant("bad", run_decay=(("2-missing", 0.0),))
 
 
-def test_a_recipe_trained_for_another_dvl_is_bound_to_that_dvl():
+def test_a_recipe_trained_for_another_dvl_is_bound_to_that_dvl(monkeypatch):
     """``train_network(..., spec=)`` (what ``graphnav train-beams --recipe NAME --config JSON`` runs): its augmented
-    copies are that DVL's beams, and its card records that DVL, so an estimator on that DVL lets it complete and one
-    on the Snapir's DVL does not."""
+    copies are that DVL's beams, its card records that DVL at the recordings' 1 Hz whatever the configuration's rate,
+    so an estimator on that DVL lets it complete and one on the Snapir's DVL does not."""
     from graphnav.core.dvl import DvlGeometry
-    rdi = replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    rdi = replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]), rate_hz=4.0)
     T_rdi, T_default = DvlGeometry.from_spec(rdi).T_b, DvlGeometry.from_spec(DvlSpec()).T_b
 
     def rdi_series(name, seed, phase):
@@ -304,16 +304,50 @@ def test_a_recipe_trained_for_another_dvl_is_bound_to_that_dvl():
     tiny = cv.Variant("tiny", akit=True, residual=True, copies=1, epochs=1, patience=1, sigma_epochs=1,
                       batch_size=64)
     copy = cv.augment(train["akit"][:1], tiny, seed=0, spec=rdi)[1]
-    # the copy's beams are the RDI head's (noise 0.042 m/s, bias 0.01 m/s), not the Snapir head's
+    # the copy's beams are the RDI head's (the default spec's noise 0.042 m/s and bias 0.01 m/s), not the Snapir head's
     assert np.abs(copy.beams - copy.v_b @ T_rdi.T).max() < 0.25
     assert np.abs(copy.beams - copy.v_b @ T_default.T).max() > 0.5
+    made_for = []                                           # the DVLs the training's augmented copies were made for
+    monkeypatch.setattr(cv, "make_beams", lambda v, spec, rng: made_for.append(spec) or make_beams(v, spec, rng))
     net = cv.train_network(train, "3-missing", tiny, seed=1, spec=rdi)
+    assert made_for and all(np.allclose(DvlGeometry.from_spec(m).T_b, T_rdi) for m in made_for)
     np.testing.assert_allclose(net.trained_T_b, T_rdi)
     assert net.bind_dvl(T_rdi) == []
     assert "azimuths 45, 135, 225, 315 deg" in net.bind_dvl(T_default)[0]
-    assert net.trained_ping_period_s == 1.0                  # the recordings' rate
+    assert net.trained_ping_period_s == 1.0                  # the recordings' rate, not the configuration's 4 Hz
     default = cv.train_network({"akit": [_series("Trajectory1", seed=1)], "beamsnet": []}, "3-missing", tiny, seed=1)
     assert default.bind_dvl(T_default) == []
+
+
+def test_folds_for_another_dvl_are_scored_with_its_geometry_and_say_so():
+    """``crossval`` on ``FoldData`` made for another DVL scores velocities with that DVL's geometry (least squares of
+    its beams) and names the DVL in every row, which ``train-beams --out-of-fold`` checks."""
+    from graphnav.commands.train_beams import out_of_fold_summary
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.evaluate import completion_metrics
+    rdi = replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+
+    def series(name, seed):
+        s = _series(name, seed=seed, phase=7.0 * seed)
+        return beamdata.BeamSeries(name, s.v_b, make_beams(s.v_b, rdi, seed))
+    akit = {t: [series(f"Trajectory{t}", t)] for t in (1, 2, 3, 4)}
+    data = cv.FoldData(akit, [], [], cv.check_folds([(1, 3), (2, 4)]), rdi)
+    tiny = cv.Variant("tiny", akit=True, residual=True, epochs=1, patience=1, sigma_epochs=1, batch_size=64)
+    rows = cv.crossval(data, "2-missing", tiny, outage=False)
+    assert {r["dvl"] for r in rows} == {cv.dvl_name(rdi)} and cv.dvl_name(rdi) != cv.dvl_name()
+    avg = next(r for r in rows if r["fold"] == 0 and r["method"] == "average")
+    samples = beamdata.windows(akit[1] + akit[3], 3)
+    full, sigma = predict_completer(AverageCompleter(3), samples, (0, 2))
+    for spec, same in ((rdi, True), (DvlSpec(), False)):
+        vel = completion_metrics(full, sigma, samples, (0, 2), DvlGeometry.from_spec(spec))["vel_rmse"]
+        assert np.isclose(vel, avg["vel_rmse"]) == same
+    import json
+    import tempfile
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as fh:
+        json.dump(rows, fh)
+    assert out_of_fold_summary([fh.name], "tiny", ["2-missing"], rdi)
+    with pytest.raises(ConfigError, match="rows made for another DVL"):
+        out_of_fold_summary([fh.name], "tiny", ["2-missing"])
 
 
 def test_the_training_commands_take_a_dvl_and_refuse_it_where_they_cannot(tmp_path, capsys):
@@ -327,3 +361,10 @@ def test_the_training_commands_take_a_dvl_and_refuse_it_where_they_cannot(tmp_pa
     assert main(["train-beams", "--recipe", "akit-residual-aug-ens5-fade", "--config", str(bad), "--out",
                  str(tmp_path / "o")]) != 0
     assert "bad.json" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    from graphnav.commands.train_beams import warn_off_rate
+    with pytest.warns(RuntimeWarning, match="x.json: dvl.rate_hz = 4 Hz.*leave every ping to the average"):
+        warn_off_rate(replace(DvlSpec(), rate_hz=4.0), "x.json")
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_off_rate(replace(DvlSpec(), rate_hz=0.5), "x.json")       # pings 2 s apart: the networks serve them

@@ -69,8 +69,10 @@ def register(subparsers) -> None:
     p.add_argument("--config", metavar="JSON", default=None,
                    help="train the beam-only networks for the DVL of this sensor configuration (its dvl.theta_rad, "
                         "dvl.psi_rad, dvl.C_d_b and beam errors; e.g. from `graphnav calibrate`): their beams are made "
-                        "from the recorded velocities with it, the model card records it, and the estimators bind the "
-                        "networks to it (default: the Snapir's DVL, DvlSpec's default). Not with --imu")
+                        "from the recorded velocities with it, one a ping 1 s apart whatever its dvl.rate_hz (a rate "
+                        "the estimators would refuse is warned about), the model card records it, and the estimators "
+                        "bind the networks to it (default: the Snapir's DVL, DvlSpec's default). With "
+                        "--install-weights they replace the shipped Snapir networks. Not with --imu")
     p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
                    help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
                         "and worst-fold numbers of this recipe go into the model card ('out_of_fold')")
@@ -140,7 +142,8 @@ def run_recipe(args, out: Path) -> list[Path]:
     if args.data:
         akit, beamsnet = Path(args.data) / "snapir-2022-akit", Path(args.data) / "snapir-2021-beamsnet"
     scenarios = args.scenario or ["2-missing", "3-missing"]
-    summary = out_of_fold_summary(args.out_of_fold, args.recipe, scenarios) if args.out_of_fold else None
+    summary = (out_of_fold_summary(args.out_of_fold, args.recipe, scenarios, config_dvl(args.config))
+               if args.out_of_fold else None)
     torch.set_num_threads(args.threads)
     written = []
     for scenario in scenarios:
@@ -152,9 +155,10 @@ def run_recipe(args, out: Path) -> list[Path]:
     return written
 
 
-def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> list[dict]:
+def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spec=None) -> list[dict]:
     """Pooled and worst-fold rows (:func:`graphnav.nets.crossval.summarise`) of ``recipe`` from the fold rows in
-    ``files`` (``eval-beams --folds --json``); a file that is not such rows, or rows missing a scenario, is a
+    ``files`` (``eval-beams --folds --json``) made for the DVL ``spec`` (default: the Snapir's; rows that name no DVL
+    are its); a file that is not such rows, rows missing a scenario, or rows made for another DVL is a
     ``ConfigError`` naming it."""
     from graphnav.nets import crossval
 
@@ -166,7 +170,13 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> 
             raise ConfigError(f"--out-of-fold {name}: cannot read it as JSON ({exc})") from exc
         if not isinstance(loaded, list) or not all(isinstance(r, dict) and "fold" in r for r in loaded):
             raise ConfigError(f"--out-of-fold {name}: not the fold rows of 'graphnav eval-beams --folds --json'")
-        rows += [r for r in loaded if r.get("variant") == recipe]
+        ours = [r for r in loaded if r.get("variant") == recipe]
+        dvl = crossval.dvl_name(spec)
+        other = {r.get("dvl", crossval.dvl_name()) for r in ours} - {dvl}
+        if other:
+            raise ConfigError(f"--out-of-fold {name}: rows made for another DVL ({sorted(other)[0]}); this training is "
+                              f"for {dvl} (--config)")
+        rows += ours
     missing = [s for s in scenarios if not any(r.get("scenario") == s for r in rows)]
     if missing:
         raise ConfigError(f"--out-of-fold {' '.join(files)}: no rows of recipe {recipe!r} for {', '.join(missing)}")
@@ -183,6 +193,21 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str]) -> 
     return crossval.summarise(rows)
 
 
+def warn_off_rate(spec, source: str) -> None:
+    """Warn when the DVL ``spec`` of ``source`` pings at a rate whose pings the networks, trained on pings 1 s apart,
+    would leave to the average estimator (:mod:`graphnav.nets.dvl_match`)."""
+    import warnings
+
+    from graphnav.core.dvl import off_period
+    from graphnav.nets.data import RECORDED_PING_RATE_HZ
+    from graphnav.nets.dvl_match import LONGEST_PAST_INTERVAL_PERIODS
+    if off_period([1.0 / spec.rate_hz], 1.0 / RECORDED_PING_RATE_HZ, LONGEST_PAST_INTERVAL_PERIODS):
+        warnings.warn(f"{source}: dvl.rate_hz = {spec.rate_hz:g} Hz; the networks are trained on the recordings' "
+                      f"pings, {1.0 / RECORDED_PING_RATE_HZ:g} s apart, and on a DVL pinging at {spec.rate_hz:g} Hz "
+                      "the estimators leave every ping to the average estimator (completer_fallbacks['period'])",
+                      RuntimeWarning, stacklevel=2)
+
+
 def run(args) -> int:
     from graphnav.commands.common import StagedOut, config_dvl
 
@@ -191,7 +216,7 @@ def run(args) -> int:
                           "Snapir DVL's beam geometry in its architecture (ImuBeamRegressor.T_b), so --imu cannot be "
                           "trained for another DVL yet: drop --config, or --imu")
     if args.config:
-        config_dvl(args.config)          # a bad file is said before any training
+        warn_off_rate(config_dvl(args.config), args.config)     # and a bad file is said before any training
     if args.out_of_fold and (not args.recipe or args.imu):
         raise ConfigError("--out-of-fold goes with a beam-only --recipe: it names the rows that chose the recipe")
 
