@@ -165,3 +165,22 @@ def test_the_ping_rate_study_reports_bound_rows():
     rows = study.ping_rate_rows([5.0], duration_s=120.0)
     assert len(rows) == 2 and all(r.startswith("| simulated, 5 Hz |") for r in rows)
     assert all("| 1.00 / 1.00 | 100 % | - |" in r for r in rows)           # bound: every ping the average's
+
+
+def test_online_on_a_dvl_pinging_faster_says_it_once_and_counts_it(tmp_path, capsys):
+    """`graphnav online` aligning from the sensors on a simulated DVL pinging at 4 Hz: one warning in the whole run
+    (not one a ping), and the summary counts the run's pings under "period" and prints them."""
+    import json
+
+    from graphnav.cli import main
+    config = tmp_path / "fast.json"
+    config.write_text(json.dumps({"dvl": {"rate_hz": 4.0}}))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["online", "--duration", "200", "--config", str(config), "--scenario", "3-missing",
+                     "--method", "HNTC", "--init", "sensors", "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    said = [w for w in caught if "completer_fallbacks['period']" in str(w.message)]
+    assert len(said) == 1
+    counts = json.loads((tmp_path / "out" / "summary.json").read_text())["completer_fallbacks"]
+    assert counts["period"] > 0 and counts["dvl"] == 0
+    assert f"{counts['period']} for past pings not spaced as it was trained for" in capsys.readouterr().out

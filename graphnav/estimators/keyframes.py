@@ -176,7 +176,9 @@ class Keyframer:
                               "completer_fallbacks['dvl']). If the DVL is the one they were trained for, check "
                               "dvl.theta_rad, dvl.psi_rad and dvl.C_d_b in the configuration; Graph-HN and Graph-HNP "
                               "complete without networks", RuntimeWarning, stacklevel=1)
-        self._warned_period = False                              # said once: a ping whose past is off the period
+        #: whether the warning on a ping whose past is not spaced as the network was trained has been given (once a
+        #: run: a keyframer that takes over from another, as the Navigator's after aligning, takes this over too)
+        self.warned_period = False
         self._T_d = DvlGeometry.from_spec(config.dvl).T_d
         self._period = 1.0 / config.imu_rate_hz
         self._gap_limit = IMU_GAP_PERIODS * self._period
@@ -453,9 +455,8 @@ class Keyframer:
             self._observe(t, ping.beams)
         off_period_before, past_dt = self._period_fallbacks(), self.history.past_dt(t)
         result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu, t=t)
-        if self._period_fallbacks() > off_period_before and not self._warned_period:
-            self._warned_period = True
-            # no stamp in the text, so that the Navigator's second keyframer (after aligning) does not say it again
+        if self._period_fallbacks() > off_period_before and not self.warned_period:
+            self.warned_period = True
             warnings.warn("dvl: a ping is completed by the average estimator, not the completer's network: the "
                           "intervals of its past pings (the newest one's to the ping) are "
                           f"{', '.join(f'{x:.3g}' for x in past_dt)} s, not the spacing the network was trained "

@@ -640,8 +640,11 @@ class Navigator:
             self.alignment = al = a.result()
             return self._start(initial_from_alignment(al))
         self.alignment = al
-        # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer
+        # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer; what the
+        # first one has said is not said again
+        warned_period = self.keyframer.warned_period
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
+        self.keyframer.warned_period = warned_period
         out = self._start(initial_from_alignment(al))
         replayed = [e for e in events if e[1] >= t_first]
         events.clear()
