@@ -33,23 +33,24 @@ import numpy as np
 METRICS = ("beam_rmse", "vel_rmse")
 
 
-def score(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) -> list[dict]:
+def score(nets_dir: str, scenario: str, decays: list[float], akit_dir=None, spec=None) -> list[dict]:
     """Rows (fold, variant, method, decay, beam_rmse, vel_rmse, n) of every fold's beam-only network with each
     decay and of the average estimator, through recursive 30-ping outages of the fold's held-out A-KIT
-    trajectories."""
+    trajectories, their beams made for the DVL ``spec`` (default: the Snapir's; the one the fold networks were trained
+    for, ``graphnav eval-beams --folds --config``)."""
     from graphnav.nets import crossval
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.model import normalize_missing
     from graphnav.nets.network import load_completer
 
-    data = crossval.load_fold_data(akit_dir)
+    data = crossval.load_fold_data(akit_dir, spec=spec)
     missing = list(normalize_missing(scenario))
     rows = []
     for i in range(len(data.folds)):
         series = [s for s in data.split(i)[1]["A-KIT"] if len(s.beams) > 7]
         comps = [("average", 1.0, AverageCompleter(AVERAGE_N_PAST[scenario]))] + [
             ("network", g, load_completer(scenario, directory=f"{nets_dir}/fold{i}", run_decay=g)) for g in decays]
-        rows += _rollouts(comps, series, missing, {"fold": i, "variant": "beam-only"})
+        rows += _rollouts(comps, series, missing, {"fold": i, "variant": "beam-only"}, spec=data.spec)
         print(f"fold {i} {list(data.folds[i])} done", file=sys.stderr, flush=True)
     return rows
 
@@ -80,13 +81,13 @@ def score_imu(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) 
 WINDOW = 30     # pings per outage window (outage_rollout's default)
 
 
-def _rollouts(comps, series, missing, keys: dict, settle: int = 10) -> list[dict]:
+def _rollouts(comps, series, missing, keys: dict, settle: int = 10, spec=None) -> list[dict]:
     """One row per completer; ``window_sq`` keeps each outage window's summed squared beam and velocity errors for
-    the interval over windows (:func:`window_interval`)."""
+    the interval over windows (:func:`window_interval`); velocities with the DVL ``spec`` (default the Snapir's)."""
     from graphnav.core.config import DvlSpec
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
-    geometry = DvlGeometry.from_spec(DvlSpec())
+    geometry = DvlGeometry.from_spec(spec or DvlSpec())
     rows = []
     for method, g, comp in comps:
         full, sigma, samples = outage_rollout(comp, series, missing, window=WINDOW, gap=60, settle=settle)
@@ -216,8 +217,16 @@ def main(argv=None) -> int:
                    help="gammas to score (default 1 0.98 0.95 0.9 0.8)")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--json", help="also write the rows here")
+    p.add_argument("--config", metavar="JSON", help="beam-only: the DVL of this sensor configuration, the one the fold "
+                   "networks were trained for (graphnav eval-beams --folds --config JSON --save-nets DIR)")
     a = p.parse_args(argv)
-    rows = (score_imu if a.imu else score)(a.nets, a.scenario, a.decays, a.data)
+    if a.config and a.imu:
+        p.error("--config goes with the beam-only fold networks (the IMU-aware ones serve the Snapir's DVL only)")
+    if a.imu:
+        rows = score_imu(a.nets, a.scenario, a.decays, a.data)
+    else:
+        from graphnav.commands.common import config_dvl
+        rows = score(a.nets, a.scenario, a.decays, a.data, config_dvl(a.config))
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=1)
