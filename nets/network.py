@@ -134,8 +134,8 @@ class NetworkCompleter(TrainedForOneDvl):
             (beams (4,), sigma (4,)) m/s; measured beams passed through with sigma 0.
 
         A ping that lacks more beams than the network's pattern (one of its inputs is missing too), of a DVL the
-        network is bound to and was not trained for (:meth:`bind_dvl`), whose past pings are not the trained ping
-        period apart (:meth:`period_mismatch`), or whose inputs lie outside its envelope, is filled by the average
+        network is bound to and was not trained for (:meth:`bind_dvl`), whose past pings are not spaced as in
+        training (:meth:`period_mismatch`), or whose inputs lie outside its envelope, is filled by the average
         estimator over the same past (counted in ``fallbacks["pattern"]`` / ``["dvl"]`` / ``["period"]`` /
         ``["envelope"]``).
 

@@ -141,9 +141,7 @@ def run_folds(args) -> int:
     data = crossval.load_fold_data(args.akit, args.beamsnet, args.beam_seed, spec=config_dvl(args.config))
     print(crossval.fold_table(data))
     if args.config:
-        from graphnav.core.dvl import DvlGeometry
-        from graphnav.nets.dvl_match import describe_beams
-        print(f"DVL of {args.config}: beams {describe_beams(DvlGeometry.from_spec(data.spec).T_b)}")
+        print(f"DVL of {args.config}: beams {crossval.dvl_name(data.spec)}")
     rows = []
     for name in names:
         for scen in args.scenario or ("2-missing", "3-missing"):

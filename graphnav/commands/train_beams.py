@@ -126,11 +126,11 @@ def run_imu(args, out: Path) -> list[Path]:
     return written
 
 
-def run_recipe(args, out: Path) -> list[Path]:
-    """``--recipe``: train a cross-validated recipe on every recording into ``out``; returns the files written."""
+def run_recipe(args, out: Path, spec=None) -> list[Path]:
+    """``--recipe``: train a cross-validated recipe on every recording into ``out`` for the DVL ``spec`` (``--config``;
+    None: the Snapir's); returns the files written."""
     import torch
 
-    from graphnav.commands.common import config_dvl
     from graphnav.nets import crossval
     from graphnav.nets.training import save
 
@@ -142,13 +142,12 @@ def run_recipe(args, out: Path) -> list[Path]:
     if args.data:
         akit, beamsnet = Path(args.data) / "snapir-2022-akit", Path(args.data) / "snapir-2021-beamsnet"
     scenarios = args.scenario or ["2-missing", "3-missing"]
-    summary = (out_of_fold_summary(args.out_of_fold, args.recipe, scenarios, config_dvl(args.config))
-               if args.out_of_fold else None)
+    summary = out_of_fold_summary(args.out_of_fold, args.recipe, scenarios, spec) if args.out_of_fold else None
     torch.set_num_threads(args.threads)
     written = []
     for scenario in scenarios:
         result = crossval.train_final(scenario, args.recipe, akit, beamsnet, args.beam_seed, args.seed,
-                                      summary=summary, progress=not args.no_progress, spec=config_dvl(args.config))
+                                      summary=summary, progress=not args.no_progress, spec=spec)
         written += list(save(result, out))
         print(f"{scenario}: recipe {args.recipe}, {result.card['training']['time_s']:.1f} s; "
               f"chosen by {result.card['selected_by']}")
@@ -162,6 +161,7 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spe
     ``ConfigError`` naming it."""
     from graphnav.nets import crossval
 
+    dvl, default_dvl = crossval.dvl_name(spec), crossval.dvl_name()
     rows = []
     for name in files:
         try:
@@ -171,8 +171,7 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spe
         if not isinstance(loaded, list) or not all(isinstance(r, dict) and "fold" in r for r in loaded):
             raise ConfigError(f"--out-of-fold {name}: not the fold rows of 'graphnav eval-beams --folds --json'")
         ours = [r for r in loaded if r.get("variant") == recipe]
-        dvl = crossval.dvl_name(spec)
-        other = {r.get("dvl", crossval.dvl_name()) for r in ours} - {dvl}
+        other = {r.get("dvl", default_dvl) for r in ours} - {dvl}
         if other:
             raise ConfigError(f"--out-of-fold {name}: rows made for another DVL ({sorted(other)[0]}); this training is "
                               f"for {dvl} (--config)")
@@ -215,8 +214,9 @@ def run(args) -> int:
         raise ConfigError("--config trains the beam-only networks for another DVL; the IMU-aware network holds the "
                           "Snapir DVL's beam geometry in its architecture (ImuBeamRegressor.T_b), so --imu cannot be "
                           "trained for another DVL yet: drop --config, or --imu")
-    if args.config:
-        warn_off_rate(config_dvl(args.config), args.config)     # and a bad file is said before any training
+    spec = config_dvl(args.config)          # read once, and a bad file is said before any training
+    if spec is not None:
+        warn_off_rate(spec, args.config)
     if args.out_of_fold and (not args.recipe or args.imu):
         raise ConfigError("--out-of-fold goes with a beam-only --recipe: it names the rows that chose the recipe")
 
@@ -224,7 +224,7 @@ def run(args) -> int:
         if args.imu:
             written = run_imu(args, staged.path)
         else:
-            written = run_recipe(args, staged.path) if args.recipe else run_beams(args, staged.path)
+            written = run_recipe(args, staged.path, spec) if args.recipe else run_beams(args, staged.path, spec)
     finals = [Path(staged.final(p)) for p in written]
     print("wrote " + ", ".join(str(p) for p in finals))
     if args.install_weights:
@@ -246,9 +246,9 @@ def install_weights(files: list[Path]) -> None:
     print(f"installed {', '.join(f.name for f in files)} into {target} (the weights every later run uses)")
 
 
-def run_beams(args, out: Path) -> list[Path]:
-    """Train the beam-only regressors into ``out``; returns the files written."""
-    from graphnav.commands.common import config_dvl
+def run_beams(args, out: Path, spec=None) -> list[Path]:
+    """Train the beam-only regressors into ``out`` for the DVL ``spec`` (``--config``; None: the Snapir's); returns
+    the files written."""
     from graphnav.nets.training import TrainOptions, save, train
 
     written = []
@@ -264,8 +264,7 @@ def run_beams(args, out: Path) -> list[Path]:
                        beam_seed=args.beam_seed, threads=args.threads,
                        align_yaw_deg=args.align_yaw)
     for missing in targets:
-        result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress,
-                       spec=config_dvl(args.config))
+        result = train(missing, args.n_past, opt, args.data, progress=not args.no_progress, spec=spec)
         pt, js = save(result, out)
         written += [pt, js]
         card = result.card

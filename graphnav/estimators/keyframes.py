@@ -453,9 +453,11 @@ class Keyframer:
                 self.stats.imu_window_missing[reason] += 1
         elif measured.all():
             self._observe(t, ping.beams)
-        off_period_before, past_dt = self._period_fallbacks(), self.history.past_dt(t)
+        # only a ping with beams to complete can be refused for its past's spacing, and it is said once a run
+        watch = not self.warned_period and not measured.all() and self.history.ready
+        off_period_before, past_dt = (self._period_fallbacks(), self.history.past_dt(t)) if watch else (0, None)
         result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu, t=t)
-        if self._period_fallbacks() > off_period_before and not self.warned_period:
+        if watch and self._period_fallbacks() > off_period_before:
             self.warned_period = True
             warnings.warn("dvl: a ping is completed by the average estimator, not the completer's network: the "
                           "intervals of its past pings (the newest one's to the ping) are "
