@@ -71,9 +71,10 @@ def score_imu(nets_dir: str, scenario: str, decays: list[float], akit_dir=None) 
     for i, held in enumerate(AKIT_FOLDS):
         comps = [("average", 1.0, AverageCompleter(AVERAGE_N_PAST[scenario]))] + [
             ("network", g, load_imu_completer(scenario, f"{nets_dir}/fold{i}", run_decay=g)) for g in decays]
+        spec = comps[-1][2].trained_dvl_spec        # the DVL the fold network was trained for (its card)
         for grade in EVAL_GRADES:
-            rows += _rollouts(comps, held_out_series(held, akit_dir, grade), missing,
-                              {"fold": i, "variant": f"IMU {grade}"}, settle=OUTAGE_SETTLE)
+            rows += _rollouts(comps, held_out_series(held, akit_dir, grade, spec), missing,
+                              {"fold": i, "variant": f"IMU {grade}"}, settle=OUTAGE_SETTLE, spec=spec)
         print(f"fold {i} {list(held)} done", file=sys.stderr, flush=True)
     return rows
 
@@ -221,7 +222,8 @@ def main(argv=None) -> int:
                    "networks were trained for (graphnav eval-beams --folds --config JSON --save-nets DIR)")
     a = p.parse_args(argv)
     if a.config and a.imu:
-        p.error("--config goes with the beam-only fold networks (the IMU-aware ones serve the Snapir's DVL only)")
+        p.error("--config goes with the beam-only fold networks (the IMU-aware ones are scored on the DVL their model "
+                "cards record)")
     if a.imu:
         rows = score_imu(a.nets, a.scenario, a.decays, a.data)
     else:

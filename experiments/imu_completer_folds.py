@@ -16,6 +16,8 @@ The schedule and IMU-grade copies are ``graphnav.nets.imu_recipes.IMU_RECIPES["g
 machine; it is what the decision page reports, and the recipe the shipped weights were trained with on all ten
 trajectories (``graphnav train-beams --imu --recipe graded``).
 Rows are written to ``--out`` after every fold; ``--report`` prints the tables of such a file again.
+``--config JSON`` trains and scores the fold networks for the DVL of a sensor configuration (beams made for it from
+the recorded velocities), as ``graphnav train-beams --imu --config`` trains the final ones.
 
 Calibration (``--calibrate DIR`` on the fold networks ``--save-nets DIR`` wrote): every fold network's and the
 average's completions on its held-out pair are kept; then for fold k, from the **other four folds'** held-out
@@ -48,10 +50,11 @@ EVAL_GRADES = ("recorded", "tactical", "mems")
 HELD_OUT_BEAM_SEED, HELD_OUT_IMU_SEED = 1000, 5000
 
 
-def held_out_series(held, akit_dir, grade: str) -> list:
-    """The held-out trajectories ``held`` as every scoring here sees them, with evaluation IMU ``grade``."""
+def held_out_series(held, akit_dir, grade: str, spec=None) -> list:
+    """The held-out trajectories ``held`` as every scoring here sees them, with evaluation IMU ``grade`` and beams made
+    for the DVL ``spec`` (default: the Snapir's; a fold network's ``trained_dvl_spec``)."""
     from graphnav.nets.imu_data import akit_imu_series, graded_series
-    return graded_series(akit_imu_series(held, akit_dir, HELD_OUT_BEAM_SEED), grade, HELD_OUT_IMU_SEED)
+    return graded_series(akit_imu_series(held, akit_dir, HELD_OUT_BEAM_SEED, spec=spec), grade, HELD_OUT_IMU_SEED)
 
 
 def calibration_fits(path, scenario: str) -> dict:
@@ -70,13 +73,14 @@ def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_d
     :func:`graphnav.nets.crossval.summarise` (the IMU-aware network is ``network``; the grade is the variant).
     With ``fused``, the network combined with the average by their sigmas (``imu+average``) is the ``network``
     of the variant "IMU <grade>, fused", beside a copy of the average's rows."""
+    from graphnav.nets.crossval import dvl_name
     from graphnav.nets.imu_evaluate import evaluate_imu
-    rows = []
+    rows, dvl = [], dvl_name(completer.trained_dvl_spec)
     for grade in EVAL_GRADES:
         for r in evaluate_imu((scenario,), held, akit_dir=akit_dir, completers={scenario: completer},
                               imu_grade=None if grade == "recorded" else grade, fused=fused,
                               beam_seed=HELD_OUT_BEAM_SEED, imu_seed=HELD_OUT_IMU_SEED):
-            base = {**r, "fold": fold, "held_out": list(held), "dataset": "A-KIT"}
+            base = {**r, "fold": fold, "held_out": list(held), "dataset": "A-KIT", "dvl": dvl}
             if r["method"] == "imu+average":
                 rows.append({**base, "method": "network", "variant": f"IMU {grade}, fused"})
                 continue
@@ -141,7 +145,7 @@ def held_out_arrays(held, scenario: str, network, akit_dir, grade: str) -> dict:
     from graphnav.nets.evaluate import outage_rollout, predict_completer
     from graphnav.nets.imu_data import imu_windows
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE, predict_imu_network
-    series = held_out_series(held, akit_dir, grade)
+    series = held_out_series(held, akit_dir, grade, network.trained_dvl_spec)
     average = AverageCompleter(AVERAGE_N_PAST[scenario])
     n_past = max(network.n_past, average.n_past)
     samples = imu_windows(series, n_past, network.imu_samples, network.ping_dt)
@@ -189,6 +193,7 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
     drift fitted" (the network's completions, its outage sigma grown with the fitted ``drift_std``) and "IMU
     <grade>, fused, rho and growth fitted" (:class:`~graphnav.nets.fused.FusedCompleter` with the fitted
     correlation and growths), each beside the average (history default growth), scored on the held-out pair."""
+    from graphnav.core.dvl import DvlGeometry
     from graphnav.estimators.history import BeamHistory
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.data import BeamSamples
@@ -197,6 +202,7 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     from graphnav.nets.outage_calibration import history_sigma
     miss = list(network.missing)
+    geometry = DvlGeometry.from_spec(network.trained_dvl_spec)
     a = arrays
     pp = BeamSamples(np.zeros((len(a["pp_beams"]), 0, 4)), a["pp_beams"], a["pp_v_b"])
     osamp = BeamSamples(np.zeros((len(a["out_beams"]), 0, 4)), a["out_beams"], a["out_v_b"])
@@ -205,7 +211,7 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
         return history_sigma(raw.reshape(-1, 30, 4), drift).reshape(-1, 4)
     default = BeamHistory(1).drift_std
     fused_pp = fuse(a["pp_full_net"], a["pp_sigma_net"], a["pp_full_avg"], a["pp_sigma_avg"], fit["rho"])
-    series = held_out_series(held, akit_dir, grade)
+    series = held_out_series(held, akit_dir, grade, network.trained_dvl_spec)
     fused = FusedCompleter(network, AverageCompleter(AVERAGE_N_PAST[scenario]), fit["rho"],
                            (fit["growth_net"], fit["growth_avg"]))
     f_full, f_sigma, f_samp = outage_rollout(fused, series, miss, gap=60, settle=OUTAGE_SETTLE)
@@ -225,8 +231,8 @@ def calibrated_rows(fold: int, held, scenario: str, network, akit_dir, grade: st
                else (a["out_full_avg"], grown(a["out_raw_avg"], default)))
         base = {"fold": fold, "held_out": list(held), "dataset": "A-KIT", "scenario": scenario, "mode": mode,
                 "variant": variant, **{k: v for k, v in fit.items()}}
-        net_m = completion_metrics(full, sigma, samp, miss)
-        avg_m = completion_metrics(*avg, samp, miss)
+        net_m = completion_metrics(full, sigma, samp, miss, geometry)
+        avg_m = completion_metrics(*avg, samp, miss, geometry)
         rows.append({**base, "method": "network", **net_m,
                      "beam_gain_pct": 100 * (1 - net_m["beam_rmse"] / avg_m["beam_rmse"]),
                      "vel_gain_pct": 100 * (1 - net_m["vel_rmse"] / avg_m["vel_rmse"])})
@@ -321,6 +327,9 @@ def main(argv=None) -> int:
     p.add_argument("--calibrate", metavar="DIR", help="the calibration study on the fold networks --save-nets "
                    "wrote to DIR: correlation and outage growth fitted on the other folds' held-out errors")
     p.add_argument("--train-only", action="store_true", help="with --save-nets: train and save, score nothing")
+    p.add_argument("--config", metavar="JSON", help="train the fold networks for the DVL of this sensor configuration "
+                   "(graphnav train-beams --imu --config); they are scored on beams made for it (default: the "
+                   "Snapir's DVL)")
     p.add_argument("--out", default="out/imu_folds/rows.json", help="rows (JSON), rewritten after every fold")
     p.add_argument("--report", nargs="+", metavar="ROWS_JSON", help="only print the tables of finished runs "
                    "(several files: folds run in separate processes, joined)")
@@ -328,13 +337,15 @@ def main(argv=None) -> int:
     if a.report:
         print(report([r for f in a.report for r in json.loads(Path(f).read_text())]))
         return 0
+    from graphnav.commands.common import config_dvl
     from graphnav.io.paths import akit_trajectories
-    from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.crossval import AKIT_FOLDS, dvl_name
     from graphnav.nets.imu_network import ImuNetworkCompleter
     from graphnav.nets.imu_training import train_imu
     from graphnav.nets.training import save
     from graphnav.nets.model import normalize_missing, scenario_name
     akit_dir = akit_trajectories(a.data)[0].parent
+    spec = config_dvl(a.config)
     scenario = scenario_name(normalize_missing(a.missing))
     opt = replace(study, epochs=a.epochs, rollout_epochs=a.rollout_epochs, rollout_stride=a.rollout_stride,
                   draws=a.draws, sigma_epochs=a.sigma_epochs, seed=a.seed, threads=1, imu_grades=tuple(a.grades))
@@ -344,6 +355,9 @@ def main(argv=None) -> int:
         print(report(calibrate(Path(a.calibrate), scenario, akit_dir, out)))
         return 0
     rows = json.loads(out.read_text()) if out.exists() else []
+    other = {r.get("dvl", dvl_name()) for r in rows} - {dvl_name(spec)}
+    if other:
+        raise SystemExit(f"{out} holds rows made for another DVL ({sorted(other)[0]}); give another --out")
     done = {r["fold"] for r in rows}
     for f in a.folds if a.folds is not None else range(len(AKIT_FOLDS)):
         if f in done:
@@ -352,7 +366,7 @@ def main(argv=None) -> int:
         held = AKIT_FOLDS[f]
         train = tuple(t for pair in AKIT_FOLDS for t in pair if t not in held)
         t0 = time.perf_counter()
-        result = train_imu(scenario, opt, akit_dir, progress=False, evaluate=False, trajectories=train)
+        result = train_imu(scenario, opt, akit_dir, progress=False, evaluate=False, trajectories=train, spec=spec)
         t1 = time.perf_counter()
         if a.save_nets:
             save(result, Path(a.save_nets) / f"fold{f}")

@@ -244,14 +244,25 @@ class Unbound:
         return getattr(self._completer, name)
 
 
+#: The methods of each estimator family the estimator check runs: the one without a completer (the ratios' base), the
+#: one with the average estimator, the one with the beam-only network, the one with the IMU-aware completer.
+FAMILIES = {"ekf": ("TC", "Average-TC", "HNTC", "HNTC-IMU"),
+            "graph": ("Graph-TC", "Graph-HN", "Graph-HN-net", "Graph-HNI")}
+
+
 def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, grade: str = "as-recorded",
-                   fold_nets=None) -> list[dict]:
-    """The paper's hybrid EKF (HNTC, beam-only networks) on each A-KIT trajectory with ``dvl``'s beams, through the
-    bench's outage windows of ``window_s`` (``graphnav.evaluation.bench.case_windows``) with IMU ``grade`` (the bench's
-    errors and seed): window VRMSE (m/s) of TC (no completer), Average-TC, HNTC unbound and HNTC as it runs now (bound:
-    on another DVL it is Average-TC). ``fold_nets``: a folder of networks trained for this DVL out of fold
-    (``graphnav eval-beams --folds --config ... --save-nets``: ``fold<k>`` folders whose cards name the trajectories
-    they held out); each trajectory is then also run with the one that held it out ("HNTC, trained for it")."""
+                   fold_nets=None, fold_imu_nets=None, family: str = "ekf") -> list[dict]:
+    """An estimator family (:data:`FAMILIES`: the paper's hybrid EKF, or the graph) on each A-KIT trajectory with
+    ``dvl``'s beams, through the bench's outage windows of ``window_s`` (``graphnav.evaluation.bench.case_windows``)
+    with IMU ``grade`` (the bench's errors and seed): window VRMSE (m/s) of the method without a completer (``TC`` /
+    ``Graph-TC``), the one with the average estimator, and the one with the beam-only network unbound and as it runs
+    now (bound: on another DVL it is the average's). ``fold_nets``: a folder of networks trained for this DVL out of
+    fold (``graphnav eval-beams --folds --config ... --save-nets``: ``fold<k>`` folders whose cards name the
+    trajectories they held out); each trajectory is then also run with the one that held it out ("<method>, trained for
+    it"). ``fold_imu_nets`` (with ``fold_nets``): a folder of IMU-aware networks trained for this DVL out of fold
+    (``experiments/imu_completer_folds.py --config ... --save-nets``); then also the IMU-aware method (``HNTC-IMU`` /
+    ``Graph-HNI``) as it runs now (bound) and with the fold networks that held each trajectory out
+    (:func:`held_out_imu_completer`)."""
     import warnings
     import zlib
 
@@ -264,6 +275,7 @@ def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, gr
     from graphnav.io.paths import akit_trajectories
     from graphnav.missions import load_akit
 
+    base, average, network, imu = FAMILIES[family]
     config = SensorConfig(dvl=spec_of(DVLS[dvl][1]))
     out = []
     for traj in akit_trajectories(akit_dir):
@@ -274,51 +286,89 @@ def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, gr
                 mission = degrade_imu(mission, grade, seed=zlib.crc32(traj.name.encode()) % 2**31)
             starts = case_windows(mission, window_s)
             run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
-            sols = {"TC": run_method(run, "TC", scenario), "Average-TC": run_method(run, "Average-TC", scenario),
-                    "HNTC, unbound": run_method(run, "HNTC", scenario,
-                                                completer=Unbound(network_completer(scenario)[0])),
-                    "HNTC": run_method(run, "HNTC", scenario)}
+            sols = {base: run_method(run, base, scenario), average: run_method(run, average, scenario),
+                    f"{network}, unbound": run_method(run, network, scenario,
+                                                      completer=Unbound(network_completer(scenario)[0])),
+                    network: run_method(run, network, scenario)}
             if fold_nets is not None:
-                sols["HNTC, trained for it"] = run_method(run, "HNTC", scenario,
-                                                          completer=held_out_network(fold_nets, scenario, traj.name))
+                sols[f"{network}, trained for it"] = run_method(
+                    run, network, scenario, completer=held_out_network(fold_nets, scenario, traj.name))
+            if fold_imu_nets is not None:
+                sols[imu] = run_method(run, imu, scenario)
+                sols[f"{imu}, trained for it"] = run_method(
+                    run, imu, scenario, completer=held_out_imu_completer(fold_imu_nets, fold_nets, scenario, traj.name))
         for s in starts:
             out.append({"dvl": DVLS[dvl][0], "scenario": scenario, "trajectory": traj.name, "start_s": s,
+                        "family": family,
                         **{name: vrmse(sol, mission.gt, s, s + window_s) for name, sol in sols.items()}})
     return out
 
 
-def held_out_network(folder, scenario: str, trajectory: str):
-    """The network of ``folder`` (``fold<k>`` subfolders of ``eval-beams --folds --save-nets``, any depth) whose
-    fold held out ``trajectory`` (``TrajectoryN``)."""
+def held_out_folder(folder, name: str, trajectory: str):
+    """The folder under ``folder`` (``fold<k>`` subfolders of ``eval-beams --folds --save-nets`` or
+    ``imu_completer_folds.py --save-nets``, any depth) whose model card ``<name>.json`` was not trained on
+    ``trajectory`` (``TrajectoryN``): its ``data["held_out"]``, or its training trajectories without it."""
     import json
     from pathlib import Path
 
-    from graphnav.nets import load_completer
     number = int(trajectory.removeprefix("Trajectory"))
-    for card in sorted(Path(folder).rglob(f"{scenario}.json")):
-        if number in json.loads(card.read_text())["data"].get("held_out", []):
-            return load_completer(scenario, directory=card.parent)
-    raise FileNotFoundError(f"{folder}: no {scenario} fold network held out {trajectory}")
+    for card_file in sorted(Path(folder).rglob(f"{name}.json")):
+        card = json.loads(card_file.read_text())
+        held = card["data"].get("held_out")
+        if (number in held) if held is not None else (number not in card["split"]["train_trajectories"]):
+            return card_file.parent
+    raise FileNotFoundError(f"{folder}: no {name} fold network held out {trajectory}")
+
+
+def held_out_network(folder, scenario: str, trajectory: str):
+    """The beam-only network of ``folder`` (:func:`held_out_folder`) whose fold held out ``trajectory``."""
+    from graphnav.nets import load_completer
+    return load_completer(scenario, directory=held_out_folder(folder, scenario, trajectory))
+
+
+def held_out_imu_completer(imu_folder, beam_folder, scenario: str, trajectory: str):
+    """``HNTC-IMU``'s completer built as the shipped one (:func:`graphnav.nets.imu_auto.load_imu_auto_completer`) from
+    the fold networks that held out ``trajectory``: the IMU-aware network of ``imu_folder`` fused with the beam-only
+    network of ``beam_folder``, which also serves the pings the IMU-aware one cannot."""
+    from graphnav.nets import load_completer
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION, ImuAutoCompleter
+    from graphnav.nets.imu_network import imu_weights_name, load_imu_completer
+    from graphnav.nets.network import AutoCompleter
+    decay = FUSED_RUN_DECAY[scenario]
+    imu_dir = held_out_folder(imu_folder, imu_weights_name(scenario), trajectory)
+    beam_dir = held_out_folder(beam_folder, scenario, trajectory)
+    net = load_imu_completer(scenario, imu_dir, run_decay=decay["IMU-aware"])
+    beam_only = AutoCompleter([load_completer(scenario, directory=beam_dir)], AverageCompleter(3))
+    fused = AutoCompleter([load_completer(scenario, directory=beam_dir, run_decay=decay["beam-only"])],
+                          AverageCompleter(3))
+    return ImuAutoCompleter([net], beam_only, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]}, fused_beam_only=fused)
 
 
 def estimator_report(rows: list[dict]) -> str:
-    """Mean window VRMSE over TC's, per DVL and scenario, how many windows HNTC unbound made worse than Average-TC by
-    more than 2 %, and, where the rows have them, the networks trained for the DVL out of fold (their mean and how many
-    windows they made worse than Average-TC by more than 2 %)."""
-    own = any("HNTC, trained for it" in r for r in rows)
-    lines = ["| DVL | scenario | windows | Average-TC | HNTC, unbound | HNTC | "
-             "windows HNTC unbound > 1.02x Average-TC |" + (" HNTC, trained for it | windows > 1.02x Average-TC |"
-                                                           if own else ""),
-             "| --- | --- | --- | --- | --- | --- | --- |" + (" --- | --- |" if own else "")]
-    for key in dict.fromkeys((r["dvl"], r["scenario"]) for r in rows):
-        sel = [r for r in rows if (r["dvl"], r["scenario"]) == key]
-        names = ("Average-TC", "HNTC, unbound", "HNTC") + (("HNTC, trained for it",) if own else ())
-        ratio = {k: np.mean([r[k] / r["TC"] for r in sel]) for k in names}
-        worse = {k: sum(r[k] > 1.02 * r["Average-TC"] for r in sel) for k in names}
-        lines.append(f"| {key[0]} | {key[1]} | {len(sel)} | {ratio['Average-TC']:.3f} | {ratio['HNTC, unbound']:.3f} "
-                     f"| {ratio['HNTC']:.3f} | {worse['HNTC, unbound']} |"
-                     + (f" {ratio['HNTC, trained for it']:.3f} | {worse['HNTC, trained for it']} |" if own else ""))
-    return "\n".join(lines)
+    """Per estimator family, DVL and scenario: the mean over the windows of each method's window VRMSE over the
+    method without a completer's (``TC`` / ``Graph-TC``); how many windows each made worse than the method with the
+    average estimator (``Average-TC`` / ``Graph-HN``) by more than 2 %; and how many windows each method with networks
+    trained for the DVL made worse by more than 2 % than the same method as it runs now (bound to the DVL, which
+    leaves the shipped networks' pings to the average)."""
+    lines = []
+    for family in dict.fromkeys(r.get("family", "ekf") for r in rows):
+        base, average = FAMILIES[family][:2]
+        ours = [r for r in rows if r.get("family", "ekf") == family]
+        names = [k for k in ours[0] if k not in ("dvl", "scenario", "trajectory", "start_s", "family", base)]
+        trained = [k for k in names if k.endswith(", trained for it") and k.removesuffix(", trained for it") in names]
+        lines += ["", "| DVL | scenario | windows | " + " | ".join(f"{k} / {base}" for k in names)
+                  + f" | windows > 1.02x {average}: " + "; ".join(k for k in names if k != average) + " |"
+                  + ("".join(f" windows {k} > 1.02x {k.removesuffix(', trained for it')} |" for k in trained)),
+                  "| --- | --- | --- | " + "--- | " * (len(names) + len(trained)) + "--- |"]
+        for key in dict.fromkeys((r["dvl"], r["scenario"]) for r in ours):
+            sel = [r for r in ours if (r["dvl"], r["scenario"]) == key]
+            ratio = {k: np.mean([r[k] / r[base] for r in sel]) for k in names}
+            worse = [str(sum(r[k] > 1.02 * r[average] for r in sel)) for k in names if k != average]
+            own = [sum(r[k] > 1.02 * r[k.removesuffix(", trained for it")] for r in sel) for k in trained]
+            lines.append(f"| {key[0]} | {key[1]} | {len(sel)} | " + " | ".join(f"{ratio[k]:.3f}" for k in names)
+                         + f" | {'; '.join(worse)} |" + "".join(f" {n} |" for n in own))
+    return "\n".join(lines[1:])
 
 
 def report(rows: list[dict]) -> str:
@@ -350,7 +400,14 @@ def main(argv=None) -> int:
     p.add_argument("--fold-nets", metavar="PREFIX", help="--estimator: also HNTC with networks trained for the DVL out "
                    "of fold, from PREFIX_<scenario> (graphnav eval-beams --folds --config C --scenario S --save-nets "
                    "PREFIX_S); each trajectory with the fold network that held it out")
+    p.add_argument("--fold-imu-nets", metavar="PREFIX", help="with --fold-nets: also HNTC-IMU, as it runs now and with "
+                   "IMU-aware networks trained for the DVL out of fold, from PREFIX_<scenario> (experiments/"
+                   "imu_completer_folds.py --config C --missing S --save-nets PREFIX_S), fused with --fold-nets' "
+                   "networks as the shipped ones are; each trajectory with the fold networks that held it out")
+    p.add_argument("--graph", action="store_true", help="--estimator: the graph's methods (Graph-TC, Graph-HN, "
+                   "Graph-HN-net, Graph-HNI) instead of the paper's EKF's (TC, Average-TC, HNTC, HNTC-IMU)")
     p.add_argument("--window-s", type=float, default=30.0, help="--estimator: outage length, s (default 30)")
+    p.add_argument("--json", metavar="FILE", help="--estimator: also write the window rows (VRMSE per method) here")
     p.add_argument("--grade", default="as-recorded", choices=["as-recorded", "tactical", "mems"],
                    help="--estimator: IMU grade (default as-recorded)")
     p.add_argument("--ping-rates", nargs="+", type=float, metavar="HZ", help="instead: the beam-only networks on "
@@ -366,6 +423,8 @@ def main(argv=None) -> int:
         p.error(f"--write-config: no DVL {a.write_config[0]!r}; choose from {', '.join(DVLS)}")
     if a.fold_nets and not (a.estimator and len(a.dvls) == 1):
         p.error("--fold-nets goes with --estimator and the one DVL its networks were trained for (--dvls NAME)")
+    if a.fold_imu_nets and not a.fold_nets:
+        p.error("--fold-imu-nets goes with --fold-nets: the IMU-aware networks are fused with beam-only ones")
     if a.write_config:
         write_config(*a.write_config)
         return 0
@@ -396,12 +455,18 @@ def main(argv=None) -> int:
             # a turned head's recorded velocities would be turned as well, and the loader refuses them (rightly)
             if a.estimator and "C_d_b" not in DVLS[dvl][1]:
                 est += estimator_rows(dvl, scenario, a.data, a.window_s, a.grade,
-                                      f"{a.fold_nets}_{scenario}" if a.fold_nets else None)
+                                      f"{a.fold_nets}_{scenario}" if a.fold_nets else None,
+                                      f"{a.fold_imu_nets}_{scenario}" if a.fold_imu_nets else None,
+                                      "graph" if a.graph else "ekf")
     print(report(rows))
     if est:
-        print(f"\nIn the estimator ({a.window_s:g} s outages, IMU {a.grade}), window VRMSE over TC's (mean over the "
-              "windows):\n")
+        print(f"\nIn the estimator ({a.window_s:g} s outages, IMU {a.grade}), window VRMSE over the method without a "
+              "completer's (mean over the windows):\n")
         print(estimator_report(est))
+        if a.json:
+            import json
+            with open(a.json, "w") as fh:
+                json.dump(est, fh, indent=1)
     return 0
 
 

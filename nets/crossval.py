@@ -26,7 +26,7 @@ from graphnav.core.folds import check_folds as core_check_folds
 from . import data as beamdata
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_run_decay
-from .dvl_match import beam_model_record
+from .dvl_match import beam_model_record, chosen_for_note
 from .evaluate import completion_metrics, outage_rollout, predict_completer
 from .model import normalize_missing, scenario_name
 
@@ -630,7 +630,8 @@ def train_final(missing, variant: Variant | str, akit_dir=None, beamsnet_dir=Non
         "selected_by": "leave-trajectories-out cross-validation, graphnav.nets.crossval (graphnav eval-beams "
                        f"--folds): A-KIT folds {[list(f) for f in AKIT_FOLDS]} with BeamsNet mission blocks"
                        + ("; run_decay chosen on the same folds' networks by experiments/completer_fade_folds.py"
-                          if variant.decay(scen) < 1.0 else ""),
+                          if variant.decay(scen) < 1.0 else "")
+                       + chosen_for_note(spec, "graphnav eval-beams --folds --config"),
         "out_of_fold": [r for r in (summary or []) if r["variant"] == variant.name and r["scenario"] == scen],
     }
     return TrainResult(net.model, card)

@@ -38,7 +38,7 @@ period, so theirs may be no longer than ``1 + PING_PERIOD_TOLERANCE`` periods.
 from __future__ import annotations
 
 import itertools
-from dataclasses import asdict
+from dataclasses import asdict, fields
 
 import numpy as np
 
@@ -62,8 +62,8 @@ BEAM_DIRECTION_TOLERANCE_DEG = 2.0
 #: trajectory 1.13x).
 LONGEST_PAST_INTERVAL_PERIODS = 5.0
 
-#: The fields of :class:`DvlSpec` that set the beams' directions in the body frame.
-_GEOMETRY_FIELDS = ("theta_rad", "psi_rad", "C_d_b")
+#: The fields of :class:`DvlSpec`, as a model card records them.
+_SPEC_FIELDS = tuple(f.name for f in fields(DvlSpec))
 
 
 def beam_model_record(spec: DvlSpec | None = None) -> dict:
@@ -72,22 +72,39 @@ def beam_model_record(spec: DvlSpec | None = None) -> dict:
     return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec or DvlSpec()).items()}
 
 
-def trained_beams_b(card: dict) -> np.ndarray:
-    """(4, 3) unit vectors of the beams, body frame, of the DVL a model card's network was trained for: its
-    ``data["beam_model"]``, or the default :class:`DvlSpec` for a card without one (every beam-only card written
-    before the cards recorded it: :mod:`graphnav.nets.data` makes the training beams with that spec)."""
+def chosen_for_note(spec: DvlSpec | None, check: str) -> str:
+    """What a model card's ``selected_by`` adds for a recipe trained for the DVL ``spec``: nothing for the default
+    :class:`DvlSpec` (the Snapir's, the DVL every recipe was chosen on), else that the choice was made on the Snapir's
+    beams and ``check``, the command that gives the recipe's out-of-fold numbers for this DVL."""
     from graphnav.core.dvl import DvlGeometry
+    default = DvlGeometry.from_spec(DvlSpec()).T_b
+    if spec is None or beam_direction_mismatch(default, DvlGeometry.from_spec(spec).T_b) is None:
+        return ""
+    return (f"; the recipe was chosen on the default DVL's beams ({describe_beams(default)}), not on this DVL's "
+            f"({describe_beams(DvlGeometry.from_spec(spec).T_b)}): its out-of-fold numbers for this DVL come from "
+            f"{check}")
+
+
+def trained_dvl_spec(card: dict) -> DvlSpec:
+    """The DVL a model card's network was trained for, beams and errors: its ``data["beam_model"]``
+    (:func:`beam_model_record`), the default :class:`DvlSpec` for a card without one (every beam-only card written
+    before the cards recorded it: :mod:`graphnav.nets.data` makes the training beams with that spec) and for a field
+    the record lacks."""
     record = (card.get("data") or {}).get("beam_model") or {}
-    fields = {k: np.asarray(record[k], float) if k != "theta_rad" else float(record[k])
-              for k in _GEOMETRY_FIELDS if k in record}
-    return DvlGeometry.from_spec(DvlSpec(**fields)).T_b
+    return DvlSpec(**{k: record[k] for k in _SPEC_FIELDS if k in record})
+
+
+def trained_beams_b(card: dict) -> np.ndarray:
+    """(4, 3) unit vectors of the beams, body frame, of the DVL a model card's network was trained for
+    (:func:`trained_dvl_spec`)."""
+    from graphnav.core.dvl import DvlGeometry
+    return DvlGeometry.from_spec(trained_dvl_spec(card)).T_b
 
 
 def trained_ping_period_s(card: dict) -> float:
     """The DVL ping period (s) a model card's network was trained for: ``1 / rate_hz`` of its ``data["beam_model"]``,
     or of the default :class:`DvlSpec` (1 Hz, the A-KIT and BeamsNet DVLs) for a card without one."""
-    record = (card.get("data") or {}).get("beam_model") or {}
-    return 1.0 / float(record.get("rate_hz", DvlSpec().rate_hz))
+    return 1.0 / float(trained_dvl_spec(card).rate_hz)
 
 
 def _angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -133,7 +133,8 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
                  scenarios=("2-missing", "3-missing"), outage: bool = True) -> list[dict]:
     """Network vs average estimator on the validation split, ``V_test.npy`` and the A-KIT DVL velocities.
 
-    Beams are made with ``beam_seed`` (by default another noise draw than training used). Per dataset and
+    Beams are made with ``beam_seed`` (by default another noise draw than training used), for the DVL each network
+    was trained for (its card's ``data["beam_model"]``), and velocities solved with its geometry. Per dataset and
     scenario: one-step completion of every ping with the true past ("per ping"), and, with ``outage``,
     recursive 30-ping outages ("outage 30 s"). A dataset whose folder is absent is skipped.
 
@@ -144,39 +145,42 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
     from graphnav.core.errors import DataError
 
     from . import data as beamdata
+    from .dvl_match import trained_dvl_spec
     from .network import load_completer
 
     rows = []
     for scen in scenarios:
         net = load_completer(scen, directory=directory)
         yaw = net.card.get("data", {}).get("align_yaw_deg", 0.0)   # the frame the network was trained in
+        spec = trained_dvl_spec(net.card)
+        geometry = DvlGeometry.from_spec(spec)
         datasets = {}
         for name, split in (("val", "val"), ("V_test", "test")):
             try:
-                datasets[name] = [beamdata.beamsnet_series(split, beamsnet_dir, beam_seed, align_yaw_deg=yaw)]
+                datasets[name] = [beamdata.beamsnet_series(split, beamsnet_dir, beam_seed, spec, align_yaw_deg=yaw)]
             except DataError:
                 pass
         try:
-            datasets["A-KIT"] = beamdata.akit_series(akit_dir, beam_seed)
+            datasets["A-KIT"] = beamdata.akit_series(akit_dir, beam_seed, spec)
         except DataError:
             pass
         methods = {"network": net, "average": AverageCompleter(net.n_past)}
         for dname, series in datasets.items():
             samples = beamdata.windows(series, net.n_past)
-            floor = full_beam_vel_rmse(samples)
+            floor = full_beam_vel_rmse(samples, geometry)
             for mname, comp in methods.items():
                 if mname == "network":
                     full, sigma = predict_network(net.model, samples)
                 else:
                     full, sigma = predict_completer(comp, samples, net.missing)
                 rows.append({"dataset": dname, "scenario": scen, "mode": "per ping", "method": mname,
-                             **completion_metrics(full, sigma, samples, net.missing),
+                             **completion_metrics(full, sigma, samples, net.missing, geometry),
                              "all_beams_vel_rmse": floor})
                 if outage:
                     full, sigma, osamples = outage_rollout(comp, series, net.missing)
                     rows.append({"dataset": dname, "scenario": scen, "mode": "outage 30 s", "method": mname,
-                                 **completion_metrics(full, sigma, osamples, net.missing),
-                                 "all_beams_vel_rmse": full_beam_vel_rmse(osamples)})
+                                 **completion_metrics(full, sigma, osamples, net.missing, geometry),
+                                 "all_beams_vel_rmse": full_beam_vel_rmse(osamples, geometry)})
     return rows
 
 

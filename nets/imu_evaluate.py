@@ -4,7 +4,9 @@ Per ping: every ping completed from the true past. Recursive outage: 30-ping out
 each completer fed its own completions through :class:`graphnav.estimators.history.BeamHistory` (as the estimators do),
 windows every 90 pings from ping :data:`OUTAGE_SETTLE` (the IMU window must be full). Every method is
 scored on the same pings. Beam RMSE is over the filled beams against the beams the DVL would have reported;
-velocity RMSE is least squares on the four completed beams against the recorded DVL velocity.
+velocity RMSE is least squares on the four completed beams against the recorded DVL velocity. The beams are made
+for the DVL the IMU-aware network was trained for (its card's ``data["beam_model"]``), and the velocities solved
+with its geometry.
 """
 from __future__ import annotations
 
@@ -48,25 +50,33 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
     trajectory number; :meth:`~graphnav.nets.imu_data.ImuBeamSeries.with_imu_grade`).
     ``fused``: also ``imu+average``, the IMU-aware network and the average combined by their sigmas
     (:class:`graphnav.nets.fused.FusedCompleter`).
+    Each scenario's beams are made for the DVL its IMU-aware network was trained for (:meth:`ImuNetworkCompleter.
+    trained_dvl_spec`); the shipped beam-only network is compared only when it was trained for that DVL too.
     """
+    from graphnav.core.dvl import DvlGeometry
+
     from .fused import FusedCompleter, fuse
     from .average import AVERAGE_N_PAST
     from .network import load_completer
 
-    series = graded_series(akit_imu_series(trajectories, akit_dir, beam_seed), imu_grade, imu_seed)
-    settle, gap = OUTAGE_SETTLE, 60
-    if tail_fraction is not None:
-        series = [s.tail(tail_fraction) for s in series]
-        settle, gap = 5, 0
     rows = []
     for scen in scenarios:
         imu_net = (completers or {}).get(scen) or load_imu_completer(scen, directory)
+        spec = imu_net.trained_dvl_spec
+        geometry = DvlGeometry.from_spec(spec)
+        series = graded_series(akit_imu_series(trajectories, akit_dir, beam_seed, spec=spec), imu_grade, imu_seed)
+        settle, gap = OUTAGE_SETTLE, 60
+        if tail_fraction is not None:
+            series = [s.tail(tail_fraction) for s in series]
+            settle, gap = 5, 0
         methods = {"imu-network": imu_net, "average": AverageCompleter(AVERAGE_N_PAST[scen])}
         if len(imu_net.missing) < 4:        # no beam-only network completes a ping without a measured beam
-            methods["network"] = load_completer(scen)
+            beam_only = load_completer(scen)
+            if not beam_only.bind_dvl(geometry.T_b):
+                methods["network"] = beam_only
         n_past = max(c.n_past for c in methods.values())
         samples = imu_windows(series, n_past, imu_net.imu_samples, imu_net.ping_dt)
-        floor = full_beam_vel_rmse(samples)
+        floor = full_beam_vel_rmse(samples, geometry)
         made = {}
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
@@ -80,18 +90,20 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
                 full, sigma = predict_completer(comp, samples, imu_net.missing)
             made[name] = full, sigma
             rows.append({"scenario": scen, "mode": "per ping", "method": name,
-                         **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
+                         **completion_metrics(full, sigma, samples, imu_net.missing, geometry),
+                         "all_beams_vel_rmse": floor})
         if fused:
             full, sigma = fuse(*made["imu-network"], *made["average"])
             rows.append({"scenario": scen, "mode": "per ping", "method": "imu+average",
-                         **completion_metrics(full, sigma, samples, imu_net.missing), "all_beams_vel_rmse": floor})
+                         **completion_metrics(full, sigma, samples, imu_net.missing, geometry),
+                         "all_beams_vel_rmse": floor})
             methods["imu+average"] = FusedCompleter(imu_net, methods["average"])
         if outage:
             for name, comp in methods.items():
                 full, sigma, osamples = outage_rollout(comp, series, imu_net.missing, gap=gap, settle=settle)
                 rows.append({"scenario": scen, "mode": "outage 30 s", "method": name,
-                             **completion_metrics(full, sigma, osamples, imu_net.missing),
-                             "all_beams_vel_rmse": full_beam_vel_rmse(osamples)})
+                             **completion_metrics(full, sigma, osamples, imu_net.missing, geometry),
+                             "all_beams_vel_rmse": full_beam_vel_rmse(osamples, geometry)})
     for r in rows:
         avg = next(a for a in rows if a["scenario"] == r["scenario"] and a["mode"] == r["mode"]
                    and a["method"] == "average")

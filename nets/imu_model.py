@@ -5,8 +5,8 @@ IMU window is first preintegrated (:mod:`graphnav.nets.imu_window`) so that a sm
 it: every past beam vector is propagated to the ping with the IMU (a physical prior), and a small MLP
 corrects that prior from everything it sees.
 
-For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (default
-:class:`~graphnav.core.config.DvlSpec` geometry, the one the beams were made with):
+For one ping, with ``T`` the (4, 3) beam matrix and ``T+`` its pseudo-inverse (the DVL the beams were made with:
+the default :class:`~graphnav.core.config.DvlSpec`, the Snapir's, unless trained for another DVL):
 
 1. ``v_j = T+ b_j`` the least-squares velocity of past ping j (N full past beam vectors, oldest first);
 2. gravity in the body frame now, ``g_now = M v_{N} - f_mean`` (window mean of the rotated specific force,
@@ -71,11 +71,13 @@ class ImuBeamRegressor(nn.Module):
             correction has no attitude-dependent offset to add at every ping (0.005 m/s per ping is 0.15 m/s
             after a 30-ping outage); the IMU still enters the mean through the propagated prior.
             (Shipped: False.)
+        T_b: (4, 3) unit vectors of the beams, body frame, of the DVL the beams come from (default: the
+            :class:`~graphnav.core.config.DvlSpec` default, the Snapir's); a buffer, so the weights carry it.
     """
 
     def __init__(self, missing=(0, 2), n_past: int | None = None, hidden: int = 32, sigma_hidden: int = 16,
                  ping_dt: float = 1.0, imu_window_s: float = IMU_WINDOW_S, imu_rate_hz: float = IMU_RATE_HZ,
-                 blend: bool = False, relative: bool = False, correction_sees_imu: bool = True):
+                 blend: bool = False, relative: bool = False, correction_sees_imu: bool = True, T_b=None):
         super().__init__()
         self.missing = normalize_missing(missing)
         self.kept = tuple(b for b in range(4) if b not in self.missing)
@@ -105,8 +107,9 @@ class ImuBeamRegressor(nn.Module):
             nn.init.zeros_(layer.weight)
             nn.init.zeros_(layer.bias)
         self.sigma_head = nn.Sequential(nn.Linear(n_in, sigma_hidden), nn.Tanh(), nn.Linear(sigma_hidden, n_miss))
-        geometry = DvlGeometry.from_spec(DvlSpec())
-        T_b = torch.as_tensor(geometry.T_b, dtype=torch.float32)
+        T_b = torch.as_tensor(DvlGeometry.from_spec(DvlSpec()).T_b if T_b is None else T_b, dtype=torch.float32)
+        if T_b.shape != (4, 3):
+            raise ConfigError(f"T_b must be the (4, 3) beam unit vectors, got shape {tuple(T_b.shape)}")
         self.register_buffer("T_b", T_b)
         self.register_buffer("T_pinv", torch.linalg.pinv(T_b))
         self.register_buffer("tau", torch.arange(self.n_past, 0, -1, dtype=torch.float32) * self.ping_dt)

@@ -31,7 +31,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_inputs, check_run_decay, fade_to_average, new_fallbacks
-from .dvl_match import TrainedForOneDvl
+from .dvl_match import TrainedForOneDvl, describe_beams, trained_dvl_spec
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
@@ -98,6 +98,11 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         self.ping_dt = model.ping_dt
         self.sigma_scale = float(sigma_scale)
         self.card = card or {}
+        if (self.card.get("data") or {}).get("beam_model") is not None:
+            held, recorded = self.trained_T_b, super().trained_T_b
+            if not np.allclose(held, recorded, atol=1e-5):
+                raise ConfigError(f"IMU-aware network {self.card.get('name', '')}: its weights hold beams "
+                                  f"{describe_beams(held)}, its model card's DVL has {describe_beams(recorded)}")
         # the paper's N where the pattern has one (2 or 3 missing beams), else the network's window
         n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
         self.fallback = AverageCompleter(min(self.n_past, n_average))
@@ -108,6 +113,18 @@ class ImuNetworkCompleter(TrainedForOneDvl):
     def trained_ping_period_s(self) -> float:
         """The ping period (s) the network propagates its past pings over: its model's ``ping_dt``."""
         return float(self.ping_dt)
+
+    @property
+    def trained_T_b(self) -> np.ndarray:
+        """(4, 3) body-frame beam directions the network computes with: its model's ``T_b`` (the card's DVL, which
+        the constructor checks against them)."""
+        return self.model.T_b.detach().cpu().numpy().astype(float)
+
+    @property
+    def trained_dvl_spec(self):
+        """The DVL (:class:`~graphnav.core.config.DvlSpec`, beams and errors) the network was trained for: its card's
+        (:func:`graphnav.nets.dvl_match.trained_dvl_spec`)."""
+        return trained_dvl_spec(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:

@@ -15,6 +15,11 @@ on rollouts in the selection pings. Trained one step ahead only, the network's s
 through an outage (30-100 % worse than the average on the steady legs of A-KIT trajectory 6). Stage 3: the
 sigma head with the Gaussian NLL while the mean network is frozen; then ``sigma_gain`` makes the RMS of
 error/sigma 1 on the selection pings. Seeded; with one thread a rerun gives the same weights bit for bit.
+
+The beams are made for one DVL (``spec``; default the Snapir's, :class:`~graphnav.core.config.DvlSpec`) from the
+recorded body-frame velocities, one a ping 1 s apart (:func:`graphnav.nets.data.training_spec`); the network holds
+that DVL's beam directions (``ImuBeamRegressor.T_b``) and its card records it (``data["beam_model"]``), which the
+estimators bind it to (:mod:`graphnav.nets.dvl_match`).
 """
 from __future__ import annotations
 
@@ -24,13 +29,12 @@ from dataclasses import asdict, replace
 import numpy as np
 import torch
 
-from graphnav.core.config import DvlSpec
-from graphnav.core.dvl import make_beams
+from graphnav.core.dvl import DvlGeometry, make_beams
 from graphnav.io.loaders import akit_files
 
 from . import imu_data
-from .data import _data_dir
-from .dvl_match import beam_model_record
+from .data import _data_dir, training_spec
+from .dvl_match import beam_model_record, trained_dvl_spec
 from .imu_model import DEFAULT_IMU_N_PAST, ImuBeamRegressor
 from .imu_network import ImuNetworkCompleter, imu_weights_name, model_inputs
 from .imu_recipes import ImuTrainOptions
@@ -163,18 +167,23 @@ def card_envelope(card: dict, data_dir=None) -> dict:
         if expected is not None and file_sha256(path) != expected:
             raise DataError(f"{path}: not the DVL file the network was trained on (sha256 differs from its card)",
                             "akit")
-    return training_envelope(imu_data.akit_imu_series(numbers, d, card["data"]["beam_seed"]))
+    return training_envelope(imu_data.akit_imu_series(numbers, d, card["data"]["beam_seed"],
+                                                      spec=trained_dvl_spec(card)))
 
 
 def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_dir=None,
-              progress: bool = True, evaluate: bool = True, trajectories=None) -> TrainResult:
+              progress: bool = True, evaluate: bool = True, trajectories=None, spec=None) -> TrainResult:
     """Train the IMU-aware network for ``missing`` and build its model card (module docstring).
+
+    ``spec``: the DVL (:class:`~graphnav.core.config.DvlSpec`) whose beams the network is trained on and bound to
+    (default: the Snapir's, the ``DvlSpec`` default); its ping rate is the recordings' 1 Hz whatever ``spec`` says.
 
     ``trajectories``: the A-KIT trajectory numbers trained on (default ``AKIT_SPLIT["train"]``); with
     ``options.imu_grades`` every training trajectory also comes with each grade's IMU errors (its training,
     selection and rollout pings), so that the network sees IMU errors the recorded IMU does not have.
     """
     missing = normalize_missing(missing)
+    spec = training_spec(spec)
     opt = replace(options or ImuTrainOptions())
     if opt.n_past is None:
         opt.n_past = DEFAULT_IMU_N_PAST[len(missing)]
@@ -185,11 +194,11 @@ def train_imu(missing="2-missing", options: ImuTrainOptions | None = None, data_
         torch.manual_seed(opt.seed)
         model = ImuBeamRegressor(missing, opt.n_past, opt.hidden, opt.sigma_hidden, imu_window_s=opt.imu_window_s,
                                  blend=opt.blend, relative=opt.relative,
-                                 correction_sees_imu=opt.correction_sees_imu)
+                                 correction_sees_imu=opt.correction_sees_imu,
+                                 T_b=DvlGeometry.from_spec(spec).T_b)
         train_numbers = tuple(trajectories) if trajectories is not None else imu_data.AKIT_SPLIT["train"]
-        recorded = imu_data.akit_imu_series(train_numbers, d, opt.beam_seed)
+        recorded = imu_data.akit_imu_series(train_numbers, d, opt.beam_seed, spec=spec)
         base = _with_imu_grades(recorded, opt)
-        spec = DvlSpec()
         train_parts, select, draws = [], _samples(base, opt, "select"), []
         for draw in range(opt.draws):
             series = base if draw == 0 else [

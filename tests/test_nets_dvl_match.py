@@ -152,6 +152,53 @@ def test_the_other_dvl_study_reports_the_network_over_the_average():
     assert "| X | 2-missing | per ping | 2.50 / 1.50 | 60% | 1.00 / 1.00 | yes |" in study.report(rows)
 
 
+def test_the_other_dvl_study_finds_the_fold_network_that_held_a_trajectory_out(tmp_path):
+    """Beam-only fold cards name their held-out trajectories, IMU-aware ones their training trajectories; the study runs
+    each trajectory with the fold that did not train on it, and says so when none did."""
+    import json
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    import network_on_other_dvl as study
+    for fold, held in enumerate(((1, 3), (2, 5))):
+        beam = tmp_path / "beam" / "recipe" / f"fold{fold}"
+        imu = tmp_path / "imu" / f"fold{fold}"
+        beam.mkdir(parents=True)
+        imu.mkdir(parents=True)
+        (beam / "3-missing.json").write_text(json.dumps({"data": {"held_out": list(held)}}))
+        train = [t for t in (1, 2, 3, 5) if t not in held]
+        (imu / "imu-3-missing.json").write_text(json.dumps({"data": {}, "split": {"train_trajectories": train}}))
+    assert study.held_out_folder(tmp_path / "beam", "3-missing", "Trajectory5").name == "fold1"
+    assert study.held_out_folder(tmp_path / "imu", "imu-3-missing", "Trajectory3").name == "fold0"
+    assert study.held_out_folder(tmp_path / "imu", "imu-3-missing", "Trajectory2").name == "fold1"
+    with pytest.raises(FileNotFoundError, match="no 3-missing fold network held out Trajectory7"):
+        study.held_out_folder(tmp_path / "beam", "3-missing", "Trajectory7")
+
+
+def test_the_other_dvl_study_reports_each_estimator_family_over_its_method_without_a_completer():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    import network_on_other_dvl as study
+    rows = [{"dvl": "X", "scenario": "3-missing", "trajectory": "T", "start_s": s, "family": "graph",
+             "Graph-TC": 1.0, "Graph-HN": 0.8, "Graph-HNI": 0.75, "Graph-HNI, trained for it": hni}
+            for s, hni in ((0, 0.7), (9, 0.9))]
+    rows += [{"dvl": "X", "scenario": "3-missing", "trajectory": "T", "start_s": 0, "TC": 2.0, "Average-TC": 1.0,
+              "HNTC": 1.5}]
+    text = study.estimator_report(rows).splitlines()
+    assert text[0] == ("| DVL | scenario | windows | Graph-HN / Graph-TC | Graph-HNI / Graph-TC | Graph-HNI, trained "
+                       "for it / Graph-TC | windows > 1.02x Graph-HN: Graph-HNI; Graph-HNI, trained for it | "
+                       "windows Graph-HNI, trained for it > 1.02x Graph-HNI |")
+    assert text[2] == "| X | 3-missing | 2 | 0.800 | 0.750 | 0.800 | 0; 1 | 1 |"    # 0.9 > 1.02 * 0.8 in one window
+    assert text[-1] == "| X | 3-missing | 1 | 0.500 | 0.750 | 1 |"       # the EKF rows (no family: the EKF's)
+
+
+def test_a_card_says_its_recipe_was_chosen_on_the_default_dvl_when_trained_for_another():
+    from graphnav.nets.dvl_match import chosen_for_note
+    assert chosen_for_note(None, "x") == "" and chosen_for_note(DvlSpec(), "x") == ""
+    rdi = dataclasses.replace(DvlSpec(), psi_rad=RDI_PSI)
+    note = chosen_for_note(rdi, "experiments/imu_completer_folds.py --config")
+    assert "chosen on the default DVL's beams (20 deg from the vertical at azimuths 45, 135, 225, 315 deg)" in note
+    assert "(20 deg from the vertical at azimuths 270, 90, 0, 180 deg)" in note
+    assert note.endswith("come from experiments/imu_completer_folds.py --config")
+
+
 def test_the_commands_say_how_many_pings_the_network_left_to_the_average(tmp_path, capsys):
     """`graphnav smooth` and `graphnav online` with a configuration whose DVL is an RDI head: the summary counts the
     pings under ``completer_fallbacks["dvl"]`` and prints them."""

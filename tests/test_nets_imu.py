@@ -464,3 +464,58 @@ def test_card_envelope_rebuilds_the_training_beams_range_and_checks_the_files(ak
     card["data"]["DVL_sha256"]["Trajectory2"] = "0" * 64
     with pytest.raises(DataError, match="DVL_trajectory2.csv: not the DVL file the network was trained on"):
         card_envelope(card, akit_dir)
+
+
+def test_an_imu_aware_network_trained_for_another_dvl_computes_with_its_beams_and_binds_to_it(tmp_path, akit_dir):
+    """``train_imu(spec=)`` for an RDI convex head (beams at 270, 90, 0, 180 deg): the network holds that head's beams,
+    is trained on beams made for it (the envelope is that of the head's beams, not the Snapir's: fails if the spec is
+    dropped in training), its card records the head at the recordings' 1 Hz, it loads back, binds to the head and
+    refuses the Snapir's, its weights and card must agree, and it is scored on the head's beams without the Snapir's
+    beam-only network."""
+    from graphnav.nets.dvl_match import trained_dvl_spec
+    from graphnav.nets.imu_data import akit_imu_series
+    from graphnav.nets.imu_evaluate import evaluate_imu
+    from graphnav.nets.imu_network import ImuNetworkCompleter
+    from graphnav.nets.imu_recipes import IMU_RECIPES
+    from graphnav.nets.imu_training import card_envelope, train_imu
+    from graphnav.nets.training import save, training_envelope
+    rdi = replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]), rate_hz=4.0)
+    rdi_T_b, snapir_T_b = DvlGeometry.from_spec(rdi).T_b, DvlGeometry.from_spec(DvlSpec()).T_b
+    opt = replace(IMU_RECIPES["graded"], epochs=1, rollout_epochs=1, draws=1, sigma_epochs=1, imu_grades=())
+    result = train_imu("2-missing", opt, akit_dir, progress=False, evaluate=False, trajectories=(2,), spec=rdi)
+    np.testing.assert_allclose(result.model.T_b.numpy(), rdi_T_b, atol=1e-6)
+    rdi_1hz = replace(rdi, rate_hz=1.0)
+    assert result.card["envelope"] == training_envelope(akit_imu_series((2,), akit_dir, 0, spec=rdi_1hz))
+    assert result.card["envelope"] != training_envelope(akit_imu_series((2,), akit_dir, 0))
+    assert trained_dvl_spec(result.card).rate_hz == 1.0
+    assert card_envelope(result.card, akit_dir) == result.card["envelope"]
+
+    save(result, tmp_path)
+    comp = load_imu_completer("2-missing", tmp_path)
+    np.testing.assert_allclose(comp.trained_T_b, rdi_T_b, atol=1e-6)
+    assert comp.bind_dvl(rdi_T_b) == [] and comp.dvl_mismatch is None
+    assert "beam 1" in comp.bind_dvl(snapir_T_b)[0]
+    past = np.tile([1.1, 0.3, -0.9, 0.2], (comp.n_past, 1))
+    imu = (np.tile([0.0, 0.0, -9.81], (comp.imu_samples, 1)), np.zeros((comp.imu_samples, 3)))
+    beams, _ = comp.complete(past, np.array([np.nan, 0.3, np.nan, 0.2]), imu=imu)
+    assert comp.fallbacks["dvl"] == 1
+    np.testing.assert_allclose(beams, comp.fallback.complete(past[-comp.fallback.n_past:],
+                                                             np.array([np.nan, 0.3, np.nan, 0.2]))[0])
+
+    snapir_card = {**result.card, "data": {**result.card["data"], "beam_model": {}}}
+    with pytest.raises(ConfigError, match="its weights hold beams .* its model card's DVL has"):
+        ImuNetworkCompleter(result.model, snapir_card)
+
+    rows = evaluate_imu(("2-missing",), (2,), akit_dir=akit_dir, outage=False,
+                        completers={"2-missing": ImuNetworkCompleter(result.model, result.card)})
+    assert {r["method"] for r in rows} == {"imu-network", "average"}
+    # scored on the head's beams: the average's velocity RMSE with them, not with the Snapir's
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.evaluate import completion_metrics, predict_completer
+    from graphnav.nets.imu_data import imu_windows
+    avg = next(r for r in rows if r["method"] == "average")
+    for spec, same in ((rdi_1hz, True), (DvlSpec(), False)):
+        samples = imu_windows(akit_imu_series((2,), akit_dir, 1000, spec=spec), 5, comp.imu_samples)
+        full, sigma = predict_completer(AverageCompleter(3), samples, (0, 2))
+        got = completion_metrics(full, sigma, samples, (0, 2), DvlGeometry.from_spec(spec))["beam_rmse"]
+        assert np.isclose(got, avg["beam_rmse"]) == same

@@ -65,9 +65,12 @@ def register(subparsers) -> None:
 
 def training_data_notes(directory, names: list[str]) -> list[str]:
     """One line per model card ``<name>.json`` in ``directory`` (default: the shipped weights) saying what the
-    network was trained on, so that a row on those data is read as fitted data, not unseen motion."""
+    network was trained on, so that a row on those data is read as fitted data, not unseen motion, and for which DVL
+    (the beams its rows are scored on)."""
     from pathlib import Path
 
+    from graphnav.nets.crossval import dvl_name
+    from graphnav.nets.dvl_match import trained_dvl_spec
     from graphnav.nets.storage import weights_dir
 
     lines = []
@@ -83,7 +86,9 @@ def training_data_notes(directory, names: list[str]) -> list[str]:
             trained = f"the first {split['train_fraction']:.0%} of BeamsNet V.npy"
         else:
             trained = card.get("data", {}).get("source", "unknown data")
-        lines.append(f"{name}: trained on {trained}; chosen by {card.get('selected_by', 'its validation split')}")
+        beams = dvl_name(trained_dvl_spec(card))
+        lines.append(f"{name}: trained on {trained}, for a DVL with beams {beams} (scored on its beams); chosen by "
+                     f"{card.get('selected_by', 'its validation split')}")
     return lines
 
 
@@ -104,19 +109,22 @@ def run_imu(args) -> int:
         except ValueError:
             raise ConfigError(f"--trajectories must be comma-separated numbers, got '{args.trajectories}'") from None
     scenarios = tuple(args.scenario or ("2-missing", "3-missing"))
-    print(f"A-KIT trajectories {list(trajectories)}, beam seed {args.beam_seed}")
-    for line in training_data_notes(args.weights, [f"imu-{s}" for s in scenarios]) + training_data_notes(
-            None, list(scenarios)):    # the beam-only network of the table: the shipped one
-        print(line)
     if args.per_trajectory:
         rows = evaluate_imu_per_trajectory(scenarios, trajectories, directory=args.weights, akit_dir=args.akit,
                                            beam_seed=args.beam_seed, outage=not args.no_outage)
-        print(format_imu_table([r for r in rows if r["trajectories"] == rows[-1]["trajectories"]]))
-        print(format_imu_summary(rows))
+        tables = [format_imu_table([r for r in rows if r["trajectories"] == rows[-1]["trajectories"]]),
+                  format_imu_summary(rows)]
     else:
         rows = evaluate_imu(scenarios, trajectories, args.weights, args.akit, args.beam_seed,
                             outage=not args.no_outage)
-        print(format_imu_table(rows))
+        tables = [format_imu_table(rows)]
+    print(f"A-KIT trajectories {list(trajectories)}, beam seed {args.beam_seed}")
+    # the beam-only network of the table is the shipped one, there only when it was trained for the same DVL
+    beam_only = [s for s in scenarios if any(r["scenario"] == s and r["method"] == "network" for r in rows)]
+    for line in training_data_notes(args.weights, [f"imu-{s}" for s in scenarios]) + training_data_notes(
+            None, beam_only):
+        print(line)
+    print("\n".join(tables))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)

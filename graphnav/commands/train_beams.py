@@ -72,19 +72,21 @@ def register(subparsers) -> None:
                         "from the recorded velocities with it, one a ping 1 s apart whatever its dvl.rate_hz (a rate "
                         "the estimators would refuse is warned about), the model card records it, and the estimators "
                         "bind the networks to it (default: the Snapir's DVL, DvlSpec's default). With "
-                        "--install-weights they replace the shipped Snapir networks. Not with --imu")
+                        "--install-weights they replace the shipped Snapir networks. With --imu: the IMU-aware "
+                        "networks, the same way")
     p.add_argument("--out-of-fold", nargs="+", default=None, metavar="JSON",
                    help="with --recipe: the rows of 'graphnav eval-beams --folds --json' that chose it; their pooled "
                         "and worst-fold numbers of this recipe go into the model card ('out_of_fold')")
     p.set_defaults(func=run)
 
 
-def run_imu(args, out: Path) -> list[Path]:
-    """``--imu``: train the IMU-aware networks into ``out`` and print their validation table; returns the
-    files written."""
+def run_imu(args, out: Path, spec=None) -> list[Path]:
+    """``--imu``: train the IMU-aware networks into ``out`` for the DVL ``spec`` (``--config``; None: the Snapir's)
+    and print their validation table; returns the files written."""
     from dataclasses import replace
 
     from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.dvl_match import chosen_for_note
     from graphnav.nets.imu_evaluate import format_imu_table
     from graphnav.nets.imu_recipes import IMU_RECIPES, ImuTrainOptions
     from graphnav.nets.imu_training import train_imu
@@ -106,13 +108,14 @@ def run_imu(args, out: Path) -> list[Path]:
         trajectories = None
     for scenario in args.scenario or ["2-missing", "3-missing"]:
         result = train_imu(scenario, opt, args.data, progress=not args.no_progress, evaluate=not args.recipe,
-                           trajectories=trajectories)
+                           trajectories=trajectories, spec=spec)
         card = result.card
         if args.recipe:
             card["selected_by"] = ("leave-trajectories-out cross-validation, experiments/imu_completer_folds.py: "
                                    f"A-KIT folds {[list(f) for f in AKIT_FOLDS]}, recipe {args.recipe!r}"
                                    + ("; run_decay chosen on the same folds' networks by "
-                                      "experiments/completer_fade_folds.py --imu" if opt.run_decay < 1.0 else ""))
+                                      "experiments/completer_fade_folds.py --imu" if opt.run_decay < 1.0 else "")
+                                   + chosen_for_note(spec, "experiments/imu_completer_folds.py --config"))
         pt, js = save(result, out)
         written += [pt, js]
         print(f"{card['name']}: N={card['n_past']} IMU window {card['imu_samples']} samples, "
@@ -210,19 +213,17 @@ def warn_off_rate(spec, source: str) -> None:
 def run(args) -> int:
     from graphnav.commands.common import StagedOut, config_dvl
 
-    if args.config and args.imu:
-        raise ConfigError("--config trains the beam-only networks for another DVL; the IMU-aware network holds the "
-                          "Snapir DVL's beam geometry in its architecture (ImuBeamRegressor.T_b), so --imu cannot be "
-                          "trained for another DVL yet: drop --config, or --imu")
     spec = config_dvl(args.config)          # read once, and a bad file is said before any training
     if spec is not None:
+        from graphnav.nets.crossval import dvl_name
         warn_off_rate(spec, args.config)
+        print(f"training for the DVL of {args.config}: beams {dvl_name(spec)}")
     if args.out_of_fold and (not args.recipe or args.imu):
         raise ConfigError("--out-of-fold goes with a beam-only --recipe: it names the rows that chose the recipe")
 
     with StagedOut(args.out, args.force) as staged:
         if args.imu:
-            written = run_imu(args, staged.path)
+            written = run_imu(args, staged.path, spec)
         else:
             written = run_recipe(args, staged.path, spec) if args.recipe else run_beams(args, staged.path, spec)
     finals = [Path(staged.final(p)) for p in written]
