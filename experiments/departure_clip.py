@@ -110,7 +110,7 @@ def run(rows: list[dict], rows_path: Path, out: Path, stride: int = STRIDE, thre
     """Each row of ``rows`` (read from ``rows_path``) cut to ``stride`` with the clipped completer's errors for each
     of ``thresholds`` added as ``"Z=<z>"``, rewritten to ``out`` after every row."""
     from departure_gate import row_networks, rows_scenario
-    from imu_completer_folds import held_out_series
+    from imu_completer_folds import default_dvl_only, held_out_series
     from outage_placement import envelope_variants, rollout_windows
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -122,6 +122,7 @@ def run(rows: list[dict], rows_path: Path, out: Path, stride: int = STRIDE, thre
     for r in placement_rows(rows, stride):
         t0 = time.perf_counter()
         net, beam_net = row_networks(r, nets)
+        default_dvl_only(net, "departure_clip.py")
         imu = envelope_variants(net, data)
         series = held_out_series(AKIT_FOLDS[r["fold"]], data, r["grade"])
         completers = {"average": AverageCompleter(n_avg)} | {

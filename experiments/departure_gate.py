@@ -189,7 +189,7 @@ def row_networks(row: dict, loaded: dict):
 def run(rows: list[dict], rows_path: Path, out: Path, data=None) -> list[dict]:
     """``z0`` of every window of ``outage_placement.py`` ``rows`` (read from ``rows_path``, ``NAME`` scored), with
     the rows' fold networks and fadings; the rows with ``z0`` added are written to ``out``."""
-    from imu_completer_folds import held_out_series
+    from imu_completer_folds import default_dvl_only, held_out_series
     from outage_placement import envelope_variants
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
@@ -199,6 +199,7 @@ def run(rows: list[dict], rows_path: Path, out: Path, data=None) -> list[dict]:
     nets = {}
     for r in rows:
         net, beam_net = row_networks(r, nets)
+        default_dvl_only(net, "departure_gate.py")
         fused = FusedCompleter(envelope_variants(net, data)(True), beam_net)
         series = held_out_series(AKIT_FOLDS[r["fold"]], data, r["grade"])
         r["z0"] = first_ping_departure(fused, AverageCompleter(AVERAGE_N_PAST[scenario]), series,

@@ -68,7 +68,7 @@ def main(argv=None) -> int:
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.data import BeamSamples
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
-    from imu_completer_folds import calibration_fits, held_out_series
+    from imu_completer_folds import calibration_fits, default_dvl_only, held_out_series
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     from graphnav.nets.imu_network import load_imu_completer
     akit = akit_trajectories(a.data)[0].parent
@@ -77,6 +77,7 @@ def main(argv=None) -> int:
     res = {}
     for f, held in enumerate(AKIT_FOLDS):
         net = load_imu_completer(a.missing, nets_dir / f"fold{f}")
+        default_dvl_only(net, "fused_disagreement.py")
         for grade in a.grades:
             arrays = dict(np.load(nets_dir / f"fold{f}_{grade}.npz"))
             series = held_out_series(held, akit, grade)

@@ -247,11 +247,12 @@ def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> 
 
 def held_out_per_ping(nets: dict, scenario: str, akit_dir) -> tuple[dict, dict]:
     """Each fold's held-out series and :func:`per_ping` completions by (fold, evaluation IMU)."""
-    from imu_completer_folds import EVAL_GRADES, held_out_series
+    from imu_completer_folds import EVAL_GRADES, default_dvl_only, held_out_series
 
     from graphnav.nets.crossval import AKIT_FOLDS
     series, pp = {}, {}
     for f, held in enumerate(AKIT_FOLDS):
+        default_dvl_only(nets[f][0], "imu_beam_fused_folds.py")
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:
             series[f, grade] = held_out_series(held, akit_dir, grade)

@@ -57,6 +57,19 @@ def held_out_series(held, akit_dir, grade: str, spec=None) -> list:
     return graded_series(akit_imu_series(held, akit_dir, HELD_OUT_BEAM_SEED, spec=spec), grade, HELD_OUT_IMU_SEED)
 
 
+def default_dvl_only(network, study: str) -> None:
+    """Stop ``study``, which scores and fuses its fold networks on the default DVL's beams (the Snapir's), when the
+    IMU-aware fold ``network`` was trained for another DVL (``imu_completer_folds.py --config``)."""
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.crossval import dvl_name
+    from graphnav.nets.dvl_match import beam_direction_mismatch
+    if beam_direction_mismatch(DvlGeometry.from_spec(DvlSpec()).T_b, network.trained_T_b) is not None:
+        raise SystemExit(f"{study}: its fold networks were trained for another DVL "
+                         f"({dvl_name(network.trained_dvl_spec)}); it scores the default DVL's beams only "
+                         "(imu_completer_folds.py and completer_fade_folds.py --imu score any)")
+
+
 def calibration_fits(path, scenario: str) -> dict:
     """The ``--calibrate`` rows of ``scenario`` in the file ``path`` by (fold, evaluation IMU): each row carries the
     numbers fitted for that fold (``rho``, ``growth_net``, ``growth_avg``, ``drift_net``)."""

@@ -306,17 +306,20 @@ def estimator_rows(dvl: str, scenario: str, akit_dir, window_s: float = 30.0, gr
 
 def held_out_folder(folder, name: str, trajectory: str):
     """The folder under ``folder`` (``fold<k>`` subfolders of ``eval-beams --folds --save-nets`` or
-    ``imu_completer_folds.py --save-nets``, any depth) whose model card ``<name>.json`` was not trained on
-    ``trajectory`` (``TrajectoryN``): its ``data["held_out"]``, or its training trajectories without it."""
+    ``imu_completer_folds.py --save-nets``, any depth) whose model card ``<name>.json`` held out ``trajectory``
+    (``TrajectoryN``): its ``data["held_out"]``, or, for a card that lists only its training trajectories, one that
+    was not trained on it while another fold was."""
     import json
     from pathlib import Path
 
     number = int(trajectory.removeprefix("Trajectory"))
-    for card_file in sorted(Path(folder).rglob(f"{name}.json")):
-        card = json.loads(card_file.read_text())
+    cards = {f.parent: json.loads(f.read_text()) for f in sorted(Path(folder).rglob(f"{name}.json"))}
+    trained = {t for card in cards.values() for t in card.get("split", {}).get("train_trajectories", [])}
+    for where, card in cards.items():
         held = card["data"].get("held_out")
-        if (number in held) if held is not None else (number not in card["split"]["train_trajectories"]):
-            return card_file.parent
+        if number in held if held is not None else (number in trained
+                                                    and number not in card["split"]["train_trajectories"]):
+            return where
     raise FileNotFoundError(f"{folder}: no {name} fold network held out {trajectory}")
 
 

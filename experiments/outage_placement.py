@@ -149,7 +149,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
 
     from completer_fade_folds import WINDOW
     from imu_beam_fused_folds import PIVOT_MEMBERS, fold_networks, member_label
-    from imu_completer_folds import EVAL_GRADES, held_out_series
+    from imu_completer_folds import EVAL_GRADES, default_dvl_only, held_out_series
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
@@ -165,6 +165,7 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     rows = []
     for f, held in enumerate(AKIT_FOLDS):
         net, beam_net = nets[f]
+        default_dvl_only(net, "outage_placement.py")
         imu = envelope_variants(net, akit_dir)
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:

@@ -77,12 +77,13 @@ def chosen_for_note(spec: DvlSpec | None, check: str) -> str:
     :class:`DvlSpec` (the Snapir's, the DVL every recipe was chosen on), else that the choice was made on the Snapir's
     beams and ``check``, the command that gives the recipe's out-of-fold numbers for this DVL."""
     from graphnav.core.dvl import DvlGeometry
-    default = DvlGeometry.from_spec(DvlSpec()).T_b
-    if spec is None or beam_direction_mismatch(default, DvlGeometry.from_spec(spec).T_b) is None:
+    if spec is None:
+        return ""
+    default, ours = DvlGeometry.from_spec(DvlSpec()).T_b, DvlGeometry.from_spec(spec).T_b
+    if beam_direction_mismatch(default, ours) is None:
         return ""
     return (f"; the recipe was chosen on the default DVL's beams ({describe_beams(default)}), not on this DVL's "
-            f"({describe_beams(DvlGeometry.from_spec(spec).T_b)}): its out-of-fold numbers for this DVL come from "
-            f"{check}")
+            f"({describe_beams(ours)}): its out-of-fold numbers for this DVL come from {check}")
 
 
 def trained_dvl_spec(card: dict) -> DvlSpec:

@@ -98,11 +98,11 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         self.ping_dt = model.ping_dt
         self.sigma_scale = float(sigma_scale)
         self.card = card or {}
-        if (self.card.get("data") or {}).get("beam_model") is not None:
-            held, recorded = self.trained_T_b, super().trained_T_b
-            if not np.allclose(held, recorded, atol=1e-5):
-                raise ConfigError(f"IMU-aware network {self.card.get('name', '')}: its weights hold beams "
-                                  f"{describe_beams(held)}, its model card's DVL has {describe_beams(recorded)}")
+        # the card's DVL (the default one for a card without a record) is what evaluations make beams for
+        held, recorded = self.trained_T_b, super().trained_T_b
+        if not np.allclose(held, recorded, atol=1e-5):
+            raise ConfigError(f"IMU-aware network {self.card.get('name', '')}: its weights hold beams "
+                              f"{describe_beams(held)}, its model card's DVL has {describe_beams(recorded)}")
         # the paper's N where the pattern has one (2 or 3 missing beams), else the network's window
         n_average = AVERAGE_N_PAST.get(scenario_name(self.missing), self.n_past)
         self.fallback = AverageCompleter(min(self.n_past, n_average))

@@ -374,10 +374,23 @@ def test_folds_for_another_dvl_are_scored_with_its_geometry_and_say_so():
         out_of_fold_summary([fh.name], "tiny", ["2-missing"])
 
 
-def test_the_training_commands_take_a_dvl_and_refuse_it_where_they_cannot(tmp_path, capsys):
+def test_the_training_commands_take_a_dvl_and_refuse_it_where_they_cannot(tmp_path, capsys, monkeypatch):
     from graphnav.cli import main
     assert main(["train-beams", "--imu", "--config", str(tmp_path / "none.json"), "--out", str(tmp_path / "o")]) != 0
     assert "none.json" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    import graphnav.nets.imu_training as imu_training
+    seen = []
+
+    def stop(missing, options, data_dir, **kwargs):     # what train-beams --imu hands the training
+        seen.append(kwargs.get("spec"))
+        raise ConfigError("stop here")
+    monkeypatch.setattr(imu_training, "train_imu", stop)
+    rdi_json = tmp_path / "rdi.json"
+    rdi_json.write_text('{"dvl": {"psi_rad": [4.71238898038469, 1.5707963267948966, 0.0, 3.141592653589793]}}')
+    assert main(["train-beams", "--imu", "--recipe", "graded-fade", "--config", str(rdi_json), "--out",
+                 str(tmp_path / "o")]) != 0
+    assert len(seen) == 1 and np.allclose(seen[0].psi_rad, np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    assert "training for the DVL of" in capsys.readouterr().out
     assert main(["eval-beams", "--config", str(tmp_path / "none.json")]) != 0
     assert "--config goes with --folds" in capsys.readouterr().err
     bad = tmp_path / "bad.json"

@@ -169,8 +169,9 @@ def test_the_other_dvl_study_finds_the_fold_network_that_held_a_trajectory_out(t
     assert study.held_out_folder(tmp_path / "beam", "3-missing", "Trajectory5").name == "fold1"
     assert study.held_out_folder(tmp_path / "imu", "imu-3-missing", "Trajectory3").name == "fold0"
     assert study.held_out_folder(tmp_path / "imu", "imu-3-missing", "Trajectory2").name == "fold1"
-    with pytest.raises(FileNotFoundError, match="no 3-missing fold network held out Trajectory7"):
-        study.held_out_folder(tmp_path / "beam", "3-missing", "Trajectory7")
+    for kind, name in (("beam", "3-missing"), ("imu", "imu-3-missing")):      # a trajectory no fold had
+        with pytest.raises(FileNotFoundError, match=f"no {name} fold network held out Trajectory7"):
+            study.held_out_folder(tmp_path / kind, name, "Trajectory7")
 
 
 def test_the_other_dvl_study_reports_each_estimator_family_over_its_method_without_a_completer():
@@ -187,6 +188,18 @@ def test_the_other_dvl_study_reports_each_estimator_family_over_its_method_witho
                        "windows Graph-HNI, trained for it > 1.02x Graph-HNI |")
     assert text[2] == "| X | 3-missing | 2 | 0.800 | 0.750 | 0.800 | 0; 1 | 1 |"    # 0.9 > 1.02 * 0.8 in one window
     assert text[-1] == "| X | 3-missing | 1 | 0.500 | 0.750 | 1 |"       # the EKF rows (no family: the EKF's)
+
+
+def test_the_studies_made_for_the_default_dvl_stop_on_fold_networks_trained_for_another():
+    import types
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+    from imu_completer_folds import default_dvl_only
+    rdi = dataclasses.replace(DvlSpec(), psi_rad=RDI_PSI)
+    default_dvl_only(types.SimpleNamespace(trained_T_b=T_b(), trained_dvl_spec=DvlSpec()), "x.py")
+    with pytest.raises(SystemExit, match=r"x.py: its fold networks were trained for another DVL \(20 deg from the "
+                                         r"vertical at azimuths 270, 90, 0, 180 deg\)"):
+        default_dvl_only(types.SimpleNamespace(trained_T_b=DvlGeometry.from_spec(rdi).T_b, trained_dvl_spec=rdi),
+                         "x.py")
 
 
 def test_a_card_says_its_recipe_was_chosen_on_the_default_dvl_when_trained_for_another():

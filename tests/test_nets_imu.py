@@ -503,13 +503,14 @@ def test_an_imu_aware_network_trained_for_another_dvl_computes_with_its_beams_an
                                                              np.array([np.nan, 0.3, np.nan, 0.2]))[0])
 
     snapir_card = {**result.card, "data": {**result.card["data"], "beam_model": {}}}
-    with pytest.raises(ConfigError, match="its weights hold beams .* its model card's DVL has"):
-        ImuNetworkCompleter(result.model, snapir_card)
+    for card in (snapir_card, {}):          # a card without a record is the default DVL's
+        with pytest.raises(ConfigError, match="its weights hold beams .* its model card's DVL has"):
+            ImuNetworkCompleter(result.model, card)
 
     rows = evaluate_imu(("2-missing",), (2,), akit_dir=akit_dir, outage=False,
                         completers={"2-missing": ImuNetworkCompleter(result.model, result.card)})
     assert {r["method"] for r in rows} == {"imu-network", "average"}
-    # scored on the head's beams: the average's velocity RMSE with them, not with the Snapir's
+    # scored on the head's beams and geometry: the average's beam and velocity RMSE with them, not with the Snapir's
     from graphnav.nets.average import AverageCompleter
     from graphnav.nets.evaluate import completion_metrics, predict_completer
     from graphnav.nets.imu_data import imu_windows
@@ -517,5 +518,6 @@ def test_an_imu_aware_network_trained_for_another_dvl_computes_with_its_beams_an
     for spec, same in ((rdi_1hz, True), (DvlSpec(), False)):
         samples = imu_windows(akit_imu_series((2,), akit_dir, 1000, spec=spec), 5, comp.imu_samples)
         full, sigma = predict_completer(AverageCompleter(3), samples, (0, 2))
-        got = completion_metrics(full, sigma, samples, (0, 2), DvlGeometry.from_spec(spec))["beam_rmse"]
-        assert np.isclose(got, avg["beam_rmse"]) == same
+        got = completion_metrics(full, sigma, samples, (0, 2), DvlGeometry.from_spec(spec))
+        assert np.isclose(got["beam_rmse"], avg["beam_rmse"]) == same
+        assert np.isclose(got["vel_rmse"], avg["vel_rmse"]) == same

@@ -19,7 +19,8 @@ def register(subparsers) -> None:
                     "cross-validates training recipes instead, holding out whole trajectories: the numbers that "
                     "predict unseen motion.",
 )
-    p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped)")
+    p.add_argument("--weights", default=None, help="folder with <scenario>.pt/.json (default: shipped); scored on "
+                   "beams made for the DVL each model card records")
     p.add_argument("--beamsnet", default=None, help="snapir-2021-beamsnet folder (default: GRAPHNAV_DATA)")
     p.add_argument("--akit", default=None, help="snapir-2022-akit folder (default: GRAPHNAV_DATA)")
     p.add_argument("--beam-seed", type=int, default=1000,
@@ -30,10 +31,11 @@ def register(subparsers) -> None:
     p.add_argument("--json", default=None, help="also write the rows to this JSON file")
     p.add_argument("--imu", action="store_true",
                    help="evaluate the IMU-aware networks instead: IMU-aware network vs average estimator "
-                        "(N=3 for 2 missing beams, 5 for 3) vs beam-only network on A-KIT trajectories "
-                        "(default 3, 5, 6), per ping and recursive 30 s outages, with the reduction against the average in %%; the shipped "
-                        "networks were trained on all ten (the out-of-fold numbers: experiments/"
-                        "imu_completer_folds.py)")
+                        "(N=3 for 2 missing beams, 5 for 3) vs the shipped beam-only network (when it was trained for "
+                        "the same DVL) on A-KIT trajectories (default 3, 5, 6), with beams made for the DVL the "
+                        "IMU-aware card records, per ping and recursive 30 s outages, with the reduction against the "
+                        "average in %%; the shipped networks were trained on all ten (the out-of-fold numbers: "
+                        "experiments/imu_completer_folds.py)")
     p.add_argument("--trajectories", type=str, default=None,
                    help="with --imu: comma-separated A-KIT trajectory numbers (default 3,5,6)")
     p.add_argument("--per-trajectory", action="store_true",
