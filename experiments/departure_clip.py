@@ -66,7 +66,7 @@ class DepartureClip:
         self._s0 = np.zeros(4)
 
     def complete(self, past, measured, imu=None, run_steps=None, past_dt_s=None):
-        from graphnav.nets.completer import complete_with
+        from graphnav.estimators.history import complete_with
         past = np.asarray(past, float)
         measured = np.asarray(measured, float)
         missing = ~np.isfinite(measured)

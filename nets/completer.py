@@ -71,22 +71,6 @@ def check_inputs(past: np.ndarray, measured: np.ndarray, n_past: int) -> tuple[n
     return past, measured
 
 
-def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
-    """``completer.complete(past[-completer.n_past:], measured)``, handing the IMU window to a completer with
-    ``needs_imu``, the run steps (:class:`graphnav.estimators.history.BeamHistory`) to one with ``takes_run_steps``
-    and the past pings' intervals (``past_dt_s``, as long as ``past``; cut to the completer's window) to one with
-    ``takes_past_dt``: how the history and a completer that wraps others (auto, IMU-aware auto, fused) call a
-    completer, so that no argument is dropped on the way."""
-    kwargs = {}
-    if getattr(completer, "needs_imu", False):
-        kwargs["imu"] = imu
-    if getattr(completer, "takes_run_steps", False):
-        kwargs["run_steps"] = run_steps
-    if getattr(completer, "takes_past_dt", False):
-        kwargs["past_dt_s"] = None if past_dt_s is None else np.asarray(past_dt_s, float)[-completer.n_past:]
-    return completer.complete(np.asarray(past)[-completer.n_past:], measured, **kwargs)
-
-
 def summed_fallbacks(completers) -> dict[str, int]:
     """The ``fallbacks`` counters of ``completers`` (pings a network left to the average estimator, by kind:
     :data:`FALLBACK_KINDS`) summed by kind; a completer without counters adds nothing. How a

@@ -152,7 +152,7 @@ class TrainedForOneDvl:
 
     card: dict
     dvl_mismatch: str | None = None
-    #: the estimators' history hands it ``past_dt_s`` (:func:`graphnav.nets.completer.complete_with`)
+    #: the estimators' history hands it ``past_dt_s`` (:func:`graphnav.estimators.history.complete_with`)
     takes_past_dt = True
     #: longest interval of its past pings, in trained periods (:meth:`period_mismatch`)
     longest_past_interval = LONGEST_PAST_INTERVAL_PERIODS

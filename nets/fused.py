@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .completer import complete_with, summed_fallbacks
+from graphnav.estimators.history import complete_with
+
+from .completer import summed_fallbacks
 from .dvl_match import bind_members
 
 

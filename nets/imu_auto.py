@@ -34,8 +34,9 @@ from __future__ import annotations
 import numpy as np
 
 from graphnav.core.errors import ConfigError
+from graphnav.estimators.history import complete_with
 
-from .completer import check_drift_std, check_inputs, complete_with, new_fallbacks, summed_fallbacks
+from .completer import check_drift_std, check_inputs, new_fallbacks, summed_fallbacks
 from .dvl_match import bind_members
 from .fused import fuse
 from .model import scenario_name

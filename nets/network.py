@@ -16,10 +16,10 @@ import torch
 
 import graphnav
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.estimators.history import complete_with
 
 from .average import AverageCompleter
-from .completer import (FALLBACK_KINDS, check_inputs, check_run_decay, complete_with, fade_to_average, new_fallbacks,
-                        summed_fallbacks)
+from .completer import FALLBACK_KINDS, check_inputs, check_run_decay, fade_to_average, new_fallbacks, summed_fallbacks
 from .dvl_match import TrainedForOneDvl, bind_members
 from .model import NO_BEAM_ONLY_TOTAL_OUTAGE, BeamEnsemble, BeamRegressor, beam_model, normalize_missing, scenario_name
 from .storage import READABLE_VERSIONS, file_sha256, weights_dir

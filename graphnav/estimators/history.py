@@ -36,6 +36,22 @@ from collections import deque
 import numpy as np
 
 
+def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
+    """``completer.complete(past[-completer.n_past:], measured)``, handing the IMU window to a completer with
+    ``needs_imu``, the run steps (:class:`BeamHistory`) to one with ``takes_run_steps``
+    and the past pings' intervals (``past_dt_s``, as long as ``past``; cut to the completer's window) to one with
+    ``takes_past_dt``: how :class:`BeamHistory` and a completer that wraps others (:mod:`graphnav.nets`: auto,
+    IMU-aware auto, fused) call a completer, so that no argument is dropped on the way."""
+    kwargs = {}
+    if getattr(completer, "needs_imu", False):
+        kwargs["imu"] = imu
+    if getattr(completer, "takes_run_steps", False):
+        kwargs["run_steps"] = run_steps
+    if getattr(completer, "takes_past_dt", False):
+        kwargs["past_dt_s"] = None if past_dt_s is None else np.asarray(past_dt_s, float)[-completer.n_past:]
+    return completer.complete(np.asarray(past)[-completer.n_past:], measured, **kwargs)
+
+
 class BeamHistory:
     """Ring buffer of the last ``n_past`` full beam vectors (m/s)."""
 
@@ -114,15 +130,8 @@ class BeamHistory:
             self._run_steps[:] = 0
             return None
         measured = np.where(valid, beams, np.nan)
-        # what each completer takes, as graphnav.nets.completer.complete_with hands it on inside a composite
-        kwargs = {}
-        if getattr(completer, "needs_imu", False):
-            kwargs["imu"] = imu
-        if getattr(completer, "takes_run_steps", False):
-            kwargs["run_steps"] = self._run_steps.copy()
-        if getattr(completer, "takes_past_dt", False):
-            kwargs["past_dt_s"] = self.past_dt(t)
-        full, sigma = completer.complete(self.past(), measured, **kwargs)
+        full, sigma = complete_with(completer, self.past(), measured, imu=imu, run_steps=self._run_steps.copy(),
+                                    past_dt_s=self.past_dt(t))
         regressed = ~valid
         continuing = regressed & (self._run_sigma > 0)
         drift_std = getattr(completer, "drift_std", None)
