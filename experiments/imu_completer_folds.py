@@ -60,11 +60,8 @@ def held_out_series(held, akit_dir, grade: str, spec=None) -> list:
 def default_dvl_only(network, study: str) -> None:
     """Stop ``study``, which scores and fuses its fold networks on the default DVL's beams (the Snapir's), when the
     IMU-aware fold ``network`` was trained for another DVL (``imu_completer_folds.py --config``)."""
-    from graphnav.core.config import DvlSpec
-    from graphnav.core.dvl import DvlGeometry
-    from graphnav.nets.crossval import dvl_name
-    from graphnav.nets.dvl_match import beam_direction_mismatch
-    if beam_direction_mismatch(DvlGeometry.from_spec(DvlSpec()).T_b, network.trained_T_b) is not None:
+    from graphnav.nets.dvl_match import default_dvl_mismatch, dvl_name
+    if default_dvl_mismatch(network.trained_T_b) is not None:
         raise SystemExit(f"{study}: its fold networks were trained for another DVL "
                          f"({dvl_name(network.trained_dvl_spec)}); it scores the default DVL's beams only "
                          "(imu_completer_folds.py and completer_fade_folds.py --imu score any)")
@@ -86,7 +83,7 @@ def fold_rows(fold: int, held: tuple[int, ...], scenario: str, completer, akit_d
     :func:`graphnav.nets.crossval.summarise` (the IMU-aware network is ``network``; the grade is the variant).
     With ``fused``, the network combined with the average by their sigmas (``imu+average``) is the ``network``
     of the variant "IMU <grade>, fused", beside a copy of the average's rows."""
-    from graphnav.nets.crossval import dvl_name
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.imu_evaluate import evaluate_imu
     rows, dvl = [], dvl_name(completer.trained_dvl_spec)
     for grade in EVAL_GRADES:
@@ -352,7 +349,8 @@ def main(argv=None) -> int:
         return 0
     from graphnav.commands.common import config_dvl
     from graphnav.io.paths import akit_trajectories
-    from graphnav.nets.crossval import AKIT_FOLDS, dvl_name
+    from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.imu_network import ImuNetworkCompleter
     from graphnav.nets.imu_training import train_imu
     from graphnav.nets.training import save

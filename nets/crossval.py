@@ -26,7 +26,7 @@ from graphnav.core.folds import check_folds as core_check_folds
 from . import data as beamdata
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_run_decay
-from .dvl_match import beam_model_record, chosen_for_note
+from .dvl_match import beam_model_record, chosen_for_note, dvl_name
 from .evaluate import completion_metrics, outage_rollout, predict_completer
 from .model import normalize_missing, scenario_name
 
@@ -459,13 +459,6 @@ def crossval(data: FoldData, missing, variant: Variant | str = "paper-recipe", s
         if log is not None:
             log(f"{scen} {variant.name} fold {i} {list(data.folds[i])}: {time.perf_counter() - t0:.0f} s")
     return rows
-
-
-def dvl_name(spec: DvlSpec | None = None) -> str:
-    """How fold rows name the DVL they were made for (its beams, :func:`graphnav.nets.dvl_match.describe_beams`);
-    rows without one are the default :class:`DvlSpec`'s."""
-    from .dvl_match import describe_beams
-    return describe_beams(DvlGeometry.from_spec(spec or DvlSpec()).T_b)
 
 
 def summarise(rows: list[dict]) -> list[dict]:

@@ -72,18 +72,28 @@ def beam_model_record(spec: DvlSpec | None = None) -> dict:
     return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(spec or DvlSpec()).items()}
 
 
+def dvl_name(spec: DvlSpec | None = None) -> str:
+    """How rows and messages name a DVL: its beams (:func:`describe_beams`); None: the default :class:`DvlSpec`'s."""
+    from graphnav.core.dvl import DvlGeometry
+    return describe_beams(DvlGeometry.from_spec(spec or DvlSpec()).T_b)
+
+
+def default_dvl_mismatch(T_b: np.ndarray) -> str | None:
+    """:func:`beam_direction_mismatch` of beams ``T_b`` ((4, 3) unit vectors, body frame) against the default
+    :class:`DvlSpec`'s (the Snapir's, the DVL every recipe was chosen on): None when they are those beams."""
+    from graphnav.core.dvl import DvlGeometry
+    return beam_direction_mismatch(DvlGeometry.from_spec(DvlSpec()).T_b, T_b)
+
+
 def chosen_for_note(spec: DvlSpec | None, check: str) -> str:
     """What a model card's ``selected_by`` adds for a recipe trained for the DVL ``spec``: nothing for the default
     :class:`DvlSpec` (the Snapir's, the DVL every recipe was chosen on), else that the choice was made on the Snapir's
     beams and ``check``, the command that gives the recipe's out-of-fold numbers for this DVL."""
     from graphnav.core.dvl import DvlGeometry
-    if spec is None:
+    if spec is None or default_dvl_mismatch(DvlGeometry.from_spec(spec).T_b) is None:
         return ""
-    default, ours = DvlGeometry.from_spec(DvlSpec()).T_b, DvlGeometry.from_spec(spec).T_b
-    if beam_direction_mismatch(default, ours) is None:
-        return ""
-    return (f"; the recipe was chosen on the default DVL's beams ({describe_beams(default)}), not on this DVL's "
-            f"({describe_beams(ours)}): its out-of-fold numbers for this DVL come from {check}")
+    return (f"; the recipe was chosen on the default DVL's beams ({dvl_name()}), not on this DVL's "
+            f"({dvl_name(spec)}): its out-of-fold numbers for this DVL come from {check}")
 
 
 def trained_dvl_spec(card: dict) -> DvlSpec:
@@ -151,6 +161,7 @@ class TrainedForOneDvl:
     was never bound), and the check of each ping's past against the trained ping period (:meth:`period_mismatch`)."""
 
     card: dict
+    n_past: int
     dvl_mismatch: str | None = None
     #: the estimators' history hands it ``past_dt_s`` (:func:`graphnav.estimators.history.complete_with`)
     takes_past_dt = True
@@ -162,15 +173,21 @@ class TrainedForOneDvl:
         """The DVL ping period (s) the network was trained for (:func:`trained_ping_period_s`)."""
         return trained_ping_period_s(self.card)
 
+    @property
+    def trained_dvl_spec(self) -> DvlSpec:
+        """The DVL (beams and errors) the network was trained for: its card's (:func:`trained_dvl_spec`)."""
+        return trained_dvl_spec(self.card)
+
     def period_mismatch(self, past_dt_s) -> bool:
-        """Whether a ping's past (``past_dt_s``, (n_past,) s: the interval from each past ping to the next, the newest
-        one's to this ping) is not the past the network was trained on: an interval shorter than
-        ``1 - PING_PERIOD_TOLERANCE`` trained periods or longer than :attr:`longest_past_interval` periods (None:
-        stamps unknown, nothing to check).
+        """Whether a ping's past (``past_dt_s``, (>= n_past,) s: the interval from each past ping to the next, the
+        newest one's to this ping; its last ``n_past`` are the network's window) is not the past the network was
+        trained on: an interval shorter than ``1 - PING_PERIOD_TOLERANCE`` trained periods or longer than
+        :attr:`longest_past_interval` periods (None: stamps unknown, nothing to check).
 
         Raises:
             ValueError: an interval that is not a finite number."""
-        return past_dt_s is not None and off_period(past_dt_s, self.trained_ping_period_s, self.longest_past_interval)
+        return past_dt_s is not None and off_period(np.asarray(past_dt_s, float)[-self.n_past:],
+                                                    self.trained_ping_period_s, self.longest_past_interval)
 
     def refusal(self, past: np.ndarray, measured: np.ndarray, past_dt_s=None) -> str | None:
         """Why the network leaves a ping of its own pattern to the average estimator, as its ``fallbacks`` key: bound

@@ -145,14 +145,13 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
     from graphnav.core.errors import DataError
 
     from . import data as beamdata
-    from .dvl_match import trained_dvl_spec
     from .network import load_completer
 
     rows = []
     for scen in scenarios:
         net = load_completer(scen, directory=directory)
         yaw = net.card.get("data", {}).get("align_yaw_deg", 0.0)   # the frame the network was trained in
-        spec = trained_dvl_spec(net.card)
+        spec = net.trained_dvl_spec
         geometry = DvlGeometry.from_spec(spec)
         datasets = {}
         for name, split in (("val", "val"), ("V_test", "test")):

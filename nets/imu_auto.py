@@ -187,7 +187,7 @@ class ImuAutoCompleter:
         # a window shorter than the networks' is the members' own (the keyframer's, where the networks have none); a
         # past not spaced as the network propagates it is beam_only's too (the keyframer sends none such with a window)
         if (net is not None and imu is not None and len(imu[1]) >= self.imu_samples
-                and not net.period_mismatch(None if past_dt_s is None else np.asarray(past_dt_s)[-net.n_past:])):
+                and not net.period_mismatch(past_dt_s)):
             self.usage["imu"] += 1
             b_imu, s_imu = complete_with(net, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
             rho = self._fuse_rho[pattern]

@@ -31,7 +31,7 @@ from graphnav.core.errors import ConfigError, DataError
 
 from .average import AVERAGE_N_PAST, AverageCompleter
 from .completer import check_inputs, check_run_decay, fade_to_average, new_fallbacks
-from .dvl_match import TrainedForOneDvl, describe_beams, trained_dvl_spec
+from .dvl_match import TrainedForOneDvl, describe_beams
 from .imu_model import ImuBeamRegressor
 from .imu_window import check_imu, preintegrate
 from .model import normalize_missing, scenario_name
@@ -119,12 +119,6 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         """(4, 3) body-frame beam directions the network computes with: its model's ``T_b`` (the card's DVL, which
         the constructor checks against them)."""
         return self.model.T_b.detach().cpu().numpy().astype(float)
-
-    @property
-    def trained_dvl_spec(self):
-        """The DVL (:class:`~graphnav.core.config.DvlSpec`, beams and errors) the network was trained for: its card's
-        (:func:`graphnav.nets.dvl_match.trained_dvl_spec`)."""
-        return trained_dvl_spec(self.card)
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:

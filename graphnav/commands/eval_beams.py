@@ -71,8 +71,7 @@ def training_data_notes(directory, names: list[str]) -> list[str]:
     (the beams its rows are scored on)."""
     from pathlib import Path
 
-    from graphnav.nets.crossval import dvl_name
-    from graphnav.nets.dvl_match import trained_dvl_spec
+    from graphnav.nets.dvl_match import dvl_name, trained_dvl_spec
     from graphnav.nets.storage import weights_dir
 
     lines = []
@@ -151,7 +150,8 @@ def run_folds(args) -> int:
     data = crossval.load_fold_data(args.akit, args.beamsnet, args.beam_seed, spec=config_dvl(args.config))
     print(crossval.fold_table(data))
     if args.config:
-        print(f"DVL of {args.config}: beams {crossval.dvl_name(data.spec)}")
+        from graphnav.nets.dvl_match import dvl_name
+        print(f"DVL of {args.config}: beams {dvl_name(data.spec)}")
     rows = []
     for name in names:
         for scen in args.scenario or ("2-missing", "3-missing"):

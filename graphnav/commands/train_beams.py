@@ -164,7 +164,8 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spe
     ``ConfigError`` naming it."""
     from graphnav.nets import crossval
 
-    dvl, default_dvl = crossval.dvl_name(spec), crossval.dvl_name()
+    from graphnav.nets.dvl_match import dvl_name
+    dvl, default_dvl = dvl_name(spec), dvl_name()
     rows = []
     for name in files:
         try:
@@ -215,7 +216,7 @@ def run(args) -> int:
 
     spec = config_dvl(args.config)          # read once, and a bad file is said before any training
     if spec is not None:
-        from graphnav.nets.crossval import dvl_name
+        from graphnav.nets.dvl_match import dvl_name
         warn_off_rate(spec, args.config)
         print(f"training for the DVL of {args.config}: beams {dvl_name(spec)}")
     if args.out_of_fold and (not args.recipe or args.imu):
