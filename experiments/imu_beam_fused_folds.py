@@ -26,7 +26,11 @@ Through a recursive 30-ping outage the fused completion goes back into the histo
 the run steps the history hands on. Every variant is scored beside the two members alone and the average
 estimator, per ping and through the outages of :mod:`graphnav.nets.imu_evaluate`, with each evaluation IMU
 (recorded, tactical, MEMS), on the pings of the IMU-aware study. Rows are written to ``--out`` after every fold.
-Usage::
+
+The pair is scored on the beams of the DVL its networks were trained for (their cards' ``data.beam_model``; the
+Snapir's unless ``imu_completer_folds.py --config`` and ``graphnav eval-beams --folds --config`` trained them for
+another), and each row names it. The two members must have been trained for the same DVL; a pivot member is built for
+it. Usage::
 
     .venv/bin/python experiments/imu_beam_fused_folds.py --scenario 2-missing --imu-nets out/imu_folds/nets2 \\
         --beam-nets out/ens2/akit-residual-aug-ens5 --out out/fusedens/rows2.json
@@ -142,11 +146,12 @@ def fitted_rho(others: list[dict], missing) -> float:
 
 def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, series, pp: dict, rho: float,
               second: str = "beam-only, fading") -> list[dict]:
-    """Rows for :func:`graphnav.nets.crossval.summarise` (each variant the ``network`` beside the average)."""
+    """Rows for :func:`graphnav.nets.crossval.summarise` (each variant the ``network`` beside the average), velocities
+    solved with the geometry of the DVL the pair was trained for (:func:`pair_dvl`), which each row names."""
     from completer_fade_folds import WINDOW, window_sq
 
-    from graphnav.core.config import DvlSpec
     from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.data import BeamSamples
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
@@ -170,14 +175,16 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
         if out_samples is not None and not np.array_equal(osamp.beams, out_samples.beams):
             raise RuntimeError(f"the outage pings of {name} differ from the average's")
         made_out[name], out_samples = (full, sigma), osamp
-    base = {"fold": fold, "held_out": list(held), "dataset": "A-KIT", "scenario": scenario, "rho": rho}
-    geometry = DvlGeometry.from_spec(DvlSpec())
+    spec = pair_dvl(imu_net, beam_net, "imu_beam_fused_folds.py")
+    base = {"fold": fold, "held_out": list(held), "dataset": "A-KIT", "scenario": scenario, "rho": rho,
+            "dvl": dvl_name(spec)}
+    geometry = DvlGeometry.from_spec(spec)
     rows = []
     for mode, made, samp, avg in (("per ping", made_pp, pp_samples, pp["average"]),
                                   ("outage 30 s", made_out, out_samples, made_out["average"])):
-        avg_m = completion_metrics(*avg, samp, miss)
+        avg_m = completion_metrics(*avg, samp, miss, geometry)
         for variant in variants(second):
-            net_m = completion_metrics(*made[variant], samp, miss)
+            net_m = completion_metrics(*made[variant], samp, miss, geometry)
             v = f"IMU {grade}, {variant}"
             extra = ({"window_sq": window_sq(made[variant][0], samp, miss, geometry)},
                      {"window_sq": window_sq(avg[0], samp, miss, geometry)}) if mode == "outage 30 s" else ({}, {})
@@ -197,19 +204,46 @@ def window_interval(rows: list[dict], scenario: str, variant: str, fold: int, dr
     return [(100 * lo, 100 * hi) for lo, hi in gain_interval(net["window_sq"], avg["window_sq"], draws, seed)]
 
 
+def pair_dvl(imu_net, second, study: str):
+    """The DVL (:class:`~graphnav.core.config.DvlSpec`) a fold's pair is scored on: the one the IMU-aware network
+    ``imu_net`` was trained for (its card's). Stop ``study`` when the second member was trained or built for another:
+    a network whose card records another DVL, or a pivot completer with other beams."""
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.dvl_match import beam_direction_mismatch, beam_model_record, dvl_name
+    spec = imu_net.trained_dvl_spec
+    if hasattr(second, "trained_dvl_spec"):
+        other = second.trained_dvl_spec
+        differs = beam_model_record(other) != beam_model_record(spec)
+    else:
+        other = None
+        differs = beam_direction_mismatch(DvlGeometry.from_spec(spec).T_b, second.T_b) is not None
+    if differs:
+        theirs = ("its beams differ" if other is None else
+                  "the same beams, other errors" if dvl_name(other) == dvl_name(spec) else dvl_name(other))
+        raise SystemExit(f"{study}: the IMU-aware fold network was trained for the DVL {dvl_name(spec)}, the second "
+                         f"member for another ({theirs}); train both for one DVL (--config)")
+    return spec
+
+
 def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float | None = None,
                   beam_decay: float | None = None, akit_dir=None) -> dict:
     """Fold -> (IMU-aware network, beam-only network) of ``scenario``, each fading with ``run_decay`` (default: the
     shipped card's). ``beam_dir`` one of :data:`PIVOT_MEMBERS`: the pivot completer with the fold's lengths fitted on
-    the other folds' trajectories (``akit_dir``) in place of the beam-only network (it does not fade)."""
+    the other folds' trajectories (``akit_dir``) in place of the beam-only network (it does not fade), built for the
+    DVL the fold's IMU-aware network was trained for."""
     from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import load_completer
     imu_decay = load_imu_completer(scenario).run_decay if imu_decay is None else imu_decay
+    imu = [load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay) for f in range(len(AKIT_FOLDS))]
+    if len({dvl_name(net.trained_dvl_spec) for net in imu}) > 1:
+        raise SystemExit(f"{imu_dir}: the fold networks were trained for different DVLs")
     if beam_dir in PIVOT_MEMBERS:
         if beam_decay is not None:
             raise SystemExit("--beam-decay: the pivot completer does not fade")
-        second = fold_pivot_completers(scenario, akit_dir, pitch=beam_dir == PIVOT_PITCH_MEMBER)
+        second = fold_pivot_completers(scenario, akit_dir, pitch=beam_dir == PIVOT_PITCH_MEMBER,
+                                       spec=imu[0].trained_dvl_spec)
         print(f"run_decay: IMU-aware {imu_decay:g}; pivot lengths (yaw, pitch) "
               f"{[tuple(round(x, 2) for x in c.lengths_m) for c in second]} m, holding {second[0].n_past}",
               file=sys.stderr, flush=True)
@@ -218,12 +252,12 @@ def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float |
         print(f"run_decay: IMU-aware {imu_decay:g}, beam-only {beam_decay:g}", file=sys.stderr, flush=True)
         second = [load_completer(scenario, directory=f"{beam_dir}/fold{f}", run_decay=beam_decay)
                   for f in range(len(AKIT_FOLDS))]
-    return {f: (load_imu_completer(scenario, f"{imu_dir}/fold{f}", run_decay=imu_decay), second[f])
-            for f in range(len(AKIT_FOLDS))}
+    return {f: (imu[f], second[f]) for f in range(len(AKIT_FOLDS))}
 
 
-def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> list:
-    """Per A-KIT fold, the pivot completer (the DVL geometry of the series the studies score) with the pivot length
+def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False, spec=None) -> list:
+    """Per A-KIT fold, the pivot completer for the DVL ``spec`` (default: the Snapir's, the series the studies score)
+    with the pivot length
     fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``): the yaw alone holding the
     average's N, or with ``pitch`` the completer's defaults (yaw and pitch lengths, its own hold)."""
     from oracle_completions import fold_pivot_lengths
@@ -236,7 +270,7 @@ def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> 
     from graphnav.nets.crossval import AKIT_FOLDS
     from graphnav.nets.pivot import DEFAULT_AXES, PivotCompleter
     sources = {s.name: s for s in find_trajectories(str(akit_trajectories(akit_dir)[0].parent))}
-    geometry = DvlGeometry.from_spec(DvlSpec())
+    geometry = DvlGeometry.from_spec(spec or DvlSpec())
     if not pitch:
         return [PivotCompleter(geometry.T_b, geometry.lever_arm_b, length, n_past=AVERAGE_N_PAST[scenario],
                                axes=("yaw",)) for length in fold_pivot_lengths(sources, AKIT_FOLDS)]
@@ -246,16 +280,17 @@ def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False) -> 
 
 
 def held_out_per_ping(nets: dict, scenario: str, akit_dir) -> tuple[dict, dict]:
-    """Each fold's held-out series and :func:`per_ping` completions by (fold, evaluation IMU)."""
-    from imu_completer_folds import EVAL_GRADES, default_dvl_only, held_out_series
+    """Each fold's held-out series, its beams made for the DVL of the fold's pair (:func:`pair_dvl`), and
+    :func:`per_ping` completions by (fold, evaluation IMU)."""
+    from imu_completer_folds import EVAL_GRADES, held_out_series
 
     from graphnav.nets.crossval import AKIT_FOLDS
     series, pp = {}, {}
     for f, held in enumerate(AKIT_FOLDS):
-        default_dvl_only(nets[f][0], "imu_beam_fused_folds.py")
+        spec = pair_dvl(*nets[f], "imu_beam_fused_folds.py")
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:
-            series[f, grade] = held_out_series(held, akit_dir, grade)
+            series[f, grade] = held_out_series(held, akit_dir, grade, spec)
             pp[f, grade] = per_ping(*nets[f], scenario, series[f, grade])
         print(f"fold {f}: per ping in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     return series, pp
@@ -359,9 +394,10 @@ def interval_table(rows: list[dict]) -> str:
 
 
 def report(rows: list[dict]) -> str:
-    from imu_completer_folds import fold_tables
+    from imu_completer_folds import fold_tables, rows_dvl
+    dvl = rows_dvl(rows, "imu_beam_fused_folds.py")
     rhos = sorted({(r["scenario"], r["variant"].split(",")[0], r["fold"], round(r["rho"], 3)) for r in rows})
-    return "\n\n".join(fold_tables(rows, "variant") + [
+    return "\n\n".join([f"The DVL the pairs were trained for and scored on: {dvl}"] + fold_tables(rows, "variant") + [
         "Sigma coverage (Gaussian 0.683 / 0.954, z RMS 1):",
         coverage_table(rows),
         f"90 % interval of each fold's outage gain for '{SHIPPED}' over its outage windows drawn again "

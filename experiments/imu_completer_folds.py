@@ -67,6 +67,16 @@ def default_dvl_only(network, study: str) -> None:
                          "(imu_completer_folds.py and completer_fade_folds.py --imu score any)")
 
 
+def rows_dvl(rows: list[dict], study: str) -> str:
+    """The DVL a study's rows were scored on, as :func:`graphnav.nets.dvl_match.dvl_name` names it (rows without a
+    ``dvl`` were scored on the Snapir's); stop ``study`` when they hold more than one: their gains do not pool."""
+    from graphnav.nets.dvl_match import dvl_name
+    dvls = sorted({r.get("dvl", dvl_name()) for r in rows})
+    if len(dvls) > 1:
+        raise SystemExit(f"{study}: the rows were scored on different DVLs ({'; '.join(dvls)}); report them apart")
+    return dvls[0] if dvls else dvl_name()
+
+
 def calibration_fits(path, scenario: str) -> dict:
     """The ``--calibrate`` rows of ``scenario`` in the file ``path`` by (fold, evaluation IMU): each row carries the
     numbers fitted for that fold (``rho``, ``growth_net``, ``growth_avg``, ``drift_net``)."""

@@ -10,6 +10,9 @@ pings (default 10; windows overlap, and each starts again from the true past, as
   studies' layout shifted by ``p * stride`` pings; p = 0 is the studies' own windows;
 - **every placement**: all windows together, the expected gain over where an outage falls.
 
+The completers are scored on the beams of the DVL their fold networks were trained for (see
+``imu_beam_fused_folds.py``; the Snapir's unless trained with ``--config``), which each row names.
+
 For each fold's held-out pair, each evaluation IMU and each completer (the IMU-aware fold network fading, the
 beam-only fold ensemble fading, and the two fused as ``Graph-HNI`` fuses them: inverse-variance weights, the sigma
 does not change the completion; the IMU-aware network and the fusion again with the IMU-aware network's input
@@ -66,15 +69,16 @@ def window_starts(series, n_past: int, settle: int, stride: int) -> list[tuple[i
             for start in outage_window_starts(len(s.beams), n_past, WINDOW, stride - WINDOW, settle)]
 
 
-def rollout_windows(completers: dict, series, missing, settle: int, stride: int) -> tuple[dict, list]:
+def rollout_windows(completers: dict, series, missing, settle: int, stride: int, spec=None) -> tuple[dict, list]:
     """Each completer's per-window summed squared errors (beam, velocity; two lists) through recursive outages
-    starting every ``stride`` pings from ``settle``, and the windows' (series index, first ping)."""
+    starting every ``stride`` pings from ``settle``, and the windows' (series index, first ping). Velocities are
+    solved with the geometry of the DVL ``spec`` (default: the Snapir's), the one the series' beams were made for."""
     from completer_fade_folds import WINDOW, window_sq
 
     from graphnav.core.config import DvlSpec
     from graphnav.core.dvl import DvlGeometry
     from graphnav.nets.evaluate import outage_rollout
-    geometry = DvlGeometry.from_spec(DvlSpec())
+    geometry = DvlGeometry.from_spec(spec or DvlSpec())
     sq, reference, n_past = {}, None, None
     for name, comp in completers.items():
         full, _, samples = outage_rollout(comp, series, missing, window=WINDOW, gap=stride - WINDOW, settle=settle)
@@ -148,8 +152,10 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     import json
 
     from completer_fade_folds import WINDOW
-    from imu_beam_fused_folds import PIVOT_MEMBERS, fold_networks, member_label
-    from imu_completer_folds import EVAL_GRADES, default_dvl_only, held_out_series
+    from imu_beam_fused_folds import PIVOT_MEMBERS, fold_networks, member_label, pair_dvl
+    from imu_completer_folds import EVAL_GRADES, held_out_series
+
+    from graphnav.nets.dvl_match import dvl_name
 
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
@@ -165,11 +171,11 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     rows = []
     for f, held in enumerate(AKIT_FOLDS):
         net, beam_net = nets[f]
-        default_dvl_only(net, "outage_placement.py")
+        spec = pair_dvl(net, beam_net, "outage_placement.py")
         imu = envelope_variants(net, akit_dir)
         t0 = time.perf_counter()
         for grade in EVAL_GRADES:
-            series = held_out_series(held, akit_dir, grade)
+            series = held_out_series(held, akit_dir, grade, spec)
             enveloped = imu(True)
             makers = {"IMU-aware, fading": lambda: imu(False), second: lambda: beam_net,
                       "fused": lambda: FusedCompleter(imu(False), beam_net),
@@ -178,8 +184,8 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
                                                                 beam_net)}
             own = [second if n == "beam-only, fading" else n for n in names]
             completers = {"average": AverageCompleter(AVERAGE_N_PAST[scenario])} | {n: makers[n]() for n in own}
-            sq, starts = rollout_windows(completers, series, list(net.missing), OUTAGE_SETTLE, stride)
-            row = {"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade,
+            sq, starts = rollout_windows(completers, series, list(net.missing), OUTAGE_SETTLE, stride, spec)
+            row = {"scenario": scenario, "fold": f, "held_out": list(held), "grade": grade, "dvl": dvl_name(spec),
                    "settle": OUTAGE_SETTLE, "stride": stride, "starts": starts, "sq": sq,
                    "run_decay": {"IMU-aware": net.run_decay, "beam-only": getattr(beam_net, "run_decay", 1.0)},
                    "nets": {"IMU-aware": str(imu_dir), "beam-only": str(beam_dir)}}
@@ -272,6 +278,8 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
              "placement cells whose velocity gain is below the average's, which the rule does not count)", ""]
     if not rows:
         raise ValueError("no rows to choose run_decay from")
+    from imu_completer_folds import rows_dvl
+    rows_dvl(rows, "outage_placement.py --choose-decays")
     if any(map(pivot_member, rows)):
         raise ValueError("rows with the pivot completer as the second member (--beam-nets pivot or pivot-pitch): it "
                          "does not fade, "
@@ -330,10 +338,11 @@ def decay_report(rows: list[dict], name: str = "fused, envelope") -> str:
 
 
 def report(rows: list[dict]) -> str:
+    from imu_completer_folds import rows_dvl
     lines = ["Gain against the average estimator through recursive 30-ping outages, beam / velocity RMSE (%): at the "
              "studies' placement (p = 0), the range over the placements, and over every placement with its 90 % "
              "interval (90-ping blocks drawn again); `worse in` counts the placements where the fold's velocity "
-             "gain is negative.", ""]
+             f"gain is negative. The DVL: {rows_dvl(rows, 'outage_placement.py')}.", ""]
     # rows written before rows held their run_decay ran the cards' fadings; a pivot row's second member is the
     # pivot completer, which is another pair than the beam-only networks' whatever the decays
     decays = [(tuple(row_decays(r)) if "run_decay" in r else None, pivot_member(r),

@@ -233,6 +233,59 @@ def test_every_placement_holds_the_studies_windows_at_placement_zero_and_blocks_
     assert blo == bhi == pytest.approx(100 * (1 - np.sqrt(0.5))) and vlo == vhi == 0.0
 
 
+def test_every_placement_solves_velocities_with_the_dvl_the_beams_were_made_for():
+    """Fold networks trained for another DVL are scored on that DVL's beams: the windows' velocity errors come from
+    its geometry, not the Snapir's (the beam errors do not depend on it)."""
+    import dataclasses
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSeries
+    from graphnav.nets.evaluate import outage_rollout
+    study = _study("outage_placement")
+    fade = _study("completer_fade_folds")
+    rdi = dataclasses.replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    rng = np.random.default_rng(3)
+    beams = np.cumsum(0.03 * rng.standard_normal((200, 4)), axis=0)
+    series = [BeamSeries("s", DvlGeometry.from_spec(rdi).velocity_from_beams(beams), beams)]
+    comps = {"average": AverageCompleter(3), "long": AverageCompleter(12)}
+    sq_rdi, starts = study.rollout_windows(comps, series, [0, 1], settle=25, stride=10, spec=rdi)
+    sq_default, _ = study.rollout_windows(comps, series, [0, 1], settle=25, stride=10)
+    full, _, samples = outage_rollout(comps["long"], series, [0, 1], window=30, gap=60, settle=25)
+    own = fade.window_sq(full, samples, [0, 1], DvlGeometry.from_spec(rdi))
+    place = study.placement_of(starts, 25, 10)
+    np.testing.assert_allclose(np.asarray(sq_rdi["long"][1])[place == 0], own[1])
+    np.testing.assert_allclose(sq_rdi["long"][0], sq_default["long"][0])
+    assert not np.allclose(sq_rdi["long"][1], sq_default["long"][1])
+
+
+def test_the_fused_studies_score_a_pair_on_the_dvl_both_members_were_trained_for():
+    import dataclasses
+    import types
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    fused = _study("imu_beam_fused_folds")
+    folds = _study("imu_completer_folds")
+    rdi = dataclasses.replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    noisier = dataclasses.replace(rdi, beam_noise_std=0.1)
+    net = types.SimpleNamespace
+    assert fused.pair_dvl(net(trained_dvl_spec=rdi), net(trained_dvl_spec=rdi), "x.py") is rdi
+    # a pivot member has no card: its beams must be the DVL's
+    assert fused.pair_dvl(net(trained_dvl_spec=rdi), net(T_b=DvlGeometry.from_spec(rdi).T_b), "x.py") is rdi
+    for second, why in ((net(trained_dvl_spec=DvlSpec()), "45, 135, 225, 315 deg"),
+                        (net(trained_dvl_spec=noisier), "the same beams, other errors"),
+                        (net(T_b=DvlGeometry.from_spec(DvlSpec()).T_b), "its beams differ")):
+        with pytest.raises(SystemExit, match=r"x.py: the IMU-aware fold network was trained for the DVL 20 deg from "
+                                             r"the vertical at azimuths 270, 90, 0, 180 deg, .*" + why):
+            fused.pair_dvl(net(trained_dvl_spec=rdi), second, "x.py")
+    # a report pools the rows of one DVL only; rows without a name were scored on the Snapir's
+    assert folds.rows_dvl([{"dvl": "A"}, {"dvl": "A"}], "x.py") == "A"
+    assert folds.rows_dvl([{}], "x.py") == folds.rows_dvl([], "x.py") == "20 deg from the vertical at azimuths 45, " \
+        "135, 225, 315 deg"
+    with pytest.raises(SystemExit, match="x.py: the rows were scored on different DVLs"):
+        folds.rows_dvl([{"dvl": "A"}, {}], "x.py")
+
+
 def test_decay_choice_over_every_placement_counts_worse_folds_first_and_scores_each_fold_out_of_fold():
     study = _study("outage_placement")
 
