@@ -151,9 +151,9 @@ def fold_rows(fold: int, held, scenario: str, grade: str, imu_net, beam_net, ser
     from completer_fade_folds import WINDOW, window_sq
 
     from graphnav.core.dvl import DvlGeometry
-    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.data import BeamSamples
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.evaluate import completion_metrics, outage_rollout
     from graphnav.nets.fused import FusedCompleter, fuse
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
@@ -256,10 +256,10 @@ def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float |
 
 
 def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False, spec=None) -> list:
-    """Per A-KIT fold, the pivot completer for the DVL ``spec`` (default: the Snapir's, the series the studies score)
-    with the pivot length
-    fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``): the yaw alone holding the
-    average's N, or with ``pitch`` the completer's defaults (yaw and pitch lengths, its own hold)."""
+    """Per A-KIT fold, the pivot completer for the beams of the DVL ``spec`` (default: the Snapir's) with the pivot
+    lengths fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``, from their recorded
+    Snapir beams: the lengths are the hull's): the yaw alone holding the average's N, or with ``pitch`` the
+    completer's defaults (yaw and pitch lengths, its own hold)."""
     from oracle_completions import fold_pivot_lengths
 
     from graphnav.core.config import DvlSpec

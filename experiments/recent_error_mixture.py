@@ -23,7 +23,7 @@ The errors come from one of two sources, both available online since those pings
 Per ping, the weights of ping ``k`` come from the one-step errors of pings ``k-K .. k-1``; through an outage the
 weights are made at its first ping and kept, and each member completes the outage on its own history. Scored per
 fold and evaluation IMU against the average (beam / velocity RMSE gain, %), on the pings and outage windows of
-``experiments/imu_beam_fused_folds.py``. Usage::
+``experiments/imu_beam_fused_folds.py`` (on the beams of the DVL the pair was trained for). Usage::
 
     .venv/bin/python experiments/recent_error_mixture.py --scenario 2-missing --imu-nets out/imu_folds/nets2s100 \\
         --beam-nets out/ens2-s100/akit-residual-aug-ens5 --out out/mixture/mix2.json
@@ -106,15 +106,20 @@ def squared_errors(full: np.ndarray, samples, missing, geometry) -> list[float]:
 
 
 def fold_rows(fold: int, grade: str, scenario: str, nets, series, pp: dict, rho: float) -> list[dict]:
-    from graphnav.core.config import DvlSpec
+    """Rows of one fold and evaluation IMU, velocities solved with the geometry of the DVL the pair was trained for
+    (:func:`imu_beam_fused_folds.pair_dvl`; the series' beams were made for it), which each row names."""
+    from imu_beam_fused_folds import pair_dvl
+
     from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.evaluate import outage_rollout
     from graphnav.nets.fused import FusedCompleter, fuse
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     imu_net, beam_net = nets
     miss = list(imu_net.missing)
-    geometry = DvlGeometry.from_spec(DvlSpec())
+    spec = pair_dvl(imu_net, beam_net, "recent_error_mixture.py")
+    geometry = DvlGeometry.from_spec(spec)
     average = AverageCompleter(AVERAGE_N_PAST[scenario])
     samples = pp["samples"]
     rows = row_index(series, max(imu_net.n_past, beam_net.n_past, average.n_past), imu_net.imu_samples)
@@ -129,7 +134,7 @@ def fold_rows(fold: int, grade: str, scenario: str, nets, series, pp: dict, rho:
         idx = [rows[si, j] for j in range(k - k_pings, k) if (si, j) in rows]
         return (float(sq["F"][idx].mean()), float(sq["A"][idx].mean())) if len(idx) >= k_pings // 2 else None
 
-    base = {"fold": fold, "grade": grade, "scenario": scenario, "rho": rho}
+    base = {"fold": fold, "grade": grade, "scenario": scenario, "rho": rho, "dvl": dvl_name(spec)}
     by_row = {i: key for key, i in rows.items()}
     made = {"average": squared_errors(avg_pp, samples, miss, geometry),
             "fused": squared_errors(fused_pp, samples, miss, geometry)}
@@ -190,7 +195,9 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, imu_dec
 def report(rows: list[dict]) -> str:
     """Per scenario, mode and variant: pooled gain against the average (beam / velocity, %), the worst fold cell
     (fold and evaluation IMU) and the number of fold cells worse than the average."""
-    lines = ["| scenario | mode | variant | pooled beam / velocity gain | worst fold cell (beam / velocity) | "
+    from imu_completer_folds import rows_dvl
+    lines = [f"The DVL: {rows_dvl(rows, 'recent_error_mixture.py')}", "",
+             "| scenario | mode | variant | pooled beam / velocity gain | worst fold cell (beam / velocity) | "
              "worse fold cells (beam / velocity) |", "| --- | --- | --- | --- | --- | --- |"]
     for sc in dict.fromkeys(r["scenario"] for r in rows):
         for mode in ("per ping", "outage 30 s"):

@@ -286,6 +286,69 @@ def test_the_fused_studies_score_a_pair_on_the_dvl_both_members_were_trained_for
         folds.rows_dvl([{"dvl": "A"}, {}], "x.py")
 
 
+def test_the_fused_studies_make_the_beams_and_solve_the_velocities_of_the_pairs_dvl(monkeypatch, tmp_path):
+    """The studies' own runs, their data and scoring stubbed where they would train or read missions: each fold's
+    held-out beams are made for the DVL the pair was trained for, the placement study solves its windows with that
+    DVL, the fused and mixture studies score velocities with its geometry, and each row names it."""
+    import dataclasses
+    import types
+    from graphnav.core.config import DvlSpec
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.nets import evaluate
+    from graphnav.nets.average import AverageCompleter
+    from graphnav.nets.data import BeamSamples
+    from graphnav.nets.dvl_match import dvl_name
+    place = _study("outage_placement")
+    import imu_beam_fused_folds as fused          # the modules the studies import at run time
+    import imu_completer_folds as folds
+    rdi = dataclasses.replace(DvlSpec(), psi_rad=np.deg2rad([270.0, 90.0, 0.0, 180.0]))
+    made, solved = [], []
+    monkeypatch.setattr(folds, "held_out_series", lambda held, akit_dir, grade, spec=None: made.append(spec) or [])
+
+    def member():
+        m = AverageCompleter(3)
+        m.trained_dvl_spec, m.missing, m.run_decay = rdi, (0, 1), 1.0
+        return m
+    nets = {f: (member(), member()) for f in range(5)}
+    # the placement study
+    monkeypatch.setattr(fused, "fold_networks", lambda *args, **kwargs: nets)
+    monkeypatch.setattr(place, "envelope_variants", lambda net, akit_dir: lambda enveloped: net)
+    monkeypatch.setattr(place, "rollout_windows", lambda comps, series, missing, settle, stride, spec=None:
+                        solved.append(spec) or ({}, []))
+    rows = place.run("2-missing", "imu", "beam", None, tmp_path / "rows.json", 10, names=("IMU-aware, fading",))
+    assert len(made) == len(solved) == 15 and all(s is rdi for s in made + solved)
+    assert {r["dvl"] for r in rows} == {dvl_name(rdi)}
+    # the fused study's held-out pings
+    made.clear()
+    monkeypatch.setattr(fused, "per_ping", lambda *args: None)
+    fused.held_out_per_ping(nets, "2-missing", None)
+    assert len(made) == 15 and all(s is rdi for s in made)
+    # the fused study's and the mixture study's metrics: every outage and per-ping completion has errors on beams 1
+    # and 2, and the velocity error is the RDI geometry's
+    rng = np.random.default_rng(5)
+    beams = rng.normal(size=(60, 4))
+    samples = BeamSamples(np.zeros((60, 0, 4)), beams, DvlGeometry.from_spec(rdi).velocity_from_beams(beams))
+    full, sigma = beams + np.array([0.1, -0.2, 0.0, 0.0]), np.full((60, 4), 0.1)
+    monkeypatch.setattr(evaluate, "outage_rollout", lambda comp, series, missing, **kw: (full, sigma, samples))
+    pp = {"samples": samples, "imu": (full, sigma), "beam": (full, sigma), "average": (full, sigma)}
+    rows = fused.fold_rows(0, (1, 3), "2-missing", "recorded", *nets[0], [], pp, 0.5)
+    want, snapir = (evaluate.completion_metrics(full, sigma, samples, [0, 1], DvlGeometry.from_spec(spec))["vel_rmse"]
+                    for spec in (rdi, DvlSpec()))
+    assert want != pytest.approx(snapir)
+    assert {r["dvl"] for r in rows} == {dvl_name(rdi)}
+    assert all(r["vel_rmse"] == pytest.approx(want) for r in rows)
+    mixture = _study("recent_error_mixture")
+    monkeypatch.setattr(mixture, "row_index", lambda series, n_past, n_imu: {(0, i): i for i in range(60)})
+    monkeypatch.setattr(mixture, "outage_starts", lambda series, n_past, settle: [(0, 0), (0, 30)])
+    monkeypatch.setattr(mixture, "rehearsal_errors", lambda *args: None)
+    for m in nets[0]:
+        m.imu_samples = 0
+    mixed = mixture.fold_rows(0, "recorded", "2-missing", nets[0], ["s"], pp, 0.5)
+    assert {r["dvl"] for r in mixed} == {dvl_name(rdi)}
+    for r in mixed:
+        assert r["sq"]["fused"][1] == pytest.approx(60 * want ** 2)
+
+
 def test_decay_choice_over_every_placement_counts_worse_folds_first_and_scores_each_fold_out_of_fold():
     study = _study("outage_placement")
 
