@@ -284,6 +284,12 @@ def test_the_fused_studies_score_a_pair_on_the_dvl_both_members_were_trained_for
         "135, 225, 315 deg"
     with pytest.raises(SystemExit, match="x.py: the rows were scored on different DVLs"):
         folds.rows_dvl([{"dvl": "A"}, {}], "x.py")
+    # every report of the studies that score pairs refuses them before pooling
+    mixed = [{"dvl": "A"}, {"dvl": "B"}]
+    for study, report in (("outage_placement", "report"), ("outage_placement", "decay_report"),
+                          ("imu_beam_fused_folds", "report"), ("recent_error_mixture", "report")):
+        with pytest.raises(SystemExit, match="the rows were scored on different DVLs"):
+            getattr(_study(study), report)(mixed)
 
 
 def test_the_fused_studies_make_the_beams_and_solve_the_velocities_of_the_pairs_dvl(monkeypatch, tmp_path):
