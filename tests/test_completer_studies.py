@@ -343,6 +343,15 @@ def test_the_fused_studies_make_the_beams_and_solve_the_velocities_of_the_pairs_
     assert want != pytest.approx(snapir)
     assert {r["dvl"] for r in rows} == {dvl_name(rdi)}
     assert all(r["vel_rmse"] == pytest.approx(want) for r in rows)
+    # the outage windows' errors (the 90 % intervals) too
+    assert all(sum(r["window_sq"][1]) == pytest.approx(60 * want ** 2) for r in rows if "window_sq" in r)
+    # a pair trained for two DVLs stops before any pings are made or scored
+    made.clear()
+    other = member()
+    other.trained_dvl_spec = DvlSpec()
+    with pytest.raises(SystemExit, match="imu_beam_fused_folds.py: the IMU-aware fold network was trained for"):
+        fused.held_out_per_ping({0: (nets[0][0], other)}, "2-missing", None)
+    assert made == []
     mixture = _study("recent_error_mixture")
     monkeypatch.setattr(mixture, "row_index", lambda series, n_past, n_imu: {(0, i): i for i in range(60)})
     monkeypatch.setattr(mixture, "outage_starts", lambda series, n_past, settle: [(0, 0), (0, 30)])
