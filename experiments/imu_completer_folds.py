@@ -70,8 +70,8 @@ def default_dvl_only(network, study: str) -> None:
 def rows_dvl(rows: list[dict], study: str) -> str:
     """The DVL a study's rows were scored on, as :func:`graphnav.nets.dvl_match.dvl_name` names it (rows without a
     ``dvl`` were scored on the Snapir's); stop ``study`` when they hold more than one: their gains do not pool."""
-    from graphnav.nets.dvl_match import dvl_name
-    dvls = sorted({r.get("dvl", dvl_name()) for r in rows})
+    from graphnav.nets.dvl_match import dvl_name, rows_dvls
+    dvls = sorted(rows_dvls(rows))
     if len(dvls) > 1:
         raise SystemExit(f"{study}: the rows were scored on different DVLs ({'; '.join(dvls)}); report them apart")
     return dvls[0] if dvls else dvl_name()
@@ -360,7 +360,7 @@ def main(argv=None) -> int:
     from graphnav.commands.common import config_dvl
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
-    from graphnav.nets.dvl_match import dvl_name
+    from graphnav.nets.dvl_match import dvl_name, rows_dvls
     from graphnav.nets.imu_network import ImuNetworkCompleter
     from graphnav.nets.imu_training import train_imu
     from graphnav.nets.training import save
@@ -376,7 +376,7 @@ def main(argv=None) -> int:
         print(report(calibrate(Path(a.calibrate), scenario, akit_dir, out)))
         return 0
     rows = json.loads(out.read_text()) if out.exists() else []
-    other = {r.get("dvl", dvl_name()) for r in rows} - {dvl_name(spec)}
+    other = rows_dvls(rows) - {dvl_name(spec)}
     if other:
         raise SystemExit(f"{out} holds rows made for another DVL ({sorted(other)[0]}); give another --out")
     done = {r["fold"] for r in rows}

@@ -155,10 +155,9 @@ def run(scenario: str, imu_dir: str, beam_dir: str, akit_dir, out: Path, stride:
     from imu_beam_fused_folds import PIVOT_MEMBERS, fold_networks, member_label, pair_dvl
     from imu_completer_folds import EVAL_GRADES, held_out_series
 
-    from graphnav.nets.dvl_match import dvl_name
-
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
     from graphnav.nets.crossval import AKIT_FOLDS
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.fused import FusedCompleter
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE
     if PERIOD % stride:

@@ -111,8 +111,8 @@ def fold_rows(fold: int, grade: str, scenario: str, nets, series, pp: dict, rho:
     from imu_beam_fused_folds import pair_dvl
 
     from graphnav.core.dvl import DvlGeometry
-    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.average import AVERAGE_N_PAST, AverageCompleter
+    from graphnav.nets.dvl_match import dvl_name
     from graphnav.nets.evaluate import outage_rollout
     from graphnav.nets.fused import FusedCompleter, fuse
     from graphnav.nets.imu_evaluate import OUTAGE_SETTLE

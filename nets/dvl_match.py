@@ -78,6 +78,13 @@ def dvl_name(spec: DvlSpec | None = None) -> str:
     return describe_beams(DvlGeometry.from_spec(spec or DvlSpec()).T_b)
 
 
+def rows_dvls(rows) -> set[str]:
+    """The DVLs result rows were made for, as :func:`dvl_name` names them (each row's ``dvl``; a row without one was
+    made for the default :class:`DvlSpec`, as every row was before rows named their DVL)."""
+    default = dvl_name()
+    return {r.get("dvl", default) for r in rows}
+
+
 def default_dvl_mismatch(T_b: np.ndarray) -> str | None:
     """:func:`beam_direction_mismatch` of beams ``T_b`` ((4, 3) unit vectors, body frame) against the default
     :class:`DvlSpec`'s (the Snapir's, the DVL every recipe was chosen on): None when they are those beams."""

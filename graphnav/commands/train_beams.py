@@ -164,8 +164,8 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spe
     ``ConfigError`` naming it."""
     from graphnav.nets import crossval
 
-    from graphnav.nets.dvl_match import dvl_name
-    dvl, default_dvl = dvl_name(spec), dvl_name()
+    from graphnav.nets.dvl_match import dvl_name, rows_dvls
+    dvl = dvl_name(spec)
     rows = []
     for name in files:
         try:
@@ -175,7 +175,7 @@ def out_of_fold_summary(files: list[str], recipe: str, scenarios: list[str], spe
         if not isinstance(loaded, list) or not all(isinstance(r, dict) and "fold" in r for r in loaded):
             raise ConfigError(f"--out-of-fold {name}: not the fold rows of 'graphnav eval-beams --folds --json'")
         ours = [r for r in loaded if r.get("variant") == recipe]
-        other = {r.get("dvl", default_dvl) for r in ours} - {dvl}
+        other = rows_dvls(ours) - {dvl}
         if other:
             raise ConfigError(f"--out-of-fold {name}: rows made for another DVL ({sorted(other)[0]}); this training is "
                               f"for {dvl} (--config)")
