@@ -99,7 +99,7 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
 
     from graphnav.nets.average import AverageCompleter
-    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION, ImuAutoCompleter
+    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, ImuAutoCompleter, load_imu_auto_completer
     from graphnav.nets.imu_network import load_imu_completer
     from graphnav.nets.network import AutoCompleter, load_completer
     scenarios = ("2-missing", "3-missing")
@@ -108,8 +108,6 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     def beam_only(decay_of):
         nets = [load_completer(s, directory=fold_dir(d), run_decay=decay_of(s)) for s, d in zip(scenarios, beam_dirs)]
         return AutoCompleter(nets, AverageCompleter(3))     # load_completer("auto")'s fallback window
-    imu = [load_imu_completer(s, fold_dir(d), run_decay=FUSED_RUN_DECAY[s]["IMU-aware"])
-           for s, d in zip(scenarios, imu_dirs)]
     try:
         pivot_member = pivot_member_of(beam_dirs)
     except ValueError as e:
@@ -122,9 +120,12 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
         # one pivot completer serves both patterns, as Graph-HNP's does in this stress
         pivot = pivot_completer("2-missing", config if config is not None else SensorConfig(),
                                 **pivot_member_options(pivot_member, "2-missing"))
+        imu = [load_imu_completer(s, fold_dir(d), run_decay=FUSED_RUN_DECAY[s]["IMU-aware"])
+               for s, d in zip(scenarios, imu_dirs)]
         return ImuAutoCompleter(imu, pivot, IMU_PIVOT_ERROR_CORRELATION)
-    return ImuAutoCompleter(imu, beam_only(shipped_run_decay), IMU_BEAM_ERROR_CORRELATION,
-                            fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]))
+    return load_imu_auto_completer(dict(zip(scenarios, map(fold_dir, imu_dirs))), beam_only(shipped_run_decay),
+                                   fused_beam_only=beam_only(lambda s: FUSED_RUN_DECAY[s]["beam-only"]),
+                                   patterns=scenarios)
 
 
 def flicker_seed(trajectory: str, start_s: float) -> int:

@@ -79,7 +79,7 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
     from graphnav.nets.network import load_completer
     method = method.removesuffix(FITTED).removesuffix(SERIAL)
     if method == "HNI fold fused":
-        from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
+        from graphnav.nets.imu_auto import FUSED_RUN_DECAY, load_imu_auto_completer
         imu_dir, beam_dir = nets_dir
         from imu_beam_fused_folds import PIVOT_MEMBERS, pivot_member_options
         if beam_dir in PIVOT_MEMBERS:
@@ -93,12 +93,11 @@ def completer(method: str, scenario: str, nets_dir: str, fold: int, fit: dict | 
             pattern = "3-missing" if is_total_outage(scenario) else scenario
             net = load_imu_completer(pattern, Path(imu_dir) / f"fold{fold}", run_decay=FUSED_RUN_DECAY[pattern]["IMU-aware"])
             return ImuAutoCompleter([net], pivot, {pattern: IMU_PIVOT_ERROR_CORRELATION[pattern]})
-        decays = FUSED_RUN_DECAY[scenario]
         beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=shipped_run_decay(scenario))
-        fused_beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}", run_decay=decays["beam-only"])
-        net = load_imu_completer(scenario, Path(imu_dir) / f"fold{fold}", run_decay=decays["IMU-aware"])
-        return ImuAutoCompleter([net], beam, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]},
-                                fused_beam_only=fused_beam)
+        fused_beam = load_completer(scenario, directory=Path(beam_dir) / f"fold{fold}",
+                                    run_decay=FUSED_RUN_DECAY[scenario]["beam-only"])
+        return load_imu_auto_completer({scenario: Path(imu_dir) / f"fold{fold}"}, beam, fused_beam_only=fused_beam,
+                                       patterns=(scenario,))
     if method == "HN-net fold":
         return load_completer(scenario, directory=Path(nets_dir) / f"fold{fold}")
     if not method.startswith("HNI"):

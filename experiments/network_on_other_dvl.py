@@ -335,17 +335,16 @@ def held_out_imu_completer(imu_folder, beam_folder, scenario: str, trajectory: s
     network of ``beam_folder``, which also serves the pings the IMU-aware one cannot."""
     from graphnav.nets import load_completer
     from graphnav.nets.average import AverageCompleter
-    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION, ImuAutoCompleter
-    from graphnav.nets.imu_network import imu_weights_name, load_imu_completer
+    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, load_imu_auto_completer
+    from graphnav.nets.imu_network import imu_weights_name
     from graphnav.nets.network import AutoCompleter
-    decay = FUSED_RUN_DECAY[scenario]
-    imu_dir = held_out_folder(imu_folder, imu_weights_name(scenario), trajectory)
     beam_dir = held_out_folder(beam_folder, scenario, trajectory)
-    net = load_imu_completer(scenario, imu_dir, run_decay=decay["IMU-aware"])
-    beam_only = AutoCompleter([load_completer(scenario, directory=beam_dir)], AverageCompleter(3))
-    fused = AutoCompleter([load_completer(scenario, directory=beam_dir, run_decay=decay["beam-only"])],
-                          AverageCompleter(3))
-    return ImuAutoCompleter([net], beam_only, {scenario: IMU_BEAM_ERROR_CORRELATION[scenario]}, fused_beam_only=fused)
+
+    def beam_only(run_decay=None):      # load_completer("auto")'s fallback for the pings of other patterns
+        return AutoCompleter([load_completer(scenario, directory=beam_dir, run_decay=run_decay)], AverageCompleter(3))
+    return load_imu_auto_completer({scenario: held_out_folder(imu_folder, imu_weights_name(scenario), trajectory)},
+                                   beam_only(), fused_beam_only=beam_only(FUSED_RUN_DECAY[scenario]["beam-only"]),
+                                   patterns=(scenario,))
 
 
 def estimator_report(rows: list[dict]) -> str:

@@ -166,30 +166,31 @@ def evaluate_all(directory=None, beamsnet_dir=None, akit_dir=None, beam_seed: in
         methods = {"network": net, "average": AverageCompleter(net.n_past)}
         for dname, series in datasets.items():
             samples = beamdata.windows(series, net.n_past)
-            floor = full_beam_vel_rmse(samples, geometry)
             for mname, comp in methods.items():
-                if mname == "network":
-                    full, sigma = predict_network(net.model, samples)
-                else:
-                    full, sigma = predict_completer(comp, samples, net.missing)
+                made = (predict_network(net.model, samples) if mname == "network"
+                        else predict_completer(comp, samples, net.missing))
                 rows.append({"dataset": dname, "scenario": scen, "mode": "per ping", "method": mname,
-                             **completion_metrics(full, sigma, samples, net.missing, geometry),
-                             "all_beams_vel_rmse": floor})
+                             **metrics_with_floor(*made, samples, net.missing, geometry)})
                 if outage:
-                    full, sigma, osamples = outage_rollout(comp, series, net.missing)
                     rows.append({"dataset": dname, "scenario": scen, "mode": "outage 30 s", "method": mname,
-                                 **completion_metrics(full, sigma, osamples, net.missing, geometry),
-                                 "all_beams_vel_rmse": full_beam_vel_rmse(osamples, geometry)})
+                                 **metrics_with_floor(*outage_rollout(comp, series, net.missing), net.missing,
+                                                      geometry)})
     return rows
 
 
-def network_metrics(model: BeamRegressor, samples: BeamSamples, missing, geometry: DvlGeometry | None = None) -> dict:
-    """:func:`completion_metrics` of ``model``'s completions of ``samples`` (per ping), with ``all_beams_vel_rmse``
-    (least squares on all four made beams, the floor): the metrics of a model card. ``geometry``: the DVL of the
-    beams (default :class:`DvlSpec`'s)."""
-    full, sigma = predict_network(model, samples)
+def metrics_with_floor(full: np.ndarray, sigma: np.ndarray, samples: BeamSamples, missing,
+                       geometry: DvlGeometry | None = None) -> dict:
+    """:func:`completion_metrics` with ``all_beams_vel_rmse``: the velocity RMSE (m/s) of least squares on all four
+    beams of ``samples``, the floor a completer is read against. ``geometry``: the DVL of the beams (default
+    :class:`DvlSpec`'s)."""
     return {**completion_metrics(full, sigma, samples, missing, geometry),
             "all_beams_vel_rmse": full_beam_vel_rmse(samples, geometry)}
+
+
+def network_metrics(model: BeamRegressor, samples: BeamSamples, missing, geometry: DvlGeometry | None = None) -> dict:
+    """:func:`metrics_with_floor` of ``model``'s completions of ``samples`` (per ping): the metrics of a model card.
+    ``geometry``: the DVL of the beams (default :class:`DvlSpec`'s)."""
+    return metrics_with_floor(*predict_network(model, samples), samples, missing, geometry)
 
 
 def format_table(rows: list[dict]) -> str:

@@ -13,13 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .average import AverageCompleter
-from .evaluate import (
-    completion_metrics,
-    full_beam_vel_rmse,
-    outage_rollout,
-    predict_completer,
-    predict_network,
-)
+from .evaluate import metrics_with_floor, outage_rollout, predict_completer, predict_network
 from .imu_data import AKIT_SPLIT, ImuBeamSamples, akit_imu_series, graded_series, imu_windows
 from .imu_network import ImuNetworkCompleter, load_imu_completer, model_inputs
 from .imu_window import IMU_WINDOW_S
@@ -76,7 +70,6 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
                 methods["network"] = beam_only
         n_past = max(c.n_past for c in methods.values())
         samples = imu_windows(series, n_past, imu_net.imu_samples, imu_net.ping_dt)
-        floor = full_beam_vel_rmse(samples, geometry)
         made = {}
         for name, comp in methods.items():
             if isinstance(comp, ImuNetworkCompleter):
@@ -89,21 +82,17 @@ def evaluate_imu(scenarios=("2-missing", "3-missing"), trajectories=AKIT_SPLIT["
             else:
                 full, sigma = predict_completer(comp, samples, imu_net.missing)
             made[name] = full, sigma
-            rows.append({"scenario": scen, "mode": "per ping", "method": name,
-                         **completion_metrics(full, sigma, samples, imu_net.missing, geometry),
-                         "all_beams_vel_rmse": floor})
         if fused:
-            full, sigma = fuse(*made["imu-network"], *made["average"])
-            rows.append({"scenario": scen, "mode": "per ping", "method": "imu+average",
-                         **completion_metrics(full, sigma, samples, imu_net.missing, geometry),
-                         "all_beams_vel_rmse": floor})
+            made["imu+average"] = fuse(*made["imu-network"], *made["average"])
             methods["imu+average"] = FusedCompleter(imu_net, methods["average"])
+        for name, (full, sigma) in made.items():
+            rows.append({"scenario": scen, "mode": "per ping", "method": name,
+                         **metrics_with_floor(full, sigma, samples, imu_net.missing, geometry)})
         if outage:
             for name, comp in methods.items():
-                full, sigma, osamples = outage_rollout(comp, series, imu_net.missing, gap=gap, settle=settle)
                 rows.append({"scenario": scen, "mode": "outage 30 s", "method": name,
-                             **completion_metrics(full, sigma, osamples, imu_net.missing, geometry),
-                             "all_beams_vel_rmse": full_beam_vel_rmse(osamples, geometry)})
+                             **metrics_with_floor(*outage_rollout(comp, series, imu_net.missing, gap=gap,
+                                                                  settle=settle), imu_net.missing, geometry)})
     for r in rows:
         avg = next(a for a in rows if a["scenario"] == r["scenario"] and a["mode"] == r["mode"]
                    and a["method"] == "average")

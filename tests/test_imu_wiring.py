@@ -329,6 +329,36 @@ def test_the_fused_members_fade_as_chosen_for_the_fusion_and_a_ping_without_imu_
     assert mine.beam_only is fast and mine.fused_beam_only is slow
 
 
+def test_the_shipped_pairing_built_from_one_folder_per_pattern_serves_those_patterns_only(tmp_path):
+    """Out-of-fold networks live one pattern to a folder: ``load_imu_auto_completer`` given a folder per pattern and
+    ``patterns`` builds the shipped pairing (the fused fading and correlation) from them, for those patterns only;
+    a pattern it has no setting or no folder for is refused, naming it."""
+    import shutil
+
+    from graphnav.nets import load_completer, load_fused_beam_only, load_imu_auto_completer
+    from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
+    from graphnav.nets.imu_network import imu_weights_name
+    from graphnav.nets.storage import weights_dir
+    folder = tmp_path / "fold0"
+    folder.mkdir()
+    for suffix in (".pt", ".json"):
+        shutil.copy(weights_dir() / f"{imu_weights_name('3-missing')}{suffix}", folder)
+    beam = load_completer("auto")
+    pair = load_imu_auto_completer({"3-missing": folder}, beam, fused_beam_only=load_fused_beam_only(),
+                                   patterns=("3-missing",))
+    three = tuple(load_completer(3).missing)
+    assert list(pair.networks) == [three]
+    assert pair.beam_correlation == {"3-missing": IMU_BEAM_ERROR_CORRELATION["3-missing"]}
+    assert pair.networks[three].run_decay == FUSED_RUN_DECAY["3-missing"]["IMU-aware"]
+    with pytest.raises(ConfigError, match="no folder for \\['2-missing'\\]"):
+        load_imu_auto_completer({"3-missing": folder}, beam, fused_beam_only=beam)
+    with pytest.raises(ConfigError, match="0-beams"):
+        load_imu_auto_completer(patterns=("0-beams",))
+    # the folder's network is the one loaded: without its files the folder is named
+    with pytest.raises(ConfigError, match="fold1"):
+        load_imu_auto_completer({"3-missing": tmp_path / "fold1"}, beam, fused_beam_only=beam, patterns=("3-missing",))
+
+
 def test_the_imu_aware_completion_fuses_with_the_pivot_completer_which_reads_the_tail_of_the_window():
     """A fused member that needs the IMU itself (the pivot completer) is handed the networks' 20 s window and reads
     its own last samples: the fused completion is the networks' and the pivot's on the exact window, fused; the

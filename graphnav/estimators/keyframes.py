@@ -442,12 +442,14 @@ class Keyframer:
         if self.history is None:
             return dataclasses.replace(ping, omega_b=omega_b)
         imu = None
+        # the intervals of the past pings (the newest one's to this one), s: read for a ping with beams to complete
+        past_dt = self.history.past_dt(t) if self.history.ready and not measured.all() else None
         if self._imu_buffer is not None and self.history.ready and not measured.all():
             imu, reason = self._imu_buffer.window(t)
             if reason is not None and self._member_samples:
                 # no window for the networks (the first 20 s, a gap): the members read their own shorter one
                 imu = self._imu_buffer.window(t, self._member_samples)[0]
-            if imu is not None and not self._pings_one_period_apart(t):
+            if imu is not None and not self._pings_one_period_apart(past_dt):
                 imu, reason = None, reason or "ping_dt"
             if reason is not None:
                 self.stats.imu_window_missing[reason] += 1
@@ -455,7 +457,7 @@ class Keyframer:
             self._observe(t, ping.beams)
         # only a ping with beams to complete can be refused for its past's spacing, and it is said once a run
         watch = not self.warned_period and not measured.all() and self.history.ready
-        off_period_before, past_dt = (self._period_fallbacks(), self.history.past_dt(t)) if watch else (0, None)
+        off_period_before = self._period_fallbacks() if watch else 0
         result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu, t=t)
         if watch and self._period_fallbacks() > off_period_before:
             self.warned_period = True
@@ -490,14 +492,14 @@ class Keyframer:
         imu = self._imu_buffer.window(t, self._observe_samples)[0] if self._imu_buffer is not None else None
         observe(t, np.asarray(beams, float), imu)
 
-    def _pings_one_period_apart(self, t: float) -> bool:
-        """Whether the history's pings and the ping at ``t`` (s) are the IMU-aware completer's ``ping_dt``
-        apart (within :data:`~graphnav.core.dvl.PING_PERIOD_TOLERANCE` of it): it propagates each past ping
-        over that many seconds."""
+    def _pings_one_period_apart(self, past_dt: np.ndarray | None) -> bool:
+        """Whether the history's pings and the ping being completed are the IMU-aware completer's ``ping_dt``
+        apart (within :data:`~graphnav.core.dvl.PING_PERIOD_TOLERANCE` of it; ``past_dt``: their intervals, s,
+        :meth:`BeamHistory.past_dt`): it propagates each past ping over that many seconds."""
         dt = getattr(self.completer, "ping_dt", None)
         if dt is None:
             return True
-        return not off_period(self.history.past_dt(t), dt)
+        return not off_period(past_dt, dt)
 
     def _sample(self, samples: deque, t: float) -> float | None:
         """Interpolate (or extrapolate from the last two) a scalar stream at t; None when too old."""
