@@ -31,6 +31,8 @@ would have to be" and "The sigma growth checked again for the completer without 
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from graphnav.core.errors import ConfigError
@@ -210,18 +212,19 @@ def load_fused_beam_only(directory=None):
 
 def load_imu_auto_completer(directory=None, beam_only=None, fused: bool = True,
                             fused_beam_only=None, patterns=("2-missing", "3-missing")) -> ImuAutoCompleter:
-    """The shipped IMU-aware networks (2 and 3 missing beams) with ``beam_only`` (default
-    ``load_completer("auto")``, fading as its cards say) for the other pings; ``directory`` holds the IMU-aware
-    weights, or maps each of ``patterns`` to the folder of its network (out-of-fold networks live one pattern to a
-    folder). ``patterns``: the missing patterns the IMU-aware networks serve (scenario names). ``fused`` (default):
-    each IMU-aware completion fused with ``fused_beam_only``'s (:data:`IMU_BEAM_ERROR_CORRELATION`; default
-    :func:`load_fused_beam_only`), both members fading as :data:`FUSED_RUN_DECAY` says. Not fused: the IMU-aware
-    networks fade with their cards' ``run_decay``.
+    """IMU-aware networks, by default the shipped ones (2 and 3 missing beams), with ``beam_only`` (default
+    ``load_completer("auto")``, fading as its cards say) for the other pings. ``directory`` holds the IMU-aware
+    weights (default: the shipped ones), or maps each of ``patterns`` to the folder of its network (out-of-fold
+    networks live one pattern to a folder). ``patterns``: the missing patterns the IMU-aware networks serve (scenario
+    names). ``fused`` (default): each IMU-aware completion fused with ``fused_beam_only``'s
+    (:data:`IMU_BEAM_ERROR_CORRELATION`; default :func:`load_fused_beam_only`), both members fading as
+    :data:`FUSED_RUN_DECAY` says. Not fused: the IMU-aware networks fade with their cards' ``run_decay``.
 
     Raises:
         ConfigError: fused with a ``beam_only`` of the caller's but no ``fused_beam_only`` (which networks the
             IMU-aware ones are fused with must be said, not taken from the shipped weights behind the caller's back);
-            a pattern without a shipped fused setting, or a ``directory`` mapping that lacks one of ``patterns``.
+            fused for a pattern without a chosen fusion (:data:`FUSED_RUN_DECAY`); a ``directory`` mapping whose
+            patterns are not ``patterns``.
     """
     from .imu_network import load_imu_completer
     from .network import load_completer
@@ -229,14 +232,14 @@ def load_imu_auto_completer(directory=None, beam_only=None, fused: bool = True,
         raise ConfigError("load_imu_auto_completer: with a beam_only of your own, give fused_beam_only too (e.g. "
                           "load_fused_beam_only(directory)): the fused member fades as FUSED_RUN_DECAY says")
     patterns = list(patterns)
-    unknown = [p for p in patterns if p not in FUSED_RUN_DECAY]
-    if unknown:
-        raise ConfigError(f"load_imu_auto_completer: no IMU-aware network is shipped for {unknown}; "
-                          f"patterns are among {sorted(FUSED_RUN_DECAY)}")
-    folders = directory if isinstance(directory, dict) else dict.fromkeys(patterns, directory)
-    lacking = [p for p in patterns if p not in folders]
-    if lacking:
-        raise ConfigError(f"load_imu_auto_completer: directory names no folder for {lacking}")
+    unchosen = [p for p in patterns if p not in FUSED_RUN_DECAY]
+    if fused and unchosen:
+        raise ConfigError(f"load_imu_auto_completer: no fusion was chosen for {unchosen} (FUSED_RUN_DECAY has "
+                          f"{sorted(FUSED_RUN_DECAY)}); load it with fused=False")
+    folders = dict(directory) if isinstance(directory, Mapping) else dict.fromkeys(patterns, directory)
+    if sorted(folders) != sorted(patterns):
+        raise ConfigError(f"load_imu_auto_completer: directory names folders for {sorted(folders)}, the patterns "
+                          f"are {sorted(patterns)}")
     beam_only = beam_only if beam_only is not None else load_completer("auto")
     if not fused:
         return ImuAutoCompleter([load_imu_completer(p, folders[p]) for p in patterns], beam_only)

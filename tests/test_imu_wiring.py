@@ -335,7 +335,7 @@ def test_the_shipped_pairing_built_from_one_folder_per_pattern_serves_those_patt
     a pattern it has no setting or no folder for is refused, naming it."""
     import shutil
 
-    from graphnav.nets import load_completer, load_fused_beam_only, load_imu_auto_completer
+    from graphnav.nets import load_completer, load_fused_beam_only, load_imu_auto_completer, load_imu_completer
     from graphnav.nets.imu_auto import FUSED_RUN_DECAY, IMU_BEAM_ERROR_CORRELATION
     from graphnav.nets.imu_network import imu_weights_name
     from graphnav.nets.storage import weights_dir
@@ -350,13 +350,20 @@ def test_the_shipped_pairing_built_from_one_folder_per_pattern_serves_those_patt
     assert list(pair.networks) == [three]
     assert pair.beam_correlation == {"3-missing": IMU_BEAM_ERROR_CORRELATION["3-missing"]}
     assert pair.networks[three].run_decay == FUSED_RUN_DECAY["3-missing"]["IMU-aware"]
-    with pytest.raises(ConfigError, match="no folder for \\['2-missing'\\]"):
+    # not fused, the folder's network keeps its card's fading
+    plain = load_imu_auto_completer({"3-missing": folder}, beam, fused=False, patterns=("3-missing",))
+    assert plain.beam_correlation == {}
+    fading = plain.networks[three].run_decay
+    assert fading == load_imu_completer(3).run_decay != FUSED_RUN_DECAY["3-missing"]["IMU-aware"]
+    with pytest.raises(ConfigError, match="the patterns are \\['2-missing', '3-missing'\\]"):
         load_imu_auto_completer({"3-missing": folder}, beam, fused_beam_only=beam)
-    with pytest.raises(ConfigError, match="0-beams"):
+    with pytest.raises(ConfigError, match="no fusion was chosen for \\['0-beams'\\]"):
         load_imu_auto_completer(patterns=("0-beams",))
     # the folder's network is the one loaded: without its files the folder is named
-    with pytest.raises(ConfigError, match="fold1"):
-        load_imu_auto_completer({"3-missing": tmp_path / "fold1"}, beam, fused_beam_only=beam, patterns=("3-missing",))
+    for fused in (True, False):
+        with pytest.raises(ConfigError, match="fold1"):
+            load_imu_auto_completer({"3-missing": tmp_path / "fold1"}, beam, fused=fused, fused_beam_only=beam,
+                                    patterns=("3-missing",))
 
 
 def test_the_imu_aware_completion_fuses_with_the_pivot_completer_which_reads_the_tail_of_the_window():
