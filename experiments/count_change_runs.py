@@ -98,16 +98,15 @@ def fold_completer(imu_dirs, beam_dirs, fold: int, config=None):
     (``imu_beam_fused_folds.pivot_member_options``)."""
     from hybrid_imu_folds import IMU_PIVOT_ERROR_CORRELATION, shipped_run_decay
 
-    from graphnav.nets.average import AverageCompleter
     from graphnav.nets.imu_auto import FUSED_RUN_DECAY, ImuAutoCompleter, load_imu_auto_completer
     from graphnav.nets.imu_network import load_imu_completer
-    from graphnav.nets.network import AutoCompleter, load_completer
+    from graphnav.nets.network import load_completer
     scenarios = ("2-missing", "3-missing")
     fold_dir = lambda d: Path(d) / f"fold{fold}"  # noqa: E731
 
     def beam_only(decay_of):
-        nets = [load_completer(s, directory=fold_dir(d), run_decay=decay_of(s)) for s, d in zip(scenarios, beam_dirs)]
-        return AutoCompleter(nets, AverageCompleter(3))     # load_completer("auto")'s fallback window
+        return load_completer("auto", directory=dict(zip(scenarios, map(fold_dir, beam_dirs))),
+                              run_decay={s: decay_of(s) for s in scenarios})
     try:
         pivot_member = pivot_member_of(beam_dirs)
     except ValueError as e:

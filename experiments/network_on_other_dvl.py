@@ -334,16 +334,13 @@ def held_out_imu_completer(imu_folder, beam_folder, scenario: str, trajectory: s
     the fold networks that held out ``trajectory``: the IMU-aware network of ``imu_folder`` fused with the beam-only
     network of ``beam_folder``, which also serves the pings the IMU-aware one cannot."""
     from graphnav.nets import load_completer
-    from graphnav.nets.average import AverageCompleter
     from graphnav.nets.imu_auto import FUSED_RUN_DECAY, load_imu_auto_completer
     from graphnav.nets.imu_network import imu_weights_name
-    from graphnav.nets.network import AutoCompleter
-    beam_dir = held_out_folder(beam_folder, scenario, trajectory)
-
-    def beam_only(run_decay=None):      # load_completer("auto")'s fallback for the pings of other patterns
-        return AutoCompleter([load_completer(scenario, directory=beam_dir, run_decay=run_decay)], AverageCompleter(3))
+    beam_dirs = {scenario: held_out_folder(beam_folder, scenario, trajectory)}
     return load_imu_auto_completer({scenario: held_out_folder(imu_folder, imu_weights_name(scenario), trajectory)},
-                                   beam_only(), fused_beam_only=beam_only(FUSED_RUN_DECAY[scenario]["beam-only"]),
+                                   load_completer("auto", directory=beam_dirs),
+                                   fused_beam_only=load_completer("auto", directory=beam_dirs,
+                                                                  run_decay=FUSED_RUN_DECAY[scenario]["beam-only"]),
                                    patterns=(scenario,))
 
 

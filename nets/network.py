@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -287,17 +288,27 @@ def load_completer(missing=2, sigma: str = "head", directory: str | Path | None 
         run_decay: fading to the average through a run of regressed pings (see :class:`NetworkCompleter`);
             None: the model card's ``"run_decay"`` (1, no fading, when the card has none). With ``"auto"`` also
             a mapping scenario ("2-missing", "3-missing") -> run_decay (a scenario it lacks: the card's).
+        directory: the weights' folder; with ``"auto"`` also a mapping scenario -> folder, whose scenarios are the
+            networks the completer holds (out-of-fold networks live one scenario to a folder; the other patterns go
+            to the average estimator).
     """
     if missing == "auto":
-        trained = ("2-missing", "3-missing")     # the auto completer's networks
+        folders = (dict(directory) if isinstance(directory, Mapping)
+                   else dict.fromkeys(("2-missing", "3-missing"), directory))     # the auto completer's networks
+        trained = tuple(folders)
+        if not trained or set(trained) - {"2-missing", "3-missing"}:
+            raise ConfigError(f"directory names {sorted(trained)}; the auto completer's networks are '2-missing' "
+                              "and '3-missing'")
         decays = run_decay if isinstance(run_decay, dict) else dict.fromkeys(trained, run_decay)
         unknown = set(decays) - set(trained)
         if unknown:
             raise ConfigError(f"run_decay names {sorted(unknown)}; the auto completer's networks are "
-                              "'2-missing' and '3-missing'")
-        nets = [load_completer(m, sigma, directory, sigma_scale=sigma_scale, run_decay=decays.get(m))
+                              f"{' and '.join(repr(m) for m in trained)}")
+        nets = [load_completer(m, sigma, folders[m], sigma_scale=sigma_scale, run_decay=decays.get(m))
                 for m in trained]
         return AutoCompleter(nets, AverageCompleter(fallback_n_past))
+    if isinstance(directory, Mapping):
+        raise ConfigError("a directory per scenario is for missing='auto'; give one network one folder")
     if isinstance(missing, (int, np.integer)) and not isinstance(missing, bool):
         if missing not in (2, 3):
             raise ConfigError(f"missing={missing}: shipped networks exist for 2 and 3 missing beams; "

@@ -202,6 +202,36 @@ def test_auto_completer_dispatches_by_pattern():
     assert np.all(sigma == 0)
 
 
+def test_auto_completer_from_a_folder_per_scenario_holds_those_networks_only(tmp_path):
+    """Out-of-fold networks live one scenario to a folder: ``load_completer("auto", directory={scenario: folder})``
+    holds the networks of those folders, fading as asked, and sends every other pattern to its average estimator;
+    a scenario without a network, a folder without weights and a folder map for one network are refused."""
+    folder = tmp_path / "fold0"
+    folder.mkdir()
+    for suffix in (".pt", ".json"):
+        shutil.copy(weights_dir() / f"3-missing{suffix}", folder)
+    auto = load_completer("auto", directory={"3-missing": folder}, run_decay=0.5)
+    three = load_completer(3, run_decay=0.5)
+    assert list(auto.networks) == [tuple(three.missing)] and auto.networks[tuple(three.missing)].run_decay == 0.5
+    rng = np.random.default_rng(4)
+    past = make_beams(np.array([1.5, 0.1, 0.0]) + 0.05 * rng.standard_normal((5, 3)), DvlSpec(), 5)
+    full = make_beams(np.array([[1.5, 0.1, 0.0]]), DvlSpec(), 6)[0]
+    only_one = full.copy()
+    only_one[list(three.missing)] = np.nan
+    np.testing.assert_array_equal(auto.complete(past, only_one)[0], three.complete(past, only_one)[0])
+    two = full.copy()
+    two[[0, 2]] = np.nan                                               # no network here: average of last 3
+    assert auto.complete(past, two)[0][0] == pytest.approx(past[-3:, 0].mean())
+    with pytest.raises(ConfigError, match="'0-beams'"):
+        load_completer("auto", directory={"0-beams": folder})
+    with pytest.raises(ConfigError, match="fold1"):
+        load_completer("auto", directory={"3-missing": tmp_path / "fold1"})
+    with pytest.raises(ConfigError, match="run_decay names \\['2-missing'\\]"):
+        load_completer("auto", directory={"3-missing": folder}, run_decay={"2-missing": 0.5})
+    with pytest.raises(ConfigError, match="for missing='auto'"):
+        load_completer(3, directory={"3-missing": folder})
+
+
 def test_metrics_and_average_baseline_on_synthetic_data():
     samples = beamdata.windows(_series(60), 3)
     full, sigma = predict_completer(AverageCompleter(3), samples, (0, 2))

@@ -442,9 +442,10 @@ class Keyframer:
         if self.history is None:
             return dataclasses.replace(ping, omega_b=omega_b)
         imu = None
-        # the intervals of the past pings (the newest one's to this one), s: read for a ping with beams to complete
-        past_dt = self.history.past_dt(t) if self.history.ready and not measured.all() else None
-        if self._imu_buffer is not None and self.history.ready and not measured.all():
+        # a ping with beams to complete, and the intervals of its past pings (the newest one's to it), s
+        completes = self.history.ready and not measured.all()
+        past_dt = self.history.past_dt(t) if completes else None
+        if self._imu_buffer is not None and completes:
             imu, reason = self._imu_buffer.window(t)
             if reason is not None and self._member_samples:
                 # no window for the networks (the first 20 s, a gap): the members read their own shorter one
@@ -456,7 +457,7 @@ class Keyframer:
         elif measured.all():
             self._observe(t, ping.beams)
         # only a ping with beams to complete can be refused for its past's spacing, and it is said once a run
-        watch = not self.warned_period and not measured.all() and self.history.ready
+        watch = not self.warned_period and completes
         off_period_before = self._period_fallbacks() if watch else 0
         result = self.history.complete(self.completer, np.where(measured, ping.beams, 0.0), measured, imu=imu, t=t)
         if watch and self._period_fallbacks() > off_period_before:
