@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import gtsam
 import numpy as np
@@ -394,3 +395,41 @@ def test_dvl_pings_between_imu_samples_are_exact():
     from graphnav.core.errors import ConfigError
     with pytest.raises(ConfigError):
         simulate_mission(10.0, dvl_stamp_offset_s=1.0)
+
+
+def test_a_written_folder_reads_as_it_was_written(tmp_path):
+    """``graphnav simulate --out`` then ``--data``: the folder reads with the configuration it was written with
+    (no time offset or axis estimated, the GT kept at the IMU point), its stamps as written and its own beams
+    (3-beam pings too); a ping whose DVL velocity was edited after writing gets beams made from the edited
+    velocity."""
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    sim = simulate_mission(120.0, seed=2, dvl_stamp_offset_s=0.37, imu_grade="tactical", dropout=True)
+    paths = write_akit(sim, tmp_path)
+    lines = paths["DVL"].read_text().splitlines()
+    cols = lines[21].split(",")
+    lines[21] = ",".join([cols[0], str(float(cols[1]) + 0.3), *cols[2:]])      # the 21st ping edited: +0.3 m/s
+    paths["DVL"].write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)     # nothing detected or estimated, so nothing to warn about
+        back = prepare(read_mission(tmp_path / "Trajectory1"))
+    assert back.config.imu.name == sim.config.imu.name
+    np.testing.assert_allclose(back.config.dvl.lever_arm_b, sim.config.dvl.lever_arm_b)
+    assert back.config.dvl_time_offset_s == 0.0 and back.config.gt_time_offset_s == 0.0
+    np.testing.assert_array_equal(back.config.imu_axis_signs, [1, 1, 1])
+    np.testing.assert_allclose(back.imu.t, sim.imu.t, atol=1e-12)
+    np.testing.assert_allclose(back.gt.v_n, sim.gt.v_n, atol=1e-12)    # at the IMU point: not moved
+    written = sim.dvl.valid.sum(axis=1) >= 3                          # the DVL file's pings
+    np.testing.assert_allclose(back.dvl.t, sim.dvl.t[written], atol=1e-12)
+    three = sim.dvl.valid[written].sum(axis=1) == 3
+    assert three.sum() >= 3, "the dropout model gave too few 3-beam pings to check"
+    same = np.arange(len(back.dvl.t)) != 20
+    np.testing.assert_array_equal(back.dvl.valid[same], sim.dvl.valid[written][same])
+    np.testing.assert_allclose(np.where(back.dvl.valid, back.dvl.beams, 0)[same],
+                               np.where(sim.dvl.valid, sim.dvl.beams, 0)[written][same], atol=1e-12)
+    v20 = DvlGeometry.from_spec(back.config.dvl).velocity_from_beams(back.dvl.beams[20])
+    assert abs(v20[0] - sim.dvl.v_b[written][20, 0] - 0.3) < 0.2     # the edited velocity, a new draw of noise
+    notes = " ".join(back.meta["streams"]["dvl"]["notes"] + back.meta["streams"]["config"]["notes"])
+    assert f"beams of {written.sum() - 1} ping(s) read" in notes and "1 ping(s) whose DVL velocity" in notes
+    assert "configuration the folder was written with" in notes

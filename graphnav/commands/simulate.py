@@ -19,7 +19,9 @@ def register(subparsers) -> None:
                     "changes) with a 100 Hz IMU of the chosen grade, a 1 Hz four-beam DVL with lever arm "
                     "and error model, a 10 Hz depth sensor and exact ground truth. Prints a summary; with "
                     "--out writes the mission in the published A-KIT CSV layout (OUT/TrajectoryN/"
-                    "{IMU,DVL,GT}_trajectoryN.csv, IMU in FRD) plus a PNG of track, depth and speed.",
+                    "{IMU,DVL,GT}_trajectoryN.csv, IMU in FRD, with the mission's configuration and beams "
+                    "beside them, which graphnav smooth/online --data read it back with) plus a PNG of track, "
+                    "depth and speed.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--duration", type=float, default=400.0, help="mission length, s (up to 86400)")
     parser.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default="navigation",
@@ -152,5 +154,5 @@ def run(args) -> int:
             png = staged.path / f"trajectory{args.number}.png"
             plot(mission, png)
         print(f"wrote {staged.final(paths['IMU'].parent)} ({', '.join(p.name for p in paths.values())}) and "
-              f"{staged.final(png)}")
+              f"{staged.final(png)}; navigate it with: graphnav smooth --data {staged.final(paths['IMU'].parent)}")
     return 0

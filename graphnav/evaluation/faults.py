@@ -935,9 +935,9 @@ def _independent_depth(ws: Workspace, real: bool) -> Callable[[np.ndarray], np.n
     a depth by centimetres)."""
     if not real:
         return lambda t: np.interp(t, ws.sim.gt.t, ws.sim.gt.p_n[:, 2])
+    from graphnav.io.loaders import AKIT_NOMINAL_RATE_HZ, published_period_factor
     raw = np.genfromtxt(_csv_file(ws.real_folder, "GT"), delimiter=",", skip_header=1)
-    n = len(raw)
-    t = raw[:, 0] * (n - 1) / n
+    t = raw[:, 0] * (published_period_factor(raw[:, 0], AKIT_NOMINAL_RATE_HZ["gt"]) or 1.0)
     return lambda s: np.interp(s, t, -raw[:, 3])
 
 

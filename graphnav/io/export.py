@@ -4,12 +4,17 @@
 :mod:`graphnav.io.loaders` reads a simulated mission like a recorded one. Differences from the published
 files, on purpose:
 
-* the IMU is written in the body frame FRD as it is (the published files have a flipped y axis; load a
-  written mission with ``imu_axis_signs=(1, 1, 1)``);
+* the stamps are the streams' own (the published ones are ``linspace(0, 400, N)``; the reader sees the
+  difference and keeps these as they are);
+* the IMU is written in the body frame FRD as it is (the published files have a flipped y axis);
+* the ground truth is at the IMU point (the published one is the INS's point, about 1.9 m from it);
 * the DVL file holds the DVL-head velocity (least squares of the valid beams) of every ping with >= 3
   valid beams; pings with fewer are left out (the published files have no gaps to encode);
-* two extra files the loaders may ignore: ``beams_trajectoryN.csv`` (the four along-beam velocities,
-  empty where a beam is invalid) and ``config_trajectoryN.json`` (the :class:`SensorConfig`).
+* two extra files: ``beams_trajectoryN.csv`` (the four along-beam velocities, empty where a beam is
+  invalid) and ``config_trajectoryN.json`` (the :class:`SensorConfig`, with the axis signs and time offsets
+  the files need: none). :func:`graphnav.io.loaders.read_mission` reads such a folder as it was written: with
+  that configuration, the GT at the IMU point, and the written beams of the pings whose DVL velocity they
+  give (``graphnav simulate --out DIR`` then ``graphnav smooth --data DIR/Trajectory1`` round trips).
 
 Ground truth: geodetic position from the NED origin ``gt.origin_lla`` (``Altitude`` negative below the
 surface), NED velocity, roll/pitch/yaw with ``C_b_n = Rz(yaw) Ry(pitch) Rx(roll)``.
@@ -23,9 +28,7 @@ import numpy as np
 from graphnav.core.errors import DataError
 from graphnav.core.mission import Mission
 from graphnav.core.rotations import C_b_n_to_euler
-from graphnav.io.loaders import AKIT_COLUMNS
-
-BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
+from graphnav.io.loaders import AKIT_COLUMNS, WRITTEN_BEAM_COLUMNS
 
 
 def _write_csv(path: Path, columns: tuple[str, ...], data: np.ndarray) -> None:
@@ -51,7 +54,7 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     ok = np.isfinite(v_b).all(axis=1)
     _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_b[ok]]))
     beams = np.where(dvl.valid, dvl.beams, np.nan)
-    _write_csv(paths["beams"], BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
+    _write_csv(paths["beams"], WRITTEN_BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
     text = paths["beams"].read_text().replace("nan", "")
     paths["beams"].write_text(text)
 

@@ -227,6 +227,10 @@ def _mission_instrument(mission) -> tuple[dict, str]:
     elif fmt == "csv":
         frame = "body velocity v_b (beams projected on the configured geometry)" if meta.get("beams_from_v_b") \
             else "beam (along-beam velocities)"
+    elif meta.get("written_beams"):
+        written = meta["written_beams"]
+        frame = (f"body: the files hold the DVL velocity in the body frame, and the beams graphnav wrote beside it "
+                 f"({written['pings']} pings; {written['made']} made by the DVL error model)")
     else:
         frame = "body: the files hold the DVL velocity in the body frame; beams made by the DVL error model"
     return inst, frame

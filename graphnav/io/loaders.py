@@ -15,10 +15,12 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    1 Hz files and 0.01000025 s for the IMU. The sensors ran at 1 Hz and 100 Hz: with the published stamps,
    the IMU-to-GT attitude alignment drifts by -2.5 ms per second over a file (from -0.45 s to -1.35 s on
    trajectory 1, measured in 50 s windows), and it is constant after rescaling. ``rescale_stamps=True``
-   (default) therefore multiplies each file's stamps by ``(N-1)/N`` (N = rows of the published file),
-   computed from the stamps, not from the rows present: ``T / (T + step)`` with ``step`` the file's median
-   stamp step and ``T`` the span all three files share (400 s), so a file with rows deleted (an outage cut
-   out of the log) keeps its later stamps; rows missing from the stamp grid are warned about and noted.
+   (default) therefore puts each file's stamps back on the sensor's period (:data:`AKIT_NOMINAL_RATE_HZ`),
+   ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
+   not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log) or
+   cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
+   noted. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the period, as
+   :func:`graphnav.io.export.write_akit` writes them) are kept as read, with a note.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
    from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
@@ -55,6 +57,13 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
    by ``beam_seed``). NaN rows are invalid pings.
 6. **IMU error model** (:data:`PHINS_RECORDED`): see its docstring.
+
+A folder graphnav wrote (:func:`graphnav.io.export.write_akit`, ``graphnav simulate --out``) holds its
+configuration (``config_trajectoryN.json``, :func:`written_config`) and its beams (``beams_trajectoryN.csv``).
+It reads as it was written: with that configuration (the axis signs and time offsets it sets are used as
+given, so nothing is detected or estimated), its GT kept at the IMU point, its stamps as written (step 1) and
+the written beams on the pings whose DVL velocity is their least squares (a ping edited in the DVL file gets
+beams made from the edited velocity, as in step 5). A ``--config`` file's keys go over the written ones.
 
 ``read_mission`` is what every ``graphnav`` subcommand reads with (then ``prepare``; the simulated default and
 the one-call ``load_mission`` are :mod:`graphnav.missions`').
@@ -377,17 +386,53 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
 
 
+#: Nominal rates of the A-KIT streams, Hz: the sensors' rates, which the published stamps' period misses.
+AKIT_NOMINAL_RATE_HZ = {"imu": 100.0, "dvl": 1.0, "gt": 1.0}
+
+
+#: The published grid's step exceeds the sensor's period by ``1/(N-1)``: 0.25 % for 400 pings; up to this much
+#: (a file of 10 rows) a grid slower than the nominal rate is taken for it.
+PUBLISHED_STEP_EXCESS_MAX = 0.1
+
+
+def published_period_factor(t: np.ndarray, rate_hz: float) -> float | None:
+    """The factor that puts stamps written as ``linspace(0, T, N)`` back on the sensor's period ``1 / rate_hz``
+    (``(N-1)/N`` when the sensor made N samples in T), or None when ``t`` (s) is not such a grid.
+
+    From the stamp step alone, so a file cut short, or with rows deleted, gets the factor of the file it was
+    cut from. Not such a grid, and left as read: stamps not evenly spaced (a logger's own stamps jitter),
+    already on the nominal period (a file written by :func:`graphnav.io.export.write_akit`), or at another rate
+    (a step not within :data:`PUBLISHED_STEP_EXCESS_MAX` above the period).
+    """
+    t = np.asarray(t, dtype=float)
+    if len(t) < 3:
+        return None
+    steps = np.diff(t)
+    step = float(np.median(steps))
+    if step <= 0:
+        return None
+    multiples = steps / step
+    if np.any(np.abs(multiples - np.round(multiples)) > 1e-6) or np.any(np.round(multiples) < 1):
+        return None
+    excess = step * rate_hz - 1.0
+    if not 1e-9 < excess <= PUBLISHED_STEP_EXCESS_MAX:
+        return None
+    return 1.0 / (step * rate_hz)
+
+
 def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
-    """Multiply each file's stamps (in place) by ``(N-1)/N`` of its published row count N, from the stamps:
-    ``T / (T + step)`` (``step``: the median stamp step, ``T``: the common span, the largest last stamp of
-    the files), so that deleted rows shift nothing. Rows missing from a file's stamp grid are warned about
-    and noted in ``meta["streams"]``."""
-    present = {k: a for k, a in arrays.items() if a is not None and len(a) > 1}
-    span = max(float(a[-1, 0]) for a in present.values()) if present else 0.0
-    for k, a in present.items():
-        step = float(np.median(np.diff(a[:, 0])))
-        if span <= 0 or step <= 0:
+    """Multiply each published file's stamps (in place) by ``(N-1)/N`` of its published row count N
+    (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift nothing).
+    Rows missing from a file's stamp grid are warned about and noted in ``meta["streams"]``; a file whose
+    stamps are not the published grid is left as read, and noted."""
+    for k, a in arrays.items():
+        if a is None or len(a) < 2:
             continue
+        factor = published_period_factor(a[:, 0], AKIT_NOMINAL_RATE_HZ[k])
+        if factor is None:
+            add_note(meta, k, "stamps kept as read (not the published linspace(0, T, N) grid)")
+            continue
+        step = float(np.median(np.diff(a[:, 0])))
         on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
         missing = on_grid - len(a)
         if missing > 0:
@@ -396,7 +441,9 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
                     f"t = {a[gap, 0]:.3f} s); stamps rescaled from the grid, not the row count")
             add_note(meta, k, text)
             warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
-        a[:, 0] *= span / (span + step)
+        a[:, 0] *= factor
+        add_note(meta, k, f"stamps rescaled by {factor:.8g}: the published linspace(0, T, N) step {step:.8g} s "
+                          f"back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
 
 
 #: Keys of a configuration file that :func:`graphnav.calibration.preparation.prepare` applies (a mission read from an
@@ -424,15 +471,26 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             (zero with the defaults).
         beam_seed: seed of the beam error model.
         config: a configuration to start from (e.g. from ``graphnav calibrate``); its DVL geometry, error model
-            and IMU spec are kept, while lat and gravity are set from the GT.
+            and IMU spec are kept, while lat and gravity are set from the GT. None: the one a folder graphnav
+            wrote holds (:func:`written_config`, its :data:`PREPARE_KEYS` given), else the defaults.
         name: mission name (default: the folder name).
         rescale_stamps: fix the published stamps' period (module docstring, step 1).
         repair: drop duplicated stamps and sort (with a warning) instead of raising.
         imu_position_b: IMU point relative to the published GT point, body frame, m (``prepare`` moves the GT
-            there). None = :data:`AKIT_IMU_POSITION_B`; ``(0, 0, 0)`` keeps the GT at its published point.
+            there). None = :data:`AKIT_IMU_POSITION_B` (``(0, 0, 0)`` in a folder graphnav wrote); ``(0, 0, 0)``
+            keeps the GT at its published point.
         given: ``{key: value}`` of :data:`PREPARE_KEYS` a configuration file set (:func:`read_mission` passes them).
     """
     folder = Path(folder)
+    written = written_config(folder)
+    if written is not None:
+        # graphnav wrote this folder (graphnav simulate --out): it reads with the configuration it was written
+        # with and its GT is already at the IMU point
+        if config is None:
+            config, folder_keys = akit_base_config(folder)
+            given = {**{key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
+                        for key in PREPARE_KEYS if folder_keys.sets(key)}, **(given or {})}
+        imu_position_b = (0.0, 0.0, 0.0) if imu_position_b is None else imu_position_b
     raw = read_akit(folder, rescale_stamps=rescale_stamps, repair=repair, config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))     # akit_default_config(), whose lever arm the rule below gives
@@ -488,7 +546,9 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     # noise drawn for every row, so that a ping's beam noise does not depend on which other pings are valid
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
                                                      beam_seed), np.nan)
-    dvl = DvlData(raw.dvl[:, 0].copy(), beams, np.repeat(valid_ping[:, None], 4, axis=1), v_dvl, source=src["DVL"])
+    valid = np.repeat(valid_ping[:, None], 4, axis=1)
+    from_file = _written_beams(raw, valid_ping, cfg, beams, valid)
+    dvl = DvlData(raw.dvl[:, 0].copy(), beams, valid, v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     gt = depth = None
     if g is not None:
@@ -499,6 +559,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             "source": str(folder), "files": src, "depth_source": "gt" if g is not None else None,
             **({} if g is not None else {"ground_truth": False}),
             "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
+            **({} if from_file is None else {"written_beams": dict(zip(("file", "pings", "made"), from_file))}),
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "prepared": False,
             "prepare": {"format": "akit", "imu_position_b": imu_position_b.tolist(),
@@ -507,8 +568,58 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     if g is not None:
         meta["gt_point_b"] = [0.0, 0.0, 0.0]          # the published point until prepared
         meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
-    _record_akit_streams(meta, imu, dvl, depth, gt, refused, rescale_stamps)
+    _record_akit_streams(meta, imu, dvl, depth, gt, refused, from_file)
+    if written is not None:
+        add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate); "
+                                 "ground truth at the IMU point")
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
+
+
+#: Header of the beams file :func:`graphnav.io.export.write_akit` writes beside the DVL file (empty = invalid).
+WRITTEN_BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
+
+def _read_written_beams(path: Path) -> np.ndarray:
+    """(M,5) stamp s and four beams m/s of a written beams file, NaN where a field is empty (invalid beam)."""
+    text = path.read_text().splitlines()
+    if not text or [h.strip() for h in text[0].split(",")] != list(WRITTEN_BEAM_COLUMNS):
+        raise DataError(f"unexpected header, expected {list(WRITTEN_BEAM_COLUMNS)}", str(path), 1)
+    data = np.genfromtxt(io.StringIO("\n".join(text[1:])), delimiter=",", ndmin=2, invalid_raise=False,
+                         missing_values="", filling_values=np.nan)
+    if data.shape[1:] != (len(WRITTEN_BEAM_COLUMNS),) or len(data) != sum(1 for ln in text[1:] if ln.strip()):
+        raise DataError(f"not {len(WRITTEN_BEAM_COLUMNS)} numeric fields on every line", str(path))
+    if np.any(np.diff(data[:, 0]) <= 0) or not np.all(np.isfinite(data[:, 0])):
+        raise DataError("stamps not finite and increasing", str(path), field=WRITTEN_BEAM_COLUMNS[0])
+    return data
+
+
+#: A written ping's DVL velocity and the least squares of its written beams agree to this, m/s (the files
+#: round trip to ~1e-15); a ping that differs more was edited in the DVL file, which is then the one believed.
+WRITTEN_BEAMS_AGREE_MPS = 1e-9
+
+
+def _written_beams(raw: AkitRaw, valid_ping: np.ndarray, cfg: SensorConfig, beams: np.ndarray,
+                   valid: np.ndarray) -> tuple[str, int, int] | None:
+    """Put the beams of a folder graphnav wrote (``beams_trajectoryN.csv``) in place of the beams made from the
+    DVL velocity (in place, ``beams`` and ``valid`` (M,4)), on the usable pings of the DVL file whose velocity is
+    the least squares of their written beams: the file's own beams, not a second draw of noise on their
+    velocity. Returns (file, pings taken from it, usable pings left as made), or None without such a file."""
+    dvl_file = Path(raw.files["DVL"])
+    path = dvl_file.with_name(dvl_file.name.replace("DVL_", "beams_", 1))
+    if path == dvl_file or not path.is_file():
+        return None
+    from graphnav.core.dvl import DvlGeometry
+    written = _read_written_beams(path)
+    t = raw.dvl[:, 0]
+    at = np.clip(np.searchsorted(written[:, 0], t), 0, len(written) - 1)
+    rows = np.flatnonzero(valid_ping & (written[at, 0] == t))
+    file_beams = written[at[rows], 1:5]
+    lsq = DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(file_beams, np.isfinite(file_beams),
+                                                             allow_missing=True)
+    agree = np.all(np.abs(lsq - raw.dvl[rows, 1:4]) <= WRITTEN_BEAMS_AGREE_MPS, axis=1)
+    rows = rows[agree]
+    beams[rows] = written[at[rows], 1:5]
+    valid[rows] = np.isfinite(beams[rows])
+    return str(path), int(rows.size), int(valid_ping.sum() - rows.size)
 
 
 def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str, np.ndarray]:
@@ -523,16 +634,20 @@ def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str
     return out
 
 
-def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, rescale_stamps: bool) -> None:
+def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict,
+                         from_file: tuple[str, int, int] | None = None) -> None:
     """``meta["streams"]`` of an A-KIT mission as read: counts, refusals and what the reader did to each stream
-    (``prepare`` adds the axis signs and time offsets)."""
+    (``prepare`` adds the axis signs and time offsets); ``from_file``: what :func:`_written_beams` took."""
     from graphnav.io.stream_counts import record_streams
     record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused)
-    if rescale_stamps:
-        for stream in ("imu", "dvl", "gt"):
-            if stream in meta["streams"]:
-                add_note(meta, stream, "stamps rescaled by (N-1)/N (the published linspace(0, 400, N) period)")
-    add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no beams)")
+    if from_file is None:
+        add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no "
+                              "beams)")
+    else:
+        path, taken, made = from_file
+        add_note(meta, "dvl", f"beams of {taken} ping(s) read from {path}" + (
+            f"; {made} ping(s) whose DVL velocity is not the least squares of their written beams (edited, or "
+            "not written) have beams made from it with the DVL error model" if made else ""))
     if depth is not None:
         add_note(meta, "depth", "depth is the GT's altitude (the files carry no depth sensor)")
 
@@ -659,12 +774,32 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
         return screen_mission(reader())
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
-    config = over(akit_default_config())
-    given = {}
-    if config is not None:
-        given = {key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
-                 for key in PREPARE_KEYS if overrides.sets(key)}
+    if not overrides:
+        return read_akit_mission(path, **akit_kwargs)
+    base, written = akit_base_config(path)
+    config = overrides.over(base)
+    given = {key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
+             for key in PREPARE_KEYS if overrides.sets(key) or (written is not None and written.sets(key))}
     return read_akit_mission(path, config=config, given=given, **akit_kwargs)
+
+
+def written_config(folder: str | Path) -> Path | None:
+    """The configuration file :func:`graphnav.io.export.write_akit` leaves in an A-KIT folder it writes
+    (``config_trajectoryN.json`` beside ``IMU_trajectoryN.csv``), or None: the published folders have none."""
+    imu = akit_files(folder, require_gt=False)["IMU"]
+    candidate = imu.with_name(imu.name.replace("IMU_", "config_", 1)).with_suffix(".json")
+    return candidate if candidate.is_file() else None
+
+
+def akit_base_config(folder: str | Path) -> tuple[SensorConfig, ConfigOverrides | None]:
+    """The configuration an A-KIT folder reads with before a configuration file's keys: the one graphnav wrote
+    it with (:func:`written_config`, laid over :func:`akit_default_config`; returned too, for the keys it sets),
+    else :func:`akit_default_config` (and None)."""
+    path = written_config(folder)
+    if path is None:
+        return akit_default_config(), None
+    written = read_config(path)
+    return written.over(akit_default_config()), written
 
 
 def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
