@@ -26,9 +26,10 @@ def write_csv(path, columns, rows):
     return path
 
 
-def make_akit_folder(root, n=3, seconds=20, yaw_rate=0.05):
-    """A tiny A-KIT folder: level vehicle, 1.5 m/s forward, constant yaw rate, stamps as published
-    (``linspace(0, seconds, N)``), IMU y axis stored flipped like the published files."""
+def make_akit_folder(root, n=3, seconds=120, yaw_rate=0.05):
+    """A small A-KIT folder: level vehicle, 1.5 m/s forward, constant yaw rate, stamps as published
+    (``linspace(0, seconds, N)``; over 100 rows, as the loader's rescale asks), IMU y axis stored flipped like
+    the published files."""
     folder = root / f"Trajectory{n}"
     folder.mkdir(parents=True)
     lat, lon, g = 0.5733, 0.6089, 9.7949
@@ -160,7 +161,7 @@ def test_list_and_load_akit(tmp_path):
     cfg = m.config
     assert cfg.dvl_time_offset_s == 0.5 and cfg.gt_time_offset_s == -0.25
     np.testing.assert_allclose(cfg.imu_axis_signs, [1, -1, 1])
-    # stamps rescaled from linspace(0, 20, N) to k / rate, then shifted
+    # stamps rescaled from linspace(0, 120, N) to k / rate, then shifted
     np.testing.assert_allclose(m.imu.t[:3], [0.0, 0.01, 0.02], atol=1e-12)
     np.testing.assert_allclose(m.gt.t[:3], [-0.25, 0.75, 1.75], atol=1e-12)
     np.testing.assert_allclose(m.dvl.t[:2], [0.5, 1.5], atol=1e-12)
@@ -177,14 +178,14 @@ def test_list_and_load_akit(tmp_path):
     np.testing.assert_allclose(at_gt_point.depth.depth, 15.0)
     np.testing.assert_allclose(at_gt_point.gt.p_n[0], [0.0, 0.0, 15.0], atol=1e-9)
     np.testing.assert_allclose(at_gt_point.config.dvl.lever_arm_b, AKIT_LEVER_ARM_B)
-    assert m.dvl.valid.all() and m.dvl.beams.shape == (20, 4)
+    assert m.dvl.valid.all() and m.dvl.beams.shape == (120, 4)
     np.testing.assert_allclose(m.dvl.v_b[:, 0], 1.5)
     assert abs(cfg.lat_rad - 0.5733) < 1e-12 and 9.78 < cfg.gravity_mps2 < 9.81
 
 
 def test_load_akit_auto_offsets_on_synthetic_turn(tmp_path):
     """With the IMU and GT consistent and no offsets, "auto" finds ~0 for both."""
-    folder = make_akit_folder(tmp_path, n=1, seconds=40, yaw_rate=0.0)
+    folder = make_akit_folder(tmp_path, n=1, yaw_rate=0.0)
     # add a yaw-rate step so that the attitude and velocity carry timing information
     imu_path = folder / "IMU_trajectory1.csv"
     imu = read_csv(imu_path, AKIT_COLUMNS["IMU"])
@@ -213,10 +214,10 @@ def test_dvl_nan_rows_are_invalid_pings(tmp_path):
     folder = make_akit_folder(tmp_path, n=2)
     p = folder / "DVL_trajectory2.csv"
     lines = p.read_text().splitlines()
-    lines[5] = "4.2105263157894735,nan,nan,nan"
+    lines[5] = f"{4 * 120 / 119!r},nan,nan,nan"
     p.write_text("\n".join(lines) + "\n")
     m = load_akit(folder, dvl_time_offset_s=0.0, gt_time_offset_s=0.0)
-    assert not m.dvl.valid[4].any() and m.dvl.valid[np.arange(20) != 4].all()
+    assert not m.dvl.valid[4].any() and m.dvl.valid[np.arange(120) != 4].all()
     assert np.isnan(m.dvl.beams[4]).all()
 
 
@@ -310,9 +311,13 @@ def test_published_period_factor_is_the_files_own_and_survives_a_cut():
     assert published_period_factor(imu[:1234], 100.0) == pytest.approx(39999 / 40000, rel=1e-12)
     assert published_period_factor(np.arange(400) * 1.0, 1.0) is None                      # already k / rate
     assert published_period_factor(np.arange(4000) * 0.1, 1.0) is None                     # another rate
-    jitter = np.arange(400) * 1.0025 + np.random.default_rng(0).normal(0, 1e-3, 400)
+    jitter = np.arange(400) * 1.0025 + np.random.default_rng(0).normal(0, 0.02, 400)   # a logger: 20 ms
     assert published_period_factor(jitter, 1.0) is None
     assert published_period_factor(np.arange(100) * 0.02, 100.0) is None                   # 50 Hz, not 100
+    assert published_period_factor(np.arange(400) / 0.95, 1.0) is None                    # 0.95 Hz, on a grid
+    # stamps rounded to the millisecond, or stored as float32: still the grid, and its factor
+    assert published_period_factor(np.round(t, 3), 1.0) == pytest.approx(399 / 400, rel=1e-6)
+    assert published_period_factor(imu.astype(np.float32), 100.0) == pytest.approx(39999 / 40000, rel=1e-6)
     # a file with one row fewer over the same span (Trajectory13's IMU): still back on the period
     assert published_period_factor(np.linspace(0.0, 400.0, 39999), 100.0) == pytest.approx(39998 / 40000, rel=1e-12)
 
@@ -320,7 +325,7 @@ def test_published_period_factor_is_the_files_own_and_survives_a_cut():
 def test_an_akit_folder_cut_short_reads_with_the_full_folders_stamps(tmp_path):
     """The first rows of a published folder (a log cut short) get the full folder's stamps, row for row: the
     rescale comes from the stamp step, not from the last stamp."""
-    full = make_akit_folder(tmp_path / "full", n=3, seconds=40)
+    full = make_akit_folder(tmp_path / "full", n=3)
     cut = tmp_path / "cut" / "Trajectory3"
     cut.mkdir(parents=True)
     for kind in ("IMU", "DVL", "GT"):
@@ -354,3 +359,17 @@ def test_a_published_trajectory_cut_short_finds_the_full_trajectorys_offsets(aki
     for stream in ("gt", "dvl"):
         a, b = full.meta["time_offsets"][stream], part.meta["time_offsets"][stream]
         assert abs(a["offset_s"] - b["offset_s"]) < 3 * np.hypot(a["sigma_s"], b["sigma_s"]), (stream, a, b)
+
+
+def test_a_folder_whose_files_are_rescaled_and_kept_is_warned_about(tmp_path):
+    """The DVL file re-stamped by a logger (jittered) beside published IMU and GT files: the IMU and GT go back on
+    their periods, the DVL stays as read, and the user is told the clocks may now disagree."""
+    folder = make_akit_folder(tmp_path, n=5)
+    p = folder / "DVL_trajectory5.csv"
+    dvl = read_csv(p, AKIT_COLUMNS["DVL"])
+    dvl[:, 0] = np.arange(len(dvl)) * 1.0 + np.random.default_rng(1).uniform(-0.05, 0.05, len(dvl)) + 0.1
+    write_csv(p, AKIT_COLUMNS["DVL"], dvl.tolist())
+    with pytest.warns(RuntimeWarning, match=r"stamps of imu, gt rescaled.*those of dvl kept as read"):
+        m = load_akit(folder, dvl_time_offset_s=0.0, gt_time_offset_s=0.0, imu_axis_signs=(1, -1, 1))
+    np.testing.assert_allclose(m.dvl.t, dvl[:, 0])
+    np.testing.assert_allclose(m.gt.t[:3], [0.0, 1.0, 2.0], atol=1e-12)

@@ -433,3 +433,31 @@ def test_a_written_folder_reads_as_it_was_written(tmp_path):
     notes = " ".join(back.meta["streams"]["dvl"]["notes"] + back.meta["streams"]["config"]["notes"])
     assert f"beams of {written.sum() - 1} ping(s) read" in notes and "1 ping(s) whose DVL velocity" in notes
     assert "configuration the folder was written with" in notes
+
+
+def test_a_written_folder_keeps_its_stamps_frame_and_survives_a_damaged_beams_file(tmp_path):
+    """A written folder is read with its stamps as written even on a grid the published files' rescale would
+    take (a GT at 0.95 Hz), with its velocity in the body frame whatever the DVL's mounting (the file holds the
+    DVL-frame velocity the configuration turns back), and a damaged beams file is warned about and left aside
+    (the beams are made from the DVL file, as for a published folder)."""
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    from scipy.spatial.transform import Rotation as R
+    from graphnav.sim.simulate import default_config
+    cfg = default_config()
+    cfg.dvl.C_d_b = R.from_euler("z", 3.0, degrees=True).as_matrix()
+    sim = simulate_mission(60.0, seed=4, config=cfg, gt_rate_hz=1.0 / 1.05)
+    paths = write_akit(sim, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = read_mission(tmp_path / "Trajectory1")
+    np.testing.assert_allclose(back.gt.t, sim.gt.t, atol=1e-12)
+    np.testing.assert_allclose(back.dvl.v_b, sim.dvl.v_b, atol=1e-12)
+    np.testing.assert_allclose(back.dvl.beams, sim.dvl.beams, atol=1e-12)
+    lines = paths["beams"].read_text().splitlines()
+    lines[10] = lines[10].rsplit(",", 1)[0]                           # a truncated line
+    paths["beams"].write_text("\n".join(lines) + "\n")
+    with pytest.warns(RuntimeWarning, match=r"beams_trajectory1.csv.*line 11.*made from the DVL file"):
+        damaged = read_mission(tmp_path / "Trajectory1")
+    np.testing.assert_allclose(damaged.dvl.v_b, sim.dvl.v_b, atol=1e-12)
+    assert not np.allclose(damaged.dvl.beams, sim.dvl.beams, atol=1e-6)     # made again, with new noise

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -154,5 +155,6 @@ def run(args) -> int:
             png = staged.path / f"trajectory{args.number}.png"
             plot(mission, png)
         print(f"wrote {staged.final(paths['IMU'].parent)} ({', '.join(p.name for p in paths.values())}) and "
-              f"{staged.final(png)}; navigate it with: graphnav smooth --data {staged.final(paths['IMU'].parent)}")
+              f"{staged.final(png)}; navigate it with: graphnav smooth --data "
+              f"{shlex.quote(str(staged.final(paths['IMU'].parent)))}")
     return 0

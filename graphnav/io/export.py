@@ -4,12 +4,14 @@
 :mod:`graphnav.io.loaders` reads a simulated mission like a recorded one. Differences from the published
 files, on purpose:
 
-* the stamps are the streams' own (the published ones are ``linspace(0, 400, N)``; the reader sees the
-  difference and keeps these as they are);
+* the stamps are the streams' own (the published ones are ``linspace(0, 400, N)``, which the reader
+  rescales; a folder written here it reads with its stamps as written);
 * the IMU is written in the body frame FRD as it is (the published files have a flipped y axis);
 * the ground truth is at the IMU point (the published one is the INS's point, about 1.9 m from it);
 * the DVL file holds the DVL-head velocity (least squares of the valid beams) of every ping with >= 3
-  valid beams; pings with fewer are left out (the published files have no gaps to encode);
+  valid beams, in the frame the reader expects (the configuration's ``C_d_b`` and
+  ``velocity_scale_correction`` undone; the body frame with the defaults); pings with fewer are left out (the
+  published files have no gaps to encode);
 * two extra files: ``beams_trajectoryN.csv`` (the four along-beam velocities, empty where a beam is
   invalid) and ``config_trajectoryN.json`` (the :class:`SensorConfig`, with the axis signs and time offsets
   the files need: none). :func:`graphnav.io.loaders.read_mission` reads such a folder as it was written: with
@@ -52,7 +54,11 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     dvl = mission.dvl
     v_b = dvl.v_b if dvl.v_b is not None else np.full((len(dvl.t), 3), np.nan)
     ok = np.isfinite(v_b).all(axis=1)
-    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_b[ok]]))
+    # the reader takes the DVL file for the instrument's own velocity and turns it to the body with the
+    # configuration's C_d_b and scale correction: write what it turns back into v_b
+    spec = mission.config.dvl
+    v_file = (v_b[ok] * (1.0 + spec.velocity_scale_correction)) @ spec.C_d_b
+    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_file]))
     beams = np.where(dvl.valid, dvl.beams, np.nan)
     _write_csv(paths["beams"], WRITTEN_BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
     text = paths["beams"].read_text().replace("nan", "")

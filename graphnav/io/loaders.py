@@ -19,8 +19,8 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
    not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log) or
    cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
-   noted. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the period, as
-   :func:`graphnav.io.export.write_akit` writes them) are kept as read, with a note.
+   noted. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the period; a
+   grid at another rate) are kept as read, with a note, and a folder with files of both kinds is warned about.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
    from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
@@ -390,29 +390,46 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
 AKIT_NOMINAL_RATE_HZ = {"imu": 100.0, "dvl": 1.0, "gt": 1.0}
 
 
-#: The published grid's step exceeds the sensor's period by ``1/(N-1)``: 0.25 % for 400 pings; up to this much
-#: (a file of 10 rows) a grid slower than the nominal rate is taken for it.
-PUBLISHED_STEP_EXCESS_MAX = 0.1
+#: The published grid's step exceeds the sensor's period by ``1/(N-1)``: 0.25 % for 400 pings. A grid slower
+#: than the nominal rate by up to this much (a file of 101 rows or more) is taken for it; a slower one is a
+#: stream at another rate.
+PUBLISHED_STEP_EXCESS_MAX = 0.01
+
+#: Stamps within this fraction of a step of an evenly spaced grid are on it: stamps rounded to the millisecond
+#: at 1 Hz or stored as float32 at 100 Hz stay on their grid; a logger's own stamps jitter off it.
+GRID_TOLERANCE = 0.01
+
+
+def grid_step(t: np.ndarray) -> float | None:
+    """The step (s) of the evenly spaced grid the stamps ``t`` (s) lie on, holes allowed, fitted through them
+    (rounded stamps give the grid's step), or None when they do not lie on one (:data:`GRID_TOLERANCE`)."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 3:
+        return None
+    guess = float(np.median(np.diff(t)))
+    if not guess > 0:
+        return None
+    dk = np.round(np.diff(t) / guess)       # grid steps between neighbours: rounding errors do not add up
+    if np.any(dk < 1):
+        return None
+    k = np.concatenate([[0.0], np.cumsum(dk)])
+    step, t0 = np.polyfit(k, t, 1)
+    if not step > 0 or np.max(np.abs(t - (t0 + k * step))) > GRID_TOLERANCE * step:
+        return None
+    return float(step)
 
 
 def published_period_factor(t: np.ndarray, rate_hz: float) -> float | None:
     """The factor that puts stamps written as ``linspace(0, T, N)`` back on the sensor's period ``1 / rate_hz``
     (``(N-1)/N`` when the sensor made N samples in T), or None when ``t`` (s) is not such a grid.
 
-    From the stamp step alone, so a file cut short, or with rows deleted, gets the factor of the file it was
-    cut from. Not such a grid, and left as read: stamps not evenly spaced (a logger's own stamps jitter),
-    already on the nominal period (a file written by :func:`graphnav.io.export.write_akit`), or at another rate
-    (a step not within :data:`PUBLISHED_STEP_EXCESS_MAX` above the period).
+    From the grid's step alone (:func:`grid_step`), so a file cut short, or with rows deleted, gets the factor
+    of the file it was cut from. Not such a grid, and left as read: stamps not evenly spaced (a logger's own
+    stamps jitter), already on the nominal period, or at another rate (a step not within
+    :data:`PUBLISHED_STEP_EXCESS_MAX` above the period).
     """
-    t = np.asarray(t, dtype=float)
-    if len(t) < 3:
-        return None
-    steps = np.diff(t)
-    step = float(np.median(steps))
-    if step <= 0:
-        return None
-    multiples = steps / step
-    if np.any(np.abs(multiples - np.round(multiples)) > 1e-6) or np.any(np.round(multiples) < 1):
+    step = grid_step(t)
+    if step is None:
         return None
     excess = step * rate_hz - 1.0
     if not 1e-9 < excess <= PUBLISHED_STEP_EXCESS_MAX:
@@ -424,15 +441,19 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     """Multiply each published file's stamps (in place) by ``(N-1)/N`` of its published row count N
     (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift nothing).
     Rows missing from a file's stamp grid are warned about and noted in ``meta["streams"]``; a file whose
-    stamps are not the published grid is left as read, and noted."""
+    stamps are not the published grid is left as read, and noted; a folder with files of both kinds is warned
+    about (their clocks may now disagree)."""
+    kept, rescaled = [], []
     for k, a in arrays.items():
         if a is None or len(a) < 2:
             continue
         factor = published_period_factor(a[:, 0], AKIT_NOMINAL_RATE_HZ[k])
         if factor is None:
             add_note(meta, k, "stamps kept as read (not the published linspace(0, T, N) grid)")
+            kept.append(k)
             continue
-        step = float(np.median(np.diff(a[:, 0])))
+        rescaled.append(k)
+        step = grid_step(a[:, 0])
         on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
         missing = on_grid - len(a)
         if missing > 0:
@@ -444,6 +465,13 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
         a[:, 0] *= factor
         add_note(meta, k, f"stamps rescaled by {factor:.8g}: the published linspace(0, T, N) step {step:.8g} s "
                           f"back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
+    if kept and rescaled:
+        text = (f"stamps of {', '.join(rescaled)} rescaled from the published linspace(0, T, N) grid, those of "
+                f"{', '.join(kept)} kept as read (not on such a grid); if these files come from one published "
+                "folder, their clocks now disagree by up to 0.25 %: restore the published stamps, or read with "
+                "rescale_stamps=False")
+        add_note(meta, kept[0], text)
+        warnings.warn(f"{files[kept[0].upper()]}: {text}", RuntimeWarning, stacklevel=4)
 
 
 #: Keys of a configuration file that :func:`graphnav.calibration.preparation.prepare` applies (a mission read from an
@@ -491,7 +519,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             given = {**{key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
                         for key in PREPARE_KEYS if folder_keys.sets(key)}, **(given or {})}
         imu_position_b = (0.0, 0.0, 0.0) if imu_position_b is None else imu_position_b
-    raw = read_akit(folder, rescale_stamps=rescale_stamps, repair=repair, config=config)
+    raw = read_akit(folder, rescale_stamps=rescale_stamps and written is None, repair=repair, config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
         PHINS_RECORDED))     # akit_default_config(), whose lever arm the rule below gives
     cfg.dvl = dataclasses.replace(cfg.dvl)
@@ -547,7 +575,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     beams = np.where(valid_ping[:, None], make_beams(np.where(valid_ping[:, None], v_dvl, 0.0), cfg.dvl,
                                                      beam_seed), np.nan)
     valid = np.repeat(valid_ping[:, None], 4, axis=1)
-    from_file = _written_beams(raw, valid_ping, cfg, beams, valid)
+    from_file = None if written is None else _written_beams(raw, v_dvl, valid_ping, cfg, beams, valid)
     dvl = DvlData(raw.dvl[:, 0].copy(), beams, valid, v_dvl, source=src["DVL"])
     imu = ImuData(t_imu, f_b, omega_b, source=src["IMU"])
     gt = depth = None
@@ -571,7 +599,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     _record_akit_streams(meta, imu, dvl, depth, gt, refused, from_file)
     if written is not None:
         add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate); "
-                                 "ground truth at the IMU point")
+                                 "ground truth at the IMU point, stamps as written")
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
@@ -579,15 +607,30 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
 WRITTEN_BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
 
 def _read_written_beams(path: Path) -> np.ndarray:
-    """(M,5) stamp s and four beams m/s of a written beams file, NaN where a field is empty (invalid beam)."""
-    text = path.read_text().splitlines()
-    if not text or [h.strip() for h in text[0].split(",")] != list(WRITTEN_BEAM_COLUMNS):
+    """(M,5) stamp s and four beams m/s of a written beams file, NaN where a field is empty (invalid beam).
+
+    Raises:
+        DataError: naming the file and the first bad line (a field count, a field that is not a number) or the
+            stamps' column (not finite and increasing).
+    """
+    lines = path.read_text().splitlines()
+    if not lines or [h.strip() for h in lines[0].split(",")] != list(WRITTEN_BEAM_COLUMNS):
         raise DataError(f"unexpected header, expected {list(WRITTEN_BEAM_COLUMNS)}", str(path), 1)
-    data = np.genfromtxt(io.StringIO("\n".join(text[1:])), delimiter=",", ndmin=2, invalid_raise=False,
-                         missing_values="", filling_values=np.nan)
-    if data.shape[1:] != (len(WRITTEN_BEAM_COLUMNS),) or len(data) != sum(1 for ln in text[1:] if ln.strip()):
-        raise DataError(f"not {len(WRITTEN_BEAM_COLUMNS)} numeric fields on every line", str(path))
-    if np.any(np.diff(data[:, 0]) <= 0) or not np.all(np.isfinite(data[:, 0])):
+    rows = []
+    for number, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) != len(WRITTEN_BEAM_COLUMNS):
+            raise DataError(f"{len(fields)} fields, expected {len(WRITTEN_BEAM_COLUMNS)}", str(path), number)
+        try:
+            rows.append([float(f) if f.strip() else np.nan for f in fields])
+        except ValueError:
+            raise DataError(f"not a number in {line!r}", str(path), number) from None
+    data = np.array(rows, dtype=float).reshape(-1, len(WRITTEN_BEAM_COLUMNS))
+    if not len(data):
+        raise DataError("no data lines", str(path), 2)
+    if not np.all(np.isfinite(data[:, 0])) or np.any(np.diff(data[:, 0]) <= 0):
         raise DataError("stamps not finite and increasing", str(path), field=WRITTEN_BEAM_COLUMNS[0])
     return data
 
@@ -597,25 +640,31 @@ def _read_written_beams(path: Path) -> np.ndarray:
 WRITTEN_BEAMS_AGREE_MPS = 1e-9
 
 
-def _written_beams(raw: AkitRaw, valid_ping: np.ndarray, cfg: SensorConfig, beams: np.ndarray,
-                   valid: np.ndarray) -> tuple[str, int, int] | None:
+def _written_beams(raw: AkitRaw, v_dvl: np.ndarray, valid_ping: np.ndarray, cfg: SensorConfig,
+                   beams: np.ndarray, valid: np.ndarray) -> tuple[str, int, int] | None:
     """Put the beams of a folder graphnav wrote (``beams_trajectoryN.csv``) in place of the beams made from the
-    DVL velocity (in place, ``beams`` and ``valid`` (M,4)), on the usable pings of the DVL file whose velocity is
-    the least squares of their written beams: the file's own beams, not a second draw of noise on their
-    velocity. Returns (file, pings taken from it, usable pings left as made), or None without such a file."""
+    DVL velocity (in place, ``beams`` and ``valid`` (M,4)), on the usable pings whose body-frame velocity
+    ``v_dvl`` (M,3) m/s, as read from the DVL file, is the least squares of their written beams: the file's
+    own beams, not a second draw of noise on their velocity. Returns (file, pings taken from it, usable pings
+    left as made), or None without a usable beams file (a damaged one is warned about: the DVL file is enough)."""
     dvl_file = Path(raw.files["DVL"])
     path = dvl_file.with_name(dvl_file.name.replace("DVL_", "beams_", 1))
     if path == dvl_file or not path.is_file():
         return None
     from graphnav.core.dvl import DvlGeometry
-    written = _read_written_beams(path)
+    try:
+        written = _read_written_beams(path)
+    except DataError as err:
+        warnings.warn(f"{err}; the beams are made from the DVL file's velocity instead", RuntimeWarning,
+                      stacklevel=3)
+        return None
     t = raw.dvl[:, 0]
     at = np.clip(np.searchsorted(written[:, 0], t), 0, len(written) - 1)
     rows = np.flatnonzero(valid_ping & (written[at, 0] == t))
     file_beams = written[at[rows], 1:5]
     lsq = DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(file_beams, np.isfinite(file_beams),
                                                              allow_missing=True)
-    agree = np.all(np.abs(lsq - raw.dvl[rows, 1:4]) <= WRITTEN_BEAMS_AGREE_MPS, axis=1)
+    agree = np.all(np.abs(lsq - v_dvl[rows]) <= WRITTEN_BEAMS_AGREE_MPS, axis=1)
     rows = rows[agree]
     beams[rows] = written[at[rows], 1:5]
     valid[rows] = np.isfinite(beams[rows])
