@@ -373,3 +373,21 @@ def test_a_folder_whose_files_are_rescaled_and_kept_is_warned_about(tmp_path):
         m = load_akit(folder, dvl_time_offset_s=0.0, gt_time_offset_s=0.0, imu_axis_signs=(1, -1, 1))
     np.testing.assert_allclose(m.dvl.t, dvl[:, 0])
     np.testing.assert_allclose(m.gt.t[:3], [0.0, 1.0, 2.0], atol=1e-12)
+
+
+def test_a_time_offset_the_data_barely_fix_is_warned_about(tmp_path, akit_dir):
+    """A simulated DVL whose offset the noisy velocities fix only to +-0.17 s: estimated, applied, and warned about
+    with its sigma; the shared trajectories fix theirs to 0.017 s or better and load without that warning."""
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
+    sim = simulate_mission(60.0, seed=3)
+    write_akit(sim, tmp_path)
+    with pytest.warns(RuntimeWarning, match=r"dvl time offset .* estimated with sigma 0\.\d+ s: the data barely fix"):
+        # with a config of its own the folder's written offsets are not given: the DVL's is estimated
+        m = load_akit(tmp_path / "Trajectory1", config=sim.config, imu_position_b=(0, 0, 0),
+                      imu_axis_signs=(1, 1, 1), gt_time_offset_s=0.0)
+    assert m.meta["time_offsets"]["dvl"]["sigma_s"] > 0.05
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_akit(akit_dir / "Trajectory13")
+    assert not [w for w in caught if "barely fix" in str(w.message)]
