@@ -229,8 +229,9 @@ def _mission_instrument(mission) -> tuple[dict, str]:
             else "beam (along-beam velocities)"
     elif meta.get("written_beams"):
         written = meta["written_beams"]
-        frame = (f"body: the files hold the DVL velocity in the body frame, and the beams graphnav wrote beside it "
-                 f"({written['pings']} pings; {written['made']} made by the DVL error model)")
+        frame = (f"DVL frame of the configuration (the body frame unless the DVL is mounted off it): the files hold "
+                 f"the DVL velocity, and the beams graphnav wrote beside it ({written['pings']} pings; "
+                 f"{written['made']} made by the DVL error model)")
     else:
         frame = "body: the files hold the DVL velocity in the body frame; beams made by the DVL error model"
     return inst, frame
