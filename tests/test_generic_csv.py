@@ -134,3 +134,21 @@ def test_errors_name_file_line_and_column(sim, tmp_path):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
     with pytest.raises(ConfigError, match="column map"):
         load_mission(tmp_path / "imu.csv", None)
+
+
+def test_a_declared_reference_error_is_added_to_the_printed_velocity_nees(tmp_path, capsys):
+    """``gt.velocity_sigma`` declares the reference's own velocity error: the summary's velocity NEES is also given
+    with it added to the covariance, and is smaller for it; a malformed value names the key."""
+    sim = simulate_mission(duration_s=120.0, seed=5)     # the NEES is scored after the first 60 s
+    cmap = _separate_files(tmp_path, sim)
+    cmap["gt"]["velocity_sigma"] = [0.02, 0.02, 0.01]
+    cfg = _config(tmp_path, sim, cmap)
+    assert load_mission(tmp_path, cfg).meta["gt_velocity_sigma_n"] == [0.02, 0.02, 0.01]
+    assert cli.main(["smooth", "--data", str(tmp_path), "--config", str(cfg), "--out", str(tmp_path / "out"),
+                     "--no-plots"]) == 0
+    velocity = json.loads((tmp_path / "out" / "summary.json").read_text())["accuracy"]["consistency"]["velocity"]
+    assert velocity["nees_with_reference_error"] < velocity["nees"]
+    assert f"{velocity['nees_with_reference_error']:.2f} with the reference's own error" in capsys.readouterr().out
+    cmap["gt"]["velocity_sigma"] = [0.02, -0.01]
+    with pytest.raises(ConfigError, match=r"csv_columns.gt.velocity_sigma"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))

@@ -185,7 +185,9 @@ def consistency_summary(sol, mission) -> dict:
     """Velocity (3 dof), horizontal position (2 dof) and heading (1 dof) NEES over the mission after the
     settling time against the IMU-carried reference, each with its 95 % chi-square band, as the benchmark
     scores them (:func:`graphnav.evaluation.consistency.mission_nees`); None where the solution carries no
-    such covariance or the reference is too short to score."""
+    such covariance or the reference is too short to score. When the mission knows its reference's own velocity
+    error (``meta["gt_velocity_sigma_n"]``: the A-KIT loader's, a CSV map's ``gt.velocity_sigma``), the velocity
+    entry also holds ``nees_with_reference_error``, the NEES with that error added to the covariance."""
     from graphnav.evaluation.consistency import DOF, HEADING_DOF, POSITION_DOF, chi2_band, mission_nees
     try:
         nees = mission_nees(sol, mission)
@@ -198,6 +200,10 @@ def consistency_summary(sol, mission) -> dict:
         mean = nees.get(key)
         out[name] = None if mean is None or not np.isfinite(mean) else {
             "nees": float(mean), "dof": dof, "band_95": list(chi2_band(int(nees.get(n_key) or 1), dof))}
+    with_reference = nees.get("nees_mission_gt")
+    if out["velocity"] is not None and with_reference is not None and np.isfinite(with_reference):
+        # the reference's own error added to the estimate's covariance: what of the NEES the reference explains
+        out["velocity"]["nees_with_reference_error"] = float(with_reference)
     return out
 
 
@@ -246,7 +252,9 @@ def print_summary(summary: dict, file=None) -> None:
         cons = acc.get("consistency") or {}
         if any(cons.values()):
             out("  NEES (consistent = dof; 95 % band): " + ", ".join(
-                f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f})" if c else f"{name} -"
+                f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f}"
+                + (f"; {c['nees_with_reference_error']:.2f} with the reference's own error"
+                   if "nees_with_reference_error" in c else "") + ")" if c else f"{name} -"
                 for name, c in cons.items()))
     line = regressed_beams_line(summary.get("regressed_beams"))
     if line:

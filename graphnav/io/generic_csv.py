@@ -13,8 +13,12 @@ columns::
                 "v_b": ["vx", "vy", "vz"], "velocity_unit": "mm/s"},
       "depth": {"file": "depth.csv", "t": "stamp", "pressure": "p", "pressure_unit": "dbar"},
       "gt":    {"file": "nav.csv", "t": "stamp", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
-                "euler": ["roll", "pitch", "yaw"], "angle_unit": "deg"}
+                "euler": ["roll", "pitch", "yaw"], "angle_unit": "deg", "velocity_sigma": [0.007, 0.007, 0.002]}
     }
+
+``velocity_sigma`` (optional) is the reference's own velocity error, m/s north, east, down (``graphnav calibrate``
+prints an upper bound of it): the printed velocity NEES is then also given with it added to the estimate's
+covariance, since a DVL-aided estimate can be as good as the reference it is scored against.
 
 Units: ``time_unit`` s / ms / us / ns (global or per stream); ``accel_unit`` m/s^2 or g; ``gyro_unit`` rad/s
 or deg/s; ``velocity_unit`` m/s, cm/s or mm/s. A unit left out is detected from the data
@@ -286,6 +290,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         from graphnav.core.rotations import euler_to_C_b_n
         e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
+        if "velocity_sigma" in spec:
+            meta["gt_velocity_sigma_n"] = _reference_sigma(spec["velocity_sigma"])
     clock = (cmap.get("dvl") or {}).get("clock", "auto")
     if clock not in ("auto", "imu"):
         raise ConfigError(f"csv_columns.dvl.clock = {clock!r}: choose auto or imu")
@@ -294,6 +300,18 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
+
+
+def _reference_sigma(value) -> list[float]:
+    """``csv_columns.gt.velocity_sigma``: the reference's own velocity error, m/s per NED axis (3 numbers >= 0)."""
+    try:
+        sigma = [float(x) for x in value]
+    except (TypeError, ValueError):
+        sigma = []
+    if len(sigma) != 3 or not all(np.isfinite(x) and x >= 0 for x in sigma):
+        raise ConfigError(f"csv_columns.gt.velocity_sigma = {value!r}: give the reference's velocity error as 3 "
+                          "numbers >= 0, m/s north, east, down (graphnav calibrate prints an upper bound)")
+    return sigma
 
 
 def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
