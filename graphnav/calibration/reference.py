@@ -426,7 +426,7 @@ def ground_truth_at(mission, r_b) -> GroundTruth:
     """The mission's ground truth moved to the point ``r_b`` (body frame, m, relative to the GT point).
 
     See :func:`move_ground_truth`. On the raw A-KIT reference (``load_akit(..., imu_position_b=(0, 0, 0))``)
-    the accelerometer's point is ~[-1.9, 0, -0.1] m from the GT point (``graphnav calibrate`` both modes),
+    the accelerometer's point is ~[-1.77, -0.01, -0.12] m from the GT point (``graphnav calibrate`` both modes),
     whose velocity differs from the GT point's by 0.1-0.2 m/s RMS on the turning trajectories.
     """
     return move_ground_truth(mission.gt, mission.imu.t, mission.imu.omega_b, r_b,

@@ -14,7 +14,7 @@ enters through the dynamics the IMU measures: a wrong offset pairs each ping wit
 IMU-propagated velocity, which the IMU factors penalise.
 
 The lever arm found here is relative to the point whose motion the accelerometer measures. On the shared
-A-KIT data that point is ~1.9 m aft of the GT reference point (see
+A-KIT data that point is ~1.8 m aft of the GT reference point (see
 :func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so this mode finds the DVL within ~0.2 m of the IMU in
 x/y, while the GT mode finds it ~1.8 m aft of the GT point: both are right for their reference point.
 Without GT, the first position is the origin, the first heading comes from gyrocompassing

@@ -115,7 +115,7 @@ AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
 
 #: Default lever arm of the Snapir DVL relative to the INS (the GT reference point), body frame, m (data
 #: README). ``graphnav calibrate`` (GT mode) finds [-1.72..-1.86, -0.10..+0.06, +0.03..+0.15] over the ten
-#: shared trajectories. Note: the recorded specific force behaves as if measured ~1.9 m aft of the GT point
+#: shared trajectories. Note: the recorded specific force behaves as if measured ~1.8 m aft of the GT point
 #: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so relative to the IMU the DVL is close to zero in
 #: x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
 AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
@@ -129,11 +129,11 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 
 #: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
 #: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`, against the published GT point) puts the IMU at
-#: x -1.8..-2.3 m (-3.3 on trajectory 11), y -0.18..+0.24 m over the ten shared trajectories, and calibration
-#: without GT puts the DVL within ~0.2 m of the IMU, so the default takes them as co-located: the IMU point is
-#: the DVL point measured against the GT, and the DVL lever arm relative to the IMU is zero. The same regression
-#: gives z -1.3..-2.3 m (sigmas 0.04-0.10 m), which a hull of the Snapir's half-metre diameter cannot hold: the
-#: vertical term is not used (its cause is not found; on simulated missions the regression is within 0.01 m).
+#: [-1.75..-1.79, -0.02..0.00, -0.13..-0.11] m on the ten shared trajectories (sigmas <= 0.01 m, spread 0.04 m), and the DVL
+#: regression puts the DVL at the lever arm above, so the DVL is within ~0.3 m of the IMU (0.1-0.3 m below it) and
+#: the default takes them as co-located: the IMU point is the DVL point measured against the GT, and the DVL lever
+#: arm relative to the IMU is zero. (Before the regression averaged the gravity term over each 1 s GT interval it
+#: put the IMU 1.3-2.3 m above the GT point.)
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities identified on the files
