@@ -149,6 +149,9 @@ def test_a_declared_reference_error_is_added_to_the_printed_velocity_nees(tmp_pa
     velocity = json.loads((tmp_path / "out" / "summary.json").read_text())["accuracy"]["consistency"]["velocity"]
     assert velocity["nees_with_reference_error"] < velocity["nees"]
     assert f"{velocity['nees_with_reference_error']:.2f} with the reference's own error" in capsys.readouterr().out
-    cmap["gt"]["velocity_sigma"] = [0.02, -0.01]
-    with pytest.raises(ConfigError, match=r"csv_columns.gt.velocity_sigma"):
-        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    for bad in ([0.02, -0.01], "123", [True, False, True], [0.02, float("nan"), 0.01]):
+        cmap["gt"]["velocity_sigma"] = bad
+        with pytest.raises(ConfigError, match=r"csv_columns.gt.velocity_sigma"):
+            load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    cmap["gt"]["velocity_sigma"] = None                  # null: not declared
+    assert "gt_velocity_sigma_n" not in load_mission(tmp_path, _config(tmp_path, sim, cmap)).meta

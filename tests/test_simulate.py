@@ -417,6 +417,7 @@ def test_a_written_folder_reads_as_it_was_written(tmp_path):
     assert back.config.imu.name == sim.config.imu.name
     np.testing.assert_allclose(back.config.dvl.lever_arm_b, sim.config.dvl.lever_arm_b)
     assert back.config.dvl_time_offset_s == 0.0 and back.config.gt_time_offset_s == 0.0
+    assert "gt_velocity_sigma_n" not in back.meta        # the simulation's truth has no error of its own
     np.testing.assert_array_equal(back.config.imu_axis_signs, [1, 1, 1])
     np.testing.assert_allclose(back.imu.t, sim.imu.t, atol=1e-12)
     np.testing.assert_allclose(back.gt.v_n, sim.gt.v_n, atol=1e-12)    # at the IMU point: not moved

@@ -28,6 +28,9 @@ from graphnav.core.rotations import skew
 #: acceleration: long enough to average the gyro's white noise down, short against the vehicle's roll period.
 RATE_END_HALF_WIDTH_S = 0.05
 
+#: IMU samples rotated at a time (about 40 MB of temporaries each).
+IMU_CHUNK = 100_000
+
 
 def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Position r (body, m) of the accelerometer's measurement point relative to the GT reference point.
@@ -57,14 +60,27 @@ def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, flo
     f_meas = mean(np.asfortranarray(cumulative_integral(t, imu.f_b)), a, b)
     W = np.asfortranarray(cumulative_integral(t, imu.omega_b))
     w_dot = (mean(W, b - h, b + h) - mean(W, a - h, a + h)) / dt
-    omega = imu.omega_b
-    centripetal = np.einsum("nij,njk->nik", skew(omega), skew(omega)).reshape(-1, 9)
-    w_w = mean(np.asfortranarray(cumulative_integral(t, centripetal)), a, b).reshape(-1, 3, 3)
-    C_t = mission_reference(mission).C_b_n(t)              # the GT attitude carried through each interval
-    C_T_mean = mean(np.asfortranarray(cumulative_integral(t, np.swapaxes(C_t, 1, 2).reshape(-1, 9))), a, b)
+    # omega x (omega x r) = (omega omega^T - |omega|^2 I) r: its six distinct terms averaged (not N 3x3 matrices)
+    w = imu.omega_b
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    ww = mean(np.asfortranarray(cumulative_integral(t, np.stack([w[:, i] * w[:, j] for i, j in pairs], 1))), a, b)
+    w_w = np.empty((len(a), 3, 3))
+    for c, (i, j) in enumerate(pairs):
+        w_w[:, i, j] = w_w[:, j, i] = ww[:, c]
+    w_w -= np.trace(w_w, axis1=1, axis2=2)[:, None, None] * np.eye(3)
+    # the GT's specific force at each IMU sample, along the attitude the gyro carries from the GT sample, then
+    # averaged over the interval as the accelerometer averages its own
     g_n = np.array([0.0, 0.0, mission.config.gravity_mps2])
     a_n = (np.diff(gt.v_n, axis=0) / np.diff(gt.t)[:, None])[ok]
-    d = f_meas - np.einsum("kij,kj->ki", C_T_mean.reshape(-1, 3, 3), a_n - g_n)
+    # from the sample held over the first interval's start (zero-order hold) to the last interval's end
+    inside = (t >= t[max(int(np.searchsorted(t, a[0], side="right")) - 1, 0)]) & (t < b[-1])
+    reference = mission_reference(mission)
+    f_gt = np.zeros_like(imu.f_b)
+    rows = np.flatnonzero(inside)
+    for chunk in np.array_split(rows, max(1, len(rows) // IMU_CHUNK)):     # bounded memory on long missions
+        k = np.clip(np.searchsorted(a, t[chunk], side="right") - 1, 0, len(a) - 1)
+        f_gt[chunk] = reference.rotation_b_n(t[chunk]).inv().apply(a_n[k] - g_n)
+    d = f_meas - mean(np.asfortranarray(cumulative_integral(t, f_gt)), a, b)
     A = np.concatenate([skew(w_dot) + w_w, np.broadcast_to(np.eye(3), (len(a), 3, 3))], axis=2).reshape(-1, 6)
     x, *_ = np.linalg.lstsq(A, d.reshape(-1), rcond=None)
     e = d.reshape(-1) - A @ x

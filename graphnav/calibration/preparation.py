@@ -277,14 +277,15 @@ def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | No
             est = estimates.get(stream)
             how = (f"estimated against the GT, sigma {est.sigma_s:.3f} s" if est is not None
                    else "given or the vehicle's default")
-            add_note(meta, stream, f"time offset {offset:+.3f} s added ({how})")
             if est is not None and not est.sigma_s <= OFFSET_SIGMA_WARN_S:
                 text = (f"{stream} time offset {offset:+.3f} s estimated with sigma {est.sigma_s:.3f} s: the data "
                         "barely fix it (too little motion, or noisy); set the "
                         f"{stream}_time_offset_s of the configuration if it is known")
-                add_note(meta, stream, text)
+                add_note(meta, stream, f"time offset {offset:+.3f} s added ({how}): the data barely fix it")
                 warnings.warn(f"{meta.get('files', {}).get(stream.upper(), meta.get('source', stream))}: {text}",
                               RuntimeWarning, stacklevel=4)
+            else:
+                add_note(meta, stream, f"time offset {offset:+.3f} s added ({how})")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -152,10 +152,16 @@ class Reference:
 
     def C_b_n(self, t: np.ndarray) -> np.ndarray:
         """(M,3,3) attitude at times t (IMU clock): reference sample before t propagated with the gyro."""
+        return self.rotation_b_n(t).as_matrix()
+
+    def rotation_b_n(self, t: np.ndarray) -> Rotation:
+        """The attitude of :meth:`C_b_n` as M rotations (4 numbers each, not 9: long missions at IMU rate). The
+        gyro carries it from the sample before ``t`` without the Earth rate (at most 7e-5 rad/s, 4e-3 deg a
+        second)."""
         t = np.asarray(t, float)
         k = np.clip(np.searchsorted(self.t_ref, t, side="right") - 1, 0, len(self.t_ref) - 1)
         rel = self._rot_at(self.t_ref[k]).inv() * self._rot_at(t)
-        return (Rotation.from_matrix(self.C_ref[k]) * rel).as_matrix()
+        return Rotation.from_matrix(self.C_ref[k]) * rel
 
     def v_n(self, t: np.ndarray) -> np.ndarray:
         """(M,3) NED velocity at times t: blend of accelerometer integration from both neighbours."""

@@ -290,7 +290,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         from graphnav.core.rotations import euler_to_C_b_n
         e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
-        if "velocity_sigma" in spec:
+        if spec.get("velocity_sigma") is not None:
             meta["gt_velocity_sigma_n"] = _reference_sigma(spec["velocity_sigma"])
     clock = (cmap.get("dvl") or {}).get("clock", "auto")
     if clock not in ("auto", "imu"):
@@ -304,10 +304,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
 
 def _reference_sigma(value) -> list[float]:
     """``csv_columns.gt.velocity_sigma``: the reference's own velocity error, m/s per NED axis (3 numbers >= 0)."""
-    try:
-        sigma = [float(x) for x in value]
-    except (TypeError, ValueError):
-        sigma = []
+    numbers = isinstance(value, (list, tuple)) and all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
+    sigma = [float(x) for x in value] if numbers else []
     if len(sigma) != 3 or not all(np.isfinite(x) and x >= 0 for x in sigma):
         raise ConfigError(f"csv_columns.gt.velocity_sigma = {value!r}: give the reference's velocity error as 3 "
                           "numbers >= 0, m/s north, east, down (graphnav calibrate prints an upper bound)")

@@ -129,11 +129,12 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 
 #: DVL lever arm relative to the IMU (``AKIT_LEVER_ARM_B - imu_position_b``). The accelerometer regression
 #: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`, against the published GT point) puts the IMU at
-#: [-1.75..-1.79, -0.02..0.00, -0.13..-0.11] m on the ten shared trajectories (sigmas <= 0.01 m, spread 0.04 m),
-#: and the DVL regression puts the DVL at the lever arm above, so the DVL is within ~0.3 m of the IMU (0.1-0.3 m
-#: below it) and the default takes them as co-located: the IMU point is the DVL point measured against the GT, and
-#: the DVL lever arm relative to the IMU is zero. (Before the regression averaged the gravity term over each 1 s GT
-#: interval it put the IMU 1.3-2.3 m above the GT point.)
+#: [-1.74..-1.79, -0.03..0.00, -0.13..-0.11] m on the ten shared trajectories (sigmas <= 0.01 m, spread 0.05 m),
+#: and the DVL regression puts the DVL at the lever arm above, so the DVL is within ~0.3 m of the IMU (0.3 m below
+#: it with the lever arm above, 0.1-0.3 m with calibrate's per trajectory), and the default takes them as
+#: co-located: the IMU point is the DVL point measured against the GT, and the DVL lever arm relative to the IMU is
+#: zero. (Before the regression averaged the gravity term over each 1 s GT interval it put the IMU 1.3-2.3 m above
+#: the GT point.)
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
 #: IMU error model for the recorded Phins data, per-sqrt(Hz) densities identified on the files
@@ -598,7 +599,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             **raw.meta}
     if g is not None:
         meta["gt_point_b"] = [0.0, 0.0, 0.0]          # the published point until prepared
-        meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
+        if written is None:                           # a written folder's GT is the simulation's truth
+            meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
     _record_akit_streams(meta, imu, dvl, depth, gt, refused, from_file)
     if written is not None:
         add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate); "
