@@ -182,12 +182,15 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3.5e-3, gyro
 # CSV reading
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
-             repair: bool = False, meta: dict | None = None, stream: str = "") -> np.ndarray:
+             repair: bool = False, meta: dict | None = None, stream: str = "",
+             empty_is_nan: bool = False) -> np.ndarray:
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
     Every bad data line is found and reported (1-based line number and column): wrong number of fields
     (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
+    ``empty_is_nan``: an empty field of a ``nan_ok`` column is NaN (the beams file
+    :func:`graphnav.io.export.write_akit` writes leaves an invalid beam empty).
     The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
     stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
     the rows are counted as read for ``stream`` and rows whose stamp is not a time
@@ -223,6 +226,9 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
                         next((h for h, c in zip(header, columns) if h != c), header[-1]))
     line_no = np.array([i + 1 for i, s in enumerate(lines) if i > 0 and s.strip()], dtype=int)
     body = [lines[i - 1] for i in line_no]
+    if empty_is_nan:
+        may_be_empty = [j for j, name in enumerate(columns) if name in nan_ok]
+        body = [_empty_as_nan(line, may_be_empty) for line in body]
     if not body:
         raise DataError("no data lines", source, 2)
     try:
@@ -254,6 +260,15 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     if meta is not None and len(kept) < len(data):
         count_refused(meta, stream, "duplicated stamp (repair)", len(data) - len(kept))
     return kept
+
+
+def _empty_as_nan(line: str, columns: list[int]) -> str:
+    """``line`` with the empty fields of ``columns`` (indices) written ``nan``."""
+    fields = line.split(",")
+    for j in columns:
+        if j < len(fields) and not fields[j].strip():
+            fields[j] = "nan"
+    return ",".join(fields)
 
 
 def _raise_bad_lines(source: str, body: list[str], line_no: np.ndarray, columns) -> None:
@@ -432,7 +447,11 @@ def published_period_factor(t: np.ndarray, rate_hz: float) -> float | None:
     stamps jitter), already on the nominal period, or at another rate (a step not within
     :data:`PUBLISHED_STEP_EXCESS_MAX` above the period).
     """
-    step = grid_step(t)
+    return _period_factor(grid_step(t), rate_hz)
+
+
+def _period_factor(step: float | None, rate_hz: float) -> float | None:
+    """:func:`published_period_factor` of a grid of step ``step`` s (None: not a grid)."""
     if step is None:
         return None
     excess = step * rate_hz - 1.0
@@ -451,13 +470,13 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     for k, a in arrays.items():
         if a is None or len(a) < 2:
             continue
-        factor = published_period_factor(a[:, 0], AKIT_NOMINAL_RATE_HZ[k])
+        step = grid_step(a[:, 0])
+        factor = _period_factor(step, AKIT_NOMINAL_RATE_HZ[k])
         if factor is None:
             add_note(meta, k, "stamps kept as read (not the published linspace(0, T, N) grid)")
             kept.append(k)
             continue
         rescaled.append(k)
-        step = grid_step(a[:, 0])
         on_grid = int(round((a[-1, 0] - a[0, 0]) / step)) + 1
         missing = on_grid - len(a)
         if missing > 0:
@@ -520,8 +539,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
         # with and its GT is already at the IMU point
         if config is None:
             config, folder_keys = akit_base_config(folder)
-            given = {**{key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
-                        for key in PREPARE_KEYS if folder_keys.sets(key)}, **(given or {})}
+            given = {**_given_keys(config, folder_keys.sets), **(given or {})}
         imu_position_b = (0.0, 0.0, 0.0) if imu_position_b is None else imu_position_b
     raw = read_akit(folder, rescale_stamps=rescale_stamps and written is None, repair=repair, config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
@@ -611,34 +629,6 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
 #: Header of the beams file :func:`graphnav.io.export.write_akit` writes beside the DVL file (empty = invalid).
 WRITTEN_BEAM_COLUMNS = ("Time [s]", "Beam 1 [m/s]", "Beam 2 [m/s]", "Beam 3 [m/s]", "Beam 4 [m/s]")
 
-def _read_written_beams(path: Path) -> np.ndarray:
-    """(M,5) stamp s and four beams m/s of a written beams file, NaN where a field is empty (invalid beam).
-
-    Raises:
-        DataError: naming the file and the first bad line (a field count, a field that is not a number) or the
-            stamps' column (not finite and increasing).
-    """
-    lines = path.read_text().splitlines()
-    if not lines or [h.strip() for h in lines[0].split(",")] != list(WRITTEN_BEAM_COLUMNS):
-        raise DataError(f"unexpected header, expected {list(WRITTEN_BEAM_COLUMNS)}", str(path), 1)
-    rows = []
-    for number, line in enumerate(lines[1:], start=2):
-        if not line.strip():
-            continue
-        fields = line.split(",")
-        if len(fields) != len(WRITTEN_BEAM_COLUMNS):
-            raise DataError(f"{len(fields)} fields, expected {len(WRITTEN_BEAM_COLUMNS)}", str(path), number)
-        try:
-            rows.append([float(f) if f.strip() else np.nan for f in fields])
-        except ValueError:
-            raise DataError(f"not a number in {line!r}", str(path), number) from None
-    data = np.array(rows, dtype=float).reshape(-1, len(WRITTEN_BEAM_COLUMNS))
-    if not len(data):
-        raise DataError("no data lines", str(path), 2)
-    if not np.all(np.isfinite(data[:, 0])) or np.any(np.diff(data[:, 0]) <= 0):
-        raise DataError("stamps not finite and increasing", str(path), field=WRITTEN_BEAM_COLUMNS[0])
-    return data
-
 
 #: A written ping's DVL velocity and the least squares of its written beams agree to this, m/s (the files
 #: round trip to ~1e-15); a ping that differs more was edited in the DVL file, which is then the one believed.
@@ -658,7 +648,7 @@ def _written_beams(raw: AkitRaw, v_dvl: np.ndarray, valid_ping: np.ndarray, cfg:
         return None
     from graphnav.core.dvl import DvlGeometry
     try:
-        written = _read_written_beams(path)
+        written = read_csv(path, WRITTEN_BEAM_COLUMNS, nan_ok=WRITTEN_BEAM_COLUMNS[1:], empty_is_nan=True)
     except DataError as err:
         warnings.warn(f"{err}; the beams are made from the DVL file's velocity instead", RuntimeWarning,
                       stacklevel=3)
@@ -832,9 +822,15 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
         return read_akit_mission(path, **akit_kwargs)
     base, written = akit_base_config(path)
     config = overrides.over(base)
-    given = {key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
-             for key in PREPARE_KEYS if overrides.sets(key) or (written is not None and written.sets(key))}
+    given = _given_keys(config, lambda key: overrides.sets(key) or (written is not None and written.sets(key)))
     return read_akit_mission(path, config=config, given=given, **akit_kwargs)
+
+
+def _given_keys(config: SensorConfig, sets) -> dict:
+    """``{key: value}`` of ``config`` for the :data:`PREPARE_KEYS` that ``sets(key)`` says a configuration file
+    set (``prepare`` applies them as given instead of estimating them)."""
+    return {key: (tuple(getattr(config, key)) if key == "imu_axis_signs" else getattr(config, key))
+            for key in PREPARE_KEYS if sets(key)}
 
 
 def written_config(folder: str | Path) -> Path | None:
