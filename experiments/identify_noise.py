@@ -3,8 +3,11 @@
 Method: :mod:`graphnav.calibration.noise` (the IMU's 1-s increments against the GT's, and the Allan deviation at
 short tau; all-beam batch-smoother residuals
 with the smoother's own prediction variance added back for the beams; batch error vs GT minus the smoother's
-covariance for the GT). Prints one row per trajectory and the median over them, which is what
-:data:`graphnav.io.loaders.PHINS_RECORDED` and :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD` hold.
+covariance for the GT). Prints one row per trajectory and the median over them: the identification behind
+:data:`graphnav.io.loaders.PHINS_RECORDED` (whose densities the estimators use at
+:data:`graphnav.calibration.noise.ESTIMATOR_DENSITY_FACTOR` times these, chosen out of fold by
+``experiments/calibrated_density_folds.py``), :data:`graphnav.io.loaders.AKIT_GT_VELOCITY_SIGMA_N` (the GT white
+error column) and the beam noise of the A-KIT DVL spec.
 
     .venv/bin/python experiments/identify_noise.py --data ../shared/data/snapir-2022-akit --jobs 2
 """

@@ -400,16 +400,21 @@ def test_dvl_pings_between_imu_samples_are_exact():
 def test_a_written_folder_reads_as_it_was_written(tmp_path):
     """``graphnav simulate --out`` then ``--data``: the folder reads with the configuration it was written with
     (no time offset or axis estimated, the GT kept at the IMU point), its stamps as written and its own beams
-    (3-beam pings too); a ping whose DVL velocity was edited after writing gets beams made from the edited
-    velocity."""
+    (3-beam pings, and pings with fewer beams, which the DVL file leaves without a velocity); a ping whose DVL
+    velocity was edited after writing gets beams made from the edited velocity, and a ping whose velocity was
+    blanked is not measured."""
     from graphnav.calibration.preparation import prepare
     from graphnav.io.export import write_akit
     from graphnav.io.loaders import read_mission
     sim = simulate_mission(120.0, seed=2, dvl_stamp_offset_s=0.37, imu_grade="tactical", dropout=True)
+    counts = sim.dvl.valid.sum(axis=1)
+    assert (counts == 3).sum() >= 3 and (counts < 3).sum() >= 3, "the dropout model gave too few pings to check"
+    edited, blanked = np.flatnonzero(counts >= 3)[[20, 30]]
     paths = write_akit(sim, tmp_path)
     lines = paths["DVL"].read_text().splitlines()
-    cols = lines[21].split(",")
-    lines[21] = ",".join([cols[0], str(float(cols[1]) + 0.3), *cols[2:]])      # the 21st ping edited: +0.3 m/s
+    cols = lines[edited + 1].split(",")
+    lines[edited + 1] = ",".join([cols[0], str(float(cols[1]) + 0.3), *cols[2:]])      # edited: +0.3 m/s
+    lines[blanked + 1] = lines[blanked + 1].split(",")[0] + ",nan,nan,nan"
     paths["DVL"].write_text("\n".join(lines) + "\n")
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)     # nothing detected or estimated, so nothing to warn about
@@ -421,18 +426,17 @@ def test_a_written_folder_reads_as_it_was_written(tmp_path):
     np.testing.assert_array_equal(back.config.imu_axis_signs, [1, 1, 1])
     np.testing.assert_allclose(back.imu.t, sim.imu.t, atol=1e-12)
     np.testing.assert_allclose(back.gt.v_n, sim.gt.v_n, atol=1e-12)    # at the IMU point: not moved
-    written = sim.dvl.valid.sum(axis=1) >= 3                          # the DVL file's pings
-    np.testing.assert_allclose(back.dvl.t, sim.dvl.t[written], atol=1e-12)
-    three = sim.dvl.valid[written].sum(axis=1) == 3
-    assert three.sum() >= 3, "the dropout model gave too few 3-beam pings to check"
-    same = np.arange(len(back.dvl.t)) != 20
-    np.testing.assert_array_equal(back.dvl.valid[same], sim.dvl.valid[written][same])
+    np.testing.assert_allclose(back.dvl.t, sim.dvl.t, atol=1e-12)       # every ping, with a velocity or not
+    same = ~np.isin(np.arange(len(back.dvl.t)), [edited, blanked])
+    np.testing.assert_array_equal(back.dvl.valid[same], sim.dvl.valid[same])
     np.testing.assert_allclose(np.where(back.dvl.valid, back.dvl.beams, 0)[same],
-                               np.where(sim.dvl.valid, sim.dvl.beams, 0)[written][same], atol=1e-12)
-    v20 = DvlGeometry.from_spec(back.config.dvl).velocity_from_beams(back.dvl.beams[20])
-    assert abs(v20[0] - sim.dvl.v_b[written][20, 0] - 0.3) < 0.2     # the edited velocity, a new draw of noise
+                               np.where(sim.dvl.valid, sim.dvl.beams, 0)[same], atol=1e-12)
+    v = DvlGeometry.from_spec(back.config.dvl).velocity_from_beams(back.dvl.beams[edited])
+    assert abs(v[0] - sim.dvl.v_b[edited, 0] - 0.3) < 0.2     # the edited velocity, a new draw of noise
+    assert not back.dvl.valid[blanked].any()                 # the DVL file is believed over the beams file
     notes = " ".join(back.meta["streams"]["dvl"]["notes"] + back.meta["streams"]["config"]["notes"])
-    assert f"beams of {written.sum() - 1} ping(s) read" in notes and "1 ping(s) whose DVL velocity" in notes
+    assert f"beams of {(counts >= 3).sum() - 2} ping(s) read" in notes and "1 ping(s) whose DVL velocity" in notes
+    assert f"and of {(counts < 3).sum()} ping(s) with fewer than three beams" in notes
     assert "configuration the folder was written with" in notes
 
 

@@ -84,7 +84,8 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
 
     ``identify_noise``: also identify the IMU white-noise densities and the beam noise from the data
     (:func:`graphnav.calibration.noise.identify`, one all-beam batch-smoother run; with GT also the GT's velocity
-    error) and write them into the calibrated configuration (``graphnav calibrate`` does by default);
+    error) and write them into the calibrated configuration (``graphnav calibrate`` does by default; the IMU
+    densities times :data:`graphnav.calibration.noise.ESTIMATOR_DENSITY_FACTOR`, what the estimators need);
     ``completer`` fills the pings with missing beams in that run (see :func:`~graphnav.calibration.noise.identify`).
     """
     if mode == "auto":
@@ -100,7 +101,6 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
         from graphnav.calibration.noise import identify
         noise = identify(mission, completer=completer)
         result.noise = noise
-        result.config.imu.accel_noise_density = noise.accel_noise_density
-        result.config.imu.gyro_noise_density = noise.gyro_noise_density
+        result.config.imu.accel_noise_density, result.config.imu.gyro_noise_density = noise.estimator_densities()
         result.config.dvl.beam_noise_std = noise.beam_noise_std
     return result

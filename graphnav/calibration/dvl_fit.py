@@ -27,24 +27,51 @@ from graphnav.core.rotations import skew
 #: Half-width (s) of the gyro averages at an interval's ends whose difference is the interval's mean angular
 #: acceleration: long enough to average the gyro's white noise down, short against the vehicle's roll period.
 RATE_END_HALF_WIDTH_S = 0.05
+#: GT intervals longer than this times the median are holes: left out of the accelerometer regression.
+REGULAR_INTERVAL_FACTOR = 1.5
 
 #: IMU samples rotated at a time (about 40 MB of temporaries each).
 IMU_CHUNK = 100_000
 
 
-def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Position r (body, m) of the accelerometer's measurement point relative to the GT reference point.
+@dataclass
+class AccelerometerMismatch:
+    """The accelerometer against the GT over each GT interval ``[a, b]`` (s, IMU clock), body frame.
 
-    A rigid body's specific force at r differs from the one at the reference point by
-    ``omega_dot x r + omega x (omega x r)``. Over each interval between GT samples, the mean measured specific
-    force minus the one the GT predicts (``C^T (dv_n/dt - g_n)``, with ``C^T`` averaged over the interval along
-    the attitude the gyro carries from the GT sample) is regressed on the interval means of those two terms
-    (``omega_dot`` as the difference of the rates at the interval's ends), with a constant bias. Every term is an
-    interval mean, so a sparse GT adds no bias: with the attitude taken at the interval's middle, a 1 Hz GT of a
-    rolling vehicle put r ~0.9 m above the truth on simulated missions (``g/12`` times the roll acceleration).
-    Returns (r, covariance of r, residual RMS before, after), m/s^2. The GT stamps must already be on the IMU
-    clock. r matters because the estimators integrate the IMU: the DVL lever arm they need is the DVL's
-    position relative to the accelerometer point, ``l_dvl - r``.
+    ``d`` (K,3) m/s^2: the mean measured specific force minus the one the GT predicts; ``design`` (K,3,6): the
+    interval means of ``omega_dot x r + omega x (omega x r)`` as a matrix on r (first three columns) and a
+    constant bias (last three), so ``d ~ design @ [r, bias]`` up to noise."""
+
+    a: np.ndarray
+    b: np.ndarray
+    d: np.ndarray
+    design: np.ndarray
+
+    @property
+    def regular(self) -> np.ndarray:
+        """(K,) the intervals no longer than :data:`REGULAR_INTERVAL_FACTOR` times the median: across a hole in the
+        GT its constant acceleration says little."""
+        dt = self.b - self.a
+        return dt <= REGULAR_INTERVAL_FACTOR * float(np.median(dt))
+
+    def fit(self) -> tuple[np.ndarray, np.ndarray]:
+        """(x (6,) = [r m, bias m/s^2], residual (K,3) m/s^2): the least-squares fit of ``d`` on ``design`` over the
+        :attr:`regular` intervals; the residual of every interval."""
+        x, *_ = np.linalg.lstsq(self.design[self.regular].reshape(-1, 6), self.d[self.regular].reshape(-1),
+                                rcond=None)
+        return x, self.d - self.design @ x
+
+
+def accelerometer_mismatch(mission: Mission) -> AccelerometerMismatch:
+    """The accelerometer's interval means against the GT's (:class:`AccelerometerMismatch`).
+
+    The GT predicts ``C^T (dv_n/dt - g_n)`` at its reference point. ``C^T`` is averaged over the interval along
+    the attitude the gyro carries from the GT sample, as the accelerometer averages its own specific force; the
+    GT's acceleration is constant over the interval. ``omega_dot`` is the difference of the mean rates at the
+    interval's ends (:data:`RATE_END_HALF_WIDTH_S`). Every term is an interval mean, so a sparse GT adds no
+    bias: with the attitude taken at the interval's middle, a 1 Hz GT of a rolling vehicle put r ~0.9 m above
+    the truth on simulated missions (``g/12`` times the roll acceleration) and doubled the accelerometer density
+    identified on the shared trajectories. The GT stamps must already be on the IMU clock.
     """
     from graphnav.calibration.reference import mission_reference
     imu, gt = mission.imu, mission.gt
@@ -52,6 +79,10 @@ def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, flo
     h = RATE_END_HALF_WIDTH_S
     ok = (gt.t[:-1] - h >= t[0]) & (gt.t[1:] + h <= t[-1])
     a, b = gt.t[:-1][ok], gt.t[1:][ok]
+    if a.size < 2:
+        raise DataError(f"the GT has {a.size} sample interval(s) inside the IMU's span (with "
+                        f"{RATE_END_HALF_WIDTH_S:g} s to spare at each end): the accelerometer cannot be compared with "
+                        "it", mission.name, field="gt.t")
     dt = (b - a)[:, None]
 
     def mean(cumulative, lo, hi):
@@ -68,8 +99,6 @@ def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, flo
     for c, (i, j) in enumerate(pairs):
         w_w[:, i, j] = w_w[:, j, i] = ww[:, c]
     w_w -= np.trace(w_w, axis1=1, axis2=2)[:, None, None] * np.eye(3)
-    # the GT's specific force at each IMU sample, along the attitude the gyro carries from the GT sample, then
-    # averaged over the interval as the accelerometer averages its own
     g_n = np.array([0.0, 0.0, mission.config.gravity_mps2])
     a_n = (np.diff(gt.v_n, axis=0) / np.diff(gt.t)[:, None])[ok]
     # from the sample held over the first interval's start (zero-order hold) to the last interval's end
@@ -81,11 +110,26 @@ def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, flo
         k = np.clip(np.searchsorted(a, t[chunk], side="right") - 1, 0, len(a) - 1)
         f_gt[chunk] = reference.rotation_b_n(t[chunk]).inv().apply(a_n[k] - g_n)
     d = f_meas - mean(np.asfortranarray(cumulative_integral(t, f_gt)), a, b)
-    A = np.concatenate([skew(w_dot) + w_w, np.broadcast_to(np.eye(3), (len(a), 3, 3))], axis=2).reshape(-1, 6)
-    x, *_ = np.linalg.lstsq(A, d.reshape(-1), rcond=None)
-    e = d.reshape(-1) - A @ x
-    cov = np.linalg.pinv(A.T @ A) * float(e @ e) / max(len(e) - 6, 1) * correlation_inflation(e.reshape(-1, 3))
-    return x[:3], cov[:3, :3], float(np.sqrt(np.mean(d ** 2))), float(np.sqrt(np.mean(e ** 2)))
+    design = np.concatenate([skew(w_dot) + w_w, np.broadcast_to(np.eye(3), (len(a), 3, 3))], axis=2)
+    return AccelerometerMismatch(a, b, d, design)
+
+
+def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Position r (body, m) of the accelerometer's measurement point relative to the GT reference point.
+
+    A rigid body's specific force at r differs from the one at the reference point by
+    ``omega_dot x r + omega x (omega x r)``: the accelerometer's interval means minus the GT's
+    (:func:`accelerometer_mismatch`) are regressed on those terms' interval means, with a constant bias.
+    Returns (r, covariance of r, residual RMS before, after), m/s^2. The GT stamps must already be on the IMU
+    clock. r matters because the estimators integrate the IMU: the DVL lever arm they need is the DVL's
+    position relative to the accelerometer point, ``l_dvl - r``.
+    """
+    m = accelerometer_mismatch(mission)
+    x, e = m.fit()
+    regular = m.regular
+    A, e = m.design[regular].reshape(-1, 6), e[regular]
+    cov = np.linalg.pinv(A.T @ A) * float(np.sum(e ** 2)) / max(e.size - 6, 1) * correlation_inflation(e)
+    return x[:3], cov[:3, :3], float(np.sqrt(np.mean(m.d[regular] ** 2))), float(np.sqrt(np.mean(e ** 2)))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -2,12 +2,13 @@
 
 - **IMU white noise** (accelerometer m/s^2/sqrt(Hz), gyro rad/s/sqrt(Hz)) at the scale the estimators
   integrate over (keyframes 1 s apart): with GT, the mismatch of the IMU's 1-s velocity and attitude
-  increments with the GT's (:func:`identify_imu_with_gt`), ``N = std / sqrt(dt)``. Without GT: overlapping
-  Allan deviation of the raw streams at short tau (1..10 samples), ``N = min_tau sigma_A(tau) sqrt(tau)``,
-  median over axes. On the A-KIT Phins data the two disagree: the short-tau Allan density of the
-  accelerometer (median 1.7e-3) is about half of the 1-s one, and using it made the graph's NEES worse
-  (Trajectory1, Graph-TC 5.3 -> 8.0, batch 10.3 -> 17.4) -- the recorded vibration is not white, so the
-  1-s value is the one an estimator with 1-s keyframes needs.
+  increments with the GT's (:func:`identify_imu_with_gt`; the accelerometer's as interval means with its position
+  fitted out), ``N = std / sqrt(dt)``. Without GT: overlapping Allan deviation of the raw streams at short tau
+  (1..10 samples), ``N = min_tau sigma_A(tau) sqrt(tau)``, median over axes. On the A-KIT Phins data the two
+  disagree: the short-tau Allan density of the accelerometer (median 1.7e-3) is twice the 1-s one (8.7e-4) and
+  its gyro density 6x (6.4e-5 against 1.1e-5) -- the recorded vibration is not white and averages out within a
+  keyframe. Neither is what the estimators need: a calibrated configuration gets them times
+  :data:`ESTIMATOR_DENSITY_FACTOR`.
 - **Beam noise** (m/s): residuals ``r = y - h(x_hat)`` of every measured beam at the all-beam batch smoother
   (Graph-HN-batch with DVL error states, no outage). For a least-squares estimate ``E[r^2] = sigma^2 -
   var(h(x_hat))``, so ``sigma^2 = mean(r^2) + mean(M P_v M^T)`` with ``P_v`` the smoother's velocity marginal
@@ -22,15 +23,16 @@
   is an upper bound of the GT's error (and a lower bound of what the smoother's covariance misses), and it
   is *not* independent of the batch smoother (its own NEES with it is ~3 by construction).
   An independent check of the GT's fast (sample-to-sample) error: the GT's 1-s velocity increments against
-  the IMU's (:func:`gt_white_velocity_error`): ``d_k = (f_gt - mean f_imu) dt`` has variance
-  ``2 sigma_white^2 + N_acc^2 dt`` and lag-1 correlation -0.5 if the GT error is white.
+  the IMU's (:func:`gt_white_velocity_error`): ``d_k = (mean f_imu - f_gt) dt``, the accelerometer's position
+  and a bias fitted out, has variance ``2 sigma_white^2 + N_acc^2 dt`` and lag-1 correlation -0.5 if the GT
+  error is white.
 
-``experiments/identify_noise.py`` runs this over the shared trajectories and prints the values the A-KIT loader
-uses (:data:`graphnav.io.loaders.PHINS_RECORDED`, :data:`graphnav.io.loaders.AKIT_BEAM_NOISE_STD`).
+``experiments/identify_noise.py`` runs this over the shared trajectories and prints the identification behind the
+A-KIT loader's values (:data:`graphnav.io.loaders.PHINS_RECORDED`,
+:data:`graphnav.io.loaders.AKIT_GT_VELOCITY_SIGMA_N`, the beam noise of its DVL spec).
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -38,6 +40,17 @@ import numpy as np
 from graphnav.core.dvl import DvlGeometry
 from graphnav.core.mission import Mission
 from graphnav.estimators.keyframes import gyro_at
+
+#: The white densities the estimators need over those identified, (accelerometer, gyro), by how they were
+#: identified: ``"gt"``, the 1-s increments against a GT (:func:`identify_imu_with_gt`); ``"allan"``, the
+#: Allan deviation at short tau without one (:func:`white_density`). Chosen leave-trajectories-out on the ten
+#: shared trajectories (``experiments/calibrated_density_folds.py``, docs/decisions/consistency.md): the densities
+#: the estimators use there (:data:`graphnav.io.loaders.PHINS_RECORDED`, chosen by their NEES) over the
+#: identification's median on the other folds, 3.95-4.25 and 1.40-1.69 per fold against the GT, 1.99-2.20 and
+#: 0.24-0.29 by the Allan deviation. The 1-s increments do not hold what the estimators must also cover (slower
+#: sensor errors, the GT's, their own model's); the short-tau Allan deviation holds vibration that averages out
+#: within a keyframe interval. One vehicle's numbers: on another the factor may differ.
+ESTIMATOR_DENSITY_FACTOR = {"gt": (4.0, 1.5), "allan": (2.1, 0.27)}
 
 #: Averaging times of the white-noise fit, in samples.
 SHORT_TAUS = (1, 2, 3, 5, 10)
@@ -64,56 +77,56 @@ def white_density(x: np.ndarray, rate_hz: float, m_samples=SHORT_TAUS) -> float:
 
 
 def increment_mismatch(mission: Mission) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(d_v (K-1,3) m/s, d_theta (K-1,3) rad, dt (K-1,) s, keep (K-1,) bool) per GT interval, body frame:
-    velocity increments ``(f_gt - mean f_imu) dt`` (GT-predicted specific force from GT velocity and attitude)
-    and attitude increments ``integral(omega_imu) - Log(C_k^T C_k+1)`` (Earth rate included), medians removed;
-    ``keep`` leaves out intervals beyond 5 MAD on any axis (surface, manoeuvres)."""
-    from graphnav.calibration.axes import gt_predicted_specific_force
+    """(d_v (K,3) m/s, d_theta (K,3) rad, dt (K,) s, keep (K,) bool) per GT interval, body frame.
+
+    Velocity: the accelerometer's interval means against the GT's, with the accelerometer's position and a
+    constant bias fitted out (:func:`graphnav.calibration.dvl_fit.accelerometer_mismatch`), times ``dt``.
+    Attitude: ``integral(omega_imu) - Log(C_k^T C_k+1)`` (Earth rate included), median removed. ``keep`` leaves
+    out intervals beyond 5 MAD on any axis (surface, manoeuvres)."""
+    from graphnav.calibration.dvl_fit import accelerometer_mismatch
     from graphnav.calibration.reference import (
         cumulative_integral,
         reference_gyro_increments,
     )
     gt, imu, cfg = mission.gt, mission.imu, mission.config
-    sel = (gt.t >= imu.t[0]) & (gt.t <= imu.t[-1])
+    accel = accelerometer_mismatch(mission)
+    first = int(np.searchsorted(gt.t, accel.a[0]))
+    sel = slice(first, first + len(accel.a) + 1)
     t = gt.t[sel]
-    sub = dataclasses.replace(mission, gt=dataclasses.replace(gt, t=t, p_n=gt.p_n[sel], v_n=gt.v_n[sel],
-                                                               C_b_n=gt.C_b_n[sel]))
     dt = np.diff(t)
-    out = []
-    for x, ref in ((imu.f_b, gt_predicted_specific_force(sub, t) * dt[:, None]),
-                   (imu.omega_b, reference_gyro_increments(t, gt.C_b_n[sel],
-                                                           cfg.lat_rad if cfg.earth_rotation else None))):
-        integral = np.stack([np.interp(t, imu.t, cumulative_integral(imu.t, x[:, i])) for i in range(3)], 1)
-        d = ref - np.diff(integral, axis=0)
-        out.append(d - np.median(d, axis=0))
+    d_v = accel.fit()[1] * dt[:, None]
+    integral = np.stack([np.interp(t, imu.t, cumulative_integral(imu.t, imu.omega_b[:, i])) for i in range(3)], 1)
+    d_th = reference_gyro_increments(t, gt.C_b_n[sel], cfg.lat_rad if cfg.earth_rotation else None) \
+        - np.diff(integral, axis=0)
+    d_th -= np.median(d_th, axis=0)
     keep = np.ones(len(dt), dtype=bool)
-    for d in out:
+    for d in (d_v, d_th):
         keep &= np.all(np.abs(d) < 5 * 1.4826 * np.median(np.abs(d), axis=0), axis=1)
-    return out[0], out[1], dt, keep
+    return d_v, d_th, dt, keep
 
 
-def identify_imu_with_gt(mission: Mission) -> tuple[float, float]:
+def identify_imu_with_gt(mission: Mission, mismatch=None) -> tuple[float, float]:
     """(accel m/s^2/sqrt(Hz), gyro rad/s/sqrt(Hz)) white densities at the keyframe scale (the GT interval,
-    1 s): ``std(d) / sqrt(dt)`` of the increment mismatches (:func:`increment_mismatch`). Accelerometer: median
-    of the body x and z axes (the y axis carries the GT's white lateral velocity error,
-    :func:`gt_white_velocity_error`); gyro: median over the axes (an upper bound: it holds the GT's attitude
-    noise too)."""
-    d_v, d_th, dt, keep = increment_mismatch(mission)
+    1 s): ``std(d) / sqrt(dt)`` of the increment mismatches (:func:`increment_mismatch`, or ``mismatch``, its
+    result), median over the axes. Both hold the GT's own noise too (an upper bound; :func:`gt_white_velocity_error`
+    for the velocity)."""
+    d_v, d_th, dt, keep = increment_mismatch(mission) if mismatch is None else mismatch
     scale = np.sqrt(float(np.median(dt)))
     acc = np.std(d_v[keep], axis=0) / scale
     gyro = np.std(d_th[keep], axis=0) / scale
-    return float(np.median(acc[[0, 2]])), float(np.median(gyro))
+    return float(np.median(acc)), float(np.median(gyro))
 
 
-def gt_white_velocity_error(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
+def gt_white_velocity_error(mission: Mission, mismatch=None) -> tuple[np.ndarray, np.ndarray]:
     """(sigma (3,), lag-1 correlation (3,)) per body axis of the GT's white velocity error, m/s.
 
-    From the velocity-increment mismatch d (:func:`increment_mismatch`): ``sigma^2 = (var(d) - N_acc^2 dt) /
-    2`` with ``N_acc`` the accelerometer density of :func:`identify_imu_with_gt` (x/z axes). The lag-1
-    correlation of d is -0.5 for a white GT error (a slow error or IMU noise gives ~0).
+    From the velocity-increment mismatch d (:func:`increment_mismatch`, or ``mismatch``, its result): ``sigma^2 =
+    (var(d) - N_acc^2 dt) / 2`` with ``N_acc`` the accelerometer density of :func:`identify_imu_with_gt` (the
+    median axis). The lag-1 correlation of d is -0.5 for a white GT error (a slow error or IMU noise gives ~0).
     """
-    d, _, dt, keep = increment_mismatch(mission)
-    n_acc, _ = identify_imu_with_gt(mission)
+    mismatch = increment_mismatch(mission) if mismatch is None else mismatch
+    d, _, dt, keep = mismatch
+    n_acc, _ = identify_imu_with_gt(mission, mismatch)
     var = np.var(d[keep], axis=0) - n_acc ** 2 * float(np.median(dt))
     a, b = d[:-1], d[1:]
     both = keep[:-1] & keep[1:]
@@ -123,7 +136,8 @@ def gt_white_velocity_error(mission: Mission) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class NoiseEstimate:
-    """Identified noise of one mission (units above); ``n_beams`` residuals used; ``gt_white_*``: the GT's
+    """Identified noise of one mission (units above); ``density_source``: how the IMU densities were identified
+    (a key of :data:`ESTIMATOR_DENSITY_FACTOR`); ``n_beams`` residuals used; ``gt_white_*``: the GT's
     white velocity error per body axis and the lag-1 correlation of its increments
     (:func:`gt_white_velocity_error`); ``dvl_white_std`` (m/s) and ``dvl_bias_rw`` (m/s/sqrt(s)): the recorded
     DVL's own beam errors (:func:`dvl_error_drift`)."""
@@ -139,9 +153,16 @@ class NoiseEstimate:
     dvl_white_std: float | None = None
     dvl_bias_rw: float | None = None
     n_beams: int = 0
+    density_source: str = "allan"
+
+    def estimator_densities(self) -> tuple[float, float]:
+        """(accelerometer m/s^2/sqrt(Hz), gyro rad/s/sqrt(Hz)): the identified densities times
+        :data:`ESTIMATOR_DENSITY_FACTOR`, what a calibrated configuration gives the estimators."""
+        acc, gyro = ESTIMATOR_DENSITY_FACTOR[self.density_source]
+        return self.accel_noise_density * acc, self.gyro_noise_density * gyro
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        return {**asdict(self), "estimator_densities": self.estimator_densities()}
 
 
 def identify_imu(mission: Mission) -> NoiseEstimate:
@@ -152,6 +173,7 @@ def identify_imu(mission: Mission) -> NoiseEstimate:
     est = NoiseEstimate(acc, gyro, acc, gyro)
     if mission.gt is not None:
         est.accel_noise_density, est.gyro_noise_density = identify_imu_with_gt(mission)
+        est.density_source = "gt"
     return est
 
 

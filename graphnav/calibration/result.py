@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from graphnav.calibration.axes import AxisCheck
-from graphnav.calibration.noise import NoiseEstimate
+from graphnav.calibration.noise import ESTIMATOR_DENSITY_FACTOR, NoiseEstimate
 from graphnav.core.config import SensorConfig
 
 
@@ -42,7 +42,9 @@ class CalibrationResult:
             (:func:`estimate_imu_position`); the lever arm above is relative to the GT point.
         info: extra diagnostics.
         noise: identified IMU densities, beam noise and GT velocity error (:mod:`graphnav.calibration.noise`), written
-            into ``config`` (``imu.*_noise_density``, ``dvl.beam_noise_std``); None if not identified.
+            into ``config`` (``imu.*_noise_density``: the identified densities times
+            :data:`graphnav.calibration.noise.ESTIMATOR_DENSITY_FACTOR`; ``dvl.beam_noise_std``); None if not
+            identified.
     """
 
     mode: str
@@ -94,8 +96,13 @@ class CalibrationResult:
             n = self.noise
             gt = ("-" if n.gt_velocity_sigma_n is None
                   else "[" + ", ".join(f"{x:.4f}" for x in n.gt_velocity_sigma_n) + "] m/s (N, E, D; upper bound)")
-            lines += [f"  accel noise density       : {n.accel_noise_density:.2e} m/s^2/sqrt(Hz)",
-                      f"  gyro noise density        : {n.gyro_noise_density:.2e} rad/s/sqrt(Hz)",
+            how = {"gt": "1-s increments against the GT", "allan": "Allan deviation at 0.01-0.1 s"}
+            acc, gyro = n.estimator_densities()
+            f_acc, f_gyro = ESTIMATOR_DENSITY_FACTOR[n.density_source]
+            lines += [f"  IMU densities identified  : accel {n.accel_noise_density:.2e} m/s^2/sqrt(Hz), gyro "
+                      f"{n.gyro_noise_density:.2e} rad/s/sqrt(Hz) ({how.get(n.density_source, n.density_source)})",
+                      f"  IMU densities written     : accel {acc:.2e}, gyro {gyro:.2e} (x{f_acc:g}, x{f_gyro:g}: what "
+                      "the estimators need; graphnav.calibration.noise.ESTIMATOR_DENSITY_FACTOR)",
                       f"  beam noise                : {n.beam_noise_std:.4f} m/s ({n.n_beams} beams)",
                       f"  GT velocity error         : {gt}"]
         return "\n".join(lines)

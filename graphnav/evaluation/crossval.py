@@ -370,7 +370,7 @@ def run_grid_task(task: GridTask) -> list[dict]:
             lever[spec.name] = task.value
         mission = (load_with_lever(task.source, lever.get("dvl_lever_x", 0.0), lever.get("dvl_lever_y", 0.0))
                    if any(lever.values()) else prepared_mission(task.source, "as-recorded"))
-        # a base factor (e.g. back to the identified densities) composes with the varied one
+        # a base factor (e.g. back to the densities before a change) composes with the varied one
         scale = dict(task.config_base).get("imu_noise_scale", 1.0) * (
             task.value if spec.name == "imu_noise_scale" else 1.0)
         if scale != 1.0:

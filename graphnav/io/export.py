@@ -55,10 +55,12 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     v_b = dvl.v_b if dvl.v_b is not None else np.full((len(dvl.t), 3), np.nan)
     ok = np.isfinite(v_b).all(axis=1)
     # the reader takes the DVL file for the instrument's own velocity and turns it to the body with the
-    # configuration's C_d_b and scale correction: write what it turns back into v_b
+    # configuration's C_d_b and scale correction: write what it turns back into v_b. A ping without a velocity
+    # (fewer than three beams) keeps its row, NaN, so that its beams in the beams file come back with it.
     spec = mission.config.dvl
-    v_file = (v_b[ok] * (1.0 + spec.velocity_scale_correction)) @ spec.C_d_b
-    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t[ok], v_file]))
+    v_file = np.full_like(v_b, np.nan)
+    v_file[ok] = (v_b[ok] * (1.0 + spec.velocity_scale_correction)) @ spec.C_d_b
+    _write_csv(paths["DVL"], AKIT_COLUMNS["DVL"], np.column_stack([dvl.t, v_file]))
     beams = np.where(dvl.valid, dvl.beams, np.nan)
     _write_csv(paths["beams"], WRITTEN_BEAM_COLUMNS, np.column_stack([dvl.t, beams]))
     text = paths["beams"].read_text().replace("nan", "")

@@ -230,8 +230,9 @@ def _mission_instrument(mission) -> tuple[dict, str]:
     elif meta.get("written_beams"):
         written = meta["written_beams"]
         frame = (f"DVL frame of the configuration (the body frame unless the DVL is mounted off it): the files hold "
-                 f"the DVL velocity, and the beams graphnav wrote beside it ({written['pings']} pings; "
-                 f"{written['made']} made by the DVL error model)")
+                 f"the DVL velocity, and the beams graphnav wrote beside it ({written['pings']} pings, "
+                 f"{written.get('few_beams', 0)} with fewer than three beams; {written['made']} made by the DVL "
+                 "error model)")
     else:
         frame = "body: the files hold the DVL velocity in the body frame; beams made by the DVL error model"
     return inst, frame
