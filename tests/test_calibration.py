@@ -226,6 +226,13 @@ def test_real_data_raw_y_axis_is_named_with_and_without_gt(akit_dir):
         assert check_imu_axes_without_gt(fixed).ok and check_imu_axes_with_gt(fixed)[0].ok
 
 
+def test_a_reference_too_sparse_for_the_accelerometer_is_named():
+    from graphnav.calibration.dvl_fit import estimate_imu_position
+    from graphnav.core.errors import DataError
+    with pytest.raises(DataError, match=r"field 'gt.t': the GT has 0 sample interval"):
+        estimate_imu_position(simulate_mission(20.0, seed=1, gt_rate_hz=0.1))
+
+
 @pytest.mark.parametrize("gt_rate_hz", [10.0, 1.0])
 def test_the_accelerometer_position_holds_with_a_sparse_reference(gt_rate_hz):
     """The simulated accelerometer sits at the GT point: found there within 4 sigma and 3 cm with a 10 Hz and with a
