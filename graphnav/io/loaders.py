@@ -135,7 +135,7 @@ AKIT_DVL_TIME_OFFSET_S = 1.02
 #: co-located: the IMU point is the DVL point measured against the GT, and the DVL lever arm relative to the IMU is
 #: zero. (Before the regression averaged the gravity term over each 1 s GT interval it put the IMU 1.3-2.3 m above
 #: the GT point.) Navigating the accelerometer's point instead, with the DVL's lever arm from it (both chosen out of
-#: fold), gave 1.2-2.5 % more mission VRMSE for Graph-TC, its batch and TC (``experiments/imu_point_folds.py``,
+#: fold), gave 1.1-2.6 % more mission VRMSE for Graph-TC, its batch and TC (``experiments/imu_point_folds.py``,
 #: docs/decisions/akit-loader.md), so the default stays co-located.
 AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 
