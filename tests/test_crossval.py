@@ -174,6 +174,11 @@ def test_imu_noise_scale_scales_both_densities_only():
     assert mission.config.imu.accel_noise_density == cfg.imu.accel_noise_density     # the original is untouched
     with pytest.raises(ConfigError, match="imu_noise_scale must be > 0"):
         crossval.with_imu_noise_scale(mission, 0.0)
+    walked = crossval.with_accel_bias_rw(mission, 3e-5)
+    assert walked.config.imu.accel_bias_rw == 3e-5 and mission.config.imu.accel_bias_rw == cfg.imu.accel_bias_rw
+    assert walked.config.imu.accel_noise_density == cfg.imu.accel_noise_density
+    with pytest.raises(ConfigError, match="accel_bias_rw must be > 0"):
+        crossval.with_accel_bias_rw(mission, -1.0)
 
 
 def test_grid_tasks_run_graph_parameters_once_for_the_ekf():

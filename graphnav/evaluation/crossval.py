@@ -17,6 +17,8 @@ Parameters (:data:`PARAMETERS`):
   (``config.imu.accel_noise_density`` and ``gyro_noise_density``; for the A-KIT folders
   :data:`graphnav.io.loaders.PHINS_RECORDED`). The EKF's ``EkfOptions.imu_noise_scale`` is the same factor
   for the filter alone.
+- ``accel_bias_rw``: the accelerometer bias random walk of the mission's IMU model (``config.imu.accel_bias_rw``,
+  m/s^3/sqrt(Hz); every estimator).
 - ``dvl_bias_rw``, ``dvl_scale_rw``: the graph's DVL error-state random walks (``GraphOptions``; m/s/sqrt(s)
   and 1/sqrt(s)).
 - ``priors.dvl_bias_sigma``: the graph's first-keyframe prior sigma of the beam bias states (m/s).
@@ -104,6 +106,8 @@ def _parameters() -> dict[str, Parameter]:
     g = GraphOptions()
     return {p.name: p for p in (
         Parameter("imu_noise_scale", "config", 1.0, (0.5, 0.7, 1.0, 1.4, 2.0, 3.0), unit="x the IMU model's densities"),
+        Parameter("accel_bias_rw", "config", 1e-6, (1e-6, 1e-5, 3e-5, 1e-4),
+                  unit="m/s^3/sqrt(Hz), the IMU model's accelerometer bias walk"),
         Parameter("dvl_bias_rw", "graph", g.dvl_bias_rw, (1e-4, 2e-4, 5e-4, 1e-3, 2e-3), unit="m/s/sqrt(s)"),
         Parameter("dvl_scale_rw", "graph", g.dvl_scale_rw, (2e-5, 1e-4, 5e-4), unit="1/sqrt(s)"),
         Parameter("priors.dvl_bias_sigma", "graph", 0.01, (0.005, 0.01, 0.02), unit="m/s"),
@@ -293,6 +297,14 @@ def with_imu_noise_scale(mission: Mission, scale: float) -> Mission:
     return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu=imu))
 
 
+def with_accel_bias_rw(mission: Mission, walk: float) -> Mission:
+    """A copy of ``mission`` whose IMU model has the accelerometer bias random walk ``walk`` (m/s^3/sqrt(Hz))."""
+    if not walk > 0:
+        raise ConfigError(f"accel_bias_rw must be > 0, got {walk}")
+    imu = dataclasses.replace(mission.config.imu, accel_bias_rw=walk)
+    return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu=imu))
+
+
 def load_with_lever(source, dx: float, dy: float) -> Mission:
     """The A-KIT mission of ``source`` (a trajectory folder) loaded with the DVL ``dx``, ``dy`` m (body x, y)
     away from the loader's default lever arm (the GT stays at the IMU point)."""
@@ -375,6 +387,9 @@ def run_grid_task(task: GridTask) -> list[dict]:
             task.value if spec.name == "imu_noise_scale" else 1.0)
         if scale != 1.0:
             mission = with_imu_noise_scale(mission, scale)
+        walk = task.value if spec.name == "accel_bias_rw" else dict(task.config_base).get("accel_bias_rw")
+        if walk is not None:
+            mission = with_accel_bias_rw(mission, walk)
         starts = case_windows(mission, 30.0)
         run_mission = mission.with_outage(*[scenario_outage(task.scenario, s, 30.0) for s in starts])
         graph_opts = _method_options(spec, task.value, "graph", dict(task.graph_base))

@@ -152,7 +152,8 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: 1.9e-5..1.0e-4 and 1.0e-3..4.8e-3): vehicle vibration, which averages out within a keyframe interval and
 #: is therefore not white noise at the estimators' scale. The estimators use more than the 1-s
 #: identification (below). Biases: the Phins datasheet (gyro 0.01 deg/h, accelerometer 50
-#: micro-g); random walks from the navigation grade. The beam noise identified from the all-beam batch
+#: micro-g); random walks from the navigation grade (a larger accelerometer walk, 3e-5, was studied out of fold and
+#: not adopted: docs/decisions/fitted-defaults.md). The beam noise identified from the all-beam batch
 #: residuals is 0.0411-0.0423 m/s (median 0.0414), the synthetic 0.042 of the beam model, so the DVL spec
 #: keeps 0.042.
 #: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``experiments/identify_noise.py`` over
