@@ -248,7 +248,8 @@ def _nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
     return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
             "nees_velocity_95pct_band": [lo, hi], "nees_n_independent": scores["nees_n_independent"],
             "nees_t0_s": t0, "nees_reference": scores["nees_reference"],
-            "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference"
+            "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference, one "
+                          f"independent epoch per {scores['nees_decorrelation_s']:.0f} s"
                           + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else ""))}
 
 
