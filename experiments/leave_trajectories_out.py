@@ -45,7 +45,8 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="+", default=list(crossval.STUDY_METHODS))
     ap.add_argument("--graph-base", nargs="*", default=[], metavar="NAME=VALUE",
                     help="GraphOptions values every run uses (e.g. a value chosen in an earlier round)")
-    ap.add_argument("--config-base", nargs="*", default=[], metavar="imu_noise_scale=S")
+    ap.add_argument("--config-base", nargs="*", default=[], metavar="NAME=V",
+                    help="imu_noise_scale=S and/or accel_bias_rw=W applied to every run before the varied parameter")
     ap.add_argument("--grid", nargs="*", default=[], metavar="NAME=V1,V2,...",
                     help="candidate values of a parameter instead of its default grid")
     ap.add_argument("--study-defaults", nargs="*", default=[], metavar="NAME=VALUE",
@@ -59,6 +60,10 @@ def main(argv=None) -> int:
     out = Path(args.out)
     grid_path = out / "grid.json"
     graph_base, config_base = parse_pairs(args.graph_base), parse_pairs(args.config_base)
+    unknown = sorted(set(config_base) - set(crossval.CONFIG_BASE_KEYS))
+    if unknown:
+        raise ConfigError(f"--config-base: unknown key(s) {', '.join(unknown)}; known: "
+                          f"{', '.join(crossval.CONFIG_BASE_KEYS)}")
     for item in args.grid:
         name, _, values = item.partition("=")
         name = crossval.parameter_name(name)

@@ -200,6 +200,10 @@ def test_the_velocity_band_counts_the_errors_decorrelation():
     assert inside >= 34 and inside_10s <= 25          # 37 and 21 of 40
     tight = reference_nees(NavSolution("s", t, gt.p_n, gt.v_n + e, gt.C_b_n, cov_v_n=P / 4), gt, t0=60.0)
     assert tight["nees_mission"] > chi2_band(tight["nees_n_independent"])[1]
+    lost = gt.v_n + e
+    lost[500:] = np.nan                                     # an estimate lost half-way: no number from the rest
+    gone = reference_nees(NavSolution("s", t, gt.p_n, lost, gt.C_b_n, cov_v_n=P), gt, t0=60.0)
+    assert np.isnan(gone["nees_mission"]) and gone["nees_n_independent"] >= 1
 
 
 def test_pose_nees_of_consistent_and_overconfident_errors():

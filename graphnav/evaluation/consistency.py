@@ -4,8 +4,8 @@ and the reference's own error.
 NEES ``e^T P^-1 e`` of a 3-D velocity error is chi-square with 3 dof for a consistent estimator; the mean of
 K independent epochs lies in ``chi2.ppf([0.025, 0.975], 3K) / K`` with 95 % probability. Navigation errors
 are correlated in time, so K is the number of *independent* epochs, not the number of samples: this module
-counts one per ``decorrelation_s`` (default 10 s, the correlation time of the all-beam velocity error of the
-graph on the shared trajectories is a few seconds) -- a wider, honest band.
+counts one per :func:`decorrelation_time` of the run's own normalised error (at least 10 s; the velocity
+error of the smoothers stays correlated for tens of seconds) -- a wider, honest band.
 
 The reference is not perfect: the A-KIT ground truth (Phins INS + DVL + GNSS) has its own velocity error. If
 ``Sigma_gt`` is its covariance (NED, (m/s)^2), the error we compute is ``e = e_est - e_gt`` and its covariance
@@ -236,7 +236,13 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     aligned, sel = _window(sol, reference, t0, None)
     err = sol.v_n[aligned.mask][sel] - aligned.v_true_n[sel]
     var = np.diagonal(sol.cov_v_n[aligned.mask][sel], axis1=1, axis2=2)
-    out.update(_nees_stats(aligned.t[sel], nees_velocity(sol, reference, t0), err / np.sqrt(var), "nees"))
+    nees = nees_velocity(sol, reference, t0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        count = _nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees")
+    # a non-finite epoch leaves the mean non-finite, as before: never a number from part of the run
+    out["nees_mission"] = float(np.mean(nees))
+    out["nees_n_independent"] = count["nees_n_independent"] or 1
+    out["nees_decorrelation_s"] = count["nees_decorrelation_s"]
     out["nees_mission_interp"] = float(np.mean(nees_velocity(sol, gt, t0)))
     if gt_sigma_n is not None:
         out["nees_mission_gt"] = float(np.mean(nees_with_reference(sol, reference,

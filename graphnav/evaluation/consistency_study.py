@@ -53,7 +53,6 @@ def run_trajectory(task: tuple) -> list[dict]:
     mission = prepared_mission(source, "as-recorded")
     starts = case_windows(mission, window_s)
     cov_gt = np.diag(np.square(np.asarray(gt_sigma, dtype=float)))
-    w_lo, w_hi = chi2_band(n_independent(np.array([0.0, window_s])))
     t0 = mission.t0 + SETTLE_S
     rows = []
     for scenario in scenarios:
@@ -67,6 +66,9 @@ def run_trajectory(task: tuple) -> list[dict]:
                 scores = score_case(sol, mission, starts, window_s)
                 reference = scoring_reference(sol, mission)
                 win_nees = [s["nees_window"] for s in scores]
+                # a window holds one independent epoch per decorrelation time of the run's velocity error
+                tau = scores[0]["nees_decorrelation_s"] or window_s
+                w_lo, w_hi = chi2_band(n_independent(np.array([0.0, window_s]), tau))
                 rows.append({"trajectory": source.name, "scenario": scenario, "method": method, "setting": name,
                              "vrmse_window": float(np.mean([s["vrmse_window"] for s in scores])),
                              "nees_window": float(np.mean(win_nees)),

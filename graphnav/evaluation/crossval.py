@@ -120,6 +120,8 @@ def _parameters() -> dict[str, Parameter]:
 
 #: The parameters of the study by name (grids around the current defaults, one parameter at a time).
 PARAMETERS: dict[str, Parameter] = _parameters()
+#: The keys a base configuration (``GridTask.config_base``) may set before the varied parameter.
+CONFIG_BASE_KEYS = ("imu_noise_scale", "accel_bias_rw", "dvl_lever_x", "dvl_lever_y")
 
 
 def parameter_name(name: str) -> str:
