@@ -257,14 +257,13 @@ def fold_networks(scenario: str, imu_dir: str, beam_dir: str, imu_decay: float |
 
 def fold_pivot_completers(scenario: str, akit_dir=None, pitch: bool = False, spec=None) -> list:
     """Per A-KIT fold, the pivot completer for the beams of the DVL ``spec`` (default: the Snapir's) with the pivot
-    lengths fitted on the other folds' trajectories (``oracle_completions.fold_pivot_lengths``, from their recorded
-    Snapir beams: the lengths are the hull's): the yaw alone holding the average's N, or with ``pitch`` the
-    completer's defaults (yaw and pitch lengths, its own hold)."""
-    from oracle_completions import fold_pivot_lengths
-
+    lengths fitted on the other folds' trajectories (:func:`graphnav.evaluation.pivot_folds.fold_pivot_lengths`,
+    from their recorded Snapir beams: the lengths are the hull's): the yaw alone holding the average's N, or with
+    ``pitch`` the completer's defaults (yaw and pitch lengths, its own hold)."""
     from graphnav.core.config import DvlSpec
     from graphnav.core.dvl import DvlGeometry
     from graphnav.evaluation.bench import find_trajectories
+    from graphnav.evaluation.pivot_folds import fold_pivot_lengths
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.crossval import AKIT_FOLDS

@@ -224,17 +224,6 @@ def oracle_task(item):
              "errors": errors, "stated_sigma": stated, "screening": screening})
 
 
-def fold_pivot_lengths(sources: dict, folds, axes: tuple[str, ...] = ("yaw",)) -> list:
-    """Per fold, the pivot length (m) fitted on the other folds' trajectories
-    (:func:`graphnav.nets.pivot.fit_pivot_length`); with ``axes`` ``("yaw", "pitch")`` the pair ``(L, L_q)``
-    (:func:`graphnav.nets.pivot.fit_pivot_lengths`)."""
-    from graphnav.evaluation.bench.cases import load_source
-    from graphnav.nets.pivot import fit_pivot_length, fit_pivot_lengths
-    missions = {k: load_source(sources[f"Trajectory{k}"]) for pair in folds for k in pair}
-    fit = fit_pivot_length if tuple(axes) == ("yaw",) else lambda ms: list(fit_pivot_lengths(ms, axes=axes))
-    return [fit([missions[k] for other in folds if other != pair for k in other]) for pair in folds]
-
-
 def total_outage_network(nets_dir, fold: int) -> bool:
     """Whether the fold networks in ``nets_dir`` include an IMU-aware network for pings without a measured beam
     (``imu_completer_folds.py --missing 0-beams --save-nets``)."""
@@ -600,6 +589,7 @@ def main(argv=None) -> int:
         variants += [f"{v}{ANCHORED}" for v in [AVERAGE] * a.average + recorded[:1]]
     oracles = [v for v in variants if v.startswith(("white", "serial"))]
     variants += [n for v in oracles for n in draw_names(v, a.oracle_draws)[1:]]
+    from graphnav.evaluation.pivot_folds import fold_pivot_lengths
     pivots = fold_pivot_lengths(sources, AKIT_FOLDS) if a.pivot else None
     if pivots:
         print("pivot length per fold (fitted on the other folds), m: " + ", ".join(f"{x:.2f}" for x in pivots))

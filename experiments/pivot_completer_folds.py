@@ -324,9 +324,8 @@ def main(argv=None) -> int:
         return 0
     warnings.simplefilter("ignore", UserWarning)    # the loaders' axis-convention notes, one per trajectory
     sys.path.insert(0, str(Path(__file__).parent))
-    from oracle_completions import fold_pivot_lengths
-
     from graphnav.evaluation.bench import find_trajectories
+    from graphnav.evaluation.pivot_folds import fold_pivot_lengths
     from graphnav.io.paths import akit_trajectories
     from graphnav.nets.crossval import AKIT_FOLDS
     sources = {s.name: s for s in find_trajectories(str(akit_trajectories(a.data)[0].parent))}

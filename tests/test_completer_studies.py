@@ -1163,9 +1163,9 @@ def test_the_pitch_aware_pivot_member_has_the_completers_own_defaults_with_its_l
     import sys
     sys.path.insert(0, str(ROOT / "experiments"))
     fused = _study("imu_beam_fused_folds")
-    import oracle_completions
 
     import graphnav.evaluation.bench as bench
+    import graphnav.evaluation.pivot_folds as pivot_folds
     import graphnav.io.paths as paths
     from graphnav.nets.average import AVERAGE_N_PAST
     from graphnav.nets.pivot import DEFAULT_N_PAST
@@ -1174,7 +1174,7 @@ def test_the_pitch_aware_pivot_member_has_the_completers_own_defaults_with_its_l
     def lengths(sources, folds, axes=("yaw",)):
         asked.append(tuple(axes))
         return [(3.0 + f, 2.0 + f) if len(axes) == 2 else 3.5 + f for f in range(len(folds))]
-    monkeypatch.setattr(oracle_completions, "fold_pivot_lengths", lengths)
+    monkeypatch.setattr(pivot_folds, "fold_pivot_lengths", lengths)
     monkeypatch.setattr(paths, "akit_trajectories", lambda d=None: [Path("/nowhere/Trajectory1")])
     monkeypatch.setattr(bench, "find_trajectories", lambda folder: [])
     for scenario in ("2-missing", "3-missing"):
