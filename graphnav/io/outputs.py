@@ -244,7 +244,9 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> 
     """Write the reference ``gt`` at the estimate's stamps (TUM, as :func:`write_tum`), so that evo's tools at
     their defaults (``evo_ape tum groundtruth.tum trajectory.tum``: stamps matched within 0.01 s) pair every
     epoch: :meth:`GroundTruth.at` (the one GT interpolator) at each of ``sol.t`` inside the GT span (never
-    extrapolated; epochs outside are left out). Positions in both files follow
+    extrapolated; epochs outside are left out). ``graphnav smooth`` passes the reference already carried to the
+    estimate's stamps by the IMU (:func:`graphnav.evaluation.consistency.scoring_reference`), which it returns
+    unchanged. Positions in both files follow
     :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute depth). Returns the path, or None
     (with a RuntimeWarning, nothing written) when no estimate epoch lies inside the GT span."""
     inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
