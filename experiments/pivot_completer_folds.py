@@ -323,7 +323,6 @@ def main(argv=None) -> int:
         print(report(json.loads(Path(a.report).read_text())))
         return 0
     warnings.simplefilter("ignore", UserWarning)    # the loaders' axis-convention notes, one per trajectory
-    sys.path.insert(0, str(Path(__file__).parent))
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.evaluation.pivot_folds import fold_pivot_lengths
     from graphnav.io.paths import akit_trajectories

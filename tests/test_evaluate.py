@@ -238,3 +238,6 @@ def test_the_reference_tum_is_the_reference_the_nees_is_scored_against(tmp_path)
                          "--json", str(tmp_path / f"{name}.json")]) == 0
         scores[name] = json.loads((tmp_path / f"{name}.json").read_text())
     assert scores["tum"]["nees_heading_mean"] == pytest.approx(scores["mission"]["nees_heading_mean"], rel=1e-3)
+    # and the APE against the mission is scored against the same carried attitude
+    assert scores["tum"]["ape_rotation_deg"]["rmse"] == pytest.approx(scores["mission"]["ape_rotation_deg"]["rmse"],
+                                                                       rel=1e-3)

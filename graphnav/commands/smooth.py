@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 from pathlib import Path
 
 from graphnav.commands.common import (
@@ -27,7 +28,7 @@ from graphnav.commands.common import (
     regressed_beams_summary,
     run_health_record,
 )
-from graphnav.core.errors import ConfigError
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import GRAPH_HN_BATCH, METHODS
 from graphnav.evaluation.metrics import drift_summary
@@ -42,9 +43,10 @@ def register(subparsers) -> None:
                     "the default Graph-HN-batch, regressed beams as weak factors only in an outage the mission "
                     "ends in: one that measured beams end is bridged by the IMU from both sides) and write "
                     "OUT/trajectory.csv, "
-                    "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT at the estimate's stamps, "
-                    "when the mission has GT: `evo_ape tum OUT/groundtruth.tum OUT/trajectory.tum` pairs every "
-                    "epoch), OUT/trajectory_cov.csv (the position and attitude covariance of each TUM line), "
+                    "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT carried to the estimate's "
+                    "stamps by the IMU (the NEES's reference), when the mission has GT: `evo_ape tum "
+                    "OUT/groundtruth.tum OUT/trajectory.tum` pairs every epoch), OUT/trajectory_cov.csv (the position "
+                    "and attitude covariance of each TUM line), "
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
@@ -117,7 +119,13 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         # scored against: a 1 Hz GT interpolated in waves is off by 0.5 deg in roll, 0.2 deg in heading
         from graphnav.evaluation.consistency import scoring_reference
         from graphnav.io.outputs import write_reference_tum
-        written = write_reference_tum(out / "groundtruth.tum", sol, scoring_reference(sol, mission))
+        try:
+            reference = scoring_reference(sol, mission)
+        except (ValueError, DataError) as exc:     # the estimate's stamps are not increasing: say so, keep the GT
+            warnings.warn(f"{out / 'groundtruth.tum'}: the GT interpolated to the estimate's stamps, not carried "
+                          f"there by the IMU ({exc})", RuntimeWarning, stacklevel=2)
+            reference = mission.gt
+        written = write_reference_tum(out / "groundtruth.tum", sol, reference)
         if written is not None:
             files["groundtruth_tum"] = str(written)
     if args.bag != "none":
@@ -229,7 +237,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
         "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
-        "accuracy": {"ground_truth": False}, "uncertainty": uncertainty_summary(sol), "health": None, "compared": {},
+        "uncertainty": uncertainty_summary(sol),
         "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }

@@ -135,12 +135,16 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     units = {"m": Unit.meters, "frames": Unit.frames}
     if rpe_unit not in units:
         raise ConfigError(f"rpe unit {rpe_unit!r}: choose m or frames")
+    from graphnav.evaluation.consistency import scoring_reference
     from graphnav.evaluation.metrics import align as align_to_reference
     # The reference (often at another rate, e.g. 1 Hz GT vs keyframes at DVL pings with a time offset) is
-    # interpolated to the estimate's stamps inside its span, so evo's association pairs every epoch.
-    at = align_to_reference(est, ref)
+    # taken at the estimate's stamps inside its span, so evo's association pairs every epoch: with a mission, the
+    # GT carried there by its IMU (the NEES's reference, and the one `smooth` writes to groundtruth.tum), else
+    # interpolated.
+    poses = ref if mission is None else scoring_reference(est, mission)
+    at = align_to_reference(est, poses)
     if not at.mask.any():
-        raise DataError(f"no estimate epoch inside the reference span [{ref.t[0]:.3f}, {ref.t[-1]:.3f}] s; are "
+        raise DataError(f"no estimate epoch inside the reference span [{poses.t[0]:.3f}, {poses.t[-1]:.3f}] s; are "
                         "both on the mission clock?", est.method, field="t")
     traj_ref = _evo_trajectory(at.t, at.p_true_n, at.C_true_b_n, "reference")
     traj_est = _evo_trajectory(est.t[at.mask], est.p_n[at.mask], est.C_b_n[at.mask], est.method or "estimate")

@@ -11,8 +11,8 @@
   the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read; beside it
   :func:`write_pose_covariance_csv` (``trajectory_cov.csv``) holds each line's position covariance (NED, m^2)
   and attitude covariance (body axes, rad^2), which TUM has no place for;
-  :func:`write_reference_tum` writes the ground truth at the estimate's stamps, so that
-  ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
+  :func:`write_reference_tum` writes the ground truth at the estimate's stamps (``graphnav smooth``: carried there
+  by the IMU), so that ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
 * Every position written follows :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`: NED from the sea
   surface above the first fix, down = absolute depth.
 * JSON summary (:func:`write_json`): plain JSON (NaN written as ``null``), indented;
