@@ -57,8 +57,8 @@ class AccelerometerMismatch:
     def fit(self) -> tuple[np.ndarray, np.ndarray]:
         """(x (6,) = [r m, bias m/s^2], residual (K,3) m/s^2): the least-squares fit of ``d`` on ``design`` over the
         :attr:`regular` intervals; the residual of every interval."""
-        x, *_ = np.linalg.lstsq(self.design[self.regular].reshape(-1, 6), self.d[self.regular].reshape(-1),
-                                rcond=None)
+        regular = self.regular
+        x, *_ = np.linalg.lstsq(self.design[regular].reshape(-1, 6), self.d[regular].reshape(-1), rcond=None)
         return x, self.d - self.design @ x
 
 

@@ -165,14 +165,15 @@ class NoiseEstimate:
         return {**asdict(self), "estimator_densities": self.estimator_densities()}
 
 
-def identify_imu(mission: Mission) -> NoiseEstimate:
+def identify_imu(mission: Mission, mismatch=None) -> NoiseEstimate:
     """IMU white-noise densities: at the keyframe scale against the GT when the mission has one
-    (:func:`identify_imu_with_gt`), else the Allan deviation at short tau; the Allan values are kept too."""
+    (:func:`identify_imu_with_gt`, with ``mismatch`` if given), else the Allan deviation at short tau; the Allan
+    values are kept too."""
     rate = 1.0 / float(np.median(np.diff(mission.imu.t)))
     acc, gyro = white_density(mission.imu.f_b, rate), white_density(mission.imu.omega_b, rate)
     est = NoiseEstimate(acc, gyro, acc, gyro)
     if mission.gt is not None:
-        est.accel_noise_density, est.gyro_noise_density = identify_imu_with_gt(mission)
+        est.accel_noise_density, est.gyro_noise_density = identify_imu_with_gt(mission, mismatch)
         est.density_source = "gt"
     return est
 
@@ -210,7 +211,9 @@ def identify(mission: Mission, sol=None, completer=None) -> NoiseEstimate:
     pass the registry's completer for the data as recorded,
     ``graphnav.evaluation.methods.network_completer("none")``) or on the measured beams only (None).
     """
-    est = identify_imu(mission)
+    # the IMU's increments against the GT, once for its densities and the GT's white error
+    mismatch = None if mission.gt is None else increment_mismatch(mission)
+    est = identify_imu(mission, mismatch)
     if sol is None:
         from graphnav.estimators.graph import GraphOptions
         from graphnav.estimators.runs import run_graph
@@ -229,7 +232,7 @@ def identify(mission: Mission, sol=None, completer=None) -> NoiseEstimate:
         e = sol.v_n[sel] - ref.v_n(sol.t[sel])
         p = np.diagonal(sol.cov_v_n[sel], axis1=1, axis2=2)
         est.gt_velocity_sigma_n = tuple(float(x) for x in np.sqrt(np.maximum(np.mean(e ** 2 - p, axis=0), 0)))
-        white, rho = gt_white_velocity_error(mission)
+        white, rho = gt_white_velocity_error(mission, mismatch)
         est.gt_white_sigma_b = tuple(float(x) for x in white)
         est.gt_white_lag1_b = tuple(float(x) for x in rho)
         if mission.dvl.v_b is not None:

@@ -34,8 +34,7 @@ def register(subparsers) -> None:
                    help="skip the noise identification (graphnav.calibration.noise): the IMU's white densities from "
                         "its 1-s increments against the GT (without GT: by the Allan deviation), written times the "
                         "factor the estimators needed on the shared Snapir data (ESTIMATOR_DENSITY_FACTOR); the beam "
-                        "noise from the all-beam "
-                        "batch smoother's residuals; the GT's velocity error (printed only)")
+                        "noise from the all-beam batch smoother's residuals; the GT's velocity error (printed only)")
     p.add_argument("--out", metavar="JSON", default="calibrated_config.json",
                    help="where to write the calibrated SensorConfig (an existing file is kept unless --force)")
     p.add_argument("--report", metavar="JSON", default=None,

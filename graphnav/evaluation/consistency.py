@@ -201,7 +201,7 @@ NEES_SETTLE_S = 60.0
 
 
 def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | None = None,
-                   gt_sigma_n=None) -> dict:
+                   gt_sigma_n=None, reference: GroundTruth | None = None) -> dict:
     """The velocity NEES of ``sol`` as the benchmark and ``graphnav evaluate`` both report it.
 
     Args:
@@ -212,6 +212,8 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
             reference is ``gt`` interpolated (:meth:`GroundTruth.at`).
         t0: the first stamp scored, s (None: ``gt.t[0] +`` :data:`NEES_SETTLE_S`).
         gt_sigma_n: (3,) m/s, the reference's own NED velocity sigma, or None.
+        reference: the reference at the solution's epochs when the caller has it already
+            (:func:`scoring_reference` of ``sol`` and ``mission``, or ``gt``); None: computed here.
 
     Returns:
         ``nees_mission`` (mean NEES after ``t0`` against the reference), ``nees_mission_interp`` (the same
@@ -227,7 +229,8 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
            "nees_reference": "interpolated" if mission is None else "imu-carried", **pose_nees_none()}
     if sol.cov_v_n is None and sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
-    reference = gt if mission is None else scoring_reference(sol, mission)
+    if reference is None:
+        reference = gt if mission is None else scoring_reference(sol, mission)
     out.update(pose_nees(sol, reference, t0))
     if sol.cov_v_n is None:
         return out

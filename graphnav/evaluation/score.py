@@ -182,7 +182,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
         out["nees_velocity_mean"] = None
         out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
     else:
-        out.update(_nees(est, ref, mission))
+        out.update(_nees(est, ref, mission, poses))
     if align:
         # both are frame-dependent: the estimate is in another frame than the reference
         note = "not computed with --align (the estimate is in another frame)"
@@ -192,7 +192,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
                    nees_position_note=note, nees_heading_note=note)
     else:
         out.update(_drift(est, ref))
-        out.update(_pose_nees(est, ref, mission))
+        out.update(_pose_nees(est, ref, mission, poses))
     return out
 
 
@@ -217,17 +217,17 @@ def _drift(est: NavSolution, ref: GroundTruth) -> dict:
             "sigma_h_end_pct": d["sigma_h_end_pct"]}
 
 
-def _pose_nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
+def _pose_nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -> dict:
     """The benchmark's horizontal position NEES (2 dof) and heading NEES (1 dof) of ``est`` after the settling
-    time with their 95 % bands (:func:`graphnav.evaluation.consistency.pose_nees`); None (with a note) where
-    the estimate carries no position / attitude covariance."""
-    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, pose_nees, scoring_reference
+    time with their 95 % bands (:func:`graphnav.evaluation.consistency.pose_nees`) against ``reference`` (the
+    mission's GT carried to the estimate's stamps, or ``ref``); None (with a note) where the estimate carries
+    no position / attitude covariance."""
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, pose_nees
     t0 = _settle_t0(est, ref, mission)
     out = {}
     if est.cov_p_n is None and est.cov_rot_b is None:
         scores = {}
     else:
-        reference = ref if mission is None else scoring_reference(est, mission)
         scores = pose_nees(est, reference, t0)
     for key, name, dof, field in (("nees_pos", "position", POSITION_DOF, "position sigmas"),
                                   ("nees_heading", "heading", HEADING_DOF, "an attitude covariance")):
@@ -241,12 +241,13 @@ def _pose_nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
     return out
 
 
-def _nees(est: NavSolution, ref: GroundTruth, mission) -> dict:
-    """The benchmark's velocity NEES (:func:`graphnav.evaluation.consistency.reference_nees`) of ``est``."""
+def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -> dict:
+    """The benchmark's velocity NEES (:func:`graphnav.evaluation.consistency.reference_nees`) of ``est``, against
+    ``reference`` (as :func:`_pose_nees`)."""
     from graphnav.evaluation.consistency import chi2_band, reference_nees
     t0 = _settle_t0(est, ref, mission)
     sigma = None if mission is None else mission.meta.get("gt_velocity_sigma_n")
-    scores = reference_nees(est, ref, mission, t0, sigma)
+    scores = reference_nees(est, ref, mission, t0, sigma, reference=reference)
     lo, hi = chi2_band(scores["nees_n_independent"])
     diagonal = bool(np.allclose(est.cov_v_n, np.einsum("kii->ki", est.cov_v_n)[:, :, None] * np.eye(3)))
     return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
