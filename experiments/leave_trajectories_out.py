@@ -19,20 +19,11 @@ import sys
 import time
 from pathlib import Path
 
+from graphnav.commands.common import name_value_pairs
 from graphnav.core.errors import ConfigError
 from graphnav.evaluation import crossval
 from graphnav.evaluation.bench import find_trajectories, load_results
 from graphnav.io.outputs import write_json
-
-
-def parse_pairs(items: list[str]) -> dict:
-    out = {}
-    for item in items or []:
-        name, _, value = item.partition("=")
-        if not value:
-            raise ConfigError(f"expected name=value, got '{item}'")
-        out[name] = float(value)
-    return out
 
 
 def main(argv=None) -> int:
@@ -59,7 +50,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     grid_path = out / "grid.json"
-    graph_base, config_base = parse_pairs(args.graph_base), parse_pairs(args.config_base)
+    graph_base, config_base = name_value_pairs(args.graph_base), name_value_pairs(args.config_base)
     unknown = sorted(set(config_base) - set(crossval.CONFIG_BASE_KEYS))
     if unknown:
         raise ConfigError(f"--config-base: unknown key(s) {', '.join(unknown)}; known: "
@@ -71,7 +62,7 @@ def main(argv=None) -> int:
             raise SystemExit(f"--grid {item}: expected one of {', '.join(crossval.PARAMETERS)}=V1,V2,...")
         spec = crossval.PARAMETERS[name]
         crossval.PARAMETERS[name] = dataclasses.replace(spec, grid=tuple(float(v) for v in values.split(",")))
-    for name, value in parse_pairs(args.study_defaults).items():
+    for name, value in name_value_pairs(args.study_defaults).items():
         name = crossval.parameter_name(name)
         crossval.PARAMETERS[name] = dataclasses.replace(crossval.PARAMETERS[name], default=value)
     try:

@@ -206,6 +206,32 @@ def test_the_velocity_band_counts_the_errors_decorrelation():
     assert np.isnan(gone["nees_mission"]) and gone["nees_n_independent"] >= 1
 
 
+def test_the_velocity_nees_split_along_the_body_axes():
+    """A vehicle heading 60 deg: errors drawn from a body-frame covariance (0.03, 0.02, 0.005 m/s) stated in NED
+    give about 1 per body axis; the vertical sigma stated 2x too wide gives 0.25 down and leaves the others, while
+    the NEES falls to about 2.25 without saying which axis."""
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency import BODY_AXES, body_axis_nees, reference_nees
+    n = 4000
+    t = np.arange(n, dtype=float)
+    zero = np.zeros(n)
+    C_b_n = euler_to_C_b_n(zero, zero, np.full(n, np.deg2rad(60.0)))
+    gt = GroundTruth(t, np.zeros((n, 3)), np.tile([0.75, 1.3, 0.0], (n, 1)), C_b_n)
+    sigma_b = np.array([0.03, 0.02, 0.005])
+    e_n = np.einsum("kij,kj->ki", C_b_n, np.random.default_rng(3).normal(size=(n, 3)) * sigma_b)
+    cov_n = np.einsum("kij,jl,kml->kim", C_b_n, np.diag(sigma_b ** 2), C_b_n)
+    assert body_axis_nees(e_n, cov_n, C_b_n) == pytest.approx([1.0, 1.0, 1.0], abs=0.06)
+    wide = np.einsum("kij,jl,kml->kim", C_b_n, np.diag((sigma_b * [1, 1, 2]) ** 2), C_b_n)
+    s = reference_nees(NavSolution("s", t, gt.p_n, gt.v_n + e_n, C_b_n, cov_v_n=wide), gt, t0=0.0)
+    assert s["nees_axes_b"] == pytest.approx([1.0, 1.0, 0.25], abs=0.06) and len(BODY_AXES) == 3
+    assert s["nees_mission"] == pytest.approx(2.25, abs=0.1)
+    e_nan = e_n.copy()
+    e_nan[10] = np.nan                                        # a lost epoch: its axes' means are not finite
+    assert all(np.isnan(body_axis_nees(e_nan, cov_n, C_b_n)))
+
+
 def test_pose_nees_of_consistent_and_overconfident_errors():
     """Errors drawn from the stated covariances (correlated in time): position NEES about 2, heading about 1,
     each inside its band; a covariance 4x too small puts them 4x higher and outside. Without the covariances:

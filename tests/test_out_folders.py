@@ -103,6 +103,16 @@ def test_smooth_keeps_an_earlier_run_and_force_replaces_it_whole(tmp_path, capsy
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def test_smooth_carries_the_reference_once_for_the_tum_file_and_the_nees(tmp_path, monkeypatch):
+    from graphnav.evaluation import consistency
+    calls = []
+    carry = consistency.scoring_reference
+    monkeypatch.setattr(consistency, "scoring_reference", lambda sol, mission: calls.append(1) or carry(sol, mission))
+    assert main([*SMOOTH, "--duration", "90", "--out", str(tmp_path / "out")]) == 0    # NEES from 60 s on
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert len(calls) == 1 and summary["accuracy"]["consistency"]["velocity"]["nees"] > 0
+
+
 def test_smooth_crash_leaves_the_earlier_run(tmp_path, capsys, monkeypatch):
     out = tmp_path / "out"
     assert main([*SMOOTH, "--out", str(out)]) == 0

@@ -128,8 +128,9 @@ def mission_from_args(args):
     return mission, outages
 
 
-def accuracy_summary(sol, mission, outages) -> dict:
-    """VRMSE over the mission and each outage window and the final horizontal position error (when GT)."""
+def accuracy_summary(sol, mission, outages, reference=None) -> dict:
+    """VRMSE over the mission and each outage window and the final horizontal position error (when GT);
+    ``reference``: the NEES's reference at ``sol``'s epochs when the caller has carried it (None: carried here)."""
     if mission.gt is None:
         return {"ground_truth": False}
     from graphnav.evaluation.metrics import horizontal_position_error, vrmse
@@ -140,7 +141,7 @@ def accuracy_summary(sol, mission, outages) -> dict:
         "windows": [{"start_s": o.start_s, "end_s": o.end_s, "missing_beams": [b + 1 for b in o.missing],
                      "vrmse_window_mps": float(vrmse(sol, mission.gt, o.start_s, o.end_s))} for o in outages],
         "final_horizontal_position_error_m": float(horizontal_position_error(sol, mission.gt, t_end)),
-        "consistency": consistency_summary(sol, mission),
+        "consistency": consistency_summary(sol, mission, reference),
     }
 
 
@@ -181,16 +182,19 @@ def regressed_beams_line(record: dict | None) -> str:
                else ""))
 
 
-def consistency_summary(sol, mission) -> dict:
+def consistency_summary(sol, mission, reference=None) -> dict:
     """Velocity (3 dof), horizontal position (2 dof) and heading (1 dof) NEES over the mission after the
     settling time against the IMU-carried reference, each with its 95 % chi-square band, as the benchmark
     scores them (:func:`graphnav.evaluation.consistency.mission_nees`); None where the solution carries no
     such covariance or the reference is too short to score. When the mission knows its reference's own velocity
     error (``meta["gt_velocity_sigma_n"]``: the A-KIT loader's, a CSV map's ``gt.velocity_sigma``), the velocity
-    entry also holds ``nees_with_reference_error``, the NEES with that error added to the covariance."""
-    from graphnav.evaluation.consistency import DOF, HEADING_DOF, POSITION_DOF, chi2_band, mission_nees
+    entry also holds ``nees_with_reference_error``, the NEES with that error added to the covariance. The velocity
+    entry's ``per_body_axis``: the normalised squared error along forward, starboard and down (1 each when
+    consistent; :func:`graphnav.evaluation.consistency.body_axis_nees`).
+    ``reference``: :func:`~graphnav.evaluation.consistency.scoring_reference` of ``sol`` when the caller has it."""
+    from graphnav.evaluation.consistency import BODY_AXES, DOF, HEADING_DOF, POSITION_DOF, chi2_band, mission_nees
     try:
-        nees = mission_nees(sol, mission)
+        nees = mission_nees(sol, mission, reference)
     except (ValueError, IndexError):
         return {"velocity": None, "position": None, "heading": None}
     out = {}
@@ -200,6 +204,8 @@ def consistency_summary(sol, mission) -> dict:
         mean = nees.get(key)
         out[name] = None if mean is None or not np.isfinite(mean) else {
             "nees": float(mean), "dof": dof, "band_95": list(chi2_band(int(nees.get(n_key) or 1), dof))}
+    if out["velocity"] is not None and nees.get("nees_axes_b") is not None:
+        out["velocity"]["per_body_axis"] = dict(zip(BODY_AXES, nees["nees_axes_b"]))
     with_reference = nees.get("nees_mission_gt")
     if out["velocity"] is not None and with_reference is not None and np.isfinite(with_reference):
         # the reference's own error added to the estimate's covariance: what of the NEES the reference explains
@@ -256,6 +262,10 @@ def print_summary(summary: dict, file=None) -> None:
                 + (f"; {c['nees_with_reference_error']:.2f} with the reference's own error"
                    if "nees_with_reference_error" in c else "") + ")" if c else f"{name} -"
                 for name, c in cons.items()))
+            axes = (cons.get("velocity") or {}).get("per_body_axis")
+            if axes:
+                out("  velocity NEES per body axis (consistent = 1): "
+                    + ", ".join(f"{axis} {value:.2f}" for axis, value in axes.items()))
     line = regressed_beams_line(summary.get("regressed_beams"))
     if line:
         out(f"  {line}")
@@ -318,6 +328,19 @@ def uncertainty_line(uncertainty: dict | None) -> str:
 
 
 # --- output folders ------------------------------------------------------------------------------------------
+def name_value_pairs(items) -> dict[str, float]:
+    """``["name=1e-3", ...]`` (a ``NAME=VALUE`` option's items) -> ``{"name": 0.001}``; ConfigError naming the item
+    that is not ``name=number``."""
+    out = {}
+    for item in items or []:
+        name, _, value = item.partition("=")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ConfigError(f"expected name=value with a number, got '{item}'") from None
+    return out
+
+
 def add_parallel_arguments(parser: argparse.ArgumentParser, what: str, jobs_note: str = "") -> None:
     """``--jobs N`` (worker processes, default min(2, CPUs)) and ``--scheduler ADDRESS|local`` (a Dask cluster)
     of the commands that run many independent ``what`` (cases, starts, trajectories) through

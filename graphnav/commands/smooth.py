@@ -114,13 +114,14 @@ def smooth_mission(args, out: Path, final=str) -> dict:
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
              "trajectory_tum": str(write_tum(out / "trajectory.tum", sol)),
              "trajectory_cov": str(write_pose_covariance_csv(out / "trajectory_cov.csv", sol))}
+    carried = None          # the scoring reference, carried once for groundtruth.tum and the NEES summary
     if mission.gt is not None:
         # the reference at the estimate's stamps (evo_ape at its defaults pairs every epoch), the one the NEES is
         # scored against: a 1 Hz GT interpolated in waves is off by 0.5 deg in roll, 0.2 deg in heading
         from graphnav.evaluation.consistency import scoring_reference
         from graphnav.io.outputs import write_reference_tum
         try:
-            reference = scoring_reference(sol, mission)
+            reference = carried = scoring_reference(sol, mission)
         except (ValueError, DataError) as exc:     # the estimate's stamps are not increasing: say so, keep the GT
             warnings.warn(f"{out / 'groundtruth.tum'}: the GT interpolated to the estimate's stamps, not carried "
                           f"there by the IMU ({exc})", RuntimeWarning, stacklevel=2)
@@ -144,7 +145,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages), "drift": drift_summary(sol, mission.gt),
+        "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt),
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),

@@ -10,7 +10,7 @@ bench's windows (:func:`graphnav.evaluation.bench.case_windows`) and is scored:
 - mean velocity NEES over the mission after :data:`SETTLE_S`, against the GT carried to each epoch by the IMU
   (:func:`graphnav.evaluation.consistency.scoring_reference`), with the GT's own velocity error added
   (``gt_sigma``: :func:`~graphnav.evaluation.consistency.nees_with_reference`), and against the linearly
-  interpolated GT;
+  interpolated GT; and split along the body axes (:func:`~graphnav.evaluation.consistency.body_axis_nees`);
 - horizontal position NEES (:data:`~graphnav.evaluation.consistency.POSITION_DOF` = 2 dof) and heading NEES
   (:data:`~graphnav.evaluation.consistency.HEADING_DOF` = 1 dof) over the mission with their independent epochs
   for the chi-square band, as ``score_case`` reports them (None for an estimator without that covariance);
@@ -63,8 +63,8 @@ def run_trajectory(task: tuple) -> list[dict]:
                     continue
                 options = dict(SETTINGS[name]) if method in GRAPH_METHODS else None
                 sol = run_method(run_mission, method, scenario, options=options)
-                scores = score_case(sol, mission, starts, window_s)
                 reference = scoring_reference(sol, mission)
+                scores = score_case(sol, mission, starts, window_s, reference)
                 win_nees = [s["nees_window"] for s in scores]
                 # a window holds one independent epoch per decorrelation time of the run's velocity error
                 tau = scores[0]["nees_decorrelation_s"] or window_s
@@ -79,6 +79,7 @@ def run_trajectory(task: tuple) -> list[dict]:
                              "nees_mission_interp": float(np.mean(nees_velocity(sol, mission.gt, t0))),
                              # one per decorrelation time of the velocity error (the mission scores')
                              "n_independent": scores[0]["nees_n_independent"], "runtime_s": sol.runtime_s,
+                             "nees_axes_b": scores[0]["nees_axes_b"],
                              "drift_pct_window": drift_pct_of(scores),
                              "distance_window_sum_m": counted_distance(scores),
                              "drift_pct_mission": scores[0]["drift_pct_mission"],
@@ -120,8 +121,8 @@ def _settings_of(method: str, setting_names) -> list[str]:
 def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -> str:
     """Per method and setting: mean window VRMSE (m/s) and window % DT (summed over the trajectories' windows)
     per scenario; all beams: the mission velocity NEES as mean over trajectories with its min-max, the NEES with
-    the GT's error, the 95 % band of one trajectory, the position (2 dof) and heading (1 dof) NEES with their
-    bands, and the mission % DT (mean over trajectories)."""
+    the GT's error, the 95 % band of one trajectory, the velocity NEES per body axis (mean over trajectories), the
+    position (2 dof) and heading (1 dof) NEES with their bands, and the mission % DT (mean over trajectories)."""
     from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band
     n_traj = len({r["trajectory"] for r in rows})
     lines = [f"{n_traj} trajectories; NEES = mean velocity NEES over the mission after {SETTLE_S:g} s, all beams; "
@@ -130,9 +131,9 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
              "drift in % of the distance travelled (windows: summed drift / summed distance)", "",
              "| method | DVL error states | " + " | ".join(f"VRMSE window {s}" for s in scenarios) + " | "
              + " | ".join(f"% DT window {s}" for s in scenarios)
-             + " | NEES (min-max over traj.) | NEES+GT | 95 % band per traj. | position NEES (band) | "
-             "heading NEES (band) | % DT mission |",
-             "| --- | --- |" + " --- |" * (2 * len(scenarios)) + " --- | --- | --- | --- | --- | --- |"]
+             + " | NEES (min-max over traj.) | NEES+GT | 95 % band per traj. | NEES per body axis: forward, "
+             "starboard, down (1 each) | position NEES (band) | heading NEES (band) | % DT mission |",
+             "| --- | --- |" + " --- |" * (2 * len(scenarios)) + " --- | --- | --- | --- | --- | --- | --- |"]
     for method in methods:
         for name in _settings_of(method, setting_names):
             sel = [r for r in rows if r["method"] == method and r["setting"] == name]
@@ -149,11 +150,12 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
                 nees_gt = [r["nees_mission_gt"] for r in full]
                 band = chi2_band(int(np.median([r["n_independent"] for r in full])))
                 tail = (f"{np.mean(nees):.1f} ({min(nees):.1f}-{max(nees):.1f}) | {np.mean(nees_gt):.1f} | "
-                        f"{band[0]:.2f}-{band[1]:.2f} | {_pose_cell(full, 'nees_pos', POSITION_DOF)} | "
+                        f"{band[0]:.2f}-{band[1]:.2f} | {_axes_cell(full)} | "
+                        f"{_pose_cell(full, 'nees_pos', POSITION_DOF)} | "
                         f"{_pose_cell(full, 'nees_heading', HEADING_DOF)} | "
                         f"{_mean_pct([r.get('drift_pct_mission') for r in full])}")
             else:
-                tail = "- (needs scenario none) | - | - | - | - | -"
+                tail = "- (needs scenario none) | - | - | - | - | - | -"
             lines.append(f"| {method} | {name} | " + " | ".join(cells) + f" | {tail} |")
     return "\n".join(lines)
 
@@ -175,6 +177,14 @@ def _pct_window(rows: list[dict]) -> str:
     if not ok:
         return "-"
     return f"{np.average([r['drift_pct_window'] for r in ok], weights=[r['distance_window_sum_m'] for r in ok]):.2f}"
+
+
+def _axes_cell(rows: list[dict]) -> str:
+    """Mean over trajectories of the velocity NEES per body axis (``nees_axes_b``), "-" where a row has none."""
+    axes = [r.get("nees_axes_b") for r in rows]
+    if not axes or any(a is None for a in axes):
+        return "-"
+    return ", ".join(f"{v:.2f}" for v in np.mean(axes, axis=0))
 
 
 def _pose_cell(rows: list[dict], key: str, dof: int) -> str:

@@ -22,6 +22,8 @@ Parameters (:data:`PARAMETERS`):
 - ``dvl_bias_rw``, ``dvl_scale_rw``: the graph's DVL error-state random walks (``GraphOptions``; m/s/sqrt(s)
   and 1/sqrt(s)).
 - ``priors.dvl_bias_sigma``: the graph's first-keyframe prior sigma of the beam bias states (m/s).
+- ``integration_sigma``: the graph's preintegration integration noise (``GraphOptions``; m/sqrt(s)): a position
+  random walk between keyframes, which loosens what the depth says of the vertical velocity.
 - ``dvl_lever_x``, ``dvl_lever_y``: the DVL's position relative to the IMU point, body x / y (m), added to the
   loader's default lever arm (A-KIT: :data:`graphnav.io.loaders.AKIT_LEVER_ARM_B` minus
   :data:`~graphnav.io.loaders.AKIT_IMU_POSITION_B`, zero). The mission is loaded again with it, since the
@@ -111,6 +113,7 @@ def _parameters() -> dict[str, Parameter]:
         Parameter("dvl_bias_rw", "graph", g.dvl_bias_rw, (1e-4, 2e-4, 5e-4, 1e-3, 2e-3), unit="m/s/sqrt(s)"),
         Parameter("dvl_scale_rw", "graph", g.dvl_scale_rw, (2e-5, 1e-4, 5e-4), unit="1/sqrt(s)"),
         Parameter("priors.dvl_bias_sigma", "graph", 0.01, (0.005, 0.01, 0.02), unit="m/s"),
+        Parameter("integration_sigma", "graph", g.integration_sigma, (3e-4, 1e-3, 3e-3, 1e-2), unit="m/sqrt(s)"),
         Parameter("dvl_lever_x", "load", 0.0, (0.0, 0.04, 0.08, 0.12, 0.16), rule="vrmse",
                   unit="m, DVL forward of the IMU point"),
         Parameter("dvl_lever_y", "load", 0.0, (-0.04, 0.0, 0.04, 0.08), rule="vrmse",

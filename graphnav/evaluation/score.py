@@ -179,7 +179,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     else:
         out["vrmse_mps"] = vrmse(est, ref)
     if est.cov_v_n is None or out["vrmse_mps"] is None:
-        out["nees_velocity_mean"] = None
+        out["nees_velocity_mean"] = out["nees_velocity_body_axes"] = None
         out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
     else:
         out.update(_nees(est, ref, mission, poses))
@@ -244,7 +244,7 @@ def _pose_nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTru
 def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -> dict:
     """The benchmark's velocity NEES (:func:`graphnav.evaluation.consistency.reference_nees`) of ``est``, against
     ``reference`` (as :func:`_pose_nees`)."""
-    from graphnav.evaluation.consistency import chi2_band, reference_nees
+    from graphnav.evaluation.consistency import BODY_AXES, chi2_band, reference_nees
     t0 = _settle_t0(est, ref, mission)
     sigma = None if mission is None else mission.meta.get("gt_velocity_sigma_n")
     scores = reference_nees(est, ref, mission, t0, sigma, reference=reference)
@@ -253,6 +253,8 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
     return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
             "nees_velocity_95pct_band": [lo, hi], "nees_n_independent": scores["nees_n_independent"],
             "nees_t0_s": t0, "nees_reference": scores["nees_reference"],
+            "nees_velocity_body_axes": (None if scores["nees_axes_b"] is None
+                                        else dict(zip(BODY_AXES, scores["nees_axes_b"]))),
             "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference, one "
                           f"independent epoch per {scores['nees_decorrelation_s']:.0f} s"
                           + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else ""))}
@@ -282,6 +284,9 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
         lines.append(f"  velocity NEES mean {result['nees_velocity_mean']:.2f} (consistent: 3; 95 % band "
                      f"{lo:.2f}-{hi:.2f} for {result['nees_n_independent']} independent epochs; "
                      f"{result['nees_note']})")
+        if result.get("nees_velocity_body_axes"):
+            lines.append("  velocity NEES per body axis (consistent: 1): " + ", ".join(
+                f"{axis} {value:.2f}" for axis, value in result["nees_velocity_body_axes"].items()))
     else:
         lines.append(f"  velocity NEES: not computed ({result['nees_note']})")
     for name, dof in (("position", 2), ("heading", 1)):

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from graphnav.core.mission import Mission
+from graphnav.core.mission import GroundTruth, Mission
 from graphnav.core.solution import NavSolution
 from graphnav.estimators.health import diverged_during
 from graphnav.evaluation.consistency import mission_nees
@@ -26,7 +26,8 @@ def window_position_drift(sol: NavSolution, gt, t_start: float, t_end: float) ->
     return position_drift(sol, gt, t_start, t_end)
 
 
-def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float) -> list[dict]:
+def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s: float,
+               reference: GroundTruth | None = None) -> list[dict]:
     """Per-window metrics of one solution: ``vrmse_window``, ``vrmse_mission``, ``pos_err_window_end_m``
     (drift over the window, m), ``distance_window_m`` (horizontal distance the GT travelled in it) and
     ``drift_pct_window`` (% DT: the two divided, None under
@@ -35,7 +36,8 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
     ``nees_pos_window`` (horizontal position, 2) and ``nees_heading_window`` (1; each None without its
     covariance); and the mission's: ``drift_pct_mission`` (end horizontal error / distance travelled, %),
     ``pos_err_mission_end_m``, ``distance_mission_m``, and its NEES (:func:`mission_nees`: velocity, position,
-    heading)."""
+    heading). ``reference``: the NEES's reference at ``sol``'s epochs when the caller has carried it
+    (:func:`graphnav.evaluation.consistency.scoring_reference`; None: carried here when ``sol`` has a covariance)."""
     from graphnav.evaluation.consistency import scoring_reference, window_pose_nees
     from graphnav.evaluation.metrics import (
         horizontal_position_error,
@@ -46,12 +48,13 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
     )
     gt = mission.gt
     v_mission = float(vrmse(sol, gt, mission.t0, mission.t1))
-    consistency = mission_nees(sol, mission)
+    has_cov = any(c is not None for c in (sol.cov_v_n, sol.cov_p_n, sol.cov_rot_b))
+    if reference is None:
+        reference = scoring_reference(sol, mission) if has_cov else gt
+    consistency = mission_nees(sol, mission, reference if has_cov else None)     # carried once for both
     whole = mission_drift(sol, gt)
     drift_mission = {"drift_pct_mission": whole["drift_pct"], "pos_err_mission_end_m": whole["end_error_m"],
                      "distance_mission_m": whole["distance_m"]}
-    has_cov = any(c is not None for c in (sol.cov_v_n, sol.cov_p_n, sol.cov_rot_b))
-    reference = scoring_reference(sol, mission) if has_cov else gt
     out = []
     for s in starts:
         nees = None
