@@ -1,6 +1,6 @@
 """How often the velocity NEES of simulated missions falls inside its printed 95 % band (nothing fitted).
 
-The simulator draws the IMU and DVL errors the estimators model, so a consistent estimator's mission NEES should
+The simulator makes the IMU and DVL errors the estimators model, so a consistent estimator's mission NEES should
 fall inside its 95 % chi-square band on about 95 % of the missions. Per seed (the simulated default mission, 400 s)
 and method (Graph-TC, Graph-TC-batch, TC; all beams): the mission velocity NEES after 60 s, its split along the
 body axes (:func:`graphnav.evaluation.consistency.body_axis_nees`: 1 each when consistent), the decorrelation time
@@ -9,9 +9,10 @@ is inside the band counted with one independent epoch per that time (what the co
 
 The simulator's DVL errors are the paper's, the same in every seed: every beam 0.01 m/s of bias (a vertical
 velocity error only, which the depth observes) and 0.7 % of scale on every axis; the estimators' priors take them
-as independent draws of those sigmas. ``--drawn-dvl-errors`` draws them per seed from those priors instead (the
-estimators keep the paper's sigmas), as a consistency check needs. ``--graph NAME=VALUE`` sets a
-:class:`graphnav.estimators.graph.GraphOptions` field for the graph methods (e.g. ``integration_sigma=1e-3``).
+as independent draws of those sigmas. ``--drawn-dvl-errors`` draws them per seed from those priors instead
+(``simulate_mission(dvl_errors="drawn")``; the estimators keep the paper's sigmas), as a consistency check needs.
+``--graph NAME=VALUE`` sets a :class:`graphnav.estimators.graph.GraphOptions` field for the graph methods (e.g.
+``integration_sigma=1e-3``).
 
     .venv/bin/python experiments/velocity_band_coverage.py --seeds 16 --jobs 2
     .venv/bin/python experiments/velocity_band_coverage.py --seeds 16 --jobs 2 --drawn-dvl-errors
@@ -30,22 +31,6 @@ from graphnav.core.errors import ConfigError
 from graphnav.evaluation.crossval import STUDY_METHODS
 from graphnav.evaluation.tasks import run_tasks
 
-#: Seed offset of the DVL error draws (their own stream: the mission's seed keeps its trajectory and noises).
-DVL_DRAW_SEED = 1000
-
-
-def drawn_dvl_config(seed: int):
-    """The simulator's default configuration with the beam biases (m/s) and the scale factors drawn from zero-mean
-    normals of the paper's values as sigmas (the estimators' prior sigmas)."""
-    from graphnav.sim.simulate import default_config
-    config = default_config()
-    rng = np.random.default_rng(DVL_DRAW_SEED + seed)
-    scale_sigma = float(np.max(np.abs(config.dvl.scale_factor)))
-    bias_sigma = float(np.max(np.abs(config.dvl.beam_bias)))
-    config.dvl.scale_factor = rng.normal(0.0, scale_sigma, 3)
-    config.dvl.beam_bias = rng.normal(0.0, bias_sigma, 4)
-    return config, (scale_sigma, bias_sigma)
-
 
 def one_seed(seed: int, drawn: bool = False, graph: dict | None = None) -> list[dict]:
     from graphnav.evaluation.consistency import chi2_band, mission_nees, n_independent
@@ -53,14 +38,7 @@ def one_seed(seed: int, drawn: bool = False, graph: dict | None = None) -> list[
     from graphnav.missions import simulated_mission
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if drawn:
-            config, (scale_sigma, bias_sigma) = drawn_dvl_config(seed)
-            mission = simulated_mission(seed=seed, config=config)
-            # the estimators' prior sigmas come from the configuration's values: keep the paper's
-            mission.config.dvl.scale_factor = np.full(3, scale_sigma)
-            mission.config.dvl.beam_bias = np.full(4, bias_sigma)
-        else:
-            mission = simulated_mission(seed=seed)
+        mission = simulated_mission(seed=seed, dvl_errors="drawn" if drawn else "spec")
         rows = []
         for method in STUDY_METHODS:
             options = dict(graph or {}) if method in GRAPH_METHODS else None

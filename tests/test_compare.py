@@ -19,7 +19,8 @@ def records() -> list[dict]:
                 out.append({"trajectory": traj, "scenario": "3-missing", "imu_grade": "as-recorded",
                             "window_s": 30.0, "method": method, "window_start_s": start,
                             "vrmse_window": 0.1 + start / 1000, "vrmse_mission": 0.05, "pos_err_window_end_m": 1.0,
-                            "runtime_s": 3.0, "diverged": False, "divergence_reason": None})
+                            "runtime_s": 3.0, "diverged": False, "divergence_reason": None,
+                            "nees_axes_b": [1.1, 0.9, 0.4]})
     return out
 
 
@@ -65,6 +66,15 @@ def test_tolerance_sets_the_exit_status(tmp_path, capsys):
     pa, pb = write(tmp_path / "a.json", a), write(tmp_path / "b.json", b)
     assert main(["compare", pa, pb]) == 1
     assert main(["compare", pa, pb, "--tol", "1e-9"]) == 0
+    # a list of numbers (the velocity NEES per body axis) within the same tolerance, element by element
+    b[4]["nees_axes_b"][2] += 1e-12
+    pb = write(tmp_path / "b.json", b)
+    assert main(["compare", pa, pb, "--tol", "1e-9"]) == 0
+    b[4]["nees_axes_b"][2] += 0.5
+    c = compare_runs(a, b)
+    assert c.max_delta("nees_axes_b[2]")[0] == pytest.approx(0.5) and not c.same(tol=1e-9)
+    b[4]["nees_axes_b"] = None                                   # a run without the covariance: differs at all
+    assert not compare_runs(a, b).same(tol=10.0)
 
 
 def test_bad_input_is_a_clear_error(tmp_path, capsys):

@@ -11,6 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import ImuSpec, SensorConfig, imu_grade
 from graphnav.core.dvl import DvlGeometry
+from graphnav.core.errors import ConfigError
 from graphnav.core.earth import EarthModel, gravity_magnitude
 from graphnav.estimators.graph.builder import preintegration_gravity
 from graphnav.core.mission import ImuData
@@ -307,6 +308,31 @@ def test_dvl_and_depth_errors_follow_the_config(noiseless):
     assert depth_noise.std() == pytest.approx(noisy.config.depth_noise_std, rel=0.1)
 
 
+def test_drawn_dvl_errors_are_drawn_per_seed_from_the_priors_sigmas(noiseless):
+    """``dvl_errors="drawn"``: each seed its own beam biases and scale factors, about the configuration's values in
+    size; the beams are made with them (the same residual check as above) while the configuration keeps the given
+    values the estimators' priors come from; the default mission is unchanged by the option's stream."""
+    draws = [simulate_mission(400.0, seed=s, dvl_errors="drawn") for s in (0, 1)]
+    spec = noiseless.config.dvl
+    biases = np.array([m.meta["dvl_errors"]["beam_bias"] for m in draws])
+    assert not np.allclose(biases[0], biases[1]) and np.ptp(biases[0]) > 0      # not four equal biases
+    pooled = np.r_[biases.ravel() / spec.beam_bias[0],
+                   np.ravel([m.meta["dvl_errors"]["scale_factor"] for m in draws]) / spec.scale_factor[0]]
+    assert 0.3 < np.std(pooled) < 2.0                                            # 14 draws of unit sigma
+    m = draws[0]
+    assert np.array_equal(m.config.dvl.beam_bias, spec.beam_bias) and "dvlerrorsdrawn" in m.name
+    geometry = DvlGeometry.from_spec(m.config.dvl)
+    truth = m.meta["dvl_errors"]
+    clean = ((noiseless.dvl.v_b @ geometry.C_d_b) * (1 + truth["scale_factor"])) @ geometry.T_d.T
+    residual = m.dvl.beams - clean - truth["beam_bias"]
+    assert abs(residual.mean()) < 4 * spec.beam_noise_std / np.sqrt(residual.size)
+    default = simulate_mission(400.0, seed=0)
+    assert np.array_equal(default.meta["dvl_errors"]["beam_bias"], spec.beam_bias)
+    assert np.array_equal(default.imu.f_b, m.imu.f_b)             # the draws' own stream: the IMU errors stay
+    with pytest.raises(ConfigError, match="dvl_errors"):
+        simulate_mission(10.0, dvl_errors="random")
+
+
 def test_dropout_sets_invalid_beams_to_nan():
     m = simulate_mission(300.0, seed=4, dropout=True)
     assert (~m.dvl.valid).any() and m.dvl.valid.any()
@@ -343,6 +369,11 @@ def test_cli_writes_the_akit_layout_and_a_plot(tmp_path, capsys):
         assert (folder / f"{kind}_trajectory1.csv").is_file()
     assert (tmp_path / "trajectory1.png").stat().st_size > 10_000
     assert SensorConfig.load(folder / "config_trajectory1.json").imu.name == "navigation"
+    # drawn DVL errors: the written configuration keeps the paper's values (the estimators' prior sigmas)
+    assert main(["simulate", "--duration", "30", "--dvl-errors", "drawn", "--out", str(tmp_path / "drawn")]) == 0
+    assert "dvlerrorsdrawn" in capsys.readouterr().out
+    written = SensorConfig.load(tmp_path / "drawn" / "Trajectory1" / "config_trajectory1.json")
+    assert np.allclose(written.dvl.beam_bias, 0.01) and np.allclose(written.dvl.scale_factor, 0.007)
 
 
 def test_written_headers_are_the_published_ones(tmp_path, akit_dir):

@@ -63,6 +63,10 @@ class ImuSpec:
     gyro_range_rads: float = 500 * DEG
 
 
+#: Where a simulated DVL's beam biases and scale factors come from (``graphnav.sim.simulate.simulate_mission``'s
+#: ``dvl_errors``): the :class:`DvlSpec`'s values, or drawn per seed with them as sigmas.
+DVL_ERROR_SOURCES = ("spec", "drawn")
+
 #: IMU grades of the simulator and of the benchmark's IMU degradation.
 #: navigation: a FOG INS like the iXblue Phins; tactical: a small-AUV tactical IMU; mems: an industrial MEMS.
 IMU_GRADES: dict[str, ImuSpec] = {

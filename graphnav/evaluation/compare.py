@@ -104,19 +104,29 @@ def _is_number(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
+def _numbers(x) -> bool:
+    return isinstance(x, (list, tuple)) and all(_is_number(v) for v in x)
+
+
 def diff_record(key: tuple, a: dict, b: dict) -> RecordDiff:
-    """The fields in which records ``a`` and ``b`` (same key) differ; NaN equals NaN."""
+    """The fields in which records ``a`` and ``b`` (same key) differ; NaN equals NaN. A list of numbers (e.g. the
+    velocity NEES per body axis) is compared element by element, as ``name[i]``, within the same tolerance."""
     d = RecordDiff(key)
     for name in sorted(a.keys() | b.keys()):
         if name in IGNORED_FIELDS:
             continue
         va, vb = a.get(name), b.get(name)
-        if _is_number(va) and _is_number(vb):
-            fa, fb = float(va), float(vb)
-            if fa != fb and not (math.isnan(fa) and math.isnan(fb)):
-                d.numeric[name] = (fa, fb)
-        elif va != vb:
-            d.other[name] = (va, vb)
+        if _numbers(va) and _numbers(vb) and len(va) == len(vb):
+            pairs = [(f"{name}[{i}]", x, y) for i, (x, y) in enumerate(zip(va, vb))]
+        else:
+            pairs = [(name, va, vb)]
+        for field_name, x, y in pairs:
+            if _is_number(x) and _is_number(y):
+                fx, fy = float(x), float(y)
+                if fx != fy and not (math.isnan(fx) and math.isnan(fy)):
+                    d.numeric[field_name] = (fx, fy)
+            elif x != y:
+                d.other[field_name] = (x, y)
     return d
 
 

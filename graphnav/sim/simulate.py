@@ -39,7 +39,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from graphnav.core.config import DEG, DvlSpec, ImuSpec, SensorConfig
+from graphnav.core.config import DEG, DVL_ERROR_SOURCES, DvlSpec, ImuSpec, SensorConfig
 from graphnav.core.config import imu_grade as _imu_grade
 from graphnav.core.dvl import DvlErrorModel, DvlGeometry, as_velocity_only
 from graphnav.core.earth import EarthModel, gravity_magnitude
@@ -591,7 +591,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
                      gt_rate_hz: float = 10.0, noiseless: bool = False,
                      dvl_stamp_offset_s: float = 0.0, dvl_output: str = "beams", start_ne_m=(0.0, 0.0),
                      surfacing: SurfacingProfile | None = None, pattern: str = "lawnmower",
-                     pivot_m: float = 0.0, pitch_pivot_m: float = 0.0) -> Mission:
+                     pivot_m: float = 0.0, pitch_pivot_m: float = 0.0, dvl_errors: str = "spec") -> Mission:
     """Simulate a realistic AUV survey mission with exact ground truth.
 
     Args:
@@ -631,6 +631,13 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         pitch_pivot_m: the hull's pitch pivot ahead of the IMU, m: the vehicle heaves at the IMU by ``pitch_pivot_m``
             times its pitch rate (the A-KIT Snapir about 3 m). Default 0: no heave in pitch, the same mission as
             before the option existed.
+        dvl_errors: the beams' bias and scale factor: ``"spec"`` (default): the configuration's
+            (``config.dvl.beam_bias``, ``scale_factor``; by default the paper's, the same in every seed: four equal
+            biases, a vertical velocity error only); ``"drawn"``: drawn per seed from zero-mean normals whose
+            sigmas are the configuration's largest values, the estimators' prior sigmas
+            (:class:`graphnav.estimators.options.PriorOptions`), as a Monte Carlo consistency check needs. The
+            mission's configuration keeps the given values either way (the estimators' priors come from them);
+            ``meta["dvl_errors"]`` holds those the beams were made with.
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -663,10 +670,13 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
             raise ConfigError(f"{name} must divide the IMU rate {imu_rate} Hz")
     gt_stride, dvl_stride, depth_stride = int(round(gt_stride)), int(round(dvl_stride)), int(round(depth_stride))
 
+    if dvl_errors not in DVL_ERROR_SOURCES:
+        raise ConfigError(f"dvl_errors must be one of {DVL_ERROR_SOURCES}, got {dvl_errors!r}")
     seq = np.random.SeedSequence(seed)
-    # a sixth stream for the surfacings: SeedSequence children are keyed by their index, so the first five
-    # are those of the missions simulated before it existed
-    rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf = (np.random.default_rng(s) for s in seq.spawn(6))
+    # a sixth stream for the surfacings, a seventh for drawn DVL errors: SeedSequence children are keyed by their
+    # index, so the first five are those of the missions simulated before they existed
+    rng_traj, rng_imu, rng_dvl, rng_drop, rng_depth, rng_surf, rng_dvl_errors = (
+        np.random.default_rng(s) for s in seq.spawn(7))
     earth = EarthModel.from_config(config)
     pivot_m = _distance(pivot_m, "pivot_m (graphnav simulate --pivot)")
     pitch_pivot_m = _distance(pitch_pivot_m, "pitch_pivot_m (graphnav simulate --pitch-pivot)")
@@ -716,6 +726,9 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     geometry = DvlGeometry.from_spec(config.dvl)
     v_head_b = geometry.dvl_velocity_b(dvl_state.v_b, dvl_state.omega_nb_b)
     errors = DvlErrorModel.from_spec(config.dvl)
+    if dvl_errors == "drawn":
+        errors.scale_factor = rng_dvl_errors.normal(0.0, float(np.max(np.abs(errors.scale_factor))), 3)
+        errors.beam_bias = rng_dvl_errors.normal(0.0, float(np.max(np.abs(errors.beam_bias))), 4)
     if noiseless:
         beams = geometry.beams_from_velocity(v_head_b)
     else:
@@ -736,7 +749,8 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
     name = f"sim-{duration_s:g}s-{grade}-seed{seed}" + ("-dropout" if dropout else "") + \
         ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
         ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "") + \
-        (f"-pivot{pivot_m:g}m" if pivot_m else "") + (f"-pitchpivot{pitch_pivot_m:g}m" if pitch_pivot_m else "")
+        (f"-pivot{pivot_m:g}m" if pivot_m else "") + (f"-pitchpivot{pitch_pivot_m:g}m" if pitch_pivot_m else "") + \
+        ("-dvlerrorsdrawn" if dvl_errors == "drawn" else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
         "dvl_output": dvl_output, "pattern": pattern, "pivot_m": float(pivot_m), "pitch_pivot_m": pitch_pivot_m,
