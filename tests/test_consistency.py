@@ -232,6 +232,47 @@ def test_the_velocity_nees_split_along_the_body_axes():
     assert all(np.isnan(body_axis_nees(e_nan, cov_n, C_b_n)))
 
 
+def test_epochs_without_a_sigma_are_left_out_and_a_lost_estimate_gives_no_number():
+    """A file's empty sigma rows (finite estimate, no covariance) are left out of the velocity, position and
+    heading NEES and counted; an epoch whose estimate is not finite (the estimator lost track) leaves that NEES NaN
+    and is counted: never a number from part of the run."""
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency import reference_nees
+    n = 600
+    t = np.arange(n, dtype=float)
+    zero = np.zeros(n)
+    gt = GroundTruth(t, np.c_[1.5 * t, zero, zero], np.tile([1.5, 0, 0], (n, 1)), euler_to_C_b_n(zero, zero, zero))
+    rng = np.random.default_rng(7)
+    P = np.tile(np.diag([0.03, 0.02, 0.005]) ** 2, (n, 1, 1))
+    P_p = np.tile(np.eye(3) * 4.0, (n, 1, 1))
+    P_r = np.tile(np.eye(3) * 1e-4, (n, 1, 1))
+
+    def solution(v_n, p_n, cov_v, cov_p):
+        return NavSolution("s", t, p_n, v_n, gt.C_b_n, cov_v_n=cov_v, cov_p_n=cov_p, cov_rot_b=P_r)
+    v = gt.v_n + rng.normal(size=(n, 3)) * [0.03, 0.02, 0.005]
+    p = gt.p_n + rng.normal(size=(n, 3)) * 2.0
+    whole = reference_nees(solution(v, p, P, P_p), gt, t0=60.0)
+    holes_v, holes_p = P.copy(), P_p.copy()
+    holes_v[100:110], holes_p[300:320] = np.nan, np.nan
+    holed = reference_nees(solution(v, p, holes_v, holes_p), gt, t0=60.0)
+    assert (holed["nees_epochs_without_sigma"], holed["nees_pos_epochs_without_sigma"]) == (10, 20)
+    assert holed["nees_epochs_lost"] == holed["nees_pos_epochs_lost"] == 0
+    keep = np.ones(n - 60, bool)
+    keep[40:50] = False
+    from graphnav.evaluation.metrics import nees_velocity
+    assert holed["nees_mission"] == pytest.approx(np.mean(nees_velocity(solution(v, p, P, P_p), gt, 60.0)[keep]))
+    assert holed["nees_pos_mission"] == pytest.approx(whole["nees_pos_mission"], rel=0.1)
+    assert all(np.isfinite(holed["nees_axes_b"])) and np.isfinite(holed["nees_mission_interp"])
+    lost_v, lost_p = v.copy(), p.copy()
+    lost_v[200], lost_p[400] = np.nan, np.nan
+    lost = reference_nees(solution(lost_v, lost_p, P, P_p), gt, t0=60.0)
+    assert np.isnan(lost["nees_mission"]) and lost["nees_epochs_lost"] == 1
+    assert np.isnan(lost["nees_pos_mission"]) and lost["nees_pos_epochs_lost"] == 1
+    assert np.isfinite(lost["nees_heading_mission"]) and lost["nees_heading_epochs_lost"] == 0
+
+
 def test_pose_nees_of_consistent_and_overconfident_errors():
     """Errors drawn from the stated covariances (correlated in time): position NEES about 2, heading about 1,
     each inside its band; a covariance 4x too small puts them 4x higher and outside. Without the covariances:

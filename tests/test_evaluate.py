@@ -110,6 +110,36 @@ def test_pose_nees_and_drift_of_known_errors_and_the_position_plot(tmp_path, cap
     assert path.exists() and path.stat().st_size > 10000
 
 
+def test_empty_sigma_rows_are_left_out_and_a_lost_estimate_is_said(run, tmp_path, capsys):
+    """A trajectory CSV with empty velocity-sigma fields: the NEES of the other epochs, and how many were left out;
+    with empty velocity fields (the estimator lost track): no VRMSE or velocity NEES from the rest, and why."""
+    mission, root, out = run
+    lines = (out / "trajectory.csv").read_text().splitlines()[:56]    # ends before 60 s: every epoch is scored
+    header = lines[0].split(",")
+
+    def blank(columns, rows):
+        idx = [header.index(c) for c in columns]
+        body = []
+        for k, line in enumerate(lines[1:]):
+            fields = line.split(",")
+            for i in idx if k in rows else ():
+                fields[i] = ""
+            body.append(",".join(fields))
+        path = tmp_path / f"{columns[0]}.csv"
+        path.write_text("\n".join([lines[0], *body]) + "\n")
+        return str(path)
+    ref = ["--ref", str(root / "mission_bag"), "--config", str(root / "config.json")]
+    sigmas = blank(["sigma_v_north_mps", "sigma_v_east_mps", "sigma_v_down_mps"], range(30, 35))
+    assert cli.main(["evaluate", sigmas, *ref]) == 0
+    text = capsys.readouterr().out
+    assert "5 epoch(s) without a velocity sigma left out" in text and "velocity NEES mean" in text
+    lost = blank(["v_north_mps", "v_east_mps", "v_down_mps"], range(30, 32))
+    cli.main(["evaluate", lost, *ref])
+    text = capsys.readouterr().out
+    assert "VRMSE: not finite (2 epoch(s) of the estimate without a finite velocity (lost track))" in text
+    assert "velocity NEES: not finite" in text and "2 epoch(s) without a finite velocity estimate" in text
+
+
 def test_evaluate_plots_option_writes_the_position_error_figure(run, tmp_path):
     mission, root, out = run
     assert cli.main(["evaluate", str(out / "trajectory.csv"), "--ref", str(out / "groundtruth.tum"),

@@ -107,16 +107,35 @@ def decorrelation_time(t: np.ndarray, z: np.ndarray, floor_s: float = MIN_DECORR
     return max(floor_s, span if below.size == 0 else float(below[0]) * dt)
 
 
-def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str) -> dict:
-    """``{prefix}_mission`` (mean of the finite per-epoch NEES), ``{prefix}_n_independent`` (one per
-    :func:`decorrelation_time` of the normalised error ``z``), ``{prefix}_decorrelation_s``; None without a
-    finite epoch."""
+#: What :func:`_nees_stats` says of one NEES, after its prefix (``nees``, ``nees_pos``, ``nees_heading``).
+NEES_STATS = ("mission", "n_independent", "decorrelation_s", "epochs_without_sigma", "epochs_lost")
+
+
+def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str, estimate_ok: np.ndarray) -> dict:
+    """``{prefix}_mission``: mean of the per-epoch NEES; ``{prefix}_n_independent``: one per
+    :func:`decorrelation_time` of the normalised error ``z``; ``{prefix}_decorrelation_s``. Two kinds of epoch
+    have no NEES, and each is counted: one whose estimate is finite but its covariance not (a file's empty sigma
+    columns: ``{prefix}_epochs_without_sigma``) is left out of the mean; one whose estimate is not finite (the
+    estimator lost track: ``{prefix}_epochs_lost``, ``estimate_ok`` False) leaves the mean NaN -- never a number
+    from part of the run. ``{prefix}_mission`` None without any epoch."""
     ok = np.isfinite(nees)
+    lost = ~np.asarray(estimate_ok, bool)
+    out = {f"{prefix}_{k}": None for k in NEES_STATS}
+    out[f"{prefix}_epochs_without_sigma"] = int(np.sum(~ok & ~lost))
+    out[f"{prefix}_epochs_lost"] = int(np.sum(lost))
     if not ok.any():
-        return {f"{prefix}_mission": None, f"{prefix}_n_independent": None, f"{prefix}_decorrelation_s": None}
+        if lost.any():
+            out[f"{prefix}_mission"] = float("nan")
+        return out
     tau = decorrelation_time(t[ok], z[ok])
-    return {f"{prefix}_mission": float(np.mean(nees[ok])),
-            f"{prefix}_n_independent": n_independent(t[ok], tau), f"{prefix}_decorrelation_s": tau}
+    out.update({f"{prefix}_mission": float("nan") if lost.any() else float(np.mean(nees[ok])),
+                f"{prefix}_n_independent": n_independent(t[ok], tau), f"{prefix}_decorrelation_s": tau})
+    return out
+
+
+def _finite_rows(x: np.ndarray) -> np.ndarray:
+    """(K,) True where every value of row k of ``x`` (K, ...) is finite."""
+    return np.all(np.isfinite(x.reshape(len(x), -1)), axis=1)
 
 
 def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = None,
@@ -132,20 +151,23 @@ def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = 
     t = aligned.t[sel]
     if sol.cov_p_n is not None:
         nees = nees_position(sol, reference, t_start, t_end)
-        err = sol.p_n[aligned.mask][sel, :2] - aligned.p_true_n[sel, :2]
+        p_n = sol.p_n[aligned.mask][sel, :2]
+        err = p_n - aligned.p_true_n[sel, :2]
         var = np.diagonal(sol.cov_p_n[aligned.mask][sel][:, :2, :2], axis1=1, axis2=2)
-        out.update(_nees_stats(t, nees, err / np.sqrt(var), "nees_pos"))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.update(_nees_stats(t, nees, err / np.sqrt(var), "nees_pos", _finite_rows(p_n)))
     if sol.cov_rot_b is not None:
         nees = nees_heading(sol, reference, t_start, t_end)
         _, d = heading_errors(sol, reference, t_start, t_end)
-        out.update(_nees_stats(t, nees, np.sign(d) * np.sqrt(nees), "nees_heading"))
+        with np.errstate(invalid="ignore"):
+            out.update(_nees_stats(t, nees, np.sign(d) * np.sqrt(nees), "nees_heading",
+                                   _finite_rows(sol.C_b_n[aligned.mask][sel])))
     return out
 
 
 def pose_nees_none() -> dict:
     """The keys of :func:`pose_nees`, all None."""
-    return {f"{q}_{k}": None for q in ("nees_pos", "nees_heading") for k in ("mission", "n_independent",
-                                                                            "decorrelation_s")}
+    return {f"{q}_{k}": None for q in ("nees_pos", "nees_heading") for k in NEES_STATS}
 
 
 def window_pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end: float) -> dict:
@@ -228,11 +250,12 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
         decorrelation time of the normalised velocity error, :func:`decorrelation_time`), ``nees_t0`` and
         ``nees_reference``
         (``"imu-carried"`` or ``"interpolated"``), ``nees_axes_b`` (:func:`body_axis_nees`, forward, starboard,
-        down); the NEES values None without a covariance.
+        down), ``nees_epochs_without_sigma`` (left out of every mean) and ``nees_epochs_lost`` (a non-finite
+        estimate: every mean NaN), as :func:`_nees_stats` counts them; the NEES values None without a covariance.
     """
     t0 = float(gt.t[0] + NEES_SETTLE_S) if t0 is None else float(t0)
-    out = {"nees_mission": None, "nees_mission_interp": None, "nees_mission_gt": None,
-           "nees_n_independent": None, "nees_decorrelation_s": None, "nees_t0": t0, "nees_axes_b": None,
+    out = {**{f"nees_{k}": None for k in NEES_STATS}, "nees_mission_interp": None, "nees_mission_gt": None,
+           "nees_t0": t0, "nees_axes_b": None,
            "nees_reference": "interpolated" if mission is None else "imu-carried", **pose_nees_none()}
     if sol.cov_v_n is None and sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
@@ -244,21 +267,32 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     # the velocity error is correlated for as long as the DVL's error states and the IMU's bias keep it: its
     # independent epochs are counted from its own decorrelation, as the position's and the heading's are
     aligned, sel = _window(sol, reference, t0, None)
-    err = sol.v_n[aligned.mask][sel] - aligned.v_true_n[sel]
-    var = np.diagonal(sol.cov_v_n[aligned.mask][sel], axis1=1, axis2=2)
+    v_n, cov = sol.v_n[aligned.mask][sel], sol.cov_v_n[aligned.mask][sel]
+    err = v_n - aligned.v_true_n[sel]
+    var = np.diagonal(cov, axis1=1, axis2=2)
     nees = nees_velocity(sol, reference, t0)
+    estimate_ok = _finite_rows(v_n)
     with np.errstate(invalid="ignore", divide="ignore"):
-        count = _nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees")
-    # a non-finite epoch leaves the mean non-finite, as before: never a number from part of the run
-    out["nees_mission"] = float(np.mean(nees))
-    out["nees_n_independent"] = count["nees_n_independent"] or 1
-    out["nees_decorrelation_s"] = count["nees_decorrelation_s"]
-    out["nees_axes_b"] = body_axis_nees(err, sol.cov_v_n[aligned.mask][sel], sol.C_b_n[aligned.mask][sel])
-    out["nees_mission_interp"] = float(np.mean(nees_velocity(sol, gt, t0)))
+        out.update(_nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees", estimate_ok))
+    if out["nees_mission"] is None:             # no epoch with a sigma, none lost: nothing to score
+        return out
+    out["nees_n_independent"] = out["nees_n_independent"] or 1
+    # the same epochs for every variant: those with a sigma (a lost one leaves each of them NaN)
+    scored = estimate_ok & _finite_rows(cov) | ~estimate_ok
+    out["nees_axes_b"] = body_axis_nees(err[scored], cov[scored], sol.C_b_n[aligned.mask][sel][scored])
+    out["nees_mission_interp"] = _mean_scored(sol, gt, t0, nees_velocity(sol, gt, t0))
     if gt_sigma_n is not None:
-        out["nees_mission_gt"] = float(np.mean(nees_with_reference(sol, reference,
-                                                                   np.diag(np.square(gt_sigma_n)), t0)))
+        out["nees_mission_gt"] = float(np.mean(nees_with_reference(sol, reference, np.diag(np.square(gt_sigma_n)),
+                                                                   t0)[scored]))
     return out
+
+
+def _mean_scored(sol: NavSolution, ref: GroundTruth, t0: float, nees: np.ndarray) -> float:
+    """Mean of a per-epoch velocity NEES against ``ref`` after ``t0`` over the epochs with a finite covariance or
+    a lost estimate (:func:`_nees_stats`'s rule)."""
+    aligned, sel = _window(sol, ref, t0, None)
+    estimate_ok = _finite_rows(sol.v_n[aligned.mask][sel])
+    return float(np.mean(nees[estimate_ok & _finite_rows(sol.cov_v_n[aligned.mask][sel]) | ~estimate_ok]))
 
 
 def body_axis_nees(err_n: np.ndarray, cov_v_n: np.ndarray, C_b_n: np.ndarray) -> list[float]:

@@ -178,6 +178,9 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
         out["vrmse_note"] = "needs velocities in the estimate and the reference (a TUM file has none)"
     else:
         out["vrmse_mps"] = vrmse(est, ref)
+        if not np.isfinite(out["vrmse_mps"]):
+            lost = int(np.sum(~np.all(np.isfinite(est.v_n), axis=1)))
+            out["vrmse_note"] = f"{lost} epoch(s) of the estimate without a finite velocity (lost track)"
     if est.cov_v_n is None or out["vrmse_mps"] is None:
         out["nees_velocity_mean"] = out["nees_velocity_body_axes"] = None
         out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
@@ -237,7 +240,8 @@ def _pose_nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTru
         out[f"nees_{name}_n_independent"] = n
         out[f"nees_{name}_note"] = (f"needs {field} in the estimate" if mean is None else
                                     f"{dof} dof, after {t0:.1f} s, one independent epoch per "
-                                    f"{scores[f'{key}_decorrelation_s']:.0f} s")
+                                    f"{_seconds(scores[f'{key}_decorrelation_s'])} s"
+                                    + _left_out(scores, key, name))
     return out
 
 
@@ -248,6 +252,9 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
     t0 = _settle_t0(est, ref, mission)
     sigma = None if mission is None else mission.meta.get("gt_velocity_sigma_n")
     scores = reference_nees(est, ref, mission, t0, sigma, reference=reference)
+    if scores["nees_mission"] is None:
+        return {"nees_velocity_mean": None, "nees_velocity_body_axes": None,
+                "nees_note": f"no epoch after {t0:.1f} s with a finite velocity sigma"}
     lo, hi = chi2_band(scores["nees_n_independent"])
     diagonal = bool(np.allclose(est.cov_v_n, np.einsum("kii->ki", est.cov_v_n)[:, :, None] * np.eye(3)))
     return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
@@ -255,9 +262,27 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
             "nees_t0_s": t0, "nees_reference": scores["nees_reference"],
             "nees_velocity_body_axes": (None if scores["nees_axes_b"] is None
                                         else dict(zip(BODY_AXES, scores["nees_axes_b"]))),
+            "nees_epochs_without_sigma": scores["nees_epochs_without_sigma"],
+            "nees_epochs_lost": scores["nees_epochs_lost"],
             "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference, one "
-                          f"independent epoch per {scores['nees_decorrelation_s']:.0f} s"
-                          + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else ""))}
+                          f"independent epoch per {_seconds(scores['nees_decorrelation_s'])} s"
+                          + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else "")
+                          + _left_out(scores, "nees", "velocity"))}
+
+
+def _seconds(value) -> str:
+    return "-" if value is None else f"{value:.0f}"
+
+
+def _left_out(scores: dict, key: str, what: str) -> str:
+    """What of the scored epochs has no NEES (:func:`graphnav.evaluation.consistency.reference_nees`'s counts)."""
+    text = ""
+    if scores.get(f"{key}_epochs_without_sigma"):
+        text += f"; {scores[f'{key}_epochs_without_sigma']} epoch(s) without a {what} sigma left out"
+    if scores.get(f"{key}_epochs_lost"):
+        text += (f"; {scores[f'{key}_epochs_lost']} epoch(s) without a finite {what} estimate (lost track): "
+                 "no mean from part of the run")
+    return text
 
 
 def format_report(result: dict, est_name: str, ref_name: str) -> str:
@@ -275,11 +300,15 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
                          f"max {s['max']:.4f}")
         elif key == "rpe_translation_m":
             lines.append(f"  {label}: not computed ({result.get('rpe_note')})")
-    if result["vrmse_mps"] is not None:
+    if result["vrmse_mps"] is not None and not np.isfinite(result["vrmse_mps"]):
+        lines.append(f"  VRMSE: not finite ({result['vrmse_note']})")
+    elif result["vrmse_mps"] is not None:
         lines.append(f"  VRMSE: {result['vrmse_mps']:.4f} m/s")
     else:
         lines.append(f"  VRMSE: not computed ({result['vrmse_note']})")
-    if result["nees_velocity_mean"] is not None:
+    if result["nees_velocity_mean"] is not None and not np.isfinite(result["nees_velocity_mean"]):
+        lines.append(f"  velocity NEES: not finite ({result['nees_note']})")
+    elif result["nees_velocity_mean"] is not None:
         lo, hi = result["nees_velocity_95pct_band"]
         lines.append(f"  velocity NEES mean {result['nees_velocity_mean']:.2f} (consistent: 3; 95 % band "
                      f"{lo:.2f}-{hi:.2f} for {result['nees_n_independent']} independent epochs; "
@@ -292,8 +321,9 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
     for name, dof in (("position", 2), ("heading", 1)):
         label = "horizontal position NEES" if name == "position" else "heading NEES"
         mean = result.get(f"nees_{name}_mean")
-        if mean is None:
-            lines.append(f"  {label}: - ({result.get(f'nees_{name}_note', 'not computed')})")
+        if mean is None or not np.isfinite(mean):
+            lines.append(f"  {label}: {'-' if mean is None else 'not finite'} "
+                         f"({result.get(f'nees_{name}_note', 'not computed')})")
             continue
         lo, hi = result[f"nees_{name}_95pct_band"]
         lines.append(f"  {label} mean {mean:.2f} (consistent: {dof}; 95 % band {lo:.2f}-{hi:.2f} for "
