@@ -271,6 +271,16 @@ def test_epochs_without_a_sigma_are_left_out_and_a_lost_estimate_gives_no_number
     assert np.isnan(lost["nees_mission"]) and lost["nees_epochs_lost"] == 1
     assert np.isnan(lost["nees_pos_mission"]) and lost["nees_pos_epochs_lost"] == 1
     assert np.isfinite(lost["nees_heading_mission"]) and lost["nees_heading_epochs_lost"] == 0
+    from graphnav.evaluation.consistency import window_nees
+    window = window_nees(solution(v, p, holes_v, holes_p), gt, 90.0, 130.0)        # 10 epochs without a sigma
+    assert window["nees_window"] == pytest.approx(np.mean(nees_velocity(solution(v, p, P, P_p), gt, 90.0,
+                                                                        130.0)[np.r_[0:10, 20:41]]))
+    window = window_nees(solution(lost_v, lost_p, P, P_p), gt, 180.0, 220.0)      # the velocity lost at 200 s
+    assert np.isnan(window["nees_window"]) and np.isfinite(window["nees_pos_window"])
+    all_lost = lost_p.copy()
+    all_lost[60:] = np.nan                                                     # a position lost for good
+    gone = reference_nees(solution(v, all_lost, P, P_p), gt, t0=60.0)
+    assert np.isnan(gone["nees_pos_mission"]) and gone["nees_pos_n_independent"] == 1
 
 
 def test_pose_nees_of_consistent_and_overconfident_errors():

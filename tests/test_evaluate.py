@@ -138,6 +138,11 @@ def test_empty_sigma_rows_are_left_out_and_a_lost_estimate_is_said(run, tmp_path
     text = capsys.readouterr().out
     assert "VRMSE: not finite (2 epoch(s) of the estimate without a finite velocity (lost track))" in text
     assert "velocity NEES: not finite" in text and "2 epoch(s) without a finite velocity estimate" in text
+    lost_pose = blank(["p_north_m", "p_east_m"], range(30, 33))       # evo cannot take them: no APE, and why
+    assert cli.main(["evaluate", lost_pose, *ref]) == 0
+    text = capsys.readouterr().out
+    assert "APE: not computed (3 epoch(s) of the estimate without a finite pose (lost track)" in text
+    assert "horizontal position NEES: not finite" in text and "VRMSE: 0." in text
 
 
 def test_evaluate_plots_option_writes_the_position_error_figure(run, tmp_path):

@@ -22,3 +22,10 @@ def cumulative_integral(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     dt = np.diff(t).reshape((-1,) + (1,) * (x.ndim - 1))
     steps = x[:-1] * dt
     return np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(steps, axis=0)])
+
+
+def finite_rows(x: np.ndarray) -> np.ndarray:
+    """(K,) True where every value of row k of ``x`` (K, ...) is finite: an epoch of an estimate or of its
+    covariance that is all there."""
+    x = np.asarray(x)
+    return np.all(np.isfinite(x.reshape(len(x), -1)), axis=1)

@@ -105,7 +105,8 @@ def _is_number(x) -> bool:
 
 
 def _numbers(x) -> bool:
-    return isinstance(x, (list, tuple)) and all(_is_number(v) for v in x)
+    """A list of numbers; None stands for NaN (``results.json`` writes NaN as null)."""
+    return isinstance(x, (list, tuple)) and all(v is None or _is_number(v) for v in x)
 
 
 def diff_record(key: tuple, a: dict, b: dict) -> RecordDiff:
@@ -117,7 +118,8 @@ def diff_record(key: tuple, a: dict, b: dict) -> RecordDiff:
             continue
         va, vb = a.get(name), b.get(name)
         if _numbers(va) and _numbers(vb) and len(va) == len(vb):
-            pairs = [(f"{name}[{i}]", x, y) for i, (x, y) in enumerate(zip(va, vb))]
+            pairs = [(f"{name}[{i}]", math.nan if x is None else x, math.nan if y is None else y)
+                     for i, (x, y) in enumerate(zip(va, vb))]
         else:
             pairs = [(name, va, vb)]
         for field_name, x, y in pairs:

@@ -48,7 +48,7 @@ import numpy as np
 
 from graphnav.core.mission import GroundTruth
 from graphnav.core.solution import NavSolution
-from graphnav.core.timeseries import interp_rows
+from graphnav.core.timeseries import finite_rows, interp_rows
 from graphnav.evaluation.metrics import (
     _window,
     heading_errors,
@@ -117,15 +117,16 @@ def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str, est
     have no NEES, and each is counted: one whose estimate is finite but its covariance not (a file's empty sigma
     columns: ``{prefix}_epochs_without_sigma``) is left out of the mean; one whose estimate is not finite (the
     estimator lost track: ``{prefix}_epochs_lost``, ``estimate_ok`` False) leaves the mean NaN -- never a number
-    from part of the run. ``{prefix}_mission`` None without any epoch."""
+    from part of the run. ``{prefix}_mission`` None when no epoch has a NEES and none is lost (every epoch
+    without a sigma, or none scored)."""
     ok = np.isfinite(nees)
     lost = ~np.asarray(estimate_ok, bool)
     out = {f"{prefix}_{k}": None for k in NEES_STATS}
     out[f"{prefix}_epochs_without_sigma"] = int(np.sum(~ok & ~lost))
     out[f"{prefix}_epochs_lost"] = int(np.sum(lost))
     if not ok.any():
-        if lost.any():
-            out[f"{prefix}_mission"] = float("nan")
+        if lost.any():                  # no number, and a band of one epoch for callers that print one
+            out[f"{prefix}_mission"], out[f"{prefix}_n_independent"] = float("nan"), 1
         return out
     tau = decorrelation_time(t[ok], z[ok])
     out.update({f"{prefix}_mission": float("nan") if lost.any() else float(np.mean(nees[ok])),
@@ -133,17 +134,14 @@ def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str, est
     return out
 
 
-def _finite_rows(x: np.ndarray) -> np.ndarray:
-    """(K,) True where every value of row k of ``x`` (K, ...) is finite."""
-    return np.all(np.isfinite(x.reshape(len(x), -1)), axis=1)
-
 
 def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = None,
               t_end: float | None = None) -> dict:
     """Horizontal position NEES (2 dof) and heading NEES (1 dof) of ``sol`` against ``reference`` over
     ``[t_start, t_end]``: ``nees_pos_mission`` / ``nees_heading_mission`` (mean), ``*_n_independent`` (for
-    :func:`chi2_band` with ``dof`` :data:`POSITION_DOF` / :data:`HEADING_DOF`) and ``*_decorrelation_s``;
-    all None for a quantity whose covariance the solution does not carry (never a made-up number)."""
+    :func:`chi2_band` with ``dof`` :data:`POSITION_DOF` / :data:`HEADING_DOF`), ``*_decorrelation_s``,
+    ``*_epochs_without_sigma`` and ``*_epochs_lost`` (:func:`_nees_stats`'s rule); all None for a quantity whose
+    covariance the solution does not carry (never a made-up number)."""
     out = pose_nees_none()
     if sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
@@ -155,13 +153,13 @@ def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = 
         err = p_n - aligned.p_true_n[sel, :2]
         var = np.diagonal(sol.cov_p_n[aligned.mask][sel][:, :2, :2], axis1=1, axis2=2)
         with np.errstate(invalid="ignore", divide="ignore"):
-            out.update(_nees_stats(t, nees, err / np.sqrt(var), "nees_pos", _finite_rows(p_n)))
+            out.update(_nees_stats(t, nees, err / np.sqrt(var), "nees_pos", finite_rows(p_n)))
     if sol.cov_rot_b is not None:
         nees = nees_heading(sol, reference, t_start, t_end)
         _, d = heading_errors(sol, reference, t_start, t_end)
         with np.errstate(invalid="ignore"):
             out.update(_nees_stats(t, nees, np.sign(d) * np.sqrt(nees), "nees_heading",
-                                   _finite_rows(sol.C_b_n[aligned.mask][sel])))
+                                   finite_rows(sol.C_b_n[aligned.mask][sel])))
     return out
 
 
@@ -170,14 +168,31 @@ def pose_nees_none() -> dict:
     return {f"{q}_{k}": None for q in ("nees_pos", "nees_heading") for k in NEES_STATS}
 
 
-def window_pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end: float) -> dict:
-    """``nees_pos_window`` and ``nees_heading_window``: mean position / heading NEES over one window (None
-    without the covariance or a finite epoch)."""
-    def mean(f):
-        x = f(sol, reference, t_start, t_end)
-        return float(np.mean(x[np.isfinite(x)])) if np.isfinite(x).any() else None
-    return {"nees_pos_window": None if sol.cov_p_n is None else mean(nees_position),
-            "nees_heading_window": None if sol.cov_rot_b is None else mean(nees_heading)}
+def scored_mean(nees: np.ndarray, estimate_ok: np.ndarray) -> float | None:
+    """Mean of a per-epoch NEES by :func:`_nees_stats`'s rule: NaN when an estimate is lost (``estimate_ok``
+    False), else over the epochs with a NEES (those without a sigma left out); None without any."""
+    if not np.all(estimate_ok):
+        return float("nan")
+    ok = np.isfinite(nees)
+    return float(np.mean(nees[ok])) if ok.any() else None
+
+
+def window_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end: float) -> dict:
+    """``nees_window``, ``nees_pos_window`` and ``nees_heading_window``: mean velocity / position / heading NEES
+    over one window by :func:`scored_mean`'s rule (None without the covariance; a window without any NEES: the
+    velocity's NaN, the others None, as the benchmark has always stored them)."""
+    aligned, sel = _window(sol, reference, t_start, t_end)
+    rows = np.flatnonzero(aligned.mask)[sel]
+    out = {"nees_window": None, "nees_pos_window": None, "nees_heading_window": None}
+    for key, cov, f, estimate in (("nees_window", sol.cov_v_n, nees_velocity, sol.v_n),
+                                  ("nees_pos_window", sol.cov_p_n, nees_position, sol.p_n[:, :2]),
+                                  ("nees_heading_window", sol.cov_rot_b, nees_heading, sol.C_b_n)):
+        if cov is not None:
+            with np.errstate(invalid="ignore"):
+                out[key] = scored_mean(f(sol, reference, t_start, t_end), finite_rows(estimate[rows]))
+    if sol.cov_v_n is not None and out["nees_window"] is None:
+        out["nees_window"] = float("nan")
+    return out
 
 
 def nees_with_reference(sol: NavSolution, gt: GroundTruth, cov_gt_n: np.ndarray,
@@ -271,28 +286,26 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     err = v_n - aligned.v_true_n[sel]
     var = np.diagonal(cov, axis1=1, axis2=2)
     nees = nees_velocity(sol, reference, t0)
-    estimate_ok = _finite_rows(v_n)
+    estimate_ok = finite_rows(v_n)
     with np.errstate(invalid="ignore", divide="ignore"):
         out.update(_nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees", estimate_ok))
     if out["nees_mission"] is None:             # no epoch with a sigma, none lost: nothing to score
         return out
     out["nees_n_independent"] = out["nees_n_independent"] or 1
     # the same epochs for every variant: those with a sigma (a lost one leaves each of them NaN)
-    scored = estimate_ok & _finite_rows(cov) | ~estimate_ok
+    scored = estimate_ok & finite_rows(cov) | ~estimate_ok
     out["nees_axes_b"] = body_axis_nees(err[scored], cov[scored], sol.C_b_n[aligned.mask][sel][scored])
     out["nees_mission_interp"] = _mean_scored(sol, gt, t0, nees_velocity(sol, gt, t0))
     if gt_sigma_n is not None:
-        out["nees_mission_gt"] = float(np.mean(nees_with_reference(sol, reference, np.diag(np.square(gt_sigma_n)),
-                                                                   t0)[scored]))
+        out["nees_mission_gt"] = scored_mean(nees_with_reference(sol, reference, np.diag(np.square(gt_sigma_n)),
+                                                                 t0), estimate_ok)
     return out
 
 
 def _mean_scored(sol: NavSolution, ref: GroundTruth, t0: float, nees: np.ndarray) -> float:
-    """Mean of a per-epoch velocity NEES against ``ref`` after ``t0`` over the epochs with a finite covariance or
-    a lost estimate (:func:`_nees_stats`'s rule)."""
+    """Mean of a per-epoch velocity NEES against ``ref`` after ``t0`` by :func:`scored_mean`'s rule."""
     aligned, sel = _window(sol, ref, t0, None)
-    estimate_ok = _finite_rows(sol.v_n[aligned.mask][sel])
-    return float(np.mean(nees[estimate_ok & _finite_rows(sol.cov_v_n[aligned.mask][sel]) | ~estimate_ok]))
+    return scored_mean(nees, finite_rows(sol.v_n[aligned.mask][sel]))
 
 
 def body_axis_nees(err_n: np.ndarray, cov_v_n: np.ndarray, C_b_n: np.ndarray) -> list[float]:

@@ -36,6 +36,7 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import GroundTruth
 from graphnav.core.solution import NavSolution
+from graphnav.core.timeseries import finite_rows
 
 
 def _require_evo():
@@ -146,31 +147,38 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     if not at.mask.any():
         raise DataError(f"no estimate epoch inside the reference span [{poses.t[0]:.3f}, {poses.t[-1]:.3f}] s; are "
                         "both on the mission clock?", est.method, field="t")
-    traj_ref = _evo_trajectory(at.t, at.p_true_n, at.C_true_b_n, "reference")
-    traj_est = _evo_trajectory(est.t[at.mask], est.p_n[at.mask], est.C_b_n[at.mask], est.method or "estimate")
-    try:
-        traj_ref, traj_est = sync.associate_trajectories(traj_ref, traj_est, max_diff=max_diff_s)
-    except sync.SyncException as exc:
-        raise DataError(f"no common stamps with the reference within {max_diff_s} s ({exc}); are both on the "
-                        "mission clock?", est.method, field="t") from None
-    out: dict = {"matched_poses": int(traj_est.num_poses), "aligned": bool(align)}
-    if not align:
-        _warn_depth_offset(est.p_n[at.mask, 2] - at.p_true_n[:, 2], est.method)
-    if align:
-        traj_est.align(traj_ref, correct_scale=False)
-    for name, relation in (("ape_translation_m", PoseRelation.translation_part),
-                           ("ape_rotation_deg", PoseRelation.rotation_angle_deg)):
-        ape = metrics.APE(relation)
-        ape.process_data((traj_ref, traj_est))
-        out[name] = _stats(ape)
-    delta = rpe_delta if rpe_unit == "m" else int(rpe_delta)
-    rpe = metrics.RPE(PoseRelation.translation_part, delta=delta, delta_unit=units[rpe_unit], all_pairs=False)
-    try:
-        rpe.process_data((traj_ref, traj_est))
-        out["rpe_translation_m"] = _stats(rpe)
-    except metrics.MetricsException as exc:
-        out["rpe_translation_m"] = None
-        out["rpe_note"] = str(exc)
+    lost = int(np.sum(~(finite_rows(est.p_n[at.mask]) & finite_rows(est.C_b_n[at.mask]))))
+    if lost:
+        # the estimator lost track: no APE or RPE from the epochs it kept (evo cannot take a non-finite pose)
+        note = f"{lost} epoch(s) of the estimate without a finite pose (lost track): no number from part of the run"
+        out: dict = {"matched_poses": int(at.mask.sum()), "aligned": bool(align), "ape_translation_m": None,
+                     "ape_rotation_deg": None, "ape_note": note, "rpe_translation_m": None, "rpe_note": note}
+    else:
+        traj_ref = _evo_trajectory(at.t, at.p_true_n, at.C_true_b_n, "reference")
+        traj_est = _evo_trajectory(est.t[at.mask], est.p_n[at.mask], est.C_b_n[at.mask], est.method or "estimate")
+        try:
+            traj_ref, traj_est = sync.associate_trajectories(traj_ref, traj_est, max_diff=max_diff_s)
+        except sync.SyncException as exc:
+            raise DataError(f"no common stamps with the reference within {max_diff_s} s ({exc}); are both on the "
+                            "mission clock?", est.method, field="t") from None
+        out = {"matched_poses": int(traj_est.num_poses), "aligned": bool(align)}
+        if not align:
+            _warn_depth_offset(est.p_n[at.mask, 2] - at.p_true_n[:, 2], est.method)
+        if align:
+            traj_est.align(traj_ref, correct_scale=False)
+        for name, relation in (("ape_translation_m", PoseRelation.translation_part),
+                               ("ape_rotation_deg", PoseRelation.rotation_angle_deg)):
+            ape = metrics.APE(relation)
+            ape.process_data((traj_ref, traj_est))
+            out[name] = _stats(ape)
+        delta = rpe_delta if rpe_unit == "m" else int(rpe_delta)
+        rpe = metrics.RPE(PoseRelation.translation_part, delta=delta, delta_unit=units[rpe_unit], all_pairs=False)
+        try:
+            rpe.process_data((traj_ref, traj_est))
+            out["rpe_translation_m"] = _stats(rpe)
+        except metrics.MetricsException as exc:
+            out["rpe_translation_m"] = None
+            out["rpe_note"] = str(exc)
     out["rpe_delta"] = f"{rpe_delta:g} {rpe_unit}"
     from graphnav.evaluation.metrics import vrmse
     if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
@@ -179,7 +187,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     else:
         out["vrmse_mps"] = vrmse(est, ref)
         if not np.isfinite(out["vrmse_mps"]):
-            lost = int(np.sum(~np.all(np.isfinite(est.v_n), axis=1)))
+            lost = int(np.sum(~finite_rows(est.v_n[at.mask])))
             out["vrmse_note"] = f"{lost} epoch(s) of the estimate without a finite velocity (lost track)"
     if est.cov_v_n is None or out["vrmse_mps"] is None:
         out["nees_velocity_mean"] = out["nees_velocity_body_axes"] = None
@@ -256,7 +264,8 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
         return {"nees_velocity_mean": None, "nees_velocity_body_axes": None,
                 "nees_note": f"no epoch after {t0:.1f} s with a finite velocity sigma"}
     lo, hi = chi2_band(scores["nees_n_independent"])
-    diagonal = bool(np.allclose(est.cov_v_n, np.einsum("kii->ki", est.cov_v_n)[:, :, None] * np.eye(3)))
+    cov = est.cov_v_n[finite_rows(est.cov_v_n)]            # a file's empty sigma rows say nothing of the shape
+    diagonal = bool(len(cov)) and bool(np.allclose(cov, np.einsum("kii->ki", cov)[:, :, None] * np.eye(3)))
     return {"nees_velocity_mean": scores["nees_mission"], "nees_velocity_with_gt_error": scores["nees_mission_gt"],
             "nees_velocity_95pct_band": [lo, hi], "nees_n_independent": scores["nees_n_independent"],
             "nees_t0_s": t0, "nees_reference": scores["nees_reference"],
@@ -300,6 +309,8 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
                          f"max {s['max']:.4f}")
         elif key == "rpe_translation_m":
             lines.append(f"  {label}: not computed ({result.get('rpe_note')})")
+        elif key == "ape_translation_m":
+            lines.append(f"  APE: not computed ({result.get('ape_note')})")
     if result["vrmse_mps"] is not None and not np.isfinite(result["vrmse_mps"]):
         lines.append(f"  VRMSE: not finite ({result['vrmse_note']})")
     elif result["vrmse_mps"] is not None:

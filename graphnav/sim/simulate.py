@@ -637,7 +637,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
             sigmas are the configuration's largest values, the estimators' prior sigmas
             (:class:`graphnav.estimators.options.PriorOptions`), as a Monte Carlo consistency check needs. The
             mission's configuration keeps the given values either way (the estimators' priors come from them);
-            ``meta["dvl_errors"]`` holds those the beams were made with.
+            ``meta["dvl_errors"]`` holds those the beams were made with (None with ``noiseless``: nothing drawn).
 
     Returns:
         A validated :class:`Mission`. ``meta`` holds ``seed``, ``imu_grade``, ``noiseless``, ``dropout``,
@@ -750,7 +750,7 @@ def simulate_mission(duration_s: float = 400.0, imu_grade: str | ImuSpec = "navi
         ("-noiseless" if noiseless else "") + ("-velocity" if dvl_output == "velocity" else "") + \
         ("-surfacing" if surfacing is not None else "") + ("-transit" if pattern == "transit" else "") + \
         (f"-pivot{pivot_m:g}m" if pivot_m else "") + (f"-pitchpivot{pitch_pivot_m:g}m" if pitch_pivot_m else "") + \
-        ("-dvlerrorsdrawn" if dvl_errors == "drawn" else "")
+        ("-dvlerrorsdrawn" if dvl_errors == "drawn" and not noiseless else "")
     meta = {
         "simulated": True, "seed": seed, "imu_grade": grade, "noiseless": noiseless, "dropout": dropout,
         "dvl_output": dvl_output, "pattern": pattern, "pivot_m": float(pivot_m), "pitch_pivot_m": pitch_pivot_m,

@@ -98,7 +98,9 @@ def _pose_cells(rs: list[dict], key: str, dof: int) -> list[str]:
     """Mission NEES mean (range), window mean, 95 % band at the median independent epochs, trajectories inside
     their own band; "-" cells without values."""
     from graphnav.evaluation.consistency import chi2_band
-    per_traj = [r for r in {r["trajectory"]: r for r in rs}.values() if r.get(f"{key}_mission") is not None]
+    # finite only: a lost estimate's NaN in memory is the None of a reloaded results.json
+    per_traj = [r for r in {r["trajectory"]: r for r in rs}.values()
+                if r.get(f"{key}_mission") is not None and math.isfinite(r[f"{key}_mission"])]
     if not per_traj:
         return ["-"] * 4
     nees = [r[f"{key}_mission"] for r in per_traj]

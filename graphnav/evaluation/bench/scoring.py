@@ -38,11 +38,10 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
     ``pos_err_mission_end_m``, ``distance_mission_m``, and its NEES (:func:`mission_nees`: velocity, position,
     heading). ``reference``: the NEES's reference at ``sol``'s epochs when the caller has carried it
     (:func:`graphnav.evaluation.consistency.scoring_reference`; None: carried here when ``sol`` has a covariance)."""
-    from graphnav.evaluation.consistency import scoring_reference, window_pose_nees
+    from graphnav.evaluation.consistency import scoring_reference, window_nees
     from graphnav.evaluation.metrics import (
         horizontal_position_error,
         mission_drift,
-        nees_velocity,
         vrmse,
         window_drift,
     )
@@ -57,9 +56,6 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
                      "distance_mission_m": whole["distance_m"]}
     out = []
     for s in starts:
-        nees = None
-        if sol.cov_v_n is not None:
-            nees = float(np.mean(nees_velocity(sol, reference, s, s + window_s)))
         drift = window_drift(sol, gt, s, s + window_s)
         out.append({
             "window_start_s": float(s),
@@ -69,8 +65,7 @@ def score_case(sol: NavSolution, mission: Mission, starts: list[float], window_s
             "distance_window_m": drift["distance_m"],
             "drift_pct_window": drift["drift_pct"],
             "pos_err_abs_window_end_m": float(horizontal_position_error(sol, gt, s + window_s)),
-            "nees_window": nees,
-            **window_pose_nees(sol, reference, s, s + window_s),
+            **window_nees(sol, reference, s, s + window_s),
             **drift_mission,
             **consistency,
         })
