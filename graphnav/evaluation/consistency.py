@@ -266,7 +266,7 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
         ``nees_reference``
         (``"imu-carried"`` or ``"interpolated"``), ``nees_axes_b`` (:func:`body_axis_nees`, forward, starboard,
         down), ``nees_epochs_without_sigma`` (left out of every mean) and ``nees_epochs_lost`` (a non-finite
-        estimate: every mean NaN), as :func:`_nees_stats` counts them; the NEES values None without a covariance.
+        velocity or attitude: every mean NaN), as :func:`_nees_stats` counts them; the NEES values None without a covariance.
     """
     t0 = float(gt.t[0] + NEES_SETTLE_S) if t0 is None else float(t0)
     out = {**{f"nees_{k}": None for k in NEES_STATS}, "nees_mission_interp": None, "nees_mission_gt": None,
@@ -286,7 +286,8 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     err = v_n - aligned.v_true_n[sel]
     var = np.diagonal(cov, axis1=1, axis2=2)
     nees = nees_velocity(sol, reference, t0)
-    estimate_ok = finite_rows(v_n)
+    # the attitude too: the per-axis split needs it, and an estimator without one has lost track
+    estimate_ok = finite_rows(v_n) & finite_rows(sol.C_b_n[aligned.mask][sel])
     with np.errstate(invalid="ignore", divide="ignore"):
         out.update(_nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees", estimate_ok))
     if out["nees_mission"] is None:             # no epoch with a sigma, none lost: nothing to score
