@@ -271,12 +271,17 @@ def test_epochs_without_a_sigma_are_left_out_and_a_lost_estimate_gives_no_number
     assert np.isnan(lost["nees_mission"]) and lost["nees_epochs_lost"] == 1
     assert np.isnan(lost["nees_pos_mission"]) and lost["nees_pos_epochs_lost"] == 1
     assert np.isfinite(lost["nees_heading_mission"]) and lost["nees_heading_epochs_lost"] == 0
+    from graphnav.evaluation import consistency
     no_attitude = solution(v, p, P, P_p)
     no_attitude.C_b_n = no_attitude.C_b_n.copy()
     no_attitude.C_b_n[300] = np.nan                                  # a lost attitude is a lost estimate as well
     lost_attitude = reference_nees(no_attitude, gt, t0=60.0)
     assert np.isnan(lost_attitude["nees_mission"]) and lost_attitude["nees_epochs_lost"] == 1
     assert lost_attitude["nees_heading_epochs_lost"] == 1 and all(np.isnan(lost_attitude["nees_axes_b"]))
+    assert np.isnan(lost_attitude["nees_mission_interp"])
+    window = consistency.window_nees(no_attitude, gt, 290.0, 310.0)
+    assert np.isnan(window["nees_window"]) and np.isnan(window["nees_heading_window"])
+    assert np.isfinite(window["nees_pos_window"])
     from graphnav.evaluation.consistency import window_nees
     window = window_nees(solution(v, p, holes_v, holes_p), gt, 90.0, 130.0)        # 10 epochs without a sigma
     assert window["nees_window"] == pytest.approx(np.mean(nees_velocity(solution(v, p, P, P_p), gt, 90.0,

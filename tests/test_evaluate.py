@@ -137,7 +137,11 @@ def test_empty_sigma_rows_are_left_out_and_a_lost_estimate_is_said(run, tmp_path
     cli.main(["evaluate", lost, *ref])
     text = capsys.readouterr().out
     assert "VRMSE: not finite (2 epoch(s) of the estimate without a finite velocity (lost track))" in text
-    assert "velocity NEES: not finite" in text and "2 epoch(s) without a finite velocity estimate" in text
+    assert "velocity NEES: not finite" in text and "2 epoch(s) without a finite velocity or attitude estimate" in text
+    lost_attitude = blank(["roll_rad", "pitch_rad", "yaw_rad"], range(30, 33))   # read back: no SVD failure
+    assert cli.main(["evaluate", lost_attitude, *ref]) == 0
+    text = capsys.readouterr().out
+    assert "3 epoch(s) without a finite velocity or attitude estimate" in text and "APE: not computed" in text
     lost_pose = blank(["p_north_m", "p_east_m"], range(30, 33))       # evo cannot take them: no APE, and why
     assert cli.main(["evaluate", lost_pose, *ref]) == 0
     text = capsys.readouterr().out

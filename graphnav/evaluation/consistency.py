@@ -184,12 +184,14 @@ def window_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end:
     aligned, sel = _window(sol, reference, t_start, t_end)
     rows = np.flatnonzero(aligned.mask)[sel]
     out = {"nees_window": None, "nees_pos_window": None, "nees_heading_window": None}
-    for key, cov, f, estimate in (("nees_window", sol.cov_v_n, nees_velocity, sol.v_n),
-                                  ("nees_pos_window", sol.cov_p_n, nees_position, sol.p_n[:, :2]),
-                                  ("nees_heading_window", sol.cov_rot_b, nees_heading, sol.C_b_n)):
+    attitude_ok = finite_rows(sol.C_b_n[rows])
+    for key, cov, f, estimate_ok in (
+            ("nees_window", sol.cov_v_n, nees_velocity, finite_rows(sol.v_n[rows]) & attitude_ok),
+            ("nees_pos_window", sol.cov_p_n, nees_position, finite_rows(sol.p_n[rows, :2])),
+            ("nees_heading_window", sol.cov_rot_b, nees_heading, attitude_ok)):
         if cov is not None:
             with np.errstate(invalid="ignore"):
-                out[key] = scored_mean(f(sol, reference, t_start, t_end), finite_rows(estimate[rows]))
+                out[key] = scored_mean(f(sol, reference, t_start, t_end), estimate_ok)
     if sol.cov_v_n is not None and out["nees_window"] is None:
         out["nees_window"] = float("nan")
     return out
@@ -306,7 +308,8 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
 def _mean_scored(sol: NavSolution, ref: GroundTruth, t0: float, nees: np.ndarray) -> float:
     """Mean of a per-epoch velocity NEES against ``ref`` after ``t0`` by :func:`scored_mean`'s rule."""
     aligned, sel = _window(sol, ref, t0, None)
-    return scored_mean(nees, finite_rows(sol.v_n[aligned.mask][sel]))
+    rows = np.flatnonzero(aligned.mask)[sel]
+    return scored_mean(nees, finite_rows(sol.v_n[rows]) & finite_rows(sol.C_b_n[rows]))
 
 
 def body_axis_nees(err_n: np.ndarray, cov_v_n: np.ndarray, C_b_n: np.ndarray) -> list[float]:

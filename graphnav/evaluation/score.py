@@ -183,7 +183,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     from graphnav.evaluation.metrics import vrmse
     if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
         out["vrmse_mps"] = None
-        out["vrmse_note"] = "needs velocities in the estimate and the reference (a TUM file has none)"
+        out["vrmse_note"] = ("needs velocities in the estimate and the reference (a TUM file has none; a file whose "
+                             "velocity fields are all empty neither)")
     else:
         out["vrmse_mps"] = vrmse(est, ref)
         if not np.isfinite(out["vrmse_mps"]):
@@ -247,9 +248,8 @@ def _pose_nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTru
         out[f"nees_{name}_95pct_band"] = None if mean is None else list(chi2_band(n, dof))
         out[f"nees_{name}_n_independent"] = n
         out[f"nees_{name}_note"] = (f"needs {field} in the estimate" if mean is None else
-                                    f"{dof} dof, after {t0:.1f} s, one independent epoch per "
-                                    f"{_seconds(scores[f'{key}_decorrelation_s'])} s"
-                                    + _left_out(scores, key, name))
+                                    f"{dof} dof, after {t0:.1f} s" + _per_epoch(scores[f"{key}_decorrelation_s"])
+                                    + _left_out(scores, key, name, name))
     return out
 
 
@@ -273,24 +273,26 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
                                         else dict(zip(BODY_AXES, scores["nees_axes_b"]))),
             "nees_epochs_without_sigma": scores["nees_epochs_without_sigma"],
             "nees_epochs_lost": scores["nees_epochs_lost"],
-            "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference, one "
-                          f"independent epoch per {_seconds(scores['nees_decorrelation_s'])} s"
+            "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference"
+                          + _per_epoch(scores["nees_decorrelation_s"])
                           + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else "")
-                          + _left_out(scores, "nees", "velocity"))}
+                          + _left_out(scores, "nees", "velocity", "velocity or attitude"))}
 
 
-def _seconds(value) -> str:
-    return "-" if value is None else f"{value:.0f}"
+def _per_epoch(decorrelation_s) -> str:
+    """The band's count, when there is one (a run lost at every epoch has none)."""
+    return "" if decorrelation_s is None else f", one independent epoch per {decorrelation_s:.0f} s"
 
 
-def _left_out(scores: dict, key: str, what: str) -> str:
-    """What of the scored epochs has no NEES (:func:`graphnav.evaluation.consistency.reference_nees`'s counts)."""
+def _left_out(scores: dict, key: str, sigma_of: str, estimate_of: str) -> str:
+    """What of the scored epochs has no NEES (:func:`graphnav.evaluation.consistency.reference_nees`'s counts):
+    those without a ``sigma_of`` sigma, and those without a finite ``estimate_of`` estimate."""
     text = ""
     if scores.get(f"{key}_epochs_without_sigma"):
-        text += f"; {scores[f'{key}_epochs_without_sigma']} epoch(s) without a {what} sigma left out"
+        text += f"; {scores[f'{key}_epochs_without_sigma']} epoch(s) without a {sigma_of} sigma left out"
     if scores.get(f"{key}_epochs_lost"):
-        text += (f"; {scores[f'{key}_epochs_lost']} epoch(s) without a finite {what} estimate (lost track): "
-                 "no mean from part of the run")
+        text += (f"; {scores[f'{key}_epochs_lost']} epoch(s) without a finite {estimate_of} estimate (lost "
+                 "track): no mean from part of the run")
     return text
 
 

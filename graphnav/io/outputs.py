@@ -43,6 +43,7 @@ from graphnav.core.rotations import (
     heading_variance,
 )
 from graphnav.core.solution import NavSolution
+from graphnav.core.timeseries import finite_rows
 
 #: The columns every trajectory CSV graphnav wrote has (files from before the position and attitude sigmas
 #: were written still read and resume).
@@ -324,8 +325,12 @@ def _attitude_cov(C_b_n: np.ndarray, sigma_rpy: np.ndarray) -> np.ndarray | None
     cov_euler = _diagonal_cov(sigma_rpy)
     if cov_euler is None:
         return None
-    J_inv = np.linalg.inv(euler_jacobian(C_b_n))
-    return J_inv @ cov_euler @ np.swapaxes(J_inv, -1, -2)
+    # a row without an attitude (an estimator that lost track) has no covariance either: NaN, not an SVD failure
+    out = np.full_like(cov_euler, np.nan)
+    ok = finite_rows(C_b_n)
+    J_inv = np.linalg.inv(euler_jacobian(C_b_n[ok]))
+    out[ok] = J_inv @ cov_euler[ok] @ np.swapaxes(J_inv, -1, -2)
+    return out
 
 
 def _is_float(s: str) -> bool:

@@ -49,13 +49,17 @@ def nees_section(records: list[dict], grades, scenarios, methods) -> list[str]:
              "The reference at an estimate's epoch is the nearest GT sample carried to it by the IMU (a 1 Hz GT "
              "linearly interpolated misses the motion within the second: 0.1 m/s in waves at the surface); "
              "`interp. GT`: the mission NEES against the linearly interpolated GT, as scored before. One "
-             "trajectory with a bad stretch dominates a mean; the median over trajectories does not.", ""]
+             "trajectory with a bad stretch dominates a mean; the median over trajectories does not. A run that "
+             "lost track (an epoch without a finite estimate: no NEES from part of the run) is left out of the "
+             "NEES tables; in a window it counts as diverged.", ""]
     for grade in grades:
         for sc in scenarios:
             rows = []
             for m in methods:
+                # finite only, as the pose table: a lost run's NaN in memory is the None of a reloaded results.json
                 rs = [r for r in records if (r["imu_grade"], r["scenario"], r["method"]) == (grade, sc, m)
-                      and not r.get("error") and r.get("nees_mission") is not None]
+                      and not r.get("error") and r.get("nees_mission") is not None
+                      and math.isfinite(r["nees_mission"])]
                 if not rs:
                     continue
                 per_traj = {r["trajectory"]: r for r in rs}.values()     # one mission value per trajectory
