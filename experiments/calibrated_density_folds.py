@@ -27,7 +27,7 @@ from graphnav.calibration.noise import identify_imu_with_gt, white_density
 from graphnav.evaluation.bench import find_trajectories
 from graphnav.evaluation.bench.cases import prepared_mission
 from graphnav.evaluation.consistency import mission_nees
-from graphnav.evaluation.crossval import SNAPIR_FOLDS, STUDY_METHODS, run_methods
+from graphnav.evaluation.crossval import SNAPIR_FOLDS, STUDY_METHODS, mean_range, run_methods
 from graphnav.evaluation.metrics import vrmse
 from graphnav.evaluation.tasks import run_tasks
 from graphnav.io.loaders import PHINS_RECORDED
@@ -113,7 +113,7 @@ def main(argv=None) -> int:
         for setting in SETTINGS:
             sel = [r for r in rows if r["method"] == m and r["setting"] == setting]
             nees = np.array([r["nees_mission"] for r in sel])
-            print(f"| {m} | {setting} | {nees.mean():.2f} ({nees.min():.2f}-{nees.max():.2f}) | "
+            print(f"| {m} | {setting} | {mean_range(nees)} | "
                   f"{int(np.sum(nees > 3.9))} of {len(sel)} | {np.mean([r['vrmse_mission'] for r in sel]):.4f} |")
     return 0
 

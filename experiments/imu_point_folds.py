@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.evaluation.crossval import SNAPIR_FOLDS, STUDY_METHODS, run_methods, with_imu_noise_scale
+from graphnav.evaluation.crossval import SNAPIR_FOLDS, STUDY_METHODS, mean_range, run_methods, with_imu_noise_scale
 from graphnav.evaluation.tasks import run_tasks
 from graphnav.io.loaders import AKIT_LEVER_ARM_B
 from graphnav.io.paths import akit_trajectories
@@ -110,10 +110,9 @@ def main(argv=None) -> int:
     for method in STUDY_METHODS:
         for setting in SETTINGS:
             sel = [r for r in rows if r["method"] == method and r["setting"] == setting]
-            nees = np.array([r["nees_mission"] for r in sel])
             print(f"| {method} | {setting} | {np.mean([r['vrmse_mission'] for r in sel]):.4f} | "
                   f"{np.mean([r['vrmse_at_dvl_point'] for r in sel]):.4f} | "
-                  f"{nees.mean():.2f} ({nees.min():.2f}-{nees.max():.2f}) |")
+                  f"{mean_range([r['nees_mission'] for r in sel])} |")
     return 0
 
 

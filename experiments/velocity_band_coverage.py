@@ -28,7 +28,7 @@ import numpy as np
 
 from graphnav.commands.common import name_value_pairs
 from graphnav.core.errors import ConfigError
-from graphnav.evaluation.crossval import STUDY_METHODS
+from graphnav.evaluation.crossval import STUDY_METHODS, mean_range
 from graphnav.evaluation.tasks import run_tasks
 
 
@@ -76,9 +76,9 @@ def main(argv=None) -> int:
     print("| --- | --- | --- | --- | --- | --- |")
     for method in STUDY_METHODS:
         sel = [r for r in rows if r["method"] == method]
-        nees, tau = np.array([r["nees"] for r in sel]), np.array([r["tau_s"] for r in sel])
+        tau = np.array([r["tau_s"] for r in sel])
         axes = np.mean([r["axes"] for r in sel], axis=0)
-        print(f"| {method} | {nees.mean():.2f} ({nees.min():.2f}-{nees.max():.2f}) | {axes[0]:.2f}, {axes[1]:.2f}, "
+        print(f"| {method} | {mean_range([r['nees'] for r in sel])} | {axes[0]:.2f}, {axes[1]:.2f}, "
               f"{axes[2]:.2f} | {np.median(tau):.0f} ({tau.min():.0f}-{tau.max():.0f}) | "
               f"{sum(r['inside'] for r in sel)} of {len(sel)} | {sum(r['inside_10s'] for r in sel)} of {len(sel)} |")
     return 0

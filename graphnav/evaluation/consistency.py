@@ -129,10 +129,15 @@ def _nees_stats(t: np.ndarray, nees: np.ndarray, z: np.ndarray, prefix: str, est
             out[f"{prefix}_mission"], out[f"{prefix}_n_independent"] = float("nan"), 1
         return out
     tau = decorrelation_time(t[ok], z[ok])
-    out.update({f"{prefix}_mission": float("nan") if lost.any() else float(np.mean(nees[ok])),
+    out.update({f"{prefix}_mission": scored_mean(nees, ~lost),
                 f"{prefix}_n_independent": n_independent(t[ok], tau), f"{prefix}_decorrelation_s": tau})
     return out
 
+
+def _velocity_ok(sol: NavSolution, rows: np.ndarray) -> np.ndarray:
+    """Per row of ``sol`` in ``rows``: a finite velocity and attitude (the per-axis split needs the attitude, and
+    an estimator without one has lost track), :func:`_nees_stats`'s ``estimate_ok`` of the velocity NEES."""
+    return finite_rows(sol.v_n[rows]) & finite_rows(sol.C_b_n[rows])
 
 
 def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = None,
@@ -184,11 +189,10 @@ def window_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end:
     aligned, sel = _window(sol, reference, t_start, t_end)
     rows = np.flatnonzero(aligned.mask)[sel]
     out = {"nees_window": None, "nees_pos_window": None, "nees_heading_window": None}
-    attitude_ok = finite_rows(sol.C_b_n[rows])
     for key, cov, f, estimate_ok in (
-            ("nees_window", sol.cov_v_n, nees_velocity, finite_rows(sol.v_n[rows]) & attitude_ok),
+            ("nees_window", sol.cov_v_n, nees_velocity, _velocity_ok(sol, rows)),
             ("nees_pos_window", sol.cov_p_n, nees_position, finite_rows(sol.p_n[rows, :2])),
-            ("nees_heading_window", sol.cov_rot_b, nees_heading, attitude_ok)):
+            ("nees_heading_window", sol.cov_rot_b, nees_heading, finite_rows(sol.C_b_n[rows]))):
         if cov is not None:
             with np.errstate(invalid="ignore"):
                 out[key] = scored_mean(f(sol, reference, t_start, t_end), estimate_ok)
@@ -268,7 +272,8 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
         ``nees_reference``
         (``"imu-carried"`` or ``"interpolated"``), ``nees_axes_b`` (:func:`body_axis_nees`, forward, starboard,
         down), ``nees_epochs_without_sigma`` (left out of every mean) and ``nees_epochs_lost`` (a non-finite
-        velocity or attitude: every mean NaN), as :func:`_nees_stats` counts them; the NEES values None without a covariance.
+        velocity or attitude: every mean NaN), as :func:`_nees_stats` counts them; the NEES values None without a
+        covariance.
     """
     t0 = float(gt.t[0] + NEES_SETTLE_S) if t0 is None else float(t0)
     out = {**{f"nees_{k}": None for k in NEES_STATS}, "nees_mission_interp": None, "nees_mission_gt": None,
@@ -284,12 +289,12 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     # the velocity error is correlated for as long as the DVL's error states and the IMU's bias keep it: its
     # independent epochs are counted from its own decorrelation, as the position's and the heading's are
     aligned, sel = _window(sol, reference, t0, None)
-    v_n, cov = sol.v_n[aligned.mask][sel], sol.cov_v_n[aligned.mask][sel]
-    err = v_n - aligned.v_true_n[sel]
+    rows = np.flatnonzero(aligned.mask)[sel]
+    cov = sol.cov_v_n[rows]
+    err = sol.v_n[rows] - aligned.v_true_n[sel]
     var = np.diagonal(cov, axis1=1, axis2=2)
     nees = nees_velocity(sol, reference, t0)
-    # the attitude too: the per-axis split needs it, and an estimator without one has lost track
-    estimate_ok = finite_rows(v_n) & finite_rows(sol.C_b_n[aligned.mask][sel])
+    estimate_ok = _velocity_ok(sol, rows)
     with np.errstate(invalid="ignore", divide="ignore"):
         out.update(_nees_stats(aligned.t[sel], nees, err / np.sqrt(var), "nees", estimate_ok))
     if out["nees_mission"] is None:             # no epoch with a sigma, none lost: nothing to score
@@ -297,19 +302,20 @@ def reference_nees(sol: NavSolution, gt: GroundTruth, mission=None, t0: float | 
     out["nees_n_independent"] = out["nees_n_independent"] or 1
     # the same epochs for every variant: those with a sigma (a lost one leaves each of them NaN)
     scored = estimate_ok & finite_rows(cov) | ~estimate_ok
-    out["nees_axes_b"] = body_axis_nees(err[scored], cov[scored], sol.C_b_n[aligned.mask][sel][scored])
-    out["nees_mission_interp"] = _mean_scored(sol, gt, t0, nees_velocity(sol, gt, t0))
+    out["nees_axes_b"] = body_axis_nees(err[scored], cov[scored], sol.C_b_n[rows][scored])
+    out["nees_mission_interp"] = mean_velocity_nees(sol, gt, t0)
     if gt_sigma_n is not None:
-        out["nees_mission_gt"] = scored_mean(nees_with_reference(sol, reference, np.diag(np.square(gt_sigma_n)),
-                                                                 t0), estimate_ok)
+        out["nees_mission_gt"] = mean_velocity_nees(sol, reference, t0, np.diag(np.square(gt_sigma_n)))
     return out
 
 
-def _mean_scored(sol: NavSolution, ref: GroundTruth, t0: float, nees: np.ndarray) -> float:
-    """Mean of a per-epoch velocity NEES against ``ref`` after ``t0`` by :func:`scored_mean`'s rule."""
+def mean_velocity_nees(sol: NavSolution, ref: GroundTruth, t0: float, cov_gt_n: np.ndarray | None = None) -> float:
+    """Mean velocity NEES against ``ref`` after ``t0`` (s), with the reference's covariance ``cov_gt_n`` (3,3) NED
+    (m/s)^2 added when given (:func:`nees_with_reference`), by :func:`scored_mean`'s rule (an epoch without a
+    sigma left out, a lost one: NaN)."""
     aligned, sel = _window(sol, ref, t0, None)
-    rows = np.flatnonzero(aligned.mask)[sel]
-    return scored_mean(nees, finite_rows(sol.v_n[rows]) & finite_rows(sol.C_b_n[rows]))
+    nees = nees_velocity(sol, ref, t0) if cov_gt_n is None else nees_with_reference(sol, ref, cov_gt_n, t0)
+    return scored_mean(nees, _velocity_ok(sol, np.flatnonzero(aligned.mask)[sel]))
 
 
 def body_axis_nees(err_n: np.ndarray, cov_v_n: np.ndarray, C_b_n: np.ndarray) -> list[float]:

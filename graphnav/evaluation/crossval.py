@@ -147,6 +147,12 @@ def _study_methods() -> tuple[str, ...]:
 STUDY_METHODS: tuple[str, ...] = _study_methods()
 
 
+def mean_range(values, digits: int = 2) -> str:
+    """A study table's cell: ``mean (min-max)`` of ``values``."""
+    x = np.asarray(values, dtype=float)
+    return f"{x.mean():.{digits}f} ({x.min():.{digits}f}-{x.max():.{digits}f})"
+
+
 # --- folds -----------------------------------------------------------------------------------------------
 def make_folds(names: Sequence[str], n_folds: int) -> list[tuple[str, ...]]:
     """``n_folds`` folds of whole trajectories: the names in natural order dealt out round-robin (fixed, no
