@@ -29,10 +29,10 @@ TRUE_YAW = np.deg2rad(1.5)   # DVL mounting yaw, C_d_b = Rz(yaw)
 TRUE_SCALE = 0.01
 
 
-def miscalibrated_mission(seed=3, duration=600.0, beam_noise=0.01):
+def miscalibrated_mission(seed=3, duration=600.0, beam_noise=0.01, yaw=TRUE_YAW):
     truth = SensorConfig()
     truth.dvl.lever_arm_b = TRUE_LEVER
-    truth.dvl.C_d_b = Rotation.from_euler("z", TRUE_YAW).as_matrix()
+    truth.dvl.C_d_b = Rotation.from_euler("z", yaw).as_matrix()
     truth.dvl.scale_factor = np.full(3, TRUE_SCALE)
     truth.dvl.beam_noise_std = beam_noise
     m = simulate_mission(duration, seed=seed, config=truth)

@@ -15,7 +15,9 @@ Two modes (``graphnav calibrate``):
   Uncertainties: parameter covariance ``sigma^2 (A^T A)^-1`` of the fit and offset sigma from the
   curvature of the profiled cost, both inflated by the residuals' autocorrelation
   (:func:`correlation_inflation`; real DVL-minus-GT residuals are correlated over a few seconds). They
-  are statistical only: differences between trajectories (e.g. lever arm z) are larger.
+  are statistical only: on the ten Snapir trajectories they cover the lever arm and the vertical bias, but the
+  mounting yaw, the scale factor and the accelerometer's position differ between missions by 2-4 times them
+  (:mod:`graphnav.calibration.combine` combines several missions with that spread).
 * **without ground truth** (``mode="graph"``): see :mod:`graphnav.calibration.without_gt` (lever arm as a
   Point3 variable in the beam factors, DVL offset by profiling the graph's negative log-likelihood).
 

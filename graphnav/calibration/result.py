@@ -10,6 +10,15 @@ from graphnav.calibration.noise import ESTIMATOR_DENSITY_FACTOR, NoiseEstimate
 from graphnav.core.config import SensorConfig
 
 
+#: How each estimated quantity is printed (a single mission's report and the combination of several): field ->
+#: (label, scale to the printed unit, printed unit or None for the quantity's own, digits).
+PRINTED = {"lever_arm_b": ("DVL lever arm", 1.0, None, 3), "dvl_time_offset_s": ("DVL time offset", 1.0, None, 3),
+           "gt_time_offset_s": ("IMU-to-GT time offset", 1.0, None, 3),
+           "dvl_yaw_rad": ("DVL mounting yaw", 180 / np.pi, "deg", 3), "dvl_scale": ("DVL scale factor", 100.0, "%", 3),
+           "dvl_bias": ("DVL vertical bias", 1e3, "mm/s", 1),
+           "imu_position_b": ("IMU position vs GT point", 1.0, None, 3)}
+
+
 @dataclass
 class Quantity:
     """An estimate with its 1-sigma uncertainty (same shape) and unit."""
@@ -73,22 +82,21 @@ class CalibrationResult:
                 "info": {k: v for k, v in self.info.items() if isinstance(v, (int, float, str, bool))}}
 
     def report(self) -> str:
-        def fmt(x: Quantity | None, scale=1.0, unit=None, digits=3):
+        def line(name):
+            label, scale, unit, digits = PRINTED[name]
+            if name == "lever_arm_b":
+                label += f" (vs {'GT point' if self.mode == 'gt' else 'IMU':<8})"
+            x = getattr(self, name)
             if x is None:
-                return "not estimated in this mode"
+                return f"  {label:<26}: not estimated in this mode"
             v, s = np.atleast_1d(x.value) * scale, np.atleast_1d(x.sigma) * scale
             parts = [f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]
-            return ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + f" {unit or x.unit}"
-        ref = "GT point" if self.mode == "gt" else "IMU"
-        lines = [f"calibration mode: {self.mode}",
-                 f"  DVL lever arm (vs {ref:<8}): {fmt(self.lever_arm_b)}",
-                 f"  DVL time offset           : {fmt(self.dvl_time_offset_s)}",
-                 f"  IMU-to-GT time offset     : {fmt(self.gt_time_offset_s)}",
-                 f"  DVL mounting yaw          : {fmt(self.dvl_yaw_rad, 180 / np.pi, 'deg')}",
-                 f"  DVL scale factor          : {fmt(self.dvl_scale, 100, '%')}",
-                 f"  DVL vertical bias         : {fmt(self.dvl_bias, 1e3, 'mm/s', 1)}",
-                 f"  residual RMS              : {self.residual_rms:.4f}",
-                 f"  IMU position vs GT point  : {fmt(self.imu_position_b)}",
+            return f"  {label:<26}: " + ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + \
+                f" {unit or x.unit}"
+        lines = [f"calibration mode: {self.mode}", *map(line, list(PRINTED)[:-1]),
+                 f"  {'residual RMS':<26}: {self.residual_rms:.4f}", line("imu_position_b"),
+                 "  (sigmas: what this mission's data fix, not how much the next mission differs; give several "
+                 "missions to see that)",
                  f"  IMU axes ({self.axis_check.method}): "
                  + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
         lines += [f"    note: {n}" for n in self.axis_check.notes]
