@@ -12,9 +12,11 @@ missions ``i`` with values ``y_i`` and sigmas ``s_i``; Cochran's ``Q = sum w_i (
 ``w_i = 1 / s_i^2`` measures the scatter, the between-mission variance is
 ``tau^2 = max(0, (Q - (k - 1)) / (sum w - sum w^2 / sum w))``, and the combined value is the mean weighted by
 ``1 / (s_i^2 + tau^2)``, whose sigma is ``1 / sqrt(sum 1 / (s_i^2 + tau^2))``. A next mission's true value is
-expected within ``sqrt(tau^2 + sigma^2)`` of it (Gaussian; no Student-t correction for few missions; that mission's
-own estimate adds its own sigma). The ``p`` of ``Q`` against chi-square with ``k - 1`` degrees of freedom says whether
-the missions differ beyond their sigmas.
+expected within ``sqrt(tau^2 + sigma^2)`` of it (that mission's own estimate adds its own sigma), and within
+``t_{k-2}(0.975) sqrt(tau^2 + sigma^2)`` at 95 % (Higgins, Thompson and Spiegelhalter's prediction interval: with few
+missions tau is itself uncertain, and 1.96 of that sigma covers 75-85 % when they differ; none with two missions). The
+``p`` of ``Q`` against chi-square with ``k - 1`` degrees of freedom says whether the missions differ beyond their
+sigmas.
 
 The time offsets are combined for the report only: a log's clocks are its own.
 """
@@ -26,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
+from scipy.stats import t as student_t
 
 from graphnav.calibration.result import PRINTED, CalibrationResult
 from graphnav.core.config import SensorConfig
@@ -53,7 +56,9 @@ class RandomEffects:
         value: the random-effects mean.
         sigma: the mean's 1-sigma.
         between_sigma: tau, the spread of the missions' true values around the mean (0 when none is seen).
-        next_mission_sigma: ``sqrt(tau^2 + sigma^2)``, where the next mission's value is expected.
+        next_mission_sigma: ``sqrt(tau^2 + sigma^2)``, where the next mission's true value is expected.
+        next_mission_95: the half-width of its 95 % prediction interval, ``t_{k-2}(0.975)`` times
+            ``next_mission_sigma`` (NaN with fewer than three missions).
         q_per_dof: Cochran's Q over its k - 1 degrees of freedom (about 1 when the sigmas cover the scatter).
         p: the probability of a Q at least this large were the missions' true values equal.
         n: missions combined (those with a finite value and a positive sigma).
@@ -63,6 +68,7 @@ class RandomEffects:
     sigma: np.ndarray
     between_sigma: np.ndarray
     next_mission_sigma: np.ndarray
+    next_mission_95: np.ndarray
     q_per_dof: np.ndarray
     p: np.ndarray
     n: np.ndarray
@@ -75,8 +81,8 @@ def random_effects(values, sigmas) -> RandomEffects:
     """DerSimonian-Laird combination of ``values`` (k, ...) with 1-sigmas ``sigmas`` (k, ...), column by column.
 
     Missions with a non-finite value or a sigma that is not a positive finite number are left out of their
-    column. A column with one mission passes it through (no spread can be seen: ``between_sigma``, ``q_per_dof``
-    and ``p`` are NaN); with none, everything is NaN.
+    column. A column with one mission passes it through (no spread can be seen: ``between_sigma``, the next-mission
+    numbers, ``q_per_dof`` and ``p`` are NaN); with none, everything is NaN.
     """
     y = np.asarray(values, float)
     s = np.asarray(sigmas, float)
@@ -85,7 +91,7 @@ def random_effects(values, sigmas) -> RandomEffects:
     shape = y.shape[1:]
     y, s = y.reshape(len(y), -1), s.reshape(len(s), -1)
     out = {k: np.full(y.shape[1], np.nan) for k in ("value", "sigma", "between_sigma", "next_mission_sigma",
-                                                     "q_per_dof", "p")}
+                                                     "next_mission_95", "q_per_dof", "p")}
     n = np.zeros(y.shape[1], int)
     for j in range(y.shape[1]):
         use = np.isfinite(y[:, j]) & np.isfinite(s[:, j]) & (s[:, j] > 0)
@@ -105,6 +111,8 @@ def random_effects(values, sigmas) -> RandomEffects:
         out["sigma"][j] = 1.0 / np.sqrt(np.sum(w_re))
         out["between_sigma"][j] = np.sqrt(tau2)
         out["next_mission_sigma"][j] = np.sqrt(tau2 + out["sigma"][j] ** 2)
+        if k >= 3:
+            out["next_mission_95"][j] = float(student_t.ppf(0.975, k - 2)) * out["next_mission_sigma"][j]
         out["q_per_dof"][j] = q / (k - 1)
         out["p"][j] = float(chi2.sf(q, k - 1))
     return RandomEffects(**{k: v.reshape(shape) for k, v in out.items()}, n=n.reshape(shape))
@@ -163,13 +171,14 @@ class CombinedCalibration:
         def line(name, q, next_mission=True):
             _, scale, unit, digits = PRINTED[name]
             flag = "  MISSIONS DIFFER beyond their sigmas" if name in self.differing() else ""
-            nxt = f"next mission +- {cells(q.next_mission_sigma, scale, digits, '')}; " if next_mission else ""
+            nxt = (f"next mission +- {cells(q.next_mission_sigma, scale, digits, '')} (95 %: +- "
+                   f"{cells(q.next_mission_95, scale, digits, '')}); ") if next_mission else ""
             return (f"  {label_of(name):<26}: {cells(q.value, scale, digits)} +- {cells(q.sigma, scale, digits, '')} "
                     f"{unit or self.units[name]}; {nxt}scatter/sigma {cells(np.sqrt(q.q_per_dof), 1.0, 1, '')}{flag}")
 
         lines = [f"combined over {len(self.names)} missions (random effects): the value +- its sigma; where the next "
-                 "mission's true value is expected (its own estimate adds its own sigma); the scatter over the "
-                 "per-mission sigmas (about 1 when they cover it):"]
+                 "mission's true value is expected, 1 sigma and 95 % (its own estimate adds its own sigma; no 95 % "
+                 "with two missions); the scatter over the per-mission sigmas (about 1 when they cover it):"]
         lines += [line(name, q) for name, q in self.quantities.items() if name not in CLOCK_FIELDS]
         if self.differing():
             lines.append("  (a single mission's sigma does not cover another mission for these; use the next-mission "
