@@ -243,3 +243,17 @@ def test_the_accelerometer_position_holds_with_a_sparse_reference(gt_rate_hz):
     sigma = np.sqrt(np.diag(cov))
     assert np.all(np.abs(r) < np.maximum(4 * sigma, 1e-3)) and np.all(np.abs(r) < 0.03), (r, sigma)
     assert after <= before
+
+
+@pytest.mark.parametrize("gt_rate_hz", [10.0, 1.0])
+def test_the_accelerometer_position_does_not_hang_on_where_the_gt_stamps_fall(gt_rate_hz):
+    """The simulated GT stamps fall on IMU samples; half a microsecond later each boundary falls just after one. The
+    GT's acceleration steps there: integrated sample by sample, the sample held across the boundary took one side's
+    acceleration or the other's, and the position moved by up to 20 mm (10 Hz GT) for that half microsecond. The
+    interval means of the rotation times each interval's constant acceleration do not see where the samples fall."""
+    from graphnav.calibration.dvl_fit import estimate_imu_position
+    mission = simulate_mission(300.0, seed=21, gt_rate_hz=gt_rate_hz)
+    late = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + 5e-7))
+    r, cov, _, _ = estimate_imu_position(mission)
+    r_late = estimate_imu_position(late)[0]
+    assert np.max(np.abs(r_late - r)) < 0.1 * np.min(np.sqrt(np.diag(cov))), (r, r_late)

@@ -21,7 +21,7 @@ samples either side, blended, as the time-offset calibration's
 :class:`graphnav.calibration.reference.Reference`) brings that to 0.025 / 0.024 / 0.013 m/s,
 and submerged the vertical from 0.023 to 0.003 m/s (``graphnav consistency --reference-check``). The NEES
 of the benchmark is therefore scored against the IMU-carried reference; the velocity RMSE keeps the plain
-interpolation (comparable with earlier results). The IMU's own error over at most a second (white 8.7e-4
+interpolation (comparable with earlier results). The IMU's own error over at most a second (white 8.2e-4
 m/s^2/sqrt(Hz) identified, 3.5e-3 as the estimators model it: 0.001-0.003 m/s; bias 50 micro-g: 5e-4 m/s) is
 small against the estimators' velocity sigmas; it is partly the estimators' error too, which lowers the NEES
 slightly (not measured separately).

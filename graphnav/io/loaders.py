@@ -144,7 +144,7 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: integrate over, the GT's 1-s sample interval and the DVL's 1-s ping interval: the mismatch of the IMU's 1-s
 #: velocity and attitude increments with the GT's (:func:`graphnav.calibration.noise.identify_imu_with_gt`:
 #: interval means, the accelerometer's position fitted out), median over the ten shared trajectories:
-#: accelerometer 8.7e-4 m/s^2/sqrt(Hz) (5.9e-4..1.4e-3 per trajectory), gyro 1.1e-5 rad/s/sqrt(Hz)
+#: accelerometer 8.2e-4 m/s^2/sqrt(Hz) (5.8e-4..1.1e-3 per trajectory), gyro 1.1e-5 rad/s/sqrt(Hz)
 #: (8.2e-6..1.9e-5; upper bounds: they hold the GT's own noise too). (The identification took the attitude at
 #: each interval's middle until it gave 2.5e-3 for the accelerometer: a rolling vehicle's gravity seen at the
 #: wrong attitude.) The sample-to-sample scatter is larger (Allan deviation at 0.01-0.1 s: gyro 6.4e-5,
@@ -159,7 +159,7 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: The GT's own velocity error, 1-sigma per NED axis (m/s), identified by ``experiments/identify_noise.py`` over
 #: the ten shared trajectories (:func:`graphnav.calibration.noise.gt_white_velocity_error`): the GT's white
 #: velocity error per body axis, from its 1-s velocity increments against the IMU's with the identified
-#: accelerometer density removed (independent of every estimator here), median x 0, y 0, z 0.0008 m/s (0.0005 to
+#: accelerometer density removed (independent of every estimator here), median x 0, y 0, z 0.0008 m/s (0.0006 to
 #: 0.0011 per trajectory; an upper bound, the excess of the accelerometer's noisiest axis over its median one,
 #: which may be the accelerometer's own). No white horizontal error shows. (With the attitude at each interval's
 #: middle the increments gave y 0.0081 m/s, 0.0058 per horizontal axis: the roll seen at the wrong attitude.)
