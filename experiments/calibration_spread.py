@@ -35,6 +35,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import t as student_t
 
 from graphnav.calibration.combine import random_effects
 from graphnav.io.paths import akit_trajectories
@@ -134,7 +135,9 @@ def print_navigation(rows: list[dict]) -> None:
 
 
 def held_out(y: np.ndarray, s: np.ndarray) -> dict:
-    """Leave-one-out z of each mission (k,) against the others: per-mission sigmas only, and random effects."""
+    """Leave-one-out z of each mission (k,) against the others: per-mission sigmas only, and random effects; with the
+    random effects also how many fall within the 95 % interval (|z| under the t quantile of ``k - 3`` degrees of
+    freedom, the ``k - 1`` others' ``next_mission_95`` over their next-mission sigma)."""
     z_fixed, z_re = [], []
     for i in range(len(y)):
         rest = np.arange(len(y)) != i
@@ -144,8 +147,10 @@ def held_out(y: np.ndarray, s: np.ndarray) -> dict:
         re = random_effects(y[rest], s[rest])
         z_re.append((y[i] - float(re.value)) / np.hypot(s[i], float(re.next_mission_sigma)))
     z_fixed, z_re = np.array(z_fixed), np.array(z_re)
+    t95 = float(student_t.ppf(0.975, len(y) - 3)) if len(y) > 3 else float("nan")
     return {"within2_fixed": int(np.sum(np.abs(z_fixed) < 2)), "rms_z_fixed": float(np.sqrt(np.mean(z_fixed ** 2))),
-            "within2_re": int(np.sum(np.abs(z_re) < 2)), "rms_z_re": float(np.sqrt(np.mean(z_re ** 2)))}
+            "within2_re": int(np.sum(np.abs(z_re) < 2)), "rms_z_re": float(np.sqrt(np.mean(z_re ** 2))),
+            "within95_re": int(np.sum(np.abs(z_re) < t95)), "max_abs_z_re": float(np.max(np.abs(z_re)))}
 
 
 def table(per_mission: dict) -> list[dict]:
@@ -182,13 +187,13 @@ def main(argv=None) -> None:
     rows, k = table(per_mission), len(per_mission)
     print("| quantity | combined | median per-mission sigma | spread over the missions | next-mission sigma | "
           f"scatter/sigma | held out within 2 sigma, of {k}: per-mission sigmas / random effects | "
-          "RMS z: per-mission / "
-          "random effects |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+          "RMS z: per-mission / random effects | held out within the 95 % interval (largest z) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         print(f"| {r['quantity']} ({r['unit']}) | {r['value']:+.3f} | {r['median_sigma']:.3f} | {r['spread']:.3f} | "
               f"{r['next_mission_sigma']:.3f} | {r['scatter_over_sigma']:.1f} | {r['within2_fixed']} / "
-              f"{r['within2_re']} | {r['rms_z_fixed']:.2f} / {r['rms_z_re']:.2f} |")
+              f"{r['within2_re']} | {r['rms_z_fixed']:.2f} / {r['rms_z_re']:.2f} | {r['within95_re']} "
+              f"({r['max_abs_z_re']:.2f}) |")
     runs = []
     if args.navigate:
         with tempfile.TemporaryDirectory() as tmp:

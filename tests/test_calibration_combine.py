@@ -76,18 +76,19 @@ def test_the_next_mission_sigma_covers_missions_that_differ():
 @pytest.mark.parametrize("k", [4, 6])
 def test_the_95_percent_interval_holds_with_few_missions(k):
     """k missions whose true values scatter twice their sigmas; a next one drawn from the same spread: the interval
-    of t with k - 2 degrees of freedom covers it about 95 % of the time, 1.96 next-mission sigmas far less."""
+    of t with k - 2 degrees of freedom covers it about 95 % of the time (92-93 % with six missions: DL's tau),
+    1.96 next-mission sigmas far less."""
     rng = np.random.default_rng(11 + k)
     gaussian, student = [], []
-    for _ in range(1000):
+    for _ in range(4000):
         s = rng.uniform(0.5, 1.5, k)
         truth = rng.normal(0.0, 2.0, k + 1)
         re = random_effects(truth[:k] + rng.normal(0.0, 1.0, k) * s, s)
         miss = abs(truth[k] - re.value)
         gaussian.append(miss < 1.96 * re.next_mission_sigma)
         student.append(miss < re.next_mission_95)
-    assert np.mean(gaussian) < 0.88                 # 0.79 and 0.86 here
-    assert 0.91 < np.mean(student) < 0.985          # 0.945 and 0.931 here; 0.95 for an exact interval
+    assert np.mean(gaussian) < 0.88                 # 0.80 and 0.85 here (0.80-0.81, 0.84-0.86 over four seeds)
+    assert 0.90 < np.mean(student) < 0.98           # 0.94 and 0.925 here (0.94-0.95, 0.92-0.93); 0.95 if exact
     assert np.isnan(random_effects(np.array([0.0, 1.0]), np.array([0.1, 0.1])).next_mission_95)
 
 

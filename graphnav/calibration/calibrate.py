@@ -16,7 +16,7 @@ Two modes (``graphnav calibrate``):
   curvature of the profiled cost, both inflated by the residuals' autocorrelation
   (:func:`correlation_inflation`; real DVL-minus-GT residuals are correlated over a few seconds). They
   are statistical only: on the ten Snapir trajectories they cover the lever arm and the vertical bias, but the
-  mounting yaw, the scale factor and the accelerometer's position differ between missions by 2-4 times them
+  mounting yaw, the scale factor and the accelerometer's position differ between missions by 2.1-4.3 times them
   (:mod:`graphnav.calibration.combine` combines several missions with that spread).
 * **without ground truth** (``mode="graph"``): see :mod:`graphnav.calibration.without_gt` (lever arm as a
   Point3 variable in the beam factors, DVL offset by profiling the graph's negative log-likelihood).

@@ -2,7 +2,7 @@
 
 A single mission's sigmas (:mod:`graphnav.calibration.calibrate`) are statistical: they say how well that mission's
 data fix its own value. Some quantities differ between missions by more than that: on the ten shared Snapir
-trajectories the DVL mounting yaw, its scale factor and the accelerometer's position scatter 2-4 times their
+trajectories the DVL mounting yaw, its scale factor and the accelerometer's position scatter 2.1-4.3 times their
 per-mission sigmas (docs/decisions/calibration-spread.md; what moves them is not identified: the reference's heading
 error and the water's sound speed change between missions, for example). A configuration applied to the next mission
 needs the sigma that covers that scatter.
@@ -14,7 +14,7 @@ missions ``i`` with values ``y_i`` and sigmas ``s_i``; Cochran's ``Q = sum w_i (
 ``1 / (s_i^2 + tau^2)``, whose sigma is ``1 / sqrt(sum 1 / (s_i^2 + tau^2))``. A next mission's true value is
 expected within ``sqrt(tau^2 + sigma^2)`` of it (that mission's own estimate adds its own sigma), and within
 ``t_{k-2}(0.975) sqrt(tau^2 + sigma^2)`` at 95 % (Higgins, Thompson and Spiegelhalter's prediction interval: with few
-missions tau is itself uncertain, and 1.96 of that sigma covers 75-85 % when they differ; none with two missions). The
+missions tau is itself uncertain, and 1.96 of that sigma covers 80-86 % when they differ; none with two missions). The
 ``p`` of ``Q`` against chi-square with ``k - 1`` degrees of freedom says whether the missions differ beyond their
 sigmas.
 

@@ -20,7 +20,7 @@ def register(subparsers) -> None:
                     "log-likelihood. Prints the estimates with 1-sigma uncertainties and writes the "
                     "calibrated configuration, which every command accepts as --config. A mission's sigmas say how "
                     "well its data fix its own values; some quantities differ more between missions (on the Snapir "
-                    "AUV the DVL mounting yaw, its scale factor and the accelerometer's position, by 2-4 times). "
+                    "AUV the DVL mounting yaw, its scale factor and the accelerometer's position, by 2.1-4.3 times). "
                     "Give several missions of one vehicle to calibrate each and combine them (random effects): the "
                     "written configuration holds the combined values, and the report where the next mission's "
                     "value is expected.",

@@ -170,11 +170,11 @@ AKIT_IMU_POSITION_B = AKIT_LEVER_ARM_B
 #: covariance to show how much of their NEES the reference explains.
 AKIT_GT_VELOCITY_SIGMA_N = (0.0, 0.0, 0.0008)
 
-#: The densities the estimators use (accelerometer 3.5e-3, gyro 1.7e-5) are 4.0x and 1.5x the 1-s identification's
+#: The densities the estimators use (accelerometer 3.5e-3, gyro 1.7e-5) are 4.25x and 1.5x the 1-s identification's
 #: median. They were chosen by leave-trajectories-out (``experiments/leave_trajectories_out.py``,
 #: docs/decisions/fitted-defaults.md) as 1.4x what the identification gave with the attitude at each interval's
 #: middle (2.5e-3, 1.2e-5): at 1x that left the batch smoother over-confident on trajectories with many turns
-#: (mission NEES up to 5.2); with each trajectory's own 1-s identification its NEES is 4.80 (3.00-6.70;
+#: (mission NEES up to 5.2); with each trajectory's own 1-s identification its NEES is 4.88 (3.06-6.71;
 #: ``experiments/calibrated_density_folds.py``). What the estimators need beyond the 1-s increments (slower
 #: sensor errors, the GT's, their own model's) is what ``graphnav calibrate`` multiplies its identified densities
 #: by (:data:`graphnav.calibration.noise.ESTIMATOR_DENSITY_FACTOR`). One value serves
