@@ -186,3 +186,22 @@ def test_cli_combines_folders_and_keeps_the_others_when_one_cannot_be_read(tmp_p
     written = json.loads(out.read_text())
     assert not set(PER_MISSION_KEYS) & set(written)
     assert len(json.loads(report.read_text())["missions"]) == 1
+
+
+def test_the_noise_is_written_as_the_missions_rms_and_its_range_named(three_mountings):
+    from graphnav.calibration.noise import ESTIMATOR_DENSITY_FACTOR, NoiseEstimate
+    _, results = three_mountings
+    noisy = []
+    for r, (acc, gyro, beam) in zip(results, [(1e-3, 1e-5, 0.04), (2e-3, 2e-5, 0.05), (4e-3, 1e-5, 0.03)]):
+        r = copy.deepcopy(r)
+        r.noise = NoiseEstimate(acc, gyro, beam_noise_std=beam, density_source="gt")
+        noisy.append(r)
+    combined = combine(noisy, ["a", "b", "c"])
+    f_acc, f_gyro = ESTIMATOR_DENSITY_FACTOR["gt"]
+    assert combined.config.imu.accel_noise_density == pytest.approx(f_acc * np.sqrt(np.mean(np.square([1e-3, 2e-3,
+                                                                                                        4e-3]))))
+    assert combined.config.imu.gyro_noise_density == pytest.approx(f_gyro * np.sqrt(np.mean(np.square([1e-5, 2e-5,
+                                                                                                        1e-5]))))
+    assert combined.config.dvl.beam_noise_std == pytest.approx(np.sqrt(np.mean(np.square([0.04, 0.05, 0.03]))))
+    note = next(n for n in combined.notes if n.startswith("noise densities"))
+    assert f"{f_acc * 1e-3:.2e}..{f_acc * 4e-3:.2e}" in note and "0.0300..0.0500 m/s" in note

@@ -278,7 +278,11 @@ def _combined_config(results: list[CalibrationResult], quantities: dict[str, Ran
         beams = [n.beam_noise_std for n in noises if n.beam_noise_std is not None]
         if beams:
             cfg.dvl.beam_noise_std = float(np.sqrt(np.mean(np.square(beams))))
-        notes.append(f"noise densities and beam noise written as their RMS over the {len(noises)} missions")
+        beam_range = f"; beam noise {min(beams):.4f}..{max(beams):.4f} m/s" if beams else ""
+        notes.append(f"noise densities and beam noise written as their RMS over the {len(noises)} missions: accel "
+                     f"{cfg.imu.accel_noise_density:.2e} (per mission {acc.min():.2e}..{acc.max():.2e}), gyro "
+                     f"{cfg.imu.gyro_noise_density:.2e} ({gyro.min():.2e}..{gyro.max():.2e}){beam_range}; their spread "
+                     "is not tested against a sigma (the identification gives none)")
     elif any(n is not None for n in noises):
         notes.append("noise not identified for every mission: the densities and beam noise written are the first "
                      "mission's")
