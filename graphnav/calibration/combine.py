@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 from scipy.stats import t as student_t
 
-from graphnav.calibration.result import PRINTED, CalibrationResult
+from graphnav.calibration.result import PRINTED, CalibrationResult, joined, printed_label
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 
@@ -77,6 +77,12 @@ class RandomEffects:
         return {k: np.asarray(v).tolist() for k, v in self.__dict__.items()}
 
 
+def usable(values, sigmas) -> np.ndarray:
+    """Where a mission's value is finite and its sigma a positive finite number: what :func:`random_effects`
+    combines (the same shape as ``values``)."""
+    return np.isfinite(values) & np.isfinite(sigmas) & (sigmas > 0)
+
+
 def random_effects(values, sigmas) -> RandomEffects:
     """DerSimonian-Laird combination of ``values`` (k, ...) with 1-sigmas ``sigmas`` (k, ...), column by column.
 
@@ -94,7 +100,7 @@ def random_effects(values, sigmas) -> RandomEffects:
                                                      "next_mission_95", "q_per_dof", "p")}
     n = np.zeros(y.shape[1], int)
     for j in range(y.shape[1]):
-        use = np.isfinite(y[:, j]) & np.isfinite(s[:, j]) & (s[:, j] > 0)
+        use = usable(y[:, j], s[:, j])
         yj, sj = y[use, j], s[use, j]
         k = n[j] = len(yj)
         if k == 0:
@@ -159,21 +165,15 @@ class CombinedCalibration:
 
     def report(self) -> str:
         def cells(x, scale, digits, sign="+"):
-            parts = [f"{a:{sign}.{digits}f}" if np.isfinite(a) else "-" for a in np.atleast_1d(x) * scale]
-            return "[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]
-
-        def label_of(name):
-            label = PRINTED[name][0]
-            if name == "lever_arm_b":
-                label += f" (vs {'GT point' if self.results[0].mode == 'gt' else 'IMU'})"
-            return label
+            return joined([f"{a:{sign}.{digits}f}" if np.isfinite(a) else "-" for a in np.atleast_1d(x) * scale])
 
         def line(name, q, next_mission=True):
             _, scale, unit, digits = PRINTED[name]
             flag = "  MISSIONS DIFFER beyond their sigmas" if name in self.differing() else ""
             nxt = (f"next mission +- {cells(q.next_mission_sigma, scale, digits, '')} (95 %: +- "
                    f"{cells(q.next_mission_95, scale, digits, '')}); ") if next_mission else ""
-            return (f"  {label_of(name):<26}: {cells(q.value, scale, digits)} +- {cells(q.sigma, scale, digits, '')} "
+            return (f"  {printed_label(name, self.results[0].mode):<26}: {cells(q.value, scale, digits)} +- "
+                    f"{cells(q.sigma, scale, digits, '')} "
                     f"{unit or self.units[name]}; {nxt}scatter/sigma {cells(np.sqrt(q.q_per_dof), 1.0, 1, '')}{flag}")
 
         lines = [f"combined over {len(self.names)} missions (random effects): the value +- its sigma; where the next "
@@ -210,17 +210,13 @@ def combine(results: list[CalibrationResult], names: list[str]) -> CombinedCalib
             if any(q is not None for q in got):
                 notes.append(f"{name}: not estimated for every mission, not combined")
             continue
-        values = np.array([np.atleast_1d(q.value) for q in got], float)
-        sigmas = np.array([np.atleast_1d(q.sigma) for q in got], float)
-        left_out = ~(np.isfinite(values) & np.isfinite(sigmas) & (sigmas > 0))
-        for i in np.flatnonzero(left_out.any(axis=1)):
+        values = np.array([q.value for q in got], float)
+        sigmas = np.array([q.sigma for q in got], float)
+        for i in np.flatnonzero(~usable(values, sigmas).reshape(len(got), -1).all(axis=1)):
             msg = f"{names[i]}: {name} left out of the combination (value or sigma not usable)"
             warnings.warn(msg, stacklevel=2)
             notes.append(msg)
-        re = random_effects(values, sigmas)
-        if np.ndim(got[0].value) == 0:
-            re = RandomEffects(**{k: np.asarray(v).reshape(()) for k, v in re.__dict__.items()})
-        quantities[name], units[name] = re, got[0].unit
+        quantities[name], units[name] = random_effects(values, sigmas), got[0].unit
     return CombinedCalibration(list(names), list(results), quantities, units,
                                _combined_config(results, quantities, notes), notes)
 

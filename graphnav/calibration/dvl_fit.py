@@ -113,24 +113,17 @@ def accelerometer_mismatch(mission: Mission) -> AccelerometerMismatch:
 
 
 def _cumulative_body_from_nav(t: np.ndarray, reference, start: float, end: float) -> np.ndarray:
-    """(N,9), Fortran order: the running integral (zero-order hold, :func:`cumulative_integral`) of the
-    navigation-to-body rotation ``C^T`` (row-major elements) along ``reference``'s attitude, from the sample held
-    over ``start`` to ``end`` (s); held constant outside. Built in chunks of :data:`IMU_CHUNK` samples and integrated
-    column by column in place: 9 floats a sample at the peak, not N 3x3 matrices and their copies."""
+    """(N,9), Fortran order: the running integral (:func:`cumulative_integral`, zero-order hold) of the
+    navigation-to-body rotation ``C^T`` (row-major elements) along ``reference``'s attitude, over the samples from the
+    one held over ``start`` to ``end`` (s); ``C^T`` is left at zero outside them, where no interval mean between
+    ``start`` and ``end`` reads."""
     first = max(int(np.searchsorted(t, start, side="right")) - 1, 0)
     last = min(int(np.searchsorted(t, end, side="left")) + 1, len(t))
-    out = np.zeros((len(t), 9), order="F")
+    C_t = np.zeros((len(t), 9))
     rows = np.arange(first, last)
     for chunk in np.array_split(rows, max(1, len(rows) // IMU_CHUNK)):     # bounded memory on long missions
-        out[chunk] = reference.rotation_b_n(t[chunk]).inv().as_matrix().reshape(-1, 9)
-    dt = np.diff(t)
-    for i in range(9):
-        column = out[:, i]
-        held = column[first:last - 1] * dt[first:last - 1]
-        column[:first + 1] = 0.0
-        column[first + 1:last] = np.cumsum(held)
-        column[last:] = column[last - 1]
-    return out
+        C_t[chunk] = reference.rotation_b_n(t[chunk]).inv().as_matrix().reshape(-1, 9)
+    return np.asfortranarray(cumulative_integral(t, C_t))
 
 
 def estimate_imu_position(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, float]:

@@ -19,6 +19,17 @@ PRINTED = {"lever_arm_b": ("DVL lever arm", 1.0, None, 3), "dvl_time_offset_s": 
            "imu_position_b": ("IMU position vs GT point", 1.0, None, 3)}
 
 
+def printed_label(name: str, mode: str) -> str:
+    """The label :data:`PRINTED` gives field ``name``; the lever arm's names its reference point in ``mode``."""
+    label = PRINTED[name][0]
+    return label + f" (vs {'GT point' if mode == 'gt' else 'IMU':<8})" if name == "lever_arm_b" else label
+
+
+def joined(parts: list[str]) -> str:
+    """One printed cell per component: a vector's as ``[a, b, c]``, a scalar's alone."""
+    return "[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]
+
+
 @dataclass
 class Quantity:
     """An estimate with its 1-sigma uncertainty (same shape) and unit."""
@@ -83,15 +94,12 @@ class CalibrationResult:
 
     def report(self) -> str:
         def line(name):
-            label, scale, unit, digits = PRINTED[name]
-            if name == "lever_arm_b":
-                label += f" (vs {'GT point' if self.mode == 'gt' else 'IMU':<8})"
-            x = getattr(self, name)
+            _, scale, unit, digits = PRINTED[name]
+            label, x = printed_label(name, self.mode), getattr(self, name)
             if x is None:
                 return f"  {label:<26}: not estimated in this mode"
             v, s = np.atleast_1d(x.value) * scale, np.atleast_1d(x.sigma) * scale
-            parts = [f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]
-            return f"  {label:<26}: " + ("[" + ", ".join(parts) + "]" if len(parts) > 1 else parts[0]) + \
+            return f"  {label:<26}: " + joined([f"{a:+.{digits}f} +- {b:.{digits}f}" for a, b in zip(v, s)]) + \
                 f" {unit or x.unit}"
         lines = [f"calibration mode: {self.mode}", *map(line, list(PRINTED)[:-1]),
                  f"  {'residual RMS':<26}: {self.residual_rms:.4f}", line("imu_position_b"),
