@@ -337,3 +337,21 @@ def test_info_on_a_pd0_file_alone_and_with_the_imu_of_the_column_map(tmp_path, c
     # the pressure sensor at the pings, to the decapascal of PD0
     depth_at_pings = np.interp(mission.dvl.t[:n], mission.depth.t, mission.depth.depth)
     assert with_imu["depth_m"]["max"] == pytest.approx(depth_at_pings.max(), abs=2e-3)
+
+
+@pytest.mark.parametrize("missing", ["IMU", "DVL"])
+def test_info_on_an_akit_folder_missing_a_file_names_it(tmp_path, capsys, missing):
+    """A TrajectoryN folder without its IMU or DVL file is an A-KIT folder with a file missing, as ``smooth`` says,
+    not "not a format graphnav reads"."""
+    folder = tmp_path / "Trajectory1"
+    folder.mkdir()
+    for kind in {"IMU", "DVL", "GT"} - {missing}:
+        (folder / f"{kind}_trajectory1.csv").write_text("Time [s]\n")
+    d = describe(folder)
+    assert d["format"] == "akit" and d["usable"] is False
+    assert f"{missing}_trajectory1.csv: {missing} file not found" in d["reason"]
+    assert cli.main(["info", str(folder)]) == 0
+    assert f"{missing} file not found" in capsys.readouterr().out
+    with pytest.raises(DataError, match=f"{missing} file not found"):      # smooth's reader says the same
+        from graphnav.io.loaders import read_mission
+        read_mission(folder)

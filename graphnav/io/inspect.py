@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -52,8 +53,13 @@ def _is_jsonl(path: Path) -> bool:
 
 
 def _is_akit(path: Path) -> bool:
-    """A folder with the A-KIT IMU and DVL files (the GT file is optional)."""
-    return path.is_dir() and all(any(path.glob(f"{k}_*.csv")) for k in ("IMU", "DVL"))
+    """A folder with any of the A-KIT files (``IMU_*.csv``, ``DVL_*.csv``, ``GT_*.csv``) or named ``TrajectoryN``.
+
+    One file is enough: a folder that lacks the IMU or the DVL file is still meant as an A-KIT folder, and reading
+    it names the missing file, as ``graphnav smooth`` does (the GT file is optional)."""
+    from graphnav.io.loaders import AKIT_COLUMNS
+    return path.is_dir() and (re.fullmatch(r"Trajectory\d+", path.name) is not None
+                              or any(any(path.glob(f"{k}_*.csv")) for k in AKIT_COLUMNS))
 
 
 def _mission_folders(path: Path) -> list[str]:
