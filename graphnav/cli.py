@@ -25,12 +25,28 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(f"{commands.__name__}.{info.name}")
         if hasattr(module, "register"):
             module.register(sub)
+    parser.subcommands = sub.choices     # name -> its parser: an unknown option is reported with its usage
     return parser
+
+
+def parse(parser: argparse.ArgumentParser, argv: list[str] | None) -> argparse.Namespace:
+    """``parser.parse_args(argv)``, but an unknown option after a subcommand is the subcommand's error: its usage,
+    and the option it may be a typo of (argparse's own reports it with the top-level usage)."""
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        import difflib
+        sub = getattr(parser, "subcommands", {}).get(getattr(args, "command", None), parser)
+        known = [o for action in sub._actions for o in action.option_strings]
+        hints = [f"{e} (did you mean {close[0]}?)"
+                 if e.startswith("-") and (close := difflib.get_close_matches(e.split("=")[0], known, 1)) else e
+                 for e in extras]
+        sub.error(f"unrecognized arguments: {' '.join(hints)}")
+    return args
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parse(parser, argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

@@ -38,6 +38,33 @@ def methods_help(names=None) -> str:
     return "; ".join(f"{n} - {METHODS[n].description}" for n in (names or METHODS))
 
 
+#: The default of ``--window-s``, s.
+WINDOW_S_DEFAULT = 30.0
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def positive_seconds(text: str) -> float:
+    """An argparse ``type``: a duration in s, finite and > 0 (argparse names the option in its error)."""
+    value = _number(text)
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a duration > 0 s, got {text}")
+    return value
+
+
+def finite_seconds(text: str) -> float:
+    """An argparse ``type``: a time in s, finite (argparse names the option in its error)."""
+    value = _number(text)
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite time in s, got {text}")
+    return value
+
+
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("mission")
     g.add_argument("--data", metavar="PATH",
@@ -63,10 +90,11 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--scenario", default="none", choices=sorted(SCENARIOS),
                    help="inject a beam outage: 2-missing (beams 1, 3), 3-missing (only beam 2 left) or none "
                         "(data as recorded)")
-    g.add_argument("--window-start", type=float, action="append", metavar="S",
+    g.add_argument("--window-start", type=finite_seconds, action="append", metavar="S",
                    help="start of an outage window in s (repeatable); default: windows spread over the "
                         "mission as in the benchmark (60 s in, then every window + 60 s)")
-    g.add_argument("--window-s", type=float, default=30.0, metavar="S", help="outage window length")
+    g.add_argument("--window-s", type=positive_seconds, default=WINDOW_S_DEFAULT, metavar="S",
+                   help="outage window length")
 
 
 def add_init_arguments(parser: argparse.ArgumentParser) -> None:
@@ -122,10 +150,31 @@ def mission_from_args(args):
         mission = degrade_imu(mission, args.imu_grade, seed=zlib.crc32(mission.name.encode()) % 2**31)
     outages = []
     if check_scenario(args.scenario) != "none":
+        check_windows(args.window_start, args.window_s, mission)
         starts = args.window_start or window_starts(mission.t0, mission.t1, args.window_s)
         outages = [scenario_outage(args.scenario, s, args.window_s) for s in starts]
         mission = mission.with_outage(*outages)
+    elif args.window_start or args.window_s != WINDOW_S_DEFAULT:
+        import warnings
+        warnings.warn(f"--window-start / --window-s ignored: they place the outage windows of --scenario, which is "
+                      f"'{args.scenario}'", RuntimeWarning, stacklevel=2)
     return mission, outages
+
+
+def check_windows(window_start: list[float] | None, window_s: float, mission) -> None:
+    """Refuse, before any estimator runs, an ``--window-start`` (s) whose window ``[start, start + window_s]``
+    lies wholly outside the mission's span (ConfigError naming the option and the span); warn when a window
+    runs past the mission's end (it is scored over its part inside)."""
+    t0, t1 = float(mission.t0), float(mission.t1)
+    for start in window_start or []:
+        if start + window_s <= t0 or start >= t1:
+            raise ConfigError(f"--window-start {start:g}: the window [{start:g}, {start + window_s:g}] s lies "
+                              f"outside the mission {mission.name}, which spans [{t0:.1f}, {t1:.1f}] s")
+        if start < t0 or start + window_s > t1:
+            import warnings
+            warnings.warn(f"--window-start {start:g}: the window [{start:g}, {start + window_s:g}] s runs past "
+                          f"the mission {mission.name} ([{t0:.1f}, {t1:.1f}] s); scored over its part inside",
+                          RuntimeWarning, stacklevel=3)
 
 
 def accuracy_summary(sol, mission, outages, reference=None) -> dict:
