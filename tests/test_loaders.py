@@ -221,6 +221,20 @@ def test_dvl_nan_rows_are_invalid_pings(tmp_path):
     assert np.isnan(m.dvl.beams[4]).all()
 
 
+def test_a_nan_dvl_row_is_warned_about_at_its_file_line(tmp_path):
+    """The no-valid-beam warning names the DVL file's line (header = line 1), as the loader's other messages do,
+    not the ping's index."""
+    from graphnav.io.loaders import read_mission
+    folder = make_akit_folder(tmp_path, n=2)
+    p = folder / "DVL_trajectory2.csv"
+    lines = p.read_text().splitlines()
+    lines[5] = f"{4 * 120 / 119!r},nan,nan,nan"          # line 6 of the file
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.warns(RuntimeWarning, match=r"DVL_trajectory2.csv: 1 of 120 DVL ping\(s\) have no valid beam and are "
+                                            r"not used \(first at line 6, t = "):
+        read_mission(folder)
+
+
 def test_missing_file_named(tmp_path):
     folder = make_akit_folder(tmp_path, n=4)
     (folder / "DVL_trajectory4.csv").unlink()

@@ -11,12 +11,14 @@ from __future__ import annotations
 import datetime as dt
 import json
 import struct
+import warnings
 
 import numpy as np
 import pytest
 
 from graphnav import cli
 from graphnav.core.errors import DataError
+from graphnav.io.pd0 import read_pd0_log
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
@@ -212,3 +214,82 @@ def test_rdi_beam_geometry_in_the_dvl_frame():
         v_d = np.array([1.2, -0.3, 0.2])
         beams = np.linalg.inv(b2i)[:, :3] @ (-(pd0.C_D_RDI.T @ v_d))
         np.testing.assert_allclose(beams, pd0.rdi_beam_vectors_d(b2i) @ v_d, atol=1e-6)
+
+
+def _fake_ensemble(length: int) -> bytes:
+    """A PD0 ensemble of ``length`` bytes before its checksum with no data block (header, zeros, checksum)."""
+    body = bytes([0x7F, 0x7F]) + struct.pack("<H", length) + bytes(length - 4)
+    return body + struct.pack("<H", sum(body) & 0xFFFF)
+
+
+def test_a_file_cut_inside_an_ensemble_is_found(tmp_path):
+    """The scan finds an ensemble the end of the file cuts (its offset, the bytes present, the length its header
+    gives); a whole file and trailing bytes that are no header give none."""
+    from graphnav.io.pd0 import scan_pd0
+    whole = _fake_ensemble(40) + _fake_ensemble(40)
+    path = tmp_path / "cut.pd0"
+    path.write_bytes(whole + _fake_ensemble(60)[:25])
+    scan = scan_pd0(path)
+    assert (scan.ensembles, scan.cut_offset, scan.cut_bytes, scan.cut_length) == (2, len(whole), 25, 62)
+    path.write_bytes(whole + b"\x7f\x7f\x10")          # cut inside the header: its length is lost
+    assert (scan_pd0(path).cut_bytes, scan_pd0(path).cut_length) == (3, 0)
+    for tail in (b"", b"\r\n"):
+        path.write_bytes(whole + tail)
+        assert scan_pd0(path).cut_bytes == 0
+
+
+def test_a_cut_last_ensemble_is_warned_about_and_counted(sim, tmp_path):
+    """A PD0 file that ends inside an ensemble (a copy cut short) reads its complete ensembles, and says so: a
+    warning naming the file and the cut, a count in the log and a note of the DVL stream. It was dropped without a
+    word."""
+    from graphnav.io.inspect import describe
+    from graphnav.io.pd0 import CUT_ENSEMBLE, read_pd0
+    mission, root = sim
+    raw = (root / "dvl.000").read_bytes()
+    cut = tmp_path / "cut.000"
+    cut.write_bytes(raw[:len(raw) - 30])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(cut)
+    said = [str(w.message) for w in caught if "ends inside an ensemble" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith(f"{cut}: the file ends inside an ensemble (")
+    n = len(mission.dvl.t)
+    assert log.counts[CUT_ENSEMBLE] == 1 and log.counts["ensembles in file"] == n - 1 and len(log.t) == n - 1
+    assert CUT_ENSEMBLE not in log.refused()           # not a ping read: as a corrupt ensemble, a note
+    with pytest.warns(RuntimeWarning, match="ends inside an ensemble"):
+        _, _, meta = read_pd0(cut)
+    assert f"1 {CUT_ENSEMBLE}" in meta["streams"]["dvl"]["notes"]
+    assert f"1 {CUT_ENSEMBLE}" in describe(cut)["streams"]["dvl"]["notes"]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*ends inside an ensemble")
+        assert CUT_ENSEMBLE not in read_pd0_log(root / "dvl.000").counts
+
+
+@pytest.mark.parametrize("content", [b"", b"not a pd0\n"], ids=["empty", "text"])
+def test_info_on_a_pd0_name_without_ensembles_leaves_no_file_open(tmp_path, content):
+    """dolfyn leaves its file open when it fails; ``info`` closes it (it warned ``ResourceWarning: unclosed
+    file``)."""
+    from graphnav.io.inspect import describe
+    path = tmp_path / "x.pd0"
+    path.write_bytes(content)
+    d = describe(path)
+    assert d["format"] == "pd0" and not d["usable"] and "holds no PD0 ensemble" in d["reason"]
+    assert not [w for w in d["warnings"] if "ResourceWarning" in w], d["warnings"]
+
+
+def test_smooth_of_a_dvl_file_alone_names_the_method_and_the_options_it_ignores(sim, tmp_path):
+    """A PD0 file without an IMU is dead-reckoned: the warning names the method asked for, and the options that
+    apply to the IMU/DVL estimators (--compare, --window-start) are named as ignored in the summary too."""
+    _, root = sim
+    out = tmp_path / "dr"
+    with pytest.warns(RuntimeWarning) as caught:
+        assert cli.main(["smooth", "--data", str(root / "dvl.000"), "--method", "TC", "--compare", "Graph-HN", "LC",
+                         "--window-start", "5", "--no-plots", "--out", str(out)]) == 0
+    said = json.loads((out / "summary.json").read_text())["warnings"]
+    assert said[0].endswith("not graphnav's IMU/DVL estimator (TC). To run the estimator, give the IMU in the "
+                            "configuration's csv_columns map (--config with \"csv_columns\": {\"imu\": {\"file\": ..., "
+                            "\"t\": ..., \"f_b\": [...], \"omega_b\": [...]}, \"dvl\": {\"pd0\": \"dvl.000\"}}; see "
+                            "graphnav.io.generic_csv)")
+    assert said[1] == f"{root / 'dvl.000'}: --compare Graph-HN LC, --window-start 5.0 ignored: they apply to the " \
+                      "IMU/DVL estimators"
+    assert said[1] in [str(w.message) for w in caught]

@@ -210,10 +210,13 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
     warnings.warn(message, RuntimeWarning, stacklevel=2)
     ignored = [f"--{k.replace('_', '-')} {v}" for k, v, default in (
         ("scenario", args.scenario, "none"), ("imu_grade", args.imu_grade, "as-recorded"), ("init", args.init, "auto"))
-        if v != default] + (["--compare"] if args.compare else [])
+        if v != default] + [f"--{k.replace('_', '-')} {' '.join(map(str, v))}" for k in (
+            "compare", "window_start", "initial_position") if (v := getattr(args, k, None))] + (
+        [f"--initial-heading {args.initial_heading:g}"] if getattr(args, "initial_heading", None) is not None else [])
+    said = [message]
     if ignored:
-        warnings.warn(f"{data}: {', '.join(ignored)} ignored: they apply to the IMU/DVL estimators", RuntimeWarning,
-                      stacklevel=2)
+        said.append(f"{data}: {', '.join(ignored)} ignored: they apply to the IMU/DVL estimators")
+        warnings.warn(said[-1], RuntimeWarning, stacklevel=2)
     sol = dvl_dead_reckoning(log)
     wall = time.perf_counter() - start
     files = {"trajectory_csv": str(write_trajectory_csv(out / "trajectory.csv", sol)),
@@ -239,7 +242,7 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
         "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
         "uncertainty": uncertainty_summary(sol),
-        "dead_reckoning": sol.info, "streams": streams, "warnings": [message],
+        "dead_reckoning": sol.info, "streams": streams, "warnings": said,
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",
     }
     if not args.no_plots:

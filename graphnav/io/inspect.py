@@ -281,6 +281,8 @@ def describe_dvl_log(log) -> dict:
     if log.attitude_deg is not None:
         good = np.all(np.isfinite(log.attitude_deg), axis=1)
         count_read(meta, "attitude", log.t[good], f"{log.source}:heading/pitch/roll")
+    from graphnav.io.pd0 import left_out_notes
+    stream_entry(meta, "dvl")["notes"].extend(left_out_notes(log.counts))
     if log.v_n is not None:
         stream_entry(meta, "dvl")["notes"].append(
             f"velocity over ground in NED on {int(np.all(np.isfinite(log.v_n), axis=1).sum())} of {len(log.t)} "

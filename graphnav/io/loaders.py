@@ -699,7 +699,8 @@ def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict,
     """``meta["streams"]`` of an A-KIT mission as read: counts, refusals and what the reader did to each stream
     (``prepare`` adds the axis signs and time offsets); ``from_file``: what :func:`_written_beams` took."""
     from graphnav.io.stream_counts import record_streams
-    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused)
+    # ping i is line i + 2 of the DVL file (header = line 1), as the loader's other DVL messages count
+    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused, dvl_line_offset=2)
     if from_file is None:
         add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no "
                               "beams)")

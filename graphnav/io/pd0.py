@@ -33,7 +33,9 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
 * Every usable ping gives ``v_d`` (head velocity in ``d``) and ``v_n`` (head velocity in NED from the
   instrument's attitude; RDI's earth frame is East-North-Up).
 * the clock (variable leader RTC) as Unix-second stamps. dolfyn keeps an ensemble only when another header
-  follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted.
+  follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted. A
+  file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
+  counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is.
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned.
 
@@ -95,6 +97,11 @@ class Pd0Scan:
         trailing_bytes: bytes after the last complete ensemble (a file cut by a logger).
         beam_matrix: (4,4) beam-to-instrument matrix of block 0x3200 of the first ensemble (rows X, Y, Z,
             error; scaled counts / 10000), or None.
+        cut_bytes: bytes of the ensemble the file ends in when it is cut (a header 0x7F 0x7F after the last
+            complete or corrupt ensemble whose length runs past the end of the file), 0 when none.
+        cut_length: the length (bytes, with the checksum) that cut ensemble's header gives, 0 when none (or cut
+            inside its header).
+        cut_offset: the byte offset of that cut ensemble, 0 when none.
     """
 
     ensembles: int
@@ -102,6 +109,9 @@ class Pd0Scan:
     trailing_bytes: int
     beam_matrix: np.ndarray | None
     spans: list = dataclasses.field(default_factory=list, repr=False)   # (start, end) byte range of each one
+    cut_bytes: int = 0
+    cut_length: int = 0
+    cut_offset: int = 0
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -142,8 +152,22 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
             bad += 1
             bad_end = start + length + 2
+    cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(spans[-1][1] if spans else 0, bad_end))
     return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
-                   _beam_matrix(raw, spans[0][0]) if spans else None, spans)
+                   _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset)
+
+
+def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
+    """(byte offset, bytes present, length its header gives with the checksum) of the ensemble the end of ``raw``
+    cuts: a header 0x7F 0x7F at or after byte ``end`` (the end of the last whole ensemble) whose length runs past
+    the end of the file; (0, 0, 0) when there is none."""
+    i = raw.find(b"\x7f\x7f", end)
+    if i < 0:
+        return 0, 0, 0
+    if i + 4 > len(raw):                     # cut inside the header: its length is lost
+        return i, len(raw) - i, 0
+    length = (raw[i + 2] | (raw[i + 3] << 8)) + 2
+    return (i, len(raw) - i, length) if i + length > len(raw) else (0, 0, 0)
 
 
 def _read_good_ensembles(path: Path, scan: Pd0Scan):
@@ -242,7 +266,21 @@ def _read_rdi(path: Path, source: str | None = None):
             warnings.simplefilter("ignore")   # dolfyn's notes on missing userdata and similar; it prints progress
             return read_rdi(str(path), userdata=False)
     except Exception as exc:  # noqa: BLE001 - dolfyn raises plain Exceptions on corrupt files
+        _close_readers(exc.__traceback__)
         raise DataError(f"cannot read as PD0: {type(exc).__name__}: {exc}", source or str(path)) from None
+
+
+def _close_readers(tb) -> None:
+    """Close the file dolfyn's reader opened when it failed: dolfyn never closes it, and the failure's traceback
+    (the DataError's context) keeps the reader alive, so the file stayed open and Python warned about it later
+    (``ResourceWarning: unclosed file``) in whatever the caller did next."""
+    while tb is not None:
+        reader = tb.tb_frame.f_locals.get("self")
+        for holder in (reader, getattr(reader, "f", None)):        # _RDIReader.f is a bin_reader; bin_reader.f the file
+            f = getattr(holder, "f", None)
+            if isinstance(f, io.IOBase):
+                f.close()
+        tb = tb.tb_next
 
 
 def _bt_dataset(ds, vel: np.ndarray, coord_sys: str):
@@ -361,6 +399,25 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 
 
 
+#: The :attr:`DvlLog.counts` key of an ensemble the end of the file cuts (not read, as a corrupt one is not).
+CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
+
+
+def _warn_cut(scan: Pd0Scan, source: str) -> None:
+    """Warn that the file ends inside an ensemble (a copy or a download cut short, a logger stopped mid-write)."""
+    of = f" of the {scan.cut_length} its header gives" if scan.cut_length else ""
+    warnings.warn(f"{source}: the file ends inside an ensemble ({scan.cut_bytes} byte(s){of}, from byte "
+                  f"{scan.cut_offset}): a file cut short; that ensemble is left out, {scan.ensembles} complete "
+                  "one(s) read",
+                  RuntimeWarning, stacklevel=3)
+
+
+def left_out_notes(counts: dict) -> list[str]:
+    """The notes of a DVL stream on the ensembles of the file that were left out before any ping was read (corrupt,
+    or cut by the end of the file), from :attr:`DvlLog.counts`."""
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_ENSEMBLE) if counts.get(key)]
+
+
 def _warn_counts(counts: dict, source: str) -> None:
     refused = {k: v for k, v in counts.items() if k not in COUNT_NOTES and v}
     flagged = counts.get("flagged beams", 0)
@@ -447,7 +504,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     ``no bottom lock``, ``fewer than 3 beams`` (beam files), ``3-beam solution`` (rotated files: velocity
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
-    (corrupt ensembles, not part of ``read``). ``instrument`` holds the fixed
+    (corrupt ensembles, not part of ``read``), :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
+    part of ``read``). ``instrument`` holds the fixed
     leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
     matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
     ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
@@ -478,6 +536,9 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     counts = {"ensembles in file": scan.ensembles, "read": len(t)}
     if scan.bad_checksum:
         counts["bad checksum (ensemble left out)"] = scan.bad_checksum
+    if scan.cut_bytes:
+        counts[CUT_ENSEMBLE] = 1
+        _warn_cut(scan, source)
     if scan.ensembles > len(t):
         counts["not read by dolfyn (last ensemble)"] = scan.ensembles - len(t)
     pings = _beam_pings(vel, rdi_beam_vectors_d(b2i)) if coord == "beam" else _rotated_pings(ds, vel)
@@ -525,6 +586,8 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
     # pings with 1-2 valid beams are used (the graph and the tightly coupled EKF take single beams)
     for reason in ("no bottom lock", "not read by dolfyn (last ensemble)"):
         count_refused(meta, "dvl", reason, log.counts.get(reason, 0))
+    for note in left_out_notes(log.counts):
+        add_note(meta, "dvl", note)
     if log.counts.get("fewer than 3 beams"):
         add_note(meta, "dvl", f"{log.counts['fewer than 3 beams']} ping(s) with 1-2 valid beams: the beams are used, "
                               "no velocity can be solved from them")

@@ -31,7 +31,7 @@ def dvl_used(dvl) -> np.ndarray:
 
 
 def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
-                   dvl_refused: dict[str, np.ndarray] | None = None) -> dict:
+                   dvl_refused: dict[str, np.ndarray] | None = None, dvl_line_offset: int | None = None) -> dict:
     """Count every given stream as read (``count_read``) and refuse the DVL pings that are not used, by reason.
 
     Args:
@@ -40,6 +40,8 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             ``GroundTruth``), each with ``t`` and ``source``; None for a stream the input does not have.
         dvl_refused: reason -> (M,) bool mask of pings the loader refused for that reason (first reason in
             the dict wins); the loader has warned about them.
+        dvl_line_offset: the file line of DVL ping ``i`` is ``i + dvl_line_offset`` (a CSV with one header line:
+            2); the warning then names the line, else the ping's index.
 
     The pings not used and not under a loader reason are counted under :data:`NO_VALID_BEAM`, with a warning.
     Returns ``meta["streams"]``.
@@ -59,8 +61,9 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             left &= ~hit
         if left.any():
             first = int(np.flatnonzero(left)[0])
+            where = f"index {first}" if dvl_line_offset is None else f"line {first + dvl_line_offset}"
             warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
-                          f"used (first at index {first}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
+                          f"used (first at {where}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
             count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
     return meta.get("streams", {})
 
