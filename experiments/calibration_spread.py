@@ -41,9 +41,10 @@ from graphnav.calibration.combine import random_effects
 from graphnav.io.paths import akit_trajectories
 
 #: The instrument quantities (field, label, scale to the printed unit, unit).
-QUANTITIES = (("lever_arm_b", "DVL lever arm", 1.0, "m"), ("dvl_yaw_rad", "DVL mounting yaw", 180 / np.pi, "deg"),
+QUANTITIES = (("lever_arm_b", "DVL lever arm vs IMU point", 1.0, "m"),
+              ("dvl_yaw_rad", "DVL mounting yaw", 180 / np.pi, "deg"),
               ("dvl_scale", "DVL scale factor", 100.0, "%"), ("dvl_bias", "DVL vertical bias", 1e3, "mm/s"),
-              ("imu_position_b", "IMU position vs GT point", 1.0, "m"))
+              ("imu_position_b", "accelerometer vs IMU point", 1.0, "m"))
 AXES = ("x", "y", "z")
 
 

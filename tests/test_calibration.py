@@ -257,3 +257,31 @@ def test_the_accelerometer_position_does_not_hang_on_where_the_gt_stamps_fall(gt
     r, cov, _, _ = estimate_imu_position(mission)
     r_late = estimate_imu_position(late)[0]
     assert np.max(np.abs(r_late - r)) < 0.1 * np.min(np.sqrt(np.diag(cov))), (r, r_late)
+
+
+def test_the_positions_are_labelled_with_the_point_they_are_measured_from(mission):
+    """GT mode measures the lever arm and the accelerometer from the point the mission's GT stands for. ``prepare``
+    moves an A-KIT GT to the IMU point (``meta["gt_point_b"]``, [-1.86, -0.04, 0.2] m from the published GT point):
+    the report says "vs IMU point" and gives both positions from the GT as recorded too. It said "vs GT point" for
+    numbers measured from the IMU point, 1.9 m away."""
+    from graphnav.calibration.combine import combine, incompatibility
+    moved = np.array([-1.86, -0.04, 0.2])
+    r = calibrate(dataclasses.replace(mission, meta={**mission.meta, "gt_point_b": moved.tolist()}), "gt")
+    np.testing.assert_array_equal(r.gt_point_b, moved)
+    np.testing.assert_allclose(r.lever_arm_b.value, TRUE_LEVER, atol=0.06)    # the GT is the truth at the IMU
+    text = r.report()
+    assert "DVL lever arm vs IMU point: [" in text and "accelerometer vs IMU point: [" in text
+    assert "GT point" not in text.split("(lever arm")[0]
+    dvl = ", ".join(f"{x:+.3f}" for x in np.asarray(r.lever_arm_b.value) + moved)
+    accel = ", ".join(f"{x:+.3f}" for x in np.asarray(r.imu_position_b.value) + moved)
+    assert (f"(the IMU point is [-1.860, -0.040, +0.200] m from the GT point as recorded; from there the DVL is at "
+            f"[{dvl}] m, the accelerometer at [{accel}] m)") in text
+    assert r.to_dict()["reference_point"] == {"point": "IMU point", "frame": "body", "gt_point_b": moved.tolist()}
+    np.testing.assert_array_equal(r.config.dvl.lever_arm_b, r.lever_arm_b.value)    # written from the IMU point
+    as_recorded = dataclasses.replace(r, gt_point_b=None)           # a GT the loader did not move (a bag's)
+    text = as_recorded.report()
+    assert "DVL lever arm vs GT point : [" in text and "accelerometer vs GT point : [" in text
+    assert "from the GT point as the log holds it" in text and "IMU point is" not in text
+    assert "DVL lever arm vs IMU point: [" in combine([r, r], ["a", "b"]).report()
+    assert incompatibility(r, as_recorded).startswith("gt_point_b: lever arm measured from the point GT point, not "
+                                                      "IMU point [-1.86, -0.04, 0.2] m from the GT")

@@ -76,8 +76,17 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
         "gt", _q(th[0:3], sig[0:3], "m"), _q(cfg.dvl_time_offset_s, off_sigma, "s"),
         _q(cfg.gt_time_offset_s, gt_est.sigma_s, "s"), _q(th[4], sig[4], "rad"), _q(th[3], sig[3], "-"),
         _q(th[5], sig[5], "m/s"), fit.rms, check, cfg, _q(r_imu, np.sqrt(np.diag(r_cov)), "m"),
-        info={"accel_residual_rms_before_after": f"{r_before:.4f} -> {r_after:.4f} m/s^2","dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
-              "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms})
+        info={"accel_residual_rms_before_after": f"{r_before:.4f} -> {r_after:.4f} m/s^2",
+              "dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
+              "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms},
+        gt_point_b=_gt_point_b(mission))
+
+
+def _gt_point_b(mission: Mission) -> np.ndarray | None:
+    """Where ``prepare`` moved the mission's GT (the IMU point), relative to the GT as recorded, body frame, m; None
+    when the GT is as the log holds it. The GT-mode regressions measure from the point the GT stands for."""
+    point = mission.meta.get("gt_point_b")
+    return None if point is None else np.asarray(point, float).reshape(3)
 
 
 def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False, completer=None,

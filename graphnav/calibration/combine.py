@@ -172,7 +172,7 @@ class CombinedCalibration:
             flag = "  MISSIONS DIFFER beyond their sigmas" if name in self.differing() else ""
             nxt = (f"next mission +- {cells(q.next_mission_sigma, scale, digits, '')} (95 %: +- "
                    f"{cells(q.next_mission_95, scale, digits, '')}); ") if next_mission else ""
-            return (f"  {printed_label(name, self.results[0].mode):<26}: {cells(q.value, scale, digits)} +- "
+            return (f"  {printed_label(name, self.results[0]):<26}: {cells(q.value, scale, digits)} +- "
                     f"{cells(q.sigma, scale, digits, '')} "
                     f"{unit or self.units[name]}; {nxt}scatter/sigma {cells(np.sqrt(q.q_per_dof), 1.0, 1, '')}{flag}")
 
@@ -183,6 +183,9 @@ class CombinedCalibration:
         if self.differing():
             lines.append("  (a single mission's sigma does not cover another mission for these; use the next-mission "
                          "sigma)")
+        lever, accelerometer = (self.quantities.get(k) for k in ("lever_arm_b", "imu_position_b"))
+        if lever is not None:
+            lines += self.results[0].point_note(lever.value, None if accelerometer is None else accelerometer.value)
         clocks = [name for name in CLOCK_FIELDS if name in self.quantities]
         if clocks:
             lines.append("  each log's own clocks (not written: each mission's preparation finds its own):")
@@ -228,6 +231,9 @@ def incompatibility(first: CalibrationResult, other: CalibrationResult) -> str |
     are relative to different starts)."""
     if other.mode != first.mode:
         return f"mode: calibrated in mode {other.mode}, not {first.mode} (give --mode)"
+    if not _same_point(other.gt_point_b, first.gt_point_b):
+        return (f"gt_point_b: lever arm measured from the point {_point(other)}, not {_point(first)}: "
+                "read the missions alike")
     if not np.array_equal(other.config.imu_axis_signs, first.config.imu_axis_signs):
         return (f"imu_axis_signs: {other.config.imu_axis_signs.tolist()}, not {first.config.imu_axis_signs.tolist()}: "
                 "not one vehicle's IMU mounting")
@@ -237,6 +243,15 @@ def incompatibility(first: CalibrationResult, other: CalibrationResult) -> str |
         return ("dvl.velocity_scale_correction: another starting scale correction (before the fitted scale): "
                 "calibrate from one configuration")
     return None
+
+
+def _same_point(a, b) -> bool:
+    return (a is None) == (b is None) and (a is None or np.allclose(a, b, rtol=0, atol=1e-9))
+
+
+def _point(r: CalibrationResult) -> str:
+    """The point a result's positions are measured from, for a message."""
+    return r.reference_point + ("" if r.gt_point_b is None else f" {np.round(r.gt_point_b, 3).tolist()} m from the GT")
 
 
 def _start_scale(r: CalibrationResult) -> float:

@@ -16,7 +16,9 @@ IMU-propagated velocity, which the IMU factors penalise.
 The lever arm found here is relative to the point whose motion the accelerometer measures. On the shared
 A-KIT data that point is ~1.8 m aft of the GT reference point (see
 :func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so this mode finds the DVL within ~0.2 m of the IMU in
-x/y, while the GT mode finds it ~1.8 m aft of the GT point: both are right for their reference point.
+x/y; the GT mode measures from the point the mission's GT stands for, which ``prepare`` moves to the same IMU point
+on A-KIT folders (its report names the point: :attr:`graphnav.calibration.result.CalibrationResult.reference_point`),
+and finds the DVL ~1.8 m aft of the published GT point only with the GT kept there.
 Without GT, the first position is the origin, the first heading comes from gyrocompassing
 (:func:`initial_heading`) and depth factors are left out (see :func:`solve_calibration_graph`).
 """

@@ -114,10 +114,13 @@ AKIT_COLUMNS: dict[str, tuple[str, ...]] = {
 }
 
 #: Default lever arm of the Snapir DVL relative to the INS (the GT reference point), body frame, m (data
-#: README). ``graphnav calibrate`` (GT mode) finds [-1.72..-1.86, -0.10..+0.06, +0.03..+0.15] over the ten
-#: shared trajectories. Note: the recorded specific force behaves as if measured ~1.8 m aft of the GT point
-#: (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so relative to the IMU the DVL is close to zero in
-#: x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
+#: README). The DVL regression against the GT kept at that point (``imu_position_b=(0, 0, 0)``) finds
+#: [-1.84..-1.72, -0.10..+0.04, +0.03..+0.15] over the ten shared trajectories. ``graphnav calibrate`` reads the
+#: prepared mission, whose GT is at the IMU point (:data:`AKIT_IMU_POSITION_B`, this same point), so it prints the
+#: lever arm from the IMU point: [-0.20..+0.07, -0.02..+0.07, -0.07..+0.12] (docs/decisions/akit-loader.md, "What
+#: `graphnav calibrate`'s positions are measured from"). Note: the recorded specific force behaves as if measured
+#: ~1.8 m aft of the GT point (:func:`graphnav.calibration.dvl_fit.estimate_imu_position`), so relative to the IMU
+#: the DVL is close to zero in x/y (calibrate's graph mode: [-0.2..+0.04, -0.07..+0.04, ...]).
 AKIT_LEVER_ARM_B = (-1.86, -0.04, 0.2)
 
 #: Position of the IMU's measurement point relative to the published GT reference point, body frame, m.
