@@ -249,16 +249,24 @@ def describe_mission(mission) -> dict:
     if v is None:
         v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
     span, duration = _span(streams)
-    unix = "t0_unix_ns" in mission.meta
     use = "IMU/DVL estimators: graphnav smooth / online --data PATH"
     return {
         "usable": True, "use": use, "reason": None, "mission": mission.name, "instrument": inst, "dvl_frame": frame,
-        "clock": ("seconds from the first IMU stamp " + (f"(Unix {mission.meta['t0_unix_ns'] / 1e9:.3f} s)" if unix
-                                                          else "")).strip(),
+        "clock": _mission_clock(mission),
         "time_span_s": span, "duration_s": duration, "streams": streams, "ground_truth": mission.gt is not None,
         "dvl": {"speed_mps": _speed_stats(v), "beams_per_ping": _beams_per_ping(dvl.valid)},
         "depth_m": _depth_range(None if mission.depth is None else mission.depth.depth),
     }
+
+
+def _mission_clock(mission) -> str:
+    """What the mission's stamps count: seconds from the first IMU stamp (the loaders that move the clock there
+    keep its Unix time), or the files' own Unix seconds (an A-KIT folder keeps its files' stamps)."""
+    if "t0_unix_ns" in mission.meta:
+        return f"seconds from the first IMU stamp (Unix {mission.meta['t0_unix_ns'] / 1e9:.3f} s)"
+    if len(mission.imu.t) and mission.imu.t[0] > UNIX_CLOCK_MIN_S:
+        return "Unix seconds (the files' own clock)"
+    return "seconds from the first IMU stamp"
 
 
 # --- a DVL file on its own ---------------------------------------------------------------------------------
