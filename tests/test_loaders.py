@@ -466,6 +466,21 @@ def test_a_late_file_shares_the_folders_origin_and_a_far_one_keeps_its_own(tmp_p
     np.testing.assert_array_equal(c.imu[:, 0], a.imu[:, 0])
 
 
+def test_a_gt_too_short_to_check_the_axes_against_is_refused_naming_it(tmp_path):
+    """A GT file of 8 rows beside a 120 s IMU: a DataError naming the GT file, both spans and what to do (before:
+    "gt: too little overlap between IMU and reference", no file named)."""
+    folder = make_akit_folder(tmp_path, n=2)
+    path = folder / "GT_trajectory2.csv"
+    path.write_text("\n".join(path.read_text().splitlines()[:9]) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(DataError, match=r"GT stamps \[0.000, 7.000\] s share 5 interval\(s\) with the IMU span "
+                                            r"\[0.000, 119.990\] s.*gt_time_offset_s") as err:
+            load_akit(folder)
+    assert err.value.source == str(path)
+    assert not [w for w in caught if "slice" in str(w.message) or "invalid value" in str(w.message)]
+
+
 def test_a_time_offset_the_data_barely_fix_is_warned_about(tmp_path, akit_dir):
     """A simulated DVL whose offset the noisy velocities fix only to +-0.17 s: estimated, applied, and warned about
     with its sigma; the shared trajectories fix theirs to 0.017 s or better and load without that warning."""

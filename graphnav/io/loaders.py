@@ -40,7 +40,9 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    :mod:`graphnav.calibration.reference`): the GT offset by matching gyro-integrated attitude increments
    with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
    ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating from the data rather than shipping a
-   table works for any A-KIT folder, including the three not in ``../shared/data``.
+   table works for any A-KIT folder, including the three not in ``../shared/data``. A GT or DVL file on a clock
+   of its own (seconds or days away) is first put on the IMU clock from the data
+   (:mod:`graphnav.calibration.clock`).
 4. **GT.** lat/lon/alt -> NED with the project's one position convention
    (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
    sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
