@@ -136,3 +136,116 @@ def test_akit_loader_finds_a_dvl_clock_days_away(akit_dir, tmp_path, with_gt):
     # with GT the fine calibration follows the coarse clock: the same stamps as the published files
     np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=0.02 if with_gt else 0.1 * period)
     assert any("clock offset" in n for n in m.meta["streams"]["dvl"]["notes"])
+
+
+# --- the GT's clock --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def sim_gt():
+    return simulate_mission(150.0, seed=1, gt_rate_hz=1.0)
+
+
+def _gt_shifted(gt, by):
+    return dataclasses.replace(gt, t=gt.t - by)         # the GT clock is `by` s behind the IMU's
+
+
+@pytest.mark.parametrize("injected", [DAYS6, -5000.0, 90.0])
+def test_injected_gt_offset_recovered_on_a_simulated_mission(sim_gt, injected):
+    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
+    est = estimate_gt_clock_offset(sim_gt.imu, _gt_shifted(sim_gt.gt, injected))
+    assert gt_clock_confident(est), est
+    assert est.offset_s == pytest.approx(injected, abs=0.01)
+    # the angles turned do not depend on the IMU's axis convention (unknown before the GT is on its clock)
+    flipped = dataclasses.replace(sim_gt.imu, omega_b=sim_gt.imu.omega_b * [1, -1, 1])
+    assert estimate_gt_clock_offset(flipped, _gt_shifted(sim_gt.gt, injected)).offset_s == pytest.approx(
+        est.offset_s, abs=1e-6)
+
+
+def test_a_gt_the_imu_cannot_place_is_a_clear_error(sim_gt):
+    """Another mission's GT, or a GT that never turns, on a clock six days away: a DataError naming the GT file, both
+    time spans and what to do, and no numpy warning; a GT on the IMU clock is left as it is."""
+    from graphnav.calibration.clock import align_gt_clock
+    other = simulate_mission(150.0, seed=11, gt_rate_hz=1.0).gt
+    straight = dataclasses.replace(sim_gt.gt, C_b_n=np.repeat(np.eye(3)[None], len(sim_gt.gt.t), axis=0))
+    for gt in (other, straight):
+        gt = dataclasses.replace(_gt_shifted(gt, -DAYS6), source="GT_x.csv")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with pytest.raises(DataError, match=r"GT_x.csv.*GT stamps \[518400.000, 518550.000\] s lie outside the "
+                                                r"IMU span \[0.000, 150.000\] s.*no clear offset.*GT offset") as err:
+                align_gt_clock(sim_gt.imu, gt, {}, what_to_do="give the GT offset")
+        assert err.value.field == "t"
+        assert not [w for w in caught if "slice" in str(w.message) or "invalid value" in str(w.message)]
+    meta: dict = {}
+    same, offset = align_gt_clock(sim_gt.imu, sim_gt.gt, meta)
+    assert same is sim_gt.gt and offset == 0.0 and not meta
+
+
+@pytest.mark.parametrize("given", [False, True])
+def test_akit_loader_finds_a_gt_clock_days_away(akit_dir, tmp_path, given):
+    """Trajectory5 with its GT file three days ahead (before: "too little overlap between IMU and reference" and
+    numpy's "Mean of empty slice", with no file named): the GT is put on the IMU clock with a warning naming the file
+    and the offset, and everything after is the published folder's; a configured GT offset that leaves the GT off
+    the IMU span is warned about and replaced by the estimate."""
+    import shutil
+
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv, read_mission
+    src = akit_dir / "Trajectory5"
+    files = akit_files(src)
+    dst = tmp_path / src.name
+    dst.mkdir()
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"])
+    gt[:, 0] += 3 * 86400.0
+    np.savetxt(dst / files["GT"].name, gt, delimiter=",", fmt="%.17g", comments="", header=",".join(AKIT_COLUMNS["GT"]))
+    for kind in ("IMU", "DVL"):
+        shutil.copy(files[kind], dst / files[kind].name)
+    config = None
+    if given:
+        config = tmp_path / "config.json"
+        config.write_text(json.dumps({"gt_time_offset_s": 0.5}))
+    ref = load_akit(src, imu_axis_signs=(1, -1, 1))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = prepare(read_mission(dst, config), imu_axis_signs=(1, -1, 1))
+    text = [str(w.message) for w in caught]
+    assert any(t.startswith(str(dst / files["GT"].name)) and "GT clock offset -259199." in t for t in text), text
+    assert given == any("configured gt_time_offset_s +0.500 s leaves 100 %" in t for t in text)
+    assert not any("slice" in t for t in text)
+    np.testing.assert_allclose(m.gt.t, ref.gt.t, atol=1e-3)
+    np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=1e-3)
+    assert m.config.gt_time_offset_s == pytest.approx(ref.config.gt_time_offset_s - 3 * 86400.0, abs=1e-3)
+    assert m.meta["clock_offsets"]["gt"]["confident"]
+
+
+def shift_file_stamps(path, by):
+    """Add ``by`` s to the first column of the CSV file ``path`` (header kept; other fields as written)."""
+    lines = path.read_text().splitlines()
+    out = lines[:1]
+    for line in lines[1:]:
+        stamp, rest = line.split(",", 1)
+        out.append(f"{float(stamp) + by!r},{rest}")
+    path.write_text("\n".join(out) + "\n")
+
+
+def test_a_folder_graphnav_wrote_gets_the_dvl_clock_check(sim, tmp_path):
+    """``graphnav simulate --out`` and then the DVL and beams files moved six days: the written configuration's DVL
+    offset (0) leaves every ping outside the IMU span, so it is warned about and the clock found from the data as in
+    a published folder (before: "usable yes" from info, then every ping refused by smooth with no file named)."""
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    paths = write_akit(sim, tmp_path)
+    for kind in ("DVL", "beams"):
+        shift_file_stamps(paths[kind], DAYS6)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = prepare(read_mission(tmp_path / "Trajectory1"))
+    text = " ".join(str(w.message) for w in caught)
+    assert f"{paths['DVL']}: the configured dvl_time_offset_s +0.000 s leaves 100 %" in text
+    assert f"{paths['DVL']}: DVL clock offset -5184" in text
+    # then the fine estimate against the GT, as in a published folder: the simulator's gentle manoeuvres fix it to
+    # 0.05 s (-0.067 s off)
+    sigma = m.meta["time_offsets"]["dvl"]["sigma_s"]
+    assert sigma < 0.1
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=3 * sigma)
+    assert m.meta["streams"]["dvl"]["refused"] == {}

@@ -89,6 +89,19 @@ def test_bad_values_are_refused_in_the_users_terms(data, message, tmp_path):
     assert message in str(exc.value)
 
 
+def test_a_time_offset_of_days_or_a_unix_clock_is_a_configuration(tmp_path):
+    """The prepare step puts a DVL or GT days away, or on a Unix clock beside a 0-based IMU, on the IMU clock, and
+    calibrate writes the offset it found: the configuration takes it back (an hour was the limit, and calibrate
+    refused to write a GT three days away); a non-finite offset is still refused."""
+    path = _write(tmp_path, {"gt_time_offset_s": -259200.41, "dvl_time_offset_s": -1.7e9})
+    config = read_config(path).over(SensorConfig())
+    assert (config.gt_time_offset_s, config.dvl_time_offset_s) == (-259200.41, -1.7e9)
+    config.save(tmp_path / "back.json")
+    assert SensorConfig.load(tmp_path / "back.json").gt_time_offset_s == -259200.41
+    with pytest.raises(ConfigError, match="key 'gt_time_offset_s'"):
+        read_config(_write(tmp_path, '{"gt_time_offset_s": Infinity}', "inf.json"))
+
+
 @pytest.mark.parametrize("data, suggestion", [
     ({"imu_rat_hz": 100}, "unknown key 'imu_rat_hz'; did you mean 'imu_rate_hz'?"),
     ({"imu": {"gyro_noise": 1e-5}}, "unknown key 'imu.gyro_noise'; did you mean 'imu.gyro_noise_density'?"),

@@ -355,3 +355,47 @@ def test_info_on_an_akit_folder_missing_a_file_names_it(tmp_path, capsys, missin
     with pytest.raises(DataError, match=f"{missing} file not found"):      # smooth's reader says the same
         from graphnav.io.loaders import read_mission
         read_mission(folder)
+
+
+def test_info_and_smooth_agree_on_a_written_folder_whose_dvl_is_days_away(tmp_path, capsys):
+    """A folder ``graphnav simulate`` wrote with its DVL and beams files moved three days: the paper's beam noise
+    hides the simulator's accelerations, so the clock cannot be found; info says the mission is not usable, and
+    why, and smooth fails with the same error naming the DVL file, both spans and what to do (before: info said
+    "usable yes" with every ping refused, and smooth failed with "navigator: 151 of 151 dvl samples refused")."""
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    from test_clock import shift_file_stamps
+    paths = write_akit(simulate_mission(150.0, seed=5), tmp_path)
+    for kind in ("DVL", "beams"):
+        shift_file_stamps(paths[kind], 3 * 86400.0)
+    folder = tmp_path / "Trajectory1"
+    d = describe(folder, prepare=prepare)
+    assert d["format"] == "akit" and not d["usable"]
+    assert d["reason"].startswith(f"{paths['DVL']}, field 'Time [s]': DVL stamps [259200.000, 259350.000] s lie "
+                                  "outside the IMU span [0.000, 150.000] s")
+    assert "give dvl_time_offset_s" in d["reason"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError) as err:
+            prepare(read_mission(folder))
+    assert str(err.value) == d["reason"]
+    assert cli.main(["smooth", "--data", str(folder), "--out", str(tmp_path / "out"), "--no-plots"]) != 0
+    assert d["reason"] in capsys.readouterr().err
+
+
+def test_info_does_not_call_usable_a_log_whose_dvl_lies_off_the_imu_clock(sim, tmp_path):
+    """A CSV log whose column map declares the DVL on the IMU clock (``"clock": "imu"``) while its stamps are a day
+    later: not usable, naming the DVL file and both spans (before: usable, with every ping refused)."""
+    def write(path, header, columns):
+        rows = [",".join(header)] + [",".join(f"{x:.12g}" for x in row) for row in np.column_stack(columns)]
+        path.write_text("\n".join(rows) + "\n")
+    write(tmp_path / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [sim.imu.t, sim.imu.f_b, sim.imu.omega_b])
+    write(tmp_path / "dvl.csv", ["t", "b1", "b2", "b3", "b4"], [sim.dvl.t + 86400.0, sim.dvl.beams])
+    cfg = sim.config.to_dict()
+    cfg["csv_columns"] = {
+        "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+        "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"], "clock": "imu"}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    d = describe(tmp_path, tmp_path / "config.json", prepare=prepare)
+    assert d["format"] == "csv" and not d["usable"], d
+    assert str(tmp_path / "dvl.csv") in d["reason"] and "outside the IMU span [0.000, 30.000] s" in d["reason"]

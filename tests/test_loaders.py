@@ -389,6 +389,112 @@ def test_a_folder_whose_files_are_rescaled_and_kept_is_warned_about(tmp_path):
     np.testing.assert_allclose(m.gt.t[:3], [0.0, 1.0, 2.0], atol=1e-12)
 
 
+def _shift_stamps(src, dst, shifts):
+    """A copy of the A-KIT folder ``src`` in ``dst`` (same name) with ``shifts[kind]`` s added to the stamps of
+    the ``kind`` file (IMU, DVL, GT), written at full precision."""
+    dst = dst / src.name
+    dst.mkdir(parents=True)
+    for kind in ("IMU", "DVL", "GT"):
+        name = next(src.glob(f"{kind}_*.csv")).name
+        data = read_csv(src / name, AKIT_COLUMNS[kind], nan_ok=AKIT_COLUMNS[kind][1:])
+        data[:, 0] += shifts.get(kind, 0.0)
+        write_csv(dst / name, AKIT_COLUMNS[kind], data.tolist())
+    return dst
+
+
+UNIX_T0 = 1_700_000_000.0       # Unix seconds (November 2023)
+
+
+def test_published_stamps_on_a_unix_clock_are_rescaled_about_their_start(tmp_path):
+    """The published folder with every stamp moved to a Unix clock (1.7e9 s): each stream's stamps are the 0-based
+    folder's plus the clock's start, to float64's resolution there (scaled about zero they moved by 4e6 s, and the
+    GT no longer overlapped the IMU: "too little overlap between IMU and reference"). The grid step is fitted on
+    the time since the first stamp (through the absolute stamps it was 1.5e-9 of the step off), and a grid on the
+    sensor's period is not taken for a published one when the step excess is within what the stamps resolve
+    (2 s of 100 Hz Unix stamps, on the period, fitted 2.4e-7 above it through the absolute stamps)."""
+    from graphnav.io.loaders import published_period_factor, read_akit
+    zero = make_akit_folder(tmp_path / "zero", n=4)
+    unix = _shift_stamps(zero, tmp_path / "unix", {k: UNIX_T0 for k in ("IMU", "DVL", "GT")})
+    t = np.linspace(0.0, 400.0, 400)
+    assert published_period_factor(UNIX_T0 + t, 1.0) == pytest.approx(399 / 400, rel=1e-10)
+    assert published_period_factor(UNIX_T0 + np.arange(200.0), 1.0) is None          # on the period already
+    assert published_period_factor(UNIX_T0 + np.arange(200) * 0.01, 100.0) is None
+    assert published_period_factor(UNIX_T0 + np.linspace(0.0, 400.0, 40000), 100.0) == pytest.approx(
+        39999 / 40000, rel=1e-10)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a, b = read_akit(zero), read_akit(unix)
+    for stream in ("imu", "dvl", "gt"):
+        np.testing.assert_allclose(getattr(b, stream)[:, 0] - UNIX_T0, getattr(a, stream)[:, 0], rtol=0, atol=1e-6)
+    assert any(f"about t = {UNIX_T0:.3f} s" in n for n in b.meta["streams"]["gt"]["notes"])
+
+
+def _first_seconds(src, dst, seconds, shifts=None):
+    """The first ``seconds`` of the published folder ``src`` (rows as published), copied to ``dst`` with
+    ``shifts[kind]`` s added to the stamps of the ``kind`` file."""
+    dst = dst / src.name
+    dst.mkdir(parents=True)
+    for kind in ("IMU", "DVL", "GT"):
+        name = next(src.glob(f"{kind}_*.csv")).name
+        data = read_csv(src / name, AKIT_COLUMNS[kind], nan_ok=AKIT_COLUMNS[kind][1:])
+        data = data[data[:, 0] < seconds]
+        data[:, 0] += (shifts or {}).get(kind, 0.0)
+        write_csv(dst / name, AKIT_COLUMNS[kind], data.tolist())
+    return dst
+
+
+def test_a_published_trajectory_on_a_unix_clock_loads_as_on_its_own(akit_dir, tmp_path):
+    """The first 150 s of Trajectory1 with every stamp on a Unix clock: the same axis signs and time offsets as the
+    0-based copy (before, "too little overlap between IMU and reference" and numpy's "Mean of empty slice")."""
+    zero = _first_seconds(akit_dir / "Trajectory1", tmp_path / "zero", 150.0)
+    unix = _first_seconds(akit_dir / "Trajectory1", tmp_path / "unix", 150.0,
+                          {k: UNIX_T0 for k in ("IMU", "DVL", "GT")})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a, b = load_akit(zero), load_akit(unix)
+    assert b.meta["imu_axis_signs"]["signs"] == a.meta["imu_axis_signs"]["signs"]
+    for stream in ("gt", "dvl"):
+        assert b.meta["time_offsets"][stream]["offset_s"] == pytest.approx(
+            a.meta["time_offsets"][stream]["offset_s"], abs=1e-3)
+    np.testing.assert_allclose(b.gt.t - UNIX_T0, a.gt.t, rtol=0, atol=1e-5)
+    from graphnav.io.inspect import describe_mission
+    assert describe_mission(a)["clock"] == "seconds from the first IMU stamp"
+    assert describe_mission(b)["clock"] == "Unix seconds (the files' own clock)"
+
+
+def test_a_late_file_shares_the_folders_origin_and_a_far_one_keeps_its_own(tmp_path):
+    """The origin of the rescale: a DVL file whose first rows are gone (it started late) keeps the whole folder's
+    stamps to the bit, as before; a GT file on a clock three days away is rescaled about its own first stamp, so
+    that it stays the 0-based file's plus three days (about zero it moved by 648 s more)."""
+    from graphnav.io.loaders import read_akit
+    zero = make_akit_folder(tmp_path / "zero", n=4)
+    late = _shift_stamps(zero, tmp_path / "late", {})
+    lines = (late / "DVL_trajectory4.csv").read_text().splitlines()
+    (late / "DVL_trajectory4.csv").write_text("\n".join(lines[:1] + lines[31:]) + "\n")
+    days = _shift_stamps(zero, tmp_path / "days", {"GT": 3 * 86400.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a, b, c = read_akit(zero), read_akit(late), read_akit(days)
+    np.testing.assert_allclose(b.dvl[:, 0], a.dvl[30:, 0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(c.gt[:, 0] - 3 * 86400.0, a.gt[:, 0], rtol=0, atol=1e-8)
+    np.testing.assert_array_equal(c.imu[:, 0], a.imu[:, 0])
+
+
+def test_a_gt_too_short_to_check_the_axes_against_is_refused_naming_it(tmp_path):
+    """A GT file of 8 rows beside a 120 s IMU: a DataError naming the GT file, both spans and what to do (before:
+    "gt: too little overlap between IMU and reference", no file named)."""
+    folder = make_akit_folder(tmp_path, n=2)
+    path = folder / "GT_trajectory2.csv"
+    path.write_text("\n".join(path.read_text().splitlines()[:9]) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(DataError, match=r"GT stamps \[0.000, 7.000\] s share 5 interval\(s\) with the IMU span "
+                                            r"\[0.000, 119.990\] s.*gt_time_offset_s") as err:
+            load_akit(folder)
+    assert err.value.source == str(path)
+    assert not [w for w in caught if "slice" in str(w.message) or "invalid value" in str(w.message)]
+
+
 def test_a_time_offset_the_data_barely_fix_is_warned_about(tmp_path, akit_dir):
     """A simulated DVL whose offset the noisy velocities fix only to +-0.17 s: estimated, applied, and warned about
     with its sigma; the shared trajectories fix theirs to 0.017 s or better and load without that warning."""

@@ -132,6 +132,11 @@ def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]
     S = np.asfortranarray(cumulative_integral(t_imu, imu.omega_b))
     offsets = np.arange(-2.0, 2.0 + 1e-9, 0.05)
     inside = (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])
+    if inside.sum() < 10:       # the scores below would be means of nothing
+        raise DataError(f"the GT stamps [{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s share {int(inside.sum())} interval(s) with "
+                        f"the IMU span [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s: too few to check the IMU axes against it "
+                        "(10 needed): give imu_axis_signs and gt_time_offset_s in a --config file, or leave the GT "
+                        "out", gt.source, field="t")
     incr = np.stack([interp_rows(t_ref[1:][inside] + o, t_imu, S) - interp_rows(t_ref[:-1][inside] + o, t_imu, S)
                      for o in offsets])                                   # (n_offsets, K, 3)
     maps = signed_permutations()
@@ -144,7 +149,7 @@ def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]
     gyro_map = maps[i_best] if scores[i_best] * AXIS_MARGIN < scores[0] else np.eye(3)
     check.gyro_map = gyro_map
     check.gyro_rms = (scores[0], scores[i_best])
-    offset = estimate_gt_time_offset(t_imu, imu.omega_b @ gyro_map.T, gt.t, gt.C_b_n, lat)
+    offset = estimate_gt_time_offset(t_imu, imu.omega_b @ gyro_map.T, gt.t, gt.C_b_n, lat, source=gt.source)
     # accelerometer: interval means on the IMU clock with the GT shifted by the offset found
     gt_t = gt.t + offset.offset_s
     f_pred = gt_predicted_specific_force(mission, gt_t)

@@ -1,4 +1,4 @@
-"""Clock offsets between streams, from the data themselves: a DVL stamped seconds or days away from the IMU.
+"""Clock offsets between streams, from the data themselves: a DVL or a GT stamped seconds or days away from the IMU.
 
 The DVL measures the head's velocity in the body frame; what it changes by is what the IMU integrates:
 ``v_b(t) = v0 + int (f_b + g_b - omega x v_b) dt`` (specific force plus the gravity the body sees). The
@@ -19,6 +19,10 @@ velocity changes (constant speed and heading) has no signal: the estimate is the
 :func:`align_stream_clocks` says so. This coarse offset is a *clock* offset; the sub-second DVL time offset
 against a reference (:func:`graphnav.calibration.reference.estimate_dvl_time_offset` in the A-KIT loader,
 ``graphnav calibrate`` without GT) is the fine calibration that runs after it.
+
+A GT on a clock of its own (:func:`estimate_gt_clock_offset`, :func:`align_gt_clock`) is found from the angles the
+vehicle turned through: the GT attitude's over each GT interval against the norm of the gyro's integral, which no
+axis convention changes (the convention is checked against the GT, once it is on the IMU clock).
 """
 from __future__ import annotations
 
@@ -71,9 +75,10 @@ class ClockOffset:
             straight line per window; 1 = all).
         second_peak: the same at the best offset further than :data:`PEAK_EXCLUSION_S` from the peak.
         coarse_offset_s: the coarse (one-grid-step) offset.
-        rms: residual of the fine fit, m/s per axis per DVL interval.
+        rms: residual of the fine fit, m/s per axis per DVL interval (rad per GT interval for the GT).
         overlap_s: overlap of the two logs at the offset, s.
-        n: DVL intervals used by the fine fit.
+        n: DVL (GT) intervals used by the fine fit.
+        explains: what the IMU explains, for :meth:`describe`.
     """
 
     offset_s: float
@@ -84,6 +89,7 @@ class ClockOffset:
     rms: float
     overlap_s: float
     n: int
+    explains: str = "the DVL's velocity changes"
 
     @property
     def sharpness(self) -> float:
@@ -95,12 +101,13 @@ class ClockOffset:
         return self.peak >= MIN_PEAK and self.sharpness >= MIN_SSE_RATIO
 
     def describe(self) -> str:
-        return (f"{self.offset_s:+.3f} s (sigma {self.sigma_s:.3f} s; IMU explains {self.peak:.2f} of the DVL's "
-                f"velocity changes there, {self.second_peak:.2f} at the next best offset; overlap "
+        return (f"{self.offset_s:+.3f} s (sigma {self.sigma_s:.3f} s; IMU explains {self.peak:.2f} of "
+                f"{self.explains} there, {self.second_peak:.2f} at the next best offset; overlap "
                 f"{self.overlap_s:.0f} s)")
 
     def to_dict(self) -> dict:
-        return {**dataclasses.asdict(self), "sharpness": self.sharpness, "confident": self.confident}
+        out = {k: v for k, v in dataclasses.asdict(self).items() if k != "explains"}
+        return {**out, "sharpness": self.sharpness, "confident": self.confident}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -310,14 +317,16 @@ def _same_instrument(a: str, b: str) -> bool:
 
 
 def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=None, *,
-                        min_overlap_s: float = MIN_OVERLAP_S):
+                        min_overlap_s: float = MIN_OVERLAP_S, field: str = "t",
+                        what_to_do: str = "give dvl_time_offset_s"):
     """Put the DVL (and a depth stream from the same instrument) on the IMU clock: ``(dvl, depth)``.
 
     The clock offset is estimated (:func:`estimate_dvl_clock_offset`) and applied when it is confident
     and at least half a DVL period (smaller offsets are left to the fine DVL time-offset calibration,
     which needs a reference or the graph, and are noted in meta). A depth stream with the DVL's source
     (a DVL's pressure sensor) moves with it. The decision is noted in ``meta["streams"]`` and, when
-    applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate.
+    applied, warned about; ``meta["clock_offsets"]["dvl"]`` keeps the estimate. ``field``: the stamp column named
+    in an error; ``what_to_do``: how to give the offset, for the error.
 
     Raises:
         DataError: the DVL does not overlap the IMU (fewer than half its pings inside the IMU span) and no
@@ -343,7 +352,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         if inside < 0.5:
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s ({100 * (1 - inside):.0f} % of the pings) and the "
-                            f"clock offset cannot be found: {why}; give dvl_time_offset_s", dvl.source, field="t")
+                            f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
         add_note(meta, "dvl", f"clock offset not applied: {why}")
         return dvl, depth
     if abs(est.offset_s) < 0.5 * period and inside >= 0.5:
@@ -363,3 +372,162 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
                             depth.source, field="t")
     return dvl, depth
+
+
+# ------------------------------------------------------------------------------------------------
+# the ground truth's clock
+# ------------------------------------------------------------------------------------------------
+#: GT intervals the coarse scan scores at each offset (spread over the log; the refinement uses them all).
+COARSE_MAX_GT_INTERVALS = 1200
+#: GT intervals longer than this many GT periods (a hole in the file) are left out: the angle turned over them is
+#: not the first-order one the gyro integral gives.
+GT_INTERVAL_MAX_PERIODS = 1.5
+
+
+class _AngleModel:
+    """The angle the GT attitude turns through over each GT interval, (K-1,) rad, against the norm of the gyro's
+    integral over the same interval at a candidate offset: independent of the IMU's axis convention (a signed
+    permutation keeps norms), which is not known before the GT is on the IMU clock."""
+
+    def __init__(self, t_imu: np.ndarray, omega_b: np.ndarray, t_gt: np.ndarray, C_b_n: np.ndarray):
+        from scipy.spatial.transform import Rotation
+        self.t_imu = np.ascontiguousarray(t_imu, float)
+        self.W = np.asfortranarray(cumulative_integral(self.t_imu, np.asarray(omega_b, float)))
+        dt = np.diff(t_gt)
+        period = float(np.median(dt))
+        keep = dt <= GT_INTERVAL_MAX_PERIODS * period
+        C = np.asarray(C_b_n, float)
+        angle = np.linalg.norm(Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec(), axis=1)
+        self.a, self.b, self.angle = t_gt[:-1][keep], t_gt[1:][keep], angle[keep]
+        self.period = period
+
+    def thinned(self, max_intervals: int) -> "_AngleModel":
+        keep = np.unique(np.linspace(0, len(self.a) - 1, min(max_intervals, len(self.a))).round().astype(int))
+        out = object.__new__(_AngleModel)
+        out.t_imu, out.W, out.period = self.t_imu, self.W, self.period
+        out.a, out.b, out.angle = self.a[keep], self.b[keep], self.angle[keep]
+        return out
+
+    def inside(self, offset: float) -> np.ndarray:
+        return (self.a + offset >= self.t_imu[0]) & (self.b + offset <= self.t_imu[-1])
+
+    def score(self, offset: float, use: np.ndarray | None = None) -> tuple[float, float, int]:
+        """(explained fraction 1 - SSE / the angles' own scatter, SSE rad^2, intervals) over the intervals ``use``
+        (default: those inside the IMU span at ``offset``)."""
+        use = self.inside(offset) if use is None else use
+        n = int(use.sum())
+        if n < 10:
+            return -np.inf, np.inf, n
+        turned = np.linalg.norm(interp_rows(self.b[use] + offset, self.t_imu, self.W)
+                                - interp_rows(self.a[use] + offset, self.t_imu, self.W), axis=1)
+        angle = self.angle[use]
+        sse = float(np.sum((turned - angle) ** 2))
+        null = float(np.sum((angle - angle.mean()) ** 2))
+        return 1.0 - sse / max(null, 1e-18), sse, n
+
+
+def estimate_gt_clock_offset(imu, gt, *, min_overlap_s: float = MIN_OVERLAP_S) -> ClockOffset:
+    """The offset to add to the GT stamps to put them on the IMU clock, from the angles the vehicle turned through
+    (:class:`_AngleModel`): every offset at which the two logs share ``min_overlap_s`` (at least
+    :data:`MIN_OVERLAP_FRACTION` of the shorter log), on a grid of half a GT period (coarser for long logs), the
+    best refined by minimising the residual. Quality as :func:`estimate_dvl_clock_offset`'s (``confident``).
+
+    Args:
+        imu: :class:`~graphnav.core.mission.ImuData` (gyro in rad/s; any axis convention).
+        gt: :class:`~graphnav.core.mission.GroundTruth` on its own clock (seconds, any origin).
+
+    Raises:
+        DataError: fewer than 20 GT intervals, or logs too short to overlap ``min_overlap_s``.
+    """
+    model = _AngleModel(imu.t, imu.omega_b, gt.t, gt.C_b_n)
+    if len(model.a) < 20:
+        raise DataError(f"{len(model.a)} GT interval(s) without a hole: too few to find a clock offset (need 20)",
+                        gt.source, field="t")
+    span_imu, span_gt = float(imu.t[-1] - imu.t[0]), float(gt.t[-1] - gt.t[0])
+    shorter = min(span_imu, span_gt)
+    min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * shorter), shorter - 10 * model.period)
+    lo = float(imu.t[0] - gt.t[-1]) + min_overlap_s
+    hi = float(imu.t[-1] - gt.t[0]) - min_overlap_s
+    h = max(0.5 * model.period, (hi - lo) / 4000)
+    # offsets relative to the one that puts the two starts together: a grid of absolute offsets days long
+    # would lose the step's digits
+    start = float(imu.t[0] - gt.t[0])
+    grid = start + np.arange(lo - start, hi - start + 0.5 * h, h)
+    if grid.size == 0:
+        raise DataError(f"the IMU ({span_imu:.0f} s) and GT ({span_gt:.0f} s) logs are too short to share "
+                        f"{min_overlap_s:.0f} s at any offset", gt.source, field="t")
+    coarse_model = model.thinned(COARSE_MAX_GT_INTERVALS)
+    scores = np.array([coarse_model.score(o)[0] for o in grid])
+    i = int(np.argmax(scores))
+    far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
+    second = float(np.max(scores[far])) if far.any() else 0.0
+    coarse = float(grid[i])
+    use = model.inside(coarse - h) & model.inside(coarse + h)       # the same intervals at every candidate
+
+    def cost(o):
+        return model.score(o, use)[1]
+    res = minimize_scalar(cost, bounds=(coarse - h, coarse + h), method="bounded", options={"xatol": 1e-4})
+    x = float(res.x)
+    explained, sse, n = model.score(x, use)
+    step = 0.01
+    curvature = (cost(x + step) - 2 * sse + cost(x - step)) / step ** 2
+    sigma = _sigma_from_curvature(sse, curvature, n, 1)
+    overlap = float(min(imu.t[-1], gt.t[-1] + x) - max(imu.t[0], gt.t[0] + x))
+    return ClockOffset(x, sigma, max(explained, float(scores[i])), max(second, 0.0), coarse,
+                       float(np.sqrt(sse / max(n, 1))), overlap, n, explains="the GT's attitude changes")
+
+
+#: Lowest explained fraction and sharpness (see :class:`ClockOffset`) accepted for a GT clock offset. Measured
+#: (GT moved 3 days and -5000 s): the ten shared trajectories, whole and their first 150 s, peak 1.000, sharpness
+#: 2100-3e6 (the published GT is the same INS's attitude); simulated missions (navigation, tactical and MEMS
+#: gyros, 150 and 600 s, three seeds) peak 1.000, sharpness 11 000-260 000, the offset within 1 ms; another
+#: trajectory's or mission's GT (the wrong file) peak -11..0.60, sharpness 0.00-2.45.
+MIN_GT_PEAK = 0.8
+MIN_GT_SSE_RATIO = 5.0
+
+
+def gt_clock_confident(est: ClockOffset) -> bool:
+    """A GT clock offset good enough to apply (:data:`MIN_GT_PEAK`, :data:`MIN_GT_SSE_RATIO`)."""
+    return est.peak >= MIN_GT_PEAK and est.sharpness >= MIN_GT_SSE_RATIO
+
+
+def _span(t: np.ndarray) -> str:
+    return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
+
+
+def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = ""):
+    """``(gt, offset_s)``: the ground truth put on the IMU clock when fewer than half its stamps lie in the IMU
+    span (a GT logged on a clock seconds or days away), by the offset :func:`estimate_gt_clock_offset` finds;
+    ``(gt, 0.0)`` unchanged otherwise (the fine GT time offset is the prepare step's). The offset applied is warned
+    about (naming the GT file) and noted in ``meta["streams"]["gt"]``; ``meta["clock_offsets"]["gt"]`` keeps the
+    estimate.
+
+    Args:
+        imu: :class:`~graphnav.core.mission.ImuData`. gt: :class:`~graphnav.core.mission.GroundTruth`.
+        field: the stamp column named in the error. what_to_do: how to give the offset, for the error.
+
+    Raises:
+        DataError: the GT does not overlap the IMU and no confident offset is found (naming the GT file, both
+            time spans and what to do).
+    """
+    meta = {} if meta is None else meta
+    inside = _overlap_fraction(gt.t, imu.t)
+    if inside >= 0.5:
+        return gt, 0.0
+    where = (f"GT stamps {_span(gt.t)} lie outside the IMU span {_span(imu.t)} ({100 * (1 - inside):.0f} % of the "
+             "rows: a clock of its own)")
+    todo = what_to_do or "give the GT time offset"
+    try:
+        est = estimate_gt_clock_offset(imu, gt)
+    except DataError as exc:
+        raise DataError(f"{where}, and its clock offset cannot be found: {exc.message}; {todo}",
+                        gt.source, field=field) from None
+    meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": gt_clock_confident(est)}
+    if not gt_clock_confident(est):
+        raise DataError(f"{where}, and the IMU's gyro explains the GT's attitude changes at no clear offset (best "
+                        f"{est.peak:.2f} at {est.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
+                        f"another mission, or too little turning to align on); {todo}", gt.source, field=field)
+    text = f"GT clock offset {est.describe()} estimated from the data and added to the GT stamps"
+    warnings.warn(f"{gt.source}: {text}", RuntimeWarning, stacklevel=2)
+    add_note(meta, "gt", text)
+    return dataclasses.replace(gt, t=np.asarray(gt.t, float) + est.offset_s), est.offset_s

@@ -11,12 +11,16 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 1. **IMU axes.** ``imu_axis_signs="auto"`` detects the file's convention
    (:func:`graphnav.calibration.axes.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
    consistency without GT) and warns what it chose; the signs multiply the accelerometer and gyro x/y/z.
-2. **Time offsets.** ``gt_time_offset_s="auto"`` matches gyro-integrated attitude increments with the GT's
+2. **Time offsets.** A GT whose stamps lie off the IMU span is first put on the IMU clock
+   (:func:`graphnav.calibration.clock.align_gt_clock`, before the axis check, which needs it there).
+   ``gt_time_offset_s="auto"`` matches gyro-integrated attitude increments with the GT's
    (reusing the axis check's estimate), then ``dvl_time_offset_s="auto"`` regresses the DVL velocity on the GT
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
    DVL stamps lie off the IMU span (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
-   A DVL that follows the GT at no offset (another frame, other units) is a DataError.
+   A DVL that follows the GT at no offset (another frame, other units) is a DataError. A given offset (a
+   configuration's, a written folder's) that leaves most of its file's stamps off the IMU span is warned about
+   and estimated as ``"auto"`` is.
 3. **GT point.** The GT is moved from the published INS point to the IMU point
    (:func:`graphnav.calibration.reference.move_ground_truth`), and the depth stream with it.
 
@@ -24,7 +28,8 @@ Bags, CSV logs and PD0 files: a DVL on a clock of its own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
 without a heading source is told whether the configured gyro can gyrocompass.
 
-Every mission: DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`).
+Every mission: DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
+and more than half of them outside is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
 ``meta["prepared"]``) is prepared already and comes back unchanged.
@@ -52,6 +57,10 @@ DVL_GT_RMS_MAX_MPS = 0.2
 
 AUTO = "auto"
 
+#: What to do about an A-KIT file on a clock the data cannot align, for the error.
+_GIVE_OFFSET = ("put the {kind} file's stamps on the IMU clock, or give {stream}_time_offset_s (s added to them) "
+                "in a --config file")
+
 
 def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | str = AUTO,
             dvl_time_offset_s: float | str = AUTO) -> Mission:
@@ -71,7 +80,8 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
 
     Raises:
         ConfigError: an explicit value for a mission it does not apply to, or signs that are not +-1.
-        DataError: no IMU axis convention fits, the DVL does not follow the GT, or a DVL clock cannot be found.
+        DataError: no IMU axis convention fits, the DVL does not follow the GT, a DVL or GT clock cannot be found,
+            or most DVL pings lie outside the IMU span (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
     """
     explicit = {k: v for k, v in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
                                   ("dvl_time_offset_s", dvl_time_offset_s)) if not _is_auto(v)}
@@ -89,8 +99,13 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
             raise ConfigError(f"{sorted(explicit)} apply to A-KIT folders; {meta.get('source', mission.name)} is "
                               f"{facts.get('format', 'another format')}: set them in its configuration instead")
         mission = _prepare_streams(mission, meta, facts)
-    from graphnav.io.stream_counts import record_outside_span
+    from graphnav.io.stream_counts import check_dvl_on_imu_clock, record_outside_span
     record_outside_span(mission)
+    if facts.get("format") == "akit":
+        check_dvl_on_imu_clock(mission, _GIVE_OFFSET.format(kind="DVL", stream="dvl"), field="Time [s]")
+    else:
+        check_dvl_on_imu_clock(mission, "put the DVL stamps on the IMU clock (a CSV column map's \"clock\": "
+                                        "\"auto\" finds its offset)")
     return mission
 
 
@@ -110,8 +125,16 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                   dvl_time_offset_s) -> Mission:
     from graphnav.calibration.reference import Reference, estimate_dvl_time_offset, estimate_gt_time_offset
     imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
-    gt_time_offset_s = _pick(gt_time_offset_s, facts, "gt_time_offset_s")
-    dvl_time_offset_s = _pick(dvl_time_offset_s, facts, "dvl_time_offset_s")
+    gt_time_offset_s = _off_the_imu_clock(mission.gt, _pick(gt_time_offset_s, facts, "gt_time_offset_s"),
+                                          mission.imu, "gt", meta)
+    dvl_time_offset_s = _off_the_imu_clock(mission.dvl, _pick(dvl_time_offset_s, facts, "dvl_time_offset_s"),
+                                           mission.imu, "dvl", meta)
+    gt_clock = 0.0
+    if mission.gt is not None and _is_auto(gt_time_offset_s):
+        # a GT on a clock of its own first gets its clock offset: the axis check and the fine estimate need it
+        # on the IMU's (they search +-2 s)
+        gt, gt_clock = _gt_clock(mission, meta)
+        mission = dataclasses.replace(mission, gt=gt)
     signs, detected = _axis_signs(mission, meta, facts, imu_axis_signs)
     cfg = dataclasses.replace(mission.config)
     cfg.imu_axis_signs = signs
@@ -132,7 +155,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         gt_time_offset_s = detected.gt_offset.offset_s
         estimates["gt"] = detected.gt_offset
     if _is_auto(gt_time_offset_s):
-        est = estimate_gt_time_offset(t_imu, omega_b, g.t, g.C_b_n, lat_for_rate)
+        est = estimate_gt_time_offset(t_imu, omega_b, g.t, g.C_b_n, lat_for_rate, source=g.source)
         gt_time_offset_s = est.offset_s
         estimates["gt"] = est
     ref = Reference(t_imu, f_b, omega_b, g.t + float(gt_time_offset_s), g.v_n, g.C_b_n, cfg.gravity_mps2,
@@ -154,10 +177,12 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
         estimates["dvl"] = est
-    cfg.gt_time_offset_s = float(gt_time_offset_s)
+    if gt_clock and "gt" in estimates:
+        estimates["gt"] = dataclasses.replace(estimates["gt"], offset_s=estimates["gt"].offset_s + gt_clock)
+    cfg.gt_time_offset_s = gt_clock + float(gt_time_offset_s)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
 
-    t_gt = g.t + cfg.gt_time_offset_s
+    t_gt = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
     gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
     if np.any(imu_position_b):
         from graphnav.calibration.reference import move_ground_truth
@@ -170,6 +195,34 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     _note_akit(meta, cfg, dvl, gt, estimates)
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
+    """``offset`` (s added to the stamps of ``data``, a stream of the mission), or ``"auto"`` with a warning and a
+    note in ``meta`` when a given offset leaves most of its stamps outside the IMU span: the file is on a clock of
+    its own (a folder whose stamps were moved after graphnav wrote it with its configuration), and the clock check
+    finds it instead of every sample being refused. None ``data``: ``offset``."""
+    if data is None or _is_auto(offset) or not len(data.t):
+        return offset
+    t = np.asarray(data.t, float) + float(offset)
+    inside = float(np.mean((t >= imu.t[0]) & (t <= imu.t[-1])))
+    if inside >= 0.5:
+        return offset
+    text = (f"the configured {stream}_time_offset_s {float(offset):+.3f} s leaves {100 * (1 - inside):.0f} % of the "
+            f"stamps ([{t[0]:.3f}, {t[-1]:.3f}] s) outside the IMU span [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s: the file "
+            "is on a clock of its own, whose offset is estimated from the data instead")
+    add_note(meta, stream, text)
+    warnings.warn(f"{data.source}: {text}", RuntimeWarning, stacklevel=4)
+    return AUTO
+
+
+def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
+    """(GT on the IMU clock, the clock offset added, s) of an A-KIT mission as read: 0 when the GT stamps lie on
+    the IMU span (the published files); otherwise :func:`graphnav.calibration.clock.align_gt_clock`'s, or
+    DataError naming the GT file."""
+    from graphnav.calibration.clock import align_gt_clock
+    return align_gt_clock(mission.imu, mission.gt, meta, field="Time [s]",
+                          what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"))
 
 
 def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, imu: ImuData,
@@ -230,7 +283,7 @@ def detect_akit_axis_signs(mission: Mission, gt_mean_depth_m: float | None):
         lat0 = g.origin_lla[0]
         config.lat_rad = float(lat0)
         config.gravity_mps2 = gravity_magnitude(lat0, gt_mean_depth_m)
-        gt_data = GroundTruth(g.t, np.zeros((len(g.t), 3)), g.v_n, g.C_b_n)
+        gt_data = GroundTruth(g.t, np.zeros((len(g.t), 3)), g.v_n, g.C_b_n, source=g.source)
     detection = detect_imu_axis_signs(imu_data, config, gt_data, imu.source)
     warnings.warn(detection.message(imu.source), UserWarning, stacklevel=4)
     return detection
@@ -255,7 +308,8 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     from graphnav.calibration.clock import align_stream_clocks
     n = len(t_dvl)
     velocity_only = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), dvl.v_b, source=dvl.source)
-    aligned, _ = align_stream_clocks(imu, velocity_only, None, meta, cfg)
+    aligned, _ = align_stream_clocks(imu, velocity_only, None, meta, cfg, field="Time [s]",
+                                     what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
     return float(aligned.t[0] - t_dvl[0])
 
 

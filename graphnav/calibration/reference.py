@@ -225,7 +225,7 @@ def reference_gyro_increments(t_ref: np.ndarray, C_b_n_ref: np.ndarray, lat_rad:
 
 def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | None = None,
                             search_s: tuple[float, float] = (-2.0, 2.0),
-                            step_s: float = 0.02) -> OffsetEstimate:
+                            step_s: float = 0.02, source: str = "gt") -> OffsetEstimate:
     """Offset to add to the reference stamps so the reference attitude agrees with the gyro.
 
     Between reference samples k and k+1 the attitude increment ``Log(C_k^T C_k+1)`` is compared with the
@@ -237,6 +237,7 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
         t_gt: (K,) raw reference stamps, s. C_b_n_gt: (K,3,3) reference attitude.
         lat_rad: latitude for the Earth rate, or None to ignore it.
         search_s: candidate offset interval, s. step_s: grid step before refinement, s.
+        source: the reference's file or stream, for the error.
     """
     t_imu = np.ascontiguousarray(t_imu, float)
     t_gt = np.asarray(t_gt, float)
@@ -245,7 +246,9 @@ def estimate_gt_time_offset(t_imu, omega_b, t_gt, C_b_n_gt, lat_rad: float | Non
     # Use only intervals that stay inside the IMU span for every candidate, so the cost is comparable.
     usable = (t_gt[:-1] + search_s[0] >= t_imu[0]) & (t_gt[1:] + search_s[1] <= t_imu[-1])
     if usable.sum() < 10:
-        raise DataError("too little overlap between IMU and reference to estimate a time offset", "gt")
+        raise DataError(f"too little overlap between the IMU [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s and the reference "
+                        f"[{t_gt[0]:.3f}, {t_gt[-1]:.3f}] s to estimate a time offset ({int(usable.sum())} reference "
+                        "intervals inside the IMU span for every candidate, 10 needed)", source, field="t")
     a_t, b_t, ref = t_gt[:-1][usable], t_gt[1:][usable], incr_ref[usable]
 
     def cost(offset):

@@ -292,6 +292,11 @@ class Key:
 
 _POSITIVE = {"low": 0.0, "low_open": True}
 _NON_NEGATIVE = {"low": 0.0}
+#: Largest time offset of a configuration, s: a file's clock may be days from the IMU's, or Unix time beside an IMU
+#: file that starts at 0 (the prepare step's clock checks find such offsets and calibrate writes them), so any offset
+#: a stamp can have (:data:`graphnav.core.screening.MAX_STAMP_S`). It was an hour, which refused writing the offset
+#: of a DVL or GT three days away.
+TIME_OFFSET_MAX_S = 1e10
 
 #: Every key of a configuration file (``section.field`` for the IMU and DVL specs): type, unit and range.
 #: Ranges refuse what cannot be a sensor of an AUV (a negative noise density, a 5000 m lever arm), not merely
@@ -325,8 +330,8 @@ SCHEMA: dict[str, Key] = {
     "gravity_mps2": Key("number", "m/s^2", low=9.7, high=9.9),
     "earth_rotation": Key("bool"),
     "gravity_variation": Key("bool"),
-    "dvl_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
-    "gt_time_offset_s": Key("number", "s", low=-3600.0, high=3600.0),
+    "dvl_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
+    "gt_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
     "imu_axis_signs": Key("signs"),
     "depth_noise_std": Key("number", "m", high=100.0, **_POSITIVE),
     "depth_range_m": Key("vector", "m", low=-1000.0, high=12000.0, size=2),

@@ -935,9 +935,10 @@ def _independent_depth(ws: Workspace, real: bool) -> Callable[[np.ndarray], np.n
     a depth by centimetres)."""
     if not real:
         return lambda t: np.interp(t, ws.sim.gt.t, ws.sim.gt.p_n[:, 2])
-    from graphnav.io.loaders import AKIT_NOMINAL_RATE_HZ, published_period_factor
+    from graphnav.io.loaders import AKIT_NOMINAL_RATE_HZ, rescale_published_stamps
     raw = np.genfromtxt(_csv_file(ws.real_folder, "GT"), delimiter=",", skip_header=1)
-    t = raw[:, 0] * (published_period_factor(raw[:, 0], AKIT_NOMINAL_RATE_HZ["gt"]) or 1.0)
+    # about the file's first stamp, the folder's origin in the published files (all start at 0)
+    t, _ = rescale_published_stamps(raw[:, 0], AKIT_NOMINAL_RATE_HZ["gt"])
     return lambda s: np.interp(s, t, -raw[:, 3])
 
 

@@ -255,16 +255,41 @@ def describe_mission(mission) -> dict:
     if v is None:
         v = DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
     span, duration = _span(streams)
-    unix = "t0_unix_ns" in mission.meta
     use = "IMU/DVL estimators: graphnav smooth / online --data PATH"
+    refused = _refused_stream(streams)
     return {
-        "usable": True, "use": use, "reason": None, "mission": mission.name, "instrument": inst, "dvl_frame": frame,
-        "clock": ("seconds from the first IMU stamp " + (f"(Unix {mission.meta['t0_unix_ns'] / 1e9:.3f} s)" if unix
-                                                          else "")).strip(),
+        "usable": refused is None, "use": use if refused is None else None, "reason": refused,
+        "mission": mission.name, "instrument": inst, "dvl_frame": frame,
+        "clock": _mission_clock(mission),
         "time_span_s": span, "duration_s": duration, "streams": streams, "ground_truth": mission.gt is not None,
         "dvl": {"speed_mps": _speed_stats(v), "beams_per_ping": _beams_per_ping(dvl.valid)},
         "depth_m": _depth_range(None if mission.depth is None else mission.depth.depth),
     }
+
+
+def _refused_stream(streams: dict) -> str | None:
+    """Why the estimators cannot use the mission: its IMU or DVL stream refused for more than
+    :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` (they would end the run, ``graphnav smooth`` with an
+    error), or None."""
+    from graphnav.core.screening import MAX_REFUSED_FRACTION
+    for name in ("imu", "dvl"):
+        entry = streams.get(name) or {}
+        read, refused = entry.get("read") or 0, entry.get("refused") or {}
+        if read and sum(refused.values()) > MAX_REFUSED_FRACTION * read:
+            reasons = ", ".join(f"{n} {r}" for r, n in sorted(refused.items(), key=lambda kv: -kv[1]) if n)
+            return (f"{entry.get('source') or name}: {sum(refused.values())} of {read} {name} samples refused "
+                    f"({reasons}): more than {MAX_REFUSED_FRACTION:.0%} of the stream, which the estimators refuse")
+    return None
+
+
+def _mission_clock(mission) -> str:
+    """What the mission's stamps count: seconds from the first IMU stamp (the loaders that move the clock there
+    keep its Unix time), or the files' own Unix seconds (an A-KIT folder keeps its files' stamps)."""
+    if "t0_unix_ns" in mission.meta:
+        return f"seconds from the first IMU stamp (Unix {mission.meta['t0_unix_ns'] / 1e9:.3f} s)"
+    if len(mission.imu.t) and mission.imu.t[0] > UNIX_CLOCK_MIN_S:
+        return "Unix seconds (the files' own clock)"
+    return "seconds from the first IMU stamp"
 
 
 # --- a DVL file on its own ---------------------------------------------------------------------------------

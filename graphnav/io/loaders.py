@@ -19,8 +19,11 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
    not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log) or
    cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
-   noted. Stamps that are not such a grid (a logger's own, jittered stamps; stamps already on the period; a
-   grid at another rate) are kept as read, with a note, and a folder with files of both kinds is warned about.
+   noted. The stamps are scaled about the folder's clock origin (:func:`akit_stamp_origins`): 0 in the published
+   files, the first stamp of a folder on a Unix clock (scaled about zero, 1.7e9 s moved by 4e6 s), a file's own
+   first stamp when it starts on a clock days away. Stamps that are not such a grid (a logger's own, jittered
+   stamps; stamps already on the period; a grid at another rate) are kept as read, with a note, and a folder
+   with files of both kinds is warned about.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
    from its neighbours) are refused with their rows and counted, before the order check.
 2. **IMU axes.** ``imu_axis_signs`` multiplies the raw x/y/z of both accelerometer and gyro. The
@@ -37,7 +40,9 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    :mod:`graphnav.calibration.reference`): the GT offset by matching gyro-integrated attitude increments
    with the GT's, then the DVL offset by regressing the DVL velocity on the GT body velocity plus
    ``omega x l`` (lever arm held at ``lever_arm_b``). Estimating from the data rather than shipping a
-   table works for any A-KIT folder, including the three not in ``../shared/data``.
+   table works for any A-KIT folder, including the three not in ``../shared/data``. A GT or DVL file on a clock
+   of its own (seconds or days away) is first put on the IMU clock from the data
+   (:mod:`graphnav.calibration.clock`).
 4. **GT.** lat/lon/alt -> NED with the project's one position convention
    (:data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`): the origin is the sea surface above the first GT
    sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
@@ -443,8 +448,11 @@ def grid_step(t: np.ndarray) -> float | None:
     if np.any(dk < 1):
         return None
     k = np.concatenate([[0.0], np.cumsum(dk)])
-    step, t0 = np.polyfit(k, t, 1)
-    if not step > 0 or np.max(np.abs(t - (t0 + k * step))) > GRID_TOLERANCE * step:
+    # fitted on the time since the first stamp: on Unix stamps (1.7e9 s) the fit through the absolute stamps is
+    # off by 1e-9 of the step, as large as the smallest excess a published grid may have
+    since = t - t[0]
+    step, t0 = np.polyfit(k, since, 1)
+    if not step > 0 or np.max(np.abs(since - (t0 + k * step))) > GRID_TOLERANCE * step:
         return None
     return float(step)
 
@@ -456,33 +464,80 @@ def published_period_factor(t: np.ndarray, rate_hz: float) -> float | None:
     From the grid's step alone (:func:`grid_step`), so a file cut short, or with rows deleted, gets the factor
     of the file it was cut from. Not such a grid, and left as read: stamps not evenly spaced (a logger's own
     stamps jitter), already on the nominal period, or at another rate (a step not within
-    :data:`PUBLISHED_STEP_EXCESS_MAX` above the period).
+    :data:`PUBLISHED_STEP_EXCESS_MAX` above the period, or not more above it than the stamps' float64 resolution
+    can tell: :func:`_excess_floor`).
     """
-    return _period_factor(grid_step(t), rate_hz)
+    t = np.asarray(t, dtype=float)
+    return _period_factor(grid_step(t), rate_hz, _excess_floor(t))
 
 
-def _period_factor(step: float | None, rate_hz: float) -> float | None:
-    """:func:`published_period_factor` of a grid of step ``step`` s (None: not a grid)."""
+def _excess_floor(t: np.ndarray) -> float:
+    """The smallest step excess (fraction of the period) stamps ``t`` (s) resolve: 1e-9, or four float64 spacings
+    at the stamps' magnitude over their span (a period on Unix stamps, 2.4e-7 s apart, fitted over 2 s is known to
+    5e-7 only: such a grid, on the period, measured 7e-9 above it)."""
+    if len(t) < 2 or not t[-1] > t[0]:
+        return 1e-9
+    return max(1e-9, 4.0 * float(np.spacing(max(abs(t[0]), abs(t[-1])))) / float(t[-1] - t[0]))
+
+
+def _period_factor(step: float | None, rate_hz: float, excess_floor: float = 1e-9) -> float | None:
+    """:func:`published_period_factor` of a grid of step ``step`` s (None: not a grid; ``excess_floor``: the
+    smallest step excess taken for a published grid, :func:`_excess_floor`)."""
     if step is None:
         return None
     excess = step * rate_hz - 1.0
-    if not 1e-9 < excess <= PUBLISHED_STEP_EXCESS_MAX:
+    if not excess_floor < excess <= PUBLISHED_STEP_EXCESS_MAX:
         return None
     return 1.0 / (step * rate_hz)
 
 
+def rescale_published_stamps(t: np.ndarray, rate_hz: float, origin: float | None = None
+                             ) -> tuple[np.ndarray, float | None]:
+    """``(stamps, factor)``: stamps ``t`` (s) written as a ``linspace`` grid put back on the sensor's period
+    ``1 / rate_hz`` (:func:`published_period_factor`) about ``origin`` (s; default the first stamp), or ``t`` itself
+    and None when they are not such a grid.
+
+    About the clock's origin, not about zero: ``origin + (t - origin) * factor``. Scaled about zero, Unix stamps
+    (1.7e9 s) would move by 4e6 s at the published factor; with ``origin`` 0 the result is ``t * factor`` to the
+    bit."""
+    t = np.asarray(t, dtype=float)
+    factor = published_period_factor(t, rate_hz)
+    if factor is None:
+        return t, None
+    return _scaled_about(t, float(t[0]) if origin is None else float(origin), factor), factor
+
+
+def _scaled_about(t: np.ndarray, origin: float, factor: float) -> np.ndarray:
+    """``origin + (t - origin) * factor`` (s): the rescale of :func:`rescale_published_stamps`."""
+    return origin + (t - origin) * factor
+
+
+def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[str, float]:
+    """The stamp (s) each A-KIT file's stamps are rescaled about, by stream, from each file's first and last stamp
+    (s): the folder's earliest first stamp (0 in the published files, where every file starts at 0) for a file
+    that starts within the folder's recording (a DVL that starts late shares the other files' clock), else the
+    file's own first stamp (a file on a clock days away, whose grid starts there)."""
+    if not first:
+        return {}
+    folder = min(first.values())
+    longest = max(last[k] - first[k] for k in first)
+    return {k: folder if t0 - folder <= longest else t0 for k, t0 in first.items()}
+
+
 def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
-    """Multiply each published file's stamps (in place) by ``(N-1)/N`` of its published row count N
-    (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift nothing).
-    Rows missing from a file's stamp grid are warned about and noted in ``meta["streams"]``; a file whose
-    stamps are not the published grid is left as read, and noted; a folder with files of both kinds is warned
-    about (their clocks may now disagree)."""
+    """Put each published file's stamps (in place) back on the sensor's period: ``(N-1)/N`` of its published
+    row count N (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift
+    nothing), about the folder's clock origin (:func:`akit_stamp_origins`: 0 in the published files, the first
+    stamp of a folder on a Unix clock). Rows missing from a file's stamp grid are warned about and noted in
+    ``meta["streams"]``; a file whose stamps are not the published grid is left as read, and noted; a folder with
+    files of both kinds is warned about (their clocks may now disagree)."""
+    present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
+    origins = akit_stamp_origins({k: float(a[0, 0]) for k, a in present.items()},
+                                 {k: float(a[-1, 0]) for k, a in present.items()})
     kept, rescaled = [], []
-    for k, a in arrays.items():
-        if a is None or len(a) < 2:
-            continue
+    for k, a in present.items():
         step = grid_step(a[:, 0])
-        factor = _period_factor(step, AKIT_NOMINAL_RATE_HZ[k])
+        factor = _period_factor(step, AKIT_NOMINAL_RATE_HZ[k], _excess_floor(a[:, 0]))
         if factor is None:
             add_note(meta, k, "stamps kept as read (not the published linspace(0, T, N) grid)")
             kept.append(k)
@@ -496,9 +551,10 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
                     f"t = {a[gap, 0]:.3f} s); stamps rescaled from the grid, not the row count")
             add_note(meta, k, text)
             warnings.warn(f"{files[k.upper()]}: {text}", RuntimeWarning, stacklevel=4)
-        a[:, 0] *= factor
-        add_note(meta, k, f"stamps rescaled by {factor:.8g}: the published linspace(0, T, N) step {step:.8g} s "
-                          f"back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
+        a[:, 0] = _scaled_about(a[:, 0], origins[k], factor)
+        about = f" about t = {origins[k]:.3f} s" if origins[k] else ""
+        add_note(meta, k, f"stamps rescaled by {factor:.8g}{about}: the published linspace(0, T, N) step "
+                          f"{step:.8g} s back on the sensor's {1.0 / AKIT_NOMINAL_RATE_HZ[k]:g} s period")
     if kept and rescaled:
         text = (f"stamps of {', '.join(rescaled)} rescaled from the published linspace(0, T, N) grid, those of "
                 f"{', '.join(kept)} kept as read (not on such a grid); if these files come from one published "

@@ -84,6 +84,25 @@ def record_outside_span(mission: Mission) -> None:
                                           "outside the IMU span (the end of a recording) not used")
 
 
+def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",
+                           field: str = "t") -> None:
+    """DataError naming the DVL source, both time spans and ``what_to_do`` when more than
+    :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the usable DVL pings lie outside the IMU span
+    (counted by :func:`record_outside_span`): the DVL is on another clock, and the estimators would refuse the
+    stream (``graphnav info`` called such a mission usable, ``graphnav smooth`` then failed on it)."""
+    from graphnav.core.errors import DataError
+    from graphnav.core.screening import MAX_REFUSED_FRACTION
+    entry = mission.meta.get("streams", {}).get("dvl", {})
+    outside = (entry.get("refused") or {}).get(OUTSIDE_IMU_SPAN, 0)
+    used = int(dvl_used(mission.dvl).sum())
+    if not used or outside <= MAX_REFUSED_FRACTION * used:
+        return
+    t, t_imu = mission.dvl.t, mission.imu.t
+    raise DataError(f"{outside} of {used} usable DVL pings lie outside the IMU span [{t_imu[0]:.3f}, "
+                    f"{t_imu[-1]:.3f}] s (DVL stamps [{t[0]:.3f}, {t[-1]:.3f}] s): the DVL is on a clock of its "
+                    f"own, and the estimators cannot use it; {what_to_do}", mission.dvl.source, field=field)
+
+
 def ensure_streams(mission: Mission) -> dict:
     """``mission.meta["streams"]``, recorded from the mission's streams when no loader did (a simulated or
     hand-built mission)."""
