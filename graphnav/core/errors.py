@@ -17,15 +17,15 @@ class DataError(GraphnavError, ValueError):
         source: file path or stream name (e.g. ``"imu"``, ``".../IMU_trajectory1.csv"``).
         line: 1-based line in a file, or 0-based index in an in-memory stream; None if not applicable.
         field: column or field name; None if not applicable.
-        message: the message without the place (to raise it again naming another place).
+        message: the message without the place.
     """
 
     def __init__(self, message: str, source: str | None = None, line: int | None = None,
                  field: str | None = None):
-        self.message = message
         self.source = source
         self.line = line
         self.field = field
+        self.message = message          # without the place, for an error that says more around it
         where = []
         if source is not None:
             where.append(str(source))
