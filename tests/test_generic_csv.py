@@ -118,6 +118,33 @@ def test_merged_log_and_body_velocity_dvl_through_smooth(sim, tmp_path, capsys):
     assert no_gt_vrmse < 0.1
 
 
+def test_reference_units_left_out_are_detected_and_contradictions_named(sim, tmp_path):
+    """The reference of the column map checked like the A-KIT GT (graphnav.io.units): roll/pitch/yaw in degrees
+    without ``angle_unit`` converted with a warning (they used to be read as radians, silently); a declared
+    'rad' the rates contradict, north/east in km against m/s and a down column of the other sign refused naming
+    the file and columns."""
+    cmap = _separate_files(tmp_path, sim)
+    del cmap["gt"]["angle_unit"]
+    with pytest.warns(RuntimeWarning, match=r"nav.csv: attitude columns 'roll', 'pitch', 'yaw' read as degrees"):
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    np.testing.assert_allclose(m.gt.C_b_n, sim.gt.C_b_n, atol=1e-9)
+    assert any("read as degrees" in n for n in m.meta["streams"]["gt"]["notes"])
+    cmap["gt"]["angle_unit"] = "rad"
+    with pytest.raises(DataError, match=r"nav.csv, field 'roll/pitch/yaw': attitude after the declared unit 'rad'"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    cmap["gt"]["angle_unit"] = "deg"
+    nav = (tmp_path / "nav.csv").read_text().splitlines()
+    rows = [[float(x) for x in line.split(",")] for line in nav[1:]]
+    for edit, match in ((lambda r: [r[0], r[1] / 1e3, r[2] / 1e3] + r[3:],
+                         r"field 'n/e': the positions move 0.001x as far as the velocity says.*'vn', 've'"),
+                        (lambda r: r[:3] + [-r[3]] + r[4:],
+                         r"field 'd': the down position 'd' changes against 'vd'")):
+        (tmp_path / "nav.csv").write_text("\n".join([nav[0]] + [",".join(f"{x:.12g}" for x in edit(r))
+                                                                for r in rows]) + "\n")
+        with pytest.raises(DataError, match=match):
+            load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
 def test_errors_name_file_line_and_column(sim, tmp_path):
     cmap = _separate_files(tmp_path, sim)
     lines = (tmp_path / "dvl.csv").read_text().splitlines()

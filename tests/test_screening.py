@@ -171,6 +171,27 @@ def test_a_stream_mostly_refused_ends_with_an_error_naming_it(mission):
             _feed(nav, events)
 
 
+def test_a_stream_mostly_refused_on_the_navigator_names_its_file_and_column(mission):
+    """The Navigator sees samples, not files: its error about a mostly refused stream is raised again naming the
+    file the mission read the stream from and its column (an A-KIT depth is the GT's 'Altitude [m]'), where it
+    used to say "depth, field 'depth'"."""
+    import dataclasses
+
+    from graphnav.core.mission import DepthData
+    from graphnav.estimators.navigator import navigate
+    m = mission.slice(0, 20)
+    source = "Trajectory1/GT_trajectory1.csv"
+    m = dataclasses.replace(m, depth=DepthData(m.depth.t, -20.0 - m.depth.depth, source),
+                            meta={**m.meta, "stream_fields": {"depth": "Altitude [m]"}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError) as err:
+            list(navigate(_navigator(m), m))
+    text = str(err.value)
+    assert (err.value.source, err.value.field) == (source, "Altitude [m]")
+    assert text.startswith(f"{source}, field 'Altitude [m]': navigator: ") and "depth samples refused" in text
+
+
 # --- the aligner ----------------------------------------------------------------------------------------
 def test_aligner_is_not_moved_by_one_outlier_ping_that_passes_the_sample_tests():
     """A ping 1.5 m/s off (inside the 2 m/s spike limit at 1 Hz): the fit rejects it and the heading, tilt

@@ -218,3 +218,122 @@ def test_a_corrupt_stamp_in_the_middle_is_named():
     t[4000] = 1e300
     with pytest.raises(DataError, match="index 4000"):
         stamps_in_seconds(t, "imu", "imu.csv")
+
+
+# --- the reference (ground truth) --------------------------------------------------------------------------------
+GT_COLUMNS = ("Latitude [rad]", "Longitude [rad]", "V North [m/s]", "V East [m/s]")
+ATTITUDE_COLUMNS = ("Roll [rad]", "Pitch [rad]", "Yaw [rad]")
+
+
+def _reference(seconds=120.0):
+    """A vehicle near 0 N 0 E heading north at 1.5 m/s, yawing +-2.9 deg and rising and sinking +-1 m around 20 m:
+    in degrees its angles stay inside the radian range, so only the rates can tell. Returns the 1 Hz reference
+    (t, lat, lon, depth, v_n, euler) and the 100 Hz gyro (t_imu, omega_b), radians and SI."""
+    t_imu = np.arange(0.0, seconds, 0.01)
+    yaw = 0.05 * np.sin(0.3 * t_imu)
+    omega_b = np.zeros((t_imu.size, 3))
+    omega_b[:, 2] = 0.015 * np.cos(0.3 * t_imu)
+    v_n = np.column_stack([1.5 * np.cos(yaw), 1.5 * np.sin(yaw), 0.1 * np.cos(0.1 * t_imu)])
+    p_n = np.concatenate([np.zeros((1, 3)), np.cumsum((v_n[1:] + v_n[:-1]) / 2 * 0.01, axis=0)])
+    every = slice(0, None, 100)
+    t = t_imu[every]
+    lat, lon = 0.005 + p_n[every, 0] / 6378137.0, 0.004 + p_n[every, 1] / 6378137.0
+    euler = np.column_stack([np.zeros(t.size), np.zeros(t.size), yaw[every]])
+    return t, lat, lon, 20.0 + p_n[every, 2], v_n[every], euler, t_imu, omega_b
+
+
+def test_a_reference_in_radians_and_si_is_untouched():
+    from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
+    t, lat, lon, depth, v_n, euler, t_imu, omega_b = _reference()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert reference_attitude_units(t, euler, t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS) is euler
+        out = reference_latlon_units(t, lat, lon, v_n, "GT.csv", GT_COLUMNS)
+        assert out[0] is lat and out[1] is lon
+        assert reference_depth(t, depth, v_n[:, 2], "GT.csv", ("Altitude [m]", "V Down [m/s]"), None,
+                               (-10.0, 6000.0)) is depth
+        # an unwrapped yaw (beyond 2 pi) that turns with the gyro is radians too
+        unwrapped = euler + [0.0, 0.0, 4 * np.pi]
+        assert reference_attitude_units(t, unwrapped, t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS) is unwrapped
+
+
+def test_reference_angles_in_degrees_inside_the_radian_range_are_told_by_their_rates():
+    """Latitude 0.29 deg, longitude 0.23 deg, yaw +-2.9 deg: radians by their range; the positions move 57x as far
+    as the reference's velocity says and the attitude turns 57x as fast as the gyro."""
+    from graphnav.io.units import reference_attitude_units, reference_latlon_units
+    t, lat, lon, _, v_n, euler, t_imu, omega_b = _reference()
+    assert np.max(np.abs(np.degrees(euler))) < np.pi and np.degrees(lat).max() < np.pi / 2
+    meta: dict = {}
+    with pytest.warns(RuntimeWarning, match=r"GT.csv: 'Latitude \[rad\]', 'Longitude \[rad\]' read as degrees .* "
+                                            r"move 5\d.\dx as far as the velocity"):
+        lat_r, lon_r = reference_latlon_units(t, np.degrees(lat), np.degrees(lon), v_n, "GT.csv", GT_COLUMNS, meta)
+    np.testing.assert_allclose([lat_r, lon_r], [lat, lon], rtol=1e-12)
+    with pytest.warns(RuntimeWarning, match=r"GT.csv: attitude columns 'Roll \[rad\]', 'Pitch \[rad\]', 'Yaw \[rad\]' "
+                                            r"read as degrees .* turns 5\d.\dx as fast as the gyro"):
+        out = reference_attitude_units(t, np.degrees(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, meta)
+    np.testing.assert_allclose(out, euler, atol=1e-15)
+    assert len(meta["streams"]["gt"]["notes"]) == 2
+    # a declared unit is confirmed, never converted
+    with pytest.raises(DataError, match=r"GT.csv, field 'Roll \[rad\]/Pitch \[rad\]/Yaw \[rad\]': attitude after "
+                                        r"the declared unit 'rad'"):
+        reference_attitude_units(t, np.degrees(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, declared="rad")
+    # positions that move with the velocity in neither unit are refused, naming the columns
+    with pytest.raises(DataError, match=r"field 'Latitude \[rad\]/Longitude \[rad\]': the positions move 5x"):
+        reference_latlon_units(t, lat * 5, lon * 5, v_n, "GT.csv", GT_COLUMNS)
+    with pytest.raises(DataError, match=r"the positions \(read as degrees\) move 0.26\dx"):
+        reference_latlon_units(t, lat * 15, lon * 15, v_n, "GT.csv", GT_COLUMNS)
+
+
+def test_reference_angles_beyond_radians_without_a_gyro_are_degrees():
+    from graphnav.io.units import reference_attitude_units
+    t, _, _, _, _, euler, _, _ = _reference()
+    tilted = np.degrees(euler + [0.05, 0.1, 1.0])            # pitch 5.7 "rad": beyond radians
+    with pytest.warns(RuntimeWarning, match=r"\|pitch\| up to 5.73.*beyond radians"):
+        np.testing.assert_allclose(reference_attitude_units(t, tilted, None, None, "GT.csv", ATTITUDE_COLUMNS),
+                                   np.radians(tilted))
+    with pytest.raises(DataError, match="neither radians nor degrees"):
+        reference_attitude_units(t, tilted * 100, None, None, "GT.csv", ATTITUDE_COLUMNS)
+
+
+def test_a_flipped_reference_depth_is_turned_back_or_refused_naming_the_column():
+    from graphnav.io.units import reference_depth
+    t, _, _, depth, v_n, _, _, _ = _reference()
+    fields = ("Altitude [m]", "V Down [m/s]")
+    # the vehicle 19-21 m above the sea, rising when its velocity says it sinks: the sign is flipped
+    with pytest.warns(RuntimeWarning, match=r"GT.csv: column 'Altitude \[m\]' read with its sign flipped and turned "
+                                            r"back: depth -21 to -19 m is outside \[-10, 6000\] m"):
+        np.testing.assert_allclose(reference_depth(t, -depth, v_n[:, 2], "GT.csv", fields, None, (-10.0, 6000.0)),
+                                   depth)
+    # level: nothing tells a flipped sign from a height above the ellipsoid; refused, naming line and column
+    level = np.full(t.size, -20.0)
+    with pytest.raises(DataError, match=r"GT.csv, line 2, field 'Altitude \[m\]': 120 of 120 depths outside "
+                                        r"\[-10, 6000\] m.*sign flipped"):
+        reference_depth(t, level, np.zeros(t.size), "GT.csv", fields, None, (-10.0, 6000.0))
+    # inside the range (or a reference in a relative frame) the rates cannot say which column is wrong
+    with pytest.raises(DataError, match=r"field 'Altitude \[m\]'.*changes against 'V Down \[m/s\]'"):
+        reference_depth(t, -(depth - 18.0), v_n[:, 2], "GT.csv", fields, None, (-10.0, 6000.0))
+
+
+def test_no_reference_conversion_on_the_shared_trajectories(akit_dir):
+    """The GT checks of the A-KIT loader leave the ten trajectories as read, with wide margins: the attitude turns
+    0.95-1.03x as fast as the gyro (23-56x in degrees), the positions move 0.97-1.01x as far as the velocity says
+    (28-57x in degrees), the depth follows V Down 6x better than flipped, and the GT agrees with itself."""
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.io.loaders import read_akit, read_akit_mission
+    from graphnav.io.units import _latlon_ratio, attitude_rate_ratio, reference_inconsistencies, vertical_sign
+    for folder in list_akit(akit_dir):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")       # any conversion warns: none may happen
+            raw = read_akit(folder)
+        g, imu = raw.gt, raw.imu
+        for angles, low, high in ((g[:, 7:10], 0.9, 1.1), (np.degrees(g[:, 7:10]), 20.0, 60.0)):
+            ratio, _ = attitude_rate_ratio(g[:, 0], euler_to_C_b_n(*angles.T), imu[:, 0], imu[:, 4:7])
+            assert low < ratio < high, (folder.name, ratio)
+        assert 0.95 < _latlon_ratio(g[:, 0], g[:, 2], g[:, 1], g[:, 4:7]) < 1.05
+        assert 25.0 < _latlon_ratio(g[:, 0], np.degrees(g[:, 2]), np.degrees(g[:, 1]), g[:, 4:7]) < 60.0
+        sign, same, flipped = vertical_sign(g[:, 0], -g[:, 3], g[:, 6])
+        assert sign == 1 and flipped > 5 * same, (folder.name, same, flipped)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = read_akit_mission(folder)
+        assert reference_inconsistencies(m.gt.t, m.gt.C_b_n, m.gt.p_n, m.gt.v_n, m.imu.t, m.imu.omega_b) == []

@@ -172,7 +172,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         est = None          # a given offset the GT cannot check (too little overlap): the user's call
     if est is not None:
         # with a given offset too: a DVL in another frame follows the GT at no offset near it
-        _check_dvl_follows_gt(est.rms, mission.dvl.source)
+        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu)
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
@@ -289,13 +289,29 @@ def detect_akit_axis_signs(mission: Mission, gt_mean_depth_m: float | None):
     return detection
 
 
-def _check_dvl_follows_gt(rms: float, source) -> None:
-    """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`)."""
-    if rms > DVL_GT_RMS_MAX_MPS:
-        raise DataError(f"the DVL velocity does not follow the ground truth's body velocity at any time offset "
-                        f"(RMS residual {rms:.3g} m/s per axis at the best one; 0.007-0.044 m/s on the shared "
-                        "trajectories): the DVL is in another frame (axes swapped, dvl.C_d_b) or other units",
-                        str(source), field="DVL X/Y/Z")
+def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu: ImuData | None = None) -> None:
+    """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`). It
+    names the DVL file, unless the GT ``gt`` disagrees with itself or with the gyro of ``imu``
+    (:func:`graphnav.io.units.reference_inconsistencies`): the GT file is then named as the likelier fault."""
+    if not rms > DVL_GT_RMS_MAX_MPS:
+        return
+    text = (f"the DVL velocity does not follow the ground truth's body velocity at any time offset (RMS residual "
+            f"{rms:.3g} m/s per axis at the best one; 0.007-0.044 m/s on the shared trajectories)")
+    found = []
+    if gt is not None:
+        from graphnav.io.units import reference_inconsistencies
+        found = reference_inconsistencies(gt.t, gt.C_b_n, gt.p_n, gt.v_n, None if imu is None else imu.t,
+                                          None if imu is None else imu.omega_b)
+    if found:
+        from graphnav.io.loaders import AKIT_COLUMNS
+        c = AKIT_COLUMNS["GT"]
+        columns = {"attitude": "/".join(c[7:10]), "positions": f"{c[2]}/{c[1]}", "depth": c[3],
+                   "heading": f"{c[9]}/{c[4]}/{c[5]}"}
+        raise DataError(f"{text}, and the ground truth disagrees with itself: {'; '.join(s for _, s in found)}. "
+                        f"The ground truth is the likelier fault (its units or angle conventions), not the DVL "
+                        f"({source})", str(gt.source), field=columns[found[0][0]])
+    raise DataError(f"{text}: the DVL is in another frame (axes swapped, dvl.C_d_b) or other units", str(source),
+                    field="DVL X/Y/Z")
 
 
 def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> float:

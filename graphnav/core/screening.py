@@ -247,7 +247,8 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> N
             reasons = ", ".join(f"{n} {r}" for r, n in sorted(entry["refused"].items(), key=lambda kv: -kv[1]))
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
                             f"{limit:.0%} of the stream; check the units, the column map and the "
-                            "configuration's sensor ranges", entry.get("source") or stream, field=stream)
+                            "configuration's sensor ranges", entry.get("source") or stream,
+                            field=meta.get("stream_fields", {}).get(stream, stream))
 
 
 def dvl_outages(t: np.ndarray, usable: np.ndarray, rate_hz: float) -> list[tuple[float, float]]:

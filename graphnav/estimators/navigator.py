@@ -701,11 +701,34 @@ def navigate(nav: Navigator, mission, depth: bool = True, stop=None) -> Iterator
     between samples and a True answer ends the replay with KeyboardInterrupt (a clean point to stop at: an
     interrupt delivered inside a GTSAM call can surface as another exception)."""
     adders = stream_adders(nav)
-    for kind, t, payload in replay(mission, depth=depth):
-        if stop is not None and stop():
-            raise KeyboardInterrupt
-        yield from adders[kind](t, *payload)
-    yield from nav.finish()
+    try:
+        for kind, t, payload in replay(mission, depth=depth):
+            if stop is not None and stop():
+                raise KeyboardInterrupt
+            yield from adders[kind](t, *payload)
+        yield from nav.finish()
+    except DataError as err:
+        named = _named_after_source(err, mission)
+        if named is err:
+            raise
+        raise named from err
+
+
+#: The mission stream each replayed sample kind comes from.
+_KIND_STREAM = {"imu": "imu", "dvl": "dvl", "dvl_velocity": "dvl", "depth": "depth", "heading": "heading",
+                "fix": "fixes"}
+
+
+def _named_after_source(err: DataError, mission) -> DataError:
+    """``err`` (the Navigator's, naming a sample kind: it sees samples, not files) naming the file the mission's
+    stream was read from and its column (``meta["stream_fields"]``, e.g. the A-KIT depth's GT altitude); ``err``
+    itself when it names something else or the stream has no source of its own."""
+    stream = getattr(mission, _KIND_STREAM.get(err.source, ""), None) if isinstance(err.source, str) else None
+    source = getattr(stream, "source", None)
+    if not source or source == err.source:
+        return err
+    field = (getattr(mission, "meta", None) or {}).get("stream_fields", {}).get(err.source, err.field)
+    return DataError(err.message, source, err.line, field)
 
 
 def feed_mission(nav: Navigator, mission, callback=None, depth: bool = True, stop=None) -> list[EpochEstimate]:

@@ -26,8 +26,10 @@ or deg/s; ``velocity_unit`` m/s, cm/s or mm/s. A unit left out is detected from 
 speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
 a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 ``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
-(positive down); ``angle_unit`` rad or deg. ``frame`` frd (default) or flu for the IMU (the latter negates
-y and z).
+(positive down); ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro,
+converted with a warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
+with its down velocity (a DataError naming the columns otherwise; its down may be relative or absolute).
+``frame`` frd (default) or flu for the IMU (the latter negates y and z).
 
 DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
 without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
@@ -275,6 +277,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                 p = p - config.atmospheric_pressure_pa
             x = p / (config.water_density_kgpm3 * config.gravity_mps2)
         depth = DepthData(t_d - t0, x, str(path))
+        meta.setdefault("stream_fields", {})["depth"] = spec[key]     # named by a message about the stream
     if depth is None:
         meta["depth_source"] = "none"
 
@@ -288,7 +291,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                 raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")
             _require_finite(v[key], v["_lines"], spec[key], path)
         from graphnav.core.rotations import euler_to_C_b_n
-        e = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
+        e = _reference_units(t_g, v, spec, t_imu, omega_b, path, meta)
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
         if spec.get("velocity_sigma") is not None:
             meta["gt_velocity_sigma_n"] = _reference_sigma(spec["velocity_sigma"])
@@ -300,6 +303,29 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
+
+
+def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omega_b: np.ndarray, path: Path,
+                     meta: dict) -> np.ndarray:
+    """The reference's roll, pitch, yaw (K,3) in rad, and its positions checked against its velocity
+    (:mod:`graphnav.io.units`, as the A-KIT GT's): an undeclared ``angle_unit`` detected from the attitude's
+    turn rate against the gyro (``omega_b`` rad/s at ``t_imu`` s), a declared one confirmed; north/east moving
+    with ``v_n`` and down changing with its down axis, else DataError naming the columns."""
+    from graphnav.io.units import (
+        check_reference_displacement,
+        displacement_ratio,
+        reference_attitude_units,
+        reference_depth,
+    )
+    declared = spec.get("angle_unit")
+    euler = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
+    euler = reference_attitude_units(t, euler, t_imu, omega_b, str(path), spec["euler"], meta, declared)
+    p_n, v_n = v["p_n"], v["v_n"]
+    check_reference_displacement(displacement_ratio(t, p_n[:, :2], v_n[:, :2])[0], str(path),
+                                 spec["p_n"][:2] + spec["v_n"][:2])
+    # a reference's down is taken in the frame its file gives (relative or absolute): its sign only
+    reference_depth(t, p_n[:, 2], v_n[:, 2], str(path), (spec["p_n"][2], spec["v_n"][2]), meta, lines=v["_lines"])
+    return euler
 
 
 def _reference_sigma(value) -> list[float]:

@@ -48,7 +48,12 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    sample, ``origin_lla = (lat0, lon0, 0)``, so north/east start at 0 and ``p_n[:, 2]`` is the absolute depth
    (as the estimators' depth factors and the aligner put it); ``C_b_n`` from roll/pitch/yaw; the depth
    stream is that depth (``-altitude`` of the GT; ``meta["depth_source"] = "gt"``: the files carry no depth
-   sensor).
+   sensor). Before that the GT's units are checked (:mod:`graphnav.io.units`, as the IMU's and DVL's are):
+   latitude/longitude and roll/pitch/yaw in degrees (out of the radian range, or moving 57x faster than the GT's
+   velocity and the gyro say) are converted with a warning naming the file and columns; an altitude whose depth
+   is mostly outside ``depth_range_m`` is flipped back when it changes against ``V Down``, else refused naming
+   the line and ``Altitude [m]`` (also named, through ``meta["stream_fields"]``, by a later error about the depth
+   stream).
 5. **DVL.** Pings outside the vehicle's envelope (:class:`~graphnav.core.config.DvlSpec` ``max_*``: speed,
    ``|v_z|`` as without bottom lock, spikes no vehicle can make; :func:`graphnav.core.dvl.implausible_pings`)
    are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]`` and, with every
@@ -397,7 +402,8 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair, meta=meta,
                    stream="dvl")
     gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair, meta=meta, stream="gt") if "GT" in files else None
-    _akit_units(imu, dvl, gt, files, meta)       # before the screening: a gyro in deg/s is not out of range
+    # before the screening: a gyro in deg/s is not out of range
+    _akit_units(imu, dvl, gt, files, meta, cfg.depth_range_m)
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     bad = refuse(meta, "imu", imu_out_of_range(imu[:, 1:4], imu[:, 4:7], cfg), str(files["IMU"]), line_offset=2)
@@ -409,8 +415,9 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     return AkitRaw(imu, dvl, gt, files, meta)
 
 
-def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict) -> None:
-    """Stamps, IMU and DVL units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
+def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict,
+                depth_range_m: tuple[float, float]) -> None:
+    """Stamps, IMU, DVL and GT units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
     the header names units, but a file written by other tools in this layout may not hold them)."""
     from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
     for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
@@ -419,6 +426,21 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
     f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
     imu[:, 1:7] = np.hstack([f_b, omega_b])       # a copy first: f_b/omega_b may be views of swapped columns
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
+    if gt is not None:
+        _akit_gt_units(gt, imu, str(files["GT"]), meta, depth_range_m)
+
+
+def _akit_gt_units(gt: np.ndarray, imu: np.ndarray, source: str, meta: dict, depth_range_m) -> None:
+    """The GT array (K,10) in place: attitude and latitude/longitude in degrees converted to rad, an altitude
+    with its sign flipped turned back, or DataError naming the file and column (:mod:`graphnav.io.units`; the
+    gyro of ``imu`` (N,7) in rad/s tells the attitude's unit, the GT's own velocity its positions')."""
+    from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
+    cols = AKIT_COLUMNS["GT"]
+    gt[:, 7:10] = reference_attitude_units(gt[:, 0], gt[:, 7:10], imu[:, 0], imu[:, 4:7], source, cols[7:10], meta)
+    gt[:, 2], gt[:, 1] = reference_latlon_units(gt[:, 0], gt[:, 2], gt[:, 1], gt[:, 4:7], source,
+                                                (cols[2], cols[1], cols[4], cols[5]), meta)
+    # the depth is the altitude's opposite (positive up, metres above the sea surface)
+    gt[:, 3] = -reference_depth(gt[:, 0], -gt[:, 3], gt[:, 6], source, (cols[3], cols[6]), meta, depth_range_m)
 
 
 #: Nominal rates of the A-KIT streams, Hz: the sensors' rates, which the published stamps' period misses.
@@ -674,6 +696,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     given = {k: v for k, v in (given or {}).items() if k in PREPARE_KEYS}
     meta = {"streams": raw.meta.get("streams", {}),
             "source": str(folder), "files": src, "depth_source": "gt" if g is not None else None,
+            # the column the depth comes from, for a message about the depth stream (depth = -altitude)
+            **({"stream_fields": {"depth": AKIT_COLUMNS["GT"][3]}} if g is not None else {}),
             **({} if g is not None else {"ground_truth": False}),
             "rescale_stamps": rescale_stamps, "beam_seed": beam_seed,
             **({} if from_file is None else {"written_beams": dict(zip(("file", "pings", "made", "few_beams"),

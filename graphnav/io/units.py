@@ -1,4 +1,5 @@
-"""Units from the data: stamps in s/ms/us/ns, gyro in deg/s, accelerometer in g, swapped IMU blocks, DVL in mm/s.
+"""Units from the data: stamps in s/ms/us/ns, gyro in deg/s, accelerometer in g, swapped IMU blocks, DVL in mm/s,
+a reference's angles in degrees and its depth with the sign flipped.
 
 Every loader calls :func:`check_units` on its streams before anything integrates them (the axis detection,
 the time-offset estimates, gap bridging). Each check looks at the whole stream, decides from physics, and
@@ -32,6 +33,21 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   speed of 500-10000 is mm/s (RDI's raw unit: an AUV at 0.5-10 m/s). 10-500 is cm/s of a vehicle at
   0.1-5 m/s as much as mm/s of one at 0.01-0.5 m/s: refused, declare ``velocity_unit`` (a wrong guess would
   scale every velocity by 10).
+* **Reference (ground truth).** The A-KIT GT file and a column map's ``gt`` entry (:func:`reference_attitude_units`,
+  :func:`reference_latlon_units`, :func:`reference_depth`, :func:`check_reference_displacement`). Angles in degrees
+  are certain beyond the radian range (a roll beyond pi, a pitch beyond pi/2, a latitude beyond pi/2, a longitude
+  beyond 2 pi; a yaw beyond 2 pi unless it turns with the gyro: an unwrapped yaw) and, inside it, told by rates:
+  the attitude's turn rate over the gyro's (:func:`attitude_rate_ratio`) and the positions' displacement over the
+  reference's own velocity's (:func:`displacement_ratio`) are 0.95-1.03 and 0.975-1.007 on the ten, 23-56 and
+  28-57 with the same files in degrees; :data:`DEG_RATE_RATIO` (7.6, the geometric middle of 1 and 57.3) splits
+  them. Converted like the gyro's deg/s (a warning naming the file and columns, a note); positions that follow
+  the velocity in neither unit (outside :data:`SAME_UNITS_RATIO`) are refused. An A-KIT depth (-altitude) mostly
+  outside ``depth_range_m`` is flipped back when it changes against the GT's down velocity
+  (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused naming the first
+  line and the column (a level vehicle's flipped sign cannot be told from a height above the ellipsoid); a depth
+  that changes against its down velocity inside the range is refused naming both columns (which is wrong cannot
+  be told). :func:`reference_inconsistencies` says what in a reference disagrees with itself or the gyro (the
+  prepare step's DVL-against-GT refusal then names the GT file instead of the DVL's).
 """
 from __future__ import annotations
 
@@ -271,6 +287,292 @@ def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = Non
 
 
 # ------------------------------------------------------------------------------------------------
+# ground truth (reference)
+# ------------------------------------------------------------------------------------------------
+#: A reference's rate as read over the rate it must have (its attitude's turn rate over the gyro's, its
+#: horizontal displacement over its own velocity's): ~1 when both are SI (0.95-1.03 and 0.975-1.007 on the ten
+#: shared trajectories), 57.3 for angles in degrees read as radians (23-56 and 28-57 with the ten in degrees; the
+#: wrap of a turn faster than a radian per sample lowers it). Above the geometric middle of 1 and 57.3 the angles
+#: are degrees.
+DEG_RATE_RATIO = float(np.sqrt(180.0 / np.pi))
+#: Rates that agree within this factor are the same units (positions against velocities, a declared unit).
+SAME_UNITS_RATIO = 3.0
+#: Median gyro turn rate (rad/s) and reference speed (m/s) below which the rates tell nothing (the ten
+#: trajectories: 0.006-0.046 rad/s, 1.5-2.1 m/s).
+MIN_TURN_RATE_RADPS = 1e-3
+MIN_SPEED_MPS = 0.1
+#: Shortest reference interval (s) the attitude rates are compared over: a 100 Hz reference's sample-to-sample
+#: noise and quantisation would otherwise swamp its turn rate.
+ATTITUDE_STEP_MIN_S = 1.0
+#: Windows (s) over which displacements are compared with the velocity's integral: long enough for a noisy fix
+#: (USBL metres) to be small against the distance travelled.
+POSITION_WINDOW_S = 10.0
+#: Vertical displacements (m, RMS over the windows) below which the down sign cannot be told (the ten: 0.03-1.1).
+MIN_VERTICAL_MOTION_M = 0.01
+#: The down positions follow the down velocity with the opposite sign when that fits this many times better
+#: (RMS residual) than the same sign, and the same sign when that fits this many times better (the ten, same
+#: sign: 6-70x better; Trajectory1's first 150 s with the altitude negated: 19x worse).
+SIGN_FIT_FACTOR = 3.0
+
+
+def _reference_steps(t: np.ndarray, min_step_s: float) -> np.ndarray:
+    """Indices of the samples of stamps ``t`` (s) kept so that neighbours are at least ``min_step_s`` apart
+    (every k-th sample, k from the median step)."""
+    t = np.asarray(t, float)
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    k = max(1, int(np.ceil(min_step_s / step - 1e-9))) if step > 0 else 1
+    return np.arange(0, t.size, k)
+
+
+def attitude_rate_ratio(t_ref: np.ndarray, C_b_n: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray
+                        ) -> tuple[float, float]:
+    """``(ratio, gyro turn rate rad/s)``: the median turn rate of the reference attitude ``C_b_n`` (K,3,3, built
+    from the angles as read) over its intervals of at least :data:`ATTITUDE_STEP_MIN_S`, over the gyro's median
+    turn rate (``omega_b`` (N,3) rad/s at ``t_imu`` s) over windows of the same length. Medians over each whole
+    stream, so neither a clock offset between the two nor the IMU's axis signs matter: ~1 in radians, ~57 for
+    degrees read as radians. NaN when the gyro turns too little (:data:`MIN_TURN_RATE_RADPS`) to tell."""
+    from scipy.spatial.transform import Rotation
+
+    from graphnav.core.timeseries import cumulative_integral, interp_rows
+    t_ref, t_imu = np.asarray(t_ref, float), np.ascontiguousarray(t_imu, float)
+    keep = _reference_steps(t_ref, ATTITUDE_STEP_MIN_S)
+    if keep.size < 3 or t_imu.size < 3:
+        return float("nan"), 0.0
+    C = np.asarray(C_b_n, float)[keep]
+    dt = np.diff(t_ref[keep])
+    turn_ref = np.linalg.norm(Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec(), axis=1) / dt
+    step = float(np.median(dt))
+    edges = np.arange(t_imu[0], t_imu[-1], step)
+    if edges.size < 3:
+        return float("nan"), 0.0
+    S = interp_rows(edges, t_imu, np.asfortranarray(cumulative_integral(t_imu, np.asarray(omega_b, float))))
+    turn_imu = float(np.median(np.linalg.norm(np.diff(S, axis=0), axis=1) / step))
+    if not turn_imu >= MIN_TURN_RATE_RADPS:
+        return float("nan"), turn_imu
+    return float(np.median(turn_ref) / turn_imu), turn_imu
+
+
+def _window_increments(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(W,k) displacements of positions ``p`` (K,k, m) and (W,k) integrals of velocities ``v`` (K,k, m/s, the
+    trapezoid rule) over consecutive windows of ``window_s`` s of the stamps ``t`` (s)."""
+    t = np.asarray(t, float)
+    edges = np.arange(t[0], t[-1] + 1e-9, window_s)
+    if edges.size < 3:
+        return np.zeros((0, p.shape[1])), np.zeros((0, p.shape[1]))
+    v = np.asarray(v, float)
+    integral = np.concatenate([np.zeros((1, v.shape[1])),
+                               np.cumsum((v[1:] + v[:-1]) / 2 * np.diff(t)[:, None], axis=0)])
+    at = lambda a: np.column_stack([np.interp(edges, t, a[:, j]) for j in range(a.shape[1])])  # noqa: E731
+    return np.diff(at(np.asarray(p, float)), axis=0), np.diff(at(integral), axis=0)
+
+
+def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: float = POSITION_WINDOW_S
+                       ) -> tuple[float, float]:
+    """``(ratio, speed m/s)``: the median displacement of positions ``p`` (K,k, m as read) over windows of
+    ``window_s`` over the median of the velocities' ``v`` (K,k, m/s) integral over the same windows (norms:
+    turns shorten both alike); ~1 when the two agree. NaN when the median speed is below
+    :data:`MIN_SPEED_MPS`."""
+    dp, dv = _window_increments(t, p, v, window_s)
+    if not len(dp):
+        return float("nan"), 0.0
+    moved = float(np.median(np.linalg.norm(dv, axis=1)))
+    if not moved >= MIN_SPEED_MPS * window_s:
+        return float("nan"), moved / window_s
+    return float(np.median(np.linalg.norm(dp, axis=1)) / moved), moved / window_s
+
+
+def vertical_sign(t: np.ndarray, down: np.ndarray, v_down: np.ndarray, window_s: float = POSITION_WINDOW_S
+                  ) -> tuple[int, float, float]:
+    """``(sign, residual same sign, residual flipped)``: whether the down positions ``down`` (K, m) change with
+    the down velocity ``v_down`` (K, m/s) (+1), against it (-1), or cannot be told (0: too little vertical
+    motion, :data:`MIN_VERTICAL_MOTION_M`, or no fit :data:`SIGN_FIT_FACTOR` times better); the residuals are the
+    RMS (m) of displacement minus and plus the velocity's integral over windows of ``window_s``."""
+    dp, dv = _window_increments(t, np.reshape(down, (-1, 1)), np.reshape(v_down, (-1, 1)), window_s)
+    if len(dp) < 3 or not np.sqrt(np.mean(dv ** 2)) >= MIN_VERTICAL_MOTION_M:
+        return 0, float("nan"), float("nan")
+    same, flipped = float(np.sqrt(np.mean((dp - dv) ** 2))), float(np.sqrt(np.mean((dp + dv) ** 2)))
+    sign = 1 if SIGN_FIT_FACTOR * same < flipped else -1 if SIGN_FIT_FACTOR * flipped < same else 0
+    return sign, same, flipped
+
+
+def _columns(fields) -> str:
+    return ", ".join(f"'{f}'" for f in fields)
+
+
+def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray | None,
+                             omega_b: np.ndarray | None, source: str, fields, meta: dict | None = None,
+                             declared: str | None = None) -> np.ndarray:
+    """Roll, pitch, yaw of a reference (``euler`` (K,3) as read, after a declared unit's factor) in rad: degrees
+    detected and converted (a warning naming ``source`` and the columns ``fields``, a note), or DataError.
+
+    Degrees are told by the range (a roll beyond pi or a pitch beyond pi/2 cannot be radians; a yaw beyond 2 pi
+    neither, unless it is an unwrapped yaw that turns with the gyro) and, inside it, by the attitude's turn rate
+    against the gyro's (:func:`attitude_rate_ratio`: ~1 in radians, ~57 in degrees; ``t_imu`` s and ``omega_b``
+    rad/s after the gyro's own unit check, None without an IMU). ``declared``: the unit the caller applied
+    (``"rad"``/``"deg"``); data that contradict it are refused instead of converted.
+    """
+    from graphnav.core.rotations import euler_to_C_b_n
+    euler = np.asarray(euler, float)
+    if euler.size == 0:
+        return euler
+    ratio = float("nan")
+    if t_imu is not None and omega_b is not None:
+        ratio, _ = attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b)
+    peak = np.max(np.abs(euler), axis=0)
+    tilt_beyond = peak[0] > np.pi or peak[1] > np.pi / 2
+    field = "/".join(fields[:3])
+    extent = f"|roll| up to {peak[0]:.4g}, |pitch| up to {peak[1]:.4g}, |yaw| up to {peak[2]:.4g}"
+    turns = f"the attitude turns {ratio:.3g}x as fast as the gyro (1 in radians, 57.3 for degrees)"
+    if declared is not None:
+        if tilt_beyond or (np.isfinite(ratio) and not 1 / DEG_RATE_RATIO < ratio < DEG_RATE_RATIO):
+            raise DataError(f"attitude after the declared unit {declared!r}: "
+                            f"{turns if np.isfinite(ratio) else extent + ' rad'}: not the declared unit",
+                            source, field=field)
+        return euler
+    if np.isfinite(ratio) and ratio < DEG_RATE_RATIO:
+        if tilt_beyond:
+            raise DataError(f"{extent}: beyond radians, yet {turns}: neither radians nor degrees", source,
+                            field=field)
+        return euler                    # radians (a yaw beyond 2 pi is an unwrapped one)
+    if not (tilt_beyond or peak[2] > 2 * np.pi or np.isfinite(ratio)):
+        return euler                    # nothing tells: radians, as a reference's angles are
+    why = turns if np.isfinite(ratio) else f"{extent}: beyond radians"
+    if peak[0] > 180.0 or peak[1] > 90.0:
+        raise DataError(f"attitude neither radians nor degrees ({why}; {extent})", source, field=field)
+    _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {why}", source)
+    return np.radians(euler)
+
+
+def check_reference_displacement(ratio: float, source: str, fields, what: str = "") -> None:
+    """DataError when a reference's positions move ``ratio`` times as far as its velocity says
+    (:func:`displacement_ratio`, NaN: cannot tell) and that is not the same units
+    (:data:`SAME_UNITS_RATIO`); ``fields`` = (position columns..., velocity columns...) of ``source``."""
+    if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+        raise DataError(f"the positions{what} move {ratio:.3g}x as far as the velocity says (1 when both are SI; "
+                        f"columns {_columns(fields)}): the positions or the velocity are in other units", source,
+                        field="/".join(fields[:len(fields) // 2] if len(fields) > 1 else fields))
+
+
+def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n: np.ndarray, source: str,
+                           fields, meta: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Latitude and longitude of a reference (K,) in rad: degrees detected and converted (a warning naming
+    ``source`` and the columns, a note), or DataError. ``fields`` = (latitude, longitude, velocity north,
+    velocity east) columns; ``v_n`` (K,3) the reference's NED velocity, m/s.
+
+    Degrees are told by the range (a latitude beyond pi/2 or a longitude beyond 2 pi cannot be radians) and,
+    inside it, by the displacement against the reference's own velocity (:func:`displacement_ratio`: ~1 in
+    radians, ~57 in degrees). Positions that move with the velocity in neither unit are refused
+    (:func:`check_reference_displacement`).
+    """
+    lat, lon = np.asarray(lat, float), np.asarray(lon, float)
+    if lat.size == 0:
+        return lat, lon
+    ratio = _latlon_ratio(t, lat, lon, v_n)
+    extent = f"|latitude| up to {np.max(np.abs(lat)):.6g}, |longitude| up to {np.max(np.abs(lon)):.6g}"
+    beyond = np.max(np.abs(lat)) > np.pi / 2 or np.max(np.abs(lon)) > 2 * np.pi
+    if not beyond and not ratio > DEG_RATE_RATIO:         # radians, or nothing tells (NaN)
+        check_reference_displacement(ratio, source, fields)
+        return lat, lon
+    why = (f"the positions move {ratio:.3g}x as far as the velocity says (1 in radians, 57.3 for degrees)"
+           if np.isfinite(ratio) else f"{extent}: beyond radians")
+    if np.max(np.abs(lat)) > 90.0 or np.max(np.abs(lon)) > 360.0:
+        raise DataError(f"latitude/longitude neither radians nor degrees ({why}; {extent})", source,
+                        field="/".join(fields[:2]))
+    lat_r, lon_r = np.radians(lat), np.radians(lon)
+    check_reference_displacement(_latlon_ratio(t, lat_r, lon_r, v_n), source, fields, " (read as degrees)")
+    _note(meta, "gt", f"{_columns(fields[:2])} read as degrees and converted to rad: {why}", source)
+    return lat_r, lon_r
+
+
+def _latlon_ratio(t, lat, lon, v_n) -> float:
+    """:func:`displacement_ratio` of latitude/longitude read as radians (local north/east, m) against the
+    horizontal part of ``v_n``."""
+    from graphnav.core.earth import WGS84_A
+    dlon = np.angle(np.exp(1j * (lon - lon[0])))           # across the antimeridian too
+    p = np.column_stack([WGS84_A * (lat - lat[0]), WGS84_A * np.cos(lat[0]) * dlon])
+    return displacement_ratio(t, p, np.asarray(v_n, float)[:, :2])[0]
+
+
+def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source: str, fields,
+                    meta: dict | None = None, depth_range_m: tuple[float, float] | None = None,
+                    line_offset: int = 2, lines: np.ndarray | None = None) -> np.ndarray:
+    """The reference's down positions ``depth`` (K, m, positive down, as derived from the file) checked against
+    its down velocity ``v_down`` (K, m/s) and, for an absolute depth, ``depth_range_m``; ``fields`` = (position
+    column, velocity column) of ``source``.
+
+    More than half the samples outside ``depth_range_m`` (the vehicle above the sea or beyond any depth) is a
+    DataError naming the file, the first such line and the column, unless the positions change against the
+    velocity (:func:`vertical_sign`) and flipped they lie in the range: the sign is then flipped back (a warning,
+    a note). Positions that change against the velocity inside the range are a DataError naming both columns:
+    one of them has the wrong sign, and which cannot be told. ``lines``: the file line of each sample (else
+    index + ``line_offset``).
+    """
+    depth = np.asarray(depth, float)
+    if depth.size == 0:
+        return depth
+    sign, same, flipped = vertical_sign(t, depth, v_down)
+    against = (f"changes against {_columns(fields[1:])} (residual {same:.3g} m, {flipped:.3g} m with the sign "
+               f"flipped, over {POSITION_WINDOW_S:g} s windows)")
+    fit = f"it {against}" if sign < 0 else ""
+    if depth_range_m is not None:
+        lo, hi = depth_range_m
+        outside = ~((depth >= lo) & (depth <= hi))
+        if outside.mean() > 0.5:
+            if sign < 0 and np.mean((-depth >= lo) & (-depth <= hi)) > 0.5:
+                _note(meta, "gt", f"column {_columns(fields[:1])} read with its sign flipped and turned back: "
+                      f"depth {np.min(depth):.4g} to {np.max(depth):.4g} m is outside [{lo:g}, {hi:g}] m and {fit}",
+                      source)
+                return -depth
+            i = int(np.flatnonzero(outside)[0])
+            line = int(lines[i]) if lines is not None else i + line_offset
+            hint = (f"; {fit}" if fit else
+                    "; a sign flipped (depth positive down, altitude positive up), a height above the ellipsoid "
+                    "instead of the sea surface, or other units?")
+            raise DataError(f"{int(outside.sum())} of {depth.size} depths outside [{lo:g}, {hi:g}] m "
+                            f"(SensorConfig.depth_range_m): depth {np.min(depth):.4g} to {np.max(depth):.4g} m"
+                            + hint, source, line, fields[0])
+    if sign < 0:
+        raise DataError(f"the down position {_columns(fields[:1])} {against}: one of the two columns has its sign "
+                        "flipped", source, field=fields[0])
+    return depth
+
+
+#: Median share of a moving reference's body-frame velocity along its x (forward) axis below which its attitude
+#: and velocity disagree: an AUV moves forward (0.991-0.999 on the ten shared trajectories; their attitude read
+#: in degrees gives -0.18..0.06, a yaw from east instead of north -0.58..0.12).
+FORWARD_SHARE_MIN = 0.5
+
+
+def reference_inconsistencies(t: np.ndarray, C_b_n: np.ndarray, p_n: np.ndarray, v_n: np.ndarray,
+                              t_imu: np.ndarray | None = None, omega_b: np.ndarray | None = None
+                              ) -> list[tuple[str, str]]:
+    """What in a reference (stamps ``t`` s, attitude ``C_b_n`` (K,3,3) body-to-NED, NED ``p_n`` m and ``v_n``
+    m/s) disagrees with itself, or with the gyro (``omega_b`` (N,3) rad/s at ``t_imu`` s, any clock and axis
+    signs): its attitude's turn rate, its displacement against its velocity, its depth against its down
+    velocity, its velocity off its body's forward axis. ``(quantity, sentence)`` per finding, the quantity one
+    of ``attitude``, ``positions``, ``depth``, ``heading``; empty when nothing disagrees."""
+    found = []
+    if t_imu is not None and omega_b is not None:
+        ratio, _ = attitude_rate_ratio(t, C_b_n, t_imu, omega_b)
+        if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+            found.append(("attitude", f"its attitude turns {ratio:.3g}x as fast as the gyro"))
+    ratio, _ = displacement_ratio(t, np.asarray(p_n)[:, :2], np.asarray(v_n)[:, :2])
+    if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+        found.append(("positions", f"its positions move {ratio:.3g}x as far as its velocity says"))
+    if vertical_sign(t, np.asarray(p_n)[:, 2], np.asarray(v_n)[:, 2])[0] < 0:
+        found.append(("depth", "its depth changes against its down velocity"))
+    v_b = np.einsum("kji,kj->ki", np.asarray(C_b_n, float), np.asarray(v_n, float))
+    speed = np.linalg.norm(v_b, axis=1)
+    moving = speed > 3 * MIN_SPEED_MPS
+    if moving.sum() >= 10:
+        share = float(np.median(v_b[moving, 0] / speed[moving]))
+        if share < FORWARD_SHARE_MIN:
+            found.append(("heading", f"its velocity is not along its body's forward axis in its own attitude "
+                                     f"(median forward share {share:.2f}, 0.99 on the shared trajectories)"))
+    return found
+
+# ------------------------------------------------------------------------------------------------
 # the entry point
 # ------------------------------------------------------------------------------------------------
 def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None = None,
@@ -342,4 +644,6 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 
 
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
-           "gyro_tilt_scale", "dvl_speed_scale"]
+           "gyro_tilt_scale", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio", "vertical_sign",
+           "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
+           "reference_inconsistencies"]
