@@ -2,8 +2,9 @@
 what it does with each damaged input of the screening brief (Trajectory1 copies in a temporary folder).
 
 Part 1, per clean trajectory: samples refused by the loader (per stream and reason), by the Navigator's
-per-sample stream rules (:class:`graphnav.core.screening.StreamScreen`, run over the replay without an
-estimator) and pings rejected by the aligner's fit (300 s gyrocompassing alignment from the first sample).
+per-sample stream rules (:class:`graphnav.core.screening.StreamScreen`, IMU spike test included, run over the
+replay without an estimator) and pings rejected by the aligner's fit (300 s gyrocompassing alignment from the
+first sample).
 
 Part 2, with ``--damage``: ``graphnav smooth`` (Graph-HN-batch, GT initial state as the default) on Trajectory1
 clean and with each damage, its exit status, health state, refusals and VRMSE against the clean file's GT.
@@ -45,6 +46,8 @@ def clean_table(root: Path | None) -> None:
             why = screen.stamp_problem(kind, t)
             if why is None and kind == "imu":
                 why = screen.imu_problem(*payload)
+                spike = screen.imu_spike(*payload) if why is None else None
+                why = why if spike is None else spike[0]
             elif why is None and kind == "dvl":
                 problems = screen.dvl_problems(t, np.asarray(payload[0]), np.asarray(payload[1]))
                 why = next(iter(problems.values()), None)

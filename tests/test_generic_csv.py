@@ -182,3 +182,32 @@ def test_a_declared_reference_error_is_added_to_the_printed_velocity_nees(tmp_pa
             load_mission(tmp_path, _config(tmp_path, sim, cmap))
     cmap["gt"]["velocity_sigma"] = None                  # null: not declared
     assert "gt_velocity_sigma_n" not in load_mission(tmp_path, _config(tmp_path, sim, cmap)).meta
+
+
+def test_empty_cells_and_imu_spikes_are_refused_rows_naming_file_line_and_column(sim, tmp_path):
+    """As in an A-KIT folder: an IMU row with an empty cell, an IMU row with a spike within full scale (5 rad/s
+    on gz, written in deg/s) and a reference row with an empty cell are refused, counted and warned about with the
+    file's line and the column map's column; the rest is read."""
+    cmap = _separate_files(tmp_path, sim)
+
+    def edit(name, row, column, change):
+        lines = (tmp_path / name).read_text().splitlines()
+        fields = lines[row + 1].split(",")
+        fields[column] = change(fields[column])
+        lines[row + 1] = ",".join(fields)
+        (tmp_path / name).write_text("\n".join(lines) + "\n")
+    edit("imu.csv", 1000, 2, lambda s: "")
+    edit("imu.csv", 2000, 6, lambda s: f"{float(s) + np.degrees(5.0):.12g}")
+    edit("nav.csv", 100, 2, lambda s: "")
+    with pytest.warns(RuntimeWarning) as rec:
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    messages = [str(w.message) for w in rec]
+    streams = m.meta["streams"]
+    assert streams["imu"]["refused"] == {"empty or NaN in 'ay'": 1, "spike in 'gz'": 1}
+    assert streams["imu"]["read"] == len(sim.imu.t) and len(m.imu.t) == len(sim.imu.t) - 2
+    assert streams["gt"]["refused"] == {"empty or NaN in 'e'": 1} and len(m.gt.t) == len(sim.gt.t) - 1
+    for name, stream, reason, line in (("imu.csv", "imu", "empty or NaN in 'ay'", 1002),
+                                       ("imu.csv", "imu", "spike in 'gz'", 2002),
+                                       ("nav.csv", "gt", "empty or NaN in 'e'", 102)):
+        assert any(s.startswith(f"{tmp_path / name}: 1 {stream} sample(s) refused (1 {reason}) at line(s) {line};")
+                   for s in messages), messages

@@ -600,3 +600,79 @@ def test_a_time_offset_the_data_barely_fix_is_warned_about(tmp_path, akit_dir):
         warnings.simplefilter("always")
         load_akit(akit_dir / "Trajectory13")
     assert not [w for w in caught if "barely fix" in str(w.message)]
+
+
+def _set_cells(path, cells):
+    """Write the text of ``cells`` ({data row: {column index: text}}) into an A-KIT CSV (data row k is file line
+    k + 2)."""
+    lines = path.read_text().splitlines()
+    for row, edits in cells.items():
+        fields = lines[row + 1].split(",")
+        for j, text in edits.items():
+            fields[j] = text
+        lines[row + 1] = ",".join(fields)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _load_recording(folder):
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_akit(folder, imu_axis_signs=(1, -1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=0.0)
+    return m, [str(w.message) for w in rec]
+
+
+def test_akit_imu_spikes_within_full_scale_are_refused_naming_file_line_field_and_count(tmp_path):
+    """The probe's spikes, all within the IMU's full scale: a gyro z of 5 rad/s on one row, an accelerometer x of
+    100 m/s^2 on one row, 150 m/s^2 on five rows. Each row is refused as an out-of-range row is: dropped, counted
+    under its reason in meta["streams"], and named in one warning with the file, its lines and its column."""
+    folder = make_akit_folder(tmp_path, n=1)
+    imu = folder / "IMU_trajectory1.csv"
+    _set_cells(imu, {3000: {6: "5"}, 4000: {1: "100"}, **{r: {1: "150"} for r in range(5000, 5005)}})
+    m, messages = _load_recording(folder)
+    assert m.meta["streams"]["imu"]["refused"] == {"spike in 'ACC X [m/s^2]'": 6, "spike in 'GYRO Z [rad/s]'": 1}
+    assert m.meta["streams"]["imu"]["used"] == 12000 - 7 == len(m.imu.t)
+    assert np.abs(m.imu.f_b[:, 0]).max() < 1.0 and np.abs(m.imu.omega_b[:, 2]).max() < 0.1
+    assert (f"{imu}: 7 imu sample(s) refused (6 spike in 'ACC X [m/s^2]'; 1 spike in 'GYRO Z [rad/s]') at line(s) "
+            "3002, 4002, 5002, 5003, 5004, 5005, 5006; they are not used") in messages
+
+
+def test_akit_empty_or_nan_cells_refuse_their_row_and_an_empty_dvl_cell_is_nan(tmp_path):
+    """What pandas' to_csv writes for NaN is an empty cell: in the DVL file it is an invalid ping, exactly as
+    'nan'; in the IMU and GT files a row with an empty or NaN cell (or stamp) is refused, warned about with its
+    file, line and column and counted, and the rest of the mission is read. Text stays a DataError."""
+    folder = make_akit_folder(tmp_path, n=1)
+    paths = {k: folder / f"{k}_trajectory1.csv" for k in ("IMU", "DVL", "GT")}
+    _set_cells(paths["IMU"], {6000: {2: ""}, 6500: {4: "nan"}, 7000: {0: ""}})
+    _set_cells(paths["GT"], {50: {3: ""}})
+    _set_cells(paths["DVL"], {40: {2: ""}})
+    m, messages = _load_recording(folder)
+    streams = m.meta["streams"]
+    assert streams["imu"]["refused"] == {"stamp not a time": 1, "empty or NaN in 'ACC Y [m/s^2]'": 1,
+                                         "empty or NaN in 'GYRO X [rad/s]'": 1}
+    assert len(m.imu.t) == 12000 - 3 and np.all(np.isfinite(m.imu.f_b)) and np.all(np.isfinite(m.imu.omega_b))
+    assert (f"{paths['IMU']}: 2 imu sample(s) refused (1 empty or NaN in 'ACC Y [m/s^2]'; 1 empty or NaN in "
+            "'GYRO X [rad/s]') at line(s) 6002, 6502; they are not used") in messages
+    assert any(s.startswith(f"{paths['IMU']}: 1 imu sample(s) refused (1 stamp not a time) at line(s) 7002")
+               for s in messages)
+    assert streams["gt"]["refused"] == {"empty or NaN in 'Altitude [m]'": 1} and len(m.gt.t) == 119
+    assert (f"{paths['GT']}: 1 gt sample(s) refused (1 empty or NaN in 'Altitude [m]') at line(s) 52; they are not "
+            "used") in messages
+    assert not m.dvl.valid[40].any() and m.dvl.valid[np.arange(120) != 40].all()
+    assert sum(streams["dvl"]["refused"].values()) == 1
+    _set_cells(paths["DVL"], {40: {2: "nan"}})
+    as_nan, _ = _load_recording(folder)
+    np.testing.assert_array_equal(as_nan.dvl.valid, m.dvl.valid)
+    np.testing.assert_array_equal(as_nan.dvl.beams, m.dvl.beams)
+    assert as_nan.meta["streams"]["dvl"] == streams["dvl"]
+    _set_cells(paths["IMU"], {8000: {5: "abc"}})
+    with pytest.raises(DataError) as err:
+        load_akit(folder)
+    assert (err.value.source, err.value.line, err.value.field) == (str(paths["IMU"]), 8002, "GYRO Y [rad/s]")
+    assert "not a number: 'abc'" in str(err.value)
+
+
+def test_akit_imu_mostly_empty_is_an_error_naming_the_stream_and_the_reason(tmp_path):
+    folder = make_akit_folder(tmp_path, n=1)
+    _set_cells(folder / "IMU_trajectory1.csv", {r: {1: ""} for r in range(7000)})
+    with pytest.raises(DataError, match=r"7000 of 12000 imu samples refused \(7000 empty or NaN in 'ACC X"):
+        _load_recording(folder)

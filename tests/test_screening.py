@@ -7,7 +7,6 @@ rows; plus the aligner's robustness to an outlier ping that passes the per-sampl
 """
 from __future__ import annotations
 
-import math
 import shutil
 import time
 import warnings
@@ -19,7 +18,6 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 from graphnav.core.mission import ImuData
 from graphnav.core.screening import (
-    MAX_STAMP_S,
     SpikeTest,
     check_refused_fraction,
     check_stamps,
@@ -27,7 +25,7 @@ from graphnav.core.screening import (
     stamp_outliers,
 )
 from graphnav.core.streams import count_read
-from graphnav.estimators.align import AlignOptions, Aligner, align_mission
+from graphnav.estimators.align import AlignOptions, align_mission
 from graphnav.estimators.types import InitialState
 from graphnav.estimators.navigator import Navigator, NavigatorOptions
 from graphnav.estimators.replay import first_ping_time, replay
@@ -72,6 +70,48 @@ def test_streaming_spike_test_refuses_a_spike_and_accepts_a_lasting_change_after
     assert flags == [False, False, False, True, False, True, True, False, False]
 
 
+def _imu_signal():
+    """30 s of a 100 Hz IMU (f_b m/s^2, omega_b rad/s): a slow sway in a turn with white noise, a block of hard
+    vibration (rows 1000-1499: 1.5 m/s^2 and 0.03 rad/s per sample) and a lasting step of 8 m/s^2 in f_x at row
+    2000; then the spikes, as {row: (axis, value added)} (rows 700-704: a five-row run, as the probe's)."""
+    rng = np.random.default_rng(7)
+    t = np.arange(3000) * 0.01
+    x = np.column_stack([0.3 * np.sin(0.5 * t), np.full_like(t, 0.1), np.full_like(t, -9.8),
+                         0.01 * np.sin(0.3 * t), np.zeros_like(t), np.full_like(t, 0.05)])
+    x += np.r_[[0.03] * 3, [1e-3] * 3] * rng.normal(size=x.shape)
+    x[1000:1500] += np.r_[[1.5] * 3, [0.03] * 3] * rng.normal(size=(500, 6))
+    x[2000:, 0] += 8.0
+    spikes = {500: (5, 5.0), 600: (0, 100.0), **{r: (0, 150.0) for r in range(700, 705)}, 800: (1, 6.0),
+              850: (3, 0.15), 1200: (2, 100.0)}
+    return x, spikes
+
+
+def test_imu_spike_test_refuses_short_runs_and_keeps_vibration_and_lasting_steps():
+    """The loaders' IMU spike test: a gyro spike of 5 rad/s, accelerometer spikes of 100 m/s^2 (one inside the
+    vibration) and a five-row run of 150 m/s^2 (below full scale), and the smallest spikes it claims (6 m/s^2, 0.15
+    rad/s, just past the floors) are refused under the axis they hit; the vibration and the step are not."""
+    from graphnav.core.screening import imu_spikes
+    x, spikes = _imu_signal()
+    masks = imu_spikes(x[:, :3], x[:, 3:], SensorConfig())
+    assert not np.any(list(masks.values()))                 # vibration, a lasting step, a sway: nothing
+    for row, (axis, size) in spikes.items():
+        x[row, axis] += size
+    masks = imu_spikes(x[:, :3], x[:, 3:], SensorConfig())
+    refused = {k: np.flatnonzero(m).tolist() for k, m in masks.items() if m.any()}
+    assert refused == {"spike in 'f_b x'": [600, 700, 701, 702, 703, 704], "spike in 'f_b y'": [800],
+                       "spike in 'f_b z'": [1200], "spike in 'omega_b x'": [850], "spike in 'omega_b z'": [500]}
+
+
+def test_streaming_imu_spike_test_refuses_what_the_loaders_do_and_accepts_a_lasting_step_after_ten_rows():
+    from graphnav.core.screening import ImuSpikeTest, imu_spike_floors
+    x, spikes = _imu_signal()
+    for row, (axis, size) in spikes.items():
+        x[row, axis] += size
+    test = ImuSpikeTest(imu_spike_floors(SensorConfig()))
+    refused = [k for k, row in enumerate(x.tolist()) if test.check(row) is not None]
+    assert refused == sorted(spikes) + list(range(2000, 2010))     # the step: ten rows, then kept
+
+
 def test_stamp_outliers_and_bounds():
     t = np.r_[np.arange(10.0), 1e300]
     assert np.flatnonzero(stamp_outliers(t)).tolist() == [10]
@@ -113,6 +153,26 @@ def test_imu_sample_of_1e6_is_refused_and_the_estimate_matches_the_clean_run(mis
     with pytest.warns(RuntimeWarning, match=r"refused \(f_b beyond 156.906 m/s\^2\)"):
         out = _feed(nav, bad)
     assert nav.info["refused"] == {"imu": {"f_b beyond 156.906 m/s^2": 1}}
+    assert abs(_vrmse(out, m) - _vrmse(clean, m)) < 0.002, (_vrmse(out, m), _vrmse(clean, m))
+
+
+def test_imu_spikes_within_full_scale_are_refused_on_the_stream_and_the_estimate_matches_the_clean_run(mission):
+    """A gyro spike of 5 rad/s and a five-sample run of 150 m/s^2, both within the IMU's full scale: refused by the
+    Navigator's spike test, counted under the axis, and the estimate is the clean run's."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    clean = _feed(_navigator(m), events)
+    bad = list(events)
+    imu = [k for k, e in enumerate(bad) if e[0] == "imu" and e[1] > 20.0]
+    f, w = bad[imu[0]][2]
+    bad[imu[0]] = ("imu", bad[imu[0]][1], (f, [w[0], w[1], w[2] + 5.0]))
+    for k in imu[1000:1005]:
+        f, w = bad[k][2]
+        bad[k] = ("imu", bad[k][1], ([150.0, f[1], f[2]], w))
+    nav = _navigator(m)
+    with pytest.warns(RuntimeWarning, match=r"refused \(spike in 'omega_b z'\): omega_b z = .* departs from the "):
+        out = _feed(nav, bad)
+    assert nav.info["refused"] == {"imu": {"spike in 'omega_b z'": 1, "spike in 'f_b x'": 5}}
     assert abs(_vrmse(out, m) - _vrmse(clean, m)) < 0.002, (_vrmse(out, m), _vrmse(clean, m))
 
 

@@ -50,6 +50,13 @@ class ImuSpec:
             AUVs carry; an AUV's own accelerations are well under 1 g.
         gyro_range_rads: full scale of the gyros (per axis), rad/s; default 500 deg/s (AUV IMUs: 300-1000
             deg/s; an AUV turns at a few deg/s).
+        accel_spike_floor_mps2: smallest departure of an accelerometer sample from the running median of its
+            neighbours that is refused as a spike, m/s^2 (the spike test, :func:`graphnav.core.screening.imu_spikes`,
+            refuses beyond the larger of this floor and 30 times the signal's local noise). Default 5 m/s^2, 14
+            times the largest departure on the ten A-KIT trajectories (docs/decisions/screening.md); raise it for
+            a vehicle whose vibration or shocks really depart this far for a few samples.
+        gyro_spike_floor_rads: the same floor for the gyros, rad/s; default 0.1 rad/s (5.7 deg/s), 4.2 times the
+            departure closest to its limit on the ten A-KIT trajectories.
     """
 
     name: str = "navigation"
@@ -61,6 +68,8 @@ class ImuSpec:
     gyro_bias_sigma: float = 0.01 * DEG_PER_HOUR
     accel_range_mps2: float = 16 * 9.80665
     gyro_range_rads: float = 500 * DEG
+    accel_spike_floor_mps2: float = 5.0
+    gyro_spike_floor_rads: float = 0.1
 
 
 #: Where a simulated DVL's beam biases and scale factors come from (``graphnav.sim.simulate.simulate_mission``'s
@@ -311,6 +320,8 @@ SCHEMA: dict[str, Key] = {
     "imu.gyro_bias_sigma": Key("number", "rad/s", high=1.0, **_NON_NEGATIVE),
     "imu.accel_range_mps2": Key("number", "m/s^2", high=10000.0, **_POSITIVE),
     "imu.gyro_range_rads": Key("number", "rad/s", high=1000.0, **_POSITIVE),
+    "imu.accel_spike_floor_mps2": Key("number", "m/s^2", high=10000.0, **_POSITIVE),
+    "imu.gyro_spike_floor_rads": Key("number", "rad/s", high=1000.0, **_POSITIVE),
     "dvl.theta_rad": Key("number", "rad", high=math.pi / 2, **_POSITIVE),
     "dvl.psi_rad": Key("vector", "rad", low=-2 * math.pi, high=2 * math.pi, size=4),
     "dvl.C_d_b": Key("rotation"),

@@ -23,11 +23,18 @@ count it with its reason in ``Mission.meta["streams"]`` (:func:`refuse`); the Na
 configuration describes, and the run ends with a :class:`~graphnav.core.errors.DataError` naming the stream
 and the reasons (:func:`check_refused_fraction`) instead of a trajectory.
 
-IMU samples get the range test only: vibration and shocks are real specific force, and a spike test on
-them would refuse measurements the estimators' noise model is meant to average.
+IMU rows get the range test and their own spike test (:func:`imu_spikes`, :class:`ImuSpikeTest`), which the rate
+rule above cannot serve: vibration and shocks are real specific force and rate, with no rate of change to bound.
+A row (or a run of up to :data:`IMU_SPIKE_HALF_WINDOW` rows) is a spike when a value departs from the running
+median of the :data:`IMU_SPIKE_HALF_WINDOW` rows on each side by more than the larger of a physical floor per
+sensor (``ImuSpec.accel_spike_floor_mps2``, ``gyro_spike_floor_rads``) and :data:`IMU_SPIKE_NOISE_FACTOR` times
+the signal's local noise (the MAD of its first differences over blocks of :data:`IMU_SPIKE_SCALE_ROWS` rows): a
+vibrating IMU raises its own threshold, a quiet one keeps the floor. A row with a NaN value (an empty cell) is
+refused too (:func:`not_a_number`), before any other rule looks at it.
 """
 from __future__ import annotations
 
+import bisect
 import math
 import warnings
 from collections import deque
@@ -50,6 +57,18 @@ MAX_STAMP_GAP_S = 86400.0
 MAX_REFUSED_FRACTION = 0.5
 #: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
 SPIKE_NEIGHBOURS = 3
+#: IMU spike test: rows on each side of a row whose median it is compared with (the loaders; the stream uses this
+#: many accepted rows before it). A run of up to this many rows departing together is a spike; a longer one is a
+#: lasting change and kept (the stream accepts it from its next row on).
+IMU_SPIKE_HALF_WINDOW = 10
+#: Rows per block of the IMU's local noise scale (the MAD of the first differences of each block).
+IMU_SPIKE_SCALE_ROWS = 100
+#: A spike departs from the running median by more than this many local noise scales (and the floor). The ten
+#: A-KIT trajectories depart by at most 14.3 (simulated IMUs: 7.1); docs/decisions/screening.md.
+IMU_SPIKE_NOISE_FACTOR = 30.0
+#: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
+#: files have no column names of their own).
+IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
 #: A DVL stream silent for longer than this many nominal ping periods (and at least this many seconds) is an
 #: outage worth a warning.
 OUTAGE_PERIODS = 5.0
@@ -183,6 +202,83 @@ def imu_out_of_range(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig)
         gyro = ~acc & ~np.all(np.abs(np.asarray(omega_b, float)) <= config.imu.gyro_range_rads, axis=1)
     return {f"f_b beyond {config.imu.accel_range_mps2:g} m/s^2": acc,
             f"omega_b beyond {config.imu.gyro_range_rads:g} rad/s": gyro}
+
+
+def not_a_number(values: np.ndarray, fields) -> dict[str, np.ndarray]:
+    """Rows with a NaN value (what an empty cell reads as): ``{"empty or NaN in '<field>'": mask}`` (N,) bool
+    for each of the ``fields`` (the k columns of ``values`` (N,k)), disjoint (a row under its first such field)."""
+    nan = np.isnan(np.asarray(values, float))
+    first = np.where(nan.any(axis=1), np.argmax(nan, axis=1), -1)
+    return {f"empty or NaN in '{name}'": first == j for j, name in enumerate(fields)}
+
+
+def imu_noise_scale(x: np.ndarray, block: int = IMU_SPIKE_SCALE_ROWS) -> np.ndarray:
+    """(N,k) local noise scale of the signals ``x`` (N,k) (finite, file order), per row and column, units of x:
+    ``1.4826 / sqrt(2)`` times the median absolute first difference of each block of ``block`` rows (a white
+    noise's sigma; a shorter last block joins the one before), the larger of the row's block and its two
+    neighbours (vibration that starts inside a block)."""
+    x = np.asarray(x, float)
+    d = np.abs(np.diff(x, axis=0))
+    n_blocks = max(1, len(d) // block)
+    full = (n_blocks - 1) * block
+    s = np.empty((n_blocks, x.shape[1]))
+    if n_blocks > 1:
+        s[:-1] = np.median(d[:full].reshape(n_blocks - 1, block, -1), axis=1)
+    s[-1] = np.median(d[full:], axis=0) if len(d) else 0.0
+    s *= 1.4826 / math.sqrt(2.0)
+    s = np.max([s, np.r_[s[:1], s[:-1]], np.r_[s[1:], s[-1:]]], axis=0)
+    return s[np.minimum(np.arange(len(x)) // block, n_blocks - 1)]
+
+
+def imu_spike_floors(config: SensorConfig) -> np.ndarray:
+    """(6,) the spike test's floor per IMU value (f_b m/s^2, omega_b rad/s), from ``config.imu``."""
+    imu = config.imu
+    return np.repeat([float(imu.accel_spike_floor_mps2), float(imu.gyro_spike_floor_rads)], 3)
+
+
+def imu_spikes(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
+               usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """IMU rows with a value departing from the median of the ``2 * IMU_SPIKE_HALF_WINDOW + 1`` usable rows
+    centred on it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
+    :func:`imu_noise_scale`): ``{"spike in '<field>'": mask}`` (N,) bool per value, disjoint (a row under its
+    first spiking value).
+
+    A run of up to ``IMU_SPIKE_HALF_WINDOW`` rows is a minority of every window it is in, so the median stays on
+    the signal; a lasting change (a step, a turn) moves the median with it and is kept. The windows reflect at the
+    ends of the stream (the first and last rows are tested too); fewer than a window of usable rows is not tested.
+
+    Args:
+        f_b: (N,3) specific force, m/s^2. omega_b: (N,3) angular rate, rad/s (body axes, any sign convention).
+        config: ``config.imu`` holds the floors. fields: names of the six values (reasons and warnings).
+        usable: (N,) bool rows that may be tested and serve as neighbours (default: the finite ones; all-zero rows
+            never are: they are a logger's filler, which ``ImuData.bridge_gaps`` and the keyframer drop).
+    """
+    from scipy.ndimage import median_filter
+    x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
+    # an all-zero row is a logger's filler with a rule of its own (ImuData.bridge_gaps drops it, with a warning)
+    ok = np.all(np.isfinite(x), axis=1) & np.any(x != 0.0, axis=1)
+    if usable is not None:
+        ok &= np.asarray(usable, bool)
+    idx = np.flatnonzero(ok)
+    out = np.zeros(x.shape, dtype=bool)
+    if idx.size >= 2 * IMU_SPIKE_HALF_WINDOW + 1:
+        v = x[idx]
+        median = median_filter(v, size=(2 * IMU_SPIKE_HALF_WINDOW + 1, 1), mode="mirror")
+        limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v))
+        out[idx] = np.abs(v - median) > limit
+    first = np.where(out.any(axis=1), np.argmax(out, axis=1), -1)
+    return {f"spike in '{name}'": first == j for j, name in enumerate(fields)}
+
+
+def imu_implausible(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig,
+                    fields=IMU_FIELDS) -> dict[str, np.ndarray]:
+    """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN value
+    (:func:`not_a_number`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
+    (:func:`imu_spikes`). ``fields``: names of the six values, f_b then omega_b."""
+    nan = not_a_number(np.hstack([f_b, omega_b]), fields)
+    out_of_range = imu_out_of_range(f_b, omega_b, config)
+    bad = np.any(list(nan.values()) + list(out_of_range.values()), axis=0)
+    return {**nan, **out_of_range, **imu_spikes(f_b, omega_b, config, fields, usable=~bad)}
 
 
 def depth_implausible(t: np.ndarray, depth_m: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:
@@ -339,6 +435,90 @@ class SpikeTest:
         self._run = []
 
 
+class ImuSpikeTest:
+    """The IMU spike test of :func:`imu_spikes` on a stream, which has the past only: a row is a spike when a
+    value departs from the median of the last ``half_window`` accepted rows by more than ``max(floor, factor *
+    noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows (the larger of the last two complete
+    blocks; before the first block completes, the rows so far; and, for a departing value, of the block under
+    way: vibration that just started). Nothing is tested until the history is full.
+    More than ``half_window`` spikes in a row are a lasting change: the history restarts from the next departing
+    row, which is accepted.
+
+    Plain Python on six floats per row: the Navigator calls it at the IMU's rate (about 6 us a row).
+    """
+
+    def __init__(self, floors, half_window: int = IMU_SPIKE_HALF_WINDOW, block: int = IMU_SPIKE_SCALE_ROWS,
+                 factor: float = IMU_SPIKE_NOISE_FACTOR):
+        self.floors = np.asarray(floors, float)
+        self.factor, self.block, self.n = float(factor), int(block), int(half_window)
+        self._hist: deque = deque()                         # accepted rows, oldest first
+        self._sorted: list[list[float]] = [[] for _ in self.floors]   # the same values, sorted per column
+        self._rows: list = []                               # accepted rows of the current noise block
+        self._block_scale: np.ndarray | None = None         # the last complete block's noise scale
+        self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
+        self._run = 0
+
+    def check(self, x) -> tuple[int, float, float] | None:
+        """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) and accept it when it is not a spike.
+        Returns None, or (index of the first departing value, the median it departs from, the limit)."""
+        limit = self._limit
+        if limit is not None and len(self._hist) == self.n:
+            lo, hi = (self.n - 1) // 2, self.n // 2
+            for j, (v, col, lim) in enumerate(zip(x, self._sorted, limit)):
+                ref = 0.5 * (col[lo] + col[hi])
+                if abs(v - ref) > lim:
+                    lim = max(lim, self._recent_limit(j))
+                    if abs(v - ref) <= lim:
+                        continue
+                    self._run += 1
+                    if self._run <= self.n:
+                        return j, ref, lim
+                    self._restart()
+                    break
+        self._accept(x)
+        return None
+
+    def _recent_limit(self, j: int) -> float:
+        """The limit of value ``j`` from the rows of the block under way, once it has ``half_window`` differences
+        (vibration that started after the last complete block); 0 before. Only asked for a departing value."""
+        if len(self._rows) <= self.n:
+            return 0.0
+        v = np.asarray(self._rows, float)[:, j]
+        return self.factor * 1.4826 / math.sqrt(2.0) * float(np.median(np.abs(np.diff(v))))
+
+    def _restart(self) -> None:
+        self._hist.clear()
+        for col in self._sorted:
+            col.clear()
+        self._rows.clear()
+
+    def _accept(self, x) -> None:
+        self._run = 0
+        hist = self._hist
+        if len(hist) == self.n:
+            for col, old, new in zip(self._sorted, hist.popleft(), x):
+                del col[bisect.bisect_left(col, old)]
+                bisect.insort(col, new)
+        else:
+            for col, new in zip(self._sorted, x):
+                bisect.insort(col, new)
+        hist.append(x)
+        rows = self._rows
+        rows.append(x)
+        if len(rows) > self.block or (self._limit is None and len(hist) == self.n):
+            self._update_limit(len(rows) > self.block)
+
+    def _update_limit(self, complete: bool) -> None:
+        diffs = np.abs(np.diff(np.asarray(self._rows, float), axis=0))
+        scale = 1.4826 / math.sqrt(2.0) * np.median(diffs, axis=0)
+        if complete:
+            previous = scale if self._block_scale is None else self._block_scale
+            self._block_scale = scale
+            scale = np.maximum(scale, previous)
+            self._rows = self._rows[-1:]          # the next block's differences start from this row
+        self._limit = np.maximum(self.floors, self.factor * scale).tolist()
+
+
 @dataclass
 class StreamScreen:
     """The per-sample rules of a :class:`~graphnav.estimators.navigator.Navigator`'s stream, from one
@@ -351,6 +531,7 @@ class StreamScreen:
         dvl = self.config.dvl
         self._beam_spikes = [SpikeTest(dvl.max_accel_mps2, dvl.jump_tolerance_mps) for _ in range(4)]
         self._depth_spike = SpikeTest(dvl.max_vertical_mps, self.config.depth_jump_tolerance_m)
+        self._imu_spike = ImuSpikeTest(imu_spike_floors(self.config))
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
 
     def stamp_problem(self, stream: str, t: float) -> str | None:
@@ -368,6 +549,22 @@ class StreamScreen:
         if max(abs(a) for a in omega_b) > imu.gyro_range_rads:
             return f"omega_b beyond {imu.gyro_range_rads:g} rad/s"
         return None
+
+    def imu_spike(self, f_b, omega_b) -> tuple[str, str] | None:
+        """(reason, detail) when the sample (f_b m/s^2, omega_b rad/s: three floats each, within full scale, in
+        stamp order) is a spike (:class:`ImuSpikeTest`), else None; an accepted sample joins the history."""
+        x = tuple(f_b) + tuple(omega_b)
+        if not any(x):          # a logger's filler: the keyframer drops and counts it (and it is no history)
+            return None
+        hit = self._imu_spike.check(x)
+        if hit is None:
+            return None
+        j, ref, limit = hit
+        value = x[j]
+        return (f"spike in '{IMU_FIELDS[j]}'",
+                f"{IMU_FIELDS[j]} = {value:.6g} departs from the median {ref:.6g} of the last {self._imu_spike.n} "
+                f"samples by more than {limit:.3g} (the larger of ImuSpec.{'accel' if j < 3 else 'gyro'}_spike_floor_"
+                f"{'mps2' if j < 3 else 'rads'} and {IMU_SPIKE_NOISE_FACTOR:g} x the signal's noise)")
 
     def dvl_problems(self, t: float, beams: np.ndarray, valid: np.ndarray) -> dict[int, str]:
         """{beam index: reason} for the valid beams that are refused (range, then spike per beam)."""

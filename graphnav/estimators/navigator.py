@@ -14,9 +14,11 @@ What happens to a sample:
    stamp older than the reorder window allows, or a stamp already seen on the same stream is refused with a
    warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Then the
    screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
-   ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale, a
-   DVL beam beyond the vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong
-   makes the others suspect, and the completers expect the missing-beam patterns of outages),
+   ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale or
+   spiking (a run of up to ten samples departing from the median of the last ten accepted, past the spike test's
+   floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`), a DVL beam beyond the
+   vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
+   and the completers expect the missing-beam patterns of outages),
    a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
@@ -220,6 +222,9 @@ class Navigator:
         if t < self._released:
             return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
                                 f"left the reorder buffer (window {self.options.reorder_window_s} s)")
+        spike = self._screen.imu_spike(f, w)
+        if spike is not None:
+            return self._refuse("imu", t, spike[0], spike[1], screened=True)
         if in_order:
             q.append((t, f, w))
         else:

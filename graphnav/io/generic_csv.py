@@ -59,6 +59,8 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.screening import check_refused_fraction, imu_implausible, not_a_number, refuse
+from graphnav.core.streams import count_read
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
@@ -208,9 +210,16 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     for key in ("f_b", "omega_b"):
         if key not in v:
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
-        _require_finite(v[key], v["_lines"], spec[key], path)
-    f_b = v["f_b"] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
-    omega_b = v["omega_b"] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
+    fields = _names(spec, "f_b", 3, "imu") + _names(spec, "omega_b", 3, "imu")
+    # an empty or NaN cell refuses its row (before the unit checks, which need numbers); so do full scale and
+    # spikes once the units are known, all with the file's lines and columns (screen_mission leaves the IMU)
+    count_read(meta, "imu", t_imu, str(path))
+    rows = np.hstack([v["f_b"], v["omega_b"]])
+    keep = ~refuse(meta, "imu", not_a_number(rows, fields), str(path), lines=v["_lines"])
+    check_refused_fraction(meta)
+    t_imu, rows, lines = t_imu[keep], rows[keep], v["_lines"][keep]
+    f_b = rows[:, :3] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
+    omega_b = rows[:, 3:] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
     f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2)
     frame = spec.get("frame", "frd")
@@ -218,6 +227,10 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
     if frame == "flu":
         f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
+    keep = ~refuse(meta, "imu", imu_implausible(f_b, omega_b, config, fields), str(path), lines=lines)
+    check_refused_fraction(meta)
+    t_imu, f_b, omega_b = t_imu[keep], f_b[keep], omega_b[keep]
+    meta["imu_screened"] = True
     t0 = float(t_imu[0])
     meta["t0_s"] = t0
     imu = ImuData(t_imu - t0, f_b, omega_b, str(path))
@@ -286,10 +299,17 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     if spec:
         t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables,
                              meta)
-        for key in ("p_n", "v_n", "euler"):
+        keys = ("p_n", "v_n", "euler")
+        for key in keys:
             if key not in v:
                 raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")
-            _require_finite(v[key], v["_lines"], spec[key], path)
+        # a row with an empty or NaN cell is refused (screen_mission refuses the implausible ones)
+        count_read(meta, "gt", t_g, str(path))
+        fields = [c for key in keys for c in _names(spec, key, 3, "gt")]
+        keep = ~refuse(meta, "gt", not_a_number(np.hstack([v[k] for k in keys]), fields), str(path),
+                       lines=v["_lines"])
+        check_refused_fraction(meta)
+        t_g, v = t_g[keep], {k: v[k][keep] for k in (*keys, "_lines")}
         from graphnav.core.rotations import euler_to_C_b_n
         e = _reference_units(t_g, v, spec, t_imu, omega_b, path, meta)
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))

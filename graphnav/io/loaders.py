@@ -59,9 +59,12 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]`` and, with every
    other refusal, in ``meta["streams"]``; none on the ten shared trajectories). A stretch without a usable
    ping (NaN rows, deleted rows) longer than ``OUTAGE_MIN_S`` is warned about as a DVL outage.
-   IMU rows beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` / ``gyro_range_rads``) and GT
-   rows whose velocity is beyond the vehicle's speed or spikes are refused (dropped, counted) before the
-   axis detection and the time-offset estimates see them. More than half of a stream refused is a DataError.
+   IMU rows with an empty or NaN cell, beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` /
+   ``gyro_range_rads``) or spiking (a run of up to ten rows departing from the running median past
+   ``ImuSpec.*_spike_floor_*`` and the signal's own noise, :func:`graphnav.core.screening.imu_spikes`), and GT
+   rows with an empty or NaN cell or whose velocity is beyond the vehicle's speed or spikes are refused (dropped,
+   counted, warned about with their lines and column) before the axis detection and the time-offset estimates
+   see them; an empty DVL cell is NaN, an invalid ping. More than half of a stream refused is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
@@ -107,7 +110,8 @@ from graphnav.core.screening import (
     check_refused_fraction,
     depth_implausible,
     gt_implausible,
-    imu_out_of_range,
+    imu_implausible,
+    not_a_number,
     note_outages,
     refuse,
     stamp_outliers,
@@ -204,19 +208,21 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3.5e-3, gyro
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
              repair: bool = False, meta: dict | None = None, stream: str = "",
-             empty_is_nan: bool = False) -> np.ndarray:
+             empty_is_nan: bool = False, with_lines: bool = False):
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
     Every bad data line is found and reported (1-based line number and column): wrong number of fields
     (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
-    ``empty_is_nan``: an empty field of a ``nan_ok`` column is NaN (the beams file
-    :func:`graphnav.io.export.write_akit` writes leaves an invalid beam empty).
+    ``empty_is_nan``: an empty field of a ``nan_ok`` column is NaN, as pandas' ``to_csv`` writes NaN (the
+    beams file :func:`graphnav.io.export.write_akit` writes leaves an invalid beam empty; the A-KIT reader
+    refuses an IMU or GT row with one, :func:`graphnav.core.screening.not_a_number`).
     The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
     stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
     the rows are counted as read for ``stream`` and rows whose stamp is not a time
-    (:func:`graphnav.core.screening.stamp_outliers`: 1e300, a lone stamp a day off) are refused and counted
-    there, before the order check.
+    (:func:`graphnav.core.screening.stamp_outliers`: NaN or empty (with ``empty_is_nan``), inf, 1e300, a lone
+    stamp a day off) are refused and counted there, before the order check.
+    ``with_lines``: return ``(data, lines)``, ``lines`` (N,) the 1-based file line of each row returned.
 
     Raises:
         DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
@@ -247,8 +253,9 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
                         next((h for h, c in zip(header, columns) if h != c), header[-1]))
     line_no = np.array([i + 1 for i, s in enumerate(lines) if i > 0 and s.strip()], dtype=int)
     body = [lines[i - 1] for i in line_no]
+    stamps_screened = meta is not None       # a stamp that is not a time is refused below, not an error
     if empty_is_nan:
-        may_be_empty = [j for j, name in enumerate(columns) if name in nan_ok]
+        may_be_empty = [j for j, name in enumerate(columns) if name in nan_ok or (j == 0 and stamps_screened)]
         body = [_empty_as_nan(line, may_be_empty) for line in body]
     if not body:
         raise DataError("no data lines", source, 2)
@@ -261,6 +268,8 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         raise  # pragma: no cover - _raise_bad_lines always raises
     problems = []
     for j, name in enumerate(columns):
+        if j == 0 and stamps_screened:
+            continue
         if name in nan_ok:
             bad = np.flatnonzero(np.isinf(data[:, j]))
         else:
@@ -277,10 +286,10 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
             entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
-    kept = _check_stamps(data, line_no, source, columns[0], repair)
+    kept, kept_lines = _check_stamps(data, line_no, source, columns[0], repair)
     if meta is not None and len(kept) < len(data):
         count_refused(meta, stream, "duplicated stamp (repair)", len(data) - len(kept))
-    return kept
+    return (kept, kept_lines) if with_lines else kept
 
 
 def _empty_as_nan(line: str, columns: list[int]) -> str:
@@ -321,11 +330,12 @@ def _raise_problems(source: str, problems: list[tuple[int, str, str]]) -> None:
 
 
 def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: str,
-                  repair: bool) -> np.ndarray:
+                  repair: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, their file lines) in time order, or DataError (``repair``: duplicates dropped, rows sorted)."""
     step = np.diff(data[:, 0])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
-        return data
+        return data, line_no
     if not repair:
         i = bad[0] + 1
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
@@ -337,7 +347,7 @@ def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: 
     keep = np.concatenate([[True], np.diff(data[:, 0]) > 0])
     warnings.warn(f"{source}: {int((~keep).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
-    return data[keep]
+    return data[keep], line_no[order][keep]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -398,21 +408,30 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     files = akit_files(folder, require_gt=False)
     cfg = config or SensorConfig()
     meta: dict = {}
-    imu = read_csv(files["IMU"], AKIT_COLUMNS["IMU"], repair=repair, meta=meta, stream="imu")
-    dvl = read_csv(files["DVL"], AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=repair, meta=meta,
-                   stream="dvl")
-    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"], repair=repair, meta=meta, stream="gt") if "GT" in files else None
-    # before the screening: a gyro in deg/s is not out of range
-    _akit_units(imu, dvl, gt, files, meta, cfg.depth_range_m)
+    # an empty cell is NaN (what pandas' to_csv writes for it): an invalid ping in the DVL file, a refused row in
+    # the IMU and GT files (below); text that is not a number stays a DataError naming the line and column
+    read = {k: read_csv(files[k], AKIT_COLUMNS[k], nan_ok=AKIT_COLUMNS[k][1:], empty_is_nan=True, repair=repair,
+                        meta=meta, stream=k.lower(), with_lines=True) for k in files}
+    (imu, imu_lines), (dvl, _) = read["IMU"], read["DVL"]
+    gt, gt_lines = read.get("GT", (None, None))
+    _akit_units(imu, dvl, gt, files, meta, cfg.depth_range_m)   # before the screening: deg/s is not out of range
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
-    bad = refuse(meta, "imu", imu_out_of_range(imu[:, 1:4], imu[:, 4:7], cfg), str(files["IMU"]), line_offset=2)
-    imu = imu[~bad]
+    imu, _ = _refuse_rows(meta, "imu", imu, imu_lines,
+                          imu_implausible(imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:]), files["IMU"])
     if gt is not None:
-        bad = refuse(meta, "gt", gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl), str(files["GT"]), line_offset=2)
-        gt = gt[~bad]
+        gt, _ = _refuse_rows(meta, "gt", gt, gt_lines, {**not_a_number(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
+                                                        **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, files["GT"])
     check_refused_fraction(meta)
     return AkitRaw(imu, dvl, gt, files, meta)
+
+
+def _refuse_rows(meta: dict, stream: str, rows: np.ndarray, lines: np.ndarray, masks: dict, path: Path
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, lines)`` without the rows of ``masks`` (reason -> (N,) bool), which are counted and warned about
+    with their file lines (:func:`graphnav.core.screening.refuse`)."""
+    bad = refuse(meta, stream, masks, str(path), lines=lines)
+    return rows[~bad], lines[~bad]
 
 
 def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict,
@@ -423,8 +442,9 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
     for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
         if a is not None:
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
-    f_b, omega_b = imu_units(imu[:, 0], imu[:, 1:4], imu[:, 4:7], str(files["IMU"]), meta)
-    imu[:, 1:7] = np.hstack([f_b, omega_b])       # a copy first: f_b/omega_b may be views of swapped columns
+    rows = np.flatnonzero(np.all(np.isfinite(imu[:, 1:7]), axis=1))   # a row with a NaN is refused afterwards
+    f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta)
+    imu[rows, 1:7] = np.hstack([f_b, omega_b])
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
     if gt is not None:
         _akit_gt_units(gt, imu, str(files["GT"]), meta, depth_range_m)
@@ -436,11 +456,14 @@ def _akit_gt_units(gt: np.ndarray, imu: np.ndarray, source: str, meta: dict, dep
     gyro of ``imu`` (N,7) in rad/s tells the attitude's unit, the GT's own velocity its positions')."""
     from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
     cols = AKIT_COLUMNS["GT"]
-    gt[:, 7:10] = reference_attitude_units(gt[:, 0], gt[:, 7:10], imu[:, 0], imu[:, 4:7], source, cols[7:10], meta)
-    gt[:, 2], gt[:, 1] = reference_latlon_units(gt[:, 0], gt[:, 2], gt[:, 1], gt[:, 4:7], source,
-                                                (cols[2], cols[1], cols[4], cols[5]), meta)
+    ok = np.all(np.isfinite(gt), axis=1)           # rows with an empty or NaN cell are refused afterwards
+    g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
+    g[:, 7:10] = reference_attitude_units(g[:, 0], g[:, 7:10], imu[:, 0], imu[:, 4:7], source, cols[7:10], meta)
+    g[:, 2], g[:, 1] = reference_latlon_units(g[:, 0], g[:, 2], g[:, 1], g[:, 4:7], source,
+                                              (cols[2], cols[1], cols[4], cols[5]), meta)
     # the depth is the altitude's opposite (positive up, metres above the sea surface)
-    gt[:, 3] = -reference_depth(gt[:, 0], -gt[:, 3], gt[:, 6], source, (cols[3], cols[6]), meta, depth_range_m)
+    g[:, 3] = -reference_depth(g[:, 0], -g[:, 3], g[:, 6], source, (cols[3], cols[6]), meta, depth_range_m)
+    gt[ok] = g
 
 
 #: Nominal rates of the A-KIT streams, Hz: the sensors' rates, which the published stamps' period misses.
@@ -969,7 +992,8 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
 
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
-    A-KIT loader screens its files itself): IMU rows beyond full scale, depth rows outside the range or spiking
+    A-KIT loader screens its files itself, the column-map loader its IMU rows): IMU rows with a NaN value, beyond
+    full scale or spiking (:func:`graphnav.core.screening.imu_implausible`), depth rows outside the range or spiking
     and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
     the instrument got wrong makes the others suspect, as on the Navigator's stream) and pings outside its envelope
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
@@ -981,9 +1005,10 @@ def screen_mission(mission: Mission) -> Mission:
         if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
             count_read(meta, name, stream.t, stream.source)
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
-    bad = refuse(meta, "imu", imu_out_of_range(imu.f_b, imu.omega_b, cfg), imu.source)
-    if bad.any():
-        imu = imu.take(np.flatnonzero(~bad))
+    if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
+        bad = refuse(meta, "imu", imu_implausible(imu.f_b, imu.omega_b, cfg), imu.source)
+        if bad.any():
+            imu = imu.take(np.flatnonzero(~bad))
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
     valid = dvl.valid & ~beam_bad

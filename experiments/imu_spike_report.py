@@ -1,0 +1,123 @@
+"""The IMU spike test (graphnav.core.screening.imu_spikes, the loaders; ImuSpikeTest, the Navigator's stream) on
+clean data, and what it catches.
+
+Part 1, per clean A-KIT trajectory and simulated mission (navigation, tactical, MEMS grades; seeds 0-3, 400 s):
+rows the loaders' test and the stream's test refuse (both should be 0), and the margin, the largest departure
+from the running median over its limit max(floor, 30 x local noise), per sensor (below 1: nothing fires), with
+the largest departure itself.
+
+Part 2, detection on the ten trajectories: spikes added to one axis of every 500th row (cycling the axes, the
+sign alternating), one row or a run of five rows, of each size; the fraction of them the loaders' test and the
+stream's test refuse, and how many other rows they refuse.
+
+    GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/imu_spike_report.py
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+import numpy as np
+from scipy.ndimage import median_filter
+
+from graphnav.core.config import SensorConfig
+from graphnav.core.screening import (
+    IMU_SPIKE_HALF_WINDOW,
+    IMU_SPIKE_NOISE_FACTOR,
+    ImuSpikeTest,
+    imu_noise_scale,
+    imu_spike_floors,
+    imu_spikes,
+)
+from graphnav.io.loaders import read_akit
+from graphnav.io.paths import akit_trajectories
+from graphnav.sim.simulate import simulate_mission
+
+CONFIG = SensorConfig()
+ACCEL_SIZES = (2.0, 3.0, 5.0, 6.0, 8.0, 10.0, 100.0)        # m/s^2
+GYRO_SIZES = (0.05, 0.08, 0.1, 0.12, 0.15, 0.2, 0.5, 5.0)    # rad/s
+SPACING = 500
+
+
+def batch(x: np.ndarray) -> np.ndarray:
+    """(N,) rows the loaders' test refuses."""
+    return np.any(list(imu_spikes(x[:, :3], x[:, 3:], CONFIG).values()), axis=0)
+
+
+def stream(x: np.ndarray) -> np.ndarray:
+    """(N,) rows the stream's test refuses."""
+    test = ImuSpikeTest(imu_spike_floors(CONFIG))
+    return np.array([test.check(row) is not None for row in x.tolist()])
+
+
+def margins(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(accel, gyro) largest departure over its limit, and the largest departure (m/s^2, rad/s)."""
+    median = median_filter(x, size=(2 * IMU_SPIKE_HALF_WINDOW + 1, 1), mode="mirror")
+    dev = np.abs(x - median)
+    ratio = dev / np.maximum(imu_spike_floors(CONFIG), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(x))
+    return (np.array([ratio[:, :3].max(), ratio[:, 3:].max()]), np.array([dev[:, :3].max(), dev[:, 3:].max()]))
+
+
+def clean_row(name: str, x: np.ndarray) -> None:
+    ratio, dev = margins(x)
+    print(f"{name:22s} {int(batch(x).sum()):6d} {int(stream(x).sum()):6d}   {ratio[0]:6.3f} {ratio[1]:6.3f}   "
+          f"{dev[0]:6.3f} {dev[1]:7.4f}")
+
+
+def clean_tables(folders) -> dict:
+    print("data                   loader stream   margin accel gyro   largest departure m/s^2 rad/s")
+    imus = {}
+    for folder in folders:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            raw = read_akit(folder)
+        imus[folder.name] = raw.imu[:, 1:7].copy()
+        clean_row(folder.name, imus[folder.name])
+    for grade in ("navigation", "tactical", "mems"):
+        for seed in range(4):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                m = simulate_mission(400.0, imu_grade=grade, seed=seed)
+            clean_row(f"sim {grade} seed {seed}", np.hstack([m.imu.f_b, m.imu.omega_b]))
+    return imus
+
+
+def detection_table(imus: dict) -> None:
+    print(f"\nspikes on every {SPACING}th row of the ten (axes cycled): size | rows | fraction refused loaders, "
+          "stream | other rows refused loaders, stream")
+    for sensor, sizes in (("accel", ACCEL_SIZES), ("gyro", GYRO_SIZES)):
+        for size in sizes:
+            for run in (1, 5):
+                hit_b = hit_s = total = other_b = other_s = 0
+                for x in imus.values():
+                    y = x.copy()
+                    at = np.arange(1000, len(y) - 1000, SPACING)
+                    axes = (np.arange(at.size) % 3) + (0 if sensor == "accel" else 3)
+                    sign = np.where(np.arange(at.size) % 2, -1.0, 1.0)
+                    rows = (at[:, None] + np.arange(run)).ravel()
+                    y[rows, np.repeat(axes, run)] += np.repeat(sign * size, run)
+                    injected = np.zeros(len(y), bool)
+                    injected[rows] = True
+                    b, s = batch(y), stream(y)
+                    hit_b += int(b[injected].sum())
+                    hit_s += int(s[injected].sum())
+                    other_b += int(b[~injected].sum())
+                    other_s += int(s[~injected].sum())
+                    total += int(injected.sum())
+                unit = "m/s^2" if sensor == "accel" else "rad/s"
+                print(f"{sensor} {size:g} {unit} | {run} | {hit_b / total:.3f} {hit_s / total:.3f} | "
+                      f"{other_b} {other_s}")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    args = p.parse_args(argv)
+    imus = clean_tables(akit_trajectories(args.data))
+    detection_table(imus)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
