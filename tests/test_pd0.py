@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from graphnav import cli
-from graphnav.core.errors import DataError
 from graphnav.io.pd0 import read_pd0_log
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
