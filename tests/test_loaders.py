@@ -381,6 +381,37 @@ def test_akit_gt_altitude_with_its_sign_flipped_names_the_file_and_column(tmp_pa
     np.testing.assert_allclose(m.depth.depth, clean.depth.depth, atol=1e-12)
 
 
+def test_akit_gt_altitude_sign_is_fixed_past_a_spike_and_refused_naming_the_real_line(tmp_path):
+    """A flipped altitude with one V Down spike (3 m/s, then 30 m/s): the spike row, refused by the screening, is
+    left out of the sign decision, so the sign is turned back (it used to be a DataError, "150 of 150 depths
+    outside"). A level flipped altitude whose line 2 has an empty roll: the depth error names line 3, the first
+    depth tested (it used to name line 2, counting the finite rows only)."""
+    heave = make_akit_folder(tmp_path / "heave", n=1)
+    _edit_gt(heave, 1, _heave)
+    clean, _ = _load_quiet(heave)
+    for spike in (3.0, 30.0):
+        def flip_and_spike(gt, spike=spike):
+            gt[:, 3] = -gt[:, 3]
+            gt[50, 6] = spike
+        folder = make_akit_folder(tmp_path / f"spike{spike:g}", n=1)
+        _edit_gt(folder, 1, _heave)
+        path = _edit_gt(folder, 1, flip_and_spike)
+        m, caught = _load_quiet(folder)
+        assert any(w.startswith(f"{path}: column 'Altitude [m]' read with its sign flipped and turned back")
+                   for w in caught), caught
+        keep = np.arange(len(clean.depth.depth)) != 50
+        np.testing.assert_allclose(m.depth.depth, clean.depth.depth[keep], atol=1e-12)
+    level = make_akit_folder(tmp_path / "level", n=1)
+
+    def flip_and_empty(gt):
+        gt[:, 3] = -gt[:, 3]
+        gt[0, 7] = np.nan
+    path = _edit_gt(level, 1, flip_and_empty)
+    with pytest.raises(DataError) as err:
+        _load_quiet(level)
+    assert (err.value.source, err.value.line, err.value.field) == (str(path), 3, "Altitude [m]")
+
+
 def test_refused_dvl_pings_are_counted_once(tmp_path):
     """A ping outside the vehicle's envelope and a ping of an impossible value are each refused once, under one
     reason, in meta["streams"]."""

@@ -273,10 +273,14 @@ def test_reference_angles_in_degrees_inside_the_radian_range_are_told_by_their_r
         out = reference_attitude_units(t, np.degrees(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, meta)
     np.testing.assert_allclose(out, euler, atol=1e-15)
     assert len(meta["streams"]["gt"]["notes"]) == 2
-    # a declared unit is confirmed, never converted
-    with pytest.raises(DataError, match=r"GT.csv, field 'Roll \[rad\]/Pitch \[rad\]/Yaw \[rad\]': attitude after "
-                                        r"the declared unit 'rad'"):
-        reference_attitude_units(t, np.degrees(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, declared="rad")
+    # a declared unit wins, never converted: the rates that contradict it are a warning and a note
+    meta = {}
+    with pytest.warns(RuntimeWarning, match=r"GT.csv: attitude columns 'Roll \[rad\]', 'Pitch \[rad\]', 'Yaw \[rad\]' "
+                                            r"kept in the declared unit 'rad', but the attitude turns 5\d.\dx"):
+        degrees = np.degrees(euler)
+        assert reference_attitude_units(t, degrees, t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, meta,
+                                        declared="rad") is degrees
+    assert "kept in the declared unit" in meta["streams"]["gt"]["notes"][0]
     # positions that move with the velocity in neither unit are refused, naming the columns
     with pytest.raises(DataError, match=r"field 'Latitude \[rad\]/Longitude \[rad\]': the positions move 5x"):
         reference_latlon_units(t, lat * 5, lon * 5, v_n, "GT.csv", GT_COLUMNS)
@@ -293,6 +297,34 @@ def test_reference_angles_beyond_radians_without_a_gyro_are_degrees():
                                    np.radians(tilted))
     with pytest.raises(DataError, match="neither radians nor degrees"):
         reference_attitude_units(t, tilted * 100, None, None, "GT.csv", ATTITUDE_COLUMNS)
+
+
+def test_a_noisy_reference_attitude_in_radians_is_kept_and_an_unwrapped_yaw_too():
+    """Attitude noise of 0.01-0.02 rad over a gyro turning 2 mrad/s: the attitude turns 11-22x as fast as the gyro
+    (above the 7.6 split), but read as degrees it would turn 0.19-0.38x as fast: radians kept, with a warning (it
+    used to be converted to degrees, yaw 1.0 -> 0.0175, and a declared 'rad' was refused). A yaw of 7 rad (unwrapped)
+    with a gyro too quiet to tell and roll/pitch in the radian range: kept, with a warning (it used to be converted)."""
+    from graphnav.io.units import attitude_rate_ratio, reference_attitude_units
+    from graphnav.core.rotations import euler_to_C_b_n
+    rng = np.random.default_rng(0)
+    t_imu, t = np.arange(0.0, 600.0, 0.01), np.arange(0.0, 600.0, 1.0)
+    omega_b = rng.normal(0.0, 5e-4, (t_imu.size, 3))
+    omega_b[:, 2] += 2e-3
+    for noise in (0.01, 0.02):
+        euler = rng.normal(0.0, noise, (t.size, 3)) + np.column_stack([0 * t, 0 * t, 1.0 + 2e-3 * t])
+        assert attitude_rate_ratio(t, euler_to_C_b_n(*euler.T), t_imu, omega_b)[0] > 10.0
+        with pytest.warns(RuntimeWarning, match=r"gt.csv: attitude columns 'r', 'p', 'y' kept as radians, but the "
+                                                r"attitude turns .*read as degrees it would turn 0.\d+x"):
+            assert reference_attitude_units(t, euler, t_imu, omega_b, "gt.csv", ("r", "p", "y")) is euler
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert reference_attitude_units(t, euler, t_imu, omega_b, "gt.csv", ("r", "p", "y"), declared="rad"
+                                            ) is euler
+        assert any("kept in the declared unit 'rad'" in str(w.message) for w in caught)
+    quiet = rng.normal(0.0, 2e-5, (t_imu.size, 3))
+    unwrapped = np.column_stack([0 * t, 0 * t, 7.0 + rng.normal(0.0, 1e-4, t.size)])
+    with pytest.warns(RuntimeWarning, match=r"kept as radians: .*\|yaw\| up to 7 \(an unwrapped yaw"):
+        assert reference_attitude_units(t, unwrapped, t_imu, quiet, "gt.csv", ("r", "p", "y")) is unwrapped
 
 
 def test_a_flipped_reference_depth_is_turned_back_or_refused_naming_the_column():

@@ -414,7 +414,7 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
                         meta=meta, stream=k.lower(), with_lines=True) for k in files}
     (imu, imu_lines), (dvl, _) = read["IMU"], read["DVL"]
     gt, gt_lines = read.get("GT", (None, None))
-    _akit_units(imu, dvl, gt, files, meta, cfg.depth_range_m)   # before the screening: deg/s is not out of range
+    _akit_units(imu, dvl, gt, gt_lines, files, meta, cfg)   # before the screening: deg/s is not out of range
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     imu, _ = _refuse_rows(meta, "imu", imu, imu_lines,
@@ -434,10 +434,11 @@ def _refuse_rows(meta: dict, stream: str, rows: np.ndarray, lines: np.ndarray, m
     return rows[~bad], lines[~bad]
 
 
-def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: dict, meta: dict,
-                depth_range_m: tuple[float, float]) -> None:
+def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, gt_lines: np.ndarray | None, files: dict,
+                meta: dict, cfg: SensorConfig) -> None:
     """Stamps, IMU, DVL and GT units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
-    the header names units, but a file written by other tools in this layout may not hold them)."""
+    the header names units, but a file written by other tools in this layout may not hold them). ``gt_lines``: the
+    file line of each GT row."""
     from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
     for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
         if a is not None:
@@ -447,23 +448,34 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, files: 
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
     if gt is not None:
-        _akit_gt_units(gt, imu, str(files["GT"]), meta, depth_range_m)
+        _akit_gt_units(gt, gt_lines, imu, str(files["GT"]), meta, cfg)
 
 
-def _akit_gt_units(gt: np.ndarray, imu: np.ndarray, source: str, meta: dict, depth_range_m) -> None:
+def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source: str, meta: dict,
+                   cfg: SensorConfig) -> None:
     """The GT array (K,10) in place: attitude and latitude/longitude in degrees converted to rad, an altitude
-    with its sign flipped turned back, or DataError naming the file and column (:mod:`graphnav.io.units`; the
-    gyro of ``imu`` (N,7) in rad/s tells the attitude's unit, the GT's own velocity its positions')."""
+    with its sign flipped turned back, or DataError naming the file, line (``gt_lines``) and column
+    (:mod:`graphnav.io.units`; the gyro of ``imu`` (N,7) in rad/s tells the attitude's unit, the GT's own velocity
+    its positions'). The rows refused afterwards (a NaN cell, a velocity spike) are left out of the decision and
+    converted with the rest."""
     from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
     cols = AKIT_COLUMNS["GT"]
     ok = np.all(np.isfinite(gt), axis=1)           # rows with an empty or NaN cell are refused afterwards
+    # so are the velocity spikes: one V Down of 30 m/s would swamp the altitude's fit to the down velocity
+    ok[ok] = ~np.any(list(gt_implausible(gt[ok, 0], gt[ok, 4:7], cfg.dvl).values()), axis=0)
     g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
-    g[:, 7:10] = reference_attitude_units(g[:, 0], g[:, 7:10], imu[:, 0], imu[:, 4:7], source, cols[7:10], meta)
-    g[:, 2], g[:, 1] = reference_latlon_units(g[:, 0], g[:, 2], g[:, 1], g[:, 4:7], source,
-                                              (cols[2], cols[1], cols[4], cols[5]), meta)
+    euler = g[:, 7:10]
+    if reference_attitude_units(g[:, 0], euler, imu[:, 0], imu[:, 4:7], source, cols[7:10], meta) is not euler:
+        gt[:, 7:10] = np.radians(gt[:, 7:10])
+    lat = g[:, 2]
+    if reference_latlon_units(g[:, 0], lat, g[:, 1], g[:, 4:7], source, (cols[2], cols[1], cols[4], cols[5]),
+                              meta)[0] is not lat:
+        gt[:, 1:3] = np.radians(gt[:, 1:3])
     # the depth is the altitude's opposite (positive up, metres above the sea surface)
-    g[:, 3] = -reference_depth(g[:, 0], -g[:, 3], g[:, 6], source, (cols[3], cols[6]), meta, depth_range_m)
-    gt[ok] = g
+    depth = -g[:, 3]
+    if reference_depth(g[:, 0], depth, g[:, 6], source, (cols[3], cols[6]), meta, cfg.depth_range_m,
+                       lines=gt_lines[ok]) is not depth:
+        gt[:, 3] = -gt[:, 3]
 
 
 #: Nominal rates of the A-KIT streams, Hz: the sensors' rates, which the published stamps' period misses.

@@ -36,11 +36,12 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
 * **Reference (ground truth).** The A-KIT GT file and a column map's ``gt`` entry (:func:`reference_attitude_units`,
   :func:`reference_latlon_units`, :func:`reference_depth`, :func:`check_reference_displacement`). Angles in degrees
   are certain beyond the radian range (a roll beyond pi, a pitch beyond pi/2, a latitude beyond pi/2, a longitude
-  beyond 2 pi; a yaw beyond 2 pi unless it turns with the gyro: an unwrapped yaw) and, inside it, told by rates:
+  beyond 2 pi; a yaw beyond 2 pi alone is an unwrapped one) and, inside it, told by rates:
   the attitude's turn rate over the gyro's (:func:`attitude_rate_ratio`) and the positions' displacement over the
   reference's own velocity's (:func:`displacement_ratio`) are 0.95-1.03 and 0.975-1.007 on the ten, 23-56 and
   28-57 with the same files in degrees; :data:`DEG_RATE_RATIO` (7.6, the geometric middle of 1 and 57.3) splits
-  them. Converted like the gyro's deg/s (a warning naming the file and columns, a note); positions that follow
+  them (an attitude only when, converted, it turns with the gyro: a noisy one in radians also turns fast; a
+  declared unit wins with a warning). Converted like the gyro's deg/s (a warning naming the file and columns, a note); positions that follow
   the velocity in neither unit (outside :data:`SAME_UNITS_RATIO`) are refused. An A-KIT depth (-altitude) mostly
   outside ``depth_range_m`` is flipped back when it changes against the GT's down velocity
   (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused naming the first
@@ -297,6 +298,10 @@ def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = Non
 DEG_RATE_RATIO = float(np.sqrt(180.0 / np.pi))
 #: Rates that agree within this factor are the same units (positions against velocities, a declared unit).
 SAME_UNITS_RATIO = 3.0
+#: An attitude that turns faster than DEG_RATE_RATIO is taken for degrees only when, converted, it turns with the
+#: gyro within this factor (0.95-1.03 on the ten in degrees): noise of 0.01-0.02 rad on a radian attitude over a
+#: gyro turning 2-4 mrad/s also gives ratios of 11-22, and converted those turn 0.19-0.38x as fast.
+DEG_CONFIRM_RATIO = 2.0
 #: Median gyro turn rate (rad/s) and reference speed (m/s) below which the rates tell nothing (the ten
 #: trajectories: 0.006-0.046 rad/s, 1.5-2.1 m/s).
 MIN_TURN_RATE_RADPS = 1e-3
@@ -407,41 +412,65 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
     detected and converted (a warning naming ``source`` and the columns ``fields``, a note), or DataError.
 
     Degrees are told by the range (a roll beyond pi or a pitch beyond pi/2 cannot be radians; a yaw beyond 2 pi
-    neither, unless it is an unwrapped yaw that turns with the gyro) and, inside it, by the attitude's turn rate
+    alone is taken for an unwrapped one, with a warning when the gyro cannot tell) and, inside it, by the turn rate
     against the gyro's (:func:`attitude_rate_ratio`: ~1 in radians, ~57 in degrees; ``t_imu`` s and ``omega_b``
     rad/s after the gyro's own unit check, None without an IMU). ``declared``: the unit the caller applied
-    (``"rad"``/``"deg"``); data that contradict it are refused instead of converted.
+    (``"rad"``/``"deg"``): angles beyond its range are refused, rates that contradict it warned about (it wins).
+    Rates above :data:`DEG_RATE_RATIO` are degrees only when the converted angles turn with the gyro within
+    :data:`DEG_CONFIRM_RATIO`; else the angles are kept, with a warning.
     """
-    from graphnav.core.rotations import euler_to_C_b_n
     euler = np.asarray(euler, float)
     if euler.size == 0:
         return euler
-    ratio = float("nan")
-    if t_imu is not None and omega_b is not None:
-        ratio, _ = attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b)
+    ratio = _attitude_ratio(t, euler, t_imu, omega_b)
     peak = np.max(np.abs(euler), axis=0)
     tilt_beyond = peak[0] > np.pi or peak[1] > np.pi / 2
     field = "/".join(fields[:3])
     extent = f"|roll| up to {peak[0]:.4g}, |pitch| up to {peak[1]:.4g}, |yaw| up to {peak[2]:.4g}"
     turns = f"the attitude turns {ratio:.3g}x as fast as the gyro (1 in radians, 57.3 for degrees)"
     if declared is not None:
-        if tilt_beyond or (np.isfinite(ratio) and not 1 / DEG_RATE_RATIO < ratio < DEG_RATE_RATIO):
-            raise DataError(f"attitude after the declared unit {declared!r}: "
-                            f"{turns if np.isfinite(ratio) else extent + ' rad'}: not the declared unit",
+        if tilt_beyond:
+            raise DataError(f"attitude after the declared unit {declared!r}: {extent} rad: not the declared unit",
                             source, field=field)
+        if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept in the declared unit {declared!r}, but "
+                  f"{turns}", source)
         return euler
     if np.isfinite(ratio) and ratio < DEG_RATE_RATIO:
         if tilt_beyond:
             raise DataError(f"{extent}: beyond radians, yet {turns}: neither radians nor degrees", source,
                             field=field)
+        if not ratio > 1 / SAME_UNITS_RATIO or not ratio < SAME_UNITS_RATIO:
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians, but {turns}", source)
         return euler                    # radians (a yaw beyond 2 pi is an unwrapped one)
-    if not (tilt_beyond or peak[2] > 2 * np.pi or np.isfinite(ratio)):
+    if not (tilt_beyond or np.isfinite(ratio)):
+        if peak[2] > 2 * np.pi:
+            # an unwrapped yaw in radians or a yaw in degrees: only the gyro or the roll/pitch could tell
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians: {extent} (an unwrapped yaw "
+                  "in radians, or degrees?); the gyro turns too little to tell and roll/pitch are inside the "
+                  "radian range", source)
         return euler                    # nothing tells: radians, as a reference's angles are
     why = turns if np.isfinite(ratio) else f"{extent}: beyond radians"
     if peak[0] > 180.0 or peak[1] > 90.0:
         raise DataError(f"attitude neither radians nor degrees ({why}; {extent})", source, field=field)
+    if not tilt_beyond:
+        # a noisy attitude in radians also turns faster than the gyro: degrees only when they then turn with it
+        ratio_deg = _attitude_ratio(t, np.radians(euler), t_imu, omega_b)
+        if not 1 / DEG_CONFIRM_RATIO < ratio_deg < DEG_CONFIRM_RATIO:
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians, but {turns}; read as "
+                  f"degrees it would turn {ratio_deg:.3g}x as fast: the gyro matches neither unit (a noisy "
+                  "attitude?)", source)
+            return euler
     _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {why}", source)
     return np.radians(euler)
+
+
+def _attitude_ratio(t, euler, t_imu, omega_b) -> float:
+    """:func:`attitude_rate_ratio` of roll, pitch, yaw ``euler`` (K,3, rad); NaN without a gyro."""
+    from graphnav.core.rotations import euler_to_C_b_n
+    if t_imu is None or omega_b is None:
+        return float("nan")
+    return attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b)[0]
 
 
 def check_reference_displacement(ratio: float, source: str, fields, what: str = "") -> None:
