@@ -209,7 +209,7 @@ def test_akit_loader_finds_a_gt_clock_days_away(akit_dir, tmp_path, given):
         m = prepare(read_mission(dst, config), imu_axis_signs=(1, -1, 1))
     text = [str(w.message) for w in caught]
     assert any(t.startswith(str(dst / files["GT"].name)) and "GT clock offset -259199." in t for t in text), text
-    assert given == any("configured gt_time_offset_s +0.500 s leaves 100 %" in t for t in text)
+    assert given == any("configured gt_time_offset_s +0.500 s puts the stamps at" in t for t in text)
     assert not any("slice" in t for t in text)
     np.testing.assert_allclose(m.gt.t, ref.gt.t, atol=1e-3)
     np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=1e-3)
@@ -241,7 +241,7 @@ def test_a_folder_graphnav_wrote_gets_the_dvl_clock_check(sim, tmp_path):
         warnings.simplefilter("always")
         m = prepare(read_mission(tmp_path / "Trajectory1"))
     text = " ".join(str(w.message) for w in caught)
-    assert f"{paths['DVL']}: the configured dvl_time_offset_s +0.000 s leaves 100 %" in text
+    assert f"{paths['DVL']}: the configured dvl_time_offset_s +0.000 s puts the stamps at" in text
     assert f"{paths['DVL']}: DVL clock offset -5184" in text
     # then the fine estimate against the GT, as in a published folder: the simulator's gentle manoeuvres fix it to
     # 0.05 s (-0.067 s off)
@@ -249,3 +249,18 @@ def test_a_folder_graphnav_wrote_gets_the_dvl_clock_check(sim, tmp_path):
     assert sigma < 0.1
     np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=3 * sigma)
     assert m.meta["streams"]["dvl"]["refused"] == {}
+
+
+def test_a_log_that_outlasts_the_imu_is_on_its_clock_and_one_moved_away_is_not():
+    """The one rule of the DVL and GT clock checks: the spans' overlap against the shorter span. A log running
+    longer than the IMU on either side (two thirds of its stamps outside the IMU span) shares the IMU clock; one
+    moved 100 s against a 150 s IMU (a third of the shorter span shared), or three days, does not."""
+    from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
+    t_imu = np.arange(0.0, 150.0, 0.01)
+    assert on_the_imu_clock(np.arange(0.0, 400.0), t_imu)
+    assert on_the_imu_clock(np.arange(-200.0, 200.0), t_imu)
+    assert on_the_imu_clock(np.arange(0.0, 400.0), np.arange(60.0, 150.0, 0.01))
+    assert span_overlap_fraction(np.arange(100.0, 250.0), t_imu) == pytest.approx(50 / 149, abs=1e-3)
+    assert not on_the_imu_clock(np.arange(100.0, 250.0), t_imu)
+    assert not on_the_imu_clock(np.arange(150.0) + 3 * 86400.0, t_imu)
+    assert on_the_imu_clock(np.array([75.0]), t_imu) and not on_the_imu_clock(np.array([200.0]), t_imu)

@@ -600,6 +600,75 @@ def test_a_late_file_shares_the_folders_origin_and_a_far_one_keeps_its_own(tmp_p
     np.testing.assert_array_equal(c.imu[:, 0], a.imu[:, 0])
 
 
+def test_a_folder_trimmed_at_the_start_keeps_the_whole_folders_stamps(tmp_path):
+    """All three files cut to t >= 30 s (a published folder trimmed at the start): every stamp is the whole
+    folder's, so the DVL keeps its offset to the IMU. The published grids start at 0 whatever is cut from them;
+    rescaled about the folder's earliest stamp (30 s) the DVL moved 0.075 s against the IMU (0.15 s in
+    Trajectory1 cut at 60 s)."""
+    from graphnav.io.loaders import read_akit
+    whole = make_akit_folder(tmp_path / "whole", n=4)
+    trimmed = _shift_stamps(whole, tmp_path / "trimmed", {})
+    for kind in ("IMU", "DVL", "GT"):
+        path = trimmed / f"{kind}_trajectory4.csv"
+        data = read_csv(path, AKIT_COLUMNS[kind])
+        write_csv(path, AKIT_COLUMNS[kind], data[data[:, 0] >= 30.0].tolist())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a, b = read_akit(whole), read_akit(trimmed)
+    for stream in ("imu", "dvl", "gt"):
+        ta, tb = getattr(a, stream)[:, 0], getattr(b, stream)[:, 0]
+        np.testing.assert_allclose(tb, ta[ta >= 30.0 - 1e-6][-len(tb):], rtol=0, atol=1e-9)
+    assert not any("about t =" in n for n in b.meta["streams"]["dvl"]["notes"])
+
+
+def _keep_imu_rows(folder, lo, hi):
+    """Keep the rows of the IMU file of A-KIT ``folder`` with ``lo <= t <= hi`` (s, as published)."""
+    path = next(folder.glob("IMU_*.csv"))
+    data = read_csv(path, AKIT_COLUMNS["IMU"])
+    write_csv(path, AKIT_COLUMNS["IMU"], data[(data[:, 0] >= lo) & (data[:, 0] <= hi)].tolist())
+
+
+def test_dvl_and_gt_logs_longer_than_the_imu_load_with_the_pings_outside_refused(tmp_path):
+    """The IMU file cut to 40-80 s of a 120 s folder, the DVL and GT logging longer on both sides: the clocks agree,
+    so the mission loads with the configured offsets kept (no "clock of its own" warning) and the DVL pings outside
+    the IMU span refused and counted, and info calls it usable. Before, two thirds of the stamps outside the IMU
+    span were taken for a clock of its own: the GT's configured offset was thrown away and the DVL refused."""
+    from graphnav.io.inspect import describe_mission
+    from graphnav.io.stream_counts import OUTSIDE_IMU_SPAN
+    folder = make_akit_folder(tmp_path, n=6)
+    _keep_imu_rows(folder, 40.0, 80.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_akit(folder, imu_axis_signs=(1, -1, 1), gt_time_offset_s=0.0, dvl_time_offset_s=0.0)
+    text = " ".join(str(w.message) for w in caught)
+    assert "clock of its own" not in text and "clock offset" not in text, text
+    assert m.config.gt_time_offset_s == 0.0 and m.config.dvl_time_offset_s == 0.0
+    t = m.dvl.t
+    outside = int(np.sum((t < m.imu.t[0]) | (t > m.imu.t[-1])))
+    assert outside > len(t) // 2
+    assert m.meta["streams"]["dvl"]["refused"] == {OUTSIDE_IMU_SPAN: outside}
+    assert describe_mission(m)["usable"]
+
+
+def test_a_published_trajectory_whose_imu_stops_early_loads_as_before(akit_dir, tmp_path):
+    """Trajectory1 with its IMU file cut to t <= 150 s (the DVL and GT log 400 s): loaded with the offsets found
+    from the data, as the copy with every file cut to 150 s, and the 251 DVL pings after the IMU's end refused.
+    Before, it was refused ("251 of 400 usable DVL pings lie outside the IMU span ... a clock of its own")."""
+    from graphnav.io.stream_counts import OUTSIDE_IMU_SPAN
+    src = akit_dir / "Trajectory1"
+    longer = _shift_stamps(src, tmp_path / "longer", {})
+    _keep_imu_rows(longer, 0.0, 150.0)
+    cut = _first_seconds(src, tmp_path / "cut", 150.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        a, b = load_akit(cut), load_akit(longer)
+    assert not any("GT clock offset" in str(w.message) for w in caught)
+    assert b.meta["streams"]["dvl"]["refused"] == {OUTSIDE_IMU_SPAN: 251}
+    for stream in ("gt", "dvl"):
+        assert b.meta["time_offsets"][stream]["offset_s"] == pytest.approx(
+            a.meta["time_offsets"][stream]["offset_s"], abs=0.05)
+
+
 def test_a_gt_too_short_to_check_the_axes_against_is_refused_naming_it(tmp_path):
     """A GT file of 8 rows beside a 120 s IMU: a DataError naming the GT file, both spans and what to do (before:
     "gt: too little overlap between IMU and reference", no file named)."""

@@ -36,7 +36,7 @@ from scipy.optimize import minimize_scalar
 from graphnav.calibration.reference import _sigma_from_curvature, cumulative_integral
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note
-from graphnav.core.timeseries import interp_rows
+from graphnav.core.timeseries import interp_rows, on_the_imu_clock, span_overlap_fraction
 
 #: Step of the IMU grid the integrals are kept on, s.
 IMU_GRID_S = 0.05
@@ -305,12 +305,6 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
                        n_win * window)
 
 
-def _overlap_fraction(t: np.ndarray, t_imu: np.ndarray) -> float:
-    if len(t) == 0 or len(t_imu) == 0:
-        return 0.0
-    return float(np.mean((t >= t_imu[0]) & (t <= t_imu[-1])))
-
-
 def _same_instrument(a: str, b: str) -> bool:
     """Two streams of one file (``log.pd0:vel_bt`` and ``log.pd0:pressure``, or the same source): one clock."""
     return a == b or (":" in a and ":" in b and a.rsplit(":", 1)[0] == b.rsplit(":", 1)[0])
@@ -329,17 +323,17 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
     in an error; ``what_to_do``: how to give the offset, for the error.
 
     Raises:
-        DataError: the DVL does not overlap the IMU (fewer than half its pings inside the IMU span) and no
+        DataError: the DVL is off the IMU clock (:func:`graphnav.core.timeseries.on_the_imu_clock`) and no
             confident offset can be found (a constant-velocity log has no signal to align on), or a depth
             stream on a third clock does not overlap the IMU.
     """
     meta = {} if meta is None else meta
-    inside = _overlap_fraction(dvl.t, imu.t)
+    inside = on_the_imu_clock(dvl.t, imu.t)
     try:
-        near = (-NEAR_SEARCH_S, NEAR_SEARCH_S) if inside >= 0.5 else None
+        near = (-NEAR_SEARCH_S, NEAR_SEARCH_S) if inside else None
         est = estimate_dvl_clock_offset(imu, dvl, config, min_overlap_s=min_overlap_s, search_s=near)
     except DataError:
-        if inside >= 0.5:
+        if inside:
             add_note(meta, "dvl", "clock offset not estimated (too few pings or too short a log); stamps kept")
             return dvl, depth
         raise
@@ -349,13 +343,13 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         why = (f"the IMU's accelerations explain the DVL's velocity changes at no clear offset (best "
                f"{est.peak:.2f}, next {est.second_peak:.2f}: the DVL noise hides the vehicle's accelerations, or "
                "a constant-velocity log has no signal)")
-        if inside < 0.5:
+        if not inside:
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
-                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s ({100 * (1 - inside):.0f} % of the pings) and the "
+                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s ({_overlap_text(dvl.t, imu.t)}) and the "
                             f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
         add_note(meta, "dvl", f"clock offset not applied: {why}")
         return dvl, depth
-    if abs(est.offset_s) < 0.5 * period and inside >= 0.5:
+    if abs(est.offset_s) < 0.5 * period and inside:
         add_note(meta, "dvl", f"clock offset {est.describe()} is under half a DVL period: left to the fine "
                  "DVL time-offset calibration")
         return dvl, depth
@@ -367,7 +361,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
         if _same_instrument(depth.source, dvl.source):
             depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + est.offset_s)
             add_note(meta, "depth", f"moved with the DVL clock ({est.offset_s:+.3f} s): same instrument")
-        elif _overlap_fraction(depth.t, imu.t) < 0.5:
+        elif not on_the_imu_clock(depth.t, imu.t):
             raise DataError(f"depth stamps [{depth.t[0]:.3f}, {depth.t[-1]:.3f}] s lie outside the IMU span "
                             f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
                             depth.source, field="t")
@@ -491,13 +485,19 @@ def gt_clock_confident(est: ClockOffset) -> bool:
     return est.peak >= MIN_GT_PEAK and est.sharpness >= MIN_GT_SSE_RATIO
 
 
+def _overlap_text(t: np.ndarray, t_imu: np.ndarray) -> str:
+    """How much of the shorter span the two spans share, for an error (:func:`span_overlap_fraction`)."""
+    return f"they share {100 * span_overlap_fraction(t, t_imu):.0f} % of the shorter span"
+
+
 def _span(t: np.ndarray) -> str:
     return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
 
 
 def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_to_do: str = ""):
-    """``(gt, offset_s)``: the ground truth put on the IMU clock when fewer than half its stamps lie in the IMU
-    span (a GT logged on a clock seconds or days away), by the offset :func:`estimate_gt_clock_offset` finds;
+    """``(gt, offset_s)``: the ground truth put on the IMU clock when its span is off the IMU's
+    (:func:`graphnav.core.timeseries.on_the_imu_clock`: a GT logged on a clock seconds or days away; a GT that only
+    outlasts the IMU is on its clock), by the offset :func:`estimate_gt_clock_offset` finds;
     ``(gt, 0.0)`` unchanged otherwise (the fine GT time offset is the prepare step's). The offset applied is warned
     about (naming the GT file) and noted in ``meta["streams"]["gt"]``; ``meta["clock_offsets"]["gt"]`` keeps the
     estimate.
@@ -511,11 +511,10 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
             time spans and what to do).
     """
     meta = {} if meta is None else meta
-    inside = _overlap_fraction(gt.t, imu.t)
-    if inside >= 0.5:
+    if on_the_imu_clock(gt.t, imu.t):
         return gt, 0.0
-    where = (f"GT stamps {_span(gt.t)} lie outside the IMU span {_span(imu.t)} ({100 * (1 - inside):.0f} % of the "
-             "rows: a clock of its own)")
+    where = (f"GT stamps {_span(gt.t)} lie outside the IMU span {_span(imu.t)} ({_overlap_text(gt.t, imu.t)}: a clock "
+             "of its own)")
     todo = what_to_do or "give the GT time offset"
     try:
         est = estimate_gt_clock_offset(imu, gt)

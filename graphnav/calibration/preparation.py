@@ -29,7 +29,7 @@ Bags, CSV logs and PD0 files: a DVL on a clock of its own is put on the IMU's
 without a heading source is told whether the configured gyro can gyrocompass.
 
 Every mission: DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
-and more than half of them outside is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
+and a DVL span off the IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
 ``meta["prepared"]``) is prepared already and comes back unchanged.
@@ -48,6 +48,7 @@ from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.streams import add_note, set_span
+from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
 #: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
@@ -81,7 +82,7 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
     Raises:
         ConfigError: an explicit value for a mission it does not apply to, or signs that are not +-1.
         DataError: no IMU axis convention fits, the DVL does not follow the GT, a DVL or GT clock cannot be found,
-            or most DVL pings lie outside the IMU span (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
+            or the DVL span is off the IMU's (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
     """
     explicit = {k: v for k, v in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
                                   ("dvl_time_offset_s", dvl_time_offset_s)) if not _is_auto(v)}
@@ -199,18 +200,19 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
 
 def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
     """``offset`` (s added to the stamps of ``data``, a stream of the mission), or ``"auto"`` with a warning and a
-    note in ``meta`` when a given offset leaves most of its stamps outside the IMU span: the file is on a clock of
-    its own (a folder whose stamps were moved after graphnav wrote it with its configuration), and the clock check
-    finds it instead of every sample being refused. None ``data``: ``offset``."""
+    note in ``meta`` when a given offset leaves its stamps off the IMU clock
+    (:func:`graphnav.core.timeseries.on_the_imu_clock`): the file is on a clock of its own (a folder whose stamps were
+    moved after graphnav wrote it with its configuration), and the clock check finds it instead of every sample being
+    refused. A file that only outlasts the IMU keeps the offset. None ``data``: ``offset``."""
     if data is None or _is_auto(offset) or not len(data.t):
         return offset
     t = np.asarray(data.t, float) + float(offset)
-    inside = float(np.mean((t >= imu.t[0]) & (t <= imu.t[-1])))
-    if inside >= 0.5:
+    if on_the_imu_clock(t, imu.t):
         return offset
-    text = (f"the configured {stream}_time_offset_s {float(offset):+.3f} s leaves {100 * (1 - inside):.0f} % of the "
-            f"stamps ([{t[0]:.3f}, {t[-1]:.3f}] s) outside the IMU span [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s: the file "
-            "is on a clock of its own, whose offset is estimated from the data instead")
+    text = (f"the configured {stream}_time_offset_s {float(offset):+.3f} s puts the stamps at [{t[0]:.3f}, "
+            f"{t[-1]:.3f}] s, sharing {100 * span_overlap_fraction(t, imu.t):.0f} % of the shorter span with the IMU "
+            f"span [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s: the file is on a clock of its own, whose offset is estimated "
+            "from the data instead")
     add_note(meta, stream, text)
     warnings.warn(f"{data.source}: {text}", RuntimeWarning, stacklevel=4)
     return AUTO

@@ -29,3 +29,30 @@ def finite_rows(x: np.ndarray) -> np.ndarray:
     covariance that is all there."""
     x = np.asarray(x)
     return np.all(np.isfinite(x.reshape(len(x), -1)), axis=1)
+
+
+#: A stream whose span overlaps the IMU's over less than this fraction of the shorter of the two spans is on a
+#: clock of its own (:func:`on_the_imu_clock`).
+MIN_CLOCK_OVERLAP = 0.5
+
+
+def span_overlap_fraction(t: np.ndarray, t_imu: np.ndarray) -> float:
+    """The overlap (s) of the spans of stamps ``t`` and ``t_imu`` (s, increasing) over the shorter of the two
+    spans, 0..1. Against the shorter span, not as the share of ``t`` inside the IMU span: a log that runs longer
+    than the other (either side) still overlaps it fully. A span of one stamp: 1 inside the other span, else 0."""
+    t, t_imu = np.asarray(t, float), np.asarray(t_imu, float)
+    if len(t) == 0 or len(t_imu) == 0:
+        return 0.0
+    overlap = min(t[-1], t_imu[-1]) - max(t[0], t_imu[0])
+    shorter = min(t[-1] - t[0], t_imu[-1] - t_imu[0])
+    if shorter <= 0:
+        return 1.0 if overlap >= 0 else 0.0
+    return float(np.clip(overlap / shorter, 0.0, 1.0))
+
+
+def on_the_imu_clock(t: np.ndarray, t_imu: np.ndarray) -> bool:
+    """Stamps ``t`` (s) share the IMU's clock as far as their spans tell: they overlap the IMU span ``t_imu`` (s)
+    over at least :data:`MIN_CLOCK_OVERLAP` of the shorter span (:func:`span_overlap_fraction`). A log that merely
+    outlasts the IMU is on its clock (its samples outside the span are refused, and counted, later); one seconds or
+    days away is not."""
+    return span_overlap_fraction(t, t_imu) >= MIN_CLOCK_OVERLAP

@@ -270,12 +270,16 @@ def describe_mission(mission) -> dict:
 def _refused_stream(streams: dict) -> str | None:
     """Why the estimators cannot use the mission: its IMU or DVL stream refused for more than
     :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` (they would end the run, ``graphnav smooth`` with an
-    error), or None."""
+    error), or None. DVL pings outside the IMU span are not counted against it: the estimators skip them (a DVL
+    that logged longer than the IMU), and a DVL off the IMU clock is the prepare step's error
+    (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`)."""
     from graphnav.core.screening import MAX_REFUSED_FRACTION
+    from graphnav.io.stream_counts import OUTSIDE_IMU_SPAN
     for name in ("imu", "dvl"):
         entry = streams.get(name) or {}
-        read, refused = entry.get("read") or 0, entry.get("refused") or {}
-        if read and sum(refused.values()) > MAX_REFUSED_FRACTION * read:
+        refused = {r: n for r, n in (entry.get("refused") or {}).items() if r != OUTSIDE_IMU_SPAN}
+        read = (entry.get("read") or 0) - (entry.get("refused") or {}).get(OUTSIDE_IMU_SPAN, 0)
+        if read > 0 and sum(refused.values()) > MAX_REFUSED_FRACTION * read:
             reasons = ", ".join(f"{n} {r}" for r, n in sorted(refused.items(), key=lambda kv: -kv[1]) if n)
             return (f"{entry.get('source') or name}: {sum(refused.values())} of {read} {name} samples refused "
                     f"({reasons}): more than {MAX_REFUSED_FRACTION:.0%} of the stream, which the estimators refuse")

@@ -19,9 +19,10 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    ``(N-1)/N`` for a file of N rows (:func:`published_period_factor`). The factor comes from the stamp step,
    not from the rows present or the last stamp: a file with rows deleted (an outage cut out of the log) or
    cut short keeps the stamps it had in the whole file. Rows missing from the stamp grid are warned about and
-   noted. The stamps are scaled about the folder's clock origin (:func:`akit_stamp_origins`): 0 in the published
-   files, the first stamp of a folder on a Unix clock (scaled about zero, 1.7e9 s moved by 4e6 s), a file's own
-   first stamp when it starts on a clock days away. Stamps that are not such a grid (a logger's own, jittered
+   noted. The stamps are scaled about the folder's clock origin (:func:`akit_stamp_origins`): 0 for the published
+   files, cut or trimmed at the start or not (their stamps stay on the grid that starts at 0), the first stamp of
+   a folder on a clock more than a day from zero (a Unix clock: scaled about zero, 1.7e9 s moved by 4e6 s), a
+   file's own first stamp when it starts on a clock days away. Stamps that are not such a grid (a logger's own, jittered
    stamps; stamps already on the period; a grid at another rate) are kept as read, with a note, and a folder
    with files of both kinds is warned about.
    Stamps that are not times (beyond :data:`graphnav.core.screening.MAX_STAMP_S`, or a lone stamp a day away
@@ -569,24 +570,33 @@ def _scaled_about(t: np.ndarray, origin: float, factor: float) -> np.ndarray:
     return origin + (t - origin) * factor
 
 
+#: A folder whose earliest stamp lies further than this from zero (s; one day) is on a clock far from zero (Unix
+#: seconds, a logger's running clock): its grid is taken to start at that stamp (:func:`akit_stamp_origins`).
+AKIT_FAR_CLOCK_S = 86400.0
+
+
 def akit_stamp_origins(first: dict[str, float], last: dict[str, float]) -> dict[str, float]:
     """The stamp (s) each A-KIT file's stamps are rescaled about, by stream, from each file's first and last stamp
-    (s): the folder's earliest first stamp (0 in the published files, where every file starts at 0) for a file
-    that starts within the folder's recording (a DVL that starts late shares the other files' clock), else the
-    file's own first stamp (a file on a clock days away, whose grid starts there)."""
+    (s). A file that starts within the folder's recording shares the folder's clock: 0, where the published
+    ``linspace(0, T, N)`` grids start (a file cut short, or trimmed at the start, keeps its stamps on that grid, so
+    the rescale is about 0 for it too), or the folder's earliest first stamp when that lies more than
+    :data:`AKIT_FAR_CLOCK_S` from zero (the folder moved to a Unix clock: its grids start there). A file that starts
+    further after the folder's earliest stamp than the longest file lasts is on a clock of its own (days away),
+    whose grid starts at its own first stamp."""
     if not first:
         return {}
     folder = min(first.values())
+    common = folder if abs(folder) > AKIT_FAR_CLOCK_S else 0.0
     longest = max(last[k] - first[k] for k in first)
-    return {k: folder if t0 - folder <= longest else t0 for k, t0 in first.items()}
+    return {k: common if t0 - folder <= longest else t0 for k, t0 in first.items()}
 
 
 def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
     """Put each published file's stamps (in place) back on the sensor's period: ``(N-1)/N`` of its published
     row count N (:func:`published_period_factor`, from the stamp step: rows deleted or a file cut short shift
-    nothing), about the folder's clock origin (:func:`akit_stamp_origins`: 0 in the published files, the first
-    stamp of a folder on a Unix clock). Rows missing from a file's stamp grid are warned about and noted in
-    ``meta["streams"]``; a file whose stamps are not the published grid is left as read, and noted; a folder with
+    nothing), about the folder's clock origin (:func:`akit_stamp_origins`: 0 for the published files, trimmed or
+    not; the first stamp of a folder on a Unix clock). Rows missing from a file's stamp grid are warned about and
+    noted in ``meta["streams"]``; a file whose stamps are not the published grid is left as read, and noted; a folder with
     files of both kinds is warned about (their clocks may now disagree)."""
     present = {k: a for k, a in arrays.items() if a is not None and len(a) >= 2}
     origins = akit_stamp_origins({k: float(a[0, 0]) for k, a in present.items()},

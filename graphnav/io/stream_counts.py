@@ -86,21 +86,22 @@ def record_outside_span(mission: Mission) -> None:
 
 def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",
                            field: str = "t") -> None:
-    """DataError naming the DVL source, both time spans and ``what_to_do`` when more than
-    :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the usable DVL pings lie outside the IMU span
-    (counted by :func:`record_outside_span`): the DVL is on another clock, and the estimators would refuse the
-    stream (``graphnav info`` called such a mission usable, ``graphnav smooth`` then failed on it)."""
+    """DataError naming the DVL source, both time spans and ``what_to_do`` when the span of the usable DVL pings is
+    off the IMU's (:func:`graphnav.core.timeseries.on_the_imu_clock`: they share less than half of the shorter span):
+    the DVL is on another clock, and the estimators would refuse the stream (``graphnav info`` called such a mission
+    usable, ``graphnav smooth`` then failed on it). A DVL that only logged longer than the IMU passes: its pings
+    outside the IMU span are counted (:func:`record_outside_span`) and skipped."""
     from graphnav.core.errors import DataError
-    from graphnav.core.screening import MAX_REFUSED_FRACTION
-    entry = mission.meta.get("streams", {}).get("dvl", {})
-    outside = (entry.get("refused") or {}).get(OUTSIDE_IMU_SPAN, 0)
-    used = int(dvl_used(mission.dvl).sum())
-    if not used or outside <= MAX_REFUSED_FRACTION * used:
+    from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
+    used = dvl_used(mission.dvl)
+    t, t_imu = mission.dvl.t[used], mission.imu.t
+    if not used.any() or on_the_imu_clock(t, t_imu):
         return
-    t, t_imu = mission.dvl.t, mission.imu.t
-    raise DataError(f"{outside} of {used} usable DVL pings lie outside the IMU span [{t_imu[0]:.3f}, "
-                    f"{t_imu[-1]:.3f}] s (DVL stamps [{t[0]:.3f}, {t[-1]:.3f}] s): the DVL is on a clock of its "
-                    f"own, and the estimators cannot use it; {what_to_do}", mission.dvl.source, field=field)
+    outside = int(np.sum((t < t_imu[0]) | (t > t_imu[-1])))
+    raise DataError(f"{outside} of {int(used.sum())} usable DVL pings lie outside the IMU span [{t_imu[0]:.3f}, "
+                    f"{t_imu[-1]:.3f}] s (DVL stamps [{t[0]:.3f}, {t[-1]:.3f}] s, sharing "
+                    f"{100 * span_overlap_fraction(t, t_imu):.0f} % of the shorter span): the DVL is on a clock of "
+                    f"its own, and the estimators cannot use it; {what_to_do}", mission.dvl.source, field=field)
 
 
 def ensure_streams(mission: Mission) -> dict:
