@@ -8,7 +8,11 @@ the largest departure itself.
 
 Part 2, detection on the ten trajectories: spikes added to one axis of every 500th row (cycling the axes, the
 sign alternating), one row or a run of five rows, of each size; the fraction of them the loaders' test and the
-stream's test refuse, and how many other rows they refuse.
+stream's test refuse, and how many other rows they refuse (skipped with --no-detection: a few minutes).
+
+Part 3, the spans in seconds: a still IMU at 10-400 Hz with a turn onset (yaw rate 0 -> 0.3 rad/s in 1 s), wave roll
+starting (0.3 or 0.6 rad/s, period 2 or 5 s), a 1.2 s heading correction (0.2 rad/s) and a 12 m/s^2 half-sine shock
+of 80 ms: rows the loaders' test and the stream's refuse (off: the rate is under IMU_SPIKE_MIN_RATE_HZ).
 
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/imu_spike_report.py
 """
@@ -23,11 +27,12 @@ from scipy.ndimage import median_filter
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.screening import (
-    IMU_SPIKE_HALF_WINDOW,
     IMU_SPIKE_NOISE_FACTOR,
     ImuSpikeTest,
     imu_noise_scale,
+    imu_rate_hz,
     imu_spike_floors,
+    imu_spike_rows,
     imu_spikes,
 )
 from graphnav.io.loaders import read_akit
@@ -40,28 +45,29 @@ GYRO_SIZES = (0.05, 0.08, 0.1, 0.12, 0.15, 0.2, 0.5, 5.0)    # rad/s
 SPACING = 500
 
 
-def batch(x: np.ndarray) -> np.ndarray:
-    """(N,) rows the loaders' test refuses."""
-    return np.any(list(imu_spikes(x[:, :3], x[:, 3:], CONFIG).values()), axis=0)
+def batch(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(N,) rows the loaders' test refuses (stamps t s, rows x)."""
+    return np.any(list(imu_spikes(t, x[:, :3], x[:, 3:], CONFIG).values()), axis=0)
 
 
-def stream(x: np.ndarray) -> np.ndarray:
+def stream(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     """(N,) rows the stream's test refuses."""
     test = ImuSpikeTest(imu_spike_floors(CONFIG))
-    return np.array([test.check(row) is not None for row in x.tolist()])
+    return np.array([test.check(s, row) is not None for s, row in zip(t.tolist(), x.tolist())])
 
 
-def margins(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def margins(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(accel, gyro) largest departure over its limit, and the largest departure (m/s^2, rad/s)."""
-    median = median_filter(x, size=(2 * IMU_SPIKE_HALF_WINDOW + 1, 1), mode="mirror")
+    half, block = imu_spike_rows(imu_rate_hz(t))
+    median = median_filter(x, size=(2 * half + 1, 1), mode="mirror")
     dev = np.abs(x - median)
-    ratio = dev / np.maximum(imu_spike_floors(CONFIG), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(x))
+    ratio = dev / np.maximum(imu_spike_floors(CONFIG), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(x, block))
     return (np.array([ratio[:, :3].max(), ratio[:, 3:].max()]), np.array([dev[:, :3].max(), dev[:, 3:].max()]))
 
 
-def clean_row(name: str, x: np.ndarray) -> None:
-    ratio, dev = margins(x)
-    print(f"{name:22s} {int(batch(x).sum()):6d} {int(stream(x).sum()):6d}   {ratio[0]:6.3f} {ratio[1]:6.3f}   "
+def clean_row(name: str, t: np.ndarray, x: np.ndarray) -> None:
+    ratio, dev = margins(t, x)
+    print(f"{name:22s} {int(batch(t, x).sum()):6d} {int(stream(t, x).sum()):6d}   {ratio[0]:6.3f} {ratio[1]:6.3f}   "
           f"{dev[0]:6.3f} {dev[1]:7.4f}")
 
 
@@ -72,14 +78,14 @@ def clean_tables(folders) -> dict:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             raw = read_akit(folder)
-        imus[folder.name] = raw.imu[:, 1:7].copy()
-        clean_row(folder.name, imus[folder.name])
+        imus[folder.name] = raw.imu[:, 0].copy(), raw.imu[:, 1:7].copy()
+        clean_row(folder.name, *imus[folder.name])
     for grade in ("navigation", "tactical", "mems"):
         for seed in range(4):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 m = simulate_mission(400.0, imu_grade=grade, seed=seed)
-            clean_row(f"sim {grade} seed {seed}", np.hstack([m.imu.f_b, m.imu.omega_b]))
+            clean_row(f"sim {grade} seed {seed}", m.imu.t, np.hstack([m.imu.f_b, m.imu.omega_b]))
     return imus
 
 
@@ -90,7 +96,7 @@ def detection_table(imus: dict) -> None:
         for size in sizes:
             for run in (1, 5):
                 hit_b = hit_s = total = other_b = other_s = 0
-                for x in imus.values():
+                for t, x in imus.values():
                     y = x.copy()
                     at = np.arange(1000, len(y) - 1000, SPACING)
                     axes = (np.arange(at.size) % 3) + (0 if sensor == "accel" else 3)
@@ -99,7 +105,7 @@ def detection_table(imus: dict) -> None:
                     y[rows, np.repeat(axes, run)] += np.repeat(sign * size, run)
                     injected = np.zeros(len(y), bool)
                     injected[rows] = True
-                    b, s = batch(y), stream(y)
+                    b, s = batch(t, y), stream(t, y)
                     hit_b += int(b[injected].sum())
                     hit_s += int(s[injected].sum())
                     other_b += int(b[~injected].sum())
@@ -110,12 +116,45 @@ def detection_table(imus: dict) -> None:
                       f"{other_b} {other_s}")
 
 
+def motion_cases(rate_hz: float) -> dict:
+    """{name: (stamps s, rows)} of part 3 at ``rate_hz``: 120 s of a still IMU with one motion from t = 60 s."""
+    rng = np.random.default_rng(0)
+    t = np.arange(int(rate_hz * 120.0)) / rate_hz
+    x = np.hstack([[0.0, 0.0, -9.81] + rng.normal(0, 0.01, (t.size, 3)), rng.normal(0, 2e-4, (t.size, 3))])
+    cases = {}
+    for name, axis, add in (
+            ("turn onset 0.3 rad/s in 1 s", 5, np.clip(t - 60.0, 0.0, 1.0) * 0.3),
+            ("wave roll 0.3 rad/s, 5 s", 3, np.where(t > 60, 0.3 * np.sin(2 * np.pi * (t - 60) / 5.0), 0.0)),
+            ("wave roll 0.6 rad/s, 5 s", 3, np.where(t > 60, 0.6 * np.sin(2 * np.pi * (t - 60) / 5.0), 0.0)),
+            ("wave roll 0.6 rad/s, 2 s", 3, np.where(t > 60, 0.6 * np.sin(2 * np.pi * (t - 60) / 2.0), 0.0)),
+            ("heading 0.2 rad/s 1.2 s", 5, np.interp(t, [60, 60.2, 61.0, 61.2], [0, 0.2, 0.2, 0], left=0, right=0)),
+            ("shock 12 m/s^2 80 ms", 0, np.where((t >= 60) & (t < 60.08), -12 * np.sin(np.pi * (t - 60) / 0.08), 0))):
+        y = x.copy()
+        y[:, axis] += add
+        cases[name] = (t, y)
+    return cases
+
+
+def rates_table() -> None:
+    print("\nmotion at other rates: case | rate Hz | rows refused loaders, stream (both on the same rows?)")
+    for rate in (10.0, 20.0, 40.0, 50.0, 100.0, 200.0, 400.0):
+        for name, (t, y) in motion_cases(rate).items():
+            if imu_spike_rows(rate) is None:
+                print(f"{name:28s} | {rate:5g} | off")
+                continue
+            b, s = batch(t, y), stream(t, y)
+            print(f"{name:28s} | {rate:5g} | {int(b.sum())} {int(s.sum())} ({bool(np.array_equal(b, s))})")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--no-detection", action="store_true", help="skip part 2 (the detection table)")
     args = p.parse_args(argv)
     imus = clean_tables(akit_trajectories(args.data))
-    detection_table(imus)
+    if not args.no_detection:
+        detection_table(imus)
+    rates_table()
     return 0
 
 

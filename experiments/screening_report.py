@@ -46,7 +46,7 @@ def clean_table(root: Path | None) -> None:
             why = screen.stamp_problem(kind, t)
             if why is None and kind == "imu":
                 why = screen.imu_problem(*payload)
-                spike = screen.imu_spike(*payload) if why is None else None
+                spike = screen.imu_spike(t, *payload) if why is None else None
                 why = why if spike is None else spike[0]
             elif why is None and kind == "dvl":
                 problems = screen.dvl_problems(t, np.asarray(payload[0]), np.asarray(payload[1]))

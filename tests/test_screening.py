@@ -86,17 +86,21 @@ def _imu_signal():
     return x, spikes
 
 
+#: the stamps of :func:`_imu_signal`, s (100 Hz)
+T_100HZ = np.arange(3000) * 0.01
+
+
 def test_imu_spike_test_refuses_short_runs_and_keeps_vibration_and_lasting_steps():
     """The loaders' IMU spike test: a gyro spike of 5 rad/s, accelerometer spikes of 100 m/s^2 (one inside the
     vibration) and a five-row run of 150 m/s^2 (below full scale), and the smallest spikes it claims (6 m/s^2, 0.15
     rad/s, just past the floors) are refused under the axis they hit; the vibration and the step are not."""
     from graphnav.core.screening import imu_spikes
     x, spikes = _imu_signal()
-    masks = imu_spikes(x[:, :3], x[:, 3:], SensorConfig())
+    masks = imu_spikes(T_100HZ, x[:, :3], x[:, 3:], SensorConfig())
     assert not np.any(list(masks.values()))                 # vibration, a lasting step, a sway: nothing
     for row, (axis, size) in spikes.items():
         x[row, axis] += size
-    masks = imu_spikes(x[:, :3], x[:, 3:], SensorConfig())
+    masks = imu_spikes(T_100HZ, x[:, :3], x[:, 3:], SensorConfig())
     refused = {k: np.flatnonzero(m).tolist() for k, m in masks.items() if m.any()}
     assert refused == {"spike in 'f_b x'": [600, 700, 701, 702, 703, 704], "spike in 'f_b y'": [800],
                        "spike in 'f_b z'": [1200], "spike in 'omega_b x'": [850], "spike in 'omega_b z'": [500]}
@@ -108,8 +112,72 @@ def test_streaming_imu_spike_test_refuses_what_the_loaders_do_and_accepts_a_last
     for row, (axis, size) in spikes.items():
         x[row, axis] += size
     test = ImuSpikeTest(imu_spike_floors(SensorConfig()))
-    refused = [k for k, row in enumerate(x.tolist()) if test.check(row) is not None]
+    refused = [k for k, row in enumerate(x.tolist()) if test.check(T_100HZ[k], row) is not None]
     assert refused == sorted(spikes) + list(range(2000, 2010))     # the step: ten rows, then kept
+    assert (test.rate_hz, test.n, test.block, test.note) == (pytest.approx(100.0), 10, 100, None)
+
+
+def _quiet_imu(rate_hz: float, duration_s: float = 120.0):
+    """A level, still IMU at ``rate_hz``: stamps (N,) s and rows (N,6) (f_b m/s^2, omega_b rad/s) with white noise
+    (0.01 m/s^2, 2e-4 rad/s), as the review's."""
+    rng = np.random.default_rng(0)
+    t = np.arange(int(rate_hz * duration_s)) / rate_hz
+    x = np.hstack([[0.0, 0.0, -9.81] + rng.normal(0, 0.01, (t.size, 3)), rng.normal(0, 2e-4, (t.size, 3))])
+    return t, x
+
+
+def _both_refuse(t, x):
+    """(rows the loaders' test refuses, rows the stream's refuses, the stream's test) on stamps t, rows x."""
+    from graphnav.core.screening import ImuSpikeTest, imu_spike_floors, imu_spikes
+    masks = imu_spikes(t, x[:, :3], x[:, 3:], SensorConfig())
+    test = ImuSpikeTest(imu_spike_floors(SensorConfig()))
+    stream = [k for k, row in enumerate(x.tolist()) if test.check(t[k], row) is not None]
+    return np.flatnonzero(np.any(list(masks.values()), axis=0)).tolist(), stream, test
+
+
+def test_imu_spike_test_is_off_at_10_hz_where_a_turn_onset_or_wave_roll_looked_like_spikes():
+    """At 10 Hz the reviewer's turn (yaw rate 0 -> 0.3 rad/s in 1 s, held), wave roll starting (0.3-0.6 rad/s) and
+    1.2 s heading correction (0.2 rad/s) cost the stream 10-20 rows and the loaders 6: the test is off there, with a
+    note in the loader's stream entry and the stream's test, and nothing is refused."""
+    from graphnav.core.screening import imu_implausible
+    t, x = _quiet_imu(10.0)
+    turn, roll, correction = x.copy(), x.copy(), x.copy()
+    turn[:, 5] += np.clip(t - 60.0, 0.0, 1.0) * 0.3
+    roll[:, 3] += np.where(t > 60.0, 0.6 * np.sin(2 * np.pi * (t - 60.0) / 5.0), 0.0)
+    correction[:, 5] += np.interp(t, [60, 60.2, 61.0, 61.2], [0, 0.2, 0.2, 0], left=0, right=0)
+    for name, y in (("turn", turn), ("roll", roll), ("correction", correction)):
+        loader, stream, test = _both_refuse(t, y)
+        assert (loader, stream) == ([], []), name
+        assert test.active is False and "IMU spike test off: the IMU runs at 10 Hz, under 50 Hz" in test.note
+    meta = {}
+    with pytest.warns(RuntimeWarning, match="imu.csv: IMU spike test off: the IMU runs at 10 Hz"):
+        masks = imu_implausible(t, turn[:, :3], turn[:, 3:], SensorConfig(), meta=meta, source="imu.csv")
+    assert not np.any(list(masks.values()))
+    assert meta["streams"]["imu"]["notes"] == [test.note]
+
+
+def test_navigator_notes_and_warns_once_when_its_imu_is_too_slow_for_the_spike_test():
+    t, x = _quiet_imu(10.0, 3.0)
+    nav = Navigator(SensorConfig(), "ekf")
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        for k in range(len(t)):
+            nav.add_imu(float(t[k]), x[k, :3], x[k, 3:])
+    off = [str(w.message) for w in rec if "spike test off" in str(w.message)]
+    assert len(off) == 1 and off[0].startswith("navigator: imu: IMU spike test off: the IMU runs at 10 Hz")
+    assert nav.info["notes"] == {"imu": [off[0].removeprefix("navigator: imu: ")]}
+
+
+def test_imu_spike_spans_are_seconds_a_400_hz_shock_of_80_ms_is_refused_alike_by_loaders_and_stream():
+    """The spans are seconds at the IMU's own rate: at 400 Hz the window is 81 rows and runs of up to 40 are
+    spikes, so a 12 m/s^2 half-sine shock of 80 ms (32 rows; 8 rows at 100 Hz, refused there) is refused by both
+    tests on the same rows, where it departs past the 5 m/s^2 floor (the stream refused 10 rows, the loaders 0)."""
+    t, x = _quiet_imu(400.0, 20.0)
+    shock = (t >= 10.0) & (t < 10.08)
+    x[:, 0] -= np.where(shock, 12.0 * np.sin(np.pi * (t - 10.0) / 0.08), 0.0)
+    loader, stream, test = _both_refuse(t, x)
+    assert (test.n, test.block) == (40, 400)
+    assert loader == stream and 20 <= len(loader) <= 26 and set(loader) <= set(np.flatnonzero(shock))
 
 
 def test_stamp_outliers_and_bounds():

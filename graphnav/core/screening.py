@@ -25,12 +25,13 @@ and the reasons (:func:`check_refused_fraction`) instead of a trajectory.
 
 IMU rows get the range test and their own spike test (:func:`imu_spikes`, :class:`ImuSpikeTest`), which the rate
 rule above cannot serve: vibration and shocks are real specific force and rate, with no rate of change to bound.
-A row (or a run of up to :data:`IMU_SPIKE_HALF_WINDOW` rows) is a spike when a value departs from the running
-median of the :data:`IMU_SPIKE_HALF_WINDOW` rows on each side by more than the larger of a physical floor per
-sensor (``ImuSpec.accel_spike_floor_mps2``, ``gyro_spike_floor_rads``) and :data:`IMU_SPIKE_NOISE_FACTOR` times
-the signal's local noise (the MAD of its first differences over blocks of :data:`IMU_SPIKE_SCALE_ROWS` rows): a
-vibrating IMU raises its own threshold, a quiet one keeps the floor. A row with a NaN value (an empty cell) is
-refused too (:func:`not_a_number`), before any other rule looks at it.
+A row (or a run of up to :data:`IMU_SPIKE_HALF_WINDOW_S` of rows) is a spike when a value departs from the
+running median of the rows within :data:`IMU_SPIKE_HALF_WINDOW_S` on each side by more than the larger of a physical
+floor per sensor (``ImuSpec.accel_spike_floor_mps2``, ``gyro_spike_floor_rads``) and :data:`IMU_SPIKE_NOISE_FACTOR`
+times the signal's local noise (the MAD of its first differences over blocks of :data:`IMU_SPIKE_SCALE_S`): a
+vibrating IMU raises its own threshold, a quiet one keeps the floor. The spans are in seconds and become rows at the
+IMU's own rate (:func:`imu_spike_rows`); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off, with a note. A row
+with a NaN value (an empty cell) is refused too (:func:`not_a_number`), before any other rule looks at it.
 """
 from __future__ import annotations
 
@@ -57,12 +58,19 @@ MAX_STAMP_GAP_S = 86400.0
 MAX_REFUSED_FRACTION = 0.5
 #: Neighbours on each side (loaders) or in the past (stream) whose median a sample is compared with.
 SPIKE_NEIGHBOURS = 3
-#: IMU spike test: rows on each side of a row whose median it is compared with (the loaders; the stream uses this
-#: many accepted rows before it). A run of up to this many rows departing together is a spike; a longer one is a
-#: lasting change and kept (the stream accepts it from its next row on).
-IMU_SPIKE_HALF_WINDOW = 10
-#: Rows per block of the IMU's local noise scale (the MAD of the first differences of each block).
-IMU_SPIKE_SCALE_ROWS = 100
+#: IMU spike test, in seconds (rows: these spans times the IMU's own rate, from its stamps). Half the window whose
+#: median a row is compared with (on each side for the loaders; the accepted rows before it for the stream), and the
+#: longest run of departing rows refused as a spike: a longer one is a lasting change and kept (the stream accepts it
+#: from its next row on). 10 rows at 100 Hz, where the test was validated.
+IMU_SPIKE_HALF_WINDOW_S = 0.1
+#: Span of a block of the IMU's local noise scale (the MAD of the first differences of each block), s.
+IMU_SPIKE_SCALE_S = 1.0
+#: Below this IMU rate the spike test is off (a note says so): its half window holds under 5 rows, and a row is
+#: as long as the runs it refuses, so a turn's onset or wave roll departs from a median of a few rows as a spike
+#: does (docs/decisions/screening.md).
+IMU_SPIKE_MIN_RATE_HZ = 50.0
+#: Stamps the stream measures the IMU's rate from before its spike test starts.
+IMU_SPIKE_RATE_ROWS = 11
 #: A spike departs from the running median by more than this many local noise scales (and the floor). The ten
 #: A-KIT trajectories depart by at most 14.3 (simulated IMUs: 7.1); docs/decisions/screening.md.
 IMU_SPIKE_NOISE_FACTOR = 30.0
@@ -212,7 +220,7 @@ def not_a_number(values: np.ndarray, fields) -> dict[str, np.ndarray]:
     return {f"empty or NaN in '{name}'": first == j for j, name in enumerate(fields)}
 
 
-def imu_noise_scale(x: np.ndarray, block: int = IMU_SPIKE_SCALE_ROWS) -> np.ndarray:
+def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     """(N,k) local noise scale of the signals ``x`` (N,k) (finite, file order), per row and column, units of x:
     ``1.4826 / sqrt(2)`` times the median absolute first difference of each block of ``block`` rows (a white
     noise's sigma; a shorter last block joins the one before), the larger of the row's block and its two
@@ -236,19 +244,47 @@ def imu_spike_floors(config: SensorConfig) -> np.ndarray:
     return np.repeat([float(imu.accel_spike_floor_mps2), float(imu.gyro_spike_floor_rads)], 3)
 
 
-def imu_spikes(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
-               usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """IMU rows with a value departing from the median of the ``2 * IMU_SPIKE_HALF_WINDOW + 1`` usable rows
-    centred on it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
-    :func:`imu_noise_scale`): ``{"spike in '<field>'": mask}`` (N,) bool per value, disjoint (a row under its
-    first spiking value).
+def imu_rate_hz(t: np.ndarray) -> float:
+    """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the median positive step between consecutive stamps
+    (out-of-order and repeated stamps do not move it); NaN with fewer than two distinct finite stamps."""
+    d = np.abs(np.diff(np.asarray(t, float)))
+    d = d[np.isfinite(d) & (d > 0.0)]
+    return 1.0 / float(np.median(d)) if d.size else math.nan
 
-    A run of up to ``IMU_SPIKE_HALF_WINDOW`` rows is a minority of every window it is in, so the median stays on
-    the signal; a lasting change (a step, a turn) moves the median with it and is kept. The windows reflect at the
-    ends of the stream (the first and last rows are tested too); fewer than a window of usable rows is not tested.
+
+def imu_spike_rows(rate_hz: float) -> tuple[int, int] | None:
+    """(half window, noise block) of the IMU spike test in rows at ``rate_hz`` (:data:`IMU_SPIKE_HALF_WINDOW_S`,
+    :data:`IMU_SPIKE_SCALE_S`); None when the test is off: the rate is under :data:`IMU_SPIKE_MIN_RATE_HZ` or
+    unknown (NaN)."""
+    if not rate_hz >= IMU_SPIKE_MIN_RATE_HZ:
+        return None
+    return max(1, round(IMU_SPIKE_HALF_WINDOW_S * rate_hz)), max(2, round(IMU_SPIKE_SCALE_S * rate_hz))
+
+
+def imu_spike_off_note(rate_hz: float) -> str:
+    """Why the IMU spike test is off at ``rate_hz`` (a stream note and a warning)."""
+    rate = "of unknown rate (fewer than two distinct stamps)" if math.isnan(rate_hz) else f"at {rate_hz:.4g} Hz"
+    return (f"IMU spike test off: the IMU runs {rate}, under {IMU_SPIKE_MIN_RATE_HZ:g} Hz, where its "
+            f"{2 * IMU_SPIKE_HALF_WINDOW_S:g} s window holds too few rows to tell a spike from the vehicle's own "
+            "motion (a turn, wave roll); the full-scale test still applies")
+
+
+def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
+               usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """IMU rows with a value departing from the median of the usable rows within ``IMU_SPIKE_HALF_WINDOW_S`` on each
+    side of it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
+    :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per
+    value, disjoint (a row under its first spiking value). The spans become rows at the rate of the usable rows'
+    stamps (:func:`imu_spike_rows`); under ``IMU_SPIKE_MIN_RATE_HZ`` nothing is refused (:func:`imu_implausible`
+    notes it).
+
+    A run of up to the half window is a minority of every window it is in, so the median stays on the signal; a
+    lasting change (a step, a turn) moves the median with it and is kept. The windows reflect at the ends of the
+    stream (the first and last rows are tested too); fewer than a window of usable rows is not tested.
 
     Args:
-        f_b: (N,3) specific force, m/s^2. omega_b: (N,3) angular rate, rad/s (body axes, any sign convention).
+        t: (N,) stamps, s (file order). f_b: (N,3) specific force, m/s^2. omega_b: (N,3) angular rate, rad/s (body
+            axes, any sign convention).
         config: ``config.imu`` holds the floors. fields: names of the six values (reasons and warnings).
         usable: (N,) bool rows that may be tested and serve as neighbours (default: the finite ones; all-zero rows
             never are: they are a logger's filler, which ``ImuData.bridge_gaps`` and the keyframer drop).
@@ -261,24 +297,34 @@ def imu_spikes(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, field
         ok &= np.asarray(usable, bool)
     idx = np.flatnonzero(ok)
     out = np.zeros(x.shape, dtype=bool)
-    if idx.size >= 2 * IMU_SPIKE_HALF_WINDOW + 1:
+    # the rate from every row that may be tested (a filler row keeps its stamp), as imu_implausible's note
+    rows = imu_spike_rows(imu_rate_hz(np.asarray(t, float)[slice(None) if usable is None else usable]))
+    if rows is not None and idx.size >= 2 * rows[0] + 1:
+        half, block = rows
         v = x[idx]
-        median = median_filter(v, size=(2 * IMU_SPIKE_HALF_WINDOW + 1, 1), mode="mirror")
-        limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v))
+        median = median_filter(v, size=(2 * half + 1, 1), mode="mirror")
+        limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = np.abs(v - median) > limit
     first = np.where(out.any(axis=1), np.argmax(out, axis=1), -1)
     return {f"spike in '{name}'": first == j for j, name in enumerate(fields)}
 
 
-def imu_implausible(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig,
-                    fields=IMU_FIELDS) -> dict[str, np.ndarray]:
+def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
+                    meta: dict | None = None, source: str = "") -> dict[str, np.ndarray]:
     """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN value
     (:func:`not_a_number`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
-    (:func:`imu_spikes`). ``fields``: names of the six values, f_b then omega_b."""
+    (:func:`imu_spikes`). ``t``: (N,) stamps, s; ``fields``: names of the six values, f_b then omega_b. When the IMU
+    is too slow for the spike test, a note in ``meta``'s IMU stream (when given) and a warning naming ``source``."""
     nan = not_a_number(np.hstack([f_b, omega_b]), fields)
     out_of_range = imu_out_of_range(f_b, omega_b, config)
     bad = np.any(list(nan.values()) + list(out_of_range.values()), axis=0)
-    return {**nan, **out_of_range, **imu_spikes(f_b, omega_b, config, fields, usable=~bad)}
+    rate = imu_rate_hz(np.asarray(t, float)[~bad])
+    if imu_spike_rows(rate) is None:
+        note = imu_spike_off_note(rate)
+        if meta is not None:
+            add_note(meta, "imu", note)
+        warnings.warn(f"{source}: {note}" if source else note, RuntimeWarning, stacklevel=2)
+    return {**nan, **out_of_range, **imu_spikes(t, f_b, omega_b, config, fields, usable=~bad)}
 
 
 def depth_implausible(t: np.ndarray, depth_m: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:
@@ -437,30 +483,48 @@ class SpikeTest:
 
 class ImuSpikeTest:
     """The IMU spike test of :func:`imu_spikes` on a stream, which has the past only: a row is a spike when a
-    value departs from the median of the last ``half_window`` accepted rows by more than ``max(floor, factor *
-    noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows (the larger of the last two complete
-    blocks; before the first block completes, the rows so far; and, for a departing value, of the block under
-    way: vibration that just started). Nothing is tested until the history is full.
-    More than ``half_window`` spikes in a row are a lasting change: the history restarts from the next departing
-    row, which is accepted.
+    value departs from the median of the last ``n`` accepted rows (:data:`IMU_SPIKE_HALF_WINDOW_S`) by more than
+    ``max(floor, factor * noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows in blocks of
+    ``block`` rows (:data:`IMU_SPIKE_SCALE_S`; the larger of the last two complete blocks; before the first block
+    completes, the rows so far; and, for a departing value, of the block under way: vibration that just started).
+    Nothing is tested until the history is full. More than ``n`` spikes in a row are a lasting change: the history
+    restarts from the next departing row, which is accepted.
 
-    Plain Python on six floats per row: the Navigator calls it at the IMU's rate (about 6 us a row).
+    The rows per span come from ``rate_hz``, or (None) from the stream's own first :data:`IMU_SPIKE_RATE_ROWS`
+    stamps (:func:`imu_rate_hz`; those rows are accepted); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
+    (:attr:`note` says why) and accepts every row. Plain Python on six floats per row: the Navigator calls it at the
+    IMU's rate (about 6 us a row).
     """
 
-    def __init__(self, floors, half_window: int = IMU_SPIKE_HALF_WINDOW, block: int = IMU_SPIKE_SCALE_ROWS,
-                 factor: float = IMU_SPIKE_NOISE_FACTOR):
+    def __init__(self, floors, rate_hz: float | None = None, factor: float = IMU_SPIKE_NOISE_FACTOR):
         self.floors = np.asarray(floors, float)
-        self.factor, self.block, self.n = float(factor), int(block), int(half_window)
+        self.factor = float(factor)
+        self.rate_hz: float | None = None
+        self.active: bool | None = None                     # None until the rate is known
+        self.note: str | None = None                        # why the test is off, once it is
+        self.n = self.block = 0                             # half window and noise block, rows
+        self._stamps: list[float] = []                      # stamps seen while the rate is measured
         self._hist: deque = deque()                         # accepted rows, oldest first
         self._sorted: list[list[float]] = [[] for _ in self.floors]   # the same values, sorted per column
         self._rows: list = []                               # accepted rows of the current noise block
         self._block_scale: np.ndarray | None = None         # the last complete block's noise scale
         self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
         self._run = 0
+        if rate_hz is not None:
+            self._set_rate(float(rate_hz))
 
-    def check(self, x) -> tuple[int, float, float] | None:
-        """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) and accept it when it is not a spike.
-        Returns None, or (index of the first departing value, the median it departs from, the limit)."""
+    def check(self, t: float, x) -> tuple[int, float, float] | None:
+        """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
+        a spike. Returns None, or (index of the first departing value, the median it departs from, the limit)."""
+        if self.active is None:
+            self._stamps.append(float(t))
+            self._hist.append(x)
+            self._rows.append(x)
+            if len(self._stamps) >= IMU_SPIKE_RATE_ROWS:
+                self._set_rate(imu_rate_hz(self._stamps))
+            return None
+        if not self.active:
+            return None
         limit = self._limit
         if limit is not None and len(self._hist) == self.n:
             lo, hi = (self.n - 1) // 2, self.n // 2
@@ -478,8 +542,23 @@ class ImuSpikeTest:
         self._accept(x)
         return None
 
+    def _set_rate(self, rate_hz: float) -> None:
+        """Fix the rows per span at ``rate_hz`` (or switch the test off); the rows seen so far become the history."""
+        self.rate_hz = rate_hz
+        rows = imu_spike_rows(rate_hz)
+        self.active = rows is not None
+        seen, self._stamps = list(self._hist), []
+        self._hist.clear()
+        self._rows = []
+        if rows is None:
+            self.note = imu_spike_off_note(rate_hz)
+            return
+        self.n, self.block = rows
+        for x in seen:
+            self._accept(x)
+
     def _recent_limit(self, j: int) -> float:
-        """The limit of value ``j`` from the rows of the block under way, once it has ``half_window`` differences
+        """The limit of value ``j`` from the rows of the block under way, once it has ``n`` differences
         (vibration that started after the last complete block); 0 before. Only asked for a departing value."""
         if len(self._rows) <= self.n:
             return 0.0
@@ -550,21 +629,28 @@ class StreamScreen:
             return f"omega_b beyond {imu.gyro_range_rads:g} rad/s"
         return None
 
-    def imu_spike(self, f_b, omega_b) -> tuple[str, str] | None:
-        """(reason, detail) when the sample (f_b m/s^2, omega_b rad/s: three floats each, within full scale, in
-        stamp order) is a spike (:class:`ImuSpikeTest`), else None; an accepted sample joins the history."""
+    def imu_spike(self, t: float, f_b, omega_b) -> tuple[str, str] | None:
+        """(reason, detail) when the sample stamped ``t`` (s; f_b m/s^2, omega_b rad/s: three floats each, within
+        full scale, in stamp order) is a spike (:class:`ImuSpikeTest`), else None; an accepted sample joins the
+        history. :attr:`imu_spike_note` says when the test is off."""
         x = tuple(f_b) + tuple(omega_b)
         if not any(x):          # a logger's filler: the keyframer drops and counts it (and it is no history)
             return None
-        hit = self._imu_spike.check(x)
+        hit = self._imu_spike.check(t, x)
         if hit is None:
             return None
         j, ref, limit = hit
         value = x[j]
         return (f"spike in '{IMU_FIELDS[j]}'",
                 f"{IMU_FIELDS[j]} = {value:.6g} departs from the median {ref:.6g} of the last {self._imu_spike.n} "
-                f"samples by more than {limit:.3g} (the larger of ImuSpec.{'accel' if j < 3 else 'gyro'}_spike_floor_"
+                f"samples ({IMU_SPIKE_HALF_WINDOW_S:g} s at {self._imu_spike.rate_hz:.4g} Hz) by more than "
+                f"{limit:.3g} (the larger of ImuSpec.{'accel' if j < 3 else 'gyro'}_spike_floor_"
                 f"{'mps2' if j < 3 else 'rads'} and {IMU_SPIKE_NOISE_FACTOR:g} x the signal's noise)")
+
+    @property
+    def imu_spike_note(self) -> str | None:
+        """Why the IMU spike test is off (the stream's rate is too low), once its rate is known; else None."""
+        return self._imu_spike.note
 
     def dvl_problems(self, t: float, beams: np.ndarray, valid: np.ndarray) -> dict[int, str]:
         """{beam index: reason} for the valid beams that are refused (range, then spike per beam)."""

@@ -15,8 +15,9 @@ What happens to a sample:
    warning naming the stream, stamp and field, and counted in :attr:`Navigator.info` (``refused``). Then the
    screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
    ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale or
-   spiking (a run of up to ten samples departing from the median of the last ten accepted, past the spike test's
-   floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`), a DVL beam beyond the
+   spiking (a run of up to 0.1 s of samples departing from the median of the last 0.1 s accepted, past the spike
+   test's floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`; off, with a warning and
+   a note in :attr:`Navigator.info` (``notes``), for an IMU under 50 Hz), a DVL beam beyond the
    vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
    and the completers expect the missing-beam patterns of outages),
    a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
@@ -168,6 +169,7 @@ class Navigator:
         self._earth = EarthModel.from_config(config)
         self.refused: dict[str, dict[str, int]] = {}
         self._screen = StreamScreen(config)
+        self.notes: dict[str, list[str]] = {}       # sentences about a stream a user must see (info)
         #: the IMU's full scale (m/s^2, rad/s): a sample within it needs no further screening call
         self._imu_full_scale = (float(config.imu.accel_range_mps2), float(config.imu.gyro_range_rads))
         self.received: dict[str, int] = {}          # samples given to add_* per stream
@@ -222,7 +224,9 @@ class Navigator:
         if t < self._released:
             return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
                                 f"left the reorder buffer (window {self.options.reorder_window_s} s)")
-        spike = self._screen.imu_spike(f, w)
+        spike = self._screen.imu_spike(t, f, w)
+        if self._screen.imu_spike_note is not None and self._screen.imu_spike_note not in self.notes.get("imu", ()):
+            self._note("imu", self._screen.imu_spike_note)
         if spike is not None:
             return self._refuse("imu", t, spike[0], spike[1], screened=True)
         if in_order:
@@ -415,6 +419,8 @@ class Navigator:
                 "pings_after_end": stats.pings_after_end, "regressed_pings": stats.regressed_pings,
                 "regressed_beams": stats.regressed_beams, "velocity_pings": stats.velocity_pings,
                 "velocity_superseded": stats.velocity_superseded, "beams_superseded": stats.beams_superseded}
+        if self.notes:
+            info["notes"] = {k: list(v) for k, v in self.notes.items()}
         if stats.imu_window_missing is not None:
             info["imu_window_missing"] = dict(stats.imu_window_missing)
         if self._fallbacks_before:
@@ -472,6 +478,11 @@ class Navigator:
                           + ("; further refusals of this kind are only counted" if n == 3 else ""),
                           RuntimeWarning, stacklevel=3)
         return []
+
+    def _note(self, stream: str, text: str) -> None:
+        """A sentence about ``stream`` a user must see: warned once and kept in :attr:`info` (``notes``)."""
+        self.notes.setdefault(stream, []).append(text)
+        warnings.warn(f"navigator: {stream}: {text}", RuntimeWarning, stacklevel=3)
 
     def _check_refused(self) -> None:
         """DataError when more than MAX_REFUSED_FRACTION of a stream was refused: the data are not what the

@@ -227,7 +227,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
     if frame == "flu":
         f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
-    keep = ~refuse(meta, "imu", imu_implausible(f_b, omega_b, config, fields), str(path), lines=lines)
+    keep = ~refuse(meta, "imu", imu_implausible(t_imu, f_b, omega_b, config, fields, meta, str(path)),
+                  str(path), lines=lines)
     check_refused_fraction(meta)
     t_imu, f_b, omega_b = t_imu[keep], f_b[keep], omega_b[keep]
     meta["imu_screened"] = True

@@ -419,7 +419,8 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     imu, _ = _refuse_rows(meta, "imu", imu, imu_lines,
-                          imu_implausible(imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:]), files["IMU"])
+                          imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
+                                          meta, str(files["IMU"])), files["IMU"])
     if gt is not None:
         gt, _ = _refuse_rows(meta, "gt", gt, gt_lines, {**not_a_number(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
                                                         **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, files["GT"])
@@ -1028,7 +1029,8 @@ def screen_mission(mission: Mission) -> Mission:
             count_read(meta, name, stream.t, stream.source)
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
     if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
-        bad = refuse(meta, "imu", imu_implausible(imu.f_b, imu.omega_b, cfg), imu.source)
+        bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta,
+                                                  source=imu.source), imu.source)
         if bad.any():
             imu = imu.take(np.flatnonzero(~bad))
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
