@@ -273,22 +273,8 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     # and can win by chance (a 1 h log six days away did, 3538 s off, before this)
     min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * min(span_imu, span_dvl)),
                         min(span_imu, span_dvl) - window * period)
-    # every offset at which the DVL log overlaps the IMU log by min_overlap_s: the whole possible range
-    lo = ints.t[0] - t_dvl[-1] + min_overlap_s
-    hi = ints.t[-1] - t_dvl[0] - min_overlap_s
-    if search_s is not None:
-        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
-    h = max(0.5 * period, (hi - lo) / 4000)
-    grid = np.arange(lo, hi + 0.5 * h, h)
-    if grid.size == 0:
-        raise DataError(f"the IMU ({span_imu:.0f} s) and DVL ({span_dvl:.0f} s) logs are too short to share "
-                        f"{min_overlap_s:.0f} s at any offset", dvl.source, field="t")
-    coarse_model = model.thinned(COARSE_MAX_WINDOWS)
-    scores = np.array([coarse_model.score(o)[0] for o in grid])
-    i = int(np.argmax(scores))
-    far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
-    second = float(np.max(scores[far])) if far.any() else 0.0
-    coarse = float(grid[i])
+    h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
+                                             period, "DVL", dvl.source, search_s)
 
     def cost(o):
         return model.score(o)[1]
@@ -301,8 +287,39 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     sigma = _sigma_from_curvature(sse, curvature, n, 6 * n_win + 1)
     rms = float(np.sqrt(sse / max(n, 1)))
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
-    return ClockOffset(x, sigma, max(explained, float(scores[i])), max(second, 0.0), coarse, rms, overlap,
-                       n_win * window)
+    return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse, rms, overlap, n_win * window)
+
+
+def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_overlap_s: float, period: float,
+                   name: str, source: str, search_s: tuple[float, float] | None = None
+                   ) -> tuple[float, float, float, float]:
+    """The coarse search of a clock offset (s, added to ``t_other`` to put it on the IMU clock): every offset at
+    which the two logs share ``min_overlap_s`` (within ``search_s`` when given), on a grid of half the stream's
+    ``period`` (coarser for long logs, at most 4000 steps), each scored by ``coarse_model.score(offset)[0]``.
+
+    Returns:
+        (grid step, best offset, its score, the best score farther than :data:`PEAK_EXCLUSION_S` from it).
+
+    Raises:
+        DataError: the logs are too short to share ``min_overlap_s`` at any offset, naming ``name`` and ``source``.
+    """
+    lo = float(t_imu[0] - t_other[-1]) + min_overlap_s
+    hi = float(t_imu[-1] - t_other[0]) - min_overlap_s
+    if search_s is not None:
+        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
+    h = max(0.5 * period, (hi - lo) / 4000)
+    # offsets relative to the one that puts the two starts together: a grid of absolute offsets days long
+    # would lose the step's digits
+    start = float(t_imu[0] - t_other[0])
+    grid = start + np.arange(lo - start, hi - start + 0.5 * h, h)
+    if grid.size == 0:
+        raise DataError(f"the IMU ({t_imu[-1] - t_imu[0]:.0f} s) and {name} ({t_other[-1] - t_other[0]:.0f} s) logs "
+                        f"are too short to share {min_overlap_s:.0f} s at any offset", source, field="t")
+    scores = np.array([coarse_model.score(o)[0] for o in grid])
+    i = int(np.argmax(scores))
+    far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
+    second = float(np.max(scores[far])) if far.any() else 0.0
+    return h, float(grid[i]), float(scores[i]), second
 
 
 def _same_instrument(a: str, b: str) -> bool:
@@ -440,22 +457,8 @@ def estimate_gt_clock_offset(imu, gt, *, min_overlap_s: float = MIN_OVERLAP_S) -
     span_imu, span_gt = float(imu.t[-1] - imu.t[0]), float(gt.t[-1] - gt.t[0])
     shorter = min(span_imu, span_gt)
     min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * shorter), shorter - 10 * model.period)
-    lo = float(imu.t[0] - gt.t[-1]) + min_overlap_s
-    hi = float(imu.t[-1] - gt.t[0]) - min_overlap_s
-    h = max(0.5 * model.period, (hi - lo) / 4000)
-    # offsets relative to the one that puts the two starts together: a grid of absolute offsets days long
-    # would lose the step's digits
-    start = float(imu.t[0] - gt.t[0])
-    grid = start + np.arange(lo - start, hi - start + 0.5 * h, h)
-    if grid.size == 0:
-        raise DataError(f"the IMU ({span_imu:.0f} s) and GT ({span_gt:.0f} s) logs are too short to share "
-                        f"{min_overlap_s:.0f} s at any offset", gt.source, field="t")
-    coarse_model = model.thinned(COARSE_MAX_GT_INTERVALS)
-    scores = np.array([coarse_model.score(o)[0] for o in grid])
-    i = int(np.argmax(scores))
-    far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
-    second = float(np.max(scores[far])) if far.any() else 0.0
-    coarse = float(grid[i])
+    h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_GT_INTERVALS), imu.t, gt.t, min_overlap_s,
+                                             model.period, "GT", gt.source)
     use = model.inside(coarse - h) & model.inside(coarse + h)       # the same intervals at every candidate
 
     def cost(o):
@@ -467,7 +470,7 @@ def estimate_gt_clock_offset(imu, gt, *, min_overlap_s: float = MIN_OVERLAP_S) -
     curvature = (cost(x + step) - 2 * sse + cost(x - step)) / step ** 2
     sigma = _sigma_from_curvature(sse, curvature, n, 1)
     overlap = float(min(imu.t[-1], gt.t[-1] + x) - max(imu.t[0], gt.t[0] + x))
-    return ClockOffset(x, sigma, max(explained, float(scores[i])), max(second, 0.0), coarse,
+    return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse,
                        float(np.sqrt(sse / max(n, 1))), overlap, n, explains="the GT's attitude changes")
 
 
