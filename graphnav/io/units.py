@@ -41,8 +41,9 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   reference's own velocity's (:func:`displacement_ratio`) are 0.95-1.03 and 0.975-1.007 on the ten, 23-56 and
   28-57 with the same files in degrees; :data:`DEG_RATE_RATIO` (7.6, the geometric middle of 1 and 57.3) splits
   them (an attitude only when, converted, it turns with the gyro: a noisy one in radians also turns fast; a
-  declared unit wins with a warning). Converted like the gyro's deg/s (a warning naming the file and columns, a note); positions that follow
-  the velocity in neither unit (outside :data:`SAME_UNITS_RATIO`) are refused. An A-KIT depth (-altitude) mostly
+  declared unit wins with a warning). Converted like the gyro's deg/s (a warning naming the file and columns, a
+  note); positions that follow the velocity in neither unit (outside :data:`SAME_UNITS_RATIO` over 10, 40 and
+  160 s windows: a noisy fix shrinks against the longer ones' distance) are refused. An A-KIT depth (-altitude) mostly
   outside ``depth_range_m`` is flipped back when it changes against the GT's down velocity
   (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused naming the first
   line and the column (a level vehicle's flipped sign cannot be told from a height above the ellipsoid); a depth
@@ -312,6 +313,10 @@ ATTITUDE_STEP_MIN_S = 1.0
 #: Windows (s) over which displacements are compared with the velocity's integral: long enough for a noisy fix
 #: (USBL metres) to be small against the distance travelled.
 POSITION_WINDOW_S = 10.0
+#: The displacement ratio is also taken over windows this many times and its square as long, and the one closest
+#: to 1 kept: a fix's noise shrinks against a longer window's distance, another unit does not (a vehicle at
+#: 0.2 m/s with USBL fixes of 4 m sigma gives 3.3 over 10 s, the ratio of feet to metres; over 160 s, 1.0).
+POSITION_WINDOW_GROWTH = 4.0
 #: Vertical displacements (m, RMS over the windows) below which the down sign cannot be told (the ten: 0.03-1.1).
 MIN_VERTICAL_MOTION_M = 0.01
 #: The down positions follow the down velocity with the opposite sign when that fits this many times better
@@ -372,19 +377,31 @@ def _window_increments(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: fl
     return np.diff(at(np.asarray(p, float)), axis=0), np.diff(at(integral), axis=0)
 
 
-def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: float = POSITION_WINDOW_S
-                       ) -> tuple[float, float]:
+def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: float = POSITION_WINDOW_S,
+                       longer: bool = True) -> tuple[float, float]:
     """``(ratio, speed m/s)``: the median displacement of positions ``p`` (K,k, m as read) over windows of
     ``window_s`` over the median of the velocities' ``v`` (K,k, m/s) integral over the same windows (norms:
-    turns shorten both alike); ~1 when the two agree. NaN when the median speed is below
-    :data:`MIN_SPEED_MPS`."""
-    dp, dv = _window_increments(t, p, v, window_s)
-    if not len(dp):
-        return float("nan"), 0.0
-    moved = float(np.median(np.linalg.norm(dv, axis=1)))
-    if not moved >= MIN_SPEED_MPS * window_s:
-        return float("nan"), moved / window_s
-    return float(np.median(np.linalg.norm(dp, axis=1)) / moved), moved / window_s
+    turns shorten both alike); ~1 when the two agree. With ``longer``, of the ratios over windows of ``window_s``
+    and :data:`POSITION_WINDOW_GROWTH` and its square times as long (those the log holds two of), the one closest
+    to 1: noisy fixes move less against a longer window's distance, other units do not (for a check that the
+    units are the same; telling degrees from radians takes ``window_s`` alone). NaN when the median speed over
+    ``window_s`` is below :data:`MIN_SPEED_MPS`."""
+    ratios, speed = [], 0.0
+    for k in range(3 if longer else 1):
+        w = window_s * POSITION_WINDOW_GROWTH ** k
+        dp, dv = _window_increments(t, p, v, w)
+        if not len(dp):
+            break
+        moved = float(np.median(np.linalg.norm(dv, axis=1)))
+        if k == 0:
+            speed = moved / w
+            if not moved >= MIN_SPEED_MPS * w:
+                return float("nan"), speed
+        if moved > 0:
+            ratios.append(float(np.median(np.linalg.norm(dp, axis=1)) / moved))
+    if not ratios:
+        return float("nan"), speed
+    return min(ratios, key=lambda r: abs(np.log(r)) if r > 0 else np.inf), speed
 
 
 def vertical_sign(t: np.ndarray, down: np.ndarray, v_down: np.ndarray, window_s: float = POSITION_WINDOW_S
@@ -497,11 +514,11 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
     lat, lon = np.asarray(lat, float), np.asarray(lon, float)
     if lat.size == 0:
         return lat, lon
-    ratio = _latlon_ratio(t, lat, lon, v_n)
+    ratio = _latlon_ratio(t, lat, lon, v_n, longer=False)
     extent = f"|latitude| up to {np.max(np.abs(lat)):.6g}, |longitude| up to {np.max(np.abs(lon)):.6g}"
     beyond = np.max(np.abs(lat)) > np.pi / 2 or np.max(np.abs(lon)) > 2 * np.pi
     if not beyond and not ratio > DEG_RATE_RATIO:         # radians, or nothing tells (NaN)
-        check_reference_displacement(ratio, source, fields)
+        check_reference_displacement(_latlon_ratio(t, lat, lon, v_n), source, fields)
         return lat, lon
     why = (f"the positions move {ratio:.3g}x as far as the velocity says (1 in radians, 57.3 for degrees)"
            if np.isfinite(ratio) else f"{extent}: beyond radians")
@@ -514,13 +531,13 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
     return lat_r, lon_r
 
 
-def _latlon_ratio(t, lat, lon, v_n) -> float:
+def _latlon_ratio(t, lat, lon, v_n, longer: bool = True) -> float:
     """:func:`displacement_ratio` of latitude/longitude read as radians (local north/east, m) against the
     horizontal part of ``v_n``."""
     from graphnav.core.earth import WGS84_A
     dlon = np.angle(np.exp(1j * (lon - lon[0])))           # across the antimeridian too
     p = np.column_stack([WGS84_A * (lat - lat[0]), WGS84_A * np.cos(lat[0]) * dlon])
-    return displacement_ratio(t, p, np.asarray(v_n, float)[:, :2])[0]
+    return displacement_ratio(t, p, np.asarray(v_n, float)[:, :2], longer=longer)[0]
 
 
 def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source: str, fields,
