@@ -64,3 +64,20 @@ def test_a_window_past_the_end_is_warned_about(short_mission):
         import argparse
         common.mission_from_args(argparse.Namespace(imu_grade="as-recorded", scenario="none", window_start=[10.0],
                                                     window_s=30.0))
+
+
+def test_the_printed_summary_says_what_was_refused_at_load_and_the_loaders_notes():
+    """smooth and online print the streams' refusals and notes from the summary's ``streams`` (they read a key
+    the summary no longer had, so neither line was ever printed)."""
+    import io
+
+    from graphnav.commands.common import print_summary
+    summary = {"method": "Graph-HN-batch", "mission": "Trajectory1", "epochs": 149, "duration_s": 150.0,
+               "runtime_s": 1.0, "realtime_factor": 150.0,
+               "streams": {"imu": {"refused": {"spike in 'GYRO Z [rad/s]'": 1}, "notes": ["axis signs applied"]},
+                           "dvl": {"refused": {}, "notes": []}}}
+    buf = io.StringIO()
+    print_summary(summary, file=buf)
+    text = buf.getvalue()
+    assert "refused at load (stream: reason: count): {'imu': {\"spike in 'GYRO Z [rad/s]'\": 1}}" in text
+    assert "  imu: axis signs applied" in text

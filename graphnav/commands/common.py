@@ -292,10 +292,11 @@ def print_summary(summary: dict, file=None) -> None:
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
-    at_load = {k: v["refused"] for k, v in (summary.get("input_streams") or {}).items() if v.get("refused")}
+    streams = summary.get("streams") or {}
+    at_load = {k: v["refused"] for k, v in streams.items() if v.get("refused")}
     if at_load:
         out(f"  refused at load (stream: reason: count): {at_load}")
-    for stream, entry in (summary.get("input_streams") or {}).items():
+    for stream, entry in streams.items():
         for note in entry.get("notes", []):
             out(f"  {stream}: {note}")
     if acc.get("ground_truth"):
