@@ -8,6 +8,9 @@ first sample).
 
 Part 2, with ``--damage``: ``graphnav smooth`` (Graph-HN-batch, GT initial state as the default) on Trajectory1
 clean and with each damage, its exit status, health state, refusals and VRMSE against the clean file's GT.
+``--first S`` crops the copies to their first S s first. The damages named like ``gt_days`` are those of a new
+user's trial of the commands (docs/decisions: units-clocks-axes.md, screening.md, akit-loader.md), which read
+Trajectory1's first 150 s (``--damage --first 150 --no-clean``).
 
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py            # part 1
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py --damage   # and part 2
@@ -25,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from graphnav.core.errors import DataError
 from graphnav.core.screening import StreamScreen
 from graphnav.estimators.align import align_mission
 from graphnav.estimators.replay import replay
@@ -82,30 +86,98 @@ DAMAGES = {
 }
 
 
-def damage_table(root: Path) -> None:
+def _column(col, fn):
+    """Every data line's column ``col`` mapped through ``fn`` (a float to a float)."""
+    def edit(lines):
+        rows = [x.split(",") for x in lines[1:]]
+        for r in rows:
+            r[col] = repr(fn(float(r[col])))
+        return lines[:1] + [",".join(r) for r in rows]
+    return edit
+
+
+def _columns(cols, fn):
+    def edit(lines):
+        for c in cols:
+            lines = _column(c, fn)(lines)
+        return lines
+    return edit
+
+
+DEG = 180.0 / np.pi
+DAY_S = 86400.0
+#: A new user's damaged inputs (rows of the data lines, 0-based; IMU row 5000 is t = 50 s): each is
+#: {file kind: edit, or None to delete the file}.
+DAMAGES.update({
+    "imu_nan: an IMU cell nan": {"IMU": lambda ls: _set(ls, 5000, 1, "nan")},
+    "imu_empty: an IMU cell empty": {"IMU": lambda ls: _set(ls, 5000, 1, "")},
+    "dvl_empty: a DVL cell empty": {"DVL": lambda ls: _set(ls, 50, 2, "")},
+    "gt_nan: a GT cell nan": {"GT": lambda ls: _set(ls, 50, 3, "nan")},
+    "gyro_spike5: gyro z = 5 rad/s on one row": {"IMU": lambda ls: _set(ls, 5000, 6, "5")},
+    "imu_spike100: f_x = 100 m/s^2 on one row": {"IMU": lambda ls: _set(ls, 5000, 1, "100")},
+    "imu_spike150_5rows: f_x = 150 m/s^2 on five rows": {"IMU": lambda ls: _set(_set(_set(_set(_set(
+        ls, 5000, 1, "150"), 5001, 1, "150"), 5002, 1, "150"), 5003, 1, "150"), 5004, 1, "150")},
+    "gt_latlon_deg: GT latitude/longitude in degrees": {"GT": _columns((1, 2), lambda x: x * DEG)},
+    "gt_att_deg: GT roll/pitch/yaw in degrees": {"GT": _columns((7, 8, 9), lambda x: x * DEG)},
+    "gt_alt_pos: GT altitude sign flipped": {"GT": _column(3, lambda x: -x)},
+    "gt_days: GT clock 3 days later": {"GT": _column(0, lambda x: x + 3 * DAY_S)},
+    "dvl_days: DVL clock 3 days later": {"DVL": _column(0, lambda x: x + 3 * DAY_S)},
+    "imu_unix: every file on a Unix clock": {k: _column(0, lambda x: x + 1.65e9) for k in ("IMU", "DVL", "GT")},
+    "all_ms: every file's stamps in ms": {k: _column(0, lambda x: x * 1000.0) for k in ("IMU", "DVL", "GT")},
+    "no_dvl: the DVL file missing": {"DVL": None},
+})
+
+
+def _damaged_copy(root: Path, name: str, damage, first_s: float | None, tmp: Path) -> Path:
+    """Trajectory1 copied to ``tmp`` (its first ``first_s`` s when given) with ``damage`` applied."""
+    folder = tmp / name.split(":")[0].replace(" ", "_") / "Trajectory1"
+    shutil.copytree(root / "Trajectory1", folder)
+    if first_s is not None:
+        for f in folder.glob("*_trajectory1.csv"):
+            _edit(f, lambda ls: ls[:1] + [x for x in ls[1:] if float(x.split(",")[0]) <= first_s])
+    edits = {} if damage is None else damage if isinstance(damage, dict) else dict([damage])
+    for kind, edit in edits.items():
+        path = folder / f"{kind}_trajectory1.csv"
+        if edit is None:
+            path.unlink()
+        else:
+            _edit(path, edit)
+    return folder
+
+
+def damage_table(root: Path, first_s: float | None = None) -> None:
     from graphnav.evaluation.metrics import vrmse
     from graphnav.io.outputs import read_trajectory_csv
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         truth = load_akit(root / "Trajectory1").gt
     exe = Path(sys.executable).parent / "graphnav"
-    print("damage | exit | health | refused at load | VRMSE m/s | first warning")
+    print("damage | exit | health | refused at load | VRMSE m/s against the clean GT (against the copy's own GT; "
+          "final horizontal error) | first warning")
     with tempfile.TemporaryDirectory() as tmp:
         for name, damage in DAMAGES.items():
-            folder = Path(tmp) / name.replace(" ", "_") / "Trajectory1"
-            shutil.copytree(root / "Trajectory1", folder)
-            if damage is not None:
-                kind, edit = damage
-                _edit(folder / f"{kind}_trajectory1.csv", edit)
+            try:
+                folder = _damaged_copy(root, name, damage, first_s, Path(tmp))
+            except IndexError:
+                print(f"{name} | | | | | skipped: its row is beyond the first {first_s:g} s")
+                continue
             out = folder.parent / "out"
             run = subprocess.run([str(exe), "smooth", "--data", str(folder), "--out", str(out), "--no-plots"],
                                  capture_output=True, text=True)
             summary = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() else {}
-            refused = {k: v["refused"] for k, v in summary.get("input_streams", {}).items() if v["refused"]}
-            error = "" if not (out / "trajectory.csv").exists() else \
-                f"{vrmse(read_trajectory_csv(out / 'trajectory.csv'), truth):.4f}"
+            refused = {k: v["refused"] for k, v in summary.get("streams", {}).items() if v.get("refused")}
+            error = ""
+            if (out / "trajectory.csv").exists():
+                try:
+                    error = f"{vrmse(read_trajectory_csv(out / 'trajectory.csv'), truth):.4f}"
+                except DataError:           # the estimate on a clock of the copy's own (a Unix clock)
+                    error = "other clock"
+            own = (summary.get("accuracy") or {})
+            if own.get("ground_truth"):
+                error += f" ({own['vrmse_mission_mps']:.4f}; {own['final_horizontal_position_error_m']:.2f} m)"
             first = next((ln.strip() for ln in run.stderr.splitlines()
-                          if ("refused" in ln or "outage" in ln or "missing from" in ln or "Error" in ln)), "")
+                          if any(w in ln for w in ("refused", "outage", "missing from", "rror", "converted",
+                                                   "clock", "flipped", "not found"))), "")
             print(f"{name} | {run.returncode} | {(summary.get('health') or {}).get('state')} | {refused} | {error} | "
                   f"{first[:200]}")
 
@@ -114,13 +186,14 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--damage", action="store_true", help="also run graphnav smooth on damaged Trajectory1 copies")
     p.add_argument("--no-clean", action="store_true", help="skip part 1")
+    p.add_argument("--first", type=float, metavar="S", help="with --damage: crop the copies to their first S s")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     args = p.parse_args(argv)
     root = akit_trajectories(args.data)[0].parent
     if not args.no_clean:
         clean_table(root)
     if args.damage:
-        damage_table(root)
+        damage_table(root, args.first)
     return 0
 
 
