@@ -273,14 +273,16 @@ def test_reference_angles_in_degrees_inside_the_radian_range_are_told_by_their_r
         out = reference_attitude_units(t, np.degrees(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, meta)
     np.testing.assert_allclose(out, euler, atol=1e-15)
     assert len(meta["streams"]["gt"]["notes"]) == 2
-    # a declared unit wins, never converted: the rates that contradict it are a warning and a note
-    meta = {}
-    with pytest.warns(RuntimeWarning, match=r"GT.csv: attitude columns 'Roll \[rad\]', 'Pitch \[rad\]', 'Yaw \[rad\]' "
-                                            r"kept in the declared unit 'rad', but the attitude turns 5\d.\dx"):
-        degrees = np.degrees(euler)
-        assert reference_attitude_units(t, degrees, t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, meta,
-                                        declared="rad") is degrees
-    assert "kept in the declared unit" in meta["streams"]["gt"]["notes"][0]
+    # a declared unit is never converted: rates the other unit fits are an error naming the columns (it was a
+    # warning, and the wrong angles were used: a radian attitude declared 'deg' smoothed to 17x the clean VRMSE)
+    degrees = np.degrees(euler)
+    with pytest.raises(DataError, match=r"GT.csv, field 'Roll \[rad\]/Pitch \[rad\]/Yaw \[rad\]': attitude columns "
+                                        r".* declared 'rad' turn 5\d.\dx as fast as the gyro, and (0.9\d*|1.0\d*)x read in the "
+                                        r"other unit: the declared angle_unit \(or the gyro's unit\) is wrong"):
+        reference_attitude_units(t, degrees, t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, {}, declared="rad")
+    with pytest.raises(DataError, match=r"declared 'deg' turn 0.017\dx as fast as the gyro"):
+        reference_attitude_units(t, np.radians(euler), t_imu, omega_b, "GT.csv", ATTITUDE_COLUMNS, {},
+                                 declared="deg")
     # positions that move with the velocity in neither unit are refused, naming the columns
     with pytest.raises(DataError, match=r"field 'Latitude \[rad\]/Longitude \[rad\]': the positions move 5x"):
         reference_latlon_units(t, lat * 5, lon * 5, v_n, "GT.csv", GT_COLUMNS)

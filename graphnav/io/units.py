@@ -40,16 +40,16 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   the attitude's turn rate over the gyro's (:func:`attitude_rate_ratio`) and the positions' displacement over the
   reference's own velocity's (:func:`displacement_ratio`) are 0.95-1.03 and 0.975-1.007 on the ten, 23-56 and
   28-57 with the same files in degrees; :data:`DEG_RATE_RATIO` (7.6, the geometric middle of 1 and 57.3) splits
-  them (an attitude only when, converted, it turns with the gyro: a noisy one in radians also turns fast; a
-  declared unit wins with a warning). Converted like the gyro's deg/s (a warning naming the file and columns, a
-  note); positions that follow the velocity in neither unit (outside :data:`SAME_UNITS_RATIO` over 10, 40 and
-  160 s windows: a noisy fix shrinks against the longer ones' distance) are refused. An A-KIT depth (-altitude) mostly
-  outside ``depth_range_m`` is flipped back when it changes against the GT's down velocity
-  (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused naming the first
-  line and the column (a level vehicle's flipped sign cannot be told from a height above the ellipsoid); a depth
-  that changes against its down velocity inside the range is refused naming both columns (which is wrong cannot
-  be told). :func:`reference_inconsistencies` says what in a reference disagrees with itself or the gyro (the
-  prepare step's DVL-against-GT refusal then names the GT file instead of the DVL's).
+  them (an attitude only when, converted, it turns with the gyro: a noisy one in radians also turns fast; a declared
+  unit is refused when the other one fits, else kept with a warning). Converted like the gyro's deg/s (a warning
+  naming the file and columns, a note); positions that follow the velocity in neither unit (outside
+  :data:`SAME_UNITS_RATIO` over 10, 40 and 160 s windows: a noisy fix shrinks against the longer ones' distance) are
+  refused. An A-KIT depth (-altitude) mostly outside ``depth_range_m`` is flipped back when it changes against the
+  GT's down velocity (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused
+  naming the first line and the column (a level vehicle's flipped sign cannot be told from a height above the
+  ellipsoid); a depth that changes against its down velocity inside the range is refused naming both columns (which
+  is wrong cannot be told). :func:`reference_inconsistencies` says what in a reference disagrees with itself or the
+  gyro (the prepare step's DVL-against-GT refusal then names the GT file instead of the DVL's).
 """
 from __future__ import annotations
 
@@ -432,7 +432,9 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
     alone is taken for an unwrapped one, with a warning when the gyro cannot tell) and, inside it, by the turn rate
     against the gyro's (:func:`attitude_rate_ratio`: ~1 in radians, ~57 in degrees; ``t_imu`` s and ``omega_b``
     rad/s after the gyro's own unit check, None without an IMU). ``declared``: the unit the caller applied
-    (``"rad"``/``"deg"``): angles beyond its range are refused, rates that contradict it warned about (it wins).
+    (``"rad"``/``"deg"``): angles beyond its range are refused, and so are rates the other unit fits (within
+    :data:`DEG_CONFIRM_RATIO`) where the declared one is off by more than :data:`DEG_RATE_RATIO`; rates off in
+    both units are warned about (the declared unit wins).
     Rates above :data:`DEG_RATE_RATIO` are degrees only when the converted angles turn with the gyro within
     :data:`DEG_CONFIRM_RATIO`; else the angles are kept, with a warning.
     """
@@ -449,6 +451,14 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
         if tilt_beyond:
             raise DataError(f"attitude after the declared unit {declared!r}: {extent} rad: not the declared unit",
                             source, field=field)
+        # the other unit fitting the gyro where the declared one is off by more than the degrees split: the
+        # declaration is wrong (a noisy attitude is off in both and keeps the declared unit, with a note)
+        other = ratio * 180.0 / np.pi if declared == "deg" else ratio * np.pi / 180.0
+        if (np.isfinite(ratio) and not 1 / DEG_RATE_RATIO < ratio < DEG_RATE_RATIO
+                and 1 / DEG_CONFIRM_RATIO < other < DEG_CONFIRM_RATIO):
+            raise DataError(f"attitude columns {_columns(fields[:3])} declared {declared!r} turn {ratio:.3g}x as fast "
+                            f"as the gyro, and {other:.3g}x read in the other unit: the declared angle_unit (or the "
+                            "gyro's unit) is wrong", source, field=field)
         if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
             _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept in the declared unit {declared!r}, but "
                   f"{turns}", source)
