@@ -486,3 +486,23 @@ def test_dvl_log_of_a_bag(driver):
     np.testing.assert_allclose(log.t, 1_700_000_000 + mission.dvl.t + 0.05, atol=1e-6)
     np.testing.assert_array_equal(log.beam_valid, mission.dvl.valid)
     assert log.counts["read"] == len(mission.dvl.t) and log.counts["valid"] == int(log.v_d_valid.sum())
+
+
+def test_imu_messages_with_a_nan_are_refused_and_counted_not_the_whole_bag(tmp_path):
+    """A driver bag with NaN or infinite values in 20 of its IMU messages: those messages are refused, warned about
+    (topic, message index, time) and counted as a CSV row would be, and the rest navigates (the whole bag was
+    refused, its error naming a 'line' of a bag)."""
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    bad = np.arange(100, 2100, 100)
+    mission.imu.f_b[bad, 0] = np.nan          # after the mission's own checks: what a driver may record
+    mission.imu.omega_b[bad[::2], 2] = np.inf
+    path = bag_driver.write_driver_bag(mission, tmp_path / "nans", leak_sensor=False, housing_sensor=False)
+    m, warned = _load(path, mission.config)
+    assert m.meta["streams"]["imu"]["refused"]["not finite"] == bad.size
+    assert len(m.imu.t) == len(mission.imu.t) - bad.size and np.all(np.isfinite(m.imu.f_b))
+    assert any("/imu/data: 20 IMU message(s) with a NaN or infinite value refused (first: message 100 of the "
+               "topic, t = 1.000 s)" in w for w in warned)
+    mission.imu.f_b[::2, 0] = np.nan           # more than half: an error naming the stream
+    path = bag_driver.write_driver_bag(mission, tmp_path / "mostly", leak_sensor=False, housing_sensor=False)
+    with pytest.raises(DataError, match=r"imu samples refused \(\d+ not finite\): more than 50%"):
+        _load(path, mission.config)

@@ -318,7 +318,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     t0_ns = int(imu_s.t_ns[0])
     meta.update({"format": "ros1" if meta["bag_kind"] == "ros1" else "rosbag2", "t0_unix_ns": t0_ns})
     _record(meta, "imu", imu_s, t0_ns, source)
-    imu = conv.imu(imu_s, t0_ns, source)
+    imu = conv.imu(imu_s, t0_ns, source, meta)
     _record(meta, "dvl", dvl_s, t0_ns, source)
     dvl, info = conv.dvl(dvl_s, t0_ns, config, source, meta)
     config = _apply_beam_geometry(config, info, source)
