@@ -44,12 +44,20 @@ def parse(parser: argparse.ArgumentParser, argv: list[str] | None) -> argparse.N
     return args
 
 
+def _warning_line(message, category, filename, lineno, line=None) -> str:
+    """A warning as a command prints it: its message, without the source file and line Python adds (they name
+    graphnav's code, not the user's input; the message names the input)."""
+    return f"warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
+    import warnings
     parser = build_parser()
     args = parse(parser, argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    shown, warnings.formatwarning = warnings.formatwarning, _warning_line
     try:
         return int(args.func(args) or 0)
     except GraphnavError as exc:
@@ -58,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"graphnav {args.command}: interrupted; results written so far are kept", file=sys.stderr)
         return 130
+    finally:
+        warnings.formatwarning = shown
 
 
 if __name__ == "__main__":

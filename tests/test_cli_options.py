@@ -81,3 +81,24 @@ def test_the_printed_summary_says_what_was_refused_at_load_and_the_loaders_notes
     text = buf.getvalue()
     assert "refused at load (stream: reason: count): {'imu': {\"spike in 'GYRO Z [rad/s]'\": 1}}" in text
     assert "  imu: axis signs applied" in text
+
+
+def test_a_command_prints_its_warnings_as_warning_lines_without_graphnavs_source(tmp_path):
+    """smooth printed Python's default warning form (graphnav's file and line, then the source line that warned);
+    a command now prints 'warning: <message>', the message naming the user's input, as info does."""
+    import subprocess
+    import sys
+
+    from graphnav.io.export import write_akit
+    from graphnav.sim.simulate import simulate_mission
+    paths = write_akit(simulate_mission(60.0, seed=5), tmp_path)
+    imu = paths["IMU"].read_text().splitlines()
+    cells = imu[2001].split(",")
+    cells[1] = "nan"                              # one refused row: a warning naming the file and line
+    imu[2001] = ",".join(cells)
+    paths["IMU"].write_text("\n".join(imu) + "\n")
+    run = subprocess.run([sys.executable, "-m", "graphnav", "smooth", "--data", str(tmp_path / "Trajectory1"),
+                          "--out", str(tmp_path / "out"), "--no-plots"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert f"warning: {paths['IMU']}: 1 imu sample(s) refused (1 empty or NaN in" in run.stderr
+    assert "RuntimeWarning" not in run.stderr and "graphnav/io/" not in run.stderr

@@ -22,7 +22,7 @@ def register(subparsers) -> None:
     p.add_argument("--config", metavar="JSON",
                    help="sensor configuration (the column map of a CSV log; the IMU that goes with a PD0 file)")
     p.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
-                   help="bags: read STREAM (imu, dvl, depth, gt) from TOPIC (repeatable)")
+                   help="bags: read STREAM (imu, dvl, depth, heading, gt) from TOPIC (repeatable)")
     p.add_argument("--json", action="store_true", help="print the description as JSON")
     p.set_defaults(func=run)
 
