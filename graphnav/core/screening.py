@@ -212,12 +212,21 @@ def imu_out_of_range(f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig)
             f"omega_b beyond {config.imu.gyro_range_rads:g} rad/s": gyro}
 
 
+def _by_first_field(hit: np.ndarray, fields, reason: str) -> dict[str, np.ndarray]:
+    """``{reason.format(name): mask}`` (N,) bool per field of the (N,k) ``hit``, disjoint: a row goes under the
+    first of the ``fields`` it is hit in."""
+    first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), -1)
+    return {reason.format(name): first == j for j, name in enumerate(fields)}
+
+
 def not_a_number(values: np.ndarray, fields) -> dict[str, np.ndarray]:
     """Rows with a NaN value (what an empty cell reads as): ``{"empty or NaN in '<field>'": mask}`` (N,) bool
     for each of the ``fields`` (the k columns of ``values`` (N,k)), disjoint (a row under its first such field)."""
-    nan = np.isnan(np.asarray(values, float))
-    first = np.where(nan.any(axis=1), np.argmax(nan, axis=1), -1)
-    return {f"empty or NaN in '{name}'": first == j for j, name in enumerate(fields)}
+    return _by_first_field(np.isnan(np.asarray(values, float)), fields, "empty or NaN in '{}'")
+
+
+#: A white noise's sigma from the median absolute first difference of its samples (1.4826 MAD / sqrt(2)).
+_DIFF_MAD_TO_SIGMA = 1.4826 / math.sqrt(2.0)
 
 
 def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
@@ -233,7 +242,7 @@ def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     if n_blocks > 1:
         s[:-1] = np.median(d[:full].reshape(n_blocks - 1, block, -1), axis=1)
     s[-1] = np.median(d[full:], axis=0) if len(d) else 0.0
-    s *= 1.4826 / math.sqrt(2.0)
+    s *= _DIFF_MAD_TO_SIGMA
     s = np.max([s, np.r_[s[:1], s[:-1]], np.r_[s[1:], s[-1:]]], axis=0)
     return s[np.minimum(np.arange(len(x)) // block, n_blocks - 1)]
 
@@ -270,7 +279,7 @@ def imu_spike_off_note(rate_hz: float) -> str:
 
 
 def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
-               usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
+               usable: np.ndarray | None = None, rate_hz: float | None = None) -> dict[str, np.ndarray]:
     """IMU rows with a value departing from the median of the usable rows within ``IMU_SPIKE_HALF_WINDOW_S`` on each
     side of it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
     :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per
@@ -288,6 +297,8 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
         config: ``config.imu`` holds the floors. fields: names of the six values (reasons and warnings).
         usable: (N,) bool rows that may be tested and serve as neighbours (default: the finite ones; all-zero rows
             never are: they are a logger's filler, which ``ImuData.bridge_gaps`` and the keyframer drop).
+        rate_hz: the IMU's rate, Hz, when the caller has it (default: :func:`imu_rate_hz` of the usable rows'
+            stamps).
     """
     from scipy.ndimage import median_filter
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
@@ -298,15 +309,16 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
     idx = np.flatnonzero(ok)
     out = np.zeros(x.shape, dtype=bool)
     # the rate from every row that may be tested (a filler row keeps its stamp), as imu_implausible's note
-    rows = imu_spike_rows(imu_rate_hz(np.asarray(t, float)[slice(None) if usable is None else usable]))
+    if rate_hz is None:
+        rate_hz = imu_rate_hz(np.asarray(t, float)[slice(None) if usable is None else usable])
+    rows = imu_spike_rows(rate_hz)
     if rows is not None and idx.size >= 2 * rows[0] + 1:
         half, block = rows
         v = x[idx]
         median = median_filter(v, size=(2 * half + 1, 1), mode="mirror")
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = np.abs(v - median) > limit
-    first = np.where(out.any(axis=1), np.argmax(out, axis=1), -1)
-    return {f"spike in '{name}'": first == j for j, name in enumerate(fields)}
+    return _by_first_field(out, fields, "spike in '{}'")
 
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
@@ -324,7 +336,7 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
         if meta is not None:
             add_note(meta, "imu", note)
         warnings.warn(f"{source}: {note}" if source else note, RuntimeWarning, stacklevel=2)
-    return {**nan, **out_of_range, **imu_spikes(t, f_b, omega_b, config, fields, usable=~bad)}
+    return {**nan, **out_of_range, **imu_spikes(t, f_b, omega_b, config, fields, usable=~bad, rate_hz=rate)}
 
 
 def depth_implausible(t: np.ndarray, depth_m: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:
@@ -490,15 +502,14 @@ class ImuSpikeTest:
     Nothing is tested until the history is full. More than ``n`` spikes in a row are a lasting change: the history
     restarts from the next departing row, which is accepted.
 
-    The rows per span come from ``rate_hz``, or (None) from the stream's own first :data:`IMU_SPIKE_RATE_ROWS`
-    stamps (:func:`imu_rate_hz`; those rows are accepted); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
+    The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
+    those rows are accepted); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
     (:attr:`note` says why) and accepts every row. Plain Python on six floats per row: the Navigator calls it at the
     IMU's rate (about 6 us a row).
     """
 
-    def __init__(self, floors, rate_hz: float | None = None, factor: float = IMU_SPIKE_NOISE_FACTOR):
+    def __init__(self, floors):
         self.floors = np.asarray(floors, float)
-        self.factor = float(factor)
         self.rate_hz: float | None = None
         self.active: bool | None = None                     # None until the rate is known
         self.note: str | None = None                        # why the test is off, once it is
@@ -510,8 +521,6 @@ class ImuSpikeTest:
         self._block_scale: np.ndarray | None = None         # the last complete block's noise scale
         self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
         self._run = 0
-        if rate_hz is not None:
-            self._set_rate(float(rate_hz))
 
     def check(self, t: float, x) -> tuple[int, float, float] | None:
         """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
@@ -519,7 +528,6 @@ class ImuSpikeTest:
         if self.active is None:
             self._stamps.append(float(t))
             self._hist.append(x)
-            self._rows.append(x)
             if len(self._stamps) >= IMU_SPIKE_RATE_ROWS:
                 self._set_rate(imu_rate_hz(self._stamps))
             return None
@@ -563,7 +571,7 @@ class ImuSpikeTest:
         if len(self._rows) <= self.n:
             return 0.0
         v = np.asarray(self._rows, float)[:, j]
-        return self.factor * 1.4826 / math.sqrt(2.0) * float(np.median(np.abs(np.diff(v))))
+        return IMU_SPIKE_NOISE_FACTOR * _DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
 
     def _restart(self) -> None:
         self._hist.clear()
@@ -589,13 +597,13 @@ class ImuSpikeTest:
 
     def _update_limit(self, complete: bool) -> None:
         diffs = np.abs(np.diff(np.asarray(self._rows, float), axis=0))
-        scale = 1.4826 / math.sqrt(2.0) * np.median(diffs, axis=0)
+        scale = _DIFF_MAD_TO_SIGMA * np.median(diffs, axis=0)
         if complete:
             previous = scale if self._block_scale is None else self._block_scale
             self._block_scale = scale
             scale = np.maximum(scale, previous)
             self._rows = self._rows[-1:]          # the next block's differences start from this row
-        self._limit = np.maximum(self.floors, self.factor * scale).tolist()
+        self._limit = np.maximum(self.floors, IMU_SPIKE_NOISE_FACTOR * scale).tolist()
 
 
 @dataclass

@@ -169,6 +169,7 @@ class Navigator:
         self._earth = EarthModel.from_config(config)
         self.refused: dict[str, dict[str, int]] = {}
         self._screen = StreamScreen(config)
+        self._imu_spike_noted = False         # the spike test's "off" note is told once, when the rate is known
         self.notes: dict[str, list[str]] = {}       # sentences about a stream a user must see (info)
         #: the IMU's full scale (m/s^2, rad/s): a sample within it needs no further screening call
         self._imu_full_scale = (float(config.imu.accel_range_mps2), float(config.imu.gyro_range_rads))
@@ -225,7 +226,8 @@ class Navigator:
             return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
                                 f"left the reorder buffer (window {self.options.reorder_window_s} s)")
         spike = self._screen.imu_spike(t, f, w)
-        if self._screen.imu_spike_note is not None and self._screen.imu_spike_note not in self.notes.get("imu", ()):
+        if not self._imu_spike_noted and self._screen.imu_spike_note is not None:
+            self._imu_spike_noted = True
             self._note("imu", self._screen.imu_spike_note)
         if spike is not None:
             return self._refuse("imu", t, spike[0], spike[1], screened=True)

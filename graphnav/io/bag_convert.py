@@ -86,26 +86,25 @@ def _rel(s: Stream, t0_ns: int) -> np.ndarray:
 
 
 # --- IMU ---------------------------------------------------------------------------------------------------
-def imu(s: Stream, t0_ns: int, source: str, meta: dict | None = None) -> ImuData:
+def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value is refused, warned about (its
     index in the topic and its time) and counted in ``meta`` as the loaders count a refused CSV row; more than
     half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`)."""
     from graphnav.core.screening import check_refused_fraction
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
-    ok = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
-    if not frame_is(s.rows[0].header.frame_id, "_frd"):
-        with np.errstate(invalid="ignore"):         # the refused rows' NaN
-            f, w = f @ FLU_FRD, w @ FLU_FRD
     t = _rel(s, t0_ns)
+    ok = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
     if not ok.all():
         bad = np.flatnonzero(~ok)
         warnings.warn(f"{source}:{s.topic}: {bad.size} IMU message(s) with a NaN or infinite value refused (first: "
                       f"message {bad[0]} of the topic, t = {t[bad[0]]:.3f} s)", RuntimeWarning, stacklevel=2)
-        if meta is not None:
-            count_refused(meta, "imu", "not finite", bad.size)
-            check_refused_fraction(meta)
-    return ImuData(t[ok], f[ok], w[ok], f"{source}:{s.topic}")
+        count_refused(meta, "imu", "not finite", bad.size)
+        check_refused_fraction(meta)
+        t, f, w = t[ok], f[ok], w[ok]
+    if not frame_is(s.rows[0].header.frame_id, "_frd"):
+        f, w = f @ FLU_FRD, w @ FLU_FRD
+    return ImuData(t, f, w, f"{source}:{s.topic}")
 
 
 # --- DVL ---------------------------------------------------------------------------------------------------

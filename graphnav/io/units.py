@@ -62,6 +62,7 @@ import numpy as np
 from graphnav.core.errors import DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, RDI_BAD_VELOCITY, DvlData, Mission
 from graphnav.core.streams import add_note
+from graphnav.core.timeseries import interp_rows
 
 STANDARD_GRAVITY = 9.80665
 TIME_SCALES = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -373,8 +374,8 @@ def _window_increments(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: fl
     v = np.asarray(v, float)
     integral = np.concatenate([np.zeros((1, v.shape[1])),
                                np.cumsum((v[1:] + v[:-1]) / 2 * np.diff(t)[:, None], axis=0)])
-    at = lambda a: np.column_stack([np.interp(edges, t, a[:, j]) for j in range(a.shape[1])])  # noqa: E731
-    return np.diff(at(np.asarray(p, float)), axis=0), np.diff(at(integral), axis=0)
+    return (np.diff(interp_rows(edges, t, np.asarray(p, float)), axis=0),
+            np.diff(interp_rows(edges, t, integral), axis=0))
 
 
 def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: float = POSITION_WINDOW_S,
