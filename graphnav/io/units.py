@@ -300,6 +300,14 @@ def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = Non
 DEG_RATE_RATIO = float(np.sqrt(180.0 / np.pi))
 #: Rates that agree within this factor are the same units (positions against velocities, a declared unit).
 SAME_UNITS_RATIO = 3.0
+
+
+def _units_disagree(ratio: float) -> bool:
+    """A rate ratio (finite) that two quantities in the same units cannot have (:data:`SAME_UNITS_RATIO`); NaN (the
+    rates tell nothing) does not disagree."""
+    return bool(np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO)
+
+
 #: An attitude that turns faster than DEG_RATE_RATIO is taken for degrees only when, converted, it turns with the
 #: gyro within this factor (0.95-1.03 on the ten in degrees): noise of 0.01-0.02 rad on a radian attitude over a
 #: gyro turning 2-4 mrad/s also gives ratios of 11-22, and converted those turn 0.19-0.38x as fast.
@@ -460,7 +468,7 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
             raise DataError(f"attitude columns {_columns(fields[:3])} declared {declared!r} turn {ratio:.3g}x as fast "
                             f"as the gyro, and {other:.3g}x read in the other unit: the declared angle_unit (or the "
                             "gyro's unit) is wrong", source, field=field)
-        if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+        if _units_disagree(ratio):
             _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept in the declared unit {declared!r}, but "
                   f"{turns}", source)
         return euler
@@ -468,7 +476,7 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
         if tilt_beyond:
             raise DataError(f"{extent}: beyond radians, yet {turns}: neither radians nor degrees", source,
                             field=field)
-        if not ratio > 1 / SAME_UNITS_RATIO or not ratio < SAME_UNITS_RATIO:
+        if _units_disagree(ratio):        # finite here
             _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians, but {turns}", source)
         return euler                    # radians (a yaw beyond 2 pi is an unwrapped one)
     if not (tilt_beyond or np.isfinite(ratio)):
@@ -505,7 +513,7 @@ def check_reference_displacement(ratio: float, source: str, fields, what: str = 
     """DataError when a reference's positions move ``ratio`` times as far as its velocity says
     (:func:`displacement_ratio`, NaN: cannot tell) and that is not the same units
     (:data:`SAME_UNITS_RATIO`); ``fields`` = (position columns..., velocity columns...) of ``source``."""
-    if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+    if _units_disagree(ratio):
         raise DataError(f"the positions{what} move {ratio:.3g}x as far as the velocity says (1 when both are SI; "
                         f"columns {_columns(fields)}): the positions or the velocity are in other units", source,
                         field="/".join(fields[:len(fields) // 2] if len(fields) > 1 else fields))
@@ -612,10 +620,10 @@ def reference_inconsistencies(t: np.ndarray, C_b_n: np.ndarray, p_n: np.ndarray,
     found = []
     if t_imu is not None and omega_b is not None:
         ratio, _ = attitude_rate_ratio(t, C_b_n, t_imu, omega_b)
-        if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+        if _units_disagree(ratio):
             found.append(("attitude", f"its attitude turns {ratio:.3g}x as fast as the gyro"))
     ratio, _ = displacement_ratio(t, np.asarray(p_n)[:, :2], np.asarray(v_n)[:, :2])
-    if np.isfinite(ratio) and not 1 / SAME_UNITS_RATIO < ratio < SAME_UNITS_RATIO:
+    if _units_disagree(ratio):
         found.append(("positions", f"its positions move {ratio:.3g}x as far as its velocity says"))
     if vertical_sign(t, np.asarray(p_n)[:, 2], np.asarray(v_n)[:, 2])[0] < 0:
         found.append(("depth", "its depth changes against its down velocity"))
