@@ -148,6 +148,15 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
         bags.parse_topics(["dvl:/dvl"])
 
 
+def test_a_gyro_57_times_too_small_is_refused_naming_the_topic(sim, tmp_path):
+    import dataclasses
+    mission, config, _, _ = sim
+    imu = dataclasses.replace(mission.imu, omega_b=np.radians(mission.imu.omega_b))    # converted twice
+    path = bags.write_mission_bag(dataclasses.replace(mission, imu=imu), tmp_path / "small_gyro")
+    with pytest.raises(DataError, match=r"small_gyro:/imu/data, field 'omega_b': gyro rates too small for rad/s"):
+        load_mission(path, config)
+
+
 def test_bench_finds_a_folder_of_bags(sim, tmp_path):
     from graphnav.evaluation.bench import find_trajectories
     _, config, paths, root = sim

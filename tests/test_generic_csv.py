@@ -163,6 +163,15 @@ def test_errors_name_file_line_and_column(sim, tmp_path):
         load_mission(tmp_path / "imu.csv", None)
 
 
+def test_gyro_declared_deg_per_s_on_rad_per_s_data_names_the_file_and_columns(sim, tmp_path):
+    # a new user's log in rad/s with gyro_unit "deg/s": the rates come out 57.3x too small and the run diverged
+    cmap = _separate_files(tmp_path, sim)
+    _write(tmp_path / "imu.csv", ["time_ms", "ax", "ay", "az", "gx", "gy", "gz"],
+           [(sim.imu.t + T0) * 1e3, sim.imu.f_b / 9.80665, sim.imu.omega_b])
+    with pytest.raises(DataError, match=r"imu.csv, field 'gx/gy/gz': the declared gyro unit 'deg/s' looks wrong"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
 def test_a_declared_reference_error_is_added_to_the_printed_velocity_nees(tmp_path, capsys):
     """``gt.velocity_sigma`` declares the reference's own velocity error: the summary's velocity NEES is also given
     with it added to the covariance, and is smaller for it; a malformed value names the key."""

@@ -62,3 +62,34 @@ def test_prepared_and_simulated_missions_pass_through():
         prepare(sim, dvl_time_offset_s=0.5)
     with pytest.raises(ConfigError, match="simulated default"):
         read_mission(None)
+
+
+@pytest.mark.parametrize("rate", [20.0, 50.0, 200.0])
+def test_an_imu_at_another_rate_than_configured_is_noted_and_its_rate_used(rate, tmp_path, capsys):
+    import json
+
+    from graphnav import cli
+    from graphnav.core.config import SensorConfig
+    from graphnav.estimators.keyframes import Keyframer
+    from graphnav.io.export import write_akit
+    config = SensorConfig()
+    config.imu_rate_hz = rate
+    written = simulate_mission(duration_s=30.0, seed=1, config=config, gt_rate_hz=10.0 if rate > 20 else 5.0)
+    folder = write_akit(written, tmp_path)["IMU"].parent
+    cfg = written.config.to_dict()
+    cfg["imu_rate_hz"] = 100.0
+    (tmp_path / "cfg100.json").write_text(json.dumps(cfg))
+    m = _quiet(load_mission, folder, tmp_path / "cfg100.json")
+    assert m.config.imu_rate_hz == pytest.approx(rate, rel=1e-6)
+    note = f"runs at {rate:g} Hz (median stamp step {1e3 / rate:g} ms), not the configured imu_rate_hz 100 Hz"
+    assert [n for n in m.meta["streams"]["imu"]["notes"] if note in n]
+    # at 20 Hz against 100 every sample was an IMU gap to bridge (3000 warnings over 150 s)
+    keyframer = Keyframer(m.config)
+    for t, f, w in zip(m.imu.t, m.imu.f_b, m.imu.omega_b):
+        keyframer.add_imu(float(t), tuple(f), tuple(w))
+    assert keyframer.stats.imu_gaps == []
+    assert _quiet(cli.main, ["info", str(folder), "--config", str(tmp_path / "cfg100.json")]) == 0
+    assert note in capsys.readouterr().out
+    # the configured rate, measured: nothing said
+    same = _quiet(load_mission, folder)
+    assert same.config.imu_rate_hz == rate and not [n for n in same.meta["streams"]["imu"]["notes"] if "not the configured" in n]

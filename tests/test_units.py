@@ -394,3 +394,40 @@ def test_noisy_fixes_of_a_slow_vehicle_are_metres_and_feet_are_not():
     assert ratio_feet == pytest.approx(3.2808, rel=0.01)
     with pytest.raises(DataError, match="3.28x as far as the velocity says"):
         check_reference_displacement(ratio_feet, "ref.csv", ["n", "e", "vn", "ve"])
+
+
+def test_gyro_rates_57_times_too_small_are_refused_declared_or_not(sim):
+    # rad/s data declared deg/s (or converted twice): the tilt kinematics see the gravity turn ~57x faster
+    small = sim.imu.omega_b * np.pi / 180
+    with pytest.raises(DataError, match=r"field 'gx/gy/gz'.*declared gyro unit 'deg/s' looks wrong"):
+        imu_units(sim.imu.t, sim.imu.f_b, small, "imu.csv", declared={"gyro": "deg/s"},
+                  fields=("ax", "ay", "az", "gx", "gy", "gz"))
+    with pytest.raises(DataError, match=r"field 'omega_b'.*too small for rad/s.*converted from deg/s to rad/s twice"):
+        imu_units(sim.imu.t, sim.imu.f_b, small, "bag:/imu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert imu_units(sim.imu.t, sim.imu.f_b, sim.imu.omega_b, "imu.csv")[1] is not None
+
+
+def test_akit_gyro_57_times_too_small_names_the_file_and_gyro_columns(akit_dir, tmp_path):
+    src = akit_dir / "Trajectory5"
+
+    def shrink(a):
+        a[:, 4:7] = np.radians(a[:, 4:7])
+        return a
+    folder = _copy(src, tmp_path, shrink)
+    with pytest.raises(DataError, match="too small for rad/s") as err:
+        _load(folder)
+    assert err.value.source == str(akit_files(folder)["IMU"])
+    assert err.value.field == "/".join(AKIT_COLUMNS["IMU"][4:7])
+
+
+def test_tilt_scale_far_from_both_thresholds_on_the_shared_trajectories(akit_dir):
+    from graphnav.io.units import GYRO_TILT_SCALE_DEG, GYRO_TILT_SCALE_SMALL
+    for folder in list_akit(akit_dir):
+        imu, _ = _raw(folder)
+        k, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], imu[:, 4:7])
+        k_small, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], np.radians(imu[:, 4:7]))
+        # rad/s 3.5x above the deg/s threshold and 4.5x under the too-small one; 57.3x too small 6.8x above it
+        assert 3.5 * GYRO_TILT_SCALE_DEG < k < GYRO_TILT_SCALE_SMALL / 4.5, (folder.name, k)
+        assert k_small > 6.8 * GYRO_TILT_SCALE_SMALL, (folder.name, k_small)

@@ -28,7 +28,8 @@ Bags, CSV logs and PD0 files: a DVL on a clock of its own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
 without a heading source is told whether the configured gyro can gyrocompass.
 
-Every mission: DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
+Every mission: an IMU whose stamps run at another rate than the configured ``imu_rate_hz`` (50 or 200 Hz against
+100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
 and a DVL span off the IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
@@ -93,6 +94,7 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
         return mission
     meta = copy.deepcopy(mission.meta)
     facts = meta.get("prepare", {})
+    mission = _measured_imu_rate(mission, meta)
     if facts.get("format") == "akit":
         mission = _prepare_akit(mission, meta, facts, imu_axis_signs, gt_time_offset_s, dvl_time_offset_s)
     else:
@@ -108,6 +110,26 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
         check_dvl_on_imu_clock(mission, "put the DVL stamps on the IMU clock (a CSV column map's \"clock\": "
                                         "\"auto\" finds its offset)")
     return mission
+
+
+#: A measured IMU rate further than this (relative) from the configured ``imu_rate_hz`` replaces it: a clock's error
+#: is ppm, so this is another rate (50 or 200 Hz against 100), not drift.
+IMU_RATE_TOLERANCE = 0.05
+
+
+def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
+    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (1 / median stamp step, Hz) when the configured
+    one is off by more than :data:`IMU_RATE_TOLERANCE`, noted once in ``meta``. The keyframer's gap limit and
+    bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
+    use the stamps themselves."""
+    from graphnav.core.screening import imu_rate_hz
+    configured = float(mission.config.imu_rate_hz)
+    measured = imu_rate_hz(mission.imu.t)
+    if not abs(measured - configured) > IMU_RATE_TOLERANCE * configured:      # NaN (one stamp): nothing to say
+        return mission
+    add_note(meta, "imu", f"runs at {measured:.4g} Hz (median stamp step {1e3 / measured:.4g} ms), not the configured "
+             f"imu_rate_hz {configured:g} Hz: {measured:.4g} Hz is used")
+    return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu_rate_hz=measured))
 
 
 def _is_auto(value) -> bool:

@@ -221,7 +221,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     f_b = rows[:, :3] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
     omega_b = rows[:, 3:] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
-    f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2)
+    f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2, fields)
     frame = spec.get("frame", "frd")
     if frame not in ("frd", "flu"):
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")

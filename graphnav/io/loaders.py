@@ -446,7 +446,8 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, gt_line
         if a is not None:
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
     rows = np.flatnonzero(np.all(np.isfinite(imu[:, 1:7]), axis=1))   # a row with a NaN is refused afterwards
-    f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta)
+    f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
+                             fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
     if gt is not None:

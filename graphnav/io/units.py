@@ -28,7 +28,10 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   deg/s may stay under both; the tilt kinematics then decide when there is tilt motion to see
   (:func:`gyro_tilt_scale`: the gravity direction the accelerometer sees turns at the gyro rate; the fitted
   scale is 0.36-0.64 on the ten trajectories in rad/s and 0.006-0.011 in deg/s, at most 0.015 in any 60 s
-  window; :data:`GYRO_TILT_SCALE_DEG` = 0.1 lies between, a factor 3.6 and 6.7 from either side).
+  window; :data:`GYRO_TILT_SCALE_DEG` = 0.1 lies between, a factor 3.6 and 6.7 from either side). The same
+  scale refuses rates 57.3x too small (rad/s data declared deg/s, or converted to rad/s twice: 9.6-48 on the
+  ten's 60 s windows, against at most 0.84 in rad/s; :data:`GYRO_TILT_SCALE_SMALL` = 3), declared or not: no
+  gyro unit is 57.3x larger than rad/s, so there is no conversion to make.
 * **DVL.** A DVL measures at most +-10 m/s (:data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS`); a median
   speed of 500-10000 is mm/s (RDI's raw unit: an AUV at 0.5-10 m/s). 10-500 is cm/s of a vehicle at
   0.1-5 m/s as much as mm/s of one at 0.01-0.5 m/s: refused, declare ``velocity_unit`` (a wrong guess would
@@ -82,6 +85,14 @@ GYRO_MEDIAN_MAX_RADPS = 0.3
 GYRO_MAX_RADPS = 3.0
 #: Tilt-kinematics gyro scale below this is deg/s (1/57.3 = 0.017 expected; 1 for rad/s).
 GYRO_TILT_SCALE_DEG = 0.1
+#: Tilt-kinematics gyro scale above this is rates too small for rad/s, refused: rad/s data declared deg/s (or
+#: converted from deg/s twice) give 57.3x the rad/s scale (the ten trajectories: 0.17-0.84 in rad/s on 60 s windows,
+#: 9.6-48 with the rates 57.3x too small; simulated missions 0.91-0.98 and 52-56). No gyro unit is 57.3x larger
+#: than rad/s, so there is nothing to convert to: the declaration or the logger's conversion is wrong.
+GYRO_TILT_SCALE_SMALL = 3.0
+#: Median tilt rate (rad/s, :func:`gyro_tilt_scale`) below which the tilt kinematics tell nothing (the ten: >= 0.002
+#: on 60 s windows).
+GYRO_TILT_MIN_RADPS = 1e-3
 #: Median DVL speed (per-ping norm of the instrument velocity, or the largest |beam|) taken as mm/s.
 DVL_MMPS_RANGE = (500.0, 10000.0)
 
@@ -163,11 +174,12 @@ def gyro_tilt_scale(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tupl
 
 
 def imu_units(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, source: str, meta: dict | None = None,
-              declared: Mapping[str, str] | None = None, gravity: float = STANDARD_GRAVITY
-              ) -> tuple[np.ndarray, np.ndarray]:
+              declared: Mapping[str, str] | None = None, gravity: float = STANDARD_GRAVITY,
+              fields: tuple[str, ...] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(f_b m/s^2, omega_b rad/s)`` with swapped blocks, g/milli-g and deg/s detected and converted (with
     a warning and a note), or DataError naming the field. ``t`` in seconds. ``declared``: units the caller
-    already applied (``{"accel": "g", "gyro": "deg/s"}``): the data must then agree."""
+    already applied (``{"accel": "g", "gyro": "deg/s"}``): the data must then agree. ``fields``: the six
+    accelerometer and gyro column names the errors name (default ``f_b`` and ``omega_b``)."""
     declared = dict(declared or {})
     f_b, omega_b = np.asarray(f_b, float), np.asarray(omega_b, float)
     if f_b.size == 0:
@@ -194,11 +206,12 @@ def imu_units(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, source: str, 
                             f"{declared['accel']!r}: the data look like {unit}", source, field="f_b")
         f_b = f_b * (gravity if unit == "g" else gravity * 1e-3)
         _note(meta, "imu", f"accelerometer read as {unit} (median |f| {f_med:.4g}) and converted to m/s^2", source)
-    omega_b, _ = _gyro_units(t, f_b, omega_b, source, meta, declared)
+    gyro_field = "/".join(fields[3:6]) if fields else "omega_b"
+    omega_b, _ = _gyro_units(t, f_b, omega_b, source, meta, declared, gyro_field)
     return f_b, omega_b
 
 
-def _gyro_units(t, f_b, omega_b, source, meta, declared) -> tuple[np.ndarray, str]:
+def _gyro_units(t, f_b, omega_b, source, meta, declared, field="omega_b") -> tuple[np.ndarray, str]:
     norm = np.linalg.norm(omega_b, axis=1)
     med = float(np.nanmedian(norm))
     top = float(np.nanquantile(norm, 0.999))
@@ -209,18 +222,33 @@ def _gyro_units(t, f_b, omega_b, source, meta, declared) -> tuple[np.ndarray, st
         why = f"99.9th percentile |omega| {top:.3g} rad/s (> {GYRO_MAX_RADPS:g}: beyond what an AUV turns)"
     else:
         k, tilt = gyro_tilt_scale(t, f_b, omega_b)
-        if np.isfinite(k) and k < GYRO_TILT_SCALE_DEG and tilt > 1e-3:
+        seen = np.isfinite(k) and tilt > GYRO_TILT_MIN_RADPS
+        if seen and k > GYRO_TILT_SCALE_SMALL:
+            _gyro_too_small(k, source, declared.get("gyro"), field)
+        if seen and k < GYRO_TILT_SCALE_DEG:
             why = (f"the gravity direction turns {1 / k:.3g}x slower than these rates say (57.3 for deg/s; "
                    "tilt kinematics)")
     if why is None:
         return omega_b, "rad/s"
     if "gyro" in declared:
-        raise DataError(f"gyro after the declared unit {declared['gyro']!r}: {why}", source, field="omega_b")
+        raise DataError(f"gyro after the declared unit {declared['gyro']!r}: {why}", source, field=field)
     if med * np.pi / 180 > GYRO_MEDIAN_MAX_RADPS or top * np.pi / 180 > 10 * GYRO_MAX_RADPS:
         raise DataError(f"gyro rates implausible in rad/s and in deg/s ({why}; median {med:.3g}, "
-                        f"99.9th percentile {top:.3g})", source, field="omega_b")
+                        f"99.9th percentile {top:.3g})", source, field=field)
     _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {why}", source)
     return omega_b * (np.pi / 180), "deg/s"
+
+
+def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> None:
+    """DataError for gyro rates (after the ``declared`` unit, None when detected) that the gravity direction turns
+    ``k`` times faster than (:func:`gyro_tilt_scale`; above :data:`GYRO_TILT_SCALE_SMALL`)."""
+    turns = (f"the gravity direction the accelerometer sees turns {k:.3g}x faster than these rates say (about 1 "
+             "in rad/s; rates 57.3x too small give tens; tilt kinematics)")
+    if declared is not None:
+        raise DataError(f"the declared gyro unit {declared!r} looks wrong: after it, {turns} (rad/s data declared "
+                        "'deg/s'?)", source, field=field)
+    raise DataError(f"gyro rates too small for rad/s: {turns}; no gyro unit is that much larger than rad/s: were the "
+                    "rates converted from deg/s to rad/s twice, or rad/s data divided by 57.3?", source, field=field)
 
 
 # ------------------------------------------------------------------------------------------------
