@@ -515,3 +515,39 @@ def test_imu_messages_with_a_nan_are_refused_and_counted_not_the_whole_bag(tmp_p
     path = bag_driver.write_driver_bag(mission, tmp_path / "mostly", leak_sensor=False, housing_sensor=False)
     with pytest.raises(DataError, match=r"imu samples refused \(\d+ not finite\): more than 50%"):
         _load(path, mission.config)
+
+
+def test_an_imu_clock_days_away_moves_every_stream_onto_it(tmp_path, capsys):
+    """IMU header stamps 3 days ahead of the other streams' (which are stamped at receive time): the DVL, the
+    depth and the GT are all moved onto the IMU clock through the receive clock, so ``info`` and the prepared
+    mission agree and the mission navigates (the depth and GT stayed 3 days away: 'usable' in info, then every
+    depth sample refused in smooth). A depth recorded days after the rest, which no clock relates, is one error
+    naming both topics and both spans, in info as when read."""
+    import dataclasses
+    mission = simulate_mission(duration_s=40.0, seed=3)
+    three_days = 3 * 86400.0
+    path = bags.write_mission_bag(mission, tmp_path / "imu_days", imu_clock_offset_s=three_days)
+    m, warned = _load(path, None)
+    np.testing.assert_allclose(m.dvl.t, mission.dvl.t, atol=1e-6)
+    np.testing.assert_allclose(m.depth.t, mission.depth.t, atol=1e-6)
+    np.testing.assert_allclose(m.gt.t, mission.gt.t, atol=1e-6)
+    for stream, label in (("dvl", "DVL"), ("depth", "depth"), ("gt", "GT")):
+        assert m.meta["clock_offsets"][f"{stream}_from_receive_clock_s"] == pytest.approx(three_days, abs=1e-6)
+        assert any(f"clock: {label} header stamps moved by +259200.000 s onto the IMU clock" in w for w in warned)
+        assert m.meta["streams"][stream]["span_s"][0] == pytest.approx(0.0, abs=0.2)
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["usable"] and d["time_span_s"][0] == pytest.approx(0.0, abs=0.2)
+    from graphnav.estimators.replay import replay
+    kinds = [kind for kind, _, _ in replay(m)]
+    assert kinds.count("depth") == len(mission.depth.t)
+
+    late = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, t=mission.depth.t + three_days))
+    path = bags.write_mission_bag(late, tmp_path / "depth_days")
+    why = (r"the depth stamps \(/pressure, 259200\.000 \.\. 259240\.000 s\) are off the IMU's \(/imu/data, "
+           r"0\.000 \.\. 40\.000 s")
+    with pytest.raises(DataError, match=why):
+        _load(path, None)
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert not d["usable"] and "the depth stamps (/pressure" in d["reason"]

@@ -292,3 +292,32 @@ def test_smooth_of_a_dvl_file_alone_names_the_method_and_the_options_it_ignores(
     assert said[1] == f"{root / 'dvl.000'}: --compare Graph-HN LC, --window-start 5.0 ignored: they apply to the " \
                       "IMU/DVL estimators"
     assert said[1] in [str(w.message) for w in caught]
+
+
+def test_bytes_before_the_first_ensemble_are_warned_about_and_counted(sim, tmp_path):
+    """A PD0 file that does not start with an ensemble (a logger that started mid-ensemble, a preamble) reads the
+    same pings as the file without those bytes, and says so: a warning naming the file, the bytes and the first
+    ensemble's offset, a count in the log and a note of the DVL stream (they were skipped without a word)."""
+    from graphnav.io.inspect import describe
+    from graphnav.io.pd0 import LEADING_BYTES, read_pd0
+    mission, root = sim
+    raw = (root / "dvl.000").read_bytes()
+    junk = tmp_path / "junk.000"
+    junk.write_bytes(b"$PRDIG,logger start\r\n" + raw[7:60] + raw)        # a preamble and a partial ensemble
+    n = 21 + 53
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = read_pd0_log(junk)
+    said = [str(w.message) for w in caught if "before it" in str(w.message)]
+    assert said == [f"{junk}: the first ensemble starts at byte {n}; the {n} byte(s) before it are no PD0 ensemble "
+                    "and are skipped (a logger that started mid-ensemble or wrote a preamble)"]
+    clean = read_pd0_log(root / "dvl.000")
+    np.testing.assert_array_equal(log.t, clean.t)
+    np.testing.assert_array_equal(log.beams, clean.beams)
+    assert log.counts[LEADING_BYTES] == n and LEADING_BYTES not in log.refused()
+    assert {k: v for k, v in log.counts.items() if k != LEADING_BYTES} == clean.counts
+    with pytest.warns(RuntimeWarning, match="before it are no PD0 ensemble"):
+        _, _, meta = read_pd0(junk)
+    assert f"{n} {LEADING_BYTES}" in meta["streams"]["dvl"]["notes"]
+    assert f"{n} {LEADING_BYTES}" in describe(junk)["streams"]["dvl"]["notes"]
+    assert LEADING_BYTES not in clean.counts

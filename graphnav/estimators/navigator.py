@@ -16,8 +16,9 @@ What happens to a sample:
    screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
    ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale or
    spiking (a run of up to 0.1 s of samples departing from the median of the last 0.1 s accepted, past the spike
-   test's floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`; off, with a warning and
-   a note in :attr:`Navigator.info` (``notes``), for an IMU under 50 Hz), a DVL beam beyond the
+   test's floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`, run in stamp order as
+   the samples leave the reorder buffer; off, with a warning and a note in :attr:`Navigator.info` (``notes``), for
+   an IMU under 50 Hz), a DVL beam beyond the
    vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
    and the completers expect the missing-beam patterns of outages),
    a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
@@ -225,12 +226,6 @@ class Navigator:
         if t < self._released:
             return self._refuse("imu", t, "t", f"out of order: {self._released - t:.3f} s older than what already "
                                 f"left the reorder buffer (window {self.options.reorder_window_s} s)")
-        spike = self._screen.imu_spike(t, f, w)
-        if not self._imu_spike_noted and self._screen.imu_spike_note is not None:
-            self._imu_spike_noted = True
-            self._note("imu", self._screen.imu_spike_note)
-        if spike is not None:
-            return self._refuse("imu", t, spike[0], spike[1], screened=True)
         if in_order:
             q.append((t, f, w))
         else:
@@ -568,6 +563,8 @@ class Navigator:
             if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
                 t, f, w = q.popleft()
                 self._last_imu_released = self._released = t
+                if self._imu_spike(t, f, w):
+                    continue
                 if self.backend is not None:
                     kfs = self.keyframer.add_imu(t, f, w)
                     if kfs:
@@ -581,6 +578,21 @@ class Navigator:
                 out += self._dispatch(stream, t, payload)
             else:
                 return out
+
+    def _imu_spike(self, t: float, f: tuple, w: tuple) -> bool:
+        """True when the spike test refuses the IMU sample leaving the reorder buffer (refused and counted). It
+        runs here, in stamp order, not on arrival: its history is the past, and a sample that arrived late belongs
+        before the ones that overtook it. The propagation :meth:`state_at` cached over the buffered samples, this
+        one included, starts again without it."""
+        spike = self._screen.imu_spike(t, f, w)
+        if not self._imu_spike_noted and self._screen.imu_spike_note is not None:
+            self._imu_spike_noted = True
+            self._note("imu", self._screen.imu_spike_note)
+        if spike is None:
+            return False
+        self._refuse("imu", t, spike[0], spike[1], screened=True)
+        self._prop = None
+        return True
 
     def _dispatch(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         if self.backend is None:

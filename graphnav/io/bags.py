@@ -25,7 +25,8 @@ overrides the choice. Streams and the types read:
 
 Message definitions: the bag's own (MCAP, rosbag2 >= Iron, ROS 1) first, else :mod:`graphnav.io.bag_msgs`.
 Stamps: :mod:`graphnav.io.bag_stamps` (header stamps when sane, else receive time; DVL/IMU clock offsets
-recorded, never dropped). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``). What each
+recorded, never dropped). The mission clock starts at the first IMU stamp (``meta["t0_unix_ns"]``); every stream off
+the IMU's clock is moved onto it through the receive clock (:func:`_onto_imu_clock`). What each
 stream read, used and refused, and every repair, is in ``meta["streams"]``.
 
 Writing (:func:`write_odometry_bag`): the estimates as ``nav_msgs/msg/Odometry`` in REP-103 frames
@@ -46,7 +47,7 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import Mission
-from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
 from graphnav.io.bag_convert import ENU_NED, FLU_FRD, TWIST_DVL, Stream
 from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
@@ -338,12 +339,11 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         meta["heading_source"] = f"{h.topic} ({h.msgtype})"
     else:
         meta["heading_source"] = "none"        # prepare says whether the configured gyro can gyrocompass
-    gt = None
+    gt = fixes = g = f = None
     if streams.get("gt"):
         g = streams["gt"][0] if "gt" in topics else _pick_one("gt", streams["gt"], source)
         _record(meta, "gt", g, t0_ns, source)
         gt = conv.gt(g, t0_ns, source)
-    fixes = None
     if streams.get("fix"):
         f = streams["fix"][0] if "fix" in topics else _pick_one("fix", streams["fix"], source)
         _record(meta, "fix", f, t0_ns, source)
@@ -353,50 +353,70 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     compare_clocks({k: (s.t_ns, s.receive_ns, s.stamp_kind) for k, s in used.items()}, meta, source)
     meta["topics"] = {k: f"{s.topic} ({s.msgtype})" for k, s in used.items()}
     meta.update(info)
-    imu, dvl, depth = _units_and_clocks(imu, dvl, depth, config, meta)
+    imu, depth = _units(imu, depth, config, meta)
+    read = {"dvl": (dvl_s, dvl), "depth": (cands[chosen][0] if chosen else None, depth),
+            "heading": (h, heading), "gt": (g, gt), "fix": (f, fixes)}
+    dvl, depth, heading, gt, fixes = (_onto_imu_clock(imu, imu_s, stream, s, data, meta)
+                                      for stream, (s, data) in read.items())
+    meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto"})
     if depth is None:
         meta["depth_source"] = "none"
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
                    heading=heading, fixes=fixes)
 
 
-def _units_and_clocks(imu, dvl, depth, config: SensorConfig, meta: dict):
+def _units(imu, depth, config: SensorConfig, meta: dict):
     """The IMU in SI (a driver's gyro in deg/s, an accelerometer in g: :func:`graphnav.io.units.check_units`;
-    bag stamps are nanoseconds by definition) and the DVL on the IMU clock, each change warned about and noted
-    in meta. A DVL whose header clock is seconds or days away from the IMU's is first put on it through the
-    recorder's receive clock, which every message shares (:func:`_receive_clock_shift`); the offset is then
-    estimated from the data themselves by :func:`graphnav.calibration.preparation.prepare` (``meta["prepare"]``:
-    DVL velocity changes against the IMU's accelerations), applied where it is confident."""
-    import dataclasses as dc
-
+    bag stamps are nanoseconds by definition) and the depth checked, each change warned about and noted in meta."""
     from graphnav.io.units import check_units
     checked = check_units({"imu": imu, "depth": depth}, config, meta, declared={"time": "s"})
-    imu, depth = checked["imu"], checked["depth"]
-    shift = _receive_clock_shift(imu, dvl, meta)
+    return checked["imu"], checked["depth"]
+
+
+#: How the clock notes and errors name a stream.
+_LABELS = {"dvl": "DVL", "gt": "GT", "fix": "fix"}
+#: Streams the receive clock may leave off the IMU's span without an error: the prepare step estimates the DVL's
+#: and GT's clock offset from the data (:mod:`graphnav.calibration.clock`); fixes may all be taken before the IMU
+#: started (on deck) and are screened against its span by the estimators. A depth or heading left off is an error.
+_MAY_STAY_OFF = ("dvl", "gt", "fix")
+
+
+def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, meta: dict):
+    """``data`` (a stream read from topic ``s``, with stamps ``t`` in s from the first IMU stamp) on the IMU's
+    clock. A stream whose span is off the IMU's (:func:`graphnav.core.timeseries.on_the_imu_clock`) is moved
+    through the recorder's receive clock, which every message shares: by the difference of the two streams'
+    header-minus-receive offsets (0 for a stream on receive time). Each move is warned about, noted and kept in
+    ``meta["clock_offsets"]``. A depth or heading still off is a DataError naming both topics and both spans (an
+    estimator would refuse all its samples); the others are left as :data:`_MAY_STAY_OFF` says."""
+    import dataclasses as dc
+
+    from graphnav.core.timeseries import on_the_imu_clock
+    if data is None or not len(data.t) or on_the_imu_clock(data.t, imu.t):
+        return data
+    source = meta.get("source", "bag")
+    label = _LABELS.get(stream, stream)
+    shift = _header_minus_receive_s(s) - _header_minus_receive_s(imu_s)
     if shift:
-        dvl = dc.replace(dvl, t=dvl.t - shift)
-        note = (f"clock: DVL header stamps moved by {-shift:+.3f} s onto the IMU clock through the bag's receive "
-                "clock (both streams' header-minus-receive offsets)")
-        add_note(meta, "dvl", note)
-        warnings.warn(f"{meta.get('source', 'bag')}: {note}", RuntimeWarning, stacklevel=3)
-        meta.setdefault("clock_offsets", {})["dvl_from_receive_clock_s"] = -shift
-    meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto"})
-    return imu, dvl, depth
+        data = dc.replace(data, t=data.t - shift)
+        set_span(meta, stream, data.t)
+        note = (f"clock: {label} header stamps moved by {-shift:+.3f} s onto the IMU clock through the bag's "
+                "receive clock (both streams' header-minus-receive offsets)")
+        add_note(meta, stream, note)
+        warnings.warn(f"{source}: {note}", RuntimeWarning, stacklevel=3)
+        meta.setdefault("clock_offsets", {})[f"{stream}_from_receive_clock_s"] = -shift
+    if stream in _MAY_STAY_OFF or on_the_imu_clock(data.t, imu.t):
+        return data
+    raise DataError(f"the {label} stamps ({s.topic}, {data.t[0]:.3f} .. {data.t[-1]:.3f} s) are off the IMU's "
+                    f"({imu_s.topic}, {imu.t[0]:.3f} .. {imu.t[-1]:.3f} s; s from the first IMU stamp), even "
+                    "through the bag's receive clock: the two topics were not recorded together, or one driver's "
+                    f"clock jumped; choose another topic (--topic {stream}=TOPIC)", source, field=s.topic)
 
 
-def _receive_clock_shift(imu, dvl, meta: dict) -> float:
-    """Seconds to subtract from the DVL stamps to put them on the IMU's clock, through the receive clock, when
-    fewer than half the pings lie in the IMU span and both clocks' relation to the receive clock is known;
-    else 0 (the stamps overlap, or nothing relates the clocks)."""
-    clock = meta.get("clock", {})
-    kinds, hmr = clock.get("stamps", {}), clock.get("header_minus_receive_s", {})
-    inside = np.mean((dvl.t >= imu.t[0]) & (dvl.t <= imu.t[-1])) if len(dvl.t) and len(imu.t) else 1.0
-    if inside >= 0.5 or "imu" not in kinds or "dvl" not in kinds:
+def _header_minus_receive_s(s: Stream) -> float:
+    """Median of a topic's header stamps minus its receive stamps, s (0 on receive time)."""
+    if s.stamp_kind != "header" or not len(s.t_ns):
         return 0.0
-    offsets = [0.0 if kinds[s] != "header" else hmr.get(s) for s in ("dvl", "imu")]
-    if None in offsets:
-        return 0.0
-    return float(offsets[0] - offsets[1])
+    return float(np.median((s.t_ns - s.receive_ns).astype(np.float64))) / 1e9
 
 
 def load_odometry(path: str | Path, topic: str | None = None):
@@ -557,9 +577,11 @@ def write_odometry_bag(solution, path: str | Path, *, t0_unix_ns: int = 0, topic
 
 def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mcap", dvl_type: str = MARINE_DVL,
                       t0_unix_ns: int = 1_700_000_000_000_000_000, depth_as_pressure: bool = True,
-                      gt: bool = True) -> Path:
+                      gt: bool = True, imu_clock_offset_s: float = 0.0) -> Path:
     """Record a mission as a ROS 2 bag the way a vehicle would (REP-103 FLU IMU, the DVL in its own frame,
-    pressure, reference odometry): for tests, demos and handing simulated missions to ROS tools."""
+    pressure, reference odometry): for tests, demos and handing simulated missions to ROS tools. Every message
+    is received at its mission time ``t0_unix_ns + t``; ``imu_clock_offset_s`` (s) puts the IMU's header stamps
+    on a clock that far from the other streams' (an IMU whose clock never synchronised)."""
     path = Path(path)
     store = typestore()
     T = store.types
@@ -571,7 +593,8 @@ def write_mission_bag(mission: Mission, path: str | Path, *, storage: str = "mca
     for k, t in enumerate(mission.imu.t):
         t_ns = t0_unix_ns + round(t * 1e9)
         msgs.append((t_ns, "/imu/data", T["sensor_msgs/msg/Imu"](
-            header=H(store, t_ns, "imu_link"), orientation=T["geometry_msgs/msg/Quaternion"](x=0., y=0., z=0., w=1.),
+            header=H(store, t_ns + round(imu_clock_offset_s * 1e9), "imu_link"),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0., y=0., z=0., w=1.),
             orientation_covariance=np.array([-1.0] + [0.0] * 8),
             angular_velocity=V3(x=imu_w[k, 0], y=imu_w[k, 1], z=imu_w[k, 2]), angular_velocity_covariance=np.zeros(9),
             linear_acceleration=V3(x=imu_f[k, 0], y=imu_f[k, 1], z=imu_f[k, 2]),

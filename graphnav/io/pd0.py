@@ -35,7 +35,8 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
 * the clock (variable leader RTC) as Unix-second stamps. dolfyn keeps an ensemble only when another header
   follows it (the end of a file may be cut), so a complete file's last ensemble is not read; it is counted. A
   file that ends inside an ensemble (a copy or download cut short) has that ensemble left out, warned about and
-  counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is.
+  counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
+  bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble).
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
   0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned.
 
@@ -102,6 +103,8 @@ class Pd0Scan:
         cut_length: the length (bytes, with the checksum) that cut ensemble's header gives, 0 when none (or cut
             inside its header).
         cut_offset: the byte offset of that cut ensemble, 0 when none.
+        leading_bytes: bytes before the first ensemble header (complete or corrupt), skipped: a logger that
+            started mid-ensemble or wrote its own preamble; it is the first ensemble's byte offset.
     """
 
     ensembles: int
@@ -112,6 +115,7 @@ class Pd0Scan:
     cut_bytes: int = 0
     cut_length: int = 0
     cut_offset: int = 0
+    leading_bytes: int = 0
 
 
 def _ensembles(raw: bytes, limit: int | None = None):
@@ -145,8 +149,9 @@ def _beam_matrix(raw: bytes, start: int) -> np.ndarray | None:
 def scan_pd0(path: str | Path) -> Pd0Scan:
     """Count the complete, checksummed ensembles of a PD0 file and read its stored beam matrix."""
     raw = Path(path).read_bytes()
-    spans, bad, bad_end = [], 0, 0
+    spans, bad, bad_end, first = [], 0, 0, None
     for start, length, ok in _ensembles(raw):
+        first = start if first is None else first
         if ok:
             spans.append((start, start + length + 2))
         elif start >= bad_end:         # a 0x7F7F inside a corrupt ensemble is not another ensemble
@@ -154,7 +159,8 @@ def scan_pd0(path: str | Path) -> Pd0Scan:
             bad_end = start + length + 2
     cut_offset, cut_bytes, cut_length = _cut_ensemble(raw, max(spans[-1][1] if spans else 0, bad_end))
     return Pd0Scan(len(spans), bad, len(raw) - spans[-1][1] if spans else len(raw),
-                   _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset)
+                   _beam_matrix(raw, spans[0][0]) if spans else None, spans, cut_bytes, cut_length, cut_offset,
+                   first or 0)
 
 
 def _cut_ensemble(raw: bytes, end: int) -> tuple[int, int, int]:
@@ -401,6 +407,8 @@ def _instrument(ds, scan: Pd0Scan, matrix_source: str) -> dict:
 
 #: The :attr:`DvlLog.counts` key of an ensemble the end of the file cuts (not read, as a corrupt one is not).
 CUT_ENSEMBLE = "cut ensemble at the end of the file (left out)"
+#: The :attr:`DvlLog.counts` key of the bytes before the first ensemble (skipped; a number of bytes, not pings).
+LEADING_BYTES = "byte(s) before the first ensemble (skipped)"
 
 
 def _warn_cut(scan: Pd0Scan, source: str) -> None:
@@ -412,10 +420,20 @@ def _warn_cut(scan: Pd0Scan, source: str) -> None:
                   RuntimeWarning, stacklevel=3)
 
 
+def _warn_leading(scan: Pd0Scan, source: str) -> None:
+    """Warn that the file does not start with an ensemble (a logger that started mid-ensemble, a preamble, a
+    file glued behind another): those bytes are skipped, and a whole ensemble may be among them."""
+    n = scan.leading_bytes
+    warnings.warn(f"{source}: the first ensemble starts at byte {n}; the {n} byte(s) before it are no PD0 ensemble "
+                  "and are skipped (a logger that started mid-ensemble or wrote a preamble)", RuntimeWarning,
+                  stacklevel=3)
+
+
 def left_out_notes(counts: dict) -> list[str]:
-    """The notes of a DVL stream on the ensembles of the file that were left out before any ping was read (corrupt,
-    or cut by the end of the file), from :attr:`DvlLog.counts`."""
-    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_ENSEMBLE) if counts.get(key)]
+    """The notes of a DVL stream on the parts of the file that were left out before any ping was read (corrupt
+    ensembles, one cut by the end of the file, bytes before the first), from :attr:`DvlLog.counts`."""
+    return [f"{counts[key]} {key}" for key in ("bad checksum (ensemble left out)", CUT_ENSEMBLE, LEADING_BYTES)
+            if counts.get(key)]
 
 
 def _warn_counts(counts: dict, source: str) -> None:
@@ -505,7 +523,7 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     without beams), ``not read by dolfyn (last ensemble)``, ``flagged beams`` (beam values, beam files),
     ``bad pressure word`` and ``depth out of range`` (pressure readings), ``bad checksum (ensemble left out)``
     (corrupt ensembles, not part of ``read``), :data:`CUT_ENSEMBLE` (1 when the file ends inside an ensemble, not
-    part of ``read``). ``instrument`` holds the fixed
+    part of ``read``), :data:`LEADING_BYTES` (bytes before the first ensemble, skipped). ``instrument`` holds the fixed
     leader (model, frequency, beam angle and pattern, orientation, EX bits, serial, firmware), where the beam
     matrix came from and the geometry in ``d`` (``beam_theta_rad``, ``beam_psi_rad``). ``v_n`` of instrument,
     ship and beam files uses the stored heading as recorded (RDI's heading alignment ``EB`` and magnetic
@@ -536,6 +554,9 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     counts = {"ensembles in file": scan.ensembles, "read": len(t)}
     if scan.bad_checksum:
         counts["bad checksum (ensemble left out)"] = scan.bad_checksum
+    if scan.leading_bytes:
+        counts[LEADING_BYTES] = scan.leading_bytes
+        _warn_leading(scan, source)
     if scan.cut_bytes:
         counts[CUT_ENSEMBLE] = 1
         _warn_cut(scan, source)
