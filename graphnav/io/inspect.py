@@ -149,7 +149,7 @@ def describe(path: str | Path, config: SensorConfig | str | Path | None = None,
             out.update(usable=False, reason=str(exc))
         except (OSError, UnicodeDecodeError, ValueError) as exc:    # a damaged file is described, not a traceback
             out.update(usable=False, reason=f"cannot read {path}: {type(exc).__name__}: {exc}")
-    out["warnings"] = _unique(f"{w.category.__name__}: {w.message}" for w in caught)
+    out["warnings"] = _unique(str(w.message) for w in caught)
     out["format_name"] = FORMAT_NAMES.get(out["format"])
     return _jsonable(out)
 
