@@ -47,7 +47,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.streams import add_note, set_span
 from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
 
@@ -112,14 +112,9 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
     return mission
 
 
-#: A measured IMU rate further than this (relative) from the configured ``imu_rate_hz`` replaces it: a clock's error
-#: is ppm, so this is another rate (50 or 200 Hz against 100), not drift.
-IMU_RATE_TOLERANCE = 0.05
-
-
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     """The mission with ``config.imu_rate_hz`` the IMU's measured rate (1 / median stamp step, Hz) when the configured
-    one is off by more than :data:`IMU_RATE_TOLERANCE`, noted once in ``meta``. The keyframer's gap limit and
+    one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in ``meta``. The keyframer's gap limit and
     bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
     use the stamps themselves."""
     from graphnav.core.screening import imu_rate_hz

@@ -28,6 +28,9 @@ RDI_BAD_VELOCITY = (-32768.0, -32.768)
 
 #: IMU gaps longer than this many nominal sample periods are bridged (see :meth:`ImuData.bridge_gaps`).
 IMU_GAP_PERIODS = 2.5
+#: An IMU rate measured further than this (relative) from the configured ``imu_rate_hz`` replaces it: a clock's
+#: error is ppm, so this is another rate (50 or 200 Hz against 100), not drift.
+IMU_RATE_TOLERANCE = 0.05
 #: Assumed 1-sigma of the unmeasured specific force (m/s^2) and body rate (rad/s) inside a bridged IMU gap:
 #: what an AUV's accelerations and turn rates may do that a linear interpolation misses. The estimators
 #: add ``(sigma * gap length)^2`` to their velocity and attitude variances over a gap (a 2 s gap: 0.2 m/s,

@@ -54,7 +54,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import IMU_GAP_PERIODS, ImuGap, check_imu_gap, gap_variances
+from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -126,6 +126,44 @@ class KeyframerStats:
     beams_superseded: int = 0
 
 
+#: IMU steps a keyframer measures the stream's period over (their median) before it judges gaps by it.
+IMU_RATE_STEPS = 16
+
+
+class ImuPeriod:
+    """The IMU period gaps are judged against, s. A batch mission's configuration carries the measured rate
+    (:func:`graphnav.calibration.preparation.prepare`); a live stream's configuration line may name another rate
+    (100 Hz for an IMU at 20 Hz would make every step a gap). So the period is the median of the first
+    :data:`IMU_RATE_STEPS` steps when it is off the configured one by more than
+    :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned once), the configured one otherwise; before those steps,
+    the longer of the configured one and the shortest step so far."""
+
+    def __init__(self, configured_s: float):
+        self.configured_s = self.period_s = configured_s
+        self._steps: list[float] = []
+
+    def add_step(self, dt: float) -> None:
+        """One step between IMU stamps, s (after the first :data:`IMU_RATE_STEPS`, nothing changes)."""
+        if len(self._steps) >= IMU_RATE_STEPS or not dt > 0:
+            return
+        self._steps.append(dt)
+        if len(self._steps) < IMU_RATE_STEPS:
+            self.period_s = max(self.configured_s, min(self._steps))
+            return
+        measured = float(np.median(self._steps))
+        self.period_s = self.configured_s
+        if abs(measured - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
+            self.period_s = measured
+            warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (median of its first {IMU_RATE_STEPS} steps, "
+                          f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
+                          f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=4)
+
+    @property
+    def gap_limit_s(self) -> float:
+        """Steps longer than this are gaps, bridged (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods), s."""
+        return IMU_GAP_PERIODS * self.period_s
+
+
 class Keyframer:
     """Assemble keyframes from time-ordered samples (see the module docstring).
 
@@ -180,8 +218,7 @@ class Keyframer:
         #: run: a keyframer that takes over from another, as the Navigator's after aligning, takes this over too)
         self.warned_period = False
         self._T_d = DvlGeometry.from_spec(config.dvl).T_d
-        self._period = 1.0 / config.imu_rate_hz
-        self._gap_limit = IMU_GAP_PERIODS * self._period
+        self.imu_period = ImuPeriod(1.0 / config.imu_rate_hz)
         self._max_gap = self.options.max_keyframe_gap_s
         # IMU samples (t, f, w) from the one that covers the newest keyframe's stamp on (before the start:
         # the newest two)
@@ -224,8 +261,10 @@ class Keyframer:
                               "under gravity); further ones are counted", RuntimeWarning, stacklevel=3)
             return []
         samples = self._samples
-        if samples and t - samples[-1][0] > self._gap_limit:
-            return self._bridge(samples[-1], (t, f_b, omega_b))
+        if samples:
+            self.imu_period.add_step(t - samples[-1][0])
+            if t - samples[-1][0] > self.imu_period.gap_limit_s:
+                return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)
 
     def add_ping(self, ping: Ping) -> list[Keyframe]:
@@ -306,7 +345,7 @@ class Keyframer:
         t0, t1 = last[0], new[0]
         length = t1 - t0
         check_imu_gap(t0, t1, "imu")          # bounds the samples made below
-        n_fill = int(math.ceil(length / self._period)) - 1
+        n_fill = int(math.ceil(length / self.imu_period.period_s)) - 1
         gap = ImuGap(self._n_imu - 1, t0, t1)
         self._gaps.append(gap)
         self.stats.imu_gaps.append(gap)

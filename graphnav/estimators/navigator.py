@@ -672,9 +672,9 @@ class Navigator:
         self.alignment = al
         # a fresh keyframer from the first buffered sample on: keyframe 0 at t_first, then the buffer; what the
         # first one has said is not said again
-        warned_period = self.keyframer.warned_period
+        warned_period, imu_period = self.keyframer.warned_period, self.keyframer.imu_period
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
-        self.keyframer.warned_period = warned_period
+        self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
         out = self._start(initial_from_alignment(al))
         replayed = [e for e in events if e[1] >= t_first]
         events.clear()
