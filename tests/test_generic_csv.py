@@ -220,3 +220,120 @@ def test_empty_cells_and_imu_spikes_are_refused_rows_naming_file_line_and_column
                                        ("nav.csv", "gt", "empty or NaN in 'e'", 102)):
         assert any(s.startswith(f"{tmp_path / name}: 1 {stream} sample(s) refused (1 {reason}) at line(s) {line};")
                    for s in messages), messages
+
+
+def _edit_line(path, line, change):
+    """Replace 1-based file ``line`` of ``path`` by ``change(fields)`` (a list of its fields)."""
+    lines = path.read_text().splitlines()
+    lines[line - 1] = ",".join(change(lines[line - 1].split(",")))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _insert_copy(path, line, change=lambda fields: fields):
+    """Write 1-based file ``line`` of ``path`` twice, the copy as ``change(fields)``."""
+    lines = path.read_text().splitlines()
+    lines.insert(line, ",".join(change(lines[line - 1].split(","))))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _load_recording(path, cfg, **kwargs):
+    from graphnav.io.loaders import read_mission
+    with pytest.warns(Warning) as rec:
+        m = read_mission(path, cfg, **kwargs)
+    return m, [str(w.message) for w in rec]
+
+
+def test_a_row_written_twice_is_dropped_and_two_rows_under_one_stamp_need_repair_stamps(sim, tmp_path):
+    """As in an A-KIT folder: an IMU row written twice exactly is dropped, warned about with its line and counted;
+    a repeated stamp with other values is refused naming the file, line, column and --repair-stamps, which drops
+    the later row and sorts swapped DVL rows (warned, counted) for a column-map log too."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    _insert_copy(tmp_path / "imu.csv", 1001)
+    m, messages = _load_recording(tmp_path, cfg)
+    assert f"{tmp_path / 'imu.csv'}: 1 row(s) repeating an earlier row exactly (same stamp and values) dropped, " \
+           "at line(s) 1002" in messages
+    assert m.meta["streams"]["imu"]["refused"] == {"repeats an earlier row exactly": 1}
+    assert m.meta["streams"]["imu"]["read"] == len(sim.imu.t) + 1
+    np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+    _edit_line(tmp_path / "imu.csv", 1002, lambda f: f[:-1] + ["0.5"])
+    _insert_copy(tmp_path / "dvl.csv", 11)
+    lines = (tmp_path / "dvl.csv").read_text().splitlines()
+    lines[20], lines[21] = lines[21], lines[20]          # file lines 21 and 22 swapped
+    (tmp_path / "dvl.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"imu.csv, line 1002, field 'time_ms': time stamp duplicated.*--repair-stamps"):
+        load_mission(tmp_path, cfg, prepare=False)
+    m, messages = _load_recording(tmp_path, cfg, repair=True)
+    assert m.meta["streams"]["imu"]["refused"] == {"duplicated stamp (repair)": 1}
+    assert m.meta["streams"]["dvl"]["refused"] == {"repeats an earlier row exactly": 1}
+    assert any(s.startswith(f"{tmp_path / 'dvl.csv'}: 0 duplicated and 1 out-of-order stamp(s) repaired")
+               for s in messages), messages
+    np.testing.assert_array_equal(m.imu.t, clean.imu.t)
+    np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+    np.testing.assert_array_equal(m.dvl.t, clean.dvl.t)
+    np.testing.assert_array_equal(m.dvl.beams, clean.dvl.beams)
+    import argparse
+
+    from graphnav.commands.common import add_mission_arguments, recorded_mission
+    parser = argparse.ArgumentParser()
+    add_mission_arguments(parser)
+    with pytest.warns(Warning):
+        prepared = recorded_mission(parser.parse_args(["--data", str(tmp_path), "--config", str(cfg),
+                                                       "--repair-stamps"]))
+    assert prepared.meta["prepared"] and len(prepared.imu.t) == len(clean.imu.t)
+
+
+def test_an_infinite_cell_refuses_its_row_as_an_empty_one_does(sim, tmp_path):
+    """inf, -inf, Infinity and 1e999 (past float range) in an IMU or reference cell refuse that row, warned with
+    the file, line and column and counted; in a DVL beam they are a beam that is not a measurement (invalid,
+    warned). The whole load used to stop (the reference) or count the IMU row as beyond full scale."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+
+    def cell(column, text):
+        return lambda f: f[:column] + [text] + f[column + 1:]
+    _edit_line(tmp_path / "imu.csv", 502, cell(2, "inf"))
+    _edit_line(tmp_path / "imu.csv", 602, cell(4, "-Infinity"))
+    _edit_line(tmp_path / "nav.csv", 12, cell(5, "1e999"))
+    _edit_line(tmp_path / "nav.csv", 22, cell(1, "-inf"))
+    _edit_line(tmp_path / "dvl.csv", 12, cell(2, "inf"))
+    m, messages = _load_recording(tmp_path, cfg)
+    streams = m.meta["streams"]
+    assert streams["imu"]["refused"] == {"infinite in 'ay'": 1, "infinite in 'gx'": 1}
+    assert streams["gt"]["refused"] == {"infinite in 'n'": 1, "infinite in 've'": 1}
+    for name, text in (("imu.csv", "2 imu sample(s) refused (1 infinite in 'ay'; 1 infinite in 'gx') at line(s) 502, "
+                                   "602"),
+                       ("nav.csv", "2 gt sample(s) refused (1 infinite in 'n'; 1 infinite in 've') at line(s) 12, 22")):
+        assert any(s.startswith(f"{tmp_path / name}: {text};") for s in messages), messages
+    assert len(m.imu.t) == len(sim.imu.t) - 2 and len(m.gt.t) == len(sim.gt.t) - 2
+    assert np.all(np.isfinite(m.imu.f_b)) and np.all(np.isfinite(m.gt.p_n))
+    others = np.arange(4) != 1                   # the file's b2 is beam 2
+    assert not m.dvl.valid[10, 1] and np.array_equal(m.dvl.valid[10, others], sim.dvl.valid[10, others])
+    assert any(s.startswith(f"{tmp_path / 'dvl.csv'}: 1 beam value(s)") for s in messages), messages
+
+
+def test_a_reference_velocity_spike_is_refused_before_its_down_sign_is_checked(sim, tmp_path):
+    """A reference whose down position changes against its down velocity (a vehicle heaving +-1 m) is refused
+    naming both columns; one 'vd' of 30 m/s used to hide that (the sign check ran before the screening refused the
+    spike, and the flipped depth was read as it came). Now the spike row is refused first, with its line, as in the
+    A-KIT reader."""
+    cmap = _separate_files(tmp_path, sim)
+    t = sim.gt.t
+    p, v = sim.gt.p_n.copy(), sim.gt.v_n.copy()
+    p[:, 2], v[:, 2] = -(15.0 + np.sin(0.3 * t)), 0.3 * np.cos(0.3 * t)
+    v[100, 2] = 30.0
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(t + T0) * 1e3, p, v, np.degrees(C_b_n_to_euler(sim.gt.C_b_n))])
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.warns(RuntimeWarning, match=r"nav.csv: 1 gt sample\(s\) refused \(1 GT speed > 4 m/s\) at line\(s\) "
+                                            "102"):
+        with pytest.raises(DataError, match=r"field 'd': the down position 'd' changes against 'vd'"):
+            load_mission(tmp_path, cfg, prepare=False)
+    p[:, 2] = -p[:, 2]
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(t + T0) * 1e3, p, v, np.degrees(C_b_n_to_euler(sim.gt.C_b_n))])
+    with pytest.warns(RuntimeWarning):
+        m = load_mission(tmp_path, cfg, prepare=False)
+    assert m.meta["streams"]["gt"]["refused"] == {"GT speed > 4 m/s": 1}
+    np.testing.assert_allclose(m.gt.p_n[:, 2], np.delete(p[:, 2], 100), atol=1e-9)

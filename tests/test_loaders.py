@@ -136,7 +136,7 @@ def test_nan_time_rejected_even_if_values_may_be_nan(tmp_path):
 @pytest.mark.parametrize("stamps, kind, line", [([0, 1, 1, 2, 3], "duplicated", 4),
                                                 ([0, 1, 3, 2, 4], "out of order", 5)])
 def test_bad_stamps(tmp_path, stamps, kind, line):
-    rows = [[float(s), 1.0, 0.1, 0.0] for s in stamps]
+    rows = [[float(s), 1.0, 0.1 * i, 0.0] for i, s in enumerate(stamps)]      # a repeated stamp, other values
     p = write_csv(tmp_path / "DVL_x.csv", COLS, rows)
     with pytest.raises(DataError) as err:
         read_csv(p, COLS)
@@ -776,3 +776,47 @@ def test_akit_imu_mostly_empty_is_an_error_naming_the_stream_and_the_reason(tmp_
     _set_cells(folder / "IMU_trajectory1.csv", {r: {1: ""} for r in range(7000)})
     with pytest.raises(DataError, match=r"7000 of 12000 imu samples refused \(7000 empty or NaN in 'ACC X"):
         _load_recording(folder)
+
+
+def test_akit_infinite_cells_refuse_their_row_or_ping_as_nan_does(tmp_path):
+    """inf, -Infinity and 1e999 (past float range) in an IMU or GT cell refuse that row, warned with the file, line
+    and column and counted; in the DVL file the ping is invalid (warned with its line, counted). Each used to stop
+    the whole load; a huge finite value (1e308) is out of range, as before."""
+    folder = make_akit_folder(tmp_path, n=1)
+    paths = {k: folder / f"{k}_trajectory1.csv" for k in ("IMU", "DVL", "GT")}
+    _set_cells(paths["IMU"], {6000: {2: "inf"}, 6500: {4: "-Infinity"}, 7000: {1: "1e308"}})
+    _set_cells(paths["GT"], {50: {5: "1e999"}})
+    _set_cells(paths["DVL"], {40: {1: "-inf"}})
+    m, messages = _load_recording(folder)
+    streams = m.meta["streams"]
+    assert streams["imu"]["refused"] == {"infinite in 'ACC Y [m/s^2]'": 1, "infinite in 'GYRO X [rad/s]'": 1,
+                                         "f_b beyond 156.906 m/s^2": 1}
+    assert (f"{paths['IMU']}: 3 imu sample(s) refused (1 infinite in 'ACC Y [m/s^2]'; 1 infinite in "
+            "'GYRO X [rad/s]'; 1 f_b beyond 156.906 m/s^2) at line(s) 6002, 6502, 7002; they are not used") in messages
+    assert streams["gt"]["refused"] == {"infinite in 'V East [m/s]'": 1} and len(m.gt.t) == 119
+    assert any(s.startswith(f"{paths['GT']}: 1 gt sample(s) refused (1 infinite in 'V East [m/s]') at line(s) 52")
+               for s in messages), messages
+    assert not m.dvl.valid[40].any() and m.dvl.valid[np.arange(120) != 40].all()
+    assert sum(streams["dvl"]["refused"].values()) == 1
+    assert any(s.startswith(f"{paths['DVL']}: 1 ping(s) with an invalid velocity") and "line 42" in s
+               for s in messages), messages
+    assert np.all(np.isfinite(m.imu.f_b)) and np.all(np.isfinite(m.gt.v_n))
+
+
+def test_akit_row_written_twice_is_dropped_without_repair(tmp_path):
+    """An IMU row written twice exactly is the same sample: dropped, warned with its line and counted, and the
+    mission reads as the clean folder; the same stamp with other values still needs repair=True."""
+    folder = make_akit_folder(tmp_path, n=1)
+    clean, _ = _load_recording(folder)
+    imu = folder / "IMU_trajectory1.csv"
+    lines = imu.read_text().splitlines()
+    imu.write_text("\n".join(lines[:801] + [lines[800]] + lines[801:]) + "\n")
+    m, messages = _load_recording(folder)
+    assert (f"{imu}: 1 row(s) repeating an earlier row exactly (same stamp and values) dropped, at line(s) 802"
+            in messages)
+    assert m.meta["streams"]["imu"]["refused"] == {"repeats an earlier row exactly": 1}
+    np.testing.assert_array_equal(m.imu.t, clean.imu.t)
+    np.testing.assert_array_equal(m.imu.f_b, clean.imu.f_b)
+    imu.write_text("\n".join(lines[:801] + [lines[800][:-1] + "7"] + lines[801:]) + "\n")
+    with pytest.raises(DataError, match=r"line 802.*--repair-stamps"):
+        load_akit(folder)

@@ -1,5 +1,5 @@
-"""A log with a duplicated stamp: refused with the file, line and the way out; `--repair-stamps` reads it, drops the
-duplicate (warned and counted) and leaves every other row as read."""
+"""A log with a duplicated stamp (two rows with other values): refused with the file, line and the way out;
+`--repair-stamps` reads it, drops the later row (warned and counted) and leaves every other row as read."""
 from __future__ import annotations
 
 import argparse
@@ -21,7 +21,9 @@ def duplicated(akit_dir, tmp_path):
     shutil.copytree(akit_dir / "Trajectory1", folder)
     imu = folder / "IMU_trajectory1.csv"
     lines = imu.read_text().splitlines()
-    lines.insert(801, lines[800])          # file line 801 (data row 800) written twice
+    # file line 801 (data row 800) written twice, the second time with another gyro z: two samples under one stamp
+    # (a row written twice exactly is dropped without --repair-stamps)
+    lines.insert(801, lines[800].rsplit(",", 1)[0] + ",0.0123")
     imu.write_text("\n".join(lines) + "\n")
     return folder
 

@@ -606,11 +606,13 @@ def test_generic_csv_log_is_screened_like_akit(tmp_path):
 
 
 def test_read_csv_counts_what_it_drops(tmp_path):
-    """Rows dropped by the CSV reader (a stamp that is not a time, a duplicated stamp under repair) are counted
-    with their reason in the mission's meta."""
+    """Rows dropped by the CSV reader (a stamp that is not a time, a row written twice, a duplicated stamp under
+    repair) are counted with their reason in the mission's meta."""
     from graphnav.io.loaders import AKIT_COLUMNS, read_csv
     p = tmp_path / "DVL.csv"
-    rows = [",".join(AKIT_COLUMNS["DVL"])] + [f"{t},1.0,0.1,0.0" for t in (0.0, 1.0, 1.0, 2.0, 3.0, 1e300)]
+    rows = [",".join(AKIT_COLUMNS["DVL"])] + [f"{t},1.0,{y},0.0" for t, y in ((0.0, 0.1), (1.0, 0.1), (1.0, 0.2),
+                                                                              (2.0, 0.1), (2.0, 0.1), (3.0, 0.1),
+                                                                              (1e300, 0.1))]
     p.write_text("\n".join(rows) + "\n")
     meta = {}
     with warnings.catch_warnings():
@@ -618,6 +620,7 @@ def test_read_csv_counts_what_it_drops(tmp_path):
         data = read_csv(p, AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], repair=True, meta=meta, stream="dvl")
     assert data[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0]
     entry = meta["streams"]["dvl"]
-    assert entry["read"] == 6 and entry["used"] == 4
-    assert entry["refused"] == {"stamp not a time": 1, "duplicated stamp (repair)": 1}
+    assert entry["read"] == 7 and entry["used"] == 4
+    assert entry["refused"] == {"stamp not a time": 1, "repeats an earlier row exactly": 1,
+                                "duplicated stamp (repair)": 1}
     assert entry["span_s"] == [0.0, 3.0]

@@ -79,8 +79,9 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
                         "by message type and plausibility (repeatable)")
     g.add_argument("--config", metavar="JSON", help="sensor configuration (e.g. from `graphnav calibrate`)")
     g.add_argument("--repair-stamps", action="store_true",
-                   help="A-KIT folders: drop rows whose stamp repeats an earlier one and sort the rest (warned "
-                        "and counted) instead of refusing the file")
+                   help="A-KIT folders and column-map CSV logs: drop rows whose stamp repeats an earlier one "
+                        "and sort the rest (warned and counted) instead of refusing the file (a row repeating an "
+                        "earlier one exactly is dropped, warned and counted, without it)")
     g.add_argument("--seed", type=int, default=0, help="simulator seed when --data is not given")
     g.add_argument("--duration", type=float, default=400.0, metavar="S",
                    help="simulated mission length in s when --data is not given")
@@ -136,7 +137,7 @@ def recorded_mission(args):
     from graphnav.calibration.preparation import prepare
     from graphnav.io.bags import parse_topics
     from graphnav.io.loaders import read_mission
-    # only when asked: read_mission refuses A-KIT-only arguments for every other format
+    # only when asked: read_mission refuses it for bags
     repair = {"repair": True} if getattr(args, "repair_stamps", False) else {}
     return prepare(read_mission(args.data, args.config, topics=parse_topics(getattr(args, "topic", None)), **repair))
 

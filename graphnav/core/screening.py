@@ -31,7 +31,8 @@ floor per sensor (``ImuSpec.accel_spike_floor_mps2``, ``gyro_spike_floor_rads``)
 times the signal's local noise (the MAD of its first differences over blocks of :data:`IMU_SPIKE_SCALE_S`): a
 vibrating IMU raises its own threshold, a quiet one keeps the floor. The spans are in seconds and become rows at the
 IMU's own rate (:func:`imu_spike_rows`); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off, with a note. A row
-with a NaN value (an empty cell) is refused too (:func:`not_a_number`), before any other rule looks at it.
+with a NaN or infinite value (an empty cell, ``inf``) is refused too (:func:`not_finite`), before any other
+rule looks at it.
 """
 from __future__ import annotations
 
@@ -219,10 +220,16 @@ def _by_first_field(hit: np.ndarray, fields, reason: str) -> dict[str, np.ndarra
     return {reason.format(name): first == j for j, name in enumerate(fields)}
 
 
-def not_a_number(values: np.ndarray, fields) -> dict[str, np.ndarray]:
-    """Rows with a NaN value (what an empty cell reads as): ``{"empty or NaN in '<field>'": mask}`` (N,) bool
-    for each of the ``fields`` (the k columns of ``values`` (N,k)), disjoint (a row under its first such field)."""
-    return _by_first_field(np.isnan(np.asarray(values, float)), fields, "empty or NaN in '{}'")
+def not_finite(values: np.ndarray, fields) -> dict[str, np.ndarray]:
+    """Rows with a NaN value (what an empty cell reads as) or an infinite one (``inf``, ``Infinity``, ``1e999``):
+    ``{"empty or NaN in '<field>'": mask, ..., "infinite in '<field>'": mask, ...}`` (N,) bool for each of the
+    ``fields`` (the k columns of ``values`` (N,k)), disjoint (a row under its first NaN field, else its first
+    infinite one)."""
+    values = np.asarray(values, float)
+    nan = np.isnan(values)
+    infinite = np.isinf(values) & ~nan.any(axis=1, keepdims=True)
+    return {**_by_first_field(nan, fields, "empty or NaN in '{}'"),
+            **_by_first_field(infinite, fields, "infinite in '{}'")}
 
 
 #: A white noise's sigma from the median absolute first difference of its samples (1.4826 MAD / sqrt(2)).
@@ -323,11 +330,11 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
                     meta: dict | None = None, source: str = "") -> dict[str, np.ndarray]:
-    """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN value
-    (:func:`not_a_number`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
+    """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN or infinite value
+    (:func:`not_finite`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
     (:func:`imu_spikes`). ``t``: (N,) stamps, s; ``fields``: names of the six values, f_b then omega_b. When the IMU
     is too slow for the spike test, a note in ``meta``'s IMU stream (when given) and a warning naming ``source``."""
-    nan = not_a_number(np.hstack([f_b, omega_b]), fields)
+    nan = not_finite(np.hstack([f_b, omega_b]), fields)
     out_of_range = imu_out_of_range(f_b, omega_b, config)
     bad = np.any(list(nan.values()) + list(out_of_range.values()), axis=0)
     rate = imu_rate_hz(np.asarray(t, float)[~bad])
@@ -384,7 +391,7 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
         total |= m
     if total.any():
         rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
-        where = ", ".join(str(int(i)) for i in rows[:10]) + (" ..." if rows.size > 10 else "")
+        where = _first_lines(rows)
         label = "line(s)" if line_offset or lines is not None else "index(es)"
         warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
                       f"{where}; they are not used", RuntimeWarning, stacklevel=3)
@@ -403,6 +410,63 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> N
                             f"{limit:.0%} of the stream; check the units, the column map and the "
                             "configuration's sensor ranges", entry.get("source") or stream,
                             field=meta.get("stream_fields", {}).get(stream, stream))
+
+
+def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray, *arrays
+                ) -> tuple[np.ndarray, ...]:
+    """``arrays`` (each (N, ...), rows in file order) without the rows of ``masks`` (reason -> (N,) bool), which
+    are counted and warned about with their file ``lines`` (:func:`refuse`); DataError when more than half of a
+    stream is refused now (:func:`check_refused_fraction`)."""
+    bad = refuse(meta, stream, masks, source, lines=lines)
+    check_refused_fraction(meta)
+    return tuple(a[~bad] for a in arrays)
+
+
+#: Reasons under which a file's rows dropped for their stamps are counted (:func:`stamp_order`).
+EXACT_COPY = "repeats an earlier row exactly"
+REPAIRED_STAMP = "duplicated stamp (repair)"
+
+
+def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool
+                ) -> tuple[np.ndarray, dict[str, int]]:
+    """``(indices of the rows kept, in time order; {reason: rows dropped})`` of a file's stamps ``t`` (N,) s and
+    its rows as read ``rows`` (N,k), ``lines`` their file lines.
+
+    A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
+    twice (a logger flushing its buffer again): dropped with a warning. The rest must increase strictly; else,
+    with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
+    with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out
+    (``--repair-stamps``): one stamp on two different rows can be two streams written into one file."""
+    t, rows = np.asarray(t, float), np.asarray(rows, float)
+    order = np.argsort(t, kind="stable")
+    a, b = rows[order][:-1], rows[order][1:]
+    same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
+    copies = np.sort(order[1:][same])
+    dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
+    if copies.size:
+        warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
+                      f"dropped, at line(s) {_first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
+    kept = np.delete(np.arange(len(t)), copies)
+    step = np.diff(t[kept])
+    bad = np.flatnonzero(step <= 0)
+    if not bad.size:
+        return kept, dropped
+    if not repair:
+        i = kept[bad[0] + 1]
+        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
+        raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); {bad.size} such "
+                        "line(s); pass repair=True (command line: --repair-stamps) to drop duplicates and sort",
+                        source, int(lines[i]), field)
+    kept = kept[np.argsort(t[kept], kind="stable")]
+    first = np.concatenate([[True], np.diff(t[kept]) > 0])
+    warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
+                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
+    return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}
+
+
+def _first_lines(lines: np.ndarray) -> str:
+    """The first ten of ``lines`` (file lines) for a warning."""
+    return ", ".join(str(int(i)) for i in lines[:10]) + (" ..." if len(lines) > 10 else "")
 
 
 def dvl_outages(t: np.ndarray, usable: np.ndarray, rate_hz: float) -> list[tuple[float, float]]:

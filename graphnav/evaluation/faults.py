@@ -230,10 +230,12 @@ def set_csv_field(path: str | Path, line: int, column: str, value: str) -> None:
     _write(path, lines)
 
 
-def duplicate_csv_line(path: str | Path, line: int) -> None:
-    """Repeat 1-based ``line`` right after itself (a duplicated record)."""
+def duplicate_csv_line(path: str | Path, line: int, altered: bool = False) -> None:
+    """Repeat 1-based ``line`` right after itself (a duplicated record; ``altered``: its last field 0, two records
+    under one stamp, which the reader refuses without ``repair``: an exact copy it drops)."""
     lines = _lines(path)
-    lines.insert(line, lines[line - 1])
+    copy = lines[line - 1]
+    lines.insert(line, copy.rsplit(",", 1)[0] + ",0" if altered else copy)
     _write(path, lines)
 
 
@@ -294,9 +296,9 @@ FAULTS: dict[str, Callable[[Mission, Path], Mission]] = {
     "dvl-outside-imu": lambda m, w: dvl_outside_imu(m),
     "duplicated-stamp imu": lambda m, w: with_streams(m, imu=duplicate_stamp(m.imu, 1000)),
     "out-of-order dvl": lambda m, w: with_streams(m, dvl=swap_stamps(m.dvl, 50)),
-    "duplicated-stamp csv": _csv(lambda p: duplicate_csv_line(p["IMU"], 1001)),
+    "duplicated-stamp csv": _csv(lambda p: duplicate_csv_line(p["IMU"], 1001, altered=True)),
     "out-of-order csv": _csv(lambda p: swap_csv_lines(p["DVL"], 51)),
-    "duplicated-stamp csv repair": _csv(lambda p: (duplicate_csv_line(p["IMU"], 1001),
+    "duplicated-stamp csv repair": _csv(lambda p: (duplicate_csv_line(p["IMU"], 1001, altered=True),
                                                    swap_csv_lines(p["DVL"], 51)), repair=True),
     "truncated-line csv": _csv(lambda p: truncate_csv_line(p["IMU"], 1234)),
     "missing-column csv": _csv(lambda p: drop_csv_column(p["DVL"], "DVL Y [m/s]")),

@@ -47,6 +47,11 @@ through :func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta[
 ``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
 IMU clock already.
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
+An IMU or reference row with an empty, NaN or infinite cell is refused (counted, warned with its line and column),
+as are reference rows whose velocity the vehicle cannot have, before the reference's unit and sign checks; an
+infinite DVL value is a beam that is not a measurement. A row written twice exactly is dropped (counted, warned);
+a stamp on two different rows, or going back, is a DataError unless ``repair`` (``--repair-stamps``) drops the later
+row and sorts the rest (counted, warned), as for an A-KIT folder.
 """
 from __future__ import annotations
 
@@ -59,8 +64,8 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.core.screening import check_refused_fraction, imu_implausible, not_a_number, refuse
-from graphnav.core.streams import count_read
+from graphnav.core.screening import gt_implausible, imu_implausible, not_finite, refuse_rows, stamp_order
+from graphnav.core.streams import count_read, count_refused
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
@@ -146,8 +151,10 @@ def _names(spec: dict, key: str, n: int, stream: str, required: bool = True) -> 
 
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
-          time_unit: str | None, tables: dict, meta: dict) -> tuple[np.ndarray, dict, Path]:
-    """Stamps (s, on the file's clock) and value groups of one stream; checks stamps and finiteness."""
+          time_unit: str | None, tables: dict, meta: dict, repair: bool = False) -> tuple[np.ndarray, dict, Path]:
+    """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
+    repeating an earlier one exactly dropped; with ``repair`` rows with a repeated stamp too, and sorted; each
+    counted)."""
     if "t" not in spec:
         raise ConfigError(f"csv_columns.{stream} needs 't' (the stamp column)")
     path = root / spec["file"] if "file" in spec else data_file
@@ -168,12 +175,12 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     if unit is not None:
         _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
     t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"])
-    step = np.diff(t)
-    bad = np.flatnonzero(step <= 0)
-    if bad.size:
-        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"stamp {kind} ({t[bad[0]]:.6f} s then {t[bad[0] + 1]:.6f} s)", str(path),
-                        int(lines[bad[0] + 1]), spec["t"])
+    kept, dropped = stamp_order(t, values, lines, str(path), spec["t"], repair)
+    if dropped:
+        _count_read(meta, stream, t, path)       # the rows dropped were read
+        for reason, n in dropped.items():
+            count_refused(meta, stream, reason, n)
+    t, values, lines = t[kept], values[kept], lines[kept]
     out, j = {}, 1
     for key, cols in names.items():
         if cols:
@@ -183,6 +190,13 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     return t, out, path
 
 
+def _count_read(meta: dict, stream: str, t: np.ndarray, path: Path) -> None:
+    """Count ``t`` as the stream's rows read, unless they are counted (:func:`_read` counts a stream whose rows it
+    drops, with all the rows it read)."""
+    if not meta.get("streams", {}).get(stream, {}).get("read"):
+        count_read(meta, stream, t, str(path))
+
+
 def _require_finite(a: np.ndarray, lines: np.ndarray, cols: list[str], path: Path) -> None:
     bad = np.argwhere(~np.isfinite(a))
     if bad.size:
@@ -190,8 +204,11 @@ def _require_finite(a: np.ndarray, lines: np.ndarray, cols: list[str], path: Pat
         raise DataError("empty or non-finite value", str(path), int(lines[i]), cols[j])
 
 
-def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | None = None) -> Mission:
-    """A :class:`Mission` from CSV logs described by ``config.csv_columns`` (see the module docstring)."""
+def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | None = None,
+                     repair: bool = False) -> Mission:
+    """A :class:`Mission` from CSV logs described by ``config.csv_columns`` (see the module docstring).
+    ``repair``: rows whose stamp repeats an earlier one are dropped (the first kept) and the rest sorted, warned
+    about and counted, instead of a DataError (``--repair-stamps``)."""
     data = Path(data)
     cmap = config.csv_columns or {}
     unknown = set(cmap) - set(STREAMS) - {"time_unit"}
@@ -206,18 +223,18 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("imu")
     if not spec:
         raise ConfigError("csv_columns needs an 'imu' entry")
-    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables, meta)
+    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables, meta, repair)
     for key in ("f_b", "omega_b"):
         if key not in v:
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
     fields = _names(spec, "f_b", 3, "imu") + _names(spec, "omega_b", 3, "imu")
-    # an empty or NaN cell refuses its row (before the unit checks, which need numbers); so do full scale and
-    # spikes once the units are known, all with the file's lines and columns (screen_mission leaves the IMU)
-    count_read(meta, "imu", t_imu, str(path))
+    # an empty, NaN or infinite cell refuses its row (before the unit checks, which need numbers); so do full
+    # scale and spikes once the units are known, all with the file's lines and columns (screen_mission leaves
+    # the IMU)
+    _count_read(meta, "imu", t_imu, path)
     rows = np.hstack([v["f_b"], v["omega_b"]])
-    keep = ~refuse(meta, "imu", not_a_number(rows, fields), str(path), lines=v["_lines"])
-    check_refused_fraction(meta)
-    t_imu, rows, lines = t_imu[keep], rows[keep], v["_lines"][keep]
+    t_imu, rows, lines = refuse_rows(meta, "imu", not_finite(rows, fields), str(path), v["_lines"], t_imu, rows,
+                                     v["_lines"])
     f_b = rows[:, :3] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
     omega_b = rows[:, 3:] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
@@ -227,10 +244,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
     if frame == "flu":
         f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
-    keep = ~refuse(meta, "imu", imu_implausible(t_imu, f_b, omega_b, config, fields, meta, str(path)),
-                  str(path), lines=lines)
-    check_refused_fraction(meta)
-    t_imu, f_b, omega_b = t_imu[keep], f_b[keep], omega_b[keep]
+    t_imu, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t_imu, f_b, omega_b, config, fields, meta,
+                                                                   str(path)), str(path), lines, t_imu, f_b, omega_b)
     meta["imu_screened"] = True
     t0 = float(t_imu[0])
     meta["t0_s"] = t0
@@ -253,7 +268,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
         t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables,
-                               meta)
+                               meta, repair)
         vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
         vdeclared = spec.get("velocity_unit")
         v_b = dvl_velocity_units(v["v_b"] * vscale, str(path), meta, vdeclared) if "v_b" in v else None
@@ -263,12 +278,13 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                 raw = dvl_velocity_units(raw, str(path), meta, None, beams=True)   # m/s (mm/s detected)
             flag = np.isin(raw, (-32768.0, -32.768))
             beams = np.where(flag, -32.768, raw * vscale)
-            valid = np.isfinite(beams) if "valid" not in v else (np.nan_to_num(v["valid"]) != 0) & np.isfinite(beams)
+            # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
+            valid = ~np.isnan(beams) if "valid" not in v else (np.nan_to_num(v["valid"]) != 0) & ~np.isnan(beams)
         elif v_b is not None:
             from graphnav.core.dvl import DvlGeometry
             T_b = DvlGeometry.from_spec(config.dvl).T_b
             beams = v_b @ T_b.T
-            valid = np.repeat(np.all(np.isfinite(v_b), axis=1, keepdims=True), 4, axis=1)
+            valid = np.repeat(~np.any(np.isnan(v_b), axis=1, keepdims=True), 4, axis=1)
             meta["beams_from_v_b"] = True
         else:
             raise ConfigError("csv_columns.dvl needs 'beams' (4 columns) or 'v_b' (3 columns)")
@@ -281,7 +297,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         key = "depth" if "depth" in spec else "pressure" if "pressure" in spec else None
         if key is None:
             raise ConfigError("csv_columns.depth needs 'depth' (m, down) or 'pressure' (a column name)")
-        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta)
+        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta, repair)
         _require_finite(v[key], v["_lines"], [spec[key]], path)
         x = v[key][:, 0]
         if key == "pressure":
@@ -299,18 +315,19 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("gt")
     if spec:
         t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables,
-                             meta)
+                             meta, repair)
         keys = ("p_n", "v_n", "euler")
         for key in keys:
             if key not in v:
                 raise ConfigError(f"csv_columns.gt needs '{key}' (3 column names)")
-        # a row with an empty or NaN cell is refused (screen_mission refuses the implausible ones)
-        count_read(meta, "gt", t_g, str(path))
+        # a row with an empty, NaN or infinite cell or an implausible velocity is refused before the unit and sign
+        # checks, as the A-KIT reader does: one V Down spike would swamp the down position's fit to it
+        _count_read(meta, "gt", t_g, path)
         fields = [c for key in keys for c in _names(spec, key, 3, "gt")]
-        keep = ~refuse(meta, "gt", not_a_number(np.hstack([v[k] for k in keys]), fields), str(path),
-                       lines=v["_lines"])
-        check_refused_fraction(meta)
-        t_g, v = t_g[keep], {k: v[k][keep] for k in (*keys, "_lines")}
+        masks = {**not_finite(np.hstack([v[k] for k in keys]), fields), **gt_implausible(t_g, v["v_n"], config.dvl)}
+        t_g, *kept = refuse_rows(meta, "gt", masks, str(path), v["_lines"], t_g, *(v[k] for k in (*keys, "_lines")))
+        v = dict(zip((*keys, "_lines"), kept))
+        meta["gt_screened"] = True
         from graphnav.core.rotations import euler_to_C_b_n
         e = _reference_units(t_g, v, spec, t_imu, omega_b, path, meta)
         gt = GroundTruth(t_g - t0, v["p_n"], v["v_n"], euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), None, str(path))
@@ -364,8 +381,8 @@ def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
     """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock)."""
     from graphnav.core.streams import add_note
     from graphnav.io.stream_counts import record_streams
-    # the PD0 reader counts its own DVL and depth, with its reasons
-    done = {k for k, e in meta.get("streams", {}).items() if e["read"]}
+    # the PD0 reader counts its own DVL and depth, with its reasons (a CSV stream _read counted is counted here)
+    done = {k for k, e in meta.get("streams", {}).items() if e["read"]} if "pd0_instrument" in meta else set()
     record_streams(meta, imu=imu, dvl=None if "dvl" in done else dvl, depth=None if "depth" in done else depth,
                    gt=gt)
     from graphnav.core.streams import set_span
@@ -389,10 +406,11 @@ def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
         add_note(meta, "depth", "no depth stream")
 
 
-def load_pd0(path: str | Path, config: SensorConfig | None = None):
-    """A Mission from a PD0 file plus the IMU named in the configuration's CSV column map."""
+def load_pd0(path: str | Path, config: SensorConfig | None = None, repair: bool = False):
+    """A Mission from a PD0 file plus the IMU named in the configuration's CSV column map (``repair``: as
+    :func:`load_csv_mission`'s, for the CSV files)."""
     if config is None or "imu" not in config.csv_columns:
         raise ConfigError(f"{path}: a PD0 file holds the DVL only; give the IMU in the configuration's "
                           "csv_columns map ('imu': {'file': ..., ...}, see graphnav.io.generic_csv); "
                           "`graphnav smooth --data FILE` dead-reckons the DVL alone (DVL-DR)")
-    return load_csv_mission(Path(path).parent, config, pd0_file=Path(path))
+    return load_csv_mission(Path(path).parent, config, pd0_file=Path(path), repair=repair)

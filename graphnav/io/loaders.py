@@ -60,12 +60,13 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    are marked invalid with a warning naming their lines (counts in ``meta["dvl_implausible"]`` and, with every
    other refusal, in ``meta["streams"]``; none on the ten shared trajectories). A stretch without a usable
    ping (NaN rows, deleted rows) longer than ``OUTAGE_MIN_S`` is warned about as a DVL outage.
-   IMU rows with an empty or NaN cell, beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` /
+   IMU rows with an empty, NaN or infinite cell, beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` /
    ``gyro_range_rads``) or spiking (a run of up to ten rows departing from the running median past
    ``ImuSpec.*_spike_floor_*`` and the signal's own noise, :func:`graphnav.core.screening.imu_spikes`), and GT
-   rows with an empty or NaN cell or whose velocity is beyond the vehicle's speed or spikes are refused (dropped,
-   counted, warned about with their lines and column) before the axis detection and the time-offset estimates
-   see them; an empty DVL cell is NaN, an invalid ping. More than half of a stream refused is a DataError.
+   rows with an empty, NaN or infinite cell or whose velocity is beyond the vehicle's speed or spikes are refused
+   (dropped, counted, warned about with their lines and column) before the axis detection and the time-offset
+   estimates see them; an empty DVL cell is NaN, an invalid ping, and an infinite one makes the ping invalid (as
+   an RDI flag does). More than half of a stream refused is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded
@@ -112,9 +113,11 @@ from graphnav.core.screening import (
     depth_implausible,
     gt_implausible,
     imu_implausible,
-    not_a_number,
+    not_finite,
     note_outages,
     refuse,
+    refuse_rows,
+    stamp_order,
     stamp_outliers,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
@@ -209,16 +212,18 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3.5e-3, gyro
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
              repair: bool = False, meta: dict | None = None, stream: str = "",
-             empty_is_nan: bool = False, with_lines: bool = False):
+             empty_is_nan: bool = False, inf_ok: bool = False, with_lines: bool = False):
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
     Every bad data line is found and reported (1-based line number and column): wrong number of fields
-    (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok``.
+    (e.g. a truncated line), a non-numeric or empty field, NaN/inf outside the columns in ``nan_ok`` (inf in
+    them too, unless ``inf_ok``).
     ``empty_is_nan``: an empty field of a ``nan_ok`` column is NaN, as pandas' ``to_csv`` writes NaN (the
     beams file :func:`graphnav.io.export.write_akit` writes leaves an invalid beam empty; the A-KIT reader
-    refuses an IMU or GT row with one, :func:`graphnav.core.screening.not_a_number`).
-    The first column is the time stamp and must increase strictly; with ``repair=True`` duplicated
+    refuses an IMU or GT row with one or with an infinite value, :func:`graphnav.core.screening.not_finite`).
+    The first column is the time stamp and must increase strictly (:func:`graphnav.core.screening.stamp_order`):
+    a row repeating an earlier one exactly is dropped with a warning; with ``repair=True`` duplicated
     stamps are dropped (first kept) and the rows sorted, with a warning. With ``meta`` (a mission's meta),
     the rows are counted as read for ``stream`` and rows whose stamp is not a time
     (:func:`graphnav.core.screening.stamp_outliers`: NaN or empty (with ``empty_is_nan``), inf, 1e300, a lone
@@ -272,7 +277,7 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         if j == 0 and stamps_screened:
             continue
         if name in nan_ok:
-            bad = np.flatnonzero(np.isinf(data[:, j]))
+            bad = np.flatnonzero(np.isinf(data[:, j]) & (not inf_ok))
         else:
             bad = np.flatnonzero(~np.isfinite(data[:, j]))
         problems += [(int(line_no[i]), name, f"value {data[i, j]} is not finite") for i in bad]
@@ -287,10 +292,10 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
             entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
-    kept, kept_lines = _check_stamps(data, line_no, source, columns[0], repair)
-    if meta is not None and len(kept) < len(data):
-        count_refused(meta, stream, "duplicated stamp (repair)", len(data) - len(kept))
-    return (kept, kept_lines) if with_lines else kept
+    kept, dropped = stamp_order(data[:, 0], data, line_no, source, columns[0], repair)
+    for reason, n in dropped.items() if meta is not None else ():
+        count_refused(meta, stream, reason, n)
+    return (data[kept], line_no[kept]) if with_lines else data[kept]
 
 
 def _empty_as_nan(line: str, columns: list[int]) -> str:
@@ -328,27 +333,6 @@ def _raise_problems(source: str, problems: list[tuple[int, str, str]]) -> None:
     err = DataError(f"{msg}; {len(problems)} bad line(s): {shown}{more}", source, line, col)
     err.problems = problems
     raise err
-
-
-def _check_stamps(data: np.ndarray, line_no: np.ndarray, source: str, time_col: str,
-                  repair: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(rows, their file lines) in time order, or DataError (``repair``: duplicates dropped, rows sorted)."""
-    step = np.diff(data[:, 0])
-    bad = np.flatnonzero(step <= 0)
-    if not bad.size:
-        return data, line_no
-    if not repair:
-        i = bad[0] + 1
-        kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"time stamp {kind} ({float(data[i - 1, 0])!r} s then {float(data[i, 0])!r} s); "
-                        f"{bad.size} such line(s); pass repair=True (command line: --repair-stamps) to drop duplicates and sort",
-                        source, int(line_no[i]), time_col)
-    order = np.argsort(data[:, 0], kind="stable")
-    data = data[order]
-    keep = np.concatenate([[True], np.diff(data[:, 0]) > 0])
-    warnings.warn(f"{source}: {int((~keep).sum())} duplicated and {int((step < 0).sum())} out-of-order "
-                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
-    return data[keep], line_no[order][keep]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -411,29 +395,19 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     meta: dict = {}
     # an empty cell is NaN (what pandas' to_csv writes for it): an invalid ping in the DVL file, a refused row in
     # the IMU and GT files (below); text that is not a number stays a DataError naming the line and column
-    read = {k: read_csv(files[k], AKIT_COLUMNS[k], nan_ok=AKIT_COLUMNS[k][1:], empty_is_nan=True, repair=repair,
-                        meta=meta, stream=k.lower(), with_lines=True) for k in files}
+    read = {k: read_csv(files[k], AKIT_COLUMNS[k], nan_ok=AKIT_COLUMNS[k][1:], empty_is_nan=True, inf_ok=True,
+                        repair=repair, meta=meta, stream=k.lower(), with_lines=True) for k in files}
     (imu, imu_lines), (dvl, _) = read["IMU"], read["DVL"]
     gt, gt_lines = read.get("GT", (None, None))
     _akit_units(imu, dvl, gt, gt_lines, files, meta, cfg)   # before the screening: deg/s is not out of range
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
-    imu, _ = _refuse_rows(meta, "imu", imu, imu_lines,
-                          imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
-                                          meta, str(files["IMU"])), files["IMU"])
+    imu, = refuse_rows(meta, "imu", imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
+                                                    meta, str(files["IMU"])), str(files["IMU"]), imu_lines, imu)
     if gt is not None:
-        gt, _ = _refuse_rows(meta, "gt", gt, gt_lines, {**not_a_number(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
-                                                        **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, files["GT"])
-    check_refused_fraction(meta)
+        gt, = refuse_rows(meta, "gt", {**not_finite(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
+                                       **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, str(files["GT"]), gt_lines, gt)
     return AkitRaw(imu, dvl, gt, files, meta)
-
-
-def _refuse_rows(meta: dict, stream: str, rows: np.ndarray, lines: np.ndarray, masks: dict, path: Path
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(rows, lines)`` without the rows of ``masks`` (reason -> (N,) bool), which are counted and warned about
-    with their file lines (:func:`graphnav.core.screening.refuse`)."""
-    bad = refuse(meta, stream, masks, str(path), lines=lines)
-    return rows[~bad], lines[~bad]
 
 
 def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, gt_lines: np.ndarray | None, files: dict,
@@ -704,7 +678,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
 
     # The file velocity is the DVL's own (DVL-frame) velocity: rotate by C_d_b (identity unless
     # calibrated) and remove a calibrated scale error.
-    v_dvl = raw.dvl[:, 1:4] @ cfg.dvl.C_d_b.T / (1.0 + cfg.dvl.velocity_scale_correction)
+    with np.errstate(invalid="ignore"):         # an infinite cell: its ping is flagged invalid below
+        v_dvl = raw.dvl[:, 1:4] @ cfg.dvl.C_d_b.T / (1.0 + cfg.dvl.velocity_scale_correction)
     # RDI bad-velocity flags (-32.768 m/s, -32768) and impossible speeds are not measurements: the ping
     # becomes invalid (NaN), as a NaN row is, before anything (time-offset estimate, beams) uses it
     flagged = np.flatnonzero(np.any(invalid_dvl_values(raw.dvl[:, 1:4]), axis=1)
@@ -911,7 +886,8 @@ def read_mission(data: str | Path, config_path: str | Path | None = None,
             * an A-KIT ``TrajectoryN`` folder (:func:`read_akit_mission`).
         config_path: a SensorConfig JSON (e.g. written by ``graphnav calibrate``) or None.
         topics: bag stream -> topic overrides (``{"imu": "/imu/data"}``); bags only.
-        **akit_kwargs: passed to :func:`read_akit_mission` (e.g. ``beam_seed``); A-KIT folders only.
+        **akit_kwargs: passed to :func:`read_akit_mission` (e.g. ``beam_seed``); A-KIT folders only, but for
+            ``repair`` (drop rows whose stamp repeats an earlier one and sort), which column-map CSV logs take too.
 
     A configuration file may be partial: the keys it sets replace the loader's defaults one by one and the
     others stay the loader's (``{}`` is no configuration). On A-KIT folders the defaults are
@@ -958,12 +934,15 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
         atm = bool(overrides) and overrides.sets("atmospheric_pressure_pa")
         reader = lambda: bags.load_bag(path, config, topics, atmospheric_pressure_configured=atm)  # noqa: E731
     elif pd0.is_pd0(path) or (path.is_file() and pd0.has_pd0_suffix(path)):   # a misnamed file gets PD0's error
-        reader = lambda: generic_csv.load_pd0(path, config)  # noqa: E731
+        repair = akit_kwargs.pop("repair", False)
+        reader = lambda: generic_csv.load_pd0(path, config, repair=repair)  # noqa: E731
     elif generic_csv.uses_column_map(path, config):
-        reader = lambda: generic_csv.load_csv_mission(path, config)  # noqa: E731
+        repair = akit_kwargs.pop("repair", False)
+        reader = lambda: generic_csv.load_csv_mission(path, config, repair=repair)  # noqa: E731
     if reader is not None:
         if akit_kwargs:
-            raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only; {path} is not one")
+            raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only (repair: and column-map CSV logs); "
+                              f"{path} is not one")
         return screen_mission(reader())
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
@@ -1016,7 +995,7 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
 
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
-    A-KIT loader screens its files itself, the column-map loader its IMU rows): IMU rows with a NaN value, beyond
+    A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
     full scale or spiking (:func:`graphnav.core.screening.imu_implausible`), depth rows outside the range or spiking
     and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
     the instrument got wrong makes the others suspect, as on the Navigator's stream) and pings outside its envelope
@@ -1055,7 +1034,7 @@ def screen_mission(mission: Mission) -> Mission:
         bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source)
         if bad.any():
             depth = depth.take(np.flatnonzero(~bad))
-    if gt is not None:
+    if gt is not None and not meta.get("gt_screened"):     # the column-map loader screened it with its lines
         bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
         if bad.any():
             gt = gt.take(np.flatnonzero(~bad))
