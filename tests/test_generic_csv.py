@@ -2,6 +2,7 @@
 cells, body-velocity-only DVLs, and errors naming file, line and column."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -337,3 +338,141 @@ def test_a_reference_velocity_spike_is_refused_before_its_down_sign_is_checked(s
         m = load_mission(tmp_path, cfg, prepare=False)
     assert m.meta["streams"]["gt"]["refused"] == {"GT speed > 4 m/s": 1}
     np.testing.assert_allclose(m.gt.p_n[:, 2], np.delete(p[:, 2], 100), atol=1e-9)
+
+
+def test_a_stream_key_the_column_map_does_not_know_is_refused_naming_the_file_stream_and_key(sim, tmp_path):
+    """A misspelt unit or frame key of a stream ('velocity_units', 'axes') used to be ignored: the unit was then
+    detected, the frame taken as FRD (an FLU IMU diverged to 335 m/s). Every stream's keys are checked, naming the
+    configuration file, the stream and the key, with the closest accepted key."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.io.generic_csv import load_csv_mission
+    cmap = _separate_files(tmp_path, sim)
+    cmap["dvl"]["velocity_units"] = cmap["dvl"].pop("velocity_unit")
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.raises(ConfigError, match=rf"^{cfg}: unknown key 'csv_columns.dvl.velocity_units'; did you mean "
+                                          r"'csv_columns.dvl.velocity_unit'\?$"):
+        load_mission(tmp_path, cfg)
+    cmap["dvl"]["velocity_unit"] = cmap["dvl"].pop("velocity_units")
+    cmap["imu"]["axes"] = "flu"
+    with pytest.raises(ConfigError, match=rf"^{_config(tmp_path, sim, cmap)}: unknown key 'csv_columns.imu.axes'; "
+                                          "csv_columns.imu accepts file, t, .*frame$"):
+        load_mission(tmp_path, cfg)
+    del cmap["imu"]["axes"]
+    cmap["gt"]["angle_units"] = "deg"
+    with pytest.raises(ConfigError, match=r"^configuration: unknown key 'csv_columns.gt.angle_units'; did you mean "
+                                          r"'csv_columns.gt.angle_unit'\?$"):
+        load_csv_mission(tmp_path, SensorConfig(csv_columns=cmap))      # a map built in code is checked too
+    cmap["gt"] = "nav.csv"
+    with pytest.raises(ConfigError, match=r"key 'csv_columns.gt': expected a JSON object"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def _velocity_log(tmp_path, m, flags):
+    """A DVL that logs its body velocity (m/s) with a bottom-lock column ``flags`` (M,)."""
+    v_b = m.gt.v_b[np.searchsorted(m.gt.t, m.dvl.t)]
+    _write(tmp_path / "dvl.csv", ["time_ms", "vx", "vy", "vz", "bl"], [(m.dvl.t + T0) * 1e3, v_b, flags])
+    return v_b
+
+
+def test_a_dvl_velocity_of_exactly_zero_or_flagged_invalid_is_not_a_measurement(sim, tmp_path):
+    """A body-velocity DVL without bottom lock: pings logged 0, 0, 0 are refused (warned with their file lines,
+    counted); a declared 'valid' column now applies to 'v_b' (it applied to 'beams' only: the flagged pings'
+    velocity was used)."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    from graphnav.io.stream_counts import NO_VALID_BEAM
+    cmap = _separate_files(tmp_path, sim)
+    flags = np.ones(len(sim.dvl.t))
+    flags[20:25] = 0
+    v_b = _velocity_log(tmp_path, sim, flags)
+    lines = (tmp_path / "dvl.csv").read_text().splitlines()
+    for i in range(11, 16):                              # pings 10-14, file lines 12-16
+        lines[i] = lines[i].split(",")[0] + ",0,0.0,0,1"
+    (tmp_path / "dvl.csv").write_text("\n".join(lines) + "\n")
+    cmap["dvl"] = {"file": "dvl.csv", "t": "time_ms", "v_b": ["vx", "vy", "vz"], "valid": ["bl"] * 4,
+                   "velocity_unit": "m/s"}
+    m, messages = _load_recording(tmp_path, _config(tmp_path, sim, cmap))
+    assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 5, NO_VALID_BEAM: 5}
+    bad = np.zeros(len(sim.dvl.t), bool)
+    bad[10:15] = bad[20:25] = True
+    assert not m.dvl.valid[bad].any() and m.dvl.valid[~bad].all()
+    assert np.isnan(m.dvl.v_b[bad]).all()
+    np.testing.assert_allclose(m.dvl.v_b[~bad], v_b[~bad], atol=1e-9)
+    dvl = tmp_path / "dvl.csv"
+    assert any(s.startswith(f"{dvl}: 5 DVL ping(s) with a velocity of exactly 0 on every axis (a ping without bottom "
+                            "lock) refused at line(s) 12, 13, 14, 15, 16") for s in messages), messages
+    assert any(s.startswith(f"{dvl}: 5 of {len(bad)} DVL ping(s) have no valid beam and are not used (first at line "
+                            "22,") for s in messages), messages
+
+
+def _as_dialect(path, sep, decimal=".", comments=()):
+    lines = path.read_text().splitlines()
+    body = [line.replace(",", sep).replace(".", decimal) for line in lines]
+    path.write_text("\n".join([f"# {c}" for c in comments] + body) + "\n")
+
+
+def test_semicolon_tab_and_comment_lines_read_as_the_comma_file(sim, tmp_path):
+    """Files separated by ';' (with decimal commas, as European spreadsheets write them) or tabs, and comment
+    lines before the header, read as the comma file does (they stopped at 'column(s) ... not in the header
+    ['t;ax;...']'), noted in the stream's notes; a declared delimiter is used as given; a cell that is no number
+    either way stays a DataError naming its line."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    clean = load_mission(tmp_path, cfg, prepare=False)
+    _as_dialect(tmp_path / "imu.csv", ";", ",", comments=("logged by vehicle X, firmware 1.2", "units: g, deg/s"))
+    _as_dialect(tmp_path / "dvl.csv", "\t")
+    _as_dialect(tmp_path / "nav.csv", ";", comments=("reference",))
+    m = load_mission(tmp_path, cfg, prepare=False)
+    for stream in ("imu", "dvl", "gt"):
+        for a, b in zip(dataclasses.astuple(getattr(m, stream)), dataclasses.astuple(getattr(clean, stream))):
+            if isinstance(a, np.ndarray):
+                np.testing.assert_array_equal(a, b)
+    notes = m.meta["streams"]["imu"]["notes"]
+    imu = tmp_path / "imu.csv"
+    assert f"{imu}: 2 comment line(s) before the header skipped" in notes
+    assert f"{imu}: separated by ';'" in notes
+    assert any(n.startswith(f"{imu}: ") and n.endswith("number(s) with a decimal comma read") for n in notes)
+    assert f"{tmp_path / 'dvl.csv'}: separated by '\\t'" in m.meta["streams"]["dvl"]["notes"]
+    cmap["dvl"]["delimiter"] = ","
+    with pytest.raises(DataError, match=r"dvl.csv, line 1, field 'time_ms': column\(s\)"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap), prepare=False)
+    cmap["dvl"]["delimiter"] = "\t"
+    load_mission(tmp_path, _config(tmp_path, sim, cmap), prepare=False)
+    lines = imu.read_text().splitlines()
+    cells = lines[12].split(";")
+    lines[12] = ";".join(cells[:1] + ["1.234,5"] + cells[2:])    # no number with a decimal point or comma
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"imu.csv, line 13, field 'ax': not a number: '1.234,5'"):
+        load_mission(tmp_path, cfg, prepare=False)
+
+
+def test_a_bad_depth_cell_refuses_its_row_and_dvl_warnings_name_lines(sim, tmp_path):
+    """An empty, NaN or infinite depth cell refuses its row (warned with the line, counted) as for the other
+    streams; it used to stop the load. A beam that is not a measurement is warned about at its file line (it
+    named the ping's index)."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    for line, text in ((12, ""), (22, "nan"), (32, "inf")):
+        _edit_line(tmp_path / "depth.csv", line, lambda f, text=text: [f[0], text])
+    _edit_line(tmp_path / "dvl.csv", 42, lambda f: f[:2] + ["1e6"] + f[3:])
+    m, messages = _load_recording(tmp_path, cfg)
+    assert m.meta["streams"]["depth"]["refused"] == {"empty or NaN in 'p_dbar'": 2, "infinite in 'p_dbar'": 1}
+    assert m.meta["streams"]["depth"]["read"] == len(sim.depth.t) and len(m.depth.t) == len(sim.depth.t) - 3
+    assert any(s.startswith(f"{tmp_path / 'depth.csv'}: 3 depth sample(s) refused (2 empty or NaN in 'p_dbar'; 1 "
+                            "infinite in 'p_dbar') at line(s) 12, 22, 32;") for s in messages), messages
+    assert any(s.startswith(f"{tmp_path / 'dvl.csv'}: 1 beam value(s)") and "first at line 42," in s
+               for s in messages), messages
+
+
+def test_a_reference_position_its_velocity_cannot_explain_is_refused(sim, tmp_path):
+    """1e308 (or a 20 m jump) in one reference position cell was accepted silently; the row is refused with its
+    line, as a velocity spike is."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    _edit_line(tmp_path / "nav.csv", 52, lambda f: f[:1] + ["1e308"] + f[2:])
+    _edit_line(tmp_path / "nav.csv", 152, lambda f: f[:2] + [f"{float(f[2]) + 20:.12g}"] + f[3:])
+    m, messages = _load_recording(tmp_path, cfg)
+    from graphnav.core.screening import GT_POSITION_SPIKE as reason
+    assert m.meta["streams"]["gt"]["refused"] == {reason: 2}
+    assert any(s.startswith(f"{tmp_path / 'nav.csv'}: 2 gt sample(s) refused (2 {reason}) at line(s) 52, 152;")
+               for s in messages), messages
+    np.testing.assert_allclose(m.gt.p_n, np.delete(sim.gt.p_n, [50, 150], axis=0), atol=1e-6)

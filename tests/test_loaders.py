@@ -820,3 +820,30 @@ def test_akit_row_written_twice_is_dropped_without_repair(tmp_path):
     imu.write_text("\n".join(lines[:801] + [lines[800][:-1] + "7"] + lines[801:]) + "\n")
     with pytest.raises(DataError, match=r"line 802.*--repair-stamps"):
         load_akit(folder)
+
+
+def test_akit_zero_dvl_velocity_and_an_impossible_latitude_refuse_their_ping_and_row(tmp_path):
+    """A DVL row of exactly 0, 0, 0 (how drivers log a ping without bottom lock) is refused, warned with its lines
+    and counted, instead of being a measurement of a vehicle standing still; a latitude of 1e308 refuses its GT row
+    (it used to stop the whole load with the latitude/longitude unit error)."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    folder = make_akit_folder(tmp_path, n=1)
+    dvl = folder / "DVL_trajectory1.csv"
+    lines = dvl.read_text().splitlines()
+    for i in range(20, 25):                              # file lines 21-25
+        lines[i] = lines[i].split(",")[0] + ",0.0,0,-0.0"
+    dvl.write_text("\n".join(lines) + "\n")
+    gt = folder / "GT_trajectory1.csv"
+    lines = gt.read_text().splitlines()
+    cells = lines[40].split(",")                         # file line 41
+    lines[40] = ",".join(cells[:2] + ["1e308"] + cells[3:])
+    gt.write_text("\n".join(lines) + "\n")
+    m, caught = _load_quiet(folder)
+    assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 5}
+    assert m.meta["streams"]["gt"]["refused"] == {"latitude or longitude beyond 90 / 180 deg": 1}
+    assert int((~m.dvl.valid.any(axis=1)).sum()) == 5
+    assert any(w.startswith(f"{dvl}: 5 DVL ping(s) with a velocity of exactly 0 on every axis (a ping without bottom "
+                            "lock) refused at line(s) 21, 22, 23, 24, 25") for w in caught), caught
+    assert any(w.startswith(f"{gt}: 1 gt sample(s) refused (1 latitude or longitude beyond 90 / 180 deg) at line(s) "
+                            "41") for w in caught), caught
+    assert len(m.gt.t) == 119 and np.all(np.abs(m.gt.p_n) < 1e4)

@@ -352,6 +352,42 @@ SCHEMA: dict[str, Key] = {
     "csv_columns": Key("object"),
 }
 
+#: The keys each stream of ``csv_columns`` accepts (:mod:`graphnav.io.generic_csv` reads them), and under ``""``
+#: the map's own keys besides the streams. A key not listed is a ConfigError naming it, so that a misspelt unit or
+#: frame key cannot fall back to a default; a new key is one more name here.
+CSV_COLUMN_KEYS: dict[str, tuple[str, ...]] = {
+    "": ("time_unit",),
+    "imu": ("file", "t", "time_unit", "delimiter", "f_b", "omega_b", "accel_unit", "gyro_unit", "frame"),
+    "dvl": ("file", "t", "time_unit", "delimiter", "beams", "valid", "v_b", "velocity_unit", "clock", "pd0"),
+    "depth": ("file", "t", "time_unit", "delimiter", "depth", "pressure", "pressure_unit"),
+    "gt": ("file", "t", "time_unit", "delimiter", "p_n", "v_n", "euler", "angle_unit", "velocity_sigma"),
+}
+
+
+def check_column_map(cmap: dict, source: str) -> None:
+    """ConfigError naming ``source`` and the key for a ``csv_columns`` key that :data:`CSV_COLUMN_KEYS` does not
+    list (with the closest accepted name), or a stream entry that is not a JSON object."""
+    streams = [k for k in CSV_COLUMN_KEYS if k]
+    for name, spec in cmap.items():
+        if name not in streams:
+            _unknown_column_key(source, "", name, streams + list(CSV_COLUMN_KEYS[""]), CSV_COLUMN_KEYS[""])
+        elif not isinstance(spec, dict):
+            raise ConfigError(f"{source}: key 'csv_columns.{name}': expected a JSON object of column names "
+                              f"({{\"file\": ..., \"t\": ...}}), got {_got(spec)}")
+        else:
+            for key in spec:
+                _unknown_column_key(source, name, key, CSV_COLUMN_KEYS[name], CSV_COLUMN_KEYS[name])
+
+
+def _unknown_column_key(source: str, stream: str, key: str, choices, accepted) -> None:
+    if key in accepted:
+        return
+    where = "csv_columns" + (f".{stream}" if stream else "")
+    close = difflib.get_close_matches(str(key), list(choices), n=1, cutoff=0.6)
+    hint = f"; did you mean '{where}.{close[0]}'?" if close else f"; {where} accepts {', '.join(choices)}"
+    raise ConfigError(f"{source}: unknown key '{where}.{key}'{hint}")
+
+
 #: The sections of a configuration file and the dataclass each one fills.
 SECTIONS: dict[str, type] = {"imu": ImuSpec, "dvl": DvlSpec}
 
@@ -491,6 +527,8 @@ class ConfigOverrides:
                     values[key] = _check_value(key, SCHEMA[key], v, source)
             elif name in SCHEMA:
                 values[name] = _check_value(name, SCHEMA[name], value, source)
+                if name == "csv_columns":
+                    check_column_map(values[name], source)
             else:
                 raise ConfigError(f"{source}: unknown key '{name}'{_suggest(str(name), '')}")
         return cls(values, source)

@@ -367,10 +367,69 @@ def gt_implausible(t: np.ndarray, v_n: np.ndarray, spec: DvlSpec) -> dict[str, n
     return {f"GT speed > {spec.max_speed_mps:g} m/s": speed, "GT velocity spike": jump}
 
 
+#: A reference position may depart from what its own velocity explains (the position less the velocity's
+#: integral, against its neighbours: :func:`gt_position_spikes`) by ``1.5 * DvlSpec.jump_tolerance_mps * dt`` plus
+#: this, m. The ten A-KIT trajectories (1 Hz) depart by at most 0.64 m (Trajectory11; the others 0.03-0.31 m).
+GT_POSITION_TOLERANCE_M = 2.0
+#: Reason of a reference row :func:`gt_position_spikes` refuses.
+GT_POSITION_SPIKE = "GT position spike (its velocity does not explain it)"
+#: A reference gap longer than this many of its median steps is not integrated across (:func:`gt_position_spikes`).
+GT_POSITION_GAP_STEPS = 5.0
+
+
+def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec,
+                       usable: np.ndarray | None = None) -> np.ndarray:
+    """(N,) reference rows whose position (N,3) m jumps where their velocity (N,3) m/s, at ``t`` (N,) s, does not
+    (a corrupted cell, 1e308): a spike of the position less the trapezoid integral of the velocity. Only ``usable``
+    rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are tested and integrated;
+    across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a
+    reference dropout is no step."""
+    t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
+    ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
+    ok &= True if usable is None else np.asarray(usable, bool)
+    if ok.sum() < 3:
+        return np.zeros(len(t), dtype=bool)
+    dt = np.diff(t[ok])
+    with np.errstate(over="ignore", invalid="ignore"):
+        step = 0.5 * (v[ok][1:] + v[ok][:-1]) * dt[:, None]
+        gap = dt > GT_POSITION_GAP_STEPS * np.median(dt)
+        step[gap] = np.diff(p[ok], axis=0)[gap]
+        residual = np.full(p.shape, np.nan)
+        residual[ok] = p[ok] - np.cumsum(np.vstack([np.zeros((1, 3)), step]), axis=0)
+        return spike_mask(t, residual, spec.jump_tolerance_mps, GT_POSITION_TOLERANCE_M, usable=ok)
+
+
+def latlon_impossible(lat: np.ndarray, lon: np.ndarray) -> dict[str, np.ndarray]:
+    """Rows whose latitude or longitude (N,), in degrees or radians, is no angle of either kind (beyond 90 or 180
+    in magnitude: a corrupted cell), refused before the unit is decided from the others."""
+    with np.errstate(invalid="ignore"):
+        bad = (np.abs(lat) > 90.0) | (np.abs(lon) > 180.0)
+    return {"latitude or longitude beyond 90 / 180 deg": bad}
+
+
 def beams_out_of_range(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
     """(M,4) valid beams whose magnitude exceeds the vehicle's speed (a beam is a projection of it)."""
     with np.errstate(invalid="ignore"):
         return np.asarray(valid, bool) & ~(np.abs(np.asarray(beams, float)) <= spec.max_speed_mps)
+
+
+#: Reason of a DVL ping whose velocity is exactly zero on every axis (:func:`no_bottom_lock`).
+NO_BOTTOM_LOCK = "velocity exactly 0 on every axis (no bottom lock)"
+
+
+def no_bottom_lock(v: np.ndarray, lines: np.ndarray, source: str) -> np.ndarray:
+    """(M,) pings whose velocity components (M,k) m/s are all exactly 0.0, warned naming ``source`` and their file
+    ``lines`` (the loader counts them under :data:`NO_BOTTOM_LOCK`). Water Linked DVLs and several drivers log a
+    ping without bottom lock so; a DVL moving or hovering measures noise on every axis, and none of the 4000 pings
+    of the ten A-KIT trajectories nor of the real PD0 files has all of them at 0 (the PD0 files: 6 single zero
+    beams in 2254 pings). Used as a measurement, a block of 30 such pings cost Trajectory1's first 200 s 0.26 m/s
+    of VRMSE (0.09 clean)."""
+    zero = np.all(np.asarray(v, float) == 0.0, axis=1)
+    if zero.any():
+        warnings.warn(f"{source}: {int(zero.sum())} DVL ping(s) with a velocity of exactly 0 on every axis (a ping "
+                      f"without bottom lock) refused at line(s) {_first_lines(np.asarray(lines)[zero])}; they are "
+                      "not used", RuntimeWarning, stacklevel=3)
+    return zero
 
 
 # ------------------------------------------------------------------------------------------------

@@ -29,13 +29,21 @@ a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 (positive down); ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro,
 converted with a warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
 with its down velocity (a DataError naming the columns otherwise; its down may be relative or absolute).
-``frame`` frd (default) or flu for the IMU (the latter negates y and z).
+``frame`` frd (default) or flu for the IMU (the latter negates y and z). A key a stream does not accept
+(:data:`graphnav.core.config.CSV_COLUMN_KEYS`, e.g. a misspelt ``velocity_units``) is a ConfigError naming the
+configuration file, the stream and the key, with the closest accepted one.
+
+Files: leading ``#`` comment lines are skipped; the separator is the one of ``,`` ``;`` tab the header line uses
+most, or a stream's ``delimiter``; in a ``;`` or tab separated file a number with one decimal comma (``0,25``) is
+read as ``0.25`` (each noted in the stream's notes).
 
 DVL: ``beams`` (along-beam velocities of the head) with optional ``valid`` flag columns (non-zero = valid;
 without them every finite beam is valid; RDI's -32768 / -32.768 flags are invalid), or only ``v_b`` (a DVL
 that logs body velocity): the beams are then the exact projections ``T_b v_b`` of that velocity on the
 configured beam geometry (no noise added; ``meta["beams_from_v_b"]``), and a ping with any non-finite axis
-has no valid beam. Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
+has no valid beam. The ``valid`` flags apply to ``v_b`` too (a velocity needs three valid beams); a ping whose
+velocity (or four beams) is exactly 0 on every axis has no bottom lock and is refused (warned with its lines,
+counted). Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
 (:mod:`graphnav.io.pd0`) recorded in any RDI frame (beam, instrument, ship or earth: rotated back to beams;
 3-beam solutions become ``DvlData.v_d``), whose stamps are Unix seconds: the IMU stamps must then be Unix too;
 what the file read and refused is in ``meta["streams"]``.
@@ -47,8 +55,9 @@ through :func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta[
 ``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
 IMU clock already.
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
-An IMU or reference row with an empty, NaN or infinite cell is refused (counted, warned with its line and column),
-as are reference rows whose velocity the vehicle cannot have, before the reference's unit and sign checks; an
+An IMU, depth or reference row with an empty, NaN or infinite cell is refused (counted, warned with its line and
+column), as are reference rows whose velocity the vehicle cannot have or whose position jumps where its velocity
+does not, before the reference's unit and sign checks; an
 infinite DVL value is a beam that is not a measurement. A row written twice exactly is dropped (counted, warned);
 a stamp on two different rows, or going back, is a DataError unless ``repair`` (``--repair-stamps``) drops the later
 row and sorts the rest (counted, warned), as for an A-KIT folder.
@@ -61,11 +70,21 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.core.config import SensorConfig
+from graphnav.core.config import SensorConfig, check_column_map
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.core.screening import gt_implausible, imu_implausible, not_finite, refuse_rows, stamp_order
-from graphnav.core.streams import count_read, count_refused
+from graphnav.core.screening import (
+    GT_POSITION_SPIKE,
+    NO_BOTTOM_LOCK,
+    gt_implausible,
+    gt_position_spikes,
+    imu_implausible,
+    no_bottom_lock,
+    not_finite,
+    refuse_rows,
+    stamp_order,
+)
+from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
@@ -95,22 +114,57 @@ def _unit(spec: dict, key: str, table: dict, default: str, where: str) -> float:
     return table[name]
 
 
-class _Table:
-    """One CSV file read as text columns, with the line number of every row."""
+#: Separators a column-map file may use, detected from its header line: the most frequent there (a tie: the first).
+DELIMITERS = (",", ";", "\t")
 
-    def __init__(self, path: Path):
+
+class _Table:
+    """One CSV file read as text columns, with the line number of every row. Leading lines starting with ``#``
+    (a logger's comments) are skipped; the separator is ``delimiter`` or the :data:`DELIMITERS` one the header
+    line uses most. In a file separated by ``;`` or tabs a number with one decimal comma (``0,25``, as European
+    spreadsheets write it) is read as a decimal point."""
+
+    def __init__(self, path: Path, delimiter: str | None = None):
         self.path = path
         try:
             with open(path, newline="", encoding="utf-8-sig") as f:
-                rows = list(csv.reader(f))
+                lines = f.read().splitlines()
         except OSError as exc:
             raise DataError(f"cannot read file: {exc}", str(path)) from None
         except UnicodeDecodeError as exc:
             raise DataError(f"not UTF-8 text: {exc}", str(path)) from None
-        if not rows:
-            raise DataError("empty file, expected a header line", str(path), 1)
+        self.comments = next((i for i, line in enumerate(lines) if not line.lstrip().startswith("#")), len(lines))
+        if self.comments == len(lines) or not lines[self.comments].strip():
+            raise DataError("empty file, expected a header line", str(path), self.comments + 1)
+        head = lines[self.comments]
+        if delimiter is None:
+            delimiter = max(DELIMITERS, key=head.count)
+        elif len(delimiter) != 1:
+            raise ConfigError(f"{path}: csv_columns delimiter {delimiter!r}: give one character (',', ';', '\\t')")
+        self.delimiter, self.decimal_commas = delimiter, 0
+        rows = list(csv.reader(lines[self.comments:], delimiter=delimiter))
         self.header = [h.strip() for h in rows[0]]
         self.rows = rows[1:]
+
+    def notes(self) -> list[str]:
+        """What reading the file took beyond a plain comma-separated table, for the stream's notes."""
+        return ([f"{self.comments} comment line(s) before the header skipped"] if self.comments else []) + (
+            [f"separated by {self.delimiter!r}"] if self.delimiter != "," else []) + (
+            [f"{self.decimal_commas} number(s) with a decimal comma read"] if self.decimal_commas else [])
+
+    def _number(self, cell: str, line: int, name: str) -> float:
+        try:
+            return float(cell) if cell else np.nan
+        except ValueError:
+            comma = self.delimiter != "," and cell.count(",") == 1 and "." not in cell
+            try:
+                value = float(cell.replace(",", ".")) if comma else None
+            except ValueError:
+                value = None
+            if value is None:
+                raise DataError(f"not a number: {cell!r}", str(self.path), line, name) from None
+            self.decimal_commas += 1
+            return value
 
     def columns(self, names: list[str], stream: str) -> tuple[np.ndarray, np.ndarray]:
         """(values (n, len(names)) with NaN for empty cells, 1-based line numbers) of the rows where any of
@@ -118,23 +172,18 @@ class _Table:
         missing = [c for c in names if c not in self.header]
         if missing:
             raise DataError(f"column(s) {missing} of csv_columns.{stream} not in the header {self.header}",
-                            str(self.path), 1, missing[0])
+                            str(self.path), self.comments + 1, missing[0])
         idx = [self.header.index(c) for c in names]
         values, lines = [], []
+        first = self.comments + 2
         for i, row in enumerate(self.rows):
             cells = [row[j].strip() if j < len(row) else "" for j in idx]
             if not any(cells):
                 continue
-            out = []
-            for name, cell in zip(names, cells):
-                try:
-                    out.append(float(cell) if cell else np.nan)
-                except ValueError:
-                    raise DataError(f"not a number: {cell!r}", str(self.path), i + 2, name) from None
-            values.append(out)
-            lines.append(i + 2)
+            values.append([self._number(cell, i + first, name) for name, cell in zip(names, cells)])
+            lines.append(i + first)
         if not values:
-            raise DataError(f"no rows with values for csv_columns.{stream}", str(self.path), 2, names[0])
+            raise DataError(f"no rows with values for csv_columns.{stream}", str(self.path), first, names[0])
         return np.array(values, float), np.array(lines)
 
 
@@ -161,11 +210,13 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     if path is None:
         raise ConfigError(f"csv_columns.{stream} needs 'file' (the data path is a folder)")
     if path not in tables:
-        tables[path] = _Table(path)
+        tables[path] = _Table(path, spec.get("delimiter"))
     table = tables[path]
     names = {k: _names(spec, k, n, stream, required=False) for k, n in groups.items()}
     flat = [spec["t"]] + [c for cols in names.values() if cols for c in cols]
     values, lines = table.columns(flat, stream)
+    for note in table.notes():
+        add_note(meta, stream, f"{path}: {note}")
     t = values[:, 0]
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
@@ -197,13 +248,6 @@ def _count_read(meta: dict, stream: str, t: np.ndarray, path: Path) -> None:
         count_read(meta, stream, t, str(path))
 
 
-def _require_finite(a: np.ndarray, lines: np.ndarray, cols: list[str], path: Path) -> None:
-    bad = np.argwhere(~np.isfinite(a))
-    if bad.size:
-        i, j = bad[0]
-        raise DataError("empty or non-finite value", str(path), int(lines[i]), cols[j])
-
-
 def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | None = None,
                      repair: bool = False) -> Mission:
     """A :class:`Mission` from CSV logs described by ``config.csv_columns`` (see the module docstring).
@@ -211,9 +255,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     about and counted, instead of a DataError (``--repair-stamps``)."""
     data = Path(data)
     cmap = config.csv_columns or {}
-    unknown = set(cmap) - set(STREAMS) - {"time_unit"}
-    if unknown:
-        raise ConfigError(f"csv_columns: unknown entr(ies) {sorted(unknown)}; expected {STREAMS} and time_unit")
+    check_column_map(cmap, "configuration")     # a configuration file's map was checked naming the file
     root, data_file = (data, None) if data.is_dir() else (data.parent, data)
     time_unit = cmap.get("time_unit")        # None: detected per stream (graphnav.io.units)
     tables: dict = {}
@@ -254,7 +296,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("dvl") or {}
     if not spec and pd0_file is None:
         raise ConfigError("csv_columns needs a 'dvl' entry")
-    depth = None
+    depth, dvl_refused, dvl_lines = None, {}, None
     if pd0_file is not None or "pd0" in spec:
         pd0_path = pd0_file or root / spec["pd0"]
         dvl_raw, depth, pd0_meta = read_pd0(pd0_path, config)
@@ -271,7 +313,16 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                                meta, repair)
         vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
         vdeclared = spec.get("velocity_unit")
-        v_b = dvl_velocity_units(v["v_b"] * vscale, str(path), meta, vdeclared) if "v_b" in v else None
+        lines = dvl_lines = v["_lines"]
+        flags = np.nan_to_num(v["valid"]) != 0 if "valid" in v else np.ones((len(t_dvl), 4), bool)
+        # a ping logged as 0, 0, 0 has no bottom lock: refused before the unit detection sees it
+        no_lock = no_bottom_lock(v["v_b"] if "v_b" in v else v.get("beams", np.empty((0, 1))), lines, str(path))
+        v_b = None
+        if "v_b" in v:
+            v_b = dvl_velocity_units(np.where(no_lock[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
+                                     vdeclared)
+            # the flags are per beam: a velocity needs three valid beams
+            v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
         if "beams" in v:
             raw = v["beams"]
             if vdeclared is None:
@@ -279,16 +330,18 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             flag = np.isin(raw, (-32768.0, -32.768))
             beams = np.where(flag, -32.768, raw * vscale)
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
-            valid = ~np.isnan(beams) if "valid" not in v else (np.nan_to_num(v["valid"]) != 0) & ~np.isnan(beams)
+            valid = flags & ~np.isnan(beams)
         elif v_b is not None:
             from graphnav.core.dvl import DvlGeometry
             T_b = DvlGeometry.from_spec(config.dvl).T_b
             beams = v_b @ T_b.T
-            valid = np.repeat(~np.any(np.isnan(v_b), axis=1, keepdims=True), 4, axis=1)
+            valid = flags & ~np.any(np.isnan(v_b), axis=1, keepdims=True)
             meta["beams_from_v_b"] = True
         else:
             raise ConfigError("csv_columns.dvl needs 'beams' (4 columns) or 'v_b' (3 columns)")
-        dvl = DvlData(t_dvl - t0, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized()
+        valid &= ~no_lock[:, None]
+        dvl = DvlData(t_dvl - t0, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized(lines=lines)
+        dvl_refused = {NO_BOTTOM_LOCK: no_lock}
 
     spec = cmap.get("depth")
     if spec:
@@ -298,8 +351,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if key is None:
             raise ConfigError("csv_columns.depth needs 'depth' (m, down) or 'pressure' (a column name)")
         t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta, repair)
-        _require_finite(v[key], v["_lines"], [spec[key]], path)
-        x = v[key][:, 0]
+        # an empty, NaN or infinite cell refuses its row, as for the IMU and the reference
+        _count_read(meta, "depth", t_d, path)
+        t_d, x = refuse_rows(meta, "depth", not_finite(v[key], [spec[key]]), str(path), v["_lines"], t_d, v[key][:, 0])
         if key == "pressure":
             unit = spec.get("pressure_unit", "Pa")
             p = x * _unit(spec, "pressure_unit", PRESSURE_UNITS, "Pa", "depth")
@@ -325,6 +379,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         _count_read(meta, "gt", t_g, path)
         fields = [c for key in keys for c in _names(spec, key, 3, "gt")]
         masks = {**not_finite(np.hstack([v[k] for k in keys]), fields), **gt_implausible(t_g, v["v_n"], config.dvl)}
+        masks[GT_POSITION_SPIKE] = gt_position_spikes(t_g, v["p_n"], v["v_n"], config.dvl,
+                                                      usable=~np.any(list(masks.values()), axis=0))
         t_g, *kept = refuse_rows(meta, "gt", masks, str(path), v["_lines"], t_g, *(v[k] for k in (*keys, "_lines")))
         v = dict(zip((*keys, "_lines"), kept))
         meta["gt_screened"] = True
@@ -338,7 +394,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         raise ConfigError(f"csv_columns.dvl.clock = {clock!r}: choose auto or imu")
     # a DVL on a clock of its own is put on the IMU's by graphnav.calibration.preparation (estimated from the data)
     meta.update(prepared=False, prepare={"format": "csv", "dvl_clock": clock})
-    _record_csv_streams(meta, cmap, imu, dvl, depth, gt)
+    _record_csv_streams(meta, cmap, imu, dvl, depth, gt, dvl_refused, dvl_lines)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
 
@@ -377,14 +433,15 @@ def _reference_sigma(value) -> list[float]:
     return sigma
 
 
-def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt) -> None:
-    """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock)."""
-    from graphnav.core.streams import add_note
+def _record_csv_streams(meta: dict, cmap: dict, imu, dvl, depth, gt, dvl_refused: dict,
+                        dvl_lines: np.ndarray | None) -> None:
+    """``meta["streams"]`` of a column-map mission: counts and what the loader did (units, frames, clock);
+    ``dvl_refused``: reason -> (M,) pings the reader refused, ``dvl_lines``: the file line of each ping (a CSV)."""
     from graphnav.io.stream_counts import record_streams
     # the PD0 reader counts its own DVL and depth, with its reasons (a CSV stream _read counted is counted here)
     done = {k for k, e in meta.get("streams", {}).items() if e["read"]} if "pd0_instrument" in meta else set()
     record_streams(meta, imu=imu, dvl=None if "dvl" in done else dvl, depth=None if "depth" in done else depth,
-                   gt=gt)
+                   gt=gt, dvl_refused=dvl_refused, dvl_lines=dvl_lines)
     from graphnav.core.streams import set_span
     for name, stream in (("dvl", dvl), ("depth", depth)):
         if name in done and stream is not None:

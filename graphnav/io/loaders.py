@@ -108,11 +108,14 @@ from graphnav.core.mission import (
 )
 from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
+    NO_BOTTOM_LOCK,
     beams_out_of_range,
     check_refused_fraction,
     depth_implausible,
     gt_implausible,
     imu_implausible,
+    latlon_impossible,
+    no_bottom_lock,
     not_finite,
     note_outages,
     refuse,
@@ -406,6 +409,7 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
                                                     meta, str(files["IMU"])), str(files["IMU"]), imu_lines, imu)
     if gt is not None:
         gt, = refuse_rows(meta, "gt", {**not_finite(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
+                                       **latlon_impossible(gt[:, 2], gt[:, 1]),
                                        **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, str(files["GT"]), gt_lines, gt)
     return AkitRaw(imu, dvl, gt, files, meta)
 
@@ -437,7 +441,8 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
     converted with the rest."""
     from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
     cols = AKIT_COLUMNS["GT"]
-    ok = np.all(np.isfinite(gt), axis=1)           # rows with an empty or NaN cell are refused afterwards
+    # rows with an empty or NaN cell, or a latitude no unit allows (1e308), are refused afterwards
+    ok = np.all(np.isfinite(gt), axis=1) & ~next(iter(latlon_impossible(gt[:, 2], gt[:, 1]).values()))
     # so are the velocity spikes: one V Down of 30 m/s would swamp the altitude's fit to the down velocity
     ok[ok] = ~np.any(list(gt_implausible(gt[ok, 0], gt[ok, 4:7], cfg.dvl).values()), axis=0)
     g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
@@ -689,6 +694,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
+    no_lock = no_bottom_lock(raw.dvl[:, 1:4], np.arange(len(v_dvl)) + 2, str(raw.files["DVL"]))
+    v_dvl[no_lock] = np.nan
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
     envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
@@ -700,7 +707,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
                       RuntimeWarning, stacklevel=2)
         v_dvl[outside] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
     _note_dvl_outages(raw, v_dvl)
-    refused = _akit_refused(len(v_dvl), flagged, envelope, cfg.dvl)
+    refused = _akit_refused(len(v_dvl), flagged, envelope, cfg.dvl, no_lock)
 
     src = {k: str(p) for k, p in raw.files.items()}
     valid_ping = np.all(np.isfinite(v_dvl), axis=1)
@@ -787,12 +794,14 @@ def _written_beams(raw: AkitRaw, v_dvl: np.ndarray, valid_ping: np.ndarray, cfg:
     return str(path), int(rows.size), int(valid_ping.sum() - rows.size), int(few.size)
 
 
-def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec) -> dict[str, np.ndarray]:
+def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec, no_lock: np.ndarray
+                  ) -> dict[str, np.ndarray]:
     """Reason -> (n,) mask of the DVL rows the A-KIT loader made invalid (NaN rows are left to the generic
     count of :func:`graphnav.io.stream_counts.record_streams`)."""
     flag = np.zeros(n, dtype=bool)
     flag[flagged] = True
-    out = {f"invalid velocity (RDI flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s)": flag}
+    out = {f"invalid velocity (RDI flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s)": flag,
+           NO_BOTTOM_LOCK: no_lock}
     for key, mask in envelope.items():
         limit = describe_implausible({key: np.ones(1, bool)}, spec).split(" ", 1)[1]   # "1 speed > 3 m/s" -> limit
         out[f"outside the vehicle's envelope ({limit})"] = mask

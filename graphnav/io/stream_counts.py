@@ -31,7 +31,8 @@ def dvl_used(dvl) -> np.ndarray:
 
 
 def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
-                   dvl_refused: dict[str, np.ndarray] | None = None, dvl_line_offset: int | None = None) -> dict:
+                   dvl_refused: dict[str, np.ndarray] | None = None, dvl_line_offset: int | None = None,
+                   dvl_lines: np.ndarray | None = None) -> dict:
     """Count every given stream as read (``count_read``) and refuse the DVL pings that are not used, by reason.
 
     Args:
@@ -42,6 +43,7 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             the dict wins); the loader has warned about them.
         dvl_line_offset: the file line of DVL ping ``i`` is ``i + dvl_line_offset`` (a CSV with one header line:
             2); the warning then names the line, else the ping's index.
+        dvl_lines: (M,) the file line of each DVL ping (a file whose pings are not one per line), for the warning.
 
     The pings not used and not under a loader reason are counted under :data:`NO_VALID_BEAM`, with a warning.
     Returns ``meta["streams"]``.
@@ -61,7 +63,8 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             left &= ~hit
         if left.any():
             first = int(np.flatnonzero(left)[0])
-            where = f"index {first}" if dvl_line_offset is None else f"line {first + dvl_line_offset}"
+            where = (f"line {int(dvl_lines[first])}" if dvl_lines is not None else f"index {first}"
+                     if dvl_line_offset is None else f"line {first + dvl_line_offset}")
             warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
                           f"used (first at {where}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
             count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
