@@ -1211,6 +1211,10 @@ def _dup_stamp(d):
     return d
 
 
+def _row_twice(d):
+    return np.insert(d, len(d) // 2, d[len(d) // 2], axis=0)
+
+
 def _shift_stamps(seconds):
     def edit(d):
         d[:, 0] += seconds
@@ -1266,6 +1270,11 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("IMU: 5 s of rows deleted (logger stall)", "smooth", W + D, _damage("IMU", _delete_rows(70.0, 75.0))),
     _sim("IMU: a stamp of 0 mid-file", "smooth", E + W, _damage("IMU", _zero_stamp)),
     _sim("IMU: a duplicated stamp", "smooth", E + W, _damage("IMU", _dup_stamp)),
+    _sim("IMU: a row written twice", "smooth", W, _damage("IMU", _row_twice)),
+    _sim("IMU: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
+    _sim("IMU: an infinite gyro cell", "smooth", W, _damage("IMU", _set(_imu_row, 5, np.inf))),
+    _sim("IMU: gyro 57.3x too small (converted to rad/s twice)", "smooth", E,
+         _damage("IMU", _scale_cols(slice(4, 7), np.radians(1.0)))),
     # DVL
     _sim("DVL: 60 s of rows deleted", "smooth", W + D, _damage("DVL", _delete_rows(40.0, 100.0))),
     _sim("DVL: 60 s of NaN rows", "smooth", W + D, _damage("DVL", _set(_t_between(40.0, 100.0), _DVL_XYZ, np.nan))),
@@ -1273,12 +1282,17 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("DVL: velocities in cm/s", "smooth", E + W, _damage("DVL", _scale_cols(_DVL_XYZ, 100.0))),
     _sim("DVL: x and y axes swapped (another frame)", "smooth", E + W, _damage("DVL", _swap_xy)),
     _sim("DVL: clock 3 days ahead of the IMU", "smooth", E, _damage("DVL", _shift_stamps(3 * 86400.0))),
+    _sim("DVL: 10 pings of exactly 0 m/s (no bottom lock)", "smooth", W,
+         _damage("DVL", _set(_t_between(70.0, 80.0), _DVL_XYZ, 0.0))),
     # ground truth
     _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
+    _sim("GT: latitude and longitude in degrees", "smooth", W, _damage("GT", _scale_cols(slice(1, 3), np.degrees(1.0)))),
+    _sim("GT: clock 3 days from the IMU", "smooth", W, _damage("GT", _shift_stamps(3 * 86400.0))),
     # configuration
     _cfg("config: {}", W + K, "{}"),
     _cfg("config: []", E, "[]"),
     _cfg("config: imu_rate_hz -100", E, _set_key(("imu_rate_hz",), -100.0)),
+    _cfg("config: imu_rate_hz 20 (the IMU runs at 100)", K, _set_key(("imu_rate_hz",), 20.0)),
     _cfg("config: negative gyro noise", E, _set_key(("imu", "gyro_noise_density"), -7e-7)),
     _cfg("config: wrong type (beam_noise_std 'high')", E, _set_key(("dvl", "beam_noise_std"), "high")),
     _cfg("config: negative sigma (depth_noise_std -0.05)", E, _set_key(("depth_noise_std",), -0.05)),
@@ -1306,6 +1320,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _real("real: 60 s of DVL rows deleted", "smooth", W + D, _damage("DVL", _delete_rows(40.0, 100.0))),
     _real("real: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
     _real("real: IMU stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
+    _real("real: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
     CliCase("real: evaluate against the A-KIT folder", "smooth; evaluate --ref FOLDER", K,
             lambda ws, f: _evaluate_case(ws, f, True), R, real=True),
     CliCase("train-beams --epochs 1 leaves the shipped weights", "train-beams --epochs 1", K + E,
