@@ -414,3 +414,60 @@ def _disagree(check: AxisCheck, g: np.ndarray, a: np.ndarray, i: int, source: st
     return DataError(f"no IMU axis sign convention fits: gyro {AXES[i]} sign {g[i]:+.0f} but accelerometer "
                      f"{AXES[i]} sign {a[i]:+.0f} (one convention applies to both sensors); suspects: "
                      f"{'; '.join(check.suspects) or 'none'}; pass imu_axis_signs", source, field=f"axis {AXES[i]}")
+
+
+# ------------------------------------------------------------------------------------------------
+# An IMU in a declared frame (column-map CSV, bags): the same detection, checking the declaration
+# ------------------------------------------------------------------------------------------------
+#: What the sign corrections that keep a frame right-handed mean for an IMU declared FRD, for the messages.
+FRAME_FAULTS = {(1, -1, -1): "FLU axes (ROS REP-103), or an IMU mounted upside down (rolled 180 deg)",
+                (-1, 1, -1): "an IMU mounted pitched 180 deg (x aft, z up)",
+                (-1, -1, 1): "an IMU turned 180 deg about z (x aft)"}
+
+
+def declared_frame_signs(imu, config: SensorConfig, gt=None, source: str = "IMU", field: str = "omega_b"
+                         ) -> tuple[np.ndarray, str]:
+    """``(signs, how)``: the signs the IMU's x, y, z (accelerometer and gyro, in the FRD frame a loader turned
+    them into by a declaration) need according to the data, ones when the data agree or cannot tell; ``how``
+    says what saw it.
+
+    The detection of :func:`detect_imu_axis_signs` with no convention assumed. With ``gt`` (on the IMU clock):
+    the gyro against its attitude, taken when decided. Without: z from gravity (an FRD IMU reads -g on z, so
+    +g is certain), y from the tilt kinematics when they decide, else y follows z (the frame stays
+    right-handed); x cannot be seen without a heading reference and stays. ``field``: the columns an error names.
+
+    Raises:
+        DataError: the axes are swapped or turned about z against the GT (naming the likely mounting), or gyro
+            and accelerometer flipped differently.
+    """
+    if gt is None:
+        z = -1.0 if _gravity_on_plus_z(imu) else 1.0
+        detection = _detect_without_gt(imu, source, (1.0, z, z))
+        how = ("gravity reading +g on the accelerometer z axis (an FRD IMU reads -g)" if z < 0 else
+               "the tilt kinematics (gyro against the accelerometer's gravity direction)")
+        return np.asarray(detection.signs, float), how
+    try:
+        detection = detect_imu_axis_signs(imu, config, gt, source, fallback_signs=(1.0, 1.0, 1.0))
+    except DataError as exc:
+        raise _turned(imu, config, gt, source, field) or exc from None
+    signs = np.asarray(detection.signs, float) if detection.decided else np.ones(3)
+    return signs, "the gyro against the GT attitude"
+
+
+def _turned(imu, config: SensorConfig, gt, source: str, field: str) -> DataError | None:
+    """DataError saying where the IMU's axes point in the body frame when the gyro fits the GT attitude only
+    with its axes permuted (an IMU mounted turned 90 deg about z: its heading turns against the GT's by a
+    constant 90 deg); None when the gyro map is not a permutation."""
+    check, _ = _run_axis_check(imu, gt, config)
+    P = check.gyro_map
+    if P is None or np.allclose(np.abs(P), np.eye(3)):
+        return None
+    names = {(0, 1.0): "forward", (0, -1.0): "aft", (1, 1.0): "starboard", (1, -1.0): "port",
+             (2, 1.0): "down", (2, -1.0): "up"}
+    # IMU axis j is the body direction P[:, j] (corrected = P @ raw, P orthogonal)
+    points = [f"its {AXES[j]} axis points {names[(int(np.flatnonzero(P[:, j])[0]), float(P[:, j].sum()))]}"
+              for j in range(3)]
+    return DataError(f"the gyro fits the GT attitude only with its axes permuted ({'; '.join(check.suspects)}): "
+                     f"the IMU is mounted turned against the body frame ({', '.join(points)}; FRD: x forward, y "
+                     "starboard, z down). Turn the accelerometer and gyro into the body frame before graphnav reads them (a "
+                     "column map can reorder columns, not turn or negate single axes)", source, field=field)

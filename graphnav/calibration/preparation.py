@@ -24,7 +24,11 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 3. **GT point.** The GT is moved from the published INS point to the IMU point
    (:func:`graphnav.calibration.reference.move_ground_truth`), and the depth stream with it.
 
-Bags, CSV logs and PD0 files: a DVL on a clock of its own is put on the IMU's
+Bags, CSV logs and PD0 files: the IMU frame the column map or the bag's frame_id declares is checked by the same
+detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that contradict a frame a user declared are a
+DataError, an implied frame is corrected with a warning; a depth is checked against the vehicle's vertical velocity
+(:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
+own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
 without a heading source is told whether the configured gyro can gyrocompass.
 
@@ -381,7 +385,9 @@ def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | No
 # Bags, CSV logs, PD0
 # ------------------------------------------------------------------------------------------------
 def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
-    """A DVL on its own clock put on the IMU's; a bag without heading told whether it can gyrocompass."""
+    """The IMU frame checked, a DVL on its own clock put on the IMU's, the depth's sign and unit checked; a bag
+    without heading told whether it can gyrocompass."""
+    mission = _imu_frame(mission, meta, facts.get("imu_frame"))
     dvl, depth = mission.dvl, mission.depth
     if facts.get("dvl_clock") == AUTO:
         from graphnav.calibration.clock import align_stream_clocks
@@ -389,10 +395,48 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
             if new is not old and stream in meta.get("streams", {}):
                 set_span(meta, stream, new.t)       # the stamps as the mission holds them
+    if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
+        from graphnav.io.units import depth_convention
+        checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
+                                   meta.get("stream_fields", {}).get("depth", "depth"))
+        depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
+    """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
+
+    ``frame`` (the loader's ``meta["prepare"]["imu_frame"]``): ``declared`` (the frame a user named, or None when
+    implied: a column map without ``frame`` or with ``"auto"``, a bag's frame_id), ``what`` (the declaration, for
+    the messages), ``fields`` (the columns or topic). Data that contradict a declared frame are a DataError; an
+    implied one is corrected, warned about and noted. None (other formats): the mission unchanged."""
+    if frame is None:
+        return mission
+    from graphnav.calibration.axes import FRAME_FAULTS, declared_frame_signs
+    imu, gt = mission.imu, mission.gt
+    if gt is not None and not on_the_imu_clock(gt.t, imu.t):
+        gt = None               # a GT on a clock of its own cannot check the axes: the IMU alone does
+    signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
+    if np.all(signs == 1):
+        return mission
+    key = tuple(int(x) for x in signs)
+    text = (f"the IMU data contradict {frame['what']}: they need axis signs {key} on x, y, z "
+            f"({FRAME_FAULTS.get(key, 'a left-handed frame: one axis negated')}), by {how}")
+    if frame["declared"]:
+        other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if key == (1, -1, -1) else None
+        fix = f"to {other!r} if the file holds that frame, or " if other else ""
+        raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto' to correct the axes from the data",
+                        imu.source, field=frame["fields"])
+    text += ": accelerometer and gyro multiplied by them"
+    add_note(meta, "imu", text)
+    warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=4)
+    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": True, "decided": True}
+    config = dataclasses.replace(mission.config, imu_axis_signs=mission.config.imu_axis_signs * signs)
+    imu = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
+    return dataclasses.replace(mission, imu=imu, config=config)
 
 
 def _warn_no_heading(config: SensorConfig, source: str, meta: dict) -> None:

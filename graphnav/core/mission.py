@@ -52,12 +52,22 @@ MAX_BRIDGE_FACTOR = 10
 MAX_IMU_BRIDGE_S = 600.0
 
 
-def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None) -> None:
-    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S`."""
+def check_imu_gap(t0: float, t1: float, source: str, index: int | None = None, field: str = "t") -> None:
+    """DataError when an IMU gap from t0 to t1 (s) is longer than :data:`MAX_IMU_BRIDGE_S` (``index``: the line or
+    index of the sample after it, ``field``: the stamp's column)."""
     if t1 - t0 > MAX_IMU_BRIDGE_S:
         raise DataError(f"IMU gap of {t1 - t0:.6g} s after t = {t0:.3f} s is longer than the {MAX_IMU_BRIDGE_S:g} s "
-                        "that can be bridged: the IMU stopped (or a stamp is wrong); split the mission there",
-                        source, index, "t")
+                        f"that can be bridged: the IMU stopped (or a stamp is wrong{whole_hours(t1 - t0)}); split "
+                        "the mission there", source, index, field)
+
+
+def whole_hours(step_s: float) -> str:
+    """``": N h to within a minute: a time zone or clock change applied mid-log?"`` for a stamp step (s) that
+    close to a whole number of hours, else ``""``: a logger's clock put to another time zone jumps by hours."""
+    hours = round(step_s / 3600.0)
+    if hours == 0 or abs(step_s - 3600.0 * hours) > 60.0:
+        return ""
+    return f": {hours:+d} h to within a minute, a time zone or clock change applied mid-log?"
 
 
 def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS) -> np.ndarray:

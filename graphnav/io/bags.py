@@ -358,7 +358,11 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
             "heading": (h, heading), "gt": (g, gt), "fix": (f, fixes)}
     dvl, depth, heading, gt, fixes = (_onto_imu_clock(imu, imu_s, stream, s, data, meta)
                                       for stream, (s, data) in read.items())
-    meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto"})
+    frame_id = imu_s.rows[0].header.frame_id
+    # a frame_id is a convention, not a user's declaration: the prepare step corrects the axes the data contradict
+    meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto", "imu_frame": {
+        "declared": None, "fields": imu_s.topic, "what": f"the IMU frame_id {frame_id!r} of {imu_s.topic} ("
+        + ("FRD" if conv.frame_is(frame_id, "_frd") else "REP-103 FLU: no _frd suffix") + ")"}})
     if depth is None:
         meta["depth_source"] = "none"
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,

@@ -29,7 +29,10 @@ a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 (positive down); ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro,
 converted with a warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
 with its down velocity (a DataError naming the columns otherwise; its down may be relative or absolute).
-``frame`` frd (default) or flu for the IMU (the latter negates y and z). A key a stream does not accept
+``frame`` frd or flu for the IMU (the latter negates y and z), or auto; the prepare step checks the axes against
+the data (the GT attitude, or gravity and the tilt kinematics): data that contradict a declared frd or flu are a
+DataError naming the columns; without ``frame`` or with ``auto`` FRD is taken and corrected from the data (a warning).
+A key a stream does not accept
 (:data:`graphnav.core.config.CSV_COLUMN_KEYS`, e.g. a misspelt ``velocity_units``) is a ConfigError naming the
 configuration file, the stream and the key, with the closest accepted one.
 
@@ -225,7 +228,7 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     unit = spec.get("time_unit", time_unit)
     if unit is not None:
         _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
-    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"])
+    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines)
     kept, dropped = stamp_order(t, values, lines, str(path), spec["t"], repair)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read
@@ -282,8 +285,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
     f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2, fields)
     frame = spec.get("frame", "frd")
-    if frame not in ("frd", "flu"):
-        raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd or flu")
+    if frame not in ("frd", "flu", "auto"):
+        raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd, flu or auto")
     if frame == "flu":
         f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
     t_imu, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t_imu, f_b, omega_b, config, fields, meta,
@@ -393,7 +396,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     if clock not in ("auto", "imu"):
         raise ConfigError(f"csv_columns.dvl.clock = {clock!r}: choose auto or imu")
     # a DVL on a clock of its own is put on the IMU's by graphnav.calibration.preparation (estimated from the data)
-    meta.update(prepared=False, prepare={"format": "csv", "dvl_clock": clock})
+    meta.update(prepared=False, prepare={"format": "csv", "dvl_clock": clock,
+                                         "imu_frame": _imu_frame_fact(cmap["imu"])})
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt, dvl_refused, dvl_lines)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
@@ -420,6 +424,17 @@ def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omeg
     # a reference's down is taken in the frame its file gives (relative or absolute): its sign only
     reference_depth(t, p_n[:, 2], v_n[:, 2], str(path), (spec["p_n"][2], spec["v_n"][2]), meta, lines=v["_lines"])
     return euler
+
+
+def _imu_frame_fact(spec: dict) -> dict:
+    """What the prepare step checks the IMU axes against (:func:`graphnav.calibration.preparation.prepare`): the
+    frame ``frd`` or ``flu`` the column map declares (contradicting data are an error), or None for ``"auto"`` or no
+    ``frame`` (FRD taken, corrected from the data with a warning)."""
+    frame = spec.get("frame")
+    what = (f"csv_columns.imu.frame {frame!r}" if frame in ("frd", "flu") else
+            "the FRD axes taken for csv_columns.imu" + (" (frame 'auto')" if frame else " (no frame given)"))
+    fields = _names(spec, "f_b", 3, "imu") + _names(spec, "omega_b", 3, "imu")
+    return {"declared": frame if frame in ("frd", "flu") else None, "what": what, "fields": "/".join(fields)}
 
 
 def _reference_sigma(value) -> list[float]:

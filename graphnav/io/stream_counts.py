@@ -80,11 +80,30 @@ def record_outside_span(mission: Mission) -> None:
     outside = dvl_used(mission.dvl) & ((t < mission.imu.t[0]) | (t > mission.imu.t[-1]))
     if outside.any():
         count_refused(mission.meta, "dvl", OUTSIDE_IMU_SPAN, int(outside.sum()))
+        _name_stamp_jump(mission, outside)
         near = np.all((t[outside] >= mission.imu.t[0] - OUTSIDE_SPAN_TOLERANCE_S)
                       & (t[outside] <= mission.imu.t[-1] + OUTSIDE_SPAN_TOLERANCE_S))
         if near:
             add_note(mission.meta, "dvl", f"{int(outside.sum())} ping(s) within {OUTSIDE_SPAN_TOLERANCE_S:g} s "
                                           "outside the IMU span (the end of a recording) not used")
+
+
+def _name_stamp_jump(mission: Mission, outside: np.ndarray) -> None:
+    """Warn about and note a step of the DVL stamps longer than an IMU gap can be (:data:`MAX_IMU_BRIDGE_S`) that
+    takes pings (``outside``: the used ones outside the IMU span) out of the IMU span: a clock that jumped (a time
+    zone set mid-log) loses them as surely as an outage, and the outage and outside-span warnings did not say why."""
+    from graphnav.core.mission import MAX_IMU_BRIDGE_S, whole_hours
+    t = mission.dvl.t
+    steps = np.flatnonzero(np.diff(t) > MAX_IMU_BRIDGE_S)
+    jumps = [i for i in steps if outside[i + 1:].all() or outside[:i + 1].all()]
+    if not jumps:
+        return
+    i = int(jumps[0])
+    text = (f"the DVL stamps jump by {t[i + 1] - t[i]:+.3f} s between ping indexes {i} and {i + 1} ({t[i]:.3f} -> "
+            f"{t[i + 1]:.3f} s{whole_hours(t[i + 1] - t[i])}): a clock step rather than an outage; the "
+            f"{int(outside.sum())} ping(s) it puts outside the IMU span are not used; correct the stamps")
+    add_note(mission.meta, "dvl", text)
+    warnings.warn(f"{mission.dvl.source}: {text}", RuntimeWarning, stacklevel=4)
 
 
 def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",

@@ -666,20 +666,141 @@ def reference_inconsistencies(t: np.ndarray, C_b_n: np.ndarray, p_n: np.ndarray,
     return found
 
 # ------------------------------------------------------------------------------------------------
+# a depth sensor's sign, unit and zero, against the vehicle's vertical velocity
+# ------------------------------------------------------------------------------------------------
+#: The depth's changes over :data:`POSITION_WINDOW_S` windows are fitted to the vertical velocity's integral (a
+#: slope with an intercept, which takes a velocity bias and a steady descent); the slope says the depth's sign and
+#: unit only when the two correlate this well (the ten shared trajectories: 0.95-1.00 with the DVL's velocity turned
+#: by the accelerometer's gravity direction, 0.97-1.00 with the GT's; their first 200 s with the DVL: 0.71).
+DEPTH_FIT_MIN_CORRELATION = 0.8
+#: A depth sensor reading above the sea surface by more than this (m) on most samples is not at sea: waves and a
+#: pressure offset stay within it (the bags' depth screening drops such samples).
+DEPTH_ABOVE_SURFACE_M = 1.0
+#: One atmosphere in metres of sea water (101.325 kPa / (1025 kg/m^3 g)), and how far a depth's constant offset from
+#: the GT's absolute down may be from it and still be an absolute pressure in dbar (sea-level weather: 95-106 kPa).
+ATMOSPHERE_M = 10.08
+ATMOSPHERE_SPREAD_M = 0.6
+
+
+def vertical_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray, str]:
+    """``(t s, v_down m/s, what)``: the vehicle's down velocity from the GT (``v_n`` down, on the IMU clock), else the DVL's body
+    velocity turned by the accelerometer's gravity direction (1 s means; no heading needed). Empty without either."""
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.timeseries import cumulative_integral, on_the_imu_clock
+    dvl, imu = mission.dvl, mission.imu
+    if mission.gt is not None and on_the_imu_clock(mission.gt.t, imu.t):
+        return mission.gt.t, mission.gt.v_n[:, 2], f"the down velocity of {mission.gt.source}"
+    v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(
+        np.where(dvl.valid, dvl.beams, np.nan), dvl.valid, allow_missing=True)
+    t_imu = np.ascontiguousarray(imu.t, float)
+    inside = (dvl.t - 0.5 >= t_imu[0]) & (dvl.t + 0.5 <= t_imu[-1]) & np.all(np.isfinite(v), axis=1)
+    F = np.asfortranarray(cumulative_integral(t_imu, imu.f_b))
+    f = interp_rows(dvl.t[inside] + 0.5, t_imu, F) - interp_rows(dvl.t[inside] - 0.5, t_imu, F)
+    down_b = -f / np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-12)     # FRD: f = -g down at rest
+    return dvl.t[inside], np.einsum("ki,ki->k", down_b, v[inside]), (f"the DVL velocity of {dvl.source} turned by "
+                                                                     "the accelerometer's gravity direction")
+
+
+def depth_rate_fit(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down: np.ndarray,
+                   window_s: float = POSITION_WINDOW_S) -> tuple[float, float]:
+    """``(slope, correlation)`` of the depth's changes (``depth`` m at ``t`` s) over windows of ``window_s`` against
+    the integral of the down velocity (``v_down`` m/s at ``t_v`` s) over them: 1 for a depth in metres positive
+    down, -1 positive up, 0.098 for a pressure in bar. NaN when the velocity moves less than
+    :data:`MIN_VERTICAL_MOTION_M` or there are too few windows."""
+    t_v, v_down = np.asarray(t_v, float), np.asarray(v_down, float)
+    inside = (t >= t_v[0]) & (t <= t_v[-1]) if t_v.size >= 2 else np.zeros(len(t), bool)
+    if inside.sum() < 3:
+        return float("nan"), float("nan")
+    t = np.asarray(t, float)[inside]
+    dp, dv = _window_increments(t, np.reshape(depth, (-1, 1))[inside], np.interp(t, t_v, v_down)[:, None], window_s)
+    if len(dp) < 5:
+        return float("nan"), float("nan")
+    dp, dv = dp[:, 0] - dp[:, 0].mean(), dv[:, 0] - dv[:, 0].mean()
+    if not np.sqrt(np.mean(dv ** 2)) >= MIN_VERTICAL_MOTION_M or not np.any(dp):
+        return float("nan"), float("nan")
+    return float(dp @ dv / (dv @ dv)), float(dp @ dv / np.sqrt((dp @ dp) * (dv @ dv)))
+
+
+def depth_convention(mission: Mission, meta: dict | None, field: str) -> np.ndarray:
+    """The depth of ``mission`` (m, positive down) checked against the vehicle's vertical velocity
+    (:func:`vertical_velocity`, :func:`depth_rate_fit`): changing against it while mostly above the sea surface it is
+    positive up, and flipped (a warning, a note); changing against it below the surface, changing at another rate
+    (:data:`SAME_UNITS_RATIO`: a pressure in bar or dbar read as metres), or above the surface by more than
+    :data:`DEPTH_ABOVE_SURFACE_M` on most samples with nothing to tell why are a DataError naming the depth's
+    ``field``. A depth a constant atmosphere deeper than an absolute GT down is warned about (an absolute pressure in
+    dbar read as metres; nothing else can tell it)."""
+    depth = mission.depth
+    t_v, v_down, what = vertical_velocity(mission)
+    k, r = depth_rate_fit(depth.t, depth.depth, t_v, v_down)
+    decided = abs(r) >= DEPTH_FIT_MIN_CORRELATION
+    fit = f"its changes are {k:.3g}x those of {what} over {POSITION_WINDOW_S:g} s windows (correlation {r:.2f})"
+    above = float(np.median(depth.depth)) < -DEPTH_ABOVE_SURFACE_M
+    extent = f"depth {np.min(depth.depth):.4g} to {np.max(depth.depth):.4g} m"
+    if decided and k < 0 and float(np.median(-depth.depth)) >= -DEPTH_ABOVE_SURFACE_M:
+        _note(meta, "depth", f"column '{field}' read as depth positive up and turned positive down: {extent} and {fit}",
+              depth.source)
+        return -depth.depth
+    if decided and (k < 0 or _units_disagree(k)):
+        raise DataError(f"the depth does not follow the vehicle's vertical motion: {fit} (1 for metres positive down; "
+                        "-1 positive up; 0.098 for a pressure in bar): "
+                        + ("a sign flipped in the depth or in the velocity" if k < 0 else
+                           "a pressure mapped as 'depth'? map it as 'pressure' with its pressure_unit"),
+                        depth.source, field=field)
+    if above:
+        raise DataError(f"{extent}: the vehicle above the sea surface by more than {DEPTH_ABOVE_SURFACE_M:g} m on most "
+                        "samples (depth is metres positive down); a depth positive up, or a zero not at the surface? "
+                        + (fit if np.isfinite(k) else "the vertical motion is too small to tell"),
+                        depth.source, field=field)
+    _absolute_dbar(mission, meta, field)
+    return depth.depth
+
+
+def _absolute_dbar(mission: Mission, meta: dict | None, field: str) -> None:
+    """Warn when the depth is a constant atmosphere (:data:`ATMOSPHERE_M`) deeper than the GT's down: an absolute
+    pressure in dbar read as metres (a GT down relative to another zero could also give it, hence no error)."""
+    depth, gt = mission.depth, mission.gt
+    if gt is None or len(gt.t) < 2:
+        return
+    inside = (depth.t >= gt.t[0]) & (depth.t <= gt.t[-1])
+    if inside.sum() < 10:
+        return
+    diff = depth.depth[inside] - np.interp(depth.t[inside], gt.t, gt.p_n[:, 2])
+    offset, spread = float(np.median(diff)), float(np.percentile(diff, 95) - np.percentile(diff, 5))
+    if abs(offset - ATMOSPHERE_M) <= ATMOSPHERE_SPREAD_M and spread <= ATMOSPHERE_SPREAD_M:
+        _note(meta, "depth", f"column '{field}' is {offset:.3g} m deeper than the GT's down ({gt.source}) all along: "
+              f"one atmosphere is {ATMOSPHERE_M:g} m of sea water: an absolute pressure in dbar read as metres? (dbar "
+              "is read as gauge pressure; subtract the surface pressure)", depth.source)
+
+
+# ------------------------------------------------------------------------------------------------
 # the entry point
 # ------------------------------------------------------------------------------------------------
 def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None = None,
                       expected_rate_hz: float | None = None, declared: str | None = None,
-                      field: str = "t") -> np.ndarray:
+                      field: str = "t", lines: np.ndarray | None = None) -> np.ndarray:
     """Stamps ``t`` in seconds: the unit detected by :func:`time_scale` applied (warning and note when not
-    s), or DataError."""
+    s), or DataError. An IMU gap longer than can be bridged is a DataError here, naming the line (``lines``: the
+    file line of each stamp) and ``field``: it is the stamps that are wrong, and a check of the other streams
+    against them (a reference's positions against its velocity) would blame another file."""
     scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared)
-    if scale == 1.0:
-        return t
-    if declared is None:
-        _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
-              "seconds for this stream) and converted to s", source)
-    return np.asarray(t, float) * scale
+    if scale != 1.0:
+        if declared is None:
+            _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
+                  "seconds for this stream) and converted to s", source)
+        t = np.asarray(t, float) * scale
+    if stream == "imu":
+        _imu_gaps(np.asarray(t, float), source, field, lines)
+    return t
+
+
+def _imu_gaps(t: np.ndarray, source: str, field: str, lines: np.ndarray | None) -> None:
+    """:func:`graphnav.core.mission.check_imu_gap` on the longest step of stamps ``t`` (s, as read)."""
+    from graphnav.core.mission import check_imu_gap
+    step = np.diff(t)
+    if not np.any(np.isfinite(step)):
+        return
+    i = int(np.nanargmax(step))
+    check_imu_gap(float(t[i]), float(t[i + 1]), source, None if lines is None else int(lines[i + 1]), field)
 
 
 def _stamps(stream, name: str, meta, config, declared_time: str | None):

@@ -1,0 +1,151 @@
+"""Inputs in another convention than declared: an IMU frame the data contradict (column-map CSV, bags), a depth
+positive up or in other units, a clock that jumps by an hour."""
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.errors import DataError
+from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.io import bags
+from graphnav.io.bag_convert import FLU_FRD
+from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
+from test_generic_csv import _config, _write
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_mission(duration_s=60.0, seed=5)
+
+
+def _csv(tmp_path, m, *, f_b=None, omega_b=None, frame="frd", gt=True):
+    """``m`` as a column-map CSV folder (IMU rows ``f_b``/``omega_b`` when given); returns the configuration path."""
+    _write(tmp_path / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"],
+           [m.imu.t, m.imu.f_b if f_b is None else f_b, m.imu.omega_b if omega_b is None else omega_b])
+    _write(tmp_path / "dvl.csv", ["t", "b1", "b2", "b3", "b4"], [m.dvl.t, np.nan_to_num(m.dvl.beams, nan=-32.768)])
+    _write(tmp_path / "depth.csv", ["t", "depth"], [m.depth.t, m.depth.depth])
+    _write(tmp_path / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [m.gt.t, m.gt.p_n, m.gt.v_n, C_b_n_to_euler(m.gt.C_b_n)])
+    imu = {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]}
+    if frame is not None:
+        imu["frame"] = frame
+    cmap = {"time_unit": "s", "imu": imu, "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"]},
+            "depth": {"file": "depth.csv", "t": "t", "depth": "depth"}}
+    if gt:
+        cmap["gt"] = {"file": "nav.csv", "t": "t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+                      "euler": ["roll", "pitch", "yaw"], "angle_unit": "rad"}
+    return _config(tmp_path, m, cmap)
+
+
+def _load(path, config):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(path, config)
+    return m, [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("gt", [True, False])
+def test_an_upside_down_imu_declared_frd_is_refused_and_corrected_with_auto(sim, tmp_path, gt):
+    flip = np.array([1.0, -1.0, -1.0])           # FLU, or rolled 180 deg
+    clean, said = _load(tmp_path, _csv(tmp_path, sim, gt=gt))
+    assert not [s for s in said if "contradict" in s]
+    with pytest.raises(DataError, match=r"imu\.csv.*ax/ay/az/gx/gy/gz.*contradict csv_columns\.imu\.frame 'frd'.*"
+                                        r"\(1, -1, -1\).*upside down.*frame to 'flu'"):
+        load_mission(tmp_path, _csv(tmp_path, sim, f_b=sim.imu.f_b * flip, omega_b=sim.imu.omega_b * flip, gt=gt))
+    for frame in ("auto", None):          # asked for, or no frame declared: corrected with a warning and a note
+        m, said = _load(tmp_path, _csv(tmp_path, sim, f_b=sim.imu.f_b * flip, omega_b=sim.imu.omega_b * flip,
+                                       frame=frame, gt=gt))
+        assert [s for s in said if "imu.csv: the IMU data contradict" in s and "multiplied" in s]
+        assert any("(1, -1, -1)" in n for n in m.meta["streams"]["imu"]["notes"])
+        np.testing.assert_allclose(m.imu.f_b, clean.imu.f_b, atol=1e-9)
+        np.testing.assert_allclose(m.imu.omega_b, clean.imu.omega_b, atol=1e-12)
+
+
+def test_an_imu_turned_90_deg_about_z_is_named(sim, tmp_path):
+    f, w = sim.imu.f_b, sim.imu.omega_b        # x to starboard: x_imu = y_b, y_imu = -x_b
+    turned = [np.column_stack([a[:, 1], -a[:, 0], a[:, 2]]) for a in (f, w)]
+    with pytest.raises(DataError, match=r"imu\.csv.*mounted turned.*its x axis points starboard, its y axis points "
+                                        r"aft"):
+        load_mission(tmp_path, _csv(tmp_path, sim, f_b=turned[0], omega_b=turned[1]))
+
+
+def test_a_bag_imu_in_frd_without_the_frd_frame_id_is_corrected(sim, tmp_path):
+    """A driver that publishes FRD rates under a REP-103 frame_id: read as FLU, the axes are turned back."""
+    import dataclasses
+    config = tmp_path / "config.json"
+    sim.config.save(config)
+    clean = load_mission(bags.write_mission_bag(sim, tmp_path / "clean"), config)
+    frd = dataclasses.replace(sim, imu=dataclasses.replace(sim.imu, f_b=sim.imu.f_b @ FLU_FRD,
+                                                           omega_b=sim.imu.omega_b @ FLU_FRD))
+    m, said = _load(bags.write_mission_bag(frd, tmp_path / "frd"), config)
+    assert [s for s in said if "frame_id 'imu_link' of /imu/data (REP-103 FLU" in s and "(1, -1, -1)" in s]
+    np.testing.assert_allclose(m.imu.f_b, clean.imu.f_b, atol=1e-9)
+    np.testing.assert_allclose(m.imu.omega_b, clean.imu.omega_b, atol=1e-12)
+
+
+def _depth_case(tmp_path, sim, depth, *, gt=True, **config):
+    """The CSV folder of ``sim`` with its depth column replaced by ``depth`` (and configuration keys)."""
+    path = _csv(tmp_path, sim, gt=gt)
+    _write(tmp_path / "depth.csv", ["t", "depth"], [sim.depth.t, depth])
+    cfg = json.loads(path.read_text())
+    cfg.update(config)
+    path.write_text(json.dumps(cfg))
+    return path
+
+
+@pytest.mark.parametrize("gt", [True, False])
+def test_a_depth_positive_up_is_turned_down_when_the_vertical_velocity_says_so(sim, tmp_path, gt):
+    # the range widened so that the positive-up depths (-22.6 .. -1.8 m) reach the check
+    m, said = _load(tmp_path, _depth_case(tmp_path, sim, -sim.depth.depth, gt=gt, depth_range_m=[-30, 6000]))
+    assert [s for s in said if "depth.csv: column 'depth' read as depth positive up and turned positive down" in s]
+    np.testing.assert_allclose(m.depth.depth, sim.depth.depth, atol=1e-9)
+
+
+def test_a_pressure_in_bar_as_depth_and_a_depth_above_the_surface_are_refused(sim, tmp_path):
+    bar = sim.depth.depth * 1025.0 * 9.80665 / 1e5 + 1.01325
+    with pytest.raises(DataError, match=r"depth\.csv, field 'depth': the depth does not follow the vehicle's vertical "
+                                        r"motion: its changes are 0\.1\d*x .*pressure mapped as 'depth'"):
+        load_mission(tmp_path, _depth_case(tmp_path, sim, bar))
+    still = np.full(len(sim.depth.t), -3.0) + 0.01 * np.random.default_rng(0).standard_normal(len(sim.depth.t))
+    with pytest.raises(DataError, match=r"depth\.csv, field 'depth': depth -3.* above the sea surface"):
+        load_mission(tmp_path, _depth_case(tmp_path, sim, still))
+
+
+def test_an_absolute_pressure_in_dbar_as_depth_is_warned_about(sim, tmp_path):
+    dbar = sim.depth.depth * 1025.0 * 9.80665 / 1e4 + 10.1325
+    m, said = _load(tmp_path, _depth_case(tmp_path, sim, dbar))
+    assert [s for s in said if "depth.csv: column 'depth' is 10.2 m deeper than the GT's down" in s
+            and "absolute pressure in dbar" in s]
+    assert any("absolute pressure in dbar" in n for n in m.meta["streams"]["depth"]["notes"])
+
+
+def _jump(tmp_path, sim, streams, at_s=30.0, by_s=3600.0):
+    """The CSV folder of ``sim`` with the stamps of ``streams`` (csv file names) moved by ``by_s`` from ``at_s`` on."""
+    path = _csv(tmp_path, sim)
+    for name in streams:
+        lines = (tmp_path / name).read_text().splitlines()
+        rows = [[float(x) for x in line.split(",")] for line in lines[1:]]
+        for row in rows:
+            row[0] += by_s if row[0] >= at_s else 0.0
+        _write(tmp_path / name, lines[0].split(","), [np.array(rows)])
+    return path
+
+
+def test_a_clock_jump_in_every_stream_is_an_imu_gap_before_any_reference_check(sim, tmp_path):
+    config = _jump(tmp_path, sim, ("imu.csv", "dvl.csv", "depth.csv", "nav.csv"))
+    line = 2 + int(np.searchsorted(sim.imu.t, 30.0))
+    with pytest.raises(DataError, match=rf"imu\.csv, line {line}, field 't': IMU gap of 3600.* \+1 h to within a "
+                                        r"minute, a time zone"):
+        load_mission(tmp_path, config)
+
+
+def test_a_clock_jump_in_the_dvl_alone_is_named(sim, tmp_path):
+    m, said = _load(tmp_path, _jump(tmp_path, sim, ("dvl.csv",)))
+    jump = [s for s in said if "dvl.csv: the DVL stamps jump by +3601.000 s between ping indexes 29 and 30" in s
+            and "+1 h to within a minute" in s]
+    assert jump and "outside the IMU span" in jump[0]
+    assert any("stamps jump" in n for n in m.meta["streams"]["dvl"]["notes"])
