@@ -409,6 +409,10 @@ def test_pure_inertial_check_warns_when_it_happens_and_when_aiding_resumes():
     assert "sigma at its end 0.346 m/s" in text[1]
     assert info["pure_inertial_max_s"] == 120.0 and info["n_pure_inertial"] == 1
     assert info["pure_inertial_spans"] == [[39.0, 159.0, pytest.approx(0.3464, abs=1e-4)]]
+    # a run without covariance says so, not "sigma nan"
+    with pytest.warns(RuntimeWarning) as record:
+        check_pure_inertial("Graph-TC", t, aided, None, max_s=60.0)
+    assert [str(w.message).endswith("no velocity covariance to predict its error with") for w in record] == [True] * 2
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert check_pure_inertial("x", t, aided, None, max_s=130.0)["pure_inertial_spans"] == []

@@ -34,6 +34,13 @@ def _sigma(cov_v_n) -> float:
     return float(np.sqrt(np.trace(np.asarray(cov_v_n, float))))
 
 
+def _sigma_text(sigma: float, at: str = "") -> str:
+    """The predicted velocity sigma for a message, or what stands in for it (a run without covariance)."""
+    if not np.isfinite(sigma):
+        return "no velocity covariance to predict its error with"
+    return f"predicted velocity sigma{at} {sigma:.3f} m/s"
+
+
 class CoastingMonitor:
     """Live pure-inertial check of one estimator run (see the module docstring).
 
@@ -66,7 +73,7 @@ class CoastingMonitor:
             if self._warned:
                 start, end, sigma = self.spans[-1]
                 warnings.warn(f"{self.name}: t={t:.2f} s: DVL aiding resumed after {end - start:.0f} s pure inertial "
-                              f"({start:.1f}-{end:.1f} s); predicted velocity sigma at its end {sigma:.3f} m/s",
+                              f"({start:.1f}-{end:.1f} s); {_sigma_text(sigma, ' at its end')}",
                               RuntimeWarning, stacklevel=3)
             self.coasting_since, self._warned = None, False
             self._last_t = t
@@ -82,8 +89,8 @@ class CoastingMonitor:
                 self.spans.append([self.coasting_since, t, _sigma(cov_v_n)])
                 warnings.warn(f"{self.name}: t={t:.2f} s: pure inertial for {length:.0f} s (since "
                               f"{self.coasting_since:.1f} s, no DVL update), longer than max_pure_inertial_s="
-                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; predicted velocity sigma "
-                              f"{_sigma(cov_v_n):.3f} m/s", RuntimeWarning, stacklevel=3)
+                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; {_sigma_text(_sigma(cov_v_n))}",
+                              RuntimeWarning, stacklevel=3)
             else:
                 self.spans[-1][1:] = [t, _sigma(cov_v_n)]
 
