@@ -116,6 +116,7 @@ def test_no_convention_fits_names_the_axis(akit_dir, tmp_path):
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
         read_and_prepare(folder)
     assert err.value.field.split()[-1] in "xy"
+    assert "imu_axis_signs only flips signs" in str(err.value)          # not advice that cannot work
 
 
 def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
@@ -126,7 +127,7 @@ def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
     folder = _copy(akit_dir / TRAJ[0], tmp_path, flip_accel_y_only, with_gt=False)
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
         read_and_prepare(folder)
-    assert "y" in err.value.field
+    assert "y" in err.value.field and "negate that axis of one sensor in the file" in str(err.value)
 
 
 def _windows(akit_dir, name, length=60.0, step=60.0, transform=None):

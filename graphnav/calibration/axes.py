@@ -371,7 +371,7 @@ def _detect_without_gt(imu, source: str, fallback_signs) -> AxisDetection:
         raise DataError(f"no IMU axis sign convention fits: gyro {AXES[i]} sign {sg[i]:+.0f} but accelerometer "
                         f"{AXES[i]} sign {sa[i]:+.0f} fits the tilt kinematics "
                         f"{min(keep, flip) / r[mixed_key]:.1f}x better than any one convention for both sensors; "
-                        "pass imu_axis_signs", source, field=f"axis {AXES[i]}")
+                        f"{_ONE_SENSOR}", source, field=f"axis {AXES[i]}")
     y = 1.0 if keep <= flip else -1.0
     decided = max(keep, flip) >= AXIS_MARGIN_JOINT * min(keep, flip)
     if decided:
@@ -391,7 +391,8 @@ def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
         if not np.allclose(np.abs(P), np.eye(3)):
             swapped = [AXES[i] for i in range(3) if P[i, i] == 0]
             raise DataError(f"no IMU axis sign convention fits: {'; '.join(describe_axis_map(P, sensor))}"
-                            f" (axes are swapped, not sign-flipped); fix the file or pass imu_axis_signs",
+                            f" (axes are swapped, not sign-flipped); fix the file's columns (a column map: list them in "
+                            "the body order x, y, z): imu_axis_signs only flips signs",
                             source, field=f"{sensor} {swapped[0]}")
     g, a = np.diag(check.gyro_map).copy(), np.diag(check.accel_map).copy()
     if not with_gt:
@@ -410,10 +411,15 @@ def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
     return g
 
 
+#: What to do when the two sensors need different signs on an axis.
+_ONE_SENSOR = ("negate that axis of one sensor in the file (imu_axis_signs and a column map's frame apply to both "
+               "sensors at once)")
+
+
 def _disagree(check: AxisCheck, g: np.ndarray, a: np.ndarray, i: int, source: str) -> DataError:
     return DataError(f"no IMU axis sign convention fits: gyro {AXES[i]} sign {g[i]:+.0f} but accelerometer "
                      f"{AXES[i]} sign {a[i]:+.0f} (one convention applies to both sensors); suspects: "
-                     f"{'; '.join(check.suspects) or 'none'}; pass imu_axis_signs", source, field=f"axis {AXES[i]}")
+                     f"{'; '.join(check.suspects) or 'none'}; {_ONE_SENSOR}", source, field=f"axis {AXES[i]}")
 
 
 # ------------------------------------------------------------------------------------------------
