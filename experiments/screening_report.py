@@ -14,6 +14,10 @@ Trajectory1's first 150 s (``--damage --first 150 --no-clean``).
 
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py            # part 1
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/screening_report.py --damage   # and part 2
+
+``--gt-positions``: per clean trajectory, the largest departure of the GT position less its velocity's integral
+from its neighbours (the reference position spike test's statistic, as the A-KIT reader computes it, published
+stamps) against the test's limit.
 """
 from __future__ import annotations
 
@@ -182,14 +186,36 @@ def damage_table(root: Path, first_s: float | None = None) -> None:
                   f"{first[:200]}")
 
 
+def gt_position_table(root: Path) -> None:
+    """The position spike test's statistic on each clean trajectory's GT
+    (:func:`graphnav.core.screening.gt_position_spikes`)."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.core.screening import GT_POSITION_TOLERANCE_M, SPIKE_NEIGHBOURS, _departures
+    from graphnav.io.loaders import _local_ned, read_akit
+    spec = SensorConfig().dvl
+    print("trajectory  largest departure m  limit m  largest share of the limit")
+    for folder in akit_trajectories(str(root)):
+        g = read_akit(folder, rescale_stamps=False).gt
+        t, v = g[:, 0], g[:, 4:7]
+        rows = np.ones(len(g), bool)
+        step = np.vstack([np.zeros((1, 3)), 0.5 * (v[1:] + v[:-1]) * np.diff(t)[:, None]])
+        departure, dt = _departures(t, _local_ned(g, rows) - np.cumsum(step, axis=0), SPIKE_NEIGHBOURS, rows)
+        size, limit = np.linalg.norm(departure, axis=1), 1.5 * spec.jump_tolerance_mps * dt + GT_POSITION_TOLERANCE_M
+        print(f"{folder.name:12s} {size.max():.2f} {limit.min():.2f} {np.max(size / limit):.2f}")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--damage", action="store_true", help="also run graphnav smooth on damaged Trajectory1 copies")
     p.add_argument("--no-clean", action="store_true", help="skip part 1")
     p.add_argument("--first", type=float, metavar="S", help="with --damage: crop the copies to their first S s")
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
+    p.add_argument("--gt-positions", action="store_true", help="only the GT position spike statistic per trajectory")
     args = p.parse_args(argv)
     root = akit_trajectories(args.data)[0].parent
+    if args.gt_positions:
+        gt_position_table(root)
+        return 0
     if not args.no_clean:
         clean_table(root)
     if args.damage:

@@ -472,7 +472,23 @@ def test_a_reference_position_its_velocity_cannot_explain_is_refused(sim, tmp_pa
     _edit_line(tmp_path / "nav.csv", 152, lambda f: f[:2] + [f"{float(f[2]) + 20:.12g}"] + f[3:])
     m, messages = _load_recording(tmp_path, cfg)
     from graphnav.core.screening import GT_POSITION_SPIKE as reason
-    assert m.meta["streams"]["gt"]["refused"] == {reason: 2}
-    assert any(s.startswith(f"{tmp_path / 'nav.csv'}: 2 gt sample(s) refused (2 {reason}) at line(s) 52, 152;")
-               for s in messages), messages
+    assert m.meta["streams"]["gt"]["refused"] == {reason.format("n"): 1, reason.format("e"): 1}
+    assert any(s.startswith(f"{tmp_path / 'nav.csv'}: 2 gt sample(s) refused (1 {reason.format('n')}; 1 "
+                            f"{reason.format('e')}) at line(s) 52, 152;") for s in messages), messages
     np.testing.assert_allclose(m.gt.p_n, np.delete(sim.gt.p_n, [50, 150], axis=0), atol=1e-6)
+
+
+def test_stamps_spanning_more_than_a_year_name_the_file_line(sim, tmp_path):
+    """The 'more than a year' stamp error named the row's index as its line (line 11 for a row on file line 15,
+    behind two comment lines and the header); it names the file line."""
+    cmap = _separate_files(tmp_path, sim)
+    cfg = _config(tmp_path, sim, cmap)
+    imu = tmp_path / "imu.csv"
+    lines = imu.read_text().splitlines()
+    for i in range(12, len(lines)):                      # from file line 13 on (after the comments), a year later
+        cells = lines[i].split(",")
+        lines[i] = ",".join([f"{float(cells[0]) + 400 * 86400e3:.12g}"] + cells[1:])
+    imu.write_text("\n".join(["# logger v2", "# stamps in ms"] + lines) + "\n")
+    with pytest.raises(DataError, match="more than a year") as err:
+        load_mission(tmp_path, cfg, prepare=False)
+    assert (err.value.source, err.value.line, err.value.field) == (str(imu), 15, "time_ms")

@@ -847,3 +847,62 @@ def test_akit_zero_dvl_velocity_and_an_impossible_latitude_refuse_their_ping_and
     assert any(w.startswith(f"{gt}: 1 gt sample(s) refused (1 latitude or longitude beyond 90 / 180 deg) at line(s) "
                             "41") for w in caught), caught
     assert len(m.gt.t) == 119 and np.all(np.abs(m.gt.p_n) < 1e4)
+
+
+def _move_latitude(folder, row, by_rad):
+    """Add ``by_rad`` to the latitude cell of GT data ``row`` (file line row + 2) of an A-KIT folder."""
+    gt = next(folder.glob("GT_*.csv"))
+    lines = gt.read_text().splitlines()
+    cells = lines[row + 1].split(",")
+    cells[2] = repr(float(cells[2]) + by_rad)
+    lines[row + 1] = ",".join(cells)
+    gt.write_text("\n".join(lines) + "\n")
+    return gt
+
+
+def _assert_latitude_spike_refused(folder, row, n_rows):
+    from graphnav.core.screening import GT_POSITION_SPIKE
+    gt = _move_latitude(folder, row, 1e-4)               # 640 m north on one row, its velocity unchanged
+    m, caught = _load_quiet(folder)
+    reason = GT_POSITION_SPIKE.format("Latitude [rad]")
+    assert m.meta["streams"]["gt"]["refused"] == {reason: 1}
+    assert any(w.startswith(f"{gt}: 1 gt sample(s) refused (1 {reason}) at line(s) {row + 2};") for w in caught), caught
+    assert len(m.gt.t) == n_rows - 1 and np.abs(np.diff(m.gt.p_n[:, 0])).max() < 5.0
+
+
+def test_akit_latitude_spike_its_velocity_does_not_explain_is_refused(tmp_path):
+    """One latitude cell moved by 1e-4 rad (640 m) while the GT's velocity stays: the A-KIT reader refuses the row,
+    with the file, line and column, and counts it, as the column-map reader refuses a reference position spike (the
+    same rule); it used to be read, the unit checks seeing nothing beyond the radian range."""
+    _assert_latitude_spike_refused(make_akit_folder(tmp_path, n=1), 60, 120)
+
+
+def test_akit_latitude_spike_is_refused_on_a_published_trajectory(akit_dir, tmp_path):
+    import shutil
+    folder = tmp_path / "Trajectory1"
+    shutil.copytree(akit_dir / "Trajectory1", folder)
+    _assert_latitude_spike_refused(folder, 200, 400)
+
+
+def test_akit_dvl_warnings_and_a_stamp_jump_name_the_file_lines_after_a_dropped_row(tmp_path):
+    """The A-KIT DVL warnings named ping index + 2 as the line, and the 'more than a year' stamp error the ping
+    index: off by one once a row written twice was dropped before them. They name the file lines."""
+    folder = make_akit_folder(tmp_path, n=1)
+    dvl = folder / "DVL_trajectory1.csv"
+    lines = dvl.read_text().splitlines()
+    lines.insert(11, lines[10])                          # file line 11 written twice: line 12 is dropped
+    edits = {31: "-32.768,0.0,0.0", 41: "0.0,0.0,0.0", 51: "5.0,0.0,0.0", 61: ",,"}
+    for line, values in edits.items():
+        lines[line - 1] = lines[line - 1].split(",")[0] + "," + values
+    dvl.write_text("\n".join(lines) + "\n")
+    m, caught = _load_quiet(folder)
+    for text in ("first at line 31", "refused at line(s) 41", "at line(s) 51", "first at line 61,"):
+        assert any(w.startswith(f"{dvl}:") and text in w for w in caught), (text, caught)
+    lines = dvl.read_text().splitlines()
+    for i in range(70, len(lines)):                      # from line 71 on the stamps are two years later
+        cells = lines[i].split(",")
+        lines[i] = ",".join([repr(float(cells[0]) + 2 * 366 * 86400.0)] + cells[1:])
+    dvl.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match="more than a year") as err:
+        _load_quiet(folder)
+    assert (err.value.source, err.value.line, err.value.field) == (str(dvl), 71, "Time [s]")

@@ -354,7 +354,13 @@ def test_no_reference_conversion_on_the_shared_trajectories(akit_dir):
     (28-57x in degrees), the depth follows V Down 6x better than flipped, and the GT agrees with itself."""
     from graphnav.core.rotations import euler_to_C_b_n
     from graphnav.io.loaders import read_akit, read_akit_mission
-    from graphnav.io.units import _latlon_ratio, attitude_rate_ratio, reference_inconsistencies, vertical_sign
+    from graphnav.io.units import (
+        _closest_to_one,
+        _latlon_ratios,
+        attitude_rate_ratio,
+        reference_inconsistencies,
+        vertical_sign,
+    )
     for folder in list_akit(akit_dir):
         with warnings.catch_warnings():
             warnings.simplefilter("error")       # any conversion warns: none may happen
@@ -363,8 +369,8 @@ def test_no_reference_conversion_on_the_shared_trajectories(akit_dir):
         for angles, low, high in ((g[:, 7:10], 0.9, 1.1), (np.degrees(g[:, 7:10]), 20.0, 60.0)):
             ratio, _ = attitude_rate_ratio(g[:, 0], euler_to_C_b_n(*angles.T), imu[:, 0], imu[:, 4:7])
             assert low < ratio < high, (folder.name, ratio)
-        assert 0.95 < _latlon_ratio(g[:, 0], g[:, 2], g[:, 1], g[:, 4:7]) < 1.05
-        assert 25.0 < _latlon_ratio(g[:, 0], np.degrees(g[:, 2]), np.degrees(g[:, 1]), g[:, 4:7], longer=False) < 60.0
+        assert 0.95 < _closest_to_one(_latlon_ratios(g[:, 0], g[:, 2], g[:, 1], g[:, 4:7])) < 1.05
+        assert 25.0 < _latlon_ratios(g[:, 0], np.degrees(g[:, 2]), np.degrees(g[:, 1]), g[:, 4:7])[0] < 60.0
         sign, same, flipped = vertical_sign(g[:, 0], -g[:, 3], g[:, 6])
         assert sign == 1 and flipped > 5 * same, (folder.name, same, flipped)
         with warnings.catch_warnings():

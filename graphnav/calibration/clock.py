@@ -36,7 +36,7 @@ from scipy.optimize import minimize_scalar
 from graphnav.calibration.reference import _sigma_from_curvature, cumulative_integral
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note
-from graphnav.core.timeseries import interp_rows, on_the_imu_clock, span_overlap_fraction
+from graphnav.core.timeseries import interp_rows, on_the_imu_clock, overlap_text
 
 #: Step of the IMU grid the integrals are kept on, s.
 IMU_GRID_S = 0.05
@@ -362,7 +362,7 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                "a constant-velocity log has no signal)")
         if not inside:
             raise DataError(f"DVL stamps [{dvl.t[0]:.3f}, {dvl.t[-1]:.3f}] s lie outside the IMU span "
-                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s ({_overlap_text(dvl.t, imu.t)}) and the "
+                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s (they share {overlap_text(dvl.t, imu.t)}) and the "
                             f"clock offset cannot be found: {why}; {what_to_do}", dvl.source, field=field)
         add_note(meta, "dvl", f"clock offset not applied: {why}")
         return dvl, depth
@@ -488,11 +488,6 @@ def gt_clock_confident(est: ClockOffset) -> bool:
     return est.peak >= MIN_GT_PEAK and est.sharpness >= MIN_GT_SSE_RATIO
 
 
-def _overlap_text(t: np.ndarray, t_imu: np.ndarray) -> str:
-    """How much of the shorter span the two spans share, for an error (:func:`span_overlap_fraction`)."""
-    return f"they share {100 * span_overlap_fraction(t, t_imu):.0f} % of the shorter span"
-
-
 def _span(t: np.ndarray) -> str:
     return f"[{float(t[0]):.3f}, {float(t[-1]):.3f}] s"
 
@@ -516,8 +511,8 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
     meta = {} if meta is None else meta
     if on_the_imu_clock(gt.t, imu.t):
         return gt, 0.0
-    where = (f"GT stamps {_span(gt.t)} lie outside the IMU span {_span(imu.t)} ({_overlap_text(gt.t, imu.t)}: a clock "
-             "of its own)")
+    where = (f"GT stamps {_span(gt.t)} lie outside the IMU span {_span(imu.t)} (they share "
+             f"{overlap_text(gt.t, imu.t)}: a clock of its own)")
     todo = what_to_do or "give the GT time offset"
     try:
         est = estimate_gt_clock_offset(imu, gt)

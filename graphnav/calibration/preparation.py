@@ -53,7 +53,7 @@ from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.streams import add_note, set_span
-from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
+from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
 #: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
@@ -231,7 +231,7 @@ def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
     if on_the_imu_clock(t, imu.t):
         return offset
     text = (f"the configured {stream}_time_offset_s {float(offset):+.3f} s puts the stamps at [{t[0]:.3f}, "
-            f"{t[-1]:.3f}] s, sharing {100 * span_overlap_fraction(t, imu.t):.0f} % of the shorter span with the IMU "
+            f"{t[-1]:.3f}] s, sharing {overlap_text(t, imu.t)} with the IMU "
             f"span [{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s: the file is on a clock of its own, whose offset is estimated "
             "from the data instead")
     add_note(meta, stream, text)

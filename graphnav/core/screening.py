@@ -157,22 +157,30 @@ def spike_mask(t: np.ndarray, x: np.ndarray, max_rate: float, tolerance: float,
         max_rate: largest rate of change of x (units of x per s). tolerance: the sensor's noise (units of x).
         usable: (N,) bool, samples that may serve as neighbours and be tested (default: the finite ones).
     """
+    departure, dt = _departures(t, x, neighbours, usable)
+    with np.errstate(invalid="ignore"):
+        return np.linalg.norm(departure, axis=1) > 1.5 * max_rate * dt + tolerance
+
+
+def _departures(t: np.ndarray, x: np.ndarray, neighbours: int, usable: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """((N,k) departure of each usable sample of ``x`` from the component-wise median of the ``neighbours`` usable
+    samples on each side, NaN elsewhere; (N,) spacing to the nearest usable sample, s) for :func:`spike_mask`."""
     t = np.asarray(t, float)
     v = np.asarray(x, float)
     v = v[:, None] if v.ndim == 1 else v
     ok = np.all(np.isfinite(v), axis=1) if usable is None else np.asarray(usable, bool) & np.all(np.isfinite(v), axis=1)
-    out = np.zeros(len(v), dtype=bool)
+    departure, dt = np.full(v.shape, np.nan), np.full(len(v), np.inf)
     idx = np.flatnonzero(ok)
     n = neighbours
     if idx.size > 2:
         vi, ti = v[idx], t[idx]
         pad = np.full((n, v.shape[1]), np.nan)
         win = np.lib.stride_tricks.sliding_window_view(np.concatenate([pad, vi, pad]), 2 * n + 1, axis=0)
-        ref = np.nanmedian(np.delete(win, n, axis=2), axis=2)
+        departure[idx] = vi - np.nanmedian(np.delete(win, n, axis=2), axis=2)
         gaps = np.diff(ti)
-        dt = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
-        out[idx] = np.linalg.norm(vi - ref, axis=1) > 1.5 * max_rate * dt + tolerance
-    return out
+        dt[idx] = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
+    return departure, dt
 
 
 def implausible_pings(t: np.ndarray, v_b: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
@@ -371,32 +379,55 @@ def gt_implausible(t: np.ndarray, v_n: np.ndarray, spec: DvlSpec) -> dict[str, n
 #: integral, against its neighbours: :func:`gt_position_spikes`) by ``1.5 * DvlSpec.jump_tolerance_mps * dt`` plus
 #: this, m. The ten A-KIT trajectories (1 Hz) depart by at most 0.64 m (Trajectory11; the others 0.03-0.31 m).
 GT_POSITION_TOLERANCE_M = 2.0
-#: Reason of a reference row :func:`gt_position_spikes` refuses.
-GT_POSITION_SPIKE = "GT position spike (its velocity does not explain it)"
+#: Reason of a reference row :func:`gt_position_spikes` refuses, with the position column it jumps most in.
+GT_POSITION_SPIKE = "GT position spike in '{}' (its velocity does not explain it)"
 #: A reference gap longer than this many of its median steps is not integrated across (:func:`gt_position_spikes`).
 GT_POSITION_GAP_STEPS = 5.0
 
 
-def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec,
-                       usable: np.ndarray | None = None) -> np.ndarray:
-    """(N,) reference rows whose position (N,3) m jumps where their velocity (N,3) m/s, at ``t`` (N,) s, does not
-    (a corrupted cell, 1e308): a spike of the position less the trapezoid integral of the velocity. Only ``usable``
-    rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are tested and integrated;
-    across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a
-    reference dropout is no step."""
+def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, fields,
+                       usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Reference rows whose position (N,3) m NED jumps where their velocity (N,3) m/s NED, at ``t`` (N,) s, does
+    not (a corrupted cell, 1e308): a spike of the position less the trapezoid integral of the velocity.
+    ``{GT_POSITION_SPIKE.format(field): (N,) mask}`` per position column of ``fields`` (north, east, down), a row
+    under the one it departs most in. Only ``usable`` rows (default: the finite ones; leave out the velocity
+    spikes, whose integral steps) are tested and integrated; across a gap of more than
+    :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a reference dropout is no step."""
     t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
     ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
     ok &= True if usable is None else np.asarray(usable, bool)
-    if ok.sum() < 3:
-        return np.zeros(len(t), dtype=bool)
-    dt = np.diff(t[ok])
-    with np.errstate(over="ignore", invalid="ignore"):
-        step = 0.5 * (v[ok][1:] + v[ok][:-1]) * dt[:, None]
-        gap = dt > GT_POSITION_GAP_STEPS * np.median(dt)
-        step[gap] = np.diff(p[ok], axis=0)[gap]
-        residual = np.full(p.shape, np.nan)
-        residual[ok] = p[ok] - np.cumsum(np.vstack([np.zeros((1, 3)), step]), axis=0)
-        return spike_mask(t, residual, spec.jump_tolerance_mps, GT_POSITION_TOLERANCE_M, usable=ok)
+    hit = np.zeros(p.shape, dtype=bool)
+    if ok.sum() >= 3:
+        dt = np.diff(t[ok])
+        with np.errstate(over="ignore", invalid="ignore"):
+            step = 0.5 * (v[ok][1:] + v[ok][:-1]) * dt[:, None]
+            gap = dt > GT_POSITION_GAP_STEPS * np.median(dt)
+            step[gap] = np.diff(p[ok], axis=0)[gap]
+            residual = np.full(p.shape, np.nan)
+            residual[ok] = p[ok] - np.cumsum(np.vstack([np.zeros((1, 3)), step]), axis=0)
+            departure, near = _departures(t, residual, SPIKE_NEIGHBOURS, ok)
+            spike = np.linalg.norm(departure, axis=1) > 1.5 * spec.jump_tolerance_mps * near + GT_POSITION_TOLERANCE_M
+        rows = np.flatnonzero(spike)
+        hit[rows, np.argmax(np.abs(departure[rows]), axis=1)] = True
+    return _by_first_field(hit, fields, GT_POSITION_SPIKE)
+
+
+def gt_refusals(t: np.ndarray, cells: np.ndarray, fields, v_n: np.ndarray, spec: DvlSpec,
+                impossible: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """Reason -> (K,) reference rows a reader refuses before deciding the reference's units (one V Down spike
+    would swamp the down position's fit to it): an empty, NaN or infinite cell of ``cells`` (K,k) in its column of
+    ``fields`` (:func:`not_finite`), the reader's own ``impossible`` rows, a velocity ``v_n`` (K,3) m/s the vehicle
+    cannot have (:func:`gt_implausible`). The position spikes need positions in metres:
+    :func:`with_position_spikes` adds them."""
+    return {**not_finite(cells, fields), **(impossible or {}), **gt_implausible(t, v_n, spec)}
+
+
+def with_position_spikes(masks: dict[str, np.ndarray], t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray,
+                         spec: DvlSpec, fields) -> dict[str, np.ndarray]:
+    """``masks`` (:func:`gt_refusals`) and the position spikes among the rows none of them refuses
+    (:func:`gt_position_spikes`: ``p_n`` (K,3) m NED, ``v_n`` (K,3) m/s, ``fields`` the position columns)."""
+    refused = np.any(list(masks.values()), axis=0) if masks else None
+    return {**masks, **gt_position_spikes(t, p_n, v_n, spec, fields, usable=None if refused is None else ~refused)}
 
 
 def latlon_impossible(lat: np.ndarray, lon: np.ndarray) -> dict[str, np.ndarray]:
@@ -427,7 +458,7 @@ def no_bottom_lock(v: np.ndarray, lines: np.ndarray, source: str) -> np.ndarray:
     zero = np.all(np.asarray(v, float) == 0.0, axis=1)
     if zero.any():
         warnings.warn(f"{source}: {int(zero.sum())} DVL ping(s) with a velocity of exactly 0 on every axis (a ping "
-                      f"without bottom lock) refused at line(s) {_first_lines(np.asarray(lines)[zero])}; they are "
+                      f"without bottom lock) refused at line(s) {first_lines(np.asarray(lines)[zero])}; they are "
                       "not used", RuntimeWarning, stacklevel=3)
     return zero
 
@@ -450,7 +481,7 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
         total |= m
     if total.any():
         rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
-        where = _first_lines(rows)
+        where = first_lines(rows)
         label = "line(s)" if line_offset or lines is not None else "index(es)"
         warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
                       f"{where}; they are not used", RuntimeWarning, stacklevel=3)
@@ -504,7 +535,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
-                      f"dropped, at line(s) {_first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
+                      f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
@@ -523,7 +554,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}
 
 
-def _first_lines(lines: np.ndarray) -> str:
+def first_lines(lines: np.ndarray) -> str:
     """The first ten of ``lines`` (file lines) for a warning."""
     return ", ".join(str(int(i)) for i in lines[:10]) + (" ..." if len(lines) > 10 else "")
 

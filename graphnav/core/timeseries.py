@@ -50,6 +50,12 @@ def span_overlap_fraction(t: np.ndarray, t_imu: np.ndarray) -> float:
     return float(np.clip(overlap / shorter, 0.0, 1.0))
 
 
+def overlap_text(t: np.ndarray, t_imu: np.ndarray) -> str:
+    """'N % of the shorter span': how much the spans of stamps ``t`` and ``t_imu`` (s) share, for a message
+    (:func:`span_overlap_fraction`)."""
+    return f"{100 * span_overlap_fraction(t, t_imu):.0f} % of the shorter span"
+
+
 def on_the_imu_clock(t: np.ndarray, t_imu: np.ndarray) -> bool:
     """Stamps ``t`` (s) share the IMU's clock as far as their spans tell: they overlap the IMU span ``t_imu`` (s)
     over at least :data:`MIN_CLOCK_OVERLAP` of the shorter span (:func:`span_overlap_fraction`). A log that merely

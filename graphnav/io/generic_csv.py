@@ -77,15 +77,14 @@ from graphnav.core.config import SensorConfig, check_column_map
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.screening import (
-    GT_POSITION_SPIKE,
     NO_BOTTOM_LOCK,
-    gt_implausible,
-    gt_position_spikes,
+    gt_refusals,
     imu_implausible,
     no_bottom_lock,
     not_finite,
     refuse_rows,
     stamp_order,
+    with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.pd0 import pd0_geometry, read_pd0
@@ -381,9 +380,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         # checks, as the A-KIT reader does: one V Down spike would swamp the down position's fit to it
         _count_read(meta, "gt", t_g, path)
         fields = [c for key in keys for c in _names(spec, key, 3, "gt")]
-        masks = {**not_finite(np.hstack([v[k] for k in keys]), fields), **gt_implausible(t_g, v["v_n"], config.dvl)}
-        masks[GT_POSITION_SPIKE] = gt_position_spikes(t_g, v["p_n"], v["v_n"], config.dvl,
-                                                      usable=~np.any(list(masks.values()), axis=0))
+        masks = with_position_spikes(gt_refusals(t_g, np.hstack([v[k] for k in keys]), fields, v["v_n"], config.dvl),
+                                     t_g, v["p_n"], v["v_n"], config.dvl, fields[:3])
         t_g, *kept = refuse_rows(meta, "gt", masks, str(path), v["_lines"], t_g, *(v[k] for k in (*keys, "_lines")))
         v = dict(zip((*keys, "_lines"), kept))
         meta["gt_screened"] = True

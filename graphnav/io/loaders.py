@@ -63,9 +63,10 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    IMU rows with an empty, NaN or infinite cell, beyond the instrument's full scale (``ImuSpec.accel_range_mps2`` /
    ``gyro_range_rads``) or spiking (a run of up to ten rows departing from the running median past
    ``ImuSpec.*_spike_floor_*`` and the signal's own noise, :func:`graphnav.core.screening.imu_spikes`), and GT
-   rows with an empty, NaN or infinite cell or whose velocity is beyond the vehicle's speed or spikes are refused
-   (dropped, counted, warned about with their lines and column) before the axis detection and the time-offset
-   estimates see them; an empty DVL cell is NaN, an invalid ping, and an infinite one makes the ping invalid (as
+   rows with an empty, NaN or infinite cell, whose velocity is beyond the vehicle's speed or spikes, or whose
+   position jumps where the velocity does not (the column-map reader's rule, :func:`graphnav.core.screening.gt_refusals`
+   and :func:`~graphnav.core.screening.with_position_spikes`) are refused (dropped, counted, warned about with their
+   lines and column) before the axis detection and the time-offset estimates see them; an empty DVL cell is NaN, an invalid ping, and an infinite one makes the ping invalid (as
    an RDI flag does). More than half of a stream refused is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
@@ -112,16 +113,18 @@ from graphnav.core.screening import (
     beams_out_of_range,
     check_refused_fraction,
     depth_implausible,
+    first_lines,
     gt_implausible,
+    gt_refusals,
     imu_implausible,
     latlon_impossible,
     no_bottom_lock,
-    not_finite,
     note_outages,
     refuse,
     refuse_rows,
     stamp_order,
     stamp_outliers,
+    with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
 
@@ -383,6 +386,7 @@ class AkitRaw:
     gt: np.ndarray | None  # (K,10) t, lon, lat, alt, v_n(3), roll, pitch, yaw; None without a GT file
     files: dict
     meta: dict = dataclasses.field(default_factory=dict)   # "streams": read / refused per file, unit conversions
+    dvl_lines: np.ndarray | None = None   # (M,) the DVL file line of each row of ``dvl``
 
 
 def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool = False,
@@ -400,51 +404,51 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     # the IMU and GT files (below); text that is not a number stays a DataError naming the line and column
     read = {k: read_csv(files[k], AKIT_COLUMNS[k], nan_ok=AKIT_COLUMNS[k][1:], empty_is_nan=True, inf_ok=True,
                         repair=repair, meta=meta, stream=k.lower(), with_lines=True) for k in files}
-    (imu, imu_lines), (dvl, _) = read["IMU"], read["DVL"]
-    gt, gt_lines = read.get("GT", (None, None))
-    _akit_units(imu, dvl, gt, gt_lines, files, meta, cfg)   # before the screening: deg/s is not out of range
+    lines = {k.lower(): rows for k, (_, rows) in read.items()}
+    imu, dvl, gt = (read[k][0] if k in read else None for k in ("IMU", "DVL", "GT"))
+    # before the screening: deg/s is not out of range; the GT rows to refuse are found with its units
+    gt_refused = _akit_units(imu, dvl, gt, lines, files, meta, cfg)
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
     imu, = refuse_rows(meta, "imu", imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
-                                                    meta, str(files["IMU"])), str(files["IMU"]), imu_lines, imu)
+                                                    meta, str(files["IMU"])), str(files["IMU"]), lines["imu"], imu)
     if gt is not None:
-        gt, = refuse_rows(meta, "gt", {**not_finite(gt[:, 1:], AKIT_COLUMNS["GT"][1:]),
-                                       **latlon_impossible(gt[:, 2], gt[:, 1]),
-                                       **gt_implausible(gt[:, 0], gt[:, 4:7], cfg.dvl)}, str(files["GT"]), gt_lines, gt)
-    return AkitRaw(imu, dvl, gt, files, meta)
+        gt, = refuse_rows(meta, "gt", gt_refused, str(files["GT"]), lines["gt"], gt)
+    return AkitRaw(imu, dvl, gt, files, meta, lines["dvl"])
 
 
-def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, gt_lines: np.ndarray | None, files: dict,
-                meta: dict, cfg: SensorConfig) -> None:
+def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: dict, files: dict,
+                meta: dict, cfg: SensorConfig) -> dict[str, np.ndarray] | None:
     """Stamps, IMU, DVL and GT units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
-    the header names units, but a file written by other tools in this layout may not hold them). ``gt_lines``: the
-    file line of each GT row."""
+    the header names units, but a file written by other tools in this layout may not hold them). ``lines``: stream
+    -> the file line of each row. Returns the GT rows to refuse (:func:`_akit_gt_units`), None without a GT."""
     from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
     for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
         if a is not None:
-            a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0])
+            a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0],
+                                        lines=lines[stream])
     rows = np.flatnonzero(np.all(np.isfinite(imu[:, 1:7]), axis=1))   # a row with a NaN is refused afterwards
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
-    if gt is not None:
-        _akit_gt_units(gt, gt_lines, imu, str(files["GT"]), meta, cfg)
+    if gt is None:
+        return None
+    return _akit_gt_units(gt, lines["gt"], imu, str(files["GT"]), meta, cfg)
 
 
 def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source: str, meta: dict,
-                   cfg: SensorConfig) -> None:
+                   cfg: SensorConfig) -> dict[str, np.ndarray]:
     """The GT array (K,10) in place: attitude and latitude/longitude in degrees converted to rad, an altitude
     with its sign flipped turned back, or DataError naming the file, line (``gt_lines``) and column
     (:mod:`graphnav.io.units`; the gyro of ``imu`` (N,7) in rad/s tells the attitude's unit, the GT's own velocity
-    its positions'). The rows refused afterwards (a NaN cell, a velocity spike) are left out of the decision and
-    converted with the rest."""
+    its positions'). Returns reason -> (K,) rows to refuse (:func:`graphnav.core.screening.gt_refusals`: a NaN or
+    infinite cell, an impossible latitude, a velocity spike; and, once the latitude/longitude unit is known, a
+    position spike), which are left out of the decisions and converted with the rest."""
     from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
     cols = AKIT_COLUMNS["GT"]
-    # rows with an empty or NaN cell, or a latitude no unit allows (1e308), are refused afterwards
-    ok = np.all(np.isfinite(gt), axis=1) & ~next(iter(latlon_impossible(gt[:, 2], gt[:, 1]).values()))
-    # so are the velocity spikes: one V Down of 30 m/s would swamp the altitude's fit to the down velocity
-    ok[ok] = ~np.any(list(gt_implausible(gt[ok, 0], gt[ok, 4:7], cfg.dvl).values()), axis=0)
+    refused = gt_refusals(gt[:, 0], gt[:, 1:], cols[1:], gt[:, 4:7], cfg.dvl, latlon_impossible(gt[:, 2], gt[:, 1]))
+    ok = ~np.any(list(refused.values()), axis=0)
     g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
     euler = g[:, 7:10]
     if reference_attitude_units(g[:, 0], euler, imu[:, 0], imu[:, 4:7], source, cols[7:10], meta) is not euler:
@@ -453,11 +457,27 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
     if reference_latlon_units(g[:, 0], lat, g[:, 1], g[:, 4:7], source, (cols[2], cols[1], cols[4], cols[5]),
                               meta)[0] is not lat:
         gt[:, 1:3] = np.radians(gt[:, 1:3])
+    # a position spike is told in metres, so once the unit is known; left out of the altitude's fit too
+    refused = with_position_spikes(refused, gt[:, 0], _local_ned(gt, ok), gt[:, 4:7], cfg.dvl,
+                                   (cols[2], cols[1], cols[3]))
+    ok = ~np.any(list(refused.values()), axis=0)
+    g = gt[ok]
     # the depth is the altitude's opposite (positive up, metres above the sea surface)
     depth = -g[:, 3]
     if reference_depth(g[:, 0], depth, g[:, 6], source, (cols[3], cols[6]), meta, cfg.depth_range_m,
                        lines=gt_lines[ok]) is not depth:
         gt[:, 3] = -gt[:, 3]
+    return refused
+
+
+def _local_ned(gt: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(K,3) NED positions, m, of the A-KIT GT array ``gt`` (K,10, latitude/longitude in rad) about the first of
+    ``rows`` (K,) bool at the sea surface; NaN outside ``rows`` (NaN or infinite cells)."""
+    p = np.full((len(gt), 3), np.nan)
+    if rows.any():
+        first = gt[np.argmax(rows)]
+        p[rows] = lla_to_ned(gt[rows, 2], gt[rows, 1], gt[rows, 3], (first[2], first[1], 0.0))
+    return p
 
 
 #: Nominal rates of the A-KIT streams, Hz: the sensors' rates, which the published stamps' period misses.
@@ -692,18 +712,18 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     if flagged.size:
         warnings.warn(f"{raw.files['DVL']}: {flagged.size} ping(s) with an invalid velocity (RDI bad-velocity "
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
-                      f"{int(flagged[0]) + 2}", RuntimeWarning, stacklevel=2)
+                      f"{int(raw.dvl_lines[flagged[0]])}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
-    no_lock = no_bottom_lock(raw.dvl[:, 1:4], np.arange(len(v_dvl)) + 2, str(raw.files["DVL"]))
+    no_lock = no_bottom_lock(raw.dvl[:, 1:4], raw.dvl_lines, str(raw.files["DVL"]))
     v_dvl[no_lock] = np.nan
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
     envelope = implausible_pings(raw.dvl[:, 0], v_dvl, cfg.dvl)
     outside = np.flatnonzero(np.any(list(envelope.values()), axis=0))
     if outside.size:
-        lines = ", ".join(str(int(i) + 2) for i in outside[:10]) + (" ..." if outside.size > 10 else "")
         warnings.warn(f"{raw.files['DVL']}: {outside.size} ping(s) outside the vehicle's envelope marked invalid "
-                      f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) {lines}",
+                      f"({describe_implausible(envelope, cfg.dvl)}; DvlSpec.max_*), at line(s) "
+                      f"{first_lines(raw.dvl_lines[outside])}",
                       RuntimeWarning, stacklevel=2)
         v_dvl[outside] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
     _note_dvl_outages(raw, v_dvl)
@@ -740,7 +760,7 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
         meta["gt_point_b"] = [0.0, 0.0, 0.0]          # the published point until prepared
         if written is None:                           # a written folder's GT is the simulation's truth
             meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
-    _record_akit_streams(meta, imu, dvl, depth, gt, refused, from_file)
+    _record_akit_streams(meta, imu, dvl, depth, gt, refused, raw.dvl_lines, from_file)
     if written is not None:
         add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate); "
                                  "ground truth at the IMU point, stamps as written")
@@ -808,13 +828,13 @@ def _akit_refused(n: int, flagged: np.ndarray, envelope: dict, spec, no_lock: np
     return out
 
 
-def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict,
+def _record_akit_streams(meta: dict, imu, dvl, depth, gt, refused: dict, dvl_lines: np.ndarray,
                          from_file: tuple[str, int, int, int] | None = None) -> None:
     """``meta["streams"]`` of an A-KIT mission as read: counts, refusals and what the reader did to each stream
-    (``prepare`` adds the axis signs and time offsets); ``from_file``: what :func:`_written_beams` took."""
+    (``prepare`` adds the axis signs and time offsets); ``dvl_lines``: the file line of each ping; ``from_file``:
+    what :func:`_written_beams` took."""
     from graphnav.io.stream_counts import record_streams
-    # ping i is line i + 2 of the DVL file (header = line 1), as the loader's other DVL messages count
-    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused, dvl_line_offset=2)
+    record_streams(meta, imu=imu, dvl=dvl, depth=depth, gt=gt, dvl_refused=refused, dvl_lines=dvl_lines)
     if from_file is None:
         add_note(meta, "dvl", "beams made from the file's DVL velocity with the DVL error model (the file has no "
                               "beams)")

@@ -31,8 +31,7 @@ def dvl_used(dvl) -> np.ndarray:
 
 
 def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
-                   dvl_refused: dict[str, np.ndarray] | None = None, dvl_line_offset: int | None = None,
-                   dvl_lines: np.ndarray | None = None) -> dict:
+                   dvl_refused: dict[str, np.ndarray] | None = None, dvl_lines: np.ndarray | None = None) -> dict:
     """Count every given stream as read (``count_read``) and refuse the DVL pings that are not used, by reason.
 
     Args:
@@ -41,9 +40,7 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             ``GroundTruth``), each with ``t`` and ``source``; None for a stream the input does not have.
         dvl_refused: reason -> (M,) bool mask of pings the loader refused for that reason (first reason in
             the dict wins); the loader has warned about them.
-        dvl_line_offset: the file line of DVL ping ``i`` is ``i + dvl_line_offset`` (a CSV with one header line:
-            2); the warning then names the line, else the ping's index.
-        dvl_lines: (M,) the file line of each DVL ping (a file whose pings are not one per line), for the warning.
+        dvl_lines: (M,) the file line of each DVL ping, for the warning (without them it names the ping's index).
 
     The pings not used and not under a loader reason are counted under :data:`NO_VALID_BEAM`, with a warning.
     Returns ``meta["streams"]``.
@@ -63,8 +60,7 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             left &= ~hit
         if left.any():
             first = int(np.flatnonzero(left)[0])
-            where = (f"line {int(dvl_lines[first])}" if dvl_lines is not None else f"index {first}"
-                     if dvl_line_offset is None else f"line {first + dvl_line_offset}")
+            where = f"line {int(dvl_lines[first])}" if dvl_lines is not None else f"index {first}"
             warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
                           f"used (first at {where}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
             count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
@@ -114,16 +110,16 @@ def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stam
     usable, ``graphnav smooth`` then failed on it). A DVL that only logged longer than the IMU passes: its pings
     outside the IMU span are counted (:func:`record_outside_span`) and skipped."""
     from graphnav.core.errors import DataError
-    from graphnav.core.timeseries import on_the_imu_clock, span_overlap_fraction
+    from graphnav.core.timeseries import on_the_imu_clock, overlap_text
     used = dvl_used(mission.dvl)
     t, t_imu = mission.dvl.t[used], mission.imu.t
     if not used.any() or on_the_imu_clock(t, t_imu):
         return
     outside = int(np.sum((t < t_imu[0]) | (t > t_imu[-1])))
     raise DataError(f"{outside} of {int(used.sum())} usable DVL pings lie outside the IMU span [{t_imu[0]:.3f}, "
-                    f"{t_imu[-1]:.3f}] s (DVL stamps [{t[0]:.3f}, {t[-1]:.3f}] s, sharing "
-                    f"{100 * span_overlap_fraction(t, t_imu):.0f} % of the shorter span): the DVL is on a clock of "
-                    f"its own, and the estimators cannot use it; {what_to_do}", mission.dvl.source, field=field)
+                    f"{t_imu[-1]:.3f}] s (DVL stamps [{t[0]:.3f}, {t[-1]:.3f}] s, sharing {overlap_text(t, t_imu)}): "
+                    f"the DVL is on a clock of its own, and the estimators cannot use it; {what_to_do}",
+                    mission.dvl.source, field=field)
 
 
 def ensure_streams(mission: Mission) -> dict:

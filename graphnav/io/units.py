@@ -107,12 +107,13 @@ def _note(meta: dict | None, stream: str, text: str, source: str) -> None:
 # stamps
 # ------------------------------------------------------------------------------------------------
 def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float | None = None,
-               field: str = "t", declared: str | None = None) -> tuple[float, str]:
+               field: str = "t", declared: str | None = None, lines: np.ndarray | None = None) -> tuple[float, str]:
     """The factor that puts stamps ``t`` (as read) in seconds, and its unit name.
 
     Raises:
         DataError: no unit makes the sample step plausible, or the stream spans more than
-            :data:`MAX_SPAN_S` (naming the index of the largest jump).
+            :data:`MAX_SPAN_S` (naming the file line of the largest jump's later stamp, ``lines`` (N,) the line of
+            each stamp; without them its index).
     """
     t = np.asarray(t, float)
     if t.size < 2:
@@ -141,8 +142,10 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     if not np.isfinite(span) or span > MAX_SPAN_S:
         with np.errstate(invalid="ignore"):
             i = int(np.nanargmax(np.abs(step))) + 1 if np.any(np.isfinite(step)) else 0
+        at = "" if lines is not None else f" at index {i}"
         raise DataError(f"stamps span {span:.3g} s (more than a year: a corrupt stamp?); largest jump "
-                        f"{t[i - 1]:.6g} -> {t[i]:.6g} ({unit}) at index {i}", source, i, field)
+                        f"{t[i - 1]:.6g} -> {t[i]:.6g} ({unit}){at}", source,
+                        i if lines is None else int(lines[i]), field)
     return scale, unit
 
 
@@ -371,13 +374,14 @@ def _reference_steps(t: np.ndarray, min_step_s: float) -> np.ndarray:
     return np.arange(0, t.size, k)
 
 
-def attitude_rate_ratio(t_ref: np.ndarray, C_b_n: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray
-                        ) -> tuple[float, float]:
+def attitude_rate_ratio(t_ref: np.ndarray, C_b_n: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
+                        turn_imu: float | None = None) -> tuple[float, float]:
     """``(ratio, gyro turn rate rad/s)``: the median turn rate of the reference attitude ``C_b_n`` (K,3,3, built
     from the angles as read) over its intervals of at least :data:`ATTITUDE_STEP_MIN_S`, over the gyro's median
     turn rate (``omega_b`` (N,3) rad/s at ``t_imu`` s) over windows of the same length. Medians over each whole
     stream, so neither a clock offset between the two nor the IMU's axis signs matter: ~1 in radians, ~57 for
-    degrees read as radians. NaN when the gyro turns too little (:data:`MIN_TURN_RATE_RADPS`) to tell."""
+    degrees read as radians. NaN when the gyro turns too little (:data:`MIN_TURN_RATE_RADPS`) to tell.
+    ``turn_imu``: the gyro turn rate an earlier call over the same stamps returned, not computed again."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.timeseries import cumulative_integral, interp_rows
@@ -388,12 +392,13 @@ def attitude_rate_ratio(t_ref: np.ndarray, C_b_n: np.ndarray, t_imu: np.ndarray,
     C = np.asarray(C_b_n, float)[keep]
     dt = np.diff(t_ref[keep])
     turn_ref = np.linalg.norm(Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec(), axis=1) / dt
-    step = float(np.median(dt))
-    edges = np.arange(t_imu[0], t_imu[-1], step)
-    if edges.size < 3:
-        return float("nan"), 0.0
-    S = interp_rows(edges, t_imu, np.asfortranarray(cumulative_integral(t_imu, np.asarray(omega_b, float))))
-    turn_imu = float(np.median(np.linalg.norm(np.diff(S, axis=0), axis=1) / step))
+    if turn_imu is None:
+        step = float(np.median(dt))
+        edges = np.arange(t_imu[0], t_imu[-1], step)
+        if edges.size < 3:
+            return float("nan"), 0.0
+        S = interp_rows(edges, t_imu, np.asfortranarray(cumulative_integral(t_imu, np.asarray(omega_b, float))))
+        turn_imu = float(np.median(np.linalg.norm(np.diff(S, axis=0), axis=1) / step))
     if not turn_imu >= MIN_TURN_RATE_RADPS:
         return float("nan"), turn_imu
     return float(np.median(turn_ref) / turn_imu), turn_imu
@@ -423,8 +428,16 @@ def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: fl
     to 1: noisy fixes move less against a longer window's distance, other units do not (for a check that the
     units are the same; telling degrees from radians takes ``window_s`` alone). NaN when the median speed over
     ``window_s`` is below :data:`MIN_SPEED_MPS`."""
+    ratios, speed = _displacement_ratios(t, p, v, window_s, 3 if longer else 1)
+    return _closest_to_one(ratios), speed
+
+
+def _displacement_ratios(t, p, v, window_s: float, windows: int) -> tuple[list[float], float]:
+    """``(ratios, speed m/s)`` of :func:`displacement_ratio` over windows of ``window_s`` times
+    :data:`POSITION_WINDOW_GROWTH` to the 0 .. ``windows`` - 1 (those the log holds two of), the first over
+    ``window_s``; none when the median speed over ``window_s`` is below :data:`MIN_SPEED_MPS`."""
     ratios, speed = [], 0.0
-    for k in range(3 if longer else 1):
+    for k in range(windows):
         w = window_s * POSITION_WINDOW_GROWTH ** k
         dp, dv = _window_increments(t, p, v, w)
         if not len(dp):
@@ -433,12 +446,17 @@ def displacement_ratio(t: np.ndarray, p: np.ndarray, v: np.ndarray, window_s: fl
         if k == 0:
             speed = moved / w
             if not moved >= MIN_SPEED_MPS * w:
-                return float("nan"), speed
+                return [], speed
         if moved > 0:
             ratios.append(float(np.median(np.linalg.norm(dp, axis=1)) / moved))
+    return ratios, speed
+
+
+def _closest_to_one(ratios: list[float]) -> float:
+    """The ratio closest to 1 (in log), NaN for none."""
     if not ratios:
-        return float("nan"), speed
-    return min(ratios, key=lambda r: abs(np.log(r)) if r > 0 else np.inf), speed
+        return float("nan")
+    return min(ratios, key=lambda r: abs(np.log(r)) if r > 0 else np.inf)
 
 
 def vertical_sign(t: np.ndarray, down: np.ndarray, v_down: np.ndarray, window_s: float = POSITION_WINDOW_S
@@ -478,7 +496,7 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
     euler = np.asarray(euler, float)
     if euler.size == 0:
         return euler
-    ratio = _attitude_ratio(t, euler, t_imu, omega_b)
+    ratio, turn_imu = _attitude_ratio(t, euler, t_imu, omega_b)
     peak = np.max(np.abs(euler), axis=0)
     tilt_beyond = peak[0] > np.pi or peak[1] > np.pi / 2
     field = "/".join(fields[:3])
@@ -519,7 +537,7 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
         raise DataError(f"attitude neither radians nor degrees ({why}; {extent})", source, field=field)
     if not tilt_beyond:
         # a noisy attitude in radians also turns faster than the gyro: degrees only when they then turn with it
-        ratio_deg = _attitude_ratio(t, np.radians(euler), t_imu, omega_b)
+        ratio_deg, _ = _attitude_ratio(t, np.radians(euler), t_imu, omega_b, turn_imu)
         if not 1 / DEG_CONFIRM_RATIO < ratio_deg < DEG_CONFIRM_RATIO:
             _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians, but {turns}; read as "
                   f"degrees it would turn {ratio_deg:.3g}x as fast: the gyro matches neither unit (a noisy "
@@ -529,12 +547,13 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
     return np.radians(euler)
 
 
-def _attitude_ratio(t, euler, t_imu, omega_b) -> float:
-    """:func:`attitude_rate_ratio` of roll, pitch, yaw ``euler`` (K,3, rad); NaN without a gyro."""
+def _attitude_ratio(t, euler, t_imu, omega_b, turn_imu: float | None = None) -> tuple[float, float | None]:
+    """:func:`attitude_rate_ratio` of roll, pitch, yaw ``euler`` (K,3, rad): (ratio, gyro turn rate); NaN (and None)
+    without a gyro."""
     from graphnav.core.rotations import euler_to_C_b_n
     if t_imu is None or omega_b is None:
-        return float("nan")
-    return attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b)[0]
+        return float("nan"), None
+    return attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b, turn_imu)
 
 
 def check_reference_displacement(ratio: float, source: str, fields, what: str = "") -> None:
@@ -561,11 +580,13 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
     lat, lon = np.asarray(lat, float), np.asarray(lon, float)
     if lat.size == 0:
         return lat, lon
-    ratio = _latlon_ratio(t, lat, lon, v_n, longer=False)
+    # over 10 s alone for degrees (the longer windows are for noisy fixes), the closest to 1 for the same units
+    ratios = _latlon_ratios(t, lat, lon, v_n)
+    ratio = ratios[0] if ratios else float("nan")
     extent = f"|latitude| up to {np.max(np.abs(lat)):.6g}, |longitude| up to {np.max(np.abs(lon)):.6g}"
     beyond = np.max(np.abs(lat)) > np.pi / 2 or np.max(np.abs(lon)) > 2 * np.pi
     if not beyond and not ratio > DEG_RATE_RATIO:         # radians, or nothing tells (NaN)
-        check_reference_displacement(_latlon_ratio(t, lat, lon, v_n), source, fields)
+        check_reference_displacement(_closest_to_one(ratios), source, fields)
         return lat, lon
     why = (f"the positions move {ratio:.3g}x as far as the velocity says (1 in radians, 57.3 for degrees)"
            if np.isfinite(ratio) else f"{extent}: beyond radians")
@@ -573,18 +594,19 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
         raise DataError(f"latitude/longitude neither radians nor degrees ({why}; {extent})", source,
                         field="/".join(fields[:2]))
     lat_r, lon_r = np.radians(lat), np.radians(lon)
-    check_reference_displacement(_latlon_ratio(t, lat_r, lon_r, v_n), source, fields, " (read as degrees)")
+    check_reference_displacement(_closest_to_one(_latlon_ratios(t, lat_r, lon_r, v_n)), source, fields,
+                                 " (read as degrees)")
     _note(meta, "gt", f"{_columns(fields[:2])} read as degrees and converted to rad: {why}", source)
     return lat_r, lon_r
 
 
-def _latlon_ratio(t, lat, lon, v_n, longer: bool = True) -> float:
-    """:func:`displacement_ratio` of latitude/longitude read as radians (local north/east, m) against the
-    horizontal part of ``v_n``."""
+def _latlon_ratios(t, lat, lon, v_n) -> list[float]:
+    """The displacement ratios (:func:`_displacement_ratios`, 10 s first) of latitude/longitude read as radians
+    (local north/east, m) against the horizontal part of ``v_n``."""
     from graphnav.core.earth import WGS84_A
     dlon = np.angle(np.exp(1j * (lon - lon[0])))           # across the antimeridian too
     p = np.column_stack([WGS84_A * (lat - lat[0]), WGS84_A * np.cos(lat[0]) * dlon])
-    return displacement_ratio(t, p, np.asarray(v_n, float)[:, :2], longer=longer)[0]
+    return _displacement_ratios(t, p, np.asarray(v_n, float)[:, :2], POSITION_WINDOW_S, 3)[0]
 
 
 def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source: str, fields,
@@ -779,10 +801,11 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
                       expected_rate_hz: float | None = None, declared: str | None = None,
                       field: str = "t", lines: np.ndarray | None = None) -> np.ndarray:
     """Stamps ``t`` in seconds: the unit detected by :func:`time_scale` applied (warning and note when not
-    s), or DataError. An IMU gap longer than can be bridged is a DataError here, naming the line (``lines``: the
-    file line of each stamp) and ``field``: it is the stamps that are wrong, and a check of the other streams
-    against them (a reference's positions against its velocity) would blame another file."""
-    scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared)
+    s), or DataError. A span of more than a year (:func:`time_scale`) and an IMU gap longer than can be bridged are
+    DataErrors here, naming the line (``lines``: the file line of each stamp) and ``field``: it is the stamps that
+    are wrong, and a check of the other streams against them (a reference's positions against its velocity) would
+    blame another file."""
+    scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared, lines=lines)
     if scale != 1.0:
         if declared is None:
             _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
