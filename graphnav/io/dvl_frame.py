@@ -15,7 +15,8 @@ direction's turn minus the gyro's z turn, over the RMS of the direction's turn, 
 trajectories and 2.7-3.9 on simulated missions that turn, and 0.16-0.43 for the same logs in NED
 (``docs/decisions/dvl-frame.md``): :data:`EARTH_FRAME_RATIO` 1 lies 2.1x and 2.3x from either side. The gyro's z
 axis keeps its magnitude in any level mounting (FRD, FLU, a yawed IMU) and ENU negates the turn, so both signs are
-tried. The check needs the DVL on the IMU clock (a DVL on a clock of its own is not checked, noted).
+tried. The check needs the DVL on the IMU clock: a DVL on a clock of its own is checked once the prepare step has
+put it there (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
 """
 from __future__ import annotations
 
@@ -152,7 +153,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         if on_the_imu_clock(t_dvl, t_imu):
             check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame)
         else:
-            add_note(meta, "dvl", "not checked for an earth-frame velocity: the DVL is on a clock of its own")
+            add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
         if frame != "body":
             add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
         return velocity_to_body(v, frame, C_d_b)
