@@ -108,6 +108,7 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
         result = calibrate_with_graph(mission, **kwargs)
     else:
         raise ValueError(f"unknown calibration mode '{mode}' (gt, graph, auto)")
+    _velocity_columns_in_the_instrument_frame(mission, result)
     if identify_noise:
         from graphnav.calibration.noise import identify
         noise = identify(mission, completer=completer)
@@ -115,3 +116,18 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
         result.config.imu.accel_noise_density, result.config.imu.gyro_noise_density = noise.estimator_densities()
         result.config.dvl.beam_noise_std = noise.beam_noise_std
     return result
+
+
+def _velocity_columns_in_the_instrument_frame(mission: Mission, result: CalibrationResult) -> None:
+    """A column map's ``v_b`` columns read as body velocity (no ``frame``) are projected on the beams through
+    ``C_d_b``, so the mounting fitted to their beams only holds when the next run reads the same beams: with the
+    columns declared in the ``instrument`` frame (turned to body by the calibrated ``C_d_b``), which the written
+    configuration then says. Only from ``C_d_b`` = I (the beams were then the columns' own projections)."""
+    cmap = result.config.csv_columns or {}
+    dvl = cmap.get("dvl") or {}
+    if (not mission.meta.get("beams_from_v_b") or dvl.get("frame", "body") not in ("body", "frd")
+            or not np.allclose(mission.config.dvl.C_d_b, np.eye(3))):
+        return
+    result.config.csv_columns = {**cmap, "dvl": {**dvl, "frame": "instrument"}}
+    result.info["dvl_velocity_frame"] = ("csv_columns.dvl.frame set to 'instrument': the v_b columns are the DVL's "
+                                         "velocity, turned to body by the calibrated C_d_b")

@@ -169,6 +169,15 @@ def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(dvl.t, float)[ok], v[ok]
 
 
+def without_window_fit(y: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """``y`` (win, window, 3) less its least-squares fit per window by a constant (v0) and the gravity regressor
+    ``A`` (win, window*3, 3; g0): the residual (win, window*3)."""
+    y = y - y.mean(axis=1, keepdims=True)                               # v0
+    g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
+                         np.einsum("wki,wk->wi", A, y.reshape(len(y), -1))[..., None])[..., 0]
+    return y.reshape(len(y), -1) - np.einsum("wkj,wj->wk", A, g0)
+
+
 class _WindowModel:
     """The DVL pings in windows of :data:`WINDOW_PINGS`; for a candidate offset, the residual of
 
@@ -199,13 +208,14 @@ class _WindowModel:
         out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
         return out
 
-    def sse(self, offset: float) -> tuple[np.ndarray, np.ndarray]:
-        """(SSE per window, True where the window lies inside the IMU span) at ``offset`` s."""
+    def terms(self, offset: float):
+        """At ``offset`` s: True where the window lies inside the IMU span, and for those windows the velocity ``v``,
+        ``int omega x v``, ``int f_b``, ``omega_j x l`` (each (win, window, 3)) and the gravity regressor ``int R^T``
+        centred per window (win, window*3, 3); None for the rest when no window is inside."""
         imu, t = self.imu, self.t + offset
         inside = (t[:, 0] >= imu.t[0]) & (t[:, -1] <= imu.t[-1])
-        out = np.full(len(t), np.nan)
         if not inside.any():
-            return out, inside
+            return inside, None
         tq = t[inside].reshape(-1)
         F = interp_rows(tq, imu.t, imu.F).reshape(-1, self.window, 3)
         W = interp_rows(tq, imu.t, imu.W).reshape(-1, self.window, 3)
@@ -214,13 +224,17 @@ class _WindowModel:
         v = self.v[inside]
         rot = np.cross(np.diff(W, axis=1), self.v_mid[inside])        # omega x v over each ping interval
         C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
-        y = v - np.cross(w, self.lever) - F + C
-        y = y - y.mean(axis=1, keepdims=True)                           # v0
         Mc = M - M.mean(axis=1, keepdims=True)
-        A = Mc.reshape(len(v), -1, 3)                                   # (win, window*3, 3)
-        g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
-                             np.einsum("wki,wk->wi", A, y.reshape(len(v), -1))[..., None])[..., 0]
-        r = y.reshape(len(v), -1) - np.einsum("wkj,wj->wk", A, g0)
+        return inside, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3))
+
+    def sse(self, offset: float) -> tuple[np.ndarray, np.ndarray]:
+        """(SSE per window, True where the window lies inside the IMU span) at ``offset`` s."""
+        inside, terms = self.terms(offset)
+        out = np.full(len(self.t), np.nan)
+        if terms is None:
+            return out, inside
+        v, C, F, lever, A = terms
+        r = without_window_fit(v - lever - F + C, A)
         out[inside] = np.sum(r ** 2, axis=1)
         return out, inside
 
@@ -232,6 +246,28 @@ class _WindowModel:
         null = float(np.sum(self.sse_null_w[inside]))
         total = float(np.sum(sse[inside]))
         return 1.0 - total / max(null, 1e-12), total, int(inside.sum())
+
+
+def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None,
+                     transform: np.ndarray | None = None) -> tuple[_WindowModel, np.ndarray]:
+    """The :class:`_WindowModel` of a DVL against an IMU (arguments as :func:`estimate_dvl_clock_offset`'s; the
+    body-frame velocity multiplied by the (3,3) ``transform`` when given) and the stamps of the pings it uses, s.
+
+    Raises:
+        DataError: fewer than two windows of pings with a velocity.
+    """
+    t_dvl, v = dvl_velocity_b(dvl, config)
+    if transform is not None:
+        v = v @ np.asarray(transform, float).T
+    period = float(np.median(np.diff(t_dvl))) if len(t_dvl) > 1 else np.nan
+    window = window_pings or max(6, int(round(WINDOW_S / period))) if np.isfinite(period) else 6
+    if len(t_dvl) < 2 * window:
+        raise DataError(f"{len(t_dvl)} DVL ping(s) with a velocity: too few to find a clock offset (need "
+                        f"{2 * window})", dvl.source, field="t")
+    if lever_arm_b is None:
+        lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
+    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+    return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window), t_dvl
 
 
 # ------------------------------------------------------------------------------------------------
@@ -258,16 +294,9 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     Raises:
         DataError: fewer than two windows of usable pings, or logs too short to overlap ``min_overlap_s``.
     """
-    t_dvl, v = dvl_velocity_b(dvl, config)
-    period = float(np.median(np.diff(t_dvl))) if len(t_dvl) > 1 else np.nan
-    window = window_pings or max(6, int(round(WINDOW_S / period))) if np.isfinite(period) else 6
-    if len(t_dvl) < 2 * window:
-        raise DataError(f"{len(t_dvl)} DVL ping(s) with a velocity: too few to find a clock offset (need "
-                        f"{2 * window})", dvl.source, field="t")
-    if lever_arm_b is None:
-        lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
-    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
-    model = _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window)
+    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings)
+    ints, window = model.imu, model.window
+    period = float(np.median(np.diff(t_dvl)))
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
     # the two logs of one mission overlap mostly; a candidate sharing only a sliver scores on a few windows
     # and can win by chance (a 1 h log six days away did, 3538 s off, before this)

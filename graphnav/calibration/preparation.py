@@ -389,9 +389,15 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     without heading told whether it can gyrocompass."""
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
     dvl, depth = mission.dvl, mission.depth
+    from graphnav.calibration.dvl_scale import check_velocity_against_imu
+    if on_the_imu_clock(dvl.t, mission.imu.t):
+        # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta)
     if facts.get("dvl_clock") == AUTO:
         from graphnav.calibration.clock import align_stream_clocks
         dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
+        if dvl is not mission.dvl:
+            check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True)
         for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
             if new is not old and stream in meta.get("streams", {}):
                 set_span(meta, stream, new.t)       # the stamps as the mission holds them

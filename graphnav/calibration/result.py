@@ -156,6 +156,8 @@ class CalibrationResult:
                  f"  IMU axes ({self.axis_check.method}): "
                  + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
         lines += [f"    note: {n}" for n in self.axis_check.notes]
+        if "dvl_velocity_frame" in self.info:
+            lines.append(f"  DVL velocity columns      : {self.info['dvl_velocity_frame']}")
         if self.noise is not None:
             n = self.noise
             gt = ("-" if n.gt_velocity_sigma_n is None

@@ -21,7 +21,7 @@ prints an upper bound of it): the printed velocity NEES is then also given with 
 covariance, since a DVL-aided estimate can be as good as the reference it is scored against.
 
 Units: ``time_unit`` s / ms / us / ns (global or per stream); ``accel_unit`` m/s^2 or g; ``gyro_unit`` rad/s
-or deg/s; ``velocity_unit`` m/s, cm/s or mm/s. A unit left out is detected from the data
+or deg/s; ``velocity_unit`` m/s, cm/s, mm/s or kn. A unit left out is detected from the data
 (:mod:`graphnav.io.units`: stamps from the sample step, g from |f|, deg/s from the rates, mm/s from the
 speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
 a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
@@ -46,7 +46,10 @@ that logs body velocity): the beams are then the exact projections ``T_b v_b`` o
 configured beam geometry (no noise added; ``meta["beams_from_v_b"]``), and a ping with any non-finite axis
 has no valid beam. The ``valid`` flags apply to ``v_b`` too (a velocity needs three valid beams); a ping whose
 velocity (or four beams) is exactly 0 on every axis has no bottom lock and is refused (warned with its lines,
-counted). Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
+counted). ``frame`` says which frame the ``v_b`` columns are in: body (default), flu, instrument (turned by
+``dvl.C_d_b``), ned or enu (with the DVL's ``euler`` roll, pitch, heading columns and their ``angle_unit``); an
+undeclared earth-frame, knots or FLU velocity is refused (:mod:`graphnav.io.dvl_frame`,
+:mod:`graphnav.calibration.dvl_scale`). Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
 (:mod:`graphnav.io.pd0`) recorded in any RDI frame (beam, instrument, ship or earth: rotated back to beams;
 3-beam solutions become ``DvlData.v_d``), whose stamps are Unix seconds: the IMU stamps must then be Unix too;
 what the file read and refused is in ``meta["streams"]``.
@@ -87,6 +90,7 @@ from graphnav.core.screening import (
     with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
@@ -311,8 +315,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if depth is not None:
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
-        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3}, time_unit, tables,
-                               meta, repair)
+        t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3, "euler": 3},
+                               time_unit, tables, meta, repair)
         vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
         vdeclared = spec.get("velocity_unit")
         lines = dvl_lines = v["_lines"]
@@ -325,6 +329,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                                      vdeclared)
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
+            v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
+                                  meta)
         if "beams" in v:
             raw = v["beams"]
             if vdeclared is None:

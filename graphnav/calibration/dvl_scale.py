@@ -1,0 +1,111 @@
+"""A DVL velocity's scale and axis signs against the IMU: a speed unit read wrong (knots as m/s, 1.94x) or a DVL
+in FLU axes read as FRD, which no speed range catches.
+
+The DVL clock model (:mod:`graphnav.calibration.clock`) fits each 20 s window of DVL velocities with the IMU's
+integrals: ``v + int omega x v = v0 + int f_b + (int R^T) g0 + omega x l``. With the velocity ``k`` times the
+true one, the DVL side is ``k`` times what the IMU side says: after the per-window ``v0`` and ``g0`` are taken out
+of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
+the DVL's noise from shrinking it). A velocity in FLU read as FRD explains the IMU's accelerations far worse than
+the same velocity with y and z negated (:func:`flu_fit_ratio`). Measured in ``docs/decisions/units-clocks-axes.md``.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from graphnav.calibration.clock import dvl_window_model, without_window_fit
+from graphnav.core.errors import DataError
+from graphnav.core.streams import add_note
+
+#: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
+#: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
+#: Trajectory13; simulated missions 0.05-0.39 with the default 0.042 m/s beams, 0.58-0.905 with 0.01 m/s and a
+#: navigation or tactical IMU, 0.41-0.80 with a MEMS one, whose noisy integrals pull the scale to 0.75-0.87 and the
+#: yaw up to 19 deg: those are not judged.
+MIN_SCALE_R2 = 0.9
+#: Scales outside (1 / this, this) are refused: a unit read wrong, not a calibration (the geometric middle of 1
+#: and knots' 1.944; the nine: 0.996-1.016 in m/s, 1.937-1.976 in knots).
+MAX_SCALE_ERROR = 1.4
+#: What a scale (velocity as read over the IMU's) likely is.
+LIKELY_UNITS = {"knots read as m/s (declare velocity_unit 'kn')": 1.943844,
+                "m/s declared as knots": 1 / 1.943844,
+                "ft/s read as m/s": 3.280840, "m/s declared as ft/s": 1 / 3.280840}
+#: The clock model's SSE as read over its SSE with y and z negated above which the velocity is FLU, when the negated
+#: fit explains at least :data:`MIN_FLU_EXPLAINED` (the ten A-KIT: 0.001-0.076 as recorded, 13-1050 negated).
+FLU_SSE_RATIO = 3.0
+MIN_FLU_EXPLAINED = 0.5
+#: A horizontal turn between the DVL's velocity and the IMU's axes beyond this (rad; with the fit's r^2 at least
+#: :data:`MIN_SCALE_R2`) is warned about: instrument-frame columns of a yawed DVL read as body. The nine A-KIT
+#: trajectories judged: -0.4..0.4 deg; simulated missions with 0.01 m/s beam noise: -4.3..5.2 deg; a DVL
+#: mounted 45 deg read as body: -44.6 deg. A few degrees are a mounting calibration's (``graphnav calibrate``).
+MAX_YAW_RAD = np.deg2rad(10.0)
+#: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
+#: clock search by 7.5 s on Trajectory1's first 200 s).
+SCALE_SEARCH_S = 20.0
+
+
+def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
+    """``(scale, r2, yaw)``: the DVL's horizontal velocity over the one the IMU's integrals say (1 for a right unit),
+    the share of the variance the fit explains, and the angle the DVL's horizontal axes are turned by (rad, about
+    z: a mounting yaw turns the velocity, it does not scale it), over the model's windows inside the IMU span at
+    ``offset`` s (NaN without two). The horizontal parts are complex numbers ``x + iy``: the DVL side regressed
+    on the IMU side gives ``scale * exp(i yaw)``."""
+    inside, terms = model.terms(offset)
+    if terms is None or inside.sum() < 2:
+        return float("nan"), float("nan"), float("nan")
+    v, C, F, lever, A = terms
+    a = without_window_fit(v + C, A).reshape(-1, 3)
+    b = without_window_fit(F + lever, A).reshape(-1, 3)
+    a, b = a[:, 0] + 1j * a[:, 1], b[:, 0] + 1j * b[:, 1]
+    ab, aa, bb = np.vdot(b, a), float(np.vdot(a, a).real), float(np.vdot(b, b).real)
+    return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
+
+
+def flu_fit_ratio(imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
+    """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model at ``offset`` s."""
+    read, _ = dvl_window_model(imu, dvl, config)
+    flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]))
+    explained, sse, _ = flipped.score(offset)
+    return read.score(offset)[1] / max(sse, 1e-300), explained
+
+
+def _likely_unit(scale: float) -> str:
+    name, factor = min(LIKELY_UNITS.items(), key=lambda kv: abs(np.log(scale / kv[1])))
+    return name if abs(np.log(scale / factor)) < np.log(MAX_SCALE_ERROR) / 2 else "a wrong velocity_unit"
+
+
+def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False) -> None:
+    """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
+    speed unit read wrong) or in FLU axes read as FRD (:func:`flu_fit_ratio`), naming the DVL file and its columns
+    (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
+    taken where its fit is best within +- :data:`SCALE_SEARCH_S` (a wrong scale misleads the clock search by
+    seconds). ``moved``: the clock search has just put the DVL on the IMU clock, so the loader could not check it
+    for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here."""
+    from graphnav.calibration.clock import dvl_velocity_b
+    field = meta.get("stream_fields", {}).get("dvl", "velocity")
+    try:
+        model, _ = dvl_window_model(imu, dvl, config)
+    except DataError:
+        return
+    if moved:
+        from graphnav.io.dvl_frame import check_not_earth_frame
+        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
+    fits = [speed_scale(model, o) for o in np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)]
+    scale, r2, yaw = max(fits, key=lambda f: np.nan_to_num(f[1], nan=-1.0))
+    if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
+        raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
+                        f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
+                        f"{_likely_unit(scale)}?", dvl.source, field=field)
+    if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
+        text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
+                f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
+                "as body? declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
+                "it and writes both)")
+        warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
+        add_note(meta, "dvl", text)
+    ratio, explained = flu_fit_ratio(imu, dvl, config)
+    if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
+        raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
+                        f"negated (then explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read "
+                        "as FRD? declare csv_columns.dvl.frame 'flu'", dvl.source, field=field)

@@ -1,0 +1,167 @@
+"""The frame of a DVL velocity read from columns (``csv_columns.dvl.frame``), and a check that velocity said to be
+in the vehicle's frame is not in the earth's.
+
+Frames (:data:`DVL_FRAMES`): ``body`` (forward-right-down, the default; ``frd`` is the same), ``flu`` (ROS
+``base_link``: y and z negated), ``instrument`` (the DVL frame ``d``: turned to body by the configured
+``dvl.C_d_b``), ``ned`` / ``enu`` (earth-fixed: turned back to ``d`` with the head's own roll, pitch and heading,
+as :mod:`graphnav.io.pd0` does with an earth-coordinate ensemble's attitude, then to body by ``C_d_b``). An earth
+frame needs those attitude columns (``euler`` of the DVL entry, ``angle_unit`` rad or deg); without them it is
+refused: nothing on board turns an earth velocity back without a heading.
+
+Undeclared earth-frame velocity (:func:`course_turn_ratio`): an AUV moves mostly along its own x whatever its
+heading, so the direction of a body-frame horizontal velocity turns little (a current or a sideslip turns it
+somewhat); an earth-frame velocity's direction turns with the vehicle. Over 10 s windows, the RMS of the
+direction's turn minus the gyro's z turn, over the RMS of the direction's turn, is 2.1-6.2 on the ten A-KIT
+trajectories and 2.7-3.9 on simulated missions that turn, and 0.16-0.43 for the same logs in NED
+(``docs/decisions/dvl-frame.md``): :data:`EARTH_FRAME_RATIO` 1 lies 2.1x and 2.3x from either side. The gyro's z
+axis keeps its magnitude in any level mounting (FRD, FLU, a yawed IMU) and ENU negates the turn, so both signs are
+tried. The check needs the DVL on the IMU clock: a DVL on a clock of its own is checked once the prepare step has
+put it there (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.rotations import euler_to_C_b_n
+
+#: Frames a column map's DVL velocity may be declared in (``frd`` is ``body``).
+DVL_FRAMES = ("body", "frd", "flu", "instrument", "ned", "enu")
+EARTH_FRAMES = ("ned", "enu")
+#: NED from ENU (RDI's earth frame is East-North-Up).
+C_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+#: Windows over which the velocity's direction and the gyro turn are compared, s.
+COURSE_WINDOW_S = 10.0
+#: Horizontal speed under which a velocity's direction is not used, m/s (noise turns it at hover).
+COURSE_MIN_SPEED_MPS = 0.3
+#: RMS gyro turn rate over the windows under which the check tells nothing, rad/s.
+COURSE_MIN_TURN_RADPS = 2e-3
+#: :func:`course_turn_ratio` under which the velocity turns with the vehicle: earth-fixed (module docstring).
+EARTH_FRAME_RATIO = 1.0
+
+
+def declared_frame(spec: dict) -> str:
+    """``csv_columns.dvl.frame`` (default ``body``), checked; ``frd`` is returned as ``body``."""
+    frame = spec.get("frame", "body")
+    if frame not in DVL_FRAMES:
+        raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: choose one of {list(DVL_FRAMES)}")
+    return "body" if frame == "frd" else frame
+
+
+def velocity_to_body(v: np.ndarray, frame: str, C_d_b: np.ndarray, euler_d: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """The DVL velocity (M,3), m/s, in ``frame`` turned to the body frame (FRD).
+
+    Args:
+        v: velocity as read, m/s, in ``frame``.
+        frame: one of :data:`DVL_FRAMES` (``frd`` taken as ``body``).
+        C_d_b: (3,3) DVL frame to body (``dvl.C_d_b``).
+        euler_d: (M,3) roll, pitch, heading of the DVL frame in NED, rad (earth frames only).
+    """
+    v = np.asarray(v, float)
+    if frame == "flu":
+        return v * [1.0, -1.0, -1.0]
+    if frame in EARTH_FRAMES:
+        v_n = v @ C_NED_ENU.T if frame == "enu" else v
+        C_d_n = euler_to_C_b_n(euler_d[:, 0], euler_d[:, 1], euler_d[:, 2])
+        v = np.einsum("kji,kj->ki", C_d_n, v_n)                # v_d = C_d_n^T v_n
+    if frame in ("instrument", *EARTH_FRAMES):
+        return v @ np.asarray(C_d_b, float).T
+    return v
+
+
+def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
+                      window_s: float = COURSE_WINDOW_S) -> float:
+    """How far the turn of the DVL velocity's horizontal direction is from the vehicle's: RMS over windows of
+    ``window_s`` (both logs on one clock) of the direction's turn minus the gyro z turn (either sign: FLU and ENU
+    negate it), over the RMS of the direction's turn. A vehicle-fixed velocity barely turns (ratio >> 1); an
+    earth-fixed one turns with the gyro (<< 1). NaN when the gyro turns too little
+    (:data:`COURSE_MIN_TURN_RADPS`) or fewer than 3 windows have moving pings throughout.
+
+    Args:
+        t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read (its first two axes horizontal when level), m/s.
+        t_imu: (K,) IMU stamps, s, on the DVL's clock. omega_b: (K,3) gyro rates, rad/s.
+    """
+    t_dvl, v = np.asarray(t_dvl, float), np.asarray(v, float)
+    if len(t_dvl) < 3:
+        return float("nan")
+    moving = np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) >= COURSE_MIN_SPEED_MPS)
+    course = np.arctan2(v[:, 1], v[:, 0])
+    period = float(np.median(np.diff(t_dvl)))
+    # turns between consecutive moving pings only (over a gap or a hover the direction between is unknown)
+    pair = moving[1:] & moving[:-1] & (np.diff(t_dvl) <= 1.5 * period)
+    turn = np.where(pair, np.angle(np.exp(1j * np.diff(np.where(moving, course, 0.0)))), 0.0)
+    edges = np.arange(max(t_dvl[0], t_imu[0]), min(t_dvl[-1], t_imu[-1]), window_s)
+    if len(edges) < 4:
+        return float("nan")
+    k = np.digitize(t_dvl[1:], edges) - 1
+    inside = (k >= 0) & (k < len(edges) - 1)
+    n = len(edges) - 1
+    dvl_turn = np.bincount(k[inside], weights=turn[inside], minlength=n)[:n]
+    covered = np.bincount(k[inside], weights=pair[inside], minlength=n)[:n] >= 0.8 * window_s / period
+    w = np.asarray(omega_b, float)[:, 2]
+    yaw = np.concatenate([[0.0], np.cumsum(np.diff(t_imu) * 0.5 * (w[1:] + w[:-1]))])
+    gyro_turn = np.diff(np.interp(edges, t_imu, yaw))
+    dvl_turn, gyro_turn = dvl_turn[covered], gyro_turn[covered]
+    if len(dvl_turn) < 3 or np.sqrt(np.mean(gyro_turn ** 2)) / window_s < COURSE_MIN_TURN_RADPS:
+        return float("nan")
+    apart = min(np.sqrt(np.mean((dvl_turn - s * gyro_turn) ** 2)) for s in (1.0, -1.0))
+    return float(apart / max(np.sqrt(np.mean(dvl_turn ** 2)), 1e-12))
+
+
+def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
+                          source: str, fields: list[str], frame: str) -> float:
+    """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame; DataError naming the file
+    and columns when it turns with the vehicle (:data:`EARTH_FRAME_RATIO`): logged in the earth frame."""
+    ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
+    if np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO:
+        said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
+        raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: over {COURSE_WINDOW_S:g} s "
+                        f"windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a vehicle-fixed "
+                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); it looks "
+                        "earth-fixed (NED/ENU): declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, "
+                        "pitch and heading columns ('euler', 'angle_unit'), or log the body-frame velocity", source,
+                        field=", ".join(fields))
+    return ratio
+
+
+#: Units of the attitude columns of an earth-frame DVL entry.
+ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
+
+
+def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
+                    t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict) -> np.ndarray:
+    """A column map's DVL velocity (M,3), m/s, in its declared ``frame`` turned to the body frame; a velocity in a
+    vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`); the frame noted in
+    ``meta["streams"]["dvl"]``.
+
+    Args:
+        t_dvl: (M,) stamps, s. v: (M,3) the ``v_b`` columns in m/s. euler: (M,3) the entry's ``euler`` columns
+            (roll, pitch, heading of the DVL frame; ``angle_unit``) or None. spec: ``csv_columns.dvl``.
+        C_d_b: (3,3) ``dvl.C_d_b``. t_imu, omega_b: the IMU's stamps, s, and rates, rad/s (FRD or FLU).
+
+    Raises:
+        ConfigError: an earth frame without attitude columns or their unit.
+        DataError: a vehicle-frame velocity that turns with the vehicle.
+    """
+    from graphnav.core.streams import add_note
+    from graphnav.core.timeseries import on_the_imu_clock
+    frame = declared_frame(spec)
+    fields = list(spec["v_b"])
+    meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
+    if frame not in EARTH_FRAMES:
+        if on_the_imu_clock(t_dvl, t_imu):
+            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame)
+        else:
+            add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
+        if frame != "body":
+            add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
+        return velocity_to_body(v, frame, C_d_b)
+    unit = spec.get("angle_unit")
+    if euler is None or unit not in ANGLE_UNITS:
+        raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: an earth-frame velocity is turned back to the DVL "
+                          "frame with the DVL's own attitude at each ping: give 'euler' (3 columns of the DVL "
+                          f"file: roll, pitch, heading) and 'angle_unit' ({' or '.join(ANGLE_UNITS)})")
+    add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
+                          f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
+    return velocity_to_body(v, frame, C_d_b, euler * ANGLE_UNITS[unit])
