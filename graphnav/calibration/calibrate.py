@@ -72,14 +72,35 @@ def calibrate_with_gt(mission: Mission, min_depth_m: float = 2.0) -> Calibration
     cfg.imu_axis_signs = cfg0.imu_axis_signs * check.sign_correction
     r_imu, r_cov, r_before, r_after = estimate_imu_position(dataclasses.replace(
         work, gt=dataclasses.replace(work.gt, t=gt_t)))
+    info = {}
+    if mission.meta.get("prepare", {}).get("format") in LOG_FORMATS:
+        info["reference_position_b"] = _navigate_the_accelerometer(cfg, cfg0, r_imu)
     return CalibrationResult(
         "gt", _q(th[0:3], sig[0:3], "m"), _q(cfg.dvl_time_offset_s, off_sigma, "s"),
         _q(cfg.gt_time_offset_s, gt_est.sigma_s, "s"), _q(th[4], sig[4], "rad"), _q(th[3], sig[3], "-"),
         _q(th[5], sig[5], "m/s"), fit.rms, check, cfg, _q(r_imu, np.sqrt(np.diag(r_cov)), "m"),
         info={"accel_residual_rms_before_after": f"{r_before:.4f} -> {r_after:.4f} m/s^2",
               "dvl_offset_correction_s": fit.offset_s, "gt_offset_correction_s": gt_est.offset_s,
-              "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms},
+              "pings_used": fit.n_pings, "gyro_increment_rms_rad": gt_est.rms, **info},
         gt_point_b=_gt_point_b(mission))
+
+
+#: The formats whose reference point ``calibrate`` writes (``reference_position_b``): logs and bags, whose column map
+#: or topics cannot say where the reference stands. An A-KIT folder's is the vehicle's (the loader's
+#: ``AKIT_IMU_POSITION_B``, docs/decisions/akit-loader.md); a simulated reference is at the IMU point.
+LOG_FORMATS = ("csv", "bag")
+
+
+def _navigate_the_accelerometer(cfg: SensorConfig, cfg0: SensorConfig, r_imu: np.ndarray) -> str:
+    """``cfg`` set to navigate the accelerometer's point ``r_imu`` (m, body frame, from the point the mission's GT
+    stands for): the reference's position from it (``reference_position_b``, which ``prepare`` moves the reference
+    by) and the DVL lever arm from it. Returns the report's line."""
+    before = np.zeros(3) if cfg0.reference_position_b is None else cfg0.reference_position_b
+    cfg.reference_position_b = before - r_imu
+    cfg.dvl.lever_arm_b = cfg.dvl.lever_arm_b - r_imu
+    cells = ", ".join(f"{x:+.3f}" for x in cfg.reference_position_b)
+    return (f"[{cells}] m (the reference from the accelerometer's point, body frame; written as reference_position_b, "
+            "the lever arm written from the same point)")
 
 
 def _gt_point_b(mission: Mission) -> np.ndarray | None:

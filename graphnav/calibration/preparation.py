@@ -30,7 +30,9 @@ DataError, an implied frame is corrected with a warning; a depth is checked agai
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
-without a heading source is told whether the configured gyro can gyrocompass.
+without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
+(the configuration's ``gt_time_offset_s``, else estimated as for A-KIT and added when it is more than noise) and
+moved to the IMU point from the configuration's ``reference_position_b`` (:func:`_reference_on_the_imu`).
 
 Every mission: an IMU whose stamps run at another rate than the configured ``imu_rate_hz`` (50 or 200 Hz against
 100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
@@ -388,6 +390,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     """The IMU frame checked, a DVL on its own clock put on the IMU's, the depth's sign and unit checked; a bag
     without heading told whether it can gyrocompass."""
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
+    mission = _reference_on_the_imu(mission, meta, facts)
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
     if on_the_imu_clock(dvl.t, mission.imu.t):
@@ -410,6 +413,62 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+#: A log's or bag's reference is put later or earlier by its estimated time offset only when the offset exceeds
+#: this many of its sigmas and :data:`GT_OFFSET_MIN_S`: an exact reference (simulated) estimates 1e-6..1e-5 s with
+#: sigmas of the same size and stays as read; the 200 s of A-KIT Trajectory1 as a column-map log: -0.410 s, sigma
+#: 0.0008 s.
+GT_OFFSET_SIGMAS = 3.0
+#: Smallest reference time offset applied, s: a tenth of the 100 Hz IMU period, far below what a turn's heading error
+#: shows (0.1 rad/s x 1 ms = 0.1 mrad).
+GT_OFFSET_MIN_S = 1e-3
+
+
+def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
+    """A log's or bag's reference on the IMU clock and at the IMU point, as the A-KIT path puts its GT.
+
+    Time: the configuration's ``gt_time_offset_s`` when it sets one (``facts["given"]``), else the offset matching the
+    reference's attitude increments with the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`),
+    added only when it exceeds :data:`GT_OFFSET_SIGMAS` sigmas and :data:`GT_OFFSET_MIN_S`, with a warning and a note.
+    Point: moved by ``-config.reference_position_b`` (m, body frame) to the IMU point
+    (:func:`graphnav.calibration.reference.move_ground_truth`), with a note; ``meta["gt_point_b"]`` records the IMU
+    point relative to the reference as recorded. A reference off the IMU clock is left to the clock checks."""
+    g, cfg = mission.gt, mission.config
+    if g is None or not len(g.t) or not on_the_imu_clock(g.t, mission.imu.t):
+        return mission
+    from graphnav.calibration.reference import estimate_gt_time_offset, move_ground_truth
+    lat = cfg.lat_rad if cfg.earth_rotation else None
+    offset = facts.get("given", {}).get("gt_time_offset_s")
+    how = "given by the configuration's gt_time_offset_s"
+    if offset is None:
+        try:
+            est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t, g.C_b_n, lat, source=g.source)
+        except DataError as err:         # too short a reference: it stays as read, and says so
+            add_note(meta, "gt", f"time offset not estimated ({err}); the stamps are used as read")
+            est = None
+        if est is not None:
+            meta["time_offsets"] = {"gt": {"offset_s": est.offset_s, "sigma_s": est.sigma_s, "rms": est.rms}}
+        applied = est is not None and abs(est.offset_s) > max(GT_OFFSET_SIGMAS * est.sigma_s, GT_OFFSET_MIN_S)
+        offset = est.offset_s if applied else 0.0
+        how = f"estimated from its attitude against the gyro, sigma {est.sigma_s:.4f} s" if applied else how
+    if offset:
+        text = f"time offset {offset:+.3f} s added to the reference stamps ({how})"
+        add_note(meta, "gt", text)
+        if "given" not in how:
+            warnings.warn(f"{g.source}: {text}; set gt_time_offset_s in the configuration if it is known",
+                          RuntimeWarning, stacklevel=5)
+        g = dataclasses.replace(g, t=g.t + offset)
+        set_span(meta, "gt", g.t)
+    r_b = cfg.reference_position_b
+    if r_b is not None and np.any(r_b):
+        g = move_ground_truth(g, mission.imu.t, mission.imu.omega_b, -r_b, lat)
+        meta["gt_point_b"] = (-r_b).tolist()
+        add_note(meta, "gt", "moved to the IMU point from its reference_position_b "
+                 f"[{', '.join(f'{x:+.3f}' for x in r_b)}] m (body frame)")
+    if g is mission.gt:
+        return mission
+    return dataclasses.replace(mission, gt=g, config=dataclasses.replace(cfg, gt_time_offset_s=float(offset)))
 
 
 def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:

@@ -112,6 +112,10 @@ class CalibrationResult:
         if self.mode != "gt":
             return [f"  (lever arm: body frame, m, from the {IMU_POINT}, the point the estimators navigate; written as "
                     "dvl.lever_arm_b)"]
+        if "reference_position_b" in self.info:
+            return ["  (lever arm, accelerometer: body frame, m, from the point the GT stood for; the accelerometer's "
+                    "point is written as the one the estimators navigate: the lever arm minus the accelerometer as "
+                    "dvl.lever_arm_b, the reference's position from it as reference_position_b)"]
         if self.gt_point_b is None:
             return [f"  (lever arm, accelerometer: body frame, m, from the {GT_POINT} as the log holds it; the lever "
                     "arm is written as dvl.lever_arm_b, the DVL from the IMU: right when the GT stands for the IMU's "
@@ -156,6 +160,8 @@ class CalibrationResult:
                  f"  IMU axes ({self.axis_check.method}): "
                  + ("consistent" if self.axis_check.ok else "SUSPECT: " + "; ".join(self.axis_check.suspects))]
         lines += [f"    note: {n}" for n in self.axis_check.notes]
+        if "reference_position_b" in self.info:
+            lines.append(f"  {'reference point vs IMU':<26}: {self.info['reference_position_b']}")
         if "dvl_velocity_frame" in self.info:
             lines.append(f"  DVL velocity columns      : {self.info['dvl_velocity_frame']}")
         if self.noise is not None:

@@ -193,6 +193,11 @@ class SensorConfig:
             free inertial navigation at 2 m/s), kept to measure what the variation is worth.
         dvl_time_offset_s: offset already added to the raw DVL stamps to put them on the IMU clock, s.
         gt_time_offset_s: offset already added to the raw ground-truth stamps, s.
+        reference_position_b: position of the ground truth's (reference's) measurement point relative to the IMU,
+            body frame, m (3,): the prepare step moves the reference by its negative to the IMU point, the point
+            the estimators navigate, so that velocities are scored at one point (a reference 1.8 m from the IMU
+            differs by omega x r, ~0.09 m/s in turns). ``graphnav calibrate`` writes it. None: the format's own,
+            an A-KIT folder's the vehicle's (``AKIT_IMU_POSITION_B``), every other format's the IMU point itself.
         imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD.
         depth_noise_std: depth sensor white noise, m.
         water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
@@ -215,6 +220,7 @@ class SensorConfig:
     gravity_variation: bool = True
     dvl_time_offset_s: float = 0.0
     gt_time_offset_s: float = 0.0
+    reference_position_b: np.ndarray | None = None
     imu_axis_signs: np.ndarray = field(default_factory=lambda: np.ones(3))
     depth_noise_std: float = 0.05
     water_density_kgpm3: float = 1025.0
@@ -228,6 +234,8 @@ class SensorConfig:
         if len(self.depth_range_m) != 2 or not self.depth_range_m[0] < self.depth_range_m[1]:
             raise ConfigError(f"depth_range_m must be (shallowest, deepest), got {self.depth_range_m}")
         self.imu_axis_signs = np.asarray(self.imu_axis_signs, dtype=float).reshape(3)
+        if self.reference_position_b is not None:
+            self.reference_position_b = np.asarray(self.reference_position_b, dtype=float).reshape(3)
 
     # --- JSON round trip -------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -343,6 +351,7 @@ SCHEMA: dict[str, Key] = {
     "gravity_variation": Key("bool"),
     "dvl_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
     "gt_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
+    "reference_position_b": Key("vector", "m", low=-100.0, high=100.0, size=3, nullable=True),
     "imu_axis_signs": Key("signs"),
     "depth_noise_std": Key("number", "m", high=100.0, **_POSITIVE),
     "depth_range_m": Key("vector", "m", low=-1000.0, high=12000.0, size=2),

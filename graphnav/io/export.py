@@ -23,6 +23,7 @@ surface), NED velocity, roll/pitch/yaw with ``C_b_n = Rz(yaw) Ry(pitch) Rx(roll)
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -71,5 +72,6 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     euler = C_b_n_to_euler(gt.C_b_n)
     _write_csv(paths["GT"], AKIT_COLUMNS["GT"],
                np.column_stack([gt.t, lla[:, 1], lla[:, 0], lla[:, 2], gt.v_n, euler]))
-    mission.config.save(paths["config"])
+    # the GT is written where the mission holds it, at the IMU point: no reference point to move it from
+    dataclasses.replace(mission.config, reference_position_b=None).save(paths["config"])
     return paths

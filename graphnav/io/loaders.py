@@ -972,13 +972,19 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
         if akit_kwargs:
             raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only (repair: and column-map CSV logs); "
                               f"{path} is not one")
-        return screen_mission(reader())
+        mission = screen_mission(reader())
+        if overrides and overrides.sets("gt_time_offset_s") and mission.gt is not None:
+            # the configuration is the calibration: prepare applies its offset instead of estimating one
+            mission.meta.setdefault("prepare", {})["given"] = {"gt_time_offset_s": float(config.gt_time_offset_s)}
+        return mission
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
     if not overrides:
         return read_akit_mission(path, **akit_kwargs)
     base, written = akit_base_config(path)
     config = overrides.over(base)
+    if config.reference_position_b is not None:
+        akit_kwargs.setdefault("imu_position_b", -config.reference_position_b)
     given = _given_keys(config, lambda key: overrides.sets(key) or (written is not None and written.sets(key)))
     return read_akit_mission(path, config=config, given=given, **akit_kwargs)
 

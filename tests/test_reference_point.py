@@ -1,0 +1,116 @@
+"""A log's or bag's reference (ground truth) put on the IMU clock and at the IMU point by the prepare step, as an
+A-KIT folder's GT is: its time offset estimated (or the configuration's), its point given by
+``reference_position_b`` and written by ``graphnav calibrate``."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.calibration.calibrate import calibrate
+from graphnav.calibration.reference import move_ground_truth
+from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
+
+#: The reference's point from the IMU, body frame, m: the Snapir's published GT point is 1.8 m ahead of its IMU.
+R_B = np.array([1.8, 0.05, -0.2])
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_mission(duration_s=120.0, seed=4)
+
+
+def _write(path, header, columns):
+    rows = [",".join(header)] + [",".join(f"{x:.12g}" for x in row) for row in np.column_stack(columns)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def _log(tmp_path, m, gt, **keys):
+    """``m`` as a column-map log with ``gt`` as its reference; the configuration gets ``keys``."""
+    _write(tmp_path / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [m.imu.t, m.imu.f_b, m.imu.omega_b])
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [m.dvl.t, m.gt.v_b[np.searchsorted(m.gt.t, m.dvl.t)]])
+    _write(tmp_path / "gt.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [gt.t, gt.p_n, gt.v_n, C_b_n_to_euler(gt.C_b_n)])
+    cfg = {"imu": m.config.to_dict()["imu"], "lat_rad": m.config.lat_rad, "gravity_mps2": m.config.gravity_mps2,
+           "csv_columns": {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                   "omega_b": ["gx", "gy", "gz"], "frame": "frd"},
+                           "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"},
+                           "gt": {"file": "gt.csv", "t": "t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+                                  "euler": ["roll", "pitch", "yaw"], "angle_unit": "rad"}}, **keys}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    return tmp_path, tmp_path / "config.json"
+
+
+def _load(data, cfg):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(data, cfg)
+    return m, [str(w.message) for w in caught]
+
+
+def test_a_late_reference_is_put_on_the_imu_clock_and_a_given_offset_wins(sim, tmp_path):
+    late = dataclasses.replace(sim.gt, t=sim.gt.t + 0.4)         # the reference logged 0.4 s late
+    m, said = _load(*_log(tmp_path, sim, late))
+    np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=2e-3)
+    assert m.config.gt_time_offset_s == pytest.approx(-0.4, abs=2e-3)
+    assert any("gt.csv: time offset -0.400 s added to the reference stamps (estimated" in s for s in said)
+    assert any("time offset -0.400 s added" in n for n in m.meta["streams"]["gt"]["notes"])
+    # the configuration's offset is used as given, not estimated
+    m, said = _load(*_log(tmp_path, sim, late, gt_time_offset_s=-0.3))
+    np.testing.assert_allclose(m.gt.t, late.t - 0.3, atol=1e-9)
+    assert not any("time offset" in s for s in said)
+    # a reference on time stays as read
+    m, said = _load(*_log(tmp_path, sim, sim.gt))
+    np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=1e-9)
+    assert m.config.gt_time_offset_s == 0.0 and not any("time offset" in s for s in said)
+
+
+def test_a_bag_reference_late_is_put_on_the_imu_clock(sim, tmp_path):
+    from graphnav.io.bags import write_mission_bag
+    late = dataclasses.replace(sim, gt=dataclasses.replace(sim.gt, t=sim.gt.t + 0.4))
+    path = write_mission_bag(late, tmp_path / "late.mcap")
+    m, said = _load(path, None)
+    assert m.config.gt_time_offset_s == pytest.approx(-0.4, abs=2e-3)
+    assert any("time offset -0.400 s added to the reference stamps" in s for s in said)
+
+
+def test_a_reference_away_from_the_imu_is_moved_there_by_its_configured_point(sim, tmp_path):
+    away = move_ground_truth(sim.gt, sim.imu.t, sim.imu.omega_b, R_B, sim.config.lat_rad)
+    assert np.abs(away.v_n - sim.gt.v_n).max() > 0.02          # what scoring at the wrong point costs
+    m, _ = _load(*_log(tmp_path, sim, away, reference_position_b=R_B.tolist()))
+    np.testing.assert_allclose(m.gt.v_n, sim.gt.v_n, atol=2e-3)
+    np.testing.assert_allclose(m.gt.p_n, sim.gt.p_n, atol=1e-6)
+    assert m.meta["gt_point_b"] == pytest.approx((-R_B).tolist())
+    assert any("moved to the IMU point" in n for n in m.meta["streams"]["gt"]["notes"])
+
+
+def test_calibrate_writes_the_reference_point_of_a_log(sim, tmp_path):
+    away = move_ground_truth(sim.gt, sim.imu.t, sim.imu.omega_b, R_B, sim.config.lat_rad)
+    m, _ = _load(*_log(tmp_path, sim, away))
+    result = calibrate(m, mode="gt")
+    np.testing.assert_allclose(result.config.reference_position_b, R_B, atol=0.02)
+    np.testing.assert_allclose(result.config.dvl.lever_arm_b, np.zeros(3), atol=0.02)   # the DVL at the IMU
+    assert "reference point vs IMU" in result.report()
+    # the written configuration reads back and puts the reference at the IMU point
+    result.config.save(tmp_path / "calibrated.json")
+    m, _ = _load(tmp_path, tmp_path / "calibrated.json")
+    np.testing.assert_allclose(m.gt.v_n, sim.gt.v_n, atol=0.01)
+
+
+def test_an_akit_folder_takes_a_configured_reference_point(akit_dir, tmp_path):
+    from graphnav.io.loaders import AKIT_IMU_POSITION_B
+    folder = akit_dir / "Trajectory1"
+    default, _ = _load(folder, None)
+    cfg = tmp_path / "config.json"
+    cfg.write_text(json.dumps({"reference_position_b": (-np.asarray(AKIT_IMU_POSITION_B)).tolist()}))
+    same, _ = _load(folder, cfg)                 # the vehicle's own point, given: the same mission
+    np.testing.assert_array_equal(same.gt.v_n, default.gt.v_n)
+    cfg.write_text(json.dumps({"reference_position_b": [0.0, 0.0, 0.0]}))
+    published, _ = _load(folder, cfg)            # the GT kept at its published point
+    assert published.meta["gt_point_b"] == [0.0, 0.0, 0.0]
+    assert np.abs(published.gt.v_n - default.gt.v_n).max() > 0.05
