@@ -114,3 +114,30 @@ def test_an_akit_folder_takes_a_configured_reference_point(akit_dir, tmp_path):
     published, _ = _load(folder, cfg)            # the GT kept at its published point
     assert published.meta["gt_point_b"] == [0.0, 0.0, 0.0]
     assert np.abs(published.gt.v_n - default.gt.v_n).max() > 0.05
+
+
+def test_a_given_dvl_time_offset_is_applied_and_a_found_clock_offset_recorded(sim, tmp_path):
+    """A log's configured dvl_time_offset_s is added to the DVL stamps (it was ignored); without one the clock
+    search's offset is what the configuration records, so calibrate's fine offset adds to the total."""
+    data, cfg = _log(tmp_path, sim, sim.gt)
+    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)]
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [sim.dvl.t - 1.0, v_b])      # the DVL stamped 1 s early
+    spec = json.loads(cfg.read_text())
+    spec["csv_columns"]["dvl"]["clock"] = "auto"
+    cfg.write_text(json.dumps(spec))
+    found, _ = _load(data, cfg)
+    np.testing.assert_allclose(found.dvl.t, sim.dvl.t, atol=0.05)
+    assert found.config.dvl_time_offset_s == pytest.approx(1.0, abs=0.05)
+    spec["dvl_time_offset_s"] = 0.7            # given, with the clock search: what it leaves under half a ping stays
+    cfg.write_text(json.dumps(spec))
+    given, _ = _load(data, cfg)
+    np.testing.assert_allclose(given.dvl.t, sim.dvl.t - 1.0 + 0.7)
+    assert given.config.dvl_time_offset_s == 0.7
+    spec["dvl_time_offset_s"], spec["csv_columns"]["dvl"]["clock"] = 0.0, "auto"    # a full dump's 0: found
+    cfg.write_text(json.dumps(spec))
+    zero, _ = _load(data, cfg)
+    assert zero.config.dvl_time_offset_s == pytest.approx(1.0, abs=0.05)
+    spec["dvl_time_offset_s"], spec["csv_columns"]["dvl"]["clock"] = 0.7, "imu"      # no search: as given
+    cfg.write_text(json.dumps(spec))
+    assert _load(data, cfg)[0].config.dvl_time_offset_s == 0.7
+    assert any("given by the configuration's dvl_time_offset_s" in n for n in given.meta["streams"]["dvl"]["notes"])

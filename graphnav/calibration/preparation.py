@@ -396,14 +396,25 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     if on_the_imu_clock(dvl.t, mission.imu.t):
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta)
+    given = facts.get("given", {}).get("dvl_time_offset_s")
+    if given is not None:
+        dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
     if facts.get("dvl_clock") == AUTO:
+        # after a given offset too: a configuration copied from another mission, or a full dump's 0, may leave the
+        # DVL seconds or days off; what the search finds under half a ping period is left as given
         from graphnav.calibration.clock import align_stream_clocks
+        searched = dvl
         dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
-        if dvl is not mission.dvl:
+        if dvl is not searched:
             check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True)
-        for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
-            if new is not old and stream in meta.get("streams", {}):
-                set_span(meta, stream, new.t)       # the stamps as the mission holds them
+    for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
+        if new is not old and stream in meta.get("streams", {}):
+            set_span(meta, stream, new.t)           # the stamps as the mission holds them
+    if dvl is not mission.dvl:
+        # the configuration records the offset added to the DVL stamps, as an A-KIT folder's does: what calibrate
+        # adds its fine offset to, and what the next run is given
+        offset = float(dvl.t[0] - mission.dvl.t[0]) if len(dvl.t) else 0.0
+        mission = dataclasses.replace(mission, config=dataclasses.replace(mission.config, dvl_time_offset_s=offset))
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
         checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
@@ -413,6 +424,18 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
+    """``(dvl, depth)`` with the configuration's ``dvl_time_offset_s`` (s) added to the DVL stamps, and to a depth
+    stream of the same instrument (a DVL's pressure sensor), instead of the clock search; noted."""
+    from graphnav.calibration.clock import _same_instrument
+    add_note(meta, "dvl", f"time offset {offset_s:+.3f} s added (given by the configuration's dvl_time_offset_s)")
+    moved = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + offset_s)
+    if depth is not None and _same_instrument(depth.source, dvl.source):
+        depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + offset_s)
+        add_note(meta, "depth", f"moved with the DVL ({offset_s:+.3f} s): same instrument")
+    return moved, depth
 
 
 #: A log's or bag's reference is put later or earlier by its estimated time offset only when the offset exceeds

@@ -973,9 +973,11 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
             raise ConfigError(f"{sorted(akit_kwargs)} apply to A-KIT folders only (repair: and column-map CSV logs); "
                               f"{path} is not one")
         mission = screen_mission(reader())
-        if overrides and overrides.sets("gt_time_offset_s") and mission.gt is not None:
-            # the configuration is the calibration: prepare applies its offset instead of estimating one
-            mission.meta.setdefault("prepare", {})["given"] = {"gt_time_offset_s": float(config.gt_time_offset_s)}
+        # the configuration is the calibration: prepare applies its offsets instead of estimating them
+        given = {key: float(getattr(config, key)) for key in ("gt_time_offset_s", "dvl_time_offset_s")
+                 if overrides and overrides.sets(key) and (key != "gt_time_offset_s" or mission.gt is not None)}
+        if given:
+            mission.meta.setdefault("prepare", {})["given"] = given
         return mission
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
