@@ -81,7 +81,7 @@ def test_an_imu_at_another_rate_than_configured_is_noted_and_its_rate_used(rate,
     (tmp_path / "cfg100.json").write_text(json.dumps(cfg))
     m = _quiet(load_mission, folder, tmp_path / "cfg100.json")
     assert m.config.imu_rate_hz == pytest.approx(rate, rel=1e-6)
-    note = f"runs at {rate:g} Hz (median stamp step {1e3 / rate:g} ms), not the configured imu_rate_hz 100 Hz"
+    note = f"runs at {rate:g} Hz (stamp period {1e3 / rate:g} ms), not the configured imu_rate_hz 100 Hz"
     assert [n for n in m.meta["streams"]["imu"]["notes"] if note in n]
     # at 20 Hz against 100 every sample was an IMU gap to bridge (3000 warnings over 150 s)
     keyframer = Keyframer(m.config)

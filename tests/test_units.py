@@ -47,7 +47,7 @@ def test_no_false_detection_on_the_shared_trajectories(akit_dir):
             assert time_scale(dvl[:, 0], "dvl", folder.name, 1.0) == (1.0, "s")
             assert dvl_speed_scale(None, dvl[:, 1:4], folder.name)[0] == 1.0
         assert f_b is not None and np.array_equal(omega_b, imu[:, 4:7])
-        # the tilt kinematics tell the units apart on every trajectory, with a wide margin either side of 0.1
+        # the tilt kinematics tell the units apart on every trajectory, with a wide margin either side of the deg/s threshold
         k_rad, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], imu[:, 4:7])
         k_deg, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], np.degrees(imu[:, 4:7]))
         assert k_rad > 0.3 and k_deg < 0.03, (folder.name, k_rad, k_deg)
@@ -437,3 +437,70 @@ def test_tilt_scale_far_from_both_thresholds_on_the_shared_trajectories(akit_dir
         # rad/s 3.5x above the deg/s threshold and 4.5x under the too-small one; 57.3x too small 6.8x above it
         assert 3.5 * GYRO_TILT_SCALE_DEG < k < GYRO_TILT_SCALE_SMALL / 4.5, (folder.name, k)
         assert k_small > 6.8 * GYRO_TILT_SCALE_SMALL, (folder.name, k_small)
+
+
+def _hovering(acc_mps2=0.05, tilt_rad=0.001, seed=1, rate=100.0, duration_s=600.0):
+    """A station-keeping AUV: FRD, gyro rad/s; a slow roll/pitch wobble of ``tilt_rad`` and thruster accelerations
+    of ``acc_mps2`` (random, smoothed over 2 s) that turn the accelerometer's direction more than the wobble does."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, 1.0 / rate)
+    roll, pitch = tilt_rad * np.sin(2 * np.pi * t / 7.0), tilt_rad * np.sin(2 * np.pi * t / 11.0 + 1)
+    omega = np.column_stack([np.gradient(roll, t), np.gradient(pitch, t), np.zeros_like(t)])
+    omega += rng.normal(0.0, np.radians(0.003) * np.sqrt(rate), omega.shape)
+    n, w = t.size, int(2 * rate)
+    a = np.cumsum(rng.normal(0.0, 1.0, (n + w, 3)), axis=0)
+    a = a[w:] - a[:-w]
+    return t, _tilted_gravity(roll, pitch) + a * acc_mps2 / a.std(axis=0) + rng.normal(0.0, 0.01, (n, 3)), omega
+
+
+def _wave_rider(follow=0.9, seed=2, rate=100.0, duration_s=600.0):
+    """A surface vehicle in waves: its specific force normal to the water surface, its hull rolling and pitching
+    with ``follow`` of the surface's slope (so the accelerometer sees only the rest); gyro rad/s, FRD."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, 1.0 / rate)
+    slope_r = sum(0.04 * np.sin(2 * np.pi * t / P + ph) for P, ph in ((3.1, 0), (4.3, 1), (5.7, 2)))
+    slope_p = sum(0.03 * np.sin(2 * np.pi * t / P + ph) for P, ph in ((3.7, 0.5), (4.9, 1.5)))
+    roll, pitch = follow * slope_r, follow * slope_p
+    omega = np.column_stack([np.gradient(roll, t), np.gradient(pitch, t), 0.01 * np.sin(2 * np.pi * t / 60)])
+    omega += rng.normal(0.0, 1e-3, omega.shape)
+    f = _tilted_gravity(slope_r - roll, slope_p - pitch) + rng.normal(0.0, 0.01, omega.shape)
+    return t, f, omega
+
+
+def _tilted_gravity(roll, pitch, g=9.81):
+    return np.column_stack([g * np.sin(pitch), -g * np.sin(roll) * np.cos(pitch), -g * np.cos(roll) * np.cos(pitch)])
+
+
+@pytest.mark.parametrize("acc, tilt, seed", [(0.05, 0.001, 1), (0.2, 0.0003, 2), (0.1, 0.001, 3)])
+def test_a_hovering_auv_gyro_in_rad_s_is_kept(acc, tilt, seed):
+    # its thrusters turn the accelerometer's direction 4-50x faster than the gyro says, unrelated to the gyro:
+    # the tilt kinematics cannot judge the gyro's scale (it was refused as too small for rad/s, even declared rad/s)
+    t, f, omega = _hovering(acc, tilt, seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for declared in (None, {"gyro": "rad/s"}):
+            assert np.array_equal(imu_units(t, f, omega, "hover.csv", {}, declared)[1], omega)
+
+
+def test_a_wave_riding_surface_vehicle_gyro_in_rad_s_is_kept():
+    # its accelerometer follows the water surface, so the gravity direction turns 15x slower than the gyro says
+    # (it was converted as deg/s); declared rad/s, a hull that follows the slope even closer is kept with a warning
+    t, f, omega = _wave_rider(0.9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for declared in (None, {"gyro": "rad/s"}):
+            assert np.array_equal(imu_units(t, f, omega, "asv.csv", {}, declared)[1], omega)
+    t, f, omega = _wave_rider(0.95)
+    meta = {}
+    with pytest.warns(RuntimeWarning, match="asv.csv: the gravity direction .* kept in the declared unit 'rad/s'"):
+        assert np.array_equal(imu_units(t, f, omega, "asv.csv", meta, {"gyro": "rad/s"})[1], omega)
+    assert "kept in the declared unit" in meta["streams"]["imu"]["notes"][0]
+    with pytest.warns(RuntimeWarning, match="read as deg/s.*declare the gyro unit"):
+        imu_units(t, f, omega, "asv.csv")              # undeclared it cannot be told from deg/s: the note says what to do
+
+
+def test_rates_57_times_too_small_declared_rad_s_are_kept_with_a_warning(sim):
+    # a declared unit that is the unit checked is the user's call: a warning, never an error from this test
+    small = sim.imu.omega_b * np.pi / 180
+    with pytest.warns(RuntimeWarning, match=r"imu.csv: the gravity direction .* turns 5\d\.\dx as fast .* 'rad/s'"):
+        assert np.array_equal(imu_units(sim.imu.t, sim.imu.f_b, small, "imu.csv", {}, {"gyro": "rad/s"})[1], small)

@@ -119,7 +119,7 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
 
 
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
-    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (1 / median stamp step, Hz) when the configured
+    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.screening.imu_rate_hz`) when the configured
     one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in ``meta``. The keyframer's gap limit and
     bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
     use the stamps themselves."""
@@ -128,7 +128,7 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     measured = imu_rate_hz(mission.imu.t)
     if not abs(measured - configured) > IMU_RATE_TOLERANCE * configured:      # NaN (one stamp): nothing to say
         return mission
-    add_note(meta, "imu", f"runs at {measured:.4g} Hz (median stamp step {1e3 / measured:.4g} ms), not the configured "
+    add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "
              f"imu_rate_hz {configured:g} Hz: {measured:.4g} Hz is used")
     return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu_rate_hz=measured))
 

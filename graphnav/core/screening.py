@@ -268,12 +268,37 @@ def imu_spike_floors(config: SensorConfig) -> np.ndarray:
     return np.repeat([float(imu.accel_spike_floor_mps2), float(imu.gyro_spike_floor_rads)], 3)
 
 
-def imu_rate_hz(t: np.ndarray) -> float:
-    """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the median positive step between consecutive stamps
-    (out-of-order and repeated stamps do not move it); NaN with fewer than two distinct finite stamps."""
-    d = np.abs(np.diff(np.asarray(t, float)))
+#: Share of an IMU's steps off their median (under half or over twice it) above which its stamps come in bursts (a
+#: driver stamping messages on receipt: three samples 0.1 ms apart every 30 ms have 1/3 of their steps off; even
+#: stamps with dropped samples or gaps have a few).
+IMU_BURST_SHARE = 0.2
+#: A step longer than this many burst cycles (the median of the long steps) is a gap, left out of a burst stream's rate.
+IMU_BURST_GAP_CYCLES = 4.0
+
+
+def imu_step_stats(steps: np.ndarray) -> tuple[float, float]:
+    """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
+    out), s: for even stamps both are the median step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
+    the mean step without the gaps (so the rate is samples over time) and the cycle the median long step, the
+    longest step a gap is not. NaN without a positive finite step."""
+    d = np.abs(np.asarray(steps, float))
     d = d[np.isfinite(d) & (d > 0.0)]
-    return 1.0 / float(np.median(d)) if d.size else math.nan
+    if not d.size:
+        return math.nan, math.nan
+    med = float(np.median(d))
+    long = d > 2.0 * med
+    if np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long):
+        return med, med
+    cycle = float(np.median(d[long]))
+    ends = np.flatnonzero(long)
+    whole = d[ends[0] + 1:ends[-1] + 1] if ends.size >= 2 else d      # whole bursts: a cut one biases a short count
+    return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
+
+
+def imu_rate_hz(t: np.ndarray) -> float:
+    """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the period of :func:`imu_step_stats` (the median step, or
+    samples over time for stamps in bursts; gaps do not lower it); NaN with fewer than two distinct finite stamps."""
+    return 1.0 / imu_step_stats(np.diff(np.asarray(t, float)))[0]
 
 
 def imu_spike_rows(rate_hz: float) -> tuple[int, int] | None:

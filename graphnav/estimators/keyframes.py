@@ -55,6 +55,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
+from graphnav.core.screening import imu_step_stats
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -134,12 +135,13 @@ class ImuPeriod:
     """The IMU period gaps are judged against, s. A batch mission's configuration carries the measured rate
     (:func:`graphnav.calibration.preparation.prepare`); a live stream's configuration line may name another rate
     (100 Hz for an IMU at 20 Hz would make every step a gap). So the period is the median of the first
-    :data:`IMU_RATE_STEPS` steps when it is off the configured one by more than
-    :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned once), the configured one otherwise; before those steps,
-    the longer of the configured one and the shortest step so far."""
+    :data:`IMU_RATE_STEPS` steps (:func:`~graphnav.core.screening.imu_step_stats`: samples over time for stamps in
+    bursts) when it is off the configured one by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned
+    once), the configured one otherwise; before those steps, the longer of the configured one and the shortest step
+    so far. Gaps are judged against the longer of the period and a burst's cycle."""
 
     def __init__(self, configured_s: float):
-        self.configured_s = self.period_s = configured_s
+        self.configured_s = self.period_s = self._cycle_s = configured_s
         self._steps: list[float] = []
 
     def add_step(self, dt: float) -> None:
@@ -150,18 +152,19 @@ class ImuPeriod:
         if len(self._steps) < IMU_RATE_STEPS:
             self.period_s = max(self.configured_s, min(self._steps))
             return
-        measured = float(np.median(self._steps))
+        measured, cycle = imu_step_stats(np.asarray(self._steps))
         self.period_s = self.configured_s
+        self._cycle_s = cycle if cycle > measured else self._cycle_s     # stamps in bursts
         if abs(measured - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
             self.period_s = measured
-            warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (median of its first {IMU_RATE_STEPS} steps, "
+            warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {IMU_RATE_STEPS} steps, "
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
                           f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=4)
 
     @property
     def gap_limit_s(self) -> float:
         """Steps longer than this are gaps, bridged (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods), s."""
-        return IMU_GAP_PERIODS * self.period_s
+        return IMU_GAP_PERIODS * max(self.period_s, self._cycle_s)
 
 
 class Keyframer:

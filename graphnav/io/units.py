@@ -28,7 +28,9 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   deg/s may stay under both; the tilt kinematics then decide when there is tilt motion to see
   (:func:`gyro_tilt_scale`: the gravity direction the accelerometer sees turns at the gyro rate; the fitted
   scale is 0.36-0.64 on the ten trajectories in rad/s and 0.006-0.011 in deg/s, at most 0.015 in any 60 s
-  window; :data:`GYRO_TILT_SCALE_DEG` = 0.1 lies between, a factor 3.6 and 6.7 from either side). The same
+  window; :data:`GYRO_TILT_SCALE_DEG` = 3/57.3 = 0.052 lies between, a factor 3.5 and 3.2 from either side; judged
+  only when the tilt rate correlates with the gyro's, :data:`GYRO_TILT_MIN_CORRELATION`: a hovering AUV's
+  thrusters turn its accelerometer, not its rotation; a declared rad/s is then kept with a warning). The same
   scale refuses rates 57.3x too small (rad/s data declared deg/s, or converted to rad/s twice: 9.6-48 on the
   ten's 60 s windows, against at most 0.84 in rad/s; :data:`GYRO_TILT_SCALE_SMALL` = 3), declared or not: no
   gyro unit is 57.3x larger than rad/s, so there is no conversion to make.
@@ -84,16 +86,23 @@ DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRA
 SWAP_ACCEL_MAX = 2.0
 GYRO_MEDIAN_MAX_RADPS = 0.3
 GYRO_MAX_RADPS = 3.0
-#: Tilt-kinematics gyro scale below this is deg/s (1/57.3 = 0.017 expected; 1 for rad/s).
-GYRO_TILT_SCALE_DEG = 0.1
 #: Tilt-kinematics gyro scale above this is rates too small for rad/s, refused: rad/s data declared deg/s (or
 #: converted from deg/s twice) give 57.3x the rad/s scale (the ten trajectories: 0.17-0.84 in rad/s on 60 s windows,
 #: 9.6-48 with the rates 57.3x too small; simulated missions 0.91-0.98 and 52-56). No gyro unit is 57.3x larger
 #: than rad/s, so there is nothing to convert to: the declaration or the logger's conversion is wrong.
 GYRO_TILT_SCALE_SMALL = 3.0
+#: Tilt-kinematics gyro scale below this is deg/s: the rates converted from deg/s must pass the too-small check
+#: (the ten: at most 0.015 in deg/s on 60 s windows, at least 0.17 in rad/s; a surface vehicle whose hull follows
+#: 90 % of the wave slope, its accelerometer the water surface's normal: 0.068 in rad/s).
+GYRO_TILT_SCALE_DEG = GYRO_TILT_SCALE_SMALL * np.pi / 180
 #: Median tilt rate (rad/s, :func:`gyro_tilt_scale`) below which the tilt kinematics tell nothing (the ten: >= 0.002
 #: on 60 s windows).
 GYRO_TILT_MIN_RADPS = 1e-3
+#: Correlation of the gravity direction's turn rate with the gyro's prediction (:func:`gyro_tilt_fit`) below which
+#: the scale says nothing: the accelerometer's direction then follows the vehicle's accelerations, not its rotation
+#: (a hovering AUV's thrusters: 0.22 at most, scales 1.2-50; the ten 0.70-0.88, 0.11-0.98 on 60 s windows;
+#: simulated missions >= 0.97).
+GYRO_TILT_MIN_CORRELATION = 0.4
 #: Median DVL speed (per-ping norm of the instrument velocity, or the largest |beam|) taken as mm/s.
 DVL_MMPS_RANGE = (500.0, 10000.0)
 
@@ -153,14 +162,15 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
 # ------------------------------------------------------------------------------------------------
 # IMU
 # ------------------------------------------------------------------------------------------------
-def gyro_tilt_scale(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tuple[float, float]:
+def gyro_tilt_fit(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tuple[float, float, float]:
     """Scale k with which the gravity direction seen by the accelerometer turns at the gyro's rate:
     ``|du/dt| = k |u x omega|`` over 1 s means (norms: indifferent to axis signs and order). Returns
-    ``(k, tilt_rate)``: k is ~1 for a gyro in rad/s and ~1/57.3 in deg/s; ``tilt_rate`` (rad/s, median of
-    |du/dt| over the seconds used) says how much tilt motion there was to see; NaN when too little data."""
+    ``(k, tilt_rate, correlation)``: k is ~1 for a gyro in rad/s and ~1/57.3 in deg/s; ``tilt_rate`` (rad/s, median
+    of |du/dt| over the seconds used) says how much tilt motion there was to see; ``correlation`` (of the two
+    rates over all seconds) how much of it the gyro explains; NaN when too little data."""
     t = np.asarray(t, float)
     if t.size < 3 or t[-1] - t[0] < 10.0:
-        return float("nan"), 0.0
+        return float("nan"), 0.0, float("nan")
     from graphnav.core.timeseries import cumulative_integral, interp_rows
     t = np.ascontiguousarray(t)
     edges = np.arange(t[0], t[-1], 1.0)
@@ -172,9 +182,16 @@ def gyro_tilt_scale(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tupl
     # the seconds with the most gyro tilt rate carry the signal; the rest is accelerometer noise
     use = p >= np.quantile(p, 0.75) if p.size >= 8 else np.ones(p.size, bool)
     if not np.any(p[use] > 0):
-        return float("nan"), 0.0
+        return float("nan"), 0.0, float("nan")
     k = float(np.sum(du[use] * p[use]) / np.sum(p[use] ** 2))
-    return k, float(np.median(du[use]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = float(np.corrcoef(du, p)[0, 1]) if p.size >= 3 else float("nan")
+    return k, float(np.median(du[use])), r
+
+
+def gyro_tilt_scale(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray) -> tuple[float, float]:
+    """``(k, tilt_rate)`` of :func:`gyro_tilt_fit`."""
+    return gyro_tilt_fit(t, f_b, omega_b)[:2]
 
 
 def imu_units(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, source: str, meta: dict | None = None,
@@ -225,13 +242,7 @@ def _gyro_units(t, f_b, omega_b, source, meta, declared, field="omega_b") -> tup
     elif top > GYRO_MAX_RADPS:
         why = f"99.9th percentile |omega| {top:.3g} rad/s (> {GYRO_MAX_RADPS:g}: beyond what an AUV turns)"
     else:
-        k, tilt = gyro_tilt_scale(t, f_b, omega_b)
-        seen = np.isfinite(k) and tilt > GYRO_TILT_MIN_RADPS
-        if seen and k > GYRO_TILT_SCALE_SMALL:
-            _gyro_too_small(k, source, declared.get("gyro"), field)
-        if seen and k < GYRO_TILT_SCALE_DEG:
-            why = (f"the gravity direction turns {1 / k:.3g}x slower than these rates say (57.3 for deg/s; "
-                   "tilt kinematics)")
+        why = _gyro_tilt(t, f_b, omega_b, source, meta, declared.get("gyro"), field)
     if why is None:
         return omega_b, "rad/s"
     if "gyro" in declared:
@@ -239,8 +250,27 @@ def _gyro_units(t, f_b, omega_b, source, meta, declared, field="omega_b") -> tup
     if med * np.pi / 180 > GYRO_MEDIAN_MAX_RADPS or top * np.pi / 180 > 10 * GYRO_MAX_RADPS:
         raise DataError(f"gyro rates implausible in rad/s and in deg/s ({why}; median {med:.3g}, "
                         f"99.9th percentile {top:.3g})", source, field=field)
-    _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {why}", source)
+    _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {why} (a vehicle riding waves, its accelerometer "
+          "following the water surface, can give this in rad/s: declare the gyro unit)", source)
     return omega_b * (np.pi / 180), "deg/s"
+
+
+def _gyro_tilt(t, f_b, omega_b, source, meta, declared: str | None, field: str) -> str | None:
+    """Why the tilt kinematics (:func:`gyro_tilt_fit`) say the rates are deg/s, None when they do not; rates too
+    small for rad/s are a DataError. Judged only when the gyro explains the tilt motion
+    (:data:`GYRO_TILT_MIN_CORRELATION`); a declared rad/s that they contradict is kept with a warning and a note."""
+    k, tilt, r = gyro_tilt_fit(t, f_b, omega_b)
+    if not (tilt > GYRO_TILT_MIN_RADPS and r >= GYRO_TILT_MIN_CORRELATION) or \
+            GYRO_TILT_SCALE_DEG <= k <= GYRO_TILT_SCALE_SMALL:
+        return None
+    if declared == "rad/s":
+        _note(meta, "imu", f"the gravity direction the accelerometer sees turns {k:.3g}x as fast as the gyro rates say "
+              f"(about 1 in rad/s, 57.3 for rates 57.3x too small, 1/57.3 for deg/s; tilt kinematics, correlation "
+              f"{r:.2f}): kept in the declared unit 'rad/s' (field {field})", source)
+        return None
+    if k > GYRO_TILT_SCALE_SMALL:
+        _gyro_too_small(k, source, declared, field)
+    return f"the gravity direction turns {1 / k:.3g}x slower than these rates say (57.3 for deg/s; tilt kinematics)"
 
 
 def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> None:
@@ -882,6 +912,6 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 
 
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
-           "gyro_tilt_scale", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio", "vertical_sign",
+           "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio", "vertical_sign",
            "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "reference_inconsistencies"]
