@@ -187,21 +187,28 @@ def damage_table(root: Path, first_s: float | None = None) -> None:
 
 
 def gt_position_table(root: Path) -> None:
-    """The position spike test's statistic on each clean trajectory's GT
-    (:func:`graphnav.core.screening.gt_position_spikes`)."""
+    """The position spike and step tests' statistics on each clean trajectory's GT
+    (:func:`graphnav.core.screening.gt_position_spikes`): the position less the velocity's integral, its largest
+    departure from the nearer of the medians of its neighbours on either side (a spike departs from both), and its
+    largest change between consecutive rows (a step), each against its limit."""
     from graphnav.core.config import SensorConfig
-    from graphnav.core.screening import GT_POSITION_TOLERANCE_M, SPIKE_NEIGHBOURS, _departures
+    from graphnav.core.screening import GT_POSITION_TOLERANCE_M, _position_residual, _side_medians
     from graphnav.io.loaders import _local_ned, read_akit
     spec = SensorConfig().dvl
-    print("trajectory  largest departure m  limit m  largest share of the limit")
+    print("trajectory  spike departure m  step m  limit m  largest share of the limit (spike, step)")
     for folder in akit_trajectories(str(root)):
         g = read_akit(folder, rescale_stamps=False).gt
-        t, v = g[:, 0], g[:, 4:7]
         rows = np.ones(len(g), bool)
-        step = np.vstack([np.zeros((1, 3)), 0.5 * (v[1:] + v[:-1]) * np.diff(t)[:, None]])
-        departure, dt = _departures(t, _local_ned(g, rows) - np.cumsum(step, axis=0), SPIKE_NEIGHBOURS, rows)
-        size, limit = np.linalg.norm(departure, axis=1), 1.5 * spec.jump_tolerance_mps * dt + GT_POSITION_TOLERANCE_M
-        print(f"{folder.name:12s} {size.max():.2f} {limit.min():.2f} {np.max(size / limit):.2f}")
+        r = _position_residual(g[:, 0], _local_ned(g, rows), g[:, 4:7], rows)
+        before, after = _side_medians(r)
+        gaps = np.diff(g[:, 0])
+        limit = 1.5 * spec.jump_tolerance_mps * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf]) + \
+            GT_POSITION_TOLERANCE_M
+        spike = np.fmin(np.linalg.norm(r - before, axis=1), np.linalg.norm(r - after, axis=1))
+        step = np.linalg.norm(np.diff(r, axis=0), axis=1)
+        step_limit = 1.5 * spec.jump_tolerance_mps * gaps + GT_POSITION_TOLERANCE_M
+        print(f"{folder.name:12s} {spike.max():.2f} {step.max():.2f} {limit.min():.2f} "
+              f"{np.max(spike / limit):.2f} {np.max(step / step_limit):.2f}")
 
 
 def main(argv=None) -> int:

@@ -128,6 +128,7 @@ def test_gyro_and_accelerometer_flipped_differently(akit_dir, tmp_path):
     with pytest.raises(DataError, match="no IMU axis sign convention fits") as err:
         read_and_prepare(folder)
     assert "y" in err.value.field and "negate that axis of one sensor in the file" in str(err.value)
+    assert "a bag cannot be edited: set that sensor's axis convention in the driver" in str(err.value)
 
 
 def _windows(akit_dir, name, length=60.0, step=60.0, transform=None):

@@ -492,3 +492,56 @@ def test_stamps_spanning_more_than_a_year_name_the_file_line(sim, tmp_path):
     with pytest.raises(DataError, match="more than a year") as err:
         load_mission(tmp_path, cfg, prepare=False)
     assert (err.value.source, err.value.line, err.value.field) == (str(imu), 15, "time_ms")
+
+
+def _scale_cells(path, columns, factor):
+    """``path`` with the cells of ``columns`` (0-based) multiplied by ``factor`` on every row."""
+    lines = path.read_text().splitlines()
+    for i in range(1, len(lines)):
+        cells = lines[i].split(",")
+        for c in columns:
+            cells[c] = f"{float(cells[c]) * factor:.12g}"
+        lines[i] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_reference_velocity_in_other_units_is_named_by_the_unit_check(sim, tmp_path):
+    """v_n written in cm/s was 'N of N gt samples refused (N GT speed > 4 m/s) ... check the units, the column
+    map ...': the speed rule spoke before the unit check. The unit check names the columns and the factor; with
+    the positions in cm too, the error names the velocity columns and the units that fit."""
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    nav = tmp_path / "nav.csv"
+    _scale_cells(nav, [4, 5, 6], 100.0)
+    with pytest.raises(DataError, match=r"the positions move 0\.01x as far as the velocity says") as err:
+        load_mission(tmp_path, cfg, prepare=False)
+    assert (err.value.source, err.value.field) == (str(nav), "n/e")
+    _scale_cells(nav, [1, 2, 3], 100.0)
+    with pytest.raises(DataError, match=r"velocity columns 'vn', 've', 'vd': median speed 207\.4 m/s.*cm/s "
+                                        r"\(2\.07 m/s\)") as err:
+        load_mission(tmp_path, cfg, prepare=False)
+    assert (err.value.source, err.value.field) == (str(nav), "vn/ve/vd")
+
+
+def test_a_reference_position_step_is_warned_and_kept_and_a_converging_start_is_no_spike(sim, tmp_path):
+    """A step of the reference position (a USBL or GNSS reset) refused the two rows around it as 'GT position
+    spike' and kept the step; the rows are kept and the step is warned about with its lines and noted. The first
+    rows, compared with one side only, were refused when the reference converged (2 m per row); a first row that
+    departs from rows agreeing with each other is still a spike."""
+    from graphnav.core.screening import GT_POSITION_SPIKE as reason
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    nav = tmp_path / "nav.csv"
+    clean = nav.read_text()
+    for line in range(102, len(clean.splitlines()) + 1):
+        _edit_line(nav, line, lambda f: f[:1] + [f"{float(f[1]) + 9.0:.12g}"] + f[2:])
+    for line, offset in ((2, 6.0), (3, 4.0), (4, 2.0)):
+        _edit_line(nav, line, lambda f: f[:2] + [f"{float(f[2]) + offset:.12g}"] + f[3:])
+    m, messages = _load_recording(tmp_path, cfg)
+    assert m.meta["streams"]["gt"]["refused"] == {}
+    assert len(m.gt.t) == len(sim.gt.t)
+    step = [s for s in messages if s.startswith(f"{nav}: 1 step(s) of the reference position")]
+    assert len(step) == 1 and "9 m in 'n' between lines 101 and 102" in step[0] and "reset" in step[0], messages
+    assert any("between lines 101 and 102" in n for n in m.meta["streams"]["gt"]["notes"])
+    nav.write_text(clean)
+    _edit_line(nav, 2, lambda f: f[:2] + [f"{float(f[2]) + 6.0:.12g}"] + f[3:])
+    m, messages = _load_recording(tmp_path, cfg)
+    assert m.meta["streams"]["gt"]["refused"] == {reason.format("e"): 1}

@@ -149,3 +149,38 @@ def test_a_clock_jump_in_the_dvl_alone_is_named(sim, tmp_path):
             and "+1 h to within a minute" in s]
     assert jump and "outside the IMU span" in jump[0]
     assert any("stamps jump" in n for n in m.meta["streams"]["dvl"]["notes"])
+
+
+def _declare_depth(path, positive):
+    cfg = json.loads(path.read_text())
+    cfg["csv_columns"]["depth"]["positive"] = positive
+    path.write_text(json.dumps(cfg))
+    return path
+
+
+def test_a_depth_convention_is_declared_in_the_column_map_and_data_that_contradict_it_are_refused(sim, tmp_path):
+    """The depth refusal asked 'a depth positive up?' while a column map had no key to say so. ``positive: up`` is
+    read as declared (no warning, no turn from the data); a declared convention the vertical velocity contradicts
+    is a DataError naming the key and the value that fits; the refusal of a depth above the surface names the key."""
+    up = -sim.depth.depth
+    m, said = _load(tmp_path, _declare_depth(_depth_case(tmp_path, sim, up), "up"))
+    assert not [s for s in said if "turned positive down" in s]
+    assert any("declared positive up: negated" in n for n in m.meta["streams"]["depth"]["notes"])
+    np.testing.assert_allclose(m.depth.depth, sim.depth.depth, atol=1e-9)
+    path = _declare_depth(_depth_case(tmp_path, sim, up, depth_range_m=[-30, 6000]), "down")
+    with pytest.raises(DataError, match=r"depth\.csv, field 'depth': declared positive 'down' \(csv_columns\.depth\."
+                                        r"positive\), but its changes are -1\.\d*x .*set it to 'up'"):
+        load_mission(tmp_path, path)
+    still = np.full(len(sim.depth.t), -3.0) + 0.01 * np.random.default_rng(0).standard_normal(len(sim.depth.t))
+    with pytest.raises(DataError, match=r"above the sea surface.*csv_columns\.depth\.positive 'up'"):
+        load_mission(tmp_path, _depth_case(tmp_path, sim, still))
+
+
+def test_without_a_gt_an_axis_correction_says_x_was_taken_forward(sim, tmp_path):
+    """Without a GT an IMU upside down and one pitched 180 deg (x aft) need signs a turn about z apart, which only a
+    heading reference tells: the warning says x was taken forward, not that the axes are right for certain."""
+    flip = np.array([1.0, -1.0, -1.0])
+    m, said = _load(tmp_path, _csv(tmp_path, sim, f_b=sim.imu.f_b * flip, omega_b=sim.imu.omega_b * flip,
+                                   frame="auto", gt=False))
+    assert [s for s in said if "multiplied by them" in s and "x taken forward, an assumption" in s
+            and "pitched 180 deg, x aft and z up, needs (-1, 1, -1)" in s], said

@@ -906,3 +906,17 @@ def test_akit_dvl_warnings_and_a_stamp_jump_name_the_file_lines_after_a_dropped_
     with pytest.raises(DataError, match="more than a year") as err:
         _load_quiet(folder)
     assert (err.value.source, err.value.line, err.value.field) == (str(dvl), 71, "Time [s]")
+
+
+def test_akit_gt_velocity_in_other_units_is_named_by_the_unit_check(tmp_path):
+    """V North/East/Down written in cm/s: the latitude/longitude check against the velocity names the factor and
+    the columns, where the speed rule refused every row ('N of N gt samples refused (N GT speed > 4 m/s)')."""
+    from graphnav.io.loaders import read_akit
+    folder = make_akit_folder(tmp_path, n=1)
+
+    def cms(gt):
+        gt[:, 4:7] *= 100.0
+    path = _edit_gt(folder, 1, cms)
+    with pytest.raises(DataError, match=r"the positions move 0\.00992x as far as the velocity says") as err:
+        read_akit(folder)
+    assert (err.value.source, err.value.field) == (str(path), "Latitude [rad]/Longitude [rad]")

@@ -413,7 +413,8 @@ def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
 
 #: What to do when the two sensors need different signs on an axis.
 _ONE_SENSOR = ("negate that axis of one sensor in the file (imu_axis_signs and a column map's frame apply to both "
-               "sensors at once)")
+               "sensors at once); a bag cannot be edited: set that sensor's axis convention in the driver that "
+               "publishes it (its frame or axis parameters) and record again")
 
 
 def _disagree(check: AxisCheck, g: np.ndarray, a: np.ndarray, i: int, source: str) -> DataError:
@@ -451,6 +452,10 @@ def declared_frame_signs(imu, config: SensorConfig, gt=None, source: str = "IMU"
         detection = _detect_without_gt(imu, source, (1.0, z, z))
         how = ("gravity reading +g on the accelerometer z axis (an FRD IMU reads -g)" if z < 0 else
                "the tilt kinematics (gyro against the accelerometer's gravity direction)")
+        # a turn of 180 deg about z cannot be seen without a heading reference: (1,-1,-1) and (-1,1,-1) fit alike
+        how += ("; x taken forward, an assumption: without a GT a 180 deg turn about z cannot be seen"
+                + (" (an IMU pitched 180 deg, x aft and z up, needs (-1, 1, -1) and gets (1, -1, -1))" if z < 0 else "")
+                + ", and its heading would then be 180 deg off")
         return np.asarray(detection.signs, float), how
     try:
         detection = detect_imu_axis_signs(imu, config, gt, source, fallback_signs=(1.0, 1.0, 1.0))

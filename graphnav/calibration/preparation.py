@@ -418,7 +418,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
         checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
-                                   meta.get("stream_fields", {}).get("depth", "depth"))
+                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"))
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)

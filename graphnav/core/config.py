@@ -369,7 +369,7 @@ CSV_COLUMN_KEYS: dict[str, tuple[str, ...]] = {
     "imu": ("file", "t", "time_unit", "delimiter", "f_b", "omega_b", "accel_unit", "gyro_unit", "frame"),
     "dvl": ("file", "t", "time_unit", "delimiter", "beams", "valid", "v_b", "velocity_unit", "clock", "pd0",
             "frame", "euler", "angle_unit"),
-    "depth": ("file", "t", "time_unit", "delimiter", "depth", "pressure", "pressure_unit"),
+    "depth": ("file", "t", "time_unit", "delimiter", "depth", "positive", "pressure", "pressure_unit"),
     "gt": ("file", "t", "time_unit", "delimiter", "p_n", "v_n", "euler", "angle_unit", "velocity_sigma"),
 }
 

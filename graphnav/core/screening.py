@@ -397,7 +397,22 @@ def gt_implausible(t: np.ndarray, v_n: np.ndarray, spec: DvlSpec) -> dict[str, n
     with np.errstate(invalid="ignore"):
         speed = ~(np.linalg.norm(v, axis=1) <= spec.max_speed_mps)
     jump = spike_mask(t, v, spec.max_accel_mps2, spec.jump_tolerance_mps, usable=~speed)
-    return {f"GT speed > {spec.max_speed_mps:g} m/s": speed, "GT velocity spike": jump}
+    return {GT_SPEED.format(spec.max_speed_mps): speed, GT_VELOCITY_SPIKE: jump}
+
+
+#: Reasons of :func:`gt_implausible` (the speed with ``DvlSpec.max_speed_mps``).
+GT_SPEED, GT_VELOCITY_SPIKE = "GT speed > {:g} m/s", "GT velocity spike"
+
+
+def unit_check_rows(masks: dict[str, np.ndarray], spec: DvlSpec) -> tuple[np.ndarray, bool]:
+    """``((K,) rows a reader decides the reference's units on, whether its velocity is mostly beyond the vehicle's
+    speed)``: the rows none of ``masks`` (:func:`gt_refusals`) refuses; when the speed rule refuses more than
+    :data:`MAX_REFUSED_FRACTION` of them, the rows the other rules keep: a velocity mostly too fast is in other
+    units, which the unit checks (positions against velocity) name better than a count of refused rows."""
+    speed = GT_SPEED.format(spec.max_speed_mps)
+    too_fast = bool(np.mean(masks[speed]) > MAX_REFUSED_FRACTION) if len(masks.get(speed, ())) else False
+    rest = [m for k, m in masks.items() if not (too_fast and k in (speed, GT_VELOCITY_SPIKE))]
+    return ~np.any(rest, axis=0), too_fast
 
 
 #: A reference position may depart from what its own velocity explains (the position less the velocity's
@@ -408,33 +423,83 @@ GT_POSITION_TOLERANCE_M = 2.0
 GT_POSITION_SPIKE = "GT position spike in '{}' (its velocity does not explain it)"
 #: A reference gap longer than this many of its median steps is not integrated across (:func:`gt_position_spikes`).
 GT_POSITION_GAP_STEPS = 5.0
+#: Up to this many steps of a reference position (:func:`with_position_spikes`) are called resets of its fix; more
+#: are a velocity that does not explain the positions.
+GT_POSITION_RESETS = 3
+
+
+def _position_residual(t: np.ndarray, p: np.ndarray, v: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """(n,3) position less the trapezoid integral of the velocity, m, at the ``ok`` rows (across a gap of more than
+    :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a reference dropout is no step)."""
+    dt = np.diff(t[ok])
+    with np.errstate(over="ignore", invalid="ignore"):
+        step = 0.5 * (v[ok][1:] + v[ok][:-1]) * dt[:, None]
+        gap = dt > GT_POSITION_GAP_STEPS * np.median(dt)
+        step[gap] = np.diff(p[ok], axis=0)[gap]
+        return p[ok] - np.cumsum(np.vstack([np.zeros((1, 3)), step]), axis=0)
+
+
+def _side_medians(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((n,3) component-wise median of the :data:`SPIKE_NEIGHBOURS` rows before each row of ``r``, and of those after
+    it); NaN where a side is empty (the first row's before, the last row's after)."""
+    n, k = SPIKE_NEIGHBOURS, r.shape[1]
+    pad = np.full((n, k), np.nan)
+    win = np.lib.stride_tricks.sliding_window_view(np.concatenate([pad, r, pad]), 2 * n + 1, axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)        # an empty side is NaN
+        return np.nanmedian(win[:, :, :n], axis=2), np.nanmedian(win[:, :, n + 1:], axis=2)
+
+
+def _far(a: np.ndarray, b: np.ndarray, limit) -> np.ndarray:
+    """Rows of ``a`` further than ``limit`` from those of ``b`` (a NaN row is far)."""
+    return ~(np.linalg.norm(a - b, axis=-1) <= limit)
+
+
+def _position_jumps(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, usable: np.ndarray | None
+                    ) -> tuple[np.ndarray, list[tuple[int, int, np.ndarray]]]:
+    """((N,3) rows whose position spikes where the velocity does not, under the axis they depart most in; the steps
+    ``(row before, row after, (3,) step m)``) of :func:`gt_position_spikes`."""
+    t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
+    ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
+    ok &= True if usable is None else np.asarray(usable, bool)
+    hit, steps = np.zeros(p.shape, dtype=bool), []
+    idx = np.flatnonzero(ok)
+    if idx.size < 3:
+        return hit, steps
+    r = _position_residual(t, p, v, ok)
+    gaps = np.diff(t[idx])
+    near = np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
+    limit = 1.5 * spec.jump_tolerance_mps * near + GT_POSITION_TOLERANCE_M
+    before, after = _side_medians(r)
+    # a spike departs from both sides, which agree with each other (else it is a step); the first and last rows
+    # have one side, and depart from each of its rows, which agree with each other (else it is a ramp)
+    spike = _far(r, before, limit) & _far(r, after, limit) & ~_far(before, after, limit)
+    for end, side, rows in ((0, after, r[1:SPIKE_NEIGHBOURS + 1]), (-1, before, r[-SPIKE_NEIGHBOURS - 1:-1])):
+        spike[end] = _far(rows, r[end], limit[end]).all() and not _far(rows, side[end], limit[end]).any()
+    rows = np.flatnonzero(spike)
+    side = np.where(np.isnan(before[rows]), after[rows], before[rows])     # the first row has no before
+    hit[idx[rows], np.argmax(np.abs(r[rows] - side), axis=1)] = True
+    # a step: the rows on either side of it agree among themselves but not with each other (spikes left out)
+    keep = np.flatnonzero(~spike)
+    rk, before, after = r[keep], *_side_medians(r[keep])
+    gap_limit = 1.5 * spec.jump_tolerance_mps * np.diff(t[idx[keep]]) + GT_POSITION_TOLERANCE_M
+    jump = _far(rk[1:], rk[:-1], gap_limit) & _far(after[:-1], before[1:], gap_limit)
+    steps = [(int(idx[keep[j]]), int(idx[keep[j + 1]]), rk[j + 1] - rk[j]) for j in np.flatnonzero(jump)]
+    return hit, steps
 
 
 def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, fields,
                        usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Reference rows whose position (N,3) m NED jumps where their velocity (N,3) m/s NED, at ``t`` (N,) s, does
-    not (a corrupted cell, 1e308): a spike of the position less the trapezoid integral of the velocity.
-    ``{GT_POSITION_SPIKE.format(field): (N,) mask}`` per position column of ``fields`` (north, east, down), a row
-    under the one it departs most in. Only ``usable`` rows (default: the finite ones; leave out the velocity
-    spikes, whose integral steps) are tested and integrated; across a gap of more than
-    :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a reference dropout is no step."""
-    t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
-    ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
-    ok &= True if usable is None else np.asarray(usable, bool)
-    hit = np.zeros(p.shape, dtype=bool)
-    if ok.sum() >= 3:
-        dt = np.diff(t[ok])
-        with np.errstate(over="ignore", invalid="ignore"):
-            step = 0.5 * (v[ok][1:] + v[ok][:-1]) * dt[:, None]
-            gap = dt > GT_POSITION_GAP_STEPS * np.median(dt)
-            step[gap] = np.diff(p[ok], axis=0)[gap]
-            residual = np.full(p.shape, np.nan)
-            residual[ok] = p[ok] - np.cumsum(np.vstack([np.zeros((1, 3)), step]), axis=0)
-            departure, near = _departures(t, residual, SPIKE_NEIGHBOURS, ok)
-            spike = np.linalg.norm(departure, axis=1) > 1.5 * spec.jump_tolerance_mps * near + GT_POSITION_TOLERANCE_M
-        rows = np.flatnonzero(spike)
-        hit[rows, np.argmax(np.abs(departure[rows]), axis=1)] = True
-    return _by_first_field(hit, fields, GT_POSITION_SPIKE)
+    not and jumps back (a corrupted cell, 1e308): the position less the trapezoid integral of the velocity departs
+    from the median of its :data:`SPIKE_NEIGHBOURS` neighbours on each side while the two sides agree (the file's
+    first and last rows: from their one side, whose rows agree with each other). A lasting step (a reset of the
+    reference fix) is no spike: :func:`with_position_spikes` warns about it. ``{GT_POSITION_SPIKE.format(field):
+    (N,) mask}`` per position column of ``fields`` (north, east, down), a row under the one it departs most in.
+    Only ``usable`` rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are tested
+    and integrated; across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change is
+    taken, so that a reference dropout is no step."""
+    return _by_first_field(_position_jumps(t, p_n, v_n, spec, usable)[0], fields, GT_POSITION_SPIKE)
 
 
 def gt_refusals(t: np.ndarray, cells: np.ndarray, fields, v_n: np.ndarray, spec: DvlSpec,
@@ -448,11 +513,26 @@ def gt_refusals(t: np.ndarray, cells: np.ndarray, fields, v_n: np.ndarray, spec:
 
 
 def with_position_spikes(masks: dict[str, np.ndarray], t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray,
-                         spec: DvlSpec, fields) -> dict[str, np.ndarray]:
+                         spec: DvlSpec, fields, source: str = "", lines: np.ndarray | None = None,
+                         meta: dict | None = None) -> dict[str, np.ndarray]:
     """``masks`` (:func:`gt_refusals`) and the position spikes among the rows none of them refuses
-    (:func:`gt_position_spikes`: ``p_n`` (K,3) m NED, ``v_n`` (K,3) m/s, ``fields`` the position columns)."""
+    (:func:`gt_position_spikes`: ``p_n`` (K,3) m NED, ``v_n`` (K,3) m/s, ``fields`` the position columns). A step of
+    the position its velocity does not make (a reset of the reference fix) is kept, warned about naming ``source``,
+    the file ``lines`` (K,) on either side of it and the column, and noted in ``meta``."""
     refused = np.any(list(masks.values()), axis=0) if masks else None
-    return {**masks, **gt_position_spikes(t, p_n, v_n, spec, fields, usable=None if refused is None else ~refused)}
+    hit, steps = _position_jumps(t, p_n, v_n, spec, None if refused is None else ~refused)
+    if steps:
+        lines = np.arange(len(t)) + 2 if lines is None else np.asarray(lines)
+        where = "; ".join(f"{np.linalg.norm(d):.3g} m in '{fields[int(np.argmax(np.abs(d)))]}' between lines "
+                          f"{lines[i]} and {lines[j]}" for i, j, d in steps[:5]) + (" ..." if len(steps) > 5 else "")
+        why = ("a reset of the reference fix (USBL, GNSS)?" if len(steps) <= GT_POSITION_RESETS else
+               "the velocity does not explain the positions (columns swapped, another frame?) or the fix resets often?")
+        text = (f"{len(steps)} step(s) of the reference position its velocity does not make ({where}): {why} the rows "
+                "are kept, and a score against the reference across a step includes it")
+        warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=2)
+        if meta is not None:
+            add_note(meta, "gt", text)
+    return {**masks, **_by_first_field(hit, fields, GT_POSITION_SPIKE)}
 
 
 def latlon_impossible(lat: np.ndarray, lon: np.ndarray) -> dict[str, np.ndarray]:

@@ -26,8 +26,10 @@ or deg/s; ``velocity_unit`` m/s, cm/s, mm/s or kn. A unit left out is detected f
 speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
 a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 ``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
-(positive down); ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro,
-converted with a warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
+(positive down; ``"positive": "up"`` declares a depth positive up, negated on reading; a declared convention the
+data contradict is a DataError, an undeclared positive-up depth above the surface is turned with a warning);
+``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro, converted with a
+warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
 with its down velocity (a DataError naming the columns otherwise; its down may be relative or absolute).
 ``frame`` frd or flu for the IMU (the latter negates y and z), or auto; the prepare step checks the axes against
 the data (the GT attitude, or gravity and the tilt kinematics): data that contradict a declared frd or flu are a
@@ -87,6 +89,7 @@ from graphnav.core.screening import (
     not_finite,
     refuse_rows,
     stamp_order,
+    unit_check_rows,
     with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
@@ -368,6 +371,12 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             if unit in ("Pa", "kPa"):
                 p = p - config.atmospheric_pressure_pa
             x = p / (config.water_density_kgpm3 * config.gravity_mps2)
+        positive = spec.get("positive")
+        if positive not in (None, "down", "up") or (positive and key == "pressure"):
+            raise ConfigError(f"csv_columns.depth.positive = {positive!r}: choose down or up, for a 'depth' column")
+        if positive == "up":
+            x = -x
+            add_note(meta, "depth", f"{path}: column '{spec[key]}' declared positive up: negated")
         depth = DepthData(t_d - t0, x, str(path))
         meta.setdefault("stream_fields", {})["depth"] = spec[key]     # named by a message about the stream
     if depth is None:
@@ -386,8 +395,14 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         # checks, as the A-KIT reader does: one V Down spike would swamp the down position's fit to it
         _count_read(meta, "gt", t_g, path)
         fields = [c for key in keys for c in _names(spec, key, 3, "gt")]
-        masks = with_position_spikes(gt_refusals(t_g, np.hstack([v[k] for k in keys]), fields, v["v_n"], config.dvl),
-                                     t_g, v["p_n"], v["v_n"], config.dvl, fields[:3])
+        masks = gt_refusals(t_g, np.hstack([v[k] for k in keys]), fields, v["v_n"], config.dvl)
+        rows, too_fast = unit_check_rows(masks, config.dvl)
+        if too_fast:        # a velocity in other units: the unit checks say which, before the refusals' count
+            from graphnav.io.units import reference_speed_error
+            _reference_units(t_g[rows], {k: v[k][rows] for k in (*keys, "_lines")}, spec, t_imu, omega_b, path, meta)
+            raise reference_speed_error(v["v_n"][rows], str(path), spec["v_n"], config.dvl.max_speed_mps)
+        masks = with_position_spikes(masks, t_g, v["p_n"], v["v_n"], config.dvl, fields[:3], str(path), v["_lines"],
+                                     meta)
         t_g, *kept = refuse_rows(meta, "gt", masks, str(path), v["_lines"], t_g, *(v[k] for k in (*keys, "_lines")))
         v = dict(zip((*keys, "_lines"), kept))
         meta["gt_screened"] = True
@@ -402,6 +417,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     # a DVL on a clock of its own is put on the IMU's by graphnav.calibration.preparation (estimated from the data)
     meta.update(prepared=False, prepare={"format": "csv", "dvl_clock": clock,
                                          "imu_frame": _imu_frame_fact(cmap["imu"])})
+    if (cmap.get("depth") or {}).get("positive"):        # a declared convention the data may not contradict
+        meta["prepare"]["depth_positive"] = cmap["depth"]["positive"]
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt, dvl_refused, dvl_lines)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)

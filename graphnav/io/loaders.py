@@ -124,6 +124,7 @@ from graphnav.core.screening import (
     refuse_rows,
     stamp_order,
     stamp_outliers,
+    unit_check_rows,
     with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
@@ -445,10 +446,15 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
     its positions'). Returns reason -> (K,) rows to refuse (:func:`graphnav.core.screening.gt_refusals`: a NaN or
     infinite cell, an impossible latitude, a velocity spike; and, once the latitude/longitude unit is known, a
     position spike), which are left out of the decisions and converted with the rest."""
-    from graphnav.io.units import reference_attitude_units, reference_depth, reference_latlon_units
+    from graphnav.io.units import (
+        reference_attitude_units,
+        reference_depth,
+        reference_latlon_units,
+        reference_speed_error,
+    )
     cols = AKIT_COLUMNS["GT"]
     refused = gt_refusals(gt[:, 0], gt[:, 1:], cols[1:], gt[:, 4:7], cfg.dvl, latlon_impossible(gt[:, 2], gt[:, 1]))
-    ok = ~np.any(list(refused.values()), axis=0)
+    ok, too_fast = unit_check_rows(refused, cfg.dvl)
     g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
     euler = g[:, 7:10]
     if reference_attitude_units(g[:, 0], euler, imu[:, 0], imu[:, 4:7], source, cols[7:10], meta) is not euler:
@@ -457,9 +463,11 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
     if reference_latlon_units(g[:, 0], lat, g[:, 1], g[:, 4:7], source, (cols[2], cols[1], cols[4], cols[5]),
                               meta)[0] is not lat:
         gt[:, 1:3] = np.radians(gt[:, 1:3])
+    if too_fast:            # the positions move as far as the velocity says: both in other units
+        raise reference_speed_error(g[:, 4:7], source, cols[4:7], cfg.dvl.max_speed_mps)
     # a position spike is told in metres, so once the unit is known; left out of the altitude's fit too
     refused = with_position_spikes(refused, gt[:, 0], _local_ned(gt, ok), gt[:, 4:7], cfg.dvl,
-                                   (cols[2], cols[1], cols[3]))
+                                   (cols[2], cols[1], cols[3]), source, gt_lines, meta)
     ok = ~np.any(list(refused.values()), axis=0)
     g = gt[ok]
     # the depth is the altitude's opposite (positive up, metres above the sea surface)

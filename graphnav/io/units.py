@@ -50,7 +50,8 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   naming the file and columns, a note); positions that follow the velocity in neither unit (outside
   :data:`SAME_UNITS_RATIO` over 10, 40 and 160 s windows: a noisy fix shrinks against the longer ones' distance) are
   refused. An A-KIT depth (-altitude) mostly outside ``depth_range_m`` is flipped back when it changes against the
-  GT's down velocity (:func:`vertical_sign`: with the right sign the fit is 6-70x better on the ten), else refused
+  GT's down velocity (:func:`vertical_sign`, the depth sensor's fit :func:`depth_rate_fit`: correlation 0.95-1.00
+  on the ten), else refused
   naming the first line and the column (a level vehicle's flipped sign cannot be told from a height above the
   ellipsoid); a depth that changes against its down velocity inside the range is refused naming both columns (which
   is wrong cannot be told). :func:`reference_inconsistencies` says what in a reference disagrees with itself or the
@@ -390,10 +391,6 @@ POSITION_WINDOW_S = 10.0
 POSITION_WINDOW_GROWTH = 4.0
 #: Vertical displacements (m, RMS over the windows) below which the down sign cannot be told (the ten: 0.03-1.1).
 MIN_VERTICAL_MOTION_M = 0.01
-#: The down positions follow the down velocity with the opposite sign when that fits this many times better
-#: (RMS residual) than the same sign, and the same sign when that fits this many times better (the ten, same
-#: sign: 6-70x better; Trajectory1's first 150 s with the altitude negated: 19x worse).
-SIGN_FIT_FACTOR = 3.0
 
 
 def _reference_steps(t: np.ndarray, min_step_s: float) -> np.ndarray:
@@ -492,16 +489,12 @@ def _closest_to_one(ratios: list[float]) -> float:
 
 def vertical_sign(t: np.ndarray, down: np.ndarray, v_down: np.ndarray, window_s: float = POSITION_WINDOW_S
                   ) -> tuple[int, float, float]:
-    """``(sign, residual same sign, residual flipped)``: whether the down positions ``down`` (K, m) change with
-    the down velocity ``v_down`` (K, m/s) (+1), against it (-1), or cannot be told (0: too little vertical
-    motion, :data:`MIN_VERTICAL_MOTION_M`, or no fit :data:`SIGN_FIT_FACTOR` times better); the residuals are the
-    RMS (m) of displacement minus and plus the velocity's integral over windows of ``window_s``."""
-    dp, dv = _window_increments(t, np.reshape(down, (-1, 1)), np.reshape(v_down, (-1, 1)), window_s)
-    if len(dp) < 3 or not np.sqrt(np.mean(dv ** 2)) >= MIN_VERTICAL_MOTION_M:
-        return 0, float("nan"), float("nan")
-    same, flipped = float(np.sqrt(np.mean((dp - dv) ** 2))), float(np.sqrt(np.mean((dp + dv) ** 2)))
-    sign = 1 if SIGN_FIT_FACTOR * same < flipped else -1 if SIGN_FIT_FACTOR * flipped < same else 0
-    return sign, same, flipped
+    """``(sign, slope, correlation)``: whether the down positions ``down`` (K, m) change with the down velocity
+    ``v_down`` (K, m/s, same stamps ``t`` s) (+1), against it (-1), or cannot be told (0: a correlation under
+    :data:`DEPTH_FIT_MIN_CORRELATION`, too little vertical motion); slope and correlation of
+    :func:`depth_rate_fit`, the one fit of a depth against a vertical velocity (a depth sensor's too)."""
+    k, r = depth_rate_fit(t, down, t, v_down, window_s, min_windows=3)
+    return (int(np.sign(r)) if abs(r) >= DEPTH_FIT_MIN_CORRELATION else 0), k, r
 
 
 def _columns(fields) -> str:
@@ -597,6 +590,24 @@ def check_reference_displacement(ratio: float, source: str, fields, what: str = 
                         field="/".join(fields[:len(fields) // 2] if len(fields) > 1 else fields))
 
 
+#: Velocity units a reference's ``v_n`` columns may be in, named when they are not m/s (:func:`reference_speed_error`).
+OTHER_SPEED_UNITS = {"mm/s": 1e-3, "cm/s": 1e-2, "ft/s": 0.3048, "kn": 1852 / 3600}
+
+
+def reference_speed_error(v_n: np.ndarray, source: str, fields, max_speed_mps: float) -> DataError:
+    """The DataError for a reference velocity ``v_n`` (K,3, as read) mostly beyond the vehicle's ``max_speed_mps``
+    while its positions move as far as it says (:func:`check_reference_displacement` passed): neither is in metres
+    and m/s. Names ``source``, the velocity columns ``fields`` and the units (:data:`OTHER_SPEED_UNITS`) that put
+    the median speed between :data:`MIN_SPEED_MPS` and ``max_speed_mps``."""
+    speed = float(np.median(np.linalg.norm(np.asarray(v_n, float), axis=1)))
+    fits = [f"{unit} ({speed * k:.3g} m/s)" for unit, k in OTHER_SPEED_UNITS.items()
+            if MIN_SPEED_MPS <= speed * k <= max_speed_mps]
+    return DataError(f"velocity columns {_columns(fields)}: median speed {speed:.4g} m/s, beyond the vehicle's "
+                     f"{max_speed_mps:g} m/s (dvl.max_speed_mps), and the positions move as far: both in other units"
+                     + (f"; the speed fits {' or '.join(fits)}" if fits else "") + " (a reference is read in m and "
+                     "m/s: convert the file)", source, field="/".join(fields))
+
+
 def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n: np.ndarray, source: str,
                            fields, meta: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Latitude and longitude of a reference (K,) in rad: degrees detected and converted (a warning naming
@@ -657,9 +668,9 @@ def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source
     depth = np.asarray(depth, float)
     if depth.size == 0:
         return depth
-    sign, same, flipped = vertical_sign(t, depth, v_down)
-    against = (f"changes against {_columns(fields[1:])} (residual {same:.3g} m, {flipped:.3g} m with the sign "
-               f"flipped, over {POSITION_WINDOW_S:g} s windows)")
+    sign, k, r = vertical_sign(t, depth, v_down)
+    against = (f"changes against {_columns(fields[1:])} ({k:.3g}x its integral over {POSITION_WINDOW_S:g} s windows, "
+               f"correlation {r:.2f})")
     fit = f"it {against}" if sign < 0 else ""
     if depth_range_m is not None:
         lo, hi = depth_range_m
@@ -755,18 +766,18 @@ def vertical_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def depth_rate_fit(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down: np.ndarray,
-                   window_s: float = POSITION_WINDOW_S) -> tuple[float, float]:
+                   window_s: float = POSITION_WINDOW_S, min_windows: int = 5) -> tuple[float, float]:
     """``(slope, correlation)`` of the depth's changes (``depth`` m at ``t`` s) over windows of ``window_s`` against
     the integral of the down velocity (``v_down`` m/s at ``t_v`` s) over them: 1 for a depth in metres positive
     down, -1 positive up, 0.098 for a pressure in bar. NaN when the velocity moves less than
-    :data:`MIN_VERTICAL_MOTION_M` or there are too few windows."""
+    :data:`MIN_VERTICAL_MOTION_M` or there are fewer than ``min_windows`` windows."""
     t_v, v_down = np.asarray(t_v, float), np.asarray(v_down, float)
     inside = (t >= t_v[0]) & (t <= t_v[-1]) if t_v.size >= 2 else np.zeros(len(t), bool)
     if inside.sum() < 3:
         return float("nan"), float("nan")
     t = np.asarray(t, float)[inside]
     dp, dv = _window_increments(t, np.reshape(depth, (-1, 1))[inside], np.interp(t, t_v, v_down)[:, None], window_s)
-    if len(dp) < 5:
+    if len(dp) < min_windows:
         return float("nan"), float("nan")
     dp, dv = dp[:, 0] - dp[:, 0].mean(), dv[:, 0] - dv[:, 0].mean()
     if not np.sqrt(np.mean(dv ** 2)) >= MIN_VERTICAL_MOTION_M or not np.any(dp):
@@ -774,14 +785,16 @@ def depth_rate_fit(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down: np
     return float(dp @ dv / (dv @ dv)), float(dp @ dv / np.sqrt((dp @ dp) * (dv @ dv)))
 
 
-def depth_convention(mission: Mission, meta: dict | None, field: str) -> np.ndarray:
+def depth_convention(mission: Mission, meta: dict | None, field: str, declared: str | None = None) -> np.ndarray:
     """The depth of ``mission`` (m, positive down) checked against the vehicle's vertical velocity
     (:func:`vertical_velocity`, :func:`depth_rate_fit`): changing against it while mostly above the sea surface it is
     positive up, and flipped (a warning, a note); changing against it below the surface, changing at another rate
     (:data:`SAME_UNITS_RATIO`: a pressure in bar or dbar read as metres), or above the surface by more than
     :data:`DEPTH_ABOVE_SURFACE_M` on most samples with nothing to tell why are a DataError naming the depth's
     ``field``. A depth a constant atmosphere deeper than an absolute GT down is warned about (an absolute pressure in
-    dbar read as metres; nothing else can tell it)."""
+    dbar read as metres; nothing else can tell it). ``declared``: the convention a column map declares
+    (``csv_columns.depth.positive`` down or up, applied by the reader): a depth then changing against the velocity is
+    a DataError, not turned."""
     depth = mission.depth
     t_v, v_down, what = vertical_velocity(mission)
     k, r = depth_rate_fit(depth.t, depth.depth, t_v, v_down)
@@ -789,6 +802,9 @@ def depth_convention(mission: Mission, meta: dict | None, field: str) -> np.ndar
     fit = f"its changes are {k:.3g}x those of {what} over {POSITION_WINDOW_S:g} s windows (correlation {r:.2f})"
     above = float(np.median(depth.depth)) < -DEPTH_ABOVE_SURFACE_M
     extent = f"depth {np.min(depth.depth):.4g} to {np.max(depth.depth):.4g} m"
+    if decided and k < 0 and declared is not None:
+        raise DataError(f"declared positive {declared!r} (csv_columns.depth.positive), but {fit}: set it to "
+                        f"{'up' if declared == 'down' else 'down'!r}", depth.source, field=field)
     if decided and k < 0 and float(np.median(-depth.depth)) >= -DEPTH_ABOVE_SURFACE_M:
         _note(meta, "depth", f"column '{field}' read as depth positive up and turned positive down: {extent} and {fit}",
               depth.source)
@@ -801,7 +817,8 @@ def depth_convention(mission: Mission, meta: dict | None, field: str) -> np.ndar
                         depth.source, field=field)
     if above:
         raise DataError(f"{extent}: the vehicle above the sea surface by more than {DEPTH_ABOVE_SURFACE_M:g} m on most "
-                        "samples (depth is metres positive down); a depth positive up, or a zero not at the surface? "
+                        "samples (depth is metres positive down); a depth positive up (a column map declares it: "
+                        "csv_columns.depth.positive 'up'), or a zero not at the surface? "
                         + (fit if np.isfinite(k) else "the vertical motion is too small to tell"),
                         depth.source, field=field)
     _absolute_dbar(mission, meta, field)
@@ -914,4 +931,5 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio", "vertical_sign",
            "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
+           "reference_speed_error",
            "reference_inconsistencies"]
