@@ -392,7 +392,8 @@ def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
             swapped = [AXES[i] for i in range(3) if P[i, i] == 0]
             raise DataError(f"no IMU axis sign convention fits: {'; '.join(describe_axis_map(P, sensor))}"
                             f" (axes are swapped, not sign-flipped); fix the file's columns (a column map: list them in "
-                            "the body order x, y, z): imu_axis_signs only flips signs",
+                            "the body order x, y, z; a bag: the driver's axis convention, then record again): "
+                            "imu_axis_signs only flips signs",
                             source, field=f"{sensor} {swapped[0]}")
     g, a = np.diag(check.gyro_map).copy(), np.diag(check.accel_map).copy()
     if not with_gt:
