@@ -551,3 +551,23 @@ def test_an_imu_clock_days_away_moves_every_stream_onto_it(tmp_path, capsys):
     assert cli.main(["info", str(path), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert not d["usable"] and "the depth stamps (/pressure" in d["reason"]
+
+
+def test_dvl_messages_of_exactly_zero_under_way_are_no_bottom_lock(sim, tmp_path):
+    """A bag whose DVL reports 0 on every beam for 10 pings between pings of a vehicle under way (a driver's
+    no-lock ping): refused, counted and warned with the topic (the bag reader used them as a vehicle at rest)."""
+    import dataclasses
+    import warnings
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    mission, config, _, _ = sim
+    beams = mission.dvl.beams.copy()
+    valid = mission.dvl.valid.copy()
+    beams[10:20], valid[10:20] = 0.0, True
+    zeroed = dataclasses.replace(mission, dvl=dataclasses.replace(mission.dvl, beams=beams, valid=valid))
+    path = bags.write_mission_bag(zeroed, tmp_path / "zero", storage="mcap", t0_unix_ns=T0_NS)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_mission(path, config)
+    assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 10}
+    assert not m.dvl.valid[10:20].any()
+    assert any(NO_BOTTOM_LOCK in str(w.message) and "/dvl" in str(w.message) for w in rec)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -399,7 +400,8 @@ def test_a_dvl_velocity_of_exactly_zero_or_flagged_invalid_is_not_a_measurement(
     np.testing.assert_allclose(m.dvl.v_b[~bad], v_b[~bad], atol=1e-9)
     dvl = tmp_path / "dvl.csv"
     assert any(s.startswith(f"{dvl}: 5 DVL ping(s) with a velocity of exactly 0 on every axis (a ping without bottom "
-                            "lock) refused at line(s) 12, 13, 14, 15, 16") for s in messages), messages
+                            "lock: the log's resolution is finer than 1 mm/s or the vehicle is under way) refused at "
+                            "line(s) 12, 13, 14, 15, 16") for s in messages), messages
     assert any(s.startswith(f"{dvl}: 5 of {len(bad)} DVL ping(s) have no valid beam and are not used (first at line "
                             "22,") for s in messages), messages
 
@@ -545,3 +547,43 @@ def test_a_reference_position_step_is_warned_and_kept_and_a_converging_start_is_
     _edit_line(nav, 2, lambda f: f[:2] + [f"{float(f[2]) + 6.0:.12g}"] + f[3:])
     m, messages = _load_recording(tmp_path, cfg)
     assert m.meta["streams"]["gt"]["refused"] == {reason.format("e"): 1}
+
+
+def _hover_log(tmp_path, seconds=120.0):
+    """A hovering AUV's column-map log: IMU 100 Hz (rad/s, FRD) with a small attitude wobble and thruster
+    accelerations, DVL 5 Hz v_b with 1 mm/s noise written with 3 decimals (1 mm/s resolution, as PD0 logs)."""
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, seconds, 0.01)
+    roll, pitch = 0.01 * np.sin(2 * np.pi * t / 7.0), 0.01 * np.sin(2 * np.pi * t / 11.0 + 1)
+    omega = np.column_stack([np.gradient(roll, t), np.gradient(pitch, t), np.zeros_like(t)])
+    omega += rng.normal(0, 0.03 * np.pi / 180, omega.shape)
+    f = 9.81 * np.column_stack([np.sin(pitch), -np.sin(roll) * np.cos(pitch), -np.cos(roll) * np.cos(pitch)])
+    f += rng.normal(0, 0.01, f.shape)
+    _write(tmp_path / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f, omega])
+    td = np.arange(0.1, seconds, 0.2)
+    v = np.round(rng.normal(0, 0.001, (len(td), 3)), 3)
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [td, v])
+    cfg = {"csv_columns": {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                   "omega_b": ["gx", "gy", "gz"], "gyro_unit": "rad/s", "accel_unit": "m/s^2",
+                                   "frame": "frd"},
+                           "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "velocity_unit": "m/s",
+                                   "clock": "imu"}},
+           "dvl": {"rate_hz": 5.0}}
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    return v
+
+
+def test_a_hovering_dvl_at_1_mm_s_resolution_keeps_its_pings_of_exactly_zero(tmp_path):
+    """1 mm/s of noise written at 1 mm/s resolution rounds some pings of a hovering vehicle to 0, 0, 0: they are
+    measurements of a vehicle at rest and are used (they were refused as 'no bottom lock')."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    from graphnav.io.loaders import read_mission
+    v = _hover_log(tmp_path)
+    zero = np.all(v == 0, axis=1)
+    assert 20 < zero.sum() < 60
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = read_mission(tmp_path, tmp_path / "config.json")
+    assert NO_BOTTOM_LOCK not in m.meta["streams"]["dvl"].get("refused", {})
+    np.testing.assert_array_equal(m.dvl.v_b[zero], 0.0)
+    assert m.dvl.valid[zero].all()

@@ -840,11 +840,12 @@ def test_akit_zero_dvl_velocity_and_an_impossible_latitude_refuse_their_ping_and
     gt.write_text("\n".join(lines) + "\n")
     m, caught = _load_quiet(folder)
     assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 5}
-    assert m.meta["streams"]["gt"]["refused"] == {"latitude or longitude beyond 90 / 180 deg": 1}
+    assert m.meta["streams"]["gt"]["refused"] == {"latitude beyond 90 deg in 'Latitude [rad]'": 1}
     assert int((~m.dvl.valid.any(axis=1)).sum()) == 5
     assert any(w.startswith(f"{dvl}: 5 DVL ping(s) with a velocity of exactly 0 on every axis (a ping without bottom "
-                            "lock) refused at line(s) 21, 22, 23, 24, 25") for w in caught), caught
-    assert any(w.startswith(f"{gt}: 1 gt sample(s) refused (1 latitude or longitude beyond 90 / 180 deg) at line(s) "
+                            "lock: the log's resolution is finer than 1 mm/s or the vehicle is under way) refused at "
+                            "line(s) 21, 22, 23, 24, 25") for w in caught), caught
+    assert any(w.startswith(f"{gt}: 1 gt sample(s) refused (1 latitude beyond 90 deg in 'Latitude [rad]') at line(s) "
                             "41") for w in caught), caught
     assert len(m.gt.t) == 119 and np.all(np.abs(m.gt.p_n) < 1e4)
 
@@ -920,3 +921,36 @@ def test_akit_gt_velocity_in_other_units_is_named_by_the_unit_check(tmp_path):
     with pytest.raises(DataError, match=r"the positions move 0\.00992x as far as the velocity says") as err:
         read_akit(folder)
     assert (err.value.source, err.value.field) == (str(path), "Latitude [rad]/Longitude [rad]")
+
+
+def _gt_in_degrees(folder, east_shift_deg=0.0, lat=None):
+    """The folder's GT latitude/longitude rewritten in degrees, the longitude moved ``east_shift_deg``, the
+    latitude set to ``lat`` (deg) when given."""
+    path = folder / "GT_trajectory1.csv"
+    gt = np.loadtxt(path, delimiter=",", skiprows=1)
+    gt[:, 1] = np.degrees(gt[:, 1]) + east_shift_deg
+    gt[:, 2] = np.degrees(gt[:, 2]) if lat is None else lat
+    write_csv(path, AKIT_COLUMNS["GT"], gt.tolist())
+
+
+def test_akit_longitude_written_0_to_360_deg_east_is_read(tmp_path):
+    """A GT longitude of 215 deg (east of Greenwich written 0..360, as NetCDF and oceanographic tools do) is
+    converted like any longitude in degrees: the same track as the file in radians (every row was refused as
+    'beyond 180 deg' and the load stopped)."""
+    clean, _ = _load_quiet(make_akit_folder(tmp_path / "rad", n=1))
+    folder = make_akit_folder(tmp_path / "deg", n=1)
+    _gt_in_degrees(folder, 180.0)
+    m, _ = _load_quiet(folder)
+    assert not m.meta["streams"]["gt"].get("refused")
+    np.testing.assert_allclose(m.gt.p_n, clean.gt.p_n, atol=0.01)
+
+
+def test_akit_latitudes_beyond_90_deg_name_their_column_not_a_column_map(tmp_path):
+    """Every GT row refused for a latitude beyond 90 deg: the error names the latitude column (it named the
+    stream 'gt') and tells an A-KIT user to check the units, not a column map they do not have."""
+    folder = make_akit_folder(tmp_path, n=1)
+    _gt_in_degrees(folder, lat=100.0)
+    with pytest.raises(DataError) as err:
+        _load_quiet(folder)
+    assert err.value.field == "Latitude [rad]"
+    assert "latitude beyond 90 deg" in str(err.value) and "column map" not in str(err.value)

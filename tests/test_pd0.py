@@ -321,3 +321,44 @@ def test_bytes_before_the_first_ensemble_are_warned_about_and_counted(sim, tmp_p
     assert f"{n} {LEADING_BYTES}" in meta["streams"]["dvl"]["notes"]
     assert f"{n} {LEADING_BYTES}" in describe(junk)["streams"]["dvl"]["notes"]
     assert LEADING_BYTES not in clean.counts
+
+
+def test_pd0_pings_of_zero_mm_s_under_way_are_no_bottom_lock(sim, tmp_path):
+    """A PD0 file whose bottom track reads 0 mm/s on all four beams for 10 pings between pings of a vehicle under
+    way: refused as no bottom lock, counted and warned (the PD0 reader used them as a vehicle standing still)."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    mission, root = sim
+    raw = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
+    raw[10:20] = 0
+    write_pd0(tmp_path / "dvl.000", mission, raw_mms=raw)
+    for name in ("imu.csv", "nav.csv", "config.json"):
+        (tmp_path / name).write_bytes((root / name).read_bytes())
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_mission(tmp_path / "dvl.000", tmp_path / "config.json")
+    assert m.meta["streams"]["dvl"]["refused"][NO_BOTTOM_LOCK] == 10
+    assert not m.dvl.valid[10:20].any()
+    assert any(NO_BOTTOM_LOCK in str(w.message) for w in rec)
+
+
+def test_a_hovering_dvl_in_an_earth_frame_pd0_keeps_its_pings_of_zero_mm_s(sim, tmp_path):
+    """A PD0 file in the earth frame of a hovering vehicle: its 1 mm/s velocities round to 0, 0, 0 on some pings,
+    which are measurements (kept): the file's resolution is PD0's whole mm/s, though the beams rotated back from
+    the earth frame are off that grid."""
+    from graphnav.core.mission import ImuData, Mission
+    from graphnav.io.loaders import screen_mission
+    from graphnav.io.pd0 import read_pd0
+    mission, _ = sim
+    rng = np.random.default_rng(2)
+    raw = np.column_stack([rng.integers(-2, 3, (len(mission.dvl.t), 3)), np.zeros(len(mission.dvl.t))])
+    raw[[5, 6, 20]] = 0
+    write_pd0(tmp_path / "dvl.pd0", mission, coord_ex=EX_BITS["earth"], raw_mms=raw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        dvl, depth, meta = read_pd0(tmp_path / "dvl.pd0", mission.config)
+    zero = np.all(dvl.beams == 0, axis=1)
+    assert zero[[5, 6, 20]].all() and not np.all(np.isin(dvl.beams[~zero], np.arange(-9, 10) / 1000.0))
+    imu = ImuData(dvl.t[[0, -1]], np.zeros((2, 3)), np.zeros((2, 3)), "imu")
+    m = screen_mission(Mission("hover", imu, dvl, mission.config, None, depth, {**meta, "imu_screened": True}))
+    assert "velocity exactly 0 on every axis (no bottom lock)" not in m.meta["streams"]["dvl"].get("refused", {})
+    assert m.dvl.valid[zero].all()

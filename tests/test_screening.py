@@ -658,3 +658,43 @@ def test_a_keyframer_fed_burst_stamps_sees_no_gaps_once_it_has_measured_them():
     # 100 Hz as configured: no rate warning; the 30 ms steps are gaps only before the period is measured
     assert not [w for w in caught if "runs at" in str(w.message)]
     assert keyframer.stats.imu_gaps and all(g.t_start < stamps[IMU_RATE_STEPS] for g in keyframer.stats.imu_gaps)
+
+
+def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a_hovering_vehicle():
+    """One rule for a ping logged as exactly 0 on every axis: a hovering vehicle's 1 mm/s noise at 1 mm/s resolution
+    rounds 6 % of its pings to zero (kept); the same zeros in a log written at full precision are a driver's no-lock
+    filler, and so is a block of zeros between pings of 1.5 m/s at 1 mm/s resolution (refused). The stream, with the
+    past only, decides alike."""
+    from graphnav.core.screening import ZeroPingTest, no_bottom_lock
+    spec = SensorConfig().dvl
+    rng = np.random.default_rng(1)
+    t = np.arange(3000) * 0.2
+    hover = np.round(rng.normal(0, 0.001, (3000, 3)), 3)
+    zero = np.all(hover == 0, axis=1)
+    assert 100 < zero.sum() < 300
+    fine = np.where(zero[:, None], 0.0, rng.normal(0, 0.001, (3000, 3)))
+    moving = np.round(np.column_stack([1.5 + rng.normal(0, 0.01, 3000), rng.normal(0, 0.01, (3000, 2))]), 3)
+    moving[50:80] = 0.0
+    expected = {"hover": np.zeros(3000, bool), "fine": zero, "moving": (t >= 10.0) & (t < 16.0)}
+    for name, v in (("hover", hover), ("fine", fine), ("moving", moving)):
+        np.testing.assert_array_equal(no_bottom_lock(t, v, np.linalg.norm(v, axis=1), spec), expected[name], name)
+        stream = ZeroPingTest(spec, np.linalg.norm)
+        past = np.array([stream.is_no_lock(ti, vi) for ti, vi in zip(t, v)])
+        first = np.argmax(~zero) if name == "fine" else 0      # the stream knows the resolution once it saw a ping
+        np.testing.assert_array_equal(past[first + 1:], expected[name][first + 1:], name)
+
+
+def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):
+    """The Navigator (``online --stream``) refuses DVL pings whose beams are all exactly 0 after pings of a vehicle
+    under way, counted under the loaders' reason (it used them as a vehicle standing still)."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    dvl = [i for i, e in enumerate(events) if e[0] == "dvl" and 20.0 < e[1] <= 30.0]
+    for i in dvl:
+        events[i] = ("dvl", events[i][1], ((0.0, 0.0, 0.0, 0.0), (True,) * 4))
+    nav = _navigator(m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _feed(nav, events)
+    assert nav.info["refused"] == {"dvl": {NO_BOTTOM_LOCK: len(dvl)}}

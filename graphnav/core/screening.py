@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import re
 import warnings
 from collections import deque
 from dataclasses import dataclass
@@ -535,12 +536,14 @@ def with_position_spikes(masks: dict[str, np.ndarray], t: np.ndarray, p_n: np.nd
     return {**masks, **_by_first_field(hit, fields, GT_POSITION_SPIKE)}
 
 
-def latlon_impossible(lat: np.ndarray, lon: np.ndarray) -> dict[str, np.ndarray]:
-    """Rows whose latitude or longitude (N,), in degrees or radians, is no angle of either kind (beyond 90 or 180
-    in magnitude: a corrupted cell), refused before the unit is decided from the others."""
+def latlon_impossible(lat: np.ndarray, lon: np.ndarray, fields=("latitude", "longitude")) -> dict[str, np.ndarray]:
+    """Rows whose latitude or longitude (N,), in degrees or radians, is no angle of either kind (a latitude beyond
+    90 in magnitude, a longitude outside -180..360: east of Greenwich written 0..360 as NetCDF and oceanographic tools
+    do is one), refused before the unit is decided from the others; a reason per column of ``fields`` (latitude,
+    longitude)."""
     with np.errstate(invalid="ignore"):
-        bad = (np.abs(lat) > 90.0) | (np.abs(lon) > 180.0)
-    return {"latitude or longitude beyond 90 / 180 deg": bad}
+        return {f"latitude beyond 90 deg in '{fields[0]}'": np.abs(lat) > 90.0,
+                f"longitude outside -180..360 deg in '{fields[1]}'": (lon < -180.0) | (lon > 360.0)}
 
 
 def beams_out_of_range(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
@@ -549,23 +552,90 @@ def beams_out_of_range(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> n
         return np.asarray(valid, bool) & ~(np.abs(np.asarray(beams, float)) <= spec.max_speed_mps)
 
 
-#: Reason of a DVL ping whose velocity is exactly zero on every axis (:func:`no_bottom_lock`).
+#: Reason of a DVL ping logged as exactly 0 on every axis that no vehicle at rest explains (:func:`no_bottom_lock`).
 NO_BOTTOM_LOCK = "velocity exactly 0 on every axis (no bottom lock)"
+#: The coarsest DVL resolution a log is told apart by, in the unit its values are written in: 0.001 (1 mm/s in m/s,
+#: PD0's native unit; 3 decimals). At that resolution a hovering DVL's noise rounds to 0, 0, 0 on some pings (6 % of
+#: them for 1 mm/s of noise); finer, a ping of exactly 0 on every axis is a driver's no-lock filler.
+ZERO_RESOLUTION = 1e-3
+#: Speed, m/s, beyond what the vehicle can lose in the interval (``DvlSpec.max_accel_mps2`` x dt) at which a ping
+#: next to zeros says the vehicle was under way: a hovering DVL's noise is 1-10 mm/s, so 0.1 m/s is no noise.
+ZERO_SPEED_MARGIN_MPS = 0.1
 
 
-def no_bottom_lock(v: np.ndarray, lines: np.ndarray, source: str) -> np.ndarray:
-    """(M,) pings whose velocity components (M,k) m/s are all exactly 0.0, warned naming ``source`` and their file
-    ``lines`` (the loader counts them under :data:`NO_BOTTOM_LOCK`). Water Linked DVLs and several drivers log a
-    ping without bottom lock so; a DVL moving or hovering measures noise on every axis, and none of the 4000 pings
-    of the ten A-KIT trajectories nor of the real PD0 files has all of them at 0 (the PD0 files: 6 single zero
-    beams in 2254 pings). Used as a measurement, a block of 30 such pings cost Trajectory1's first 200 s 0.26 m/s
-    of VRMSE (0.09 clean)."""
-    zero = np.all(np.asarray(v, float) == 0.0, axis=1)
-    if zero.any():
-        warnings.warn(f"{source}: {int(zero.sum())} DVL ping(s) with a velocity of exactly 0 on every axis (a ping "
-                      f"without bottom lock) refused at line(s) {first_lines(np.asarray(lines)[zero])}; they are "
-                      "not used", RuntimeWarning, stacklevel=3)
-    return zero
+def on_resolution_grid(values) -> tuple[int, int]:
+    """(on, off): how many of the finite non-zero ``values`` are, and are not, multiples of :data:`ZERO_RESOLUTION`
+    (to 0.1 % of it: float32 logs and unit conversions keep a written value on its grid)."""
+    x = np.asarray(values, float).ravel()
+    x = x[np.isfinite(x) & (x != 0.0)] / ZERO_RESOLUTION
+    on = int(np.count_nonzero(np.abs(x - np.round(x)) <= 1e-3))
+    return on, x.size - on
+
+
+def zeros_without_lock(fine: bool, before: tuple[float, float] | None, after: tuple[float, float] | None,
+                       spec: DvlSpec) -> bool:
+    """Whether a run of DVL pings logged as exactly 0 on every axis is no bottom lock rather than a vehicle at rest.
+
+    ``fine``: the log's other values are mostly off the :data:`ZERO_RESOLUTION` grid, so its noise never rounds to
+    0, 0, 0. ``before`` / ``after``: (speed m/s, s between it and the run) of the nearest ping that is not all zeros
+    on each side (None: none; the Navigator's stream has the past only): a vehicle faster than
+    ``max_accel_mps2 * dt`` + :data:`ZERO_SPEED_MARGIN_MPS` cannot have stopped (or started) within dt (1.1 m/s at
+    1 Hz, 0.3 m/s at 5 Hz with the defaults). A hovering vehicle's zeros in a coarse log are kept."""
+    if fine:
+        return True
+    return any(s is not None and s[0] > spec.max_accel_mps2 * s[1] + ZERO_SPEED_MARGIN_MPS for s in (before, after))
+
+
+def zero_pings(values) -> np.ndarray:
+    """(M,) pings whose values (M,k) (beams or velocity components as logged, NaN where not a measurement) are all
+    exactly 0 on at least three of them."""
+    x = np.asarray(values, float)
+    finite = np.isfinite(x)
+    return (finite.sum(axis=1) >= 3) & np.all(~finite | (x == 0.0), axis=1)
+
+
+def no_bottom_lock(t: np.ndarray, values: np.ndarray, speed: np.ndarray, spec: DvlSpec,
+                   fine: bool | None = None) -> np.ndarray:
+    """(M,) DVL pings at ``t`` (M,) s logged as exactly 0 on every value (:func:`zero_pings`) that are no bottom
+    lock (:func:`zeros_without_lock`, each run of them judged by the pings around it): ``speed`` (M,) m/s the speed
+    of each ping (NaN: unknown), ``fine`` the log's resolution (default: from ``values``, :func:`on_resolution_grid`;
+    a reader that converted the units passes the file's own). Water Linked DVLs and several drivers log a ping
+    without bottom lock so; none of the ten A-KIT trajectories' 4000 pings nor of the real PD0 files' has it."""
+    t, speed = np.asarray(t, float), np.asarray(speed, float)
+    zero = zero_pings(values)
+    if fine is None:
+        on, off = on_resolution_grid(values)
+        fine = off > on
+    known = np.flatnonzero(~zero & np.isfinite(speed))
+    out = np.zeros(len(t), bool)
+    for first, last in _runs(zero):
+        i = np.searchsorted(known, first)
+        before = (speed[known[i - 1]], t[first] - t[known[i - 1]]) if i > 0 else None
+        after = (speed[known[i]], t[known[i]] - t[last]) if i < known.size else None
+        out[first:last + 1] = zeros_without_lock(fine, before, after, spec)
+    return out
+
+
+def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
+    """(M,) speed, m/s, of the least-squares velocity of each ping's valid beams (M,4) m/s; NaN under three."""
+    from graphnav.core.dvl import DvlGeometry
+    v = DvlGeometry.from_spec(spec).velocity_from_beams(np.where(valid, beams, np.nan), valid, allow_missing=True)
+    return np.linalg.norm(v, axis=1)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of each run of True in ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
+
+
+def warn_no_bottom_lock(no_lock: np.ndarray, lines: np.ndarray, source: str) -> None:
+    """Warn about the pings :func:`no_bottom_lock` refused, naming ``source`` and their file ``lines``."""
+    if no_lock.any():
+        warnings.warn(f"{source}: {int(no_lock.sum())} DVL ping(s) with a velocity of exactly 0 on every axis (a ping "
+                      "without bottom lock: the log's resolution is finer than 1 mm/s or the vehicle is under way) "
+                      f"refused at line(s) {first_lines(np.asarray(lines)[no_lock])}; they are not used",
+                      RuntimeWarning, stacklevel=3)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -600,11 +670,14 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> N
         read = entry.get("read", 0)
         refused = sum(entry.get("refused", {}).values())
         if read and refused > limit * read:
-            reasons = ", ".join(f"{n} {r}" for r, n in sorted(entry["refused"].items(), key=lambda kv: -kv[1]))
+            ranked = sorted(entry["refused"].items(), key=lambda kv: -kv[1])
+            reasons = ", ".join(f"{n} {r}" for r, n in ranked)
+            column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
+            where = "the units, the column map" if meta.get("format") == "csv" else "the units"
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
-                            f"{limit:.0%} of the stream; check the units, the column map and the "
-                            "configuration's sensor ranges", entry.get("source") or stream,
-                            field=meta.get("stream_fields", {}).get(stream, stream))
+                            f"{limit:.0%} of the stream; check {where} and the configuration's sensor ranges",
+                            entry.get("source") or stream,
+                            field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
 
 
 def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, lines: np.ndarray, *arrays
@@ -865,6 +938,33 @@ class ImuSpikeTest:
         self._limit = np.maximum(self.floors, IMU_SPIKE_NOISE_FACTOR * scale).tolist()
 
 
+class ZeroPingTest:
+    """:func:`zeros_without_lock` on a stream, past pings only: the resolution from the values seen so far, the speed
+    (``speed_of`` its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings
+    judged once, as :func:`no_bottom_lock` judges a file's without the pings after the run."""
+
+    def __init__(self, spec: DvlSpec, speed_of):
+        self.spec, self.speed_of = spec, speed_of
+        self.on = self.off = 0                   # non-zero values on / off the resolution grid so far
+        self._last: tuple[float, float] | None = None       # (speed m/s, stamp s)
+        self._verdict: bool | None = None        # the current run's
+
+    def is_no_lock(self, t: float, values) -> bool:
+        """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
+        bottom lock; any other ping joins the history."""
+        values = np.asarray(values, float)
+        if not zero_pings(values[None])[0]:
+            on, off = on_resolution_grid(values)
+            self.on, self.off, self._verdict = self.on + on, self.off + off, None
+            speed = float(self.speed_of(values))
+            self._last = (speed, t) if math.isfinite(speed) else self._last
+            return False
+        if self._verdict is None:
+            before = None if self._last is None else (self._last[0], t - self._last[1])
+            self._verdict = zeros_without_lock(self.off > self.on, before, None, self.spec)
+        return self._verdict
+
+
 @dataclass
 class StreamScreen:
     """The per-sample rules of a :class:`~graphnav.estimators.navigator.Navigator`'s stream, from one
@@ -878,6 +978,8 @@ class StreamScreen:
         self._beam_spikes = [SpikeTest(dvl.max_accel_mps2, dvl.jump_tolerance_mps) for _ in range(4)]
         self._depth_spike = SpikeTest(dvl.max_vertical_mps, self.config.depth_jump_tolerance_m)
         self._imu_spike = ImuSpikeTest(imu_spike_floors(self.config))
+        beam_speed = lambda b: ping_speed(b[None], np.isfinite(b)[None], dvl)[0]  # noqa: E731
+        self.zero_ping = {"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
 
     def stamp_problem(self, stream: str, t: float) -> str | None:

@@ -20,7 +20,8 @@ What happens to a sample:
    the samples leave the reorder buffer; off, with a warning and a note in :attr:`Navigator.info` (``notes``), for
    an IMU under 50 Hz), a DVL beam beyond the
    vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
-   and the completers expect the missing-beam patterns of outages),
+   and the completers expect the missing-beam patterns of outages), a DVL ping logged as exactly 0 with no bottom
+   lock (:class:`~graphnav.core.screening.ZeroPingTest`: the log's resolution or the speed of the pings before it),
    a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
@@ -55,7 +56,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import MAX_REFUSED_FRACTION, StreamScreen
+from graphnav.core.screening import MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, StreamScreen
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor
@@ -251,6 +252,9 @@ class Navigator:
                                 "not finite")
         if not self._accept("dvl", t):
             return []
+        if self._screen.zero_ping["dvl"].is_no_lock(t, np.where(v, b, np.nan)):
+            return self._refuse("dvl", t, NO_BOTTOM_LOCK, "every valid beam exactly 0 (the DVL's resolution is finer "
+                                "or the vehicle was under way)", screened=True)
         screened = self._screen.dvl_problems(t, b, v)
         if screened:        # a beam the instrument got wrong makes the ping suspect: refused as a whole
             i, why = next(iter(screened.items()))
@@ -281,6 +285,9 @@ class Navigator:
                                 f"got {list(s)}")
         if not self._accept("dvl_velocity", t):
             return []
+        if self._screen.zero_ping["dvl_velocity"].is_no_lock(t, v):
+            return self._refuse("dvl_velocity", t, NO_BOTTOM_LOCK, "v_d exactly 0 on every axis (the DVL's resolution "
+                                "is finer or the vehicle was under way)", screened=True)
         return self._push("dvl_velocity", t, (Ping.from_velocity(t, v, s),))
 
     def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:

@@ -47,9 +47,11 @@ without them every finite beam is valid; RDI's -32768 / -32.768 flags are invali
 that logs body velocity): the beams are then the exact projections ``T_b v_b`` of that velocity on the
 configured beam geometry (no noise added; ``meta["beams_from_v_b"]``), and a ping with any non-finite axis
 has no valid beam. The ``valid`` flags apply to ``v_b`` too (a velocity needs three valid beams); a ping whose
-velocity (or four beams) is exactly 0 on every axis has no bottom lock and is refused (warned with its lines,
-counted). ``frame`` says which frame the ``v_b`` columns are in: body (default), flu, instrument (turned by
-``dvl.C_d_b``), ned or enu (with the DVL's ``euler`` roll, pitch, heading columns and their ``angle_unit``); an
+velocity (or four beams) is exactly 0 on every axis has no bottom lock, and is refused (warned with its lines,
+counted), when the file's other values are finer than 1 mm/s or the pings around it are under way
+(:func:`graphnav.core.screening.no_bottom_lock`); a hovering vehicle's zeros in a log at 1 mm/s are kept.
+``frame`` says which frame the ``v_b`` columns are in: body (default), flu, instrument (turned by ``dvl.C_d_b``),
+ned or enu (with the DVL's ``euler`` roll, pitch, heading columns and their ``angle_unit``); an
 undeclared earth-frame, knots or FLU velocity is refused (:mod:`graphnav.io.dvl_frame`,
 :mod:`graphnav.calibration.dvl_scale`). Instead of CSV columns, ``"dvl": {"pd0": "file.000"}`` reads a Teledyne PD0 file
 (:mod:`graphnav.io.pd0`) recorded in any RDI frame (beam, instrument, ship or earth: rotated back to beams;
@@ -87,10 +89,14 @@ from graphnav.core.screening import (
     imu_implausible,
     no_bottom_lock,
     not_finite,
+    on_resolution_grid,
+    ping_speed,
     refuse_rows,
     stamp_order,
     unit_check_rows,
+    warn_no_bottom_lock,
     with_position_spikes,
+    zero_pings,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
@@ -324,12 +330,17 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         vdeclared = spec.get("velocity_unit")
         lines = dvl_lines = v["_lines"]
         flags = np.nan_to_num(v["valid"]) != 0 if "valid" in v else np.ones((len(t_dvl), 4), bool)
-        # a ping logged as 0, 0, 0 has no bottom lock: refused before the unit detection sees it
-        no_lock = no_bottom_lock(v["v_b"] if "v_b" in v else v.get("beams", np.empty((0, 1))), lines, str(path))
+        # pings logged as 0, 0, 0: the file's resolution is judged as written, the speeds around them in m/s
+        raw = v["v_b"] if "v_b" in v else v.get("beams", np.empty((0, 4)))
+        zero, (on, off) = zero_pings(raw), on_resolution_grid(raw)
+        no_lock = np.zeros(len(t_dvl), bool)
         v_b = None
         if "v_b" in v:
-            v_b = dvl_velocity_units(np.where(no_lock[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
+            # a zero tells nothing of the unit: hidden from its detection, and 0 in any unit after it
+            v_b = dvl_velocity_units(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
                                      vdeclared)
+            v_b[zero] = 0.0
+            no_lock = no_bottom_lock(t_dvl, v_b, np.linalg.norm(v_b, axis=1), config.dvl, fine=off > on)
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
             v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
@@ -342,6 +353,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             beams = np.where(flag, -32.768, raw * vscale)
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
             valid = flags & ~np.isnan(beams)
+            if v_b is None:
+                no_lock = no_bottom_lock(t_dvl, np.where(valid, beams, np.nan), ping_speed(beams, valid, config.dvl),
+                                         config.dvl, fine=off > on)
         elif v_b is not None:
             from graphnav.core.dvl import DvlGeometry
             T_b = DvlGeometry.from_spec(config.dvl).T_b
@@ -350,6 +364,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             meta["beams_from_v_b"] = True
         else:
             raise ConfigError("csv_columns.dvl needs 'beams' (4 columns) or 'v_b' (3 columns)")
+        warn_no_bottom_lock(no_lock, lines, str(path))
+        meta["dvl_zeros_screened"] = True          # screen_mission would judge them again in m/s, without lines
         valid &= ~no_lock[:, None]
         dvl = DvlData(t_dvl - t0, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized(lines=lines)
         dvl_refused = {NO_BOTTOM_LOCK: no_lock}

@@ -110,6 +110,7 @@ from graphnav.core.mission import (
 from graphnav.core.rotations import euler_to_C_b_n
 from graphnav.core.screening import (
     NO_BOTTOM_LOCK,
+    ZERO_RESOLUTION,
     beams_out_of_range,
     check_refused_fraction,
     depth_implausible,
@@ -125,6 +126,7 @@ from graphnav.core.screening import (
     stamp_order,
     stamp_outliers,
     unit_check_rows,
+    warn_no_bottom_lock,
     with_position_spikes,
 )
 from graphnav.core.streams import add_note, count_read, count_refused
@@ -453,7 +455,8 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
         reference_speed_error,
     )
     cols = AKIT_COLUMNS["GT"]
-    refused = gt_refusals(gt[:, 0], gt[:, 1:], cols[1:], gt[:, 4:7], cfg.dvl, latlon_impossible(gt[:, 2], gt[:, 1]))
+    refused = gt_refusals(gt[:, 0], gt[:, 1:], cols[1:], gt[:, 4:7], cfg.dvl,
+                          latlon_impossible(gt[:, 2], gt[:, 1], (cols[2], cols[1])))
     ok, too_fast = unit_check_rows(refused, cfg.dvl)
     g, imu = gt[ok], imu[np.all(np.isfinite(imu[:, :7]), axis=1)]
     euler = g[:, 7:10]
@@ -722,7 +725,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
                       f"flag -32.768/-32768 or beyond {MAX_DVL_SPEED_MPS:g} m/s) marked invalid, first at line "
                       f"{int(raw.dvl_lines[flagged[0]])}", RuntimeWarning, stacklevel=2)
         v_dvl[flagged] = np.nan          # counted with their reason by _record_akit_streams (_akit_refused)
-    no_lock = no_bottom_lock(raw.dvl[:, 1:4], raw.dvl_lines, str(raw.files["DVL"]))
+    no_lock = no_bottom_lock(raw.dvl[:, 0], raw.dvl[:, 1:4], np.linalg.norm(v_dvl, axis=1), cfg.dvl)
+    warn_no_bottom_lock(no_lock, raw.dvl_lines, str(raw.files["DVL"]))
     v_dvl[no_lock] = np.nan
     # pings this vehicle cannot have made (no bottom lock: |v_z| up to 2 m/s on real logs; speeds outside
     # the envelope; spikes): invalid too, before the offset estimate and the completers see them
@@ -1038,12 +1042,30 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
         add_note(mission.meta, "config", note)
 
 
+def _zeros_without_lock(dvl: DvlData, valid: np.ndarray, v: np.ndarray, spec, resolution: float | None
+                        ) -> np.ndarray:
+    """(M,) pings of a loaded DVL stream logged as exactly 0 that are no bottom lock
+    (:func:`graphnav.core.screening.no_bottom_lock`): a ping's valid beams (``valid``, (M,4)) when three or more,
+    else its instrument velocity ``v_d``; ``v`` (M,3) m/s its velocity from the beams (NaN: from ``v_d``).
+    ``resolution``: the log's as recorded, m/s (PD0: 1 mm/s in any frame, where the beams rotated back from an earth
+    or ship frame are off that grid); None: judged from the values."""
+    values, speed = np.where(valid, dvl.beams, np.nan), np.linalg.norm(v, axis=1)
+    if dvl.v_d is not None:
+        v_d = np.where(dvl.v_d_valid[:, None], dvl.v_d, np.nan)
+        own = (valid.sum(axis=1) < 3) & dvl.v_d_valid
+        values = np.where(own[:, None], np.column_stack([v_d, np.full(len(v_d), np.nan)]), values)
+        speed = np.where(np.isfinite(speed), speed, np.linalg.norm(v_d, axis=1))
+    fine = None if resolution is None else resolution < ZERO_RESOLUTION
+    return no_bottom_lock(dvl.t, values, speed, spec, fine)
+
+
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
     full scale or spiking (:func:`graphnav.core.screening.imu_implausible`), depth rows outside the range or spiking
     and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
-    the instrument got wrong makes the others suspect, as on the Navigator's stream) and pings outside its envelope
+    the instrument got wrong makes the others suspect, as on the Navigator's stream), pings logged as exactly 0
+    without bottom lock (:func:`graphnav.core.screening.no_bottom_lock`) and pings outside its envelope
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
     warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
     one when nothing was refused)."""
@@ -1064,12 +1086,16 @@ def screen_mission(mission: Mission) -> Mission:
     from graphnav.core.dvl import DvlGeometry
     v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(
         np.where(valid, dvl.beams, np.nan), valid, allow_missing=True)
+    if not meta.get("dvl_zeros_screened"):
+        masks[NO_BOTTOM_LOCK] = _zeros_without_lock(dvl, valid, v, cfg.dvl, meta.get("dvl_resolution_mps"))
+        v = np.where(masks[NO_BOTTOM_LOCK][:, None], np.nan, v)       # no neighbour of the envelope's spike test
     masks.update({f"outside the envelope ({k})": m for k, m in implausible_pings(dvl.t, v, cfg.dvl).items()})
     bad = refuse(meta, "dvl", masks, dvl.source, unit="ping")
     if bad.any():
         valid = valid & ~bad[:, None]
         dvl = dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,
-                                  v_b=None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b))
+                                  v_b=None if dvl.v_b is None else np.where(bad[:, None], np.nan, dvl.v_b),
+                                  v_d_valid=None if dvl.v_d_valid is None else dvl.v_d_valid & ~bad)
     usable = dvl.valid.sum(axis=1) >= 3
     if dvl.v_d_valid is not None:
         usable |= dvl.v_d_valid

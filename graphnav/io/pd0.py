@@ -599,6 +599,7 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "pd0_beam_theta_rad": log.instrument["beam_theta_rad"],
                   "pd0_beam_psi_rad": log.instrument["beam_psi_rad"],
                   "pd0_frame": log.frame, "pd0_invalid_beams": int((~log.beam_valid).sum()),
+                  "dvl_resolution_mps": 0.001,     # whole mm/s in any frame: beams rotated back are off that grid
                   "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts}
     entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
