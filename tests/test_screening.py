@@ -684,6 +684,28 @@ def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a
         np.testing.assert_array_equal(past[first + 1:], expected[name][first + 1:], name)
 
 
+def test_a_block_of_zero_pings_is_no_lock_whatever_the_resolution_and_a_replay_trusts_its_loader():
+    """A block of zeros from a vehicle under way at 0.5 Hz in a 1 mm/s log was kept (the speed rule allows 2.1 m/s
+    of change in 2 s) and turned calibrate's DVL scale to -28 %: three or more zero pings in a row are no lock. A
+    replayed mission's Navigator leaves the zeros to its loader (it sees projected beams, off the mm grid, and took
+    a hovering log's kept zeros for a fine log's)."""
+    from graphnav.core.screening import ZeroPingTest, no_bottom_lock
+    from graphnav.estimators.navigator import Navigator, NavigatorOptions
+    spec = SensorConfig().dvl
+    rng = np.random.default_rng(2)
+    t = np.arange(100) * 2.0
+    v = np.round(np.column_stack([2.0 + rng.normal(0, 0.01, 100), rng.normal(0, 0.01, (100, 2))]), 3)
+    v[30:45] = 0.0
+    np.testing.assert_array_equal(np.flatnonzero(no_bottom_lock(t, v, np.linalg.norm(v, axis=1), spec)),
+                                  np.arange(30, 45))
+    stream = ZeroPingTest(spec, np.linalg.norm)
+    past = [stream.is_no_lock(ti, vi) for ti, vi in zip(t, v)]
+    assert np.flatnonzero(past).tolist() == list(range(32, 45))          # the past only: from the third on
+    config = SensorConfig()
+    assert Navigator(config, options=NavigatorOptions(dvl_zeros_judged=True))._screen.zero_ping == {}
+    assert set(Navigator(config)._screen.zero_ping) == {"dvl", "dvl_velocity"}
+
+
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):
     """The Navigator (``online --stream``) refuses DVL pings whose beams are all exactly 0 after pings of a vehicle
     under way, counted under the loaders' reason (it used them as a vehicle standing still)."""

@@ -177,7 +177,8 @@ def make_navigator(args, config, mission=None):
         method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
     ekf_options = estimator_options(method.name) if ekf else None   # e.g. the -12 methods' 12-state filter
     reorder = {} if args.reorder_window is None else {"reorder_window_s": args.reorder_window}
-    nav_options = NavigatorOptions(align=align_options(args), **reorder)
+    # a replayed mission's loader judged the DVL's zero pings; a live stream's are judged as they come
+    nav_options = NavigatorOptions(align=align_options(args), dvl_zeros_judged=mission is not None, **reorder)
     initial = None
     if mission is not None:
         initial = initial_state(mission, None, args.init, first_ping_time(mission))

@@ -35,6 +35,12 @@ from graphnav.core.errors import GeometryError
 from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings  # noqa: F401
 
 
+def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
+    """(M,) speed, m/s, of the least-squares velocity of each ping's valid beams (M,4) m/s; NaN under three."""
+    v = DvlGeometry.from_spec(spec).velocity_from_beams(np.where(valid, beams, np.nan), valid, allow_missing=True)
+    return np.linalg.norm(v, axis=1)
+
+
 #: Largest relative difference between the interval of two consecutive DVL pings and the ping period a completer
 #: network was trained for, on the short side (and, by default, the long side) (:func:`off_period`): past pings
 #: closer together are not the past the network learned from. A safety bound, not a fitted one: a quarter of a period

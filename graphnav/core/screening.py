@@ -41,6 +41,7 @@ import math
 import re
 import warnings
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -561,6 +562,11 @@ ZERO_RESOLUTION = 1e-3
 #: Speed, m/s, beyond what the vehicle can lose in the interval (``DvlSpec.max_accel_mps2`` x dt) at which a ping
 #: next to zeros says the vehicle was under way: a hovering DVL's noise is 1-10 mm/s, so 0.1 m/s is no noise.
 ZERO_SPEED_MARGIN_MPS = 0.1
+#: A run of this many pings of exactly 0 on every axis is no bottom lock whatever the log's resolution and the pings
+#: around it: a hovering DVL at 1 mm/s rounds about 6 % of its pings to 0, 0, 0, isolated (three in a row about once
+#: in 5000 pings), while a driver's no-lock filler comes in blocks (a vehicle under way at 0.5 Hz, or a glider at
+#: 0.25 m/s, is slower than what the speed rule can tell from one ping interval).
+ZERO_RUN_PINGS = 3
 
 
 def on_resolution_grid(values) -> tuple[int, int]:
@@ -573,15 +579,16 @@ def on_resolution_grid(values) -> tuple[int, int]:
 
 
 def zeros_without_lock(fine: bool, before: tuple[float, float] | None, after: tuple[float, float] | None,
-                       spec: DvlSpec) -> bool:
+                       spec: DvlSpec, run: int = 1) -> bool:
     """Whether a run of DVL pings logged as exactly 0 on every axis is no bottom lock rather than a vehicle at rest.
 
     ``fine``: the log's other values are mostly off the :data:`ZERO_RESOLUTION` grid, so its noise never rounds to
     0, 0, 0. ``before`` / ``after``: (speed m/s, s between it and the run) of the nearest ping that is not all zeros
     on each side (None: none; the Navigator's stream has the past only): a vehicle faster than
     ``max_accel_mps2 * dt`` + :data:`ZERO_SPEED_MARGIN_MPS` cannot have stopped (or started) within dt (1.1 m/s at
-    1 Hz, 0.3 m/s at 5 Hz with the defaults). A hovering vehicle's zeros in a coarse log are kept."""
-    if fine:
+    1 Hz, 0.3 m/s at 5 Hz with the defaults). ``run``: pings in the run (:data:`ZERO_RUN_PINGS` or more: no lock).
+    A hovering vehicle's isolated zeros in a coarse log are kept."""
+    if fine or run >= ZERO_RUN_PINGS:
         return True
     return any(s is not None and s[0] > spec.max_accel_mps2 * s[1] + ZERO_SPEED_MARGIN_MPS for s in (before, after))
 
@@ -612,15 +619,8 @@ def no_bottom_lock(t: np.ndarray, values: np.ndarray, speed: np.ndarray, spec: D
         i = np.searchsorted(known, first)
         before = (speed[known[i - 1]], t[first] - t[known[i - 1]]) if i > 0 else None
         after = (speed[known[i]], t[known[i]] - t[last]) if i < known.size else None
-        out[first:last + 1] = zeros_without_lock(fine, before, after, spec)
+        out[first:last + 1] = zeros_without_lock(fine, before, after, spec, last - first + 1)
     return out
-
-
-def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
-    """(M,) speed, m/s, of the least-squares velocity of each ping's valid beams (M,4) m/s; NaN under three."""
-    from graphnav.core.dvl import DvlGeometry
-    v = DvlGeometry.from_spec(spec).velocity_from_beams(np.where(valid, beams, np.nan), valid, allow_missing=True)
-    return np.linalg.norm(v, axis=1)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -948,6 +948,7 @@ class ZeroPingTest:
         self.on = self.off = 0                   # non-zero values on / off the resolution grid so far
         self._last: tuple[float, float] | None = None       # (speed m/s, stamp s)
         self._verdict: bool | None = None        # the current run's
+        self._run = 0                            # zero pings in the current run
 
     def is_no_lock(self, t: float, values) -> bool:
         """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
@@ -955,13 +956,14 @@ class ZeroPingTest:
         values = np.asarray(values, float)
         if not zero_pings(values[None])[0]:
             on, off = on_resolution_grid(values)
-            self.on, self.off, self._verdict = self.on + on, self.off + off, None
+            self.on, self.off, self._verdict, self._run = self.on + on, self.off + off, None, 0
             speed = float(self.speed_of(values))
             self._last = (speed, t) if math.isfinite(speed) else self._last
             return False
-        if self._verdict is None:
+        self._run += 1
+        if not self._verdict:           # judged again while the run grows: its length can decide (the first kept)
             before = None if self._last is None else (self._last[0], t - self._last[1])
-            self._verdict = zeros_without_lock(self.off > self.on, before, None, self.spec)
+            self._verdict = zeros_without_lock(self.off > self.on, before, None, self.spec, self._run)
         return self._verdict
 
 
@@ -972,14 +974,21 @@ class StreamScreen:
     key) or None; the DVL one returns the failing beams with their reasons."""
 
     config: SensorConfig
+    #: (M,4) beams, (M,4) valid -> (M,) speed, m/s (:func:`graphnav.core.dvl.ping_speed` with the configuration's
+    #: DVL: given by the caller, since the DVL geometry's module reads this one)
+    beams_speed: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    #: whether the stream judges DVL pings of exactly 0 (False: a replayed mission's loader judged them, with the
+    #: file's resolution and the pings after each run)
+    judge_zeros: bool = True
 
     def __post_init__(self):
         dvl = self.config.dvl
         self._beam_spikes = [SpikeTest(dvl.max_accel_mps2, dvl.jump_tolerance_mps) for _ in range(4)]
         self._depth_spike = SpikeTest(dvl.max_vertical_mps, self.config.depth_jump_tolerance_m)
         self._imu_spike = ImuSpikeTest(imu_spike_floors(self.config))
-        beam_speed = lambda b: ping_speed(b[None], np.isfinite(b)[None], dvl)[0]  # noqa: E731
-        self.zero_ping = {"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
+        beam_speed = lambda b: self.beams_speed(b[None], np.isfinite(b)[None])[0]  # noqa: E731
+        self.zero_ping = ({"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
+                          if self.judge_zeros else {})
         self._newest = -math.inf      # newest stamp accepted on any stream (one clock)
 
     def stamp_problem(self, stream: str, t: float) -> str | None:

@@ -53,6 +53,7 @@ import gtsam
 import numpy as np
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
@@ -92,6 +93,9 @@ class NavigatorOptions:
         align: settings of the :class:`~graphnav.estimators.align.Aligner` that starts the estimator when no
             initial state is given, with what is known at the start (initial heading, position)
             (:class:`~graphnav.estimators.align.AlignOptions`).
+        dvl_zeros_judged: the DVL pings of exactly 0 were judged when the log was read (a replayed mission: the
+            loader knows the file's resolution and the pings after each run, :func:`graphnav.core.screening.no_bottom_lock`);
+            the stream, which knows neither, does not judge them again.
     """
 
     reorder_window_s: float = 0.2
@@ -100,6 +104,7 @@ class NavigatorOptions:
     align_catch_up: bool = True
     align_buffer_s: float = 600.0
     align: AlignOptions = field(default_factory=AlignOptions)
+    dvl_zeros_judged: bool = False
 
     def __post_init__(self):
         if self.reorder_window_s < 0:
@@ -170,7 +175,8 @@ class Navigator:
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
         self._earth = EarthModel.from_config(config)
         self.refused: dict[str, dict[str, int]] = {}
-        self._screen = StreamScreen(config)
+        self._screen = StreamScreen(config, lambda beams, valid: ping_speed(beams, valid, config.dvl),
+                                    judge_zeros=not self.options.dvl_zeros_judged)
         self._imu_spike_noted = False         # the spike test's "off" note is told once, when the rate is known
         self.notes: dict[str, list[str]] = {}       # sentences about a stream a user must see (info)
         #: the IMU's full scale (m/s^2, rad/s): a sample within it needs no further screening call
@@ -252,7 +258,8 @@ class Navigator:
                                 "not finite")
         if not self._accept("dvl", t):
             return []
-        if self._screen.zero_ping["dvl"].is_no_lock(t, np.where(v, b, np.nan)):
+        zero = self._screen.zero_ping.get("dvl")
+        if zero is not None and zero.is_no_lock(t, np.where(v, b, np.nan)):
             return self._refuse("dvl", t, NO_BOTTOM_LOCK, "every valid beam exactly 0 (the DVL's resolution is finer "
                                 "or the vehicle was under way)", screened=True)
         screened = self._screen.dvl_problems(t, b, v)
@@ -285,7 +292,8 @@ class Navigator:
                                 f"got {list(s)}")
         if not self._accept("dvl_velocity", t):
             return []
-        if self._screen.zero_ping["dvl_velocity"].is_no_lock(t, v):
+        zero = self._screen.zero_ping.get("dvl_velocity")
+        if zero is not None and zero.is_no_lock(t, v):
             return self._refuse("dvl_velocity", t, NO_BOTTOM_LOCK, "v_d exactly 0 on every axis (the DVL's resolution "
                                 "is finer or the vehicle was under way)", screened=True)
         return self._push("dvl_velocity", t, (Ping.from_velocity(t, v, s),))

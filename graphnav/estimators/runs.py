@@ -74,10 +74,9 @@ def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions |
 
 def with_align(navigator_options, align: AlignOptions | None):
     """``navigator_options`` (default :class:`~graphnav.estimators.navigator.NavigatorOptions`) with ``align``
-    as its alignment settings when given."""
-    if align is None:
-        return navigator_options
-    return dataclasses.replace(navigator_options or NavigatorOptions(), align=align)
+    as its alignment settings when given, for a replayed mission (its loader judged the DVL's zero pings)."""
+    options = dataclasses.replace(navigator_options or NavigatorOptions(), dvl_zeros_judged=True)
+    return options if align is None else dataclasses.replace(options, align=align)
 
 
 def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialState | None:

@@ -81,6 +81,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig, check_column_map
+from graphnav.core.dvl import ping_speed
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.screening import (
@@ -90,7 +91,6 @@ from graphnav.core.screening import (
     no_bottom_lock,
     not_finite,
     on_resolution_grid,
-    ping_speed,
     refuse_rows,
     stamp_order,
     unit_check_rows,
