@@ -141,3 +141,12 @@ def test_a_given_dvl_time_offset_is_applied_and_a_found_clock_offset_recorded(si
     cfg.write_text(json.dumps(spec))
     assert _load(data, cfg)[0].config.dvl_time_offset_s == 0.7
     assert any("given by the configuration's dvl_time_offset_s" in n for n in given.meta["streams"]["dvl"]["notes"])
+
+
+def test_a_given_reference_offset_puts_a_reference_on_another_clock_onto_the_imu(sim, tmp_path):
+    """A configured gt_time_offset_s was ignored when the reference lay off the IMU clock (the load then failed on
+    the reference's span): it is applied first."""
+    late = dataclasses.replace(sim.gt, t=sim.gt.t + 1000.0)
+    m, _ = _load(*_log(tmp_path, sim, late, gt_time_offset_s=-1000.0))
+    np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=1e-9)
+    assert m.config.gt_time_offset_s == -1000.0

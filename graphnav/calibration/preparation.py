@@ -458,11 +458,12 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
     (:func:`graphnav.calibration.reference.move_ground_truth`), with a note; ``meta["gt_point_b"]`` records the IMU
     point relative to the reference as recorded. A reference off the IMU clock is left to the clock checks."""
     g, cfg = mission.gt, mission.config
-    if g is None or not len(g.t) or not on_the_imu_clock(g.t, mission.imu.t):
+    offset = facts.get("given", {}).get("gt_time_offset_s")
+    # a given offset first: it may be what puts a reference logged on another clock onto the IMU's
+    if g is None or not len(g.t) or (offset is None and not on_the_imu_clock(g.t, mission.imu.t)):
         return mission
     from graphnav.calibration.reference import estimate_gt_time_offset, move_ground_truth
     lat = cfg.lat_rad if cfg.earth_rotation else None
-    offset = facts.get("given", {}).get("gt_time_offset_s")
     how = "given by the configuration's gt_time_offset_s"
     if offset is None:
         try:
@@ -479,7 +480,10 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
         text = f"time offset {offset:+.3f} s added to the reference stamps ({how})"
         add_note(meta, "gt", text)
         if "given" not in how:
-            warnings.warn(f"{g.source}: {text}; set gt_time_offset_s in the configuration if it is known",
+            point = ("" if cfg.reference_position_b is not None else "; the reference is scored at the IMU point "
+                     "(reference_position_b unset): a reference measured elsewhere differs by omega x r in turns, and "
+                     "graphnav calibrate finds its point")
+            warnings.warn(f"{g.source}: {text}; set gt_time_offset_s in the configuration if it is known{point}",
                           RuntimeWarning, stacklevel=5)
         g = dataclasses.replace(g, t=g.t + offset)
         set_span(meta, "gt", g.t)
