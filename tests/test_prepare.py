@@ -92,7 +92,8 @@ def test_an_imu_at_another_rate_than_configured_is_noted_and_its_rate_used(rate,
     assert note in capsys.readouterr().out
     # the configured rate, measured: nothing said
     same = _quiet(load_mission, folder)
-    assert same.config.imu_rate_hz == rate and not [n for n in same.meta["streams"]["imu"]["notes"] if "not the configured" in n]
+    notes = same.meta["streams"]["imu"]["notes"]
+    assert same.config.imu_rate_hz == rate and not [n for n in notes if "not the configured" in n]
 
 
 @pytest.mark.parametrize("rate", [20.0, 100.0, 200.0])
@@ -110,5 +111,6 @@ def test_a_live_stream_at_another_rate_than_its_configuration_is_not_a_gap_at_ev
             keyframer.add_imu(float(t_k), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
     said = [str(w.message) for w in caught if "not the configured imu_rate_hz" in str(w.message)]
     assert len(said) == (0 if rate == 100.0 else 1)
-    assert [(g.t_start, round(g.t_end - g.t_start, 6)) for g in keyframer.stats.imu_gaps] == [(t[int(10 * rate) - 1], 1.0)]
+    gaps = [(g.t_start, round(g.t_end - g.t_start, 6)) for g in keyframer.stats.imu_gaps]
+    assert gaps == [(t[int(10 * rate) - 1], 1.0)]
     assert keyframer.imu_period.period_s == pytest.approx(1.0 / rate)

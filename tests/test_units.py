@@ -47,7 +47,8 @@ def test_no_false_detection_on_the_shared_trajectories(akit_dir):
             assert time_scale(dvl[:, 0], "dvl", folder.name, 1.0) == (1.0, "s")
             assert dvl_speed_scale(None, dvl[:, 1:4], folder.name)[0] == 1.0
         assert f_b is not None and np.array_equal(omega_b, imu[:, 4:7])
-        # the tilt kinematics tell the units apart on every trajectory, with a wide margin either side of the deg/s threshold
+        # the tilt kinematics tell the units apart on every trajectory, with a wide margin either side of the deg/s
+        # threshold
         k_rad, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], imu[:, 4:7])
         k_deg, _ = gyro_tilt_scale(imu[:, 0], imu[:, 1:4], np.degrees(imu[:, 4:7]))
         assert k_rad > 0.3 and k_deg < 0.03, (folder.name, k_rad, k_deg)
@@ -497,7 +498,7 @@ def test_a_wave_riding_surface_vehicle_gyro_in_rad_s_is_kept():
         assert np.array_equal(imu_units(t, f, omega, "asv.csv", meta, {"gyro": "rad/s"})[1], omega)
     assert "kept in the declared unit" in meta["streams"]["imu"]["notes"][0]
     with pytest.warns(RuntimeWarning, match="read as deg/s.*declare the gyro unit"):
-        imu_units(t, f, omega, "asv.csv")              # undeclared it cannot be told from deg/s: the note says what to do
+        imu_units(t, f, omega, "asv.csv")              # undeclared it cannot be told from deg/s: the note says so
 
 
 def test_rates_57_times_too_small_declared_rad_s_are_kept_with_a_warning(sim):

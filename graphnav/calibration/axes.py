@@ -391,7 +391,8 @@ def _signs_of(check: AxisCheck, with_gt: bool, source: str) -> np.ndarray:
         if not np.allclose(np.abs(P), np.eye(3)):
             swapped = [AXES[i] for i in range(3) if P[i, i] == 0]
             raise DataError(f"no IMU axis sign convention fits: {'; '.join(describe_axis_map(P, sensor))}"
-                            f" (axes are swapped, not sign-flipped); fix the file's columns (a column map: list them in "
+                            f" (axes are swapped, not sign-flipped); fix the file's columns (a column map: list them "
+                            "in "
                             "the body order x, y, z; a bag: the driver's axis convention, then record again): "
                             "imu_axis_signs only flips signs",
                             source, field=f"{sensor} {swapped[0]}")
@@ -481,5 +482,6 @@ def _turned(imu, config: SensorConfig, gt, source: str, field: str) -> DataError
               for j in range(3)]
     return DataError(f"the gyro fits the GT attitude only with its axes permuted ({'; '.join(check.suspects)}): "
                      f"the IMU is mounted turned against the body frame ({', '.join(points)}; FRD: x forward, y "
-                     "starboard, z down). Turn the accelerometer and gyro into the body frame before graphnav reads them (a "
+                     "starboard, z down). Turn the accelerometer and gyro into the body frame before graphnav reads "
+                     "them (a "
                      "column map can reorder columns, not turn or negate single axes)", source, field=field)

@@ -35,7 +35,8 @@ without a heading source is told whether the configured gyro can gyrocompass. Th
 moved to the IMU point from the configuration's ``reference_position_b`` (:func:`_reference_on_the_imu`).
 
 Every mission: an IMU whose stamps run at another rate than the configured ``imu_rate_hz`` (50 or 200 Hz against
-100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`),
+100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted
+(:func:`graphnav.io.stream_counts.record_outside_span`),
 and a DVL span off the IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
@@ -119,8 +120,9 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
 
 
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
-    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.screening.imu_rate_hz`) when the configured
-    one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in ``meta``. The keyframer's gap limit and
+    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.screening.imu_rate_hz`)
+    when the configured one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in
+    ``meta``. The keyframer's gap limit and
     bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
     use the stamps themselves."""
     from graphnav.core.screening import imu_rate_hz

@@ -89,7 +89,8 @@ class CoastingMonitor:
                 self.spans.append([self.coasting_since, t, _sigma(cov_v_n)])
                 warnings.warn(f"{self.name}: t={t:.2f} s: pure inertial for {length:.0f} s (since "
                               f"{self.coasting_since:.1f} s, no DVL update), longer than max_pure_inertial_s="
-                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; {_sigma_text(_sigma(cov_v_n))}",
+                              f"{self.max_s:g}: the velocity is bounded by the IMU alone; "
+                              f"{_sigma_text(_sigma(cov_v_n))}",
                               RuntimeWarning, stacklevel=3)
             else:
                 self.spans[-1][1:] = [t, _sigma(cov_v_n)]

@@ -94,7 +94,8 @@ class NavigatorOptions:
             initial state is given, with what is known at the start (initial heading, position)
             (:class:`~graphnav.estimators.align.AlignOptions`).
         dvl_zeros_judged: the DVL pings of exactly 0 were judged when the log was read (a replayed mission: the
-            loader knows the file's resolution and the pings after each run, :func:`graphnav.core.screening.no_bottom_lock`);
+            loader knows the file's resolution and the pings after each run,
+            :func:`graphnav.core.screening.no_bottom_lock`);
             the stream, which knows neither, does not judge them again.
     """
 

@@ -1286,7 +1286,8 @@ CLI_CASES: tuple[CliCase, ...] = (
          _damage("DVL", _set(_t_between(70.0, 80.0), _DVL_XYZ, 0.0))),
     # ground truth
     _sim("GT: one velocity sample of 1e6 m/s", "smooth", W, _damage("GT", _set(lambda d: 50, 4, 1e6))),
-    _sim("GT: latitude and longitude in degrees", "smooth", W, _damage("GT", _scale_cols(slice(1, 3), np.degrees(1.0)))),
+    _sim("GT: latitude and longitude in degrees", "smooth", W,
+         _damage("GT", _scale_cols(slice(1, 3), np.degrees(1.0)))),
     _sim("GT: clock 3 days from the IMU", "smooth", W, _damage("GT", _shift_stamps(3 * 86400.0))),
     # configuration
     _cfg("config: {}", W + K, "{}"),

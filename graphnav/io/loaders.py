@@ -66,8 +66,9 @@ and 3 and the move of the GT to the IMU point, is the prepare step's (the read m
    rows with an empty, NaN or infinite cell, whose velocity is beyond the vehicle's speed or spikes, or whose
    position jumps where the velocity does not (the column-map reader's rule, :func:`graphnav.core.screening.gt_refusals`
    and :func:`~graphnav.core.screening.with_position_spikes`) are refused (dropped, counted, warned about with their
-   lines and column) before the axis detection and the time-offset estimates see them; an empty DVL cell is NaN, an invalid ping, and an infinite one makes the ping invalid (as
-   an RDI flag does). More than half of a stream refused is a DataError.
+   lines and column) before the axis detection and the time-offset estimates see them; an empty DVL cell is NaN, an
+   invalid ping, and an infinite one makes the ping invalid (as an RDI flag does). More than half of a stream refused
+   is a DataError.
    The file velocities are the DVL-head velocity in the body frame: they become ``dvl.v_b``
    (after ``C_d_b`` and ``1 / (1 + velocity_scale_correction)`` of a calibrated config, identity and 1 by
    default), and beams are made from them with :func:`graphnav.core.dvl.make_beams` (the paper's error model, seeded

@@ -747,8 +747,9 @@ ATMOSPHERE_SPREAD_M = 0.6
 
 
 def vertical_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray, str]:
-    """``(t s, v_down m/s, what)``: the vehicle's down velocity from the GT (``v_n`` down, on the IMU clock), else the DVL's body
-    velocity turned by the accelerometer's gravity direction (1 s means; no heading needed). Empty without either."""
+    """``(t s, v_down m/s, what)``: the vehicle's down velocity from the GT (``v_n`` down, on the IMU clock), else the
+    DVL's body velocity turned by the accelerometer's gravity direction (1 s means; no heading needed). Empty without
+    either."""
     from graphnav.core.dvl import DvlGeometry
     from graphnav.core.timeseries import cumulative_integral, on_the_imu_clock
     dvl, imu = mission.dvl, mission.imu
@@ -929,7 +930,8 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 
 
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
-           "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio", "vertical_sign",
+           "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
+           "vertical_sign",
            "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "reference_speed_error",
            "reference_inconsistencies"]
