@@ -522,6 +522,7 @@ def test_a_reference_velocity_in_other_units_is_named_by_the_unit_check(sim, tmp
                                         r"\(2\.07 m/s\)") as err:
         load_mission(tmp_path, cfg, prepare=False)
     assert (err.value.source, err.value.field) == (str(nav), "vn/ve/vd")
+    assert "or the vehicle is faster than dvl.max_speed_mps (raise it" in str(err.value)    # a fast vehicle's way out
 
 
 def test_a_reference_position_step_is_warned_and_kept_and_a_converging_start_is_no_spike(sim, tmp_path):

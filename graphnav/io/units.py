@@ -605,7 +605,8 @@ def reference_speed_error(v_n: np.ndarray, source: str, fields, max_speed_mps: f
     return DataError(f"velocity columns {_columns(fields)}: median speed {speed:.4g} m/s, beyond the vehicle's "
                      f"{max_speed_mps:g} m/s (dvl.max_speed_mps), and the positions move as far: both in other units"
                      + (f"; the speed fits {' or '.join(fits)}" if fits else "") + " (a reference is read in m and "
-                     "m/s: convert the file)", source, field="/".join(fields))
+                     "m/s: convert the file), or the vehicle is faster than dvl.max_speed_mps (raise it in the "
+                     "configuration)", source, field="/".join(fields))
 
 
 def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n: np.ndarray, source: str,
