@@ -646,6 +646,24 @@ def test_imu_rate_of_clean_stamps_bursts_and_gaps():
     assert imu_rate_hz(_burst_stamps(cycle_s=0.02, per_burst=4)) == pytest.approx(200.0, rel=1e-3)
 
 
+def test_stutters_at_the_configured_rate_are_gaps_not_bursts():
+    """A quarter of a 100 Hz IMU's steps 30-40 ms long read 61.6 Hz as bursts, and a live stream starting with four
+    0.2 s hiccups in sixteen steps fixed its period at 57.5 ms (gap limit 0.5 s) for good: a median step at the
+    configured period confirms it, and the long steps are gaps."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.core.screening import imu_rate_hz
+    from graphnav.estimators.keyframes import Keyframer
+    rng = np.random.default_rng(3)
+    steps = np.where(rng.random(4000) < 0.25, rng.uniform(0.03, 0.04, 4000), 0.01)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    assert imu_rate_hz(t, 100.0) == pytest.approx(100.0) and imu_rate_hz(t) < 70.0
+    keyframer = Keyframer(SensorConfig())
+    start = np.cumsum([0.0] + [0.01] * 3 + [0.2] + [0.01] * 3 + [0.2] + [0.01] * 3 + [0.2] + [0.01] * 3 + [0.2])
+    for t_k in np.concatenate([start, start[-1] + 0.01 * np.arange(1, 500)]):
+        keyframer.add_imu(float(t_k), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    assert keyframer.imu_period.period_s == pytest.approx(0.01) and keyframer.imu_period.gap_limit_s < 0.03
+
+
 def test_a_keyframer_fed_burst_stamps_sees_no_gaps_once_it_has_measured_them():
     from graphnav.core.config import SensorConfig
     from graphnav.estimators.keyframes import IMU_RATE_STEPS, Keyframer

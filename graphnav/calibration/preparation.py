@@ -127,7 +127,7 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     use the stamps themselves."""
     from graphnav.core.screening import imu_rate_hz
     configured = float(mission.config.imu_rate_hz)
-    measured = imu_rate_hz(mission.imu.t)
+    measured = imu_rate_hz(mission.imu.t, configured, IMU_RATE_TOLERANCE)
     if not abs(measured - configured) > IMU_RATE_TOLERANCE * configured:      # NaN (one stamp): nothing to say
         return mission
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "

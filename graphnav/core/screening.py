@@ -278,17 +278,22 @@ IMU_BURST_SHARE = 0.2
 IMU_BURST_GAP_CYCLES = 4.0
 
 
-def imu_step_stats(steps: np.ndarray) -> tuple[float, float]:
+def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
+                   ) -> tuple[float, float]:
     """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
     out), s: for even stamps both are the median step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
     the mean step without the gaps (so the rate is samples over time) and the cycle the median long step, the
-    longest step a gap is not. NaN without a positive finite step."""
+    longest step a gap is not. A median step within ``tolerance`` (relative) of the ``expected_s`` period (the
+    configured one) is that period whatever the long steps: they are gaps and stutters, not bursts (a start with four
+    0.2 s hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
     d = np.abs(np.asarray(steps, float))
     d = d[np.isfinite(d) & (d > 0.0)]
     if not d.size:
         return math.nan, math.nan
     med = float(np.median(d))
     long = d > 2.0 * med
+    if expected_s is not None and abs(med - expected_s) <= tolerance * expected_s:
+        return med, med
     if np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long):
         return med, med
     cycle = float(np.median(d[long]))
@@ -297,10 +302,12 @@ def imu_step_stats(steps: np.ndarray) -> tuple[float, float]:
     return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
 
 
-def imu_rate_hz(t: np.ndarray) -> float:
+def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: float = 0.05) -> float:
     """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the period of :func:`imu_step_stats` (the median step, or
-    samples over time for stamps in bursts; gaps do not lower it); NaN with fewer than two distinct finite stamps."""
-    return 1.0 / imu_step_stats(np.diff(np.asarray(t, float)))[0]
+    samples over time for stamps in bursts; gaps do not lower it; ``expected_hz``, ``tolerance``: the configured rate
+    that a median step near it confirms); NaN with fewer than two distinct finite stamps."""
+    expected = None if expected_hz is None else 1.0 / expected_hz
+    return 1.0 / imu_step_stats(np.diff(np.asarray(t, float)), expected, tolerance)[0]
 
 
 def imu_spike_rows(rate_hz: float) -> tuple[int, int] | None:

@@ -152,7 +152,7 @@ class ImuPeriod:
         if len(self._steps) < IMU_RATE_STEPS:
             self.period_s = max(self.configured_s, min(self._steps))
             return
-        measured, cycle = imu_step_stats(np.asarray(self._steps))
+        measured, cycle = imu_step_stats(np.asarray(self._steps), self.configured_s, IMU_RATE_TOLERANCE)
         self.period_s = self.configured_s
         self._cycle_s = cycle if cycle > measured else self._cycle_s     # stamps in bursts
         if abs(measured - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
