@@ -738,3 +738,26 @@ def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lo
         warnings.simplefilter("ignore")
         _feed(nav, events)
     assert nav.info["refused"] == {"dvl": {NO_BOTTOM_LOCK: len(dvl)}}
+
+
+@pytest.mark.parametrize("rows", [3, 4, 6])
+def test_a_reference_excursion_of_a_few_rows_is_refused_not_called_two_resets(rows):
+    """A position 20 m off for 3-6 rows and back was kept and warned as two resets of the fix (the spike test sees one
+    or two rows): two steps that undo each other within 6 rows are an excursion, refused; a lasting step stays a
+    warned reset."""
+    from graphnav.core.screening import with_position_spikes
+    t = np.arange(200.0)
+    v = np.column_stack([np.full(200, 1.5), 0.3 * np.sin(t / 20.0), np.zeros(200)])
+    p = np.cumsum(v, axis=0) - v[0]
+    off = p.copy()
+    off[100:100 + rows, 0] += 20.0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        masks = with_position_spikes({}, t, off, v, SensorConfig().dvl, ("n", "e", "d"), "gt.csv")
+    assert np.flatnonzero(np.any(list(masks.values()), axis=0)).tolist() == list(range(100, 100 + rows))
+    assert not caught
+    step = p.copy()
+    step[100:, 0] += 9.4
+    with pytest.warns(RuntimeWarning, match="1 step"):
+        masks = with_position_spikes({}, t, step, v, SensorConfig().dvl, ("n", "e", "d"), "gt.csv")
+    assert not np.any(list(masks.values()))

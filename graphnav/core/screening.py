@@ -494,7 +494,27 @@ def _position_jumps(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSp
     gap_limit = 1.5 * spec.jump_tolerance_mps * np.diff(t[idx[keep]]) + GT_POSITION_TOLERANCE_M
     jump = _far(rk[1:], rk[:-1], gap_limit) & _far(after[:-1], before[1:], gap_limit)
     steps = [(int(idx[keep[j]]), int(idx[keep[j + 1]]), rk[j + 1] - rk[j]) for j in np.flatnonzero(jump)]
-    return hit, steps
+    return hit, _excursions(hit, steps, t, spec, idx)
+
+
+def _excursions(hit: np.ndarray, steps: list, t: np.ndarray, spec: DvlSpec, idx: np.ndarray) -> list:
+    """``steps`` less the pairs that undo each other within 2 x :data:`SPIKE_NEIGHBOURS` rows: the rows between such a
+    pair are an excursion (a corrupted run of 3-6 rows, too long for the spike test), marked in ``hit`` (N,3) under the
+    axis the first step is largest in; a lasting step stays a step."""
+    out, i = [], 0
+    while i < len(steps):
+        (b1, a1, s1), nxt = steps[i], steps[i + 1] if i + 1 < len(steps) else None
+        if nxt is not None:
+            b2, a2, s2 = nxt
+            rows = idx[(idx >= a1) & (idx <= b2)]
+            back = 1.5 * spec.jump_tolerance_mps * (t[a2] - t[b1]) + GT_POSITION_TOLERANCE_M
+            if rows.size <= 2 * SPIKE_NEIGHBOURS and np.all(np.abs(s1 + s2) <= back):
+                hit[rows, int(np.argmax(np.abs(s1)))] = True
+                i += 2
+                continue
+        out.append(steps[i])
+        i += 1
+    return out
 
 
 def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, fields,
