@@ -588,3 +588,18 @@ def test_a_hovering_dvl_at_1_mm_s_resolution_keeps_its_pings_of_exactly_zero(tmp
     assert NO_BOTTOM_LOCK not in m.meta["streams"]["dvl"].get("refused", {})
     np.testing.assert_array_equal(m.dvl.v_b[zero], 0.0)
     assert m.dvl.valid[zero].all()
+
+
+def test_a_reference_whose_stamps_jump_an_hour_is_named_as_a_jump_not_only_other_units(sim, tmp_path):
+    """A reference alone put an hour ahead mid-log (a logger's time zone) was blamed on its units only: the error
+    names the jump first."""
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    nav = tmp_path / "nav.csv"
+    lines = nav.read_text().splitlines()
+    for i in range(1 + len(lines) // 2, len(lines)):
+        cells = lines[i].split(",")
+        cells[0] = f"{float(cells[0]) + 3600e3:.12g}"            # ms stamps
+        lines[i] = ",".join(cells)
+    nav.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"its stamps jump by \+3600\.\d+ s after t = .*\+1 h to within a minute"):
+        load_mission(tmp_path, cfg, prepare=False)

@@ -457,7 +457,7 @@ def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omeg
     euler = reference_attitude_units(t, euler, t_imu, omega_b, str(path), spec["euler"], meta, declared)
     p_n, v_n = v["p_n"], v["v_n"]
     check_reference_displacement(displacement_ratio(t, p_n[:, :2], v_n[:, :2])[0], str(path),
-                                 spec["p_n"][:2] + spec["v_n"][:2])
+                                 spec["p_n"][:2] + spec["v_n"][:2], t=t)
     # a reference's down is taken in the frame its file gives (relative or absolute): its sign only
     reference_depth(t, p_n[:, 2], v_n[:, 2], str(path), (spec["p_n"][2], spec["v_n"][2]), meta, lines=v["_lines"])
     return euler

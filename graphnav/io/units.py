@@ -580,14 +580,38 @@ def _attitude_ratio(t, euler, t_imu, omega_b, turn_imu: float | None = None) -> 
     return attitude_rate_ratio(t, euler_to_C_b_n(euler[:, 0], euler[:, 1], euler[:, 2]), t_imu, omega_b, turn_imu)
 
 
-def check_reference_displacement(ratio: float, source: str, fields, what: str = "") -> None:
+def check_reference_displacement(ratio: float, source: str, fields, what: str = "", t: np.ndarray | None = None
+                                 ) -> None:
     """DataError when a reference's positions move ``ratio`` times as far as its velocity says
     (:func:`displacement_ratio`, NaN: cannot tell) and that is not the same units
-    (:data:`SAME_UNITS_RATIO`); ``fields`` = (position columns..., velocity columns...) of ``source``."""
+    (:data:`SAME_UNITS_RATIO`); ``fields`` = (position columns..., velocity columns...) of ``source``. With its
+    stamps ``t`` (s), a jump among them (a clock put to another time zone mid-log) is named first: it makes the
+    ratio as much as other units do."""
     if _units_disagree(ratio):
+        jump = _stamp_jump(t)
         raise DataError(f"the positions{what} move {ratio:.3g}x as far as the velocity says (1 when both are SI; "
-                        f"columns {_columns(fields)}): the positions or the velocity are in other units", source,
+                        f"columns {_columns(fields)}): " + (f"{jump}, or " if jump else "") + "the positions or the "
+                        "velocity are in other units", source,
                         field="/".join(fields[:len(fields) // 2] if len(fields) > 1 else fields))
+
+
+#: A reference stamp step this many times the median one (and over a minute) is a jump of its clock.
+STAMP_JUMP_STEPS = 100.0
+
+
+def _stamp_jump(t: np.ndarray | None) -> str:
+    """What a reference's largest stamp step says when it is a jump of its clock (over a minute and
+    :data:`STAMP_JUMP_STEPS` median steps), else ``""``."""
+    from graphnav.core.mission import whole_hours
+    steps = np.diff(np.asarray(t, float)) if t is not None and len(t) > 2 else np.zeros(0)
+    if not steps.size:
+        return ""
+    i = int(np.argmax(np.abs(steps)))
+    step = float(steps[i])
+    if not (abs(step) > 60.0 and abs(step) > STAMP_JUMP_STEPS * float(np.median(np.abs(steps)))):
+        return ""
+    return (f"its stamps jump by {step:+.3f} s after t = {t[i]:.3f} s{whole_hours(step)} (correct the stamps or "
+            "split the log there)")
 
 
 #: Velocity units a reference's ``v_n`` columns may be in, named when they are not m/s (:func:`reference_speed_error`).
@@ -629,7 +653,7 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
     extent = f"|latitude| up to {np.max(np.abs(lat)):.6g}, |longitude| up to {np.max(np.abs(lon)):.6g}"
     beyond = np.max(np.abs(lat)) > np.pi / 2 or np.max(np.abs(lon)) > 2 * np.pi
     if not beyond and not ratio > DEG_RATE_RATIO:         # radians, or nothing tells (NaN)
-        check_reference_displacement(_closest_to_one(ratios), source, fields)
+        check_reference_displacement(_closest_to_one(ratios), source, fields, t=t)
         return lat, lon
     why = (f"the positions move {ratio:.3g}x as far as the velocity says (1 in radians, 57.3 for degrees)"
            if np.isfinite(ratio) else f"{extent}: beyond radians")
@@ -638,7 +662,7 @@ def reference_latlon_units(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, v_n:
                         field="/".join(fields[:2]))
     lat_r, lon_r = np.radians(lat), np.radians(lon)
     check_reference_displacement(_closest_to_one(_latlon_ratios(t, lat_r, lon_r, v_n)), source, fields,
-                                 " (read as degrees)")
+                                 " (read as degrees)", t)
     _note(meta, "gt", f"{_columns(fields[:2])} read as degrees and converted to rad: {why}", source)
     return lat_r, lon_r
 
