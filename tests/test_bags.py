@@ -139,8 +139,10 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
                                           header=bags._header(store, 2, "dvl"), twist=T["geometry_msgs/msg/Twist"](
                                               linear=T["geometry_msgs/msg/Vector3"](x=1., y=0., z=0.),
                                               angular=T["geometry_msgs/msg/Vector3"](x=0., y=0., z=0.))))])
-    with pytest.raises(DataError, match=r"no dvl topic.*/dvl/twist \(geometry_msgs/msg/TwistStamped\)"):
+    with pytest.raises(DataError, match=r"no dvl topic.*/dvl/twist \(geometry_msgs/msg/TwistStamped\)") as err:
         load_mission(odd, config)
+    assert "can be republished as geometry_msgs/msg/TwistWithCovarianceStamped" in str(err.value)   # a way forward
+    assert "read with a csv_columns map" in str(err.value)
     # Through the CLI: exit code 1 and the topic in the message.
     assert cli.main(["smooth", "--data", str(odd), "--config", str(config), "--topic", "dvl=/dvl/twist",
                      "--out", str(tmp_path / "x"), "--no-plots"]) == 1

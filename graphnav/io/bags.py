@@ -112,6 +112,12 @@ def _candidates(available: dict[str, str], stream: str) -> list[str]:
     return out
 
 
+#: What a user can do with a stream recorded in a message type graphnav does not read (a vendor's own DVL message).
+_WAY_FORWARD = {"dvl": f". A DVL in another message type can be republished as {TWIST_DVL} (the body-frame velocity, "
+                       f"read velocity-only) or as {MARINE_DVL} and the bag recorded again, or the "
+                       "bag's streams exported to CSV and read with a csv_columns map (docs/decisions/bags.md)"}
+
+
 def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str, wanted: tuple[str, ...],
                    required: tuple[str, ...]) -> dict[str, list[str]]:
     """Stream -> candidate topics: the override alone (checked), else every topic of an accepted type."""
@@ -125,7 +131,8 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
                                 f"{sorted(available)}", source, field=topic)
             if available[topic] not in types:
                 raise DataError(f"topic {topic} has type {available[topic]}, which graphnav cannot read as "
-                                f"{stream} (accepted: {', '.join(types)})", source, field=topic)
+                                f"{stream} (accepted: {', '.join(types)}){_WAY_FORWARD.get(stream, '')}", source,
+                                field=topic)
             chosen[stream] = [topic]
             continue
         found = _candidates(available, stream)
@@ -140,8 +147,8 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
     for stream in required:
         if stream not in chosen:
             raise DataError(f"no {stream} topic: need a topic of type {' or '.join(STREAM_TYPES[stream])}; the bag "
-                            f"has {', '.join(f'{t} ({ty})' for t, ty in sorted(available.items())) or 'no topics'}",
-                            source, field=stream)
+                            f"has {', '.join(f'{t} ({ty})' for t, ty in sorted(available.items())) or 'no topics'}"
+                            f"{_WAY_FORWARD.get(stream, '')}", source, field=stream)
     return chosen
 
 
