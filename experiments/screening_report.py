@@ -188,7 +188,7 @@ def damage_table(root: Path, first_s: float | None = None) -> None:
 
 def gt_position_table(root: Path) -> None:
     """The position spike and step tests' statistics on each clean trajectory's GT
-    (:func:`graphnav.core.screening.gt_position_spikes`): the position less the velocity's integral, its largest
+    (:func:`graphnav.core.screening.with_position_spikes`): the position less the velocity's integral, its largest
     departure from the nearer of the medians of its neighbours on either side (a spike departs from both), and its
     largest change between consecutive rows (a step), each against its limit."""
     from graphnav.core.config import SensorConfig

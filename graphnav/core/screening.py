@@ -159,30 +159,22 @@ def spike_mask(t: np.ndarray, x: np.ndarray, max_rate: float, tolerance: float,
         max_rate: largest rate of change of x (units of x per s). tolerance: the sensor's noise (units of x).
         usable: (N,) bool, samples that may serve as neighbours and be tested (default: the finite ones).
     """
-    departure, dt = _departures(t, x, neighbours, usable)
-    with np.errstate(invalid="ignore"):
-        return np.linalg.norm(departure, axis=1) > 1.5 * max_rate * dt + tolerance
-
-
-def _departures(t: np.ndarray, x: np.ndarray, neighbours: int, usable: np.ndarray | None
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """((N,k) departure of each usable sample of ``x`` from the component-wise median of the ``neighbours`` usable
-    samples on each side, NaN elsewhere; (N,) spacing to the nearest usable sample, s) for :func:`spike_mask`."""
     t = np.asarray(t, float)
     v = np.asarray(x, float)
     v = v[:, None] if v.ndim == 1 else v
     ok = np.all(np.isfinite(v), axis=1) if usable is None else np.asarray(usable, bool) & np.all(np.isfinite(v), axis=1)
-    departure, dt = np.full(v.shape, np.nan), np.full(len(v), np.inf)
+    out = np.zeros(len(v), dtype=bool)
     idx = np.flatnonzero(ok)
     n = neighbours
     if idx.size > 2:
         vi, ti = v[idx], t[idx]
         pad = np.full((n, v.shape[1]), np.nan)
         win = np.lib.stride_tricks.sliding_window_view(np.concatenate([pad, vi, pad]), 2 * n + 1, axis=0)
-        departure[idx] = vi - np.nanmedian(np.delete(win, n, axis=2), axis=2)
+        ref = np.nanmedian(np.delete(win, n, axis=2), axis=2)
         gaps = np.diff(ti)
-        dt[idx] = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
-    return departure, dt
+        dt = np.minimum(np.concatenate([[np.inf], gaps]), np.concatenate([gaps, [np.inf]]))
+        out[idx] = np.linalg.norm(vi - ref, axis=1) > 1.5 * max_rate * dt + tolerance
+    return out
 
 
 def implausible_pings(t: np.ndarray, v_b: np.ndarray, spec: DvlSpec) -> dict[str, np.ndarray]:
@@ -425,12 +417,12 @@ def unit_check_rows(masks: dict[str, np.ndarray], spec: DvlSpec) -> tuple[np.nda
 
 
 #: A reference position may depart from what its own velocity explains (the position less the velocity's
-#: integral, against its neighbours: :func:`gt_position_spikes`) by ``1.5 * DvlSpec.jump_tolerance_mps * dt`` plus
+#: integral, against its neighbours: :func:`_position_jumps`) by ``1.5 * DvlSpec.jump_tolerance_mps * dt`` plus
 #: this, m. The ten A-KIT trajectories (1 Hz) depart by at most 0.64 m (Trajectory11; the others 0.03-0.31 m).
 GT_POSITION_TOLERANCE_M = 2.0
-#: Reason of a reference row :func:`gt_position_spikes` refuses, with the position column it jumps most in.
+#: Reason of a reference row :func:`with_position_spikes` refuses, with the position column it jumps most in.
 GT_POSITION_SPIKE = "GT position spike in '{}' (its velocity does not explain it)"
-#: A reference gap longer than this many of its median steps is not integrated across (:func:`gt_position_spikes`).
+#: A reference gap longer than this many of its median steps is not integrated across (:func:`_position_jumps`).
 GT_POSITION_GAP_STEPS = 5.0
 #: Up to this many steps of a reference position (:func:`with_position_spikes`) are called resets of its fix; more
 #: are a velocity that does not explain the positions.
@@ -466,8 +458,17 @@ def _far(a: np.ndarray, b: np.ndarray, limit) -> np.ndarray:
 
 def _position_jumps(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, usable: np.ndarray | None
                     ) -> tuple[np.ndarray, list[tuple[int, int, np.ndarray]]]:
-    """((N,3) rows whose position spikes where the velocity does not, under the axis they depart most in; the steps
-    ``(row before, row after, (3,) step m)``) of :func:`gt_position_spikes`."""
+    """((N,3) reference rows whose position (N,3) m NED jumps where their velocity (N,3) m/s NED, at ``t`` (N,) s,
+    does not and jumps back, under the axis they depart most in; the steps ``(row before, row after, (3,) step m)``)
+    for :func:`with_position_spikes`.
+
+    A spike (a corrupted cell, 1e308): the position less the trapezoid integral of the velocity departs from the
+    median of its :data:`SPIKE_NEIGHBOURS` neighbours on each side while the two sides agree (the file's first and
+    last rows: from their one side, whose rows agree with each other); two steps that undo each other within a few
+    rows are an excursion, refused too (:func:`_excursions`). A lasting step (a reset of the reference fix) is no
+    spike. Only ``usable`` rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are
+    tested and integrated; across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change
+    is taken, so that a reference dropout is no step."""
     t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
     ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
     ok &= True if usable is None else np.asarray(usable, bool)
@@ -517,20 +518,6 @@ def _excursions(hit: np.ndarray, steps: list, t: np.ndarray, spec: DvlSpec, idx:
     return out
 
 
-def gt_position_spikes(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSpec, fields,
-                       usable: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Reference rows whose position (N,3) m NED jumps where their velocity (N,3) m/s NED, at ``t`` (N,) s, does
-    not and jumps back (a corrupted cell, 1e308): the position less the trapezoid integral of the velocity departs
-    from the median of its :data:`SPIKE_NEIGHBOURS` neighbours on each side while the two sides agree (the file's
-    first and last rows: from their one side, whose rows agree with each other). A lasting step (a reset of the
-    reference fix) is no spike: :func:`with_position_spikes` warns about it. ``{GT_POSITION_SPIKE.format(field):
-    (N,) mask}`` per position column of ``fields`` (north, east, down), a row under the one it departs most in.
-    Only ``usable`` rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are tested
-    and integrated; across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change is
-    taken, so that a reference dropout is no step."""
-    return _by_first_field(_position_jumps(t, p_n, v_n, spec, usable)[0], fields, GT_POSITION_SPIKE)
-
-
 def gt_refusals(t: np.ndarray, cells: np.ndarray, fields, v_n: np.ndarray, spec: DvlSpec,
                 impossible: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Reason -> (K,) reference rows a reader refuses before deciding the reference's units (one V Down spike
@@ -545,7 +532,7 @@ def with_position_spikes(masks: dict[str, np.ndarray], t: np.ndarray, p_n: np.nd
                          spec: DvlSpec, fields, source: str = "", lines: np.ndarray | None = None,
                          meta: dict | None = None) -> dict[str, np.ndarray]:
     """``masks`` (:func:`gt_refusals`) and the position spikes among the rows none of them refuses
-    (:func:`gt_position_spikes`: ``p_n`` (K,3) m NED, ``v_n`` (K,3) m/s, ``fields`` the position columns). A step of
+    (:func:`_position_jumps`: ``p_n`` (K,3) m NED, ``v_n`` (K,3) m/s, ``fields`` the position columns). A step of
     the position its velocity does not make (a reset of the reference fix) is kept, warned about naming ``source``,
     the file ``lines`` (K,) on either side of it and the column, and noted in ``meta``."""
     refused = np.any(list(masks.values()), axis=0) if masks else None
@@ -968,7 +955,8 @@ class ImuSpikeTest:
 class ZeroPingTest:
     """:func:`zeros_without_lock` on a stream, past pings only: the resolution from the values seen so far, the speed
     (``speed_of`` its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings
-    judged once, as :func:`no_bottom_lock` judges a file's without the pings after the run."""
+    judged as :func:`no_bottom_lock` judges a file's without the pings after the run: again at each ping until it
+    is no lock (its length can decide), then for the rest of the run."""
 
     def __init__(self, spec: DvlSpec, speed_of):
         self.spec, self.speed_of = spec, speed_of
