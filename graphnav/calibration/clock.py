@@ -356,6 +356,17 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
     return h, float(grid[i]), float(scores[i]), second
 
 
+def shift_dvl(dvl, depth, offset_s: float, meta: dict):
+    """``(dvl, depth)`` with ``offset_s`` (s) added to the DVL stamps and to a depth stream of the same instrument
+    (:func:`_same_instrument`: a DVL's pressure sensor shares its clock), the depth's move noted in ``meta``; a
+    depth of another instrument is returned as it is."""
+    dvl = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + offset_s)
+    if depth is not None and _same_instrument(depth.source, dvl.source):
+        depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + offset_s)
+        add_note(meta, "depth", f"moved with the DVL clock ({offset_s:+.3f} s): same instrument")
+    return dvl, depth
+
+
 def _same_instrument(a: str, b: str) -> bool:
     """Two streams of one file (``log.pd0:vel_bt`` and ``log.pd0:pressure``, or the same source): one clock."""
     return a == b or (":" in a and ":" in b and a.rsplit(":", 1)[0] == b.rsplit(":", 1)[0])
@@ -411,15 +422,11 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                  "reference")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
     add_note(meta, "dvl", text)
-    dvl = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + est.offset_s)
-    if depth is not None:
-        if _same_instrument(depth.source, dvl.source):
-            depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + est.offset_s)
-            add_note(meta, "depth", f"moved with the DVL clock ({est.offset_s:+.3f} s): same instrument")
-        elif not on_the_imu_clock(depth.t, imu.t):
-            raise DataError(f"depth stamps [{depth.t[0]:.3f}, {depth.t[-1]:.3f}] s lie outside the IMU span "
-                            f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
-                            depth.source, field="t")
+    dvl, depth = shift_dvl(dvl, depth, est.offset_s, meta)
+    if depth is not None and not _same_instrument(depth.source, dvl.source) and not on_the_imu_clock(depth.t, imu.t):
+        raise DataError(f"depth stamps [{depth.t[0]:.3f}, {depth.t[-1]:.3f}] s lie outside the IMU span "
+                        f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
+                        depth.source, field="t")
     return dvl, depth
 
 

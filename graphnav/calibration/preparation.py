@@ -431,13 +431,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
     """``(dvl, depth)`` with the configuration's ``dvl_time_offset_s`` (s) added to the DVL stamps, and to a depth
     stream of the same instrument (a DVL's pressure sensor), instead of the clock search; noted."""
-    from graphnav.calibration.clock import _same_instrument
+    from graphnav.calibration.clock import shift_dvl
     add_note(meta, "dvl", f"time offset {offset_s:+.3f} s added (given by the configuration's dvl_time_offset_s)")
-    moved = dataclasses.replace(dvl, t=np.asarray(dvl.t, float) + offset_s)
-    if depth is not None and _same_instrument(depth.source, dvl.source):
-        depth = dataclasses.replace(depth, t=np.asarray(depth.t, float) + offset_s)
-        add_note(meta, "depth", f"moved with the DVL ({offset_s:+.3f} s): same instrument")
-    return moved, depth
+    return shift_dvl(dvl, depth, offset_s, meta)
 
 
 #: A log's or bag's reference is put later or earlier by its estimated time offset only when the offset exceeds
