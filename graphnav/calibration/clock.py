@@ -254,9 +254,11 @@ class _WindowModel:
 
 
 def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None,
-                     transform: np.ndarray | None = None) -> tuple[_WindowModel, np.ndarray]:
+                     transform: np.ndarray | None = None, ints: ImuIntegrals | None = None
+                     ) -> tuple[_WindowModel, np.ndarray]:
     """The :class:`_WindowModel` of a DVL against an IMU (arguments as :func:`estimate_dvl_clock_offset`'s; the
-    body-frame velocity multiplied by the (3,3) ``transform`` when given) and the stamps of the pings it uses, s.
+    body-frame velocity multiplied by the (3,3) ``transform`` when given; ``ints``: the IMU's integrals when another
+    model of the same IMU has them) and the stamps of the pings it uses, s.
 
     Raises:
         DataError: fewer than two windows of pings with a velocity.
@@ -271,7 +273,7 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
                         f"{2 * window})", dvl.source, field="t")
     if lever_arm_b is None:
         lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
-    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b) if ints is None else ints
     return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window), t_dvl
 
 

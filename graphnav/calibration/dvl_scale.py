@@ -62,10 +62,10 @@ def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
     return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
 
 
-def flu_fit_ratio(imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
-    """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model at ``offset`` s."""
-    read, _ = dvl_window_model(imu, dvl, config)
-    flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]))
+def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
+    """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model ``read`` (the DVL
+    as read, :func:`~graphnav.calibration.clock.dvl_window_model`) at ``offset`` s."""
+    flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]), ints=read.imu)
     explained, sse, _ = flipped.score(offset)
     return read.score(offset)[1] / max(sse, 1e-300), explained
 
@@ -104,7 +104,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
                 "it and writes both)")
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)
-    ratio, explained = flu_fit_ratio(imu, dvl, config)
+    ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
                         f"negated (then explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read "
