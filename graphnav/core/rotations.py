@@ -10,6 +10,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+#: ENU to NED (swap east and north, negate up): its own inverse, so NED to ENU too.
+C_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
 
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix ``[v]x`` of a (3,) or (N,3) array, so that ``skew(a) @ b == cross(a, b)``."""

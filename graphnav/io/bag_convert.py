@@ -18,12 +18,13 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData)
+from graphnav.core.rotations import C_NED_ENU
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
 FLU_FRD = np.diag([1.0, -1.0, -1.0])
-ENU_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+ENU_NED = C_NED_ENU
 TWIST_DVL = "geometry_msgs/msg/TwistWithCovarianceStamped"
 
 #: Absolute pressure a water-pressure sensor can read, Pa: from a low atmosphere (80 kPa, a storm at altitude)

@@ -23,13 +23,12 @@ from __future__ import annotations
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.rotations import euler_to_C_b_n
+from graphnav.core.rotations import C_NED_ENU, euler_to_C_b_n
+from graphnav.io.units import ANGLE_UNITS
 
 #: Frames a column map's DVL velocity may be declared in (``frd`` is ``body``).
 DVL_FRAMES = ("body", "frd", "flu", "instrument", "ned", "enu")
 EARTH_FRAMES = ("ned", "enu")
-#: NED from ENU (RDI's earth frame is East-North-Up).
-C_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 #: Windows over which the velocity's direction and the gyro turn are compared, s.
 COURSE_WINDOW_S = 10.0
 #: Horizontal speed under which a velocity's direction is not used, m/s (noise turns it at hover).
@@ -123,10 +122,6 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                         "pitch and heading columns ('euler', 'angle_unit'), or log the body-frame velocity", source,
                         field=", ".join(fields))
     return ratio
-
-
-#: Units of the attitude columns of an earth-frame DVL entry.
-ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,

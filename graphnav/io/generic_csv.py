@@ -101,12 +101,11 @@ from graphnav.core.screening import (
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
-from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
+from graphnav.io.units import ANGLE_UNITS, DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
 
 TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
                                                        for k in ("time", "accel", "gyro", "velocity"))
 PRESSURE_UNITS = {"Pa": 1.0, "kPa": 1e3, "bar": 1e5, "dbar": 1e4}
-ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 STREAMS = ("imu", "dvl", "depth", "gt")
 
 

@@ -63,6 +63,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl_log import COUNT_NOTES, DvlLog
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData
+from graphnav.core.rotations import C_NED_ENU
 
 #: File name endings of PD0 ensembles: RDI's own ``.pd0`` and numbered ``.000``, ``.001``, ...; VmDAS's raw
 #: ``.ENR``, averaged ``.ENS`` and ``.ENX`` (any case). A file is read as PD0 by its content
@@ -70,8 +71,6 @@ from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData
 PD0_SUFFIXES = (".pd0", ".enr", ".ens", ".enx")
 #: RDI's instrument frame (X, Y, Z) to graphnav's DVL frame d (forward = RDI +Y, right = RDI +X, down = RDI -Z).
 C_D_RDI = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-#: ENU (RDI's earth frame) to NED.
-C_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 #: RDI's bad-velocity marker in raw counts (mm/s).
 PD0_BAD = -32768
 #: A pressure word of 0xFFFFFFFF (decapascal) is RDI's "no pressure sensor"; dolfyn scales it to this, dbar.

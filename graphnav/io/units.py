@@ -83,6 +83,8 @@ ACCEL_SCALES = {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "mg": STANDARD_GRAVITY * 1e
 DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRAVITY},
                   "gyro": {"rad/s": 1.0, "deg/s": np.pi / 180}, "velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3,
                                                                         "kn": 1852.0 / 3600.0}}
+#: Units of a column map's attitude columns (a reference's, an earth-frame DVL's ``angle_unit``), to rad.
+ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 #: Median |f| below this, with median |omega| inside ACCEL_GRAVITY_RANGE: the two blocks are swapped.
 SWAP_ACCEL_MAX = 2.0
 GYRO_MEDIAN_MAX_RADPS = 0.3
