@@ -70,13 +70,21 @@ def choose_stamps(header_ns: np.ndarray | None, receive_ns: np.ndarray, meta: di
     return t[keep], order[keep], "receive"
 
 
+def header_minus_receive_s(t_ns: np.ndarray, rx_ns: np.ndarray, kind: str) -> float:
+    """Median of a topic's stamps ``t_ns`` minus its receive stamps ``rx_ns`` (ns), s; 0 on receive time (``kind``
+    not "header") or without messages."""
+    if kind != "header" or not len(t_ns):
+        return 0.0
+    return float(np.median((np.asarray(t_ns) - np.asarray(rx_ns)).astype(np.float64))) / 1e9
+
+
 def compare_clocks(stamps: dict[str, tuple[np.ndarray, np.ndarray, str]], meta: dict, source: str) -> dict:
     """Record in ``meta["clock"]`` which stamps each stream uses, how its header clock relates to the receive
     clock, and whether the DVL overlaps the IMU. ``stamps``: stream -> (chosen stamps ns, receive ns of the same messages, kind)."""
     clock: dict = {"stamps": {s: kind for s, (_, _, kind) in stamps.items()}, "header_minus_receive_s": {}}
     for stream, (t_ns, rx_ns, kind) in stamps.items():
         if kind == "header" and len(t_ns):
-            offset = float(np.median((t_ns - rx_ns).astype(np.float64))) / 1e9
+            offset = header_minus_receive_s(t_ns, rx_ns, kind)
             clock["header_minus_receive_s"][stream] = offset
             if abs(offset) > CLOCK_OFFSET_NOTE_S:
                 add_note(meta, stream, f"clock: header stamps are {_span(offset)} "

@@ -406,7 +406,9 @@ def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, met
         return data
     source = meta.get("source", "bag")
     label = _LABELS.get(stream, stream)
-    shift = _header_minus_receive_s(s) - _header_minus_receive_s(imu_s)
+    from graphnav.io.bag_stamps import header_minus_receive_s
+    shift = (header_minus_receive_s(s.t_ns, s.receive_ns, s.stamp_kind)
+             - header_minus_receive_s(imu_s.t_ns, imu_s.receive_ns, imu_s.stamp_kind))
     if shift:
         data = dc.replace(data, t=data.t - shift)
         set_span(meta, stream, data.t)
@@ -421,13 +423,6 @@ def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, met
                     f"({imu_s.topic}, {imu.t[0]:.3f} .. {imu.t[-1]:.3f} s; s from the first IMU stamp), even "
                     "through the bag's receive clock: the two topics were not recorded together, or one driver's "
                     f"clock jumped; choose another topic (--topic {stream}=TOPIC)", source, field=s.topic)
-
-
-def _header_minus_receive_s(s: Stream) -> float:
-    """Median of a topic's header stamps minus its receive stamps, s (0 on receive time)."""
-    if s.stamp_kind != "header" or not len(s.t_ns):
-        return 0.0
-    return float(np.median((s.t_ns - s.receive_ns).astype(np.float64))) / 1e9
 
 
 def load_odometry(path: str | Path, topic: str | None = None):
