@@ -3,6 +3,7 @@ blocks, DVL in mm/s -- converted with a warning and a note, or refused naming th
 on the ten shared A-KIT trajectories."""
 from __future__ import annotations
 
+import dataclasses
 import shutil
 import warnings
 
@@ -520,3 +521,109 @@ def test_a_reference_down_sign_and_a_depth_sensor_use_one_fit():
         k, r = depth_rate_fit(t, sign * down, t, v_down, min_windows=3)
         assert vertical_sign(t, sign * down, v_down) == (sign, k, r) and abs(r) >= DEPTH_FIT_MIN_CORRELATION
     assert vertical_sign(t, np.full(t.size, 15.0), v_down)[0] == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# the gyro's scale against the DVL, where the tilt kinematics cannot judge it
+# ------------------------------------------------------------------------------------------------
+def _with_dvl(t, f, omega, v_b, seed, noise=0.005):
+    """ImuData and a 1 Hz velocity-only DvlData (body velocity ``v_b`` at the IMU stamps, m/s) of one vehicle."""
+    from graphnav.core.mission import DvlData, ImuData
+    i = np.arange(0, t.size, int(round(1.0 / (t[1] - t[0]))))
+    v = v_b[i] + np.random.default_rng(seed).normal(0.0, noise, (i.size, 3))
+    return (ImuData(t, f, omega, source="imu.csv"),
+            DvlData(t[i], np.full((i.size, 4), np.nan), np.zeros((i.size, 4), bool), v, source="dvl.csv"))
+
+
+def _hovering_with_dvl(acc_mps2=0.2, tilt_rad=0.0003, seed=1):
+    """A station-keeping AUV (:func:`_hovering`'s wobble) whose velocity stays near zero, its accelerometer seeing
+    the thrusters' accelerations and its DVL the velocity they make."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 300.0, 0.01)
+    roll, pitch = tilt_rad * np.sin(2 * np.pi * t / 7.0), tilt_rad * np.sin(2 * np.pi * t / 11.0 + 1)
+    omega = np.column_stack([np.gradient(roll, t), np.gradient(pitch, t), np.zeros_like(t)])
+    a = np.cumsum(rng.normal(0.0, 1.0, (t.size + 200, 3)), axis=0)
+    a = (a[200:] - a[:-200]) * acc_mps2 / np.std(a[200:] - a[:-200], axis=0)
+    v = np.cumsum(a, axis=0) * 0.01
+    v -= np.column_stack([np.convolve(v[:, i], np.ones(3000) / 3000, "same") for i in range(3)])
+    f = _tilted_gravity(roll, pitch) + np.gradient(v, t, axis=0) + np.cross(omega, v) + rng.normal(0, 0.01, v.shape)
+    return _with_dvl(t, f, omega + rng.normal(0.0, 5e-4, omega.shape), v, seed)
+
+
+def _gyro_check(imu, dvl, config=None, declared=None):
+    from graphnav.calibration.dvl_scale import check_gyro_against_dvl
+    from graphnav.io.units import GYRO_UNJUDGED
+    meta = {GYRO_UNJUDGED: {"declared": declared, "field": "gx/gy/gz", "correlation": 0.2}}
+    return check_gyro_against_dvl(imu, dvl, config or sim_config(), meta), meta
+
+
+def sim_config():
+    from graphnav.core.config import SensorConfig
+    cfg = SensorConfig()
+    cfg.dvl.lever_arm_b = np.zeros(3)
+    return cfg
+
+
+def test_the_tilt_kinematics_leave_a_hovering_gyro_to_the_dvl():
+    t, f, omega = _hovering(0.2, 0.0003, 1)
+    meta = {}
+    imu_units(t, f, omega, "hover.csv", meta)
+    from graphnav.io.units import GYRO_UNJUDGED
+    assert meta[GYRO_UNJUDGED]["field"] == "omega_b" and meta[GYRO_UNJUDGED]["declared"] is None
+
+
+def test_gyro_scale_against_the_dvl_refuses_rates_57_times_too_small_and_converts_deg_s(sim):
+    imu, dvl = sim.imu, sim.dvl
+    small = dataclasses.replace(imu, omega_b=imu.omega_b * np.pi / 180)
+    with pytest.raises(DataError, match=r"too small for rad/s: the DVL velocity's changes \(.*\) fit these rates x57"):
+        _gyro_check(small, dvl, sim.config)
+    with pytest.raises(DataError, match="declared gyro unit 'deg/s' looks wrong"):
+        _gyro_check(small, dvl, sim.config, "deg/s")
+    deg = dataclasses.replace(imu, omega_b=np.degrees(imu.omega_b))
+    with pytest.warns(RuntimeWarning, match="gyro read as deg/s and converted to rad/s: the DVL"):
+        out, meta = _gyro_check(deg, dvl, sim.config)
+    assert np.allclose(out.omega_b, imu.omega_b) and "deg/s" in meta["streams"]["imu"]["notes"][0]
+    with pytest.raises(DataError, match="declared gyro unit 'rad/s' looks wrong.*deg/s\\?"):
+        _gyro_check(deg, dvl, sim.config, "rad/s")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _gyro_check(imu, dvl, sim.config)[0] is imu
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_hovering_auv_with_a_dvl_keeps_its_rad_s_gyro(seed):
+    # the gyro barely matters to a vehicle that does not move: the DVL cannot tell the scales apart (the rates as read
+    # leave at most 0.93x as much unexplained as deg/s would), and nothing is changed or refused
+    imu, dvl = _hovering_with_dvl(seed=seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _gyro_check(imu, dvl)[0] is imu
+
+
+def _akit_crop(src, dst_root, t0, t1, gyro_scale=1.0):
+    """An A-KIT folder of ``src`` rows ``t0 <= Time <= t1`` s, the gyro multiplied by ``gyro_scale``."""
+    dst = dst_root / src.name
+    dst.mkdir()
+    files = akit_files(src)
+    for kind in ("IMU", "DVL", "GT"):
+        arr = read_csv(files[kind], AKIT_COLUMNS[kind], nan_ok=AKIT_COLUMNS[kind][1:])
+        arr = arr[(arr[:, 0] >= t0) & (arr[:, 0] <= t1)]
+        if kind == "IMU":
+            arr[:, 4:7] *= gyro_scale
+        np.savetxt(dst / files[kind].name, arr, delimiter=",", fmt="%.12g", comments="",
+                   header=",".join(AKIT_COLUMNS[kind]))
+    return dst
+
+
+def test_a_calm_akit_stretch_with_gyro_rates_57_times_too_small_is_refused(akit_dir, tmp_path):
+    # 120 s of Trajectory6 where the tilt kinematics cannot judge the gyro (correlation 0.20): divided by 57.3 it ran
+    # silently at VRMSE 0.27 m/s (0.024 clean); the DVL's velocity changes fit the rates 57.3x larger ~46x better
+    src = akit_dir / "Trajectory6"
+    folder = _akit_crop(src, tmp_path, 120.0, 240.0, np.pi / 180)
+    with pytest.raises(DataError, match="too small for rad/s: the DVL velocity's changes") as err:
+        _load(folder)
+    assert err.value.source == str(akit_files(folder)["IMU"])
+    assert err.value.field == "/".join(AKIT_COLUMNS["IMU"][4:7])
+    (tmp_path / "clean").mkdir()
+    m, caught = _load(_akit_crop(src, tmp_path / "clean", 120.0, 240.0))
+    assert not any("gyro" in w for w in caught) and "gyro_scale_unjudged" not in m.meta

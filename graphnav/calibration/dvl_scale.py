@@ -6,10 +6,12 @@ integrals: ``v + int omega x v = v0 + int f_b + (int R^T) g0 + omega x l``. With
 true one, the DVL side is ``k`` times what the IMU side says: after the per-window ``v0`` and ``g0`` are taken out
 of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
 the DVL's noise from shrinking it). A velocity in FLU read as FRD explains the IMU's accelerations far worse than
-the same velocity with y and z negated (:func:`flu_fit_ratio`). Measured in ``docs/decisions/units-clocks-axes.md``.
+the same velocity with y and z negated (:func:`flu_fit_ratio`). The same model judges the gyro's scale where the
+tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates 57.3x too small, or deg/s, fit the DVL far worse). Measured in ``docs/decisions/units-clocks-axes.md``.
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -109,3 +111,57 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
                         f"negated (then explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read "
                         "as FRD? declare csv_columns.dvl.frame 'flu'", dvl.source, field=field)
+
+
+#: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).
+GYRO_SCALES = {"rad/s data 57.3x too small": 180.0 / np.pi, "deg/s": np.pi / 180.0}
+#: A gyro scale whose clock model leaves this many times less of the DVL's velocity changes unexplained than the rates
+#: as read is taken (:func:`gyro_scale_fits`). As read over the scale that is wrong: at most 0.93 (hovering, where the
+#: gyro hardly matters), 0.17 on simulated 60 s windows, 0.096 on the ten A-KIT's; the rates damaged, as read over
+#: the right scale: at least 5.7 for rates 57.3x too small (simulated 60 s windows; the ten's 60 s windows 10.5, the
+#: 120 s of Trajectory6 from 120 s 49.5), 1800 for deg/s (docs/decisions/units-clocks-axes.md).
+GYRO_DVL_RATIO = 2.5
+
+
+def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
+    """Gyro scale (1 for the rates as read, and each of :data:`GYRO_SCALES`) -> the share of the DVL's velocity changes
+    the clock model leaves unexplained with the gyro multiplied by it (``1 - explained``, at the best DVL offset within
+    +- :data:`SCALE_SEARCH_S`). The model's ``int omega x v`` and its gravity turned by the gyro scale with it."""
+    offsets = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
+    out = {}
+    for k in (1.0, *GYRO_SCALES.values()):
+        model, _ = dvl_window_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config)
+        out[k] = 1.0 - max(model.score(o)[0] for o in offsets)
+    return out
+
+
+def check_gyro_against_dvl(imu, dvl, config, meta: dict):
+    """The IMU with its gyro checked against the DVL velocity where the tilt kinematics could not judge its scale
+    (``meta[GYRO_UNJUDGED]``, set by :func:`graphnav.io.units.imu_units`; the fact is then removed): rates the DVL's
+    velocity changes fit :data:`GYRO_DVL_RATIO` times better 57.3x larger are a DataError, deg/s (57.3x smaller) are
+    converted to rad/s with a warning and a note, or a DataError when a unit was declared. Unchanged when the fact
+    is absent or the DVL has too few pings."""
+    from graphnav.io.units import GYRO_UNJUDGED, gyro_too_small
+    fact = meta.pop(GYRO_UNJUDGED, None)
+    if fact is None:
+        return imu
+    try:
+        fits = gyro_scale_fits(imu, dvl, config)
+    except DataError:
+        return imu
+    name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
+    ratio = fits[1.0] / max(fits[k], 1e-12)
+    if not ratio >= GYRO_DVL_RATIO:
+        return imu
+    fit = (f"the DVL velocity's changes ({dvl.source}) fit these rates x{k:.4g} {ratio:.3g}x better than as read "
+           f"(left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
+           f"correlation {fact['correlation']:.2f})")
+    declared, field = fact["declared"], fact["field"]
+    if k > 1:
+        gyro_too_small(fit, imu.source, declared, field)
+    if declared is not None:
+        raise DataError(f"the declared gyro unit {declared!r} looks wrong: {fit}: {name}?", imu.source, field=field)
+    text = f"gyro read as deg/s and converted to rad/s: {fit} (field {field}; declare the gyro unit)"
+    warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=3)
+    add_note(meta, "imu", text)
+    return dataclasses.replace(imu, omega_b=imu.omega_b * k)

@@ -166,7 +166,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
     f_b, omega_b = mission.imu.f_b * signs, mission.imu.omega_b * signs
-    imu = ImuData(t_imu, f_b, omega_b, source=mission.imu.source)
+    imu = _gyro_against_dvl(ImuData(t_imu, f_b, omega_b, source=mission.imu.source), mission.dvl, cfg, meta)
+    omega_b = imu.omega_b
     t_dvl, v_dvl = mission.dvl.t, mission.dvl.v_b
     meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": detected is not None,
                               "decided": None if detected is None else detected.decided}
@@ -392,6 +393,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     """The IMU frame checked, a DVL on its own clock put on the IMU's, the depth's sign and unit checked; a bag
     without heading told whether it can gyrocompass."""
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
+    # before the reference's time offset and the clock search, which integrate the gyro
+    mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     mission = _reference_on_the_imu(mission, meta, facts)
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
@@ -426,6 +429,17 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:
+    """The IMU with its gyro's scale checked against the DVL when the loader's tilt kinematics could not judge it
+    (:func:`graphnav.calibration.dvl_scale.check_gyro_against_dvl`); a DVL on a clock of its own cannot tell, and the
+    IMU is then as read."""
+    from graphnav.io.units import GYRO_UNJUDGED
+    if GYRO_UNJUDGED not in meta or not on_the_imu_clock(dvl.t, imu.t):
+        return imu
+    from graphnav.calibration.dvl_scale import check_gyro_against_dvl
+    return check_gyro_against_dvl(imu, dvl, config, meta)
 
 
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):

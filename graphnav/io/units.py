@@ -106,6 +106,10 @@ GYRO_TILT_MIN_RADPS = 1e-3
 #: (a hovering AUV's thrusters: 0.22 at most, scales 1.2-50; the ten 0.70-0.88, 0.11-0.98 on 60 s windows;
 #: simulated missions >= 0.97).
 GYRO_TILT_MIN_CORRELATION = 0.4
+#: ``meta`` key of the fact the tilt kinematics could not judge the gyro's scale (``declared``: the gyro unit declared,
+#: None when detected; ``field``: the gyro columns; ``correlation``): the prepare step judges it against the DVL
+#: (:func:`graphnav.calibration.dvl_scale.check_gyro_against_dvl`).
+GYRO_UNJUDGED = "gyro_scale_unjudged"
 #: Median DVL speed (per-ping norm of the instrument velocity, or the largest |beam|) taken as mm/s.
 DVL_MMPS_RANGE = (500.0, 10000.0)
 
@@ -263,8 +267,11 @@ def _gyro_tilt(t, f_b, omega_b, source, meta, declared: str | None, field: str) 
     small for rad/s are a DataError. Judged only when the gyro explains the tilt motion
     (:data:`GYRO_TILT_MIN_CORRELATION`); a declared rad/s that they contradict is kept with a warning and a note."""
     k, tilt, r = gyro_tilt_fit(t, f_b, omega_b)
-    if not (tilt > GYRO_TILT_MIN_RADPS and r >= GYRO_TILT_MIN_CORRELATION) or \
-            GYRO_TILT_SCALE_DEG <= k <= GYRO_TILT_SCALE_SMALL:
+    if not (tilt > GYRO_TILT_MIN_RADPS and r >= GYRO_TILT_MIN_CORRELATION):
+        if meta is not None:        # the prepare step judges the scale against the DVL instead
+            meta[GYRO_UNJUDGED] = {"declared": declared, "field": field, "correlation": r}
+        return None
+    if GYRO_TILT_SCALE_DEG <= k <= GYRO_TILT_SCALE_SMALL:
         return None
     if declared == "rad/s":
         _note(meta, "imu", f"the gravity direction the accelerometer sees turns {k:.3g}x as fast as the gyro rates say "
@@ -279,8 +286,13 @@ def _gyro_tilt(t, f_b, omega_b, source, meta, declared: str | None, field: str) 
 def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> None:
     """DataError for gyro rates (after the ``declared`` unit, None when detected) that the gravity direction turns
     ``k`` times faster than (:func:`gyro_tilt_scale`; above :data:`GYRO_TILT_SCALE_SMALL`)."""
-    turns = (f"the gravity direction the accelerometer sees turns {k:.3g}x faster than these rates say (about 1 "
-             "in rad/s; rates 57.3x too small give tens; tilt kinematics)")
+    gyro_too_small(f"the gravity direction the accelerometer sees turns {k:.3g}x faster than these rates say (about 1 "
+                   "in rad/s; rates 57.3x too small give tens; tilt kinematics)", source, declared, field)
+
+
+def gyro_too_small(turns: str, source: str, declared: str | None, field: str) -> None:
+    """DataError for gyro rates (after the ``declared`` unit, None when detected) 57.3x too small, ``turns`` saying
+    what shows it (the tilt kinematics here, the DVL velocity in the prepare step)."""
     if declared is not None:
         raise DataError(f"the declared gyro unit {declared!r} looks wrong: after it, {turns} (rad/s data declared "
                         "'deg/s'?)", source, field=field)
