@@ -7,7 +7,8 @@ true one, the DVL side is ``k`` times what the IMU side says: after the per-wind
 of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
 the DVL's noise from shrinking it). A velocity in FLU read as FRD explains the IMU's accelerations far worse than
 the same velocity with y and z negated (:func:`flu_fit_ratio`). The same model judges the gyro's scale where the
-tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates 57.3x too small, or deg/s, fit the DVL far worse). Measured in ``docs/decisions/units-clocks-axes.md``.
+tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates 57.3x too small, or deg/s, fit the DVL far worse).
+Measured in ``docs/decisions/units-clocks-axes.md``.
 """
 from __future__ import annotations
 
