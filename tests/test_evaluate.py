@@ -319,3 +319,12 @@ def test_depth_factors_tell_the_graph_nothing_about_the_horizontal_position():
     assert 0.5 < d["sigma_h_end_pct"] < 3.0                              # the drift claimed from the start
     # scored from the start, the position NEES is no longer the origin's (about 1e-4)
     assert pose_nees(sol, m.gt, sol.t[0] + 30.0)["nees_pos_mission"] > 0.05
+
+
+def test_online_started_from_the_sensors_claims_its_drift_from_the_start(tmp_path, capsys):
+    assert cli.main(["simulate", "--duration", "120", "--seed", "3", "--out", str(tmp_path / "sim")]) == 0
+    assert cli.main(["online", "--data", str(tmp_path / "sim" / "Trajectory1"), "--method", "Graph-TC",
+                     "--init", "sensors", "--out", str(tmp_path / "on"), "--no-plots"]) == 0
+    drift = json.loads((tmp_path / "on" / "summary.json").read_text())["drift"]
+    assert drift["sigma_h_origin_m"] > 140.0 and drift["sigma_h_end_pct"] < 5.0
+    assert "of it the unknown start" in capsys.readouterr().out
