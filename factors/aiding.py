@@ -1,8 +1,9 @@
 """Aiding factors for heading sensors (AHRS, magnetometer) and horizontal position fixes (GNSS, USBL).
 
 - :func:`horizontal_position_factor`: a fix observes north and east of the pose's NED position. Built, like
-  the depth factor, on GTSAM's C++ ``PoseTranslationPrior3D`` with a very weak (1 km) down part centred on the
-  predicted depth, so it costs nothing in Python at optimisation time.
+  the depth factor, on GTSAM's C++ ``PoseTranslationPrior3D`` with a down part of no weight to speak of
+  (:data:`~graphnav.factors.depth.UNMEASURED_SIGMA_M`) centred on the predicted depth, so it costs nothing in
+  Python at optimisation time.
 - :func:`heading_factor`: a heading sensor observes the yaw of ``C_b_n``, ``yaw = atan2(R[1,0], R[0,0])``.
   Residual ``wrap(yaw(R) - yaw_meas)``; Jacobian for GTSAM's right perturbation ``R Exp(d)`` (Pose3 tangent
   ``[rot, trans]``): with ``c = R00^2 + R10^2``,
@@ -16,10 +17,11 @@ import gtsam
 import numpy as np
 
 from graphnav.core.rotations import yaw_jacobian
+from graphnav.factors.depth import UNMEASURED_SIGMA_M
 
 
 def horizontal_position_factor(x_key: int, ne_m: np.ndarray, sigma_m: float, down_guess_m: float | None = None,
-                               vertical_sigma_m: float = 1e3) -> gtsam.NonlinearFactor:
+                               vertical_sigma_m: float = UNMEASURED_SIGMA_M) -> gtsam.NonlinearFactor:
     """Factor on Pose3 ``x_key``: NED north/east of the IMU = ``ne_m`` (m) with ``sigma_m`` (m) per axis."""
     ne = np.asarray(ne_m, dtype=float).reshape(2)
     down = 0.0 if down_guess_m is None else float(down_guess_m)

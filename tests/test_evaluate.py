@@ -281,3 +281,50 @@ def test_the_reference_tum_is_the_reference_the_nees_is_scored_against(tmp_path)
     # and the APE against the mission is scored against the same carried attitude
     assert scores["tum"]["ape_rotation_deg"]["rmse"] == pytest.approx(scores["mission"]["ape_rotation_deg"]["rmse"],
                                                                        rel=1e-3)
+
+
+def test_a_solution_started_without_its_position_is_scored_from_the_start():
+    from graphnav.core.solution import LOCAL_ORIGIN, NavSolution
+    from graphnav.evaluation.metrics import drift_summary, from_start
+    t = np.arange(0.0, 101.0)
+    p = np.c_[t, 0 * t, 10 + 0 * t]
+    growth = 0.1 * t
+    cov = np.zeros((len(t), 3, 3))
+    cov[:, 0, 0] = cov[:, 1, 1] = 100.0 ** 2 + growth ** 2
+    cov[:, 2, 2] = 0.01
+    sol = NavSolution("est", t, p + [2.0, 0.0, 0.0], np.tile([1.0, 0, 0], (len(t), 1)),
+                      np.tile(np.eye(3), (len(t), 1, 1)), cov_p_n=cov)
+    assert from_start(sol) is sol                          # started from a known position: its covariance as it is
+    sol.info["alignment"] = {"position_source": LOCAL_ORIGIN}
+    rel = from_start(sol).cov_p_n
+    np.testing.assert_allclose(rel[:, 0, 0], growth ** 2, atol=1e-6)
+    np.testing.assert_allclose(rel[:, 2, 2], 0.01)
+    d = drift_summary(sol)
+    assert d["sigma_h_end_m"] == pytest.approx(np.sqrt(2 * (1e4 + 100.0)))
+    assert d["sigma_h_origin_m"] == pytest.approx(np.sqrt(2) * 100.0)
+    assert d["sigma_h_end_pct"] == pytest.approx(np.sqrt(2) * 10.0)        # 14.1 m over 100 m
+
+
+def test_depth_factors_tell_the_graph_nothing_about_the_horizontal_position():
+    # Started from the sensors, a run has no horizontal position (a 100 m origin) and no measurement gives it
+    # one; with 1 km horizontal sigmas on each depth factor the 200 keyframes claimed 58 m after 200 s.
+    from graphnav.estimators.runs import run_graph
+    from graphnav.evaluation.consistency import pose_nees
+    from graphnav.evaluation.metrics import drift_summary
+    m = simulate_mission(duration_s=200.0, seed=5)
+    sol = run_graph(m, init="sensors")
+    assert sol.origin_unknown
+    assert np.all(np.sqrt(np.diagonal(sol.cov_p_n[-1])[:2]) > 99.0)
+    d = drift_summary(sol, m.gt)
+    assert 0.5 < d["sigma_h_end_pct"] < 3.0                              # the drift claimed from the start
+    # scored from the start, the position NEES is no longer the origin's (about 1e-4)
+    assert pose_nees(sol, m.gt, sol.t[0] + 30.0)["nees_pos_mission"] > 0.05
+
+
+def test_online_started_from_the_sensors_claims_its_drift_from_the_start(tmp_path, capsys):
+    assert cli.main(["simulate", "--duration", "120", "--seed", "3", "--out", str(tmp_path / "sim")]) == 0
+    assert cli.main(["online", "--data", str(tmp_path / "sim" / "Trajectory1"), "--method", "Graph-TC",
+                     "--init", "sensors", "--out", str(tmp_path / "on"), "--no-plots"]) == 0
+    drift = json.loads((tmp_path / "on" / "summary.json").read_text())["drift"]
+    assert drift["sigma_h_origin_m"] > 140.0 and drift["sigma_h_end_pct"] < 5.0
+    assert "of it the unknown start" in capsys.readouterr().out

@@ -237,6 +237,8 @@ def run(args) -> int:
         n_total = writer.n_written
     info = nav.info
     written = read_trajectory_csv(csv_path, method=args.method)
+    if info.get("alignment"):
+        written.info["alignment"] = info["alignment"]      # a run started without its position is scored from the start
     duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {
         "method": args.method, "backend": nav.backend_name,

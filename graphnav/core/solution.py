@@ -5,6 +5,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+#: ``info["alignment"]["position_source"]`` of a solution started from the sensors without a fix or an initial
+#: latitude and longitude: its position is dead-reckoned from an origin placed at the start, whose horizontal
+#: covariance (``AlignOptions.local_origin_sigma_m``) is in every epoch's ``cov_p_n``.
+LOCAL_ORIGIN = "local origin at start"
+
 
 @dataclass
 class NavSolution:
@@ -50,3 +55,8 @@ class NavSolution:
 
     def __len__(self) -> int:
         return len(self.t)
+
+    @property
+    def origin_unknown(self) -> bool:
+        """True when the start's horizontal position was not known (:data:`LOCAL_ORIGIN`)."""
+        return (self.info.get("alignment") or {}).get("position_source") == LOCAL_ORIGIN

@@ -77,6 +77,7 @@ from graphnav.core.earth import EARTH_RATE, earth_rate_n, lla_to_ned
 from graphnav.core.errors import ConfigError
 from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
+from graphnav.core.solution import LOCAL_ORIGIN
 from graphnav.estimators.ins import prefix_products
 
 
@@ -675,7 +676,7 @@ class Aligner:
             start = np.zeros(3) if self.initial_position_n is None else self.initial_position_n.copy()
             d, dist, elapsed = displacement(t_start)
             horizontal_var = o.local_origin_sigma_m ** 2 if self.initial_lla is None else 0.0
-            info["position_source"] = "initial_lla" if self.initial_lla is not None else "local origin at start"
+            info["position_source"] = "initial_lla" if self.initial_lla is not None else LOCAL_ORIGIN
         # dead-reckoning error: velocity sigma over the time, heading sigma over the distance
         dr_var = (sigma_v * elapsed) ** 2 + (heading_sigma * dist) ** 2
         p_n = np.asarray(start, float) + d

@@ -24,7 +24,7 @@ of the drift against an independent one (e.g. USBL or GNSS at the surface).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -283,25 +283,51 @@ def track_against_fixes(solution: NavSolution, t_fix: np.ndarray, lat: np.ndarra
 
 
 
+def from_start(solution: NavSolution) -> NavSolution:
+    """``solution`` with its horizontal position covariance counted from the start when the start's position was
+    unknown (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
+
+    Such a solution's ``cov_p_n`` holds the unknown origin's covariance at every epoch (100 m by default): true of
+    its absolute position, but a reference is compared from the same start, so its error is the drift since the
+    start. The origin's error is common to every epoch and independent of the dead-reckoned displacement, so the
+    displacement's covariance is the epoch's less the first epoch's (NE block; negative directions clipped to 0).
+    """
+    if not solution.origin_unknown or solution.cov_p_n is None:
+        return solution
+    cov = np.array(solution.cov_p_n, dtype=float)
+    finite = np.flatnonzero(np.all(np.isfinite(cov[:, :2, :2]), axis=(1, 2)))
+    if not len(finite):
+        return solution
+    w, v = np.linalg.eigh(cov[:, :2, :2] - cov[finite[0], :2, :2])
+    cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
+    return replace(solution, cov_p_n=cov)
+
+
 def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
     """What a run's summary reports about distance and drift (``graphnav smooth`` / ``online``):
 
     - ``distance_m``: horizontal distance travelled by the *estimate* (available without a reference);
-    - ``sigma_h_end_m`` and ``sigma_h_end_pct``: the estimator's own horizontal position sigma at the last
-      epoch (:func:`position_sigma_h`) and as % of ``distance_m`` -- the drift the estimator claims; None
-      without ``cov_p_n`` (e.g. the paper's 12-state EKF) or under :data:`MIN_DISTANCE_M`;
+    - ``sigma_h_end_m``: the estimator's own horizontal position sigma at the last epoch
+      (:func:`position_sigma_h`); None without ``cov_p_n`` (e.g. the paper's 12-state EKF);
+    - ``sigma_h_origin_m``: the part of it that is the unknown origin's, the start's sigma (None unless
+      :attr:`NavSolution.origin_unknown`);
+    - ``sigma_h_end_pct``: the drift the estimator claims, its sigma counted from the start (:func:`from_start`)
+      as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
     - with a reference ``gt``: ``end_error_m``, ``reference_distance_m`` and ``drift_pct`` of
       :func:`mission_drift` (the % DT against the reference); None without one.
     """
     ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
     distance = horizontal_distance(solution.t[ok], solution.p_n[ok]) if ok.sum() >= 2 else 0.0
-    out = {"distance_m": distance, "sigma_h_end_m": None, "sigma_h_end_pct": None,
+    out = {"distance_m": distance, "sigma_h_end_m": None, "sigma_h_origin_m": None, "sigma_h_end_pct": None,
            "end_error_m": None, "reference_distance_m": None, "drift_pct": None}
     if solution.cov_p_n is not None and len(solution.t):
         sigma = float(position_sigma_h(solution.cov_p_n[-1]))
         if np.isfinite(sigma):
             out["sigma_h_end_m"] = sigma
-            out["sigma_h_end_pct"] = drift_pct(sigma, distance)
+            drift = float(position_sigma_h(from_start(solution).cov_p_n[-1]))
+            out["sigma_h_end_pct"] = drift_pct(drift, distance)
+            if solution.origin_unknown:
+                out["sigma_h_origin_m"] = float(np.sqrt(max(sigma ** 2 - drift ** 2, 0.0)))
     if gt is not None and np.any((solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])):
         m = mission_drift(solution, gt)
         out.update(end_error_m=m["end_error_m"], reference_distance_m=m["distance_m"], drift_pct=m["drift_pct"])
@@ -318,5 +344,10 @@ def drift_line(summary: dict) -> str:
                  f"{summary['end_error_m']:.2f} m over {summary['reference_distance_m']:.1f} m)")
     if summary.get("sigma_h_end_m") is None:
         return line + "; claimed position sigma at the end: - (the estimate carries no position covariance)"
-    return line + (f"; claimed position sigma at the end {summary['sigma_h_end_m']:.2f} m = "
-                   f"{fmt(summary['sigma_h_end_pct'], '.2f')} % DT")
+    line += f"; claimed position sigma at the end {summary['sigma_h_end_m']:.2f} m"
+    origin = summary.get("sigma_h_origin_m")
+    if origin is None:
+        return line + f" = {fmt(summary['sigma_h_end_pct'], '.2f')} % DT"
+    drift = np.sqrt(max(summary["sigma_h_end_m"] ** 2 - origin ** 2, 0.0))
+    return line + (f" ({origin:.2f} m of it the unknown start, no fix or initial position); since the start "
+                   f"{drift:.2f} m = {fmt(summary['sigma_h_end_pct'], '.2f')} % DT")
