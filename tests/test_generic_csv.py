@@ -603,3 +603,36 @@ def test_a_reference_whose_stamps_jump_an_hour_is_named_as_a_jump_not_only_other
     nav.write_text("\n".join(lines) + "\n")
     with pytest.raises(DataError, match=r"its stamps jump by \+3600\.\d+ s after t = .*\+1 h to within a minute"):
         load_mission(tmp_path, cfg, prepare=False)
+
+
+def _exchange_cells(path, a, b):
+    """``path`` with the cells of 0-based columns ``a`` and ``b`` exchanged on every row but the header."""
+    lines = path.read_text().splitlines()
+    for i in range(1, len(lines)):
+        cells = lines[i].split(",")
+        cells[a], cells[b] = cells[b], cells[a]
+        lines[i] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_reference_with_exchanged_or_negated_columns_is_refused_naming_the_columns_to_map(sim, tmp_path):
+    """North and east exchanged in the velocity (or the positions) loaded with a warning of position steps and was
+    scored against; the error names the pair and the mapping that reads it right. A down velocity or down position
+    with its sign flipped is named by the attitude's pitch (it was 'one of the two columns')."""
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    nav = tmp_path / "nav.csv"
+    clean = nav.read_text()
+    cases = ((lambda: _exchange_cells(nav, 4, 5), "vn/ve", r"map csv_columns.gt.v_n as \['ve', 'vn', 'vd'\]"),
+             (lambda: _exchange_cells(nav, 1, 2), "n/e", r"the position columns are wrong, north = 'e', east = 'n'; "
+                                                         r"map csv_columns.gt.p_n as \['e', 'n', 'd'\]"),
+             (lambda: _scale_cells(nav, [5], -1.0), "vn/ve", r"negate 've' \(a column map cannot negate a column\)"),
+             (lambda: _scale_cells(nav, [6], -1.0), "vd", r"'vd' has its sign flipped"),
+             (lambda: _scale_cells(nav, [3], -1.0), "d", r"'d' has its sign flipped"))
+    for damage, field, message in cases:
+        nav.write_text(clean)
+        damage()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with pytest.raises(DataError, match=message) as err:
+                load_mission(tmp_path, cfg, prepare=False)
+        assert (err.value.source, err.value.field) == (str(nav), field)

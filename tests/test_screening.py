@@ -761,3 +761,30 @@ def test_a_reference_excursion_of_a_few_rows_is_refused_not_called_two_resets(ro
     with pytest.warns(RuntimeWarning, match="1 step"):
         masks = with_position_spikes({}, t, step, v, SensorConfig().dvl, ("n", "e", "d"), "gt.csv")
     assert not np.any(list(masks.values()))
+
+
+@pytest.mark.parametrize("rows, size", [(7, 5.0), (20, 50.0), (60, 20.0)])
+def test_a_long_reference_excursion_is_refused_and_resets_that_stay_are_kept(rows, size):
+    """A position off by 5-50 m for 7 rows or more and back (a burst of outlying USBL fixes) was kept and warned as
+    two resets: two steps that cancel within one row step's tolerance are an excursion however long, refused. Two
+    resets that stay (the second missing the first's opposite by 4 m), and an 'excursion' over more than half the log
+    (which part is off cannot be told), stay warned steps."""
+    from graphnav.core.screening import with_position_spikes
+    t = np.arange(200.0)
+    v = np.column_stack([np.full(200, 1.5), 0.3 * np.sin(t / 20.0), np.zeros(200)])
+    p = np.cumsum(v, axis=0) - v[0]
+    spec, fields = SensorConfig().dvl, ("n", "e", "d")
+    off = p.copy()
+    off[100:100 + rows, :2] += size * np.array([0.6, -0.8])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        masks = with_position_spikes({}, t, off, v, spec, fields, "gt.csv")
+    assert np.flatnonzero(np.any(list(masks.values()), axis=0)).tolist() == list(range(100, 100 + rows))
+    assert not caught
+    for start, stop, miss in ((100, 100 + rows, 4.0), (20, 130, 0.0)):
+        kept = p.copy()
+        kept[start:, :2] += size * np.array([0.6, -0.8])
+        kept[stop:, :2] -= size * np.array([0.6, -0.8]) + [0.0, miss]
+        with pytest.warns(RuntimeWarning, match="2 step"):
+            masks = with_position_spikes({}, t, kept, v, spec, fields, "gt.csv")
+        assert not np.any(list(masks.values()))

@@ -464,11 +464,11 @@ def _position_jumps(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSp
 
     A spike (a corrupted cell, 1e308): the position less the trapezoid integral of the velocity departs from the
     median of its :data:`SPIKE_NEIGHBOURS` neighbours on each side while the two sides agree (the file's first and
-    last rows: from their one side, whose rows agree with each other); two steps that undo each other within a few
-    rows are an excursion, refused too (:func:`_excursions`). A lasting step (a reset of the reference fix) is no
-    spike. Only ``usable`` rows (default: the finite ones; leave out the velocity spikes, whose integral steps) are
-    tested and integrated; across a gap of more than :data:`GT_POSITION_GAP_STEPS` steps the position's own change
-    is taken, so that a reference dropout is no step."""
+    last rows: from their one side, whose rows agree with each other); two steps that undo each other are an
+    excursion (a run of a few rows, or a longer offset burst), refused too (:func:`_excursions`). A lasting step (a
+    reset of the reference fix) is no spike. Only ``usable`` rows (default: the finite ones; leave out the velocity
+    spikes, whose integral steps) are tested and integrated; across a gap of more than
+    :data:`GT_POSITION_GAP_STEPS` steps the position's own change is taken, so that a reference dropout is no step."""
     t, p, v = (np.asarray(a, float) for a in (t, p_n, v_n))
     ok = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(v), axis=1)
     ok &= True if usable is None else np.asarray(usable, bool)
@@ -499,9 +499,12 @@ def _position_jumps(t: np.ndarray, p_n: np.ndarray, v_n: np.ndarray, spec: DvlSp
 
 
 def _excursions(hit: np.ndarray, steps: list, t: np.ndarray, spec: DvlSpec, idx: np.ndarray) -> list:
-    """``steps`` less the pairs that undo each other within 2 x :data:`SPIKE_NEIGHBOURS` rows: the rows between such a
-    pair are an excursion (a corrupted run of 3-6 rows, too long for the spike test), marked in ``hit`` (N,3) under the
-    axis the first step is largest in; a lasting step stays a step."""
+    """``steps`` less the pairs that undo each other: the rows between such a pair are an excursion (a corrupted run
+    too long for the spike test, a burst of outlying fixes), marked in ``hit`` (N,3) under the axis the first step is
+    largest in; a lasting step stays a step. Within 2 x :data:`SPIKE_NEIGHBOURS` rows the pair must cancel within
+    what the velocity can move over the run; a longer run (fewer rows than the rest of the log: else which part is
+    off cannot be told) within what one row step may (an offset burst's two steps differ by two clean row steps,
+    however long it lasts; two resets of the fix that stay almost never cancel that closely)."""
     out, i = [], 0
     while i < len(steps):
         (b1, a1, s1), nxt = steps[i], steps[i + 1] if i + 1 < len(steps) else None
@@ -509,7 +512,9 @@ def _excursions(hit: np.ndarray, steps: list, t: np.ndarray, spec: DvlSpec, idx:
             b2, a2, s2 = nxt
             rows = idx[(idx >= a1) & (idx <= b2)]
             back = 1.5 * spec.jump_tolerance_mps * (t[a2] - t[b1]) + GT_POSITION_TOLERANCE_M
-            if rows.size <= 2 * SPIKE_NEIGHBOURS and np.all(np.abs(s1 + s2) <= back):
+            step = 1.5 * spec.jump_tolerance_mps * max(t[a1] - t[b1], t[a2] - t[b2]) + GT_POSITION_TOLERANCE_M
+            if (np.all(np.abs(s1 + s2) <= back) if rows.size <= 2 * SPIKE_NEIGHBOURS else
+                    2 * rows.size < idx.size and np.linalg.norm(s1 + s2) <= step):
                 hit[rows, int(np.argmax(np.abs(s1)))] = True
                 i += 2
                 continue

@@ -446,6 +446,7 @@ def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omeg
     turn rate against the gyro (``omega_b`` rad/s at ``t_imu`` s), a declared one confirmed; north/east moving
     with ``v_n`` and down changing with its down axis, else DataError naming the columns."""
     from graphnav.io.units import (
+        check_reference_axes,
         check_reference_displacement,
         displacement_ratio,
         reference_attitude_units,
@@ -457,8 +458,11 @@ def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omeg
     p_n, v_n = v["p_n"], v["v_n"]
     check_reference_displacement(displacement_ratio(t, p_n[:, :2], v_n[:, :2])[0], str(path),
                                  spec["p_n"][:2] + spec["v_n"][:2], t=t)
+    check_reference_axes(t, p_n[:, :2], v_n[:, :2], euler[:, 2], str(path), [*spec["p_n"], *spec["v_n"]],
+                         ("p_n", "v_n"))
     # a reference's down is taken in the frame its file gives (relative or absolute): its sign only
-    reference_depth(t, p_n[:, 2], v_n[:, 2], str(path), (spec["p_n"][2], spec["v_n"][2]), meta, lines=v["_lines"])
+    reference_depth(t, p_n[:, 2], v_n[:, 2], str(path), (spec["p_n"][2], spec["v_n"][2]), meta, lines=v["_lines"],
+                    v_pitch=-np.linalg.norm(v_n, axis=1) * np.sin(euler[:, 1]))
     return euler
 
 

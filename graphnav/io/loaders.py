@@ -450,6 +450,7 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
     infinite cell, an impossible latitude, a velocity spike; and, once the latitude/longitude unit is known, a
     position spike), which are left out of the decisions and converted with the rest."""
     from graphnav.io.units import (
+        check_reference_axes,
         reference_attitude_units,
         reference_depth,
         reference_latlon_units,
@@ -469,15 +470,19 @@ def _akit_gt_units(gt: np.ndarray, gt_lines: np.ndarray, imu: np.ndarray, source
         gt[:, 1:3] = np.radians(gt[:, 1:3])
     if too_fast:            # the positions move as far as the velocity says: both in other units
         raise reference_speed_error(g[:, 4:7], source, cols[4:7], cfg.dvl.max_speed_mps)
-    # a position spike is told in metres, so once the unit is known; left out of the altitude's fit too
-    refused = with_position_spikes(refused, gt[:, 0], _local_ned(gt, ok), gt[:, 4:7], cfg.dvl,
-                                   (cols[2], cols[1], cols[3]), source, gt_lines, meta)
+    # exchanged or negated axes and position spikes are told in metres, so once the unit is known; the spikes are
+    # left out of the altitude's fit too
+    p_n = _local_ned(gt, ok)
+    check_reference_axes(gt[ok, 0], p_n[ok, :2], gt[ok, 4:6], gt[ok, 9], source, (cols[2], cols[1], *cols[3:7]))
+    refused = with_position_spikes(refused, gt[:, 0], p_n, gt[:, 4:7], cfg.dvl, (cols[2], cols[1], cols[3]), source,
+                                   gt_lines, meta)
     ok = ~np.any(list(refused.values()), axis=0)
     g = gt[ok]
     # the depth is the altitude's opposite (positive up, metres above the sea surface)
     depth = -g[:, 3]
+    v_pitch = -np.linalg.norm(g[:, 4:7], axis=1) * np.sin(g[:, 8])
     if reference_depth(g[:, 0], depth, g[:, 6], source, (cols[3], cols[6]), meta, cfg.depth_range_m,
-                       lines=gt_lines[ok]) is not depth:
+                       lines=gt_lines[ok], v_pitch=v_pitch) is not depth:
         gt[:, 3] = -gt[:, 3]
     return refused
 

@@ -54,7 +54,9 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
   on the ten), else refused
   naming the first line and the column (a level vehicle's flipped sign cannot be told from a height above the
   ellipsoid); a depth that changes against its down velocity inside the range is refused naming both columns (which
-  is wrong cannot be told). :func:`reference_inconsistencies` says what in a reference disagrees with itself or the
+  is wrong cannot be told, unless the attitude's pitch tells: :func:`_pitch_says`). North/east velocity or positions
+  exchanged or negated keep the displacement's norm: :func:`check_reference_axes` refuses them, naming the pair its
+  heading says is wrong. :func:`reference_inconsistencies` says what in a reference disagrees with itself or the
   gyro (the prepare step's DVL-against-GT refusal then names the GT file instead of the DVL's).
 """
 from __future__ import annotations
@@ -609,6 +611,107 @@ def check_reference_displacement(ratio: float, source: str, fields, what: str = 
                         field="/".join(fields[:len(fields) // 2] if len(fields) > 1 else fields))
 
 
+# ------------------------------------------------------------------------------------------------
+# a reference's north/east axes: exchanged or negated columns
+# ------------------------------------------------------------------------------------------------
+#: The eight signed permutations (2,2) of north/east a reference's velocity is tried in, as read (the identity) first.
+SIGNED_PERMUTATIONS = [np.array([[a, 0], [0, b]] if same else [[0, a], [b, 0]], float)
+                       for same in (True, False) for a in (1, -1) for b in (1, -1)]
+
+
+#: A signed permutation of a reference's north/east velocity (:func:`horizontal_axes_fit`) fits its positions when it
+#: leaves at most this share of their displacement's energy unexplained, and every other one (the velocity as read
+#: among them) at least :data:`AXES_FIT_MARGIN` times more. The ten shared trajectories as read: 2e-5..2e-4, the
+#: seven others 0.40-4.0 (over 10, 40 and 160 s windows); their latitude and longitude exchanged (north and east
+#: scaled by cos(latitude) as well) leave 0.02-0.04 to the exchange.
+AXES_FIT_MAX = 0.1
+AXES_FIT_MARGIN = 10.0
+
+
+def horizontal_axes_fit(t: np.ndarray, p: np.ndarray, v: np.ndarray) -> tuple[list[np.ndarray], float, float, float]:
+    """``(fits, unexplained, as_read, window_s)``: the signed permutations M (2,2) of the north/east velocity ``v``
+    (K,2, m/s) whose integral explains the north/east positions' ``p`` (K,2, m) displacement over windows of
+    ``window_s`` s (``M @ v``: the velocity as it fits; fewest negations first: a straight leg along an axis fits
+    an exchange with and without the small axis negated), the share of the displacement's energy the best leaves
+    unexplained, and the share the velocity as read leaves. ``fits`` is empty when the velocity as read fits or
+    none does; the window length is the one of :func:`displacement_ratio`'s three where the best permutation leaves
+    the least (a noisy fix moves less against a longer window's distance)."""
+    best: tuple = ([], np.inf, np.nan, np.nan)
+    for k in range(3 if len(t) >= 3 else 0):
+        w = POSITION_WINDOW_S * POSITION_WINDOW_GROWTH ** k
+        dp, dv = _window_increments(t, p, v, w)
+        if len(dp) < 2 or not np.median(np.linalg.norm(dv, axis=1)) >= MIN_SPEED_MPS * w:
+            break
+        shares = np.array([np.sum((dp - dv @ M.T) ** 2) for M in SIGNED_PERMUTATIONS]) / max(np.sum(dp ** 2), 1e-300)
+        low = float(np.min(shares))
+        if low < best[1]:
+            fit = np.flatnonzero(shares <= AXES_FIT_MARGIN * low) if low <= AXES_FIT_MAX else []
+            fit = [] if 0 in fit else sorted(fit, key=lambda m: (np.sum(SIGNED_PERMUTATIONS[m] < 0), shares[m]))
+            best = ([SIGNED_PERMUTATIONS[m] for m in fit], low, float(shares[0]), w)
+    return best
+
+
+def _axes_words(M: np.ndarray, cols) -> str:
+    """``M`` (2,2) applied to the north/east columns ``cols``: "north = 've', east = 'vn'"."""
+    terms = [("-" if M[i, j] < 0 else "") + f"'{cols[j]}'" for i in range(2) for j in range(2) if M[i, j]]
+    return f"north = {terms[0]}, east = {terms[1]}"
+
+
+def _forward_share(v: np.ndarray, yaw: np.ndarray) -> float:
+    """Median share of the moving rows' north/east velocity ``v`` (K,2, m/s) along the heading ``yaw`` (K,) rad; NaN
+    for fewer than 10 such rows."""
+    speed = np.linalg.norm(v, axis=1)
+    moving = speed > 3 * MIN_SPEED_MPS
+    if moving.sum() < 10:
+        return float("nan")
+    along = v[moving, 0] * np.cos(yaw[moving]) + v[moving, 1] * np.sin(yaw[moving])
+    return float(np.median(along / speed[moving]))
+
+
+def _axes_advice(M: np.ndarray, cols, key: str | None) -> str:
+    """What to do about north/east/down columns ``cols`` whose north/east fit as ``M`` (2,2) says: a column map
+    (``key``, the ``csv_columns.gt`` entry) can reorder them, not negate one; a fixed layout's file must be
+    corrected."""
+    order = [cols[int(np.flatnonzero(M[i])[0])] for i in range(2)]
+    if key is not None and np.all(M.sum(axis=1) > 0):
+        return f"map csv_columns.gt.{key} as {order + [cols[2]]}"
+    negate = [cols[j] for i in range(2) for j in range(2) if M[i, j] < 0]
+    fixes = ([f"exchange '{cols[0]}' and '{cols[1]}'"] if M[0, 0] == 0 else []) + (
+        [f"negate {_columns(negate)}"] if negate else [])
+    return ("correct the file: " + " and ".join(fixes)
+            + (" (a column map cannot negate a column)" if key is not None and negate else ""))
+
+
+def check_reference_axes(t: np.ndarray, p: np.ndarray, v: np.ndarray, yaw: np.ndarray, source: str, fields,
+                         keys: tuple[str, str] | None = None) -> None:
+    """DataError when a reference's north/east velocity ``v`` (K,2, m/s) explains its north/east positions ``p`` (K,2,
+    m, at ``t`` s) only with its columns exchanged or negated (:func:`horizontal_axes_fit`); ``fields`` = (north,
+    east, down position columns, north, east, down velocity columns) of ``source``. The heading ``yaw`` (K,) rad
+    tells which pair is wrong: an AUV moves forward, so the velocity along it (a median forward share of
+    :data:`FORWARD_SHARE_MIN` or more) is the right one. ``keys``: the column map's position and velocity entries
+    (``p_n``, ``v_n``), named in the advice; None for a fixed layout."""
+    fits, share, as_read, w = horizontal_axes_fit(t, p, v)
+    if not fits:
+        return
+    M, pos, vel = fits[0], list(fields[:3]), list(fields[3:6])
+    s_read, s_fit = _forward_share(v, yaw), _forward_share(v @ M.T, yaw)
+    fit = (f"the velocity fits the positions as {_axes_words(M, vel)} ({share:.2g} of their displacement over {w:g} s "
+           f"windows unexplained, {as_read:.2g} as read" + "".join(f"; as {_axes_words(other, vel)} too"
+                                                                  for other in fits[1:]) + ")")
+    heading = f"(median forward share in its attitude {s_fit:.2f} so read, {s_read:.2f} as read)"
+    v_advice, p_advice = _axes_advice(M, vel, keys and keys[1]), _axes_advice(M.T, pos, keys and keys[0])
+    if s_fit >= FORWARD_SHARE_MIN > s_read:
+        what, wrong = (f"the heading agrees with the velocity so read {heading}: the velocity columns are wrong; "
+                       f"{v_advice}"), vel[:2]
+    elif s_read >= FORWARD_SHARE_MIN > s_fit:
+        what, wrong = (f"the heading agrees with the velocity as read {heading}: the position columns are wrong, "
+                       f"{_axes_words(M.T, pos)}; {p_advice}"), pos[:2]
+    else:
+        what, wrong = (f"the heading cannot tell which pair is wrong {heading}: either the velocity columns "
+                       f"({v_advice}) or the positions, {_axes_words(M.T, pos)} ({p_advice})"), pos[:2] + vel[:2]
+    raise DataError(f"{fit}: {what}", source, field="/".join(wrong))
+
+
 #: A reference stamp step this many times the median one (and over a minute) is a jump of its clock.
 STAMP_JUMP_STEPS = 100.0
 
@@ -692,7 +795,8 @@ def _latlon_ratios(t, lat, lon, v_n) -> list[float]:
 
 def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source: str, fields,
                     meta: dict | None = None, depth_range_m: tuple[float, float] | None = None,
-                    line_offset: int = 2, lines: np.ndarray | None = None) -> np.ndarray:
+                    line_offset: int = 2, lines: np.ndarray | None = None, v_pitch: np.ndarray | None = None
+                    ) -> np.ndarray:
     """The reference's down positions ``depth`` (K, m, positive down, as derived from the file) checked against
     its down velocity ``v_down`` (K, m/s) and, for an absolute depth, ``depth_range_m``; ``fields`` = (position
     column, velocity column) of ``source``.
@@ -700,8 +804,9 @@ def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source
     More than half the samples outside ``depth_range_m`` (the vehicle above the sea or beyond any depth) is a
     DataError naming the file, the first such line and the column, unless the positions change against the
     velocity (:func:`vertical_sign`) and flipped they lie in the range: the sign is then flipped back (a warning,
-    a note). Positions that change against the velocity inside the range are a DataError naming both columns:
-    one of them has the wrong sign, and which cannot be told. ``lines``: the file line of each sample (else
+    a note). Positions that change against the velocity inside the range are a DataError naming both columns and,
+    when the attitude tells (``v_pitch`` (K,) m/s, the down velocity the reference's pitch gives its speed:
+    :func:`_pitch_says`), which one has the wrong sign. ``lines``: the file line of each sample (else
     index + ``line_offset``).
     """
     depth = np.asarray(depth, float)
@@ -729,9 +834,30 @@ def reference_depth(t: np.ndarray, depth: np.ndarray, v_down: np.ndarray, source
                             f"(SensorConfig.depth_range_m): depth {np.min(depth):.4g} to {np.max(depth):.4g} m"
                             + hint, source, line, fields[0])
     if sign < 0:
-        raise DataError(f"the down position {_columns(fields[:1])} {against}: one of the two columns has its sign "
-                        "flipped", source, field=fields[0])
+        says, field = _pitch_says(v_pitch, v_down, fields)
+        raise DataError(f"the down position {_columns(fields[:1])} {against}: {says}", source, field=field)
     return depth
+
+
+#: Correlation of a reference's down velocity with the one its pitch gives its speed (-speed sin(pitch)) from which
+#: the pitch tells the velocity's sign: the ten shared trajectories 0.91-0.96 where the depth changes (1, 4, 6, 8),
+#: 0.71-0.80 on 5 and 11, 0.37-0.60 on the steady ones (angle of attack and noise against a level path).
+PITCH_FIT_MIN_CORRELATION = 0.8
+
+
+def _pitch_says(v_pitch: np.ndarray | None, v_down: np.ndarray, fields) -> tuple[str, str]:
+    """``(sentence, column)``: which of a down position and down velocity (``fields``) has its sign flipped, from the
+    down velocity the attitude's pitch gives (``v_pitch`` (K,) m/s, None: not known) against ``v_down`` (K,) m/s; the
+    position column when the pitch cannot tell."""
+    r = float("nan")
+    if v_pitch is not None and np.std(v_pitch) > 0 and np.std(v_down) > 0:
+        r = float(np.corrcoef(v_pitch, v_down)[0, 1])
+    if not abs(r) >= PITCH_FIT_MIN_CORRELATION:
+        return "one of the two columns has its sign flipped" + (
+            f" (the attitude's pitch cannot tell which: correlation {r:.2f})" if np.isfinite(r) else ""), fields[0]
+    wrong = fields[0] if r > 0 else fields[1]
+    return (f"{_columns([wrong])} has its sign flipped (the velocity the attitude's pitch gives the speed "
+            f"correlates {r:.2f} with {_columns(fields[1:])}): negate {_columns([wrong])} in the file"), wrong
 
 
 #: Median share of a moving reference's body-frame velocity along its x (forward) axis below which its attitude
@@ -972,5 +1098,6 @@ __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_ve
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
+           "check_reference_axes", "horizontal_axes_fit",
            "reference_speed_error",
            "reference_inconsistencies"]
