@@ -88,6 +88,38 @@ def test_without_gt_gravity_and_gyro_decide(akit_dir, tmp_path, transform, signs
     np.testing.assert_array_equal(m.config.imu_axis_signs, signs)
 
 
+def _turn_90(imu):
+    """The IMU mounted turned 90 deg about z (x to starboard), in the published files' y-flipped convention."""
+    imu = imu.copy()
+    for x, y in ((1, 2), (4, 5)):
+        imu[:, [x, y]] = np.column_stack([-imu[:, y], imu[:, x]])
+    return imu
+
+
+def _turn_180(imu):
+    imu = imu.copy()
+    imu[:, [1, 2, 4, 5]] *= -1
+    return imu
+
+
+@pytest.mark.parametrize("turn, yaw, fix", [(_turn_90, 90, "turn the accelerometer and gyro columns of the file"),
+                                            (_turn_180, 180, r"set imu_axis_signs \(-1, 1, 1\)")])
+def test_without_gt_an_imu_turned_about_z_is_refused_by_the_dvl(akit_dir, tmp_path, turn, yaw, fix):
+    folder = _copy(akit_dir / TRAJ[0], tmp_path, turn, with_gt=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=rf"IMU_trajectory2\.csv, field 'ACC X \[m/s\^2\]/.*/GYRO Z \[rad/s\]': the "
+                                            rf"IMU's axes are turned {yaw} deg about z against the file's axes with "
+                                            rf"imu_axis_signs \(1, -1, 1\).*{fix}"):
+            load_akit(folder)
+        if yaw == 180:                                           # the advice loads it as the published file
+            got = load_akit(folder, imu_axis_signs=(-1, 1, 1))
+            (tmp_path / "clean").mkdir()
+            clean = load_akit(_copy(akit_dir / TRAJ[0], tmp_path / "clean", with_gt=False))
+    if yaw == 180:
+        np.testing.assert_allclose(got.imu.f_b, clean.imu.f_b, atol=1e-9)
+
+
 def test_explicit_signs_win_and_config_without_field_is_auto(akit_dir, tmp_path):
     folder = akit_dir / TRAJ[0]
     with warnings.catch_warnings():

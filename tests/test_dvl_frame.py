@@ -117,6 +117,15 @@ def test_instrument_frame_columns_are_turned_by_C_d_b(sim, tmp_path):
     np.testing.assert_allclose(got.dvl.beams, same.dvl.beams, atol=1e-9)
 
 
+def test_a_dvl_turned_90_deg_read_as_body_is_warned_about_not_blamed_on_the_imu(sim, tmp_path):
+    """Against the IMU a DVL turned 90 deg looks like an IMU turned -90 deg; its velocity pointing sideways says which."""
+    m, t, v_b = sim
+    C_d_b = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    with pytest.warns(RuntimeWarning, match=r"turned -(89|90)\.\d deg about z from the IMU's axes.*'instrument'"):
+        got = _load(_folder(tmp_path, sim, v_b @ C_d_b))
+    assert not [n for n in got.meta["streams"]["imu"]["notes"] if "mounting" in n]
+
+
 def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_frame(sim, tmp_path):
     from graphnav.calibration.calibrate import calibrate
     m, t, v_b = sim

@@ -73,6 +73,44 @@ def test_an_imu_turned_90_deg_about_z_is_named(sim, tmp_path):
         load_mission(tmp_path, _csv(tmp_path, sim, f_b=turned[0], omega_b=turned[1]))
 
 
+def _turned_about_z(a, yaw_deg):
+    """Body-frame rows ``a`` (N,3) as an IMU mounted turned ``yaw_deg`` about z reads them (its axes Rz(yaw)^T body's:
+    90 puts its x to starboard)."""
+    c, s = np.cos(np.deg2rad(yaw_deg)).round(12), np.sin(np.deg2rad(yaw_deg)).round(12)
+    return a @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("yaw, points", [(90, "its x axis points starboard, its y axis points aft"),
+                                         (180, "its x axis points aft, its y axis points port"),
+                                         (270, "its x axis points port, its y axis points forward")])
+def test_an_imu_turned_about_z_without_a_reference_is_refused_by_the_dvl(sim, tmp_path, yaw, points):
+    """Gravity cannot see a turn about z; the DVL's velocity changes against the accelerometer can."""
+    clean, _ = _load(tmp_path, _csv(tmp_path, sim, gt=False))
+    assert not [n for n in clean.meta["streams"]["imu"]["notes"] if "mounting" in n]
+    turned = [_turned_about_z(a, yaw) for a in (sim.imu.f_b, sim.imu.omega_b)]
+    for frame, what in (("frd", "csv_columns.imu.frame 'frd'"), (None, "the FRD axes taken for csv_columns.imu")):
+        with pytest.raises(DataError, match=rf"imu\.csv, field 'ax/ay/az/gx/gy/gz': the IMU's axes are turned {yaw} "
+                                            rf"deg about z against {what}.*{points}.*before graphnav reads them"):
+            load_mission(tmp_path, _csv(tmp_path, sim, f_b=turned[0], omega_b=turned[1], frame=frame, gt=False))
+
+
+def test_a_log_too_short_to_check_the_imu_turn_says_so(tmp_path):
+    short = simulate_mission(duration_s=30.0, seed=5)
+    m, _ = _load(tmp_path, _csv(tmp_path, short, gt=False))
+    assert [n for n in m.meta["streams"]["imu"]["notes"] if "mounting about z not checked against the DVL" in n]
+
+
+def test_a_bag_imu_turned_about_z_without_a_reference_is_refused_by_the_dvl(sim, tmp_path):
+    import dataclasses
+    config = tmp_path / "config.json"
+    sim.config.save(config)
+    turned = dataclasses.replace(sim, gt=None, imu=dataclasses.replace(
+        sim.imu, f_b=_turned_about_z(sim.imu.f_b, 90), omega_b=_turned_about_z(sim.imu.omega_b, 90)))
+    with pytest.raises(DataError, match=r"/imu/data.*turned 90 deg about z against the IMU frame_id 'imu_link'.*"
+                                        r"its x axis points starboard"):
+        load_mission(bags.write_mission_bag(turned, tmp_path / "turned"), config)
+
+
 def test_a_bag_imu_in_frd_without_the_frd_frame_id_is_corrected(sim, tmp_path):
     """A driver that publishes FRD rates under a REP-103 frame_id: read as FLU, the axes are turned back."""
     import dataclasses

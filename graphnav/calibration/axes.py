@@ -475,13 +475,22 @@ def _turned(imu, config: SensorConfig, gt, source: str, field: str) -> DataError
     P = check.gyro_map
     if P is None or np.allclose(np.abs(P), np.eye(3)):
         return None
+    return DataError(f"the gyro fits the GT attitude only with its axes permuted ({'; '.join(check.suspects)}): "
+                     f"the IMU is mounted turned against the body frame ({mounting_text(P)}). {TURN_ADVICE}", source,
+                     field=field)
+
+
+#: What to do about an IMU mounted turned against the body frame, for the messages.
+TURN_ADVICE = ("Turn the accelerometer and gyro into the body frame before graphnav reads them (a column map can "
+               "reorder columns, not turn or negate single axes)")
+
+
+def mounting_text(P: np.ndarray) -> str:
+    """Where the IMU's axes point in the body frame for a correction ``P`` (corrected = P @ raw, a signed
+    permutation): "its x axis points starboard, its y axis points aft, its z axis points down; FRD: ..."."""
     names = {(0, 1.0): "forward", (0, -1.0): "aft", (1, 1.0): "starboard", (1, -1.0): "port",
              (2, 1.0): "down", (2, -1.0): "up"}
     # IMU axis j is the body direction P[:, j] (corrected = P @ raw, P orthogonal)
     points = [f"its {AXES[j]} axis points {names[(int(np.flatnonzero(P[:, j])[0]), float(P[:, j].sum()))]}"
               for j in range(3)]
-    return DataError(f"the gyro fits the GT attitude only with its axes permuted ({'; '.join(check.suspects)}): "
-                     f"the IMU is mounted turned against the body frame ({', '.join(points)}; FRD: x forward, y "
-                     "starboard, z down). Turn the accelerometer and gyro into the body frame before graphnav reads "
-                     "them (a "
-                     "column map can reorder columns, not turn or negate single axes)", source, field=field)
+    return f"{', '.join(points)}; FRD: x forward, y starboard, z down"

@@ -6,8 +6,10 @@ integrals: ``v + int omega x v = v0 + int f_b + (int R^T) g0 + omega x l``. With
 true one, the DVL side is ``k`` times what the IMU side says: after the per-window ``v0`` and ``g0`` are taken out
 of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
 the DVL's noise from shrinking it). A velocity in FLU read as FRD explains the IMU's accelerations far worse than
-the same velocity with y and z negated (:func:`flu_fit_ratio`). The same model judges the gyro's scale where the
-tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates 57.3x too small, or deg/s, fit the DVL far worse).
+the same velocity with y and z negated (:func:`flu_fit_ratio`), and an IMU mounted turned about z, which gravity
+cannot see, explains them far worse than the same IMU turned back (:func:`imu_yaw_fit`, :func:`check_imu_yaw`).
+The same model judges the gyro's scale where the tilt kinematics cannot (:func:`check_gyro_against_dvl`: rates
+57.3x too small, or deg/s, fit the DVL far worse).
 Measured in ``docs/decisions/units-clocks-axes.md``.
 """
 from __future__ import annotations
@@ -17,7 +19,8 @@ import warnings
 
 import numpy as np
 
-from graphnav.calibration.clock import dvl_window_model, without_window_fit
+from graphnav.calibration.axes import TURN_ADVICE, mounting_text
+from graphnav.calibration.clock import WINDOW_S, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note
 
@@ -73,33 +76,136 @@ def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, f
     return read.score(offset)[1] / max(sse, 1e-300), explained
 
 
+#: The IMU turns :func:`imu_yaw_fit` tries about z, deg (the IMU's axes are ``Rz(yaw)^T`` body's: 90 puts its x to
+#: starboard and its y aft).
+IMU_YAWS_DEG = (90, 180, 270)
+#: A turn of the IMU is refused when it fits better than the axes as read by this many noise variances
+#: (:func:`imu_yaw_fit`); the turn named is told apart from the next by as many, or both are named; under it either
+#: way the check cannot judge (a note). Measured (``experiments/imu_yaw_rates.py``; q as read at most / turned at
+#: least): the ten A-KIT trajectories whole -4.1e3 / +4.1e3, in 45 s windows -94 / +94, 120 s -769 / +769;
+#: simulated 400 s missions (navigation, tactical, MEMS, lawnmower and transit, 0.042 m/s beam noise) whole -1.0e3 /
+#: +1.0e3, 120 s windows -42 / +42; 60 s windows leave 7-9 of 48 not judged, one of them (MEMS) at the wrong sign,
+#: |q| 3.4. No window as read refused, no wrong turn named alone.
+IMU_YAW_MIN_Q = 30.0
+#: The DVL's mean horizontal direction within this of body +x says its velocity is in the body frame (an AUV moves
+#: forward: -5.0..+1.9 deg on the ten A-KIT trajectories, -0.4..-0.2 simulated); then a turn that fits better is the
+#: IMU's. A velocity pointing elsewhere is a DVL turned, which the yaw warning of
+#: :func:`check_velocity_against_imu` is about.
+FORWARD_COURSE_RAD = np.deg2rad(30.0)
+
+
+def turn_about_z(yaw_deg: float) -> np.ndarray:
+    """Rz(yaw) (3,3), exact for quarter turns: the body frame's axes of an IMU mounted turned ``yaw_deg`` about z
+    (body = Rz @ imu)."""
+    a = np.deg2rad(yaw_deg)
+    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]]).round(12)
+
+
+def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int, float]:
+    """``(q, yaw, q_next)``: how much better the clock model ``read`` (the DVL as read on the IMU,
+    :func:`~graphnav.calibration.clock.dvl_window_model`) fits at ``offset`` s with the IMU turned ``yaw`` deg about
+    z (the best of :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the
+    smaller squared residual per residual); > 0 the turn fits better. ``q_next``: the same of the next best turn
+    against the best. A turn is tried by turning the DVL velocity and lever arm into the turned IMU's axes; the
+    accelerometer's horizontal axes and the gyro's roll and pitch rates then meet the velocity as mounted."""
+    _, sse0, n_win = read.score(offset)
+    sses = []
+    for yaw in IMU_YAWS_DEG:
+        T = turn_about_z(yaw).T
+        model, _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
+                                    ints=read.imu)
+        sses.append((model.score(offset)[1], yaw))
+    (sse, yaw), (sse_next, _) = sorted(sses)[:2]
+    n = 3 * read.window * n_win
+    return (sse0 - sse) / max(min(sse0, sse) / n, 1e-300), yaw, (sse_next - sse) / max(sse / n, 1e-300)
+
+
+def _forward(dvl, config) -> bool:
+    """The DVL's mean horizontal direction (pings over the course speed) lies within :data:`FORWARD_COURSE_RAD`
+    of body +x."""
+    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.io.dvl_frame import COURSE_MIN_SPEED_MPS
+    _, v = dvl_velocity_b(dvl, config)
+    h = v[:, 0] + 1j * v[:, 1]
+    h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
+    return bool(h.size) and abs(np.angle(np.sum(h / np.abs(h)))) <= FORWARD_COURSE_RAD
+
+
+def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0) -> None:
+    """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
+    and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
+    better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
+    mounted yawed, which gravity cannot see. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
+    two 20 s windows of pings, or too little change of velocity). ``frame["signs"]``: the ``imu_axis_signs`` applied
+    (an A-KIT folder), whose negated x and y fix a 180 deg turn. ``model``: the clock model when built already;
+    ``offset``: s added to its DVL stamps."""
+    try:
+        model = model or dvl_window_model(imu, dvl, config)[0]
+    except DataError as exc:
+        add_note(meta, "imu", f"its mounting about z not checked against the DVL (under two {WINDOW_S:g} s windows "
+                              f"of pings with a velocity: {exc.message}): a turned IMU is seen then only against a "
+                              "reference attitude")
+        return
+    q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offset)
+    if q >= IMU_YAW_MIN_Q and not _forward(dvl, config):
+        return              # the DVL is the one turned (its velocity does not point forward): the DVL's yaw warning
+    if abs(q) < IMU_YAW_MIN_Q:
+        add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
+                              f"as read from the IMU turned {yaw} deg by {q:+.0f} noise variances ({IMU_YAW_MIN_Q:g} "
+                              "needed: a longer log, or one with more changes of speed and course)")
+        return
+    if q < 0:
+        return
+    P = turn_about_z(yaw)
+    other = "" if q_next >= IMU_YAW_MIN_Q else f" (or another quarter turn: the next fits {q_next:.0f} worse)"
+    signs = frame.get("signs")
+    fix = TURN_ADVICE[0].lower() + TURN_ADVICE[1:]
+    if signs is not None:
+        fix = (f"set imu_axis_signs {tuple(int(s) for s in np.asarray(signs) * [-1, -1, 1])} in a --config file (x "
+               "and y negated)" if yaw == 180 else "turn the accelerometer and gyro columns of the file into the body "
+               "frame (imu_axis_signs only negates axes)")
+    raise DataError(f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity "
+                    f"(pointing forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise "
+                    f"variances with them turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the "
+                    f"body frame ({mounting_text(P)}): {fix}", imu.source, field=frame["fields"])
+
+
 def _likely_unit(scale: float) -> str:
     name, factor = min(LIKELY_UNITS.items(), key=lambda kv: abs(np.log(scale / kv[1])))
     return name if abs(np.log(scale / factor)) < np.log(MAX_SCALE_ERROR) / 2 else "a wrong velocity_unit"
 
 
-def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False) -> None:
+def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None
+                               ) -> None:
     """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
     speed unit read wrong) or in FLU axes read as FRD (:func:`flu_fit_ratio`), naming the DVL file and its columns
     (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
     taken where its fit is best within +- :data:`SCALE_SEARCH_S` (a wrong scale misleads the clock search by
     seconds). ``moved``: the clock search has just put the DVL on the IMU clock, so the loader could not check it
-    for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here."""
+    for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here. ``imu_frame``: the IMU's
+    declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude checked its axes: its
+    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves)."""
     from graphnav.calibration.clock import dvl_velocity_b
     field = meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model, _ = dvl_window_model(imu, dvl, config)
     except DataError:
+        if imu_frame is not None:
+            check_imu_yaw(imu, dvl, config, meta, imu_frame)        # says it could not be checked
         return
     if moved:
         from graphnav.io.dvl_frame import check_not_earth_frame
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
-    fits = [speed_scale(model, o) for o in np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)]
-    scale, r2, yaw = max(fits, key=lambda f: np.nan_to_num(f[1], nan=-1.0))
+    offsets = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
+    fits = [speed_scale(model, o) for o in offsets]
+    best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
+    scale, r2, yaw = fits[best]
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
                         f"{_likely_unit(scale)}?", dvl.source, field=field)
+    if imu_frame is not None:           # before the DVL's yaw: a turned IMU turns the velocity against it too
+        check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets[best] if np.isfinite(r2) else 0.0)
     if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
         text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
                 f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "

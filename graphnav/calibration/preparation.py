@@ -26,7 +26,9 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 
 Bags, CSV logs and PD0 files: the IMU frame the column map or the bag's frame_id declares is checked by the same
 detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that contradict a frame a user declared are a
-DataError, an implied frame is corrected with a warning; a depth is checked against the vehicle's vertical velocity
+DataError, an implied frame is corrected with a warning; without a reference attitude on the IMU clock, an IMU
+turned about z is found against the DVL (:func:`graphnav.calibration.dvl_scale.check_imu_yaw`, also for an A-KIT
+folder without GT); a depth is checked against the vehicle's vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
@@ -272,6 +274,11 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, im
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
+    from graphnav.calibration.dvl_scale import check_imu_yaw
+    from graphnav.io.loaders import AKIT_COLUMNS
+    signs = tuple(int(s) for s in cfg.imu_axis_signs)
+    check_imu_yaw(imu, dvl, cfg, meta, {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
+                                        "fields": "/".join(AKIT_COLUMNS["IMU"][1:])})
     meta["time_offsets"] = {}
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
@@ -392,6 +399,9 @@ def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | No
 def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     """The IMU frame checked, a DVL on its own clock put on the IMU's, the depth's sign and unit checked; a bag
     without heading told whether it can gyrocompass."""
+    # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
+    unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
+        facts.get("imu_frame")
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
     # before the reference's time offset and the clock search, which integrate the gyro
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -400,7 +410,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
     if on_the_imu_clock(dvl.t, mission.imu.t):
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta)
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
@@ -411,7 +421,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         searched = dvl
         dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
         if dvl is not searched:
-            check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True)
+            check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
         if new is not old and stream in meta.get("streams", {}):
             set_span(meta, stream, new.t)           # the stamps as the mission holds them
