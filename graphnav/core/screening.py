@@ -270,10 +270,48 @@ IMU_BURST_SHARE = 0.2
 IMU_BURST_GAP_CYCLES = 4.0
 
 
+#: Stamps on a grid coarser than this share of the IMU's step are quantised (a 400 Hz IMU logged in whole ms: steps
+#: of 2 and 3 ms on a 1 ms grid, whose median reads 333 or 500 Hz): their period is the mean step, not the median.
+IMU_STAMP_QUANTUM_SHARE = 0.1
+
+
+def imu_stamp_quantum(steps: np.ndarray) -> float:
+    """The grid of an IMU's stamps from the steps between them (s), s, when it is coarser than
+    :data:`IMU_STAMP_QUANTUM_SHARE` of the median step: the steps within half a median of it take two or more
+    lengths, every one a multiple of the shortest difference between them; else 0 (even stamps, jitter finer than
+    the grid, stamps in bursts)."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d) & (d > 0.0)]
+    if not d.size:
+        return 0.0
+    med = float(np.median(d))
+    resolution = 1e-3 * med             # float stamps (Unix seconds) carry ~1e-7 s of rounding
+    near = d[np.abs(d - med) <= 0.5 * med]
+    lengths, which = np.unique(np.round(near / resolution), return_inverse=True)
+    if lengths.size < 2:
+        return 0.0
+    grid = float(np.min(np.diff(lengths)))
+    if not np.all(np.abs(lengths / grid - np.round(lengths / grid)) <= 1.0 / grid):
+        return 0.0
+    means = np.bincount(which, near) / np.bincount(which)          # each length as logged, not its rounding
+    quantum = float(np.min(np.diff(means)))
+    return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
+
+
+def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
+    """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
+    grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
+    sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count."""
+    one = d[np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med]
+    first = float(np.mean(one))
+    return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
+
+
 def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
                    ) -> tuple[float, float]:
     """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
-    out), s: for even stamps both are the median step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
+    out), s: for even stamps both are the median step, for stamps quantised coarser than a tenth of it
+    (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
     the mean step without the gaps (so the rate is samples over time) and the cycle the median long step, the
     longest step a gap is not. A median step within ``tolerance`` (relative) of the ``expected_s`` period (the
     configured one) is that period whatever the long steps: they are gaps and stutters, not bursts (a start with four
@@ -283,6 +321,9 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     if not d.size:
         return math.nan, math.nan
     med = float(np.median(d))
+    quantum = imu_stamp_quantum(d)
+    if quantum:
+        med = _quantised_period(d, med, quantum)
     long = d > 2.0 * med
     if expected_s is not None and abs(med - expected_s) <= tolerance * expected_s:
         return med, med
