@@ -572,4 +572,7 @@ def test_dvl_messages_of_exactly_zero_under_way_are_no_bottom_lock(sim, tmp_path
         m = load_mission(path, config)
     assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 10}
     assert not m.dvl.valid[10:20].any()
-    assert any(NO_BOTTOM_LOCK in str(w.message) and "/dvl" in str(w.message) for w in rec)
+    # named by the topic's message index and its time, not the ping's index in the arrays
+    said = [str(w.message) for w in rec if NO_BOTTOM_LOCK in str(w.message)]
+    assert said and "/dvl" in said[0]
+    assert f"at message 10 (t = {mission.dvl.t[10]:.3f} s), message 11 (t = {mission.dvl.t[11]:.3f} s)," in said[0]

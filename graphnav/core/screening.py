@@ -697,10 +697,11 @@ def warn_no_bottom_lock(no_lock: np.ndarray, lines: np.ndarray, source: str) -> 
 # counting (loaders)
 # ------------------------------------------------------------------------------------------------
 def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, line_offset: int = 0,
-           unit: str = "sample", lines: np.ndarray | None = None) -> np.ndarray:
+           unit: str = "sample", lines: np.ndarray | None = None, where: list[str] | None = None) -> np.ndarray:
     """Count the samples of ``masks`` (reason -> (N,) bool; a sample under its first reason) as refused in
     ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (``lines``,
-    the file line of each sample, when given; else index + ``line_offset``). Returns the union mask."""
+    the file line of each sample, when given; ``where``, where the file holds each sample, e.g. a PD0 ensemble or
+    a bag message, when given; else index + ``line_offset``). Returns the union mask."""
     total = np.zeros(len(next(iter(masks.values()))) if masks else 0, dtype=bool)
     parts = []
     for reason, m in masks.items():
@@ -710,11 +711,13 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
             parts.append(f"{int(m.sum())} {reason}")
         total |= m
     if total.any():
-        rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
-        where = first_lines(rows)
-        label = "line(s)" if line_offset or lines is not None else "index(es)"
-        warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
-                      f"{where}; they are not used", RuntimeWarning, stacklevel=3)
+        if where is not None:
+            at = ", ".join(np.asarray(where)[total][:10]) + (" ..." if total.sum() > 10 else "")
+        else:
+            rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
+            at = ("line(s) " if line_offset or lines is not None else "index(es) ") + first_lines(rows)
+        warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {at}; "
+                      "they are not used", RuntimeWarning, stacklevel=3)
     return total
 
 

@@ -329,6 +329,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     imu = conv.imu(imu_s, t0_ns, source, meta)
     _record(meta, "dvl", dvl_s, t0_ns, source)
     dvl, info = conv.dvl(dvl_s, t0_ns, config, source, meta)
+    meta["dvl_ping_where"] = [f"message {i} (t = {t:.3f} s)" for i, t in enumerate(dvl.t)]
     config = _apply_beam_geometry(config, info, source)
     depth = None
     cands = {s.topic: (s, conv.depth_candidate(s, config, atmospheric_pressure_configured))

@@ -578,7 +578,14 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     return DvlLog(t=t, v_d=pings.v_d, v_d_valid=v_d_valid, frame=FRAME_NAMES.get(coord, coord), beams=pings.beams,
                   beam_valid=pings.beam_valid, attitude_deg=attitude, depth_m=depth,
                   v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=pings.three_beam & v_d_valid,
-                  instrument=instrument, counts=counts, source=source)
+                  instrument=instrument, counts=counts, source=source, where=_ensemble_names(ds, scan))
+
+
+def _ensemble_names(ds, scan: Pd0Scan) -> list[str]:
+    """Each ping's ensemble number (the variable leader's) and byte offset in the file, for messages: dolfyn's
+    pings are the checksummed ensembles in file order."""
+    numbers = np.asarray(ds["number"].values, int) if "number" in ds else np.arange(len(ds["time"]))
+    return [f"ensemble {n} (byte {start})" for n, (start, _) in zip(numbers, scan.spans)]
 
 
 def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlData, DepthData | None, dict]:
@@ -599,7 +606,8 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "pd0_beam_psi_rad": log.instrument["beam_psi_rad"],
                   "pd0_frame": log.frame, "pd0_invalid_beams": int((~log.beam_valid).sum()),
                   "dvl_resolution_mps": 0.001,     # whole mm/s in any frame: beams rotated back are off that grid
-                  "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts}
+                  "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts,
+                  "dvl_ping_where": log.where}
     entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
     entry["read"] += unread              # in the file, so read; then refused with its reason
