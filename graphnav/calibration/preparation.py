@@ -426,8 +426,10 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         mission = dataclasses.replace(mission, config=dataclasses.replace(mission.config, dvl_time_offset_s=offset))
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
+        key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
         checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
-                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"))
+                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
+                                   key)
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)

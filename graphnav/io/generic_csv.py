@@ -26,7 +26,8 @@ or deg/s; ``velocity_unit`` m/s, cm/s, mm/s or kn. A unit left out is detected f
 speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
 a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 ``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
-(positive down; ``"positive": "up"`` declares a depth positive up, negated on reading; a declared convention the
+(positive down; ``"positive": "up"`` declares a depth positive up, negated on reading, as ``bag_topics.depth.positive``
+does for a bag's depth topic; a declared convention the
 data contradict is a DataError, an undeclared positive-up depth above the surface is turned with a warning);
 ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro, converted with a
 warning when degrees). The reference's north/east must move with its ``v_n`` and its down change

@@ -38,7 +38,10 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble).
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
-  0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned.
+  0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
+  pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
+  for a ``depth`` column, refused with a ``pressure``); a PD0 file without a pressure sensor takes its depth from
+  ``csv_columns.depth``, where the key applies.
 
 A PD0 file holds the DVL only: for a mission, the IMU comes from the CSV column map of the configuration
 (:mod:`graphnav.io.generic_csv`, whose ``dvl`` entry may name a PD0 file) on the same clock (Unix seconds).
