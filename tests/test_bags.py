@@ -572,4 +572,46 @@ def test_dvl_messages_of_exactly_zero_under_way_are_no_bottom_lock(sim, tmp_path
         m = load_mission(path, config)
     assert m.meta["streams"]["dvl"]["refused"] == {NO_BOTTOM_LOCK: 10}
     assert not m.dvl.valid[10:20].any()
-    assert any(NO_BOTTOM_LOCK in str(w.message) and "/dvl" in str(w.message) for w in rec)
+    # named by the topic's message index and its time, not the ping's index in the arrays
+    said = [str(w.message) for w in rec if NO_BOTTOM_LOCK in str(w.message)]
+    assert said and "/dvl" in said[0]
+    assert f"at message 10 (t = {mission.dvl.t[10]:.3f} s), message 11 (t = {mission.dvl.t[11]:.3f} s)," in said[0]
+
+
+def test_a_depth_topic_positive_up_is_declared_in_the_configuration(sim, tmp_path):
+    """A Float64 depth topic positive up lost every sample as 'above the surface' with no key to say so:
+    ``bag_topics.depth.positive`` declares it as ``csv_columns.depth.positive`` declares a column (negated, noted);
+    declared down, the refusal says which key; on a pressure topic the key is a ConfigError."""
+    import dataclasses
+    import warnings
+    mission = sim[0]
+    up = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=-mission.depth.depth))
+    path = bags.write_mission_bag(up, tmp_path / "up", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)
+
+    def config(positive):
+        cfg = mission.config.to_dict()
+        cfg["bag_topics"] = {"depth": {"positive": positive}}
+        (tmp_path / f"{positive}.json").write_text(json.dumps(cfg))
+        return tmp_path / f"{positive}.json"
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        m = load_mission(path, config("up"))
+        np.testing.assert_allclose(m.depth.depth, np.interp(m.depth.t, mission.depth.t, mission.depth.depth),
+                                   atol=1e-6)
+        assert any("declared positive up (bag_topics.depth.positive): negated" in n
+                   for n in m.meta["streams"]["depth"]["notes"])
+        with pytest.warns(RuntimeWarning, match="a depth topic positive up\\? declare bag_topics.depth.positive 'up'"):
+            with pytest.raises(DataError, match="401 of 401 depth samples refused"):
+                load_mission(path, config("down"))
+        with pytest.raises(ConfigError, match="bag_topics.depth.positive = 'sideways': choose down or up"):
+            load_mission(path, config("sideways"))
+        with pytest.raises(ConfigError, match="unknown key 'bag_topics.depth.positiv'; did you mean "
+                                              "'bag_topics.depth.positive'"):
+            cfg = mission.config.to_dict()
+            cfg["bag_topics"] = {"depth": {"positiv": "up"}}
+            (tmp_path / "typo.json").write_text(json.dumps(cfg))
+            load_mission(path, tmp_path / "typo.json")
+        with pytest.raises(ConfigError, match="bag_topics.depth.positive = 'up': the depth is read from the "
+                                              "pressure topic /pressure"):
+            load_mission(sim[2]["mcap"], config("up"))

@@ -114,3 +114,23 @@ def test_a_live_stream_at_another_rate_than_its_configuration_is_not_a_gap_at_ev
     gaps = [(g.t_start, round(g.t_end - g.t_start, 6)) for g in keyframer.stats.imu_gaps]
     assert gaps == [(t[int(10 * rate) - 1], 1.0)]
     assert keyframer.imu_period.period_s == pytest.approx(1.0 / rate)
+
+
+def test_an_imu_with_stamps_in_whole_milliseconds_is_prepared_at_its_rate(tmp_path):
+    """A 400 Hz IMU logged in ms (steps of 2 and 3 ms, one sample dropped) read 333 or 500 Hz from its median step:
+    prepare reads 400 Hz from its mean step and says the stamps are quantised."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.io.export import write_akit
+    config = SensorConfig()
+    config.imu_rate_hz = 400.0
+    written = simulate_mission(duration_s=30.0, seed=1, config=config, gt_rate_hz=10.0)
+    folder = write_akit(written, tmp_path)["IMU"].parent
+    imu_file = next(folder.glob("IMU_*.csv"))
+    header, *rows = imu_file.read_text().splitlines()
+    del rows[1001]
+    rows = [f"{round(float(r.split(',', 1)[0]) * 1e3 + 0.3) / 1e3:.3f},{r.split(',', 1)[1]}" for r in rows]
+    imu_file.write_text("\n".join([header, *rows]) + "\n")
+    m = _quiet(load_mission, folder)
+    assert m.config.imu_rate_hz == pytest.approx(400.0, rel=1e-3)
+    notes = m.meta["streams"]["imu"]["notes"]
+    assert [n for n in notes if "stamps on a 1 ms grid, 40% of a step (steps of 2, 3 ms)" in n]

@@ -788,3 +788,40 @@ def test_a_long_reference_excursion_is_refused_and_resets_that_stay_are_kept(row
         with pytest.warns(RuntimeWarning, match="2 step"):
             masks = with_position_spikes({}, t, kept, v, spec, fields, "gt.csv")
         assert not np.any(list(masks.values()))
+
+
+def _ms_stamps(n=4000, rate_hz=399.8, phase_ms=0.3, drop=(1001,)):
+    """A ``rate_hz`` IMU whose stamps are logged in whole milliseconds (steps of 2 and 3 ms at 400 Hz, a few more
+    of 3 ms on a clock 0.05 % slow), a sample dropped at each of ``drop``."""
+    return np.delete(np.round(np.arange(n) * 1e3 / rate_hz + phase_ms) / 1e3, list(drop))
+
+
+def test_an_imu_with_stamps_in_whole_milliseconds_reads_its_rate_not_the_median_step():
+    """400 Hz logged in ms has steps of 2 and 3 ms: the median read 333 Hz; the mean step reads 400 Hz, in
+    the batch rate and in a live stream's keyframer (which measures over more steps and says why)."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.core.screening import imu_rate_hz, imu_stamp_quantum
+    from graphnav.estimators.keyframes import Keyframer
+    t = _ms_stamps()
+    assert imu_stamp_quantum(np.diff(t)) == pytest.approx(1e-3, rel=1e-6)
+    assert imu_rate_hz(t) == pytest.approx(399.8, rel=1e-3)
+    assert imu_rate_hz(t, 100.0) == pytest.approx(399.8, rel=1e-3)
+    assert imu_rate_hz(t + 1.6e9, 400.0) == pytest.approx(399.8, rel=1e-3)        # Unix seconds
+    assert imu_rate_hz(_ms_stamps(phase_ms=0.0, drop=(7, 2000, 2001))) == pytest.approx(399.8, rel=1e-3)
+    # even stamps, jitter finer than the grid and bursts are not quantised
+    rng = np.random.default_rng(1)
+    for even in (np.arange(100) * 0.01, np.arange(6000) * 0.01 + rng.normal(0.0, 1e-5, 6000), _burst_stamps()):
+        assert imu_stamp_quantum(np.diff(even)) == 0.0
+    # a stream of 400 Hz stamps with 0.3 ms of jitter rounded to ms (steps of 1-4 ms): its first 16 steps' median
+    # read 333 Hz
+    keyframer = Keyframer(SensorConfig())                                          # imu_rate_hz 100
+    jittered = np.round(np.arange(6000) * 2.5 + np.random.default_rng(0).normal(0.0, 0.3, 6000)) / 1e3
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t_k in jittered:
+            keyframer.add_imu(float(t_k), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    said = [str(w.message) for w in caught]
+    assert [m for m in said if "stamps on a 1 ms grid, 33% of a step" in m]
+    assert [m for m in said if "runs at 399.8 Hz (from its first 3334 steps" in m]
+    assert 1.0 / keyframer.imu_period.period_s == pytest.approx(400.0, rel=2e-3)
+    assert keyframer.stats.imu_gaps == []

@@ -127,9 +127,16 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     ``meta``. The keyframer's gap limit and
     bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
     use the stamps themselves."""
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.screening import imu_rate_hz, imu_stamp_quantum
     configured = float(mission.config.imu_rate_hz)
     measured = imu_rate_hz(mission.imu.t, configured, IMU_RATE_TOLERANCE)
+    steps = np.diff(mission.imu.t)
+    quantum = imu_stamp_quantum(steps)
+    if quantum:
+        add_note(meta, "imu", f"stamps on a {1e3 * quantum:.4g} ms grid, {quantum * measured:.0%} of a step (steps of "
+                 f"{', '.join(f'{1e3 * d:.4g}' for d in np.unique(np.round(steps[steps < 1.5 / measured], 6)))} ms): "
+                 f"the rate is their mean step, {measured:.4g} Hz, not the median's "
+                 f"{1 / np.median(steps):.4g} Hz")
     if not abs(measured - configured) > IMU_RATE_TOLERANCE * configured:      # NaN (one stamp): nothing to say
         return mission
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "
@@ -432,8 +439,10 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         mission = dataclasses.replace(mission, config=dataclasses.replace(mission.config, dvl_time_offset_s=offset))
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
+        key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
         checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
-                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"))
+                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
+                                   key)
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)

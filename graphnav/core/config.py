@@ -203,6 +203,9 @@ class SensorConfig:
         water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
         atmospheric_pressure_pa: surface pressure subtracted from an absolute pressure reading, Pa.
         csv_columns: column map of a team's own CSV logs (:mod:`graphnav.io.generic_csv`); empty when unused.
+        bag_topics: per stream of a ROS bag, what its messages cannot say (:mod:`graphnav.io.bags`,
+            :data:`BAG_TOPIC_KEYS`): ``{"depth": {"positive": "up"}}`` declares a depth topic positive up (negated on
+            reading), as ``csv_columns.depth.positive`` does for a column; empty when unused.
         depth_range_m: (shallowest, deepest) depth the pressure sensor can report, m (positive down). The
             shallow end allows an uncompensated atmospheric pressure or a sensor above the waterline at the
             surface (-10 m); the deep end is the 6000 m rating of deep AUVs. Outside: refused.
@@ -226,6 +229,7 @@ class SensorConfig:
     water_density_kgpm3: float = 1025.0
     atmospheric_pressure_pa: float = 101325.0
     csv_columns: dict = field(default_factory=dict)
+    bag_topics: dict = field(default_factory=dict)
     depth_range_m: tuple = (-10.0, 6000.0)
     depth_jump_tolerance_m: float = 1.0
 
@@ -359,6 +363,7 @@ SCHEMA: dict[str, Key] = {
     "water_density_kgpm3": Key("number", "kg/m^3", low=990.0, high=1100.0),
     "atmospheric_pressure_pa": Key("number", "Pa", low=0.0, high=200000.0),
     "csv_columns": Key("object"),
+    "bag_topics": Key("object"),
 }
 
 #: The keys each stream of ``csv_columns`` accepts (:mod:`graphnav.io.generic_csv` reads them), and under ``""``
@@ -374,25 +379,34 @@ CSV_COLUMN_KEYS: dict[str, tuple[str, ...]] = {
 }
 
 
-def check_column_map(cmap: dict, source: str) -> None:
+#: The keys each stream of ``bag_topics`` accepts (:mod:`graphnav.io.bags` reads them): what a bag's messages cannot
+#: say, with the name and meaning of the same key of :data:`CSV_COLUMN_KEYS`.
+BAG_TOPIC_KEYS: dict[str, tuple[str, ...]] = {"depth": ("positive",)}
+
+
+def check_column_map(cmap: dict, source: str, section: str = "csv_columns") -> None:
     """ConfigError naming ``source`` and the key for a ``csv_columns`` key that :data:`CSV_COLUMN_KEYS` does not
-    list (with the closest accepted name), or a stream entry that is not a JSON object."""
-    streams = [k for k in CSV_COLUMN_KEYS if k]
+    list (with the closest accepted name), or a stream entry that is not a JSON object; ``section`` ``bag_topics``:
+    the same for :data:`BAG_TOPIC_KEYS`."""
+    table = CSV_COLUMN_KEYS if section == "csv_columns" else BAG_TOPIC_KEYS
+    streams, own = [k for k in table if k], table.get("", ())
     for name, spec in cmap.items():
         if name not in streams:
-            _unknown_column_key(source, "", name, streams + list(CSV_COLUMN_KEYS[""]), CSV_COLUMN_KEYS[""])
+            _unknown_column_key(source, section, "", name, streams + list(own), own)
         elif not isinstance(spec, dict):
-            raise ConfigError(f"{source}: key 'csv_columns.{name}': expected a JSON object of column names "
-                              f"({{\"file\": ..., \"t\": ...}}), got {_got(spec)}")
+            example = '{"file": ..., "t": ...}' if section == "csv_columns" else f'{{"{table[name][0]}": ...}}'
+            what = "column names" if section == "csv_columns" else "keys"
+            raise ConfigError(f"{source}: key '{section}.{name}': expected a JSON object of {what} ({example}), got "
+                              f"{_got(spec)}")
         else:
             for key in spec:
-                _unknown_column_key(source, name, key, CSV_COLUMN_KEYS[name], CSV_COLUMN_KEYS[name])
+                _unknown_column_key(source, section, name, key, table[name], table[name])
 
 
-def _unknown_column_key(source: str, stream: str, key: str, choices, accepted) -> None:
+def _unknown_column_key(source: str, section: str, stream: str, key: str, choices, accepted) -> None:
     if key in accepted:
         return
-    where = "csv_columns" + (f".{stream}" if stream else "")
+    where = section + (f".{stream}" if stream else "")
     close = difflib.get_close_matches(str(key), list(choices), n=1, cutoff=0.6)
     hint = f"; did you mean '{where}.{close[0]}'?" if close else f"; {where} accepts {', '.join(choices)}"
     raise ConfigError(f"{source}: unknown key '{where}.{key}'{hint}")
@@ -537,8 +551,8 @@ class ConfigOverrides:
                     values[key] = _check_value(key, SCHEMA[key], v, source)
             elif name in SCHEMA:
                 values[name] = _check_value(name, SCHEMA[name], value, source)
-                if name == "csv_columns":
-                    check_column_map(values[name], source)
+                if name in ("csv_columns", "bag_topics"):
+                    check_column_map(values[name], source, name)
             else:
                 raise ConfigError(f"{source}: unknown key '{name}'{_suggest(str(name), '')}")
         return cls(values, source)
@@ -553,7 +567,7 @@ class ConfigOverrides:
     def over(self, base: SensorConfig) -> SensorConfig:
         """A copy of ``base`` with every key set here replaced, the others kept (key by key)."""
         cfg = dataclasses.replace(base, imu=dataclasses.replace(base.imu), dvl=dataclasses.replace(base.dvl),
-                                  csv_columns=dict(base.csv_columns))
+                                  csv_columns=dict(base.csv_columns), bag_topics=dict(base.bag_topics))
         for key, value in self.values.items():
             target, name = cfg, key
             if "." in key:

@@ -32,13 +32,34 @@ import numpy as np
 from graphnav.core.beam_model import BeamModel
 from graphnav.core.config import DvlSpec
 from graphnav.core.errors import GeometryError
-from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings  # noqa: F401
+from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings, no_bottom_lock  # noqa: F401
 
 
 def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:
     """(M,) speed, m/s, of the least-squares velocity of each ping's valid beams (M,4) m/s; NaN under three."""
     v = DvlGeometry.from_spec(spec).velocity_from_beams(np.where(valid, beams, np.nan), valid, allow_missing=True)
     return np.linalg.norm(v, axis=1)
+
+
+def no_lock_pings(t: np.ndarray, spec: DvlSpec, fine: bool | None = None, *, beams: np.ndarray | None = None,
+                  valid: np.ndarray | None = None, v: np.ndarray | None = None, v_d: np.ndarray | None = None,
+                  v_d_valid: np.ndarray | None = None) -> np.ndarray:
+    """(M,) DVL pings at ``t`` (M,) s logged as exactly 0 that are no bottom lock
+    (:func:`~graphnav.core.screening.no_bottom_lock`), on the same inputs for every reader: a ping's valid beams
+    (``beams`` (M,4) m/s where ``valid``), or its instrument velocity (``v_d`` (M,3) m/s where ``v_d_valid``) when
+    it has fewer than three; without beams, the velocity ``v`` (M,3) m/s as logged. Its speed is that of ``v``
+    (default: solved from the valid beams, :func:`ping_speed`; NaN: that of ``v_d``). ``fine``: the log's
+    resolution is finer than :data:`~graphnav.core.screening.ZERO_RESOLUTION` (None: judged from the values)."""
+    if beams is None:
+        return no_bottom_lock(t, v, np.linalg.norm(v, axis=1), spec, fine)
+    values = np.where(valid, beams, np.nan)
+    speed = ping_speed(beams, valid, spec) if v is None else np.linalg.norm(v, axis=1)
+    if v_d is not None:
+        v_d = np.where(v_d_valid[:, None], v_d, np.nan)
+        own = (valid.sum(axis=1) < 3) & v_d_valid
+        values = np.where(own[:, None], np.column_stack([v_d, np.full(len(v_d), np.nan)]), values)
+        speed = np.where(np.isfinite(speed), speed, np.linalg.norm(v_d, axis=1))
+    return no_bottom_lock(t, values, speed, spec, fine)
 
 
 #: Largest relative difference between the interval of two consecutive DVL pings and the ping period a completer

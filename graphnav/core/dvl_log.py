@@ -39,6 +39,7 @@ class DvlLog:
         counts: per reason, pings read / valid / refused (e.g. ``{"read": 400, "valid": 380, "no bottom
             lock": 20}``).
         source: the file (or file:topic) it came from.
+        where: per ping, where the file holds it, for messages (PD0: ``ensemble N (byte B)``), or None.
     """
 
     t: np.ndarray
@@ -54,6 +55,7 @@ class DvlLog:
     instrument: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
     source: str = "dvl"
+    where: list | None = None
 
     def __len__(self) -> int:
         return len(self.t)

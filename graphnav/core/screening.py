@@ -270,10 +270,48 @@ IMU_BURST_SHARE = 0.2
 IMU_BURST_GAP_CYCLES = 4.0
 
 
+#: Stamps on a grid coarser than this share of the IMU's step are quantised (a 400 Hz IMU logged in whole ms: steps
+#: of 2 and 3 ms on a 1 ms grid, whose median reads 333 or 500 Hz): their period is the mean step, not the median.
+IMU_STAMP_QUANTUM_SHARE = 0.1
+
+
+def imu_stamp_quantum(steps: np.ndarray) -> float:
+    """The grid of an IMU's stamps from the steps between them (s), s, when it is coarser than
+    :data:`IMU_STAMP_QUANTUM_SHARE` of the median step: the steps within half a median of it take two or more
+    lengths, every one a multiple of the shortest difference between them; else 0 (even stamps, jitter finer than
+    the grid, stamps in bursts)."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d) & (d > 0.0)]
+    if not d.size:
+        return 0.0
+    med = float(np.median(d))
+    resolution = 1e-3 * med             # float stamps (Unix seconds) carry ~1e-7 s of rounding
+    near = d[np.abs(d - med) <= 0.5 * med]
+    lengths, which = np.unique(np.round(near / resolution), return_inverse=True)
+    if lengths.size < 2:
+        return 0.0
+    grid = float(np.min(np.diff(lengths)))
+    if not np.all(np.abs(lengths / grid - np.round(lengths / grid)) <= 1.0 / grid):
+        return 0.0
+    means = np.bincount(which, near) / np.bincount(which)          # each length as logged, not its rounding
+    quantum = float(np.min(np.diff(means)))
+    return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
+
+
+def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
+    """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
+    grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
+    sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count."""
+    one = d[np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med]
+    first = float(np.mean(one))
+    return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
+
+
 def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
                    ) -> tuple[float, float]:
     """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
-    out), s: for even stamps both are the median step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
+    out), s: for even stamps both are the median step, for stamps quantised coarser than a tenth of it
+    (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
     the mean step without the gaps (so the rate is samples over time) and the cycle the median long step, the
     longest step a gap is not. A median step within ``tolerance`` (relative) of the ``expected_s`` period (the
     configured one) is that period whatever the long steps: they are gaps and stutters, not bursts (a start with four
@@ -283,6 +321,9 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     if not d.size:
         return math.nan, math.nan
     med = float(np.median(d))
+    quantum = imu_stamp_quantum(d)
+    if quantum:
+        med = _quantised_period(d, med, quantum)
     long = d > 2.0 * med
     if expected_s is not None and abs(med - expected_s) <= tolerance * expected_s:
         return med, med
@@ -661,10 +702,11 @@ def warn_no_bottom_lock(no_lock: np.ndarray, lines: np.ndarray, source: str) -> 
 # counting (loaders)
 # ------------------------------------------------------------------------------------------------
 def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, line_offset: int = 0,
-           unit: str = "sample", lines: np.ndarray | None = None) -> np.ndarray:
+           unit: str = "sample", lines: np.ndarray | None = None, where: list[str] | None = None) -> np.ndarray:
     """Count the samples of ``masks`` (reason -> (N,) bool; a sample under its first reason) as refused in
     ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (``lines``,
-    the file line of each sample, when given; else index + ``line_offset``). Returns the union mask."""
+    the file line of each sample, when given; ``where``, where the file holds each sample, e.g. a PD0 ensemble or
+    a bag message, when given; else index + ``line_offset``). Returns the union mask."""
     total = np.zeros(len(next(iter(masks.values()))) if masks else 0, dtype=bool)
     parts = []
     for reason, m in masks.items():
@@ -674,11 +716,13 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
             parts.append(f"{int(m.sum())} {reason}")
         total |= m
     if total.any():
-        rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
-        where = first_lines(rows)
-        label = "line(s)" if line_offset or lines is not None else "index(es)"
-        warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {label} "
-                      f"{where}; they are not used", RuntimeWarning, stacklevel=3)
+        if where is not None:
+            at = ", ".join(np.asarray(where)[total][:10]) + (" ..." if total.sum() > 10 else "")
+        else:
+            rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
+            at = ("line(s) " if line_offset or lines is not None else "index(es) ") + first_lines(rows)
+        warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {at}; "
+                      "they are not used", RuntimeWarning, stacklevel=3)
     return total
 
 

@@ -55,7 +55,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
-from graphnav.core.screening import imu_step_stats
+from graphnav.core.screening import imu_stamp_quantum, imu_step_stats
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -129,6 +129,10 @@ class KeyframerStats:
 
 #: IMU steps a keyframer measures the stream's period over (their median) before it judges gaps by it.
 IMU_RATE_STEPS = 16
+#: Share of the period that the stamps' grid may make of a quantised stream's measured span: its period is measured
+#: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
+#: step over the median of the first steps, 2, 2.5 or 3 ms).
+IMU_QUANTISED_SPAN_SHARE = 1e-4
 
 
 class ImuPeriod:
@@ -136,30 +140,45 @@ class ImuPeriod:
     (:func:`graphnav.calibration.preparation.prepare`); a live stream's configuration line may name another rate
     (100 Hz for an IMU at 20 Hz would make every step a gap). So the period is the median of the first
     :data:`IMU_RATE_STEPS` steps (:func:`~graphnav.core.screening.imu_step_stats`: samples over time for stamps in
-    bursts) when it is off the configured one by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned
-    once), the configured one otherwise; before those steps, the longer of the configured one and the shortest step
-    so far. Gaps are judged against the longer of the period and a burst's cycle."""
+    bursts, the mean step for stamps quantised coarser than a tenth of it, measured then over as many steps as make
+    the grid :data:`IMU_QUANTISED_SPAN_SHARE` of their span) when it is off the configured one by more than
+    :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned once), the configured one otherwise; before those
+    steps, the longer of the configured one and the shortest step so far. Gaps are judged against the longer of
+    the period and a burst's cycle."""
 
     def __init__(self, configured_s: float):
         self.configured_s = self.period_s = self._cycle_s = configured_s
         self._steps: list[float] = []
+        self._needed = IMU_RATE_STEPS
 
     def add_step(self, dt: float) -> None:
-        """One step between IMU stamps, s (after the first :data:`IMU_RATE_STEPS`, nothing changes)."""
-        if len(self._steps) >= IMU_RATE_STEPS or not dt > 0:
+        """One step between IMU stamps, s (once the period is measured, nothing changes)."""
+        if len(self._steps) >= self._needed or not dt > 0:
             return
         self._steps.append(dt)
-        if len(self._steps) < IMU_RATE_STEPS:
+        if len(self._steps) == IMU_RATE_STEPS:
+            quantum = imu_stamp_quantum(np.asarray(self._steps))
+            if quantum:
+                step = float(np.median(self._steps))
+                self._needed = max(IMU_RATE_STEPS, math.ceil(quantum / (IMU_QUANTISED_SPAN_SHARE * step)))
+                warnings.warn(f"imu: stamps on a {1e3 * quantum:.4g} ms grid, {quantum / step:.0%} "
+                              "of a step: the period is their mean step, measured over the first "
+                              f"{self._needed} steps", RuntimeWarning, stacklevel=4)
+        if len(self._steps) < self._needed:
             self.period_s = max(self.configured_s, min(self._steps))
             return
+        self._measured()
+
+    def _measured(self) -> None:
+        """The period and a burst's cycle from the steps collected, warned about when off the configured one."""
         measured, cycle = imu_step_stats(np.asarray(self._steps), self.configured_s, IMU_RATE_TOLERANCE)
         self.period_s = self.configured_s
         self._cycle_s = cycle if cycle > measured else self._cycle_s     # stamps in bursts
         if abs(measured - self.configured_s) > IMU_RATE_TOLERANCE * self.configured_s:
             self.period_s = measured
-            warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {IMU_RATE_STEPS} steps, "
+            warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {len(self._steps)} steps, "
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
-                          f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=4)
+                          f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=5)
 
     @property
     def gap_limit_s(self) -> float:

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import SensorConfig
-from graphnav.core.errors import DataError
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData)
 from graphnav.core.rotations import C_NED_ENU
@@ -261,10 +261,41 @@ def _surface_pressure(t_s: np.ndarray, p: np.ndarray, config: SensorConfig, conf
                                             "surface)")
 
 
-def depth_candidate(s: Stream, config: SensorConfig, configured_atm: bool) -> dict:
-    """A pressure/depth topic's depth (m, positive down) and its plausibility: ``ok`` and ``why``."""
+PRESSURE = "sensor_msgs/msg/FluidPressure"
+#: The configuration key that declares a depth topic's convention (``SensorConfig.bag_topics``), as
+#: ``csv_columns.depth.positive`` does a column's.
+POSITIVE_KEY = "bag_topics.depth.positive"
+
+
+def declared_positive(config: SensorConfig) -> str | None:
+    """The depth convention the configuration declares (:data:`POSITIVE_KEY`): ``down``, ``up`` or None."""
+    positive = (config.bag_topics.get("depth") or {}).get("positive")
+    if positive not in (None, "down", "up"):
+        raise ConfigError(f"{POSITIVE_KEY} = {positive!r}: choose down or up, for a depth topic (Float64/Float32)")
+    return positive
+
+
+def check_declared_positive(positive: str | None, chosen: Stream | None, source: str, meta: dict) -> None:
+    """A declared convention (:data:`POSITIVE_KEY`) must fit the depth topic read: a ConfigError for a pressure
+    topic (positive down by its physics), a warning when no depth topic is read (the key says nothing then)."""
+    if positive is None:
+        return
+    if chosen is None:
+        warnings.warn(f"{source}: {POSITIVE_KEY} = {positive!r} declared, but no depth topic is read: the key is "
+                      "not used", RuntimeWarning, stacklevel=3)
+    elif chosen.msgtype == PRESSURE:
+        raise ConfigError(f"{POSITIVE_KEY} = {positive!r}: the depth is read from the pressure topic {chosen.topic} "
+                          f"({chosen.msgtype}), whose depth is positive down; the key is for a depth topic "
+                          "(Float64/Float32): drop it, or choose one with --topic depth=TOPIC")
+    elif positive == "up":
+        add_note(meta, "depth", f"{source}:{chosen.topic} declared positive up ({POSITIVE_KEY}): negated")
+
+
+def depth_candidate(s: Stream, config: SensorConfig, configured_atm: bool, positive: str | None = None) -> dict:
+    """A pressure/depth topic's depth (m, positive down) and its plausibility: ``ok`` and ``why``; a depth topic
+    declared ``positive`` up (:data:`POSITIVE_KEY`) is negated."""
     t_s = s.t_ns / 1e9
-    if s.msgtype == "sensor_msgs/msg/FluidPressure":
+    if s.msgtype == PRESSURE:
         p = np.array([m.fluid_pressure for m in s.rows], float)
         finite = p[np.isfinite(p)]
         lo, hi = WATER_PRESSURE_RANGE_PA
@@ -278,7 +309,7 @@ def depth_candidate(s: Stream, config: SensorConfig, configured_atm: bool) -> di
         depth = (p - p_atm) / (config.water_density_kgpm3 * config.gravity_mps2)
         extra = {"atmospheric_pressure_pa": p_atm, "atmosphere": atm_why}
     else:
-        depth = np.array([m.data for m in s.rows], float)
+        depth = np.array([m.data for m in s.rows], float) * (-1.0 if positive == "up" else 1.0)
         if not np.any(depth[np.isfinite(depth)]):
             return {"ok": False, "why": "all zeros"}
         extra = {}
@@ -321,9 +352,11 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict) -> DepthDa
         mask = mask & ~bad
         if mask.any():
             count_refused(meta, "depth", reason, int(mask.sum()))
+            up = reason.startswith("above") and s.msgtype != PRESSURE and mask.mean() > 0.5
             warnings.warn(f"{source}:{s.topic}: {int(mask.sum())} depth sample(s) {reason} dropped (first at "
-                          f"message {int(np.flatnonzero(mask)[0])}, {d[mask][0]:.2f} m)", RuntimeWarning,
-                          stacklevel=3)
+                          f"message {int(np.flatnonzero(mask)[0])}, {d[mask][0]:.2f} m)"
+                          + (f"; a depth topic positive up? declare {POSITIVE_KEY} 'up'" if up else ""),
+                          RuntimeWarning, stacklevel=3)
         bad |= mask
     return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
 

@@ -14,7 +14,11 @@ overrides the choice. Streams and the types read:
   :mod:`graphnav.io.bag_convert` for its frame). The instrument's velocity goes to ``DvlData.v_d``;
 * ``depth``: the most plausible of the ``sensor_msgs/msg/FluidPressure`` topics and the ``std_msgs/Float64``/
   ``Float32`` topics named like depth (water pressure range, not all zeros, varying), the surface pressure
-  estimated when the record starts at the surface, depths range-checked;
+  estimated when the record starts at the surface, depths range-checked. A depth topic is metres positive down;
+  the configuration's ``"bag_topics": {"depth": {"positive": "up"}}`` declares one positive up (negated on
+  reading, noted), with the name and meaning of ``csv_columns.depth.positive``: a declared convention the data
+  contradict is a DataError, not turned (:func:`graphnav.io.units.depth_convention`); on a pressure topic the key
+  is a ConfigError;
 * ``heading``: an AHRS (a ``sensor_msgs/msg/Imu`` whose orientation is filled), a ``Float64``/``Float32``
   topic named like heading or compass (a compass heading: clockwise from north), or a ``geometry_msgs/msg/PoseWithCovarianceStamped`` orientation, into
   ``Mission.heading`` (the replay feeds it to ``Navigator.add_heading``; the aligner uses it instead of
@@ -49,14 +53,13 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import Mission
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
-from graphnav.io.bag_convert import ENU_NED, FLU_FRD, TWIST_DVL, Stream
+from graphnav.io.bag_convert import ENU_NED, FLU_FRD, PRESSURE, TWIST_DVL, Stream
 from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
 from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM,  # noqa: F401
                                   MARINE_ACOUSTIC_DVL, MARINE_DVL, WL_BEAM, WL_DVL, bag_kind, fit_definition,
                                   readable_path, require_rosbags, typestore)
 
 IMU = "sensor_msgs/msg/Imu"
-PRESSURE = "sensor_msgs/msg/FluidPressure"
 FLOATS = ("std_msgs/msg/Float64", "std_msgs/msg/Float32")
 POSE = "geometry_msgs/msg/PoseWithCovarianceStamped"
 ODOM = "nav_msgs/msg/Odometry"
@@ -329,11 +332,14 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     imu = conv.imu(imu_s, t0_ns, source, meta)
     _record(meta, "dvl", dvl_s, t0_ns, source)
     dvl, info = conv.dvl(dvl_s, t0_ns, config, source, meta)
+    meta["dvl_ping_where"] = [f"message {i} (t = {t:.3f} s)" for i, t in enumerate(dvl.t)]
     config = _apply_beam_geometry(config, info, source)
     depth = None
-    cands = {s.topic: (s, conv.depth_candidate(s, config, atmospheric_pressure_configured))
+    positive = conv.declared_positive(config)
+    cands = {s.topic: (s, conv.depth_candidate(s, config, atmospheric_pressure_configured, positive))
              for s in streams.get("depth", [])}
     chosen = conv.choose_depth(cands, source, meta) if cands else None
+    conv.check_declared_positive(positive, cands[chosen][0] if chosen else None, source, meta)
     if chosen:
         s, cand = cands[chosen]
         _record(meta, "depth", s, t0_ns, source)
@@ -372,6 +378,8 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         + ("FRD" if conv.frame_is(frame_id, "_frd") else "REP-103 FLU: no _frd suffix") + ")"}})
     if depth is None:
         meta["depth_source"] = "none"
+    elif positive:              # a declared convention the data may not contradict (the prepare step checks it)
+        meta["prepare"]["depth_positive"] = positive
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
                    heading=heading, fixes=fixes)
 

@@ -26,7 +26,8 @@ or deg/s; ``velocity_unit`` m/s, cm/s, mm/s or kn. A unit left out is detected f
 speeds), converted with a warning and noted in ``meta["streams"]``; a declared unit the data contradict is
 a DataError; ``pressure_unit`` Pa, kPa, bar or dbar (absolute Pa minus
 ``atmospheric_pressure_pa``; bar/dbar taken as gauge, as DVL/CTD pressure sensors report), or ``depth`` in m
-(positive down; ``"positive": "up"`` declares a depth positive up, negated on reading; a declared convention the
+(positive down; ``"positive": "up"`` declares a depth positive up, negated on reading, as ``bag_topics.depth.positive``
+does for a bag's depth topic; a declared convention the
 data contradict is a DataError, an undeclared positive-up depth above the surface is turned with a warning);
 ``angle_unit`` rad or deg (left out: detected from the attitude's turn rate against the gyro, converted with a
 warning when degrees). The reference's north/east must move with its ``v_n`` and its down change
@@ -81,14 +82,13 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig, check_column_map
-from graphnav.core.dvl import ping_speed
+from graphnav.core.dvl import no_lock_pings
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.screening import (
     NO_BOTTOM_LOCK,
     gt_refusals,
     imu_implausible,
-    no_bottom_lock,
     not_finite,
     on_resolution_grid,
     refuse_rows,
@@ -339,7 +339,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             v_b = dvl_velocity_units(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
                                      vdeclared)
             v_b[zero] = 0.0
-            no_lock = no_bottom_lock(t_dvl, v_b, np.linalg.norm(v_b, axis=1), config.dvl, fine=off > on)
+            no_lock = no_lock_pings(t_dvl, config.dvl, off > on, v=v_b)
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
             v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
@@ -353,8 +353,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
             valid = flags & ~np.isnan(beams)
             if v_b is None:
-                no_lock = no_bottom_lock(t_dvl, np.where(valid, beams, np.nan), ping_speed(beams, valid, config.dvl),
-                                         config.dvl, fine=off > on)
+                no_lock = no_lock_pings(t_dvl, config.dvl, off > on, beams=beams, valid=valid)
         elif v_b is not None:
             from graphnav.core.dvl import DvlGeometry
             T_b = DvlGeometry.from_spec(config.dvl).T_b

@@ -96,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import ConfigOverrides, ImuSpec, SensorConfig, read_config
-from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams
+from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams, no_lock_pings
 from graphnav.core.earth import gravity_magnitude, lla_to_ned
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (
@@ -1048,23 +1048,6 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
         add_note(mission.meta, "config", note)
 
 
-def _zeros_without_lock(dvl: DvlData, valid: np.ndarray, v: np.ndarray, spec, resolution: float | None
-                        ) -> np.ndarray:
-    """(M,) pings of a loaded DVL stream logged as exactly 0 that are no bottom lock
-    (:func:`graphnav.core.screening.no_bottom_lock`): a ping's valid beams (``valid``, (M,4)) when three or more,
-    else its instrument velocity ``v_d``; ``v`` (M,3) m/s its velocity from the beams (NaN: from ``v_d``).
-    ``resolution``: the log's as recorded, m/s (PD0: 1 mm/s in any frame, where the beams rotated back from an earth
-    or ship frame are off that grid); None: judged from the values."""
-    values, speed = np.where(valid, dvl.beams, np.nan), np.linalg.norm(v, axis=1)
-    if dvl.v_d is not None:
-        v_d = np.where(dvl.v_d_valid[:, None], dvl.v_d, np.nan)
-        own = (valid.sum(axis=1) < 3) & dvl.v_d_valid
-        values = np.where(own[:, None], np.column_stack([v_d, np.full(len(v_d), np.nan)]), values)
-        speed = np.where(np.isfinite(speed), speed, np.linalg.norm(v_d, axis=1))
-    fine = None if resolution is None else resolution < ZERO_RESOLUTION
-    return no_bottom_lock(dvl.t, values, speed, spec, fine)
-
-
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
@@ -1093,10 +1076,15 @@ def screen_mission(mission: Mission) -> Mission:
     v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(cfg.dvl).velocity_from_beams(
         np.where(valid, dvl.beams, np.nan), valid, allow_missing=True)
     if not meta.get("dvl_zeros_screened"):
-        masks[NO_BOTTOM_LOCK] = _zeros_without_lock(dvl, valid, v, cfg.dvl, meta.get("dvl_resolution_mps"))
+        # the log's resolution as recorded (PD0: 1 mm/s in any frame, where the beams rotated back are off that grid)
+        resolution = meta.get("dvl_resolution_mps")
+        fine = None if resolution is None else resolution < ZERO_RESOLUTION
+        masks[NO_BOTTOM_LOCK] = no_lock_pings(dvl.t, cfg.dvl, fine, beams=dvl.beams, valid=valid, v=v, v_d=dvl.v_d,
+                                              v_d_valid=dvl.v_d_valid)
         v = np.where(masks[NO_BOTTOM_LOCK][:, None], np.nan, v)       # no neighbour of the envelope's spike test
     masks.update({f"outside the envelope ({k})": m for k, m in implausible_pings(dvl.t, v, cfg.dvl).items()})
-    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping")
+    # where the reader's file holds each ping (a PD0 ensemble, a bag message), for this warning only
+    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping", where=meta.pop("dvl_ping_where", None))
     if bad.any():
         valid = valid & ~bad[:, None]
         dvl = dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,

@@ -38,7 +38,10 @@ then equals RDI's bottom-track beam velocity as recorded, and a convex head has 
   counted (``counts``, and a note of the DVL stream), as a corrupt ensemble (wrong checksum) is, and so are
   bytes before the first ensemble (a logger that started mid-ensemble or wrote a preamble).
 * depth from the pressure sensor (dbar -> m with the configured water density). A pressure word of
-  0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned.
+  0xFFFFFFFF (no sensor: 4.29e6 dbar) or a depth outside :data:`DEPTH_RANGE_M` is invalid, counted, warned. A
+  pressure is positive down by its physics, so there is no convention to declare (``csv_columns.depth.positive`` is
+  for a ``depth`` column, refused with a ``pressure``); a PD0 file without a pressure sensor takes its depth from
+  ``csv_columns.depth``, where the key applies.
 
 A PD0 file holds the DVL only: for a mission, the IMU comes from the CSV column map of the configuration
 (:mod:`graphnav.io.generic_csv`, whose ``dvl`` entry may name a PD0 file) on the same clock (Unix seconds).
@@ -578,7 +581,14 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     return DvlLog(t=t, v_d=pings.v_d, v_d_valid=v_d_valid, frame=FRAME_NAMES.get(coord, coord), beams=pings.beams,
                   beam_valid=pings.beam_valid, attitude_deg=attitude, depth_m=depth,
                   v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=pings.three_beam & v_d_valid,
-                  instrument=instrument, counts=counts, source=source)
+                  instrument=instrument, counts=counts, source=source, where=_ensemble_names(ds, scan))
+
+
+def _ensemble_names(ds, scan: Pd0Scan) -> list[str]:
+    """Each ping's ensemble number (the variable leader's) and byte offset in the file, for messages: dolfyn's
+    pings are the checksummed ensembles in file order."""
+    numbers = np.asarray(ds["number"].values, int) if "number" in ds else np.arange(len(ds["time"]))
+    return [f"ensemble {n} (byte {start})" for n, (start, _) in zip(numbers, scan.spans)]
 
 
 def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlData, DepthData | None, dict]:
@@ -599,7 +609,8 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
                   "pd0_beam_psi_rad": log.instrument["beam_psi_rad"],
                   "pd0_frame": log.frame, "pd0_invalid_beams": int((~log.beam_valid).sum()),
                   "dvl_resolution_mps": 0.001,     # whole mm/s in any frame: beams rotated back are off that grid
-                  "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts}
+                  "pd0_ensembles": len(log), "pd0_instrument": log.instrument["model"], "pd0_counts": log.counts,
+                  "dvl_ping_where": log.where}
     entry = count_read(meta, "dvl", log.t, f"{source}:vel_bt")
     unread = log.counts.get("not read by dolfyn (last ensemble)", 0)
     entry["read"] += unread              # in the file, so read; then refused with its reason

@@ -951,16 +951,18 @@ def depth_rate_fit(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down: np
     return float(dp @ dv / (dv @ dv)), float(dp @ dv / np.sqrt((dp @ dp) * (dv @ dv)))
 
 
-def depth_convention(mission: Mission, meta: dict | None, field: str, declared: str | None = None) -> np.ndarray:
+def depth_convention(mission: Mission, meta: dict | None, field: str, declared: str | None = None,
+                     key: str = "csv_columns.depth.positive") -> np.ndarray:
     """The depth of ``mission`` (m, positive down) checked against the vehicle's vertical velocity
     (:func:`vertical_velocity`, :func:`depth_rate_fit`): changing against it while mostly above the sea surface it is
     positive up, and flipped (a warning, a note); changing against it below the surface, changing at another rate
     (:data:`SAME_UNITS_RATIO`: a pressure in bar or dbar read as metres), or above the surface by more than
     :data:`DEPTH_ABOVE_SURFACE_M` on most samples with nothing to tell why are a DataError naming the depth's
     ``field``. A depth a constant atmosphere deeper than an absolute GT down is warned about (an absolute pressure in
-    dbar read as metres; nothing else can tell it). ``declared``: the convention a column map declares
-    (``csv_columns.depth.positive`` down or up, applied by the reader): a depth then changing against the velocity is
-    a DataError, not turned."""
+    dbar read as metres; nothing else can tell it). ``declared``: the convention the configuration declares under
+    ``key`` (down or up, applied by the reader: ``csv_columns.depth.positive`` for a column map,
+    ``bag_topics.depth.positive`` for a bag): a depth then changing against the velocity is a DataError, not
+    turned."""
     depth = mission.depth
     t_v, v_down, what = vertical_velocity(mission)
     k, r = depth_rate_fit(depth.t, depth.depth, t_v, v_down)
@@ -969,7 +971,7 @@ def depth_convention(mission: Mission, meta: dict | None, field: str, declared: 
     above = float(np.median(depth.depth)) < -DEPTH_ABOVE_SURFACE_M
     extent = f"depth {np.min(depth.depth):.4g} to {np.max(depth.depth):.4g} m"
     if decided and k < 0 and declared is not None:
-        raise DataError(f"declared positive {declared!r} (csv_columns.depth.positive), but {fit}: set it to "
+        raise DataError(f"declared positive {declared!r} ({key}), but {fit}: set it to "
                         f"{'up' if declared == 'down' else 'down'!r}", depth.source, field=field)
     if decided and k < 0 and float(np.median(-depth.depth)) >= -DEPTH_ABOVE_SURFACE_M:
         _note(meta, "depth", f"column '{field}' read as depth positive up and turned positive down: {extent} and {fit}",
@@ -983,8 +985,8 @@ def depth_convention(mission: Mission, meta: dict | None, field: str, declared: 
                         depth.source, field=field)
     if above:
         raise DataError(f"{extent}: the vehicle above the sea surface by more than {DEPTH_ABOVE_SURFACE_M:g} m on most "
-                        "samples (depth is metres positive down); a depth positive up (a column map declares it: "
-                        "csv_columns.depth.positive 'up'), or a zero not at the surface? "
+                        f"samples (depth is metres positive down); a depth positive up ({key} 'up' declares it), "
+                        "or a zero not at the surface? "
                         + (fit if np.isfinite(k) else "the vertical motion is too small to tell"),
                         depth.source, field=field)
     _absolute_dbar(mission, meta, field)
