@@ -249,8 +249,10 @@ def window_drift(solution: NavSolution, gt: GroundTruth, t_start: float, t_end: 
 def mission_drift(solution: NavSolution, gt: GroundTruth) -> dict:
     """Drift over the whole mission: the horizontal error at the last solution epoch inside the GT span
     (``end_error_m``, absolute: not less the error at the start, which an estimator started from the GT has
-    not got), the horizontal distance the reference travelled between the first and that epoch
-    (``distance_m``) and their ratio (``drift_pct``, % DT, None under :data:`MIN_DISTANCE_M`)."""
+    not got, except for a start whose position was unknown: :func:`from_start`), the horizontal distance the
+    reference travelled between the first and that epoch (``distance_m``) and their ratio (``drift_pct``, % DT,
+    None under :data:`MIN_DISTANCE_M`)."""
+    solution = from_start(solution, gt)
     aligned, _ = _window(solution, gt, None, None)
     end = float(np.hypot(*(solution.p_n[aligned.mask][-1, :2] - aligned.p_true_n[-1, :2])))
     distance = horizontal_distance(gt.t, gt.p_n, aligned.t[0], aligned.t[-1])
@@ -283,24 +285,39 @@ def track_against_fixes(solution: NavSolution, t_fix: np.ndarray, lat: np.ndarra
 
 
 
-def from_start(solution: NavSolution) -> NavSolution:
-    """``solution`` with its horizontal position covariance counted from the start when the start's position was
-    unknown (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
+def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolution:
+    """``solution`` counted from its start when the start's position was unknown
+    (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
 
-    Such a solution's ``cov_p_n`` holds the unknown origin's covariance at every epoch (100 m by default): true of
-    its absolute position, but a reference is compared from the same start, so its error is the drift since the
-    start. The origin's error is common to every epoch and independent of the dead-reckoned displacement, so the
-    displacement's covariance is the epoch's less the first epoch's (NE block; negative directions clipped to 0).
+    Such a solution holds the unknown origin's covariance at every epoch (100 m by default) and positions from
+    an origin whose error against a reference is whatever it was at the start: true of its absolute position,
+    but a reference compared with it can only measure the drift since the start. The origin's error is common
+    to every epoch and independent of the dead-reckoned displacement, so the displacement's covariance is the
+    epoch's less the start epoch's (NE block; negative directions clipped to 0) and, with a reference ``gt``,
+    its error is the epoch's less the start epoch's (north-east vectors: the positions are shifted by the
+    start's error). The start epoch is the first with a finite position (and covariance) inside ``gt``'s span.
     """
-    if not solution.origin_unknown or solution.cov_p_n is None:
+    if not solution.origin_unknown:
         return solution
-    cov = np.array(solution.cov_p_n, dtype=float)
-    finite = np.flatnonzero(np.all(np.isfinite(cov[:, :2, :2]), axis=(1, 2)))
-    if not len(finite):
+    ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
+    if solution.cov_p_n is not None:
+        ok &= np.all(np.isfinite(solution.cov_p_n[:, :2, :2]), axis=(1, 2))
+    if gt is not None:
+        ok &= (solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])
+    if not ok.any():
         return solution
-    w, v = np.linalg.eigh(cov[:, :2, :2] - cov[finite[0], :2, :2])
-    cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
-    return replace(solution, cov_p_n=cov)
+    k0 = int(np.flatnonzero(ok)[0])
+    changed = {}
+    if solution.cov_p_n is not None:
+        cov = np.array(solution.cov_p_n, dtype=float)
+        w, v = np.linalg.eigh(cov[:, :2, :2] - cov[k0, :2, :2])
+        cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
+        changed["cov_p_n"] = cov
+    if gt is not None:
+        p_n = np.array(solution.p_n, dtype=float)
+        p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
+        changed["p_n"] = p_n
+    return replace(solution, **changed)
 
 
 def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
