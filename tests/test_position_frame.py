@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from graphnav.core.earth import lla_to_ned, ned_to_lla
 from graphnav.core.mission import GroundTruth
-from graphnav.core.solution import LOCAL_ORIGIN, NavSolution
+from graphnav.core.solution import FRAME_FIRST_FIX, LOCAL_ORIGIN, NavSolution, position_frame
 from graphnav.evaluation.consistency import pose_nees
-from graphnav.evaluation.metrics import mission_drift
+from graphnav.evaluation.metrics import drift_line, drift_summary, in_reference_frame, mission_drift
 
 ORIGIN = (np.radians(32.8), np.radians(34.9), 0.0)
 
@@ -47,3 +48,49 @@ def test_a_start_without_its_position_counts_its_error_from_the_start():
     assert m["drift_pct"] == pytest.approx(0.5)
     scores = pose_nees(sol, gt, 60.0)
     assert scores["nees_pos_mission"] == pytest.approx(1.0, abs=1e-6)  # e = (0, 0.01 t), sigma 0.01 t per axis
+
+
+def _placed_by_a_fix(gt: GroundTruth, k_fix: int = 100) -> NavSolution:
+    """Started without its position, placed by a fix at epoch ``k_fix``: the NED frame at the fix's latitude and
+    longitude, offset so that the fix sits at the dead-reckoned position there (``_Aided.fix_ne``)."""
+    dead_reckoned = gt.p_n - gt.p_n[0] + [0.0, 0.0, gt.p_n[0, 2]]       # from a local origin at the start
+    fix_lla = ned_to_lla(gt.p_n[k_fix:k_fix + 1] * [1, 1, 0], ORIGIN)[0]
+    origin = (fix_lla[0], fix_lla[1], 0.0)
+    info = {"alignment": {"position_source": LOCAL_ORIGIN}, "n_fixes": 1}
+    info["position_frame"] = position_frame(info, origin, dead_reckoned[k_fix, :2], float(gt.t[k_fix]))
+    sigma = np.where(gt.t < gt.t[k_fix], 100.0, 1.0)
+    return _estimate(gt, dead_reckoned, sigma, info)
+
+
+def test_a_start_placed_by_a_fix_is_scored_through_latitude_and_longitude():
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]                  # the truth's own origin is elsewhere
+    sol = _placed_by_a_fix(gt)
+    assert sol.info["position_frame"]["set_by"] == FRAME_FIRST_FIX and not sol.origin_unknown
+    # within the few mm by which two tangent planes 300 m apart differ over 400 m
+    np.testing.assert_allclose(in_reference_frame(sol, gt).p_n, gt.p_n, atol=0.01)
+    assert mission_drift(sol, gt)["end_error_m"] < 0.01  # was the frame shift, 277 m
+    assert pose_nees(sol, gt, 150.0)["nees_pos_mission"] < 1e-4
+    # the position is placed: no "unknown start" in what the summary claims, and lat/lon come back from the frame
+    line = drift_line(drift_summary(sol))
+    assert "unknown start" not in line
+    frame = sol.info["position_frame"]
+    lla = ned_to_lla(sol.p_n[-1:] - [*frame["offset_ne_m"], 0.0],
+                     (np.radians(frame["origin_lat_deg"]), np.radians(frame["origin_lon_deg"]), 0.0))
+    np.testing.assert_allclose(lla_to_ned(lla[:, 0], lla[:, 1], lla[:, 2], ORIGIN)[0, :2], gt.p_n[-1, :2], atol=0.01)
+
+
+def test_the_navigator_exports_the_frame_its_first_fix_placed():
+    from graphnav.estimators.align import AlignOptions
+    from graphnav.estimators.runs import run_graph
+    from graphnav.sim.simulate import SurfacingProfile, simulate_mission
+    m = simulate_mission(160.0, seed=4, surfacing=SurfacingProfile(interval_s=60.0, stay_s=10.0))
+    yaw0 = float(np.arctan2(m.gt.C_b_n[0, 1, 0], m.gt.C_b_n[0, 0, 0]))
+    sol = run_graph(m, init="sensors", backend="fixed-lag", align=AlignOptions(initial_heading_rad=yaw0))
+    frame = sol.info["position_frame"]
+    assert frame["set_by"] == FRAME_FIRST_FIX and frame["first_fix_t_s"] == pytest.approx(m.fixes.t[0], abs=1.0)
+    k = int(np.searchsorted(sol.t, frame["first_fix_t_s"]))
+    np.testing.assert_allclose(frame["offset_ne_m"], sol.p_n[k, :2], atol=1.0)   # the dead-reckoned position
+    assert not sol.origin_unknown
+    # scored through the frame, the error is the navigation's (metres), not the start's unknown offset
+    assert mission_drift(sol, m.gt)["end_error_m"] < 10.0

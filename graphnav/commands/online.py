@@ -237,8 +237,9 @@ def run(args) -> int:
         n_total = writer.n_written
     info = nav.info
     written = read_trajectory_csv(csv_path, method=args.method)
-    if info.get("alignment"):
-        written.info["alignment"] = info["alignment"]      # a run started without its position is scored from the start
+    # how the positions were placed: a run started without its position is scored from the start, one a fix
+    # placed later in the fix's frame
+    written.info.update({k: info[k] for k in ("alignment", "position_frame") if info.get(k)})
     duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {
         "method": args.method, "backend": nav.backend_name,
@@ -255,6 +256,7 @@ def run(args) -> int:
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
+        "position_frame": info.get("position_frame"),
         "uncertainty": uncertainty_summary(written), "regressed_beams": regressed_beams_summary(info),
         "completer_state": completer_state(nav.completer),
         "completer_fallbacks": info.get("completer_fallbacks", {}),

@@ -146,6 +146,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt),
+        "position_frame": sol.info.get("position_frame"),
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),

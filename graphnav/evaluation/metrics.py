@@ -248,11 +248,11 @@ def window_drift(solution: NavSolution, gt: GroundTruth, t_start: float, t_end: 
 
 def mission_drift(solution: NavSolution, gt: GroundTruth) -> dict:
     """Drift over the whole mission: the horizontal error at the last solution epoch inside the GT span
-    (``end_error_m``, absolute: not less the error at the start, which an estimator started from the GT has
-    not got, except for a start whose position was unknown: :func:`from_start`), the horizontal distance the
-    reference travelled between the first and that epoch (``distance_m``) and their ratio (``drift_pct``, % DT,
-    None under :data:`MIN_DISTANCE_M`)."""
-    solution = from_start(solution, gt)
+    (``end_error_m``, in the reference's frame; absolute: not less the error at the start, which an estimator
+    started from the GT has not got, except for a start whose position was unknown: :func:`scored`), the
+    horizontal distance the reference travelled between the first and that epoch (``distance_m``) and their
+    ratio (``drift_pct``, % DT, None under :data:`MIN_DISTANCE_M`)."""
+    solution = scored(solution, gt)
     aligned, _ = _window(solution, gt, None, None)
     end = float(np.hypot(*(solution.p_n[aligned.mask][-1, :2] - aligned.p_true_n[-1, :2])))
     distance = horizontal_distance(gt.t, gt.p_n, aligned.t[0], aligned.t[-1])
@@ -318,6 +318,32 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
         p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
         changed["p_n"] = p_n
     return replace(solution, **changed)
+
+
+def in_reference_frame(solution: NavSolution, gt: GroundTruth) -> NavSolution:
+    """``solution`` with its positions in ``gt``'s NED frame when both frames are placed on Earth and differ
+    (``solution.info["position_frame"]``, :func:`graphnav.core.solution.position_frame`, and ``gt.origin_lla``):
+    e.g. a start without its position that the first fix placed at the dead-reckoned position, or an
+    ``initial_lla`` away from the reference's origin. North and east go through latitude and longitude; the down
+    stays the estimate's (the absolute depth in both). Else ``solution`` itself."""
+    frame = solution.info.get("position_frame") or {}
+    if frame.get("origin_lat_deg") is None or gt.origin_lla is None:
+        return solution
+    origin = (np.radians(frame["origin_lat_deg"]), np.radians(frame["origin_lon_deg"]), 0.0)
+    offset = np.r_[np.asarray(frame.get("offset_ne_m") or (0.0, 0.0), float), 0.0]
+    if not offset.any() and np.allclose(origin[:2], gt.origin_lla[:2], rtol=0.0, atol=1e-12):
+        return solution
+    from graphnav.core.earth import lla_to_ned, ned_to_lla
+    lla = ned_to_lla(np.asarray(solution.p_n, float) - offset, origin)
+    p_n = lla_to_ned(lla[:, 0], lla[:, 1], lla[:, 2], gt.origin_lla)
+    p_n[:, 2] = solution.p_n[:, 2]
+    return replace(solution, p_n=p_n)
+
+
+def scored(solution: NavSolution, gt: GroundTruth) -> NavSolution:
+    """``solution`` as a reference ``gt`` scores it: in the reference's frame (:func:`in_reference_frame`) and,
+    when its start's position was unknown, from the start (:func:`from_start`)."""
+    return from_start(in_reference_frame(solution, gt), gt)
 
 
 def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
