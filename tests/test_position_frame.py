@@ -73,7 +73,7 @@ def test_a_start_placed_by_a_fix_is_scored_through_latitude_and_longitude():
     assert pose_nees(sol, gt, 150.0)["nees_pos_mission"] < 1e-4
     # the position is placed: no "unknown start" in what the summary claims, and lat/lon come back from the frame
     line = drift_line(drift_summary(sol))
-    assert "unknown start" not in line
+    assert "unknown start" not in line and "after 1 position fixes" in line
     frame = sol.info["position_frame"]
     lla = ned_to_lla(sol.p_n[-1:] - [*frame["offset_ne_m"], 0.0],
                      (np.radians(frame["origin_lat_deg"]), np.radians(frame["origin_lon_deg"]), 0.0))
@@ -94,3 +94,21 @@ def test_the_navigator_exports_the_frame_its_first_fix_placed():
     assert not sol.origin_unknown
     # scored through the frame, the error is the navigation's (metres), not the start's unknown offset
     assert mission_drift(sol, m.gt)["end_error_m"] < 10.0
+
+
+def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surface():
+    gt = _truth()
+    t_fix = np.r_[np.arange(150.0, 160.0), np.arange(300.0, 310.0)]     # two stays at the surface
+    # the error grows 1 cm/s east and a fix resets it (the estimate is the truth at each fix)
+    since = gt.t - np.where(gt.t >= 310.0, 310.0, np.where(gt.t >= 160.0, 160.0, 0.0))
+    since[(gt.t >= 150.0) & (gt.t < 160.0) | (gt.t >= 300.0) & (gt.t < 310.0)] = 0.0
+    sol = _estimate(gt, gt.p_n + np.c_[0 * since, 0.01 * since, 0 * since], 0.01 * since + 0.5,
+                    {"n_fixes": len(t_fix)})
+    d = drift_summary(sol, gt, t_fix)
+    stays = d["drift_before_fixes"]
+    assert [s["t"] for s in stays] == [149.0, 299.0]
+    assert stays[0]["error_m"] == pytest.approx(1.49) and stays[0]["distance_m"] == pytest.approx(298.0)
+    assert stays[1]["error_m"] == pytest.approx(1.39) and stays[1]["distance_m"] == pytest.approx(280.0)
+    assert stays[1]["drift_pct"] == pytest.approx(1.39 / 2.8)          # since the last fix, at 159 s
+    line = drift_line(d)
+    assert "bounded by the last fix, not a drift" in line and "0.50 % DT (1.39 m over 280.0 m)" in line
