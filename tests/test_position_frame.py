@@ -3,12 +3,15 @@ without its position (from the start), a start a later fix placed (through latit
 that used fixes (its drift before each stay at the surface)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from graphnav import cli
 from graphnav.core.earth import lla_to_ned, ned_to_lla
 from graphnav.core.mission import GroundTruth
-from graphnav.core.solution import FRAME_FIRST_FIX, LOCAL_ORIGIN, NavSolution, position_frame
+from graphnav.core.solution import FRAME_FIRST_FIX, FRAME_UNKNOWN_START, LOCAL_ORIGIN, NavSolution, position_frame
 from graphnav.evaluation.consistency import pose_nees
 from graphnav.evaluation.metrics import drift_line, drift_summary, in_reference_frame, mission_drift
 
@@ -48,6 +51,31 @@ def test_a_start_without_its_position_counts_its_error_from_the_start():
     assert m["drift_pct"] == pytest.approx(0.5)
     scores = pose_nees(sol, gt, 60.0)
     assert scores["nees_pos_mission"] == pytest.approx(1.0, abs=1e-6)  # e = (0, 0.01 t), sigma 0.01 t per axis
+
+
+def test_evaluate_scores_a_written_run_as_its_summary_says_it_started(tmp_path):
+    # the written files did not say the start was unknown: evaluate scored 141 m of origin sigma as a drift
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    gt = _truth()
+    sol = _unknown_start(gt)
+    write_trajectory_csv(tmp_path / "run" / "trajectory.csv", sol)
+    write_tum(tmp_path / "gt.tum", NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n))
+    frame = position_frame(sol.info)
+    assert frame["set_by"] == FRAME_UNKNOWN_START
+    write_json(tmp_path / "run" / "summary.json", {"position_frame": frame, "drift": {"fixes_used": 0},
+                                                   "files": {"trajectory_csv": "run/trajectory.csv"}})
+    assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                     "--json", str(tmp_path / "ev.json")]) == 0
+    res = json.loads((tmp_path / "ev.json").read_text())
+    assert res["end_horizontal_error_m"] == pytest.approx(4.0, abs=1e-4)
+    assert res["sigma_h_end_pct"] == pytest.approx(np.hypot(4.0, 4.0) / 8.02, rel=1e-3)  # 5.66 m, the estimate's 802 m
+    assert res["nees_position_mean"] == pytest.approx(1.0, rel=1e-3)
+    assert res["position_frame"]["set_by"] == FRAME_UNKNOWN_START
+    # a summary that does not list the file says nothing about it
+    write_json(tmp_path / "run" / "summary.json", {"position_frame": frame, "files": {"other": "x.csv"}})
+    assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                     "--json", str(tmp_path / "ev.json")]) == 0
+    assert json.loads((tmp_path / "ev.json").read_text())["sigma_h_end_pct"] > 10.0
 
 
 def _placed_by_a_fix(gt: GroundTruth, k_fix: int = 100) -> NavSolution:
