@@ -290,6 +290,10 @@ def print_summary(summary: dict, file=None) -> None:
         done = init.get("completed_t")
         out(f"  initial state aligned from the sensors at t = {init['t']:.1f} s (heading: {init['heading_source']}"
             + (f"; alignment completed at t = {done:.1f} s)" if done is not None else ")"))
+    from graphnav.core.solution import position_frame_line
+    line = position_frame_line(summary.get("position_frame"))
+    if line:
+        out(f"  {line}")
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")

@@ -41,7 +41,7 @@ from graphnav.commands.common import (
 )
 from graphnav.core.errors import ConfigError
 from graphnav.evaluation.methods import GRAPH_TC, METHODS, completer_state
-from graphnav.evaluation.metrics import drift_summary
+from graphnav.evaluation.metrics import drift_summary, fix_stamps
 
 #: The methods that run sample by sample (every one but the batch smoother), in the registry's order.
 STREAMING_METHODS = tuple(name for name, m in METHODS.items() if not m.batch)
@@ -237,8 +237,9 @@ def run(args) -> int:
         n_total = writer.n_written
     info = nav.info
     written = read_trajectory_csv(csv_path, method=args.method)
-    if info.get("alignment"):
-        written.info["alignment"] = info["alignment"]      # a run started without its position is scored from the start
+    # how the positions were placed: a run started without its position is scored from the start, one a fix
+    # placed later in the fix's frame, and one that used fixes by its drift between them
+    written.info.update({k: info[k] for k in ("alignment", "position_frame", "n_fixes") if info.get(k)})
     duration = float(written.t[-1] - written.t[0]) if len(written.t) > 1 else 0.0
     summary = {
         "method": args.method, "backend": nav.backend_name,
@@ -254,7 +255,9 @@ def run(args) -> int:
         "refused": info["refused"], "stream": stream_info, "health": run_health_record(info, mission),
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
-        "drift": drift_summary(written, None if mission is None else mission.gt) if len(written.t) else None,
+        "drift": (drift_summary(written, None if mission is None else mission.gt, fix_stamps(mission))
+                  if len(written.t) else None),
+        "position_frame": info.get("position_frame"),
         "uncertainty": uncertainty_summary(written), "regressed_beams": regressed_beams_summary(info),
         "completer_state": completer_state(nav.completer),
         "completer_fallbacks": info.get("completer_fallbacks", {}),

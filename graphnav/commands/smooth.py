@@ -31,7 +31,7 @@ from graphnav.commands.common import (
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import GRAPH_HN_BATCH, METHODS
-from graphnav.evaluation.metrics import drift_summary
+from graphnav.evaluation.metrics import drift_summary, fix_stamps
 
 
 # --- the command ----------------------------------------------------------------------------------------
@@ -145,7 +145,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt),
+        "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt, fix_stamps(mission)),
+        "position_frame": sol.info.get("position_frame"),
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),

@@ -10,6 +10,51 @@ import numpy as np
 #: covariance (``AlignOptions.local_origin_sigma_m``) is in every epoch's ``cov_p_n``.
 LOCAL_ORIGIN = "local origin at start"
 
+#: ``info["position_frame"]["set_by"]``: how the NED frame of a solution's positions was placed (see
+#: :func:`position_frame`).
+FRAME_INITIAL_STATE = "initial state"        # the initial state's frame (the ground truth's, with --init gt)
+FRAME_INITIAL_LLA = "initial_lla"            # the alignment's given latitude and longitude
+FRAME_FIX_AT_START = "fix at start"          # a position fix during the alignment
+FRAME_FIRST_FIX = "first fix"                # the first fix after a start without position, at its offset
+FRAME_UNKNOWN_START = "unknown start"        # dead-reckoned from a start whose place on Earth is unknown
+_ALIGNMENT_FRAMES = {LOCAL_ORIGIN: FRAME_UNKNOWN_START, "initial_lla": FRAME_INITIAL_LLA,
+                     "fix": FRAME_FIX_AT_START}
+
+
+def position_frame(info: dict, origin_lla=None, offset_ne_m=(0.0, 0.0), first_fix_t: float | None = None) -> dict:
+    """Where a solution's NED positions are on Earth, as ``info["position_frame"]`` and summary.json hold it.
+
+    ``set_by`` (one of the ``FRAME_*`` values) says how the frame was placed; ``origin_lat_deg`` and
+    ``origin_lon_deg`` (None when unknown) are the tangent point ``origin_lla`` (rad, rad, m) of the NED frame,
+    and ``offset_ne_m`` the north and east (m) that point has in the positions: the latitude and longitude of a
+    position ``p_n`` are ``graphnav.core.earth.ned_to_lla(p_n - [offset_n, offset_e, 0], origin)``. A start without
+    its position that a fix places later (``first_fix_t_s``) keeps its dead-reckoned positions: the fix's point
+    is put where the estimate was at that fix, so the offset is the dead-reckoned position there.
+    ``info`` is the run's (its ``alignment`` when aligned from the sensors)."""
+    source = (info.get("alignment") or {}).get("position_source")
+    set_by = FRAME_FIRST_FIX if first_fix_t is not None else _ALIGNMENT_FRAMES.get(source, FRAME_INITIAL_STATE)
+    known = origin_lla is not None
+    return {"set_by": set_by, "origin_lat_deg": float(np.degrees(origin_lla[0])) if known else None,
+            "origin_lon_deg": float(np.degrees(origin_lla[1])) if known else None,
+            "offset_ne_m": [float(x) for x in offset_ne_m], "first_fix_t_s": first_fix_t}
+
+
+def position_frame_line(frame: dict | None) -> str:
+    """One line of a summary's ``position_frame`` (:func:`graphnav.core.solution.position_frame`): where the
+    positions are on Earth; empty for the initial state's own frame (the ground truth's, nothing to say)."""
+    if not frame or frame.get("set_by") == FRAME_INITIAL_STATE:
+        return ""
+    if frame["set_by"] == FRAME_UNKNOWN_START:
+        return ("positions: NED from the start, whose place on Earth is unknown (no fix, no initial position): "
+                "scored from the start")
+    n, e = frame["offset_ne_m"]
+    line = (f"positions: NED tangent at lat {frame['origin_lat_deg']:.7f} deg, lon {frame['origin_lon_deg']:.7f} deg"
+            f" ({frame['set_by']}")
+    if frame["set_by"] == FRAME_FIRST_FIX:
+        line += (f" at t = {frame['first_fix_t_s']:.1f} s, which sits at north {n:.2f} m, east {e:.2f} m: "
+                 "latitude/longitude of p_n are those of p_n less that offset")
+    return line + ")"
+
 
 @dataclass
 class NavSolution:
@@ -58,5 +103,10 @@ class NavSolution:
 
     @property
     def origin_unknown(self) -> bool:
-        """True when the start's horizontal position was not known (:data:`LOCAL_ORIGIN`)."""
+        """True when the solution's horizontal positions are relative to a start whose place on Earth is unknown:
+        started without its position (:data:`LOCAL_ORIGIN`) and not placed by a fix later
+        (``info["position_frame"]``, :func:`position_frame`)."""
+        frame = self.info.get("position_frame")
+        if frame is not None:
+            return frame.get("set_by") == FRAME_UNKNOWN_START
         return (self.info.get("alignment") or {}).get("position_source") == LOCAL_ORIGIN

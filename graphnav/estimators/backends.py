@@ -20,6 +20,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import EarthModel, lla_to_ned
 from graphnav.core.errors import ConfigError
 from graphnav.core.rotations import so3_exp_batch
+from graphnav.core.solution import position_frame
 from graphnav.estimators.ekf import IE, EkfOptions, ErrorStateEkf
 from graphnav.estimators.graph.builder import GraphContext, graph_keyframe, tangent_down
 from graphnav.estimators.graph.first_pass import DeadReckoningGraph
@@ -41,6 +42,9 @@ class _Aided:
 
     origin_lla: tuple[float, float, float] | None = None
     n_fixes: int = 0
+    #: stamp (s) of the fix that placed the origin, and the dead-reckoned north/east (m) the origin took there
+    first_fix_t: float | None = None
+    origin_offset_ne: np.ndarray = np.zeros(2)
 
     def fix_ne(self, kf: Keyframe, p_n_pred: np.ndarray) -> np.ndarray | None:
         if kf.fix is None:
@@ -48,9 +52,15 @@ class _Aided:
         self.n_fixes += 1
         if self.origin_lla is None:
             self.origin_lla = (kf.fix.lat, kf.fix.lon, 0.0)
-            self._origin_offset_ne = np.asarray(p_n_pred[:2], float).copy()
+            self.origin_offset_ne = np.asarray(p_n_pred[:2], float).copy()
+            self.first_fix_t = float(kf.t)
         ned = lla_to_ned(np.array([kf.fix.lat]), np.array([kf.fix.lon]), np.array([0.0]), self.origin_lla)[0]
-        return ned[:2] + getattr(self, "_origin_offset_ne", np.zeros(2))
+        return ned[:2] + self.origin_offset_ne
+
+    def position_frame(self, info: dict) -> dict:
+        """Where the positions are on Earth (:func:`graphnav.core.solution.position_frame`), ``info`` the
+        Navigator's (its alignment says how the start was placed)."""
+        return position_frame(info, self.origin_lla, self.origin_offset_ne, self.first_fix_t)
 
 
 class GraphBackend(_Aided):

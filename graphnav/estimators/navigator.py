@@ -447,6 +447,8 @@ class Navigator:
             a = self.alignment
             info["alignment"] = {**a.info, "t": a.t, "heading_source": a.heading_source,
                                  "completed_t": self.alignment_ready_t}
+        if self.backend is not None:
+            info["position_frame"] = self.backend.position_frame(info)
         return info
 
     def keyframe_graphs(self) -> list:

@@ -50,12 +50,12 @@ from graphnav.core.mission import GroundTruth
 from graphnav.core.solution import NavSolution
 from graphnav.core.timeseries import finite_rows, interp_rows
 from graphnav.evaluation.metrics import (
-    from_start,
     _window,
     heading_errors,
     nees_heading,
     nees_position,
     nees_velocity,
+    scored,
 )
 
 #: dof of the velocity NEES.
@@ -147,12 +147,13 @@ def pose_nees(sol: NavSolution, reference: GroundTruth, t_start: float | None = 
     ``[t_start, t_end]``: ``nees_pos_mission`` / ``nees_heading_mission`` (mean), ``*_n_independent`` (for
     :func:`chi2_band` with ``dof`` :data:`POSITION_DOF` / :data:`HEADING_DOF`), ``*_decorrelation_s``,
     ``*_epochs_without_sigma`` and ``*_epochs_lost`` (:func:`_nees_stats`'s rule); all None for a quantity whose
-    covariance the solution does not carry (never a made-up number). The position of a solution started without
-    its position is scored from the start (:func:`graphnav.evaluation.metrics.from_start`)."""
+    covariance the solution does not carry (never a made-up number). The position is scored in the reference's
+    frame and, for a solution started without its position, from the start
+    (:func:`graphnav.evaluation.metrics.scored`)."""
     out = pose_nees_none()
     if sol.cov_p_n is None and sol.cov_rot_b is None:
         return out
-    sol = from_start(sol)
+    sol = scored(sol, reference)
     aligned, sel = _window(sol, reference, t_start, t_end)
     t = aligned.t[sel]
     if sol.cov_p_n is not None:
@@ -189,7 +190,7 @@ def window_nees(sol: NavSolution, reference: GroundTruth, t_start: float, t_end:
     """``nees_window``, ``nees_pos_window`` and ``nees_heading_window``: mean velocity / position / heading NEES
     over one window by :func:`scored_mean`'s rule (None without the covariance; a window without any NEES: the
     velocity's NaN, the others None, as the benchmark has always stored them)."""
-    sol = from_start(sol)
+    sol = scored(sol, reference)
     aligned, sel = _window(sol, reference, t_start, t_end)
     rows = np.flatnonzero(aligned.mask)[sel]
     out = {"nees_window": None, "nees_pos_window": None, "nees_heading_window": None}

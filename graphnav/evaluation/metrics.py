@@ -248,9 +248,11 @@ def window_drift(solution: NavSolution, gt: GroundTruth, t_start: float, t_end: 
 
 def mission_drift(solution: NavSolution, gt: GroundTruth) -> dict:
     """Drift over the whole mission: the horizontal error at the last solution epoch inside the GT span
-    (``end_error_m``, absolute: not less the error at the start, which an estimator started from the GT has
-    not got), the horizontal distance the reference travelled between the first and that epoch
-    (``distance_m``) and their ratio (``drift_pct``, % DT, None under :data:`MIN_DISTANCE_M`)."""
+    (``end_error_m``, in the reference's frame; absolute: not less the error at the start, which an estimator
+    started from the GT has not got, except for a start whose position was unknown: :func:`scored`), the
+    horizontal distance the reference travelled between the first and that epoch (``distance_m``) and their
+    ratio (``drift_pct``, % DT, None under :data:`MIN_DISTANCE_M`)."""
+    solution = scored(solution, gt)
     aligned, _ = _window(solution, gt, None, None)
     end = float(np.hypot(*(solution.p_n[aligned.mask][-1, :2] - aligned.p_true_n[-1, :2])))
     distance = horizontal_distance(gt.t, gt.p_n, aligned.t[0], aligned.t[-1])
@@ -283,27 +285,115 @@ def track_against_fixes(solution: NavSolution, t_fix: np.ndarray, lat: np.ndarra
 
 
 
-def from_start(solution: NavSolution) -> NavSolution:
-    """``solution`` with its horizontal position covariance counted from the start when the start's position was
-    unknown (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
+def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolution:
+    """``solution`` counted from its start when the start's position was unknown
+    (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
 
-    Such a solution's ``cov_p_n`` holds the unknown origin's covariance at every epoch (100 m by default): true of
-    its absolute position, but a reference is compared from the same start, so its error is the drift since the
-    start. The origin's error is common to every epoch and independent of the dead-reckoned displacement, so the
-    displacement's covariance is the epoch's less the first epoch's (NE block; negative directions clipped to 0).
+    Such a solution holds the unknown origin's covariance at every epoch (100 m by default) and positions from
+    an origin whose error against a reference is whatever it was at the start: true of its absolute position,
+    but a reference compared with it can only measure the drift since the start. The origin's error is common
+    to every epoch and independent of the dead-reckoned displacement, so the displacement's covariance is the
+    epoch's less the start epoch's (NE block; negative directions clipped to 0) and, with a reference ``gt``,
+    its error is the epoch's less the start epoch's (north-east vectors: the positions are shifted by the
+    start's error). The start epoch is the first with a finite position (and covariance) inside ``gt``'s span.
     """
-    if not solution.origin_unknown or solution.cov_p_n is None:
+    if not solution.origin_unknown:
         return solution
-    cov = np.array(solution.cov_p_n, dtype=float)
-    finite = np.flatnonzero(np.all(np.isfinite(cov[:, :2, :2]), axis=(1, 2)))
-    if not len(finite):
+    ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
+    if solution.cov_p_n is not None:
+        ok &= np.all(np.isfinite(solution.cov_p_n[:, :2, :2]), axis=(1, 2))
+    if gt is not None:
+        ok &= (solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])
+    if not ok.any():
         return solution
-    w, v = np.linalg.eigh(cov[:, :2, :2] - cov[finite[0], :2, :2])
-    cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
-    return replace(solution, cov_p_n=cov)
+    k0 = int(np.flatnonzero(ok)[0])
+    changed = {}
+    if solution.cov_p_n is not None:
+        cov = np.array(solution.cov_p_n, dtype=float)
+        w, v = np.linalg.eigh(cov[:, :2, :2] - cov[k0, :2, :2])
+        cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
+        changed["cov_p_n"] = cov
+    if gt is not None:
+        p_n = np.array(solution.p_n, dtype=float)
+        p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
+        changed["p_n"] = p_n
+    return replace(solution, **changed)
 
 
-def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
+def in_reference_frame(solution: NavSolution, gt: GroundTruth) -> NavSolution:
+    """``solution`` with its positions in ``gt``'s NED frame when both frames are placed on Earth and differ
+    (``solution.info["position_frame"]``, :func:`graphnav.core.solution.position_frame`, and ``gt.origin_lla``):
+    e.g. a start without its position that the first fix placed at the dead-reckoned position, or an
+    ``initial_lla`` away from the reference's origin. North and east go through latitude and longitude; the down
+    stays the estimate's (the absolute depth in both). Else ``solution`` itself."""
+    frame = solution.info.get("position_frame") or {}
+    if frame.get("origin_lat_deg") is None or gt.origin_lla is None:
+        return solution
+    origin = (np.radians(frame["origin_lat_deg"]), np.radians(frame["origin_lon_deg"]), 0.0)
+    offset = np.r_[np.asarray(frame.get("offset_ne_m") or (0.0, 0.0), float), 0.0]
+    if not offset.any() and np.allclose(origin[:2], gt.origin_lla[:2], rtol=0.0, atol=1e-12):
+        return solution
+    from graphnav.core.earth import lla_to_ned, ned_to_lla
+    lla = ned_to_lla(np.asarray(solution.p_n, float) - offset, origin)
+    p_n = lla_to_ned(lla[:, 0], lla[:, 1], lla[:, 2], gt.origin_lla)
+    p_n[:, 2] = solution.p_n[:, 2]
+    return replace(solution, p_n=p_n)
+
+
+def scored(solution: NavSolution, gt: GroundTruth) -> NavSolution:
+    """``solution`` as a reference ``gt`` scores it: in the reference's frame (:func:`in_reference_frame`) and,
+    when its start's position was unknown, from the start (:func:`from_start`)."""
+    return from_start(in_reference_frame(solution, gt), gt)
+
+
+#: Fixes further apart than this (s) belong to different stays at the surface (:func:`surfacings`).
+SURFACING_GAP_S = 60.0
+
+
+def surfacings(t_fix: np.ndarray, gap_s: float = SURFACING_GAP_S) -> list[tuple[float, float]]:
+    """(first, last) stamp (s) of each run of fix stamps ``t_fix`` without a gap longer than ``gap_s``: the stays
+    at the surface a vehicle took its fixes in."""
+    t = np.sort(np.asarray(t_fix, dtype=float))
+    if not len(t):
+        return []
+    cut = np.flatnonzero(np.diff(t) > gap_s)
+    return [(float(t[a]), float(t[b])) for a, b in zip(np.r_[0, cut + 1], np.r_[cut, len(t) - 1])]
+
+
+def drift_before_fixes(solution: NavSolution, gt: GroundTruth, t_fix: np.ndarray) -> list[dict]:
+    """The drift of a solution that used position fixes ``t_fix`` (s): per stay at the surface
+    (:func:`surfacings`) after the solution's first epoch, ``t`` (its last epoch before the stay's first fix,
+    s), ``error_m`` (the horizontal error there, m, in the reference's frame: :func:`scored`), ``distance_m``
+    (what the reference travelled since the previous stay's last fix, or since the start, m) and
+    ``drift_pct`` (% DT, None under :data:`MIN_DISTANCE_M`). With fixes the end error is bounded by the last
+    fix; the error before each stay is what dead reckoning since the previous one cost (as
+    :func:`graphnav.evaluation.fixes.drift_before_surfacings`). A stay whose first fix placed the frame
+    (``position_frame["first_fix_t_s"]``) agrees with the estimate by construction: it only restarts the
+    count."""
+    sol = scored(solution, gt)
+    aligned = align(sol, gt)
+    t = aligned.t
+    err = np.linalg.norm(sol.p_n[aligned.mask][:, :2] - aligned.p_true_n[:, :2], axis=1)
+    placed = (solution.info.get("position_frame") or {}).get("first_fix_t_s")
+    out, t_last = [], float(t[0]) if len(t) else 0.0
+    for w0, w1 in surfacings(np.asarray(t_fix, float)[np.asarray(t_fix) > t_last]):
+        before = np.flatnonzero(t < w0)
+        if before.size and not (placed is not None and w0 <= placed <= w1):
+            i = int(before[-1])
+            distance = horizontal_distance(gt.t, gt.p_n, t_last, t[i])
+            out.append({"t": float(t[i]), "error_m": float(err[i]), "distance_m": distance,
+                        "drift_pct": drift_pct(float(err[i]), distance)})
+        t_last = w1
+    return out
+
+
+def fix_stamps(mission) -> np.ndarray | None:
+    """Stamps (s) of a mission's position fixes, or None (no mission or no fixes)."""
+    fixes = getattr(mission, "fixes", None)
+    return None if fixes is None else np.asarray(fixes.t, float)
+
+
+def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: np.ndarray | None = None) -> dict:
     """What a run's summary reports about distance and drift (``graphnav smooth`` / ``online``):
 
     - ``distance_m``: horizontal distance travelled by the *estimate* (available without a reference);
@@ -313,13 +403,17 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
       :attr:`NavSolution.origin_unknown`);
     - ``sigma_h_end_pct``: the drift the estimator claims, its sigma counted from the start (:func:`from_start`)
       as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
+    - ``fixes_used``: the position fixes the estimator used (``info["n_fixes"]``); with any, the sigma and the
+      error at the end are bounded by the last fix, not a drift;
     - with a reference ``gt``: ``end_error_m``, ``reference_distance_m`` and ``drift_pct`` of
-      :func:`mission_drift` (the % DT against the reference); None without one.
+      :func:`mission_drift` (the % DT against the reference); None without one; and, when fixes were used and
+      their stamps ``t_fix`` (s) are given, ``drift_before_fixes`` (:func:`drift_before_fixes`).
     """
     ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
     distance = horizontal_distance(solution.t[ok], solution.p_n[ok]) if ok.sum() >= 2 else 0.0
     out = {"distance_m": distance, "sigma_h_end_m": None, "sigma_h_origin_m": None, "sigma_h_end_pct": None,
-           "end_error_m": None, "reference_distance_m": None, "drift_pct": None}
+           "end_error_m": None, "reference_distance_m": None, "drift_pct": None,
+           "fixes_used": int(solution.info.get("n_fixes") or 0)}
     if solution.cov_p_n is not None and len(solution.t):
         sigma = float(position_sigma_h(solution.cov_p_n[-1]))
         if np.isfinite(sigma):
@@ -331,6 +425,8 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None) -> dict:
     if gt is not None and np.any((solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])):
         m = mission_drift(solution, gt)
         out.update(end_error_m=m["end_error_m"], reference_distance_m=m["distance_m"], drift_pct=m["drift_pct"])
+        if out["fixes_used"] and t_fix is not None:
+            out["drift_before_fixes"] = drift_before_fixes(solution, gt, t_fix)
     return out
 
 
@@ -339,12 +435,21 @@ def drift_line(summary: dict) -> str:
     def fmt(x, spec):
         return "-" if x is None else format(x, spec)
     line = f"horizontal distance travelled {summary['distance_m']:.1f} m (estimate)"
-    if summary.get("end_error_m") is not None:
+    fixes = summary.get("fixes_used") or 0
+    if summary.get("end_error_m") is not None and fixes:
+        stays = summary.get("drift_before_fixes") or []
+        line += (f"; {fixes} position fixes used, so the end error ({summary['end_error_m']:.2f} m) is bounded by "
+                 "the last fix, not a drift; drift before each stay at the surface, since the previous fix: "
+                 + (", ".join(f"{fmt(d['drift_pct'], '.2f')} % DT ({d['error_m']:.2f} m over "
+                              f"{d['distance_m']:.1f} m)" for d in stays) or "-"))
+    elif summary.get("end_error_m") is not None:
         line += (f"; drift {fmt(summary['drift_pct'], '.2f')} % DT against the reference (end error "
                  f"{summary['end_error_m']:.2f} m over {summary['reference_distance_m']:.1f} m)")
     if summary.get("sigma_h_end_m") is None:
         return line + "; claimed position sigma at the end: - (the estimate carries no position covariance)"
     line += f"; claimed position sigma at the end {summary['sigma_h_end_m']:.2f} m"
+    if fixes:
+        return line + f" (after {fixes} position fixes)"
     origin = summary.get("sigma_h_origin_m")
     if origin is None:
         return line + f" = {fmt(summary['sigma_h_end_pct'], '.2f')} % DT"

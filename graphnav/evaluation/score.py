@@ -28,6 +28,7 @@ relative to the start) is warned about.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -53,12 +54,42 @@ def load_trajectory(path: str | Path) -> NavSolution:
     if not path.is_file():
         raise DataError("trajectory file not found", str(path))
     if path.suffix.lower() == ".csv":
-        return read_trajectory_csv(path, method=path.stem)
+        est = read_trajectory_csv(path, method=path.stem)
+    else:
+        try:
+            t, p, C = read_tum(path)
+        except ValueError as exc:
+            raise DataError(f"not a TUM file (timestamp tx ty tz qx qy qz qw per line): {exc}", str(path)) from None
+        est = NavSolution(path.stem, t, p, np.full_like(p, np.nan), C)
+    est.info.update(run_frame(path))
+    return est
+
+
+def run_frame(path: Path) -> dict:
+    """How the run that wrote the trajectory file ``path`` placed its positions, from the summary.json beside it
+    when that summary lists the file (``graphnav smooth`` / ``online`` write one): ``position_frame``
+    (:func:`graphnav.core.solution.position_frame`; from a summary written before it, the ``alignment`` the
+    frame follows from) and ``n_fixes``, the keys a :class:`NavSolution`'s info holds them in; {} without one.
+    A trajectory file has no place for them that evo and other readers would still read."""
+    import json
+    summary_path = path.parent / "summary.json"
+    if not summary_path.is_file():
+        return {}
     try:
-        t, p, C = read_tum(path)
-    except ValueError as exc:
-        raise DataError(f"not a TUM file (timestamp tx ty tz qx qy qz qw per line): {exc}", str(path)) from None
-    return NavSolution(path.stem, t, p, np.full_like(p, np.nan), C)
+        summary = json.loads(summary_path.read_text())
+    except (OSError, ValueError) as exc:
+        warnings.warn(f"{summary_path}: not read ({exc}); {path.name} is scored as if started from the reference",
+                      RuntimeWarning, stacklevel=2)
+        return {}
+    if not isinstance(summary, dict) or path.name not in {Path(str(f)).name for f in
+                                                          (summary.get("files") or {}).values()}:
+        return {}
+    out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0)}
+    if summary.get("position_frame"):
+        out["position_frame"] = summary["position_frame"]
+    elif isinstance(summary.get("initialisation"), dict):
+        out["alignment"] = summary["initialisation"]
+    return out
 
 
 def load_reference(ref: str | Path, config_path: str | Path | None = None,
@@ -180,6 +211,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
             out["rpe_translation_m"] = None
             out["rpe_note"] = str(exc)
     out["rpe_delta"] = f"{rpe_delta:g} {rpe_unit}"
+    if est.info.get("position_frame"):
+        out["position_frame"] = est.info["position_frame"]
     from graphnav.evaluation.metrics import vrmse
     if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
         out["vrmse_mps"] = None
@@ -203,7 +236,7 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
                       for k in ("mean", "95pct_band", "n_independent")},
                    nees_position_note=note, nees_heading_note=note)
     else:
-        out.update(_drift(est, ref))
+        out.update(_drift(est, ref, mission))
         out.update(_pose_nees(est, ref, mission, poses))
     return out
 
@@ -218,15 +251,16 @@ def _settle_t0(est: NavSolution, ref: GroundTruth, mission) -> float:
     return t0
 
 
-def _drift(est: NavSolution, ref: GroundTruth) -> dict:
+def _drift(est: NavSolution, ref: GroundTruth, mission=None) -> dict:
     """Mission drift in % of the distance travelled (:func:`graphnav.evaluation.metrics.drift_summary`):
     ``drift_pct_mission``, ``end_horizontal_error_m``, ``distance_travelled_m`` (the reference's),
-    ``sigma_h_end_m`` and ``sigma_h_end_pct`` (the estimate's own claim; None without position sigmas)."""
-    from graphnav.evaluation.metrics import drift_summary
-    d = drift_summary(est, ref)
+    ``sigma_h_end_m`` and ``sigma_h_end_pct`` (the estimate's own claim; None without position sigmas), and the
+    whole ``drift`` summary (with fixes used, the drift before each stay at the surface)."""
+    from graphnav.evaluation.metrics import drift_summary, fix_stamps
+    d = drift_summary(est, ref, fix_stamps(mission))
     return {"drift_pct_mission": d["drift_pct"], "end_horizontal_error_m": d["end_error_m"],
             "distance_travelled_m": d["reference_distance_m"], "sigma_h_end_m": d["sigma_h_end_m"],
-            "sigma_h_end_pct": d["sigma_h_end_pct"]}
+            "sigma_h_end_pct": d["sigma_h_end_pct"], "drift": d}
 
 
 def _pose_nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -> dict:
@@ -299,9 +333,13 @@ def _left_out(scores: dict, key: str, sigma_of: str, estimate_of: str) -> str:
 def format_report(result: dict, est_name: str, ref_name: str) -> str:
     """The evaluation as a few lines of text."""
     from graphnav.core.mission import NED_ORIGIN_CONVENTION
+    from graphnav.core.solution import position_frame_line
     lines = [f"{est_name} vs {ref_name}: {result['matched_poses']} matched poses"
              + (" (SE(3)-aligned)" if result["aligned"] else ""),
              f"  positions: {NED_ORIGIN_CONVENTION}"]
+    frame = position_frame_line(result.get("position_frame"))
+    if frame:
+        lines.append(f"  estimate's {frame} (from the run's summary.json)")
     for key, label, unit in (("ape_translation_m", "APE translation", "m"),
                              ("ape_rotation_deg", "APE rotation", "deg"),
                              ("rpe_translation_m", f"RPE translation per {result['rpe_delta']}", "m")):
@@ -343,7 +381,11 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
                      f"{result[f'nees_{name}_n_independent']} independent epochs; {result[f'nees_{name}_note']})")
     if result.get("drift_note"):
         lines.append(f"  drift in % of distance travelled: - ({result['drift_note']})")
-    if result.get("end_horizontal_error_m") is not None:
+    drift = result.get("drift") or {}
+    if drift.get("fixes_used") or drift.get("sigma_h_origin_m") is not None:
+        from graphnav.evaluation.metrics import drift_line
+        lines.append(f"  {drift_line(drift)}")
+    elif result.get("end_horizontal_error_m") is not None:
         pct = result["drift_pct_mission"]
         claim = result.get("sigma_h_end_pct")
         lines.append(f"  drift {'-' if pct is None else f'{pct:.2f}'} % of distance travelled (horizontal error at "

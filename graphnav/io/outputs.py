@@ -14,7 +14,9 @@
   :func:`write_reference_tum` writes the ground truth at the estimate's stamps (``graphnav smooth``: carried there
   by the IMU), so that ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
 * Every position written follows :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`: NED from the sea
-  surface above the first fix, down = absolute depth.
+  surface above the first fix, down = absolute depth; where that origin is on Earth (or that it is unknown, for a
+  run started without its position) is the summary's ``position_frame``
+  (:func:`graphnav.core.solution.position_frame`), which ``graphnav evaluate`` reads beside the file.
 * JSON summary (:func:`write_json`): plain JSON (NaN written as ``null``), indented;
   :func:`uncertainty_summary` is what a summary says about the run's own uncertainty.
 * :class:`EpochCsvWriter`: the online mode's output, one row appended *and flushed* per epoch so a crash or

@@ -1,0 +1,142 @@
+"""Where a run's positions are on Earth (``info["position_frame"]``) and how a reference scores them: a start
+without its position (from the start), a start a later fix placed (through latitude and longitude), and a run
+that used fixes (its drift before each stay at the surface)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from graphnav import cli
+from graphnav.core.earth import lla_to_ned, ned_to_lla
+from graphnav.core.mission import GroundTruth
+from graphnav.core.solution import FRAME_FIRST_FIX, FRAME_UNKNOWN_START, LOCAL_ORIGIN, NavSolution, position_frame
+from graphnav.evaluation.consistency import pose_nees
+from graphnav.evaluation.metrics import drift_line, drift_summary, in_reference_frame, mission_drift
+
+ORIGIN = (np.radians(32.8), np.radians(34.9), 0.0)
+
+
+def _truth() -> GroundTruth:
+    """400 s at 2 m/s: 400 m north, then 400 m east; 10 m deep; in the NED frame at :data:`ORIGIN`."""
+    t = np.arange(0.0, 400.01, 1.0)
+    north = 2.0 * np.minimum(t, 200.0)
+    p = np.c_[north, 2.0 * t - north, 10.0 + 0 * t]
+    return GroundTruth(t, p, np.gradient(p, t, axis=0), np.tile(np.eye(3), (len(t), 1, 1)), ORIGIN)
+
+
+def _estimate(gt: GroundTruth, p_n: np.ndarray, sigma_h: np.ndarray, info: dict) -> NavSolution:
+    cov = np.zeros((len(gt.t), 3, 3))
+    cov[:, 0, 0] = cov[:, 1, 1] = sigma_h ** 2
+    cov[:, 2, 2] = 0.01
+    return NavSolution("est", gt.t.copy(), p_n, gt.v_n.copy(), gt.C_b_n.copy(), cov_p_n=cov,
+                       cov_rot_b=np.tile(np.eye(3) * 1e-6, (len(gt.t), 1, 1)), info=info)
+
+
+def _unknown_start(gt: GroundTruth) -> NavSolution:
+    """Dead-reckoned from a start 3 m north of the truth's (the unknown origin's error) with a drift growing
+    east 1 cm per second; sigma the origin's 100 m and 1 cm/s since the start."""
+    drift = np.c_[0 * gt.t, 0.01 * gt.t, 0 * gt.t]
+    info = {"alignment": {"position_source": LOCAL_ORIGIN}}
+    return _estimate(gt, gt.p_n + [3.0, 0.0, 0.0] + drift, np.sqrt(100.0 ** 2 + (0.01 * gt.t) ** 2), info)
+
+
+def test_a_start_without_its_position_counts_its_error_from_the_start():
+    # the end error was absolute: the start's 3 m (the origin's) counted as drift, beside a from-start sigma
+    gt = _truth()
+    sol = _unknown_start(gt)
+    m = mission_drift(sol, gt)
+    assert m["end_error_m"] == pytest.approx(4.0, abs=1e-9)            # 1 cm/s over 400 s, not |(3, 4)| = 5
+    assert m["drift_pct"] == pytest.approx(0.5)
+    scores = pose_nees(sol, gt, 60.0)
+    assert scores["nees_pos_mission"] == pytest.approx(1.0, abs=1e-6)  # e = (0, 0.01 t), sigma 0.01 t per axis
+
+
+def test_evaluate_scores_a_written_run_as_its_summary_says_it_started(tmp_path):
+    # the written files did not say the start was unknown: evaluate scored 141 m of origin sigma as a drift
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    gt = _truth()
+    sol = _unknown_start(gt)
+    write_trajectory_csv(tmp_path / "run" / "trajectory.csv", sol)
+    write_tum(tmp_path / "gt.tum", NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n))
+    frame = position_frame(sol.info)
+    assert frame["set_by"] == FRAME_UNKNOWN_START
+    write_json(tmp_path / "run" / "summary.json", {"position_frame": frame, "drift": {"fixes_used": 0},
+                                                   "files": {"trajectory_csv": "run/trajectory.csv"}})
+    assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                     "--json", str(tmp_path / "ev.json")]) == 0
+    res = json.loads((tmp_path / "ev.json").read_text())
+    assert res["end_horizontal_error_m"] == pytest.approx(4.0, abs=1e-4)
+    assert res["sigma_h_end_pct"] == pytest.approx(np.hypot(4.0, 4.0) / 8.02, rel=1e-3)  # 5.66 m, the estimate's 802 m
+    assert res["nees_position_mean"] == pytest.approx(1.0, rel=1e-3)
+    assert res["position_frame"]["set_by"] == FRAME_UNKNOWN_START
+    # a summary that does not list the file says nothing about it
+    write_json(tmp_path / "run" / "summary.json", {"position_frame": frame, "files": {"other": "x.csv"}})
+    assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                     "--json", str(tmp_path / "ev.json")]) == 0
+    assert json.loads((tmp_path / "ev.json").read_text())["sigma_h_end_pct"] > 10.0
+
+
+def _placed_by_a_fix(gt: GroundTruth, k_fix: int = 100) -> NavSolution:
+    """Started without its position, placed by a fix at epoch ``k_fix``: the NED frame at the fix's latitude and
+    longitude, offset so that the fix sits at the dead-reckoned position there (``_Aided.fix_ne``)."""
+    dead_reckoned = gt.p_n - gt.p_n[0] + [0.0, 0.0, gt.p_n[0, 2]]       # from a local origin at the start
+    fix_lla = ned_to_lla(gt.p_n[k_fix:k_fix + 1] * [1, 1, 0], ORIGIN)[0]
+    origin = (fix_lla[0], fix_lla[1], 0.0)
+    info = {"alignment": {"position_source": LOCAL_ORIGIN}, "n_fixes": 1}
+    info["position_frame"] = position_frame(info, origin, dead_reckoned[k_fix, :2], float(gt.t[k_fix]))
+    sigma = np.where(gt.t < gt.t[k_fix], 100.0, 1.0)
+    return _estimate(gt, dead_reckoned, sigma, info)
+
+
+def test_a_start_placed_by_a_fix_is_scored_through_latitude_and_longitude():
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]                  # the truth's own origin is elsewhere
+    sol = _placed_by_a_fix(gt)
+    assert sol.info["position_frame"]["set_by"] == FRAME_FIRST_FIX and not sol.origin_unknown
+    # within the few mm by which two tangent planes 300 m apart differ over 400 m
+    np.testing.assert_allclose(in_reference_frame(sol, gt).p_n, gt.p_n, atol=0.01)
+    assert mission_drift(sol, gt)["end_error_m"] < 0.01  # was the frame shift, 277 m
+    assert pose_nees(sol, gt, 150.0)["nees_pos_mission"] < 1e-4
+    # the position is placed: no "unknown start" in what the summary claims, and lat/lon come back from the frame
+    line = drift_line(drift_summary(sol))
+    assert "unknown start" not in line and "after 1 position fixes" in line
+    frame = sol.info["position_frame"]
+    lla = ned_to_lla(sol.p_n[-1:] - [*frame["offset_ne_m"], 0.0],
+                     (np.radians(frame["origin_lat_deg"]), np.radians(frame["origin_lon_deg"]), 0.0))
+    np.testing.assert_allclose(lla_to_ned(lla[:, 0], lla[:, 1], lla[:, 2], ORIGIN)[0, :2], gt.p_n[-1, :2], atol=0.01)
+
+
+def test_the_navigator_exports_the_frame_its_first_fix_placed():
+    from graphnav.estimators.align import AlignOptions
+    from graphnav.estimators.runs import run_graph
+    from graphnav.sim.simulate import SurfacingProfile, simulate_mission
+    m = simulate_mission(160.0, seed=4, surfacing=SurfacingProfile(interval_s=60.0, stay_s=10.0))
+    yaw0 = float(np.arctan2(m.gt.C_b_n[0, 1, 0], m.gt.C_b_n[0, 0, 0]))
+    sol = run_graph(m, init="sensors", backend="fixed-lag", align=AlignOptions(initial_heading_rad=yaw0))
+    frame = sol.info["position_frame"]
+    assert frame["set_by"] == FRAME_FIRST_FIX and frame["first_fix_t_s"] == pytest.approx(m.fixes.t[0], abs=1.0)
+    k = int(np.searchsorted(sol.t, frame["first_fix_t_s"]))
+    np.testing.assert_allclose(frame["offset_ne_m"], sol.p_n[k, :2], atol=1.0)   # the dead-reckoned position
+    assert not sol.origin_unknown
+    # scored through the frame, the error is the navigation's (metres), not the start's unknown offset
+    assert mission_drift(sol, m.gt)["end_error_m"] < 10.0
+
+
+def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surface():
+    gt = _truth()
+    t_fix = np.r_[np.arange(150.0, 160.0), np.arange(300.0, 310.0)]     # two stays at the surface
+    # the error grows 1 cm/s east and a fix resets it (the estimate is the truth at each fix)
+    since = gt.t - np.where(gt.t >= 310.0, 310.0, np.where(gt.t >= 160.0, 160.0, 0.0))
+    since[(gt.t >= 150.0) & (gt.t < 160.0) | (gt.t >= 300.0) & (gt.t < 310.0)] = 0.0
+    sol = _estimate(gt, gt.p_n + np.c_[0 * since, 0.01 * since, 0 * since], 0.01 * since + 0.5,
+                    {"n_fixes": len(t_fix)})
+    d = drift_summary(sol, gt, t_fix)
+    stays = d["drift_before_fixes"]
+    assert [s["t"] for s in stays] == [149.0, 299.0]
+    assert stays[0]["error_m"] == pytest.approx(1.49) and stays[0]["distance_m"] == pytest.approx(298.0)
+    assert stays[1]["error_m"] == pytest.approx(1.39) and stays[1]["distance_m"] == pytest.approx(280.0)
+    assert stays[1]["drift_pct"] == pytest.approx(1.39 / 2.8)          # since the last fix, at 159 s
+    line = drift_line(d)
+    assert "bounded by the last fix, not a drift" in line and "0.50 % DT (1.39 m over 280.0 m)" in line
