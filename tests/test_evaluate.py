@@ -283,42 +283,75 @@ def test_the_reference_tum_is_the_reference_the_nees_is_scored_against(tmp_path)
                                                                        rel=1e-3)
 
 
-def test_a_solution_started_without_its_position_is_scored_from_the_start():
+def test_a_solution_started_without_its_position_claims_its_drift_beside_the_unknown_start():
     from graphnav.core.solution import LOCAL_ORIGIN, NavSolution
-    from graphnav.evaluation.metrics import drift_summary, from_start
+    from graphnav.evaluation.metrics import drift_line, drift_summary, from_start
     t = np.arange(0.0, 101.0)
     p = np.c_[t, 0 * t, 10 + 0 * t]
     growth = 0.1 * t
     cov = np.zeros((len(t), 3, 3))
-    cov[:, 0, 0] = cov[:, 1, 1] = 100.0 ** 2 + growth ** 2
+    cov[:, 0, 0] = cov[:, 1, 1] = growth ** 2                       # the covariance counts from the start
     cov[:, 2, 2] = 0.01
     sol = NavSolution("est", t, p + [2.0, 0.0, 0.0], np.tile([1.0, 0, 0], (len(t), 1)),
-                      np.tile(np.eye(3), (len(t), 1, 1)), cov_p_n=cov)
-    assert from_start(sol) is sol                          # started from a known position: its covariance as it is
-    sol.info["alignment"] = {"position_source": LOCAL_ORIGIN}
-    rel = from_start(sol).cov_p_n
-    np.testing.assert_allclose(rel[:, 0, 0], growth ** 2, atol=1e-6)
-    np.testing.assert_allclose(rel[:, 2, 2], 0.01)
+                      np.tile(np.eye(3), (len(t), 1, 1)), cov_p_n=cov,
+                      info={"alignment": {"position_source": LOCAL_ORIGIN, "origin_sigma_m": 100.0}})
+    assert sol.origin_unknown and sol.origin_sigma_m == 100.0
+    assert from_start(sol) is sol                          # without a reference nothing to count from
     d = drift_summary(sol)
-    assert d["sigma_h_end_m"] == pytest.approx(np.sqrt(2 * (1e4 + 100.0)))
     assert d["sigma_h_origin_m"] == pytest.approx(np.sqrt(2) * 100.0)
+    assert d["sigma_h_end_m"] == pytest.approx(np.sqrt(2 * (1e4 + 100.0)))
     assert d["sigma_h_end_pct"] == pytest.approx(np.sqrt(2) * 10.0)        # 14.1 m over 100 m
+    assert "141.42 m of it the unknown start" in drift_line(d) and "since the start 14.14 m" in drift_line(d)
+
+
+def _graph_from_the_truth(mission, position_sigma_m):
+    """The graph started on the truth with a horizontal position prior of ``position_sigma_m``."""
+    import dataclasses
+
+    from graphnav.estimators.replay import first_ping_time
+    from graphnav.estimators.runs import run_graph
+    from graphnav.estimators.types import InitialState
+    initial = InitialState.from_ground_truth(mission, first_ping_time(mission))
+    C = initial.pose.rotation().matrix()
+    cov_pose = np.zeros((6, 6))
+    cov_pose[:3, :3] = np.eye(3) * 1e-6
+    cov_pose[3:, 3:] = C.T @ np.diag([position_sigma_m ** 2, position_sigma_m ** 2, 0.01]) @ C   # NED to body
+    return run_graph(mission, initial=dataclasses.replace(initial, cov_pose=cov_pose))
 
 
 def test_depth_factors_tell_the_graph_nothing_about_the_horizontal_position():
-    # Started from the sensors, a run has no horizontal position (a 100 m origin) and no measurement gives it
-    # one; with 1 km horizontal sigmas on each depth factor the 200 keyframes claimed 58 m after 200 s.
-    from graphnav.estimators.runs import run_graph
+    # Nothing here measures the horizontal position: a 100 m prior on it must stay 100 m. With 1 km horizontal
+    # sigmas on each depth factor the 200 keyframes made it 58 m after 200 s.
+    m = simulate_mission(duration_s=200.0, seed=5)
+    sol = _graph_from_the_truth(m, 100.0)
+    assert np.all(np.sqrt(np.diagonal(sol.cov_p_n[-1])[:2]) > 99.0)
+
+
+def test_a_run_started_from_the_sensors_counts_its_covariance_from_the_start():
+    # The unknown start's 100 m is the frame's, not the covariance's: a covariance holding it could not show the
+    # drift since the start beside it (its marginals' noise and an EKF's information on the start made it 0 m).
+    from graphnav.estimators.runs import run_ekf, run_graph
     from graphnav.evaluation.consistency import pose_nees
     from graphnav.evaluation.metrics import drift_summary
     m = simulate_mission(duration_s=200.0, seed=5)
-    sol = run_graph(m, init="sensors")
-    assert sol.origin_unknown
-    assert np.all(np.sqrt(np.diagonal(sol.cov_p_n[-1])[:2]) > 99.0)
-    d = drift_summary(sol, m.gt)
-    assert 0.5 < d["sigma_h_end_pct"] < 3.0                              # the drift claimed from the start
-    # scored from the start, the position NEES is no longer the origin's (about 1e-4)
-    assert pose_nees(sol, m.gt, sol.t[0] + 30.0)["nees_pos_mission"] > 0.05
+    for sol in (run_graph(m, init="sensors"), run_ekf(m, init="sensors")):
+        assert sol.origin_unknown and sol.origin_sigma_m == 100.0
+        assert np.all(np.sqrt(np.diagonal(sol.cov_p_n[-1])[:2]) < 10.0)
+        d = drift_summary(sol, m.gt)
+        assert d["sigma_h_origin_m"] == pytest.approx(141.42, abs=0.01)
+        assert 0.3 < d["sigma_h_end_pct"] < 3.0                              # the drift claimed from the start
+        assert 0.2 < pose_nees(sol, m.gt, sol.t[0] + 30.0)["nees_pos_mission"] < 10.0
+
+
+def test_a_given_start_position_is_a_prior_not_a_singular_one(tmp_path):
+    # --initial-position with the sensor alignment gave the start a zero horizontal variance: an indeterminate
+    # linear system at the first keyframe
+    assert cli.main(["simulate", "--duration", "60", "--seed", "3", "--out", str(tmp_path / "sim")]) == 0
+    assert cli.main(["smooth", "--data", str(tmp_path / "sim" / "Trajectory1"), "--init", "sensors",
+                     "--initial-heading", "0", "--initial-position", "32.8", "34.9", "--method", "Graph-TC",
+                     "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    frame = json.loads((tmp_path / "out" / "summary.json").read_text())["position_frame"]
+    assert frame["set_by"] == "initial_lla" and frame["origin_lat_deg"] == pytest.approx(32.8)
 
 
 def test_online_started_from_the_sensors_claims_its_drift_from_the_start(tmp_path, capsys):

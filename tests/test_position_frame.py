@@ -36,10 +36,10 @@ def _estimate(gt: GroundTruth, p_n: np.ndarray, sigma_h: np.ndarray, info: dict)
 
 def _unknown_start(gt: GroundTruth) -> NavSolution:
     """Dead-reckoned from a start 3 m north of the truth's (the unknown origin's error) with a drift growing
-    east 1 cm per second; sigma the origin's 100 m and 1 cm/s since the start."""
+    east 1 cm per second; sigma 1 cm/s since the start (the origin's 100 m is the frame's)."""
     drift = np.c_[0 * gt.t, 0.01 * gt.t, 0 * gt.t]
-    info = {"alignment": {"position_source": LOCAL_ORIGIN}}
-    return _estimate(gt, gt.p_n + [3.0, 0.0, 0.0] + drift, np.sqrt(100.0 ** 2 + (0.01 * gt.t) ** 2), info)
+    info = {"alignment": {"position_source": LOCAL_ORIGIN, "origin_sigma_m": 100.0}}
+    return _estimate(gt, gt.p_n + [3.0, 0.0, 0.0] + drift, np.maximum(0.01 * gt.t, 1e-3), info)
 
 
 def test_a_start_without_its_position_counts_its_error_from_the_start():
@@ -75,7 +75,7 @@ def test_evaluate_scores_a_written_run_as_its_summary_says_it_started(tmp_path):
     write_json(tmp_path / "run" / "summary.json", {"position_frame": frame, "files": {"other": "x.csv"}})
     assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
                      "--json", str(tmp_path / "ev.json")]) == 0
-    assert json.loads((tmp_path / "ev.json").read_text())["sigma_h_end_pct"] > 10.0
+    assert json.loads((tmp_path / "ev.json").read_text())["end_horizontal_error_m"] == pytest.approx(5.0, abs=1e-4)
 
 
 def _placed_by_a_fix(gt: GroundTruth, k_fix: int = 100) -> NavSolution:

@@ -6,8 +6,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 #: ``info["alignment"]["position_source"]`` of a solution started from the sensors without a fix or an initial
-#: latitude and longitude: its position is dead-reckoned from an origin placed at the start, whose horizontal
-#: covariance (``AlignOptions.local_origin_sigma_m``) is in every epoch's ``cov_p_n``.
+#: latitude and longitude: its position is dead-reckoned from an origin placed at the start. Its ``cov_p_n``
+#: counts from that start; where the start is on Earth (``AlignOptions.local_origin_sigma_m``) is the frame's
+#: ``origin_sigma_m`` (``info["alignment"]``, :func:`position_frame`).
 LOCAL_ORIGIN = "local origin at start"
 
 #: ``info["position_frame"]["set_by"]``: how the NED frame of a solution's positions was placed (see
@@ -29,14 +30,17 @@ def position_frame(info: dict, origin_lla=None, offset_ne_m=(0.0, 0.0), first_fi
     and ``offset_ne_m`` the north and east (m) that point has in the positions: the latitude and longitude of a
     position ``p_n`` are ``graphnav.core.earth.ned_to_lla(p_n - [offset_n, offset_e, 0], origin)``. A start without
     its position that a fix places later (``first_fix_t_s``) keeps its dead-reckoned positions: the fix's point
-    is put where the estimate was at that fix, so the offset is the dead-reckoned position there.
+    is put where the estimate was at that fix, so the offset is the dead-reckoned position there. An unknown
+    start's ``origin_sigma_m`` is the horizontal 1-sigma per axis of where the frame is on Earth (None otherwise).
     ``info`` is the run's (its ``alignment`` when aligned from the sensors)."""
     source = (info.get("alignment") or {}).get("position_source")
     set_by = FRAME_FIRST_FIX if first_fix_t is not None else _ALIGNMENT_FRAMES.get(source, FRAME_INITIAL_STATE)
     known = origin_lla is not None
+    sigma = (info.get("alignment") or {}).get("origin_sigma_m") if set_by == FRAME_UNKNOWN_START else None
     return {"set_by": set_by, "origin_lat_deg": float(np.degrees(origin_lla[0])) if known else None,
             "origin_lon_deg": float(np.degrees(origin_lla[1])) if known else None,
-            "offset_ne_m": [float(x) for x in offset_ne_m], "first_fix_t_s": first_fix_t}
+            "offset_ne_m": [float(x) for x in offset_ne_m], "first_fix_t_s": first_fix_t,
+            "origin_sigma_m": sigma}
 
 
 def position_frame_line(frame: dict | None) -> str:
@@ -45,8 +49,10 @@ def position_frame_line(frame: dict | None) -> str:
     if not frame or frame.get("set_by") == FRAME_INITIAL_STATE:
         return ""
     if frame["set_by"] == FRAME_UNKNOWN_START:
-        return ("positions: NED from the start, whose place on Earth is unknown (no fix, no initial position): "
-                "scored from the start")
+        sigma = frame.get("origin_sigma_m")
+        where = "" if sigma is None else f", {sigma:.0f} m per axis"
+        return ("positions: NED from the start, whose place on Earth is unknown (no fix, no initial position"
+                f"{where}): their covariance and scores count from the start")
     n, e = frame["offset_ne_m"]
     line = (f"positions: NED tangent at lat {frame['origin_lat_deg']:.7f} deg, lon {frame['origin_lon_deg']:.7f} deg"
             f" ({frame['set_by']}")
@@ -110,3 +116,14 @@ class NavSolution:
         if frame is not None:
             return frame.get("set_by") == FRAME_UNKNOWN_START
         return (self.info.get("alignment") or {}).get("position_source") == LOCAL_ORIGIN
+
+    @property
+    def origin_sigma_m(self) -> float | None:
+        """Horizontal 1-sigma per axis (m) of where an unknown start is on Earth (:attr:`origin_unknown`), which
+        ``cov_p_n`` does not hold; None for other starts, or when the run did not record it."""
+        if not self.origin_unknown:
+            return None
+        sigma = (self.info.get("position_frame") or {}).get("origin_sigma_m")
+        if sigma is None:
+            sigma = (self.info.get("alignment") or {}).get("origin_sigma_m")
+        return None if sigma is None else float(sigma)

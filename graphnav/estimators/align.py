@@ -116,8 +116,13 @@ class AlignOptions:
             worse 1-sigma than this, rad (default 2 deg: a navigation-grade FOG at 0.01 deg/h gives 0.05 deg,
             a 1 deg/h tactical gyro 4.5 deg, a 10 deg/h MEMS 45 deg).
         given_heading_sigma_rad: 1-sigma of ``initial_heading_rad`` when no ``heading_sigma_rad`` is given.
-        local_origin_sigma_m: horizontal 1-sigma of the position without a fix: the NED origin is then the
-            vehicle's position at the first IMU sample, whose place on Earth is unknown, m.
+        local_origin_sigma_m: horizontal 1-sigma of where on Earth a local origin is (no fix, no
+            ``initial_lla``: the NED origin is then the vehicle's position at the first IMU sample), m. It goes to
+            the solution's position frame (``info["alignment"]["origin_sigma_m"]``), not into its covariance: a
+            covariance holding it could not show the drift since the start beside it (see
+            ``docs/decisions/position-consistency.md``).
+        start_position_sigma_m: horizontal 1-sigma of the start's position in its frame without a fix: the local
+            origin (the start itself) or the ``initial_lla`` / ``initial_position_n`` given, m.
         unknown_depth_sigma_m: 1-sigma of the depth without a depth sensor (the start is taken at depth 0,
             the vertical is dead-reckoned), m.
         max_window_s: the aligner keeps at most this much data (the newest), s; bounds memory when
@@ -144,6 +149,7 @@ class AlignOptions:
     max_heading_sigma_rad: float = np.deg2rad(2.0)
     given_heading_sigma_rad: float = np.deg2rad(5.0)
     local_origin_sigma_m: float = 100.0
+    start_position_sigma_m: float = 1.0
     unknown_depth_sigma_m: float = 100.0
     max_window_s: float = 600.0
     coriolis_iterations: int = 2
@@ -158,7 +164,8 @@ class AlignOptions:
         if self.initial_heading_rad is not None and not np.isfinite(self.initial_heading_rad):
             raise ConfigError(f"AlignOptions.initial_heading_rad must be finite, got {self.initial_heading_rad}")
         for name in ("duration_s", "min_duration_s", "levelling_duration_s", "max_heading_sigma_rad",
-                     "given_heading_sigma_rad", "local_origin_sigma_m", "unknown_depth_sigma_m", "max_window_s", "velocity_window_s"):
+                     "given_heading_sigma_rad", "local_origin_sigma_m", "start_position_sigma_m",
+                     "unknown_depth_sigma_m", "max_window_s", "velocity_window_s"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"AlignOptions.{name} must be > 0, got {getattr(self, name)}")
         if self.max_window_s < max(self.duration_s, self.levelling_duration_s):
@@ -675,8 +682,11 @@ class Aligner:
             origin = self.initial_lla
             start = np.zeros(3) if self.initial_position_n is None else self.initial_position_n.copy()
             d, dist, elapsed = displacement(t_start)
-            horizontal_var = o.local_origin_sigma_m ** 2 if self.initial_lla is None else 0.0
+            # the frame starts here: an unknown place on Earth is the frame's (origin_sigma_m), not the position's
+            horizontal_var = o.start_position_sigma_m ** 2
             info["position_source"] = "initial_lla" if self.initial_lla is not None else LOCAL_ORIGIN
+            if self.initial_lla is None:
+                info["origin_sigma_m"] = o.local_origin_sigma_m
         # dead-reckoning error: velocity sigma over the time, heading sigma over the distance
         dr_var = (sigma_v * elapsed) ** 2 + (heading_sigma * dist) ** 2
         p_n = np.asarray(start, float) + d

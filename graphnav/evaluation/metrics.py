@@ -289,13 +289,13 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
     """``solution`` counted from its start when the start's position was unknown
     (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
 
-    Such a solution holds the unknown origin's covariance at every epoch (100 m by default) and positions from
-    an origin whose error against a reference is whatever it was at the start: true of its absolute position,
-    but a reference compared with it can only measure the drift since the start. The origin's error is common
-    to every epoch and independent of the dead-reckoned displacement, so the displacement's covariance is the
-    epoch's less the start epoch's (NE block; negative directions clipped to 0) and, with a reference ``gt``,
-    its error is the epoch's less the start epoch's (north-east vectors: the positions are shifted by the
-    start's error). The start epoch is the first with a finite position (and covariance) inside ``gt``'s span.
+    Such a solution's positions and covariance count from its start (the origin's place on Earth is its
+    frame's :attr:`NavSolution.origin_sigma_m`), so a reference compared with it can only measure the drift since
+    the start: with a reference ``gt``, each epoch's error less the start epoch's (north-east vectors: the
+    positions are shifted by the start's error). The start epoch is the first with a finite position (and
+    covariance) inside ``gt``'s span. (Subtracting the start's covariance from a covariance holding the origin
+    was tried first: 1e4 m^2 less 1e4 m^2 left the marginals' noise and an EKF's gravity-gradient information on
+    the start, and claimed a drift of 0 m.)
     """
     if not solution.origin_unknown:
         return solution
@@ -307,17 +307,11 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
     if not ok.any():
         return solution
     k0 = int(np.flatnonzero(ok)[0])
-    changed = {}
-    if solution.cov_p_n is not None:
-        cov = np.array(solution.cov_p_n, dtype=float)
-        w, v = np.linalg.eigh(cov[:, :2, :2] - cov[k0, :2, :2])
-        cov[:, :2, :2] = np.einsum("kij,kj,klj->kil", v, np.clip(w, 0.0, None), v)
-        changed["cov_p_n"] = cov
-    if gt is not None:
-        p_n = np.array(solution.p_n, dtype=float)
-        p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
-        changed["p_n"] = p_n
-    return replace(solution, **changed)
+    if gt is None:
+        return solution
+    p_n = np.array(solution.p_n, dtype=float)
+    p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
+    return replace(solution, p_n=p_n)
 
 
 def in_reference_frame(solution: NavSolution, gt: GroundTruth) -> NavSolution:
@@ -399,10 +393,10 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
     - ``distance_m``: horizontal distance travelled by the *estimate* (available without a reference);
     - ``sigma_h_end_m``: the estimator's own horizontal position sigma at the last epoch
       (:func:`position_sigma_h`); None without ``cov_p_n`` (e.g. the paper's 12-state EKF);
-    - ``sigma_h_origin_m``: the part of it that is the unknown origin's, the start's sigma (None unless
-      :attr:`NavSolution.origin_unknown`);
-    - ``sigma_h_end_pct``: the drift the estimator claims, its sigma counted from the start (:func:`from_start`)
-      as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
+    - ``sigma_h_origin_m``: the part of it that is an unknown start's place on Earth (its frame's
+      :attr:`NavSolution.origin_sigma_m`, both axes; None for other starts), which the covariance does not hold;
+    - ``sigma_h_end_pct``: the drift the estimator claims, the covariance's horizontal sigma (counted from the
+      start) as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
     - ``fixes_used``: the position fixes the estimator used (``info["n_fixes"]``); with any, the sigma and the
       error at the end are bounded by the last fix, not a drift;
     - with a reference ``gt``: ``end_error_m``, ``reference_distance_m`` and ``drift_pct`` of
@@ -415,13 +409,12 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
            "end_error_m": None, "reference_distance_m": None, "drift_pct": None,
            "fixes_used": int(solution.info.get("n_fixes") or 0)}
     if solution.cov_p_n is not None and len(solution.t):
-        sigma = float(position_sigma_h(solution.cov_p_n[-1]))
-        if np.isfinite(sigma):
-            out["sigma_h_end_m"] = sigma
-            drift = float(position_sigma_h(from_start(solution).cov_p_n[-1]))
+        drift = float(position_sigma_h(solution.cov_p_n[-1]))
+        if np.isfinite(drift):
+            origin = solution.origin_sigma_m
+            out["sigma_h_origin_m"] = None if origin is None else float(np.sqrt(2.0) * origin)
+            out["sigma_h_end_m"] = float(np.hypot(drift, out["sigma_h_origin_m"] or 0.0))
             out["sigma_h_end_pct"] = drift_pct(drift, distance)
-            if solution.origin_unknown:
-                out["sigma_h_origin_m"] = float(np.sqrt(max(sigma ** 2 - drift ** 2, 0.0)))
     if gt is not None and np.any((solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])):
         m = mission_drift(solution, gt)
         out.update(end_error_m=m["end_error_m"], reference_distance_m=m["distance_m"], drift_pct=m["drift_pct"])
