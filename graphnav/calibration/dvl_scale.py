@@ -282,26 +282,35 @@ def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     return out
 
 
-def check_gyro_against_dvl(imu, dvl, config, meta: dict):
+def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     """The IMU with its gyro checked against the DVL velocity where the tilt kinematics could not judge its scale
     (``meta[GYRO_UNJUDGED]``, set by :func:`graphnav.io.units.imu_units`; the fact is then removed): rates the DVL's
     velocity changes fit :data:`GYRO_DVL_RATIO` times better 57.3x larger are a DataError, deg/s (57.3x smaller) are
     converted to rad/s with a warning and a note, or a DataError when a unit was declared. Unchanged when the fact
-    is absent or the DVL has too few pings."""
+    is absent; with a note when the DVL cannot judge either (too few pings, or no scale fits it
+    :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came onto the IMU clock, for the
+    messages."""
     from graphnav.io.units import GYRO_UNJUDGED, gyro_too_small
     fact = meta.pop(GYRO_UNJUDGED, None)
     if fact is None:
         return imu
+    unjudged = (f"the gyro's scale is not judged (field {fact['field']}): the tilt kinematics could not (correlation "
+                f"{fact['correlation']:.2f})")
     try:
         fits = gyro_scale_fits(imu, dvl, config)
-    except DataError:
+    except DataError as exc:
+        add_note(meta, "imu", f"{unjudged}, nor can the DVL ({exc.message})")
         return imu
     name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
     ratio = fits[1.0] / max(fits[k], 1e-12)
     if not ratio >= GYRO_DVL_RATIO:
+        if not 1 / ratio >= GYRO_DVL_RATIO:
+            add_note(meta, "imu", f"{unjudged}, nor can the DVL: the rates x{k:.4g} leave {1 / ratio:.3g}x as much "
+                                  f"of its velocity's changes unexplained as the rates as read ({GYRO_DVL_RATIO:g} "
+                                  "needed either way; a vehicle that barely turns or accelerates)")
         return imu
-    fit = (f"the DVL velocity's changes ({dvl.source}) fit these rates x{k:.4g} {ratio:.3g}x better than as read "
-           f"(left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
+    fit = (f"the DVL velocity's changes ({dvl.source}{found}) fit these rates x{k:.4g} {ratio:.3g}x better than as "
+           f"read (left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
            f"correlation {fact['correlation']:.2f})")
     declared, field = fact["declared"], fact["field"]
     if k > 1:
