@@ -94,6 +94,32 @@ def test_an_imu_turned_about_z_without_a_reference_is_refused_by_the_dvl(sim, tm
             load_mission(tmp_path, _csv(tmp_path, sim, f_b=turned[0], omega_b=turned[1], frame=frame, gt=False))
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_hovering_vehicle_with_its_imu_turned_is_refused_naming_either_instrument(seed):
+    """A hovering AUV's velocity points no one way: a turn between the IMU and the DVL (q 2.9e6-7.1e6) cannot be put on
+    either, so both are named with their fixes (it was only the DVL's yaw warning, and the run went on turned)."""
+    import dataclasses
+    from graphnav.calibration.dvl_scale import check_velocity_against_imu, turn_about_z
+    from test_units import _hovering_with_dvl, sim_config
+    imu, dvl = _hovering_with_dvl(seed=seed)
+    frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
+    for yaw, C_d_b in ((90, r"\[\[0, 1, 0\], \[-1, 0, 0\]"), (180, r"\[\[-1, 0, 0\], \[0, -1, 0\]")):
+        turned = dataclasses.replace(imu, f_b=_turned_about_z(imu.f_b, yaw), omega_b=_turned_about_z(imu.omega_b, yaw))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")          # no DVL yaw warning beside the refusal
+            with pytest.raises(DataError, match=rf"imu\.csv, field 'ax/ay/az/gx/gy/gz': the IMU's axes and the DVL "
+                               rf"velocity \(dvl\.csv\) are turned {yaw} deg about z .* cannot say which instrument .*"
+                               rf"IMU turned against .*before graphnav reads them.*; DVL turned .*dvl\.C_d_b {C_d_b}"):
+                check_velocity_against_imu(turned, dvl, sim_config(), {}, imu_frame=frame)
+        # the DVL's fix as named: its velocity in a frame turned against the IMU's, which is the body's
+        cfg = sim_config()
+        cfg.dvl.C_d_b = turn_about_z(yaw).T
+        in_d = dataclasses.replace(dvl, v_b=None, v_d=dvl.v_b, v_d_valid=np.ones(len(dvl.t), bool))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            check_velocity_against_imu(turned, in_d, cfg, {}, imu_frame=frame)
+
+
 def test_a_log_too_short_to_check_the_imu_turn_says_so(tmp_path):
     short = simulate_mission(duration_s=30.0, seed=5)
     m, _ = _load(tmp_path, _csv(tmp_path, short, gt=False))

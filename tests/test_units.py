@@ -597,11 +597,17 @@ def test_a_hovering_auv_with_a_dvl_keeps_its_rad_s_gyro(seed):
     imu, dvl = _hovering_with_dvl(seed=seed)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert _gyro_check(imu, dvl)[0] is imu
+        out, meta = _gyro_check(imu, dvl)
+    assert out is imu
+    # nothing judged it: said in a note, not left in an unread meta entry
+    assert "gyro_scale_unjudged" not in meta
+    assert [n for n in meta["streams"]["imu"]["notes"] if "gyro's scale is not judged (field gx/gy/gz): the tilt "
+            "kinematics could not (correlation 0.20), nor can the DVL: the rates x0.01745 leave" in n]
 
 
-def _akit_crop(src, dst_root, t0, t1, gyro_scale=1.0):
-    """An A-KIT folder of ``src`` rows ``t0 <= Time <= t1`` s, the gyro multiplied by ``gyro_scale``."""
+def _akit_crop(src, dst_root, t0, t1, gyro_scale=1.0, dvl_shift=0.0):
+    """An A-KIT folder of ``src`` rows ``t0 <= Time <= t1`` s, the gyro multiplied by ``gyro_scale``, the DVL stamps
+    ``dvl_shift`` s later."""
     dst = dst_root / src.name
     dst.mkdir()
     files = akit_files(src)
@@ -610,6 +616,8 @@ def _akit_crop(src, dst_root, t0, t1, gyro_scale=1.0):
         arr = arr[(arr[:, 0] >= t0) & (arr[:, 0] <= t1)]
         if kind == "IMU":
             arr[:, 4:7] *= gyro_scale
+        if kind == "DVL":
+            arr[:, 0] += dvl_shift
         np.savetxt(dst / files[kind].name, arr, delimiter=",", fmt="%.12g", comments="",
                    header=",".join(AKIT_COLUMNS[kind]))
     return dst
@@ -627,6 +635,73 @@ def test_a_calm_akit_stretch_with_gyro_rates_57_times_too_small_is_refused(akit_
     (tmp_path / "clean").mkdir()
     m, caught = _load(_akit_crop(src, tmp_path / "clean", 120.0, 240.0))
     assert not any("gyro" in w for w in caught) and "gyro_scale_unjudged" not in m.meta
+
+
+def _column_map_log(m, folder, gyro_scale=1.0, dvl_shift=0.0):
+    """Mission ``m`` as a column-map log in ``folder`` (IMU FRD, DVL velocity columns ``dvl_shift`` s later on a clock
+    to be found, ``"clock": "auto"``; gyro multiplied by ``gyro_scale``); returns the configuration path."""
+    import json
+    from graphnav.calibration.clock import dvl_velocity_b
+    folder.mkdir()
+    t, v = dvl_velocity_b(m.dvl, m.config)
+    for name, header, columns in (("imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"],
+                                   [m.imu.t, m.imu.f_b, m.imu.omega_b * gyro_scale]),
+                                  ("dvl.csv", ["t", "vx", "vy", "vz"], [t + dvl_shift, v])):
+        np.savetxt(folder / name, np.column_stack(columns), delimiter=",", fmt="%.12g", comments="",
+                   header=",".join(header))
+    cfg = m.config.to_dict()
+    cfg["dvl_time_offset_s"] = 0.0
+    cfg["csv_columns"] = {"time_unit": "s", "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                                    "omega_b": ["gx", "gy", "gz"], "frame": "frd"},
+                          "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "auto"}}
+    (folder / "config.json").write_text(json.dumps(cfg))
+    return folder / "config.json"
+
+
+def test_a_calm_stretch_with_gyro_rates_57_times_too_small_and_the_dvl_on_its_own_clock_names_the_gyro(akit_dir,
+                                                                                                         tmp_path):
+    # the same crop with its DVL 600 s away: the clock search failed with the rates as read and the clock was blamed
+    # ("the DVL noise hides the vehicle's accelerations"); with them x57.3 it finds the clock, where the DVL judges
+    # the gyro. Clean, the offset is found as read and the gyro judged after it (it was left unjudged, unsaid)
+    from graphnav.missions import load_mission
+    src = akit_dir / "Trajectory6"
+    named = (r"too small for rad/s: the DVL velocity's changes \(.*, on the IMU clock at the offset -\d+\.\d+ s the "
+             r"DVL clock search finds with the rates x57.3, none with them as read\) fit these rates x57.3")
+    (tmp_path / "small").mkdir()
+    with pytest.raises(DataError, match=named) as err:          # an A-KIT folder: its coarse DVL clock
+        _load(_akit_crop(src, tmp_path / "small", 120.0, 240.0, np.pi / 180, dvl_shift=600.0))
+    assert err.value.field == "/".join(AKIT_COLUMNS["IMU"][4:7])
+    (tmp_path / "clean").mkdir()
+    clean, caught = _load(_akit_crop(src, tmp_path / "clean", 120.0, 240.0))
+    for k, shift in ((np.pi / 180, 600.0), (1.0, 600.0)):        # the crop as a column-map log
+        folder = tmp_path / f"csv_{k:.3f}"
+        config = _column_map_log(clean, folder, k, shift)
+        with warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
+            if k != 1.0:
+                with pytest.raises(DataError, match=named) as err:
+                    load_mission(folder, config)
+                assert err.value.source == str(folder / "imu.csv") and err.value.field == "gx/gy/gz"
+                continue
+            m = load_mission(folder, config)
+        assert m.config.dvl_time_offset_s == pytest.approx(-shift, abs=0.1)
+        assert "gyro_scale_unjudged" not in m.meta
+        assert not [n for n in m.meta["streams"]["imu"]["notes"] if "gyro" in n]
+
+
+def test_a_dvl_clock_the_gyro_scales_cannot_find_either_says_so(sim):
+    from graphnav.calibration.preparation import _gyro_finds_the_clock
+    from graphnav.io.units import GYRO_UNJUDGED
+    err = DataError("the clock offset cannot be found", "dvl.csv", field="t")
+
+    def search(imu, meta):
+        raise err
+    meta = {GYRO_UNJUDGED: {"declared": None, "field": "gx/gy/gz", "correlation": 0.2}}
+    with pytest.raises(DataError, match=r"^dvl.csv, field 't': the clock offset cannot be found \(nor with the gyro "
+                                        r"rates x57.3 or /57.3"):
+        _gyro_finds_the_clock(err, search, sim.imu, sim.dvl, sim.config, meta)
+    with pytest.raises(DataError, match=r"cannot be found$"):       # a gyro judged already: the clock's error
+        _gyro_finds_the_clock(err, search, sim.imu, sim.dvl, sim.config, {})
 
 
 def _turning_reference(seconds=200.0):

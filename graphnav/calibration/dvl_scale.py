@@ -89,9 +89,14 @@ IMU_YAWS_DEG = (90, 180, 270)
 IMU_YAW_MIN_Q = 30.0
 #: The DVL's mean horizontal direction within this of body +x says its velocity is in the body frame (an AUV moves
 #: forward: -5.0..+1.9 deg on the ten A-KIT trajectories, -0.4..-0.2 simulated); then a turn that fits better is the
-#: IMU's. A velocity pointing elsewhere is a DVL turned, which the yaw warning of
-#: :func:`check_velocity_against_imu` is about.
+#: IMU's. A velocity pointing forward once turned back is a DVL turned, which the yaw warning of
+#: :func:`check_velocity_against_imu` is about; pointing forward neither way (hovering, reversing, moving sideways),
+#: the data cannot say which instrument is turned.
 FORWARD_COURSE_RAD = np.deg2rad(30.0)
+#: The pings point one way when the mean of their horizontal unit directions is at least this long: 0.948-0.993 on
+#: the ten A-KIT trajectories, 0.998-0.999 simulated (400 s, lawnmower and transit); a hovering AUV 0.02-0.09 (the
+#: tests' ``_hovering_with_dvl``, seeds 1-10), whose mean direction is noise.
+MIN_COURSE_RESULTANT = 0.5
 
 
 def turn_about_z(yaw_deg: float) -> np.ndarray:
@@ -120,22 +125,28 @@ def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int
     return (sse0 - sse) / max(min(sse0, sse) / n, 1e-300), yaw, (sse_next - sse) / max(sse / n, 1e-300)
 
 
-def _forward(dvl, config) -> bool:
-    """The DVL's mean horizontal direction (pings over the course speed) lies within :data:`FORWARD_COURSE_RAD`
-    of body +x."""
+def _course(dvl, config) -> float:
+    """The DVL's mean horizontal direction from body +x (rad, about z; the pings over the course speed), NaN when
+    they point no one way (:data:`MIN_COURSE_RESULTANT`)."""
     from graphnav.calibration.clock import dvl_velocity_b
     from graphnav.io.dvl_frame import COURSE_MIN_SPEED_MPS
     _, v = dvl_velocity_b(dvl, config)
     h = v[:, 0] + 1j * v[:, 1]
     h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
-    return bool(h.size) and abs(np.angle(np.sum(h / np.abs(h)))) <= FORWARD_COURSE_RAD
+    mean = np.mean(h / np.abs(h)) if h.size else 0.0
+    return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
+
+
+def _forward(course: float) -> bool:
+    return bool(abs(course) <= FORWARD_COURSE_RAD)          # NaN: False
 
 
 def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0) -> None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
-    mounted yawed, which gravity cannot see. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
+    mounted yawed, which gravity cannot see. A velocity that points forward only turned back is a DVL turned (left to
+    the DVL's yaw warning); one that points forward neither way is a DataError naming both instruments. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
     two 20 s windows of pings, or too little change of velocity). ``frame["signs"]``: the ``imu_axis_signs`` applied
     (an A-KIT folder), whose negated x and y fix a 180 deg turn. ``model``: the clock model when built already;
     ``offset``: s added to its DVL stamps."""
@@ -147,8 +158,11 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
                               "reference attitude")
         return
     q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offset)
-    if q >= IMU_YAW_MIN_Q and not _forward(dvl, config):
-        return              # the DVL is the one turned (its velocity does not point forward): the DVL's yaw warning
+    course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
+    if not _forward(course):
+        if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
+            return          # the DVL is the one turned (turned back, its velocity points forward): its yaw warning
+        raise _either_turned(imu, dvl, frame, q, yaw, course)
     if abs(q) < IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
                               f"as read from the IMU turned {yaw} deg by {q:+.0f} noise variances ({IMU_YAW_MIN_Q:g} "
@@ -156,18 +170,44 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
         return
     if q < 0:
         return
-    P = turn_about_z(yaw)
     other = "" if q_next >= IMU_YAW_MIN_Q else f" (or another quarter turn: the next fits {q_next:.0f} worse)"
-    signs = frame.get("signs")
-    fix = TURN_ADVICE[0].lower() + TURN_ADVICE[1:]
-    if signs is not None:
-        fix = (f"set imu_axis_signs {tuple(int(s) for s in np.asarray(signs) * [-1, -1, 1])} in a --config file (x "
-               "and y negated)" if yaw == 180 else "turn the accelerometer and gyro columns of the file into the body "
-               "frame (imu_axis_signs only negates axes)")
     raise DataError(f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity "
                     f"(pointing forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise "
                     f"variances with them turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the "
-                    f"body frame ({mounting_text(P)}): {fix}", imu.source, field=frame["fields"])
+                    f"body frame ({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source,
+                    field=frame["fields"])
+
+
+def _imu_turn_fix(yaw: int, frame: dict) -> str:
+    """What to do about an IMU turned ``yaw`` deg about z: an A-KIT folder's ``imu_axis_signs`` (``frame["signs"]``)
+    undo 180 deg; otherwise the file is turned before it is read."""
+    signs = frame.get("signs")
+    if signs is None:
+        return TURN_ADVICE[0].lower() + TURN_ADVICE[1:]
+    return (f"set imu_axis_signs {tuple(int(s) for s in np.asarray(signs) * [-1, -1, 1])} in a --config file (x and "
+            "y negated)" if yaw == 180 else "turn the accelerometer and gyro columns of the file into the body frame "
+            "(imu_axis_signs only negates axes)")
+
+
+def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> DataError:
+    """The DataError for a turn about z between the IMU and the DVL when the DVL velocity points forward neither as
+    read nor turned back (``course``: its mean direction, rad, NaN for none): either instrument may be the one turned,
+    each with its fix. The DVL's would be read in a frame ``d`` with ``C_d_b`` = Rz(-yaw) (v_b = C_d_b v_d)."""
+    where = (f"its mean direction {np.degrees(course):+.0f} deg from body x" if np.isfinite(course)
+             else "its pings point no one way")
+    C_d_b = turn_about_z(yaw).T
+    matrix = "[" + ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in C_d_b + 0.0) + "]"
+    dvl_fix = ("turn the DVL velocity columns of the file into the body frame" if frame.get("signs") is not None else
+               f"declare its frame, dvl.C_d_b {matrix} in the configuration (with csv_columns.dvl.frame 'instrument' "
+               "for velocity columns; graphnav calibrate estimates it and writes both)")
+    return DataError(f"the IMU's axes and the DVL velocity ({dvl.source}) are turned {yaw} deg about z against each "
+                     f"other: the velocity fits the accelerometer and gyro better by {q:.3g} noise variances with the "
+                     f"IMU turned ({IMU_YAW_MIN_Q:g} needed), but it points forward neither as read nor turned back "
+                     f"({where}: a vehicle hovering, reversing or moving sideways), so the data cannot say which "
+                     f"instrument is turned. IMU turned against {frame['what']} ({mounting_text(turn_about_z(yaw))}): "
+                     f"{_imu_turn_fix(yaw, frame)}; DVL turned (its velocity "
+                     f"{(yaw + 180) % 360 - 180:+d} deg about z from the IMU's axes): {dvl_fix}", imu.source,
+                     field=frame["fields"])
 
 
 def _likely_unit(scale: float) -> str:
@@ -242,26 +282,35 @@ def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     return out
 
 
-def check_gyro_against_dvl(imu, dvl, config, meta: dict):
+def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     """The IMU with its gyro checked against the DVL velocity where the tilt kinematics could not judge its scale
     (``meta[GYRO_UNJUDGED]``, set by :func:`graphnav.io.units.imu_units`; the fact is then removed): rates the DVL's
     velocity changes fit :data:`GYRO_DVL_RATIO` times better 57.3x larger are a DataError, deg/s (57.3x smaller) are
     converted to rad/s with a warning and a note, or a DataError when a unit was declared. Unchanged when the fact
-    is absent or the DVL has too few pings."""
+    is absent; with a note when the DVL cannot judge either (too few pings, or no scale fits it
+    :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came onto the IMU clock, for the
+    messages."""
     from graphnav.io.units import GYRO_UNJUDGED, gyro_too_small
     fact = meta.pop(GYRO_UNJUDGED, None)
     if fact is None:
         return imu
+    unjudged = (f"the gyro's scale is not judged (field {fact['field']}): the tilt kinematics could not (correlation "
+                f"{fact['correlation']:.2f})")
     try:
         fits = gyro_scale_fits(imu, dvl, config)
-    except DataError:
+    except DataError as exc:
+        add_note(meta, "imu", f"{unjudged}, nor can the DVL ({exc.message})")
         return imu
     name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
     ratio = fits[1.0] / max(fits[k], 1e-12)
     if not ratio >= GYRO_DVL_RATIO:
+        if not 1 / ratio >= GYRO_DVL_RATIO:
+            add_note(meta, "imu", f"{unjudged}, nor can the DVL: the rates x{k:.4g} leave {1 / ratio:.3g}x as much "
+                                  f"of its velocity's changes unexplained as the rates as read ({GYRO_DVL_RATIO:g} "
+                                  "needed either way; a vehicle that barely turns or accelerates)")
         return imu
-    fit = (f"the DVL velocity's changes ({dvl.source}) fit these rates x{k:.4g} {ratio:.3g}x better than as read "
-           f"(left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
+    fit = (f"the DVL velocity's changes ({dvl.source}{found}) fit these rates x{k:.4g} {ratio:.3g}x better than as "
+           f"read (left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
            f"correlation {fact['correlation']:.2f})")
     declared, field = fact["declared"], fact["field"]
     if k > 1:

@@ -175,14 +175,22 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
     f_b, omega_b = mission.imu.f_b * signs, mission.imu.omega_b * signs
-    imu = _gyro_against_dvl(ImuData(t_imu, f_b, omega_b, source=mission.imu.source), mission.dvl, cfg, meta)
+    auto = _is_auto(dvl_time_offset_s)
+    # a DVL on a clock of its own first gets its coarse clock offset (the fine search below is +-3 s); on the IMU
+    # clock it judges a gyro the tilt kinematics could not, before the GT offsets integrate the gyro
+    imu = ImuData(t_imu, f_b, omega_b, source=mission.imu.source)
+    coarse, imu = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else (0.0, imu)
+    dvl = mission.dvl
+    if not on_the_imu_clock(dvl.t, t_imu):
+        dvl = dataclasses.replace(dvl, t=dvl.t + (coarse if auto else float(dvl_time_offset_s)))
+    imu = _gyro_against_dvl(imu, dvl, cfg, meta)
     omega_b = imu.omega_b
     t_dvl, v_dvl = mission.dvl.t, mission.dvl.v_b
     meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": detected is not None,
                               "decided": None if detected is None else detected.decided}
     g = mission.gt
     if g is None:
-        return _prepare_akit_without_gt(mission, meta, cfg, imu, dvl_time_offset_s)
+        return _prepare_akit_without_gt(mission, meta, cfg, imu, dvl_time_offset_s, coarse)
     imu_position_b = np.asarray(facts["imu_position_b"], float)
     lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
     estimates = {}
@@ -196,9 +204,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         estimates["gt"] = est
     ref = Reference(t_imu, f_b, omega_b, g.t + float(gt_time_offset_s), g.v_n, g.C_b_n, cfg.gravity_mps2,
                     lat_for_rate, cfg.dvl)
-    auto = _is_auto(dvl_time_offset_s)
-    # a DVL on a clock of its own first gets its coarse clock offset; the fine search below is +-3 s
-    coarse = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else float(dvl_time_offset_s)
+    coarse = coarse if auto else float(dvl_time_offset_s)
     try:
         # against the published GT point the DVL sits at lever arm + IMU position
         est = estimate_dvl_time_offset(ref, t_dvl + coarse, v_dvl, cfg.dvl.lever_arm_b + imu_position_b)
@@ -263,13 +269,12 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
 
 
 def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, imu: ImuData,
-                             dvl_time_offset_s) -> Mission:
+                             dvl_time_offset_s, coarse: float) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: the DVL time offset given, its coarse
-    clock offset, or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for ``"auto"`` (it cannot be estimated
-    against a missing GT)."""
+    clock offset (``coarse``, s, 0 on the IMU span), or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for
+    ``"auto"`` (it cannot be estimated against a missing GT)."""
     from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
     auto = _is_auto(dvl_time_offset_s)
-    coarse = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else 0.0
     if auto and coarse:
         dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if _is_auto(dvl_time_offset_s):
@@ -356,19 +361,27 @@ def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu
                     field="DVL X/Y/Z")
 
 
-def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> float:
-    """0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's clock offset
-    from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta``), or DataError
-    when it cannot be found."""
+def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> tuple[float, ImuData]:
+    """``(offset, imu)``: 0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's
+    clock offset from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta``), or
+    DataError when it cannot be found, after the gyro's other scales (:func:`_gyro_finds_the_clock`, which may
+    convert the ``imu`` returned)."""
     t_dvl, t_imu = dvl.t, imu.t
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
-        return 0.0
+        return 0.0, imu
     from graphnav.calibration.clock import align_stream_clocks
     n = len(t_dvl)
     velocity_only = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), dvl.v_b, source=dvl.source)
-    aligned, _ = align_stream_clocks(imu, velocity_only, None, meta, cfg, field="Time [s]",
-                                     what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
-    return float(aligned.t[0] - t_dvl[0])
+
+    def search(imu_: ImuData, meta_: dict) -> float:
+        aligned, _ = align_stream_clocks(imu_, velocity_only, None, meta_, cfg, field="Time [s]",
+                                         what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
+        return float(aligned.t[0] - t_dvl[0])
+    try:
+        return search(imu, meta), imu
+    except DataError as err:
+        imu = _gyro_finds_the_clock(err, search, imu, velocity_only, cfg, meta)
+    return search(imu, meta), imu
 
 
 #: An A-KIT time offset estimated with a larger sigma (s) is warned about: a twentieth of the 1 s DVL and GT period.
@@ -410,7 +423,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
         facts.get("imu_frame")
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
-    # before the reference's time offset and the clock search, which integrate the gyro
+    # before the reference's time offset and the clock search, which integrate the gyro (a DVL on a clock of its own
+    # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     mission = _reference_on_the_imu(mission, meta, facts)
     dvl, depth = mission.dvl, mission.depth
@@ -426,9 +440,18 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # DVL seconds or days off; what the search finds under half a ping period is left as given
         from graphnav.calibration.clock import align_stream_clocks
         searched = dvl
-        dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
-        if dvl is not searched:
-            check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
+
+        def search(imu: ImuData, meta_: dict) -> float:
+            return float(align_stream_clocks(imu, searched, None, meta_, mission.config)[0].t[0] - searched.t[0])
+        try:
+            dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
+        except DataError as err:
+            mission = dataclasses.replace(mission, imu=_gyro_finds_the_clock(err, search, mission.imu, searched,
+                                                                             mission.config, meta))
+            dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
+    mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
+    if facts.get("dvl_clock") == AUTO and dvl is not searched:
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
         if new is not old and stream in meta.get("streams", {}):
             set_span(meta, stream, new.t)           # the stamps as the mission holds them
@@ -452,13 +475,42 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
 
 def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:
     """The IMU with its gyro's scale checked against the DVL when the loader's tilt kinematics could not judge it
-    (:func:`graphnav.calibration.dvl_scale.check_gyro_against_dvl`); a DVL on a clock of its own cannot tell, and the
-    IMU is then as read."""
+    (:func:`graphnav.calibration.dvl_scale.check_gyro_against_dvl`); a DVL not on the IMU clock yet cannot tell: the
+    IMU as read, the fact kept for when the DVL is there."""
     from graphnav.io.units import GYRO_UNJUDGED
     if GYRO_UNJUDGED not in meta or not on_the_imu_clock(dvl.t, imu.t):
         return imu
     from graphnav.calibration.dvl_scale import check_gyro_against_dvl
     return check_gyro_against_dvl(imu, dvl, config, meta)
+
+
+def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig,
+                          meta: dict) -> ImuData:
+    """After the DVL clock search failed with ``err``: with the gyro's scale unjudged (``meta[GYRO_UNJUDGED]``), the
+    search ``search(imu, meta) -> offset`` (s added to the ``dvl`` stamps) is tried with the rates x57.3 and /57.3,
+    since a gyro at the wrong scale can hide the clock; where one finds it, the gyro is judged against the DVL put
+    there (:func:`graphnav.calibration.dvl_scale.check_gyro_against_dvl`: rates 57.3x too small are a DataError naming
+    the gyro). Returns the IMU converted from deg/s, whose clock the caller searches again; otherwise ``err``,
+    saying the gyro's scales were tried."""
+    from graphnav.calibration.dvl_scale import GYRO_SCALES, check_gyro_against_dvl
+    from graphnav.io.units import GYRO_UNJUDGED
+    if GYRO_UNJUDGED not in meta:
+        raise err
+    for k in GYRO_SCALES.values():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")          # a trial: its notes and warnings are not the mission's
+                offset = search(dataclasses.replace(imu, omega_b=imu.omega_b * k), copy.deepcopy(meta))
+        except DataError:
+            continue
+        found = (f", on the IMU clock at the offset {offset:+.3f} s the DVL clock search finds with the rates "
+                 f"x{k:.4g}, none with them as read")
+        judged = check_gyro_against_dvl(imu, dataclasses.replace(dvl, t=dvl.t + offset), config, meta, found)
+        if judged is not imu:
+            return judged
+        break
+    raise DataError(f"{err.message} (nor with the gyro rates x57.3 or /57.3, whose scale the tilt kinematics could "
+                    "not judge, at an offset where the DVL judges them)", err.source, err.line, err.field) from err
 
 
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
