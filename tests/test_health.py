@@ -11,17 +11,21 @@ from scipy.spatial.transform import Rotation, Slerp
 from graphnav.core.errors import DataError
 from graphnav.core.mission import GroundTruth
 from graphnav.core.rotations import so3_exp_batch
+from graphnav.core.scenarios import scenario_outage
+from graphnav.estimators.coasting import SigmaMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.health import (
     HealthOptions,
     NisMonitor,
     diverged_during,
     health_line,
+    run_health,
 )
 from graphnav.estimators.runs import _initial_state, run_ekf
 from graphnav.evaluation.methods import run_method
 from graphnav.evaluation.metrics import vrmse
 from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
 
 
 @pytest.fixture(scope="module")
@@ -304,3 +308,80 @@ def test_ekf_relevels_a_large_tilt_at_reacquisition_but_cannot_see_a_heading_err
     assert h["n_rejected"] == 0 and not h["diverged"] and h["nis_mean_per_dof"] < 2.0
     speed = np.sqrt(np.mean(np.sum(sim.gt.v_n ** 2, axis=1)))
     assert vrmse(heading, sim.gt) == pytest.approx(speed * np.sin(np.deg2rad(10.0)), rel=0.3)
+
+
+# --- the claimed velocity sigma -----------------------------------------------------------------------------
+def test_sigma_monitor_bound_hysteresis_and_warnings():
+    """Bound 10 % of the horizontal speed, at least 0.1 m/s; ok again below 0.8 of the bound."""
+    mon = SigmaMonitor("test", HealthOptions())
+    v = np.array([1.5, 0.0, 0.3])                       # bound 0.15 m/s (the down speed does not count)
+    assert mon.bound(v) == pytest.approx(0.15) and mon.bound(np.array([0.2, 0.0, 0.0])) == 0.1
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t, s in enumerate([0.05, 0.14, 0.16, 0.3, 0.13, 0.125, 0.11, 0.05]):
+            mon.update(float(t), v, np.diag([s ** 2 / 2, s ** 2 / 2, 1.0]))
+            if t == 3:
+                assert mon.degraded and "0.300 m/s above 0.150 m/s" in mon.reason and "since t=2.0 s" in mon.reason
+            if t == 5:
+                assert mon.degraded                     # 0.125 > 0.8 x 0.15: not yet
+        mon.update(8.0, v, None)                        # no covariance: no claim to judge
+    assert not mon.degraded
+    assert mon.summary()["sigma_v_spans"] == [[2.0, 5.0, pytest.approx(0.3)]]
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 2 and messages[0].startswith("test: t=2.00 s: claimed horizontal velocity sigma 0.160")
+    assert "back to 0.110 m/s after 4 s" in messages[1]
+
+
+@pytest.fixture(scope="module")
+def mems_outage():
+    """A simulated 160 s mission with a MEMS IMU, seeded: all beams, and a 45 s total DVL outage from 80 s
+    (shorter than max_pure_inertial_s)."""
+    m = simulate_mission(duration_s=160.0, imu_grade="mems", seed=2)
+    return m, m.with_outage(scenario_outage("0-beams", 80.0, 45.0))
+
+
+def _sigma_bound(sol):
+    sigma = np.sqrt(sol.cov_v_n[:, 0, 0] + sol.cov_v_n[:, 1, 1])
+    return sigma, np.maximum(0.1 * np.hypot(sol.v_n[:, 0], sol.v_n[:, 1]), 0.1)
+
+
+@pytest.mark.parametrize("method", ["TC", "LC", "TC-12", "Graph-TC"])
+def test_health_degrades_when_the_claimed_velocity_sigma_passes_its_bound(mems_outage, method):
+    """A MEMS IMU without the DVL for 45 s: its claimed velocity sigma passes 10 % of the speed long before the
+    60 s pure-inertial rule; every estimator's health says so from that epoch to the return of the beams, then
+    ok again; the run is degraded and says why. With all beams: ok throughout."""
+    clean, m = mems_outage
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = run_method(m, method, backend="fixed-lag")
+    state = np.array(sol.info["health_state"])
+    sigma, bound = _sigma_bound(sol)
+    first = np.flatnonzero(sigma > bound)[0]
+    assert 85.0 < sol.t[first] < 110.0
+    degraded = np.flatnonzero(state == "degraded")
+    assert degraded.size, "every epoch of the outage said ok"
+    assert degraded[0] == first and sol.t[degraded[-1]] < 126.0 and state[-1] == "ok"
+    assert np.all(state[first:degraded[-1] + 1] == "degraded")
+    assert sol.info["n_sigma_v_spans"] == 1 and not sol.info["sigma_v_degraded_now"]
+    assert any("claimed horizontal velocity sigma" in str(w.message) for w in caught)
+    run = run_health(sol.info["health"], sol.info)
+    assert run["state"] == "degraded" and "claimed horizontal velocity sigma above its bound" in run["why"][0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = run_method(clean, method, backend="fixed-lag")
+    assert set(sol.info["health_state"]) == {"ok"} and sol.info["n_sigma_v_spans"] == 0
+
+
+def test_batch_judges_its_smoothed_velocity_sigma(mems_outage):
+    """The batch's first pass has no covariance to judge; the smoothed sigma of an outage the beams close stays
+    small (both ends constrain it: ok), that of an outage running to the end of the mission does not."""
+    clean, _ = mems_outage
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        closed = run_method(clean.with_outage(scenario_outage("0-beams", 80.0, 45.0)), "Graph-TC-batch")
+        open_end = run_method(clean.with_outage(scenario_outage("0-beams", 120.0, 45.0)), "Graph-TC-batch")
+    state = np.array(open_end.info["health_state"])
+    sigma, bound = _sigma_bound(open_end)
+    np.testing.assert_array_equal(state == "degraded", sigma > bound)
+    assert state[-1] == "degraded" and open_end.info["sigma_v_degraded_now"]
+    assert set(closed.info["health_state"]) == {"ok"} and closed.info["n_sigma_v_spans"] == 0

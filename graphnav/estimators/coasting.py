@@ -14,12 +14,25 @@ becomes longer than the limit the monitor warns once, at that epoch ("pure inert
 when aiding resumes after such a stretch it warns again ("aiding resumed ... after X s pure inertial") with
 the predicted velocity sigma at the stretch's last un-aided epoch. :meth:`CoastingMonitor.summary` goes into
 ``info``. :func:`check_pure_inertial` runs the same monitor over a finished solution's arrays.
+
+Time alone says little: a MEMS IMU is off by 1 m/s after 60 s without aiding, a navigation-grade one by
+centimetres per second. :class:`SigmaMonitor` judges what the estimator itself predicts: an estimate whose claimed
+horizontal velocity sigma exceeds ``HealthOptions.max_sigma_v_fraction`` of its horizontal speed (at least
+``min_sigma_v_bound_mps``) is degraded, and ok again once aiding has brought the sigma below
+:data:`SIGMA_RECOVER_FRACTION` of that bound. It sees what the NIS test cannot (an error no measurement
+observes) and acts in partial outages too (one or two beams leave a direction unobserved). The 60 s rule stays:
+a stretch without any measurement rests on the IMU's noise model alone, which nothing checks, whatever sigma it
+claims.
 """
 from __future__ import annotations
 
 import warnings
 
 import numpy as np
+
+#: A degraded estimate is ok again when its claimed sigma is below this fraction of the bound: a sigma near the
+#: bound (a speed that varies in a partial outage) does not flip the state at every ping.
+SIGMA_RECOVER_FRACTION = 0.8
 
 #: Longest pure-inertial stretch (s) an estimator accepts without a warning (``EkfOptions`` /
 #: ``GraphOptions.max_pure_inertial_s``). Above the paper's 30 s beam-outage windows (LC coasts through
@@ -115,3 +128,94 @@ def check_pure_inertial(name: str, t: np.ndarray, aided: np.ndarray, cov_v_n: np
     for k in range(len(t)):
         monitor.update(t[k], bool(aided[k]), None if cov_v_n is None else cov_v_n[k])
     return monitor.summary()
+
+
+def horizontal_sigma(cov_v_n) -> float:
+    """sqrt of the north + east velocity variances, m/s (NaN without covariance)."""
+    if cov_v_n is None:
+        return float("nan")
+    cov = np.asarray(cov_v_n, float)
+    return float(np.sqrt(cov[0, 0] + cov[1, 1]))
+
+
+class SigmaMonitor:
+    """Live check of the claimed horizontal velocity sigma of one estimator run (see the module docstring).
+
+    Args:
+        name: estimator/method name for the messages.
+        options: :class:`graphnav.estimators.health.HealthOptions` (``max_sigma_v_fraction``,
+            ``min_sigma_v_bound_mps``, ``max_warnings``).
+
+    Attributes:
+        spans: ``[start_s, end_s, largest_sigma_mps]`` per stretch of degraded estimates; the last one follows
+            the stretch while it lasts.
+        degraded: the last estimate's sigma is (still) above its bound.
+        reason: why, for the estimate's ``health_why``.
+    """
+
+    def __init__(self, name: str, options):
+        self.name = name
+        self.fraction = float(options.max_sigma_v_fraction)
+        self.floor = float(options.min_sigma_v_bound_mps)
+        self.max_warnings = options.max_warnings
+        self.spans: list[list[float]] = []
+        self.degraded = False
+        self.reason = ""
+        self.n_warnings = 0
+
+    def bound(self, v_n) -> float:
+        """The largest acceptable horizontal velocity sigma at velocity ``v_n`` (3,) NED m/s, m/s."""
+        return max(self.fraction * float(np.hypot(v_n[0], v_n[1])), self.floor)
+
+    def update(self, t: float, v_n, cov_v_n) -> None:
+        """One estimate at t (s): its NED velocity (3,) m/s and velocity covariance (3,3) m^2/s^2 (None: no
+        claim to judge, the state is kept)."""
+        sigma = horizontal_sigma(cov_v_n)
+        if not np.isfinite(sigma):
+            return
+        bound = self.bound(v_n)
+        if not self.degraded and sigma > bound:
+            self.degraded = True
+            self.spans.append([float(t), float(t), sigma])
+            self._warn(t, f"claimed horizontal velocity sigma {sigma:.3f} m/s is above {bound:.3f} m/s "
+                          f"({self._rule()}): the estimate is degraded until aiding brings it down")
+        elif self.degraded and sigma < SIGMA_RECOVER_FRACTION * bound:
+            self.degraded = False
+            start, end, largest = self.spans[-1]
+            self._warn(t, f"claimed horizontal velocity sigma back to {sigma:.3f} m/s after {t - start:.0f} s "
+                          f"above its bound (largest {largest:.3f} m/s)")
+        if self.degraded:
+            span = self.spans[-1]
+            span[1:] = [float(t), max(span[2], sigma)]
+            self.reason = (f"claimed horizontal velocity sigma {sigma:.3f} m/s above {bound:.3f} m/s "
+                           f"({self._rule()}) since t={span[0]:.1f} s")
+
+    def _rule(self) -> str:
+        return (f"max_sigma_v_fraction={self.fraction:g} of the horizontal speed, at least "
+                f"min_sigma_v_bound_mps={self.floor:g}")
+
+    def _warn(self, t: float, what: str) -> None:
+        self.n_warnings += 1
+        if self.n_warnings <= self.max_warnings:
+            warnings.warn(f"{self.name}: t={t:.2f} s: {what}", RuntimeWarning, stacklevel=4)
+        elif self.n_warnings == self.max_warnings + 1:
+            warnings.warn(f"{self.name}: t={t:.2f} s: more velocity sigma events; further ones are counted only "
+                          "(info['sigma_v_spans'])", RuntimeWarning, stacklevel=4)
+
+    def summary(self) -> dict:
+        """``{"sigma_v_spans": [[start_s, end_s, largest_sigma_mps], ...], "n_sigma_v_spans": number of spans,
+        "sigma_v_degraded_now": degraded at the last estimate}``."""
+        return {"sigma_v_spans": [list(s) for s in self.spans], "n_sigma_v_spans": len(self.spans),
+                "sigma_v_degraded_now": self.degraded}
+
+
+def check_sigma(name: str, t: np.ndarray, v_n: np.ndarray, cov_v_n: np.ndarray,
+                options) -> tuple[SigmaMonitor, list[tuple[bool, str]]]:
+    """:class:`SigmaMonitor` over a finished run: ``t`` (K,) s, ``v_n`` (K,3) NED m/s, ``cov_v_n`` (K,3,3)
+    m^2/s^2. Returns the monitor (its ``summary()``) and per epoch (``degraded``, ``reason``)."""
+    monitor = SigmaMonitor(name, options)
+    states = []
+    for k in range(len(t)):
+        monitor.update(t[k], v_n[k], cov_v_n[k])
+        states.append((monitor.degraded, monitor.reason))
+    return monitor, states

@@ -27,7 +27,8 @@ state *before* the measurement is used) and its predicted covariance ``S = H P H
 **How much to trust an estimate** (:func:`epoch_health` per estimate, :func:`run_health` per run): one word,
 ``"ok"``, ``"degraded"`` or ``"diverged"``, and why. Diverged: the monitor is in the diverged state (per
 estimate), or was at the end of the run (per run; a command then exits with :data:`EXIT_DIVERGED`).
-Degraded: pure inertial longer than ``max_pure_inertial_s``, recovering from a divergence, or (per run) a
+Degraded: a claimed horizontal velocity sigma above ``max_sigma_v_fraction`` of the speed (at least
+``min_sigma_v_bound_mps``), pure inertial longer than ``max_pure_inertial_s``, recovering from a divergence, or (per run) a
 divergence that recovered, most NIS blocks above their band, or more than :data:`REFUSED_DEGRADED_FRACTION` of
 an input stream refused. Every output carries it: the stream's JSON lines, the trajectory CSV's ``health``
 column, ``summary.json`` and the bag's Odometry covariance.
@@ -65,6 +66,13 @@ class HealthOptions:
         recover_after: measurements after a re-acquisition (or a divergence) with no rejection and a median
             NIS per dof below ``divergence_ratio`` after which the estimator is healthy again.
         max_warnings: warnings per run; later events are counted only.
+        max_sigma_v_fraction: an estimate whose claimed horizontal velocity sigma (m/s) exceeds this fraction of
+            its horizontal speed is degraded (:class:`graphnav.estimators.coasting.SigmaMonitor`): 0.1, a
+            position error growing by 10 % of the distance travelled at one sigma, ten times what a DVL-aided
+            INS is specified for (0.1-1 % of distance travelled).
+        min_sigma_v_bound_mps: the bound on the claimed horizontal velocity sigma is at least this, m/s, so that
+            a slow or hovering vehicle is not degraded by the DVL's own noise: 0.1, about twice the horizontal
+            sigma one ping of a 4-beam DVL with 0.04 m/s beam noise gives.
     """
 
     window: int = 20
@@ -73,6 +81,8 @@ class HealthOptions:
     lockout_rejections: int = 5
     recover_after: int = 5
     max_warnings: int = 5
+    max_sigma_v_fraction: float = 0.1
+    min_sigma_v_bound_mps: float = 0.1
 
 
 class NisMonitor:
@@ -263,15 +273,21 @@ EXIT_DIVERGED = 3
 REFUSED_DEGRADED_FRACTION = 0.05
 
 
-def epoch_health(monitor: NisMonitor | None, coasting=None) -> tuple[str, str]:
-    """(state, why) of the estimate just made, from the live NIS monitor and the live pure-inertial check
-    (:class:`~graphnav.estimators.coasting.CoastingMonitor`)."""
+def epoch_health(monitor: NisMonitor | None, coasting=None, sigma=None) -> tuple[str, str]:
+    """(state, why) of the estimate just made, from the live NIS monitor, the live pure-inertial check
+    (:class:`~graphnav.estimators.coasting.CoastingMonitor`) and the check of the claimed velocity sigma
+    (:class:`~graphnav.estimators.coasting.SigmaMonitor`)."""
     if monitor is not None and monitor.diverged:
         reason = monitor.intervals[-1][2] if monitor.intervals else "diverged"
         return "diverged", reason
+    why = []
     if coasting is not None and coasting.coasting:
-        return "degraded", (f"pure inertial since t={coasting.coasting_since:.1f} s (longer than "
-                            f"max_pure_inertial_s={coasting.max_s:g})")
+        why.append(f"pure inertial since t={coasting.coasting_since:.1f} s (longer than "
+                   f"max_pure_inertial_s={coasting.max_s:g})")
+    if sigma is not None and sigma.degraded:
+        why.append(sigma.reason)
+    if why:
+        return "degraded", "; ".join(why)
     if monitor is not None and monitor.n_divergences and monitor._since_reset < 2 * monitor.options.window:
         return "degraded", "recovering from a divergence"
     return "ok", ""
@@ -305,6 +321,11 @@ def run_health(health: dict | None, info: dict | None = None, streams: dict | No
     spans = info.get("pure_inertial_spans") or []
     if spans:
         worse("degraded", f"{len(spans)} pure-inertial stretch(es), longest {info.get('pure_inertial_max_s', 0):.0f} s")
+    sigma_spans = info.get("sigma_v_spans") or []
+    if sigma_spans:
+        longest = max(end - start for start, end, _ in sigma_spans)
+        worse("degraded", f"{len(sigma_spans)} stretch(es) with the claimed horizontal velocity sigma above its "
+                          f"bound, longest {longest:.0f} s, largest sigma {max(s for *_, s in sigma_spans):.2f} m/s")
     received, refused = info.get("received") or {}, info.get("samples_refused") or {}
     for stream, n in received.items():
         if n and refused.get(stream, 0) > REFUSED_DEGRADED_FRACTION * n:

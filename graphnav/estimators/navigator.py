@@ -60,7 +60,7 @@ from graphnav.core.mission import MAX_DVL_SPEED_MPS
 from graphnav.core.screening import MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, StreamScreen
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
-from graphnav.estimators.coasting import CoastingMonitor
+from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.options import GraphOptions
@@ -187,6 +187,8 @@ class Navigator:
         self.n_estimates = 0
         #: live pure-inertial check (:mod:`graphnav.estimators.coasting`), created when the estimator starts
         self.coasting: CoastingMonitor | None = None
+        #: live check of the claimed velocity sigma (:class:`~graphnav.estimators.coasting.SigmaMonitor`), likewise
+        self.sigma: SigmaMonitor | None = None
         if initial is not None:
             if initial.t is None:
                 raise ConfigError("initial.t (the stamp of the initial state) is required")
@@ -443,6 +445,7 @@ class Navigator:
             info.update(self.backend.info)
             info["n_fixes"] = self.backend.n_fixes
             info.update(self.coasting.summary())
+            info.update(self.sigma.summary())
         if self.alignment is not None:
             a = self.alignment
             info["alignment"] = {**a.info, "t": a.t, "heading_source": a.heading_source,
@@ -635,7 +638,8 @@ class Navigator:
         for kf in kfs:
             est = self.backend.process(kf)
             self.coasting.update(est.t, self.backend.last_aided, est.cov_v_n)
-            est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting)
+            self.sigma.update(est.t, est.v_n, est.cov_v_n)
+            est.health, est.health_why = epoch_health(self.backend.monitor, self.coasting, self.sigma)
             out.append(est)
         if out:
             self._latest = out[-1]
@@ -654,6 +658,7 @@ class Navigator:
         options = (kw["ekf_options"] or EkfOptions()) if self.backend_name == "ekf" else \
             (kw["graph_options"] or GraphOptions())
         self.coasting = CoastingMonitor(self.backend.name, options.max_pure_inertial_s)
+        self.sigma = SigmaMonitor(self.backend.name, options.health)
         return self._process(self.keyframer.start(float(initial.t)))
 
     def _align(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:

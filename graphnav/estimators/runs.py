@@ -30,6 +30,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import Mission
 from graphnav.core.solution import NavSolution
 from graphnav.estimators.align import AlignOptions
+from graphnav.estimators.coasting import check_sigma
 from graphnav.estimators.backends import BACKENDS
 from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.batch import batch_smooth
@@ -162,6 +163,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
             estimates, batch_info = batch_smooth(nav.keyframe_graphs(), estimates, options)
             info["completions_retired"] = batch_info.pop("completions_retired")
             info.update({"batch_" + k: v for k, v in batch_info.items()})
+            info.update(_smoothed_sigma_health(name, estimates, options))
         except RuntimeError as exc:
             if not is_indeterminant(exc):
                 raise
@@ -183,6 +185,21 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
             k = int(np.clip(np.searchsorted(sol.t, span[1]), 0, len(sol.t) - 1))
             span[2] = float(np.sqrt(np.trace(sol.cov_v_n[k])))
     return sol
+
+
+def _smoothed_sigma_health(name: str, estimates: list[EpochEstimate], options: GraphOptions) -> dict:
+    """The claimed-sigma check (:class:`~graphnav.estimators.coasting.SigmaMonitor`) over the batch's smoothed
+    velocity covariances: the first pass had none to judge (or the filtered ones, larger than the smoothed). An
+    estimate the filtered pass found ok and whose smoothed sigma is above its bound is degraded. Returns the
+    monitor's summary for ``info``."""
+    if not estimates or any(e.cov_v_n is None for e in estimates):
+        return {}
+    monitor, states = check_sigma(name, np.array([e.t for e in estimates]), np.array([e.v_n for e in estimates]),
+                                  np.array([e.cov_v_n for e in estimates]), options.health)
+    for e, (degraded, reason) in zip(estimates, states):
+        if degraded and (e.health or "ok") == "ok":
+            e.health, e.health_why = "degraded", reason
+    return monitor.summary()
 
 
 def solution_from_estimates(method: str, estimates: list[EpochEstimate]) -> NavSolution:
