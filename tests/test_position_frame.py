@@ -140,3 +140,19 @@ def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surfac
     assert stays[1]["drift_pct"] == pytest.approx(1.39 / 2.8)          # since the last fix, at 159 s
     line = drift_line(d)
     assert "bounded by the last fix, not a drift" in line and "0.50 % DT (1.39 m over 280.0 m)" in line
+
+
+def test_the_epochs_before_the_fix_that_placed_the_frame_are_counted_from_the_start():
+    # Before its first fix the run's start was unknown: those epochs' error counts from the start, the later ones'
+    # through the frame (a 3 m start error scored as 3 m of error before the fix)
+    from graphnav.evaluation.metrics import scored
+    gt = _truth()
+    k_fix = 200
+    drift = np.c_[0 * gt.t, 0.01 * gt.t, 0 * gt.t]
+    p_n = gt.p_n + drift + np.where(gt.t[:, None] < gt.t[k_fix], [3.0, 0.0, 0.0], 0.0)
+    info = {"alignment": {"position_source": LOCAL_ORIGIN, "origin_sigma_m": 100.0}, "n_fixes": 10}
+    info["position_frame"] = position_frame(info, ORIGIN, (0.0, 0.0), float(gt.t[k_fix]))
+    sol = _estimate(gt, p_n, np.maximum(0.01 * gt.t, 1e-3), info)
+    error = scored(sol, gt).p_n[:, :2] - gt.p_n[:, :2]
+    np.testing.assert_allclose(error[:k_fix], drift[:k_fix, :2], atol=1e-9)
+    np.testing.assert_allclose(error[k_fix:], drift[k_fix:, :2], atol=1e-9)

@@ -31,7 +31,7 @@ import numpy as np
 from graphnav.core.errors import DataError
 from graphnav.core.mission import GroundTruth
 from graphnav.core.rotations import heading_variance
-from graphnav.core.solution import NavSolution
+from graphnav.core.solution import FRAME_FIRST_FIX, NavSolution
 from graphnav.core.timeseries import interp_rows
 
 
@@ -287,7 +287,8 @@ def track_against_fixes(solution: NavSolution, t_fix: np.ndarray, lat: np.ndarra
 
 def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolution:
     """``solution`` counted from its start when the start's position was unknown
-    (:attr:`NavSolution.origin_unknown`); else ``solution`` itself.
+    (:attr:`NavSolution.origin_unknown`), or, when a later fix placed it, over the epochs before that fix; else
+    ``solution`` itself.
 
     Such a solution's positions and covariance count from its start (the origin's place on Earth is its
     frame's :attr:`NavSolution.origin_sigma_m`), so a reference compared with it can only measure the drift since
@@ -295,9 +296,12 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
     positions are shifted by the start's error). The start epoch is the first with a finite position (and
     covariance) inside ``gt``'s span. (Subtracting the start's covariance from a covariance holding the origin
     was tried first: 1e4 m^2 less 1e4 m^2 left the marginals' noise and an EKF's gravity-gradient information on
-    the start, and claimed a drift of 0 m.)
+    the start, and claimed a drift of 0 m.) The first fix places such a frame where the estimate was, with its
+    drift since the start: the epochs before it are still counted from the start, the later ones through the frame.
     """
-    if not solution.origin_unknown:
+    frame = solution.info.get("position_frame") or {}
+    placed_at = frame.get("first_fix_t_s") if frame.get("set_by") == FRAME_FIRST_FIX else None
+    if not solution.origin_unknown and placed_at is None:
         return solution
     ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
     if solution.cov_p_n is not None:
@@ -310,7 +314,8 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
     if gt is None:
         return solution
     p_n = np.array(solution.p_n, dtype=float)
-    p_n[:, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
+    rows = slice(None) if placed_at is None else solution.t < placed_at
+    p_n[rows, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]
     return replace(solution, p_n=p_n)
 
 
