@@ -352,6 +352,10 @@ def test_a_given_start_position_is_a_prior_not_a_singular_one(tmp_path):
                      "--out", str(tmp_path / "out"), "--no-plots"]) == 0
     frame = json.loads((tmp_path / "out" / "summary.json").read_text())["position_frame"]
     assert frame["set_by"] == "initial_lla" and frame["origin_lat_deg"] == pytest.approx(32.8)
+    # the position given is a GNSS fix's: a few metres (--initial-position-sigma, 5 m by default), not 1 m
+    from graphnav.io.outputs import read_trajectory_csv
+    first = read_trajectory_csv(tmp_path / "out" / "trajectory.csv").cov_p_n[0]
+    assert np.sqrt(first[0, 0]) == pytest.approx(5.0, rel=0.05)
 
 
 def test_online_started_from_the_sensors_claims_its_drift_from_the_start(tmp_path, capsys):

@@ -121,8 +121,10 @@ class AlignOptions:
             the solution's position frame (``info["alignment"]["origin_sigma_m"]``), not into its covariance: a
             covariance holding it could not show the drift since the start beside it (see
             ``docs/decisions/position-consistency.md``).
-        start_position_sigma_m: horizontal 1-sigma of the start's position in its frame without a fix: the local
-            origin (the start itself) or the ``initial_lla`` / ``initial_position_n`` given, m.
+        start_position_sigma_m: horizontal 1-sigma of a local origin's start in its own frame (the start itself), m.
+        initial_position_sigma_m: horizontal 1-sigma of a given ``initial_lla`` / ``initial_position_n``, m (a GNSS
+            fix at launch: a few m; held to 1 m, a start 55 m off claimed 1.85 m against 22.7 m of error after
+            the first fixes).
         unknown_depth_sigma_m: 1-sigma of the depth without a depth sensor (the start is taken at depth 0,
             the vertical is dead-reckoned), m.
         max_window_s: the aligner keeps at most this much data (the newest), s; bounds memory when
@@ -150,6 +152,7 @@ class AlignOptions:
     given_heading_sigma_rad: float = np.deg2rad(5.0)
     local_origin_sigma_m: float = 100.0
     start_position_sigma_m: float = 1.0
+    initial_position_sigma_m: float = 5.0
     unknown_depth_sigma_m: float = 100.0
     max_window_s: float = 600.0
     coriolis_iterations: int = 2
@@ -165,6 +168,7 @@ class AlignOptions:
             raise ConfigError(f"AlignOptions.initial_heading_rad must be finite, got {self.initial_heading_rad}")
         for name in ("duration_s", "min_duration_s", "levelling_duration_s", "max_heading_sigma_rad",
                      "given_heading_sigma_rad", "local_origin_sigma_m", "start_position_sigma_m",
+                     "initial_position_sigma_m",
                      "unknown_depth_sigma_m", "max_window_s", "velocity_window_s"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"AlignOptions.{name} must be > 0, got {getattr(self, name)}")
@@ -683,7 +687,8 @@ class Aligner:
             start = np.zeros(3) if self.initial_position_n is None else self.initial_position_n.copy()
             d, dist, elapsed = displacement(t_start)
             # the frame starts here: an unknown place on Earth is the frame's (origin_sigma_m), not the position's
-            horizontal_var = o.start_position_sigma_m ** 2
+            given = self.initial_lla is not None or self.initial_position_n is not None
+            horizontal_var = (o.initial_position_sigma_m if given else o.start_position_sigma_m) ** 2
             info["position_source"] = "initial_lla" if self.initial_lla is not None else LOCAL_ORIGIN
             if self.initial_lla is None:
                 info["origin_sigma_m"] = o.local_origin_sigma_m
