@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -147,3 +148,23 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     # read with the written configuration, the velocity is the body's again
     result.config.save(config)
     np.testing.assert_allclose(_load((folder, config)).dvl.v_b, v_b, atol=0.03)
+
+
+def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about():
+    # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
+    # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.
+    from graphnav.calibration import dvl_scale
+    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.mission import DvlData
+    m = simulate_mission(400.0, "navigation", 1)
+    t, v = dvl_velocity_b(m.dvl, m.config)
+    frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
+    for yaw, warned in ((0, False), (90, True)):
+        dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
+                      v @ dvl_scale.turn_about_z(yaw).T, source="dvl.csv")
+        meta = {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame)
+        said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
+        assert bool(said) == warned, said

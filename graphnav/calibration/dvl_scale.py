@@ -141,12 +141,13 @@ def _forward(course: float) -> bool:
     return bool(abs(course) <= FORWARD_COURSE_RAD)          # NaN: False
 
 
-def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0) -> None:
+def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0) -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
-    mounted yawed, which gravity cannot see. A velocity that points forward only turned back is a DVL turned (left to
-    the DVL's yaw warning); one that points forward neither way is a DataError naming both instruments. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
+    mounted yawed, which gravity cannot see. A velocity that points forward only turned back is a DVL turned: its
+    turn (deg) is returned for :func:`warn_dvl_turned`; one that points forward neither way is a DataError naming
+    both instruments. None otherwise. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
     two 20 s windows of pings, or too little change of velocity). ``frame["signs"]``: the ``imu_axis_signs`` applied
     (an A-KIT folder), whose negated x and y fix a 180 deg turn. ``model``: the clock model when built already;
     ``offset``: s added to its DVL stamps."""
@@ -161,7 +162,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
     if not _forward(course):
         if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
-            return          # the DVL is the one turned (turned back, its velocity points forward): its yaw warning
+            return yaw      # the DVL is the one turned (turned back, its velocity points forward)
         raise _either_turned(imu, dvl, frame, q, yaw, course)
     if abs(q) < IMU_YAW_MIN_Q:
         add_note(meta, "imu", f"its mounting about z not judged against the DVL: the velocity changes tell the axes "
@@ -176,6 +177,19 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
                     f"variances with them turned ({IMU_YAW_MIN_Q:g} needed). The IMU is mounted turned against the "
                     f"body frame ({mounting_text(turn_about_z(yaw))}): {_imu_turn_fix(yaw, frame)}", imu.source,
                     field=frame["fields"])
+
+
+def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None) -> None:
+    """Warn about and note a DVL whose velocity fits the IMU turned ``yaw`` deg about z and points forward only
+    turned back (:func:`check_imu_yaw`): velocity columns in the frame of a DVL mounted turned, read as body. Said
+    here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed)."""
+    if yaw is None:
+        return
+    text = (f"field '{field}': the DVL velocity points {yaw} deg about z from the vehicle's forward and fits the IMU "
+            "only turned back: columns in the instrument frame of a DVL mounted turned, read as body? declare its "
+            "frame (csv_columns.dvl.frame 'instrument' with dvl.C_d_b; an A-KIT folder: turn its velocity columns)")
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
+    add_note(meta, "dvl", text)
 
 
 def _imu_turn_fix(yaw: int, frame: dict) -> str:
@@ -244,9 +258,12 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
                         f"{_likely_unit(scale)}?", dvl.source, field=field)
+    dvl_turn = None
     if imu_frame is not None:           # before the DVL's yaw: a turned IMU turns the velocity against it too
-        check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets[best] if np.isfinite(r2) else 0.0)
-    if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets[best] if np.isfinite(r2) else 0.0)
+    if not (r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD):
+        warn_dvl_turned(dvl, meta, field, dvl_turn)
+    else:
         text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
                 f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
                 "as body? declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "

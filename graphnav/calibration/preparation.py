@@ -286,11 +286,12 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, im
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
-    from graphnav.calibration.dvl_scale import check_imu_yaw
+    from graphnav.calibration.dvl_scale import check_imu_yaw, warn_dvl_turned
     from graphnav.io.loaders import AKIT_COLUMNS
     signs = tuple(int(s) for s in cfg.imu_axis_signs)
-    check_imu_yaw(imu, dvl, cfg, meta, {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
-                                        "fields": "/".join(AKIT_COLUMNS["IMU"][1:])})
+    turn = check_imu_yaw(imu, dvl, cfg, meta, {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
+                                               "fields": "/".join(AKIT_COLUMNS["IMU"][1:])})
+    warn_dvl_turned(dvl, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]), turn)
     meta["time_offsets"] = {}
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
