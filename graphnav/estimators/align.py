@@ -125,6 +125,11 @@ class AlignOptions:
         initial_position_sigma_m: horizontal 1-sigma of a given ``initial_lla`` / ``initial_position_n``, m (a GNSS
             fix at launch: a few m; held to 1 m, a start 55 m off claimed 1.85 m against 22.7 m of error after
             the first fixes).
+        unaligned_heading_sigma_rad, unaligned_tilt_sigma_rad, unaligned_velocity_sigma_mps: what is known of the
+            heading, roll/pitch (rad) and velocity (m/s) before any data, the prior of the estimator that
+            :class:`graphnav.estimators.navigator.Navigator` runs through the alignment's own data again
+            (``align_catch_up``): the alignment's covariance there would count those data twice (measured:
+            docs/decisions/alignment.md). Wide: a vehicle launched at any heading, roughly level, slow.
         unknown_depth_sigma_m: 1-sigma of the depth without a depth sensor (the start is taken at depth 0,
             the vertical is dead-reckoned), m.
         max_window_s: the aligner keeps at most this much data (the newest), s; bounds memory when
@@ -153,6 +158,9 @@ class AlignOptions:
     local_origin_sigma_m: float = 100.0
     start_position_sigma_m: float = 1.0
     initial_position_sigma_m: float = 5.0
+    unaligned_heading_sigma_rad: float = np.deg2rad(30.0)
+    unaligned_tilt_sigma_rad: float = np.deg2rad(2.0)
+    unaligned_velocity_sigma_mps: float = 0.5
     unknown_depth_sigma_m: float = 100.0
     max_window_s: float = 600.0
     coriolis_iterations: int = 2
@@ -168,8 +176,8 @@ class AlignOptions:
             raise ConfigError(f"AlignOptions.initial_heading_rad must be finite, got {self.initial_heading_rad}")
         for name in ("duration_s", "min_duration_s", "levelling_duration_s", "max_heading_sigma_rad",
                      "given_heading_sigma_rad", "local_origin_sigma_m", "start_position_sigma_m",
-                     "initial_position_sigma_m",
-                     "unknown_depth_sigma_m", "max_window_s", "velocity_window_s"):
+                     "initial_position_sigma_m", "unknown_depth_sigma_m", "max_window_s", "velocity_window_s",
+                     "unaligned_heading_sigma_rad", "unaligned_tilt_sigma_rad", "unaligned_velocity_sigma_mps"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"AlignOptions.{name} must be > 0, got {getattr(self, name)}")
         if self.max_window_s < max(self.duration_s, self.levelling_duration_s):

@@ -29,7 +29,10 @@ What happens to a sample:
    its processing time is thus slotted in before the IMU samples that follow its stamp.
 3. **Initialisation.** With an ``initial`` state the estimator starts at its stamp; without one an
    :class:`~graphnav.estimators.align.Aligner` levels and gyrocompasses (or uses the heading sensor) from the first
-   samples, and the estimator starts where the alignment ends, with the alignment's covariance as prior.
+   samples, and the estimator starts where the alignment ends, with the alignment's covariance as prior; with
+   ``align_catch_up`` it starts at the first buffered sample and runs through the buffer twice: once from the
+   alignment's covariance for the window's estimates, then, to go on, from what was known before those samples
+   (they would otherwise count twice: docs/decisions/alignment.md).
 4. **Keyframes** (:mod:`graphnav.estimators.keyframes`): at every ping, every decimated position fix and, through DVL
    gaps, every ``imu_keyframe_interval_s``; each closes as soon as the IMU has passed its stamp (no look-ahead)
    and goes to the backend (:mod:`graphnav.estimators.backends`: ``"fixed-lag"``, ``"isam2"`` or ``"ekf"``).
@@ -703,7 +706,30 @@ class Navigator:
         events.clear()
         for stream, t_, payload in replayed:
             out += self._dispatch(stream, t_, payload)
+        self._rerun_without_alignment_prior(al, replayed, warned_period, imu_period)
         return out
+
+    def _rerun_without_alignment_prior(self, al, replayed: list, warned_period, imu_period) -> None:
+        """Run the buffered samples again through a fresh estimator whose prior holds only what was known before
+        them (:func:`initial_from_alignment` with ``before_data``), and go on with that one.
+
+        The alignment's heading, tilt and velocity come from these same samples: the estimator that returned the
+        catch-up estimates counted them twice (a heading sigma about half its error). Its estimates through the
+        alignment window stand (the aligned state there uses the whole window, as a smoother would); the
+        estimator that goes on has counted each sample once. Its warnings about the same samples were given by
+        the first run and are not repeated."""
+        latest, n_estimates = self._latest, self.n_estimates
+        fallbacks = dict(getattr(self._completer, "fallbacks", {}))
+        self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
+        self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._start(initial_from_alignment(al, self.options.align))
+            for stream, t_, payload in replayed:
+                self._dispatch(stream, t_, payload)
+        self._latest, self.n_estimates, self._prop = latest, n_estimates, None
+        for k, n in fallbacks.items():      # the completer's pings of the window are counted once
+            self._fallbacks_before[k] = self._fallbacks_before.get(k, 0) + self._completer.fallbacks[k] - n
 
     def _align_at_end(self) -> list[EpochEstimate]:
         """The data ended before ``AlignOptions.duration_s``: align over what there is when it covers
@@ -729,17 +755,29 @@ class Navigator:
         return "alignment ready"
 
 
-def initial_from_alignment(al) -> InitialState:
+def initial_from_alignment(al, before_data: AlignOptions | None = None) -> InitialState:
     """The estimator's initial state and prior from an :class:`~graphnav.estimators.align.Alignment` (the position
-    covariance moves from NED to the body axes of GTSAM's Pose3 tangent ``[rot, trans]``)."""
+    covariance moves from NED to the body axes of GTSAM's Pose3 tangent ``[rot, trans]``).
+
+    ``before_data``: for an estimator that will see the alignment's data again, the prior holds only what was
+    known before them (``AlignOptions.unaligned_*`` sigmas on tilt, velocity and, unless it was given, heading;
+    the accelerometer bias at zero with the spec's sigma); the aligned state is still where it starts."""
     C = np.asarray(al.C_b_n, float)
+    cov_rot, cov_v_n, bias_acc = np.asarray(al.cov_rot, float), np.asarray(al.cov_v_n, float), al.bias_acc
+    if before_data is not None:
+        o = before_data
+        heading_var = ((C @ cov_rot @ C.T)[2, 2] if al.heading_source == "given"     # known before the data
+                       else o.unaligned_heading_sigma_rad ** 2)
+        # NED axes: roll/pitch about north and east, heading about down
+        cov_rot = C.T @ np.diag([o.unaligned_tilt_sigma_rad ** 2] * 2 + [heading_var]) @ C
+        cov_v_n = np.eye(3) * o.unaligned_velocity_sigma_mps ** 2
+        bias_acc = np.zeros(3)
     cov_pose = np.zeros((6, 6))
-    cov_pose[:3, :3] = al.cov_rot
+    cov_pose[:3, :3] = cov_rot
     cov_pose[3:, 3:] = C.T @ np.asarray(al.cov_p_n, float) @ C
     return InitialState(gtsam.Pose3(gtsam.Rot3(C), np.asarray(al.p_n, float)), np.asarray(al.v_n, float),
-                        gtsam.imuBias.ConstantBias(np.asarray(al.bias_acc, float), np.asarray(al.bias_gyro, float)),
-                        t=float(al.t), cov_pose=cov_pose, cov_v_n=np.asarray(al.cov_v_n, float),
-                        origin_lla=al.origin_lla)
+                        gtsam.imuBias.ConstantBias(np.asarray(bias_acc, float), np.asarray(al.bias_gyro, float)),
+                        t=float(al.t), cov_pose=cov_pose, cov_v_n=cov_v_n, origin_lla=al.origin_lla)
 
 
 def stream_adders(nav: Navigator) -> dict:
