@@ -138,6 +138,8 @@ def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surfac
     assert stays[0]["error_m"] == pytest.approx(1.49) and stays[0]["distance_m"] == pytest.approx(298.0)
     assert stays[1]["error_m"] == pytest.approx(1.39) and stays[1]["distance_m"] == pytest.approx(280.0)
     assert stays[1]["drift_pct"] == pytest.approx(1.39 / 2.8)          # since the last fix, at 159 s
+    # the JSON says what the line says: no whole-mission drift or claimed % DT, bounded by the last fix
+    assert d["drift_pct"] is None and d["sigma_h_end_pct"] is None and d["end_error_m"] == pytest.approx(0.9)
     line = drift_line(d)
     assert "bounded by the last fix, not a drift" in line and "0.50 % DT (1.39 m over 280.0 m)" in line
 
@@ -209,3 +211,22 @@ def test_the_run_frame_applies_to_the_estimate_files_only(tmp_path):
     write_json(tmp_path / "summary.json", {"position_frame": frame, "files": files})
     assert run_frame(tmp_path / "trajectory.csv")["position_frame"] == frame
     assert run_frame(tmp_path / "groundtruth.tum") == {}
+
+
+def test_a_run_written_before_the_frame_is_not_scored_from_the_start(tmp_path):
+    # its covariance holds the unknown start's 100 m per axis: scored from the start it claimed 141 m, NEES 0.00
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    gt = _truth()
+    sol = _unknown_start(gt)
+    sol.cov_p_n[:, :2, :2] += np.eye(2) * 100.0 ** 2
+    write_trajectory_csv(tmp_path / "run" / "trajectory.csv", sol)
+    write_tum(tmp_path / "gt.tum", NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n))
+    write_json(tmp_path / "run" / "summary.json", {"initialisation": {"position_source": LOCAL_ORIGIN},
+                                                   "files": {"trajectory_csv": "run/trajectory.csv"}})
+    with pytest.warns(RuntimeWarning, match="written before the position frame"):
+        assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                         "--json", str(tmp_path / "ev.json")]) == 0
+    res = json.loads((tmp_path / "ev.json").read_text())
+    assert res["sigma_h_end_m"] is None and res["nees_position_mean"] is None
+    assert "cannot be scored from the start" in res["nees_position_note"]
+    assert res["end_horizontal_error_m"] == pytest.approx(4.0, abs=1e-4)       # the error is still from the start

@@ -419,7 +419,8 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
     - ``sigma_h_end_pct``: the drift the estimator claims, the covariance's horizontal sigma (counted from the
       start) as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
     - ``fixes_used``: the position fixes the estimator used (``info["n_fixes"]``); with any, the sigma and the
-      error at the end are bounded by the last fix, not a drift;
+      error at the end are bounded by the last fix, not a drift, and ``drift_pct`` and ``sigma_h_end_pct`` are
+      None (the drift is ``drift_before_fixes``'s);
     - with a reference ``gt``: ``end_error_m``, ``reference_distance_m`` and ``drift_pct`` of
       :func:`mission_drift` (the % DT against the reference); None without one; and, when fixes were used and
       their stamps ``t_fix`` (s) are given, ``drift_before_fixes`` (:func:`drift_before_fixes`).
@@ -441,6 +442,9 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
         out.update(end_error_m=m["end_error_m"], reference_distance_m=m["distance_m"], drift_pct=m["drift_pct"])
         if out["fixes_used"] and t_fix is not None:
             out["drift_before_fixes"] = drift_before_fixes(solution, gt, t_fix)
+    if out["fixes_used"]:
+        # as drift_line says: bounded by the last fix, the end error and sigma are no whole-mission drift
+        out.update(drift_pct=None, sigma_h_end_pct=None)
     return out
 
 

@@ -29,6 +29,7 @@ relative to the start) is warned about.
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +63,29 @@ def load_trajectory(path: str | Path) -> NavSolution:
             raise DataError(f"not a TUM file (timestamp tx ty tz qx qy qz qw per line): {exc}", str(path)) from None
         est = NavSolution(path.stem, t, p, np.full_like(p, np.nan), C)
     est.info.update(run_frame(path))
+    if est.info.pop(HOLDS_ORIGIN, False) and est.cov_p_n is not None:
+        note = (f"{path}: written before the position frame (its summary.json has no position_frame.origin_sigma_m), "
+                "its position covariance still holds the unknown start's place on Earth: the claimed position "
+                "sigma and the position NEES cannot be scored from the start and are left out")
+        warnings.warn(note, RuntimeWarning, stacklevel=2)
+        est = replace(est, cov_p_n=None, info={**est.info, "position_claim_note": note})
     return est
+
+
+#: ``run_frame``'s key for a run written before the position frame whose start was unknown: its covariance
+#: counts from the origin's 100 m (``AlignOptions.local_origin_sigma_m``), not from the start.
+HOLDS_ORIGIN = "covariance_holds_origin"
+
+
+def _holds_origin(summary: dict) -> bool:
+    """Whether a summary's run started without its position and was written before its frame kept the origin's
+    place on Earth out of the covariance (no ``origin_sigma_m`` in ``position_frame`` or ``initialisation``)."""
+    from graphnav.core.solution import FRAME_UNKNOWN_START, LOCAL_ORIGIN
+    frame, alignment = summary.get("position_frame"), summary.get("initialisation")
+    if isinstance(frame, dict):
+        return frame.get("set_by") == FRAME_UNKNOWN_START and "origin_sigma_m" not in frame
+    return (isinstance(alignment, dict) and alignment.get("position_source") == LOCAL_ORIGIN
+            and "origin_sigma_m" not in alignment)
 
 
 #: The summary's ``files`` that hold the run's estimate, in its frame (not e.g. ``groundtruth_tum``, the reference).
@@ -89,7 +112,7 @@ def run_frame(path: Path) -> dict:
     files = summary.get("files") if isinstance(summary, dict) else None
     if path.name not in {Path(str(f)).name for key, f in (files or {}).items() if key in ESTIMATE_FILES}:
         return {}
-    out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0)}
+    out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0), HOLDS_ORIGIN: _holds_origin(summary)}
     if summary.get("position_frame"):
         out["position_frame"] = summary["position_frame"]
     elif isinstance(summary.get("initialisation"), dict):
@@ -248,6 +271,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     else:
         out.update(_drift(est, ref, mission))
         out.update(_pose_nees(est, ref, mission, poses))
+        if est.info.get("position_claim_note"):
+            out["nees_position_note"] = est.info["position_claim_note"]
     return out
 
 
