@@ -211,6 +211,10 @@ def test_the_run_frame_applies_to_the_estimate_files_only(tmp_path):
     write_json(tmp_path / "summary.json", {"position_frame": frame, "files": files})
     assert run_frame(tmp_path / "trajectory.csv")["position_frame"] == frame
     assert run_frame(tmp_path / "groundtruth.tum") == {}
+    # smooth now writes its groundtruth.tum in the run's frame, and says so: the frame takes it back to the reference's
+    write_json(tmp_path / "summary.json", {"position_frame": frame, "files": files,
+                                           "groundtruth_in_estimate_frame": True})
+    assert run_frame(tmp_path / "groundtruth.tum") == {"position_frame": frame}
 
 
 def test_a_run_written_before_the_frame_is_not_scored_from_the_start(tmp_path):

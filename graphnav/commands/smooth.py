@@ -148,6 +148,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt, fix_stamps(mission)),
         "position_frame": sol.info.get("position_frame"),
+        "groundtruth_in_estimate_frame": "groundtruth_tum" in files,       # write_reference_tum
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),

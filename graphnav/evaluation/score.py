@@ -88,7 +88,9 @@ def _holds_origin(summary: dict) -> bool:
             and "origin_sigma_m" not in alignment)
 
 
-#: The summary's ``files`` that hold the run's estimate, in its frame (not e.g. ``groundtruth_tum``, the reference).
+#: The summary's ``files`` that hold the run's estimate, in its frame. ``groundtruth_tum`` (the reference) is in it
+#: only when the summary says ``groundtruth_in_estimate_frame`` (``graphnav smooth`` writes it so since that key
+#: exists; before, in the reference's own frame).
 ESTIMATE_FILES = ("trajectory_csv", "trajectory_tum", "online_csv")
 
 
@@ -98,6 +100,8 @@ def run_frame(path: Path) -> dict:
     ``online`` write one): ``position_frame``
     (:func:`graphnav.core.solution.position_frame`; from a summary written before it, the ``alignment`` the
     frame follows from) and ``n_fixes``, the keys a :class:`NavSolution`'s info holds them in; {} without one.
+    For the run's ``groundtruth.tum`` written in its frame, ``position_frame`` only (scored through it, the
+    reference is the reference again).
     A trajectory file has no place for them that evo and other readers would still read."""
     import json
     summary_path = path.parent / "summary.json"
@@ -110,7 +114,10 @@ def run_frame(path: Path) -> dict:
                       RuntimeWarning, stacklevel=2)
         return {}
     files = summary.get("files") if isinstance(summary, dict) else None
-    if path.name not in {Path(str(f)).name for key, f in (files or {}).items() if key in ESTIMATE_FILES}:
+    listed = {key for key, f in (files or {}).items() if Path(str(f)).name == path.name}
+    if "groundtruth_tum" in listed and summary.get("groundtruth_in_estimate_frame") and summary.get("position_frame"):
+        return {"position_frame": summary["position_frame"]}       # the reference, written in the run's frame
+    if not listed & set(ESTIMATE_FILES):
         return {}
     out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0), HOLDS_ORIGIN: _holds_origin(summary)}
     if summary.get("position_frame"):
