@@ -243,6 +243,7 @@ def test_smooth_dead_reckons_the_beam_coordinate_pd0_file(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["method"] == "DVL-DR" and summary["streams"]["dvl"]["read"] == 273   # 272 read by dolfyn, its last ensemble refused
     assert "csv_columns" in summary["warnings"][0]
+    assert summary["position_frame"]["set_by"] == "unknown start"      # no frame was written
     from graphnav.io.outputs import read_trajectory_csv, read_tum
     sol = read_trajectory_csv(out / "trajectory.csv")
     t_tum, p_tum, _ = read_tum(out / "trajectory.tum")

@@ -121,7 +121,7 @@ def test_the_navigator_exports_the_frame_its_first_fix_placed():
     np.testing.assert_allclose(frame["offset_ne_m"], sol.p_n[k, :2], atol=1.0)   # the dead-reckoned position
     assert not sol.origin_unknown
     # scored through the frame, the error is the navigation's (metres), not the start's unknown offset
-    assert mission_drift(sol, m.gt)["end_error_m"] < 10.0
+    assert mission_drift(sol, m.gt)["end_error_m"] < 1.5              # 0.39 m; 6.21 m without the frame
 
 
 def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surface():
@@ -138,6 +138,8 @@ def test_with_fixes_the_summary_reports_the_drift_before_each_stay_at_the_surfac
     assert stays[0]["error_m"] == pytest.approx(1.49) and stays[0]["distance_m"] == pytest.approx(298.0)
     assert stays[1]["error_m"] == pytest.approx(1.39) and stays[1]["distance_m"] == pytest.approx(280.0)
     assert stays[1]["drift_pct"] == pytest.approx(1.39 / 2.8)          # since the last fix, at 159 s
+    # the JSON says what the line says: no whole-mission drift or claimed % DT, bounded by the last fix
+    assert d["drift_pct"] is None and d["sigma_h_end_pct"] is None and d["end_error_m"] == pytest.approx(0.9)
     line = drift_line(d)
     assert "bounded by the last fix, not a drift" in line and "0.50 % DT (1.39 m over 280.0 m)" in line
 
@@ -156,3 +158,79 @@ def test_the_epochs_before_the_fix_that_placed_the_frame_are_counted_from_the_st
     error = scored(sol, gt).p_n[:, :2] - gt.p_n[:, :2]
     np.testing.assert_allclose(error[:k_fix], drift[:k_fix, :2], atol=1e-9)
     np.testing.assert_allclose(error[k_fix:], drift[k_fix:, :2], atol=1e-9)
+
+
+def test_every_position_number_of_a_run_goes_through_its_frame(tmp_path):
+    # the final horizontal error, the bench's window drift and evo's APE took the positions as written: 277 m
+    from graphnav.evaluation.metrics import horizontal_position_error, horizontal_position_rmse, window_drift
+    from graphnav.evaluation.score import evaluate
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]
+    sol = _placed_by_a_fix(gt)
+    assert horizontal_position_error(sol, gt) < 0.01
+    assert horizontal_position_rmse(sol, gt, 150.0) < 0.01
+    assert window_drift(sol, gt, 50.0, 150.0)["drift_m"] < 0.01
+    res = evaluate(sol, gt)
+    assert res["ape_translation_m"]["rmse"] < 0.01
+    assert res["end_horizontal_error_m"] == pytest.approx(res["ape_translation_m"]["max"], abs=0.01)
+
+
+def test_a_reference_without_an_origin_says_the_frame_is_not_applied(tmp_path):
+    # the frame line was printed as if applied while the TUM reference, without latitude/longitude, skipped it
+    from graphnav.evaluation.score import evaluate, format_report
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]
+    sol = _placed_by_a_fix(gt)
+    tum = GroundTruth(gt.t, gt.p_n, gt.v_n, gt.C_b_n, None, "gt.tum")
+    with pytest.warns(RuntimeWarning, match="no latitude/longitude origin"):
+        res = evaluate(sol, tum)
+    assert "frame NOT applied" in format_report(res, "est", "gt.tum")
+    assert evaluate(sol, gt).get("position_frame_note") is None
+
+
+def test_groundtruth_tum_is_written_in_the_estimate_frame(tmp_path):
+    # groundtruth.tum held the reference in its own frame: evo_ape compared positions 277 m apart
+    from graphnav.io.outputs import read_tum, write_reference_tum
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]
+    sol = _placed_by_a_fix(gt)
+    _, p, _ = read_tum(write_reference_tum(tmp_path / "groundtruth.tum", sol, gt))
+    np.testing.assert_allclose(p, sol.p_n, atol=0.01)
+    started_from_gt = NavSolution("est", gt.t, gt.p_n + 0.5, gt.v_n, gt.C_b_n)
+    _, p, _ = read_tum(write_reference_tum(tmp_path / "gt2.tum", started_from_gt, gt))
+    np.testing.assert_allclose(p, gt.p_n, atol=1e-6)
+
+
+def test_the_run_frame_applies_to_the_estimate_files_only(tmp_path):
+    # evaluate X/groundtruth.tum put the reference through the estimate's frame: APE 0 m beside an end error of 68 m
+    from graphnav.evaluation.score import run_frame
+    from graphnav.io.outputs import write_json
+    gt = _truth()
+    frame = _placed_by_a_fix(gt).info["position_frame"]
+    files = {"trajectory_csv": "run/trajectory.csv", "groundtruth_tum": "run/groundtruth.tum"}
+    write_json(tmp_path / "summary.json", {"position_frame": frame, "files": files})
+    assert run_frame(tmp_path / "trajectory.csv")["position_frame"] == frame
+    assert run_frame(tmp_path / "groundtruth.tum") == {}
+    # smooth now writes its groundtruth.tum in the run's frame, and says so: the frame takes it back to the reference's
+    write_json(tmp_path / "summary.json", {"position_frame": frame, "files": files,
+                                           "groundtruth_in_estimate_frame": True})
+    assert run_frame(tmp_path / "groundtruth.tum") == {"position_frame": frame}
+
+
+def test_a_run_written_before_the_frame_is_not_scored_from_the_start(tmp_path):
+    # its covariance holds the unknown start's 100 m per axis: scored from the start it claimed 141 m, NEES 0.00
+    from graphnav.io.outputs import write_json, write_trajectory_csv, write_tum
+    gt = _truth()
+    sol = _unknown_start(gt)
+    sol.cov_p_n[:, :2, :2] += np.eye(2) * 100.0 ** 2
+    write_trajectory_csv(tmp_path / "run" / "trajectory.csv", sol)
+    write_tum(tmp_path / "gt.tum", NavSolution("GT", gt.t, gt.p_n, gt.v_n, gt.C_b_n))
+    write_json(tmp_path / "run" / "summary.json", {"initialisation": {"position_source": LOCAL_ORIGIN},
+                                                   "files": {"trajectory_csv": "run/trajectory.csv"}})
+    with pytest.warns(RuntimeWarning, match="written before the position frame"):
+        assert cli.main(["evaluate", str(tmp_path / "run" / "trajectory.csv"), "--ref", str(tmp_path / "gt.tum"),
+                         "--json", str(tmp_path / "ev.json")]) == 0
+    res = json.loads((tmp_path / "ev.json").read_text())
+    assert res["sigma_h_end_m"] is None and res["nees_position_mean"] is None
+    assert "cannot be scored from the start" in res["nees_position_note"]
+    assert res["end_horizontal_error_m"] == pytest.approx(4.0, abs=1e-4)       # the error is still from the start

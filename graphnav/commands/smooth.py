@@ -29,6 +29,7 @@ from graphnav.commands.common import (
     run_health_record,
 )
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.solution import LOCAL_ORIGIN, position_frame
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import GRAPH_HN_BATCH, METHODS
 from graphnav.evaluation.metrics import drift_summary, fix_stamps
@@ -147,6 +148,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
         "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt, fix_stamps(mission)),
         "position_frame": sol.info.get("position_frame"),
+        "groundtruth_in_estimate_frame": "groundtruth_tum" in files,       # write_reference_tum
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),
         "regressed_beams": regressed_beams_summary(sol.info),
         "completer_state": sol.info.get("completer_state", {}),
@@ -242,6 +244,8 @@ def smooth_dvl_only(args, out: Path, final=str) -> dict:
         "initialisation": {"source": "origin at the first ping with a velocity over ground"},
         "realtime_factor": duration / wall if wall > 0 else float("nan"),
         "accuracy": {"ground_truth": False}, "health": None, "compared": {}, "drift": drift_summary(sol),
+        # dead reckoned from the first ping, whose place on Earth the DVL log does not say
+        "position_frame": position_frame({"alignment": {"position_source": LOCAL_ORIGIN}}),
         "uncertainty": uncertainty_summary(sol),
         "dead_reckoning": sol.info, "streams": streams, "warnings": said,
         "clock": "Unix seconds" if sol.t[0] > 1e8 else "the log's clock, s",

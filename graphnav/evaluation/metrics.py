@@ -101,7 +101,9 @@ def vrte(model_vrmse: float, ref_vrmse: float) -> float:
 
 
 def horizontal_position_error(solution: NavSolution, gt: GroundTruth, t: float | None = None) -> float:
-    """Horizontal (north-east) position error (m) at the last aligned solution epoch ``<= t`` (None = end)."""
+    """Horizontal (north-east) position error (m) at the last aligned solution epoch ``<= t`` (None = end), as
+    the reference scores it (:func:`scored`)."""
+    solution = scored(solution, gt)
     aligned, sel = _window(solution, gt, None, t)
     k = np.flatnonzero(sel)[-1]
     err = solution.p_n[aligned.mask][k, :2] - aligned.p_true_n[k, :2]
@@ -110,7 +112,9 @@ def horizontal_position_error(solution: NavSolution, gt: GroundTruth, t: float |
 
 def horizontal_position_rmse(solution: NavSolution, gt: GroundTruth, t_start: float | None = None,
                              t_end: float | None = None) -> float:
-    """RMSE (m) of the horizontal position error over the solution epochs in ``[t_start, t_end]``."""
+    """RMSE (m) of the horizontal position error over the solution epochs in ``[t_start, t_end]``, as the
+    reference scores it (:func:`scored`)."""
+    solution = scored(solution, gt)
     aligned, sel = _window(solution, gt, t_start, t_end)
     err = solution.p_n[aligned.mask][sel, :2] - aligned.p_true_n[sel, :2]
     return float(np.sqrt(np.mean(np.sum(err ** 2, axis=1))))
@@ -231,7 +235,10 @@ def drift_pct(error_m: float, distance_m: float) -> float | None:
 def position_drift(solution: NavSolution, gt: GroundTruth, t_start: float, t_end: float) -> float:
     """Horizontal position error accumulated over a window, m: ``|e(t_end) - e(t_start)|`` (N, E), with
     ``e = p_est - p_gt`` interpolated at the two stamps. Removing the error already present at the window
-    start isolates what the window cost (the error at the start is the drift of everything before it)."""
+    start isolates what the window cost (the error at the start is the drift of everything before it). The
+    positions are those the reference scores (:func:`scored`)."""
+    solution = scored(solution, gt)
+
     def err(t):
         return interp_rows(t, solution.t, solution.p_n[:, :2]) - gt.at(t)[0][:2]
     return float(np.linalg.norm(err(t_end) - err(t_start)))
@@ -339,10 +346,19 @@ def in_reference_frame(solution: NavSolution, gt: GroundTruth) -> NavSolution:
     return replace(solution, p_n=p_n)
 
 
+#: ``info`` key of a solution :func:`scored` returned: its positions are already the reference's, scoring them
+#: again would move them twice.
+SCORED = "scored_positions"
+
+
 def scored(solution: NavSolution, gt: GroundTruth) -> NavSolution:
     """``solution`` as a reference ``gt`` scores it: in the reference's frame (:func:`in_reference_frame`) and,
-    when its start's position was unknown, from the start (:func:`from_start`)."""
-    return from_start(in_reference_frame(solution, gt), gt)
+    when its start's position was unknown, from the start (:func:`from_start`). Every position number of a run
+    goes through it; a solution it returned is returned as is."""
+    if solution.info.get(SCORED):
+        return solution
+    out = from_start(in_reference_frame(solution, gt), gt)
+    return replace(out, info={**out.info, SCORED: True})
 
 
 #: Fixes further apart than this (s) belong to different stays at the surface (:func:`surfacings`).
@@ -403,7 +419,8 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
     - ``sigma_h_end_pct``: the drift the estimator claims, the covariance's horizontal sigma (counted from the
       start) as % of ``distance_m``; None without ``cov_p_n`` or under :data:`MIN_DISTANCE_M`;
     - ``fixes_used``: the position fixes the estimator used (``info["n_fixes"]``); with any, the sigma and the
-      error at the end are bounded by the last fix, not a drift;
+      error at the end are bounded by the last fix, not a drift, and ``drift_pct`` and ``sigma_h_end_pct`` are
+      None (the drift is ``drift_before_fixes``'s);
     - with a reference ``gt``: ``end_error_m``, ``reference_distance_m`` and ``drift_pct`` of
       :func:`mission_drift` (the % DT against the reference); None without one; and, when fixes were used and
       their stamps ``t_fix`` (s) are given, ``drift_before_fixes`` (:func:`drift_before_fixes`).
@@ -425,6 +442,9 @@ def drift_summary(solution: NavSolution, gt: GroundTruth | None = None, t_fix: n
         out.update(end_error_m=m["end_error_m"], reference_distance_m=m["distance_m"], drift_pct=m["drift_pct"])
         if out["fixes_used"] and t_fix is not None:
             out["drift_before_fixes"] = drift_before_fixes(solution, gt, t_fix)
+    if out["fixes_used"]:
+        # as drift_line says: bounded by the last fix, the end error and sigma are no whole-mission drift
+        out.update(drift_pct=None, sigma_h_end_pct=None)
     return out
 
 

@@ -29,6 +29,7 @@ relative to the start) is warned about.
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -62,14 +63,45 @@ def load_trajectory(path: str | Path) -> NavSolution:
             raise DataError(f"not a TUM file (timestamp tx ty tz qx qy qz qw per line): {exc}", str(path)) from None
         est = NavSolution(path.stem, t, p, np.full_like(p, np.nan), C)
     est.info.update(run_frame(path))
+    if est.info.pop(HOLDS_ORIGIN, False) and est.cov_p_n is not None:
+        note = (f"{path}: written before the position frame (its summary.json has no position_frame.origin_sigma_m), "
+                "its position covariance still holds the unknown start's place on Earth: the claimed position "
+                "sigma and the position NEES cannot be scored from the start and are left out")
+        warnings.warn(note, RuntimeWarning, stacklevel=2)
+        est = replace(est, cov_p_n=None, info={**est.info, "position_claim_note": note})
     return est
+
+
+#: ``run_frame``'s key for a run written before the position frame whose start was unknown: its covariance
+#: counts from the origin's 100 m (``AlignOptions.local_origin_sigma_m``), not from the start.
+HOLDS_ORIGIN = "covariance_holds_origin"
+
+
+def _holds_origin(summary: dict) -> bool:
+    """Whether a summary's run started without its position and was written before its frame kept the origin's
+    place on Earth out of the covariance (no ``origin_sigma_m`` in ``position_frame`` or ``initialisation``)."""
+    from graphnav.core.solution import FRAME_UNKNOWN_START, LOCAL_ORIGIN
+    frame, alignment = summary.get("position_frame"), summary.get("initialisation")
+    if isinstance(frame, dict):
+        return frame.get("set_by") == FRAME_UNKNOWN_START and "origin_sigma_m" not in frame
+    return (isinstance(alignment, dict) and alignment.get("position_source") == LOCAL_ORIGIN
+            and "origin_sigma_m" not in alignment)
+
+
+#: The summary's ``files`` that hold the run's estimate, in its frame. ``groundtruth_tum`` (the reference) is in it
+#: only when the summary says ``groundtruth_in_estimate_frame`` (``graphnav smooth`` writes it so since that key
+#: exists; before, in the reference's own frame).
+ESTIMATE_FILES = ("trajectory_csv", "trajectory_tum", "online_csv")
 
 
 def run_frame(path: Path) -> dict:
     """How the run that wrote the trajectory file ``path`` placed its positions, from the summary.json beside it
-    when that summary lists the file (``graphnav smooth`` / ``online`` write one): ``position_frame``
+    when that summary lists the file as one of the estimate's (:data:`ESTIMATE_FILES`; ``graphnav smooth`` /
+    ``online`` write one): ``position_frame``
     (:func:`graphnav.core.solution.position_frame`; from a summary written before it, the ``alignment`` the
     frame follows from) and ``n_fixes``, the keys a :class:`NavSolution`'s info holds them in; {} without one.
+    For the run's ``groundtruth.tum`` written in its frame, ``position_frame`` only (scored through it, the
+    reference is the reference again).
     A trajectory file has no place for them that evo and other readers would still read."""
     import json
     summary_path = path.parent / "summary.json"
@@ -81,10 +113,13 @@ def run_frame(path: Path) -> dict:
         warnings.warn(f"{summary_path}: not read ({exc}); {path.name} is scored as if started from the reference",
                       RuntimeWarning, stacklevel=2)
         return {}
-    if not isinstance(summary, dict) or path.name not in {Path(str(f)).name for f in
-                                                          (summary.get("files") or {}).values()}:
+    files = summary.get("files") if isinstance(summary, dict) else None
+    listed = {key for key, f in (files or {}).items() if Path(str(f)).name == path.name}
+    if "groundtruth_tum" in listed and summary.get("groundtruth_in_estimate_frame") and summary.get("position_frame"):
+        return {"position_frame": summary["position_frame"]}       # the reference, written in the run's frame
+    if not listed & set(ESTIMATE_FILES):
         return {}
-    out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0)}
+    out = {"n_fixes": int((summary.get("drift") or {}).get("fixes_used") or 0), HOLDS_ORIGIN: _holds_origin(summary)}
     if summary.get("position_frame"):
         out["position_frame"] = summary["position_frame"]
     elif isinstance(summary.get("initialisation"), dict):
@@ -169,11 +204,14 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
         raise ConfigError(f"rpe unit {rpe_unit!r}: choose m or frames")
     from graphnav.evaluation.consistency import scoring_reference
     from graphnav.evaluation.metrics import align as align_to_reference
+    from graphnav.evaluation.metrics import scored
     # The reference (often at another rate, e.g. 1 Hz GT vs keyframes at DVL pings with a time offset) is
     # taken at the estimate's stamps inside its span, so evo's association pairs every epoch: with a mission, the
     # GT carried there by its IMU (the NEES's reference, and the one `smooth` writes to groundtruth.tum), else
     # interpolated.
     poses = ref if mission is None else scoring_reference(est, mission)
+    frame_note = _frame_not_applied(est, ref)
+    est = scored(est, poses)            # evo's positions are the ones drift and NEES score
     at = align_to_reference(est, poses)
     if not at.mask.any():
         raise DataError(f"no estimate epoch inside the reference span [{poses.t[0]:.3f}, {poses.t[-1]:.3f}] s; are "
@@ -213,6 +251,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     out["rpe_delta"] = f"{rpe_delta:g} {rpe_unit}"
     if est.info.get("position_frame"):
         out["position_frame"] = est.info["position_frame"]
+    if frame_note:
+        out["position_frame_note"] = frame_note
     from graphnav.evaluation.metrics import vrmse
     if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
         out["vrmse_mps"] = None
@@ -238,7 +278,26 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     else:
         out.update(_drift(est, ref, mission))
         out.update(_pose_nees(est, ref, mission, poses))
+        if est.info.get("position_claim_note"):
+            out["nees_position_note"] = est.info["position_claim_note"]
     return out
+
+
+def _frame_not_applied(est: NavSolution, ref: GroundTruth) -> str | None:
+    """Why the estimate's positions cannot be put in the reference's frame, warned: its frame is placed on Earth
+    (an initial latitude/longitude or a fix) and the reference has no latitude/longitude origin (a TUM or CSV
+    file), so both are compared as they are, each from its own origin. None when nothing is missing."""
+    from graphnav.core.solution import FRAME_FIRST_FIX, FRAME_FIX_AT_START, FRAME_INITIAL_LLA
+    frame = est.info.get("position_frame") or {}
+    if ref.origin_lla is not None or frame.get("set_by") not in (FRAME_INITIAL_LLA, FRAME_FIX_AT_START,
+                                                                 FRAME_FIRST_FIX):
+        return None
+    note = (f"the estimate's positions are placed on Earth ({frame['set_by']}) but the reference {ref.source} has "
+            "no latitude/longitude origin: its frame is not applied, the positions are compared as they are "
+            "(each from its own origin: right for a reference written in the estimate's frame, as smooth's "
+            "groundtruth.tum)")
+    warnings.warn(note, RuntimeWarning, stacklevel=3)
+    return note
 
 
 def _settle_t0(est: NavSolution, ref: GroundTruth, mission) -> float:
@@ -340,6 +399,8 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
     frame = position_frame_line(result.get("position_frame"))
     if frame:
         lines.append(f"  estimate's {frame} (from the run's summary.json)")
+    if result.get("position_frame_note"):
+        lines.append(f"  frame NOT applied: {result['position_frame_note']}")
     for key, label, unit in (("ape_translation_m", "APE translation", "m"),
                              ("ape_rotation_deg", "APE rotation", "deg"),
                              ("rpe_translation_m", f"RPE translation per {result['rpe_delta']}", "m")):

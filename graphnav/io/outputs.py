@@ -12,7 +12,8 @@
   :func:`write_pose_covariance_csv` (``trajectory_cov.csv``) holds each line's position covariance (NED, m^2)
   and attitude covariance (body axes, rad^2), which TUM has no place for;
   :func:`write_reference_tum` writes the ground truth at the estimate's stamps (``graphnav smooth``: carried there
-  by the IMU), so that ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every epoch at its defaults.
+  by the IMU) and in the estimate's frame, so that ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every
+  epoch at its defaults and compares positions in one frame.
 * Every position written follows :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION`: NED from the sea
   surface above the first fix, down = absolute depth; where that origin is on Earth (or that it is unknown, for a
   run started without its position) is the summary's ``position_frame``
@@ -251,7 +252,9 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> 
     epoch: :meth:`GroundTruth.at` (the one GT interpolator) at each of ``sol.t`` inside the GT span (never
     extrapolated; epochs outside are left out). ``graphnav smooth`` passes the reference already carried to the
     estimate's stamps by the IMU (:func:`graphnav.evaluation.consistency.scoring_reference`), which it returns
-    unchanged. Positions in both files follow
+    unchanged. The reference is written in the estimate's frame (the summary's ``position_frame``:
+    :func:`_frame_shift`), so that evo compares like with like for a run placed by an initial latitude/longitude or
+    a fix, or started without its position. Positions in both files follow
     :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute depth). Returns the path, or None
     (with a RuntimeWarning, nothing written) when no estimate epoch lies inside the GT span."""
     inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
@@ -261,7 +264,16 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> 
         return None
     t = sol.t[inside]
     p, v, C = gt.at(t)
-    return write_tum(path, NavSolution("GT", t, p, v, C))
+    return write_tum(path, NavSolution("GT", t, p + _frame_shift(sol, gt)[inside], v, C))
+
+
+def _frame_shift(sol: NavSolution, gt: GroundTruth) -> np.ndarray:
+    """(K,3) m that carries the reference's positions at ``sol``'s epochs into the estimate's frame: the estimate
+    less the same estimate as the reference scores it (:func:`graphnav.evaluation.metrics.scored`: another
+    origin on Earth, or counted from an unknown start). Zero for a run started from the reference. Between two
+    tangent planes a few km apart the shift varies by micrometres over the metres an estimate is off."""
+    from graphnav.evaluation.metrics import scored
+    return np.nan_to_num(np.asarray(sol.p_n, float) - scored(sol, gt).p_n)
 
 
 def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
