@@ -119,7 +119,8 @@ def test_instrument_frame_columns_are_turned_by_C_d_b(sim, tmp_path):
 
 
 def test_a_dvl_turned_90_deg_read_as_body_is_warned_about_not_blamed_on_the_imu(sim, tmp_path):
-    """Against the IMU a DVL turned 90 deg looks like an IMU turned -90 deg; its velocity pointing sideways says which."""
+    """Against the IMU a DVL turned 90 deg looks like an IMU turned -90 deg; its velocity pointing sideways says
+    which."""
     m, t, v_b = sim
     C_d_b = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     with pytest.warns(RuntimeWarning, match=r"turned -(89|90)\.\d deg about z from the IMU's axes.*'instrument'"):

@@ -190,14 +190,15 @@ def test_a_reference_without_an_origin_says_the_frame_is_not_applied(tmp_path):
 
 def test_groundtruth_tum_is_written_in_the_estimate_frame(tmp_path):
     # groundtruth.tum held the reference in its own frame: evo_ape compared positions 277 m apart
+    from graphnav.evaluation.metrics import frame_shift
     from graphnav.io.outputs import read_tum, write_reference_tum
     gt = _truth()
     gt.p_n[:, :2] += [250.0, -120.0]
     sol = _placed_by_a_fix(gt)
-    _, p, _ = read_tum(write_reference_tum(tmp_path / "groundtruth.tum", sol, gt))
+    _, p, _ = read_tum(write_reference_tum(tmp_path / "groundtruth.tum", sol, gt, frame_shift(sol, gt)))
     np.testing.assert_allclose(p, sol.p_n, atol=0.01)
     started_from_gt = NavSolution("est", gt.t, gt.p_n + 0.5, gt.v_n, gt.C_b_n)
-    _, p, _ = read_tum(write_reference_tum(tmp_path / "gt2.tum", started_from_gt, gt))
+    _, p, _ = read_tum(write_reference_tum(tmp_path / "gt2.tum", started_from_gt, gt, frame_shift(started_from_gt, gt)))
     np.testing.assert_allclose(p, gt.p_n, atol=1e-6)
 
 

@@ -32,7 +32,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.solution import LOCAL_ORIGIN, position_frame
 from graphnav.estimators.health import EXIT_DIVERGED
 from graphnav.evaluation.methods import GRAPH_HN_BATCH, METHODS
-from graphnav.evaluation.metrics import drift_summary, fix_stamps
+from graphnav.evaluation.metrics import drift_summary, fix_stamps, frame_shift
 
 
 # --- the command ----------------------------------------------------------------------------------------
@@ -127,7 +127,7 @@ def smooth_mission(args, out: Path, final=str) -> dict:
             warnings.warn(f"{out / 'groundtruth.tum'}: the GT interpolated to the estimate's stamps, not carried "
                           f"there by the IMU ({exc})", RuntimeWarning, stacklevel=2)
             reference = mission.gt
-        written = write_reference_tum(out / "groundtruth.tum", sol, reference)
+        written = write_reference_tum(out / "groundtruth.tum", sol, reference, frame_shift(sol, reference))
         if written is not None:
             files["groundtruth_tum"] = str(written)
     if args.bag != "none":
@@ -146,7 +146,8 @@ def smooth_mission(args, out: Path, final=str) -> dict:
         "epochs": int(len(sol.t)), "duration_s": mission.duration, "runtime_s": wall,
         "initialisation": sol.info.get("alignment", {"source": "ground truth"}),
         "realtime_factor": mission.duration / wall if wall > 0 else float("nan"),
-        "accuracy": accuracy_summary(sol, mission, outages, carried), "drift": drift_summary(sol, mission.gt, fix_stamps(mission)),
+        "accuracy": accuracy_summary(sol, mission, outages, carried),
+        "drift": drift_summary(sol, mission.gt, fix_stamps(mission)),
         "position_frame": sol.info.get("position_frame"),
         "groundtruth_in_estimate_frame": "groundtruth_tum" in files,       # write_reference_tum
         "uncertainty": uncertainty_summary(sol), "health": run_health_record(sol.info, mission),

@@ -32,7 +32,8 @@ import numpy as np
 from graphnav.core.beam_model import BeamModel
 from graphnav.core.config import DvlSpec
 from graphnav.core.errors import GeometryError
-from graphnav.core.screening import SPIKE_NEIGHBOURS, describe_implausible, implausible_pings, no_bottom_lock  # noqa: F401
+from graphnav.core.screening import (  # noqa: F401
+    SPIKE_NEIGHBOURS, describe_implausible, implausible_pings, no_bottom_lock)
 
 
 def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarray:

@@ -28,8 +28,8 @@ state *before* the measurement is used) and its predicted covariance ``S = H P H
 ``"ok"``, ``"degraded"`` or ``"diverged"``, and why. Diverged: the monitor is in the diverged state (per
 estimate), or was at the end of the run (per run; a command then exits with :data:`EXIT_DIVERGED`).
 Degraded: a claimed horizontal velocity sigma above ``max_sigma_v_fraction`` of the speed (at least
-``min_sigma_v_bound_mps``), pure inertial longer than ``max_pure_inertial_s``, recovering from a divergence, or (per run) a
-divergence that recovered, most NIS blocks above their band, or more than :data:`REFUSED_DEGRADED_FRACTION` of
+``min_sigma_v_bound_mps``), pure inertial longer than ``max_pure_inertial_s``, recovering from a divergence, or (per
+run) a divergence that recovered, most NIS blocks above their band, or more than :data:`REFUSED_DEGRADED_FRACTION` of
 an input stream refused. Every output carries it: the stream's JSON lines, the trajectory CSV's ``health``
 column, ``summary.json`` and the bag's Odometry covariance.
 

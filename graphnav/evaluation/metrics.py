@@ -361,6 +361,14 @@ def scored(solution: NavSolution, gt: GroundTruth) -> NavSolution:
     return replace(out, info={**out.info, SCORED: True})
 
 
+def frame_shift(sol: NavSolution, gt: GroundTruth) -> np.ndarray:
+    """(K,3) m that carries the reference's positions at ``sol``'s epochs into the estimate's frame: the estimate
+    less the same estimate as the reference scores it (:func:`scored`: another origin on Earth, or counted from an
+    unknown start). Zero for a run started from the reference. Between two tangent planes a few km apart the shift
+    varies by micrometres over the metres an estimate is off."""
+    return np.nan_to_num(np.asarray(sol.p_n, float) - scored(sol, gt).p_n)
+
+
 #: Fixes further apart than this (s) belong to different stays at the surface (:func:`surfacings`).
 SURFACING_GAP_S = 60.0
 

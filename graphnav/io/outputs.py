@@ -246,15 +246,17 @@ def uncertainty_summary(sol: NavSolution) -> dict:
     return out
 
 
-def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> Path | None:
+def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth,
+                        shift_n: np.ndarray | None = None) -> Path | None:
     """Write the reference ``gt`` at the estimate's stamps (TUM, as :func:`write_tum`), so that evo's tools at
     their defaults (``evo_ape tum groundtruth.tum trajectory.tum``: stamps matched within 0.01 s) pair every
     epoch: :meth:`GroundTruth.at` (the one GT interpolator) at each of ``sol.t`` inside the GT span (never
     extrapolated; epochs outside are left out). ``graphnav smooth`` passes the reference already carried to the
     estimate's stamps by the IMU (:func:`graphnav.evaluation.consistency.scoring_reference`), which it returns
-    unchanged. The reference is written in the estimate's frame (the summary's ``position_frame``:
-    :func:`_frame_shift`), so that evo compares like with like for a run placed by an initial latitude/longitude or
-    a fix, or started without its position. Positions in both files follow
+    unchanged. ``shift_n`` (K,3) m, one row per estimate epoch, carries the reference into the estimate's frame
+    (:func:`graphnav.evaluation.metrics.frame_shift`, the summary's ``position_frame``), so that evo compares like
+    with like for a run placed by an initial latitude/longitude or a fix, or started without its position; None:
+    written as it is. Positions in both files follow
     :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute depth). Returns the path, or None
     (with a RuntimeWarning, nothing written) when no estimate epoch lies inside the GT span."""
     inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
@@ -264,16 +266,9 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth) -> 
         return None
     t = sol.t[inside]
     p, v, C = gt.at(t)
-    return write_tum(path, NavSolution("GT", t, p + _frame_shift(sol, gt)[inside], v, C))
-
-
-def _frame_shift(sol: NavSolution, gt: GroundTruth) -> np.ndarray:
-    """(K,3) m that carries the reference's positions at ``sol``'s epochs into the estimate's frame: the estimate
-    less the same estimate as the reference scores it (:func:`graphnav.evaluation.metrics.scored`: another
-    origin on Earth, or counted from an unknown start). Zero for a run started from the reference. Between two
-    tangent planes a few km apart the shift varies by micrometres over the metres an estimate is off."""
-    from graphnav.evaluation.metrics import scored
-    return np.nan_to_num(np.asarray(sol.p_n, float) - scored(sol, gt).p_n)
+    if shift_n is not None:
+        p = p + np.asarray(shift_n, float)[inside]
+    return write_tum(path, NavSolution("GT", t, p, v, C))
 
 
 def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
