@@ -113,6 +113,10 @@ class GraphBackend(_Aided):
         """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
         return self.estimator.health
 
+    @monitor.setter
+    def monitor(self, value):
+        self.estimator.health = value
+
     def screening_counts(self) -> dict:
         """What the graph did with regressed beams so far: ``regressed_screening`` (gated, decorrelated out,
         inflated, continued: entered unscreened as the continuation of a run with ``regressed_runs="screen-first"``,
@@ -276,6 +280,10 @@ class EkfBackend(_Aided):
     def monitor(self):
         """The estimator's :class:`~graphnav.estimators.health.NisMonitor`."""
         return self.ekf.health
+
+    @monitor.setter
+    def monitor(self, value):
+        self.ekf.health = value
 
     @property
     def info(self) -> dict:

@@ -717,8 +717,11 @@ class Navigator:
         catch-up estimates counted them twice (a heading sigma about half its error). Its estimates through the
         alignment window stand (the aligned state there uses the whole window, as a smoother would); the
         estimator that goes on has counted each sample once. Its warnings about the same samples were given by
-        the first run and are not repeated."""
+        the first run and are not repeated, and the health goes on from the first run's monitors: the estimates
+        published through the window are that run's (the second starts from a wide prior, whose sigma over the
+        window would have made a clean run "degraded")."""
         latest, n_estimates = self._latest, self.n_estimates
+        published = (self.coasting, self.sigma, self.backend.monitor)
         fallbacks = dict(getattr(self._completer, "fallbacks", {}))
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
         self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
@@ -728,6 +731,7 @@ class Navigator:
             for stream, t_, payload in replayed:
                 self._dispatch(stream, t_, payload)
         self._latest, self.n_estimates, self._prop = latest, n_estimates, None
+        self.coasting, self.sigma, self.backend.monitor = published
         for k, n in fallbacks.items():      # the completer's pings of the window are counted once
             self._fallbacks_before[k] = self._fallbacks_before.get(k, 0) + self._completer.fallbacks[k] - n
 
