@@ -365,3 +365,9 @@ def test_online_started_from_the_sensors_claims_its_drift_from_the_start(tmp_pat
     drift = json.loads((tmp_path / "on" / "summary.json").read_text())["drift"]
     assert drift["sigma_h_origin_m"] > 140.0 and drift["sigma_h_end_pct"] < 5.0
     assert "of it the unknown start" in capsys.readouterr().out
+
+
+def test_an_initial_position_sigma_without_the_position_is_refused(tmp_path):
+    assert cli.main(["simulate", "--duration", "30", "--seed", "3", "--out", str(tmp_path / "sim")]) == 0
+    assert cli.main(["smooth", "--data", str(tmp_path / "sim" / "Trajectory1"), "--init", "sensors",
+                     "--initial-position-sigma", "3", "--out", str(tmp_path / "out"), "--no-plots"]) != 0

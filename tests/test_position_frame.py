@@ -4,6 +4,7 @@ that used fixes (its drift before each stay at the surface)."""
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -186,6 +187,15 @@ def test_a_reference_without_an_origin_says_the_frame_is_not_applied(tmp_path):
         res = evaluate(sol, tum)
     assert "frame NOT applied" in format_report(res, "est", "gt.tum")
     assert evaluate(sol, gt).get("position_frame_note") is None
+    # the run's own groundtruth.tum, written in its frame (its summary says so), is compared as written, unwarned
+    from graphnav.io.outputs import write_json
+    (tmp_path / "run").mkdir()
+    write_json(tmp_path / "run" / "summary.json", {"files": {"groundtruth_tum": "run/groundtruth.tum"},
+                                                   "groundtruth_in_estimate_frame": True})
+    written = GroundTruth(gt.t, gt.p_n, gt.v_n, gt.C_b_n, None, str(tmp_path / "run" / "groundtruth.tum"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert evaluate(sol, written).get("position_frame_note") is None
 
 
 def test_groundtruth_tum_is_written_in_the_estimate_frame(tmp_path):

@@ -107,8 +107,8 @@ def add_init_arguments(parser: argparse.ArgumentParser) -> None:
                         "has ground truth (auto)")
     g.add_argument("--initial-position", type=float, nargs=2, metavar=("LAT", "LON"),
                    help="with sensor alignment: the starting position, degrees (else a local origin)")
-    g.add_argument("--initial-position-sigma", type=float, default=5.0, metavar="M",
-                   help="horizontal 1-sigma of --initial-position per axis, m (a GNSS fix at launch: a few m)")
+    g.add_argument("--initial-position-sigma", type=float, metavar="M",
+                   help="horizontal 1-sigma of --initial-position per axis, m (default 5: a GNSS fix at launch)")
     g.add_argument("--initial-heading", type=float, metavar="DEG",
                    help="with sensor alignment: the starting heading, degrees (else gyrocompassing or the "
                         "first heading record)")
@@ -124,7 +124,10 @@ def align_options(args):
     kw = {}
     if args.initial_position is not None:
         kw["initial_lla"] = (math.radians(args.initial_position[0]), math.radians(args.initial_position[1]), 0.0)
-        kw["initial_position_sigma_m"] = args.initial_position_sigma
+        if args.initial_position_sigma is not None:
+            kw["initial_position_sigma_m"] = args.initial_position_sigma
+    elif args.initial_position_sigma is not None:
+        raise ConfigError("--initial-position-sigma needs --initial-position (the position it is the sigma of)")
     if args.initial_heading is not None:
         kw["initial_heading_rad"] = math.radians(args.initial_heading)
         kw["heading_sigma_rad"] = math.radians(args.heading_sigma)

@@ -283,6 +283,19 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     return out
 
 
+def _written_in_estimate_frame(ref: GroundTruth) -> bool:
+    """True for a run's groundtruth.tum that ``graphnav smooth`` wrote in its estimate's frame (the summary.json
+    beside it lists it and says ``groundtruth_in_estimate_frame``): compared as written, nothing is missing."""
+    import json
+    path = Path(str(ref.source))
+    try:
+        summary = json.loads((path.parent / "summary.json").read_text())
+    except (OSError, ValueError):
+        return False
+    listed = (summary.get("files") or {}).get("groundtruth_tum") if isinstance(summary, dict) else None
+    return bool(listed and summary.get("groundtruth_in_estimate_frame") and Path(str(listed)).name == path.name)
+
+
 def _frame_not_applied(est: NavSolution, ref: GroundTruth) -> str | None:
     """Why the estimate's positions cannot be put in the reference's frame, warned: its frame is placed on Earth
     (an initial latitude/longitude or a fix) and the reference has no latitude/longitude origin (a TUM or CSV
@@ -290,7 +303,7 @@ def _frame_not_applied(est: NavSolution, ref: GroundTruth) -> str | None:
     from graphnav.core.solution import FRAME_FIRST_FIX, FRAME_FIX_AT_START, FRAME_INITIAL_LLA
     frame = est.info.get("position_frame") or {}
     if ref.origin_lla is not None or frame.get("set_by") not in (FRAME_INITIAL_LLA, FRAME_FIX_AT_START,
-                                                                 FRAME_FIRST_FIX):
+                                                                 FRAME_FIRST_FIX) or _written_in_estimate_frame(ref):
         return None
     note = (f"the estimate's positions are placed on Earth ({frame['set_by']}) but the reference {ref.source} has "
             "no latitude/longitude origin: its frame is not applied, the positions are compared as they are "
