@@ -245,3 +245,21 @@ def test_a_run_written_before_the_frame_is_not_scored_from_the_start(tmp_path):
     assert res["sigma_h_end_m"] is None and res["nees_position_mean"] is None
     assert "cannot be scored from the start" in res["nees_position_note"]
     assert res["end_horizontal_error_m"] == pytest.approx(4.0, abs=1e-4)       # the error is still from the start
+
+
+def test_a_first_fix_far_from_a_given_start_is_warned_about():
+    # A start given 55 m off was pulled onto the fixes without a word (about 10 of its 5 m sigmas)
+    from graphnav.core.earth import ned_to_lla
+    from graphnav.estimators.align import AlignOptions
+    from graphnav.estimators.runs import run_graph
+    from graphnav.sim.simulate import SurfacingProfile, default_config, simulate_mission
+    m = simulate_mission(600.0, "navigation", 1, config=default_config(), surfacing=SurfacingProfile(interval_s=300))
+    p0 = m.gt.at(np.array([m.imu.t[0]]))[0][0]
+    for north, warned in ((0.0, False), (55.0, True)):
+        lla = ned_to_lla(np.array([[p0[0] + north, p0[1], 0.0]]), m.gt.origin_lla)[0]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sol = run_graph(m, backend="fixed-lag", init="sensors",
+                            align=AlignOptions(initial_lla=(lla[0], lla[1], 0.0)))
+        assert any("first position fix" in str(w.message) for w in caught) == warned
+        assert (sol.info["first_fix_departure_sigmas"] > 5.0) == warned

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 
 import gtsam
 import numpy as np
@@ -45,8 +46,14 @@ class _Aided:
     #: stamp (s) of the fix that placed the origin, and the dead-reckoned north/east (m) the origin took there
     first_fix_t: float | None = None
     origin_offset_ne: np.ndarray = np.zeros(2)
+    #: the first fix's distance from the estimate (m) and in sigmas, when the frame was placed before it
+    first_fix_departure: tuple[float, float] | None = None
 
-    def fix_ne(self, kf: Keyframe, p_n_pred: np.ndarray) -> np.ndarray | None:
+    def fix_ne(self, kf: Keyframe, p_n_pred: np.ndarray, cov_p_n: np.ndarray | None = None) -> np.ndarray | None:
+        """North/east (m) of ``kf``'s fix in the estimate's frame (placing the frame at the first fix when nothing
+        placed it before). ``p_n_pred`` (3,) m, the position predicted at the fix, and its covariance ``cov_p_n``
+        (3,3) m^2 when known: the first fix in a frame placed before it is checked against them
+        (:meth:`_check_first_fix`)."""
         if kf.fix is None:
             return None
         self.n_fixes += 1
@@ -55,12 +62,33 @@ class _Aided:
             self.origin_offset_ne = np.asarray(p_n_pred[:2], float).copy()
             self.first_fix_t = float(kf.t)
         ned = lla_to_ned(np.array([kf.fix.lat]), np.array([kf.fix.lon]), np.array([0.0]), self.origin_lla)[0]
-        return ned[:2] + self.origin_offset_ne
+        fix_ne = ned[:2] + self.origin_offset_ne
+        if self.n_fixes == 1 and self.first_fix_t is None and cov_p_n is not None:
+            self._check_first_fix(kf, fix_ne, p_n_pred, cov_p_n)
+        return fix_ne
+
+    def _check_first_fix(self, kf: Keyframe, fix_ne, p_n_pred, cov_p_n) -> None:
+        """Warn when the first fix lies more than :data:`FIRST_FIX_MAX_SIGMAS` sigmas (the estimate's and the fix's
+        together) from the estimate in a frame placed before it (an ``--initial-position`` or the GT): the start
+        given, or the fix, is wrong, and the fixes are about to pull the track there without a word."""
+        d = float(np.hypot(*(np.asarray(fix_ne) - np.asarray(p_n_pred)[:2])))
+        var = kf.fix.sigma_m ** 2 + 0.5 * float(np.trace(np.asarray(cov_p_n, float)[:2, :2]))
+        sigmas = d / np.sqrt(var)
+        self.first_fix_departure = (d, float(sigmas))
+        if sigmas > FIRST_FIX_MAX_SIGMAS:
+            warnings.warn(f"{self.name}: the first position fix (t = {kf.t:.1f} s) is {d:.1f} m from the estimate, "
+                          f"{sigmas:.0f} sigmas (the estimate's and the fix's): the start given (--initial-position) "
+                          "or the fix is wrong; the fixes will pull the track to themselves", RuntimeWarning,
+                          stacklevel=4)
 
     def position_frame(self, info: dict) -> dict:
         """Where the positions are on Earth (:func:`graphnav.core.solution.position_frame`), ``info`` the
         Navigator's (its alignment says how the start was placed)."""
         return position_frame(info, self.origin_lla, self.origin_offset_ne, self.first_fix_t)
+
+
+#: The first fix's departure from the estimate, in sigmas, beyond which it is warned about (:class:`_Aided`).
+FIRST_FIX_MAX_SIGMAS = 5.0
 
 
 class GraphBackend(_Aided):
@@ -101,7 +129,7 @@ class GraphBackend(_Aided):
             else:
                 self.ctx.set_gravity(gkf, last.pose.translation(), last.v_n)
                 p_pred = gkf.pim.predict(gtsam.NavState(last.pose, last.v_n), last.bias).position()
-            gkf.fix_ne = self.fix_ne(kf, p_pred)
+            gkf.fix_ne = self.fix_ne(kf, p_pred, None if last is None else last.cov_p_n)
         self.estimator.add(gkf)
         est = self.estimator.update()
         #: a DVL factor (measured or regressed beams) entered at this keyframe (the Navigator's coasting check)
@@ -257,7 +285,7 @@ class EkfBackend(_Aided):
             ekf.update_depth(tangent_down(self._earth, kf.depth, ekf.state.p_n))
         if kf.fix is not None:
             places_origin = self.origin_lla is None
-            p_ne = self.fix_ne(kf, ekf.state.p_n)
+            p_ne = self.fix_ne(kf, ekf.state.p_n, ekf.nav_covariances()["cov_p_n"])
             if places_origin:
                 self.n_fix_origin += 1
             else:

@@ -447,6 +447,8 @@ class Navigator:
         if self.backend is not None:
             info.update(self.backend.info)
             info["n_fixes"] = self.backend.n_fixes
+            if self.backend.first_fix_departure is not None:
+                info["first_fix_departure_m"], info["first_fix_departure_sigmas"] = self.backend.first_fix_departure
             info.update(self.coasting.summary())
             info.update(self.sigma.summary())
         if self.alignment is not None:
