@@ -39,8 +39,8 @@ def _cut(m, t0: float, t1: float):
     """The IMU and DVL of ``m`` between t0 and t1, s (the DVL half a second inside)."""
     k, j = (m.imu.t >= t0) & (m.imu.t <= t1), (m.dvl.t >= t0 + 0.5) & (m.dvl.t <= t1 - 0.5)
     imu = dataclasses.replace(m.imu, t=m.imu.t[k], f_b=m.imu.f_b[k], omega_b=m.imu.omega_b[k])
-    dvl = dataclasses.replace(m.dvl, **{f: getattr(m.dvl, f)[j] for f in ("t", "beams", "valid", "v_b", "v_d",
-                                                                          "v_d_valid") if getattr(m.dvl, f) is not None})
+    fields = ("t", "beams", "valid", "v_b", "v_d", "v_d_valid")
+    dvl = dataclasses.replace(m.dvl, **{f: getattr(m.dvl, f)[j] for f in fields if getattr(m.dvl, f) is not None})
     return imu, dvl
 
 

@@ -723,8 +723,9 @@ def test_a_reference_with_north_and_east_exchanged_or_negated_is_refused_naming_
     akit = ("Latitude [rad]", "Longitude [rad]", "Altitude [m]", "V North [m/s]", "V East [m/s]", "V Down [m/s]")
     check_reference_axes(t, p, v, yaw, "GT.csv", akit)                   # as read: nothing
     with pytest.raises(DataError, match=r"GT.csv, field 'V North \[m/s\]/V East \[m/s\]': the velocity fits the "
-                                        r"positions as north = 'V East \[m/s\]', east = 'V North \[m/s\]'.*the velocity "
-                                        r"columns are wrong; correct the file: exchange 'V North \[m/s\]' and 'V East"):
+                                        r"positions as north = 'V East \[m/s\]', east = 'V North \[m/s\]'.*"
+                                        r"the velocity columns are wrong; correct the file: exchange 'V North \[m/s\]' "
+                                        r"and 'V East"):
         check_reference_axes(t, p, v[:, ::-1], yaw, "GT.csv", akit)
     with pytest.raises(DataError, match=r"field 'Latitude \[rad\]/Longitude \[rad\]'.*the position columns are wrong"):
         check_reference_axes(t, p[:, ::-1], v, yaw, "GT.csv", akit)
