@@ -371,3 +371,31 @@ def test_an_initial_position_sigma_without_the_position_is_refused(tmp_path):
     assert cli.main(["simulate", "--duration", "30", "--seed", "3", "--out", str(tmp_path / "sim")]) == 0
     assert cli.main(["smooth", "--data", str(tmp_path / "sim" / "Trajectory1"), "--init", "sensors",
                      "--initial-position-sigma", "3", "--out", str(tmp_path / "out"), "--no-plots"]) != 0
+
+
+def test_evaluate_scores_a_written_run_with_its_full_pose_covariance(tmp_path):
+    # trajectory.csv keeps the sigmas only: scored from them, a run's position NEES differed from its summary's
+    # (Trajectory1 from the sensors: 1.27 against 1.73); the trajectory_cov.csv beside it holds the full covariance
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency import pose_nees
+    from graphnav.evaluation.score import evaluate, load_trajectory
+    from graphnav.io.outputs import write_pose_covariance_csv, write_trajectory_csv, write_tum
+    t = np.arange(0.0, 401.0)
+    yaw = np.full_like(t, 0.6)
+    p = np.c_[1.2 * t, 0.9 * t, 10.0 + 0 * t]
+    gt = GroundTruth(t, p, np.gradient(p, t, axis=0), euler_to_C_b_n(0 * t, 0 * t, yaw))
+    cov = np.tile(np.array([[4.0, 3.0, 0.0], [3.0, 4.0, 0.0], [0.0, 0.0, 0.01]]), (len(t), 1, 1))  # correlated N/E
+    rng = np.random.default_rng(3)
+    err = rng.multivariate_normal([0.0, 0.0], cov[0, :2, :2], size=len(t))
+    est = NavSolution("est", t, p + np.c_[err, 0 * t], gt.v_n, gt.C_b_n, cov_p_n=cov,
+                      cov_rot_b=np.tile(np.eye(3) * 1e-6, (len(t), 1, 1)))
+    write_trajectory_csv(tmp_path / "trajectory.csv", est)
+    write_tum(tmp_path / "trajectory.tum", est)
+    write_pose_covariance_csv(tmp_path / "trajectory_cov.csv", est)
+    want = pose_nees(est, gt, 60.0)["nees_pos_mission"]
+    for name in ("trajectory.csv", "trajectory.tum"):
+        read = load_trajectory(tmp_path / name)
+        np.testing.assert_allclose(read.cov_p_n[:, :2, :2], cov[:, :2, :2], rtol=1e-9)
+        assert evaluate(read, gt)["nees_position_mean"] == pytest.approx(want, rel=1e-6)
