@@ -308,18 +308,14 @@ def from_start(solution: NavSolution, gt: GroundTruth | None = None) -> NavSolut
     """
     frame = solution.info.get("position_frame") or {}
     placed_at = frame.get("first_fix_t_s") if frame.get("set_by") == FRAME_FIRST_FIX else None
-    if not solution.origin_unknown and placed_at is None:
-        return solution
-    ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1)
+    if gt is None or (not solution.origin_unknown and placed_at is None):
+        return solution                     # without a reference there is no error to count from the start
+    ok = np.all(np.isfinite(solution.p_n[:, :2]), axis=1) & (solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])
     if solution.cov_p_n is not None:
         ok &= np.all(np.isfinite(solution.cov_p_n[:, :2, :2]), axis=(1, 2))
-    if gt is not None:
-        ok &= (solution.t >= gt.t[0]) & (solution.t <= gt.t[-1])
     if not ok.any():
         return solution
     k0 = int(np.flatnonzero(ok)[0])
-    if gt is None:
-        return solution
     p_n = np.array(solution.p_n, dtype=float)
     rows = slice(None) if placed_at is None else solution.t < placed_at
     p_n[rows, :2] -= p_n[k0, :2] - gt.at(solution.t[k0:k0 + 1])[0][0, :2]

@@ -122,18 +122,7 @@ def run_frame(path: Path) -> dict:
     For the run's ``groundtruth.tum`` written in its frame, ``position_frame`` only (scored through it, the
     reference is the reference again).
     A trajectory file has no place for them that evo and other readers would still read."""
-    import json
-    summary_path = path.parent / "summary.json"
-    if not summary_path.is_file():
-        return {}
-    try:
-        summary = json.loads(summary_path.read_text())
-    except (OSError, ValueError) as exc:
-        warnings.warn(f"{summary_path}: not read ({exc}); {path.name} is scored as if started from the reference",
-                      RuntimeWarning, stacklevel=2)
-        return {}
-    files = summary.get("files") if isinstance(summary, dict) else None
-    listed = {key for key, f in (files or {}).items() if Path(str(f)).name == path.name}
+    summary, listed = _summary_listing(path, warn=True)
     if "groundtruth_tum" in listed and summary.get("groundtruth_in_estimate_frame") and summary.get("position_frame"):
         return {"position_frame": summary["position_frame"]}       # the reference, written in the run's frame
     if not listed & set(ESTIMATE_FILES):
@@ -302,17 +291,30 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     return out
 
 
+def _summary_listing(path: Path, warn: bool = False) -> tuple[dict, set]:
+    """(the summary.json beside ``path``, the keys of its ``files`` that name ``path``); ({}, set()) without a
+    readable one (warned with ``warn``: the file is then scored as if started from the reference)."""
+    import json
+    summary_path = path.parent / "summary.json"
+    if not summary_path.is_file():
+        return {}, set()
+    try:
+        summary = json.loads(summary_path.read_text())
+    except (OSError, ValueError) as exc:
+        if warn:
+            warnings.warn(f"{summary_path}: not read ({exc}); {path.name} is scored as if started from the "
+                          "reference", RuntimeWarning, stacklevel=3)
+        return {}, set()
+    if not isinstance(summary, dict):
+        return {}, set()
+    return summary, {key for key, f in (summary.get("files") or {}).items() if Path(str(f)).name == path.name}
+
+
 def _written_in_estimate_frame(ref: GroundTruth) -> bool:
     """True for a run's groundtruth.tum that ``graphnav smooth`` wrote in its estimate's frame (the summary.json
     beside it lists it and says ``groundtruth_in_estimate_frame``): compared as written, nothing is missing."""
-    import json
-    path = Path(str(ref.source))
-    try:
-        summary = json.loads((path.parent / "summary.json").read_text())
-    except (OSError, ValueError):
-        return False
-    listed = (summary.get("files") or {}).get("groundtruth_tum") if isinstance(summary, dict) else None
-    return bool(listed and summary.get("groundtruth_in_estimate_frame") and Path(str(listed)).name == path.name)
+    summary, listed = _summary_listing(Path(str(ref.source)))
+    return "groundtruth_tum" in listed and bool(summary.get("groundtruth_in_estimate_frame"))
 
 
 def _frame_not_applied(est: NavSolution, ref: GroundTruth) -> str | None:
