@@ -49,6 +49,8 @@ MAX_YAW_RAD = np.deg2rad(10.0)
 #: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
 #: clock search by 7.5 s on Trajectory1's first 200 s).
 SCALE_SEARCH_S = 20.0
+#: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
+SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
 
 
 def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
@@ -250,8 +252,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if moved:
         from graphnav.io.dvl_frame import check_not_earth_frame
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
-    offsets = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
-    fits = [speed_scale(model, o) for o in offsets]
+    fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, yaw = fits[best]
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
@@ -260,16 +261,17 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
                         f"{_likely_unit(scale)}?", dvl.source, field=field)
     dvl_turn = None
     if imu_frame is not None:           # before the DVL's yaw: a turned IMU turns the velocity against it too
-        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets[best] if np.isfinite(r2) else 0.0)
-    if not (r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD):
-        warn_dvl_turned(dvl, meta, field, dvl_turn)
-    else:
+        offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) else 0.0
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset)
+    if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
         text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
                 f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
                 "as body? declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
                 "it and writes both)")
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)
+    else:                               # the DVL's own fit explains too little: the IMU-turn fit may still see it
+        warn_dvl_turned(dvl, meta, field, dvl_turn)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
@@ -291,11 +293,10 @@ def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     """Gyro scale (1 for the rates as read, and each of :data:`GYRO_SCALES`) -> the share of the DVL's velocity changes
     the clock model leaves unexplained with the gyro multiplied by it (``1 - explained``, at the best DVL offset within
     +- :data:`SCALE_SEARCH_S`). The model's ``int omega x v`` and its gravity turned by the gyro scale with it."""
-    offsets = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
     out = {}
     for k in (1.0, *GYRO_SCALES.values()):
         model, _ = dvl_window_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config)
-        out[k] = 1.0 - max(model.score(o)[0] for o in offsets)
+        out[k] = 1.0 - max(model.score(o)[0] for o in SCALE_OFFSETS_S)
     return out
 
 
