@@ -378,11 +378,7 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
         aligned, _ = align_stream_clocks(imu_, velocity_only, None, meta_, cfg, field="Time [s]",
                                          what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
         return float(aligned.t[0] - t_dvl[0])
-    try:
-        return search(imu, meta), imu
-    except DataError as err:
-        imu = _gyro_finds_the_clock(err, search, imu, velocity_only, cfg, meta)
-    return search(imu, meta), imu
+    return _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
 
 
 #: An A-KIT time offset estimated with a larger sigma (s) is warned about: a twentieth of the 1 s DVL and GT period.
@@ -444,12 +440,10 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
 
         def search(imu: ImuData, meta_: dict) -> float:
             return float(align_stream_clocks(imu, searched, None, meta_, mission.config)[0].t[0] - searched.t[0])
-        try:
-            dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
-        except DataError as err:
-            mission = dataclasses.replace(mission, imu=_gyro_finds_the_clock(err, search, mission.imu, searched,
-                                                                             mission.config, meta))
-            dvl, depth = align_stream_clocks(mission.imu, dvl, depth, meta, mission.config)
+        (dvl, depth), imu = _with_the_gyro_tried(
+            lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu, searched,
+            mission.config, meta)
+        mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
     if facts.get("dvl_clock") == AUTO and dvl is not searched:
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
@@ -483,6 +477,17 @@ def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: di
         return imu
     from graphnav.calibration.dvl_scale import check_gyro_against_dvl
     return check_gyro_against_dvl(imu, dvl, config, meta)
+
+
+def _with_the_gyro_tried(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict):
+    """``(run(imu), imu)``: a DVL clock search ``run``; when it fails, run again with the IMU
+    :func:`_gyro_finds_the_clock` returns (or its DataError). ``search(imu, meta) -> offset`` is the search's trial
+    form, ``dvl`` the stream it moves."""
+    try:
+        return run(imu), imu
+    except DataError as err:
+        imu = _gyro_finds_the_clock(err, search, imu, dvl, config, meta)
+    return run(imu), imu
 
 
 def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig,
