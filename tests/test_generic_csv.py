@@ -636,3 +636,66 @@ def test_a_reference_with_exchanged_or_negated_columns_is_refused_naming_the_col
             with pytest.raises(DataError, match=message) as err:
                 load_mission(tmp_path, cfg, prepare=False)
         assert (err.value.source, err.value.field) == (str(nav), field)
+
+
+def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0, seed=1, seconds=150.0):
+    """A hovering AUV's column-map log with a reference attitude (radians, no units declared): a trim of ``trim``
+    (roll, pitch rad), a 0.3 mrad wobble, thruster accelerations of 0.2 m/s^2 (the tilt kinematics and the DVL cannot
+    judge its gyro), the gyro multiplied by ``gyro_scale``, the reference's angles with ``ref_noise`` rad of noise."""
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, seconds, 0.01)
+    euler = np.column_stack([trim[0] + 3e-4 * np.sin(2 * np.pi * t / 7.0), trim[1] + 3e-4 * np.sin(2 * np.pi * t / 11.0),
+                             0.7 + 5e-4 * np.sin(2 * np.pi * t / 30.0)])
+    R = Rotation.from_euler("ZYX", euler[:, ::-1])
+    omega = (R[:-1].inv() * R[1:]).as_rotvec() / 0.01
+    omega = np.vstack([omega, omega[-1]]) + rng.normal(0, 5e-4, (t.size, 3))
+    a = np.cumsum(rng.normal(0.0, 1.0, (t.size + 200, 3)), axis=0)
+    a = (a[200:] - a[:-200]) * [0.2, 0.2, 0.06] / np.std(a[200:] - a[:-200], axis=0)
+    v = np.cumsum(a, axis=0) * 0.01
+    v -= np.column_stack([np.convolve(v[:, i], np.ones(3000) / 3000, "same") for i in range(3)])
+    f = R.inv().apply(np.gradient(v, t, axis=0) - [0, 0, 9.80665]) + rng.normal(0, 0.01, (t.size, 3))
+    _write(root / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f, omega * gyro_scale])
+    i, j = np.arange(0, t.size, 20), np.arange(0, t.size, 10)
+    _write(root / "dvl.csv", ["t", "vx", "vy", "vz"], [t[i], R[i].inv().apply(v[i]) + rng.normal(0, 0.002, (i.size, 3))])
+    _write(root / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [t[j], np.cumsum(v, axis=0)[j] * 0.01 + [0, 0, 20.0], v[j], euler[j] + rng.normal(0, ref_noise, (j.size, 3))])
+    cfg = {"csv_columns": {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
+                                   "omega_b": ["gx", "gy", "gz"]},
+                           "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"},
+                           "gt": {"file": "nav.csv", "t": "t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+                                  "euler": ["roll", "pitch", "yaw"]}},
+           "dvl": {"rate_hz": 5.0, "lever_arm_b": [0, 0, 0]}}
+    (root / "config.json").write_text(json.dumps(cfg))
+    return root / "config.json"
+
+
+def _imu_notes(m):
+    return " | ".join(m.meta["streams"]["imu"]["notes"])
+
+
+def test_a_hovering_log_whose_gyro_is_57_times_too_small_is_refused_by_its_reference_attitude(tmp_path):
+    """A hovering AUV's gyro 57.3x too small (rad/s data divided by 57.3) was read with a note that its scale went
+    unchecked: the tilt kinematics and the DVL cannot tell the scales apart, and the reference's turn rate against the
+    gyro's could equally be a reference in degrees. Its roll and pitch against the accelerometer's tilt settle the
+    reference's unit, and its turn then judges the gyro."""
+    with pytest.raises(DataError, match=r"too small for rad/s: the reference attitude \(.*nav.csv, columns "
+                                        r"roll/pitch/yaw\) turns 5\d\.\dx as fast") as err:
+        load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180))
+    assert err.value.source.endswith("imu.csv") and err.value.field == "gx/gy/gz"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(tmp_path, _hover_with_reference(tmp_path))
+    assert "gyro's scale judged against the reference attitude" in _imu_notes(m)
+    np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 1].mean(), 0.05, atol=1e-3)
+
+
+@pytest.mark.parametrize("trim, ref_noise", [((0.0, 0.0), 0.0), ((0.02, 0.05), 0.003)])
+def test_a_hovering_reference_that_cannot_settle_the_gyro_leaves_it_unjudged(tmp_path, trim, ref_noise):
+    """A level vehicle (its roll and pitch cannot tell the reference's unit) or a reference whose turn is its noise
+    (uncorrelated with the gyro's: 30x as fast): the gyro is read as before, with the note that its scale is unjudged."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180 if ref_noise == 0 else 1.0, trim,
+                                                         ref_noise))
+    assert "the gyro's scale is not judged" in _imu_notes(m) and "judged against the reference" not in _imu_notes(m)

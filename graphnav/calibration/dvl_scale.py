@@ -300,6 +300,18 @@ def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     return out
 
 
+def _gyro_against_reference(imu, fact: dict, meta: dict, unjudged: str):
+    """The IMU with its gyro judged by a reference attitude whose unit is settled
+    (:func:`graphnav.io.units.check_gyro_against_reference`), where the DVL could not; else as read, with the note
+    ``unjudged`` saying what could not judge it."""
+    from graphnav.io.units import check_gyro_against_reference
+    omega_b = check_gyro_against_reference(imu.omega_b, imu.source, fact, meta)
+    if omega_b is None:
+        add_note(meta, "imu", unjudged + ("" if "reference" not in fact else "; nor can the reference attitude"))
+        return imu
+    return imu if omega_b is imu.omega_b else dataclasses.replace(imu, omega_b=omega_b)
+
+
 def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     """The IMU with its gyro checked against the DVL velocity where the tilt kinematics could not judge its scale
     (``meta[GYRO_UNJUDGED]``, set by :func:`graphnav.io.units.imu_units`; the fact is then removed): rates the DVL's
@@ -317,15 +329,15 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     try:
         fits = gyro_scale_fits(imu, dvl, config)
     except DataError as exc:
-        add_note(meta, "imu", f"{unjudged}, nor can the DVL ({exc.message})")
-        return imu
+        return _gyro_against_reference(imu, fact, meta, f"{unjudged}, nor can the DVL ({exc.message})")
     name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
     ratio = fits[1.0] / max(fits[k], 1e-12)
     if not ratio >= GYRO_DVL_RATIO:
         if not 1 / ratio >= GYRO_DVL_RATIO:
-            add_note(meta, "imu", f"{unjudged}, nor can the DVL: the rates x{k:.4g} leave {1 / ratio:.3g}x as much "
-                                  f"of its velocity's changes unexplained as the rates as read ({GYRO_DVL_RATIO:g} "
-                                  "needed either way; a vehicle that barely turns or accelerates)")
+            return _gyro_against_reference(
+                imu, fact, meta, f"{unjudged}, nor can the DVL: the rates x{k:.4g} leave {1 / ratio:.3g}x as much of "
+                f"its velocity's changes unexplained as the rates as read ({GYRO_DVL_RATIO:g} needed either way; a "
+                "vehicle that barely turns or accelerates)")
         return imu
     fit = (f"the DVL velocity's changes ({dvl.source}{found}) fit these rates x{k:.4g} {ratio:.3g}x better than as "
            f"read (left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "

@@ -271,7 +271,8 @@ def _gyro_tilt(t, f_b, omega_b, source, meta, declared: str | None, field: str) 
     k, tilt, r = gyro_tilt_fit(t, f_b, omega_b)
     if not (tilt > GYRO_TILT_MIN_RADPS and r >= GYRO_TILT_MIN_CORRELATION):
         if meta is not None:        # the prepare step judges the scale against the DVL instead
-            meta[GYRO_UNJUDGED] = {"declared": declared, "field": field, "correlation": r}
+            meta[GYRO_UNJUDGED] = {"declared": declared, "field": field, "correlation": r,
+                                   "tilt": accelerometer_tilt(f_b)}
         return None
     if GYRO_TILT_SCALE_DEG <= k <= GYRO_TILT_SCALE_SMALL:
         return None
@@ -283,6 +284,13 @@ def _gyro_tilt(t, f_b, omega_b, source, meta, declared: str | None, field: str) 
     if k > GYRO_TILT_SCALE_SMALL:
         _gyro_too_small(k, source, declared, field)
     return f"the gravity direction turns {1 / k:.3g}x slower than these rates say (57.3 for deg/s; tilt kinematics)"
+
+
+def accelerometer_tilt(f_b: np.ndarray) -> float:
+    """The vehicle's mean tilt from level (rad) the accelerometer sees: the angle of its mean specific force ``f_b``
+    (N,3) from the z axis, whichever way each axis points (the vehicle's accelerations average out)."""
+    f = np.abs(np.nanmean(np.asarray(f_b, float), axis=0))
+    return float(np.arctan2(np.hypot(f[0], f[1]), f[2])) if f.size == 3 else float("nan")
 
 
 def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> None:
@@ -532,7 +540,64 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
     both units are warned about (the declared unit wins).
     Rates above :data:`DEG_RATE_RATIO` are degrees only when the converted angles turn with the gyro within
     :data:`DEG_CONFIRM_RATIO`; else the angles are kept, with a warning.
+
+    When the gyro's scale is itself unjudged (``meta[GYRO_UNJUDGED]``: a hovering vehicle), the rates cannot tell a
+    reference in degrees from a gyro 57.3x too small; the unit is then settled by roll and pitch against the
+    accelerometer's tilt where it can (:func:`reference_tilt_unit`; undeclared, that unit is taken), and the
+    reference's turn against the gyro's is left in the fact for the prepare step to judge the gyro by
+    (:func:`check_gyro_against_reference`).
     """
+    fact = (meta or {}).get(GYRO_UNJUDGED)
+    unit, how = reference_tilt_unit(euler, fact["tilt"]) if fact and np.size(euler) else (None, "")
+    half_turn = 180.0 if unit == "deg" else np.pi
+    if unit is not None and declared is None and np.all(np.max(np.abs(euler[:, :2]), axis=0) <= [half_turn,
+                                                                                            half_turn / 2]):
+        out = euler if unit == "rad" else np.radians(euler)
+        if unit == "deg":
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {how}",
+                  source)
+    else:
+        out = _attitude_units(t, euler, t_imu, omega_b, source, fields, meta, declared)
+        # a declared unit is applied by the caller: the tilt confirms it when it finds radians
+        unit = unit if unit == ("rad" if declared is not None or out is euler else "deg") else None
+    if unit is not None and t_imu is not None and omega_b is not None:
+        fact["reference"] = dict(zip(("ratio", "turn", "correlation"), reference_turn_fit(t, out, t_imu, omega_b)),
+                                 source=source, fields="/".join(fields[:3]), how=how)
+    return out
+
+
+def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, meta: dict) -> np.ndarray | None:
+    """The gyro rates ``omega_b`` judged by the reference's turn (``fact["reference"]``, left by
+    :func:`reference_attitude_units` when its unit was settled without the gyro; ``fact`` the gyro's
+    :data:`GYRO_UNJUDGED`): rates 57.3x too small are a DataError naming ``source`` and the gyro columns, deg/s
+    converted (a warning, a note) or, declared, a DataError; in rad/s a note. Judged only when the two turn rates
+    correlate at least :data:`GYRO_TILT_MIN_CORRELATION` and the ratio, the one scale taken, is within
+    :data:`DEG_CONFIRM_RATIO` of 1; None when it cannot judge."""
+    ref = fact.get("reference")
+    if ref is None or not ref["correlation"] >= GYRO_TILT_MIN_CORRELATION:
+        return None
+    k = min((1.0, 180.0 / np.pi, np.pi / 180), key=lambda s_: abs(np.log(ref["ratio"] / s_)))
+    if not 1 / DEG_CONFIRM_RATIO < ref["ratio"] / k < DEG_CONFIRM_RATIO:
+        return None
+    fit = (f"the reference attitude ({ref['source']}, columns {ref['fields']}) turns {ref['ratio']:.3g}x as fast as "
+           f"these rates (1 in rad/s; correlation {ref['correlation']:.2f}, the unit of its angles settled by "
+           f"{ref['how']})")
+    declared, field = fact["declared"], fact["field"]
+    if k == 1.0:
+        add_note(meta, "imu", f"the gyro's scale judged against the reference attitude: {fit}")
+        return omega_b
+    if k > 1:
+        gyro_too_small(fit, source, declared, field)
+    if declared is not None:
+        raise DataError(f"the declared gyro unit {declared!r} looks wrong: {fit}: deg/s?", source, field=field)
+    _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {fit} (field {field}; declare the gyro unit)",
+          source)
+    return omega_b * k
+
+
+def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | None, declared: str | None
+                    ) -> np.ndarray:
+    """:func:`reference_attitude_units` told by the range and the gyro."""
     euler = np.asarray(euler, float)
     if euler.size == 0:
         return euler
@@ -585,6 +650,53 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
             return euler
     _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {why}", source)
     return np.radians(euler)
+
+
+#: A reference's roll and pitch are compared with the accelerometer's tilt (:func:`reference_tilt_unit`) only when
+#: that tilt is at least this (rad, 1.1 deg): a level vehicle's tilt is the IMU's mounting error and noise.
+REFERENCE_TILT_MIN_RAD = 0.02
+
+
+def reference_tilt_unit(euler: np.ndarray, tilt: float) -> tuple[str | None, str]:
+    """``(unit, why)``: ``"rad"`` or ``"deg"`` when the mean roll and pitch of ``euler`` (K,3, as read) lie as far
+    from level as the accelerometer's mean ``tilt`` (rad, :func:`accelerometer_tilt`) within
+    :data:`SAME_UNITS_RATIO`, read in that unit; None when neither fits or the tilt is under
+    :data:`REFERENCE_TILT_MIN_RAD` (a level vehicle)."""
+    ratio = float(np.hypot(*np.mean(np.asarray(euler, float)[:, :2], axis=0))) / tilt if tilt > 0 else np.nan
+    why = (f"its mean roll and pitch are {ratio:.3g}x as far from level as the accelerometer's tilt of {tilt:.3g} rad "
+           "(1 in radians, 57.3 for degrees)")
+    if not tilt >= REFERENCE_TILT_MIN_RAD:
+        return None, why
+    for unit, k in (("rad", 1.0), ("deg", np.pi / 180)):
+        if not _units_disagree(ratio * k):
+            return unit, why
+    return None, why
+
+
+def reference_turn_fit(t_ref: np.ndarray, euler: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray
+                       ) -> tuple[float, float, float]:
+    """``(ratio, turn rad/s, correlation)``: the reference attitude's (roll, pitch, yaw ``euler`` (K,3) rad at
+    ``t_ref`` s) median turn rate over its intervals of at least :data:`ATTITUDE_STEP_MIN_S` over the gyro's
+    (``omega_b`` (N,3) at ``t_imu`` s, integrated over the same intervals), the reference's median turn rate, and the
+    correlation of the two rates interval by interval (which needs the two on one clock; norms: indifferent to the
+    IMU's axis signs): ~1 for a gyro in rad/s, 57.3 for rates 57.3x too small, 1/57.3 for deg/s. NaN when too short."""
+    from scipy.spatial.transform import Rotation
+
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.timeseries import cumulative_integral
+    keep = _reference_steps(t_ref, ATTITUDE_STEP_MIN_S)
+    t, t_imu = np.asarray(t_ref, float)[keep], np.ascontiguousarray(t_imu, float)
+    inside = (t >= t_imu[0]) & (t <= t_imu[-1])
+    if inside.sum() < 10:
+        return float("nan"), float("nan"), float("nan")
+    e = np.asarray(euler, float)[keep][inside]
+    C, dt = euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), np.diff(t[inside])
+    turn_ref = np.linalg.norm(Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec(), axis=1) / dt
+    S = interp_rows(t[inside], t_imu, np.asfortranarray(cumulative_integral(t_imu, np.asarray(omega_b, float))))
+    turn_imu = np.linalg.norm(np.diff(S, axis=0), axis=1) / dt
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = float(np.corrcoef(turn_ref, turn_imu)[0, 1])
+        return float(np.median(turn_ref) / np.median(turn_imu)), float(np.median(turn_ref)), r
 
 
 def _attitude_ratio(t, euler, t_imu, omega_b, turn_imu: float | None = None) -> tuple[float, float | None]:
@@ -1099,7 +1211,8 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
-           "reference_attitude_units", "reference_latlon_units", "reference_depth", "check_reference_displacement",
+           "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "check_gyro_against_reference",
+           "accelerometer_tilt", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "check_reference_axes", "horizontal_axes_fit",
            "reference_speed_error",
            "reference_inconsistencies"]
