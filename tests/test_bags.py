@@ -511,8 +511,8 @@ def test_imu_messages_with_a_nan_are_refused_and_counted_not_the_whole_bag(tmp_p
     m, warned = _load(path, mission.config)
     assert m.meta["streams"]["imu"]["refused"]["not finite"] == bad.size
     assert len(m.imu.t) == len(mission.imu.t) - bad.size and np.all(np.isfinite(m.imu.f_b))
-    assert any("/imu/data: 20 IMU message(s) with a NaN or infinite value refused (first: message 100 of the "
-               "topic, t = 1.000 s)" in w for w in warned)
+    assert any("/imu/data: 20 IMU message(s) with a NaN or infinite value refused (first: message 100 "
+               "(t = 1.000 s))" in w for w in warned)
     mission.imu.f_b[::2, 0] = np.nan           # more than half: an error naming the stream
     path = bag_driver.write_driver_bag(mission, tmp_path / "mostly", leak_sensor=False, housing_sensor=False)
     with pytest.raises(DataError, match=r"imu samples refused \(\d+ not finite\): more than 50%"):
@@ -615,3 +615,62 @@ def test_a_depth_topic_positive_up_is_declared_in_the_configuration(sim, tmp_pat
         with pytest.raises(ConfigError, match="bag_topics.depth.positive = 'up': the depth is read from the "
                                               "pressure topic /pressure"):
             load_mission(sim[2]["mcap"], config("up"))
+
+
+def test_bad_dvl_and_depth_messages_are_named_by_topic_message_and_time(sim, tmp_path):
+    """A flagged beam (RDI -32.768), a ping without a valid beam and a depth sample above the surface are warned
+    about with the topic, the message's index in it and its time, not an index into the arrays."""
+    import copy
+    import dataclasses
+    import warnings
+    mission, config, _, _ = sim
+    beams, valid = mission.dvl.beams.copy(), mission.dvl.valid.copy()
+    beams[7, 1], valid[7, 1] = -32.768, True
+    valid[12] = False
+    depth = mission.depth.depth.copy()
+    depth[5] = -5.0
+    dvl = copy.copy(mission.dvl)           # a flag in the file: DvlData itself refuses one
+    dvl.beams, dvl.valid = beams, valid
+    bad = copy.copy(mission)
+    bad.dvl, bad.depth = dvl, dataclasses.replace(mission.depth, depth=depth)
+    path = bags.write_mission_bag(bad, tmp_path / "bad", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        bags.load_bag(path, mission.config)
+    said = [str(w.message) for w in rec]
+    t_dvl, t_depth = mission.dvl.t - mission.imu.t[0], mission.depth.t - mission.imu.t[0]
+    assert [s for s in said if "/dvl/data: 1 beam value(s)" in s and "not measurements" in s
+            and f"first at message 7 (t = {t_dvl[7]:.3f} s)" in s]
+    assert [s for s in said if "/dvl/data: 1 DVL ping(s) with no valid beam and no valid velocity" in s
+            and f"first at message 12 (t = {t_dvl[12]:.3f} s)" in s]
+    assert [s for s in said if "/depth: 1 depth sample(s) above the surface" in s
+            and f"first at message 5 (t = {t_depth[5]:.3f} s)" in s]
+
+
+def test_an_undeclared_depth_topic_positive_up_is_turned_with_a_warning_as_a_csv_column(sim, tmp_path):
+    """A Float64 depth topic positive up, undeclared, was refused sample by sample as 'above the surface'; it is
+    turned with a warning naming the topic and field, kept when the vertical motion confirms it (as a column map's
+    depth is), refused naming the key when the motion contradicts it."""
+    import dataclasses
+    import warnings
+    mission = simulate_mission(duration_s=60.0, seed=5)      # dives enough for the vertical motion to tell
+    config = tmp_path / "config.json"
+    mission.config.save(config)
+    up = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=-mission.depth.depth))
+    path = bags.write_mission_bag(up, tmp_path / "up", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_mission(path, config)
+    np.testing.assert_allclose(m.depth.depth, np.interp(m.depth.t, mission.depth.t, mission.depth.depth), atol=1e-6)
+    said = [str(w.message) for w in rec if "read as depth positive up and turned" in str(w.message)]
+    n = len(mission.depth.t)
+    assert len(said) == 1 and f"/depth, field 'data': {n} of {n} samples above the surface" in said[0]
+    assert not m.meta["streams"]["depth"]["refused"]
+    # positive down with its zero 40 m off: above the surface too, but turned it rises while the vehicle dives
+    off = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=mission.depth.depth - 40.0))
+    path = bags.write_mission_bag(off, tmp_path / "off", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(DataError, match="read as positive up .* and turned, but the vertical motion does not "
+                                            "confirm it.*declare bag_topics.depth.positive"):
+            load_mission(path, config)

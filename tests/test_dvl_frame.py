@@ -84,6 +84,27 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
         np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
+@pytest.mark.parametrize("frame", ["ned", "enu", "flu"])
+def test_rdi_flag_in_a_turned_velocity_refuses_its_ping_by_line_as_in_body_columns(sim, tmp_path, frame):
+    """One cell -32.768 (RDI's bad-velocity flag) in velocity columns that are turned: the ping is refused naming
+    its line and the flag, as in body-frame columns, not turned into a velocity "beyond 10 m/s" (or a flag negated)."""
+    m, t, v_b = sim
+    C_b_n = _euler_at(sim)
+    v_n = np.einsum("kij,kj->ki", C_b_n, v_b)
+    euler = np.degrees(C_b_n_to_euler(C_b_n))
+    cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
+    v = {"ned": v_n, "enu": v_n[:, [1, 0, 2]] * [1, 1, -1], "flu": v_b * [1, -1, -1]}[frame].copy()
+    v[100, 1] = -32.768
+    entry = {"frame": frame, **({"euler": list(cols), "angle_unit": "deg"} if frame != "flu" else {})}
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, sim, v, entry, cols if frame != "flu" else None))
+    said = [str(w.message) for w in rec if "not measurements" in str(w.message)]
+    assert len(said) == 1 and "[1 seen]" in said[0] and "first at line 102, 1 ping(s)" in said[0], said
+    assert not got.dvl.valid[100].any() and np.isnan(got.dvl.v_b[100]).all()
+    assert got.meta["streams"]["dvl"]["refused"] == {"no valid beam (flagged invalid, NaN or RDI -32768 in the file)": 1}
+
+
 def test_a_velocity_in_knots_is_refused_undeclared_and_converted_declared(sim, tmp_path):
     m, t, v_b = sim
     with pytest.raises(DataError, match="1.9[0-9]x what the IMU's accelerations say.*knots read as m/s") as err:

@@ -187,8 +187,11 @@ def test_pd0_pressure_that_is_not_a_depth_is_invalid_and_counted(sim, tmp_path):
     p[[3, 7]] = 0xFFFFFFFF
     p[11] = round(12000.0 * 1025.0 * 9.81 / 10.0)
     write_pd0(tmp_path / "p.000", mission, pressure_dpa=p)
-    with pytest.warns(RuntimeWarning, match="bad pressure word"):
+    # named by the ensemble's number and byte offset, as the DVL's messages are, not the index into the arrays
+    with pytest.warns(RuntimeWarning, match=r"bad pressure word.*first at ensemble \d+ \(byte \d+\); marked") as said:
         log = read_dvl(tmp_path / "p.000")
+    assert f"{log.where[3]}; marked" in next(str(w.message) for w in said if "bad pressure word" in str(w.message))
+    assert f"{log.where[11]}; marked" in next(str(w.message) for w in said if "out of range" in str(w.message))
     assert log.counts["bad pressure word"] == 2 and log.counts["depth out of range"] == 1
     assert np.isnan(log.depth_m[[3, 7, 11]]).all() and np.isfinite(np.delete(log.depth_m, [3, 7, 11])).all()
     with pytest.warns(RuntimeWarning, match="depth out of range"):

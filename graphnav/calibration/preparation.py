@@ -460,7 +460,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
         checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
                                    meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
-                                   key)
+                                   key, turned=facts.get("depth_turned_up", False))
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)

@@ -16,7 +16,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.screening import check_stamps
+from graphnav.core.screening import check_stamps, located
 
 #: Largest along-beam (or DVL-axis) velocity magnitude a DVL can report, m/s: the velocity range of the
 #: RDI Workhorse/Pathfinder class (+-10 m/s), far above any AUV speed. A larger value is an invalid flag or
@@ -278,11 +278,13 @@ class DvlData:
             if self.v_d_sigma is not None:
                 _check_array(self.v_d_sigma, (3,), len(self.t), self.source, "v_d_sigma", finite=used)
 
-    def sanitized(self, max_speed: float = MAX_DVL_SPEED_MPS, lines: np.ndarray | None = None) -> "DvlData":
+    def sanitized(self, max_speed: float = MAX_DVL_SPEED_MPS, lines: np.ndarray | None = None,
+                  where: list[str] | None = None) -> "DvlData":
         """A copy where every beam that is not a measurement is marked invalid (and set to NaN), with a
         warning: NaN/inf, RDI's bad-velocity markers (-32768, -32.768) and |beam| > ``max_speed`` m/s.
         A ping whose reported ``v_b`` is such a value is invalid as a whole (the instrument flagged it).
-        ``lines``: the file line of each ping, named by the warning (else the ping's index).
+        ``lines``: the file line of each ping, ``where``: where the file holds each ping (a PD0 ensemble, a bag
+        message), named by the warning (neither: the ping's index).
         The loaders call this; build in-memory data with it too (``validate`` rejects such beams)."""
         bad_beam = self.valid & invalid_dvl_values(self.beams, max_speed)
         bad_ping = np.zeros(len(self.t), dtype=bool)
@@ -302,8 +304,8 @@ class DvlData:
         warnings.warn(f"{self.source}: {int(bad_beam.sum())} beam value(s) and {int(bad_ping.sum())} ping "
                       f"velocit(ies) are not measurements (NaN, RDI bad-velocity flag -32768/-32.768 "
                       f"[{rdi} seen], or beyond {max_speed:g} m/s) and are marked invalid; first at "
-                      f"{'index' if lines is None else 'line'} {int(rows[0] if lines is None else lines[rows[0]])}, "
-                      f"{rows.size} ping(s) affected", RuntimeWarning, stacklevel=2)
+                      f"{located(rows, lines, where, first=True)}, {rows.size} ping(s) affected", RuntimeWarning,
+                      stacklevel=2)
         return dataclasses.replace(self, beams=beams, valid=valid, v_b=v_b)
 
     def take(self, idx) -> "DvlData":

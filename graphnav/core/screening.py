@@ -716,11 +716,7 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
             parts.append(f"{int(m.sum())} {reason}")
         total |= m
     if total.any():
-        if where is not None:
-            at = ", ".join(np.asarray(where)[total][:10]) + (" ..." if total.sum() > 10 else "")
-        else:
-            rows = np.asarray(lines)[total] if lines is not None else np.flatnonzero(total) + line_offset
-            at = ("line(s) " if line_offset or lines is not None else "index(es) ") + first_lines(rows)
+        at = located(np.flatnonzero(total), lines, where, line_offset)
         warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {at}; "
                       "they are not used", RuntimeWarning, stacklevel=3)
     return total
@@ -798,6 +794,21 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 def first_lines(lines: np.ndarray) -> str:
     """The first ten of ``lines`` (file lines) for a warning."""
     return ", ".join(str(int(i)) for i in lines[:10]) + (" ..." if len(lines) > 10 else "")
+
+
+def located(rows: np.ndarray, lines: np.ndarray | None = None, where: list[str] | None = None, line_offset: int = 0,
+            first: bool = False) -> str:
+    """Where the file holds the samples ``rows`` (indexes into the stream), for a warning: ``where[i]`` when given
+    (a PD0 ensemble, a bag message with its time), else the file line ``lines[i]``, else the index plus
+    ``line_offset`` (a line when an offset is given). The first ten, or with ``first`` the first one alone."""
+    rows = np.asarray(rows, int)[:1] if first else np.asarray(rows, int)
+    if where is not None:
+        return ", ".join(str(where[i]) for i in rows[:10]) + (" ..." if len(rows) > 10 else "")
+    named = np.asarray(lines)[rows] if lines is not None else rows + line_offset
+    kind = "line" if lines is not None or line_offset else "index"
+    if first:
+        return f"{kind} {int(named[0])}"
+    return ("line(s) " if kind == "line" else "index(es) ") + first_lines(named)
 
 
 def dvl_outages(t: np.ndarray, usable: np.ndarray, rate_hz: float) -> list[tuple[float, float]]:

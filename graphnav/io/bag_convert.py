@@ -19,6 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData)
 from graphnav.core.rotations import C_NED_ENU
+from graphnav.core.screening import located
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
@@ -58,7 +59,8 @@ NAVSAT_NO_FIX = -1
 class Stream:
     """One topic's decoded messages: stamps (ns, as chosen by :mod:`graphnav.io.bag_stamps`: ``stamp_kind``
     ``"header"`` or ``"receive"``), the receive stamps of the same messages, how many messages the topic
-    had before any was dropped, and the stamp repairs (a ``meta`` of its own, see :mod:`graphnav.core.streams`)."""
+    had before any was dropped, the stamp repairs (a ``meta`` of its own, see :mod:`graphnav.core.streams`) and
+    each message's index in the topic (None: every message, in the bag's order)."""
 
     topic: str
     msgtype: str
@@ -68,6 +70,13 @@ class Stream:
     receive_ns: np.ndarray | None = None
     n_read: int = 0
     log: dict = field(default_factory=dict)
+    index: np.ndarray | None = None
+
+
+def messages(s: Stream, t0_ns: int) -> list[str]:
+    """Each message of ``s`` named for a warning: its index in the topic and its time on the mission's clock."""
+    index = np.arange(len(s.rows)) if s.index is None else s.index
+    return [f"message {int(i)} (t = {t:.3f} s)" for i, t in zip(index, _rel(s, t0_ns))]
 
 
 def frame_is(frame_id: str, suffix: str) -> bool:
@@ -99,7 +108,7 @@ def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     if not ok.all():
         bad = np.flatnonzero(~ok)
         warnings.warn(f"{source}:{s.topic}: {bad.size} IMU message(s) with a NaN or infinite value refused (first: "
-                      f"message {bad[0]} of the topic, t = {t[bad[0]]:.3f} s)", RuntimeWarning, stacklevel=2)
+                      f"{located(bad, where=messages(s, t0_ns), first=True)})", RuntimeWarning, stacklevel=2)
         count_refused(meta, "imu", "not finite", bad.size)
         check_refused_fraction(meta)
         t, f, w = t[ok], f[ok], w[ok]
@@ -225,8 +234,9 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     unusable = no_beams & ~v_ok
     if unusable.any():
         count_refused(meta, "dvl", "no valid beam and no valid velocity", int(unusable.sum()))
-        warnings.warn(f"{source}: {int(unusable.sum())} DVL ping(s) with no valid beam and no valid velocity "
-                      f"(first at index {int(np.flatnonzero(unusable)[0])}) are not used", RuntimeWarning, stacklevel=2)
+        warnings.warn(f"{source}:{s.topic}: {int(unusable.sum())} DVL ping(s) with no valid beam and no valid "
+                      f"velocity (first at {located(np.flatnonzero(unusable), where=messages(s, t0_ns), first=True)}) "
+                      "are not used", RuntimeWarning, stacklevel=2)
     if s.msgtype == TWIST_DVL or (no_beams.all() and v_ok.any()):
         add_note(meta, "dvl", f"velocity-only DVL ({s.msgtype}): the instrument's velocity v_d is used, no beams")
     # The instrument's body-frame velocity (v_b) where it has beams too; pings without >= 3 beams leave it NaN.
@@ -238,7 +248,7 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
         v_b = None
     out = DvlData(_rel(s, t0_ns), np.where(valid, beams, np.nan), valid, v_b, f"{source}:{s.topic}",
                   v_d=v_d, v_d_valid=v_ok, v_d_sigma=v_d_sigma)
-    return out.sanitized(), info
+    return out.sanitized(where=messages(s, t0_ns)), info
 
 
 # --- depth -------------------------------------------------------------------------------------------------
@@ -341,10 +351,13 @@ def choose_depth(candidates: dict[str, tuple[Stream, dict]], source: str, meta: 
     return chosen
 
 
-def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict) -> DepthData:
+def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict, positive: str | None = None) -> DepthData:
     """The chosen depth stream, range-checked: depths above the surface beyond the tolerance or deeper than
-    the ocean are dropped and counted."""
+    the ocean are dropped and counted. A depth topic whose convention is not declared (``positive`` None) and whose
+    samples lie mostly above the surface is read as positive up (:func:`turned_positive_up`)."""
     d = cand["depth"]
+    if positive is None and s.msgtype != PRESSURE:
+        d = turned_positive_up(s, d, source, meta)
     checks = {f"above the surface by more than {DEPTH_ABOVE_SURFACE_TOL_M:g} m": d < -DEPTH_ABOVE_SURFACE_TOL_M,
               f"deeper than {MAX_DEPTH_M:g} m": d > MAX_DEPTH_M, "not finite": ~np.isfinite(d)}
     bad = np.zeros(len(d), bool)
@@ -354,11 +367,29 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict) -> DepthDa
             count_refused(meta, "depth", reason, int(mask.sum()))
             up = reason.startswith("above") and s.msgtype != PRESSURE and mask.mean() > 0.5
             warnings.warn(f"{source}:{s.topic}: {int(mask.sum())} depth sample(s) {reason} dropped (first at "
-                          f"message {int(np.flatnonzero(mask)[0])}, {d[mask][0]:.2f} m)"
+                          f"{located(np.flatnonzero(mask), where=messages(s, t0_ns), first=True)}, {d[mask][0]:.2f} m)"
                           + (f"; a depth topic positive up? declare {POSITIVE_KEY} 'up'" if up else ""),
                           RuntimeWarning, stacklevel=3)
         bad |= mask
     return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
+
+
+def turned_positive_up(s: Stream, d: np.ndarray, source: str, meta: dict) -> np.ndarray:
+    """``d`` (m) of a depth topic of undeclared convention, negated when most samples lie above the surface by more
+    than :data:`DEPTH_ABOVE_SURFACE_TOL_M` (no vehicle does; a topic positive up does), as a column-map depth is:
+    warned about naming the topic and its field, counted in ``meta["depth_turned_up"]``; the prepare step keeps it
+    only if the vehicle's vertical velocity confirms it (:func:`graphnav.io.units.depth_convention`)."""
+    with np.errstate(invalid="ignore"):
+        above = d < -DEPTH_ABOVE_SURFACE_TOL_M
+    if not above.mean() > 0.5:
+        return d
+    meta["depth_turned_up"] = int(len(d))
+    said = (f"{int(above.sum())} of {len(d)} samples above the surface by more than {DEPTH_ABOVE_SURFACE_TOL_M:g} m: "
+            "read as depth positive up and turned positive down (checked against the vehicle's vertical velocity "
+            f"when the mission is prepared; {POSITIVE_KEY} declares it)")
+    warnings.warn(f"{source}:{s.topic}, field 'data': {said}", RuntimeWarning, stacklevel=3)
+    add_note(meta, "depth", f"{source}:{s.topic} field 'data': {said}")
+    return -d
 
 
 # --- heading -----------------------------------------------------------------------------------------------

@@ -258,7 +258,7 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
                         sub: dict = {}
                         t_ns, keep, how = choose_stamps(head, rx, sub, stream, f"{source}:{topic}")
                         decoded[topic] = Stream(topic, msgtype, t_ns, [rows[i] for i in keep], how, rx[keep],
-                                                len(rows), sub.get("streams", {}))
+                                                len(rows), sub.get("streams", {}), np.asarray(keep))
                     out.setdefault(stream, []).append(decoded[topic])
             return out
         finally:
@@ -332,7 +332,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     imu = conv.imu(imu_s, t0_ns, source, meta)
     _record(meta, "dvl", dvl_s, t0_ns, source)
     dvl, info = conv.dvl(dvl_s, t0_ns, config, source, meta)
-    meta["dvl_ping_where"] = [f"message {i} (t = {t:.3f} s)" for i, t in enumerate(dvl.t)]
+    meta["dvl_ping_where"] = conv.messages(dvl_s, t0_ns)
     config = _apply_beam_geometry(config, info, source)
     depth = None
     positive = conv.declared_positive(config)
@@ -343,7 +343,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     if chosen:
         s, cand = cands[chosen]
         _record(meta, "depth", s, t0_ns, source)
-        depth = conv.depth(s, cand, t0_ns, source, meta)
+        depth = conv.depth(s, cand, t0_ns, source, meta, positive)
     heading = None
     h = _heading_stream(streams, topics, imu_s.topic, source, meta)
     if h is not None:
@@ -380,6 +380,8 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
         meta["depth_source"] = "none"
     elif positive:              # a declared convention the data may not contradict (the prepare step checks it)
         meta["prepare"]["depth_positive"] = positive
+    elif meta.get("depth_turned_up"):       # turned by the reader: the vertical velocity must confirm it
+        meta["prepare"]["depth_turned_up"] = True
     return Mission(name or (path.stem if path.is_file() else path.name), imu, dvl, config, gt, depth, meta,
                    heading=heading, fixes=fixes)
 

@@ -6,7 +6,10 @@ Frames (:data:`DVL_FRAMES`): ``body`` (forward-right-down, the default; ``frd`` 
 ``dvl.C_d_b``), ``ned`` / ``enu`` (earth-fixed: turned back to ``d`` with the head's own roll, pitch and heading,
 as :mod:`graphnav.io.pd0` does with an earth-coordinate ensemble's attitude, then to body by ``C_d_b``). An earth
 frame needs those attitude columns (``euler`` of the DVL entry, ``angle_unit`` rad or deg); without them it is
-refused: nothing on board turns an earth velocity back without a heading.
+refused: nothing on board turns an earth velocity back without a heading. A ping with a cell holding RDI's
+bad-velocity flag (-32.768 m/s) is not turned (:func:`flagged_not_turned`): turned, the flag would spread over the
+three axes as a plausible-looking or a "beyond max speed" velocity; kept, ``DvlData.sanitized`` refuses the ping
+naming its line and the flag, as in a body-frame column.
 
 Undeclared earth-frame velocity (:func:`course_turn_ratio`): an AUV moves mostly along its own x whatever its
 heading, so the direction of a body-frame horizontal velocity turns little (a current or a sideslip turns it
@@ -23,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.mission import RDI_BAD_VELOCITY
 from graphnav.core.rotations import C_NED_ENU, euler_to_C_b_n
 from graphnav.io.units import ANGLE_UNITS
 
@@ -67,6 +71,12 @@ def velocity_to_body(v: np.ndarray, frame: str, C_d_b: np.ndarray, euler_d: np.n
     if frame in ("instrument", *EARTH_FRAMES):
         return v @ np.asarray(C_d_b, float).T
     return v
+
+
+def flagged_not_turned(v: np.ndarray, turned: np.ndarray) -> np.ndarray:
+    """``turned`` (M,3), the velocity ``v`` (M,3, m/s as read) in the body frame, except the pings where a cell of
+    ``v`` is RDI's bad-velocity flag: those stay as read, for ``DvlData.sanitized`` to refuse by their flag."""
+    return np.where(np.isin(v, RDI_BAD_VELOCITY).any(axis=1, keepdims=True), v, turned)
 
 
 def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
@@ -149,9 +159,10 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
             check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame)
         else:
             add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
-        if frame != "body":
-            add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
-        return velocity_to_body(v, frame, C_d_b)
+        if frame == "body":
+            return v
+        add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
+        return flagged_not_turned(v, velocity_to_body(v, frame, C_d_b))
     unit = spec.get("angle_unit")
     if euler is None or unit not in ANGLE_UNITS:
         raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: an earth-frame velocity is turned back to the DVL "
@@ -159,4 +170,4 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
                           f"file: roll, pitch, heading) and 'angle_unit' ({' or '.join(ANGLE_UNITS)})")
     add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to the DVL frame with the "
                           f"attitude columns {list(spec['euler'])}, then to body by dvl.C_d_b")
-    return velocity_to_body(v, frame, C_d_b, euler * ANGLE_UNITS[unit])
+    return flagged_not_turned(v, velocity_to_body(v, frame, C_d_b, euler * ANGLE_UNITS[unit]))

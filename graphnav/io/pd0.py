@@ -67,6 +67,7 @@ from graphnav.core.dvl_log import COUNT_NOTES, DvlLog
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DepthData, DvlData
 from graphnav.core.rotations import C_NED_ENU
+from graphnav.core.screening import located
 
 #: File name endings of PD0 ensembles: RDI's own ``.pd0`` and numbered ``.000``, ``.001``, ...; VmDAS's raw
 #: ``.ENR``, averaged ``.ENS`` and ``.ENX`` (any case). A file is read as PD0 by its content
@@ -366,9 +367,10 @@ def _flagged(vel: np.ndarray) -> np.ndarray:
         return np.isclose(vel, PD0_BAD * 1e-3) | ~np.isfinite(vel) | (np.abs(vel) > MAX_DVL_SPEED_MPS)
 
 
-def _depth(ds, config: SensorConfig, counts: dict, source: str) -> np.ndarray | None:
-    """Depth (m, down) from the pressure sensor, NaN where the word is 0xFFFFFFFF or the depth implausible;
-    None when the instrument has no pressure sensor (every word zero or 0xFFFFFFFF)."""
+def _depth(ds, config: SensorConfig, counts: dict, source: str, where: list[str]) -> np.ndarray | None:
+    """Depth (m, down) from the pressure sensor, NaN where the word is 0xFFFFFFFF or the depth implausible (warned
+    about naming the ensembles, ``where``); None when the instrument has no pressure sensor (every word zero or
+    0xFFFFFFFF)."""
     if "pressure" not in ds:
         return None
     p_dbar = np.asarray(ds["pressure"].values, float)
@@ -383,7 +385,7 @@ def _depth(ds, config: SensorConfig, counts: dict, source: str) -> np.ndarray | 
             counts[reason] = int(mask.sum())
             warnings.warn(f"{source}: {int(mask.sum())} pressure reading(s) are not a depth ({reason}: "
                           f"{'0xFFFFFFFF, no sensor' if reason == 'bad pressure word' else DEPTH_RANGE_M} ), "
-                          f"first at ensemble index {int(np.flatnonzero(mask)[0])}; marked invalid",
+                          f"first at {located(np.flatnonzero(mask), where=where, first=True)}; marked invalid",
                           RuntimeWarning, stacklevel=3)
     return np.where(no_sensor | out_of_range, np.nan, depth)
 
@@ -573,7 +575,8 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     else:
         enu = earth_velocity(ds, np.where(v_d_valid, pings.inst, np.nan))
     v_n = -(C_NED_ENU @ enu).T                     # the seabed's velocity relative to the head, negated
-    depth = _depth(ds, config, counts, source)
+    where = _ensemble_names(ds, scan)
+    depth = _depth(ds, config, counts, source, where)
     _warn_counts(counts, source)
     attitude = np.stack([np.asarray(ds[k].values, float) for k in ("heading", "pitch", "roll")], axis=1)
     instrument = _instrument(ds, scan, matrix_source)
@@ -581,7 +584,7 @@ def read_pd0_log(path: str | Path, config: SensorConfig | None = None) -> DvlLog
     return DvlLog(t=t, v_d=pings.v_d, v_d_valid=v_d_valid, frame=FRAME_NAMES.get(coord, coord), beams=pings.beams,
                   beam_valid=pings.beam_valid, attitude_deg=attitude, depth_m=depth,
                   v_n=np.where(v_d_valid[:, None], v_n, np.nan), three_beam=pings.three_beam & v_d_valid,
-                  instrument=instrument, counts=counts, source=source, where=_ensemble_names(ds, scan))
+                  instrument=instrument, counts=counts, source=source, where=where)
 
 
 def _ensemble_names(ds, scan: Pd0Scan) -> list[str]:

@@ -1064,7 +1064,7 @@ def depth_rate_fit(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down: np
 
 
 def depth_convention(mission: Mission, meta: dict | None, field: str, declared: str | None = None,
-                     key: str = "csv_columns.depth.positive") -> np.ndarray:
+                     key: str = "csv_columns.depth.positive", turned: bool = False) -> np.ndarray:
     """The depth of ``mission`` (m, positive down) checked against the vehicle's vertical velocity
     (:func:`vertical_velocity`, :func:`depth_rate_fit`): changing against it while mostly above the sea surface it is
     positive up, and flipped (a warning, a note); changing against it below the surface, changing at another rate
@@ -1074,7 +1074,8 @@ def depth_convention(mission: Mission, meta: dict | None, field: str, declared: 
     dbar read as metres; nothing else can tell it). ``declared``: the convention the configuration declares under
     ``key`` (down or up, applied by the reader: ``csv_columns.depth.positive`` for a column map,
     ``bag_topics.depth.positive`` for a bag): a depth then changing against the velocity is a DataError, not
-    turned."""
+    turned. ``turned``: the reader turned the depth, read as positive up (a bag's depth topic mostly above the
+    surface, :func:`graphnav.io.bag_convert.turned_positive_up`): a DataError unless the velocity confirms it."""
     depth = mission.depth
     t_v, v_down, what = vertical_velocity(mission)
     k, r = depth_rate_fit(depth.t, depth.depth, t_v, v_down)
@@ -1082,6 +1083,9 @@ def depth_convention(mission: Mission, meta: dict | None, field: str, declared: 
     fit = f"its changes are {k:.3g}x those of {what} over {POSITION_WINDOW_S:g} s windows (correlation {r:.2f})"
     above = float(np.median(depth.depth)) < -DEPTH_ABOVE_SURFACE_M
     extent = f"depth {np.min(depth.depth):.4g} to {np.max(depth.depth):.4g} m"
+    if turned and not (decided and k > 0):
+        raise DataError(f"read as positive up (its samples mostly above the sea surface) and turned, but the vertical "
+                        f"motion does not confirm it: {fit}; declare {key} 'up' or 'down'", depth.source, field=field)
     if decided and k < 0 and declared is not None:
         raise DataError(f"declared positive {declared!r} ({key}), but {fit}: set it to "
                         f"{'up' if declared == 'down' else 'down'!r}", depth.source, field=field)
