@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import warnings
 
 import numpy as np
@@ -190,3 +191,57 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
             dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame)
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
+
+
+def _akit_crop_without_gt(src, dst, C, seconds=200.0):
+    """The IMU and DVL files of the A-KIT folder ``src`` cut to their first ``seconds`` (no GT file, as a vehicle has
+    them) in ``dst``, the DVL velocity columns multiplied by ``C`` (3,3)."""
+    from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
+    dst = dst / src.name
+    dst.mkdir()
+    for kind, path in akit_files(src).items():
+        if kind == "GT":
+            continue
+        rows = read_csv(path, AKIT_COLUMNS[kind])
+        rows = rows[rows[:, 0] <= seconds]
+        if kind == "DVL":
+            rows[:, 1:4] = rows[:, 1:4] @ np.asarray(C).T
+        np.savetxt(dst / path.name, rows, delimiter=",", fmt="%.12g", comments="", header=",".join(AKIT_COLUMNS[kind]))
+    return dst
+
+
+
+def _turned(deg):
+    from graphnav.calibration.dvl_scale import turn_about_z
+    return turn_about_z(deg)
+
+
+@pytest.mark.parametrize("C, error, warning", [
+    (np.eye(3), None, None),
+    # instrument-frame columns of a DVL mounted yawed, read as body: warned about (a log's or bag's warning)
+    (_turned(20.0), None, r"field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity is turned "
+                          r"\+2\d\.\d deg about z.*turn the DVL velocity columns of the file"),
+    # not an IMU turned 90 deg against the DVL either way: the velocity turned back points forward
+    (_turned(45.0), None, r"the DVL velocity is turned \+4\d\.\d deg about z"),
+    (0.01 * np.eye(3), r"0\.01x what the IMU's accelerations say.*convert the DVL velocity columns of the file to m/s",
+     None),
+    (np.diag([1.0, -1.0, -1.0]), r"better with its y and z negated.*FLU.*negate the y and z DVL velocity columns",
+     None),
+], ids=["clean", "turned 20 deg", "turned 45 deg", "x0.01", "FLU"])
+def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_dir, tmp_path, C, error, warning):
+    """Without a GT the A-KIT folder's DVL columns had no check of their unit, yaw or FLU axes: 20 deg ran silently,
+    0.01x and FLU diverged, 45 deg was refused as an IMU turned 90 deg."""
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, C)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if error is not None:
+            with pytest.raises(DataError, match=r"DVL_trajectory1\.csv, field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z "
+                                                r"\[m/s\]': the DVL velocity .*" + error):
+                load_mission(folder)
+            return
+        load_mission(folder)
+    said = [str(w.message) for w in caught if "DVL velocity" in str(w.message)]
+    if warning is None:
+        assert not said
+    else:
+        assert len(said) == 1 and re.search(r"DVL_trajectory1\.csv: .*" + warning, said[0]), said

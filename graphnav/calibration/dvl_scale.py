@@ -226,13 +226,30 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> 
                      field=frame["fields"])
 
 
-def _likely_unit(scale: float) -> str:
+def _likely_unit(scale: float, declare: bool = True) -> str:
+    """The unit a velocity ``scale`` times the IMU's likely is; ``declare``: with the column map's key to declare."""
     name, factor = min(LIKELY_UNITS.items(), key=lambda kv: abs(np.log(scale / kv[1])))
-    return name if abs(np.log(scale / factor)) < np.log(MAX_SCALE_ERROR) / 2 else "a wrong velocity_unit"
+    if abs(np.log(scale / factor)) >= np.log(MAX_SCALE_ERROR) / 2:
+        return "a wrong velocity_unit" if declare else f"a unit {scale:.3g}x m/s"
+    return name if declare else name.split(" (")[0]
 
 
-def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None
-                               ) -> None:
+#: What to do about a DVL velocity in other units (``"unit"``, after the likely unit), turned about z (``"yaw"``) or in
+#: FLU axes (``"flu"``): a column map or bag declares its unit and frame.
+DECLARE_DVL_FIXES = {"unit": "", "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate "
+                                        "estimates it and writes both)",
+                     "flu": "declare csv_columns.dvl.frame 'flu'"}
+#: The same for an A-KIT folder, whose format is fixed (m/s, body frame FRD; the loader converts mm/s itself): its
+#: velocity columns are converted before graphnav reads them.
+AKIT_DVL_FIXES = {"unit": " convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
+                          "declare)",
+                  "yaw": "turn the DVL velocity columns of the file into the body frame (an A-KIT folder has no DVL "
+                         "frame to declare)",
+                  "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
+
+
+def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None,
+                               field: str | None = None, fixes: dict = DECLARE_DVL_FIXES) -> None:
     """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
     speed unit read wrong) or in FLU axes read as FRD (:func:`flu_fit_ratio`), naming the DVL file and its columns
     (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
@@ -240,9 +257,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     seconds). ``moved``: the clock search has just put the DVL on the IMU clock, so the loader could not check it
     for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here. ``imu_frame``: the IMU's
     declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude checked its axes: its
-    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves)."""
+    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves).
+    ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
+    messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`)."""
     from graphnav.calibration.clock import dvl_velocity_b
-    field = meta.get("stream_fields", {}).get("dvl", "velocity")
+    field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model, _ = dvl_window_model(imu, dvl, config)
     except DataError:
@@ -258,16 +277,18 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
-                        f"{_likely_unit(scale)}?", dvl.source, field=field)
+                        f"{_likely_unit(scale, declare=not fixes['unit'])}?{fixes['unit']}", dvl.source, field=field)
     dvl_turn = None
-    if imu_frame is not None:           # before the DVL's yaw: a turned IMU turns the velocity against it too
+    # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
+    dvl_yawed = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD and _forward(
+        np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
+    if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
         offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) else 0.0
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset)
     if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
         text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
                 f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
-                "as body? declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
-                "it and writes both)")
+                f"as body? {fixes['yaw']}")
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)
     else:                               # the DVL's own fit explains too little: the IMU-turn fit may still see it
@@ -276,7 +297,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
                         f"negated (then explaining {explained:.2f} of its changes): FLU axes (ROS base_link) read "
-                        "as FRD? declare csv_columns.dvl.frame 'flu'", dvl.source, field=field)
+                        f"as FRD? {fixes['flu']}", dvl.source, field=field)
 
 
 #: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).

@@ -27,8 +27,9 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 Bags, CSV logs and PD0 files: the IMU frame the column map or the bag's frame_id declares is checked by the same
 detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that contradict a frame a user declared are a
 DataError, an implied frame is corrected with a warning; without a reference attitude on the IMU clock, an IMU
-turned about z is found against the DVL (:func:`graphnav.calibration.dvl_scale.check_imu_yaw`, also for an A-KIT
-folder without GT); a depth is checked against the vehicle's vertical velocity
+turned about z is found against the DVL (:func:`graphnav.calibration.dvl_scale.check_imu_yaw`; an A-KIT folder
+without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
+:func:`~graphnav.calibration.dvl_scale.check_velocity_against_imu`); a depth is checked against the vehicle's vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
@@ -286,12 +287,14 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, im
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
-    from graphnav.calibration.dvl_scale import check_imu_yaw, warn_dvl_turned
+    # the checks a log or bag without reference gets: the velocity's unit, its turn and FLU axes, the IMU's turn
+    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_velocity_against_imu
     from graphnav.io.loaders import AKIT_COLUMNS
     signs = tuple(int(s) for s in cfg.imu_axis_signs)
-    turn = check_imu_yaw(imu, dvl, cfg, meta, {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
-                                               "fields": "/".join(AKIT_COLUMNS["IMU"][1:])})
-    warn_dvl_turned(dvl, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]), turn)
+    frame = {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
+             "fields": "/".join(AKIT_COLUMNS["IMU"][1:])}
+    check_velocity_against_imu(imu, dvl, cfg, meta, imu_frame=frame, field="/".join(AKIT_COLUMNS["DVL"][1:4]),
+                               fixes=AKIT_DVL_FIXES)
     meta["time_offsets"] = {}
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
