@@ -82,7 +82,7 @@ def test_smooth_outputs(tmp_path, capsys):
     # the smoother's own uncertainty: sigmas in the CSV, the pose covariance of each TUM line, the summary
     assert sol.cov_p_n is not None and sol.cov_rot_b is not None
     from graphnav.io.outputs import read_pose_covariance_csv
-    t_cov, cov_p, cov_rot = read_pose_covariance_csv(out / "trajectory_cov.csv")
+    t_cov, cov_p, cov_rot, _ = read_pose_covariance_csv(out / "trajectory_cov.csv")
     np.testing.assert_allclose(t_cov, t, atol=1e-9)
     np.testing.assert_allclose(np.sqrt(np.diagonal(cov_p, axis1=1, axis2=2)),
                                np.sqrt(np.diagonal(sol.cov_p_n, axis1=1, axis2=2)), rtol=1e-8)

@@ -114,12 +114,12 @@ def test_epoch_writer_writes_the_sigmas(tmp_path):
 def test_pose_covariance_file(tmp_path):
     sol = solution_with_covariances()
     path = write_pose_covariance_csv(tmp_path / "trajectory_cov.csv", sol)
-    t, cov_p, cov_rot = read_pose_covariance_csv(path)
+    t, cov_p, cov_rot, _ = read_pose_covariance_csv(path)
     np.testing.assert_allclose(t, sol.t, atol=1e-9)
     np.testing.assert_allclose(cov_p, sol.cov_p_n, rtol=1e-9)
     np.testing.assert_allclose(cov_rot, sol.cov_rot_b, rtol=1e-9)
     no_position = solution_with_covariances(position=False)
-    t, cov_p, cov_rot = read_pose_covariance_csv(write_pose_covariance_csv(tmp_path / "ekf.csv", no_position))
+    t, cov_p, cov_rot, _ = read_pose_covariance_csv(write_pose_covariance_csv(tmp_path / "ekf.csv", no_position))
     assert cov_p is None and cov_rot is not None
     assert ",,,,,," in (tmp_path / "ekf.csv").read_text().splitlines()[1]
 
@@ -205,3 +205,17 @@ def test_uncertainty_summary():
     ekf = uncertainty_summary(solution_with_covariances(position=False))
     assert ekf["final_horizontal_position_sigma_m"] is None and ekf["not_estimated"] == ["position"]
     assert ekf["final_heading_sigma_deg"] is not None
+
+
+def test_the_covariance_file_holds_the_velocity_block_and_reads_one_written_before_it(tmp_path):
+    from graphnav.io.outputs import POSE_COV_COLUMNS_WITHOUT_VELOCITY
+    sol = solution_with_covariances()
+    path = write_pose_covariance_csv(tmp_path / "trajectory_cov.csv", sol)
+    np.testing.assert_allclose(read_pose_covariance_csv(path)[3], sol.cov_v_n, rtol=1e-9)
+    # a file written before the velocity block: the first 13 columns, no velocity covariance
+    old = tmp_path / "old_cov.csv"
+    old.write_text("".join(",".join(line.split(",")[:len(POSE_COV_COLUMNS_WITHOUT_VELOCITY)]).rstrip("\n") + "\n"
+                           for line in path.read_text().splitlines()))
+    t, cov_p, cov_rot, cov_v = read_pose_covariance_csv(old)
+    np.testing.assert_allclose(cov_p, sol.cov_p_n, rtol=1e-9)
+    assert cov_v is None

@@ -38,6 +38,10 @@ def test_against_tum_and_mission_reference(run, capsys):
     assert tum["matched_poses"] == len(sol.t)
     assert tum["ape_translation_m"]["rmse"] == pytest.approx(ape_rmse, rel=1e-6)
     assert tum["rpe_translation_m"]["rmse"] > 0 and tum["vrmse_mps"] is None
+    # the estimate has its velocity sigmas: the velocity NEES is missing for the reference's want of velocities
+    assert tum["nees_velocity_mean"] is None and "sigmas" not in tum["nees_note"]
+    assert f"the reference ({out / 'groundtruth.tum'}) has none" in tum["nees_note"]
+    assert "the estimate" not in tum["nees_note"].split(":")[1]
     # Mission (bag) reference: its ground truth has velocities, so VRMSE and NEES too.
     assert cli.main(["evaluate", str(out / "trajectory.csv"), "--ref", str(root / "mission_bag"),
                      "--config", str(root / "config.json"), "--json", str(root / "bag.json")]) == 0
@@ -48,8 +52,11 @@ def test_against_tum_and_mission_reference(run, capsys):
     assert res["vrmse_mps"] == pytest.approx(summary["accuracy"]["vrmse_mission_mps"], rel=1e-4)
     # the benchmark's NEES, by the benchmark's function, on the same settle time and reference
     from graphnav.evaluation.consistency import reference_nees
-    bench = reference_nees(sol, mission.gt, mission, res["nees_t0_s"], None)
+    from graphnav.evaluation.score import load_trajectory
+    bench = reference_nees(load_trajectory(out / "trajectory.csv"), mission.gt, mission, res["nees_t0_s"], None)
     assert res["nees_velocity_mean"] == pytest.approx(bench["nees_mission"], rel=1e-9)
+    # with the full velocity covariance of trajectory_cov.csv: smooth's own number, not the sigmas' one
+    assert res["nees_velocity_mean"] == pytest.approx(summary["accuracy"]["consistency"]["velocity"]["nees"], rel=1e-6)
     assert res["nees_reference"] == "imu-carried"
     assert res["nees_velocity_mean"] != pytest.approx(float(np.mean(nees_velocity(sol, mission.gt))), rel=1e-6)
     # drift in % of distance travelled: the metrics' own numbers; NEES of what the CSV carries, else "-"
@@ -399,3 +406,62 @@ def test_evaluate_scores_a_written_run_with_its_full_pose_covariance(tmp_path):
         read = load_trajectory(tmp_path / name)
         np.testing.assert_allclose(read.cov_p_n[:, :2, :2], cov[:, :2, :2], rtol=1e-9)
         assert evaluate(read, gt)["nees_position_mean"] == pytest.approx(want, rel=1e-6)
+
+
+def test_evaluate_scores_a_written_run_with_its_full_velocity_covariance(tmp_path):
+    # trajectory.csv keeps the velocity sigmas only: scored from them, Trajectory1 from the sensors gave a velocity
+    # NEES of 1.46 (under its band) against smooth's 1.91; trajectory_cov.csv now holds the velocity block too
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.consistency import reference_nees
+    from graphnav.evaluation.score import evaluate, load_trajectory
+    from graphnav.io.outputs import write_pose_covariance_csv, write_trajectory_csv
+    t = np.arange(0.0, 401.0)
+    p = np.c_[1.2 * t, 0.9 * t, 10.0 + 0 * t]
+    gt = GroundTruth(t, p, np.gradient(p, t, axis=0), np.tile(np.eye(3), (len(t), 1, 1)))
+    cov = np.tile(np.array([[4e-4, 3.6e-4, 0.0], [3.6e-4, 4e-4, 0.0], [0.0, 0.0, 1e-4]]), (len(t), 1, 1))
+    # the error across the track, where the correlated north/east sigma is tight (0.0063 m/s; each axis 0.02 m/s)
+    err = np.random.default_rng(5).normal(0.0, np.sqrt(4e-5), len(t))[:, None] * [0.5 ** 0.5, -0.5 ** 0.5, 0.0]
+    est = NavSolution("est", t, p, gt.v_n + err, gt.C_b_n, cov_v_n=cov)
+    write_trajectory_csv(tmp_path / "trajectory.csv", est)
+    want = reference_nees(est, gt, None, 60.0, None)["nees_mission"]
+    diagonal = evaluate(load_trajectory(tmp_path / "trajectory.csv"), gt)
+    assert want == pytest.approx(1.0, abs=0.3) and diagonal["nees_velocity_mean"] < 0.2
+    assert "diagonal covariance" in diagonal["nees_note"]
+    write_pose_covariance_csv(tmp_path / "trajectory_cov.csv", est)
+    read = load_trajectory(tmp_path / "trajectory.csv")
+    np.testing.assert_allclose(read.cov_v_n, cov, rtol=1e-9)
+    full = evaluate(read, gt)
+    assert full["nees_velocity_mean"] == pytest.approx(want, rel=1e-6)
+    assert "diagonal covariance" not in full["nees_note"]
+
+
+def test_a_nees_outside_its_band_says_which_side_and_what_it_means():
+    # a heading NEES far under its band (a run started from the reference keeps its heading prior) was printed
+    # without a word; now evaluate and the smooth / online summary say which side and what it means
+    from graphnav.commands.common import _nees_entry
+    from graphnav.core.mission import GroundTruth
+    from graphnav.core.rotations import euler_to_C_b_n
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.score import evaluate, format_report
+    t = np.arange(0.0, 200.01, 1.0)
+    zero = np.zeros_like(t)
+    p = np.c_[1.5 * t, zero, 10 + zero]
+    gt = GroundTruth(t, p, np.gradient(p, t, axis=0), euler_to_C_b_n(zero, zero, zero))
+    for heading_sigma_deg, side in ((20.0, "below its band: under-confident, the claimed sigma is larger than the "
+                                     "error"), (0.5, "above its band: over-confident, the error is larger than the "
+                                     "claimed sigma")):
+        est = NavSolution("est", t, gt.p_n + [1.0, 2.0, 0.0], gt.v_n, euler_to_C_b_n(zero, zero, zero + 0.0175),
+                          cov_p_n=np.tile(np.diag([1.0, 4.0, 0.01]), (len(t), 1, 1)),
+                          cov_rot_b=np.tile(np.diag([1e-4, 1e-4, np.deg2rad(heading_sigma_deg) ** 2]),
+                                            (len(t), 1, 1)))
+        res = evaluate(est, gt)
+        lines = format_report(res, "est", "gt").splitlines()
+        heading = next(line for line in lines if "heading NEES mean" in line)
+        position = next(line for line in lines if "horizontal position NEES mean" in line)
+        assert heading.endswith(f"): {side}")
+        assert position.endswith(")")                                           # 2.00: inside its band
+        entry = {"nees": res["nees_heading_mean"], "dof": 1, "band_95": res["nees_heading_95pct_band"]}
+        assert _nees_entry("heading", entry).endswith(f"; {side})")
+    assert _nees_entry("position", {"nees": 2.0, "dof": 2, "band_95": [0.4, 4.8]}) == "position 2.00 (0.40-4.80)"
+    assert _nees_entry("position", None) == "position -"

@@ -263,3 +263,28 @@ def test_a_first_fix_far_from_a_given_start_is_warned_about():
                             align=AlignOptions(initial_lla=(lla[0], lla[1], 0.0)))
         assert any("first position fix" in str(w.message) for w in caught) == warned
         assert (sol.info["first_fix_departure_sigmas"] > 5.0) == warned
+
+
+def test_groundtruth_tum_carries_the_frame_across_a_lost_estimate(tmp_path):
+    # at epochs without a finite estimate the shift into its frame was written as zero: the reference jumped by the
+    # frame's offset (250 m here) for as long as the estimate was lost
+    from graphnav.evaluation.metrics import frame_shift
+    from graphnav.io.outputs import read_tum, write_reference_tum
+    gt = _truth()
+    gt.p_n[:, :2] += [250.0, -120.0]
+    for sol in (_unknown_start(gt), _placed_by_a_fix(gt)):
+        _, whole, _ = read_tum(write_reference_tum(tmp_path / "whole.tum", sol, gt, frame_shift(sol, gt)))
+        sol.p_n[95:106] = np.nan                   # lost across the fix that placed the frame (epoch 100)
+        sol.p_n[300:311] = np.nan
+        sol.p_n[-5:] = np.nan
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            t, lost, _ = read_tum(write_reference_tum(tmp_path / "lost.tum", sol, gt, frame_shift(sol, gt)))
+        assert len(t) == len(gt.t)
+        np.testing.assert_allclose(lost, whole, atol=1e-3)      # the tangent planes differ by a mm
+    # no finite estimate before the fix: the frame there is unknown, so those rows are left out, warned and counted
+    sol.p_n[:100] = np.nan
+    with pytest.warns(RuntimeWarning, match="100 epoch"):
+        t, p, _ = read_tum(write_reference_tum(tmp_path / "late.tum", sol, gt, frame_shift(sol, gt)))
+    np.testing.assert_allclose(t, gt.t[100:])
+    np.testing.assert_allclose(p, whole[100:], atol=1e-3)

@@ -283,6 +283,19 @@ def make_plots(out: Path, mission, solutions, outages, label: str) -> list[str]:
     return [str(f) for f in files]
 
 
+def _nees_entry(name: str, entry: dict | None) -> str:
+    """One quantity of :func:`consistency_summary` as the summary prints it: the mean NEES, its band, the NEES with
+    the reference's own error, and which side of the band it lies when outside (what that says)."""
+    if not entry:
+        return f"{name} -"
+    from graphnav.evaluation.consistency import outside_band
+    notes = [f"{entry['band_95'][0]:.2f}-{entry['band_95'][1]:.2f}"]
+    if "nees_with_reference_error" in entry:
+        notes.append(f"{entry['nees_with_reference_error']:.2f} with the reference's own error")
+    side = outside_band(entry["nees"], entry["band_95"])
+    return f"{name} {entry['nees']:.2f} ({'; '.join(notes + ([side] if side else []))})"
+
+
 def print_summary(summary: dict, file=None) -> None:
     """Print a command's summary (to ``file``, default standard output)."""
     out = functools.partial(print, file=file)
@@ -319,10 +332,7 @@ def print_summary(summary: dict, file=None) -> None:
         cons = acc.get("consistency") or {}
         if any(cons.values()):
             out("  NEES (consistent = dof; 95 % band): " + ", ".join(
-                f"{name} {c['nees']:.2f} ({c['band_95'][0]:.2f}-{c['band_95'][1]:.2f}"
-                + (f"; {c['nees_with_reference_error']:.2f} with the reference's own error"
-                   if "nees_with_reference_error" in c else "") + ")" if c else f"{name} -"
-                for name, c in cons.items()))
+                _nees_entry(name, c) for name, c in cons.items()))
             axes = (cons.get("velocity") or {}).get("per_body_axis")
             if axes:
                 out("  velocity NEES per body axis (consistent = 1): "

@@ -46,8 +46,8 @@ def register(subparsers) -> None:
                     "OUT/trajectory.csv, "
                     "OUT/trajectory.tum (for evo; also OUT/groundtruth.tum, the GT carried to the estimate's "
                     "stamps by the IMU (the NEES's reference), when the mission has GT: `evo_ape tum "
-                    "OUT/groundtruth.tum OUT/trajectory.tum` pairs every epoch), OUT/trajectory_cov.csv (the position "
-                    "and attitude covariance of each TUM line), "
+                    "OUT/groundtruth.tum OUT/trajectory.tum` pairs every epoch), OUT/trajectory_cov.csv (the position, "
+                    "attitude and velocity covariance of each TUM line), "
                     "OUT/summary.json and PNG plots. When --data is a folder of missions (A-KIT TrajectoryN "
                     "folders or ROS 2 bags), smooth each one with the same options into OUT/<mission>/ and "
                     "keep OUT/results.json (one record per mission, rewritten as each finishes) -- in "
@@ -88,7 +88,7 @@ BATCH_SETTINGS: tuple[str, ...] = ("method", "scenario", "imu_grade", "window_s"
 
 def smooth_mission(args, out: Path, final=str) -> dict:
     """Smooth the one mission of ``args`` (``--data`` and the mission, method and output options of
-    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose covariances
+    ``graphnav smooth``) into the folder ``out``: trajectory CSV/TUM with the TUM lines' pose and velocity covariances
     (``trajectory_cov.csv``), optional bag, plots, summary.json (with ``uncertainty``, the run's own sigmas, and
     ``regressed_beams``, what became of a completer's beams).
     Returns the summary (also written to ``out/summary.json``); ``final`` maps a path written in ``out``

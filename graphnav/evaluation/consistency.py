@@ -78,6 +78,19 @@ def chi2_band(n_independent: int, dof: int = DOF, prob: float = 0.95) -> tuple[f
     return float(lo / n), float(hi / n)
 
 
+def outside_band(mean: float, band, why: bool = True) -> str | None:
+    """Which side of its 95 % ``band`` (low, high) a mean NEES lies and what that says (with ``why``, in words of
+    sigma and error), or None inside it (or for a mean that is not finite). Below: the claimed covariance is
+    larger than the errors (under-confident, the safe side; e.g. a heading sigma held at its prior on a run
+    started from the reference); above: smaller (over-confident)."""
+    lo, hi = band
+    if not np.isfinite(mean) or lo <= mean <= hi:
+        return None
+    if mean < lo:
+        return "below its band: under-confident" + (", the claimed sigma is larger than the error" if why else "")
+    return "above its band: over-confident" + (", the error is larger than the claimed sigma" if why else "")
+
+
 def n_independent(t: np.ndarray, decorrelation_s: float = 10.0) -> int:
     """Independent epochs in the stamps ``t`` (s): one per ``decorrelation_s``, at least 1."""
     t = np.asarray(t, dtype=float)

@@ -124,7 +124,7 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
     per scenario; all beams: the mission velocity NEES as mean over trajectories with its min-max, the NEES with
     the GT's error, the 95 % band of one trajectory, the velocity NEES per body axis (mean over trajectories), the
     position (2 dof) and heading (1 dof) NEES with their bands, and the mission % DT (mean over trajectories)."""
-    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, outside_band
     n_traj = len({r["trajectory"] for r in rows})
     lines = [f"{n_traj} trajectories; NEES = mean velocity NEES over the mission after {SETTLE_S:g} s, all beams; "
              f"NEES+GT with GT sigma {list(gt_sigma)} m/s (N, E, D); position NEES horizontal ({POSITION_DOF} dof), "
@@ -150,8 +150,9 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
                 nees = [r["nees_mission"] for r in full]
                 nees_gt = [r["nees_mission_gt"] for r in full]
                 band = chi2_band(int(np.median([r["n_independent"] for r in full])))
+                side = outside_band(float(np.mean(nees)), band, why=False)
                 tail = (f"{np.mean(nees):.1f} ({min(nees):.1f}-{max(nees):.1f}) | {np.mean(nees_gt):.1f} | "
-                        f"{band[0]:.2f}-{band[1]:.2f} | {_axes_cell(full)} | "
+                        f"{band[0]:.2f}-{band[1]:.2f}{'; mean ' + side if side else ''} | {_axes_cell(full)} | "
                         f"{_pose_cell(full, 'nees_pos', POSITION_DOF)} | "
                         f"{_pose_cell(full, 'nees_heading', HEADING_DOF)} | "
                         f"{_mean_pct([r.get('drift_pct_mission') for r in full])}")
@@ -191,13 +192,14 @@ def _axes_cell(rows: list[dict]) -> str:
 def _pose_cell(rows: list[dict], key: str, dof: int) -> str:
     """Mean mission NEES of ``key`` over the rows (min-max) and the 95 % band at the median independent epochs,
     or "-" when no row has it."""
-    from graphnav.evaluation.consistency import chi2_band
+    from graphnav.evaluation.consistency import chi2_band, outside_band
     rs = [r for r in rows if _finite(r.get(f"{key}_mission"))]
     if not rs:
         return "-"
     x = [r[f"{key}_mission"] for r in rs]
     lo, hi = chi2_band(int(np.median([r[f"{key}_n_independent"] for r in rs])), dof)
-    return f"{np.mean(x):.2f} ({min(x):.2f}-{max(x):.2f}; band {lo:.2f}-{hi:.2f})"
+    side = outside_band(float(np.mean(x)), (lo, hi), why=False)
+    return f"{np.mean(x):.2f} ({min(x):.2f}-{max(x):.2f}; band {lo:.2f}-{hi:.2f}{'; ' + side if side else ''})"
 
 
 def per_trajectory_table(rows: list[dict], methods, setting_names) -> str:

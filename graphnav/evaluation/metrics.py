@@ -32,7 +32,7 @@ from graphnav.core.errors import DataError
 from graphnav.core.mission import GroundTruth
 from graphnav.core.rotations import heading_variance
 from graphnav.core.solution import FRAME_FIRST_FIX, NavSolution
-from graphnav.core.timeseries import interp_rows
+from graphnav.core.timeseries import finite_rows, interp_rows
 
 
 @dataclass
@@ -361,8 +361,21 @@ def frame_shift(sol: NavSolution, gt: GroundTruth) -> np.ndarray:
     """(K,3) m that carries the reference's positions at ``sol``'s epochs into the estimate's frame: the estimate
     less the same estimate as the reference scores it (:func:`scored`: another origin on Earth, or counted from an
     unknown start). Zero for a run started from the reference. Between two tangent planes a few km apart the shift
-    varies by micrometres over the metres an estimate is off."""
-    return np.nan_to_num(np.asarray(sol.p_n, float) - scored(sol, gt).p_n)
+    varies by micrometres over the metres an estimate is off.
+
+    At an epoch without a finite estimate (lost track) the difference says nothing, but the frame is still
+    known: the shift is interpolated in time from the epochs around it (held at the ends), separately before and
+    after the fix that placed the frame (``position_frame["first_fix_t_s"]``, where the shift steps). It stays
+    NaN only where a side of that step has no finite epoch at all."""
+    shift = np.asarray(sol.p_n, float) - scored(sol, gt).p_n
+    placed_at = (sol.info.get("position_frame") or {}).get("first_fix_t_s")
+    sides = [np.ones(len(sol.t), bool)] if placed_at is None else [sol.t < placed_at, sol.t >= placed_at]
+    for side in sides:
+        known = side & finite_rows(shift)
+        if known.any():
+            gaps = side & ~known
+            shift[gaps] = np.column_stack([np.interp(sol.t[gaps], sol.t[known], col) for col in shift[known].T])
+    return shift
 
 
 #: Fixes further apart than this (s) belong to different stays at the surface (:func:`surfacings`).

@@ -19,7 +19,8 @@ CSV log with a ``gt`` column map), whose ground truth is used; all of them on th
   (:func:`graphnav.evaluation.consistency.reference_nees`): after the settling time, against the reference
   carried to the estimate's epochs by the mission's IMU when the reference is a mission (interpolated for a
   reference file), with the chi-square band of the independent epochs. Both need velocities on both sides (a
-  TUM file has none) and, for NEES, the estimate's sigmas (diagonal covariance: the CSV keeps sigmas only).
+  TUM file has none) and, for NEES, the estimate's velocity covariance: the full one from the
+  ``trajectory_cov.csv`` beside the file, else the CSV's sigmas (a diagonal covariance).
 
 Positions follow :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` on every side (the loaders' ground
 truth, the estimators, the writers): NED from the sea surface above the first fix, down = absolute depth. A
@@ -49,8 +50,8 @@ def _require_evo():
 
 
 def load_trajectory(path: str | Path) -> NavSolution:
-    """A trajectory CSV (``.csv``) or TUM file (``.tum``/``.txt``; velocities NaN), with the full position and
-    attitude covariances of the ``trajectory_cov.csv`` beside it when that file has the same stamps
+    """A trajectory CSV (``.csv``) or TUM file (``.tum``/``.txt``; velocities NaN), with the full position,
+    attitude and velocity covariances of the ``trajectory_cov.csv`` beside it when that file has the same stamps
     (:func:`_with_pose_covariance`: the CSV keeps sigmas only, a TUM file none)."""
     from graphnav.io.outputs import read_trajectory_csv, read_tum
     path = Path(path)
@@ -76,19 +77,19 @@ def load_trajectory(path: str | Path) -> NavSolution:
 
 
 def _with_pose_covariance(est: NavSolution, cov_path: Path) -> NavSolution:
-    """``est`` with the position and attitude covariances of ``cov_path`` (``graphnav smooth``'s
-    ``trajectory_cov.csv``) when it exists and holds the same stamps (to the microsecond the files are written with);
-    else ``est`` as read. Scored with the written sigmas only, a run's position NEES differed from its summary's
-    (Trajectory1 from the sensors: 1.27 against 1.73)."""
+    """``est`` with the position, attitude and velocity covariances of ``cov_path`` (``graphnav smooth``'s
+    ``trajectory_cov.csv``; a file written before the velocity block has none) when it exists and holds the same
+    stamps (to the microsecond the files are written with); else ``est`` as read. Scored with the written sigmas
+    only, a run's NEES differed from its summary's (Trajectory1 from the sensors: position 1.27 against 1.73,
+    velocity 1.46 against 1.91)."""
     if not cov_path.is_file():
         return est
     from graphnav.io.outputs import read_pose_covariance_csv
-    t, cov_p_n, cov_rot_b = read_pose_covariance_csv(cov_path)
+    t, *covariances = read_pose_covariance_csv(cov_path)
     if len(t) != len(est.t) or not np.allclose(t, est.t, rtol=0.0, atol=1e-6):
         return est
-    return replace(est, cov_p_n=est.cov_p_n if cov_p_n is None else cov_p_n,
-                   cov_rot_b=est.cov_rot_b if cov_rot_b is None else cov_rot_b,
-                   info={**est.info, "pose_covariance": str(cov_path)})
+    full = {name: cov for name, cov in zip(("cov_p_n", "cov_rot_b", "cov_v_n"), covariances) if cov is not None}
+    return replace(est, **full, info={**est.info, "pose_covariance": str(cov_path)})
 
 
 #: ``run_frame``'s key for a run written before the position frame whose start was unknown: its covariance
@@ -262,10 +263,10 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
     if frame_note:
         out["position_frame_note"] = frame_note
     from graphnav.evaluation.metrics import vrmse
-    if np.all(np.isnan(est.v_n)) or np.all(np.isnan(ref.v_n)):
+    without = _without_velocities(est, ref)
+    if without:
         out["vrmse_mps"] = None
-        out["vrmse_note"] = ("needs velocities in the estimate and the reference (a TUM file has none; a file whose "
-                             "velocity fields are all empty neither)")
+        out["vrmse_note"] = f"needs velocities in the estimate and the reference: {without}"
     else:
         out["vrmse_mps"] = vrmse(est, ref)
         if not np.isfinite(out["vrmse_mps"]):
@@ -273,7 +274,8 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
             out["vrmse_note"] = f"{lost} epoch(s) of the estimate without a finite velocity (lost track)"
     if est.cov_v_n is None or out["vrmse_mps"] is None:
         out["nees_velocity_mean"] = out["nees_velocity_body_axes"] = None
-        out["nees_note"] = "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)"
+        out["nees_note"] = (out["vrmse_note"] if without else
+                            "needs velocity sigmas in the estimate (trajectory.csv sigma_* columns)")
     else:
         out.update(_nees(est, ref, mission, poses))
     if align:
@@ -289,6 +291,15 @@ def evaluate(est: NavSolution, ref: GroundTruth, *, mission=None, align: bool = 
         if est.info.get("position_claim_note"):
             out["nees_position_note"] = est.info["position_claim_note"]
     return out
+
+
+def _without_velocities(est: NavSolution, ref: GroundTruth) -> str | None:
+    """Which side has no velocity at all (a TUM file has none; a file whose velocity fields are all empty
+    neither), in words; None when both have some."""
+    missing = [f"{name} ({source}) has none" for name, source, v_n in (
+        ("the estimate", est.method, est.v_n), ("the reference", ref.source, ref.v_n)) if np.all(np.isnan(v_n))]
+    return (" and ".join(missing) + " (a TUM file holds no velocities; a file whose velocity fields are all empty "
+            "neither)") if missing else None
 
 
 def _summary_listing(path: Path, warn: bool = False) -> tuple[dict, set]:
@@ -402,7 +413,8 @@ def _nees(est: NavSolution, ref: GroundTruth, mission, reference: GroundTruth) -
             "nees_epochs_lost": scores["nees_epochs_lost"],
             "nees_note": (f"3 dof, after {t0:.1f} s, against the {scores['nees_reference']} reference"
                           + _per_epoch(scores["nees_decorrelation_s"])
-                          + ("; diagonal covariance (the trajectory CSV keeps the sigmas only)" if diagonal else "")
+                          + ("; diagonal covariance (the trajectory CSV's sigmas, no velocity block in a "
+                             "trajectory_cov.csv beside it)" if diagonal else "")
                           + _left_out(scores, "nees", "velocity", "velocity or attitude"))}
 
 
@@ -421,6 +433,14 @@ def _left_out(scores: dict, key: str, sigma_of: str, estimate_of: str) -> str:
         text += (f"; {scores[f'{key}_epochs_lost']} epoch(s) without a finite {estimate_of} estimate (lost "
                  "track): no mean from part of the run")
     return text
+
+
+def _verdict(mean: float, band) -> str:
+    """``: <which side, what it means>`` for a mean NEES outside its band
+    (:func:`graphnav.evaluation.consistency.outside_band`); "" inside."""
+    from graphnav.evaluation.consistency import outside_band
+    side = outside_band(mean, band)
+    return f": {side}" if side else ""
 
 
 def format_report(result: dict, est_name: str, ref_name: str) -> str:
@@ -458,7 +478,7 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
         lo, hi = result["nees_velocity_95pct_band"]
         lines.append(f"  velocity NEES mean {result['nees_velocity_mean']:.2f} (consistent: 3; 95 % band "
                      f"{lo:.2f}-{hi:.2f} for {result['nees_n_independent']} independent epochs; "
-                     f"{result['nees_note']})")
+                     f"{result['nees_note']})" + _verdict(result['nees_velocity_mean'], (lo, hi)))
         if result.get("nees_velocity_body_axes"):
             lines.append("  velocity NEES per body axis (consistent: 1): " + ", ".join(
                 f"{axis} {value:.2f}" for axis, value in result["nees_velocity_body_axes"].items()))
@@ -473,7 +493,8 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
             continue
         lo, hi = result[f"nees_{name}_95pct_band"]
         lines.append(f"  {label} mean {mean:.2f} (consistent: {dof}; 95 % band {lo:.2f}-{hi:.2f} for "
-                     f"{result[f'nees_{name}_n_independent']} independent epochs; {result[f'nees_{name}_note']})")
+                     f"{result[f'nees_{name}_n_independent']} independent epochs; {result[f'nees_{name}_note']})"
+                     + _verdict(mean, (lo, hi)))
     if result.get("drift_note"):
         lines.append(f"  drift in % of distance travelled: - ({result['drift_note']})")
     drift = result.get("drift") or {}

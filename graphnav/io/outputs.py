@@ -9,8 +9,8 @@
   solution does not say).
 * TUM file (:func:`write_tum`): ``timestamp tx ty tz qx qy qz qw`` per line, position in local NED (m) and
   the body-to-NED rotation as a unit quaternion, the format the ``evo`` tools read; beside it
-  :func:`write_pose_covariance_csv` (``trajectory_cov.csv``) holds each line's position covariance (NED, m^2)
-  and attitude covariance (body axes, rad^2), which TUM has no place for;
+  :func:`write_pose_covariance_csv` (``trajectory_cov.csv``) holds each line's position covariance (NED, m^2),
+  attitude covariance (body axes, rad^2) and velocity covariance (NED, m^2/s^2), which TUM has no place for;
   :func:`write_reference_tum` writes the ground truth at the estimate's stamps (``graphnav smooth``: carried there
   by the IMU) and in the estimate's frame, so that ``evo_ape tum groundtruth.tum trajectory.tum`` pairs every
   epoch at its defaults and compares positions in one frame.
@@ -156,29 +156,33 @@ def write_tum(path: str | Path, sol: NavSolution) -> Path:
     return path
 
 
-#: Columns of the pose covariance file written beside a TUM trajectory (:func:`write_pose_covariance_csv`): the
-#: stamp, the upper triangle of the position covariance (NED, m^2) and of the attitude covariance (GTSAM's right
-#: perturbation ``C_b_n = C_hat Exp(theta)``, theta in body axes, rad^2).
+#: Columns of the covariance file written beside a TUM trajectory (:func:`write_pose_covariance_csv`): the
+#: stamp, the upper triangle of the position covariance (NED, m^2), of the attitude covariance (GTSAM's right
+#: perturbation ``C_b_n = C_hat Exp(theta)``, theta in body axes, rad^2) and of the velocity covariance (NED,
+#: m^2/s^2; the trajectory CSV keeps only its diagonal's square roots).
 POSE_COV_COLUMNS: tuple[str, ...] = (
     "t_s",
     "p_nn_m2", "p_ne_m2", "p_nd_m2", "p_ee_m2", "p_ed_m2", "p_dd_m2",
     "rot_b_xx_rad2", "rot_b_xy_rad2", "rot_b_xz_rad2", "rot_b_yy_rad2", "rot_b_yz_rad2", "rot_b_zz_rad2",
+    "v_nn_m2_s2", "v_ne_m2_s2", "v_nd_m2_s2", "v_ee_m2_s2", "v_ed_m2_s2", "v_dd_m2_s2",
 )
+#: The header of a covariance file written before the velocity block, which still reads (no velocity covariance).
+POSE_COV_COLUMNS_WITHOUT_VELOCITY = POSE_COV_COLUMNS[:13]
 _UPPER = np.triu_indices(3)
 
 
 def write_pose_covariance_csv(path: str | Path, sol: NavSolution) -> Path:
-    """Write the pose covariance of every epoch of ``sol``, one row per line of the TUM file :func:`write_tum`
-    writes (same stamps): columns :data:`POSE_COV_COLUMNS`. The estimators carry position and attitude
-    covariances as separate marginals (no cross-covariance between them), so the two 3x3 blocks are written,
-    not a 6x6 with a made-up zero cross block. A block the estimator does not provide (e.g. the position of the
-    paper's 12-state EKF) is written as empty cells. Returns the path."""
+    """Write the position, attitude and velocity covariances of every epoch of ``sol``, one row per line of the TUM
+    file :func:`write_tum` writes (same stamps): columns :data:`POSE_COV_COLUMNS`. The estimators carry them as
+    separate marginals (no cross-covariance between them), so the three 3x3 blocks are written, not a 9x9 with
+    made-up zero cross blocks. A block the estimator does not provide (e.g. the position of the paper's 12-state
+    EKF) is written as empty cells. Returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     k = len(sol.t)
     nan6 = np.full((k, 6), np.nan)
     blocks = [nan6 if c is None else np.asarray(c, float).reshape(k, 3, 3)[:, _UPPER[0], _UPPER[1]]
-              for c in (sol.cov_p_n, sol.cov_rot_b)]
+              for c in (sol.cov_p_n, sol.cov_rot_b, sol.cov_v_n)]
     with path.open("w", newline="") as fh:
         fh.write(",".join(POSE_COV_COLUMNS) + "\n")
         for t, row in zip(sol.t, np.hstack(blocks)):
@@ -186,9 +190,11 @@ def write_pose_covariance_csv(path: str | Path, sol: NavSolution) -> Path:
     return path
 
 
-def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-    """Read :func:`write_pose_covariance_csv`'s file: (t (K,), cov_p_n (K,3,3) or None, cov_rot_b (K,3,3) or
-    None; None where the block's cells are all empty).
+def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None,
+                                                         np.ndarray | None]:
+    """Read :func:`write_pose_covariance_csv`'s file: (t (K,), cov_p_n (K,3,3), cov_rot_b (K,3,3), cov_v_n
+    (K,3,3)); None for a block whose cells are all empty, and for the velocity of a file written before it
+    (:data:`POSE_COV_COLUMNS_WITHOUT_VELOCITY`).
 
     Raises:
         DataError: another header or a malformed row, naming file, line and column.
@@ -197,7 +203,7 @@ def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray |
     with path.open(newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader, None)
-        if header is None or tuple(header) != POSE_COV_COLUMNS:
+        if header is None or tuple(header) not in (POSE_COV_COLUMNS, POSE_COV_COLUMNS_WITHOUT_VELOCITY):
             raise DataError("header is not graphnav's pose covariance header", str(path), 1)
         rows = []
         for line_no, row in enumerate(reader, start=2):
@@ -207,7 +213,7 @@ def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray |
             if bad is not None:
                 raise DataError(f"not a number: {row[bad]!r}", str(path), line_no, header[bad])
             rows.append([float(c) if c != "" else np.nan for c in row])
-    data = np.array(rows, dtype=float).reshape(-1, len(POSE_COV_COLUMNS))
+    data = np.array(rows, dtype=float).reshape(-1, len(header))
 
     def symmetric(upper: np.ndarray) -> np.ndarray | None:
         if np.all(np.isnan(upper)):
@@ -217,7 +223,8 @@ def read_pose_covariance_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray |
         cov[:, _UPPER[1], _UPPER[0]] = upper
         return cov
 
-    return data[:, 0], symmetric(data[:, 1:7]), symmetric(data[:, 7:13])
+    velocity = symmetric(data[:, 13:19]) if data.shape[1] > 13 else None
+    return data[:, 0], symmetric(data[:, 1:7]), symmetric(data[:, 7:13]), velocity
 
 
 def uncertainty_summary(sol: NavSolution) -> dict:
@@ -256,7 +263,8 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth,
     unchanged. ``shift_n`` (K,3) m, one row per estimate epoch, carries the reference into the estimate's frame
     (:func:`graphnav.evaluation.metrics.frame_shift`, the summary's ``position_frame``), so that evo compares like
     with like for a run placed by an initial latitude/longitude or a fix, or started without its position; None:
-    written as it is. Positions in both files follow
+    written as it is; an epoch whose shift is not finite (the frame unknown there) is left out, warned with the
+    count. Positions in both files follow
     :data:`graphnav.core.mission.NED_ORIGIN_CONVENTION` (down = absolute depth). Returns the path, or None
     (with a RuntimeWarning, nothing written) when no estimate epoch lies inside the GT span."""
     inside = (sol.t >= gt.t[0]) & (sol.t <= gt.t[-1])
@@ -264,6 +272,15 @@ def write_reference_tum(path: str | Path, sol: NavSolution, gt: GroundTruth,
         warnings.warn(f"{path}: not written: no estimate epoch inside the ground truth span "
                       f"[{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s", RuntimeWarning, stacklevel=2)
         return None
+    if shift_n is not None:
+        unknown = inside & ~finite_rows(np.asarray(shift_n, float))
+        if unknown.any():
+            warnings.warn(f"{path}: {int(unknown.sum())} epoch(s) left out (t = {sol.t[unknown][0]:.3f} s first): "
+                          "the estimate's frame is not known there (no finite estimate on their side of the fix "
+                          "that placed it)", RuntimeWarning, stacklevel=2)
+            inside &= ~unknown
+            if not inside.any():
+                return None
     t = sol.t[inside]
     p, v, C = gt.at(t)
     if shift_n is not None:
