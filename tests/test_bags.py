@@ -674,3 +674,23 @@ def test_an_undeclared_depth_topic_positive_up_is_turned_with_a_warning_as_a_csv
         with pytest.raises(DataError, match="read as positive up .* and turned, but the vertical motion does not "
                                             "confirm it.*declare bag_topics.depth.positive"):
             load_mission(path, config)
+
+
+def test_a_hovering_bag_whose_gyro_is_57_times_too_small_is_refused_by_its_reference_topic(tmp_path):
+    """A hovering AUV's gyro 57.3x too small (rad/s data divided by 57.3) was read from a bag with only a note that
+    its scale went unchecked: the tilt kinematics and the DVL cannot tell the scales apart. The reference topic's
+    quaternion (no unit to settle) turns 57x as fast as the rates: refused, naming the bag, topics and fields."""
+    import warnings
+
+    from test_generic_csv import hovering_mission
+    path = bags.write_mission_bag(hovering_mission(tmp_path, np.pi / 180), tmp_path / "hover_small")
+    with pytest.raises(DataError, match=r"too small for rad/s: the reference attitude \(.*hover_small:/reference/"
+                                        r"odometry, field pose.pose.orientation\) turns 5\d\.\dx as fast") as err:
+        load_mission(path)
+    assert err.value.source.endswith("hover_small:/imu/data") and err.value.field == "omega_b"
+    path = bags.write_mission_bag(hovering_mission(tmp_path), tmp_path / "hover")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(path)
+    notes = " | ".join(m.meta["streams"]["imu"]["notes"])
+    assert "gyro's scale judged against the reference attitude" in notes and "not judged" not in notes

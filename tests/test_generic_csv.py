@@ -699,3 +699,14 @@ def test_a_hovering_reference_that_cannot_settle_the_gyro_leaves_it_unjudged(tmp
         m = load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180 if ref_noise == 0 else 1.0, trim,
                                                          ref_noise))
     assert "the gyro's scale is not judged" in _imu_notes(m) and "judged against the reference" not in _imu_notes(m)
+
+
+def hovering_mission(root, gyro_scale=1.0):
+    """The hovering AUV of :func:`_hover_with_reference` (its gyro's scale judged by neither the tilt kinematics nor
+    the DVL) as read from its log, its gyro then multiplied by ``gyro_scale`` and its reference given a geodetic
+    origin (so that a bag or an A-KIT folder can be written from it)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(root, _hover_with_reference(root), prepare=False)
+    return dataclasses.replace(m, imu=dataclasses.replace(m.imu, omega_b=m.imu.omega_b * gyro_scale),
+                               gt=dataclasses.replace(m.gt, origin_lla=np.array([0.5733, 0.6091, 0.0])))

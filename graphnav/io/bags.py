@@ -371,6 +371,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
             "heading": (h, heading), "gt": (g, gt), "fix": (f, fixes)}
     dvl, depth, heading, gt, fixes = (_onto_imu_clock(imu, imu_s, stream, s, data, meta)
                                       for stream, (s, data) in read.items())
+    _reference_turn(imu, gt, meta)
     frame_id = imu_s.rows[0].header.frame_id
     # a frame_id is a convention, not a user's declaration: the prepare step corrects the axes the data contradict
     meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto", "imu_frame": {
@@ -392,6 +393,16 @@ def _units(imu, depth, config: SensorConfig, meta: dict):
     from graphnav.io.units import check_units
     checked = check_units({"imu": imu, "depth": depth}, config, meta, declared={"time": "s"})
     return checked["imu"], checked["depth"]
+
+
+def _reference_turn(imu, gt, meta: dict) -> None:
+    """The reference topic's attitude left for the prepare step to judge a gyro the tilt kinematics could not
+    (:func:`graphnav.io.units.keep_reference_turn`): a quaternion has no unit to settle, so no tilt is needed."""
+    from graphnav.core.rotations import C_b_n_to_euler
+    from graphnav.io.units import keep_reference_turn
+    if gt is not None and len(gt.t):
+        keep_reference_turn(meta, gt.t, C_b_n_to_euler(gt.C_b_n), imu.t, imu.omega_b,
+                            f"{gt.source}, field pose.pose.orientation", "a quaternion, whose angles have no unit")
 
 
 #: How the clock notes and errors name a stream.

@@ -560,28 +560,41 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
         out = _attitude_units(t, euler, t_imu, omega_b, source, fields, meta, declared)
         # a declared unit is applied by the caller: the tilt confirms it when it finds radians
         unit = unit if unit == ("rad" if declared is not None or out is euler else "deg") else None
-    if unit is not None and t_imu is not None and omega_b is not None:
-        fact["reference"] = dict(zip(("ratio", "turn", "correlation"), reference_turn_fit(t, out, t_imu, omega_b)),
-                                 source=source, fields="/".join(fields[:3]), how=how)
+    if unit is not None:
+        keep_reference_turn(meta, t, out, t_imu, omega_b, f"{source}, columns {'/'.join(fields[:3])}",
+                            f"the unit of its angles settled by {how}")
     return out
+
+
+def keep_reference_turn(meta: dict | None, t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray | None,
+                        omega_b: np.ndarray | None, where: str, how: str) -> None:
+    """While the gyro's scale is unjudged (``meta[GYRO_UNJUDGED]``), leave a reference attitude whose unit is known
+    (roll, pitch, yaw ``euler`` (K,3) rad at ``t`` s) turning against the gyro (``omega_b`` rad/s at ``t_imu`` s,
+    :func:`reference_turn_fit`) in that fact, for the prepare step to judge the gyro by
+    (:func:`check_gyro_against_reference`). ``where`` names the reference (a file and its columns, a bag's topic and
+    field), ``how`` says how its unit is known; the messages quote both."""
+    fact = (meta or {}).get(GYRO_UNJUDGED)
+    if fact is None or t_imu is None or omega_b is None:
+        return
+    fact["reference"] = dict(zip(("ratio", "turn", "correlation"), reference_turn_fit(t, euler, t_imu, omega_b)),
+                             where=where, how=how)
 
 
 def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, meta: dict) -> np.ndarray | None:
     """The gyro rates ``omega_b`` judged by the reference's turn (``fact["reference"]``, left by
-    :func:`reference_attitude_units` when its unit was settled without the gyro; ``fact`` the gyro's
-    :data:`GYRO_UNJUDGED`): rates 57.3x too small are a DataError naming ``source`` and the gyro columns, deg/s
-    converted (a warning, a note) or, declared, a DataError; in rad/s a note. Judged only when the two turn rates
-    correlate at least :data:`GYRO_TILT_MIN_CORRELATION` and the ratio, the one scale taken, is within
-    :data:`DEG_CONFIRM_RATIO` of 1; None when it cannot judge."""
+    :func:`keep_reference_turn`: a file's angles whose unit was settled without the gyro, a bag's quaternion;
+    ``fact`` the gyro's :data:`GYRO_UNJUDGED`): rates 57.3x too small are a DataError naming ``source`` and the
+    gyro columns, deg/s converted (a warning, a note) or, declared, a DataError; in rad/s a note. Judged only when
+    the two turn rates correlate at least :data:`GYRO_TILT_MIN_CORRELATION` and the ratio, the one scale taken, is
+    within :data:`DEG_CONFIRM_RATIO` of 1; None when it cannot judge."""
     ref = fact.get("reference")
     if ref is None or not ref["correlation"] >= GYRO_TILT_MIN_CORRELATION:
         return None
     k = min((1.0, 180.0 / np.pi, np.pi / 180), key=lambda s_: abs(np.log(ref["ratio"] / s_)))
     if not 1 / DEG_CONFIRM_RATIO < ref["ratio"] / k < DEG_CONFIRM_RATIO:
         return None
-    fit = (f"the reference attitude ({ref['source']}, columns {ref['fields']}) turns {ref['ratio']:.3g}x as fast as "
-           f"these rates (1 in rad/s; correlation {ref['correlation']:.2f}, the unit of its angles settled by "
-           f"{ref['how']})")
+    fit = (f"the reference attitude ({ref['where']}) turns {ref['ratio']:.3g}x as fast as these rates (1 in rad/s; "
+           f"correlation {ref['correlation']:.2f}, {ref['how']})")
     declared, field = fact["declared"], fact["field"]
     if k == 1.0:
         add_note(meta, "imu", f"the gyro's scale judged against the reference attitude: {fit}")
@@ -1215,7 +1228,8 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
 __all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
-           "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "check_gyro_against_reference",
+           "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
+           "check_gyro_against_reference",
            "accelerometer_tilt", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "check_reference_axes", "horizontal_axes_fit",
            "reference_speed_error",
