@@ -638,15 +638,18 @@ def test_a_reference_with_exchanged_or_negated_columns_is_refused_naming_the_col
         assert (err.value.source, err.value.field) == (str(nav), field)
 
 
-def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0, seed=1, seconds=150.0):
+def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0, seed=1, seconds=150.0,
+                          mount_pitch=0.0, deg=False, yaw=0.7):
     """A hovering AUV's column-map log with a reference attitude (radians, no units declared): a trim of ``trim``
     (roll, pitch rad), a 0.3 mrad wobble, thruster accelerations of 0.2 m/s^2 (the tilt kinematics and the DVL cannot
-    judge its gyro), the gyro multiplied by ``gyro_scale``, the reference's angles with ``ref_noise`` rad of noise."""
+    judge its gyro), the gyro multiplied by ``gyro_scale``, the reference's angles with ``ref_noise`` rad of noise.
+    ``mount_pitch`` (rad): the IMU pitched against the body; ``deg``: the reference's angles written in degrees;
+    ``yaw`` (rad): the heading."""
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, seconds, 0.01)
     euler = np.column_stack([trim[0] + 3e-4 * np.sin(2 * np.pi * t / 7.0), trim[1] + 3e-4 * np.sin(2 * np.pi * t / 11.0),
-                             0.7 + 5e-4 * np.sin(2 * np.pi * t / 30.0)])
+                             yaw + 5e-4 * np.sin(2 * np.pi * t / 30.0)])
     R = Rotation.from_euler("ZYX", euler[:, ::-1])
     omega = (R[:-1].inv() * R[1:]).as_rotvec() / 0.01
     omega = np.vstack([omega, omega[-1]]) + rng.normal(0, 5e-4, (t.size, 3))
@@ -655,11 +658,14 @@ def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0
     v = np.cumsum(a, axis=0) * 0.01
     v -= np.column_stack([np.convolve(v[:, i], np.ones(3000) / 3000, "same") for i in range(3)])
     f = R.inv().apply(np.gradient(v, t, axis=0) - [0, 0, 9.80665]) + rng.normal(0, 0.01, (t.size, 3))
+    if mount_pitch:
+        f, omega = Rotation.from_euler("y", -mount_pitch).apply(np.vstack([f, omega])).reshape(2, -1, 3)
     _write(root / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f, omega * gyro_scale])
     i, j = np.arange(0, t.size, 20), np.arange(0, t.size, 10)
     _write(root / "dvl.csv", ["t", "vx", "vy", "vz"], [t[i], R[i].inv().apply(v[i]) + rng.normal(0, 0.002, (i.size, 3))])
     _write(root / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
-           [t[j], np.cumsum(v, axis=0)[j] * 0.01 + [0, 0, 20.0], v[j], euler[j] + rng.normal(0, ref_noise, (j.size, 3))])
+           [t[j], np.cumsum(v, axis=0)[j] * 0.01 + [0, 0, 20.0], v[j],
+            (euler[j] + rng.normal(0, ref_noise, (j.size, 3))) * (180 / np.pi if deg else 1.0)])
     cfg = {"csv_columns": {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
                                    "omega_b": ["gx", "gy", "gz"]},
                            "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"},
@@ -699,6 +705,43 @@ def test_a_hovering_reference_that_cannot_settle_the_gyro_leaves_it_unjudged(tmp
         m = load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180 if ref_noise == 0 else 1.0, trim,
                                                          ref_noise))
     assert "the gyro's scale is not judged" in _imu_notes(m) and "judged against the reference" not in _imu_notes(m)
+
+
+@pytest.mark.parametrize("trim, mount_pitch, deg, judged", [((0.0005, 0.001), 0.05, True, False),
+                                                            ((0.0005, 0.001), 0.087, True, False),
+                                                            ((0.02, 0.05), 0.0, True, True),
+                                                            ((0.0005, 0.001), 0.05, False, False)])
+def test_a_clean_hovering_log_in_degrees_with_its_imu_tilted_is_not_refused(tmp_path, trim, mount_pitch, deg, judged):
+    """A level vehicle (roll/pitch 0.03/0.06 deg) whose IMU is mounted pitched 3-5 deg, its reference in degrees: the
+    accelerometer's tilt holds the mounting tilt, the degree numbers lie within 3x of it, and the reference was taken
+    for radians, its turn 56x the gyro's, and a good gyro refused. A yaw of 40 cannot be radians (but for an unwrapped
+    one): the tilt no longer settles the unit, and the gyro is left unjudged with its note. A trimmed vehicle in
+    degrees and a level one in radians load as before."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(tmp_path, _hover_with_reference(tmp_path, trim=trim, mount_pitch=mount_pitch, deg=deg))
+    assert ("judged against the reference" in _imu_notes(m)) == judged
+    assert ("the gyro's scale is not judged" in _imu_notes(m)) != judged
+    if deg and judged:
+        np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 2].mean(), 0.7, atol=1e-3)
+
+
+def test_a_refusal_on_a_reference_whose_radians_rest_on_its_tilt_says_it_may_be_degrees(tmp_path):
+    """Heading within 6.3 deg of north, the same level vehicle and tilted IMU cannot be told from radians and a gyro
+    57.3x too small: the refusal says so, and declaring the reference's angle_unit loads it (the gyro then unjudged:
+    its level roll and pitch cannot settle anything)."""
+    cfg = _hover_with_reference(tmp_path, trim=(0.0005, 0.001), mount_pitch=0.05, deg=True, yaw=0.05)
+    with pytest.raises(DataError, match=r"too small for rad/s: .* Or the reference's angles are degrees .*declare "
+                                        r"its angle_unit 'deg'"):
+        load_mission(tmp_path, cfg)
+    config = json.loads(cfg.read_text())
+    config["csv_columns"]["gt"]["angle_unit"] = "deg"
+    cfg.write_text(json.dumps(config))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(tmp_path, cfg)
+    assert "the gyro's scale is not judged" in _imu_notes(m)
+    np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 2].mean(), 0.05, atol=1e-3)
 
 
 def hovering_mission(root, gyro_scale=1.0):

@@ -110,6 +110,16 @@ def test_pooled_window_drift_is_summed_drift_over_summed_distance():
     assert _pct_window(rows) == f"{100 * 4.0 / 400.0:.2f}" and _pct_window(rows[2:]) == "-"
 
 
+def test_a_mean_nees_over_trajectories_is_judged_by_the_band_of_such_a_mean():
+    """Ten trajectories of 10 independent epochs, position NEES 3.0 each: inside one trajectory's 95 % band
+    (0.96-3.42, 2 dof) but not the mean's (200 dof over 10: 1.63-2.41), which the table used to miss."""
+    from graphnav.evaluation.consistency_study import _pose_cell
+    rows = [{"nees_pos_mission": 3.0, "nees_pos_n_independent": 10} for _ in range(10)]
+    assert _pose_cell(rows, "nees_pos", 2) == ("3.00 (3.00-3.00; band 0.96-3.42; mean above its band: over-confident "
+                                               "(band over 10 traj. 1.63-2.41))")
+    assert _pose_cell(rows[:1], "nees_pos", 2) == "3.00 (3.00-3.00; band 0.96-3.42)"
+
+
 def _drift_rows(text: str) -> dict:
     """``method -> (delta s, % DT window, without the offset)`` of a printed drift-check table."""
     out = {}

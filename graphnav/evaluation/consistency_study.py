@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from graphnav.evaluation.consistency import NEES_SETTLE_S
+from graphnav.evaluation.consistency import DOF, NEES_SETTLE_S
 from graphnav.evaluation.methods import GRAPH_METHODS
 
 #: Seconds after the mission start left out of the mission NEES (initial convergence): the benchmark's.
@@ -123,8 +123,9 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
     """Per method and setting: mean window VRMSE (m/s) and window % DT (summed over the trajectories' windows)
     per scenario; all beams: the mission velocity NEES as mean over trajectories with its min-max, the NEES with
     the GT's error, the 95 % band of one trajectory, the velocity NEES per body axis (mean over trajectories), the
-    position (2 dof) and heading (1 dof) NEES with their bands, and the mission % DT (mean over trajectories)."""
-    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band, outside_band
+    position (2 dof) and heading (1 dof) NEES with their bands, and the mission % DT (mean over trajectories). A mean
+    NEES is judged against the band of a mean over that many trajectories (:func:`_mean_verdict`)."""
+    from graphnav.evaluation.consistency import HEADING_DOF, POSITION_DOF, chi2_band
     n_traj = len({r["trajectory"] for r in rows})
     lines = [f"{n_traj} trajectories; NEES = mean velocity NEES over the mission after {SETTLE_S:g} s, all beams; "
              f"NEES+GT with GT sigma {list(gt_sigma)} m/s (N, E, D); position NEES horizontal ({POSITION_DOF} dof), "
@@ -149,10 +150,11 @@ def study_table(rows: list[dict], methods, scenarios, setting_names, gt_sigma) -
             if full:
                 nees = [r["nees_mission"] for r in full]
                 nees_gt = [r["nees_mission_gt"] for r in full]
-                band = chi2_band(int(np.median([r["n_independent"] for r in full])))
-                side = outside_band(float(np.mean(nees)), band, why=False)
+                n = int(np.median([r["n_independent"] for r in full]))
+                band = chi2_band(n)
                 tail = (f"{np.mean(nees):.1f} ({min(nees):.1f}-{max(nees):.1f}) | {np.mean(nees_gt):.1f} | "
-                        f"{band[0]:.2f}-{band[1]:.2f}{'; mean ' + side if side else ''} | {_axes_cell(full)} | "
+                        f"{band[0]:.2f}-{band[1]:.2f}{_mean_verdict(float(np.mean(nees)), n, len(full))} | "
+                        f"{_axes_cell(full)} | "
                         f"{_pose_cell(full, 'nees_pos', POSITION_DOF)} | "
                         f"{_pose_cell(full, 'nees_heading', HEADING_DOF)} | "
                         f"{_mean_pct([r.get('drift_pct_mission') for r in full])}")
@@ -192,14 +194,25 @@ def _axes_cell(rows: list[dict]) -> str:
 def _pose_cell(rows: list[dict], key: str, dof: int) -> str:
     """Mean mission NEES of ``key`` over the rows (min-max) and the 95 % band at the median independent epochs,
     or "-" when no row has it."""
-    from graphnav.evaluation.consistency import chi2_band, outside_band
+    from graphnav.evaluation.consistency import chi2_band
     rs = [r for r in rows if _finite(r.get(f"{key}_mission"))]
     if not rs:
         return "-"
     x = [r[f"{key}_mission"] for r in rs]
-    lo, hi = chi2_band(int(np.median([r[f"{key}_n_independent"] for r in rs])), dof)
-    side = outside_band(float(np.mean(x)), (lo, hi), why=False)
-    return f"{np.mean(x):.2f} ({min(x):.2f}-{max(x):.2f}; band {lo:.2f}-{hi:.2f}{'; ' + side if side else ''})"
+    n = int(np.median([r[f"{key}_n_independent"] for r in rs]))
+    lo, hi = chi2_band(n, dof)
+    verdict = _mean_verdict(float(np.mean(x)), n, len(rs), dof)
+    return f"{np.mean(x):.2f} ({min(x):.2f}-{max(x):.2f}; band {lo:.2f}-{hi:.2f}{verdict})"
+
+
+def _mean_verdict(mean: float, n: int, n_traj: int, dof: int = DOF) -> str:
+    """"; mean <side> (band over N traj. lo-hi)" when the ``mean`` NEES over ``n_traj`` trajectories of ``n``
+    independent epochs each lies outside the 95 % band of such a mean (``dof`` * n * N dof over N: narrower than one
+    trajectory's band), else ""."""
+    from graphnav.evaluation.consistency import chi2_band, outside_band
+    lo, hi = chi2_band(n * n_traj, dof)
+    side = outside_band(float(mean), (lo, hi), why=False)
+    return f"; mean {side} (band over {n_traj} traj. {lo:.2f}-{hi:.2f})" if side else ""
 
 
 def per_trajectory_table(rows: list[dict], methods, setting_names) -> str:

@@ -300,14 +300,16 @@ def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> 
                    "in rad/s; rates 57.3x too small give tens; tilt kinematics)", source, declared, field)
 
 
-def gyro_too_small(turns: str, source: str, declared: str | None, field: str) -> None:
+def gyro_too_small(turns: str, source: str, declared: str | None, field: str, doubt: str = "") -> None:
     """DataError for gyro rates (after the ``declared`` unit, None when detected) 57.3x too small, ``turns`` saying
-    what shows it (the tilt kinematics here, the DVL velocity in the prepare step)."""
+    what shows it (the tilt kinematics here, the DVL velocity in the prepare step), ``doubt`` what else it could
+    mean (appended)."""
     if declared is not None:
         raise DataError(f"the declared gyro unit {declared!r} looks wrong: after it, {turns} (rad/s data declared "
-                        "'deg/s'?)", source, field=field)
+                        f"'deg/s'?){doubt}", source, field=field)
     raise DataError(f"gyro rates too small for rad/s: {turns}; no gyro unit is that much larger than rad/s: were the "
-                    "rates converted from deg/s to rad/s twice, or rad/s data divided by 57.3?", source, field=field)
+                    f"rates converted from deg/s to rad/s twice, or rad/s data divided by 57.3?{doubt}", source,
+                    field=field)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -543,12 +545,15 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
 
     When the gyro's scale is itself unjudged (``meta[GYRO_UNJUDGED]``: a hovering vehicle), the rates cannot tell a
     reference in degrees from a gyro 57.3x too small; the unit is then settled by roll and pitch against the
-    accelerometer's tilt where it can (:func:`reference_tilt_unit`; undeclared, that unit is taken), and the
+    accelerometer's tilt where it can (:func:`reference_tilt_unit`; undeclared, that unit is taken, but radians not
+    with a yaw beyond 2 pi, which degrees on a level vehicle with a tilted IMU give too), and the
     reference's turn against the gyro's is left in the fact for the prepare step to judge the gyro by
     (:func:`check_gyro_against_reference`).
     """
     fact = (meta or {}).get(GYRO_UNJUDGED)
     unit, how = reference_tilt_unit(euler, fact["tilt"]) if fact and np.size(euler) else (None, "")
+    if unit == "rad" and declared is None and np.max(np.abs(euler[:, 2])) > 2 * np.pi:
+        unit = None                     # degrees on a level vehicle, or an unwrapped yaw: cannot tell (TILT_RAD_DOUBT)
     half_turn = 180.0 if unit == "deg" else np.pi
     if unit is not None and declared is None and np.all(np.max(np.abs(euler[:, :2]), axis=0) <= [half_turn,
                                                                                             half_turn / 2]):
@@ -562,22 +567,24 @@ def reference_attitude_units(t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray
         unit = unit if unit == ("rad" if declared is not None or out is euler else "deg") else None
     if unit is not None:
         keep_reference_turn(meta, t, out, t_imu, omega_b, f"{source}, columns {'/'.join(fields[:3])}",
-                            f"the unit of its angles settled by {how}")
+                            f"the unit of its angles settled by {how}",
+                            TILT_RAD_DOUBT if unit == "rad" and declared is None else "")
     return out
 
 
 def keep_reference_turn(meta: dict | None, t: np.ndarray, euler: np.ndarray, t_imu: np.ndarray | None,
-                        omega_b: np.ndarray | None, where: str, how: str) -> None:
+                        omega_b: np.ndarray | None, where: str, how: str, doubt: str = "") -> None:
     """While the gyro's scale is unjudged (``meta[GYRO_UNJUDGED]``), leave a reference attitude whose unit is known
     (roll, pitch, yaw ``euler`` (K,3) rad at ``t`` s) turning against the gyro (``omega_b`` rad/s at ``t_imu`` s,
     :func:`reference_turn_fit`) in that fact, for the prepare step to judge the gyro by
     (:func:`check_gyro_against_reference`). ``where`` names the reference (a file and its columns, a bag's topic and
-    field), ``how`` says how its unit is known; the messages quote both."""
+    field), ``how`` says how its unit is known; the messages quote both, and a refusal ``doubt`` too (what else the
+    evidence could mean)."""
     fact = (meta or {}).get(GYRO_UNJUDGED)
     if fact is None or t_imu is None or omega_b is None:
         return
     fact["reference"] = dict(zip(("ratio", "turn", "correlation"), reference_turn_fit(t, euler, t_imu, omega_b)),
-                             where=where, how=how)
+                             where=where, how=how, **({"doubt": doubt} if doubt else {}))
 
 
 def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, meta: dict) -> np.ndarray | None:
@@ -600,7 +607,7 @@ def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, m
         add_note(meta, "imu", f"the gyro's scale judged against the reference attitude: {fit}")
         return omega_b
     if k > 1:
-        gyro_too_small(fit, source, declared, field)
+        gyro_too_small(fit, source, declared, field, ref.get("doubt", ""))
     if declared is not None:
         raise DataError(f"the declared gyro unit {declared!r} looks wrong: {fit}: deg/s?", source, field=field)
     _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {fit} (field {field}; declare the gyro unit)",
@@ -668,6 +675,13 @@ def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | 
 #: A reference's roll and pitch are compared with the accelerometer's tilt (:func:`reference_tilt_unit`) only when
 #: that tilt is at least this (rad, 1.1 deg): a level vehicle's tilt is the IMU's mounting error and noise.
 REFERENCE_TILT_MIN_RAD = 0.02
+
+
+#: Said with a refusal that rests on a reference's radians settled by its tilt (:func:`reference_tilt_unit`): the same
+#: numbers in degrees on a level vehicle whose IMU is mounted tilted by as much give the same tilt ratio; its yaw
+#: inside the radian range (a heading within 6.3 deg of north, were it degrees) is all that tells them apart.
+TILT_RAD_DOUBT = (" Or the reference's angles are degrees (a level vehicle, its IMU mounted tilted against it, gives "
+                  "the same tilt): then declare its angle_unit 'deg'")
 
 
 def reference_tilt_unit(euler: np.ndarray, tilt: float) -> tuple[str | None, str]:
