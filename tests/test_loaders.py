@@ -260,6 +260,29 @@ def test_folder_without_gt_loads_as_a_vehicle_has_it(tmp_path):
     assert m.config.dvl_time_offset_s == 0.5
 
 
+@pytest.mark.parametrize("resolution", [0.0, 0.001])
+def test_a_dvl_velocity_held_within_its_noise_judges_nothing(tmp_path, resolution):
+    """A steady turn at a constant speed, noiseless or at a 1 mm/s resolution: the DVL's velocity changes by nothing
+    its fits could judge by. Before, the gyro was converted as deg/s (residuals of a zero variance compared) and the
+    DVL then refused as 0.02x; now neither is judged, with notes saying so."""
+    folder = make_akit_folder(tmp_path, n=4)
+    (folder / "GT_trajectory4.csv").unlink()
+    if resolution:
+        path = folder / "DVL_trajectory4.csv"
+        dvl = np.loadtxt(path, delimiter=",", skiprows=1)
+        noise = np.random.default_rng(3).normal(0.0, resolution, (len(dvl), 3))
+        dvl[:, 1:4] = np.round((dvl[:, 1:4] + noise) / resolution) * resolution
+        write_csv(path, AKIT_COLUMNS["DVL"], dvl.tolist())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_akit(folder, imu_axis_signs=(1, -1, 1))
+    assert not [w for w in caught if "deg/s" in str(w.message) or "DVL velocity is" in str(w.message)]
+    notes = m.meta["streams"]
+    assert any("gyro's scale is not judged" in n and "within its noise" in n for n in notes["imu"]["notes"])
+    assert any("not judged against the IMU" in n and "within its noise" in n for n in notes["dvl"]["notes"])
+    assert np.allclose(m.imu.omega_b[:, 2], 0.05)
+
+
 def test_beamsnet(tmp_path):
     rng = np.random.default_rng(0)
     np.save(tmp_path / "V.npy", rng.normal(size=(3, 100)))

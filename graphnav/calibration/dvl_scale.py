@@ -51,6 +51,44 @@ MAX_YAW_RAD = np.deg2rad(10.0)
 SCALE_SEARCH_S = 20.0
 #: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
 SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
+#: The DVL velocity must change by at least this within the clock model's windows (RMS about each window's mean,
+#: m/s), or by :data:`MIN_CHANGE_OVER_NOISE` times its noise (:func:`velocity_change_rms`), for its fits to judge the
+#: gyro's scale, its own unit, turn or axes, or an IMU turned: a velocity held to within its noise (a steady turn, a
+#: coarse resolution) leaves the fits comparing residuals of nothing. Measured (``experiments/dvl_change_floor.py``):
+#: the ten A-KIT trajectories change by 0.019-0.22 m/s whole, at least 0.011 in any 60 s piece; simulated missions
+#: 0.079-0.084 (default beam noise; 0.065 in 60 s pieces), noiseless 0.041 (0.024); a speed and turn held at a
+#: 1 mm/s resolution about 0.001.
+MIN_VELOCITY_CHANGE_MPS = 0.005
+#: ... or this many times its noise: a velocity in a smaller unit (x0.01) changes by less than the floor but as
+#: many times its own noise (the ten A-KIT: 1.2-7.9 whole, Trajectory1's 4.2-6.6 in 60 s pieces); one held at a
+#: resolution changes by about its noise (1), a noiseless one by nothing.
+MIN_CHANGE_OVER_NOISE = 3.0
+
+
+def velocity_change_rms(model) -> tuple[float, float]:
+    """``(change, noise)``: how much the DVL velocity of the clock model ``model`` changes within its windows (the
+    RMS of the body-frame velocity about each window's mean, m/s) and its noise as the pings show it (the RMS of
+    their second differences over sqrt(6), white noise's; m/s), at least 1e-9 m/s (float rounding)."""
+    v = model.v
+    change = float(np.sqrt(np.mean((v - v.mean(axis=1, keepdims=True)) ** 2)))
+    noise = float(np.sqrt(np.mean(np.diff(v, 2, axis=1) ** 2) / 6.0))
+    return change, max(noise, 1e-9)
+
+
+def judging_model(imu, dvl, config, **kwargs):
+    """The clock model (:func:`~graphnav.calibration.clock.dvl_window_model`, its keyword arguments) when the DVL
+    velocity changes enough to judge anything by (:data:`MIN_VELOCITY_CHANGE_MPS`, :data:`MIN_CHANGE_OVER_NOISE`).
+
+    Raises:
+        DataError: under two windows of pings, or a velocity that changes by less, naming the DVL file.
+    """
+    model, _ = dvl_window_model(imu, dvl, config, **kwargs)
+    change, noise = velocity_change_rms(model)
+    if not (change >= MIN_VELOCITY_CHANGE_MPS or change >= MIN_CHANGE_OVER_NOISE * noise):
+        raise DataError(f"the DVL velocity changes by {change:.2g} m/s RMS within its {WINDOW_S:g} s windows, within "
+                        f"its noise ({noise:.2g} m/s; {MIN_VELOCITY_CHANGE_MPS:g} m/s or {MIN_CHANGE_OVER_NOISE:g}x "
+                        "its noise needed: a vehicle holding its speed and turn)", dvl.source, field="velocity")
+    return model
 
 
 def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
@@ -154,11 +192,10 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
     (an A-KIT folder), whose negated x and y fix a 180 deg turn. ``model``: the clock model when built already;
     ``offset``: s added to its DVL stamps."""
     try:
-        model = model or dvl_window_model(imu, dvl, config)[0]
+        model = model or judging_model(imu, dvl, config)
     except DataError as exc:
-        add_note(meta, "imu", f"its mounting about z not checked against the DVL (under two {WINDOW_S:g} s windows "
-                              f"of pings with a velocity: {exc.message}): a turned IMU is seen then only against a "
-                              "reference attitude")
+        add_note(meta, "imu", f"its mounting about z not checked against the DVL ({exc.message}): a turned IMU is "
+                              "seen then only against a reference attitude")
         return
     q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offset)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
@@ -263,8 +300,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     from graphnav.calibration.clock import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
-        model, _ = dvl_window_model(imu, dvl, config)
-    except DataError:
+        model = judging_model(imu, dvl, config)
+    except DataError as exc:
+        add_note(meta, "dvl", f"its unit, turn and axes not judged against the IMU ({exc.message})")
         if imu_frame is not None:
             check_imu_yaw(imu, dvl, config, meta, imu_frame)        # says it could not be checked
         return
@@ -316,7 +354,7 @@ def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     +- :data:`SCALE_SEARCH_S`). The model's ``int omega x v`` and its gravity turned by the gyro scale with it."""
     out = {}
     for k in (1.0, *GYRO_SCALES.values()):
-        model, _ = dvl_window_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config)
+        model = judging_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config)
         out[k] = 1.0 - max(model.score(o)[0] for o in SCALE_OFFSETS_S)
     return out
 
