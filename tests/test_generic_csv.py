@@ -680,14 +680,25 @@ def _imu_notes(m):
     return " | ".join(m.meta["streams"]["imu"]["notes"])
 
 
-def test_a_hovering_log_whose_gyro_is_57_times_too_small_is_refused_by_its_reference_attitude(tmp_path):
+def test_a_hovering_log_whose_gyro_is_57_times_too_small_is_judged_by_its_reference_attitude(tmp_path):
     """A hovering AUV's gyro 57.3x too small (rad/s data divided by 57.3) was read with a note that its scale went
     unchecked: the tilt kinematics and the DVL cannot tell the scales apart, and the reference's turn rate against the
     gyro's could equally be a reference in degrees. Its roll and pitch against the accelerometer's tilt settle the
-    reference's unit, and its turn then judges the gyro."""
+    reference's unit as radians, and its turn then judges the gyro: a warning naming the gyro columns and the
+    reference (a clean log in degrees gives the same numbers, see below); with the reference declared in radians,
+    refused."""
+    cfg = _hover_with_reference(tmp_path, np.pi / 180)
+    with pytest.warns(RuntimeWarning, match=r"imu.csv: the gyro rates look 57.3x too small for rad/s: the reference "
+                                            r"attitude \(.*nav.csv, columns roll/pitch/yaw\) turns 5\d\.\dx as fast.*"
+                                            r"field gx/gy/gz.*Declare the reference's angle_unit"):
+        m = load_mission(tmp_path, cfg)
+    assert "look 57.3x too small" in _imu_notes(m)
+    config = json.loads(cfg.read_text())
+    config["csv_columns"]["gt"]["angle_unit"] = "rad"
+    cfg.write_text(json.dumps(config))
     with pytest.raises(DataError, match=r"too small for rad/s: the reference attitude \(.*nav.csv, columns "
                                         r"roll/pitch/yaw\) turns 5\d\.\dx as fast") as err:
-        load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180))
+        load_mission(tmp_path, cfg)
     assert err.value.source.endswith("imu.csv") and err.value.field == "gx/gy/gz"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -726,21 +737,23 @@ def test_a_clean_hovering_log_in_degrees_with_its_imu_tilted_is_not_refused(tmp_
         np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 2].mean(), 0.7, atol=1e-3)
 
 
-def test_a_refusal_on_a_reference_whose_radians_rest_on_its_tilt_says_it_may_be_degrees(tmp_path):
+def test_a_clean_log_in_degrees_heading_north_is_warned_about_not_refused(tmp_path):
     """Heading within 6.3 deg of north, the same level vehicle and tilted IMU cannot be told from radians and a gyro
-    57.3x too small: the refusal says so, and declaring the reference's angle_unit loads it (the gyro then unjudged:
-    its level roll and pitch cannot settle anything)."""
+    57.3x too small: a warning says both (it was a refusal of a clean log), the rates read as they are, and declaring
+    the reference's angle_unit loads it without the warning (the gyro then unjudged: its level roll and pitch cannot
+    settle anything)."""
     cfg = _hover_with_reference(tmp_path, trim=(0.0005, 0.001), mount_pitch=0.05, deg=True, yaw=0.05)
-    with pytest.raises(DataError, match=r"too small for rad/s: .* Or the reference's angles are degrees .*declare "
-                                        r"its angle_unit 'deg'"):
-        load_mission(tmp_path, cfg)
+    with pytest.warns(RuntimeWarning, match=r"look 57.3x too small .* a reference in degrees on a level vehicle"):
+        m = load_mission(tmp_path, cfg)
+    raw = np.loadtxt(tmp_path / "imu.csv", delimiter=",", skiprows=1)[:, 4:7]
+    np.testing.assert_allclose(np.median(np.abs(m.imu.omega_b)), np.median(np.abs(raw)), rtol=1e-6)
     config = json.loads(cfg.read_text())
     config["csv_columns"]["gt"]["angle_unit"] = "deg"
     cfg.write_text(json.dumps(config))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = load_mission(tmp_path, cfg)
-    assert "the gyro's scale is not judged" in _imu_notes(m)
+    assert "the gyro's scale is not judged" in _imu_notes(m) and "look 57.3x too small" not in _imu_notes(m)
     np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 2].mean(), 0.05, atol=1e-3)
 
 

@@ -300,16 +300,14 @@ def _gyro_too_small(k: float, source: str, declared: str | None, field: str) -> 
                    "in rad/s; rates 57.3x too small give tens; tilt kinematics)", source, declared, field)
 
 
-def gyro_too_small(turns: str, source: str, declared: str | None, field: str, doubt: str = "") -> None:
+def gyro_too_small(turns: str, source: str, declared: str | None, field: str) -> None:
     """DataError for gyro rates (after the ``declared`` unit, None when detected) 57.3x too small, ``turns`` saying
-    what shows it (the tilt kinematics here, the DVL velocity in the prepare step), ``doubt`` what else it could
-    mean (appended)."""
+    what shows it (the tilt kinematics here, the DVL velocity in the prepare step)."""
     if declared is not None:
         raise DataError(f"the declared gyro unit {declared!r} looks wrong: after it, {turns} (rad/s data declared "
-                        f"'deg/s'?){doubt}", source, field=field)
+                        "'deg/s'?)", source, field=field)
     raise DataError(f"gyro rates too small for rad/s: {turns}; no gyro unit is that much larger than rad/s: were the "
-                    f"rates converted from deg/s to rad/s twice, or rad/s data divided by 57.3?{doubt}", source,
-                    field=field)
+                    "rates converted from deg/s to rad/s twice, or rad/s data divided by 57.3?", source, field=field)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -578,8 +576,8 @@ def keep_reference_turn(meta: dict | None, t: np.ndarray, euler: np.ndarray, t_i
     (roll, pitch, yaw ``euler`` (K,3) rad at ``t`` s) turning against the gyro (``omega_b`` rad/s at ``t_imu`` s,
     :func:`reference_turn_fit`) in that fact, for the prepare step to judge the gyro by
     (:func:`check_gyro_against_reference`). ``where`` names the reference (a file and its columns, a bag's topic and
-    field), ``how`` says how its unit is known; the messages quote both, and a refusal ``doubt`` too (what else the
-    evidence could mean)."""
+    field), ``how`` says how its unit is known; the messages quote both. ``doubt``: what else the evidence could
+    mean, which makes a gyro that looks 57.3x too small a warning rather than a refusal."""
     fact = (meta or {}).get(GYRO_UNJUDGED)
     if fact is None or t_imu is None or omega_b is None:
         return
@@ -591,9 +589,10 @@ def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, m
     """The gyro rates ``omega_b`` judged by the reference's turn (``fact["reference"]``, left by
     :func:`keep_reference_turn`: a file's angles whose unit was settled without the gyro, a bag's quaternion;
     ``fact`` the gyro's :data:`GYRO_UNJUDGED`): rates 57.3x too small are a DataError naming ``source`` and the
-    gyro columns, deg/s converted (a warning, a note) or, declared, a DataError; in rad/s a note. Judged only when
-    the two turn rates correlate at least :data:`GYRO_TILT_MIN_CORRELATION` and the ratio, the one scale taken, is
-    within :data:`DEG_CONFIRM_RATIO` of 1; None when it cannot judge."""
+    gyro columns (a warning, read as they are, when the reference's unit rests on its tilt alone: ``doubt``,
+    :data:`TILT_RAD_DOUBT`), deg/s converted (a warning, a note) or, declared, a DataError; in rad/s a note. Judged
+    only when the two turn rates correlate at least :data:`GYRO_TILT_MIN_CORRELATION` and the ratio, the one scale
+    taken, is within :data:`DEG_CONFIRM_RATIO` of 1; None when it cannot judge."""
     ref = fact.get("reference")
     if ref is None or not ref["correlation"] >= GYRO_TILT_MIN_CORRELATION:
         return None
@@ -606,8 +605,15 @@ def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, m
     if k == 1.0:
         add_note(meta, "imu", f"the gyro's scale judged against the reference attitude: {fit}")
         return omega_b
+    if k > 1 and ref.get("doubt"):
+        # refusing would refuse a clean log the same numbers describe; reading on with a note alone would be silent
+        _note(meta, "imu", f"the gyro rates look 57.3x too small for rad/s: {fit}. {ref['doubt']}, so the rates are "
+                           f"read as they are (field {field}). Rates converted from deg/s twice, or divided by 57.3? "
+                           "Declare the reference's angle_unit: 'rad' refuses such rates, 'deg' reads the log as it "
+                           "is", source)
+        return omega_b
     if k > 1:
-        gyro_too_small(fit, source, declared, field, ref.get("doubt", ""))
+        gyro_too_small(fit, source, declared, field)
     if declared is not None:
         raise DataError(f"the declared gyro unit {declared!r} looks wrong: {fit}: deg/s?", source, field=field)
     _note(meta, "imu", f"gyro read as deg/s and converted to rad/s: {fit} (field {field}; declare the gyro unit)",
@@ -677,11 +683,12 @@ def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | 
 REFERENCE_TILT_MIN_RAD = 0.02
 
 
-#: Said with a refusal that rests on a reference's radians settled by its tilt (:func:`reference_tilt_unit`): the same
-#: numbers in degrees on a level vehicle whose IMU is mounted tilted by as much give the same tilt ratio; its yaw
-#: inside the radian range (a heading within 6.3 deg of north, were it degrees) is all that tells them apart.
-TILT_RAD_DOUBT = (" Or the reference's angles are degrees (a level vehicle, its IMU mounted tilted against it, gives "
-                  "the same tilt): then declare its angle_unit 'deg'")
+#: Why a reference's radians settled by its tilt (:func:`reference_tilt_unit`) judge a gyro that looks 57.3x too small
+#: with a warning, not a refusal (:func:`check_gyro_against_reference`): the same tilt ratio and turn ratio come from
+#: a clean log in degrees; only a yaw beyond the radian range (a heading over 6.3 deg from north, were it degrees)
+#: tells them apart, and that yaw leaves the unit unsettled.
+TILT_RAD_DOUBT = ("The same numbers come from a reference in degrees on a level vehicle whose IMU is mounted tilted "
+                  "against it")
 
 
 def reference_tilt_unit(euler: np.ndarray, tilt: float) -> tuple[str | None, str]:
