@@ -604,6 +604,13 @@ def test_a_depth_topic_positive_up_is_declared_in_the_configuration(sim, tmp_pat
         with pytest.warns(RuntimeWarning, match="a depth topic positive up\\? declare bag_topics.depth.positive 'up'"):
             with pytest.raises(DataError, match="401 of 401 depth samples refused"):
                 load_mission(path, config("down"))
+        # declared up on a topic positive down: the hint names the other convention, not the one declared
+        down = bags.write_mission_bag(mission, tmp_path / "down", storage="mcap", t0_unix_ns=T0_NS,
+                                      depth_as_pressure=False)
+        with pytest.warns(RuntimeWarning, match="a depth topic positive down\\? declare bag_topics.depth.positive "
+                                                "'down' \\(declared 'up'\\)"):
+            with pytest.raises(DataError, match="depth samples refused"):
+                load_mission(down, config("up"))
         with pytest.raises(ConfigError, match="bag_topics.depth.positive = 'sideways': choose down or up"):
             load_mission(path, config("sideways"))
         with pytest.raises(ConfigError, match="unknown key 'bag_topics.depth.positiv'; did you mean "
@@ -666,6 +673,11 @@ def test_an_undeclared_depth_topic_positive_up_is_turned_with_a_warning_as_a_csv
     n = len(mission.depth.t)
     assert len(said) == 1 and f"/depth, field 'data': {n} of {n} samples above the surface" in said[0]
     assert not m.meta["streams"]["depth"]["refused"]
+    # not prepared, nothing has confirmed the turn: kept turned (as read, every sample is above the surface), warned
+    with pytest.warns(RuntimeWarning, match=r"up:/depth, field 'data': read as depth positive up and turned "
+                                            r"positive down, unconfirmed: the mission is not prepared"):
+        m = load_mission(path, config, prepare=False)
+    assert any("unconfirmed" in n for n in m.meta["streams"]["depth"]["notes"])
     # positive down with its zero 40 m off: above the surface too, but turned it rises while the vehicle dives
     off = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=mission.depth.depth - 40.0))
     path = bags.write_mission_bag(off, tmp_path / "off", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)

@@ -182,15 +182,19 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
     m = simulate_mission(400.0, "navigation", 1)
     t, v = dvl_velocity_b(m.dvl, m.config)
     frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
-    for yaw, warned in ((0, False), (90, True)):
+    # the advice is the caller's: an A-KIT folder has no DVL frame to declare (it was given a column map's)
+    for yaw, warned, fixes, advice in ((0, False, dvl_scale.DECLARE_DVL_FIXES, ""),
+                                       (90, True, dvl_scale.DECLARE_DVL_FIXES, "declare csv_columns.dvl.frame"),
+                                       (90, True, dvl_scale.AKIT_DVL_FIXES, "turn the DVL velocity columns of the file")):
         dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
                       v @ dvl_scale.turn_about_z(yaw).T, source="dvl.csv")
         meta = {}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame)
+            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame, fixes=fixes)
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
+        assert all(s.endswith(f"read as body? {fixes['yaw']}") and advice in s for s in said), said
 
 
 def _akit_crop_without_gt(src, dst, C, seconds=200.0):
@@ -227,7 +231,15 @@ def _turned(deg):
      None),
     (np.diag([1.0, -1.0, -1.0]), r"better with its y and z negated.*FLU.*negate the y and z DVL velocity columns",
      None),
-], ids=["clean", "turned 20 deg", "turned 45 deg", "x0.01", "FLU"])
+    # an A-KIT folder has no unit to declare: the numbers are said as they look, and converting them is the advice
+    (100.0 * np.eye(3), r"median DVL speed 1\d\d\.\d is beyond the 10 m/s a DVL measures: cm/s \(1\.\d+ m/s\) "
+                        r"or mm/s .*\? convert the DVL velocity columns of the file to m/s \(an A-KIT folder", None),
+    (1.943844 * np.eye(3), r"1\.[89]\dx what the IMU's accelerations say .*: in knots\? convert the DVL velocity "
+                           r"columns of the file to m/s \(an A-KIT folder has no unit to declare\)$", None),
+    (0.514444 * np.eye(3), r"0\.5\dx what the IMU's accelerations say .*: m/s converted as if knots\? convert the "
+                           r"DVL velocity columns of the file to m/s \(an A-KIT folder has no unit to declare\)$",
+     None),
+], ids=["clean", "turned 20 deg", "turned 45 deg", "x0.01", "FLU", "x100", "knots", "x0.514"])
 def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_dir, tmp_path, C, error, warning):
     """Without a GT the A-KIT folder's DVL columns had no check of their unit, yaw or FLU axes: 20 deg ran silently,
     0.01x and FLU diverged, 45 deg was refused as an IMU turned 90 deg."""
@@ -236,7 +248,7 @@ def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_di
         warnings.simplefilter("always")
         if error is not None:
             with pytest.raises(DataError, match=r"DVL_trajectory1\.csv, field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z "
-                                                r"\[m/s\]': the DVL velocity .*" + error):
+                                                r"\[m/s\]': .*" + error):
                 load_mission(folder)
             return
         load_mission(folder)

@@ -33,10 +33,12 @@ MIN_SCALE_R2 = 0.9
 #: Scales outside (1 / this, this) are refused: a unit read wrong, not a calibration (the geometric middle of 1
 #: and knots' 1.944; the nine: 0.996-1.016 in m/s, 1.937-1.976 in knots).
 MAX_SCALE_ERROR = 1.4
-#: What a scale (velocity as read over the IMU's) likely is.
-LIKELY_UNITS = {"knots read as m/s (declare velocity_unit 'kn')": 1.943844,
-                "m/s declared as knots": 1 / 1.943844,
-                "ft/s read as m/s": 3.280840, "m/s declared as ft/s": 1 / 3.280840}
+#: What a scale (velocity as read over the IMU's) likely is: said to a column map or bag (with the key that declares
+#: it), and to an A-KIT folder (what its numbers look like: it has no unit to declare).
+LIKELY_UNITS = {1.943844: ("knots read as m/s (declare velocity_unit 'kn')", "in knots"),
+                1 / 1.943844: ("m/s declared as knots", "m/s converted as if knots"),
+                3.280840: ("ft/s read as m/s", "in ft/s"), 1 / 3.280840: ("m/s declared as ft/s",
+                                                                        "m/s converted as if ft/s")}
 #: The clock model's SSE as read over its SSE with y and z negated above which the velocity is FLU, when the negated
 #: fit explains at least :data:`MIN_FLU_EXPLAINED` (the ten A-KIT: 0.001-0.076 as recorded, 13-1050 negated).
 FLU_SSE_RATIO = 3.0
@@ -218,15 +220,16 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
                     field=frame["fields"])
 
 
-def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None) -> None:
+def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | None = None) -> None:
     """Warn about and note a DVL whose velocity fits the IMU turned ``yaw`` deg about z and points forward only
     turned back (:func:`check_imu_yaw`): velocity columns in the frame of a DVL mounted turned, read as body. Said
-    here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed)."""
+    here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed). ``fixes``: the
+    advice (:data:`DECLARE_DVL_FIXES`, the default, or :data:`AKIT_DVL_FIXES`)."""
     if yaw is None:
         return
     text = (f"field '{field}': the DVL velocity points {yaw} deg about z from the vehicle's forward and fits the IMU "
-            "only turned back: columns in the instrument frame of a DVL mounted turned, read as body? declare its "
-            "frame (csv_columns.dvl.frame 'instrument' with dvl.C_d_b; an A-KIT folder: turn its velocity columns)")
+            "only turned back: columns in the instrument frame of a DVL mounted turned, read as body? "
+            f"{(fixes or DECLARE_DVL_FIXES)['yaw']}")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
     add_note(meta, "dvl", text)
 
@@ -250,7 +253,7 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> 
              else "its pings point no one way")
     C_d_b = turn_about_z(yaw).T
     matrix = "[" + ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in C_d_b + 0.0) + "]"
-    dvl_fix = ("turn the DVL velocity columns of the file into the body frame" if frame.get("signs") is not None else
+    dvl_fix = (AKIT_DVL_FIXES["yaw"] if frame.get("signs") is not None else
                f"declare its frame, dvl.C_d_b {matrix} in the configuration (with csv_columns.dvl.frame 'instrument' "
                "for velocity columns; graphnav calibrate estimates it and writes both)")
     return DataError(f"the IMU's axes and the DVL velocity ({dvl.source}) are turned {yaw} deg about z against each "
@@ -263,22 +266,25 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> 
                      field=frame["fields"])
 
 
-def _likely_unit(scale: float, declare: bool = True) -> str:
-    """The unit a velocity ``scale`` times the IMU's likely is; ``declare``: with the column map's key to declare."""
-    name, factor = min(LIKELY_UNITS.items(), key=lambda kv: abs(np.log(scale / kv[1])))
+def _likely_unit(scale: float, declare: bool) -> str:
+    """The unit a velocity ``scale`` times the IMU's likely is; ``declare``: said with the column map's key to declare,
+    else what the numbers look like (an A-KIT folder's columns, which have no unit to declare)."""
+    factor = min(LIKELY_UNITS, key=lambda f: abs(np.log(scale / f)))
     if abs(np.log(scale / factor)) >= np.log(MAX_SCALE_ERROR) / 2:
-        return "a wrong velocity_unit" if declare else f"a unit {scale:.3g}x m/s"
-    return name if declare else name.split(" (")[0]
+        return "a wrong velocity_unit" if declare else f"in a unit {scale:.3g}x m/s"
+    return LIKELY_UNITS[factor][0 if declare else 1]
 
 
 #: What to do about a DVL velocity in other units (``"unit"``, after the likely unit), turned about z (``"yaw"``) or in
-#: FLU axes (``"flu"``): a column map or bag declares its unit and frame.
-DECLARE_DVL_FIXES = {"unit": "", "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate "
-                                        "estimates it and writes both)",
+#: FLU axes (``"flu"``): a column map or bag declares its unit and frame (``"declare"``).
+DECLARE_DVL_FIXES = {"declare": True, "unit": "",
+                     "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
+                            "it and writes both)",
                      "flu": "declare csv_columns.dvl.frame 'flu'"}
 #: The same for an A-KIT folder, whose format is fixed (m/s, body frame FRD; the loader converts mm/s itself): its
 #: velocity columns are converted before graphnav reads them.
-AKIT_DVL_FIXES = {"unit": " convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
+AKIT_DVL_FIXES = {"declare": False,
+                  "unit": "convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
                           "declare)",
                   "yaw": "turn the DVL velocity columns of the file into the body frame (an A-KIT folder has no DVL "
                          "frame to declare)",
@@ -315,7 +321,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
-                        f"{_likely_unit(scale, declare=not fixes['unit'])}?{fixes['unit']}", dvl.source, field=field)
+                        f"{_likely_unit(scale, fixes['declare'])}? {fixes['unit']}".rstrip(), dvl.source, field=field)
     dvl_turn = None
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
     dvl_yawed = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD and _forward(
@@ -330,7 +336,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)
     else:                               # the DVL's own fit explains too little: the IMU-turn fit may still see it
-        warn_dvl_turned(dvl, meta, field, dvl_turn)
+        warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "

@@ -365,13 +365,19 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict, positive: 
         mask = mask & ~bad
         if mask.any():
             count_refused(meta, "depth", reason, int(mask.sum()))
-            up = reason.startswith("above") and s.msgtype != PRESSURE and mask.mean() > 0.5
+            # undeclared, such a topic was turned (turned_positive_up): only a declared convention leaves it above
+            up = reason.startswith("above") and s.msgtype != PRESSURE and mask.mean() > 0.5 and positive is not None
             warnings.warn(f"{source}:{s.topic}: {int(mask.sum())} depth sample(s) {reason} dropped (first at "
                           f"{located(np.flatnonzero(mask), where=messages(s, t0_ns), first=True)}, {d[mask][0]:.2f} m)"
-                          + (f"; a depth topic positive up? declare {POSITIVE_KEY} 'up'" if up else ""),
-                          RuntimeWarning, stacklevel=3)
+                          + (_other_convention(positive) if up else ""), RuntimeWarning, stacklevel=3)
         bad |= mask
     return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
+
+
+def _other_convention(positive: str) -> str:
+    """The hint for a depth topic declared ``positive`` (down or up) whose samples lie mostly above the surface."""
+    other = "up" if positive == "down" else "down"
+    return f"; a depth topic positive {other}? declare {POSITIVE_KEY} '{other}' (declared {positive!r})"
 
 
 def turned_positive_up(s: Stream, d: np.ndarray, source: str, meta: dict) -> np.ndarray:

@@ -435,7 +435,9 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
-    dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta)
+    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
+    dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta, columns="/".join(AKIT_COLUMNS["DVL"][1:4]),
+                                     fix=AKIT_DVL_FIXES["unit"])
     if gt is None:
         return None
     return _akit_gt_units(gt, lines["gt"], imu, str(files["GT"]), meta, cfg)

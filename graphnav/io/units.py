@@ -313,16 +313,22 @@ def gyro_too_small(turns: str, source: str, declared: str | None, field: str) ->
 # ------------------------------------------------------------------------------------------------
 # DVL
 # ------------------------------------------------------------------------------------------------
+#: What a DVL whose speeds are neither m/s nor mm/s is told to do (a column map or bag: declare the unit).
+DECLARE_UNIT_FIX = "declare the velocity unit"
+
+
 def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, source: str,
-                    field: str = "beams") -> tuple[float, float]:
+                    field: str = "beams", columns: str = "v_b/v_d", fix: str = DECLARE_UNIT_FIX
+                    ) -> tuple[float, float]:
     """``(scale to m/s, median speed as read)`` of DVL values (beams (M,4) and/or a velocity (M,3)), from
     the median speed; RDI's bad-velocity flags and non-finite values are left out. DataError when the
-    speeds are neither m/s nor mm/s."""
+    speeds are neither m/s nor mm/s, naming the velocity's ``columns`` and advising ``fix`` (an A-KIT folder has
+    no unit to declare)."""
     def clean(a):
         a = np.asarray(a, float)
         return np.where(np.isfinite(a) & ~np.isin(a, RDI_BAD_VELOCITY), a, np.nan)
     if velocity is not None and np.any(np.isfinite(clean(velocity))):
-        speed, field = np.linalg.norm(clean(velocity), axis=1), "v_b/v_d"
+        speed, field = np.linalg.norm(clean(velocity), axis=1), columns
     elif beams is not None and np.any(np.isfinite(clean(beams))):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -336,18 +342,19 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
         return 1e-3, med
     if med < DVL_MMPS_RANGE[0]:
         raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures: "
-                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? declare the velocity unit",
+                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? {fix}",
                         source, field=field)
     raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
-                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}); declare the "
-                    "velocity unit (e.g. cm/s)", source, field=field)
+                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}); {fix} (e.g. from cm/s)",
+                    source, field=field)
 
 
 def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
-                       beams: bool = False) -> np.ndarray:
+                       beams: bool = False, **named) -> np.ndarray:
     """DVL values as read (beams (M,4) when ``beams``, else a velocity (M,3)) in m/s: mm/s detected and
-    converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768."""
-    scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source)
+    converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768. ``named``: the
+    velocity's ``columns`` and the ``fix`` a DataError advises (:func:`dvl_speed_scale`)."""
+    scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, **named)
     if scale == 1.0:
         return values
     if declared is not None:
