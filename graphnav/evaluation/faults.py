@@ -1215,6 +1215,27 @@ def _row_twice(d):
     return np.insert(d, len(d) // 2, d[len(d) // 2], axis=0)
 
 
+def _without_gt(edit_dvl):
+    """A damage that leaves the folder as a vehicle has it (no GT file) and edits its DVL file."""
+    def damage(folder: Path) -> None:
+        _csv_file(folder, "GT").unlink()
+        edit_csv(_csv_file(folder, "DVL"), edit_dvl)
+    return damage
+
+
+def _turn_dvl_about_z(deg):
+    def edit(d):
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        d[:, 1], d[:, 2] = c * d[:, 1] - s * d[:, 2], s * d[:, 1] + c * d[:, 2]
+        return d
+    return edit
+
+
+def _flu(d):
+    d[:, 2:4] *= -1.0
+    return d
+
+
 def _shift_stamps(seconds):
     def edit(d):
         d[:, 0] += seconds
@@ -1322,6 +1343,10 @@ CLI_CASES: tuple[CliCase, ...] = (
     _real("real: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
     _real("real: IMU stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
     _real("real: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
+    # the shared real trajectory as a vehicle has it: IMU and DVL only (the DVL checked against the IMU alone)
+    _real("real, no GT: DVL velocities in cm/s", "smooth", E, _without_gt(_scale_cols(_DVL_XYZ, 100.0))),
+    _real("real, no GT: DVL y and z negated (FLU axes)", "smooth", E, _without_gt(_flu)),
+    _real("real, no GT: DVL turned 20 deg about z", "smooth", W + D, _without_gt(_turn_dvl_about_z(20.0))),
     CliCase("real: evaluate against the A-KIT folder", "smooth; evaluate --ref FOLDER", K,
             lambda ws, f: _evaluate_case(ws, f, True), R, real=True),
     CliCase("train-beams --epochs 1 leaves the shipped weights", "train-beams --epochs 1", K + E,
