@@ -371,6 +371,7 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict, positive: 
                           + (f"; a depth topic positive up? declare {POSITIVE_KEY} 'up'" if up else ""),
                           RuntimeWarning, stacklevel=3)
         bad |= mask
+    meta["depth_where"] = [m for m, b in zip(messages(s, t0_ns), bad) if not b]
     return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
 
 
