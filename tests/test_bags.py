@@ -706,3 +706,21 @@ def test_a_hovering_bag_whose_gyro_is_57_times_too_small_is_refused_by_its_refer
         m = load_mission(path)
     notes = " | ".join(m.meta["streams"]["imu"]["notes"])
     assert "gyro's scale judged against the reference attitude" in notes and "not judged" not in notes
+
+
+def test_a_depth_spike_in_a_bag_is_named_by_topic_message_and_time(sim, tmp_path):
+    """The screening's depth refusals named an index into the depth array; they name the message and its time."""
+    import dataclasses
+    import warnings
+    mission, config, _, _ = sim
+    depth = mission.depth.depth.copy()
+    depth[30] += 30.0
+    bad = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=depth))
+    path = bags.write_mission_bag(bad, tmp_path / "spike", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        m = load_mission(path, config)
+    t_depth = mission.depth.t - mission.imu.t[0]
+    said = [str(w.message) for w in rec if "depth sample(s) refused" in str(w.message)]
+    assert said and f"at message 30 (t = {t_depth[30]:.3f} s); they are not used" in said[0]
+    assert m.meta["streams"]["depth"]["refused"] == {"depth spike": 1}

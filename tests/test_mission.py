@@ -135,3 +135,30 @@ def test_with_dvl_valid_replaces_the_mask():
     valid = np.zeros((len(m.dvl.t), 4), bool)
     valid[:, 1] = True
     assert m.with_dvl_valid(valid).dvl.n_valid.tolist() == [1] * len(m.dvl.t)
+
+
+def test_a_float32_rdi_flag_is_counted_as_the_flag_not_as_a_speed_beyond_range():
+    """A bag's float32 beam holding -32.768 reads as -32.76800155 in float64: it was warned about as a value beyond
+    10 m/s with '[0 seen]' flags; it is RDI's flag, matched at float32 precision."""
+    import warnings
+    beams = np.full((3, 4), 0.5)
+    beams[1, 2] = np.float32(-32.768)
+    dvl = DvlData(np.arange(3.0), beams, np.ones((3, 4), bool), None, "bag.db3:/dvl")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        clean = dvl.sanitized()
+    assert "[1 seen]" in str(caught[0].message)
+    assert not clean.valid[1, 2] and clean.valid.sum() == 11
+
+
+def test_an_in_memory_ping_without_a_valid_beam_is_named_by_its_sample_and_stamp():
+    """An in-memory mission has no file: its pings without a valid beam are named 'sample i at t = ... s'."""
+    import warnings
+    from graphnav.io.stream_counts import record_streams
+    valid = np.ones((5, 4), bool)
+    valid[3] = False
+    dvl = DvlData(np.arange(5) * 0.2 + 1.0, np.full((5, 4), 0.5), valid, None, "dvl")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        record_streams({}, dvl=dvl)
+    assert "first at sample 3 at t = 1.600 s" in str(caught[0].message)

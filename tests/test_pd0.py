@@ -74,6 +74,18 @@ def write_pd0(path, mission, coord_ex: int = 0, raw_mms: np.ndarray | None = Non
             f.write(_ensemble(k + 1, START + dt.timedelta(seconds=float(t)), beams[k], int(p_dpa[k]), coord_ex))
 
 
+def _load_written_pd0(sim, tmp_path, **written):
+    """The module's mission written as a PD0 file (``written``: :func:`write_pd0`'s options) beside its IMU, GT and
+    configuration, loaded: (mission, the warnings)."""
+    mission, root = sim
+    write_pd0(tmp_path / "dvl.000", mission, **written)
+    for name in ("imu.csv", "nav.csv", "config.json"):
+        (tmp_path / name).write_bytes((root / name).read_bytes())
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        return load_mission(tmp_path / "dvl.000", tmp_path / "config.json"), rec
+
+
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory):
     from graphnav.core.config import SensorConfig
@@ -333,12 +345,7 @@ def test_pd0_pings_of_zero_mm_s_under_way_are_no_bottom_lock(sim, tmp_path):
     mission, root = sim
     raw = np.where(mission.dvl.valid, np.round(mission.dvl.beams * 1000.0), -32768)
     raw[10:20] = 0
-    write_pd0(tmp_path / "dvl.000", mission, raw_mms=raw)
-    for name in ("imu.csv", "nav.csv", "config.json"):
-        (tmp_path / name).write_bytes((root / name).read_bytes())
-    with warnings.catch_warnings(record=True) as rec:
-        warnings.simplefilter("always")
-        m = load_mission(tmp_path / "dvl.000", tmp_path / "config.json")
+    m, rec = _load_written_pd0(sim, tmp_path, raw_mms=raw)
     assert m.meta["streams"]["dvl"]["refused"][NO_BOTTOM_LOCK] == 10
     assert not m.dvl.valid[10:20].any()
     # named by the ensemble number and byte offset, as the file holds them, not the ping's index in the arrays
@@ -369,3 +376,16 @@ def test_a_hovering_dvl_in_an_earth_frame_pd0_keeps_its_pings_of_zero_mm_s(sim, 
     m = screen_mission(Mission("hover", imu, dvl, mission.config, None, depth, {**meta, "imu_screened": True}))
     assert "velocity exactly 0 on every axis (no bottom lock)" not in m.meta["streams"]["dvl"].get("refused", {})
     assert m.dvl.valid[zero].all()
+
+
+def test_a_depth_spike_in_a_pd0_file_is_named_by_its_ensemble(sim, tmp_path):
+    """The screening's depth refusals named an index into the depth array; they name the ensemble and its byte."""
+    mission, root = sim
+    p = np.round(np.interp(mission.dvl.t, mission.depth.t, mission.depth.depth) * 1025.0
+                 * mission.config.gravity_mps2 / 10.0).astype(np.int64)
+    p[15] += round(30.0 * 1025.0 * mission.config.gravity_mps2 / 10.0)        # 30 m deeper for one ensemble
+    m, rec = _load_written_pd0(sim, tmp_path, pressure_dpa=p)
+    size = (tmp_path / "dvl.000").stat().st_size // len(mission.dvl.t)
+    said = [str(w.message) for w in rec if "depth sample(s) refused" in str(w.message)]
+    assert said and f"at ensemble 16 (byte {15 * size}); they are not used" in said[0]
+    assert m.meta["streams"]["depth"]["refused"] == {"depth spike": 1} and "depth_where" not in m.meta

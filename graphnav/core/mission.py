@@ -26,6 +26,13 @@ MAX_DVL_SPEED_MPS = 10.0
 #: :data:`MAX_DVL_SPEED_MPS`; they are listed so that the warning can name them.
 RDI_BAD_VELOCITY = (-32768.0, -32.768)
 
+
+def rdi_flagged(values) -> np.ndarray:
+    """Mask of the values (any shape, as read) that are RDI's bad-velocity marker, compared at float32 precision:
+    a bag's float32 -32.768 is -32.76800155... once read as float64, and was counted as a speed beyond range."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        return np.isin(np.asarray(values, float).astype(np.float32), np.float32(RDI_BAD_VELOCITY))
+
 #: IMU gaps longer than this many nominal sample periods are bridged (see :meth:`ImuData.bridge_gaps`).
 IMU_GAP_PERIODS = 2.5
 #: An IMU rate measured further than this (relative) from the configured ``imu_rate_hz`` replaces it: a clock's
@@ -75,7 +82,7 @@ def invalid_dvl_values(values: np.ndarray, max_speed: float = MAX_DVL_SPEED_MPS)
     markers, or beyond ``max_speed`` in magnitude."""
     values = np.asarray(values, float)
     with np.errstate(invalid="ignore"):
-        return ~np.isfinite(values) | (np.abs(values) > max_speed) | np.isin(values, RDI_BAD_VELOCITY)
+        return ~np.isfinite(values) | (np.abs(values) > max_speed) | rdi_flagged(values)
 
 
 @dataclass(frozen=True)
@@ -299,12 +306,12 @@ class DvlData:
         if v_b is not None:
             v_b = np.where((valid.sum(axis=1) >= 3)[:, None], v_b, np.nan)
         rows = np.flatnonzero(bad_beam.any(axis=1) | bad_ping)
-        rdi = int(np.isin(self.beams[bad_beam], RDI_BAD_VELOCITY).sum()
-                  + (0 if self.v_b is None else np.isin(self.v_b[bad_ping], RDI_BAD_VELOCITY).sum()))
+        rdi = int(rdi_flagged(self.beams[bad_beam]).sum()
+                  + (0 if self.v_b is None else rdi_flagged(self.v_b[bad_ping]).sum()))
         warnings.warn(f"{self.source}: {int(bad_beam.sum())} beam value(s) and {int(bad_ping.sum())} ping "
                       f"velocit(ies) are not measurements (NaN, RDI bad-velocity flag -32768/-32.768 "
                       f"[{rdi} seen], or beyond {max_speed:g} m/s) and are marked invalid; first at "
-                      f"{located(rows, lines, where, first=True)}, {rows.size} ping(s) affected", RuntimeWarning,
+                      f"{located(rows, lines, where, first=True, t=self.t)}, {rows.size} ping(s) affected", RuntimeWarning,
                       stacklevel=2)
         return dataclasses.replace(self, beams=beams, valid=valid, v_b=v_b)
 

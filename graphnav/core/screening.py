@@ -702,11 +702,13 @@ def warn_no_bottom_lock(no_lock: np.ndarray, lines: np.ndarray, source: str) -> 
 # counting (loaders)
 # ------------------------------------------------------------------------------------------------
 def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, line_offset: int = 0,
-           unit: str = "sample", lines: np.ndarray | None = None, where: list[str] | None = None) -> np.ndarray:
+           unit: str = "sample", lines: np.ndarray | None = None, where: list[str] | None = None,
+           t: np.ndarray | None = None) -> np.ndarray:
     """Count the samples of ``masks`` (reason -> (N,) bool; a sample under its first reason) as refused in
     ``meta["streams"][stream]`` and warn once naming the source, the reasons and the first lines (``lines``,
     the file line of each sample, when given; ``where``, where the file holds each sample, e.g. a PD0 ensemble or
-    a bag message, when given; else index + ``line_offset``). Returns the union mask."""
+    a bag message, when given; else, with the stamps ``t`` (s), the sample and its stamp; else index +
+    ``line_offset``). Returns the union mask."""
     total = np.zeros(len(next(iter(masks.values()))) if masks else 0, dtype=bool)
     parts = []
     for reason, m in masks.items():
@@ -716,7 +718,7 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
             parts.append(f"{int(m.sum())} {reason}")
         total |= m
     if total.any():
-        at = located(np.flatnonzero(total), lines, where, line_offset)
+        at = located(np.flatnonzero(total), lines, where, line_offset, t=t)
         warnings.warn(f"{source}: {int(total.sum())} {stream} {unit}(s) refused ({'; '.join(parts)}) at {at}; "
                       "they are not used", RuntimeWarning, stacklevel=3)
     return total
@@ -797,11 +799,14 @@ def first_lines(lines: np.ndarray) -> str:
 
 
 def located(rows: np.ndarray, lines: np.ndarray | None = None, where: list[str] | None = None, line_offset: int = 0,
-            first: bool = False) -> str:
+            first: bool = False, t: np.ndarray | None = None) -> str:
     """Where the file holds the samples ``rows`` (indexes into the stream), for a warning: ``where[i]`` when given
     (a PD0 ensemble, a bag message with its time), else the file line ``lines[i]``, else the index plus
-    ``line_offset`` (a line when an offset is given). The first ten, or with ``first`` the first one alone."""
+    ``line_offset`` (a line when an offset is given); a stream with no file (``t``: its stamps, s, and no offset)
+    says "sample i at t = ... s". The first ten, or with ``first`` the first one alone."""
     rows = np.asarray(rows, int)[:1] if first else np.asarray(rows, int)
+    if where is None and lines is None and not line_offset and t is not None:
+        where = [f"sample {i} at t = {float(t_i):.3f} s" for i, t_i in enumerate(t)]
     if where is not None:
         return ", ".join(str(where[i]) for i in rows[:10]) + (" ..." if len(rows) > 10 else "")
     named = np.asarray(lines)[rows] if lines is not None else rows + line_offset

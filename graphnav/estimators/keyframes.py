@@ -133,6 +133,8 @@ IMU_RATE_STEPS = 16
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
+#: A step under this share of the configured period is within a burst (stamps on receipt), not one period long.
+BURST_STEP_SHARE = 0.1
 
 
 class ImuPeriod:
@@ -150,6 +152,7 @@ class ImuPeriod:
         self.configured_s = self.period_s = self._cycle_s = configured_s
         self._steps: list[float] = []
         self._needed = IMU_RATE_STEPS
+        self._after_gap = 0             # the steps after the last gap bridged before the period was measured
 
     def add_step(self, dt: float) -> None:
         """One step between IMU stamps, s (once the period is measured, nothing changes)."""
@@ -179,6 +182,23 @@ class ImuPeriod:
             warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {len(self._steps)} steps, "
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
                           f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=5)
+
+    def is_gap(self, dt: float) -> bool:
+        """Whether the newest step (``dt`` s, given to :meth:`add_step` first) is a gap to bridge: longer than
+        :attr:`gap_limit_s`. Before the period is measured, a stream whose shortest step is under
+        :data:`BURST_STEP_SHARE` of the configured period comes in bursts (a driver stamping on receipt), and its
+        long step is a gap only when its samples so far fall short of the configured rate by more than a bridged
+        gap adds: bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps."""
+        if not dt > self.gap_limit_s:
+            return False
+        steps = self._steps
+        if len(steps) >= self._needed or not min(steps, default=dt) < BURST_STEP_SHARE * self.configured_s:
+            return True
+        since = steps[self._after_gap:]         # the samples before a bridged gap do not make up for the next
+        if sum(since) / self.configured_s - len(since) <= IMU_GAP_PERIODS - 1:
+            return False
+        self._after_gap = len(steps)
+        return True
 
     @property
     def gap_limit_s(self) -> float:
@@ -285,7 +305,7 @@ class Keyframer:
         samples = self._samples
         if samples:
             self.imu_period.add_step(t - samples[-1][0])
-            if t - samples[-1][0] > self.imu_period.gap_limit_s:
+            if self.imu_period.is_gap(t - samples[-1][0]):
                 return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)
 

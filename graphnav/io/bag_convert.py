@@ -371,6 +371,7 @@ def depth(s: Stream, cand: dict, t0_ns: int, source: str, meta: dict, positive: 
                           f"{located(np.flatnonzero(mask), where=messages(s, t0_ns), first=True)}, {d[mask][0]:.2f} m)"
                           + (_other_convention(positive) if up else ""), RuntimeWarning, stacklevel=3)
         bad |= mask
+    meta["depth_where"] = [m for m, b in zip(messages(s, t0_ns), bad) if not b]
     return DepthData(_rel(s, t0_ns)[~bad], d[~bad], f"{source}:{s.topic}")
 
 

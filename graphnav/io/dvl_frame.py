@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.mission import RDI_BAD_VELOCITY
+from graphnav.core.mission import rdi_flagged
 from graphnav.core.rotations import C_NED_ENU, euler_to_C_b_n
 from graphnav.io.units import ANGLE_UNITS
 
@@ -76,7 +76,7 @@ def velocity_to_body(v: np.ndarray, frame: str, C_d_b: np.ndarray, euler_d: np.n
 def flagged_not_turned(v: np.ndarray, turned: np.ndarray) -> np.ndarray:
     """``turned`` (M,3), the velocity ``v`` (M,3, m/s as read) in the body frame, except the pings where a cell of
     ``v`` is RDI's bad-velocity flag: those stay as read, for ``DvlData.sanitized`` to refuse by their flag."""
-    return np.where(np.isin(v, RDI_BAD_VELOCITY).any(axis=1, keepdims=True), v, turned)
+    return np.where(rdi_flagged(v).any(axis=1, keepdims=True), v, turned)
 
 
 def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,

@@ -1086,7 +1086,7 @@ def screen_mission(mission: Mission) -> Mission:
         v = np.where(masks[NO_BOTTOM_LOCK][:, None], np.nan, v)       # no neighbour of the envelope's spike test
     masks.update({f"outside the envelope ({k})": m for k, m in implausible_pings(dvl.t, v, cfg.dvl).items()})
     # where the reader's file holds each ping (a PD0 ensemble, a bag message), for this warning only
-    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping", where=meta.pop("dvl_ping_where", None))
+    bad = refuse(meta, "dvl", masks, dvl.source, unit="ping", where=meta.pop("dvl_ping_where", None), t=dvl.t)
     if bad.any():
         valid = valid & ~bad[:, None]
         dvl = dataclasses.replace(dvl, beams=np.where(valid, dvl.beams, np.nan), valid=valid,
@@ -1098,7 +1098,9 @@ def screen_mission(mission: Mission) -> Mission:
     if len(dvl.t) > 1:
         note_outages(meta, dvl.t, usable, 1.0 / float(np.median(np.diff(dvl.t))), dvl.source)
     if depth is not None:
-        bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source)
+        where = meta.pop("depth_where", None)       # a PD0 ensemble, a bag message, for this warning only
+        bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source,
+                     where=where if where is not None and len(where) == len(depth.t) else None, t=depth.t)
         if bad.any():
             depth = depth.take(np.flatnonzero(~bad))
     if gt is not None and not meta.get("gt_screened"):     # the column-map loader screened it with its lines

@@ -641,6 +641,7 @@ def read_pd0(path: str | Path, config: SensorConfig | None = None) -> tuple[DvlD
             count_refused(meta, "depth", reason, log.counts.get(reason, 0))
         if ok.any():
             depth = DepthData(log.t[ok], log.depth_m[ok], f"{source}:pressure")
+            meta["depth_where"] = [log.where[i] for i in np.flatnonzero(ok)]
     return dvl, depth, meta
 
 

@@ -14,6 +14,7 @@ import warnings
 import numpy as np
 
 from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
+from graphnav.core.screening import located
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 
 #: Reason of a ping with no valid beam and no valid instrument velocity that no loader reason explains.
@@ -60,9 +61,10 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
             left &= ~hit
         if left.any():
             first = int(np.flatnonzero(left)[0])
-            where = f"line {int(dvl_lines[first])}" if dvl_lines is not None else f"index {first}"
+            where = (f"line {int(dvl_lines[first])}, t = {dvl.t[first]:.3f} s" if dvl_lines is not None
+                     else located([first], t=dvl.t, first=True))
             warnings.warn(f"{dvl.source}: {int(left.sum())} of {len(left)} DVL ping(s) have no valid beam and are not "
-                          f"used (first at {where}, t = {dvl.t[first]:.3f} s)", RuntimeWarning, stacklevel=3)
+                          f"used (first at {where})", RuntimeWarning, stacklevel=3)
             count_refused(meta, "dvl", NO_VALID_BEAM, int(left.sum()))
     return meta.get("streams", {})
 

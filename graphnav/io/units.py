@@ -68,7 +68,7 @@ from typing import Mapping
 import numpy as np
 
 from graphnav.core.errors import DataError
-from graphnav.core.mission import MAX_DVL_SPEED_MPS, RDI_BAD_VELOCITY, DvlData, Mission
+from graphnav.core.mission import MAX_DVL_SPEED_MPS, DvlData, Mission, rdi_flagged
 from graphnav.core.streams import add_note
 from graphnav.core.timeseries import interp_rows
 
@@ -326,7 +326,7 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
     no unit to declare)."""
     def clean(a):
         a = np.asarray(a, float)
-        return np.where(np.isfinite(a) & ~np.isin(a, RDI_BAD_VELOCITY), a, np.nan)
+        return np.where(np.isfinite(a) & ~rdi_flagged(a), a, np.nan)
     if velocity is not None and np.any(np.isfinite(clean(velocity))):
         speed, field = np.linalg.norm(clean(velocity), axis=1), columns
     elif beams is not None and np.any(np.isfinite(clean(beams))):
