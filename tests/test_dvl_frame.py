@@ -257,3 +257,41 @@ def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_di
         assert not said
     else:
         assert len(said) == 1 and re.search(r"DVL_trajectory1\.csv: .*" + warning, said[0]), said
+
+
+def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth):
+    """The first ``seconds`` of A-KIT Trajectory1 as a column-map log (no reference), its DVL velocity turned to NED by
+    the GT attitude when ``earth`` (read as body: no 'frame'), its stamps a day early on a clock to be found."""
+    from graphnav.core.mission import DvlData
+    from graphnav.missions import load_akit
+    from test_units import _column_map_log
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_akit(akit_dir / "Trajectory1")
+    t, v = dvl_velocity_b(m.dvl, m.config)
+    keep, n = t <= seconds, int(np.sum(t <= seconds))
+    t, v = t[keep], v[keep]
+    if earth:
+        C = np.stack([np.interp(t, m.gt.t, m.gt.C_b_n[:, i, j]) for i in range(3) for j in range(3)], 1)
+        u, _, vt = np.linalg.svd(C.reshape(-1, 3, 3))
+        v = np.einsum("kij,kj->ki", u @ vt, v)
+    k = m.imu.t <= seconds
+    m = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=m.imu.t[k], f_b=m.imu.f_b[k], omega_b=m.imu.omega_b[k]),
+                            dvl=DvlData(t, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v, source="dvl"))
+    return folder, _column_map_log(m, folder, dvl_shift=-86400.0)
+
+
+@pytest.mark.parametrize("seconds", [60.0, 400.0])
+def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clock_search(akit_dir, tmp_path,
+                                                                                          seconds):
+    """Read as body, an NED velocity a day off the IMU clock fooled the clock search: the first 60 s loaded silently
+    15 s off (turn ratio 1.03 there, against 1), the whole log was blamed on its clock. Its direction spreads as the
+    gyro's heading does (1.15x, 0.94x), a body-frame velocity's 0.02-0.05x: refused naming the columns."""
+    with pytest.raises(DataError, match=r"turns with the vehicle: its direction spreads \d\.\d\dx as much as the "
+                                        r"gyro's heading.*earth-fixed") as err:
+        _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", seconds, earth=True))
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        m = _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "body", seconds, earth=False))
+    assert m.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)

@@ -423,10 +423,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
         facts.get("imu_frame")
     mission = _imu_frame(mission, meta, facts.get("imu_frame"))
-    # before the reference's time offset and the clock search, which integrate the gyro (a DVL on a clock of its own
+    # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
-    mission = _reference_on_the_imu(mission, meta, facts)
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
     if on_the_imu_clock(dvl.t, mission.imu.t):
@@ -448,6 +447,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
             mission.config, meta)
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
+    # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
+    mission = _reference_on_the_imu(mission, meta, facts)
     if facts.get("dvl_clock") == AUTO and dvl is not searched:
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):

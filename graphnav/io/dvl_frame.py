@@ -19,7 +19,10 @@ trajectories and 2.7-3.9 on simulated missions that turn, and 0.16-0.43 for the 
 (``docs/decisions/dvl-frame.md``): :data:`EARTH_FRAME_RATIO` 1 lies 2.1x and 2.3x from either side. The gyro's z
 axis keeps its magnitude in any level mounting (FRD, FLU, a yawed IMU) and ENU negates the turn, so both signs are
 tried. The check needs the DVL on the IMU clock: a DVL on a clock of its own is checked once the prepare step has
-put it there (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
+put it there (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`). Before that, a clock-free check
+(:func:`course_spread_ratio`) refuses it: the spread of a vehicle-fixed velocity's direction is a few percent of the
+gyro heading's whatever the clock, an earth-fixed one's is about the same; the clock search, fitting an earth-fixed
+velocity as a body one, lands tens of seconds off, where the turn check above hardly tells.
 """
 from __future__ import annotations
 
@@ -41,6 +44,13 @@ COURSE_MIN_SPEED_MPS = 0.3
 COURSE_MIN_TURN_RADPS = 2e-3
 #: :func:`course_turn_ratio` under which the velocity turns with the vehicle: earth-fixed (module docstring).
 EARTH_FRAME_RATIO = 1.0
+#: Circular variance (1 - mean resultant length) of the gyro-integrated heading under which :func:`course_spread_ratio`
+#: tells nothing: the vehicle turned too little (about a 90 deg arc).
+COURSE_MIN_HEADING_SPREAD = 0.1
+#: :func:`course_spread_ratio` above which the velocity turns with the vehicle: earth-fixed. Measured on the ten A-KIT
+#: trajectories (whole, 60 s and 120 s crops turning enough): as recorded 0.01-0.24, in NED 0.69-1.95
+#: (docs/decisions/dvl-frame.md); the geometric middle.
+EARTH_FRAME_SPREAD_RATIO = 0.4
 
 
 def declared_frame(spec: dict) -> str:
@@ -118,6 +128,31 @@ def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega
     return float(apart / max(np.sqrt(np.mean(dvl_turn ** 2)), 1e-12))
 
 
+def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -> float:
+    """The circular variance of the DVL velocity's horizontal direction over that of the gyro-integrated heading, each
+    over its own log (no common clock needed): a vehicle-fixed velocity's direction barely spreads (<< 1), an
+    earth-fixed one spreads as the heading does (~1). NaN when the heading spreads under
+    :data:`COURSE_MIN_HEADING_SPREAD` or fewer than 3 pings move.
+
+    Args:
+        v: (M,3) velocity as read, m/s. t_imu: (K,) IMU stamps, s. omega_b: (K,3) gyro rates, rad/s.
+    """
+    v = np.asarray(v, float)
+    moving = np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) >= COURSE_MIN_SPEED_MPS)
+    w = np.asarray(omega_b, float)[:, 2]
+    if moving.sum() < 3 or len(w) < 2:
+        return float("nan")
+    yaw = np.concatenate([[0.0], np.cumsum(np.diff(t_imu) * 0.5 * (w[1:] + w[:-1]))])
+    heading = 1.0 - abs(np.mean(np.exp(1j * yaw)))
+    if not heading >= COURSE_MIN_HEADING_SPREAD:
+        return float("nan")
+    return float((1.0 - abs(np.mean(np.exp(1j * np.arctan2(v[moving, 1], v[moving, 0]))))) / heading)
+
+
+_EARTH_FIX = ("it looks earth-fixed (NED/ENU): declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch "
+              "and heading columns ('euler', 'angle_unit'), or log the body-frame velocity")
+
+
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
                           source: str, fields: list[str], frame: str) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame; DataError naming the file
@@ -127,11 +162,22 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
         raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: over {COURSE_WINDOW_S:g} s "
                         f"windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a vehicle-fixed "
-                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); it looks "
-                        "earth-fixed (NED/ENU): declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, "
-                        "pitch and heading columns ('euler', 'angle_unit'), or log the body-frame velocity", source,
+                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); {_EARTH_FIX}", source,
                         field=", ".join(fields))
     return ratio
+
+
+def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
+                  frame: str) -> None:
+    """DataError naming the file and columns when a velocity on a clock of its own spreads with the heading
+    (:func:`course_spread_ratio`): logged in the earth frame."""
+    ratio = course_spread_ratio(v, t_imu, omega_b)
+    if np.isfinite(ratio) and ratio > EARTH_FRAME_SPREAD_RATIO:
+        said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
+        raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: its direction spreads "
+                        f"{ratio:.2f}x as much as the gyro's heading (a vehicle-fixed velocity's: under "
+                        f"{EARTH_FRAME_SPREAD_RATIO:g}, 0.01-0.24 on the A-KIT trajectories; compared without a common "
+                        f"clock, the DVL's being its own); {_EARTH_FIX}", source, field=", ".join(fields))
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
@@ -158,6 +204,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         if on_the_imu_clock(t_dvl, t_imu):
             check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame)
         else:
+            _check_spread(v, t_imu, omega_b, source, fields, frame)
             add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
         if frame == "body":
             return v
