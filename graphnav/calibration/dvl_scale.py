@@ -382,9 +382,9 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     (``meta[GYRO_UNJUDGED]``, set by :func:`graphnav.io.units.imu_units`; the fact is then removed): rates the DVL's
     velocity changes fit :data:`GYRO_DVL_RATIO` times better 57.3x larger are a DataError, deg/s (57.3x smaller) are
     converted to rad/s with a warning and a note, or a DataError when a unit was declared. Unchanged when the fact
-    is absent; with a note when the DVL cannot judge either (too few pings, or no scale fits it
-    :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came onto the IMU clock, for the
-    messages."""
+    is absent; with a note when the DVL cannot judge either (too few pings, no scale that explains any of its
+    changes, or none that fits them :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came
+    onto the IMU clock, for the messages."""
     from graphnav.io.units import GYRO_UNJUDGED, gyro_too_small
     fact = meta.pop(GYRO_UNJUDGED, None)
     if fact is None:
@@ -397,6 +397,11 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
         return _gyro_against_reference(imu, fact, meta, f"{unjudged}, nor can the DVL ({exc.message})")
     name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
     ratio = fits[1.0] / max(fits[k], 1e-12)
+    if not min(fits.values()) < 1.0:
+        # every scale leaves more than a straight line per window would: their ratio is noise against noise
+        return _gyro_against_reference(
+            imu, fact, meta, f"{unjudged}, nor can the DVL: no scale explains its velocity's changes (left unexplained "
+            f"{min(fits.values()):.3g} at best, more than a straight line per window)")
     if not ratio >= GYRO_DVL_RATIO:
         if not 1 / ratio >= GYRO_DVL_RATIO:
             return _gyro_against_reference(
