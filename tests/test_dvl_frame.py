@@ -150,12 +150,15 @@ def test_a_dvl_turned_90_deg_read_as_body_is_warned_about_not_blamed_on_the_imu(
     assert not [n for n in got.meta["streams"]["imu"]["notes"] if "mounting" in n]
 
 
-def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_frame(sim, tmp_path):
+@pytest.mark.parametrize("configured_deg", [None, 30.0])
+def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_frame(sim, tmp_path, configured_deg):
+    # from a configured C_d_b other than I too: it was composed with the fit as the beams' mounting while the columns
+    # stayed body, and the next run read them 45 deg off again
     from graphnav.calibration.calibrate import calibrate
     m, t, v_b = sim
-    a = np.deg2rad(45.0)
-    C_d_b = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
-    folder, config = _folder(tmp_path, sim, v_b @ C_d_b)           # a 45 deg DVL's own velocity, read as body
+    C_d_b = _turned(45.0)
+    configured = None if configured_deg is None else _turned(configured_deg)
+    folder, config = _folder(tmp_path, sim, v_b @ C_d_b, C_d_b=configured)   # a 45 deg DVL's own velocity, read as body
     cmap = json.loads(config.read_text())
     gt = m.gt
     _write(tmp_path / "gt.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
@@ -168,6 +171,7 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     result = calibrate(mission, mode="gt")
     assert np.degrees(result.dvl_yaw_rad.value) == pytest.approx(45.0, abs=1.0)
     assert result.config.csv_columns["dvl"]["frame"] == "instrument"
+    np.testing.assert_allclose(result.config.dvl.C_d_b, C_d_b, atol=0.02)
     # read with the written configuration, the velocity is the body's again
     result.config.save(config)
     np.testing.assert_allclose(_load((folder, config)).dvl.v_b, v_b, atol=0.03)

@@ -140,15 +140,21 @@ def calibrate(mission: Mission, mode: str = "auto", identify_noise: bool = False
 
 
 def _velocity_columns_in_the_instrument_frame(mission: Mission, result: CalibrationResult) -> None:
-    """A column map's ``v_b`` columns read as body velocity (no ``frame``) are projected on the beams through
-    ``C_d_b``, so the mounting fitted to their beams only holds when the next run reads the same beams: with the
-    columns declared in the ``instrument`` frame (turned to body by the calibrated ``C_d_b``), which the written
-    configuration then says. Only from ``C_d_b`` = I (the beams were then the columns' own projections)."""
+    """A column map's ``v_b`` columns read as body velocity (no ``frame``) are what the mounting was fitted to: the
+    body velocity is the fitted turn (the calibrated ``C_d_b`` times the configured one's transpose) times the columns.
+    The written configuration says so: the columns in the ``instrument`` frame, that turn as ``C_d_b`` (the beams are
+    then the columns' own projections). Written as the configured ``C_d_b`` composed with the turn, body columns were
+    read unturned by the next run. A configured ``C_d_b`` other than I that the calibration left (graph mode) stays
+    with the body frame."""
     cmap = result.config.csv_columns or {}
     dvl = cmap.get("dvl") or {}
+    C0, C1 = mission.config.dvl.C_d_b, result.config.dvl.C_d_b
+    identity = np.allclose(C0, np.eye(3))
     if (not mission.meta.get("beams_from_v_b") or dvl.get("frame", "body") not in ("body", "frd")
-            or not np.allclose(mission.config.dvl.C_d_b, np.eye(3))):
+            or (not identity and np.allclose(C1, C0))):
         return
+    result.config.dvl.C_d_b = C1 @ C0.T
     result.config.csv_columns = {**cmap, "dvl": {**dvl, "frame": "instrument"}}
+    replaced = "" if identity else "; dvl.C_d_b written as that turn, not composed with the configured head's mounting"
     result.info["dvl_velocity_frame"] = ("csv_columns.dvl.frame set to 'instrument': the v_b columns are the DVL's "
-                                         "velocity, turned to body by the calibrated C_d_b")
+                                         "velocity, turned to body by the calibrated C_d_b" + replaced)

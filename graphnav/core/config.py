@@ -191,14 +191,18 @@ class SensorConfig:
         gravity_variation: whether gravity varies with position (tilts with the distance from the origin,
             grows with depth); False: the constant ``[0, 0, gravity_mps2]`` of a flat Earth (17 m in 400 s of
             free inertial navigation at 2 m/s), kept to measure what the variation is worth.
-        dvl_time_offset_s: offset already added to the raw DVL stamps to put them on the IMU clock, s.
-        gt_time_offset_s: offset already added to the raw ground-truth stamps, s.
+        dvl_time_offset_s: offset already added to the raw DVL stamps to put them on the IMU clock, s; in a
+            configuration file the offset to add. None (null, the default): not given, found from the data when the
+            mission is prepared; a mission's configuration holds the offset added (0 before it is prepared).
+        gt_time_offset_s: offset already added to the raw ground-truth stamps, s; None as for ``dvl_time_offset_s``.
         reference_position_b: position of the ground truth's (reference's) measurement point relative to the IMU,
             body frame, m (3,): the prepare step moves the reference by its negative to the IMU point, the point
             the estimators navigate, so that velocities are scored at one point (a reference 1.8 m from the IMU
             differs by omega x r, ~0.09 m/s in turns). ``graphnav calibrate`` writes it. None: the format's own,
             an A-KIT folder's the vehicle's (``AKIT_IMU_POSITION_B``), every other format's the IMU point itself.
-        imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD.
+        imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD; in a configuration
+            file the signs to apply (A-KIT folders). None (null, the default): not given, detected when the mission is
+            prepared; a mission's configuration holds the signs applied (1, 1, 1 before it is prepared).
         depth_noise_std: depth sensor white noise, m.
         water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
         atmospheric_pressure_pa: surface pressure subtracted from an absolute pressure reading, Pa.
@@ -221,10 +225,10 @@ class SensorConfig:
     gravity_mps2: float = 9.7949
     earth_rotation: bool = True
     gravity_variation: bool = True
-    dvl_time_offset_s: float = 0.0
-    gt_time_offset_s: float = 0.0
+    dvl_time_offset_s: float | None = None
+    gt_time_offset_s: float | None = None
     reference_position_b: np.ndarray | None = None
-    imu_axis_signs: np.ndarray = field(default_factory=lambda: np.ones(3))
+    imu_axis_signs: np.ndarray | None = None
     depth_noise_std: float = 0.05
     water_density_kgpm3: float = 1025.0
     atmospheric_pressure_pa: float = 101325.0
@@ -237,9 +241,17 @@ class SensorConfig:
         self.depth_range_m = tuple(float(x) for x in self.depth_range_m)
         if len(self.depth_range_m) != 2 or not self.depth_range_m[0] < self.depth_range_m[1]:
             raise ConfigError(f"depth_range_m must be (shallowest, deepest), got {self.depth_range_m}")
-        self.imu_axis_signs = np.asarray(self.imu_axis_signs, dtype=float).reshape(3)
+        if self.imu_axis_signs is not None:
+            self.imu_axis_signs = np.asarray(self.imu_axis_signs, dtype=float).reshape(3)
         if self.reference_position_b is not None:
             self.reference_position_b = np.asarray(self.reference_position_b, dtype=float).reshape(3)
+
+    def as_applied(self) -> "SensorConfig":
+        """This configuration with what is not given (:data:`FOUND_WHEN_PREPARED` None) as nothing applied yet:
+        offsets 0 s, axis signs (1, 1, 1); a mission holds its configuration so (:class:`graphnav.core.mission.
+        Mission`), ``prepare`` then records what it added."""
+        unset = {key: NOTHING_APPLIED[key]() for key in FOUND_WHEN_PREPARED if getattr(self, key) is None}
+        return dataclasses.replace(self, **unset) if unset else self
 
     # --- JSON round trip -------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -353,10 +365,10 @@ SCHEMA: dict[str, Key] = {
     "gravity_mps2": Key("number", "m/s^2", low=9.7, high=9.9),
     "earth_rotation": Key("bool"),
     "gravity_variation": Key("bool"),
-    "dvl_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
-    "gt_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S),
+    "dvl_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S, nullable=True),
+    "gt_time_offset_s": Key("number", "s", low=-TIME_OFFSET_MAX_S, high=TIME_OFFSET_MAX_S, nullable=True),
     "reference_position_b": Key("vector", "m", low=-100.0, high=100.0, size=3, nullable=True),
-    "imu_axis_signs": Key("signs"),
+    "imu_axis_signs": Key("signs", nullable=True),
     "depth_noise_std": Key("number", "m", high=100.0, **_POSITIVE),
     "depth_range_m": Key("vector", "m", low=-1000.0, high=12000.0, size=2),
     "depth_jump_tolerance_m": Key("number", "m", high=10000.0, **_POSITIVE),
@@ -411,6 +423,13 @@ def _unknown_column_key(source: str, section: str, stream: str, key: str, choice
     hint = f"; did you mean '{where}.{close[0]}'?" if close else f"; {where} accepts {', '.join(choices)}"
     raise ConfigError(f"{source}: unknown key '{where}.{key}'{hint}")
 
+
+#: Keys the prepare step finds from the data unless a configuration gives them (``graphnav.calibration.preparation``):
+#: null in a file, as a dump of the defaults writes them, is not given. A SensorConfig's default 0 s and (1, 1, 1)
+#: were written as numbers and then read as given, which switched the estimates off for every later log.
+FOUND_WHEN_PREPARED = ("imu_axis_signs", "gt_time_offset_s", "dvl_time_offset_s")
+#: What a mission holds for each of them before it is prepared: nothing applied.
+NOTHING_APPLIED = {"imu_axis_signs": lambda: np.ones(3), "gt_time_offset_s": float, "dvl_time_offset_s": float}
 
 #: The sections of a configuration file and the dataclass each one fills.
 SECTIONS: dict[str, type] = {"imu": ImuSpec, "dvl": DvlSpec}
@@ -549,6 +568,8 @@ class ConfigOverrides:
                     if key not in SCHEMA:
                         raise ConfigError(f"{source}: unknown key '{key}'{_suggest(str(sub), name + '.')}")
                     values[key] = _check_value(key, SCHEMA[key], v, source)
+            elif name in FOUND_WHEN_PREPARED and value is None:
+                continue                # not given: found from the data
             elif name in SCHEMA:
                 values[name] = _check_value(name, SCHEMA[name], value, source)
                 if name in ("csv_columns", "bag_topics"):

@@ -593,6 +593,8 @@ class Mission:
     fixes: PositionFixData | None = None
 
     def __post_init__(self):
+        # what a configuration leaves to the data (None) is, in a mission, what has been applied: nothing yet
+        self.config = self.config.as_applied()
         self.validate()
 
     def validate(self) -> None:

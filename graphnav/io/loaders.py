@@ -95,7 +95,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graphnav.core.config import ConfigOverrides, ImuSpec, SensorConfig, read_config
+from graphnav.core.config import FOUND_WHEN_PREPARED, ConfigOverrides, ImuSpec, SensorConfig, read_config
 from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams, no_lock_pings
 from graphnav.core.earth import gravity_magnitude, lla_to_ned
 from graphnav.core.errors import ConfigError, DataError
@@ -653,7 +653,7 @@ def _rescale_akit_stamps(arrays: dict, files: dict, meta: dict) -> None:
 
 #: Keys of a configuration file that :func:`graphnav.calibration.preparation.prepare` applies (a mission read from an
 #: A-KIT folder keeps them in ``meta["prepare"]["given"]`` until then).
-PREPARE_KEYS = ("imu_axis_signs", "gt_time_offset_s", "dvl_time_offset_s")
+PREPARE_KEYS = FOUND_WHEN_PREPARED
 
 
 def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 0,

@@ -1,0 +1,119 @@
+"""A configuration survives a round trip: what graphnav writes (``SensorConfig.save``, a mission's configuration,
+``graphnav calibrate``) means the same when read back, and a dump of the defaults leaves to the data what the
+defaults leave to it (the IMU axes and the time offsets, null in the file)."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from graphnav.core.config import SensorConfig, read_config
+from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_mission(duration_s=120.0, seed=4)
+
+
+def _load(data, config=None):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_mission(data, config)
+
+
+def _streams(m) -> dict:
+    """Every array of every stream of ``m``, by stream and field."""
+    out = {}
+    for name in ("imu", "dvl", "gt", "depth"):
+        stream = getattr(m, name)
+        for f in dataclasses.fields(stream) if stream is not None else ():
+            value = getattr(stream, f.name)
+            if isinstance(value, np.ndarray):
+                out[f"{name}.{f.name}"] = value
+    return out
+
+
+def _same(a, b, meta=True, renamed=("", "")):
+    """``a`` and ``b`` hold the same streams and configuration (and ``meta``, the name ``renamed[0]`` read as
+    ``renamed[1]`` in ``b``'s: its notes name the configuration file)."""
+    sa, sb = _streams(a), _streams(b)
+    assert sa.keys() == sb.keys()
+    for key in sa:
+        np.testing.assert_array_equal(sa[key], sb[key], err_msg=key)
+    assert json.dumps(a.config.to_dict(), sort_keys=True) == json.dumps(b.config.to_dict(), sort_keys=True)
+    if meta:
+        text_b = json.dumps(b.meta, sort_keys=True, default=str).replace(*renamed)
+        assert json.dumps(a.meta, sort_keys=True, default=str) == text_b
+
+
+def _csv_log(tmp_path, m, late_s=0.0):
+    """``m`` as a column-map log, its reference stamped ``late_s`` late; the column map."""
+    from graphnav.core.rotations import C_b_n_to_euler
+
+    def write(name, header, columns):
+        rows = [",".join(header)] + [",".join(f"{x:.12g}" for x in row) for row in np.column_stack(columns)]
+        (tmp_path / name).write_text("\n".join(rows) + "\n")
+    write("imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [m.imu.t, m.imu.f_b, m.imu.omega_b])
+    write("dvl.csv", ["t", "vx", "vy", "vz"], [m.dvl.t, m.gt.v_b[np.searchsorted(m.gt.t, m.dvl.t)]])
+    write("gt.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+          [m.gt.t + late_s, m.gt.p_n, m.gt.v_n, C_b_n_to_euler(m.gt.C_b_n)])
+    return {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                    "frame": "frd"},
+            "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "auto"},
+            "gt": {"file": "gt.csv", "t": "t", "p_n": ["n", "e", "d"], "v_n": ["vn", "ve", "vd"],
+                   "euler": ["roll", "pitch", "yaw"], "angle_unit": "rad"}}
+
+
+def test_a_dump_of_the_defaults_leaves_the_offsets_and_axes_to_the_data(sim, tmp_path):
+    """``SensorConfig().save`` wrote the default 0 s offsets and (1, 1, 1) signs as numbers, read back as given: a
+    column-map log's late reference stayed 0.4 s late."""
+    dump = SensorConfig(csv_columns=_csv_log(tmp_path, sim, late_s=0.4))
+    dump.save(tmp_path / "dump.json")
+    written = json.loads((tmp_path / "dump.json").read_text())
+    assert written["gt_time_offset_s"] is None and written["imu_axis_signs"] is None
+    assert not read_config(tmp_path / "dump.json").sets("gt_time_offset_s")
+    m = _load(tmp_path, tmp_path / "dump.json")
+    np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=2e-3)
+    assert m.config.gt_time_offset_s == pytest.approx(-0.4, abs=2e-3)
+    # a value given in the file is still used as given
+    written["gt_time_offset_s"] = 0.0
+    (tmp_path / "given.json").write_text(json.dumps(written))
+    np.testing.assert_allclose(_load(tmp_path, tmp_path / "given.json").gt.t, sim.gt.t + 0.4, atol=1e-9)
+
+
+def test_a_dump_of_the_akit_defaults_loads_as_no_configuration(akit_dir, tmp_path):
+    """The A-KIT loader's defaults dumped and read back: the same mission as without a configuration (it was read
+    with 0 s offsets, the DVL 1 s off, and the IMU's y axis as the file has it)."""
+    from graphnav.io.loaders import akit_default_config
+    folder = akit_dir / "Trajectory1"
+    akit_default_config().save(tmp_path / "dump.json")
+    plain, dumped = _load(folder), _load(folder, tmp_path / "dump.json")
+    np.testing.assert_array_equal(dumped.config.imu_axis_signs, [1, -1, 1])
+    _same(plain, dumped, meta=False)            # the file's latitude and gravity are noted as replaced by the GT's
+
+
+@pytest.mark.parametrize("kind", ["akit", "csv", "bag"])
+def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir, tmp_path):
+    """A configuration read and written again by ``SensorConfig.save`` is the same file and loads the same mission;
+    a mission's configuration written back loads the same streams (its offsets and axes then given)."""
+    if kind == "akit":
+        data = akit_dir / "Trajectory1"
+        from graphnav.io.loaders import akit_default_config
+        first = akit_default_config()
+    elif kind == "csv":
+        data, first = tmp_path, SensorConfig(csv_columns=_csv_log(tmp_path, sim, late_s=0.4))
+    else:
+        from graphnav.io.bags import write_mission_bag
+        data, first = write_mission_bag(sim, tmp_path / "log.mcap"), SensorConfig(bag_topics={"depth": {}})
+    first.save(tmp_path / "c1.json")
+    SensorConfig.load(tmp_path / "c1.json").save(tmp_path / "c2.json")
+    assert (tmp_path / "c1.json").read_text() == (tmp_path / "c2.json").read_text()
+    m1, m2 = _load(data, tmp_path / "c1.json"), _load(data, tmp_path / "c2.json")
+    _same(m1, m2, renamed=("c2.json", "c1.json"))
+    m1.config.save(tmp_path / "own.json")
+    _same(m1, _load(data, tmp_path / "own.json"), meta=False)
