@@ -3,6 +3,7 @@ cells, body-velocity-only DVLs, and errors naming file, line and column."""
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
 import warnings
 
@@ -12,6 +13,8 @@ import pytest
 from graphnav import cli
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.commands.common import print_summary
+from graphnav.io.units import DEGREES_BY_TURN_DOUBT, GYRO_SMALL_DOUBT
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
@@ -676,6 +679,20 @@ def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0
     return root / "config.json"
 
 
+def test_a_column_map_dvl_in_an_unknown_unit_is_refused_naming_its_columns_and_the_key(tmp_path):
+    """A column map's DVL in cm/s was refused naming 'v_b/v_d' (no column of the file) and advising "declare the
+    velocity unit" (no key of the map): now its columns and csv_columns.dvl.velocity_unit."""
+    cfg = _hover_with_reference(tmp_path)
+    dvl = np.loadtxt(tmp_path / "dvl.csv", delimiter=",", skiprows=1)
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [dvl[:, 0], dvl[:, 1:] * 100])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"cm/s \(0\.\d+ m/s\) or mm/s \(0\.0\d+ m/s\)\? declare "
+                                            r"csv_columns\.dvl\.velocity_unit \(m/s, cm/s, mm/s, kn\)$") as err:
+            load_mission(tmp_path, cfg)
+    assert err.value.source == str(tmp_path / "dvl.csv") and err.value.field == "vx/vy/vz"
+
+
 def _imu_notes(m):
     return " | ".join(m.meta["streams"]["imu"]["notes"])
 
@@ -726,18 +743,40 @@ def test_a_clean_hovering_log_in_degrees_with_its_imu_tilted_is_not_refused(tmp_
     """A level vehicle (roll/pitch 0.03/0.06 deg) whose IMU is mounted pitched 3-5 deg, its reference in degrees: the
     accelerometer's tilt holds the mounting tilt, the degree numbers lie within 3x of it, and the reference was taken
     for radians, its turn 56x the gyro's, and a good gyro refused. A yaw of 40 cannot be radians (but for an unwrapped
-    one): the tilt no longer settles the unit, and the gyro is left unjudged with its note. A trimmed vehicle in
-    degrees and a level one in radians load as before."""
+    one): the tilt no longer settles the unit, and the gyro is left unjudged with its note. Its attitude was then kept
+    as radians (roll/pitch/yaw 1.7/3.3/138 deg against 0.03/0.06/40): read as degrees it turns with the gyro, and is
+    taken so. A trimmed vehicle in degrees and a level one in radians load as before."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = load_mission(tmp_path, _hover_with_reference(tmp_path, trim=trim, mount_pitch=mount_pitch, deg=deg))
     assert ("judged against the reference" in _imu_notes(m)) == judged
     assert ("the gyro's scale is not judged" in _imu_notes(m)) != judged
-    if deg and judged:
-        np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n)[:, 2].mean(), 0.7, atol=1e-3)
+    np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n).mean(axis=0), [*trim, 0.7], atol=1e-3)
 
 
-def test_a_clean_log_in_degrees_heading_north_is_warned_about_not_refused(tmp_path):
+def test_an_unwrapped_yaw_in_radians_with_a_gyro_57_times_too_small_is_read_as_degrees_with_a_counted_warning(
+        tmp_path):
+    """A damaged log (its yaw unwrapped to 7 rad, its gyro divided by 57.3) gives the numbers of a clean log in degrees
+    whose IMU is mounted tilted: it loaded with notes only. Read as degrees it turns with the gyro, so it is taken so,
+    with a warning naming the other reading and asking for angle_unit, counted as doubted; declared 'rad', refused."""
+    cfg = _hover_with_reference(tmp_path, np.pi / 180, yaw=7.0)
+    with pytest.warns(RuntimeWarning, match=r"nav.csv: attitude columns 'roll', 'pitch', 'yaw' read as degrees .* "
+                                            r"turns 0\.9\d+x as fast as the gyro .* an unwrapped yaw in radians with a "
+                                            r"gyro 57.3x too small .* declare the reference's angle_unit"):
+        m = load_mission(tmp_path, cfg)
+    np.testing.assert_allclose(C_b_n_to_euler(m.gt.C_b_n).mean(axis=0), np.radians([0.02, 0.05, 7.0]), atol=1e-4)
+    assert m.meta["streams"]["gt"]["doubted"] == {DEGREES_BY_TURN_DOUBT: len(m.gt.t)}
+    config = json.loads(cfg.read_text())
+    config["csv_columns"]["gt"]["angle_unit"] = "rad"
+    cfg.write_text(json.dumps(config))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"too small for rad/s") as err:
+            load_mission(tmp_path, cfg)
+    assert err.value.field == "gx/gy/gz"
+
+
+def test_a_clean_log_in_degrees_heading_north_is_warned_about_not_refused(tmp_path, capsys):
     """Heading within 6.3 deg of north, the same level vehicle and tilted IMU cannot be told from radians and a gyro
     57.3x too small: a warning says both (it was a refusal of a clean log), the rates read as they are, and declaring
     the reference's angle_unit loads it without the warning (the gyro then unjudged: its level roll and pitch cannot
@@ -747,6 +786,16 @@ def test_a_clean_log_in_degrees_heading_north_is_warned_about_not_refused(tmp_pa
         m = load_mission(tmp_path, cfg)
     raw = np.loadtxt(tmp_path / "imu.csv", delimiter=",", skiprows=1)[:, 4:7]
     np.testing.assert_allclose(np.median(np.abs(m.imu.omega_b)), np.median(np.abs(raw)), rtol=1e-6)
+    # read despite the doubt: counted where a user scanning summary.json or `graphnav info` looks
+    assert m.meta["streams"]["imu"]["doubted"] == {GYRO_SMALL_DOUBT: len(raw)}
+    capsys.readouterr()
+    assert cli.main(["info", str(tmp_path), "--config", str(cfg)]) == 0
+    assert f"imu: {len(raw)} read despite a doubt: {GYRO_SMALL_DOUBT}" in capsys.readouterr().out
+    out = io.StringIO()
+    print_summary({"method": "smooth", "mission": "m", "epochs": 1, "duration_s": 1.0, "runtime_s": 1.0,
+                   "realtime_factor": 1.0, "streams": m.meta["streams"]}, file=out)
+    assert f"read despite a doubt (stream: reason: count): {{'imu': {{'{GYRO_SMALL_DOUBT}': {len(raw)}}}}}" \
+        in out.getvalue()
     config = json.loads(cfg.read_text())
     config["csv_columns"]["gt"]["angle_unit"] = "deg"
     cfg.write_text(json.dumps(config))

@@ -248,3 +248,21 @@ def test_without_a_gt_an_axis_correction_says_x_was_taken_forward(sim, tmp_path)
                                    frame="auto", gt=False))
     assert [s for s in said if "multiplied by them" in s and "x taken forward, an assumption" in s
             and "pitched 180 deg, x aft and z up, needs (-1, 1, -1)" in s], said
+
+
+def test_the_dvl_noise_estimate_skips_second_differences_across_dropped_pings():
+    """The floor's noise estimate took second differences across gaps, where the velocity has also changed: half the
+    pings of a slowly turning DVL dropped read as several times the noise. Now only consecutive pings count."""
+    from types import SimpleNamespace
+
+    from graphnav.calibration.dvl_scale import velocity_change_rms
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 400.0, 1.0)
+    v = np.column_stack([np.sin(t / 5.0), np.cos(t / 7.0), 0 * t]) + rng.normal(0, 0.01, (t.size, 3))
+    keep = rng.random(t.size) < 0.5
+
+    def noise(tt, vv):
+        n = len(tt) // 10 * 10
+        return velocity_change_rms(SimpleNamespace(t=tt[:n].reshape(-1, 10), v=vv[:n].reshape(-1, 10, 3)))[1]
+    full, dropped = noise(t, v), noise(t[keep], v[keep])
+    assert 0.005 < full < 0.02 and 0.5 < dropped / full < 1.5

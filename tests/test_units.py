@@ -175,6 +175,9 @@ def test_refusals_name_the_field():
         imu_units(t, f, np.degrees(w * 100), "imu.csv", declared={"gyro": "rad/s"})
     with pytest.raises(DataError, match="declare the velocity unit"):
         dvl_speed_scale(None, np.full((10, 3), 30.0), "dvl.csv")
+    # the advice ends the message once, with no example bolted on after an A-KIT fix's own brackets
+    with pytest.raises(DataError, match=r"moving vehicle \(500-10000\): declare the velocity unit$"):
+        dvl_speed_scale(None, np.full((10, 3), 3e4), "dvl.csv")
 
 
 def test_stream_reader_converts_declared_units_and_refuses_implausible_samples():

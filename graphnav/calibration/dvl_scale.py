@@ -70,11 +70,30 @@ MIN_CHANGE_OVER_NOISE = 3.0
 def velocity_change_rms(model) -> tuple[float, float]:
     """``(change, noise)``: how much the DVL velocity of the clock model ``model`` changes within its windows (the
     RMS of the body-frame velocity about each window's mean, m/s) and its noise as the pings show it (the RMS of
-    their second differences over sqrt(6), white noise's; m/s), at least 1e-9 m/s (float rounding)."""
+    their second differences over sqrt(6), white noise's; m/s), at least 1e-9 m/s (float rounding). The second
+    differences are taken over consecutive pings at the nominal period only (:func:`consecutive_triples`): across a
+    gap the velocity has changed too, and half the pings dropped doubled the noise on Trajectory1."""
     v = model.v
     change = float(np.sqrt(np.mean((v - v.mean(axis=1, keepdims=True)) ** 2)))
-    noise = float(np.sqrt(np.mean(np.diff(v, 2, axis=1) ** 2) / 6.0))
+    d2 = np.diff(v, 2, axis=1)
+    ok = consecutive_triples(model.t)
+    noise = float(np.sqrt(np.mean((d2[ok] if ok.any() else d2) ** 2) / 6.0))
     return change, max(noise, 1e-9)
+
+
+#: Pings whose step is within this factor of the nominal period are consecutive (stamp jitter, not a dropped ping).
+CONSECUTIVE_STEP_FACTOR = 1.5
+
+
+def consecutive_triples(t: np.ndarray) -> np.ndarray:
+    """(W, n-2) bool: which second differences of pings stamped ``t`` (W, n) s (windows of n) join three consecutive
+    pings, both steps within :data:`CONSECUTIVE_STEP_FACTOR` of the nominal period (the 10th percentile of the steps:
+    the median of a log with most pings dropped is a multiple of it)."""
+    dt = np.diff(np.asarray(t, float), axis=1)
+    if not dt.size:
+        return np.zeros((len(t), 0), bool)
+    short = dt <= CONSECUTIVE_STEP_FACTOR * np.percentile(dt, 10)
+    return short[:, :-1] & short[:, 1:]
 
 
 def judging_model(imu, dvl, config, **kwargs):

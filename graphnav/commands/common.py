@@ -320,6 +320,9 @@ def print_summary(summary: dict, file=None) -> None:
     at_load = {k: v["refused"] for k, v in streams.items() if v.get("refused")}
     if at_load:
         out(f"  refused at load (stream: reason: count): {at_load}")
+    doubted = {k: v["doubted"] for k, v in streams.items() if v.get("doubted")}
+    if doubted:
+        out(f"  read despite a doubt (stream: reason: count): {doubted}")
     for stream, entry in streams.items():
         for note in entry.get("notes", []):
             out(f"  {stream}: {note}")

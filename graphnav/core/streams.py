@@ -4,9 +4,10 @@ It lives in ``Mission.meta["streams"]`` (and from there in ``summary.json`` and 
 
     {"dvl": {"source": "log.pd0", "read": 400, "used": 380, "refused": {"no bottom lock": 20},
              "rate_hz": 1.0, "span_s": [t0, t1], "notes": ["stamps: header stamps were zero; receive time used"]},
-     "imu": {...}}
+     "imu": {..., "doubted": {"gyro rates read as they are, though they look 57.3x too small": 15000}}}
 
-Nothing a loader drops leaves without a count and a reason here.
+Nothing a loader drops leaves without a count and a reason here, and nothing it reads despite a doubt either
+(``doubted``, present only when a sample was: used, yet a user should look at them before trusting a result).
 """
 from __future__ import annotations
 
@@ -50,6 +51,16 @@ def count_refused(meta: dict, stream: str, reason: str, n: int) -> dict:
     if n:
         entry["refused"][reason] = entry["refused"].get(reason, 0) + int(n)
         entry["used"] = max(0, entry["used"] - int(n))
+    return entry
+
+
+def count_doubted(meta: dict, stream: str, reason: str, n: int) -> dict:
+    """Record ``n`` samples of ``stream`` read and used despite a doubt ``reason`` (a unit the evidence cannot settle,
+    taken with a warning); they stay counted as used."""
+    entry = stream_entry(meta, stream)
+    if n:
+        doubted = entry.setdefault("doubted", {})
+        doubted[reason] = doubted.get(reason, 0) + int(n)
     return entry
 
 

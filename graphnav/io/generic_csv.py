@@ -213,6 +213,13 @@ def _names(spec: dict, key: str, n: int, stream: str, required: bool = True) -> 
     return cols
 
 
+def _unit_named(spec: dict, key: str) -> dict:
+    """The DVL columns of ``spec[key]`` and the key a unit error tells a user to declare
+    (:func:`graphnav.io.units.dvl_velocity_units`)."""
+    return {"columns": "/".join(_names(spec, key, {"v_b": 3, "beams": 4}[key], "dvl")),
+            "fix": f"declare csv_columns.dvl.velocity_unit ({', '.join(VELOCITY_UNITS)})"}
+
+
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
           time_unit: str | None, tables: dict, meta: dict, repair: bool = False) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
@@ -337,7 +344,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if "v_b" in v:
             # a zero tells nothing of the unit: hidden from its detection, and 0 in any unit after it
             v_b = dvl_velocity_units(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
-                                     vdeclared)
+                                     vdeclared, **_unit_named(spec, "v_b"))
             v_b[zero] = 0.0
             no_lock = no_lock_pings(t_dvl, config.dvl, off > on, v=v_b)
             # the flags are per beam: a velocity needs three valid beams
@@ -347,7 +354,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         if "beams" in v:
             raw = v["beams"]
             if vdeclared is None:
-                raw = dvl_velocity_units(raw, str(path), meta, None, beams=True)   # m/s (mm/s detected)
+                raw = dvl_velocity_units(raw, str(path), meta, None, beams=True,   # m/s (mm/s detected)
+                                         **_unit_named(spec, "beams"))
             flag = np.isin(raw, (-32768.0, -32.768))
             beams = np.where(flag, -32.768, raw * vscale)
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)

@@ -455,6 +455,8 @@ def format_description(d: dict) -> str:
             for reason, n in (e.get("refused") or {}).items():
                 if n:
                     lines.append(f"  {name}: {n} refused: {reason}")
+            for reason, n in (e.get("doubted") or {}).items():
+                lines.append(f"  {name}: {n} read despite a doubt: {reason}")
             for note in e.get("notes") or []:
                 lines.append(f"  {name}: {note}")
     if d.get("warnings"):

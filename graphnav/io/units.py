@@ -41,7 +41,8 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
 * **Reference (ground truth).** The A-KIT GT file and a column map's ``gt`` entry (:func:`reference_attitude_units`,
   :func:`reference_latlon_units`, :func:`reference_depth`, :func:`check_reference_displacement`). Angles in degrees
   are certain beyond the radian range (a roll beyond pi, a pitch beyond pi/2, a latitude beyond pi/2, a longitude
-  beyond 2 pi; a yaw beyond 2 pi alone is an unwrapped one) and, inside it, told by rates:
+  beyond 2 pi; a yaw beyond 2 pi alone is an unwrapped one unless, read as degrees, it turns with the gyro) and,
+  inside it, told by rates:
   the attitude's turn rate over the gyro's (:func:`attitude_rate_ratio`) and the positions' displacement over the
   reference's own velocity's (:func:`displacement_ratio`) are 0.95-1.03 and 0.975-1.007 on the ten, 23-56 and
   28-57 with the same files in degrees; :data:`DEG_RATE_RATIO` (7.6, the geometric middle of 1 and 57.3) splits
@@ -69,7 +70,7 @@ import numpy as np
 
 from graphnav.core.errors import DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DvlData, Mission, rdi_flagged
-from graphnav.core.streams import add_note
+from graphnav.core.streams import add_note, count_doubted
 from graphnav.core.timeseries import interp_rows
 
 STANDARD_GRAVITY = 9.80665
@@ -345,21 +346,23 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
                         f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? {fix}",
                         source, field=field)
     raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
-                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}); {fix} (e.g. from cm/s)",
-                    source, field=field)
+                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source, field=field)
 
 
 def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
-                       beams: bool = False, **named) -> np.ndarray:
+                       beams: bool = False, columns: str | None = None, fix: str = DECLARE_UNIT_FIX) -> np.ndarray:
     """DVL values as read (beams (M,4) when ``beams``, else a velocity (M,3)) in m/s: mm/s detected and
-    converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768. ``named``: the
-    velocity's ``columns`` and the ``fix`` a DataError advises (:func:`dvl_speed_scale`)."""
-    scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, **named)
+    converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768. ``columns``: the
+    values' columns in ``source`` (a DataError names them), ``fix``: what a DataError advises
+    (:func:`dvl_speed_scale`)."""
+    field = columns or ("beams" if beams else "v_b/v_d")
+    scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, field=field,
+                                 columns=field, fix=fix)
     if scale == 1.0:
         return values
     if declared is not None:
         raise DataError(f"median DVL speed {med:.4g} m/s after the declared unit {declared!r}: the data look "
-                        "like mm/s", source, field="beams" if beams else "v_b")
+                        "like mm/s", source, field=columns or ("beams" if beams else "v_b"))
     _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s", source)
     return np.asarray(values, float) * scale
 
@@ -618,6 +621,7 @@ def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, m
                            f"read as they are (field {field}). Rates converted from deg/s twice, or divided by 57.3? "
                            "Declare the reference's angle_unit: 'rad' refuses such rates, 'deg' reads the log as it "
                            "is", source)
+        count_doubted(meta, "imu", GYRO_SMALL_DOUBT, len(omega_b))
         return omega_b
     if k > 1:
         gyro_too_small(fit, source, declared, field)
@@ -665,7 +669,9 @@ def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | 
         return euler                    # radians (a yaw beyond 2 pi is an unwrapped one)
     if not (tilt_beyond or np.isfinite(ratio)):
         if peak[2] > 2 * np.pi:
-            # an unwrapped yaw in radians or a yaw in degrees: only the gyro or the roll/pitch could tell
+            # an unwrapped yaw in radians or a yaw in degrees: the turn, interval by interval, may still tell
+            if _degrees_turn_with_gyro(t, euler, t_imu, omega_b, source, fields, meta, extent):
+                return np.radians(euler)
             _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians: {extent} (an unwrapped yaw "
                   "in radians, or degrees?); the gyro turns too little to tell and roll/pitch are inside the "
                   "radian range", source)
@@ -683,6 +689,33 @@ def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | 
             return euler
     _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {why}", source)
     return np.radians(euler)
+
+
+#: Why gyro rates that look 57.3x too small, read as they are, are counted as doubted (``meta["streams"]["imu"]``).
+GYRO_SMALL_DOUBT = "gyro rates read as they are, though they look 57.3x too small for rad/s"
+#: Why a reference read as degrees by its turn alone is counted as doubted (``meta["streams"]["gt"]["doubted"]``).
+DEGREES_BY_TURN_DOUBT = "attitude read as degrees by its turn alone (or an unwrapped yaw in radians?)"
+
+
+def _degrees_turn_with_gyro(t, euler, t_imu, omega_b, source: str, fields, meta: dict | None, extent: str) -> bool:
+    """Whether a reference attitude ``euler`` (K,3, as read, at ``t`` s) whose yaw alone lies beyond radians turns,
+    read as degrees, with the gyro (``omega_b`` rad/s at ``t_imu`` s; :func:`reference_turn_fit`: the ratio within
+    :data:`DEG_CONFIRM_RATIO` of 1, the two rates correlated at least :data:`GYRO_TILT_MIN_CORRELATION`), when the gyro
+    turns too little for the median rates to tell (a hovering vehicle). Then a warning naming the other reading the
+    same numbers allow (an unwrapped yaw in radians with a gyro 57.3x too small), a note and a count
+    (:data:`DEGREES_BY_TURN_DOUBT`)."""
+    if t_imu is None or omega_b is None:
+        return False
+    ratio, _, r = reference_turn_fit(t, np.radians(euler), t_imu, omega_b)
+    if not (r >= GYRO_TILT_MIN_CORRELATION and 1 / DEG_CONFIRM_RATIO < ratio < DEG_CONFIRM_RATIO):
+        return False
+    _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {extent}, and "
+          f"read as degrees the attitude turns {ratio:.3g}x as fast as the gyro (1 in the right unit; correlation "
+          f"{r:.2f}). The same numbers come from an unwrapped yaw in radians with a gyro 57.3x too small (rad/s "
+          "divided by 57.3): declare the reference's angle_unit", source)
+    if meta is not None:
+        count_doubted(meta, "gt", DEGREES_BY_TURN_DOUBT, len(euler))
+    return True
 
 
 #: A reference's roll and pitch are compared with the accelerometer's tilt (:func:`reference_tilt_unit`) only when
