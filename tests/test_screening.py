@@ -685,6 +685,44 @@ def test_a_keyframer_fed_burst_stamps_sees_no_gaps_even_before_it_has_measured_t
         assert len([w for w in caught if "bridged" in str(w.message)]) == len(gaps)
 
 
+def test_a_stream_starting_with_one_burst_keeps_its_rate_and_bridges_a_later_gap_at_it(mission):
+    """A driver's buffer emptied at the start (50 samples 0.1 ms apart, then 100 Hz): the keyframer measured its
+    period from the burst (``imu: runs at 1e+04 Hz``) and bridged a later 1 s gap with 10000 samples; the spike test
+    read 10 kHz (a 1000-row, 10 s window). The burst is left out of both, warned with its count and span, counted."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    imu = [i for i, e in enumerate(events) if e[0] == "imu"]
+    t_end = events[imu[49]][1]
+    for k in range(49):
+        events[imu[k]] = ("imu", t_end - (49 - k) * 1e-4, events[imu[k]][2])
+    events = [e for e in events if not (e[0] == "imu" and 40.0 < e[1] < 41.0)]
+    nav = _navigator(m)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _feed(nav, events)
+    said = [str(w.message) for w in caught]
+    assert not [w for w in said if "runs at" in w]
+    assert [w for w in said if f"starts with a burst of 50 samples within 4.9 ms (t = {t_end - 49e-4:.4f} to "
+            f"{t_end:.4f} s" in w]
+    assert [w for w in said if "gap of 1.000 s after t = 40.000 s bridged by linear interpolation (99 samples)" in w]
+    assert nav.info["imu_start_burst"] == 50 and nav.keyframer.imu_period.period_s == pytest.approx(0.01)
+    assert nav._screen._imu_spike.rate_hz == pytest.approx(100.0) and nav._screen._imu_spike.n == 10
+
+
+def test_an_imu_ten_times_faster_than_configured_is_no_burst_at_its_start():
+    """Steps under a tenth of the configured period for as long as 16 configured periods are the IMU's own rate: a
+    2 kHz IMU configured at 100 Hz is measured at 2 kHz (from its first 16 steps), no burst is said."""
+    from graphnav.estimators.keyframes import Keyframer
+    keyframer = Keyframer(SensorConfig())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t in np.arange(1000) * 5e-4:
+            keyframer.add_imu(float(t), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    said = [str(w.message) for w in caught]
+    assert [w for w in said if "runs at 2000 Hz (from its first 16 steps" in w] and not [w for w in said if "burst" in w]
+    assert keyframer.imu_period.start_burst is None and not keyframer.stats.imu_gaps
+
+
 def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a_hovering_vehicle():
     """One rule for a ping logged as exactly 0 on every axis: a hovering vehicle's 1 mm/s noise at 1 mm/s resolution
     rounds 6 % of its pings to zero (kept); the same zeros in a log written at full precision are a driver's no-lock

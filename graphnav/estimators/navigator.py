@@ -433,6 +433,7 @@ class Navigator:
                 "received": dict(self.received), "samples_refused": dict(self.samples_refused),
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
+                "imu_start_burst": (self.keyframer.imu_period.start_burst or (0,))[0],
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
                 "pings_after_end": stats.pings_after_end, "regressed_pings": stats.regressed_pings,
                 "regressed_beams": stats.regressed_beams, "velocity_pings": stats.velocity_pings,
