@@ -769,6 +769,61 @@ def test_a_block_of_zero_pings_is_no_lock_whatever_the_resolution_and_a_replay_t
     assert set(Navigator(config)._screen.zero_ping) == {"dvl", "dvl_velocity"}
 
 
+def _held_verdicts(test, t, v):
+    """What a stream that holds each zero ping until the next ping decides (ZeroPingTest.judge) refuses: (M,) bool."""
+    out, held = np.zeros(len(t), bool), []
+    for i, (ti, vi) in enumerate(zip(t, v)):
+        verdict, run = test.judge(ti, vi)
+        if run is not None:
+            out[held], held = run, []
+        if verdict is None:
+            held.append(i)
+        out[i] = bool(verdict)
+    return out      # the pings still held at the end are kept, as a file's last run with no ping after it
+
+
+def test_a_stream_holding_a_zero_ping_for_one_ping_decides_as_the_loaders_do():
+    """The stream kept the first two zero pings of a run of three (a 0.5 Hz log under way, the loaders refuse the
+    whole run) and two zero pings at its start before pings at 2.5 m/s (the loaders see the speed after them).
+    Holding each zero ping until the next ping says whether its run is no lock, it refuses what no_bottom_lock
+    refuses; a hovering vehicle's zeros are still kept."""
+    from graphnav.core.screening import ZeroPingTest, no_bottom_lock
+    spec = SensorConfig().dvl
+    rng = np.random.default_rng(2)
+    t = np.arange(100) * 2.0
+    under_way = np.round(np.column_stack([2.5 + rng.normal(0, 0.01, 100), rng.normal(0, 0.01, (100, 2))]), 3)
+    block = under_way.copy()
+    block[30:45] = 0.0
+    start = under_way.copy()
+    start[:2] = 0.0
+    hover = np.round(rng.normal(0, 0.001, (100, 3)), 3)
+    hover[[10, 11, 50]] = 0.0
+    for name, v in (("block", block), ("start", start), ("hover", hover)):
+        batch = no_bottom_lock(t, v, np.linalg.norm(v, axis=1), spec)
+        assert batch.sum() == {"block": 15, "start": 2, "hover": 0}[name]
+        np.testing.assert_array_equal(_held_verdicts(ZeroPingTest(spec, np.linalg.norm), t, v), batch, name)
+
+
+def test_a_navigator_refuses_a_whole_run_of_zero_pings_holding_them_one_ping(mission):
+    """A 1 mm/s log with a run of three zero pings where the vehicle could have stopped (max_accel_mps2 5): the
+    loaders refuse the run (three or more), the stream refused the third only and used the first two as a vehicle
+    at rest. It holds a zero ping until the next ping (one ping of latency): all three are refused; an isolated zero
+    ping is held and kept."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    m = mission.slice(0, 60)
+    m.config.dvl.max_accel_mps2 = 5.0
+    events = [(k, t, ((tuple(np.round(p[0], 3)), p[1]) if k == "dvl" else p)) for k, t, p in replay(m)]
+    dvl = [i for i, e in enumerate(events) if e[0] == "dvl" and e[1] > 20.0]
+    for i in dvl[:3] + dvl[10:11]:
+        events[i] = ("dvl", events[i][1], ((0.0, 0.0, 0.0, 0.0), (True,) * 4))
+    nav = _navigator(m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        estimates = _feed(nav, events)
+    assert nav.info["refused"] == {"dvl": {NO_BOTTOM_LOCK: 3}}
+    assert len(estimates) == nav.n_estimates and [e.t for e in estimates] == sorted(e.t for e in estimates)
+
+
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):
     """The Navigator (``online --stream``) refuses DVL pings whose beams are all exactly 0 after pings of a vehicle
     under way, counted under the loaders' reason (it used them as a vehicle standing still)."""

@@ -658,6 +658,9 @@ ZERO_SPEED_MARGIN_MPS = 0.1
 #: in 5000 pings), while a driver's no-lock filler comes in blocks (a vehicle under way at 0.5 Hz, or a glider at
 #: 0.25 m/s, is slower than what the speed rule can tell from one ping interval).
 ZERO_RUN_PINGS = 3
+#: A stream holds a zero ping for the ping after it (which tells a run, or the speed after it) at most this many of
+#: its intervals between pings: a DVL silent for longer leaves it as the past judged it (kept).
+ZERO_HOLD_INTERVALS = 2.0
 
 
 def on_resolution_grid(values) -> tuple[int, int]:
@@ -1059,10 +1062,11 @@ class ImuSpikeTest:
 
 
 class ZeroPingTest:
-    """:func:`zeros_without_lock` on a stream, past pings only: the resolution from the values seen so far, the speed
-    (``speed_of`` its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings
-    judged as :func:`no_bottom_lock` judges a file's without the pings after the run: again at each ping until it
-    is no lock (its length can decide), then for the rest of the run."""
+    """:func:`zeros_without_lock` on a stream: the resolution from the values seen so far, the speed (``speed_of``
+    its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings judged as
+    :func:`no_bottom_lock` judges a file's: at each ping of the run (its length can decide: a third refuses the run's
+    first two too), and, when the run is still kept, by the next ping that is not all zeros (the speed after the
+    run). :meth:`judge` holds a zero ping until that ping comes; :meth:`is_no_lock` tells the past alone."""
 
     def __init__(self, spec: DvlSpec, speed_of):
         self.spec, self.speed_of = spec, speed_of
@@ -1070,22 +1074,51 @@ class ZeroPingTest:
         self._last: tuple[float, float] | None = None       # (speed m/s, stamp s)
         self._verdict: bool | None = None        # the current run's
         self._run = 0                            # zero pings in the current run
+        self._t_run = math.nan                   # stamp of the run's newest ping, s
+        self._t_ping = math.nan                  # stamp of the newest ping, s
+        self._interval = 1.0 / spec.rate_hz      # between the two newest pings, s
 
     def is_no_lock(self, t: float, values) -> bool:
         """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
-        bottom lock; any other ping joins the history."""
+        bottom lock from the pings up to it; any other ping joins the history."""
+        return bool(self.judge(t, values)[0])
+
+    def judge(self, t: float, values) -> tuple[bool | None, bool | None]:
+        """(this ping, the run before it) for the ping at ``t`` s (``values`` as logged, NaN where not a
+        measurement): this ping is a zero ping without bottom lock (True), a ping to use (False), or a zero ping the
+        next ping decides (None: hold it); the zero pings held before it are no lock (True), to use (False), or still
+        held (None: none, or this ping is one more zero). Any ping that is not all zeros joins the history."""
         values = np.asarray(values, float)
+        if t > self._t_ping:
+            self._interval = t - self._t_ping
+        self._t_ping = t
         if not zero_pings(values[None])[0]:
+            held = None
+            if self._run and not self._verdict:         # the run's pings were held: the speed after it decides
+                speed = float(self.speed_of(values))
+                after = (speed, t - self._t_run) if math.isfinite(speed) else None
+                held = zeros_without_lock(self.off > self.on, self._before(self._t_run), after, self.spec, self._run)
             on, off = on_resolution_grid(values)
             self.on, self.off, self._verdict, self._run = self.on + on, self.off + off, None, 0
             speed = float(self.speed_of(values))
             self._last = (speed, t) if math.isfinite(speed) else self._last
-            return False
+            return False, held
         self._run += 1
-        if not self._verdict:           # judged again while the run grows: its length can decide (the first kept)
-            before = None if self._last is None else (self._last[0], t - self._last[1])
-            self._verdict = zeros_without_lock(self.off > self.on, before, None, self.spec, self._run)
-        return self._verdict
+        self._t_run = t
+        if self._verdict:
+            return True, None
+        self._verdict = zeros_without_lock(self.off > self.on, self._before(t), None, self.spec, self._run)
+        return (True, True if self._run > 1 else None) if self._verdict else (None, None)
+
+    def _before(self, t: float) -> tuple[float, float] | None:
+        return None if self._last is None else (self._last[0], t - self._last[1])
+
+    @property
+    def hold_s(self) -> float:
+        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's last
+        interval between pings (of ``DvlSpec.rate_hz``'s period before it has one); a stream silent for longer
+        (an outage) leaves the run kept, as the past says."""
+        return ZERO_HOLD_INTERVALS * self._interval
 
 
 @dataclass
