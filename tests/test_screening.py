@@ -685,6 +685,44 @@ def test_a_keyframer_fed_burst_stamps_sees_no_gaps_even_before_it_has_measured_t
         assert len([w for w in caught if "bridged" in str(w.message)]) == len(gaps)
 
 
+def test_a_stream_starting_with_one_burst_keeps_its_rate_and_bridges_a_later_gap_at_it(mission):
+    """A driver's buffer emptied at the start (50 samples 0.1 ms apart, then 100 Hz): the keyframer measured its
+    period from the burst (``imu: runs at 1e+04 Hz``) and bridged a later 1 s gap with 10000 samples; the spike test
+    read 10 kHz (a 1000-row, 10 s window). The burst is left out of both, warned with its count and span, counted."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    imu = [i for i, e in enumerate(events) if e[0] == "imu"]
+    t_end = events[imu[49]][1]
+    for k in range(49):
+        events[imu[k]] = ("imu", t_end - (49 - k) * 1e-4, events[imu[k]][2])
+    events = [e for e in events if not (e[0] == "imu" and 40.0 < e[1] < 41.0)]
+    nav = _navigator(m)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _feed(nav, events)
+    said = [str(w.message) for w in caught]
+    assert not [w for w in said if "runs at" in w]
+    assert [w for w in said if f"starts with a burst of 50 samples within 4.9 ms (t = {t_end - 49e-4:.4f} to "
+            f"{t_end:.4f} s" in w]
+    assert [w for w in said if "gap of 1.000 s after t = 40.000 s bridged by linear interpolation (99 samples)" in w]
+    assert nav.info["imu_start_burst"] == 50 and nav.keyframer.imu_period.period_s == pytest.approx(0.01)
+    assert nav._screen._imu_spike.rate_hz == pytest.approx(100.0) and nav._screen._imu_spike.n == 10
+
+
+def test_an_imu_ten_times_faster_than_configured_is_no_burst_at_its_start():
+    """Steps under a tenth of the configured period for as long as 16 configured periods are the IMU's own rate: a
+    2 kHz IMU configured at 100 Hz is measured at 2 kHz (from its first 16 steps), no burst is said."""
+    from graphnav.estimators.keyframes import Keyframer
+    keyframer = Keyframer(SensorConfig())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t in np.arange(1000) * 5e-4:
+            keyframer.add_imu(float(t), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    said = [str(w.message) for w in caught]
+    assert [w for w in said if "runs at 2000 Hz (from its first 16 steps" in w] and not [w for w in said if "burst" in w]
+    assert keyframer.imu_period.start_burst is None and not keyframer.stats.imu_gaps
+
+
 def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a_hovering_vehicle():
     """One rule for a ping logged as exactly 0 on every axis: a hovering vehicle's 1 mm/s noise at 1 mm/s resolution
     rounds 6 % of its pings to zero (kept); the same zeros in a log written at full precision are a driver's no-lock
@@ -729,6 +767,61 @@ def test_a_block_of_zero_pings_is_no_lock_whatever_the_resolution_and_a_replay_t
     config = SensorConfig()
     assert Navigator(config, options=NavigatorOptions(dvl_zeros_judged=True))._screen.zero_ping == {}
     assert set(Navigator(config)._screen.zero_ping) == {"dvl", "dvl_velocity"}
+
+
+def _held_verdicts(test, t, v):
+    """What a stream that holds each zero ping until the next ping decides (ZeroPingTest.judge) refuses: (M,) bool."""
+    out, held = np.zeros(len(t), bool), []
+    for i, (ti, vi) in enumerate(zip(t, v)):
+        verdict, run = test.judge(ti, vi)
+        if run is not None:
+            out[held], held = run, []
+        if verdict is None:
+            held.append(i)
+        out[i] = bool(verdict)
+    return out      # the pings still held at the end are kept, as a file's last run with no ping after it
+
+
+def test_a_stream_holding_a_zero_ping_for_one_ping_decides_as_the_loaders_do():
+    """The stream kept the first two zero pings of a run of three (a 0.5 Hz log under way, the loaders refuse the
+    whole run) and two zero pings at its start before pings at 2.5 m/s (the loaders see the speed after them).
+    Holding each zero ping until the next ping says whether its run is no lock, it refuses what no_bottom_lock
+    refuses; a hovering vehicle's zeros are still kept."""
+    from graphnav.core.screening import ZeroPingTest, no_bottom_lock
+    spec = SensorConfig().dvl
+    rng = np.random.default_rng(2)
+    t = np.arange(100) * 2.0
+    under_way = np.round(np.column_stack([2.5 + rng.normal(0, 0.01, 100), rng.normal(0, 0.01, (100, 2))]), 3)
+    block = under_way.copy()
+    block[30:45] = 0.0
+    start = under_way.copy()
+    start[:2] = 0.0
+    hover = np.round(rng.normal(0, 0.001, (100, 3)), 3)
+    hover[[10, 11, 50]] = 0.0
+    for name, v in (("block", block), ("start", start), ("hover", hover)):
+        batch = no_bottom_lock(t, v, np.linalg.norm(v, axis=1), spec)
+        assert batch.sum() == {"block": 15, "start": 2, "hover": 0}[name]
+        np.testing.assert_array_equal(_held_verdicts(ZeroPingTest(spec, np.linalg.norm), t, v), batch, name)
+
+
+def test_a_navigator_refuses_a_whole_run_of_zero_pings_holding_them_one_ping(mission):
+    """A 1 mm/s log with a run of three zero pings where the vehicle could have stopped (max_accel_mps2 5): the
+    loaders refuse the run (three or more), the stream refused the third only and used the first two as a vehicle
+    at rest. It holds a zero ping until the next ping (one ping of latency): all three are refused; an isolated zero
+    ping is held and kept."""
+    from graphnav.core.screening import NO_BOTTOM_LOCK
+    m = mission.slice(0, 60)
+    m.config.dvl.max_accel_mps2 = 5.0
+    events = [(k, t, ((tuple(np.round(p[0], 3)), p[1]) if k == "dvl" else p)) for k, t, p in replay(m)]
+    dvl = [i for i, e in enumerate(events) if e[0] == "dvl" and e[1] > 20.0]
+    for i in dvl[:3] + dvl[10:11]:
+        events[i] = ("dvl", events[i][1], ((0.0, 0.0, 0.0, 0.0), (True,) * 4))
+    nav = _navigator(m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        estimates = _feed(nav, events)
+    assert nav.info["refused"] == {"dvl": {NO_BOTTOM_LOCK: 3}}
+    assert len(estimates) == nav.n_estimates and [e.t for e in estimates] == sorted(e.t for e in estimates)
 
 
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):

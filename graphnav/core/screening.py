@@ -270,6 +270,37 @@ IMU_BURST_SHARE = 0.2
 IMU_BURST_GAP_CYCLES = 4.0
 
 
+#: A step under this share of the configured IMU period is within a burst (stamps on receipt), not one period long.
+BURST_STEP_SHARE = 0.1
+#: A stream whose first this many steps or more are within a burst (:data:`BURST_STEP_SHARE`) starts with one: a
+#: driver's buffer emptied at once. Its steps are left out of the rate a stream measures (half of the keyframer's 16
+#: steps: a median over them is the burst's). Fewer, as at the start of a stream in bursts of three, are kept.
+IMU_START_BURST_STEPS = 8
+#: A run of burst steps at a stream's start lasting this many configured periods is the IMU's own rate (an IMU ten
+#: times faster than configured), not a burst: its steps are measured.
+IMU_START_BURST_PERIODS = 16
+
+
+def start_burst(steps, period_s: float) -> int | None:
+    """How many of a stream's first ``steps`` between IMU stamps (s) are a burst at its start (:data:`
+    IMU_START_BURST_STEPS` or more steps under :data:`BURST_STEP_SHARE` of the configured ``period_s`` before a longer
+    one), 0 for none; None while undecided (every step so far is that short, over less than
+    :data:`IMU_START_BURST_PERIODS` periods)."""
+    short = BURST_STEP_SHARE * period_s
+    n = next((i for i, d in enumerate(steps) if not d < short), None)
+    if n is None:
+        return None if sum(steps) < IMU_START_BURST_PERIODS * period_s else 0
+    return n if n >= IMU_START_BURST_STEPS else 0
+
+
+def start_burst_warning(n_steps: int, t_end: float, span_s: float) -> str:
+    """What a stream says of the burst of ``n_steps`` steps over ``span_s`` (s) ending at ``t_end`` (s) it starts
+    with (:func:`start_burst`)."""
+    return (f"imu: the stream starts with a burst of {n_steps + 1} samples within {1e3 * span_s:.3g} ms (t = "
+            f"{t_end - span_s:.4f} to {t_end:.4f} s; a driver's buffer emptied at once): their steps are left out of "
+            "the IMU's rate")
+
+
 #: Stamps on a grid coarser than this share of the IMU's step are quantised (a 400 Hz IMU logged in whole ms: steps
 #: of 2 and 3 ms on a 1 ms grid, whose median reads 333 or 500 Hz): their period is the mean step, not the median.
 IMU_STAMP_QUANTUM_SHARE = 0.1
@@ -627,6 +658,9 @@ ZERO_SPEED_MARGIN_MPS = 0.1
 #: in 5000 pings), while a driver's no-lock filler comes in blocks (a vehicle under way at 0.5 Hz, or a glider at
 #: 0.25 m/s, is slower than what the speed rule can tell from one ping interval).
 ZERO_RUN_PINGS = 3
+#: A stream holds a zero ping for the ping after it (which tells a run, or the speed after it) at most this many of
+#: its intervals between pings: a DVL silent for longer leaves it as the past judged it (kept).
+ZERO_HOLD_INTERVALS = 2.0
 
 
 def on_resolution_grid(values) -> tuple[int, int]:
@@ -914,13 +948,16 @@ class ImuSpikeTest:
     restarts from the next departing row, which is accepted.
 
     The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
-    those rows are accepted); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
+    those rows are accepted), after the burst it starts with, if any (:func:`start_burst` against the configured
+    ``period_s``, s, when given: 50 samples 0.1 ms apart read 10 kHz, a 10 s window); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
     (:attr:`note` says why) and accepts every row. Plain Python on six floats per row: the Navigator calls it at the
     IMU's rate (about 6 us a row).
     """
 
-    def __init__(self, floors):
+    def __init__(self, floors, period_s: float | None = None):
         self.floors = np.asarray(floors, float)
+        self.period_s = period_s
+        self._lead = period_s is not None                   # the first stamps may be a burst the stream starts with
         self.rate_hz: float | None = None
         self.active: bool | None = None                     # None until the rate is known
         self.note: str | None = None                        # why the test is off, once it is
@@ -937,9 +974,16 @@ class ImuSpikeTest:
         """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
         a spike. Returns None, or (index of the first departing value, the median it departs from, the limit)."""
         if self.active is None:
-            self._stamps.append(float(t))
+            stamps = self._stamps
+            stamps.append(float(t))
             self._hist.append(x)
-            if len(self._stamps) >= IMU_SPIKE_RATE_ROWS:
+            if self._lead and len(stamps) > 1:
+                n = start_burst(np.diff(stamps), self.period_s)
+                if n is None:
+                    return None
+                del stamps[:n]          # the burst's stamps but its last: the rate is from the steps after it
+                self._lead = False
+            if not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS:
                 self._set_rate(imu_rate_hz(self._stamps))
             return None
         if not self.active:
@@ -1018,10 +1062,11 @@ class ImuSpikeTest:
 
 
 class ZeroPingTest:
-    """:func:`zeros_without_lock` on a stream, past pings only: the resolution from the values seen so far, the speed
-    (``speed_of`` its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings
-    judged as :func:`no_bottom_lock` judges a file's without the pings after the run: again at each ping until it
-    is no lock (its length can decide), then for the rest of the run."""
+    """:func:`zeros_without_lock` on a stream: the resolution from the values seen so far, the speed (``speed_of``
+    its values, m/s) of the newest ping that was not all zeros and had one, each run of zero pings judged as
+    :func:`no_bottom_lock` judges a file's: at each ping of the run (its length can decide: a third refuses the run's
+    first two too), and, when the run is still kept, by the next ping that is not all zeros (the speed after the
+    run). :meth:`judge` holds a zero ping until that ping comes; :meth:`is_no_lock` tells the past alone."""
 
     def __init__(self, spec: DvlSpec, speed_of):
         self.spec, self.speed_of = spec, speed_of
@@ -1029,22 +1074,51 @@ class ZeroPingTest:
         self._last: tuple[float, float] | None = None       # (speed m/s, stamp s)
         self._verdict: bool | None = None        # the current run's
         self._run = 0                            # zero pings in the current run
+        self._t_run = math.nan                   # stamp of the run's newest ping, s
+        self._t_ping = math.nan                  # stamp of the newest ping, s
+        self._interval = 1.0 / spec.rate_hz      # between the two newest pings, s
 
     def is_no_lock(self, t: float, values) -> bool:
         """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
-        bottom lock; any other ping joins the history."""
+        bottom lock from the pings up to it; any other ping joins the history."""
+        return bool(self.judge(t, values)[0])
+
+    def judge(self, t: float, values) -> tuple[bool | None, bool | None]:
+        """(this ping, the run before it) for the ping at ``t`` s (``values`` as logged, NaN where not a
+        measurement): this ping is a zero ping without bottom lock (True), a ping to use (False), or a zero ping the
+        next ping decides (None: hold it); the zero pings held before it are no lock (True), to use (False), or still
+        held (None: none, or this ping is one more zero). Any ping that is not all zeros joins the history."""
         values = np.asarray(values, float)
+        if t > self._t_ping:
+            self._interval = t - self._t_ping
+        self._t_ping = t
         if not zero_pings(values[None])[0]:
+            held = None
+            if self._run and not self._verdict:         # the run's pings were held: the speed after it decides
+                speed = float(self.speed_of(values))
+                after = (speed, t - self._t_run) if math.isfinite(speed) else None
+                held = zeros_without_lock(self.off > self.on, self._before(self._t_run), after, self.spec, self._run)
             on, off = on_resolution_grid(values)
             self.on, self.off, self._verdict, self._run = self.on + on, self.off + off, None, 0
             speed = float(self.speed_of(values))
             self._last = (speed, t) if math.isfinite(speed) else self._last
-            return False
+            return False, held
         self._run += 1
-        if not self._verdict:           # judged again while the run grows: its length can decide (the first kept)
-            before = None if self._last is None else (self._last[0], t - self._last[1])
-            self._verdict = zeros_without_lock(self.off > self.on, before, None, self.spec, self._run)
-        return self._verdict
+        self._t_run = t
+        if self._verdict:
+            return True, None
+        self._verdict = zeros_without_lock(self.off > self.on, self._before(t), None, self.spec, self._run)
+        return (True, True if self._run > 1 else None) if self._verdict else (None, None)
+
+    def _before(self, t: float) -> tuple[float, float] | None:
+        return None if self._last is None else (self._last[0], t - self._last[1])
+
+    @property
+    def hold_s(self) -> float:
+        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's last
+        interval between pings (of ``DvlSpec.rate_hz``'s period before it has one); a stream silent for longer
+        (an outage) leaves the run kept, as the past says."""
+        return ZERO_HOLD_INTERVALS * self._interval
 
 
 @dataclass
@@ -1065,7 +1139,7 @@ class StreamScreen:
         dvl = self.config.dvl
         self._beam_spikes = [SpikeTest(dvl.max_accel_mps2, dvl.jump_tolerance_mps) for _ in range(4)]
         self._depth_spike = SpikeTest(dvl.max_vertical_mps, self.config.depth_jump_tolerance_m)
-        self._imu_spike = ImuSpikeTest(imu_spike_floors(self.config))
+        self._imu_spike = ImuSpikeTest(imu_spike_floors(self.config), 1.0 / self.config.imu_rate_hz)
         beam_speed = lambda b: self.beams_speed(b[None], np.isfinite(b)[None])[0]  # noqa: E731
         self.zero_ping = ({"dvl": ZeroPingTest(dvl, beam_speed), "dvl_velocity": ZeroPingTest(dvl, np.linalg.norm)}
                           if self.judge_zeros else {})

@@ -55,7 +55,8 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
-from graphnav.core.screening import imu_stamp_quantum, imu_step_stats
+from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
+    BURST_STEP_SHARE, imu_stamp_quantum, imu_step_stats, start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -133,8 +134,6 @@ IMU_RATE_STEPS = 16
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
-#: A step under this share of the configured period is within a burst (stamps on receipt), not one period long.
-BURST_STEP_SHARE = 0.1
 
 
 class ImuPeriod:
@@ -146,17 +145,42 @@ class ImuPeriod:
     the grid :data:`IMU_QUANTISED_SPAN_SHARE` of their span) when it is off the configured one by more than
     :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned once), the configured one otherwise; before those
     steps, the longer of the configured one and the shortest step so far. Gaps are judged against the longer of
-    the period and a burst's cycle."""
+    the period and a burst's cycle. A burst the stream starts with (:func:`~graphnav.core.screening.start_burst`:
+    a driver's buffer emptied at once, 50 samples 0.1 ms apart read ``runs at 1e+04 Hz``) is left out of those steps,
+    warned and counted (:attr:`start_burst`)."""
 
     def __init__(self, configured_s: float):
         self.configured_s = self.period_s = self._cycle_s = configured_s
         self._steps: list[float] = []
         self._needed = IMU_RATE_STEPS
         self._after_gap = 0             # the steps after the last gap bridged before the period was measured
+        self._lead: list[float] | None = []     # the first steps, while they may be a burst the stream starts with
+        #: (samples, first stamp s, last stamp s) of the burst the stream started with, or None
+        self.start_burst: tuple[int, float, float] | None = None
 
-    def add_step(self, dt: float) -> None:
-        """One step between IMU stamps, s (once the period is measured, nothing changes)."""
+    def add_step(self, dt: float, t: float = math.nan) -> None:
+        """One step between IMU stamps, s, ending at the stamp ``t`` (s) (once the period is measured, nothing
+        changes)."""
         if len(self._steps) >= self._needed or not dt > 0:
+            return
+        lead = self._lead
+        if lead is None:
+            self._collect(dt)
+            return
+        lead.append(dt)
+        n = start_burst(lead, self.configured_s)
+        if n is None:
+            return
+        self._lead = None
+        if n:
+            span = sum(lead[:n])
+            self.start_burst = (n + 1, t - dt - span, t - dt)
+            warnings.warn(start_burst_warning(n, t - dt, span), RuntimeWarning, stacklevel=4)
+        for d in lead[n:]:
+            self._collect(d)
+
+    def _collect(self, dt: float) -> None:
+        if len(self._steps) >= self._needed:
             return
         self._steps.append(dt)
         if len(self._steps) == IMU_RATE_STEPS:
@@ -166,7 +190,7 @@ class ImuPeriod:
                 self._needed = max(IMU_RATE_STEPS, math.ceil(quantum / (IMU_QUANTISED_SPAN_SHARE * step)))
                 warnings.warn(f"imu: stamps on a {1e3 * quantum:.4g} ms grid, {quantum / step:.0%} "
                               "of a step: the period is their mean step, measured over the first "
-                              f"{self._needed} steps", RuntimeWarning, stacklevel=4)
+                              f"{self._needed} steps", RuntimeWarning, stacklevel=5)
         if len(self._steps) < self._needed:
             self.period_s = max(self.configured_s, min(self._steps))
             return
@@ -181,7 +205,7 @@ class ImuPeriod:
             self.period_s = measured
             warnings.warn(f"imu: runs at {1 / measured:.4g} Hz (from its first {len(self._steps)} steps, "
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
-                          f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=5)
+                          f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=6)
 
     def is_gap(self, dt: float) -> bool:
         """Whether the newest step (``dt`` s, given to :meth:`add_step` first) is a gap to bridge: longer than
@@ -304,7 +328,7 @@ class Keyframer:
             return []
         samples = self._samples
         if samples:
-            self.imu_period.add_step(t - samples[-1][0])
+            self.imu_period.add_step(t - samples[-1][0], t)
             if self.imu_period.is_gap(t - samples[-1][0]):
                 return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)

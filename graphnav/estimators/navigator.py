@@ -21,7 +21,8 @@ What happens to a sample:
    an IMU under 50 Hz), a DVL beam beyond the
    vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
    and the completers expect the missing-beam patterns of outages), a DVL ping logged as exactly 0 with no bottom
-   lock (:class:`~graphnav.core.screening.ZeroPingTest`: the log's resolution or the speed of the pings before it),
+   lock (:class:`~graphnav.core.screening.ZeroPingTest`: the log's resolution, the run's length or the speed of
+   the pings before it; one the past keeps is held until the next ping, whose speed or zeros can refuse its run),
    a depth outside its range or spiking. Nothing estimated so far changes. When more than half of a stream
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
@@ -75,6 +76,10 @@ from graphnav.estimators.types import EpochEstimate, InitialState, Ping
 #: the streams whose samples are a :class:`~graphnav.estimators.types.Ping` (made once, in ``add_dvl`` and
 #: ``add_dvl_velocity``), handed on as it is
 PING_STREAMS = ("dvl", "dvl_velocity")
+#: why a zero ping of each ping stream is refused as no bottom lock
+ZERO_PING_WHY = {"dvl": "every valid beam exactly 0 (the DVL's resolution is finer or the vehicle was under way)",
+                 "dvl_velocity": "v_d exactly 0 on every axis (the DVL's resolution is finer or the vehicle was under "
+                                 "way)"}
 
 
 @dataclass
@@ -182,6 +187,8 @@ class Navigator:
         self._screen = StreamScreen(config, lambda beams, valid: ping_speed(beams, valid, config.dvl),
                                     judge_zeros=not self.options.dvl_zeros_judged)
         self._imu_spike_noted = False         # the spike test's "off" note is told once, when the rate is known
+        self._held: dict[str, list] = {k: [] for k in PING_STREAMS}    # zero pings the next ping decides: (t, sample)
+        self._hold_before = math.inf          # the reorder buffer releases nothing after this while pings are held
         self.notes: dict[str, list[str]] = {}       # sentences about a stream a user must see (info)
         #: the IMU's full scale (m/s^2, rad/s): a sample within it needs no further screening call
         self._imu_full_scale = (float(config.imu.accel_range_mps2), float(config.imu.gyro_range_rads))
@@ -264,16 +271,7 @@ class Navigator:
                                 "not finite")
         if not self._accept("dvl", t):
             return []
-        zero = self._screen.zero_ping.get("dvl")
-        if zero is not None and zero.is_no_lock(t, np.where(v, b, np.nan)):
-            return self._refuse("dvl", t, NO_BOTTOM_LOCK, "every valid beam exactly 0 (the DVL's resolution is finer "
-                                "or the vehicle was under way)", screened=True)
-        screened = self._screen.dvl_problems(t, b, v)
-        if screened:        # a beam the instrument got wrong makes the ping suspect: refused as a whole
-            i, why = next(iter(screened.items()))
-            return self._refuse("dvl", t, why, f"beam {i + 1} = {b[i]:.6g} m/s ({why}; DvlSpec max_speed_mps, "
-                                "max_accel_mps2, jump_tolerance_mps)", screened=True)
-        return self._push("dvl", t, (Ping.from_beams(t, b, v),))
+        return self._zero_judged("dvl", t, np.where(v, b, np.nan), (b, v))
 
     def add_dvl_velocity(self, t: float, v_d, sigma=None) -> list[EpochEstimate]:
         """A velocity of the DVL head in the DVL frame measured by the instrument itself: ``v_d`` (3,) m/s (a
@@ -298,11 +296,7 @@ class Navigator:
                                 f"got {list(s)}")
         if not self._accept("dvl_velocity", t):
             return []
-        zero = self._screen.zero_ping.get("dvl_velocity")
-        if zero is not None and zero.is_no_lock(t, v):
-            return self._refuse("dvl_velocity", t, NO_BOTTOM_LOCK, "v_d exactly 0 on every axis (the DVL's resolution "
-                                "is finer or the vehicle was under way)", screened=True)
-        return self._push("dvl_velocity", t, (Ping.from_velocity(t, v, s),))
+        return self._zero_judged("dvl_velocity", t, v, (v, s))
 
     def add_depth(self, t: float, depth_m: float) -> list[EpochEstimate]:
         """Depth of the IMU (m, positive down) from a pressure sensor."""
@@ -433,6 +427,7 @@ class Navigator:
                 "received": dict(self.received), "samples_refused": dict(self.samples_refused),
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
+                "imu_start_burst": (self.keyframer.imu_period.start_burst or (0,))[0],
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
                 "pings_after_end": stats.pings_after_end, "regressed_pings": stats.regressed_pings,
                 "regressed_beams": stats.regressed_beams, "velocity_pings": stats.velocity_pings,
@@ -574,6 +569,55 @@ class Navigator:
             return False
         return True
 
+    def _zero_judged(self, stream: str, t: float, values, sample: tuple) -> list[EpochEstimate]:
+        """A ping of ``stream`` (``values`` as logged, NaN where not a measurement; ``sample``: what
+        :meth:`_take_ping` makes it from) past the zero-ping test: refused as no bottom lock, taken, or held until
+        the next ping says whether its run of zeros is no lock (the loaders look at the ping after a run too);
+        the reorder buffer releases nothing from a held ping's stamp on meanwhile."""
+        zero = self._screen.zero_ping.get(stream)
+        if zero is None:
+            return self._take_ping(stream, t, sample)
+        verdict, held = zero.judge(t, values)
+        out = self._settle(stream, held)
+        if verdict is None:
+            self._held[stream].append((t, sample))
+            self._stamps[stream].add(t)
+            self._hold_until()
+            return out + self._release(self._newest - self.options.reorder_window_s)
+        if verdict:
+            return out + self._refuse(stream, t, NO_BOTTOM_LOCK, ZERO_PING_WHY[stream], screened=True)
+        return out + self._take_ping(stream, t, sample)
+
+    def _settle(self, stream: str, no_lock: bool | None) -> list[EpochEstimate]:
+        """Refuse (``no_lock``) or take the zero pings held on ``stream``; None: keep holding them."""
+        held = self._held[stream]
+        if no_lock is None or not held:
+            return []
+        self._held[stream] = []
+        self._hold_until()
+        out = []
+        for t, sample in held:
+            self._stamps[stream].discard(t)
+            out += (self._refuse(stream, t, NO_BOTTOM_LOCK, ZERO_PING_WHY[stream], screened=True) if no_lock
+                    else self._take_ping(stream, t, sample))
+        return out
+
+    def _hold_until(self) -> None:
+        """The newest stamp the reorder buffer may release while zero pings are held (just before the oldest)."""
+        first = [h[0][0] for h in self._held.values() if h]
+        self._hold_before = math.nextafter(min(first), -math.inf) if first else math.inf
+
+    def _take_ping(self, stream: str, t: float, sample: tuple) -> list[EpochEstimate]:
+        if stream == "dvl_velocity":
+            return self._push(stream, t, (Ping.from_velocity(t, *sample),))
+        b, v = sample
+        screened = self._screen.dvl_problems(t, b, v)
+        if screened:        # a beam the instrument got wrong makes the ping suspect: refused as a whole
+            i, why = next(iter(screened.items()))
+            return self._refuse("dvl", t, why, f"beam {i + 1} = {b[i]:.6g} m/s ({why}; DvlSpec max_speed_mps, "
+                                "max_accel_mps2, jump_tolerance_mps)", screened=True)
+        return self._push("dvl", t, (Ping.from_beams(t, b, v),))
+
     def _push(self, stream: str, t: float, payload: tuple) -> list[EpochEstimate]:
         heapq.heappush(self._heap, (t, STREAM_ORDER[stream], self._seq, stream, payload))
         self._seq += 1
@@ -584,6 +628,11 @@ class Navigator:
 
     def _release(self, until: float) -> list[EpochEstimate]:
         out = []
+        if until > self._hold_before:
+            for stream, held in self._held.items():     # a DVL silent for so long: its next ping cannot tell
+                if held and (until == math.inf or self._newest - held[-1][0] > self._screen.zero_ping[stream].hold_s):
+                    out += self._settle(stream, False)
+            until = min(until, self._hold_before)
         heap, q = self._heap, self._imu_q
         while True:
             if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
