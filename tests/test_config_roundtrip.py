@@ -97,7 +97,17 @@ def test_a_dump_of_the_akit_defaults_loads_as_no_configuration(akit_dir, tmp_pat
     _same(plain, dumped, meta=False)            # the file's latitude and gravity are noted as replaced by the GT's
 
 
-@pytest.mark.parametrize("kind", ["akit", "csv", "bag"])
+def _flu_log(tmp_path, m):
+    """``m`` as a column-map log (:func:`_csv_log`) whose IMU is written in FLU axes, its frame not declared."""
+    cmap = _csv_log(tmp_path, m)
+    imu = np.loadtxt(tmp_path / "imu.csv", delimiter=",", skiprows=1)
+    imu[:, [2, 3, 5, 6]] *= -1
+    np.savetxt(tmp_path / "imu.csv", imu, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.12g")
+    del cmap["imu"]["frame"]
+    return cmap
+
+
+@pytest.mark.parametrize("kind", ["akit", "csv", "flu", "bag"])
 def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir, tmp_path):
     """A configuration read and written again by ``SensorConfig.save`` is the same file and loads the same mission;
     a mission's configuration written back loads the same streams (its offsets and axes then given)."""
@@ -107,6 +117,8 @@ def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir
         first = akit_default_config()
     elif kind == "csv":
         data, first = tmp_path, SensorConfig(csv_columns=_csv_log(tmp_path, sim, late_s=0.4))
+    elif kind == "flu":         # the axes corrected from the data, (1, -1, -1), written back and given
+        data, first = tmp_path, SensorConfig(csv_columns=_flu_log(tmp_path, sim))
     else:
         from graphnav.io.bags import write_mission_bag
         data, first = write_mission_bag(sim, tmp_path / "log.mcap"), SensorConfig(bag_topics={"depth": {}})
@@ -117,3 +129,23 @@ def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir
     _same(m1, m2, renamed=("c2.json", "c1.json"))
     m1.config.save(tmp_path / "own.json")
     _same(m1, _load(data, tmp_path / "own.json"), meta=False)
+
+
+def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_frame_checked_on_them(sim, tmp_path):
+    """A column-map log's ``imu_axis_signs`` multiply its IMU axes on top of the declared frame, as an A-KIT folder's
+    do: an FLU IMU declared 'frd' with signs (1, -1, -1) reads as the FRD log (it was refused for needing the signs it
+    was given); signs that leave the declared frame contradicted are refused naming them."""
+    from graphnav.core.errors import DataError
+    (tmp_path / "frd").mkdir()
+    frd = _csv_log(tmp_path / "frd", sim)
+    SensorConfig(csv_columns=frd).save(tmp_path / "frd.json")
+    cmap = _flu_log(tmp_path, sim)
+    SensorConfig(csv_columns={**cmap, "imu": {**cmap["imu"], "frame": "frd"}}, imu_axis_signs=[1, -1, -1]).save(
+        tmp_path / "signs.json")
+    m = _load(tmp_path, tmp_path / "signs.json")
+    assert m.config.imu_axis_signs.tolist() == [1, -1, -1]
+    np.testing.assert_array_equal(m.imu.f_b, _load(tmp_path / "frd", tmp_path / "frd.json").imu.f_b)
+    SensorConfig(csv_columns=frd, imu_axis_signs=[1, -1, -1]).save(tmp_path / "wrong.json")
+    with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\).*"
+                                        r"imu_axis_signs to null"):
+        _load(tmp_path / "frd", tmp_path / "wrong.json")

@@ -422,7 +422,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
     unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
         facts.get("imu_frame")
-    mission = _imu_frame(mission, meta, facts.get("imu_frame"))
+    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"))
     # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -591,6 +591,21 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
     return dataclasses.replace(mission, gt=g, config=dataclasses.replace(cfg, gt_time_offset_s=float(offset)))
 
 
+def _given_axis_signs(mission: Mission, meta: dict, facts: dict) -> Mission:
+    """The mission with the configuration's ``imu_axis_signs`` (``facts["given"]``) multiplying the IMU x, y, z
+    (accelerometer and gyro) as read, on top of the frame the column map or the bag declares, and recorded as
+    applied; the declared frame is then checked on the signed axes (:func:`_imu_frame`)."""
+    given = facts.get("given", {}).get("imu_axis_signs")
+    if given is None:
+        return mission
+    signs = np.asarray(given, float).reshape(3)
+    add_note(meta, "imu", f"axis signs {tuple(int(x) for x in signs)} applied to accelerometer and gyro (given by "
+                          "the configuration's imu_axis_signs)")
+    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": False, "decided": None}
+    imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b * signs, omega_b=mission.imu.omega_b * signs)
+    return dataclasses.replace(mission, imu=imu, config=dataclasses.replace(mission.config, imu_axis_signs=signs))
+
+
 def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
 
@@ -608,18 +623,22 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     if np.all(signs == 1):
         return mission
     key = tuple(int(x) for x in signs)
-    text = (f"the IMU data contradict {frame['what']}: they need axis signs {key} on x, y, z "
+    applied = mission.config.imu_axis_signs
+    what = frame["what"] + ("" if np.all(applied == 1) else
+                            f" with the configuration's imu_axis_signs {tuple(int(x) for x in applied)}")
+    text = (f"the IMU data contradict {what}: they need axis signs {key} on x, y, z "
             f"({FRAME_FAULTS.get(key, 'a left-handed frame: one axis negated')}), by {how}")
     if frame["declared"]:
         other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if key == (1, -1, -1) else None
         fix = f"to {other!r} if the file holds that frame, or " if other else ""
-        raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto' to correct the axes from the data",
+        unsign = "" if np.all(applied == 1) else " (and imu_axis_signs to null, or remove it)"
+        raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto'{unsign} to correct the axes from the data",
                         imu.source, field=frame["fields"])
     text += ": accelerometer and gyro multiplied by them"
     add_note(meta, "imu", text)
     warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=4)
-    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": True, "decided": True}
-    config = dataclasses.replace(mission.config, imu_axis_signs=mission.config.imu_axis_signs * signs)
+    meta["imu_axis_signs"] = {"signs": (applied * signs).tolist(), "detected": True, "decided": True}
+    config = dataclasses.replace(mission.config, imu_axis_signs=applied * signs)
     imu = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
     return dataclasses.replace(mission, imu=imu, config=config)
 
