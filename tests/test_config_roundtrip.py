@@ -149,3 +149,28 @@ def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_fra
     with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\).*"
                                         r"imu_axis_signs to null"):
         _load(tmp_path / "frd", tmp_path / "wrong.json")
+
+
+def test_given_akit_offsets_and_signs_the_data_disagree_with_are_used_and_warned(akit_dir, tmp_path):
+    """A configuration written before null meant 'not given' holds 0 s, 0 s and (1, 1, 1) as numbers: used as
+    given (the DVL 0.98 s and the GT 0.41 s off, the y axis the wrong way on Trajectory1), now with a warning each,
+    naming the file, key, both values and null, and counted as doubted; the trajectory's own values given: silent."""
+    from graphnav.io.loaders import akit_default_config
+    data = akit_dir / "Trajectory1"
+    c = akit_default_config()
+    c.gt_time_offset_s, c.dvl_time_offset_s, c.imu_axis_signs = 0.0, 0.0, np.ones(3)
+    c.save(tmp_path / "old.json")
+    c.gt_time_offset_s, c.dvl_time_offset_s, c.imu_axis_signs = -0.410, 0.976, np.array([1, -1, 1])
+    c.save(tmp_path / "own.json")
+    old_said = []
+    for name, keys in (("old.json", ["imu_axis_signs", "gt_time_offset_s", "dvl_time_offset_s"]), ("own.json", [])):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(data, tmp_path / name)
+        said = [str(w.message) for w in caught if "is given, but" in str(w.message)]
+        assert [s.split(": ")[1].split(" = ")[0] for s in said] == keys, said
+        assert all(s.startswith(str(tmp_path / name)) and "to null" in s for s in said)
+        doubted = [k for e in m.meta["streams"].values() for k in (e.get("doubted") or {})]
+        assert len(doubted) == len(keys)
+        old_said = old_said if keys == [] else said
+    assert "the data say (1, -1, 1)" in old_said[0] and "the data say -0.410 s" in old_said[1]

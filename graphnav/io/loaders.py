@@ -1011,7 +1011,11 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
     if config.reference_position_b is not None:
         akit_kwargs.setdefault("imu_position_b", -config.reference_position_b)
     given = _given_keys(config, lambda key: overrides.sets(key) or (written is not None and written.sets(key)))
-    return read_akit_mission(path, config=config, given=given, **akit_kwargs)
+    mission = read_akit_mission(path, config=config, given=given, **akit_kwargs)
+    # the file to name when the data disagree with a value it gives
+    mission.meta["prepare"]["given_by"] = {key: overrides.source if overrides.sets(key) else written.source
+                                           for key in given}
+    return mission
 
 
 def _given_keys(config: SensorConfig, sets) -> dict:
