@@ -97,7 +97,17 @@ def test_a_dump_of_the_akit_defaults_loads_as_no_configuration(akit_dir, tmp_pat
     _same(plain, dumped, meta=False)            # the file's latitude and gravity are noted as replaced by the GT's
 
 
-@pytest.mark.parametrize("kind", ["akit", "csv", "bag"])
+def _flu_log(tmp_path, m):
+    """``m`` as a column-map log (:func:`_csv_log`) whose IMU is written in FLU axes, its frame not declared."""
+    cmap = _csv_log(tmp_path, m)
+    imu = np.loadtxt(tmp_path / "imu.csv", delimiter=",", skiprows=1)
+    imu[:, [2, 3, 5, 6]] *= -1
+    np.savetxt(tmp_path / "imu.csv", imu, delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="", fmt="%.12g")
+    del cmap["imu"]["frame"]
+    return cmap
+
+
+@pytest.mark.parametrize("kind", ["akit", "csv", "flu", "bag"])
 def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir, tmp_path):
     """A configuration read and written again by ``SensorConfig.save`` is the same file and loads the same mission;
     a mission's configuration written back loads the same streams (its offsets and axes then given)."""
@@ -107,6 +117,8 @@ def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir
         first = akit_default_config()
     elif kind == "csv":
         data, first = tmp_path, SensorConfig(csv_columns=_csv_log(tmp_path, sim, late_s=0.4))
+    elif kind == "flu":         # the axes corrected from the data, (1, -1, -1), written back and given
+        data, first = tmp_path, SensorConfig(csv_columns=_flu_log(tmp_path, sim))
     else:
         from graphnav.io.bags import write_mission_bag
         data, first = write_mission_bag(sim, tmp_path / "log.mcap"), SensorConfig(bag_topics={"depth": {}})
@@ -117,3 +129,48 @@ def test_a_configuration_written_back_loads_the_same_mission(kind, sim, akit_dir
     _same(m1, m2, renamed=("c2.json", "c1.json"))
     m1.config.save(tmp_path / "own.json")
     _same(m1, _load(data, tmp_path / "own.json"), meta=False)
+
+
+def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_frame_checked_on_them(sim, tmp_path):
+    """A column-map log's ``imu_axis_signs`` multiply its IMU axes on top of the declared frame, as an A-KIT folder's
+    do: an FLU IMU declared 'frd' with signs (1, -1, -1) reads as the FRD log (it was refused for needing the signs it
+    was given); signs that leave the declared frame contradicted are refused naming them."""
+    from graphnav.core.errors import DataError
+    (tmp_path / "frd").mkdir()
+    frd = _csv_log(tmp_path / "frd", sim)
+    SensorConfig(csv_columns=frd).save(tmp_path / "frd.json")
+    cmap = _flu_log(tmp_path, sim)
+    SensorConfig(csv_columns={**cmap, "imu": {**cmap["imu"], "frame": "frd"}}, imu_axis_signs=[1, -1, -1]).save(
+        tmp_path / "signs.json")
+    m = _load(tmp_path, tmp_path / "signs.json")
+    assert m.config.imu_axis_signs.tolist() == [1, -1, -1]
+    np.testing.assert_array_equal(m.imu.f_b, _load(tmp_path / "frd", tmp_path / "frd.json").imu.f_b)
+    SensorConfig(csv_columns=frd, imu_axis_signs=[1, -1, -1]).save(tmp_path / "wrong.json")
+    with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\).*"
+                                        r"imu_axis_signs to null"):
+        _load(tmp_path / "frd", tmp_path / "wrong.json")
+
+
+def test_given_akit_offsets_and_signs_the_data_disagree_with_are_used_and_warned(akit_dir, tmp_path):
+    """A configuration written before null meant 'not given' holds 0 s, 0 s and (1, 1, 1) as numbers: used as
+    given (the DVL 0.98 s and the GT 0.41 s off, the y axis the wrong way on Trajectory1), now with a warning each,
+    naming the file, key, both values and null, and counted as doubted; the trajectory's own values given: silent."""
+    from graphnav.io.loaders import akit_default_config
+    data = akit_dir / "Trajectory1"
+    c = akit_default_config()
+    c.gt_time_offset_s, c.dvl_time_offset_s, c.imu_axis_signs = 0.0, 0.0, np.ones(3)
+    c.save(tmp_path / "old.json")
+    c.gt_time_offset_s, c.dvl_time_offset_s, c.imu_axis_signs = -0.410, 0.976, np.array([1, -1, 1])
+    c.save(tmp_path / "own.json")
+    old_said = []
+    for name, keys in (("old.json", ["imu_axis_signs", "gt_time_offset_s", "dvl_time_offset_s"]), ("own.json", [])):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(data, tmp_path / name)
+        said = [str(w.message) for w in caught if "is given, but" in str(w.message)]
+        assert [s.split(": ")[1].split(" = ")[0] for s in said] == keys, said
+        assert all(s.startswith(str(tmp_path / name)) and "to null" in s for s in said)
+        doubted = [k for e in m.meta["streams"].values() for k in (e.get("doubted") or {})]
+        assert len(doubted) == len(keys)
+        old_said = old_said if keys == [] else said
+    assert "the data say (1, -1, 1)" in old_said[0] and "the data say -0.410 s" in old_said[1]

@@ -160,6 +160,9 @@ def _pick(value, facts: dict, key: str):
 def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_time_offset_s,
                   dvl_time_offset_s) -> Mission:
     from graphnav.calibration.reference import Reference, estimate_dvl_time_offset, estimate_gt_time_offset
+    from_file = {key for key, value in (("imu_axis_signs", imu_axis_signs), ("gt_time_offset_s", gt_time_offset_s),
+                                        ("dvl_time_offset_s", dvl_time_offset_s))
+                 if _is_auto(value) and key in facts.get("given", {})}
     imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
     gt_time_offset_s = _off_the_imu_clock(mission.gt, _pick(gt_time_offset_s, facts, "gt_time_offset_s"),
                                           mission.imu, "gt", meta)
@@ -172,6 +175,11 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         gt, gt_clock = _gt_clock(mission, meta)
         mission = dataclasses.replace(mission, gt=gt)
     signs, detected = _axis_signs(mission, meta, facts, imu_axis_signs)
+    judged = detected if detected is not None or "imu_axis_signs" not in from_file else \
+        _judge_given_signs(mission, meta, facts, signs)
+    if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
+            and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t):
+        _judge_given_offset(meta, facts, "gt", float(gt_time_offset_s), judged.gt_offset, 0.0, mission)
     cfg = dataclasses.replace(mission.config)
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
@@ -216,6 +224,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     if est is not None:
         # with a given offset too: a DVL in another frame follows the GT at no offset near it
         _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu)
+        if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
+            _judge_given_offset(meta, facts, "dvl", coarse, est, coarse, mission)
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
@@ -238,6 +248,44 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     _note_akit(meta, cfg, dvl, gt, estimates)
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndarray):
+    """The axis detection (:func:`detect_akit_axis_signs`, its own warning left out) run to judge the
+    ``imu_axis_signs`` a configuration file gave: a warning (:func:`_doubt_given`) when it decides on others."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        detection = detect_akit_axis_signs(mission, facts.get("gt_mean_depth_m"))
+    if detection.decided and not np.array_equal(np.asarray(detection.signs, float), signs):
+        _doubt_given(meta, facts, "imu_axis_signs", "imu", len(mission.imu.t), tuple(int(x) for x in signs),
+                     f"the data say {tuple(int(x) for x in detection.signs)}"
+                     + (f" ({'; '.join(detection.notes)})" if detection.notes else ""))
+    return detection
+
+
+def _judge_given_offset(meta: dict, facts: dict, stream: str, given: float, est, base: float,
+                        mission: Mission) -> None:
+    """A warning (:func:`_doubt_given`) when the time offset (s) a configuration file gave for ``stream`` lies off
+    the estimate ``est`` (its ``offset_s`` added to ``base``, s) by more than 3 of its sigmas and one IMU period
+    (a rounded offset is not worth a word)."""
+    data_say = base + est.offset_s
+    if abs(given - data_say) > max(3.0 * est.sigma_s, 1.0 / float(mission.config.imu_rate_hz)):
+        _doubt_given(meta, facts, f"{stream}_time_offset_s", stream, len(getattr(mission, stream).t), f"{given:+.3f} s",
+                     f"the data say {data_say:+.3f} s (sigma {est.sigma_s:.4f} s"
+                     + (", against the GT as given)" if stream == "dvl" else ")"))
+
+
+def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str) -> None:
+    """A configuration file's value of ``key`` used as given though the data disagree: warned (naming the file,
+    the key, both values and how to let the data decide), noted and counted as doubted on ``stream``."""
+    from graphnav.core.streams import count_doubted
+    source = facts.get("given_by", {}).get(key, "the configuration")
+    text = (f"{key} = {given} is given, but {data_say}: it is used as given; set {key} to null (or remove the "
+            "key) to let the data decide (a configuration written before null meant 'not given' holds 0 s and "
+            "(1, 1, 1) as numbers)")
+    add_note(meta, stream, f"{source}: {text}")
+    count_doubted(meta, stream, f"{key} used as given though the data disagree", n)
+    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=5)
 
 
 def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
@@ -422,7 +470,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
     unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
         facts.get("imu_frame")
-    mission = _imu_frame(mission, meta, facts.get("imu_frame"))
+    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"))
     # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -591,6 +639,21 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
     return dataclasses.replace(mission, gt=g, config=dataclasses.replace(cfg, gt_time_offset_s=float(offset)))
 
 
+def _given_axis_signs(mission: Mission, meta: dict, facts: dict) -> Mission:
+    """The mission with the configuration's ``imu_axis_signs`` (``facts["given"]``) multiplying the IMU x, y, z
+    (accelerometer and gyro) as read, on top of the frame the column map or the bag declares, and recorded as
+    applied; the declared frame is then checked on the signed axes (:func:`_imu_frame`)."""
+    given = facts.get("given", {}).get("imu_axis_signs")
+    if given is None:
+        return mission
+    signs = np.asarray(given, float).reshape(3)
+    add_note(meta, "imu", f"axis signs {tuple(int(x) for x in signs)} applied to accelerometer and gyro (given by "
+                          "the configuration's imu_axis_signs)")
+    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": False, "decided": None}
+    imu = dataclasses.replace(mission.imu, f_b=mission.imu.f_b * signs, omega_b=mission.imu.omega_b * signs)
+    return dataclasses.replace(mission, imu=imu, config=dataclasses.replace(mission.config, imu_axis_signs=signs))
+
+
 def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
 
@@ -608,18 +671,22 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     if np.all(signs == 1):
         return mission
     key = tuple(int(x) for x in signs)
-    text = (f"the IMU data contradict {frame['what']}: they need axis signs {key} on x, y, z "
+    applied = mission.config.imu_axis_signs
+    what = frame["what"] + ("" if np.all(applied == 1) else
+                            f" with the configuration's imu_axis_signs {tuple(int(x) for x in applied)}")
+    text = (f"the IMU data contradict {what}: they need axis signs {key} on x, y, z "
             f"({FRAME_FAULTS.get(key, 'a left-handed frame: one axis negated')}), by {how}")
     if frame["declared"]:
         other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if key == (1, -1, -1) else None
         fix = f"to {other!r} if the file holds that frame, or " if other else ""
-        raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto' to correct the axes from the data",
+        unsign = "" if np.all(applied == 1) else " (and imu_axis_signs to null, or remove it)"
+        raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto'{unsign} to correct the axes from the data",
                         imu.source, field=frame["fields"])
     text += ": accelerometer and gyro multiplied by them"
     add_note(meta, "imu", text)
     warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=4)
-    meta["imu_axis_signs"] = {"signs": signs.tolist(), "detected": True, "decided": True}
-    config = dataclasses.replace(mission.config, imu_axis_signs=mission.config.imu_axis_signs * signs)
+    meta["imu_axis_signs"] = {"signs": (applied * signs).tolist(), "detected": True, "decided": True}
+    config = dataclasses.replace(mission.config, imu_axis_signs=applied * signs)
     imu = dataclasses.replace(imu, f_b=imu.f_b * signs, omega_b=imu.omega_b * signs)
     return dataclasses.replace(mission, imu=imu, config=config)
 

@@ -149,8 +149,11 @@ def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -
     return float((1.0 - abs(np.mean(np.exp(1j * np.arctan2(v[moving, 1], v[moving, 0]))))) / heading)
 
 
-_EARTH_FIX = ("it looks earth-fixed (NED/ENU): declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch "
-              "and heading columns ('euler', 'angle_unit'), or log the body-frame velocity")
+# a slow vehicle in a strong current (0.3 m/s in 0.5 m/s) moves over the ground much as the water does, whatever its
+# heading: the same ratios as an earth-fixed velocity, so the message names both
+_EARTH_FIX = ("it looks earth-fixed (NED/ENU) or a vehicle slower than the current it moves in: declare "
+              "csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch and heading columns ('euler', "
+              "'angle_unit'), or log the body-frame velocity")
 
 
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,

@@ -994,10 +994,13 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
                               f"{path} is not one")
         mission = screen_mission(reader())
         # the configuration is the calibration: prepare applies its offsets instead of estimating them
-        given = {key: float(getattr(config, key)) for key in ("gt_time_offset_s", "dvl_time_offset_s")
-                 if overrides and overrides.sets(key) and (key != "gt_time_offset_s" or mission.gt is not None)}
+        given = _given_keys(config, lambda key: bool(overrides) and overrides.sets(key)
+                            and (key != "gt_time_offset_s" or mission.gt is not None))
         if given:
             mission.meta.setdefault("prepare", {})["given"] = given
+        if "imu_axis_signs" in given:
+            # the file's axes until prepare applies the signs, as an A-KIT folder's: the mission records what it applied
+            mission.config = dataclasses.replace(mission.config, imu_axis_signs=np.ones(3))
         return mission
     if not path.is_dir():
         raise DataError("data folder not found", str(path))
@@ -1008,7 +1011,11 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
     if config.reference_position_b is not None:
         akit_kwargs.setdefault("imu_position_b", -config.reference_position_b)
     given = _given_keys(config, lambda key: overrides.sets(key) or (written is not None and written.sets(key)))
-    return read_akit_mission(path, config=config, given=given, **akit_kwargs)
+    mission = read_akit_mission(path, config=config, given=given, **akit_kwargs)
+    # the file to name when the data disagree with a value it gives
+    mission.meta["prepare"]["given_by"] = {key: overrides.source if overrides.sets(key) else written.source
+                                           for key in given}
+    return mission
 
 
 def _given_keys(config: SensorConfig, sets) -> dict:
