@@ -654,6 +654,7 @@ def _column_map_log(m, folder, gyro_scale=1.0, dvl_shift=0.0):
                    header=",".join(header))
     cfg = m.config.to_dict()
     cfg["dvl_time_offset_s"] = 0.0
+    cfg["imu_axis_signs"] = None            # the files hold the mission's body-frame data, its signs already applied
     cfg["csv_columns"] = {"time_unit": "s", "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"],
                                                     "omega_b": ["gx", "gy", "gz"], "frame": "frd"},
                           "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "auto"}}
