@@ -284,6 +284,33 @@ def test_a_dvl_velocity_held_within_its_noise_judges_nothing(tmp_path, resolutio
     assert np.allclose(m.imu.omega_b[:, 2], 0.05)
 
 
+@pytest.mark.parametrize("turn", [90.0, 180.0, 0.0, 45.0])
+def test_a_dvl_pointing_sideways_on_a_straight_leg_is_warned_about_and_counted(tmp_path, turn):
+    """A straight leg at constant speed with 2 mm/s of DVL noise: no fit judges the DVL's turn. A velocity turned 90
+    or 180 deg (a turned DVL read as body) used to load with notes only; its mean direction from body x now gives a
+    warning naming the file, columns and direction, and the pings are counted as doubted. Forward, or 45 deg (within
+    the bound a crabbing hull is allowed), nothing is said."""
+    from graphnav.calibration.dvl_scale import SIDEWAYS_DOUBT
+    folder = make_akit_folder(tmp_path, n=4, yaw_rate=0.0, seconds=200)
+    (folder / "GT_trajectory4.csv").unlink()
+    path = folder / "DVL_trajectory4.csv"
+    dvl = np.loadtxt(path, delimiter=",", skiprows=1)
+    c, s = np.cos(np.radians(turn)), np.sin(np.radians(turn))
+    dvl[:, 1], dvl[:, 2] = c * dvl[:, 1] - s * dvl[:, 2], s * dvl[:, 1] + c * dvl[:, 2]
+    dvl[:, 1:4] += np.random.default_rng(1).normal(0.0, 0.002, (len(dvl), 3))
+    write_csv(path, AKIT_COLUMNS["DVL"], dvl.tolist())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_akit(folder, imu_axis_signs=(1, -1, 1))
+    said = [str(w.message) for w in caught if "on average over the log" in str(w.message)]
+    if turn in (0.0, 45.0):
+        assert not said and "doubted" not in m.meta["streams"]["dvl"]
+        return
+    assert len(said) == 1 and said[0].startswith(f"{path}: field 'DVL X [m/s]/DVL Y [m/s]/DVL Z [m/s]': the DVL "
+                                                 f"velocity points +{turn:.0f} deg about z from body x"), said
+    assert m.meta["streams"]["dvl"]["doubted"] == {SIDEWAYS_DOUBT: len(dvl)}
+
+
 @pytest.mark.parametrize("seed", [1, 3])
 def test_a_dvl_error_drifting_on_a_steady_turn_does_not_judge_a_good_gyro(tmp_path, seed):
     """A steady turn whose DVL error drifts slowly (3 mm/s, a 50-ping memory): its second differences are small, so

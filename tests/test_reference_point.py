@@ -176,3 +176,30 @@ def test_a_reference_offset_is_estimated_with_the_gyro_the_dvl_converted_from_de
     np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, atol=1e-9)
     assert m.config.gt_time_offset_s == pytest.approx(-0.4, abs=2e-3)
     np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=2e-3)
+
+
+def test_a_score_against_a_log_reference_whose_point_is_not_given_says_so_with_the_fix(sim, tmp_path, capsys):
+    """A column-map log without reference_position_b is scored at the IMU point: the summary (summary.json's
+    accuracy, the printed score) and graphnav evaluate's report say so, with what it costs and graphnav calibrate;
+    nothing said once the point is given, nor for an A-KIT folder (whose format fixes it). The score is unchanged."""
+    from graphnav.calibration.preparation import REFERENCE_POINT_UNKNOWN, reference_point_unknown
+    from graphnav.commands.common import accuracy_summary, print_summary
+    from graphnav.core.solution import NavSolution
+    from graphnav.evaluation.score import format_report
+    m, _ = _load(*_log(tmp_path, sim, sim.gt))
+    sol = NavSolution("LC", m.gt.t, m.gt.p_n, m.gt.v_n + 0.01, m.gt.C_b_n)
+    acc = accuracy_summary(sol, m, [])
+    assert acc["reference_point"] == REFERENCE_POINT_UNKNOWN
+    assert acc["vrmse_mission_mps"] == pytest.approx(0.01 * 3 ** 0.5)
+    print_summary({"method": "LC", "mission": "log", "epochs": len(sol.t), "duration_s": 1.0, "runtime_s": 1.0,
+                   "realtime_factor": 1.0, "accuracy": acc})
+    printed = capsys.readouterr().out.splitlines()
+    at = next(i for i, line in enumerate(printed) if "VRMSE mission" in line)
+    assert printed[at + 1].startswith("  note: the reference is scored at the IMU point (reference_position_b unset)")
+    assert "graphnav calibrate estimates the point" in printed[at + 1]
+    report = format_report({"matched_poses": 1, "aligned": False, "vrmse_mps": 0.0173, "nees_velocity_mean": None,
+                            "rpe_delta": 10.0, "rpe_note": "-", "ape_note": "-", "nees_note": "-",
+                            "reference_point": REFERENCE_POINT_UNKNOWN}, "trajectory.csv", "log")
+    assert "  VRMSE: 0.0173 m/s\n  note: the reference is scored at the IMU point" in report
+    given, _ = _load(*_log(tmp_path, sim, sim.gt, reference_position_b=[0.0, 0.0, 0.0]))
+    assert reference_point_unknown(given) is None and "reference_point" not in accuracy_summary(sol, given, [])

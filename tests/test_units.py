@@ -334,6 +334,29 @@ def test_a_noisy_reference_attitude_in_radians_is_kept_and_an_unwrapped_yaw_too(
         assert reference_attitude_units(t, unwrapped, t_imu, quiet, "gt.csv", ("r", "p", "y")) is unwrapped
 
 
+def test_a_reference_in_radians_whose_noise_matches_the_gyro_read_as_degrees_stays_radians():
+    """Attitude noise of 0.03-0.1 rad over a gyro turning 2 mrad/s: read as degrees the noise turns 0.6-1.9x as fast
+    as the gyro, as a reference in degrees would (it was converted: yaw 1.0 -> 0.0175, a silent wrong reference); its
+    turn does not follow the gyro's interval by interval, so radians are kept, with a warning and a count. A clean
+    reference in degrees on the same steady turn (no correlation to tell by) follows it and is still converted."""
+    from graphnav.io.units import NOISY_TURN_DOUBT, reference_attitude_units
+    rng = np.random.default_rng(0)
+    t_imu, t = np.arange(0.0, 600.0, 0.01), np.arange(0.0, 600.0, 1.0)
+    omega_b = rng.normal(0.0, 5e-4, (t_imu.size, 3))
+    omega_b[:, 2] += 2e-3
+    steady = np.column_stack([0 * t, 0 * t, 1.0 + 2e-3 * t])
+    for noise in (0.03, 0.05, 0.1):
+        euler = rng.normal(0.0, noise, (t.size, 3)) + steady
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=r"gt.csv: attitude columns 'r', 'p', 'y' kept as radians \(the range "
+                                                r"allows them\).*does not follow the gyro's interval by interval"):
+            assert reference_attitude_units(t, euler, t_imu, omega_b, "gt.csv", ("r", "p", "y"), meta) is euler
+        assert meta["streams"]["gt"]["doubted"] == {NOISY_TURN_DOUBT: t.size}
+    with pytest.warns(RuntimeWarning, match="read as degrees and converted"):
+        out = reference_attitude_units(t, np.degrees(steady), t_imu, omega_b, "gt.csv", ("r", "p", "y"))
+    np.testing.assert_allclose(out, steady, atol=1e-12)
+
+
 def test_a_flipped_reference_depth_is_turned_back_or_refused_naming_the_column():
     from graphnav.io.units import reference_depth
     t, _, _, depth, v_n, _, _, _ = _reference()

@@ -22,7 +22,7 @@ import numpy as np
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import WINDOW_S, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note
+from graphnav.core.streams import add_note, count_doubted
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
 #: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
@@ -158,6 +158,14 @@ FORWARD_COURSE_RAD = np.deg2rad(30.0)
 #: the ten A-KIT trajectories, 0.998-0.999 simulated (400 s, lawnmower and transit); a hovering AUV 0.02-0.09 (the
 #: tests' ``_hovering_with_dvl``, seeds 1-10), whose mean direction is noise.
 MIN_COURSE_RESULTANT = 0.5
+#: A DVL velocity whose mean horizontal direction (:func:`_course`) lies further than this from body +x over the
+#: whole log is warned about when no fit judged its turn (:func:`warn_dvl_sideways`): an AUV moves mostly forward
+#: (the ten A-KIT trajectories -5.0..+1.9 deg; simulated 400 s missions -0.4, -0.2, with a hull pivot 2 or 5 m
+#: ahead of the IMU -0.7, -1.0), so sideways or backward over a whole log is a DVL turned 90 or 180 deg read as
+#: body, or a crabbing vehicle: a warning, not a refusal.
+SIDEWAYS_COURSE_RAD = np.deg2rad(60.0)
+#: Why DVL pings read despite pointing sideways or backward are counted (``meta["streams"]["dvl"]["doubted"]``).
+SIDEWAYS_DOUBT = "DVL velocity pointing sideways or backward over the log, its turn not judged against the IMU"
 
 
 def turn_about_z(yaw_deg: float) -> np.ndarray:
@@ -208,10 +216,11 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
     mounted yawed, which gravity cannot see. A velocity that points forward only turned back is a DVL turned: its
     turn (deg) is returned for :func:`warn_dvl_turned`; one that points forward neither way is a DataError naming
-    both instruments. None otherwise. A note in ``meta["streams"]["imu"]`` when the data cannot judge (under
-    two 20 s windows of pings, or too little change of velocity). ``frame["signs"]``: the ``imu_axis_signs`` applied
-    (an A-KIT folder), whose negated x and y fix a 180 deg turn. ``model``: the clock model when built already;
-    ``offset``: s added to its DVL stamps."""
+    both instruments. 0 when the velocity fits the IMU as read; None otherwise. A note in ``meta["streams"]["imu"]``
+    when the data cannot judge (under two 20 s windows of pings, or too little change of velocity).
+    ``frame["signs"]``: the ``imu_axis_signs`` applied (an A-KIT folder), whose negated x and y fix a 180 deg turn.
+    ``model``: the clock model when built already; ``offset``: s added to its DVL stamps.
+    """
     try:
         model = model or judging_model(imu, dvl, config)
     except DataError as exc:
@@ -230,7 +239,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
                               "needed: a longer log, or one with more changes of speed and course)")
         return
     if q < 0:
-        return
+        return 0            # judged: the velocity fits the IMU as read
     other = "" if q_next >= IMU_YAW_MIN_Q else f" (or another quarter turn: the next fits {q_next:.0f} worse)"
     raise DataError(f"the IMU's axes are turned {yaw} deg about z{other} against {frame['what']}: the DVL velocity "
                     f"(pointing forward, in the body frame) fits the accelerometer and gyro better by {q:.3g} noise "
@@ -244,13 +253,30 @@ def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | 
     turned back (:func:`check_imu_yaw`): velocity columns in the frame of a DVL mounted turned, read as body. Said
     here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed). ``fixes``: the
     advice (:data:`DECLARE_DVL_FIXES`, the default, or :data:`AKIT_DVL_FIXES`)."""
-    if yaw is None:
+    if not yaw:
         return
     text = (f"field '{field}': the DVL velocity points {yaw} deg about z from the vehicle's forward and fits the IMU "
             "only turned back: columns in the instrument frame of a DVL mounted turned, read as body? "
             f"{(fixes or DECLARE_DVL_FIXES)['yaw']}")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
     add_note(meta, "dvl", text)
+
+
+def warn_dvl_sideways(dvl, config, meta: dict, field: str, fixes: dict | None = None) -> None:
+    """Warn about, note and count a DVL velocity whose mean horizontal direction (:func:`_course`, the pings above
+    the course speed) lies further than :data:`SIDEWAYS_COURSE_RAD` from body +x, for a log whose fits could not
+    judge the DVL's turn (a straight leg at constant speed): a DVL turned 90 or 180 deg read as body, which nothing
+    else catches there, or a crabbing vehicle."""
+    course = _course(dvl, config)
+    if not abs(course) > SIDEWAYS_COURSE_RAD:       # NaN (pointing no one way): nothing to say
+        return
+    text = (f"field '{field}': the DVL velocity points {np.degrees(course):+.0f} deg about z from body x on average "
+            "over the log (an AUV moves mostly forward; its turn could not be judged against the IMU, the velocity "
+            "hardly changing): columns in the instrument frame of a DVL mounted turned, read as body? If the "
+            f"vehicle does move sideways (a crabbing ROV) ignore this; else {(fixes or DECLARE_DVL_FIXES)['yaw']}")
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
+    add_note(meta, "dvl", text)
+    count_doubted(meta, "dvl", SIDEWAYS_DOUBT, len(dvl.t))
 
 
 def _imu_turn_fix(yaw: int, frame: dict) -> str:
@@ -330,6 +356,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         add_note(meta, "dvl", f"its unit, turn and axes not judged against the IMU ({exc.message})")
         if imu_frame is not None:
             check_imu_yaw(imu, dvl, config, meta, imu_frame)        # says it could not be checked
+        warn_dvl_sideways(dvl, config, meta, field, fixes)
         return
     if moved:
         from graphnav.io.dvl_frame import check_not_earth_frame
@@ -354,8 +381,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
                 f"as body? {fixes['yaw']}")
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)
-    else:                               # the DVL's own fit explains too little: the IMU-turn fit may still see it
+    elif dvl_turn is not None:          # the DVL's own fit explains too little: the IMU-turn fit may still see it
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
+    else:                               # neither fit judged the turn: only the mean direction is left
+        warn_dvl_sideways(dvl, config, meta, field, fixes)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "

@@ -185,13 +185,17 @@ def check_windows(window_start: list[float] | None, window_s: float, mission) ->
 
 
 def accuracy_summary(sol, mission, outages, reference=None) -> dict:
-    """VRMSE over the mission and each outage window and the final horizontal position error (when GT);
+    """VRMSE over the mission and each outage window and the final horizontal position error (when GT), with
+    ``reference_point`` when the reference is scored at the IMU point without its point given
+    (:func:`graphnav.calibration.preparation.reference_point_unknown`);
     ``reference``: the NEES's reference at ``sol``'s epochs when the caller has carried it (None: carried here)."""
     if mission.gt is None:
         return {"ground_truth": False}
+    from graphnav.calibration.preparation import reference_point_unknown
     from graphnav.evaluation.metrics import horizontal_position_error, vrmse
     t_end = float(min(sol.t[-1], mission.gt.t[-1]))
-    return {
+    point = reference_point_unknown(mission)
+    return {**({"reference_point": point} if point else {}),
         "ground_truth": True,
         "vrmse_mission_mps": float(vrmse(sol, mission.gt, mission.t0, mission.t1)),
         "windows": [{"start_s": o.start_s, "end_s": o.end_s, "missing_beams": [b + 1 for b in o.missing],
@@ -329,6 +333,8 @@ def print_summary(summary: dict, file=None) -> None:
     if acc.get("ground_truth"):
         out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
+        if acc.get("reference_point"):
+            out(f"  note: {acc['reference_point']}")
         for w in acc["windows"]:
             out(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")

@@ -687,8 +687,33 @@ def _attitude_units(t, euler, t_imu, omega_b, source: str, fields, meta: dict | 
                   f"degrees it would turn {ratio_deg:.3g}x as fast: the gyro matches neither unit (a noisy "
                   "attitude?)", source)
             return euler
+        if not _follows_gyro(t, euler, t_imu, omega_b):
+            _note(meta, "gt", f"attitude columns {_columns(fields[:3])} kept as radians (the range allows them), but "
+                  f"{turns}, and read as degrees {ratio_deg:.3g}x: {NOISY_TURN_DOUBT}. Declare the reference's "
+                  "angle_unit", source)
+            if meta is not None:
+                count_doubted(meta, "gt", NOISY_TURN_DOUBT, len(euler))
+            return euler
     _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {why}", source)
     return np.radians(euler)
+
+
+#: Why a reference whose median turn rate says degrees but whose turn does not follow the gyro's is kept in radians
+#: and counted as doubted (:func:`_follows_gyro`).
+NOISY_TURN_DOUBT = ("its turn does not follow the gyro's interval by interval, so its median rate may be noise "
+                    "(radians with noise of 0.03-0.1 rad give 0.6-1.9x read as degrees)")
+#: Largest :func:`reference_turn_fit` spread of a reference that follows the gyro without correlating with it (a
+#: steady turn): 0.02 for a clean one in degrees, 0.09 with 0.01 deg of noise; radian noise read as degrees whose
+#: median rate matches the gyro's, 0.3-0.9.
+TURN_SPREAD_MAX = 0.15
+
+
+def _follows_gyro(t, euler, t_imu, omega_b) -> bool:
+    """Whether the attitude ``euler`` (K,3, as read), read as degrees, follows the gyro's turn interval by interval
+    (:func:`reference_turn_fit`: correlated at least :data:`GYRO_TILT_MIN_CORRELATION`, or within
+    :data:`TURN_SPREAD_MAX`), which noise matching the gyro's median rate by chance does not."""
+    _, _, r, spread = reference_turn_fit(t, np.radians(euler), t_imu, omega_b)
+    return bool(r >= GYRO_TILT_MIN_CORRELATION or spread <= TURN_SPREAD_MAX)
 
 
 #: Why gyro rates that look 57.3x too small, read as they are, are counted as doubted (``meta["streams"]["imu"]``).
@@ -706,7 +731,7 @@ def _degrees_turn_with_gyro(t, euler, t_imu, omega_b, source: str, fields, meta:
     (:data:`DEGREES_BY_TURN_DOUBT`)."""
     if t_imu is None or omega_b is None:
         return False
-    ratio, _, r = reference_turn_fit(t, np.radians(euler), t_imu, omega_b)
+    ratio, _, r, _ = reference_turn_fit(t, np.radians(euler), t_imu, omega_b)
     if not (r >= GYRO_TILT_MIN_CORRELATION and 1 / DEG_CONFIRM_RATIO < ratio < DEG_CONFIRM_RATIO):
         return False
     _note(meta, "gt", f"attitude columns {_columns(fields[:3])} read as degrees and converted to rad: {extent}, and "
@@ -748,12 +773,15 @@ def reference_tilt_unit(euler: np.ndarray, tilt: float) -> tuple[str | None, str
 
 
 def reference_turn_fit(t_ref: np.ndarray, euler: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray
-                       ) -> tuple[float, float, float]:
-    """``(ratio, turn rad/s, correlation)``: the reference attitude's (roll, pitch, yaw ``euler`` (K,3) rad at
+                       ) -> tuple[float, float, float, float]:
+    """``(ratio, turn rad/s, correlation, spread)``: the reference attitude's (roll, pitch, yaw ``euler`` (K,3) rad at
     ``t_ref`` s) median turn rate over its intervals of at least :data:`ATTITUDE_STEP_MIN_S` over the gyro's
     (``omega_b`` (N,3) at ``t_imu`` s, integrated over the same intervals), the reference's median turn rate, and the
     correlation of the two rates interval by interval (which needs the two on one clock; norms: indifferent to the
-    IMU's axis signs): ~1 for a gyro in rad/s, 57.3 for rates 57.3x too small, 1/57.3 for deg/s. NaN when too short."""
+    IMU's axis signs): ~1 for a gyro in rad/s, 57.3 for rates 57.3x too small, 1/57.3 for deg/s. NaN when too short.
+    ``spread``: the median difference of the two rates, interval by interval, over the gyro's median rate (near 0
+    when the reference follows the gyro, even turning steadily, where the correlation cannot tell; noise whose median
+    happens to match the gyro's gives 0.3-0.9, :data:`TURN_SPREAD_MAX`)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -762,7 +790,7 @@ def reference_turn_fit(t_ref: np.ndarray, euler: np.ndarray, t_imu: np.ndarray, 
     t, t_imu = np.asarray(t_ref, float)[keep], np.ascontiguousarray(t_imu, float)
     inside = (t >= t_imu[0]) & (t <= t_imu[-1])
     if inside.sum() < 10:
-        return float("nan"), float("nan"), float("nan")
+        return float("nan"), float("nan"), float("nan"), float("nan")
     e = np.asarray(euler, float)[keep][inside]
     C, dt = euler_to_C_b_n(e[:, 0], e[:, 1], e[:, 2]), np.diff(t[inside])
     turn_ref = np.linalg.norm(Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec(), axis=1) / dt
@@ -770,7 +798,9 @@ def reference_turn_fit(t_ref: np.ndarray, euler: np.ndarray, t_imu: np.ndarray, 
     turn_imu = np.linalg.norm(np.diff(S, axis=0), axis=1) / dt
     with np.errstate(invalid="ignore", divide="ignore"):
         r = float(np.corrcoef(turn_ref, turn_imu)[0, 1])
-        return float(np.median(turn_ref) / np.median(turn_imu)), float(np.median(turn_ref)), r
+        median_imu = float(np.median(turn_imu))
+        spread = float(np.median(np.abs(turn_ref - turn_imu)) / median_imu)
+        return float(np.median(turn_ref) / median_imu), float(np.median(turn_ref)), r, spread
 
 
 def _attitude_ratio(t, euler, t_imu, omega_b, turn_imu: float | None = None) -> tuple[float, float | None]:
