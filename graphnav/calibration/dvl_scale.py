@@ -23,6 +23,7 @@ from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.calibration.clock import WINDOW_S, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
+from graphnav.io.units import AKIT_DVL_FIXES, DECLARE_DVL_FIXES
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
 #: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
@@ -318,22 +319,6 @@ def _likely_unit(scale: float, declare: bool) -> str:
     if abs(np.log(scale / factor)) >= np.log(MAX_SCALE_ERROR) / 2:
         return "a wrong velocity_unit" if declare else f"in a unit {scale:.3g}x m/s"
     return LIKELY_UNITS[factor][0 if declare else 1]
-
-
-#: What to do about a DVL velocity in other units (``"unit"``, after the likely unit), turned about z (``"yaw"``) or in
-#: FLU axes (``"flu"``): a column map or bag declares its unit and frame (``"declare"``).
-DECLARE_DVL_FIXES = {"declare": True, "unit": "",
-                     "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
-                            "it and writes both)",
-                     "flu": "declare csv_columns.dvl.frame 'flu'"}
-#: The same for an A-KIT folder, whose format is fixed (m/s, body frame FRD; the loader converts mm/s itself): its
-#: velocity columns are converted before graphnav reads them.
-AKIT_DVL_FIXES = {"declare": False,
-                  "unit": "convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
-                          "declare)",
-                  "yaw": "turn the DVL velocity columns of the file into the body frame (an A-KIT folder has no DVL "
-                         "frame to declare)",
-                  "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
 
 
 def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None,

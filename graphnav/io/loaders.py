@@ -426,7 +426,7 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
     """Stamps, IMU, DVL and GT units of the A-KIT arrays checked and converted in place (:mod:`graphnav.io.units`;
     the header names units, but a file written by other tools in this layout may not hold them). ``lines``: stream
     -> the file line of each row. Returns the GT rows to refuse (:func:`_akit_gt_units`), None without a GT."""
-    from graphnav.io.units import dvl_velocity_units, imu_units, stamps_in_seconds
+    from graphnav.io.units import AKIT_DVL_FIXES, dvl_velocity_units, imu_units, stamps_in_seconds
     for a, kind, stream, rate in ((imu, "IMU", "imu", 100.0), (dvl, "DVL", "dvl", 1.0), (gt, "GT", "gt", 1.0)):
         if a is not None:
             a[:, 0] = stamps_in_seconds(a[:, 0], stream, str(files[kind]), meta, rate, field=AKIT_COLUMNS[kind][0],
@@ -435,7 +435,6 @@ def _akit_units(imu: np.ndarray, dvl: np.ndarray, gt: np.ndarray | None, lines: 
     f_b, omega_b = imu_units(imu[rows, 0], imu[rows, 1:4], imu[rows, 4:7], str(files["IMU"]), meta,
                              fields=AKIT_COLUMNS["IMU"][1:7])
     imu[rows, 1:7] = np.hstack([f_b, omega_b])
-    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
     dvl[:, 1:4] = dvl_velocity_units(dvl[:, 1:4], str(files["DVL"]), meta, columns="/".join(AKIT_COLUMNS["DVL"][1:4]),
                                      fix=AKIT_DVL_FIXES["unit"])
     if gt is None:

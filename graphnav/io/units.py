@@ -1316,7 +1316,23 @@ def check_units(streams, config=None, meta: dict | None = None, declared: Mappin
     return out
 
 
-__all__ = ["check_units", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
+#: What to do about a DVL velocity in other units (``"unit"``, after the likely unit), turned about z (``"yaw"``) or in
+#: FLU axes (``"flu"``): a column map or bag declares its unit and frame (``"declare"``).
+DECLARE_DVL_FIXES = {"declare": True, "unit": "",
+                     "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
+                            "it and writes both)",
+                     "flu": "declare csv_columns.dvl.frame 'flu'"}
+#: The same for an A-KIT folder, whose format is fixed (m/s, body frame FRD; the loader converts mm/s itself): its
+#: velocity columns are converted before graphnav reads them.
+AKIT_DVL_FIXES = {"declare": False,
+                  "unit": "convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
+                          "declare)",
+                  "yaw": "turn the DVL velocity columns of the file into the body frame (an A-KIT folder has no DVL "
+                         "frame to declare)",
+                  "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
+
+
+__all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
