@@ -104,7 +104,8 @@ def test_rdi_flag_in_a_turned_velocity_refuses_its_ping_by_line_as_in_body_colum
     said = [str(w.message) for w in rec if "not measurements" in str(w.message)]
     assert len(said) == 1 and "[1 seen]" in said[0] and "first at line 102, 1 ping(s)" in said[0], said
     assert not got.dvl.valid[100].any() and np.isnan(got.dvl.v_b[100]).all()
-    assert got.meta["streams"]["dvl"]["refused"] == {"no valid beam (flagged invalid, NaN or RDI -32768 in the file)": 1}
+    assert got.meta["streams"]["dvl"]["refused"] == {
+        "no valid beam (flagged invalid, NaN or RDI -32768 in the file)": 1}
 
 
 def test_a_velocity_in_knots_is_refused_undeclared_and_converted_declared(sim, tmp_path):
@@ -190,7 +191,8 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
     # the advice is the caller's: an A-KIT folder has no DVL frame to declare (it was given a column map's)
     for yaw, warned, fixes, advice in ((0, False, dvl_scale.DECLARE_DVL_FIXES, ""),
                                        (90, True, dvl_scale.DECLARE_DVL_FIXES, "declare csv_columns.dvl.frame"),
-                                       (90, True, dvl_scale.AKIT_DVL_FIXES, "turn the DVL velocity columns of the file")):
+                                       (90, True, dvl_scale.AKIT_DVL_FIXES,
+                                        "turn the DVL velocity columns of the file")):
         dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
                       v @ dvl_scale.turn_about_z(yaw).T, source="dvl.csv")
         meta = {}

@@ -651,7 +651,8 @@ def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, seconds, 0.01)
-    euler = np.column_stack([trim[0] + 3e-4 * np.sin(2 * np.pi * t / 7.0), trim[1] + 3e-4 * np.sin(2 * np.pi * t / 11.0),
+    euler = np.column_stack([trim[0] + 3e-4 * np.sin(2 * np.pi * t / 7.0),
+                             trim[1] + 3e-4 * np.sin(2 * np.pi * t / 11.0),
                              yaw + 5e-4 * np.sin(2 * np.pi * t / 30.0)])
     R = Rotation.from_euler("ZYX", euler[:, ::-1])
     omega = (R[:-1].inv() * R[1:]).as_rotvec() / 0.01
@@ -665,7 +666,8 @@ def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0
         f, omega = Rotation.from_euler("y", -mount_pitch).apply(np.vstack([f, omega])).reshape(2, -1, 3)
     _write(root / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f, omega * gyro_scale])
     i, j = np.arange(0, t.size, 20), np.arange(0, t.size, 10)
-    _write(root / "dvl.csv", ["t", "vx", "vy", "vz"], [t[i], R[i].inv().apply(v[i]) + rng.normal(0, 0.002, (i.size, 3))])
+    _write(root / "dvl.csv", ["t", "vx", "vy", "vz"],
+           [t[i], R[i].inv().apply(v[i]) + rng.normal(0, 0.002, (i.size, 3))])
     _write(root / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
            [t[j], np.cumsum(v, axis=0)[j] * 0.01 + [0, 0, 20.0], v[j],
             (euler[j] + rng.normal(0, ref_noise, (j.size, 3))) * (180 / np.pi if deg else 1.0)])
@@ -727,7 +729,8 @@ def test_a_hovering_log_whose_gyro_is_57_times_too_small_is_judged_by_its_refere
 @pytest.mark.parametrize("trim, ref_noise", [((0.0, 0.0), 0.0), ((0.02, 0.05), 0.003)])
 def test_a_hovering_reference_that_cannot_settle_the_gyro_leaves_it_unjudged(tmp_path, trim, ref_noise):
     """A level vehicle (its roll and pitch cannot tell the reference's unit) or a reference whose turn is its noise
-    (uncorrelated with the gyro's: 30x as fast): the gyro is read as before, with the note that its scale is unjudged."""
+    (uncorrelated with the gyro's: 30x as fast): the gyro is read as before, with the note that its scale is
+    unjudged."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = load_mission(tmp_path, _hover_with_reference(tmp_path, np.pi / 180 if ref_noise == 0 else 1.0, trim,

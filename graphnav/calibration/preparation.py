@@ -29,7 +29,8 @@ detection (:func:`graphnav.calibration.axes.declared_frame_signs`): data that co
 DataError, an implied frame is corrected with a warning; without a reference attitude on the IMU clock, an IMU
 turned about z is found against the DVL (:func:`graphnav.calibration.dvl_scale.check_imu_yaw`; an A-KIT folder
 without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
-:func:`~graphnav.calibration.dvl_scale.check_velocity_against_imu`); a depth is checked against the vehicle's vertical velocity
+:func:`~graphnav.calibration.dvl_scale.check_velocity_against_imu`); a depth is checked against the vehicle's
+vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag

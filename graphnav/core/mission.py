@@ -311,8 +311,8 @@ class DvlData:
         warnings.warn(f"{self.source}: {int(bad_beam.sum())} beam value(s) and {int(bad_ping.sum())} ping "
                       f"velocit(ies) are not measurements (NaN, RDI bad-velocity flag -32768/-32.768 "
                       f"[{rdi} seen], or beyond {max_speed:g} m/s) and are marked invalid; first at "
-                      f"{located(rows, lines, where, first=True, t=self.t)}, {rows.size} ping(s) affected", RuntimeWarning,
-                      stacklevel=2)
+                      f"{located(rows, lines, where, first=True, t=self.t)}, {rows.size} ping(s) affected",
+                      RuntimeWarning, stacklevel=2)
         return dataclasses.replace(self, beams=beams, valid=valid, v_b=v_b)
 
     def take(self, idx) -> "DvlData":

@@ -949,7 +949,8 @@ class ImuSpikeTest:
 
     The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
     those rows are accepted), after the burst it starts with, if any (:func:`start_burst` against the configured
-    ``period_s``, s, when given: 50 samples 0.1 ms apart read 10 kHz, a 10 s window); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
+    ``period_s``, s, when given: 50 samples 0.1 ms apart read 10 kHz, a 10 s window); under
+    :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
     (:attr:`note` says why) and accepts every row. Plain Python on six floats per row: the Navigator calls it at the
     IMU's rate (about 6 us a row).
     """

@@ -165,8 +165,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
         raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: over {COURSE_WINDOW_S:g} s "
                         f"windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a vehicle-fixed "
-                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); {_EARTH_FIX}", source,
-                        field=", ".join(fields))
+                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); {_EARTH_FIX}",
+                        source, field=", ".join(fields))
     return ratio
 
 

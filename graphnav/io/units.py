@@ -346,7 +346,8 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
                         f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? {fix}",
                         source, field=field)
     raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
-                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source, field=field)
+                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source,
+                    field=field)
 
 
 def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
@@ -1332,7 +1333,8 @@ AKIT_DVL_FIXES = {"declare": False,
                   "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
 
 
-__all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units", "dvl_velocity_units", "time_scale",
+__all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
+           "dvl_velocity_units", "time_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
