@@ -661,7 +661,8 @@ REFERENCE_POINT_UNKNOWN = (
     "the reference is scored at the IMU point (reference_position_b unset): a reference measured elsewhere on the "
     "vehicle (an INS, a USBL transponder) moves by omega x r more in turns, counted as the estimate's error (VRMSE "
     "0.142 against 0.022 m/s on 200 s of Trajectory1 read as a column-map log, its reference 1.86 m ahead of the "
-    "IMU); graphnav calibrate estimates the point and writes reference_position_b")
+    "IMU); graphnav calibrate estimates the point and writes reference_position_b; set reference_position_b "
+    "[0, 0, 0] if the reference is at the IMU point")
 
 
 def reference_point_unknown(mission: Mission) -> str | None:
