@@ -303,3 +303,38 @@ def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clo
         warnings.simplefilter("always")
         m = _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "body", seconds, earth=False))
     assert m.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)
+
+
+def test_a_crabbing_vehicle_with_a_reference_is_judged_by_where_the_reference_moves():
+    """A vehicle moving along body y (crabbing) with a reference on the IMU clock (no IMU turn check): the DVL's own
+    fit explains too little to judge its turn (r2 about 0.2, simulated beam noise), so only the mean direction is
+    left. It was warned about and every ping doubted, said to be 'the velocity hardly changing' on a lawnmower with
+    turns; the reference's velocity, turned into its body frame, points the same way, so nothing is said. A DVL
+    turned 90 deg read as body on the same vehicle disagrees with the reference: warned, naming both directions.
+    Without a reference the mean direction alone is warned about, with the reason the fits gave."""
+    from graphnav.calibration import dvl_scale
+    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.mission import DvlData
+    m = simulate_mission(duration_s=300.0, seed=4)
+    A = dvl_scale.turn_about_z(90.0)                # new body coordinates = A @ old: the vehicle moves along +y
+    imu = dataclasses.replace(m.imu, f_b=m.imu.f_b @ A.T, omega_b=m.imu.omega_b @ A.T)
+    gt = dataclasses.replace(m.gt, C_b_n=m.gt.C_b_n @ A.T)
+    cfg = dataclasses.replace(m.config, dvl=dataclasses.replace(m.config.dvl, lever_arm_b=A @ m.config.dvl.lever_arm_b))
+    t, v = dvl_velocity_b(m.dvl, m.config)
+
+    def check(turn, reference):
+        dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
+                      v @ (dvl_scale.turn_about_z(turn) @ A).T, source="dvl.csv")
+        meta = {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            dvl_scale.check_velocity_against_imu(imu, dvl, cfg, meta, field="vx/vy/vz", reference=reference)
+        said = [str(w.message) for w in caught if "on average over the log" in str(w.message)]
+        return said, meta.get("streams", {}).get("dvl", {}).get("doubted")
+    assert check(0.0, gt) == ([], None)
+    said, doubted = check(90.0, gt)
+    assert len(said) == 1 and doubted == {dvl_scale.SIDEWAYS_DOUBT: len(t)}, said
+    assert re.search(r"points [+-]1[78]\d deg about z from body x on average over the log, the reference's "
+                     r"\(gt\b.*\) \+(89|90) deg: .* DVL mounted turned [+-]\d+ deg", said[0]), said
+    said, _ = check(0.0, None)
+    assert len(said) == 1 and "hardly changing" not in said[0] and "its fit explains 0." in said[0], said

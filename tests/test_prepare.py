@@ -2,6 +2,9 @@
 offsets, a DVL clock, the GT at the IMU point): docs/decisions/loading-and-prepare.md."""
 from __future__ import annotations
 
+import dataclasses
+import json
+import re
 import warnings
 
 import numpy as np
@@ -134,3 +137,27 @@ def test_an_imu_with_stamps_in_whole_milliseconds_is_prepared_at_its_rate(tmp_pa
     assert m.config.imu_rate_hz == pytest.approx(400.0, rel=1e-3)
     notes = m.meta["streams"]["imu"]["notes"]
     assert [n for n in notes if "stamps on a 1 ms grid, 40% of a step (steps of 2, 3 ms)" in n]
+
+
+def test_a_prepared_mission_written_as_an_akit_folder_reads_back_as_it_was(tmp_path):
+    """A prepared mission's files hold its data with the axis signs and time offsets applied. The configuration
+    written beside them held those signs and offsets, so reading the folder back applied them again (a y gyro
+    flipped back); it now says (1, 1, 1) and 0 s, and the data read back as written. A value in that configuration
+    the data disagree with is named by the file it came from, not 'the configuration'."""
+    from graphnav.io.export import write_akit
+    m = simulate_mission(duration_s=120.0, seed=3)
+    m.config = dataclasses.replace(m.config, imu_axis_signs=(1.0, -1.0, 1.0), gt_time_offset_s=-0.4,
+                                   dvl_time_offset_s=0.9)        # as a prepared A-KIT mission records them
+    paths = write_akit(m, tmp_path)
+    written = json.loads(paths["config"].read_text())
+    assert (written["imu_axis_signs"], written["gt_time_offset_s"], written["dvl_time_offset_s"]) == ([1, 1, 1], 0, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = load_mission(paths["config"].parent)
+    np.testing.assert_allclose(back.imu.omega_b, m.imu.omega_b, atol=1e-9)
+    np.testing.assert_allclose(back.dvl.t, m.dvl.t, atol=1e-9)
+    written["gt_time_offset_s"] = 0.5
+    paths["config"].write_text(json.dumps(written))
+    with pytest.warns(RuntimeWarning, match=rf"^{re.escape(str(paths['config']))}: gt_time_offset_s = \+0\.500 s is "
+                                            "given, but the data say"):
+        load_mission(paths["config"].parent)

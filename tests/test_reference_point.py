@@ -197,6 +197,7 @@ def test_a_score_against_a_log_reference_whose_point_is_not_given_says_so_with_t
     at = next(i for i, line in enumerate(printed) if "VRMSE mission" in line)
     assert printed[at + 1].startswith("  note: the reference is scored at the IMU point (reference_position_b unset)")
     assert "graphnav calibrate estimates the point" in printed[at + 1]
+    assert printed[at + 1].endswith("set reference_position_b [0, 0, 0] if the reference is at the IMU point")
     report = format_report({"matched_poses": 1, "aligned": False, "vrmse_mps": 0.0173, "nees_velocity_mean": None,
                             "rpe_delta": 10.0, "rpe_note": "-", "ape_note": "-", "nees_note": "-",
                             "reference_point": REFERENCE_POINT_UNKNOWN}, "trajectory.csv", "log")

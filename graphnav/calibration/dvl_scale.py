@@ -199,8 +199,22 @@ def _course(dvl, config) -> float:
     """The DVL's mean horizontal direction from body +x (rad, about z; the pings over the course speed), NaN when
     they point no one way (:data:`MIN_COURSE_RESULTANT`)."""
     from graphnav.calibration.clock import dvl_velocity_b
+    return _mean_direction(dvl_velocity_b(dvl, config)[1])
+
+
+def _reference_course(reference) -> float:
+    """The reference's mean horizontal direction of motion in its own body frame (rad from body +x, about z: its
+    NED velocity turned by its attitude), as :func:`_course`; NaN without a reference or rows with both."""
+    if reference is None:
+        return float("nan")
+    v_b = np.einsum("kji,kj->ki", reference.C_b_n, reference.v_n)
+    return _mean_direction(v_b[np.isfinite(v_b).all(axis=1)])
+
+
+def _mean_direction(v: np.ndarray) -> float:
+    """The mean of the horizontal unit directions of ``v`` (N,3) m/s over :data:`COURSE_MIN_SPEED_MPS`, rad about z,
+    NaN when shorter than :data:`MIN_COURSE_RESULTANT`."""
     from graphnav.io.dvl_frame import COURSE_MIN_SPEED_MPS
-    _, v = dvl_velocity_b(dvl, config)
     h = v[:, 0] + 1j * v[:, 1]
     h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
     mean = np.mean(h / np.abs(h)) if h.size else 0.0
@@ -263,18 +277,31 @@ def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | 
     add_note(meta, "dvl", text)
 
 
-def warn_dvl_sideways(dvl, config, meta: dict, field: str, fixes: dict | None = None) -> None:
-    """Warn about, note and count a DVL velocity whose mean horizontal direction (:func:`_course`, the pings above
-    the course speed) lies further than :data:`SIDEWAYS_COURSE_RAD` from body +x, for a log whose fits could not
-    judge the DVL's turn (a straight leg at constant speed): a DVL turned 90 or 180 deg read as body, which nothing
-    else catches there, or a crabbing vehicle."""
-    course = _course(dvl, config)
-    if not abs(course) > SIDEWAYS_COURSE_RAD:       # NaN (pointing no one way): nothing to say
+def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict | None = None,
+                      reference=None) -> None:
+    """Warn about, note and count a DVL velocity pointing sideways or backward over the whole log, for a log whose
+    fits could not judge the DVL's turn (``why``: the reason, said in the warning): a DVL turned 90 or 180 deg read
+    as body, which nothing else catches there, or a crabbing vehicle. With a ``reference`` (a
+    :class:`~graphnav.core.mission.GroundTruth` with velocity and attitude), which says where the vehicle moves, its
+    mean direction in its body frame is the one the DVL's (:func:`_course`) is compared with, and a crabbing vehicle
+    passes; without, body +x is (:data:`SIDEWAYS_COURSE_RAD`)."""
+    course, moving = _course(dvl, config), _reference_course(reference)
+    fix = (fixes or DECLARE_DVL_FIXES)["yaw"]
+    if np.isfinite(moving):
+        off = float(np.angle(np.exp(1j * (course - moving))))
+        if not abs(off) > SIDEWAYS_COURSE_RAD:      # NaN (pointing no one way): nothing to say
+            return
+        text = (f"field '{field}': the DVL velocity points {np.degrees(course):+.0f} deg about z from body x on "
+                f"average over the log, the reference's ({reference.source}, its velocity turned into its body "
+                f"frame) {np.degrees(moving):+.0f} deg: columns in the instrument frame of a DVL mounted turned "
+                f"{np.degrees(off):+.0f} deg, read as body (or a reference attitude in another frame)? {fix}")
+    elif abs(course) > SIDEWAYS_COURSE_RAD:
+        text = (f"field '{field}': the DVL velocity points {np.degrees(course):+.0f} deg about z from body x on "
+                f"average over the log (an AUV moves mostly forward; its turn could not be judged against the IMU: "
+                f"{why}): columns in the instrument frame of a DVL mounted turned, read as body? If the vehicle does "
+                f"move sideways (a crabbing ROV) ignore this; else {fix}")
+    else:
         return
-    text = (f"field '{field}': the DVL velocity points {np.degrees(course):+.0f} deg about z from body x on average "
-            "over the log (an AUV moves mostly forward; its turn could not be judged against the IMU, the velocity "
-            "hardly changing): columns in the instrument frame of a DVL mounted turned, read as body? If the "
-            f"vehicle does move sideways (a crabbing ROV) ignore this; else {(fixes or DECLARE_DVL_FIXES)['yaw']}")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
     add_note(meta, "dvl", text)
     count_doubted(meta, "dvl", SIDEWAYS_DOUBT, len(dvl.t))
@@ -322,7 +349,7 @@ def _likely_unit(scale: float, declare: bool) -> str:
 
 
 def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False, imu_frame: dict | None = None,
-                               field: str | None = None, fixes: dict = DECLARE_DVL_FIXES) -> None:
+                               field: str | None = None, fixes: dict = DECLARE_DVL_FIXES, reference=None) -> None:
     """DataError when the DVL velocity (on the IMU clock) is far from the IMU's in scale (:func:`speed_scale`, a
     speed unit read wrong) or in FLU axes read as FRD (:func:`flu_fit_ratio`), naming the DVL file and its columns
     (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
@@ -332,7 +359,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude checked its axes: its
     turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves).
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
-    messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`)."""
+    messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
+    which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`)."""
     from graphnav.calibration.clock import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
@@ -341,7 +369,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         add_note(meta, "dvl", f"its unit, turn and axes not judged against the IMU ({exc.message})")
         if imu_frame is not None:
             check_imu_yaw(imu, dvl, config, meta, imu_frame)        # says it could not be checked
-        warn_dvl_sideways(dvl, config, meta, field, fixes)
+        warn_dvl_sideways(dvl, config, meta, field, exc.message, fixes, reference)
         return
     if moved:
         from graphnav.io.dvl_frame import check_not_earth_frame
@@ -369,7 +397,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     elif dvl_turn is not None:          # the DVL's own fit explains too little: the IMU-turn fit may still see it
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
     else:                               # neither fit judged the turn: only the mean direction is left
-        warn_dvl_sideways(dvl, config, meta, field, fixes)
+        why = (f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed" if not
+               r2 >= MIN_SCALE_R2 else "it fits the IMU's axes as read, whose turn about z was not judged")
+        warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "

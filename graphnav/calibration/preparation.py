@@ -479,7 +479,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
     if on_the_imu_clock(dvl.t, mission.imu.t):
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked)
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
@@ -499,7 +499,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
     mission = _reference_on_the_imu(mission, meta, facts)
     if facts.get("dvl_clock") == AUTO and dvl is not searched:
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked)
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked,
+                                   reference=mission.gt)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
         if new is not old and stream in meta.get("streams", {}):
             set_span(meta, stream, new.t)           # the stamps as the mission holds them
@@ -660,7 +661,8 @@ REFERENCE_POINT_UNKNOWN = (
     "the reference is scored at the IMU point (reference_position_b unset): a reference measured elsewhere on the "
     "vehicle (an INS, a USBL transponder) moves by omega x r more in turns, counted as the estimate's error (VRMSE "
     "0.142 against 0.022 m/s on 200 s of Trajectory1 read as a column-map log, its reference 1.86 m ahead of the "
-    "IMU); graphnav calibrate estimates the point and writes reference_position_b")
+    "IMU); graphnav calibrate estimates the point and writes reference_position_b; set reference_position_b "
+    "[0, 0, 0] if the reference is at the IMU point")
 
 
 def reference_point_unknown(mission: Mission) -> str | None:

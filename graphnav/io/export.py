@@ -40,7 +40,10 @@ def _write_csv(path: Path, columns: tuple[str, ...], data: np.ndarray) -> None:
 
 
 def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[str, Path]:
-    """Write ``mission`` as ``folder/Trajectory<number>/`` in the A-KIT layout; returns the written paths."""
+    """Write ``mission`` as ``folder/Trajectory<number>/`` in the A-KIT layout; returns the written paths. The
+    files hold the mission's data as it is (prepared: axis signs and time offsets applied, the reference at the IMU
+    point), and the configuration written beside them says so (``imu_axis_signs`` (1, 1, 1), time offsets 0 s), so
+    that reading the folder gives the mission back."""
     if mission.gt is None or mission.gt.origin_lla is None:
         raise DataError("the A-KIT layout needs ground truth with a known geodetic origin",
                         mission.name, field="gt.origin_lla")
@@ -72,6 +75,8 @@ def write_akit(mission: Mission, folder: str | Path, number: int = 1) -> dict[st
     euler = C_b_n_to_euler(gt.C_b_n)
     _write_csv(paths["GT"], AKIT_COLUMNS["GT"],
                np.column_stack([gt.t, lla[:, 1], lla[:, 0], lla[:, 2], gt.v_n, euler]))
-    # the GT is written where the mission holds it, at the IMU point: no reference point to move it from
-    dataclasses.replace(mission.config, reference_position_b=None).save(paths["config"])
+    # the GT is written where the mission holds it, at the IMU point: no reference point to move it from; the files
+    # hold the prepared data, its axis signs and time offsets applied, so the next read has none left to apply
+    dataclasses.replace(mission.config, reference_position_b=None, imu_axis_signs=(1.0, 1.0, 1.0),
+                        gt_time_offset_s=0.0, dvl_time_offset_s=0.0).save(paths["config"])
     return paths

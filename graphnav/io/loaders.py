@@ -687,12 +687,15 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
     """
     folder = Path(folder)
     written = written_config(folder)
+    given_by = {}
     if written is not None:
         # graphnav wrote this folder (graphnav simulate --out): it reads with the configuration it was written
         # with and its GT is already at the IMU point
         if config is None:
             config, folder_keys = akit_base_config(folder)
-            given = {**_given_keys(config, folder_keys.sets), **(given or {})}
+            folder_given = _given_keys(config, folder_keys.sets)
+            given_by = {key: str(written) for key in folder_given if key not in (given or {})}  # named when doubted
+            given = {**folder_given, **(given or {})}
         imu_position_b = (0.0, 0.0, 0.0) if imu_position_b is None else imu_position_b
     raw = read_akit(folder, rescale_stamps=rescale_stamps and written is None, repair=repair, config=config)
     cfg = dataclasses.replace(config) if config is not None else SensorConfig(imu=dataclasses.replace(
@@ -773,7 +776,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             "dvl_implausible": {k: int(m.sum()) for k, m in envelope.items()},
             "prepared": False,
             "prepare": {"format": "akit", "imu_position_b": imu_position_b.tolist(),
-                        "gt_mean_depth_m": None if g is None else float(np.mean(-g[:, 3])), "given": given},
+                        "gt_mean_depth_m": None if g is None else float(np.mean(-g[:, 3])), "given": given,
+                        **({"given_by": given_by} if given_by else {})},
             **raw.meta}
     if g is not None:
         meta["gt_point_b"] = [0.0, 0.0, 0.0]          # the published point until prepared
