@@ -355,6 +355,11 @@ def test_a_reference_in_radians_whose_noise_matches_the_gyro_read_as_degrees_sta
     with pytest.warns(RuntimeWarning, match="read as degrees and converted"):
         out = reference_attitude_units(t, np.degrees(steady), t_imu, omega_b, "gt.csv", ("r", "p", "y"))
     np.testing.assert_allclose(out, steady, atol=1e-12)
+    # the same at 0.01 deg resolution, its gyro biased 103 deg/h (a bias offsets every interval alike: not a misfit)
+    with pytest.warns(RuntimeWarning, match="read as degrees and converted"):
+        out = reference_attitude_units(t, np.round(np.degrees(steady), 2), t_imu, omega_b + 5e-4, "gt.csv",
+                                       ("r", "p", "y"))
+    np.testing.assert_allclose(out, steady, atol=1e-3)
 
 
 def test_a_flipped_reference_depth_is_turned_back_or_refused_naming_the_column():
