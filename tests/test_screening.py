@@ -825,6 +825,27 @@ def test_a_navigator_refuses_a_whole_run_of_zero_pings_holding_them_one_ping(mis
     assert len(estimates) == nav.n_estimates and [e.t for e in estimates] == sorted(e.t for e in estimates)
 
 
+def test_a_zero_ping_between_two_outages_is_held_two_ping_periods_not_two_outages(mission):
+    """A zero ping right after a 15 s DVL outage, another outage after it: the hold was two of the step before it
+    (outage included), so the reorder buffer released nothing after its stamp for 30 s. It is held two ping periods
+    (the median of recent steps): the estimates lag the newest sample about 2 s at most, and the ping is kept."""
+    m = mission.slice(0, 90)
+    events = []
+    for kind, t, p in replay(m):
+        if kind == "dvl" and 30.0 < t < 75.0:
+            if abs(t - 45.0) < 0.5:
+                events.append(("dvl", t, ((0.0,) * 4, (True,) * 4)))
+            continue
+        events.append((kind, t, ((tuple(np.round(p[0], 3)), p[1]) if kind == "dvl" else p)))
+    nav, lag, newest = _navigator(m), [], -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for kind, t, payload in events:
+            newest = max(newest, t)
+            lag += [newest - e.t for e in getattr(nav, "add_" + kind)(t, *payload)]
+    assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz) and not nav.info.get("refused")
+
+
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):
     """The Navigator (``online --stream``) refuses DVL pings whose beams are all exactly 0 after pings of a vehicle
     under way, counted under the loaders' reason (it used them as a vehicle standing still)."""

@@ -659,8 +659,12 @@ ZERO_SPEED_MARGIN_MPS = 0.1
 #: 0.25 m/s, is slower than what the speed rule can tell from one ping interval).
 ZERO_RUN_PINGS = 3
 #: A stream holds a zero ping for the ping after it (which tells a run, or the speed after it) at most this many of
-#: its intervals between pings: a DVL silent for longer leaves it as the past judged it (kept).
+#: its ping periods (:data:`PING_PERIOD_STEPS`): a DVL silent for longer leaves it as the past judged it (kept).
 ZERO_HOLD_INTERVALS = 2.0
+#: A stream's ping period is the median of its last this many steps between pings (``DvlSpec.rate_hz``'s period
+#: until it has three): an outage is one long step among them, so a zero ping right after one is held two periods,
+#: not two outages (the step before it, outage included, held it 30 s after a 15 s outage).
+PING_PERIOD_STEPS = 15
 
 
 def on_resolution_grid(values) -> tuple[int, int]:
@@ -1077,7 +1081,7 @@ class ZeroPingTest:
         self._run = 0                            # zero pings in the current run
         self._t_run = math.nan                   # stamp of the run's newest ping, s
         self._t_ping = math.nan                  # stamp of the newest ping, s
-        self._interval = 1.0 / spec.rate_hz      # between the two newest pings, s
+        self._steps: deque[float] = deque(maxlen=PING_PERIOD_STEPS)     # between the newest pings, s
 
     def is_no_lock(self, t: float, values) -> bool:
         """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
@@ -1091,7 +1095,7 @@ class ZeroPingTest:
         held (None: none, or this ping is one more zero). Any ping that is not all zeros joins the history."""
         values = np.asarray(values, float)
         if t > self._t_ping:
-            self._interval = t - self._t_ping
+            self._steps.append(t - self._t_ping)
         self._t_ping = t
         if not zero_pings(values[None])[0]:
             held = None
@@ -1116,10 +1120,11 @@ class ZeroPingTest:
 
     @property
     def hold_s(self) -> float:
-        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's last
-        interval between pings (of ``DvlSpec.rate_hz``'s period before it has one); a stream silent for longer
-        (an outage) leaves the run kept, as the past says."""
-        return ZERO_HOLD_INTERVALS * self._interval
+        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's ping
+        period (:data:`PING_PERIOD_STEPS`); a stream silent for longer (an outage) leaves the run kept, as the past
+        says."""
+        period = float(np.median(self._steps)) if len(self._steps) >= 3 else 1.0 / self.spec.rate_hz
+        return ZERO_HOLD_INTERVALS * period
 
 
 @dataclass
