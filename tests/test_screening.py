@@ -724,6 +724,25 @@ def test_an_imu_ten_times_faster_than_configured_is_no_burst_at_its_start():
     assert keyframer.imu_period.start_burst is None and not keyframer.stats.imu_gaps
 
 
+@pytest.mark.parametrize("k", [5, 10, 20, 50])
+def test_an_imu_in_packets_runs_at_its_samples_over_time_with_no_gaps_and_no_start_burst(k):
+    """A 100 Hz IMU delivered in packets of k samples stamped 0.01 ms apart every k x 10 ms: from k = 5 on too few
+    steps were long for bursts, so the keyframer read 1e+05 Hz and bridged about 200 gaps, and from k = 9 on the first
+    packet was also called a burst the stream starts with. The rate is samples over time (100 Hz, as configured: no
+    warning), no gap, no burst; so is the rate of the whole log."""
+    from graphnav.core.screening import imu_rate_hz
+    from graphnav.estimators.keyframes import Keyframer
+    stamps = _burst_stamps(200, cycle_s=0.01 * k, per_burst=k, spacing_s=1e-5)
+    keyframer = Keyframer(SensorConfig())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t in stamps:
+            keyframer.add_imu(float(t), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    assert not caught and not keyframer.stats.imu_gaps and keyframer.imu_period.start_burst is None
+    assert keyframer.imu_period.period_s == pytest.approx(0.01)
+    assert imu_rate_hz(stamps) == pytest.approx(100.0, rel=1e-3)
+
+
 def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a_hovering_vehicle():
     """One rule for a ping logged as exactly 0 on every axis: a hovering vehicle's 1 mm/s noise at 1 mm/s resolution
     rounds 6 % of its pings to zero (kept); the same zeros in a log written at full precision are a driver's no-lock
