@@ -218,3 +218,22 @@ def test_cli_stream_late_config_line(tmp_path, capsys):
     stream = _write(tmp_path, IMU_LINE + "\n" + '{"type": "config", "config": {}}\n', "s.jsonl")
     assert main(["online", "--stream", str(stream), "--out", str(tmp_path / "o"), "--no-progress"]) == 1
     assert "line 2: a config record is accepted only as the first line" in capsys.readouterr().err
+
+
+def test_cli_stream_warns_once_of_config_keys_a_stream_does_not_apply(tmp_path):
+    """imu_axis_signs, the clock offsets and the file layouts are what the loaders and prepare do to a log's files; a
+    live stream's records are body FRD on the IMU clock, and the Navigator applied none of them without a word. Now
+    each configuration that sets them to something warns once, naming them; a stream's config line that holds the
+    values that do nothing (as `graphnav simulate --stream` writes) says nothing."""
+    nothing = {"imu_axis_signs": [1, 1, 1], "dvl_time_offset_s": 0.0, "gt_time_offset_s": 0.0, "csv_columns": {}}
+    line = json.dumps({"type": "config", "config": nothing})
+    stream = _write(tmp_path, line + "\n" + "\n".join([IMU_LINE] * 3) + "\n", "s.jsonl")
+    config = _write(tmp_path, {"imu_axis_signs": [1, -1, -1], "dvl_time_offset_s": 0.5, "gt_time_offset_s": 0.0})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        main(["online", "--stream", str(stream), "--config", str(config), "--out", str(tmp_path / "o"),
+              "--no-progress"])
+    said = [str(w.message) for w in caught if "not applied to a live stream" in str(w.message)]
+    assert said == [f"{config}: imu_axis_signs, dvl_time_offset_s not applied to a live stream: its records "
+                    "are taken as body FRD on the IMU clock (graphnav online --schema); flip the IMU axes and add the "
+                    "offsets where the stream is written (csv_columns and bag_topics describe files)"]

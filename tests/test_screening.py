@@ -724,6 +724,25 @@ def test_an_imu_ten_times_faster_than_configured_is_no_burst_at_its_start():
     assert keyframer.imu_period.start_burst is None and not keyframer.stats.imu_gaps
 
 
+@pytest.mark.parametrize("k", [5, 10, 20, 50])
+def test_an_imu_in_packets_runs_at_its_samples_over_time_with_no_gaps_and_no_start_burst(k):
+    """A 100 Hz IMU delivered in packets of k samples stamped 0.01 ms apart every k x 10 ms: from k = 5 on too few
+    steps were long for bursts, so the keyframer read 1e+05 Hz and bridged about 200 gaps, and from k = 9 on the first
+    packet was also called a burst the stream starts with. The rate is samples over time (100 Hz, as configured: no
+    warning), no gap, no burst; so is the rate of the whole log."""
+    from graphnav.core.screening import imu_rate_hz
+    from graphnav.estimators.keyframes import Keyframer
+    stamps = _burst_stamps(200, cycle_s=0.01 * k, per_burst=k, spacing_s=1e-5)
+    keyframer = Keyframer(SensorConfig())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for t in stamps:
+            keyframer.add_imu(float(t), (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+    assert not caught and not keyframer.stats.imu_gaps and keyframer.imu_period.start_burst is None
+    assert keyframer.imu_period.period_s == pytest.approx(0.01)
+    assert imu_rate_hz(stamps) == pytest.approx(100.0, rel=1e-3)
+
+
 def test_zero_pings_are_no_bottom_lock_in_a_fine_log_or_under_way_and_kept_for_a_hovering_vehicle():
     """One rule for a ping logged as exactly 0 on every axis: a hovering vehicle's 1 mm/s noise at 1 mm/s resolution
     rounds 6 % of its pings to zero (kept); the same zeros in a log written at full precision are a driver's no-lock
@@ -823,6 +842,27 @@ def test_a_navigator_refuses_a_whole_run_of_zero_pings_holding_them_one_ping(mis
         estimates = _feed(nav, events)
     assert nav.info["refused"] == {"dvl": {NO_BOTTOM_LOCK: 3}}
     assert len(estimates) == nav.n_estimates and [e.t for e in estimates] == sorted(e.t for e in estimates)
+
+
+def test_a_zero_ping_between_two_outages_is_held_two_ping_periods_not_two_outages(mission):
+    """A zero ping right after a 15 s DVL outage, another outage after it: the hold was two of the step before it
+    (outage included), so the reorder buffer released nothing after its stamp for 30 s. It is held two ping periods
+    (the median of recent steps): the estimates lag the newest sample about 2 s at most, and the ping is kept."""
+    m = mission.slice(0, 90)
+    events = []
+    for kind, t, p in replay(m):
+        if kind == "dvl" and 30.0 < t < 75.0:
+            if abs(t - 45.0) < 0.5:
+                events.append(("dvl", t, ((0.0,) * 4, (True,) * 4)))
+            continue
+        events.append((kind, t, ((tuple(np.round(p[0], 3)), p[1]) if kind == "dvl" else p)))
+    nav, lag, newest = _navigator(m), [], -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for kind, t, payload in events:
+            newest = max(newest, t)
+            lag += [newest - e.t for e in getattr(nav, "add_" + kind)(t, *payload)]
+    assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz) and not nav.info.get("refused")
 
 
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):

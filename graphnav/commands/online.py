@@ -20,6 +20,7 @@ import contextlib
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from graphnav.commands.common import (
@@ -417,6 +418,30 @@ def _watchdog(status: StatusReporter):
         done.set()
 
 
+#: Configuration keys that say what the loaders and the prepare step do to a log's files (axis signs, clock offsets,
+#: file layouts), with the value that does nothing. A live stream's records are body FRD on the IMU clock already
+#: (:mod:`graphnav.io.streamio`), so the Navigator applies none of them.
+FILE_ONLY_KEYS = {"imu_axis_signs": [1.0, 1.0, 1.0], "dvl_time_offset_s": 0.0, "gt_time_offset_s": 0.0,
+                  "csv_columns": {}, "bag_topics": {}}
+
+
+def warn_file_only_keys(*overrides) -> None:
+    """Warn once per configuration (``ConfigOverrides`` or None) that sets :data:`FILE_ONLY_KEYS` to something a
+    stream does not do, naming them and why."""
+    for over in filter(None, overrides):
+        keys = [k for k, nothing in FILE_ONLY_KEYS.items()
+                if over.sets(k) and json.dumps(_plain(over.values[k])) != json.dumps(nothing)]
+        if keys:
+            warnings.warn(f"{over.source}: {', '.join(keys)} not applied to a live stream: its records are taken as "
+                          "body FRD on the IMU clock (graphnav online --schema); flip the IMU axes and add the "
+                          "offsets where the stream is written (csv_columns and bag_topics describe files)",
+                          RuntimeWarning, stacklevel=2)
+
+
+def _plain(value):
+    return value.tolist() if hasattr(value, "tolist") else value
+
+
 def run_stream(args, sink, stop=None, cli_config=None):
     """Read JSON-lines records from ``--stream`` and feed them to a Navigator as they come; ``cli_config``
     (the keys of ``--config``) is laid over the stream's config line, itself over the defaults."""
@@ -435,6 +460,7 @@ def run_stream(args, sink, stop=None, cli_config=None):
                 config = reader.config.over(SensorConfig()) if reader.config else SensorConfig()
                 if cli_config:
                     config = cli_config.over(config)
+                warn_file_only_keys(cli_config, reader.config)
                 nav, described = make_navigator(args, config)
             for est in feed(nav, rec):
                 sink(est)

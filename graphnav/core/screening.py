@@ -284,13 +284,19 @@ IMU_START_BURST_PERIODS = 16
 def start_burst(steps, period_s: float) -> int | None:
     """How many of a stream's first ``steps`` between IMU stamps (s) are a burst at its start (:data:`
     IMU_START_BURST_STEPS` or more steps under :data:`BURST_STEP_SHARE` of the configured ``period_s`` before a longer
-    one), 0 for none; None while undecided (every step so far is that short, over less than
-    :data:`IMU_START_BURST_PERIODS` periods)."""
+    one that a step as long follows), 0 for none; None while undecided (every step so far is that short, over less
+    than :data:`IMU_START_BURST_PERIODS` periods, or the step after the first longer one is to come). A short step
+    after the longer one is the next of an IMU's packets (k samples stamped together every k periods): the start was
+    one too, no burst."""
     short = BURST_STEP_SHARE * period_s
     n = next((i for i, d in enumerate(steps) if not d < short), None)
     if n is None:
         return None if sum(steps) < IMU_START_BURST_PERIODS * period_s else 0
-    return n if n >= IMU_START_BURST_STEPS else 0
+    if n < IMU_START_BURST_STEPS:
+        return 0
+    if len(steps) == n + 1:
+        return None
+    return 0 if steps[n + 1] < short else n
 
 
 def start_burst_warning(n_steps: int, t_end: float, span_s: float) -> str:
@@ -338,6 +344,18 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
     return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
 
 
+def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
+    """Whether IMU steps ``d`` (s; ``long``: those over twice their median) are an IMU's packets, k samples stamped
+    together every k periods: too few long steps for :data:`IMU_BURST_SHARE` from k = 5 on, yet two or more, most
+    within half of their median (a regular cycle, where gaps have any length), the others under
+    :data:`BURST_STEP_SHARE` of the time (a stream at its rate with gaps spends more between them)."""
+    cycles = d[long]
+    if cycles.size < 2 or np.sum(d[~long]) >= BURST_STEP_SHARE * np.sum(d):
+        return False
+    cycle = np.median(cycles)
+    return bool(np.mean(np.abs(cycles - cycle) <= 0.5 * cycle) >= 0.8)
+
+
 def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
                    ) -> tuple[float, float]:
     """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
@@ -358,7 +376,7 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     long = d > 2.0 * med
     if expected_s is not None and abs(med - expected_s) <= tolerance * expected_s:
         return med, med
-    if np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long):
+    if not in_packets(d, long) and (np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long)):
         return med, med
     cycle = float(np.median(d[long]))
     ends = np.flatnonzero(long)
@@ -659,8 +677,12 @@ ZERO_SPEED_MARGIN_MPS = 0.1
 #: 0.25 m/s, is slower than what the speed rule can tell from one ping interval).
 ZERO_RUN_PINGS = 3
 #: A stream holds a zero ping for the ping after it (which tells a run, or the speed after it) at most this many of
-#: its intervals between pings: a DVL silent for longer leaves it as the past judged it (kept).
+#: its ping periods (:data:`PING_PERIOD_STEPS`): a DVL silent for longer leaves it as the past judged it (kept).
 ZERO_HOLD_INTERVALS = 2.0
+#: A stream's ping period is the median of its last this many steps between pings (``DvlSpec.rate_hz``'s period
+#: until it has three): an outage is one long step among them, so a zero ping right after one is held two periods,
+#: not two outages (the step before it, outage included, held it 30 s after a 15 s outage).
+PING_PERIOD_STEPS = 15
 
 
 def on_resolution_grid(values) -> tuple[int, int]:
@@ -1077,7 +1099,7 @@ class ZeroPingTest:
         self._run = 0                            # zero pings in the current run
         self._t_run = math.nan                   # stamp of the run's newest ping, s
         self._t_ping = math.nan                  # stamp of the newest ping, s
-        self._interval = 1.0 / spec.rate_hz      # between the two newest pings, s
+        self._steps: deque[float] = deque(maxlen=PING_PERIOD_STEPS)     # between the newest pings, s
 
     def is_no_lock(self, t: float, values) -> bool:
         """Whether the ping at ``t`` s (``values`` as logged, NaN where not a measurement) is a zero ping without
@@ -1091,7 +1113,7 @@ class ZeroPingTest:
         held (None: none, or this ping is one more zero). Any ping that is not all zeros joins the history."""
         values = np.asarray(values, float)
         if t > self._t_ping:
-            self._interval = t - self._t_ping
+            self._steps.append(t - self._t_ping)
         self._t_ping = t
         if not zero_pings(values[None])[0]:
             held = None
@@ -1116,10 +1138,11 @@ class ZeroPingTest:
 
     @property
     def hold_s(self) -> float:
-        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's last
-        interval between pings (of ``DvlSpec.rate_hz``'s period before it has one); a stream silent for longer
-        (an outage) leaves the run kept, as the past says."""
-        return ZERO_HOLD_INTERVALS * self._interval
+        """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's ping
+        period (:data:`PING_PERIOD_STEPS`); a stream silent for longer (an outage) leaves the run kept, as the past
+        says."""
+        period = float(np.median(self._steps)) if len(self._steps) >= 3 else 1.0 / self.spec.rate_hz
+        return ZERO_HOLD_INTERVALS * period
 
 
 @dataclass

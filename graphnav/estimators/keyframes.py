@@ -134,6 +134,9 @@ IMU_RATE_STEPS = 16
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
+#: Steps a keyframer measures an IMU arriving in packets over at most, while it has not three packets' cycles:
+#: packets of up to about 120 samples.
+IMU_PACKET_STEPS = 16 * IMU_RATE_STEPS
 
 
 class ImuPeriod:
@@ -173,10 +176,13 @@ class ImuPeriod:
             return
         self._lead = None
         if n:
-            span = sum(lead[:n])
-            self.start_burst = (n + 1, t - dt - span, t - dt)
-            warnings.warn(start_burst_warning(n, t - dt, span), RuntimeWarning, stacklevel=4)
-        for d in lead[n:]:
+            span, end = sum(lead[:n]), t - sum(lead[n:])
+            self.start_burst = (n + 1, end - span, end)
+            warnings.warn(start_burst_warning(n, end, span), RuntimeWarning, stacklevel=4)
+        rest = lead[n:]
+        if any(not d < BURST_STEP_SHARE * self.configured_s for d in rest):   # packets longer than the steps taken
+            self._needed = max(self._needed, len(rest))
+        for d in rest:
             self._collect(d)
 
     def _collect(self, dt: float) -> None:
@@ -191,10 +197,20 @@ class ImuPeriod:
                 warnings.warn(f"imu: stamps on a {1e3 * quantum:.4g} ms grid, {quantum / step:.0%} "
                               "of a step: the period is their mean step, measured over the first "
                               f"{self._needed} steps", RuntimeWarning, stacklevel=5)
+        if len(self._steps) == self._needed and self._too_few_packets():
+            self._needed += IMU_RATE_STEPS
         if len(self._steps) < self._needed:
             self.period_s = max(self.configured_s, min(self._steps))
             return
         self._measured()
+
+    def _too_few_packets(self) -> bool:
+        """Whether the steps so far are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the configured
+        period and longer ones) with fewer than three of their long steps, the cycle its rate is measured over
+        (:func:`~graphnav.core.screening.in_packets`), and :data:`IMU_PACKET_STEPS` not reached."""
+        short = BURST_STEP_SHARE * self.configured_s
+        n_long = sum(not d < short for d in self._steps)
+        return 0 < n_long < 3 and min(self._steps) < short and len(self._steps) < IMU_PACKET_STEPS
 
     def _measured(self) -> None:
         """The period and a burst's cycle from the steps collected, warned about when off the configured one."""
@@ -215,13 +231,13 @@ class ImuPeriod:
         gap adds: bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps."""
         if not dt > self.gap_limit_s:
             return False
-        steps = self._steps
-        if len(steps) >= self._needed or not min(steps, default=dt) < BURST_STEP_SHARE * self.configured_s:
+        steps = self._lead or self._steps       # a start that may be a burst or a packet: its steps so far
+        if len(self._steps) >= self._needed or not min(steps, default=dt) < BURST_STEP_SHARE * self.configured_s:
             return True
         since = steps[self._after_gap:]         # the samples before a bridged gap do not make up for the next
         if sum(since) / self.configured_s - len(since) <= IMU_GAP_PERIODS - 1:
             return False
-        self._after_gap = len(steps)
+        self._after_gap = len(self._steps)
         return True
 
     @property
