@@ -146,8 +146,9 @@ def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_fra
     assert m.config.imu_axis_signs.tolist() == [1, -1, -1]
     np.testing.assert_array_equal(m.imu.f_b, _load(tmp_path / "frd", tmp_path / "frd.json").imu.f_b)
     SensorConfig(csv_columns=frd, imu_axis_signs=[1, -1, -1]).save(tmp_path / "wrong.json")
-    with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\).*"
-                                        r"imu_axis_signs to null"):
+    with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\): as read "
+                                        r"they need axis signs \(1, 1, 1\) on x, y, z \(none: the data already hold "
+                                        r"the frame.*imu_axis_signs to null"):
         _load(tmp_path / "frd", tmp_path / "wrong.json")
 
 

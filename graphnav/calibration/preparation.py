@@ -694,7 +694,12 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     applied = mission.config.imu_axis_signs
     what = frame["what"] + ("" if np.all(applied == 1) else
                             f" with the configuration's imu_axis_signs {tuple(int(x) for x in applied)}")
-    text = (f"the IMU data contradict {what}: they need axis signs {key} on x, y, z "
+    # named against the data as read: the signs asked for are then the ones to give (or none, if they undo the given)
+    net = tuple(int(x) for x in np.asarray(applied) * signs)
+    need = (f"they need axis signs {key} on x, y, z" if np.all(applied == 1) else
+            f"as read they need axis signs {net} on x, y, z" + (" (none: the data already hold the frame, as a bag or "
+                                                                "log graphnav wrote does)" if net == (1, 1, 1) else ""))
+    text = (f"the IMU data contradict {what}: {need} "
             f"({FRAME_FAULTS.get(key, 'a left-handed frame: one axis negated')}), by {how}")
     if frame["declared"]:
         other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if key == (1, -1, -1) else None
