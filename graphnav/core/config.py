@@ -201,8 +201,9 @@ class SensorConfig:
             differs by omega x r, ~0.09 m/s in turns). ``graphnav calibrate`` writes it. None: the format's own,
             an A-KIT folder's the vehicle's (``AKIT_IMU_POSITION_B``), every other format's the IMU point itself.
         imu_axis_signs: signs already applied to the raw IMU axes (x, y, z) to make them FRD; in a configuration
-            file the signs to apply (A-KIT folders, column-map logs and bags). None (null, the default): not given, detected when the mission is
-            prepared; a mission's configuration holds the signs applied (1, 1, 1 before it is prepared).
+            file the signs to apply (A-KIT folders, column-map logs and bags). None (null, the default): not given,
+            detected when the mission is prepared; a mission's configuration holds the signs applied (1, 1, 1 before
+            it is prepared).
         depth_noise_std: depth sensor white noise, m.
         water_density_kgpm3: water density for depth from pressure (bags, PD0, CSV), kg/m^3 (1025: sea water).
         atmospheric_pressure_pa: surface pressure subtracted from an absolute pressure reading, Pa.
