@@ -865,6 +865,46 @@ def test_a_zero_ping_between_two_outages_is_held_two_ping_periods_not_two_outage
     assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz) and not nav.info.get("refused")
 
 
+def test_two_imu_dropouts_among_a_streams_first_stamps_leave_its_spike_test_on():
+    """A clean 100 Hz IMU stream with two 0.5 s dropouts among its first eleven stamps: read as packets, its spike
+    test measured 7.4 Hz and stayed off for the whole stream. Packets need three cycles (and the spike test is given
+    the configured period): 100 Hz."""
+    from graphnav.core.screening import imu_rate_hz
+    t = np.r_[0.0, 0.01, 0.02, 0.03, 0.54, 0.55, 0.56, 0.57, 1.08, 1.09, 1.1, 1.11]
+    assert imu_rate_hz(t) == pytest.approx(100.0)
+    assert imu_rate_hz(t, 100.0) == pytest.approx(100.0)
+
+
+def test_a_zero_run_after_the_dvl_slows_its_pings_is_refused_whole():
+    """A DVL pinging at 5 Hz that slows to 1 Hz at 30 s (as DVLs do as they climb), then three pings of exactly 0:
+    the hold was two of the median step (0.2 s, the old rate), shorter than the next ping's 1 s, so the first two
+    zeros were kept as a vehicle at rest. The newest step, no outage, sets the hold: the whole run is refused."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.estimators.navigator import Navigator
+    from graphnav.estimators.replay import first_ping_time
+    from graphnav.estimators.types import InitialState
+    from graphnav.sim.simulate import simulate_mission
+    cfg = SensorConfig()
+    cfg.dvl.rate_hz = 5.0
+    m = simulate_mission(duration_s=40.0, seed=3, config=cfg)
+    m.config.dvl.max_accel_mps2 = 5.0
+    events = []
+    for kind, t, p in replay(m):
+        if kind == "dvl":
+            if t >= 30.0 and abs(t - round(t)) > 1e-6:
+                continue
+            p = ((0.0,) * 4, (True,) * 4) if round(t) in (31, 32, 33) and abs(t - round(t)) < 1e-6 else (
+                tuple(np.round(p[0], 3)), p[1])
+        events.append((kind, t, p))
+    nav = Navigator(m.config, "ekf", initial=InitialState.from_ground_truth(m, first_ping_time(m)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for kind, t, p in events:
+            getattr(nav, "add_" + kind)(t, *p)
+        nav.finish()
+    assert nav.info["refused"]["dvl"] == {"velocity exactly 0 on every axis (no bottom lock)": 3}
+
+
 def test_a_stream_of_zero_beams_after_pings_under_way_is_refused_as_no_bottom_lock(mission):
     """The Navigator (``online --stream``) refuses DVL pings whose beams are all exactly 0 after pings of a vehicle
     under way, counted under the loaders' reason (it used them as a vehicle standing still)."""

@@ -347,10 +347,12 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
 def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
     """Whether IMU steps ``d`` (s; ``long``: those over twice their median) are an IMU's packets, k samples stamped
     together every k periods: too few long steps for :data:`IMU_BURST_SHARE` from k = 5 on, yet two or more, most
-    within half of their median (a regular cycle, where gaps have any length), the others under
+    within half of their median (a regular cycle, where gaps have any length; three of them at least), the others under
     :data:`BURST_STEP_SHARE` of the time (a stream at its rate with gaps spends more between them)."""
     cycles = d[long]
-    if cycles.size < 2 or np.sum(d[~long]) >= BURST_STEP_SHARE * np.sum(d):
+    # three cycles at least: two gaps of a clean stream among its first stamps fit the rest as well (a stream's spike
+    # test read 7.4 Hz from two 0.5 s dropouts in eleven stamps and stayed off)
+    if cycles.size < 3 or np.sum(d[~long]) >= BURST_STEP_SHARE * np.sum(d):
         return False
     cycle = np.median(cycles)
     return bool(np.mean(np.abs(cycles - cycle) <= 0.5 * cycle) >= 0.8)
@@ -1007,7 +1009,7 @@ class ImuSpikeTest:
                 del stamps[:n]          # the burst's stamps but its last: the rate is from the steps after it
                 self._lead = False
             if not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS:
-                self._set_rate(imu_rate_hz(self._stamps))
+                self._set_rate(imu_rate_hz(self._stamps, None if self.period_s is None else 1.0 / self.period_s))
             return None
         if not self.active:
             return None
@@ -1139,9 +1141,13 @@ class ZeroPingTest:
     @property
     def hold_s(self) -> float:
         """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's ping
-        period (:data:`PING_PERIOD_STEPS`); a stream silent for longer (an outage) leaves the run kept, as the past
-        says."""
-        period = float(np.median(self._steps)) if len(self._steps) >= 3 else 1.0 / self.spec.rate_hz
+        period (the median of the last :data:`PING_PERIOD_STEPS` steps, or the newest step when longer and no outage
+        (:data:`OUTAGE_PERIODS`, :data:`OUTAGE_MIN_S`): a DVL that slows its pings as it climbs is waited for); a
+        stream silent for longer (an outage) leaves the run kept, as the past says."""
+        nominal = 1.0 / self.spec.rate_hz
+        period = float(np.median(self._steps)) if len(self._steps) >= 3 else nominal
+        if self._steps and self._steps[-1] <= max(OUTAGE_PERIODS * nominal, OUTAGE_MIN_S):
+            period = max(period, self._steps[-1])
         return ZERO_HOLD_INTERVALS * period
 
 
