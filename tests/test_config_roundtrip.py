@@ -147,9 +147,15 @@ def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_fra
     np.testing.assert_array_equal(m.imu.f_b, _load(tmp_path / "frd", tmp_path / "frd.json").imu.f_b)
     SensorConfig(csv_columns=frd, imu_axis_signs=[1, -1, -1]).save(tmp_path / "wrong.json")
     with pytest.raises(DataError, match=r"frame 'frd' with the configuration's imu_axis_signs \(1, -1, -1\): as read "
-                                        r"they need axis signs \(1, 1, 1\) on x, y, z \(none: the data already hold "
-                                        r"the frame.*imu_axis_signs to null"):
+                                        r"they need no axis signs \(the data already hold the frame.*remove "
+                                        r"imu_axis_signs from the configuration"):
         _load(tmp_path / "frd", tmp_path / "wrong.json")
+    # an FLU log declared 'frd' with signs that leave it FLU: named as FLU against the data as read, 'flu' offered
+    SensorConfig(csv_columns={**cmap, "imu": {**cmap["imu"], "frame": "frd"}}, imu_axis_signs=[-1, -1, 1]).save(
+        tmp_path / "flu_wrong.json")
+    with pytest.raises(DataError, match=r"as read they need axis signs \(1, -1, -1\) on x, y, z \(FLU axes.*"
+                                        r"set csv_columns.imu.frame to 'flu' if the file holds that frame"):
+        _load(tmp_path, tmp_path / "flu_wrong.json")
 
 
 def test_given_akit_offsets_and_signs_the_data_disagree_with_are_used_and_warned(akit_dir, tmp_path):

@@ -690,21 +690,25 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
     if np.all(signs == 1):
         return mission
-    key = tuple(int(x) for x in signs)
     applied = mission.config.imu_axis_signs
     what = frame["what"] + ("" if np.all(applied == 1) else
                             f" with the configuration's imu_axis_signs {tuple(int(x) for x in applied)}")
     # named against the data as read: the signs asked for are then the ones to give (or none, if they undo the given)
     net = tuple(int(x) for x in np.asarray(applied) * signs)
-    need = (f"they need axis signs {key} on x, y, z" if np.all(applied == 1) else
-            f"as read they need axis signs {net} on x, y, z" + (" (none: the data already hold the frame, as a bag or "
-                                                                "log graphnav wrote does)" if net == (1, 1, 1) else ""))
-    text = (f"the IMU data contradict {what}: {need} "
-            f"({FRAME_FAULTS.get(key, 'a left-handed frame: one axis negated')}), by {how}")
+    if net == (1, 1, 1) and not np.all(applied == 1):
+        need = ("as read they need no axis signs (the data already hold the frame, as a bag or log graphnav wrote "
+                "from a mission does)")
+    else:
+        need = (f"{'' if np.all(applied == 1) else 'as read '}they need axis signs {net} on x, y, z "
+                f"({FRAME_FAULTS.get(net, 'a left-handed frame: one axis negated')})")
+    text = f"the IMU data contradict {what}: {need}, by {how}"
     if frame["declared"]:
-        other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if key == (1, -1, -1) else None
+        other = {"frd": "flu", "flu": "frd"}.get(frame["declared"]) if net == (1, -1, -1) else None
         fix = f"to {other!r} if the file holds that frame, or " if other else ""
         unsign = "" if np.all(applied == 1) else " (and imu_axis_signs to null, or remove it)"
+        if net == (1, 1, 1) and not np.all(applied == 1):
+            raise DataError(f"{text}; remove imu_axis_signs from the configuration (or set it to null)", imu.source,
+                            field=frame["fields"])
         raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto'{unsign} to correct the axes from the data",
                         imu.source, field=frame["fields"])
     text += ": accelerometer and gyro multiplied by them"

@@ -425,12 +425,22 @@ FILE_ONLY_KEYS = {"imu_axis_signs": [1.0, 1.0, 1.0], "dvl_time_offset_s": 0.0, "
                   "csv_columns": {}, "bag_topics": {}}
 
 
+def _does_something(value, nothing) -> bool:
+    """Whether a configuration value differs from the one that does nothing (numbers compared as numbers: -0.0, 0
+    and [1, 1, 1] do nothing)."""
+    import numpy as np
+    try:
+        return not np.array_equal(np.asarray(value, float), np.asarray(nothing, float))
+    except (TypeError, ValueError):
+        return json.dumps(value) != json.dumps(nothing)
+
+
 def warn_file_only_keys(*overrides) -> None:
     """Warn once per configuration (``ConfigOverrides`` or None) that sets :data:`FILE_ONLY_KEYS` to something a
     stream does not do, naming them and why."""
     for over in filter(None, overrides):
         keys = [k for k, nothing in FILE_ONLY_KEYS.items()
-                if over.sets(k) and json.dumps(_plain(over.values[k])) != json.dumps(nothing)]
+                if over.sets(k) and _does_something(_plain(over.values[k]), nothing)]
         if keys:
             warnings.warn(f"{over.source}: {', '.join(keys)} not applied to a live stream: its records are taken as "
                           "body FRD on the IMU clock (graphnav online --schema); flip the IMU axes and add the "
