@@ -785,8 +785,8 @@ def read_akit_mission(folder: str | Path, *, lever_arm_b=None, beam_seed: int = 
             meta["gt_velocity_sigma_n"] = list(AKIT_GT_VELOCITY_SIGMA_N)
     _record_akit_streams(meta, imu, dvl, depth, gt, refused, raw.dvl_lines, from_file)
     if written is not None:
-        add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate or write_akit); "
-                                 "ground truth at the IMU point, stamps as written")
+        add_note(meta, "config", f"{written}: the configuration the folder was written with (graphnav simulate or "
+                                 "write_akit); ground truth at the IMU point, stamps as written")
     return Mission(name or folder.name, imu, dvl, cfg, gt, depth, meta)
 
 
