@@ -875,6 +875,40 @@ def test_two_imu_dropouts_among_a_streams_first_stamps_leave_its_spike_test_on()
     assert imu_rate_hz(t, 100.0) == pytest.approx(100.0)
 
 
+@pytest.mark.parametrize("k", [4, 5, 20])
+def test_a_streams_spike_test_waits_for_three_packet_cycles_before_its_rate(k):
+    """An IMU sending k samples stamped 0.01 ms apart every k periods: with packets of 4 or 5 its first eleven stamps
+    hold two cycles, which are not packets, and the spike test read 1e5 Hz (a 100 s window, spikes through; packets
+    of 6 or more did so before). It waits for three cycles, as the keyframer does: 100 Hz, a 0.1 s window."""
+    from graphnav.core.screening import ImuSpikeTest
+    t = np.concatenate([p * k * 0.01 + np.arange(k) * 1e-5 for p in range(60)])
+    test = ImuSpikeTest(np.ones(6), 0.01)
+    for x in t:
+        test.check(float(x), [0.0] * 6)
+    assert test.rate_hz == pytest.approx(100.0, rel=0.01) and test.active and test.n == 10
+
+
+def test_a_zero_ping_after_a_silence_under_the_outage_bound_holds_two_ping_periods(mission):
+    """A zero ping after a DVL silent 9 s (under the 10 s that warns of an outage), another silence after it: the
+    newest step set the hold, so the stream was held back about 18 s. Only a step up to 6x the median period (a DVL
+    slowing its pings) does: the estimates lag about 2 s at most."""
+    m = mission.slice(0, 90)
+    events = []
+    for kind, t, p in replay(m):
+        if kind == "dvl" and 30.0 < t < 50.0:
+            if abs(t - 39.0) < 0.5:
+                events.append(("dvl", t, ((0.0,) * 4, (True,) * 4)))
+            continue
+        events.append((kind, t, ((tuple(np.round(p[0], 3)), p[1]) if kind == "dvl" else p)))
+    nav, lag, newest = _navigator(m), [], -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for kind, t, payload in events:
+            newest = max(newest, t)
+            lag += [newest - e.t for e in getattr(nav, "add_" + kind)(t, *payload)]
+    assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz)
+
+
 def test_a_zero_run_after_the_dvl_slows_its_pings_is_refused_whole():
     """A DVL pinging at 5 Hz that slows to 1 Hz at 30 s (as DVLs do as they climb), then three pings of exactly 0:
     the hold was two of the median step (0.2 s, the old rate), shorter than the next ping's 1 s, so the first two

@@ -711,7 +711,8 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
                             field=frame["fields"])
         raise DataError(f"{text}; set csv_columns.imu.frame {fix}to 'auto'{unsign} to correct the axes from the data",
                         imu.source, field=frame["fields"])
-    text += ": accelerometer and gyro multiplied by them"
+    text += (": the configuration's imu_axis_signs undone (remove them from it)" if net == (1, 1, 1) else
+             ": accelerometer and gyro multiplied by them")
     add_note(meta, "imu", text)
     warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=4)
     meta["imu_axis_signs"] = {"signs": (applied * signs).tolist(), "detected": True, "decided": True}

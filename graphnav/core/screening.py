@@ -74,6 +74,9 @@ IMU_SPIKE_SCALE_S = 1.0
 IMU_SPIKE_MIN_RATE_HZ = 50.0
 #: Stamps the stream measures the IMU's rate from before its spike test starts.
 IMU_SPIKE_RATE_ROWS = 11
+#: At most this many stamps are waited for while an IMU in packets shows fewer than three cycles (as the keyframer
+#: waits, 256 steps).
+IMU_SPIKE_PACKET_ROWS = 257
 #: A spike departs from the running median by more than this many local noise scales (and the floor). The ten
 #: A-KIT trajectories depart by at most 14.3 (simulated IMUs: 7.1); docs/decisions/screening.md.
 IMU_SPIKE_NOISE_FACTOR = 30.0
@@ -681,6 +684,9 @@ ZERO_RUN_PINGS = 3
 #: A stream holds a zero ping for the ping after it (which tells a run, or the speed after it) at most this many of
 #: its ping periods (:data:`PING_PERIOD_STEPS`): a DVL silent for longer leaves it as the past judged it (kept).
 ZERO_HOLD_INTERVALS = 2.0
+#: The newest step between pings sets the hold when longer than the median period and at most this many of it (a
+#: DVL slowing from 5 Hz to 1 Hz: 5x); a longer one is a silence, which would hold the stream back for its length.
+ZERO_HOLD_SLOWDOWN = 6.0
 #: A stream's ping period is the median of its last this many steps between pings (``DvlSpec.rate_hz``'s period
 #: until it has three): an outage is one long step among them, so a zero ping right after one is held two periods,
 #: not two outages (the step before it, outage included, held it 30 s after a 15 s outage).
@@ -995,6 +1001,17 @@ class ImuSpikeTest:
         self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
         self._run = 0
 
+    def _too_few_packets(self) -> bool:
+        """Whether the stamps so far are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the configured
+        period and longer ones) with fewer than the three cycles :func:`in_packets` needs, and
+        :data:`IMU_SPIKE_PACKET_ROWS` not reached: the rate waits for them, as the keyframer's does (packets of 4 or
+        5 samples gave two cycles in eleven stamps and read 100 kHz)."""
+        if self.period_s is None or len(self._stamps) >= IMU_SPIKE_PACKET_ROWS:
+            return False
+        d, short = np.diff(self._stamps), BURST_STEP_SHARE * self.period_s
+        n_long = int(np.sum(d >= short))
+        return 0 < n_long < 3 and float(np.min(d)) < short
+
     def check(self, t: float, x) -> tuple[int, float, float] | None:
         """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
         a spike. Returns None, or (index of the first departing value, the median it departs from, the limit)."""
@@ -1008,7 +1025,7 @@ class ImuSpikeTest:
                     return None
                 del stamps[:n]          # the burst's stamps but its last: the rate is from the steps after it
                 self._lead = False
-            if not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS:
+            if not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS and not self._too_few_packets():
                 self._set_rate(imu_rate_hz(self._stamps, None if self.period_s is None else 1.0 / self.period_s))
             return None
         if not self.active:
@@ -1141,12 +1158,11 @@ class ZeroPingTest:
     @property
     def hold_s(self) -> float:
         """How long (s) a zero ping is held for the next ping: :data:`ZERO_HOLD_INTERVALS` of the stream's ping
-        period (the median of the last :data:`PING_PERIOD_STEPS` steps, or the newest step when longer and no outage
-        (:data:`OUTAGE_PERIODS`, :data:`OUTAGE_MIN_S`): a DVL that slows its pings as it climbs is waited for); a
-        stream silent for longer (an outage) leaves the run kept, as the past says."""
-        nominal = 1.0 / self.spec.rate_hz
-        period = float(np.median(self._steps)) if len(self._steps) >= 3 else nominal
-        if self._steps and self._steps[-1] <= max(OUTAGE_PERIODS * nominal, OUTAGE_MIN_S):
+        period (the median of the last :data:`PING_PERIOD_STEPS` steps, or the newest step when longer, up to
+        :data:`ZERO_HOLD_SLOWDOWN` times the median: a DVL that slows its pings as it climbs is waited for, a silence
+        is not); a stream silent for longer (an outage) leaves the run kept, as the past says."""
+        period = float(np.median(self._steps)) if len(self._steps) >= 3 else 1.0 / self.spec.rate_hz
+        if self._steps and self._steps[-1] <= ZERO_HOLD_SLOWDOWN * period:
             period = max(period, self._steps[-1])
         return ZERO_HOLD_INTERVALS * period
 
