@@ -849,10 +849,17 @@ def test_a_zero_ping_between_two_outages_is_held_two_ping_periods_not_two_outage
     (outage included), so the reorder buffer released nothing after its stamp for 30 s. It is held two ping periods
     (the median of recent steps): the estimates lag the newest sample about 2 s at most, and the ping is kept."""
     m = mission.slice(0, 90)
+    lag, nav = _lag_with_one_zero_ping_in_a_silence(m, (30.0, 75.0), 45.0)
+    assert lag < 2.5 * (1.0 / m.config.dvl.rate_hz) and not nav.info.get("refused")
+
+
+def _lag_with_one_zero_ping_in_a_silence(m, silence, zero_at):
+    """The largest lag (s) of the Navigator's estimates behind the newest sample, and the Navigator, when the DVL of
+    mission ``m`` is silent over ``silence`` (t0, t1 s) but for one ping of exactly 0 at ``zero_at`` s."""
     events = []
     for kind, t, p in replay(m):
-        if kind == "dvl" and 30.0 < t < 75.0:
-            if abs(t - 45.0) < 0.5:
+        if kind == "dvl" and silence[0] < t < silence[1]:
+            if abs(t - zero_at) < 0.5:
                 events.append(("dvl", t, ((0.0,) * 4, (True,) * 4)))
             continue
         events.append((kind, t, ((tuple(np.round(p[0], 3)), p[1]) if kind == "dvl" else p)))
@@ -862,7 +869,7 @@ def test_a_zero_ping_between_two_outages_is_held_two_ping_periods_not_two_outage
         for kind, t, payload in events:
             newest = max(newest, t)
             lag += [newest - e.t for e in getattr(nav, "add_" + kind)(t, *payload)]
-    assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz) and not nav.info.get("refused")
+    return max(lag), nav
 
 
 def test_two_imu_dropouts_among_a_streams_first_stamps_leave_its_spike_test_on():
@@ -893,20 +900,7 @@ def test_a_zero_ping_after_a_silence_under_the_outage_bound_holds_two_ping_perio
     newest step set the hold, so the stream was held back about 18 s. Only a step up to 6x the median period (a DVL
     slowing its pings) does: the estimates lag about 2 s at most."""
     m = mission.slice(0, 90)
-    events = []
-    for kind, t, p in replay(m):
-        if kind == "dvl" and 30.0 < t < 50.0:
-            if abs(t - 39.0) < 0.5:
-                events.append(("dvl", t, ((0.0,) * 4, (True,) * 4)))
-            continue
-        events.append((kind, t, ((tuple(np.round(p[0], 3)), p[1]) if kind == "dvl" else p)))
-    nav, lag, newest = _navigator(m), [], -np.inf
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for kind, t, payload in events:
-            newest = max(newest, t)
-            lag += [newest - e.t for e in getattr(nav, "add_" + kind)(t, *payload)]
-    assert max(lag) < 2.5 * (1.0 / m.config.dvl.rate_hz)
+    assert _lag_with_one_zero_ping_in_a_silence(m, (30.0, 50.0), 39.0)[0] < 2.5 * (1.0 / m.config.dvl.rate_hz)
 
 
 def test_a_zero_run_after_the_dvl_slows_its_pings_is_refused_whole():
