@@ -179,7 +179,7 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     np.testing.assert_allclose(_load((folder, config)).dvl.v_b, v_b, atol=0.03)
 
 
-def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about():
+def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about_or_refused():
     # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
     # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.
     from graphnav.calibration import dvl_scale
@@ -188,20 +188,22 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
     m = simulate_mission(400.0, "navigation", 1)
     t, v = dvl_velocity_b(m.dvl, m.config)
     frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
-    # the advice is the caller's: an A-KIT folder has no DVL frame to declare (it was given a column map's)
-    for yaw, warned, fixes, advice in ((0, False, dvl_scale.DECLARE_DVL_FIXES, ""),
-                                       (90, True, dvl_scale.DECLARE_DVL_FIXES, "declare csv_columns.dvl.frame"),
-                                       (90, True, dvl_scale.AKIT_DVL_FIXES,
-                                        "turn the DVL velocity columns of the file")):
+    # the advice is the caller's: a log or bag can declare its DVL frame (warned); an A-KIT folder cannot (refused,
+    # with its own advice: it was given a column map's)
+    for yaw, warned in ((0, False), (90, True)):
         dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
                       v @ dvl_scale.turn_about_z(yaw).T, source="dvl.csv")
         meta = {}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame, fixes=fixes)
+            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame)
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
-        assert all(s.endswith(f"read as body? {fixes['yaw']}") and advice in s for s in said), said
+        assert all(s.endswith(f"read as body? {dvl_scale.DECLARE_DVL_FIXES['yaw']}") for s in said), said
+    with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? turn the DVL "
+                                        r"velocity columns of the file into the body frame"):
+        dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, {}, imu_frame=frame,
+                                             fixes=dvl_scale.AKIT_DVL_FIXES)
 
 
 def _akit_crop_without_gt(src, dst, C, seconds=200.0):
@@ -229,11 +231,12 @@ def _turned(deg):
 
 @pytest.mark.parametrize("C, error, warning", [
     (np.eye(3), None, None),
-    # instrument-frame columns of a DVL mounted yawed, read as body: warned about (a log's or bag's warning)
-    (_turned(20.0), None, r"field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity is turned "
-                          r"\+2\d\.\d deg about z.*turn the DVL velocity columns of the file"),
+    # instrument-frame columns of a DVL mounted yawed, read as body: a log or bag is warned (it can declare its DVL
+    # frame); an A-KIT folder cannot, so it is refused, as it is with its GT (it ran on, 20 deg at VRMSE 0.356 m/s)
+    (_turned(20.0), r"the DVL velocity is turned \+2\d\.\d deg about z.*turn the DVL velocity columns of the file",
+     None),
     # not an IMU turned 90 deg against the DVL either way: the velocity turned back points forward
-    (_turned(45.0), None, r"the DVL velocity is turned \+4\d\.\d deg about z"),
+    (_turned(45.0), r"the DVL velocity is turned \+4\d\.\d deg about z", None),
     (0.01 * np.eye(3), r"0\.01x what the IMU's accelerations say.*convert the DVL velocity columns of the file to m/s",
      None),
     (np.diag([1.0, -1.0, -1.0]), r"better with its y and z negated.*FLU.*negate the y and z DVL velocity columns",
@@ -249,7 +252,7 @@ def _turned(deg):
 ], ids=["clean", "turned 20 deg", "turned 45 deg", "x0.01", "FLU", "x100", "knots", "x0.514"])
 def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_dir, tmp_path, C, error, warning):
     """Without a GT the A-KIT folder's DVL columns had no check of their unit, yaw or FLU axes: 20 deg ran silently,
-    0.01x and FLU diverged, 45 deg was refused as an IMU turned 90 deg."""
+    0.01x and FLU diverged, 45 deg was refused as an IMU turned 90 deg. Each is refused now, naming the columns."""
     folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, C)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
