@@ -200,8 +200,8 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
         assert all(s.endswith(f"read as body? {dvl_scale.DECLARE_DVL_FIXES['yaw']}") for s in said), said
-    with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? turn the DVL "
-                                        r"velocity columns of the file into the body frame"):
+    with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? turn "
+                                        r"the DVL velocity columns of the file into the body frame"):
         dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, {}, imu_frame=frame,
                                              fixes=dvl_scale.AKIT_DVL_FIXES)
 
