@@ -200,8 +200,8 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
         assert all(s.endswith(f"read as body? {dvl_scale.DECLARE_DVL_FIXES['yaw']}") for s in said), said
-    with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? turn "
-                                        r"the DVL velocity columns of the file into the body frame"):
+    with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? give "
+                                        r"the DVL's mounting as dvl.C_d_b .*or turn the DVL velocity columns"):
         dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, {}, imu_frame=frame,
                                              fixes=dvl_scale.AKIT_DVL_FIXES)
 
@@ -267,6 +267,20 @@ def test_an_akit_folder_without_gt_gets_the_dvl_unit_turn_and_flu_checks(akit_di
         assert not said
     else:
         assert len(said) == 1 and re.search(r"DVL_trajectory1\.csv: .*" + warning, said[0]), said
+
+
+def test_an_akit_folder_without_gt_whose_dvl_is_turned_loads_with_its_mounting_given(akit_dir, tmp_path):
+    """The refusal of an A-KIT folder's turned DVL names the mounting as the fix: given as dvl.C_d_b (the loader turns
+    the DVL columns by it), the same copy loads with no DVL warning."""
+    import json
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, _turned(20.0))
+    with pytest.raises(DataError, match=r"turned \+2\d\.\d deg about z.*give the DVL's mounting as dvl.C_d_b"):
+        load_mission(folder)
+    (tmp_path / "mounting.json").write_text(json.dumps({"dvl": {"C_d_b": _turned(20.0).T.tolist()}}))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_mission(folder, tmp_path / "mounting.json")
+    assert not [w for w in caught if "DVL velocity" in str(w.message)]
 
 
 def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth):

@@ -267,14 +267,13 @@ def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | 
     """Warn about and note a DVL whose velocity fits the IMU turned ``yaw`` deg about z and points forward only
     turned back (:func:`check_imu_yaw`): velocity columns in the frame of a DVL mounted turned, read as body. Said
     here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed). ``fixes``: the
-    advice (:data:`DECLARE_DVL_FIXES`, the default, or :data:`AKIT_DVL_FIXES`, a format with no frame to declare:
-    then a DataError)."""
+    advice (:data:`DECLARE_DVL_FIXES`, the default, or :data:`AKIT_DVL_FIXES`: then a DataError)."""
     if not yaw:
         return
     fixes = fixes or DECLARE_DVL_FIXES
     text = (f"field '{field}': the DVL velocity points {yaw} deg about z from the vehicle's forward and fits the IMU "
             f"only turned back: columns in the instrument frame of a DVL mounted turned, read as body? {fixes['yaw']}")
-    if not fixes["declare"]:            # a format with no frame to declare: refused, as with its GT
+    if not fixes["declare"]:            # an A-KIT folder: refused, as its GT check refuses the same turn
         raise DataError(text.split(": ", 1)[1], dvl.source, field=field)
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
     add_note(meta, "dvl", text)
@@ -395,7 +394,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
                 f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
                 f"as body? {fixes['yaw']}")
-        if not fixes["declare"]:        # a format with no frame to declare: nothing but a turned file will run right
+        if not fixes["declare"]:        # an A-KIT folder: refused, as its GT check refuses the same turn
             raise DataError(text.split(": ", 1)[1], dvl.source, field=field)
         warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
         add_note(meta, "dvl", text)

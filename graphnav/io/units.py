@@ -1328,13 +1328,16 @@ DECLARE_DVL_FIXES = {"declare": True, "unit": "",
                      "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
                             "it and writes both)",
                      "flu": "declare csv_columns.dvl.frame 'flu'"}
-#: The same for an A-KIT folder, whose format is fixed (m/s, body frame FRD; the loader converts mm/s itself): its
-#: velocity columns are converted before graphnav reads them.
+#: The same for an A-KIT folder, whose format is fixed (m/s; DVL columns in the DVL's frame, turned to body by
+#: ``dvl.C_d_b``, identity unless a configuration gives it; the loader converts mm/s itself): a unit or FLU axes are
+#: converted in the file, a mounting turn given as ``dvl.C_d_b``. ``"declare"`` False: a turn found is refused
+#: (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`), as the folder's GT check refuses it.
 AKIT_DVL_FIXES = {"declare": False,
                   "unit": "convert the DVL velocity columns of the file to m/s (an A-KIT folder has no unit to "
                           "declare)",
-                  "yaw": "turn the DVL velocity columns of the file into the body frame (an A-KIT folder has no DVL "
-                         "frame to declare)",
+                  "yaw": "give the DVL's mounting as dvl.C_d_b in a --config file (the turn about z above, undone; "
+                         "graphnav calibrate estimates it against a GT), or turn the DVL velocity columns of the file "
+                         "into the body frame",
                   "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
 
 
