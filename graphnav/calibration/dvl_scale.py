@@ -452,7 +452,7 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     is absent; with a note when the DVL cannot judge either (too few pings, no scale that explains any of its
     changes, or none that fits them :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came
     onto the IMU clock, for the messages."""
-    from graphnav.io.units import GYRO_UNJUDGED, gyro_too_small
+    from graphnav.io.units import GYRO_UNJUDGED, gyro_scale_found
     fact = meta.pop(GYRO_UNJUDGED, None)
     if fact is None:
         return imu
@@ -462,7 +462,7 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
         fits = gyro_scale_fits(imu, dvl, config)
     except DataError as exc:
         return _gyro_against_reference(imu, fact, meta, f"{unjudged}, nor can the DVL ({exc.message})")
-    name, k = min(GYRO_SCALES.items(), key=lambda kv: fits[kv[1]])
+    k = min(GYRO_SCALES.values(), key=fits.get)
     ratio = fits[1.0] / max(fits[k], 1e-12)
     if not min(fits.values()) < 1.0:
         # every scale leaves more than a straight line per window would: their ratio is noise against noise
@@ -479,12 +479,4 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     fit = (f"the DVL velocity's changes ({dvl.source}{found}) fit these rates x{k:.4g} {ratio:.3g}x better than as "
            f"read (left unexplained {fits[k]:.3f} against {fits[1.0]:.3f}; the tilt kinematics could not judge them, "
            f"correlation {fact['correlation']:.2f})")
-    declared, field = fact["declared"], fact["field"]
-    if k > 1:
-        gyro_too_small(fit, imu.source, declared, field)
-    if declared is not None:
-        raise DataError(f"the declared gyro unit {declared!r} looks wrong: {fit}: {name}?", imu.source, field=field)
-    text = f"gyro read as deg/s and converted to rad/s: {fit} (field {field}; declare the gyro unit)"
-    warnings.warn(f"{imu.source}: {text}", RuntimeWarning, stacklevel=3)
-    add_note(meta, "imu", text)
-    return dataclasses.replace(imu, omega_b=imu.omega_b * k)
+    return dataclasses.replace(imu, omega_b=gyro_scale_found(imu.omega_b, k, fit, imu.source, fact, meta))

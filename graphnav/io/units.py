@@ -612,18 +612,26 @@ def check_gyro_against_reference(omega_b: np.ndarray, source: str, fact: dict, m
         return None
     fit = (f"the reference attitude ({ref['where']}) turns {ref['ratio']:.3g}x as fast as these rates (1 in rad/s; "
            f"correlation {ref['correlation']:.2f}, {ref['how']})")
-    declared, field = fact["declared"], fact["field"]
     if k == 1.0:
         add_note(meta, "imu", f"the gyro's scale judged against the reference attitude: {fit}")
         return omega_b
     if k > 1 and ref.get("doubt"):
         # refusing would refuse a clean log the same numbers describe; reading on with a note alone would be silent
         _note(meta, "imu", f"the gyro rates look 57.3x too small for rad/s: {fit}. {ref['doubt']}, so the rates are "
-                           f"read as they are (field {field}). Rates converted from deg/s twice, or divided by 57.3? "
-                           "Declare the reference's angle_unit: 'rad' refuses such rates, 'deg' reads the log as it "
-                           "is", source)
+                           f"read as they are (field {fact['field']}). Rates converted from deg/s twice, or divided by "
+                           "57.3? Declare the reference's angle_unit: 'rad' refuses such rates, 'deg' reads the log as "
+                           "it is", source)
         count_doubted(meta, "imu", GYRO_SMALL_DOUBT, len(omega_b))
         return omega_b
+    return gyro_scale_found(omega_b, k, fit, source, fact, meta)
+
+
+def gyro_scale_found(omega_b: np.ndarray, k: float, fit: str, source: str, fact: dict, meta: dict) -> np.ndarray:
+    """The gyro rates ``omega_b`` (rad/s as read) once a check (the DVL's velocity, a reference's turn: ``fit`` says
+    what shows it) found them ``k`` times what they should be read as: 57.3x too small a DataError
+    (:func:`gyro_too_small`), deg/s converted with a warning and a note, or a DataError when a gyro unit was declared
+    (``fact`` the gyro's :data:`GYRO_UNJUDGED`)."""
+    declared, field = fact["declared"], fact["field"]
     if k > 1:
         gyro_too_small(fit, source, declared, field)
     if declared is not None:
@@ -1346,7 +1354,7 @@ __all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seco
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
-           "check_gyro_against_reference",
+           "check_gyro_against_reference", "gyro_scale_found",
            "accelerometer_tilt", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "check_reference_axes", "horizontal_axes_fit",
            "reference_speed_error",
