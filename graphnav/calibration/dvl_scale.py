@@ -271,11 +271,18 @@ def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | 
     if not yaw:
         return
     fixes = fixes or DECLARE_DVL_FIXES
-    text = (f"field '{field}': the DVL velocity points {yaw} deg about z from the vehicle's forward and fits the IMU "
-            f"only turned back: columns in the instrument frame of a DVL mounted turned, read as body? {fixes['yaw']}")
-    if not fixes["declare"]:            # an A-KIT folder: refused, as its GT check refuses the same turn
-        raise DataError(text.split(": ", 1)[1], dvl.source, field=field)
-    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
+    _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity points {yaw} deg about z from the vehicle's forward "
+                    "and fits the IMU only turned back: columns in the instrument frame of a DVL mounted turned, read "
+                    f"as body? {fixes['yaw']}")
+
+
+def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> None:
+    """A DVL turn ``finding`` (with its fix): warned about and noted for a log or bag, which can declare its DVL frame;
+    a DataError for an A-KIT folder (``fixes["declare"]`` False), as its GT check refuses the same turn."""
+    if not fixes["declare"]:
+        raise DataError(finding, dvl.source, field=field)
+    text = f"field '{field}': {finding}"
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=4)
     add_note(meta, "dvl", text)
 
 
@@ -391,13 +398,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) else 0.0
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset)
     if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
-        text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from the IMU's axes "
-                f"(the fit explains {r2:.2f} of its changes): columns in the instrument frame of a yawed DVL read "
-                f"as body? {fixes['yaw']}")
-        if not fixes["declare"]:        # an A-KIT folder: refused, as its GT check refuses the same turn
-            raise DataError(text.split(": ", 1)[1], dvl.source, field=field)
-        warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
-        add_note(meta, "dvl", text)
+        _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
+                        f"the IMU's axes (the fit explains {r2:.2f} of its changes): columns in the instrument frame "
+                        f"of a yawed DVL read as body? {fixes['yaw']}")
     elif dvl_turn is not None:          # the DVL's own fit explains too little: the IMU-turn fit may still see it
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
     else:                               # neither fit judged the turn: only the mean direction is left
