@@ -74,9 +74,9 @@ IMU_SPIKE_SCALE_S = 1.0
 IMU_SPIKE_MIN_RATE_HZ = 50.0
 #: Stamps the stream measures the IMU's rate from before its spike test starts.
 IMU_SPIKE_RATE_ROWS = 11
-#: At most this many stamps are waited for while an IMU in packets shows fewer than three cycles (as the keyframer
-#: waits, 256 steps).
-IMU_SPIKE_PACKET_ROWS = 257
+#: Steps an IMU arriving in packets is measured over at most, while it has not three packets' cycles
+#: (:func:`awaits_packet_cycles`; the keyframer and the stream's spike test): packets of up to about 120 samples.
+IMU_PACKET_STEPS = 256
 #: A spike departs from the running median by more than this many local noise scales (and the floor). The ten
 #: A-KIT trajectories depart by at most 14.3 (simulated IMUs: 7.1); docs/decisions/screening.md.
 IMU_SPIKE_NOISE_FACTOR = 30.0
@@ -345,6 +345,17 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
     one = d[np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med]
     first = float(np.mean(one))
     return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
+
+
+def awaits_packet_cycles(steps, period_s: float) -> bool:
+    """Whether a stream's IMU ``steps`` so far (s) are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the
+    configured ``period_s`` and longer ones) with fewer than the three cycles :func:`in_packets` needs, and
+    :data:`IMU_PACKET_STEPS` not reached: a rate measured now would be the packets' inner step (packets of 4 or 5
+    samples gave two cycles in a spike test's eleven stamps and read 100 kHz)."""
+    d = np.asarray(steps, float)
+    short = BURST_STEP_SHARE * period_s
+    n_long = int(np.sum(d >= short))
+    return 0 < n_long < 3 and float(np.min(d)) < short and d.size < IMU_PACKET_STEPS
 
 
 def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
@@ -1001,17 +1012,6 @@ class ImuSpikeTest:
         self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
         self._run = 0
 
-    def _too_few_packets(self) -> bool:
-        """Whether the stamps so far are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the configured
-        period and longer ones) with fewer than the three cycles :func:`in_packets` needs, and
-        :data:`IMU_SPIKE_PACKET_ROWS` not reached: the rate waits for them, as the keyframer's does (packets of 4 or
-        5 samples gave two cycles in eleven stamps and read 100 kHz)."""
-        if self.period_s is None or len(self._stamps) >= IMU_SPIKE_PACKET_ROWS:
-            return False
-        d, short = np.diff(self._stamps), BURST_STEP_SHARE * self.period_s
-        n_long = int(np.sum(d >= short))
-        return 0 < n_long < 3 and float(np.min(d)) < short
-
     def check(self, t: float, x) -> tuple[int, float, float] | None:
         """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
         a spike. Returns None, or (index of the first departing value, the median it departs from, the limit)."""
@@ -1025,7 +1025,8 @@ class ImuSpikeTest:
                     return None
                 del stamps[:n]          # the burst's stamps but its last: the rate is from the steps after it
                 self._lead = False
-            if not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS and not self._too_few_packets():
+            if (not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS
+                    and not (self.period_s and awaits_packet_cycles(np.diff(stamps), self.period_s))):
                 self._set_rate(imu_rate_hz(self._stamps, None if self.period_s is None else 1.0 / self.period_s))
             return None
         if not self.active:

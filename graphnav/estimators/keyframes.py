@@ -56,7 +56,8 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, imu_stamp_quantum, imu_step_stats, start_burst, start_burst_warning)
+    BURST_STEP_SHARE, awaits_packet_cycles, imu_stamp_quantum, imu_step_stats, start_burst,
+    start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -134,9 +135,6 @@ IMU_RATE_STEPS = 16
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
-#: Steps a keyframer measures an IMU arriving in packets over at most, while it has not three packets' cycles:
-#: packets of up to about 120 samples.
-IMU_PACKET_STEPS = 16 * IMU_RATE_STEPS
 
 
 class ImuPeriod:
@@ -197,20 +195,12 @@ class ImuPeriod:
                 warnings.warn(f"imu: stamps on a {1e3 * quantum:.4g} ms grid, {quantum / step:.0%} "
                               "of a step: the period is their mean step, measured over the first "
                               f"{self._needed} steps", RuntimeWarning, stacklevel=5)
-        if len(self._steps) == self._needed and self._too_few_packets():
+        if len(self._steps) == self._needed and awaits_packet_cycles(self._steps, self.configured_s):
             self._needed += IMU_RATE_STEPS
         if len(self._steps) < self._needed:
             self.period_s = max(self.configured_s, min(self._steps))
             return
         self._measured()
-
-    def _too_few_packets(self) -> bool:
-        """Whether the steps so far are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the configured
-        period and longer ones) with fewer than three of their long steps, the cycle its rate is measured over
-        (:func:`~graphnav.core.screening.in_packets`), and :data:`IMU_PACKET_STEPS` not reached."""
-        short = BURST_STEP_SHARE * self.configured_s
-        n_long = sum(not d < short for d in self._steps)
-        return 0 < n_long < 3 and min(self._steps) < short and len(self._steps) < IMU_PACKET_STEPS
 
     def _measured(self) -> None:
         """The period and a burst's cycle from the steps collected, warned about when off the configured one."""
