@@ -792,7 +792,8 @@ def reference_turn_fit(t_ref: np.ndarray, euler: np.ndarray, t_imu: np.ndarray, 
     IMU's axis signs): ~1 for a gyro in rad/s, 57.3 for rates 57.3x too small, 1/57.3 for deg/s. NaN when too short.
     ``spread``: the median departure of the two rates' difference, interval by interval, from its median (a gyro
     bias) over the gyro's median rate (near 0 when the reference follows the gyro, even turning steadily, where the
-    correlation cannot tell; noise whose median happens to match the gyro's gives 0.16-0.60, :data:`TURN_SPREAD_MAX`)."""
+    correlation cannot tell; noise whose median happens to match the gyro's gives 0.16-0.60,
+    :data:`TURN_SPREAD_MAX`)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
