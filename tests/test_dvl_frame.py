@@ -283,9 +283,10 @@ def test_an_akit_folder_without_gt_whose_dvl_is_turned_loads_with_its_mounting_g
     assert not [w for w in caught if "DVL velocity" in str(w.message)]
 
 
-def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth):
+def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth, dvl_shift=-86400.0):
     """The first ``seconds`` of A-KIT Trajectory1 as a column-map log (no reference), its DVL velocity turned to NED by
-    the GT attitude when ``earth`` (read as body: no 'frame'), its stamps a day early on a clock to be found."""
+    the GT attitude when ``earth`` (read as body: no 'frame'), its stamps ``dvl_shift`` s (a day) early on a clock to
+    be found."""
     from graphnav.core.mission import DvlData
     from graphnav.missions import load_akit
     from test_units import _column_map_log
@@ -302,7 +303,7 @@ def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth):
     k = m.imu.t <= seconds
     m = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=m.imu.t[k], f_b=m.imu.f_b[k], omega_b=m.imu.omega_b[k]),
                             dvl=DvlData(t, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v, source="dvl"))
-    return folder, _column_map_log(m, folder, dvl_shift=-86400.0)
+    return folder, _column_map_log(m, folder, dvl_shift=dvl_shift)
 
 
 @pytest.mark.parametrize("seconds", [60.0, 400.0])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import warnings
 
 import numpy as np
@@ -204,3 +205,84 @@ def test_a_score_against_a_log_reference_whose_point_is_not_given_says_so_with_t
     assert "  VRMSE: 0.0173 m/s\n  note: the reference is scored at the IMU point" in report
     given, _ = _load(*_log(tmp_path, sim, sim.gt, reference_position_b=[0.0, 0.0, 0.0]))
     assert reference_point_unknown(given) is None and "reference_point" not in accuracy_summary(sol, given, [])
+
+
+def _doubted(said, cfg, key, given):
+    """The warnings that name the configuration file ``cfg`` for its ``key`` = ``given`` (s) the data disagree with."""
+    return [s for s in said if s.startswith(f"{cfg}: {key} = {given:+.3f} s is given, but the data say ")]
+
+
+@pytest.mark.parametrize("clock", ["imu", "auto"])
+def test_a_given_dvl_time_offset_of_a_log_the_dvl_clock_fit_disagrees_with_is_warned_naming_the_file(sim, tmp_path,
+                                                                                                      clock):
+    """A log's configured dvl_time_offset_s was used without a word however wrong (a configuration copied from another
+    vehicle). It is judged against the DVL clock fit, as an A-KIT folder's is against its GT: 0.5 s and 2 s off are
+    warned about naming the configuration file and counted as doubted; the right one is not. With ``clock: auto`` the
+    clock search moves the DVL on, and the warning says so."""
+    data, cfg = _log(tmp_path, sim, sim.gt)
+    spec = json.loads(cfg.read_text())
+    spec["csv_columns"]["dvl"]["clock"] = clock
+    for given in (0.0, 0.5, 2.0):
+        cfg.write_text(json.dumps({**spec, "dvl_time_offset_s": given}))
+        m, said = _load(data, cfg)
+        doubted = _doubted(said, cfg, "dvl_time_offset_s", given)
+        if not given:
+            assert not doubted and "doubted" not in m.meta["streams"]["dvl"]
+            continue
+        assert len(doubted) == 1 and re.search(r"the data say [+-]0\.000 s \(sigma 0\.00\d\d s, the DVL's velocity "
+                                               r"changes against the IMU's accelerations\)", doubted[0])
+        moved = f"the DVL clock search added {-given:+.3f} s to it" if clock == "auto" else "it is used as given"
+        assert f": {moved}; set dvl_time_offset_s to null" in doubted[0]
+        assert m.config.dvl_time_offset_s == pytest.approx(given if clock == "imu" else 0.0, abs=0.01)
+        assert sum(m.meta["streams"]["dvl"]["doubted"].values()) == len(m.dvl.t)
+
+
+def test_a_given_reference_time_offset_of_a_log_the_gyro_disagrees_with_is_warned_naming_the_file(sim, tmp_path):
+    """A log's configured gt_time_offset_s was used without a word: judged against the reference's attitude
+    against the gyro, as an A-KIT folder's is. 0.4 s off warned and counted; the right one (0 s, or -0.4 s for a
+    reference logged 0.4 s late) not."""
+    late = dataclasses.replace(sim.gt, t=sim.gt.t + 0.4)
+    for gt, given, right in ((sim.gt, 0.4, 0.0), (sim.gt, 0.0, 0.0), (late, -0.4, -0.4), (late, 0.0, -0.4)):
+        data, cfg = _log(tmp_path, sim, gt, gt_time_offset_s=given)
+        m, said = _load(data, cfg)
+        doubted, wrong = _doubted(said, cfg, "gt_time_offset_s", given), given != right
+        assert len(doubted) == wrong and ("doubted" in m.meta["streams"]["gt"]) == wrong
+        np.testing.assert_allclose(m.gt.t, gt.t + given)                        # used as given either way
+        if wrong:
+            assert re.search(rf"the data say [+-]{abs(right):.3f} s \(sigma 0\.00\d\d s\): it is used as given",
+                             doubted[0])
+
+
+def test_a_given_dvl_time_offset_of_a_bag_is_judged_where_the_clock_fit_can_and_noted_where_not(sim, tmp_path):
+    """A bag's configured dvl_time_offset_s is judged as a log's is; the simulator's 0.042 m/s beam noise hides its
+    gentle accelerations from the clock fit in 120 s, so there the offset is not judged, and the DVL's notes say so."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.io.bags import write_mission_bag
+    quiet = SensorConfig()
+    quiet.dvl = dataclasses.replace(quiet.dvl, beam_noise_std=0.01)
+    cfg = tmp_path / "config.json"
+    for mission, judged, offsets in ((simulate_mission(120.0, seed=4, config=quiet), True, (0.0, 2.0)),
+                                     (sim, False, (2.0,))):
+        bag = write_mission_bag(mission, tmp_path / f"{judged}.mcap")
+        for given in offsets:
+            cfg.write_text(json.dumps({"dvl_time_offset_s": given}))
+            m, said = _load(bag, cfg)
+            assert len(_doubted(said, cfg, "dvl_time_offset_s", given)) == (judged and given > 0)
+            unjudged = [n for n in m.meta["streams"]["dvl"]["notes"] if "dvl_time_offset_s is not judged" in n]
+            assert bool(unjudged) != judged
+
+
+def test_a_given_dvl_time_offset_of_200_s_of_trajectory1_as_a_column_map_log(akit_dir, tmp_path):
+    """The first 200 s of Trajectory1 as a column-map log, its DVL on the IMU clock at the offset prepare found
+    against the GT: its clock fit adds +0.076 s (sigma 0.006 s), so the right offset, 0 s, is not doubted (the fit is
+    not the fine offset against a reference: preparation.GIVEN_DVL_CLOCK_FLOOR_S); 0.5 s is."""
+    from test_dvl_frame import _akit_log_on_its_own_clock
+    folder, cfg = _akit_log_on_its_own_clock(akit_dir, tmp_path / "log", 200.0, earth=False, dvl_shift=0.0)
+    spec = json.loads(cfg.read_text())
+    for given, wrong in ((0.0, False), (0.5, True)):
+        cfg.write_text(json.dumps({**spec, "dvl_time_offset_s": given}))
+        m, said = _load(folder, cfg)
+        doubted = _doubted(said, cfg, "dvl_time_offset_s", given)
+        assert len(doubted) == wrong, said
+        if wrong:
+            assert re.search(r"the data say \+0\.0[5-9]\d s \(sigma 0\.00\d\d s, the DVL", doubted[0])

@@ -36,7 +36,9 @@ own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
 without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
 (the configuration's ``gt_time_offset_s``, else estimated as for A-KIT and added when it is more than noise) and
-moved to the IMU point from the configuration's ``reference_position_b`` (:func:`_reference_on_the_imu`).
+moved to the IMU point from the configuration's ``reference_position_b`` (:func:`_reference_on_the_imu`). A DVL or
+reference time offset a configuration gives is judged as an A-KIT folder's is (:func:`_judge_given_dvl_clock`,
+:func:`_judge_given_gt_offset`): a disagreement is warned about naming the file, and counted.
 
 Every mission: an IMU whose stamps run at another rate than the configured ``imu_rate_hz`` (50 or 200 Hz against
 100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted
@@ -180,7 +182,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         _judge_given_signs(mission, meta, facts, signs)
     if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
             and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t):
-        _judge_given_offset(meta, facts, "gt", float(gt_time_offset_s), judged.gt_offset, 0.0, mission)
+        _judge_given_offset(meta, facts, "gt", float(gt_time_offset_s), judged.gt_offset.offset_s,
+                            judged.gt_offset.sigma_s, mission)
     cfg = dataclasses.replace(mission.config)
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
@@ -226,7 +229,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         # with a given offset too: a DVL in another frame follows the GT at no offset near it
         _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
-            _judge_given_offset(meta, facts, "dvl", coarse, est, coarse, mission)
+            _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
+                                ", against the GT as given")
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
@@ -264,28 +268,32 @@ def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndar
     return detection
 
 
-def _judge_given_offset(meta: dict, facts: dict, stream: str, given: float, est, base: float,
-                        mission: Mission) -> None:
+def _judge_given_offset(meta: dict, facts: dict, stream: str, given: float, data_say: float, sigma_s: float,
+                        mission: Mission, against: str = "", floor_s: float | None = None,
+                        outcome: str = "it is used as given") -> None:
     """A warning (:func:`_doubt_given`) when the time offset (s) a configuration file gave for ``stream`` lies off
-    the estimate ``est`` (its ``offset_s`` added to ``base``, s) by more than 3 of its sigmas and one IMU period
-    (a rounded offset is not worth a word)."""
-    data_say = base + est.offset_s
-    if abs(given - data_say) > max(3.0 * est.sigma_s, 1.0 / float(mission.config.imu_rate_hz)):
+    the one the data say (``data_say``, s, with 1-sigma ``sigma_s``) by more than 3 sigmas and ``floor_s`` (default
+    one IMU period: a rounded offset is not worth a word). ``against`` names what the estimate fits, ``outcome``
+    what became of the value."""
+    floor_s = 1.0 / float(mission.config.imu_rate_hz) if floor_s is None else floor_s
+    if abs(given - data_say) > max(3.0 * sigma_s, floor_s):
         _doubt_given(meta, facts, f"{stream}_time_offset_s", stream, len(getattr(mission, stream).t), f"{given:+.3f} s",
-                     f"the data say {data_say:+.3f} s (sigma {est.sigma_s:.4f} s"
-                     + (", against the GT as given)" if stream == "dvl" else ")"))
+                     f"the data say {data_say:+.3f} s (sigma {sigma_s:.4f} s{against})", outcome)
 
 
-def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str) -> None:
-    """A configuration file's value of ``key`` used as given though the data disagree: warned (naming the file,
-    the key, both values and how to let the data decide), noted and counted as doubted on ``stream``."""
+def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str,
+                 outcome: str = "it is used as given") -> None:
+    """A configuration file's value of ``key`` the data disagree with (``outcome``: used as given, or what replaced
+    it): warned (naming the file, the key, both values and how to let the data decide), noted and counted as doubted
+    on ``stream``."""
     from graphnav.core.streams import count_doubted
     source = facts.get("given_by", {}).get(key, "the configuration")
-    text = (f"{key} = {given} is given, but {data_say}: it is used as given; set {key} to null (or remove the "
+    text = (f"{key} = {given} is given, but {data_say}: {outcome}; set {key} to null (or remove the "
             "key) to let the data decide (a configuration written before null meant 'not given' holds 0 s and "
             "(1, 1, 1) as numbers)")
     add_note(meta, stream, f"{source}: {text}")
-    count_doubted(meta, stream, f"{key} used as given though the data disagree", n)
+    used = "used as given" if outcome == "it is used as given" else "given"
+    count_doubted(meta, stream, f"{key} {used} though the data disagree", n)
     warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=5)
 
 
@@ -483,11 +491,11 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
+    searched = dvl
     if facts.get("dvl_clock") == AUTO:
         # after a given offset too: a configuration copied from another mission, or a full dump's 0, may leave the
         # DVL seconds or days off; what the search finds under half a ping period is left as given
         from graphnav.calibration.clock import align_stream_clocks
-        searched = dvl
 
         def search(imu: ImuData, meta_: dict) -> float:
             return float(align_stream_clocks(imu, searched, None, meta_, mission.config)[0].t[0] - searched.t[0])
@@ -496,6 +504,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
             mission.config, meta)
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
+    if given is not None:
+        _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
     mission = _reference_on_the_imu(mission, meta, facts)
     if facts.get("dvl_clock") == AUTO and dvl is not searched:
@@ -573,6 +583,45 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
                     "not judge, at an offset where the DVL judges them)", err.source, err.line, err.field) from err
 
 
+#: A DVL time offset given for a log or bag is doubted when the DVL clock fit (the DVL's velocity changes against the
+#: IMU's accelerations) puts it further off than this (s) and 3 of the fit's sigmas. The fit is not the fine offset
+#: against a reference: on the ten A-KIT trajectories, their DVL on the IMU clock at the offset prepare found against
+#: the GT, it adds -0.024..+0.076 s (200 s) and -0.016..+0.067 s (400 s) with sigmas of 0.004-0.019 s, up to 12 of
+#: them; 2.6x the largest, and under half the 1 s ping period the clock search moves a DVL by.
+GIVEN_DVL_CLOCK_FLOOR_S = 0.2
+#: Where a DVL declared on the IMU clock (``clock: imu``) has its given offset judged, the DVL clock fit searches this
+#: far either side of it, s: a configuration from another vehicle is a second or two off, and the clock search's
+#: +-300 s would cost ~10 s of CPU on an hour's log.
+GIVEN_DVL_CLOCK_SEARCH_S = 20.0
+
+
+def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, meta: dict, facts: dict,
+                           given: float) -> None:
+    """The configuration's ``dvl_time_offset_s`` of a log or bag (s, added to the DVL stamps: ``shifted``) judged
+    against the DVL clock fit (:func:`graphnav.calibration.clock.estimate_dvl_clock_offset`, the clock search's when
+    it ran, else the same search within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S`): a warning
+    (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree, saying that the search moved
+    the DVL on (``dvl`` is not ``shifted``) or that the value is used as given. A fit without a confident offset
+    cannot judge it: noted."""
+    from graphnav.calibration.clock import estimate_dvl_clock_offset
+    est = meta.get("clock_offsets", {}).get("dvl")
+    if est is None:
+        try:
+            est = estimate_dvl_clock_offset(mission.imu, shifted, mission.config,
+                                            search_s=(-GIVEN_DVL_CLOCK_SEARCH_S, GIVEN_DVL_CLOCK_SEARCH_S)).to_dict()
+        except DataError as err:
+            add_note(meta, "dvl", f"the configuration's dvl_time_offset_s is not judged ({err})")
+            return
+    if not est["confident"]:
+        add_note(meta, "dvl", "the configuration's dvl_time_offset_s is not judged: the DVL clock fit finds no clear "
+                 f"offset (the IMU explains {est['peak']:.2f} of the DVL's velocity changes at best)")
+        return
+    moved = float(dvl.t[0] - shifted.t[0]) if dvl is not shifted and len(dvl.t) else 0.0
+    _judge_given_offset(meta, facts, "dvl", given, given + est["offset_s"], est["sigma_s"], mission,
+                        ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S,
+                        f"the DVL clock search added {moved:+.3f} s to it" if moved else "it is used as given")
+
+
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
     """``(dvl, depth)`` with the configuration's ``dvl_time_offset_s`` (s) added to the DVL stamps, and to a depth
     stream of the same instrument (a DVL's pressure sensor), instead of the clock search; noted."""
@@ -619,6 +668,8 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
         applied = est is not None and abs(est.offset_s) > max(GT_OFFSET_SIGMAS * est.sigma_s, GT_OFFSET_MIN_S)
         offset = est.offset_s if applied else 0.0
         how = f"estimated from its attitude against the gyro, sigma {est.sigma_s:.4f} s" if applied else how
+    elif on_the_imu_clock(g.t + offset, mission.imu.t):
+        _judge_given_gt_offset(mission, meta, facts, float(offset), lat)
     if offset:
         text = f"time offset {offset:+.3f} s added to the reference stamps ({how})"
         add_note(meta, "gt", text)
@@ -639,6 +690,21 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
     if g is mission.gt:
         return mission
     return dataclasses.replace(mission, gt=g, config=dataclasses.replace(cfg, gt_time_offset_s=float(offset)))
+
+
+def _judge_given_gt_offset(mission: Mission, meta: dict, facts: dict, given: float, lat: float | None) -> None:
+    """The configuration's ``gt_time_offset_s`` of a log or bag (s) judged as an A-KIT folder's is
+    (:func:`_judge_given_offset`): against the offset the reference's attitude increments, stamped with it, still
+    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s). A reference too
+    short to estimate cannot judge it: noted."""
+    from graphnav.calibration.reference import estimate_gt_time_offset
+    g = mission.gt
+    try:
+        est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t + given, g.C_b_n, lat, source=g.source)
+    except DataError as err:
+        add_note(meta, "gt", f"the configuration's gt_time_offset_s is not judged ({err})")
+        return
+    _judge_given_offset(meta, facts, "gt", given, given + est.offset_s, est.sigma_s, mission)
 
 
 def _given_axis_signs(mission: Mission, meta: dict, facts: dict) -> Mission:

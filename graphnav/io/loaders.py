@@ -1000,7 +1000,8 @@ def _read(data, overrides: ConfigOverrides | None, topics, akit_kwargs) -> Missi
         given = _given_keys(config, lambda key: bool(overrides) and overrides.sets(key)
                             and (key != "gt_time_offset_s" or mission.gt is not None))
         if given:
-            mission.meta.setdefault("prepare", {})["given"] = given
+            # the file to name when the data disagree with a value it gives
+            mission.meta.setdefault("prepare", {}).update(given=given, given_by=dict.fromkeys(given, overrides.source))
         if "imu_axis_signs" in given:
             # the file's axes until prepare applies the signs, as an A-KIT folder's: the mission records what it applied
             mission.config = dataclasses.replace(mission.config, imu_axis_signs=np.ones(3))
