@@ -356,3 +356,25 @@ def test_a_crabbing_vehicle_with_a_reference_is_judged_by_where_the_reference_mo
                      r"\(gt\b.*\) \+(89|90) deg: .* DVL mounted turned [+-]\d+ deg", said[0]), said
     said, _ = check(0.0, None)
     assert len(said) == 1 and "hardly changing" not in said[0] and "its fit explains 0." in said[0], said
+
+
+@pytest.mark.parametrize("given, warned", [(0.976, False), (2.5, True)])
+def test_an_akit_folder_without_gt_has_its_given_dvl_time_offset_judged(akit_dir, tmp_path, given, warned):
+    """Without a GT the DVL time offset a configuration file gives was used however wrong; it is now judged against
+    the DVL clock fit (the DVL's velocity changes against the IMU's accelerations), as a log's is: a wrong one is
+    warned about naming the file, and counted; the one the GT gives (+0.976 s on Trajectory1) is not."""
+    import json
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, np.eye(3))
+    config = tmp_path / "offset.json"
+    config.write_text(json.dumps({"dvl_time_offset_s": given}))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder, config)
+    said = [str(w.message) for w in caught if "dvl_time_offset_s = " in str(w.message)]
+    assert m.config.dvl_time_offset_s == given
+    assert bool(said) == warned, said
+    if warned:
+        assert len(said) == 1 and said[0].startswith(f"{config}: dvl_time_offset_s = +2.500 s is given, but the data "
+                                                     "say +1.0"), said
+        doubted = m.meta["streams"]["dvl"]["doubted"]
+        assert doubted == {"dvl_time_offset_s used as given though the data disagree": 200}, doubted

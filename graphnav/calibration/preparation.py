@@ -203,7 +203,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                               "decided": None if detected is None else detected.decided}
     g = mission.gt
     if g is None:
-        return _prepare_akit_without_gt(mission, meta, cfg, imu, dvl_time_offset_s, coarse)
+        return _prepare_akit_without_gt(mission, meta, facts, cfg, imu, dvl_time_offset_s, coarse,
+                                        judge="dvl_time_offset_s" in from_file)
     imu_position_b = np.asarray(facts["imu_position_b"], float)
     lat_for_rate = cfg.lat_rad if cfg.earth_rotation else None
     estimates = {}
@@ -326,11 +327,12 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
                           what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"))
 
 
-def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, imu: ImuData,
-                             dvl_time_offset_s, coarse: float) -> Mission:
+def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: SensorConfig, imu: ImuData,
+                             dvl_time_offset_s, coarse: float, judge: bool) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: the DVL time offset given, its coarse
     clock offset (``coarse``, s, 0 on the IMU span), or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for
-    ``"auto"`` (it cannot be estimated against a missing GT)."""
+    ``"auto"`` (it cannot be estimated against a missing GT). A given offset a configuration file set (``judge``) is
+    judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
     from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
     auto = _is_auto(dvl_time_offset_s)
     if auto and coarse:
@@ -344,6 +346,8 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, cfg: SensorConfig, im
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
+    if judge:
+        _judge_given_dvl_clock(dataclasses.replace(mission, imu=imu, config=cfg), dvl, dvl, meta, facts, cfg.dvl_time_offset_s)
     # the checks a log or bag without reference gets: the velocity's unit, its turn and FLU axes, the IMU's turn
     from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_velocity_against_imu
     from graphnav.io.loaders import AKIT_COLUMNS
