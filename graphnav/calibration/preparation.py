@@ -347,7 +347,8 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
     if judge:
-        _judge_given_dvl_clock(dataclasses.replace(mission, imu=imu, config=cfg), dvl, dvl, meta, facts, cfg.dvl_time_offset_s)
+        _judge_given_dvl_clock(dataclasses.replace(mission, imu=imu, config=cfg), dvl, dvl, meta, facts,
+                               cfg.dvl_time_offset_s)
     # the checks a log or bag without reference gets: the velocity's unit, its turn and FLU axes, the IMU's turn
     from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_velocity_against_imu
     from graphnav.io.loaders import AKIT_COLUMNS
