@@ -161,3 +161,38 @@ def test_a_prepared_mission_written_as_an_akit_folder_reads_back_as_it_was(tmp_p
     with pytest.warns(RuntimeWarning, match=rf"^{re.escape(str(paths['config']))}: gt_time_offset_s = \+0\.500 s is "
                                             "given, but the data say"):
         load_mission(paths["config"].parent)
+
+
+@pytest.mark.parametrize("k, spacing_s", [(10, 1e-5), (3, 1e-4)])
+def test_an_imu_stamped_in_packets_is_put_back_on_its_period(k, spacing_s, tmp_path, capsys):
+    """A driver stamping k samples together on receipt (each packet at its last sample's stamp, ``spacing_s`` apart):
+    the A-KIT reader refused the folder (median step 1e-05 s, no plausible period), and a log read anyway integrated
+    each sample at its packet's stamp (a column map declaring seconds: VRMSE 0.045 m/s for packets of 10 against
+    0.0026). prepare puts the stamps back on the period (spread back from each packet's last one), warned once, noted
+    and counted; the clean folder keeps its stamps, bit for bit."""
+    from graphnav import cli
+    from graphnav.io.export import write_akit
+    clean = simulate_mission(duration_s=30.0, seed=1)
+    n = clean.imu.t.size // k * k                       # whole packets
+    clean = dataclasses.replace(clean, imu=clean.imu.take(slice(0, n)))
+    i = np.arange(n)
+    stamped = clean.imu.t[i // k * k + k - 1] + i % k * spacing_s
+    folder = write_akit(dataclasses.replace(clean, imu=dataclasses.replace(clean.imu, t=stamped)),
+                        tmp_path / "packets")["IMU"].parent
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    said = [str(w.message) for w in caught if "stamped in packets" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith(f"imu: {folder / 'IMU_trajectory1.csv'}: stamped in packets of {k} ")
+    assert "restamped at the period 10 ms" in said[0]
+    np.testing.assert_allclose(m.imu.t, clean.imu.t + (k - 1) * spacing_s, rtol=0, atol=1e-9)     # on the receipt
+    entry = m.meta["streams"]["imu"]
+    assert entry["restamped"] == n - n // k and entry["rate_hz"] == pytest.approx(100.0)
+    assert [note for note in entry["notes"] if note in said[0]]
+    assert _quiet(cli.main, ["info", str(folder)]) == 0
+    assert f"imu: stamped in packets of {k} " in capsys.readouterr().out
+    written = write_akit(clean, tmp_path / "clean")["IMU"].parent
+    even = _quiet(load_mission, written)
+    assert "restamped" not in even.meta["streams"]["imu"]
+    as_written = np.loadtxt(written / "IMU_trajectory1.csv", delimiter=",", skiprows=1)[:, 0]
+    np.testing.assert_array_equal(even.imu.t, as_written)

@@ -1034,3 +1034,56 @@ def test_an_imu_with_stamps_in_whole_milliseconds_reads_its_rate_not_the_median_
     assert [m for m in said if "runs at 399.8 Hz (from its first 3334 steps" in m]
     assert 1.0 / keyframer.imu_period.period_s == pytest.approx(400.0, rel=2e-3)
     assert keyframer.stats.imu_gaps == []
+
+
+def _in_packets(t, k, spacing_s=1e-5):
+    """Stamps ``t`` (s) as a driver stamping k samples together on receipt gives them: each packet at its last
+    sample's stamp, ``spacing_s`` apart."""
+    i = np.arange(len(t))
+    return np.asarray(t)[np.minimum(i // k * k + k - 1, len(t) - 1)] + i % k * spacing_s
+
+
+@pytest.mark.parametrize("k, spacing_s", [(3, 1e-4), (10, 1e-5), (20, 1e-5)])
+def test_a_live_imu_in_packets_is_put_back_on_its_period_as_each_packet_ends(k, spacing_s):
+    """Once its first steps show packets, each packet leaves restamped (spread back from its last stamp) when its
+    last sample arrives; before, it is passed as received. A clean stream with jitter and a gap is passed as it is."""
+    from graphnav.estimators.keyframes import PacketStamps
+    true = np.arange(3000) * 0.01
+    stamps = _in_packets(true, k, spacing_s)
+    packets = PacketStamps(0.01)
+    out = []
+    for i, t in enumerate(stamps):
+        left = packets.add(float(t), (i,), ())
+        assert not left or left[-1][1] == (i,) or i % k != k - 1         # a whole packet leaves with its last sample
+        out += left
+    out += packets.flush()
+    t_out = np.array([s[0] for s in out])
+    assert [s[1] for s in out] == [(i,) for i in range(3000)] and np.all(np.diff(t_out) > 0)
+    first = int(np.argmax(t_out != stamps))             # from the packet its first steps were decided in
+    assert first <= 4 * max(k, 6) and packets.restamped == np.sum(t_out != stamps)
+    np.testing.assert_allclose(t_out[first:], true[first:] + (k - 1) * spacing_s, rtol=0, atol=1e-9)
+    rng = np.random.default_rng(0)
+    clean = np.delete(np.arange(3000) * 0.01 + rng.normal(0, 2e-4, 3000), np.r_[1000:1050])
+    packets = PacketStamps(0.01)
+    passed = [s[0] for t in clean for s in packets.add(float(t), (), ())] + packets.flush()
+    assert np.array_equal(passed, clean) and packets.restamped == 0 and packets.note is None
+
+
+def test_a_navigator_fed_an_imu_in_packets_estimates_as_from_its_clean_stream(mission):
+    """A 60 s stream with its IMU in packets of 20 (stamped on receipt): integrated at each packet's stamp, zero-length
+    steps then a 0.2 s one gave VRMSE 0.151 m/s against 0.061 from even stamps; restamped, within 0.005 of it, noted
+    once and counted."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    imu = [i for i, e in enumerate(events) if e[0] == "imu"]
+    stamps = _in_packets([events[i][1] for i in imu], 20)
+    for i, t in zip(imu, stamps):
+        events[i] = ("imu", float(t), events[i][2])
+    events.sort(key=lambda e: e[1])
+    clean, nav = _vrmse(_feed(_navigator(m), list(replay(m))), m), _navigator(m)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        vrmse = _vrmse(_feed(nav, events), m)
+    assert vrmse < clean + 0.005
+    said = [str(w.message) for w in caught if "stamped in packets of 20" in str(w.message)]
+    assert len(said) == 1 and nav.info["notes"]["imu"] and nav.info["imu_restamped"] > 5000

@@ -40,10 +40,11 @@ moved to the IMU point from the configuration's ``reference_position_b`` (:func:
 reference time offset a configuration gives is judged as an A-KIT folder's is (:func:`_judge_given_dvl_clock`,
 :func:`_judge_given_gt_offset`): a disagreement is warned about naming the file, and counted.
 
-Every mission: an IMU whose stamps run at another rate than the configured ``imu_rate_hz`` (50 or 200 Hz against
-100) has the measured rate put in its configuration, with a note. DVL pings outside the IMU span are counted
-(:func:`graphnav.io.stream_counts.record_outside_span`),
-and a DVL span off the IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
+Every mission: an IMU whose stamps come in packets or bursts (a driver stamping samples on receipt) has them put
+back on its period, with a warning and a note; an IMU whose stamps run at another rate than the configured
+``imu_rate_hz`` (50 or 200 Hz against 100) has the measured rate put in its configuration, with a note. DVL pings
+outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`), and a DVL span off the
+IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
 ``meta["prepared"]``) is prepared already and comes back unchanged.
@@ -61,7 +62,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.core.streams import add_note, set_span
+from graphnav.core.streams import add_note, set_span, stream_entry
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
@@ -107,7 +108,7 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
         return mission
     meta = copy.deepcopy(mission.meta)
     facts = meta.get("prepare", {})
-    mission = _measured_imu_rate(mission, meta)
+    mission = _measured_imu_rate(_restamped_packets(mission, meta), meta)
     if facts.get("format") == "akit":
         mission = _prepare_akit(mission, meta, facts, imu_axis_signs, gt_time_offset_s, dvl_time_offset_s)
     else:
@@ -123,6 +124,31 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
         check_dvl_on_imu_clock(mission, "put the DVL stamps on the IMU clock (a CSV column map's \"clock\": "
                                         "\"auto\" finds its offset)")
     return mission
+
+
+def _restamped_packets(mission: Mission, meta: dict) -> Mission:
+    """The mission with the stamps of an IMU in packets or bursts (:func:`~graphnav.core.screening.imu_step_stats`:
+    a cycle longer than its period) put back on its period (:func:`~graphnav.core.screening.restamp_packets`),
+    warned about and noted once, with their count in ``meta["streams"]["imu"]["restamped"]``. Integrated at their
+    packet's stamp, k samples made zero-length steps then one k periods long (a column-map log in packets of 20:
+    VRMSE 0.098 m/s against 0.0026 from even stamps). Even stamps, gaps and stutters are no packets and keep their
+    stamps."""
+    from graphnav.core.screening import imu_step_stats, packets_note, restamp_packets
+    t = mission.imu.t
+    configured_s = 1.0 / float(mission.config.imu_rate_hz)
+    period, cycle = imu_step_stats(np.diff(t), configured_s, IMU_RATE_TOLERANCE)
+    if not cycle > period:
+        return mission
+    restamped = restamp_packets(t, period)
+    moved = int(np.sum(restamped != t))
+    if not moved:
+        return mission
+    note = packets_note(round(cycle / period), cycle, period, f"{moved} of {t.size} stamps")
+    add_note(meta, "imu", note)
+    stream_entry(meta, "imu")["restamped"] = moved
+    set_span(meta, "imu", restamped)
+    warnings.warn(f"imu: {mission.imu.source}: {note}", RuntimeWarning, stacklevel=3)
+    return dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=restamped))
 
 
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:

@@ -400,6 +400,29 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
 
 
+def restamp_packets(t: np.ndarray, period_s: float, after: float = -math.inf) -> np.ndarray:
+    """IMU stamps ``t`` (s, increasing) with each run of samples stamped together (steps under
+    :data:`BURST_STEP_SHARE` of ``period_s``, s: a packet or burst stamped on receipt) spread backward from the run's
+    last stamp (the receipt: its samples were measured before it) at ``period_s``, so that each sample's stamp is the
+    start of its own interval again; a run with too little room after the one before it (or ``after``, s) is spread
+    evenly over that room. A sample alone keeps its stamp, bit for bit (gaps stay gaps)."""
+    t = np.asarray(t, float)
+    if not t.size:
+        return t.copy()
+    ends = np.r_[np.flatnonzero(~(np.diff(t) < BURST_STEP_SHARE * period_s)), t.size - 1]
+    run = np.searchsorted(ends, np.arange(t.size))
+    step = np.minimum(period_s, np.diff(np.r_[after, t[ends]]) / np.diff(np.r_[-1, ends]))
+    back = ends[run] - np.arange(t.size)
+    return np.where(back > 0, t[ends][run] - back * step[run], t)
+
+
+def packets_note(k: int, cycle_s: float, period_s: float, which: str) -> str:
+    """What restamping an IMU in packets of ``k`` every ``cycle_s`` (s) at ``period_s`` (s) did to ``which`` stamps
+    (a stream note and a warning)."""
+    return (f"stamped in packets of {k} (every {1e3 * cycle_s:.4g} ms; a driver stamping samples on receipt): "
+            f"{which} restamped at the period {1e3 * period_s:.4g} ms, each packet spread back from its last stamp")
+
+
 def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: float = 0.05) -> float:
     """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the period of :func:`imu_step_stats` (the median step, or
     samples over time for stamps in bursts; gaps do not lower it; ``expected_hz``, ``tolerance``: the configured rate

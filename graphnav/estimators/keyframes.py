@@ -56,8 +56,8 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, awaits_packet_cycles, imu_stamp_quantum, imu_step_stats, start_burst,
-    start_burst_warning)
+    BURST_STEP_SHARE, awaits_packet_cycles, imu_stamp_quantum, imu_step_stats, packets_note, restamp_packets,
+    start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -234,6 +234,65 @@ class ImuPeriod:
     def gap_limit_s(self) -> float:
         """Steps longer than this are gaps, bridged (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods), s."""
         return IMU_GAP_PERIODS * max(self.period_s, self._cycle_s)
+
+
+class PacketStamps:
+    """A live IMU's samples put back on its period when it comes in packets or bursts (k samples stamped together on
+    receipt), as :func:`~graphnav.core.screening.restamp_packets` does a log's: integrated at their packet's stamp they
+    make zero-length steps then one k periods long. Its first :data:`IMU_RATE_STEPS` steps (or three packet cycles,
+    :func:`~graphnav.core.screening.awaits_packet_cycles`; a burst it starts with left out,
+    :func:`~graphnav.core.screening.start_burst`) decide, by :func:`~graphnav.core.screening.imu_step_stats`;
+    they and every sample of an IMU that is no packets pass with their own stamps. Then a packet's samples are held
+    until it holds a cycle's samples (round(cycle / period)), so that a full packet leaves when its last sample
+    arrives, as before (no latency added); a shorter one leaves at the next long step, one cycle later."""
+
+    def __init__(self, configured_s: float):
+        self.configured_s = configured_s
+        #: the period packets are restamped at, s; 0 while undecided or for an IMU that is no packets
+        self.period_s = 0.0
+        self.restamped = 0              # samples given another stamp
+        self.note: str | None = None    # what was found, once decided in packets
+        self._steps: list[float] | None = []
+        self._k = 0
+        self._held: list[tuple[float, tuple, tuple]] = []
+        self._last = self._out = -math.inf      # newest stamp received, and let out
+
+    def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
+        """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
+        before ``after`` (s: what the caller has let go of already)."""
+        last, self._last = self._last, t
+        short = t - last < BURST_STEP_SHARE * (self.period_s or self.configured_s)
+        if not self.period_s or (short and self._out == last):     # the packet it was decided in ends as it began
+            if self._steps is not None and t > last > -math.inf:
+                self._decide(t - last)
+            self._out = t
+            return [(t, f, w)]
+        out = self.flush(after) if self._held and not short else []
+        self._held.append((t, f, w))
+        return out + self.flush(after) if len(self._held) >= self._k else out
+
+    def flush(self, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
+        """The held samples restamped (the end of the data ends their packet), none at or before ``after`` (s)."""
+        held, self._held = self._held, []
+        if not held:
+            return []
+        t = restamp_packets(np.array([s[0] for s in held]), self.period_s, max(self._out, after))
+        self.restamped += int(np.sum(t != [s[0] for s in held]))
+        self._out = float(t[-1])
+        return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
+
+    def _decide(self, dt: float) -> None:
+        self._steps.append(dt)
+        n = start_burst(self._steps, self.configured_s)        # a first packet or a buffer emptied at once
+        steps = self._steps[n or 0:]
+        if n is None or len(steps) < IMU_RATE_STEPS or awaits_packet_cycles(steps, self.configured_s):
+            return
+        self._steps = None
+        period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
+        if cycle > period and min(steps) < BURST_STEP_SHARE * period:
+            self.period_s, self._k = period, round(cycle / period)
+            self.note = packets_note(self._k, cycle, period, f"stamps after t = {self._last:.3f} s (counted in "
+                                     "imu_restamped)")
 
 
 class Keyframer:

@@ -27,7 +27,9 @@ What happens to a sample:
    was refused, :meth:`Navigator.finish` raises a DataError naming the stream and the reasons.
 2. **Reordering.** Samples wait in a buffer until the newest stamp seen is ``reorder_window_s`` ahead of
    them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by
-   its processing time is thus slotted in before the IMU samples that follow its stamp.
+   its processing time is thus slotted in before the IMU samples that follow its stamp. An IMU whose driver stamps
+   its samples in packets is put back on its period before it enters
+   (:class:`~graphnav.estimators.keyframes.PacketStamps`, counted in ``info["imu_restamped"]``).
 3. **Initialisation.** With an ``initial`` state the estimator starts at its stamp; without one an
    :class:`~graphnav.estimators.align.Aligner` levels and gyrocompasses (or uses the heading sensor) from the first
    samples, and the estimator starts where the alignment ends, with the alignment's covariance as prior; with
@@ -69,7 +71,7 @@ from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
-from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
+from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, PacketStamps, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
 from graphnav.estimators.types import EpochEstimate, InitialState, Ping
 
@@ -166,6 +168,7 @@ class Navigator:
         # a registry completer is shared within a process: its counters before this Navigator, for info's counts
         self._fallbacks_before = dict(getattr(completer, "fallbacks", {}))
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
+        self._packets = PacketStamps(1.0 / config.imu_rate_hz)     # an IMU in packets put back on its period
         self._align_events: deque = deque()       # released samples kept during alignment (catch-up)
         self.backend = None
         self.aligner = None
@@ -239,6 +242,17 @@ class Navigator:
         if why is not None:
             return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
+        packets = self._packets
+        out = []
+        for sample in packets.add(t, f, w, self._released):
+            out += self._queue_imu(*sample)
+        if packets.note is not None:
+            self._note("imu", packets.note)
+            packets.note = None
+        return out
+
+    def _queue_imu(self, t: float, f: tuple, w: tuple) -> list[EpochEstimate]:
+        """An IMU sample into the reorder buffer (refused when it repeats a stamp or comes too late)."""
         q = self._imu_q
         in_order = not q or t > q[-1][0]
         if t == self._last_imu_released or (not in_order and any(s[0] == t for s in q)):
@@ -335,7 +349,8 @@ class Navigator:
     def finish(self) -> list[EpochEstimate]:
         """End of data: release everything still buffered and close the keyframes the IMU covers."""
         self._check_refused()
-        out = self._release(math.inf)
+        out = [e for sample in self._packets.flush(self._released) for e in self._queue_imu(*sample)]
+        out += self._release(math.inf)
         if self.backend is None and self.aligner is not None:
             out += self._align_at_end()
         if self.backend is not None:
@@ -428,6 +443,7 @@ class Navigator:
                 "n_refused": sum(sum(v.values()) for v in self.refused.values()),
                 "imu_zero_rows": stats.zero_imu_rows, "imu_gaps": len(stats.imu_gaps),
                 "imu_start_burst": (self.keyframer.imu_period.start_burst or (0,))[0],
+                "imu_restamped": self._packets.restamped,
                 "fixes_decimated": stats.fixes_decimated, "pings_before_start": stats.pings_before_start,
                 "pings_after_end": stats.pings_after_end, "regressed_pings": stats.regressed_pings,
                 "regressed_beams": stats.regressed_beams, "velocity_pings": stats.velocity_pings,

@@ -12,7 +12,9 @@ The thresholds and why (measured on the ten shared A-KIT trajectories: median |f
 percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad/s; median DVL speed
 1.6-2.1 m/s, maximum 2.8 m/s; none of them is converted by any check, ``tests/test_units.py``):
 
-* **Stamps.** The median sample step must be a plausible period for the stream
+* **Stamps.** The median sample step (an IMU's period from
+  :func:`~graphnav.core.screening.imu_step_stats`: samples over time for stamps in packets) must be a plausible
+  period for the stream
   (:data:`PLAUSIBLE_PERIOD_S`: an IMU runs at 2 Hz..5 kHz, a DVL pings at 1/60..100 Hz, a depth sensor at
   1/60 Hz..1 kHz). Seconds are kept when plausible; otherwise the one of ms/us/ns that makes the step
   plausible is taken (closest to the configured rate when two are). Then a stream spanning more than
@@ -140,6 +142,9 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
         return 1.0, "s"
     step = np.diff(t)
     med = float(np.median(step))
+    if stream == "imu" and med > 0:     # packets stamped on receipt: 0.01 ms steps, yet a 10 ms period
+        from graphnav.core.screening import imu_step_stats
+        med = imu_step_stats(step)[0]
     lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
     if declared is not None:
         if declared not in TIME_SCALES:
