@@ -61,3 +61,22 @@ def test_online_without_an_estimate_exits_with_an_error(tmp_path, capsys):
     assert code == 1
     assert "no estimate was made" in capsys.readouterr().err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["health"]["state"] == "degraded"
+
+
+def test_online_summary_counts_what_it_repaired_in_the_imu_stream(tmp_path, capsys):
+    """An IMU stream in packets of 10 (stamped on receipt) with a 0.5 s dropout: the Navigator restamps the packets
+    and bridges the gap as the samples come; summary.json and the printed summary now say how many (before, only the
+    warnings did)."""
+    from graphnav import cli
+    stream = tmp_path / "s.jsonl"
+    assert cli.main(["simulate", "--duration", "60", "--stream", str(stream)]) == 0
+    records = [json.loads(line) for line in stream.read_text().splitlines()]
+    imu = [r for r in records if r.get("type") == "imu"]
+    for i, r in enumerate(imu):                   # each packet stamped at its last sample's stamp
+        r["t"] = imu[min(10 * (i // 10) + 9, len(imu) - 1)]["t"] - 1e-5 * (9 - i % 10)
+    records = [r for r in records if not (r.get("type") == "imu" and 30.0 < r["t"] < 30.5)]
+    stream.write_text("\n".join(json.dumps(r) for r in records) + "\n")
+    cli.main(["online", "--stream", str(stream), "--out", str(tmp_path / "out"), "--no-plots", "--no-progress"])
+    repairs = json.loads((tmp_path / "out" / "summary.json").read_text())["imu_repairs"]
+    assert repairs["restamped"] > 4000 and repairs["gaps"] == 1 and repairs["zero_rows"] == 0, repairs
+    assert "IMU stream repaired as it came (what: count): {'gaps': 1, 'restamped': " in capsys.readouterr().err

@@ -320,6 +320,9 @@ def print_summary(summary: dict, file=None) -> None:
     refused = summary.get("refused")
     if refused:
         out(f"  refused samples (stream: field: count): {refused}")
+    repairs = {k: n for k, n in (summary.get("imu_repairs") or {}).items() if n}
+    if repairs:
+        out(f"  IMU stream repaired as it came (what: count): {repairs}")
     streams = summary.get("streams") or {}
     at_load = {k: v["refused"] for k, v in streams.items() if v.get("refused")}
     if at_load:

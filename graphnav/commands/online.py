@@ -152,6 +152,13 @@ class EpochSink:
         self.n_new += 1
 
 
+def _imu_repairs(info: dict) -> dict:
+    """What the Navigator did to the IMU stream as it came, in samples: gaps bridged (``gaps``), rows of zeros, the
+    burst a stream started with (left out of its rate) and samples restamped from packets onto the IMU's period."""
+    return {"gaps": info.get("imu_gaps", 0), "zero_rows": info.get("imu_zero_rows", 0),
+            "start_burst": info.get("imu_start_burst", 0), "restamped": info.get("imu_restamped", 0)}
+
+
 def update_timing(update_s) -> dict:
     """Median, p99 and max of the per-keyframe solver times, ms."""
     import numpy as np
@@ -253,7 +260,8 @@ def run(args) -> int:
         "update_timing": update_timing(info.get("update_s")),
         "initialisation": info.get("alignment", {"source": "ground truth" if nav.initialised and
                                                   nav.alignment is None else "none"}),
-        "refused": info["refused"], "stream": stream_info, "health": run_health_record(info, mission),
+        "refused": info["refused"], "stream": stream_info, "imu_repairs": _imu_repairs(info),
+        "health": run_health_record(info, mission),
         "streams": None if mission is None else _loaded_streams(mission),
         "accuracy": accuracy_summary(written, mission, outages) if mission is not None and len(written.t) else {},
         "drift": (drift_summary(written, None if mission is None else mission.gt, fix_stamps(mission))
