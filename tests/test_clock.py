@@ -138,6 +138,36 @@ def test_akit_loader_finds_a_dvl_clock_days_away(akit_dir, tmp_path, with_gt):
     assert any("clock offset" in n for n in m.meta["streams"]["dvl"]["notes"])
 
 
+
+@pytest.mark.parametrize("past_the_imu_s", [0.0, 0.03])
+def test_a_short_log_is_not_aligned_by_leaving_out_the_window_it_explains_worst(akit_dir, past_the_imu_s):
+    """60 s of Trajectory1 from 140 s, the DVL 600 s away, its last ping at or 0.03 s past the IMU's end: nearly all
+    the manoeuvring is in the last 20 s window, which reaches past the IMU at the right offset. Scored on whole
+    windows, 6.57-6.66 s off won (it left out a steady window instead), confident; now a window keeps its pings
+    inside the IMU span and the refinement fits the same pings at every offset: the right offset."""
+    m = load_akit(akit_dir / "Trajectory1", imu_axis_signs=(1, -1, 1))
+    on_imu = m.dvl.t - m.config.dvl_time_offset_s      # the published stamps (the loader's fine offset undone)
+    a, b = m.imu.t[0] + 140.0, m.imu.t[0] + 200.0
+    imu = m.imu.take(np.flatnonzero((m.imu.t >= a) & (m.imu.t <= b)))
+    keep = np.flatnonzero((on_imu >= a) & (on_imu <= b + past_the_imu_s))
+    dvl = dataclasses.replace(m.dvl.take(keep), t=on_imu[keep] - 600.0)
+    est = estimate_dvl_clock_offset(imu, dvl, m.config)
+    assert est.offset_s == pytest.approx(600.0 + m.config.dvl_time_offset_s, abs=0.2), est
+
+
+def test_the_refinement_does_not_pin_the_offset_where_a_ping_leaves_the_imu_span():
+    """60 s of a simulated mission (0.01 m/s beam noise) with the DVL from 1 s in to 0.5 s past the IMU's end, 600 s
+    away: refined over the pings inside at each offset tried, the fit improved wherever a ping dropped out, and the
+    estimate sat 1.000 s off with sigma 0.002 s, confident. Over fixed pings the error is within its sigma."""
+    cfg = SensorConfig()
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.01)
+    sim = simulate_mission(400.0, seed=2, config=cfg)
+    imu = sim.imu.take(np.flatnonzero((sim.imu.t >= 330.0) & (sim.imu.t <= 390.0)))
+    dvl = sim.dvl.take(np.flatnonzero((sim.dvl.t >= 330.5) & (sim.dvl.t <= 390.5)))
+    est = estimate_dvl_clock_offset(imu, _shifted(dvl, 600.0), sim.config)
+    error = est.offset_s - 600.0
+    assert abs(error) < 2 * est.sigma_s and not (est.confident and abs(error) > 0.5), est
+
 # --- the GT's clock --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def sim_gt():

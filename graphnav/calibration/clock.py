@@ -61,12 +61,15 @@ PEAK_EXCLUSION_S = 5.0
 MIN_PEAK = 0.2
 MIN_SSE_RATIO = 1.2
 #: An applied DVL clock offset with a larger sigma (s) says the data barely fix it: a tenth of a 1 s ping period.
-#: Simulated 60-200 s missions (37 s injected, four seeds): confident estimates 0.000-0.38 s off with sigmas
-#: 0.001-0.39 s, the error within about one sigma; a 400 s one with 0.01 m/s beam noise 0.006 s off, sigma 0.054 s;
+#: Simulated 60-200 s missions (37 s injected, four seeds): 0.06-0.32 s off with sigmas 0.13-0.33 s (the five
+#: confident 0.13-0.26 s off, within 1.6 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.055 s;
 #: the 200 s column-map copy of Trajectory1, sigma 0.006 s.
 CLOCK_SIGMA_WARN_S = 0.1
 #: Length of the windows over which the gravity seen at the window start is fitted, s.
 WINDOW_S = 20.0
+#: Fewest pings a window reaching past the IMU's ends keeps to be fitted by the clock search: its v0 and g0 are 6
+#: numbers, the straight line's too, and 6 pings give them 18.
+MIN_WINDOW_PINGS = 6
 
 
 @dataclass
@@ -174,10 +177,18 @@ def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(dvl.t, float)[ok], v[ok]
 
 
-def without_window_fit(y: np.ndarray, A: np.ndarray) -> np.ndarray:
+def centred(x: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """``x`` (win, window, ...) less its mean over the pings ``use`` (win, window) of each window; zero at the
+    other pings (so they drop out of any least-squares fit)."""
+    w = use.reshape(use.shape + (1,) * (x.ndim - 2))
+    return np.where(w, x - np.sum(x * w, axis=1, keepdims=True) / np.sum(w, axis=1, keepdims=True), 0.0)
+
+
+def without_window_fit(y: np.ndarray, A: np.ndarray, use: np.ndarray | None = None) -> np.ndarray:
     """``y`` (win, window, 3) less its least-squares fit per window by a constant (v0) and the gravity regressor
-    ``A`` (win, window*3, 3; g0): the residual (win, window*3)."""
-    y = y - y.mean(axis=1, keepdims=True)                               # v0
+    ``A`` (win, window*3, 3; g0): the residual (win, window*3). ``use`` (win, window): the pings fitted (default
+    all); ``A`` is then :func:`centred` over them, and the residual is zero at the others."""
+    y = y - y.mean(axis=1, keepdims=True) if use is None else centred(y, use)     # v0
     g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
                          np.einsum("wki,wk->wi", A, y.reshape(len(y), -1))[..., None])[..., 0]
     return y.reshape(len(y), -1) - np.einsum("wkj,wj->wk", A, g0)
@@ -188,11 +199,17 @@ class _WindowModel:
 
         v_j = v0 + int f_b dt + (int R^T dt) g0 - int omega x v dt - omega_j x l       (per window: v0, g0)
 
-    against the same fit without the IMU terms (a straight line per window): the explained fraction."""
+    against the same fit without the IMU terms (a straight line per window): the explained fraction.
+
+    At an offset a window is fitted over its pings inside the IMU span: all of them or none (``trim`` False, the
+    DVL checks', whose offsets keep the DVL on the IMU), or those inside when at least :data:`MIN_WINDOW_PINGS`
+    (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
+    offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
+    badly)."""
 
     def __init__(self, imu: ImuIntegrals, t_dvl: np.ndarray, v: np.ndarray, lever_arm_b: np.ndarray,
-                 window: int):
-        self.imu, self.lever = imu, lever_arm_b
+                 window: int, trim: bool = False):
+        self.imu, self.lever, self.trim = imu, lever_arm_b, trim
         n_win = len(t_dvl) // window
         self.t = t_dvl[:n_win * window].reshape(n_win, window)
         self.v = v[:n_win * window].reshape(n_win, window, 3)
@@ -209,56 +226,86 @@ class _WindowModel:
         log: its cost grows with windows x offsets)."""
         keep = np.unique(np.linspace(0, len(self.t) - 1, min(max_windows, len(self.t))).round().astype(int))
         out = object.__new__(_WindowModel)
-        out.imu, out.lever, out.window = self.imu, self.lever, self.window
+        out.imu, out.lever, out.window, out.trim = self.imu, self.lever, self.window, self.trim
         out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
         return out
 
-    def terms(self, offset: float):
-        """At ``offset`` s: True where the window lies inside the IMU span, and for those windows the velocity ``v``,
-        ``int omega x v``, ``int f_b``, ``omega_j x l`` (each (win, window, 3)) and the gravity regressor ``int R^T``
-        centred per window (win, window*3, 3); None for the rest when no window is inside."""
+    def pings(self, offset: float) -> np.ndarray:
+        """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
+        enough (class docstring)."""
+        t = self.t + offset
+        inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
+        return with_enough_pings(inside if self.trim else inside & inside.all(axis=1, keepdims=True))
+
+    def terms(self, offset: float, use: np.ndarray | None = None):
+        """At ``offset`` s, over the pings ``use`` (win, window; default :meth:`pings`): True at the windows with
+        pings to fit, and for those the velocity ``v``, ``int omega x v``, ``int f_b``, ``omega_j x l`` (each
+        (win, window, 3)), the gravity regressor ``int R^T`` centred per window (win, window*3, 3) and the pings
+        fitted (win, window) (pass them to :func:`without_window_fit`); None for the rest when no window has any."""
         imu, t = self.imu, self.t + offset
-        inside = (t[:, 0] >= imu.t[0]) & (t[:, -1] <= imu.t[-1])
-        if not inside.any():
-            return inside, None
-        tq = t[inside].reshape(-1)
+        use = self.pings(offset) if use is None else use
+        windows = use.any(axis=1)
+        if not windows.any():
+            return windows, None
+        tq = t[windows].reshape(-1)
         F = interp_rows(tq, imu.t, imu.F).reshape(-1, self.window, 3)
         W = interp_rows(tq, imu.t, imu.W).reshape(-1, self.window, 3)
         M = interp_rows(tq, imu.t, imu.M.reshape(-1, 9)).reshape(-1, self.window, 3, 3)
         w = interp_rows(tq, imu.t, imu.omega).reshape(-1, self.window, 3)
-        v = self.v[inside]
-        rot = np.cross(np.diff(W, axis=1), self.v_mid[inside])        # omega x v over each ping interval
+        v, use = self.v[windows], use[windows]
+        rot = np.cross(np.diff(W, axis=1), self.v_mid[windows])       # omega x v over each ping interval
         C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
-        Mc = M - M.mean(axis=1, keepdims=True)
-        return inside, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3))
+        Mc = M - M.mean(axis=1, keepdims=True) if use.all() else centred(M, use)
+        return windows, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3), use)
 
-    def sse(self, offset: float) -> tuple[np.ndarray, np.ndarray]:
-        """(SSE per window, True where the window lies inside the IMU span) at ``offset`` s."""
-        inside, terms = self.terms(offset)
+    def sse(self, offset: float, use: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(SSE per window, True at the windows with pings to fit) at ``offset`` s over the pings ``use`` (default
+        :meth:`pings`)."""
+        windows, terms = self.terms(offset, use)
         out = np.full(len(self.t), np.nan)
         if terms is None:
-            return out, inside
-        v, C, F, lever, A = terms
-        r = without_window_fit(v - lever - F + C, A)
-        out[inside] = np.sum(r ** 2, axis=1)
-        return out, inside
+            return out, windows
+        v, C, F, lever, A, fitted = terms
+        r = without_window_fit(v - lever - F + C, A, None if fitted.all() else fitted)
+        out[windows] = np.sum(r ** 2, axis=1)
+        return out, windows
 
-    def score(self, offset: float) -> tuple[float, float, int]:
-        """(explained fraction 1 - SSE/SSE_null, SSE, windows) over the windows inside the IMU span."""
-        sse, inside = self.sse(offset)
-        if inside.sum() < 2:
+    def null_sse(self, use: np.ndarray) -> np.ndarray:
+        """The straight-line SSE per window (win,) over the pings ``use`` (win, window)."""
+        out = self.sse_null_w.copy()
+        part = use.any(axis=1) & ~use.all(axis=1)
+        if part.any():
+            u = use[part]
+            tc, vc = centred(self.t[part], u), centred(self.v[part], u)
+            slope = np.einsum("wk,wki->wi", tc, vc) / np.sum(tc ** 2, axis=1, keepdims=True)
+            out[part] = np.sum((vc - tc[..., None] * slope[:, None]) ** 2 * u[..., None], axis=(1, 2))
+        return out
+
+    def score(self, offset: float, use: np.ndarray | None = None) -> tuple[float, float, int]:
+        """(explained fraction 1 - SSE/SSE_null, SSE, windows) at ``offset`` s over the pings ``use`` (default
+        :meth:`pings`)."""
+        use = self.pings(offset) if use is None else use
+        sse, windows = self.sse(offset, use)
+        if windows.sum() < 2:
             return -np.inf, np.inf, 0
-        null = float(np.sum(self.sse_null_w[inside]))
-        total = float(np.sum(sse[inside]))
-        return 1.0 - total / max(null, 1e-12), total, int(inside.sum())
+        null = float(np.sum(self.null_sse(use)[windows]))
+        total = float(np.sum(sse[windows]))
+        return 1.0 - total / max(null, 1e-12), total, int(windows.sum())
+
+
+def with_enough_pings(use: np.ndarray) -> np.ndarray:
+    """``use`` (win, window) without the windows left fewer than :data:`MIN_WINDOW_PINGS` (all of a window's when
+    it is shorter)."""
+    return use & (use.sum(axis=1, keepdims=True) >= min(MIN_WINDOW_PINGS, use.shape[1]))
 
 
 def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None,
-                     transform: np.ndarray | None = None, ints: ImuIntegrals | None = None
+                     transform: np.ndarray | None = None, ints: ImuIntegrals | None = None, trim: bool = False
                      ) -> tuple[_WindowModel, np.ndarray]:
     """The :class:`_WindowModel` of a DVL against an IMU (arguments as :func:`estimate_dvl_clock_offset`'s; the
     body-frame velocity multiplied by the (3,3) ``transform`` when given; ``ints``: the IMU's integrals when another
-    model of the same IMU has them) and the stamps of the pings it uses, s.
+    model of the same IMU has them; ``trim``: windows trimmed at the IMU's ends, the class's) and the stamps of the
+    pings it uses, s.
 
     Raises:
         DataError: fewer than two windows of pings with a velocity.
@@ -274,7 +321,7 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
     if lever_arm_b is None:
         lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
     ints = imu_integrals(imu.t, imu.f_b, imu.omega_b) if ints is None else ints
-    return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window), t_dvl
+    return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window, trim), t_dvl
 
 
 # ------------------------------------------------------------------------------------------------
@@ -301,7 +348,7 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     Raises:
         DataError: fewer than two windows of usable pings, or logs too short to overlap ``min_overlap_s``.
     """
-    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings)
+    model, t_dvl = dvl_window_model(imu, dvl, config, lever_arm_b, window_pings, trim=True)
     ints, window = model.imu, model.window
     period = float(np.median(np.diff(t_dvl)))
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
@@ -312,18 +359,25 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
 
+    # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
+    # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
+    # best lay 0.7 s from its coarse offset)
+    lo, hi = coarse - 2 * h, coarse + 2 * h
+    use = with_enough_pings(model.pings(lo) & model.pings(hi))
+
     def cost(o):
-        return model.score(o)[1]
-    res = minimize_scalar(cost, bounds=(coarse - h, coarse + h), method="bounded", options={"xatol": 1e-4})
+        return model.score(o, use)[1]
+    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
     x = float(res.x)
-    explained, sse, n_win = model.score(x)
-    n = n_win * window * 3
+    explained, sse, n_win = model.score(x, use)
+    pings = int(use.sum())
+    n = pings * 3
     step = 0.01
     curvature = (cost(x + step) - 2 * sse + cost(x - step)) / step ** 2
     sigma = _sigma_from_curvature(sse, curvature, n, 6 * n_win + 1)
     rms = float(np.sqrt(sse / max(n, 1)))
     overlap = float(min(ints.t[-1], t_dvl[-1] + x) - max(ints.t[0], t_dvl[0] + x))
-    return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse, rms, overlap, n_win * window)
+    return ClockOffset(x, sigma, max(explained, best), max(second, 0.0), coarse, rms, overlap, pings)
 
 
 def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_overlap_s: float, period: float,

@@ -122,7 +122,7 @@ def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
     inside, terms = model.terms(offset)
     if terms is None or inside.sum() < 2:
         return float("nan"), float("nan"), float("nan")
-    v, C, F, lever, A = terms
+    v, C, F, lever, A, _ = terms
     a = without_window_fit(v + C, A).reshape(-1, 3)
     b = without_window_fit(F + lever, A).reshape(-1, 3)
     a, b = a[:, 0] + 1j * a[:, 1], b[:, 0] + 1j * b[:, 1]
