@@ -283,6 +283,52 @@ def test_an_akit_folder_without_gt_whose_dvl_is_turned_loads_with_its_mounting_g
     assert not [w for w in caught if "DVL velocity" in str(w.message)]
 
 
+@pytest.mark.parametrize("deg", [3.0, 5.0, 8.0])
+def test_an_akit_folder_without_gt_whose_dvl_is_turned_a_few_degrees_is_warned_about_and_counted(akit_dir, tmp_path,
+                                                                                                   deg):
+    """A DVL head turned 3-8 deg (its columns read as body) turns every velocity and puts the track sideways by 5-14 %
+    of the distance; under the 10 deg bound it loaded silently. Now warned (not refused: a mounting calibration's
+    size), with the turn's sigma and the fix, and the pings counted as doubted; the clean copy is silent (above)."""
+    from graphnav.calibration import dvl_scale
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, _turned(deg))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    said = [str(w.message) for w in caught if "DVL velocity is turned" in str(w.message)]
+    assert len(said) == 1, said
+    found = re.search(r"DVL_trajectory1\.csv: field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity is "
+                      r"turned \+(\d+\.\d) \+- (\d\.\d) deg about z from the IMU's axes.*give the DVL's mounting as "
+                      r"dvl\.C_d_b", said[0])
+    assert found and abs(float(found[1]) - deg) < 1.0 and float(found[2]) < deg / 3, said
+    assert m.meta["streams"]["dvl"]["doubted"] == {dvl_scale.YAW_DOUBT: len(m.dvl.t)}
+
+
+def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigma(sim):
+    """A simulated log (5 mm/s beams, r^2 0.97): its yaw's sigma, from the windows, is 1.9 deg. As read (+0.4 deg)
+    and turned 5 deg (under 3 sigmas) nothing is said; turned 8 deg it is warned about, naming the file, its columns
+    and what to declare, and its pings are counted as doubted."""
+    from graphnav.calibration import dvl_scale
+    from graphnav.calibration.clock import dvl_window_model
+    from graphnav.core.mission import DvlData
+    m, t, v = sim
+    for deg, warned in ((0.0, False), (5.0, False), (8.0, True)):
+        dvl = DvlData(t, np.full((len(t), 4), np.nan), np.zeros((len(t), 4), bool),
+                      v @ dvl_scale.turn_about_z(deg).T, source="dvl.csv")
+        yaw, sigma = dvl_scale.yaw_sigma(dvl_window_model(m.imu, dvl, m.config)[0])
+        assert np.degrees(yaw) == pytest.approx(deg + 0.4, abs=0.1) and np.degrees(sigma) == pytest.approx(1.9, abs=0.1)
+        meta = {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, field="vx/vy/vz")
+        said = [str(w.message) for w in caught if "DVL velocity is turned" in str(w.message)]
+        assert len(said) == warned, said
+        if warned:
+            assert re.search(r"^dvl\.csv: field 'vx/vy/vz': the DVL velocity is turned \+8\.4 \+- 1\.9 deg about z "
+                             r"from the IMU's axes .* 14\.6 % of the distance travelled sideways.*declare "
+                             r"csv_columns\.dvl\.frame 'instrument' with dvl\.C_d_b", said[0]), said
+            assert meta["streams"]["dvl"]["doubted"] == {dvl_scale.YAW_DOUBT: len(t)}
+
+
 def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth, dvl_shift=-86400.0):
     """The first ``seconds`` of A-KIT Trajectory1 as a column-map log (no reference), its DVL velocity turned to NED by
     the GT attitude when ``earth`` (read as body: no 'frame'), its stamps ``dvl_shift`` s (a day) early on a clock to

@@ -45,10 +45,21 @@ LIKELY_UNITS = {1.943844: ("knots read as m/s (declare velocity_unit 'kn')", "in
 FLU_SSE_RATIO = 3.0
 MIN_FLU_EXPLAINED = 0.5
 #: A horizontal turn between the DVL's velocity and the IMU's axes beyond this (rad; with the fit's r^2 at least
-#: :data:`MIN_SCALE_R2`) is warned about: instrument-frame columns of a yawed DVL read as body. The nine A-KIT
-#: trajectories judged: -0.4..0.4 deg; simulated missions with 0.01 m/s beam noise: -4.3..5.2 deg; a DVL
-#: mounted 45 deg read as body: -44.6 deg. A few degrees are a mounting calibration's (``graphnav calibrate``).
+#: :data:`MIN_SCALE_R2`) is warned about whatever its sigma (an A-KIT folder: refused): instrument-frame columns of a
+#: yawed DVL read as body. The nine A-KIT trajectories judged: -0.4..0.4 deg; a DVL mounted 45 deg read as body:
+#: -44.6 deg. Smaller turns: :data:`MIN_YAW_RAD`.
 MAX_YAW_RAD = np.deg2rad(10.0)
+#: A turn under :data:`MAX_YAW_RAD` is warned about (for any reader; counted as doubted) beyond this (rad) and beyond
+#: :data:`YAW_SIGMAS` times its sigma (:func:`yaw_sigma`), with r^2 at least :data:`MIN_SCALE_R2`: 5 deg puts the
+#: track 8.7 % of the distance sideways. Judged as read (``experiments/dvl_yaw_floor.py``), |yaw| / sigma reaches
+#: 1.2 on the nine A-KIT trajectories (|yaw| <= 0.4 deg), 1.5 on their 120 s pieces, 2.8 on simulated 120 s pieces
+#: (0.01 m/s beams; MEMS 18 deg at sigma 6.5); beyond 3 only where the turn is beyond 10 deg anyway (60 s pieces):
+#: no small-turn warning. Turned 3/5/8 deg: warned on 8/9/9 of the nine, 16/18/18 of 22 judged 120 s pieces. The
+#: floor keeps a residual the sigma does not see (a hull's sideslip, a lever arm) from being warned about.
+MIN_YAW_RAD = np.deg2rad(2.0)
+YAW_SIGMAS = 3.0
+#: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
+YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
 #: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
 #: clock search by 7.5 s on Trajectory1's first 200 s).
 SCALE_SEARCH_S = 20.0
@@ -119,15 +130,43 @@ def speed_scale(model, offset: float = 0.0) -> tuple[float, float, float]:
     z: a mounting yaw turns the velocity, it does not scale it), over the model's windows inside the IMU span at
     ``offset`` s (NaN without two). The horizontal parts are complex numbers ``x + iy``: the DVL side regressed
     on the IMU side gives ``scale * exp(i yaw)``."""
-    inside, terms = model.terms(offset)
-    if terms is None or inside.sum() < 2:
+    sides = _horizontal_sides(model, offset)
+    if sides is None:
         return float("nan"), float("nan"), float("nan")
-    v, C, F, lever, A, _ = terms
-    a = without_window_fit(v + C, A).reshape(-1, 3)
-    b = without_window_fit(F + lever, A).reshape(-1, 3)
-    a, b = a[:, 0] + 1j * a[:, 1], b[:, 0] + 1j * b[:, 1]
+    a, b = sides
     ab, aa, bb = np.vdot(b, a), float(np.vdot(a, a).real), float(np.vdot(b, b).real)
     return abs(ab) / max(bb, 1e-300), abs(ab) ** 2 / max(aa * bb, 1e-300), float(np.angle(ab))
+
+
+def _horizontal_sides(model, offset: float):
+    """``(a, b)``, complex (win, pings): the DVL side and the IMU side of the clock model's windows inside the IMU
+    span at ``offset`` s, each window's ``v0`` and ``g0`` taken out, horizontally as ``x + iy`` (m/s); None without
+    two windows."""
+    inside, terms = model.terms(offset)
+    if terms is None or inside.sum() < 2:
+        return None
+    v, C, F, lever, A, _ = terms
+    a = without_window_fit(v + C, A).reshape(len(v), -1, 3)
+    b = without_window_fit(F + lever, A).reshape(len(v), -1, 3)
+    return a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
+
+
+def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
+    """``(yaw, sigma)``, rad: :func:`speed_scale`'s yaw and its standard error with the windows taken as the
+    independent samples (the pings within a window share the IMU side's integrated noise and a misfitted gravity):
+    the larger of the spread of the windows' own fits (the clustered sandwich of ``sum conj(b) a``) and the fit's
+    least-squares error with one sample per window (``sqrt((1 - r^2) / (2 r^2 windows))``), which holds when a few
+    windows happen to agree. NaN without two windows."""
+    sides = _horizontal_sides(model, offset)
+    if sides is None:
+        return float("nan"), float("nan")
+    a, b = sides
+    z = np.sum(np.conj(b) * a, axis=1)
+    total, n = z.sum(), len(z)
+    r2 = abs(total) ** 2 / max(float(np.vdot(a, a).real * np.vdot(b, b).real), 1e-300)
+    spread = n / (n - 1) * np.sum((z / total).imag ** 2) if abs(total) else np.inf
+    fit = (1.0 - r2) / max(2.0 * r2 * n, 1e-300)
+    return float(np.angle(total)), float(np.sqrt(max(spread, fit)))
 
 
 def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
@@ -286,6 +325,23 @@ def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> N
     add_note(meta, "dvl", text)
 
 
+def _warn_small_yaw(dvl, meta: dict, field: str, fixes: dict, model, offset: float, r2: float) -> None:
+    """Warn about, note and count (:data:`YAW_DOUBT`) a DVL velocity turned a few degrees about z from the IMU's axes
+    when its fit (clock model ``model`` at ``offset`` s) puts the turn beyond :data:`YAW_SIGMAS` sigmas: a head
+    mounted off, its instrument-frame columns read as body, or a ``dvl.C_d_b`` that is not the head's."""
+    yaw, sigma = yaw_sigma(model, offset)
+    if not abs(yaw) > YAW_SIGMAS * sigma:
+        return
+    text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg about "
+            f"z from the IMU's axes (the fit explains {r2:.2f} of its changes; under {np.degrees(MIN_YAW_RAD):g} deg "
+            f"or {YAW_SIGMAS:g} sigmas nothing is said), which puts the track {100 * abs(np.sin(yaw)):.1f} % of the "
+            "distance travelled sideways: a DVL head mounted turned, its columns in the instrument frame read as "
+            f"body, or a dvl.C_d_b that is not the head's? {fixes['yaw']}")
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
+    add_note(meta, "dvl", text)
+    count_doubted(meta, "dvl", YAW_DOUBT, len(dvl.t))
+
+
 def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict | None = None,
                       reference=None) -> None:
     """Warn about, note and count a DVL velocity pointing sideways or backward over the whole log, for a log whose
@@ -369,7 +425,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves).
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
-    which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`)."""
+    which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
+    of a few degrees beyond its sigma is warned about and counted (:data:`MIN_YAW_RAD`, :func:`_warn_small_yaw`)."""
     from graphnav.calibration.clock import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
@@ -407,6 +464,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         why = (f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed" if not
                r2 >= MIN_SCALE_R2 else "it fits the IMU's axes as read, whose turn about z was not judged")
         warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
+    if r2 >= MIN_SCALE_R2 and MIN_YAW_RAD < abs(yaw) <= MAX_YAW_RAD and not dvl_turn:    # not a quarter turn
+        _warn_small_yaw(dvl, meta, field, fixes, model, SCALE_OFFSETS_S[best], r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "
