@@ -229,11 +229,13 @@ def test_a_given_dvl_time_offset_of_a_log_the_dvl_clock_fit_disagrees_with_is_wa
         if not given:
             assert not doubted and "doubted" not in m.meta["streams"]["dvl"]
             continue
-        assert len(doubted) == 1 and re.search(r"the data say [+-]0\.000 s \(sigma 0\.00\d\d s, the DVL's velocity "
+        assert len(doubted) == 1 and re.search(r"the data say [+-]0\.0[0-4]\d s \(sigma 0\.0[0-2]\d\d s, the DVL's velocity "
                                                r"changes against the IMU's accelerations\)", doubted[0])
-        moved = f"the DVL clock search added {-given:+.3f} s to it" if clock == "auto" else "it is used as given"
-        assert f": {moved}; set dvl_time_offset_s to null" in doubted[0]
-        assert m.config.dvl_time_offset_s == pytest.approx(given if clock == "imu" else 0.0, abs=0.01)
+        # the clock search moves a DVL by half a ping period or more only: 0.5 s off is left to the warning
+        searched = clock == "auto" and given > 1.0
+        moved = r"the DVL clock search added -[12]\.\d{3} s to it" if searched else "it is used as given"
+        assert re.search(f": {moved}; set dvl_time_offset_s to null", doubted[0]), doubted[0]
+        assert m.config.dvl_time_offset_s == pytest.approx(0.0 if searched else given, abs=0.05)
         assert sum(m.meta["streams"]["dvl"]["doubted"].values()) == len(m.dvl.t)
 
 
