@@ -296,31 +296,26 @@ def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndar
 
 
 def _judge_given_offset(meta: dict, facts: dict, stream: str, given: float, data_say: float, sigma_s: float,
-                        mission: Mission, against: str = "", floor_s: float | None = None,
-                        outcome: str = "it is used as given") -> None:
+                        mission: Mission, against: str = "", floor_s: float | None = None) -> None:
     """A warning (:func:`_doubt_given`) when the time offset (s) a configuration file gave for ``stream`` lies off
     the one the data say (``data_say``, s, with 1-sigma ``sigma_s``) by more than 3 sigmas and ``floor_s`` (default
-    one IMU period: a rounded offset is not worth a word). ``against`` names what the estimate fits, ``outcome``
-    what became of the value."""
+    one IMU period: a rounded offset is not worth a word). ``against`` names what the estimate fits."""
     floor_s = 1.0 / float(mission.config.imu_rate_hz) if floor_s is None else floor_s
     if abs(given - data_say) > max(3.0 * sigma_s, floor_s):
         _doubt_given(meta, facts, f"{stream}_time_offset_s", stream, len(getattr(mission, stream).t), f"{given:+.3f} s",
-                     f"the data say {data_say:+.3f} s (sigma {sigma_s:.4f} s{against})", outcome)
+                     f"the data say {data_say:+.3f} s (sigma {sigma_s:.4f} s{against})")
 
 
-def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str,
-                 outcome: str = "it is used as given") -> None:
-    """A configuration file's value of ``key`` the data disagree with (``outcome``: used as given, or what replaced
-    it): warned (naming the file, the key, both values and how to let the data decide), noted and counted as doubted
-    on ``stream``."""
+def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str) -> None:
+    """A configuration file's value of ``key`` used as given though the data disagree: warned (naming the file,
+    the key, both values and how to let the data decide), noted and counted as doubted on ``stream``."""
     from graphnav.core.streams import count_doubted
     source = facts.get("given_by", {}).get(key, "the configuration")
-    text = (f"{key} = {given} is given, but {data_say}: {outcome}; set {key} to null (or remove the "
+    text = (f"{key} = {given} is given, but {data_say}: it is used as given; set {key} to null (or remove the "
             "key) to let the data decide (a configuration written before null meant 'not given' holds 0 s and "
             "(1, 1, 1) as numbers)")
     add_note(meta, stream, f"{source}: {text}")
-    used = "used as given" if outcome == "it is used as given" else "given"
-    count_doubted(meta, stream, f"{key} {used} though the data disagree", n)
+    count_doubted(meta, stream, f"{key} used as given though the data disagree", n)
     warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=5)
 
 
@@ -631,10 +626,12 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     """The configuration's ``dvl_time_offset_s`` of a log or bag (s, added to the DVL stamps: ``shifted``) judged
     against the DVL clock fit (:func:`graphnav.calibration.clock.estimate_dvl_clock_offset`, the clock search's when
     it ran, else the same search within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S`): a warning
-    (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree, saying that the search moved
-    the DVL on (``dvl`` is not ``shifted``) or that the value is used as given. A fit without a confident offset
-    cannot judge it: noted."""
+    (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree. A DVL the clock search moved
+    on (``dvl``'s stamps not ``shifted``'s) is not: the data decided, and the search's warning says by how much. A fit
+    without a confident offset cannot judge it: noted."""
     from graphnav.calibration.clock import estimate_dvl_clock_offset
+    if dvl is not shifted and len(dvl.t) and dvl.t[0] != shifted.t[0]:
+        return
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None:
         try:
@@ -647,10 +644,8 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
         add_note(meta, "dvl", "the configuration's dvl_time_offset_s is not judged: the DVL clock fit finds no clear "
                  f"offset (the IMU explains {est['peak']:.2f} of the DVL's velocity changes at best)")
         return
-    moved = float(dvl.t[0] - shifted.t[0]) if dvl is not shifted and len(dvl.t) else 0.0
     _judge_given_offset(meta, facts, "dvl", given, given + est["offset_s"], est["sigma_s"], mission,
-                        ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S,
-                        f"the DVL clock search added {moved:+.3f} s to it" if moved else "it is used as given")
+                        ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S)
 
 
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
