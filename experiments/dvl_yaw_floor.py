@@ -5,10 +5,11 @@ r^2 at least :data:`~graphnav.calibration.dvl_scale.MIN_SCALE_R2`) says: the sha
 pieces, simulated missions (navigation, tactical, MEMS; 0.042 and 0.01 m/s beam noise; seeds 0-2; 150 and 600 s
 whole, the 600 s ones in pieces), each as read and with its DVL velocity turned.
 
-    .venv/bin/python experiments/dvl_yaw_floor.py [--pieces 60 120] [--turns 0 3 5 8] [--no-sim] [--no-akit]
+    .venv/bin/python experiments/dvl_yaw_floor.py [--pieces 60 120] [--turns 0 3 5 8 20 45] [--no-sim] [--no-akit]
 
 Prints per source, piece length (0: whole) and turn: the pieces the fit judges (r^2, enough velocity change), the
-largest |yaw - turn| / sigma, the yaws, the sigmas, and how many are warned about beyond 10 deg and as a small turn.
+largest |yaw - turn| / sigma, the yaws, the sigmas, and how many are warned about beyond 10 deg and as a small turn
+(both beyond 3 sigmas, the fit at the DVL's stamps).
 """
 from __future__ import annotations
 
@@ -46,22 +47,21 @@ def _sources(akit: bool, sim: bool):
 
 
 def _fit(imu, dvl, config, turn: float):
-    """(r2, yaw deg, sigma deg) of the DVL turned ``turn`` deg at the best offset, as the check takes it; None when
-    the velocity changes too little to judge."""
+    """(r2, yaw deg, sigma deg) of the DVL turned ``turn`` deg at its stamps, as the check takes it; None when the
+    velocity changes too little to judge."""
     try:
         model = ds.judging_model(imu, dvl, config, transform=ds.turn_about_z(turn))
     except DataError:
         return None
-    fits = [ds.speed_scale(model, o) for o in ds.SCALE_OFFSETS_S]
-    best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
-    yaw, sigma = ds.yaw_sigma(model, ds.SCALE_OFFSETS_S[best])
-    return fits[best][1], np.degrees(yaw), np.degrees(sigma)
+    yaw, sigma, r2 = ds._turn_at(model)
+    return r2, np.degrees(yaw), np.degrees(sigma)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pieces", type=float, nargs="+", default=[60.0, 120.0], help="piece lengths, s")
-    ap.add_argument("--turns", type=float, nargs="+", default=[0.0, 3.0, 5.0, 8.0], help="turns applied, deg")
+    ap.add_argument("--turns", type=float, nargs="+", default=[0.0, 3.0, 5.0, 8.0, 20.0, 45.0],
+                    help="turns applied, deg")
     ap.add_argument("--no-sim", action="store_true", help="the A-KIT trajectories only")
     ap.add_argument("--no-akit", action="store_true", help="the simulated missions only")
     args = ap.parse_args(argv)
@@ -80,8 +80,9 @@ def main(argv=None) -> int:
     for (name, length, turn), fits in sorted(table.items()):
         r2, yaw, sigma = (np.array(x) for x in zip(*fits))
         ok = r2 >= ds.MIN_SCALE_R2
-        big = ok & (np.abs(yaw) > np.degrees(ds.MAX_YAW_RAD))
-        small = ok & ~big & (np.abs(yaw) > np.degrees(ds.MIN_YAW_RAD)) & (np.abs(yaw) > ds.YAW_SIGMAS * sigma)
+        beyond = ok & (np.abs(yaw) > ds.YAW_SIGMAS * sigma)
+        big = beyond & (np.abs(yaw) > np.degrees(ds.MAX_YAW_RAD))
+        small = beyond & (np.abs(yaw) <= np.degrees(ds.MAX_YAW_RAD)) & (np.abs(yaw) > np.degrees(ds.MIN_YAW_RAD))
         line = f"{name:28s} {length:4.0f} s turn {turn:3g}: judged {ok.sum():2d}/{len(fits):2d}"
         if ok.any():
             line += (f", |yaw - turn| / sigma <= {np.max(np.abs(yaw - turn)[ok] / sigma[ok]):4.1f}, yaw "

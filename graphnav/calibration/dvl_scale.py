@@ -45,9 +45,9 @@ LIKELY_UNITS = {1.943844: ("knots read as m/s (declare velocity_unit 'kn')", "in
 FLU_SSE_RATIO = 3.0
 MIN_FLU_EXPLAINED = 0.5
 #: A horizontal turn between the DVL's velocity and the IMU's axes beyond this (rad; with the fit's r^2 at least
-#: :data:`MIN_SCALE_R2`) is warned about whatever its sigma (an A-KIT folder: refused): instrument-frame columns of a
-#: yawed DVL read as body. The nine A-KIT trajectories judged: -0.4..0.4 deg; a DVL mounted 45 deg read as body:
-#: -44.6 deg. Smaller turns: :data:`MIN_YAW_RAD`.
+#: :data:`MIN_SCALE_R2` and beyond :data:`YAW_SIGMAS` sigmas, at the DVL's stamps) is warned about (an A-KIT folder:
+#: refused): instrument-frame columns of a yawed DVL read as body. The nine A-KIT trajectories judged: -0.4..0.4 deg;
+#: a DVL mounted 45 deg read as body: -44.6 deg. Smaller turns: :data:`MIN_YAW_RAD`.
 MAX_YAW_RAD = np.deg2rad(10.0)
 #: A turn under :data:`MAX_YAW_RAD` is warned about (for any reader; counted as doubted) beyond this (rad) and beyond
 #: :data:`YAW_SIGMAS` times its sigma (:func:`yaw_sigma`), with r^2 at least :data:`MIN_SCALE_R2`: 5 deg puts the
@@ -60,6 +60,14 @@ MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
+#: A DVL velocity turned about z from a GT's body velocity (:func:`check_turn_against_reference`) is warned about
+#: beyond this (rad) and :data:`YAW_SIGMAS` sigmas. The Snapir's DVL is calibrated: the ten A-KIT trajectories as
+#: recorded fit +0.01..+0.33 deg (sigma 0.04-0.10 deg, up to 8.6 of them: the residual of a calibration, which the
+#: sigma of the noise does not see), their 120 s pieces -0.17..+0.51 deg, 60 s pieces -0.23..+0.61 deg; twice the
+#: largest 120 s one (``experiments/dvl_gt_yaw.py``: none warned; turned 1 deg 10/28/49 of 10/30/60 warned).
+GT_MIN_YAW_RAD = np.deg2rad(1.0)
+#: Why DVL pings read despite a velocity turned from the GT's body velocity are counted.
+GT_YAW_DOUBT = "DVL velocity turned about z from the ground truth's body velocity"
 #: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
 #: clock search by 7.5 s on Trajectory1's first 200 s).
 SCALE_SEARCH_S = 20.0
@@ -157,16 +165,31 @@ def yaw_sigma(model, offset: float = 0.0) -> tuple[float, float]:
     the larger of the spread of the windows' own fits (the clustered sandwich of ``sum conj(b) a``) and the fit's
     least-squares error with one sample per window (``sqrt((1 - r^2) / (2 r^2 windows))``), which holds when a few
     windows happen to agree. NaN without two windows."""
+    return _turn_at(model, offset)[:2]
+
+
+def _turn_at(model, offset: float = 0.0) -> tuple[float, float, float]:
+    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` of the clock model's horizontal sides at ``offset`` s."""
     sides = _horizontal_sides(model, offset)
     if sides is None:
-        return float("nan"), float("nan")
+        return float("nan"), float("nan"), float("nan")
     a, b = sides
-    z = np.sum(np.conj(b) * a, axis=1)
+    return turn_fit(np.sum(np.conj(b) * a, axis=1), float(np.vdot(a, a).real), float(np.vdot(b, b).real))
+
+
+def turn_fit(z: np.ndarray, aa: float, bb: float) -> tuple[float, float, float]:
+    """``(yaw, sigma, r2)``: the turn about z (rad) of a horizontal velocity ``a`` against ``b`` (complex, ``x + iy``)
+    from the windows' sums ``z`` = sum of ``conj(b) a`` over each window's pings, ``aa`` = sum of ``|a|^2`` and ``bb``
+    = sum of ``|b|^2`` over all pings; its standard error with the windows as the independent samples (the larger of
+    the windows' spread and the fit's least-squares error, :func:`yaw_sigma`) and the share of variance it explains.
+    NaN under two windows."""
     total, n = z.sum(), len(z)
-    r2 = abs(total) ** 2 / max(float(np.vdot(a, a).real * np.vdot(b, b).real), 1e-300)
+    if n < 2:
+        return float("nan"), float("nan"), float("nan")
+    r2 = abs(total) ** 2 / max(aa * bb, 1e-300)
     spread = n / (n - 1) * np.sum((z / total).imag ** 2) if abs(total) else np.inf
     fit = (1.0 - r2) / max(2.0 * r2 * n, 1e-300)
-    return float(np.angle(total)), float(np.sqrt(max(spread, fit)))
+    return float(np.angle(total)), float(np.sqrt(max(spread, fit))), float(r2)
 
 
 def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
@@ -325,21 +348,53 @@ def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> N
     add_note(meta, "dvl", text)
 
 
-def _warn_small_yaw(dvl, meta: dict, field: str, fixes: dict, model, offset: float, r2: float) -> None:
-    """Warn about, note and count (:data:`YAW_DOUBT`) a DVL velocity turned a few degrees about z from the IMU's axes
-    when its fit (clock model ``model`` at ``offset`` s) puts the turn beyond :data:`YAW_SIGMAS` sigmas: a head
-    mounted off, its instrument-frame columns read as body, or a ``dvl.C_d_b`` that is not the head's."""
-    yaw, sigma = yaw_sigma(model, offset)
-    if not abs(yaw) > YAW_SIGMAS * sigma:
+def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma: float, r2: float,
+                    against: str = "the IMU's axes", floor: float = MIN_YAW_RAD, doubt: str = YAW_DOUBT) -> None:
+    """Warn about, note and count (``doubt``) a DVL velocity turned ``yaw`` rad about z from ``against`` (its fit's
+    ``sigma``, rad, and ``r2``) when beyond ``floor`` (rad, default :data:`MIN_YAW_RAD`) and :data:`YAW_SIGMAS`
+    sigmas: a head mounted off, its instrument-frame columns read as body, or a ``dvl.C_d_b`` that is not the
+    head's."""
+    if not (abs(yaw) > floor and abs(yaw) > YAW_SIGMAS * sigma):
         return
-    text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg about "
-            f"z from the IMU's axes (the fit explains {r2:.2f} of its changes; under {np.degrees(MIN_YAW_RAD):g} deg "
-            f"or {YAW_SIGMAS:g} sigmas nothing is said), which puts the track {100 * abs(np.sin(yaw)):.1f} % of the "
-            "distance travelled sideways: a DVL head mounted turned, its columns in the instrument frame read as "
-            f"body, or a dvl.C_d_b that is not the head's? {fixes['yaw']}")
+    places = 1 if np.degrees(sigma) >= 0.05 else 2          # a sigma from a GT is hundredths of a degree
+    text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.{places}f} +- "
+            f"{np.degrees(sigma):.{places}f} deg about z from {against} (the fit explains {r2:.2f} of its changes; "
+            f"under {np.degrees(floor):g} deg or {YAW_SIGMAS:g} sigmas nothing is said), which puts the track "
+            f"{100 * abs(np.sin(yaw)):.1f} % of the distance travelled sideways: a DVL head mounted turned, its "
+            f"columns in the instrument frame read as body, or a dvl.C_d_b that is not the head's? {fixes['yaw']}")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
     add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", YAW_DOUBT, len(dvl.t))
+    count_doubted(meta, "dvl", doubt, len(dvl.t))
+
+
+def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
+                           lever_arm_b: np.ndarray) -> tuple[float, float, float]:
+    """:func:`turn_fit`'s ``(yaw, sigma, r2)`` (rad) of the DVL velocity ``v_b`` (N,3) m/s, body frame as read, against
+    the body velocity of ``reference`` (a :class:`~graphnav.calibration.reference.Reference`) at its stamps ``t_dvl``
+    (s, on the IMU clock) plus ``omega x lever_arm_b`` (m, the DVL from the reference's point), horizontally as
+    ``x + iy``, the pings in :data:`~graphnav.calibration.clock.WINDOW_S` windows as its samples."""
+    from graphnav.calibration.clock import WINDOW_S
+    from graphnav.calibration.reference import dvl_design
+    _, omega, v_ref, keep = dvl_design(reference, t_dvl, v_b)
+    if keep.sum() < 2:
+        return float("nan"), float("nan"), float("nan")
+    v, said = np.asarray(v_b, float)[keep], v_ref + np.cross(omega, lever_arm_b)
+    a, b = v[:, 0] + 1j * v[:, 1], said[:, 0] + 1j * said[:, 1]
+    t = np.asarray(t_dvl, float)[keep]
+    window = ((t - t[0]) // WINDOW_S).astype(int)
+    z = np.conj(b) * a
+    z = (np.bincount(window, z.real) + 1j * np.bincount(window, z.imag))[np.bincount(window) > 0]
+    return turn_fit(z, float(np.vdot(a, a).real), float(np.vdot(b, b).real))
+
+
+def check_turn_against_reference(reference, t_dvl: np.ndarray, dvl, lever_arm_b: np.ndarray, meta: dict,
+                                 field: str, fixes: dict, source) -> None:
+    """Warn about, note and count (:func:`warn_small_turn`, ``fixes``: the advice) a DVL ``dvl`` whose velocity is
+    turned about z from the body velocity of ``reference`` (GT file ``source``; :func:`turn_against_reference`, the
+    pings at ``t_dvl``) beyond :data:`GT_MIN_YAW_RAD` and :data:`YAW_SIGMAS` sigmas."""
+    yaw, sigma, r2 = turn_against_reference(reference, t_dvl, dvl.v_b, lever_arm_b)
+    warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2, f"the ground truth's body velocity ({source})",
+                    GT_MIN_YAW_RAD, GT_YAW_DOUBT)
 
 
 def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict | None = None,
@@ -426,7 +481,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
-    of a few degrees beyond its sigma is warned about and counted (:data:`MIN_YAW_RAD`, :func:`_warn_small_yaw`)."""
+    of a few degrees beyond its sigma is warned about and counted (:data:`MIN_YAW_RAD`, :func:`warn_small_turn`); the
+    turn is read at the DVL's stamps as they stand (a clock found, given or the vehicle's), not at the best scale's
+    offset."""
     from graphnav.calibration.clock import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
@@ -442,19 +499,22 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
-    scale, r2, yaw = fits[best]
+    scale, r2, _ = fits[best]
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
                         f"{_likely_unit(scale, fixes['declare'])}? {fixes['unit']}".rstrip(), dvl.source, field=field)
     dvl_turn = None
+    # the turn is read where the DVL's stamps put it: the best scale's offset, up to 20 s off a clock already found,
+    # fitted a clean 60 s piece +28 deg (Trajectory3 from 120 s, 18.5 s off)
+    yaw, sigma, r2 = _turn_at(model)
+    turned = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD and abs(yaw) > YAW_SIGMAS * sigma
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
-    dvl_yawed = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD and _forward(
-        np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
+    dvl_yawed = turned and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
-        offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) else 0.0
+        offset = SCALE_OFFSETS_S[best] if np.isfinite(fits[best][1]) else 0.0
         dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset)
-    if r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD:
+    if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
                         f"the IMU's axes (the fit explains {r2:.2f} of its changes): columns in the instrument frame "
                         f"of a yawed DVL read as body? {fixes['yaw']}")
@@ -462,10 +522,12 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
     else:                               # neither fit judged the turn: only the mean direction is left
         why = (f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed" if not
-               r2 >= MIN_SCALE_R2 else "it fits the IMU's axes as read, whose turn about z was not judged")
+               r2 >= MIN_SCALE_R2 else f"its turn, {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg, lies "
+               f"within {YAW_SIGMAS:g} sigmas" if abs(yaw) > MAX_YAW_RAD else
+               "it fits the IMU's axes as read, whose turn about z was not judged")
         warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
-    if r2 >= MIN_SCALE_R2 and MIN_YAW_RAD < abs(yaw) <= MAX_YAW_RAD and not dvl_turn:    # not a quarter turn
-        _warn_small_yaw(dvl, meta, field, fixes, model, SCALE_OFFSETS_S[best], r2)
+    if r2 >= MIN_SCALE_R2 and abs(yaw) <= MAX_YAW_RAD and not dvl_turn:    # not a quarter turn
+        warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "

@@ -255,6 +255,12 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     if est is not None:
         # with a given offset too: a DVL in another frame follows the GT at no offset near it
         _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu)
+        # under the RMS bound a DVL turned 5 deg passes: its turn against the GT is measured to a tenth of a degree
+        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_turn_against_reference
+        from graphnav.io.loaders import AKIT_COLUMNS
+        check_turn_against_reference(ref, t_dvl + coarse + est.offset_s, mission.dvl,
+                                     cfg.dvl.lever_arm_b + imu_position_b, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]),
+                                     AKIT_DVL_FIXES, g.source)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
                                 ", against the GT as given")
