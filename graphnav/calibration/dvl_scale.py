@@ -349,16 +349,17 @@ def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> N
 
 
 def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma: float, r2: float,
-                    against: str = "the IMU's axes", floor: float = MIN_YAW_RAD, doubt: str = YAW_DOUBT) -> None:
+                    against: str = "the IMU's axes", floor: float = MIN_YAW_RAD, doubt: str = YAW_DOUBT,
+                    explained: str = "of its changes") -> None:
     """Warn about, note and count (``doubt``) a DVL velocity turned ``yaw`` rad about z from ``against`` (its fit's
-    ``sigma``, rad, and ``r2``) when beyond ``floor`` (rad, default :data:`MIN_YAW_RAD`) and :data:`YAW_SIGMAS`
+    ``sigma``, rad, and ``r2``, the share it explains ``explained``) when beyond ``floor`` (rad, default :data:`MIN_YAW_RAD`) and :data:`YAW_SIGMAS`
     sigmas: a head mounted off, its instrument-frame columns read as body, or a ``dvl.C_d_b`` that is not the
     head's."""
     if not (abs(yaw) > floor and abs(yaw) > YAW_SIGMAS * sigma):
         return
     places = 1 if np.degrees(sigma) >= 0.05 else 2          # a sigma from a GT is hundredths of a degree
     text = (f"field '{field}': the DVL velocity is turned {np.degrees(yaw):+.{places}f} +- "
-            f"{np.degrees(sigma):.{places}f} deg about z from {against} (the fit explains {r2:.2f} of its changes; "
+            f"{np.degrees(sigma):.{places}f} deg about z from {against} (the fit explains {r2:.2f} {explained}; "
             f"under {np.degrees(floor):g} deg or {YAW_SIGMAS:g} sigmas nothing is said), which puts the track "
             f"{100 * abs(np.sin(yaw)):.1f} % of the distance travelled sideways: a DVL head mounted turned, its "
             f"columns in the instrument frame read as body, or a dvl.C_d_b that is not the head's? {fixes['yaw']}")
@@ -394,7 +395,7 @@ def check_turn_against_reference(reference, t_dvl: np.ndarray, dvl, lever_arm_b:
     pings at ``t_dvl``) beyond :data:`GT_MIN_YAW_RAD` and :data:`YAW_SIGMAS` sigmas."""
     yaw, sigma, r2 = turn_against_reference(reference, t_dvl, dvl.v_b, lever_arm_b)
     warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2, f"the ground truth's body velocity ({source})",
-                    GT_MIN_YAW_RAD, GT_YAW_DOUBT)
+                    GT_MIN_YAW_RAD, GT_YAW_DOUBT, "of its horizontal velocity")
 
 
 def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict | None = None,
