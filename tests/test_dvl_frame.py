@@ -73,8 +73,8 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
     C_b_n = _euler_at(sim)
     v_n = np.einsum("kij,kj->ki", C_b_n, v_b)
     euler = np.degrees(C_b_n_to_euler(C_b_n))
-    with pytest.raises(DataError, match=r"earth-fixed \(NED/ENU\) or a vehicle slower than the current it moves in"
-                       ) as err:
+    with pytest.raises(DataError, match=r"the body kinematics .* leave \d+\.\d\dx what they leave of it taken as "
+                                        r"earth-fixed .*: it is earth-fixed \(NED/ENU\): declare") as err:
         _load(_folder(tmp_path, sim, v_n))
     assert "dvl.csv" in str(err.value) and "vx, vy, vz" in str(err.value)
     cols = {"roll": euler[:, 0], "pitch": euler[:, 1], "yaw": euler[:, 2]}
@@ -84,6 +84,58 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
         entry = {"frame": frame, "euler": list(cols), "angle_unit": "deg"}
         got = _load(_folder(tmp_path, sim, v, entry, cols))
         np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
+
+
+def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01):
+    """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
+    the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
+    ``noise`` m/s), exact kinematics. Returns (t_imu, f_b, omega_b, t_dvl, v_b)."""
+    from scipy.spatial.transform import Rotation
+
+    from graphnav.core.rotations import euler_to_C_b_n
+    rng = np.random.default_rng(seed)
+    dt, t = 0.01, np.arange(0.0, duration + 1.0, 0.01)
+    rate = np.zeros_like(t)
+    start, sign = 20.0, 1.0
+    while start < duration:                                     # turns of 30-60 s, legs of 20-50 s between
+        length = rng.uniform(30.0, 60.0)
+        k = (t >= start) & (t < start + length)
+        rate[k] = sign * np.deg2rad(3.0) * np.sin(np.pi * (t[k] - start) / length) ** 2
+        sign = -sign if rng.random() < 0.6 else sign
+        start += length + rng.uniform(20.0, 50.0)
+    ph = rng.uniform(0.0, 2 * np.pi, 4)
+
+    def attitude(t):
+        heading = np.interp(t, np.arange(len(rate)) * dt, np.concatenate([[0.0], np.cumsum(rate[1:] * dt)]))
+        return euler_to_C_b_n(np.deg2rad(2.0) * np.sin(2 * np.pi * t / 17 + ph[0]),
+                              np.deg2rad(3.0) * np.sin(2 * np.pi * t / 41 + ph[1]), heading + ph[2])
+    C = attitude(t)
+    through_water = np.stack([speed + 0.05 * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
+    v_n = np.einsum("kij,kj->ki", C, through_water) + current * np.array([np.cos(ph[0]), np.sin(ph[0]), 0.0])
+    omega_b = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec() / dt
+    f_b = np.einsum("kji,kj->ki", attitude(t[:-1] + 0.5 * dt), np.diff(v_n, axis=0) / dt - [0.0, 0.0, 9.81])
+    ping = np.arange(0, len(t) - 1, 100)
+    v_b = np.einsum("kji,kj->ki", C[ping], v_n[ping]) + rng.normal(0.0, noise, (len(ping), 3))
+    return t[:-1], f_b + rng.normal(0.0, 0.005, f_b.shape), omega_b + rng.normal(0.0, 1e-4, omega_b.shape), \
+        t[ping], v_b
+
+
+@pytest.mark.parametrize("seed, speed, current", [(0, 0.3, 0.5), (1, 0.2, 1.0)])
+def test_a_slow_vehicle_in_a_current_is_kept_as_body_and_an_earth_frame_copy_still_refused(sim, tmp_path, seed,
+                                                                                          speed, current):
+    """A vehicle slower than the current it moves in goes over the ground much as the water does: its body-frame
+    velocity turns with the gyro (turn ratio 0.2-0.6, under 1) and was refused as earth-fixed, with advice that could
+    not help. The body kinematics explain it (0.3-0.6x what they leave of it taken as earth-fixed): kept, with a
+    note. The simulated mission's NED copy is still refused, by the kinematics (4x)."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, speed, current)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
+    assert any("a vehicle slower than the current it moves in" in n for n in got.meta["streams"]["dvl"]["notes"])
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    _, t_sim, v_sim = sim
+    with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\)"):
+        _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim)))
 
 
 @pytest.mark.parametrize("frame", ["ned", "enu", "flu"])
@@ -395,8 +447,8 @@ def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clo
     15 s off (turn ratio 1.03 there, against 1), the whole log was blamed on its clock. Its direction spreads as the
     gyro's heading does (1.15x, 0.94x), a body-frame velocity's 0.02-0.05x: refused naming the columns."""
     with pytest.raises(DataError, match=r"turns with the vehicle: its direction spreads \d\.\d\dx as much as the "
-                                        r"gyro's heading.*earth-fixed \(NED/ENU\) or a vehicle "
-                                        r"slower than the current it moves in") as err:
+                                        r"gyro's heading.*earth-fixed \(NED/ENU\).*a vehicle slower than "
+                                        r"the current it moves in .* on the IMU clock") as err:
         _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", seconds, earth=True))
     assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
     with warnings.catch_warnings(record=True):

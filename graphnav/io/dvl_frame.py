@@ -23,6 +23,12 @@ put it there (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`)
 (:func:`course_spread_ratio`) refuses it: the spread of a vehicle-fixed velocity's direction is a few percent of the
 gyro heading's whatever the clock, an earth-fixed one's is about the same; the clock search, fitting an earth-fixed
 velocity as a body one, lands tens of seconds off, where the turn check above hardly tells.
+
+A vehicle slower than the current it moves in (an ROV, an AUV in a tidal stream) goes over the ground much as the water
+does whatever its heading: its body-frame velocity turns and spreads as an earth-fixed one does. The body kinematics
+tell them apart (:func:`kinematics_ratio`): on the IMU clock, a velocity the turn check would refuse is kept as body,
+with a note, when they explain it better than they explain it taken as earth-fixed. A DVL on a clock of its own cannot
+be judged so before the clock search, and the spread check still refuses it, saying to put its stamps on the IMU clock.
 """
 from __future__ import annotations
 
@@ -51,6 +57,13 @@ COURSE_MIN_HEADING_SPREAD = 0.1
 #: trajectories (whole, 60 s and 120 s crops turning enough): as recorded 0.01-0.24, in NED 0.69-1.95
 #: (docs/decisions/dvl-frame.md); the geometric middle.
 EARTH_FRAME_SPREAD_RATIO = 0.4
+#: :func:`kinematics_ratio` under which a velocity that turns with the vehicle is kept as body: the body kinematics
+#: leave less unexplained than the earth ones. Measured (docs/decisions/dvl-frame.md): slow vehicles in currents
+#: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
+#: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above.
+BODY_KINEMATICS_RATIO = 1.0
+#: Headings a window's velocity taken as earth-fixed is tried at (:func:`kinematics_ratio`), rad.
+_HEADINGS = np.deg2rad(np.arange(0.0, 360.0, 5.0))
 
 
 def declared_frame(spec: dict) -> str:
@@ -149,25 +162,102 @@ def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -
     return float((1.0 - abs(np.mean(np.exp(1j * np.arctan2(v[moving, 1], v[moving, 0]))))) / heading)
 
 
+def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(L, K)`` (win, window*3) of the clock model's windows at offset 0 for the body-frame velocity ``v`` (M,3),
+    m/s: the part of its residual that the velocity makes (``v + int omega x v``, less its fit per window) and the
+    part the IMU makes (``int f_b``, less its fit); the residual is ``L - K``, linear in ``v``. None under two
+    windows."""
+    from graphnav.calibration.clock import dvl_window_model, without_window_fit
+    from graphnav.core.mission import DvlData
+    n = len(t)
+    model, _ = dvl_window_model(imu, DvlData(t, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v), ints=ints)
+    inside, terms = model.terms(0.0)
+    if terms is None or inside.sum() < 2:
+        return None
+    u, C, F, lever, A, _ = terms                  # every window whole: on one clock, offset 0
+    return without_window_fit(u + C, A), without_window_fit(F + lever, A)
+
+
+def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
+                     ) -> float:
+    """What the body kinematics ``dv_b/dt = f_b + C_n_b^T g - omega_b x v_b`` leave unexplained of the velocity's
+    changes (the DVL clock model's windows, :mod:`graphnav.calibration.clock`, both logs on one clock), over what
+    they leave of the same velocity taken as earth-fixed: turned into the body by the gyro's heading, at the heading
+    that fits each window best (either sign of the gyro's z). A body-frame velocity obeys the body kinematics whatever
+    the current (a steady current adds nothing to ``f_b``): under 1; an earth-fixed one read as body breaks the
+    ``omega x v`` term in turns: over 1. NaN under two windows of pings.
+
+    Args:
+        t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read, m/s. t_imu: (K,) IMU stamps, s, on the DVL's clock.
+        f_b: (K,3) specific force, m/s^2. omega_b: (K,3) gyro rates, rad/s.
+    """
+    from graphnav.calibration.clock import imu_integrals
+    from graphnav.core.mission import ImuData
+    ok = np.all(np.isfinite(v), axis=1)
+    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
+    imu = ImuData(np.asarray(t_imu, float), np.asarray(f_b, float), np.asarray(omega_b, float))
+    try:
+        ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+        body = _kinematic_residuals(imu, ints, t, v)
+    except DataError:
+        return float("nan")
+    if body is None:
+        return float("nan")
+    L, K = body
+    yaw = np.interp(t, ints.t, ints.W[:, 2])
+    earth = np.inf
+    for sign in (1.0, -1.0):
+        c, s = np.cos(-sign * yaw), np.sin(-sign * yaw)
+        u = np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=1)
+        # Rz(psi) [u; uz] = cos psi [u; 0] + sin psi [J u; 0] + [0; uz]: the residual is linear in cos and sin
+        parts = [_kinematic_residuals(imu, ints, t, np.column_stack([w, z]))[0]
+                 for w, z in ((u, 0 * v[:, 2]), (u[:, ::-1] * [-1.0, 1.0], 0 * v[:, 2]), (0 * u, v[:, 2]))]
+        P = np.stack([parts[0], parts[1], parts[2] - K], axis=-1)              # (win, window*3, 3)
+        G = np.einsum("wki,wkj->wij", P, P)
+        c3 = np.stack([np.cos(_HEADINGS), np.sin(_HEADINGS), np.ones_like(_HEADINGS)], axis=1)
+        earth = min(earth, float(np.einsum("pi,wij,pj->wp", c3, G, c3).min(axis=1).sum()))
+    return float(np.sum((L - K) ** 2) / max(earth, 1e-300))
+
+
 # a slow vehicle in a strong current (0.3 m/s in 0.5 m/s) moves over the ground much as the water does, whatever its
-# heading: the same ratios as an earth-fixed velocity, so the message names both
-_EARTH_FIX = ("it looks earth-fixed (NED/ENU) or a vehicle slower than the current it moves in: declare "
-              "csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch and heading columns ('euler', "
-              "'angle_unit'), or log the body-frame velocity")
+# heading: its direction turns and spreads as an earth-fixed velocity's does, and only the body kinematics tell them
+# apart (kinematics_ratio), which need the DVL on the IMU clock
+_DECLARE = ("declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch and heading columns ('euler', "
+            "'angle_unit')")
+
+
+def _said(frame: str) -> str:
+    return "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
 
 
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
-                          source: str, fields: list[str], frame: str) -> float:
-    """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame; DataError naming the file
-    and columns when it turns with the vehicle (:data:`EARTH_FRAME_RATIO`): logged in the earth frame."""
+                          source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None,
+                          v_b: np.ndarray | None = None, meta: dict | None = None) -> float:
+    """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
+    vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
+    kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
+    :data:`BODY_KINEMATICS_RATIO` it is kept as body (a vehicle slower than the current it moves in), noted in
+    ``meta``; otherwise a DataError naming the file and columns: logged in the earth frame."""
     ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
-    if np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO:
-        said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
-        raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: over {COURSE_WINDOW_S:g} s "
-                        f"windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a vehicle-fixed "
-                        f"velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories); {_EARTH_FIX}",
-                        source, field=", ".join(fields))
-    return ratio
+    if not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO):
+        return ratio
+    kin = float("nan") if f_b is None else kinematics_ratio(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
+    turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
+            f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
+    if kin < BODY_KINEMATICS_RATIO:
+        if meta is not None:
+            from graphnav.core.streams import add_note
+            add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
+                     f"leave {kin:.2f}x what they leave of it taken as earth-fixed: kept in the {frame} frame, a "
+                     "vehicle slower than the current it moves in")
+        return ratio
+    judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it taken "
+              f"as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under "
+              f"{BODY_KINEMATICS_RATIO:g}): it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
+              "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
+              "body kinematics could not judge (under two windows of pings)")
+    raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {turn}; {judged}: {_DECLARE}",
+                    source, field=", ".join(fields))
 
 
 def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
@@ -176,15 +266,18 @@ def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source:
     (:func:`course_spread_ratio`): logged in the earth frame."""
     ratio = course_spread_ratio(v, t_imu, omega_b)
     if np.isfinite(ratio) and ratio > EARTH_FRAME_SPREAD_RATIO:
-        said = "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
-        raise DataError(f"DVL velocity {said} {frame} frame turns with the vehicle: its direction spreads "
+        raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: its direction spreads "
                         f"{ratio:.2f}x as much as the gyro's heading (a vehicle-fixed velocity's: under "
                         f"{EARTH_FRAME_SPREAD_RATIO:g}, 0.01-0.24 on the A-KIT trajectories; compared without a common "
-                        f"clock, the DVL's being its own); {_EARTH_FIX}", source, field=", ".join(fields))
+                        f"clock, the DVL's being its own): it looks earth-fixed (NED/ENU): {_DECLARE}; a vehicle "
+                        "slower than the current it moves in spreads so too, and only the body kinematics tell it "
+                        "apart, on the IMU clock: put the DVL stamps on it ('clock': 'imu')", source,
+                        field=", ".join(fields))
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
-                    t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict) -> np.ndarray:
+                    t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None
+                    ) -> np.ndarray:
     """A column map's DVL velocity (M,3), m/s, in its declared ``frame`` turned to the body frame; a velocity in a
     vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`); the frame noted in
     ``meta["streams"]["dvl"]``.
@@ -193,6 +286,7 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         t_dvl: (M,) stamps, s. v: (M,3) the ``v_b`` columns in m/s. euler: (M,3) the entry's ``euler`` columns
             (roll, pitch, heading of the DVL frame; ``angle_unit``) or None. spec: ``csv_columns.dvl``.
         C_d_b: (3,3) ``dvl.C_d_b``. t_imu, omega_b: the IMU's stamps, s, and rates, rad/s (FRD or FLU).
+        f_b: the IMU's specific force, m/s^2, for the body kinematics that keep a slow vehicle in a current.
 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
@@ -205,7 +299,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
     if frame not in EARTH_FRAMES:
         if on_the_imu_clock(t_dvl, t_imu):
-            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame)
+            v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
+            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta)
         else:
             _check_spread(v, t_imu, omega_b, source, fields, frame)
             add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")

@@ -350,7 +350,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
             v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
-                                  meta)
+                                  meta, f_b)
         if "beams" in v:
             raw = v["beams"]
             if vdeclared is None:
