@@ -17,7 +17,8 @@ import warnings
 
 import numpy as np
 
-from graphnav.calibration.clock import dvl_window_model, estimate_dvl_clock_offset
+from graphnav.core.dvl_kinematics import dvl_window_model
+from graphnav.calibration.clock import estimate_dvl_clock_offset
 from graphnav.core.errors import ConfigError
 from graphnav.io.paths import akit_trajectories
 from graphnav.missions import load_akit

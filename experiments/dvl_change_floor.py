@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from graphnav.calibration.clock import dvl_window_model
+from graphnav.core.dvl_kinematics import dvl_window_model
 from graphnav.calibration.dvl_scale import velocity_change_rms
 from graphnav.core.errors import DataError
 from graphnav.io.paths import akit_trajectories

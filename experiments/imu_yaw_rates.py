@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from graphnav.calibration.clock import dvl_window_model
+from graphnav.core.dvl_kinematics import dvl_window_model
 from graphnav.calibration.dvl_scale import IMU_YAW_MIN_Q, IMU_YAWS_DEG, imu_yaw_fit, turn_about_z
 from graphnav.core.errors import DataError
 from graphnav.io.paths import akit_trajectories

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 import pytest
 
-from graphnav.calibration.clock import dvl_velocity_b
+from graphnav.core.dvl_kinematics import dvl_velocity_b
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import C_b_n_to_euler
@@ -235,7 +235,7 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
     # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
     # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.
     from graphnav.calibration import dvl_scale
-    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
     from graphnav.core.mission import DvlData
     m = simulate_mission(400.0, "navigation", 1)
     t, v = dvl_velocity_b(m.dvl, m.config)
@@ -396,7 +396,7 @@ def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigm
     and turned 5 deg (under 3 sigmas) nothing is said; turned 8 deg it is warned about, naming the file, its columns
     and what to declare, and its pings are counted as doubted."""
     from graphnav.calibration import dvl_scale
-    from graphnav.calibration.clock import dvl_window_model
+    from graphnav.core.dvl_kinematics import dvl_window_model
     from graphnav.core.mission import DvlData
     m, t, v = sim
     for deg, warned in ((0.0, False), (5.0, False), (8.0, True)):
@@ -465,7 +465,7 @@ def test_a_crabbing_vehicle_with_a_reference_is_judged_by_where_the_reference_mo
     turned 90 deg read as body on the same vehicle disagrees with the reference: warned, naming both directions.
     Without a reference the mean direction alone is warned about, with the reason the fits gave."""
     from graphnav.calibration import dvl_scale
-    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
     from graphnav.core.mission import DvlData
     m = simulate_mission(duration_s=300.0, seed=4)
     A = dvl_scale.turn_about_z(90.0)                # new body coordinates = A @ old: the vehicle moves along +y

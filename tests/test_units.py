@@ -672,7 +672,7 @@ def _column_map_log(m, folder, gyro_scale=1.0, dvl_shift=0.0):
     """Mission ``m`` as a column-map log in ``folder`` (IMU FRD, DVL velocity columns ``dvl_shift`` s later on a clock
     to be found, ``"clock": "auto"``; gyro multiplied by ``gyro_scale``); returns the configuration path."""
     import json
-    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
     folder.mkdir()
     t, v = dvl_velocity_b(m.dvl, m.config)
     for name, header, columns in (("imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"],

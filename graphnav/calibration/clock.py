@@ -7,7 +7,7 @@ exactly: ``g_b(t) = R(t)^T g0`` with R the gyro-integrated attitude. So, per win
 of DVL pings, ``v0`` and ``g0`` are fitted by linear least squares and the residual measures how well the
 IMU explains the DVL at a candidate offset (against a straight line per window, the fit without the IMU:
 the *explained fraction*). Earth rate, gyro drift and accelerometer bias only enter through g0, refitted
-per window.
+per window (the model: :mod:`graphnav.core.dvl_kinematics`, which the DVL checks share).
 
 :func:`estimate_dvl_clock_offset` scores every offset at which the two logs share at least
 :data:`MIN_OVERLAP_S` and half the shorter log (the whole possible range: the spans need not overlap, the DVL
@@ -33,13 +33,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from graphnav.calibration.reference import _sigma_from_curvature, cumulative_integral
+from graphnav.calibration.reference import _sigma_from_curvature
+from graphnav.core.dvl_kinematics import dvl_window_model, with_enough_pings
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note
-from graphnav.core.timeseries import interp_rows, on_the_imu_clock, overlap_text
+from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
-#: Step of the IMU grid the integrals are kept on, s.
-IMU_GRID_S = 0.05
 #: Shortest overlap of the two logs at a candidate offset, s ...
 MIN_OVERLAP_S = 60.0
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this, s
@@ -65,11 +64,6 @@ MIN_SSE_RATIO = 1.2
 #: confident 0.13-0.26 s off, within 1.6 sigma); a 400 s one with 0.01 m/s beam noise 0.002 s off, sigma 0.055 s;
 #: the 200 s column-map copy of Trajectory1, sigma 0.006 s.
 CLOCK_SIGMA_WARN_S = 0.1
-#: Length of the windows over which the gravity seen at the window start is fitted, s.
-WINDOW_S = 20.0
-#: Fewest pings a window reaching past the IMU's ends keeps to be fitted by the clock search: its v0 and g0 are 6
-#: numbers, the straight line's too, and 6 pings give them 18.
-MIN_WINDOW_PINGS = 6
 
 
 @dataclass
@@ -116,212 +110,6 @@ class ClockOffset:
     def to_dict(self) -> dict:
         out = {k: v for k, v in dataclasses.asdict(self).items() if k != "explains"}
         return {**out, "sharpness": self.sharpness, "confident": self.confident}
-
-
-# ------------------------------------------------------------------------------------------------
-# the model
-# ------------------------------------------------------------------------------------------------
-@dataclass
-class ImuIntegrals:
-    """The IMU on a uniform grid ``t`` (K,): running integrals of the specific force ``F`` (m/s), of the
-    gyro ``W`` (rad), of the transposed gyro attitude ``M`` (K,3,3, s; ``int R(t)^T dt`` with R the body
-    attitude relative to the first sample: ``M g0`` integrates the gravity a body sees that started with
-    gravity ``g0``), and the mean rate per step ``omega`` (K,3) at the grid stamps."""
-
-    t: np.ndarray
-    F: np.ndarray
-    W: np.ndarray
-    M: np.ndarray
-    omega: np.ndarray
-
-
-def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: float | None = None
-                  ) -> ImuIntegrals:
-    """:class:`ImuIntegrals` of an IMU stream (stamps s, f_b m/s^2, omega_b rad/s); grid step ``step_s``
-    (default :data:`IMU_GRID_S`, coarser for logs over ~1.5 h to keep the grid under 100 000 steps)."""
-    from scipy.spatial.transform import Rotation
-
-    from graphnav.calibration.reference import cumulative_quat_product
-    t = np.ascontiguousarray(t, float)
-    step = step_s or max(IMU_GRID_S, (t[-1] - t[0]) / 1e5)
-    edges = np.arange(t[0], t[-1], step)
-    F = interp_rows(edges, t, np.asfortranarray(cumulative_integral(t, f_b)))
-    W = interp_rows(edges, t, np.asfortranarray(cumulative_integral(t, omega_b)))
-    dtheta = np.diff(W, axis=0)
-    q = cumulative_quat_product(Rotation.from_rotvec(dtheta).as_quat())
-    R_T = np.swapaxes(Rotation.from_quat(q).as_matrix(), 1, 2)
-    M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(0.5 * (R_T[1:] + R_T[:-1]) * step, axis=0)])
-    omega = np.vstack([dtheta / step, dtheta[-1:] / step])
-    return ImuIntegrals(edges, F, W, M, omega)
-
-
-def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, v (M,3))`` of the pings with a head velocity in the body frame (m/s): the instrument's ``v_b``,
-    its ``v_d`` turned by ``C_d_b``, or the least-squares velocity of >= 3 valid beams."""
-    n = len(dvl.t)
-    v = np.full((n, 3), np.nan)
-    if dvl.v_b is not None:
-        v = np.where(np.isfinite(dvl.v_b), dvl.v_b, np.nan)
-    C_d_b = np.eye(3) if config is None else config.dvl.C_d_b
-    if dvl.v_d is not None and dvl.v_d_valid is not None:
-        fill = ~np.all(np.isfinite(v), axis=1) & dvl.v_d_valid
-        v[fill] = dvl.v_d[fill] @ C_d_b.T
-    missing = ~np.all(np.isfinite(v), axis=1) & (dvl.valid.sum(axis=1) >= 3)
-    if missing.any():
-        from graphnav.core.config import DvlSpec
-        from graphnav.core.dvl import DvlGeometry
-        spec = DvlSpec() if config is None else config.dvl
-        v[missing] = DvlGeometry.from_spec(spec).velocity_from_beams(
-            dvl.beams[missing], dvl.valid[missing], allow_missing=True)
-    ok = np.all(np.isfinite(v), axis=1)
-    return np.asarray(dvl.t, float)[ok], v[ok]
-
-
-def centred(x: np.ndarray, use: np.ndarray) -> np.ndarray:
-    """``x`` (win, window, ...) less its mean over the pings ``use`` (win, window) of each window; zero at the
-    other pings (so they drop out of any least-squares fit)."""
-    w = use.reshape(use.shape + (1,) * (x.ndim - 2))
-    return np.where(w, x - np.sum(x * w, axis=1, keepdims=True) / np.sum(w, axis=1, keepdims=True), 0.0)
-
-
-def without_window_fit(y: np.ndarray, A: np.ndarray, use: np.ndarray | None = None) -> np.ndarray:
-    """``y`` (win, window, 3) less its least-squares fit per window by a constant (v0) and the gravity regressor
-    ``A`` (win, window*3, 3; g0): the residual (win, window*3). ``use`` (win, window): the pings fitted (default
-    all); ``A`` is then :func:`centred` over them, and the residual is zero at the others."""
-    y = y - y.mean(axis=1, keepdims=True) if use is None else centred(y, use)     # v0
-    g0 = np.linalg.solve(np.einsum("wki,wkj->wij", A, A) + 1e-9 * np.eye(3),
-                         np.einsum("wki,wk->wi", A, y.reshape(len(y), -1))[..., None])[..., 0]
-    return y.reshape(len(y), -1) - np.einsum("wkj,wj->wk", A, g0)
-
-
-class _WindowModel:
-    """The DVL pings in windows of :data:`WINDOW_PINGS`; for a candidate offset, the residual of
-
-        v_j = v0 + int f_b dt + (int R^T dt) g0 - int omega x v dt - omega_j x l       (per window: v0, g0)
-
-    against the same fit without the IMU terms (a straight line per window): the explained fraction.
-
-    At an offset a window is fitted over its pings inside the IMU span: all of them or none (``trim`` False, the
-    DVL checks', whose offsets keep the DVL on the IMU), or those inside when at least :data:`MIN_WINDOW_PINGS`
-    (``trim`` True, the clock search's: a window reaching past the IMU's end by a ping keeps its other pings, so
-    offsets a few seconds apart score nearly the same pings and none wins by leaving out a window it explains
-    badly)."""
-
-    def __init__(self, imu: ImuIntegrals, t_dvl: np.ndarray, v: np.ndarray, lever_arm_b: np.ndarray,
-                 window: int, trim: bool = False):
-        self.imu, self.lever, self.trim = imu, lever_arm_b, trim
-        n_win = len(t_dvl) // window
-        self.t = t_dvl[:n_win * window].reshape(n_win, window)
-        self.v = v[:n_win * window].reshape(n_win, window, 3)
-        self.v_mid = 0.5 * (self.v[:, 1:] + self.v[:, :-1])
-        self.window = window
-        # the fit without IMU: v = v0 + c t per window (6 parameters, as the model's v0, g0)
-        tc = self.t - self.t.mean(axis=1, keepdims=True)
-        X = np.stack([np.ones_like(tc), tc], axis=-1)                   # (n_win, window, 2)
-        beta = np.einsum("wij,wjk->wik", np.linalg.pinv(X), self.v)
-        self.sse_null_w = np.sum((self.v - X @ beta) ** 2, axis=(1, 2))   # per window
-
-    def thinned(self, max_windows: int) -> "_WindowModel":
-        """The same model on at most ``max_windows`` windows spread over the log (for the coarse scan of a long
-        log: its cost grows with windows x offsets)."""
-        keep = np.unique(np.linspace(0, len(self.t) - 1, min(max_windows, len(self.t))).round().astype(int))
-        out = object.__new__(_WindowModel)
-        out.imu, out.lever, out.window, out.trim = self.imu, self.lever, self.window, self.trim
-        out.t, out.v, out.v_mid, out.sse_null_w = self.t[keep], self.v[keep], self.v_mid[keep], self.sse_null_w[keep]
-        return out
-
-    def pings(self, offset: float) -> np.ndarray:
-        """(win, window) True at the pings fitted at ``offset`` s: those inside the IMU span, of the windows keeping
-        enough (class docstring)."""
-        t = self.t + offset
-        inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
-        return with_enough_pings(inside if self.trim else inside & inside.all(axis=1, keepdims=True))
-
-    def terms(self, offset: float, use: np.ndarray | None = None):
-        """At ``offset`` s, over the pings ``use`` (win, window; default :meth:`pings`): True at the windows with
-        pings to fit, and for those the velocity ``v``, ``int omega x v``, ``int f_b``, ``omega_j x l`` (each
-        (win, window, 3)), the gravity regressor ``int R^T`` centred per window (win, window*3, 3) and the pings
-        fitted (win, window) (pass them to :func:`without_window_fit`); None for the rest when no window has any."""
-        imu, t = self.imu, self.t + offset
-        use = self.pings(offset) if use is None else use
-        windows = use.any(axis=1)
-        if not windows.any():
-            return windows, None
-        tq = t[windows].reshape(-1)
-        F = interp_rows(tq, imu.t, imu.F).reshape(-1, self.window, 3)
-        W = interp_rows(tq, imu.t, imu.W).reshape(-1, self.window, 3)
-        M = interp_rows(tq, imu.t, imu.M.reshape(-1, 9)).reshape(-1, self.window, 3, 3)
-        w = interp_rows(tq, imu.t, imu.omega).reshape(-1, self.window, 3)
-        v, use = self.v[windows], use[windows]
-        rot = np.cross(np.diff(W, axis=1), self.v_mid[windows])       # omega x v over each ping interval
-        C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
-        Mc = M - M.mean(axis=1, keepdims=True) if use.all() else centred(M, use)
-        return windows, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3), use)
-
-    def sse(self, offset: float, use: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(SSE per window, True at the windows with pings to fit) at ``offset`` s over the pings ``use`` (default
-        :meth:`pings`)."""
-        windows, terms = self.terms(offset, use)
-        out = np.full(len(self.t), np.nan)
-        if terms is None:
-            return out, windows
-        v, C, F, lever, A, fitted = terms
-        r = without_window_fit(v - lever - F + C, A, None if fitted.all() else fitted)
-        out[windows] = np.sum(r ** 2, axis=1)
-        return out, windows
-
-    def null_sse(self, use: np.ndarray) -> np.ndarray:
-        """The straight-line SSE per window (win,) over the pings ``use`` (win, window)."""
-        out = self.sse_null_w.copy()
-        part = use.any(axis=1) & ~use.all(axis=1)
-        if part.any():
-            u = use[part]
-            tc, vc = centred(self.t[part], u), centred(self.v[part], u)
-            slope = np.einsum("wk,wki->wi", tc, vc) / np.sum(tc ** 2, axis=1, keepdims=True)
-            out[part] = np.sum((vc - tc[..., None] * slope[:, None]) ** 2 * u[..., None], axis=(1, 2))
-        return out
-
-    def score(self, offset: float, use: np.ndarray | None = None) -> tuple[float, float, int]:
-        """(explained fraction 1 - SSE/SSE_null, SSE, windows) at ``offset`` s over the pings ``use`` (default
-        :meth:`pings`)."""
-        use = self.pings(offset) if use is None else use
-        sse, windows = self.sse(offset, use)
-        if windows.sum() < 2:
-            return -np.inf, np.inf, 0
-        null = float(np.sum(self.null_sse(use)[windows]))
-        total = float(np.sum(sse[windows]))
-        return 1.0 - total / max(null, 1e-12), total, int(windows.sum())
-
-
-def with_enough_pings(use: np.ndarray) -> np.ndarray:
-    """``use`` (win, window) without the windows left fewer than :data:`MIN_WINDOW_PINGS` (all of a window's when
-    it is shorter)."""
-    return use & (use.sum(axis=1, keepdims=True) >= min(MIN_WINDOW_PINGS, use.shape[1]))
-
-
-def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int | None = None,
-                     transform: np.ndarray | None = None, ints: ImuIntegrals | None = None, trim: bool = False
-                     ) -> tuple[_WindowModel, np.ndarray]:
-    """The :class:`_WindowModel` of a DVL against an IMU (arguments as :func:`estimate_dvl_clock_offset`'s; the
-    body-frame velocity multiplied by the (3,3) ``transform`` when given; ``ints``: the IMU's integrals when another
-    model of the same IMU has them; ``trim``: windows trimmed at the IMU's ends, the class's) and the stamps of the
-    pings it uses, s.
-
-    Raises:
-        DataError: fewer than two windows of pings with a velocity.
-    """
-    t_dvl, v = dvl_velocity_b(dvl, config)
-    if transform is not None:
-        v = v @ np.asarray(transform, float).T
-    period = float(np.median(np.diff(t_dvl))) if len(t_dvl) > 1 else np.nan
-    window = window_pings or max(6, int(round(WINDOW_S / period))) if np.isfinite(period) else 6
-    if len(t_dvl) < 2 * window:
-        raise DataError(f"{len(t_dvl)} DVL ping(s) with a velocity: too few to find a clock offset (need "
-                        f"{2 * window})", dvl.source, field="t")
-    if lever_arm_b is None:
-        lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
-    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b) if ints is None else ints
-    return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window, trim), t_dvl
 
 
 # ------------------------------------------------------------------------------------------------

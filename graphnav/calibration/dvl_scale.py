@@ -1,7 +1,7 @@
 """A DVL velocity's scale and axis signs against the IMU: a speed unit read wrong (knots as m/s, 1.94x) or a DVL
 in FLU axes read as FRD, which no speed range catches.
 
-The DVL clock model (:mod:`graphnav.calibration.clock`) fits each 20 s window of DVL velocities with the IMU's
+The DVL clock model (:mod:`graphnav.core.dvl_kinematics`) fits each 20 s window of DVL velocities with the IMU's
 integrals: ``v + int omega x v = v0 + int f_b + (int R^T) g0 + omega x l``. With the velocity ``k`` times the
 true one, the DVL side is ``k`` times what the IMU side says: after the per-window ``v0`` and ``g0`` are taken out
 of both sides, the IMU side regressed on the DVL side gives ``k`` (:func:`speed_scale`; regressing this way keeps
@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
-from graphnav.calibration.clock import WINDOW_S, dvl_window_model, without_window_fit
+from graphnav.core.dvl_kinematics import WINDOW_S, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.io.units import AKIT_DVL_FIXES, DECLARE_DVL_FIXES
@@ -117,7 +117,7 @@ def consecutive_triples(t: np.ndarray) -> np.ndarray:
 
 
 def judging_model(imu, dvl, config, **kwargs):
-    """The clock model (:func:`~graphnav.calibration.clock.dvl_window_model`, its keyword arguments) when the DVL
+    """The clock model (:func:`~graphnav.core.dvl_kinematics.dvl_window_model`, its keyword arguments) when the DVL
     velocity changes enough to judge anything by (:data:`MIN_VELOCITY_CHANGE_MPS`, :data:`MIN_CHANGE_OVER_NOISE`).
 
     Raises:
@@ -194,7 +194,7 @@ def turn_fit(z: np.ndarray, aa: float, bb: float) -> tuple[float, float, float]:
 
 def flu_fit_ratio(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, float]:
     """``(SSE as read / SSE with y, z negated, explained fraction negated)`` of the clock model ``read`` (the DVL
-    as read, :func:`~graphnav.calibration.clock.dvl_window_model`) at ``offset`` s."""
+    as read, :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) at ``offset`` s."""
     flipped, _ = dvl_window_model(imu, dvl, config, transform=np.diag([1.0, -1.0, -1.0]), ints=read.imu)
     explained, sse, _ = flipped.score(offset)
     return read.score(offset)[1] / max(sse, 1e-300), explained
@@ -240,7 +240,7 @@ def turn_about_z(yaw_deg: float) -> np.ndarray:
 
 def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int, float]:
     """``(q, yaw, q_next)``: how much better the clock model ``read`` (the DVL as read on the IMU,
-    :func:`~graphnav.calibration.clock.dvl_window_model`) fits at ``offset`` s with the IMU turned ``yaw`` deg about
+    :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) fits at ``offset`` s with the IMU turned ``yaw`` deg about
     z (the best of :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the
     smaller squared residual per residual); > 0 the turn fits better. ``q_next``: the same of the next best turn
     against the best. A turn is tried by turning the DVL velocity and lever arm into the turned IMU's axes; the
@@ -260,7 +260,7 @@ def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int
 def _course(dvl, config) -> float:
     """The DVL's mean horizontal direction from body +x (rad, about z; the pings over the course speed), NaN when
     they point no one way (:data:`MIN_COURSE_RESULTANT`)."""
-    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
     return _mean_direction(dvl_velocity_b(dvl, config)[1])
 
 
@@ -373,8 +373,8 @@ def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
     """:func:`turn_fit`'s ``(yaw, sigma, r2)`` (rad) of the DVL velocity ``v_b`` (N,3) m/s, body frame as read, against
     the body velocity of ``reference`` (a :class:`~graphnav.calibration.reference.Reference`) at its stamps ``t_dvl``
     (s, on the IMU clock) plus ``omega x lever_arm_b`` (m, the DVL from the reference's point), horizontally as
-    ``x + iy``, the pings in :data:`~graphnav.calibration.clock.WINDOW_S` windows as its samples."""
-    from graphnav.calibration.clock import WINDOW_S
+    ``x + iy``, the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as its samples."""
+    from graphnav.core.dvl_kinematics import WINDOW_S
     from graphnav.calibration.reference import dvl_design
     _, omega, v_ref, keep = dvl_design(reference, t_dvl, v_b)
     if keep.sum() < 2:
@@ -485,7 +485,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     of a few degrees beyond its sigma is warned about and counted (:data:`MIN_YAW_RAD`, :func:`warn_small_turn`); the
     turn is read at the DVL's stamps as they stand (a clock found, given or the vehicle's), not at the best scale's
     offset."""
-    from graphnav.calibration.clock import dvl_velocity_b
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)

@@ -27,9 +27,8 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.earth import earth_rate_n
 from graphnav.core.errors import DataError
-from graphnav.core.rotations import skew
-from graphnav.core.timeseries import cumulative_integral  # noqa: F401  (re-exported for clock.py)
-from graphnav.core.timeseries import interp_rows  # noqa: F401  (re-exported for calibration.py)
+from graphnav.core.rotations import cumulative_quat_product, skew
+from graphnav.core.timeseries import cumulative_integral, interp_rows
 
 if TYPE_CHECKING:
     from graphnav.core.mission import GroundTruth
@@ -187,30 +186,6 @@ class Reference:
         C = self.C_b_n(t) if C_b_n is None else C_b_n
         omega = interp_rows(t, self.t_imu, self.omega_b)
         return omega - np.einsum("kji,j->ki", C, self.omega_ie_n)
-
-
-def _quat_mul(q: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Hamilton products q * r of scalar-last quaternions (scipy's layout), vectorised over rows."""
-    x1, y1, z1, w1 = np.moveaxis(q, -1, 0)
-    x2, y2, z2, w2 = np.moveaxis(r, -1, 0)
-    return np.stack([w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-                     w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2], axis=-1)
-
-
-def cumulative_quat_product(steps: np.ndarray) -> np.ndarray:
-    """(N+1,4) running products ``identity, s0, s0 s1, ...`` of (N,4) scalar-last quaternions.
-
-    A Hillis-Steele scan: log2(N) vectorised passes instead of a Python loop over samples (the product
-    is associative), so 40 000 IMU steps take milliseconds.
-    """
-    q = np.concatenate([[[0.0, 0.0, 0.0, 1.0]], np.asarray(steps, float)])
-    d = 1
-    while d < len(q):
-        q = np.concatenate([q[:d], _quat_mul(q[:-d], q[d:])])
-        d *= 2
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
 def reference_gyro_increments(t_ref: np.ndarray, C_b_n_ref: np.ndarray, lat_rad: float | None) -> np.ndarray:

@@ -167,7 +167,7 @@ def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray) -> tuple[np.nd
     m/s: the part of its residual that the velocity makes (``v + int omega x v``, less its fit per window) and the
     part the IMU makes (``int f_b``, less its fit); the residual is ``L - K``, linear in ``v``. None under two
     windows."""
-    from graphnav.calibration.clock import dvl_window_model, without_window_fit
+    from graphnav.core.dvl_kinematics import dvl_window_model, without_window_fit
     from graphnav.core.mission import DvlData
     n = len(t)
     model, _ = dvl_window_model(imu, DvlData(t, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v), ints=ints)
@@ -181,7 +181,7 @@ def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray) -> tuple[np.nd
 def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
                      ) -> float:
     """What the body kinematics ``dv_b/dt = f_b + C_n_b^T g - omega_b x v_b`` leave unexplained of the velocity's
-    changes (the DVL clock model's windows, :mod:`graphnav.calibration.clock`, both logs on one clock), over what
+    changes (the DVL clock model's windows, :mod:`graphnav.core.dvl_kinematics`, both logs on one clock), over what
     they leave of the same velocity taken as earth-fixed: turned into the body by the gyro's heading, at the heading
     that fits each window best (either sign of the gyro's z). A body-frame velocity obeys the body kinematics whatever
     the current (a steady current adds nothing to ``f_b``): under 1; an earth-fixed one read as body breaks the
@@ -191,7 +191,7 @@ def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read, m/s. t_imu: (K,) IMU stamps, s, on the DVL's clock.
         f_b: (K,3) specific force, m/s^2. omega_b: (K,3) gyro rates, rad/s.
     """
-    from graphnav.calibration.clock import imu_integrals
+    from graphnav.core.dvl_kinematics import imu_integrals
     from graphnav.core.mission import ImuData
     ok = np.all(np.isfinite(v), axis=1)
     t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
