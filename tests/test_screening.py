@@ -1043,10 +1043,12 @@ def _in_packets(t, k, spacing_s=1e-5):
     return np.asarray(t)[np.minimum(i // k * k + k - 1, len(t) - 1)] + i % k * spacing_s
 
 
-@pytest.mark.parametrize("k, spacing_s", [(3, 1e-4), (10, 1e-5), (20, 1e-5)])
+@pytest.mark.parametrize("k, spacing_s", [(3, 1e-4), (10, 1e-5), (20, 1e-5), (10, 6e-4), (20, 3e-4), (2, 1e-5), (10, 1e-3)])
 def test_a_live_imu_in_packets_is_put_back_on_its_period_as_each_packet_ends(k, spacing_s):
     """Once its first steps show packets, each packet leaves restamped (spread back from its last stamp) when its
-    last sample arrives; before, it is passed as received. A clean stream with jitter and a gap is passed as it is."""
+    last sample arrives; before, it is passed as received. A clean stream with jitter and a gap is passed as it is.
+    Packets 0.3-0.6 ms apart inside were taken for one sample fewer (the cycle measured without the time inside a
+    packet), and packets of 2 were never found (as many short steps as long)."""
     from graphnav.estimators.keyframes import PacketStamps
     true = np.arange(3000) * 0.01
     stamps = _in_packets(true, k, spacing_s)
@@ -1069,6 +1071,54 @@ def test_a_live_imu_in_packets_is_put_back_on_its_period_as_each_packet_ends(k, 
     assert np.array_equal(passed, clean) and packets.restamped == 0 and packets.note is None
 
 
+def test_packets_are_found_and_ended_by_one_rule_however_far_apart_their_samples_are():
+    """Packets of 10 whose samples are 1 ms or 0.3-1.5 ms apart (a serial driver) were found, but split only where a
+    step was under a tenth of the period: the stamps restamped in part, read as 1000 or 399 Hz. The same long steps
+    now find and end them. Packets of 2 read as even or as packets as the log was cut."""
+    from graphnav.core.screening import imu_packet_limit, imu_step_stats, restamp_packets
+    true = np.arange(6000) * 0.01
+    i = np.arange(true.size)
+    inner = np.random.default_rng(0).uniform(3e-4, 1.5e-3, true.size)
+    inner[i % 10 == 0] = 0.0
+    within = np.cumsum(inner) - np.cumsum(inner)[i // 10 * 10]
+    for stamps in (_in_packets(true, 10, 1e-3), true[np.minimum(i // 10 * 10 + 9, true.size - 1)] + within):
+        period, cycle = imu_step_stats(np.diff(stamps), 0.01)
+        assert period == pytest.approx(0.01, rel=1e-3) and cycle == pytest.approx(0.1, rel=0.02)
+        t = restamp_packets(stamps, period, imu_packet_limit(np.diff(stamps), 0.01))
+        late = t - true                   # the receipt: its packet's time inside, under 9 x 1.5 ms
+        assert np.all((late > -1e-9) & (late < 0.0135)) and np.min(np.diff(t)) > 0.005
+        assert 1.0 / imu_step_stats(np.diff(t), 0.01)[0] == pytest.approx(100.0, rel=1e-3)
+    steps = np.diff(_in_packets(true, 2))
+    for n in (5997, 5998, 5999):
+        assert imu_step_stats(steps[:n], 0.01) == pytest.approx((0.01, 0.02), rel=1e-3)
+
+
+def test_a_live_imu_in_packets_of_varying_size_is_restamped_whole_and_passes_as_received_once_clean():
+    """Packets of 8-12 samples (USB or serial reads): a packet leaves at the next long step, or with its last sample
+    once as large as the largest so far; before, the held count was fixed (10), samples beyond it passed at their
+    receipt stamps (0.01 ms steps) and those short of it waited a cycle at another's stamps (errors to 20 ms). A
+    stream in packets that turns clean passed each sample one step late; now as received after 16 steps."""
+    from graphnav.estimators.keyframes import PacketStamps
+    rng = np.random.default_rng(2)
+    true = np.arange(4000) * 0.01
+    ends = np.cumsum(rng.integers(8, 13, 400))
+    ends = np.r_[ends[ends < 3000], 3000] - 1
+    run = np.searchsorted(ends, np.arange(3000))
+    stamps = np.r_[true[ends][run] + (np.arange(3000) - np.r_[0, ends + 1][run]) * 1e-5, true[3000:]]
+    packets = PacketStamps(0.01)
+    out = []
+    for i, t in enumerate(stamps):
+        left = packets.add(float(t), (i,), ())
+        assert i < 3000 or i < 3020 or left == [(float(t), (i,), ())]     # clean again: as received
+        out += left
+    out += packets.flush()
+    t_out = np.array([s[0] for s in out])
+    assert [s[1] for s in out] == [(i,) for i in range(4000)]
+    late = t_out[100:3000] - true[100:3000]
+    assert np.all((late >= 0) & (late < 1.2e-4)) and np.all(np.diff(t_out[100:]) > 5e-3)
+    np.testing.assert_array_equal(t_out[3000:], true[3000:])
+
+
 def test_a_navigator_fed_an_imu_in_packets_estimates_as_from_its_clean_stream(mission):
     """A 60 s stream with its IMU in packets of 20 (stamped on receipt): integrated at each packet's stamp, zero-length
     steps then a 0.2 s one gave VRMSE 0.151 m/s against 0.061 from even stamps; restamped, within 0.005 of it, noted
@@ -1087,3 +1137,22 @@ def test_a_navigator_fed_an_imu_in_packets_estimates_as_from_its_clean_stream(mi
     assert vrmse < clean + 0.005
     said = [str(w.message) for w in caught if "stamped in packets of 20" in str(w.message)]
     assert len(said) == 1 and nav.info["notes"]["imu"] and nav.info["imu_restamped"] > 5000
+
+
+def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
+    """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz): the duplicated-stamp error and its
+    repair (which drops nine in ten) now name the packets and the samples the repair loses."""
+    from graphnav.core.errors import DataError
+    from graphnav.core.screening import stamp_order
+    true = np.arange(600) * 0.01
+    t = true[np.arange(600) // 10 * 10 + 9]
+    rows = np.c_[t, np.arange(600.0)]
+    with pytest.raises(DataError, match=r"repeat in runs of 10 about every 100 ms: packets of samples stamped "
+                                        r"together on receipt, a sample every 10 ms; dropping the repeats loses 90%"):
+        stamp_order(t, rows, np.arange(600) + 2, "imu.csv", "t", repair=False)
+    with pytest.warns(UserWarning, match="repeat in runs of 10"):
+        stamp_order(t, rows, np.arange(600) + 2, "imu.csv", "t", repair=True)
+    clean = np.r_[true[:300], true[299], true[300:]]                # one duplicate in a clean file: no packets
+    with pytest.raises(DataError) as raised:
+        stamp_order(clean, np.c_[clean, np.arange(601.0)], np.arange(601) + 2, "imu.csv", "t", repair=False)
+    assert "runs of" not in str(raised.value)

@@ -133,21 +133,26 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     packet's stamp, k samples made zero-length steps then one k periods long (a column-map log in packets of 20:
     VRMSE 0.098 m/s against 0.0026 from even stamps). Even stamps, gaps and stutters are no packets and keep their
     stamps."""
-    from graphnav.core.screening import imu_step_stats, packets_note, restamp_packets
+    from graphnav.core.screening import imu_packet_limit, imu_step_stats, packets_note, restamp_packets
     t = mission.imu.t
     configured_s = 1.0 / float(mission.config.imu_rate_hz)
     period, cycle = imu_step_stats(np.diff(t), configured_s, IMU_RATE_TOLERANCE)
     if not cycle > period:
         return mission
-    restamped = restamp_packets(t, period)
+    restamped = restamp_packets(t, period, imu_packet_limit(np.diff(t), configured_s, IMU_RATE_TOLERANCE))
     moved = int(np.sum(restamped != t))
     if not moved:
         return mission
-    note = packets_note(round(cycle / period), cycle, period, f"{moved} of {t.size} stamps")
+    on_period, still = imu_step_stats(np.diff(restamped), configured_s, IMU_RATE_TOLERANCE)
+    # a rule that split packets wrongly leaves them mixed, whose rate contradicts the period just measured
+    ok = not still > on_period and abs(on_period - period) <= IMU_RATE_TOLERANCE * period
+    note = packets_note(round(cycle / period), cycle, period, f"{moved} of {t.size} stamps" if ok else None)
     add_note(meta, "imu", note)
+    warnings.warn(f"imu: {mission.imu.source}: {note}", RuntimeWarning, stacklevel=3)
+    if not ok:
+        return mission
     stream_entry(meta, "imu")["restamped"] = moved
     set_span(meta, "imu", restamped)
-    warnings.warn(f"imu: {mission.imu.source}: {note}", RuntimeWarning, stacklevel=3)
     return dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=restamped))
 
 

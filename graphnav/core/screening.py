@@ -353,9 +353,8 @@ def awaits_packet_cycles(steps, period_s: float) -> bool:
     :data:`IMU_PACKET_STEPS` not reached: a rate measured now would be the packets' inner step (packets of 4 or 5
     samples gave two cycles in a spike test's eleven stamps and read 100 kHz)."""
     d = np.asarray(steps, float)
-    short = BURST_STEP_SHARE * period_s
-    n_long = int(np.sum(d >= short))
-    return 0 < n_long < 3 and float(np.min(d)) < short and d.size < IMU_PACKET_STEPS
+    long = d > 2.0 * float(np.median(d))
+    return 0 < int(np.sum(long)) < 3 and float(np.median(d[~long])) < 0.5 * period_s and d.size < IMU_PACKET_STEPS
 
 
 def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
@@ -372,55 +371,107 @@ def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
     return bool(np.mean(np.abs(cycles - cycle) <= 0.5 * cycle) >= 0.8)
 
 
+#: A share of an IMU's steps at least this large under :data:`BURST_STEP_SHARE` of its configured period, with
+#: regular longer steps between them (:func:`in_packets`), is packets whatever the median step: packets of 2 make as
+#: many short steps as long ones, and their median fell between them (read as even) or on either side as the log
+#: was cut.
+PACKET_SHORT_SHARE = 1.0 / 3.0
+
+
+def _long_step_limit(d: np.ndarray, med: float, expected_s: float | None, tolerance: float) -> float:
+    """The step (s) over which one of an IMU's positive steps ``d`` (s; ``med`` their median, or the quantised
+    period) ends a packet or burst: twice the median when :func:`in_packets` or :data:`IMU_BURST_SHARE` says so, a
+    tenth of the ``expected_s`` period when :data:`PACKET_SHORT_SHARE` of the steps are that short
+    (:func:`in_packets` over the longer ones, whose median is over 1.5 periods: a stream half even, half in packets
+    is no packets of its even steps); inf for even stamps (a median within ``tolerance`` of
+    ``expected_s`` is even whatever the long steps: gaps and stutters)."""
+    long = d > 2.0 * med
+    packets = in_packets(d, long)
+    if expected_s is not None:
+        limit = BURST_STEP_SHARE * expected_s
+        ends = d > limit        # a packet's long step spans all but its samples' short ones: over 1.5 periods
+        if (not packets and np.mean(~ends) >= PACKET_SHORT_SHARE and in_packets(d, ends)
+                and np.median(d[ends]) > 1.5 * expected_s):
+            return limit
+        if abs(med - expected_s) <= tolerance * expected_s:
+            return math.inf
+    if not packets and (np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long)):
+        return math.inf
+    return 2.0 * med
+
+
+def _positive_steps(steps) -> tuple[np.ndarray, float]:
+    """The positive finite ``steps`` (s) and their median, or the mean one-period step of stamps quantised coarser
+    than a tenth of it (:func:`imu_stamp_quantum`), s."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d) & (d > 0.0)]
+    if not d.size:
+        return d, math.nan
+    med = float(np.median(d))
+    quantum = imu_stamp_quantum(d)
+    return d, _quantised_period(d, med, quantum) if quantum else med
+
+
+def imu_packet_limit(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05) -> float:
+    """The step (s) over which one of an IMU's ``steps`` (s) ends a packet or burst, by the rule
+    :func:`imu_step_stats` measures them with (``expected_s``, ``tolerance``: the configured period and how near a
+    median step confirms it); inf for even stamps or none."""
+    d, med = _positive_steps(steps)
+    return _long_step_limit(d, med, expected_s, tolerance) if d.size else math.inf
+
+
 def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
                    ) -> tuple[float, float]:
     """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
     out), s: for even stamps both are the median step, for stamps quantised coarser than a tenth of it
-    (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in bursts (:data:`IMU_BURST_SHARE`) the period is
-    the mean step without the gaps (so the rate is samples over time) and the cycle the median long step, the
-    longest step a gap is not. A median step within ``tolerance`` (relative) of the ``expected_s`` period (the
-    configured one) is that period whatever the long steps: they are gaps and stutters, not bursts (a start with four
-    0.2 s hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
-    d = np.abs(np.asarray(steps, float))
-    d = d[np.isfinite(d) & (d > 0.0)]
+    (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in packets or bursts (the long steps of
+    :func:`imu_packet_limit` end them) the period is the mean step without the gaps (so the rate is samples over
+    time) and the cycle the median time from a packet's last stamp to the next's (its long step alone leaves out
+    the time inside a packet: packets of 10 0.6 ms apart read 9). A median step within ``tolerance`` (relative) of
+    the ``expected_s`` period (the configured one) is that period whatever the long steps, unless a share of the
+    steps under a tenth of it makes packets: they are gaps and stutters, not bursts (a start with four 0.2 s
+    hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
+    d, med = _positive_steps(steps)
     if not d.size:
         return math.nan, math.nan
-    med = float(np.median(d))
-    quantum = imu_stamp_quantum(d)
-    if quantum:
-        med = _quantised_period(d, med, quantum)
-    long = d > 2.0 * med
-    if expected_s is not None and abs(med - expected_s) <= tolerance * expected_s:
+    long = d > _long_step_limit(d, med, expected_s, tolerance)
+    if not np.any(long):
         return med, med
-    if not in_packets(d, long) and (np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long)):
-        return med, med
-    cycle = float(np.median(d[long]))
     ends = np.flatnonzero(long)
+    between = np.diff(np.cumsum(d)[ends])
+    cycle = float(np.median(between if between.size else d[long]))
     whole = d[ends[0] + 1:ends[-1] + 1] if ends.size >= 2 else d      # whole bursts: a cut one biases a short count
     return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
 
 
-def restamp_packets(t: np.ndarray, period_s: float, after: float = -math.inf) -> np.ndarray:
-    """IMU stamps ``t`` (s, increasing) with each run of samples stamped together (steps under
-    :data:`BURST_STEP_SHARE` of ``period_s``, s: a packet or burst stamped on receipt) spread backward from the run's
-    last stamp (the receipt: its samples were measured before it) at ``period_s``, so that each sample's stamp is the
-    start of its own interval again; a run with too little room after the one before it (or ``after``, s) is spread
-    evenly over that room. A sample alone keeps its stamp, bit for bit (gaps stay gaps)."""
+def restamp_packets(t: np.ndarray, period_s: float, limit_s: float, after: float = -math.inf) -> np.ndarray:
+    """IMU stamps ``t`` (s, increasing) with each packet (a run of samples whose steps are at most ``limit_s``, s,
+    :func:`imu_packet_limit`: a packet or burst stamped on receipt) spread backward from its last stamp (the receipt:
+    its samples were measured before it) at ``period_s`` (s), so that each sample's stamp is the start of its own
+    interval again; a run with too little room after the one before it (or ``after``, s) is spread evenly over that
+    room. A sample alone keeps its stamp, bit for bit (gaps stay gaps)."""
     t = np.asarray(t, float)
     if not t.size:
         return t.copy()
-    ends = np.r_[np.flatnonzero(~(np.diff(t) < BURST_STEP_SHARE * period_s)), t.size - 1]
+    ends = np.r_[np.flatnonzero(np.diff(t) > limit_s), t.size - 1]
     run = np.searchsorted(ends, np.arange(t.size))
     step = np.minimum(period_s, np.diff(np.r_[after, t[ends]]) / np.diff(np.r_[-1, ends]))
     back = ends[run] - np.arange(t.size)
     return np.where(back > 0, t[ends][run] - back * step[run], t)
 
 
-def packets_note(k: int, cycle_s: float, period_s: float, which: str) -> str:
+def packets_note(k: int, cycle_s: float, period_s: float, which: str | None) -> str:
     """What restamping an IMU in packets of ``k`` every ``cycle_s`` (s) at ``period_s`` (s) did to ``which`` stamps
-    (a stream note and a warning)."""
-    return (f"stamped in packets of {k} (every {1e3 * cycle_s:.4g} ms; a driver stamping samples on receipt): "
-            f"{which} restamped at the period {1e3 * period_s:.4g} ms, each packet spread back from its last stamp")
+    (a stream note and a warning); ``which`` None: the stamps were left as read, since restamped they were not on
+    the period."""
+    found = (f"stamped in packets of {k} (every {1e3 * cycle_s:.4g} ms; a driver stamping samples on receipt): "
+             f"{which or 'no stamps'} restamped at the period {1e3 * period_s:.4g} ms")
+    if which is None:
+        return found + (": spread back from each packet's last stamp they are not on that period, so they are "
+                        "integrated as read")
+    return found + (", each packet spread back from its last stamp, taken as its last sample's (a driver stamping "
+                    f"a packet's first sample leaves them {k - 1} period{'s' * (k > 2)}, {1e3 * (k - 1) * period_s:.4g} ms, "
+                    "early)")
 
 
 def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: float = 0.05) -> float:
@@ -878,17 +929,32 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
         return kept, dropped
+    packets = stamped_in_packets(t[kept])
     if not repair:
         i = kept[bad[0] + 1]
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
         raise DataError(f"time stamp {kind} ({float(t[kept[bad[0]]])!r} s then {float(t[i])!r} s); {bad.size} such "
-                        "line(s); pass repair=True (command line: --repair-stamps) to drop duplicates and sort",
-                        source, int(lines[i]), field)
+                        f"line(s){packets}; pass repair=True (command line: --repair-stamps) to drop duplicates and "
+                        "sort", source, int(lines[i]), field)
     kept = kept[np.argsort(t[kept], kind="stable")]
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
-                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted)", stacklevel=3)
+                  f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}
+
+
+def stamped_in_packets(t: np.ndarray) -> str:
+    """What a file's stamps ``t`` (s, in file order) say when most of them repeat in runs, each run its own
+    stamp at a regular cycle (a driver stamping a packet of samples together on receipt: one stamp for 10 samples
+    of a 100 Hz IMU, or 4 samples of a 400 Hz IMU logged in whole ms), for a duplicated-stamp message; "" else."""
+    stamps, counts = np.unique(np.asarray(t, float), return_counts=True)
+    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
+        return ""
+    k, cycle = int(np.median(counts)), float(np.median(np.diff(stamps)))
+    return (f"; the stamps repeat in runs of {k} about every {1e3 * cycle:.4g} ms: packets of samples stamped "
+            f"together on receipt, a sample every {1e3 * cycle / k:.4g} ms; dropping the repeats loses "
+            f"{(k - 1) / k:.0%} of the samples: give each sample its own stamp (its packet's stamp less the periods "
+            "after it)")
 
 
 def first_lines(lines: np.ndarray) -> str:

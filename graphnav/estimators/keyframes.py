@@ -56,8 +56,8 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, awaits_packet_cycles, imu_stamp_quantum, imu_step_stats, packets_note, restamp_packets,
-    start_burst, start_burst_warning)
+    BURST_STEP_SHARE, awaits_packet_cycles, imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note,
+    restamp_packets, start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -242,9 +242,14 @@ class PacketStamps:
     make zero-length steps then one k periods long. Its first :data:`IMU_RATE_STEPS` steps (or three packet cycles,
     :func:`~graphnav.core.screening.awaits_packet_cycles`; a burst it starts with left out,
     :func:`~graphnav.core.screening.start_burst`) decide, by :func:`~graphnav.core.screening.imu_step_stats`;
-    they and every sample of an IMU that is no packets pass with their own stamps. Then a packet's samples are held
-    until it holds a cycle's samples (round(cycle / period)), so that a full packet leaves when its last sample
-    arrives, as before (no latency added); a shorter one leaves at the next long step, one cycle later."""
+    they and every sample of an IMU that is no packets pass with their own stamps. Then a packet ends at the next
+    long step (:func:`~graphnav.core.screening.imu_packet_limit`) and leaves restamped, spread back from its last
+    stamp; one as large as the largest so far leaves with its last sample (no latency added for packets of one
+    size), a smaller one with the next packet's first sample (up to one cycle later). Samples of a packet beyond
+    the largest so far follow it at the period. :data:`IMU_RATE_STEPS` packets of one sample in a row: the stream
+    no longer comes in packets, and its samples pass as received again."""
+
+    AT_LARGEST = False
 
     def __init__(self, configured_s: float):
         self.configured_s = configured_s
@@ -253,7 +258,9 @@ class PacketStamps:
         self.restamped = 0              # samples given another stamp
         self.note: str | None = None    # what was found, once decided in packets
         self._steps: list[float] | None = []
-        self._k = 0
+        self._k = self._in_packet = self._singles = 0      # largest packet, samples of this one, one-sample packets
+        self._limit = math.inf          # steps over it end a packet, s
+        self._passing = False           # the packet it was decided in, passing as received
         self._held: list[tuple[float, tuple, tuple]] = []
         self._last = self._out = -math.inf      # newest stamp received, and let out
 
@@ -261,23 +268,41 @@ class PacketStamps:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
         before ``after`` (s: what the caller has let go of already)."""
         last, self._last = self._last, t
-        short = t - last < BURST_STEP_SHARE * (self.period_s or self.configured_s)
-        if not self.period_s or (short and self._out == last):     # the packet it was decided in ends as it began
+        long = t - last > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
+        self._passing = self._passing and not long
+        if not self.period_s or self._passing:          # the packet it was decided in ends as it began
             if self._steps is not None and t > last > -math.inf:
                 self._decide(t - last)
             self._out = t
             return [(t, f, w)]
-        out = self.flush(after) if self._held and not short else []
+        out = self._packet_ended(after) if long else []
+        if not self.period_s:                   # turned clean
+            self._out = t
+            return out + [(t, f, w)]
         self._held.append((t, f, w))
+        self._in_packet += 1
         return out + self.flush(after) if len(self._held) >= self._k else out
 
+    def _packet_ended(self, after: float) -> list[tuple[float, tuple, tuple]]:
+        """The held samples of the packet a long step ended, restamped; the largest packet and the one-sample
+        packets in a row updated (:data:`IMU_RATE_STEPS` of them: no packets any more)."""
+        out = self.flush(after)
+        self._k = max(self._k, self._in_packet)
+        self._singles = self._singles + 1 if self._in_packet == 1 else 0
+        self._in_packet = 0
+        if self._singles >= IMU_RATE_STEPS:
+            self.period_s, self._steps = 0.0, None
+        return out
+
     def flush(self, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
-        """The held samples restamped (the end of the data ends their packet), none at or before ``after`` (s)."""
+        """The held samples restamped as one packet (the end of the data ends it), none at or before ``after``
+        (s); those that follow a part of their packet let out already at the period after it."""
         held, self._held = self._held, []
         if not held:
             return []
-        t = restamp_packets(np.array([s[0] for s in held]), self.period_s, max(self._out, after))
-        self.restamped += int(np.sum(t != [s[0] for s in held]))
+        received = np.array([s[0] for s in held])
+        t = restamp_packets(received, self.period_s, math.inf, max(self._out, after))
+        self.restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
 
@@ -289,8 +314,9 @@ class PacketStamps:
             return
         self._steps = None
         period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
-        if cycle > period and min(steps) < BURST_STEP_SHARE * period:
-            self.period_s, self._k = period, round(cycle / period)
+        limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
+        if cycle > period and limit < period:
+            self.period_s, self._k, self._limit, self._passing = period, round(cycle / period), limit, True
             self.note = packets_note(self._k, cycle, period, f"stamps after t = {self._last:.3f} s (counted in "
                                      "imu_restamped)")
 
