@@ -199,3 +199,32 @@ def test_an_imu_stamped_in_packets_is_put_back_on_its_period(k, spacing_s, tmp_p
     assert "restamped" not in even.meta["streams"]["imu"]
     as_written = np.loadtxt(written / "IMU_trajectory1.csv", delimiter=",", skiprows=1)[:, 0]
     np.testing.assert_array_equal(even.imu.t, as_written)
+
+
+@pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])
+def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate_hz, k, quantum_s, tmp_path):
+    """An A-KIT folder whose IMU packets share one stamp (10 samples to a stamp at 100 Hz; a 400 Hz IMU in packets of
+    4 logged in whole ms) was refused (duplicated stamps), and with repair=True refused again once k - 1 in k samples
+    were dropped ("check the units and the configuration's sensor ranges"). It loads now, with or without repair,
+    every sample kept, its stamps back on the period (within the logging's rounding), warned once and counted."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.io.export import write_akit
+    clean = simulate_mission(duration_s=20.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=rate_hz))
+    t = clean.imu.t
+    i = np.arange(t.size)
+    shared = t[np.minimum(i // k * k + k - 1, t.size - 1)]
+    shared = np.round(shared / quantum_s) * quantum_s if quantum_s else shared
+    path = write_akit(clean, tmp_path)["IMU"]
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0]] + [f"{float(s)!r}{line[line.index(','):]}" for s, line in zip(shared, lines[1:])])
+                    + "\n")
+    for repair in (False, True):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(path.parent, repair=repair)
+        said = [str(w.message) for w in caught if "stamped in packets" in str(w.message)]
+        assert len(said) == 1 and said[0].startswith(f"imu: {path}: stamped in packets of {k} ")
+        np.testing.assert_allclose(m.imu.t, t, rtol=0, atol=0.51 * quantum_s + 1e-9)
+        entry = m.meta["streams"]["imu"]
+        assert entry["restamped"] == np.sum(shared != m.imu.t) > 0.7 * t.size and not entry["refused"]
+        assert m.config.imu_rate_hz == pytest.approx(rate_hz, rel=1e-3)

@@ -1140,8 +1140,9 @@ def test_a_navigator_fed_an_imu_in_packets_estimates_as_from_its_clean_stream(mi
 
 
 def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
-    """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz): the duplicated-stamp error and its
-    repair (which drops nine in ten) now name the packets and the samples the repair loses."""
+    """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz) in a file read as no IMU's (an IMU's
+    are restamped: the next test): the duplicated-stamp error and its repair (which drops nine in ten) name the
+    packets and the samples the repair loses."""
     from graphnav.core.errors import DataError
     from graphnav.core.screening import stamp_order
     true = np.arange(600) * 0.01
@@ -1156,3 +1157,72 @@ def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
     with pytest.raises(DataError) as raised:
         stamp_order(clean, np.c_[clean, np.arange(601.0)], np.arange(601) + 2, "imu.csv", "t", repair=False)
     assert "runs of" not in str(raised.value)
+
+
+def test_an_imu_whose_packets_share_one_stamp_is_restamped_and_a_few_duplicates_are_still_refused():
+    """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz, or a 400 Hz IMU in packets of 4
+    logged in whole ms, or the same in ms): the IMU's file was refused as duplicated stamps, its repair dropped k - 1
+    in k samples and then refused the stream for the units and sensor ranges. The IMU's stamps are now spread back
+    from each packet's stamp at the period, warned about and counted; a few duplicates in an even file, repeats at
+    no regular cycle and another stream's packets are refused as before, and a repair losing most of a stream says
+    to check its stamps."""
+    from graphnav.core.screening import check_refused_fraction, stamp_order
+    from graphnav.io.units import time_scale
+    for period, k, quantum, cycle in ((0.01, 10, 0.0, 100), (0.0025, 4, 1e-3, 10)):
+        true = 100.0 + np.arange(2000) * period
+        t = true[np.arange(2000) // k * k + k - 1]
+        t = np.round(t / quantum) * quantum if quantum else t
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=rf"^imu: imu.csv: stamped in packets of {k} \(every {cycle} ms; .*: "
+                                                rf"{2000 - 2000 // k} of 2000 stamps \(each packet's samples shared"):
+            kept, dropped, stamps = stamp_order(t, np.c_[t, np.arange(2000.0)], np.arange(2000) + 2, "imu.csv", "t",
+                                                False, meta, "imu")
+        assert np.array_equal(kept, np.arange(2000)) and not dropped
+        np.testing.assert_allclose(stamps, true, rtol=0, atol=0.51 * quantum + 1e-9)    # the rounding
+        assert meta["streams"]["imu"]["restamped"] == 2000 - 2000 // k
+        assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(1 / period)
+        assert time_scale(t * 1e3, "imu", "imu.csv") == (1e-3, "ms")        # the period, not the cycle or zero
+    true = np.arange(600) * 0.01
+    t = true[np.arange(600) // 10 * 10 + 9]
+    with pytest.raises(DataError, match="repeat in runs of 10"):       # a DVL's or GT's repeated stamps
+        stamp_order(t, np.c_[t, np.arange(600.0)], np.arange(600) + 2, "dvl.csv", "t", False, {}, "dvl")
+    clean = np.r_[true[:300], true[299], true[300:]]
+    irregular = np.repeat(np.cumsum(np.random.default_rng(0).uniform(0.01, 0.2, 200)), 3)
+    for bad in (clean, irregular):
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(bad, np.c_[bad, np.arange(bad.size)], np.arange(bad.size) + 2, "imu.csv", "t", False, {}, "imu")
+    meta = {"streams": {"imu": {"read": 600, "refused": {}, "source": "imu.csv"}}}
+    with pytest.warns(UserWarning, match="400 duplicated"):
+        dropped = stamp_order(irregular, np.c_[irregular, np.arange(600.0)], np.arange(600) + 2, "imu.csv", "t",
+                              True, meta, "imu")[1]
+    meta["streams"]["imu"]["refused"] = dropped
+    with pytest.raises(DataError, match="check the file's stamps: many rows share each one") as raised:
+        check_refused_fraction(meta)
+    assert "sensor ranges" not in str(raised.value)
+
+
+def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():
+    """A stream whose packets share one stamp: every sample but a packet's first was refused downstream as a
+    duplicate stamp (the steps between distinct stamps read as an even IMU at the cycle). Once four whole packets show
+    it, each packet leaves spread back from its stamp at the period, as its last sample arrives; a clean stream with
+    one duplicated stamp is passed as received."""
+    from graphnav.estimators.keyframes import PacketStamps
+    for period, k in ((0.01, 10), (0.01, 20), (0.0025, 4)):
+        true = 50.0 + np.arange(3000) * period
+        stamps = true[np.arange(3000) // k * k + k - 1]
+        packets, out = PacketStamps(period), []
+        for i, t in enumerate(stamps):
+            left = packets.add(float(t), (i,), ())
+            assert not left or i % k == k - 1 or len(left) == 1       # a whole packet leaves with its last sample
+            out += left
+        out += packets.flush()
+        t_out = np.array([s[0] for s in out])
+        first = 6 * k                               # four to decide, the one deciding, the one passing as received
+        assert [s[1] for s in out] == [(i,) for i in range(3000)] and np.all(np.diff(t_out[first:]) > 0)
+        np.testing.assert_allclose(t_out[first:], true[first:], rtol=0, atol=1e-9)
+        assert packets.period_s == pytest.approx(period) and f"packets of {k} " in packets.note
+    true = np.arange(3000) * 0.01
+    clean = np.r_[true[:300], true[299], true[300:]]
+    packets = PacketStamps(0.01)
+    passed = [s[0] for t in clean for s in packets.add(float(t), (), ())] + packets.flush()
+    assert np.array_equal(passed, clean) and packets.restamped == 0 and packets.note is None

@@ -48,7 +48,7 @@ import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note, count_refused, stream_entry
+from graphnav.core.streams import add_note, count_refused, set_span, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
 #: A larger stamp is a unit error (micro/nanoseconds read as seconds) or a decoding error, never a time.
@@ -884,8 +884,12 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> N
             reasons = ", ".join(f"{n} {r}" for r, n in ranked)
             column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
             where = "the units, the column map" if meta.get("format") == "csv" else "the units"
+            check = f"{where} and the configuration's sensor ranges"
+            if ranked[0][0] in (REPAIRED_STAMP, EXACT_COPY):     # the values were never judged: the stamps are wrong
+                check = ("the file's stamps: many rows share each one (two streams written into one file, or a "
+                         "driver stamping packets of samples together on irregular receipts)")
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
-                            f"{limit:.0%} of the stream; check {where} and the configuration's sensor ranges",
+                            f"{limit:.0%} of the stream; check {check}",
                             entry.get("source") or stream,
                             field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
 
@@ -905,17 +909,19 @@ EXACT_COPY = "repeats an earlier row exactly"
 REPAIRED_STAMP = "duplicated stamp (repair)"
 
 
-def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool
-                ) -> tuple[np.ndarray, dict[str, int]]:
-    """``(indices of the rows kept, in time order; {reason: rows dropped})`` of a file's stamps ``t`` (N,) s and
-    its rows as read ``rows`` (N,k), ``lines`` their file lines.
+def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool,
+                meta: dict | None = None, stream: str = "") -> tuple[np.ndarray, dict[str, int], np.ndarray]:
+    """``(indices of the rows kept, in time order; {reason: rows dropped}; their stamps, s)`` of a file's stamps
+    ``t`` (N,) s and its rows as read ``rows`` (N,k), ``lines`` their file lines.
 
     A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
-    twice (a logger flushing its buffer again): dropped with a warning. The rest must increase strictly; else,
-    with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
-    with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out
-    (``--repair-stamps``): one stamp on two different rows can be two streams written into one file."""
-    t, rows = np.asarray(t, float), np.asarray(rows, float)
+    twice (a logger flushing its buffer again): dropped with a warning. An IMU's (``stream`` "imu") packets sharing
+    one stamp (:func:`shared_stamp_packets`) are restamped at the period (:func:`restamp_shared_stamps`, noted in
+    ``meta``). The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp
+    repeats an earlier one dropped (the first kept), with a warning; without it a DataError naming ``source``, the
+    line, ``field`` and the way out (``--repair-stamps``): one stamp on two different rows can be two streams
+    written into one file."""
+    t, rows = np.asarray(t, float).copy(), np.asarray(rows, float)
     order = np.argsort(t, kind="stable")
     a, b = rows[order][:-1], rows[order][1:]
     same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
@@ -925,10 +931,12 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
+    if stream == "imu":
+        t[kept] = restamp_shared_stamps(t[kept], source, meta)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
-        return kept, dropped
+        return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
         i = kept[bad[0] + 1]
@@ -940,7 +948,47 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
-    return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}
+    return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
+    """``(k, cycle s, period s)`` of IMU stamps ``t`` (s, file order) that come in packets sharing one stamp (a
+    driver stamping each read of k samples with its receipt, or a 400 Hz IMU in packets of 4 logged in whole ms):
+    never decreasing, half of the distinct stamps or more repeated, the steps between them a regular cycle (most
+    within half of their median: gaps have any length); the period is samples over time, steps over
+    :data:`IMU_BURST_GAP_CYCLES` cycles left out. None else: a few repeated stamps in an even file are no packets."""
+    t = np.asarray(t, float)
+    if t.size < 2 or np.any(np.diff(t) < 0):
+        return None
+    stamps, counts = np.unique(t, return_counts=True)
+    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
+        return None
+    d = np.diff(stamps)
+    cycle = float(np.median(d))
+    if np.mean(np.abs(d - cycle) <= 0.5 * cycle) < 0.8:
+        return None
+    # each step holds the samples of the packet it ends: they were measured since the stamp before
+    inside = d <= IMU_BURST_GAP_CYCLES * cycle
+    return int(np.median(counts)), cycle, float(np.sum(d[inside]) / np.sum(counts[1:][inside]))
+
+
+def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:
+    """IMU stamps ``t`` (s, file order) whose packets share one stamp (:func:`shared_stamp_packets`) with each
+    packet spread back from its stamp at the period (:func:`restamp_packets`), warned about and noted once, their
+    count in ``meta["streams"]["imu"]["restamped"]``; else ``t`` as given. Left as read, every sample but one of a
+    packet was a duplicated stamp: the file was refused, and its repair dropped k - 1 in k samples."""
+    packets = shared_stamp_packets(t)
+    if packets is None:
+        return t
+    k, cycle, period = packets
+    restamped = restamp_packets(t, period, 0.0)
+    moved = int(np.sum(restamped != t))
+    note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
+    warnings.warn(f"imu: {source}: {note}", RuntimeWarning, stacklevel=4)
+    if meta is not None:
+        add_note(meta, "imu", note)["restamped"] = moved
+        set_span(meta, "imu", restamped)
+    return restamped
 
 
 def stamped_in_packets(t: np.ndarray) -> str:

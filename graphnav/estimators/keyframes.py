@@ -57,7 +57,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
     BURST_STEP_SHARE, awaits_packet_cycles, imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note,
-    restamp_packets, start_burst, start_burst_warning)
+    restamp_packets, shared_stamp_packets, start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -263,6 +263,7 @@ class PacketStamps:
         self._passing = False           # the packet it was decided in, passing as received
         self._held: list[tuple[float, tuple, tuple]] = []
         self._last = self._out = -math.inf      # newest stamp received, and let out
+        self._ties: list[float] = []    # the stamps while undecided, once one repeats (packets sharing one stamp?)
 
     def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
@@ -271,7 +272,9 @@ class PacketStamps:
         long = t - last > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
         self._passing = self._passing and not long
         if not self.period_s or self._passing:          # the packet it was decided in ends as it began
-            if self._steps is not None and t > last > -math.inf:
+            if self._steps is not None and (t == last or self._ties):
+                self._decide_shared(t, last)
+            elif self._steps is not None and t > last > -math.inf:
                 self._decide(t - last)
             self._out = t
             return [(t, f, w)]
@@ -305,6 +308,23 @@ class PacketStamps:
         self.restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
+
+    def _decide_shared(self, t: float, last: float) -> None:
+        """Decide on the stamps so far once one repeats: packets sharing one stamp when
+        :func:`~graphnav.core.screening.shared_stamp_packets` says so over the whole packets received, four stamps or
+        more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
+        downstream), a packet ending at any step; else the steps decide."""
+        self._ties = self._ties or [last]
+        whole = self._ties[1:] if t > last else []          # the first may be the end of a packet
+        self._ties.append(t)
+        packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
+        if packets is not None:
+            self._k, cycle, self.period_s = packets
+            self._steps, self._ties, self._limit, self._passing = None, [], 0.0, True
+            self.note = packets_note(self._k, cycle, self.period_s, f"stamps after t = {t:.3f} s (packets sharing "
+                                     "one stamp; counted in imu_restamped)")
+        elif t > last:
+            self._decide(t - last)
 
     def _decide(self, dt: float) -> None:
         self._steps.append(dt)

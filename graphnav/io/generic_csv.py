@@ -247,12 +247,12 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     if unit is not None:
         _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
     t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines)
-    kept, dropped = stamp_order(t, values, lines, str(path), spec["t"], repair)
+    kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read
         for reason, n in dropped.items():
             count_refused(meta, stream, reason, n)
-    t, values, lines = t[kept], values[kept], lines[kept]
+    t, values, lines = t_kept, values[kept], lines[kept]
     out, j = {}, 1
     for key, cols in names.items():
         if cols:

@@ -302,10 +302,12 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
             entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
-    kept, dropped = stamp_order(data[:, 0], data, line_no, source, columns[0], repair)
+    kept, dropped, t = stamp_order(data[:, 0], data, line_no, source, columns[0], repair, meta, stream)
     for reason, n in dropped.items() if meta is not None else ():
         count_refused(meta, stream, reason, n)
-    return (data[kept], line_no[kept]) if with_lines else data[kept]
+    data = data[kept]
+    data[:, 0] = t
+    return (data, line_no[kept]) if with_lines else data
 
 
 def _empty_as_nan(line: str, columns: list[int]) -> str:

@@ -142,9 +142,10 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
         return 1.0, "s"
     step = np.diff(t)
     med = float(np.median(step))
-    if stream == "imu" and med > 0:     # packets stamped on receipt: 0.01 ms steps, yet a 10 ms period
-        from graphnav.core.screening import imu_step_stats
-        med = imu_step_stats(step)[0]
+    if stream == "imu":     # packets stamped on receipt: 0.01 ms steps or one stamp each, yet a 10 ms period
+        from graphnav.core.screening import imu_step_stats, shared_stamp_packets
+        packets = shared_stamp_packets(t)
+        med = packets[2] if packets else imu_step_stats(step)[0] if med > 0 else med
     lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
     if declared is not None:
         if declared not in TIME_SCALES:
