@@ -1215,6 +1215,31 @@ def _row_twice(d):
     return np.insert(d, len(d) // 2, d[len(d) // 2], axis=0)
 
 
+def _in_packets(k: int, spacing_s: float = 1e-5):
+    """IMU rows stamped as a driver reading ``k`` samples at a time stamps them on receipt: each packet at its last
+    sample's stamp, ``spacing_s`` apart (0: one stamp shared by the packet)."""
+    def edit(d):
+        last = np.minimum((np.arange(len(d)) // k + 1) * k - 1, len(d) - 1)
+        d[:, 0] = d[last, 0] - spacing_s * (last - np.arange(len(d)))
+        return d
+    return edit
+
+
+def _stream_in_packets(k: int):
+    """A stream edit: the IMU records stamped in packets of ``k`` (:func:`_in_packets`, 0.01 ms apart)."""
+    import json
+
+    def edit(lines):
+        rows = [i for i, line in enumerate(lines) if '"type":"imu"' in line]
+        records = [json.loads(lines[i]) for i in rows]
+        t = _in_packets(k)(np.array([[r["t"]] for r in records], float))[:, 0]
+        for i, r, stamp in zip(rows, records, t):
+            r["t"] = float(stamp)
+            lines[i] = json.dumps(r, separators=(",", ":"))
+        return lines
+    return edit
+
+
 def _without_gt(edit_dvl):
     """A damage that leaves the folder as a vehicle has it (no GT file) and edits its DVL file."""
     def damage(folder: Path) -> None:
@@ -1292,6 +1317,8 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("IMU: a stamp of 0 mid-file", "smooth", E + W, _damage("IMU", _zero_stamp)),
     _sim("IMU: a duplicated stamp", "smooth", E + W, _damage("IMU", _dup_stamp)),
     _sim("IMU: a row written twice", "smooth", W, _damage("IMU", _row_twice)),
+    _sim("IMU: stamped in packets of 10 on receipt (0.01 ms apart)", "smooth", W, _damage("IMU", _in_packets(10))),
+    _sim("IMU: packets of 10 sharing one stamp", "smooth", W, _damage("IMU", _in_packets(10, 0.0))),
     _sim("IMU: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
     _sim("IMU: an infinite gyro cell", "smooth", W, _damage("IMU", _set(_imu_row, 5, np.inf))),
     _sim("IMU: gyro 57.3x too small (converted to rad/s twice)", "smooth", E,
@@ -1322,6 +1349,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     # the live stream
     _stream("stream: one DVL beam of 1e6 m/s", W, _edit_record("dvl", 50, lambda r: r["beams"].__setitem__(1, 1e6))),
     _stream("stream: config line not the first line", E + W, _config_not_first),
+    _stream("stream: IMU stamped in packets of 10 on receipt", W, _stream_in_packets(10)),
     _stream("stream: a stamp of 1e300", W, _edit_record("imu", 3000, lambda r: r.__setitem__("t", 1e300))),
     CliCase("stream: --stream on a missing file", "online --stream FILE", E, _missing_stream,
             "online stream: clean"),
@@ -1342,6 +1370,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _real("real: 60 s of DVL rows deleted", "smooth", W + D, _damage("DVL", _delete_rows(40.0, 100.0))),
     _real("real: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
     _real("real: IMU stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
+    _real("real: IMU stamped in packets of 10 on receipt", "smooth", W, _damage("IMU", _in_packets(10))),
     _real("real: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
     # the shared real trajectory as a vehicle has it: IMU and DVL only (the DVL checked against the IMU alone)
     _real("real, no GT: DVL velocities in cm/s", "smooth", E, _without_gt(_scale_cols(_DVL_XYZ, 100.0))),
