@@ -86,10 +86,11 @@ def test_an_earth_frame_velocity_is_refused_undeclared_and_turned_back_declared(
         np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-8)
 
 
-def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01):
+def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01, sideways=False):
     """A level-ish vehicle at ``speed`` m/s through the water, turning at up to 3 deg/s, in a steady ``current`` m/s:
     the IMU (100 Hz, samples the increments over each step) and the DVL's body-frame velocity over the ground (1 Hz,
-    ``noise`` m/s), exact kinematics. Returns (t_imu, f_b, omega_b, t_dvl, v_b)."""
+    ``noise`` m/s), exact kinematics; ``sideways``: moving along its y (a crabbing ROV). Returns (t_imu, f_b,
+    omega_b, t_dvl, v_b)."""
     from scipy.spatial.transform import Rotation
 
     from graphnav.core.rotations import euler_to_C_b_n
@@ -111,6 +112,7 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01):
                               np.deg2rad(3.0) * np.sin(2 * np.pi * t / 41 + ph[1]), heading + ph[2])
     C = attitude(t)
     through_water = np.stack([speed + 0.05 * np.sin(2 * np.pi * t / 53 + ph[3]), 0.0 * t, 0.0 * t], axis=1)
+    through_water = through_water[:, [1, 0, 2]] if sideways else through_water
     v_n = np.einsum("kij,kj->ki", C, through_water) + current * np.array([np.cos(ph[0]), np.sin(ph[0]), 0.0])
     omega_b = Rotation.from_matrix(np.swapaxes(C[:-1], 1, 2) @ C[1:]).as_rotvec() / dt
     f_b = np.einsum("kji,kj->ki", attitude(t[:-1] + 0.5 * dt), np.diff(v_n, axis=0) / dt - [0.0, 0.0, 9.81])
@@ -120,22 +122,52 @@ def _slow_in_current(seed, speed, current, duration=300.0, noise=0.01):
         t[ping], v_b
 
 
-@pytest.mark.parametrize("seed, speed, current", [(0, 0.3, 0.5), (1, 0.2, 1.0)])
+@pytest.mark.parametrize("seed, speed, current", [(0, 0.3, 0.5), (1, 0.2, 1.0), (2, 0.0, 0.3)])
 def test_a_slow_vehicle_in_a_current_is_kept_as_body_and_an_earth_frame_copy_still_refused(sim, tmp_path, seed,
                                                                                           speed, current):
     """A vehicle slower than the current it moves in goes over the ground much as the water does: its body-frame
     velocity turns with the gyro (turn ratio 0.2-0.6, under 1) and was refused as earth-fixed, with advice that could
-    not help. The body kinematics explain it (0.3-0.6x what they leave of it taken as earth-fixed): kept, with a
-    note. The simulated mission's NED copy is still refused, by the kinematics (4x)."""
+    not help. The body kinematics explain it (0.3-0.8x what they leave of it taken as earth-fixed): kept, with a
+    note, and nothing said about where it points (where the current carries the vehicle): 0.2 m/s in 1.0 m/s was
+    warned about as a DVL turned 270 deg, an ROV holding station in 0.3 m/s refused as an IMU turned 180 deg, both
+    judged at the best scale fit's offset, 10-19 s off the stamps the kinematics kept it at. The simulated mission's
+    NED copy is still refused, by the kinematics (4x)."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, speed, current)
     m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
-    got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
-    assert any("a vehicle slower than the current it moves in" in n for n in got.meta["streams"]["dvl"]["notes"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
+    said = [str(w.message) for w in caught]
+    # holding station, the clock fit of the given 0 s is poor and says so in a warning of its own
+    assert not [w for w in said if not (speed == 0.0 and "dvl_time_offset_s = +0.000 s is given" in w)], said
+    notes = got.meta["streams"]["dvl"]["notes"]
+    assert any("a vehicle slower than the current it moves in" in n for n in notes)
+    assert any("its mean direction not compared with the vehicle's forward" in n for n in notes)
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
     _, t_sim, v_sim = sim
     with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\)"):
         _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim)))
+
+
+def test_a_velocity_pointing_sideways_that_fits_the_imu_as_read_is_still_judged_by_its_direction(sim, tmp_path):
+    """A log whose DVL velocity points +90 deg from body x (a crabbing ROV, or a DVL turned): its fit explains 0.84,
+    too little to judge its turn, and the IMU-turn fit finds the IMU as read better than turned a quarter turn, which
+    ends no doubt about a turn under one. Its mean direction was then left unjudged and it loaded silently; it is
+    warned about and counted, the warning saying to ignore it for a vehicle that does move sideways."""
+    from graphnav.calibration import dvl_scale
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(0, 1.0, 0.0, sideways=True)
+    m_crab = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (m_crab, t, None), v_b))
+    said = [str(w.message) for w in caught]
+    assert len(said) == 1 and re.search(
+        r"dvl\.csv: field 'vx, vy, vz': the DVL velocity points \+90 deg about z from body x .*its fit explains "
+        r"0\.\d\d of the velocity's changes, 0\.9 needed; it fits the IMU as read better than turned by a quarter "
+        r"turn\).*a crabbing ROV\) ignore this", said[0]), said
+    assert got.meta["streams"]["dvl"]["doubted"] == {dvl_scale.SIDEWAYS_DOUBT: len(t)}
 
 
 @pytest.mark.parametrize("frame", ["ned", "enu", "flu"])
@@ -355,18 +387,35 @@ def test_an_akit_folder_without_gt_whose_dvl_is_turned_a_few_degrees_is_warned_a
     assert m.meta["streams"]["dvl"]["doubted"] == {dvl_scale.YAW_DOUBT: len(m.dvl.t)}
 
 
-def test_a_clean_short_piece_is_not_refused_for_a_turn_fitted_off_its_stamps_or_within_its_sigma(akit_dir, tmp_path):
-    """Trajectory3's 60 s from 120 s, clean, without GT: its best scale fit lies 18.5 s off the DVL stamps, at +28 deg
-    (r^2 0.95), and the folder was refused as turned. The turn is read at the DVL's stamps now (-10.8 +- 9.4 deg
-    there: within its sigma), and it loads; the same piece turned 45 deg is still refused."""
-    src = akit_dir / "Trajectory3"
+@pytest.mark.parametrize("deg", [12.0, 45.0])
+def test_a_short_piece_turned_beyond_10_deg_is_refused_by_the_best_fit_and_a_clean_one_loads(akit_dir, tmp_path, deg):
+    """Trajectory1's 60 s from 180 s without GT, its DVL turned 12 or 45 deg: refused as turned by the fit at the
+    best scale offset (+47.0 deg for 45). Read at the DVL's stamps and held to 3 sigmas (three 20 s windows) it
+    loaded silently. Trajectory3's clean 60 s from 120 s loads, with nothing said about the DVL."""
+    with pytest.raises(DataError, match=r"DVL_trajectory1\.csv, field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': "
+                                        r"the DVL velocity is turned \+\d\d\.\d deg about z from the IMU's axes"):
+        load_mission(_akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path / "turned", _turned(deg), 60.0, 180.0))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        load_mission(_akit_crop_without_gt(src, tmp_path / "clean", np.eye(3), 60.0, 120.0))
+        load_mission(_akit_crop_without_gt(akit_dir / "Trajectory3", tmp_path / "clean", np.eye(3), 60.0, 120.0))
     assert not [str(w.message) for w in caught if "DVL velocity" in str(w.message)]
-    with pytest.raises(DataError, match=r"DVL_trajectory3\.csv, field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': "
-                                        r"the DVL velocity is turned \+3\d\.\d deg about z"):
-        load_mission(_akit_crop_without_gt(src, tmp_path / "turned", _turned(45.0), 60.0, 120.0))
+
+
+def test_an_akit_dvl_the_gt_refuses_is_said_turned_when_the_turn_explains_it_naming_its_columns(akit_dir, tmp_path):
+    """With its GT, Trajectory1's first 200 s with the DVL turned 15 deg is refused by the 0.2 m/s RMS bound, which
+    said only "another frame (axes swapped, dvl.C_d_b) or other units" under the field "DVL X/Y/Z", while the
+    small-turn warning names the columns as the file does: the turn the fit measures is said too, with the fix, under
+    the file's column names. DVL columns x and y swapped (no turn explains them here) get the frame alone."""
+    columns = r"DVL_trajectory1\.csv, field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': "
+    src = akit_dir / "Trajectory1"
+    with pytest.raises(DataError, match=columns + r"the DVL velocity does not follow the ground truth's body velocity "
+                                      r".*other units; the turn fit finds its velocity turned \+15\.0 \+- 0\.\d deg "
+                                      r"about z from the ground truth's .*give the DVL's mounting as dvl\.C_d_b"):
+        load_mission(_akit_crop_without_gt(src, tmp_path / "turned", _turned(15.0), gt=True))
+    swapped = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    with pytest.raises(DataError, match=columns + r".*: the DVL is in another frame \(axes swapped, dvl\.C_d_b\) "
+                                      r"or other units$"):
+        load_mission(_akit_crop_without_gt(src, tmp_path / "swapped", swapped, gt=True))
 
 
 @pytest.mark.parametrize("deg", [0.0, 5.0])

@@ -219,7 +219,8 @@ def test_a_given_dvl_time_offset_of_a_log_the_dvl_clock_fit_disagrees_with_is_wa
     vehicle). It is judged against the DVL clock fit, as an A-KIT folder's is against its GT: 0.5 s and 2 s off are
     warned about naming the configuration file and counted as doubted; the right one is not. With ``clock: auto`` the
     clock search moves a DVL half a ping period or more off (2 s) on: the data decided, and only the search's own
-    warning is given (an old configuration's 0 s with a DVL days away is not doubted); 0.5 s it leaves as given."""
+    warning is given (an old configuration's 0 s with a DVL days away is not doubted), with a note naming the
+    configuration file, the key and what the search added to it (none before); 0.5 s it leaves as given."""
     data, cfg = _log(tmp_path, sim, sim.gt)
     spec = json.loads(cfg.read_text())
     spec["csv_columns"]["dvl"]["clock"] = clock
@@ -228,6 +229,11 @@ def test_a_given_dvl_time_offset_of_a_log_the_dvl_clock_fit_disagrees_with_is_wa
         m, said = _load(data, cfg)
         doubted = _doubted(said, cfg, "dvl_time_offset_s", given)
         searched = clock == "auto" and given > 1.0
+        # a DVL the search moves on has its given offset named by a note (the search's warning names no key)
+        moved_on = [n for n in m.meta["streams"]["dvl"]["notes"] if "the clock search added" in n]
+        assert bool(moved_on) == searched and (not searched or re.fullmatch(
+            rf"{re.escape(str(cfg))}: dvl_time_offset_s = \+{given:.3f} s is given; the clock search added "
+            r"-[12]\.\d{3} s to it \([+-]0\.0\d\d s used\)", moved_on[0])), moved_on
         if not given or searched:
             assert not doubted and "doubted" not in m.meta["streams"]["dvl"], doubted
             assert m.config.dvl_time_offset_s == pytest.approx(0.0, abs=0.05)

@@ -23,6 +23,7 @@ from graphnav.calibration.axes import TURN_ADVICE, mounting_text
 from graphnav.core.dvl_kinematics import WINDOW_S, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
+from graphnav.io.dvl_frame import CARRIED
 from graphnav.io.units import AKIT_DVL_FIXES, DECLARE_DVL_FIXES
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
@@ -44,10 +45,11 @@ LIKELY_UNITS = {1.943844: ("knots read as m/s (declare velocity_unit 'kn')", "in
 #: fit explains at least :data:`MIN_FLU_EXPLAINED` (the ten A-KIT: 0.001-0.076 as recorded, 13-1050 negated).
 FLU_SSE_RATIO = 3.0
 MIN_FLU_EXPLAINED = 0.5
-#: A horizontal turn between the DVL's velocity and the IMU's axes beyond this (rad; with the fit's r^2 at least
-#: :data:`MIN_SCALE_R2` and beyond :data:`YAW_SIGMAS` sigmas, at the DVL's stamps) is warned about (an A-KIT folder:
-#: refused): instrument-frame columns of a yawed DVL read as body. The nine A-KIT trajectories judged: -0.4..0.4 deg;
-#: a DVL mounted 45 deg read as body: -44.6 deg. Smaller turns: :data:`MIN_YAW_RAD`.
+#: A horizontal turn between the DVL's velocity and the IMU's axes beyond this (rad; the fit at the best scale's
+#: offset, its r^2 at least :data:`MIN_SCALE_R2`, no sigma) is warned about (an A-KIT folder: refused):
+#: instrument-frame columns of a yawed DVL read as body. The nine A-KIT trajectories judged: -0.4..0.4 deg; a DVL
+#: mounted 45 deg read as body: -44.6 deg. Read at the DVL's stamps with 3 sigmas instead, 60 s A-KIT pieces turned
+#: 12/20/45 deg went silent (30/27/14 of 60 against 23/22/12). Smaller turns: :data:`MIN_YAW_RAD`.
 MAX_YAW_RAD = np.deg2rad(10.0)
 #: A turn under :data:`MAX_YAW_RAD` is warned about (for any reader; counted as doubted) beyond this (rad) and beyond
 #: :data:`YAW_SIGMAS` times its sigma (:func:`yaw_sigma`), with r^2 at least :data:`MIN_SCALE_R2`: 5 deg puts the
@@ -60,7 +62,7 @@ MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
-#: A DVL velocity turned about z from a GT's body velocity (:func:`check_turn_against_reference`) is warned about
+#: A DVL velocity turned about z from a GT's body velocity (:func:`warn_turn_against_reference`) is warned about
 #: beyond this (rad) and :data:`YAW_SIGMAS` sigmas. The Snapir's DVL is calibrated: the ten A-KIT trajectories as
 #: recorded fit +0.01..+0.33 deg (sigma 0.04-0.10 deg, up to 8.6 of them: the residual of a calibration, which the
 #: sigma of the noise does not see), their 120 s pieces -0.17..+0.51 deg, 60 s pieces -0.23..+0.61 deg; twice the
@@ -287,7 +289,8 @@ def _forward(course: float) -> bool:
     return bool(abs(course) <= FORWARD_COURSE_RAD)          # NaN: False
 
 
-def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0) -> int | None:
+def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0,
+                  carried: bool = False) -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
     better with the IMU turned 90, 180 or 270 deg about z (:func:`imu_yaw_fit`, :data:`IMU_YAW_MIN_Q`): an IMU
@@ -296,7 +299,9 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
     both instruments. 0 when the velocity fits the IMU as read; None otherwise. A note in ``meta["streams"]["imu"]``
     when the data cannot judge (under two 20 s windows of pings, or too little change of velocity).
     ``frame["signs"]``: the ``imu_axis_signs`` applied (an A-KIT folder), whose negated x and y fix a 180 deg turn.
-    ``model``: the clock model when built already; ``offset``: s added to its DVL stamps.
+    ``model``: the clock model when built already; ``offset``: s added to its DVL stamps. ``carried``: a velocity
+    kept as body in a current (:data:`~graphnav.io.dvl_frame.CARRIED`), whose direction says nothing of the vehicle's
+    forward: a turn that fits better is refused naming both instruments.
     """
     try:
         model = model or judging_model(imu, dvl, config)
@@ -305,6 +310,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
                               "seen then only against a reference attitude")
         return
     q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offset)
+    if carried and q >= IMU_YAW_MIN_Q:
+        raise _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
     if not _forward(course):
         if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
@@ -388,13 +395,12 @@ def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
     return turn_fit(z, float(np.vdot(a, a).real), float(np.vdot(b, b).real))
 
 
-def check_turn_against_reference(reference, t_dvl: np.ndarray, dvl, lever_arm_b: np.ndarray, meta: dict,
-                                 field: str, fixes: dict, source) -> None:
+def warn_turn_against_reference(turn: tuple[float, float, float], dvl, meta: dict, field: str, fixes: dict,
+                                source) -> None:
     """Warn about, note and count (:func:`warn_small_turn`, ``fixes``: the advice) a DVL ``dvl`` whose velocity is
-    turned about z from the body velocity of ``reference`` (GT file ``source``; :func:`turn_against_reference`, the
-    pings at ``t_dvl``) beyond :data:`GT_MIN_YAW_RAD` and :data:`YAW_SIGMAS` sigmas."""
-    yaw, sigma, r2 = turn_against_reference(reference, t_dvl, dvl.v_b, lever_arm_b)
-    warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2, f"the ground truth's body velocity ({source})",
+    turned about z from the body velocity of a GT (file ``source``) by ``turn`` (:func:`turn_against_reference`'s
+    ``(yaw, sigma, r2)``) beyond :data:`GT_MIN_YAW_RAD` and :data:`YAW_SIGMAS` sigmas."""
+    warn_small_turn(dvl, meta, field, fixes, *turn, f"the ground truth's body velocity ({source})",
                     GT_MIN_YAW_RAD, GT_YAW_DOUBT, "of its horizontal velocity")
 
 
@@ -439,12 +445,16 @@ def _imu_turn_fix(yaw: int, frame: dict) -> str:
             "(imu_axis_signs only negates axes)")
 
 
-def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> DataError:
+def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float, carried: bool = False) -> DataError:
     """The DataError for a turn about z between the IMU and the DVL when the DVL velocity points forward neither as
-    read nor turned back (``course``: its mean direction, rad, NaN for none): either instrument may be the one turned,
-    each with its fix. The DVL's would be read in a frame ``d`` with ``C_d_b`` = Rz(-yaw) (v_b = C_d_b v_d)."""
+    read nor turned back (``course``: its mean direction, rad, NaN for none) or is ``carried`` by a current: either
+    instrument may be the one turned, each with its fix. The DVL's would be read in a frame ``d`` with ``C_d_b`` =
+    Rz(-yaw) (v_b = C_d_b v_d)."""
     where = (f"its mean direction {np.degrees(course):+.0f} deg from body x" if np.isfinite(course)
              else "its pings point no one way")
+    why = ("its direction says nothing of the vehicle's forward (kept as body in a current, it points where the "
+           "current carries the vehicle)" if carried else "it points forward neither as read nor turned back "
+           f"({where}: a vehicle hovering, reversing or moving sideways)")
     C_d_b = turn_about_z(yaw).T
     matrix = "[" + ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in C_d_b + 0.0) + "]"
     dvl_fix = (AKIT_DVL_FIXES["yaw"] if frame.get("signs") is not None else
@@ -452,8 +462,7 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float) -> 
                "for velocity columns; graphnav calibrate estimates it and writes both)")
     return DataError(f"the IMU's axes and the DVL velocity ({dvl.source}) are turned {yaw} deg about z against each "
                      f"other: the velocity fits the accelerometer and gyro better by {q:.3g} noise variances with the "
-                     f"IMU turned ({IMU_YAW_MIN_Q:g} needed), but it points forward neither as read nor turned back "
-                     f"({where}: a vehicle hovering, reversing or moving sideways), so the data cannot say which "
+                     f"IMU turned ({IMU_YAW_MIN_Q:g} needed), but {why}, so the data cannot say which "
                      f"instrument is turned. IMU turned against {frame['what']} ({mounting_text(turn_about_z(yaw))}): "
                      f"{_imu_turn_fix(yaw, frame)}; DVL turned (its velocity "
                      f"{(yaw + 180) % 360 - 180:+d} deg about z from the IMU's axes): {dvl_fix}", imu.source,
@@ -482,9 +491,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
-    of a few degrees beyond its sigma is warned about and counted (:data:`MIN_YAW_RAD`, :func:`warn_small_turn`); the
-    turn is read at the DVL's stamps as they stand (a clock found, given or the vehicle's), not at the best scale's
-    offset."""
+    beyond 10 deg is read at the best scale's offset (:data:`MAX_YAW_RAD`); a few degrees beyond its sigma at the DVL's
+    stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
+    :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
+    :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction."""
     from graphnav.core.dvl_kinematics import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
@@ -500,34 +510,39 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
-    scale, r2, _ = fits[best]
+    scale, r2, yaw = fits[best]
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
                         f"{_likely_unit(scale, fixes['declare'])}? {fixes['unit']}".rstrip(), dvl.source, field=field)
     dvl_turn = None
-    # the turn is read where the DVL's stamps put it: the best scale's offset, up to 20 s off a clock already found,
-    # fitted a clean 60 s piece +28 deg (Trajectory3 from 120 s, 18.5 s off)
-    yaw, sigma, r2 = _turn_at(model)
-    turned = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD and abs(yaw) > YAW_SIGMAS * sigma
+    # a velocity the body kinematics kept as body in a current points where the current carries the vehicle: its mean
+    # direction says nothing of the vehicle's forward, and it was judged on the IMU clock as it stands (offset 0)
+    carried = bool(meta.get(CARRIED))
     # a velocity its own fit finds turned, pointing forward turned back, is the DVL's (45 deg is no IMU quarter turn)
-    dvl_yawed = turned and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
+    turned = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
+    dvl_yawed = turned and not carried and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
-        offset = SCALE_OFFSETS_S[best] if np.isfinite(fits[best][1]) else 0.0
-        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset)
+        offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) and not carried else 0.0
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset, carried)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
                         f"the IMU's axes (the fit explains {r2:.2f} of its changes): columns in the instrument frame "
                         f"of a yawed DVL read as body? {fixes['yaw']}")
-    elif dvl_turn is not None:          # the DVL's own fit explains too little: the IMU-turn fit may still see it
+    elif dvl_turn:                      # the DVL's own fit explains too little: the IMU-turn fit may still see it
         warn_dvl_turned(dvl, meta, field, dvl_turn, fixes)
-    else:                               # neither fit judged the turn: only the mean direction is left
+    elif carried:
+        add_note(meta, "dvl", "its mean direction not compared with the vehicle's forward: a velocity carried by the "
+                              "current points where the current carries the vehicle")
+    elif dvl_turn is None or not r2 >= MIN_SCALE_R2:     # only the mean direction is left to judge the turn by
         why = (f"its fit explains {r2:.2f} of the velocity's changes, {MIN_SCALE_R2:g} needed" if not
-               r2 >= MIN_SCALE_R2 else f"its turn, {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg, lies "
-               f"within {YAW_SIGMAS:g} sigmas" if abs(yaw) > MAX_YAW_RAD else
-               "it fits the IMU's axes as read, whose turn about z was not judged")
+               r2 >= MIN_SCALE_R2 else "it fits the IMU's axes as read, whose turn about z was not judged") + (
+               "; it fits the IMU as read better than turned by a quarter turn" if dvl_turn == 0 else "")
         warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
-    if r2 >= MIN_SCALE_R2 and abs(yaw) <= MAX_YAW_RAD and not dvl_turn:    # not a quarter turn
+    # a few degrees are read at the DVL's stamps with their sigma: the best scale's offset, up to 20 s off, is noise
+    # for them; and a turn beyond 10 deg there that the best offset missed is said too
+    yaw, sigma, r2 = _turn_at(model)
+    if r2 >= MIN_SCALE_R2 and not turned and not dvl_turn:      # not a quarter turn
         warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:

@@ -258,14 +258,16 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
             raise
         est = None          # a given offset the GT cannot check (too little overlap): the user's call
     if est is not None:
-        # with a given offset too: a DVL in another frame follows the GT at no offset near it
-        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu)
-        # under the RMS bound a DVL turned 5 deg passes: its turn against the GT is measured to a tenth of a degree
-        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_turn_against_reference
+        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, turn_against_reference, warn_turn_against_reference
         from graphnav.io.loaders import AKIT_COLUMNS
-        check_turn_against_reference(ref, t_dvl + coarse + est.offset_s, mission.dvl,
-                                     cfg.dvl.lever_arm_b + imu_position_b, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]),
-                                     AKIT_DVL_FIXES, g.source)
+        # under the RMS bound a DVL turned 5 deg passes: its turn against the GT is measured to a tenth of a degree;
+        # over it (12 deg and more) the turn is what the refusal says
+        turn = turn_against_reference(ref, t_dvl + coarse + est.offset_s, mission.dvl.v_b,
+                                      cfg.dvl.lever_arm_b + imu_position_b)
+        # with a given offset too: a DVL in another frame follows the GT at no offset near it
+        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, turn)
+        warn_turn_against_reference(turn, mission.dvl, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]), AKIT_DVL_FIXES,
+                                    g.source)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
                                 ", against the GT as given")
@@ -434,10 +436,13 @@ def detect_akit_axis_signs(mission: Mission, gt_mean_depth_m: float | None):
     return detection
 
 
-def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu: ImuData | None = None) -> None:
+def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu: ImuData | None = None,
+                          turn: tuple[float, float, float] | None = None) -> None:
     """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`). It
-    names the DVL file, unless the GT ``gt`` disagrees with itself or with the gyro of ``imu``
-    (:func:`graphnav.io.units.reference_inconsistencies`): the GT file is then named as the likelier fault."""
+    names the DVL file and its velocity columns, unless the GT ``gt`` disagrees with itself or with the gyro of
+    ``imu`` (:func:`graphnav.io.units.reference_inconsistencies`): the GT file is then named as the likelier fault.
+    ``turn``: the DVL's turn about z against the GT's body velocity
+    (:func:`graphnav.calibration.dvl_scale.turn_against_reference`), said when it explains the misfit."""
     if not rms > DVL_GT_RMS_MAX_MPS:
         return
     text = (f"the DVL velocity does not follow the ground truth's body velocity at any time offset (RMS residual "
@@ -455,8 +460,16 @@ def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu
         raise DataError(f"{text}, and the ground truth disagrees with itself: {'; '.join(s for _, s in found)}. "
                         f"The ground truth is the likelier fault (its units or angle conventions), not the DVL "
                         f"({source})", str(gt.source), field=columns[found[0][0]])
-    raise DataError(f"{text}: the DVL is in another frame (axes swapped, dvl.C_d_b) or other units", str(source),
-                    field="DVL X/Y/Z")
+    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, GT_MIN_YAW_RAD, MIN_SCALE_R2, YAW_SIGMAS
+    from graphnav.io.loaders import AKIT_COLUMNS
+    yaw, sigma, r2 = turn if turn is not None else (np.nan, np.nan, np.nan)
+    # x and y swapped on a vehicle moving forward fit a quarter turn as well: the turn is said beside the frame
+    said = (f"; the turn fit finds its velocity turned {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg about z "
+            f"from the ground truth's (explaining {r2:.2f} of its horizontal velocity): a DVL mounted turned, its "
+            f"columns in the instrument frame read as body? {AKIT_DVL_FIXES['yaw']}" if r2 >= MIN_SCALE_R2 and
+            abs(yaw) > GT_MIN_YAW_RAD and abs(yaw) > YAW_SIGMAS * sigma else "")
+    raise DataError(f"{text}: the DVL is in another frame (axes swapped, dvl.C_d_b) or other units{said}", str(source),
+                    field="/".join(AKIT_COLUMNS["DVL"][1:4]))
 
 
 def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> tuple[float, ImuData]:
@@ -638,10 +651,14 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     against the DVL clock fit (:func:`graphnav.calibration.clock.estimate_dvl_clock_offset`, the clock search's when
     it ran, else the same search within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S`): a warning
     (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree. A DVL the clock search moved
-    on (``dvl``'s stamps not ``shifted``'s) is not: the data decided, and the search's warning says by how much. A fit
-    without a confident offset cannot judge it: noted."""
+    on (``dvl``'s stamps not ``shifted``'s) is not: the data decided, and a note names the file and key (the search's
+    warning does not). A fit without a confident offset cannot judge it: noted."""
     from graphnav.calibration.clock import estimate_dvl_clock_offset
     if dvl is not shifted and len(dvl.t) and dvl.t[0] != shifted.t[0]:
+        moved = float(dvl.t[0] - shifted.t[0])
+        add_note(meta, "dvl", f"{facts.get('given_by', {}).get('dvl_time_offset_s', 'the configuration')}: "
+                 f"dvl_time_offset_s = {given:+.3f} s is given; the clock search added {moved:+.3f} s to it "
+                 f"({given + moved:+.3f} s used)")
         return
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None:

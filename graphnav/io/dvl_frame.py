@@ -62,6 +62,9 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
 #: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above.
 BODY_KINEMATICS_RATIO = 1.0
+#: The ``meta`` key set when a velocity that turns with the vehicle is kept as body by its kinematics: it
+#: points where the current carries the vehicle, not forward, and the prepare step judges it by no mean direction.
+CARRIED = "dvl_carried_by_current"
 #: Headings a window's velocity taken as earth-fixed is tried at (:func:`kinematics_ratio`), rad.
 _HEADINGS = np.deg2rad(np.arange(0.0, 360.0, 5.0))
 
@@ -237,7 +240,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
     :data:`BODY_KINEMATICS_RATIO` it is kept as body (a vehicle slower than the current it moves in), noted in
-    ``meta``; otherwise a DataError naming the file and columns: logged in the earth frame."""
+    ``meta`` (and ``meta[CARRIED]`` set); otherwise a DataError naming the file and columns: logged in the earth
+    frame."""
     ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
     if not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO):
         return ratio
@@ -250,6 +254,7 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
             add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
                      f"leave {kin:.2f}x what they leave of it taken as earth-fixed: kept in the {frame} frame, a "
                      "vehicle slower than the current it moves in")
+            meta[CARRIED] = True
         return ratio
     judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it taken "
               f"as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under "
