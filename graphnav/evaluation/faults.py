@@ -1376,6 +1376,8 @@ CLI_CASES: tuple[CliCase, ...] = (
     _real("real, no GT: DVL velocities in cm/s", "smooth", E, _without_gt(_scale_cols(_DVL_XYZ, 100.0))),
     _real("real, no GT: DVL y and z negated (FLU axes)", "smooth", E, _without_gt(_flu)),
     _real("real, no GT: DVL turned 20 deg about z", "smooth", E, _without_gt(_turn_dvl_about_z(20.0))),
+    _real("real, no GT: DVL turned 5 deg about z", "smooth", W + D, _without_gt(_turn_dvl_about_z(5.0))),
+    _real("real: DVL turned 5 deg about z", "smooth", W + D, _damage("DVL", _turn_dvl_about_z(5.0))),
     CliCase("real: evaluate against the A-KIT folder", "smooth; evaluate --ref FOLDER", K,
             lambda ws, f: _evaluate_case(ws, f, True), R, real=True),
     CliCase("train-beams --epochs 1 leaves the shipped weights", "train-beams --epochs 1", K + E,
