@@ -201,6 +201,44 @@ def test_an_imu_stamped_in_packets_is_put_back_on_its_period(k, spacing_s, tmp_p
     np.testing.assert_array_equal(even.imu.t, as_written)
 
 
+def _akit_with_imu_stamps(clean, stamps, folder):
+    """``clean`` written as an A-KIT folder under ``folder`` with its IMU rows kept where ``stamps`` (s, one per
+    sample) is finite, at those stamps: the IMU file's path."""
+    from graphnav.io.export import write_akit
+    path = write_akit(clean, folder)["IMU"]
+    lines = path.read_text().splitlines()
+    rows = [f"{float(s)!r}{line[line.index(','):]}" for s, line in zip(stamps, lines[1:]) if np.isfinite(s)]
+    path.write_text("\n".join([lines[0]] + rows) + "\n")
+    return path
+
+
+def test_shared_stamp_packets_missing_samples_keep_the_period_and_are_restamped_once(tmp_path):
+    """Packets of 10 sharing one stamp at 100 Hz with 5 % of the samples lost: the period was samples over time,
+    10.5 ms, and every stamp but a packet's last was spread back over up to 33 ms too long; now the cycle over the
+    count, 10 ms. A 200 Hz IMU logged in rounded 10 ms (stamps shared by one and three samples in turn) was restamped
+    by the reader as packets of 2 and again by prepare as packets of 4: two warnings, the second count written over
+    the first; now the reader's restamp alone."""
+    from graphnav.core.config import SensorConfig
+    clean = simulate_mission(duration_s=20.0, seed=1)
+    t = clean.imu.t
+    i = np.arange(t.size)
+    lost = (np.random.default_rng(0).random(t.size) < 0.05) & (i >= 10)         # the clock starts at the first
+    shared = np.where(lost, np.nan, t[np.minimum(i // 10 * 10 + 9, t.size - 1)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(_akit_with_imu_stamps(clean, shared, tmp_path / "lost").parent)
+    assert m.config.imu_rate_hz == pytest.approx(100.0, rel=1e-3)
+    early = t[~lost] - m.imu.t          # a sample before a lost one in its packet goes one period late
+    assert np.all(early < 1e-9) and np.mean(early > -1e-9) > 0.75 and np.min(early) > -0.031
+    assert "restamped at the period 10 ms" in m.meta["streams"]["imu"]["notes"][0]
+    fast = simulate_mission(duration_s=20.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=200.0))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(_akit_with_imu_stamps(fast, np.round(fast.imu.t / 0.01) * 0.01, tmp_path / "q").parent)
+    said = [str(w.message) for w in caught if "stamped in packets" in str(w.message)]
+    assert len(said) == 1 and f"{m.meta['streams']['imu']['restamped']} of {fast.imu.t.size} stamps" in said[0]
+
+
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])
 def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate_hz, k, quantum_s, tmp_path):
     """An A-KIT folder whose IMU packets share one stamp (10 samples to a stamp at 100 Hz; a 400 Hz IMU in packets of

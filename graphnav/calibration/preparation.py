@@ -132,8 +132,10 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     warned about and noted once, with their count in ``meta["streams"]["imu"]["restamped"]``. Integrated at their
     packet's stamp, k samples made zero-length steps then one k periods long (a column-map log in packets of 20:
     VRMSE 0.098 m/s against 0.0026 from even stamps). Even stamps, gaps and stutters are no packets and keep their
-    stamps."""
+    stamps; so do stamps the reader restamped already (packets sharing one stamp: one finding, one count)."""
     from graphnav.core.screening import imu_packet_limit, imu_step_stats, packets_note, restamp_packets
+    if meta.get("streams", {}).get("imu", {}).get("restamped"):
+        return mission
     t = mission.imu.t
     configured_s = 1.0 / float(mission.config.imu_rate_hz)
     period, cycle = imu_step_stats(np.diff(t), configured_s, IMU_RATE_TOLERANCE)

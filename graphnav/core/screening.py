@@ -951,12 +951,20 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
 
 
+#: Share of the steps between an IMU's shared stamps within a hundredth of their median above which the packets come
+#: at a steady cycle (a driver reading k samples at a time) and their period is the cycle over k: samples over time
+#: read 10.48 ms for packets of 10 at 100 Hz with 5 % of the samples lost.
+STEADY_CYCLE_SHARE = 0.9
+
+
 def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
     """``(k, cycle s, period s)`` of IMU stamps ``t`` (s, file order) that come in packets sharing one stamp (a
     driver stamping each read of k samples with its receipt, or a 400 Hz IMU in packets of 4 logged in whole ms):
     never decreasing, half of the distinct stamps or more repeated, the steps between them a regular cycle (most
-    within half of their median: gaps have any length); the period is samples over time, steps over
-    :data:`IMU_BURST_GAP_CYCLES` cycles left out. None else: a few repeated stamps in an even file are no packets."""
+    within half of their median: gaps have any length); the period is the cycle over the median count where the
+    cycle is steady (:data:`STEADY_CYCLE_SHARE` of the steps within a hundredth of it: samples lost from such packets
+    do not lengthen it), else samples over time, steps over :data:`IMU_BURST_GAP_CYCLES` cycles left out. None else:
+    a few repeated stamps in an even file are no packets."""
     t = np.asarray(t, float)
     if t.size < 2 or np.any(np.diff(t) < 0):
         return None
@@ -967,9 +975,12 @@ def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
     cycle = float(np.median(d))
     if np.mean(np.abs(d - cycle) <= 0.5 * cycle) < 0.8:
         return None
+    k = int(np.median(counts))
+    if np.mean(np.abs(d - cycle) <= 0.01 * cycle) >= STEADY_CYCLE_SHARE:
+        return k, cycle, cycle / k
     # each step holds the samples of the packet it ends: they were measured since the stamp before
     inside = d <= IMU_BURST_GAP_CYCLES * cycle
-    return int(np.median(counts)), cycle, float(np.sum(d[inside]) / np.sum(counts[1:][inside]))
+    return k, cycle, float(np.sum(d[inside]) / np.sum(counts[1:][inside]))
 
 
 def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:

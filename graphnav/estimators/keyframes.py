@@ -131,6 +131,9 @@ class KeyframerStats:
 
 #: IMU steps a keyframer measures the stream's period over (their median) before it judges gaps by it.
 IMU_RATE_STEPS = 16
+#: A live IMU in packets leaves each at the size two of its latest this many packets reached
+#: (:meth:`PacketStamps.typical_size`).
+PACKET_SIZES = 64
 #: Share of the period that the stamps' grid may make of a quantised stream's measured span: its period is measured
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
@@ -243,13 +246,14 @@ class PacketStamps:
     :func:`~graphnav.core.screening.awaits_packet_cycles`; a burst it starts with left out,
     :func:`~graphnav.core.screening.start_burst`) decide, by :func:`~graphnav.core.screening.imu_step_stats`;
     they and every sample of an IMU that is no packets pass with their own stamps. Then a packet ends at the next
-    long step (:func:`~graphnav.core.screening.imu_packet_limit`) and leaves restamped, spread back from its last
-    stamp; one as large as the largest so far leaves with its last sample (no latency added for packets of one
-    size), a smaller one with the next packet's first sample (up to one cycle later). Samples of a packet beyond
-    the largest so far follow it at the period. :data:`IMU_RATE_STEPS` packets of one sample in a row: the stream
-    no longer comes in packets, and its samples pass as received again."""
-
-    AT_LARGEST = False
+    long step (:func:`~graphnav.core.screening.imu_packet_limit`) or a step back, and leaves restamped, spread back
+    from its last stamp; one of the typical size (:meth:`typical_size`) leaves with its last sample (no latency for
+    packets of one size), a smaller one with the next packet's first sample (one cycle later: the Navigator holds
+    its reorder buffer back meanwhile, :meth:`release_limit`, so that the packet is not squeezed into the time left).
+    Samples of a packet beyond the typical size follow it as received (sharing its stamp, they repeat one and are
+    refused). A packet stamped at or before the last stamp let out (a clock stepping back) is spread back at the
+    period all the same and left to the reorder buffer. :data:`IMU_RATE_STEPS` packets of one sample in a row: the
+    stream no longer comes in packets, and its samples pass as received again."""
 
     def __init__(self, configured_s: float):
         self.configured_s = configured_s
@@ -258,7 +262,8 @@ class PacketStamps:
         self.restamped = 0              # samples given another stamp
         self.note: str | None = None    # what was found, once decided in packets
         self._steps: list[float] | None = []
-        self._k = self._in_packet = self._singles = 0      # largest packet, samples of this one, one-sample packets
+        self._k = self._in_packet = self._singles = 0      # typical packet, samples of this one, one-sample packets
+        self._sizes: deque[int] = deque(maxlen=PACKET_SIZES)     # the latest packets' sizes
         self._limit = math.inf          # steps over it end a packet, s
         self._passing = False           # the packet it was decided in, passing as received
         self._held: list[tuple[float, tuple, tuple]] = []
@@ -269,7 +274,8 @@ class PacketStamps:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
         before ``after`` (s: what the caller has let go of already)."""
         last, self._last = self._last, t
-        long = t - last > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
+        step = t - last
+        long = step < 0.0 or step > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
         self._passing = self._passing and not long
         if not self.period_s or self._passing:          # the packet it was decided in ends as it began
             if self._steps is not None and (t == last or self._ties):
@@ -287,10 +293,12 @@ class PacketStamps:
         return out + self.flush(after) if len(self._held) >= self._k else out
 
     def _packet_ended(self, after: float) -> list[tuple[float, tuple, tuple]]:
-        """The held samples of the packet a long step ended, restamped; the largest packet and the one-sample
+        """The held samples of the packet a long step ended, restamped; the typical packet and the one-sample
         packets in a row updated (:data:`IMU_RATE_STEPS` of them: no packets any more)."""
         out = self.flush(after)
-        self._k = max(self._k, self._in_packet)
+        if self._in_packet:
+            self._sizes.append(self._in_packet)
+            self._k = self.typical_size()
         self._singles = self._singles + 1 if self._in_packet == 1 else 0
         self._in_packet = 0
         if self._singles >= IMU_RATE_STEPS:
@@ -304,10 +312,29 @@ class PacketStamps:
         if not held:
             return []
         received = np.array([s[0] for s in held])
-        t = restamp_packets(received, self.period_s, math.inf, max(self._out, after))
+        floor = max(self._out, after)
+        t = restamp_packets(received, self.period_s, math.inf, floor if received[-1] > floor else -math.inf)
         self.restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
+
+    def typical_size(self) -> int:
+        """The size a packet leaves at: the largest that two of the latest :data:`PACKET_SIZES` packets reached (one
+        larger packet alone does not hold every later one a cycle; packets of 8-12 still leave whole)."""
+        return sorted(self._sizes)[-2]
+
+    def release_limit(self, newest: float) -> float:
+        """The stamp (s) the reorder buffer may release up to while a packet is held: its first sample's place on
+        the period when it grows to the typical size; inf with none held, or once ``newest`` (s, the newest stamp
+        received) is two cycles past it (an IMU outage must not stall the other streams)."""
+        if not self._held or newest - self._held[-1][0] > 2 * self._k * self.period_s:
+            return math.inf
+        return self._held[0][0] - (self._k - 1) * self.period_s
+
+    def _decided(self, k: int) -> None:
+        """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""
+        self._k = k
+        self._sizes.extend((k, k))
 
     def _decide_shared(self, t: float, last: float) -> None:
         """Decide on the stamps so far once one repeats: packets sharing one stamp when
@@ -319,7 +346,8 @@ class PacketStamps:
         self._ties.append(t)
         packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
         if packets is not None:
-            self._k, cycle, self.period_s = packets
+            k, cycle, self.period_s = packets
+            self._decided(k)
             self._steps, self._ties, self._limit, self._passing = None, [], 0.0, True
             self.note = packets_note(self._k, cycle, self.period_s, f"stamps after t = {t:.3f} s (packets sharing "
                                      "one stamp; counted in imu_restamped)")
@@ -336,7 +364,8 @@ class PacketStamps:
         period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
         limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
         if cycle > period and limit < period:
-            self.period_s, self._k, self._limit, self._passing = period, round(cycle / period), limit, True
+            self.period_s, self._limit, self._passing = period, limit, True
+            self._decided(round(cycle / period))
             self.note = packets_note(self._k, cycle, period, f"stamps after t = {self._last:.3f} s (counted in "
                                      "imu_restamped)")
 

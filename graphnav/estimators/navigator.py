@@ -244,15 +244,16 @@ class Navigator:
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
         packets = self._packets
         out = []
-        for sample in packets.add(t, f, w, self._released):
+        for sample in packets.add(t, f, w, self._released):     # a packet queued whole before anything leaves
             out += self._queue_imu(*sample)
         if packets.note is not None:
             self._note("imu", packets.note)
             packets.note = None
-        return out
+        return out + self._release(self._newest - self.options.reorder_window_s)
 
     def _queue_imu(self, t: float, f: tuple, w: tuple) -> list[EpochEstimate]:
-        """An IMU sample into the reorder buffer (refused when it repeats a stamp or comes too late)."""
+        """An IMU sample into the reorder buffer (refused when it repeats a stamp or comes too late); the caller
+        releases."""
         q = self._imu_q
         in_order = not q or t > q[-1][0]
         if t == self._last_imu_released or (not in_order and any(s[0] == t for s in q)):
@@ -266,7 +267,7 @@ class Navigator:
             q.insert(bisect.bisect(q, t, key=stamp_of), (t, f, w))
         if t > self._newest:
             self._newest = t
-        return self._release(self._newest - self.options.reorder_window_s)
+        return []
 
     def add_dvl(self, t: float, beams, valid=None) -> list[EpochEstimate]:
         """A DVL ping: along-beam velocities ``beams`` (4,) m/s of the DVL head and their validity ``valid``
@@ -649,6 +650,8 @@ class Navigator:
                 if held and (until == math.inf or self._newest - held[-1][0] > self._screen.zero_ping[stream].hold_s):
                     out += self._settle(stream, False)
             until = min(until, self._hold_before)
+        # an IMU packet held for its end: what it will be spread over must not leave before it
+        until = min(until, self._packets.release_limit(self._newest))
         heap, q = self._heap, self._imu_q
         while True:
             if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
