@@ -423,7 +423,8 @@ def test_an_akit_folder_with_gt_whose_dvl_is_turned_a_few_degrees_is_warned_abou
                                                                                                 deg):
     """With its GT file a DVL turned 5 deg passed the GT check (0.2 m/s RMS) silently and smoothed with 0.61 % drift
     instead of 0.37 %. Its turn against the GT's body velocity is measured to 0.1 deg: warned, naming the file, its
-    columns and the fix, and counted; the clean copy (+0.0 deg) is silent."""
+    columns and the fix, and counted; the clean copy (+0.0 deg) is silent. Fitted with a lever-arm correction the
+    turn reads +4.95 deg (the clean copy -0.04 deg)."""
     from graphnav.calibration import dvl_scale
     folder = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, _turned(deg), gt=True)
     with warnings.catch_warnings(record=True) as caught:
@@ -434,10 +435,36 @@ def test_an_akit_folder_with_gt_whose_dvl_is_turned_a_few_degrees_is_warned_abou
         assert not said and "doubted" not in m.meta["streams"]["dvl"]
         return
     assert len(said) == 1 and re.search(
-        r"DVL_trajectory1\.csv: field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity is turned \+5\.0 "
-        r"\+- 0\.\d deg about z from the ground truth's body velocity \(.*GT_trajectory1\.csv\).*8\.7 % of the "
-        r"distance travelled sideways.*give the DVL's mounting as dvl\.C_d_b in a --config file", said[0]), said
+        r"DVL_trajectory1\.csv: field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity is turned "
+        r"\+(4\.9|5\.0) \+- 0\.\d deg about z from the ground truth's body velocity \(.*GT_trajectory1\.csv\).*"
+        r"8\.[67] % of the distance travelled sideways.*give the DVL's mounting as dvl\.C_d_b in a --config file",
+        said[0]), said
     assert m.meta["streams"]["dvl"]["doubted"] == {dvl_scale.GT_YAW_DOUBT: len(m.dvl.t)}
+
+
+@pytest.mark.parametrize("lever", [(0.0, 0.0, 0.0), (1.86, 0.0, 0.0), (-3.7, 0.0, 0.0)])
+def test_an_akit_lever_arm_off_is_said_as_a_lever_arm_not_as_a_turn_of_the_dvl(akit_dir, lever):
+    """Trajectory5 (whole, clean) with its DVL lever arm 1.86 m or 3.7 m off along x was warned "turned -1.6 / +3.6 deg
+    about z from the ground truth's body velocity" with the advice to set dvl.C_d_b: omega x the lever arm's error,
+    in its many turns, read as a turn. The turn is now fitted with a lever-arm correction: no turn is said; the lever
+    arm is, naming dvl.lever_arm_b, the correction, what to set and graphnav calibrate, and the pings are counted.
+    As given (0) nothing is said."""
+    from graphnav.calibration import dvl_scale
+    from graphnav.missions import load_akit
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_akit(akit_dir / "Trajectory5", lever_arm_b=np.array(lever))
+    said = [str(w.message) for w in caught if "DVL velocity" in str(w.message)]
+    if not any(lever):
+        assert not said and "doubted" not in m.meta["streams"]["dvl"]
+        return
+    assert len(said) == 1 and "turned" not in said[0], said
+    sign, given = ("-" if lever[0] > 0 else r"\+"), re.escape(f"({lever[0]:+.2f}, +0.00, +0.00)")
+    assert re.search(rf"DVL_trajectory5\.csv: field 'DVL X \[m/s\]/DVL Y \[m/s\]/DVL Z \[m/s\]': the DVL velocity fits "
+                     rf"the ground truth's body velocity \(.*GT_trajectory5\.csv\) best with the DVL "
+                     rf"\({sign}[1-3]\.\d\d, .* m from where dvl\.lever_arm_b {given} m puts it.*Set "
+                     rf"dvl\.lever_arm_b about \(\+0\.\d\d, .*graphnav calibrate", said[0]), said
+    assert m.meta["streams"]["dvl"]["doubted"] == {dvl_scale.GT_LEVER_DOUBT: len(m.dvl.t)}
 
 
 def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigma(sim):

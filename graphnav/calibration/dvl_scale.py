@@ -62,14 +62,22 @@ MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
-#: A DVL velocity turned about z from a GT's body velocity (:func:`warn_turn_against_reference`) is warned about
-#: beyond this (rad) and :data:`YAW_SIGMAS` sigmas. The Snapir's DVL is calibrated: the ten A-KIT trajectories as
-#: recorded fit +0.01..+0.33 deg (sigma 0.04-0.10 deg, up to 8.6 of them: the residual of a calibration, which the
-#: sigma of the noise does not see), their 120 s pieces -0.17..+0.51 deg, 60 s pieces -0.23..+0.61 deg; twice the
-#: largest 120 s one (``experiments/dvl_gt_yaw.py``: none warned; turned 1 deg 10/28/49 of 10/30/60 warned).
+#: A DVL velocity turned about z from a GT's body velocity (:func:`warn_turn_against_reference`, the turn fitted with a
+#: lever-arm correction, :func:`turn_and_lever_against_reference`) is warned about beyond this (rad) and
+#: :data:`YAW_SIGMAS` sigmas. The Snapir's DVL is calibrated: the ten A-KIT trajectories as recorded fit -0.00..+0.50
+#: deg (sigma 0.04-0.19 deg, up to 5.1 of them: the residual of a calibration, which the sigma of the noise does not
+#: see), their 120 s pieces -0.19..+0.83 deg, 60 s pieces -0.40..+0.68 deg (``experiments/dvl_gt_yaw.py``: none
+#: warned; turned 1 deg 9/26/35 of 10/30/60 warned, 2 deg 10/30/55).
 GT_MIN_YAW_RAD = np.deg2rad(1.0)
 #: Why DVL pings read despite a velocity turned from the GT's body velocity are counted.
 GT_YAW_DOUBT = "DVL velocity turned about z from the ground truth's body velocity"
+#: A DVL lever arm the fit against a GT's body velocity moves by more than this (m, any component) and
+#: :data:`YAW_SIGMAS` sigmas is warned about (:func:`warn_lever_against_reference`). The ten A-KIT trajectories as
+#: recorded move it up to 0.10 m whole (the steady Trajectory13 0.60 +- 0.6 m), at most 2.9 sigmas; with their lever
+#: arm 0.5 m off along x 9 of 10 are warned, 1.86 m off 10 (``experiments/dvl_gt_yaw.py --lever-errors``).
+GT_MIN_LEVER_M = 0.3
+#: Why DVL pings read despite a lever arm the GT's body velocity disagrees with are counted.
+GT_LEVER_DOUBT = "DVL lever arm off from where the ground truth's body velocity puts the DVL"
 #: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
 #: clock search by 7.5 s on Trajectory1's first 200 s).
 SCALE_SEARCH_S = 20.0
@@ -380,19 +388,74 @@ def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
     """:func:`turn_fit`'s ``(yaw, sigma, r2)`` (rad) of the DVL velocity ``v_b`` (N,3) m/s, body frame as read, against
     the body velocity of ``reference`` (a :class:`~graphnav.calibration.reference.Reference`) at its stamps ``t_dvl``
     (s, on the IMU clock) plus ``omega x lever_arm_b`` (m, the DVL from the reference's point), horizontally as
-    ``x + iy``, the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as its samples."""
-    from graphnav.core.dvl_kinematics import WINDOW_S
-    from graphnav.calibration.reference import dvl_design
-    _, omega, v_ref, keep = dvl_design(reference, t_dvl, v_b)
-    if keep.sum() < 2:
+    ``x + iy``, the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as its samples. The turn alone:
+    a lever arm's error reads as a turn here (:func:`turn_and_lever_against_reference` fits both)."""
+    sides = _reference_sides(reference, t_dvl, v_b, lever_arm_b)
+    if sides is None:
         return float("nan"), float("nan"), float("nan")
-    v, said = np.asarray(v_b, float)[keep], v_ref + np.cross(omega, lever_arm_b)
-    a, b = v[:, 0] + 1j * v[:, 1], said[:, 0] + 1j * said[:, 1]
-    t = np.asarray(t_dvl, float)[keep]
-    window = ((t - t[0]) // WINDOW_S).astype(int)
+    a, b, _, window = sides
+    a, b = a[:, 0] + 1j * a[:, 1], b[:, 0] + 1j * b[:, 1]
     z = np.conj(b) * a
-    z = (np.bincount(window, z.real) + 1j * np.bincount(window, z.imag))[np.bincount(window) > 0]
+    z = np.bincount(window, z.real) + 1j * np.bincount(window, z.imag)
     return turn_fit(z, float(np.vdot(a, a).real), float(np.vdot(b, b).real))
+
+
+def _reference_sides(reference, t_dvl: np.ndarray, v_b: np.ndarray, lever_arm_b: np.ndarray):
+    """``(a, b, omega, window)``: the DVL's horizontal velocity (M,2) m/s and the reference's body velocity plus
+    ``omega x lever_arm_b`` (M,2) at the pings the reference covers, its body rate (M,3) rad/s and each ping's
+    :data:`~graphnav.core.dvl_kinematics.WINDOW_S` window (M,) numbered 0.. without gaps; None under two windows."""
+    from graphnav.calibration.reference import dvl_design
+    from graphnav.core.dvl_kinematics import WINDOW_S
+    _, omega, v_ref, keep = dvl_design(reference, t_dvl, v_b)
+    t = np.asarray(t_dvl, float)[keep]
+    if not t.size:
+        return None
+    window = np.unique((t - t[0]) // WINDOW_S, return_inverse=True)[1].reshape(-1)
+    if window.max() < 1:
+        return None
+    return np.asarray(v_b, float)[keep][:, :2], (v_ref + np.cross(omega, lever_arm_b))[:, :2], omega, window
+
+
+def turn_and_lever_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray, lever_arm_b: np.ndarray):
+    """``((yaw, sigma, r2), dl, dl_sigma)``: the DVL velocity ``v_b`` (N,3) m/s, body frame as read, fitted
+    horizontally as ``c (v_ref + omega x lever_arm_b) + (omega x dl)`` against the body velocity ``v_ref`` and rate
+    ``omega`` of ``reference`` (a :class:`~graphnav.calibration.reference.Reference`) at its stamps ``t_dvl`` (s,
+    on the IMU clock): ``c = scale exp(i yaw)`` the turn about z (rad), ``dl`` (3,) m, body frame, what the lever
+    arm ``lever_arm_b`` (m, the DVL from the reference's point) lacks. A lever arm off by ``dl`` adds ``omega x dl``
+    only while the vehicle turns, a turn rotates the whole velocity: fitted alone (:func:`turn_against_reference`)
+    the turn takes up the lever arm's error (Trajectory5 with its lever arm 1.86 m off: -1.6 deg). Sigmas (rad, m)
+    with the pings in :data:`~graphnav.core.dvl_kinematics.WINDOW_S` windows as the samples (as :func:`turn_fit`'s:
+    the larger of the windows' spread and the least-squares error with one sample per window); ``r2`` the share of
+    the horizontal velocity explained. NaN under two windows."""
+    sides = _reference_sides(reference, t_dvl, v_b, lever_arm_b)
+    if sides is None:
+        return (float("nan"),) * 3, np.full(3, np.nan), np.full(3, np.nan)
+    a, b, omega, window = sides
+    wx, wy, wz, zero = omega[:, 0], omega[:, 1], omega[:, 2], np.zeros(len(a))
+    # rows x, y of c b (c = p + iq) and omega x dl: x = p bx - q by + wy dlz - wz dly, y = p by + q bx + wz dlx - wx dlz
+    X = np.stack([np.stack([b[:, 0], -b[:, 1], zero, -wz, wy], 1), np.stack([b[:, 1], b[:, 0], wz, zero, -wx], 1)], 1)
+    theta, cov, sse = _window_lstsq(X, a, window)
+    grad = np.array([-theta[1], theta[0], 0, 0, 0]) / max(theta[0] ** 2 + theta[1] ** 2, 1e-300)
+    sigma = np.sqrt(max(grad @ c @ grad for c in cov))
+    dl_sigma = np.sqrt(np.maximum(*(np.diag(c)[2:] for c in cov)))
+    r2 = 1.0 - sse / max(float(np.sum(a ** 2)), 1e-300)
+    return (float(np.arctan2(theta[1], theta[0])), float(sigma), float(r2)), theta[2:], dl_sigma
+
+
+def _window_lstsq(X: np.ndarray, y: np.ndarray, window: np.ndarray):
+    """``(theta, (cov_spread, cov_fit), sse)``: least squares ``y = X theta`` over rows ``X`` (N, k, p), ``y`` (N, k)
+    in windows numbered ``window`` (N,) 0..n-1: its covariance from the windows' spread (the clustered sandwich) and
+    from the fit's residual with one sample per window."""
+    Xf, yf = X.reshape(-1, X.shape[-1]), y.reshape(-1)
+    B_inv = np.linalg.pinv(Xf.T @ Xf)
+    theta = B_inv @ Xf.T @ yf
+    e = y - X @ theta
+    n = int(window.max()) + 1
+    scores = np.zeros((n, X.shape[-1]))
+    np.add.at(scores, window, np.einsum("nkp,nk->np", X, e))
+    sse = float(np.sum(e ** 2))
+    spread = n / (n - 1) * B_inv @ scores.T @ scores @ B_inv
+    return theta, (spread, sse / (X.shape[1] * n) * B_inv), sse
 
 
 def warn_turn_against_reference(turn: tuple[float, float, float], dvl, meta: dict, field: str, fixes: dict,
@@ -402,6 +465,30 @@ def warn_turn_against_reference(turn: tuple[float, float, float], dvl, meta: dic
     ``(yaw, sigma, r2)``) beyond :data:`GT_MIN_YAW_RAD` and :data:`YAW_SIGMAS` sigmas."""
     warn_small_turn(dvl, meta, field, fixes, *turn, f"the ground truth's body velocity ({source})",
                     GT_MIN_YAW_RAD, GT_YAW_DOUBT, "of its horizontal velocity")
+
+
+def warn_lever_against_reference(dl: np.ndarray, dl_sigma: np.ndarray, dvl, meta: dict, field: str,
+                                 lever_arm_b: np.ndarray, source) -> None:
+    """Warn about, note and count (:data:`GT_LEVER_DOUBT`) a DVL ``dvl`` whose velocity fits the body velocity of a
+    GT (file ``source``) best with its lever arm ``lever_arm_b`` (m, body frame, the configuration's
+    ``dvl.lever_arm_b``) moved by ``dl`` (m; sigmas ``dl_sigma``, :func:`turn_and_lever_against_reference`): when a
+    component is beyond :data:`GT_MIN_LEVER_M` and :data:`YAW_SIGMAS` sigmas."""
+    if not np.any((np.abs(dl) > GT_MIN_LEVER_M) & (np.abs(dl) > YAW_SIGMAS * dl_sigma)):
+        return
+    text = (f"field '{field}': the DVL velocity fits the ground truth's body velocity ({source}) best with the DVL "
+            f"{_vector_text(dl)} +- {_vector_text(dl_sigma, '')} m from where dvl.lever_arm_b "
+            f"{_vector_text(lever_arm_b)} m puts it (under {GT_MIN_LEVER_M:g} m or {YAW_SIGMAS:g} sigmas nothing is "
+            "said): a wrong lever arm adds omega x its error to the velocity the DVL is taken to measure while the "
+            f"vehicle turns. Set dvl.lever_arm_b about {_vector_text(np.asarray(lever_arm_b) + dl)} m in a --config "
+            "file (graphnav calibrate estimates it against a GT)")
+    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
+    add_note(meta, "dvl", text)
+    count_doubted(meta, "dvl", GT_LEVER_DOUBT, len(dvl.t))
+
+
+def _vector_text(x, sign: str = "+") -> str:
+    """``x`` (m) as ``(+1.00, -0.04, +0.20)``; ``sign`` '' leaves out the plus."""
+    return "(" + ", ".join(f"{v:{sign}.2f}" for v in x) + ")"
 
 
 def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict | None = None,

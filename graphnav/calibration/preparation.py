@@ -260,16 +260,19 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
             raise
         est = None          # a given offset the GT cannot check (too little overlap): the user's call
     if est is not None:
-        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, turn_against_reference, warn_turn_against_reference
+        from graphnav.calibration import dvl_scale
         from graphnav.io.loaders import AKIT_COLUMNS
         # under the RMS bound a DVL turned 5 deg passes: its turn against the GT is measured to a tenth of a degree;
-        # over it (12 deg and more) the turn is what the refusal says
-        turn = turn_against_reference(ref, t_dvl + coarse + est.offset_s, mission.dvl.v_b,
-                                      cfg.dvl.lever_arm_b + imu_position_b)
-        # with a given offset too: a DVL in another frame follows the GT at no offset near it
-        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, turn)
-        warn_turn_against_reference(turn, mission.dvl, meta, "/".join(AKIT_COLUMNS["DVL"][1:4]), AKIT_DVL_FIXES,
-                                    g.source)
+        # over it (12 deg and more) the turn is what the refusal says. Fitted with the lever arm's error, which
+        # would otherwise read as a turn
+        pings = (ref, t_dvl + coarse + est.offset_s, mission.dvl.v_b, cfg.dvl.lever_arm_b + imu_position_b)
+        turn, dl, dl_sigma = dvl_scale.turn_and_lever_against_reference(*pings)
+        # with a given offset too: a DVL in another frame follows the GT at no offset near it. Said by the turn
+        # alone: a lever-arm correction lets x and y swapped fit a turn of 77 deg
+        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, dvl_scale.turn_against_reference(*pings))
+        field = "/".join(AKIT_COLUMNS["DVL"][1:4])
+        dvl_scale.warn_turn_against_reference(turn, mission.dvl, meta, field, dvl_scale.AKIT_DVL_FIXES, g.source)
+        dvl_scale.warn_lever_against_reference(dl, dl_sigma, mission.dvl, meta, field, cfg.dvl.lever_arm_b, g.source)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
                                 ", against the GT as given")
