@@ -8,7 +8,7 @@ from scipy.stats import chi2
 from graphnav.core.config import SensorConfig
 from graphnav.core.earth import ned_to_lla
 from graphnav.core.errors import ConfigError
-from graphnav.core.rotations import C_b_n_to_euler, attitude_error
+from graphnav.core.rotations import C_b_n_to_euler, attitude_error, heading_variance
 from graphnav.estimators.align import (
     Aligner,
     AlignmentError,
@@ -197,3 +197,22 @@ def test_missing_inputs_are_named():
     assert any("earth_rotation=False" in m for m in Aligner(off).missing())
     with pytest.raises(ConfigError):
         AlignOptions(duration_s=-1.0)
+
+
+def test_heading_sigma_covers_the_error_of_a_dvl_with_scale_factor_and_beam_biases():
+    """A DVL whose scale factor and beam biases are drawn per seed (from the estimators' prior sigmas): over six
+    300 s gyrocompassing alignments the heading errors pass a chi2(6) test against the claimed heading variance
+    (sum 13.7, bound 22.5). With the DVL errors left out of the fit the same alignments failed it (sum 28.1; seeds
+    14 and 16 2.7 and 3.9 sigma off)."""
+    nees = []
+    for seed in range(14, 20):
+        mission = simulate_mission(305.0, "navigation", seed, dvl_errors="drawn")
+        a = align_mission(mission)
+        err = wrap(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(truth(mission, a.t)[0])[2])
+        nees.append(err ** 2 / heading_variance(a.C_b_n, a.cov_rot))
+    assert sum(nees) < chi2.ppf(0.999, len(nees)), np.round(nees, 2)
+    # the fitted errors are reported; held at zero, the fit is the one without them
+    assert len(a.info["dvl_scale_factor"]) == 3 and len(a.info["dvl_beam_bias_mps"]) == 4
+    held = align_mission(mission, AlignOptions(estimate_dvl_errors=False))
+    assert held.info["dvl_beam_bias_mps"] == [0.0] * 4
+    assert held.info["heading_sigma_rad"] < a.info["heading_sigma_rad"]

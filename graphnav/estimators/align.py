@@ -18,10 +18,13 @@ The vehicle may be underway (turning, diving) from the first sample. Method (ine
 
   ``C`` starts as the solution of Wahba's problem over all pings (:meth:`scipy.spatial.transform.Rotation.
   align_vectors`, SVD, with the initial velocity as a free offset: the vectors are centred); the small
-  Coriolis term, which needs ``C``, is iterated. A Gauss-Newton refinement then fits ``C``, the offset and
+  Coriolis term, which needs ``C``, is iterated. A Gauss-Newton refinement then fits ``C``, the offset,
   the accelerometer bias ``b_a`` (``beta_k`` loses ``int C_bt_b0 dt b_a``; prior: the spec's turn-on sigma)
-  with each ping weighted by its DVL noise (the vertical is ~4x better than the horizontal), and its inverse
-  information matrix is the attitude covariance. Roll and pitch come from the mean direction of the vectors
+  and the DVL's scale factor ``s`` (per DVL axis) and beam biases ``b`` (the measured head velocity is
+  ``C_d_b (I + diag(s)) v_d + P b``, ``P`` the pseudo-inverse of the valid beams; priors: the estimators',
+  :meth:`graphnav.estimators.options.PriorOptions.dvl_error_sigmas`), with each ping weighted by its DVL noise
+  (the vertical is ~4x better than the horizontal); its inverse information matrix is the attitude covariance,
+  the DVL errors marginalised. Roll and pitch come from the mean direction of the vectors
   (levelling, the DVL velocity change removing the vehicle's accelerations); heading from the slow turn of
   gravity in inertial space (gyrocompassing).
 
@@ -39,9 +42,11 @@ Expected accuracy (1-sigma; ``L`` latitude, ``Omega`` Earth rate, ``g`` gravity,
   a perfect gyro. :func:`gyrocompass_heading_terms` gives the terms; ``Alignment.info`` reports them.
 * In turns the accelerometer bias is no longer the constant tilt of the stationary formula: a body-fixed bias
   rotates with the vehicle and part of it looks like the heading signature (simulated, 50 micro-g, 120 s
-  with a 90 deg turn pair: ~1 deg). The fit estimates ``b_a`` and its covariance carries this coupling, so the
-  reported heading sigma is the fit's (DVL noise, accelerometer bias, geometry of the manoeuvres) plus the
-  gyro-bias and random-walk terms, scaled up when the residuals are larger than the DVL spec says.
+  with a 90 deg turn pair: ~1 deg). So do the DVL's beam biases (a body-frame velocity error turning with the
+  vehicle) and scale factor (changing with the speed). The fit estimates them and its covariance carries this
+  coupling, so the reported heading sigma is the fit's (DVL noise, accelerometer bias, DVL scale factor and beam
+  biases, geometry of the manoeuvres) plus the gyro-bias and random-walk terms, scaled up when the residuals
+  are larger than the DVL spec says.
 * roll/pitch: about ``sqrt((b_a / g)^2 + (sqrt(12 / N) sigma_v / (g T))^2 + (b_g T / 2)^2)``, plus the heading
   error times the Earth's turn since t0 (the n0 vertical is no longer the local one): from the fit.
 
@@ -53,8 +58,7 @@ median scale) and solves again without them; the output velocity is the median o
 mean. Counts in ``Alignment.info`` (``n_imu_refused``, ``n_dvl_refused``, ``n_dvl_rejected_fit``).
 
 Neglected: transport rate (as in the whole project: for a vehicle at v m/s it would add a heading error of
-~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward), DVL scale factor and beam biases (they enter the
-residuals).
+~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward).
 
 :meth:`Aligner.result` gives the state at the last sample used (a streaming navigator starts there);
 :meth:`Aligner.result_at` at any stamp of the window, e.g. the first sample, for offline smoothing of a
@@ -79,6 +83,7 @@ from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
 from graphnav.core.solution import LOCAL_ORIGIN
 from graphnav.estimators.ins import prefix_products
+from graphnav.estimators.options import PriorOptions
 
 
 #: A ping whose fit residual (Mahalanobis, 3 dof) exceeds this times the fit's median scale (median of the
@@ -87,6 +92,8 @@ from graphnav.estimators.ins import prefix_products
 FIT_REJECT_CHI2 = 25.0
 #: Rounds of outlier rejection and re-solving in the fit.
 FIT_REJECT_ROUNDS = 3
+#: Prior information of an error the fit holds at zero (``estimate_accel_bias`` / ``estimate_dvl_errors`` False).
+FIXED_PRIOR = 1e12
 
 
 class AlignmentError(ConfigError):
@@ -100,15 +107,15 @@ class AlignOptions:
     Attributes:
         duration_s: alignment time when the heading comes from gyrocompassing, s. Measured on the ten shared
             A-KIT trajectories (Phins FOG, 1 Hz DVL, vehicle underway; ``experiments/alignment_report.py``), heading
-            RMS error: 37 deg (30 s), 11 deg (60 s), 2.1 deg (120 s), 1.5 deg (180 s), 0.64 deg (240 s),
-            0.36 deg (300 s); roll/pitch <= 0.02 deg from 60 s. Default 300 s, the in-motion alignment time
+            RMS error: 37 deg (30 s), 10 deg (60 s), 2.0 deg (120 s), 1.2 deg (180 s), 0.58 deg (240 s),
+            0.29 deg (300 s); roll/pitch <= 0.02 deg from 60 s. Default 300 s, the in-motion alignment time
             FOG INS makers quote: the graph refines a heading error only slowly afterwards (Trajectory10,
             120 s: -4.9 deg at the start, still -2.2 deg 400 s later), and
             :class:`graphnav.estimators.navigator.Navigator` carries the alignment back to the first sample and catches up,
             so the longer wait costs latency, not estimates (``experiments/no_gt_runs.py``: mission VRMSE without
             GT 0.080 m/s with 120 s, against 0.056 from the GT; docs/decisions/alignment.md).
         min_duration_s: when the data end before ``duration_s`` (a short record), the shortest gyrocompassing
-            window ``result_at(t, end_of_data=True)`` still accepts, s (2.1 deg RMS heading at 120 s).
+            window ``result_at(t, end_of_data=True)`` still accepts, s (2.0 deg RMS heading at 120 s).
         levelling_duration_s: alignment time when the heading comes from a heading source or is given, s
             (levelling alone needs far less data).
         min_dvl_pings: pings with >= 3 valid beams needed in the window (velocity changes for levelling).
@@ -137,6 +144,11 @@ class AlignOptions:
         coriolis_iterations: Wahba solutions (the Coriolis term of alpha uses the previous one).
         estimate_accel_bias: estimate the accelerometer bias in the fit (observable when the vehicle turns;
             the spec's turn-on sigma is its prior); False holds it at zero.
+        estimate_dvl_errors: estimate the DVL scale factor (per DVL axis) and beam biases in the fit, with the
+            estimators' priors (``dvl_scale_sigma``, ``dvl_bias_sigma``); False holds them at zero and the
+            heading and tilt sigmas leave them out (over-confident when the DVL has them: docs/decisions/alignment.md).
+        dvl_scale_sigma, dvl_bias_sigma: prior sigmas of the DVL scale factor (unitless) and of each beam bias
+            (m/s); None = the estimators' (:meth:`graphnav.estimators.options.PriorOptions.dvl_error_sigmas`).
         velocity_window_s: the velocity at the output stamp is the mean of the pings within half this window of
             it, each carried there with the aligned IMU, s (one ping has ~0.09 m/s noise per horizontal axis).
         initial_position_n, initial_lla, initial_heading_rad, heading_sigma_rad: what is known at the start
@@ -165,6 +177,9 @@ class AlignOptions:
     max_window_s: float = 600.0
     coriolis_iterations: int = 2
     estimate_accel_bias: bool = True
+    estimate_dvl_errors: bool = True
+    dvl_scale_sigma: float | None = None
+    dvl_bias_sigma: float | None = None
     velocity_window_s: float = 10.0
     initial_position_n: tuple[float, float, float] | np.ndarray | None = None
     initial_lla: tuple[float, float, float] | None = None
@@ -280,7 +295,8 @@ class Aligner:
         self.heading_sigma_rad = o.given_heading_sigma_rad if o.heading_sigma_rad is None \
             else float(o.heading_sigma_rad)
         self._imu: list[tuple[float, np.ndarray, np.ndarray]] = []
-        self._dvl: list[tuple[float, np.ndarray]] = []       # (t, velocity of the DVL head in body, m/s)
+        # (t, velocity of the DVL head in body m/s, (3,4) its error per beam bias: the valid beams' pseudo-inverse)
+        self._dvl: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._depth: list[tuple[float, float]] = []
         self._fixes: list[tuple[float, float, float, float]] = []
         self._headings: list[tuple[float, float, float]] = []
@@ -325,7 +341,7 @@ class Aligner:
                 or self._dvl_spike.is_spike(float(t), v)):
             self.n_dvl_refused += 1
             return
-        self._dvl.append((float(t), v))
+        self._dvl.append((float(t), v, self._bias_map(valid)))
 
     def add_dvl_velocity(self, t: float, v_d, sigma=None) -> None:
         """A DVL-frame velocity of the DVL head (3,) m/s measured by the instrument (used as a >= 3-beam ping;
@@ -333,7 +349,14 @@ class Aligner:
         if not self._imu:
             self.n_dvl_ignored += 1
             return
-        self._dvl.append((float(t), self.geometry.C_d_b @ np.asarray(v_d, float).reshape(3)))
+        self._dvl.append((float(t), self.geometry.C_d_b @ np.asarray(v_d, float).reshape(3),
+                          self._bias_map(np.ones(4, bool))))
+
+    def _bias_map(self, valid: np.ndarray) -> np.ndarray:
+        """(3,4) body velocity error, m/s, per beam bias (m/s) of a least-squares solution from the ``valid`` beams."""
+        out = np.zeros((3, 4))
+        out[:, valid] = np.linalg.pinv(self.geometry.T_b[valid])
+        return out
 
     def add_depth(self, t: float, depth_m: float) -> None:
         """Depth of the IMU below the sea surface, m (positive down)."""
@@ -469,6 +492,10 @@ class Aligner:
         dvl = [d for d in self._dvl if d[0] >= t0 and d[0] not in exclude]
         t_dvl = np.array([d[0] for d in dvl])
         v_head_b = np.array([d[1] for d in dvl])
+        # the DVL's errors: v_head_b = C_d_b (I + diag(s)) v_d + P b (scale s per DVL axis, beam biases b), so
+        # D (N,3,7) maps [s, b] to the measured velocity's error
+        C_d_b = self.geometry.C_d_b
+        D = np.concatenate([C_d_b[None] * (v_head_b @ C_d_b)[:, None, :], np.array([d[2] for d in dvl])], axis=2)
         t_end = max(t_imu[-1], t_dvl[-1])
         if t_out is None:
             t_out = t_end
@@ -506,34 +533,38 @@ class Aligner:
             # of the first ping is common to every vector and tilts the whole fit
             rot, _ = Rotation.align_vectors(alpha - alpha.mean(0), beta - beta.mean(0))
             C = rot.as_matrix()
-        # Gauss-Newton refinement with the accelerometer bias (observable in turns; a spec prior otherwise),
+        # Gauss-Newton refinement with the accelerometer bias and the DVL's scale factor and beam biases (seen in
+        # turns and speed changes; their priors otherwise, and their uncertainty reaches the heading and tilt),
         # weighted by the DVL noise of each ping (anisotropic: the vertical is better), giving the covariance
         sigma_acc = cfg.imu.accel_noise_density
         cov_dvl_b = self._dvl_velocity_covariance()
-        b_acc = np.zeros(3)
-        est_bias = o.estimate_accel_bias
+        BD = B_dvl @ D
+        # beta without the errors x = [b_acc, s, b]: beta - K x (the first ping's DVL error goes into u)
+        K = np.concatenate([M_k, -(BD - BD[0])[1:]], axis=2)
+        x = np.zeros(10)
+        x_sigma, x_prior = self._error_prior()
         for _ in range(3):
             alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
             C_B = C @ B_dvl[1:]
             R = C_B @ cov_dvl_b @ np.swapaxes(C_B, 1, 2) + (sigma_acc ** 2 * tau)[:, None, None] * np.eye(3)
             W = np.linalg.inv(R)
-            y = (beta - np.einsum("nij,j->ni", M_k, b_acc)) @ C.T
+            y = (beta - np.einsum("nij,j->ni", K, x)) @ C.T
             u = np.linalg.solve(W.sum(0), np.einsum("nij,nj->i", W, alpha - y))
             res = alpha - u - y
             n = len(res)
-            J = np.zeros((n, 3, 9))
+            J = np.zeros((n, 3, 16))
             J[:, :, 0:3] = skew(y)                              # d res / d phi (left perturbation, n0)
             J[:, :, 3:6] = -np.eye(3)                           # d res / d u
-            J[:, :, 6:9] = C @ M_k                              # d res / d b_acc
+            J[:, :, 6:16] = C @ K                               # d res / d x
             H = np.einsum("nki,nkl,nlj->ij", J, W, J)
             g_vec = np.einsum("nki,nkl,nl->i", J, W, res)
-            prior = np.zeros(9)
-            prior[6:9] = 1.0 / cfg.imu.accel_bias_sigma ** 2 if est_bias else 1e12
-            H += np.diag(prior)
-            g_vec[6:9] += prior[6:9] * b_acc
+            H[6:, 6:] += np.diag(x_prior)
+            g_vec[6:] += x_prior * x
             dx = -np.linalg.solve(H, g_vec)
             C = Rotation.from_rotvec(dx[0:3]).as_matrix() @ C
-            b_acc = b_acc + dx[6:9] if est_bias else b_acc
+            x = x + np.where(x_prior < FIXED_PRIOR, dx[6:], 0.0)
+        b_acc = x[:3]
+        v_b0 = v_b0 - np.einsum("nij,j->ni", BD, x[3:])        # the pings without the fitted DVL errors
         # a ping whose residual is an outlier against the fit's own scale: solve again without it
         d2 = np.einsum("ni,nij,nj->n", res, W, res)
         scale = max(float(np.median(d2)) / 2.366, 1.0)
@@ -587,7 +618,9 @@ class Aligner:
         A = C_b_n.T @ E_out
         cov_rot = A @ cov_phi @ A.T
         tilt_sigma = float(np.sqrt(max(cov_phi[0, 0], cov_phi[1, 1])))
-        cov_v_n = self._velocity_covariance(C_b_n, v_b[near][-1], cov_rot,
+        D_out = D[near][-1]             # what the fit leaves of the DVL's errors, or their prior when held at zero
+        cov_dvl_errors = D_out @ (P[9:, 9:] if o.estimate_dvl_errors else np.diag(x_sigma[3:] ** 2)) @ D_out.T
+        cov_v_n = self._velocity_covariance(C_b_n, v_b[near][-1], cov_dvl_errors, cov_rot,
                                             float(np.max(np.abs(t_out - t_dvl[near]))), int(near.sum()))
         p_n, cov_p_n, origin_lla, pos_info = self._position(t_imu[0], t_dvl, v_n_dvl, t_out, cov_v_n,
                                                             heading_sigma)
@@ -600,6 +633,8 @@ class Aligner:
             "gyrocompass_sigma_rad": gyrocompass_sigma, "gyrocompass_sigma_formula_rad": _rss(terms),
             "fit_chi2_per_dof": chi2_dof,
             "accel_bias_sigma_mps2": np.sqrt(np.diag(P[6:9, 6:9])).tolist(), "gyrocompass_terms_rad": {k: float(v) for k, v in terms.items()},
+            "dvl_scale_factor": x[3:6].tolist(), "dvl_beam_bias_mps": x[6:].tolist(),
+            "dvl_error_sigma": np.sqrt(np.diag(P[9:, 9:])).tolist(),
             "heading_sigma_spec_rad": _rss(spec_terms), "sigma_v_spec_mps": sigma_v_spec,
             "wahba_residual_rms_mps": resid_rms, **pos_info,
         }
@@ -644,14 +679,23 @@ class Aligner:
         drift = np.hypot(imu.gyro_bias_sigma * elapsed, imu.gyro_noise_density * np.sqrt(max(elapsed, 0.0)))
         return C, float(np.hypot(np.average(sig, weights=1 / sig ** 2), drift)), source
 
-    def _velocity_covariance(self, C_b_n, v_b, cov_rot, dt_since_ping, n_pings) -> np.ndarray:
-        """NED velocity covariance: beam noise (averaged over n_pings), beam bias and scale factor (DVL spec),
-        attitude, IMU propagation over dt_since_ping (s, from the oldest ping averaged)."""
+    def _error_prior(self) -> tuple[np.ndarray, np.ndarray]:
+        """Prior sigmas (10,) of the fit's accelerometer bias (3, m/s^2), DVL scale factor (3, unitless) and beam
+        biases (4, m/s), and their information (10,): :data:`FIXED_PRIOR` where held at zero."""
+        o = self.options
+        scale, bias = PriorOptions(dvl_scale_sigma=o.dvl_scale_sigma,
+                                   dvl_bias_sigma=o.dvl_bias_sigma).dvl_error_sigmas(self.config.dvl)
+        sigma = np.array([self.config.imu.accel_bias_sigma] * 3 + [scale] * 3 + [bias] * 4)
+        free = np.repeat([o.estimate_accel_bias, o.estimate_dvl_errors], [3, 7])
+        return sigma, np.where(free, sigma ** -2.0, FIXED_PRIOR)
+
+    def _velocity_covariance(self, C_b_n, v_b, cov_dvl_errors_b, cov_rot, dt_since_ping, n_pings) -> np.ndarray:
+        """NED velocity covariance: beam noise (averaged over n_pings), the DVL's scale factor and beam biases
+        (``cov_dvl_errors_b``, body, (m/s)^2: what the fit leaves of them), attitude, IMU propagation over
+        dt_since_ping (s, from the oldest ping averaged)."""
         spec, T_b = self.config.dvl, self.geometry.T_b
         pinv = np.linalg.pinv(T_b)
-        cov_b = spec.beam_noise_std ** 2 / n_pings * pinv @ pinv.T
-        bias_b = pinv @ spec.beam_bias
-        cov_b += np.diag(bias_b ** 2 + (spec.scale_factor * v_b) ** 2)
+        cov_b = spec.beam_noise_std ** 2 / n_pings * pinv @ pinv.T + cov_dvl_errors_b
         J = -C_b_n @ skew(v_b)                          # d v_n / d delta (right perturbation)
         imu = self.config.imu
         prop = (imu.accel_noise_density ** 2 * dt_since_ping + (imu.accel_bias_sigma * dt_since_ping) ** 2)
