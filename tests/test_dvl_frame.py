@@ -467,6 +467,23 @@ def test_an_akit_lever_arm_off_is_said_as_a_lever_arm_not_as_a_turn_of_the_dvl(a
     assert m.meta["streams"]["dvl"]["doubted"] == {dvl_scale.GT_LEVER_DOUBT: len(m.dvl.t)}
 
 
+@pytest.mark.parametrize("start, seconds", [(270.0, 60.0), (280.0, 120.0)])
+def test_a_clean_short_akit_crop_with_its_gt_is_not_warned_about_its_lever_arm(akit_dir, tmp_path, start, seconds):
+    """Clean crops of Trajectory11 with their GT were warned "best with the DVL (+1.37, ...) m from where
+    dvl.lever_arm_b puts it" (60 s from 270 s; +1.22 m over 120 s from 280 s), advising a lever arm 1.3 m off and
+    counting every ping: a few 20 s windows make the sigma too small. Under 300 s of pings the lever arm is not judged
+    (a note says so); whole logs are (Trajectory5 above)."""
+    from graphnav.missions import load_mission
+    folder = _akit_crop_without_gt(akit_dir / "Trajectory11", tmp_path, np.eye(3), seconds=seconds, start=start,
+                                   gt=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    assert not [str(w.message) for w in caught if "lever_arm_b" in str(w.message)]
+    assert "doubted" not in m.meta["streams"]["dvl"]
+    assert any("lever arm is not judged" in n for n in m.meta["streams"]["dvl"]["notes"])
+
+
 def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigma(sim):
     """A simulated log (5 mm/s beams, r^2 0.97): its yaw's sigma, from the windows, is 1.9 deg. As read (+0.4 deg)
     and turned 5 deg (under 3 sigmas) nothing is said; turned 8 deg it is warned about, naming the file, its columns

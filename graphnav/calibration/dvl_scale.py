@@ -76,6 +76,10 @@ GT_YAW_DOUBT = "DVL velocity turned about z from the ground truth's body velocit
 #: recorded move it up to 0.10 m whole (the steady Trajectory13 0.60 +- 0.6 m), at most 2.9 sigmas; with their lever
 #: arm 0.5 m off along x 9 of 10 are warned, 1.86 m off 10 (``experiments/dvl_gt_yaw.py --lever-errors``).
 GT_MIN_LEVER_M = 0.3
+#: ... and only over a log of at least this many seconds of pings (s): on shorter crops the windows' sigma is too small
+#: for the lever arm (clean Trajectory11 from 270 s, 60 s: +1.37 +- 0.33 m; from 280 s, 120 s: +1.22 +- 0.33 m; 30 s of
+#: Trajectory1: -0.34 +- 0.11 m, each with its own clock offset), where whole logs move it by 0.10 m at most.
+GT_LEVER_MIN_SPAN_S = 300.0
 #: Why DVL pings read despite a lever arm the GT's body velocity disagrees with are counted.
 GT_LEVER_DOUBT = "DVL lever arm off from where the ground truth's body velocity puts the DVL"
 #: The scale is taken at the offset within +- this of the DVL stamps where its fit is best, s (knots misled the
@@ -468,11 +472,16 @@ def warn_turn_against_reference(turn: tuple[float, float, float], dvl, meta: dic
 
 
 def warn_lever_against_reference(dl: np.ndarray, dl_sigma: np.ndarray, dvl, meta: dict, field: str,
-                                 lever_arm_b: np.ndarray, source) -> None:
+                                 lever_arm_b: np.ndarray, source, span_s: float = np.inf) -> None:
     """Warn about, note and count (:data:`GT_LEVER_DOUBT`) a DVL ``dvl`` whose velocity fits the body velocity of a
     GT (file ``source``) best with its lever arm ``lever_arm_b`` (m, body frame, the configuration's
     ``dvl.lever_arm_b``) moved by ``dl`` (m; sigmas ``dl_sigma``, :func:`turn_and_lever_against_reference`): when a
-    component is beyond :data:`GT_MIN_LEVER_M` and :data:`YAW_SIGMAS` sigmas."""
+    component is beyond :data:`GT_MIN_LEVER_M` and :data:`YAW_SIGMAS` sigmas, over pings spanning ``span_s`` (s) of at
+    least :data:`GT_LEVER_MIN_SPAN_S` (shorter: noted as not judged)."""
+    if not span_s >= GT_LEVER_MIN_SPAN_S:
+        add_note(meta, "dvl", f"its lever arm is not judged against the ground truth: {span_s:.0f} s of pings, "
+                 f"{GT_LEVER_MIN_SPAN_S:g} s needed")
+        return
     if not np.any((np.abs(dl) > GT_MIN_LEVER_M) & (np.abs(dl) > YAW_SIGMAS * dl_sigma)):
         return
     text = (f"field '{field}': the DVL velocity fits the ground truth's body velocity ({source}) best with the DVL "

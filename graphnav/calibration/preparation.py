@@ -272,7 +272,9 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, dvl_scale.turn_against_reference(*pings))
         field = "/".join(AKIT_COLUMNS["DVL"][1:4])
         dvl_scale.warn_turn_against_reference(turn, mission.dvl, meta, field, dvl_scale.AKIT_DVL_FIXES, g.source)
-        dvl_scale.warn_lever_against_reference(dl, dl_sigma, mission.dvl, meta, field, cfg.dvl.lever_arm_b, g.source)
+        span = float(np.ptp(t_dvl)) if len(t_dvl) else 0.0
+        dvl_scale.warn_lever_against_reference(dl, dl_sigma, mission.dvl, meta, field, cfg.dvl.lever_arm_b, g.source,
+                                               span)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
             _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
                                 ", against the GT as given")
