@@ -235,8 +235,36 @@ def test_shared_stamp_packets_missing_samples_keep_the_period_and_are_restamped_
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         m = load_mission(_akit_with_imu_stamps(fast, np.round(fast.imu.t / 0.01) * 0.01, tmp_path / "q").parent)
-    said = [str(w.message) for w in caught if "stamped in packets" in str(w.message)]
+    said = [str(w.message) for w in caught if re.search("stamped in packets|ms clock", str(w.message))]
     assert len(said) == 1 and f"{m.meta['streams']['imu']['restamped']} of {fast.imu.t.size} stamps" in said[0]
+
+
+@pytest.mark.parametrize("rate_hz, grid_s, how", [(200.0, 0.01, "jitter"), (400.0, 0.01, "round"),
+                                                  (2000.0, 0.001, "jitter")])
+def test_an_imu_on_a_clock_coarser_than_its_period_loads_at_its_rate(rate_hz, grid_s, how, tmp_path):
+    """A 200 Hz IMU logged in whole 10 ms with 0.5 ms jitter (400 Hz in rounded 10 ms, 2 kHz in whole ms with jitter)
+    was read as packets sharing one stamp, each run squeezed into the room before it, and prepare wrote 233.7 (458,
+    2337) Hz into the configuration. Now its stamps are put on one even grid at the period and the rate written is
+    that period's; a rate that contradicts the period the stamps were restamped at is refused."""
+    from graphnav.core.config import SensorConfig
+    from graphnav.core.errors import DataError
+    clean = simulate_mission(duration_s=20.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=rate_hz))
+    t = clean.imu.t
+    if how == "jitter":
+        t = np.floor(np.sort(t + np.random.default_rng(0).normal(0.0, 0.1 / rate_hz, t.size)) / grid_s) * grid_s
+    else:
+        t = np.round(t / grid_s) * grid_s
+    folder = _akit_with_imu_stamps(clean, t, tmp_path).parent
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(folder)
+        entry = m.meta["streams"]["imu"]
+        assert m.config.imu_rate_hz == pytest.approx(rate_hz, rel=1e-3) == entry["rate_hz"]
+        assert f"{1e3 * grid_s:g} ms clock" in entry["notes"][0] and entry["restamped"] > 0.4 * t.size
+        read = read_mission(folder)
+        read.meta["streams"]["imu"]["restamp_period_s"] *= 1.1
+        with pytest.raises(DataError, match=r"IMU stamps restamped at the period .* ms read .* Hz"):
+            prepare(read)
 
 
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])

@@ -1219,6 +1219,17 @@ def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
     assert "runs of" not in str(raised.value)
 
 
+def _imu_stamps_read_whole(t, warned):
+    """``(meta, stamps)`` of IMU stamps ``t`` read as a file's (``stamp_order``), every row kept, warned ``warned``."""
+    from graphnav.core.screening import stamp_order
+    meta: dict = {}
+    with pytest.warns(RuntimeWarning, match=warned):
+        kept, dropped, stamps = stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t",
+                                            False, meta, "imu")
+    assert np.array_equal(kept, np.arange(t.size)) and not dropped
+    return meta, stamps
+
+
 def test_an_imu_whose_packets_share_one_stamp_is_restamped_and_a_few_duplicates_are_still_refused():
     """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz, or a 400 Hz IMU in packets of 4
     logged in whole ms, or the same in ms): the IMU's file was refused as duplicated stamps, its repair dropped k - 1
@@ -1232,12 +1243,8 @@ def test_an_imu_whose_packets_share_one_stamp_is_restamped_and_a_few_duplicates_
         true = 100.0 + np.arange(2000) * period
         t = true[np.arange(2000) // k * k + k - 1]
         t = np.round(t / quantum) * quantum if quantum else t
-        meta: dict = {}
-        with pytest.warns(RuntimeWarning, match=rf"^imu: imu.csv: stamped in packets of {k} \(every {cycle} ms; .*: "
-                                                rf"{2000 - 2000 // k} of 2000 stamps \(each packet's samples shared"):
-            kept, dropped, stamps = stamp_order(t, np.c_[t, np.arange(2000.0)], np.arange(2000) + 2, "imu.csv", "t",
-                                                False, meta, "imu")
-        assert np.array_equal(kept, np.arange(2000)) and not dropped
+        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamped in packets of {k} \(every {cycle} ms; "
+                                              rf".*: {2000 - 2000 // k} of 2000 stamps \(each packet's samples shared")
         np.testing.assert_allclose(stamps, true, rtol=0, atol=0.51 * quantum + 1e-9)    # the rounding
         assert meta["streams"]["imu"]["restamped"] == 2000 - 2000 // k
         assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(1 / period)
@@ -1259,6 +1266,87 @@ def test_an_imu_whose_packets_share_one_stamp_is_restamped_and_a_few_duplicates_
     with pytest.raises(DataError, match="check the file's stamps: many rows share each one") as raised:
         check_refused_fraction(meta)
     assert "sensor ranges" not in str(raised.value)
+
+
+def _coarse_clock(true, grid, how, jitter=0.0, seed=0):
+    """Stamps ``true`` (s) as a clock on a ``grid`` (s) coarser than their period logs them: truncated ("floor") or
+    rounded, after ``jitter`` (s, one sigma) of sampling noise."""
+    t = np.sort(true + np.random.default_rng(seed).normal(0.0, jitter, true.size)) if jitter else true
+    return (np.floor(t / grid + 1e-9) if how == "floor" else np.round(t / grid)) * grid
+
+
+def test_an_imu_on_a_clock_coarser_than_its_period_is_put_on_one_even_grid_or_refused():
+    """Stamps from a clock coarser than the IMU's period (200 Hz in whole 10 ms, with 0.5 ms jitter: runs of 1-3 to a
+    stamp; 400 Hz in rounded 10 ms; 2 kHz in whole ms) were taken for packets sharing one stamp: each run spread back
+    and squeezed into the room before it, steps of 3.3 and 5 ms (prepare then wrote 233.7, 458 and 2337 Hz). They
+    are now put on one even grid at the period, samples over time, each sample after its stamp (a truncating clock),
+    the note naming the clock; samples lost within a stretch (no even grid fits) are refused naming the grid and
+    line. Packets of 10 sharing a receipt stamp off the grid are still spread back from it."""
+    from graphnav.core.screening import stamp_order
+    cases = ((0.005, 0.01, "floor", 5e-4), (0.0025, 0.01, "round", 0.0), (0.0005, 0.001, "floor", 0.0),
+             (0.0005, 0.001, "floor", 5e-5))
+    for period, grid, how, jitter in cases:
+        true = 1000.0 + np.arange(6000) * period
+        t = _coarse_clock(true, grid, how, jitter)
+        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a {grid * 1e3:g} ms clock, coarser "
+                                              rf"than the IMU's {period * 1e3:g} ms period .*each sample at or after")
+        np.testing.assert_allclose(np.diff(stamps), np.diff(stamps)[0], rtol=1e-6)     # one even grid
+        late = stamps - true            # truncated: mid-way through a grid step, rounded: half a grid step more
+        assert np.all(np.abs(late - (0.5 * grid if how == "round" else 0.0)) <= 0.51 * period)
+        assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(1 / period, rel=1e-4)
+        assert meta["streams"]["imu"]["restamp_period_s"] == pytest.approx(np.diff(stamps)[0], rel=1e-9)
+    true = np.arange(6000) * 0.005
+    t = _coarse_clock(true, 0.01, "floor")
+    lost = np.ones(6000, bool)
+    lost[1000:1400:4] = False           # 100 samples lost, a sample every other grid step: no step skipped
+    with pytest.raises(DataError, match=r"stamps on a 10 ms clock, coarser than the IMU's 5\.\d* ms period, fit no "
+                                        r"even grid") as raised:
+        stamp_order(t[lost], np.c_[t[lost], true[lost]], np.flatnonzero(lost) + 2, "imu.csv", "t", False, {}, "imu")
+    assert raised.value.line is not None and raised.value.field == "t"
+    shared = 100.09 + np.arange(2000) // 10 * 0.1           # packets of 10 sharing their last sample's stamp
+    with pytest.warns(RuntimeWarning, match="stamped in packets of 10"):
+        stamps = stamp_order(shared, np.c_[shared, np.arange(2000.0)], np.arange(2000) + 2, "imu.csv", "t", False,
+                             {}, "imu")[2]
+    np.testing.assert_allclose(stamps, 100.0 + np.arange(2000) * 0.01, rtol=0, atol=1e-9)
+
+
+def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_period_is_said():
+    """An IMU at rest whose packets of 10 share one stamp, its readings identical: 900 of its first 1000 samples
+    were dropped as exact copies before the packets were seen. A row equal to the one before it at a stamp holding
+    no more samples than the packets do is now a sample; a packet written twice (20 rows to a stamp) still loses its
+    copies."""
+    from graphnav.core.screening import stamp_order
+    i = np.arange(3000)
+    true = 100.0 + i * 0.01
+    t = true[np.minimum(i // 10 * 10 + 9, i.size - 1)]
+    values = np.random.default_rng(0).normal(0.0, 0.01, (i.size, 6))
+    values[:1000] = [0.0, 0.0, -9.81, 0.0, 0.0, 0.0]                # at rest: identical readings
+    meta: dict = {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        kept, dropped, stamps = stamp_order(t, np.c_[t, values], i + 2, "imu.csv", "t", False, meta, "imu")
+    assert np.array_equal(kept, i) and not dropped
+    np.testing.assert_allclose(stamps, true, rtol=0, atol=1e-9)
+    said = [str(w.message) for w in caught]
+    assert len(said) == 1 and "restamped at the period 10 ms" in said[0] and "3000 stamps" in said[0]
+    twice = np.r_[:510, 500:3000]                   # the packet of samples 500-509 written again
+    with pytest.warns(RuntimeWarning, match=r"10 row\(s\) repeating an earlier row exactly .* line\(s\) 512, "):
+        kept, dropped, _ = stamp_order(t[twice], np.c_[t[twice], values[twice]], np.arange(twice.size) + 2,
+                                       "imu.csv", "t", False, {}, "imu")
+    assert dropped == {"repeats an earlier row exactly": 10} and np.array_equal(kept, np.r_[:510, 520:3010])
+
+
+def test_a_live_imu_on_a_clock_coarser_than_its_period_is_not_taken_for_packets():
+    """Live, a 200 Hz IMU in whole 10 ms (2 kHz in whole ms, 400 Hz in rounded 10 ms) was restamped as packets of
+    2-5 at a wrong period; it is now said once and passes as received."""
+    from graphnav.estimators.keyframes import PacketStamps
+    for period, grid, how in ((0.005, 0.01, "floor"), (0.0005, 0.001, "floor"), (0.0025, 0.01, "round")):
+        stamps = _coarse_clock(np.arange(4000) * period, grid, how)
+        packets = PacketStamps(period)
+        passed = [s[0] for t in stamps for s in packets.add(float(t), (), ())] + packets.flush()
+        assert np.array_equal(passed, stamps) and packets.restamped == 0
+        assert packets.note.startswith(f"stamps on a {grid * 1e3:g} ms clock, coarser than the IMU's")
+        assert "not restamped live" in packets.note
 
 
 def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():

@@ -153,7 +153,7 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     warnings.warn(f"imu: {mission.imu.source}: {note}", RuntimeWarning, stacklevel=3)
     if not ok:
         return mission
-    stream_entry(meta, "imu")["restamped"] = moved
+    stream_entry(meta, "imu").update(restamped=moved, restamp_period_s=period)
     set_span(meta, "imu", restamped)
     return dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=restamped))
 
@@ -167,6 +167,7 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     from graphnav.core.screening import imu_rate_hz, imu_stamp_quantum
     configured = float(mission.config.imu_rate_hz)
     measured = imu_rate_hz(mission.imu.t, configured, IMU_RATE_TOLERANCE)
+    _check_restamped_rate(meta, measured, mission.imu.source)
     steps = np.diff(mission.imu.t)
     quantum = imu_stamp_quantum(steps)
     if quantum:
@@ -179,6 +180,21 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "
              f"imu_rate_hz {configured:g} Hz: {measured:.4g} Hz is used")
     return dataclasses.replace(mission, config=dataclasses.replace(mission.config, imu_rate_hz=measured))
+
+
+#: How far (relative) the period of an IMU's restamped stamps may be from the one they were restamped at.
+RESTAMPED_PERIOD_TOLERANCE = 0.01
+
+
+def _check_restamped_rate(meta: dict, measured_hz: float, source: str) -> None:
+    """DataError when the rate ``measured_hz`` (Hz) of an IMU's restamped stamps contradicts the period they were
+    restamped at (``meta["streams"]["imu"]["restamp_period_s"]``, s): the rate written into the configuration must be
+    the one the stamps were put on (packets squeezed into the room before them read 233.7 Hz at 200 Hz)."""
+    period = meta.get("streams", {}).get("imu", {}).get("restamp_period_s")
+    if period and not abs(1.0 / measured_hz - period) <= RESTAMPED_PERIOD_TOLERANCE * period:
+        raise DataError(f"IMU stamps restamped at the period {1e3 * period:.4g} ms read {measured_hz:.4g} Hz "
+                        f"({1e3 / measured_hz:.4g} ms) after: the restamping left them off that period; check the "
+                        "file's stamps", source, field=meta.get("stream_fields", {}).get("imu", "t"))
 
 
 def _is_auto(value) -> bool:

@@ -916,8 +916,10 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 
     A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
     twice (a logger flushing its buffer again): dropped with a warning. An IMU's (``stream`` "imu") packets sharing
-    one stamp (:func:`shared_stamp_packets`) are restamped at the period (:func:`restamp_shared_stamps`, noted in
-    ``meta``). The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp
+    one stamp (:func:`shared_stamp_packets`) or from a clock coarser than its period (:func:`quantised_clock`) are
+    restamped at the period (:func:`restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one before
+    it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse counts), not
+    a copy. The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp
     repeats an earlier one dropped (the first kept), with a warning; without it a DataError naming ``source``, the
     line, ``field`` and the way out (``--repair-stamps``): one stamp on two different rows can be two streams
     written into one file."""
@@ -926,13 +928,15 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     a, b = rows[order][:-1], rows[order][1:]
     same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
     copies = np.sort(order[1:][same])
+    if copies.size and stream == "imu":
+        copies = copies[~_samples_sharing_a_stamp(t, copies)]
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
     if stream == "imu":
-        t[kept] = restamp_shared_stamps(t[kept], source, meta)
+        t[kept] = restamp_shared_stamps(t[kept], source, meta, lines[kept], field)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
@@ -983,23 +987,129 @@ def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
     return k, cycle, float(np.sum(d[inside]) / np.sum(counts[1:][inside]))
 
 
-def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:
+#: Share of a quantised clock's distinct stamps, and of the steps between them, that lie on its grid (within a
+#: hundredth of a grid step: Unix seconds carry ~1e-7 s of rounding) (:func:`quantised_clock`).
+QUANTISED_GRID_SHARE = 0.99
+#: Share of a quantised clock's stamps holding more samples than most do, above which its counts vary about the
+#: grid over the period (a 200 Hz IMU in 10 ms with 0.5 ms jitter: a quarter hold 3, a quarter 1) and are no
+#: driver's regular packets (a regular count, fewer where samples are lost) whatever the stamps' offset.
+QUANTISED_COUNT_SHARE = 0.1
+
+
+def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order) from a clock coarser than the IMU's period (a 200
+    Hz IMU logged in whole 10 ms, 2 kHz in whole ms): stamps that :func:`shared_stamp_packets` would take for packets,
+    whose steps are multiples of a grid (their median; a skipped grid step is samples lost) at least 1.5 periods
+    long, and whose stamps are multiples of it too or hold varying counts (:data:`QUANTISED_COUNT_SHARE`). The period
+    is samples over time, each stamp holding the samples up to the next (a clock truncating to its grid), steps over
+    two grid steps left out. None else: a driver's packets sharing a receipt stamp off any such grid, or a cycle of
+    regular packets."""
+    t = np.asarray(t, float)
+    if shared_stamp_packets(t) is None:
+        return None
+    stamps, counts = np.unique(t, return_counts=True)
+    d = np.diff(stamps)
+    grid = float(np.median(d))
+
+    def on_grid(x):
+        return np.mean(np.abs(x / grid - np.round(x / grid)) <= 0.01) >= QUANTISED_GRID_SHARE
+
+    inside = d <= 2.0 * grid
+    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    varying = np.mean(counts > np.median(counts)) >= QUANTISED_COUNT_SHARE
+    if not on_grid(d) or grid < 1.5 * period or not (on_grid(stamps) or varying):
+        return None
+    return grid, period
+
+
+def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
+    samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
+    :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
+    grid's periods); a logger flushing its buffer again writes more."""
+    packets = shared_stamp_packets(t)
+    if packets is None:
+        return np.zeros(rows.size, bool)
+    clock = quantised_clock(t)
+    most = math.floor(clock[0] / clock[1]) + 1 if clock else packets[0]
+    _, first = np.unique(t, return_index=True)
+    return rows - first[np.searchsorted(t[first], t[rows])] < most
+
+
+def restamp_quantised(t: np.ndarray, grid_s: float) -> tuple[np.ndarray, float]:
+    """IMU stamps ``t`` (s, never decreasing) from a clock on a ``grid_s`` grid coarser than the IMU's period on one
+    even grid over each stretch between skipped grid steps (samples lost), and its period (s): the least-squares line
+    through the mid-points of the samples' grid steps, one slope (samples over time, with no weight on how full the
+    first and last grid steps are) and one offset a stretch; each sample at or after its stamp on average, as a clock
+    truncating to its grid stamps them."""
+    t = np.asarray(t, float)
+    start = np.r_[True, np.diff(t) > 1.5 * grid_s]
+    stretch = np.cumsum(start) - 1
+    k = np.arange(t.size) - np.flatnonzero(start)[stretch]
+    n = np.bincount(stretch)
+    dk = k - (np.bincount(stretch, k) / n)[stretch]
+    mid = t + 0.5 * grid_s
+    period = float(np.sum(dk * (mid - (np.bincount(stretch, mid) / n)[stretch])) / np.sum(dk * dk))
+    phase = np.bincount(stretch, mid - k * period) / n
+    return phase[stretch] + k * period, period
+
+
+def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: str) -> str:
+    """What putting the stamps of a clock on a ``grid_s`` grid coarser than the IMU's ``period_s`` (s; ``counts``
+    the samples each stamp held) on one even grid did to ``which`` stamps (a stream note and a warning)."""
+    ms = f"{1e3 * grid_s:.4g} ms"
+    return (f"stamps on a {ms} clock, coarser than the IMU's {1e3 * period_s:.4g} ms period ({int(counts.min())} "
+            f"to {int(counts.max())} samples to a stamp): {which} put on one even grid at the period (samples over "
+            f"time), spread at the period from each stamp, each sample at or after its stamp (a clock truncating to "
+            f"its grid, the usual logger; one rounding to it leaves them {1e3 * grid_s / 2:.4g} ms late)")
+
+
+def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, lines: np.ndarray | None = None,
+                          field: str = "t") -> np.ndarray:
     """IMU stamps ``t`` (s, file order) whose packets share one stamp (:func:`shared_stamp_packets`) with each
-    packet spread back from its stamp at the period (:func:`restamp_packets`), warned about and noted once, their
-    count in ``meta["streams"]["imu"]["restamped"]``; else ``t`` as given. Left as read, every sample but one of a
-    packet was a duplicated stamp: the file was refused, and its repair dropped k - 1 in k samples."""
+    packet spread back from its stamp at the period (:func:`restamp_packets`), or from a clock coarser than the
+    period (:func:`quantised_clock`) put on one even grid (:func:`restamp_quantised`), warned about and noted once,
+    their count in ``meta["streams"]["imu"]["restamped"]`` and the period in ``"restamp_period_s"``; else ``t`` as
+    given. Left as read, every sample but one of a stamp was a duplicated stamp: the file was refused, and its repair
+    dropped k - 1 in k samples. DataError (naming ``source``, the file ``lines`` and ``field``) when a quantised
+    clock's samples do not fit one even grid: a sample put more than a period outside its stamp's grid step."""
     packets = shared_stamp_packets(t)
     if packets is None:
         return t
-    k, cycle, period = packets
-    restamped = restamp_packets(t, period, 0.0)
-    moved = int(np.sum(restamped != t))
-    note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
+    clock = quantised_clock(t)
+    if clock:
+        restamped, period = restamp_quantised(t, clock[0])
+        grid = clock[0]
+        _check_on_grid(t, restamped, grid, period, source, lines, field)
+        moved = int(np.sum(restamped != t))
+        note = quantised_note(grid, period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps")
+    else:
+        k, cycle, period = packets
+        restamped = restamp_packets(t, period, 0.0)
+        moved = int(np.sum(restamped != t))
+        note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
     warnings.warn(f"imu: {source}: {note}", RuntimeWarning, stacklevel=4)
     if meta is not None:
-        add_note(meta, "imu", note)["restamped"] = moved
+        entry = add_note(meta, "imu", note)
+        entry["restamped"], entry["restamp_period_s"] = moved, period
         set_span(meta, "imu", restamped)
     return restamped
+
+
+def _check_on_grid(t: np.ndarray, restamped: np.ndarray, grid_s: float, period_s: float, source: str,
+                   lines: np.ndarray | None, field: str) -> None:
+    """DataError when a quantised clock's sample ``restamped`` (s) lies more than a period outside the grid step its
+    stamp ``t`` (s) starts: samples lost within a stretch, or an IMU whose rate wanders, fit no even grid."""
+    off = np.maximum(t - restamped, restamped - t - grid_s)
+    bad = np.flatnonzero(off > period_s)
+    if bad.size:
+        i = int(bad[0])
+        raise DataError(f"stamps on a {1e3 * grid_s:.4g} ms clock, coarser than the IMU's {1e3 * period_s:.4g} ms "
+                        f"period, fit no even grid: on one at the period (samples over time) {bad.size} sample(s) "
+                        f"fall more than a period outside their stamp's {1e3 * grid_s:.4g} ms (the first, stamped "
+                        f"{float(t[i])!r} s, at {float(restamped[i])!r} s): samples lost without a gap, or a rate "
+                        "that wanders; log the IMU's stamps at a finer resolution", source,
+                        None if lines is None else int(lines[i]), field)
 
 
 def stamped_in_packets(t: np.ndarray) -> str:

@@ -57,7 +57,7 @@ from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
     BURST_STEP_SHARE, awaits_packet_cycles, imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note,
-    restamp_packets, shared_stamp_packets, start_burst, start_burst_warning)
+    quantised_clock, restamp_packets, shared_stamp_packets, start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -340,12 +340,21 @@ class PacketStamps:
         """Decide on the stamps so far once one repeats: packets sharing one stamp when
         :func:`~graphnav.core.screening.shared_stamp_packets` says so over the whole packets received, four stamps or
         more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
-        downstream), a packet ending at any step; else the steps decide."""
+        downstream), a packet ending at any step; a clock coarser than the period
+        (:func:`~graphnav.core.screening.quantised_clock`) is said once and passes as received (its repeated stamps
+        refused); else the steps decide."""
         self._ties = self._ties or [last]
         whole = self._ties[1:] if t > last else []          # the first may be the end of a packet
         self._ties.append(t)
         packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
-        if packets is not None:
+        clock = quantised_clock(np.asarray(whole)) if packets is not None else None
+        if clock is not None:
+            self._steps, self._ties = None, []
+            self.note = (f"stamps on a {1e3 * clock[0]:.4g} ms clock, coarser than the IMU's {1e3 * clock[1]:.4g} ms "
+                         "period: not restamped live (no packets: where its samples belong is known only from the "
+                         "stamps after them), so samples repeating a stamp are refused; read the log offline, which "
+                         "puts them on one even grid, or stamp the IMU finer")
+        elif packets is not None:
             k, cycle, self.period_s = packets
             self._decided(k)
             self._steps, self._ties, self._limit, self._passing = None, [], 0.0, True
