@@ -1199,6 +1199,33 @@ def test_a_live_imu_packet_larger_than_the_rest_or_a_clock_stepping_back_adds_no
     np.testing.assert_allclose(t_out[100:], step_back[100:], rtol=0, atol=1e-4)
 
 
+def test_a_live_imu_packet_cut_short_by_an_outage_or_the_end_of_the_imu_is_kept(mission):
+    """Packets of 20 (stamped on receipt or sharing one stamp), one cut at 10 samples as the IMU goes silent for 2 s or
+    stops for good, the other streams going on: the short packet was held for its end, the reorder buffer let go past
+    it two cycles later, and its samples, queued only with the next IMU sample or at the end, were refused as out of
+    order (1.9 s and 20 s older than what had left). Now it leaves, spread back from its last stamp, before the buffer
+    releases past it."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    for spacing in (1e-5, 0.0):
+        stamps = _in_packets(true, 20, spacing)
+        stamps[4000:4010] = true[4009] + np.arange(10) * spacing                # the packet cut short
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            nav = _navigator(m)
+            _feed(nav, _with_imu_stamps(events, stamps))
+        starting = nav.refused.get("imu", {})       # sharing one stamp: the first packets, before it is decided
+        for name, gone in (("an outage", np.r_[4010:4210]), ("the end", np.r_[4010:true.size])):
+            nav = _navigator(m)
+            kept = np.where(np.isin(np.arange(true.size), gone), -1.0, stamps)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                _feed(nav, [e for e in _with_imu_stamps(events, kept) if e[1] >= 0])
+            assert not [w for w in caught if "out of order" in str(w.message)], (name, spacing)
+            assert nav.refused.get("imu", {}) == starting, (name, spacing)
+
+
 def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
     """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz) in a file read as no IMU's (an IMU's
     are restamped: the next test): the duplicated-stamp error and its repair (which drops nine in ten) name the

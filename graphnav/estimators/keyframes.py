@@ -327,9 +327,18 @@ class PacketStamps:
         """The stamp (s) the reorder buffer may release up to while a packet is held: its first sample's place on
         the period when it grows to the typical size; inf with none held, or once ``newest`` (s, the newest stamp
         received) is two cycles past it (an IMU outage must not stall the other streams)."""
-        if not self._held or newest - self._held[-1][0] > 2 * self._k * self.period_s:
+        if not self._held or self._overdue(newest):
             return math.inf
         return self._held[0][0] - (self._k - 1) * self.period_s
+
+    def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
+        """The held packet restamped (:meth:`flush`, none at or before ``after``, s) once ``newest`` (s, the newest
+        stamp received on any stream) is two cycles past its last stamp: the IMU went silent or stopped, so the
+        packet has ended, and it must leave before the reorder buffer releases past it; else none."""
+        return self.flush(after) if self._held and self._overdue(newest) else []
+
+    def _overdue(self, newest: float) -> bool:
+        return newest - self._held[-1][0] > 2 * self._k * self.period_s
 
     def _decided(self, k: int) -> None:
         """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""

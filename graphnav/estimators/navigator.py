@@ -650,7 +650,10 @@ class Navigator:
                 if held and (until == math.inf or self._newest - held[-1][0] > self._screen.zero_ping[stream].hold_s):
                     out += self._settle(stream, False)
             until = min(until, self._hold_before)
-        # an IMU packet held for its end: what it will be spread over must not leave before it
+        # an IMU packet held for its end: what it will be spread over must not leave before it; one held so long
+        # that the IMU went silent has ended, and is queued before anything leaves past it
+        for sample in self._packets.overdue(self._newest, self._released):
+            out += self._queue_imu(*sample)
         until = min(until, self._packets.release_limit(self._newest))
         heap, q = self._heap, self._imu_q
         while True:
