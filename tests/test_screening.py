@@ -1097,8 +1097,9 @@ def test_a_live_imu_in_packets_of_varying_size_is_restamped_whole_and_passes_as_
     """Packets of 8-12 samples (USB or serial reads): a packet leaves at the next long step, or with its last sample
     once as large as two of the latest reached (the first packets after it decides, at the size it decided on); before,
     the held count was fixed (10), samples beyond it passed at their receipt stamps (0.01 ms steps) and those short of
-    it waited a cycle at another's stamps (errors to 20 ms). A stream in packets that turns clean passed each sample
-    one step late; now as received after 16 steps."""
+    it waited a cycle at another's stamps (errors to 20 ms). A larger packet's extra samples among the first packets
+    have no place left (their packet left spread back from its stamp): refused with the reason. A stream in packets
+    that turns clean passed each sample one step late; now as received after 16 steps."""
     from graphnav.estimators.keyframes import PacketStamps
     rng = np.random.default_rng(2)
     true = np.arange(4000) * 0.01
@@ -1113,11 +1114,13 @@ def test_a_live_imu_in_packets_of_varying_size_is_restamped_whole_and_passes_as_
         assert i < 3020 or left == [(float(t), (i,), ())]     # clean again: as received
         out += left
     out += packets.flush()
+    kept = np.array([s[1][0] for s in out])
+    refused = np.setdiff1d(np.arange(4000), kept)       # the extra samples of a larger packet among the first
+    assert np.all(np.diff(kept) > 0) and refused.size == len(packets.unplaced) <= 5 and np.all(refused < 200)
     t_out = np.array([s[0] for s in out])
-    assert [s[1] for s in out] == [(i,) for i in range(4000)]
-    late = t_out[200:3000] - true[200:3000]
-    assert np.all((late >= 0) & (late < 1.2e-4)) and np.all(np.diff(t_out[200:]) > 5e-3)
-    np.testing.assert_array_equal(t_out[3000:], true[3000:])
+    late = t_out[kept >= 200][:2800] - true[200:3000]
+    assert np.all((late >= 0) & (late < 1.2e-4)) and np.all(np.diff(t_out[kept >= 200]) > 5e-3)
+    np.testing.assert_array_equal(t_out[-1000:], true[3000:])
 
 
 def test_a_navigator_fed_an_imu_in_packets_estimates_as_from_its_clean_stream(mission):
@@ -1197,6 +1200,62 @@ def test_a_live_imu_packet_larger_than_the_rest_or_a_clock_stepping_back_adds_no
         out += left
     t_out = np.array([s[0] for s in out + packets.flush()])
     np.testing.assert_allclose(t_out[100:], step_back[100:], rtol=0, atol=1e-4)
+
+
+def test_a_live_imu_packet_cut_short_by_an_outage_or_the_end_of_the_imu_is_kept(mission):
+    """Packets of 20 (stamped on receipt or sharing one stamp), one cut at 10 samples as the IMU goes silent for 2 s or
+    stops for good, the other streams going on: the short packet was held for its end, the reorder buffer let go past
+    it two cycles later, and its samples, queued only with the next IMU sample or at the end, were refused as out of
+    order (1.9 s and 20 s older than what had left). Now it leaves, spread back from its last stamp, before the buffer
+    releases past it."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    for spacing in (1e-5, 0.0):
+        stamps = _in_packets(true, 20, spacing)
+        stamps[4000:4010] = true[4009] + np.arange(10) * spacing                # the packet cut short
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            nav = _navigator(m)
+            _feed(nav, _with_imu_stamps(events, stamps))
+        starting = nav.refused.get("imu", {})       # sharing one stamp: the first packets, before it is decided
+        for name, gone in (("an outage", np.r_[4010:4210]), ("the end", np.r_[4010:true.size])):
+            nav = _navigator(m)
+            kept = np.where(np.isin(np.arange(true.size), gone), -1.0, stamps)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                _feed(nav, [e for e in _with_imu_stamps(events, kept) if e[1] >= 0])
+            assert not [w for w in caught if "out of order" in str(w.message)], (name, spacing)
+            assert nav.refused.get("imu", {}) == starting, (name, spacing)
+
+
+def test_a_live_imu_driver_read_of_two_packets_at_once_is_refused_beyond_its_packet_with_the_reason(mission):
+    """Packets of 20 with one delayed driver read returning two at once (40 samples under one stamp, or 0.01 ms apart):
+    the first 20 leave spread back from its stamp and the other 20, stamped with or just after what already left,
+    were squeezed into 0.2 ms (stamped on receipt) or refused as duplicate stamps (sharing one). Their times are
+    unknown and the next packet leaves no room at the period: refused, saying so, and counted; no step under half a
+    period reaches the keyframer."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    for spacing in (1e-5, 0.0):
+        stamps = _in_packets(true, 20, spacing)
+        plain = _navigator(m)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _feed(plain, _with_imu_stamps(events, stamps))
+        stamps[2000:2040] = true[2039] + np.arange(40) * spacing
+        nav, integrated = _navigator(m), []
+        add = nav.keyframer.add_imu
+        nav.keyframer.add_imu = lambda t, f, w: integrated.append(t) or add(t, f, w)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _feed(nav, _with_imu_stamps(events, stamps))
+        refused = dict(nav.refused.get("imu", {}))
+        assert refused.pop("beyond its packet") >= 19 and refused == plain.refused.get("imu", {}), spacing
+        assert any("a driver read of 40 samples stamped together: 20 beyond the packet size of 20, their times "
+                   "unknown" in str(w.message) for w in caught)
+        assert np.min(np.diff(integrated[1000:])) > 0.005, spacing     # from 10 s on: packets decided
 
 
 def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():

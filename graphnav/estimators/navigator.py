@@ -243,13 +243,20 @@ class Navigator:
             return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
         packets = self._packets
-        out = []
-        for sample in packets.add(t, f, w, self._released):     # a packet queued whole before anything leaves
-            out += self._queue_imu(*sample)
+        out = self._queue_packet(packets.add(t, f, w, self._released))  # queued whole before anything leaves
         if packets.note is not None:
             self._note("imu", packets.note)
             packets.note = None
         return out + self._release(self._newest - self.options.reorder_window_s)
+
+    def _queue_packet(self, samples: list) -> list[EpochEstimate]:
+        """The IMU samples :class:`PacketStamps` let out into the reorder buffer, and those of a driver read it
+        found no place for refused (counted under ``beyond its packet``)."""
+        out = [e for sample in samples for e in self._queue_imu(*sample)]
+        for t, why in self._packets.unplaced:
+            self._refuse("imu", t, "beyond its packet", why, screened=True)
+        self._packets.unplaced.clear()
+        return out
 
     def _queue_imu(self, t: float, f: tuple, w: tuple) -> list[EpochEstimate]:
         """An IMU sample into the reorder buffer (refused when it repeats a stamp or comes too late); the caller
@@ -350,7 +357,7 @@ class Navigator:
     def finish(self) -> list[EpochEstimate]:
         """End of data: release everything still buffered and close the keyframes the IMU covers."""
         self._check_refused()
-        out = [e for sample in self._packets.flush(self._released) for e in self._queue_imu(*sample)]
+        out = self._queue_packet(self._packets.flush(self._released))
         out += self._release(math.inf)
         if self.backend is None and self.aligner is not None:
             out += self._align_at_end()
@@ -650,7 +657,9 @@ class Navigator:
                 if held and (until == math.inf or self._newest - held[-1][0] > self._screen.zero_ping[stream].hold_s):
                     out += self._settle(stream, False)
             until = min(until, self._hold_before)
-        # an IMU packet held for its end: what it will be spread over must not leave before it
+        # an IMU packet held for its end: what it will be spread over must not leave before it; one held so long
+        # that the IMU went silent has ended, and is queued before anything leaves past it
+        out += self._queue_packet(self._packets.overdue(self._newest, self._released))
         until = min(until, self._packets.release_limit(self._newest))
         heap, q = self._heap, self._imu_q
         while True:
