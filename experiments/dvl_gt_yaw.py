@@ -38,7 +38,8 @@ def fits(ref, t, v, lever, length, alone=False):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--pieces", type=float, nargs="*", default=[60.0, 120.0], help="piece lengths, s (none: whole only)")
+    ap.add_argument("--pieces", type=float, nargs="*", default=[60.0, 120.0],
+                    help="piece lengths, s (none: whole only)")
     ap.add_argument("--turns", type=float, nargs="+", default=[0.0, 1.0, 2.0, 5.0], help="turns applied, deg")
     ap.add_argument("--lever-errors", type=float, nargs="+", default=[0.0], help="lever-arm errors along x, m")
     ap.add_argument("--turn-alone", action="store_true", help="fit the turn without the lever-arm correction")

@@ -282,8 +282,8 @@ def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate
     shared = np.round(shared / quantum_s) * quantum_s if quantum_s else shared
     path = write_akit(clean, tmp_path)["IMU"]
     lines = path.read_text().splitlines()
-    path.write_text("\n".join([lines[0]] + [f"{float(s)!r}{line[line.index(','):]}" for s, line in zip(shared, lines[1:])])
-                    + "\n")
+    rows = [f"{float(s)!r}{line[line.index(','):]}" for s, line in zip(shared, lines[1:])]
+    path.write_text("\n".join([lines[0]] + rows) + "\n")
     for repair in (False, True):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

@@ -1043,7 +1043,8 @@ def _in_packets(t, k, spacing_s=1e-5):
     return np.asarray(t)[np.minimum(i // k * k + k - 1, len(t) - 1)] + i % k * spacing_s
 
 
-@pytest.mark.parametrize("k, spacing_s", [(3, 1e-4), (10, 1e-5), (20, 1e-5), (10, 6e-4), (20, 3e-4), (2, 1e-5), (10, 1e-3)])
+@pytest.mark.parametrize("k, spacing_s", [(3, 1e-4), (10, 1e-5), (20, 1e-5), (10, 6e-4), (20, 3e-4), (2, 1e-5),
+                                          (10, 1e-3)])
 def test_a_live_imu_in_packets_is_put_back_on_its_period_as_each_packet_ends(k, spacing_s):
     """Once its first steps show packets, each packet leaves restamped (spread back from its last stamp) when its
     last sample arrives; before, it is passed as received. A clean stream with jitter and a gap is passed as it is.

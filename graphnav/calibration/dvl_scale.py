@@ -371,9 +371,9 @@ def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma:
                     against: str = "the IMU's axes", floor: float = MIN_YAW_RAD, doubt: str = YAW_DOUBT,
                     explained: str = "of its changes") -> None:
     """Warn about, note and count (``doubt``) a DVL velocity turned ``yaw`` rad about z from ``against`` (its fit's
-    ``sigma``, rad, and ``r2``, the share it explains ``explained``) when beyond ``floor`` (rad, default :data:`MIN_YAW_RAD`) and :data:`YAW_SIGMAS`
-    sigmas: a head mounted off, its instrument-frame columns read as body, or a ``dvl.C_d_b`` that is not the
-    head's."""
+    ``sigma``, rad, and ``r2``, the share it explains ``explained``) when beyond ``floor`` (rad, default
+    :data:`MIN_YAW_RAD`) and :data:`YAW_SIGMAS` sigmas: a head mounted off, its instrument-frame columns read as body,
+    or a ``dvl.C_d_b`` that is not the head's."""
     if not (abs(yaw) > floor and abs(yaw) > YAW_SIGMAS * sigma):
         return
     places = 1 if np.degrees(sigma) >= 0.05 else 2          # a sigma from a GT is hundredths of a degree

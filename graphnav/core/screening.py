@@ -469,9 +469,9 @@ def packets_note(k: int, cycle_s: float, period_s: float, which: str | None) -> 
     if which is None:
         return found + (": spread back from each packet's last stamp they are not on that period, so they are "
                         "integrated as read")
+    early = f"{k - 1} period{'s' * (k > 2)}, {1e3 * (k - 1) * period_s:.4g} ms"
     return found + (", each packet spread back from its last stamp, taken as its last sample's (a driver stamping "
-                    f"a packet's first sample leaves them {k - 1} period{'s' * (k > 2)}, {1e3 * (k - 1) * period_s:.4g} ms, "
-                    "early)")
+                    f"a packet's first sample leaves them {early}, early)")
 
 
 def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: float = 0.05) -> float:

@@ -350,7 +350,8 @@ class PacketStamps:
         """The size a packet leaves at: the largest that two of the latest :data:`PACKET_SIZES` packets reached (one
         larger packet alone does not hold every later one a cycle; packets of 8-12 still leave whole). An IMU whose
         reads take one sample more now and then (100.2 Hz read every 200 ms: 21 about every 25th) keeps two such
-        among the latest, and each smaller packet is held a cycle (release lag mean 0.276 s against 0.242 s for packets of 20 only)."""
+        among the latest, and each smaller packet is held a cycle (release lag mean 0.276 s against 0.242 s for packets
+        of 20 only)."""
         return sorted(self._sizes)[-2]
 
     def release_limit(self, newest: float) -> float:
