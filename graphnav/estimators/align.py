@@ -22,7 +22,8 @@ The vehicle may be underway (turning, diving) from the first sample. Method (ine
   the accelerometer bias ``b_a`` (``beta_k`` loses ``int C_bt_b0 dt b_a``; prior: the spec's turn-on sigma)
   and the DVL's scale factor ``s`` (per DVL axis) and beam biases ``b`` (the measured head velocity is
   ``C_d_b (I + diag(s)) v_d + P b``, ``P`` the pseudo-inverse of the valid beams; priors: the estimators',
-  :meth:`graphnav.estimators.options.PriorOptions.dvl_error_sigmas`), with each ping weighted by its DVL noise
+  :meth:`graphnav.estimators.options.PriorOptions.dvl_error_sigmas`; the scale factor's regressor is the fitted
+  velocity at each ping, not the ping, whose own noise would bias it positive), with each ping weighted by its DVL noise
   (the vertical is ~4x better than the horizontal); its inverse information matrix is the attitude covariance,
   the DVL errors marginalised. Roll and pitch come from the mean direction of the vectors
   (levelling, the DVL velocity change removing the vehicle's accelerations); heading from the slow turn of
@@ -94,6 +95,8 @@ FIT_REJECT_CHI2 = 25.0
 FIT_REJECT_ROUNDS = 3
 #: Prior information of an error the fit holds at zero (``estimate_accel_bias`` / ``estimate_dvl_errors`` False).
 FIXED_PRIOR = 1e12
+#: Gauss-Newton iterations of the fit, twice: with the DVL scale factor's column from the pings, then from the fit.
+FIT_ITERATIONS = 3
 
 
 class AlignmentError(ConfigError):
@@ -493,9 +496,13 @@ class Aligner:
         t_dvl = np.array([d[0] for d in dvl])
         v_head_b = np.array([d[1] for d in dvl])
         # the DVL's errors: v_head_b = C_d_b (I + diag(s)) v_d + P b (scale s per DVL axis, beam biases b), so
-        # D (N,3,7) maps [s, b] to the measured velocity's error
-        C_d_b = self.geometry.C_d_b
-        D = np.concatenate([C_d_b[None] * (v_head_b @ C_d_b)[:, None, :], np.array([d[2] for d in dvl])], axis=2)
+        # D (N,3,7) maps [s, b] to the measured velocity's error; the scale factor's column is the head velocity
+        C_d_b, P_b = self.geometry.C_d_b, np.array([d[2] for d in dvl])
+
+        def error_map(v_head):
+            return np.concatenate([C_d_b[None] * (v_head @ C_d_b)[:, None, :], P_b], axis=2)
+
+        D = error_map(v_head_b)
         t_end = max(t_imu[-1], t_dvl[-1])
         if t_out is None:
             t_out = t_end
@@ -538,19 +545,30 @@ class Aligner:
         # weighted by the DVL noise of each ping (anisotropic: the vertical is better), giving the covariance
         sigma_acc = cfg.imu.accel_noise_density
         cov_dvl_b = self._dvl_velocity_covariance()
-        BD = B_dvl @ D
-        # beta without the errors x = [b_acc, s, b]: beta - K x (the first ping's DVL error goes into u)
-        K = np.concatenate([M_k, -(BD - BD[0])[1:]], axis=2)
         x = np.zeros(10)
         x_sigma, x_prior = self._error_prior()
-        for _ in range(3):
+
+        def residuals(C, x, D):
+            """Weights W, model y, offset u and residuals of the pings after the first, D's K and B_dvl @ D."""
+            BD = B_dvl @ D
+            # beta without the errors x = [b_acc, s, b]: beta - K x (the first ping's DVL error goes into u)
+            K = np.concatenate([M_k, -(BD - BD[0])[1:]], axis=2)
             alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
             C_B = C @ B_dvl[1:]
             R = C_B @ cov_dvl_b @ np.swapaxes(C_B, 1, 2) + (sigma_acc ** 2 * tau)[:, None, None] * np.eye(3)
             W = np.linalg.inv(R)
             y = (beta - np.einsum("nij,j->ni", K, x)) @ C.T
             u = np.linalg.solve(W.sum(0), np.einsum("nij,nj->i", W, alpha - y))
-            res = alpha - u - y
+            return W, y, u, alpha - u - y, K, BD
+
+        for i in range(2 * FIT_ITERATIONS):
+            W, y, u, res, K, BD = residuals(C, x, D)
+            if i == FIT_ITERATIONS:
+                # the scale factor's column from the fitted velocity (the IMU's between the pings), not the pings:
+                # a ping's own noise in its column made the fit shrink every ping (scale factor biased positive)
+                v_fit_b0 = v_b0 - np.einsum("nij,j->ni", BD, x[3:]) - np.concatenate([-u[None], res]) @ C
+                D = error_map(np.einsum("nji,nj->ni", B_dvl, v_fit_b0) + (v_head_b - v_b))
+                W, y, u, res, K, BD = residuals(C, x, D)
             n = len(res)
             J = np.zeros((n, 3, 16))
             J[:, :, 0:3] = skew(y)                              # d res / d phi (left perturbation, n0)
