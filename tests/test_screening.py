@@ -1335,39 +1335,61 @@ def _coarse_clock(true, grid, how, jitter=0.0, seed=0):
     return (np.floor(t / grid + 1e-9) if how == "floor" else np.round(t / grid)) * grid
 
 
-def test_an_imu_on_a_clock_coarser_than_its_period_is_put_on_one_even_grid_or_refused():
-    """Stamps from a clock coarser than the IMU's period (200 Hz in whole 10 ms, with 0.5 ms jitter: runs of 1-3 to a
-    stamp; 400 Hz in rounded 10 ms; 2 kHz in whole ms) were taken for packets sharing one stamp: each run spread back
-    and squeezed into the room before it, steps of 3.3 and 5 ms (prepare then wrote 233.7, 458 and 2337 Hz). They
-    are now put on one even grid at the period, samples over time, each sample after its stamp (a truncating clock),
-    the note naming the clock; samples lost within a stretch (no even grid fits) are refused naming the grid and
-    line. Packets of 10 sharing a receipt stamp off the grid are still spread back from it."""
+def test_an_imu_on_a_clock_coarser_than_its_period_is_put_on_one_even_grid():
+    """Stamps from a clock coarser than the IMU's period, their counts varying (200 Hz in whole 10 ms with 0.5 ms
+    jitter: runs of 1-3 to a stamp; 205 Hz and 202 Hz in whole 10 ms; 2 kHz in whole ms with jitter) were taken for
+    packets sharing one stamp: each run spread back and squeezed into the room before it (prepare then wrote 233.7
+    and 2337 Hz). They are put on one even grid at the period, samples over time, each sample after its stamp (a
+    truncating clock), the note naming the clock, whatever the stamps' origin (Unix seconds: 1.7e9 s)."""
+    cases = ((0.005, 0.01, 5e-4), (1 / 205, 0.01, 0.0), (1 / 202, 0.01, 0.0), (0.0005, 0.001, 5e-5))
+    for origin in (1000.0, 1.7e9):
+        for period, grid, jitter in cases:
+            true = origin + np.arange(6000) * period
+            t = _coarse_clock(true, grid, "floor", jitter)
+            meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a {grid * 1e3:g} ms clock, coarser "
+                                                  rf"than the IMU's {period * 1e3:.4g} ms period .*on one even grid")
+            step = (stamps[-1] - stamps[0]) / (stamps.size - 1)
+            np.testing.assert_allclose(np.diff(stamps), step, rtol=0, atol=1e-6)      # one even grid (Unix: 2e-7 s)
+            assert np.all(np.abs(stamps - true) <= 0.51 * period)
+            assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(1 / period, rel=1e-4)
+            assert meta["streams"]["imu"]["restamp_period_s"] == pytest.approx(step, rel=1e-6)
+
+
+@pytest.mark.parametrize("lost", [5, 240])
+def test_an_imu_on_a_clock_coarser_than_its_period_losing_samples_is_put_on_an_even_grid_in_stretches(lost):
+    """Samples lost from a 200 Hz IMU in whole 10 ms with 0.5 ms jitter (5 of 12001; 2 %), or its rate drifting 20
+    ppm over an hour: no one even grid fits, and the whole log was refused ("fit no even grid"). It is put on an even
+    grid in stretches, a new one where the line stops fitting, each sample within its stamp's grid step give or take
+    half a period (a period late where a stretch must begin after the one before), the stamps increasing."""
+    from graphnav.core.screening import restamp_shared_stamps
+    rng = np.random.default_rng(3)
+    true = 1.7e9 + np.arange(12001) * 0.005
+    keep = np.ones(true.size, bool)
+    keep[rng.choice(np.arange(100, 11900), lost, replace=False)] = False
+    k = np.arange(720000)
+    drifting = 1.7e9 + 0.005 * (k + 20e-6 * k ** 2 / k.size / 2)
+    for truth in (true[keep], drifting):
+        t = _coarse_clock(truth, 0.01, "floor", 5e-4)
+        with pytest.warns(RuntimeWarning, match=r"stamps on a 10 ms clock, coarser than the IMU's 5(\.\d+)? ms period"):
+            stamps = restamp_shared_stamps(t, "imu.csv", None)
+        assert np.all(np.diff(stamps) > 0)
+        assert np.all(stamps - t >= -0.0026) and np.all(stamps - t <= 0.0152)    # half a period: 2.52 ms
+
+
+def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back_from_their_stamp():
+    """Packets holding a constant count whose receipt stamps fall on multiples of their cycle (100 Hz in packets of
+    10 stamped with their last sample at 0.1, 0.2 ... s; 400 Hz in packets of 4 in whole ms on multiples of 10 ms)
+    were read as a coarse clock and placed a whole cycle late; they are packets, spread back from their stamp. A clock
+    with a whole number of periods to its step (200 Hz in whole 10 ms) cannot be told from them and is read so too,
+    each sample within its grid step."""
     from graphnav.core.screening import stamp_order
-    cases = ((0.005, 0.01, "floor", 5e-4), (0.0025, 0.01, "round", 0.0), (0.0005, 0.001, "floor", 0.0),
-             (0.0005, 0.001, "floor", 5e-5))
-    for period, grid, how, jitter in cases:
-        true = 1000.0 + np.arange(6000) * period
-        t = _coarse_clock(true, grid, how, jitter)
-        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a {grid * 1e3:g} ms clock, coarser "
-                                              rf"than the IMU's {period * 1e3:g} ms period .*each sample at or after")
-        np.testing.assert_allclose(np.diff(stamps), np.diff(stamps)[0], rtol=1e-6)     # one even grid
-        late = stamps - true            # truncated: mid-way through a grid step, rounded: half a grid step more
-        assert np.all(np.abs(late - (0.5 * grid if how == "round" else 0.0)) <= 0.51 * period)
-        assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(1 / period, rel=1e-4)
-        assert meta["streams"]["imu"]["restamp_period_s"] == pytest.approx(np.diff(stamps)[0], rel=1e-9)
-    true = np.arange(6000) * 0.005
-    t = _coarse_clock(true, 0.01, "floor")
-    lost = np.ones(6000, bool)
-    lost[1000:1400:4] = False           # 100 samples lost, a sample every other grid step: no step skipped
-    with pytest.raises(DataError, match=r"stamps on a 10 ms clock, coarser than the IMU's 5\.\d* ms period, fit no "
-                                        r"even grid") as raised:
-        stamp_order(t[lost], np.c_[t[lost], true[lost]], np.flatnonzero(lost) + 2, "imu.csv", "t", False, {}, "imu")
-    assert raised.value.line is not None and raised.value.field == "t"
-    shared = 100.09 + np.arange(2000) // 10 * 0.1           # packets of 10 sharing their last sample's stamp
-    with pytest.warns(RuntimeWarning, match="stamped in packets of 10"):
-        stamps = stamp_order(shared, np.c_[shared, np.arange(2000.0)], np.arange(2000) + 2, "imu.csv", "t", False,
-                             {}, "imu")[2]
-    np.testing.assert_allclose(stamps, 100.0 + np.arange(2000) * 0.01, rtol=0, atol=1e-9)
+    for period, k in ((0.01, 10), (0.0025, 4)):
+        i = np.arange(4000)
+        true = 100.0 + period + i * period
+        t = np.round(true[np.minimum(i // k * k + k - 1, i.size - 1)], 3)
+        with pytest.warns(RuntimeWarning, match=f"stamped in packets of {k}"):
+            stamps = stamp_order(t, np.c_[t, true], i + 2, "imu.csv", "t", False, {}, "imu")[2]
+        np.testing.assert_allclose(stamps, true, rtol=0, atol=1e-6)
 
 
 def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_period_is_said():
@@ -1397,11 +1419,11 @@ def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_pe
 
 
 def test_a_live_imu_on_a_clock_coarser_than_its_period_is_not_taken_for_packets():
-    """Live, a 200 Hz IMU in whole 10 ms (2 kHz in whole ms, 400 Hz in rounded 10 ms) was restamped as packets of
-    2-5 at a wrong period; it is now said once and passes as received."""
+    """Live, a 200 Hz IMU in whole 10 ms with jitter (2 kHz in whole ms, 400 Hz in rounded 10 ms, with jitter: the
+    counts vary) was restamped as packets of 2-5 at a wrong period; it is now said once and passes as received."""
     from graphnav.estimators.keyframes import PacketStamps
     for period, grid, how in ((0.005, 0.01, "floor"), (0.0005, 0.001, "floor"), (0.0025, 0.01, "round")):
-        stamps = _coarse_clock(np.arange(4000) * period, grid, how)
+        stamps = _coarse_clock(np.arange(4000) * period, grid, how, 0.1 * period)
         packets = PacketStamps(period)
         passed = [s[0] for t in stamps for s in packets.add(float(t), (), ())] + packets.flush()
         assert np.array_equal(passed, stamps) and packets.restamped == 0

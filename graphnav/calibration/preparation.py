@@ -62,7 +62,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.core.streams import add_note, set_span, stream_entry
+from graphnav.core.streams import add_note, count_doubted, set_span, stream_entry
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
@@ -187,14 +187,18 @@ RESTAMPED_PERIOD_TOLERANCE = 0.01
 
 
 def _check_restamped_rate(meta: dict, measured_hz: float, source: str) -> None:
-    """DataError when the rate ``measured_hz`` (Hz) of an IMU's restamped stamps contradicts the period they were
-    restamped at (``meta["streams"]["imu"]["restamp_period_s"]``, s): the rate written into the configuration must be
-    the one the stamps were put on (packets squeezed into the room before them read 233.7 Hz at 200 Hz)."""
+    """Warn (and count in ``meta``) when the rate ``measured_hz`` (Hz) of an IMU's restamped stamps contradicts the
+    period they were restamped at (``meta["streams"]["imu"]["restamp_period_s"]``, s): the restamping misread the
+    stamps (packets squeezed into the room before them read 233.7 Hz at 200 Hz). The measured rate is kept: it is
+    the one the stamps as restamped give, and refusing would lose a log whose samples are all there."""
     period = meta.get("streams", {}).get("imu", {}).get("restamp_period_s")
     if period and not abs(1.0 / measured_hz - period) <= RESTAMPED_PERIOD_TOLERANCE * period:
-        raise DataError(f"IMU stamps restamped at the period {1e3 * period:.4g} ms read {measured_hz:.4g} Hz "
-                        f"({1e3 / measured_hz:.4g} ms) after: the restamping left them off that period; check the "
-                        "file's stamps", source, field=meta.get("stream_fields", {}).get("imu", "t"))
+        note = (f"field '{meta.get('stream_fields', {}).get('imu', 't')}': IMU stamps restamped at the period "
+                f"{1e3 * period:.4g} ms read {measured_hz:.4g} Hz ({1e3 / measured_hz:.4g} ms) after: the restamping "
+                f"misread the stamps; {measured_hz:.4g} Hz is used, the samples may sit up to a period off")
+        add_note(meta, "imu", note)
+        count_doubted(meta, "imu", "restamped off the period", int(meta["streams"]["imu"].get("restamped", 0)))
+        warnings.warn(f"{source}: {note}", RuntimeWarning, stacklevel=4)
 
 
 def _is_auto(value) -> bool:
