@@ -62,7 +62,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
-from graphnav.core.streams import add_note, count_doubted, set_span, stream_entry
+from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
@@ -133,7 +133,7 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     packet's stamp, k samples made zero-length steps then one k periods long (a column-map log in packets of 20:
     VRMSE 0.098 m/s against 0.0026 from even stamps). Even stamps, gaps and stutters are no packets and keep their
     stamps; so do stamps the reader restamped already (packets sharing one stamp: one finding, one count)."""
-    from graphnav.core.screening import imu_packet_limit, imu_step_stats, packets_note, restamp_packets
+    from graphnav.core.screening import imu_packet_limit, imu_step_stats, packets_note, restamp_packets, say_restamp
     if meta.get("streams", {}).get("imu", {}).get("restamped"):
         return mission
     t = mission.imu.t
@@ -149,12 +149,10 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     # a rule that split packets wrongly leaves them mixed, whose rate contradicts the period just measured
     ok = not still > on_period and abs(on_period - period) <= IMU_RATE_TOLERANCE * period
     note = packets_note(round(cycle / period), cycle, period, f"{moved} of {t.size} stamps" if ok else None)
-    add_note(meta, "imu", note)
-    warnings.warn(f"imu: {mission.imu.source}: {note}", RuntimeWarning, stacklevel=3)
     if not ok:
+        say_restamp(meta, mission.imu.source, note, 3)
         return mission
-    stream_entry(meta, "imu").update(restamped=moved, restamp_period_s=period)
-    set_span(meta, "imu", restamped)
+    say_restamp(meta, mission.imu.source, note, 3, restamped, moved, period)
     return dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=restamped))
 
 

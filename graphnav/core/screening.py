@@ -996,6 +996,8 @@ QUANTISED_GRID_SHARE = 0.99
 #: a clock coarser than an IMU's period whose ratio to it is no whole number (200 Hz in whole 10 ms with 0.5 ms
 #: jitter: a quarter hold 3; 202 Hz: 2 %); a driver's regular packets hold their count, fewer where samples are lost.
 VARYING_COUNT_SHARE = 1e-3
+
+
 def counts_vary(counts: np.ndarray) -> bool:
     """Whether the samples to a stamp (``counts``, in stamp order) hold one more than their median more often than
     :data:`VARYING_COUNT_SHARE`: fewer are samples lost from packets (5 % lost from packets of 10 leaves 40 % short),
@@ -1051,9 +1053,10 @@ def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
 QUANTISED_SLACK_PERIODS = 0.5
 
 
-def restamp_quantised(t: np.ndarray, grid_s: float) -> tuple[np.ndarray, float, int]:
+def restamp_quantised(t: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray, float, int]:
     """IMU stamps ``t`` (s, never decreasing) from a clock on a ``grid_s`` grid coarser than the IMU's period put on an
-    even grid at the period (s) over each stretch, the period, and the number of stretches. A stretch lasts while
+    even grid at the period (s) over each stretch, the period, and the number of stretches (``period_s``: the
+    samples over time :func:`quantised_clock` measured, which the stretches refine). A stretch lasts while
     one line at the period keeps every sample within its stamp's grid step (give or take
     :data:`QUANTISED_SLACK_PERIODS`): it ends where samples are lost or the rate drifts, and starts again at a
     stamp. Its offset is the least-squares one through the mid-points of the grid steps (each sample after its
@@ -1063,10 +1066,7 @@ def restamp_quantised(t: np.ndarray, grid_s: float) -> tuple[np.ndarray, float, 
     with 0.5 ms jitter: 5.10 ms, 5.04 ms refined)."""
     t = np.asarray(t, float)
     s = t - t[0]                    # Unix seconds: the offsets are exact, the grid arithmetic then holds
-    d = np.diff(np.unique(s))
-    counts = np.unique(s, return_counts=True)[1]
-    inside = d <= 2.0 * grid_s
-    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    period = period_s
     for _ in range(4):
         starts = _even_stretches(s, grid_s, period)
         period = _pooled_period(s + 0.5 * grid_s, starts, period)
@@ -1159,7 +1159,7 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
         return t
     clock = quantised_clock(t)
     if clock:
-        restamped, period, stretches = restamp_quantised(t, clock[0])
+        restamped, period, stretches = restamp_quantised(t, *clock)
         moved = int(np.sum(restamped != t))
         note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
                               stretches)
@@ -1168,12 +1168,22 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
         restamped = restamp_packets(t, period, 0.0)
         moved = int(np.sum(restamped != t))
         note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
-    warnings.warn(f"imu: {source}: {note}", RuntimeWarning, stacklevel=4)
-    if meta is not None:
-        entry = add_note(meta, "imu", note)
-        entry["restamped"], entry["restamp_period_s"] = moved, period
-        set_span(meta, "imu", restamped)
+    say_restamp(meta, source, note, 4, restamped, moved, period)
     return restamped
+
+
+def say_restamp(meta: dict | None, source: str, note: str, stacklevel: int, restamped: np.ndarray | None = None,
+                moved: int = 0, period_s: float = math.nan) -> None:
+    """An IMU's restamping (``note``, of the file ``source``) warned about (``stacklevel`` as the caller's own) and
+    noted in ``meta``; when the ``restamped`` stamps (s) are kept, ``moved`` of them and the ``period_s`` (s) in
+    ``meta["streams"]["imu"]`` (``restamped``, ``restamp_period_s``) and its span theirs."""
+    warnings.warn(f"imu: {source}: {note}", RuntimeWarning, stacklevel=stacklevel + 1)
+    if meta is None:
+        return
+    entry = add_note(meta, "imu", note)
+    if restamped is not None:
+        entry.update(restamped=moved, restamp_period_s=period_s)
+        set_span(meta, "imu", restamped)
 
 
 def stamped_in_packets(t: np.ndarray) -> str:
