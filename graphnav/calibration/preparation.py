@@ -61,7 +61,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission
+from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
 from graphnav.core.streams import add_note, count_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
@@ -506,8 +506,7 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return 0.0, imu
     from graphnav.calibration.clock import align_stream_clocks
-    n = len(t_dvl)
-    velocity_only = DvlData(t_dvl, np.full((n, 4), np.nan), np.zeros((n, 4), bool), dvl.v_b, source=dvl.source)
+    velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
     def search(imu_: ImuData, meta_: dict) -> float:
         aligned, _ = align_stream_clocks(imu_, velocity_only, None, meta_, cfg, field="Time [s]",

@@ -251,11 +251,9 @@ def as_velocity_only(dvl, spec: DvlSpec):
     valid beams the instrument's own least-squares solution of those beams in the DVL frame (``v_d``, m/s,
     ``v_d_valid``; no per-ping sigma) and no beams (all invalid). For studies and tests: the same pings with the
     information of their beams, through :meth:`graphnav.estimators.navigator.Navigator.add_dvl_velocity`'s path."""
-    import dataclasses
-
+    from graphnav.core.mission import DvlData, no_beams
     geometry = DvlGeometry.from_spec(spec)
     v_b = geometry.velocity_from_beams(dvl.beams, dvl.valid, allow_missing=True)
     v_d_valid = np.all(np.isfinite(v_b), axis=1)
     v_d = np.where(v_d_valid[:, None], v_b @ geometry.C_d_b, np.nan)             # row form of C_d_b^T v_b
-    return dataclasses.replace(dvl, beams=np.full(dvl.beams.shape, np.nan), valid=np.zeros(dvl.valid.shape, bool),
-                               v_b=None, v_d=v_d, v_d_valid=v_d_valid, v_d_sigma=None)
+    return DvlData(dvl.t, *no_beams(len(dvl.t)), source=dvl.source, v_d=v_d, v_d_valid=v_d_valid)

@@ -238,6 +238,11 @@ class ImuData:
         return bridged, gaps
 
 
+def no_beams(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(beams, valid)`` of ``n`` pings without beams (a velocity-only DVL): (n,4) NaN m/s and (n,4) False."""
+    return np.full((n, 4), np.nan), np.zeros((n, 4), bool)
+
+
 @dataclass
 class DvlData:
     """DVL pings.

@@ -315,13 +315,18 @@ def start_burst_warning(n_steps: int, t_end: float, span_s: float) -> str:
 IMU_STAMP_QUANTUM_SHARE = 0.1
 
 
+def step_lengths(steps) -> np.ndarray:
+    """The lengths (s) of the finite non-zero ``steps`` (s) between stamps, which an IMU's period is measured from."""
+    d = np.abs(np.asarray(steps, float))
+    return d[np.isfinite(d) & (d > 0.0)]
+
+
 def imu_stamp_quantum(steps: np.ndarray) -> float:
     """The grid of an IMU's stamps from the steps between them (s), s, when it is coarser than
     :data:`IMU_STAMP_QUANTUM_SHARE` of the median step: the steps within half a median of it take two or more
     lengths, every one a multiple of the shortest difference between them; else 0 (even stamps, jitter finer than
     the grid, stamps in bursts)."""
-    d = np.abs(np.asarray(steps, float))
-    d = d[np.isfinite(d) & (d > 0.0)]
+    d = step_lengths(steps)
     if not d.size:
         return 0.0
     med = float(np.median(d))
@@ -403,8 +408,7 @@ def _long_step_limit(d: np.ndarray, med: float, expected_s: float | None, tolera
 def _positive_steps(steps) -> tuple[np.ndarray, float]:
     """The positive finite ``steps`` (s) and their median, or the mean one-period step of stamps quantised coarser
     than a tenth of it (:func:`imu_stamp_quantum`), s."""
-    d = np.abs(np.asarray(steps, float))
-    d = d[np.isfinite(d) & (d > 0.0)]
+    d = step_lengths(steps)
     if not d.size:
         return d, math.nan
     med = float(np.median(d))
@@ -961,25 +965,32 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 STEADY_CYCLE_SHARE = 0.9
 
 
+def stamp_runs(t: np.ndarray) -> tuple[int, float, np.ndarray, np.ndarray] | None:
+    """``(k median run, cycle s, steps s, counts)`` of stamps ``t`` (s) most of which repeat in runs (four distinct
+    stamps or more, half of them repeated; the steps between them, their median the cycle), else None: packets
+    sharing a stamp for :func:`shared_stamp_packets` and for a duplicated-stamp message (:func:`stamped_in_packets`)."""
+    stamps, counts = np.unique(np.asarray(t, float), return_counts=True)
+    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
+        return None
+    d = np.diff(stamps)
+    return int(np.median(counts)), float(np.median(d)), d, counts
+
+
 def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
     """``(k, cycle s, period s)`` of IMU stamps ``t`` (s, file order) that come in packets sharing one stamp (a driver
     stamping each read of k samples with its receipt, or a 400 Hz IMU in packets of 4 logged in whole ms): never
-    decreasing, half of the distinct stamps or more repeated, the steps between them a regular cycle (most within
+    decreasing, most in runs (:func:`stamp_runs`), the steps between the runs a regular cycle (most within
     half of their median: gaps have any length); the period is the cycle over the median count where the cycle is
     steady (:data:`STEADY_CYCLE_SHARE` of the steps within a hundredth of it: samples lost from such packets do not
     lengthen it) and the counts hold (:func:`counts_vary`), else samples over time, steps over
     :data:`IMU_BURST_GAP_CYCLES` cycles left out. None else: a few repeated stamps in an even file are no packets."""
     t = np.asarray(t, float)
-    if t.size < 2 or np.any(np.diff(t) < 0):
+    runs = None if t.size < 2 or np.any(np.diff(t) < 0) else stamp_runs(t)
+    if runs is None:
         return None
-    stamps, counts = np.unique(t, return_counts=True)
-    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
-        return None
-    d = np.diff(stamps)
-    cycle = float(np.median(d))
+    k, cycle, d, counts = runs
     if np.mean(np.abs(d - cycle) <= 0.5 * cycle) < 0.8:
         return None
-    k = int(np.median(counts))
     # counts above k (a clock coarser than a period it does not divide: 205 Hz in whole 10 ms) make cycle / k the
     # wrong period; short packets are samples lost
     if np.mean(np.abs(d - cycle) <= 0.01 * cycle) >= STEADY_CYCLE_SHARE and not counts_vary(counts):
@@ -1187,13 +1198,13 @@ def say_restamp(meta: dict | None, source: str, note: str, stacklevel: int, rest
 
 
 def stamped_in_packets(t: np.ndarray) -> str:
-    """What a file's stamps ``t`` (s, in file order) say when most of them repeat in runs, each run its own
-    stamp at a regular cycle (a driver stamping a packet of samples together on receipt: one stamp for 10 samples
-    of a 100 Hz IMU, or 4 samples of a 400 Hz IMU logged in whole ms), for a duplicated-stamp message; "" else."""
-    stamps, counts = np.unique(np.asarray(t, float), return_counts=True)
-    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
+    """What a file's stamps ``t`` (s, in file order) say when most of them repeat in runs (:func:`stamp_runs`: a
+    driver stamping a packet of samples together on receipt, one stamp for 10 samples of a 100 Hz IMU, or 4 samples
+    of a 400 Hz IMU logged in whole ms), for a duplicated-stamp message; "" else."""
+    runs = stamp_runs(t)
+    if runs is None:
         return ""
-    k, cycle = int(np.median(counts)), float(np.median(np.diff(stamps)))
+    k, cycle = runs[:2]
     return (f"; the stamps repeat in runs of {k} about every {1e3 * cycle:.4g} ms: packets of samples stamped "
             f"together on receipt, a sample every {1e3 * cycle / k:.4g} ms; dropping the repeats loses "
             f"{(k - 1) / k:.0%} of the samples: give each sample its own stamp (its packet's stamp less the periods "

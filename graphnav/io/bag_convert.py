@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
-                                   ImuData, PositionFixData)
+                                   ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
 from graphnav.core.screening import located
 from graphnav.core.streams import add_note, count_read, count_refused
@@ -129,7 +129,7 @@ def _sigma_from_cov(cov: np.ndarray) -> np.ndarray:
 
 def _marine(s: Stream, source: str, info: dict):
     n = len(s.rows)
-    beams, valid = np.full((n, 4), np.nan), np.zeros((n, 4), bool)
+    beams, valid = no_beams(n)
     v_d, v_ok, sig = np.full((n, 3), np.nan), np.zeros(n, bool), np.full((n, 3), np.nan)
     mismatch, unit = 0, None
     for i, m in enumerate(s.rows):
@@ -156,7 +156,7 @@ def _marine(s: Stream, source: str, info: dict):
 
 def _water_linked(s: Stream, source: str, info: dict):
     n = len(s.rows)
-    beams, valid = np.full((n, 4), np.nan), np.zeros((n, 4), bool)
+    beams, valid = no_beams(n)
     v_d, v_ok, sig = np.full((n, 3), np.nan), np.zeros(n, bool), np.full((n, 3), np.nan)
     unknown_id = 0
     for i, m in enumerate(s.rows):
@@ -196,7 +196,7 @@ def _twist(s: Stream, config: SensorConfig, source: str, info: dict):
         v_ok[i] = bool(np.all(np.isfinite(v_d[i])) and cov6[0, 0] >= 0)
         cov = R @ cov6[:3, :3] @ R.T
         sig[i] = _sigma_from_cov(cov.reshape(9))
-    return np.full((n, 4), np.nan), np.zeros((n, 4), bool), v_d, v_ok, sig
+    return *no_beams(n), v_d, v_ok, sig
 
 
 def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) -> tuple[DvlData, dict]:

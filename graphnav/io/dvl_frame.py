@@ -171,9 +171,8 @@ def _kinematic_residuals(imu, ints, t: np.ndarray, v: np.ndarray) -> tuple[np.nd
     part the IMU makes (``int f_b``, less its fit); the residual is ``L - K``, linear in ``v``. None under two
     windows."""
     from graphnav.core.dvl_kinematics import dvl_window_model, without_window_fit
-    from graphnav.core.mission import DvlData
-    n = len(t)
-    model, _ = dvl_window_model(imu, DvlData(t, np.full((n, 4), np.nan), np.zeros((n, 4), bool), v), ints=ints)
+    from graphnav.core.mission import DvlData, no_beams
+    model, _ = dvl_window_model(imu, DvlData(t, *no_beams(len(t)), v), ints=ints)
     inside, terms = model.terms(0.0)
     if terms is None or inside.sum() < 2:
         return None
