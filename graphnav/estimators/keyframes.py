@@ -161,6 +161,7 @@ class ImuPeriod:
         self._lead: list[float] | None = []     # the first steps, while they may be a burst the stream starts with
         #: (samples, first stamp s, last stamp s) of the burst the stream started with, or None
         self.start_burst: tuple[int, float, float] | None = None
+        self._restamped_after = math.inf    # samples stamped after this (s) come put back on the period, not in packets
 
     def add_step(self, dt: float, t: float = math.nan) -> None:
         """One step between IMU stamps, s, ending at the stamp ``t`` (s) (once the period is measured, nothing
@@ -216,13 +217,15 @@ class ImuPeriod:
                           f"{1e3 * measured:.4g} ms), not the configured imu_rate_hz {1 / self.configured_s:g} Hz: "
                           f"gaps are judged against {1 / measured:.4g} Hz", RuntimeWarning, stacklevel=6)
 
-    def is_gap(self, dt: float) -> bool:
-        """Whether the newest step (``dt`` s, given to :meth:`add_step` first) is a gap to bridge: longer than
-        :attr:`gap_limit_s`. Before the period is measured, a stream whose shortest step is under
+    def is_gap(self, dt: float, t: float = -math.inf) -> bool:
+        """Whether the newest step (``dt`` s, given to :meth:`add_step` first, ending at the stamp ``t`` s) is a gap
+        to bridge: longer than :attr:`gap_limit_s`, or than the period's once the samples come restamped
+        (:meth:`restamped`). Before the period is measured, a stream whose shortest step is under
         :data:`BURST_STEP_SHARE` of the configured period comes in bursts (a driver stamping on receipt), and its
         long step is a gap only when its samples so far fall short of the configured rate by more than a bridged
         gap adds: bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps."""
-        if not dt > self.gap_limit_s:
+        limit = IMU_GAP_PERIODS * self.period_s if t > self._restamped_after else self.gap_limit_s
+        if not dt > limit:
             return False
         steps = self._lead or self._steps       # a start that may be a burst or a packet: its steps so far
         if len(self._steps) >= self._needed or not min(steps, default=dt) < BURST_STEP_SHARE * self.configured_s:
@@ -233,9 +236,17 @@ class ImuPeriod:
         self._after_gap = len(self._steps)
         return True
 
+    def restamped(self, t: float) -> None:
+        """The samples stamped after ``t`` (s) come restamped at the period (:class:`PacketStamps` decided on packets
+        there): a step between them is a gap against the period, not against the packets' cycle the first steps
+        measured (a lost packet of 20 at 100 Hz, 0.21 s, stayed under 2.5 cycles, 0.5 s, and was held from the
+        sample before it, unwarned). The packets before ``t`` (replayed after an alignment) are judged as before."""
+        self._restamped_after = min(self._restamped_after, t)
+
     @property
     def gap_limit_s(self) -> float:
-        """Steps longer than this are gaps, bridged (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods), s."""
+        """Steps of the samples as received longer than this are gaps, bridged
+        (:data:`~graphnav.core.mission.IMU_GAP_PERIODS` periods), s."""
         return IMU_GAP_PERIODS * max(self.period_s, self._cycle_s)
 
 
@@ -518,7 +529,7 @@ class Keyframer:
         samples = self._samples
         if samples:
             self.imu_period.add_step(t - samples[-1][0], t)
-            if self.imu_period.is_gap(t - samples[-1][0]):
+            if self.imu_period.is_gap(t - samples[-1][0], t):
                 return self._bridge(samples[-1], (t, f_b, omega_b))
         return self._on_sample(t, f_b, omega_b)
 

@@ -247,6 +247,8 @@ class Navigator:
         if packets.note is not None:
             self._note("imu", packets.note)
             packets.note = None
+            if packets.period_s:
+                self.keyframer.imu_period.restamped(t)
         return out + self._release(self._newest - self.options.reorder_window_s)
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
