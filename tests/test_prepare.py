@@ -269,6 +269,29 @@ def test_an_imu_on_a_clock_coarser_than_its_period_loads_at_its_rate(rate_hz, gr
     assert again.meta["streams"]["imu"]["doubted"]["restamped off the period"] == entry["restamped"]
 
 
+@pytest.mark.parametrize("rate_hz", [100.0, 50.0])
+def test_an_imu_on_a_clock_as_coarse_as_its_period_or_half_of_it_loads_at_its_rate(rate_hz, tmp_path):
+    """100 Hz logged in whole 10 ms with 1 ms of jitter (most steps 10 ms, some 0 and 20 ms) was refused as
+    duplicated stamps; it loads now, every sample kept, put on an even grid at its rate and said. 50 Hz in whole
+    10 ms with the same jitter (steps of 10, 20, 30 ms) was written 42.7 or 60 Hz into the configuration, silently:
+    now 50 Hz."""
+    from graphnav.core.config import SensorConfig
+    clean = simulate_mission(duration_s=30.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=rate_hz))
+    rng = np.random.default_rng(4)
+    t = np.floor(np.sort(clean.imu.t + rng.normal(0.0, 1e-3, clean.imu.t.size)) / 0.01) * 0.01
+    folder = _akit_with_imu_stamps(clean, t, tmp_path).parent
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(folder)
+    assert m.imu.t.size == clean.imu.t.size
+    assert m.config.imu_rate_hz == pytest.approx(rate_hz, rel=1e-3) == m.meta["streams"]["imu"]["rate_hz"]
+    if rate_hz == 100.0:
+        said = [str(w.message) for w in caught if "ms clock" in str(w.message)]
+        assert len(said) == 1 and "10 ms clock, about as coarse as the IMU's 10 ms period" in said[0]
+        assert m.meta["streams"]["imu"]["restamped"] > 0.9 * t.size
+        assert np.max(np.abs(m.imu.t - clean.imu.t)) < 0.005
+
+
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])
 def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate_hz, k, quantum_s, tmp_path):
     """An A-KIT folder whose IMU packets share one stamp (10 samples to a stamp at 100 Hz; a 400 Hz IMU in packets of

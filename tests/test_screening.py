@@ -1400,6 +1400,58 @@ def test_an_imu_on_a_clock_coarser_than_its_period_losing_samples_is_put_on_an_e
         assert np.all(stamps - t >= -0.0026) and np.all(stamps - t <= 0.0152)    # half a period: 2.52 ms
 
 
+def _drifting_clock(rate_hz, grid, n, jitter, ppm, seed):
+    """``(true, stamps)`` (s) of ``n`` samples at ``rate_hz`` off by ``ppm`` from 1.7e9 s plus a random phase, logged
+    by a clock truncating to ``grid`` (s) after ``jitter`` (s, one sigma) of sampling noise."""
+    rng = np.random.default_rng(seed)
+    true = 1.7e9 + rng.uniform(0.0, grid) + np.arange(n) / rate_hz * (1.0 + 1e-6 * ppm)
+    noisy = np.sort(true + rng.normal(0.0, jitter, n)) if jitter else true
+    return true, 1.7e9 + np.floor((noisy - 1.7e9) / grid + 1e-9) * grid
+
+
+def test_an_imu_on_a_clock_as_coarse_as_its_period_with_jitter_is_put_on_an_even_grid():
+    """100 Hz logged in whole 10 ms with jitter (most steps 10 ms, some 0 and 20 ms: a sample pushed across a grid
+    edge) and a 64 Hz IMU on Windows' 15.625 ms timer were refused as duplicated stamps. Their repeated stamps and
+    empty grid steps alternate: they are put on an even grid at samples over time, each sample within 5 ms of its
+    time, the note naming the clock. An even log with rows written twice and samples lost is refused as before."""
+    from graphnav.core.screening import imu_rate_hz, stamp_order
+    for rate, grid, jitter, ppm, seed in ((100.0, 0.01, 3e-4, 50.0, 0), (100.0, 0.01, 1e-3, -30.0, 1),
+                                          (64.0, 0.015625, 1e-3, 60.0, 2)):
+        true, t = _drifting_clock(rate, grid, 20000, jitter, ppm, seed)
+        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a {1e3 * grid:.4g} ms clock, about as "
+                                              r"coarse as the IMU's [\d.]+ ms period \(1 to 2 samples to a "
+                                              "stamp, a stamp holding one more or one fewer")
+        assert np.all(np.diff(stamps) > 0) and np.max(np.abs(stamps - true)) < 0.005
+        assert imu_rate_hz(stamps) == pytest.approx(rate / (1.0 + 1e-6 * ppm), rel=1e-4)
+    rng = np.random.default_rng(2)
+    even = (100.0 + np.arange(6000) * 0.01)[rng.random(6000) >= 0.01]
+    twice = np.sort(np.r_[even, even[rng.choice(even.size, 30, replace=False)]])
+    with pytest.raises(DataError, match="time stamp duplicated"):
+        stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False, {},
+                    "imu")
+
+
+def test_an_imu_on_a_clock_between_one_and_two_periods_is_a_clock_not_packets_or_duplicates():
+    """190 Hz in whole 10 ms (every tenth stamp holds 1 sample, the rest 2) and 100 Hz on Windows' 15.6 ms timer with
+    1 ms of jitter (44 % hold 1) were read as packets of 2 spread back from their stamps at 5 ms (190 Hz: samples
+    9.5 ms off) or 7.8 ms (100 Hz read 128 Hz); 128 Hz in whole 10 ms (28 % of the stamps hold 2) was refused as
+    duplicated stamps. Their short or repeated stamps come regularly, as a clock's do, not at random as samples lost
+    from packets or rows written twice: read as a clock, at their rate. The 50 Hz in whole 10 ms with jitter (steps of 10, 20,
+    30 ms) reads 50 Hz, not 60 Hz."""
+    from graphnav.core.screening import imu_rate_hz
+    for rate, grid, jitter, seed in ((190.0, 0.01, 0.0, 0), (195.0, 0.01, 0.0, 1), (100.0, 0.0156, 1e-3, 1),
+                                     (100.0, 0.0156, 1e-3, 2), (128.0, 0.01, 0.0, 3)):
+        true, t = _drifting_clock(rate, grid, 12000, jitter, 0.0, seed)
+        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a {1e3 * grid:.4g} ms clock, coarser "
+                                              r"than the IMU's [\d.]+ ms period")
+        assert np.max(np.abs(stamps - true)) < 0.001
+        assert meta["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-4)
+    true = 1000.0 + np.arange(6000) * 0.02              # on the grid's edges: half the samples a grid step early
+    t = _coarse_clock(true, 0.01, "floor", 1e-3)
+    assert np.mean(np.abs(np.diff(t) - 0.02) > 0.005) > 0.4
+    assert imu_rate_hz(t) == pytest.approx(50.0, rel=1e-3) == imu_rate_hz(t, 100.0)
+
+
 def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back_from_their_stamp():
     """Packets holding a constant count whose receipt stamps fall on multiples of their cycle (100 Hz in packets of
     10 stamped with their last sample at 0.1, 0.2 ... s; 400 Hz in packets of 4 in whole ms on multiples of 10 ms)

@@ -346,10 +346,15 @@ def imu_stamp_quantum(steps: np.ndarray) -> float:
 def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
     """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
     grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
-    sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count."""
+    sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count. A grid
+    half the period or coarser (50 Hz in 10 ms with jitter: steps of 10, 20, 30 ms) puts a moved sample's steps a grid
+    step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
+    (below the period: a double step stays out), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps."""
     one = d[np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med]
     first = float(np.mean(one))
-    return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
+    if quantum < 0.45 * first:
+        return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
+    return float(np.mean(one[np.abs(one - first) <= min(1.5 * quantum, 0.95 * first)]))
 
 
 def awaits_packet_cycles(steps, period_s: float) -> bool:
@@ -1009,12 +1014,44 @@ QUANTISED_GRID_SHARE = 0.99
 VARYING_COUNT_SHARE = 1e-3
 
 
+#: Stamps showing a clock's pattern needed before it is believed: stamps holding one sample fewer than most do, spaced
+#: by two consecutive lengths only (:func:`counts_vary`), or repeated stamps alternating with empty grid steps
+#: (:func:`_clock_at_period`); a driver's packets losing a sample, or an even log with a row written twice, make one.
+CLOCK_PATTERN_STAMPS = 10
+#: Stamps holding one sample fewer than most do, at least this many, whose cumulative count (less its mean) spans
+#: under :data:`BALANCED_COUNT_SPAN` samples, are a clock's with jitter (100 Hz on Windows' 15.6 ms timer with 1 ms
+#: of jitter: 44 % hold 1, the rest 2, spanning 2.9 at most over 40 draws of 30000 samples), where 100 samples lost
+#: at random from packets span 5.7 or more (1000 draws in 1000 to 200000 stamps).
+BALANCED_SHORT_STAMPS = 100
+BALANCED_COUNT_SPAN = 4.0
+
+
 def counts_vary(counts: np.ndarray) -> bool:
-    """Whether the samples to a stamp (``counts``, in stamp order) hold one more than their median more often than
-    :data:`VARYING_COUNT_SHARE`: fewer are samples lost from packets (5 % lost from packets of 10 leaves 40 % short),
-    twice as many a packet written twice; the first and last stamps may hold a part of a packet or grid step."""
+    """Whether the samples to a stamp (``counts``, in stamp order) vary as a clock's do: one more than their median
+    more often than :data:`VARYING_COUNT_SHARE`, or one fewer at :data:`CLOCK_PATTERN_STAMPS` stamps or more spaced
+    by two consecutive lengths only (190 Hz in whole 10 ms: every tenth stamp holds 1, the others 2), or at
+    :data:`BALANCED_SHORT_STAMPS` or more not wandering off a line (such a clock with jitter). Samples lost
+    from packets fall short at random (5 % lost from packets of 10 leaves 40 % short, spaced anyhow); twice as many
+    is a packet written twice; the first and last stamps may hold a part of a packet or grid step."""
     inner = counts[1:-1]
-    return bool(inner.size) and np.mean(inner == np.median(counts) + 1) > VARYING_COUNT_SHARE
+    if not inner.size:
+        return False
+    med = np.median(counts)
+    short = np.flatnonzero(inner == med - 1)
+    spacing = np.diff(short)
+    regular = spacing.size >= CLOCK_PATTERN_STAMPS - 1 and np.ptp(spacing) <= 1
+    regular |= short.size >= BALANCED_SHORT_STAMPS and _balanced(inner)
+    return bool(np.mean(inner == med + 1) > VARYING_COUNT_SHARE or regular)
+
+
+def _balanced(counts: np.ndarray, steps: np.ndarray | None = None) -> bool:
+    """Whether the cumulative sum of ``counts`` (samples to a stamp; ``steps``: the grid steps to each stamp from the
+    one before, 1 each when None) stays within :data:`BALANCED_COUNT_SPAN` samples of the line through its ends
+    against the grid steps, as a clock's does (each sample in its own grid step, give or take jitter); samples lost
+    or written twice at random wander off it."""
+    at = np.cumsum(np.ones(counts.size) if steps is None else steps)
+    total = np.cumsum(counts)
+    return bool(np.ptp(total - total[-1] / at[-1] * at) < BALANCED_COUNT_SPAN)
 
 
 def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
@@ -1025,24 +1062,65 @@ def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
     counts (:func:`counts_vary`). The period is samples over time, each stamp holding the samples up to the next (a
     clock truncating to its grid), steps over two grid steps left out. None else: a driver's packets sharing a
     receipt stamp, whose count is constant (fewer where samples are lost) even where the stamps fall on multiples of
-    the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell)."""
+    the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell). Stamps
+    no packets, fewer than half of them repeated, may be a clock about as coarse as the period
+    (:func:`_clock_at_period`)."""
     t = np.asarray(t, float)
     if shared_stamp_packets(t) is None:
+        return _clock_at_period(t)
+    grid, d, counts, on_grid = _stamp_grid(t)
+    inside = d <= 2.0 * grid
+    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    if not on_grid or grid < 1.5 * period or not counts_vary(counts):
         return None
+    return grid, period
+
+
+def _stamp_grid(t: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
+    """``(grid s, steps s, counts, on it)`` of stamps ``t`` (s, never decreasing): the median step between distinct
+    stamps, rounded to the microsecond (Unix seconds carry ~1e-7 s of rounding), those steps, the samples each stamp
+    holds, and whether :data:`QUANTISED_GRID_SHARE` of the steps and of the offsets from the first stamp are
+    multiples of the grid."""
     stamps, counts = np.unique(t, return_counts=True)
     stamps = stamps - stamps[0]
     d = np.diff(stamps)
     grid = float(np.median(d))
     grid = round(grid, 6) if grid >= 1e-4 else grid
 
-    def on_grid(x):
+    def on(x):
         return np.mean(np.abs(x / grid - np.round(x / grid)) <= 0.01) >= QUANTISED_GRID_SHARE
 
-    inside = d <= 2.0 * grid
-    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
-    if not (on_grid(d) and on_grid(stamps)) or grid < 1.5 * period or not counts_vary(counts):
+    return grid, d, counts, bool(on(d) and on(stamps))
+
+
+#: Share of a clock's repeated stamps and empty grid steps, in time order, followed by the other kind above which they
+#: are sampling jitter across the grid's edges on a clock as coarse as the IMU's period (:func:`_clock_at_period`).
+ALTERNATING_SHARE = 0.8
+
+
+def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order, never decreasing) from a clock about as coarse as
+    the IMU's period (100 Hz logged in whole 10 ms with jitter, a 64 Hz IMU on Windows' 15.625 ms timer, 128 Hz in
+    whole 10 ms): on a grid, most steps one grid step, fewer than half the stamps repeated
+    (:data:`CLOCK_PATTERN_STAMPS` or more), and the repeated stamps and empty grid steps alternating
+    (:data:`ALTERNATING_SHARE`: samples pushed across a grid edge leave a step empty before or after them, samples
+    in between one step late), or :data:`BALANCED_SHORT_STAMPS` repeated or more and the samples to a grid step
+    :func:`_balanced`. The period is samples over time, steps over two grid steps left out. None else: rows written
+    twice and samples lost in an even log come in any order."""
+    if t.size < 4 or np.any(np.diff(t) < 0) or np.all(np.diff(t) > 0):
         return None
-    return grid, period
+    grid, d, counts, on_grid = _stamp_grid(t)
+    steps = np.round(d / grid)
+    if not on_grid or d.size < 3 or np.mean(steps == 1) < 0.5:
+        return None
+    repeated = np.flatnonzero(counts > 1)
+    where = np.r_[repeated, np.flatnonzero(steps > 1) + 0.5]        # a step lies between its stamps
+    kind = np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][np.argsort(where)]
+    if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or (
+            repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1]))):
+        return None
+    inside = steps <= 2
+    return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
 
 
 def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -1050,11 +1128,11 @@ def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
     :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
     grid's periods); a logger flushing its buffer again writes more."""
-    packets = shared_stamp_packets(t)
-    if packets is None:
-        return np.zeros(rows.size, bool)
     clock = quantised_clock(t)
-    most = math.floor(clock[0] / clock[1]) + 1 if clock else packets[0]
+    packets = None if clock else shared_stamp_packets(t)
+    if clock is None and packets is None:
+        return np.zeros(rows.size, bool)
+    most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
     _, first = np.unique(t, return_index=True)
     return rows - first[np.searchsorted(t[first], t[rows])] < most
 
@@ -1151,8 +1229,11 @@ def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: st
     ms = f"{1e3 * grid_s:.4g} ms"
     where = ("one even grid" if stretches == 1 else f"an even grid in {stretches} stretches (a new one where samples "
              "were lost or the rate drifted off the line)")
-    return (f"stamps on a {ms} clock, coarser than the IMU's {1e3 * period_s:.4g} ms period ({int(counts.min())} "
-            f"to {int(counts.max())} samples to a stamp): {which} put on {where} at the period (samples over "
+    coarse = "coarser than" if grid_s >= 1.1 * period_s else "about as coarse as"
+    empty = "" if grid_s >= 1.1 * period_s else (", a stamp holding one more or one fewer where the rates differ or "
+                                                 "jitter moves a sample across the grid's edges")
+    return (f"stamps on a {ms} clock, {coarse} the IMU's {1e3 * period_s:.4g} ms period ({int(counts.min())} "
+            f"to {int(counts.max())} samples to a stamp{empty}): {which} put on {where} at the period (samples over "
             f"time), each sample at or after its stamp, within its grid step give or take half a period (a clock "
             f"truncating to its grid, the usual logger; one rounding to it leaves them {1e3 * grid_s / 2:.4g} ms "
             "late)")
@@ -1165,15 +1246,15 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
     their count in ``meta["streams"]["imu"]["restamped"]`` and the period in ``"restamp_period_s"``; else ``t`` as
     given. Left as read, every sample but one of a stamp was a duplicated stamp: the file was refused, and its repair
     dropped k - 1 in k samples."""
-    packets = shared_stamp_packets(t)
-    if packets is None:
-        return t
     clock = quantised_clock(t)
+    packets = None if clock else shared_stamp_packets(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
         moved = int(np.sum(restamped != t))
         note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
                               stretches)
+    elif packets is None:
+        return t
     else:
         k, cycle, period = packets
         restamped = restamp_packets(t, period, 0.0)
