@@ -1494,17 +1494,70 @@ def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_pe
     assert dropped == {"repeats an earlier row exactly": 10} and np.array_equal(kept, np.r_[:510, 520:3010])
 
 
+def _live_clock(stamps, period):
+    """``(placed stamps, sample indices, PacketStamps)`` of ``stamps`` (s) fed one by one to a live
+    :class:`PacketStamps` configured at ``period`` (s)."""
+    from graphnav.estimators.keyframes import PacketStamps
+    packets = PacketStamps(period)
+    out = [s for i, t in enumerate(stamps) for s in packets.add(float(t), (i,), ())] + packets.flush()
+    return np.array([s[0] for s in out]), np.array([s[1][0] for s in out]), packets
+
+
 def test_a_live_imu_on_a_clock_coarser_than_its_period_is_not_taken_for_packets():
     """Live, a 200 Hz IMU in whole 10 ms with jitter (2 kHz in whole ms, 400 Hz in rounded 10 ms, with jitter: the
-    counts vary) was restamped as packets of 2-5 at a wrong period; it is now said once and passes as received."""
-    from graphnav.estimators.keyframes import PacketStamps
+    counts vary) was restamped as packets of 2-5 at a wrong period; then said once and passed as received, those
+    repeating a stamp refused downstream (half of them or more). Now each sample repeating the stamp before it is
+    placed after it at the period within the room before the next stamp: all kept, increasing once decided, within a
+    grid step of their time (a rounding clock leaves them up to half a grid step late)."""
     for period, grid, how in ((0.005, 0.01, "floor"), (0.0005, 0.001, "floor"), (0.0025, 0.01, "round")):
-        stamps = _coarse_clock(np.arange(4000) * period, grid, how, 0.1 * period)
-        packets = PacketStamps(period)
-        passed = [s[0] for t in stamps for s in packets.add(float(t), (), ())] + packets.flush()
-        assert np.array_equal(passed, stamps) and packets.restamped == 0
+        true = np.arange(4000) * period
+        stamps = _coarse_clock(true, grid, how, 0.1 * period)
+        t, kept, packets = _live_clock(stamps, period)
+        assert np.array_equal(kept, np.arange(4000)) and np.all(np.diff(t[20:]) > 0)
+        assert np.all(np.abs(t[20:] - true[20:]) <= grid + 1e-9)
+        assert packets.restamped == np.sum(t != stamps) > 1900
         assert packets.note.startswith(f"stamps on a {grid * 1e3:g} ms clock, coarser than the IMU's")
-        assert "not restamped live" in packets.note
+        assert "a sample repeating the stamp before it is the next sample" in packets.note
+
+
+def test_a_live_imu_on_a_clock_as_coarse_as_its_period_keeps_the_samples_repeating_a_stamp(mission):
+    """100 Hz logged in whole 10 ms with 1 ms of jitter (the true times on the grid's edges: a quarter of the stamps
+    repeat the one before), a 64 Hz IMU on a 15.625 ms timer and 128 Hz in whole 10 ms passed as received, and the
+    reorder buffer refused every repeated stamp as a duplicate: 1503 of 6000 samples lost on the 60 s stream, which
+    ended 0.094 m from its run with the true stamps. Once the latest stamps show such a clock, a sample repeating the
+    stamp before it is placed after it at the period within the room before the next stamp: 9 refused (before it is
+    found; 99 at 128 Hz, whose stamps never skip a grid step), the rest counted as restamped, said once; 0.026 m. An even stream with rows written twice at random is
+    no clock: its repeats are refused as before."""
+    for rate, grid, jitter, n in ((100.0, 0.01, 1e-3, 6000), (64.0, 0.015625, 1e-3, 4000), (128.0, 0.01, 0.0, 6000)):
+        true = 1000.0 + np.arange(n) / rate
+        stamps = _coarse_clock(true, grid, "floor", jitter, 1)
+        t, kept, packets = _live_clock(stamps, 1.0 / rate)
+        assert np.array_equal(kept, np.arange(n)) and np.all(np.abs(t - true) <= grid + 1e-9)
+        late = np.flatnonzero(np.diff(t) <= 0)      # repeats before the clock is found (128 Hz: 100, no empty steps)
+        assert late.size <= (10 if jitter else 100) and late[-1] < 500 and packets.restamped == np.sum(t != stamps) > 0.2 * n - 20
+        assert packets.clock[0] == grid and "a sample repeating the stamp before it is the next sample" in packets.note
+    rng = np.random.default_rng(2)
+    even = (100.0 + np.arange(6000) * 0.01)[rng.random(6000) >= 0.01]
+    twice = np.sort(np.r_[even, even[rng.choice(even.size, 30, replace=False)]])
+    t, kept, packets = _live_clock(twice, 0.01)
+    assert np.array_equal(t, twice) and packets.clock is None and packets.restamped == 0 and packets.note is None
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    stamps = _coarse_clock(true, 0.01, "floor", 1e-3, 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = _feed(_navigator(m), events)
+    nav = _navigator(m)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        estimates = _feed(nav, _with_imu_stamps(events, stamps))
+    assert nav.refused["imu"] == {"t": 9} and nav.info["imu_restamped"] == np.sum(np.diff(stamps) == 0) - 9
+    assert len([w for w in caught if "about as coarse as the IMU's 10 ms period" in str(w.message)]) == 1
+    at = {e.t: e.p_n for e in clean}
+    last = max(e.t for e in estimates if e.t in at)
+    end = next(e.p_n for e in estimates if e.t == last)
+    assert last >= 59.0 and np.linalg.norm(end[:2] - at[last][:2]) < 0.05
 
 
 def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():

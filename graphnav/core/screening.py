@@ -1223,16 +1223,21 @@ def _place_stretches(s: np.ndarray, grid_s: float, period_s: float, starts: np.n
     return out
 
 
+def clock_words(grid_s: float, period_s: float) -> str:
+    """``stamps on a G ms clock, coarser than / about as coarse as the IMU's P ms period`` (``grid_s``, ``period_s``
+    s), as the notes on such a clock, offline and live, begin."""
+    coarse = "coarser than" if grid_s >= 1.1 * period_s else "about as coarse as"
+    return f"stamps on a {1e3 * grid_s:.4g} ms clock, {coarse} the IMU's {1e3 * period_s:.4g} ms period"
+
+
 def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: str, stretches: int = 1) -> str:
     """What putting the stamps of a clock on a ``grid_s`` grid coarser than the IMU's ``period_s`` (s; ``counts``
     the samples each stamp held) on an even grid in ``stretches`` did to ``which`` stamps (a note and a warning)."""
-    ms = f"{1e3 * grid_s:.4g} ms"
     where = ("one even grid" if stretches == 1 else f"an even grid in {stretches} stretches (a new one where samples "
              "were lost or the rate drifted off the line)")
-    coarse = "coarser than" if grid_s >= 1.1 * period_s else "about as coarse as"
     empty = "" if grid_s >= 1.1 * period_s else (", a stamp holding one more or one fewer where the rates differ or "
                                                  "jitter moves a sample across the grid's edges")
-    return (f"stamps on a {ms} clock, {coarse} the IMU's {1e3 * period_s:.4g} ms period ({int(counts.min())} "
+    return (f"{clock_words(grid_s, period_s)} ({int(counts.min())} "
             f"to {int(counts.max())} samples to a stamp{empty}): {which} put on {where} at the period (samples over "
             f"time), each sample at or after its stamp, within its grid step give or take half a period (a clock "
             f"truncating to its grid, the usual logger; one rounding to it leaves them {1e3 * grid_s / 2:.4g} ms "

@@ -56,8 +56,9 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, awaits_packet_cycles, imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note,
-    quantised_clock, restamp_packets, shared_stamp_packets, start_burst, start_burst_warning)
+    BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, awaits_packet_cycles, clock_words, imu_packet_limit, imu_stamp_quantum,
+    imu_step_stats, packets_note, quantised_clock, restamp_packets, shared_stamp_packets, start_burst,
+    start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -134,6 +135,12 @@ IMU_RATE_STEPS = 16
 #: A live IMU in packets leaves each at the size two of its latest this many packets reached
 #: (:meth:`PacketStamps.typical_size`).
 PACKET_SIZES = 64
+#: A live IMU that is no packets is watched for a clock as coarse as its period or coarser over its latest this many
+#: stamps (:meth:`PacketStamps._watch_clock`; 20 s at 100 Hz).
+CLOCK_WATCH_STAMPS = 2000
+#: A repeated stamp on such a clock waits this many grid steps at most for the next stamp, whose room it is placed in
+#: (the next comes one grid step later, two after a repeat whose own step was left empty): longer, the IMU went silent.
+CLOCK_WAIT_STEPS = 3
 #: Share of the period that the stamps' grid may make of a quantised stream's measured span: its period is measured
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
@@ -269,7 +276,12 @@ class PacketStamps:
     faster than its reads (100.2 Hz read every 200 ms: a packet of 21 about every 25) holds every packet of 20 a
     cycle. A packet stamped at or before the last stamp let out (a clock stepping back) is spread back at the
     period all the same and left to the reorder buffer. :data:`IMU_RATE_STEPS` packets of one sample in a row: the
-    stream no longer comes in packets, and its samples pass as received again."""
+    stream no longer comes in packets, and its samples pass as received again. An IMU that is no packets but whose
+    stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with jitter, a
+    64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock` over its
+    latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits for
+    the next distinct stamp and is placed after its stamp at the period within the room before that one
+    (:meth:`_place_repeats`)."""
 
     def __init__(self, configured_s: float):
         self.configured_s = configured_s
@@ -287,11 +299,17 @@ class PacketStamps:
         self._ties: list[float] = []    # the stamps while undecided, once one repeats (packets sharing one stamp?)
         #: (received stamp s, why) of samples of a driver read beyond its packet that have no place: to refuse
         self.unplaced: list[tuple[float, str]] = []
+        #: (grid s, period s) of a clock about as coarse as the period or coarser its stamps come from, or None
+        self.clock: tuple[float, float] | None = None
+        self._watch: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
+        self._repeats = 0               # repeated stamps watched
 
     def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
         before ``after`` (s: what the caller has let go of already)."""
         last, self._last = self._last, t
+        if self.clock:
+            return self._on_clock(t, f, w, last, after)
         step = t - last
         long = step < 0.0 or step > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
         self._passing = self._passing and not long
@@ -300,6 +318,8 @@ class PacketStamps:
                 self._decide_shared(t, last)
             elif self._steps is not None and t > last > -math.inf:
                 self._decide(t - last)
+            if self._watch_clock(t, last):
+                return self._on_clock(t, f, w, last, after)
             self._out = t
             return [(t, f, w)]
         out = self._packet_ended(after, t) if long else []
@@ -328,6 +348,8 @@ class PacketStamps:
         """The held samples restamped as one packet (the end of the data ends it), none at or before ``after``
         (s); those that follow a part of their packet let out already (:meth:`_beyond`; ``before``: the next
         packet's first stamp, s) at the period after it."""
+        if self.clock:
+            return self._place_repeats(after, before)
         held, self._held = self._held, []
         if not held:
             return []
@@ -371,7 +393,7 @@ class PacketStamps:
         received) is two cycles past it (an IMU outage must not stall the other streams)."""
         if not self._held or self._overdue(newest):
             return math.inf
-        return self._held[0][0] - (self._k - 1) * self.period_s
+        return self._held[0][0] - (self._k - 1) * self.period_s if not self.clock else self._held[0][0]
 
     def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held packet restamped (:meth:`flush`, none at or before ``after``, s) once ``newest`` (s, the newest
@@ -380,31 +402,76 @@ class PacketStamps:
         return self.flush(after) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
-        return newest - self._held[-1][0] > 2 * self._k * self.period_s
+        wait = CLOCK_WAIT_STEPS * self.clock[0] if self.clock else 2 * self._k * self.period_s
+        return newest - self._held[-1][0] > wait
+
+    def _watch_clock(self, t: float, last: float) -> bool:
+        """Whether the stamps of an IMU that is no packets, ``t`` (s) the newest after ``last``, come from a clock
+        about as coarse as its period or coarser: once :data:`~graphnav.core.screening.CLOCK_PATTERN_STAMPS` stamps
+        repeated, at each repeat :func:`~graphnav.core.screening.quantised_clock` over the latest
+        :data:`CLOCK_WATCH_STAMPS` decides (a clean IMU with a row written twice now and then has no clock's pattern);
+        found, it is said once (:attr:`note`) and :attr:`clock` set."""
+        if self.clock is None and not self.period_s:
+            self._watch.append(t)
+            self._repeats += t == last
+            if t == last and self._steps is None and self._repeats >= CLOCK_PATTERN_STAMPS:
+                clock = quantised_clock(np.asarray(self._watch))
+                if clock is not None:
+                    self._on_clock_found(clock, t)
+        return self.clock is not None
+
+    def _on_clock_found(self, clock: tuple[float, float], t: float) -> None:
+        self.clock, self._steps, self._ties = clock, None, []
+        self._watch.clear()
+        self.note = (f"{clock_words(*clock)}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
+                     "sample, placed after that stamp at the period within the room before the next stamp (counted "
+                     "in imu_restamped; the stamps are not put on an even grid live: read the log offline for that); "
+                     "samples repeating a stamp before were refused as duplicate stamps")
+
+    def _on_clock(self, t: float, f: tuple, w: tuple, last: float, after: float) -> list[tuple[float, tuple, tuple]]:
+        """A sample on a clock about as coarse as the period or coarser: one repeating the stamp ``last`` (s) waits
+        for the next stamp; the next stamp lets the waiting ones out placed (:meth:`_place_repeats`, none at or before
+        ``after``, s), then itself as received."""
+        if t == last:
+            self._held.append((t, f, w))
+            return []
+        out = self._place_repeats(after, t if t > last else math.inf)
+        self._out = t
+        return out + [(t, f, w)]
+
+    def _place_repeats(self, after: float, before: float) -> list[tuple[float, tuple, tuple]]:
+        """The held samples repeating a stamp s (after the one let out at it), placed at s + j * step, j = 1, 2 ...,
+        step the clock's period or less where the next stamp (``before``, s; inf: unknown) leaves less room for them
+        (n samples in one grid step: a sample pushed across the grid's edge before it), from ``after`` (s, what the
+        caller let go of) when that is later than s; the restamped count updated."""
+        held, self._held = self._held, []
+        if not held:
+            return []
+        start = max(held[0][0], after)
+        step = min(self.clock[1], (before - start) / (len(held) + 1))
+        self.restamped += len(held)
+        return [(start + (j + 1) * step, s[1], s[2]) for j, s in enumerate(held)]
 
     def _decided(self, k: int) -> None:
         """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""
         self._k = k
         self._sizes.extend((k, k))
+        self._watch.clear()         # a stream that turns clean again is watched for a clock from then on
 
     def _decide_shared(self, t: float, last: float) -> None:
         """Decide on the stamps so far once one repeats: packets sharing one stamp when
         :func:`~graphnav.core.screening.shared_stamp_packets` says so over the whole packets received, four stamps or
         more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
         downstream), a packet ending at any step; a clock coarser than the period
-        (:func:`~graphnav.core.screening.quantised_clock`) is said once and passes as received (its repeated stamps
-        refused); else the steps decide."""
+        (:func:`~graphnav.core.screening.quantised_clock`) is said once and passes as received, a sample repeating a
+        stamp placed after it (:meth:`_on_clock`); else the steps decide."""
         self._ties = self._ties or [last]
         whole = self._ties[1:] if t > last else []          # the first may be the end of a packet
         self._ties.append(t)
         packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
         clock = quantised_clock(np.asarray(whole)) if packets is not None else None
         if clock is not None:
-            self._steps, self._ties = None, []
-            self.note = (f"stamps on a {1e3 * clock[0]:.4g} ms clock, coarser than the IMU's {1e3 * clock[1]:.4g} ms "
-                         "period: not restamped live (no packets: where its samples belong is known only from the "
-                         "stamps after them), so samples repeating a stamp are refused; read the log offline, which "
-                         "puts them on one even grid, or stamp the IMU finer")
+            self._on_clock_found(clock, t)
         elif packets is not None:
             k, cycle, self.period_s = packets
             self._decided(k)
