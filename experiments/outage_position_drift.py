@@ -17,6 +17,10 @@ window, against the horizontal error at its start (mean over the 5 s before it):
 ``Graph-HN``'s) and, per T, a run of its completions screened until one is kept, their errors correlated over T s
 whatever the ping measured (``Graph-HNP tau T``; 0 = independent errors), to see what the run setting trades between the velocity and the position after the
 outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI each ping``, ``Graph-HNI tau T``).
+``--rehearsed M ...`` adds ``Graph-HNP`` with rehearsed outages of margin M (``Graph-HNP rehearsed M``,
+``GraphOptions.rehearsed_outages``: a completion kept only where the mission's own past says it beats the graph's
+IMU-only prediction at its horizon into the outage, by the margin M), and prints how often the rehearsals chose the
+graph, per IMU grade and scenario.
 ``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
 :data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--pivot-axes A ...`` adds ``Graph-HNP``
 whose pivot completer models the turn axes A (``yaw`` or ``yaw+pitch``: the heave from the pitch rate too) instead of
@@ -95,6 +99,7 @@ RETIRED = " retired"
 KEPT = " kept"
 RELINEARISED = " relinearised "
 PRIOR = " prior "
+REHEARSED = " rehearsed "
 #: `` prior P`` anywhere in a run label (P a number), the pivot completer's ``prior_turn``
 _PRIOR_RE = re.compile(r" prior ([0-9.eE+-]+)")
 AXES = " axes "
@@ -125,6 +130,10 @@ def variant_run(label: str) -> tuple[str, dict | None]:
         name, window = label.split(RELINEARISED)
         inner, options = variant_run(name)
         return inner, {**(options or {}), "relin_window_s": float(window), "relinearize_skip": 1}
+    if REHEARSED in label:
+        name, margin = label.rsplit(REHEARSED, 1)
+        inner, options = variant_run(name)
+        return inner, {**(options or {}), "rehearsed_outages": float(margin)}
     if label.endswith(EACH_PING):
         return label[:-len(EACH_PING)], {"regressed_runs": "screen-each", "regressed_error_tau_s": None}
     if TAU in label:
@@ -298,7 +307,28 @@ def trajectory_task(item):
                                    axes=pivot_axes(method) or PIVOT_AXES, n_past=pivot_hold(method))
         sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
+        if "outage_rehearsal" in sol.info:
+            # the decisions of the whole run: every outage ping of the run is in its windows
+            result[method][0]["rehearsal"] = dict(sol.info["outage_rehearsal"])
     return (source.name, grade, scenario, window_s), result
+
+
+def rehearsal_report(runs: dict, methods) -> str:
+    """Per rehearsed run, IMU grade and scenario: the regressed beams the rehearsals left to the graph, kept, and
+    left to the screening (no rehearsal yet), summed over the trajectories and window lengths."""
+    lines = ["| run | IMU | scenario | graph better | completer kept | unrehearsed |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for method in (m for m in methods if REHEARSED in m):
+        for grade, scenario in sorted({k[1:3] for k in runs}, key=lambda c: (c[0] != "tactical", c[1])):
+            total = {"graph": 0, "completer": 0, "unrehearsed": 0}
+            for key, result in runs.items():
+                if key[1:3] == (grade, scenario) and method in result:
+                    for what, n in result[method][0].get("rehearsal", {}).items():
+                        total[what] += n
+            n = max(sum(total.values()), 1)
+            lines.append(f"| {method} | {grade} | {scenario} | " + " | ".join(
+                f"{total[w]} ({total[w] / n:.0%})" for w in ("graph", "completer", "unrehearsed")) + " |")
+    return "\n".join(lines)
 
 
 def cells_of(runs: dict) -> list[tuple]:
@@ -444,6 +474,8 @@ def main(argv=None) -> int:
                    "first: the ratios are to it; default: Graph-TC, Graph-HN, Graph-HNP)")
     p.add_argument("--pivot-runs", nargs="*", type=float, metavar="T", help="also Graph-HNP screened at each ping "
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
+    p.add_argument("--rehearsed", nargs="+", type=float, metavar="M", help="also Graph-HNP with rehearsed outages of "
+                   "margin M (module docstring)")
     p.add_argument("--pivot-priors", nargs="+", type=float, metavar="P", help="also Graph-HNP with its pivot "
                    "completer's prior_turn P instead of the shipped one (module docstring)")
     p.add_argument("--pivot-axes", nargs="+", choices=("yaw", "yaw+pitch"), metavar="A", help="also Graph-HNP with "
@@ -489,6 +521,10 @@ def main(argv=None) -> int:
             if not all(t >= 0 for t in times):
                 p.error(f"{flag}: correlation times must be >= 0 s (0: independent errors)")
             a.methods += [f"{method} each ping", *(f"{method} tau {t:g}" for t in times)]
+    if a.rehearsed:
+        if not all(m > 0 for m in a.rehearsed):
+            p.error("--rehearsed: the margin must be > 0")
+        a.methods += [f"{GRAPH_HNP}{REHEARSED}{m:g}" for m in a.rehearsed]
     if a.pivot_priors:
         if not all(prior >= 0 for prior in a.pivot_priors):
             p.error("--pivot-priors: prior_turn must be >= 0 (rad/s)^2")
@@ -550,6 +586,9 @@ def main(argv=None) -> int:
     if GRAPH_TC_BATCH in a.methods and batches:
         print(f"\nThe batch runs against {GRAPH_TC_BATCH} (per fold cell and pooled)")
         print(against_reference(runs, batches, GRAPH_TC_BATCH, AKIT_FOLDS))
+    if a.rehearsed:
+        print("\nRegressed beams the rehearsals decided (summed over trajectories and windows)")
+        print(rehearsal_report(runs, a.methods))
     print_choices(runs, a.methods, AKIT_FOLDS)
     return 0
 

@@ -216,12 +216,27 @@ class PivotCompleter:
             self.usage["imu_not_finite"] += 1
             return self.average.complete(past, measured)
         self.usage["imu"] += 1
-        yaw, pitch = self.lengths_m
-        turn = turn_terms(self.T_b, self.lever_arm_b, yaw, rates, pitch)
-        straight = past - turn[:-1]       # the past beams with their turn terms taken out
-        beams = straight.mean(axis=0) + turn[-1]
+        beams, straight = self._turned(past, rates)
         spread = np.sqrt(self.noise_std ** 2 * (1.0 + 1.0 / self.n_past) + straight.var(axis=0))
         return np.where(missing, beams, measured), np.where(missing, spread, 0.0)
+
+    def _turned(self, past: np.ndarray, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(the four beams held with the turn, (4,); the past beams with their turn terms taken out, (n_past, 4)),
+        m/s, from ``past`` (n_past, 4) and the per-ping ``rates`` (n_past + 1, 3), rad/s."""
+        yaw, pitch = self.lengths_m
+        turn = turn_terms(self.T_b, self.lever_arm_b, yaw, rates, pitch)
+        straight = past - turn[:-1]
+        return straight.mean(axis=0) + turn[-1], straight
+
+    def rehearse(self, past: np.ndarray, imu=None) -> np.ndarray:
+        """The four beams (m/s) :meth:`complete` would give a ping whose beams are all missing, from ``past``
+        (n_past, 4) and ``imu`` (or None: the average's), without counting the ping or ending the online fit's run
+        (:mod:`graphnav.estimators.rehearsal`)."""
+        past = np.asarray(past, float)
+        rates = None if imu is None else ping_rates(self._checked(imu), self.n_past + 1, self.samples_per_ping)
+        if rates is None or not np.all(np.isfinite(rates)):
+            return past.mean(axis=0)
+        return self._turned(past, rates)[0]
 
 
 class PivotFit:

@@ -151,6 +151,8 @@ class GraphBackend(_Aided):
         and entered) and, with ``motion_prior="total-if-uncertain"``, ``motion_prior_switch`` (the outage prior's
         decisions); also in :attr:`info`."""
         out = {"regressed_screening": dict(self.ctx.screening)}
+        if self.ctx.rehearsal is not None:
+            out["outage_rehearsal"] = dict(self.ctx.rehearsal.counts)
         if self.ctx.options.motion_prior == "total-if-uncertain":
             out["motion_prior_switch"] = dict(self.ctx.outage_switch.counts)
         return out

@@ -88,6 +88,11 @@ class BeamHistory:
         self._run_sigma[:] = 0.0
         self._run_steps[:] = 0
 
+    @property
+    def run_steps(self) -> np.ndarray:
+        """(4,) int: per beam, the regressed pings of its current run, the last completed one included."""
+        return self._run_steps.copy()
+
     def past(self) -> np.ndarray:
         """(n_past, 4) oldest first."""
         return np.array(self._buf)

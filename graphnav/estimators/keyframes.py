@@ -517,6 +517,8 @@ class Keyframer:
         self.options = options or KeyframeOptions()
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
+        #: the graph's rehearsed outages (:mod:`graphnav.estimators.rehearsal`), set by the Navigator; None: none
+        self.rehearsal = None
         self.stats = KeyframerStats()
         self._imu_buffer, self._member_samples, self._observe_samples = None, None, None
         if getattr(completer, "needs_imu", False):
@@ -804,6 +806,8 @@ class Keyframer:
         if self.history is not None:
             # a measured ping for the completer's history: the beams the velocity implies
             self.history.push_measured(self._T_d @ ping.v_d, ping.t)
+            if self.rehearsal is not None:
+                self.rehearsal.interrupt()
             self._observe(ping.t, self._T_d @ ping.v_d)
         return dataclasses.replace(ping, omega_b=gyro_at(ping.t, self._samples))
 
@@ -840,15 +844,28 @@ class Keyframer:
                           "for (a DVL pinging faster than the one it was trained for, or a gap of several pings); "
                           "further ones are counted in completer_fallbacks['period']",
                           RuntimeWarning, stacklevel=1)
+        if self.rehearsal is not None and (measured.all() or result is None):
+            self._rehearse_measured(ping) if measured.all() else self.rehearsal.interrupt()
         if result is None:
             return dataclasses.replace(ping, omega_b=omega_b)
         beams, sigma = np.asarray(result[0], float), np.asarray(result[1], float)
         has_regressed = not measured.all()
+        rehearsed = None
         if has_regressed:
             self.stats.regressed_pings += 1
             self.stats.regressed_beams += int((np.isfinite(beams) & ~measured).sum())
+            if self.rehearsal is not None:
+                self.rehearsal.interrupt()
+                beams, sigma, rehearsed = self.rehearsal.decide(t, beams, sigma, np.isfinite(beams) & ~measured,
+                                                                self.history.run_steps)
         return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
-                                   omega_b=omega_b)
+                                   omega_b=omega_b, rehearsed=rehearsed)
+
+    def _rehearse_measured(self, ping: Ping) -> None:
+        """A fully measured ping (already in the history) for the completer's side of the rehearsals, with the
+        completer's IMU window (None without one)."""
+        imu = self._imu_buffer.window(ping.t)[0] if self._imu_buffer is not None else None
+        self.rehearsal.completer_ping(self.completer, ping.t, ping.beams, imu, self.history)
 
     def _period_fallbacks(self) -> int:
         """The pings the completer's networks have left to the average estimator for their past's ping period."""

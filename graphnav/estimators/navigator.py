@@ -736,9 +736,19 @@ class Navigator:
         return out
 
     # --- initialisation -----------------------------------------------------------------------------
+    def _hand_rehearsal(self) -> None:
+        """Hand a graph backend's rehearsed outages (``GraphOptions.rehearsed_outages``) to the keyframer, which
+        feeds them the completer's side; a completer that cannot rehearse is refused."""
+        rehearsal = getattr(getattr(self.backend, "ctx", None), "rehearsal", None)
+        if rehearsal is not None and self._completer is not None and not hasattr(self._completer, "rehearse"):
+            raise ConfigError(f"rehearsed_outages: {type(self._completer).__name__} cannot rehearse an outage "
+                              "(it has no 'rehearse'): run the pivot completer or the average estimator")
+        self.keyframer.rehearsal = rehearsal
+
     def _start(self, initial: InitialState) -> list[EpochEstimate]:
         kw = self._backend_kwargs
         self.backend = make_backend(self.backend_name, self.config, initial, **kw)
+        self._hand_rehearsal()
         options = (kw["ekf_options"] or EkfOptions()) if self.backend_name == "ekf" else \
             (kw["graph_options"] or GraphOptions())
         self.coasting = CoastingMonitor(self.backend.name, options.max_pure_inertial_s)

@@ -138,6 +138,8 @@ class Ping:
             ping (its beams are then all NaN and unmeasured); None on a beam ping.
         v_d_sigma: (3,) one-sigma of ``v_d`` per DVL axis, m/s; NaN where the ping gave none (the estimator's
             configured ``DvlSpec.velocity_noise_std`` applies).
+        rehearsed: (4,) True for regressed beams that rehearsed outages kept (:mod:`graphnav.estimators.rehearsal`):
+            they enter at ``sigma_regressed`` without the screening; None without rehearsals.
     """
 
     t: float
@@ -148,6 +150,7 @@ class Ping:
     omega_b: np.ndarray | None = None
     v_d: np.ndarray | None = None
     v_d_sigma: np.ndarray | None = None
+    rehearsed: np.ndarray | None = None
 
     @classmethod
     def from_beams(cls, t: float, beams, valid) -> "Ping":

@@ -25,6 +25,7 @@ from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
+from graphnav.estimators.rehearsal import OutageRehearsal
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping
 from graphnav.factors import (
     beam_difference_factor,
@@ -187,6 +188,9 @@ class GraphContext:
         #: with ``options.regressed_runs="screen-first"``: the regressed beams that became factors at the last keyframe
         #: with a ping, by beam number (the previous link of each beam's Gauss-Markov chain)
         self.regressed_links: dict[int, RegressedLink] = {}
+        #: ``options.rehearsed_outages``: the mission's rehearsed outages (the Navigator hands them to its keyframer)
+        self.rehearsal = (OutageRehearsal(self.geometry.T_b, self.geometry.lever_arm_b, options.rehearsed_outages)
+                          if options.rehearsed_outages is not None else None)
 
     def count_screening(self, stats: dict) -> None:
         for key, n in stats.items():
@@ -423,6 +427,14 @@ def continue_regressed_runs(kf: GraphKeyframe, builder: GraphContext, m: BeamRow
     return sel[~chained], rows[:0], factors, links
 
 
+def rehearsed_rows(kf: GraphKeyframe, m: BeamRows) -> np.ndarray:
+    """(len(m.y),) bool: the rows of ``m`` (keyframe ``kf``'s ping) whose completion the rehearsed outages kept."""
+    rehearsed = kf.ping.rehearsed
+    if rehearsed is None or kf.ping.is_velocity:
+        return np.zeros(len(m.y), dtype=bool)
+    return rehearsed[kf.beams_used] & m.regressed
+
+
 def regressed_links(kf: GraphKeyframe, m: BeamRows, rows: np.ndarray, beams: np.ndarray, omega_b: np.ndarray,
                     use_d: bool) -> dict[int, RegressedLink]:
     """The chain links (by beam number ``beams``) of the regressed rows ``rows`` of ``m`` that became factors at
@@ -476,11 +488,16 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             sel = np.flatnonzero(m.regressed == regressed)
             sigma = m.sigma
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
-            continued = sel[:0]
+            continued = vouched = sel[:0]
             if regressed and sel.size and screen_first:
                 sel, continued, differences, links = continue_regressed_runs(kf, builder, m, sel, omega, use_d)
                 for factor in differences:
                     run_links.add(factor)
+            if regressed and sel.size:
+                # completions the rehearsed outages kept enter without the screening
+                rehearsed = rehearsed_rows(kf, m)[sel]
+                vouched, sel = sel[rehearsed], sel[~rehearsed]
+                builder.count_screening({"entered": len(vouched)})
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
@@ -489,6 +506,8 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
                 sigma = m.sigma.copy()
                 sigma[sel] = sigma_sel
                 sel = sel[keep]
+            if regressed:
+                sel = np.sort(np.r_[sel, vouched]).astype(int)
             if regressed and screen_first:
                 links.update(regressed_links(kf, m, sel, beam_index(m.rows_b[sel], builder.geometry.T_b), omega,
                                              use_d))

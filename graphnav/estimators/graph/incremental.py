@@ -224,6 +224,8 @@ class _IncrementalGraph:
                                    kf.n_measured, kf.n_regressed, elapsed,
                                    cov_p_n=covs.get("cov_p_n"), cov_rot_b=covs.get("cov_rot_b"),
                                    cov_bias=covs.get("cov_bias"))
+        if self.builder.rehearsal is not None:
+            self.builder.rehearsal.graph_keyframe(kf, self._last)
         self._pending_factors = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
         self._pending_kf = None

@@ -231,6 +231,12 @@ class GraphOptions:
             took p99 106 ms with 120 s, 428 ms with 300 s, 14 ms without retiring (simulated 600 s;
             docs/decisions/completers.md).
             120 s covers outages up to 150 s with the default 30 s lag; 0 takes out only what the lag still holds.
+        rehearsed_outages: experimental, for the incremental smoothers (ISAM2, fixed-lag) with a completer that can
+            rehearse (``rehearse``: the pivot completer, the average estimator): the margin ``m`` of rehearsed
+            outages (:mod:`graphnav.estimators.rehearsal`): the mission's measured past scores the completer's
+            recursion and the graph's IMU-only prediction per horizon into an outage, and a completion at horizon
+            ``h`` is kept, at sigma ``e_comp(h)`` and unscreened, only when ``e_comp(h) < m e_graph(h)``; None (the
+            default) = off. See docs/decisions/completers.md, "Rehearsed outages".
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -277,6 +283,7 @@ class GraphOptions:
     regressed_error_tau_s: float | None | Mapping[int, float | None] = None
     retire_completions: bool = False
     retire_hold_s: float = 120.0
+    rehearsed_outages: float | None = None
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -298,6 +305,8 @@ class GraphOptions:
                 raise ConfigError(f"{name} must be one of {FACTORIZATIONS}, got '{getattr(self, name)}'")
         if self.lag_s <= 0:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
+        if self.rehearsed_outages is not None and not self.rehearsed_outages > 0:
+            raise ConfigError(f"rehearsed_outages must be a margin > 0 (or None: off), got {self.rehearsed_outages}")
         if not self.retire_hold_s >= 0:
             raise ConfigError(f"retire_hold_s must be >= 0 s, got {self.retire_hold_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
