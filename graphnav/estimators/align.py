@@ -222,6 +222,10 @@ class Alignment:
         bias_acc, bias_gyro: (3,) initial bias estimates, m/s^2 and rad/s (zeros: not estimated).
         heading_source: ``"gyrocompass"``, ``"heading"`` (add_heading) or ``"given"`` (initial_heading_rad).
         info: duration, sample counts, expected accuracies and their terms, residuals, sources.
+        dvl_errors: (7,) the DVL's fitted scale factor per DVL axis (unitless) and beam biases (m/s); zeros when
+            held at zero (``estimate_dvl_errors=False``).
+        cov_joint: (16,16) covariance of the errors of [attitude (as ``cov_rot``), ``v_n``, ``bias_acc``,
+            ``dvl_errors``] with their cross-terms (``cov_rot`` and ``cov_v_n`` are its blocks), or None.
     """
 
     t: float
@@ -236,6 +240,8 @@ class Alignment:
     bias_gyro: np.ndarray = field(default_factory=lambda: np.zeros(3))
     heading_source: str = "gyrocompass"
     info: dict = field(default_factory=dict)
+    dvl_errors: np.ndarray = field(default_factory=lambda: np.zeros(7))
+    cov_joint: np.ndarray | None = None
 
     @property
     def euler(self) -> np.ndarray:
@@ -634,12 +640,18 @@ class Aligner:
 
         # attitude covariance: left perturbation in n0 -> right perturbation in the body at t_out
         A = C_b_n.T @ E_out
-        cov_rot = A @ cov_phi @ A.T
         tilt_sigma = float(np.sqrt(max(cov_phi[0, 0], cov_phi[1, 1])))
-        D_out = D[near][-1]             # what the fit leaves of the DVL's errors, or their prior when held at zero
-        cov_dvl_errors = D_out @ (P[9:, 9:] if o.estimate_dvl_errors else np.diag(x_sigma[3:] ** 2)) @ D_out.T
-        cov_v_n = self._velocity_covariance(C_b_n, v_b[near][-1], cov_dvl_errors, cov_rot,
-                                            float(np.max(np.abs(t_out - t_dvl[near]))), int(near.sum()))
+        # the fit's covariance with the attitude's as above; an error held at zero keeps its prior, uncorrelated
+        P_fit = P.copy()
+        if heading_source != "gyrocompass":
+            P_fit[2, :] = P_fit[:, 2] = 0.0
+        P_fit[0:3, 0:3] = cov_phi
+        held = 6 + np.flatnonzero(x_prior >= FIXED_PRIOR)
+        P_fit[held, :] = P_fit[:, held] = 0.0
+        P_fit[held, held] = x_sigma[held - 6] ** 2
+        cov_joint = self._joint_covariance(P_fit, C_b_n, A, v_b[near][-1], D[near][-1],
+                                           float(np.max(np.abs(t_out - t_dvl[near]))), int(near.sum()))
+        cov_rot, cov_v_n = cov_joint[0:3, 0:3], cov_joint[3:6, 3:6]
         p_n, cov_p_n, origin_lla, pos_info = self._position(t_imu[0], t_dvl, v_n_dvl, t_out, cov_v_n,
                                                             heading_sigma)
         info = {
@@ -657,7 +669,7 @@ class Aligner:
             "wahba_residual_rms_mps": resid_rms, **pos_info,
         }
         return Alignment(float(t_out), C_b_n, v_n, p_n, origin_lla, cov_rot, cov_v_n, cov_p_n,
-                         b_acc.copy(), np.zeros(3), heading_source, info)
+                         b_acc.copy(), np.zeros(3), heading_source, info, x[3:].copy(), cov_joint)
 
     # --- pieces -----------------------------------------------------------------------------------
     def _dvl_velocity_covariance(self) -> np.ndarray:
@@ -707,17 +719,25 @@ class Aligner:
         free = np.repeat([o.estimate_accel_bias, o.estimate_dvl_errors], [3, 7])
         return sigma, np.where(free, sigma ** -2.0, FIXED_PRIOR)
 
-    def _velocity_covariance(self, C_b_n, v_b, cov_dvl_errors_b, cov_rot, dt_since_ping, n_pings) -> np.ndarray:
-        """NED velocity covariance: beam noise (averaged over n_pings), the DVL's scale factor and beam biases
-        (``cov_dvl_errors_b``, body, (m/s)^2: what the fit leaves of them), attitude, IMU propagation over
-        dt_since_ping (s, from the oldest ping averaged)."""
-        spec, T_b = self.config.dvl, self.geometry.T_b
-        pinv = np.linalg.pinv(T_b)
-        cov_b = spec.beam_noise_std ** 2 / n_pings * pinv @ pinv.T + cov_dvl_errors_b
-        J = -C_b_n @ skew(v_b)                          # d v_n / d delta (right perturbation)
-        imu = self.config.imu
+    def _joint_covariance(self, P_fit, C_b_n, A, v_b, D_out, dt_since_ping, n_pings) -> np.ndarray:
+        """(16,16) covariance of the errors (truth - estimate) of [attitude (GTSAM right perturbation, body, rad),
+        NED velocity (m/s), accelerometer bias (m/s^2), DVL scale factor per DVL axis (3) and beam biases (4, m/s)]
+        at the output stamp, with their cross-terms (the heading was fitted jointly with the DVL's errors).
+
+        ``P_fit``: covariance of the fit's [attitude (left perturbation in n0), offset, accelerometer bias, DVL
+        errors]; ``A`` maps the n0 attitude error to the body's at the stamp; ``v_b`` (3,) m/s the body velocity
+        and ``D_out`` (3,7) its error per DVL error at the last ping averaged. The velocity's own error: beam noise
+        averaged over ``n_pings``, IMU propagation over ``dt_since_ping`` (s, from the oldest ping averaged)."""
+        G = np.zeros((16, 16))
+        G[0:3, 0:3] = A
+        G[3:6, 0:3] = -C_b_n @ skew(v_b) @ A             # d v_n / d attitude (right perturbation)
+        G[3:6, 9:] = -C_b_n @ D_out                        # the pings less the fitted DVL errors
+        G[6:, 6:] = np.eye(10)
+        cov = G @ P_fit @ G.T
+        spec, pinv, imu = self.config.dvl, np.linalg.pinv(self.geometry.T_b), self.config.imu
         prop = (imu.accel_noise_density ** 2 * dt_since_ping + (imu.accel_bias_sigma * dt_since_ping) ** 2)
-        return C_b_n @ cov_b @ C_b_n.T + J @ cov_rot @ J.T + prop * np.eye(3)
+        cov[3:6, 3:6] += C_b_n @ (spec.beam_noise_std ** 2 / n_pings * pinv @ pinv.T) @ C_b_n.T + prop * np.eye(3)
+        return 0.5 * (cov + cov.T)
 
     def _position(self, t_start, t_dvl, v_n_dvl, t_out, cov_v_n, heading_sigma):
         """Position at t_out: dead reckoning with the aligned DVL velocities from the latest fix (NED origin at

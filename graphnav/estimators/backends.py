@@ -235,6 +235,8 @@ class EkfBackend(_Aided):
                                np.asarray(initial.pose.translation(), float).copy())
         self.ekf = ErrorStateEkf(config, state, options, initial.bias.accelerometer(), initial.bias.gyroscope(),
                                  name=name)
+        if initial.cov_joint is not None:
+            self.ekf.set_joint_prior(initial.cov_joint, initial.dvl_errors)
         self.tight = tight
         self.name = name
         self.last_aided = False

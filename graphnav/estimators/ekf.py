@@ -360,6 +360,22 @@ class ErrorStateEkf:
         self._aiding_run = {"depth": 0, "fix": 0}
         self.depth_sigma = config.depth_noise_std if opts.depth_sigma is None else float(opts.depth_sigma)
 
+    def set_joint_prior(self, cov_joint: np.ndarray, dvl_errors: np.ndarray | None = None) -> None:
+        """Start from a joint covariance (16,16) of the errors (truth - estimate) of [attitude (GTSAM right
+        perturbation, body, rad), v_n (m/s), accelerometer bias (m/s^2), DVL scale (3) and beam biases (4, m/s)],
+        cross-terms included (an alignment's, :attr:`graphnav.estimators.types.InitialState.cov_joint`), and the
+        DVL error states at ``dvl_errors`` (7,); the DVL blocks only with :attr:`EkfOptions.dvl_error_states`."""
+        with_dvl = self.n_states > self.n_nav
+        idx = np.r_[np.arange(IE.start, IE.stop), np.arange(IV.start, IV.stop), np.arange(IA.start, IA.stop)]
+        if with_dvl:
+            idx = np.r_[idx, np.arange(self.n_nav, self.n_states)]
+        # this filter's errors are estimate - truth, its attitude error eps = -C delta about NED axes
+        T = -np.eye(len(idx))
+        T[0:3, 0:3] = -self.state.C_b_n
+        self.P[np.ix_(idx, idx)] = T @ np.asarray(cov_joint, float)[:len(idx), :len(idx)] @ T.T
+        if with_dvl and dvl_errors is not None:
+            self.dvl_scale, self.beam_bias = np.array(dvl_errors[:3], float), np.array(dvl_errors[3:], float)
+
     # --- propagation ------------------------------------------------------------------------------
     def transition(self, path) -> tuple[np.ndarray, np.ndarray]:
         """Per-segment (Phi (n,k,k), Q (n,k,k)), k = 12 or 15 navigation states, along a

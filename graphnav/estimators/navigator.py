@@ -48,6 +48,7 @@ received since (including those still in the reorder buffer) for a controller at
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import heapq
 import math
 import warnings
@@ -208,7 +209,7 @@ class Navigator:
             self._start(initial)
         else:
             from graphnav.estimators.align import Aligner
-            self.aligner = Aligner(config, self.options.align)
+            self.aligner = Aligner(config, self._align_options())
 
     # --- inputs -------------------------------------------------------------------------------------
     def add_imu(self, t: float, f_b, omega_b) -> list[EpochEstimate]:
@@ -745,12 +746,25 @@ class Navigator:
                               "(it has no 'rehearse'): run the pivot completer or the average estimator")
         self.keyframer.rehearsal = rehearsal
 
+    def _estimator_options(self):
+        """The backend's options (:class:`EkfOptions` or :class:`GraphOptions`, defaults where not given)."""
+        kw = self._backend_kwargs
+        return (kw["ekf_options"] or EkfOptions()) if self.backend_name == "ekf" else \
+            (kw["graph_options"] or GraphOptions())
+
+    def _align_options(self) -> AlignOptions:
+        """``options.align`` with the estimator's own DVL error priors where it leaves them open: the aligner fits
+        the DVL's errors with the priors the estimator will carry on with."""
+        o = self.options.align
+        scale, bias = self._estimator_options().priors.dvl_error_sigmas(self.config.dvl)
+        return dataclasses.replace(o, dvl_scale_sigma=scale if o.dvl_scale_sigma is None else o.dvl_scale_sigma,
+                                   dvl_bias_sigma=bias if o.dvl_bias_sigma is None else o.dvl_bias_sigma)
+
     def _start(self, initial: InitialState) -> list[EpochEstimate]:
         kw = self._backend_kwargs
         self.backend = make_backend(self.backend_name, self.config, initial, **kw)
         self._hand_rehearsal()
-        options = (kw["ekf_options"] or EkfOptions()) if self.backend_name == "ekf" else \
-            (kw["graph_options"] or GraphOptions())
+        options = self._estimator_options()
         self.coasting = CoastingMonitor(self.backend.name, options.max_pure_inertial_s)
         self.sigma = SigmaMonitor(self.backend.name, options.health)
         return self._process(self.keyframer.start(float(initial.t)))
@@ -792,7 +806,7 @@ class Navigator:
         warned_period, imu_period = self.keyframer.warned_period, self.keyframer.imu_period
         self.keyframer = Keyframer(self.config, self.options.keyframes, self._completer)
         self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
-        out = self._start(initial_from_alignment(al))
+        out = self._start(initial_from_alignment(al, hand_over_fit=False))
         replayed = [e for e in events if e[1] >= t_first]
         events.clear()
         for stream, t_, payload in replayed:
@@ -850,15 +864,24 @@ class Navigator:
         return "alignment ready"
 
 
-def initial_from_alignment(al, before_data: AlignOptions | None = None) -> InitialState:
+def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_over_fit: bool = True) -> InitialState:
     """The estimator's initial state and prior from an :class:`~graphnav.estimators.align.Alignment` (the position
     covariance moves from NED to the body axes of GTSAM's Pose3 tangent ``[rot, trans]``).
 
+    ``hand_over_fit``: the DVL errors the alignment fitted start the estimator's DVL error states, with the
+    alignment's joint covariance of attitude, velocity, accelerometer bias and DVL errors
+    (``InitialState.cov_joint``), for an estimator that starts where the alignment ends. False for one that runs
+    through the alignment's own data from its prior (the catch-up's first run): the DVL errors counted twice
+    there pulled its heading further from the truth than the alignment's (docs/decisions/alignment.md).
+
     ``before_data``: for an estimator that will see the alignment's data again, the prior holds only what was
     known before them (``AlignOptions.unaligned_*`` sigmas on tilt, velocity and, unless it was given, heading;
-    the accelerometer bias at zero with the spec's sigma); the aligned state is still where it starts."""
+    the accelerometer bias at zero with the spec's sigma, the DVL errors at zero with the estimator's prior); the
+    aligned state is still where it starts."""
     C = np.asarray(al.C_b_n, float)
     cov_rot, cov_v_n, bias_acc = np.asarray(al.cov_rot, float), np.asarray(al.cov_v_n, float), al.bias_acc
+    fit = hand_over_fit and before_data is None
+    dvl_errors, cov_joint = (np.asarray(al.dvl_errors, float), al.cov_joint) if fit else (None, None)
     if before_data is not None:
         o = before_data
         heading_var = ((C @ cov_rot @ C.T)[2, 2] if al.heading_source == "given"     # known before the data
@@ -872,7 +895,8 @@ def initial_from_alignment(al, before_data: AlignOptions | None = None) -> Initi
     cov_pose[3:, 3:] = C.T @ np.asarray(al.cov_p_n, float) @ C
     return InitialState(gtsam.Pose3(gtsam.Rot3(C), np.asarray(al.p_n, float)), np.asarray(al.v_n, float),
                         gtsam.imuBias.ConstantBias(np.asarray(bias_acc, float), np.asarray(al.bias_gyro, float)),
-                        t=float(al.t), cov_pose=cov_pose, cov_v_n=cov_v_n, origin_lla=al.origin_lla)
+                        t=float(al.t), cov_pose=cov_pose, cov_v_n=cov_v_n, origin_lla=al.origin_lla,
+                        dvl_errors=dvl_errors, cov_joint=cov_joint)
 
 
 def stream_adders(nav: Navigator) -> dict:

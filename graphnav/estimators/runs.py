@@ -108,7 +108,8 @@ def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | N
 def run_graph(mission: Mission, *, completer=None, batch: bool = False, options: GraphOptions | None = None,
               callback: Callable[[EpochEstimate], None] | None = None, backend: str = "isam2",
               initial: InitialState | None = None, init: str = "auto",
-              align: AlignOptions | None = None, name: str | None = None) -> NavSolution:
+              align: AlignOptions | None = None, name: str | None = None,
+              navigator_options: NavigatorOptions | None = None) -> NavSolution:
     """Run the factor graph over a recorded mission (a sample-by-sample replay through the Navigator).
 
     Args:
@@ -125,6 +126,7 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
         align: settings of the sensor alignment (:class:`~graphnav.estimators.align.AlignOptions`, e.g.
             ``initial_heading_rad``, ``initial_lla``).
         name: the solution's label, also used in messages (default :func:`graph_label`).
+        navigator_options: the Navigator's streaming and alignment settings (e.g. ``align_catch_up``).
 
     Returns:
         NavSolution at the keyframes, with the covariances ``options.marginals`` asks for (default ``"full"``:
@@ -150,7 +152,8 @@ def run_graph(mission: Mission, *, completer=None, batch: bool = False, options:
                       and not needs_filter(options, completer))
     nav = graph_navigator(mission, completer=completer, options=first_pass,
                           backend="dead-reckoning" if dead_reckoning else backend, initial=initial,
-                          init=init, keep_keyframe_graphs=batch, align=align, name=name)
+                          init=init, keep_keyframe_graphs=batch, align=align, name=name,
+                          navigator_options=navigator_options)
     estimates = feed_mission(nav, mission, callback)
     if not estimates:
         raise ConfigError(f"{name} on '{mission.name}': no estimate was made "
@@ -239,7 +242,7 @@ def ekf_label(tight: bool = True, completer=None) -> str:
 
 def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: EkfOptions | None = None,
             initial=None, init: str = "auto", align: AlignOptions | None = None,
-            name: str | None = None) -> NavSolution:
+            name: str | None = None, navigator_options: NavigatorOptions | None = None) -> NavSolution:
     """Run the error-state EKF over a recorded mission and return the solution at every DVL ping (post update): a
     sample-by-sample replay through :class:`graphnav.estimators.navigator.Navigator` (backend ``"ekf"``). The
     mission's depth is replayed for the 15-state filter (``options.position_states`` and ``use_depth``), not
@@ -261,6 +264,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         align: settings of the sensor alignment (:class:`~graphnav.estimators.align.AlignOptions`, e.g.
             ``initial_heading_rad``, ``initial_lla``).
         name: the solution's label, also used in messages (default :func:`ekf_label`).
+        navigator_options: the Navigator's streaming and alignment settings (e.g. ``align_catch_up``).
 
     Returns:
         :class:`NavSolution` with ``cov_v_n``, ``cov_rot_b``, ``cov_bias`` (and ``cov_p_n`` from the 15-state
@@ -277,7 +281,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         t0 = max(t0, float(mission.gt.t[0]))     # the paper's start: the first instant with IMU and GT
     initial = initial_state(mission, initial, init, t0)
     nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
-                    options=with_align(None, align), name=f"EKF {name}")
+                    options=with_align(navigator_options, align), name=f"EKF {name}")
     estimates = [e for e in feed_mission(nav, mission, depth=depth) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))

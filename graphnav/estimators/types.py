@@ -27,6 +27,12 @@ class InitialState:
             perturbation, body frame); None = the option sigmas (``GraphOptions.prior_*``).
         cov_v_n: optional (3,3) prior velocity covariance, (m/s)^2; None = the option sigma.
         origin_lla: (lat rad, lon rad, alt m) of the NED origin, when known (position fixes need it).
+        dvl_errors: optional (7,) initial DVL error states: scale factor per DVL axis (unitless) and beam biases
+            (m/s), e.g. fitted by the alignment; None = zero with the estimator's prior.
+        cov_joint: optional (16,16) joint covariance of the errors of [attitude (as ``cov_pose``'s rotation),
+            ``v_n``, accelerometer bias, ``dvl_errors``] (an alignment's: its heading was fitted jointly with the
+            DVL's errors); its blocks replace ``cov_pose``'s rotation, ``cov_v_n`` and the options' accelerometer
+            bias and DVL error priors in the estimators. None = those blocks independent.
     """
 
     pose: gtsam.Pose3
@@ -36,6 +42,8 @@ class InitialState:
     cov_pose: np.ndarray | None = None
     cov_v_n: np.ndarray | None = None
     origin_lla: tuple[float, float, float] | None = None
+    dvl_errors: np.ndarray | None = None
+    cov_joint: np.ndarray | None = None
 
     @classmethod
     def from_ground_truth(cls, mission: Mission, t: float) -> "InitialState":

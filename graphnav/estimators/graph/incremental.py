@@ -61,10 +61,61 @@ def prior_factors(builder: GraphContext, initial: InitialState, k: int = 0,
     graph.add(gtsam.PriorFactorVector(V(k), initial.v_n, vel_noise))
     graph.add(gtsam.PriorFactorConstantBias(B(k), initial.bias, gtsam.noiseModel.Diagonal.Sigmas(
         np.r_[np.full(3, acc), np.full(3, gyro)])))
+    if initial.cov_joint is not None:
+        return _joint_initial_prior(graph, builder, initial, k, pose_noise.covariance()[3:, 3:], acc, gyro)
     if o.dvl_error_states:
         mean = np.zeros(N_DVL_ERRORS) if dvl_errors_mean is None else dvl_errors_mean
         graph.add(dvl_errors.prior_factor(k, mean, dvl_errors.prior_sigmas(builder.config, o)))
     return graph
+
+
+def _joint_initial_prior(graph, builder: GraphContext, initial: InitialState, k: int, cov_trans: np.ndarray,
+                         acc: float, gyro: float) -> gtsam.NonlinearFactorGraph:
+    """``graph`` with its priors on X(k), V(k), B(k) replaced by one joint prior holding ``initial.cov_joint``'s
+    cross-terms (attitude, velocity, accelerometer bias and, with ``dvl_error_states``, D(k) at
+    ``initial.dvl_errors``); the position (``cov_trans``, body, m^2) and the gyro bias (``gyro``, rad/s) stay
+    independent."""
+    with_d = builder.options.dvl_error_states
+    joint = np.asarray(initial.cov_joint, float)
+    # [pose (rot, trans), v, bias (acc, gyro), D]: where the joint's [rot, v, acc, D] sit
+    at = np.r_[0:3, 6:9, 9:12, 15:15 + N_DVL_ERRORS][:9 + N_DVL_ERRORS * with_d]
+    cov = np.zeros((15 + N_DVL_ERRORS * with_d,) * 2)
+    cov[np.ix_(at, at)] = joint[:len(at), :len(at)]
+    cov[3:6, 3:6] = cov_trans
+    cov[12:15, 12:15] = np.eye(3) * gyro ** 2
+    info = np.linalg.inv(cov)
+    R = np.linalg.cholesky(0.5 * (info + info.T)).T
+    keys = [X(k), V(k), B(k)] + ([D(k)] if with_d else [])
+    d = initial_dvl_errors(initial) if with_d else None
+    out = gtsam.NonlinearFactorGraph()
+    out.add(joint_prior_factor(keys, initial.pose, initial.v_n, initial.bias, d, R))
+    return out
+
+
+def initial_dvl_errors(initial: InitialState) -> np.ndarray:
+    """(7,) the DVL error states' start: ``initial.dvl_errors``, else zero."""
+    return np.zeros(N_DVL_ERRORS) if initial.dvl_errors is None else np.asarray(initial.dvl_errors, float)
+
+
+def joint_prior_factor(keys, pose: gtsam.Pose3, v_n, bias: gtsam.imuBias.ConstantBias, d, R: np.ndarray):
+    """One linear prior ``R [local(pose), v - v_n, local(bias), D - d]`` on the keys X, V, B (and D when ``d``
+    (7,) is given), R^T R the joint information over those tangents (Jacobians R's blocks, as
+    LinearContainerFactor's): a CustomFactor, as GTSAM's Python JacobianFactor takes at most three keys."""
+    v = np.asarray(v_n, float)
+    edges = np.cumsum([0, 6, 3, 6] + ([len(d)] if d is not None else []))
+    blocks = [slice(a, b) for a, b in zip(edges[:-1], edges[1:])]
+
+    def error(this, values, H):
+        dx = [pose.localCoordinates(values.atPose3(keys[0])), values.atVector(keys[1]) - v,
+              bias.localCoordinates(values.atConstantBias(keys[2]))]
+        if d is not None:
+            dx.append(values.atVector(keys[3]) - d)
+        if H is not None:
+            for i, sl in enumerate(blocks):
+                H[i] = R[:, sl]
+        return R @ np.concatenate(dx)
+
+    return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error)
 
 
 def isam2_params(options: GraphOptions, factorization: str | None = None) -> gtsam.ISAM2Params:
@@ -152,7 +203,7 @@ class _IncrementalGraph:
             link.add(imu_factor(kf))
         if self.options.dvl_error_states:
             if k == 0:
-                d = np.zeros(N_DVL_ERRORS)
+                d = initial_dvl_errors(self.initial)
             else:
                 d = self._value(D(k - 1), "Vector")
                 self.dvl_errors = (k - 1, d)
@@ -358,7 +409,9 @@ class _IncrementalGraph:
         except (RuntimeError, np.linalg.LinAlgError, AttributeError):
             return None
         if with_d:
-            return self._joint_prior_with_dvl_errors(last, np.asarray(d_j, float), R, keys)
+            graph = gtsam.NonlinearFactorGraph()
+            graph.add(joint_prior_factor(keys, last.pose, last.v_n, last.bias, np.asarray(d_j, float), R))
+            return graph
         factor = gtsam.JacobianFactor(X(j), R[:, :6], V(j), R[:, 6:9], B(j), R[:, 9:15], np.zeros(15),
                                       gtsam.noiseModel.Unit.Create(15))
         point = gtsam.Values()
@@ -367,26 +420,6 @@ class _IncrementalGraph:
         point.insert(B(j), last.bias)
         graph = gtsam.NonlinearFactorGraph()
         graph.add(gtsam.LinearContainerFactor(factor, point))
-        return graph
-
-    @staticmethod
-    def _joint_prior_with_dvl_errors(last: EpochEstimate, d_j: np.ndarray, R: np.ndarray,
-                                     keys: list[int]) -> gtsam.NonlinearFactorGraph:
-        """The 4-key joint prior of :meth:`_joint_prior` (pose 6, velocity 3, bias 6, DVL errors 7)."""
-        pose, v, bias = last.pose, np.asarray(last.v_n, float), last.bias
-        blocks = [slice(0, 6), slice(6, 9), slice(9, 15), slice(15, 15 + len(d_j))]
-
-        def error(this, values, H):
-            dx = np.concatenate([pose.localCoordinates(values.atPose3(keys[0])), values.atVector(keys[1]) - v,
-                                 bias.localCoordinates(values.atConstantBias(keys[2])),
-                                 values.atVector(keys[3]) - d_j])
-            if H is not None:
-                for i, sl in enumerate(blocks):
-                    H[i] = R[:, sl]
-            return R @ dx
-
-        graph = gtsam.NonlinearFactorGraph()
-        graph.add(gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(R.shape[0]), gtsam.KeyVector(keys), error))
         return graph
 
     def _track_hold(self, kf: GraphKeyframe) -> None:
