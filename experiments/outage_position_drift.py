@@ -20,7 +20,12 @@ outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI ea
 ``--rehearsed M ...`` adds ``Graph-HNP`` with rehearsed outages of margin M (``Graph-HNP rehearsed M``,
 ``GraphOptions.rehearsed_outages``: a completion kept only where the mission's own past says it beats the graph's
 IMU-only prediction at its horizon into the outage, by the margin M), and prints how often the rehearsals chose the
-graph, per IMU grade and scenario.
+graph, per IMU grade and scenario. ``--rehearsal-variants twin``, ``correlated`` or ``twin correlated`` adds each
+rehearsed run with the graph's twin (``rehearsal_graph="twin"``: the IMU-carried velocity fused with the beams the
+pattern still measures) and/or the two rehearsed errors' covariance deciding (``rehearsal_fusion="correlated"``; its
+margin unused, so only the first margin's label); ``--predictiveness`` records, per window and range of horizons of
+each rehearsed run, the rehearsals' ``e_comp``, ``e_graph`` read there and the actual errors of the completions and
+of Graph-TC's beam prediction against the true beams, and prints how often the rehearsals' choice was right.
 ``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
 :data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--pivot-axes A ...`` adds ``Graph-HNP``
 whose pivot completer models the turn axes A (``yaw`` or ``yaw+pitch``: the heave from the pitch rate too) instead of
@@ -58,6 +63,7 @@ min on two cores for the default cells. Usage::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
 import sys
 from pathlib import Path
@@ -100,6 +106,10 @@ KEPT = " kept"
 RELINEARISED = " relinearised "
 PRIOR = " prior "
 REHEARSED = " rehearsed "
+#: ``--rehearsal-variants``: the graph's twin, and the two errors' correlation deciding (after `` rehearsed M``)
+TWIN = " twin"
+CORRELATED = " correlated"
+REHEARSAL_VARIANTS = {"twin": TWIN, "correlated": CORRELATED, "twin correlated": TWIN + CORRELATED}
 #: `` prior P`` anywhere in a run label (P a number), the pivot completer's ``prior_turn``
 _PRIOR_RE = re.compile(r" prior ([0-9.eE+-]+)")
 AXES = " axes "
@@ -122,6 +132,10 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     for pattern in (_PRIOR_RE, _AXES_RE, _HOLD_RE):
         if pattern.search(label):
             return variant_run(pattern.sub("", label, count=1))
+    for suffix, key, value in ((CORRELATED, "rehearsal_fusion", "correlated"), (TWIN, "rehearsal_graph", "twin")):
+        if REHEARSED in label and label.endswith(suffix):
+            name, options = variant_run(label[:-len(suffix)])
+            return name, {**options, key: value}
     for suffix, retire in ((RETIRED, True), (KEPT, False)):
         if label.endswith(suffix):
             name, options = variant_run(label[:-len(suffix)])
@@ -276,7 +290,8 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
 def study_items(sources: dict, a, fold_nets: dict, runs: dict, folds) -> list[tuple]:
     """The :func:`trajectory_task` items not yet in ``runs``: every trajectory of ``folds`` (with the index of the
     fold that holds it out, whose networks it runs), IMU grade, scenario and window length of the options ``a``."""
-    return [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend, fold_nets, f)
+    flags = ["predictiveness"] if a.predictiveness else []
+    return [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend, fold_nets, f, *flags)
             for f, pair in enumerate(folds) for k in pair for g in a.grades for sc in a.scenarios
             for w in a.window_s if (f"Trajectory{k}", g, sc, w) not in runs]
 
@@ -285,7 +300,7 @@ def trajectory_task(item):
     """(key, {method: [window metrics]}) of one trajectory, grade, scenario and window length. ``item``: (source,
     grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold), the last two for
     :func:`fold_completer`."""
-    source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold = item
+    source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold, *flags = item
     import warnings
     warnings.simplefilter("ignore")
     from graphnav.core.scenarios import scenario_outage
@@ -294,7 +309,7 @@ def trajectory_task(item):
     mission = prepared_mission(source, grade)
     starts = case_windows(mission, window_s, max_windows)
     run = mission.with_outage(*[scenario_outage(scenario, s, window_s) for s in starts])
-    result = {}
+    result, reference = {}, None
     for method in methods:
         name, options = variant_run(method)
         comp = fold_completer(method, scenario, fold_nets, fold, mission, int(source.name.removeprefix("Trajectory")))
@@ -305,12 +320,95 @@ def trajectory_task(item):
             comp = pivot_completer(scenario, mission.config,
                                    prior_turn=PIVOT_PRIOR_TURN if prior is None else prior,
                                    axes=pivot_axes(method) or PIVOT_AXES, n_past=pivot_hold(method))
-        sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
+        with rehearsals_made() as made:
+            sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
+        reference = sol if reference is None else reference
+        if "predictiveness" in flags and made:
+            for window, s in zip(result[method], starts):
+                window["predicted"] = outage_predictiveness(made[-1].decisions, reference, mission, s, window_s)
         if "outage_rehearsal" in sol.info:
             # the decisions of the whole run: every outage ping of the run is in its windows
             result[method][0]["rehearsal"] = dict(sol.info["outage_rehearsal"])
     return (source.name, grade, scenario, window_s), result
+
+
+@contextlib.contextmanager
+def rehearsals_made():
+    """The :class:`~graphnav.estimators.rehearsal.OutageRehearsal` made inside the ``with`` (a list), to read the
+    decisions of a run's rehearsals."""
+    from graphnav.estimators.rehearsal import OutageRehearsal
+    made, init = [], OutageRehearsal.__init__
+
+    def recording(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        made.append(self)
+    OutageRehearsal.__init__ = recording
+    try:
+        yield made
+    finally:
+        OutageRehearsal.__init__ = init
+
+
+#: Horizon ranges (pings into the outage) the predictiveness is read over.
+HORIZON_RANGES = ((1, 30), (31, 60), (61, 120))
+
+
+def outage_predictiveness(decisions, reference, mission, start: float, window_s: float) -> list[dict]:
+    """Per range of :data:`HORIZON_RANGES` of the outage ``[start, start + window_s]`` (s): the rehearsals' RMS
+    ``e_comp`` and ``e_graph`` as read by the decisions there (the rehearsals before the outage; against the
+    measured beams, their noise in), and the actual RMS errors (m/s) against the true beams (the GT's velocity and
+    attitude) of the completions and of ``reference``'s (Graph-TC's) beam prediction (its NED velocity and
+    attitude; no gyro-rate term: the A-KIT lever arm is zero)."""
+    from oracle_completions import TruthBeams
+
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.timeseries import interp_rows
+    from graphnav.factors import predict_beams
+    rows, lever = DvlGeometry.from_spec(mission.config.dvl).T_b, mission.config.dvl.lever_arm_b
+    truth, out = TruthBeams(mission), []
+    inside = [d for d in decisions if start <= d[0] <= start + window_s and np.isfinite(d[4])]
+    for lo, hi in HORIZON_RANGES:
+        sel = [d for d in inside if lo <= d[1] <= hi]
+        if not sel:
+            continue
+        true = np.array([truth.at(t, rows[[b]], np.zeros(3), lever)[0] for t, _, _, b, *_ in sel])
+        graph = np.array([predict_beams(rows[[b]], reference.C_b_n[np.argmin(np.abs(reference.t - t))],
+                                        interp_rows(t, reference.t, reference.v_n), np.zeros(3), np.zeros(3),
+                                        lever)[0] for t, _, _, b, *_ in sel])
+        rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+        out.append({"h": [lo, hi], "n": len(sel), "beam sigma": float(mission.config.dvl.beam_noise_std), "completer kept": sum(d[2] == "completer" for d in sel),
+                    "pred comp": rms([d[4] for d in sel]), "pred graph": rms([d[5] for d in sel]),
+                    "act comp": rms(np.array([d[6] for d in sel]) - true), "act graph": rms(graph - true)})
+    return out
+
+
+def predictiveness_report(runs: dict, methods, folds) -> str:
+    """Per rehearsed run, IMU and scenario: how often the rehearsals' choice (completer or graph, per window and
+    horizon range) was the actual better one, pooled and per fold, and the medians of predicted / actual."""
+    lines = ["| run | IMU | scenario | ranges | right, pooled | right per fold | rehearsal: completer / actually "
+             "completer | pred / actual comp (median) | pred / actual graph (median) |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    fold_of = {f"Trajectory{k}": f for f, pair in enumerate(folds) for k in pair}
+    for method in (m for m in methods if REHEARSED in m):
+        for grade, scenario in sorted({k[1:3] for k in runs}, key=lambda c: (c[0] != "tactical", c[1])):
+            rows = [(fold_of[key[0]], r) for key, result in runs.items() if key[1:3] == (grade, scenario)
+                    and method in result for w in result[method] for r in w.get("predicted", [])]
+            if not rows:
+                continue
+            said = np.array([r["pred comp"] < r["pred graph"] for _, r in rows])
+            truly = np.array([r["act comp"] < r["act graph"] for _, r in rows])
+            fold = np.array([f for f, _ in rows])
+            per_fold = " ".join(f"{np.mean((said == truly)[fold == f]):.0%}" if np.any(fold == f) else "-"
+                                for f in range(len(folds)))
+            # the rehearsals score against the measured beams: their noise taken out too (in brackets)
+            ratio = {w: np.median([r[f"pred {w}"] / r[f"act {w}"] for _, r in rows]) for w in ("comp", "graph")}
+            clean = {w: np.median([np.sqrt(max(r[f"pred {w}"] ** 2 - r["beam sigma"] ** 2, 0.0)) / r[f"act {w}"]
+                                   for _, r in rows]) for w in ("comp", "graph")}
+            lines.append(f"| {method} | {grade} | {scenario} | {len(rows)} | {np.mean(said == truly):.0%} | "
+                         f"{per_fold} | {np.mean(said):.0%} / {np.mean(truly):.0%} | {ratio['comp']:.2f} "
+                         f"({clean['comp']:.2f}) | {ratio['graph']:.2f} ({clean['graph']:.2f}) |")
+    return "\n".join(lines)
 
 
 def rehearsal_report(runs: dict, methods) -> str:
@@ -476,6 +574,11 @@ def main(argv=None) -> int:
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
     p.add_argument("--rehearsed", nargs="+", type=float, metavar="M", help="also Graph-HNP with rehearsed outages of "
                    "margin M (module docstring)")
+    p.add_argument("--rehearsal-variants", nargs="+", choices=tuple(REHEARSAL_VARIANTS), default=[], metavar="V",
+                   help="also each --rehearsed run with the graph's twin (twin), its errors' correlation deciding "
+                   "(correlated: the margin unused, the first margin's label only) or both (module docstring)")
+    p.add_argument("--predictiveness", action="store_true", help="record, per window of each rehearsed run, the "
+                   "rehearsals' predicted errors and the actual ones against the true beams (module docstring)")
     p.add_argument("--pivot-priors", nargs="+", type=float, metavar="P", help="also Graph-HNP with its pivot "
                    "completer's prior_turn P instead of the shipped one (module docstring)")
     p.add_argument("--pivot-axes", nargs="+", choices=("yaw", "yaw+pitch"), metavar="A", help="also Graph-HNP with "
@@ -525,6 +628,10 @@ def main(argv=None) -> int:
         if not all(m > 0 for m in a.rehearsed):
             p.error("--rehearsed: the margin must be > 0")
         a.methods += [f"{GRAPH_HNP}{REHEARSED}{m:g}" for m in a.rehearsed]
+        a.methods += [f"{GRAPH_HNP}{REHEARSED}{m:g}{REHEARSAL_VARIANTS[v]}" for v in a.rehearsal_variants
+                      for m in (a.rehearsed[:1] if CORRELATED in REHEARSAL_VARIANTS[v] else a.rehearsed)]
+    elif a.rehearsal_variants or a.predictiveness:
+        p.error("--rehearsal-variants and --predictiveness need --rehearsed")
     if a.pivot_priors:
         if not all(prior >= 0 for prior in a.pivot_priors):
             p.error("--pivot-priors: prior_turn must be >= 0 (rad/s)^2")
@@ -562,6 +669,7 @@ def main(argv=None) -> int:
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
+                **({"predictiveness": True} if a.predictiveness else {}),
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
     if "pivot" in kinds.values() or set(PIVOT_MEMBERS) & {beam for _, beam in fold_nets.values()}:
@@ -589,6 +697,10 @@ def main(argv=None) -> int:
     if a.rehearsed:
         print("\nRegressed beams the rehearsals decided (summed over trajectories and windows)")
         print(rehearsal_report(runs, a.methods))
+    if a.predictiveness:
+        print("\nThe rehearsals' choice against the outage (per window and horizon range: right when the one "
+              "with the smaller rehearsed error had the smaller actual one)")
+        print(predictiveness_report(runs, a.methods, AKIT_FOLDS))
     print_choices(runs, a.methods, AKIT_FOLDS)
     return 0
 

@@ -945,6 +945,15 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
                                                                                  "regressed_error_tau_s": 10.0,
                                                                                  "rehearsed_outages": 0.5})
     assert study.pivot_prior("Graph-HNP prior 0.01") == 0.01 and study.pivot_prior("Graph-HNP tau 3") is None
+    assert study.variant_run("Graph-HNP rehearsed 1 twin correlated") == ("Graph-HNP", {
+        "rehearsed_outages": 1.0, "rehearsal_graph": "twin", "rehearsal_fusion": "correlated"})
+    # the rehearsals' choice scored against the outage: right when the smaller rehearsed error was the smaller one
+    window = {"predicted": [{"pred comp": 0.1, "pred graph": 0.2, "act comp": 0.05, "act graph": 0.04,
+                             "beam sigma": 0.0}, {"pred comp": 0.3, "pred graph": 0.2, "act comp": 0.1,
+                                                  "act graph": 0.2, "beam sigma": 0.0}]}
+    table = study.predictiveness_report({("Trajectory1", "mems", "0-beams", 60.0): {"Graph-HNP rehearsed 1": [window]}},
+                                        ["Graph-HNP rehearsed 1"], [(1, 2)])
+    assert "| Graph-HNP rehearsed 1 | mems | 0-beams | 2 | 0% | 0% | 50% / 50% | 2.50 (2.50) | 3.00 (3.00) |" in table
     # with the other suffixes, on either side of them
     assert study.variant_run("Graph-HNP prior 0.01 kept") == ("Graph-HNP", {"retire_completions": False})
     assert study.pivot_prior("Graph-HNP prior 1e-2 kept") == 0.01

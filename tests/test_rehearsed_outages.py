@@ -72,3 +72,79 @@ def test_rehearsed_outages_refuse_a_margin_that_is_not_positive_and_a_completer_
     mission = graphnav.simulate_mission(30.0, seed=0)
     with pytest.raises(ConfigError, match="cannot rehearse"):
         run_method(mission, GRAPH_HNP, "3-missing", completer=Held(), options={"rehearsed_outages": 1.0})
+
+
+def _twin_rehearsal(graph: str, var: float):
+    """An OutageRehearsal on the default beams whose IMU-carried horizontal velocity has rehearsed a spread ``var``
+    ((m/s)^2 per axis) at horizon 1, and one rehearsal at horizon 1: carried velocity 0.3 m/s off north, exact
+    beams, a completion 0.1 m/s off on every beam."""
+    from graphnav.core.dvl import DvlGeometry, DvlSpec
+    from graphnav.estimators.rehearsal import OutageRehearsal
+    geometry = DvlGeometry.from_spec(DvlSpec())
+    # the pattern scores are kept with either variant: the correlated fusion reads them on the IMU-only side too
+    rehearsal = OutageRehearsal(geometry.T_b, np.zeros(3), graph=graph, fusion="correlated", beam_sigma=0.02,
+                                min_rehearsals=1)
+    rehearsal.spread.by_h[1].append(var)
+    v_true = np.array([1.0, 0.2, 0.05])
+    beams = geometry.T_b @ v_true
+    rehearsal._comp_errors[(0.0, 1)] = np.full(4, 0.1)
+    rehearsal._score_patterns(1, 0.0, np.eye(3), v_true + [0.3, 0.0, 0.0], beams, np.zeros(3))
+    return rehearsal
+
+
+def test_the_graphs_twin_predicts_the_missing_beams_from_the_beams_the_pattern_still_measures():
+    """With three beams measured the twin's velocity is the beams' (the IMU's spread is wide): the missing beam is
+    predicted within 0.01 m/s; in a total outage it is the IMU's alone, 0.3 m/s off along the beams' north part;
+    the IMU-only rehearsal predicts every pattern from the IMU alone."""
+    twin, imu = _twin_rehearsal("twin", var=0.3 ** 2), _twin_rehearsal("imu", var=0.3 ** 2)
+    three = np.array([True, True, True, False])
+    _, e_twin, _ = twin.pattern_errors(three, 1)
+    _, e_imu, _ = imu.pattern_errors(three, 1)
+    _, total_twin, _ = twin.pattern_errors(np.zeros(4, dtype=bool), 1)
+    assert np.sqrt(e_twin) < 0.01                   # the IMU alone: 0.073 m/s
+    assert np.sqrt(e_imu) == pytest.approx(0.3 * np.sin(np.radians(20)) * np.cos(np.radians(45)), rel=1e-6)
+    assert np.sqrt(total_twin) == pytest.approx(np.sqrt(e_imu), rel=1e-6)
+    # one measured beam corrects the IMU's velocity along it when the rehearsed spread says the IMU is poor
+    one = np.array([True, False, False, False])
+    imu_one = imu.pattern_errors(one, 1)[1]
+    assert _twin_rehearsal("twin", var=1.0).pattern_errors(one, 1)[1] < 0.7 * imu_one
+
+
+def test_correlated_fusion_keeps_a_completion_at_the_sigma_of_the_best_linear_fusion_or_drops_it():
+    """The rehearsed covariance decides: uncorrelated errors keep the completion at its own error even where it
+    ties the graph (the margin would drop it); a correlation leaves it the equivalent independent variance
+    a (s^2 - c) / (a - c); a graph sharper than rho times the completion drops it."""
+    from graphnav.core.dvl import DvlGeometry, DvlSpec
+    from graphnav.estimators.rehearsal import OutageRehearsal
+    T_b = DvlGeometry.from_spec(DvlSpec()).T_b
+    one = np.array([True, False, False, False])
+    p = 1
+
+    def verdict(fusion, s2, a, c):
+        rehearsal = OutageRehearsal(T_b, np.zeros(3), graph="twin", fusion=fusion, min_rehearsals=1)
+        rehearsal.pairs.by_h[p][1].append((s2, a, c))
+        beams, sigma, kept = rehearsal.decide(0.0, np.ones(4), np.full(4, 0.1), ~one, np.full(4, 1), one)
+        return rehearsal.decisions[-1][2], sigma[1], kept[1], beams[1]
+
+    assert verdict("independent", 0.01, 0.01, 0.0)[0] == "graph"          # a tie: not below the margin
+    what, sigma, kept, _ = verdict("correlated", 0.01, 0.01, 0.0)
+    assert (what, kept) == ("completer", True) and sigma == pytest.approx(0.1)
+    s2, a, c = 0.04, 0.01, 0.004
+    assert verdict("correlated", s2, a, c)[1] == pytest.approx(np.sqrt(a * (s2 - c) / (a - c)))
+    what, _, kept, beam = verdict("correlated", 0.04, 0.01, 0.012)
+    assert (what, kept) == ("graph", False) and np.isnan(beam)
+
+
+def test_the_variants_run_in_the_graph_and_bad_ones_are_refused():
+    from graphnav.estimators.graph import GraphOptions
+    for name in ("rehearsal_graph", "rehearsal_fusion"):
+        with pytest.raises(ConfigError, match=name):
+            GraphOptions(rehearsed_outages=1.0, **{name: "other"})
+    mission = graphnav.simulate_mission(120.0, "mems", seed=2, pivot_m=3.0)
+    run = mission.with_outage(scenario_outage("3-missing", 100.0, 10.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = run_method(run, GRAPH_HNP, "3-missing", options={"rehearsed_outages": 1.0, "rehearsal_graph": "twin",
+                                                               "rehearsal_fusion": "correlated"})
+    counts = sol.info["outage_rehearsal"]
+    assert sum(counts.values()) == 3 * 10 and counts["unrehearsed"] == 0

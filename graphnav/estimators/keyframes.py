@@ -857,7 +857,7 @@ class Keyframer:
             if self.rehearsal is not None:
                 self.rehearsal.interrupt()
                 beams, sigma, rehearsed = self.rehearsal.decide(t, beams, sigma, np.isfinite(beams) & ~measured,
-                                                                self.history.run_steps)
+                                                                self.history.run_steps, measured)
         return dataclasses.replace(ping, beams=beams, sigma_regressed=sigma, has_regressed=has_regressed,
                                    omega_b=omega_b, rehearsed=rehearsed)
 

@@ -189,7 +189,9 @@ class GraphContext:
         #: with a ping, by beam number (the previous link of each beam's Gauss-Markov chain)
         self.regressed_links: dict[int, RegressedLink] = {}
         #: ``options.rehearsed_outages``: the mission's rehearsed outages (the Navigator hands them to its keyframer)
-        self.rehearsal = (OutageRehearsal(self.geometry.T_b, self.geometry.lever_arm_b, options.rehearsed_outages)
+        self.rehearsal = (OutageRehearsal(self.geometry.T_b, self.geometry.lever_arm_b, options.rehearsed_outages,
+                                          graph=options.rehearsal_graph, fusion=options.rehearsal_fusion,
+                                          beam_sigma=self.beam_sigma)
                           if options.rehearsed_outages is not None else None)
 
     def count_screening(self, stats: dict) -> None:

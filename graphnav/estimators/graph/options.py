@@ -87,6 +87,10 @@ MARGINAL_LEVELS = ("none", "velocity", "full")
 MOTION_PRIOR_MODES = ("off", "partial", "total", "total-if-uncertain")
 #: How a run of regressed beams meets the screening (GraphOptions.regressed_runs).
 REGRESSED_RUNS = ("screen-each", "screen-first")
+#: The graph's side of rehearsed outages (GraphOptions.rehearsal_graph) and how a kept completion enters
+#: (GraphOptions.rehearsal_fusion).
+REHEARSAL_GRAPHS = ("imu", "twin")
+REHEARSAL_FUSIONS = ("independent", "correlated")
 
 
 def checked_by_count(value, name: str, check):
@@ -237,6 +241,13 @@ class GraphOptions:
             recursion and the graph's IMU-only prediction per horizon into an outage, and a completion at horizon
             ``h`` is kept, at sigma ``e_comp(h)`` and unscreened, only when ``e_comp(h) < m e_graph(h)``; None (the
             default) = off. See docs/decisions/completers.md, "Rehearsed outages".
+        rehearsal_graph: with ``rehearsed_outages``, the graph's side of the rehearsals: ``"imu"`` (the IMU alone)
+            or ``"twin"`` (the IMU-carried velocity fused with the beams the outage's pattern still measures, each
+            pattern rehearsed; the completer then scored on the pattern's missing beams).
+        rehearsal_fusion: with ``rehearsed_outages``, ``"independent"`` (a completion kept at ``e_comp(h)`` when it
+            beats the margin) or ``"correlated"`` (the two rehearsed errors' covariance decides: the completion kept
+            at the equivalent independent sigma of their best linear fusion, dropped where it adds nothing; the
+            margin is not used). Both experimental; see completers.md, "Rehearsed outages: the graph's twin".
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -284,6 +295,8 @@ class GraphOptions:
     retire_completions: bool = False
     retire_hold_s: float = 120.0
     rehearsed_outages: float | None = None
+    rehearsal_graph: str = "imu"
+    rehearsal_fusion: str = "independent"
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -307,6 +320,9 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.rehearsed_outages is not None and not self.rehearsed_outages > 0:
             raise ConfigError(f"rehearsed_outages must be a margin > 0 (or None: off), got {self.rehearsed_outages}")
+        for name, allowed in (("rehearsal_graph", REHEARSAL_GRAPHS), ("rehearsal_fusion", REHEARSAL_FUSIONS)):
+            if getattr(self, name) not in allowed:
+                raise ConfigError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if not self.retire_hold_s >= 0:
             raise ConfigError(f"retire_hold_s must be >= 0 s, got {self.retire_hold_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
