@@ -7,6 +7,7 @@ rows; plus the aligner's robustness to an outlier ping that passes the per-sampl
 """
 from __future__ import annotations
 
+import re
 import shutil
 import time
 import warnings
@@ -154,6 +155,30 @@ def test_imu_spike_test_is_off_at_10_hz_where_a_turn_onset_or_wave_roll_looked_l
         masks = imu_implausible(t, turn[:, :3], turn[:, 3:], SensorConfig(), meta=meta, source="imu.csv")
     assert not np.any(list(masks.values()))
     assert meta["streams"]["imu"]["notes"] == [test.note]
+
+
+def test_an_imu_at_50_hz_on_a_10_ms_clock_gets_its_spike_test_offline_and_live():
+    """50 Hz logged in whole 10 ms with 1 ms of jitter (steps of 10, 20, 30 ms): the loaders' rate over the whole
+    log, 49.98 Hz (this draw), and the stream's over its first eleven stamps, 47.62 Hz, were under the test's 50 Hz:
+    off, a spike of 100 m/s^2 kept. Now a rate within 1 % under it is at it and the stream measures over 2 s of a grid:
+    the spike is refused by both. 40 Hz on the same clock stays off, the message saying its rate."""
+    from graphnav.core.screening import imu_implausible
+    for rate in (50.0, 40.0):
+        t, x = _quiet_imu(rate, 30.0)
+        t = _coarse_clock(t, 0.01, "floor", 1e-3, 5)
+        x[1000, 0] += 100.0
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), source="imu.csv")
+        off = [str(w.message) for w in caught if "spike test off" in str(w.message)]
+        loader, stream, test = _both_refuse(t, x)
+        if rate == 50.0:
+            assert not off and np.flatnonzero(masks["spike in 'f_b x'"]).tolist() == loader == stream == [1000]
+            assert test.active and test.rate_hz == pytest.approx(50.0, rel=0.01) and test.n == 5
+        else:
+            said = [float(re.search(r"the IMU runs at ([0-9.]+) Hz, under 50 Hz", n)[1]) for n in off + [test.note]]
+            assert len(off) == 1 and off[0].startswith("imu.csv: IMU spike test off")
+            assert (loader, stream) == ([], []) and said == [pytest.approx(40.0, rel=0.01)] * 2
 
 
 def test_navigator_notes_and_warns_once_when_its_imu_is_too_slow_for_the_spike_test():
@@ -1230,33 +1255,35 @@ def test_a_live_imu_packet_cut_short_by_an_outage_or_the_end_of_the_imu_is_kept(
             assert nav.refused.get("imu", {}) == starting, (name, spacing)
 
 
-def test_a_live_imu_driver_read_of_two_packets_at_once_is_refused_beyond_its_packet_with_the_reason(mission):
-    """Packets of 20 with one delayed driver read returning two at once (40 samples under one stamp, or 0.01 ms apart):
-    the first 20 leave spread back from its stamp and the other 20, stamped with or just after what already left,
-    were squeezed into 0.2 ms (stamped on receipt) or refused as duplicate stamps (sharing one). Their times are
-    unknown and the next packet leaves no room at the period: refused, saying so, and counted; no step under half a
-    period reaches the keyframer."""
+def test_a_live_imu_driver_read_of_two_packets_at_once_is_held_whole_and_placed_at_its_times(mission):
+    """Packets of 20 with one delayed driver read returning two at once (40 samples under one stamp, or 0.01 ms apart,
+    a cycle late): the first 20 left spread back from its stamp (0.2 s late: the other streams had moved the reorder
+    buffer past their true places) and the other 20 were refused beyond the packet. Now the buffer waits at the last
+    packet's end while the next read is under two cycles late, and a read that comes a cycle late or more is held
+    until its end and spread back whole: every sample at its time, none refused, no gap, and the end within a
+    centimetre of the stream without the late read (0.0003 and 0.0000 m; 0.196 and 0.205 m before); at the same
+    stamps as that stream (to the 0.2 ms its packets' spacing adds)."""
     m = mission.slice(0, 60)
     events = list(replay(m))
     true = np.array([e[1] for e in events if e[0] == "imu"])
     for spacing in (1e-5, 0.0):
         stamps = _in_packets(true, 20, spacing)
-        plain = _navigator(m)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            _feed(plain, _with_imu_stamps(events, stamps))
-        stamps[2000:2040] = true[2039] + np.arange(40) * spacing
-        nav, integrated = _navigator(m), []
-        add = nav.keyframer.add_imu
-        nav.keyframer.add_imu = lambda t, f, w: integrated.append(t) or add(t, f, w)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            _feed(nav, _with_imu_stamps(events, stamps))
-        refused = dict(nav.refused.get("imu", {}))
-        assert refused.pop("beyond its packet") >= 19 and refused == plain.refused.get("imu", {}), spacing
-        assert any("a driver read of 40 samples stamped together: 20 beyond the packet size of 20, their times "
-                   "unknown" in str(w.message) for w in caught)
-        assert np.min(np.diff(integrated[1000:])) > 0.005, spacing     # from 10 s on: packets decided
+        late = stamps.copy()
+        late[2000:2040] = true[2039] + np.arange(40) * spacing
+        runs = []
+        for s in (stamps, late):
+            nav, integrated = _navigator(m), []
+            add = nav.keyframer.add_imu
+            nav.keyframer.add_imu = lambda t, f, w, add=add, integrated=integrated: integrated.append(t) or add(t, f, w)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                runs.append((nav, integrated, caught, _feed(nav, _with_imu_stamps(events, s))))
+        (plain, even, _, clean), (nav, integrated, caught, estimates) = runs
+        assert nav.refused.get("imu", {}) == plain.refused.get("imu", {}) and not nav.info["imu_gaps"], spacing
+        assert not [w for w in caught if "beyond its packet" in str(w.message)]
+        # at the stream's stamps without the late read: the same, but for the 0.2 ms its packets' spacing adds
+        np.testing.assert_allclose(integrated, even, rtol=0, atol=2.1e-4)
+        assert np.linalg.norm(estimates[-1].p_n[:2] - clean[-1].p_n[:2]) < 0.01, spacing
 
 
 @pytest.mark.parametrize("spacing", [None, 1e-5])
@@ -1450,6 +1477,32 @@ def test_an_imu_on_a_clock_between_one_and_two_periods_is_a_clock_not_packets_or
     t = _coarse_clock(true, 0.01, "floor", 1e-3)
     assert np.mean(np.abs(np.diff(t) - 0.02) > 0.005) > 0.4
     assert imu_rate_hz(t) == pytest.approx(50.0, rel=1e-3) == imu_rate_hz(t, 100.0)
+
+
+def test_an_imu_on_a_grid_half_its_period_with_stamps_repeated_by_jitter_is_read_not_refused():
+    """50 Hz in whole 10 ms with 2 or 3 ms of jitter: now and then a sample moved across a grid edge shares the stamp
+    before it (2 and 31 of 12000) and the file was refused as duplicated stamps (a clock at the period needs ten
+    repeats and most steps one grid step). The samples on either side keep one line at the period: each such sample
+    is placed on the grid after its stamp, warned and counted in restamped, no sample further from its time than
+    before. The same logs with three rows written twice (the samples after each a period behind the line) are refused
+    as before."""
+    from graphnav.core.screening import stamp_order
+    true = 1000.005 + np.arange(12000) * 0.02
+    for jitter, seed, repeats in ((2e-3, 0, 2), (3e-3, 1, 31)):
+        t = _coarse_clock(true, 0.01, "floor", jitter, seed)
+        assert np.sum(np.diff(t) == 0) == repeats
+        meta = {}
+        said = rf"^imu: imu.csv: stamps on a 10 ms grid, finer than the IMU's 20[.\d]* ms period: {repeats} of 12000 "
+        with pytest.warns(RuntimeWarning, match=said + "repeat the stamp before"):
+            kept, dropped, stamps = stamp_order(t, np.c_[t, true], np.arange(t.size) + 2, "imu.csv", "t", False, meta,
+                                                "imu")
+        assert kept.size == t.size and not dropped and np.all(np.diff(stamps) > 0)
+        assert np.sum(stamps != t) == meta["streams"]["imu"]["restamped"] == repeats
+        assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
+        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
+                        {}, "imu")
 
 
 def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back_from_their_stamp():

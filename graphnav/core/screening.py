@@ -72,7 +72,13 @@ IMU_SPIKE_SCALE_S = 1.0
 #: as long as the runs it refuses, so a turn's onset or wave roll departs from a median of a few rows as a spike
 #: does (docs/decisions/screening.md).
 IMU_SPIKE_MIN_RATE_HZ = 50.0
-#: Stamps the stream measures the IMU's rate from before its spike test starts.
+#: A rate measured this close under :data:`IMU_SPIKE_MIN_RATE_HZ` (relative) is at it: stamps on a clock's grid leave
+#: a 50 Hz IMU's rate up to a grid step over their span off (49.98 Hz over 30 s in whole 10 ms), which switched its
+#: test off.
+IMU_SPIKE_RATE_TOLERANCE = 0.01
+#: Stamps the stream measures the IMU's rate from before its spike test starts; stamps on a grid
+#: (:func:`imu_stamp_quantum`) as many more as bring a grid step under half :data:`IMU_SPIKE_RATE_TOLERANCE` of their
+#: span (a 50 Hz IMU in whole 10 ms read 47.62 Hz over eleven, 2 s over 101).
 IMU_SPIKE_RATE_ROWS = 11
 #: Steps an IMU arriving in packets is measured over at most, while it has not three packets' cycles
 #: (:func:`awaits_packet_cycles`; the keyframer and the stream's spike test): packets of up to about 120 samples.
@@ -494,8 +500,8 @@ def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: floa
 def imu_spike_rows(rate_hz: float) -> tuple[int, int] | None:
     """(half window, noise block) of the IMU spike test in rows at ``rate_hz`` (:data:`IMU_SPIKE_HALF_WINDOW_S`,
     :data:`IMU_SPIKE_SCALE_S`); None when the test is off: the rate is under :data:`IMU_SPIKE_MIN_RATE_HZ` or
-    unknown (NaN)."""
-    if not rate_hz >= IMU_SPIKE_MIN_RATE_HZ:
+    unknown (NaN); a rate within :data:`IMU_SPIKE_RATE_TOLERANCE` under it is at it."""
+    if not rate_hz >= IMU_SPIKE_MIN_RATE_HZ * (1.0 - IMU_SPIKE_RATE_TOLERANCE):
         return None
     return max(1, round(IMU_SPIKE_HALF_WINDOW_S * rate_hz)), max(2, round(IMU_SPIKE_SCALE_S * rate_hz))
 
@@ -1123,6 +1129,58 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
 
 
+#: Samples on each side of a repeated stamp whose mean offset from a line at the period tells jitter that moved a
+#: sample across a grid edge (the offset holds) from a row written twice or a sample lost (it moves by a period):
+#: a second at 50 Hz, the offset known to 0.3 ms on a 10 ms grid (:func:`grid_repeats`).
+REPEAT_CHECK_SAMPLES = 50
+
+
+def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
+    """``(grid s, period s, stamps s, moved)`` of IMU stamps ``t`` (s, file order, never decreasing) on a grid finer
+    than their steps (:func:`imu_stamp_quantum`: 50 Hz in whole 10 ms with jitter, steps of 10, 20, 30 ms) where jitter
+    moved ``moved`` samples across a grid edge into the step of the one before: each repeat keeps the mean offset
+    from a line at the period over :data:`REPEAT_CHECK_SAMPLES` samples on either side (within half a period) and is
+    placed on the grid after its stamp (:func:`place_repeats`) before the next. None else: stamps without such a grid
+    (an even log's), or a repeat the grid cannot explain (a row written twice shifts the samples after it by a
+    period; no empty grid step to place it in)."""
+    t = np.asarray(t, float)
+    d = np.diff(t)
+    if t.size < 4 or np.any(d < 0) or np.all(d > 0):
+        return None
+    grid = imu_stamp_quantum(d)
+    s = t - t[0]
+    if not grid or np.any(np.abs(s / grid - np.round(s / grid)) > 0.01):
+        return None
+    period = _positive_steps(d)[1]
+    repeats = np.flatnonzero(d == 0) + 1
+    total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period)]
+    n = REPEAT_CHECK_SAMPLES
+    for r in repeats:       # the pair r - 1, r left out: their offsets are the jitter
+        a, b = max(0, r - 1 - n), min(s.size, r + 1 + n)
+        if a == r - 1 or b == r + 1:
+            return None
+        before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
+        if not abs(after - before) < 0.5 * period:
+            return None
+    placed = place_repeats(t, repeats, period, grid)
+    return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
+
+
+def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
+    """IMU stamps ``t`` (s, never decreasing) with each of the ``repeats`` (indexes of samples repeating the stamp
+    before them) placed after its stamp at j x step (the j-th repeat of it), the step the period ``period_s`` (s) or
+    the room to the next stamp shared among the stamp's samples, whichever is less, in whole ``grid_s`` (s): a step
+    off the grid would make the grid look finer than it is (a 5 ms grid read 52.5 Hz for 50 Hz in whole 10 ms)."""
+    t = np.asarray(t, float)
+    stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
+    at = np.searchsorted(stamps, t[repeats])
+    room = np.r_[np.diff(stamps), math.inf][at] / counts[at]
+    step = np.floor(np.minimum(period_s, room) / grid_s + 1e-6) * grid_s
+    out = t.copy()
+    out[repeats] = t[repeats] + (repeats - first[at]) * step
+    return out
+
+
 def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
@@ -1247,17 +1305,25 @@ def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: st
 def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:
     """IMU stamps ``t`` (s, file order) whose packets share one stamp (:func:`shared_stamp_packets`) with each
     packet spread back from its stamp at the period (:func:`restamp_packets`), or from a clock coarser than the
-    period (:func:`quantised_clock`) put on an even grid (:func:`restamp_quantised`), warned about and noted once,
-    their count in ``meta["streams"]["imu"]["restamped"]`` and the period in ``"restamp_period_s"``; else ``t`` as
-    given. Left as read, every sample but one of a stamp was a duplicated stamp: the file was refused, and its repair
-    dropped k - 1 in k samples."""
+    period (:func:`quantised_clock`) put on an even grid (:func:`restamp_quantised`), or on a grid finer than the
+    period with samples moved into the step before by jitter (:func:`grid_repeats`) those placed after it, warned
+    about and noted once, their count in ``meta["streams"]["imu"]["restamped"]`` and the period in
+    ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
+    stamp: the file was refused, and its repair dropped k - 1 in k samples."""
     clock = quantised_clock(t)
     packets = None if clock else shared_stamp_packets(t)
+    jittered = None if clock or packets else grid_repeats(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
         moved = int(np.sum(restamped != t))
         note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
                               stretches)
+    elif jittered:
+        grid, period, restamped, moved = jittered
+        note = (f"stamps on a {1e3 * grid:.4g} ms grid, finer than the IMU's {1e3 * period:.4g} ms period: {moved} "
+                f"of {t.size} repeat the stamp before (jitter moved a sample across the grid's edge: the samples on "
+                "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
+                "room before the next stamp later")
     elif packets is None:
         return t
     else:
@@ -1418,8 +1484,9 @@ class ImuSpikeTest:
     restarts from the next departing row, which is accepted.
 
     The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
-    those rows are accepted), after the burst it starts with, if any (:func:`start_burst` against the configured
-    ``period_s``, s, when given: 50 samples 0.1 ms apart read 10 kHz, a 10 s window); under
+    those rows are accepted; stamps on a clock's grid: as many as :meth:`_spans_the_grid` needs), after the burst
+    it starts with, if any (:func:`start_burst` against the configured ``period_s``, s, when given: 50 samples 0.1
+    ms apart read 10 kHz, a 10 s window); under
     :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off
     (:attr:`note` says why) and accepts every row. Plain Python on six floats per row: the Navigator calls it at the
     IMU's rate (about 6 us a row).
@@ -1434,6 +1501,8 @@ class ImuSpikeTest:
         self.note: str | None = None                        # why the test is off, once it is
         self.n = self.block = 0                             # half window and noise block, rows
         self._stamps: list[float] = []                      # stamps seen while the rate is measured
+        self._needed = IMU_SPIKE_RATE_ROWS                  # stamps to measure it over
+        self._grid_checked = False
         self._hist: deque = deque()                         # accepted rows, oldest first
         self._sorted: list[list[float]] = [[] for _ in self.floors]   # the same values, sorted per column
         self._rows: list = []                               # accepted rows of the current noise block
@@ -1454,7 +1523,7 @@ class ImuSpikeTest:
                     return None
                 del stamps[:n]          # the burst's stamps but its last: the rate is from the steps after it
                 self._lead = False
-            if (not self._lead and len(stamps) >= IMU_SPIKE_RATE_ROWS
+            if (not self._lead and len(stamps) >= self._needed and self._spans_the_grid()
                     and not (self.period_s and awaits_packet_cycles(np.diff(stamps), self.period_s))):
                 self._set_rate(imu_rate_hz(self._stamps, None if self.period_s is None else 1.0 / self.period_s))
             return None
@@ -1476,6 +1545,18 @@ class ImuSpikeTest:
                     break
         self._accept(x)
         return None
+
+    def _spans_the_grid(self) -> bool:
+        """Whether the stamps so far measure the rate to :data:`IMU_SPIKE_RATE_TOLERANCE`: on a grid found in the
+        first :data:`IMU_SPIKE_RATE_ROWS`, the stamps needed to span 2 / tolerance grid steps are awaited."""
+        stamps = self._stamps
+        if not self._grid_checked:
+            self._grid_checked = True
+            quantum = imu_stamp_quantum(np.diff(stamps))
+            step = (stamps[-1] - stamps[0]) / (len(stamps) - 1)
+            if quantum and step > 0:
+                self._needed = max(self._needed, 1 + math.ceil(2.0 * quantum / (IMU_SPIKE_RATE_TOLERANCE * step)))
+        return len(stamps) >= self._needed
 
     def _set_rate(self, rate_hz: float) -> None:
         """Fix the rows per span at ``rate_hz`` (or switch the test off); the rows seen so far become the history."""

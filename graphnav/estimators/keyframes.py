@@ -145,6 +145,10 @@ CLOCK_WAIT_STEPS = 3
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
+#: A live packet whose step from the packet before is over this many cycles came late (a delayed driver read, two
+#: packets at once): it is held until its end and spread back whole from its last stamp, since its size is not known
+#: when its first part has reached the typical size.
+LATE_READ_CYCLES = 1.5
 
 
 class ImuPeriod:
@@ -270,7 +274,9 @@ class PacketStamps:
     its reorder buffer back meanwhile, :meth:`release_limit`, so that the packet is not squeezed into the time left).
     Samples of a packet beyond the typical size (a driver read of two packets at once) came after its first part left
     spread back from its stamp: their times are unknown. They wait for its end and follow that part at the period as
-    far as the next packet leaves room (:meth:`_beyond`); the rest are refused by the caller (:attr:`unplaced`). A
+    far as the next packet leaves room (:meth:`_beyond`); the rest are refused by the caller (:attr:`unplaced`).
+    Such a read that comes over half a cycle late (:data:`LATE_READ_CYCLES`) is held until its end instead and spread
+    back whole, the reorder buffer held at the last packet's end from that end on (:meth:`release_limit`). A
     packet held when the newest stamp of any stream is two cycles past it has ended (the IMU went silent):
     :meth:`overdue` lets it out. The typical size is the largest two of the latest packets reached, so an IMU a little
     faster than its reads (100.2 Hz read every 200 ms: a packet of 21 about every 25) holds every packet of 20 a
@@ -303,6 +309,7 @@ class PacketStamps:
         self.clock: tuple[float, float] | None = None
         self._watch: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
         self._repeats = 0               # repeated stamps watched
+        self._late = False              # the packet held came over half a cycle late: a read of two, held whole
 
     def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
@@ -326,9 +333,12 @@ class PacketStamps:
         if not self.period_s:                   # turned clean
             self._out = t
             return out + [(t, f, w)]
+        if long:
+            self._late = step > LATE_READ_CYCLES * self._k * self.period_s
         self._held.append((t, f, w))
         self._in_packet += 1
-        whole = len(self._held) >= self._k and self._in_packet == len(self._held)   # none of it let out yet
+        whole = (len(self._held) >= self._k and self._in_packet == len(self._held)   # none of it let out yet
+                 and not self._late)
         return out + self.flush(after) if whole else out
 
     def _packet_ended(self, after: float, t: float) -> list[tuple[float, tuple, tuple]]:
@@ -389,11 +399,19 @@ class PacketStamps:
 
     def release_limit(self, newest: float) -> float:
         """The stamp (s) the reorder buffer may release up to while a packet is held: its first sample's place on
-        the period when it grows to the typical size; inf with none held, or once ``newest`` (s, the newest stamp
-        received) is two cycles past it (an IMU outage must not stall the other streams)."""
-        if not self._held or self._overdue(newest):
+        the period when it grows to the typical size, the last packet's end for a late one (:data:`LATE_READ_CYCLES`,
+        held whole); inf once ``newest`` (s, the newest stamp received) is two cycles past it (an IMU outage must not
+        stall the other streams). With none held, the last packet's end while the next read is under two cycles late
+        (``newest`` under three cycles past it): a driver read of two packets at once reaches back to it, and a
+        keyframe cannot close without the IMU past it anyway; inf else."""
+        if not self._held:
+            late = self.period_s and not self.clock and newest - self._out < 3 * self._k * self.period_s
+            return self._out if late else math.inf
+        if self._overdue(newest):
             return math.inf
-        return self._held[0][0] - (self._k - 1) * self.period_s if not self.clock else self._held[0][0]
+        if self.clock:
+            return self._held[0][0]
+        return self._out if self._late else self._held[0][0] - (self._k - 1) * self.period_s
 
     def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held packet restamped (:meth:`flush`, none at or before ``after``, s) once ``newest`` (s, the newest

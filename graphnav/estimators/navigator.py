@@ -663,7 +663,8 @@ class Navigator:
         # an IMU packet held for its end: what it will be spread over must not leave before it; one held so long
         # that the IMU went silent has ended, and is queued before anything leaves past it
         out += self._queue_packet(self._packets.overdue(self._newest, self._released))
-        until = min(until, self._packets.release_limit(self._newest))
+        if until < math.inf:        # the end of the data holds nothing back
+            until = min(until, self._packets.release_limit(self._newest))
         heap, q = self._heap, self._imu_q
         while True:
             if q and q[0][0] <= until and (not heap or q[0][0] < heap[0][0]):
