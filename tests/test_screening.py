@@ -1310,6 +1310,59 @@ def test_a_live_imu_losing_a_read_of_0_2_s_is_bridged_and_ends_within_centimetre
     assert np.linalg.norm(estimates[-1].p_n[:2] - plain[-1].p_n[:2]) < 0.05
 
 
+def _fed_without(m, stamps, lost=None):
+    """The Navigator fed ``m``'s records with IMU ``stamps`` (s), the samples whose true stamps fall in ``lost``
+    ((from, to) s) left out, and its estimates and warnings."""
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    if lost is not None:
+        stamps = np.where((true >= lost[0] - 1e-9) & (true < lost[1] - 1e-9), -1.0, stamps)
+    nav = _navigator(m)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        estimates = _feed(nav, [e for e in _with_imu_stamps(events, stamps) if e[1] >= 0])
+    return nav, estimates, [str(w.message) for w in caught]
+
+
+def _true_imu_stamps(m):
+    return np.array([e[1] for e in replay(m) if e[0] == "imu"])
+
+
+def test_a_live_imu_in_packets_losing_one_among_its_first_is_still_read_as_packets(mission):
+    """Packets of 20 stamped on receipt, the 2nd and 3rd lost (0.4-0.8 s) before the packets were decided: the lost
+    packets' long step broke the regular cycles the decision needs, the IMU was said to run at 1e+05 Hz and every
+    later packet was bridged as a gap (295 in 60 s, 0.317 m off the stream without the loss). Now the decision waits
+    for regular cycles, the loss is one gap and the rest is restamped at 100 Hz."""
+    m = mission.slice(0, 10)
+    stamps = _in_packets(_true_imu_stamps(m), 20)
+    _, plain, _ = _fed_without(m, stamps)
+    nav, estimates, said = _fed_without(m, stamps, (0.4, 0.8))
+    assert nav.info["imu_gaps"] == 1 and nav.info["imu_restamped"] > 700
+    assert not any("runs at" in w for w in said) and any("imu: gap of 0.600 s" in w for w in said)
+    assert np.linalg.norm(estimates[-1].p_n[:2] - plain[-1].p_n[:2]) < 0.05
+
+
+def test_a_live_imu_turning_to_packets_midway_is_restamped_from_there_not_bridged_packet_by_packet(mission):
+    """Stamps clean for 5 s, then packets of 20 stamped on receipt (a driver changing its read mode): decided no
+    packets on its first steps, the stream bridged every later packet as a 0.2 s gap (150 in 30 s). Now a step
+    within a packet opens the decision again: the packets it takes are bridged, the rest restamped."""
+    m = mission.slice(0, 12)
+    true = _true_imu_stamps(m)
+    stamps = np.where(true < 5.0 - 1e-9, true, _in_packets(true, 20))
+    nav, _, said = _fed_without(m, stamps)
+    assert nav.info["imu_gaps"] <= 4 and nav.info["imu_restamped"] > 500
+    assert any("stamped in packets of 20" in w for w in said)
+
+
+def test_a_live_imu_in_packets_losing_samples_mid_packet_has_one_gap(mission):
+    """Samples lost from 6.5 to 8.4 s in packets of 20 stamped on receipt: the packet cut short by the loss (its last
+    ten samples lost) was spread back from its stamp, leaving a spurious 0.110 s gap beside the 1.810 s one. Now a
+    short packet a loss follows comes after the packet before it: one gap, of 1.910 s as the samples lost."""
+    m = mission.slice(0, 12)
+    nav, _, said = _fed_without(m, _in_packets(_true_imu_stamps(m), 20), (6.5, 8.4))
+    assert nav.info["imu_gaps"] == 1 and any("imu: gap of 1.910 s" in w for w in said)
+
+
 def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
     """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz) in a file read as no IMU's (an IMU's
     are restamped: the next test): the duplicated-stamp error and its repair (which drops nine in ten) name the

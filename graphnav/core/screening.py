@@ -365,12 +365,14 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
 
 def awaits_packet_cycles(steps, period_s: float) -> bool:
     """Whether a stream's IMU ``steps`` so far (s) are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the
-    configured ``period_s`` and longer ones) with fewer than the three cycles :func:`in_packets` needs, and
-    :data:`IMU_PACKET_STEPS` not reached: a rate measured now would be the packets' inner step (packets of 4 or 5
-    samples gave two cycles in a spike test's eleven stamps and read 100 kHz)."""
+    configured ``period_s`` and longer ones) whose cycles do not make packets for :func:`in_packets` yet (fewer than
+    three, or a lost packet's double cycle among three or four), and :data:`IMU_PACKET_STEPS` not reached: a rate
+    measured now would be the packets' inner step (packets of 4 or 5 samples gave two cycles in a spike test's eleven
+    stamps and read 100 kHz; packets of 20 with the second lost read 1e+05 Hz and bridged every later packet)."""
     d = np.asarray(steps, float)
     long = d > 2.0 * float(np.median(d))
-    return 0 < int(np.sum(long)) < 3 and float(np.median(d[~long])) < 0.5 * period_s and d.size < IMU_PACKET_STEPS
+    return (0 < int(np.sum(long)) and not in_packets(d, long) and float(np.median(d[~long])) < 0.5 * period_s
+            and d.size < IMU_PACKET_STEPS)
 
 
 def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
@@ -442,10 +444,12 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in packets or bursts (the long steps of
     :func:`imu_packet_limit` end them) the period is the mean step without the gaps (so the rate is samples over
     time) and the cycle the median time from a packet's last stamp to the next's (its long step alone leaves out
-    the time inside a packet: packets of 10 0.6 ms apart read 9). A median step within ``tolerance`` (relative) of
-    the ``expected_s`` period (the configured one) is that period whatever the long steps, unless a share of the
-    steps under a tenth of it makes packets: they are gaps and stutters, not bursts (a start with four 0.2 s
-    hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
+    the time inside a packet: packets of 10 0.6 ms apart read 9; in regular packets a long step within a quarter
+    cycle of whole cycles counts as one, as its lost packets' samples are not counted: packets of 20 with one lost
+    among the first five read 80 Hz, packets of 2 with five lost 108 Hz). A median step within ``tolerance``
+    (relative) of the ``expected_s`` period (the configured one) is that period whatever the long steps, unless a
+    share of the steps under a tenth of it makes packets: they are gaps and stutters, not bursts (a start with four
+    0.2 s hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
     d, med = _positive_steps(steps)
     if not d.size:
         return math.nan, math.nan
@@ -456,6 +460,9 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     between = np.diff(np.cumsum(d)[ends])
     cycle = float(np.median(between if between.size else d[long]))
     whole = d[ends[0] + 1:ends[-1] + 1] if ends.size >= 2 else d      # whole bursts: a cut one biases a short count
+    if in_packets(d, long):     # a long step of whole cycles lost packets: their samples are not counted either
+        cycles = np.round(whole / cycle)
+        whole = whole - np.where(np.abs(whole / cycle - cycles) <= 0.25, np.maximum(cycles - 1.0, 0.0), 0.0) * cycle
     return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
 
 

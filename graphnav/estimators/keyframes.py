@@ -176,8 +176,14 @@ class ImuPeriod:
 
     def add_step(self, dt: float, t: float = math.nan) -> None:
         """One step between IMU stamps, s, ending at the stamp ``t`` (s) (once the period is measured, nothing
-        changes)."""
+        changes). A step ending after the samples come restamped (:meth:`restamped`) measures the period from the
+        steps before it, as the packets were received: the stream's samples put back on the period among them read
+        313.6 Hz (packets of 10, two lost among the first five)."""
         if len(self._steps) >= self._needed or not dt > 0:
+            return
+        if t > self._restamped_after and self._lead is None and len(self._steps) >= IMU_RATE_STEPS:
+            self._needed = len(self._steps)     # the packets as received decide, not the steps restamped after them
+            self._measured()
             return
         lead = self._lead
         if lead is None:
@@ -244,7 +250,7 @@ class ImuPeriod:
         since = steps[self._after_gap:]         # the samples before a bridged gap do not make up for the next
         if sum(since) / self.configured_s - len(since) <= IMU_GAP_PERIODS - 1:
             return False
-        self._after_gap = len(self._steps)
+        self._after_gap = len(steps)            # in the lead too: a lost packet there made every later packet a gap
         return True
 
     def restamped(self, t: float) -> None:
@@ -282,7 +288,8 @@ class PacketStamps:
     faster than its reads (100.2 Hz read every 200 ms: a packet of 21 about every 25) holds every packet of 20 a
     cycle. A packet stamped at or before the last stamp let out (a clock stepping back) is spread back at the
     period all the same and left to the reorder buffer. :data:`IMU_RATE_STEPS` packets of one sample in a row: the
-    stream no longer comes in packets, and its samples pass as received again. An IMU that is no packets but whose
+    stream no longer comes in packets, and its samples pass as received again; a stream decided no packets is decided
+    again from a step within a packet on (:meth:`_reopen`: a driver changing its read mode). An IMU that is no packets but whose
     stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with jitter, a
     64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock` over its
     latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits for
@@ -321,6 +328,7 @@ class PacketStamps:
         long = step < 0.0 or step > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
         self._passing = self._passing and not long
         if not self.period_s or self._passing:          # the packet it was decided in ends as it began
+            self._reopen(step)
             if self._steps is not None and (t == last or self._ties):
                 self._decide_shared(t, last)
             elif self._steps is not None and t > last > -math.inf:
@@ -341,6 +349,14 @@ class PacketStamps:
                  and not self._late)
         return out + self.flush(after) if whole else out
 
+    def _reopen(self, step: float) -> None:
+        """A stream decided no packets whose ``step`` (s) is under :data:`BURST_STEP_SHARE` of the period (a driver
+        changing its read mode) is decided again on the steps that follow, as at its start: packets from there on
+        are restamped, not bridged as a gap each (150 in 30 s of packets of 20)."""
+        decided_plain = self._steps is None and not self.period_s and not self.clock
+        if decided_plain and 0.0 < step < BURST_STEP_SHARE * self.configured_s:
+            self._steps = []
+
     def _packet_ended(self, after: float, t: float) -> list[tuple[float, tuple, tuple]]:
         """The held samples of the packet a long step (to the stamp ``t``, s) ended, restamped; the typical packet and
         the one-sample packets in a row updated (:data:`IMU_RATE_STEPS` of them: no packets any more)."""
@@ -354,10 +370,13 @@ class PacketStamps:
             self.period_s, self._steps = 0.0, None
         return out
 
-    def flush(self, after: float = -math.inf, before: float = math.inf) -> list[tuple[float, tuple, tuple]]:
+    def flush(self, after: float = -math.inf, before: float = math.inf,
+              silent: bool = False) -> list[tuple[float, tuple, tuple]]:
         """The held samples restamped as one packet (the end of the data ends it), none at or before ``after``
         (s); those that follow a part of their packet let out already (:meth:`_beyond`; ``before``: the next
-        packet's first stamp, s) at the period after it."""
+        packet's first stamp, s) at the period after it. A packet short of the typical size that the IMU went
+        ``silent`` after, or that the next one follows by more than 1.5 cycles, lost its last samples, not its first:
+        it follows the packet before at the period (:meth:`_lost_after`)."""
         if self.clock:
             return self._place_repeats(after, before)
         held, self._held = self._held, []
@@ -367,10 +386,27 @@ class PacketStamps:
         if self._in_packet > len(held):
             return self._beyond(held, floor, before)
         received = np.array([s[0] for s in held])
+        t = self._lost_after(received, floor, before, silent)
+        if t is not None:
+            self._out = float(t[-1])
+            self.restamped += len(held)
+            return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
         t = restamp_packets(received, self.period_s, math.inf, floor if received[-1] > floor else -math.inf)
         self.restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
+
+    def _lost_after(self, received: np.ndarray, floor: float, before: float, silent: bool) -> np.ndarray | None:
+        """Stamps (s) at the period after ``floor`` (s, the packet before) for a short packet received at
+        ``received`` (s) that a loss follows (``silent``, or the next packet at ``before``, s, more than 1.5 cycles
+        later): spread back from its stamp, it left a second, spurious gap before it (0.110 s beside 1.810 s for
+        samples lost from 28.5 to 30.4 s in packets of 20). None for any other packet, or with no room before its
+        stamp."""
+        n, cycle = received.size, self._k * self.period_s
+        loss = silent or (before < math.inf and before - received[-1] > 1.5 * cycle)
+        if n >= self._k or not loss or not floor > -math.inf or floor + n * self.period_s > received[-1]:
+            return None
+        return floor + self.period_s * np.arange(1, n + 1)
 
     def _beyond(self, held: list, floor: float, before: float) -> list[tuple[float, tuple, tuple]]:
         """Samples of a driver read larger than the typical size (two packets read at once) that came after its
@@ -417,7 +453,7 @@ class PacketStamps:
         """The held packet restamped (:meth:`flush`, none at or before ``after``, s) once ``newest`` (s, the newest
         stamp received on any stream) is two cycles past its last stamp: the IMU went silent or stopped, so the
         packet has ended, and it must leave before the reorder buffer releases past it; else none."""
-        return self.flush(after) if self._held and self._overdue(newest) else []
+        return self.flush(after, silent=True) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
         wait = CLOCK_WAIT_STEPS * self.clock[0] if self.clock else 2 * self._k * self.period_s
