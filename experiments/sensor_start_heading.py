@@ -8,7 +8,7 @@ the epochs before the alignment completed (``info["alignment"]["completed_t"]``)
 heading variance of ``cov_rot_b``), heading NEES (mean error^2 / mean variance), VRMSE and velocity NEES.
 
 Usage: ``.venv/bin/python experiments/sensor_start_heading.py --method fixed-lag --seeds 0-9 --duration 700
-[--grade navigation] [--akit 1 3 10] [--no-catch-up] [--jobs 2]``
+[--grade navigation] [--akit 1 3 10] [--no-catch-up] [--ekf-heading-factor 10] [--jobs 2]``
 """
 from __future__ import annotations
 
@@ -35,13 +35,15 @@ def _run(item: tuple) -> dict:
     from graphnav.estimators.runs import run_ekf, run_graph
     from graphnav.missions import load_akit
     from graphnav.sim.simulate import simulate_mission
-    kind, key, method, duration, grade, catch_up = item
+    from graphnav.estimators.ekf import EkfOptions
+    kind, key, method, duration, grade, catch_up, heading_factor = item
     nav = NavigatorOptions(align_catch_up=catch_up)
+    ekf = EkfOptions() if heading_factor is None else EkfOptions(catch_up_heading_sigma_factor=heading_factor)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         mission = (load_akit(key) if kind == "akit" else
                    simulate_mission(duration_s=duration, imu_grade=grade, seed=key, dvl_errors="drawn"))
-        sol = (run_ekf(mission, init="sensors", navigator_options=nav) if method == "ekf" else
+        sol = (run_ekf(mission, init="sensors", options=ekf, navigator_options=nav) if method == "ekf" else
                run_graph(mission, init="sensors", backend="fixed-lag" if method == "fixed-lag" else "isam2",
                          batch=method == "batch", navigator_options=nav))
     t_ready = sol.info["alignment"]["completed_t"]
@@ -69,14 +71,18 @@ def main(argv=None) -> None:
     ap.add_argument("--data", default=None, help="the A-KIT folder (default: graphnav.io.paths)")
     ap.add_argument("--no-catch-up", action="store_true",
                     help="NavigatorOptions(align_catch_up=False): the estimator starts where the alignment ends")
+    ap.add_argument("--ekf-heading-factor", type=float, default=None,
+                    help="EkfOptions.catch_up_heading_sigma_factor (default: the EKF's; 0: none, the unaligned sigma)")
     ap.add_argument("--jobs", type=int, default=1)
     a = ap.parse_args(argv)
+    factor = a.ekf_heading_factor
+    factor = None if factor is None else (factor or float("inf"))
     if a.akit is not None:
         from graphnav.io.paths import akit_trajectories
-        items = [("akit", str(p), a.method, 0.0, "", not a.no_catch_up)
+        items = [("akit", str(p), a.method, 0.0, "", not a.no_catch_up, factor)
                  for p in akit_trajectories(a.data, a.akit or None)]
     else:
-        items = [("sim", s, a.method, a.duration, a.grade, not a.no_catch_up) for s in _seeds(a.seeds)]
+        items = [("sim", s, a.method, a.duration, a.grade, not a.no_catch_up, factor) for s in _seeds(a.seeds)]
     results = []
     run_tasks(_run, items, results.append, jobs=a.jobs)
     for part in ("window", "after"):

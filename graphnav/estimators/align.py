@@ -139,7 +139,8 @@ class AlignOptions:
             heading, roll/pitch (rad) and velocity (m/s) before any data, the prior of the estimator that
             :class:`graphnav.estimators.navigator.Navigator` runs through the alignment's own data again
             (``align_catch_up``): the alignment's covariance there would count those data twice (measured:
-            docs/decisions/alignment.md). Wide: a vehicle launched at any heading, roughly level, slow.
+            docs/decisions/alignment.md). Wide: a vehicle launched at any heading, roughly level, slow. The EKF
+            narrows the heading one to ``EkfOptions.catch_up_heading_sigma_factor`` times the aligned sigma.
         unknown_depth_sigma_m: 1-sigma of the depth without a depth sensor (the start is taken at depth 0,
             the vertical is dead-reckoned), m.
         max_window_s: the aligner keeps at most this much data (the newest), s; bounds memory when

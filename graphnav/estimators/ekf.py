@@ -189,6 +189,14 @@ class EkfOptions:
             hybrid methods.
         max_pure_inertial_s: warn when no DVL update enters for longer than this, s
             (:func:`graphnav.estimators.coasting.check_pure_inertial`).
+        catch_up_heading_sigma_factor: the heading sigma of the filter that goes on after a sensor alignment's
+            catch-up (:class:`graphnav.estimators.navigator.NavigatorOptions` ``align_catch_up``), which runs
+            through the alignment's data again: the gyrocompassed heading's sigma times this, at most
+            ``AlignOptions.unaligned_heading_sigma_rad`` (30 deg). None: that 30 deg. From 30 deg the first
+            pings' noise moves the heading tens of degrees, and linearised there the filter settles degrees off
+            claiming tenths (simulated, drawn DVL errors, seeds 14-21: heading NEES 11 after the window, 2.8
+            with 10). The prior counts 1 / factor^2 of the alignment's heading information a second time (1 %:
+            its sigma 0.5 % too small). Measured and chosen in docs/decisions/alignment.md.
     """
 
     position_states: bool = True
@@ -214,6 +222,12 @@ class EkfOptions:
     relevel: bool = True
     screening: RegressedScreeningOptions = field(default_factory=RegressedScreeningOptions)
     max_pure_inertial_s: float = MAX_PURE_INERTIAL_S
+    catch_up_heading_sigma_factor: float | None = 10.0
+
+    def __post_init__(self):
+        factor = self.catch_up_heading_sigma_factor
+        if factor is not None and not factor > 0:
+            raise ConfigError(f"EkfOptions.catch_up_heading_sigma_factor must be > 0 or None, got {factor}")
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -833,7 +833,9 @@ class Navigator:
         self.keyframer.warned_period, self.keyframer.imu_period = warned_period, imu_period
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            self._start(initial_from_alignment(al, self.options.align))
+            # the EKF's only: the graph re-linearises and comes back from a heading far off
+            factor = getattr(self._estimator_options(), "catch_up_heading_sigma_factor", None)
+            self._start(initial_from_alignment(al, self.options.align, heading_sigma_factor=factor))
             for stream, t_, payload in replayed:
                 self._dispatch(stream, t_, payload)
         self._latest, self.n_estimates, self._prop = latest, n_estimates, None
@@ -865,7 +867,8 @@ class Navigator:
         return "alignment ready"
 
 
-def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_over_fit: bool = True) -> InitialState:
+def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_over_fit: bool = True,
+                           heading_sigma_factor: float | None = None) -> InitialState:
     """The estimator's initial state and prior from an :class:`~graphnav.estimators.align.Alignment` (the position
     covariance moves from NED to the body axes of GTSAM's Pose3 tangent ``[rot, trans]``).
 
@@ -878,15 +881,16 @@ def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_ove
     ``before_data``: for an estimator that will see the alignment's data again, the prior holds only what was
     known before them (``AlignOptions.unaligned_*`` sigmas on tilt, velocity and, unless it was given, heading;
     the accelerometer bias at zero with the spec's sigma, the DVL errors at zero with the estimator's prior); the
-    aligned state is still where it starts."""
+    aligned state is still where it starts. ``heading_sigma_factor``: the gyrocompassed heading's sigma is the
+    alignment's times this (at most the unaligned one), for an estimator that cannot come back from a heading
+    far off (:attr:`graphnav.estimators.ekf.EkfOptions.catch_up_heading_sigma_factor`)."""
     C = np.asarray(al.C_b_n, float)
     cov_rot, cov_v_n, bias_acc = np.asarray(al.cov_rot, float), np.asarray(al.cov_v_n, float), al.bias_acc
     fit = hand_over_fit and before_data is None
     dvl_errors, cov_joint = (np.asarray(al.dvl_errors, float), al.cov_joint) if fit else (None, None)
     if before_data is not None:
         o = before_data
-        heading_var = ((C @ cov_rot @ C.T)[2, 2] if al.heading_source == "given"     # known before the data
-                       else o.unaligned_heading_sigma_rad ** 2)
+        heading_var = _rerun_heading_variance(al, (C @ cov_rot @ C.T)[2, 2], o, heading_sigma_factor)
         # NED axes: roll/pitch about north and east, heading about down
         cov_rot = C.T @ np.diag([o.unaligned_tilt_sigma_rad ** 2] * 2 + [heading_var]) @ C
         cov_v_n = np.eye(3) * o.unaligned_velocity_sigma_mps ** 2
@@ -898,6 +902,17 @@ def initial_from_alignment(al, before_data: AlignOptions | None = None, hand_ove
                         gtsam.imuBias.ConstantBias(np.asarray(bias_acc, float), np.asarray(al.bias_gyro, float)),
                         t=float(al.t), cov_pose=cov_pose, cov_v_n=cov_v_n, origin_lla=al.origin_lla,
                         dvl_errors=dvl_errors, cov_joint=cov_joint)
+
+
+def _rerun_heading_variance(al, aligned_var: float, o: AlignOptions, factor: float | None) -> float:
+    """Heading variance, rad^2, of an estimator that runs through the alignment's data again: the alignment's
+    (``aligned_var``, NED down axis) when the heading was given, known before the data; else the unaligned one,
+    or ``factor`` times the alignment's sigma when that is narrower (it counts the alignment's heading
+    information a second time, 1 / factor^2 of it)."""
+    if al.heading_source == "given":
+        return aligned_var
+    unaligned = o.unaligned_heading_sigma_rad ** 2
+    return unaligned if factor is None else min(unaligned, factor ** 2 * aligned_var)
 
 
 def stream_adders(nav: Navigator) -> dict:
