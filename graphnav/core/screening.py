@@ -343,22 +343,22 @@ def imu_stamp_quantum(steps: np.ndarray) -> float:
     return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
 
 
-def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
+def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> float:
     """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
     grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
     sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count. A grid
     half the period or coarser (50 Hz in 10 ms with jitter: steps of 10, 20, 30 ms) puts a moved sample's steps a grid
     step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
     (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
-    step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps`) and left out
-    (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz)."""
+    step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
+    as read, ``d`` when None) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz)."""
     near = np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med
     first = float(np.mean(d[near]))
     if quantum < 0.45 * first:
         return float(np.mean(d[near][np.abs(d[near] - first) < 0.5 * first]))
     for _ in range(2):
         one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
-        first = float(np.mean(d[one & ~_lost_steps(d, first)]))
+        first = float(np.mean(d[one & ~_lost_steps(d if steps is None else steps, first)]))
     return first
 
 
@@ -367,11 +367,14 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
 LOST_STEP_SAMPLES = 10
 
 
-def _lost_steps(d: np.ndarray, period_s: float) -> np.ndarray:
-    """Which of the steps ``d`` (s, in order) between stamps on a grid as coarse as half the ``period_s`` (s) or more
-    span a lost sample: over 1.45 periods, and the samples after them (:data:`LOST_STEP_SAMPLES`) a period or more
-    later against a line at the period than those before (half of it decides). A sample moved across a grid edge
-    lengthens one step and shortens the next, so the line holds (50 Hz in whole 10 ms: a 30 ms step may be either)."""
+def _lost_steps(steps, period_s: float) -> np.ndarray:
+    """Which of the positive finite ``steps`` (s, as read, in order; :func:`step_lengths`) between stamps on a grid as
+    coarse as half the ``period_s`` (s) or more span a lost sample: over 1.45 periods, and the samples after them
+    (:data:`LOST_STEP_SAMPLES`) a period or more later against a line at the period than those before (half of it
+    decides). A sample moved across a grid edge lengthens one step and shortens the next, so the line holds (50 Hz in
+    whole 10 ms: a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d)]
     n = LOST_STEP_SAMPLES
     off = np.r_[0.0, np.cumsum(d)] - np.arange(d.size + 1) * period_s
     total = np.r_[0.0, np.cumsum(off)]
@@ -381,7 +384,7 @@ def _lost_steps(d: np.ndarray, period_s: float) -> np.ndarray:
     # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
     peak = np.max(np.lib.stride_tricks.sliding_window_view(np.pad(jump, n - 1, constant_values=-np.inf),
                                                            2 * n - 1), axis=1)
-    return (d > 1.45 * period_s) & (jump > 0.5 * period_s) & (jump >= peak)
+    return ((d > 1.45 * period_s) & (jump > 0.5 * period_s) & (jump >= peak))[d > 0.0]
 
 
 def awaits_packet_cycles(steps, period_s: float) -> bool:
@@ -446,7 +449,7 @@ def _positive_steps(steps) -> tuple[np.ndarray, float]:
         return d, math.nan
     med = float(np.median(d))
     quantum = imu_stamp_quantum(d)
-    return d, _quantised_period(d, med, quantum) if quantum else (_slower_than_grid(steps, med) or med)
+    return d, _quantised_period(d, med, quantum, steps) if quantum else (_slower_than_grid(steps, med) or med)
 
 
 #: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its
