@@ -1574,6 +1574,73 @@ def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back
         np.testing.assert_allclose(stamps, true, rtol=0, atol=1e-6)
 
 
+def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at_its_period():
+    """An even 100 Hz log in whole 10 ms with every 50th row written again (a logger flushing a buffer again; also every
+    37th and 100th) was taken for a 102 Hz IMU on a clock as coarse as its period: the copies kept as samples and
+    every stamp moved to a 9.804 ms grid. No grid step is empty, so no sample was pushed across a grid edge: the copies
+    are dropped with a warning and the log reads 100 Hz as read; the same rows with other values are refused as
+    duplicated stamps, as before."""
+    from graphnav.core.screening import imu_rate_hz, stamp_order
+    even = 100.0 + np.arange(6000) * 0.01
+    values = np.random.default_rng(3).normal(size=(6000, 6))
+    for every in (50, 37, 100):
+        again = np.arange(25, 6000, every)
+        order = np.argsort(np.r_[np.arange(6000), again], kind="stable")
+        t = np.r_[even, even[again]][order]
+        rows = np.c_[t, np.r_[values, values[again]][order]]
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=rf"{again.size} row\(s\) repeating an earlier row exactly"):
+            kept, dropped, stamps = stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, meta, "imu")
+        assert dropped == {"repeats an earlier row exactly": again.size} and np.array_equal(stamps, even)
+        assert "restamped" not in meta.get("streams", {}).get("imu", {}) and imu_rate_hz(stamps) == pytest.approx(100.0)
+        rows[np.r_[False, np.diff(t) == 0], 1] += 1.0
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+
+
+def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_no_worse_than_read(monkeypatch):
+    """100 Hz in whole 10 ms with 1 ms of jitter, 0.5 or 2 % of the samples lost at random: a lost sample's empty grid
+    step fitted the line a period off (a grid step and the jitter's slack span two periods), so samples after it were
+    put a period off until the line broke, up to 15 ms from their times (read within -11..+1.3 ms) and the rate read
+    98.9-99.8 Hz. An empty grid step with no repeated stamp to pair it now ends a stretch: every sample within 8 ms of
+    its time, no further than as read, each moved within its grid step give or take half a period (the note's
+    promise), at 100 Hz; stamps no grid keeps so are left as read, said, and refused as duplicated."""
+    from graphnav.core.screening import imu_rate_hz, stamp_order
+    for seed, lost in ((3, 0.02), (4, 0.005), (5, 0.005), (10, 0.02), (11, 0.02)):
+        true, t = _drifting_clock(100.0, 0.01, 12000, 1e-3, 0.0, seed)
+        keep = np.random.default_rng(seed + 100).random(t.size) > lost
+        true, t = true[keep], t[keep]
+        meta, stamps = _imu_stamps_read_whole(t, r"10 ms clock, about as coarse as the IMU's")
+        error = np.abs(stamps - true)
+        assert error.max() < 0.008 and error.max() <= np.abs(t - true).max()
+        assert np.all(stamps - t >= -0.005 - 1e-6) and np.all(stamps - t <= 0.015 + 1e-6)
+        assert imu_rate_hz(stamps) == pytest.approx(100.0, rel=1e-3)
+    import graphnav.core.screening as screening      # a grid that would move a sample out of its band: as read
+    original = screening._place_stretches
+    monkeypatch.setattr(screening, "_place_stretches", lambda s, *args: original(s, *args) + 0.02)
+    with pytest.warns(RuntimeWarning, match="no even grid keeps every sample within its grid step"):
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+
+
+def test_an_imu_slower_than_its_clock_grid_reads_samples_over_time():
+    """70 and 80 Hz in whole 10 ms (steps of 10 and 20 ms, a regular 30 or 25 % of them 20) read 100 Hz, the median
+    step, and 66.7 Hz read 100 Hz on some logs; a regular pattern of empty grid steps is an IMU slower than its clock,
+    read at samples over time. 60 and 55 Hz in whole 10 ms with 1 % of their samples lost read 59.55-59.76 and
+    54.86 Hz, their lost samples' 30 ms steps kept: a step after which the samples sit a period later is left out. An
+    even 100 Hz log losing 10 % at random still reads 100 Hz, and 98 Hz in whole 10 ms (every 50th step 20 ms) is
+    read as 100 Hz losing every 50th sample: the stamps cannot tell them apart."""
+    from graphnav.core.screening import imu_rate_hz
+    for rate in (70.0, 80.0, 66.67, 98.0):
+        t = _drifting_clock(rate, 0.01, 3000, 0.0, 0.0, 1)[1]
+        assert imu_rate_hz(t) == pytest.approx(100.0 if rate == 98.0 else rate, rel=2e-4)
+    even = 100.0 + np.arange(3000) * 0.01
+    assert imu_rate_hz(even[np.random.default_rng(3).random(3000) > 0.1]) == pytest.approx(100.0, rel=1e-9)
+    for rate, seed, jitter in ((60.0, 0, 0.0), (60.0, 1, 1e-3), (60.0, 2, 0.0), (55.0, 0, 1e-3)):
+        t = _drifting_clock(rate, 0.01, 3000, jitter, 0.0, seed)[1]
+        assert imu_rate_hz(t[np.random.default_rng(seed + 5).random(t.size) > 0.01]) == pytest.approx(rate, rel=2e-3)
+
+
 def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_period_is_said():
     """An IMU at rest whose packets of 10 share one stamp, its readings identical: 900 of its first 1000 samples
     were dropped as exact copies before the packets were seen. A row equal to the one before it at a stamp holding

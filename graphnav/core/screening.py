@@ -349,18 +349,48 @@ def imu_stamp_quantum(steps: np.ndarray) -> float:
     return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
 
 
-def _quantised_period(d: np.ndarray, med: float, quantum: float) -> float:
+def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> float:
     """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
     grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
     sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count. A grid
     half the period or coarser (50 Hz in 10 ms with jitter: steps of 10, 20, 30 ms) puts a moved sample's steps a grid
     step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
-    (below the period: a double step stays out), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps."""
-    one = d[np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med]
-    first = float(np.mean(one))
+    (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
+    step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
+    as read, ``d`` when None) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz)."""
+    near = np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med
+    first = float(np.mean(d[near]))
     if quantum < 0.45 * first:
-        return float(np.mean(one[np.abs(one - first) < 0.5 * first]))
-    return float(np.mean(one[np.abs(one - first) <= min(1.5 * quantum, 0.95 * first)]))
+        return float(np.mean(d[near][np.abs(d[near] - first) < 0.5 * first]))
+    for _ in range(2):
+        one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
+        first = float(np.mean(d[one & ~_lost_steps(d if steps is None else steps, first)]))
+    return first
+
+
+#: Samples on each side of a long step whose mean offsets from a line at the period tell a sample lost (they differ by
+#: a period) from one moved across a grid edge (they agree) on a grid over 0.45 of the period (:func:`_lost_steps`).
+LOST_STEP_SAMPLES = 10
+
+
+def _lost_steps(steps, period_s: float) -> np.ndarray:
+    """Which of the positive finite ``steps`` (s, as read, in order; :func:`step_lengths`) between stamps on a grid as
+    coarse as half the ``period_s`` (s) or more span a lost sample: over 1.45 periods, and the samples after them
+    (:data:`LOST_STEP_SAMPLES`) a period or more later against a line at the period than those before (half of it
+    decides). A sample moved across a grid edge lengthens one step and shortens the next, so the line holds (50 Hz in
+    whole 10 ms: a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d)]
+    n = LOST_STEP_SAMPLES
+    off = np.r_[0.0, np.cumsum(d)] - np.arange(d.size + 1) * period_s
+    total = np.r_[0.0, np.cumsum(off)]
+    c = np.arange(d.size)
+    a, b = np.maximum(c + 1 - n, 0), np.minimum(c + 1 + n, off.size)
+    jump = (total[b] - total[c + 1]) / (b - c - 1) - (total[c + 1] - total[a]) / (c + 1 - a)
+    # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
+    peak = np.max(np.lib.stride_tricks.sliding_window_view(np.pad(jump, n - 1, constant_values=-np.inf),
+                                                           2 * n - 1), axis=1)
+    return ((d > 1.45 * period_s) & (jump > 0.5 * period_s) & (jump >= peak))[d > 0.0]
 
 
 def awaits_packet_cycles(steps, period_s: float) -> bool:
@@ -420,13 +450,42 @@ def _long_step_limit(d: np.ndarray, med: float, expected_s: float | None, tolera
 
 def _positive_steps(steps) -> tuple[np.ndarray, float]:
     """The positive finite ``steps`` (s) and their median, or the mean one-period step of stamps quantised coarser
-    than a tenth of it (:func:`imu_stamp_quantum`), s."""
+    than a tenth of it (:func:`imu_stamp_quantum`), or samples over time of a clock slower than its grid
+    (:func:`_slower_than_grid`), s."""
     d = step_lengths(steps)
     if not d.size:
         return d, math.nan
     med = float(np.median(d))
     quantum = imu_stamp_quantum(d)
-    return d, _quantised_period(d, med, quantum) if quantum else med
+    return d, _quantised_period(d, med, quantum, steps) if quantum else (_slower_than_grid(steps, med) or med)
+
+
+#: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its
+#: clock's grid (:func:`_slower_than_grid`): fewer (98 Hz in whole 10 ms: every 50th step) cannot be told from an IMU
+#: at the grid's rate losing samples regularly, and read at the grid's rate.
+SLOWER_CLOCK_SHARE = 0.05
+
+
+def _slower_than_grid(steps, grid_s: float) -> float | None:
+    """The period (s) of IMU ``steps`` (s, as read: 0 for a repeated stamp) on a ``grid_s`` grid (s, their median) that
+    leave grid steps empty as an IMU slower than the grid does (70 Hz in whole 10 ms: steps of 10 and 20 ms, 30 % of
+    them 20): :data:`SLOWER_CLOCK_SHARE` of the steps or more two grid steps long or more, at least
+    :data:`CLOCK_PATTERN_STAMPS`, :data:`ALTERNATING_SHARE` of them spaced by two consecutive lengths (a sample lost
+    shifts the pattern once), or :data:`BALANCED_SHORT_STAMPS` whose samples to a grid step are :func:`_balanced`;
+    samples over time, steps of three grid steps or more left out. None else: samples lost at random (their spacing
+    spreads: 10 % lost puts 19 % of it on two lengths), or too few."""
+    raw = np.abs(np.asarray(steps, float))
+    n = np.round(raw[np.isfinite(raw)] / grid_s)
+    if not n.size or np.mean(np.abs(raw[np.isfinite(raw)] / grid_s - n) <= 0.01) < QUANTISED_GRID_SHARE:
+        return None
+    empty = np.flatnonzero(n >= 2)
+    if empty.size < max(CLOCK_PATTERN_STAMPS, SLOWER_CLOCK_SHARE * n.size):
+        return None
+    spacing = np.bincount(np.diff(empty))
+    if not (np.max(spacing[:-1] + spacing[1:]) >= ALTERNATING_SHARE * (empty.size - 1) or (
+            empty.size >= BALANCED_SHORT_STAMPS and _balanced(np.ones(n.size), n))):
+        return None
+    return float(grid_s * np.sum(n[n <= 2]) / np.sum(n <= 2))
 
 
 def imu_packet_limit(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05) -> float:
@@ -1037,6 +1096,11 @@ CLOCK_PATTERN_STAMPS = 10
 #: at random from packets span 5.7 or more (1000 draws in 1000 to 200000 stamps).
 BALANCED_SHORT_STAMPS = 100
 BALANCED_COUNT_SPAN = 4.0
+#: Share of a clock's stamps, at least, repeated where fewer grid steps are empty than half the repeated stamps (no
+#: sample pushed across a grid edge to pair them) for it to be a clock about as coarse as the IMU's period
+#: (:func:`_clock_at_period`; 128 Hz in whole 10 ms: 28 %): fewer cannot tell an IMU up to a tenth faster than its
+#: clock (102 Hz in whole 10 ms) from an even log with every 50th row written again.
+CLOCK_AT_PERIOD_REPEATED_SHARE = 0.1
 
 
 def counts_vary(counts: np.ndarray) -> bool:
@@ -1065,6 +1129,20 @@ def _balanced(counts: np.ndarray, steps: np.ndarray | None = None) -> bool:
     at = np.cumsum(np.ones(counts.size) if steps is None else steps)
     total = np.cumsum(counts)
     return bool(np.ptp(total - total[-1] / at[-1] * at) < BALANCED_COUNT_SPAN)
+
+
+def _clock_events(counts: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """The repeated stamps (+1) and empty grid steps (-1) of distinct stamps holding ``counts`` samples ``steps`` grid
+    steps apart, in time order (a step lies between its stamps)."""
+    repeated = np.flatnonzero(counts > 1)
+    where = np.r_[repeated, np.flatnonzero(steps > 1) + 0.5]
+    return np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][np.argsort(where)]
+
+
+def _repeats_unpaired(counts: np.ndarray, steps: np.ndarray) -> bool:
+    """Whether fewer grid steps are empty (``steps`` grid steps between distinct stamps over 1) than half the stamps
+    repeated (``counts`` over 1): a sample pushed across a grid edge repeats one stamp and empties another."""
+    return bool(np.sum(steps > 1) < 0.5 * np.sum(counts > 1))
 
 
 def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
@@ -1127,10 +1205,10 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     if not on_grid or d.size < 3 or np.mean(steps == 1) < 0.5:
         return None
     repeated = np.flatnonzero(counts > 1)
-    where = np.r_[repeated, np.flatnonzero(steps > 1) + 0.5]        # a step lies between its stamps
-    kind = np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][np.argsort(where)]
-    if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or (
-            repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1]))):
+    kind = _clock_events(counts, steps)
+    balanced = (repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1]) and (
+        not _repeats_unpaired(counts, steps) or repeated.size >= CLOCK_AT_PERIOD_REPEATED_SHARE * counts.size))
+    if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or balanced):
         return None
     inside = steps <= 2
     return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
@@ -1192,9 +1270,14 @@ def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
     :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
-    grid's periods); a logger flushing its buffer again writes more."""
+    grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
+    repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge: its copies are rows
+    written twice."""
     clock = quantised_clock(t)
     packets = None if clock else shared_stamp_packets(t)
+    if clock and clock[0] < 1.5 * clock[1]:
+        grid, d, counts, _ = _stamp_grid(t)
+        clock = None if _repeats_unpaired(counts, np.round(d / grid)) else clock
     if clock is None and packets is None:
         return np.zeros(rows.size, bool)
     most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
@@ -1207,25 +1290,50 @@ def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
 QUANTISED_SLACK_PERIODS = 0.5
 
 
-def restamp_quantised(t: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray, float, int]:
+def restamp_quantised(t: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray | None, float, int]:
     """IMU stamps ``t`` (s, never decreasing) from a clock on a ``grid_s`` grid coarser than the IMU's period put on an
     even grid at the period (s) over each stretch, the period, and the number of stretches (``period_s``: the
     samples over time :func:`quantised_clock` measured, which the stretches refine). A stretch lasts while
     one line at the period keeps every sample within its stamp's grid step (give or take
     :data:`QUANTISED_SLACK_PERIODS`): it ends where samples are lost or the rate drifts, and starts again at a
-    stamp. Its offset is the least-squares one through the mid-points of the grid steps (each sample after its
-    stamp, mid-way on average, as a clock truncating to its grid stamps them), held inside that band and after the
-    stretch before (which can leave a stretch's samples up to a period late). The period is samples over time within
-    the stretches, refined four times (samples lost make samples over the whole time too slow; 2 % lost at 200 Hz
-    with 0.5 ms jitter: 5.10 ms, 5.04 ms refined)."""
+    stamp; on a clock about as coarse as the period also where :func:`_lost_samples` says a sample was lost (the
+    band spans two periods there: a line a period off fitted). Its offset is the least-squares one through the
+    mid-points of the grid steps (each sample after its stamp, mid-way on average, as a clock truncating to its grid
+    stamps them), held inside that band (:func:`_place_stretches`). The period is samples over time within the
+    stretches, refined four times (samples lost make samples over the whole time too slow; 2 % lost at 200 Hz with
+    0.5 ms jitter: 5.10 ms, 5.04 ms refined). The stamps are None where a sample would leave its band (the note's
+    promise): the caller leaves them as read."""
     t = np.asarray(t, float)
     s = t - t[0]                    # Unix seconds: the offsets are exact, the grid arithmetic then holds
     period = period_s
+    lost = _lost_samples(t, grid_s) if grid_s < 1.5 * period_s else np.zeros(0, int)
     for _ in range(4):
-        starts = _even_stretches(s, grid_s, period)
+        starts = _even_stretches(s, grid_s, period, lost)
         period = _pooled_period(s + 0.5 * grid_s, starts, period)
-    starts = _even_stretches(s, grid_s, period)
-    return t[0] + _place_stretches(s, grid_s, period, starts), period, starts.size
+    starts = _even_stretches(s, grid_s, period, lost)
+    placed = _place_stretches(s, grid_s, period, starts)
+    slack = QUANTISED_SLACK_PERIODS * period + 1e-9 * grid_s
+    if np.any(placed < s - slack) or np.any(placed > s + grid_s + slack):
+        return None, period, starts.size
+    return t[0] + placed, period, starts.size
+
+
+def _lost_samples(t: np.ndarray, grid_s: float) -> np.ndarray:
+    """Where (indexes, at a stamp's first sample) stamps ``t`` (s, never decreasing) from a clock about as coarse as the
+    IMU's period on a ``grid_s`` grid (s) lost samples: after an empty grid step next to another among the clock's
+    repeated stamps and empty steps in time order (jitter pairs each empty step with a repeat), or a step of three
+    grid steps or more; none where they do not alternate (:data:`ALTERNATING_SHARE`: a clock slower than its grid
+    leaves steps empty without repeats). A line at the period fits a lost sample's stretch a period off: the grid
+    step and the jitter's slack span two periods."""
+    stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
+    steps = np.round(np.diff(stamps) / grid_s)
+    kind = _clock_events(counts, steps)
+    if kind.size < 2 or np.mean(kind[1:] != kind[:-1]) < ALTERNATING_SHARE:
+        return np.zeros(0, int)
+    empty = np.flatnonzero(steps > 1)                   # in time order, as their events in kind
+    lone = (kind[1:] == -1) & (kind[:-1] == -1)
+    at = (np.cumsum(kind == -1) - 1)[np.r_[lone, False] | np.r_[False, lone]]
+    return first[1:][np.union1d(empty[at], np.flatnonzero(steps > 2))]
 
 
 def _stretch_index(n: int, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1252,23 +1360,25 @@ def _band(s: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray, np
     return np.maximum.accumulate(at - slack), np.minimum.accumulate(at + grid_s + slack)
 
 
-def _even_stretches(s: np.ndarray, grid_s: float, period_s: float) -> np.ndarray:
+def _even_stretches(s: np.ndarray, grid_s: float, period_s: float, lost=()) -> np.ndarray:
     """Where the stretches of relative stamps ``s`` (s, never decreasing) begin (indexes, at a stamp's first
     sample, or within a stamp holding more samples than its grid step fits) over which one line at ``period_s`` (s)
-    fits (:func:`_band`)."""
+    fits (:func:`_band`), and at each of ``lost`` (indexes where samples were lost)."""
     first = np.searchsorted(s, s, "left")
+    ends = np.r_[np.asarray(lost, int), s.size]
     starts, i = [], 0
     while i < s.size:
         starts.append(i)
-        window = 1024
+        end, window = int(ends[ends > i][0]), 1024
         while True:
-            lo, hi = _band(s[i:i + window], grid_s, period_s)
+            lo, hi = _band(s[i:min(i + window, end)], grid_s, period_s)
             bad = np.flatnonzero(hi <= lo)
-            if bad.size or i + window >= s.size:
+            if bad.size or i + window >= end:
                 break
             window *= 4
         if not bad.size:
-            break
+            i = end
+            continue
         j = i + int(bad[0])
         i = first[j] if first[j] > i else j
     return np.asarray(starts)
@@ -1276,16 +1386,23 @@ def _even_stretches(s: np.ndarray, grid_s: float, period_s: float) -> np.ndarray
 
 def _place_stretches(s: np.ndarray, grid_s: float, period_s: float, starts: np.ndarray) -> np.ndarray:
     """Relative stamps ``s`` (s) on a line at ``period_s`` (s) over each stretch (``starts``): the least-squares
-    offset through the grid steps' mid-points, held within :func:`_band` and after the stretch before."""
-    out = np.empty_like(s)
+    offset through the grid steps' mid-points, held within :func:`_band`; where a stretch begins before the one
+    before it ends, that one's last samples are moved back to a thousandth of a period before the next."""
+    out, gap = np.empty_like(s), 1e-3 * period_s
     before = -math.inf
     for a, b in zip(starts, np.r_[starts[1:], s.size]):
         k = np.arange(b - a) * period_s
         lo, hi = _band(s[a:b], grid_s, period_s)
         offset = min(max(float(np.mean(s[a:b] + 0.5 * grid_s - k)), lo[-1]), hi[-1])
-        out[a:b] = max(offset, before + 1e-3 * period_s) + k
+        out[a:b] = min(max(offset, before + gap), hi[-1]) + k
         before = out[b - 1]
-    return out
+    return _ordered(out, gap)
+
+
+def _ordered(x: np.ndarray, gap: float) -> np.ndarray:
+    """``x`` with each value held at least ``gap`` before the next, by moving it back."""
+    i = np.arange(x.size) * gap
+    return np.minimum.accumulate((x - i)[::-1])[::-1] + i
 
 
 def clock_words(grid_s: float, period_s: float) -> str:
@@ -1322,6 +1439,11 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
     jittered = None if clock or packets else grid_repeats(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
+        if restamped is None:       # as read: its repeated stamps are refused as duplicates
+            warnings.warn(f"imu: {source}: {clock_words(clock[0], period)}: no even grid keeps every sample within "
+                          "its grid step give or take half a period; the stamps are left as read", RuntimeWarning,
+                          stacklevel=4)
+            return t
         moved = int(np.sum(restamped != t))
         note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
                               stretches)
