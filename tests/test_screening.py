@@ -1693,6 +1693,26 @@ def test_a_live_imu_on_a_clock_coarser_than_its_period_is_not_taken_for_packets(
         assert "a sample repeating the stamp before it is the next sample" in packets.note
 
 
+def test_a_live_imu_on_a_clock_coarser_than_its_period_is_found_whatever_its_first_stamps_hold():
+    """The first four grid steps of a clock coarser than the period decided: 200 Hz in whole 10 ms with 0.5 ms of
+    jitter read as packets of 1 every 10 ms in 10 of 12 draws (2-4 samples lost, the rest up to 10 ms off), 2 kHz in
+    whole ms the same, 400 Hz as packets of 3-4, 100 Hz on a 15.6 ms timer as packets of 1 or 2 (up to 18 ms off),
+    and a clock found there named a period from its first few stamps (6 ms for 200 Hz). One sample to a stamp is no
+    packets, and packets sharing one stamp whose counts come to vary as a clock's are the clock from there on; the
+    period is named only when measured over 30 grid steps."""
+    for rate, grid, jitter in ((200.0, 0.01, 5e-4), (2000.0, 0.001, 5e-5), (400.0, 0.01, 2.5e-4), (100.0, 0.0156, 1e-3)):
+        for seed in range(6):
+            true = 1000.0 + np.arange(4000) / rate
+            t, kept, packets = _live_clock(_coarse_clock(true, grid, "floor", jitter, seed), 1.0 / rate)
+            assert packets.clock is not None and packets.clock[0] == pytest.approx(grid)
+            assert np.unique(kept).size >= 3999 and packets.period_s == 0.0
+            late = kept > 500               # 100 Hz on 15.6 ms: packets of 2 until 3.5 s at most
+            assert np.all(np.abs(t[late] - true[kept[late]]) <= grid + 1e-9)
+    true = 1000.0 + np.arange(4000) / 200.0
+    _, _, packets = _live_clock(_coarse_clock(true, 0.01, "floor", 5e-4, 0), 0.005)
+    assert packets.note.startswith("stamps on a 10 ms clock, coarser than the IMU's period: ")
+
+
 def test_a_live_imu_on_a_clock_as_coarse_as_its_period_keeps_the_samples_repeating_a_stamp(mission):
     """100 Hz logged in whole 10 ms with 1 ms of jitter (the true times on the grid's edges: a quarter of the stamps
     repeat the one before), a 64 Hz IMU on a 15.625 ms timer and 128 Hz in whole 10 ms passed as received, and the
@@ -1731,6 +1751,27 @@ def test_a_live_imu_on_a_clock_as_coarse_as_its_period_keeps_the_samples_repeati
     last = max(e.t for e in estimates if e.t in at)
     end = next(e.p_n for e in estimates if e.t == last)
     assert last >= 59.0 and np.linalg.norm(end[:2] - at[last][:2]) < 0.05
+
+
+def test_a_live_imu_on_a_clock_as_coarse_as_its_period_arriving_behind_the_other_streams_keeps_its_repeats(mission):
+    """The IMU of the stream above arriving 40, 60 or 150 ms behind the DVL and depth (inside the 0.2 s reorder
+    window): a repeated stamp waited three grid steps after the newest stamp of any stream, then was placed a period
+    after its stamp, on the next sample's stamp, which was refused as a duplicate (71, 183, 501 refused, the placed
+    ones counted as restamped all the same). It now waits as long as the reorder window allows: the same 9 refused
+    and restamped as the stream arriving in step."""
+    m = mission.slice(0, 60)
+    events = list(replay(m))
+    true = np.array([e[1] for e in events if e[0] == "imu"])
+    stamps = _coarse_clock(true, 0.01, "floor", 1e-3, 2)
+    restamped = np.sum(np.diff(stamps) == 0) - 9
+    for delay in (0.04, 0.15):
+        late = sorted(_with_imu_stamps(events, stamps), key=lambda e: e[1] + (delay if e[0] == "imu" else 0.0))
+        nav = _navigator(m)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            estimates = _feed(nav, late)
+        assert nav.refused["imu"] == {"t": 9} and nav.info["imu_restamped"] == restamped
+        assert max(e.t for e in estimates) >= 59.0
 
 
 def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():

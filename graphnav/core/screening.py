@@ -1405,11 +1405,13 @@ def _ordered(x: np.ndarray, gap: float) -> np.ndarray:
     return np.minimum.accumulate((x - i)[::-1])[::-1] + i
 
 
-def clock_words(grid_s: float, period_s: float) -> str:
+def clock_words(grid_s: float, period_s: float, said: bool = True) -> str:
     """``stamps on a G ms clock, coarser than / about as coarse as the IMU's P ms period`` (``grid_s``, ``period_s``
-    s), as the notes on such a clock, offline and live, begin."""
+    s; without P unless ``said``: measured on too few stamps), as the notes on such a clock, offline and live,
+    begin."""
     coarse = "coarser than" if grid_s >= 1.1 * period_s else "about as coarse as"
-    return f"stamps on a {1e3 * grid_s:.4g} ms clock, {coarse} the IMU's {1e3 * period_s:.4g} ms period"
+    period = f"{1e3 * period_s:.4g} ms period" if said else "period"
+    return f"stamps on a {1e3 * grid_s:.4g} ms clock, {coarse} the IMU's {period}"
 
 
 def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: str, stretches: int = 1) -> str:

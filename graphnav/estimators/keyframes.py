@@ -138,9 +138,14 @@ PACKET_SIZES = 64
 #: A live IMU that is no packets is watched for a clock as coarse as its period or coarser over its latest this many
 #: stamps (:meth:`PacketStamps._watch_clock`; 20 s at 100 Hz).
 CLOCK_WATCH_STAMPS = 2000
-#: A repeated stamp on such a clock waits this many grid steps at most for the next stamp, whose room it is placed in
-#: (the next comes one grid step later, two after a repeat whose own step was left empty): longer, the IMU went silent.
+#: A repeated stamp on such a clock waits for the next stamp, whose room it is placed in (the next comes one grid step
+#: later, two after a repeat whose own step was left empty), as long as the reorder window and this many grid steps
+#: more (:meth:`PacketStamps._overdue`): an IMU arriving up to the window behind the other streams is still on time;
+#: later, the IMU went silent.
 CLOCK_WAIT_STEPS = 3
+#: Grid steps a live clock's stamps must span for the period measured on them (samples over time) to be said: a
+#: grid step of error is then 3 % at most (a 200 Hz IMU in whole 10 ms found on its first four stamps read 6 ms).
+CLOCK_PERIOD_STEPS = 30
 #: Share of the period that the stamps' grid may make of a quantised stream's measured span: its period is measured
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
@@ -294,10 +299,12 @@ class PacketStamps:
     64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock` over its
     latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits for
     the next distinct stamp and is placed after its stamp at the period within the room before that one
-    (:meth:`_place_repeats`)."""
+    (:meth:`_place_repeats`). One sample to a stamp is never packets; packets sharing one stamp whose counts come to
+    vary as a clock's are that clock from then on (:meth:`_packets_were_clock`)."""
 
-    def __init__(self, configured_s: float):
+    def __init__(self, configured_s: float, window_s: float = 0.0):
         self.configured_s = configured_s
+        self.window_s = window_s        # how far (s) an IMU sample may arrive behind the newest of any stream
         #: the period packets are restamped at, s; 0 while undecided or for an IMU that is no packets
         self.period_s = 0.0
         self.restamped = 0              # samples given another stamp
@@ -327,6 +334,8 @@ class PacketStamps:
         step = t - last
         long = step < 0.0 or step > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
         self._passing = self._passing and not long
+        if self.period_s and not self._limit:   # packets sharing one stamp: perhaps a clock's grid steps
+            self._watch.append(t)
         if not self.period_s or self._passing:          # the packet it was decided in ends as it began
             self._reopen(step)
             if self._steps is not None and (t == last or self._ties):
@@ -337,6 +346,10 @@ class PacketStamps:
                 return self._on_clock(t, f, w, last, after)
             self._out = t
             return [(t, f, w)]
+        if not self._limit and long and t > last and self._in_packet not in (0, self._k):
+            clock = quantised_clock(np.asarray(self._watch))
+            if clock is not None:
+                return self._packets_were_clock(clock, t, f, w, last, after)
         out = self._packet_ended(after, t) if long else []
         if not self.period_s:                   # turned clean
             self._out = t
@@ -456,7 +469,11 @@ class PacketStamps:
         return self.flush(after, silent=True) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
-        wait = CLOCK_WAIT_STEPS * self.clock[0] if self.clock else 2 * self._k * self.period_s
+        """Whether the held samples waited long enough: ``newest`` (s, any stream's) past their last stamp by two
+        packet cycles, or on a clock by the reorder window and :data:`CLOCK_WAIT_STEPS` grid steps (measured
+        against any stream, three grid steps gave up on an IMU arriving 40 ms behind the DVL and placed its
+        repeats on the next stamp: refused as duplicates)."""
+        wait = self.window_s + CLOCK_WAIT_STEPS * self.clock[0] if self.clock else 2 * self._k * self.period_s
         return newest - self._held[-1][0] > wait
 
     def _watch_clock(self, t: float, last: float) -> bool:
@@ -471,16 +488,34 @@ class PacketStamps:
             if t == last and self._steps is None and self._repeats >= CLOCK_PATTERN_STAMPS:
                 clock = quantised_clock(np.asarray(self._watch))
                 if clock is not None:
-                    self._on_clock_found(clock, t)
+                    self._on_clock_found(clock, t, self._watch[-1] - self._watch[0])
         return self.clock is not None
 
-    def _on_clock_found(self, clock: tuple[float, float], t: float) -> None:
+    def _on_clock_found(self, clock: tuple[float, float], t: float, span_s: float,
+                        before: str = "samples repeating a stamp before were refused as duplicate stamps") -> None:
+        """The clock set and said once (:attr:`note`); its period (samples over time) named when the stamps it was
+        found on span :data:`CLOCK_PERIOD_STEPS` grid steps (``span_s``, s): over four it read 6 ms for 200 Hz."""
         self.clock, self._steps, self._ties = clock, None, []
         self._watch.clear()
-        self.note = (f"{clock_words(*clock)}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
+        words = clock_words(*clock, said=span_s >= CLOCK_PERIOD_STEPS * clock[0])
+        self.note = (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
                      "sample, placed after that stamp at the period within the room before the next stamp (counted "
                      "in imu_restamped; the stamps are not put on an even grid live: read the log offline for that); "
-                     "samples repeating a stamp before were refused as duplicate stamps")
+                     f"{before}")
+
+    def _packets_were_clock(self, clock: tuple[float, float], t: float, f: tuple, w: tuple, last: float,
+                            after: float) -> list[tuple[float, tuple, tuple]]:
+        """Packets sharing one stamp whose counts came to vary as a clock's (:func:`~graphnav.core.screening.
+        quantised_clock` over the stamps since they were decided): four grid steps of a 200 Hz IMU in whole 10 ms,
+        or of 400 Hz, can hold a packet's count each. The held packet's first sample leaves at its stamp (unless a
+        part of it left already), the rest are repeats placed before ``t`` (s), which passes (:meth:`_on_clock`)."""
+        held, self._held = self._held, []
+        first = held[:1] if self._in_packet == len(held) else []
+        self.period_s, self._in_packet = 0.0, 0
+        self._on_clock_found(clock, last, self._watch[-1] - self._watch[0], "the packets said before were its grid "
+                             "steps, their samples spread back from their stamp")
+        self._held = held[len(first):]
+        return first + self._on_clock(t, f, w, last, after)
 
     def _on_clock(self, t: float, f: tuple, w: tuple, last: float, after: float) -> list[tuple[float, tuple, tuple]]:
         """A sample on a clock about as coarse as the period or coarser: one repeating the stamp ``last`` (s) waits
@@ -525,10 +560,11 @@ class PacketStamps:
         packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
         clock = quantised_clock(np.asarray(whole)) if packets is not None else None
         if clock is not None:
-            self._on_clock_found(clock, t)
-        elif packets is not None:
+            self._on_clock_found(clock, t, whole[-1] - whole[0])
+        elif packets is not None and packets[0] > 1:     # one sample to a stamp is no packets
             k, cycle, self.period_s = packets
             self._decided(k)
+            self._watch.extend(whole + [t])     # watched for a clock whose grid steps held a packet's count so far
             self._steps, self._ties, self._limit, self._passing = None, [], 0.0, True
             self.note = packets_note(self._k, cycle, self.period_s, f"stamps after t = {t:.3f} s (packets sharing "
                                      "one stamp; counted in imu_restamped)")

@@ -169,7 +169,8 @@ class Navigator:
         # a registry completer is shared within a process: its counters before this Navigator, for info's counts
         self._fallbacks_before = dict(getattr(completer, "fallbacks", {}))
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
-        self._packets = PacketStamps(1.0 / config.imu_rate_hz)     # an IMU in packets put back on its period
+        # an IMU in packets put back on its period
+        self._packets = PacketStamps(1.0 / config.imu_rate_hz, self.options.reorder_window_s)
         self._align_events: deque = deque()       # released samples kept during alignment (catch-up)
         self.backend = None
         self.aligner = None
