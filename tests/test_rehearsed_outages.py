@@ -9,7 +9,7 @@ import graphnav
 from graphnav.core.errors import ConfigError
 from graphnav.core.scenarios import scenario_outage
 from graphnav.evaluation.metrics import vrmse
-from graphnav.evaluation.methods import GRAPH_HNP, completer_for, run_method
+from graphnav.evaluation.methods import GRAPH_HN_BATCH, GRAPH_HNP, GRAPH_TC, completer_for, run_method
 
 START, LENGTH = 200.0, 40.0
 
@@ -73,6 +73,22 @@ def test_rehearsed_outages_refuse_a_margin_that_is_not_positive_and_a_completer_
     with pytest.raises(ConfigError, match="cannot rehearse"):
         run_method(mission, GRAPH_HNP, "3-missing", completer=Held(), options={"rehearsed_outages": 1.0})
 
+
+
+@pytest.mark.parametrize("method, match", [(GRAPH_TC, "without a completer"), (GRAPH_HN_BATCH, "incremental smoothers")])
+def test_rehearsed_outages_are_refused_for_a_graph_without_a_completer_and_for_the_batch(method, match):
+    # Graph-TC ran with every count 0 and no word; the batch changed its output with an option not studied there
+    mission = graphnav.simulate_mission(30.0, seed=0)
+    with pytest.raises(ConfigError, match=f"rehearsed_outages.*{match}"):
+        run_method(mission, method, "3-missing", options={"rehearsed_outages": 1.0})
+
+
+def test_a_rehearsal_variant_without_rehearsed_outages_is_refused_not_ignored():
+    from graphnav.estimators.graph import GraphOptions
+    for name, value in (("rehearsal_graph", "twin"), ("rehearsal_fusion", "correlated")):
+        with pytest.raises(ConfigError, match=f"{name}='{value}'.*needs rehearsed_outages"):
+            GraphOptions(**{name: value})
+        assert getattr(GraphOptions(rehearsed_outages=1.0, **{name: value}), name) == value
 
 def _twin_rehearsal(graph: str, var: float):
     """An OutageRehearsal on the default beams whose IMU-carried horizontal velocity has rehearsed a spread ``var``

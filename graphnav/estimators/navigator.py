@@ -166,6 +166,7 @@ class Navigator:
         self._backend_kwargs = {"graph_options": graph_options, "ekf_options": ekf_options, "tight": tight,
                                 "keep_keyframe_graphs": keep_keyframe_graphs, "label": name}
         self._completer = completer
+        self._refuse_rehearsal()
         # a registry completer is shared within a process: its counters before this Navigator, for info's counts
         self._fallbacks_before = dict(getattr(completer, "fallbacks", {}))
         self.keyframer = Keyframer(config, self.options.keyframes, completer)
@@ -739,14 +740,29 @@ class Navigator:
         return out
 
     # --- initialisation -----------------------------------------------------------------------------
+    def _refuse_rehearsal(self) -> None:
+        """Refuse ``GraphOptions.rehearsed_outages`` before any data where it cannot serve: a graph without a
+        completer (nothing to rehearse), a completer without ``rehearse``, a batch smoother's first pass."""
+        options = self._backend_kwargs["graph_options"]
+        if self.backend_name == "ekf" or options is None or options.rehearsed_outages is None:
+            return
+        completer = self._completer
+        if completer is None:
+            why = "this graph runs without a completer, so there is no completion to rehearse"
+        elif not hasattr(completer, "rehearse"):
+            why = f"{type(completer).__name__} cannot rehearse an outage (it has no 'rehearse')"
+        elif self._backend_kwargs["keep_keyframe_graphs"]:
+            raise ConfigError("rehearsed_outages is for the incremental smoothers (ISAM2, fixed-lag): the batch "
+                              "smoother re-solves the mission with what its first pass kept and was not studied "
+                              "with the rehearsals; leave it None for a batch run")
+        else:
+            return
+        raise ConfigError(f"rehearsed_outages: {why}: run the pivot completer or the average estimator")
+
     def _hand_rehearsal(self) -> None:
         """Hand a graph backend's rehearsed outages (``GraphOptions.rehearsed_outages``) to the keyframer, which
-        feeds them the completer's side; a completer that cannot rehearse is refused."""
-        rehearsal = getattr(getattr(self.backend, "ctx", None), "rehearsal", None)
-        if rehearsal is not None and self._completer is not None and not hasattr(self._completer, "rehearse"):
-            raise ConfigError(f"rehearsed_outages: {type(self._completer).__name__} cannot rehearse an outage "
-                              "(it has no 'rehearse'): run the pivot completer or the average estimator")
-        self.keyframer.rehearsal = rehearsal
+        feeds them the completer's side (what cannot serve was refused by :meth:`_refuse_rehearsal`)."""
+        self.keyframer.rehearsal = getattr(getattr(self.backend, "ctx", None), "rehearsal", None)
 
     def _estimator_options(self):
         """The backend's options (:class:`EkfOptions` or :class:`GraphOptions`, defaults where not given)."""

@@ -240,11 +240,13 @@ class GraphOptions:
             outages (:mod:`graphnav.estimators.rehearsal`): the mission's measured past scores the completer's
             recursion and the graph's IMU-only prediction per horizon into an outage, and a completion at horizon
             ``h`` is kept, at sigma ``e_comp(h)`` and unscreened, only when ``e_comp(h) < m e_graph(h)``; None (the
-            default) = off. See docs/decisions/completers.md, "Rehearsed outages".
-        rehearsal_graph: with ``rehearsed_outages``, the graph's side of the rehearsals: ``"imu"`` (the IMU alone)
+            default) = off. A graph without a completer, one whose completer cannot rehearse and the batch
+            smoother (not studied with it) are refused (ConfigError). See docs/decisions/completers.md,
+            "Rehearsed outages".
+        rehearsal_graph: with ``rehearsed_outages`` (refused without it), the graph's side of the rehearsals: ``"imu"`` (the IMU alone)
             or ``"twin"`` (the IMU-carried velocity fused with the beams the outage's pattern still measures, each
             pattern rehearsed; the completer then scored on the pattern's missing beams).
-        rehearsal_fusion: with ``rehearsed_outages``, ``"independent"`` (a completion kept at ``e_comp(h)`` when it
+        rehearsal_fusion: with ``rehearsed_outages`` (refused without it), ``"independent"`` (a completion kept at ``e_comp(h)`` when it
             beats the margin) or ``"correlated"`` (the two rehearsed errors' covariance decides: the completion kept
             at the equivalent independent sigma of their best linear fusion, dropped where it adds nothing; the
             margin is not used). Both experimental; see completers.md, "Rehearsed outages: the graph's twin".
@@ -321,8 +323,12 @@ class GraphOptions:
         if self.rehearsed_outages is not None and not self.rehearsed_outages > 0:
             raise ConfigError(f"rehearsed_outages must be a margin > 0 (or None: off), got {self.rehearsed_outages}")
         for name, allowed in (("rehearsal_graph", REHEARSAL_GRAPHS), ("rehearsal_fusion", REHEARSAL_FUSIONS)):
-            if getattr(self, name) not in allowed:
-                raise ConfigError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
+            value = getattr(self, name)
+            if value not in allowed:
+                raise ConfigError(f"{name} must be one of {allowed}, got {value!r}")
+            if value != allowed[0] and self.rehearsed_outages is None:
+                raise ConfigError(f"{name}={value!r} is a variant of the rehearsed outages: it needs "
+                                  "rehearsed_outages (a margin > 0), without which nothing is rehearsed")
         if not self.retire_hold_s >= 0:
             raise ConfigError(f"retire_hold_s must be >= 0 s, got {self.retire_hold_s}")
         if self.motion_prior not in MOTION_PRIOR_MODES:
