@@ -377,7 +377,8 @@ def outage_predictiveness(decisions, reference, mission, start: float, window_s:
                                         interp_rows(t, reference.t, reference.v_n), np.zeros(3), np.zeros(3),
                                         lever)[0] for t, _, _, b, *_ in sel])
         rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
-        out.append({"h": [lo, hi], "n": len(sel), "beam sigma": float(mission.config.dvl.beam_noise_std), "completer kept": sum(d[2] == "completer" for d in sel),
+        out.append({"h": [lo, hi], "n": len(sel), "beam sigma": float(mission.config.dvl.beam_noise_std),
+                    "completer kept": sum(d[2] == "completer" for d in sel),
                     "pred comp": rms([d[4] for d in sel]), "pred graph": rms([d[5] for d in sel]),
                     "act comp": rms(np.array([d[6] for d in sel]) - true), "act graph": rms(graph - true)})
     return out

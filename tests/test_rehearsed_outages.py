@@ -75,7 +75,8 @@ def test_rehearsed_outages_refuse_a_margin_that_is_not_positive_and_a_completer_
 
 
 
-@pytest.mark.parametrize("method, match", [(GRAPH_TC, "without a completer"), (GRAPH_HN_BATCH, "incremental smoothers")])
+@pytest.mark.parametrize("method, match", [(GRAPH_TC, "without a completer"),
+                                           (GRAPH_HN_BATCH, "incremental smoothers")])
 def test_rehearsed_outages_are_refused_for_a_graph_without_a_completer_and_for_the_batch(method, match):
     # Graph-TC ran with every count 0 and no word; the batch changed its output with an option not studied there
     mission = graphnav.simulate_mission(30.0, seed=0)

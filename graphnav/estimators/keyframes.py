@@ -294,11 +294,11 @@ class PacketStamps:
     cycle. A packet stamped at or before the last stamp let out (a clock stepping back) is spread back at the
     period all the same and left to the reorder buffer. :data:`IMU_RATE_STEPS` packets of one sample in a row: the
     stream no longer comes in packets, and its samples pass as received again; a stream decided no packets is decided
-    again from a step within a packet on (:meth:`_reopen`: a driver changing its read mode). An IMU that is no packets but whose
-    stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with jitter, a
-    64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock` over its
-    latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits for
-    the next distinct stamp and is placed after its stamp at the period within the room before that one
+    again from a step within a packet on (:meth:`_reopen`: a driver changing its read mode). An IMU that is no packets
+    but whose stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with
+    jitter, a 64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock`
+    over its latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits
+    for the next distinct stamp and is placed after its stamp at the period within the room before that one
     (:meth:`_place_repeats`). One sample to a stamp is never packets; packets sharing one stamp whose counts come to
     vary as a clock's are that clock from then on (:meth:`_packets_were_clock`)."""
 

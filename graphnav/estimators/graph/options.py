@@ -243,13 +243,14 @@ class GraphOptions:
             default) = off. A graph without a completer, one whose completer cannot rehearse and the batch
             smoother (not studied with it) are refused (ConfigError). See docs/decisions/completers.md,
             "Rehearsed outages".
-        rehearsal_graph: with ``rehearsed_outages`` (refused without it), the graph's side of the rehearsals: ``"imu"`` (the IMU alone)
-            or ``"twin"`` (the IMU-carried velocity fused with the beams the outage's pattern still measures, each
-            pattern rehearsed; the completer then scored on the pattern's missing beams).
-        rehearsal_fusion: with ``rehearsed_outages`` (refused without it), ``"independent"`` (a completion kept at ``e_comp(h)`` when it
-            beats the margin) or ``"correlated"`` (the two rehearsed errors' covariance decides: the completion kept
-            at the equivalent independent sigma of their best linear fusion, dropped where it adds nothing; the
-            margin is not used). Both experimental; see completers.md, "Rehearsed outages: the graph's twin".
+        rehearsal_graph: with ``rehearsed_outages`` (refused without it), the graph's side of the rehearsals: ``"imu"``
+            (the IMU alone) or ``"twin"`` (the IMU-carried velocity fused with the beams the outage's pattern still
+            measures, each pattern rehearsed; the completer then scored on the pattern's missing beams).
+        rehearsal_fusion: with ``rehearsed_outages`` (refused without it), ``"independent"`` (a completion kept at
+            ``e_comp(h)`` when it beats the margin) or ``"correlated"`` (the two rehearsed errors' covariance decides:
+            the completion kept at the equivalent independent sigma of their best linear fusion, dropped where it adds
+            nothing; the margin is not used). Both experimental; see completers.md, "Rehearsed outages: the graph's
+            twin".
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
