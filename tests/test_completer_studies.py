@@ -1089,7 +1089,7 @@ def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_f
     assert refused.value.code == 2 and "--fold-nets 3-missing" in capsys.readouterr().err
     # every trajectory runs the networks of the fold that holds it out
     options = types.SimpleNamespace(grades=["mems"], scenarios=["3-missing"], window_s=[120.0], max_windows=2,
-                                    methods=["Graph-TC", "Graph-HNI"], backend="isam2")
+                                    methods=["Graph-TC", "Graph-HNI"], backend="isam2", predictiveness=False)
     folds = [(1, 3), (2, 5), (4, 10), (6, 13), (8, 11)]
     sources = {f"Trajectory{k}": k for pair in folds for k in pair}
     items = study.study_items(sources, options, fold_nets, {("Trajectory5", "mems", "3-missing", 120.0): {}}, folds)
