@@ -1225,14 +1225,24 @@ def _in_packets(k: int, spacing_s: float = 1e-5):
     return edit
 
 
-def _stream_in_packets(k: int):
-    """A stream edit: the IMU records stamped in packets of ``k`` (:func:`_in_packets`, 0.01 ms apart)."""
+def _on_clock(grid_s: float, jitter_s: float, seed: int = 0):
+    """IMU rows stamped by a logger whose clock ticks every ``grid_s`` (truncated), read with ``jitter_s`` of
+    timing noise (seeded): 100 Hz in whole 10 ms repeats some stamps and skips others."""
+    def edit(d):
+        noise = np.random.default_rng(seed).normal(0.0, jitter_s, len(d))
+        d[:, 0] = np.floor((d[:, 0] + noise) / grid_s) * grid_s
+        return d
+    return edit
+
+
+def _stream_imu_stamps(edit_stamps):
+    """A stream edit: the IMU records' stamps rewritten by ``edit_stamps`` (a file edit on a one-column array)."""
     import json
 
     def edit(lines):
         rows = [i for i, line in enumerate(lines) if '"type":"imu"' in line]
         records = [json.loads(lines[i]) for i in rows]
-        t = _in_packets(k)(np.array([[r["t"]] for r in records], float))[:, 0]
+        t = edit_stamps(np.array([[r["t"]] for r in records], float))[:, 0]
         for i, r, stamp in zip(rows, records, t):
             r["t"] = float(stamp)
             lines[i] = json.dumps(r, separators=(",", ":"))
@@ -1319,6 +1329,8 @@ CLI_CASES: tuple[CliCase, ...] = (
     _sim("IMU: a row written twice", "smooth", W, _damage("IMU", _row_twice)),
     _sim("IMU: stamped in packets of 10 on receipt (0.01 ms apart)", "smooth", W, _damage("IMU", _in_packets(10))),
     _sim("IMU: packets of 10 sharing one stamp", "smooth", W, _damage("IMU", _in_packets(10, 0.0))),
+    _sim("IMU: stamped on a 10 ms clock with 1 ms jitter", "smooth", W, _damage("IMU", _on_clock(0.01, 1e-3))),
+    _sim("IMU: one read of 0.2 s lost", "smooth", W, _damage("IMU", _delete_rows(60.0, 60.2))),
     _sim("IMU: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
     _sim("IMU: an infinite gyro cell", "smooth", W, _damage("IMU", _set(_imu_row, 5, np.inf))),
     _sim("IMU: gyro 57.3x too small (converted to rad/s twice)", "smooth", E,
@@ -1349,7 +1361,8 @@ CLI_CASES: tuple[CliCase, ...] = (
     # the live stream
     _stream("stream: one DVL beam of 1e6 m/s", W, _edit_record("dvl", 50, lambda r: r["beams"].__setitem__(1, 1e6))),
     _stream("stream: config line not the first line", E + W, _config_not_first),
-    _stream("stream: IMU stamped in packets of 10 on receipt", W, _stream_in_packets(10)),
+    _stream("stream: IMU stamped in packets of 10 on receipt", W, _stream_imu_stamps(_in_packets(10))),
+    _stream("stream: IMU on a 10 ms clock with 1 ms jitter", W, _stream_imu_stamps(_on_clock(0.01, 1e-3))),
     _stream("stream: a stamp of 1e300", W, _edit_record("imu", 3000, lambda r: r.__setitem__("t", 1e300))),
     CliCase("stream: --stream on a missing file", "online --stream FILE", E, _missing_stream,
             "online stream: clean"),
@@ -1371,6 +1384,7 @@ CLI_CASES: tuple[CliCase, ...] = (
     _real("real: gyro in deg/s", "smooth", E + W, _damage("IMU", _scale_cols(slice(4, 7), np.degrees(1.0)))),
     _real("real: IMU stamps in milliseconds", "smooth", E + W, _damage("IMU", _scale_cols(0, 1e3))),
     _real("real: IMU stamped in packets of 10 on receipt", "smooth", W, _damage("IMU", _in_packets(10))),
+    _real("real: IMU stamped on a 10 ms clock with 1 ms jitter", "smooth", W, _damage("IMU", _on_clock(0.01, 1e-3))),
     _real("real: one gyro sample of 5 rad/s (under full scale)", "smooth", W, _damage("IMU", _set(_imu_row, 6, 5.0))),
     # the shared real trajectory as a vehicle has it: IMU and DVL only (the DVL checked against the IMU alone)
     _real("real, no GT: DVL velocities in cm/s", "smooth", E, _without_gt(_scale_cols(_DVL_XYZ, 100.0))),
