@@ -1578,8 +1578,9 @@ def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at
     """An even 100 Hz log in whole 10 ms with every 50th row written again (a logger flushing a buffer again; also every
     37th and 100th) was taken for a 102 Hz IMU on a clock as coarse as its period: the copies kept as samples and
     every stamp moved to a 9.804 ms grid. No grid step is empty, so no sample was pushed across a grid edge: the copies
-    are dropped with a warning and the log reads 100 Hz as read; the same rows with other values are refused as
-    duplicated stamps, as before."""
+    are dropped with a warning and the log reads 100 Hz as read. The same rows with other values are no copies: the
+    stamps are those of an IMU a fiftieth faster than its clock, read so (every 100th: too few repeats to show a clock,
+    refused as duplicated stamps)."""
     from graphnav.core.screening import imu_rate_hz, stamp_order
     even = 100.0 + np.arange(6000) * 0.01
     values = np.random.default_rng(3).normal(size=(6000, 6))
@@ -1594,8 +1595,13 @@ def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at
         assert dropped == {"repeats an earlier row exactly": again.size} and np.array_equal(stamps, even)
         assert "restamped" not in meta.get("streams", {}).get("imu", {}) and imu_rate_hz(stamps) == pytest.approx(100.0)
         rows[np.r_[False, np.diff(t) == 0], 1] += 1.0
-        with pytest.raises(DataError, match="time stamp duplicated"):
-            stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+        if every == 100:        # 60 repeated stamps: too few to show a clock, refused as duplicated
+            with pytest.raises(DataError, match="time stamp duplicated"):
+                stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+            continue
+        with pytest.warns(RuntimeWarning, match="10 ms clock, about as coarse as the IMU's"):
+            kept = stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")[0]
+        assert kept.size == t.size
 
 
 def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_no_worse_than_read(monkeypatch):
@@ -1621,6 +1627,23 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_n
     with pytest.warns(RuntimeWarning, match="no even grid keeps every sample within its grid step"):
         with pytest.raises(DataError, match="time stamp duplicated"):
             stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+
+
+def test_an_imu_a_little_faster_than_its_clock_with_jitter_is_read_at_its_rate_on_one_grid():
+    """104-106 Hz in whole 10 ms with 1 ms of jitter (8-9 % of the stamps repeated, fewer grid steps empty than half
+    of them, the rows differing) were refused as duplicated stamps by a share of repeats asked of such a clock; rows
+    written again are told by their values (exact copies), so these are read at their rate on one even grid."""
+    from graphnav.core.screening import stamp_order
+    for rate, seed in ((105.0, 0), (105.0, 1), (106.0, 0)):
+        true, t = _drifting_clock(rate, 0.01, 6000, 1e-3, 0.0, seed)
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=r"10 ms clock, about as coarse as the IMU's [\d.]+ ms period"
+                          r" \(.*one even grid at the period"):
+            kept, dropped, stamps = stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv",
+                                                "t", False, meta, "imu")
+        assert kept.size == t.size and not dropped
+        assert np.max(np.abs(stamps - true)) < 0.0005
+        assert meta["streams"]["imu"]["restamp_period_s"] == pytest.approx(1.0 / rate, rel=1e-3)
 
 
 def test_an_imu_slower_than_its_clock_grid_reads_samples_over_time():

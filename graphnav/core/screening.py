@@ -1096,11 +1096,6 @@ CLOCK_PATTERN_STAMPS = 10
 #: at random from packets span 5.7 or more (1000 draws in 1000 to 200000 stamps).
 BALANCED_SHORT_STAMPS = 100
 BALANCED_COUNT_SPAN = 4.0
-#: Share of a clock's stamps, at least, repeated where fewer grid steps are empty than half the repeated stamps (no
-#: sample pushed across a grid edge to pair them) for it to be a clock about as coarse as the IMU's period
-#: (:func:`_clock_at_period`; 128 Hz in whole 10 ms: 28 %): fewer cannot tell an IMU up to a tenth faster than its
-#: clock (102 Hz in whole 10 ms) from an even log with every 50th row written again.
-CLOCK_AT_PERIOD_REPEATED_SHARE = 0.1
 
 
 def counts_vary(counts: np.ndarray) -> bool:
@@ -1206,8 +1201,7 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
         return None
     repeated = np.flatnonzero(counts > 1)
     kind = _clock_events(counts, steps)
-    balanced = (repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1]) and (
-        not _repeats_unpaired(counts, steps) or repeated.size >= CLOCK_AT_PERIOD_REPEATED_SHARE * counts.size))
+    balanced = repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1])
     if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or balanced):
         return None
     inside = steps <= 2
