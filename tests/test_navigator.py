@@ -346,9 +346,16 @@ def test_the_ekf_going_on_after_a_catch_up_claims_a_heading_sigma_that_covers_it
     sigma = np.sqrt(heading_variance(sol.C_b_n[after], sol.cov_rot_b[after]))
     assert len(t) == after.sum() > 10
     assert np.max(np.abs(d_psi) / sigma) < 3.0
-    for bad in (0.0, -1.0, float("nan")):
+
+
+def test_a_catch_up_heading_sigma_factor_under_one_or_not_finite_is_refused():
+    """A factor under 1 (a heading prior narrower than the alignment knows, 1e-9 was taken) or not finite (inf) is
+    refused naming the option; 1 and None (the 30 deg prior) are taken."""
+    for bad in (0.0, -1.0, float("nan"), 1e-9, 0.5, float("inf")):
         with pytest.raises(ConfigError, match="catch_up_heading_sigma_factor"):
             EkfOptions(catch_up_heading_sigma_factor=bad)
+    assert EkfOptions(catch_up_heading_sigma_factor=1.0).catch_up_heading_sigma_factor == 1.0
+    assert EkfOptions(catch_up_heading_sigma_factor=None).catch_up_heading_sigma_factor is None
 
 
 @pytest.mark.parametrize("backend", ["fixed-lag", "ekf"])

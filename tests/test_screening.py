@@ -1363,6 +1363,52 @@ def test_a_live_imu_in_packets_losing_samples_mid_packet_has_one_gap(mission):
     assert nav.info["imu_gaps"] == 1 and any("imu: gap of 1.910 s" in w for w in said)
 
 
+def _read_every(true, reads):
+    """Stamps of samples at ``true`` (s) that a driver reads at the ``reads`` (s), each read's samples stamped on
+    receipt 0.01 ms apart, its last at the read."""
+    j = np.minimum(np.searchsorted(reads, true), reads.size - 1)
+    last = np.searchsorted(j, j, side="right") - 1
+    return reads[j] - (last - np.arange(true.size)) * 1e-5
+
+
+@pytest.mark.parametrize("losses, rate_hz", [([(0.5, 1.5)], 100.0), ([(0.25, 1.25)], 100.0), ([(0.45, 1.0)], 100.0),
+                                             ([(0.1, 0.5)], 100.0), ([(0.3, 0.7)], 100.2),
+                                             ([(0.5, 1.5), (1.6, 1.8)], 100.0)])
+def test_a_live_imu_in_packets_losing_samples_that_cut_its_first_packets_reads_its_rate(mission, losses, rate_hz):
+    """Packets of 20 stamped on receipt (a 100.2 Hz IMU read every 200 ms: 20 or 21) losing samples in ``losses``
+    (s) before the packets are decided: the loss cut the packets either side of it, and counting its long step as one
+    cycle per lost packet counted their missing samples' time, so the IMU read 75 Hz, packets of 15, refused 10-12
+    samples beyond a packet and bridged a spurious second gap after the loss. Now the packets either side of a loss
+    are left out of the rate: 100 Hz, packets of 20, a gap for each loss (a whole packet lost just after the one a loss
+    cut is one), nothing refused that the stream without the loss keeps."""
+    m = mission.slice(0, 6)
+    true = _true_imu_stamps(m)
+    t = true[0] + np.arange(true.size) / rate_hz
+    stamps = _read_every(t, true[0] + 0.2 * np.arange(1, 40)) if rate_hz != 100.0 else _in_packets(true, 20)
+    clean, _, _ = _fed_without(m, stamps)    # 100.2 Hz: a read of 21 has one beyond the packets of 20
+    for a, b in losses:
+        stamps = np.where((t >= true[0] + a - 1e-9) & (t < true[0] + b - 1e-9), -1.0, stamps)
+    nav, _, said = _fed_without(m, stamps)
+    assert nav.info["imu_gaps"] == len(losses) and nav.info["refused"] == clean.info["refused"]
+    assert not any("runs at" in w for w in said) and any("stamped in packets of 20" in w for w in said)
+
+
+def test_an_imu_in_packets_losing_samples_off_their_boundaries_reads_its_rate():
+    """600 s of packets of 20 at 100 Hz with 30 losses of 0.5-2.5 s that cut packets: the losses counted as one cycle
+    per lost packet read 98.946 Hz (their cut packets' missing samples counted as time) and a log was restamped at
+    10.1 ms. Whole packets lost (2 %) read 100 Hz as they did."""
+    from graphnav.core.screening import imu_step_stats
+    rng = np.random.default_rng(1)
+    stamps = _in_packets(np.arange(60000) * 0.01, 20)
+    whole = ~np.repeat(rng.random(3000) < 0.02, 20)
+    cut = np.ones(stamps.size, bool)
+    for start in rng.integers(0, stamps.size - 300, 30):
+        cut[start:start + rng.integers(50, 250)] = False
+    for keep in (cut, whole):
+        period, cycle = imu_step_stats(np.diff(stamps[keep]), 0.01, 0.05)
+        assert 1.0 / period == pytest.approx(100.0, abs=1e-3) and cycle == pytest.approx(0.2, rel=1e-6)
+
+
 def test_an_imu_file_whose_packets_share_one_stamp_is_refused_naming_packets():
     """Every sample of a packet with its packet's stamp (10 to a stamp at 100 Hz) in a file read as no IMU's (an IMU's
     are restamped: the next test): the duplicated-stamp error and its repair (which drops nine in ten) name the

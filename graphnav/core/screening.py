@@ -503,9 +503,9 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in packets or bursts (the long steps of
     :func:`imu_packet_limit` end them) the period is the mean step without the gaps (so the rate is samples over
     time) and the cycle the median time from a packet's last stamp to the next's (its long step alone leaves out
-    the time inside a packet: packets of 10 0.6 ms apart read 9; in regular packets a long step within a quarter
-    cycle of whole cycles counts as one, as its lost packets' samples are not counted: packets of 20 with one lost
-    among the first five read 80 Hz, packets of 2 with five lost 108 Hz). A median step within ``tolerance``
+    the time inside a packet: packets of 10 0.6 ms apart read 9; in regular packets the packets either side of a
+    loss are left out, :func:`_whole_packet_steps`: packets of 20 with one lost among the first five read 80 Hz,
+    packets of 2 with five lost 108 Hz). A median step within ``tolerance``
     (relative) of the ``expected_s`` period (the configured one) is that period whatever the long steps, unless a
     share of the steps under a tenth of it makes packets: they are gaps and stutters, not bursts (a start with four
     0.2 s hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
@@ -518,11 +518,28 @@ def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance
     ends = np.flatnonzero(long)
     between = np.diff(np.cumsum(d)[ends])
     cycle = float(np.median(between if between.size else d[long]))
-    whole = d[ends[0] + 1:ends[-1] + 1] if ends.size >= 2 else d      # whole bursts: a cut one biases a short count
-    if in_packets(d, long):     # a long step of whole cycles lost packets: their samples are not counted either
-        cycles = np.round(whole / cycle)
-        whole = whole - np.where(np.abs(whole / cycle - cycles) <= 0.25, np.maximum(cycles - 1.0, 0.0), 0.0) * cycle
-    return float(np.mean(whole[whole <= IMU_BURST_GAP_CYCLES * cycle])), cycle
+    span = slice(ends[0] + 1, ends[-1] + 1) if ends.size >= 2 else slice(None)  # whole bursts: a cut one biases
+    whole = d[span]                                                                # a short count
+    keep = whole <= IMU_BURST_GAP_CYCLES * cycle
+    if in_packets(d, long):
+        kept = _whole_packet_steps(d, long, cycle)[span]      # a loss before the span may cut its first packet
+        keep = kept if np.any(kept) else keep
+    return float(np.mean(whole[keep])), cycle
+
+
+#: A step from one of an IMU's packets to the next longer than this many packet cycles is a loss (samples or packets
+#: lost), not a cycle of packets of varying size.
+PACKET_LOSS_CYCLES = 1.5
+
+
+def _whole_packet_steps(steps: np.ndarray, ends: np.ndarray, cycle_s: float) -> np.ndarray:
+    """Which of an IMU's ``steps`` (s; ``ends``: those ending a packet) in packets every ``cycle_s`` (s) make its rate:
+    all but those of a packet whose long step is a loss (:data:`PACKET_LOSS_CYCLES`) and of the packet after it. A loss's samples
+    are not counted, so neither is its time; one that cuts packets leaves them short on either side of its long step,
+    their time a whole cycle each (counting the loss as one cycle per lost packet read 98.9 Hz for 100 Hz)."""
+    packet = np.cumsum(ends) - ends         # a packet's long step ends it: it belongs to the packet before
+    lost = np.unique(packet[ends & (steps > PACKET_LOSS_CYCLES * cycle_s)])
+    return ~np.isin(packet, np.r_[lost, lost + 1])
 
 
 def restamp_packets(t: np.ndarray, period_s: float, limit_s: float, after: float = -math.inf) -> np.ndarray:

@@ -196,7 +196,8 @@ class EkfOptions:
             pings' noise moves the heading tens of degrees, and linearised there the filter settles degrees off
             claiming tenths (simulated, drawn DVL errors, seeds 14-21: heading NEES 11 after the window, 2.8
             with 10). The prior counts 1 / factor^2 of the alignment's heading information a second time (1 %:
-            its sigma 0.5 % too small). Measured and chosen in docs/decisions/alignment.md.
+            its sigma 0.5 % too small). A finite factor of 1 or more (under 1 the prior claims more than the
+            aligner knows), else a ConfigError. Measured and chosen in docs/decisions/alignment.md.
     """
 
     position_states: bool = True
@@ -226,8 +227,10 @@ class EkfOptions:
 
     def __post_init__(self):
         factor = self.catch_up_heading_sigma_factor
-        if factor is not None and not factor > 0:
-            raise ConfigError(f"EkfOptions.catch_up_heading_sigma_factor must be > 0 or None, got {factor}")
+        # under 1 the prior claims more than the aligner knows of the heading; inf is no prior (None says that)
+        if factor is not None and not (factor >= 1.0 and math.isfinite(factor)):
+            raise ConfigError("EkfOptions.catch_up_heading_sigma_factor must be a finite number >= 1 (times the "
+                              f"aligned heading's sigma) or None (the 30 deg prior), got {factor}")
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -56,9 +56,9 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, awaits_packet_cycles, clock_words, imu_packet_limit, imu_stamp_quantum,
-    imu_step_stats, packets_note, quantised_clock, restamp_packets, shared_stamp_packets, start_burst,
-    start_burst_warning)
+    BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, PACKET_LOSS_CYCLES, awaits_packet_cycles, clock_words, imu_packet_limit,
+    imu_stamp_quantum, imu_step_stats, packets_note, quantised_clock, restamp_packets, shared_stamp_packets,
+    start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -173,7 +173,7 @@ class ImuPeriod:
         self.configured_s = self.period_s = self._cycle_s = configured_s
         self._steps: list[float] = []
         self._needed = IMU_RATE_STEPS
-        self._after_gap = 0             # the steps after the last gap bridged before the period was measured
+        self._bridged: list[float] = []     # the gaps (s) bridged before the period was measured
         self._lead: list[float] | None = []     # the first steps, while they may be a burst the stream starts with
         #: (samples, first stamp s, last stamp s) of the burst the stream started with, or None
         self.start_burst: tuple[int, float, float] | None = None
@@ -245,18 +245,30 @@ class ImuPeriod:
         (:meth:`restamped`). Before the period is measured, a stream whose shortest step is under
         :data:`BURST_STEP_SHARE` of the configured period comes in bursts (a driver stamping on receipt), and its
         long step is a gap only when its samples so far fall short of the configured rate by more than a bridged
-        gap adds: bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps."""
+        gap adds (bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps); after a gap, only
+        when longer than :data:`~graphnav.core.screening.PACKET_LOSS_CYCLES` of the packets' cycles so far."""
         limit = IMU_GAP_PERIODS * self.period_s if t > self._restamped_after else self.gap_limit_s
         if not dt > limit:
             return False
         steps = self._lead or self._steps       # a start that may be a burst or a packet: its steps so far
         if len(self._steps) >= self._needed or not min(steps, default=dt) < BURST_STEP_SHARE * self.configured_s:
             return True
-        since = steps[self._after_gap:]         # the samples before a bridged gap do not make up for the next
-        if sum(since) / self.configured_s - len(since) <= IMU_GAP_PERIODS - 1:
-            return False
-        self._after_gap = len(steps)            # in the lead too: a lost packet there made every later packet a gap
-        return True
+        if self._bridged:
+            # a loss that cut the packet after it took its first samples, and a packet's step counts the next one's
+            # time: counted against the rate they bridged a spurious 0.2 s gap after samples lost from 0.5 to 1.5 s
+            # in packets of 20, and in packets of 8-12 a packet short of the one after the gap
+            gap = dt > PACKET_LOSS_CYCLES * self._cycle_so_far(steps)
+        else:
+            gap = sum(steps) / self.configured_s - len(steps) > IMU_GAP_PERIODS - 1
+        if gap:
+            self._bridged.append(dt)
+        return gap
+
+    def _cycle_so_far(self, steps: list[float]) -> float:
+        """The median packet cycle (s) among the ``steps`` before the newest (s), the gaps bridged left out; inf for
+        none (the step after a gap the stream's first packet ends is a cycle)."""
+        cycles = [d for d in steps[:-1] if not d < BURST_STEP_SHARE * self.configured_s and d not in self._bridged]
+        return float(np.median(cycles)) if cycles else math.inf
 
     def restamped(self, t: float) -> None:
         """The samples stamped after ``t`` (s) come restamped at the period (:class:`PacketStamps` decided on packets
@@ -416,7 +428,7 @@ class PacketStamps:
         samples lost from 28.5 to 30.4 s in packets of 20). None for any other packet, or with no room before its
         stamp."""
         n, cycle = received.size, self._k * self.period_s
-        loss = silent or (before < math.inf and before - received[-1] > 1.5 * cycle)
+        loss = silent or (before < math.inf and before - received[-1] > PACKET_LOSS_CYCLES * cycle)
         if n >= self._k or not loss or not floor > -math.inf or floor + n * self.period_s > received[-1]:
             return None
         return floor + self.period_s * np.arange(1, n + 1)
