@@ -534,9 +534,10 @@ PACKET_LOSS_CYCLES = 1.5
 
 def _whole_packet_steps(steps: np.ndarray, ends: np.ndarray, cycle_s: float) -> np.ndarray:
     """Which of an IMU's ``steps`` (s; ``ends``: those ending a packet) in packets every ``cycle_s`` (s) make its rate:
-    all but those of a packet whose long step is a loss (:data:`PACKET_LOSS_CYCLES`) and of the packet after it. A loss's samples
-    are not counted, so neither is its time; one that cuts packets leaves them short on either side of its long step,
-    their time a whole cycle each (counting the loss as one cycle per lost packet read 98.9 Hz for 100 Hz)."""
+    all but those of a packet whose long step is a loss (:data:`PACKET_LOSS_CYCLES`) and of the packet after it. A
+    loss's samples are not counted, so neither is its time; one that cuts packets leaves them short on either side of
+    its long step, their time a whole cycle each (counting the loss as one cycle per lost packet read 98.9 Hz for
+    100 Hz)."""
     packet = np.cumsum(ends) - ends         # a packet's long step ends it: it belongs to the packet before
     lost = np.unique(packet[ends & (steps > PACKET_LOSS_CYCLES * cycle_s)])
     return ~np.isin(packet, np.r_[lost, lost + 1])
