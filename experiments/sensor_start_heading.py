@@ -38,7 +38,8 @@ def _run(item: tuple) -> dict:
     from graphnav.estimators.ekf import EkfOptions
     kind, key, method, duration, grade, catch_up, heading_factor = item
     nav = NavigatorOptions(align_catch_up=catch_up)
-    ekf = EkfOptions() if heading_factor is None else EkfOptions(catch_up_heading_sigma_factor=heading_factor)
+    ekf = EkfOptions() if heading_factor is None else \
+        EkfOptions(catch_up_heading_sigma_factor=None if heading_factor == 0 else heading_factor)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         mission = (load_akit(key) if kind == "akit" else
@@ -76,7 +77,6 @@ def main(argv=None) -> None:
     ap.add_argument("--jobs", type=int, default=1)
     a = ap.parse_args(argv)
     factor = a.ekf_heading_factor
-    factor = None if factor is None else (factor or float("inf"))
     if a.akit is not None:
         from graphnav.io.paths import akit_trajectories
         items = [("akit", str(p), a.method, 0.0, "", not a.no_catch_up, factor)

@@ -1291,7 +1291,7 @@ def test_a_live_imu_losing_a_read_of_0_2_s_is_bridged_and_ends_within_centimetre
                                                                                                       spacing):
     """20 samples (0.2 s) lost at 29.8 s of a 60 s stream, with plain stamps or in packets of 20 stamped on receipt:
     the gap is bridged, warned and counted, and the end stays within 5 cm of the same stream without the loss (0.005 m
-    measured). Before, the bridged gap's variance, sized for 2 s gaps, moved the end by 0.169 m (plain stamps; 0.26-0.59
+    measured). Before, the bridged gap's variance, sized for 2 s gaps, moved the end by 0.169 m (plain stamps; 0.26-0.45
     m on 120 s streams, tens of metres when aligned to a wrong heading), and packets stamped on receipt held the sample
     before the gap over it unwarned (no gap under 2.5 packet cycles, 0.5 s)."""
     m = mission.slice(0, 60)

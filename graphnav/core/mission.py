@@ -56,7 +56,7 @@ IMU_GAP_GYRO_SIGMA = 1e-3
 #: about as L^2 below it, not as L (the true samples of simulated missions, seeds 1-3 navigation + 4 tactical, gaps
 #: every 1.37 s: rms velocity error per axis <= 0.7 mm/s at 0.2 s, 8.4 mm/s at 1 s, 58 mm/s at 2 s; attitude 0.02,
 #: 0.56, 4.2 mrad). Held at sigma * L, a driver's lost read of 0.2 s (0.021 m/s) undid as much velocity knowledge as
-#: the filter had (0.022 m/s from a 1 Hz DVL) and moved the end of a 120 s run by 0.26-0.59 m where the
+#: the filter had (0.022 m/s from a 1 Hz DVL) and moved the end of a 120 s run by 0.26-0.45 m where the
 #: interpolation itself costs about 1 cm (docs/decisions/loading-and-prepare.md).
 IMU_GAP_SIGMA_LENGTH_S = 2.0
 #: Bridging may add at most this many interpolated samples per recorded one: more means the stamps are not in
