@@ -637,9 +637,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warn_dvl_sideways(dvl, config, meta, field, why, fixes, reference)
     # a few degrees are read at the DVL's stamps with their sigma: the best scale's offset, up to 20 s off, is noise
     # for them; and a turn beyond 10 deg there that the best offset missed is said too
-    yaw, sigma, r2 = _turn_at(model)
-    if r2 >= MIN_SCALE_R2 and not turned and not dvl_turn:      # not a quarter turn
-        warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
+    if not turned and not dvl_turn:                 # not a quarter turn
+        yaw, sigma, r2 = _turn_at(model)
+        if r2 >= MIN_SCALE_R2:
+            warn_small_turn(dvl, meta, field, fixes, yaw, sigma, r2)
     ratio, explained = flu_fit_ratio(model, imu, dvl, config)
     if explained >= MIN_FLU_EXPLAINED and ratio >= FLU_SSE_RATIO:
         raise DataError(f"the DVL velocity fits the IMU's accelerations {ratio:.3g}x better with its y and z "

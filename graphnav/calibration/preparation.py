@@ -287,7 +287,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         turn, dl, dl_sigma = dvl_scale.turn_and_lever_against_reference(*pings)
         # with a given offset too: a DVL in another frame follows the GT at no offset near it. Said by the turn
         # alone: a lever-arm correction lets x and y swapped fit a turn of 77 deg
-        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, dvl_scale.turn_against_reference(*pings))
+        _check_dvl_follows_gt(est.rms, mission.dvl.source, g, imu, pings)
         field = "/".join(AKIT_COLUMNS["DVL"][1:4])
         dvl_scale.warn_turn_against_reference(turn, mission.dvl, meta, field, dvl_scale.AKIT_DVL_FIXES, g.source)
         span = float(np.ptp(t_dvl)) if len(t_dvl) else 0.0
@@ -462,12 +462,12 @@ def detect_akit_axis_signs(mission: Mission, gt_mean_depth_m: float | None):
 
 
 def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu: ImuData | None = None,
-                          turn: tuple[float, float, float] | None = None) -> None:
+                          pings: tuple | None = None) -> None:
     """DataError when the DVL velocity cannot be the GT's at any offset (see :data:`DVL_GT_RMS_MAX_MPS`). It
     names the DVL file and its velocity columns, unless the GT ``gt`` disagrees with itself or with the gyro of
     ``imu`` (:func:`graphnav.io.units.reference_inconsistencies`): the GT file is then named as the likelier fault.
-    ``turn``: the DVL's turn about z against the GT's body velocity
-    (:func:`graphnav.calibration.dvl_scale.turn_against_reference`), said when it explains the misfit."""
+    ``pings``: the arguments of :func:`graphnav.calibration.dvl_scale.turn_against_reference`; the DVL's turn about z
+    against the GT's body velocity, fitted only for the refusal, is said when it explains the misfit."""
     if not rms > DVL_GT_RMS_MAX_MPS:
         return
     text = (f"the DVL velocity does not follow the ground truth's body velocity at any time offset (RMS residual "
@@ -485,9 +485,10 @@ def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu
         raise DataError(f"{text}, and the ground truth disagrees with itself: {'; '.join(s for _, s in found)}. "
                         f"The ground truth is the likelier fault (its units or angle conventions), not the DVL "
                         f"({source})", str(gt.source), field=columns[found[0][0]])
-    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, GT_MIN_YAW_RAD, MIN_SCALE_R2, YAW_SIGMAS
+    from graphnav.calibration.dvl_scale import (AKIT_DVL_FIXES, GT_MIN_YAW_RAD, MIN_SCALE_R2, YAW_SIGMAS,
+                                                turn_against_reference)
     from graphnav.io.loaders import AKIT_COLUMNS
-    yaw, sigma, r2 = turn if turn is not None else (np.nan, np.nan, np.nan)
+    yaw, sigma, r2 = turn_against_reference(*pings) if pings is not None else (np.nan, np.nan, np.nan)
     # x and y swapped on a vehicle moving forward fit a quarter turn as well: the turn is said beside the frame
     said = (f"; the turn fit finds its velocity turned {np.degrees(yaw):+.1f} +- {np.degrees(sigma):.1f} deg about z "
             f"from the ground truth's (explaining {r2:.2f} of its horizontal velocity): a DVL mounted turned, its "

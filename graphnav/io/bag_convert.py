@@ -230,14 +230,14 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     elif has_sigma.size and has_sigma.any():
         info["dvl_v_d_sigma"] = (f"not used: the message's covariance is missing on {int((~has_sigma).sum())} of "
                                  f"{has_sigma.size} valid pings (the configuration's noise is used)")
-    no_beams = ~valid.any(axis=1)
-    unusable = no_beams & ~v_ok
+    beamless = ~valid.any(axis=1)
+    unusable = beamless & ~v_ok
     if unusable.any():
         count_refused(meta, "dvl", "no valid beam and no valid velocity", int(unusable.sum()))
         warnings.warn(f"{source}:{s.topic}: {int(unusable.sum())} DVL ping(s) with no valid beam and no valid "
                       f"velocity (first at {located(np.flatnonzero(unusable), where=messages(s, t0_ns), first=True)}) "
                       "are not used", RuntimeWarning, stacklevel=2)
-    if s.msgtype == TWIST_DVL or (no_beams.all() and v_ok.any()):
+    if s.msgtype == TWIST_DVL or (beamless.all() and v_ok.any()):
         add_note(meta, "dvl", f"velocity-only DVL ({s.msgtype}): the instrument's velocity v_d is used, no beams")
     # The instrument's body-frame velocity (v_b) where it has beams too; pings without >= 3 beams leave it NaN.
     v_b = np.where((valid.sum(axis=1) >= 3)[:, None], v_d @ config.dvl.C_d_b.T, np.nan)
