@@ -26,11 +26,11 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.imu_timing import imu_rate_hz
 from graphnav.core.screening import (
     IMU_SPIKE_NOISE_FACTOR,
     ImuSpikeTest,
     imu_noise_scale,
-    imu_rate_hz,
     imu_spike_floors,
     imu_spike_rows,
     imu_spikes,

@@ -657,7 +657,7 @@ def _burst_stamps(n_cycles=2000, cycle_s=0.03, per_burst=3, spacing_s=1e-4):
 
 
 def test_imu_rate_of_clean_stamps_bursts_and_gaps():
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     rng = np.random.default_rng(0)
     clean = np.arange(6000) * 0.01 + rng.normal(0.0, 1e-5, 6000)
     assert imu_rate_hz(clean) == pytest.approx(100.0, rel=1e-3)
@@ -676,7 +676,7 @@ def test_stutters_at_the_configured_rate_are_gaps_not_bursts():
     0.2 s hiccups in sixteen steps fixed its period at 57.5 ms (gap limit 0.5 s) for good: a median step at the
     configured period confirms it, and the long steps are gaps."""
     from graphnav.core.config import SensorConfig
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     from graphnav.estimators.keyframes import Keyframer
     rng = np.random.default_rng(3)
     steps = np.where(rng.random(4000) < 0.25, rng.uniform(0.03, 0.04, 4000), 0.01)
@@ -755,7 +755,7 @@ def test_an_imu_in_packets_runs_at_its_samples_over_time_with_no_gaps_and_no_sta
     steps were long for bursts, so the keyframer read 1e+05 Hz and bridged about 200 gaps, and from k = 9 on the first
     packet was also called a burst the stream starts with. The rate is samples over time (100 Hz, as configured: no
     warning), no gap, no burst; so is the rate of the whole log."""
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     from graphnav.estimators.keyframes import Keyframer
     stamps = _burst_stamps(200, cycle_s=0.01 * k, per_burst=k, spacing_s=1e-5)
     keyframer = Keyframer(SensorConfig())
@@ -901,7 +901,7 @@ def test_two_imu_dropouts_among_a_streams_first_stamps_leave_its_spike_test_on()
     """A clean 100 Hz IMU stream with two 0.5 s dropouts among its first eleven stamps: read as packets, its spike
     test measured 7.4 Hz and stayed off for the whole stream. Packets need three cycles (and the spike test is given
     the configured period): 100 Hz."""
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     t = np.r_[0.0, 0.01, 0.02, 0.03, 0.54, 0.55, 0.56, 0.57, 1.08, 1.09, 1.1, 1.11]
     assert imu_rate_hz(t) == pytest.approx(100.0)
     assert imu_rate_hz(t, 100.0) == pytest.approx(100.0)
@@ -1034,7 +1034,7 @@ def test_an_imu_with_stamps_in_whole_milliseconds_reads_its_rate_not_the_median_
     """400 Hz logged in ms has steps of 2 and 3 ms: the median read 333 Hz; the mean step reads 400 Hz, in
     the batch rate and in a live stream's keyframer (which measures over more steps and says why)."""
     from graphnav.core.config import SensorConfig
-    from graphnav.core.screening import imu_rate_hz, imu_stamp_quantum
+    from graphnav.core.imu_timing import imu_rate_hz, imu_stamp_quantum
     from graphnav.estimators.keyframes import Keyframer
     t = _ms_stamps()
     assert imu_stamp_quantum(np.diff(t)) == pytest.approx(1e-3, rel=1e-6)
@@ -1101,7 +1101,7 @@ def test_packets_are_found_and_ended_by_one_rule_however_far_apart_their_samples
     """Packets of 10 whose samples are 1 ms or 0.3-1.5 ms apart (a serial driver) were found, but split only where a
     step was under a tenth of the period: the stamps restamped in part, read as 1000 or 399 Hz. The same long steps
     now find and end them. Packets of 2 read as even or as packets as the log was cut."""
-    from graphnav.core.screening import imu_packet_limit, imu_step_stats, restamp_packets
+    from graphnav.core.imu_timing import imu_packet_limit, imu_step_stats, restamp_packets
     true = np.arange(6000) * 0.01
     i = np.arange(true.size)
     inner = np.random.default_rng(0).uniform(3e-4, 1.5e-3, true.size)
@@ -1397,7 +1397,7 @@ def test_an_imu_in_packets_losing_samples_off_their_boundaries_reads_its_rate():
     """600 s of packets of 20 at 100 Hz with 30 losses of 0.5-2.5 s that cut packets: the losses counted as one cycle
     per lost packet read 98.946 Hz (their cut packets' missing samples counted as time) and a log was restamped at
     10.1 ms. Whole packets lost (2 %) read 100 Hz as they did."""
-    from graphnav.core.screening import imu_step_stats
+    from graphnav.core.imu_timing import imu_step_stats
     rng = np.random.default_rng(1)
     stamps = _in_packets(np.arange(60000) * 0.01, 20)
     whole = ~np.repeat(rng.random(3000) < 0.02, 20)
@@ -1511,7 +1511,7 @@ def test_an_imu_on_a_clock_coarser_than_its_period_losing_samples_is_put_on_an_e
     ppm over an hour: no one even grid fits, and the whole log was refused ("fit no even grid"). It is put on an even
     grid in stretches, a new one where the line stops fitting, each sample within its stamp's grid step give or take
     half a period (a period late where a stretch must begin after the one before), the stamps increasing."""
-    from graphnav.core.screening import restamp_shared_stamps
+    from graphnav.core.imu_timing import restamp_shared_stamps
     rng = np.random.default_rng(3)
     true = 1.7e9 + np.arange(12001) * 0.005
     keep = np.ones(true.size, bool)
@@ -1540,7 +1540,8 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_with_jitter_is_put_on_an_even
     edge) and a 64 Hz IMU on Windows' 15.625 ms timer were refused as duplicated stamps. Their repeated stamps and
     empty grid steps alternate: they are put on an even grid at samples over time, each sample within 5 ms of its
     time, the note naming the clock. An even log with rows written twice and samples lost is refused as before."""
-    from graphnav.core.screening import imu_rate_hz, stamp_order
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import stamp_order
     for rate, grid, jitter, ppm, seed in ((100.0, 0.01, 3e-4, 50.0, 0), (100.0, 0.01, 1e-3, -30.0, 1),
                                           (64.0, 0.015625, 1e-3, 60.0, 2)):
         true, t = _drifting_clock(rate, grid, 20000, jitter, ppm, seed)
@@ -1564,7 +1565,7 @@ def test_an_imu_on_a_clock_between_one_and_two_periods_is_a_clock_not_packets_or
     duplicated stamps. Their short or repeated stamps come regularly, as a clock's do, not at random as samples lost
     from packets or rows written twice: read as a clock, at their rate. The 50 Hz in whole 10 ms with jitter (steps
     of 10, 20, 30 ms) reads 50 Hz, not 60 Hz."""
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     for rate, grid, jitter, seed in ((190.0, 0.01, 0.0, 0), (195.0, 0.01, 0.0, 1), (100.0, 0.0156, 1e-3, 1),
                                      (100.0, 0.0156, 1e-3, 2), (128.0, 0.01, 0.0, 3)):
         true, t = _drifting_clock(rate, grid, 12000, jitter, 0.0, seed)
@@ -1627,7 +1628,8 @@ def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at
     are dropped with a warning and the log reads 100 Hz as read. The same rows with other values are no copies: the
     stamps are those of an IMU a fiftieth faster than its clock, read so (every 100th: too few repeats to show a clock,
     refused as duplicated stamps)."""
-    from graphnav.core.screening import imu_rate_hz, stamp_order
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import stamp_order
     even = 100.0 + np.arange(6000) * 0.01
     values = np.random.default_rng(3).normal(size=(6000, 6))
     for every in (50, 37, 100):
@@ -1657,7 +1659,8 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_n
     98.9-99.8 Hz. An empty grid step with no repeated stamp to pair it now ends a stretch: every sample within 8 ms of
     its time, no further than as read, each moved within its grid step give or take half a period (the note's
     promise), at 100 Hz; stamps no grid keeps so are left as read, said, and refused as duplicated."""
-    from graphnav.core.screening import imu_rate_hz, stamp_order
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import stamp_order
     for seed, lost in ((3, 0.02), (4, 0.005), (5, 0.005), (10, 0.02), (11, 0.02)):
         true, t = _drifting_clock(100.0, 0.01, 12000, 1e-3, 0.0, seed)
         keep = np.random.default_rng(seed + 100).random(t.size) > lost
@@ -1667,9 +1670,9 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_n
         assert error.max() < 0.008 and error.max() <= np.abs(t - true).max()
         assert np.all(stamps - t >= -0.005 - 1e-6) and np.all(stamps - t <= 0.015 + 1e-6)
         assert imu_rate_hz(stamps) == pytest.approx(100.0, rel=1e-3)
-    import graphnav.core.screening as screening      # a grid that would move a sample out of its band: as read
-    original = screening._place_stretches
-    monkeypatch.setattr(screening, "_place_stretches", lambda s, *args: original(s, *args) + 0.02)
+    import graphnav.core.imu_timing as imu_timing      # a grid that would move a sample out of its band: as read
+    original = imu_timing._place_stretches
+    monkeypatch.setattr(imu_timing, "_place_stretches", lambda s, *args: original(s, *args) + 0.02)
     with pytest.warns(RuntimeWarning, match="no even grid keeps every sample within its grid step"):
         with pytest.raises(DataError, match="time stamp duplicated"):
             stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
@@ -1699,7 +1702,7 @@ def test_an_imu_slower_than_its_clock_grid_reads_samples_over_time():
     54.86 Hz, their lost samples' 30 ms steps kept: a step after which the samples sit a period later is left out. An
     even 100 Hz log losing 10 % at random still reads 100 Hz, and 98 Hz in whole 10 ms (every 50th step 20 ms) is
     read as 100 Hz losing every 50th sample: the stamps cannot tell them apart."""
-    from graphnav.core.screening import imu_rate_hz
+    from graphnav.core.imu_timing import imu_rate_hz
     for rate in (70.0, 80.0, 66.67, 98.0):
         t = _drifting_clock(rate, 0.01, 3000, 0.0, 0.0, 1)[1]
         assert imu_rate_hz(t) == pytest.approx(100.0 if rate == 98.0 else rate, rel=2e-4)

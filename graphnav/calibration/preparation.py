@@ -127,13 +127,13 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
 
 
 def _restamped_packets(mission: Mission, meta: dict) -> Mission:
-    """The mission with the stamps of an IMU in packets or bursts (:func:`~graphnav.core.screening.imu_step_stats`:
-    a cycle longer than its period) put back on its period (:func:`~graphnav.core.screening.restamp_packets`),
+    """The mission with the stamps of an IMU in packets or bursts (:func:`~graphnav.core.imu_timing.imu_step_stats`:
+    a cycle longer than its period) put back on its period (:func:`~graphnav.core.imu_timing.restamp_packets`),
     warned about and noted once, with their count in ``meta["streams"]["imu"]["restamped"]``. Integrated at their
     packet's stamp, k samples made zero-length steps then one k periods long (a column-map log in packets of 20:
     VRMSE 0.098 m/s against 0.0026 from even stamps). Even stamps, gaps and stutters are no packets and keep their
     stamps; so do stamps the reader restamped already (packets sharing one stamp: one finding, one count)."""
-    from graphnav.core.screening import imu_packet_limit, imu_step_stats, packets_note, restamp_packets, say_restamp
+    from graphnav.core.imu_timing import imu_packet_limit, imu_step_stats, packets_note, restamp_packets, say_restamp
     if meta.get("streams", {}).get("imu", {}).get("restamped"):
         return mission
     t = mission.imu.t
@@ -157,12 +157,12 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
 
 
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
-    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.screening.imu_rate_hz`)
+    """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.imu_timing.imu_rate_hz`)
     when the configured one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in
     ``meta``. The keyframer's gap limit and
     bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
     use the stamps themselves."""
-    from graphnav.core.screening import imu_rate_hz, imu_stamp_quantum
+    from graphnav.core.imu_timing import imu_rate_hz, imu_stamp_quantum
     configured = float(mission.config.imu_rate_hz)
     measured = imu_rate_hz(mission.imu.t, configured, IMU_RATE_TOLERANCE)
     _check_restamped_rate(meta, measured, mission.imu.source)

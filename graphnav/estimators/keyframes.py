@@ -55,7 +55,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
-from graphnav.core.screening import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
+from graphnav.core.imu_timing import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
     BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, PACKET_LOSS_CYCLES, awaits_packet_cycles, clock_words, imu_packet_limit,
     imu_stamp_quantum, imu_step_stats, packets_note, quantised_clock, restamp_packets, shared_stamp_packets,
     start_burst, start_burst_warning)
@@ -160,12 +160,12 @@ class ImuPeriod:
     """The IMU period gaps are judged against, s. A batch mission's configuration carries the measured rate
     (:func:`graphnav.calibration.preparation.prepare`); a live stream's configuration line may name another rate
     (100 Hz for an IMU at 20 Hz would make every step a gap). So the period is the median of the first
-    :data:`IMU_RATE_STEPS` steps (:func:`~graphnav.core.screening.imu_step_stats`: samples over time for stamps in
+    :data:`IMU_RATE_STEPS` steps (:func:`~graphnav.core.imu_timing.imu_step_stats`: samples over time for stamps in
     bursts, the mean step for stamps quantised coarser than a tenth of it, measured then over as many steps as make
     the grid :data:`IMU_QUANTISED_SPAN_SHARE` of their span) when it is off the configured one by more than
     :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE` (warned once), the configured one otherwise; before those
     steps, the longer of the configured one and the shortest step so far. Gaps are judged against the longer of
-    the period and a burst's cycle. A burst the stream starts with (:func:`~graphnav.core.screening.start_burst`:
+    the period and a burst's cycle. A burst the stream starts with (:func:`~graphnav.core.imu_timing.start_burst`:
     a driver's buffer emptied at once, 50 samples 0.1 ms apart read ``runs at 1e+04 Hz``) is left out of those steps,
     warned and counted (:attr:`start_burst`)."""
 
@@ -246,7 +246,7 @@ class ImuPeriod:
         :data:`BURST_STEP_SHARE` of the configured period comes in bursts (a driver stamping on receipt), and its
         long step is a gap only when its samples so far fall short of the configured rate by more than a bridged
         gap adds (bursts of three every 30 ms at 100 Hz bridged their first five cycles as gaps); after a gap, only
-        when longer than :data:`~graphnav.core.screening.PACKET_LOSS_CYCLES` of the packets' cycles so far."""
+        when longer than :data:`~graphnav.core.imu_timing.PACKET_LOSS_CYCLES` of the packets' cycles so far."""
         limit = IMU_GAP_PERIODS * self.period_s if t > self._restamped_after else self.gap_limit_s
         if not dt > limit:
             return False
@@ -286,12 +286,12 @@ class ImuPeriod:
 
 class PacketStamps:
     """A live IMU's samples put back on its period when it comes in packets or bursts (k samples stamped together on
-    receipt), as :func:`~graphnav.core.screening.restamp_packets` does a log's: integrated at their packet's stamp they
+    receipt), as :func:`~graphnav.core.imu_timing.restamp_packets` does a log's: integrated at their packet's stamp they
     make zero-length steps then one k periods long. Its first :data:`IMU_RATE_STEPS` steps (or three packet cycles,
-    :func:`~graphnav.core.screening.awaits_packet_cycles`; a burst it starts with left out,
-    :func:`~graphnav.core.screening.start_burst`) decide, by :func:`~graphnav.core.screening.imu_step_stats`;
+    :func:`~graphnav.core.imu_timing.awaits_packet_cycles`; a burst it starts with left out,
+    :func:`~graphnav.core.imu_timing.start_burst`) decide, by :func:`~graphnav.core.imu_timing.imu_step_stats`;
     they and every sample of an IMU that is no packets pass with their own stamps. Then a packet ends at the next
-    long step (:func:`~graphnav.core.screening.imu_packet_limit`) or a step back, and leaves restamped, spread back
+    long step (:func:`~graphnav.core.imu_timing.imu_packet_limit`) or a step back, and leaves restamped, spread back
     from its last stamp; one of the typical size (:meth:`typical_size`) leaves with its last sample (no latency for
     packets of one size), a smaller one with the next packet's first sample (one cycle later: the Navigator holds
     its reorder buffer back meanwhile, :meth:`release_limit`, so that the packet is not squeezed into the time left).
@@ -308,7 +308,7 @@ class PacketStamps:
     stream no longer comes in packets, and its samples pass as received again; a stream decided no packets is decided
     again from a step within a packet on (:meth:`_reopen`: a driver changing its read mode). An IMU that is no packets
     but whose stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with
-    jitter, a 64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.screening.quantised_clock`
+    jitter, a 64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.imu_timing.quantised_clock`
     over its latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits
     for the next distinct stamp and is placed after its stamp at the period within the room before that one
     (:meth:`_place_repeats`). One sample to a stamp is never packets; packets sharing one stamp whose counts come to
@@ -490,8 +490,8 @@ class PacketStamps:
 
     def _watch_clock(self, t: float, last: float) -> bool:
         """Whether the stamps of an IMU that is no packets, ``t`` (s) the newest after ``last``, come from a clock
-        about as coarse as its period or coarser: once :data:`~graphnav.core.screening.CLOCK_PATTERN_STAMPS` stamps
-        repeated, at each repeat :func:`~graphnav.core.screening.quantised_clock` over the latest
+        about as coarse as its period or coarser: once :data:`~graphnav.core.imu_timing.CLOCK_PATTERN_STAMPS` stamps
+        repeated, at each repeat :func:`~graphnav.core.imu_timing.quantised_clock` over the latest
         :data:`CLOCK_WATCH_STAMPS` decides (a clean IMU with a row written twice now and then has no clock's pattern);
         found, it is said once (:attr:`note`) and :attr:`clock` set."""
         if self.clock is None and not self.period_s:
@@ -561,10 +561,10 @@ class PacketStamps:
 
     def _decide_shared(self, t: float, last: float) -> None:
         """Decide on the stamps so far once one repeats: packets sharing one stamp when
-        :func:`~graphnav.core.screening.shared_stamp_packets` says so over the whole packets received, four stamps or
+        :func:`~graphnav.core.imu_timing.shared_stamp_packets` says so over the whole packets received, four stamps or
         more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
         downstream), a packet ending at any step; a clock coarser than the period
-        (:func:`~graphnav.core.screening.quantised_clock`) is said once and passes as received, a sample repeating a
+        (:func:`~graphnav.core.imu_timing.quantised_clock`) is said once and passes as received, a sample repeating a
         stamp placed after it (:meth:`_on_clock`); else the steps decide."""
         self._ties = self._ties or [last]
         whole = self._ties[1:] if t > last else []          # the first may be the end of a packet

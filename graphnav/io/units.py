@@ -13,7 +13,7 @@ percentile 8.84, 99th 10.75; median |omega| 0.0073-0.045 rad/s, maximum 0.62 rad
 1.6-2.1 m/s, maximum 2.8 m/s; none of them is converted by any check, ``tests/test_units.py``):
 
 * **Stamps.** The median sample step (an IMU's period from
-  :func:`~graphnav.core.screening.imu_step_stats`: samples over time for stamps in packets) must be a plausible
+  :func:`~graphnav.core.imu_timing.imu_step_stats`: samples over time for stamps in packets) must be a plausible
   period for the stream
   (:data:`PLAUSIBLE_PERIOD_S`: an IMU runs at 2 Hz..5 kHz, a DVL pings at 1/60..100 Hz, a depth sensor at
   1/60 Hz..1 kHz). Seconds are kept when plausible; otherwise the one of ms/us/ns that makes the step
@@ -143,7 +143,7 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     step = np.diff(t)
     med = float(np.median(step))
     if stream == "imu":     # packets stamped on receipt: 0.01 ms steps or one stamp each, yet a 10 ms period
-        from graphnav.core.screening import imu_step_stats, shared_stamp_packets
+        from graphnav.core.imu_timing import imu_step_stats, shared_stamp_packets
         packets = shared_stamp_packets(t)
         med = packets[2] if packets else imu_step_stats(step)[0] if med > 0 else med
     lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))

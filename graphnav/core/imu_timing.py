@@ -1,0 +1,804 @@
+"""When each IMU sample was taken: the IMU's rate from its stamps, and stamps put back where the samples were measured.
+
+A stamp is when a logger or a driver wrote a sample down, which is not always when the IMU measured it: a driver
+stamps a packet of samples on receipt, a logger's clock may be as coarse as the IMU's period or coarser, a driver's
+buffer may empty at once. Integrated at such stamps, samples make zero-length steps and then long ones. From the
+stamps alone, in this order:
+
+* **A file's stamps as read** (:func:`restamp_shared_stamps`, which the readers' IMU stamps go through in
+  :func:`graphnav.core.screening.stamp_order` before they must increase): stamps from a clock coarser than the IMU's
+  period or about as coarse (:func:`quantised_clock`) are put on one even grid, in stretches
+  (:func:`restamp_quantised`); else packets sharing one stamp (:func:`shared_stamp_packets`) are spread back from
+  their stamp at the period (:func:`restamp_packets`); else samples that jitter moved onto the stamp before on a grid
+  finer than the period (:func:`grid_repeats`) are placed after it. A row equal to the one before it at such a stamp
+  is a sample, not a copy (:func:`_samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
+  duplicated-stamp error, which says what they look like (:func:`stamped_in_packets`).
+* **The rate** (:func:`imu_rate_hz`, :func:`imu_step_stats`): the median step of even stamps; the mean one-period
+  step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
+  clock's grid; samples over time without the gaps for stamps in packets or bursts (:func:`imu_packet_limit`: the
+  step that ends one). ``prepare`` puts distinct stamps in packets back on the period with the same
+  :func:`restamp_packets` and uses the measured rate where the configured one is off; the IMU spike tests of
+  :mod:`graphnav.core.screening` take their windows in rows from it.
+* **A live stream** (the keyframer, the stream's spike test): a burst the stream starts with (:func:`start_burst`)
+  is left out of its rate, and no rate is measured while packets have too few cycles to tell
+  (:func:`awaits_packet_cycles`).
+
+Every restamping is warned about and noted once (:func:`say_restamp`: the count in
+``meta["streams"]["imu"]["restamped"]``, the period in ``"restamp_period_s"``). Why, and the numbers measured:
+docs/decisions/loading-and-prepare.md ("An IMU at another rate than configured"). What a sample's stamp means once
+it is right: :mod:`graphnav.core.imu_stamps`.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from graphnav.core.streams import add_note, set_span
+
+#: Steps an IMU arriving in packets is measured over at most, while it has not three packets' cycles
+#: (:func:`awaits_packet_cycles`; the keyframer and the stream's spike test): packets of up to about 120 samples.
+IMU_PACKET_STEPS = 256
+
+
+#: Share of an IMU's steps off their median (under half or over twice it) above which its stamps come in bursts (a
+#: driver stamping messages on receipt: three samples 0.1 ms apart every 30 ms have 1/3 of their steps off; even
+#: stamps with dropped samples or gaps have a few).
+IMU_BURST_SHARE = 0.2
+#: A step longer than this many burst cycles (the median of the long steps) is a gap, left out of a burst stream's rate.
+IMU_BURST_GAP_CYCLES = 4.0
+
+
+#: A step under this share of the configured IMU period is within a burst (stamps on receipt), not one period long.
+BURST_STEP_SHARE = 0.1
+#: A stream whose first this many steps or more are within a burst (:data:`BURST_STEP_SHARE`) starts with one: a
+#: driver's buffer emptied at once. Its steps are left out of the rate a stream measures (half of the keyframer's 16
+#: steps: a median over them is the burst's). Fewer, as at the start of a stream in bursts of three, are kept.
+IMU_START_BURST_STEPS = 8
+#: A run of burst steps at a stream's start lasting this many configured periods is the IMU's own rate (an IMU ten
+#: times faster than configured), not a burst: its steps are measured.
+IMU_START_BURST_PERIODS = 16
+
+
+def start_burst(steps, period_s: float) -> int | None:
+    """How many of a stream's first ``steps`` between IMU stamps (s) are a burst at its start (:data:`
+    IMU_START_BURST_STEPS` or more steps under :data:`BURST_STEP_SHARE` of the configured ``period_s`` before a longer
+    one that a step as long follows), 0 for none; None while undecided (every step so far is that short, over less
+    than :data:`IMU_START_BURST_PERIODS` periods, or the step after the first longer one is to come). A short step
+    after the longer one is the next of an IMU's packets (k samples stamped together every k periods): the start was
+    one too, no burst."""
+    short = BURST_STEP_SHARE * period_s
+    n = next((i for i, d in enumerate(steps) if not d < short), None)
+    if n is None:
+        return None if sum(steps) < IMU_START_BURST_PERIODS * period_s else 0
+    if n < IMU_START_BURST_STEPS:
+        return 0
+    if len(steps) == n + 1:
+        return None
+    return 0 if steps[n + 1] < short else n
+
+
+def start_burst_warning(n_steps: int, t_end: float, span_s: float) -> str:
+    """What a stream says of the burst of ``n_steps`` steps over ``span_s`` (s) ending at ``t_end`` (s) it starts
+    with (:func:`start_burst`)."""
+    return (f"imu: the stream starts with a burst of {n_steps + 1} samples within {1e3 * span_s:.3g} ms (t = "
+            f"{t_end - span_s:.4f} to {t_end:.4f} s; a driver's buffer emptied at once): their steps are left out of "
+            "the IMU's rate")
+
+
+#: Stamps on a grid coarser than this share of the IMU's step are quantised (a 400 Hz IMU logged in whole ms: steps
+#: of 2 and 3 ms on a 1 ms grid, whose median reads 333 or 500 Hz): their period is the mean step, not the median.
+IMU_STAMP_QUANTUM_SHARE = 0.1
+
+
+def step_lengths(steps) -> np.ndarray:
+    """The lengths (s) of the finite non-zero ``steps`` (s) between stamps, which an IMU's period is measured from."""
+    d = np.abs(np.asarray(steps, float))
+    return d[np.isfinite(d) & (d > 0.0)]
+
+
+def imu_stamp_quantum(steps: np.ndarray) -> float:
+    """The grid of an IMU's stamps from the steps between them (s), s, when it is coarser than
+    :data:`IMU_STAMP_QUANTUM_SHARE` of the median step: the steps within half a median of it take two or more
+    lengths, every one a multiple of the shortest difference between them; else 0 (even stamps, jitter finer than
+    the grid, stamps in bursts)."""
+    d = step_lengths(steps)
+    if not d.size:
+        return 0.0
+    med = float(np.median(d))
+    resolution = 1e-3 * med             # float stamps (Unix seconds) carry ~1e-7 s of rounding
+    near = d[np.abs(d - med) <= 0.5 * med]
+    lengths, which = np.unique(np.round(near / resolution), return_inverse=True)
+    if lengths.size < 2:
+        return 0.0
+    grid = float(np.min(np.diff(lengths)))
+    if not np.all(np.abs(lengths / grid - np.round(lengths / grid)) <= 1.0 / grid):
+        return 0.0
+    means = np.bincount(which, near) / np.bincount(which)          # each length as logged, not its rounding
+    quantum = float(np.min(np.diff(means)))
+    return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
+
+
+def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> float:
+    """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
+    grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
+    sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count. A grid
+    half the period or coarser (50 Hz in 10 ms with jitter: steps of 10, 20, 30 ms) puts a moved sample's steps a grid
+    step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
+    (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
+    step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
+    as read, ``d`` when None) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz)."""
+    near = np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med
+    first = float(np.mean(d[near]))
+    if quantum < 0.45 * first:
+        return float(np.mean(d[near][np.abs(d[near] - first) < 0.5 * first]))
+    for _ in range(2):
+        one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
+        first = float(np.mean(d[one & ~_lost_steps(d if steps is None else steps, first)]))
+    return first
+
+
+#: Samples on each side of a long step whose mean offsets from a line at the period tell a sample lost (they differ by
+#: a period) from one moved across a grid edge (they agree) on a grid over 0.45 of the period (:func:`_lost_steps`).
+LOST_STEP_SAMPLES = 10
+
+
+def _lost_steps(steps, period_s: float) -> np.ndarray:
+    """Which of the positive finite ``steps`` (s, as read, in order; :func:`step_lengths`) between stamps on a grid as
+    coarse as half the ``period_s`` (s) or more span a lost sample: over 1.45 periods, and the samples after them
+    (:data:`LOST_STEP_SAMPLES`) a period or more later against a line at the period than those before (half of it
+    decides). A sample moved across a grid edge lengthens one step and shortens the next, so the line holds (50 Hz in
+    whole 10 ms: a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
+    d = np.abs(np.asarray(steps, float))
+    d = d[np.isfinite(d)]
+    n = LOST_STEP_SAMPLES
+    off = np.r_[0.0, np.cumsum(d)] - np.arange(d.size + 1) * period_s
+    total = np.r_[0.0, np.cumsum(off)]
+    c = np.arange(d.size)
+    a, b = np.maximum(c + 1 - n, 0), np.minimum(c + 1 + n, off.size)
+    jump = (total[b] - total[c + 1]) / (b - c - 1) - (total[c + 1] - total[a]) / (c + 1 - a)
+    # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
+    peak = np.max(np.lib.stride_tricks.sliding_window_view(np.pad(jump, n - 1, constant_values=-np.inf),
+                                                           2 * n - 1), axis=1)
+    return ((d > 1.45 * period_s) & (jump > 0.5 * period_s) & (jump >= peak))[d > 0.0]
+
+
+def awaits_packet_cycles(steps, period_s: float) -> bool:
+    """Whether a stream's IMU ``steps`` so far (s) are an IMU's packets (steps under :data:`BURST_STEP_SHARE` of the
+    configured ``period_s`` and longer ones) whose cycles do not make packets for :func:`in_packets` yet (fewer than
+    three, or a lost packet's double cycle among three or four), and :data:`IMU_PACKET_STEPS` not reached: a rate
+    measured now would be the packets' inner step (packets of 4 or 5 samples gave two cycles in a spike test's eleven
+    stamps and read 100 kHz; packets of 20 with the second lost read 1e+05 Hz and bridged every later packet)."""
+    d = np.asarray(steps, float)
+    long = d > 2.0 * float(np.median(d))
+    return (0 < int(np.sum(long)) and not in_packets(d, long) and float(np.median(d[~long])) < 0.5 * period_s
+            and d.size < IMU_PACKET_STEPS)
+
+
+def in_packets(d: np.ndarray, long: np.ndarray) -> bool:
+    """Whether IMU steps ``d`` (s; ``long``: those over twice their median) are an IMU's packets, k samples stamped
+    together every k periods: too few long steps for :data:`IMU_BURST_SHARE` from k = 5 on, yet two or more, most
+    within half of their median (a regular cycle, where gaps have any length; three of them at least), the others under
+    :data:`BURST_STEP_SHARE` of the time (a stream at its rate with gaps spends more between them)."""
+    cycles = d[long]
+    # three cycles at least: two gaps of a clean stream among its first stamps fit the rest as well (a stream's spike
+    # test read 7.4 Hz from two 0.5 s dropouts in eleven stamps and stayed off)
+    if cycles.size < 3 or np.sum(d[~long]) >= BURST_STEP_SHARE * np.sum(d):
+        return False
+    cycle = np.median(cycles)
+    return bool(np.mean(np.abs(cycles - cycle) <= 0.5 * cycle) >= 0.8)
+
+
+#: A share of an IMU's steps at least this large under :data:`BURST_STEP_SHARE` of its configured period, with
+#: regular longer steps between them (:func:`in_packets`), is packets whatever the median step: packets of 2 make as
+#: many short steps as long ones, and their median fell between them (read as even) or on either side as the log
+#: was cut.
+PACKET_SHORT_SHARE = 1.0 / 3.0
+
+
+def _long_step_limit(d: np.ndarray, med: float, expected_s: float | None, tolerance: float) -> float:
+    """The step (s) over which one of an IMU's positive steps ``d`` (s; ``med`` their median, or the quantised
+    period) ends a packet or burst: twice the median when :func:`in_packets` or :data:`IMU_BURST_SHARE` says so, a
+    tenth of the ``expected_s`` period when :data:`PACKET_SHORT_SHARE` of the steps are that short
+    (:func:`in_packets` over the longer ones, whose median is over 1.5 periods: a stream half even, half in packets
+    is no packets of its even steps); inf for even stamps (a median within ``tolerance`` of
+    ``expected_s`` is even whatever the long steps: gaps and stutters)."""
+    long = d > 2.0 * med
+    packets = in_packets(d, long)
+    if expected_s is not None:
+        limit = BURST_STEP_SHARE * expected_s
+        ends = d > limit        # a packet's long step spans all but its samples' short ones: over 1.5 periods
+        if (not packets and np.mean(~ends) >= PACKET_SHORT_SHARE and in_packets(d, ends)
+                and np.median(d[ends]) > 1.5 * expected_s):
+            return limit
+        if abs(med - expected_s) <= tolerance * expected_s:
+            return math.inf
+    if not packets and (np.mean(long | (d < 0.5 * med)) <= IMU_BURST_SHARE or not np.any(long)):
+        return math.inf
+    return 2.0 * med
+
+
+def _positive_steps(steps) -> tuple[np.ndarray, float]:
+    """The positive finite ``steps`` (s) and their median, or the mean one-period step of stamps quantised coarser
+    than a tenth of it (:func:`imu_stamp_quantum`), or samples over time of a clock slower than its grid
+    (:func:`_slower_than_grid`), s."""
+    d = step_lengths(steps)
+    if not d.size:
+        return d, math.nan
+    med = float(np.median(d))
+    quantum = imu_stamp_quantum(d)
+    return d, _quantised_period(d, med, quantum, steps) if quantum else (_slower_than_grid(steps, med) or med)
+
+
+#: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its
+#: clock's grid (:func:`_slower_than_grid`): fewer (98 Hz in whole 10 ms: every 50th step) cannot be told from an IMU
+#: at the grid's rate losing samples regularly, and read at the grid's rate.
+SLOWER_CLOCK_SHARE = 0.05
+
+
+def _slower_than_grid(steps, grid_s: float) -> float | None:
+    """The period (s) of IMU ``steps`` (s, as read: 0 for a repeated stamp) on a ``grid_s`` grid (s, their median) that
+    leave grid steps empty as an IMU slower than the grid does (70 Hz in whole 10 ms: steps of 10 and 20 ms, 30 % of
+    them 20): :data:`SLOWER_CLOCK_SHARE` of the steps or more two grid steps long or more, at least
+    :data:`CLOCK_PATTERN_STAMPS`, :data:`ALTERNATING_SHARE` of them spaced by two consecutive lengths (a sample lost
+    shifts the pattern once), or :data:`BALANCED_SHORT_STAMPS` whose samples to a grid step are :func:`_balanced`;
+    samples over time, steps of three grid steps or more left out. None else: samples lost at random (their spacing
+    spreads: 10 % lost puts 19 % of it on two lengths), or too few."""
+    raw = np.abs(np.asarray(steps, float))
+    n = np.round(raw[np.isfinite(raw)] / grid_s)
+    if not n.size or np.mean(np.abs(raw[np.isfinite(raw)] / grid_s - n) <= 0.01) < QUANTISED_GRID_SHARE:
+        return None
+    empty = np.flatnonzero(n >= 2)
+    if empty.size < max(CLOCK_PATTERN_STAMPS, SLOWER_CLOCK_SHARE * n.size):
+        return None
+    spacing = np.bincount(np.diff(empty))
+    if not (np.max(spacing[:-1] + spacing[1:]) >= ALTERNATING_SHARE * (empty.size - 1) or (
+            empty.size >= BALANCED_SHORT_STAMPS and _balanced(np.ones(n.size), n))):
+        return None
+    return float(grid_s * np.sum(n[n <= 2]) / np.sum(n <= 2))
+
+
+def imu_packet_limit(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05) -> float:
+    """The step (s) over which one of an IMU's ``steps`` (s) ends a packet or burst, by the rule
+    :func:`imu_step_stats` measures them with (``expected_s``, ``tolerance``: the configured period and how near a
+    median step confirms it); inf for even stamps or none."""
+    d, med = _positive_steps(steps)
+    return _long_step_limit(d, med, expected_s, tolerance) if d.size else math.inf
+
+
+def imu_step_stats(steps: np.ndarray, expected_s: float | None = None, tolerance: float = 0.05
+                   ) -> tuple[float, float]:
+    """``(period, cycle)`` of an IMU from the steps between its stamps (s; out-of-order and repeated stamps left
+    out), s: for even stamps both are the median step, for stamps quantised coarser than a tenth of it
+    (:func:`imu_stamp_quantum`) the mean one-period step; for stamps in packets or bursts (the long steps of
+    :func:`imu_packet_limit` end them) the period is the mean step without the gaps (so the rate is samples over
+    time) and the cycle the median time from a packet's last stamp to the next's (its long step alone leaves out
+    the time inside a packet: packets of 10 0.6 ms apart read 9; in regular packets the packets either side of a
+    loss are left out, :func:`_whole_packet_steps`: packets of 20 with one lost among the first five read 80 Hz,
+    packets of 2 with five lost 108 Hz). A median step within ``tolerance``
+    (relative) of the ``expected_s`` period (the configured one) is that period whatever the long steps, unless a
+    share of the steps under a tenth of it makes packets: they are gaps and stutters, not bursts (a start with four
+    0.2 s hiccups in sixteen steps read 57.5 ms). NaN without a positive finite step."""
+    d, med = _positive_steps(steps)
+    if not d.size:
+        return math.nan, math.nan
+    long = d > _long_step_limit(d, med, expected_s, tolerance)
+    if not np.any(long):
+        return med, med
+    ends = np.flatnonzero(long)
+    between = np.diff(np.cumsum(d)[ends])
+    cycle = float(np.median(between if between.size else d[long]))
+    span = slice(ends[0] + 1, ends[-1] + 1) if ends.size >= 2 else slice(None)  # whole bursts: a cut one biases
+    whole = d[span]                                                                # a short count
+    keep = whole <= IMU_BURST_GAP_CYCLES * cycle
+    if in_packets(d, long):
+        kept = _whole_packet_steps(d, long, cycle)[span]      # a loss before the span may cut its first packet
+        keep = kept if np.any(kept) else keep
+    return float(np.mean(whole[keep])), cycle
+
+
+#: A step from one of an IMU's packets to the next longer than this many packet cycles is a loss (samples or packets
+#: lost), not a cycle of packets of varying size.
+PACKET_LOSS_CYCLES = 1.5
+
+
+def _whole_packet_steps(steps: np.ndarray, ends: np.ndarray, cycle_s: float) -> np.ndarray:
+    """Which of an IMU's ``steps`` (s; ``ends``: those ending a packet) in packets every ``cycle_s`` (s) make its rate:
+    all but those of a packet whose long step is a loss (:data:`PACKET_LOSS_CYCLES`) and of the packet after it. A
+    loss's samples are not counted, so neither is its time; one that cuts packets leaves them short on either side of
+    its long step, their time a whole cycle each (counting the loss as one cycle per lost packet read 98.9 Hz for
+    100 Hz)."""
+    packet = np.cumsum(ends) - ends         # a packet's long step ends it: it belongs to the packet before
+    lost = np.unique(packet[ends & (steps > PACKET_LOSS_CYCLES * cycle_s)])
+    return ~np.isin(packet, np.r_[lost, lost + 1])
+
+
+def restamp_packets(t: np.ndarray, period_s: float, limit_s: float, after: float = -math.inf) -> np.ndarray:
+    """IMU stamps ``t`` (s, increasing) with each packet (a run of samples whose steps are at most ``limit_s``, s,
+    :func:`imu_packet_limit`: a packet or burst stamped on receipt) spread backward from its last stamp (the receipt:
+    its samples were measured before it) at ``period_s`` (s), so that each sample's stamp is the start of its own
+    interval again; a run with too little room after the one before it (or ``after``, s) is spread evenly over that
+    room. A sample alone keeps its stamp, bit for bit (gaps stay gaps)."""
+    t = np.asarray(t, float)
+    if not t.size:
+        return t.copy()
+    ends = np.r_[np.flatnonzero(np.diff(t) > limit_s), t.size - 1]
+    run = np.searchsorted(ends, np.arange(t.size))
+    step = np.minimum(period_s, np.diff(np.r_[after, t[ends]]) / np.diff(np.r_[-1, ends]))
+    back = ends[run] - np.arange(t.size)
+    return np.where(back > 0, t[ends][run] - back * step[run], t)
+
+
+def packets_note(k: int, cycle_s: float, period_s: float, which: str | None) -> str:
+    """What restamping an IMU in packets of ``k`` every ``cycle_s`` (s) at ``period_s`` (s) did to ``which`` stamps
+    (a stream note and a warning); ``which`` None: the stamps were left as read, since restamped they were not on
+    the period."""
+    found = (f"stamped in packets of {k} (every {1e3 * cycle_s:.4g} ms; a driver stamping samples on receipt): "
+             f"{which or 'no stamps'} restamped at the period {1e3 * period_s:.4g} ms")
+    if which is None:
+        return found + (": spread back from each packet's last stamp they are not on that period, so they are "
+                        "integrated as read")
+    early = f"{k - 1} period{'s' * (k > 2)}, {1e3 * (k - 1) * period_s:.4g} ms"
+    return found + (", each packet spread back from its last stamp, taken as its last sample's (a driver stamping "
+                    f"a packet's first sample leaves them {early}, early)")
+
+
+def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: float = 0.05) -> float:
+    """The IMU's rate from its stamps ``t`` (s), Hz: 1 / the period of :func:`imu_step_stats` (the median step, or
+    samples over time for stamps in bursts; gaps do not lower it; ``expected_hz``, ``tolerance``: the configured rate
+    that a median step near it confirms); NaN with fewer than two distinct finite stamps."""
+    expected = None if expected_hz is None else 1.0 / expected_hz
+    return 1.0 / imu_step_stats(np.diff(np.asarray(t, float)), expected, tolerance)[0]
+
+
+#: Share of the steps between an IMU's shared stamps within a hundredth of their median above which the packets come
+#: at a steady cycle (a driver reading k samples at a time) and their period is the cycle over k: samples over time
+#: read 10.48 ms for packets of 10 at 100 Hz with 5 % of the samples lost.
+STEADY_CYCLE_SHARE = 0.9
+
+
+def stamp_runs(t: np.ndarray) -> tuple[int, float, np.ndarray, np.ndarray] | None:
+    """``(k median run, cycle s, steps s, counts)`` of stamps ``t`` (s) most of which repeat in runs (four distinct
+    stamps or more, half of them repeated; the steps between them, their median the cycle), else None: packets
+    sharing a stamp for :func:`shared_stamp_packets` and for a duplicated-stamp message (:func:`stamped_in_packets`)."""
+    stamps, counts = np.unique(np.asarray(t, float), return_counts=True)
+    if stamps.size < 4 or np.mean(counts > 1) < 0.5:
+        return None
+    d = np.diff(stamps)
+    return int(np.median(counts)), float(np.median(d)), d, counts
+
+
+def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
+    """``(k, cycle s, period s)`` of IMU stamps ``t`` (s, file order) that come in packets sharing one stamp (a driver
+    stamping each read of k samples with its receipt, or a 400 Hz IMU in packets of 4 logged in whole ms): never
+    decreasing, most in runs (:func:`stamp_runs`), the steps between the runs a regular cycle (most within
+    half of their median: gaps have any length); the period is the cycle over the median count where the cycle is
+    steady (:data:`STEADY_CYCLE_SHARE` of the steps within a hundredth of it: samples lost from such packets do not
+    lengthen it) and the counts hold (:func:`counts_vary`), else samples over time, steps over
+    :data:`IMU_BURST_GAP_CYCLES` cycles left out. None else: a few repeated stamps in an even file are no packets."""
+    t = np.asarray(t, float)
+    runs = None if t.size < 2 or np.any(np.diff(t) < 0) else stamp_runs(t)
+    if runs is None:
+        return None
+    k, cycle, d, counts = runs
+    if np.mean(np.abs(d - cycle) <= 0.5 * cycle) < 0.8:
+        return None
+    # counts above k (a clock coarser than a period it does not divide: 205 Hz in whole 10 ms) make cycle / k the
+    # wrong period; short packets are samples lost
+    if np.mean(np.abs(d - cycle) <= 0.01 * cycle) >= STEADY_CYCLE_SHARE and not counts_vary(counts):
+        return k, cycle, cycle / k
+    # each step holds the samples of the packet it ends: they were measured since the stamp before
+    inside = d <= IMU_BURST_GAP_CYCLES * cycle
+    return k, cycle, float(np.sum(d[inside]) / np.sum(counts[1:][inside]))
+
+
+#: Share of a quantised clock's distinct stamps, and of the steps between them, that lie on its grid (within a
+#: hundredth of a grid step) (:func:`quantised_clock`).
+QUANTISED_GRID_SHARE = 0.99
+#: Share of the stamps (first and last left out) holding one sample more than most do, above which they vary:
+#: a clock coarser than an IMU's period whose ratio to it is no whole number (200 Hz in whole 10 ms with 0.5 ms
+#: jitter: a quarter hold 3; 202 Hz: 2 %); a driver's regular packets hold their count, fewer where samples are lost.
+VARYING_COUNT_SHARE = 1e-3
+
+
+#: Stamps showing a clock's pattern needed before it is believed: stamps holding one sample fewer than most do, spaced
+#: by two consecutive lengths only (:func:`counts_vary`), or repeated stamps alternating with empty grid steps
+#: (:func:`_clock_at_period`); a driver's packets losing a sample, or an even log with a row written twice, make one.
+CLOCK_PATTERN_STAMPS = 10
+#: Stamps holding one sample fewer than most do, at least this many, whose cumulative count (less its mean) spans
+#: under :data:`BALANCED_COUNT_SPAN` samples, are a clock's with jitter (100 Hz on Windows' 15.6 ms timer with 1 ms
+#: of jitter: 44 % hold 1, the rest 2, spanning 2.9 at most over 40 draws of 30000 samples), where 100 samples lost
+#: at random from packets span 5.7 or more (1000 draws in 1000 to 200000 stamps).
+BALANCED_SHORT_STAMPS = 100
+BALANCED_COUNT_SPAN = 4.0
+
+
+def counts_vary(counts: np.ndarray) -> bool:
+    """Whether the samples to a stamp (``counts``, in stamp order) vary as a clock's do: one more than their median
+    more often than :data:`VARYING_COUNT_SHARE`, or one fewer at :data:`CLOCK_PATTERN_STAMPS` stamps or more spaced
+    by two consecutive lengths only (190 Hz in whole 10 ms: every tenth stamp holds 1, the others 2), or at
+    :data:`BALANCED_SHORT_STAMPS` or more not wandering off a line (such a clock with jitter). Samples lost
+    from packets fall short at random (5 % lost from packets of 10 leaves 40 % short, spaced anyhow); twice as many
+    is a packet written twice; the first and last stamps may hold a part of a packet or grid step."""
+    inner = counts[1:-1]
+    if not inner.size:
+        return False
+    med = np.median(counts)
+    short = np.flatnonzero(inner == med - 1)
+    spacing = np.diff(short)
+    regular = spacing.size >= CLOCK_PATTERN_STAMPS - 1 and np.ptp(spacing) <= 1
+    regular |= short.size >= BALANCED_SHORT_STAMPS and _balanced(inner)
+    return bool(np.mean(inner == med + 1) > VARYING_COUNT_SHARE or regular)
+
+
+def _balanced(counts: np.ndarray, steps: np.ndarray | None = None) -> bool:
+    """Whether the cumulative sum of ``counts`` (samples to a stamp; ``steps``: the grid steps to each stamp from the
+    one before, 1 each when None) stays within :data:`BALANCED_COUNT_SPAN` samples of the line through its ends
+    against the grid steps, as a clock's does (each sample in its own grid step, give or take jitter); samples lost
+    or written twice at random wander off it."""
+    at = np.cumsum(np.ones(counts.size) if steps is None else steps)
+    total = np.cumsum(counts)
+    return bool(np.ptp(total - total[-1] / at[-1] * at) < BALANCED_COUNT_SPAN)
+
+
+def _clock_events(counts: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """The repeated stamps (+1) and empty grid steps (-1) of distinct stamps holding ``counts`` samples ``steps`` grid
+    steps apart, in time order (a step lies between its stamps)."""
+    repeated = np.flatnonzero(counts > 1)
+    where = np.r_[repeated, np.flatnonzero(steps > 1) + 0.5]
+    return np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][np.argsort(where)]
+
+
+def _repeats_unpaired(counts: np.ndarray, steps: np.ndarray) -> bool:
+    """Whether fewer grid steps are empty (``steps`` grid steps between distinct stamps over 1) than half the stamps
+    repeated (``counts`` over 1): a sample pushed across a grid edge repeats one stamp and empties another."""
+    return bool(np.sum(steps > 1) < 0.5 * np.sum(counts > 1))
+
+
+def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order) from a clock coarser than the IMU's period (a 200
+    Hz IMU logged in whole 10 ms with jitter, 205 Hz in whole 10 ms): stamps that :func:`shared_stamp_packets` would
+    take for packets, whose steps and offsets from the first stamp are multiples of a grid (their median step,
+    rounded to the microsecond: Unix seconds carry ~1e-7 s of rounding) at least 1.5 periods long, holding varying
+    counts (:func:`counts_vary`). The period is samples over time, each stamp holding the samples up to the next (a
+    clock truncating to its grid), steps over two grid steps left out. None else: a driver's packets sharing a
+    receipt stamp, whose count is constant (fewer where samples are lost) even where the stamps fall on multiples of
+    the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell). Stamps
+    no packets, fewer than half of them repeated, may be a clock about as coarse as the period
+    (:func:`_clock_at_period`)."""
+    t = np.asarray(t, float)
+    if shared_stamp_packets(t) is None:
+        return _clock_at_period(t)
+    grid, d, counts, on_grid = _stamp_grid(t)
+    inside = d <= 2.0 * grid
+    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    if not on_grid or grid < 1.5 * period or not counts_vary(counts):
+        return None
+    return grid, period
+
+
+def _stamp_grid(t: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
+    """``(grid s, steps s, counts, on it)`` of stamps ``t`` (s, never decreasing): the median step between distinct
+    stamps, rounded to the microsecond (Unix seconds carry ~1e-7 s of rounding), those steps, the samples each stamp
+    holds, and whether :data:`QUANTISED_GRID_SHARE` of the steps and of the offsets from the first stamp are
+    multiples of the grid."""
+    stamps, counts = np.unique(t, return_counts=True)
+    stamps = stamps - stamps[0]
+    d = np.diff(stamps)
+    grid = float(np.median(d))
+    grid = round(grid, 6) if grid >= 1e-4 else grid
+
+    def on(x):
+        return np.mean(np.abs(x / grid - np.round(x / grid)) <= 0.01) >= QUANTISED_GRID_SHARE
+
+    return grid, d, counts, bool(on(d) and on(stamps))
+
+
+#: Share of a clock's repeated stamps and empty grid steps, in time order, followed by the other kind above which they
+#: are sampling jitter across the grid's edges on a clock as coarse as the IMU's period (:func:`_clock_at_period`).
+ALTERNATING_SHARE = 0.8
+
+
+def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order, never decreasing) from a clock about as coarse as
+    the IMU's period (100 Hz logged in whole 10 ms with jitter, a 64 Hz IMU on Windows' 15.625 ms timer, 128 Hz in
+    whole 10 ms): on a grid, most steps one grid step, fewer than half the stamps repeated
+    (:data:`CLOCK_PATTERN_STAMPS` or more), and the repeated stamps and empty grid steps alternating
+    (:data:`ALTERNATING_SHARE`: samples pushed across a grid edge leave a step empty before or after them, samples
+    in between one step late), or :data:`BALANCED_SHORT_STAMPS` repeated or more and the samples to a grid step
+    :func:`_balanced`. The period is samples over time, steps over two grid steps left out. None else: rows written
+    twice and samples lost in an even log come in any order."""
+    if t.size < 4 or np.any(np.diff(t) < 0) or np.all(np.diff(t) > 0):
+        return None
+    grid, d, counts, on_grid = _stamp_grid(t)
+    steps = np.round(d / grid)
+    if not on_grid or d.size < 3 or np.mean(steps == 1) < 0.5:
+        return None
+    repeated = np.flatnonzero(counts > 1)
+    kind = _clock_events(counts, steps)
+    balanced = repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1])
+    if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or balanced):
+        return None
+    inside = steps <= 2
+    return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+
+
+#: Samples on each side of a repeated stamp whose mean offset from a line at the period tells jitter that moved a
+#: sample across a grid edge (the offset holds) from a row written twice or a sample lost (it moves by a period):
+#: a second at 50 Hz, the offset known to 0.3 ms on a 10 ms grid (:func:`grid_repeats`).
+REPEAT_CHECK_SAMPLES = 50
+
+
+def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
+    """``(grid s, period s, stamps s, moved)`` of IMU stamps ``t`` (s, file order, never decreasing) on a grid finer
+    than their steps (:func:`imu_stamp_quantum`: 50 Hz in whole 10 ms with jitter, steps of 10, 20, 30 ms) where jitter
+    moved ``moved`` samples across a grid edge into the step of the one before: each repeat keeps the mean offset
+    from a line at the period over :data:`REPEAT_CHECK_SAMPLES` samples on either side (within half a period) and is
+    placed on the grid after its stamp (:func:`place_repeats`) before the next. None else: stamps without such a grid
+    (an even log's), or a repeat the grid cannot explain (a row written twice shifts the samples after it by a
+    period; no empty grid step to place it in)."""
+    t = np.asarray(t, float)
+    d = np.diff(t)
+    if t.size < 4 or np.any(d < 0) or np.all(d > 0):
+        return None
+    grid = imu_stamp_quantum(d)
+    s = t - t[0]
+    if not grid or np.any(np.abs(s / grid - np.round(s / grid)) > 0.01):
+        return None
+    period = _positive_steps(d)[1]
+    repeats = np.flatnonzero(d == 0) + 1
+    total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period)]
+    n = REPEAT_CHECK_SAMPLES
+    for r in repeats:       # the pair r - 1, r left out: their offsets are the jitter
+        a, b = max(0, r - 1 - n), min(s.size, r + 1 + n)
+        if a == r - 1 or b == r + 1:
+            return None
+        before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
+        if not abs(after - before) < 0.5 * period:
+            return None
+    placed = place_repeats(t, repeats, period, grid)
+    return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
+
+
+def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
+    """IMU stamps ``t`` (s, never decreasing) with each of the ``repeats`` (indexes of samples repeating the stamp
+    before them) placed after its stamp at j x step (the j-th repeat of it), the step the period ``period_s`` (s) or
+    the room to the next stamp shared among the stamp's samples, whichever is less, in whole ``grid_s`` (s): a step
+    off the grid would make the grid look finer than it is (a 5 ms grid read 52.5 Hz for 50 Hz in whole 10 ms)."""
+    t = np.asarray(t, float)
+    stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
+    at = np.searchsorted(stamps, t[repeats])
+    room = np.r_[np.diff(stamps), math.inf][at] / counts[at]
+    step = np.floor(np.minimum(period_s, room) / grid_s + 1e-6) * grid_s
+    out = t.copy()
+    out[repeats] = t[repeats] + (repeats - first[at]) * step
+    return out
+
+
+def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
+    samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
+    :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
+    grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
+    repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge: its copies are rows
+    written twice."""
+    clock = quantised_clock(t)
+    packets = None if clock else shared_stamp_packets(t)
+    if clock and clock[0] < 1.5 * clock[1]:
+        grid, d, counts, _ = _stamp_grid(t)
+        clock = None if _repeats_unpaired(counts, np.round(d / grid)) else clock
+    if clock is None and packets is None:
+        return np.zeros(rows.size, bool)
+    most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
+    _, first = np.unique(t, return_index=True)
+    return rows - first[np.searchsorted(t[first], t[rows])] < most
+
+
+#: How far (in periods) a sample of a clock coarser than its period may be put outside its stamp's grid step:
+#: sampling jitter moves samples across the grid's edges (0.5 ms at 200 Hz in 10 ms: a quarter of the steps hold 3).
+QUANTISED_SLACK_PERIODS = 0.5
+
+
+def restamp_quantised(t: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray | None, float, int]:
+    """IMU stamps ``t`` (s, never decreasing) from a clock on a ``grid_s`` grid coarser than the IMU's period put on an
+    even grid at the period (s) over each stretch, the period, and the number of stretches (``period_s``: the
+    samples over time :func:`quantised_clock` measured, which the stretches refine). A stretch lasts while
+    one line at the period keeps every sample within its stamp's grid step (give or take
+    :data:`QUANTISED_SLACK_PERIODS`): it ends where samples are lost or the rate drifts, and starts again at a
+    stamp; on a clock about as coarse as the period also where :func:`_lost_samples` says a sample was lost (the
+    band spans two periods there: a line a period off fitted). Its offset is the least-squares one through the
+    mid-points of the grid steps (each sample after its stamp, mid-way on average, as a clock truncating to its grid
+    stamps them), held inside that band (:func:`_place_stretches`). The period is samples over time within the
+    stretches, refined four times (samples lost make samples over the whole time too slow; 2 % lost at 200 Hz with
+    0.5 ms jitter: 5.10 ms, 5.04 ms refined). The stamps are None where a sample would leave its band (the note's
+    promise): the caller leaves them as read."""
+    t = np.asarray(t, float)
+    s = t - t[0]                    # Unix seconds: the offsets are exact, the grid arithmetic then holds
+    period = period_s
+    lost = _lost_samples(t, grid_s) if grid_s < 1.5 * period_s else np.zeros(0, int)
+    for _ in range(4):
+        starts = _even_stretches(s, grid_s, period, lost)
+        period = _pooled_period(s + 0.5 * grid_s, starts, period)
+    starts = _even_stretches(s, grid_s, period, lost)
+    placed = _place_stretches(s, grid_s, period, starts)
+    slack = QUANTISED_SLACK_PERIODS * period + 1e-9 * grid_s
+    if np.any(placed < s - slack) or np.any(placed > s + grid_s + slack):
+        return None, period, starts.size
+    return t[0] + placed, period, starts.size
+
+
+def _lost_samples(t: np.ndarray, grid_s: float) -> np.ndarray:
+    """Where (indexes, at a stamp's first sample) stamps ``t`` (s, never decreasing) from a clock about as coarse as the
+    IMU's period on a ``grid_s`` grid (s) lost samples: after an empty grid step next to another among the clock's
+    repeated stamps and empty steps in time order (jitter pairs each empty step with a repeat), or a step of three
+    grid steps or more; none where they do not alternate (:data:`ALTERNATING_SHARE`: a clock slower than its grid
+    leaves steps empty without repeats). A line at the period fits a lost sample's stretch a period off: the grid
+    step and the jitter's slack span two periods."""
+    stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
+    steps = np.round(np.diff(stamps) / grid_s)
+    kind = _clock_events(counts, steps)
+    if kind.size < 2 or np.mean(kind[1:] != kind[:-1]) < ALTERNATING_SHARE:
+        return np.zeros(0, int)
+    empty = np.flatnonzero(steps > 1)                   # in time order, as their events in kind
+    lone = (kind[1:] == -1) & (kind[:-1] == -1)
+    at = (np.cumsum(kind == -1) - 1)[np.r_[lone, False] | np.r_[False, lone]]
+    return first[1:][np.union1d(empty[at], np.flatnonzero(steps > 2))]
+
+
+def _stretch_index(n: int, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(stretch, k)`` of ``n`` samples cut at ``starts``: each sample's stretch and its index within it."""
+    stretch = np.cumsum(np.isin(np.arange(n), starts)) - 1
+    return stretch, np.arange(n) - starts[stretch]
+
+
+def _pooled_period(mid: np.ndarray, starts: np.ndarray, period_s: float) -> float:
+    """The least-squares period (s) of the grid steps' mid-points ``mid`` (s), one offset a stretch (``starts``);
+    ``period_s`` when no stretch spans two stamps."""
+    stretch, k = _stretch_index(mid.size, starts)
+    n = np.bincount(stretch)
+    dk = k - (np.bincount(stretch, k) / n)[stretch]
+    dm = mid - (np.bincount(stretch, mid) / n)[stretch]
+    return float(np.sum(dk * dm) / np.sum(dk * dk)) if np.any(dm) else period_s
+
+
+def _band(s: np.ndarray, grid_s: float, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Running bounds (s) on the offset of a line at ``period_s`` through relative stamps ``s`` (s) from their first
+    that keeps each sample within its grid step, give or take :data:`QUANTISED_SLACK_PERIODS`."""
+    slack = QUANTISED_SLACK_PERIODS * period_s
+    at = s - np.arange(s.size) * period_s
+    return np.maximum.accumulate(at - slack), np.minimum.accumulate(at + grid_s + slack)
+
+
+def _even_stretches(s: np.ndarray, grid_s: float, period_s: float, lost=()) -> np.ndarray:
+    """Where the stretches of relative stamps ``s`` (s, never decreasing) begin (indexes, at a stamp's first
+    sample, or within a stamp holding more samples than its grid step fits) over which one line at ``period_s`` (s)
+    fits (:func:`_band`), and at each of ``lost`` (indexes where samples were lost)."""
+    first = np.searchsorted(s, s, "left")
+    ends = np.r_[np.asarray(lost, int), s.size]
+    starts, i = [], 0
+    while i < s.size:
+        starts.append(i)
+        end, window = int(ends[ends > i][0]), 1024
+        while True:
+            lo, hi = _band(s[i:min(i + window, end)], grid_s, period_s)
+            bad = np.flatnonzero(hi <= lo)
+            if bad.size or i + window >= end:
+                break
+            window *= 4
+        if not bad.size:
+            i = end
+            continue
+        j = i + int(bad[0])
+        i = first[j] if first[j] > i else j
+    return np.asarray(starts)
+
+
+def _place_stretches(s: np.ndarray, grid_s: float, period_s: float, starts: np.ndarray) -> np.ndarray:
+    """Relative stamps ``s`` (s) on a line at ``period_s`` (s) over each stretch (``starts``): the least-squares
+    offset through the grid steps' mid-points, held within :func:`_band`; where a stretch begins before the one
+    before it ends, that one's last samples are moved back to a thousandth of a period before the next."""
+    out, gap = np.empty_like(s), 1e-3 * period_s
+    before = -math.inf
+    for a, b in zip(starts, np.r_[starts[1:], s.size]):
+        k = np.arange(b - a) * period_s
+        lo, hi = _band(s[a:b], grid_s, period_s)
+        offset = min(max(float(np.mean(s[a:b] + 0.5 * grid_s - k)), lo[-1]), hi[-1])
+        out[a:b] = min(max(offset, before + gap), hi[-1]) + k
+        before = out[b - 1]
+    return _ordered(out, gap)
+
+
+def _ordered(x: np.ndarray, gap: float) -> np.ndarray:
+    """``x`` with each value held at least ``gap`` before the next, by moving it back."""
+    i = np.arange(x.size) * gap
+    return np.minimum.accumulate((x - i)[::-1])[::-1] + i
+
+
+def clock_words(grid_s: float, period_s: float, said: bool = True) -> str:
+    """``stamps on a G ms clock, coarser than / about as coarse as the IMU's P ms period`` (``grid_s``, ``period_s``
+    s; without P unless ``said``: measured on too few stamps), as the notes on such a clock, offline and live,
+    begin."""
+    coarse = "coarser than" if grid_s >= 1.1 * period_s else "about as coarse as"
+    period = f"{1e3 * period_s:.4g} ms period" if said else "period"
+    return f"stamps on a {1e3 * grid_s:.4g} ms clock, {coarse} the IMU's {period}"
+
+
+def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: str, stretches: int = 1) -> str:
+    """What putting the stamps of a clock on a ``grid_s`` grid coarser than the IMU's ``period_s`` (s; ``counts``
+    the samples each stamp held) on an even grid in ``stretches`` did to ``which`` stamps (a note and a warning)."""
+    where = ("one even grid" if stretches == 1 else f"an even grid in {stretches} stretches (a new one where samples "
+             "were lost or the rate drifted off the line)")
+    empty = "" if grid_s >= 1.1 * period_s else (", a stamp holding one more or one fewer where the rates differ or "
+                                                 "jitter moves a sample across the grid's edges")
+    return (f"{clock_words(grid_s, period_s)} ({int(counts.min())} "
+            f"to {int(counts.max())} samples to a stamp{empty}): {which} put on {where} at the period (samples over "
+            f"time), each sample at or after its stamp, within its grid step give or take half a period (a clock "
+            f"truncating to its grid, the usual logger; one rounding to it leaves them {1e3 * grid_s / 2:.4g} ms "
+            "late)")
+
+
+def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:
+    """IMU stamps ``t`` (s, file order) whose packets share one stamp (:func:`shared_stamp_packets`) with each
+    packet spread back from its stamp at the period (:func:`restamp_packets`), or from a clock coarser than the
+    period (:func:`quantised_clock`) put on an even grid (:func:`restamp_quantised`), or on a grid finer than the
+    period with samples moved into the step before by jitter (:func:`grid_repeats`) those placed after it, warned
+    about and noted once, their count in ``meta["streams"]["imu"]["restamped"]`` and the period in
+    ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
+    stamp: the file was refused, and its repair dropped k - 1 in k samples."""
+    clock = quantised_clock(t)
+    packets = None if clock else shared_stamp_packets(t)
+    jittered = None if clock or packets else grid_repeats(t)
+    if clock:
+        restamped, period, stretches = restamp_quantised(t, *clock)
+        if restamped is None:       # as read: its repeated stamps are refused as duplicates
+            warnings.warn(f"imu: {source}: {clock_words(clock[0], period)}: no even grid keeps every sample within "
+                          "its grid step give or take half a period; the stamps are left as read", RuntimeWarning,
+                          stacklevel=4)
+            return t
+        moved = int(np.sum(restamped != t))
+        note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
+                              stretches)
+    elif jittered:
+        grid, period, restamped, moved = jittered
+        note = (f"stamps on a {1e3 * grid:.4g} ms grid, finer than the IMU's {1e3 * period:.4g} ms period: {moved} "
+                f"of {t.size} repeat the stamp before (jitter moved a sample across the grid's edge: the samples on "
+                "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
+                "room before the next stamp later")
+    elif packets is None:
+        return t
+    else:
+        k, cycle, period = packets
+        restamped = restamp_packets(t, period, 0.0)
+        moved = int(np.sum(restamped != t))
+        note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
+    say_restamp(meta, source, note, 4, restamped, moved, period)
+    return restamped
+
+
+def say_restamp(meta: dict | None, source: str, note: str, stacklevel: int, restamped: np.ndarray | None = None,
+                moved: int = 0, period_s: float = math.nan) -> None:
+    """An IMU's restamping (``note``, of the file ``source``) warned about (``stacklevel`` as the caller's own) and
+    noted in ``meta``; when the ``restamped`` stamps (s) are kept, ``moved`` of them and the ``period_s`` (s) in
+    ``meta["streams"]["imu"]`` (``restamped``, ``restamp_period_s``) and its span theirs."""
+    warnings.warn(f"imu: {source}: {note}", RuntimeWarning, stacklevel=stacklevel + 1)
+    if meta is None:
+        return
+    entry = add_note(meta, "imu", note)
+    if restamped is not None:
+        entry.update(restamped=moved, restamp_period_s=period_s)
+        set_span(meta, "imu", restamped)
+
+
+def stamped_in_packets(t: np.ndarray) -> str:
+    """What a file's stamps ``t`` (s, in file order) say when most of them repeat in runs (:func:`stamp_runs`: a
+    driver stamping a packet of samples together on receipt, one stamp for 10 samples of a 100 Hz IMU, or 4 samples
+    of a 400 Hz IMU logged in whole ms), for a duplicated-stamp message; "" else."""
+    runs = stamp_runs(t)
+    if runs is None:
+        return ""
+    k, cycle = runs[:2]
+    return (f"; the stamps repeat in runs of {k} about every {1e3 * cycle:.4g} ms: packets of samples stamped "
+            f"together on receipt, a sample every {1e3 * cycle / k:.4g} ms; dropping the repeats loses "
+            f"{(k - 1) / k:.0%} of the samples: give each sample its own stamp (its packet's stamp less the periods "
+            "after it)")
