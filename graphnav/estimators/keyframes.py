@@ -319,8 +319,8 @@ class PacketStamps:
     over its latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits
     for the next distinct stamp and is placed after its stamp at the period within the room before that one
     (:meth:`_place_repeats`); once :data:`CLOCK_LINE_SAMPLES` samples are in, every sample goes on a line at the period
-    through its stamps' grid steps (:meth:`_on_line`). One sample to a stamp is never packets; packets sharing one stamp whose counts come to
-    vary as a clock's are that clock from then on (:meth:`_packets_were_clock`)."""
+    through its stamps' grid steps (:meth:`_on_line`). One sample to a stamp is never packets; packets sharing one
+    stamp whose counts come to vary as a clock's are that clock from then on (:meth:`_packets_were_clock`)."""
 
     def __init__(self, configured_s: float, window_s: float = 0.0):
         self.configured_s = configured_s
@@ -523,14 +523,14 @@ class PacketStamps:
         self._watch.clear()
         words = clock_words(*clock, said=span_s >= CLOCK_PERIOD_STEPS * clock[0])
         self.note = (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
-                     "sample, placed after that stamp at the period within the room before the next stamp, and after "
-                     f"{CLOCK_LINE_SAMPLES} samples every sample on a line at the period through the mid-points of their "
-                     "stamps' grid steps, fitted again as they come (counted in imu_restamped); "
+                     "sample, placed after that stamp at the period within the room before the next stamp, and "
+                     f"after {CLOCK_LINE_SAMPLES} samples every sample on a line at the period through the mid-points "
+                     "of their stamps' grid steps, fitted again as they come (counted in imu_restamped); "
                      f"{before}")
 
     def _packets_were_clock(self, clock: tuple[float, float], t: float, f: tuple, w: tuple, last: float,
                             after: float) -> list[tuple[float, tuple, tuple]]:
-        """Packets sharing one stamp whose counts came to vary as a clock's (:func:`~graphnav.core.screening.
+        """Packets sharing one stamp whose counts came to vary as a clock's (:func:`~graphnav.core.imu_timing.
         quantised_clock` over the stamps since they were decided): four grid steps of a 200 Hz IMU in whole 10 ms,
         or of 400 Hz, can hold a packet's count each. The held packet's first sample leaves at its stamp (unless a
         part of it left already), the rest are repeats placed before ``t`` (s), which passes (:meth:`_on_clock`)."""
@@ -563,7 +563,7 @@ class PacketStamps:
     def _on_line(self, t: float) -> float | None:
         """The time (s) of a sample stamped ``t`` (s) on a clock: on the least-squares line at the period through
         the mid-points of the grid steps of the latest :data:`CLOCK_WATCH_STAMPS` samples of its stretch, as offline
-        (:func:`~graphnav.core.screening.restamp_quantised`), fitted again every :data:`CLOCK_LINE_SAMPLES`. Left at
+        (:func:`~graphnav.core.imu_timing.restamp_quantised`), fitted again every :data:`CLOCK_LINE_SAMPLES`. Left at
         their stamps, the samples that do not repeat one are up to a grid step early at random (5.3 ms RMS for 100 Hz
         in whole 10 ms with 1 ms of jitter), which cost 0.05-0.11 m over 90 s where a constant offset of that size
         costs 0.01 m. None (the sample left to its stamp) for the first :data:`CLOCK_LINE_SAMPLES` of a stretch; a
