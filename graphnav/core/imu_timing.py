@@ -11,7 +11,7 @@ stamps alone, in this order:
   (:func:`restamp_quantised`); else packets sharing one stamp (:func:`shared_stamp_packets`) are spread back from
   their stamp at the period (:func:`restamp_packets`); else samples that jitter moved onto the stamp before on a grid
   finer than the period (:func:`grid_repeats`) are placed after it. A row equal to the one before it at such a stamp
-  is a sample, not a copy (:func:`_samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
+  is a sample, not a copy (:func:`samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
   duplicated-stamp error, which says what they look like (:func:`stamped_in_packets`).
 * **The rate** (:func:`imu_rate_hz`, :func:`imu_step_stats`): the median step of even stamps; the mean one-period
   step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
@@ -505,9 +505,22 @@ def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
     the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell). Stamps
     no packets, fewer than half of them repeated, may be a clock about as coarse as the period
     (:func:`_clock_at_period`)."""
+    return _clock_or_packets(t)[0]
+
+
+def _clock_or_packets(t: np.ndarray) -> tuple[tuple[float, float] | None, tuple[int, float, float] | None]:
+    """``(clock, packets)`` of IMU stamps ``t`` (s, file order): the clock's ``(grid s, period s)`` when they come
+    from one about as coarse as the IMU's period or coarser (:func:`quantised_clock`), else None and the packets
+    sharing one stamp (:func:`shared_stamp_packets`) or None; the packets test run once."""
     t = np.asarray(t, float)
-    if shared_stamp_packets(t) is None:
-        return _clock_at_period(t)
+    packets = shared_stamp_packets(t)
+    clock = _clock_at_period(t) if packets is None else _coarser_clock(t)
+    return clock, None if clock else packets
+
+
+def _coarser_clock(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of stamps ``t`` (s) that :func:`shared_stamp_packets` takes for packets when they come
+    from a clock coarser than the period (:func:`quantised_clock`), else None."""
     grid, d, counts, on_grid = _stamp_grid(t)
     inside = d <= 2.0 * grid
     period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
@@ -617,15 +630,14 @@ def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: f
     return out
 
 
-def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
     :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
     grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
     repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge: its copies are rows
     written twice."""
-    clock = quantised_clock(t)
-    packets = None if clock else shared_stamp_packets(t)
+    clock, packets = _clock_or_packets(t)
     if clock and clock[0] < 1.5 * clock[1]:
         grid, d, counts, _ = _stamp_grid(t)
         clock = None if _repeats_unpaired(counts, np.round(d / grid)) else clock
@@ -792,8 +804,7 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
     about and noted once, their count in ``meta["streams"]["imu"]["restamped"]`` and the period in
     ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
     stamp: the file was refused, and its repair dropped k - 1 in k samples."""
-    clock = quantised_clock(t)
-    packets = None if clock else shared_stamp_packets(t)
+    clock, packets = _clock_or_packets(t)
     jittered = None if clock or packets else grid_repeats(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
