@@ -292,6 +292,40 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_or_half_of_it_loads_at_its_ra
         assert np.max(np.abs(m.imu.t - clean.imu.t)) < 0.005
 
 
+def _column_map_with_imu_stamps(clean, stamps, folder):
+    """``clean``'s IMU at ``stamps`` (s) and its DVL beams written as a column-map folder under ``folder``; the map."""
+    for name, columns in (("imu", [stamps, clean.imu.f_b, clean.imu.omega_b]), ("dvl", [clean.dvl.t, clean.dvl.beams])):
+        rows = [",".join(f"{x!r}" for x in row) for row in np.column_stack(columns).tolist()]
+        header = "t,ax,ay,az,gx,gy,gz" if name == "imu" else "t,b1,b2,b3,b4"
+        (folder / f"{name}.csv").write_text("\n".join([header] + rows) + "\n")
+    return {"imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+            "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"]}}
+
+
+@pytest.mark.parametrize("reader", ["akit", "column map"])
+def test_the_imu_stream_shows_the_rate_it_is_taken_at_not_its_median_step(reader, tmp_path):
+    """A 70 Hz IMU on a 10 ms clock (steps of 10 and 20 ms) configured at 100 Hz is taken at 70 Hz, and a 98 Hz one
+    configured at 98 Hz at 98 Hz (every 50th step 20 ms: the stamps alone read 100 Hz), but the stream's entry, what
+    ``graphnav info`` prints, said 100 Hz, the median step, for every reader. It says the rate used."""
+    from graphnav.core.config import SensorConfig
+    for rate, configured in ((70.0, 100.0), (98.0, 98.0)):
+        simulated = 70.0 if rate == 70.0 else 100.0         # the simulator's rates divide its 10 Hz depth
+        clean = simulate_mission(duration_s=30.0, seed=1,
+                                 config=dataclasses.replace(SensorConfig(), imu_rate_hz=simulated))
+        stamps = np.floor(np.arange(clean.imu.t.size) / rate / 0.01 + 1e-9) * 0.01
+        folder = tmp_path / f"{reader}-{rate:g}"
+        folder.mkdir()
+        cfg = dataclasses.replace(clean.config, imu_rate_hz=configured).to_dict()
+        if reader == "akit":
+            folder = _akit_with_imu_stamps(clean, stamps, folder).parent
+        else:
+            cfg["csv_columns"] = _column_map_with_imu_stamps(clean, stamps, folder)
+        (tmp_path / "config.json").write_text(json.dumps(cfg))
+        m = _quiet(load_mission, folder, tmp_path / "config.json")
+        assert m.config.imu_rate_hz == pytest.approx(rate, rel=1e-3)
+        assert m.meta["streams"]["imu"]["rate_hz"] == m.config.imu_rate_hz
+
+
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])
 def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate_hz, k, quantum_s, tmp_path):
     """An A-KIT folder whose IMU packets share one stamp (10 samples to a stamp at 100 Hz; a 400 Hz IMU in packets of

@@ -1678,6 +1678,34 @@ def test_an_imu_on_a_clock_as_coarse_as_its_period_losing_samples_is_restamped_n
             stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
 
 
+def test_an_imu_on_a_clock_as_coarse_as_its_period_with_few_repeats_or_samples_lost_is_read_not_refused():
+    """100 Hz in whole 10 ms with 1 ms of jitter, its samples mid-step (1 to 9 of 12000 pushed across a grid edge),
+    or 0.5-2 % of its samples lost at random (their empty grid steps outnumbering the repeats, which then no longer
+    alternate with them), and a 64 Hz IMU on a 15.625 ms timer so, were refused as duplicated stamps: fewer than ten
+    repeats, or not alternating. A repeat beside an empty grid step is jitter however few, the other empty steps
+    samples lost: read on an even grid in stretches, errors as the other such logs'. An IMU slower than its grid
+    (80 Hz in whole 10 ms: a quarter of the steps empty) and an even log with rows written twice are refused as
+    before."""
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import stamp_order
+    for rate, grid, seed, lost in ((100.0, 0.01, 0, 0.0), (100.0, 0.01, 7, 0.005), (100.0, 0.01, 2, 0.02),
+                                   (100.0, 0.01, 5, 0.02), (64.0, 0.015625, 5, 0.005)):
+        true, t = _drifting_clock(rate, grid, 12000, 1e-3, 0.0, seed)
+        keep = np.random.default_rng(seed + 100).random(t.size) > lost
+        true, t = true[keep], t[keep]
+        meta, stamps = _imu_stamps_read_whole(t, rf"{1e3 * grid:.4g} ms clock, about as coarse as the IMU's")
+        error = stamps - true
+        assert np.max(np.abs(error)) < 0.9 / rate and np.sqrt(np.mean(error ** 2)) < 0.34 / rate
+        assert np.all(stamps - t >= -0.5 / rate - 1e-6) and np.all(stamps - t <= grid + 0.5 / rate + 1e-6)
+        assert imu_rate_hz(stamps) == pytest.approx(rate, rel=1e-3)
+    slower = _drifting_clock(80.0, 0.01, 12000, 1e-3, 0.0, 0)[1]
+    rng = np.random.default_rng(1)
+    even = (100.0 + np.arange(12000) * 0.01)[rng.random(12000) > 0.01]
+    for t in (slower[np.random.default_rng(0).random(slower.size) > 0.01], np.sort(np.r_[even, even[:10]])):
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+
+
 def test_an_imu_a_little_faster_than_its_clock_with_jitter_is_read_at_its_rate_on_one_grid():
     """104-106 Hz in whole 10 ms with 1 ms of jitter (8-9 % of the stamps repeated, fewer grid steps empty than half
     of them, the rows differing) were refused as duplicated stamps by a share of repeats asked of such a clock; rows

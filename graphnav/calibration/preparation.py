@@ -159,9 +159,9 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.imu_timing.imu_rate_hz`)
     when the configured one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in
-    ``meta``. The keyframer's gap limit and
-    bridging and the gravity levelling without GT read the configured rate; the screening and the preintegration
-    use the stamps themselves."""
+    ``meta``; ``meta["streams"]["imu"]["rate_hz"]`` (what ``graphnav info`` shows) is the rate used. The
+    keyframer's gap limit and bridging and the gravity levelling without GT read the configured rate; the screening
+    and the preintegration use the stamps themselves."""
     from graphnav.core.imu_timing import imu_rate_hz, imu_stamp_quantum
     configured = float(mission.config.imu_rate_hz)
     measured = imu_rate_hz(mission.imu.t, configured, IMU_RATE_TOLERANCE)
@@ -173,7 +173,11 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
                  f"{', '.join(f'{1e3 * d:.4g}' for d in np.unique(np.round(steps[steps < 1.5 / measured], 6)))} ms): "
                  f"the rate is their mean step, {measured:.4g} Hz, not the median's "
                  f"{1 / np.median(steps):.4g} Hz")
-    if not abs(measured - configured) > IMU_RATE_TOLERANCE * configured:      # NaN (one stamp): nothing to say
+    off = abs(measured - configured) > IMU_RATE_TOLERANCE * configured      # NaN (one stamp): nothing to say
+    if np.isfinite(measured) and "imu" in meta.get("streams", {}):
+        # the readers' median step read 100 Hz for a 70, 80 or 98 Hz IMU on a 10 ms clock
+        meta["streams"]["imu"]["rate_hz"] = float(measured if off else configured)
+    if not off:
         return mission
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "
              f"imu_rate_hz {configured:g} Hz: {measured:.4g} Hz is used")

@@ -11,7 +11,7 @@ stamps alone, in this order:
   (:func:`restamp_quantised`); else packets sharing one stamp (:func:`shared_stamp_packets`) are spread back from
   their stamp at the period (:func:`restamp_packets`); else samples that jitter moved onto the stamp before on a grid
   finer than the period (:func:`grid_repeats`) are placed after it. A row equal to the one before it at such a stamp
-  is a sample, not a copy (:func:`_samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
+  is a sample, not a copy (:func:`samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
   duplicated-stamp error, which says what they look like (:func:`stamped_in_packets`).
 * **The rate** (:func:`imu_rate_hz`, :func:`imu_step_stats`): the median step of even stamps; the mean one-period
   step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
@@ -442,12 +442,50 @@ def _balanced(counts: np.ndarray, steps: np.ndarray | None = None) -> bool:
     return bool(np.ptp(total - total[-1] / at[-1] * at) < BALANCED_COUNT_SPAN)
 
 
-def _clock_events(counts: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """The repeated stamps (+1) and empty grid steps (-1) of distinct stamps holding ``counts`` samples ``steps`` grid
-    steps apart, in time order (a step lies between its stamps)."""
+def _clock_events(counts: np.ndarray, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(kind, where)``: the repeated stamps (+1) and empty grid steps (-1) of distinct stamps holding ``counts``
+    samples ``steps`` grid steps apart, in time order, and where each lies in distinct stamps (a repeated stamp at
+    its index, an empty grid step half-way between its stamps)."""
     repeated = np.flatnonzero(counts > 1)
     where = np.r_[repeated, np.flatnonzero(steps > 1) + 0.5]
-    return np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][np.argsort(where)]
+    order = np.argsort(where, kind="stable")
+    return np.r_[np.ones(repeated.size), -np.ones(where.size - repeated.size)][order], where[order]
+
+
+#: How far apart, in distinct stamps, a repeated stamp and the empty grid step jitter left with it may lie (a sample
+#: pushed across a grid edge: the stamps in between hold their samples a step early or late; 100 Hz in whole 10 ms
+#: with 1 ms of jitter: 83 % beside each other, 99.4 % within this, two stamps between them at most).
+PAIR_STAMPS = 3
+
+
+def _alternating(kind: np.ndarray) -> bool:
+    """Whether a clock's events (:func:`_clock_events`) are followed by the other kind, :data:`ALTERNATING_SHARE` of
+    them or more: sampling jitter across the grid's edges, few samples lost."""
+    return kind.size >= 2 and bool(np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE)
+
+
+def _jitter_pairs(kind: np.ndarray, where: np.ndarray, steps: int) -> np.ndarray | None:
+    """Which of a clock's events (``kind``, ``where``: :func:`_clock_events`) pair a repeated stamp with an
+    empty grid step within :data:`PAIR_STAMPS` stamps, each event in one pair at most (nested as parentheses: two
+    samples pushed across, then their two empty steps), when :data:`ALTERNATING_SHARE` of the repeats or more are
+    paired and the empty steps left, samples lost, are under :data:`SLOWER_CLOCK_SHARE` of the ``steps`` between
+    distinct stamps: jitter across the grid's edges where samples were lost, however few repeats (100 Hz in whole 10 ms
+    with 1 ms of jitter, its samples mid-step: 1 to 9 repeats in 12000 stamps, among 60-240 steps left empty by 0.5-2 %
+    lost). None else: a row written twice in an even log repeats a stamp with no empty step beside it (unless a
+    sample was lost there: the stamps cannot tell); an IMU slower than its grid (80 Hz in whole 10 ms: a quarter of
+    the steps empty) pairs its repeats by chance."""
+    paired = np.zeros(kind.size, bool)
+    unpaired: list[int] = []
+    for i in range(kind.size):
+        if unpaired and kind[unpaired[-1]] != kind[i] and where[i] - where[unpaired[-1]] <= PAIR_STAMPS:
+            paired[unpaired.pop()] = paired[i] = True
+        else:
+            unpaired.append(i)
+    repeats = kind > 0
+    lost = np.sum(~paired & ~repeats)
+    if not np.any(repeats) or np.mean(paired[repeats]) < ALTERNATING_SHARE or lost >= SLOWER_CLOCK_SHARE * steps:
+        return None
+    return paired
 
 
 def _repeats_unpaired(counts: np.ndarray, steps: np.ndarray) -> bool:
@@ -467,9 +505,22 @@ def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
     the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell). Stamps
     no packets, fewer than half of them repeated, may be a clock about as coarse as the period
     (:func:`_clock_at_period`)."""
+    return _clock_or_packets(t)[0]
+
+
+def _clock_or_packets(t: np.ndarray) -> tuple[tuple[float, float] | None, tuple[int, float, float] | None]:
+    """``(clock, packets)`` of IMU stamps ``t`` (s, file order): the clock's ``(grid s, period s)`` when they come
+    from one about as coarse as the IMU's period or coarser (:func:`quantised_clock`), else None and the packets
+    sharing one stamp (:func:`shared_stamp_packets`) or None; the packets test run once."""
     t = np.asarray(t, float)
-    if shared_stamp_packets(t) is None:
-        return _clock_at_period(t)
+    packets = shared_stamp_packets(t)
+    clock = _clock_at_period(t) if packets is None else _coarser_clock(t)
+    return clock, None if clock else packets
+
+
+def _coarser_clock(t: np.ndarray) -> tuple[float, float] | None:
+    """``(grid s, period s)`` of stamps ``t`` (s) that :func:`shared_stamp_packets` takes for packets when they come
+    from a clock coarser than the period (:func:`quantised_clock`), else None."""
     grid, d, counts, on_grid = _stamp_grid(t)
     inside = d <= 2.0 * grid
     period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
@@ -505,10 +556,12 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     the IMU's period (100 Hz logged in whole 10 ms with jitter, a 64 Hz IMU on Windows' 15.625 ms timer, 128 Hz in
     whole 10 ms): on a grid, most steps one grid step, fewer than half the stamps repeated
     (:data:`CLOCK_PATTERN_STAMPS` or more), and the repeated stamps and empty grid steps alternating
-    (:data:`ALTERNATING_SHARE`: samples pushed across a grid edge leave a step empty before or after them, samples
+    (:func:`_alternating`: samples pushed across a grid edge leave a step empty before or after them, samples
     in between one step late), or :data:`BALANCED_SHORT_STAMPS` repeated or more and the samples to a grid step
-    :func:`_balanced`. The period is samples over time, steps over two grid steps left out. None else: rows written
-    twice and samples lost in an even log come in any order."""
+    :func:`_balanced`; or, however few, the repeats paired with empty grid steps beside them and few steps left
+    empty (:func:`_jitter_pairs`: samples lost, whose empty steps outnumber the repeats of a log whose samples lie
+    mid-step). The period is samples over time, steps over two grid steps left out. None else: rows written twice
+    and samples lost in an even log come in any order."""
     if t.size < 4 or np.any(np.diff(t) < 0) or np.all(np.diff(t) > 0):
         return None
     grid, d, counts, on_grid = _stamp_grid(t)
@@ -516,9 +569,10 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     if not on_grid or d.size < 3 or np.mean(steps == 1) < 0.5:
         return None
     repeated = np.flatnonzero(counts > 1)
-    kind = _clock_events(counts, steps)
+    kind, where = _clock_events(counts, steps)
     balanced = repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1])
-    if repeated.size < CLOCK_PATTERN_STAMPS or not (np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE or balanced):
+    pattern = repeated.size >= CLOCK_PATTERN_STAMPS and (_alternating(kind) or balanced)
+    if not pattern and _jitter_pairs(kind, where, steps.size) is None:
         return None
     inside = steps <= 2
     return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
@@ -576,15 +630,14 @@ def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: f
     return out
 
 
-def _samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
     :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
     grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
     repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge: its copies are rows
     written twice."""
-    clock = quantised_clock(t)
-    packets = None if clock else shared_stamp_packets(t)
+    clock, packets = _clock_or_packets(t)
     if clock and clock[0] < 1.5 * clock[1]:
         grid, d, counts, _ = _stamp_grid(t)
         clock = None if _repeats_unpaired(counts, np.round(d / grid)) else clock
@@ -632,18 +685,23 @@ def _lost_samples(t: np.ndarray, grid_s: float) -> np.ndarray:
     """Where (indexes, at a stamp's first sample) stamps ``t`` (s, never decreasing) from a clock about as coarse as the
     IMU's period on a ``grid_s`` grid (s) lost samples: after an empty grid step next to another among the clock's
     repeated stamps and empty steps in time order (jitter pairs each empty step with a repeat), or a step of three
-    grid steps or more; none where they do not alternate (:data:`ALTERNATING_SHARE`: a clock slower than its grid
-    leaves steps empty without repeats). A line at the period fits a lost sample's stretch a period off: the grid
-    step and the jitter's slack span two periods."""
+    grid steps or more; where they do not alternate (:func:`_alternating`), after the empty steps no repeat pairs
+    (:func:`_jitter_pairs`: samples lost outnumbering the repeats), none where the repeats do not pair either (a
+    clock slower than its grid leaves steps empty without repeats). A line at the period fits a lost sample's
+    stretch a period off: the grid step and the jitter's slack span two periods."""
     stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
     steps = np.round(np.diff(stamps) / grid_s)
-    kind = _clock_events(counts, steps)
-    if kind.size < 2 or np.mean(kind[1:] != kind[:-1]) < ALTERNATING_SHARE:
-        return np.zeros(0, int)
+    kind, where = _clock_events(counts, steps)
     empty = np.flatnonzero(steps > 1)                   # in time order, as their events in kind
-    lone = (kind[1:] == -1) & (kind[:-1] == -1)
-    at = (np.cumsum(kind == -1) - 1)[np.r_[lone, False] | np.r_[False, lone]]
-    return first[1:][np.union1d(empty[at], np.flatnonzero(steps > 2))]
+    if _alternating(kind):
+        lone = (kind[1:] == -1) & (kind[:-1] == -1)
+        at = empty[(np.cumsum(kind == -1) - 1)[np.r_[lone, False] | np.r_[False, lone]]]
+    else:
+        paired = _jitter_pairs(kind, where, steps.size)
+        if paired is None:
+            return np.zeros(0, int)
+        at = empty[~paired[kind < 0]]
+    return first[1:][np.union1d(at, np.flatnonzero(steps > 2))]
 
 
 def _stretch_index(n: int, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -746,8 +804,7 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
     about and noted once, their count in ``meta["streams"]["imu"]["restamped"]`` and the period in
     ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
     stamp: the file was refused, and its repair dropped k - 1 in k samples."""
-    clock = quantised_clock(t)
-    packets = None if clock else shared_stamp_packets(t)
+    clock, packets = _clock_or_packets(t)
     jittered = None if clock or packets else grid_repeats(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)

@@ -52,8 +52,8 @@ import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.imu_timing import (_samples_sharing_a_stamp, awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum,
-                                      restamp_shared_stamps, stamped_in_packets, start_burst)
+from graphnav.core.imu_timing import (awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum, restamp_shared_stamps,
+                                      samples_sharing_a_stamp, stamped_in_packets, start_burst)
 from graphnav.core.streams import add_note, count_refused, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
@@ -708,20 +708,21 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
 
     A row equal to an earlier one in its stamp and every value (NaN equal to NaN) is the same sample written
     twice (a logger flushing its buffer again): dropped with a warning. An IMU's (``stream`` "imu") packets sharing
-    one stamp (:func:`shared_stamp_packets`) or from a clock coarser than its period (:func:`quantised_clock`) are
-    restamped at the period (:func:`restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one before
-    it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse counts), not
-    a copy. The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp
-    repeats an earlier one dropped (the first kept), with a warning; without it a DataError naming ``source``, the
-    line, ``field`` and the way out (``--repair-stamps``): one stamp on two different rows can be two streams
-    written into one file."""
+    one stamp (:func:`~graphnav.core.imu_timing.shared_stamp_packets`) or from a clock coarser than its period or
+    about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
+    (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
+    before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
+    counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy. The rest must increase
+    strictly; else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the
+    first kept), with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out
+    (``--repair-stamps``): one stamp on two different rows can be two streams written into one file."""
     t, rows = np.asarray(t, float).copy(), np.asarray(rows, float)
     order = np.argsort(t, kind="stable")
     a, b = rows[order][:-1], rows[order][1:]
     same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
     copies = np.sort(order[1:][same])
     if copies.size and stream == "imu":
-        copies = copies[~_samples_sharing_a_stamp(t, copies)]
+        copies = copies[~samples_sharing_a_stamp(t, copies)]
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
