@@ -7,19 +7,20 @@ The vehicle may be underway (turning, diving) from the first sample. Method (ine
   The gyro tracks ``C_bt_b0`` (body at t relative to b0: the product of ``Exp(omega_b dt)``, zero-order
   hold as everywhere in graphnav); the Earth rate gives ``C_nt_n0 = Exp(omega_ie_n (t - t0))``.
   The unknown is the constant ``C = C_b0_n0``, and ``C_b_n(t) = C_nt_n0^T C C_bt_b0``.
-* In n0 the velocity equation ``dv_n/dt = C_b_n f_b + g_n - 2 omega_ie x v_n`` becomes
-  ``d(C_nt_n0 v_n)/dt = C C_bt_b0 f_b + C_nt_n0 g_n - omega_ie x (C_nt_n0 v_n)`` with
+* In n0 the velocity equation ``dv_n/dt = C_b_n f_b + g_n(p_n) - 2 omega_ie x v_n`` (n the fixed tangent frame
+  at the start, :mod:`graphnav.core.earth`) becomes
+  ``d(C_nt_n0 v_n)/dt = C C_bt_b0 f_b + C_nt_n0 g_n(p_n) - omega_ie x (C_nt_n0 v_n)`` with
   ``C_nt_n0 v_n = C v_b0``, ``v_b0 = C_bt_b0 v_b`` (v_b: the DVL velocity of the IMU, lever arm removed).
   Integrated from the first DVL ping t_a to each later ping t_k:
 
       C beta_k = alpha_k,
       beta_k  = int C_bt_b0 f_b dt - (v_b0(t_k) - v_b0(t_a))                 (body b0, from IMU + DVL)
-      alpha_k = -int C_nt_n0 g_n dt + omega_ie x C int v_b0 dt                (n0, gravity + Coriolis)
+      alpha_k = -int C_nt_n0 g_n(p_n) dt + omega_ie x C int v_b0 dt           (n0, gravity + Coriolis)
 
   ``C`` starts as the solution of Wahba's problem over all pings (:meth:`scipy.spatial.transform.Rotation.
   align_vectors`, SVD, with the initial velocity as a free offset: the vectors are centred); the small
-  Coriolis term, which needs ``C``, is iterated. A Gauss-Newton refinement then fits ``C``, the offset,
-  the accelerometer bias ``b_a`` (``beta_k`` loses ``int C_bt_b0 dt b_a``; prior: the spec's turn-on sigma)
+  Coriolis and gravity-change terms, which need ``C``, are iterated. A Gauss-Newton refinement then fits ``C``,
+  the offset, the accelerometer bias ``b_a`` (``beta_k`` loses ``int C_bt_b0 dt b_a``; prior: the spec's turn-on sigma)
   and the DVL's scale factor ``s`` (per DVL axis) and beam biases ``b`` (the measured head velocity is
   ``C_d_b (I + diag(s)) v_d + P b``, ``P`` the pseudo-inverse of the valid beams; priors: the estimators',
   :meth:`graphnav.estimators.options.PriorOptions.dvl_error_sigmas`; the scale factor's regressor is the fitted
@@ -58,8 +59,10 @@ pings whose residual is an outlier (Mahalanobis distance above :data:`FIT_REJECT
 median scale) and solves again without them; the output velocity is the median of the nearby pings, not their
 mean. Counts in ``Alignment.info`` (``n_imu_refused``, ``n_dvl_refused``, ``n_dvl_rejected_fit``).
 
-Neglected: transport rate (as in the whole project: for a vehicle at v m/s it would add a heading error of
-~``v / (R Omega cos L)``, 0.3 deg at 2 m/s northward).
+Gravity changes along the path: ``g_n(p_n)`` tilts by ``|p_h| / R`` away from the start (in a local-level frame
+this is the transport rate) and grows with depth, its gradient times the position dead-reckoned from the pings
+(:func:`_gravity_change_integral`). A constant ``g_n`` made a heading error of the order of ``v / (R Omega cos L)``
+(0.3 deg at 2 m/s northward): 0.09-0.23 deg with exact sensors on the simulated survey (docs/decisions/alignment.md).
 
 :meth:`Aligner.result` gives the state at the last sample used (a streaming navigator starts there);
 :meth:`Aligner.result_at` at any stamp of the window, e.g. the first sample, for offline smoothing of a
@@ -74,16 +77,18 @@ import bisect
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import DEG_PER_HOUR, SensorConfig
 from graphnav.core.dvl import DvlGeometry
-from graphnav.core.earth import EARTH_RATE, earth_rate_n, lla_to_ned
+from graphnav.core.earth import EARTH_RATE, EarthModel, earth_rate_n, lla_to_ned
 from graphnav.core.errors import ConfigError
 from graphnav.core.screening import SpikeTest
 from graphnav.core.rotations import C_b_n_to_euler, skew, so3_exp_batch
 from graphnav.core.solution import LOCAL_ORIGIN
 from graphnav.estimators.ins import prefix_products
+from graphnav.estimators.keyframes import gyro_at
 from graphnav.estimators.options import PriorOptions
 
 
@@ -530,19 +535,38 @@ class Aligner:
             return (B[k] @ so3_exp_batch(w_b[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_b[k]) * lag,
                     M[k] + B[k] * lag[:, :, None], k)
 
-        B_dvl, F_dvl, M_dvl, k_dvl = body_at(t_dvl)
-        # IMU velocity in the body frame: the DVL head's minus the lever-arm term omega x l
-        v_b = v_head_b - np.cross(w_b[k_dvl], self.geometry.lever_arm_b)
+        B_dvl, F_dvl, M_dvl, _ = body_at(t_dvl)
+        # IMU velocity in the body frame: the DVL head's minus the lever-arm term omega x l, with the rate at the ping
+        # by the estimators' rule (the sample held there is its interval's mean, half a sample late: 0.001 deg)
+        w_dvl = np.array([gyro_at(t, self._imu) for t in t_dvl])
+        v_b = v_head_b - np.cross(w_dvl, self.geometry.lever_arm_b)
         v_b0 = np.einsum("nij,nj->ni", B_dvl, v_b)
-        r_b0 = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (v_b0[1:] + v_b0[:-1]) * np.diff(t_dvl)[:, None], 0)])
-        G = _rotating_integral(omega_ie, g_n, t_dvl - t0)          # int_0^t C_nt_n0 g dt
+        r_b0 = cumulative_trapezoid(v_b0, t_dvl, axis=0, initial=0.0)
+
+        def nav_rotation(t):          # C_n0_nt = Exp(-omega_ie (t - t0))
+            return Rotation.from_rotvec(-np.outer(np.atleast_1d(t) - t0, omega_ie)).as_matrix()
+
+        gamma = EarthModel(lat, cfg.gravity_mps2, 0.0, cfg.earth_rotation, cfg.gravity_variation).gravity_gradient_n()
+
+        def gravity_integral(C, t):
+            """int_t0^t C_nt_n0 g_n(p) dt (N,3), m/s, at stamps t (s): gravity turning with the Earth and changing
+            along the path dead-reckoned with the attitude C (a constant g was 0.1-0.2 deg of heading)."""
+            t = np.atleast_1d(t)
+            return _rotating_integral(omega_ie, g_n, t - t0) + _gravity_change_integral(
+                gamma, nav_rotation, t0, t_dvl, v_b0 @ C.T, t)
         beta = ((F_dvl - F_dvl[0]) - (v_b0 - v_b0[0]))[1:]
         M_k = (M_dvl - M_dvl[0])[1:]
         r_b0 = r_b0[1:]
         tau = t_dvl[1:] - t_dvl[0]
         C = np.eye(3)
+
+        def alpha_of(C):
+            """(N-1,3) alpha_k (module docstring) of the pings after the first, m/s."""
+            G = gravity_integral(C, t_dvl)
+            return -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
+
         for _ in range(o.coriolis_iterations):
-            alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
+            alpha = alpha_of(C)
             # the initial velocity C v_b0(t_a) is a free offset u (Kabsch with centring): otherwise the noise
             # of the first ping is common to every vector and tilts the whole fit
             rot, _ = Rotation.align_vectors(alpha - alpha.mean(0), beta - beta.mean(0))
@@ -560,7 +584,7 @@ class Aligner:
             BD = B_dvl @ D
             # beta without the errors x = [b_acc, s, b]: beta - K x (the first ping's DVL error goes into u)
             K = np.concatenate([M_k, -(BD - BD[0])[1:]], axis=2)
-            alpha = -(G[1:] - G[0]) + np.cross(omega_ie, r_b0 @ C.T)
+            alpha = alpha_of(C)
             C_B = C @ B_dvl[1:]
             R = C_B @ cov_dvl_b @ np.swapaxes(C_B, 1, 2) + (sigma_acc ** 2 * tau)[:, None, None] * np.eye(3)
             W = np.linalg.inv(R)
@@ -601,9 +625,6 @@ class Aligner:
         cov_phi = P[0:3, 0:3]
         resid_rms = float(np.sqrt(np.mean(res ** 2)))
 
-        def nav_rotation(t):          # C_n0_nt = Exp(-omega_ie (t - t0))
-            return Rotation.from_rotvec(-np.outer(np.atleast_1d(t) - t0, omega_ie)).as_matrix()
-
         # --- heading: gyrocompass or a heading source, whichever is better
         T = float(t_dvl[-1] - t_dvl[0])
         sigma_v_spec = self._dvl_velocity_sigma()
@@ -631,7 +652,7 @@ class Aligner:
         B_out, F_out, M_out, _ = body_at(t_out)
         E_out = nav_rotation(t_out)[0]
         C_b_n = _orthonormalise(E_out @ C @ B_out[0])
-        G_out = _rotating_integral(omega_ie, g_n, np.array([t_out - t0]))[0]
+        G_out, G = gravity_integral(C, t_out)[0], gravity_integral(C, t_dvl)
         # velocity at t_out: the pings around it, each carried to t_out with the IMU, averaged (one ping is noisy)
         near = np.abs(t_dvl - t_out) <= o.velocity_window_s / 2
         near = near if near.any() else np.abs(t_dvl - t_out) == np.min(np.abs(t_dvl - t_out))
@@ -815,6 +836,24 @@ def _rotating_integral(omega: np.ndarray, x: np.ndarray, tau: np.ndarray) -> np.
     cross = np.cross(axis, x)
     return (np.outer(tau, par) + np.outer(np.sin(w * tau) / w, perp)
             + np.outer((1.0 - np.cos(w * tau)) / w, cross))
+
+
+def _gravity_change_integral(gamma: np.ndarray, nav_rotation, t0: float, t_ping: np.ndarray, u_ping: np.ndarray,
+                             t: np.ndarray) -> np.ndarray:
+    """``int_t0^t C_nt_n0 (g_n(p) - g_n(p(t0))) ds`` (N,3), m/s, at stamps t (s): what gravity's change along the
+    path adds to the aligner's gravity integral.
+
+    The plumb-bob gravity of the fixed tangent frame tilts by ``|p_h| / R`` away from the start (the transport rate
+    of a local-level frame) and grows with depth: ``gamma`` (3,3) s^-2 its gradient (linear: 3.6e-7 m/s^2 off at
+    1 km, against a change of 1.5e-3). The position is dead-reckoned from the pings' velocities ``u_ping`` (N_p,3)
+    m/s in n0 at ``t_ping`` (held at the nearest ping's outside them); ``nav_rotation(t)`` gives C_n0_nt.
+    Trapezoid rule on the pings' stamps."""
+    s = np.union1d(np.concatenate([[t0], t_ping]), t)
+    E = nav_rotation(s)
+    u = np.stack([np.interp(s, t_ping, u_ping[:, i]) for i in range(3)], axis=-1)
+    p_n = cumulative_trapezoid(np.einsum("nij,nj->ni", E, u), s, axis=0, initial=0.0)
+    change_n0 = np.einsum("nji,nj->ni", E, p_n @ gamma.T)
+    return cumulative_trapezoid(change_n0, s, axis=0, initial=0.0)[np.searchsorted(s, t)]
 
 
 def _orthonormalise(C: np.ndarray) -> np.ndarray:
