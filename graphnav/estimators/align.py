@@ -115,8 +115,8 @@ class AlignOptions:
     Attributes:
         duration_s: alignment time when the heading comes from gyrocompassing, s. Measured on the ten shared
             A-KIT trajectories (Phins FOG, 1 Hz DVL, vehicle underway; ``experiments/alignment_report.py``), heading
-            RMS error: 37 deg (30 s), 10 deg (60 s), 2.0 deg (120 s), 1.2 deg (180 s), 0.58 deg (240 s),
-            0.29 deg (300 s); roll/pitch <= 0.02 deg from 60 s. Default 300 s, the in-motion alignment time
+            RMS error: 36 deg (30 s), 9.7 deg (60 s), 2.0 deg (120 s), 1.2 deg (180 s), 0.52 deg (240 s),
+            0.28 deg (300 s); roll/pitch <= 0.02 deg from 60 s. Default 300 s, the in-motion alignment time
             FOG INS makers quote: the graph refines a heading error only slowly afterwards (Trajectory10,
             120 s: -4.9 deg at the start, still -2.2 deg 400 s later), and
             :class:`graphnav.estimators.navigator.Navigator` carries the alignment back to the first sample and catches up,
