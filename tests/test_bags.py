@@ -141,7 +141,10 @@ def test_bad_bags_name_the_topic(sim, tmp_path):
                                               angular=T["geometry_msgs/msg/Vector3"](x=0., y=0., z=0.))))])
     with pytest.raises(DataError, match=r"no dvl topic.*/dvl/twist \(geometry_msgs/msg/TwistStamped\)") as err:
         load_mission(odd, config)
-    assert "can be republished as geometry_msgs/msg/TwistWithCovarianceStamped" in str(err.value)   # a way forward
+    assert "or republish it as geometry_msgs/msg/TwistWithCovarianceStamped" in str(err.value)   # a way forward
+    # first: name its fields in the configuration, the velocity found in the message's own definition
+    assert '"bag_topics": {"dvl": {"topic": "/dvl/twist", "v_b": "twist.linear", "frame": "instrument"' \
+        in str(err.value)
     assert "read with a csv_columns map" in str(err.value)
     # Through the CLI: exit code 1 and the topic in the message.
     assert cli.main(["smooth", "--data", str(odd), "--config", str(config), "--topic", "dvl=/dvl/twist",
@@ -390,6 +393,8 @@ def test_ros1_bag_is_read_by_content(driver, tmp_path):
     assert bags.is_bag(renamed) and bag_msgs.bag_kind(renamed) == "ros1"
     m, warned = _load(renamed, None)         # through load_mission: routed by content
     assert m.meta["format"] == "ros1" and m.meta["clock"]["stamps"] == {"imu": "header", "dvl": "header"}
+    from graphnav.io.inspect import describe_mission      # graphnav info names its topics as a ROS 2 bag's
+    assert describe_mission(m)["instrument"]["dvl_message"] == bags.WL_DVL
     np.testing.assert_allclose(m.imu.f_b, mission.imu.f_b, atol=1e-12)
     np.testing.assert_array_equal(m.dvl.valid, mission.dvl.valid)
     np.testing.assert_allclose(m.dvl.t, mission.dvl.t, atol=2e-9)

@@ -210,7 +210,9 @@ class SensorConfig:
         csv_columns: column map of a team's own CSV logs (:mod:`graphnav.io.generic_csv`); empty when unused.
         bag_topics: per stream of a ROS bag, what its messages cannot say (:mod:`graphnav.io.bags`,
             :data:`BAG_TOPIC_KEYS`): ``{"depth": {"positive": "up"}}`` declares a depth topic positive up (negated on
-            reading), as ``csv_columns.depth.positive`` does for a column; empty when unused.
+            reading), as ``csv_columns.depth.positive`` does for a column; ``{"dvl": {"topic": ..., "v_b":
+            "velocity", ...}}`` names the fields of a DVL recorded in a vendor's own message type
+            (:mod:`graphnav.io.bag_fields`); empty when unused.
         depth_range_m: (shallowest, deepest) depth the pressure sensor can report, m (positive down). The
             shallow end allows an uncompensated atmospheric pressure or a sensor above the waterline at the
             surface (-10 m); the deep end is the 6000 m rating of deep AUVs. Outside: refused.
@@ -393,8 +395,12 @@ CSV_COLUMN_KEYS: dict[str, tuple[str, ...]] = {
 
 
 #: The keys each stream of ``bag_topics`` accepts (:mod:`graphnav.io.bags` reads them): what a bag's messages cannot
-#: say, with the name and meaning of the same key of :data:`CSV_COLUMN_KEYS`.
-BAG_TOPIC_KEYS: dict[str, tuple[str, ...]] = {"depth": ("positive",)}
+#: say, with the name and meaning of the same key of :data:`CSV_COLUMN_KEYS`; ``dvl`` names the fields of a vendor's
+#: own DVL message (:mod:`graphnav.io.bag_fields`; ``velocity_valid`` is the velocity's flag, which a column map
+#: does not have).
+BAG_TOPIC_KEYS: dict[str, tuple[str, ...]] = {
+    "depth": ("positive",),
+    "dvl": ("topic", "v_b", "velocity_valid", "beams", "valid", "frame", "velocity_unit")}
 
 
 def check_column_map(cmap: dict, source: str, section: str = "csv_columns") -> None:

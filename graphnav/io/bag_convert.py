@@ -8,6 +8,7 @@ right, z down; for a down-looking DVL both are graphnav's DVL frame d).
 """
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass, field
 
@@ -21,6 +22,7 @@ from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData
 from graphnav.core.rotations import C_NED_ENU
 from graphnav.core.screening import located
 from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
 #: FLU <-> FRD (its own inverse) and ENU <-> NED (its own inverse).
@@ -203,7 +205,11 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     """Beams (where the message has them) and the instrument's own velocity ``v_d`` with its validity and
     1-sigma, every invalid ping counted in ``meta["streams"]["dvl"]``."""
     info: dict = {"dvl_message": s.msgtype}
-    if s.msgtype == MARINE_DVL:
+    fields = config.bag_topics.get("dvl")
+    if fields:
+        beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info)
+        add_note(meta, "dvl", f"fields of {s.msgtype} named by {bag_fields.KEY}: {json.dumps(info['dvl_fields'])}")
+    elif s.msgtype == MARINE_DVL:
         beams, valid, v_d, v_ok, sig = _marine(s, source, info)
     elif s.msgtype == WL_DVL:
         beams, valid, v_d, v_ok, sig = _water_linked(s, source, info)

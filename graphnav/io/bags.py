@@ -11,7 +11,8 @@ overrides the choice. Streams and the types read:
   geometry from ``beam_unit_vec``, the velocity when ``num_good_beams >= 3``), Water Linked's
   ``dvl_msgs/msg/DVL`` (``DVLBeam`` list; ``velocity`` with ``velocity_valid`` and ``covariance``), or, when
   there is no DVL message, a velocity-only ``geometry_msgs/msg/TwistWithCovarianceStamped`` (see
-  :mod:`graphnav.io.bag_convert` for its frame). The instrument's velocity goes to ``DvlData.v_d``;
+  :mod:`graphnav.io.bag_convert` for its frame). The instrument's velocity goes to ``DvlData.v_d``. A vendor's own
+  DVL message is read through the fields the configuration's ``bag_topics.dvl`` names (:mod:`graphnav.io.bag_fields`);
 * ``depth``: the most plausible of the ``sensor_msgs/msg/FluidPressure`` topics and the ``std_msgs/Float64``/
   ``Float32`` topics named like depth (water pressure range, not all zeros, varying), the surface pressure
   estimated when the record starts at the surface, depths range-checked. A depth topic is metres positive down;
@@ -53,6 +54,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import Mission
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
+from graphnav.io import bag_fields
 from graphnav.io.bag_convert import ENU_NED, FLU_FRD, PRESSURE, TWIST_DVL, Stream
 from graphnav.io.bag_driver import write_driver_bag  # noqa: F401 - the driver-like bag, next to write_mission_bag
 from graphnav.io.bag_msgs import (DVL_MSGS_DVL_A50, DVL_MSGS_DVL_V3, DVL_MSGS_DVLBEAM,  # noqa: F401
@@ -115,16 +117,24 @@ def _candidates(available: dict[str, str], stream: str) -> list[str]:
     return out
 
 
-#: What a user can do with a stream recorded in a message type graphnav does not read (a vendor's own DVL message).
-_WAY_FORWARD = {"dvl": f". A DVL in another message type can be republished as {TWIST_DVL} (the body-frame velocity, "
-                       f"read velocity-only) or as {MARINE_DVL} and the bag recorded again, or the "
-                       "bag's streams exported to CSV and read with a csv_columns map (docs/decisions/bags.md)"}
+def _way_forward(stream: str, bag: _Bag, topic: str | None = None) -> str:
+    """What a user can do with a stream recorded in a message type graphnav does not read (a vendor's own DVL
+    message): name its fields in the configuration (an example from the message's own fields), or republish it."""
+    if stream != "dvl":
+        return ""
+    return (bag_fields.way_forward(bag.reader.typestore.fielddefs, bag.available, topic)
+            + f"; or republish it as {TWIST_DVL} (the body-frame velocity, read velocity-only) or as {MARINE_DVL} "
+              "and record the bag again, or export the bag's streams to CSV (read with a csv_columns map)")
 
 
-def _choose_topics(available: dict[str, str], topics: dict[str, str], source: str, wanted: tuple[str, ...],
-                   required: tuple[str, ...]) -> dict[str, list[str]]:
-    """Stream -> candidate topics: the override alone (checked), else every topic of an accepted type."""
+def _choose_topics(bag: _Bag, topics: dict[str, str], source: str, wanted: tuple[str, ...],
+                   required: tuple[str, ...], dvl_fields: dict | None = None) -> dict[str, list[str]]:
+    """Stream -> candidate topics: the override alone (checked), else every topic of an accepted type; the DVL
+    topic of ``dvl_fields`` (``bag_topics.dvl``) whatever its type, its fields checked."""
+    available = bag.available
     chosen: dict[str, list[str]] = {}
+    if dvl_fields and "dvl" in wanted:
+        topics = {**topics, "dvl": _mapped_topic(topics, dvl_fields)}
     for stream in wanted:
         types = STREAM_TYPES[stream]
         if stream in topics:
@@ -132,9 +142,11 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
             if topic not in available:
                 raise DataError(f"topic {topic} (given for {stream}) is not in the bag; it has "
                                 f"{sorted(available)}", source, field=topic)
-            if available[topic] not in types:
+            if stream == "dvl" and dvl_fields:
+                bag_fields.check_paths(dvl_fields, bag.reader.typestore.fielddefs, available[topic], source, topic)
+            elif available[topic] not in types:
                 raise DataError(f"topic {topic} has type {available[topic]}, which graphnav cannot read as "
-                                f"{stream} (accepted: {', '.join(types)}){_WAY_FORWARD.get(stream, '')}", source,
+                                f"{stream} (accepted: {', '.join(types)}){_way_forward(stream, bag, topic)}", source,
                                 field=topic)
             chosen[stream] = [topic]
             continue
@@ -151,8 +163,18 @@ def _choose_topics(available: dict[str, str], topics: dict[str, str], source: st
         if stream not in chosen:
             raise DataError(f"no {stream} topic: need a topic of type {' or '.join(STREAM_TYPES[stream])}; the bag "
                             f"has {', '.join(f'{t} ({ty})' for t, ty in sorted(available.items())) or 'no topics'}"
-                            f"{_WAY_FORWARD.get(stream, '')}", source, field=stream)
+                            f"{_way_forward(stream, bag)}", source, field=stream)
     return chosen
+
+
+def _mapped_topic(topics: dict[str, str], dvl_fields: dict) -> str:
+    """The DVL topic ``bag_topics.dvl`` names; ``--topic dvl=...`` may only repeat it."""
+    topic = dvl_fields.get("topic")
+    if not isinstance(topic, str) or not topic:
+        raise ConfigError(f"{bag_fields.KEY} needs 'topic': the DVL topic whose fields it names")
+    if topics.get("dvl", topic) != topic:
+        raise ConfigError(f"--topic dvl={topics['dvl']} and {bag_fields.KEY}.topic {topic} name different topics")
+    return topic
 
 
 def _pick_one(stream: str, topics: list[str], source: str) -> str:
@@ -229,10 +251,11 @@ def _open_reader(path: Path, source: str):
 
 
 def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted: tuple[str, ...] = tuple(STREAM_TYPES),
-                 required: tuple[str, ...] = REQUIRED_STREAMS, meta: dict | None = None
+                 required: tuple[str, ...] = REQUIRED_STREAMS, meta: dict | None = None, dvl_fields: dict | None = None
                  ) -> dict[str, list[Stream]]:
     """Stream -> the decoded candidate topics (the override alone when given), stamps chosen per topic by
-    :func:`graphnav.io.bag_stamps.choose_stamps`; notes and counts go to ``meta``."""
+    :func:`graphnav.io.bag_stamps.choose_stamps`; notes and counts go to ``meta``. ``dvl_fields``: the
+    configuration's ``bag_topics.dvl`` (:mod:`graphnav.io.bag_fields`), whose topic is the DVL's."""
     from graphnav.io.bag_stamps import choose_stamps
     path = Path(path)
     source = str(path)
@@ -248,7 +271,7 @@ def read_streams(path: str | Path, topics: dict[str, str] | None = None, wanted:
         reader = _open_reader(readable, source)
         try:
             bag = _Bag(reader, source, meta)
-            chosen = _choose_topics(bag.available, topics or {}, source, wanted, required)
+            chosen = _choose_topics(bag, topics or {}, source, wanted, required, dvl_fields)
             decoded: dict[str, Stream] = {}
             out: dict[str, list[Stream]] = {}
             for stream, names in chosen.items():
@@ -323,7 +346,7 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     topics = topics or {}
     source = str(path)
     meta: dict = {"source": source}
-    streams = read_streams(path, topics, meta=meta)
+    streams = read_streams(path, topics, meta=meta, dvl_fields=config.bag_topics.get("dvl"))
     imu_s = streams["imu"][0] if "imu" in topics else _pick_one("imu", streams["imu"], source)
     dvl_s = streams["dvl"][0] if "dvl" in topics else _pick_one("dvl", streams["dvl"], source)
     t0_ns = int(imu_s.t_ns[0])
@@ -484,7 +507,8 @@ def read_dvl_log(path: str | Path, topic: str | None = None, config: SensorConfi
     from graphnav.core.dvl_log import DvlLog
     config = config or SensorConfig()
     meta: dict = {}
-    found = read_streams(path, {"dvl": topic} if topic else {}, wanted=("dvl",), required=("dvl",), meta=meta)["dvl"]
+    found = read_streams(path, {"dvl": topic} if topic else {}, wanted=("dvl",), required=("dvl",), meta=meta,
+                         dvl_fields=config.bag_topics.get("dvl"))["dvl"]
     s = found[0] if topic else _pick_one("dvl", found, str(path))
     _record(meta, "dvl", s, 0, str(path))
     dvl, info = conv.dvl(s, 0, config, str(path), meta)

@@ -69,11 +69,12 @@ CARRIED = "dvl_carried_by_current"
 _HEADINGS = np.deg2rad(np.arange(0.0, 360.0, 5.0))
 
 
-def declared_frame(spec: dict) -> str:
-    """``csv_columns.dvl.frame`` (default ``body``), checked; ``frd`` is returned as ``body``."""
-    frame = spec.get("frame", "body")
+def declared_frame(spec: dict, default: str = "body", key: str = "csv_columns.dvl") -> str:
+    """``spec["frame"]`` of the configuration's ``key`` (a column map's DVL, or a bag's ``bag_topics.dvl``),
+    ``default`` when not given, checked; ``frd`` is returned as ``body``."""
+    frame = spec.get("frame", default)
     if frame not in DVL_FRAMES:
-        raise ConfigError(f"csv_columns.dvl.frame = {frame!r}: choose one of {list(DVL_FRAMES)}")
+        raise ConfigError(f"{key}.frame = {frame!r}: choose one of {list(DVL_FRAMES)}")
     return "body" if frame == "frd" else frame
 
 

@@ -223,9 +223,13 @@ def _mission_instrument(mission) -> tuple[dict, str]:
         inst["depth"] = mission.depth.source
     if mission.gt is not None:
         inst["ground_truth"] = mission.gt.source
-    if fmt == "rosbag2":
+    if fmt in ("rosbag2", "ros1"):
         inst.update(topics=meta.get("topics"), dvl_message=meta.get("dvl_message"))
         frame = "DVL frame of the message (beams; the instrument velocity turned to body with C_d_b)"
+        if "dvl_fields" in meta:        # a vendor's message, read through bag_topics.dvl
+            inst["dvl_fields"] = meta["dvl_fields"]
+            frame = (f"the message's fields named by bag_topics.dvl (beams; the velocity in its declared "
+                     f"{meta['dvl_fields']['frame']} frame, turned to body)")
     elif "pd0_instrument" in meta:
         inst["dvl_instrument"] = {"model": meta["pd0_instrument"], "beam_angle_deg": meta["pd0_beam_angle_deg"],
                                   "beam_pattern": meta["pd0_beam_pattern"]}

@@ -1,0 +1,229 @@
+"""A DVL recorded in a vendor's own message type (Water Linked's ROS 1 ``waterlinked_a50_ros_driver/DVL``, UUV
+Simulator's ``uuv_sensor_msgs/DVL``, a Nortek or Teledyne driver's), read through the fields the configuration
+names, in the column map's words (``csv_columns.dvl``)::
+
+    "bag_topics": {"dvl": {"topic": "/dvl/data", "v_b": "velocity", "velocity_valid": "velocity_valid",
+                           "beams": "beams[].velocity", "valid": "beams[].valid",
+                           "frame": "instrument", "velocity_unit": "m/s"}}
+
+A field is a path in the message: ``a.b`` a field of a sub-message, ``beams[].velocity`` that field of every
+element of a list (in list order: beam 1 first). ``v_b`` names a ``Vector3`` or three numbers (a list of three
+paths), ``beams`` four numbers (an array, a list's field, or four paths), ``valid`` the beams' flags (non-zero =
+valid; left out: every finite beam is), ``velocity_valid`` the velocity's own flag (left out: a finite velocity is
+valid, and with ``valid`` given only over three valid beams, as a column map's). ``frame`` (the column map's:
+``instrument``, ``body``/``frd``, ``flu``) defaults to ``instrument``: every DVL message graphnav reads holds the
+instrument's own velocity; ``velocity_unit`` (m/s, cm/s, mm/s, kn) left out is m/s, mm/s detected from the speeds
+as for a column map. Earth frames need the head's attitude per ping and are refused. The message's definition comes
+from the bag (ROS 1, MCAP, rosbag2 from Iron on); a bag without it cannot be read this way.
+"""
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+
+from graphnav.core.errors import ConfigError, DataError
+
+KEY = "bag_topics.dvl"
+#: The keys of :data:`KEY` that name fields of the message, and how many values each gives per message.
+FIELD_KEYS = {"v_b": 3, "velocity_valid": 1, "beams": 4, "valid": 4}
+VECTOR3 = "geometry_msgs/msg/Vector3"
+
+
+def _paths(spec: dict, key: str) -> list[str]:
+    value = spec[key]
+    paths = [value] if isinstance(value, str) else value
+    if not isinstance(paths, list) or not paths or not all(isinstance(p, str) and p for p in paths):
+        raise ConfigError(f"{KEY}.{key} = {value!r}: a field of the message ('velocity', 'beams[].velocity') or a "
+                          "list of them")
+    return paths
+
+
+def _fields(fielddefs: dict, msgtype: str) -> list[tuple[str, tuple]]:
+    return list(fielddefs[msgtype][1])
+
+
+def _kind(node: tuple) -> str:
+    """A field's type as a .msg file writes it (``float64``, ``pkg/msg/Name[]``)."""
+    kind, what = node
+    if kind.name in ("ARRAY", "SEQUENCE"):
+        inner, size = what
+        return f"{_kind(inner)}[{size or ''}]"
+    return what[0] if kind.name == "BASE" else what
+
+
+def _element(kind: str) -> str:
+    """The element type of a list or array type (``pkg/msg/Beam[4]`` -> ``pkg/msg/Beam``)."""
+    return re.sub(r"\[\d*\]$", "", kind)
+
+
+def fields_of(fielddefs: dict, msgtype: str) -> str:
+    """The fields of ``msgtype`` with their types, a list's or sub-message's one level down."""
+    out = []
+    for name, node in _fields(fielddefs, msgtype):
+        kind = _kind(node)
+        inner = _element(kind)
+        sub = f": {', '.join(n for n, _ in _fields(fielddefs, inner))}" if inner in fielddefs and \
+            inner != "std_msgs/msg/Header" else ""
+        out.append(f"{name} ({kind}{sub})")
+    return ", ".join(out)
+
+
+def check_paths(spec: dict, fielddefs: dict, msgtype: str, source: str, topic: str) -> None:
+    """DataError naming the bag, topic, message type and the fields it has for a path of ``spec`` not in
+    ``msgtype``, or for a type whose definition the bag does not carry."""
+    if msgtype not in fielddefs:
+        raise DataError(f"{topic} has type {msgtype}, whose definition the bag does not embed (rosbag2 sqlite3 before "
+                        f"Iron): its fields cannot be read by {KEY}; record it as MCAP or with ROS 2 Iron or later, or "
+                        "republish it as a type graphnav reads", source, field=topic)
+    for key in FIELD_KEYS:
+        for path in _paths(spec, key) if key in spec else []:
+            typ, walked, parts = msgtype, [], path.split(".")
+            for i, part in enumerate(parts):
+                name = part.removesuffix("[]")
+                fields = dict(_fields(fielddefs, typ)) if typ in fielddefs else {}
+                kind = _kind(fields[name]) if name in fields else None
+                listed = kind is not None and kind.endswith("]")
+                # a whole array may end a path; a list's elements are walked into with []
+                if part == name and listed and i < len(parts) - 1:
+                    raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) "
+                                    f"is a list ({kind}): a field of its elements is "
+                                    f"{'.'.join(walked + [name + '[]'] + parts[i + 1:])!r}", source, field=topic)
+                if kind is None or (part != name and not listed):
+                    what = f"{'.'.join(walked) or 'the message'} has {fields_of(fielddefs, typ)}" if fields else \
+                        f"{'.'.join(walked)} is a number"
+                    raise DataError(f"{KEY}.{key} = {path!r}: {topic} ({msgtype}) has no "
+                                    f"{'list' if kind else 'field'} {'.'.join(walked + [part])!r}; {what}",
+                                    source, field=topic)
+                walked.append(part)
+                typ = _element(kind)
+
+
+def values(rows: list, path: str) -> list[np.ndarray]:
+    """The numbers at ``path`` in each message (a ``Vector3`` gives x, y, z)."""
+    def at(msg, parts):
+        if not parts:
+            return [msg.x, msg.y, msg.z] if hasattr(msg, "x") else msg
+        head, rest = parts[0], parts[1:]
+        if head.endswith("[]"):
+            return [at(m, rest) for m in getattr(msg, head[:-2])]
+        return at(getattr(msg, head), rest)
+    parts = path.split(".")
+    return [np.ravel(np.asarray(at(m, parts), float)) for m in rows]
+
+
+def table(rows: list, spec: dict, key: str, source: str, topic: str) -> np.ndarray:
+    """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`); a message with fewer (a beam list cut short) is
+    padded with NaN, one with more is a DataError naming the topic, message and field."""
+    n = FIELD_KEYS[key]
+    paths = _paths(spec, key)
+    try:
+        cols = [values(rows, p) for p in paths]
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{KEY}.{key} = {spec[key]!r} does not name numbers (a Vector3 or numbers): {exc}", source,
+                        field=topic) from None
+    out = np.full((len(rows), n), np.nan)
+    for i in range(len(rows)):
+        row = np.concatenate([c[i] for c in cols])
+        if row.size > n:
+            raise DataError(f"{KEY}.{key}: {row.size} values in message {i}, expected {n}", source,
+                            field=f"{topic} {', '.join(paths)}")
+        out[i, :row.size] = row
+    return out
+
+
+def example(fielddefs: dict, msgtype: str | None, topic: str) -> dict:
+    """A filled-in :data:`KEY` entry for ``topic`` from its type's own fields (the likeliest velocity, flags and
+    beam list), for an error message to show; placeholders where the type gives none."""
+    spec = {"topic": topic, "v_b": "velocity", "velocity_valid": "velocity_valid", "beams": "beams[].velocity",
+            "valid": "beams[].valid", "frame": "instrument", "velocity_unit": "m/s"}
+    found: dict = {}
+    if msgtype in fielddefs:
+        _likely(fielddefs, msgtype, "", found)
+    if "v_b" not in found and "beams" not in found:
+        return spec
+    return {k: found.get(k, v) for k, v in spec.items() if k not in FIELD_KEYS or k in found}
+
+
+def _likely(fielddefs: dict, msgtype: str, prefix: str, found: dict) -> None:
+    """Into ``found``: the fields of ``msgtype`` (names starting with ``prefix``) likeliest to be each
+    :data:`FIELD_KEYS` entry, those named like a velocity first; sub-messages searched for a Vector3 too."""
+    for name, node in sorted(_fields(fielddefs, msgtype), key=lambda f: not _velocity(f[0]) and "linear" not in f[0]):
+        kind, path = _kind(node), prefix + name
+        inner = _element(kind)
+        if kind == VECTOR3:
+            found.setdefault("v_b", path)
+        elif kind == "bool" and "valid" in name:
+            found.setdefault("velocity_valid", path)
+        elif kind in fielddefs and kind != "std_msgs/msg/Header" and not prefix:
+            _likely(fielddefs, kind, path + ".", found)
+        elif kind.endswith("]") and inner in fielddefs:
+            sub = {n: _kind(k) for n, k in _fields(fielddefs, inner)}
+            vel = [n for n, k in sub.items() if _velocity(n) and k.startswith("float")]
+            flags = [n for n, k in sub.items() if k == "bool"]
+            if vel and "beams" not in found:
+                found["beams"] = f"{path}[].{vel[0]}"
+                if flags:
+                    found["valid"] = f"{path}[].{flags[0]}"
+        elif kind.startswith("float") and kind.endswith("]") and _velocity(name):
+            found.setdefault("beams", path)
+
+
+def _velocity(name: str) -> bool:
+    """A field named like a velocity, not like its covariance."""
+    return "vel" in name and "cov" not in name
+
+
+def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -> str:
+    """What to write in the configuration to read ``topic`` (or the likeliest DVL topic of ``available``), with
+    its own fields."""
+    if topic is None:
+        named = sorted(t for t, ty in available.items() if "dvl" in f"{t} {ty}".lower())
+        topic = named[0] if named else "/dvl/data"
+    msgtype = available.get(topic)
+    text = json.dumps({"bag_topics": {"dvl": example(fielddefs, msgtype, topic)}})[1:-1]
+    missing = (f" (the bag does not embed the definition of {msgtype}: record it as MCAP or with ROS 2 Iron or later)"
+               if msgtype and msgtype not in fielddefs else "")
+    return (f". A DVL in its vendor's message type is read by naming its fields in the configuration, e.g. {text}"
+            f"{missing}: check the frame and unit against the driver's documentation (docs/decisions/bags.md)")
+
+
+def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
+    """``(beams, valid, v_d, v_ok, sigma)`` of a topic ``s`` (:class:`graphnav.io.bag_convert.Stream`) read through
+    ``spec`` (:data:`KEY`), as the built-in messages give them: m/s, the velocity in the DVL frame (turned from the
+    declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used)."""
+    from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
+    from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units
+    if "v_b" not in spec and "beams" not in spec:
+        raise ConfigError(f"{KEY} needs 'beams' (the four along-beam velocities) or 'v_b' (the velocity)")
+    units = DECLARED_UNITS["velocity"]
+    unit = spec.get("velocity_unit")
+    if unit is not None and unit not in units:
+        raise ConfigError(f"{KEY}.velocity_unit = {unit!r}: choose one of {sorted(units)}")
+    frame = declared_frame(spec, "instrument", KEY)
+    if frame in EARTH_FRAMES:
+        raise ConfigError(f"{KEY}.frame = {frame!r}: an earth-frame velocity needs the head's attitude at each ping; "
+                          "give the beams, or a velocity in the instrument, body or flu frame")
+    where = f"{source}:{s.topic}"
+    fix = f"declare {KEY}.velocity_unit ({', '.join(units)})"
+    n = len(s.rows)
+    scale = units[unit or "m/s"]
+
+    def in_mps(key, **kw):
+        cells = table(s.rows, spec, key, source, s.topic) * scale
+        return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix, **kw)
+    beams = in_mps("beams", beams=True) if "beams" in spec else np.full((n, 4), np.nan)
+    flags = table(s.rows, spec, "valid", source, s.topic) if "valid" in spec else np.ones((n, 4))
+    valid = (np.nan_to_num(flags) != 0) & np.isfinite(beams)
+    v_d = np.full((n, 3), np.nan)
+    if "v_b" in spec:
+        v = in_mps("v_b")
+        v_d = v if frame == "instrument" else velocity_to_body(v, frame, C_d_b) @ C_d_b    # v_d = C_d_b^T v_b
+    if "velocity_valid" in spec:
+        v_ok = np.nan_to_num(table(s.rows, spec, "velocity_valid", source, s.topic)[:, 0]) != 0
+    else:       # as a column map's: a velocity needs three valid beams when the beams are flagged
+        v_ok = np.all(np.isfinite(v_d), axis=1) & ((valid.sum(axis=1) >= 3) if "valid" in spec else True)
+    info["dvl_fields"] = {k: spec[k] for k in ("topic", *FIELD_KEYS) if k in spec} | {"frame": frame,
+                                                                                     "velocity_unit": unit or "m/s"}
+    return beams, valid, v_d, v_ok, np.full((n, 3), np.nan)

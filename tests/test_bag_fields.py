@@ -1,0 +1,171 @@
+"""A DVL recorded in a vendor's own message type (here Water Linked's ROS 1 message, as a ROS 2 MCAP bag with its
+definition embedded) is read through the fields ``bag_topics.dvl`` names, exactly as the same mission recorded in
+the standard type; without the entry the error shows the entry built from the message's own fields."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from graphnav import cli
+from graphnav.core.errors import ConfigError, DataError
+from graphnav.io import bag_driver, bag_msgs, bags
+from graphnav.missions import load_mission
+from graphnav.sim.simulate import simulate_mission
+
+VENDOR = "waterlinked_a50_ros_driver/msg/DVL"
+VENDOR_BEAM = "waterlinked_a50_ros_driver/msg/DVLBeam"
+FIELDS = {"topic": "/dvl/data", "v_b": "velocity", "velocity_valid": "velocity_valid", "beams": "beams[].velocity",
+          "valid": "beams[].valid"}
+
+
+def _vendor_copy(standard, path, storage="mcap"):
+    """``standard`` (a bag with ``dvl_msgs/msg/DVL``) with its DVL messages recorded as the vendor's type."""
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    from rosbags.typesys import get_types_from_msg
+    store = bags.typestore()
+    store.register(get_types_from_msg(bag_msgs.DVL_MSGS_DVLBEAM, VENDOR_BEAM))
+    store.register(get_types_from_msg(bag_msgs.DVL_MSGS_DVL_A50.replace("DVLBeam", VENDOR_BEAM.replace("/msg", "")),
+                                      VENDOR))
+    T = store.types
+    plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
+    with Reader(standard) as reader, Writer(path, version=9, storage_plugin=plugin) as writer:
+        conns = {}
+        for conn, ns, raw in reader.messages():
+            typ = VENDOR if conn.msgtype == bags.WL_DVL else conn.msgtype
+            if conn.topic not in conns:
+                conns[conn.topic] = writer.add_connection(conn.topic, typ, typestore=store)
+            if typ == VENDOR:
+                m = store.deserialize_cdr(raw, conn.msgtype)
+                beams = [T[VENDOR_BEAM](id=b.id, velocity=b.velocity, distance=b.distance, rssi=b.rssi, nsd=b.nsd,
+                                        valid=b.valid) for b in m.beams]
+                raw = store.serialize_cdr(T[VENDOR](header=m.header, time=m.time, velocity=m.velocity, fom=m.fom,
+                                                    altitude=m.altitude, beams=beams, velocity_valid=m.velocity_valid,
+                                                    status=m.status, form=m.form), VENDOR)
+            writer.write(conns[conn.topic], ns, raw)
+    if storage == "sqlite3":
+        bag_driver.strip_definitions(next(path.glob("*.db3")))
+    return path
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    root = tmp_path_factory.mktemp("vendor")
+    mission = simulate_mission(duration_s=40.0, seed=3)
+    standard = bags.write_mission_bag(mission, root / "standard", dvl_type=bags.WL_DVL)
+    vendor = _vendor_copy(standard, root / "vendor")
+    plain = root / "plain.json"
+    mission.config.save(plain)
+    return mission, root, standard, vendor, plain
+
+
+def _config(root, name, fields):
+    cfg = json.loads((root / "plain.json").read_text())
+    cfg["bag_topics"] = {"dvl": fields}
+    (root / name).write_text(json.dumps(cfg))
+    return root / name
+
+
+def test_a_vendor_dvl_message_reads_and_smooths_as_the_standard_one(recorded, capsys):
+    mission, root, standard, vendor, plain = recorded
+    mapped = _config(root, "mapped.json", FIELDS)
+    with pytest.warns(RuntimeWarning):
+        a, b = load_mission(vendor, mapped), load_mission(standard, plain)
+    for name in ("t", "beams", "valid", "v_b", "v_d", "v_d_valid"):
+        np.testing.assert_array_equal(getattr(a.dvl, name), getattr(b.dvl, name), err_msg=name)
+    assert a.meta["streams"]["dvl"]["read"] == b.meta["streams"]["dvl"]["read"] == len(mission.dvl.t)
+    assert a.meta["streams"]["dvl"]["refused"] == b.meta["streams"]["dvl"]["refused"]
+    out = {}
+    for name, bag, cfg in (("vendor", vendor, mapped), ("standard", standard, plain)):
+        with pytest.warns(RuntimeWarning, match="no heading source in the bag"):
+            assert cli.main(["smooth", "--data", str(bag), "--config", str(cfg), "--method", "Graph-TC", "--out",
+                             str(root / f"out_{name}"), "--no-plots"]) == 0
+            out[name] = json.loads((root / f"out_{name}" / "summary.json").read_text())["accuracy"]
+    assert out["vendor"]["vrmse_mission_mps"] == out["standard"]["vrmse_mission_mps"] < 0.1
+    assert out["vendor"]["final_horizontal_position_error_m"] == out["standard"]["final_horizontal_position_error_m"]
+    capsys.readouterr()
+    assert cli.main(["info", str(vendor), "--config", str(mapped)]) == 0
+    said = capsys.readouterr().out
+    assert f"dvl_message   {VENDOR}" in said
+    assert '"beams": "beams[].velocity", "valid": "beams[].valid", "frame": "instrument"' in said
+    assert "DVL frame       the message's fields named by bag_topics.dvl" in said
+
+
+def test_without_the_entry_the_error_shows_it_filled_in_from_the_message(recorded):
+    _, root, _, vendor, plain = recorded
+    example = ('"bag_topics": {"dvl": {"topic": "/dvl/data", "v_b": "velocity", "velocity_valid": "velocity_valid", '
+               '"beams": "beams[].velocity", "valid": "beams[].valid", "frame": "instrument", "velocity_unit": "m/s"}}')
+    with pytest.raises(DataError, match="no dvl topic") as err:
+        load_mission(vendor, plain)
+    assert example in str(err.value) and "or republish it as" in str(err.value)
+    with pytest.raises(DataError, match=f"/dvl/data has type {VENDOR}") as err:
+        load_mission(vendor, plain, topics={"dvl": "/dvl/data"})
+    assert example in str(err.value)
+
+
+def test_a_field_the_message_does_not_have_is_named_with_the_fields_it_has(recorded):
+    _, root, _, vendor, _ = recorded
+    with pytest.raises(DataError, match=r"bag_topics.dvl.valid = 'beams\[\].ok': /dvl/data \(" + VENDOR
+                       + r"\) has no field 'beams\[\].ok'; beams\[\] has id \(int64\), velocity \(float64\), "
+                       r"distance \(float64\), rssi \(float64\), nsd \(float64\), valid \(bool\)"):
+        load_mission(vendor, _config(root, "typo.json", {**FIELDS, "valid": "beams[].ok"}))
+    with pytest.raises(DataError, match=r"has no field 'speed'; the message has header \(std_msgs/msg/Header\), "
+                                        r"time \(float64\), velocity \(geometry_msgs/msg/Vector3: x, y, z\)"):
+        load_mission(vendor, _config(root, "speed.json", {**FIELDS, "v_b": "speed"}))
+    with pytest.raises(DataError, match=r"'beams' of /dvl/data .* is a list .*: a field of its elements is "
+                                        r"'beams\[\].velocity'"):
+        load_mission(vendor, _config(root, "list.json", {**FIELDS, "beams": "beams.velocity"}))
+    with pytest.raises(ConfigError, match="unknown key 'bag_topics.dvl.velocity_vaild'; did you mean "
+                                          "'bag_topics.dvl.velocity_valid'"):
+        load_mission(vendor, _config(root, "key.json", {**FIELDS, "velocity_vaild": "velocity_valid"}))
+    with pytest.raises(ConfigError, match="bag_topics.dvl needs 'topic'"):
+        load_mission(vendor, _config(root, "notopic.json", {"v_b": "velocity"}))
+
+
+def test_declared_frame_and_unit_and_a_bag_without_the_definition(recorded, tmp_path):
+    import dataclasses
+    mission, root, standard, vendor, plain = recorded
+
+    def read(**fields):
+        config = dataclasses.replace(mission.config, bag_topics={"dvl": {"topic": "/dvl/data", "v_b": "velocity",
+                                                                         **fields}})
+        return bags.load_bag(vendor, config).dvl
+    # a velocity-only map: the instrument's velocity, no beams; declared FLU or in knots, turned and converted
+    base = read()
+    assert not base.valid.any() and base.v_d_valid.all()
+    np.testing.assert_allclose(read(frame="flu").v_d * [1, -1, -1], base.v_d, atol=1e-12)
+    np.testing.assert_allclose(read(velocity_unit="kn").v_d, base.v_d * 1852 / 3600, atol=1e-12)
+    with pytest.raises(ConfigError, match=r"bag_topics.dvl.velocity_unit = 'knots': choose one of"):
+        read(velocity_unit="knots")
+    with pytest.raises(ConfigError, match=r"bag_topics.dvl.frame = 'ned': an earth-frame velocity"):
+        read(frame="ned")
+    with pytest.raises(ConfigError, match=r"bag_topics.dvl.frame = 'fru': choose one of"):
+        read(frame="fru")
+    # rosbag2 sqlite3 before Iron embeds no definition: the fields cannot be read, and the error says so
+    nodefs = _vendor_copy(standard, tmp_path / "nodefs", storage="sqlite3")
+    with pytest.raises(DataError, match=f"/dvl/data has type {VENDOR}, whose definition the bag does not embed"):
+        load_mission(nodefs, _config(root, "mapped.json", FIELDS))
+    with pytest.raises(DataError, match=f"the bag does not embed the definition of {VENDOR}"):
+        load_mission(nodefs, plain)
+
+
+def test_the_entry_shown_is_built_from_the_fields_of_other_drivers_messages():
+    """UUV Simulator's message (beams with no flags) and WHOI ds_sensor_msgs (an array of beam velocities beside its
+    covariance): the example names their velocity and beams, not a covariance, and no flag they do not have."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from graphnav.io import bag_fields
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg("float64 range\nfloat64 velocity\nfloat64 velocity_covariance\n"
+                                      "geometry_msgs/PoseStamped pose", "uuv_sensor_msgs/msg/DVLBeam"))
+    store.register(get_types_from_msg("std_msgs/Header header\ngeometry_msgs/Vector3 velocity\n"
+                                      "float64[9] velocity_covariance\nfloat64 altitude\nuuv_sensor_msgs/DVLBeam[] beams",
+                                      "uuv_sensor_msgs/msg/DVL"))
+    store.register(get_types_from_msg("std_msgs/Header header\ngeometry_msgs/Vector3 velocity\nfloat64[9] velocity_covar"
+                                      "\nfloat64[4] raw_velocity\nfloat64[4] raw_velocity_covar", "ds_sensor_msgs/msg/Dvl"))
+    rest = {"frame": "instrument", "velocity_unit": "m/s"}
+    assert bag_fields.example(store.fielddefs, "uuv_sensor_msgs/msg/DVL", "/dvl") == {
+        "topic": "/dvl", "v_b": "velocity", "beams": "beams[].velocity", **rest}
+    assert bag_fields.example(store.fielddefs, "ds_sensor_msgs/msg/Dvl", "/dvl") == {
+        "topic": "/dvl", "v_b": "velocity", "beams": "raw_velocity", **rest}
