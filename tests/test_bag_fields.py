@@ -160,10 +160,11 @@ def test_the_entry_shown_is_built_from_the_fields_of_other_drivers_messages():
     store.register(get_types_from_msg("float64 range\nfloat64 velocity\nfloat64 velocity_covariance\n"
                                       "geometry_msgs/PoseStamped pose", "uuv_sensor_msgs/msg/DVLBeam"))
     store.register(get_types_from_msg("std_msgs/Header header\ngeometry_msgs/Vector3 velocity\n"
-                                      "float64[9] velocity_covariance\nfloat64 altitude\nuuv_sensor_msgs/DVLBeam[] beams",
-                                      "uuv_sensor_msgs/msg/DVL"))
-    store.register(get_types_from_msg("std_msgs/Header header\ngeometry_msgs/Vector3 velocity\nfloat64[9] velocity_covar"
-                                      "\nfloat64[4] raw_velocity\nfloat64[4] raw_velocity_covar", "ds_sensor_msgs/msg/Dvl"))
+                                      "float64[9] velocity_covariance\nfloat64 altitude\n"
+                                      "uuv_sensor_msgs/DVLBeam[] beams", "uuv_sensor_msgs/msg/DVL"))
+    store.register(get_types_from_msg("std_msgs/Header header\ngeometry_msgs/Vector3 velocity\n"
+                                      "float64[9] velocity_covar\nfloat64[4] raw_velocity\n"
+                                      "float64[4] raw_velocity_covar", "ds_sensor_msgs/msg/Dvl"))
     rest = {"frame": "instrument", "velocity_unit": "m/s"}
     assert bag_fields.example(store.fielddefs, "uuv_sensor_msgs/msg/DVL", "/dvl") == {
         "topic": "/dvl", "v_b": "velocity", "beams": "beams[].velocity", **rest}
