@@ -56,8 +56,9 @@ from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import IMU_GAP_PERIODS, IMU_RATE_TOLERANCE, ImuGap, check_imu_gap, gap_variances
 from graphnav.core.imu_timing import (  # noqa: F401  (BURST_STEP_SHARE: read here before it moved)
-    BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, PACKET_LOSS_CYCLES, awaits_packet_cycles, clock_words, imu_packet_limit,
-    imu_stamp_quantum, imu_step_stats, packets_note, quantised_clock, restamp_packets, shared_stamp_packets,
+    BURST_STEP_SHARE, CLOCK_PATTERN_STAMPS, IMU_PACKET_STEPS, PACKET_LOSS_CYCLES, awaits_packet_cycles, clock_words,
+    imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note, quantised_clock, restamp_packets,
+    shared_stamp_packets,
     start_burst, start_burst_warning)
 from graphnav.estimators.history import BeamHistory
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
@@ -157,6 +158,10 @@ CLOCK_PERIOD_STEPS = 30
 #: over as many steps as bring the grid's error under it (3334-5000 for a 400 Hz IMU in whole ms, 8-12.5 s: a grid
 #: step over the median of the first steps, 2, 2.5 or 3 ms).
 IMU_QUANTISED_SPAN_SHARE = 1e-4
+#: A step under this share of the configured period, while a live IMU's first steps decide, may be within a packet
+#: (its samples stamped on receipt 0.01-1.5 ms apart at 100 Hz): the samples are held until decided
+#: (:meth:`PacketStamps._while_deciding`). Even stamps with jitter of a tenth of the period never make one.
+PACKET_STEP_SHARE = 0.5
 #: A live packet whose step from the packet before is over this many cycles came late (a delayed driver read, two
 #: packets at once): it is held until its end and spread back whole from its last stamp, since its size is not known
 #: when its first part has reached the typical size.
@@ -297,10 +302,11 @@ class PacketStamps:
     make zero-length steps then one k periods long. Its first :data:`IMU_RATE_STEPS` steps (or three packet cycles,
     :func:`~graphnav.core.imu_timing.awaits_packet_cycles`; a burst it starts with left out,
     :func:`~graphnav.core.imu_timing.start_burst`) decide, by :func:`~graphnav.core.imu_timing.imu_step_stats`;
-    they and every sample of an IMU that is no packets pass with their own stamps. Then a packet ends at the next
-    long step (:func:`~graphnav.core.imu_timing.imu_packet_limit`) or a step back, and leaves restamped, spread back
-    from its last stamp; one of the typical size (:meth:`typical_size`) leaves with its last sample (no latency for
-    packets of one size), a smaller one with the next packet's first sample (one cycle later: the Navigator holds
+    meanwhile each sample waits for the next step, and once one falls within a packet they are held until decided
+    (:meth:`_while_deciding`), then leave as the packets after them; every sample of an IMU that is no packets passes
+    with its own stamp. Then a packet ends at the next long step (:func:`~graphnav.core.imu_timing.imu_packet_limit`)
+    or a step back, and leaves restamped, spread back from its last stamp; one of the typical size
+    (:meth:`typical_size`) leaves with its last sample (no latency for packets of one size), a smaller one with the next packet's first sample (one cycle later: the Navigator holds
     its reorder buffer back meanwhile, :meth:`release_limit`, so that the packet is not squeezed into the time left).
     Samples of a packet beyond the typical size (a driver read of two packets at once) came after its first part left
     spread back from its stamp: their times are unknown. They wait for its end and follow that part at the period as
@@ -333,7 +339,9 @@ class PacketStamps:
         self._k = self._in_packet = self._singles = 0      # typical packet, samples of this one, one-sample packets
         self._sizes: deque[int] = deque(maxlen=PACKET_SIZES)     # the latest packets' sizes
         self._limit = math.inf          # steps over it end a packet, s
-        self._passing = False           # the packet it was decided in, passing as received
+        #: the samples held while the first steps decide (each waits for the step after it: within a packet?)
+        self._pending: list[tuple[float, tuple, tuple]] = []
+        self._packets_seen = False      # a step within a packet among them: held until decided
         self._held: list[tuple[float, tuple, tuple]] = []
         self._last = self._out = -math.inf      # newest stamp received, and let out
         self._ties: list[float] = []    # the stamps while undecided, once one repeats (packets sharing one stamp?)
@@ -355,21 +363,86 @@ class PacketStamps:
         last, self._last = self._last, t
         if self.clock:
             return self._on_clock(t, f, w, last, after)
-        step = t - last
-        long = step < 0.0 or step > (self._limit if self.period_s else BURST_STEP_SHARE * self.configured_s)
-        self._passing = self._passing and not long
         if self.period_s and not self._limit:   # packets sharing one stamp: perhaps a clock's grid steps
             self._watch.append(t)
-        if not self.period_s or self._passing:          # the packet it was decided in ends as it began
-            self._reopen(step)
-            if self._steps is not None and (t == last or self._ties):
+        if not self.period_s:
+            self._reopen(t - last)
+            undecided = self._steps is not None
+            if undecided and (t == last or self._ties):
                 self._decide_shared(t, last)
-            elif self._steps is not None and t > last > -math.inf:
+            elif undecided and t > last > -math.inf:
                 self._decide(t - last)
+            if undecided:
+                return self._while_deciding(t, f, w, last, after)
             if self._watch_clock(t, last):
                 return self._on_clock(t, f, w, last, after)
             self._out = t
             return [(t, f, w)]
+        return self._in_packets(t, f, w, last, after)
+
+    def _while_deciding(self, t: float, f: tuple, w: tuple, last: float,
+                        after: float) -> list[tuple[float, tuple, tuple]]:
+        """A sample (stamped ``t`` s, after ``last`` s) while the first steps decide. Each waits for the step after
+        it: one under :data:`PACKET_STEP_SHARE` of the configured period puts the samples in a packet, and from then
+        on they are held until decided (passed as received, integrated at their packets' stamps they cost 0.25 m in
+        the first second for packets of 20 at 100 Hz); else it passes as received, one step late (a stream with plain
+        stamps waits for nothing: the reorder buffer holds it longer). Decided in packets, the held samples leave as the
+        packets after them (:meth:`_in_packets`); decided no packets or a clock, as received."""
+        clock = self._watch_clock(t, last)
+        if self._steps is None:                 # decided on this sample
+            held = self._as_received()
+            if self.period_s:
+                return self._refeed(held + [(t, f, w)], after)
+            if clock:
+                return held + self._on_clock(t, f, w, last, after)
+            self._out = t
+            return held + [(t, f, w)]
+        self._packets_seen |= 0.0 <= t - last < PACKET_STEP_SHARE * self.configured_s
+        out = [] if self._packets_seen else self._as_received()
+        self._pending.append((t, f, w))
+        return out
+
+    def _undecided_out(self, after: float) -> list[tuple[float, tuple, tuple]]:
+        """The samples held while deciding when the IMU goes silent or ends before it decides: with a packet among them,
+        spread back from each packet's last stamp at the configured period (none at or before ``after``, s; as received,
+        a loss of 1 s among the first packets made the keyframer read the IMU at 1e+05 Hz and bridge every later
+        sample as a gap); else as received."""
+        if not self._packets_seen:
+            return self._as_received()
+        held, self._pending, self._packets_seen = self._pending, [], False
+        return self._spread_back(held, self.configured_s, PACKET_STEP_SHARE * self.configured_s, max(self._out, after))
+
+    def _as_received(self) -> list[tuple[float, tuple, tuple]]:
+        """The samples held while deciding, let out with their own stamps."""
+        held, self._pending, self._packets_seen = self._pending, [], False
+        if held:
+            self._out = held[-1][0]
+        return held
+
+    def _held_from(self, t: float) -> float:
+        """The first stamp (s) held while deciding, ``t`` (s) with none."""
+        return self._pending[0][0] if self._pending else t
+
+    def _refeed(self, held: list, after: float) -> list[tuple[float, tuple, tuple]]:
+        """The samples held while deciding, decided in packets: ended and restamped as the packets after them (none
+        at or before ``after``, s). The packets a long step among them ended leave whole, whatever their size (at the
+        size decided, a larger one among them had samples refused beyond it)."""
+        stamps = [s[0] for s in held]
+        ended = max((j for j in range(1, len(held)) if not 0.0 <= stamps[j] - stamps[j - 1] <= self._limit), default=0)
+        out, last = [], stamps[0]
+        for j, (t, f, w) in enumerate(held):
+            out += (self._on_clock(t, f, w, last, after) if self.clock
+                    else self._in_packets(t, f, w, last, after, ended=j < ended))
+            last = t
+        return out
+
+    def _in_packets(self, t: float, f: tuple, w: tuple, last: float, after: float,
+                    ended: bool = False) -> list[tuple[float, tuple, tuple]]:
+        """A sample of an IMU decided in packets, stamped ``t`` (s) after ``last`` (s): held until its packet ends,
+        then restamped with it (see the class docstring); ``ended``: its packet is known to end at the next long step,
+        so it does not leave at the typical size."""
+        step = t - last
+        long = step < 0.0 or step > self._limit
         if not self._limit and long and t > last and self._in_packet not in (0, self._k):
             clock = quantised_clock(np.asarray(self._watch))
             if clock is not None:
@@ -383,7 +456,7 @@ class PacketStamps:
         self._held.append((t, f, w))
         self._in_packet += 1
         whole = (len(self._held) >= self._k and self._in_packet == len(self._held)   # none of it let out yet
-                 and not self._late)
+                 and not self._late and not ended)
         return out + self.flush(after) if whole else out
 
     def _reopen(self, step: float) -> None:
@@ -414,6 +487,8 @@ class PacketStamps:
         packet's first stamp, s) at the period after it. A packet short of the typical size that the IMU went
         ``silent`` after, or that the next one follows by more than 1.5 cycles, lost its last samples, not its first:
         it follows the packet before at the period (:meth:`_lost_after`)."""
+        if self._pending:           # undecided: nothing else is held
+            return self._undecided_out(after)
         if self.clock:
             return self._place_repeats(after, before)
         held, self._held = self._held, []
@@ -428,7 +503,13 @@ class PacketStamps:
             self._out = float(t[-1])
             self.restamped += len(held)
             return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
-        t = restamp_packets(received, self.period_s, math.inf, floor if received[-1] > floor else -math.inf)
+        return self._spread_back(held, self.period_s, math.inf, floor)
+
+    def _spread_back(self, held: list, period: float, limit: float, floor: float) -> list[tuple[float, tuple, tuple]]:
+        """The ``held`` samples, each packet (split at steps over ``limit``, s) spread back from its last stamp at
+        ``period`` (s) after ``floor`` (s: what was let out) (:func:`~graphnav.core.imu_timing.restamp_packets`)."""
+        received = np.array([s[0] for s in held])
+        t = restamp_packets(received, period, limit, floor if received[-1] > floor else -math.inf)
         self.restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
@@ -437,11 +518,13 @@ class PacketStamps:
         """Stamps (s) at the period after ``floor`` (s, the packet before) for a short packet received at
         ``received`` (s) that a loss follows (``silent``, or the next packet at ``before``, s, more than 1.5 cycles
         later): spread back from its stamp, it left a second, spurious gap before it (0.110 s beside 1.810 s for
-        samples lost from 28.5 to 30.4 s in packets of 20). None for any other packet, or with no room before its
-        stamp."""
+        samples lost from 28.5 to 30.4 s in packets of 20). None for any other packet, with no room before its
+        stamp, or for one that a loss precedes too (it may have lost its first samples: the last ten of a packet
+        between losses of 0.5-1.5 and 1.6-1.8 s went to 0.5 s)."""
         n, cycle = received.size, self._k * self.period_s
         loss = silent or (before < math.inf and before - received[-1] > PACKET_LOSS_CYCLES * cycle)
-        if n >= self._k or not loss or not floor > -math.inf or floor + n * self.period_s > received[-1]:
+        if (n >= self._k or not loss or not floor > -math.inf or floor + n * self.period_s > received[-1]
+                or received[-1] - floor > PACKET_LOSS_CYCLES * cycle):
             return None
         return floor + self.period_s * np.arange(1, n + 1)
 
@@ -476,7 +559,11 @@ class PacketStamps:
         held whole); inf once ``newest`` (s, the newest stamp received) is two cycles past it (an IMU outage must not
         stall the other streams). With none held, the last packet's end while the next read is under two cycles late
         (``newest`` under three cycles past it): a driver read of two packets at once reaches back to it, and a
-        keyframe cannot close without the IMU past it anyway; inf else."""
+        keyframe cannot close without the IMU past it anyway; inf else. While the first steps decide, nothing once
+        a packet is among the samples held (restamped, they go back up to a packet's length), else up to the one
+        held."""
+        if self._pending:
+            return -math.inf if self._packets_seen else self._pending[0][0]
         if not self._held:
             late = self.period_s and not self.clock and newest - self._out < 3 * self._k * self.period_s
             return self._out if late else math.inf
@@ -489,7 +576,13 @@ class PacketStamps:
     def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held packet restamped (:meth:`flush`, none at or before ``after``, s) once ``newest`` (s, the newest
         stamp received on any stream) is two cycles past its last stamp: the IMU went silent or stopped, so the
-        packet has ended, and it must leave before the reorder buffer releases past it; else none."""
+        packet has ended, and it must leave before the reorder buffer releases past it; else none. Samples held while
+        the first steps decide leave (:meth:`_undecided_out`) once ``newest`` is past them by the reorder window and,
+        with a packet among them, the longest the decision may take (:data:`~graphnav.core.imu_timing.
+        IMU_PACKET_STEPS` configured periods: a loss among the first packets is still decided on), else two periods."""
+        if self._pending:
+            wait = (IMU_PACKET_STEPS if self._packets_seen else 2) * self.configured_s
+            return self._undecided_out(after) if newest - self._pending[-1][0] > self.window_s + wait else []
         return self.flush(after, silent=True) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
@@ -624,8 +717,9 @@ class PacketStamps:
             k, cycle, self.period_s = packets
             self._decided(k)
             self._watch.extend(whole + [t])     # watched for a clock whose grid steps held a packet's count so far
-            self._steps, self._ties, self._limit, self._passing = None, [], 0.0, True
-            self.note = packets_note(self._k, cycle, self.period_s, f"stamps after t = {t:.3f} s (packets sharing "
+            self._steps, self._ties, self._limit = None, [], 0.0
+            self.note = packets_note(self._k, cycle, self.period_s, f"stamps from t = {self._held_from(t):.3f} s "
+                                     "(packets sharing "
                                      "one stamp; counted in imu_restamped)")
         elif t > last:
             self._decide(t - last)
@@ -640,9 +734,10 @@ class PacketStamps:
         period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
         limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
         if cycle > period and limit < period:
-            self.period_s, self._limit, self._passing = period, limit, True
+            self.period_s, self._limit = period, limit
             self._decided(round(cycle / period))
-            self.note = packets_note(self._k, cycle, period, f"stamps after t = {self._last:.3f} s (counted in "
+            self.note = packets_note(self._k, cycle, period, f"stamps from t = {self._held_from(self._last):.3f} s "
+                                     "(counted in "
                                      "imu_restamped)")
 
 

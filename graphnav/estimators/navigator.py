@@ -246,12 +246,13 @@ class Navigator:
             return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
         packets = self._packets
-        out = self._queue_packet(packets.add(t, f, w, self._released))  # queued whole before anything leaves
+        samples = packets.add(t, f, w, self._released)
+        out = self._queue_packet(samples)  # queued whole before anything leaves
         if packets.note is not None:
             self._note("imu", packets.note)
             packets.note = None
-            if packets.period_s:
-                self.keyframer.imu_period.restamped(t)
+            if packets.period_s:        # the samples held while it decided come restamped too
+                self.keyframer.imu_period.restamped(min(t, *(s[0] for s in samples[:1])))
         return out + self._release(self._newest - self.options.reorder_window_s)
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
