@@ -306,8 +306,9 @@ class PacketStamps:
     (:meth:`_while_deciding`), then leave as the packets after them; every sample of an IMU that is no packets passes
     with its own stamp. Then a packet ends at the next long step (:func:`~graphnav.core.imu_timing.imu_packet_limit`)
     or a step back, and leaves restamped, spread back from its last stamp; one of the typical size
-    (:meth:`typical_size`) leaves with its last sample (no latency for packets of one size), a smaller one with the next packet's first sample (one cycle later: the Navigator holds
-    its reorder buffer back meanwhile, :meth:`release_limit`, so that the packet is not squeezed into the time left).
+    (:meth:`typical_size`) leaves with its last sample (no latency for packets of one size), a smaller one with the
+    next packet's first sample (one cycle later: the Navigator holds its reorder buffer back meanwhile,
+    :meth:`release_limit`, so that the packet is not squeezed into the time left).
     Samples of a packet beyond the typical size (a driver read of two packets at once) came after its first part left
     spread back from its stamp: their times are unknown. They wait for its end and follow that part at the period as
     far as the next packet leaves room (:meth:`_beyond`); the rest are refused by the caller (:attr:`unplaced`).
