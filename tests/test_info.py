@@ -173,6 +173,19 @@ def test_info_on_a_json_lines_stream(sim, tmp_path):
     assert d["dvl"]["speed_mps"]["median"] == pytest.approx(speed_median(sim), abs=1e-9)
 
 
+def test_info_on_a_json_lines_stream_shows_the_imu_rate_measured_from_its_stamps(sim, tmp_path):
+    """A 70 Hz IMU on a 10 ms clock (steps of 10 and 20 ms) showed 100 Hz, its median step: now 70 Hz, as the
+    other readers show it."""
+    import dataclasses
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
+    stamps = np.floor(np.arange(sim.imu.t.size) / 70.0 / 0.01 + 1e-9) * 0.01
+    path = tmp_path / "stream.jsonl"
+    with path.open("w") as fh:
+        write_records(mission_records(dataclasses.replace(sim, imu=dataclasses.replace(sim.imu, t=stamps))), fh)
+    assert describe(path)["streams"]["imu"]["rate_hz"] == pytest.approx(70.0, rel=1e-3)
+
+
 def test_cli_json_parses_and_exit_codes(sim, tmp_path, capsys):
     from graphnav.estimators.replay import mission_records
     from graphnav.io.streamio import write_records

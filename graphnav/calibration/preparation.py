@@ -159,7 +159,8 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.imu_timing.imu_rate_hz`)
     when the configured one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in
-    ``meta``; ``meta["streams"]["imu"]["rate_hz"]`` (what ``graphnav info`` shows) is the rate used. The
+    ``meta``; ``meta["streams"]["imu"]["rate_hz"]`` (what ``graphnav info`` shows) is the measured rate, also where
+    the configured one is kept (a 97 Hz IMU configured at 100 Hz shows 97 Hz). The
     keyframer's gap limit and bridging and the gravity levelling without GT read the configured rate; the screening
     and the preintegration use the stamps themselves."""
     from graphnav.core.imu_timing import imu_rate_hz, imu_stamp_quantum
@@ -175,8 +176,8 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
                  f"{1 / np.median(steps):.4g} Hz")
     off = abs(measured - configured) > IMU_RATE_TOLERANCE * configured      # NaN (one stamp): nothing to say
     if np.isfinite(measured) and "imu" in meta.get("streams", {}):
-        # the readers' median step read 100 Hz for a 70, 80 or 98 Hz IMU on a 10 ms clock
-        meta["streams"]["imu"]["rate_hz"] = float(measured if off else configured)
+        # the readers' median step read 100 Hz for a 70 or 80 Hz IMU on a 10 ms clock
+        meta["streams"]["imu"]["rate_hz"] = float(measured)
     if not off:
         return mission
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "

@@ -149,8 +149,19 @@ CLOCK_WAIT_STEPS = 3
 #: 10 ms grid (over 50, a line running ahead of a 200 Hz IMU's stamps put a sample before the one let out before it).
 CLOCK_LINE_SAMPLES = 100
 #: Periods a live clock's sample may lie outside its stamp's grid step on the line before the line is given up (samples
-#: lost, the rate changed) and fitted again from that sample (:meth:`PacketStamps._on_line`; offline the same slack).
+#: lost, the rate changed) and fitted again from that sample (:meth:`PacketStamps._on_line`; offline the same slack),
+#: this one by a period more; the latest :data:`CLOCK_LINE_RUN` grid steps' samples by :data:`CLOCK_LINE_MEAN_PERIODS`
+#: on average.
 CLOCK_LINE_SLACK_PERIODS = 0.5
+#: Periods a live clock's latest samples may miss their grid steps' mid-points by on average (a sample lost moves every
+#: later one a period): half a period caught the lag of a line fitted over 2000 samples of a rate drifting 1 % in 120 s
+#: and put samples back at their stamps out of order.
+CLOCK_LINE_MEAN_PERIODS = 0.75
+#: Grid steps whose samples' mean miss of their stamps' grid steps' mid-points decides whether a live clock's line is
+#: given up (:meth:`PacketStamps._line_broken`): a sample lost moves every later one a period, a sample pushed across a
+#: grid edge by jitter one alone a grid step (as far: samples mid-step with 2 ms of jitter on a 10 ms grid gave the
+#: line up once in 290 samples on that one's miss, each time 100 samples left at their stamps).
+CLOCK_LINE_RUN = 16
 #: Grid steps a live clock's stamps must span for the period measured on them (samples over time) to be said: a
 #: grid step of error is then 3 % at most (a 200 Hz IMU in whole 10 ms found on its first four stamps read 6 ms).
 CLOCK_PERIOD_STEPS = 30
@@ -356,6 +367,7 @@ class PacketStamps:
         self._line: deque[tuple[int, float]] = deque(maxlen=CLOCK_WATCH_STAMPS)
         self._line_origin, self._line_n = 0.0, 0     # the stretch's first stamp s, and samples in it
         self._fit: tuple[int, float, float] | None = None    # the line: (sample index, its time s, the period s)
+        self._misses: list[float] = []  # the latest samples' stamps' grid steps' mid-points less the line, s
         self._late = False              # the packet held came over half a cycle late: a read of two, held whole
 
     def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
@@ -619,8 +631,9 @@ class PacketStamps:
         self.note = (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
                      "sample, placed after that stamp at the period within the room before the next stamp, and "
                      f"after {CLOCK_LINE_SAMPLES} samples every sample on a line at the period through the mid-points "
-                     "of their stamps' grid steps, fitted again as they come (counted in imu_restamped); "
-                     f"{before}")
+                     "of their stamps' grid steps, fitted again as they come (counted in imu_restamped; a clock "
+                     f"truncating to its grid, the usual logger: one rounding to it leaves them {500 * clock[0]:.4g} "
+                     f"ms late, as offline); {before}")
 
     def _packets_were_clock(self, clock: tuple[float, float], t: float, f: tuple, w: tuple, last: float,
                             after: float) -> list[tuple[float, tuple, tuple]]:
@@ -660,15 +673,14 @@ class PacketStamps:
         (:func:`~graphnav.core.imu_timing.restamp_quantised`), fitted again every :data:`CLOCK_LINE_SAMPLES`. Left at
         their stamps, the samples that do not repeat one are up to a grid step early at random (5.3 ms RMS for 100 Hz
         in whole 10 ms with 1 ms of jitter), which cost 0.05-0.11 m over 90 s where a constant offset of that size
-        costs 0.01 m. None (the sample left to its stamp) for the first :data:`CLOCK_LINE_SAMPLES` of a stretch; a
-        sample whose stamp's grid step the line misses by over :data:`CLOCK_LINE_SLACK_PERIODS` (samples lost, the
-        rate changed) starts a stretch."""
+        costs 0.01 m. None (the sample left to its stamp) for the first :data:`CLOCK_LINE_SAMPLES` of a stretch; the
+        line misses the grid steps of samples lost or a rate changed (:meth:`_line_broken`): such a sample starts a
+        stretch."""
         grid, period = self.clock
         n, placed = self._line_n, None
         if self._fit is not None:
             placed = self._fit[1] + self._fit[2] * (n - self._fit[0])
-            slack = CLOCK_LINE_SLACK_PERIODS * period
-            if not t - slack <= placed <= t + grid + slack:
+            if self._line_broken(t + 0.5 * grid - placed):
                 placed, self._fit = None, None
                 self._line.clear()
         if not self._line:
@@ -680,6 +692,21 @@ class PacketStamps:
             slope, offset = np.polyfit(i - n, y, 1)
             self._fit = (n, self._line_origin + float(offset), float(slope))
         return placed
+
+    def _line_broken(self, miss: float) -> bool:
+        """Whether the line misses its samples' grid steps, ``miss`` (s) the newest's stamp's grid step's mid-point
+        less its place: by over the half step, :data:`CLOCK_LINE_SLACK_PERIODS` and a period more (a gap, a clock
+        stepping), or by over :data:`CLOCK_LINE_MEAN_PERIODS` on average over the latest :data:`CLOCK_LINE_RUN` grid
+        steps' samples (a sample lost, the rate changed: every later sample misses). A sample that jitter pushed across a grid edge
+        misses by a grid step alone, as far at a clock as coarse as the period as a sample lost moves the rest."""
+        grid, period = self.clock
+        n = CLOCK_LINE_RUN * max(1, round(grid / period))
+        self._misses = self._misses[1 - n:] + [miss]
+        far = abs(miss) > 0.5 * grid + (CLOCK_LINE_SLACK_PERIODS + 1.0) * period
+        if far or (len(self._misses) == n and abs(np.mean(self._misses)) > CLOCK_LINE_MEAN_PERIODS * period):
+            self._misses = []
+            return True
+        return False
 
     def _place_repeats(self, after: float, before: float) -> list[tuple[float, tuple, tuple]]:
         """The held samples repeating a stamp s (after the one let out at it), placed at s + j * step, j = 1, 2 ...,
