@@ -697,8 +697,9 @@ class PacketStamps:
         """Whether the line misses its samples' grid steps, ``miss`` (s) the newest's stamp's grid step's mid-point
         less its place: by over the half step, :data:`CLOCK_LINE_SLACK_PERIODS` and a period more (a gap, a clock
         stepping), or by over :data:`CLOCK_LINE_MEAN_PERIODS` on average over the latest :data:`CLOCK_LINE_RUN` grid
-        steps' samples (a sample lost, the rate changed: every later sample misses). A sample that jitter pushed across a grid edge
-        misses by a grid step alone, as far at a clock as coarse as the period as a sample lost moves the rest."""
+        steps' samples (a sample lost, the rate changed: every later sample misses). A sample that jitter pushed across
+        a grid edge misses by a grid step alone, as far at a clock as coarse as the period as a sample lost moves the
+        rest."""
         grid, period = self.clock
         n = CLOCK_LINE_RUN * max(1, round(grid / period))
         self._misses = self._misses[1 - n:] + [miss]
