@@ -20,8 +20,9 @@ FIELDS = {"topic": "/dvl/data", "v_b": "velocity", "velocity_valid": "velocity_v
           "valid": "beams[].valid"}
 
 
-def _vendor_copy(standard, path, storage="mcap"):
-    """``standard`` (a bag with ``dvl_msgs/msg/DVL``) with its DVL messages recorded as the vendor's type."""
+def _vendor_copy(standard, path, storage="mcap", twist=False):
+    """``standard`` (a bag with ``dvl_msgs/msg/DVL``) with its DVL messages recorded as the vendor's type (``twist``:
+    each also published as a ``TwistWithCovarianceStamped`` on /dvl/twist, as drivers do beside their own message)."""
     from rosbags.rosbag2 import Reader, StoragePlugin, Writer
     from rosbags.typesys import get_types_from_msg
     store = bags.typestore()
@@ -43,6 +44,13 @@ def _vendor_copy(standard, path, storage="mcap"):
                 raw = store.serialize_cdr(T[VENDOR](header=m.header, time=m.time, velocity=m.velocity, fom=m.fom,
                                                     altitude=m.altitude, beams=beams, velocity_valid=m.velocity_valid,
                                                     status=m.status, form=m.form), VENDOR)
+                if twist:
+                    if "/dvl/twist" not in conns:
+                        conns["/dvl/twist"] = writer.add_connection("/dvl/twist", bags.TWIST_DVL, typestore=store)
+                    cov = np.diag([1e-4, 1e-4, 1e-4, -1.0, -1.0, -1.0]).ravel()
+                    msg = T[bags.TWIST_DVL](header=m.header, twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                        twist=T["geometry_msgs/msg/Twist"](linear=m.velocity, angular=m.velocity), covariance=cov))
+                    writer.write(conns["/dvl/twist"], ns, store.serialize_cdr(msg, bags.TWIST_DVL))
             writer.write(conns[conn.topic], ns, raw)
     if storage == "sqlite3":
         bag_driver.strip_definitions(next(path.glob("*.db3")))
@@ -170,3 +178,34 @@ def test_the_entry_shown_is_built_from_the_fields_of_other_drivers_messages():
         "topic": "/dvl", "v_b": "velocity", "beams": "beams[].velocity", **rest}
     assert bag_fields.example(store.fielddefs, "ds_sensor_msgs/msg/Dvl", "/dvl") == {
         "topic": "/dvl", "v_b": "velocity", "beams": "raw_velocity", **rest}
+
+
+def test_a_declared_velocity_unit_the_imu_contradicts_is_refused_naming_the_key(recorded):
+    """The DVL in m/s declared cm/s or mm/s: every speed 100-1000x too small, which no speed range tells from a
+    hovering vehicle's. It loaded without a word; the IMU's accelerations now fit the velocity's changes far better
+    in m/s, and the error names the topic, the fields, the key, the declared unit and the one that fits."""
+    _, root, _, vendor, _ = recorded
+    for unit in ("cm/s", "mm/s"):
+        cfg = _config(root, "unit.json", {**FIELDS, "velocity_unit": unit})
+        with pytest.raises(DataError, match=rf"vendor:/dvl/data, field .*: declared '{unit}' "
+                                            r"\(bag_topics\.dvl\.velocity_unit\), but the IMU's accelerations fit "
+                                            r"the velocity's changes .*x better in 'm/s' .*: set "
+                                            r"bag_topics\.dvl\.velocity_unit to 'm/s'$"):
+            load_mission(vendor, cfg)
+    with pytest.warns(RuntimeWarning):
+        m = load_mission(vendor, _config(root, "right.json", {**FIELDS, "velocity_unit": "m/s"}))
+    assert "doubted" not in m.meta["streams"]["dvl"]
+
+
+def test_a_twist_used_beside_a_vendor_dvl_message_says_how_to_read_the_vendor_one(recorded, tmp_path):
+    """A driver publishing its own DVL message and a twist: without bag_topics.dvl the twist is used (velocity only),
+    and the warning now names the vendor topic and the entry that reads it with its beams."""
+    _, root, standard, _, plain = recorded
+    both = _vendor_copy(standard, tmp_path / "both", twist=True)
+    with pytest.warns(RuntimeWarning) as caught:
+        m = load_mission(both, plain)
+    said = [str(w.message) for w in caught if "no DVL message" in str(w.message)]
+    assert said and "/dvl/twist (geometry_msgs/msg/TwistWithCovarianceStamped) is used as the DVL; /dvl/data " \
+        f"({VENDOR}) looks like the DVL's own message, whose beams the twist lacks" in said[0], said
+    assert '"bag_topics": {"dvl": {"topic": "/dvl/data", "v_b": "velocity"' in said[0]
+    assert not m.dvl.valid.any()                    # velocity only, as before

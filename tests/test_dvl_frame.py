@@ -605,3 +605,24 @@ def test_an_akit_folder_without_gt_has_its_given_dvl_time_offset_judged(akit_dir
                                                      "say +1.0"), said
         doubted = m.meta["streams"]["dvl"]["doubted"]
         assert doubted == {"dvl_time_offset_s used as given though the data disagree": 200}, doubted
+
+
+def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warning(sim, monkeypatch):
+    """Where m/s fits the IMU 4x better than the declared cm/s but explains none of the velocity's changes either (a
+    DVL noisier than the IMU's accelerations), the declared unit is kept: a warning naming the key, a note, and the
+    pings counted as doubted; a declared unit the data do not contradict, nothing."""
+    from graphnav.calibration import dvl_scale
+    m = sim[0]
+    declared = {"unit": "cm/s", "key": "csv_columns.dvl.velocity_unit"}
+    monkeypatch.setattr(dvl_scale, "velocity_scale_fits", lambda *a: {1.0: 50.0, 100.0: 1.05})
+    meta = {"stream_fields": {"dvl": "vx, vy, vz"}}
+    with pytest.warns(RuntimeWarning, match=r"field 'vx, vy, vz': declared 'cm/s' \(csv_columns.dvl.velocity_unit\), "
+                                            r"but .* 47.6x better in 'm/s' .* kept in 'cm/s'"):
+        dvl_scale.check_declared_velocity_unit(m.imu, m.dvl, m.config, meta, declared)
+    assert meta["streams"]["dvl"]["doubted"] == {dvl_scale.VELOCITY_UNIT_DOUBT: len(m.dvl.t)}
+    monkeypatch.setattr(dvl_scale, "velocity_scale_fits", lambda *a: {1.0: 0.9, 100.0: 0.95})
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dvl_scale.check_declared_velocity_unit(m.imu, m.dvl, m.config, meta, declared)
+    assert meta == {}

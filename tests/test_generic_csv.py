@@ -818,3 +818,38 @@ def hovering_mission(root, gyro_scale=1.0):
         m = load_mission(root, _hover_with_reference(root), prepare=False)
     return dataclasses.replace(m, imu=dataclasses.replace(m.imu, omega_b=m.imu.omega_b * gyro_scale),
                                gt=dataclasses.replace(m.gt, origin_lla=np.array([0.5733, 0.6091, 0.0])))
+
+
+def test_a_declared_dvl_velocity_unit_the_imu_contradicts_is_refused_naming_the_key(sim, tmp_path):
+    """A DVL logging m/s declared cm/s or mm/s: speeds 100-1000x too small, and with 3 cm/s of noise its changes lie
+    within that noise, so no check judged it and the log loaded without a word (an AUV at 2 cm/s). The IMU's
+    accelerations fit its changes far better in m/s: refused naming the file, columns, key and the unit that fits."""
+    cmap = _separate_files(tmp_path, sim)
+    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)] + np.random.default_rng(0).normal(0, 0.03, (len(sim.dvl.t), 3))
+    _write(tmp_path / "dvl.csv", ["time_ms", "vx", "vy", "vz"], [(sim.dvl.t + T0) * 1e3, v_b])
+    for unit in ("cm/s", "mm/s"):
+        cmap["dvl"] = {"file": "dvl.csv", "t": "time_ms", "v_b": ["vx", "vy", "vz"], "velocity_unit": unit}
+        with pytest.raises(DataError, match=rf"dvl.csv, field 'vx, vy, vz': declared '{unit}' \(csv_columns.dvl."
+                                            r"velocity_unit\), but .* median speed .* m/s in 'm/s': set csv_columns."
+                                            r"dvl.velocity_unit to 'm/s'$"):
+            load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    cmap["dvl"]["velocity_unit"] = "m/s"
+    m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    np.testing.assert_allclose(m.dvl.v_b, v_b, atol=1e-9)
+
+
+def test_a_declared_time_unit_the_sample_period_contradicts_is_refused_naming_the_key(sim, tmp_path):
+    """Stamps in ms declared 's' (or in s declared 'ms'): the IMU ran at 100 kHz or 0.1 Hz by the declared unit; a
+    declared unit was applied unchecked (a 0.04 s mission loaded). The detection's plausible periods now judge it."""
+    cmap = _separate_files(tmp_path, sim)
+    for declared, fits, key in (("s", "ms", "csv_columns.time_unit"), ("us", "ms", "csv_columns.time_unit")):
+        cmap["time_unit"] = declared
+        with pytest.raises(DataError, match=rf"imu.csv, field 'time_ms': the declared time unit '{declared}' \({key}\) "
+                                            rf"makes the median stamp step .* no plausible imu sample period .*: the "
+                                            rf"stamps look like {fits}; set {key} to '{fits}'$"):
+            load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    cmap["time_unit"] = "ms"
+    cmap["dvl"]["time_unit"] = "s"
+    with pytest.raises(DataError, match=r"dvl.csv, field 'time_ms': the declared time unit 's' \(csv_columns.dvl."
+                                        r"time_unit\) makes the median stamp step 1e\+03 s, no plausible dvl"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))

@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
-from graphnav.core.dvl_kinematics import WINDOW_S, dvl_window_model, without_window_fit
+from graphnav.core.dvl_kinematics import WINDOW_S, dvl_velocity_b, dvl_window_model, without_window_fit
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.io.dvl_frame import CARRIED
@@ -274,7 +274,6 @@ def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int
 def _course(dvl, config) -> float:
     """The DVL's mean horizontal direction from body +x (rad, about z; the pings over the course speed), NaN when
     they point no one way (:data:`MIN_COURSE_RESULTANT`)."""
-    from graphnav.core.dvl_kinematics import dvl_velocity_b
     return _mean_direction(dvl_velocity_b(dvl, config)[1])
 
 
@@ -591,7 +590,6 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     stamps as they stand (a clock found, given or the vehicle's) is warned about and counted (:data:`MIN_YAW_RAD`,
     :func:`warn_small_turn`). A velocity the body kinematics kept as body in a current (``meta[CARRIED]``,
     :func:`graphnav.io.dvl_frame.check_not_earth_frame`) is judged by no mean direction."""
-    from graphnav.core.dvl_kinematics import dvl_velocity_b
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     try:
         model = judging_model(imu, dvl, config)
@@ -648,6 +646,53 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
                         f"as FRD? {fixes['flu']}", dvl.source, field=field)
 
 
+#: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained
+#: as a unit at least 10x larger (:func:`check_declared_velocity_unit`) is contradicted by the data. Clean, as read over
+#: the best of x10, x100 and x1000: at most 1.03 (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole
+#: and in 60 s pieces, simulated missions of every grade, hovering vehicles); the velocity 10x too small (mm/s declared
+#: on cm/s data) over the right unit at least 18.8, 100x too small (cm/s on m/s) 1897.
+VELOCITY_UNIT_RATIO = 4.0
+#: Why DVL pings read in a declared unit the IMU contradicts, where no other unit explains them either, are counted.
+VELOCITY_UNIT_DOUBT = "DVL velocity read in a declared unit the IMU's accelerations contradict"
+
+
+def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | None, field: str | None = None) -> None:
+    """A declared DVL velocity unit (``declared``: ``{"unit": ..., "key": ...}``, the loader's
+    ``meta["prepare"]["dvl_unit"]``) checked against the IMU: a unit at least 10x larger (cm/s or m/s for mm/s, m/s
+    for cm/s) whose clock model leaves :data:`VELOCITY_UNIT_RATIO` times less of the velocity's changes unexplained is
+    a DataError naming the DVL source, its columns and the key, when it explains some of them (leaves under 1, what a
+    straight line per window leaves); when it does not, the velocity is kept in the declared unit with a warning, a
+    note and its pings counted as doubted (:data:`VELOCITY_UNIT_DOUBT`). A unit taken too small makes every speed
+    100-1000x too small, which no speed range tells from a hovering vehicle's, while the IMU says the vehicle moves.
+    Nothing when no unit is declared, none is 10x larger, or the DVL has under two windows of pings (the DVL is on the
+    IMU clock)."""
+    from graphnav.io.units import DECLARED_UNITS
+    units = DECLARED_UNITS["velocity"]
+    if not declared or declared["unit"] not in units:
+        return
+    unit, key = declared["unit"], declared["key"]
+    larger = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s") if units[u] / units[unit] >= 10}
+    try:
+        fits = velocity_scale_fits(imu, dvl, config, larger.values()) if larger else {}
+    except DataError:
+        return
+    best = min(larger, key=lambda u: fits[larger[u]], default=None)
+    if best is None or not fits[1.0] >= VELOCITY_UNIT_RATIO * fits[larger[best]]:
+        return
+    k = larger[best]
+    speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
+    said = (f"declared {unit!r} ({key}), but the IMU's accelerations fit the velocity's changes "
+            f"{fits[1.0] / max(fits[k], 1e-12):.3g}x better in {best!r} (x{k:g}; left unexplained {fits[k]:.3g} against "
+            f"{fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in {unit!r}, {speed * k:.3g} m/s in {best!r}")
+    field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
+    if fits[k] < 1.0:
+        raise DataError(f"{said}: set {key} to {best!r}", dvl.source, field=field)
+    count_doubted(meta, "dvl", VELOCITY_UNIT_DOUBT, len(dvl.t))
+    add_note(meta, "dvl", f"kept in the declared unit {unit!r} ({key}), which the IMU contradicts: {said}")
+    warnings.warn(f"{dvl.source}: field '{field}': {said}, though neither explains them (a straight line per window "
+                  f"leaves less); kept in {unit!r}: check {key}", RuntimeWarning, stacklevel=3)
+
+
 #: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).
 GYRO_SCALES = {"rad/s data 57.3x too small": 180.0 / np.pi, "deg/s": np.pi / 180.0}
 #: A gyro scale whose clock model leaves this many times less of the DVL's velocity changes unexplained than the rates
@@ -658,15 +703,33 @@ GYRO_SCALES = {"rad/s data 57.3x too small": 180.0 / np.pi, "deg/s": np.pi / 180
 GYRO_DVL_RATIO = 2.5
 
 
+def _unexplained(model) -> float:
+    """The share of the DVL's velocity changes the clock model ``model`` leaves unexplained (``1 - explained``) at
+    the best DVL offset within +- :data:`SCALE_SEARCH_S`."""
+    return 1.0 - max(model.score(o)[0] for o in SCALE_OFFSETS_S)
+
+
 def gyro_scale_fits(imu, dvl, config) -> dict[float, float]:
     """Gyro scale (1 for the rates as read, and each of :data:`GYRO_SCALES`) -> the share of the DVL's velocity changes
-    the clock model leaves unexplained with the gyro multiplied by it (``1 - explained``, at the best DVL offset within
-    +- :data:`SCALE_SEARCH_S`). The model's ``int omega x v`` and its gravity turned by the gyro scale with it."""
-    out = {}
-    for k in (1.0, *GYRO_SCALES.values()):
-        model = judging_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config)
-        out[k] = 1.0 - max(model.score(o)[0] for o in SCALE_OFFSETS_S)
-    return out
+    the clock model leaves unexplained with the gyro multiplied by it (:func:`_unexplained`). The model's
+    ``int omega x v`` and its gravity turned by the gyro scale with it."""
+    return {k: _unexplained(judging_model(dataclasses.replace(imu, omega_b=imu.omega_b * k), dvl, config))
+            for k in (1.0, *GYRO_SCALES.values())}
+
+
+def velocity_scale_fits(imu, dvl, config, scales) -> dict[float, float]:
+    """DVL velocity scale (1 for the velocity as read, and each of ``scales``) -> the share of the velocity's changes
+    the clock model leaves unexplained with the velocity multiplied by it (:func:`_unexplained`; the straight line it
+    is measured against scales with it). No floor on the velocity's change (:func:`judging_model`): a velocity in a
+    unit 100x too small changes by less than its noise, while the IMU says it changes by metres per second.
+
+    Raises:
+        DataError: under two windows of pings with a velocity.
+    """
+    from graphnav.core.dvl_kinematics import imu_integrals
+    ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+    return {k: _unexplained(dvl_window_model(imu, dvl, config, transform=k * np.eye(3), ints=ints)[0])
+            for k in (1.0, *scales)}
 
 
 def _gyro_against_reference(imu, fact: dict, meta: dict, unjudged: str):

@@ -564,9 +564,11 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
-    from graphnav.calibration.dvl_scale import check_velocity_against_imu
+    from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
     if on_the_imu_clock(dvl.t, mission.imu.t):
-        # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
+        # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
+        # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
@@ -589,6 +591,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
     mission = _reference_on_the_imu(mission, meta, facts)
     if facts.get("dvl_clock") == AUTO and dvl is not searched:
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked,
                                    reference=mission.gt)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):

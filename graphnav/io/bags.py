@@ -155,8 +155,8 @@ def _choose_topics(bag: _Bag, topics: dict[str, str], source: str, wanted: tuple
             beams = [t for t in found if available[t] != TWIST_DVL]
             found = beams or found
             if not beams:
-                warnings.warn(f"{source}: no DVL message; the velocity-only {found[0]} "
-                              f"({TWIST_DVL}) is used as the DVL", RuntimeWarning, stacklevel=3)
+                warnings.warn(f"{source}: no DVL message; the velocity-only {found[0]} ({TWIST_DVL}) is used as the "
+                              f"DVL{_vendor_dvl_hint(bag)}", RuntimeWarning, stacklevel=3)
         if found:
             chosen[stream] = found
     for stream in required:
@@ -165,6 +165,17 @@ def _choose_topics(bag: _Bag, topics: dict[str, str], source: str, wanted: tuple
                             f"has {', '.join(f'{t} ({ty})' for t, ty in sorted(available.items())) or 'no topics'}"
                             f"{_way_forward(stream, bag)}", source, field=stream)
     return chosen
+
+
+def _vendor_dvl_hint(bag: _Bag) -> str:
+    """What a bag whose DVL falls back to a twist can do when it also has a topic named like a DVL in a type graphnav
+    does not read (a vendor's DVL message, with its beams): read that topic through ``bag_topics.dvl``."""
+    read = {ty for types in STREAM_TYPES.values() for ty in types}
+    vendor = sorted(t for t, ty in bag.available.items() if ty not in read and "dvl" in f"{t} {ty}".lower())
+    if not vendor:
+        return ""
+    return (f"; {vendor[0]} ({bag.available[vendor[0]]}) looks like the DVL's own message, whose beams the twist "
+            "lacks" + bag_fields.way_forward(bag.reader.typestore.fielddefs, bag.available, vendor[0]))
 
 
 def _mapped_topic(topics: dict[str, str], dvl_fields: dict) -> str:
@@ -400,6 +411,9 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
     meta.update(prepared=False, prepare={"format": "bag", "dvl_clock": "auto", "imu_frame": {
         "declared": None, "fields": imu_s.topic, "what": f"the IMU frame_id {frame_id!r} of {imu_s.topic} ("
         + ("FRD" if conv.frame_is(frame_id, "_frd") else "REP-103 FLU: no _frd suffix") + ")"}})
+    unit = (config.bag_topics.get("dvl") or {}).get("velocity_unit")
+    if unit:                    # a declared unit the data may not contradict (the prepare step checks it)
+        meta["prepare"]["dvl_unit"] = {"unit": unit, "key": f"{bag_fields.KEY}.velocity_unit"}
     if depth is None:
         meta["depth_source"] = "none"
     elif positive:              # a declared convention the data may not contradict (the prepare step checks it)

@@ -246,7 +246,8 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     unit = spec.get("time_unit", time_unit)
     if unit is not None:
         _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
-    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines)
+    key = f"csv_columns.{stream}.time_unit" if "time_unit" in spec else "csv_columns.time_unit"
+    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read
@@ -317,7 +318,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("dvl") or {}
     if not spec and pd0_file is None:
         raise ConfigError("csv_columns needs a 'dvl' entry")
-    depth, dvl_refused, dvl_lines = None, {}, None
+    depth, dvl_refused, dvl_lines, vdeclared = None, {}, None, None
     if pd0_file is not None or "pd0" in spec:
         pd0_path = pd0_file or root / spec["pd0"]
         dvl_raw, depth, pd0_meta = read_pd0(pd0_path, config)
@@ -441,6 +442,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                                          "imu_frame": _imu_frame_fact(cmap["imu"])})
     if (cmap.get("depth") or {}).get("positive"):        # a declared convention the data may not contradict
         meta["prepare"]["depth_positive"] = cmap["depth"]["positive"]
+    if vdeclared:                                         # a declared unit the data may not contradict either
+        meta["prepare"]["dvl_unit"] = {"unit": vdeclared, "key": "csv_columns.dvl.velocity_unit"}
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt, dvl_refused, dvl_lines)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)

@@ -129,8 +129,10 @@ def _note(meta: dict | None, stream: str, text: str, source: str) -> None:
 # stamps
 # ------------------------------------------------------------------------------------------------
 def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float | None = None,
-               field: str = "t", declared: str | None = None, lines: np.ndarray | None = None) -> tuple[float, str]:
-    """The factor that puts stamps ``t`` (as read) in seconds, and its unit name.
+               field: str = "t", declared: str | None = None, lines: np.ndarray | None = None,
+               key: str | None = None, meta: dict | None = None) -> tuple[float, str]:
+    """The factor that puts stamps ``t`` (as read) in seconds, and its unit name. A unit a user ``declared`` (under
+    the configuration ``key``) is checked with the same evidence as a detected one (:func:`_declared_time`).
 
     Raises:
         DataError: no unit makes the sample step plausible, or the stream spans more than
@@ -147,15 +149,17 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
         packets = shared_stamp_packets(t)
         med = packets[2] if packets else imu_step_stats(step)[0] if med > 0 else med
     lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
+    fits = [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
     if declared is not None:
         if declared not in TIME_SCALES:
             from graphnav.core.errors import ConfigError
             raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
         unit = declared
+        if key is not None and med > 0 and declared not in fits:
+            _declared_time(med, declared, fits, (lo, hi), stream, source, field, key, meta)
     elif lo <= med <= hi or med <= 0:
         unit = "s"       # a non-positive median step is an ordering problem, reported by the stamp checks
     else:
-        fits = [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
         if not fits:
             raise DataError(f"median stamp step {med:g} is not a plausible {stream} sample period in s, ms, us "
                             f"or ns ({lo:g}-{hi:g} s); declare the time unit", source, field=field)
@@ -1255,13 +1259,15 @@ def _absolute_dbar(mission: Mission, meta: dict | None, field: str) -> None:
 # ------------------------------------------------------------------------------------------------
 def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None = None,
                       expected_rate_hz: float | None = None, declared: str | None = None,
-                      field: str = "t", lines: np.ndarray | None = None) -> np.ndarray:
+                      field: str = "t", lines: np.ndarray | None = None, key: str | None = None) -> np.ndarray:
     """Stamps ``t`` in seconds: the unit detected by :func:`time_scale` applied (warning and note when not
     s), or DataError. A span of more than a year (:func:`time_scale`) and an IMU gap longer than can be bridged are
     DataErrors here, naming the line (``lines``: the file line of each stamp) and ``field``: it is the stamps that
     are wrong, and a check of the other streams against them (a reference's positions against its velocity) would
-    blame another file."""
-    scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared, lines=lines)
+    blame another file. ``key``: the configuration key a user ``declared`` the unit with (checked against the data;
+    a unit a format fixes, a bag's nanoseconds, is not)."""
+    scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared, lines=lines,
+                             key=key, meta=meta)
     if scale != 1.0:
         if declared is None:
             _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
@@ -1270,6 +1276,18 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
     if stream == "imu":
         _imu_gaps(np.asarray(t, float), source, field, lines)
     return t
+
+
+def _declared_time(med: float, declared: str, fits: list, period: tuple, stream: str, source: str, field: str,
+                   key: str, meta: dict | None) -> None:
+    """A declared time unit that makes the median stamp step ``med`` (as read) no plausible ``period`` (s) of the
+    stream: a DataError naming ``key`` when another unit makes it plausible (``fits``), else kept with a warning and a
+    note (an instrument that samples unusually slowly or fast)."""
+    said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
+            f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({period[0]:g}-{period[1]:g} s)")
+    if fits:
+        raise DataError(f"{said}: the stamps look like {fits[0]}; set {key} to {fits[0]!r}", source, field=field)
+    _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit", source)
 
 
 def _imu_gaps(t: np.ndarray, source: str, field: str, lines: np.ndarray | None) -> None:
