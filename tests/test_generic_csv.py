@@ -825,7 +825,8 @@ def test_a_declared_dvl_velocity_unit_the_imu_contradicts_is_refused_naming_the_
     within that noise, so no check judged it and the log loaded without a word (an AUV at 2 cm/s). The IMU's
     accelerations fit its changes far better in m/s: refused naming the file, columns, key and the unit that fits."""
     cmap = _separate_files(tmp_path, sim)
-    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)] + np.random.default_rng(0).normal(0, 0.03, (len(sim.dvl.t), 3))
+    noise = np.random.default_rng(0).normal(0, 0.03, (len(sim.dvl.t), 3))
+    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)] + noise
     _write(tmp_path / "dvl.csv", ["time_ms", "vx", "vy", "vz"], [(sim.dvl.t + T0) * 1e3, v_b])
     for unit in ("cm/s", "mm/s"):
         cmap["dvl"] = {"file": "dvl.csv", "t": "time_ms", "v_b": ["vx", "vy", "vz"], "velocity_unit": unit}

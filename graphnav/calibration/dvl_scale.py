@@ -682,8 +682,8 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
     k = larger[best]
     speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
     said = (f"declared {unit!r} ({key}), but the IMU's accelerations fit the velocity's changes "
-            f"{fits[1.0] / max(fits[k], 1e-12):.3g}x better in {best!r} (x{k:g}; left unexplained {fits[k]:.3g} against "
-            f"{fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in {unit!r}, {speed * k:.3g} m/s in {best!r}")
+            f"{fits[1.0] / max(fits[k], 1e-12):.3g}x better in {best!r} (x{k:g}; left unexplained {fits[k]:.3g} "
+            f"against {fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in {unit!r}, {speed * k:.3g} m/s in {best!r}")
     field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
     if fits[k] < 1.0:
         raise DataError(f"{said}: set {key} to {best!r}", dvl.source, field=field)
