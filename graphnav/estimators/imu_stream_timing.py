@@ -44,19 +44,19 @@ IMU_RATE_STEPS = 16
 #: (:meth:`PacketStamps.typical_size`).
 PACKET_SIZES = 64
 #: A live IMU that is no packets is watched for a clock as coarse as its period or coarser over its latest this many
-#: stamps (:meth:`PacketStamps._watch_clock`; 20 s at 100 Hz).
+#: stamps (:meth:`LiveClock.watch`; 20 s at 100 Hz).
 CLOCK_WATCH_STAMPS = 2000
 #: A repeated stamp on such a clock waits for the next stamp, whose room it is placed in (the next comes one grid step
 #: later, two after a repeat whose own step was left empty), as long as the reorder window and this many grid steps
-#: more (:meth:`PacketStamps._overdue`): an IMU arriving up to the window behind the other streams is still on time;
+#: more (:meth:`LiveClock._overdue`): an IMU arriving up to the window behind the other streams is still on time;
 #: later, the IMU went silent.
 CLOCK_WAIT_STEPS = 3
-#: Samples of a live clock's stretch a line at the period is fitted over before it places them (:meth:`PacketStamps.
+#: Samples of a live clock's stretch a line at the period is fitted over before it places them (:meth:`LiveClock.
 #: _on_line`), and fitted again every this many: its end is then within about a millisecond of the samples' times on a
 #: 10 ms grid (over 50, a line running ahead of a 200 Hz IMU's stamps put a sample before the one let out before it).
 CLOCK_LINE_SAMPLES = 100
 #: Periods a live clock's sample may lie outside its stamp's grid step on the line before the line is given up (samples
-#: lost, the rate changed) and fitted again from that sample (:meth:`PacketStamps._on_line`; offline the same slack),
+#: lost, the rate changed) and fitted again from that sample (:meth:`LiveClock._on_line`; offline the same slack),
 #: this one by a period more; the latest :data:`CLOCK_LINE_RUN` grid steps' samples by :data:`CLOCK_LINE_MEAN_PERIODS`
 #: on average.
 CLOCK_LINE_SLACK_PERIODS = 0.5
@@ -65,7 +65,7 @@ CLOCK_LINE_SLACK_PERIODS = 0.5
 #: and put samples back at their stamps out of order.
 CLOCK_LINE_MEAN_PERIODS = 0.75
 #: Grid steps whose samples' mean miss of their stamps' grid steps' mid-points decides whether a live clock's line is
-#: given up (:meth:`PacketStamps._line_broken`): a sample lost moves every later one a period, a sample pushed across a
+#: given up (:meth:`LiveClock._line_broken`): a sample lost moves every later one a period, a sample pushed across a
 #: grid edge by jitter one alone a grid step (as far: samples mid-step with 2 ms of jitter on a 10 ms grid gave the
 #: line up once in 290 samples on that one's miss, each time 100 samples left at their stamps).
 CLOCK_LINE_RUN = 16
@@ -239,20 +239,17 @@ class PacketStamps:
     period all the same and left to the reorder buffer. :data:`IMU_RATE_STEPS` packets of one sample in a row: the
     stream no longer comes in packets, and its samples pass as received again; a stream decided no packets is decided
     again from a step within a packet on (:meth:`_reopen`: a driver changing its read mode). An IMU that is no packets
-    but whose stamps come from a clock about as coarse as its period or coarser (100 Hz logged in whole 10 ms with
-    jitter, a 64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.imu_timing.quantised_clock`
-    over its latest stamps) passes as received, but a sample repeating the stamp before it is its next sample: it waits
-    for the next distinct stamp and is placed after its stamp at the period within the room before that one
-    (:meth:`_place_repeats`); once :data:`CLOCK_LINE_SAMPLES` samples are in, every sample goes on a line at the period
-    through its stamps' grid steps (:meth:`_on_line`). One sample to a stamp is never packets; packets sharing one
-    stamp whose counts come to vary as a clock's are that clock from then on (:meth:`_packets_were_clock`)."""
+    is watched for a clock about as coarse as its period or coarser that its stamps come from (:meth:`_watch_clock`);
+    found, the :class:`LiveClock` places every sample from then on. One sample to a stamp is never packets; packets
+    sharing one stamp whose counts come to vary as a clock's are that clock from then on (:meth:`_packets_were_clock`).
+    """
 
     def __init__(self, configured_s: float, window_s: float = 0.0):
         self.configured_s = configured_s
         self.window_s = window_s        # how far (s) an IMU sample may arrive behind the newest of any stream
         #: the period packets are restamped at, s; 0 while undecided or for an IMU that is no packets
         self.period_s = 0.0
-        self.restamped = 0              # samples given another stamp
+        self._restamped = 0             # samples given another stamp in packets (:attr:`restamped`)
         self.note: str | None = None    # what was found, once decided in packets
         self._steps: list[float] | None = []
         self._k = self._in_packet = self._singles = 0      # typical packet, samples of this one, one-sample packets
@@ -266,25 +263,27 @@ class PacketStamps:
         self._ties: list[float] = []    # the stamps while undecided, once one repeats (packets sharing one stamp?)
         #: (received stamp s, why) of samples of a driver read beyond its packet that have no place: to refuse
         self.unplaced: list[tuple[float, str]] = []
-        #: (grid s, period s) of a clock about as coarse as the period or coarser its stamps come from, or None
-        self.clock: tuple[float, float] | None = None
-        self._watch: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
-        self._repeats = 0               # repeated stamps watched
-        #: on a clock, (sample index in the stretch, its stamp's mid grid step s after the stretch's first stamp)
-        self._line: deque[tuple[int, float]] = deque(maxlen=CLOCK_WATCH_STAMPS)
-        self._line_origin, self._line_n = 0.0, 0     # the stretch's first stamp s, and samples in it
-        self._fit: tuple[int, float, float] | None = None    # the line: (sample index, its time s, the period s)
-        self._misses: list[float] = []  # the latest samples' stamps' grid steps' mid-points less the line, s
         self._late = False              # the packet held came over half a cycle late: a read of two, held whole
+        self.live_clock = LiveClock(window_s)   # watched for among the stamps; places every sample once found
+
+    @property
+    def clock(self) -> tuple[float, float] | None:
+        """(grid s, period s) of a clock about as coarse as the period or coarser its stamps come from, or None."""
+        return self.live_clock.found
+
+    @property
+    def restamped(self) -> int:
+        """Samples given another stamp: spread back in packets, or placed on a clock."""
+        return self._restamped + self.live_clock.restamped
 
     def add(self, t: float, f: tuple, w: tuple, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The samples (t s, f_b, omega_b) that leave with this one received, in time order, none stamped at or
         before ``after`` (s: what the caller has let go of already)."""
         last, self._last = self._last, t
         if self.clock:
-            return self._on_clock(t, f, w, last, after)
+            return self.live_clock.add(t, f, w, last, after)
         if self.period_s and not self._limit:   # packets sharing one stamp: perhaps a clock's grid steps
-            self._watch.append(t)
+            self.live_clock.watched.append(t)
         if not self.period_s:
             self._reopen(t - last)
             undecided = self._steps is not None
@@ -295,7 +294,7 @@ class PacketStamps:
             if undecided:
                 return self._while_deciding(t, f, w, last, after)
             if self._watch_clock(t, last):
-                return self._on_clock(t, f, w, last, after)
+                return self.live_clock.add(t, f, w, last, after)
             self._out = t
             return [(t, f, w)]
         return self._in_packets(t, f, w, last, after)
@@ -314,7 +313,7 @@ class PacketStamps:
             if self.period_s:
                 return self._refeed(held + [(t, f, w)], after)
             if clock:
-                return held + self._on_clock(t, f, w, last, after)
+                return held + self.live_clock.add(t, f, w, last, after)
             self._out = t
             return held + [(t, f, w)]
         self._packets_seen |= 0.0 <= t - last < PACKET_STEP_SHARE * self.configured_s
@@ -351,7 +350,7 @@ class PacketStamps:
         ended = max((j for j in range(1, len(held)) if not 0.0 <= stamps[j] - stamps[j - 1] <= self._limit), default=0)
         out, last = [], stamps[0]
         for j, (t, f, w) in enumerate(held):
-            out += (self._on_clock(t, f, w, last, after) if self.clock
+            out += (self.live_clock.add(t, f, w, last, after) if self.clock
                     else self._in_packets(t, f, w, last, after, ended=j < ended))
             last = t
         return out
@@ -364,7 +363,7 @@ class PacketStamps:
         step = t - last
         long = step < 0.0 or step > self._limit
         if not self._limit and long and t > last and self._in_packet not in (0, self._k):
-            clock = quantised_clock(np.asarray(self._watch))
+            clock = quantised_clock(np.asarray(self.live_clock.watched))
             if clock is not None:
                 return self._packets_were_clock(clock, t, f, w, last, after)
         out = self._packet_ended(after, t) if long else []
@@ -406,11 +405,12 @@ class PacketStamps:
         (s); those that follow a part of their packet let out already (:meth:`_beyond`; ``before``: the next
         packet's first stamp, s) at the period after it. A packet short of the typical size that the IMU went
         ``silent`` after, or that the next one follows by more than 1.5 cycles, lost its last samples, not its first:
-        it follows the packet before at the period (:meth:`_lost_after`)."""
+        it follows the packet before at the period (:meth:`_lost_after`). On a clock, its repeats held placed
+        (:meth:`LiveClock.flush`)."""
         if self._pending:           # undecided: nothing else is held
             return self._undecided_out(after)
         if self.clock:
-            return self._place_repeats(after, before)
+            return self.live_clock.flush(after, before)
         held, self._held = self._held, []
         if not held:
             return []
@@ -421,7 +421,7 @@ class PacketStamps:
         t = self._lost_after(received, floor, before, silent)
         if t is not None:
             self._out = float(t[-1])
-            self.restamped += len(held)
+            self._restamped += len(held)
             return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
         return self._spread_back(held, self.period_s, math.inf, floor)
 
@@ -430,7 +430,7 @@ class PacketStamps:
         ``period`` (s) after ``floor`` (s: what was let out) (:func:`~graphnav.core.imu_timing.restamp_packets`)."""
         received = np.array([s[0] for s in held])
         t = restamp_packets(received, period, limit, floor if received[-1] > floor else -math.inf)
-        self.restamped += int(np.sum(t != received))
+        self._restamped += int(np.sum(t != received))
         self._out = float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
 
@@ -460,7 +460,7 @@ class PacketStamps:
                f"of {self._k}, their times unknown, and no room at the period before the next packet for "
                f"{len(held) - n}")
         self.unplaced += [(s[0], why) for s in held[n:]]
-        self.restamped += n
+        self._restamped += n
         if n:
             self._out = floor + n * p
         return [(floor + (j + 1) * p, s[1], s[2]) for j, s in enumerate(held[:n])]
@@ -481,16 +481,16 @@ class PacketStamps:
         (``newest`` under three cycles past it): a driver read of two packets at once reaches back to it, and a
         keyframe cannot close without the IMU past it anyway; inf else. While the first steps decide, nothing once
         a packet is among the samples held (restamped, they go back up to a packet's length), else up to the one
-        held."""
+        held. On a clock, the clock's (:meth:`LiveClock.release_limit`)."""
         if self._pending:
             return -math.inf if self._packets_seen else self._pending[0][0]
+        if self.clock:
+            return self.live_clock.release_limit(newest)
         if not self._held:
-            late = self.period_s and not self.clock and newest - self._out < 3 * self._k * self.period_s
+            late = self.period_s and newest - self._out < 3 * self._k * self.period_s
             return self._out if late else math.inf
         if self._overdue(newest):
             return math.inf
-        if self.clock:
-            return self._held[0][0]
         return self._out if self._late else self._held[0][0] - (self._k - 1) * self.period_s
 
     def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
@@ -499,80 +499,167 @@ class PacketStamps:
         packet has ended, and it must leave before the reorder buffer releases past it; else none. Samples held while
         the first steps decide leave (:meth:`_undecided_out`) once ``newest`` is past them by the reorder window and,
         with a packet among them, the longest the decision may take (:data:`~graphnav.core.imu_timing.
-        IMU_PACKET_STEPS` configured periods: a loss among the first packets is still decided on), else two periods."""
+        IMU_PACKET_STEPS` configured periods: a loss among the first packets is still decided on), else two periods.
+        On a clock, the clock's (:meth:`LiveClock.overdue`)."""
         if self._pending:
             wait = (IMU_PACKET_STEPS if self._packets_seen else 2) * self.configured_s
             return self._undecided_out(after) if newest - self._pending[-1][0] > self.window_s + wait else []
+        if self.clock:
+            return self.live_clock.overdue(newest, after)
         return self.flush(after, silent=True) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
-        """Whether the held samples waited long enough: ``newest`` (s, any stream's) past their last stamp by two
-        packet cycles, or on a clock by the reorder window and :data:`CLOCK_WAIT_STEPS` grid steps (measured
-        against any stream, three grid steps gave up on an IMU arriving 40 ms behind the DVL and placed its
-        repeats on the next stamp: refused as duplicates)."""
-        wait = self.window_s + CLOCK_WAIT_STEPS * self.clock[0] if self.clock else 2 * self._k * self.period_s
-        return newest - self._held[-1][0] > wait
+        """Whether the held packet waited long enough: ``newest`` (s, any stream's) past its last stamp by two
+        packet cycles."""
+        return newest - self._held[-1][0] > 2 * self._k * self.period_s
 
     def _watch_clock(self, t: float, last: float) -> bool:
         """Whether the stamps of an IMU that is no packets, ``t`` (s) the newest after ``last``, come from a clock
-        about as coarse as its period or coarser: once :data:`~graphnav.core.imu_timing.CLOCK_PATTERN_STAMPS` stamps
-        repeated, at each repeat :func:`~graphnav.core.imu_timing.quantised_clock` over the latest
-        :data:`CLOCK_WATCH_STAMPS` decides (a clean IMU with a row written twice now and then has no clock's pattern);
-        found, it is said once (:attr:`note`) and :attr:`clock` set."""
+        about as coarse as its period or coarser (:meth:`LiveClock.watch`, once the first steps decided); found, it
+        is said once (:attr:`note`) and :attr:`clock` set."""
         if self.clock is None and not self.period_s:
-            self._watch.append(t)
-            self._repeats += t == last
-            if t == last and self._steps is None and self._repeats >= CLOCK_PATTERN_STAMPS:
-                clock = quantised_clock(np.asarray(self._watch))
-                if clock is not None:
-                    self._on_clock_found(clock, t, self._watch[-1] - self._watch[0])
+            clock = self.live_clock.watch(t, last, decided=self._steps is None)
+            if clock is not None:
+                self._on_clock_found(clock, t, self.live_clock.watched_s())
         return self.clock is not None
 
     def _on_clock_found(self, clock: tuple[float, float], t: float, span_s: float,
                         before: str = "samples repeating a stamp before were refused as duplicate stamps") -> None:
-        """The clock set and said once (:attr:`note`); its period (samples over time) named when the stamps it was
-        found on span :data:`CLOCK_PERIOD_STEPS` grid steps (``span_s``, s): over four it read 6 ms for 200 Hz."""
-        self.clock, self._steps, self._ties = clock, None, []
-        self._watch.clear()
-        words = clock_words(*clock, said=span_s >= CLOCK_PERIOD_STEPS * clock[0])
-        self.note = (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
-                     "sample, placed after that stamp at the period within the room before the next stamp, and "
-                     f"after {CLOCK_LINE_SAMPLES} samples every sample on a line at the period through the mid-points "
-                     "of their stamps' grid steps, fitted again as they come (counted in imu_restamped; a clock "
-                     f"truncating to its grid, the usual logger: one rounding to it leaves them {500 * clock[0]:.4g} "
-                     f"ms late, as offline); {before}")
+        """The clock found at ``t`` (s) on stamps spanning ``span_s`` (s) set (:meth:`LiveClock.found_at`) and said once
+        (:attr:`note`, ``before``: what became of the samples before it); the first steps decide no more."""
+        self._steps, self._ties = None, []
+        self.note = self.live_clock.found_at(clock, t, span_s, before)
 
     def _packets_were_clock(self, clock: tuple[float, float], t: float, f: tuple, w: tuple, last: float,
                             after: float) -> list[tuple[float, tuple, tuple]]:
         """Packets sharing one stamp whose counts came to vary as a clock's (:func:`~graphnav.core.imu_timing.
         quantised_clock` over the stamps since they were decided): four grid steps of a 200 Hz IMU in whole 10 ms,
         or of 400 Hz, can hold a packet's count each. The held packet's first sample leaves at its stamp (unless a
-        part of it left already), the rest are repeats placed before ``t`` (s), which passes (:meth:`_on_clock`)."""
+        part of it left already), the rest are repeats placed before ``t`` (s), which passes (:meth:`LiveClock.add`)."""
         held, self._held = self._held, []
         first = held[:1] if self._in_packet == len(held) else []
         self.period_s, self._in_packet = 0.0, 0
-        self._on_clock_found(clock, last, self._watch[-1] - self._watch[0], "the packets said before were its grid "
+        self._on_clock_found(clock, last, self.live_clock.watched_s(), "the packets said before were its grid "
                              "steps, their samples spread back from their stamp")
-        self._held = held[len(first):]
-        return first + self._on_clock(t, f, w, last, after)
+        self.live_clock.held = held[len(first):]
+        return first + self.live_clock.add(t, f, w, last, after)
 
-    def _on_clock(self, t: float, f: tuple, w: tuple, last: float, after: float) -> list[tuple[float, tuple, tuple]]:
+    def _decided(self, k: int) -> None:
+        """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""
+        self._k = k
+        self._sizes.extend((k, k))
+        self.live_clock.watched.clear()     # a stream that turns clean again is watched for a clock from then on
+
+    def _decide_shared(self, t: float, last: float) -> None:
+        """Decide on the stamps so far once one repeats: packets sharing one stamp when
+        :func:`~graphnav.core.imu_timing.shared_stamp_packets` says so over the whole packets received, four stamps or
+        more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
+        downstream), a packet ending at any step; a clock coarser than the period
+        (:func:`~graphnav.core.imu_timing.quantised_clock`) is said once and passes as received, a sample repeating a
+        stamp placed after it (:meth:`LiveClock.add`); else the steps decide."""
+        self._ties = self._ties or [last]
+        whole = self._ties[1:] if t > last else []          # the first may be the end of a packet
+        self._ties.append(t)
+        packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
+        clock = quantised_clock(np.asarray(whole)) if packets is not None else None
+        if clock is not None:
+            self._on_clock_found(clock, t, whole[-1] - whole[0])
+        elif packets is not None and packets[0] > 1:     # one sample to a stamp is no packets
+            k, cycle, self.period_s = packets
+            self._decided(k)
+            self.live_clock.watched.extend(whole + [t])     # watched for a clock whose grid steps held a packet's count
+            self._steps, self._ties, self._limit = None, [], 0.0
+            self.note = packets_note(self._k, cycle, self.period_s, f"stamps from t = {self._held_from(t):.3f} s "
+                                     "(packets sharing "
+                                     "one stamp; counted in imu_restamped)")
+        elif t > last:
+            self._decide(t - last)
+
+    def _decide(self, dt: float) -> None:
+        self._steps.append(dt)
+        n = start_burst(self._steps, self.configured_s)        # a first packet or a buffer emptied at once
+        steps = self._steps[n or 0:]
+        if n is None or len(steps) < IMU_RATE_STEPS or awaits_packet_cycles(steps, self.configured_s):
+            return
+        self._steps = None
+        period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
+        limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
+        if cycle > period and limit < period:
+            self.period_s, self._limit = period, limit
+            self._decided(round(cycle / period))
+            self.note = packets_note(self._k, cycle, period, f"stamps from t = {self._held_from(self._last):.3f} s "
+                                     "(counted in "
+                                     "imu_restamped)")
+
+
+class LiveClock:
+    """A clock about as coarse as a live IMU's period or coarser that its stamps come from (100 Hz logged in whole 10 ms
+    with jitter, a 64 Hz IMU on a 15.625 ms timer, 200 Hz in whole 10 ms: :func:`~graphnav.core.imu_timing.
+    quantised_clock` over its latest stamps, :meth:`watch`), and its samples' times once it is found
+    (:meth:`found_at`). A sample repeating the stamp before it is its next sample: it waits for the next distinct stamp
+    and is placed after its stamp at the period within the room before that one (:meth:`flush`); once
+    :data:`CLOCK_LINE_SAMPLES` samples are in, every sample goes on a line at the period through its stamps' grid steps
+    (:meth:`_on_line`). :class:`PacketStamps` holds one, feeds it the stamps to watch and, once it is found, every
+    sample (:meth:`add`), and asks it what its reorder buffer may release (:meth:`release_limit`, :meth:`overdue`)."""
+
+    def __init__(self, window_s: float = 0.0):
+        self.window_s = window_s        # how far (s) an IMU sample may arrive behind the newest of any stream
+        #: (grid s, period s) of the clock, once found; None before
+        self.found: tuple[float, float] | None = None
+        self.restamped = 0              # samples placed elsewhere than their stamp
+        self.watched: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
+        self._repeats = 0               # repeated stamps watched
+        #: the samples repeating a stamp, waiting for the next stamp to be placed before it
+        self.held: list[tuple[float, tuple, tuple]] = []
+        #: (sample index in the stretch, its stamp's mid grid step s after the stretch's first stamp)
+        self._line: deque[tuple[int, float]] = deque(maxlen=CLOCK_WATCH_STAMPS)
+        self._line_origin, self._line_n = 0.0, 0     # the stretch's first stamp s, and samples in it
+        self._fit: tuple[int, float, float] | None = None    # the line: (sample index, its time s, the period s)
+        self._misses: list[float] = []  # the latest samples' stamps' grid steps' mid-points less the line, s
+
+    def watch(self, t: float, last: float, decided: bool) -> tuple[float, float] | None:
+        """The clock (grid s, period s) the stamps come from, ``t`` (s) the newest after ``last`` (s), or None: once
+        :data:`~graphnav.core.imu_timing.CLOCK_PATTERN_STAMPS` stamps repeated, at each repeat after the first steps
+        ``decided`` :func:`~graphnav.core.imu_timing.quantised_clock` over the latest :data:`CLOCK_WATCH_STAMPS`
+        decides (a clean IMU with a row written twice now and then has no clock's pattern)."""
+        self.watched.append(t)
+        self._repeats += t == last
+        if t == last and decided and self._repeats >= CLOCK_PATTERN_STAMPS:
+            return quantised_clock(np.asarray(self.watched))
+        return None
+
+    def watched_s(self) -> float:
+        """The span (s) of the stamps watched."""
+        return self.watched[-1] - self.watched[0]
+
+    def found_at(self, clock: tuple[float, float], t: float, span_s: float, before: str) -> str:
+        """The clock (grid s, period s) set, found at ``t`` (s), and what to say of it once, ``before`` saying what
+        became of the samples before it; its period (samples over time) named when the stamps it was found on span
+        :data:`CLOCK_PERIOD_STEPS` grid steps (``span_s``, s): over four it read 6 ms for 200 Hz."""
+        self.found = clock
+        self.watched.clear()
+        words = clock_words(*clock, said=span_s >= CLOCK_PERIOD_STEPS * clock[0])
+        return (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
+                "sample, placed after that stamp at the period within the room before the next stamp, and "
+                f"after {CLOCK_LINE_SAMPLES} samples every sample on a line at the period through the mid-points "
+                "of their stamps' grid steps, fitted again as they come (counted in imu_restamped; a clock "
+                f"truncating to its grid, the usual logger: one rounding to it leaves them {500 * clock[0]:.4g} "
+                f"ms late, as offline); {before}")
+
+    def add(self, t: float, f: tuple, w: tuple, last: float, after: float) -> list[tuple[float, tuple, tuple]]:
         """A sample on a clock about as coarse as the period or coarser: one repeating the stamp ``last`` (s) waits
-        for the next stamp; the next stamp lets the waiting ones out placed (:meth:`_place_repeats`, none at or before
+        for the next stamp; the next stamp lets the waiting ones out placed (:meth:`flush`, none at or before
         ``after``, s), then itself as received; once a line through the stamps is fitted (:meth:`_on_line`), every
         sample leaves on it as it arrives."""
         placed = self._on_line(t)
         if placed is not None:
-            out = self._place_repeats(after, placed)
+            out = self.flush(after, placed)
             self.restamped += int(placed != t)
-            self._out = placed
             return out + [(placed, f, w)]
         if t == last:
-            self._held.append((t, f, w))
+            self.held.append((t, f, w))
             return []
-        out = self._place_repeats(after, t if t > last else math.inf)
-        self._out = t
-        return out + [(t, f, w)]
+        return self.flush(after, t if t > last else math.inf) + [(t, f, w)]
 
     def _on_line(self, t: float) -> float | None:
         """The time (s) of a sample stamped ``t`` (s) on a clock: on the least-squares line at the period through
@@ -583,7 +670,7 @@ class PacketStamps:
         costs 0.01 m. None (the sample left to its stamp) for the first :data:`CLOCK_LINE_SAMPLES` of a stretch; the
         line misses the grid steps of samples lost or a rate changed (:meth:`_line_broken`): such a sample starts a
         stretch."""
-        grid, period = self.clock
+        grid, period = self.found
         n, placed = self._line_n, None
         if self._fit is not None:
             placed = self._fit[1] + self._fit[2] * (n - self._fit[0])
@@ -607,7 +694,7 @@ class PacketStamps:
         steps' samples (a sample lost, the rate changed: every later sample misses). A sample that jitter pushed across
         a grid edge misses by a grid step alone, as far at a clock as coarse as the period as a sample lost moves the
         rest."""
-        grid, period = self.clock
+        grid, period = self.found
         n = CLOCK_LINE_RUN * max(1, round(grid / period))
         self._misses = self._misses[1 - n:] + [miss]
         far = abs(miss) > 0.5 * grid + (CLOCK_LINE_SLACK_PERIODS + 1.0) * period
@@ -616,62 +703,32 @@ class PacketStamps:
             return True
         return False
 
-    def _place_repeats(self, after: float, before: float) -> list[tuple[float, tuple, tuple]]:
+    def release_limit(self, newest: float) -> float:
+        """The stamp (s) the reorder buffer may release up to: the first sample held, so that its place is not let
+        out before it; inf with none held or once they waited long enough (:meth:`_overdue`, ``newest`` s the newest
+        stamp received on any stream)."""
+        return math.inf if not self.held or self._overdue(newest) else self.held[0][0]
+
+    def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
+        """The held samples placed (:meth:`flush`, none at or before ``after``, s) once they waited long enough
+        (:meth:`_overdue`, ``newest`` s the newest stamp received on any stream); else none."""
+        return self.flush(after) if self.held and self._overdue(newest) else []
+
+    def _overdue(self, newest: float) -> bool:
+        """Whether the held samples waited long enough: ``newest`` (s, any stream's) past their last stamp by the
+        reorder window and :data:`CLOCK_WAIT_STEPS` grid steps (measured against any stream, three grid steps gave up
+        on an IMU arriving 40 ms behind the DVL and placed its repeats on the next stamp: refused as duplicates)."""
+        return newest - self.held[-1][0] > self.window_s + CLOCK_WAIT_STEPS * self.found[0]
+
+    def flush(self, after: float = -math.inf, before: float = math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held samples repeating a stamp s (after the one let out at it), placed at s + j * step, j = 1, 2 ...,
         step the clock's period or less where the next stamp (``before``, s; inf: unknown) leaves less room for them
         (n samples in one grid step: a sample pushed across the grid's edge before it), from ``after`` (s, what the
         caller let go of) when that is later than s; the restamped count updated."""
-        held, self._held = self._held, []
+        held, self.held = self.held, []
         if not held:
             return []
         start = max(held[0][0], after)
-        step = min(self.clock[1], (before - start) / (len(held) + 1))
+        step = min(self.found[1], (before - start) / (len(held) + 1))
         self.restamped += len(held)
         return [(start + (j + 1) * step, s[1], s[2]) for j, s in enumerate(held)]
-
-    def _decided(self, k: int) -> None:
-        """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""
-        self._k = k
-        self._sizes.extend((k, k))
-        self._watch.clear()         # a stream that turns clean again is watched for a clock from then on
-
-    def _decide_shared(self, t: float, last: float) -> None:
-        """Decide on the stamps so far once one repeats: packets sharing one stamp when
-        :func:`~graphnav.core.imu_timing.shared_stamp_packets` says so over the whole packets received, four stamps or
-        more, as a new one begins (the samples until then, and the rest of that one, repeat stamps and are refused
-        downstream), a packet ending at any step; a clock coarser than the period
-        (:func:`~graphnav.core.imu_timing.quantised_clock`) is said once and passes as received, a sample repeating a
-        stamp placed after it (:meth:`_on_clock`); else the steps decide."""
-        self._ties = self._ties or [last]
-        whole = self._ties[1:] if t > last else []          # the first may be the end of a packet
-        self._ties.append(t)
-        packets = shared_stamp_packets(np.asarray(whole)) if len(set(whole)) >= 4 else None
-        clock = quantised_clock(np.asarray(whole)) if packets is not None else None
-        if clock is not None:
-            self._on_clock_found(clock, t, whole[-1] - whole[0])
-        elif packets is not None and packets[0] > 1:     # one sample to a stamp is no packets
-            k, cycle, self.period_s = packets
-            self._decided(k)
-            self._watch.extend(whole + [t])     # watched for a clock whose grid steps held a packet's count so far
-            self._steps, self._ties, self._limit = None, [], 0.0
-            self.note = packets_note(self._k, cycle, self.period_s, f"stamps from t = {self._held_from(t):.3f} s "
-                                     "(packets sharing "
-                                     "one stamp; counted in imu_restamped)")
-        elif t > last:
-            self._decide(t - last)
-
-    def _decide(self, dt: float) -> None:
-        self._steps.append(dt)
-        n = start_burst(self._steps, self.configured_s)        # a first packet or a buffer emptied at once
-        steps = self._steps[n or 0:]
-        if n is None or len(steps) < IMU_RATE_STEPS or awaits_packet_cycles(steps, self.configured_s):
-            return
-        self._steps = None
-        period, cycle = imu_step_stats(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
-        limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
-        if cycle > period and limit < period:
-            self.period_s, self._limit = period, limit
-            self._decided(round(cycle / period))
-            self.note = packets_note(self._k, cycle, period, f"stamps from t = {self._held_from(self._last):.3f} s "
-                                     "(counted in "
-                                     "imu_restamped)")
