@@ -1075,7 +1075,7 @@ def test_a_live_imu_in_packets_is_put_back_on_its_period_as_each_packet_ends(k, 
     last sample arrives; before, it is passed as received. A clean stream with jitter and a gap is passed as it is.
     Packets 0.3-0.6 ms apart inside were taken for one sample fewer (the cycle measured without the time inside a
     packet), and packets of 2 were never found (as many short steps as long)."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     true = np.arange(3000) * 0.01
     stamps = _in_packets(true, k, spacing_s)
     packets = PacketStamps(0.01)
@@ -1126,7 +1126,7 @@ def test_a_live_imu_in_packets_of_varying_size_is_restamped_whole_and_passes_as_
     it waited a cycle at another's stamps (errors to 20 ms). A larger packet's extra samples among the first packets
     have no place left (their packet left spread back from its stamp): refused with the reason. A stream in packets
     that turns clean passed each sample one step late; now as received after 16 steps."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     rng = np.random.default_rng(2)
     true = np.arange(4000) * 0.01
     ends = np.cumsum(rng.integers(8, 13, 400))
@@ -1196,7 +1196,7 @@ def test_a_live_imu_in_packets_has_its_first_packets_restamped_too(k, spacing_s,
     held back meanwhile (:meth:`PacketStamps.release_limit`), and leave restamped as the packets after them: every
     sample at its time from the first. Plain stamps wait for nothing: each sample leaves with the next while it
     decides, nothing held back before it, then as it arrives."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     true = (np.arange(3000) * 0.01)[start:]
     stamps = _in_packets(np.arange(3000) * 0.01, k, spacing_s)[start:]
     packets, out = PacketStamps(0.01), []
@@ -1246,7 +1246,7 @@ def test_a_live_imu_packet_larger_than_the_rest_or_a_clock_stepping_back_adds_no
     packets leave at the size two of the latest reached, a held one holds the reorder buffer back, and a step back
     ends a packet: the estimates are those of the same stamps without the packets, and leave as soon after the odd
     packet as before."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     m = mission.slice(0, 60)
     events = list(replay(m))
     true = np.array([e[1] for e in events if e[0] == "imu"])
@@ -1837,7 +1837,7 @@ def test_identical_rows_of_an_imu_in_shared_stamp_packets_are_samples_and_the_pe
 def _live_clock(stamps, period):
     """``(placed stamps, sample indices, PacketStamps)`` of ``stamps`` (s) fed one by one to a live
     :class:`PacketStamps` configured at ``period`` (s)."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     packets = PacketStamps(period)
     out = [s for i, t in enumerate(stamps) for s in packets.add(float(t), (i,), ())] + packets.flush()
     return np.array([s[0] for s in out]), np.array([s[1][0] for s in out]), packets
@@ -1987,7 +1987,7 @@ def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():
     it, each packet leaves spread back from its stamp at the period, as its last sample arrives, and the packets held
     while they showed it leave so too (passed as received, all but the first sample of each were refused as
     duplicates); a clean stream with one duplicated stamp is passed as received."""
-    from graphnav.estimators.keyframes import PacketStamps
+    from graphnav.estimators.imu_stream_timing import PacketStamps
     for period, k in ((0.01, 10), (0.01, 20), (0.0025, 4)):
         true = 50.0 + np.arange(3000) * period
         stamps = true[np.arange(3000) // k * k + k - 1]

@@ -21,7 +21,8 @@ stamps alone, in this order:
   :mod:`graphnav.core.screening` take their windows in rows from it.
 * **A live stream** (the keyframer, the stream's spike test): a burst the stream starts with (:func:`start_burst`)
   is left out of its rate, and no rate is measured while packets have too few cycles to tell
-  (:func:`awaits_packet_cycles`).
+  (:func:`awaits_packet_cycles`). A live IMU's stamps are decided as they come, with these rules, by
+  :mod:`graphnav.estimators.imu_stream_timing`.
 
 Every restamping is warned about and noted once (:func:`say_restamp`: the count in
 ``meta["streams"]["imu"]["restamped"]``, the period in ``"restamp_period_s"``). Why, and the numbers measured:

@@ -29,7 +29,7 @@ What happens to a sample:
    them, then leave in time order (at equal stamps: aiding, then DVL, then IMU). A DVL that reports late by
    its processing time is thus slotted in before the IMU samples that follow its stamp. An IMU whose driver stamps
    its samples in packets is put back on its period before it enters
-   (:class:`~graphnav.estimators.keyframes.PacketStamps`, counted in ``info["imu_restamped"]``).
+   (:class:`~graphnav.estimators.imu_stream_timing.PacketStamps`, counted in ``info["imu_restamped"]``).
 3. **Initialisation.** With an ``initial`` state the estimator starts at its stamp; without one an
    :class:`~graphnav.estimators.align.Aligner` levels and gyrocompasses (or uses the heading sensor) from the first
    samples, and the estimator starts where the alignment ends, with the alignment's covariance as prior; with
@@ -72,7 +72,8 @@ from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
-from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, PacketStamps, stamp_of
+from graphnav.estimators.imu_stream_timing import PacketStamps
+from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
 from graphnav.estimators.types import EpochEstimate, InitialState, Ping
 
