@@ -209,3 +209,26 @@ def test_a_twist_used_beside_a_vendor_dvl_message_says_how_to_read_the_vendor_on
         f"({VENDOR}) looks like the DVL's own message, whose beams the twist lacks" in said[0], said
     assert '"bag_topics": {"dvl": {"topic": "/dvl/data", "v_b": "velocity"' in said[0]
     assert not m.dvl.valid.any()                    # velocity only, as before
+
+
+@pytest.mark.parametrize("key, value, said", [
+    ("beams", "velocity", r"'velocity' of /dvl/data \(.*\) is geometry_msgs/msg/Vector3 \(a velocity's three "
+                          r"components are not four beams\); beams needs four along-beam velocities, float fields"),
+    ("beams", "beams[].valid", r"'beams\[\]\.valid' of .* is bool \(a flag is no velocity\); beams needs four"),
+    ("valid", "beams[].velocity", r"is float64 \(a float is no flag\); valid needs four flags, bool or integer"),
+    ("velocity_valid", "fom", r"is float64 \(a float is no flag\); velocity_valid needs one flag"),
+    ("v_b", "status", r"'status' of .* is int64; v_b needs three numbers, a Vector3 or three float fields"),
+    ("v_b", "velocity.x", r"names 1 number of /dvl/data \(.*\) and needs 3: three numbers"),
+    ("v_b", ["velocity.x", "velocity.y"], r"names 2 numbers .* and needs 3"),
+    ("beams", ["beams[].velocity", "fom"], None),   # a list's count is known only per message: checked there
+])
+def test_fields_that_are_not_the_numbers_a_key_needs_are_refused_naming_the_key(recorded, key, value, said):
+    """A Vector3 named as the beams loaded as three valid beams (vx, vy, vz) a ping, on which Graph-TC diverged; a
+    bool list as the beams loaded every beam at 1 m/s; floats as flags read every beam valid; a velocity of fewer
+    than three numbers ended in "median DVL speed nan ... declare bag_topics.dvl.velocity_unit". Each is refused
+    before reading, naming the key, the field's type or count and what the key needs."""
+    _, root, _, vendor, _ = recorded
+    cfg = _config(root, "wrong.json", {**FIELDS, key: value})
+    with pytest.raises(DataError, match=rf"bag_topics\.dvl\.{key} = .*{said}" if said else
+                       r"bag_topics\.dvl\.beams names 5 values in message 0 and needs 4"):
+        load_mission(vendor, cfg)

@@ -415,3 +415,22 @@ def test_info_does_not_call_usable_a_log_whose_dvl_lies_off_the_imu_clock(sim, t
     d = describe(tmp_path, tmp_path / "config.json", prepare=prepare)
     assert d["format"] == "csv" and not d["usable"], d
     assert str(tmp_path / "dvl.csv") in d["reason"] and "outside the IMU span [0.000, 30.000] s" in d["reason"]
+
+
+def test_info_on_a_json_lines_stream_counts_samples_sharing_a_stamp(sim, tmp_path):
+    """A 100 Hz IMU in packets of 20 sharing one stamp (a driver stamping each read on receipt) showed 5 Hz, the
+    packets' rate, where the Navigator restamps them and runs at 100 Hz: the samples are counted, and the note and
+    warning say how their stamps are read."""
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
+    records = list(mission_records(sim))
+    imu = [r for r in records if r["type"] == "imu"]
+    for i, r in enumerate(imu):
+        r["t"] = imu[min(i // 20 * 20 + 19, len(imu) - 1)]["t"]
+    path = tmp_path / "stream.jsonl"
+    with path.open("w") as fh:
+        write_records(records, fh)
+    d = describe(path)
+    assert d["streams"]["imu"]["rate_hz"] == pytest.approx(100.0, rel=1e-6)
+    assert any("packets of 20" in n for n in d["streams"]["imu"]["notes"])
+    assert any("packets of 20" in w for w in d["warnings"])

@@ -327,6 +327,29 @@ def test_the_imu_stream_shows_the_rate_measured_from_its_stamps_not_its_median_s
         assert m.meta["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-6)
 
 
+def test_an_imu_rate_within_the_tolerance_of_the_configured_one_says_the_configured_one_is_kept(tmp_path, capsys):
+    """A 97 Hz IMU configured at 100 Hz showed 97 Hz in ``graphnav info`` but nothing said the run keeps 100 Hz for
+    its IMU gap limits and bridging (within the 5 % tolerance): a note says so and how to change it; at 99.5 Hz
+    (within 1 %) and the configured 100 Hz nothing is said."""
+    from graphnav import cli
+    from graphnav.core.config import SensorConfig
+    clean = simulate_mission(duration_s=30.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=100.0))
+    said, folders = {}, {}
+    for rate in (97.0, 99.5, 100.0):
+        folder = tmp_path / f"{rate:g}"
+        folder.mkdir()
+        folders[rate] = _akit_with_imu_stamps(clean, np.arange(clean.imu.t.size) / rate, folder).parent
+        m = _quiet(load_mission, folders[rate])
+        assert m.config.imu_rate_hz == 100.0
+        said[rate] = [n for n in m.meta["streams"]["imu"]["notes"] if "is kept" in n]
+    assert said[97.0] == ["stamps say 97 Hz; the configured 100 Hz is kept (within 5%) for the IMU gap limits and "
+                          "bridging: set imu_rate_hz if 97 Hz is right"]
+    assert not said[99.5] and not said[100.0]
+    capsys.readouterr()
+    assert _quiet(cli.main, ["info", str(folders[97.0])]) == 0
+    assert "  imu: stamps say 97 Hz; the configured 100 Hz is kept" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])
 def test_an_imu_whose_packets_share_one_stamp_loads_restamped_at_its_period(rate_hz, k, quantum_s, tmp_path):
     """An A-KIT folder whose IMU packets share one stamp (10 samples to a stamp at 100 Hz; a 400 Hz IMU in packets of

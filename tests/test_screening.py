@@ -1773,6 +1773,25 @@ def test_an_even_imu_log_with_a_row_written_twice_beside_a_lost_sample_is_refuse
             stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
 
 
+def test_an_even_imu_log_with_a_row_written_twice_exactly_beside_a_lost_sample_drops_the_copy():
+    """12001 exact 10 ms stamps, one sample lost and the row before or after it written twice exactly (same stamp and
+    values): the one repeat beside the lost sample's empty grid step showed a clock as coarse as the period, the copy
+    was kept as a sample and every stamp moved about +5 ms (up to 15 ms). Exact copies are told by their values: the
+    stamps without them show no clock, so the copy is dropped with a warning and the stamps are read as they are."""
+    from graphnav.core.screening import stamp_order
+    even = 1.7e9 + np.arange(12001) * 0.01
+    values = np.random.default_rng(3).normal(size=(12001, 6))
+    for lost, copied in ((5000, 4999), (4999, 5000)):
+        t, v = even.copy(), values.copy()
+        t[lost], v[lost] = t[copied], v[copied]
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=r"1 row\(s\) repeating an earlier row exactly .* line\(s\) 5002"):
+            kept, dropped, stamps = stamp_order(t, np.c_[t, v], np.arange(t.size) + 2, "imu.csv", "t", False, meta,
+                                                "imu")
+        assert dropped == {"repeats an earlier row exactly": 1} and np.array_equal(stamps, np.delete(even, lost))
+        assert "restamped" not in meta.get("streams", {}).get("imu", {})
+
+
 def test_an_imu_a_little_faster_than_its_clock_with_jitter_is_read_at_its_rate_on_one_grid():
     """104-106 Hz in whole 10 ms with 1 ms of jitter (8-9 % of the stamps repeated, fewer grid steps empty than half
     of them, the rows differing) were refused as duplicated stamps by a share of repeats asked of such a clock; rows

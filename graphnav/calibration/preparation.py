@@ -156,11 +156,17 @@ def _restamped_packets(mission: Mission, meta: dict) -> Mission:
     return dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=restamped))
 
 
+#: Share by which an IMU's measured rate may differ from the configured one, kept within
+#: :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, before a note says so (a 97 Hz IMU configured at 100 Hz).
+IMU_RATE_NOTE_SHARE = 0.01
+
+
 def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
     """The mission with ``config.imu_rate_hz`` the IMU's measured rate (:func:`~graphnav.core.imu_timing.imu_rate_hz`)
     when the configured one is off by more than :data:`~graphnav.core.mission.IMU_RATE_TOLERANCE`, noted once in
     ``meta``; ``meta["streams"]["imu"]["rate_hz"]`` (what ``graphnav info`` shows) is the measured rate, also where
-    the configured one is kept (a 97 Hz IMU configured at 100 Hz shows 97 Hz). The
+    the configured one is kept (a 97 Hz IMU configured at 100 Hz shows 97 Hz, and a note says the configured rate is
+    kept where they differ by more than :data:`IMU_RATE_NOTE_SHARE`). The
     keyframer's gap limit and bridging and the gravity levelling without GT read the configured rate; the screening
     and the preintegration use the stamps themselves."""
     from graphnav.core.imu_timing import imu_rate_hz, imu_stamp_quantum
@@ -179,6 +185,10 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
         # the readers' median step read 100 Hz for a 70 or 80 Hz IMU on a 10 ms clock
         meta["streams"]["imu"]["rate_hz"] = float(measured)
     if not off:
+        if abs(measured - configured) > IMU_RATE_NOTE_SHARE * configured:
+            add_note(meta, "imu", f"stamps say {measured:.4g} Hz; the configured {configured:g} Hz is kept (within "
+                     f"{IMU_RATE_TOLERANCE:.0%}) for the IMU gap limits and bridging: set imu_rate_hz if "
+                     f"{measured:.4g} Hz is right")
         return mission
     add_note(meta, "imu", f"runs at {measured:.4g} Hz (stamp period {1e3 / measured:.4g} ms), not the configured "
              f"imu_rate_hz {configured:g} Hz: {measured:.4g} Hz is used")

@@ -661,12 +661,14 @@ def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
     :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
     grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
-    repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge: its copies are rows
-    written twice."""
+    repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge, and one the stamps show
+    only with the copies (:func:`_clock_at_period` without them) is none: its copies are rows written twice (one
+    repeat beside a lost sample's empty grid step shows such a clock)."""
     clock, packets = _clock_or_packets(t)
     if clock and clock[0] < 1.5 * clock[1]:
         grid, d, counts, _ = _stamp_grid(t)
-        clock = None if _repeats_unpaired(counts, np.round(d / grid)) else clock
+        unpaired = _repeats_unpaired(counts, np.round(d / grid))
+        clock = None if unpaired or _clock_at_period(np.delete(t, rows)) is None else clock
     if clock is None and packets is None:
         return np.zeros(rows.size, bool)
     most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]

@@ -7,14 +7,15 @@ names, in the column map's words (``csv_columns.dvl``)::
                            "frame": "instrument", "velocity_unit": "m/s"}}
 
 A field is a path in the message: ``a.b`` a field of a sub-message, ``beams[].velocity`` that field of every
-element of a list (in list order: beam 1 first). ``v_b`` names a ``Vector3`` or three numbers (a list of three
-paths), ``beams`` four numbers (an array, a list's field, or four paths), ``valid`` the beams' flags (non-zero =
-valid; left out: every finite beam is), ``velocity_valid`` the velocity's own flag (left out: a finite velocity is
-valid, and with ``valid`` given only over three valid beams, as a column map's). ``frame`` (the column map's:
-``instrument``, ``body``/``frd``, ``flu``) defaults to ``instrument``: every DVL message graphnav reads holds the
-instrument's own velocity; ``velocity_unit`` (m/s, cm/s, mm/s, kn) left out is m/s, mm/s detected from the speeds
-as for a column map. Earth frames need the head's attitude per ping and are refused. The message's definition comes
-from the bag (ROS 1, MCAP, rosbag2 from Iron on); a bag without it cannot be read this way.
+element of a list (in list order: beam 1 first). ``v_b`` names a ``Vector3`` or three float fields (a list of three
+paths), ``beams`` four float fields (an array, a list's field, or four paths), ``valid`` the beams' flags (bool or
+integer fields, non-zero = valid; left out: every finite beam is), ``velocity_valid`` the velocity's own flag
+(left out: a finite velocity is valid, and with ``valid`` given only over three valid beams, as a column map's).
+``frame`` (the column map's: ``instrument``, ``body``/``frd``, ``flu``) defaults to ``instrument``: every DVL
+message graphnav reads holds the instrument's own velocity; ``velocity_unit`` (m/s, cm/s, mm/s, kn) left out is
+m/s, mm/s detected from the speeds as for a column map. Earth frames need the head's attitude per ping and are
+refused. The message's definition comes from the bag (ROS 1, MCAP, rosbag2 from Iron on); a bag without it cannot be
+read this way.
 """
 from __future__ import annotations
 
@@ -72,32 +73,84 @@ def fields_of(fielddefs: dict, msgtype: str) -> str:
 
 def check_paths(spec: dict, fielddefs: dict, msgtype: str, source: str, topic: str) -> None:
     """DataError naming the bag, topic, message type and the fields it has for a path of ``spec`` not in
-    ``msgtype``, or for a type whose definition the bag does not carry."""
+    ``msgtype``, for a type whose definition the bag does not carry, and for a key whose fields are not the numbers
+    it needs (:data:`FIELD_KEYS`: how many; :data:`NEEDS`: of which type)."""
     if msgtype not in fielddefs:
         raise DataError(f"{topic} has type {msgtype}, whose definition the bag does not embed (rosbag2 sqlite3 before "
                         f"Iron): its fields cannot be read by {KEY}; record it as MCAP or with ROS 2 Iron or later, or "
                         "republish it as a type graphnav reads", source, field=topic)
+    where = f"{topic} ({msgtype})"
     for key in FIELD_KEYS:
-        for path in _paths(spec, key) if key in spec else []:
-            typ, walked, parts = msgtype, [], path.split(".")
-            for i, part in enumerate(parts):
-                name = part.removesuffix("[]")
-                fields = dict(_fields(fielddefs, typ)) if typ in fielddefs else {}
-                kind = _kind(fields[name]) if name in fields else None
-                listed = kind is not None and kind.endswith("]")
-                # a whole array may end a path; a list's elements are walked into with []
-                if part == name and listed and i < len(parts) - 1:
-                    raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) "
-                                    f"is a list ({kind}): a field of its elements is "
-                                    f"{'.'.join(walked + [name + '[]'] + parts[i + 1:])!r}", source, field=topic)
-                if kind is None or (part != name and not listed):
-                    what = f"{'.'.join(walked) or 'the message'} has {fields_of(fielddefs, typ)}" if fields else \
-                        f"{'.'.join(walked)} is a number"
-                    raise DataError(f"{KEY}.{key} = {path!r}: {topic} ({msgtype}) has no "
-                                    f"{'list' if kind else 'field'} {'.'.join(walked + [part])!r}; {what}",
-                                    source, field=topic)
-                walked.append(part)
-                typ = _element(kind)
+        if key not in spec:
+            continue
+        total: int | None = 0
+        for path in _paths(spec, key):
+            kind, lists = _walk(spec, key, path, fielddefs, msgtype, source, topic)
+            typ, count = _numbers(fielddefs, kind)
+            if typ not in NEEDS[key][0]:
+                raise DataError(f"{KEY}.{key} = {spec[key]!r}: {path!r} of {where} is {kind}{WHY.get(typ, '')}; "
+                                f"{key} needs {NEEDS[key][1]}", source, field=topic)
+            for size in lists:
+                count = count * size if count is not None and size else None
+            total = total + count if total is not None and count is not None else None
+        if total is not None and total != FIELD_KEYS[key]:
+            raise DataError(f"{KEY}.{key} = {spec[key]!r} names {total} number{'s' * (total != 1)} of {where} and "
+                            f"needs {FIELD_KEYS[key]}: {NEEDS[key][1]}", source, field=topic)
+
+
+#: The type of number each key of :data:`FIELD_KEYS` takes, and what it needs in words.
+NEEDS = {"v_b": (("float", "vector3"), "three numbers, a Vector3 or three float fields"),
+         "velocity_valid": (("bool", "int"), "one flag, a bool or integer field"),
+         "beams": (("float",), "four along-beam velocities, float fields (a float64[4], a list's float field or "
+                               "four paths)"),
+         "valid": (("bool", "int"), "four flags, bool or integer fields (a list's bool field or four paths)")}
+#: Why a field of this type is not what a key of :data:`NEEDS` takes (the types a key takes never get here).
+WHY = {"vector3": " (a velocity's three components are not four beams)", "bool": " (a flag is no velocity)",
+       "float": " (a float is no flag)"}
+
+
+def _walk(spec: dict, key: str, path: str, fielddefs: dict, msgtype: str, source: str, topic: str) -> tuple[str, list]:
+    """The type at the end of ``path`` and the sizes of the lists walked into with ``[]`` on the way (0: unbounded);
+    a DataError naming the fields there are for a path ``msgtype`` does not have."""
+    typ, walked, parts, lists = msgtype, [], path.split("."), []
+    for i, part in enumerate(parts):
+        name = part.removesuffix("[]")
+        fields = dict(_fields(fielddefs, typ)) if typ in fielddefs else {}
+        kind = _kind(fields[name]) if name in fields else None
+        listed = kind is not None and kind.endswith("]")
+        # a whole array may end a path; a list's elements are walked into with []
+        if part == name and listed and i < len(parts) - 1:
+            raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) "
+                            f"is a list ({kind}): a field of its elements is "
+                            f"{'.'.join(walked + [name + '[]'] + parts[i + 1:])!r}", source, field=topic)
+        if kind is None or (part != name and not listed):
+            what = f"{'.'.join(walked) or 'the message'} has {fields_of(fielddefs, typ)}" if fields else \
+                f"{'.'.join(walked)} is a number"
+            raise DataError(f"{KEY}.{key} = {path!r}: {topic} ({msgtype}) has no "
+                            f"{'list' if kind else 'field'} {'.'.join(walked + [part])!r}; {what}",
+                            source, field=topic)
+        if part != name:
+            lists.append(int(re.search(r"\[(\d*)\]$", kind).group(1) or 0))
+            kind = _element(kind)
+        walked.append(part)
+        typ = _element(kind)
+    return kind, lists
+
+
+def _numbers(fielddefs: dict, kind: str) -> tuple[str, int | None]:
+    """What a field of type ``kind`` holds: ``float``, ``int``, ``bool``, ``vector3`` (x, y, z) or its type when it
+    holds no numbers, and how many (None: as many as its list holds)."""
+    array = re.fullmatch(r"(.+)\[(\d*)\]", kind)
+    if array:
+        typ, count = _numbers(fielddefs, array.group(1))
+        return typ, count * int(array.group(2)) if array.group(2) and count else None
+    if [n for n, _ in fielddefs.get(kind, ([], []))[1]] == ["x", "y", "z"]:
+        return "vector3", 3
+    if kind.startswith("float"):
+        return "float", 1
+    if re.fullmatch(r"u?int\d+|byte|char", kind):
+        return "int", 1
+    return kind, 1
 
 
 def values(rows: list, path: str) -> list[np.ndarray]:
@@ -114,8 +167,9 @@ def values(rows: list, path: str) -> list[np.ndarray]:
 
 
 def table(rows: list, spec: dict, key: str, source: str, topic: str) -> np.ndarray:
-    """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`); a message with fewer (a beam list cut short) is
-    padded with NaN, one with more is a DataError naming the topic, message and field."""
+    """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`); a message with fewer beams or beam flags (a beam
+    list cut short) is padded with NaN, one with more, or a velocity or its flag short of values, is a DataError
+    naming the topic, message and field."""
     n = FIELD_KEYS[key]
     paths = _paths(spec, key)
     try:
@@ -126,9 +180,9 @@ def table(rows: list, spec: dict, key: str, source: str, topic: str) -> np.ndarr
     out = np.full((len(rows), n), np.nan)
     for i in range(len(rows)):
         row = np.concatenate([c[i] for c in cols])
-        if row.size > n:
-            raise DataError(f"{KEY}.{key}: {row.size} values in message {i}, expected {n}", source,
-                            field=f"{topic} {', '.join(paths)}")
+        if row.size > n or (row.size < n and key not in ("beams", "valid")):
+            raise DataError(f"{KEY}.{key} names {row.size} values in message {i} and needs {n}: {NEEDS[key][1]}",
+                            source, field=f"{topic} {', '.join(paths)}")
         out[i, :row.size] = row
     return out
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import GraphnavError
-from graphnav.core.imu_timing import imu_rate_hz
+from graphnav.core.imu_timing import imu_rate_hz, restamp_shared_stamps
 from graphnav.core.mission import IMU_RATE_TOLERANCE
 from graphnav.core.streams import count_read, count_refused, stream_entry
 
@@ -381,9 +381,8 @@ def _describe_jsonl(path: Path, config) -> dict:
     for kind, recs in by_type.items():
         t = np.array([r["t"] for r in recs], float)
         entry = count_read(meta, kind, t, str(path))
-        if kind == "imu":       # samples over time where the median step misleads (70 Hz on a 10 ms clock: 100 Hz)
-            rate = imu_rate_hz(t, config.imu_rate_hz, IMU_RATE_TOLERANCE)
-            entry["rate_hz"] = float(rate) if np.isfinite(rate) else None
+        if kind == "imu":
+            entry["rate_hz"] = _sample_rate_hz(t, config, meta, str(path))
     lines = stream_entry(meta, "lines")
     lines.update(source=str(path), read=reader.n_records + reader.n_bad, used=reader.n_records)
     if reader.n_bad:
@@ -409,6 +408,15 @@ def _describe_jsonl(path: Path, config) -> dict:
                           else "beam (along-beam velocities)"),
             "clock": "the stream's clock, s (IMU clock)",
             "time_span_s": span, "duration_s": duration, "streams": streams, "dvl": dvl, "depth_m": depth}
+
+
+def _sample_rate_hz(t: np.ndarray, config: SensorConfig, meta: dict, source: str) -> float | None:
+    """The IMU's sample rate (Hz) from its stamps ``t`` (s, file order), None without two distinct stamps: samples
+    over time where the median step misleads (70 Hz on a 10 ms clock: 100 Hz), and samples sharing a stamp (a
+    driver's packets: 100 Hz in packets of 20 read 5 Hz) counted as the samples they are, restamped as the loaders
+    restamp them (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``)."""
+    rate = imu_rate_hz(restamp_shared_stamps(t, source, meta), config.imu_rate_hz, IMU_RATE_TOLERANCE)
+    return float(rate) if np.isfinite(rate) else None
 
 
 # --- human output ------------------------------------------------------------------------------------------
