@@ -60,7 +60,7 @@ from graphnav.core.imu_timing import (  # noqa: F401  (BURST_STEP_SHARE: read he
     imu_packet_limit, imu_stamp_quantum, imu_step_stats, packets_note, quantised_clock, restamp_packets,
     shared_stamp_packets,
     start_burst, start_burst_warning)
-from graphnav.estimators.history import BeamHistory
+from graphnav.estimators.history import BeamHistory, run_sigma_of
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
 
@@ -762,6 +762,8 @@ class Keyframer:
         self.options = options or KeyframeOptions()
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
+        if completer is not None:
+            run_sigma_of(completer)     # refused here, not at an outage in the middle of a mission
         #: the graph's rehearsed outages (:mod:`graphnav.estimators.rehearsal`), set by the Navigator; None: none
         self.rehearsal = None
         self.stats = KeyframerStats()
