@@ -51,6 +51,11 @@ network fused with the pivot completer" in docs/decisions/completers.md), as ``G
 the pivot completer with its own defaults (the pitch too, its own hold); given for a total outage too
 (``--fold-nets 0-beams IMU_DIR pivot``, the folder's 3-missing networks), the pair runs there, its pivot member
 serving each ping.
+``--measured-sigma [K ...]`` adds ``Graph-HN`` and ``Graph-HNP`` (those of ``--methods``) with the sigma of a run of
+completions judged by the beams still measured instead of the history's fixed growth (``<method> measured-sigma``:
+the completer's ``run_sigma = "measured-change"``, :mod:`graphnav.estimators.history`; per K other than 1, that sigma
+times K, ``<method> measured-sigma K``; docs/decisions/completers.md, "The completions judged by the beams still
+measured").
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
 networks, a fold cell of every draw counted.
 
@@ -118,6 +123,10 @@ _AXES_RE = re.compile(r" axes ([a-z+]+)")
 HOLD = " hold "
 #: `` hold N`` anywhere in a run label, the past pings the pivot completer holds
 _HOLD_RE = re.compile(r" hold ([0-9]+)(?![0-9.])")
+#: `` measured-sigma`` (or `` measured-sigma K``) anywhere in a run label: its completer's run sigma judged by the
+#: beams still measured (times K)
+MEASURED = " measured-sigma"
+_MEASURED_RE = re.compile(re.escape(MEASURED) + r"(?: ([0-9.]+))?(?![0-9a-z.-])")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -129,7 +138,7 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
     :func:`pivot_prior`), `` axes A`` (its turn axes, :func:`pivot_axes`) or `` hold N`` (the past pings it holds,
     :func:`pivot_hold`): no graph option; they may come before or after the other suffixes)."""
-    for pattern in (_PRIOR_RE, _AXES_RE, _HOLD_RE):
+    for pattern in (_PRIOR_RE, _AXES_RE, _HOLD_RE, _MEASURED_RE):
         if pattern.search(label):
             return variant_run(pattern.sub("", label, count=1))
     for suffix, key, value in ((CORRELATED, "rehearsal_fusion", "correlated"), (TWIN, "rehearsal_graph", "twin")):
@@ -320,6 +329,12 @@ def trajectory_task(item):
             comp = pivot_completer(scenario, mission.config,
                                    prior_turn=PIVOT_PRIOR_TURN if prior is None else prior,
                                    axes=pivot_axes(method) or PIVOT_AXES, n_past=pivot_hold(method))
+        measured = _MEASURED_RE.search(method)
+        if measured:
+            from graphnav.evaluation.methods import completer_for
+            comp = comp or completer_for(name, scenario, mission.config.dvl.beam_noise_std, mission.config)[0]
+            comp.run_sigma = "measured-change"
+            comp.run_sigma_scale = float(measured.group(1) or 1.0)
         with rehearsals_made() as made:
             sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
@@ -587,6 +602,9 @@ def main(argv=None) -> int:
     p.add_argument("--pivot-holds", nargs="+", type=int, metavar="N", help="also Graph-HNP with its pivot completer "
                    "holding N past pings in every scenario run, instead of its shipped hold of each (module "
                    "docstring)")
+    p.add_argument("--measured-sigma", nargs="*", type=float, metavar="K", help="also Graph-HN and Graph-HNP (those "
+                   "of --methods) with their runs' sigma judged by the beams still measured, times each K (default: "
+                   "1; module docstring)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -644,6 +662,11 @@ def main(argv=None) -> int:
             p.error("--pivot-holds: the pivot completer holds at least 1 past ping")
         a.methods += [f"{base}{HOLD}{n}" for base in [GRAPH_HNP, *(f"{GRAPH_HNP}{AXES}{x}" for x in a.pivot_axes or [])]
                       for n in a.pivot_holds]
+    if a.measured_sigma is not None:
+        if not all(k > 0 for k in a.measured_sigma):
+            p.error("--measured-sigma: the factor K must be > 0")
+        a.methods += [f"{m}{MEASURED}" + (f" {k:g}" if k != 1 else "") for k in a.measured_sigma or [1.0]
+                      for m in a.methods if m in (GRAPH_HN, GRAPH_HNP)]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
@@ -657,6 +680,10 @@ def main(argv=None) -> int:
         p.error(f"{unserved[0][0]} with {unserved[0][1]} runs its networks out of fold: give --fold-nets "
                 f"{unserved[0][1]} IMU_DIR BEAM_DIR (its shipped networks were trained on these trajectories)")
     kinds = {m: get_method(variant_run(m)[0]).completer for m in a.methods}
+    for m in a.methods:
+        if _MEASURED_RE.search(m) and kinds[m] not in ("average", "pivot"):
+            p.error(f"{m}: the measured-change sigma needs the average estimator or the pivot completer, which "
+                    f"{variant_run(m)[0]} does not run")
     for m in a.methods:
         try:
             if pivot_setting(m):

@@ -941,6 +941,8 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     assert study.variant_run("Graph-TC relinearised 20") == ("Graph-TC", {"relin_window_s": 20.0,
                                                                           "relinearize_skip": 1})
     assert study.variant_run("Graph-HNP prior 0.01") == ("Graph-HNP", None)      # a completer setting, no graph one
+    assert study.variant_run("Graph-HNP measured-sigma 1.5 kept") == ("Graph-HNP", {"retire_completions": False})
+    assert study.variant_run("Graph-HN measured-sigma") == ("Graph-HN", None)
     assert study.variant_run("Graph-HNP tau 10 rehearsed 0.5") == ("Graph-HNP", {"regressed_runs": "screen-first",
                                                                                  "regressed_error_tau_s": 10.0,
                                                                                  "rehearsed_outages": 0.5})

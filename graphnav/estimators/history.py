@@ -28,12 +28,47 @@ The history also keeps each ping's stamp when it is given one (``t``, s): a comp
 (``takes_past_dt``: the network completers, :mod:`graphnav.nets.dvl_match`) is handed ``past_dt_s``, the interval
 from each past ping to the next and from the newest to the ping it completes, and leaves a ping whose past is not
 spaced as in training to the average estimator.
+
+A completer whose ``run_sigma`` attribute is ``"measured-change"`` (experimental; Graph-HN's and Graph-HNP's completers,
+which can :meth:`rehearse`) has the sigma of its missing beams judged by the beams still measured instead of grown:
+through the run the history keeps the completer's own completion of all four beams from the run's held past (what it
+would give each beam had that beam been missing since the run started; for these completers exactly what it gives
+the missing ones). A measured beam's change from that, ``r_j`` (m/s), is the completer's error in that beam's
+direction plus the beam noise; its mean square over the measured beams, smoothed over :data:`MEASURED_CHANGE_PINGS`
+pings, less the noise variance, is the sigma's square, floored by the completer's own sigma, times the completer's
+``run_sigma_scale`` (1 when it has none). A steady run keeps the completer's sigma; a manoeuvre the measured beams see
+widens it. A ping without a measured beam grows the sigma as
+above (docs/decisions/completers.md, "The completions judged by the beams still measured").
 """
 from __future__ import annotations
 
 from collections import deque
 
 import numpy as np
+
+from graphnav.core.errors import ConfigError
+
+#: How the sigma of a run of regressed pings is set: by the fixed growth (``"growth"``, the default) or by the change
+#: the beams still measured show (``"measured-change"``), read from a completer's ``run_sigma`` (module docstring).
+RUN_SIGMAS = ("growth", "measured-change")
+#: Pings over which the measured-change sigma smooths the measured beams' squared change (exponentially; the running
+#: mean over a run's first pings). Set by judgement, not fitted.
+MEASURED_CHANGE_PINGS = 5
+
+
+def run_sigma_of(completer) -> str:
+    """The run sigma (:data:`RUN_SIGMAS`) a completer asks for with its ``run_sigma`` attribute (absent or None:
+    ``"growth"``), checked: ``"measured-change"`` needs a completer that can ``rehearse`` a ping without beams."""
+    mode = getattr(completer, "run_sigma", None) or "growth"
+    if mode not in RUN_SIGMAS:
+        raise ConfigError(f"{type(completer).__name__}.run_sigma = {mode!r}: expected one of {RUN_SIGMAS}")
+    if mode == "measured-change" and not callable(getattr(completer, "rehearse", None)):
+        raise ConfigError(f"{type(completer).__name__}.run_sigma = 'measured-change' needs a completer that can "
+                          "rehearse a ping without beams (the average estimator, the pivot completer)")
+    scale = getattr(completer, "run_sigma_scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale < float("inf"):
+        raise ConfigError(f"{type(completer).__name__}.run_sigma_scale = {scale!r} is not a factor > 0")
+    return mode
 
 
 def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
@@ -64,6 +99,8 @@ class BeamHistory:
         self._t: deque[float | None] = deque(maxlen=n_past)        # stamps of the pings in _buf (None: not given)
         self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
         self._run_steps = np.zeros(4, dtype=int)   # regressed pings of each beam in the current run so far
+        self._held: np.ndarray | None = None   # the completer's all-beam completions through the run, (n_past, 4)
+        self._change2, self._changes = 0.0, 0   # smoothed mean square of the measured beams' change, its pings
 
     def __len__(self) -> int:
         return len(self._buf)
@@ -85,8 +122,12 @@ class BeamHistory:
         """Append a measured full (4,) beam vector from outside :meth:`complete` (e.g. the beams a DVL-frame
         velocity implies) of the ping at ``t`` (s): a run of regressed pings ends there."""
         self.push(beams, t)
+        self._end_run()
+
+    def _end_run(self) -> None:
         self._run_sigma[:] = 0.0
         self._run_steps[:] = 0
+        self._held, self._change2, self._changes = None, 0.0, 0
 
     @property
     def run_steps(self) -> np.ndarray:
@@ -129,10 +170,10 @@ class BeamHistory:
         self._run_steps[valid] = 0
         if valid.all():
             self.push(beams, t)
+            self._end_run()
             return np.asarray(beams, dtype=float), np.zeros(4)
         if not self.ready:
-            self._run_sigma[:] = 0.0
-            self._run_steps[:] = 0
+            self._end_run()
             return None
         measured = np.where(valid, beams, np.nan)
         full, sigma = complete_with(completer, self.past(), measured, imu=imu, run_steps=self._run_steps.copy(),
@@ -142,9 +183,29 @@ class BeamHistory:
         drift_std = getattr(completer, "drift_std", None)
         if drift_std is None:
             drift_std = self.drift_std
-        grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)
-        sigma = np.where(continuing, grown, sigma)
+        # the held completions advance at every ping of the run, a total outage's too
+        change = self._measured_change(completer, beams, valid, imu) \
+            if run_sigma_of(completer) == "measured-change" else None
+        if change is not None and valid.any():
+            scale = getattr(completer, "run_sigma_scale", 1.0)
+            sigma = np.where(regressed, scale * np.maximum(sigma, change), sigma)
+        else:
+            grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)
+            sigma = np.where(continuing, grown, sigma)
         self._run_sigma = np.where(regressed, sigma, 0.0)
         self._run_steps = np.where(regressed, self._run_steps + 1, 0)
         self.push(full, t)
         return full, sigma
+
+    def _measured_change(self, completer, beams: np.ndarray, valid: np.ndarray, imu) -> float:
+        """The completion error scale (m/s) the measured beams show at this ping (module docstring), after holding
+        the completer's all-beam completion one ping further; the last scale where no beam is measured."""
+        if self._held is None:
+            self._held = self.past()
+        held = completer.rehearse(self._held[-completer.n_past:], imu)
+        self._held = np.vstack([self._held[1:], held])
+        if valid.any():
+            self._changes += 1
+            r2 = float(np.mean((np.asarray(beams, float)[valid] - held[valid]) ** 2))
+            self._change2 += (r2 - self._change2) / min(self._changes, MEASURED_CHANGE_PINGS)
+        return float(np.sqrt(max(self._change2 - getattr(completer, "noise_std", 0.0) ** 2, 0.0)))

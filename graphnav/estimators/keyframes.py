@@ -56,7 +56,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
 from graphnav.core.mission import ImuGap, check_imu_gap, gap_variances
-from graphnav.estimators.history import BeamHistory
+from graphnav.estimators.history import BeamHistory, run_sigma_of
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.imu_stream_timing import ImuPeriod
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping, PositionFix
@@ -148,6 +148,8 @@ class Keyframer:
         self.options = options or KeyframeOptions()
         self.completer = completer
         self.history = BeamHistory(completer.n_past) if completer is not None else None
+        if completer is not None:
+            run_sigma_of(completer)     # refused here, not at an outage in the middle of a mission
         #: the graph's rehearsed outages (:mod:`graphnav.estimators.rehearsal`), set by the Navigator; None: none
         self.rehearsal = None
         self.stats = KeyframerStats()
