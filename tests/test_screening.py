@@ -7,6 +7,7 @@ rows; plus the aligner's robustness to an outlier ping that passes the per-sampl
 """
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import time
@@ -1236,6 +1237,58 @@ def test_a_navigator_fed_an_imu_in_packets_from_its_start_or_midway_is_where_its
         assert any(f"stamped in packets of {k}" in w for w in said)
     lags = _feed_lagging(_navigator(m), list(replay(m)))[1]
     np.testing.assert_allclose(lags, 0.2, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("delay", ["gaussian 3 ms", "exponential 5 ms"])
+def test_a_live_imu_with_plain_jittered_stamps_leaves_as_received_whatever_its_decision_sees(mission, delay):
+    """Plain 100 Hz stamps with 3 ms of Gaussian jitter or an exponential receipt delay of 5 ms: a step under 1 ms
+    opened the decision again and one under 5 ms then held the reorder buffer whole and the samples for 16 steps
+    (estimates up to 0.15 s later, positions the same). Now the samples held while it decides count as received, and
+    the buffer is held only back to the sample before the one opening the packet: the estimates, and when each
+    leaves, are those of the same stamps passed as received."""
+    m = mission.slice(0, 30)
+    events = list(replay(m))
+    true = _true_imu_stamps(m)
+    rng = np.random.default_rng(4)
+    late = rng.normal(0, 3e-3, true.size) if delay.startswith("gaussian") else rng.exponential(5e-3, true.size)
+    events = _with_imu_stamps(events, true + late)
+    passing = _navigator(m)
+    passing._packets.add = lambda t, f, w, after=-math.inf: [(t, f, w)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        (est, lags), (ref, ref_lags) = (_feed_lagging(nav, events) for nav in (_navigator(m), passing))
+    assert [e.t for e in est] == [e.t for e in ref] and np.array_equal([e.p_n for e in est], [e.p_n for e in ref])
+    np.testing.assert_array_equal(lags, ref_lags)
+
+
+def test_a_live_imu_in_packets_of_one_to_three_is_held_a_bounded_time_while_it_decides(mission):
+    """Packets of 1-3 samples at random, stamped on receipt: their first steps took 255 steps to decide (no packets,
+    then packets of 3 once decided again), every sample held meanwhile, the first estimate 2.57 s behind the newest
+    stamp. Now the packets held beyond PACKET_HOLD_STEPS samples (2 s) leave spread back from their last stamps at
+    the configured period, as undecided: no sample waits longer than that and a packet, each leaves at its
+    true stamp (but the packet arriving as it decides, cut: a period off), and the estimates are where the true
+    stamps put them."""
+    from graphnav.estimators.imu_stream_timing import PacketStamps
+    m = mission.slice(0, 6)
+    true = _true_imu_stamps(m)
+    ends = np.cumsum(np.random.default_rng(5).integers(1, 4, true.size))
+    ends = np.r_[ends[ends < true.size], true.size] - 1
+    run = np.searchsorted(ends, np.arange(true.size))
+    stamps = true[ends][run] + (np.arange(true.size) - np.r_[0, ends + 1][run]) * 1e-5
+    packets, out, waited = PacketStamps(0.01, 0.2), [], []
+    for i, t in enumerate(stamps):
+        left = packets.add(float(t), (i,), ())
+        waited += [t - stamps[s[1][0]] for s in left]
+        out += left
+    out += packets.flush()
+    assert max(waited) <= 2.0 + 0.03
+    off = np.abs(np.array([s[0] for s in out]) - true[[s[1][0] for s in out]])
+    assert np.max(off) < 0.0101 and np.sum(off > 1e-4) <= 2      # the packet arriving as it decides: one period off
+    _, clean, _ = _fed_without(m, true)
+    nav, estimates, _ = _fed_without(m, stamps)
+    at = {e.t: e.p_n for e in clean}
+    d = [np.linalg.norm(e.p_n - at[e.t]) for e in estimates if e.t in at and 1.0 <= e.t <= 5.0]
+    assert len(d) == 5 and max(d) < 0.002 and nav.info["imu_gaps"] == 0, d
 
 
 def test_a_live_imu_packet_larger_than_the_rest_or_a_clock_stepping_back_adds_no_latency_and_no_error(mission):

@@ -80,6 +80,12 @@ IMU_QUANTISED_SPAN_SHARE = 1e-4
 #: (its samples stamped on receipt 0.01-1.5 ms apart at 100 Hz): the samples are held until decided
 #: (:meth:`PacketStamps._while_deciding`). Even stamps with jitter of a tenth of the period never make one.
 PACKET_STEP_SHARE = 0.5
+#: Samples a live IMU may hold while its first steps decide (2 s at 100 Hz): past it, the packets among them that have
+#: ended leave spread back at the configured period, as they would undecided (:meth:`PacketStamps._held_too_long`).
+#: Packets of 20 decide within 80 held (99 sharing one stamp), losing 0.5-1.5 and 1.6-1.8 s among the first within
+#: 180 (spread back undecided, a packet cut by a loss left a spurious gap); packets of 1-3 at random took 255 and
+#: held the first estimate 2.57 s.
+PACKET_HOLD_STEPS = 200
 #: A live packet whose step from the packet before is over this many cycles came late (a delayed driver read, two
 #: packets at once): it is held until its end and spread back whole from its last stamp, since its size is not known
 #: when its first part has reached the typical size.
@@ -258,8 +264,11 @@ class PacketStamps:
         #: the samples held while the first steps decide (each waits for the step after it: within a packet?)
         self._pending: list[tuple[float, tuple, tuple]] = []
         self._packets_seen = False      # a step within a packet among them: held until decided
+        #: the stamp (s) the reorder buffer may release up to while they are held: let out before their first packet
+        self._hold_floor = -math.inf
+        self._spread_held = False       # some left spread back, held too long (:meth:`_held_too_long`)
         self._held: list[tuple[float, tuple, tuple]] = []
-        self._last = self._out = -math.inf      # newest stamp received, and let out
+        self._last = self._out = self._out_before = -math.inf      # newest stamp received, let out, and before it
         self._ties: list[float] = []    # the stamps while undecided, once one repeats (packets sharing one stamp?)
         #: (received stamp s, why) of samples of a driver read beyond its packet that have no place: to refuse
         self.unplaced: list[tuple[float, str]] = []
@@ -270,6 +279,11 @@ class PacketStamps:
     def clock(self) -> tuple[float, float] | None:
         """(grid s, period s) of a clock about as coarse as the period or coarser its stamps come from, or None."""
         return self.live_clock.found
+
+    @property
+    def deciding(self) -> bool:
+        """Whether samples are held while the first steps decide (:meth:`_while_deciding`)."""
+        return bool(self._pending)
 
     @property
     def restamped(self) -> int:
@@ -295,7 +309,7 @@ class PacketStamps:
                 return self._while_deciding(t, f, w, last, after)
             if self._watch_clock(t, last):
                 return self.live_clock.add(t, f, w, last, after)
-            self._out = t
+            self._out_before, self._out = self._out, t
             return [(t, f, w)]
         return self._in_packets(t, f, w, last, after)
 
@@ -306,19 +320,43 @@ class PacketStamps:
         on they are held until decided (passed as received, integrated at their packets' stamps they cost 0.25 m in
         the first second for packets of 20 at 100 Hz); else it passes as received, one step late (a stream with plain
         stamps waits for nothing: the reorder buffer holds it longer). Decided in packets, the held samples leave as the
-        packets after them (:meth:`_in_packets`); decided no packets or a clock, as received."""
+        packets after them (:meth:`_in_packets`); decided no packets or a clock, as received. Held beyond
+        :data:`PACKET_HOLD_STEPS`, they leave as undecided (:meth:`_held_too_long`)."""
         clock = self._watch_clock(t, last)
         if self._steps is None:                 # decided on this sample
+            spread, self._spread_held = self._spread_held and not self.period_s and not clock, False
+            if spread:      # no packets, after some left spread back as undecided: the rest, this one's packet too
+                self._pending.append((t, f, w))
+                return self._undecided_out(after)
             held = self._as_received()
             if self.period_s:
                 return self._refeed(held + [(t, f, w)], after)
             if clock:
                 return held + self.live_clock.add(t, f, w, last, after)
-            self._out = t
+            self._out_before, self._out = self._out, t
             return held + [(t, f, w)]
-        self._packets_seen |= 0.0 <= t - last < PACKET_STEP_SHARE * self.configured_s
+        if not self._packets_seen and 0.0 <= t - last < PACKET_STEP_SHARE * self.configured_s:
+            # the packet began with the sample before: held still, or let out already (a decision opened again)
+            self._packets_seen, self._hold_floor = True, self._out if self._pending else self._out_before
         out = [] if self._packets_seen else self._as_received()
         self._pending.append((t, f, w))
+        return out + self._held_too_long(after)
+
+    def _held_too_long(self, after: float) -> list[tuple[float, tuple, tuple]]:
+        """The packets that ended among the samples held while deciding once these are more than
+        :data:`PACKET_HOLD_STEPS`, spread back from each packet's last stamp at the configured
+        period as undecided (none at or before ``after``, s); the packet still arriving stays held."""
+        held = self._pending
+        if not self._packets_seen or len(held) <= PACKET_HOLD_STEPS:
+            return []
+        starts = [j for j in range(1, len(held)) if not 0.0 <= held[j][0] - held[j - 1][0]
+                  < PACKET_STEP_SHARE * self.configured_s]
+        if not starts:
+            return []
+        self._pending = held[starts[-1]:]
+        out = self._spread_back(held[:starts[-1]], self.configured_s, PACKET_STEP_SHARE * self.configured_s,
+                                max(self._out, after))
+        self._hold_floor, self._spread_held = self._out, True
         return out
 
     def _undecided_out(self, after: float) -> list[tuple[float, tuple, tuple]]:
@@ -431,7 +469,7 @@ class PacketStamps:
         received = np.array([s[0] for s in held])
         t = restamp_packets(received, period, limit, floor if received[-1] > floor else -math.inf)
         self._restamped += int(np.sum(t != received))
-        self._out = float(t[-1])
+        self._out_before, self._out = (float(t[-2]) if t.size > 1 else self._out), float(t[-1])
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
 
     def _lost_after(self, received: np.ndarray, floor: float, before: float, silent: bool) -> np.ndarray | None:
@@ -479,11 +517,11 @@ class PacketStamps:
         held whole); inf once ``newest`` (s, the newest stamp received) is two cycles past it (an IMU outage must not
         stall the other streams). With none held, the last packet's end while the next read is under two cycles late
         (``newest`` under three cycles past it): a driver read of two packets at once reaches back to it, and a
-        keyframe cannot close without the IMU past it anyway; inf else. While the first steps decide, nothing once
-        a packet is among the samples held (restamped, they go back up to a packet's length), else up to the one
-        held. On a clock, the clock's (:meth:`LiveClock.release_limit`)."""
+        keyframe cannot close without the IMU past it anyway; inf else. While the first steps decide, once a packet
+        is among the samples held, up to the sample let out before its first (restamped, they go back up to a
+        packet's length, not before it; at the stream's start, nothing), else up to the one held. On a clock, the clock's (:meth:`LiveClock.release_limit`)."""
         if self._pending:
-            return -math.inf if self._packets_seen else self._pending[0][0]
+            return self._hold_floor if self._packets_seen else self._pending[0][0]
         if self.clock:
             return self.live_clock.release_limit(newest)
         if not self._held:

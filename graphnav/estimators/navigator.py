@@ -248,6 +248,8 @@ class Navigator:
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
         packets = self._packets
         samples = packets.add(t, f, w, self._released)
+        if packets.deciding and t > self._newest:   # held while its first steps decide: the other streams go on
+            self._newest = t
         out = self._queue_packet(samples)  # queued whole before anything leaves
         if packets.note is not None:
             self._note("imu", packets.note)
