@@ -519,7 +519,8 @@ class PacketStamps:
         (``newest`` under three cycles past it): a driver read of two packets at once reaches back to it, and a
         keyframe cannot close without the IMU past it anyway; inf else. While the first steps decide, once a packet
         is among the samples held, up to the sample let out before its first (restamped, they go back up to a
-        packet's length, not before it; at the stream's start, nothing), else up to the one held. On a clock, the clock's (:meth:`LiveClock.release_limit`)."""
+        packet's length, not before it; at the stream's start, nothing), else up to the one held. On a clock, the
+        clock's (:meth:`LiveClock.release_limit`)."""
         if self._pending:
             return self._hold_floor if self._packets_seen else self._pending[0][0]
         if self.clock:
