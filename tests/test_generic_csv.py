@@ -854,3 +854,45 @@ def test_a_declared_time_unit_the_sample_period_contradicts_is_refused_naming_th
     with pytest.raises(DataError, match=r"dvl.csv, field 'time_ms': the declared time unit 's' \(csv_columns.dvl."
                                         r"time_unit\) makes the median stamp step 1e\+03 s, no plausible dvl"):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_a_declared_dvl_velocity_unit_is_judged_once_a_given_offset_puts_the_dvl_on_the_imu_clock(sim, tmp_path):
+    """A DVL on a clock of its own (three days off) with dvl_time_offset_s given, m/s declared cm/s: the unit was
+    checked before the given offset put the DVL on the IMU clock, and not after, so the log loaded at 1/100 of the
+    vehicle's speed without a word. Now it is refused naming the key, as on the IMU clock."""
+    cmap = _separate_files(tmp_path, sim)
+    noise = np.random.default_rng(0).normal(0, 0.03, (len(sim.dvl.t), 3))
+    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)] + noise
+    _write(tmp_path / "dvl.csv", ["time_ms", "vx", "vy", "vz"], [(sim.dvl.t + T0 + 3 * 86400.0) * 1e3, v_b])
+    cmap["dvl"] = {"file": "dvl.csv", "t": "time_ms", "v_b": ["vx", "vy", "vz"], "velocity_unit": "cm/s"}
+    cfg = _config(tmp_path, sim, cmap)
+    cfg.write_text(json.dumps({**json.loads(cfg.read_text()), "dvl_time_offset_s": -3 * 86400.0}))
+    with pytest.raises(DataError, match=r"declared 'cm/s' \(csv_columns.dvl.velocity_unit\), but .* set csv_columns."
+                                        r"dvl.velocity_unit to 'm/s'$"):
+        load_mission(tmp_path, cfg)
+
+
+def test_a_declared_dvl_velocity_unit_too_large_is_refused_naming_the_key_and_the_unit_that_fits(sim, tmp_path):
+    """mm/s declared cm/s: the speeds, 10x too large, were refused with the declared factor applied twice ('cm/s
+    (0.013 m/s) or mm/s (0.0013 m/s)?') and advice to declare the unit already declared."""
+    cmap = _separate_files(tmp_path, sim)
+    v_b = sim.gt.v_b[np.searchsorted(sim.gt.t, sim.dvl.t)] * 1e3
+    _write(tmp_path / "dvl.csv", ["time_ms", "vx", "vy", "vz"], [(sim.dvl.t + T0) * 1e3, v_b])
+    cmap["dvl"] = {"file": "dvl.csv", "t": "time_ms", "v_b": ["vx", "vy", "vz"], "velocity_unit": "cm/s"}
+    speed = np.median(np.linalg.norm(v_b, axis=1)) / 1e3
+    with pytest.raises(DataError, match=rf"median DVL speed .* m/s in the declared unit 'cm/s' \(csv_columns.dvl."
+                                        rf"velocity_unit\) is beyond the 10 m/s a DVL measures: 'mm/s' \({speed:.3g} "
+                                        r"m/s\)\? set csv_columns.dvl.velocity_unit to the file's unit$"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_a_global_time_unit_only_the_dvl_contradicts_advises_the_dvl_key(sim, tmp_path):
+    """IMU stamps in ms, the DVL's in s, csv_columns.time_unit 'ms': the advice was to set the global unit to 's',
+    which breaks the IMU; it is the DVL's own key."""
+    cmap = _separate_files(tmp_path, sim)
+    _write(tmp_path / "dvl.csv", ["time_s", "b1", "b2", "b3", "b4", "ok1", "ok2", "ok3", "ok4"],
+           [sim.dvl.t + T0, np.where(sim.dvl.valid, sim.dvl.beams * 1e3, -32768.0), sim.dvl.valid.astype(float)])
+    cmap["dvl"]["t"] = "time_s"
+    with pytest.raises(DataError, match=r"dvl.csv, field 'time_s': the declared time unit 'ms' \(csv_columns.time_unit"
+                                        r"\) .* set csv_columns.dvl.time_unit to 's' \(this stream's own unit"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))

@@ -647,7 +647,7 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
 
 
 #: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained
-#: as a unit at least 10x larger (:func:`check_declared_velocity_unit`) is contradicted by the data. Clean, as read over
+#: as another unit at least 10x larger or smaller (:func:`check_declared_velocity_unit`) is contradicted by the data. Clean, as read over
 #: the best of x10, x100 and x1000: at most 1.03 (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole
 #: and in 60 s pieces, simulated missions of every grade, hovering vehicles); the velocity 10x too small (mm/s declared
 #: on cm/s data) over the right unit at least 18.8, 100x too small (cm/s on m/s) 1897.
@@ -658,29 +658,28 @@ VELOCITY_UNIT_DOUBT = "DVL velocity read in a declared unit the IMU's accelerati
 
 def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | None, field: str | None = None) -> None:
     """A declared DVL velocity unit (``declared``: ``{"unit": ..., "key": ...}``, the loader's
-    ``meta["prepare"]["dvl_unit"]``) checked against the IMU: a unit at least 10x larger (cm/s or m/s for mm/s, m/s
-    for cm/s) whose clock model leaves :data:`VELOCITY_UNIT_RATIO` times less of the velocity's changes unexplained is
-    a DataError naming the DVL source, its columns and the key, when it explains some of them (leaves under 1, what a
-    straight line per window leaves); when it does not, the velocity is kept in the declared unit with a warning, a
-    note and its pings counted as doubted (:data:`VELOCITY_UNIT_DOUBT`). A unit taken too small makes every speed
-    100-1000x too small, which no speed range tells from a hovering vehicle's, while the IMU says the vehicle moves.
-    Nothing when no unit is declared, none is 10x larger, or the DVL has under two windows of pings (the DVL is on the
-    IMU clock)."""
-    from graphnav.io.units import DECLARED_UNITS
-    units = DECLARED_UNITS["velocity"]
-    if not declared or declared["unit"] not in units:
+    ``meta["prepare"]["dvl_unit"]``) checked against the IMU: another metric unit at least 10x larger or smaller
+    (:func:`other_velocity_units`: cm/s or m/s for mm/s, m/s or mm/s for cm/s) whose clock model leaves
+    :data:`VELOCITY_UNIT_RATIO` times less of the velocity's changes unexplained is a DataError naming the DVL source,
+    its columns and the key, when it explains some of them (leaves under 1, what a straight line per window leaves);
+    when it does not, the velocity is kept in the declared unit with a warning, a note and its pings counted as
+    doubted (:data:`VELOCITY_UNIT_DOUBT`). A unit taken too small makes every speed 100-1000x too small, which no
+    speed range tells from a hovering vehicle's, while the IMU says the vehicle moves. Only units that keep the median
+    speed within what a DVL measures are tried. Nothing when no unit is declared, none other is plausible, or the DVL
+    has under two windows of pings (the DVL is on the IMU clock)."""
+    if not declared or declared["unit"] not in _velocity_units():
         return
     unit, key = declared["unit"], declared["key"]
-    larger = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s") if units[u] / units[unit] >= 10}
+    speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
+    others = other_velocity_units(unit, speed, config)
     try:
-        fits = velocity_scale_fits(imu, dvl, config, larger.values()) if larger else {}
+        fits = velocity_scale_fits(imu, dvl, config, others.values()) if others else {}
     except DataError:
         return
-    best = min(larger, key=lambda u: fits[larger[u]], default=None)
-    if best is None or not fits[1.0] >= VELOCITY_UNIT_RATIO * fits[larger[best]]:
+    best = min(others, key=lambda u: fits[others[u]], default=None)
+    if best is None or not fits[1.0] >= VELOCITY_UNIT_RATIO * fits[others[best]]:
         return
-    k = larger[best]
-    speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
+    k = others[best]
     said = (f"declared {unit!r} ({key}), but the IMU's accelerations fit the velocity's changes "
             f"{fits[1.0] / max(fits[k], 1e-12):.3g}x better in {best!r} (x{k:g}; left unexplained {fits[k]:.3g} "
             f"against {fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in {unit!r}, {speed * k:.3g} m/s in {best!r}")
@@ -691,6 +690,23 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
     add_note(meta, "dvl", f"kept in the declared unit {unit!r} ({key}), which the IMU contradicts: {said}")
     warnings.warn(f"{dvl.source}: field '{field}': {said}, though neither explains them (a straight line per window "
                   f"leaves less); kept in {unit!r}: check {key}", RuntimeWarning, stacklevel=3)
+
+
+def _velocity_units() -> dict:
+    from graphnav.io.units import DECLARED_UNITS
+    return DECLARED_UNITS["velocity"]
+
+
+def other_velocity_units(unit: str, speed: float, config) -> dict[str, float]:
+    """The metric velocity units a DVL velocity declared ``unit`` may be in instead (name -> factor to multiply the
+    velocity as read by): at least 10x larger or smaller, and putting the median ``speed`` (m/s in ``unit``) within
+    what a DVL measures (the larger of :data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS` and ``dvl.max_speed_mps``): a
+    larger unit that makes a steady 1.5 m/s vehicle 1500 m/s fits a MEMS IMU's noise better, not the vehicle."""
+    from graphnav.core.mission import MAX_DVL_SPEED_MPS
+    units = _velocity_units()
+    bound = max(MAX_DVL_SPEED_MPS, float(config.dvl.max_speed_mps))
+    factors = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s")}
+    return {u: k for u, k in factors.items() if (k >= 10 or k <= 0.1) and not speed * k > bound}
 
 
 #: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).

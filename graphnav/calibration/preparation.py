@@ -575,7 +575,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
-    if on_the_imu_clock(dvl.t, mission.imu.t):
+    unit_checked = on_the_imu_clock(dvl.t, mission.imu.t)
+    if unit_checked:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
         # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
         check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
@@ -591,17 +592,24 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
 
         def search(imu: ImuData, meta_: dict) -> float:
             return float(align_stream_clocks(imu, searched, None, meta_, mission.config)[0].t[0] - searched.t[0])
-        (dvl, depth), imu = _with_the_gyro_tried(
-            lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu, searched,
-            mission.config, meta)
+        try:
+            (dvl, depth), imu = _with_the_gyro_tried(
+                lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu,
+                searched, mission.config, meta)
+        except DataError as err:
+            _unit_finds_the_clock(err, mission.imu, searched, mission.config, meta, facts.get("dvl_unit"))
+            raise
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
+    moved = facts.get("dvl_clock") == AUTO and dvl is not searched
+    if (moved or not unit_checked) and on_the_imu_clock(dvl.t, mission.imu.t):
+        # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
     mission = _reference_on_the_imu(mission, meta, facts)
-    if facts.get("dvl_clock") == AUTO and dvl is not searched:
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
+    if moved:
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked,
                                    reference=mission.gt)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
@@ -674,6 +682,38 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
         break
     raise DataError(f"{err.message} (nor with the gyro rates x57.3 or /57.3, whose scale the tilt kinematics could "
                     "not judge, at an offset where the DVL judges them)", err.source, err.line, err.field) from err
+
+
+def _unit_finds_the_clock(err: DataError, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                          declared: dict | None) -> None:
+    """After the DVL clock search failed with ``err``: a declared velocity unit 100x too small leaves the velocity's
+    changes within its noise, which hides the clock, and the search then asks for a ``dvl_time_offset_s`` under which
+    the wrong unit would load unseen. The search is tried with the velocity in each other plausible unit
+    (:func:`~graphnav.calibration.dvl_scale.other_velocity_units`); where one finds the clock, the declared unit is
+    judged there (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`, a DataError naming the key),
+    else a DataError adds to ``err`` the unit that found it. Returns when none does (``err`` stands)."""
+    from graphnav.calibration.clock import align_stream_clocks
+    from graphnav.calibration.dvl_scale import check_declared_velocity_unit, other_velocity_units
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
+    if not declared:
+        return
+    speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
+    for unit, k in other_velocity_units(declared["unit"], speed, config).items():
+        def scaled(a):
+            return None if a is None else a * k
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")          # a trial: its notes and warnings are not the mission's
+                found = align_stream_clocks(imu, dataclasses.replace(dvl, beams=scaled(dvl.beams), v_b=scaled(dvl.v_b),
+                                            v_d=scaled(dvl.v_d), v_d_sigma=scaled(dvl.v_d_sigma)), None,
+                                            copy.deepcopy(meta), config)[0]
+        except DataError:
+            continue
+        offset = float(found.t[0] - dvl.t[0])
+        check_declared_velocity_unit(imu, dataclasses.replace(dvl, t=dvl.t + offset), config, meta, declared)
+        raise DataError(f"{err.message}; with the velocity in {unit!r} instead of the declared {declared['unit']!r} "
+                        f"the search finds the DVL clock at {offset:+.3f} s: check {declared['key']}", err.source,
+                        err.line, err.field) from err
 
 
 #: A DVL time offset given for a log or bag is doubted when the DVL clock fit (the DVL's velocity changes against the

@@ -266,7 +266,8 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
 
     def in_mps(key, **kw):
         cells = table(s.rows, spec, key, source, s.topic) * scale
-        return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix, **kw)
+        return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix,
+                                  key=f"{KEY}.velocity_unit", **kw)
     beams = in_mps("beams", beams=True) if "beams" in spec else np.full((n, 4), np.nan)
     flags = table(s.rows, spec, "valid", source, s.topic) if "valid" in spec else np.ones((n, 4))
     valid = (np.nan_to_num(flags) != 0) & np.isfinite(beams)

@@ -217,7 +217,8 @@ def _unit_named(spec: dict, key: str) -> dict:
     """The DVL columns of ``spec[key]`` and the key a unit error tells a user to declare
     (:func:`graphnav.io.units.dvl_velocity_units`)."""
     return {"columns": "/".join(_names(spec, key, {"v_b": 3, "beams": 4}[key], "dvl")),
-            "fix": f"declare csv_columns.dvl.velocity_unit ({', '.join(VELOCITY_UNITS)})"}
+            "fix": f"declare csv_columns.dvl.velocity_unit ({', '.join(VELOCITY_UNITS)})",
+            "key": "csv_columns.dvl.velocity_unit"}
 
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
@@ -247,7 +248,10 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     if unit is not None:
         _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
     key = f"csv_columns.{stream}.time_unit" if "time_unit" in spec else "csv_columns.time_unit"
-    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key)
+    # the IMU is read first: a global unit its stamps passed, another stream's contradict, is that stream's to declare
+    own = None if stream == "imu" or "time_unit" in spec else f"csv_columns.{stream}.time_unit"
+    t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key,
+                          stream_key=own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read

@@ -130,9 +130,11 @@ def _note(meta: dict | None, stream: str, text: str, source: str) -> None:
 # ------------------------------------------------------------------------------------------------
 def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float | None = None,
                field: str = "t", declared: str | None = None, lines: np.ndarray | None = None,
-               key: str | None = None, meta: dict | None = None) -> tuple[float, str]:
+               key: str | None = None, meta: dict | None = None, stream_key: str | None = None) -> tuple[float, str]:
     """The factor that puts stamps ``t`` (as read) in seconds, and its unit name. A unit a user ``declared`` (under
-    the configuration ``key``) is checked with the same evidence as a detected one (:func:`_declared_time`).
+    the configuration ``key``) is checked with the same evidence as a detected one (:func:`_declared_time`);
+    ``stream_key``: the key that declares this stream's unit alone, advised when ``key`` is shared with streams
+    whose stamps it fits.
 
     Raises:
         DataError: no unit makes the sample step plausible, or the stream spans more than
@@ -156,7 +158,7 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
             raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
         unit = declared
         if key is not None and med > 0 and declared not in fits:
-            _declared_time(med, declared, fits, (lo, hi), stream, source, field, key, meta)
+            _declared_time(med, declared, fits, (lo, hi), stream, source, field, key, meta, stream_key)
     elif lo <= med <= hi or med <= 0:
         unit = "s"       # a non-positive median step is an ordering problem, reported by the stamp checks
     else:
@@ -329,12 +331,13 @@ DECLARE_UNIT_FIX = "declare the velocity unit"
 
 
 def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, source: str,
-                    field: str = "beams", columns: str = "v_b/v_d", fix: str = DECLARE_UNIT_FIX
-                    ) -> tuple[float, float]:
+                    field: str = "beams", columns: str = "v_b/v_d", fix: str = DECLARE_UNIT_FIX,
+                    declared: str | None = None, key: str | None = None) -> tuple[float, float]:
     """``(scale to m/s, median speed as read)`` of DVL values (beams (M,4) and/or a velocity (M,3)), from
     the median speed; RDI's bad-velocity flags and non-finite values are left out. DataError when the
     speeds are neither m/s nor mm/s, naming the velocity's ``columns`` and advising ``fix`` (an A-KIT folder has
-    no unit to declare)."""
+    no unit to declare); values already in m/s from a ``declared`` unit (under ``key``) beyond what a DVL measures
+    are a DataError naming the key and the smaller units that fit (:func:`_declared_speed_error`)."""
     def clean(a):
         a = np.asarray(a, float)
         return np.where(np.isfinite(a) & ~rdi_flagged(a), a, np.nan)
@@ -349,6 +352,8 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
     med = float(np.nanmedian(speed))
     if med <= MAX_DVL_SPEED_MPS:
         return 1.0, med
+    if declared is not None:
+        raise _declared_speed_error(med, declared, key or "the declared velocity_unit", source, field)
     if DVL_MMPS_RANGE[0] <= med <= DVL_MMPS_RANGE[1]:
         return 1e-3, med
     if med < DVL_MMPS_RANGE[0]:
@@ -360,20 +365,30 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
                     field=field)
 
 
+def _declared_speed_error(med: float, declared: str, key: str, source: str, field: str) -> DataError:
+    """A median DVL speed ``med`` (m/s in the ``declared`` unit) beyond what a DVL measures: the smaller units that
+    bring it within, at the speed each gives, and the ``key`` to set."""
+    units = DECLARED_UNITS["velocity"]
+    fit = sorted(((med * units[u] / units[declared], u) for u in units if units[u] < units[declared]), reverse=True)
+    fit = [f"{u!r} ({v:.3g} m/s)" for v, u in fit if v <= MAX_DVL_SPEED_MPS]
+    return DataError(f"median DVL speed {med:.4g} m/s in the declared unit {declared!r} ({key}) is beyond the "
+                     f"{MAX_DVL_SPEED_MPS:g} m/s a DVL measures: " + (f"{' or '.join(fit)}? set {key} to the file's "
+                     "unit" if fit else f"no smaller unit brings it within; check {key} and the columns"),
+                     source, field=field)
+
+
 def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
-                       beams: bool = False, columns: str | None = None, fix: str = DECLARE_UNIT_FIX) -> np.ndarray:
+                       beams: bool = False, columns: str | None = None, fix: str = DECLARE_UNIT_FIX,
+                       key: str | None = None) -> np.ndarray:
     """DVL values as read (beams (M,4) when ``beams``, else a velocity (M,3)) in m/s: mm/s detected and
     converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768. ``columns``: the
     values' columns in ``source`` (a DataError names them), ``fix``: what a DataError advises
-    (:func:`dvl_speed_scale`)."""
+    (:func:`dvl_speed_scale`); ``key``: the one that ``declared`` the unit."""
     field = columns or ("beams" if beams else "v_b/v_d")
     scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, field=field,
-                                 columns=field, fix=fix)
+                                 columns=field, fix=fix, declared=declared, key=key)
     if scale == 1.0:
         return values
-    if declared is not None:
-        raise DataError(f"median DVL speed {med:.4g} m/s after the declared unit {declared!r}: the data look "
-                        "like mm/s", source, field=columns or ("beams" if beams else "v_b"))
     _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s", source)
     return np.asarray(values, float) * scale
 
@@ -1259,15 +1274,16 @@ def _absolute_dbar(mission: Mission, meta: dict | None, field: str) -> None:
 # ------------------------------------------------------------------------------------------------
 def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None = None,
                       expected_rate_hz: float | None = None, declared: str | None = None,
-                      field: str = "t", lines: np.ndarray | None = None, key: str | None = None) -> np.ndarray:
+                      field: str = "t", lines: np.ndarray | None = None, key: str | None = None,
+                      stream_key: str | None = None) -> np.ndarray:
     """Stamps ``t`` in seconds: the unit detected by :func:`time_scale` applied (warning and note when not
     s), or DataError. A span of more than a year (:func:`time_scale`) and an IMU gap longer than can be bridged are
     DataErrors here, naming the line (``lines``: the file line of each stamp) and ``field``: it is the stamps that
     are wrong, and a check of the other streams against them (a reference's positions against its velocity) would
     blame another file. ``key``: the configuration key a user ``declared`` the unit with (checked against the data;
-    a unit a format fixes, a bag's nanoseconds, is not)."""
+    a unit a format fixes, a bag's nanoseconds, is not); ``stream_key``: :func:`time_scale`'s."""
     scale, unit = time_scale(t, stream, source, expected_rate_hz, field=field, declared=declared, lines=lines,
-                             key=key, meta=meta)
+                             key=key, meta=meta, stream_key=stream_key)
     if scale != 1.0:
         if declared is None:
             _note(meta, stream, f"stamps read as {unit} (median step {np.median(np.diff(t)):.4g}, implausible as "
@@ -1279,14 +1295,17 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
 
 
 def _declared_time(med: float, declared: str, fits: list, period: tuple, stream: str, source: str, field: str,
-                   key: str, meta: dict | None) -> None:
+                   key: str, meta: dict | None, stream_key: str | None = None) -> None:
     """A declared time unit that makes the median stamp step ``med`` (as read) no plausible ``period`` (s) of the
     stream: a DataError naming ``key`` when another unit makes it plausible (``fits``), else kept with a warning and a
-    note (an instrument that samples unusually slowly or fast)."""
+    note (an instrument that samples unusually slowly or fast). ``stream_key``: the key advised instead of a ``key``
+    shared with streams it fits (another stream in another unit)."""
     said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
             f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({period[0]:g}-{period[1]:g} s)")
     if fits:
-        raise DataError(f"{said}: the stamps look like {fits[0]}; set {key} to {fits[0]!r}", source, field=field)
+        fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
+               f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
+        raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
     _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit", source)
 
 

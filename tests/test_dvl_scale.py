@@ -1,0 +1,31 @@
+"""The declared DVL velocity unit against the IMU (graphnav.calibration.dvl_scale)."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+
+def test_a_larger_unit_beyond_what_a_dvl_measures_is_not_offered_for_a_steady_vehicle():
+    """A vehicle holding 1.5 m/s, a MEMS IMU, a DVL in mm/s declared mm/s: the IMU's noise fits the velocity's
+    changes better in m/s (1500 m/s), and every ping was warned about and counted doubted. A unit that puts the
+    median speed beyond what a DVL measures is not tried."""
+    from graphnav.calibration.dvl_scale import check_declared_velocity_unit
+    from graphnav.core.config import SensorConfig, imu_grade
+    from graphnav.core.mission import DvlData, ImuData
+    rng, spec, config = np.random.default_rng(1), imu_grade("mems"), SensorConfig()
+    config.dvl.lever_arm_b = np.zeros(3)
+    t = np.arange(0.0, 600.0, 0.01)
+    f_b = (np.array([0.0, 0.0, -config.gravity_mps2]) + rng.normal(0, spec.accel_noise_density * 10, (t.size, 3))
+           + rng.normal(0, spec.accel_bias_sigma, 3))
+    omega_b = rng.normal(0, spec.gyro_noise_density * 10, (t.size, 3)) + rng.normal(0, spec.gyro_bias_sigma, 3)
+    t_dvl = t[::100]
+    v_b = np.array([1.5, 0.0, 0.0]) + rng.normal(0, 0.005, (t_dvl.size, 3))
+    imu = ImuData(t, f_b, omega_b, source="imu.csv")
+    dvl = DvlData(t_dvl, np.full((t_dvl.size, 4), np.nan), np.zeros((t_dvl.size, 4), bool), v_b, source="dvl.csv")
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for unit in ("mm/s", "cm/s"):
+            check_declared_velocity_unit(imu, dvl, config, meta, {"unit": unit, "key": "csv_columns.dvl.velocity_unit"})
+    assert "doubted" not in meta.get("streams", {}).get("dvl", {})
