@@ -647,8 +647,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
 
 
 #: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained
-#: as another unit at least 10x larger or smaller (:func:`check_declared_velocity_unit`) is contradicted by the data. Clean, as read over
-#: the best of x10, x100 and x1000: at most 1.03 (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole
+#: as another unit at least 10x larger or smaller (:func:`check_declared_velocity_unit`) is contradicted by the data.
+#: Clean, as read over the best of x10, x100 and x1000: at most 1.03 (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole
 #: and in 60 s pieces, simulated missions of every grade, hovering vehicles); the velocity 10x too small (mm/s declared
 #: on cm/s data) over the right unit at least 18.8, 100x too small (cm/s on m/s) 1897.
 VELOCITY_UNIT_RATIO = 4.0
