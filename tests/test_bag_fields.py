@@ -213,11 +213,13 @@ def test_a_twist_used_beside_a_vendor_dvl_message_says_how_to_read_the_vendor_on
 
 @pytest.mark.parametrize("key, value, said", [
     ("beams", "velocity", r"'velocity' of /dvl/data \(.*\) is geometry_msgs/msg/Vector3 \(a velocity's three "
-                          r"components are not four beams\); beams needs four along-beam velocities, float fields"),
+                          r"components are not four beams\); beams needs four along-beam velocities, float or "
+                          r"integer fields"),
     ("beams", "beams[].valid", r"'beams\[\]\.valid' of .* is bool \(a flag is no velocity\); beams needs four"),
     ("valid", "beams[].velocity", r"is float64 \(a float is no flag\); valid needs four flags, bool or integer"),
     ("velocity_valid", "fom", r"is float64 \(a float is no flag\); velocity_valid needs one flag"),
-    ("v_b", "status", r"'status' of .* is int64; v_b needs three numbers, a Vector3 or three float fields"),
+    ("v_b", "velocity_valid", r"'velocity_valid' of .* is bool \(a flag is no velocity\); v_b needs three numbers"),
+    ("v_b", "status", r"names 1 number of /dvl/data \(.*\) and needs 3: three numbers"),
     ("v_b", "velocity.x", r"names 1 number of /dvl/data \(.*\) and needs 3: three numbers"),
     ("v_b", ["velocity.x", "velocity.y"], r"names 2 numbers .* and needs 3"),
     ("beams", ["beams[].velocity", "fom"], None),   # a list's count is known only per message: checked there
@@ -232,3 +234,114 @@ def test_fields_that_are_not_the_numbers_a_key_needs_are_refused_naming_the_key(
     with pytest.raises(DataError, match=rf"bag_topics\.dvl\.{key} = .*{said}" if said else
                        r"bag_topics\.dvl\.beams names 5 values in message 0 and needs 4"):
         load_mission(vendor, cfg)
+
+
+BEAM = ("vendor/msg/Beam", "float32 velocity\nuint8 valid\n")
+
+
+def _retyped(standard, path, msgdef, build):
+    """``standard`` with its DVL messages recorded as ``vendor/msg/Dvl`` (``msgdef``, with :data:`BEAM` defined),
+    each built by ``build(message, types)`` from the standard one."""
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    from rosbags.typesys import get_types_from_msg
+    store = bags.typestore()
+    store.register(get_types_from_msg(BEAM[1], BEAM[0]))
+    store.register(get_types_from_msg("std_msgs/Header header\n" + msgdef, "vendor/msg/Dvl"))
+    with Reader(standard) as reader, Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns = {}
+        for conn, ns, raw in reader.messages():
+            typ = "vendor/msg/Dvl" if conn.msgtype == bags.WL_DVL else conn.msgtype
+            if conn.topic not in conns:
+                conns[conn.topic] = writer.add_connection(conn.topic, typ, typestore=store)
+            if typ != conn.msgtype:
+                m = store.deserialize_cdr(raw, conn.msgtype)
+                raw = store.serialize_cdr(store.types[typ](header=m.header, **build(m, store.types)), typ)
+            writer.write(conns[conn.topic], ns, raw)
+    return path
+
+
+def _beams(m, types, n):
+    """The standard message's beams as ``n`` vendor beams: the first four as recorded, a fifth (a vertical beam) at
+    0.01 m/s."""
+    return [types[BEAM[0]](velocity=np.float32(m.beams[i].velocity if i < 4 else 0.01),
+                           valid=np.uint8(m.beams[i].valid if i < 4 else 1)) for i in range(n)]
+
+
+def _read(bag, config, **fields):
+    import dataclasses
+    return bags.load_bag(bag, dataclasses.replace(config, bag_topics={"dvl": {"topic": "/dvl/data", **fields}})).dvl
+
+
+def test_a_three_beam_dvl_in_a_fixed_array_reads_as_a_list_of_three(recorded, tmp_path):
+    """A three-beam DVL's ``Beam[3]`` was refused ("names 3 numbers ... needs 4") while the same beams in an
+    unbounded list loaded; both now load alike, beam 4 NaN and invalid."""
+    mission, _, standard, _, _ = recorded
+    ref = bags.load_bag(standard, mission.config).dvl
+    fields = {"v_b": "velocity", "velocity_valid": "velocity_valid", "beams": "beams[].velocity",
+              "valid": "beams[].valid"}
+    read = {}
+    for size in ("3", ""):
+        bag = _retyped(standard, tmp_path / f"beams{size or 'list'}", f"geometry_msgs/Vector3 velocity\nvendor/Beam"
+                       f"[{size}] beams\nbool velocity_valid\n", lambda m, T: dict(
+                           velocity=m.velocity, beams=_beams(m, T, 3), velocity_valid=m.velocity_valid))
+        read[size] = _read(bag, mission.config, **fields)
+    for name in ("t", "beams", "valid", "v_d", "v_d_valid"):
+        np.testing.assert_array_equal(getattr(read["3"], name), getattr(read[""], name), err_msg=name)
+    dvl = read["3"]
+    assert np.isnan(dvl.beams[:, 3]).all() and not dvl.valid[:, 3].any()
+    np.testing.assert_array_equal(dvl.valid[:, :3], ref.valid[:, :3])
+    np.testing.assert_allclose(dvl.beams[:, :3][ref.valid[:, :3]], ref.beams[:, :3][ref.valid[:, :3]], atol=1e-6)
+    np.testing.assert_array_equal(dvl.v_d, ref.v_d)
+    with pytest.raises(DataError, match=r"'velocity\.x' names 1 number of /dvl/data .* and needs 4: four along-beam"):
+        _read(bag, mission.config, beams="velocity.x")
+
+
+def test_five_beams_are_named_by_index(recorded, tmp_path):
+    """Five beams (four slanted and a vertical one) in a list or a ``float64[5]`` were refused advising "four
+    paths", which no path could name; an element is now named by index, and the error shows how."""
+    mission, _, standard, _, _ = recorded
+    ref = bags.load_bag(standard, mission.config).dvl
+
+    def five(m, types):
+        beams = _beams(m, types, 5)
+        return dict(velocity=m.velocity, beams=beams,
+                    beam_vel=np.array([b.velocity if b.valid else np.nan for b in beams], float))
+    bag = _retyped(standard, tmp_path / "five", "geometry_msgs/Vector3 velocity\nvendor/Beam[] beams\n"
+                   "float64[5] beam_vel\n", five)
+    with pytest.raises(DataError, match=r"beams names 5 values in message 0 and needs 4: .*; name the 4 it takes by "
+                                        r"index, e.g. \['beams\[0\]\.velocity', 'beams\[1\]\.velocity', "
+                                        r"'beams\[2\]\.velocity', 'beams\[3\]\.velocity'\]$"):
+        _read(bag, mission.config, v_b="velocity", beams="beams[].velocity")
+    with pytest.raises(DataError, match=r"'beam_vel' names 5 numbers of /dvl/data .* e.g. \['beam_vel\[0\]', "
+                                        r"'beam_vel\[1\]', 'beam_vel\[2\]', 'beam_vel\[3\]'\]$"):
+        _read(bag, mission.config, v_b="velocity", beams="beam_vel")
+    with pytest.raises(DataError, match=r"'beam_vel' of /dvl/data .* is float64\[5\]: its elements are \[0\] to "
+                                        r"\[4\]"):
+        _read(bag, mission.config, v_b="velocity", beams=[f"beam_vel[{i}]" for i in (1, 2, 3, 5)])
+    listed = _read(bag, mission.config, v_b="velocity", beams=[f"beams[{i}].velocity" for i in range(4)],
+                   valid=[f"beams[{i}].valid" for i in range(4)])
+    array = _read(bag, mission.config, v_b="velocity", beams=[f"beam_vel[{i}]" for i in range(4)])
+    for dvl in (listed, array):
+        np.testing.assert_array_equal(dvl.valid, ref.valid)
+        np.testing.assert_allclose(dvl.beams[ref.valid], ref.beams[ref.valid], atol=1e-6)
+        np.testing.assert_array_equal(dvl.v_d, ref.v_d)
+    # an element past the end of a message's list is a beam the message lacks
+    past = _read(bag, mission.config, v_b="velocity", beams=[f"beams[{i}].velocity" for i in (0, 1, 2, 7)])
+    assert np.isnan(past.beams[:, 3]).all() and not past.valid[:, 3].any()
+
+
+def test_integer_velocities_read_in_their_declared_unit(recorded, tmp_path):
+    """A raw driver's int16 mm/s velocities were refused as needing float fields; they read in the declared unit,
+    -32768 (no beam) invalid, within the 0.5 mm/s of rounding to integers."""
+    mission, _, standard, _, _ = recorded
+    ref = bags.load_bag(standard, mission.config).dvl
+    bag = _retyped(standard, tmp_path / "int16", "int16 vx\nint16 vy\nint16 vz\nint16[4] beam_vel\nuint8[4] beam_ok\n",
+                   lambda m, T: dict(vx=np.int16(round(m.velocity.x * 1000)), vy=np.int16(round(m.velocity.y * 1000)),
+                                     vz=np.int16(round(m.velocity.z * 1000)), beam_vel=np.array(
+                                         [round(b.velocity * 1000) if b.valid else -32768 for b in m.beams], np.int16),
+                                     beam_ok=np.array([b.valid for b in m.beams], np.uint8)))
+    dvl = _read(bag, mission.config, v_b=["vx", "vy", "vz"], beams="beam_vel", valid="beam_ok", velocity_unit="mm/s")
+    np.testing.assert_array_equal(dvl.valid, ref.valid)
+    np.testing.assert_allclose(dvl.beams[ref.valid], ref.beams[ref.valid], atol=5e-4)
+    np.testing.assert_allclose(dvl.v_d, ref.v_d, atol=5e-4)
+    np.testing.assert_array_equal(dvl.v_d_valid, ref.v_d_valid)

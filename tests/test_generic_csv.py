@@ -683,7 +683,8 @@ def _hover_with_reference(root, gyro_scale=1.0, trim=(0.02, 0.05), ref_noise=0.0
 
 def test_a_column_map_dvl_in_an_unknown_unit_is_refused_naming_its_columns_and_the_key(tmp_path):
     """A column map's DVL in cm/s was refused naming 'v_b/v_d' (no column of the file) and advising "declare the
-    velocity unit" (no key of the map): now its columns and csv_columns.dvl.velocity_unit."""
+    velocity unit" (no key of the map): now its columns and csv_columns.dvl.velocity_unit. The columns are listed
+    as the check of a declared unit against the IMU lists them ('vx, vy, vz', not 'vx/vy/vz')."""
     cfg = _hover_with_reference(tmp_path)
     dvl = np.loadtxt(tmp_path / "dvl.csv", delimiter=",", skiprows=1)
     _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [dvl[:, 0], dvl[:, 1:] * 100])
@@ -692,7 +693,7 @@ def test_a_column_map_dvl_in_an_unknown_unit_is_refused_naming_its_columns_and_t
         with pytest.raises(DataError, match=r"cm/s \(0\.\d+ m/s\) or mm/s \(0\.0\d+ m/s\)\? declare "
                                             r"csv_columns\.dvl\.velocity_unit \(m/s, cm/s, mm/s, kn\)$") as err:
             load_mission(tmp_path, cfg)
-    assert err.value.source == str(tmp_path / "dvl.csv") and err.value.field == "vx/vy/vz"
+    assert err.value.source == str(tmp_path / "dvl.csv") and err.value.field == "vx, vy, vz"
 
 
 def _imu_notes(m):

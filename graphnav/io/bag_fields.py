@@ -7,10 +7,13 @@ names, in the column map's words (``csv_columns.dvl``)::
                            "frame": "instrument", "velocity_unit": "m/s"}}
 
 A field is a path in the message: ``a.b`` a field of a sub-message, ``beams[].velocity`` that field of every
-element of a list (in list order: beam 1 first). ``v_b`` names a ``Vector3`` or three float fields (a list of three
-paths), ``beams`` four float fields (an array, a list's field, or four paths), ``valid`` the beams' flags (bool or
-integer fields, non-zero = valid; left out: every finite beam is), ``velocity_valid`` the velocity's own flag
-(left out: a finite velocity is valid, and with ``valid`` given only over three valid beams, as a column map's).
+element of a list (in list order: beam 1 first), ``beams[2].velocity`` or ``raw_velocity[3]`` that of one element
+(counted from 0; past the end of a message's list: NaN). ``v_b`` names a ``Vector3`` or three number fields (a list
+of three paths), ``beams`` four (an array, a list's field, or four paths; three of a three-beam DVL, beam 4 then
+NaN and invalid), ``valid`` the beams' flags (bool or integer fields, non-zero = valid; left out: every finite beam
+is), ``velocity_valid`` the velocity's own flag (left out: a finite velocity is valid, and with ``valid`` given only
+over three valid beams, as a column map's). Velocities may be integer fields (a raw driver's int16 mm/s, declared
+by ``velocity_unit``); a bool is no velocity and a float no flag.
 ``frame`` (the column map's: ``instrument``, ``body``/``frd``, ``flu``) defaults to ``instrument``: every DVL
 message graphnav reads holds the instrument's own velocity; ``velocity_unit`` (m/s, cm/s, mm/s, kn) left out is
 m/s, mm/s detected from the speeds as for a column map. Earth frames need the head's attitude per ping and are
@@ -93,36 +96,58 @@ def check_paths(spec: dict, fielddefs: dict, msgtype: str, source: str, topic: s
             for size in lists:
                 count = count * size if count is not None and size else None
             total = total + count if total is not None and count is not None else None
-        if total is not None and total != FIELD_KEYS[key]:
+        if total is not None and not FEWEST.get(key, FIELD_KEYS[key]) <= total <= FIELD_KEYS[key]:
             raise DataError(f"{KEY}.{key} = {spec[key]!r} names {total} number{'s' * (total != 1)} of {where} and "
-                            f"needs {FIELD_KEYS[key]}: {NEEDS[key][1]}", source, field=topic)
+                            f"needs {FIELD_KEYS[key]}: {NEEDS[key][1]}{by_index(spec, key, total)}", source,
+                            field=topic)
 
 
-#: The type of number each key of :data:`FIELD_KEYS` takes, and what it needs in words.
-NEEDS = {"v_b": (("float", "vector3"), "three numbers, a Vector3 or three float fields"),
+#: The fewest numbers a key of :data:`FIELD_KEYS` takes from fields of a fixed size: a three-beam DVL's beams and
+#: flags (beam 4 padded NaN and invalid, as a list of three is per message).
+FEWEST = {"beams": 3, "valid": 3}
+#: The type of number each key of :data:`FIELD_KEYS` takes, and what it needs in words. Velocities may be integers
+#: (raw drivers publish int16 mm/s; the declared unit says so); a bool is no velocity and a float no flag.
+NEEDS = {"v_b": (("float", "int", "vector3"), "three numbers, a Vector3 or three float or integer fields"),
          "velocity_valid": (("bool", "int"), "one flag, a bool or integer field"),
-         "beams": (("float",), "four along-beam velocities, float fields (a float64[4], a list's float field or "
-                               "four paths)"),
-         "valid": (("bool", "int"), "four flags, bool or integer fields (a list's bool field or four paths)")}
+         "beams": (("float", "int"), "four along-beam velocities, float or integer fields (a float64[4], a list's "
+                                     "field or four paths such as 'beams[0].velocity'; three of a three-beam DVL)"),
+         "valid": (("bool", "int"), "four flags, bool or integer fields (a list's bool field or four paths such as "
+                                    "'beams[0].valid'; three of a three-beam DVL)")}
 #: Why a field of this type is not what a key of :data:`NEEDS` takes (the types a key takes never get here).
 WHY = {"vector3": " (a velocity's three components are not four beams)", "bool": " (a flag is no velocity)",
        "float": " (a float is no flag)"}
 
 
+def by_index(spec: dict, key: str, count: int) -> str:
+    """For ``count`` numbers more than ``key`` takes: how to name the ones it takes by index, with the indices of its
+    own path (a five-beam DVL's four slanted beams)."""
+    n, paths = FIELD_KEYS[key], _paths(spec, key)
+    if count <= n:
+        return ""
+    if len(paths) > 1:
+        return f"; name each of the {n} by index ('list[2].field', 'array[3]')"
+    path = paths[0]
+    each = path.replace("[]", "[{}]", 1) if "[]" in path else path + "[{}]"
+    return f"; name the {n} it takes by index, e.g. {[each.format(i) for i in range(n)]}"
+
+
 def _walk(spec: dict, key: str, path: str, fielddefs: dict, msgtype: str, source: str, topic: str) -> tuple[str, list]:
-    """The type at the end of ``path`` and the sizes of the lists walked into with ``[]`` on the way (0: unbounded);
-    a DataError naming the fields there are for a path ``msgtype`` does not have."""
+    """The type at the end of ``path`` and the sizes of the lists walked into with ``[]`` on the way (0: unbounded;
+    ``[i]`` picks one element and adds none); a DataError naming the fields there are for a path ``msgtype`` does
+    not have, and for an index past the end of a fixed array."""
     typ, walked, parts, lists = msgtype, [], path.split("."), []
     for i, part in enumerate(parts):
-        name = part.removesuffix("[]")
+        name, index = _part(part)
         fields = dict(_fields(fielddefs, typ)) if typ in fielddefs else {}
         kind = _kind(fields[name]) if name in fields else None
         listed = kind is not None and kind.endswith("]")
-        # a whole array may end a path; a list's elements are walked into with []
+        # a whole array may end a path; a list's elements are walked into with [] or one of them picked with [i]
         if part == name and listed and i < len(parts) - 1:
+            rest = parts[i + 1:]
             raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) "
                             f"is a list ({kind}): a field of its elements is "
-                            f"{'.'.join(walked + [name + '[]'] + parts[i + 1:])!r}", source, field=topic)
+                            f"{'.'.join(walked + [name + '[]'] + rest)!r}, of one element "
+                            f"{'.'.join(walked + [name + '[0]'] + rest)!r}", source, field=topic)
         if kind is None or (part != name and not listed):
             what = f"{'.'.join(walked) or 'the message'} has {fields_of(fielddefs, typ)}" if fields else \
                 f"{'.'.join(walked)} is a number"
@@ -130,11 +155,25 @@ def _walk(spec: dict, key: str, path: str, fielddefs: dict, msgtype: str, source
                             f"{'list' if kind else 'field'} {'.'.join(walked + [part])!r}; {what}",
                             source, field=topic)
         if part != name:
-            lists.append(int(re.search(r"\[(\d*)\]$", kind).group(1) or 0))
+            size = int(re.search(r"\[(\d*)\]$", kind).group(1) or 0)
+            if index is None:
+                lists.append(size)
+            elif size and index >= size:
+                raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) is "
+                                f"{kind}: its elements are [0] to [{size - 1}]", source, field=topic)
             kind = _element(kind)
         walked.append(part)
         typ = _element(kind)
     return kind, lists
+
+
+def _part(part: str) -> tuple[str, int | None]:
+    """A path's step as ``(field name, index)``: ``beams[2]`` -> ``("beams", 2)``; ``beams[]`` and ``beams`` give
+    no index (a name that is no field stays whole, for the error to name)."""
+    match = re.fullmatch(r"(\w+)\[(\d*)\]", part)
+    if not match:
+        return part, None
+    return match.group(1), int(match.group(2)) if match.group(2) else None
 
 
 def _numbers(fielddefs: dict, kind: str) -> tuple[str, int | None]:
@@ -154,14 +193,18 @@ def _numbers(fielddefs: dict, kind: str) -> tuple[str, int | None]:
 
 
 def values(rows: list, path: str) -> list[np.ndarray]:
-    """The numbers at ``path`` in each message (a ``Vector3`` gives x, y, z)."""
+    """The numbers at ``path`` in each message (a ``Vector3`` gives x, y, z); an element ``[i]`` past the end of a
+    message's list is NaN (a beam the message lacks, as a list cut short)."""
     def at(msg, parts):
         if not parts:
             return [msg.x, msg.y, msg.z] if hasattr(msg, "x") else msg
-        head, rest = parts[0], parts[1:]
-        if head.endswith("[]"):
-            return [at(m, rest) for m in getattr(msg, head[:-2])]
-        return at(getattr(msg, head), rest)
+        (name, index), rest = _part(parts[0]), parts[1:]
+        if parts[0].endswith("[]"):
+            return [at(m, rest) for m in getattr(msg, name)]
+        if index is not None:
+            items = getattr(msg, name)
+            return at(items[index], rest) if index < len(items) else np.nan
+        return at(getattr(msg, name), rest)
     parts = path.split(".")
     return [np.ravel(np.asarray(at(m, parts), float)) for m in rows]
 
@@ -181,8 +224,8 @@ def table(rows: list, spec: dict, key: str, source: str, topic: str) -> np.ndarr
     for i in range(len(rows)):
         row = np.concatenate([c[i] for c in cols])
         if row.size > n or (row.size < n and key not in ("beams", "valid")):
-            raise DataError(f"{KEY}.{key} names {row.size} values in message {i} and needs {n}: {NEEDS[key][1]}",
-                            source, field=f"{topic} {', '.join(paths)}")
+            raise DataError(f"{KEY}.{key} names {row.size} values in message {i} and needs {n}: {NEEDS[key][1]}"
+                            f"{by_index(spec, key, row.size)}", source, field=f"{topic} {', '.join(paths)}")
         out[i, :row.size] = row
     return out
 

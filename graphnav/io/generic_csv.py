@@ -216,7 +216,7 @@ def _names(spec: dict, key: str, n: int, stream: str, required: bool = True) -> 
 def _unit_named(spec: dict, key: str) -> dict:
     """The DVL columns of ``spec[key]`` and the key a unit error tells a user to declare
     (:func:`graphnav.io.units.dvl_velocity_units`)."""
-    return {"columns": "/".join(_names(spec, key, {"v_b": 3, "beams": 4}[key], "dvl")),
+    return {"columns": ", ".join(_names(spec, key, {"v_b": 3, "beams": 4}[key], "dvl")),
             "fix": f"declare csv_columns.dvl.velocity_unit ({', '.join(VELOCITY_UNITS)})",
             "key": "csv_columns.dvl.velocity_unit"}
 
