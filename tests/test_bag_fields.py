@@ -4,6 +4,7 @@ the standard type; without the entry the error shows the entry built from the me
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -345,3 +346,17 @@ def test_integer_velocities_read_in_their_declared_unit(recorded, tmp_path):
     np.testing.assert_allclose(dvl.beams[ref.valid], ref.beams[ref.valid], atol=5e-4)
     np.testing.assert_allclose(dvl.v_d, ref.v_d, atol=5e-4)
     np.testing.assert_array_equal(dvl.v_d_valid, ref.v_d_valid)
+
+
+def test_beam_flags_without_the_beams_leave_the_velocity_valid_where_three_beams_were(recorded):
+    """The beams' flags named without the beams (a velocity-only reading that keeps the driver's beam flags): every
+    beam was NaN, so no ping had three valid beams and every velocity was dropped. The flags count as read, as a
+    column map's do."""
+    mission, root, standard, vendor, plain = recorded
+    fields = {"topic": "/dvl/data", "v_b": "velocity", "valid": "beams[].valid"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = load_mission(vendor, _config(root, "flags_only.json", fields), prepare=False)
+        b = load_mission(vendor, _config(root, "velocity_only.json", {"topic": "/dvl/data", "v_b": "velocity"}),
+                         prepare=False)
+    assert a.dvl.v_d_valid.sum() == b.dvl.v_d_valid.sum() > 0.9 * len(mission.dvl.t)

@@ -321,7 +321,9 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
     if "velocity_valid" in spec:
         v_ok = np.nan_to_num(table(s.rows, spec, "velocity_valid", source, s.topic)[:, 0]) != 0
     else:       # as a column map's: a velocity needs three valid beams when the beams are flagged
-        v_ok = np.all(np.isfinite(v_d), axis=1) & ((valid.sum(axis=1) >= 3) if "valid" in spec else True)
+        # the raw flags: with no beams named, every beam is NaN and would leave no velocity valid
+        v_ok = np.all(np.isfinite(v_d), axis=1) & (((np.nan_to_num(flags) != 0).sum(axis=1) >= 3)
+                                                   if "valid" in spec else True)
     info["dvl_fields"] = {k: spec[k] for k in ("topic", *FIELD_KEYS) if k in spec} | {"frame": frame,
                                                                                      "velocity_unit": unit or "m/s"}
     return beams, valid, v_d, v_ok, np.full((n, 3), np.nan)
