@@ -19,6 +19,7 @@ import numpy as np
 
 from graphnav.core.rotations import C_b_n_to_euler, attitude_error, heading_variance
 from graphnav.estimators.align import align_mission
+from graphnav.evaluation.metrics import wrap_angle
 from graphnav.sim.simulate import default_config, simulate_mission
 
 
@@ -37,7 +38,7 @@ def _score(mission) -> tuple:
     a = align_mission(mission)
     truth = mission.meta["trajectory"].state(np.array([a.t]))
     C_true, v_true = truth.C_b_n[0], truth.v_n[0]
-    d_psi = (C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(C_true)[2] + np.pi) % (2 * np.pi) - np.pi
+    d_psi = wrap_angle(C_b_n_to_euler(a.C_b_n)[2] - C_b_n_to_euler(C_true)[2])
     e, dv = attitude_error(a.C_b_n, C_true), a.v_n - v_true
     return (d_psi, heading_variance(a.C_b_n, a.cov_rot), e @ np.linalg.solve(a.cov_rot, e) / 3,
             dv @ np.linalg.solve(a.cov_v_n, dv) / 3)

@@ -93,6 +93,11 @@ def trajectory_rows(source, grade: str, lengths, stride: int, first: int) -> dic
     return rows
 
 
+def _corr(sig: np.ndarray, err: np.ndarray) -> float:
+    """Pearson correlation of sigmas and errors; nan when the sigmas do not vary (a constant sigma ranks nothing)."""
+    return float(np.corrcoef(sig, err)[0, 1]) if np.std(sig) > 0 else float("nan")
+
+
 def scores(outages: list, mode: str, noise: float) -> dict:
     """Calibration and ranking (module docstring) of the sigma ``mode`` over ``outages``."""
     err = np.concatenate([np.ravel(o["err"]) for o in outages])
@@ -100,11 +105,10 @@ def scores(outages: list, mode: str, noise: float) -> dict:
     z, zn = err / sig, err / np.sqrt(sig ** 2 + noise ** 2)
     per_err = np.array([np.sqrt(np.mean(np.square(o["err"]))) for o in outages])
     per_sig = np.array([np.sqrt(np.mean(np.square(o[mode]))) for o in outages])
-    corr = float(np.corrcoef(per_sig, per_err)[0, 1]) if np.std(per_sig) > 0 else float("nan")
-    log_corr = float(np.corrcoef(np.log(per_sig), np.log(per_err))[0, 1]) if np.std(per_sig) > 0 else float("nan")
+    corr, log_corr = _corr(per_sig, per_err), _corr(np.log(per_sig), np.log(per_err))
     ping_err = np.concatenate([np.sqrt(np.mean(np.square(o["err"]), axis=1)) for o in outages])
     ping_sig = np.concatenate([np.sqrt(np.mean(np.square(o[mode]), axis=1)) for o in outages])
-    ping_corr = float(np.corrcoef(ping_sig, ping_err)[0, 1]) if np.std(ping_sig) > 0 else float("nan")
+    ping_corr = _corr(ping_sig, ping_err)
     return {"per ping": ping_corr, "z rms": float(np.sqrt(np.mean(z ** 2))), "in 1": float(np.mean(np.abs(z) < 1)),
             "in 2": float(np.mean(np.abs(z) < 2)), "z rms n": float(np.sqrt(np.mean(zn ** 2))),
             "in 1 n": float(np.mean(np.abs(zn) < 1)), "in 2 n": float(np.mean(np.abs(zn) < 2)),

@@ -1291,6 +1291,24 @@ def test_a_live_imu_in_packets_of_one_to_three_is_held_a_bounded_time_while_it_d
     assert len(d) == 5 and max(d) < 0.002 and nav.info["imu_gaps"] == 0, d
 
 
+def test_a_live_imu_decided_again_right_after_it_turned_clean_holds_back_only_to_the_sample_before_the_packet():
+    """Packets of 10 at 100 Hz that turn into plain stamps, then a step within a packet on the sample after the one
+    that turned them clean: the decision opens again and the reorder buffer is held back to the sample let out before
+    the packet's first. The sample let out as the stream turned clean left the one before it unrecorded, and the
+    buffer was held a sample further back (1.64 s, not 1.65 s)."""
+    from graphnav.estimators.imu_stream_timing import PacketStamps
+    true = np.arange(0.0, 2.5, 0.01)
+    stamps = np.r_[_in_packets(true[:150], 10), true[150:]]
+    packets, out = PacketStamps(0.01, 0.2), []
+    for i, t in enumerate(stamps):
+        out += packets.add(float(t), (i,), ())
+        if i > 150 and not packets.period_s:        # turned clean with this sample, let out as received
+            break
+    assert out[-1][0] == stamps[i]
+    packets.add(float(stamps[i]) + 1e-5, (i + 1,), ())
+    assert packets.deciding and packets.release_limit(stamps[i]) == out[-2][0]
+
+
 def test_a_live_imu_packet_larger_than_the_rest_or_a_clock_stepping_back_adds_no_latency_and_no_error(mission):
     """Packets of 20 with one of 21 (then one of 19), sharing one stamp or stamped on receipt: the largest packet ever
     held every later one a cycle, the reorder buffer had let go of its first samples by then and it was squeezed into

@@ -465,16 +465,16 @@ def _alternating(kind: np.ndarray) -> bool:
     return kind.size >= 2 and bool(np.mean(kind[1:] != kind[:-1]) >= ALTERNATING_SHARE)
 
 
-def _jitter_pairs(kind: np.ndarray, where: np.ndarray, steps: int) -> np.ndarray | None:
-    """Which of a clock's events (``kind``, ``where``: :func:`_clock_events`) pair a repeated stamp with an
-    empty grid step within :data:`PAIR_STAMPS` stamps, each event in one pair at most (nested as parentheses: two
-    samples pushed across, then their two empty steps), when :data:`ALTERNATING_SHARE` of the repeats or more are
-    paired and the empty steps left, samples lost, are under :data:`SLOWER_CLOCK_SHARE` of the ``steps`` between
-    distinct stamps: jitter across the grid's edges where samples were lost, however few repeats (100 Hz in whole 10 ms
-    with 1 ms of jitter, its samples mid-step: 1 to 9 repeats in 12000 stamps, among 60-240 steps left empty by 0.5-2 %
-    lost). None else: a row written twice in an even log repeats a stamp with no empty step beside it (unless a
-    sample was lost there: the stamps cannot tell); an IMU slower than its grid (80 Hz in whole 10 ms: a quarter of
-    the steps empty) pairs its repeats by chance."""
+def _jitter_pairs(kind: np.ndarray, where: np.ndarray, n_steps: int) -> tuple[np.ndarray, int] | None:
+    """``(paired, lost)``: which of a clock's events (``kind``, ``where``: :func:`_clock_events`) pair a repeated
+    stamp with an empty grid step within :data:`PAIR_STAMPS` stamps, each event in one pair at most (nested as
+    parentheses: two samples pushed across, then their two empty steps), and the empty steps left, samples lost, when
+    :data:`ALTERNATING_SHARE` of the repeats or more are paired and those are under :data:`SLOWER_CLOCK_SHARE` of the
+    ``n_steps`` between distinct stamps: jitter across the grid's edges where samples were lost, however few repeats
+    (100 Hz in whole 10 ms with 1 ms of jitter, its samples mid-step: 1 to 9 repeats in 12000 stamps, among 60-240
+    steps left empty by 0.5-2 % lost). None else: a row written twice in an even log repeats a stamp with no empty
+    step beside it (unless a sample was lost there: the stamps cannot tell); an IMU slower than its grid (80 Hz in
+    whole 10 ms: a quarter of the steps empty) pairs its repeats by chance."""
     paired = np.zeros(kind.size, bool)
     unpaired: list[int] = []
     for i in range(kind.size):
@@ -484,9 +484,9 @@ def _jitter_pairs(kind: np.ndarray, where: np.ndarray, steps: int) -> np.ndarray
             unpaired.append(i)
     repeats = kind > 0
     lost = np.sum(~paired & ~repeats)
-    if not np.any(repeats) or np.mean(paired[repeats]) < ALTERNATING_SHARE or lost >= SLOWER_CLOCK_SHARE * steps:
+    if not np.any(repeats) or np.mean(paired[repeats]) < ALTERNATING_SHARE or lost >= SLOWER_CLOCK_SHARE * n_steps:
         return None
-    return paired
+    return paired, lost
 
 
 #: How likely at most the repeated stamps right beside an empty grid step may be by chance, from samples lost, for them
@@ -495,21 +495,21 @@ def _jitter_pairs(kind: np.ndarray, where: np.ndarray, steps: int) -> np.ndarray
 CHANCE_PAIRS_SHARE = 0.05
 
 
-def _pushed_across(kind: np.ndarray, where: np.ndarray, steps: int) -> bool:
-    """Whether a clock's events (``kind``, ``where``: :func:`_clock_events`; ``steps`` between distinct stamps) are
+def _pushed_across(kind: np.ndarray, where: np.ndarray, n_steps: int) -> bool:
+    """Whether a clock's events (``kind``, ``where``: :func:`_clock_events`; ``n_steps`` between distinct stamps) are
     jitter across its grid's edges where samples were lost: the repeats paired with empty grid steps
     (:func:`_jitter_pairs`), and as many right beside one (a sample pushed across empties the step next to its
     repeat) as the lost samples' empty steps, the unpaired ones, would leave there by chance with at most
     :data:`CHANCE_PAIRS_SHARE` likelihood (binomial). A row written twice beside a lost sample in an even log cannot be
     told from one sample pushed across: rare enough, it is one."""
-    paired = _jitter_pairs(kind, where, steps)
-    if paired is None:
+    pairs = _jitter_pairs(kind, where, n_steps)
+    if pairs is None:
         return False
     from scipy.stats import binom       # only on this path: a few repeats among many lost samples
 
     repeats, empty = where[kind > 0], where[kind < 0]
     beside = int(np.sum(np.isin(repeats - 0.5, empty) | np.isin(repeats + 0.5, empty)))
-    chance = min(1.0, 2.0 * np.sum(~paired & (kind < 0)) / steps)
+    chance = min(1.0, 2.0 * pairs[1] / n_steps)
     return bool(binom.sf(beside - 1, repeats.size, chance) <= CHANCE_PAIRS_SHARE)
 
 
@@ -520,16 +520,9 @@ def _repeats_unpaired(counts: np.ndarray, steps: np.ndarray) -> bool:
 
 
 def quantised_clock(t: np.ndarray) -> tuple[float, float] | None:
-    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order) from a clock coarser than the IMU's period (a 200
-    Hz IMU logged in whole 10 ms with jitter, 205 Hz in whole 10 ms): stamps that :func:`shared_stamp_packets` would
-    take for packets, whose steps and offsets from the first stamp are multiples of a grid (their median step,
-    rounded to the microsecond: Unix seconds carry ~1e-7 s of rounding) at least 1.5 periods long, holding varying
-    counts (:func:`counts_vary`). The period is samples over time, each stamp holding the samples up to the next (a
-    clock truncating to its grid), steps over two grid steps left out. None else: a driver's packets sharing a
-    receipt stamp, whose count is constant (fewer where samples are lost) even where the stamps fall on multiples of
-    the cycle; such a clock with a whole number of periods to a step is read so too (the stamps cannot tell). Stamps
-    no packets, fewer than half of them repeated, may be a clock about as coarse as the period
-    (:func:`_clock_at_period`)."""
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order) from a clock coarser than the IMU's period
+    (:func:`_coarser_clock`: stamps :func:`shared_stamp_packets` would take for packets) or about as coarse as it
+    (:func:`_clock_at_period`: stamps no packets, fewer than half of them repeated), else None."""
     return _clock_or_packets(t)[0]
 
 
@@ -544,11 +537,16 @@ def _clock_or_packets(t: np.ndarray) -> tuple[tuple[float, float] | None, tuple[
 
 
 def _coarser_clock(t: np.ndarray) -> tuple[float, float] | None:
-    """``(grid s, period s)`` of stamps ``t`` (s) that :func:`shared_stamp_packets` takes for packets when they come
-    from a clock coarser than the period (:func:`quantised_clock`), else None."""
+    """``(grid s, period s)`` of IMU stamps ``t`` (s, file order) that :func:`shared_stamp_packets` takes for packets
+    when they come from a clock coarser than the IMU's period (a 200 Hz IMU logged in whole 10 ms with jitter, 205 Hz
+    in whole 10 ms): their steps and offsets from the first stamp are multiples of a grid (their median step, rounded
+    to the microsecond: Unix seconds carry ~1e-7 s of rounding) at least 1.5 periods long, holding varying counts
+    (:func:`counts_vary`). The period is samples over time (:func:`_samples_over_time`), steps over two grid steps
+    left out. None else: a driver's packets sharing a receipt stamp, whose count is constant (fewer where samples are
+    lost) even where the stamps fall on multiples of the cycle; such a clock with a whole number of periods to a step
+    is read so too (the stamps cannot tell)."""
     grid, d, counts, on_grid = _stamp_grid(t)
-    inside = d <= 2.0 * grid
-    period = float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    period = _samples_over_time(d, counts, d <= 2.0 * grid)
     if not on_grid or grid < 1.5 * period or not counts_vary(counts):
         return None
     return grid, period
@@ -600,8 +598,14 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     pattern = repeated.size >= CLOCK_PATTERN_STAMPS and (_alternating(kind) or balanced)
     if not pattern and not _pushed_across(kind, where, steps.size):
         return None
-    inside = steps <= 2
-    return grid, float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
+    return grid, _samples_over_time(d, counts, steps <= 2)
+
+
+def _samples_over_time(d: np.ndarray, counts: np.ndarray, inside: np.ndarray) -> float:
+    """The period (s) of a clock's samples: the steps ``d`` (s) between its distinct stamps where ``inside`` over the
+    samples the stamps before them hold (``counts``), each stamp holding the samples up to the next (a clock
+    truncating to its grid)."""
+    return float(np.sum(d[inside]) / np.sum(counts[:-1][inside]))
 
 
 #: Samples on each side of a repeated stamp whose mean offset from a line at the period tells jitter that moved a
@@ -725,10 +729,10 @@ def _lost_samples(t: np.ndarray, grid_s: float) -> np.ndarray:
         lone = (kind[1:] == -1) & (kind[:-1] == -1)
         at = empty[(np.cumsum(kind == -1) - 1)[np.r_[lone, False] | np.r_[False, lone]]]
     else:
-        paired = _jitter_pairs(kind, where, steps.size)
-        if paired is None:
+        pairs = _jitter_pairs(kind, where, steps.size)
+        if pairs is None:
             return np.zeros(0, int)
-        at = empty[~paired[kind < 0]]
+        at = empty[~pairs[0][kind < 0]]
     return first[1:][np.union1d(at, np.flatnonzero(steps > 2))]
 
 
@@ -833,7 +837,6 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
     ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
     stamp: the file was refused, and its repair dropped k - 1 in k samples."""
     clock, packets = _clock_or_packets(t)
-    jittered = None if clock or packets else grid_repeats(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
         if restamped is None:       # as read: its repeated stamps are refused as duplicates
@@ -844,19 +847,19 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
         moved = int(np.sum(restamped != t))
         note = quantised_note(clock[0], period, np.unique(t, return_counts=True)[1], f"{moved} of {t.size} stamps",
                               stretches)
-    elif jittered:
+    elif packets:
+        k, cycle, period = packets
+        restamped = restamp_packets(t, period, 0.0)
+        moved = int(np.sum(restamped != t))
+        note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
+    elif jittered := grid_repeats(t):
         grid, period, restamped, moved = jittered
         note = (f"stamps on a {1e3 * grid:.4g} ms grid, finer than the IMU's {1e3 * period:.4g} ms period: {moved} "
                 f"of {t.size} repeat the stamp before (jitter moved a sample across the grid's edge: the samples on "
                 "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
                 "room before the next stamp later")
-    elif packets is None:
-        return t
     else:
-        k, cycle, period = packets
-        restamped = restamp_packets(t, period, 0.0)
-        moved = int(np.sum(restamped != t))
-        note = packets_note(k, cycle, period, f"{moved} of {t.size} stamps (each packet's samples shared one stamp)")
+        return t
     say_restamp(meta, source, note, 4, restamped, moved, period)
     return restamped
 

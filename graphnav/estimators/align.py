@@ -528,14 +528,14 @@ class Aligner:
         M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(B[:-1] * dt[:, None, None], 0)])
 
         def body_at(t):
-            """(C_bt_b0, int C f dt, int C dt, IMU index) at stamps t: the last sample held (zero-order hold)."""
+            """(C_bt_b0, int C f dt, int C dt) at stamps t: the last sample held (zero-order hold)."""
             t = np.atleast_1d(t)
             k = np.clip(np.searchsorted(t_imu, t, side="right") - 1, 0, len(t_imu) - 1)
             lag = (t - t_imu[k])[:, None]
             return (B[k] @ so3_exp_batch(w_b[k] * lag), F[k] + np.einsum("nij,nj->ni", B[k], f_b[k]) * lag,
-                    M[k] + B[k] * lag[:, :, None], k)
+                    M[k] + B[k] * lag[:, :, None])
 
-        B_dvl, F_dvl, M_dvl, _ = body_at(t_dvl)
+        B_dvl, F_dvl, M_dvl = body_at(t_dvl)
         # IMU velocity in the body frame: the DVL head's minus the lever-arm term omega x l, with the rate at the ping
         # by the estimators' rule (the sample held there is its interval's mean, half a sample late: 0.001 deg)
         w_dvl = np.array([gyro_at(t, self._imu) for t in t_dvl])
@@ -649,7 +649,7 @@ class Aligner:
                 cov_phi[2, 2] = h_sigma ** 2
 
         # --- state at t_out
-        B_out, F_out, M_out, _ = body_at(t_out)
+        B_out, F_out, M_out = body_at(t_out)
         E_out = nav_rotation(t_out)[0]
         C_b_n = _orthonormalise(E_out @ C @ B_out[0])
         G_out, G = gravity_integral(C, t_out)[0], gravity_integral(C, t_dvl)

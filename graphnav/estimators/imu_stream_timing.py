@@ -297,7 +297,7 @@ class PacketStamps:
         if self.clock:
             return self.live_clock.add(t, f, w, last, after)
         if self.period_s and not self._limit:   # packets sharing one stamp: perhaps a clock's grid steps
-            self.live_clock.watched.append(t)
+            self.live_clock.watch_stamps([t])
         if not self.period_s:
             self._reopen(t - last)
             undecided = self._steps is not None
@@ -309,7 +309,7 @@ class PacketStamps:
                 return self._while_deciding(t, f, w, last, after)
             if self._watch_clock(t, last):
                 return self.live_clock.add(t, f, w, last, after)
-            self._out_before, self._out = self._out, t
+            self._let_out([t])
             return [(t, f, w)]
         return self._in_packets(t, f, w, last, after)
 
@@ -333,9 +333,9 @@ class PacketStamps:
                 return self._refeed(held + [(t, f, w)], after)
             if clock:
                 return held + self.live_clock.add(t, f, w, last, after)
-            self._out_before, self._out = self._out, t
+            self._let_out([t])
             return held + [(t, f, w)]
-        if not self._packets_seen and 0.0 <= t - last < PACKET_STEP_SHARE * self.configured_s:
+        if not self._packets_seen and self._within_packet(t - last):
             # the packet began with the sample before: held still, or let out already (a decision opened again)
             self._packets_seen, self._hold_floor = True, self._out if self._pending else self._out_before
         out = [] if self._packets_seen else self._as_received()
@@ -349,13 +349,11 @@ class PacketStamps:
         held = self._pending
         if not self._packets_seen or len(held) <= PACKET_HOLD_STEPS:
             return []
-        starts = [j for j in range(1, len(held)) if not 0.0 <= held[j][0] - held[j - 1][0]
-                  < PACKET_STEP_SHARE * self.configured_s]
+        starts = [j for j in range(1, len(held)) if not self._within_packet(held[j][0] - held[j - 1][0])]
         if not starts:
             return []
         self._pending = held[starts[-1]:]
-        out = self._spread_back(held[:starts[-1]], self.configured_s, PACKET_STEP_SHARE * self.configured_s,
-                                max(self._out, after))
+        out = self._spread_undecided(held[:starts[-1]], after)
         self._hold_floor, self._spread_held = self._out, True
         return out
 
@@ -367,13 +365,22 @@ class PacketStamps:
         if not self._packets_seen:
             return self._as_received()
         held, self._pending, self._packets_seen = self._pending, [], False
+        return self._spread_undecided(held, after)
+
+    def _within_packet(self, step: float) -> bool:
+        """Whether a ``step`` (s) while the first steps decide may be within a packet (:data:`PACKET_STEP_SHARE`)."""
+        return 0.0 <= step < PACKET_STEP_SHARE * self.configured_s
+
+    def _spread_undecided(self, held: list, after: float) -> list[tuple[float, tuple, tuple]]:
+        """Samples ``held`` while deciding, each packet (split at steps not :meth:`_within_packet`) spread back from
+        its last stamp at the configured period, none at or before ``after`` (s)."""
         return self._spread_back(held, self.configured_s, PACKET_STEP_SHARE * self.configured_s, max(self._out, after))
 
     def _as_received(self) -> list[tuple[float, tuple, tuple]]:
         """The samples held while deciding, let out with their own stamps."""
         held, self._pending, self._packets_seen = self._pending, [], False
         if held:
-            self._out = held[-1][0]
+            self._let_out([s[0] for s in held])
         return held
 
     def _held_from(self, t: float) -> float:
@@ -401,12 +408,12 @@ class PacketStamps:
         step = t - last
         long = step < 0.0 or step > self._limit
         if not self._limit and long and t > last and self._in_packet not in (0, self._k):
-            clock = quantised_clock(np.asarray(self.live_clock.watched))
+            clock = self.live_clock.watched_clock()
             if clock is not None:
                 return self._packets_were_clock(clock, t, f, w, last, after)
         out = self._packet_ended(after, t) if long else []
         if not self.period_s:                   # turned clean
-            self._out = t
+            self._let_out([t])
             return out + [(t, f, w)]
         if long:
             self._late = step > LATE_READ_CYCLES * self._k * self.period_s
@@ -458,7 +465,7 @@ class PacketStamps:
         received = np.array([s[0] for s in held])
         t = self._lost_after(received, floor, before, silent)
         if t is not None:
-            self._out = float(t[-1])
+            self._let_out(t)
             self._restamped += len(held)
             return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
         return self._spread_back(held, self.period_s, math.inf, floor)
@@ -469,7 +476,7 @@ class PacketStamps:
         received = np.array([s[0] for s in held])
         t = restamp_packets(received, period, limit, floor if received[-1] > floor else -math.inf)
         self._restamped += int(np.sum(t != received))
-        self._out_before, self._out = (float(t[-2]) if t.size > 1 else self._out), float(t[-1])
+        self._let_out(t)
         return [(float(ti), s[1], s[2]) for ti, s in zip(t, held)]
 
     def _lost_after(self, received: np.ndarray, floor: float, before: float, silent: bool) -> np.ndarray | None:
@@ -499,9 +506,16 @@ class PacketStamps:
                f"{len(held) - n}")
         self.unplaced += [(s[0], why) for s in held[n:]]
         self._restamped += n
-        if n:
-            self._out = floor + n * p
-        return [(floor + (j + 1) * p, s[1], s[2]) for j, s in enumerate(held[:n])]
+        out = [(floor + (j + 1) * p, s[1], s[2]) for j, s in enumerate(held[:n])]
+        if out:
+            self._let_out([s[0] for s in out])
+        return out
+
+    def _let_out(self, stamps) -> None:
+        """The stamps (s) of the samples just let out, in time order: the newest is what later samples follow, the
+        one before it what a decision opened again holds the reorder buffer back to (:meth:`_while_deciding`)."""
+        self._out_before = float(stamps[-2]) if len(stamps) > 1 else self._out
+        self._out = float(stamps[-1])
 
     def typical_size(self) -> int:
         """The size a packet leaves at: the largest that two of the latest :data:`PACKET_SIZES` packets reached (one
@@ -580,14 +594,17 @@ class PacketStamps:
         self.period_s, self._in_packet = 0.0, 0
         self._on_clock_found(clock, last, self.live_clock.watched_s(), "the packets said before were its grid "
                              "steps, their samples spread back from their stamp")
-        self.live_clock.held = held[len(first):]
+        self.live_clock.hold(held[len(first):])
         return first + self.live_clock.add(t, f, w, last, after)
 
-    def _decided(self, k: int) -> None:
-        """Packets of ``k`` found: the typical size until two of the packets that follow reach another."""
+    def _decided(self, k: int, cycle: float, how: str = "") -> None:
+        """Packets of ``k`` found, ``cycle`` (s) apart at :attr:`period_s`: the typical size until two of the packets
+        that follow reach another; said once (:attr:`note`, ``how``: what the packets are, said first)."""
         self._k = k
         self._sizes.extend((k, k))
-        self.live_clock.watched.clear()     # a stream that turns clean again is watched for a clock from then on
+        self.live_clock.unwatch()     # a stream that turns clean again is watched for a clock from then on
+        self.note = packets_note(k, cycle, self.period_s, f"stamps from t = {self._held_from(self._last):.3f} s "
+                                 f"({how}counted in imu_restamped)")
 
     def _decide_shared(self, t: float, last: float) -> None:
         """Decide on the stamps so far once one repeats: packets sharing one stamp when
@@ -605,12 +622,9 @@ class PacketStamps:
             self._on_clock_found(clock, t, whole[-1] - whole[0])
         elif packets is not None and packets[0] > 1:     # one sample to a stamp is no packets
             k, cycle, self.period_s = packets
-            self._decided(k)
-            self.live_clock.watched.extend(whole + [t])     # watched for a clock whose grid steps held a packet's count
+            self._decided(k, cycle, "packets sharing one stamp; ")
+            self.live_clock.watch_stamps(whole + [t])     # watched for a clock whose grid steps held a packet's count
             self._steps, self._ties, self._limit = None, [], 0.0
-            self.note = packets_note(self._k, cycle, self.period_s, f"stamps from t = {self._held_from(t):.3f} s "
-                                     "(packets sharing "
-                                     "one stamp; counted in imu_restamped)")
         elif t > last:
             self._decide(t - last)
 
@@ -625,10 +639,7 @@ class PacketStamps:
         limit = imu_packet_limit(np.asarray(steps), self.configured_s, IMU_RATE_TOLERANCE)
         if cycle > period and limit < period:
             self.period_s, self._limit = period, limit
-            self._decided(round(cycle / period))
-            self.note = packets_note(self._k, cycle, period, f"stamps from t = {self._held_from(self._last):.3f} s "
-                                     "(counted in "
-                                     "imu_restamped)")
+            self._decided(round(cycle / period), cycle)
 
 
 class LiveClock:
@@ -646,10 +657,10 @@ class LiveClock:
         #: (grid s, period s) of the clock, once found; None before
         self.found: tuple[float, float] | None = None
         self.restamped = 0              # samples placed elsewhere than their stamp
-        self.watched: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
+        self._watched: deque[float] = deque(maxlen=CLOCK_WATCH_STAMPS)    # the latest stamps, watched for a clock
         self._repeats = 0               # repeated stamps watched
         #: the samples repeating a stamp, waiting for the next stamp to be placed before it
-        self.held: list[tuple[float, tuple, tuple]] = []
+        self._held: list[tuple[float, tuple, tuple]] = []
         #: (sample index in the stretch, its stamp's mid grid step s after the stretch's first stamp)
         self._line: deque[tuple[int, float]] = deque(maxlen=CLOCK_WATCH_STAMPS)
         self._line_origin, self._line_n = 0.0, 0     # the stretch's first stamp s, and samples in it
@@ -661,22 +672,39 @@ class LiveClock:
         :data:`~graphnav.core.imu_timing.CLOCK_PATTERN_STAMPS` stamps repeated, at each repeat after the first steps
         ``decided`` :func:`~graphnav.core.imu_timing.quantised_clock` over the latest :data:`CLOCK_WATCH_STAMPS`
         decides (a clean IMU with a row written twice now and then has no clock's pattern)."""
-        self.watched.append(t)
+        self._watched.append(t)
         self._repeats += t == last
         if t == last and decided and self._repeats >= CLOCK_PATTERN_STAMPS:
-            return quantised_clock(np.asarray(self.watched))
+            return self.watched_clock()
         return None
+
+    def watched_clock(self) -> tuple[float, float] | None:
+        """The clock (grid s, period s) the stamps watched come from
+        (:func:`~graphnav.core.imu_timing.quantised_clock`), or None."""
+        return quantised_clock(np.asarray(self._watched))
+
+    def watch_stamps(self, stamps: list[float]) -> None:
+        """``stamps`` (s) watched for a clock without deciding (packets sharing one stamp: perhaps a clock's)."""
+        self._watched.extend(stamps)
+
+    def unwatch(self) -> None:
+        """The stamps watched so far forgotten: the stream is watched from the next on."""
+        self._watched.clear()
 
     def watched_s(self) -> float:
         """The span (s) of the stamps watched."""
-        return self.watched[-1] - self.watched[0]
+        return self._watched[-1] - self._watched[0]
+
+    def hold(self, samples: list[tuple[float, tuple, tuple]]) -> None:
+        """``samples`` repeating a stamp, held to be placed before the next stamp (:meth:`flush`)."""
+        self._held = list(samples)
 
     def found_at(self, clock: tuple[float, float], t: float, span_s: float, before: str) -> str:
         """The clock (grid s, period s) set, found at ``t`` (s), and what to say of it once, ``before`` saying what
         became of the samples before it; its period (samples over time) named when the stamps it was found on span
         :data:`CLOCK_PERIOD_STEPS` grid steps (``span_s``, s): over four it read 6 ms for 200 Hz."""
         self.found = clock
-        self.watched.clear()
+        self._watched.clear()
         words = clock_words(*clock, said=span_s >= CLOCK_PERIOD_STEPS * clock[0])
         return (f"{words}: from t = {t:.3f} s a sample repeating the stamp before it is the next "
                 "sample, placed after that stamp at the period within the room before the next stamp, and "
@@ -696,7 +724,7 @@ class LiveClock:
             self.restamped += int(placed != t)
             return out + [(placed, f, w)]
         if t == last:
-            self.held.append((t, f, w))
+            self._held.append((t, f, w))
             return []
         return self.flush(after, t if t > last else math.inf) + [(t, f, w)]
 
@@ -709,7 +737,7 @@ class LiveClock:
         costs 0.01 m. None (the sample left to its stamp) for the first :data:`CLOCK_LINE_SAMPLES` of a stretch; the
         line misses the grid steps of samples lost or a rate changed (:meth:`_line_broken`): such a sample starts a
         stretch."""
-        grid, period = self.found
+        grid = self.found[0]
         n, placed = self._line_n, None
         if self._fit is not None:
             placed = self._fit[1] + self._fit[2] * (n - self._fit[0])
@@ -746,25 +774,25 @@ class LiveClock:
         """The stamp (s) the reorder buffer may release up to: the first sample held, so that its place is not let
         out before it; inf with none held or once they waited long enough (:meth:`_overdue`, ``newest`` s the newest
         stamp received on any stream)."""
-        return math.inf if not self.held or self._overdue(newest) else self.held[0][0]
+        return math.inf if not self._held or self._overdue(newest) else self._held[0][0]
 
     def overdue(self, newest: float, after: float = -math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held samples placed (:meth:`flush`, none at or before ``after``, s) once they waited long enough
         (:meth:`_overdue`, ``newest`` s the newest stamp received on any stream); else none."""
-        return self.flush(after) if self.held and self._overdue(newest) else []
+        return self.flush(after) if self._held and self._overdue(newest) else []
 
     def _overdue(self, newest: float) -> bool:
         """Whether the held samples waited long enough: ``newest`` (s, any stream's) past their last stamp by the
         reorder window and :data:`CLOCK_WAIT_STEPS` grid steps (measured against any stream, three grid steps gave up
         on an IMU arriving 40 ms behind the DVL and placed its repeats on the next stamp: refused as duplicates)."""
-        return newest - self.held[-1][0] > self.window_s + CLOCK_WAIT_STEPS * self.found[0]
+        return newest - self._held[-1][0] > self.window_s + CLOCK_WAIT_STEPS * self.found[0]
 
     def flush(self, after: float = -math.inf, before: float = math.inf) -> list[tuple[float, tuple, tuple]]:
         """The held samples repeating a stamp s (after the one let out at it), placed at s + j * step, j = 1, 2 ...,
         step the clock's period or less where the next stamp (``before``, s; inf: unknown) leaves less room for them
         (n samples in one grid step: a sample pushed across the grid's edge before it), from ``after`` (s, what the
         caller let go of) when that is later than s; the restamped count updated."""
-        held, self.held = self.held, []
+        held, self._held = self._held, []
         if not held:
             return []
         start = max(held[0][0], after)

@@ -255,7 +255,7 @@ class Navigator:
             self._note("imu", packets.note)
             packets.note = None
             if packets.period_s:        # the samples held while it decided come restamped too
-                self.keyframer.imu_period.restamped(min(t, *(s[0] for s in samples[:1])))
+                self.keyframer.imu_period.restamped(min(t, samples[0][0]) if samples else t)
         return out + self._release(self._newest - self.options.reorder_window_s)
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
