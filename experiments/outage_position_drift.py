@@ -56,6 +56,11 @@ completions judged by the beams still measured instead of the history's fixed gr
 the completer's ``run_sigma = "measured-change"``, :mod:`graphnav.estimators.history`; per K other than 1, that sigma
 times K, ``<method> measured-sigma K``; docs/decisions/completers.md, "The completions judged by the beams still
 measured").
+``--measured-both M ...`` adds the same runs with a completion kept only where its recent error (that sigma) beats
+the graph's own recent prediction error on the measured beams by the margin M (``<method> measured-both M``,
+``GraphOptions.measured_both_margin``), and prints, per fold, how well each error read predicts the outage's actual
+one (the graph's predicted missing beams and the completions against the true beams; docs/decisions/completers.md,
+"Both errors read on the beams still measured").
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
 networks, a fold cell of every draw counted.
 
@@ -127,6 +132,9 @@ _HOLD_RE = re.compile(r" hold ([0-9]+)(?![0-9.])")
 #: beams still measured (times K)
 MEASURED = " measured-sigma"
 _MEASURED_RE = re.compile(re.escape(MEASURED) + r"(?: ([0-9.]+))?(?![0-9a-z.-])")
+#: `` measured-both M`` anywhere in a run label: the measured-change sigma, and a completion kept only where it beats
+#: the graph's own recent prediction error on the measured beams by the margin M (``measured_both_margin``)
+_BOTH_RE = re.compile(r" measured-both ([0-9.]+)(?![0-9.])")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -138,6 +146,10 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
     :func:`pivot_prior`), `` axes A`` (its turn axes, :func:`pivot_axes`) or `` hold N`` (the past pings it holds,
     :func:`pivot_hold`): no graph option; they may come before or after the other suffixes)."""
+    both = _BOTH_RE.search(label)
+    if both:
+        name, options = variant_run(_BOTH_RE.sub("", label, count=1))
+        return name, {**(options or {}), "measured_both_margin": float(both.group(1))}
     for pattern in (_PRIOR_RE, _AXES_RE, _HOLD_RE, _MEASURED_RE):
         if pattern.search(label):
             return variant_run(pattern.sub("", label, count=1))
@@ -330,14 +342,19 @@ def trajectory_task(item):
                                    prior_turn=PIVOT_PRIOR_TURN if prior is None else prior,
                                    axes=pivot_axes(method) or PIVOT_AXES, n_past=pivot_hold(method))
         measured = _MEASURED_RE.search(method)
-        if measured:
+        if measured or _BOTH_RE.search(method):
             from graphnav.evaluation.methods import completer_for
             comp = comp or completer_for(name, scenario, mission.config.dvl.beam_noise_std, mission.config)[0]
             comp.run_sigma = "measured-change"
-            comp.run_sigma_scale = float(measured.group(1) or 1.0)
-        with rehearsals_made() as made:
+            comp.run_sigma_scale = float(measured.group(1) or 1.0) if measured else 1.0
+        with rehearsals_made() as made, both_errors_read() as read:
             sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
+        if read:
+            for window, s in zip(result[method], starts):
+                window["both"] = both_errors_in(read, mission, s, window_s)
+        if "measured_both" in sol.info:
+            result[method][0]["measured_both"] = dict(sol.info["measured_both"])
         reference = sol if reference is None else reference
         if "predictiveness" in flags and made:
             for window, s in zip(result[method], starts):
@@ -363,6 +380,81 @@ def rehearsals_made():
         yield made
     finally:
         OutageRehearsal.__init__ = init
+
+
+@contextlib.contextmanager
+def both_errors_read():
+    """What ``GraphOptions.measured_both_margin`` read at each keyframe of an outage made inside the ``with`` (a
+    list of (t s, s_graph^2, the regressed rows' sigma^2 (k,), their completions (k,), the graph's predicted beams
+    there (k,), their body-frame rows (k,3), kept (k,) bool)), to score both errors against the true beams."""
+    from graphnav.estimators.graph import incremental
+    from graphnav.estimators.graph.regressed import predicted_beams
+    made, factors = [], incremental.keyframe_factors
+
+    def recording(kf, builder, C_b_n_pred, p_n_pred=None, prediction=None):
+        out = factors(kf, builder, C_b_n_pred, p_n_pred, prediction)
+        judge = builder.graph_error
+        if judge is None or kf.ping is None or kf.ping.is_velocity or prediction is None:
+            return out
+        m = builder.beam_rows(kf.ping, kf.beams_used)
+        if not m.regressed.any() or m.regressed.all():
+            return out
+        rows = m.rows_b[m.regressed]
+        # the A-KIT lever arm is zero: no gyro-rate term
+        y_p, _ = predicted_beams(rows, C_b_n_pred, np.zeros(3), builder.geometry.lever_arm_b, prediction)
+        s_graph2 = judge.innovation2.less_noise(judge.beam_sigma)
+        sigma2 = m.sigma[m.regressed] ** 2
+        made.append((kf.t, s_graph2, sigma2, m.y[m.regressed], y_p, rows, sigma2 < judge.margin * s_graph2))
+        return out
+    incremental.keyframe_factors = recording
+    try:
+        yield made
+    finally:
+        incremental.keyframe_factors = factors
+
+
+def both_errors_in(read, mission, start: float, window_s: float) -> dict | None:
+    """For the outage ``[start, start + window_s]`` (s) of :func:`both_errors_read`'s records: the RMS (m/s) of the
+    graph's recent error on the measured beams (``s graph``) and of the completions' sigma (``s comp``), the actual
+    RMS errors against the true beams (GT velocity and attitude) of the graph's predicted missing beams (``act
+    graph``) and of the completions (``act comp``), and the share of completions kept."""
+    from oracle_completions import TruthBeams
+    inside = [r for r in read if start <= r[0] <= start + window_s]
+    if not inside:
+        return None
+    truth, lever = TruthBeams(mission), mission.config.dvl.lever_arm_b
+    true = [truth.at(t, rows, np.zeros(3), lever) for t, *_, rows, _ in inside]
+    rms = lambda x: float(np.sqrt(np.mean(np.square(np.concatenate([np.atleast_1d(v) for v in x])))))  # noqa: E731
+    return {"n": len(inside), "s graph": float(np.sqrt(np.mean([r[1] for r in inside]))),
+            "s comp": rms([np.sqrt(r[2]) for r in inside]),
+            "act graph": rms([r[4] - tr for r, tr in zip(inside, true)]),
+            "act comp": rms([r[3] - tr for r, tr in zip(inside, true)]),
+            "kept": float(np.mean(np.concatenate([r[6] for r in inside])))}
+
+
+def both_errors_report(runs: dict, methods, folds) -> str:
+    """Per ``measured-both`` run and fold (every IMU, scenario and window length; one row per outage window): the
+    correlation over the windows of the graph's recent error on the measured beams with its actual error on the
+    missing ones, the same for the completions' sigma, how often the smaller of the two read was the smaller actual
+    one, the share of completions kept, and the RMS of each reading."""
+    lines = ["| run | fold | windows | corr. s_graph / act graph | corr. s_comp / act comp | right | kept | "
+             "RMS s_graph / act graph / s_comp / act comp m/s |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for method in [m for m in methods if _BOTH_RE.search(m)]:
+        for f, pair in enumerate([*folds, None]):
+            names = {f"Trajectory{k}" for k in (pair if pair is not None else [k for p in folds for k in p])}
+            w = [x["both"] for key, r in runs.items() if key[0] in names and method in r for x in r[method]
+                 if x.get("both")]
+            if len(w) < 3:
+                continue
+            col = {k: np.array([x[k] for x in w]) for k in ("s graph", "act graph", "s comp", "act comp", "kept")}
+            corr = lambda a, b: float(np.corrcoef(a, b)[0, 1]) if np.std(a) > 0 and np.std(b) > 0 else float("nan")  # noqa: E731
+            right = np.mean((col["s comp"] < col["s graph"]) == (col["act comp"] < col["act graph"]))
+            q = lambda k: float(np.sqrt(np.mean(col[k] ** 2)))  # noqa: E731
+            lines.append(f"| {method} | {'all' if pair is None else f} | {len(w)} | "
+                         f"{corr(col['s graph'], col['act graph']):.2f} | {corr(col['s comp'], col['act comp']):.2f} | "
+                         f"{right:.0%} | {np.mean(col['kept']):.0%} | {q('s graph'):.3f} / {q('act graph'):.3f} / "
+                         f"{q('s comp'):.3f} / {q('act comp'):.3f} |")
+    return "\n".join(lines)
 
 
 #: Horizon ranges (pings into the outage) the predictiveness is read over.
@@ -605,6 +697,10 @@ def main(argv=None) -> int:
     p.add_argument("--measured-sigma", nargs="*", type=float, metavar="K", help="also Graph-HN and Graph-HNP (those "
                    "of --methods) with their runs' sigma judged by the beams still measured, times each K (default: "
                    "1; module docstring)")
+    p.add_argument("--measured-both", nargs="+", type=float, metavar="M", help="also Graph-HN and Graph-HNP (those "
+                   "of --methods) with the measured-change sigma, a completion kept only where its recent error beats "
+                   "the graph's own on the measured beams by the margin M (<method> measured-both M, "
+                   "GraphOptions.measured_both_margin); prints how well each error read predicts the outage's")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -667,6 +763,10 @@ def main(argv=None) -> int:
             p.error("--measured-sigma: the factor K must be > 0")
         a.methods += [f"{m}{MEASURED}" + (f" {k:g}" if k != 1 else "") for k in a.measured_sigma or [1.0]
                       for m in a.methods if m in (GRAPH_HN, GRAPH_HNP)]
+    if a.measured_both:
+        if not all(k > 0 for k in a.measured_both):
+            p.error("--measured-both: the margin M must be > 0")
+        a.methods += [f"{m} measured-both {k:g}" for k in a.measured_both for m in a.methods if m in (GRAPH_HN, GRAPH_HNP)]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
@@ -681,7 +781,7 @@ def main(argv=None) -> int:
                 f"{unserved[0][1]} IMU_DIR BEAM_DIR (its shipped networks were trained on these trajectories)")
     kinds = {m: get_method(variant_run(m)[0]).completer for m in a.methods}
     for m in a.methods:
-        if _MEASURED_RE.search(m) and kinds[m] not in ("average", "pivot"):
+        if (_MEASURED_RE.search(m) or _BOTH_RE.search(m)) and kinds[m] not in ("average", "pivot"):
             p.error(f"{m}: the measured-change sigma needs the average estimator or the pivot completer, which "
                     f"{variant_run(m)[0]} does not run")
     for m in a.methods:
@@ -729,6 +829,9 @@ def main(argv=None) -> int:
         print("\nThe rehearsals' choice against the outage (per window and horizon range: right when the one "
               "with the smaller rehearsed error had the smaller actual one)")
         print(predictiveness_report(runs, a.methods, AKIT_FOLDS))
+    if a.measured_both:
+        print("\nBoth errors read on the measured beams against the outage's actual ones (per outage window)")
+        print(both_errors_report(runs, a.methods, AKIT_FOLDS))
     print_choices(runs, a.methods, AKIT_FOLDS)
     return 0
 

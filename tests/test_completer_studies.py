@@ -943,6 +943,17 @@ def test_the_position_study_names_its_runs_and_chooses_on_both_readings():
     assert study.variant_run("Graph-HNP prior 0.01") == ("Graph-HNP", None)      # a completer setting, no graph one
     assert study.variant_run("Graph-HNP measured-sigma 1.5 kept") == ("Graph-HNP", {"retire_completions": False})
     assert study.variant_run("Graph-HN measured-sigma") == ("Graph-HN", None)
+    assert study.variant_run("Graph-HNP measured-both 0.5") == ("Graph-HNP", {"measured_both_margin": 0.5})
+    assert study.variant_run("Graph-HNP measured-both 2 kept") == ("Graph-HNP", {"measured_both_margin": 2.0,
+                                                                                 "retire_completions": False})
+    # both errors read against the outage's: the smaller read is the smaller actual one in 2 of the 3 windows
+    both = [{"s graph": g, "act graph": ag, "s comp": c, "act comp": ac, "kept": k}
+            for g, ag, c, ac, k in ((0.02, 0.01, 0.06, 0.07, 0.0), (0.05, 0.04, 0.03, 0.02, 1.0),
+                                    (0.08, 0.09, 0.06, 0.10, 0.5))]
+    runs = {(f"Trajectory{k}", "mems", "2-missing", 60.0): {"Graph-HNP measured-both 1": [{"both": b}]}
+            for k, b in zip((1, 2, 3), both)}
+    table = study.both_errors_report(runs, ["Graph-TC", "Graph-HNP measured-both 1"], [(1, 2), (3, 4)])
+    assert "| Graph-HNP measured-both 1 | all | 3 | 0.99 | 0.93 | 67% | 50% |" in table
     assert study.variant_run("Graph-HNP tau 10 rehearsed 0.5") == ("Graph-HNP", {"regressed_runs": "screen-first",
                                                                                  "regressed_error_tau_s": 10.0,
                                                                                  "rehearsed_outages": 0.5})

@@ -153,6 +153,8 @@ class GraphBackend(_Aided):
         out = {"regressed_screening": dict(self.ctx.screening)}
         if self.ctx.rehearsal is not None:
             out["outage_rehearsal"] = dict(self.ctx.rehearsal.counts)
+        if self.ctx.graph_error is not None:
+            out["measured_both"] = dict(self.ctx.graph_error.counts)
         if self.ctx.options.motion_prior == "total-if-uncertain":
             out["motion_prior_switch"] = dict(self.ctx.outage_switch.counts)
         return out

@@ -56,6 +56,23 @@ RUN_SIGMAS = ("growth", "measured-change")
 MEASURED_CHANGE_PINGS = 5
 
 
+class SmoothedSquare:
+    """A mean square ((m/s)^2) smoothed over :data:`MEASURED_CHANGE_PINGS` pings: the running mean over a run's first
+    pings, then exponential. The measured-change sigma's and the graph's side of ``GraphOptions.measured_both_margin``
+    (:mod:`graphnav.estimators.graph.regressed`), so that the two errors are read alike."""
+
+    def __init__(self):
+        self.value, self.pings = 0.0, 0
+
+    def add(self, square: float) -> None:
+        self.pings += 1
+        self.value += (square - self.value) / min(self.pings, MEASURED_CHANGE_PINGS)
+
+    def less_noise(self, noise_std: float) -> float:
+        """The smoothed mean square less the noise's variance (``noise_std``, m/s), at least 0."""
+        return max(self.value - noise_std ** 2, 0.0)
+
+
 def run_sigma_of(completer) -> str:
     """The run sigma (:data:`RUN_SIGMAS`) a completer asks for with its ``run_sigma`` attribute (absent or None:
     ``"growth"``), checked: ``"measured-change"`` needs a completer that can ``rehearse`` a ping without beams."""
@@ -100,7 +117,7 @@ class BeamHistory:
         self._run_sigma = np.zeros(4)     # sigma handed on for each beam in the current run of regressed pings
         self._run_steps = np.zeros(4, dtype=int)   # regressed pings of each beam in the current run so far
         self._held: np.ndarray | None = None   # the completer's all-beam completions through the run, (n_past, 4)
-        self._change2, self._changes = 0.0, 0   # smoothed mean square of the measured beams' change, its pings
+        self._change2 = SmoothedSquare()   # the measured beams' squared change from the held completions
 
     def __len__(self) -> int:
         return len(self._buf)
@@ -127,7 +144,7 @@ class BeamHistory:
     def _end_run(self) -> None:
         self._run_sigma[:] = 0.0
         self._run_steps[:] = 0
-        self._held, self._change2, self._changes = None, 0.0, 0
+        self._held, self._change2 = None, SmoothedSquare()
 
     @property
     def run_steps(self) -> np.ndarray:
@@ -205,7 +222,5 @@ class BeamHistory:
         held = completer.rehearse(self._held[-completer.n_past:], imu)
         self._held = np.vstack([self._held[1:], held])
         if valid.any():
-            self._changes += 1
-            r2 = float(np.mean((np.asarray(beams, float)[valid] - held[valid]) ** 2))
-            self._change2 += (r2 - self._change2) / min(self._changes, MEASURED_CHANGE_PINGS)
-        return float(np.sqrt(max(self._change2 - getattr(completer, "noise_std", 0.0) ** 2, 0.0)))
+            self._change2.add(float(np.mean((np.asarray(beams, float)[valid] - held[valid]) ** 2)))
+        return float(np.sqrt(self._change2.less_noise(getattr(completer, "noise_std", 0.0))))

@@ -72,6 +72,7 @@ from graphnav.estimators.ekf import EkfOptions
 from graphnav.estimators.graph.builder import preintegration_gravity, preintegration_params
 from graphnav.estimators.graph.options import GraphOptions
 from graphnav.estimators.health import epoch_health
+from graphnav.estimators.history import run_sigma_of
 from graphnav.estimators.imu_stream_timing import PacketStamps
 from graphnav.estimators.keyframes import KeyframeOptions, Keyframer, stamp_of
 from graphnav.estimators.replay import STREAM_ORDER, replay
@@ -746,8 +747,14 @@ class Navigator:
     # --- initialisation -----------------------------------------------------------------------------
     def _refuse_rehearsal(self) -> None:
         """Refuse ``GraphOptions.rehearsed_outages`` before any data where it cannot serve: a graph without a
-        completer (nothing to rehearse), a completer without ``rehearse``, a batch smoother's first pass."""
+        completer (nothing to rehearse), a completer without ``rehearse``, a batch smoother's first pass; and
+        ``GraphOptions.measured_both_margin`` without a completer whose sigma the measured beams judge."""
         options = self._backend_kwargs["graph_options"]
+        if self.backend_name != "ekf" and options is not None and options.measured_both_margin is not None \
+                and run_sigma_of(self._completer) != "measured-change":
+            raise ConfigError("measured_both_margin compares the completions' error judged by the beams still "
+                              "measured with the graph's: it needs a completer whose run_sigma is "
+                              "'measured-change'")
         if self.backend_name == "ekf" or options is None or options.rehearsed_outages is None:
             return
         completer = self._completer

@@ -24,7 +24,12 @@ from graphnav.core.earth import EarthModel, earth_rate_n
 from graphnav.estimators import keyframes as kfs
 from graphnav.estimators.graph.dvl_errors import beam_index
 from graphnav.estimators.graph.options import GraphOptions
-from graphnav.estimators.graph.regressed import OutagePriorSwitch, motion_prior_factors, screen_regressed
+from graphnav.estimators.graph.regressed import (
+    GraphPredictionError,
+    OutagePriorSwitch,
+    motion_prior_factors,
+    screen_regressed,
+)
 from graphnav.estimators.rehearsal import OutageRehearsal
 from graphnav.estimators.types import ImuSegments, Keyframe, Ping
 from graphnav.factors import (
@@ -193,6 +198,9 @@ class GraphContext:
                                           graph=options.rehearsal_graph, fusion=options.rehearsal_fusion,
                                           beam_sigma=self.beam_sigma)
                           if options.rehearsed_outages is not None else None)
+        #: ``options.measured_both_margin``: the graph's recent prediction error against the completer's
+        self.graph_error = (GraphPredictionError(options.measured_both_margin, self.beam_sigma)
+                            if options.measured_both_margin is not None else None)
 
     def count_screening(self, stats: dict) -> None:
         for key, n in stats.items():
@@ -445,6 +453,22 @@ def regressed_links(kf: GraphKeyframe, m: BeamRows, rows: np.ndarray, beams: np.
             for i, j in zip(rows, beams)}
 
 
+def dropped_completions(builder: GraphContext, m: BeamRows, C_b_n_pred: np.ndarray, omega_b: np.ndarray,
+                        prediction) -> np.ndarray:
+    """(len(m.y),) bool: the regressed rows of a ping that ``GraphOptions.measured_both_margin`` drops, the graph's
+    prediction error being smaller than the completer's (:class:`.regressed.GraphPredictionError`; none without it)."""
+    dropped = np.zeros(len(m.y), dtype=bool)
+    judge = builder.graph_error
+    if judge is None:
+        return dropped
+    if not m.regressed.any():
+        judge.end_run()
+        return dropped
+    dropped[m.regressed] = ~judge.keep(m.rows_b, m.y, m.sigma, m.regressed, C_b_n_pred, omega_b,
+                                       builder.geometry.lever_arm_b, prediction)
+    return dropped
+
+
 def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.ndarray,
                      p_n_pred: np.ndarray | None = None, prediction=None) -> KeyframeFactors:
     """The DVL and depth factors of keyframe ``kf`` (the IMU factor is :func:`imu_factor`).
@@ -486,8 +510,9 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
         C_d_b = builder.geometry.C_d_b if options.dvl_error_states else None
         links: dict[int, RegressedLink] = {}
         screen_first = options.runs_for(n_measured) == "screen-first"
+        dropped = dropped_completions(builder, m, C_b_n_pred, omega, prediction)
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
-            sel = np.flatnonzero(m.regressed == regressed)
+            sel = np.flatnonzero((m.regressed == regressed) & ~dropped)
             sigma = m.sigma
             use_d = index is not None and (options.dvl_errors_on_regressed or not regressed)
             continued = vouched = sel[:0]

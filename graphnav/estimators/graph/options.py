@@ -251,6 +251,11 @@ class GraphOptions:
             the completion kept at the equivalent independent sigma of their best linear fusion, dropped where it adds
             nothing; the margin is not used). Both experimental; see completers.md, "Rehearsed outages: the graph's
             twin".
+        measured_both_margin: experimental, with a completer whose ``run_sigma`` is ``"measured-change"`` (refused
+            otherwise): the margin ``m`` by which a completion's recent error must beat the graph's own, both read on
+            the beams still measured in the outage (:class:`graphnav.estimators.graph.regressed.GraphPredictionError`):
+            a regressed beam of sigma ``s`` is kept only when ``s^2 < m s_graph^2``; None (the default) = off. See
+            docs/decisions/completers.md, "Both errors read on the beams still measured".
         dvl_error_states: estimate the DVL scale factor (per DVL axis) and beam biases as graph variables
             ``D(k)`` (random walk between keyframes); see :mod:`graphnav.estimators.graph.dvl_errors`.
         dvl_errors_on_regressed: the DVL error states act on regressed beams too (the completer predicts beams
@@ -300,6 +305,7 @@ class GraphOptions:
     rehearsed_outages: float | None = None
     rehearsal_graph: str = "imu"
     rehearsal_fusion: str = "independent"
+    measured_both_margin: float | None = None
     dvl_error_states: bool = DVL_ERROR_STATES
     dvl_errors_on_regressed: bool = True
     dvl_scale_rw: float = 2e-5
@@ -323,6 +329,9 @@ class GraphOptions:
             raise ConfigError(f"lag_s must be > 0 s, got {self.lag_s}")
         if self.rehearsed_outages is not None and not self.rehearsed_outages > 0:
             raise ConfigError(f"rehearsed_outages must be a margin > 0 (or None: off), got {self.rehearsed_outages}")
+        if self.measured_both_margin is not None and not 0 < self.measured_both_margin < float("inf"):
+            raise ConfigError(f"measured_both_margin must be a margin > 0 (or None: off), got "
+                              f"{self.measured_both_margin}")
         for name, allowed in (("rehearsal_graph", REHEARSAL_GRAPHS), ("rehearsal_fusion", REHEARSAL_FUSIONS)):
             value = getattr(self, name)
             if value not in allowed:

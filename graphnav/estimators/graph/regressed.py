@@ -67,6 +67,7 @@ import numpy as np
 from gtsam.symbol_shorthand import V, X
 
 from graphnav.core.beam_model import BeamModel
+from graphnav.estimators.history import SmoothedSquare
 from graphnav.estimators.regressed_screening import screen_against_prediction
 from graphnav.factors import body_velocity_change_factor, nonholonomic_factor
 
@@ -106,11 +107,57 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     sigma = np.asarray(sigma, float).copy()
     if prediction is None:
         return np.ones(len(y), dtype=bool), sigma, {"gated": 0, "decorrelated_out": 0, "inflated": 0}
-    predicted = BeamModel(rows_b).predict(C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
-    y_p, H = predicted.h, predicted.d_v()
-    a = np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H)
+    y_p, a = predicted_beams(rows_b, C_b_n, omega_b, lever_arm_b, prediction)
     keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options.screening)
     return keep, np.sqrt(s2), stats
+
+
+def predicted_beams(rows_b: np.ndarray, C_b_n: np.ndarray, omega_b: np.ndarray, lever_arm_b: np.ndarray,
+                    prediction: VelocityPrediction) -> tuple[np.ndarray, np.ndarray]:
+    """The graph's predicted beams ``y_p`` (m,) m/s along ``rows_b`` (m,3) (body-frame unit vectors) and their
+    claimed variance ``a`` (m,) (m/s)^2, from the IMU-propagated state (module docstring)."""
+    predicted = BeamModel(rows_b).predict(C_b_n, prediction.v_n, omega_b, prediction.gyro_bias, lever_arm_b)
+    H = predicted.d_v()
+    return predicted.h, np.einsum("mi,ij,mj->m", H, prediction.cov_v_n, H)
+
+
+class GraphPredictionError:
+    """``GraphOptions.measured_both_margin`` (experimental): a completion is kept only where the completer's recent
+    error is smaller than the graph's own, both read on the beams still measured in the same outage.
+
+    The completer's side is the sigma its history hands on with ``run_sigma="measured-change"``
+    (:mod:`graphnav.estimators.history`: the measured beams' change from the completer's own completion of them).
+    The graph's side is its innovation on the measured beams at each ping with regressed beams, ``e_j = y_j - y_p,j``
+    (the IMU-propagated prediction before the ping's beams update it), its mean square over the measured beams
+    smoothed as the completer's (:class:`graphnav.estimators.history.SmoothedSquare`) less the beam noise's variance:
+    ``s_graph^2``. A regressed beam of sigma ``s`` is kept (and screened as without the option) when
+    ``s^2 < margin s_graph^2``, dropped otherwise. A ping without a measured beam, or without a prediction, keeps
+    its completions; a ping without a regressed beam ends the run and its smoothing. Counters (``counts``):
+    completions kept and dropped. See docs/decisions/completers.md, "Both errors read on the beams still measured".
+    """
+
+    def __init__(self, margin: float, beam_sigma: float):
+        self.margin, self.beam_sigma = float(margin), float(beam_sigma)
+        self.innovation2 = SmoothedSquare()
+        self.counts = {"kept": 0, "dropped": 0}
+
+    def end_run(self) -> None:
+        self.innovation2 = SmoothedSquare()
+
+    def keep(self, rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, regressed: np.ndarray, C_b_n: np.ndarray,
+             omega_b: np.ndarray, lever_arm_b: np.ndarray, prediction: VelocityPrediction | None) -> np.ndarray:
+        """(number of regressed rows,) bool: which of a ping's regressed rows (``regressed`` (m,) of the ping's rows
+        ``rows_b`` (m,3), beams ``y`` (m,) m/s, sigmas ``sigma`` (m,) m/s) are kept, the graph's innovation on its
+        measured rows read first (class docstring)."""
+        measured = ~np.asarray(regressed, bool)
+        keep = np.ones(int((~measured).sum()), dtype=bool)
+        if prediction is not None and measured.any():
+            y_p, _ = predicted_beams(rows_b[measured], C_b_n, omega_b, lever_arm_b, prediction)
+            self.innovation2.add(float(np.mean((y[measured] - y_p) ** 2)))
+            keep = sigma[~measured] ** 2 < self.margin * self.innovation2.less_noise(self.beam_sigma)
+        self.counts["kept"] += int(keep.sum())
+        self.counts["dropped"] += int((~keep).sum())
+        return keep
 
 
 def motion_prior_factors(k: int, dt: float, options) -> gtsam.NonlinearFactorGraph:
