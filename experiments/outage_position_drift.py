@@ -432,6 +432,11 @@ def both_errors_in(read, mission, start: float, window_s: float) -> dict | None:
             "kept": float(np.mean(np.concatenate([r[6] for r in inside])))}
 
 
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation of a and b, nan where either does not vary."""
+    return float(np.corrcoef(a, b)[0, 1]) if np.std(a) > 0 and np.std(b) > 0 else float("nan")
+
+
 def both_errors_report(runs: dict, methods, folds) -> str:
     """Per ``measured-both`` run and fold (every IMU, scenario and window length; one row per outage window): the
     correlation over the windows of the graph's recent error on the measured beams with its actual error on the
@@ -447,11 +452,10 @@ def both_errors_report(runs: dict, methods, folds) -> str:
             if len(w) < 3:
                 continue
             col = {k: np.array([x[k] for x in w]) for k in ("s graph", "act graph", "s comp", "act comp", "kept")}
-            corr = lambda a, b: float(np.corrcoef(a, b)[0, 1]) if np.std(a) > 0 and np.std(b) > 0 else float("nan")  # noqa: E731
             right = np.mean((col["s comp"] < col["s graph"]) == (col["act comp"] < col["act graph"]))
             q = lambda k: float(np.sqrt(np.mean(col[k] ** 2)))  # noqa: E731
             lines.append(f"| {method} | {'all' if pair is None else f} | {len(w)} | "
-                         f"{corr(col['s graph'], col['act graph']):.2f} | {corr(col['s comp'], col['act comp']):.2f} | "
+                         f"{_corr(col['s graph'], col['act graph']):.2f} | {_corr(col['s comp'], col['act comp']):.2f} | "
                          f"{right:.0%} | {np.mean(col['kept']):.0%} | {q('s graph'):.3f} / {q('act graph'):.3f} / "
                          f"{q('s comp'):.3f} / {q('act comp'):.3f} |")
     return "\n".join(lines)
@@ -766,7 +770,8 @@ def main(argv=None) -> int:
     if a.measured_both:
         if not all(k > 0 for k in a.measured_both):
             p.error("--measured-both: the margin M must be > 0")
-        a.methods += [f"{m} measured-both {k:g}" for k in a.measured_both for m in a.methods if m in (GRAPH_HN, GRAPH_HNP)]
+        a.methods += [f"{m} measured-both {k:g}" for k in a.measured_both for m in a.methods
+                      if m in (GRAPH_HN, GRAPH_HNP)]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
