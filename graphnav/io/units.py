@@ -70,7 +70,7 @@ from typing import Mapping
 
 import numpy as np
 
-from graphnav.core.errors import DataError
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DvlData, Mission, rdi_flagged
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.core.timeseries import interp_rows
@@ -132,9 +132,10 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
                field: str = "t", declared: str | None = None, lines: np.ndarray | None = None,
                key: str | None = None, meta: dict | None = None, stream_key: str | None = None) -> tuple[float, str]:
     """The factor that puts stamps ``t`` (as read) in seconds, and its unit name. A unit a user ``declared`` (under
-    the configuration ``key``) is checked with the same evidence as a detected one (:func:`_declared_time`);
-    ``stream_key``: the key that declares this stream's unit alone, advised when ``key`` is shared with streams
-    whose stamps it fits.
+    the configuration ``key``) is checked with the same evidence as a detected one: a unit that makes the median
+    step no plausible sample period is a DataError naming ``key`` when another unit makes it plausible, else kept
+    with a warning and a note (an instrument that samples unusually slowly or fast); ``stream_key``: the key that
+    declares this stream's unit alone, advised instead of a ``key`` shared with streams whose stamps it fits.
 
     Raises:
         DataError: no unit makes the sample step plausible, or the stream spans more than
@@ -154,11 +155,17 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     fits = [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
     if declared is not None:
         if declared not in TIME_SCALES:
-            from graphnav.core.errors import ConfigError
             raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
         unit = declared
         if key is not None and med > 0 and declared not in fits:
-            _declared_time(med, declared, fits, (lo, hi), stream, source, field, key, meta, stream_key)
+            said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
+                    f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({lo:g}-{hi:g} s)")
+            if fits:
+                fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
+                       f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
+                raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
+            _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit",
+                  source)
     elif lo <= med <= hi or med <= 0:
         unit = "s"       # a non-positive median step is an ordering problem, reported by the stamp checks
     else:
@@ -1292,21 +1299,6 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
     if stream == "imu":
         _imu_gaps(np.asarray(t, float), source, field, lines)
     return t
-
-
-def _declared_time(med: float, declared: str, fits: list, period: tuple, stream: str, source: str, field: str,
-                   key: str, meta: dict | None, stream_key: str | None = None) -> None:
-    """A declared time unit that makes the median stamp step ``med`` (as read) no plausible ``period`` (s) of the
-    stream: a DataError naming ``key`` when another unit makes it plausible (``fits``), else kept with a warning and a
-    note (an instrument that samples unusually slowly or fast). ``stream_key``: the key advised instead of a ``key``
-    shared with streams it fits (another stream in another unit)."""
-    said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
-            f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({period[0]:g}-{period[1]:g} s)")
-    if fits:
-        fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
-               f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
-        raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
-    _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit", source)
 
 
 def _imu_gaps(t: np.ndarray, source: str, field: str, lines: np.ndarray | None) -> None:
