@@ -90,6 +90,15 @@ DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRA
                                                                         "kn": 1852.0 / 3600.0}}
 #: Units of a column map's attitude columns (a reference's, an earth-frame DVL's ``angle_unit``), to rad.
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
+
+
+def declared_scale(spec: dict, key: str, table: dict, default: str, section: str) -> float:
+    """The factor to SI of the unit ``spec[key]`` names in ``table`` (``default`` when not given); a ConfigError
+    naming the configuration key ``section.key`` (``csv_columns.imu``, ``bag_topics.dvl``) for a unit not there."""
+    name = spec.get(key, default)
+    if name not in table:
+        raise ConfigError(f"{section}.{key} = {name!r}: choose one of {sorted(table)}")
+    return table[name]
 #: Median |f| below this, with median |omega| inside ACCEL_GRAVITY_RANGE: the two blocks are swapped.
 SWAP_ACCEL_MAX = 2.0
 GYRO_MEDIAN_MAX_RADPS = 0.3
@@ -1385,7 +1394,7 @@ AKIT_DVL_FIXES = {"declare": False,
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
-           "dvl_velocity_units", "time_scale",
+           "dvl_velocity_units", "time_scale", "declared_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
