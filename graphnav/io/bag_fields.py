@@ -274,11 +274,16 @@ def _velocity(name: str) -> bool:
     return "vel" in name and "cov" not in name
 
 
+def looks_like_dvl(topic: str, msgtype: str) -> bool:
+    """A topic whose name or message type says DVL."""
+    return "dvl" in f"{topic} {msgtype}".lower()
+
+
 def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -> str:
     """What to write in the configuration to read ``topic`` (or the likeliest DVL topic of ``available``), with
     its own fields."""
     if topic is None:
-        named = sorted(t for t, ty in available.items() if "dvl" in f"{t} {ty}".lower())
+        named = sorted(t for t, ty in available.items() if looks_like_dvl(t, ty))
         topic = named[0] if named else "/dvl/data"
     msgtype = available.get(topic)
     text = json.dumps({"bag_topics": {"dvl": example(fielddefs, msgtype, topic)}})[1:-1]
