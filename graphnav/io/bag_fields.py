@@ -28,6 +28,7 @@ import re
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.streams import add_note
 
 KEY = "bag_topics.dvl"
 #: The keys of :data:`KEY` that name fields of the message, and how many values each gives per message.
@@ -296,7 +297,8 @@ def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -
 def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
     """``(beams, valid, v_d, v_ok, sigma)`` of a topic ``s`` (:class:`graphnav.io.bag_convert.Stream`) read through
     ``spec`` (:data:`KEY`), as the built-in messages give them: m/s, the velocity in the DVL frame (turned from the
-    declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used)."""
+    declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used). The fields read are in
+    ``info["dvl_fields"]`` and a note of the DVL stream."""
     from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
     from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_velocity_units
     if "v_b" not in spec and "beams" not in spec:
@@ -331,4 +333,5 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
                                                    if "valid" in spec else True)
     info["dvl_fields"] = {k: spec[k] for k in ("topic", *FIELD_KEYS) if k in spec} | {"frame": frame,
                                                                                      "velocity_unit": unit or "m/s"}
+    add_note(meta, "dvl", f"fields of {s.msgtype} named by {KEY}: {json.dumps(info['dvl_fields'])}")
     return beams, valid, v_d, v_ok, np.full((n, 3), np.nan)
