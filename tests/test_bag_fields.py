@@ -360,3 +360,19 @@ def test_beam_flags_without_the_beams_leave_the_velocity_valid_where_three_beams
         b = load_mission(vendor, _config(root, "velocity_only.json", {"topic": "/dvl/data", "v_b": "velocity"}),
                          prepare=False)
     assert a.dvl.v_d_valid.sum() == b.dvl.v_d_valid.sum() > 0.9 * len(mission.dvl.t)
+
+
+def test_reading_the_named_fields_notes_them_in_the_dvl_stream():
+    """The fields ``bag_topics.dvl`` named are said in the DVL stream's notes by the reading itself, as recorded for
+    ``graphnav info``, whoever reads them."""
+    from types import SimpleNamespace as Msg
+
+    from graphnav.io import bag_fields
+    rows = [Msg(velocity=Msg(x=1.0, y=0.01 * i, z=0.0)) for i in range(5)]
+    meta, info = {}, {}
+    bag_fields.read(Msg(topic="/dvl/data", msgtype=VENDOR, rows=rows), {"topic": "/dvl/data", "v_b": "velocity"},
+                    np.eye(3), "vendor.mcap", meta, info)
+    assert info["dvl_fields"] == {"topic": "/dvl/data", "v_b": "velocity", "frame": "instrument",
+                                  "velocity_unit": "m/s"}
+    assert meta["streams"]["dvl"]["notes"] == [f"fields of {VENDOR} named by bag_topics.dvl: "
+                                               + json.dumps(info["dvl_fields"])]

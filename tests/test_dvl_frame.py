@@ -614,6 +614,8 @@ def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warnin
     from graphnav.calibration import dvl_scale
     m = sim[0]
     declared = {"unit": "cm/s", "key": "csv_columns.dvl.velocity_unit"}
+    # m/s the one other unit tried: the simulated 2 m/s as m/s (x100) is beyond what a DVL measures, so not tried
+    monkeypatch.setattr(dvl_scale, "other_velocity_units", lambda *a: {"m/s": 100.0})
     monkeypatch.setattr(dvl_scale, "velocity_scale_fits", lambda *a: {1.0: 50.0, 100.0: 1.05})
     meta = {"stream_fields": {"dvl": "vx, vy, vz"}}
     with pytest.warns(RuntimeWarning, match=r"field 'vx, vy, vz': declared 'cm/s' \(csv_columns.dvl.velocity_unit\), "

@@ -20,11 +20,13 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
-from graphnav.core.dvl_kinematics import WINDOW_S, dvl_velocity_b, dvl_window_model, without_window_fit
+from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_model, imu_integrals,
+                                          without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
-from graphnav.io.dvl_frame import CARRIED
-from graphnav.io.units import AKIT_DVL_FIXES, DECLARE_DVL_FIXES
+from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame
+from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, DECLARED_UNITS, GYRO_UNJUDGED,
+                               check_gyro_against_reference, gyro_scale_found)
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
 #: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
@@ -289,7 +291,6 @@ def _reference_course(reference) -> float:
 def _mean_direction(v: np.ndarray) -> float:
     """The mean of the horizontal unit directions of ``v`` (N,3) m/s over :data:`COURSE_MIN_SPEED_MPS`, rad about z,
     NaN when shorter than :data:`MIN_COURSE_RESULTANT`."""
-    from graphnav.io.dvl_frame import COURSE_MIN_SPEED_MPS
     h = v[:, 0] + 1j * v[:, 1]
     h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
     mean = np.mean(h / np.abs(h)) if h.size else 0.0
@@ -408,7 +409,6 @@ def _reference_sides(reference, t_dvl: np.ndarray, v_b: np.ndarray, lever_arm_b:
     ``omega x lever_arm_b`` (M,2) at the pings the reference covers, its body rate (M,3) rad/s and each ping's
     :data:`~graphnav.core.dvl_kinematics.WINDOW_S` window (M,) numbered 0.. without gaps; None under two windows."""
     from graphnav.calibration.reference import dvl_design
-    from graphnav.core.dvl_kinematics import WINDOW_S
     _, omega, v_ref, keep = dvl_design(reference, t_dvl, v_b)
     t = np.asarray(t_dvl, float)[keep]
     if not t.size:
@@ -600,7 +600,6 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warn_dvl_sideways(dvl, config, meta, field, exc.message, fixes, reference)
         return
     if moved:
-        from graphnav.io.dvl_frame import check_not_earth_frame
         check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
@@ -656,7 +655,7 @@ VELOCITY_UNIT_RATIO = 4.0
 VELOCITY_UNIT_DOUBT = "DVL velocity read in a declared unit the IMU's accelerations contradict"
 
 
-def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | None, field: str | None = None) -> None:
+def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | None) -> None:
     """A declared DVL velocity unit (``declared``: ``{"unit": ..., "key": ...}``, the loader's
     ``meta["prepare"]["dvl_unit"]``) checked against the IMU: another metric unit at least 10x larger or smaller
     (:func:`other_velocity_units`: cm/s or m/s for mm/s, m/s or mm/s for cm/s) whose clock model leaves
@@ -667,23 +666,25 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
     speed range tells from a hovering vehicle's, while the IMU says the vehicle moves. Only units that keep the median
     speed within what a DVL measures are tried. Nothing when no unit is declared, none other is plausible, or the DVL
     has under two windows of pings (the DVL is on the IMU clock)."""
-    if not declared or declared["unit"] not in _velocity_units():
+    if not declared:
         return
     unit, key = declared["unit"], declared["key"]
     speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
     others = other_velocity_units(unit, speed, config)
+    if not others:
+        return
     try:
-        fits = velocity_scale_fits(imu, dvl, config, others.values()) if others else {}
+        fits = velocity_scale_fits(imu, dvl, config, others.values())
     except DataError:
         return
-    best = min(others, key=lambda u: fits[others[u]], default=None)
-    if best is None or not fits[1.0] >= VELOCITY_UNIT_RATIO * fits[others[best]]:
-        return
+    best = min(others, key=lambda u: fits[others[u]])
     k = others[best]
+    if not fits[1.0] >= VELOCITY_UNIT_RATIO * fits[k]:
+        return
     said = (f"declared {unit!r} ({key}), but the IMU's accelerations fit the velocity's changes "
             f"{fits[1.0] / max(fits[k], 1e-12):.3g}x better in {best!r} (x{k:g}; left unexplained {fits[k]:.3g} "
             f"against {fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in {unit!r}, {speed * k:.3g} m/s in {best!r}")
-    field = field or meta.get("stream_fields", {}).get("dvl", "velocity")
+    field = meta.get("stream_fields", {}).get("dvl", "velocity")
     if fits[k] < 1.0:
         raise DataError(f"{said}: set {key} to {best!r}", dvl.source, field=field)
     count_doubted(meta, "dvl", VELOCITY_UNIT_DOUBT, len(dvl.t))
@@ -692,18 +693,13 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
                   f"leaves less); kept in {unit!r}: check {key}", RuntimeWarning, stacklevel=3)
 
 
-def _velocity_units() -> dict:
-    from graphnav.io.units import DECLARED_UNITS
-    return DECLARED_UNITS["velocity"]
-
-
 def other_velocity_units(unit: str, speed: float, config) -> dict[str, float]:
     """The metric velocity units a DVL velocity declared ``unit`` may be in instead (name -> factor to multiply the
     velocity as read by): at least 10x larger or smaller, and putting the median ``speed`` (m/s in ``unit``) within
     what a DVL measures (the larger of :data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS` and ``dvl.max_speed_mps``): a
     larger unit that makes a steady 1.5 m/s vehicle 1500 m/s fits a MEMS IMU's noise better, not the vehicle."""
     from graphnav.core.mission import MAX_DVL_SPEED_MPS
-    units = _velocity_units()
+    units = DECLARED_UNITS["velocity"]
     bound = max(MAX_DVL_SPEED_MPS, float(config.dvl.max_speed_mps))
     factors = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s")}
     return {u: k for u, k in factors.items() if (k >= 10 or k <= 0.1) and not speed * k > bound}
@@ -742,7 +738,6 @@ def velocity_scale_fits(imu, dvl, config, scales) -> dict[float, float]:
     Raises:
         DataError: under two windows of pings with a velocity.
     """
-    from graphnav.core.dvl_kinematics import imu_integrals
     ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
     return {k: _unexplained(dvl_window_model(imu, dvl, config, transform=k * np.eye(3), ints=ints)[0])
             for k in (1.0, *scales)}
@@ -752,7 +747,6 @@ def _gyro_against_reference(imu, fact: dict, meta: dict, unjudged: str):
     """The IMU with its gyro judged by a reference attitude whose unit is settled
     (:func:`graphnav.io.units.check_gyro_against_reference`), where the DVL could not; else as read, with the note
     ``unjudged`` saying what could not judge it."""
-    from graphnav.io.units import check_gyro_against_reference
     omega_b = check_gyro_against_reference(imu.omega_b, imu.source, fact, meta)
     if omega_b is None:
         add_note(meta, "imu", unjudged + ("" if "reference" not in fact else "; nor can the reference attitude"))
@@ -768,7 +762,6 @@ def check_gyro_against_dvl(imu, dvl, config, meta: dict, found: str = ""):
     is absent; with a note when the DVL cannot judge either (too few pings, no scale that explains any of its
     changes, or none that fits them :data:`GYRO_DVL_RATIO` times better than the others). ``found``: how the DVL came
     onto the IMU clock, for the messages."""
-    from graphnav.io.units import GYRO_UNJUDGED, gyro_scale_found
     fact = meta.pop(GYRO_UNJUDGED, None)
     if fact is None:
         return imu

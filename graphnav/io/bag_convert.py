@@ -8,7 +8,6 @@ right, z down; for a down-looking DVL both are graphnav's DVL frame d).
 """
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass, field
 
@@ -208,7 +207,6 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     fields = config.bag_topics.get("dvl")
     if fields:
         beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info)
-        add_note(meta, "dvl", f"fields of {s.msgtype} named by {bag_fields.KEY}: {json.dumps(info['dvl_fields'])}")
     elif s.msgtype == MARINE_DVL:
         beams, valid, v_d, v_ok, sig = _marine(s, source, info)
     elif s.msgtype == WL_DVL:

@@ -28,6 +28,7 @@ import re
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.streams import add_note
 
 KEY = "bag_topics.dvl"
 #: The keys of :data:`KEY` that name fields of the message, and how many values each gives per message.
@@ -57,9 +58,11 @@ def _kind(node: tuple) -> str:
     return what[0] if kind.name == "BASE" else what
 
 
-def _element(kind: str) -> str:
-    """The element type of a list or array type (``pkg/msg/Beam[4]`` -> ``pkg/msg/Beam``)."""
-    return re.sub(r"\[\d*\]$", "", kind)
+def _array(kind: str) -> tuple[str, int | None]:
+    """A list or array type's element type and size (``pkg/msg/Beam[4]`` -> ``("pkg/msg/Beam", 4)``; 0: unbounded,
+    ``float64[]``); any other type as it is, with None."""
+    match = re.fullmatch(r"(.+)\[(\d*)\]", kind)
+    return (match.group(1), int(match.group(2) or 0)) if match else (kind, None)
 
 
 def fields_of(fielddefs: dict, msgtype: str) -> str:
@@ -67,7 +70,7 @@ def fields_of(fielddefs: dict, msgtype: str) -> str:
     out = []
     for name, node in _fields(fielddefs, msgtype):
         kind = _kind(node)
-        inner = _element(kind)
+        inner = _array(kind)[0]
         sub = f": {', '.join(n for n, _ in _fields(fielddefs, inner))}" if inner in fielddefs and \
             inner != "std_msgs/msg/Header" else ""
         out.append(f"{name} ({kind}{sub})")
@@ -88,7 +91,7 @@ def check_paths(spec: dict, fielddefs: dict, msgtype: str, source: str, topic: s
             continue
         total: int | None = 0
         for path in _paths(spec, key):
-            kind, lists = _walk(spec, key, path, fielddefs, msgtype, source, topic)
+            kind, lists = _walk(key, path, fielddefs, msgtype, source, topic)
             typ, count = _numbers(fielddefs, kind)
             if typ not in NEEDS[key][0]:
                 raise DataError(f"{KEY}.{key} = {spec[key]!r}: {path!r} of {where} is {kind}{WHY.get(typ, '')}; "
@@ -131,7 +134,7 @@ def by_index(spec: dict, key: str, count: int) -> str:
     return f"; name the {n} it takes by index, e.g. {[each.format(i) for i in range(n)]}"
 
 
-def _walk(spec: dict, key: str, path: str, fielddefs: dict, msgtype: str, source: str, topic: str) -> tuple[str, list]:
+def _walk(key: str, path: str, fielddefs: dict, msgtype: str, source: str, topic: str) -> tuple[str, list]:
     """The type at the end of ``path`` and the sizes of the lists walked into with ``[]`` on the way (0: unbounded;
     ``[i]`` picks one element and adds none); a DataError naming the fields there are for a path ``msgtype`` does
     not have, and for an index past the end of a fixed array."""
@@ -155,15 +158,15 @@ def _walk(spec: dict, key: str, path: str, fielddefs: dict, msgtype: str, source
                             f"{'list' if kind else 'field'} {'.'.join(walked + [part])!r}; {what}",
                             source, field=topic)
         if part != name:
-            size = int(re.search(r"\[(\d*)\]$", kind).group(1) or 0)
+            element, size = _array(kind)
             if index is None:
                 lists.append(size)
             elif size and index >= size:
                 raise DataError(f"{KEY}.{key} = {path!r}: {'.'.join(walked + [name])!r} of {topic} ({msgtype}) is "
                                 f"{kind}: its elements are [0] to [{size - 1}]", source, field=topic)
-            kind = _element(kind)
+            kind = element
         walked.append(part)
-        typ = _element(kind)
+        typ = _array(kind)[0]
     return kind, lists
 
 
@@ -179,10 +182,10 @@ def _part(part: str) -> tuple[str, int | None]:
 def _numbers(fielddefs: dict, kind: str) -> tuple[str, int | None]:
     """What a field of type ``kind`` holds: ``float``, ``int``, ``bool``, ``vector3`` (x, y, z) or its type when it
     holds no numbers, and how many (None: as many as its list holds)."""
-    array = re.fullmatch(r"(.+)\[(\d*)\]", kind)
-    if array:
-        typ, count = _numbers(fielddefs, array.group(1))
-        return typ, count * int(array.group(2)) if array.group(2) and count else None
+    element, size = _array(kind)
+    if size is not None:
+        typ, count = _numbers(fielddefs, element)
+        return typ, count * size if size and count else None
     if [n for n, _ in fielddefs.get(kind, ([], []))[1]] == ["x", "y", "z"]:
         return "vector3", 3
     if kind.startswith("float"):
@@ -248,7 +251,7 @@ def _likely(fielddefs: dict, msgtype: str, prefix: str, found: dict) -> None:
     :data:`FIELD_KEYS` entry, those named like a velocity first; sub-messages searched for a Vector3 too."""
     for name, node in sorted(_fields(fielddefs, msgtype), key=lambda f: not _velocity(f[0]) and "linear" not in f[0]):
         kind, path = _kind(node), prefix + name
-        inner = _element(kind)
+        inner = _array(kind)[0]
         if kind == VECTOR3:
             found.setdefault("v_b", path)
         elif kind == "bool" and "valid" in name:
@@ -272,11 +275,16 @@ def _velocity(name: str) -> bool:
     return "vel" in name and "cov" not in name
 
 
+def looks_like_dvl(topic: str, msgtype: str) -> bool:
+    """A topic whose name or message type says DVL."""
+    return "dvl" in f"{topic} {msgtype}".lower()
+
+
 def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -> str:
     """What to write in the configuration to read ``topic`` (or the likeliest DVL topic of ``available``), with
     its own fields."""
     if topic is None:
-        named = sorted(t for t, ty in available.items() if "dvl" in f"{t} {ty}".lower())
+        named = sorted(t for t, ty in available.items() if looks_like_dvl(t, ty))
         topic = named[0] if named else "/dvl/data"
     msgtype = available.get(topic)
     text = json.dumps({"bag_topics": {"dvl": example(fielddefs, msgtype, topic)}})[1:-1]
@@ -289,15 +297,15 @@ def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -
 def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
     """``(beams, valid, v_d, v_ok, sigma)`` of a topic ``s`` (:class:`graphnav.io.bag_convert.Stream`) read through
     ``spec`` (:data:`KEY`), as the built-in messages give them: m/s, the velocity in the DVL frame (turned from the
-    declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used)."""
+    declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used). The fields read are in
+    ``info["dvl_fields"]`` and a note of the DVL stream."""
     from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
-    from graphnav.io.units import DECLARED_UNITS, dvl_velocity_units
+    from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_velocity_units
     if "v_b" not in spec and "beams" not in spec:
         raise ConfigError(f"{KEY} needs 'beams' (the four along-beam velocities) or 'v_b' (the velocity)")
     units = DECLARED_UNITS["velocity"]
-    unit = spec.get("velocity_unit")
-    if unit is not None and unit not in units:
-        raise ConfigError(f"{KEY}.velocity_unit = {unit!r}: choose one of {sorted(units)}")
+    unit = spec.get("velocity_unit")            # null as left out: m/s, mm/s detected from the speeds
+    scale = 1.0 if unit is None else declared_scale(spec, "velocity_unit", units, "m/s", KEY)
     frame = declared_frame(spec, "instrument", KEY)
     if frame in EARTH_FRAMES:
         raise ConfigError(f"{KEY}.frame = {frame!r}: an earth-frame velocity needs the head's attitude at each ping; "
@@ -305,7 +313,6 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
     where = f"{source}:{s.topic}"
     fix = f"declare {KEY}.velocity_unit ({', '.join(units)})"
     n = len(s.rows)
-    scale = units[unit or "m/s"]
 
     def in_mps(key, **kw):
         cells = table(s.rows, spec, key, source, s.topic) * scale
@@ -326,4 +333,5 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
                                                    if "valid" in spec else True)
     info["dvl_fields"] = {k: spec[k] for k in ("topic", *FIELD_KEYS) if k in spec} | {"frame": frame,
                                                                                      "velocity_unit": unit or "m/s"}
+    add_note(meta, "dvl", f"fields of {s.msgtype} named by {KEY}: {json.dumps(info['dvl_fields'])}")
     return beams, valid, v_d, v_ok, np.full((n, 3), np.nan)

@@ -171,7 +171,7 @@ def _vendor_dvl_hint(bag: _Bag) -> str:
     """What a bag whose DVL falls back to a twist can do when it also has a topic named like a DVL in a type graphnav
     does not read (a vendor's DVL message, with its beams): read that topic through ``bag_topics.dvl``."""
     read = {ty for types in STREAM_TYPES.values() for ty in types}
-    vendor = sorted(t for t, ty in bag.available.items() if ty not in read and "dvl" in f"{t} {ty}".lower())
+    vendor = sorted(t for t, ty in bag.available.items() if ty not in read and bag_fields.looks_like_dvl(t, ty))
     if not vendor:
         return ""
     return (f"; {vendor[0]} ({bag.available[vendor[0]]}) looks like the DVL's own message, whose beams the twist "

@@ -101,7 +101,8 @@ from graphnav.core.screening import (
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
-from graphnav.io.units import ANGLE_UNITS, DECLARED_UNITS, dvl_velocity_units, imu_units, stamps_in_seconds
+from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, declared_scale, dvl_velocity_units, imu_units,
+                               stamps_in_seconds)
 
 TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
                                                        for k in ("time", "accel", "gyro", "velocity"))
@@ -119,13 +120,6 @@ def uses_column_map(path: str | Path, config: SensorConfig | None) -> bool:
                               "entry (see graphnav.io.generic_csv)")
         return True
     return has_map and path.is_dir()
-
-
-def _unit(spec: dict, key: str, table: dict, default: str, where: str) -> float:
-    name = spec.get(key, default)
-    if name not in table:
-        raise ConfigError(f"csv_columns.{where}.{key} = {name!r}: choose one of {sorted(table)}")
-    return table[name]
 
 
 #: Separators a column-map file may use, detected from its header line: the most frequent there (a tie: the first).
@@ -246,7 +240,7 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     # a declared unit is applied (the span is still checked); without one it is detected from the step
     unit = spec.get("time_unit", time_unit)
     if unit is not None:
-        _unit(spec, "time_unit", TIME_UNITS, time_unit, stream)
+        declared_scale(spec, "time_unit", TIME_UNITS, time_unit, f"csv_columns.{stream}")
     key = f"csv_columns.{stream}.time_unit" if "time_unit" in spec else "csv_columns.time_unit"
     # the IMU is read first: a global unit its stamps passed, another stream's contradict, is that stream's to declare
     own = None if stream == "imu" or "time_unit" in spec else f"csv_columns.{stream}.time_unit"
@@ -303,8 +297,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     rows = np.hstack([v["f_b"], v["omega_b"]])
     t_imu, rows, lines = refuse_rows(meta, "imu", not_finite(rows, fields), str(path), v["_lines"], t_imu, rows,
                                      v["_lines"])
-    f_b = rows[:, :3] * _unit(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "imu")
-    omega_b = rows[:, 3:] * _unit(spec, "gyro_unit", GYRO_UNITS, "rad/s", "imu")
+    f_b = rows[:, :3] * declared_scale(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "csv_columns.imu")
+    omega_b = rows[:, 3:] * declared_scale(spec, "gyro_unit", GYRO_UNITS, "rad/s", "csv_columns.imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
     f_b, omega_b = imu_units(t_imu, f_b, omega_b, str(path), meta, declared, config.gravity_mps2, fields)
     frame = spec.get("frame", "frd")
@@ -337,7 +331,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     else:
         t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3, "euler": 3},
                                time_unit, tables, meta, repair)
-        vscale = _unit(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "dvl")
+        vscale = declared_scale(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "csv_columns.dvl")
         vdeclared = spec.get("velocity_unit")
         lines = dvl_lines = v["_lines"]
         flags = np.nan_to_num(v["valid"]) != 0 if "valid" in v else np.ones((len(t_dvl), 4), bool)
@@ -394,7 +388,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         t_d, x = refuse_rows(meta, "depth", not_finite(v[key], [spec[key]]), str(path), v["_lines"], t_d, v[key][:, 0])
         if key == "pressure":
             unit = spec.get("pressure_unit", "Pa")
-            p = x * _unit(spec, "pressure_unit", PRESSURE_UNITS, "Pa", "depth")
+            p = x * declared_scale(spec, "pressure_unit", PRESSURE_UNITS, "Pa", "csv_columns.depth")
             if unit in ("Pa", "kPa"):
                 p = p - config.atmospheric_pressure_pa
             x = p / (config.water_density_kgpm3 * config.gravity_mps2)
@@ -467,7 +461,7 @@ def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omeg
         reference_depth,
     )
     declared = spec.get("angle_unit")
-    euler = v["euler"] * _unit(spec, "angle_unit", ANGLE_UNITS, "rad", "gt")
+    euler = v["euler"] * declared_scale(spec, "angle_unit", ANGLE_UNITS, "rad", "csv_columns.gt")
     euler = reference_attitude_units(t, euler, t_imu, omega_b, str(path), spec["euler"], meta, declared)
     p_n, v_n = v["p_n"], v["v_n"]
     check_reference_displacement(displacement_ratio(t, p_n[:, :2], v_n[:, :2])[0], str(path),

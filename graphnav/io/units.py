@@ -70,7 +70,7 @@ from typing import Mapping
 
 import numpy as np
 
-from graphnav.core.errors import DataError
+from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS, DvlData, Mission, rdi_flagged
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.core.timeseries import interp_rows
@@ -90,6 +90,15 @@ DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRA
                                                                         "kn": 1852.0 / 3600.0}}
 #: Units of a column map's attitude columns (a reference's, an earth-frame DVL's ``angle_unit``), to rad.
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
+
+
+def declared_scale(spec: dict, key: str, table: dict, default: str, section: str) -> float:
+    """The factor to SI of the unit ``spec[key]`` names in ``table`` (``default`` when not given); a ConfigError
+    naming the configuration key ``section.key`` (``csv_columns.imu``, ``bag_topics.dvl``) for a unit not there."""
+    name = spec.get(key, default)
+    if name not in table:
+        raise ConfigError(f"{section}.{key} = {name!r}: choose one of {sorted(table)}")
+    return table[name]
 #: Median |f| below this, with median |omega| inside ACCEL_GRAVITY_RANGE: the two blocks are swapped.
 SWAP_ACCEL_MAX = 2.0
 GYRO_MEDIAN_MAX_RADPS = 0.3
@@ -132,9 +141,10 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
                field: str = "t", declared: str | None = None, lines: np.ndarray | None = None,
                key: str | None = None, meta: dict | None = None, stream_key: str | None = None) -> tuple[float, str]:
     """The factor that puts stamps ``t`` (as read) in seconds, and its unit name. A unit a user ``declared`` (under
-    the configuration ``key``) is checked with the same evidence as a detected one (:func:`_declared_time`);
-    ``stream_key``: the key that declares this stream's unit alone, advised when ``key`` is shared with streams
-    whose stamps it fits.
+    the configuration ``key``) is checked with the same evidence as a detected one: a unit that makes the median
+    step no plausible sample period is a DataError naming ``key`` when another unit makes it plausible, else kept
+    with a warning and a note (an instrument that samples unusually slowly or fast); ``stream_key``: the key that
+    declares this stream's unit alone, advised instead of a ``key`` shared with streams whose stamps it fits.
 
     Raises:
         DataError: no unit makes the sample step plausible, or the stream spans more than
@@ -154,11 +164,17 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     fits = [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
     if declared is not None:
         if declared not in TIME_SCALES:
-            from graphnav.core.errors import ConfigError
             raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
         unit = declared
         if key is not None and med > 0 and declared not in fits:
-            _declared_time(med, declared, fits, (lo, hi), stream, source, field, key, meta, stream_key)
+            said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
+                    f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({lo:g}-{hi:g} s)")
+            if fits:
+                fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
+                       f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
+                raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
+            _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit",
+                  source)
     elif lo <= med <= hi or med <= 0:
         unit = "s"       # a non-positive median step is an ordering problem, reported by the stamp checks
     else:
@@ -1294,21 +1310,6 @@ def stamps_in_seconds(t: np.ndarray, stream: str, source: str, meta: dict | None
     return t
 
 
-def _declared_time(med: float, declared: str, fits: list, period: tuple, stream: str, source: str, field: str,
-                   key: str, meta: dict | None, stream_key: str | None = None) -> None:
-    """A declared time unit that makes the median stamp step ``med`` (as read) no plausible ``period`` (s) of the
-    stream: a DataError naming ``key`` when another unit makes it plausible (``fits``), else kept with a warning and a
-    note (an instrument that samples unusually slowly or fast). ``stream_key``: the key advised instead of a ``key``
-    shared with streams it fits (another stream in another unit)."""
-    said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
-            f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({period[0]:g}-{period[1]:g} s)")
-    if fits:
-        fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
-               f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
-        raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
-    _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit", source)
-
-
 def _imu_gaps(t: np.ndarray, source: str, field: str, lines: np.ndarray | None) -> None:
     """:func:`graphnav.core.mission.check_imu_gap` on the longest step of stamps ``t`` (s, as read)."""
     from graphnav.core.mission import check_imu_gap
@@ -1393,7 +1394,7 @@ AKIT_DVL_FIXES = {"declare": False,
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
-           "dvl_velocity_units", "time_scale",
+           "dvl_velocity_units", "time_scale", "declared_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
