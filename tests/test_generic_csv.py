@@ -897,3 +897,13 @@ def test_a_global_time_unit_only_the_dvl_contradicts_advises_the_dvl_key(sim, tm
     with pytest.raises(DataError, match=r"dvl.csv, field 'time_s': the declared time unit 'ms' \(csv_columns.time_unit"
                                         r"\) .* set csv_columns.dvl.time_unit to 's' \(this stream's own unit"):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_beam_columns_in_a_declared_unit_too_large_are_refused_naming_the_key(sim, tmp_path):
+    """Beam velocities in mm/s declared m/s: every beam was refused as beyond the DVL's range ('400 of 400 dvl samples
+    refused ... check the units') without naming the key; the beams' speeds are judged in the declared unit as the
+    velocity columns' are."""
+    cmap = _separate_files(tmp_path, sim)         # its beams are in mm/s
+    cmap["dvl"]["velocity_unit"] = "m/s"
+    with pytest.raises(DataError, match=r"in the declared unit 'm/s' \(csv_columns.dvl.velocity_unit\) is beyond"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))

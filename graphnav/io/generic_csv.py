@@ -356,6 +356,9 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                 raw = dvl_velocity_units(raw, str(path), meta, None, beams=True,   # m/s (mm/s detected)
                                          **_unit_named(spec, "beams"))
             flag = np.isin(raw, (-32768.0, -32.768))
+            if vdeclared is not None:       # the declared unit's speeds judged as the velocity columns' are
+                dvl_velocity_units(np.where(flag, np.nan, raw) * vscale, str(path), meta, vdeclared, beams=True,
+                                   **_unit_named(spec, "beams"))
             beams = np.where(flag, -32.768, raw * vscale)
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
             valid = flags & ~np.isnan(beams)
