@@ -12,7 +12,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "info", help="describe a log: instruments, streams read/used/refused and why, rates, span, speed, depth",
         description="Describe what PATH holds and whether graphnav will use it: an A-KIT TrajectoryN folder, a CSV "
-                    "log with the column map of --config, a ROS 2 bag, a PD0 DVL file or a JSON-lines stream file. "
+                    "log with the column map of --config, a ROS 1 or ROS 2 bag, a PD0 DVL file or a JSON-lines "
+                    "stream file. "
                     "Shows the instrument(s), the DVL frame, each stream's samples read / used / refused with the "
                     "reasons, rates, time span, DVL speed and beams per ping, depth range, and the loaders' notes "
                     "and warnings. A file graphnav cannot use is described with the reason. Exit code 0 when "
@@ -20,7 +21,8 @@ def register(subparsers) -> None:
         formatter_class=HelpFormatter)
     p.add_argument("path", metavar="PATH", help="file or folder to describe")
     p.add_argument("--config", metavar="JSON",
-                   help="sensor configuration (the column map of a CSV log; the IMU that goes with a PD0 file)")
+                   help="sensor configuration (the column map of a CSV log; the IMU that goes with a PD0 file; "
+                        "a bag's bag_topics, e.g. the fields of a vendor's own DVL message)")
     p.add_argument("--topic", action="append", metavar="STREAM=TOPIC",
                    help="bags: read STREAM (imu, dvl, depth, heading, gt) from TOPIC (repeatable)")
     p.add_argument("--json", action="store_true", help="print the description as JSON")
