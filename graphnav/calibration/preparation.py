@@ -590,14 +590,14 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # DVL seconds or days off; what the search finds under half a ping period is left as given
         from graphnav.calibration.clock import align_stream_clocks
 
-        def search(imu: ImuData, meta_: dict) -> float:
-            return float(align_stream_clocks(imu, searched, None, meta_, mission.config)[0].t[0] - searched.t[0])
+        def search(imu: ImuData, meta_: dict, dvl_: DvlData = searched) -> float:
+            return float(align_stream_clocks(imu, dvl_, None, meta_, mission.config)[0].t[0] - dvl_.t[0])
         try:
             (dvl, depth), imu = _with_the_gyro_tried(
                 lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu,
                 searched, mission.config, meta)
         except DataError as err:
-            _unit_finds_the_clock(err, mission.imu, searched, mission.config, meta, facts.get("dvl_unit"))
+            _unit_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, facts.get("dvl_unit"))
             raise
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
@@ -668,11 +668,8 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
     if GYRO_UNJUDGED not in meta:
         raise err
     for k in GYRO_SCALES.values():
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")          # a trial: its notes and warnings are not the mission's
-                offset = search(dataclasses.replace(imu, omega_b=imu.omega_b * k), copy.deepcopy(meta))
-        except DataError:
+        offset = _trial(lambda meta_: search(dataclasses.replace(imu, omega_b=imu.omega_b * k), meta_), meta)
+        if offset is None:
             continue
         found = (f", on the IMU clock at the offset {offset:+.3f} s the DVL clock search finds with the rates "
                  f"x{k:.4g}, none with them as read")
@@ -684,15 +681,26 @@ def _gyro_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
                     "not judge, at an offset where the DVL judges them)", err.source, err.line, err.field) from err
 
 
-def _unit_finds_the_clock(err: DataError, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+def _trial(run, meta: dict) -> float | None:
+    """``run(meta)`` as a trial: on a copy of ``meta`` and with its warnings ignored (its notes and warnings are not
+    the mission's); None where it fails with a DataError."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return run(copy.deepcopy(meta))
+    except DataError:
+        return None
+
+
+def _unit_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
                           declared: dict | None) -> None:
-    """After the DVL clock search failed with ``err``: a declared velocity unit 100x too small leaves the velocity's
+    """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
+    ``err``: a declared velocity unit 100x too small leaves the velocity's
     changes within its noise, which hides the clock, and the search then asks for a ``dvl_time_offset_s`` under which
     the wrong unit would load unseen. The search is tried with the velocity in each other plausible unit
     (:func:`~graphnav.calibration.dvl_scale.other_velocity_units`); where one finds the clock, the declared unit is
     judged there (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`, a DataError naming the key),
     else a DataError adds to ``err`` the unit that found it. Returns when none does (``err`` stands)."""
-    from graphnav.calibration.clock import align_stream_clocks
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, other_velocity_units
     from graphnav.core.dvl_kinematics import dvl_velocity_b
     if not declared:
@@ -701,15 +709,11 @@ def _unit_finds_the_clock(err: DataError, imu: ImuData, dvl: DvlData, config: Se
     for unit, k in other_velocity_units(declared["unit"], speed, config).items():
         def scaled(a):
             return None if a is None else a * k
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")          # a trial: its notes and warnings are not the mission's
-                found = align_stream_clocks(imu, dataclasses.replace(dvl, beams=scaled(dvl.beams), v_b=scaled(dvl.v_b),
-                                            v_d=scaled(dvl.v_d), v_d_sigma=scaled(dvl.v_d_sigma)), None,
-                                            copy.deepcopy(meta), config)[0]
-        except DataError:
+        rescaled = dataclasses.replace(dvl, beams=scaled(dvl.beams), v_b=scaled(dvl.v_b), v_d=scaled(dvl.v_d),
+                                       v_d_sigma=scaled(dvl.v_d_sigma))
+        offset = _trial(lambda meta_: search(imu, meta_, rescaled), meta)
+        if offset is None:
             continue
-        offset = float(found.t[0] - dvl.t[0])
         check_declared_velocity_unit(imu, dataclasses.replace(dvl, t=dvl.t + offset), config, meta, declared)
         raise DataError(f"{err.message}; with the velocity in {unit!r} instead of the declared {declared['unit']!r} "
                         f"the search finds the DVL clock at {offset:+.3f} s: check {declared['key']}", err.source,
