@@ -73,9 +73,9 @@ class SmoothedSquare:
         return max(self.value - noise_std ** 2, 0.0)
 
 
-def run_sigma_of(completer) -> str:
+def run_sigma_of(completer) -> tuple[str, float]:
     """The run sigma (:data:`RUN_SIGMAS`) a completer asks for with its ``run_sigma`` attribute (absent or None:
-    ``"growth"``), checked: ``"measured-change"`` needs a completer that can ``rehearse`` a ping without beams."""
+    ``"growth"``) and its ``run_sigma_scale`` (1 when it has none), checked: ``"measured-change"`` needs a completer that can ``rehearse`` a ping without beams."""
     mode = getattr(completer, "run_sigma", None) or "growth"
     if mode not in RUN_SIGMAS:
         raise ConfigError(f"{type(completer).__name__}.run_sigma = {mode!r}: expected one of {RUN_SIGMAS}")
@@ -85,7 +85,7 @@ def run_sigma_of(completer) -> str:
     scale = getattr(completer, "run_sigma_scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale < float("inf"):
         raise ConfigError(f"{type(completer).__name__}.run_sigma_scale = {scale!r} is not a factor > 0")
-    return mode
+    return mode, float(scale)
 
 
 def complete_with(completer, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None):
@@ -201,10 +201,9 @@ class BeamHistory:
         if drift_std is None:
             drift_std = self.drift_std
         # the held completions advance at every ping of the run, a total outage's too
-        change = self._measured_change(completer, beams, valid, imu) \
-            if run_sigma_of(completer) == "measured-change" else None
+        mode, scale = run_sigma_of(completer)
+        change = self._measured_change(completer, beams, valid, imu) if mode == "measured-change" else None
         if change is not None and valid.any():
-            scale = getattr(completer, "run_sigma_scale", 1.0)
             sigma = np.where(regressed, scale * np.maximum(sigma, change), sigma)
         else:
             grown = np.sqrt(np.maximum(sigma, self._run_sigma) ** 2 + drift_std ** 2)

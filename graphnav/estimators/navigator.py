@@ -751,7 +751,7 @@ class Navigator:
         ``GraphOptions.measured_both_margin`` without a completer whose sigma the measured beams judge."""
         options = self._backend_kwargs["graph_options"]
         if self.backend_name != "ekf" and options is not None and options.measured_both_margin is not None \
-                and run_sigma_of(self._completer) != "measured-change":
+                and run_sigma_of(self._completer)[0] != "measured-change":
             raise ConfigError("measured_both_margin compares the completions' error judged by the beams still "
                               "measured with the graph's: it needs a completer whose run_sigma is "
                               "'measured-change'")
