@@ -75,7 +75,8 @@ class SmoothedSquare:
 
 def run_sigma_of(completer) -> tuple[str, float]:
     """The run sigma (:data:`RUN_SIGMAS`) a completer asks for with its ``run_sigma`` attribute (absent or None:
-    ``"growth"``) and its ``run_sigma_scale`` (1 when it has none), checked: ``"measured-change"`` needs a completer that can ``rehearse`` a ping without beams."""
+    ``"growth"``) and its ``run_sigma_scale`` (1 when it has none), checked: ``"measured-change"`` needs a completer
+    that can ``rehearse`` a ping without beams."""
     mode = getattr(completer, "run_sigma", None) or "growth"
     if mode not in RUN_SIGMAS:
         raise ConfigError(f"{type(completer).__name__}.run_sigma = {mode!r}: expected one of {RUN_SIGMAS}")
