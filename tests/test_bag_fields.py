@@ -4,6 +4,7 @@ the standard type; without the entry the error shows the entry built from the me
 from __future__ import annotations
 
 import json
+import re
 import warnings
 
 import numpy as np
@@ -326,9 +327,53 @@ def test_five_beams_are_named_by_index(recorded, tmp_path):
         np.testing.assert_array_equal(dvl.valid, ref.valid)
         np.testing.assert_allclose(dvl.beams[ref.valid], ref.beams[ref.valid], atol=1e-6)
         np.testing.assert_array_equal(dvl.v_d, ref.v_d)
-    # an element past the end of a message's list is a beam the message lacks
-    past = _read(bag, mission.config, v_b="velocity", beams=[f"beams[{i}].velocity" for i in (0, 1, 2, 7)])
-    assert np.isnan(past.beams[:, 3]).all() and not past.valid[:, 3].any()
+    # an element past the end of every message's list names nothing the bag holds (its own test below)
+    with pytest.raises(DataError, match=r"past the end of every message's list"):
+        _read(bag, mission.config, v_b="velocity", beams=[f"beams[{i}].velocity" for i in (0, 1, 2, 7)])
+
+
+@pytest.mark.parametrize("beams", ["beam_vel[1.5]", ["beams[0].velocity", "beams[-1].velocity"], "beams[x].velocity",
+                                   "beam_vel[1]]"])
+def test_an_index_that_is_no_whole_number_is_refused_naming_the_key_and_the_path(recorded, tmp_path, beams):
+    """``beam_vel[1.5]`` was refused as a field named 'beam_vel[1.5]' the message does not have, listing its fields
+    (``beams[-1].velocity`` as 'beams[-1]'): the index, not the field, is what is wrong."""
+    mission, _, standard, _, _ = recorded
+    bag = _retyped(standard, tmp_path / "five", "geometry_msgs/Vector3 velocity\nvendor/Beam[] beams\n"
+                   "float64[5] beam_vel\n", lambda m, T: dict(velocity=m.velocity, beams=_beams(m, T, 5),
+                                                                beam_vel=np.zeros(5)))
+    bad = beams if isinstance(beams, str) else beams[1]
+    with pytest.raises(ConfigError, match=rf"^bag_topics\.dvl\.beams = .*: {re.escape(repr(bad))} has an index that "
+                                          r"is no whole number from 0: name one element as 'list\[2\]' .*, every "
+                                          r"element as 'list\[\]'"):
+        _read(bag, mission.config, v_b="velocity", beams=beams)
+
+
+def test_an_index_past_the_end_of_the_message_lists_is_refused_or_warned_and_counted(recorded, tmp_path):
+    """``beams[7].velocity`` on four-beam lists read beam 4 as missing in every ping, without a word. Past the end
+    of every message's list it is refused naming the key, the topic and the lengths seen; past the end of some
+    messages' lists (a beam the message lacks) it is warned about, naming the first message, and counted."""
+    mission, _, standard, _, _ = recorded
+    bag = _retyped(standard, tmp_path / "short", "geometry_msgs/Vector3 velocity\nvendor/Beam[] beams\n",
+                   lambda m, T: dict(velocity=m.velocity, beams=_beams(m, T, 4)))
+    fields = dict(v_b="velocity", beams=[f"beams[{i}].velocity" for i in (0, 1, 2, 7)])
+    with pytest.raises(DataError, match=r"bag_topics\.dvl\.beams = .*: 'beams\[7\]\.velocity' is past the end of "
+                                        r"every message's list 'beams' of /dvl/data \(vendor/msg/Dvl\): 4 elements "
+                                        r"\(\[0\] to \[3\]\)"):
+        _read(bag, mission.config, **fields)
+    # every tenth message has three beams: their beam 4 is missing
+    bag = _retyped(standard, tmp_path / "some", "geometry_msgs/Vector3 velocity\nvendor/Beam[] beams\n",
+                   lambda m, T: dict(velocity=m.velocity, beams=_beams(m, T, 3 if m.header.stamp.sec % 10 == 0 else 4)))
+    import dataclasses
+    config = dataclasses.replace(mission.config, bag_topics={"dvl": {"topic": "/dvl/data", "v_b": "velocity",
+                                                                     "beams": [f"beams[{i}].velocity" for i in range(4)]}})
+    with pytest.warns(RuntimeWarning, match=r"bag_topics\.dvl\.beams: 'beams\[3\]\.velocity' is past the end of the "
+                                            r"list 'beams' in (\d+) of (\d+) messages of /dvl/data \(3 elements\), "
+                                            r"first at message 0 \(t = 0\.000 s\)"):
+        m = bags.load_bag(bag, config)
+    short = np.isnan(m.dvl.beams[:, 3])
+    assert short.sum() == 5 and not m.dvl.valid[short, 3].any()
+    assert m.meta["streams"]["dvl"]["doubted"] == {
+        "bag_topics.dvl.beams past the end of the message's list: the beam read as missing": 5}
 
 
 def test_integer_velocities_read_in_their_declared_unit(recorded, tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import re
 import warnings
 
 import numpy as np
@@ -907,3 +908,64 @@ def test_beam_columns_in_a_declared_unit_too_large_are_refused_naming_the_key(si
     cmap["dvl"]["velocity_unit"] = "m/s"
     with pytest.raises(DataError, match=r"in the declared unit 'm/s' \(csv_columns.dvl.velocity_unit\) is beyond"):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def _depth_log(tmp_path, m, stamps):
+    """The mission's depth at 1 Hz as a ``depth`` column, stamped ``stamps(t)`` (t: s on the mission's clock)."""
+    t = np.arange(m.depth.t[0], m.depth.t[-1] + 1e-9, 1.0)
+    _write(tmp_path / "depth.csv", ["t", "depth"], [stamps(t), np.interp(t, m.depth.t, m.depth.depth)])
+    return {"file": "depth.csv", "t": "t", "depth": "depth"}
+
+
+def test_a_declared_time_unit_that_puts_a_stream_off_the_imu_span_is_refused_naming_the_key(sim, tmp_path):
+    """A depth at 1 Hz stamped in s declared 'ms' steps 1 ms, a plausible depth period, and loaded 1.7e9 s before the
+    IMU, unused, with a depth-spike warning as the only word; a reference the same way drew warnings of position
+    steps; a 20 Hz DVL in ms declared 's' was refused as 'micro/nanoseconds read as seconds'. The span in the
+    declared unit is now checked against the IMU's: refused naming the key and the unit that puts it there."""
+    cmap = _separate_files(tmp_path, sim)
+    cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: t + T0), "time_unit": "ms"}
+    with pytest.raises(DataError, match=r"depth.csv, field 't': the declared time unit 'ms' \(csv_columns.depth."
+                                        r"time_unit\) puts the depth stamps at \[-1698300000\.000, "
+                                        r"-1698299999\.960\] s, sharing 0 % of the IMU's \[0\.000, 40\.000\] s .*; in 's' they lie at \[0\.000, 40\.000\] s, "
+                                        r"sharing 100 %: set csv_columns.depth.time_unit to 's'$"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    # the global unit, right for the IMU (ms), wrong for a reference stamped in s at 1 Hz: its own key is advised
+    cmap = _separate_files(tmp_path, sim)
+    g, k = sim.gt, np.arange(0, len(sim.gt.t), 10)
+    _write(tmp_path / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [g.t[k] + T0, g.p_n[k], g.v_n[k], np.degrees(C_b_n_to_euler(g.C_b_n[k]))])
+    cmap["gt"]["t"] = "t"
+    with pytest.raises(DataError, match=r"nav.csv, field 't': the declared time unit 'ms' \(csv_columns.time_unit\) "
+                                        r".* set csv_columns.gt.time_unit to 's' \(this stream's own unit"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    # a 20 Hz DVL stamped in ms, declared s: 50 s steps are a plausible DVL period too
+    cmap = _separate_files(tmp_path, sim)
+    t = np.arange(0.0, 40.0, 0.05)
+    v_b = np.column_stack([np.interp(t, sim.gt.t, sim.gt.v_b[:, i]) for i in range(3)])
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [(t + T0) * 1e3, v_b])
+    cmap["dvl"] = {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "time_unit": "s"}
+    with pytest.raises(DataError, match=r"dvl.csv, field 't': the declared time unit 's' \(csv_columns.dvl.time_unit\)"
+                                        r" .* set csv_columns.dvl.time_unit to 'ms'$"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_a_stream_off_the_imu_span_in_every_unit_is_warned_about_and_counted(sim, tmp_path):
+    """A depth or reference on a clock of its own (5000 s late), whose unit explains nothing: the depth loaded
+    without a word and was never used ('graphnav info': usable, 41 used), the reference too until scoring failed. They
+    keep today's use, but are warned about naming the file, the stamp column and both spans, and counted; a DVL on
+    a clock of its own in its declared unit is still found by the clock search."""
+    cmap = _separate_files(tmp_path, sim)
+    cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: (t + T0 + 5000.0) * 1e3), "time_unit": "ms"}
+    g = sim.gt
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t + T0 + 5000.0) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
+    with pytest.warns(RuntimeWarning) as caught:
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    said = [str(w.message) for w in caught]
+    for name, field, what, n in (("depth", "t", "depth", 41), ("gt", "time_ms", "reference", 401)):
+        assert any(re.search(rf"\b{name if name == 'depth' else 'nav'}\.csv: field '{field}': the {what} stamps "
+                             r"\[5000\.000, 5040\.000\] s lie off the IMU span \[0\.000, 40\.000\] s \(sharing 0 % of "
+                             rf"the shorter span\): a clock of its own; the {n} of {n} sample\(s\) outside", s)
+                   for s in said), said
+        assert m.meta["streams"][name]["refused"] == {"outside the IMU time span": n}
+        assert m.meta["streams"][name]["used"] == 0

@@ -44,7 +44,8 @@ Every mission: an IMU whose stamps come in packets or bursts (a driver stamping 
 back on its period, with a warning and a note; an IMU whose stamps run at another rate than the configured
 ``imu_rate_hz`` (50 or 200 Hz against 100) has the measured rate put in its configuration, with a note. DVL pings
 outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`), and a DVL span off the
-IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`).
+IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`); a log's or bag's depth or reference
+span off the IMU's is warned about and counted (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
 ``meta["prepared"]``) is prepared already and comes back unchanged.
@@ -116,13 +117,16 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
             raise ConfigError(f"{sorted(explicit)} apply to A-KIT folders; {meta.get('source', mission.name)} is "
                               f"{facts.get('format', 'another format')}: set them in its configuration instead")
         mission = _prepare_streams(mission, meta, facts)
-    from graphnav.io.stream_counts import check_dvl_on_imu_clock, record_outside_span
+    from graphnav.io.stream_counts import check_dvl_on_imu_clock, record_outside_span, warn_off_the_imu_clock
     record_outside_span(mission)
     if facts.get("format") == "akit":
         check_dvl_on_imu_clock(mission, _GIVE_OFFSET.format(kind="DVL", stream="dvl"), field="Time [s]")
     else:
         check_dvl_on_imu_clock(mission, "put the DVL stamps on the IMU clock (a CSV column map's \"clock\": "
                                         "\"auto\" finds its offset)")
+        cmap = mission.config.csv_columns or {}
+        stamp = "header.stamp" if facts.get("format") == "bag" else "t"
+        warn_off_the_imu_clock(mission, {k: (cmap.get(k) or {}).get("t", stamp) for k in ("depth", "gt")})
     return mission
 
 

@@ -206,7 +206,8 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     info: dict = {"dvl_message": s.msgtype}
     fields = config.bag_topics.get("dvl")
     if fields:
-        beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info)
+        beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info,
+                                                         messages(s, t0_ns))
     elif s.msgtype == MARINE_DVL:
         beams, valid, v_d, v_ok, sig = _marine(s, source, info)
     elif s.msgtype == WL_DVL:

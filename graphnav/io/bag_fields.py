@@ -8,7 +8,7 @@ names, in the column map's words (``csv_columns.dvl``)::
 
 A field is a path in the message: ``a.b`` a field of a sub-message, ``beams[].velocity`` that field of every
 element of a list (in list order: beam 1 first), ``beams[2].velocity`` or ``raw_velocity[3]`` that of one element
-(counted from 0; past the end of a message's list: NaN). ``v_b`` names a ``Vector3`` or three number fields (a list
+(counted from 0; past the end of some messages' lists: NaN there, warned and counted; of every message's: refused). ``v_b`` names a ``Vector3`` or three number fields (a list
 of three paths), ``beams`` four (an array, a list's field, or four paths; three of a three-beam DVL, beam 4 then
 NaN and invalid), ``valid`` the beams' flags (bool or integer fields, non-zero = valid; left out: every finite beam
 is), ``velocity_valid`` the velocity's own flag (left out: a finite velocity is valid, and with ``valid`` given only
@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 
 import numpy as np
 
 from graphnav.core.errors import ConfigError, DataError
-from graphnav.core.streams import add_note
+from graphnav.core.streams import add_note, count_doubted
 
 KEY = "bag_topics.dvl"
 #: The keys of :data:`KEY` that name fields of the message, and how many values each gives per message.
@@ -42,6 +43,12 @@ def _paths(spec: dict, key: str) -> list[str]:
     if not isinstance(paths, list) or not paths or not all(isinstance(p, str) and p for p in paths):
         raise ConfigError(f"{KEY}.{key} = {value!r}: a field of the message ('velocity', 'beams[].velocity') or a "
                           "list of them")
+    # split on '.' an index such as [1.5] reads as a field 'beams[1' the message lacks: the index is what is wrong
+    bad = next((p for p in paths if any(("[" in part or "]" in part) and not re.fullmatch(r"\w+\[\d*\]", part)
+                                        for part in p.split("."))), None)
+    if bad is not None:
+        raise ConfigError(f"{KEY}.{key} = {value!r}: {bad!r} has an index that is no whole number from 0: name one "
+                          "element as 'list[2]' (counted from 0), every element as 'list[]'")
     return paths
 
 
@@ -195,31 +202,70 @@ def _numbers(fielddefs: dict, kind: str) -> tuple[str, int | None]:
     return kind, 1
 
 
-def values(rows: list, path: str) -> list[np.ndarray]:
+def values(rows: list, path: str, short: dict | None = None) -> list[np.ndarray]:
     """The numbers at ``path`` in each message (a ``Vector3`` gives x, y, z); an element ``[i]`` past the end of a
-    message's list is NaN (a beam the message lacks, as a list cut short)."""
-    def at(msg, parts):
+    message's list is NaN (a beam the message lacks), and ``short`` gets ``{message index: (list, its length)}``."""
+    def at(msg, parts, i):
         if not parts:
             return [msg.x, msg.y, msg.z] if hasattr(msg, "x") else msg
         (name, index), rest = _part(parts[0]), parts[1:]
         if parts[0].endswith("[]"):
-            return [at(m, rest) for m in getattr(msg, name)]
+            return [at(m, rest, i) for m in getattr(msg, name)]
         if index is not None:
             items = getattr(msg, name)
-            return at(items[index], rest) if index < len(items) else np.nan
-        return at(getattr(msg, name), rest)
+            if index < len(items):
+                return at(items[index], rest, i)
+            if short is not None:
+                short[i] = (name, len(items))
+            return np.nan
+        return at(getattr(msg, name), rest, i)
     parts = path.split(".")
-    return [np.ravel(np.asarray(at(m, parts), float)) for m in rows]
+    return [np.ravel(np.asarray(at(m, parts, i), float)) for i, m in enumerate(rows)]
 
 
-def table(rows: list, spec: dict, key: str, source: str, topic: str) -> np.ndarray:
-    """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`); a message with fewer beams or beam flags (a beam
-    list cut short) is padded with NaN, one with more, or a velocity or its flag short of values, is a DataError
-    naming the topic, message and field."""
-    n = FIELD_KEYS[key]
+#: Why pings of a bag's DVL are counted as doubted when an index of :data:`KEY` is past the end of their list.
+SHORT_LIST_DOUBT = f"{KEY}.{{key}} past the end of the message's list: the beam read as missing"
+
+
+def _past_the_end(short: dict, n: int, spec: dict, key: str, path: str, source: str, topic: str, msgtype: str,
+                  meta: dict | None, where: list[str] | None) -> None:
+    """``short`` (:func:`values`) of ``path`` over ``n`` messages: past the end of every message's list a DataError
+    naming the key, the topic and the lengths seen (the path names nothing the bag holds); of some, a warning naming
+    the first message and their count as doubted in ``meta`` (a message lacking a beam)."""
+    if not short:
+        return
+    name = next(iter(short.values()))[0]
+    lengths = sorted({length for _, length in short.values()})
+    seen = " or ".join(str(x) for x in lengths) + f" element{'s' * (lengths != [1])}"
+    if len(short) == n:
+        raise DataError(f"{KEY}.{key} = {spec[key]!r}: {path!r} is past the end of every message's list {name!r} of "
+                        f"{topic} ({msgtype}): {seen} ([0] to [{lengths[-1] - 1}]); name an element it has, or "
+                        f"'{name}[]' for each", source, field=topic)
+    first = min(short)
+    at = where[first] if where is not None else f"message {first}"
+    text = (f"{KEY}.{key}: {path!r} is past the end of the list {name!r} in {len(short)} of {n} messages of {topic} "
+            f"({seen}), first at {at}: the beam is read as missing there")
+    if meta is not None:
+        add_note(meta, "dvl", text)
+        count_doubted(meta, "dvl", SHORT_LIST_DOUBT.format(key=key), len(short))
+    warnings.warn(f"{source}:{topic}: {text}", RuntimeWarning, stacklevel=4)
+
+
+def table(s, spec: dict, key: str, source: str, meta: dict | None = None,
+          where: list[str] | None = None) -> np.ndarray:
+    """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`) in the messages of topic ``s``
+    (:class:`graphnav.io.bag_convert.Stream`); a message with fewer beams or beam flags (a beam list cut short) is
+    padded with NaN, one with more, or a velocity or its flag short of values, is a DataError naming the topic,
+    message and field; an index past the end of message lists: :func:`_past_the_end` (``where``: each message named
+    for a warning)."""
+    n, rows, topic = FIELD_KEYS[key], s.rows, s.topic
     paths = _paths(spec, key)
     try:
-        cols = [values(rows, p) for p in paths]
+        cols = []
+        for p in paths:
+            short: dict = {}
+            cols.append(values(rows, p, short))
+            _past_the_end(short, len(rows), spec, key, p, source, topic, s.msgtype, meta, where)
     except (TypeError, ValueError) as exc:
         raise DataError(f"{KEY}.{key} = {spec[key]!r} does not name numbers (a Vector3 or numbers): {exc}", source,
                         field=topic) from None
@@ -294,11 +340,11 @@ def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -
             f"{missing}: check the frame and unit against the driver's documentation (docs/decisions/bags.md)")
 
 
-def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
+def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict, named: list[str] | None = None):
     """``(beams, valid, v_d, v_ok, sigma)`` of a topic ``s`` (:class:`graphnav.io.bag_convert.Stream`) read through
     ``spec`` (:data:`KEY`), as the built-in messages give them: m/s, the velocity in the DVL frame (turned from the
     declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used). The fields read are in
-    ``info["dvl_fields"]`` and a note of the DVL stream."""
+    ``info["dvl_fields"]`` and a note of the DVL stream. ``named``: each message named for a warning."""
     from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
     from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_velocity_units
     if "v_b" not in spec and "beams" not in spec:
@@ -315,18 +361,18 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict):
     n = len(s.rows)
 
     def in_mps(key, **kw):
-        cells = table(s.rows, spec, key, source, s.topic) * scale
+        cells = table(s, spec, key, source, meta, named) * scale
         return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix,
                                   key=f"{KEY}.velocity_unit", **kw)
     beams = in_mps("beams", beams=True) if "beams" in spec else np.full((n, 4), np.nan)
-    flags = table(s.rows, spec, "valid", source, s.topic) if "valid" in spec else np.ones((n, 4))
+    flags = table(s, spec, "valid", source, meta, named) if "valid" in spec else np.ones((n, 4))
     valid = (np.nan_to_num(flags) != 0) & np.isfinite(beams)
     v_d = np.full((n, 3), np.nan)
     if "v_b" in spec:
         v = in_mps("v_b")
         v_d = v if frame == "instrument" else velocity_to_body(v, frame, C_d_b) @ C_d_b    # v_d = C_d_b^T v_b
     if "velocity_valid" in spec:
-        v_ok = np.nan_to_num(table(s.rows, spec, "velocity_valid", source, s.topic)[:, 0]) != 0
+        v_ok = np.nan_to_num(table(s, spec, "velocity_valid", source, meta, named)[:, 0]) != 0
     else:       # as a column map's: a velocity needs three valid beams when the beams are flagged
         # the raw flags: with no beams named, every beam is NaN and would leave no velocity valid
         v_ok = np.all(np.isfinite(v_d), axis=1) & (((np.nan_to_num(flags) != 0).sum(axis=1) >= 3)

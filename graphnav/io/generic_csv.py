@@ -101,8 +101,8 @@ from graphnav.core.screening import (
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
-from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, declared_scale, dvl_velocity_units, imu_units,
-                               stamps_in_seconds)
+from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, check_declared_time_span, declared_scale,
+                               dvl_velocity_units, imu_units, stamps_in_seconds)
 
 TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
                                                        for k in ("time", "accel", "gyro", "velocity"))
@@ -216,10 +216,12 @@ def _unit_named(spec: dict, key: str) -> dict:
 
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
-          time_unit: str | None, tables: dict, meta: dict, repair: bool = False) -> tuple[np.ndarray, dict, Path]:
+          time_unit: str | None, tables: dict, meta: dict, repair: bool = False,
+          t_imu: np.ndarray | None = None) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
     repeating an earlier one exactly dropped; with ``repair`` rows with a repeated stamp too, and sorted; each
-    counted)."""
+    counted). ``t_imu``: the IMU's stamps (s, the file's clock), which a declared time unit's span is checked
+    against (:func:`graphnav.io.units.check_declared_time_span`)."""
     if "t" not in spec:
         raise ConfigError(f"csv_columns.{stream} needs 't' (the stamp column)")
     path = root / spec["file"] if "file" in spec else data_file
@@ -246,6 +248,8 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     own = None if stream == "imu" or "time_unit" in spec else f"csv_columns.{stream}.time_unit"
     t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key,
                           stream_key=own)
+    if unit is not None and t_imu is not None:
+        check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read
@@ -330,7 +334,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
         t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3, "euler": 3},
-                               time_unit, tables, meta, repair)
+                               time_unit, tables, meta, repair, t_imu)
         vscale = declared_scale(spec, "velocity_unit", VELOCITY_UNITS, "m/s", "csv_columns.dvl")
         vdeclared = spec.get("velocity_unit")
         lines = dvl_lines = v["_lines"]
@@ -385,7 +389,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         key = "depth" if "depth" in spec else "pressure" if "pressure" in spec else None
         if key is None:
             raise ConfigError("csv_columns.depth needs 'depth' (m, down) or 'pressure' (a column name)")
-        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta, repair)
+        t_d, v, path = _read(root, data_file, spec, "depth", {key: 1}, time_unit, tables, meta, repair, t_imu)
         # an empty, NaN or infinite cell refuses its row, as for the IMU and the reference
         _count_read(meta, "depth", t_d, path)
         t_d, x = refuse_rows(meta, "depth", not_finite(v[key], [spec[key]]), str(path), v["_lines"], t_d, v[key][:, 0])
@@ -410,7 +414,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("gt")
     if spec:
         t_g, v, path = _read(root, data_file, spec, "gt", {"p_n": 3, "v_n": 3, "euler": 3}, time_unit, tables,
-                             meta, repair)
+                             meta, repair, t_imu)
         keys = ("p_n", "v_n", "euler")
         for key in keys:
             if key not in v:

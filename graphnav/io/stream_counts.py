@@ -104,6 +104,31 @@ def _name_stamp_jump(mission: Mission, outside: np.ndarray) -> None:
     warnings.warn(f"{mission.dvl.source}: {text}", RuntimeWarning, stacklevel=4)
 
 
+#: What to do about a depth or reference whose span is off the IMU's (:func:`warn_off_the_imu_clock`).
+OFF_THE_IMU_CLOCK_FIX = {"depth": "put the depth stamps on the IMU clock",
+                         "gt": "give gt_time_offset_s (s added to the reference stamps) in the configuration"}
+
+
+def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> None:
+    """Warn about, note and count (:data:`OUTSIDE_IMU_SPAN`) a depth or reference stream whose span is off the
+    IMU's once the mission is prepared (:func:`graphnav.core.timeseries.on_the_imu_clock`): the estimators use no
+    depth sample outside the IMU span, and a reference there scores nothing, so the stream was dropped without a word
+    (``graphnav info`` called it usable). ``fields``: the stamp field of each stream, for the message."""
+    from graphnav.core.timeseries import on_the_imu_clock, overlap_text
+    t_imu = mission.imu.t
+    for stream, data in (("depth", mission.depth), ("gt", mission.gt)):
+        if data is None or not len(data.t) or not len(t_imu) or on_the_imu_clock(data.t, t_imu):
+            continue
+        outside = int(np.sum((data.t < t_imu[0]) | (data.t > t_imu[-1])))
+        text = (f"field '{fields.get(stream, 't')}': the {'reference' if stream == 'gt' else stream} stamps "
+                f"[{data.t[0]:.3f}, {data.t[-1]:.3f}] s lie off the IMU span [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s "
+                f"(sharing {overlap_text(data.t, t_imu)}): a clock of its own; the {outside} of {len(data.t)} "
+                f"sample(s) outside the IMU span are not used; {OFF_THE_IMU_CLOCK_FIX[stream]}")
+        count_refused(mission.meta, stream, OUTSIDE_IMU_SPAN, outside)
+        add_note(mission.meta, stream, text)
+        warnings.warn(f"{data.source}: {text}", RuntimeWarning, stacklevel=3)
+
+
 def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",
                            field: str = "t") -> None:
     """DataError naming the DVL source, both time spans and ``what_to_do`` when the span of the usable DVL pings is

@@ -155,13 +155,7 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
     if t.size < 2:
         return 1.0, "s"
     step = np.diff(t)
-    med = float(np.median(step))
-    if stream == "imu":     # packets stamped on receipt: 0.01 ms steps or one stamp each, yet a 10 ms period
-        from graphnav.core.imu_timing import imu_step_stats, shared_stamp_packets
-        packets = shared_stamp_packets(t)
-        med = packets[2] if packets else imu_step_stats(step)[0] if med > 0 else med
-    lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
-    fits = [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
+    med, (lo, hi), fits = _plausible_units(t, stream)
     if declared is not None:
         if declared not in TIME_SCALES:
             raise ConfigError(f"{source}: time unit {declared!r}: choose one of {sorted(TIME_SCALES)}")
@@ -170,9 +164,8 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
             said = (f"the declared time unit {declared!r} ({key}) makes the median stamp step "
                     f"{med * TIME_SCALES[declared]:.3g} s, no plausible {stream} sample period ({lo:g}-{hi:g} s)")
             if fits:
-                fix = (f"set {key} to {fits[0]!r}" if stream_key is None else
-                       f"set {stream_key} to {fits[0]!r} (this stream's own unit: {key} fits the others)")
-                raise DataError(f"{said}: the stamps look like {fits[0]}; {fix}", source, field=field)
+                raise DataError(f"{said}: the stamps look like {fits[0]}; {_set_unit(key, fits[0], stream_key)}",
+                                source, field=field)
             _note(meta, stream, f"field '{field}': stamps kept in the declared unit: {said}, nor in any other unit",
                   source)
     elif lo <= med <= hi or med <= 0:
@@ -195,6 +188,63 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
                         f"{t[i - 1]:.6g} -> {t[i]:.6g} ({unit}){at}", source,
                         i if lines is None else int(lines[i]), field)
     return scale, unit
+
+
+def _set_unit(key: str, unit: str, stream_key: str | None) -> str:
+    """The advice to set the time unit under ``key``, or under ``stream_key`` (the stream's own) when the shared
+    ``key`` fits the other streams."""
+    return (f"set {key} to {unit!r}" if stream_key is None else
+            f"set {stream_key} to {unit!r} (this stream's own unit: {key} fits the others)")
+
+
+def _plausible_units(t: np.ndarray, stream: str) -> tuple[float, tuple[float, float], list[str]]:
+    """``(median step as read, the stream's plausible period (s), the units that make the step one)`` of stamps ``t``
+    (at least two, as read)."""
+    step = np.diff(t)
+    med = float(np.median(step))
+    if stream == "imu":     # packets stamped on receipt: 0.01 ms steps or one stamp each, yet a 10 ms period
+        from graphnav.core.imu_timing import imu_step_stats, shared_stamp_packets
+        packets = shared_stamp_packets(t)
+        med = packets[2] if packets else imu_step_stats(step)[0] if med > 0 else med
+    lo, hi = PLAUSIBLE_PERIOD_S.get(stream, (1e-4, 60.0))
+    return med, (lo, hi), [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
+
+
+def _span_share(t: np.ndarray, t_imu: np.ndarray) -> float:
+    """The overlap of the spans of stamps ``t`` and ``t_imu`` (s) over the longer of the two, 0..1: near 1 only for
+    a stream on the IMU span and about as long (a unit 1000x off makes it 1000x longer or shorter)."""
+    a, b = float(np.nanmin(t)), float(np.nanmax(t))
+    longer = max(b - a, float(t_imu[-1] - t_imu[0]))
+    return float(np.clip((min(b, t_imu[-1]) - max(a, t_imu[0])) / longer, 0.0, 1.0)) if longer > 0 else 0.0
+
+
+def check_declared_time_span(t: np.ndarray, t_imu: np.ndarray, stream: str, source: str, declared: str, key: str,
+                             field: str = "t", stream_key: str | None = None) -> None:
+    """DataError naming ``key`` (the configuration key that ``declared`` the time unit) and the unit that fits when
+    another unit with a plausible sample period (:func:`time_scale`) puts stamps ``t`` (s, the declared unit applied,
+    the file's clock) on the IMU's span ``t_imu`` (s, the same clock), sharing at least
+    :data:`~graphnav.core.timeseries.MIN_CLOCK_OVERLAP` of the longer span, where the declared one does not: a depth
+    at 1 Hz in s declared ms passes the period check (1 ms) and sat 1.7e9 s before the IMU. A stream off the span in
+    every unit (a clock of its own) is left to the clock checks; ``stream_key`` as for :func:`time_scale`."""
+    from graphnav.core.timeseries import MIN_CLOCK_OVERLAP
+    t = np.asarray(t, float)
+    if t.size < 2 or len(t_imu) < 2 or _span_share(t, t_imu) >= MIN_CLOCK_OVERLAP:
+        return
+    raw = t / TIME_SCALES[declared]
+    fits = [u for u in _plausible_units(raw, stream)[2]
+            if u != declared and _span_share(raw * TIME_SCALES[u], t_imu) >= MIN_CLOCK_OVERLAP]
+    if not fits:
+        return
+    t0, unit = float(t_imu[0]), fits[0]
+    other = raw * TIME_SCALES[unit]
+
+    def span(x):
+        return f"[{np.nanmin(x) - t0:.3f}, {np.nanmax(x) - t0:.3f}] s"
+    fix = _set_unit(key, unit, stream_key)
+    raise DataError(f"the declared time unit {declared!r} ({key}) puts the {stream} stamps at {span(t)}, sharing "
+                    f"{100 * _span_share(t, t_imu):.0f} % of the IMU's {span(t_imu)} (s from the first IMU stamp; "
+                    f"of the longer span); in {unit!r} they lie at {span(other)}, sharing "
+                    f"{100 * _span_share(other, t_imu):.0f} %: {fix}", source, field=field)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1394,7 +1444,7 @@ AKIT_DVL_FIXES = {"declare": False,
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
-           "dvl_velocity_units", "time_scale", "declared_scale",
+           "dvl_velocity_units", "time_scale", "check_declared_time_span", "declared_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
