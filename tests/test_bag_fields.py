@@ -364,8 +364,8 @@ def test_an_index_past_the_end_of_the_message_lists_is_refused_or_warned_and_cou
     bag = _retyped(standard, tmp_path / "some", "geometry_msgs/Vector3 velocity\nvendor/Beam[] beams\n",
                    lambda m, T: dict(velocity=m.velocity, beams=_beams(m, T, 3 if m.header.stamp.sec % 10 == 0 else 4)))
     import dataclasses
-    config = dataclasses.replace(mission.config, bag_topics={"dvl": {"topic": "/dvl/data", "v_b": "velocity",
-                                                                     "beams": [f"beams[{i}].velocity" for i in range(4)]}})
+    dvl_topic = {"topic": "/dvl/data", "v_b": "velocity", "beams": [f"beams[{i}].velocity" for i in range(4)]}
+    config = dataclasses.replace(mission.config, bag_topics={"dvl": dvl_topic})
     with pytest.warns(RuntimeWarning, match=r"bag_topics\.dvl\.beams: 'beams\[3\]\.velocity' is past the end of the "
                                             r"list 'beams' in (\d+) of (\d+) messages of /dvl/data \(3 elements\), "
                                             r"first at message 0 \(t = 0\.000 s\)"):

@@ -926,7 +926,8 @@ def test_a_declared_time_unit_that_puts_a_stream_off_the_imu_span_is_refused_nam
     cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: t + T0), "time_unit": "ms"}
     with pytest.raises(DataError, match=r"depth.csv, field 't': the declared time unit 'ms' \(csv_columns.depth."
                                         r"time_unit\) puts the depth stamps at \[-1698300000\.000, "
-                                        r"-1698299999\.960\] s, sharing 0 % of the IMU's \[0\.000, 40\.000\] s .*; in 's' they lie at \[0\.000, 40\.000\] s, "
+                                        r"-1698299999\.960\] s, sharing 0 % of the IMU's \[0\.000, 40\.000\] s .*; "
+                                        r"in 's' they lie at \[0\.000, 40\.000\] s, "
                                         r"sharing 100 %: set csv_columns.depth.time_unit to 's'$"):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
     # the global unit, right for the IMU (ms), wrong for a reference stamped in s at 1 Hz: its own key is advised

@@ -8,8 +8,8 @@ names, in the column map's words (``csv_columns.dvl``)::
 
 A field is a path in the message: ``a.b`` a field of a sub-message, ``beams[].velocity`` that field of every
 element of a list (in list order: beam 1 first), ``beams[2].velocity`` or ``raw_velocity[3]`` that of one element
-(counted from 0; past the end of some messages' lists: NaN there, warned and counted; of every message's: refused). ``v_b`` names a ``Vector3`` or three number fields (a list
-of three paths), ``beams`` four (an array, a list's field, or four paths; three of a three-beam DVL, beam 4 then
+(counted from 0; past the end of some messages' lists: NaN there, warned and counted; of every message's: refused).
+``v_b`` names a ``Vector3`` or three number fields (a list of three paths), ``beams`` four (an array, a list's field, or four paths; three of a three-beam DVL, beam 4 then
 NaN and invalid), ``valid`` the beams' flags (bool or integer fields, non-zero = valid; left out: every finite beam
 is), ``velocity_valid`` the velocity's own flag (left out: a finite velocity is valid, and with ``valid`` given only
 over three valid beams, as a column map's). Velocities may be integer fields (a raw driver's int16 mm/s, declared
