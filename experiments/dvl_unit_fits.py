@@ -5,7 +5,10 @@ that fits is the one that brings it back. The shared A-KIT trajectories whole an
 missions (navigation, tactical, MEMS; seeds 0-2; 150 and 600 s; the default beams) and hovering vehicles with a DVL
 (``tests/test_units.py::_hovering_with_dvl``).
 
-    .venv/bin/python experiments/dvl_unit_fits.py [--no-sim] [--no-pieces]
+A knots mix-up gives the velocity x0.514 (m/s declared kn) or x1.944 (knots declared m/s): ``--scales 0.514444
+1.943844``.
+
+    .venv/bin/python experiments/dvl_unit_fits.py [--no-sim] [--no-pieces] [--scales K ...]
 """
 from __future__ import annotations
 
@@ -52,17 +55,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--no-sim", action="store_true", help="the A-KIT trajectories only")
     ap.add_argument("--no-pieces", action="store_true", help="whole A-KIT trajectories only")
+    ap.add_argument("--scales", type=float, nargs="+", default=SCALES, help="the factors tried besides 1")
     args = ap.parse_args(argv)
-    print("source; unexplained at x" + " ".join(f"{k:g}" for k in (1.0, *SCALES)))
+    scales = tuple(args.scales)
+    print("source; unexplained at x" + " ".join(f"{k:g}" for k in (1.0, *scales)))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, imu, dvl, config in _sources(not args.no_sim, not args.no_pieces):
             try:
-                fits = velocity_scale_fits(imu, dvl, config, SCALES)
+                fits = velocity_scale_fits(imu, dvl, config, scales)
             except DataError as exc:
                 print(f"{name}; not judged: {exc.message}")
                 continue
-            print(f"{name}; " + " ".join(f"{fits[k]:.4g}" for k in (1.0, *SCALES)), flush=True)
+            print(f"{name}; " + " ".join(f"{fits[k]:.4g}" for k in (1.0, *scales)), flush=True)
     return 0
 
 

@@ -628,3 +628,11 @@ def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warnin
         warnings.simplefilter("error")
         dvl_scale.check_declared_velocity_unit(m.imu, m.dvl, m.config, meta, declared)
     assert meta == {}
+
+
+def test_an_earth_frame_velocity_in_its_declared_unit_keeps_the_frame_advice(sim, tmp_path):
+    """A velocity logged in NED, declared m/s (its right unit): no smaller unit (cm/s, mm/s, knots) explains it, and
+    the frame check's advice stands, as undeclared."""
+    _, _, v_sim = sim
+    with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\): declare csv_columns.dvl.frame 'ned'"):
+        _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim), {"velocity_unit": "m/s"}))

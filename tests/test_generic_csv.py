@@ -691,8 +691,9 @@ def test_a_column_map_dvl_in_an_unknown_unit_is_refused_naming_its_columns_and_t
     _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [dvl[:, 0], dvl[:, 1:] * 100])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(DataError, match=r"cm/s \(0\.\d+ m/s\) or mm/s \(0\.0\d+ m/s\)\? declare "
-                                            r"csv_columns\.dvl\.velocity_unit \(m/s, cm/s, mm/s, kn\)$") as err:
+        with pytest.raises(DataError, match=r"cm/s \(0\.\d+ m/s\) or mm/s \(0\.0\d+ m/s\) \(most plausible first: "
+                                            r"the IMU's .*\)\? declare csv_columns\.dvl\.velocity_unit \(m/s, cm/s, "
+                                            r"mm/s, kn\)$") as err:
             load_mission(tmp_path, cfg)
     assert err.value.source == str(tmp_path / "dvl.csv") and err.value.field == "vx, vy, vz"
 
@@ -970,3 +971,79 @@ def test_a_stream_off_the_imu_span_in_every_unit_is_warned_about_and_counted(sim
                    for s in said), said
         assert m.meta["streams"][name]["refused"] == {"outside the IMU time span": n}
         assert m.meta["streams"][name]["used"] == 0
+
+
+def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, seed=1, seconds=200.0):
+    """A column-map log of a vehicle at 0.35-0.55 m/s turning gently, or (``hovering``) holding station on thrusters
+    (0.05 m/s^2, about 0.15 m/s): IMU 100 Hz FRD with exact kinematics, a 1 Hz body velocity with 3 mm/s of noise
+    written times ``dvl_factor`` (1000: mm/s) and its unit ``declared``."""
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, seconds, 0.01)
+    if hovering:
+        a = np.cumsum(rng.normal(0.0, 1.0, (t.size + 200, 3)), axis=0)
+        a = (a[200:] - a[:-200]) * 0.05 / np.std(a[200:] - a[:-200], axis=0)
+        v_b = np.cumsum(a, axis=0) * 0.01
+        v_b -= np.column_stack([np.convolve(v_b[:, i], np.ones(3000) / 3000, "same") for i in range(3)])
+        heading, tilt = 0.7 + 0.3 * np.sin(2 * np.pi * t / 100.0), 3e-4
+    else:
+        v_b = np.column_stack([0.45 + 0.1 * np.sin(2 * np.pi * t / 90.0), 0.02 * np.sin(2 * np.pi * t / 40.0),
+                               0.01 * np.sin(2 * np.pi * t / 60.0)])
+        heading, tilt = 1.0 + np.cumsum(0.03 * np.sin(2 * np.pi * t / 120.0)) * 0.01, 0.01
+    R = Rotation.from_euler("ZYX", np.column_stack([heading, tilt * np.sin(2 * np.pi * t / 11.0 + 1),
+                                                    tilt * np.sin(2 * np.pi * t / 7.0)]))
+    f_b = R.inv().apply(np.gradient(R.apply(v_b), t, axis=0) - [0.0, 0.0, 9.80665]) + rng.normal(0, 0.01, v_b.shape)
+    omega = (R[:-1].inv() * R[1:]).as_rotvec() / 0.01
+    omega = np.vstack([omega, omega[-1]]) + rng.normal(0, 5e-4, v_b.shape)
+    _write(root / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f_b, omega])
+    i = np.arange(0, t.size, 100)
+    v_dvl = (v_b[i] + rng.normal(0, 0.003, (i.size, 3))) * dvl_factor
+    _write(root / "dvl.csv", ["t", "vx", "vy", "vz"], [t[i], v_dvl])
+    dvl = {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"}
+    imu = {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"], "frame": "frd"}
+    cfg = {"csv_columns": {"imu": imu, "dvl": dvl | ({"velocity_unit": declared} if declared else {})},
+           "dvl": {"rate_hz": 1.0, "lever_arm_b": [0, 0, 0]}}
+    (root / "config.json").write_text(json.dumps(cfg))
+    return root / "config.json"
+
+
+@pytest.mark.parametrize("hovering, refusal", [
+    (False, r"dvl.csv, field 'vx, vy, vz': 1\d\d of 200 dvl samples refused \(1\d\d outside the envelope \(speed\)\): "
+            r"more than 50% of the stream; "),
+    (True, r"dvl.csv, field 'vx, vy, vz': DVL velocity in the declared unit 'cm/s' turns with the vehicle: .*; ")])
+def test_a_declared_unit_10x_too_large_on_a_slow_or_hovering_vehicle_is_named_as_the_likely_cause(tmp_path, hovering,
+                                                                                                   refusal):
+    """mm/s data declared cm/s: a slow vehicle (0.45 m/s) read at 4.5 m/s was refused by the vehicle's envelope with
+    'check the units', a hovering one (0.15 m/s at 1.5 m/s) by the frame check as earth-fixed with the advice to
+    declare csv_columns.dvl.frame 'ned'. In mm/s the speeds are plausible, the velocity vehicle-fixed and the IMU's
+    accelerations explain it: the refusal names the unit and the key. Declared mm/s, both load."""
+    cfg = _slow_log(tmp_path, hovering, 1e3, "cm/s")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=refusal + r"the declared unit is the likely cause: in 'mm/s' \(x0.1\) "
+                                            r"the median speed is 0.\d+ m/s, \d+ of 200 pings within the vehicle's "
+                                            r"envelope, the velocity vehicle-fixed, the IMU's accelerations leaving "
+                                            r"0.\d+ of its changes unexplained against \d.\d+ in 'cm/s': set "
+                                            r"csv_columns.dvl.velocity_unit to 'mm/s'$"):
+            load_mission(tmp_path, cfg)
+        load_mission(tmp_path, _slow_log(tmp_path, hovering, 1e3, "mm/s"))
+
+
+def test_the_units_a_speed_beyond_a_dvl_names_come_most_plausible_first(tmp_path):
+    """A hovering vehicle's velocity in mm/s (median about 150) with no unit declared: 'cm/s (1.5 m/s) or mm/s (0.15
+    m/s)?', the larger speed first, though the IMU's accelerations explain mm/s and not cm/s; in cm/s declared m/s
+    (median about 15), knots (7.7 m/s, beyond the vehicle's 4 m/s) came first. The IMU's fits now order them, and the
+    message says so."""
+    cfg = _slow_log(tmp_path, True, 1e3, None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"median DVL speed 1\d\d\.\d is beyond the 10 m/s a DVL measures: mm/s "
+                                            r"\(0.1\d+ m/s\) or cm/s \(1.\d+ m/s\) \(most plausible first: the IMU's "
+                                            r"accelerations leave 0.00\d+, 0.\d+ of the velocity's changes "
+                                            r"unexplained\)\? declare csv_columns.dvl.velocity_unit"):
+            load_mission(tmp_path, cfg)
+        with pytest.raises(DataError, match=r"in the declared unit 'm/s' \(csv_columns.dvl.velocity_unit\) is beyond "
+                                            r"the 10 m/s a DVL measures: 'cm/s' \(0.1\d+ m/s\) or .*'kn' "
+                                            r"\(\d.\d+ m/s\).* \(most plausible first: the IMU's accelerations leave "
+                                            r"0.00\d+, "):
+            load_mission(tmp_path, _slow_log(tmp_path, True, 1e2, "m/s"))

@@ -25,7 +25,7 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_m
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame
-from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, DECLARED_UNITS, GYRO_UNJUDGED,
+from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, DECLARED_UNITS, GYRO_UNJUDGED, KNOTS_MIX_UP,
                                check_gyro_against_reference, gyro_scale_found)
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
@@ -605,9 +605,11 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, yaw = fits[best]
     if r2 >= MIN_SCALE_R2 and not 1 / MAX_SCALE_ERROR < scale < MAX_SCALE_ERROR:
+        declared = meta.get("prepare", {}).get("dvl_unit")      # the key a declared unit is set under, to name
+        fix = f"check {declared['key']} (declared {declared['unit']!r})" if declared else fixes["unit"]
         raise DataError(f"the DVL velocity is {scale:.2f}x what the IMU's accelerations say (the fit explains "
                         f"{r2:.2f} of its changes; a right unit gives 1, within {MAX_SCALE_ERROR:g}x): "
-                        f"{_likely_unit(scale, fixes['declare'])}? {fixes['unit']}".rstrip(), dvl.source, field=field)
+                        f"{_likely_unit(scale, fixes['declare'])}? {fix}".rstrip(), dvl.source, field=field)
     dvl_turn = None
     # a velocity the body kinematics kept as body in a current points where the current carries the vehicle: its mean
     # direction says nothing of the vehicle's forward, and it was judged on the IMU clock as it stands (offset 0)
@@ -646,10 +648,13 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
 
 
 #: A declared DVL velocity unit whose clock model leaves this many times as much of the velocity's changes unexplained
-#: as another unit at least 10x larger or smaller (:func:`check_declared_velocity_unit`) is contradicted by the data.
-#: Clean, as read over the best of x10, x100 and x1000: at most 1.03 (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole
-#: and in 60 s pieces, simulated missions of every grade, hovering vehicles); the velocity 10x too small (mm/s declared
-#: on cm/s data) over the right unit at least 18.8, 100x too small (cm/s on m/s) 1897.
+#: as another unit at least 10x larger or smaller, or knots for m/s (:func:`check_declared_velocity_unit`) is
+#: contradicted by the data. Clean, as read over the best of x10, x100 and x1000: at most 1.03
+#: (``experiments/dvl_unit_fits.py``: the ten A-KIT trajectories whole and in 60 s pieces, simulated missions of every
+#: grade, hovering vehicles); over x0.514 or x1.944 at most 1.55 (a 60 s piece of Trajectory1); the velocity 10x too
+#: small (mm/s declared on cm/s data) over the right unit at least 18.8, 100x too small (cm/s on m/s) 1897; m/s data
+#: declared kn (x0.514) at least 6.57 on the ten whole (Trajectory13), knots declared m/s 14 on nine (Trajectory13:
+#: 1.53, which the data do not show clearly).
 VELOCITY_UNIT_RATIO = 4.0
 #: Why DVL pings read in a declared unit the IMU contradicts, where no other unit explains them either, are counted.
 VELOCITY_UNIT_DOUBT = "DVL velocity read in a declared unit the IMU's accelerations contradict"
@@ -657,14 +662,16 @@ VELOCITY_UNIT_DOUBT = "DVL velocity read in a declared unit the IMU's accelerati
 
 def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | None) -> None:
     """A declared DVL velocity unit (``declared``: ``{"unit": ..., "key": ...}``, the loader's
-    ``meta["prepare"]["dvl_unit"]``) checked against the IMU: another metric unit at least 10x larger or smaller
-    (:func:`other_velocity_units`: cm/s or m/s for mm/s, m/s or mm/s for cm/s) whose clock model leaves
+    ``meta["prepare"]["dvl_unit"]``) checked against the IMU: another unit (:func:`other_velocity_units`: cm/s or m/s
+    for mm/s, m/s or mm/s for cm/s, knots for m/s, m/s for knots) whose clock model leaves
     :data:`VELOCITY_UNIT_RATIO` times less of the velocity's changes unexplained is a DataError naming the DVL source,
     its columns and the key, when it explains some of them (leaves under 1, what a straight line per window leaves);
     when it does not, the velocity is kept in the declared unit with a warning, a note and its pings counted as
     doubted (:data:`VELOCITY_UNIT_DOUBT`). A unit taken too small makes every speed 100-1000x too small, which no
     speed range tells from a hovering vehicle's, while the IMU says the vehicle moves. Only units that keep the median
-    speed within what a DVL measures are tried. Nothing when no unit is declared, none other is plausible, or the DVL
+    speed within what a DVL measures are tried. Knots and m/s, 1.94x apart, are judged by the same fits where the
+    speed scale's regression explains too little to judge (a vehicle holding its speed: A-KIT Trajectory13 in m/s
+    declared kn loaded at 0.51x). Nothing when no unit is declared, none other is plausible, or the DVL
     has under two windows of pings (the DVL is on the IMU clock)."""
     if not declared:
         return
@@ -694,15 +701,17 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
 
 
 def other_velocity_units(unit: str, speed: float, config) -> dict[str, float]:
-    """The metric velocity units a DVL velocity declared ``unit`` may be in instead (name -> factor to multiply the
-    velocity as read by): at least 10x larger or smaller, and putting the median ``speed`` (m/s in ``unit``) within
+    """The velocity units a DVL velocity declared ``unit`` may be in instead (name -> factor to multiply the
+    velocity as read by): a metric unit at least 10x larger or smaller, knots for m/s and m/s for knots
+    (:data:`KNOTS_MIX_UP`), each putting the median ``speed`` (m/s in ``unit``) within
     what a DVL measures (the larger of :data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS` and ``dvl.max_speed_mps``): a
     larger unit that makes a steady 1.5 m/s vehicle 1500 m/s fits a MEMS IMU's noise better, not the vehicle."""
     from graphnav.core.mission import MAX_DVL_SPEED_MPS
     units = DECLARED_UNITS["velocity"]
     bound = max(MAX_DVL_SPEED_MPS, float(config.dvl.max_speed_mps))
-    factors = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s")}
-    return {u: k for u, k in factors.items() if (k >= 10 or k <= 0.1) and not speed * k > bound}
+    factors = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s", "kn")}
+    return {u: k for u, k in factors.items() if (k >= 10 or k <= 0.1 or {u, unit} == KNOTS_MIX_UP)
+            and not speed * k > bound}
 
 
 #: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).

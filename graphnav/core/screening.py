@@ -665,9 +665,16 @@ def refuse(meta: dict, stream: str, masks: dict[str, np.ndarray], source: str, l
     return total
 
 
-def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> None:
+def over_refused_limit(meta: dict, stream: str, limit: float = MAX_REFUSED_FRACTION) -> bool:
+    """More than ``limit`` of ``stream`` in ``meta["streams"]`` refused."""
+    entry = meta.get("streams", {}).get(stream, {})
+    return bool(entry.get("read")) and sum(entry.get("refused", {}).values()) > limit * entry["read"]
+
+
+def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advice: dict | None = None) -> None:
     """Raise :class:`DataError` naming the stream and its reasons when more than ``limit`` of a stream in
-    ``meta["streams"]`` was refused."""
+    ``meta["streams"]`` was refused; ``advice`` (stream -> text): what to check for that stream, when known better
+    than the units and sensor ranges."""
     for stream, entry in meta.get("streams", {}).items():
         read = entry.get("read", 0)
         refused = sum(entry.get("refused", {}).values())
@@ -680,8 +687,9 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION) -> N
             if ranked[0][0] in (REPAIRED_STAMP, EXACT_COPY):     # the values were never judged: the stamps are wrong
                 check = ("the file's stamps: many rows share each one (two streams written into one file, or a "
                          "driver stamping packets of samples together on irregular receipts)")
+            check = (advice or {}).get(stream) or f"check {check}"
             raise DataError(f"{refused} of {read} {stream} samples refused ({reasons}): more than "
-                            f"{limit:.0%} of the stream; check {check}",
+                            f"{limit:.0%} of the stream; {check}",
                             entry.get("source") or stream,
                             field=column[1] if column else meta.get("stream_fields", {}).get(stream, stream))
 

@@ -233,15 +233,56 @@ def _said(frame: str) -> str:
     return "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
 
 
+def _vehicle_fixed(t_dvl, v, t_imu, f_b, omega_b) -> bool:
+    """A body-frame velocity ``v`` (M,3, m/s) :func:`check_not_earth_frame` keeps: it does not turn with the vehicle,
+    or the body kinematics explain it better than taken as earth-fixed."""
+    ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
+    return not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO) or \
+        kinematics_ratio(t_dvl, v, t_imu, f_b, omega_b) < BODY_KINEMATICS_RATIO
+
+
+def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu: np.ndarray, f_b: np.ndarray,
+                        omega_b: np.ndarray, spec) -> str | None:
+    """Why a body-frame DVL velocity ``v`` (M,3, m/s in the ``declared`` unit: ``{"unit", "key"}``) that the vehicle's
+    envelope or the frame check refuses is likely in a unit at least 10x smaller (or, for m/s, in knots), or None when
+    none explains it: in that unit at most :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the pings are
+    outside the envelope ``spec`` (``DvlSpec``) and, with the pings on the IMU's clock, the velocity is vehicle-fixed
+    (:func:`check_not_earth_frame`'s test) and the IMU's accelerations leave less of its changes unexplained than in
+    the declared unit, and under 1 (:func:`graphnav.io.units.velocity_unit_fits`). The best explained unit is named.
+    ``t_imu`` (s), ``f_b`` (m/s^2), ``omega_b`` (rad/s): the IMU, FRD."""
+    from graphnav.core.screening import MAX_REFUSED_FRACTION, implausible_pings
+    from graphnav.io.units import DECLARED_UNITS, KNOTS_MIX_UP, velocity_unit_fits
+    units, unit, key = DECLARED_UNITS["velocity"], declared["unit"], declared["key"]
+    factors = {u: units[u] / units[unit] for u in units
+               if units[u] / units[unit] <= 0.1 or ({u, unit} == KNOTS_MIX_UP and units[u] < units[unit])}
+    fits = velocity_unit_fits(t_dvl, v, (t_imu, f_b, omega_b), factors.values())
+    n = int(np.all(np.isfinite(v), axis=1).sum())
+    for u in sorted(factors, key=lambda u: fits[factors[u]] if fits else -factors[u]):
+        k, w = factors[u], v * factors[u]
+        outside = int(np.any(list(implausible_pings(t_dvl, w, spec).values()), axis=0).sum())
+        if outside > MAX_REFUSED_FRACTION * n or (fits is not None and not (
+                fits[k] < min(fits[1.0], 1.0) and _vehicle_fixed(t_dvl, w, t_imu, f_b, omega_b))):
+            continue
+        imu = "" if fits is None else (f", the velocity vehicle-fixed, the IMU's accelerations leaving {fits[k]:.3g} "
+                                       f"of its changes unexplained against {fits[1.0]:.3g} in {unit!r}")
+        return (f"the declared unit is the likely cause: in {u!r} (x{k:.4g}) the median speed is "
+                f"{float(np.nanmedian(np.linalg.norm(w, axis=1))):.3g} m/s, {n - outside} of {n} pings within the "
+                f"vehicle's envelope{imu}: set {key} to {u!r}")
+    return None
+
+
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
                           source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None,
-                          v_b: np.ndarray | None = None, meta: dict | None = None) -> float:
+                          v_b: np.ndarray | None = None, meta: dict | None = None, declared: dict | None = None,
+                          spec=None) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
     :data:`BODY_KINEMATICS_RATIO` it is kept as body (a vehicle slower than the current it moves in), noted in
     ``meta`` (and ``meta[CARRIED]`` set); otherwise a DataError naming the file and columns: logged in the earth
-    frame."""
+    frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a smaller unit
+    that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as an
+    earth-fixed one does)."""
     ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
     if not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO):
         return ratio
@@ -258,7 +299,13 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         return ratio
     judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it taken "
               f"as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under "
-              f"{BODY_KINEMATICS_RATIO:g}): it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
+              f"{BODY_KINEMATICS_RATIO:g})" if np.isfinite(kin) else "")
+    advice = None if not declared or spec is None or f_b is None else smaller_unit_advice(
+        t_dvl, v if v_b is None else v_b, declared, t_imu, f_b, omega_b, spec)
+    if advice:
+        raise DataError(f"DVL velocity in the declared unit {declared['unit']!r} turns with the vehicle: {turn}; "
+                        f"{judged}; {advice}", source, field=", ".join(fields))
+    judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
     raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {turn}; {judged}: {_DECLARE}",
@@ -281,8 +328,8 @@ def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source:
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
-                    t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None
-                    ) -> np.ndarray:
+                    t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None,
+                    envelope=None) -> np.ndarray:
     """A column map's DVL velocity (M,3), m/s, in its declared ``frame`` turned to the body frame; a velocity in a
     vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`); the frame noted in
     ``meta["streams"]["dvl"]``.
@@ -292,6 +339,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
             (roll, pitch, heading of the DVL frame; ``angle_unit``) or None. spec: ``csv_columns.dvl``.
         C_d_b: (3,3) ``dvl.C_d_b``. t_imu, omega_b: the IMU's stamps, s, and rates, rad/s (FRD or FLU).
         f_b: the IMU's specific force, m/s^2, for the body kinematics that keep a slow vehicle in a current.
+        envelope: the vehicle's ``DvlSpec``, with which a velocity in a declared unit (``velocity_unit``) that turns
+            with the vehicle is judged in smaller units (:func:`smaller_unit_advice`).
 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
@@ -305,7 +354,9 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     if frame not in EARTH_FRAMES:
         if on_the_imu_clock(t_dvl, t_imu):
             v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
-            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta)
+            declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
+                if spec.get("velocity_unit") else None
+            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta, declared, envelope)
         else:
             _check_spread(v, t_imu, omega_b, source, fields, frame)
             add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")

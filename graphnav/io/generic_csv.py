@@ -346,14 +346,18 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         v_b = None
         if "v_b" in v:
             # a zero tells nothing of the unit: hidden from its detection, and 0 in any unit after it
+            # the IMU's accelerations order the units a refusal names, for a velocity in the body's axes
+            body = spec.get("frame", "body") in ("body", "frd")
             v_b = dvl_velocity_units(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
-                                     vdeclared, **_unit_named(spec, "v_b"))
+                                     vdeclared, **_unit_named(spec, "v_b"), t=t_dvl,
+                                     imu=(t_imu, f_b, omega_b) if body else None,
+                                     max_speed_mps=config.dvl.max_speed_mps)
             v_b[zero] = 0.0
             no_lock = no_lock_pings(t_dvl, config.dvl, off > on, v=v_b)
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
             v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
-                                  meta, f_b)
+                                  meta, f_b, config.dvl)
         if "beams" in v:
             raw = v["beams"]
             if vdeclared is None:
@@ -362,7 +366,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             flag = np.isin(raw, (-32768.0, -32.768))
             if vdeclared is not None:       # the declared unit's speeds judged as the velocity columns' are
                 dvl_velocity_units(np.where(flag, np.nan, raw) * vscale, str(path), meta, vdeclared, beams=True,
-                                   **_unit_named(spec, "beams"))
+                                   **_unit_named(spec, "beams"), max_speed_mps=config.dvl.max_speed_mps)
             beams = np.where(flag, -32.768, raw * vscale)
             # an empty cell is no beam; an infinite one is a beam that is not a measurement (sanitized warns)
             valid = flags & ~np.isnan(beams)

@@ -122,6 +122,7 @@ from graphnav.core.screening import (
     latlon_impossible,
     no_bottom_lock,
     note_outages,
+    over_refused_limit,
     refuse,
     refuse_rows,
     stamp_order,
@@ -1120,9 +1121,22 @@ def screen_mission(mission: Mission) -> Mission:
         bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
         if bad.any():
             gt = gt.take(np.flatnonzero(~bad))
-    check_refused_fraction(meta)
+    check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg))
     if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
         return mission
     return dataclasses.replace(mission, imu=imu, dvl=dvl, depth=depth, gt=gt)
+
+
+def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig) -> dict:
+    """``{"dvl": why}`` when over half the pings of a DVL in a declared velocity unit (``meta["prepare"]["dvl_unit"]``)
+    are refused and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame
+    velocity ``v`` (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large puts a slow vehicle beyond its
+    envelope, where the refusal's "check the units" does not say which; else ``{}``."""
+    declared = meta.get("prepare", {}).get("dvl_unit")
+    if not declared or not over_refused_limit(meta, "dvl"):
+        return {}
+    from graphnav.io.dvl_frame import smaller_unit_advice
+    advice = smaller_unit_advice(t, v, declared, imu.t, imu.f_b, imu.omega_b, cfg.dvl)
+    return {"dvl": advice} if advice else {}
 
 

@@ -88,6 +88,9 @@ ACCEL_SCALES = {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "mg": STANDARD_GRAVITY * 1e
 DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRAVITY},
                   "gyro": {"rad/s": 1.0, "deg/s": np.pi / 180}, "velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3,
                                                                         "kn": 1852.0 / 3600.0}}
+#: The two declared velocity units a DVL velocity is mixed up between, 1.94x apart: each is tried for the other
+#: (:func:`graphnav.calibration.dvl_scale.other_velocity_units`, :func:`graphnav.io.dvl_frame.smaller_unit_advice`).
+KNOTS_MIX_UP = {"m/s", "kn"}
 #: Units of a column map's attitude columns (a reference's, an earth-frame DVL's ``angle_unit``), to rad.
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 
@@ -396,14 +399,66 @@ def gyro_too_small(turns: str, source: str, declared: str | None, field: str) ->
 DECLARE_UNIT_FIX = "declare the velocity unit"
 
 
+def velocity_unit_fits(t_dvl: np.ndarray, v: np.ndarray, imu, factors) -> dict[float, float] | None:
+    """Factor (1 for the velocity as read, and each of ``factors``) -> the share of the DVL velocity's changes the DVL
+    clock model (:mod:`graphnav.core.dvl_kinematics`: the IMU's integrals, offset 0, no lever arm) leaves unexplained
+    with the velocity multiplied by it: how well the IMU's accelerations say each unit explains the data. None when
+    the pings are not on the IMU's clock or fill under two windows.
+
+    Args:
+        t_dvl: (M,) ping stamps, s. v: (M,3) body-frame velocity as read (NaN: none), m/s.
+        imu: ``(t, f_b, omega_b)``: stamps, s; specific force, m/s^2; rates, rad/s (FRD).
+    """
+    from graphnav.core.dvl_kinematics import dvl_window_model, imu_integrals
+    from graphnav.core.mission import ImuData, no_beams
+    from graphnav.core.timeseries import on_the_imu_clock
+    ok = np.all(np.isfinite(v), axis=1)
+    if imu is None or ok.sum() < 2 or not on_the_imu_clock(t_dvl[ok], imu[0]):
+        return None
+    try:
+        ints = imu_integrals(*imu)
+        dvl = DvlData(t_dvl[ok], *no_beams(int(ok.sum())), np.asarray(v, float)[ok])
+        return {k: 1.0 - dvl_window_model(ImuData(*imu), dvl, transform=k * np.eye(3), ints=ints)[0].score(0.0)[0]
+                for k in (1.0, *factors)}
+    except DataError:
+        return None
+
+
+def most_plausible_first(speed: np.ndarray, factors: dict[str, float], fits: dict[float, float] | None,
+                         max_speed_mps: float) -> tuple[list[tuple[str, float]], str]:
+    """``([(unit, median speed in it, m/s)], why)``: the units of ``factors`` (name -> factor to m/s from the
+    ``speed`` (M,) as read) that put the median within what a DVL measures, the one that explains the data best first,
+    and why that order ('' for one unit): what the IMU's accelerations leave unexplained in each (``fits``, factor ->
+    share, :func:`velocity_unit_fits`) when known, else the share of pings within the vehicle's ``max_speed_mps``
+    (the faster first between equals): a larger speed is no likelier, a vehicle beyond its envelope is not."""
+    speed = np.asarray(speed, float)
+    speed = speed[np.isfinite(speed)]
+    med = float(np.median(speed))
+    units = [u for u, k in factors.items() if med * k <= MAX_DVL_SPEED_MPS]
+    if fits:
+        units.sort(key=lambda u: fits[factors[u]])
+        why = ("the IMU's accelerations leave " + ", ".join(f"{fits[factors[u]]:.3g}" for u in units) +
+               " of the velocity's changes unexplained")
+    else:
+        within = {u: float(np.mean(speed * factors[u] <= max_speed_mps)) for u in units}
+        units.sort(key=lambda u: (-within[u], -factors[u]))
+        why = (", ".join(f"{within[u]:.0%}" for u in units) + f" of the pings within the vehicle's {max_speed_mps:g} "
+               "m/s (dvl.max_speed_mps)")
+    return [(u, med * factors[u]) for u in units], (f" (most plausible first: {why})" if len(units) > 1 else "")
+
+
 def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, source: str,
                     field: str = "beams", columns: str = "v_b/v_d", fix: str = DECLARE_UNIT_FIX,
-                    declared: str | None = None, key: str | None = None) -> tuple[float, float]:
+                    declared: str | None = None, key: str | None = None, imu=None, t: np.ndarray | None = None,
+                    max_speed_mps: float | None = None) -> tuple[float, float]:
     """``(scale to m/s, median speed as read)`` of DVL values (beams (M,4) and/or a velocity (M,3)), from
     the median speed; RDI's bad-velocity flags and non-finite values are left out. DataError when the
     speeds are neither m/s nor mm/s, naming the velocity's ``columns`` and advising ``fix`` (an A-KIT folder has
     no unit to declare); values already in m/s from a ``declared`` unit (under ``key``) beyond what a DVL measures
-    are a DataError naming the key and the smaller units that fit (:func:`_declared_speed_error`)."""
+    are a DataError naming the key and the smaller units that fit (:func:`_declared_speed_error`). Candidate units
+    are listed most plausible first (:func:`most_plausible_first`): by the IMU's accelerations when ``imu`` (``(t,
+    f_b, omega_b)``) and the pings' stamps ``t`` (s) are given with a velocity, else by the vehicle's
+    ``max_speed_mps`` (default ``DvlSpec``'s)."""
     def clean(a):
         a = np.asarray(a, float)
         return np.where(np.isfinite(a) & ~rdi_flagged(a), a, np.nan)
@@ -418,41 +473,49 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
     med = float(np.nanmedian(speed))
     if med <= MAX_DVL_SPEED_MPS:
         return 1.0, med
-    if declared is not None:
-        raise _declared_speed_error(med, declared, key or "the declared velocity_unit", source, field)
-    if DVL_MMPS_RANGE[0] <= med <= DVL_MMPS_RANGE[1]:
+    if declared is None and DVL_MMPS_RANGE[0] <= med <= DVL_MMPS_RANGE[1]:
         return 1e-3, med
-    if med < DVL_MMPS_RANGE[0]:
-        raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures: "
-                        f"cm/s ({med / 100:.3g} m/s) or mm/s ({med / 1000:.3g} m/s)? {fix}",
-                        source, field=field)
-    raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
-                    f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source,
-                    field=field)
-
-
-def _declared_speed_error(med: float, declared: str, key: str, source: str, field: str) -> DataError:
-    """A median DVL speed ``med`` (m/s in the ``declared`` unit) beyond what a DVL measures: the smaller units that
-    bring it within, at the speed each gives, and the ``key`` to set."""
+    if declared is None and med > DVL_MMPS_RANGE[1]:
+        raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
+                        f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source,
+                        field=field)
     units = DECLARED_UNITS["velocity"]
-    fit = sorted(((med * units[u] / units[declared], u) for u in units if units[u] < units[declared]), reverse=True)
-    fit = [f"{u!r} ({v:.3g} m/s)" for v, u in fit if v <= MAX_DVL_SPEED_MPS]
+    factors = ({u: units[u] / units[declared] for u in units if units[u] < units[declared]} if declared is not None
+               else {"cm/s": 1e-2, "mm/s": 1e-3})
+    if max_speed_mps is None:
+        from graphnav.core.config import DvlSpec
+        max_speed_mps = DvlSpec().max_speed_mps
+    fits = None if velocity is None or t is None else velocity_unit_fits(t, clean(velocity), imu, factors.values())
+    ranked, why = most_plausible_first(speed, factors, fits, max_speed_mps)
+    if declared is not None:
+        raise _declared_speed_error(med, declared, key or "the declared velocity_unit", source, field, ranked, why)
+    raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures: "
+                    + " or ".join(f"{u} ({v:.3g} m/s)" for u, v in ranked) + f"{why}? {fix}", source, field=field)
+
+
+def _declared_speed_error(med: float, declared: str, key: str, source: str, field: str,
+                          ranked: list[tuple[str, float]], why: str) -> DataError:
+    """A median DVL speed ``med`` (m/s in the ``declared`` unit) beyond what a DVL measures: the smaller units that
+    bring it within, at the speed each gives, most plausible first (``ranked``, ``why``:
+    :func:`most_plausible_first`), and the ``key`` to set."""
+    fit = [f"{u!r} ({v:.3g} m/s)" for u, v in ranked]
     return DataError(f"median DVL speed {med:.4g} m/s in the declared unit {declared!r} ({key}) is beyond the "
-                     f"{MAX_DVL_SPEED_MPS:g} m/s a DVL measures: " + (f"{' or '.join(fit)}? set {key} to the file's "
-                     "unit" if fit else f"no smaller unit brings it within; check {key} and the columns"),
+                     f"{MAX_DVL_SPEED_MPS:g} m/s a DVL measures: " + (f"{' or '.join(fit)}{why}? set {key} to the "
+                     "file's unit" if fit else f"no smaller unit brings it within; check {key} and the columns"),
                      source, field=field)
 
 
 def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None, declared: str | None = None,
                        beams: bool = False, columns: str | None = None, fix: str = DECLARE_UNIT_FIX,
-                       key: str | None = None) -> np.ndarray:
+                       key: str | None = None, **rank) -> np.ndarray:
     """DVL values as read (beams (M,4) when ``beams``, else a velocity (M,3)) in m/s: mm/s detected and
     converted (warning, note), or DataError. RDI's raw flag -32768 becomes its m/s flag -32.768. ``columns``: the
     values' columns in ``source`` (a DataError names them), ``fix``: what a DataError advises
-    (:func:`dvl_speed_scale`); ``key``: the one that ``declared`` the unit."""
+    (:func:`dvl_speed_scale`, which also takes ``rank``: ``imu``, ``t``, ``max_speed_mps``, to order the units it
+    names); ``key``: the one that ``declared`` the unit."""
     field = columns or ("beams" if beams else "v_b/v_d")
     scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, field=field,
-                                 columns=field, fix=fix, declared=declared, key=key)
+                                 columns=field, fix=fix, declared=declared, key=key, **rank)
     if scale == 1.0:
         return values
     _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s", source)
