@@ -302,6 +302,19 @@ def _column_map_with_imu_stamps(clean, stamps, folder):
             "dvl": {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"]}}
 
 
+def _written_with_imu_stamps(clean, stamps, reader, cfg, folder):
+    """``clean`` with its IMU at ``stamps`` (s) written under the new ``folder`` for ``reader`` ("akit" or "column
+    map"), the configuration ``cfg`` (a dict, a column map's ``csv_columns`` added) beside it as config.json: the
+    folder to read."""
+    folder.mkdir()
+    if reader == "akit":
+        read = _akit_with_imu_stamps(clean, stamps, folder).parent
+    else:
+        read, cfg["csv_columns"] = folder, _column_map_with_imu_stamps(clean, stamps, folder)
+    (folder.parent / "config.json").write_text(json.dumps(cfg))
+    return read
+
+
 @pytest.mark.parametrize("reader", ["akit", "column map"])
 def test_the_imu_stream_shows_the_rate_measured_from_its_stamps_not_its_median_step(reader, tmp_path):
     """A 70 Hz IMU on a 10 ms clock (steps of 10 and 20 ms) configured at 100 Hz is taken at 70 Hz, but the stream's
@@ -314,14 +327,8 @@ def test_the_imu_stream_shows_the_rate_measured_from_its_stamps_not_its_median_s
         clean = simulate_mission(duration_s=30.0, seed=1,
                                  config=dataclasses.replace(SensorConfig(), imu_rate_hz=simulated))
         stamps = stamps_of(clean.imu.t.size)
-        folder = tmp_path / f"{reader}-{rate:g}"
-        folder.mkdir()
         cfg = dataclasses.replace(clean.config, imu_rate_hz=100.0).to_dict()
-        if reader == "akit":
-            folder = _akit_with_imu_stamps(clean, stamps, folder).parent
-        else:
-            cfg["csv_columns"] = _column_map_with_imu_stamps(clean, stamps, folder)
-        (tmp_path / "config.json").write_text(json.dumps(cfg))
+        folder = _written_with_imu_stamps(clean, stamps, reader, cfg, tmp_path / f"{reader}-{rate:g}")
         m = _quiet(load_mission, folder, tmp_path / "config.json")
         assert m.config.imu_rate_hz == pytest.approx(70.0 if rate == 70.0 else 100.0, rel=1e-3)
         assert m.meta["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-6)
@@ -348,6 +355,67 @@ def test_an_imu_rate_within_the_tolerance_of_the_configured_one_says_the_configu
     capsys.readouterr()
     assert _quiet(cli.main, ["info", str(folders[97.0])]) == 0
     assert "  imu: stamps say 97 Hz; the configured 100 Hz is kept" in capsys.readouterr().out
+
+
+def test_an_imu_a_little_slower_than_its_clock_grid_shows_its_rate_and_the_note(tmp_path, capsys):
+    """A 97 Hz IMU logged in whole 10 ms configured at 100 Hz (every 33rd or 34th step 20 ms) showed 100 Hz in
+    ``graphnav info``, its median step, and no note: it shows samples over time, 97 Hz, with the note that the
+    configured 100 Hz is kept (within 5 %), for both readers."""
+    from graphnav import cli
+    from graphnav.core.config import SensorConfig
+    clean = simulate_mission(duration_s=30.0, seed=1, config=dataclasses.replace(SensorConfig(), imu_rate_hz=100.0))
+    stamps = np.floor(np.arange(clean.imu.t.size) / 97.0 / 0.01 + 1e-9) * 0.01
+    for reader in ("akit", "column map"):
+        folder = _written_with_imu_stamps(clean, stamps, reader, clean.config.to_dict(), tmp_path / reader)
+        m = _quiet(load_mission, folder, tmp_path / "config.json")
+        entry = m.meta["streams"]["imu"]
+        assert m.config.imu_rate_hz == 100.0 and entry["rate_hz"] == pytest.approx(97.0, rel=1e-3)
+        assert [n for n in entry["notes"] if "is kept" in n] == [
+            "stamps say 97.02 Hz; the configured 100 Hz is kept (within 5%) for the IMU gap limits and bridging: set "
+            "imu_rate_hz if 97.02 Hz is right"]
+    capsys.readouterr()
+    assert _quiet(cli.main, ["info", str(folder), "--config", str(tmp_path / "config.json")]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^imu +3001 +3001 +0 +97.02 ", out, re.M) and "  imu: stamps say 97.02 Hz; the configured" in out
+
+
+def test_a_step_of_the_imu_clock_or_a_gap_in_an_even_log_is_warned_and_counted(tmp_path):
+    """An even 100 Hz column-map log whose IMU stamps step +5 ms (or -5 ms, still increasing) half-way loaded with no
+    word: the step is no whole number of periods, so no samples lost explain it: a clock step, warned naming the
+    file, line and field and counted as doubted. A +0.5 s step is 50 whole periods: a gap (or a clock step of whole
+    periods: said so), warned and counted the same. One sample lost, jitter (0.1 ms) and the plain log say nothing;
+    a -0.5 s step is refused as out of order, as before."""
+    from graphnav.core.errors import DataError
+    from graphnav.core.screening import CLOCK_STEP, IMU_GAP
+    clean = simulate_mission(duration_s=30.0, seed=1)
+    n = clean.imu.t.size
+    jitter = np.random.default_rng(0).normal(0.0, 1e-4, n)
+    said = {CLOCK_STEP: r"the IMU clock steps [+-][45][.\d]* ms off its period \([+-]0.[45]\d* periods: no whole",
+            IMU_GAP: r"a gap of 0.5 s in the stamps \(50 periods, a whole number: 50 samples lost, or the clock"}
+    for step, reason, stamps in ((0.005, CLOCK_STEP, clean.imu.t), (-0.005, CLOCK_STEP, clean.imu.t + jitter),
+                                 (0.5, IMU_GAP, clean.imu.t), (0.0, None, clean.imu.t), (0.0, None, clean.imu.t + jitter),
+                                 (0.01, None, clean.imu.t), (-0.5, None, clean.imu.t)):
+        folder = tmp_path / f"{step:+g}-{reason}-{stamps is clean.imu.t}"
+        folder.mkdir()
+        t = stamps + np.where(np.arange(n) >= n // 2, step, 0.0)
+        cfg = clean.config.to_dict()
+        cfg["csv_columns"] = _column_map_with_imu_stamps(clean, t, folder)
+        (folder / "config.json").write_text(json.dumps(cfg))
+        if step == -0.5:
+            with pytest.raises(DataError, match="time stamp out of order"):
+                _quiet(load_mission, folder, folder / "config.json")
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(folder, folder / "config.json")
+        steps = [str(w.message) for w in caught if "off its period" in str(w.message) or "a gap of" in str(w.message)]
+        assert m.imu.t.size == n
+        if reason is None:
+            assert not steps and "doubted" not in m.meta["streams"]["imu"]
+            continue
+        assert len(steps) == 1 and re.search(said[reason], steps[0])
+        assert steps[0].startswith(f"imu: {folder / 'imu.csv'}, line {n // 2 + 2}, field 't': ")
+        assert m.meta["streams"]["imu"]["doubted"] == {reason: 1}
 
 
 @pytest.mark.parametrize("rate_hz, k, quantum_s", [(100.0, 10, 0.0), (400.0, 4, 1e-3)])

@@ -1728,6 +1728,30 @@ def test_an_imu_on_a_grid_half_its_period_with_stamps_repeated_by_jitter_is_read
                         {}, "imu")
 
 
+def test_an_imu_slower_than_its_clock_grid_with_jitter_is_read_not_refused():
+    """70 and 80 Hz in whole 10 ms with 1 ms of jitter (and 90 Hz over 2000 samples) were refused as duplicated
+    stamps: jitter pushes a few samples into a grid step holding one already (16-34 in 12000 at 80 Hz), too few to
+    show a clock among the IMU's own empty grid steps (a quarter of them at 80 Hz). Each such repeat keeps the samples
+    on either side on one line at the period: put on an even grid, every sample within 0.5 ms of its time. 60 Hz with
+    2 ms of jitter (a grid half the period) was refused too: its grid, measured as a mean step (9.99998 ms), put
+    stamps 200 s in off it; its repeats are now placed after their stamp. Rows written twice are refused as before."""
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import stamp_order
+    for rate, n, jitter, seed in ((70.0, 12000, 1e-3, 2), (80.0, 12000, 1e-3, 0), (90.0, 2000, 1e-3, 1)):
+        true, t = _drifting_clock(rate, 0.01, n, jitter, 20.0, seed)
+        meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a 10 ms clock, about as coarse as the "
+                                              rf"IMU's {1e3 / rate:.4g} ms period")
+        assert np.max(np.abs(stamps - true)) < 5e-4 and np.all(np.diff(stamps) > 0)
+        assert imu_rate_hz(stamps) == pytest.approx(rate, rel=1e-4)
+        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
+                        {}, "imu")
+    true, t = _drifting_clock(60.0, 0.01, 12000, 2e-3, 20.0, 0)
+    meta, stamps = _imu_stamps_read_whole(t, r"^imu: imu.csv: stamps on a 10 ms grid, finer than the IMU's 16.6")
+    assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
+
+
 def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back_from_their_stamp():
     """Packets holding a constant count whose receipt stamps fall on multiples of their cycle (100 Hz in packets of
     10 stamped with their last sample at 0.1, 0.2 ... s; 400 Hz in packets of 4 in whole ms on multiples of 10 ms)
@@ -1885,10 +1909,12 @@ def test_an_imu_slower_than_its_clock_grid_reads_samples_over_time():
     step, and 66.7 Hz read 100 Hz on some logs; a regular pattern of empty grid steps is an IMU slower than its clock,
     read at samples over time. 60 and 55 Hz in whole 10 ms with 1 % of their samples lost read 59.55-59.76 and
     54.86 Hz, their lost samples' 30 ms steps kept: a step after which the samples sit a period later is left out. An
-    even 100 Hz log losing 10 % at random still reads 100 Hz, and 98 Hz in whole 10 ms (every 50th step 20 ms) is
-    read as 100 Hz losing every 50th sample: the stamps cannot tell them apart."""
+    even 100 Hz log losing 10 % at random still reads 100 Hz. 97 Hz in whole 10 ms (every 33rd or 34th step 20 ms,
+    under 5 % of them) read 100 Hz, the median step: spaced by two lengths, its rate beating against the grid, it
+    reads samples over time too; 98 Hz in whole 10 ms (every 50th step) is read as 100 Hz losing every 50th sample:
+    the stamps cannot tell them apart."""
     from graphnav.core.imu_timing import imu_rate_hz
-    for rate in (70.0, 80.0, 66.67, 98.0):
+    for rate in (70.0, 80.0, 66.67, 98.0, 97.0):
         t = _drifting_clock(rate, 0.01, 3000, 0.0, 0.0, 1)[1]
         assert imu_rate_hz(t) == pytest.approx(100.0 if rate == 98.0 else rate, rel=2e-4)
     even = 100.0 + np.arange(3000) * 0.01

@@ -12,7 +12,8 @@ stamps alone, in this order:
   their stamp at the period (:func:`restamp_packets`); else samples that jitter moved onto the stamp before on a grid
   finer than the period (:func:`grid_repeats`) are placed after it. A row equal to the one before it at such a stamp
   is a sample, not a copy (:func:`samples_sharing_a_stamp`); stamps repeating in runs that are none of these are a
-  duplicated-stamp error, which says what they look like (:func:`stamped_in_packets`).
+  duplicated-stamp error, which says what they look like (:func:`stamped_in_packets`). A step of the stamps the
+  samples after it keep, off a line at the period (:func:`stamp_steps`), is a clock step or a gap, said by the reader.
 * **The rate** (:func:`imu_rate_hz`, :func:`imu_step_stats`): the median step of even stamps; the mean one-period
   step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
   clock's grid; samples over time without the gaps for stamps in packets or bursts (:func:`imu_packet_limit`: the
@@ -233,29 +234,36 @@ def _positive_steps(steps) -> tuple[np.ndarray, float]:
 
 
 #: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its
-#: clock's grid (:func:`_slower_than_grid`): fewer (98 Hz in whole 10 ms: every 50th step) cannot be told from an IMU
-#: at the grid's rate losing samples regularly, and read at the grid's rate.
+#: clock's grid (:func:`_slower_than_grid`), unless spaced by two consecutive lengths, each a fifth of the spacings or
+#: more (97 Hz in whole 10 ms: every 33rd or 34th step 20 ms; it read 100 Hz, the median step, with no note): the
+#: IMU's rate beating against the grid. One spacing alone under this share (98 Hz in whole 10 ms: every 50th step)
+#: cannot be told from an IMU at the grid's rate losing every 50th sample, and is read at the grid's rate.
 SLOWER_CLOCK_SHARE = 0.05
 
 
 def _slower_than_grid(steps, grid_s: float) -> float | None:
     """The period (s) of IMU ``steps`` (s, as read: 0 for a repeated stamp) on a ``grid_s`` grid (s, their median) that
     leave grid steps empty as an IMU slower than the grid does (70 Hz in whole 10 ms: steps of 10 and 20 ms, 30 % of
-    them 20): :data:`SLOWER_CLOCK_SHARE` of the steps or more two grid steps long or more, at least
-    :data:`CLOCK_PATTERN_STAMPS`, :data:`ALTERNATING_SHARE` of them spaced by two consecutive lengths (a sample lost
-    shifts the pattern once), or :data:`BALANCED_SHORT_STAMPS` whose samples to a grid step are :func:`_balanced`;
-    samples over time, steps of three grid steps or more left out. None else: samples lost at random (their spacing
-    spreads: 10 % lost puts 19 % of it on two lengths), or too few."""
+    them 20; 97 Hz: every 33rd or 34th): :data:`CLOCK_PATTERN_STAMPS` steps or more two grid steps long or more,
+    :data:`ALTERNATING_SHARE` of them spaced by two consecutive lengths (a sample lost shifts the pattern once), both
+    taken or :data:`SLOWER_CLOCK_SHARE` of the steps so long, or that share and :data:`BALANCED_SHORT_STAMPS` whose
+    samples to a grid step are :func:`_balanced`; samples over time, steps of three grid steps or more left out. None
+    else: samples lost at random (their spacing spreads: 10 % lost puts 19 % of it on two lengths), or too few."""
     raw = np.abs(np.asarray(steps, float))
     n = np.round(raw[np.isfinite(raw)] / grid_s)
     if not n.size or np.mean(np.abs(raw[np.isfinite(raw)] / grid_s - n) <= 0.01) < QUANTISED_GRID_SHARE:
         return None
     empty = np.flatnonzero(n >= 2)
-    if empty.size < max(CLOCK_PATTERN_STAMPS, SLOWER_CLOCK_SHARE * n.size):
+    if empty.size < CLOCK_PATTERN_STAMPS:
         return None
     spacing = np.bincount(np.diff(empty))
-    if not (np.max(spacing[:-1] + spacing[1:]) >= ALTERNATING_SHARE * (empty.size - 1) or (
-            empty.size >= BALANCED_SHORT_STAMPS and _balanced(np.ones(n.size), n))):
+    pair = int(np.argmax(spacing[:-1] + spacing[1:]))
+    regular = spacing[pair] + spacing[pair + 1] >= ALTERNATING_SHARE * (empty.size - 1)
+    # both lengths: the IMU's rate beating against the grid; one alone (every 97th) is a driver losing samples as well
+    beat = min(spacing[pair], spacing[pair + 1]) >= (1.0 - ALTERNATING_SHARE) * (empty.size - 1)
+    many = empty.size >= SLOWER_CLOCK_SHARE * n.size
+    if not (regular and (beat or many) or (many and empty.size >= BALANCED_SHORT_STAMPS
+                                           and _balanced(np.ones(n.size), n))):
         return None
     return float(grid_s * np.sum(n[n <= 2]) / np.sum(n <= 2))
 
@@ -552,6 +560,13 @@ def _coarser_clock(t: np.ndarray) -> tuple[float, float] | None:
     return grid, period
 
 
+def _to_the_microsecond(grid_s: float) -> float:
+    """A grid (s) measured from stamps rounded to the microsecond, from 0.1 ms up: Unix seconds carry ~1e-7 s of
+    rounding, which over a long log would put whole stamps off the grid (a 10 ms grid read 9.99998 ms: 200 s of
+    stamps 0.045 of a grid step off it)."""
+    return round(grid_s, 6) if grid_s >= 1e-4 else grid_s
+
+
 def _stamp_grid(t: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
     """``(grid s, steps s, counts, on it)`` of stamps ``t`` (s, never decreasing): the median step between distinct
     stamps, rounded to the microsecond (Unix seconds carry ~1e-7 s of rounding), those steps, the samples each stamp
@@ -560,8 +575,7 @@ def _stamp_grid(t: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
     stamps, counts = np.unique(t, return_counts=True)
     stamps = stamps - stamps[0]
     d = np.diff(stamps)
-    grid = float(np.median(d))
-    grid = round(grid, 6) if grid >= 1e-4 else grid
+    grid = _to_the_microsecond(float(np.median(d)))
 
     def on(x):
         return np.mean(np.abs(x / grid - np.round(x / grid)) <= 0.01) >= QUANTISED_GRID_SHARE
@@ -596,9 +610,21 @@ def _clock_at_period(t: np.ndarray) -> tuple[float, float] | None:
     kind, where = _clock_events(counts, steps)
     balanced = repeated.size >= BALANCED_SHORT_STAMPS and _balanced(counts[1:-1], steps[:-1])
     pattern = repeated.size >= CLOCK_PATTERN_STAMPS and (_alternating(kind) or balanced)
-    if not pattern and not _pushed_across(kind, where, steps.size):
+    if not pattern and not _pushed_across(kind, where, steps.size) and not _slower_with_jitter(t, grid):
         return None
     return grid, _samples_over_time(d, counts, steps <= 2)
+
+
+def _slower_with_jitter(t: np.ndarray, grid_s: float) -> bool:
+    """Whether IMU stamps ``t`` (s, never decreasing, some repeated) on a ``grid_s`` grid (s) are an IMU slower than
+    its grid (:func:`_slower_than_grid`: 70 or 80 Hz in whole 10 ms, 30 or 25 % of the steps empty) whose repeated
+    stamps are sampling jitter, each keeping the samples on either side on one line at the period
+    (:func:`_repeats_keep_the_line`). Its repeats are too few to alternate with the IMU's own empty steps or for
+    :func:`_balanced` (16-34 in 12000 samples at 80 Hz with 1 ms of jitter). A row written twice puts the samples
+    after it a period behind the line: no such clock."""
+    d = np.diff(t)
+    period = _slower_than_grid(d, grid_s)
+    return period is not None and _repeats_keep_the_line(t - t[0], np.flatnonzero(d == 0) + 1, period)
 
 
 def _samples_over_time(d: np.ndarray, counts: np.ndarray, inside: np.ndarray) -> float:
@@ -626,23 +652,30 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
     d = np.diff(t)
     if t.size < 4 or np.any(d < 0) or np.all(d > 0):
         return None
-    grid = imu_stamp_quantum(d)
+    grid = _to_the_microsecond(imu_stamp_quantum(d))
     s = t - t[0]
     if not grid or np.any(np.abs(s / grid - np.round(s / grid)) > 0.01):
         return None
     period = _positive_steps(d)[1]
     repeats = np.flatnonzero(d == 0) + 1
-    total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period)]
-    n = REPEAT_CHECK_SAMPLES
-    for r in repeats:       # the pair r - 1, r left out: their offsets are the jitter
-        a, b = max(0, r - 1 - n), min(s.size, r + 1 + n)
-        if a == r - 1 or b == r + 1:
-            return None
-        before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
-        if not abs(after - before) < 0.5 * period:
-            return None
+    if not _repeats_keep_the_line(s, repeats, period):
+        return None
     placed = place_repeats(t, repeats, period, grid)
     return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
+
+
+def _repeats_keep_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float) -> bool:
+    """Whether each of the ``repeats`` (indexes of samples repeating the stamp before them) of relative stamps ``s``
+    (s) keeps the mean offset from a line at ``period_s`` (s) over :data:`REPEAT_CHECK_SAMPLES` samples on either side
+    within half a period (jitter moved a sample across a grid edge; a row written twice or a sample lost moves it by a
+    period), with samples on both sides."""
+    total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period_s)]
+    r = np.asarray(repeats, int)    # the pair r - 1, r left out: their offsets are the jitter
+    a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
+    if np.any(a == r - 1) or np.any(b == r + 1):
+        return False
+    before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
+    return bool(np.all(np.abs(after - before) < 0.5 * period_s))
 
 
 def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
@@ -890,3 +923,78 @@ def stamped_in_packets(t: np.ndarray) -> str:
             f"together on receipt, a sample every {1e3 * cycle / k:.4g} ms; dropping the repeats loses "
             f"{(k - 1) / k:.0%} of the samples: give each sample its own stamp (its packet's stamp less the periods "
             "after it)")
+
+
+#: Samples on each side of a step of an IMU's stamps that tell a step of its clock or a gap (every one after it later
+#: against a line at the period than every one before) from jitter: 50 Gaussian draws on each side fall wholly apart by
+#: chance once in 1e29.
+CLOCK_STEP_SAMPLES = 50
+#: Widest spread, in periods, of those samples about the line for a step to be judged: a coarse clock's grid, packets
+#: or a sample lost among them spread them a period or more, and their mean jump is no longer the step's (1 % lost at
+#: random read as gaps of 2 samples with a whole period allowed); 1 ms of jitter at 100 Hz spreads 50 about 5 ms.
+CLOCK_STEP_SPREAD_PERIODS = 0.75
+#: Least distance, in periods, between those samples for a step: Unix seconds carry ~1e-7 s of rounding.
+CLOCK_STEP_FLOOR_PERIODS = 1e-3
+#: Samples lost, at least, in a gap that is warned about: its step, three periods, is one the run bridges (over
+#: ``IMU_GAP_PERIODS``, 2.5); one sample lost is integrated over, as the stamps say.
+GAP_WARN_SAMPLES = 2
+
+
+def stamp_steps(t: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(i, jump s, lost)`` of the steps ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s, never decreasing) after which
+    each of the next :data:`CLOCK_STEP_SAMPLES` sits later (or earlier) than each of as many before against a line at
+    their own rate (:func:`_step_at`; found against one at ``period_s``, s), by more than the stamps' resolution
+    (:func:`_stamp_resolution`: a coarse clock's grid steps where its rate is off it): the jump of their mean (s) and
+    the samples lost at the step, when that many periods put the two sets back among each other; 0 where they do not:
+    a clock step, which no samples lost explain (half a period forward, or any step back). A gap of whole periods may
+    be a clock step of whole periods too: the stamps cannot tell."""
+    t = np.asarray(t, float)
+    n = CLOCK_STEP_SAMPLES
+    none = np.zeros(0, int), np.zeros(0), np.zeros(0, int)
+    if t.size < 2 * n or not period_s > 0:
+        return none
+    windows = np.lib.stride_tricks.sliding_window_view(t - t[0] - np.arange(t.size) * period_s, n)
+    low, high = windows.min(axis=1), windows.max(axis=1)
+    floor = CLOCK_STEP_FLOOR_PERIODS * period_s
+    apart = np.flatnonzero((low[n:] - high[:-n] > floor) | (low[:-n] - high[n:] > floor)) + n - 1
+    resolution = _stamp_resolution(t) if apart.size else 0.0
+    found = [(i, *step) for i in apart if (step := _step_at(t, i, resolution)) is not None]
+    if not found:
+        return none
+    i, jump, lost = (np.asarray(x) for x in zip(*found))
+    run = np.cumsum(np.diff(np.r_[-2, i]) > 1)         # a sample's jitter may part the sets a step early or late too
+    order = np.lexsort((-np.abs(jump), run))
+    first = order[np.diff(np.r_[0, run[order]]) > 0]
+    return i[first], jump[first], lost[first].astype(int)
+
+
+def _step_at(t: np.ndarray, i: int, resolution_s: float) -> tuple[float, int] | None:
+    """``(jump s, lost)`` of the step ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s) when the :data:`CLOCK_STEP_SAMPLES`
+    after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate, lie wholly
+    apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` and their mean by more than 1.5 ``resolution_s`` (s); ``lost``: the
+    samples lost at the step, 0 where that many periods do not put the sets back among each other. None else."""
+    n = CLOCK_STEP_SAMPLES
+    before, after = t[max(i - n + 1, 0):i + 1], t[i + 1:i + n + 1]
+    if before.size < n or after.size < n:
+        return None
+    period = (before[-1] - before[0] + after[-1] - after[0]) / (2 * (n - 1))
+    ob = before - t[i] + np.arange(n - 1, -1, -1) * period
+    oa = after - t[i] - np.arange(1, n + 1) * period
+    spread = np.ptp(ob) + np.ptp(oa)
+    jump = float(np.mean(oa) - np.mean(ob))
+    floor = CLOCK_STEP_FLOOR_PERIODS * period
+    if (max(np.ptp(ob), np.ptp(oa)) >= CLOCK_STEP_SPREAD_PERIODS * period or abs(jump) <= 1.5 * resolution_s
+            or not (oa.min() - ob.max() > floor or ob.min() - oa.max() > floor)):
+        return None
+    lost = max(round(jump / period), 0)
+    return jump, lost if lost and abs(jump - lost * period) <= 0.5 * spread + floor else 0
+
+
+def _stamp_resolution(t: np.ndarray) -> float:
+    """The coarsest of an IMU's clock grid (:func:`_stamp_grid`) and the powers of ten from 1 s to 1 us that every
+    stamp ``t`` (s) lies on from the first (a log written in whole ms), s; 0 for none (Unix seconds as floats)."""
+    s = t - t[0]
+    for g in sorted({_stamp_grid(t)[0], *(10.0 ** -np.arange(7))}, reverse=True):
+        if g > 0 and np.all(np.abs(s / g - np.round(s / g)) <= 0.01):
+            return float(g)
+    return 0.0

@@ -52,9 +52,10 @@ import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.imu_timing import (awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum, restamp_shared_stamps,
-                                      samples_sharing_a_stamp, stamped_in_packets, start_burst)
-from graphnav.core.streams import add_note, count_refused, stream_entry
+from graphnav.core.imu_timing import (GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum,
+                                      imu_step_stats, restamp_shared_stamps, samples_sharing_a_stamp, stamp_steps,
+                                      stamped_in_packets, start_burst)
+from graphnav.core.streams import add_note, count_doubted, count_refused, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
 #: A larger stamp is a unit error (micro/nanoseconds read as seconds) or a decoding error, never a time.
@@ -720,8 +721,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
-    counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy. The rest must increase
-    strictly; else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the
+    counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
+    warned about and counted (:func:`_say_stamp_steps`). The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the
     first kept), with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out
     (``--repair-stamps``): one stamp on two different rows can be two streams written into one file."""
     t, rows = np.asarray(t, float).copy(), np.asarray(rows, float)
@@ -736,11 +737,14 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
+    read = t[kept]
     if stream == "imu":
-        t[kept] = restamp_shared_stamps(t[kept], source, meta)
+        t[kept] = restamp_shared_stamps(read, source, meta)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
+        if stream == "imu":
+            _say_stamp_steps(read, t[kept], lines[kept], source, field, meta)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
@@ -754,6 +758,36 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+#: Reasons under which an IMU's samples read after a step of its stamps are counted as doubted (:func:`stamp_order`).
+CLOCK_STEP = "stamped after a step of the IMU clock (no whole number of periods)"
+IMU_GAP = "stamped after a gap in the IMU data (whole periods: samples lost, bridged)"
+
+
+def _say_stamp_steps(read: np.ndarray, kept: np.ndarray, lines: np.ndarray, source: str, field: str,
+                     meta: dict | None) -> None:
+    """Warn about the steps of an IMU's stamps ``read`` (s, as read, never decreasing; ``kept``: as restamped, s;
+    ``lines``: their file lines) off a line at its period (:func:`~graphnav.core.imu_timing.stamp_steps`), each kind
+    once, and count the sample after each as doubted in ``meta``: a step no whole number of periods long is the IMU
+    clock stepping, one of :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` periods or more a gap the run bridges
+    (or the clock stepping whole periods: the stamps cannot tell); one sample lost is neither. The samples keep their
+    stamps."""
+    period = imu_step_stats(np.diff(kept))[0]
+    at, jump, lost = stamp_steps(read, period)
+    for hit, reason in ((lost == 0, CLOCK_STEP), (lost >= GAP_WARN_SAMPLES, IMU_GAP)):
+        if not np.any(hit):
+            continue
+        i, size, m = at[hit][0], jump[hit][0], lost[hit][0]
+        what = (f"the IMU clock steps {1e3 * size:+.4g} ms off its period ({size / period:+.3g} periods: no whole "
+                "number of them, so no samples lost explain it)" if reason == CLOCK_STEP else
+                f"a gap of {size:.4g} s in the stamps ({m} periods, a whole number: {m} samples lost, or the clock "
+                "stepped as many periods; the stamps cannot tell), which the run bridges")
+        warnings.warn(f"imu: {source}, line {int(lines[i + 1])}, field '{field}': {what}, from t = {float(read[i])!r} "
+                      f"to {float(read[i + 1])!r} s ({int(hit.sum())} such, at line(s) {first_lines(lines[at[hit] + 1])})"
+                      "; the samples keep their stamps", RuntimeWarning, stacklevel=4)
+        if meta is not None:
+            count_doubted(meta, "imu", reason, int(hit.sum()))
 
 
 def first_lines(lines: np.ndarray) -> str:
