@@ -393,7 +393,8 @@ def test_a_step_of_the_imu_clock_or_a_gap_in_an_even_log_is_warned_and_counted(t
     said = {CLOCK_STEP: r"the IMU clock steps [+-][45][.\d]* ms off its period \([+-]0.[45]\d* periods: no whole",
             IMU_GAP: r"a gap of 0.5 s in the stamps \(50 periods, a whole number: 50 samples lost, or the clock"}
     for step, reason, stamps in ((0.005, CLOCK_STEP, clean.imu.t), (-0.005, CLOCK_STEP, clean.imu.t + jitter),
-                                 (0.5, IMU_GAP, clean.imu.t), (0.0, None, clean.imu.t), (0.0, None, clean.imu.t + jitter),
+                                 (0.5, IMU_GAP, clean.imu.t), (0.0, None, clean.imu.t),
+                                 (0.0, None, clean.imu.t + jitter),
                                  (0.01, None, clean.imu.t), (-0.5, None, clean.imu.t)):
         folder = tmp_path / f"{step:+g}-{reason}-{stamps is clean.imu.t}"
         folder.mkdir()

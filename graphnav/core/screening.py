@@ -722,9 +722,10 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
-    warned about and counted (:func:`_say_stamp_steps`). The rest must increase strictly; else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the
-    first kept), with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out
-    (``--repair-stamps``): one stamp on two different rows can be two streams written into one file."""
+    warned about and counted (:func:`_say_stamp_steps`). The rest must increase strictly; else, with ``repair``, the
+    rows are sorted and those whose stamp repeats an earlier one dropped (the first kept), with a warning; without it
+    a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``): one
+    stamp on two different rows can be two streams written into one file."""
     t, rows = np.asarray(t, float).copy(), np.asarray(rows, float)
     order = np.argsort(t, kind="stable")
     a, b = rows[order][:-1], rows[order][1:]
@@ -784,7 +785,8 @@ def _say_stamp_steps(read: np.ndarray, kept: np.ndarray, lines: np.ndarray, sour
                 f"a gap of {size:.4g} s in the stamps ({m} periods, a whole number: {m} samples lost, or the clock "
                 "stepped as many periods; the stamps cannot tell), which the run bridges")
         warnings.warn(f"imu: {source}, line {int(lines[i + 1])}, field '{field}': {what}, from t = {float(read[i])!r} "
-                      f"to {float(read[i + 1])!r} s ({int(hit.sum())} such, at line(s) {first_lines(lines[at[hit] + 1])})"
+                      f"to {float(read[i + 1])!r} s ({int(hit.sum())} such, at line(s) "
+                      f"{first_lines(lines[at[hit] + 1])})"
                       "; the samples keep their stamps", RuntimeWarning, stacklevel=4)
         if meta is not None:
             count_doubted(meta, "imu", reason, int(hit.sum()))
