@@ -2,11 +2,13 @@
 (:func:`graphnav.calibration.dvl_scale.imu_yaw_fit`): the shared A-KIT trajectories and simulated missions, whole
 and in windows, as read and with the IMU's accelerometer and gyro turned.
 
-    .venv/bin/python experiments/imu_yaw_rates.py [--windows 0 45 60 120] [--no-sim]
+    .venv/bin/python experiments/imu_yaw_rates.py [--windows 0 45 60 120] [--no-sim] [--search]
 
 Prints per source and window length: the largest q as read and the smallest turned (q > 0: a turn fits better, in
 noise variances), how many of each the check refuses, cannot judge (|q| under IMU_YAW_MIN_Q) or passes, turned
 windows where it names a wrong turn alone, and windows too short for the clock model (two 20 s windows of pings).
+With ``--search`` each fit is read at its best DVL offset within +- 20 s, as the check does where the speed-scale
+fit cannot fix the DVL's clock (``dvl_scale.SCALE_OFFSETS_S``); else at the stamps as they are.
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ import warnings
 import numpy as np
 
 from graphnav.core.dvl_kinematics import dvl_window_model
-from graphnav.calibration.dvl_scale import IMU_YAW_MIN_Q, IMU_YAWS_DEG, imu_yaw_fit, turn_about_z
+from graphnav.calibration.dvl_scale import IMU_YAW_MIN_Q, IMU_YAWS_DEG, SCALE_OFFSETS_S, imu_yaw_fit, turn_about_z
 from graphnav.core.errors import DataError
 from graphnav.io.paths import akit_trajectories
 
@@ -50,7 +52,9 @@ def main(argv=None) -> int:
     ap.add_argument("--windows", type=float, nargs="+", default=[0, 45, 60, 120],
                     help="window lengths, s, every half window (0: the whole mission)")
     ap.add_argument("--no-sim", action="store_true", help="the A-KIT trajectories only")
+    ap.add_argument("--search", action="store_true", help="each fit at its best DVL offset within +-20 s")
     args = ap.parse_args(argv)
+    offsets = SCALE_OFFSETS_S if args.search else (0.0,)
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -67,7 +71,7 @@ def main(argv=None) -> int:
                         except DataError:
                             rows.append((kind, w, turn, None, None, None))
                             continue
-                        rows.append((kind, w, turn, *imu_yaw_fit(model, turned, dvl, m.config)))
+                        rows.append((kind, w, turn, *imu_yaw_fit(model, turned, dvl, m.config, offsets)))
     for kind in dict.fromkeys(r[0] for r in rows):
         for w in args.windows:
             sel = [r for r in rows if r[0] == kind and r[1] == w]

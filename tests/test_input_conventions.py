@@ -120,6 +120,42 @@ def test_a_hovering_vehicle_with_its_imu_turned_is_refused_naming_either_instrum
             check_velocity_against_imu(turned, in_d, cfg, {}, imu_frame=frame)
 
 
+def _steady(monkeypatch, seed, speed_mps, duration_s=400.0):
+    """A simulated mission (navigation-grade IMU) on one straight leg at a steady ``speed_mps``: the simulator's
+    plan without its turns, speed and depth changes, keeping its sea-state wobble (0.0: a vehicle holding station)."""
+    import graphnav.sim.simulate as sim_module
+    plan = sim_module.plan_trajectory
+
+    def straight(*args, **kwargs):
+        traj = plan(*args, **kwargs)
+        traj.yaw, traj.pitch, traj.speed = sim_module.SmoothSteps(), sim_module.SmoothSteps(), sim_module.SmoothSteps()
+        traj.speed0 = speed_mps
+        return traj
+    monkeypatch.setattr(sim_module, "plan_trajectory", straight)
+    return simulate_mission(duration_s, "navigation", seed)
+
+
+@pytest.mark.parametrize("seed, speed", [(1, 1.5), (3, 0.0)])
+def test_a_steady_vehicle_is_not_refused_as_turned_and_a_turned_imu_on_it_is(monkeypatch, seed, speed):
+    """A straight leg at 1.5 m/s, or a vehicle holding station: the scale fit explains 0.02-0.03 of the velocity's
+    changes, so its best offset was noise (11.5 s and 7.5 s off), and there the IMU as read was refused as turned 180
+    deg (q 54 and 234); an IMU turned 270 deg was named turned 90. Each fit is read at its own best offset now."""
+    import dataclasses
+    from graphnav.calibration.dvl_scale import check_velocity_against_imu
+    m = _steady(monkeypatch, seed, speed)
+    frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_velocity_against_imu(m.imu, m.dvl, m.config, meta, imu_frame=frame)
+    assert not meta.get("streams", {}).get("imu", {}).get("notes"), meta       # judged: fits the IMU as read
+    for yaw in (90, 180, 270):
+        turned = dataclasses.replace(m.imu, f_b=_turned_about_z(m.imu.f_b, yaw),
+                                     omega_b=_turned_about_z(m.imu.omega_b, yaw))
+        with pytest.raises(DataError, match=rf"turned {yaw} deg about z"):
+            check_velocity_against_imu(turned, m.dvl, m.config, {}, imu_frame=frame)
+
+
 def test_a_log_too_short_to_check_the_imu_turn_says_so(tmp_path):
     short = simulate_mission(duration_s=30.0, seed=5)
     m, _ = _load(tmp_path, _csv(tmp_path, short, gt=False))

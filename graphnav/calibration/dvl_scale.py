@@ -254,23 +254,40 @@ def turn_about_z(yaw_deg: float) -> np.ndarray:
     return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]]).round(12)
 
 
-def imu_yaw_fit(read, imu, dvl, config, offset: float = 0.0) -> tuple[float, int, float]:
+def imu_yaw_fit(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, int, float]:
     """``(q, yaw, q_next)``: how much better the clock model ``read`` (the DVL as read on the IMU,
-    :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) fits at ``offset`` s with the IMU turned ``yaw`` deg about
-    z (the best of :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the
-    smaller squared residual per residual); > 0 the turn fits better. ``q_next``: the same of the next best turn
-    against the best. A turn is tried by turning the DVL velocity and lever arm into the turned IMU's axes; the
-    accelerometer's horizontal axes and the gyro's roll and pitch rates then meet the velocity as mounted."""
-    _, sse0, n_win = read.score(offset)
-    sses = []
+    :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) fits with the IMU turned ``yaw`` deg about z (the best of
+    :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the smaller squared
+    residual per residual); > 0 the turn fits better. Each is read at the DVL offset among ``offsets`` (s) where it
+    fits best: where the clock is known no closer than they span, the offset is no evidence for a turn (a turn of 180
+    deg half a sway period late fits a steady vehicle's velocity changes as well as the axes as read on time).
+    ``q_next``: the same of the next best turn against the best. A turn is tried by turning the DVL velocity and lever
+    arm into the turned IMU's axes; the accelerometer's horizontal axes and the gyro's roll and pitch rates then meet
+    the velocity as mounted."""
+    fits = {0: _best_fit(read, offsets)}
     for yaw in IMU_YAWS_DEG:
         T = turn_about_z(yaw).T
         model, _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
                                     ints=read.imu)
-        sses.append((model.score(offset)[1], yaw))
-    (sse, yaw), (sse_next, _) = sorted(sses)[:2]
-    n = 3 * read.window * n_win
-    return (sse0 - sse) / max(min(sse0, sse) / n, 1e-300), yaw, (sse_next - sse) / max(sse / n, 1e-300)
+        fits[yaw] = _best_fit(model, offsets)
+    yaw, nxt = sorted(IMU_YAWS_DEG, key=lambda y: fits[y][0])[:2]
+    return _evidence(fits[0], fits[yaw]), yaw, _evidence(fits[nxt], fits[yaw])
+
+
+def _best_fit(model, offsets) -> tuple[float, int]:
+    """``(unexplained, residuals)``: the share of the DVL velocity's changes the clock model ``model`` leaves
+    unexplained at the offset among ``offsets`` (s) where it fits best, and how many residuals it has there."""
+    explained, _, windows = max((model.score(o) for o in offsets), key=lambda s: s[0])
+    return 1.0 - explained, 3 * model.window * windows
+
+
+def _evidence(a: tuple[float, int], b: tuple[float, int]) -> float:
+    """How much better fit ``b`` is than ``a`` (each :func:`_best_fit`'s), in noise variances: the difference of their
+    squared residuals over the smaller's per residual (0 when either has no windows to fit)."""
+    (ua, na), (ub, nb) = a, b
+    if not (np.isfinite(ua) and np.isfinite(ub)):
+        return 0.0
+    return (ua - ub) * min(na, nb) / max(min(ua, ub), 1e-300)
 
 
 def _course(dvl, config) -> float:
@@ -301,7 +318,7 @@ def _forward(course: float) -> bool:
     return bool(abs(course) <= FORWARD_COURSE_RAD)          # NaN: False
 
 
-def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset: float = 0.0,
+def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets=(0.0,),
                   carried: bool = False) -> int | None:
     """DataError naming the IMU file, its six columns (``frame["fields"]``), the declared frame (``frame["what"]``)
     and the turn that fits, when a DVL velocity pointing forward (in the body frame) fits the IMU's accelerations
@@ -311,7 +328,8 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
     both instruments. 0 when the velocity fits the IMU as read; None otherwise. A note in ``meta["streams"]["imu"]``
     when the data cannot judge (under two 20 s windows of pings, or too little change of velocity).
     ``frame["signs"]``: the ``imu_axis_signs`` applied (an A-KIT folder), whose negated x and y fix a 180 deg turn.
-    ``model``: the clock model when built already; ``offset``: s added to its DVL stamps. ``carried``: a velocity
+    ``model``: the clock model when built already; ``offsets``: s added to its DVL stamps, each fit read at its best
+    of them (:func:`imu_yaw_fit`; several where the DVL's clock is not known closer). ``carried``: a velocity
     kept as body in a current (:data:`~graphnav.io.dvl_frame.CARRIED`), whose direction says nothing of the vehicle's
     forward: a turn that fits better is refused naming both instruments.
     """
@@ -321,7 +339,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offset:
         add_note(meta, "imu", f"its mounting about z not checked against the DVL ({exc.message}): a turned IMU is "
                               "seen then only against a reference attitude")
         return
-    q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offset)
+    q, yaw, q_next = imu_yaw_fit(model, imu, dvl, config, offsets)
     if carried and q >= IMU_YAW_MIN_Q:
         raise _either_turned(imu, dvl, frame, q, yaw, float("nan"), carried)
     course = _course(dvl, config) if q >= IMU_YAW_MIN_Q else 0.0
@@ -582,7 +600,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     seconds). ``moved``: the clock search has just put the DVL on the IMU clock, so the loader could not check it
     for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here. ``imu_frame``: the IMU's
     declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude checked its axes: its
-    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves).
+    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves,
+    where that fit explains at least :data:`MIN_SCALE_R2`; else each fit at its own best offset).
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
@@ -618,8 +637,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     turned = r2 >= MIN_SCALE_R2 and abs(yaw) > MAX_YAW_RAD
     dvl_yawed = turned and not carried and _forward(np.angle(np.exp(1j * (_course(dvl, config) - yaw))))
     if imu_frame is not None and not dvl_yawed:     # before the DVL's yaw: a turned IMU turns the velocity too
-        offset = SCALE_OFFSETS_S[best] if np.isfinite(r2) and not carried else 0.0
-        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offset, carried)
+        # the best scale's offset where its fit explains enough to fix the DVL's clock; where not (a vehicle holding
+        # its speed: r^2 0.02-0.4) its best is noise, up to 20 s off, and every fit is read at its own best offset
+        offsets = ((0.0,) if carried else (SCALE_OFFSETS_S[best],) if r2 >= MIN_SCALE_R2 else SCALE_OFFSETS_S)
+        dvl_turn = check_imu_yaw(imu, dvl, config, meta, imu_frame, model, offsets, carried)
     if turned:
         _say_dvl_turned(dvl, meta, field, fixes, f"the DVL velocity is turned {np.degrees(yaw):+.1f} deg about z from "
                         f"the IMU's axes (the fit explains {r2:.2f} of its changes): columns in the instrument frame "
