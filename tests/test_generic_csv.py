@@ -1047,3 +1047,83 @@ def test_the_units_a_speed_beyond_a_dvl_names_come_most_plausible_first(tmp_path
                                             r"\(\d.\d+ m/s\).* \(most plausible first: the IMU's accelerations leave "
                                             r"0.00\d+, "):
             load_mission(tmp_path, _slow_log(tmp_path, True, 1e2, "m/s"))
+
+
+def test_a_depth_or_reference_off_the_imu_span_is_left_out_and_said_not_usable(sim, tmp_path, capsys):
+    """A depth and a reference 5000 s late, warned about and counted, were still in the mission: ``graphnav info``
+    said usable with a time span of 0-5040 s, and ``smooth`` ended in a traceback scoring the reference. Both are
+    optional: left out of the mission, marked not usable with the reason (info, summary), the span the IMU's."""
+    cmap = _separate_files(tmp_path, sim)
+    cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: (t + T0 + 5000.0) * 1e3), "time_unit": "ms"}
+    g = sim.gt
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t + T0 + 5000.0) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.warns(RuntimeWarning, match=r"the depth is left out; put the depth stamps on the IMU clock"):
+        m = load_mission(tmp_path, cfg)
+    assert m.depth is None and m.gt is None
+    for name in ("depth", "gt"):
+        entry = m.meta["streams"][name]
+        assert entry["usable"] is False and entry["reason"].startswith("its stamps [5000.000, 5040.000] s lie off")
+    assert cli.main(["info", str(tmp_path), "--config", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"left out +depth: not usable: its stamps \[5000\.000, 5040\.000\] s lie off the IMU span", out)
+    assert re.search(r"time span +0\.000 s \.\. 40\.000 s", out), out
+
+
+def test_a_depth_on_a_clock_of_its_own_inside_the_imu_span_in_part_is_not_used_at_the_wrong_time(sim, tmp_path):
+    """A depth 30 s late on a 40 s mission shares a quarter of the span: its 10 s inside the IMU span were used,
+    30 s off, while the warning called the stream a clock of its own. None of it is used now, each sample counted."""
+    cmap = _separate_files(tmp_path, sim)
+    cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: t + T0 + 30.0), "time_unit": "s"}
+    with pytest.warns(RuntimeWarning, match=r"the 30 of 41 sample\(s\) outside the IMU span and the 11 inside it are "
+                                            r"not used: the depth is left out"):
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    from graphnav.io.stream_counts import OFF_THE_IMU_CLOCK, OUTSIDE_IMU_SPAN
+    assert m.depth is None
+    assert m.meta["streams"]["depth"]["refused"] == {OUTSIDE_IMU_SPAN: 30, OFF_THE_IMU_CLOCK: 11}
+
+
+def test_a_depth_on_a_third_clock_is_left_out_when_the_dvl_clock_is_moved(sim, tmp_path):
+    """With the DVL on its own clock (moved by the clock search) a depth on a third clock was a DataError ('give the
+    depth offset', a key that does not exist), with the DVL on the IMU's clock a warning: one rule now, left out."""
+    cmap = _separate_files(tmp_path, sim)
+    beams = np.where(sim.dvl.valid, sim.dvl.beams * 1e3, -32768.0)
+    _write(tmp_path / "dvl.csv", ["time_ms", "b1", "b2", "b3", "b4", "ok1", "ok2", "ok3", "ok4"],
+           [(sim.dvl.t + T0 + 600.0) * 1e3, beams, sim.dvl.valid.astype(float)])
+    cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: t + T0 + 5000.0), "time_unit": "s"}
+    with pytest.warns(RuntimeWarning, match=r"the depth is left out"):
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=0.5)
+    assert m.depth is None and m.meta["streams"]["depth"]["usable"] is False
+
+
+def test_a_declared_time_unit_is_checked_on_a_stream_covering_part_of_the_imu_span(sim, tmp_path):
+    """A 1 Hz reference over the first 40 % of the mission, stamped in s and declared 'ms', shares at most 40 % of
+    the longer span in 's' too: it was warned about as 'a clock of its own', advising gt_time_offset_s. A unit that
+    puts the stream inside the IMU span, its span within 31.6x of the IMU's, is now the unit advised."""
+    cmap = _separate_files(tmp_path, sim)
+    g, k = sim.gt, np.arange(0, 160, 10)
+    _write(tmp_path / "nav.csv", ["t", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [g.t[k] + T0, g.p_n[k], g.v_n[k], np.degrees(C_b_n_to_euler(g.C_b_n[k]))])
+    cmap["gt"] = {**cmap["gt"], "t": "t", "time_unit": "ms"}
+    with pytest.raises(DataError, match=r"nav.csv, field 't': the declared time unit 'ms' \(csv_columns.gt.time_unit\)"
+                                        r" .* in 's' they lie at \[0\.000, 15\.000\] s, sharing 100 %: set "
+                                        r"csv_columns.gt.time_unit to 's'$"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_a_dvl_stamp_beyond_the_bound_names_its_line_and_the_declared_unit(sim, tmp_path):
+    """A 20 Hz DVL on its own clock (600 s late) stamped in ms, declared 's': 50 s steps are a plausible period, no
+    unit puts it on the IMU span, and the error said 'dvl.csv, line 0' (an index into the arrays; line 1 is the
+    header) without the key. It names the first data line and the unit that fits now."""
+    cmap = _separate_files(tmp_path, sim)
+    t = np.arange(0.0, 40.0, 0.05)
+    v_b = np.column_stack([np.interp(t, sim.gt.t, sim.gt.v_b[:, i]) for i in range(3)])
+    _write(tmp_path / "dvl.csv", ["t", "vx", "vy", "vz"], [(t + T0 + 600.0) * 1e3, v_b])
+    cmap["dvl"] = {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "time_unit": "s"}
+    with pytest.raises(DataError, match=r"dvl.csv, line 2, field 't': time stamp 1\.6983e\+12 s from the first IMU "
+                                        r"stamp is beyond 1e\+10 s \(800 such stamp\(s\) in the declared unit 's', "
+                                        r"csv_columns.dvl.time_unit\): the stamps look like ms; set "
+                                        r"csv_columns.dvl.time_unit to 'ms'$"):
+        load_mission(tmp_path, _config(tmp_path, sim, cmap))

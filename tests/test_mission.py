@@ -162,3 +162,19 @@ def test_an_in_memory_ping_without_a_valid_beam_is_named_by_its_sample_and_stamp
         warnings.simplefilter("always")
         record_streams({}, dvl=dvl)
     assert "first at sample 3 at t = 1.600 s" in str(caught[0].message)
+
+
+def test_an_error_about_a_sample_of_a_file_names_no_line_of_it():
+    """The mission's checks index arrays: a stamp asked of the reference outside its span said 'nav.csv, line 0,
+    field 't'' (the index of the stamp asked for), an unordered stamp the array index as a line of the file."""
+    gt = GroundTruth(np.array([10.0, 11.0]), np.zeros((2, 3)), np.zeros((2, 3)), np.repeat(np.eye(3)[None], 2, 0),
+                     None, "nav.csv")
+    with pytest.raises(DataError) as err:
+        gt.at(0.0)
+    assert str(err.value) == "nav.csv: stamp 0.000 s outside the ground truth span [10.000, 11.000] s"
+    with pytest.raises(DataError) as err:
+        DepthData(np.array([0.0, 2.0, 1.0]), np.zeros(3), "depth.csv").validate()
+    assert err.value.line is None and "(sample 2 of the stream)" in str(err.value)
+    with pytest.raises(DataError) as err:
+        DepthData(np.array([0.0, 2.0, 1.0]), np.zeros(3), "depth").validate()
+    assert str(err.value).startswith("depth, index 2, field 't'")

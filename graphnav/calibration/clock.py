@@ -230,8 +230,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
 
     Raises:
         DataError: the DVL is off the IMU clock (:func:`graphnav.core.timeseries.on_the_imu_clock`) and no
-            confident offset can be found (a constant-velocity log has no signal to align on), or a depth
-            stream on a third clock does not overlap the IMU.
+            confident offset can be found (a constant-velocity log has no signal to align on). A depth stream on
+            a third clock is returned as it is (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`).
     """
     meta = {} if meta is None else meta
     inside = on_the_imu_clock(dvl.t, imu.t)
@@ -266,12 +266,8 @@ def align_stream_clocks(imu, dvl, depth=None, meta: dict | None = None, config=N
                  "reference")
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
     add_note(meta, "dvl", text)
-    dvl, depth = shift_dvl(dvl, depth, est.offset_s, meta)
-    if depth is not None and not _same_instrument(depth.source, dvl.source) and not on_the_imu_clock(depth.t, imu.t):
-        raise DataError(f"depth stamps [{depth.t[0]:.3f}, {depth.t[-1]:.3f}] s lie outside the IMU span "
-                        f"[{imu.t[0]:.3f}, {imu.t[-1]:.3f}] s on a clock of their own; give the depth offset",
-                        depth.source, field="t")
-    return dvl, depth
+    # a depth of another instrument left off the IMU span is the prepare step's to leave out, as without a DVL move
+    return shift_dvl(dvl, depth, est.offset_s, meta)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -45,7 +45,8 @@ back on its period, with a warning and a note; an IMU whose stamps run at anothe
 ``imu_rate_hz`` (50 or 200 Hz against 100) has the measured rate put in its configuration, with a note. DVL pings
 outside the IMU span are counted (:func:`graphnav.io.stream_counts.record_outside_span`), and a DVL span off the
 IMU's is a DataError (:func:`graphnav.io.stream_counts.check_dvl_on_imu_clock`); a log's or bag's depth or reference
-span off the IMU's is warned about and counted (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`).
+span off the IMU's (the DVL's clock search done) is warned about, counted, marked not usable and left out of the mission
+(:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`).
 What was chosen is warned about and kept in ``meta`` (``imu_axis_signs``, ``time_offsets``, ``clock_offsets``,
 ``meta["streams"]`` notes); ``meta["prepared"]`` becomes True. A simulated or hand-built mission (no
 ``meta["prepared"]``) is prepared already and comes back unchanged.
@@ -126,7 +127,7 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
                                         "\"auto\" finds its offset)")
         cmap = mission.config.csv_columns or {}
         stamp = "header.stamp" if facts.get("format") == "bag" else "t"
-        warn_off_the_imu_clock(mission, {k: (cmap.get(k) or {}).get("t", stamp) for k in ("depth", "gt")})
+        mission = warn_off_the_imu_clock(mission, {k: (cmap.get(k) or {}).get("t", stamp) for k in ("depth", "gt")})
     return mission
 
 

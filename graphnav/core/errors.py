@@ -36,6 +36,15 @@ class DataError(GraphnavError, ValueError):
         prefix = ", ".join(where)
         super().__init__(f"{prefix}: {message}" if prefix else message)
 
+    @classmethod
+    def at_sample(cls, message: str, source: str | None, index: int, field: str | None = None) -> "DataError":
+        """An error about sample ``index`` (0-based) of an array built from ``source``: its index for an in-memory
+        stream; for a file, whose arrays no longer map to its lines (a header, rows dropped or sorted), the sample
+        is named in the message and no line (a "line 0" would point at the header)."""
+        if _is_file(source):
+            return cls(f"{message} (sample {index} of the stream)", source, None, field)
+        return cls(message, source, index, field)
+
 
 class ConfigError(GraphnavError, ValueError):
     """Invalid configuration (file or arguments)."""

@@ -123,14 +123,14 @@ def _check_time(t: np.ndarray, source: str) -> None:
         raise DataError(f"time stamps must be 1-D, got shape {t.shape}", source, field="t")
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        raise DataError("time stamp is not finite", source, int(bad[0]), "t")
+        raise DataError.at_sample("time stamp is not finite", source, int(bad[0]), "t")
     check_stamps(t, source)        # bounds before anything loops over the time
     step = np.diff(t)
     bad = np.flatnonzero(step <= 0)
     if bad.size:
         kind = "duplicated" if step[bad[0]] == 0 else "out of order"
-        raise DataError(f"time stamp {kind} ({t[bad[0]]:.6f} s then {t[bad[0] + 1]:.6f} s)",
-                        source, int(bad[0]) + 1, "t")
+        raise DataError.at_sample(f"time stamp {kind} ({t[bad[0]]:.6f} s then {t[bad[0] + 1]:.6f} s)",
+                                  source, int(bad[0]) + 1, "t")
 
 
 def _check_array(a: np.ndarray, shape_tail: tuple, n: int, source: str, name: str,
@@ -142,7 +142,7 @@ def _check_array(a: np.ndarray, shape_tail: tuple, n: int, source: str, name: st
         values_ok |= ~finite
     bad = np.argwhere(~values_ok)
     if bad.size:
-        raise DataError("value is not finite", source, int(bad[0][0]), name)
+        raise DataError.at_sample("value is not finite", source, int(bad[0][0]), name)
 
 
 def _check_speed(a: np.ndarray, used: np.ndarray, source: str, name: str) -> None:
@@ -150,9 +150,9 @@ def _check_speed(a: np.ndarray, used: np.ndarray, source: str, name: str) -> Non
         bad = np.argwhere(used & (np.abs(a) > MAX_DVL_SPEED_MPS))
     if bad.size:
         i, j = bad[0]
-        raise DataError(f"value {a[i, j]:g} m/s (column {j}) is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL can "
-                        f"measure (an invalid flag such as RDI's -32.768?); {len(bad)} such value(s); "
-                        "DvlData.sanitized() marks them invalid", source, int(i), name)
+        raise DataError.at_sample(f"value {a[i, j]:g} m/s (column {j}) is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL "
+                                  f"can measure (an invalid flag such as RDI's -32.768?); {len(bad)} such value(s); "
+                                  "DvlData.sanitized() marks them invalid", source, int(i), name)
 
 
 @dataclass
@@ -396,8 +396,8 @@ class HeadingData:
         _check_array(self.sigma, (), len(self.t), self.source, "sigma")
         bad = np.flatnonzero(self.sigma <= 0)
         if bad.size:
-            raise DataError(f"heading sigma must be > 0 rad, got {self.sigma[bad[0]]:g}", self.source,
-                            int(bad[0]), "sigma")
+            raise DataError.at_sample(f"heading sigma must be > 0 rad, got {self.sigma[bad[0]]:g}", self.source,
+                                      int(bad[0]), "sigma")
         for name in ("roll", "pitch"):
             a = getattr(self, name)
             if a is not None:
@@ -439,16 +439,16 @@ class PositionFixData:
             _check_array(getattr(self, name), (), len(self.t), self.source, name)
         bad = np.flatnonzero(np.abs(self.lat) > np.pi / 2)
         if bad.size:
-            raise DataError(f"latitude {self.lat[bad[0]]:g} rad is beyond +-pi/2 (given in degrees?)", self.source,
-                            int(bad[0]), "lat")
+            raise DataError.at_sample(f"latitude {self.lat[bad[0]]:g} rad is beyond +-pi/2 (given in degrees?)",
+                                      self.source, int(bad[0]), "lat")
         bad = np.flatnonzero(np.abs(self.lon) > 2 * np.pi)
         if bad.size:
-            raise DataError(f"longitude {self.lon[bad[0]]:g} rad is beyond +-2 pi (given in degrees?)", self.source,
-                            int(bad[0]), "lon")
+            raise DataError.at_sample(f"longitude {self.lon[bad[0]]:g} rad is beyond +-2 pi (given in degrees?)",
+                                      self.source, int(bad[0]), "lon")
         bad = np.flatnonzero(~((self.sigma_m > 0) & (self.sigma_m <= MAX_FIX_SIGMA_M)))
         if bad.size:
-            raise DataError(f"fix sigma must be in (0, {MAX_FIX_SIGMA_M:g}] m, got {self.sigma_m[bad[0]]:g}",
-                            self.source, int(bad[0]), "sigma_m")
+            raise DataError.at_sample(f"fix sigma must be in (0, {MAX_FIX_SIGMA_M:g}] m, got {self.sigma_m[bad[0]]:g}",
+                                      self.source, int(bad[0]), "sigma_m")
 
     def take(self, idx) -> "PositionFixData":
         return PositionFixData(self.t[idx], self.lat[idx], self.lon[idx], self.sigma_m[idx], self.source)
@@ -520,8 +520,9 @@ class GroundTruth:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         outside = np.flatnonzero(~((t >= self.t[0]) & (t <= self.t[-1])))
         if outside.size:
+            # about the stamp asked for, not a sample of the reference: no line of its file to name
             raise DataError(f"stamp {t[outside[0]]:.3f} s outside the ground truth span "
-                            f"[{self.t[0]:.3f}, {self.t[-1]:.3f}] s", self.source, int(outside[0]), "t")
+                            f"[{self.t[0]:.3f}, {self.t[-1]:.3f}] s", self.source)
         if len(self.t) == 1:
             p, v = np.repeat(self.p_n, len(t), axis=0), np.repeat(self.v_n, len(t), axis=0)
             C = np.repeat(self.C_b_n, len(t), axis=0)

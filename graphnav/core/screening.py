@@ -118,25 +118,25 @@ def stamp_problem(t, previous: float | None = None) -> str | None:
     return None
 
 
-def check_stamps(t: np.ndarray, source: str, field: str = "t", line_offset: int = 0) -> None:
+def check_stamps(t: np.ndarray, source: str, field: str = "t") -> None:
     """Raise :class:`DataError` when the stamps (s, sorted) are not finite, beyond :data:`MAX_STAMP_S` or jump
-    by more than :data:`MAX_STAMP_GAP_S`; the index reported is ``line_offset`` + the sample's index."""
+    by more than :data:`MAX_STAMP_GAP_S`, naming the sample (:meth:`DataError.at_sample`)."""
     t = np.asarray(t, float)
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        raise DataError("time stamp is not finite", source, int(bad[0]) + line_offset, field)
+        raise DataError.at_sample("time stamp is not finite", source, int(bad[0]), field)
     bad = np.flatnonzero(np.abs(t) > MAX_STAMP_S)
     if bad.size:
-        raise DataError(f"time stamp {t[bad[0]]:.6g} s is beyond {MAX_STAMP_S:g} s ({bad.size} such stamp(s); "
-                        "micro/nanoseconds read as seconds, or corrupted)", source, int(bad[0]) + line_offset,
-                        field)
+        raise DataError.at_sample(f"time stamp {t[bad[0]]:.6g} s is beyond {MAX_STAMP_S:g} s ({bad.size} such "
+                                  "stamp(s); micro/nanoseconds read as seconds, or corrupted)", source, int(bad[0]),
+                                  field)
     if t.size > 1:
         jump = np.flatnonzero(np.abs(np.diff(t)) > MAX_STAMP_GAP_S)
         if jump.size:
             i = int(jump[0]) + 1
-            raise DataError(f"time stamp jumps by {t[i] - t[i - 1]:.6g} s ({t[i - 1]:.6g} s then {t[i]:.6g} s), more "
-                            f"than {MAX_STAMP_GAP_S:g} s inside one stream (a clock reset or corrupted stamp)",
-                            source, i + line_offset, field)
+            raise DataError.at_sample(f"time stamp jumps by {t[i] - t[i - 1]:.6g} s ({t[i - 1]:.6g} s then "
+                                      f"{t[i]:.6g} s), more than {MAX_STAMP_GAP_S:g} s inside one stream (a clock "
+                                      "reset or corrupted stamp)", source, i, field)
 
 
 def stamp_outliers(t: np.ndarray) -> np.ndarray:

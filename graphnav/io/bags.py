@@ -446,8 +446,10 @@ def _reference_turn(imu, gt, meta: dict) -> None:
 _LABELS = {"dvl": "DVL", "gt": "GT", "fix": "fix"}
 #: Streams the receive clock may leave off the IMU's span without an error: the prepare step estimates the DVL's
 #: and GT's clock offset from the data (:mod:`graphnav.calibration.clock`); fixes may all be taken before the IMU
-#: started (on deck) and are screened against its span by the estimators. A depth or heading left off is an error.
-_MAY_STAY_OFF = ("dvl", "gt", "fix")
+#: started (on deck) and are screened against its span by the estimators; a depth, optional, is left out by the
+#: prepare step with a warning, as a log's (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`). A heading
+#: left off is an error.
+_MAY_STAY_OFF = ("dvl", "gt", "fix", "depth")
 
 
 def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, meta: dict):
@@ -455,7 +457,7 @@ def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, met
     clock. A stream whose span is off the IMU's (:func:`graphnav.core.timeseries.on_the_imu_clock`) is moved
     through the recorder's receive clock, which every message shares: by the difference of the two streams'
     header-minus-receive offsets (0 for a stream on receive time). Each move is warned about, noted and kept in
-    ``meta["clock_offsets"]``. A depth or heading still off is a DataError naming both topics and both spans (an
+    ``meta["clock_offsets"]``. A heading still off is a DataError naming both topics and both spans (an
     estimator would refuse all its samples); the others are left as :data:`_MAY_STAY_OFF` says."""
     import dataclasses as dc
 

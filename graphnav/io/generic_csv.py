@@ -101,8 +101,8 @@ from graphnav.core.screening import (
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
-from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, check_declared_time_span, declared_scale,
-                               dvl_velocity_units, imu_units, stamps_in_seconds)
+from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, check_declared_time_span, check_stamp_bound,
+                               declared_scale, dvl_velocity_units, imu_units, stamps_in_seconds)
 
 TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
                                                        for k in ("time", "accel", "gyro", "velocity"))
@@ -250,6 +250,8 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
                           stream_key=own)
     if unit is not None and t_imu is not None:
         check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
+    if t_imu is not None and len(t_imu):
+        check_stamp_bound(t, float(t_imu[0]), stream, str(path), unit, key, spec["t"], lines, own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read

@@ -116,8 +116,10 @@ def describe(path: str | Path, config: SensorConfig | str | Path | None = None,
         A JSON-ready dict: ``path``, ``format`` (None: not a file graphnav knows), ``usable``, ``use`` (what
         graphnav does with it), ``reason`` (why not usable), ``instrument``, ``dvl_frame``, ``clock``,
         ``time_span_s``, ``duration_s``, ``streams`` (per stream: ``source``, ``read``, ``used``,
-        ``refused`` {reason: n}, ``rate_hz``, ``span_s``, ``notes``), ``dvl`` (``speed_mps`` median/max,
-        ``beams_per_ping``), ``depth_m`` (min/max), ``warnings`` (what reading it warned).
+        ``refused`` {reason: n}, ``rate_hz``, ``span_s``, ``notes``; ``usable`` False and ``reason`` for a stream
+        left out), ``left_out`` {stream: reason} (an optional stream graphnav does not use: a depth or reference
+        off the IMU span; the time span leaves it out), ``dvl`` (``speed_mps`` median/max, ``beams_per_ping``),
+        ``depth_m`` (min/max), ``warnings`` (what reading it warned).
     """
     path = Path(path)
     config_path = None
@@ -170,7 +172,8 @@ def _jsonable(obj):
 
 
 def _span(streams: dict) -> tuple[list[float] | None, float | None]:
-    spans = [e["span_s"] for e in streams.values() if e.get("span_s")]
+    """The span (s) of the streams the mission uses: not of one left out (``usable`` False), days off the IMU's."""
+    spans = [e["span_s"] for e in streams.values() if e.get("span_s") and e.get("usable", True)]
     if not spans:
         return None, None
     t0, t1 = min(s[0] for s in spans), max(s[1] for s in spans)
@@ -270,6 +273,7 @@ def describe_mission(mission) -> dict:
         "time_span_s": span, "duration_s": duration, "streams": streams, "ground_truth": mission.gt is not None,
         "dvl": {"speed_mps": _speed_stats(v), "beams_per_ping": _beams_per_ping(dvl.valid)},
         "depth_m": _depth_range(None if mission.depth is None else mission.depth.depth),
+        "left_out": {name: e["reason"] for name, e in streams.items() if e.get("usable", True) is False},
     }
 
 
@@ -434,6 +438,7 @@ def format_description(d: dict) -> str:
     """A short aligned table of a :func:`describe` dict, for a terminal."""
     rows: list[tuple[str, str]] = [("path", d["path"]), ("format", d.get("format_name") or "unknown")]
     rows.append(("usable", ("yes: " + d["use"]) if d.get("usable") else f"no: {d.get('reason')}"))
+    rows += [("left out", f"{name}: not usable: {why}") for name, why in (d.get("left_out") or {}).items()]
     inst = d.get("instrument") or {}
     for k, v in inst.items():
         rows.append((f"  {k}", json.dumps(v) if isinstance(v, (dict, list)) else str(v)))

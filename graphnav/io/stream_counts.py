@@ -15,7 +15,7 @@ import numpy as np
 
 from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
 from graphnav.core.screening import located
-from graphnav.core.streams import add_note, count_read, count_refused, set_span
+from graphnav.core.streams import add_note, count_read, count_refused, set_span, stream_entry
 
 #: Reason of a ping with no valid beam and no valid instrument velocity that no loader reason explains.
 NO_VALID_BEAM = "no valid beam (flagged invalid, NaN or RDI -32768 in the file)"
@@ -107,26 +107,40 @@ def _name_stamp_jump(mission: Mission, outside: np.ndarray) -> None:
 #: What to do about a depth or reference whose span is off the IMU's (:func:`warn_off_the_imu_clock`).
 OFF_THE_IMU_CLOCK_FIX = {"depth": "put the depth stamps on the IMU clock",
                          "gt": "give gt_time_offset_s (s added to the reference stamps) in the configuration"}
+#: Reason of the samples inside the IMU span of a depth or reference stream on a clock of its own: on another
+#: clock they would be used at the wrong time.
+OFF_THE_IMU_CLOCK = "inside the IMU span, but on a clock of its own (the stream is off the IMU span)"
 
 
-def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> None:
-    """Warn about, note and count (:data:`OUTSIDE_IMU_SPAN`) a depth or reference stream whose span is off the
-    IMU's once the mission is prepared (:func:`graphnav.core.timeseries.on_the_imu_clock`): the estimators use no
-    depth sample outside the IMU span, and a reference there scores nothing, so the stream was dropped without a word
-    (``graphnav info`` called it usable). ``fields``: the stamp field of each stream, for the message."""
+def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> Mission:
+    """The mission without a depth or reference stream whose span is off the IMU's once it is prepared
+    (:func:`graphnav.core.timeseries.on_the_imu_clock`), each warned about, noted, marked not usable in
+    ``meta["streams"]`` (``usable`` False, ``reason``) and every sample counted as refused (:data:`OUTSIDE_IMU_SPAN`,
+    :data:`OFF_THE_IMU_CLOCK` for the few inside the span): both are optional, so the estimators run without the
+    depth and the commands score nothing, as without them. Kept, the estimators would take the depth samples inside
+    the span at the wrong time, and scoring failed on the reference. ``fields``: each stream's stamp field."""
+    import dataclasses
+
     from graphnav.core.timeseries import on_the_imu_clock, overlap_text
-    t_imu = mission.imu.t
+    t_imu, left_out = mission.imu.t, {}
     for stream, data in (("depth", mission.depth), ("gt", mission.gt)):
         if data is None or not len(data.t) or not len(t_imu) or on_the_imu_clock(data.t, t_imu):
             continue
         outside = int(np.sum((data.t < t_imu[0]) | (data.t > t_imu[-1])))
-        text = (f"field '{fields.get(stream, 't')}': the {'reference' if stream == 'gt' else stream} stamps "
-                f"[{data.t[0]:.3f}, {data.t[-1]:.3f}] s lie off the IMU span [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s "
-                f"(sharing {overlap_text(data.t, t_imu)}): a clock of its own; the {outside} of {len(data.t)} "
-                f"sample(s) outside the IMU span are not used; {OFF_THE_IMU_CLOCK_FIX[stream]}")
+        what = "reference" if stream == "gt" else stream
+        reason = (f"its stamps [{data.t[0]:.3f}, {data.t[-1]:.3f}] s lie off the IMU span [{t_imu[0]:.3f}, "
+                  f"{t_imu[-1]:.3f}] s (sharing {overlap_text(data.t, t_imu)}): a clock of its own")
+        inside = f" and the {len(data.t) - outside} inside it" if outside < len(data.t) else ""
+        text = (f"field '{fields.get(stream, 't')}': the {what} stamps {reason.removeprefix('its stamps ')}; the "
+                f"{outside} of {len(data.t)} sample(s) outside the IMU span{inside} are not used: the {what} is "
+                f"left out; {OFF_THE_IMU_CLOCK_FIX[stream]}")
         count_refused(mission.meta, stream, OUTSIDE_IMU_SPAN, outside)
+        count_refused(mission.meta, stream, OFF_THE_IMU_CLOCK, len(data.t) - outside)
         add_note(mission.meta, stream, text)
+        stream_entry(mission.meta, stream).update(usable=False, reason=reason)
         warnings.warn(f"{data.source}: {text}", RuntimeWarning, stacklevel=3)
+        left_out[stream] = None
+    return dataclasses.replace(mission, **left_out) if left_out else mission
 
 
 def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",

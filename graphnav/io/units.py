@@ -189,7 +189,7 @@ def time_scale(t: np.ndarray, stream: str, source: str, expected_rate_hz: float 
         at = "" if lines is not None else f" at index {i}"
         raise DataError(f"stamps span {span:.3g} s (more than a year: a corrupt stamp?); largest jump "
                         f"{t[i - 1]:.6g} -> {t[i]:.6g} ({unit}){at}", source,
-                        i if lines is None else int(lines[i]), field)
+                        None if lines is None else int(lines[i]), field)
     return scale, unit
 
 
@@ -213,29 +213,38 @@ def _plausible_units(t: np.ndarray, stream: str) -> tuple[float, tuple[float, fl
     return med, (lo, hi), [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
 
 
-def _span_share(t: np.ndarray, t_imu: np.ndarray) -> float:
-    """The overlap of the spans of stamps ``t`` and ``t_imu`` (s) over the longer of the two, 0..1: near 1 only for
-    a stream on the IMU span and about as long (a unit 1000x off makes it 1000x longer or shorter)."""
-    a, b = float(np.nanmin(t)), float(np.nanmax(t))
-    longer = max(b - a, float(t_imu[-1] - t_imu[0]))
-    return float(np.clip((min(b, t_imu[-1]) - max(a, t_imu[0])) / longer, 0.0, 1.0)) if longer > 0 else 0.0
+#: How many times shorter than the IMU's a stream's span may be, or (for a unit the data did not declare) longer,
+#: and still be read as on the IMU's span: the geometric middle of 1 (the right unit) and 1000 (a unit one step off),
+#: so a reference logged over a tenth of the mission is on it and stamps 1000x too short or long are not.
+SPAN_RATIO_MAX = 1000.0 ** 0.5
+
+
+def _on_span(t: np.ndarray, t_imu: np.ndarray, longest: float = np.inf) -> bool:
+    """Stamps ``t`` (s) on the IMU span ``t_imu`` (s, the same clock): sharing at least
+    :data:`~graphnav.core.timeseries.MIN_CLOCK_OVERLAP` of the shorter span
+    (:func:`~graphnav.core.timeseries.on_the_imu_clock`), and no more than :data:`SPAN_RATIO_MAX` times shorter
+    than the IMU's span nor ``longest`` times longer (a log may run all week around a dive)."""
+    from graphnav.core.timeseries import on_the_imu_clock
+    t = np.sort(np.asarray(t, float))
+    ratio = (t[-1] - t[0]) / max(float(t_imu[-1] - t_imu[0]), 1e-9)
+    return on_the_imu_clock(t, t_imu) and 1.0 / SPAN_RATIO_MAX <= ratio <= longest
 
 
 def check_declared_time_span(t: np.ndarray, t_imu: np.ndarray, stream: str, source: str, declared: str, key: str,
                              field: str = "t", stream_key: str | None = None) -> None:
     """DataError naming ``key`` (the configuration key that ``declared`` the time unit) and the unit that fits when
     another unit with a plausible sample period (:func:`time_scale`) puts stamps ``t`` (s, the declared unit applied,
-    the file's clock) on the IMU's span ``t_imu`` (s, the same clock), sharing at least
-    :data:`~graphnav.core.timeseries.MIN_CLOCK_OVERLAP` of the longer span, where the declared one does not: a depth
-    at 1 Hz in s declared ms passes the period check (1 ms) and sat 1.7e9 s before the IMU. A stream off the span in
+    the file's clock) on the IMU's span ``t_imu`` (s, the same clock) where the declared one does not
+    (:func:`_on_span`, for the other unit within :data:`SPAN_RATIO_MAX` of the IMU's span either way): a depth at
+    1 Hz in s declared ms passes the period check (1 ms) and sat 1.7e9 s before the IMU. A stream off the span in
     every unit (a clock of its own) is left to the clock checks; ``stream_key`` as for :func:`time_scale`."""
-    from graphnav.core.timeseries import MIN_CLOCK_OVERLAP
+    from graphnav.core.timeseries import span_overlap_fraction
     t = np.asarray(t, float)
-    if t.size < 2 or len(t_imu) < 2 or _span_share(t, t_imu) >= MIN_CLOCK_OVERLAP:
+    if t.size < 2 or len(t_imu) < 2 or _on_span(t, t_imu):
         return
     raw = t / TIME_SCALES[declared]
     fits = [u for u in _plausible_units(raw, stream)[2]
-            if u != declared and _span_share(raw * TIME_SCALES[u], t_imu) >= MIN_CLOCK_OVERLAP]
+            if u != declared and _on_span(raw * TIME_SCALES[u], t_imu, SPAN_RATIO_MAX)]
     if not fits:
         return
     t0, unit = float(t_imu[0]), fits[0]
@@ -243,11 +252,37 @@ def check_declared_time_span(t: np.ndarray, t_imu: np.ndarray, stream: str, sour
 
     def span(x):
         return f"[{np.nanmin(x) - t0:.3f}, {np.nanmax(x) - t0:.3f}] s"
+
+    def share(x):
+        return f"{100 * span_overlap_fraction(np.sort(x), t_imu):.0f} %"
     fix = _set_unit(key, unit, stream_key)
     raise DataError(f"the declared time unit {declared!r} ({key}) puts the {stream} stamps at {span(t)}, sharing "
-                    f"{100 * _span_share(t, t_imu):.0f} % of the IMU's {span(t_imu)} (s from the first IMU stamp; "
-                    f"of the longer span); in {unit!r} they lie at {span(other)}, sharing "
-                    f"{100 * _span_share(other, t_imu):.0f} %: {fix}", source, field=field)
+                    f"{share(t)} of the IMU's {span(t_imu)} (s from the first IMU stamp; of the shorter span); in "
+                    f"{unit!r} they lie at {span(other)}, sharing {share(other)}: {fix}", source, field=field)
+
+
+def check_stamp_bound(t: np.ndarray, t0: float, stream: str, source: str, declared: str | None, key: str,
+                      field: str, lines: np.ndarray, stream_key: str | None = None) -> None:
+    """DataError naming the file line (``lines``: each stamp's) of the first stamp ``t`` (s, the file's clock) more
+    than :data:`~graphnav.core.screening.MAX_STAMP_S` from the first IMU stamp ``t0`` and, with a ``declared`` unit,
+    ``key`` and a unit with a plausible period that brings every stamp within it: the mission's own check names a
+    sample, and a stream on a clock of its own in a unit 1000x off is caught by no span check."""
+    from graphnav.core.screening import MAX_STAMP_S
+    t = np.asarray(t, float)
+    bad = np.flatnonzero(np.abs(t - t0) > MAX_STAMP_S)
+    if not bad.size:
+        return
+    said = (f"time stamp {t[bad[0]] - t0:.6g} s from the first IMU stamp is beyond {MAX_STAMP_S:g} s ({bad.size} "
+            "such stamp(s)")
+    fix = "micro/nanoseconds read as seconds, or corrupted"
+    if declared is not None:
+        raw = t / TIME_SCALES[declared]
+        fits = [u for u in _plausible_units(raw, stream)[2]
+                if u != declared and np.all(np.abs(raw * TIME_SCALES[u] - t0) <= MAX_STAMP_S)]
+        said += f" in the declared unit {declared!r}, {key}"
+        if fits:
+            fix = f"the stamps look like {fits[0]}; {_set_unit(key, fits[0], stream_key)}"
+    raise DataError(f"{said}): {fix}", source, int(lines[bad[0]]), field)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1507,7 +1542,7 @@ AKIT_DVL_FIXES = {"declare": False,
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
-           "dvl_velocity_units", "time_scale", "check_declared_time_span", "declared_scale",
+           "dvl_velocity_units", "time_scale", "check_declared_time_span", "check_stamp_bound", "declared_scale",
            "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
            "vertical_sign",
            "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
