@@ -216,14 +216,16 @@ def test_rdi_flag_in_a_turned_velocity_refuses_its_ping_by_line_as_in_body_colum
 
 def test_a_velocity_in_knots_is_refused_undeclared_and_converted_declared(sim, tmp_path):
     m, t, v_b = sim
-    with pytest.raises(DataError, match="1.9[0-9]x what the IMU's accelerations say.*knots read as m/s") as err:
+    # refused by the IMU's fits of the unit taken (m/s) against knots, before the speed scale's 1.9x
+    with pytest.raises(DataError, match=r"no unit declared \(csv_columns.dvl.velocity_unit\): read in 'm/s', but .* "
+                                        r"better in 'kn' .*: declare csv_columns.dvl.velocity_unit 'kn'") as err:
         _load(_folder(tmp_path, sim, v_b / KNOT))
     assert "dvl.csv" in str(err.value) and "vx, vy, vz" in str(err.value)
     got = _load(_folder(tmp_path, sim, v_b / KNOT, {"velocity_unit": "kn"}))
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
     _load(_folder(tmp_path, sim, v_b))           # m/s as m/s: no finding
     # a few seconds off the IMU clock: judged where the scale fits best (the clock search is misled by it)
-    with pytest.raises(DataError, match="knots read as m/s"):
+    with pytest.raises(DataError, match="better in 'kn' .*: declare csv_columns.dvl.velocity_unit 'kn'"):
         _load(_folder(tmp_path, sim, v_b / KNOT, {"clock": "auto"}, shift=7.0))
 
 

@@ -973,10 +973,11 @@ def test_a_stream_off_the_imu_span_in_every_unit_is_warned_about_and_counted(sim
         assert m.meta["streams"][name]["used"] == 0
 
 
-def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, seed=1, seconds=200.0):
-    """A column-map log of a vehicle at 0.35-0.55 m/s turning gently, or (``hovering``) holding station on thrusters
-    (0.05 m/s^2, about 0.15 m/s): IMU 100 Hz FRD with exact kinematics, a 1 Hz body velocity with 3 mm/s of noise
-    written times ``dvl_factor`` (1000: mm/s) and its unit ``declared``."""
+def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, seed=1, seconds=200.0, speed=0.45,
+              beams=False):
+    """A column-map log of a vehicle at ``speed`` +- 0.1 m/s turning gently, or (``hovering``) holding station on
+    thrusters (0.05 m/s^2, about 0.15 m/s): IMU 100 Hz FRD with exact kinematics, a 1 Hz body velocity with 3 mm/s of
+    noise written times ``dvl_factor`` (1000: mm/s) and its unit ``declared`` (``beams``: as four beam columns)."""
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, seconds, 0.01)
@@ -987,7 +988,7 @@ def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, see
         v_b -= np.column_stack([np.convolve(v_b[:, i], np.ones(3000) / 3000, "same") for i in range(3)])
         heading, tilt = 0.7 + 0.3 * np.sin(2 * np.pi * t / 100.0), 3e-4
     else:
-        v_b = np.column_stack([0.45 + 0.1 * np.sin(2 * np.pi * t / 90.0), 0.02 * np.sin(2 * np.pi * t / 40.0),
+        v_b = np.column_stack([speed + 0.1 * np.sin(2 * np.pi * t / 90.0), 0.02 * np.sin(2 * np.pi * t / 40.0),
                                0.01 * np.sin(2 * np.pi * t / 60.0)])
         heading, tilt = 1.0 + np.cumsum(0.03 * np.sin(2 * np.pi * t / 120.0)) * 0.01, 0.01
     R = Rotation.from_euler("ZYX", np.column_stack([heading, tilt * np.sin(2 * np.pi * t / 11.0 + 1),
@@ -998,8 +999,13 @@ def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, see
     _write(root / "imu.csv", ["t", "ax", "ay", "az", "gx", "gy", "gz"], [t, f_b, omega])
     i = np.arange(0, t.size, 100)
     v_dvl = (v_b[i] + rng.normal(0, 0.003, (i.size, 3))) * dvl_factor
-    _write(root / "dvl.csv", ["t", "vx", "vy", "vz"], [t[i], v_dvl])
     dvl = {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "clock": "imu"}
+    if beams:
+        from graphnav.core.config import DvlSpec
+        from graphnav.core.dvl import DvlGeometry
+        v_dvl = v_dvl @ DvlGeometry.from_spec(DvlSpec()).T_b.T
+        dvl = {"file": "dvl.csv", "t": "t", "beams": ["b1", "b2", "b3", "b4"], "clock": "imu"}
+    _write(root / "dvl.csv", ["t", *dvl.get("v_b", dvl.get("beams"))], [t[i], v_dvl])
     imu = {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"], "frame": "frd"}
     cfg = {"csv_columns": {"imu": imu, "dvl": dvl | ({"velocity_unit": declared} if declared else {})},
            "dvl": {"rate_hz": 1.0, "lever_arm_b": [0, 0, 0]}}
@@ -1010,14 +1016,18 @@ def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, see
 @pytest.mark.parametrize("hovering, refusal", [
     (False, r"dvl.csv, field 'vx, vy, vz': 1\d\d of 200 dvl samples refused \(1\d\d outside the envelope \(speed\)\): "
             r"more than 50% of the stream; "),
+    ("beams", r"dvl.csv, field 'b1, b2, b3, b4': 1\d\d of 200 dvl samples refused \(1\d\d outside the envelope "
+              r"\(speed\)\): more than 50% of the stream; "),
     (True, r"dvl.csv, field 'vx, vy, vz': DVL velocity in the declared unit 'cm/s' turns with the vehicle: .*; ")])
 def test_a_declared_unit_10x_too_large_on_a_slow_or_hovering_vehicle_is_named_as_the_likely_cause(tmp_path, hovering,
                                                                                                    refusal):
     """mm/s data declared cm/s: a slow vehicle (0.45 m/s) read at 4.5 m/s was refused by the vehicle's envelope with
     'check the units', a hovering one (0.15 m/s at 1.5 m/s) by the frame check as earth-fixed with the advice to
     declare csv_columns.dvl.frame 'ned'. In mm/s the speeds are plausible, the velocity vehicle-fixed and the IMU's
-    accelerations explain it: the refusal names the unit and the key. Declared mm/s, both load."""
-    cfg = _slow_log(tmp_path, hovering, 1e3, "cm/s")
+    accelerations explain it: the refusal names the unit and the key. Declared mm/s, both load. Logged as beam
+    columns, the refusal names them (it named field 'dvl')."""
+    beams, hovering = hovering == "beams", hovering is True
+    cfg = _slow_log(tmp_path, hovering, 1e3, "cm/s", beams=beams)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(DataError, match=refusal + r"the declared unit is the likely cause: in 'mm/s' \(x0.1\) "
@@ -1026,7 +1036,7 @@ def test_a_declared_unit_10x_too_large_on_a_slow_or_hovering_vehicle_is_named_as
                                             r"0.\d+ of its changes unexplained against \d.\d+ in 'cm/s': set "
                                             r"csv_columns.dvl.velocity_unit to 'mm/s'$"):
             load_mission(tmp_path, cfg)
-        load_mission(tmp_path, _slow_log(tmp_path, hovering, 1e3, "mm/s"))
+        load_mission(tmp_path, _slow_log(tmp_path, hovering, 1e3, "mm/s", beams=beams))
 
 
 def test_the_units_a_speed_beyond_a_dvl_names_come_most_plausible_first(tmp_path):
@@ -1127,3 +1137,38 @@ def test_a_dvl_stamp_beyond_the_bound_names_its_line_and_the_declared_unit(sim, 
                                         r"csv_columns.dvl.time_unit\): the stamps look like ms; set "
                                         r"csv_columns.dvl.time_unit to 'ms'$"):
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
+
+
+def test_a_declared_unit_10x_too_large_on_a_vehicle_inside_the_envelope_is_warned_as_suspect_and_counted(tmp_path):
+    """mm/s data declared cm/s on a vehicle at 0.25 m/s, read at 2.4 m/s: inside the envelope, vehicle-fixed, it
+    loaded without a word; the IMU's accelerations fit mm/s about 2.5x better, under the 4x that refuses. Between 2x
+    and 4x the unit is now suspect: a warning naming the key and the unit that fits, a note, the pings counted.
+    Declared mm/s, nothing is said."""
+    said = (r"dvl.csv: field 'vx, vy, vz': declared 'cm/s' \(csv_columns.dvl.velocity_unit\), but the IMU's "
+            r"accelerations fit the velocity's changes [23]\.\d+x better in 'mm/s' .* under the 4x that refuses it: "
+            r"kept in 'cm/s', suspect; set csv_columns.dvl.velocity_unit to 'mm/s' if the file is in it")
+    with pytest.warns(RuntimeWarning, match=said):
+        m = load_mission(tmp_path, _slow_log(tmp_path, False, 1e3, "cm/s", speed=0.25))
+    from graphnav.calibration.dvl_scale import VELOCITY_UNIT_SUSPECT
+    assert m.meta["streams"]["dvl"]["doubted"] == {VELOCITY_UNIT_SUSPECT: 200}
+    assert any("suspect" in note for note in m.meta["streams"]["dvl"]["notes"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(tmp_path, _slow_log(tmp_path, False, 1e3, "mm/s", speed=0.25))
+    assert "doubted" not in m.meta["streams"]["dvl"]
+
+
+def test_a_column_map_in_knots_without_a_unit_is_judged_by_the_imu_fits(tmp_path):
+    """A velocity logged in knots with no velocity_unit is read as m/s; the speed-scale check refused it only where its
+    fit explains 0.9 of the velocity's changes, advising 'velocity_unit' without the key's section. The IMU's fits of
+    the declared-unit check now judge the unit the loader took too, naming the key to declare. In m/s, nothing."""
+    knot = 1852.0 / 3600.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        said = (r"dvl.csv, field 'vx, vy, vz': no unit declared \(csv_columns.dvl.velocity_unit\): read in 'm/s', "
+                r"but the IMU's accelerations fit the velocity's changes \d+\.?\d*x better in 'kn' .*: declare "
+                r"csv_columns.dvl.velocity_unit 'kn'$")
+        with pytest.raises(DataError, match=said):
+            load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=1.5))
+        warnings.simplefilter("error")
+        load_mission(tmp_path, _slow_log(tmp_path, False, 1.0, None, speed=1.5))

@@ -584,7 +584,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     if unit_checked:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
         # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
@@ -609,7 +609,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
     if (moved or not unit_checked) and on_the_imu_clock(dvl.t, mission.imu.t):
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, facts.get("dvl_unit"))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
@@ -636,6 +636,20 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _dvl_unit(facts: dict, meta: dict) -> dict | None:
+    """The DVL velocity unit the IMU's fits judge
+    (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`): the one declared (``facts["dvl_unit"]``),
+    else a column map's as its loader took it, m/s or the mm/s it detected (``"taken"``): a log in knots read as m/s
+    is a declaration missing, named under the same key. None for other formats, whose unit is fixed by the format or
+    the message type."""
+    if facts.get("dvl_unit") or facts.get("format") != "csv":
+        return facts.get("dvl_unit")
+    from graphnav.io.units import MMPS_CONVERTED
+    notes = meta.get("streams", {}).get("dvl", {}).get("notes", [])
+    unit = "mm/s" if any(n.startswith(MMPS_CONVERTED) for n in notes) else "m/s"
+    return {"unit": unit, "key": "csv_columns.dvl.velocity_unit", "taken": True}
 
 
 def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:

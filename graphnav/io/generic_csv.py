@@ -362,6 +362,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
                                   meta, f_b, config.dvl)
         if "beams" in v:
             raw = v["beams"]
+            if v_b is None:         # the columns a later message about the DVL names (the velocity's, with both)
+                meta.setdefault("stream_fields", {})["dvl"] = _unit_named(spec, "beams")["columns"]
             if vdeclared is None:
                 raw = dvl_velocity_units(raw, str(path), meta, None, beams=True,   # m/s (mm/s detected)
                                          **_unit_named(spec, "beams"))

@@ -432,6 +432,8 @@ def gyro_too_small(turns: str, source: str, declared: str | None, field: str) ->
 # ------------------------------------------------------------------------------------------------
 #: What a DVL whose speeds are neither m/s nor mm/s is told to do (a column map or bag: declare the unit).
 DECLARE_UNIT_FIX = "declare the velocity unit"
+#: How the note of a DVL velocity detected as mm/s and converted begins (the unit the prepare step then judges).
+MMPS_CONVERTED = "DVL velocities read as mm/s"
 
 
 def velocity_unit_fits(t_dvl: np.ndarray, v: np.ndarray, imu, factors) -> dict[float, float] | None:
@@ -553,7 +555,7 @@ def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None
                                  columns=field, fix=fix, declared=declared, key=key, **rank)
     if scale == 1.0:
         return values
-    _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s", source)
+    _note(meta, "dvl", f"{MMPS_CONVERTED} (median speed {med:.4g}) and converted to m/s", source)
     return np.asarray(values, float) * scale
 
 
@@ -566,7 +568,7 @@ def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = Non
     if declared is not None:
         raise DataError(f"median DVL speed {med:.4g} m/s after the declared unit {declared!r}: the data look "
                         "like mm/s", dvl.source, field="beams")
-    _note(meta, "dvl", f"DVL velocities read as mm/s (median speed {med:.4g}) and converted to m/s",
+    _note(meta, "dvl", f"{MMPS_CONVERTED} (median speed {med:.4g}) and converted to m/s",
           dvl.source)
 
     def conv(a):
