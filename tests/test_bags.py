@@ -731,3 +731,33 @@ def test_a_depth_spike_in_a_bag_is_named_by_topic_message_and_time(sim, tmp_path
     said = [str(w.message) for w in rec if "depth sample(s) refused" in str(w.message)]
     assert said and f"at message 30 (t = {t_depth[30]:.3f} s); they are not used" in said[0]
     assert m.meta["streams"]["depth"]["refused"] == {"depth spike": 1}
+
+
+def test_a_step_of_the_imu_clock_or_a_gap_in_a_bag_is_warned_naming_the_message_and_counted(sim, tmp_path):
+    """A bag's IMU header stamps stepping +5 ms half-way (no whole number of periods: the clock stepped) or +0.5 s
+    (50 whole periods: a gap) loaded without a word, where a column-map log's are warned and counted: the same check
+    now names the bag and topic, the message and its time, and the field, and counts the sample after the step as
+    doubted; the clean bag says nothing."""
+    import dataclasses
+    import re
+    import warnings
+    from graphnav.core.screening import CLOCK_STEP, IMU_GAP
+    mission, config, paths, _ = sim
+    n = mission.imu.t.size
+    said = {CLOCK_STEP: r"the IMU clock steps \+5 ms off its period \(\+0.5 periods: no whole number",
+            IMU_GAP: r"a gap of 0.5 s in the stamps \(50 periods, a whole number: 50 samples lost"}
+    for step, reason in ((0.005, CLOCK_STEP), (0.5, IMU_GAP), (0.0, None)):
+        t = mission.imu.t + np.where(np.arange(n) >= n // 2, step, 0.0)
+        path = (bags.write_mission_bag(dataclasses.replace(mission, imu=dataclasses.replace(mission.imu, t=t)),
+                                       tmp_path / f"step{step:g}", t0_unix_ns=T0_NS) if step else paths["mcap"])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(path, config, prepare=False)
+        steps = [str(w.message) for w in caught if "off its period" in str(w.message) or "a gap of" in str(w.message)]
+        if reason is None:
+            assert not steps and "doubted" not in m.meta["streams"]["imu"]
+            continue
+        at = f"message {n // 2} (t = {t[n // 2] - t[0]:.3f} s)"
+        assert len(steps) == 1 and re.search(said[reason], steps[0])
+        assert steps[0].startswith(f"imu: {path}:/imu/data, {at}, field 'header.stamp': ")
+        assert m.meta["streams"]["imu"]["doubted"] == {reason: 1}

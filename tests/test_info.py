@@ -434,3 +434,29 @@ def test_info_on_a_json_lines_stream_counts_samples_sharing_a_stamp(sim, tmp_pat
     assert d["streams"]["imu"]["rate_hz"] == pytest.approx(100.0, rel=1e-6)
     assert any("packets of 20" in n for n in d["streams"]["imu"]["notes"])
     assert any("packets of 20" in w for w in d["warnings"])
+
+
+def test_info_on_a_json_lines_stream_warns_of_a_step_of_the_imu_clock_naming_the_line(sim, tmp_path):
+    """A JSON-lines stream's IMU stamps stepping +5 ms half-way showed nothing in graphnav info, where a log's are
+    warned and counted: the same check names the file, the line and the field (in the warnings info shows), and
+    counts the sample as doubted; the clean stream says nothing."""
+    import dataclasses
+    from graphnav.core.screening import CLOCK_STEP
+    from graphnav.estimators.replay import mission_records
+    from graphnav.io.streamio import write_records
+    n = sim.imu.t.size
+    t = sim.imu.t + np.where(np.arange(n) >= n // 2, 0.005, 0.0)
+    path = tmp_path / "stream.jsonl"
+    with path.open("w") as fh:
+        write_records(mission_records(dataclasses.replace(sim, imu=dataclasses.replace(sim.imu, t=t))), fh)
+    line = next(i for i, s in enumerate(path.read_text().splitlines(), start=1)
+                if s.startswith(f'{{"type":"imu","t":{float(t[n // 2])!r},'))
+    d = describe(path)
+    said = [w for w in d["warnings"] if "off its period" in w]
+    assert len(said) == 1 and said[0].startswith(f"imu: {path}, line {line}, field 't': the IMU clock steps +5 ms")
+    assert d["streams"]["imu"]["doubted"] == {CLOCK_STEP: 1}
+    clean = tmp_path / "clean.jsonl"
+    with clean.open("w") as fh:
+        write_records(mission_records(sim), fh)
+    d = describe(clean)
+    assert not [w for w in d["warnings"] if "IMU clock" in w] and "doubted" not in d["streams"]["imu"]

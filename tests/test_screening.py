@@ -2127,3 +2127,21 @@ def test_a_live_imu_whose_packets_share_one_stamp_is_put_back_on_its_period():
     packets = PacketStamps(0.01)
     passed = [s[0] for t in clean for s in packets.add(float(t), (), ())] + packets.flush()
     assert np.array_equal(passed, clean) and packets.restamped == 0 and packets.note is None
+
+
+def test_an_imu_on_a_grid_finer_than_a_tenth_of_its_step_reads_its_mean_step():
+    """A 55 Hz IMU logged in whole ms (steps of 18 and 19 ms, 18.18 on average) read 55.56 Hz with or without 1 % of
+    its samples lost, 60 Hz 58.82 Hz, 64 Hz 62.5 Hz, 90 and 95 Hz 90.91 Hz: the median of steps on a grid is a grid
+    multiple, and a 1 ms grid is under the tenth of the step that made the mean one-period step the period. Such
+    steps now read their mean one-period step (lost samples' double steps left out); a 100 Hz log in whole ms, with
+    jitter or not, reads 100 Hz as before."""
+    from graphnav.core.imu_timing import imu_rate_hz
+    for rate, lost, jitter, seed in ((55.0, 0.01, 0.0, 0), (55.0, 0.0, 3e-4, 1), (60.0, 0.01, 3e-4, 2),
+                                     (64.0, 0.03, 0.0, 0), (90.0, 0.01, 0.0, 1), (95.0, 0.0, 3e-4, 2)):
+        true, t = _drifting_clock(rate, 0.001, 6000, jitter, 20.0, seed)
+        t = t[np.random.default_rng(seed + 100).random(t.size) > lost]
+        assert imu_rate_hz(t) == pytest.approx(rate / (1.0 + 2e-5), rel=5e-4)
+    for jitter, lost in ((0.0, 0.0), (3e-4, 0.01)):
+        t = _drifting_clock(100.0, 0.001, 6000, jitter, 0.0, 0)[1]
+        t = t[np.random.default_rng(100).random(t.size) > lost]
+        assert imu_rate_hz(t) == pytest.approx(100.0, rel=1e-4)

@@ -230,7 +230,32 @@ def _positive_steps(steps) -> tuple[np.ndarray, float]:
         return d, math.nan
     med = float(np.median(d))
     quantum = imu_stamp_quantum(d)
-    return d, _quantised_period(d, med, quantum, steps) if quantum else (_slower_than_grid(steps, med) or med)
+    if quantum:
+        return d, _quantised_period(d, med, quantum, steps)
+    return d, _slower_than_grid(steps, med) or _fine_grid_period(d, med, steps)
+
+
+#: Finest grid, as a share of the median step, that :func:`_fine_grid_period` looks for (a whole-ms log of a 55 Hz
+#: IMU: 5.6 %); a grid of 1 us under a 10 ms step is float rounding, not a clock.
+FINE_GRID_SHARE = 0.01
+#: Share of a grid step by which the mean one-period step must differ from the median for it to be the period
+#: (:func:`_fine_grid_period`): jitter moves a 100 Hz log in whole ms or 0.1 ms by under a twentieth.
+FINE_GRID_OFF_SHARE = 0.1
+
+
+def _fine_grid_period(d: np.ndarray, med: float, steps) -> float:
+    """The period (s) of positive steps ``d`` (s; ``med`` their median; ``steps`` as read) on a grid of whole 10 ms or
+    1 ms finer than :data:`IMU_STAMP_QUANTUM_SHARE` of the median and not finer than :data:`FINE_GRID_SHARE`: their mean
+    one-period step (:func:`_quantised_period`) where it is off the median by :data:`FINE_GRID_OFF_SHARE` of a grid
+    step or more, else the median. The median of steps on a grid is a grid multiple: 55 Hz in whole ms (steps of 18
+    and 19 ms) read 55.56 Hz, 60 Hz 58.82 Hz, 64 Hz 62.5 Hz."""
+    for grid in (1e-2, 1e-3):      # finer ones hold restamped stamps a float's rounding off a grid multiple
+        if not FINE_GRID_SHARE * med <= grid <= (1.0 + 1e-3) * IMU_STAMP_QUANTUM_SHARE * med:   # 1 ms at 100 Hz
+            continue
+        if np.mean(np.abs(d / grid - np.round(d / grid)) <= 0.01) >= QUANTISED_GRID_SHARE:
+            period = _quantised_period(d, med, grid, steps)
+            return period if abs(period - med) >= FINE_GRID_OFF_SHARE * grid else med
+    return med
 
 
 #: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its

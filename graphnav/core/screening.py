@@ -722,7 +722,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
-    warned about and counted (:func:`_say_stamp_steps`). The rest must increase strictly; else, with ``repair``, the
+    warned about and counted (:func:`say_imu_stamp_steps`). The rest must increase strictly; else, with ``repair``, the
     rows are sorted and those whose stamp repeats an earlier one dropped (the first kept), with a warning; without it
     a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``): one
     stamp on two different rows can be two streams written into one file."""
@@ -745,7 +745,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
         if stream == "imu":
-            _say_stamp_steps(read, t[kept], lines[kept], source, field, meta)
+            say_imu_stamp_steps(read, t[kept], source, field, meta, lines=lines[kept], stacklevel=3)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
@@ -766,14 +766,16 @@ CLOCK_STEP = "stamped after a step of the IMU clock (no whole number of periods)
 IMU_GAP = "stamped after a gap in the IMU data (whole periods: samples lost, bridged)"
 
 
-def _say_stamp_steps(read: np.ndarray, kept: np.ndarray, lines: np.ndarray, source: str, field: str,
-                     meta: dict | None) -> None:
-    """Warn about the steps of an IMU's stamps ``read`` (s, as read, never decreasing; ``kept``: as restamped, s;
-    ``lines``: their file lines) off a line at its period (:func:`~graphnav.core.imu_timing.stamp_steps`), each kind
+def say_imu_stamp_steps(read: np.ndarray, kept: np.ndarray, source: str, field: str, meta: dict | None,
+                        lines: np.ndarray | None = None, where: list[str] | None = None, stacklevel: int = 2) -> None:
+    """Warn about the steps of an IMU's stamps ``read`` (s, as read, never decreasing; ``kept``: as the reader keeps
+    them, restamped or not, s) off a line at its period (:func:`~graphnav.core.imu_timing.stamp_steps`), each kind
     once, and count the sample after each as doubted in ``meta``: a step no whole number of periods long is the IMU
     clock stepping, one of :data:`~graphnav.core.imu_timing.GAP_WARN_SAMPLES` periods or more a gap the run bridges
     (or the clock stepping whole periods: the stamps cannot tell); one sample lost is neither. The samples keep their
-    stamps."""
+    stamps. Every reader's IMU stamps go through it: ``source`` and ``field`` name the file (a bag's topic) and the
+    stamp field, each sample is named as :func:`located` names it (``lines``: a file's lines; ``where``: a bag's
+    messages with their time); ``stacklevel``: the caller's own."""
     period = imu_step_stats(np.diff(kept))[0]
     at, jump, lost = stamp_steps(read, period)
     for hit, reason in ((lost == 0, CLOCK_STEP), (lost >= GAP_WARN_SAMPLES, IMU_GAP)):
@@ -784,10 +786,10 @@ def _say_stamp_steps(read: np.ndarray, kept: np.ndarray, lines: np.ndarray, sour
                 "number of them, so no samples lost explain it)" if reason == CLOCK_STEP else
                 f"a gap of {size:.4g} s in the stamps ({m} periods, a whole number: {m} samples lost, or the clock "
                 "stepped as many periods; the stamps cannot tell), which the run bridges")
-        warnings.warn(f"imu: {source}, line {int(lines[i + 1])}, field '{field}': {what}, from t = {float(read[i])!r} "
-                      f"to {float(read[i + 1])!r} s ({int(hit.sum())} such, at line(s) "
-                      f"{first_lines(lines[at[hit] + 1])})"
-                      "; the samples keep their stamps", RuntimeWarning, stacklevel=4)
+        warnings.warn(f"imu: {source}, {located(at[hit] + 1, lines, where, first=True)}, field '{field}': {what}, "
+                      f"from t = {float(read[i])!r} to {float(read[i + 1])!r} s ({int(hit.sum())} such, at "
+                      f"{located(at[hit] + 1, lines, where)}); the samples keep their stamps", RuntimeWarning,
+                      stacklevel=stacklevel + 1)
         if meta is not None:
             count_doubted(meta, "imu", reason, int(hit.sum()))
 

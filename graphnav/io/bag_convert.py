@@ -19,7 +19,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData, DvlData, GroundTruth, HeadingData,
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
-from graphnav.core.screening import located
+from graphnav.core.screening import located, say_imu_stamp_steps
 from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
@@ -28,6 +28,8 @@ from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 FLU_FRD = np.diag([1.0, -1.0, -1.0])
 ENU_NED = C_NED_ENU
 TWIST_DVL = "geometry_msgs/msg/TwistWithCovarianceStamped"
+#: The field a stream's stamps come from, by :class:`Stream` ``stamp_kind``, for warnings.
+STAMP_FIELDS = {"header": "header.stamp", "receive": "receive time"}
 
 #: Absolute pressure a water-pressure sensor can read, Pa: from a low atmosphere (80 kPa, a storm at altitude)
 #: to 11 km of sea water (~110 MPa). All zeros, or a leak detector's 0/1, are not water.
@@ -100,19 +102,22 @@ def _rel(s: Stream, t0_ns: int) -> np.ndarray:
 def imu(s: Stream, t0_ns: int, source: str, meta: dict) -> ImuData:
     """The IMU stream's samples (FRD, SI): a message with a NaN or infinite value is refused, warned about (its
     index in the topic and its time) and counted in ``meta`` as the loaders count a refused CSV row; more than
-    half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`)."""
+    half refused is a DataError (:func:`graphnav.core.screening.check_refused_fraction`). A step of the IMU clock or
+    a gap is warned about and counted as a file's is (:func:`graphnav.core.screening.say_imu_stamp_steps`)."""
     from graphnav.core.screening import check_refused_fraction
     f = np.array([vec(m.linear_acceleration) for m in s.rows])
     w = np.array([vec(m.angular_velocity) for m in s.rows])
     t = _rel(s, t0_ns)
+    where = messages(s, t0_ns)
     ok = np.all(np.isfinite(f), axis=1) & np.all(np.isfinite(w), axis=1)
     if not ok.all():
         bad = np.flatnonzero(~ok)
         warnings.warn(f"{source}:{s.topic}: {bad.size} IMU message(s) with a NaN or infinite value refused (first: "
-                      f"{located(bad, where=messages(s, t0_ns), first=True)})", RuntimeWarning, stacklevel=2)
+                      f"{located(bad, where=where, first=True)})", RuntimeWarning, stacklevel=2)
         count_refused(meta, "imu", "not finite", bad.size)
         check_refused_fraction(meta)
-        t, f, w = t[ok], f[ok], w[ok]
+        t, f, w, where = t[ok], f[ok], w[ok], [x for x, keep in zip(where, ok) if keep]
+    say_imu_stamp_steps(t, t, f"{source}:{s.topic}", STAMP_FIELDS[s.stamp_kind], meta, where=where)
     if not frame_is(s.rows[0].header.frame_id, "_frd"):
         f, w = f @ FLU_FRD, w @ FLU_FRD
     return ImuData(t, f, w, f"{source}:{s.topic}")
