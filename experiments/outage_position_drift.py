@@ -61,6 +61,14 @@ the graph's own recent prediction error on the measured beams by the margin M (`
 ``GraphOptions.measured_both_margin``), and prints, per fold, how well each error read predicts the outage's actual
 one (the graph's predicted missing beams and the completions against the true beams; docs/decisions/completers.md,
 "Both errors read on the beams still measured").
+``--claim-collect`` records, in Graph-TC's windows, the graph's claimed variance of each missing beam and its actual
+error; ``--claim-fit DIR`` (with ``--out`` that run's file; ``--claim-edges`` the ranges of time into the outage) runs
+nothing and writes each fold's table of prediction variance scales, fitted on the other folds' records only;
+``--calibrated-claim DIR ...`` adds ``Graph-HN`` and ``Graph-HNP`` (those of ``--methods``) with the measured-change
+sigma and the screening's claimed variance scaled by the table of the fold that holds the trajectory out (``<method>
+measured-sigma calibrated <DIR's name>``, ``screening.prediction_var_table``; claim_calibration.py;
+docs/decisions/completers.md, "The graph's claimed variance calibrated out of fold"). ``--folds F ...`` runs the
+trajectories of those folds only.
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
 networks, a fold cell of every draw counted.
 
@@ -74,6 +82,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import re
 import sys
 from pathlib import Path
@@ -135,6 +144,10 @@ _MEASURED_RE = re.compile(re.escape(MEASURED) + r"(?: ([0-9.]+))?(?![0-9a-z.-])"
 #: `` measured-both M`` anywhere in a run label: the measured-change sigma, and a completion kept only where it beats
 #: the graph's own recent prediction error on the measured beams by the margin M (``measured_both_margin``)
 _BOTH_RE = re.compile(r" measured-both ([0-9.]+)(?![0-9.])")
+#: `` calibrated NAME`` anywhere in a run label: the screening's claimed variance scaled by the table of the fold that
+#: holds the trajectory out, from the folder NAME of ``--calibrated-claim`` (``screening.prediction_var_table``)
+CALIBRATED = " calibrated "
+_CALIBRATED_RE = re.compile(CALIBRATED + r"([A-Za-z0-9_.-]+)")
 
 
 def variant_run(label: str) -> tuple[str, dict | None]:
@@ -146,6 +159,9 @@ def variant_run(label: str) -> tuple[str, dict | None]:
     sensitivity to its linearisation), or a method followed by `` prior P`` (its pivot completer's ``prior_turn``,
     :func:`pivot_prior`), `` axes A`` (its turn axes, :func:`pivot_axes`) or `` hold N`` (the past pings it holds,
     :func:`pivot_hold`): no graph option; they may come before or after the other suffixes)."""
+    if _CALIBRATED_RE.search(label):
+        # the table is the fold's (claim_options): no option of its own
+        return variant_run(_CALIBRATED_RE.sub("", label, count=1))
     both = _BOTH_RE.search(label)
     if both:
         name, options = variant_run(_BOTH_RE.sub("", label, count=1))
@@ -311,7 +327,9 @@ def fold_completer(method: str, scenario: str, fold_nets: dict, fold: int, missi
 def study_items(sources: dict, a, fold_nets: dict, runs: dict, folds) -> list[tuple]:
     """The :func:`trajectory_task` items not yet in ``runs``: every trajectory of ``folds`` (with the index of the
     fold that holds it out, whose networks it runs), IMU grade, scenario and window length of the options ``a``."""
-    flags = ["predictiveness"] if a.predictiveness else []
+    calibrated = getattr(a, "calibrated_claim", None)
+    flags = ((["predictiveness"] if a.predictiveness else []) + (["claims"] if getattr(a, "claim_collect", False) else [])
+             + ([{"claim_folders": dict(calibrated)}] if calibrated else []))
     return [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend, fold_nets, f, *flags)
             for f, pair in enumerate(folds) for k in pair for g in a.grades for sc in a.scenarios
             for w in a.window_s if (f"Trajectory{k}", g, sc, w) not in runs]
@@ -323,6 +341,8 @@ def trajectory_task(item):
     :func:`fold_completer`."""
     source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold, *flags = item
     import warnings
+
+    from claim_calibration import claims_in, claims_read
     warnings.simplefilter("ignore")
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
@@ -347,9 +367,13 @@ def trajectory_task(item):
             comp = comp or completer_for(name, scenario, mission.config.dvl.beam_noise_std, mission.config)[0]
             comp.run_sigma = "measured-change"
             comp.run_sigma_scale = float(measured.group(1) or 1.0) if measured else 1.0
-        with rehearsals_made() as made, both_errors_read() as read:
+        claims = claims_read() if "claims" in flags and method == "Graph-TC" else contextlib.nullcontext()
+        options = claim_options(method, options, fold, *(f for f in flags if isinstance(f, dict)))
+        with rehearsals_made() as made, both_errors_read() as read, claims as claimed:
             sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
+        for window, s in zip(result[method], starts) if claimed else ():
+            window["claim"] = claims_in(claimed, mission, s, window_s)
         if read:
             for window, s in zip(result[method], starts):
                 window["both"] = both_errors_in(read, mission, s, window_s)
@@ -363,6 +387,17 @@ def trajectory_task(item):
             # the decisions of the whole run: every outage ping of the run is in its windows
             result[method][0]["rehearsal"] = dict(sol.info["outage_rehearsal"])
     return (source.name, grade, scenario, window_s), result
+
+
+def claim_options(method: str, options: dict | None, fold: int, flags: dict | None = None) -> dict | None:
+    """``options`` of the run ``method`` with, for a label with `` calibrated NAME``, the prediction variance table
+    of ``fold`` from the folder ``flags["claim_folders"][NAME]`` (claim_calibration.py; fitted without the fold)."""
+    found = _CALIBRATED_RE.search(method)
+    if not found:
+        return options
+    from claim_calibration import read_table
+    table = read_table(Path(flags["claim_folders"][found.group(1)]), fold)
+    return {**(options or {}), "screening.prediction_var_table": table}
 
 
 @contextlib.contextmanager
@@ -705,6 +740,18 @@ def main(argv=None) -> int:
                    "of --methods) with the measured-change sigma, a completion kept only where its recent error beats "
                    "the graph's own on the measured beams by the margin M (<method> measured-both M, "
                    "GraphOptions.measured_both_margin); prints how well each error read predicts the outage's")
+    p.add_argument("--claim-collect", action="store_true", help="record, in Graph-TC's windows, its claimed variance "
+                   "of each missing beam and its actual error (claim_calibration.py)")
+    p.add_argument("--claim-fit", metavar="DIR", help="run nothing: fit each fold's table of prediction variance "
+                   "scales on the other folds' records of --out (a --claim-collect run) and write DIR/fold<k>.json")
+    p.add_argument("--claim-edges", nargs="+", type=float, metavar="S", help="the starts (s, from 0) of the ranges of "
+                   "time into the outage --claim-fit fits a scale to (default: claim_calibration.TIME_EDGES_S; 0 alone: "
+                   "one scale per number of measured beams)")
+    p.add_argument("--calibrated-claim", nargs="+", metavar="DIR", help="also Graph-HN and Graph-HNP (those of "
+                   "--methods) with the measured-change sigma and the screening's claimed variance scaled by each "
+                   "trajectory's fold's table in DIR (--claim-fit; <method> measured-sigma calibrated <DIR's name>)")
+    p.add_argument("--folds", nargs="+", type=int, metavar="F", help="run the trajectories of these folds only "
+                   "(default: all)")
     p.add_argument("--hni-runs", nargs="*", type=float, metavar="T", help="the same for Graph-HNI (module "
                    "docstring)")
     p.add_argument("--relinearised", type=float, metavar="W", help="also Graph-TC relinearising every update the "
@@ -735,6 +782,15 @@ def main(argv=None) -> int:
         runs, methods = runs_over_draws(a.over_draws)
         print(f"{len(a.over_draws)} training draws, their fold cells counted together")
         print_choices(runs, methods, AKIT_FOLDS)
+        return 0
+    if a.claim_fit:
+        from claim_calibration import TIME_EDGES_S, fold_tables, write_tables
+        from hybrid_imu_folds import read_results
+        edges = tuple(a.claim_edges or TIME_EDGES_S)
+        if edges[0] != 0 or any(b <= e for e, b in zip(edges, edges[1:])):
+            p.error("--claim-edges: ascending starts from 0 s")
+        for path in write_tables(fold_tables(read_results(Path(a.out))[1], AKIT_FOLDS, edges), Path(a.claim_fit)):
+            print(f"{path}: {path.read_text()}")
         return 0
     if a.methods[0] != GRAPH_TC:
         p.error("--methods must start with Graph-TC (the ratios are to it)")
@@ -772,6 +828,10 @@ def main(argv=None) -> int:
             p.error("--measured-both: the margin M must be > 0")
         a.methods += [f"{m} measured-both {k:g}" for k in a.measured_both for m in a.methods
                       if m in (GRAPH_HN, GRAPH_HNP)]
+    if a.calibrated_claim:
+        a.calibrated_claim = [(Path(d).name, str(Path(d))) for d in a.calibrated_claim]
+        a.methods += [f"{m}{MEASURED}{CALIBRATED}{name}" for name, _ in a.calibrated_claim for m in a.methods
+                      if m in (GRAPH_HN, GRAPH_HNP)]
     if a.relinearised is not None:
         a.methods.append(f"{GRAPH_TC}{RELINEARISED}{a.relinearised:g}")
     if a.retired:
@@ -797,12 +857,19 @@ def main(argv=None) -> int:
                 check_pivot_member(m, fold_nets.get(sc, [None, None])[1])
         except ValueError as e:
             p.error(str(e))
+    from claim_calibration import read_table
+
     from graphnav.evaluation.bench import find_trajectories
     from graphnav.io.paths import akit_trajectories
     folders = akit_trajectories(a.data)
     sources = {s.name: s for s in find_trajectories(str(folders[0].parent))}
     settings = {"max_windows": a.max_windows, "methods": a.methods, "metrics": list(METRICS), "backend": a.backend,
                 **({"predictiveness": True} if a.predictiveness else {}),
+                **({"claim_collect": True} if a.claim_collect else {}),
+                # as JSON reads them back: a results file resumes only under the same tables
+                **({"claim_tables": json.loads(json.dumps({name: [read_table(Path(d), f) for f in range(len(AKIT_FOLDS))]
+                                                           for name, d in a.calibrated_claim}))}
+                   if a.calibrated_claim else {}),
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
     if "pivot" in kinds.values() or set(PIVOT_MEMBERS) & {beam for _, beam in fold_nets.values()}:
@@ -818,11 +885,12 @@ def main(argv=None) -> int:
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     runs, _ = load_runs(out, settings)
-    items = study_items(sources, a, fold_nets, runs, AKIT_FOLDS)
+    items = [i for i in study_items(sources, a, fold_nets, runs, AKIT_FOLDS) if a.folds is None or i[8] in a.folds]
     run_saving(trajectory_task, items, runs, out, settings, a.jobs)
     print(f"{a.max_windows} windows per trajectory; horizontal position error less the window start's, m; Graph-TC "
           "in its units, the others as ratios to it, pooled (worst fold)")
-    print(report(runs, a.methods, AKIT_FOLDS))
+    # a study of some folds reports on those (its worst fold among them) and makes no choice, which needs every fold
+    print(report(runs, a.methods, AKIT_FOLDS if a.folds is None else [AKIT_FOLDS[f] for f in a.folds]))
     batches = [m for m in a.methods if m != GRAPH_TC_BATCH and get_method(variant_run(m)[0]).batch]
     if GRAPH_TC_BATCH in a.methods and batches:
         print(f"\nThe batch runs against {GRAPH_TC_BATCH} (per fold cell and pooled)")
@@ -837,7 +905,8 @@ def main(argv=None) -> int:
     if a.measured_both:
         print("\nBoth errors read on the measured beams against the outage's actual ones (per outage window)")
         print(both_errors_report(runs, a.methods, AKIT_FOLDS))
-    print_choices(runs, a.methods, AKIT_FOLDS)
+    if a.folds is None:
+        print_choices(runs, a.methods, AKIT_FOLDS)
     return 0
 
 

@@ -231,6 +231,10 @@ class EkfOptions:
         if factor is not None and not (factor >= 1.0 and math.isfinite(factor)):
             raise ConfigError("EkfOptions.catch_up_heading_sigma_factor must be a finite number >= 1 (times the "
                               f"aligned heading's sigma) or None (the 30 deg prior), got {factor}")
+        if self.screening.prediction_var_table is not None:
+            # the filter does not track the runs of regressed pings the table is indexed by
+            raise ConfigError("EkfOptions.screening.prediction_var_table is a factor-graph option (experimental); "
+                              "the EKF would ignore it")
 
 
 def compose_transitions(Phi: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -114,6 +114,13 @@ class RegressedScreeningOptions:
             information, tau the errors' integrated autocorrelation time (pings;
             :func:`graphnav.nets.outage_calibration.integrated_autocorrelation`). 1: the errors taken as
             independent from ping to ping.
+        prediction_var_table: experimental, the factor graph only (None: off). Per number of beams the ping
+            measured, ``((t_0 = 0, scale_0), (t_1, scale_1), ...)`` (s, unitless > 0, times ascending): the
+            predicted beam variance is multiplied by the scale of the last ``t_i`` at or before the time since
+            the run of pings with regressed beams started, on top of ``prediction_var_scale``; a number of
+            measured beams the table does not name: 1. Fitted out of fold on the graph's actual errors of the
+            missing beams (``experiments/claim_calibration.py``; docs/decisions/completers.md, "The graph's
+            claimed variance calibrated out of fold").
     """
 
     correlation: float = 0.0
@@ -121,6 +128,7 @@ class RegressedScreeningOptions:
     gate_k: float | None = None
     prediction_var_scale: float = 1.0
     completion_var_scale: float = 1.0
+    prediction_var_table: Mapping[int, tuple[tuple[float, float], ...]] | None = None
 
     def __post_init__(self):
         for name in ("prediction_var_scale", "completion_var_scale"):
@@ -128,11 +136,40 @@ class RegressedScreeningOptions:
                 raise ConfigError(f"screening.{name} must be > 0, got {getattr(self, name)}")
         if not 0.0 <= self.correlation < 1.0:
             raise ConfigError(f"screening.correlation must be in [0, 1), got {self.correlation}")
+        if self.prediction_var_table is not None:
+            self.prediction_var_table = {int(n): check_scale_steps(n, steps)
+                                         for n, steps in dict(self.prediction_var_table).items()}
+
+    def table_scale(self, n_measured: int, run_s: float) -> float:
+        """The factor of ``prediction_var_table`` (1 without it) at a ping measuring ``n_measured`` beams,
+        ``run_s`` s into its run of pings with regressed beams."""
+        steps = (self.prediction_var_table or {}).get(int(n_measured))
+        if not steps:
+            return 1.0
+        return next(scale for t, scale in reversed(steps) if t <= max(run_s, 0.0))
 
     @property
     def active(self) -> bool:
         """Whether any rule is on (else regressed beams enter at the completer's sigma unscreened)."""
         return self.gate_k is not None or self.adaptive or self.correlation > 0 or self.completion_var_scale != 1.0
+
+
+def check_scale_steps(n_measured, steps) -> tuple[tuple[float, float], ...]:
+    """The steps ``((t_0 = 0, scale_0), ...)`` of ``screening.prediction_var_table[n_measured]`` as floats, checked:
+    times from 0 ascending (s), scales finite and > 0 (else :class:`ConfigError` naming the entry)."""
+    name = f"screening.prediction_var_table[{n_measured}]"
+    try:
+        steps = tuple((float(t), float(scale)) for t, scale in steps)
+        measured = int(n_measured)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be ((time s, scale), ...) per number of measured beams, got "
+                          f"{steps!r}") from None
+    if not 0 <= measured <= 4 or not steps or steps[0][0] != 0.0:
+        raise ConfigError(f"{name}: a number of measured beams 0-4 with steps starting at 0 s, got {steps!r}")
+    times, scales = np.array([t for t, _ in steps]), np.array([s for _, s in steps])
+    if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(scales) & (scales > 0)):
+        raise ConfigError(f"{name}: times must ascend and scales be finite and > 0, got {steps!r}")
+    return steps
 
 
 #: Option names of before the groups -> their name now (``group.field``), accepted by :func:`build_options`

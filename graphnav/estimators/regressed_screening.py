@@ -12,14 +12,17 @@ import numpy as np
 
 
 def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2: np.ndarray, options,
-                              ) -> tuple[np.ndarray, np.ndarray, dict]:
+                              table_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, dict]:
     """The checks of :mod:`graphnav.estimators.graph.regressed`'s docstring for completions ``y`` (m,) m/s of
     variance ``s2`` (m,) (m/s)^2 against the estimator's predicted beams ``y_p`` (m,) of variance ``a`` (m,).
-    ``options`` is the estimator's :class:`graphnav.estimators.options.RegressedScreeningOptions`. Returns
+    ``options`` is the estimator's :class:`graphnav.estimators.options.RegressedScreeningOptions`;
+    ``table_scale`` the factor of its ``prediction_var_table`` at this ping (1: none). Returns
     (keep (m,) bool, variance (m,), counters)."""
     keep = np.ones(len(y), dtype=bool)
     stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     a = np.maximum(np.asarray(a, float), 1e-12) * options.prediction_var_scale
+    if table_scale != 1.0:
+        a = a * table_scale
     s2 = np.asarray(s2, float)
     rho = options.correlation
     if rho:

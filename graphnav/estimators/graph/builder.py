@@ -201,6 +201,21 @@ class GraphContext:
         #: ``options.measured_both_margin``: the graph's recent prediction error against the completer's
         self.graph_error = (GraphPredictionError(options.measured_both_margin, self.beam_sigma)
                             if options.measured_both_margin is not None else None)
+        #: stamp (s) of the first ping of the current run of pings with regressed beams, None outside one: the time
+        #: into the run ``screening.prediction_var_table`` is indexed by
+        self.regressed_run_start: float | None = None
+
+    def claim_scale(self, kf: GraphKeyframe, regressed: bool) -> float:
+        """The factor of ``screening.prediction_var_table`` at keyframe ``kf`` (1 without it), whose ping has
+        ``regressed`` beams or not (which starts or ends a run)."""
+        if not regressed:
+            self.regressed_run_start = None
+            return 1.0
+        if self.regressed_run_start is None:
+            self.regressed_run_start = kf.t
+        if self.options.screening.prediction_var_table is None:
+            return 1.0
+        return self.options.screening.table_scale(kf.n_measured, kf.t - self.regressed_run_start)
 
     def count_screening(self, stats: dict) -> None:
         for key, n in stats.items():
@@ -511,6 +526,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
         links: dict[int, RegressedLink] = {}
         screen_first = options.runs_for(n_measured) == "screen-first"
         dropped = dropped_completions(builder, m, C_b_n_pred, omega, prediction)
+        claim_scale = builder.claim_scale(kf, bool(m.regressed.any()))
         for regressed, huber in ((False, options.huber_measured_k), (True, options.huber_regressed_k)):
             sel = np.flatnonzero((m.regressed == regressed) & ~dropped)
             sigma = m.sigma
@@ -528,7 +544,7 @@ def keyframe_factors(kf: GraphKeyframe, builder: GraphContext, C_b_n_pred: np.nd
             if regressed and sel.size:
                 keep, sigma_sel, stats = screen_regressed(m.rows_b[sel], m.y[sel], m.sigma[sel], C_b_n_pred,
                                                           omega, builder.geometry.lever_arm_b, prediction,
-                                                          options)
+                                                          options, claim_scale)
                 builder.count_screening({**stats, "entered": int(keep.sum())})
                 sigma = m.sigma.copy()
                 sigma[sel] = sigma_sel

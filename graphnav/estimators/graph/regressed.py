@@ -42,6 +42,10 @@ sigma alone cuts Graph-HN's excess over Graph-TC by 18-82 % but still leaves it 
 over-confident on these data (mean e_p^2 / a = 2.7-8.7); scaling it (``prediction_var_scale``) by 4
 keeps more completions: tactical total outage 0.82x Graph-TC instead of 1.00x, but MEMS total outage 0.96x
 instead of 0.88x and MEMS 2-missing 1.02x (x8: 1.10x / 1.21x), so the default stays 1.
+``prediction_var_table`` (experimental, None by default) scales it by the number of measured beams and the time
+into the run of regressed pings, as fitted out of fold (docs/decisions/completers.md, "The graph's claimed variance
+calibrated out of fold": the claim's error differs more between trajectories than between those, and the rule
+keeps it off).
 
 When no beam at all is measured, the network completers do not apply as trained (they need at least one
 measured beam); :func:`motion_prior_factors` give the physics-based alternative (body-frame velocity random
@@ -92,7 +96,7 @@ def predict_state(last_cov_v_n: np.ndarray, C_b_n_last: np.ndarray, pim, v_n_pre
 
 def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n: np.ndarray,
                      omega_b: np.ndarray, lever_arm_b: np.ndarray, prediction: VelocityPrediction | None,
-                     options) -> tuple[np.ndarray, np.ndarray, dict]:
+                     options, table_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, dict]:
     """Sigmas for regressed beams after the checks in the module docstring.
 
     Args:
@@ -100,6 +104,7 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
         C_b_n: predicted attitude; omega_b: body rate for the lever-arm term (rad/s); lever_arm_b: m.
         prediction: the graph's prediction, or None (first keyframe: nothing to compare with).
         options: :class:`~graphnav.estimators.graph.GraphOptions` (its ``screening``).
+        table_scale: the factor of ``screening.prediction_var_table`` at this ping (1: none).
 
     Returns:
         (keep (m,) bool, sigma (m,) m/s, counters {"gated", "decorrelated_out", "inflated"}).
@@ -108,7 +113,7 @@ def screen_regressed(rows_b: np.ndarray, y: np.ndarray, sigma: np.ndarray, C_b_n
     if prediction is None:
         return np.ones(len(y), dtype=bool), sigma, {"gated": 0, "decorrelated_out": 0, "inflated": 0}
     y_p, a = predicted_beams(rows_b, C_b_n, omega_b, lever_arm_b, prediction)
-    keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options.screening)
+    keep, s2, stats = screen_against_prediction(y, y_p, a, sigma ** 2, options.screening, table_scale)
     return keep, np.sqrt(s2), stats
 
 
