@@ -328,7 +328,8 @@ def study_items(sources: dict, a, fold_nets: dict, runs: dict, folds) -> list[tu
     """The :func:`trajectory_task` items not yet in ``runs``: every trajectory of ``folds`` (with the index of the
     fold that holds it out, whose networks it runs), IMU grade, scenario and window length of the options ``a``."""
     calibrated = getattr(a, "calibrated_claim", None)
-    flags = ((["predictiveness"] if a.predictiveness else []) + (["claims"] if getattr(a, "claim_collect", False) else [])
+    flags = ((["predictiveness"] if a.predictiveness else [])
+             + (["claims"] if getattr(a, "claim_collect", False) else [])
              + ([{"claim_folders": dict(calibrated)}] if calibrated else []))
     return [(sources[f"Trajectory{k}"], g, sc, w, a.max_windows, a.methods, a.backend, fold_nets, f, *flags)
             for f, pair in enumerate(folds) for k in pair for g in a.grades for sc in a.scenarios
@@ -745,8 +746,8 @@ def main(argv=None) -> int:
     p.add_argument("--claim-fit", metavar="DIR", help="run nothing: fit each fold's table of prediction variance "
                    "scales on the other folds' records of --out (a --claim-collect run) and write DIR/fold<k>.json")
     p.add_argument("--claim-edges", nargs="+", type=float, metavar="S", help="the starts (s, from 0) of the ranges of "
-                   "time into the outage --claim-fit fits a scale to (default: claim_calibration.TIME_EDGES_S; 0 alone: "
-                   "one scale per number of measured beams)")
+                   "time into the outage --claim-fit fits a scale to (default: claim_calibration.TIME_EDGES_S; "
+                   "0 alone: one scale per number of measured beams)")
     p.add_argument("--calibrated-claim", nargs="+", metavar="DIR", help="also Graph-HN and Graph-HNP (those of "
                    "--methods) with the measured-change sigma and the screening's claimed variance scaled by each "
                    "trajectory's fold's table in DIR (--claim-fit; <method> measured-sigma calibrated <DIR's name>)")
@@ -867,8 +868,8 @@ def main(argv=None) -> int:
                 **({"predictiveness": True} if a.predictiveness else {}),
                 **({"claim_collect": True} if a.claim_collect else {}),
                 # as JSON reads them back: a results file resumes only under the same tables
-                **({"claim_tables": json.loads(json.dumps({name: [read_table(Path(d), f) for f in range(len(AKIT_FOLDS))]
-                                                           for name, d in a.calibrated_claim}))}
+                **({"claim_tables": json.loads(json.dumps(
+                    {name: [read_table(Path(d), f) for f in range(len(AKIT_FOLDS))] for name, d in a.calibrated_claim}))}
                    if a.calibrated_claim else {}),
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
