@@ -869,8 +869,8 @@ def main(argv=None) -> int:
                 **({"claim_collect": True} if a.claim_collect else {}),
                 # as JSON reads them back: a results file resumes only under the same tables
                 **({"claim_tables": json.loads(json.dumps(
-                    {name: [read_table(Path(d), f) for f in range(len(AKIT_FOLDS))] for name, d in a.calibrated_claim}))}
-                   if a.calibrated_claim else {}),
+                    {name: [read_table(Path(d), f) for f in range(len(AKIT_FOLDS))]
+                     for name, d in a.calibrated_claim}))} if a.calibrated_claim else {}),
                 "estimator_options": {m: resolved_options(m) for m in a.methods},
                 **({"fold_nets": fold_nets} if fold_nets else {})}
     if "pivot" in kinds.values() or set(PIVOT_MEMBERS) & {beam for _, beam in fold_nets.values()}:
