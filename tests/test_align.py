@@ -326,3 +326,27 @@ def test_exact_sensors_align_to_within_a_hundredth_of_a_degree():
         tilt_err = (a.C_b_n @ attitude_error(a.C_b_n, C_true))[:2]      # about north and east
         assert abs(np.degrees(heading_err)) < 0.01, (seed, np.degrees(heading_err))
         assert np.all(np.abs(np.degrees(tilt_err)) < 2e-4), (seed, np.degrees(tilt_err))
+
+
+def test_init_auto_aligns_from_the_sensors_when_the_reference_starts_after_the_first_ping():
+    """A reference logged over part of the mission (from 10 s of 40 s, on the IMU clock: kept) does not hold the
+    first ping: ``init="auto"`` aligns from the sensors with a warning, and the reference scores the estimate where
+    it overlaps it. Starting from the reference ended every command in "stamp 0.000 s outside the ground truth
+    span"."""
+    import dataclasses
+    import warnings
+
+    from graphnav.estimators.align import AlignOptions
+    from graphnav.estimators.runs import run_graph
+    from graphnav.evaluation.metrics import vrmse
+    mission = simulate_mission(duration_s=40.0, seed=5)
+    late = mission.gt.take(mission.gt.t >= 10.0)
+    cut = dataclasses.replace(mission, gt=late)
+    heading = float(C_b_n_to_euler(mission.gt.C_b_n[:1])[0, 2])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = run_graph(cut, align=AlignOptions(initial_heading_rad=heading))
+    assert any("the reference [10.000, 40.000] s does not hold the first ping at 0.000 s to start from: the "
+               "initial state is aligned from the sensors" in str(w.message) for w in caught)
+    assert sol.info["alignment"]["heading_source"] == "given"
+    assert vrmse(sol, late) < 0.1

@@ -761,3 +761,41 @@ def test_a_step_of_the_imu_clock_or_a_gap_in_a_bag_is_warned_naming_the_message_
         assert len(steps) == 1 and re.search(said[reason], steps[0])
         assert steps[0].startswith(f"imu: {path}:/imu/data, {at}, field 'header.stamp': ")
         assert m.meta["streams"]["imu"]["doubted"] == {reason: 1}
+
+
+def _with_compass(tmp_path, mission, offset_s: float):
+    """A bag of ``mission`` plus a 1 Hz compass heading topic (Float64: receive time) received ``offset_s`` late."""
+    from rosbags.rosbag2 import Reader
+    from scipy.spatial.transform import Rotation
+    store = bags.typestore()
+    with Reader(bags.write_mission_bag(mission, tmp_path / f"src_{offset_s:g}")) as r:
+        rows = [(c.topic, c.msgtype, t, store.deserialize_cdr(raw, c.msgtype)) for c, t, raw in r.messages()]
+    yaw = Rotation.from_matrix(mission.gt.C_b_n).as_euler("ZYX")[:, 0]
+    t0 = 1_700_000_000_000_000_000
+    rows += [("/compass/heading", "std_msgs/msg/Float64", t0 + round((t + offset_s) * 1e9),
+              store.types["std_msgs/msg/Float64"](data=float(np.degrees(y) % 360)))
+             for t, y in zip(mission.gt.t[::10], yaw[::10])]
+    return _bag_with(tmp_path, f"compass_{offset_s:g}", sorted(rows, key=lambda row: row[2]), store)
+
+
+def test_a_heading_off_the_imu_span_is_left_out_and_said_not_usable(tmp_path, capsys):
+    """A compass topic received 3 days after the rest, which no clock relates: optional as a depth is (the aligner
+    gyrocompasses without it), so it is left out with a warning, counted, marked not usable and shown by info, and
+    the bag navigates; the gyro's ability to gyrocompass is said. It was a DataError refusing the whole bag."""
+    mission = simulate_mission(duration_s=40.0, seed=3)
+    m, warned = _load(_with_compass(tmp_path, mission, 0.0), None)
+    assert m.heading is not None and m.meta["heading_source"].startswith("/compass/heading")
+    path = _with_compass(tmp_path, mission, 3 * 86400.0)
+    m, warned = _load(path, None)
+    assert m.heading is None and m.meta["heading_source"] == "none"
+    entry = m.meta["streams"]["heading"]
+    assert entry["usable"] is False and entry["refused"] == {"outside the IMU time span": 41}
+    assert any("field 'receive time': the heading stamps [259200.000, 259240.000] s lie off the IMU span [0.000, "
+               "40.000] s" in w and "the heading is left out; choose another heading topic" in w for w in warned)
+    assert any("no heading source in the bag (its heading topic, off the IMU span, is left out)" in w
+               and "the configured gyro allows" in w for w in warned)
+    assert cli.main(["info", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["usable"] and "heading" in d["left_out"] and d["time_span_s"][1] < 41.0
+    sol = run_method(m, "Graph-TC")
+    assert vrmse(sol, mission.gt) < 0.2

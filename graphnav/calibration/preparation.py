@@ -118,17 +118,35 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
             raise ConfigError(f"{sorted(explicit)} apply to A-KIT folders; {meta.get('source', mission.name)} is "
                               f"{facts.get('format', 'another format')}: set them in its configuration instead")
         mission = _prepare_streams(mission, meta, facts)
-    from graphnav.io.stream_counts import check_dvl_on_imu_clock, record_outside_span, warn_off_the_imu_clock
+    from graphnav.io.stream_counts import check_dvl_on_imu_clock, record_outside_span
     record_outside_span(mission)
     if facts.get("format") == "akit":
         check_dvl_on_imu_clock(mission, _GIVE_OFFSET.format(kind="DVL", stream="dvl"), field="Time [s]")
     else:
         check_dvl_on_imu_clock(mission, "put the DVL stamps on the IMU clock (a CSV column map's \"clock\": "
                                         "\"auto\" finds its offset)")
-        cmap = mission.config.csv_columns or {}
-        stamp = "header.stamp" if facts.get("format") == "bag" else "t"
-        mission = warn_off_the_imu_clock(mission, {k: (cmap.get(k) or {}).get("t", stamp) for k in ("depth", "gt")})
+        mission = _left_out_off_the_imu_clock(mission, facts)
     return mission
+
+
+def _left_out_off_the_imu_clock(mission: Mission, facts: dict) -> Mission:
+    """The mission without a depth, reference or heading off the IMU span
+    (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`), each named by its stamp field: a column map's key,
+    a bag message's header stamp or its receive time. A bag whose heading is left out is told, as one without a
+    heading source, whether the configured gyro can gyrocompass."""
+    from graphnav.io.stream_counts import warn_off_the_imu_clock
+    cmap = mission.config.csv_columns or {}
+    if facts.get("format") == "bag":
+        kinds = mission.meta.get("clock", {}).get("stamps", {})
+        fields = {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
+                  for k in ("depth", "gt", "heading")}
+    else:
+        fields = {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
+    left = warn_off_the_imu_clock(mission, fields)
+    if mission.heading is not None and left.heading is None:
+        _warn_no_heading(left.config, left.meta.get("source", "bag"), left.meta,
+                         "its heading topic, off the IMU span, is left out")
+    return left
 
 
 def _restamped_packets(mission: Mission, meta: dict) -> Mission:
@@ -571,6 +589,7 @@ def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | No
 def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     """The IMU frame checked, a DVL on its own clock put on the IMU's, the depth's sign and unit checked; a bag
     without heading told whether it can gyrocompass."""
+    mission = _reference_clock(mission, meta, facts)
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
     unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
         facts.get("imu_frame")
@@ -650,6 +669,34 @@ def _dvl_unit(facts: dict, meta: dict) -> dict | None:
     notes = meta.get("streams", {}).get("dvl", {}).get("notes", [])
     unit = "mm/s" if any(n.startswith(MMPS_CONVERTED) for n in notes) else "m/s"
     return {"unit": unit, "key": "csv_columns.dvl.velocity_unit", "taken": True}
+
+
+def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
+    """A log's or bag's reference put on the IMU clock when the data find it on a clock of its own further than the
+    fine time-offset search reaches (:data:`GT_OFFSET_SEARCH_S`), as an A-KIT folder's GT is: the angles it turns
+    through against the gyro's (:func:`graphnav.calibration.clock.estimate_gt_clock_offset`, confident), before the
+    checks that compare it with the IMU. Off the IMU span (28 s late on a 40 s log) it was left out; on it (16 s late,
+    sharing 60 %) it was scored 16 s off. One no offset explains, or a given ``gt_time_offset_s``, is left as it is
+    (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock` leaves out one off the span)."""
+    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
+    g = mission.gt
+    if g is None or facts.get("given", {}).get("gt_time_offset_s") is not None:
+        return mission
+    try:
+        est = estimate_gt_clock_offset(mission.imu, g)
+    except DataError:                    # too short or too little overlap to tell: as read
+        return mission
+    if not gt_clock_confident(est) or abs(est.offset_s) <= GT_OFFSET_SEARCH_S:
+        return mission
+    text = (f"reference clock offset {est.describe()} estimated from the data and added to the reference stamps "
+            f"[{g.t[0]:.3f}, {g.t[-1]:.3f}] s (sharing {overlap_text(g.t, mission.imu.t)} with the IMU span): a clock "
+            "of its own; set gt_time_offset_s in the configuration if it is known")
+    warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
+    add_note(meta, "gt", text)
+    meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": True}
+    g = dataclasses.replace(g, t=np.asarray(g.t, float) + est.offset_s)
+    set_span(meta, "gt", g.t)
+    return dataclasses.replace(mission, gt=g)
 
 
 def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:
@@ -798,6 +845,10 @@ GT_OFFSET_SIGMAS = 3.0
 #: Smallest reference time offset applied, s: a tenth of the 100 Hz IMU period, far below what a turn's heading error
 #: shows (0.1 rad/s x 1 ms = 0.1 mrad).
 GT_OFFSET_MIN_S = 1e-3
+#: How far (s, either way) the fine reference time-offset search reaches
+#: (:func:`graphnav.calibration.reference.estimate_gt_time_offset`); a clock offset beyond it is found first
+#: (:func:`_reference_clock`).
+GT_OFFSET_SEARCH_S = 2.0
 
 
 def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
@@ -819,7 +870,8 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
     how = "given by the configuration's gt_time_offset_s"
     if offset is None:
         try:
-            est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t, g.C_b_n, lat, source=g.source)
+            est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t, g.C_b_n, lat, source=g.source,
+                                          search_s=(-GT_OFFSET_SEARCH_S, GT_OFFSET_SEARCH_S))
         except DataError as err:         # too short a reference: it stays as read, and says so
             add_note(meta, "gt", f"time offset not estimated ({err}); the stamps are used as read")
             est = None
@@ -847,8 +899,12 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
         meta["gt_point_b"] = (-r_b).tolist()
         add_note(meta, "gt", "moved to the IMU point from its reference_position_b "
                  f"[{', '.join(f'{x:+.3f}' for x in r_b)}] m (body frame)")
-    if g is mission.gt:
+    # the configuration records all that was added to the stamps as read (a clock offset too): what the next run is
+    # given
+    clock = meta.get("clock_offsets", {}).get("gt", {}).get("offset_s", 0.0)
+    if g is mission.gt and not clock:
         return mission
+    offset += clock
     return dataclasses.replace(mission, gt=g, config=dataclasses.replace(cfg, gt_time_offset_s=float(offset)))
 
 
@@ -947,13 +1003,15 @@ def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
     return dataclasses.replace(mission, imu=imu, config=config)
 
 
-def _warn_no_heading(config: SensorConfig, source: str, meta: dict) -> None:
-    """Said when the bag is prepared, not after an alignment fails: what to add for a heading."""
+def _warn_no_heading(config: SensorConfig, source: str, meta: dict, why: str | None = None) -> None:
+    """Said when the bag is prepared, not after an alignment fails: what to add for a heading. ``why``: why the bag
+    has none, when it had a heading topic."""
     from graphnav.estimators.align import AlignOptions, gyrocompass_heading_terms
     limit = gyrocompass_heading_terms(config, 1.0, 1, 0.0, config.lat_rad)["gyro_bias"]
     can = limit <= AlignOptions().max_heading_sigma_rad
-    msg = ("no heading source in the bag (no sensor_msgs/Imu with its orientation filled, no Float64 topic named "
-           "heading, no PoseWithCovarianceStamped): the heading must come from gyrocompassing, which "
+    why = why or ("no sensor_msgs/Imu with its orientation filled, no Float64 topic named heading, no "
+                  "PoseWithCovarianceStamped")
+    msg = (f"no heading source in the bag ({why}): the heading must come from gyrocompassing, which "
            + (f"the configured gyro allows (bias limit {np.degrees(limit):.2f} deg)" if can else
               f"the configured gyro cannot do (its bias alone gives {np.degrees(limit):.1f} deg; a MEMS or 10 Hz "
               "IMU never can)")

@@ -444,12 +444,6 @@ def _reference_turn(imu, gt, meta: dict) -> None:
 
 #: How the clock notes and errors name a stream.
 _LABELS = {"dvl": "DVL", "gt": "GT", "fix": "fix"}
-#: Streams the receive clock may leave off the IMU's span without an error: the prepare step estimates the DVL's
-#: and GT's clock offset from the data (:mod:`graphnav.calibration.clock`); fixes may all be taken before the IMU
-#: started (on deck) and are screened against its span by the estimators; a depth, optional, is left out by the
-#: prepare step with a warning, as a log's (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`). A heading
-#: left off is an error.
-_MAY_STAY_OFF = ("dvl", "gt", "fix", "depth")
 
 
 def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, meta: dict):
@@ -457,8 +451,10 @@ def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, met
     clock. A stream whose span is off the IMU's (:func:`graphnav.core.timeseries.on_the_imu_clock`) is moved
     through the recorder's receive clock, which every message shares: by the difference of the two streams'
     header-minus-receive offsets (0 for a stream on receive time). Each move is warned about, noted and kept in
-    ``meta["clock_offsets"]``. A heading still off is a DataError naming both topics and both spans (an
-    estimator would refuse all its samples); the others are left as :data:`_MAY_STAY_OFF` says."""
+    ``meta["clock_offsets"]``. A stream still off is left so: the prepare step estimates the DVL's and reference's
+    clock offset from the data (:mod:`graphnav.calibration.clock`) and leaves out a depth, reference or heading still
+    off, optional all three (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`); fixes may all be taken before
+    the IMU started (on deck) and are screened against its span by the estimators."""
     import dataclasses as dc
 
     from graphnav.core.timeseries import on_the_imu_clock
@@ -477,12 +473,7 @@ def _onto_imu_clock(imu, imu_s: Stream, stream: str, s: Stream | None, data, met
         add_note(meta, stream, note)
         warnings.warn(f"{source}: {note}", RuntimeWarning, stacklevel=3)
         meta.setdefault("clock_offsets", {})[f"{stream}_from_receive_clock_s"] = -shift
-    if stream in _MAY_STAY_OFF or on_the_imu_clock(data.t, imu.t):
-        return data
-    raise DataError(f"the {label} stamps ({s.topic}, {data.t[0]:.3f} .. {data.t[-1]:.3f} s) are off the IMU's "
-                    f"({imu_s.topic}, {imu.t[0]:.3f} .. {imu.t[-1]:.3f} s; s from the first IMU stamp), even "
-                    "through the bag's receive clock: the two topics were not recorded together, or one driver's "
-                    f"clock jumped; choose another topic (--topic {stream}=TOPIC)", source, field=s.topic)
+    return data
 
 
 def load_odometry(path: str | Path, topic: str | None = None):

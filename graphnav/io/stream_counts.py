@@ -106,24 +106,27 @@ def _name_stamp_jump(mission: Mission, outside: np.ndarray) -> None:
 
 #: What to do about a depth or reference whose span is off the IMU's (:func:`warn_off_the_imu_clock`).
 OFF_THE_IMU_CLOCK_FIX = {"depth": "put the depth stamps on the IMU clock",
-                         "gt": "give gt_time_offset_s (s added to the reference stamps) in the configuration"}
+                         "gt": "give gt_time_offset_s (s added to the reference stamps) in the configuration",
+                         "heading": "choose another heading topic (--topic heading=TOPIC) or put its stamps on the "
+                                    "IMU clock"}
 #: Reason of the samples inside the IMU span of a depth or reference stream on a clock of its own: on another
 #: clock they would be used at the wrong time.
 OFF_THE_IMU_CLOCK = "inside the IMU span, but on a clock of its own (the stream is off the IMU span)"
 
 
 def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> Mission:
-    """The mission without a depth or reference stream whose span is off the IMU's once it is prepared
+    """The mission without a depth, reference or heading stream whose span is off the IMU's once it is prepared
     (:func:`graphnav.core.timeseries.on_the_imu_clock`), each warned about, noted, marked not usable in
     ``meta["streams"]`` (``usable`` False, ``reason``) and every sample counted as refused (:data:`OUTSIDE_IMU_SPAN`,
-    :data:`OFF_THE_IMU_CLOCK` for the few inside the span): both are optional, so the estimators run without the
-    depth and the commands score nothing, as without them. Kept, the estimators would take the depth samples inside
-    the span at the wrong time, and scoring failed on the reference. ``fields``: each stream's stamp field."""
+    :data:`OFF_THE_IMU_CLOCK` for the few inside the span): all are optional, so the estimators run without the
+    depth or heading (the aligner gyrocompasses, or takes the initial heading) and the commands score nothing, as
+    without them. Kept, the estimators would take the samples inside the span at the wrong time, and scoring failed
+    on the reference. ``fields``: each stream's stamp field."""
     import dataclasses
 
     from graphnav.core.timeseries import on_the_imu_clock, overlap_text
     t_imu, left_out = mission.imu.t, {}
-    for stream, data in (("depth", mission.depth), ("gt", mission.gt)):
+    for stream, data in (("depth", mission.depth), ("gt", mission.gt), ("heading", mission.heading)):
         if data is None or not len(data.t) or not len(t_imu) or on_the_imu_clock(data.t, t_imu):
             continue
         outside = int(np.sum((data.t < t_imu[0]) | (data.t > t_imu[-1])))
