@@ -140,20 +140,33 @@ def test_a_steady_vehicle_is_not_refused_as_turned_and_a_turned_imu_on_it_is(mon
     """A straight leg at 1.5 m/s, or a vehicle holding station: the scale fit explains 0.02-0.03 of the velocity's
     changes, so its best offset was noise (11.5 s and 7.5 s off), and there the IMU as read was refused as turned 180
     deg (q 54 and 234); an IMU turned 270 deg was named turned 90. Each fit is read at its own best offset now."""
+    _judged_as_read_and_turned(_steady(monkeypatch, seed, speed), (90, 180, 270))
+
+
+def _judged_as_read_and_turned(m, yaws):
+    """``m``'s IMU fits its DVL as read, without a warning or a note that it could not judge, and turned by each of
+    ``yaws`` deg about z it is refused naming that turn (as a column-map log without reference is checked)."""
     import dataclasses
     from graphnav.calibration.dvl_scale import check_velocity_against_imu
-    m = _steady(monkeypatch, seed, speed)
     frame = {"what": "csv_columns.imu.frame 'frd'", "fields": "ax/ay/az/gx/gy/gz"}
     meta = {}
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_velocity_against_imu(m.imu, m.dvl, m.config, meta, imu_frame=frame)
     assert not meta.get("streams", {}).get("imu", {}).get("notes"), meta       # judged: fits the IMU as read
-    for yaw in (90, 180, 270):
+    for yaw in yaws:
         turned = dataclasses.replace(m.imu, f_b=_turned_about_z(m.imu.f_b, yaw),
                                      omega_b=_turned_about_z(m.imu.omega_b, yaw))
         with pytest.raises(DataError, match=rf"turned {yaw} deg about z"):
             check_velocity_against_imu(turned, m.dvl, m.config, {}, imu_frame=frame)
+
+
+@pytest.mark.parametrize("seed, yaw", [(0, 270), (6, 90)])
+def test_a_minute_long_log_is_judged_over_the_same_windows_at_every_offset(seed, yaw):
+    """A 60 s manoeuvring log has three 20 s windows. Searched within +-20 s, every wrong turn's best offset left one
+    of them out (the one it explains worst) and fitted the other two better than the right axes fit all three: the
+    IMU as read and turned 270 / 90 deg were not judged (|q| 19-30). Every offset is scored over the same windows."""
+    _judged_as_read_and_turned(simulate_mission(60.0, "navigation", seed), (yaw,))
 
 
 def test_a_log_too_short_to_check_the_imu_turn_says_so(tmp_path):

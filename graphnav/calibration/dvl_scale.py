@@ -20,6 +20,7 @@ import warnings
 import numpy as np
 
 from graphnav.calibration.axes import TURN_ADVICE, mounting_text
+from graphnav.calibration.clock import COARSE_MAX_WINDOWS
 from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_model, imu_integrals,
                                           without_window_fit)
 from graphnav.core.errors import DataError
@@ -89,6 +90,10 @@ GT_LEVER_DOUBT = "DVL lever arm off from where the ground truth's body velocity 
 SCALE_SEARCH_S = 20.0
 #: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
 SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
+#: Where a long log's IMU-turn fits search the DVL offset, each model's best is found on
+#: :data:`~graphnav.calibration.clock.COARSE_MAX_WINDOWS` windows spread over it and all its windows are scored within
+#: this of there, s (:func:`imu_yaw_fit`).
+OFFSET_REFINE_S = 1.0
 #: The DVL velocity must change by at least this within the clock model's windows (RMS about each window's mean,
 #: m/s), or by :data:`MIN_CHANGE_OVER_NOISE` times its noise (:func:`velocity_change_rms`), for its fits to judge the
 #: gyro's scale, its own unit, turn or axes, or an IMU turned: a velocity held to within its noise (a steady turn, a
@@ -259,26 +264,70 @@ def imu_yaw_fit(read, imu, dvl, config, offsets=(0.0,)) -> tuple[float, int, flo
     :func:`~graphnav.core.dvl_kinematics.dvl_window_model`) fits with the IMU turned ``yaw`` deg about z (the best of
     :data:`IMU_YAWS_DEG`): the squared residual as read minus turned, over the noise variance (the smaller squared
     residual per residual); > 0 the turn fits better. Each is read at the DVL offset among ``offsets`` (s) where it
-    fits best: where the clock is known no closer than they span, the offset is no evidence for a turn (a turn of 180
-    deg half a sway period late fits a steady vehicle's velocity changes as well as the axes as read on time).
+    fits best, every offset over the same windows (:func:`_searchable`): where the clock is known no closer than they
+    span, the offset is no evidence for a turn (a turn of 180 deg half a sway period late fits a steady vehicle's
+    velocity changes as well as the axes as read on time).
     ``q_next``: the same of the next best turn against the best. A turn is tried by turning the DVL velocity and lever
     arm into the turned IMU's axes; the accelerometer's horizontal axes and the gyro's roll and pitch rates then meet
     the velocity as mounted."""
-    fits = {0: _best_fit(read, offsets)}
+    models = {0: read}
     for yaw in IMU_YAWS_DEG:
         T = turn_about_z(yaw).T
-        model, _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
-                                    ints=read.imu)
-        fits[yaw] = _best_fit(model, offsets)
+        models[yaw], _ = dvl_window_model(imu, dvl, config, lever_arm_b=T @ config.dvl.lever_arm_b, transform=T,
+                                          ints=read.imu)
+    fits = _best_fits(models, offsets)
     yaw, nxt = sorted(IMU_YAWS_DEG, key=lambda y: fits[y][0])[:2]
     return _evidence(fits[0], fits[yaw]), yaw, _evidence(fits[nxt], fits[yaw])
 
 
-def _best_fit(model, offsets) -> tuple[float, int]:
-    """``(unexplained, residuals)``: the share of the DVL velocity's changes the clock model ``model`` leaves
-    unexplained at the offset among ``offsets`` (s) where it fits best, and how many residuals it has there."""
-    explained, _, windows = max((model.score(o) for o in offsets), key=lambda s: s[0])
-    return 1.0 - explained, 3 * model.window * windows
+def _best_fits(models: dict, offsets) -> dict:
+    """Each clock model's ``(unexplained, residuals)`` (``models``: of the same DVL stamps and IMU integrals, keyed):
+    the share of the DVL velocity's changes it leaves unexplained at the offset among ``offsets`` (s) where it fits
+    best, and how many residuals it has there. A log of more than :data:`COARSE_MAX_WINDOWS` windows finds each
+    model's best on that many windows spread over it and scores all its windows only within
+    :data:`OFFSET_REFINE_S` of there, so the search costs little more than one offset on a long log."""
+    offsets, reach = np.atleast_1d(np.asarray(offsets, float)), None
+    if len(offsets) > 1:
+        offsets, reach = _searchable(models[0], offsets)
+    near = {k: offsets for k in models}
+    if len(offsets) > 1 and len(models[0].t) > COARSE_MAX_WINDOWS:
+        thin = _best_offsets({k: m.thinned(COARSE_MAX_WINDOWS) for k, m in models.items()}, near, reach)
+        near = {k: offsets[np.abs(offsets - thin[k][0]) <= OFFSET_REFINE_S] for k in models}
+    return {k: (1.0 - explained, 3 * models[k].window * windows)
+            for k, (_, (explained, _, windows)) in _best_offsets(models, near, reach).items()}
+
+
+def _window_reach(model) -> np.ndarray:
+    """How far (s) each window of the clock model ``model`` can move either way and stay inside the IMU span."""
+    return np.minimum(model.t[:, 0] - model.imu.t[0], model.imu.t[-1] - model.t[:, -1])
+
+
+def _searchable(model, offsets: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(offsets, reach)``: the offsets of a search the IMU-turn fits are read at, and how far (s) a window must
+    reach (:func:`_window_reach`) to be scored at all of them. Every offset is scored over the same windows: a fit
+    whose best offset leaves out the window it explains worst is favoured by the search, not by the data (on a 60 s
+    log, three windows, every wrong turn's best left one out). A log too short to keep two windows inside over all
+    of ``offsets`` is searched only as far as two stay inside (a 60 s log whose stamps span the IMU's: +-1 s over its
+    last two windows; none: at the stamps, where the fits then have no two windows to judge by)."""
+    reach = max(0.0, min(float(np.max(np.abs(offsets))), float(np.sort(_window_reach(model))[-2])))
+    return offsets[np.abs(offsets) <= reach], reach
+
+
+def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
+    """Each model's ``(offset, score)`` at its best offset among ``near[key]`` (the first of equals), the IMU's
+    integrals interpolated once per offset for the models scored there; over the windows reaching ``reach`` s
+    (:func:`_searchable`; default each offset's own)."""
+    best = {}
+    first = next(iter(models.values()))
+    use = None if reach is None else np.repeat((_window_reach(first) >= reach)[:, None], first.window, axis=1)
+    for o in np.unique(np.concatenate(list(near.values()))):
+        at = None
+        for k in (k for k in models if np.isin(o, near[k])):
+            at = models[k].imu_at(o, use) if at is None else at
+            score = models[k].score(o, at=at)
+            if k not in best or score[0] > best[k][1][0]:
+                best[k] = (o, score)
+    return best
 
 
 def _evidence(a: tuple[float, int], b: tuple[float, int]) -> float:

@@ -57,7 +57,10 @@ def imu_integrals(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, step_s: f
     R_T = np.swapaxes(Rotation.from_quat(q).as_matrix(), 1, 2)
     M = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(0.5 * (R_T[1:] + R_T[:-1]) * step, axis=0)])
     omega = np.vstack([dtheta / step, dtheta[-1:] / step])
-    return ImuIntegrals(edges, F, W, M, omega)
+    # column-major: every score interpolates each column, which np.interp would otherwise copy out of the rows
+    # (M too, as the (K,9) columns its (K,3,3) view reshapes back to)
+    M = np.asfortranarray(M.reshape(-1, 9)).reshape(-1, 3, 3)
+    return ImuIntegrals(edges, *map(np.asfortranarray, (F, W)), M, np.asfortranarray(omega))
 
 
 def dvl_velocity_b(dvl, config=None) -> tuple[np.ndarray, np.ndarray]:
@@ -142,31 +145,41 @@ class _WindowModel:
         inside = (t >= self.imu.t[0]) & (t <= self.imu.t[-1])
         return with_enough_pings(inside if self.trim else inside & inside.all(axis=1, keepdims=True))
 
-    def terms(self, offset: float, use: np.ndarray | None = None):
-        """At ``offset`` s, over the pings ``use`` (win, window; default :meth:`pings`): True at the windows with
-        pings to fit, and for those the velocity ``v``, ``int omega x v``, ``int f_b``, ``omega_j x l`` (each
-        (win, window, 3)), the gravity regressor ``int R^T`` centred per window (win, window*3, 3) and the pings
-        fitted (win, window) (pass them to :func:`without_window_fit`); None for the rest when no window has any."""
-        imu, t = self.imu, self.t + offset
+    def imu_at(self, offset: float, use: np.ndarray | None = None):
+        """``(use, windows, ints)`` at ``offset`` s: the pings ``use`` (win, window; default :meth:`pings`), True at
+        the windows with pings to fit, and the IMU's integrals ``F``, ``W``, ``M``, ``omega`` at those windows' pings
+        (None when no window has any). Models of the same DVL stamps and IMU integrals, whose velocities differ
+        only by a turn, share them (pass as ``at`` to :meth:`score`): interpolating them is most of a score's cost."""
+        imu = self.imu
         use = self.pings(offset) if use is None else use
         windows = use.any(axis=1)
         if not windows.any():
+            return use, windows, None
+        tq, shape = (self.t + offset)[windows].reshape(-1), (-1, self.window, 3)
+        F, W, w = (interp_rows(tq, imu.t, x).reshape(shape) for x in (imu.F, imu.W, imu.omega))
+        M = interp_rows(tq, imu.t, imu.M.reshape(-1, 9)).reshape(*shape, 3)
+        return use, windows, (F, W, M, w)
+
+    def terms(self, offset: float, use: np.ndarray | None = None, at=None):
+        """At ``offset`` s, over the pings ``use`` (win, window; default :meth:`pings`; or :meth:`imu_at`'s ``at``):
+        True at the windows with pings to fit, and for those the velocity ``v``, ``int omega x v``, ``int f_b``,
+        ``omega_j x l`` (each (win, window, 3)), the gravity regressor ``int R^T`` centred per window (win, window*3,
+        3) and the pings fitted (win, window) (pass them to :func:`without_window_fit`); None for the rest when no
+        window has any."""
+        use, windows, ints = self.imu_at(offset, use) if at is None else at
+        if ints is None:
             return windows, None
-        tq = t[windows].reshape(-1)
-        F = interp_rows(tq, imu.t, imu.F).reshape(-1, self.window, 3)
-        W = interp_rows(tq, imu.t, imu.W).reshape(-1, self.window, 3)
-        M = interp_rows(tq, imu.t, imu.M.reshape(-1, 9)).reshape(-1, self.window, 3, 3)
-        w = interp_rows(tq, imu.t, imu.omega).reshape(-1, self.window, 3)
+        F, W, M, w = ints
         v, use = self.v[windows], use[windows]
         rot = np.cross(np.diff(W, axis=1), self.v_mid[windows])       # omega x v over each ping interval
         C = np.concatenate([np.zeros((len(v), 1, 3)), np.cumsum(rot, axis=1)], axis=1)
         Mc = M - M.mean(axis=1, keepdims=True) if use.all() else centred(M, use)
         return windows, (v, C, F, np.cross(w, self.lever), Mc.reshape(len(v), -1, 3), use)
 
-    def sse(self, offset: float, use: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def sse(self, offset: float, use: np.ndarray | None = None, at=None) -> tuple[np.ndarray, np.ndarray]:
         """(SSE per window, True at the windows with pings to fit) at ``offset`` s over the pings ``use`` (default
-        :meth:`pings`)."""
-        windows, terms = self.terms(offset, use)
+        :meth:`pings`; or :meth:`imu_at`'s ``at``)."""
+        windows, terms = self.terms(offset, use, at)
         out = np.full(len(self.t), np.nan)
         if terms is None:
             return out, windows
@@ -186,11 +199,12 @@ class _WindowModel:
             out[part] = np.sum((vc - tc[..., None] * slope[:, None]) ** 2 * u[..., None], axis=(1, 2))
         return out
 
-    def score(self, offset: float, use: np.ndarray | None = None) -> tuple[float, float, int]:
+    def score(self, offset: float, use: np.ndarray | None = None, at=None) -> tuple[float, float, int]:
         """(explained fraction 1 - SSE/SSE_null, SSE, windows) at ``offset`` s over the pings ``use`` (default
-        :meth:`pings`)."""
-        use = self.pings(offset) if use is None else use
-        sse, windows = self.sse(offset, use)
+        :meth:`pings`; or :meth:`imu_at`'s ``at``, shared with another model)."""
+        at = self.imu_at(offset, use) if at is None else at
+        use = at[0]
+        sse, windows = self.sse(offset, at=at)
         if windows.sum() < 2:
             return -np.inf, np.inf, 0
         null = float(np.sum(self.null_sse(use)[windows]))
