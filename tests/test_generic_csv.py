@@ -1194,3 +1194,44 @@ def test_a_reference_on_a_clock_of_its_own_is_put_on_the_imu_clock_by_its_turns(
     assert m.meta["streams"]["gt"].get("usable", True)
     assert m.config.gt_time_offset_s == pytest.approx(-late_s, abs=1e-3)
     assert any("reference clock offset" in n for n in m.meta["streams"]["gt"]["notes"])
+
+
+def _shifted_reference(tmp_path, sim, shift_s, **cfg_keys):
+    """The simulated log with its reference stamped ``shift_s`` late (s), and its configuration with ``cfg_keys``."""
+    cmap = _separate_files(tmp_path, sim)
+    g = sim.gt
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t + T0 + shift_s) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
+    cfg = json.loads(_config(tmp_path, sim, cmap).read_text())
+    cfg.update(cfg_keys)
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    return tmp_path / "config.json"
+
+
+@pytest.mark.parametrize("late_s", [16.0, -16.0])
+def test_a_given_reference_offset_the_clock_search_contradicts_is_doubted_with_the_offset_the_data_give(
+        sim, tmp_path, late_s):
+    """A configuration's gt_time_offset_s 0 (the simulator's configuration writes it) with the reference logged 16 s
+    late was judged by the +-2 s fine search alone: "the data say +0.380 s". The clock search an offset not given
+    gets names the offset the data give (-16 s), the score says it is doubted, and init auto does not start from a
+    reference 16 s early (the vehicle 16 s along its path: VRMSE 18.9 m/s)."""
+    from graphnav.calibration.preparation import reference_notes
+    from graphnav.estimators.runs import initial_state
+    cfg = _shifted_reference(tmp_path, sim, late_s, gt_time_offset_s=0.0)
+    with pytest.warns(RuntimeWarning, match=r"gt_time_offset_s = \+0\.000 s is given, but the angles the reference "
+                                            r"turns through match the gyro's at [+-]\d+\.\d+ s") as said:
+        m = load_mission(tmp_path, cfg)
+    data_say = re.search(r"match the gyro's at ([+-]\d+\.\d+) s", str(said[0].message)).group(1)
+    assert float(data_say) == pytest.approx(-late_s, abs=2e-3) and "used as given" in str(said[0].message)
+    np.testing.assert_allclose(m.gt.t, sim.gt.t + late_s, atol=1e-3)       # used as given
+    assert m.meta["streams"]["gt"]["doubted"] == {"gt_time_offset_s used as given though the data disagree": 401}
+    assert "the score is doubted" in reference_notes(m)["reference_time"]
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        assert initial_state(m, None, "auto", 0.0) is None
+    assert any("aligned from the sensors" in str(w.message) for w in said)
+    right = _shifted_reference(tmp_path, sim, late_s, gt_time_offset_s=-late_s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(tmp_path, right)
+    assert "reference_time" not in reference_notes(m) and initial_state(m, None, "auto", 0.0) is not None

@@ -392,6 +392,8 @@ def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, 
             "(1, 1, 1) as numbers)")
     add_note(meta, stream, f"{source}: {text}")
     count_doubted(meta, stream, f"{key} used as given though the data disagree", n)
+    if stream == "gt":              # what a score against it says beside the score (:func:`reference_notes`)
+        meta["gt_time_doubted"] = f"{source}: {key} = {given} is given, but {data_say}"
     warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=5)
 
 
@@ -678,15 +680,11 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     checks that compare it with the IMU. Off the IMU span (28 s late on a 40 s log) it was left out; on it (16 s late,
     sharing 60 %) it was scored 16 s off. One no offset explains, or a given ``gt_time_offset_s``, is left as it is
     (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock` leaves out one off the span)."""
-    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
     g = mission.gt
     if g is None or facts.get("given", {}).get("gt_time_offset_s") is not None:
         return mission
-    try:
-        est = estimate_gt_clock_offset(mission.imu, g)
-    except DataError:                    # too short or too little overlap to tell: as read
-        return mission
-    if not gt_clock_confident(est) or abs(est.offset_s) <= GT_OFFSET_SEARCH_S:
+    est = _far_reference_clock(mission.imu, g)
+    if est is None:
         return mission
     text = (f"reference clock offset {est.describe()} estimated from the data and added to the reference stamps "
             f"[{g.t[0]:.3f}, {g.t[-1]:.3f}] s (sharing {overlap_text(g.t, mission.imu.t)} with the IMU span): a clock "
@@ -697,6 +695,18 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     g = dataclasses.replace(g, t=np.asarray(g.t, float) + est.offset_s)
     set_span(meta, "gt", g.t)
     return dataclasses.replace(mission, gt=g)
+
+
+def _far_reference_clock(imu: ImuData, gt: GroundTruth):
+    """The reference's clock offset (:func:`graphnav.calibration.clock.estimate_gt_clock_offset`, s to add to
+    ``gt``'s stamps) when it is confident and beyond the fine search's reach (:data:`GT_OFFSET_SEARCH_S`), else None
+    (too short or too little overlap to tell, no offset explains it, or one the fine search finds)."""
+    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
+    try:
+        est = estimate_gt_clock_offset(imu, gt)
+    except DataError:
+        return None
+    return est if gt_clock_confident(est) and abs(est.offset_s) > GT_OFFSET_SEARCH_S else None
 
 
 def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:
@@ -911,10 +921,20 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
 def _judge_given_gt_offset(mission: Mission, meta: dict, facts: dict, given: float, lat: float | None) -> None:
     """The configuration's ``gt_time_offset_s`` of a log or bag (s) judged as an A-KIT folder's is
     (:func:`_judge_given_offset`): against the offset the reference's attitude increments, stamped with it, still
-    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s). A reference too
-    short to estimate cannot judge it: noted."""
+    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s), after the clock
+    search an offset not given gets (:func:`_far_reference_clock`): a confident offset beyond the fine search's reach
+    is what the data say (a configuration's 0 s with a reference logged 16 s late: the fine search said +0.380 s). A
+    reference too short to estimate cannot judge it: noted."""
     from graphnav.calibration.reference import estimate_gt_time_offset
     g = mission.gt
+    clock = _far_reference_clock(mission.imu, dataclasses.replace(g, t=g.t + given))
+    if clock is not None:
+        _doubt_given(meta, facts, "gt_time_offset_s", "gt", len(g.t), f"{given:+.3f} s",
+                     f"the angles the reference turns through match the gyro's at {given + clock.offset_s:+.3f} s "
+                     f"(sigma {clock.sigma_s:.3f} s; the clock search: the gyro explains {clock.peak:.2f} of them "
+                     f"there, {clock.second_peak:.2f} at the next best offset)")
+        meta["gt_clock_doubted"] = given + clock.offset_s        # not started from (init auto)
+        return
     try:
         est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t + given, g.C_b_n, lat, source=g.source)
     except DataError as err:
@@ -954,6 +974,17 @@ def reference_point_unknown(mission: Mission) -> str | None:
     if mission.gt is None or mission.config.reference_position_b is not None:
         return None
     return REFERENCE_POINT_UNKNOWN if mission.meta.get("prepare", {}).get("format") in ("csv", "bag") else None
+
+
+def reference_notes(mission: Mission) -> dict:
+    """What a score against a prepared mission's reference says beside it: ``reference_point``
+    (:func:`reference_point_unknown`) and ``reference_time``, when the data contradict the reference's time offset a
+    configuration gave (used as given, :func:`_doubt_given`): a score against a reference 16 s off is the vehicle's
+    motion over 16 s, not the estimate's error. Empty without either."""
+    point, doubted = reference_point_unknown(mission), mission.meta.get("gt_time_doubted")
+    time = doubted and (f"the score is doubted: it is taken against the reference at the time offset given "
+                        f"({doubted}); set gt_time_offset_s to null to let the data decide")
+    return {k: v for k, v in (("reference_point", point), ("reference_time", time)) if v}
 
 
 def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
