@@ -1235,3 +1235,36 @@ def test_a_given_reference_offset_the_clock_search_contradicts_is_doubted_with_t
         warnings.simplefilter("error")
         m = load_mission(tmp_path, right)
     assert "reference_time" not in reference_notes(m) and initial_state(m, None, "auto", 0.0) is not None
+
+
+@pytest.mark.parametrize("late_s, reference", [(16.0, True), (16.0, False), (-5.0, False)])
+def test_a_depth_on_a_clock_of_its_own_inside_the_imu_span_is_placed_by_the_vertical_motion_and_left_out(
+        sim, tmp_path, late_s, reference):
+    """A depth 16 s late on a 40 s log shares 60 % of the IMU span: it was kept and used 16 s off, no check saw it
+    (the convention's 10 s windows leave a 40 s log too few). Its changes over 2 s windows match the vertical
+    velocity (the reference's, else the DVL's turned by gravity) best at its stamps -16 s: it is left out, warned
+    about naming the file and the stamp field, counted and marked not usable; the log loads without it."""
+    cmap = _separate_files(tmp_path, sim)
+    if not reference:
+        del cmap["gt"]
+    _write(tmp_path / "depth.csv", ["time_ms", "p_dbar"],
+           [(sim.depth.t + T0 + late_s) * 1e3, sim.depth.depth * 1025.0 * sim.config.gravity_mps2 / 1e4])
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.warns(RuntimeWarning, match=r"depth.csv: field 'time_ms': the depth's changes match the .* best at "
+                                            r"its stamps [+-]\d+\.\d s .* the depth is left out") as said:
+        m = load_mission(tmp_path, cfg)
+    found = float(re.search(r"best at its stamps ([+-]\d+\.\d) s", str(said[0].message)).group(1))
+    assert found == pytest.approx(-late_s, abs=1.0)
+    assert m.depth is None and m.dvl is not None
+    entry = m.meta["streams"]["depth"]
+    assert not entry["usable"] and sum(entry["refused"].values()) == len(sim.depth.t)
+
+
+def test_a_depth_on_the_imu_clock_is_kept(sim, tmp_path):
+    """The same log, its depth as simulated: its changes match the vertical velocity best at its stamps."""
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(tmp_path, cfg)
+    np.testing.assert_allclose(m.depth.t, sim.depth.t, atol=1e-6)
+

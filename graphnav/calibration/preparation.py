@@ -135,18 +135,22 @@ def _left_out_off_the_imu_clock(mission: Mission, facts: dict) -> Mission:
     a bag message's header stamp or its receive time. A bag whose heading is left out is told, as one without a
     heading source, whether the configured gyro can gyrocompass."""
     from graphnav.io.stream_counts import warn_off_the_imu_clock
-    cmap = mission.config.csv_columns or {}
-    if facts.get("format") == "bag":
-        kinds = mission.meta.get("clock", {}).get("stamps", {})
-        fields = {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
-                  for k in ("depth", "gt", "heading")}
-    else:
-        fields = {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
-    left = warn_off_the_imu_clock(mission, fields)
+    left = warn_off_the_imu_clock(mission, _stamp_fields(mission, facts))
     if mission.heading is not None and left.heading is None:
         _warn_no_heading(left.config, left.meta.get("source", "bag"), left.meta,
                          "its heading topic, off the IMU span, is left out")
     return left
+
+
+def _stamp_fields(mission: Mission, facts: dict) -> dict[str, str]:
+    """The stamp field of a log's or bag's depth, reference and heading: a column map's key, a bag message's header
+    stamp or its receive time."""
+    if facts.get("format") == "bag":
+        kinds = mission.meta.get("clock", {}).get("stamps", {})
+        return {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
+                for k in ("depth", "gt", "heading")}
+    cmap = mission.config.csv_columns or {}
+    return {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
 
 
 def _restamped_packets(mission: Mission, meta: dict) -> Mission:
@@ -646,10 +650,15 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # adds its fine offset to, and what the next run is given
         offset = float(dvl.t[0] - mission.dvl.t[0]) if len(dvl.t) else 0.0
         mission = dataclasses.replace(mission, config=dataclasses.replace(mission.config, dvl_time_offset_s=offset))
+    # a reference whose given offset the clock search contradicts cannot judge the depth's time or sign: the DVL can
+    judged = dataclasses.replace(mission, dvl=dvl, depth=depth,
+                                 gt=None if "gt_clock_doubted" in meta else mission.gt)
+    if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
+        depth = _depth_in_time(judged, meta, facts)
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
         key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
-        checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
+        checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
                                    meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
                                    key, turned=facts.get("depth_turned_up", False))
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
@@ -657,6 +666,30 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | None:
+    """The depth of a log or bag on the IMU span, or None when its changes match the vehicle's vertical velocity
+    more than a few seconds from its stamps (:func:`graphnav.io.units.depth_off_its_stamps`): on a clock of its own
+    it would be used at the wrong time (16 s late on a 40 s log it shares 60 % of the span, and no check saw it), so
+    it is left out, warned about, counted and marked not usable, as a depth off the span
+    (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`). One off the span is left to that rule."""
+    from graphnav.io.stream_counts import DEPTH_OFF_ITS_STAMPS, OFF_THE_IMU_CLOCK_FIX, leave_out
+    from graphnav.io.units import DEPTH_CLOCK_WINDOW_S, depth_off_its_stamps, vertical_velocity
+    depth = mission.depth
+    if not on_the_imu_clock(depth.t, mission.imu.t):
+        return depth
+    t_v, v_down, what = vertical_velocity(mission)
+    found = depth_off_its_stamps(depth.t, depth.depth, t_v, v_down)
+    if found is None:
+        return depth
+    offset, r, r0 = found
+    fit = (f"changes match {what} best at its stamps {offset:+.1f} s (correlation {r:.2f} there, {r0:.2f} as "
+           f"stamped, over {DEPTH_CLOCK_WINDOW_S:g} s windows): a clock of its own")
+    text = (f"field '{_stamp_fields(mission, facts)['depth']}': the depth's {fit}; its {len(depth.t)} sample(s) "
+            f"would be used at the wrong time: the depth is left out; {OFF_THE_IMU_CLOCK_FIX['depth']}")
+    leave_out(meta, "depth", depth.source, f"its {fit}", text, {DEPTH_OFF_ITS_STAMPS: len(depth.t)})
+    return None
 
 
 def _dvl_unit(facts: dict, meta: dict) -> dict | None:
