@@ -1268,3 +1268,19 @@ def test_a_depth_on_the_imu_clock_is_kept(sim, tmp_path):
         m = load_mission(tmp_path, cfg)
     np.testing.assert_allclose(m.depth.t, sim.depth.t, atol=1e-6)
 
+
+def test_a_reference_too_short_to_check_the_imu_axes_is_kept_unjudged_and_the_log_loads(sim, tmp_path):
+    """A reference on the IMU clock at 1 Hz over the first 30 % of a 40 s log shares 9 intervals with the IMU span:
+    too few to check the IMU axes against (10 needed), which refused the whole log. The reference is optional: the
+    IMU alone checks the axes, and the reference is kept for the scores, warned about and counted as doubted."""
+    cmap = _separate_files(tmp_path, sim)
+    g = sim.gt
+    k = np.flatnonzero((g.t < 12.0) & (np.abs(g.t - np.round(g.t)) < 1e-6))        # 1 Hz, 0..11 s
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t[k] + T0) * 1e3, g.p_n[k], g.v_n[k], np.degrees(C_b_n_to_euler(g.C_b_n[k]))])
+    with pytest.warns(RuntimeWarning, match=r"nav.csv: the reference \[0.000, 11.000\] s shares 9 interval\(s\) .* "
+                                            r"too few to check the IMU axes against it \(10 needed\); the IMU alone"):
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    np.testing.assert_allclose(m.gt.t, g.t[k], atol=1e-6)
+    np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, atol=1e-6)
+    assert m.meta["streams"]["gt"]["doubted"] == {"too short to check the IMU axes against": 12}

@@ -597,9 +597,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     without heading told whether it can gyrocompass."""
     mission = _reference_clock(mission, meta, facts)
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
-    unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
-        facts.get("imu_frame")
-    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"))
+    judges = _reference_checks_axes(mission, meta, facts)
+    unchecked = None if judges else facts.get("imu_frame")
+    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"), judges)
     # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -728,6 +728,27 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     g = dataclasses.replace(g, t=np.asarray(g.t, float) + est.offset_s)
     set_span(meta, "gt", g.t)
     return dataclasses.replace(mission, gt=g)
+
+
+def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> bool:
+    """Whether a log's or bag's reference can check the IMU axes: on the IMU clock, and long enough
+    (:func:`graphnav.calibration.axes.gt_checks_axes`). One too short (1 Hz over 30 % of a 40 s log: 9 intervals)
+    refused the whole log; the reference is optional, so the IMU alone checks the axes (and the DVL a turn about z),
+    and the reference is kept for the scores, warned about and counted as doubted: it judged nothing."""
+    from graphnav.calibration.axes import MIN_AXIS_GT_INTERVALS, gt_checks_axes
+    g, t_imu = mission.gt, mission.imu.t
+    if g is None or facts.get("imu_frame") is None or not on_the_imu_clock(g.t, t_imu):
+        return False
+    enough, n = gt_checks_axes(g.t, t_imu)
+    if not enough:
+        text = (f"the reference [{g.t[0]:.3f}, {g.t[-1]:.3f}] s shares {n} interval(s) of about 1 s with the IMU span "
+                f"[{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s: too few to check the IMU axes against it "
+                f"({MIN_AXIS_GT_INTERVALS} needed); the IMU alone checks them, and the reference, judged against "
+                "nothing, is kept for the scores")
+        add_note(meta, "gt", text)
+        count_doubted(meta, "gt", "too short to check the IMU axes against", len(g.t))
+        warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
+    return enough
 
 
 def _far_reference_clock(imu: ImuData, gt: GroundTruth):
@@ -1020,19 +1041,18 @@ def reference_notes(mission: Mission) -> dict:
     return {k: v for k, v in (("reference_point", point), ("reference_time", time)) if v}
 
 
-def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
+def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judges: bool) -> Mission:
     """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
 
     ``frame`` (the loader's ``meta["prepare"]["imu_frame"]``): ``declared`` (the frame a user named, or None when
     implied: a column map without ``frame`` or with ``"auto"``, a bag's frame_id), ``what`` (the declaration, for
     the messages), ``fields`` (the columns or topic). Data that contradict a declared frame are a DataError; an
-    implied one is corrected, warned about and noted. None (other formats): the mission unchanged."""
+    implied one is corrected, warned about and noted. None (other formats): the mission unchanged. ``judges``: the
+    reference checks the axes (:func:`_reference_checks_axes`), else the IMU alone does."""
     if frame is None:
         return mission
     from graphnav.calibration.axes import FRAME_FAULTS, declared_frame_signs
-    imu, gt = mission.imu, mission.gt
-    if gt is not None and not on_the_imu_clock(gt.t, imu.t):
-        gt = None               # a GT on a clock of its own cannot check the axes: the IMU alone does
+    imu, gt = mission.imu, mission.gt if judges else None
     signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
     if np.all(signs == 1):
         return mission
