@@ -1194,3 +1194,93 @@ def test_a_reference_on_a_clock_of_its_own_is_put_on_the_imu_clock_by_its_turns(
     assert m.meta["streams"]["gt"].get("usable", True)
     assert m.config.gt_time_offset_s == pytest.approx(-late_s, abs=1e-3)
     assert any("reference clock offset" in n for n in m.meta["streams"]["gt"]["notes"])
+
+
+def _shifted_reference(tmp_path, sim, shift_s, **cfg_keys):
+    """The simulated log with its reference stamped ``shift_s`` late (s), and its configuration with ``cfg_keys``."""
+    cmap = _separate_files(tmp_path, sim)
+    g = sim.gt
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t + T0 + shift_s) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
+    cfg = json.loads(_config(tmp_path, sim, cmap).read_text())
+    cfg.update(cfg_keys)
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    return tmp_path / "config.json"
+
+
+@pytest.mark.parametrize("late_s", [16.0, -16.0])
+def test_a_given_reference_offset_the_clock_search_contradicts_is_doubted_with_the_offset_the_data_give(
+        sim, tmp_path, late_s):
+    """A configuration's gt_time_offset_s 0 (the simulator's configuration writes it) with the reference logged 16 s
+    late was judged by the +-2 s fine search alone: "the data say +0.380 s". The clock search an offset not given
+    gets names the offset the data give (-16 s), the score says it is doubted, and init auto does not start from a
+    reference 16 s early (the vehicle 16 s along its path: VRMSE 18.9 m/s)."""
+    from graphnav.calibration.preparation import reference_notes
+    from graphnav.estimators.runs import initial_state
+    cfg = _shifted_reference(tmp_path, sim, late_s, gt_time_offset_s=0.0)
+    with pytest.warns(RuntimeWarning, match=r"gt_time_offset_s = \+0\.000 s is given, but the angles the reference "
+                                            r"turns through match the gyro's at [+-]\d+\.\d+ s") as said:
+        m = load_mission(tmp_path, cfg)
+    data_say = re.search(r"match the gyro's at ([+-]\d+\.\d+) s", str(said[0].message)).group(1)
+    assert float(data_say) == pytest.approx(-late_s, abs=2e-3) and "used as given" in str(said[0].message)
+    np.testing.assert_allclose(m.gt.t, sim.gt.t + late_s, atol=1e-3)       # used as given
+    assert m.meta["streams"]["gt"]["doubted"] == {"gt_time_offset_s used as given though the data disagree": 401}
+    assert "the score is doubted" in reference_notes(m)["reference_time"]
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        assert initial_state(m, None, "auto", 0.0) is None
+    assert any("aligned from the sensors" in str(w.message) for w in said)
+    right = _shifted_reference(tmp_path, sim, late_s, gt_time_offset_s=-late_s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(tmp_path, right)
+    assert "reference_time" not in reference_notes(m) and initial_state(m, None, "auto", 0.0) is not None
+
+
+@pytest.mark.parametrize("late_s, reference", [(16.0, True), (16.0, False), (-5.0, False)])
+def test_a_depth_on_a_clock_of_its_own_inside_the_imu_span_is_placed_by_the_vertical_motion_and_left_out(
+        sim, tmp_path, late_s, reference):
+    """A depth 16 s late on a 40 s log shares 60 % of the IMU span: it was kept and used 16 s off, no check saw it
+    (the convention's 10 s windows leave a 40 s log too few). Its changes over 2 s windows match the vertical
+    velocity (the reference's, else the DVL's turned by gravity) best at its stamps -16 s: it is left out, warned
+    about naming the file and the stamp field, counted and marked not usable; the log loads without it."""
+    cmap = _separate_files(tmp_path, sim)
+    if not reference:
+        del cmap["gt"]
+    _write(tmp_path / "depth.csv", ["time_ms", "p_dbar"],
+           [(sim.depth.t + T0 + late_s) * 1e3, sim.depth.depth * 1025.0 * sim.config.gravity_mps2 / 1e4])
+    cfg = _config(tmp_path, sim, cmap)
+    with pytest.warns(RuntimeWarning, match=r"depth.csv: field 'time_ms': the depth's changes match the .* best at "
+                                            r"its stamps [+-]\d+\.\d s .* the depth is left out") as said:
+        m = load_mission(tmp_path, cfg)
+    found = float(re.search(r"best at its stamps ([+-]\d+\.\d) s", str(said[0].message)).group(1))
+    assert found == pytest.approx(-late_s, abs=1.0)
+    assert m.depth is None and m.dvl is not None
+    entry = m.meta["streams"]["depth"]
+    assert not entry["usable"] and sum(entry["refused"].values()) == len(sim.depth.t)
+
+
+def test_a_depth_on_the_imu_clock_is_kept(sim, tmp_path):
+    """The same log, its depth as simulated: its changes match the vertical velocity best at its stamps."""
+    cfg = _config(tmp_path, sim, _separate_files(tmp_path, sim))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(tmp_path, cfg)
+    np.testing.assert_allclose(m.depth.t, sim.depth.t, atol=1e-6)
+
+
+def test_a_reference_too_short_to_check_the_imu_axes_is_kept_unjudged_and_the_log_loads(sim, tmp_path):
+    """A reference on the IMU clock at 1 Hz over the first 30 % of a 40 s log shares 9 intervals with the IMU span:
+    too few to check the IMU axes against (10 needed), which refused the whole log. The reference is optional: the
+    IMU alone checks the axes, and the reference is kept for the scores, warned about and counted as doubted."""
+    cmap = _separate_files(tmp_path, sim)
+    g = sim.gt
+    k = np.flatnonzero((g.t < 12.0) & (np.abs(g.t - np.round(g.t)) < 1e-6))        # 1 Hz, 0..11 s
+    _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
+           [(g.t[k] + T0) * 1e3, g.p_n[k], g.v_n[k], np.degrees(C_b_n_to_euler(g.C_b_n[k]))])
+    with pytest.warns(RuntimeWarning, match=r"nav.csv: the reference \[0.000, 11.000\] s shares 9 interval\(s\) .* "
+                                            r"too few to check the IMU axes against it \(10 needed\); the IMU alone"):
+        m = load_mission(tmp_path, _config(tmp_path, sim, cmap))
+    np.testing.assert_allclose(m.gt.t, g.t[k], atol=1e-6)
+    np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, atol=1e-6)
+    assert m.meta["streams"]["gt"]["doubted"] == {"too short to check the IMU axes against": 12}

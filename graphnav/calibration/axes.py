@@ -114,6 +114,27 @@ def gt_predicted_specific_force(mission: Mission, gt_t: np.ndarray):
     return np.einsum("kji,kj->ki", C_mid, a_n - g_n)
 
 
+#: Fewest reference intervals of about 1 s inside the IMU span (+-2 s of offset searched) the gyro is checked
+#: against (:func:`check_imu_axes_with_gt`).
+MIN_AXIS_GT_INTERVALS = 10
+
+
+def _axis_intervals(t_ref: np.ndarray, t_imu: np.ndarray) -> np.ndarray:
+    """(K-1,) True for the intervals of reference stamps ``t_ref`` (s) inside the IMU span at every offset searched."""
+    return (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])
+
+
+def gt_checks_axes(t_gt: np.ndarray, t_imu: np.ndarray) -> tuple[bool, int]:
+    """``(enough, n)``: whether a reference stamped ``t_gt`` (s, on the IMU clock ``t_imu``) shares the
+    :data:`MIN_AXIS_GT_INTERVALS` intervals of about 1 s :func:`check_imu_axes_with_gt` needs, and how many."""
+    t_gt = np.asarray(t_gt, float)
+    if t_gt.size < 2:
+        return False, 0
+    stride = max(1, int(round(1.0 / np.median(np.diff(t_gt)))))
+    n = int(_axis_intervals(t_gt[::stride], np.asarray(t_imu, float)).sum())
+    return n >= MIN_AXIS_GT_INTERVALS, n
+
+
 def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]:
     """Check gyro and accelerometer axes against the GT; also returns the GT offset of the best gyro map.
 
@@ -131,12 +152,12 @@ def check_imu_axes_with_gt(mission: Mission) -> tuple[AxisCheck, OffsetEstimate]
     incr_ref = reference_gyro_increments(t_ref, C_ref, lat)
     S = np.asfortranarray(cumulative_integral(t_imu, imu.omega_b))
     offsets = np.arange(-2.0, 2.0 + 1e-9, 0.05)
-    inside = (t_ref[:-1] - 2.0 >= t_imu[0]) & (t_ref[1:] + 2.0 <= t_imu[-1])
-    if inside.sum() < 10:       # the scores below would be means of nothing
+    inside = _axis_intervals(t_ref, t_imu)
+    if inside.sum() < MIN_AXIS_GT_INTERVALS:       # the scores below would be means of nothing
         raise DataError(f"the GT stamps [{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s share {int(inside.sum())} interval(s) with "
                         f"the IMU span [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s: too few to check the IMU axes against it "
-                        "(10 needed): give imu_axis_signs and gt_time_offset_s in a --config file, or leave the GT "
-                        "out", gt.source, field="t")
+                        f"({MIN_AXIS_GT_INTERVALS} needed): give imu_axis_signs and gt_time_offset_s in a --config "
+                        "file, or leave the GT out", gt.source, field="t")
     incr = np.stack([interp_rows(t_ref[1:][inside] + o, t_imu, S) - interp_rows(t_ref[:-1][inside] + o, t_imu, S)
                      for o in offsets])                                   # (n_offsets, K, 3)
     maps = signed_permutations()

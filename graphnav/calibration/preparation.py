@@ -135,18 +135,22 @@ def _left_out_off_the_imu_clock(mission: Mission, facts: dict) -> Mission:
     a bag message's header stamp or its receive time. A bag whose heading is left out is told, as one without a
     heading source, whether the configured gyro can gyrocompass."""
     from graphnav.io.stream_counts import warn_off_the_imu_clock
-    cmap = mission.config.csv_columns or {}
-    if facts.get("format") == "bag":
-        kinds = mission.meta.get("clock", {}).get("stamps", {})
-        fields = {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
-                  for k in ("depth", "gt", "heading")}
-    else:
-        fields = {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
-    left = warn_off_the_imu_clock(mission, fields)
+    left = warn_off_the_imu_clock(mission, _stamp_fields(mission, facts))
     if mission.heading is not None and left.heading is None:
         _warn_no_heading(left.config, left.meta.get("source", "bag"), left.meta,
                          "its heading topic, off the IMU span, is left out")
     return left
+
+
+def _stamp_fields(mission: Mission, facts: dict) -> dict[str, str]:
+    """The stamp field of a log's or bag's depth, reference and heading: a column map's key, a bag message's header
+    stamp or its receive time."""
+    if facts.get("format") == "bag":
+        kinds = mission.meta.get("clock", {}).get("stamps", {})
+        return {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
+                for k in ("depth", "gt", "heading")}
+    cmap = mission.config.csv_columns or {}
+    return {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
 
 
 def _restamped_packets(mission: Mission, meta: dict) -> Mission:
@@ -392,6 +396,8 @@ def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, 
             "(1, 1, 1) as numbers)")
     add_note(meta, stream, f"{source}: {text}")
     count_doubted(meta, stream, f"{key} used as given though the data disagree", n)
+    if stream == "gt":              # what a score against it says beside the score (:func:`reference_notes`)
+        meta["gt_time_doubted"] = f"{source}: {key} = {given} is given, but {data_say}"
     warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=5)
 
 
@@ -591,9 +597,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     without heading told whether it can gyrocompass."""
     mission = _reference_clock(mission, meta, facts)
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
-    unchecked = None if mission.gt is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) else \
-        facts.get("imu_frame")
-    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"))
+    judges = _reference_checks_axes(mission, meta, facts)
+    unchecked = None if judges else facts.get("imu_frame")
+    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"), judges)
     # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -644,10 +650,15 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         # adds its fine offset to, and what the next run is given
         offset = float(dvl.t[0] - mission.dvl.t[0]) if len(dvl.t) else 0.0
         mission = dataclasses.replace(mission, config=dataclasses.replace(mission.config, dvl_time_offset_s=offset))
+    # a reference whose given offset the clock search contradicts cannot judge the depth's time or sign: the DVL can
+    judged = dataclasses.replace(mission, dvl=dvl, depth=depth,
+                                 gt=None if "gt_clock_doubted" in meta else mission.gt)
+    if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
+        depth = _depth_in_time(judged, meta, facts)
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         from graphnav.io.units import depth_convention
         key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
-        checked = depth_convention(dataclasses.replace(mission, dvl=dvl, depth=depth), meta,
+        checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
                                    meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
                                    key, turned=facts.get("depth_turned_up", False))
         depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
@@ -655,6 +666,30 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | None:
+    """The depth of a log or bag on the IMU span, or None when its changes match the vehicle's vertical velocity
+    more than a few seconds from its stamps (:func:`graphnav.io.units.depth_off_its_stamps`): on a clock of its own
+    it would be used at the wrong time (16 s late on a 40 s log it shares 60 % of the span, and no check saw it), so
+    it is left out, warned about, counted and marked not usable, as a depth off the span
+    (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock`). One off the span is left to that rule."""
+    from graphnav.io.stream_counts import DEPTH_OFF_ITS_STAMPS, OFF_THE_IMU_CLOCK_FIX, leave_out
+    from graphnav.io.units import DEPTH_CLOCK_WINDOW_S, depth_off_its_stamps, vertical_velocity
+    depth = mission.depth
+    if not on_the_imu_clock(depth.t, mission.imu.t):
+        return depth
+    t_v, v_down, what = vertical_velocity(mission)
+    found = depth_off_its_stamps(depth.t, depth.depth, t_v, v_down)
+    if found is None:
+        return depth
+    offset, r, r0 = found
+    fit = (f"changes match {what} best at its stamps {offset:+.1f} s (correlation {r:.2f} there, {r0:.2f} as "
+           f"stamped, over {DEPTH_CLOCK_WINDOW_S:g} s windows): a clock of its own")
+    text = (f"field '{_stamp_fields(mission, facts)['depth']}': the depth's {fit}; its {len(depth.t)} sample(s) "
+            f"would be used at the wrong time: the depth is left out; {OFF_THE_IMU_CLOCK_FIX['depth']}")
+    leave_out(meta, "depth", depth.source, f"its {fit}", text, {DEPTH_OFF_ITS_STAMPS: len(depth.t)})
+    return None
 
 
 def _dvl_unit(facts: dict, meta: dict) -> dict | None:
@@ -678,15 +713,11 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     checks that compare it with the IMU. Off the IMU span (28 s late on a 40 s log) it was left out; on it (16 s late,
     sharing 60 %) it was scored 16 s off. One no offset explains, or a given ``gt_time_offset_s``, is left as it is
     (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock` leaves out one off the span)."""
-    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
     g = mission.gt
     if g is None or facts.get("given", {}).get("gt_time_offset_s") is not None:
         return mission
-    try:
-        est = estimate_gt_clock_offset(mission.imu, g)
-    except DataError:                    # too short or too little overlap to tell: as read
-        return mission
-    if not gt_clock_confident(est) or abs(est.offset_s) <= GT_OFFSET_SEARCH_S:
+    est = _far_reference_clock(mission.imu, g)
+    if est is None:
         return mission
     text = (f"reference clock offset {est.describe()} estimated from the data and added to the reference stamps "
             f"[{g.t[0]:.3f}, {g.t[-1]:.3f}] s (sharing {overlap_text(g.t, mission.imu.t)} with the IMU span): a clock "
@@ -697,6 +728,39 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     g = dataclasses.replace(g, t=np.asarray(g.t, float) + est.offset_s)
     set_span(meta, "gt", g.t)
     return dataclasses.replace(mission, gt=g)
+
+
+def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> bool:
+    """Whether a log's or bag's reference can check the IMU axes: on the IMU clock, and long enough
+    (:func:`graphnav.calibration.axes.gt_checks_axes`). One too short (1 Hz over 30 % of a 40 s log: 9 intervals)
+    refused the whole log; the reference is optional, so the IMU alone checks the axes (and the DVL a turn about z),
+    and the reference is kept for the scores, warned about and counted as doubted: it judged nothing."""
+    from graphnav.calibration.axes import MIN_AXIS_GT_INTERVALS, gt_checks_axes
+    g, t_imu = mission.gt, mission.imu.t
+    if g is None or facts.get("imu_frame") is None or not on_the_imu_clock(g.t, t_imu):
+        return False
+    enough, n = gt_checks_axes(g.t, t_imu)
+    if not enough:
+        text = (f"the reference [{g.t[0]:.3f}, {g.t[-1]:.3f}] s shares {n} interval(s) of about 1 s with the IMU span "
+                f"[{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s: too few to check the IMU axes against it "
+                f"({MIN_AXIS_GT_INTERVALS} needed); the IMU alone checks them, and the reference, judged against "
+                "nothing, is kept for the scores")
+        add_note(meta, "gt", text)
+        count_doubted(meta, "gt", "too short to check the IMU axes against", len(g.t))
+        warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
+    return enough
+
+
+def _far_reference_clock(imu: ImuData, gt: GroundTruth):
+    """The reference's clock offset (:func:`graphnav.calibration.clock.estimate_gt_clock_offset`, s to add to
+    ``gt``'s stamps) when it is confident and beyond the fine search's reach (:data:`GT_OFFSET_SEARCH_S`), else None
+    (too short or too little overlap to tell, no offset explains it, or one the fine search finds)."""
+    from graphnav.calibration.clock import estimate_gt_clock_offset, gt_clock_confident
+    try:
+        est = estimate_gt_clock_offset(imu, gt)
+    except DataError:
+        return None
+    return est if gt_clock_confident(est) and abs(est.offset_s) > GT_OFFSET_SEARCH_S else None
 
 
 def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict) -> ImuData:
@@ -911,10 +975,20 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
 def _judge_given_gt_offset(mission: Mission, meta: dict, facts: dict, given: float, lat: float | None) -> None:
     """The configuration's ``gt_time_offset_s`` of a log or bag (s) judged as an A-KIT folder's is
     (:func:`_judge_given_offset`): against the offset the reference's attitude increments, stamped with it, still
-    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s). A reference too
-    short to estimate cannot judge it: noted."""
+    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s), after the clock
+    search an offset not given gets (:func:`_far_reference_clock`): a confident offset beyond the fine search's reach
+    is what the data say (a configuration's 0 s with a reference logged 16 s late: the fine search said +0.380 s). A
+    reference too short to estimate cannot judge it: noted."""
     from graphnav.calibration.reference import estimate_gt_time_offset
     g = mission.gt
+    clock = _far_reference_clock(mission.imu, dataclasses.replace(g, t=g.t + given))
+    if clock is not None:
+        _doubt_given(meta, facts, "gt_time_offset_s", "gt", len(g.t), f"{given:+.3f} s",
+                     f"the angles the reference turns through match the gyro's at {given + clock.offset_s:+.3f} s "
+                     f"(sigma {clock.sigma_s:.3f} s; the clock search: the gyro explains {clock.peak:.2f} of them "
+                     f"there, {clock.second_peak:.2f} at the next best offset)")
+        meta["gt_clock_doubted"] = given + clock.offset_s        # not started from (init auto)
+        return
     try:
         est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t + given, g.C_b_n, lat, source=g.source)
     except DataError as err:
@@ -956,19 +1030,29 @@ def reference_point_unknown(mission: Mission) -> str | None:
     return REFERENCE_POINT_UNKNOWN if mission.meta.get("prepare", {}).get("format") in ("csv", "bag") else None
 
 
-def _imu_frame(mission: Mission, meta: dict, frame: dict | None) -> Mission:
+def reference_notes(mission: Mission) -> dict:
+    """What a score against a prepared mission's reference says beside it: ``reference_point``
+    (:func:`reference_point_unknown`) and ``reference_time``, when the data contradict the reference's time offset a
+    configuration gave (used as given, :func:`_doubt_given`): a score against a reference 16 s off is the vehicle's
+    motion over 16 s, not the estimate's error. Empty without either."""
+    point, doubted = reference_point_unknown(mission), mission.meta.get("gt_time_doubted")
+    time = doubted and (f"the score is doubted: it is taken against the reference at the time offset given "
+                        f"({doubted}); set gt_time_offset_s to null to let the data decide")
+    return {k: v for k, v in (("reference_point", point), ("reference_time", time)) if v}
+
+
+def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judges: bool) -> Mission:
     """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
 
     ``frame`` (the loader's ``meta["prepare"]["imu_frame"]``): ``declared`` (the frame a user named, or None when
     implied: a column map without ``frame`` or with ``"auto"``, a bag's frame_id), ``what`` (the declaration, for
     the messages), ``fields`` (the columns or topic). Data that contradict a declared frame are a DataError; an
-    implied one is corrected, warned about and noted. None (other formats): the mission unchanged."""
+    implied one is corrected, warned about and noted. None (other formats): the mission unchanged. ``judges``: the
+    reference checks the axes (:func:`_reference_checks_axes`), else the IMU alone does."""
     if frame is None:
         return mission
     from graphnav.calibration.axes import FRAME_FAULTS, declared_frame_signs
-    imu, gt = mission.imu, mission.gt
-    if gt is not None and not on_the_imu_clock(gt.t, imu.t):
-        gt = None               # a GT on a clock of its own cannot check the axes: the IMU alone does
+    imu, gt = mission.imu, mission.gt if judges else None
     signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
     if np.all(signs == 1):
         return mission

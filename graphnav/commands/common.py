@@ -187,16 +187,16 @@ def check_windows(window_start: list[float] | None, window_s: float, mission) ->
 
 def accuracy_summary(sol, mission, outages, reference=None) -> dict:
     """VRMSE over the mission and each outage window and the final horizontal position error (when GT), with
-    ``reference_point`` when the reference is scored at the IMU point without its point given
-    (:func:`graphnav.calibration.preparation.reference_point_unknown`);
+    ``reference_point`` when the reference is scored at the IMU point without its point given and
+    ``reference_time`` when the data contradict its given time offset
+    (:func:`graphnav.calibration.preparation.reference_notes`);
     ``reference``: the NEES's reference at ``sol``'s epochs when the caller has carried it (None: carried here)."""
     if mission.gt is None:
         return {"ground_truth": False}
-    from graphnav.calibration.preparation import reference_point_unknown
+    from graphnav.calibration.preparation import reference_notes
     from graphnav.evaluation.metrics import horizontal_position_error, vrmse
     t_end = float(min(sol.t[-1], mission.gt.t[-1]))
-    point = reference_point_unknown(mission)
-    return {**({"reference_point": point} if point else {}),
+    return {**reference_notes(mission),
         "ground_truth": True,
         "vrmse_mission_mps": float(vrmse(sol, mission.gt, mission.t0, mission.t1)),
         "windows": [{"start_s": o.start_s, "end_s": o.end_s, "missing_beams": [b + 1 for b in o.missing],
@@ -337,8 +337,9 @@ def print_summary(summary: dict, file=None) -> None:
     if acc.get("ground_truth"):
         out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
-        if acc.get("reference_point"):
-            out(f"  note: {acc['reference_point']}")
+        for key in ("reference_time", "reference_point"):
+            if acc.get(key):
+                out(f"  note: {acc[key]}")
         for w in acc["windows"]:
             out(f"  window {w['start_s']:.0f}-{w['end_s']:.0f} s (beams {w['missing_beams']} missing): "
                   f"VRMSE {w['vrmse_window_mps']:.4f} m/s")

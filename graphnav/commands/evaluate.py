@@ -57,10 +57,9 @@ def run(args) -> int:
     result = evaluate(est, ref, mission=mission, align=args.align, rpe_delta=args.rpe_delta,
                       rpe_unit=args.rpe_unit)
     result.update({"trajectory": str(args.trajectory), "reference": str(args.ref)})
-    from graphnav.calibration.preparation import reference_point_unknown
-    point = reference_point_unknown(mission) if mission is not None else None
-    if point:                   # said beside the score: it is taken where the reference may not be
-        result["reference_point"] = point
+    from graphnav.calibration.preparation import reference_notes
+    if mission is not None:     # said beside the score: it is taken where or when the reference may not be
+        result.update(reference_notes(mission))
     print(format_report(result, Path(args.trajectory).name, str(args.ref)))
     if args.json:
         from graphnav.io.outputs import write_json

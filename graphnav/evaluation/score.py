@@ -472,8 +472,7 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
         lines.append(f"  VRMSE: {result['vrmse_mps']:.4f} m/s")
     else:
         lines.append(f"  VRMSE: not computed ({result['vrmse_note']})")
-    if result.get("reference_point"):
-        lines.append(f"  note: {result['reference_point']}")
+    lines += [f"  note: {result[k]}" for k in ("reference_time", "reference_point") if result.get(k)]
     if result["nees_velocity_mean"] is not None and not np.isfinite(result["nees_velocity_mean"]):
         lines.append(f"  velocity NEES: not finite ({result['nees_note']})")
     elif result["nees_velocity_mean"] is not None:

@@ -137,13 +137,25 @@ def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> Mission:
         text = (f"field '{fields.get(stream, 't')}': the {what} stamps {reason.removeprefix('its stamps ')}; the "
                 f"{outside} of {len(data.t)} sample(s) outside the IMU span{inside} are not used: the {what} is "
                 f"left out; {OFF_THE_IMU_CLOCK_FIX[stream]}")
-        count_refused(mission.meta, stream, OUTSIDE_IMU_SPAN, outside)
-        count_refused(mission.meta, stream, OFF_THE_IMU_CLOCK, len(data.t) - outside)
-        add_note(mission.meta, stream, text)
-        stream_entry(mission.meta, stream).update(usable=False, reason=reason)
-        warnings.warn(f"{data.source}: {text}", RuntimeWarning, stacklevel=3)
+        leave_out(mission.meta, stream, data.source, reason, text,
+                  {OUTSIDE_IMU_SPAN: outside, OFF_THE_IMU_CLOCK: len(data.t) - outside})
         left_out[stream] = None
     return dataclasses.replace(mission, **left_out) if left_out else mission
+
+
+#: Reason of the samples of a depth the vertical motion places seconds from its stamps
+#: (:func:`graphnav.io.units.depth_off_its_stamps`): inside the IMU span, they would be used at the wrong time.
+DEPTH_OFF_ITS_STAMPS = "on a clock of its own: its changes match the vertical velocity seconds from its stamps"
+
+
+def leave_out(meta: dict, stream: str, source: str, reason: str, text: str, refused: dict[str, int]) -> None:
+    """An optional stream left out of the mission: warned about (naming ``source``), noted (``text``), marked not
+    usable in ``meta["streams"]`` (``reason``) and its samples counted as refused (``refused``: reason -> count)."""
+    for why, n in refused.items():
+        count_refused(meta, stream, why, n)
+    add_note(meta, stream, text)
+    stream_entry(meta, stream).update(usable=False, reason=reason)
+    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=4)
 
 
 def check_dvl_on_imu_clock(mission: Mission, what_to_do: str = "put the DVL stamps on the IMU clock",
