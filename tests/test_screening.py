@@ -2148,14 +2148,15 @@ def test_an_imu_on_a_grid_finer_than_a_tenth_of_its_step_reads_its_mean_step():
 
 
 def _steps_said(t, repair=False):
-    """``(warnings of steps and gaps, meta)`` of IMU stamps ``t`` (s) read as a file's (``stamp_order``)."""
+    """``(warnings of steps and gaps, meta, every warning)`` of IMU stamps ``t`` (s) read as a file's
+    (``stamp_order``)."""
     from graphnav.core.screening import stamp_order
     meta: dict = {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", repair, meta, "imu")
-    said = [str(w.message) for w in caught if "off its period" in str(w.message) or "a gap of" in str(w.message)]
-    return said, meta
+    every = [str(w.message) for w in caught]
+    return [m for m in every if "off its period" in m or "a gap of" in m], meta, every
 
 
 @pytest.mark.parametrize("rate_hz, grid_s, jitter_s", [(200.0, 0.0, 1e-3), (400.0, 1e-3, 3e-4)])
@@ -2170,12 +2171,27 @@ def test_a_gap_of_imu_samples_is_said_through_jitter_of_a_fifth_of_the_period(ra
     t = np.sort(true + rng.normal(0.0, jitter_s, true.size))
     t = np.floor(t / grid_s + 1e-9) * grid_s if grid_s else t
     for lost in (2, 10, 1, 0):
-        said, meta = _steps_said(np.delete(t, np.arange(3000, 3000 + lost)))
+        said, meta, _ = _steps_said(np.delete(t, np.arange(3000, 3000 + lost)))
         if lost < 2:
             assert not said and "doubted" not in meta.get("streams", {}).get("imu", {})
             continue
         assert len(said) == 1 and said[0].startswith("imu: imu.csv, line 3002, field 't': a gap of ")
         assert f"({lost} periods, a whole number: {lost} samples lost" in said[0]
         assert meta["streams"]["imu"]["doubted"] == {IMU_GAP: 1}
-    said, meta = _steps_said(t[np.random.default_rng(100).random(t.size) > 0.01])
-    assert not said
+    assert not _steps_said(t[np.random.default_rng(100).random(t.size) > 0.01])[0]
+
+
+def test_a_step_of_the_imu_clock_or_a_gap_is_said_in_a_file_whose_stamps_are_repaired():
+    """With --repair-stamps, an IMU file with a duplicated and two swapped stamps and a +5 ms clock step or a 0.5 s gap
+    half-way was repaired and its step said nowhere: the repair returned before the step check. The repaired stamps
+    are checked too: the step is warned about, naming the line of the sample after it, and counted."""
+    from graphnav.core.screening import CLOCK_STEP, IMU_GAP
+    for jump, reason, what in ((0.005, CLOCK_STEP, "the IMU clock steps +5 ms off its period"),
+                               (0.5, IMU_GAP, "a gap of 0.5 s in the stamps (50 periods")):
+        t = 1000.0 + np.arange(6000) * 0.01 + np.where(np.arange(6000) >= 3000, jump, 0.0)
+        t[100] = t[99]
+        t[[200, 201]] = t[[201, 200]]
+        said, meta, every = _steps_said(t, repair=True)
+        assert any("1 duplicated and 1 out-of-order stamp(s) repaired" in m for m in every)
+        assert len(said) == 1 and said[0].startswith(f"imu: imu.csv, line 3002, field 't': {what}")
+        assert meta["streams"]["imu"]["doubted"] == {reason: 1}
