@@ -2195,3 +2195,24 @@ def test_a_step_of_the_imu_clock_or_a_gap_is_said_in_a_file_whose_stamps_are_rep
         assert any("1 duplicated and 1 out-of-order stamp(s) repaired" in m for m in every)
         assert len(said) == 1 and said[0].startswith(f"imu: imu.csv, line 3002, field 't': {what}")
         assert meta["streams"]["imu"]["doubted"] == {reason: 1}
+
+
+def test_an_imu_in_whole_ms_with_jitter_and_samples_lost_at_random_is_read_not_refused():
+    """200 Hz in whole ms with 1 ms of jitter and 1 % of the samples lost at random was refused as duplicated stamps
+    (3 of 3 seeds): a repeat moved by jitter across a grid edge must keep the samples on either side on one line, and
+    a sample lost within 50 of it moved the line by up to a period. A lost sample moves it later; only a row written
+    twice moves it earlier: these logs are read, each repeat placed after its stamp, and the same logs with three rows
+    written twice are refused as before."""
+    from graphnav.core.screening import stamp_order
+    for seed in range(3):
+        true, t = _drifting_clock(200.0, 0.001, 6000, 1e-3, 20.0, seed)
+        keep = np.random.default_rng(seed + 100).random(t.size) > 0.01
+        true, t = true[keep], t[keep]
+        meta, stamps = _imu_stamps_read_whole(t, r"^imu: imu.csv: stamps on a 1 ms grid, finer than the IMU's 5[.\d]* "
+                                              r"ms period: \d+ of \d+ repeat the stamp before")
+        assert np.all(np.diff(stamps) > 0) and meta["streams"]["imu"]["restamped"] == np.sum(np.diff(t) == 0) > 0
+        assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
+        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
+        with pytest.raises(DataError, match="time stamp duplicated"):
+            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
+                        {}, "imu")
