@@ -239,8 +239,9 @@ def _positive_steps(steps) -> tuple[np.ndarray, float]:
 #: IMU: 5.6 %); a grid of 1 us under a 10 ms step is float rounding, not a clock.
 FINE_GRID_SHARE = 0.01
 #: Share of a grid step by which the mean one-period step must differ from the median for it to be the period
-#: (:func:`_fine_grid_period`): jitter moves a 100 Hz log in whole ms or 0.1 ms by under a twentieth.
-FINE_GRID_OFF_SHARE = 0.1
+#: (:func:`_fine_grid_period`): up to 1 ms of jitter and 5 % lost move a 100 Hz log in whole ms by under 0.015; 99 and
+#: 101 Hz (steps of 10 ms and 9 or 11) are 0.1 off it, and a tenth read 100 Hz for most of them.
+FINE_GRID_OFF_SHARE = 0.05
 
 
 def _fine_grid_period(d: np.ndarray, med: float, steps) -> float:
