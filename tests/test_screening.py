@@ -1706,6 +1706,16 @@ def test_an_imu_on_a_clock_between_one_and_two_periods_is_a_clock_not_packets_or
     assert imu_rate_hz(t) == pytest.approx(50.0, rel=1e-3) == imu_rate_hz(t, 100.0)
 
 
+def _refused_with_three_rows_written_twice(t, seed):
+    """IMU stamps ``t`` (s) with three rows written twice (other values; ``seed`` picks them) are refused as
+    duplicated stamps (``stamp_order``)."""
+    from graphnav.core.screening import stamp_order
+    twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
+    with pytest.raises(DataError, match="time stamp duplicated"):
+        stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False, {},
+                    "imu")
+
+
 def test_an_imu_on_a_grid_half_its_period_with_stamps_repeated_by_jitter_is_read_not_refused():
     """50 Hz in whole 10 ms with 2 or 3 ms of jitter: now and then a sample moved across a grid edge shares the stamp
     before it (2 and 31 of 12000) and the file was refused as duplicated stamps (a clock at the period needs ten
@@ -1726,10 +1736,7 @@ def test_an_imu_on_a_grid_half_its_period_with_stamps_repeated_by_jitter_is_read
         assert kept.size == t.size and not dropped and np.all(np.diff(stamps) > 0)
         assert np.sum(stamps != t) == meta["streams"]["imu"]["restamped"] == repeats
         assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
-        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
-        with pytest.raises(DataError, match="time stamp duplicated"):
-            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
-                        {}, "imu")
+        _refused_with_three_rows_written_twice(t, seed)
 
 
 def test_an_imu_slower_than_its_clock_grid_with_jitter_is_read_not_refused():
@@ -1740,17 +1747,13 @@ def test_an_imu_slower_than_its_clock_grid_with_jitter_is_read_not_refused():
     2 ms of jitter (a grid half the period) was refused too: its grid, measured as a mean step (9.99998 ms), put
     stamps 200 s in off it; its repeats are now placed after their stamp. Rows written twice are refused as before."""
     from graphnav.core.imu_timing import imu_rate_hz
-    from graphnav.core.screening import stamp_order
     for rate, n, jitter, seed in ((70.0, 12000, 1e-3, 2), (80.0, 12000, 1e-3, 0), (90.0, 2000, 1e-3, 1)):
         true, t = _drifting_clock(rate, 0.01, n, jitter, 20.0, seed)
         meta, stamps = _imu_stamps_read_whole(t, rf"^imu: imu.csv: stamps on a 10 ms clock, about as coarse as the "
                                               rf"IMU's {1e3 / rate:.4g} ms period")
         assert np.max(np.abs(stamps - true)) < 5e-4 and np.all(np.diff(stamps) > 0)
         assert imu_rate_hz(stamps) == pytest.approx(rate, rel=1e-4)
-        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
-        with pytest.raises(DataError, match="time stamp duplicated"):
-            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
-                        {}, "imu")
+        _refused_with_three_rows_written_twice(t, seed)
     true, t = _drifting_clock(60.0, 0.01, 12000, 2e-3, 20.0, 0)
     meta, stamps = _imu_stamps_read_whole(t, r"^imu: imu.csv: stamps on a 10 ms grid, finer than the IMU's 16.6")
     assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
@@ -2203,7 +2206,6 @@ def test_an_imu_in_whole_ms_with_jitter_and_samples_lost_at_random_is_read_not_r
     a sample lost within 50 of it moved the line by up to a period. A lost sample moves it later; only a row written
     twice moves it earlier: these logs are read, each repeat placed after its stamp, and the same logs with three rows
     written twice are refused as before."""
-    from graphnav.core.screening import stamp_order
     for seed in range(3):
         true, t = _drifting_clock(200.0, 0.001, 6000, 1e-3, 20.0, seed)
         keep = np.random.default_rng(seed + 100).random(t.size) > 0.01
@@ -2212,10 +2214,7 @@ def test_an_imu_in_whole_ms_with_jitter_and_samples_lost_at_random_is_read_not_r
                                               r"ms period: \d+ of \d+ repeat the stamp before")
         assert np.all(np.diff(stamps) > 0) and meta["streams"]["imu"]["restamped"] == np.sum(np.diff(t) == 0) > 0
         assert np.max(np.abs(stamps - true)) <= np.max(np.abs(t - true))
-        twice = np.sort(np.r_[t, t[np.random.default_rng(seed).choice(t.size, 3, replace=False)]])
-        with pytest.raises(DataError, match="time stamp duplicated"):
-            stamp_order(twice, np.c_[twice, np.arange(twice.size)], np.arange(twice.size) + 2, "imu.csv", "t", False,
-                        {}, "imu")
+        _refused_with_three_rows_written_twice(t, seed)
 
 
 def test_an_imu_one_percent_off_its_grid_step_in_whole_ms_reads_its_rate():
