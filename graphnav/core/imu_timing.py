@@ -239,8 +239,9 @@ def _positive_steps(steps) -> tuple[np.ndarray, float]:
 #: IMU: 5.6 %); a grid of 1 us under a 10 ms step is float rounding, not a clock.
 FINE_GRID_SHARE = 0.01
 #: Share of a grid step by which the mean one-period step must differ from the median for it to be the period
-#: (:func:`_fine_grid_period`): jitter moves a 100 Hz log in whole ms or 0.1 ms by under a twentieth.
-FINE_GRID_OFF_SHARE = 0.1
+#: (:func:`_fine_grid_period`): up to 1 ms of jitter and 5 % lost move a 100 Hz log in whole ms by under 0.015; 99 and
+#: 101 Hz (steps of 10 ms and 9 or 11) are 0.1 off it, and a tenth read 100 Hz for most of them.
+FINE_GRID_OFF_SHARE = 0.05
 
 
 def _fine_grid_period(d: np.ndarray, med: float, steps) -> float:
@@ -669,8 +670,9 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
     """``(grid s, period s, stamps s, moved)`` of IMU stamps ``t`` (s, file order, never decreasing) on a grid finer
     than their steps (:func:`imu_stamp_quantum`: 50 Hz in whole 10 ms with jitter, steps of 10, 20, 30 ms) where jitter
     moved ``moved`` samples across a grid edge into the step of the one before: each repeat keeps the mean offset
-    from a line at the period over :data:`REPEAT_CHECK_SAMPLES` samples on either side (within half a period) and is
-    placed on the grid after its stamp (:func:`place_repeats`) before the next. None else: stamps without such a grid
+    from a line at the period over :data:`REPEAT_CHECK_SAMPLES` samples on either side (within half a period, or later
+    where a sample was lost near it: only the repeat is moved, less than a period) and is placed on the grid after its
+    stamp (:func:`place_repeats`) before the next. None else: stamps without such a grid
     (an even log's), or a repeat the grid cannot explain (a row written twice shifts the samples after it by a
     period; no empty grid step to place it in)."""
     t = np.asarray(t, float)
@@ -683,24 +685,26 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
         return None
     period = _positive_steps(d)[1]
     repeats = np.flatnonzero(d == 0) + 1
-    if not _repeats_keep_the_line(s, repeats, period):
+    if not _repeats_keep_the_line(s, repeats, period, later=True):
         return None
     placed = place_repeats(t, repeats, period, grid)
     return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
 
 
-def _repeats_keep_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float) -> bool:
+def _repeats_keep_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> bool:
     """Whether each of the ``repeats`` (indexes of samples repeating the stamp before them) of relative stamps ``s``
     (s) keeps the mean offset from a line at ``period_s`` (s) over :data:`REPEAT_CHECK_SAMPLES` samples on either side
     within half a period (jitter moved a sample across a grid edge; a row written twice or a sample lost moves it by a
-    period), with samples on both sides."""
+    period), with samples on both sides; with ``later``, or moves it later (a sample lost near the repeat: 200 Hz in
+    whole ms with 1 ms of jitter and 1 % lost at random had one within 50 samples of most repeats), never half a
+    period earlier (a row written twice puts the samples after it a period early)."""
     total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period_s)]
     r = np.asarray(repeats, int)    # the pair r - 1, r left out: their offsets are the jitter
     a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
     if np.any(a == r - 1) or np.any(b == r + 1):
         return False
     before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
-    return bool(np.all(np.abs(after - before) < 0.5 * period_s))
+    return bool(np.all((after - before > -0.5 * period_s) & (later | (after - before < 0.5 * period_s))))
 
 
 def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
@@ -958,6 +962,10 @@ CLOCK_STEP_SAMPLES = 50
 #: or a sample lost among them spread them a period or more, and their mean jump is no longer the step's (1 % lost at
 #: random read as gaps of 2 samples with a whole period allowed); 1 ms of jitter at 100 Hz spreads 50 about 5 ms.
 CLOCK_STEP_SPREAD_PERIODS = 0.75
+#: Share of those samples at either end of a set that jitter's spread leaves out (:func:`_spread_as_jitter`): 1 ms of
+#: jitter at 200 Hz spreads 50 samples over about 0.9 of a period, their middle 80 % over about half of one; a sample
+#: lost inside a set still spreads its middle a period.
+CLOCK_STEP_SPREAD_TAIL = 0.1
 #: Least distance, in periods, between those samples for a step: Unix seconds carry ~1e-7 s of rounding.
 CLOCK_STEP_FLOOR_PERIODS = 1e-3
 #: Samples lost, at least, in a gap that is warned about: its step, three periods, is one the run bridges (over
@@ -995,24 +1003,44 @@ def stamp_steps(t: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray,
 
 def _step_at(t: np.ndarray, i: int, resolution_s: float) -> tuple[float, int] | None:
     """``(jump s, lost)`` of the step ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s) when the :data:`CLOCK_STEP_SAMPLES`
-    after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate, lie wholly
-    apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` and their mean by more than 1.5 ``resolution_s`` (s); ``lost``: the
-    samples lost at the step, 0 where that many periods do not put the sets back among each other. None else."""
+    after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate (or spread
+    as jitter, :func:`_spread_as_jitter`), lie wholly apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` and their mean by
+    more than 1.5 ``resolution_s`` (s); ``lost``: the samples lost at the step, 0 where that many periods do not put
+    the sets back among each other, give or take 1.5 ``resolution_s`` (a grid step where the rate is off the grid).
+    None else."""
     n = CLOCK_STEP_SAMPLES
     before, after = t[max(i - n + 1, 0):i + 1], t[i + 1:i + n + 1]
     if before.size < n or after.size < n:
         return None
-    period = (before[-1] - before[0] + after[-1] - after[0]) / (2 * (n - 1))
+    k = np.arange(n) - 0.5 * (n - 1)     # least squares: the ends alone tilted 1 ms of jitter's sets by a period
+    period = float(k @ (before - np.mean(before)) + k @ (after - np.mean(after))) / (2.0 * float(k @ k))
     ob = before - t[i] + np.arange(n - 1, -1, -1) * period
     oa = after - t[i] - np.arange(1, n + 1) * period
     spread = np.ptp(ob) + np.ptp(oa)
     jump = float(np.mean(oa) - np.mean(ob))
     floor = CLOCK_STEP_FLOOR_PERIODS * period
-    if (max(np.ptp(ob), np.ptp(oa)) >= CLOCK_STEP_SPREAD_PERIODS * period or abs(jump) <= 1.5 * resolution_s
+    narrow = max(np.ptp(ob), np.ptp(oa)) < CLOCK_STEP_SPREAD_PERIODS * period
+    if (not (narrow or _spread_as_jitter(ob, oa, period, resolution_s)) or abs(jump) <= 1.5 * resolution_s
             or not (oa.min() - ob.max() > floor or ob.min() - oa.max() > floor)):
         return None
     lost = max(round(jump / period), 0)
-    return jump, lost if lost and abs(jump - lost * period) <= 0.5 * spread + floor else 0
+    whole = abs(jump - lost * period) <= max(0.5 * spread, 1.5 * resolution_s) + floor
+    return jump, lost if lost and whole else 0
+
+
+def _spread_as_jitter(ob: np.ndarray, oa: np.ndarray, period_s: float, resolution_s: float) -> bool:
+    """Whether the offsets (s) from a line at ``period_s`` (s) of the samples before a step ``ob`` and after it ``oa``
+    spread as jitter does, on stamps whose ``resolution_s`` (s) is under half a period: each set's middle (without
+    :data:`CLOCK_STEP_SPREAD_TAIL` of it at either end) under :data:`CLOCK_STEP_SPREAD_PERIODS`, and each sample that
+    leaves out next to the step within half a period of its set's median (a sample lost there puts them a period
+    off, and the sets jump a period more than the step). A coarser grid's step added to a lost sample's period reads
+    as two lost."""
+    near = round(CLOCK_STEP_SPREAD_TAIL * ob.size)
+    middle = max(float(np.subtract(*np.quantile(o, [1.0 - CLOCK_STEP_SPREAD_TAIL, CLOCK_STEP_SPREAD_TAIL])))
+                 for o in (ob, oa))
+    edge = np.r_[ob[-near:] - np.median(ob), oa[:near] - np.median(oa)]
+    return bool(resolution_s < 0.5 * period_s and middle < CLOCK_STEP_SPREAD_PERIODS * period_s
+                and np.all(np.abs(edge) <= 0.5 * period_s))
 
 
 def _stamp_resolution(t: np.ndarray) -> float:

@@ -726,7 +726,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     rows are sorted and those whose stamp repeats an earlier one dropped (the first kept), with a warning; without it
     a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``): one
     stamp on two different rows can be two streams written into one file."""
-    t, rows = np.asarray(t, float).copy(), np.asarray(rows, float)
+    read, rows = np.asarray(t, float), np.asarray(rows, float)
+    t = read.copy()
     order = np.argsort(t, kind="stable")
     a, b = rows[order][:-1], rows[order][1:]
     same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
@@ -738,14 +739,13 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
-    read = t[kept]
     if stream == "imu":
-        t[kept] = restamp_shared_stamps(read, source, meta)
+        t[kept] = restamp_shared_stamps(read[kept], source, meta)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
         if stream == "imu":
-            say_imu_stamp_steps(read, t[kept], source, field, meta, lines=lines[kept], stacklevel=3)
+            _say_steps(read, t, kept, lines, source, field, meta)
         return kept, dropped, t[kept]
     packets = stamped_in_packets(t[kept])
     if not repair:
@@ -758,7 +758,18 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     first = np.concatenate([[True], np.diff(t[kept]) > 0])
     warnings.warn(f"{source}: {int((~first).sum())} duplicated and {int((step < 0).sum())} out-of-order "
                   f"stamp(s) repaired (duplicates dropped, first kept; rows sorted){packets}", stacklevel=3)
+    if stream == "imu":
+        _say_steps(read, t, kept[first], lines, source, field, meta)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+def _say_steps(read: np.ndarray, t: np.ndarray, kept: np.ndarray, lines: np.ndarray, source: str, field: str,
+               meta: dict | None) -> None:
+    """:func:`say_imu_stamp_steps` of a file's ``kept`` rows (indices, in time order) of its IMU stamps ``read``
+    (s, as read) and ``t`` (s, as kept, restamped or not), for :func:`stamp_order`'s caller: on the stamps as read
+    where they never decrease, else (a repair sorted restamped rows) as kept."""
+    as_read = read[kept] if np.all(np.diff(read[kept]) >= 0) else t[kept]
+    say_imu_stamp_steps(as_read, t[kept], source, field, meta, lines=lines[kept], stacklevel=4)
 
 
 #: Reasons under which an IMU's samples read after a step of its stamps are counted as doubted (:func:`stamp_order`).
