@@ -1184,3 +1184,19 @@ def test_a_column_map_in_knots_without_a_unit_is_judged_by_the_imu_fits(tmp_path
             load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=1.5))
         warnings.simplefilter("error")
         load_mission(tmp_path, _slow_log(tmp_path, False, 1.0, None, speed=1.5))
+
+
+def test_a_column_map_in_knots_without_a_unit_beyond_the_envelope_is_told_the_unit_to_declare(tmp_path):
+    """A vehicle at 2.2 m/s logged in knots with no velocity_unit, read as m/s at 4.3 m/s: over half its pings beyond
+    the vehicle's 4 m/s, refused saying only 'check the units, the column map and the configuration's sensor ranges'
+    (A-KIT Trajectory5, 8 and 13 exported so). The unit the loader took is judged as a declared one is: the refusal
+    names knots and the key to declare."""
+    knot = 1852.0 / 3600.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=r"dvl.csv, field 'vx, vy, vz': 200 of 200 dvl samples refused \(200 outside "
+                                            r"the envelope \(speed\)\): more than 50% of the stream; the unit taken "
+                                            r"with none declared \('m/s'\) is the likely cause: in 'kn' \(x0.5144\) the "
+                                            r"median speed is 2.2\d m/s, 200 of 200 pings within the vehicle's "
+                                            r"envelope, .*: declare csv_columns.dvl.velocity_unit 'kn'$"):
+            load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=2.2))
