@@ -1170,22 +1170,6 @@ def test_a_declared_unit_10x_too_large_on_a_vehicle_inside_the_envelope_is_warne
     assert "doubted" not in m.meta["streams"]["dvl"]
 
 
-def test_a_column_map_in_knots_without_a_unit_is_judged_by_the_imu_fits(tmp_path):
-    """A velocity logged in knots with no velocity_unit is read as m/s; the speed-scale check refused it only where its
-    fit explains 0.9 of the velocity's changes, advising 'velocity_unit' without the key's section. The IMU's fits of
-    the declared-unit check now judge the unit the loader took too, naming the key to declare. In m/s, nothing."""
-    knot = 1852.0 / 3600.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        said = (r"dvl.csv, field 'vx, vy, vz': no unit declared \(csv_columns.dvl.velocity_unit\): read in 'm/s', "
-                r"but the IMU's accelerations fit the velocity's changes \d+\.?\d*x better in 'kn' .*: declare "
-                r"csv_columns.dvl.velocity_unit 'kn'$")
-        with pytest.raises(DataError, match=said):
-            load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=1.5))
-        warnings.simplefilter("error")
-        load_mission(tmp_path, _slow_log(tmp_path, False, 1.0, None, speed=1.5))
-
-
 def test_a_column_map_in_knots_without_a_unit_beyond_the_envelope_is_told_the_unit_to_declare(tmp_path):
     """A vehicle at 2.2 m/s logged in knots with no velocity_unit, read as m/s at 4.3 m/s: over half its pings beyond
     the vehicle's 4 m/s, refused saying only 'check the units, the column map and the configuration's sensor ranges'
@@ -1200,3 +1184,19 @@ def test_a_column_map_in_knots_without_a_unit_beyond_the_envelope_is_told_the_un
                                             r"median speed is 2.2\d m/s, 200 of 200 pings within the vehicle's "
                                             r"envelope, .*: declare csv_columns.dvl.velocity_unit 'kn'$"):
             load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=2.2))
+
+
+def test_a_column_map_in_knots_without_a_unit_is_judged_by_the_imu_fits(tmp_path):
+    """A velocity logged in knots with no velocity_unit is read as m/s; the speed-scale check refused it only where its
+    fit explains 0.9 of the velocity's changes, advising 'velocity_unit' without the key's section. The IMU's fits of
+    the declared-unit check now judge the unit the loader took too, naming the key to declare. In m/s, nothing."""
+    knot = 1852.0 / 3600.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        said = (r"dvl.csv, field 'vx, vy, vz': no unit declared \(csv_columns.dvl.velocity_unit\): read in 'm/s', "
+                r"but the IMU's accelerations fit the velocity's changes \d+\.?\d*x better in 'kn' .*: declare "
+                r"csv_columns.dvl.velocity_unit 'kn'$")
+        with pytest.raises(DataError, match=said):
+            load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=1.5))
+        warnings.simplefilter("error")
+        load_mission(tmp_path, _slow_log(tmp_path, False, 1.0, None, speed=1.5))
