@@ -421,3 +421,25 @@ def test_reading_the_named_fields_notes_them_in_the_dvl_stream():
                                   "velocity_unit": "m/s"}
     assert meta["streams"]["dvl"]["notes"] == [f"fields of {VENDOR} named by bag_topics.dvl: "
                                                + json.dumps(info["dvl_fields"])]
+
+
+@pytest.mark.parametrize("fields, named", [(None, "velocity"), (FIELDS, "velocity"),
+                                           ({"topic": "/dvl/data", "beams": "beams[].velocity",
+                                             "valid": "beams[].valid"}, r"beams\[\]\.velocity")])
+def test_the_envelope_refusing_a_bag_dvl_names_the_topic_and_the_fields(recorded, fields, named):
+    """A DVL faster than the vehicle's envelope (``dvl.max_speed_mps`` 1 m/s for a 2.1 m/s mission) is refused for
+    over half its pings beyond it: the refusal named the topic but ``field 'dvl'``, the stream. It names the message's
+    fields now, as a column map's refusal names its columns: the velocity's (the standard message's, or those
+    ``bag_topics.dvl`` names), the beams' where only they are read."""
+    _, root, standard, vendor, _ = recorded
+    cfg = json.loads((root / "plain.json").read_text())
+    cfg["dvl"]["max_speed_mps"] = 1.0
+    if fields:
+        cfg["bag_topics"] = {"dvl": fields}
+    (root / "slow.json").write_text(json.dumps(cfg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(DataError, match=rf"{'vendor' if fields else 'standard'}:/dvl/data \(.*\), field "
+                                            rf"'{named}': \d+ of \d+ dvl samples refused \(\d+ outside the envelope "
+                                            r"\(speed\)\): more than 50% of the stream"):
+            load_mission(vendor if fields else standard, root / "slow.json")

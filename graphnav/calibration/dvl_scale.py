@@ -242,6 +242,12 @@ FORWARD_COURSE_RAD = np.deg2rad(30.0)
 #: the ten A-KIT trajectories, 0.998-0.999 simulated (400 s, lawnmower and transit); a hovering AUV 0.02-0.09 (the
 #: tests' ``_hovering_with_dvl``, seeds 1-10), whose mean direction is noise.
 MIN_COURSE_RESULTANT = 0.5
+#: ... and only when at least this share of the pings with a velocity is over :data:`COURSE_MIN_SPEED_MPS`: a vehicle
+#: holding station crosses it on a ping or an excursion of a few seconds, whose pings point one way (resultant up to
+#: 1.0) though the log does not. Over it: 0.0-0.01 of the pings of simulated vehicles holding station (400 s), 0.03-0.10
+#: of hovering ones (0.15 m/s on thrusters, 3 mm/s and 3 cm/s of DVL noise); a vehicle at 0.25 +- 0.1 m/s 0.34-0.39,
+#: at 0.45 m/s and the ten A-KIT trajectories 0.98-1.0.
+MIN_MOVING_SHARE = 0.2
 #: A DVL velocity whose mean horizontal direction (:func:`_course`) lies further than this from body +x over the
 #: whole log is warned about when no fit judged its turn (:func:`warn_dvl_sideways`): an AUV moves mostly forward
 #: (the ten A-KIT trajectories -5.0..+1.9 deg; simulated 400 s missions -0.4, -0.2, with a hull pivot 2 or 5 m
@@ -356,10 +362,14 @@ def _reference_course(reference) -> float:
 
 def _mean_direction(v: np.ndarray) -> float:
     """The mean of the horizontal unit directions of ``v`` (N,3) m/s over :data:`COURSE_MIN_SPEED_MPS`, rad about z,
-    NaN when shorter than :data:`MIN_COURSE_RESULTANT`."""
+    NaN when shorter than :data:`MIN_COURSE_RESULTANT` or when those pings are under :data:`MIN_MOVING_SHARE` of the
+    pings with a velocity."""
     h = v[:, 0] + 1j * v[:, 1]
+    known = int(np.isfinite(h).sum())
     h = h[np.abs(h) >= COURSE_MIN_SPEED_MPS]
-    mean = np.mean(h / np.abs(h)) if h.size else 0.0
+    if not h.size or h.size < MIN_MOVING_SHARE * known:
+        return float("nan")
+    mean = np.mean(h / np.abs(h))
     return float(np.angle(mean)) if abs(mean) >= MIN_COURSE_RESULTANT else float("nan")
 
 

@@ -695,15 +695,12 @@ def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | Non
 def _dvl_unit(facts: dict, meta: dict) -> dict | None:
     """The DVL velocity unit the IMU's fits judge
     (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`): the one declared (``facts["dvl_unit"]``),
-    else a column map's as its loader took it, m/s or the mm/s it detected (``"taken"``): a log in knots read as m/s
-    is a declaration missing, named under the same key. None for other formats, whose unit is fixed by the format or
-    the message type."""
+    else a column map's as its loader took it (:func:`graphnav.io.units.taken_velocity_unit`). None for other
+    formats, whose unit is fixed by the format or the message type."""
     if facts.get("dvl_unit") or facts.get("format") != "csv":
         return facts.get("dvl_unit")
-    from graphnav.io.units import MMPS_CONVERTED
-    notes = meta.get("streams", {}).get("dvl", {}).get("notes", [])
-    unit = "mm/s" if any(n.startswith(MMPS_CONVERTED) for n in notes) else "m/s"
-    return {"unit": unit, "key": "csv_columns.dvl.velocity_unit", "taken": True}
+    from graphnav.io.units import taken_velocity_unit
+    return taken_velocity_unit(meta)
 
 
 def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:

@@ -28,6 +28,9 @@ from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 FLU_FRD = np.diag([1.0, -1.0, -1.0])
 ENU_NED = C_NED_ENU
 TWIST_DVL = "geometry_msgs/msg/TwistWithCovarianceStamped"
+#: The fields of the built-in DVL messages read for the velocity and the beams (as :func:`bag_fields.named_fields`).
+DVL_MESSAGE_FIELDS = {MARINE_DVL: ("velocity", "beam_velocity"), WL_DVL: ("velocity", "beams[].velocity"),
+                      TWIST_DVL: ("twist.twist.linear", None)}
 #: The field a stream's stamps come from, by :class:`Stream` ``stamp_kind``, for warnings.
 STAMP_FIELDS = {"header": "header.stamp", "receive": "receive time"}
 
@@ -258,6 +261,11 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
         v_b = None
     out = DvlData(_rel(s, t0_ns), np.where(valid, beams, np.nan), valid, v_b, f"{source}:{s.topic}",
                   v_d=v_d, v_d_valid=v_ok, v_d_sigma=v_d_sigma)
+    # the fields a later message about the stream names (the envelope's refusal, the unit checks): the velocity's,
+    # which the envelope judges, else the beams' its velocity is solved from
+    velocity, beam = bag_fields.named_fields(fields) if fields else DVL_MESSAGE_FIELDS.get(s.msgtype,
+                                                                                            DVL_MESSAGE_FIELDS[TWIST_DVL])
+    meta.setdefault("stream_fields", {})["dvl"] = velocity if v_b is not None or not beam else beam
     return out.sanitized(where=messages(s, t0_ns)), info
 
 

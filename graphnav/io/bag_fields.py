@@ -37,6 +37,12 @@ FIELD_KEYS = {"v_b": 3, "velocity_valid": 1, "beams": 4, "valid": 4}
 VECTOR3 = "geometry_msgs/msg/Vector3"
 
 
+def named_fields(spec: dict) -> tuple[str | None, str | None]:
+    """``(velocity, beams)``: the fields :data:`KEY` ``spec`` names for the velocity and the beams, as a message about
+    the stream names them (``'velocity'``, ``'beams[].velocity'``), None for one not named."""
+    return tuple(", ".join(_paths(spec, key)) if key in spec else None for key in ("v_b", "beams"))
+
+
 def _paths(spec: dict, key: str) -> list[str]:
     value = spec[key]
     paths = [value] if isinstance(value, str) else value

@@ -243,7 +243,8 @@ def _vehicle_fixed(t_dvl, v, t_imu, f_b, omega_b) -> bool:
 
 def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu: np.ndarray, f_b: np.ndarray,
                         omega_b: np.ndarray, spec) -> str | None:
-    """Why a body-frame DVL velocity ``v`` (M,3, m/s in the ``declared`` unit: ``{"unit", "key"}``) that the vehicle's
+    """Why a body-frame DVL velocity ``v`` (M,3, m/s in the ``declared`` unit: ``{"unit", "key"}``, with ``"taken":
+    True`` the unit a loader took where none was declared, the fix then to declare one) that the vehicle's
     envelope or the frame check refuses is likely in a unit at least 10x smaller (or, for m/s, in knots), or None when
     none explains it: in that unit at most :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the pings are
     outside the envelope ``spec`` (``DvlSpec``) and, with the pings on the IMU's clock, the velocity is vehicle-fixed
@@ -265,9 +266,11 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
             continue
         imu = "" if fits is None else (f", the velocity vehicle-fixed, the IMU's accelerations leaving {fits[k]:.3g} "
                                        f"of its changes unexplained against {fits[1.0]:.3g} in {unit!r}")
-        return (f"the declared unit is the likely cause: in {u!r} (x{k:.4g}) the median speed is "
+        said, fix = ((f"the unit taken with none declared ({unit!r})", f"declare {key} {u!r}") if declared.get("taken")
+                     else ("the declared unit", f"set {key} to {u!r}"))
+        return (f"{said} is the likely cause: in {u!r} (x{k:.4g}) the median speed is "
                 f"{float(np.nanmedian(np.linalg.norm(w, axis=1))):.3g} m/s, {n - outside} of {n} pings within the "
-                f"vehicle's envelope{imu}: set {key} to {u!r}")
+                f"vehicle's envelope{imu}: {fix}")
     return None
 
 

@@ -1128,11 +1128,14 @@ def screen_mission(mission: Mission) -> Mission:
 
 
 def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: SensorConfig) -> dict:
-    """``{"dvl": why}`` when over half the pings of a DVL in a declared velocity unit (``meta["prepare"]["dvl_unit"]``)
-    are refused and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame
-    velocity ``v`` (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large puts a slow vehicle beyond its
+    """``{"dvl": why}`` when over half the pings of a DVL in a declared velocity unit (``meta["prepare"]["dvl_unit"]``;
+    a column map's without one: the unit its loader took, :func:`graphnav.io.units.taken_velocity_unit`) are refused
+    and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
+    (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
     envelope, where the refusal's "check the units" does not say which; else ``{}``."""
-    declared = meta.get("prepare", {}).get("dvl_unit")
+    from graphnav.io.units import taken_velocity_unit
+    prepare = meta.get("prepare", {})
+    declared = prepare.get("dvl_unit") or (taken_velocity_unit(meta) if prepare.get("format") == "csv" else None)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
     from graphnav.io.dvl_frame import smaller_unit_advice

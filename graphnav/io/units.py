@@ -436,6 +436,15 @@ DECLARE_UNIT_FIX = "declare the velocity unit"
 MMPS_CONVERTED = "DVL velocities read as mm/s"
 
 
+def taken_velocity_unit(meta: dict) -> dict:
+    """The DVL velocity unit a column map's loader took where none was declared, as a declared unit is given
+    (``{"unit", "key", "taken": True}``): mm/s when it detected them (:data:`MMPS_CONVERTED`), else m/s. A log in
+    knots read as m/s is a declaration missing, named under ``csv_columns.dvl.velocity_unit``."""
+    notes = meta.get("streams", {}).get("dvl", {}).get("notes", [])
+    unit = "mm/s" if any(n.startswith(MMPS_CONVERTED) for n in notes) else "m/s"
+    return {"unit": unit, "key": "csv_columns.dvl.velocity_unit", "taken": True}
+
+
 def velocity_unit_fits(t_dvl: np.ndarray, v: np.ndarray, imu, factors) -> dict[float, float] | None:
     """Factor (1 for the velocity as read, and each of ``factors``) -> the share of the DVL velocity's changes the DVL
     clock model (:mod:`graphnav.core.dvl_kinematics`: the IMU's integrals, offset 0, no lever arm) leaves unexplained
