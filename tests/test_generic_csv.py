@@ -977,7 +977,8 @@ def _slow_log(root, hovering: bool, dvl_factor: float, declared: str | None, see
               beams=False, noise=0.003):
     """A column-map log of a vehicle at ``speed`` +- 0.1 m/s turning gently, or (``hovering``) holding station on
     thrusters (0.05 m/s^2, about 0.15 m/s): IMU 100 Hz FRD with exact kinematics, a 1 Hz body velocity with ``noise``
-    m/s of noise written times ``dvl_factor`` (1000: mm/s) and its unit ``declared`` (``beams``: as four beam columns)."""
+    m/s of noise written times ``dvl_factor`` (1000: mm/s) and its unit ``declared`` (``beams``: as four beam
+    columns)."""
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, seconds, 0.01)
@@ -1178,11 +1179,11 @@ def test_a_column_map_in_knots_without_a_unit_beyond_the_envelope_is_told_the_un
     knot = 1852.0 / 3600.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(DataError, match=r"dvl.csv, field 'vx, vy, vz': 200 of 200 dvl samples refused \(200 outside "
-                                            r"the envelope \(speed\)\): more than 50% of the stream; the unit taken "
-                                            r"with none declared \('m/s'\) is the likely cause: in 'kn' \(x0.5144\) the "
-                                            r"median speed is 2.2\d m/s, 200 of 200 pings within the vehicle's "
-                                            r"envelope, .*: declare csv_columns.dvl.velocity_unit 'kn'$"):
+        said = (r"dvl.csv, field 'vx, vy, vz': 200 of 200 dvl samples refused \(200 outside the envelope "
+                r"\(speed\)\): more than 50% of the stream; the unit taken with none declared \('m/s'\) is the likely "
+                r"cause: in 'kn' \(x0.5144\) the median speed is 2.2\d m/s, 200 of 200 pings within the vehicle's "
+                r"envelope, .*: declare csv_columns.dvl.velocity_unit 'kn'$")
+        with pytest.raises(DataError, match=said):
             load_mission(tmp_path, _slow_log(tmp_path, False, 1 / knot, None, speed=2.2))
 
 

@@ -263,8 +263,8 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
                   v_d=v_d, v_d_valid=v_ok, v_d_sigma=v_d_sigma)
     # the fields a later message about the stream names (the envelope's refusal, the unit checks): the velocity's,
     # which the envelope judges, else the beams' its velocity is solved from
-    velocity, beam = bag_fields.named_fields(fields) if fields else DVL_MESSAGE_FIELDS.get(s.msgtype,
-                                                                                            DVL_MESSAGE_FIELDS[TWIST_DVL])
+    velocity, beam = (bag_fields.named_fields(fields) if fields
+                      else DVL_MESSAGE_FIELDS.get(s.msgtype, DVL_MESSAGE_FIELDS[TWIST_DVL]))
     meta.setdefault("stream_fields", {})["dvl"] = velocity if v_b is not None or not beam else beam
     return out.sanitized(where=messages(s, t0_ns)), info
 
