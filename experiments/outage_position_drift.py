@@ -20,7 +20,10 @@ outage. ``--hni-runs T ...`` adds the same runs of ``Graph-HNI`` (``Graph-HNI ea
 ``--rehearsed M ...`` adds ``Graph-HNP`` with rehearsed outages of margin M (``Graph-HNP rehearsed M``,
 ``GraphOptions.rehearsed_outages``: a completion kept only where the mission's own past says it beats the graph's
 IMU-only prediction at its horizon into the outage, by the margin M), and prints how often the rehearsals chose the
-graph, per IMU grade and scenario. ``--rehearsal-variants twin``, ``correlated`` or ``twin correlated`` adds each
+graph, per IMU grade and scenario. ``--hni-rehearsed M ...`` adds the same for ``Graph-HNI`` out of fold (``Graph-HNI
+rehearsed M``): its fold completer serves one missing pattern, and the rehearsals run its IMU-aware network fed its
+own completions, the pattern's measured beam(s) given, both sides scored on the missing beams (no variant; in a
+total outage the shipped completer, two patterns, cannot rehearse and is refused). ``--rehearsal-variants twin``, ``correlated`` or ``twin correlated`` adds each
 rehearsed run with the graph's twin (``rehearsal_graph="twin"``: the IMU-carried velocity fused with the beams the
 pattern still measures) and/or the two rehearsed errors' covariance deciding (``rehearsal_fusion="correlated"``; its
 margin unused, so only the first margin's label); ``--predictiveness`` records, per window and range of horizons of
@@ -722,6 +725,8 @@ def main(argv=None) -> int:
                    "and, per T, with its completions' errors correlated over T s (module docstring)")
     p.add_argument("--rehearsed", nargs="+", type=float, metavar="M", help="also Graph-HNP with rehearsed outages of "
                    "margin M (module docstring)")
+    p.add_argument("--hni-rehearsed", nargs="+", type=float, metavar="M", help="also Graph-HNI with rehearsed "
+                   "outages of margin M, its fold networks' recursion rehearsed (module docstring)")
     p.add_argument("--rehearsal-variants", nargs="+", choices=tuple(REHEARSAL_VARIANTS), default=[], metavar="V",
                    help="also each --rehearsed run with the graph's twin (twin), its errors' correlation deciding "
                    "(correlated: the margin unused, the first margin's label only) or both (module docstring)")
@@ -808,6 +813,10 @@ def main(argv=None) -> int:
                       for m in (a.rehearsed[:1] if CORRELATED in REHEARSAL_VARIANTS[v] else a.rehearsed)]
     elif a.rehearsal_variants or a.predictiveness:
         p.error("--rehearsal-variants and --predictiveness need --rehearsed")
+    if a.hni_rehearsed:
+        if not all(m > 0 for m in a.hni_rehearsed):
+            p.error("--hni-rehearsed: the margin must be > 0")
+        a.methods += [f"{GRAPH_HNI}{REHEARSED}{m:g}" for m in a.hni_rehearsed]
     if a.pivot_priors:
         if not all(prior >= 0 for prior in a.pivot_priors):
             p.error("--pivot-priors: prior_turn must be >= 0 (rad/s)^2")
@@ -896,7 +905,7 @@ def main(argv=None) -> int:
     if GRAPH_TC_BATCH in a.methods and batches:
         print(f"\nThe batch runs against {GRAPH_TC_BATCH} (per fold cell and pooled)")
         print(against_reference(runs, batches, GRAPH_TC_BATCH, AKIT_FOLDS))
-    if a.rehearsed:
+    if a.rehearsed or a.hni_rehearsed:
         print("\nRegressed beams the rehearsals decided (summed over trajectories and windows)")
         print(rehearsal_report(runs, a.methods))
     if a.predictiveness:

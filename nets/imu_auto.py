@@ -155,12 +155,37 @@ class ImuAutoCompleter:
             # the longest window a learner that needs the IMU reads (None: the networks' window, as before)
             self.observe_imu_samples = max((c.imu_samples for c in learners if getattr(c, "needs_imu", False)),
                                            default=None)
+        if len(self.networks) == 1:
+            # one pattern: its outages can be rehearsed (graphnav.estimators.rehearsal), the network fed its own
+            # completions; with several the rehearsals could not know which pattern to rehearse
+            missing, = self.networks
+            #: (4,) bool, the beams the rehearsed outages keep measured (the network's pattern's)
+            self.rehearsal_measured = ~np.isin(np.arange(4), missing)
+            self.rehearse = self._rehearse
+            self._counts = None       # the count dicts _rehearse restores, found on its first call
 
     def _hand_on(self, t: float, beams: np.ndarray, imu=None) -> None:
         """``observe``: a ping whose four beams were all measured, with its IMU window (or None), handed on to the
         members that learn from such pings (the pivot completer's online fit of its pivot length)."""
         for observe in self._learners:
             observe(t, beams, imu)
+
+    def _rehearse(self, past: np.ndarray, imu=None, beams: np.ndarray | None = None) -> np.ndarray:
+        """``rehearse`` (with one IMU-aware network): the four beams (m/s) :meth:`complete` gives a ping whose
+        ``beams`` (4,) m/s are measured where :attr:`rehearsal_measured` says (None: a ping without beams), from the
+        held ``past`` (n_past, 4) and the IMU window ``imu``; its counters (``usage``, the members' ``fallbacks``)
+        are left as they were, so that a run counts only the completions it used."""
+        measured = (np.full(4, np.nan) if beams is None
+                    else np.where(self.rehearsal_measured, np.asarray(beams, float), np.nan))
+        if self._counts is None:
+            self._counts = _counters(self)
+        saved = [(d, dict(d)) for d in self._counts]
+        try:
+            return self.complete(past, measured, imu=imu)[0]
+        finally:
+            for counts, before in saved:
+                counts.clear()
+                counts.update(before)
 
     @property
     def fallbacks(self) -> dict[str, int]:
@@ -200,6 +225,22 @@ class ImuAutoCompleter:
             return fuse(b_imu, s_imu, b_beam, s_beam, 0.0, rho)
         self.usage["no_imu" if net is not None else "pattern"] += 1
         return complete_with(self.beam_only, past, measured, imu=imu, run_steps=run_steps, past_dt_s=past_dt_s)
+
+
+def _counters(completer, seen: set | None = None) -> list[dict]:
+    """The count dicts (``usage``, ``fallbacks``) of ``completer`` and of its members, each once."""
+    seen = set() if seen is None else seen
+    if id(completer) in seen:
+        return []
+    seen.add(id(completer))
+    found = []
+    for name, value in vars(completer).items():
+        if name in ("usage", "fallbacks") and isinstance(value, dict):
+            found.append(value)
+        for member in value.values() if isinstance(value, dict) else (value,):
+            if callable(getattr(member, "complete", None)):
+                found += _counters(member, seen)
+    return found
 
 
 def load_fused_beam_only(directory=None):

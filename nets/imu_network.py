@@ -108,6 +108,7 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         self.fallback = AverageCompleter(min(self.n_past, n_average))
         self.envelope = InputEnvelope.from_card(self.card) if "envelope" in self.card else None
         self.fallbacks = new_fallbacks()
+        self._last_window = None      # (f_b, omega_b, features): _window_features'
 
     @property
     def trained_ping_period_s(self) -> float:
@@ -119,6 +120,15 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         """(4, 3) body-frame beam directions the network computes with: its model's ``T_b`` (the card's DVL, which
         the constructor checks against them)."""
         return self.model.T_b.detach().cpu().numpy().astype(float)
+
+    def _window_features(self, f_b: np.ndarray, omega_b: np.ndarray):
+        """:func:`preintegrate`'s features of the IMU window (m/s^2, rad/s, body frame), the last window's kept:
+        rehearsed outages (:mod:`graphnav.estimators.rehearsal`) complete many pasts on one window."""
+        last = self._last_window
+        if last is None or not (np.array_equal(last[0], f_b) and np.array_equal(last[1], omega_b)):
+            last = self._last_window = (np.array(f_b), np.array(omega_b),
+                                        preintegrate(f_b, omega_b, self.n_past, self.imu_rate_hz, self.ping_dt))
+        return last[2]
 
     def complete(self, past: np.ndarray, measured: np.ndarray, imu=None, run_steps=None, past_dt_s=None
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +150,7 @@ class ImuNetworkCompleter(TrainedForOneDvl):
         if reason is not None:
             self.fallbacks[reason] += 1
             return self.fallback.complete(past[-self.fallback.n_past:], measured)
-        feats = preintegrate(f_b, omega_b, self.n_past, self.imu_rate_hz, self.ping_dt)
+        feats = self._window_features(f_b, omega_b)
         with torch.no_grad():
             out, sig = self.model(torch.as_tensor(past, dtype=torch.float32)[None],
                                   torch.as_tensor(measured[list(self.model.kept)], dtype=torch.float32)[None],

@@ -1059,6 +1059,8 @@ def test_the_position_study_runs_the_imu_aware_methods_on_each_trajectorys_own_f
     comp = study.fold_completer("Graph-HNI kept", "3-missing", fold_nets, 2, mission, 4)
     assert [len(missing) for missing in comp.networks] == [3]             # the 3-missing network
     assert comp.fused_beam_only is not None and comp.beam_only is not comp.fused_beam_only
+    # one pattern per fold completer: its outages can be rehearsed (--hni-rehearsed), its one beam measured
+    assert callable(comp.rehearse) and comp.rehearsal_measured.sum() == 1
     assert study.fold_completer("Graph-HNI", "0-beams", fold_nets, 2, mission, 4) is None
     assert study.fold_completer("Graph-HN", "3-missing", fold_nets, 2, mission, 4) is None
     with pytest.raises(ConfigError, match="fold1"):                      # fold 1 has no networks here

@@ -165,3 +165,62 @@ def test_the_variants_run_in_the_graph_and_bad_ones_are_refused():
                                                                "rehearsal_fusion": "correlated"})
     counts = sol.info["outage_rehearsal"]
     assert sum(counts.values()) == 3 * 10 and counts["unrehearsed"] == 0
+
+
+def test_an_imu_aware_completer_of_one_pattern_rehearses_it_with_the_measured_beams_given_and_counts_nothing():
+    from graphnav.nets.imu_auto import load_imu_auto_completer
+    comp = load_imu_auto_completer(patterns=("3-missing",))
+    measured = comp.rehearsal_measured
+    assert measured.tolist() == [False, True, False, False]
+    rng = np.random.default_rng(0)
+    past = rng.normal(0.8, 0.05, (comp.n_past, 4))
+    beams = past[-1] + rng.normal(0.0, 0.02, 4)
+    still = (np.zeros((comp.imu_samples, 3)) + [0.0, 0.0, -9.81], np.zeros((comp.imu_samples, 3)))
+    shaken = (rng.normal(0.0, 50.0, (comp.imu_samples, 3)), rng.normal(0.0, 5.0, (comp.imu_samples, 3)))
+    for imu in (still, shaken, None):          # the network, its envelope's fallback, no window
+        usage, fallbacks = dict(comp.usage), dict(comp.fallbacks)
+        rehearsed = comp.rehearse(past, imu, beams)
+        assert comp.usage == usage and comp.fallbacks == fallbacks
+        assert rehearsed[measured] == beams[measured]
+        assert np.array_equal(rehearsed, comp.complete(past, np.where(measured, beams, np.nan), imu)[0])
+    assert comp.usage == {"imu": 2, "no_imu": 1, "pattern": 0} and comp.fallbacks["envelope"] > 0
+
+
+def test_a_completer_of_one_pattern_is_rehearsed_with_its_measured_beams_and_scored_on_its_missing_ones():
+    from types import SimpleNamespace
+
+    from graphnav.core.dvl import DvlGeometry, DvlSpec
+    from graphnav.estimators.rehearsal import OutageRehearsal
+
+    class OnePattern:
+        """Its measured beam given, each missing beam 0.1 m/s off."""
+        n_past, rehearsal_measured = 2, np.array([True, False, False, False])
+
+        def rehearse(self, past, imu, beams):
+            return np.where(self.rehearsal_measured, beams, beams + 0.1)
+
+    rehearsal = OutageRehearsal(DvlGeometry.from_spec(DvlSpec()).T_b, np.zeros(3), stride=1)
+    history = SimpleNamespace(ready=True, past=lambda: np.ones((2, 4)))
+    for k in range(4):
+        rehearsal.completer_ping(OnePattern(), float(k), np.full(4, 0.5), None, history)
+    assert rehearsal.scored.tolist() == [False, True, True, True]
+    assert [list(rehearsal.comp.by_h[h]) for h in (1, 2, 3)] == [[pytest.approx(0.01)] * n for n in (3, 2, 1)]
+
+
+def test_graph_hni_with_one_pattern_runs_rehearsed_outages_and_their_variants_are_refused():
+    from graphnav.evaluation.methods import GRAPH_HNI
+    from graphnav.nets.imu_auto import load_imu_auto_completer
+    mission = graphnav.simulate_mission(60.0, "mems", seed=2, pivot_m=3.0)
+    run = mission.with_outage(scenario_outage("3-missing", 45.0, 10.0))
+    comp = load_imu_auto_completer(patterns=("3-missing",))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = run_method(run, GRAPH_HNI, "3-missing", completer=comp, options={"rehearsed_outages": 1.0})
+        with pytest.raises(ConfigError, match="rehearses its one pattern only"):
+            run_method(run, GRAPH_HNI, "3-missing", completer=comp,
+                       options={"rehearsed_outages": 1.0, "rehearsal_graph": "twin"})
+        with pytest.raises(ConfigError, match="cannot rehearse"):     # two patterns: which to rehearse is not known
+            run_method(run, GRAPH_HNI, "3-missing", options={"rehearsed_outages": 1.0})
+    counts = sol.info["outage_rehearsal"]
+    assert sum(counts.values()) == 3 * 10 and counts["unrehearsed"] == 0
+    assert comp.usage == {"imu": 10, "no_imu": 0, "pattern": 0}       # the rehearsals' completions not counted

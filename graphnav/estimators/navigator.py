@@ -762,13 +762,19 @@ class Navigator:
             why = "this graph runs without a completer, so there is no completion to rehearse"
         elif not hasattr(completer, "rehearse"):
             why = f"{type(completer).__name__} cannot rehearse an outage (it has no 'rehearse')"
+        elif getattr(completer, "rehearsal_measured", None) is not None and (
+                options.rehearsal_graph != "imu" or options.rehearsal_fusion != "independent"):
+            # the variants rehearse every pattern; a one-pattern completer completes its own only
+            why = (f"{type(completer).__name__} rehearses its one pattern only, and the variants rehearsal_graph / "
+                   "rehearsal_fusion every pattern")
         elif self._backend_kwargs["keep_keyframe_graphs"]:
             raise ConfigError("rehearsed_outages is for the incremental smoothers (ISAM2, fixed-lag): the batch "
                               "smoother re-solves the mission with what its first pass kept and was not studied "
                               "with the rehearsals; leave it None for a batch run")
         else:
             return
-        raise ConfigError(f"rehearsed_outages: {why}: run the pivot completer or the average estimator")
+        raise ConfigError(f"rehearsed_outages: {why}: run the pivot completer or the average estimator (or, "
+                          "without the variants, an IMU-aware completer of one pattern)")
 
     def _hand_rehearsal(self) -> None:
         """Hand a graph backend's rehearsed outages (``GraphOptions.rehearsed_outages``) to the keyframer, which

@@ -5,7 +5,11 @@ Every :attr:`OutageRehearsal.stride` fully measured pings a rehearsal starts at 
 predictors forward through the next fully measured pings, as if the beams had been lost after ``t0``:
 
 - the completer's recursion: ``completer.rehearse(past, imu)`` (the four beams completed from the held past,
-  without side effects on the completer), fed its own completions ping after ping, as in an outage;
+  without side effects on the completer), fed its own completions ping after ping, as in an outage. A completer of
+  one missing pattern (:class:`graphnav.nets.imu_auto.ImuAutoCompleter` with one IMU-aware network:
+  ``rehearsal_measured``) is handed the ping's beams, ``rehearse(past, imu, beams)``, completes the pattern's
+  missing ones with the measured ones given, and both sides are then scored on the missing beams only
+  (:attr:`OutageRehearsal.scored`);
 - the graph's prediction with the IMU alone: the filtered state at ``t0`` (attitude, NED velocity, biases) carried
   keyframe by keyframe through the recorded IMU (the keyframes' preintegrations), its vertical velocity the measured
   beams' (the depth sensor holds the graph's through an outage; the IMU alone does not, and on steep beams its
@@ -27,6 +31,8 @@ logged with their stamps and horizons (:attr:`OutageRehearsal.decisions`).
 On the ten A-KIT trajectories (``Graph-HNP`` with it, experiments/outage_position_drift.py ``--rehearsed``) it
 leaves 81-83 % of the missing beams to the graph with the tactical IMU and about half with MEMS, and gains velocity
 pooled, but puts 8-9 fold cells over 1.02x Graph-TC (docs/decisions/completers.md, "Rehearsed outages"): not shipped.
+With ``Graph-HNI``'s IMU-aware fold networks (``--hni-rehearsed``) folds 1 and 3 alone put 6-9 fold cells over
+1.02x (section "Rehearsed outages with the IMU-aware network"): not shipped either.
 
 Two variants (``GraphOptions.rehearsal_graph`` / ``rehearsal_fusion``; section "Rehearsed outages: the graph's
 twin"), both scored per measured-beam pattern of a partial outage (every pattern rehearsed, the ping's read):
@@ -99,6 +105,8 @@ class OutageRehearsal:
         self.lever_arm_b = np.asarray(lever_arm_b, float)
         self.margin, self.horizon, self.stride, self.min_rehearsals = float(margin), horizon, stride, min_rehearsals
         self.comp, self.graph = _Scores(horizon, recent), _Scores(horizon, recent)
+        #: (4,) bool, the beams both sides are scored on: all four, or a one-pattern completer's missing ones
+        self.scored = np.ones(4, dtype=bool)
         self._n_measured = 0
         self._started: set[float] = set()        # stamps the completer's side started a rehearsal at
         self._comp_runs: list[list] = []         # [h, past (n_past, 4)]
@@ -112,10 +120,15 @@ class OutageRehearsal:
     def completer_ping(self, completer, t: float, beams: np.ndarray, imu, history) -> None:
         """A ping at ``t`` (s) whose four ``beams`` (m/s) were measured, after it entered ``history`` (the
         completer's :class:`~graphnav.estimators.history.BeamHistory`); ``imu`` the completer's window or None."""
+        pattern = getattr(completer, "rehearsal_measured", None)
+        if pattern is not None:
+            # a completer of one pattern (the IMU-aware network): its measured beams given, its missing ones scored
+            self.scored = ~np.asarray(pattern, bool)
         for run in self._comp_runs:
             run[0] += 1
-            completion = np.asarray(completer.rehearse(run[1], imu), float)
-            self.comp.add(run[0], completion - beams)
+            completion = np.asarray(completer.rehearse(run[1], imu) if pattern is None
+                                    else completer.rehearse(run[1], imu, beams), float)
+            self.comp.add(run[0], (completion - beams)[self.scored])
             if self.pairs is not None:
                 self._comp_errors[(run[2], run[0])] = completion - beams
             run[1] = np.vstack([run[1][1:], completion])
@@ -147,7 +160,7 @@ class OutageRehearsal:
                 C = run[1].pose().rotation().matrix()
                 v_n = self._depth_held(run[1].velocity(), C, ping.beams, ping.omega_b - run[2].gyroscope())
                 h = self.beams.predict(C, v_n, ping.omega_b, run[2].gyroscope(), self.lever_arm_b).h
-                self.graph.add(run[0], h - ping.beams)
+                self.graph.add(run[0], (h - ping.beams)[self.scored])
                 if self.pairs is not None:
                     self._score_patterns(run[0], run[3], C, v_n, ping.beams, ping.omega_b - run[2].gyroscope())
         self._graph_runs = [r for r in self._graph_runs if r[0] < self.horizon]

@@ -236,13 +236,14 @@ class GraphOptions:
             docs/decisions/completers.md).
             120 s covers outages up to 150 s with the default 30 s lag; 0 takes out only what the lag still holds.
         rehearsed_outages: experimental, for the incremental smoothers (ISAM2, fixed-lag) with a completer that can
-            rehearse (``rehearse``: the pivot completer, the average estimator): the margin ``m`` of rehearsed
-            outages (:mod:`graphnav.estimators.rehearsal`): the mission's measured past scores the completer's
-            recursion and the graph's IMU-only prediction per horizon into an outage, and a completion at horizon
-            ``h`` is kept, at sigma ``e_comp(h)`` and unscreened, only when ``e_comp(h) < m e_graph(h)``; None (the
-            default) = off. A graph without a completer, one whose completer cannot rehearse and the batch
-            smoother (not studied with it) are refused (ConfigError). See docs/decisions/completers.md,
-            "Rehearsed outages".
+            rehearse (``rehearse``: the pivot completer, the average estimator, an IMU-aware completer of one
+            pattern, its network fed its own completions and both sides scored on its missing beams): the margin
+            ``m`` of rehearsed outages (:mod:`graphnav.estimators.rehearsal`): the mission's measured past scores the
+            completer's recursion and the graph's IMU-only prediction per horizon into an outage, and a
+            completion at horizon ``h`` is kept, at sigma ``e_comp(h)`` and unscreened, only when
+            ``e_comp(h) < m e_graph(h)``; None (the default) = off. A graph without a completer, one whose
+            completer cannot rehearse and the batch smoother (not studied with it) are refused (ConfigError). See
+            docs/decisions/completers.md, "Rehearsed outages".
         rehearsal_graph: with ``rehearsed_outages`` (refused without it), the graph's side of the rehearsals: ``"imu"``
             (the IMU alone) or ``"twin"`` (the IMU-carried velocity fused with the beams the outage's pattern still
             measures, each pattern rehearsed; the completer then scored on the pattern's missing beams).
