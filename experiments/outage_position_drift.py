@@ -26,9 +26,10 @@ own completions, the pattern's measured beam(s) given, both sides scored on the 
 total outage the shipped completer, two patterns, cannot rehearse and is refused). ``--rehearsal-variants twin``,
 ``correlated`` or ``twin correlated`` adds each rehearsed run with the graph's twin (``rehearsal_graph="twin"``: the
 IMU-carried velocity fused with the beams the pattern still measures) and/or the two rehearsed errors' covariance
-deciding (``rehearsal_fusion="correlated"``; its margin unused, so only the first margin's label); ``--predictiveness`` records, per window and range of horizons of
-each rehearsed run, the rehearsals' ``e_comp``, ``e_graph`` read there and the actual errors of the completions and
-of Graph-TC's beam prediction against the true beams, and prints how often the rehearsals' choice was right.
+deciding (``rehearsal_fusion="correlated"``; its margin unused, so only the first margin's label); ``--predictiveness``
+records, per window and range of horizons of each rehearsed run, the rehearsals' ``e_comp``, ``e_graph`` read there and
+the actual errors of the completions and of Graph-TC's beam prediction against the true beams, and prints how often the
+rehearsals' choice was right.
 ``--pivot-priors P ...`` adds ``Graph-HNP`` with the pivot completer's ``prior_turn`` P instead of the shipped
 :data:`graphnav.evaluation.methods.PIVOT_PRIOR_TURN` (``Graph-HNP prior P``). ``--pivot-axes A ...`` adds ``Graph-HNP``
 whose pivot completer models the turn axes A (``yaw`` or ``yaw+pitch``: the heave from the pitch rate too) instead of
