@@ -799,3 +799,31 @@ def test_a_heading_off_the_imu_span_is_left_out_and_said_not_usable(tmp_path, ca
     assert d["usable"] and "heading" in d["left_out"] and d["time_span_s"][1] < 41.0
     sol = run_method(m, "Graph-TC")
     assert vrmse(sol, mission.gt) < 0.2
+
+
+@pytest.mark.parametrize("gt", [True, False])
+def test_a_dvl_mounted_turned_configured_as_not_is_warned_and_its_pings_counted(tmp_path, capsys, gt):
+    """A bag whose DVL is mounted 45 deg about z with dvl.C_d_b left the identity: its velocity, turned from the IMU's
+    axes, is warned about naming the topic and its pings counted as read despite the doubt (`graphnav info` shows
+    them), with a reference odometry in the bag and without."""
+    import dataclasses
+    import warnings
+    from graphnav.calibration.dvl_scale import TURNED_DOUBT, turn_about_z
+    from graphnav.core.config import SensorConfig
+    cfg = SensorConfig()
+    # 300 s with 5 mm/s beams: the velocity's changes fit the IMU well enough (r^2 0.97) to judge its turn
+    cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.005, C_d_b=turn_about_z(45))
+    mission = simulate_mission(300.0, seed=1, config=cfg)
+    path = bags.write_mission_bag(mission, tmp_path / "turned", storage="mcap", t0_unix_ns=T0_NS, gt=gt)
+    config = mission.config.to_dict()
+    config["dvl"]["C_d_b"] = np.eye(3).tolist()
+    (tmp_path / "config.json").write_text(json.dumps(config))
+    with pytest.warns(RuntimeWarning, match=r"turned:/dvl/data: field 'velocity': the DVL velocity is turned "
+                                            r"-4[45]\.\d deg about z from the IMU's axes"):
+        m = load_mission(path, tmp_path / "config.json")
+    assert m.meta["streams"]["dvl"]["doubted"] == {TURNED_DOUBT: len(mission.dvl.t)}
+    capsys.readouterr()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert cli.main(["info", str(path), "--config", str(tmp_path / "config.json")]) == 0
+    assert f"dvl: {len(mission.dvl.t)} read despite a doubt: {TURNED_DOUBT}" in capsys.readouterr().out

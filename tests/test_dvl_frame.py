@@ -250,14 +250,24 @@ def test_instrument_frame_columns_are_turned_by_C_d_b(sim, tmp_path):
     np.testing.assert_allclose(got.dvl.beams, same.dvl.beams, atol=1e-9)
 
 
-def test_a_dvl_turned_90_deg_read_as_body_is_warned_about_not_blamed_on_the_imu(sim, tmp_path):
+def test_a_dvl_turned_90_deg_read_as_body_is_warned_about_counted_and_not_blamed_on_the_imu(sim, tmp_path, capsys):
     """Against the IMU a DVL turned 90 deg looks like an IMU turned -90 deg; its velocity pointing sideways says
     which."""
     m, t, v_b = sim
     C_d_b = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    folder = _folder(tmp_path, sim, v_b @ C_d_b)
     with pytest.warns(RuntimeWarning, match=r"turned -(89|90)\.\d deg about z from the IMU's axes.*'instrument'"):
-        got = _load(_folder(tmp_path, sim, v_b @ C_d_b))
+        got = _load(folder)
     assert not [n for n in got.meta["streams"]["imu"]["notes"] if "mounting" in n]
+    # read despite the doubt: counted where a user scanning summary.json or `graphnav info` looks
+    from graphnav import cli
+    from graphnav.calibration.dvl_scale import TURNED_DOUBT
+    assert got.meta["streams"]["dvl"]["doubted"] == {TURNED_DOUBT: len(t)}
+    capsys.readouterr()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert cli.main(["info", str(folder[0]), "--config", str(folder[1])]) == 0
+    assert f"dvl: {len(t)} read despite a doubt: {TURNED_DOUBT}" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("configured_deg", [None, 30.0])
@@ -265,6 +275,7 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     # from a configured C_d_b other than I too: it was composed with the fit as the beams' mounting while the columns
     # stayed body, and the next run read them 45 deg off again
     from graphnav.calibration.calibrate import calibrate
+    from graphnav.calibration import dvl_scale
     m, t, v_b = sim
     C_d_b = _turned(45.0)
     configured = None if configured_deg is None else _turned(configured_deg)
@@ -278,6 +289,7 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     config.write_text(json.dumps(cmap))
     with pytest.warns(RuntimeWarning, match=r"turned -4[45].\d deg about z from the IMU's axes.*'instrument'"):
         mission = _load((folder, config))
+    assert mission.meta["streams"]["dvl"]["doubted"] == {dvl_scale.TURNED_DOUBT: len(t)}   # with a reference too
     result = calibrate(mission, mode="gt")
     assert np.degrees(result.dvl_yaw_rad.value) == pytest.approx(45.0, abs=1.0)
     assert result.config.csv_columns["dvl"]["frame"] == "instrument"
@@ -307,6 +319,9 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
             dvl_scale.check_velocity_against_imu(m.imu, dvl, m.config, meta, imu_frame=frame)
         said = [str(w.message) for w in caught if "deg about z from the vehicle's forward" in str(w.message)]
         assert bool(said) == warned, said
+        # counted as read despite the doubt, as the other DVL turns are
+        assert meta.get("streams", {}).get("dvl", {}).get("doubted", {}) == (
+            {dvl_scale.TURNED_DOUBT: len(t)} if warned else {})
         assert all(s.endswith(f"read as body? {dvl_scale.DECLARE_DVL_FIXES['yaw']}") for s in said), said
     with pytest.raises(DataError, match=r"points 90 deg about z from the vehicle's forward.*read as body\? give "
                                         r"the DVL's mounting as dvl.C_d_b .*or turn the DVL velocity columns"):

@@ -65,6 +65,9 @@ MIN_YAW_RAD = np.deg2rad(2.0)
 YAW_SIGMAS = 3.0
 #: Why DVL pings read despite a velocity turned a few degrees from the IMU's axes are counted.
 YAW_DOUBT = "DVL velocity turned a few degrees about z from the IMU's axes"
+#: Why DVL pings read despite a velocity turned about z beyond :data:`MAX_YAW_RAD` (its own fit) or by a quarter turn
+#: (the IMU-turn fit, :func:`warn_dvl_turned`) from the vehicle's axes are counted: a log or bag keeps them, warned.
+TURNED_DOUBT = "DVL velocity turned about z from the vehicle's axes, its columns likely in a mounted DVL's frame"
 #: A DVL velocity turned about z from a GT's body velocity (:func:`warn_turn_against_reference`, the turn fitted with a
 #: lever-arm correction, :func:`turn_and_lever_against_reference`) is warned about beyond this (rad) and
 #: :data:`YAW_SIGMAS` sigmas. The Snapir's DVL is calibrated: the ten A-KIT trajectories as recorded fit -0.00..+0.50
@@ -422,7 +425,7 @@ def check_imu_yaw(imu, dvl, config, meta: dict, frame: dict, model=None, offsets
 
 
 def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | None = None) -> None:
-    """Warn about and note a DVL whose velocity fits the IMU turned ``yaw`` deg about z and points forward only
+    """Warn about, note and count a DVL whose velocity fits the IMU turned ``yaw`` deg about z and points forward only
     turned back (:func:`check_imu_yaw`): velocity columns in the frame of a DVL mounted turned, read as body. Said
     here when the DVL's own yaw fit explains too little to say it (a vehicle holding its speed). ``fixes``: the
     advice (:data:`DECLARE_DVL_FIXES`, the default, or :data:`AKIT_DVL_FIXES`: then a DataError)."""
@@ -435,13 +438,15 @@ def warn_dvl_turned(dvl, meta: dict, field: str, yaw: int | None, fixes: dict | 
 
 
 def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> None:
-    """A DVL turn ``finding`` (with its fix): warned about and noted for a log or bag, which can declare its DVL frame;
-    a DataError for an A-KIT folder (``fixes["declare"]`` False), as its GT check refuses the same turn."""
+    """A DVL turn ``finding`` (with its fix): warned about, noted and its pings counted (:data:`TURNED_DOUBT`) for a
+    log or bag, which can declare its DVL frame; a DataError for an A-KIT folder (``fixes["declare"]`` False), as its
+    GT check refuses the same turn."""
     if not fixes["declare"]:
         raise DataError(finding, dvl.source, field=field)
     text = f"field '{field}': {finding}"
     warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=4)
     add_note(meta, "dvl", text)
+    count_doubted(meta, "dvl", TURNED_DOUBT, len(dvl.t))
 
 
 def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma: float, r2: float,
