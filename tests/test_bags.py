@@ -804,8 +804,9 @@ def test_a_heading_off_the_imu_span_is_left_out_and_said_not_usable(tmp_path, ca
 @pytest.mark.parametrize("gt", [True, False])
 def test_a_dvl_mounted_turned_configured_as_not_is_warned_and_its_pings_counted(tmp_path, capsys, gt):
     """A bag whose DVL is mounted 45 deg about z with dvl.C_d_b left the identity: its velocity, turned from the IMU's
-    axes, is warned about naming the topic and its pings counted as read despite the doubt (`graphnav info` shows
-    them), with a reference odometry in the bag and without."""
+    axes, is warned about naming the topic, advising the mounting (a bag has no column map to declare), and its pings
+    counted as read despite the doubt (`graphnav info` shows them), with a reference odometry in the bag and
+    without."""
     import dataclasses
     import warnings
     from graphnav.calibration.dvl_scale import TURNED_DOUBT, turn_about_z
@@ -819,9 +820,12 @@ def test_a_dvl_mounted_turned_configured_as_not_is_warned_and_its_pings_counted(
     config["dvl"]["C_d_b"] = np.eye(3).tolist()
     (tmp_path / "config.json").write_text(json.dumps(config))
     with pytest.warns(RuntimeWarning, match=r"turned:/dvl/data: field 'velocity': the DVL velocity is turned "
-                                            r"-4[45]\.\d deg about z from the IMU's axes"):
+                                            r"-4[45]\.\d deg about z from the IMU's axes") as said:
         m = load_mission(path, tmp_path / "config.json")
     assert m.meta["streams"]["dvl"]["doubted"] == {TURNED_DOUBT: len(mission.dvl.t)}
+    # a bag's message fixes its frame: the advice is the mounting, not a column map's key
+    turned = [str(w.message) for w in said if "about z from the IMU's axes" in str(w.message)]
+    assert "give the DVL's mounting as dvl.C_d_b" in turned[0] and "csv_columns" not in turned[0]
     capsys.readouterr()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -605,12 +605,15 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
+    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES
+    fixes = BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
     unit_checked = on_the_imu_clock(dvl.t, mission.imu.t)
     if unit_checked:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
         # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
         check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, reference=mission.gt)
+        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, fixes=fixes,
+                                   reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
@@ -641,7 +644,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     mission = _reference_on_the_imu(mission, meta, facts)
     if moved:
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked,
-                                   reference=mission.gt)
+                                   fixes=fixes, reference=mission.gt)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
         if new is not old and stream in meta.get("streams", {}):
             set_span(meta, stream, new.t)           # the stamps as the mission holds them

@@ -1599,6 +1599,9 @@ DECLARE_DVL_FIXES = {"declare": True, "unit": "",
                      "yaw": "declare csv_columns.dvl.frame 'instrument' with dvl.C_d_b (graphnav calibrate estimates "
                             "it and writes both)",
                      "flu": "declare csv_columns.dvl.frame 'flu'"}
+#: The same for a bag, whose message fixes its unit and axes: a mounting turn is given as ``dvl.C_d_b``.
+BAG_DVL_FIXES = {**DECLARE_DVL_FIXES,
+                 "yaw": "give the DVL's mounting as dvl.C_d_b in the configuration (graphnav calibrate estimates it)"}
 #: The same for an A-KIT folder, whose format is fixed (m/s; DVL columns in the DVL's frame, turned to body by
 #: ``dvl.C_d_b``, identity unless a configuration gives it; the loader converts mm/s itself): a unit or FLU axes are
 #: converted in the file, a mounting turn given as ``dvl.C_d_b``. ``"declare"`` False: a turn found is refused
@@ -1612,13 +1615,10 @@ AKIT_DVL_FIXES = {"declare": False,
                   "flu": "negate the y and z DVL velocity columns of the file (an A-KIT folder's are body FRD)"}
 
 
-__all__ = ["check_units", "DECLARE_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units", "dvl_units",
-           "dvl_velocity_units", "time_scale", "check_declared_time_span", "check_stamp_bound", "declared_scale",
-           "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio", "displacement_ratio",
-           "vertical_sign",
-           "reference_attitude_units", "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn",
-           "check_gyro_against_reference", "gyro_scale_found",
+__all__ = ["check_units", "DECLARE_DVL_FIXES", "BAG_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units",
+           "dvl_units", "dvl_velocity_units", "time_scale", "check_declared_time_span", "check_stamp_bound",
+           "declared_scale", "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio",
+           "displacement_ratio", "vertical_sign", "reference_attitude_units", "reference_tilt_unit",
+           "reference_turn_fit", "keep_reference_turn", "check_gyro_against_reference", "gyro_scale_found",
            "accelerometer_tilt", "reference_latlon_units", "reference_depth", "check_reference_displacement",
-           "check_reference_axes", "horizontal_axes_fit",
-           "reference_speed_error",
-           "reference_inconsistencies"]
+           "check_reference_axes", "horizontal_axes_fit", "reference_speed_error", "reference_inconsistencies"]
