@@ -605,11 +605,12 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
+    from graphnav.io.units import judged_velocity_unit
     unit_checked = on_the_imu_clock(dvl.t, mission.imu.t)
     if unit_checked:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
         # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
@@ -634,7 +635,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
     if (moved or not unit_checked) and on_the_imu_clock(dvl.t, mission.imu.t):
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
@@ -690,17 +691,6 @@ def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | Non
             f"would be used at the wrong time: the depth is left out; {OFF_THE_IMU_CLOCK_FIX['depth']}")
     leave_out(meta, "depth", depth.source, f"its {fit}", text, {DEPTH_OFF_ITS_STAMPS: len(depth.t)})
     return None
-
-
-def _dvl_unit(facts: dict, meta: dict) -> dict | None:
-    """The DVL velocity unit the IMU's fits judge
-    (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`): the one declared (``facts["dvl_unit"]``),
-    else a column map's as its loader took it (:func:`graphnav.io.units.taken_velocity_unit`). None for other
-    formats, whose unit is fixed by the format or the message type."""
-    if facts.get("dvl_unit") or facts.get("format") != "csv":
-        return facts.get("dvl_unit")
-    from graphnav.io.units import taken_velocity_unit
-    return taken_velocity_unit(meta)
 
 
 def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
