@@ -146,9 +146,9 @@ def _stamp_fields(mission: Mission, facts: dict) -> dict[str, str]:
     """The stamp field of a log's or bag's depth, reference and heading: a column map's key, a bag message's header
     stamp or its receive time."""
     if facts.get("format") == "bag":
+        from graphnav.io.bag_convert import STAMP_FIELDS
         kinds = mission.meta.get("clock", {}).get("stamps", {})
-        return {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
-                for k in ("depth", "gt", "heading")}
+        return {k: STAMP_FIELDS[kinds.get(k, "header")] for k in ("depth", "gt", "heading")}
     cmap = mission.config.csv_columns or {}
     return {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
 
@@ -656,13 +656,13 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
                                  gt=None if "gt_clock_doubted" in meta else mission.gt)
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         depth = _depth_in_time(judged, meta, facts)
-    if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
-        from graphnav.io.units import depth_convention
-        key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
-        checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
-                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
-                                   key, turned=facts.get("depth_turned_up", False))
-        depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
+        if depth is not None:
+            from graphnav.io.units import depth_convention
+            key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
+            checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
+                                       meta.get("stream_fields", {}).get("depth", "depth"),
+                                       facts.get("depth_positive"), key, turned=facts.get("depth_turned_up", False))
+            depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True

@@ -677,9 +677,8 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
     ``meta["streams"]`` was refused; ``advice`` (stream -> text): what to check for that stream, when known better
     than the units and sensor ranges."""
     for stream, entry in meta.get("streams", {}).items():
-        read = entry.get("read", 0)
-        refused = sum(entry.get("refused", {}).values())
-        if read and refused > limit * read:
+        if over_refused_limit(meta, stream, limit):
+            read, refused = entry["read"], sum(entry["refused"].values())
             ranked = sorted(entry["refused"].items(), key=lambda kv: -kv[1])
             reasons = ", ".join(f"{n} {r}" for r, n in ranked)
             column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
