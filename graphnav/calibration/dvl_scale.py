@@ -337,8 +337,8 @@ def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
 
 
 def _evidence(a: tuple[float, int], b: tuple[float, int]) -> float:
-    """How much better fit ``b`` is than ``a`` (each :func:`_best_fit`'s), in noise variances: the difference of their
-    squared residuals over the smaller's per residual (0 when either has no windows to fit)."""
+    """How much better fit ``b`` is than ``a`` (each a value of :func:`_best_fits`), in noise variances: the difference
+    of their squared residuals over the smaller's per residual (0 when either has no windows to fit)."""
     (ua, na), (ub, nb) = a, b
     if not (np.isfinite(ua) and np.isfinite(ub)):
         return 0.0

@@ -1017,6 +1017,10 @@ def reference_point_unknown(mission: Mission) -> str | None:
     return REFERENCE_POINT_UNKNOWN if mission.meta.get("prepare", {}).get("format") in ("csv", "bag") else None
 
 
+#: The keys of :func:`reference_notes`, in the order a score's report prints them.
+REFERENCE_NOTE_KEYS = ("reference_time", "reference_point")
+
+
 def reference_notes(mission: Mission) -> dict:
     """What a score against a prepared mission's reference says beside it: ``reference_point``
     (:func:`reference_point_unknown`) and ``reference_time``, when the data contradict the reference's time offset a
