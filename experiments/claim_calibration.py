@@ -109,5 +109,6 @@ def read_table(folder: Path, fold: int) -> dict[int, tuple[tuple[float, float], 
     path = Path(folder) / f"fold{fold}.json"
     if not path.exists():
         raise SystemExit(f"{path}: no calibration of fold {fold} (run --claim-fit first)")
+    from graphnav.estimators.options import RegressedScreeningOptions
     table = json.loads(path.read_text())["prediction_var_table"]
-    return {int(n): tuple((float(t), float(s)) for t, s in steps) for n, steps in table.items()}
+    return RegressedScreeningOptions(prediction_var_table=table).prediction_var_table

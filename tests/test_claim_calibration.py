@@ -110,7 +110,8 @@ def test_each_folds_table_is_fitted_on_the_other_folds_only(tmp_path):
 
 
 @pytest.mark.parametrize("table", [{1: ((5.0, 2.0),)}, {1: ((0.0, 2.0), (0.0, 1.0))}, {1: ((0.0, 0.0),)},
-                                   {5: ((0.0, 1.0),)}, {1: ((0.0, float("nan")),)}, {1: "2"}])
+                                   {5: ((0.0, 1.0),)}, {1: ((0.0, float("nan")),)}, {1: "2"},
+                                   {"one": ((0.0, 1.0),)}])
 def test_a_bad_table_is_refused_naming_the_entry(table):
     with pytest.raises(ConfigError, match="prediction_var_table"):
         RegressedScreeningOptions(prediction_var_table=table)

@@ -331,6 +331,14 @@ def test_velocity_ping_feeds_the_completer_history_as_measured_beams():
     assert kf.ping.has_regressed and kf.ping.beams[0] == pytest.approx((T_d @ v)[0])
 
 
+def test_init_gt_without_a_reference_is_refused_naming_the_mission():
+    mission = simulate_mission(10.0, seed=1)
+    mission.gt = None
+    with pytest.raises(ConfigError, match="has no ground truth to initialise the graph from"):
+        initial_state(mission, None, "gt", 0.0)
+    assert initial_state(mission, None, "auto", 0.0) is None
+
+
 def test_navigator_refuses_bad_velocities_and_counts_them():
     nav = Navigator(SensorConfig(), "ekf", initial=initial_state(simulate_mission(10.0, seed=1), None, "gt", 0.0))
     with warnings.catch_warnings():

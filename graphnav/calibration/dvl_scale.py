@@ -26,8 +26,8 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_m
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted
 from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame
-from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, DECLARED_UNITS, GYRO_UNJUDGED, KNOTS_MIX_UP,
-                               check_gyro_against_reference, gyro_scale_found)
+from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
+                               gyro_scale_found, other_unit_factors, unit_fix)
 
 #: Lowest share of the variance the horizontal fit must explain for its scale and yaw to tell anything (r^2, the
 #: best within +- SCALE_SEARCH_S): 0.976-0.999 on nine of the ten A-KIT trajectories, 0.61 on the steady
@@ -340,8 +340,8 @@ def _best_offsets(models: dict, near: dict, reach: float | None = None) -> dict:
 
 
 def _evidence(a: tuple[float, int], b: tuple[float, int]) -> float:
-    """How much better fit ``b`` is than ``a`` (each :func:`_best_fit`'s), in noise variances: the difference of their
-    squared residuals over the smaller's per residual (0 when either has no windows to fit)."""
+    """How much better fit ``b`` is than ``a`` (each a value of :func:`_best_fits`), in noise variances: the difference
+    of their squared residuals over the smaller's per residual (0 when either has no windows to fit)."""
     (ua, na), (ub, nb) = a, b
     if not (np.isfinite(ua) and np.isfinite(ub)):
         return 0.0
@@ -793,19 +793,16 @@ def check_declared_velocity_unit(imu, dvl, config, meta: dict, declared: dict | 
             f"unexplained {fits[k]:.3g} against {fits[1.0]:.3g} in {unit!r}); median speed {speed:.3g} m/s in "
             f"{unit!r}, {speed * k:.3g} m/s in {best!r}")
     field = meta.get("stream_fields", {}).get("dvl", "velocity")
-    fix = f"{'declare' if taken else 'set'} {key} {'' if taken else 'to '}{best!r}"
-    if ratio < VELOCITY_UNIT_RATIO:
-        count_doubted(meta, "dvl", VELOCITY_UNIT_SUSPECT, len(dvl.t))
-        add_note(meta, "dvl", f"kept in {unit!r}, suspect: {said}")
-        warnings.warn(f"{dvl.source}: field '{field}': {said}, under the {VELOCITY_UNIT_RATIO:g}x that refuses it: "
-                      f"kept in {unit!r}, suspect; {fix} if the file is in it", RuntimeWarning, stacklevel=3)
-        return
-    if fits[k] < 1.0:
+    fix, suspect = unit_fix(declared, best), ratio < VELOCITY_UNIT_RATIO
+    if not suspect and fits[k] < 1.0:
         raise DataError(f"{said}: {fix}", dvl.source, field=field)
-    count_doubted(meta, "dvl", VELOCITY_UNIT_DOUBT, len(dvl.t))
-    add_note(meta, "dvl", f"kept in {unit!r}, which the IMU contradicts: {said}")
-    warnings.warn(f"{dvl.source}: field '{field}': {said}, though neither explains them (a straight line per window "
-                  f"leaves less); kept in {unit!r}: check {key}", RuntimeWarning, stacklevel=3)
+    reason, note, tail = ((VELOCITY_UNIT_SUSPECT, "suspect", f"under the {VELOCITY_UNIT_RATIO:g}x that refuses it: "
+                           f"kept in {unit!r}, suspect; {fix} if the file is in it") if suspect else
+                          (VELOCITY_UNIT_DOUBT, "which the IMU contradicts", "though neither explains them (a straight "
+                           f"line per window leaves less); kept in {unit!r}: check {key}"))
+    count_doubted(meta, "dvl", reason, len(dvl.t))
+    add_note(meta, "dvl", f"kept in {unit!r}, {note}: {said}")
+    warnings.warn(f"{dvl.source}: field '{field}': {said}, {tail}", RuntimeWarning, stacklevel=3)
 
 
 def other_velocity_units(unit: str, speed: float, config) -> dict[str, float]:
@@ -815,11 +812,8 @@ def other_velocity_units(unit: str, speed: float, config) -> dict[str, float]:
     what a DVL measures (the larger of :data:`~graphnav.core.mission.MAX_DVL_SPEED_MPS` and ``dvl.max_speed_mps``): a
     larger unit that makes a steady 1.5 m/s vehicle 1500 m/s fits a MEMS IMU's noise better, not the vehicle."""
     from graphnav.core.mission import MAX_DVL_SPEED_MPS
-    units = DECLARED_UNITS["velocity"]
     bound = max(MAX_DVL_SPEED_MPS, float(config.dvl.max_speed_mps))
-    factors = {u: units[u] / units[unit] for u in ("m/s", "cm/s", "mm/s", "kn")}
-    return {u: k for u, k in factors.items() if (k >= 10 or k <= 0.1 or {u, unit} == KNOTS_MIX_UP)
-            and not speed * k > bound}
+    return {u: k for u, k in other_unit_factors(unit).items() if not speed * k > bound}
 
 
 #: The gyro scales the DVL check compares with the rates as read: what each would mean (module docstring).

@@ -146,9 +146,9 @@ def _stamp_fields(mission: Mission, facts: dict) -> dict[str, str]:
     """The stamp field of a log's or bag's depth, reference and heading: a column map's key, a bag message's header
     stamp or its receive time."""
     if facts.get("format") == "bag":
+        from graphnav.io.bag_convert import STAMP_FIELDS
         kinds = mission.meta.get("clock", {}).get("stamps", {})
-        return {k: "header.stamp" if kinds.get(k, "header") == "header" else "receive time"
-                for k in ("depth", "gt", "heading")}
+        return {k: STAMP_FIELDS[kinds.get(k, "header")] for k in ("depth", "gt", "heading")}
     cmap = mission.config.csv_columns or {}
     return {k: (cmap.get(k) or {}).get("t", "t") for k in ("depth", "gt", "heading")}
 
@@ -605,13 +605,13 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
-    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES
+    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES, judged_velocity_unit
     fixes = BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
     unit_checked = on_the_imu_clock(dvl.t, mission.imu.t)
     if unit_checked:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
         # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
         check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, fixes=fixes,
                                    reference=mission.gt)
     given = facts.get("given", {}).get("dvl_time_offset_s")
@@ -637,7 +637,7 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
     if (moved or not unit_checked) and on_the_imu_clock(dvl.t, mission.imu.t):
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, _dvl_unit(facts, meta))
+        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
@@ -658,13 +658,13 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
                                  gt=None if "gt_clock_doubted" in meta else mission.gt)
     if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
         depth = _depth_in_time(judged, meta, facts)
-    if depth is not None and len(depth.t) and facts.get("imu_frame") is not None:
-        from graphnav.io.units import depth_convention
-        key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
-        checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
-                                   meta.get("stream_fields", {}).get("depth", "depth"), facts.get("depth_positive"),
-                                   key, turned=facts.get("depth_turned_up", False))
-        depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
+        if depth is not None:
+            from graphnav.io.units import depth_convention
+            key = "bag_topics.depth.positive" if facts.get("format") == "bag" else "csv_columns.depth.positive"
+            checked = depth_convention(dataclasses.replace(judged, depth=depth), meta,
+                                       meta.get("stream_fields", {}).get("depth", "depth"),
+                                       facts.get("depth_positive"), key, turned=facts.get("depth_turned_up", False))
+            depth = depth if checked is depth.depth else dataclasses.replace(depth, depth=checked)
     if facts.get("format") == "bag" and meta.get("heading_source") == "none":
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
@@ -693,17 +693,6 @@ def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | Non
             f"would be used at the wrong time: the depth is left out; {OFF_THE_IMU_CLOCK_FIX['depth']}")
     leave_out(meta, "depth", depth.source, f"its {fit}", text, {DEPTH_OFF_ITS_STAMPS: len(depth.t)})
     return None
-
-
-def _dvl_unit(facts: dict, meta: dict) -> dict | None:
-    """The DVL velocity unit the IMU's fits judge
-    (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`): the one declared (``facts["dvl_unit"]``),
-    else a column map's as its loader took it (:func:`graphnav.io.units.taken_velocity_unit`). None for other
-    formats, whose unit is fixed by the format or the message type."""
-    if facts.get("dvl_unit") or facts.get("format") != "csv":
-        return facts.get("dvl_unit")
-    from graphnav.io.units import taken_velocity_unit
-    return taken_velocity_unit(meta)
 
 
 def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
@@ -1028,6 +1017,10 @@ def reference_point_unknown(mission: Mission) -> str | None:
     if mission.gt is None or mission.config.reference_position_b is not None:
         return None
     return REFERENCE_POINT_UNKNOWN if mission.meta.get("prepare", {}).get("format") in ("csv", "bag") else None
+
+
+#: The keys of :func:`reference_notes`, in the order a score's report prints them.
+REFERENCE_NOTE_KEYS = ("reference_time", "reference_point")
 
 
 def reference_notes(mission: Mission) -> dict:

@@ -304,6 +304,7 @@ def _nees_entry(name: str, entry: dict | None) -> str:
 def print_summary(summary: dict, file=None) -> None:
     """Print a command's summary (to ``file``, default standard output)."""
     out = functools.partial(print, file=file)
+    from graphnav.calibration.preparation import REFERENCE_NOTE_KEYS
     from graphnav.estimators.health import health_line
     acc = summary.get("accuracy", {})
     mode = f" ({summary['mode']})" if summary.get("mode") else ""
@@ -337,7 +338,7 @@ def print_summary(summary: dict, file=None) -> None:
     if acc.get("ground_truth"):
         out(f"  VRMSE mission {acc['vrmse_mission_mps']:.4f} m/s, final horizontal position error "
               f"{acc['final_horizontal_position_error_m']:.2f} m")
-        for key in ("reference_time", "reference_point"):
+        for key in REFERENCE_NOTE_KEYS:
             if acc.get(key):
                 out(f"  note: {acc[key]}")
         for w in acc["windows"]:

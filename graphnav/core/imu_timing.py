@@ -253,7 +253,7 @@ def _fine_grid_period(d: np.ndarray, med: float, steps) -> float:
     for grid in (1e-2, 1e-3):      # finer ones hold restamped stamps a float's rounding off a grid multiple
         if not FINE_GRID_SHARE * med <= grid <= (1.0 + 1e-3) * IMU_STAMP_QUANTUM_SHARE * med:   # 1 ms at 100 Hz
             continue
-        if np.mean(np.abs(d / grid - np.round(d / grid)) <= 0.01) >= QUANTISED_GRID_SHARE:
+        if _on_grid(d, grid):
             period = _quantised_period(d, med, grid, steps)
             return period if abs(period - med) >= FINE_GRID_OFF_SHARE * grid else med
     return med
@@ -277,7 +277,7 @@ def _slower_than_grid(steps, grid_s: float) -> float | None:
     else: samples lost at random (their spacing spreads: 10 % lost puts 19 % of it on two lengths), or too few."""
     raw = np.abs(np.asarray(steps, float))
     n = np.round(raw[np.isfinite(raw)] / grid_s)
-    if not n.size or np.mean(np.abs(raw[np.isfinite(raw)] / grid_s - n) <= 0.01) < QUANTISED_GRID_SHARE:
+    if not n.size or not _on_grid(raw[np.isfinite(raw)], grid_s):
         return None
     empty = np.flatnonzero(n >= 2)
     if empty.size < CLOCK_PATTERN_STAMPS:
@@ -431,6 +431,15 @@ def shared_stamp_packets(t: np.ndarray) -> tuple[int, float, float] | None:
 #: Share of a quantised clock's distinct stamps, and of the steps between them, that lie on its grid (within a
 #: hundredth of a grid step) (:func:`quantised_clock`).
 QUANTISED_GRID_SHARE = 0.99
+
+
+def _on_grid(x: np.ndarray, grid: float, share: float | None = QUANTISED_GRID_SHARE) -> bool:
+    """Whether ``share`` of ``x`` (s), or with None all of them, lie within 1 % of a step of a multiple of ``grid``
+    (s)."""
+    near = np.abs(x / grid - np.round(x / grid)) <= 0.01
+    return bool(np.all(near)) if share is None else bool(np.mean(near) >= share)
+
+
 #: Share of the stamps (first and last left out) holding one sample more than most do, above which they vary:
 #: a clock coarser than an IMU's period whose ratio to it is no whole number (200 Hz in whole 10 ms with 0.5 ms
 #: jitter: a quarter hold 3; 202 Hz: 2 %); a driver's regular packets hold their count, fewer where samples are lost.
@@ -602,11 +611,7 @@ def _stamp_grid(t: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, bool]:
     stamps = stamps - stamps[0]
     d = np.diff(stamps)
     grid = _to_the_microsecond(float(np.median(d)))
-
-    def on(x):
-        return np.mean(np.abs(x / grid - np.round(x / grid)) <= 0.01) >= QUANTISED_GRID_SHARE
-
-    return grid, d, counts, bool(on(d) and on(stamps))
+    return grid, d, counts, bool(_on_grid(d, grid) and _on_grid(stamps, grid))
 
 
 #: Share of a clock's repeated stamps and empty grid steps, in time order, followed by the other kind above which they
@@ -1048,6 +1053,6 @@ def _stamp_resolution(t: np.ndarray) -> float:
     stamp ``t`` (s) lies on from the first (a log written in whole ms), s; 0 for none (Unix seconds as floats)."""
     s = t - t[0]
     for g in sorted({_stamp_grid(t)[0], *(10.0 ** -np.arange(7))}, reverse=True):
-        if g > 0 and np.all(np.abs(s / g - np.round(s / g)) <= 0.01):
+        if g > 0 and _on_grid(s, g, share=None):
             return float(g)
     return 0.0

@@ -677,9 +677,8 @@ def check_refused_fraction(meta: dict, limit: float = MAX_REFUSED_FRACTION, advi
     ``meta["streams"]`` was refused; ``advice`` (stream -> text): what to check for that stream, when known better
     than the units and sensor ranges."""
     for stream, entry in meta.get("streams", {}).items():
-        read = entry.get("read", 0)
-        refused = sum(entry.get("refused", {}).values())
-        if read and refused > limit * read:
+        if over_refused_limit(meta, stream, limit):
+            read, refused = entry["read"], sum(entry["refused"].values())
             ranked = sorted(entry["refused"].items(), key=lambda kv: -kv[1])
             reasons = ", ".join(f"{n} {r}" for r, n in ranked)
             column = re.search(r"in '([^']+)'", ranked[0][0])      # the column the main reason names
@@ -763,13 +762,13 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
 
 
-def _say_steps(read: np.ndarray, t: np.ndarray, kept: np.ndarray, lines: np.ndarray, source: str, field: str,
+def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,
                meta: dict | None) -> None:
-    """:func:`say_imu_stamp_steps` of a file's ``kept`` rows (indices, in time order) of its IMU stamps ``read``
+    """:func:`say_imu_stamp_steps` of a file's ``kept_rows`` (indices, in time order) of its IMU stamps ``read``
     (s, as read) and ``t`` (s, as kept, restamped or not), for :func:`stamp_order`'s caller: on the stamps as read
     where they never decrease, else (a repair sorted restamped rows) as kept."""
-    as_read = read[kept] if np.all(np.diff(read[kept]) >= 0) else t[kept]
-    say_imu_stamp_steps(as_read, t[kept], source, field, meta, lines=lines[kept], stacklevel=4)
+    as_read = read[kept_rows] if np.all(np.diff(read[kept_rows]) >= 0) else t[kept_rows]
+    say_imu_stamp_steps(as_read, t[kept_rows], source, field, meta, lines=lines[kept_rows], stacklevel=4)
 
 
 #: Reasons under which an IMU's samples read after a step of its stamps are counted as doubted (:func:`stamp_order`).

@@ -137,8 +137,8 @@ class RegressedScreeningOptions:
         if not 0.0 <= self.correlation < 1.0:
             raise ConfigError(f"screening.correlation must be in [0, 1), got {self.correlation}")
         if self.prediction_var_table is not None:
-            self.prediction_var_table = {int(n): check_scale_steps(n, steps)
-                                         for n, steps in dict(self.prediction_var_table).items()}
+            self.prediction_var_table = dict(check_scale_steps(n, steps)
+                                             for n, steps in dict(self.prediction_var_table).items())
 
     def table_scale(self, n_measured: int, run_s: float) -> float:
         """The factor of ``prediction_var_table`` (1 without it) at a ping measuring ``n_measured`` beams,
@@ -154,9 +154,10 @@ class RegressedScreeningOptions:
         return self.gate_k is not None or self.adaptive or self.correlation > 0 or self.completion_var_scale != 1.0
 
 
-def check_scale_steps(n_measured, steps) -> tuple[tuple[float, float], ...]:
-    """The steps ``((t_0 = 0, scale_0), ...)`` of ``screening.prediction_var_table[n_measured]`` as floats, checked:
-    times from 0 ascending (s), scales finite and > 0 (else :class:`ConfigError` naming the entry)."""
+def check_scale_steps(n_measured, steps) -> tuple[int, tuple[tuple[float, float], ...]]:
+    """The entry ``n_measured: ((t_0 = 0, scale_0), ...)`` of ``screening.prediction_var_table`` as (int, floats),
+    checked: a number of measured beams 0-4, times from 0 ascending (s), scales finite and > 0 (else
+    :class:`ConfigError` naming the entry)."""
     name = f"screening.prediction_var_table[{n_measured}]"
     try:
         steps = tuple((float(t), float(scale)) for t, scale in steps)
@@ -169,7 +170,7 @@ def check_scale_steps(n_measured, steps) -> tuple[tuple[float, float], ...]:
     times, scales = np.array([t for t, _ in steps]), np.array([s for _, s in steps])
     if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(scales) & (scales > 0)):
         raise ConfigError(f"{name}: times must ascend and scales be finite and > 0, got {steps!r}")
-    return steps
+    return measured, steps
 
 
 #: Option names of before the groups -> their name now (``group.field``), accepted by :func:`build_options`

@@ -20,9 +20,7 @@ def screen_against_prediction(y: np.ndarray, y_p: np.ndarray, a: np.ndarray, s2:
     (keep (m,) bool, variance (m,), counters)."""
     keep = np.ones(len(y), dtype=bool)
     stats = {"gated": 0, "decorrelated_out": 0, "inflated": 0}
-    a = np.maximum(np.asarray(a, float), 1e-12) * options.prediction_var_scale
-    if table_scale != 1.0:
-        a = a * table_scale
+    a = np.maximum(np.asarray(a, float), 1e-12) * options.prediction_var_scale * table_scale
     s2 = np.asarray(s2, float)
     rho = options.correlation
     if rho:

@@ -93,15 +93,23 @@ def initial_state(mission: Mission, initial, init: str, t0: float) -> InitialSta
         return initial if initial.t is not None else dataclasses.replace(initial, t=t0)
     if init == "sensors" or (init == "auto" and mission.gt is None):
         return None
-    gt, doubted = mission.gt, mission.meta.get("gt_clock_doubted")
-    why = (f"the reference [{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s does not hold the first ping at {t0:.3f} s"
-           if not gt.t[0] <= t0 <= gt.t[-1] else doubted is not None and
-           f"the reference's turns put it at gt_time_offset_s {doubted:+.3f} s, not the one given")
-    if init == "auto" and why:
-        warnings.warn(f"{gt.source}: {why} to start from: the initial state is aligned from the sensors (init auto); "
-                      "the reference scores the estimate where it overlaps it", RuntimeWarning, stacklevel=3)
+    why = _reference_doubted(mission, t0) if init == "auto" else None
+    if why:
+        warnings.warn(f"{mission.gt.source}: {why} to start from: the initial state is aligned from the sensors "
+                      "(init auto); the reference scores the estimate where it overlaps it", RuntimeWarning,
+                      stacklevel=3)
         return None
     return InitialState.from_ground_truth(mission, t0)
+
+
+def _reference_doubted(mission: Mission, t0: float) -> str | None:
+    """Why the mission's reference (present) should not start a replay whose first ping is at t0 (s), or None."""
+    gt, doubted = mission.gt, mission.meta.get("gt_clock_doubted")
+    if not gt.t[0] <= t0 <= gt.t[-1]:
+        return f"the reference [{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s does not hold the first ping at {t0:.3f} s"
+    if doubted is not None:
+        return f"the reference's turns put it at gt_time_offset_s {doubted:+.3f} s, not the one given"
+    return None
 
 
 def iterate_graph(mission: Mission, *, completer=None, options: GraphOptions | None = None,

@@ -472,7 +472,8 @@ def format_report(result: dict, est_name: str, ref_name: str) -> str:
         lines.append(f"  VRMSE: {result['vrmse_mps']:.4f} m/s")
     else:
         lines.append(f"  VRMSE: not computed ({result['vrmse_note']})")
-    lines += [f"  note: {result[k]}" for k in ("reference_time", "reference_point") if result.get(k)]
+    from graphnav.calibration.preparation import REFERENCE_NOTE_KEYS
+    lines += [f"  note: {result[k]}" for k in REFERENCE_NOTE_KEYS if result.get(k)]
     if result["nees_velocity_mean"] is not None and not np.isfinite(result["nees_velocity_mean"]):
         lines.append(f"  velocity NEES: not finite ({result['nees_note']})")
     elif result["nees_velocity_mean"] is not None:

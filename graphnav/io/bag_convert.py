@@ -212,10 +212,9 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     """Beams (where the message has them) and the instrument's own velocity ``v_d`` with its validity and
     1-sigma, every invalid ping counted in ``meta["streams"]["dvl"]``."""
     info: dict = {"dvl_message": s.msgtype}
-    fields = config.bag_topics.get("dvl")
+    fields, where = config.bag_topics.get("dvl"), messages(s, t0_ns)
     if fields:
-        beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info,
-                                                         messages(s, t0_ns))
+        beams, valid, v_d, v_ok, sig = bag_fields.read(s, fields, config.dvl.C_d_b, source, meta, info, where)
     elif s.msgtype == MARINE_DVL:
         beams, valid, v_d, v_ok, sig = _marine(s, source, info)
     elif s.msgtype == WL_DVL:
@@ -248,7 +247,7 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     if unusable.any():
         count_refused(meta, "dvl", "no valid beam and no valid velocity", int(unusable.sum()))
         warnings.warn(f"{source}:{s.topic}: {int(unusable.sum())} DVL ping(s) with no valid beam and no valid "
-                      f"velocity (first at {located(np.flatnonzero(unusable), where=messages(s, t0_ns), first=True)}) "
+                      f"velocity (first at {located(np.flatnonzero(unusable), where=where, first=True)}) "
                       "are not used", RuntimeWarning, stacklevel=2)
     if s.msgtype == TWIST_DVL or (beamless.all() and v_ok.any()):
         add_note(meta, "dvl", f"velocity-only DVL ({s.msgtype}): the instrument's velocity v_d is used, no beams")
@@ -266,7 +265,7 @@ def dvl(s: Stream, t0_ns: int, config: SensorConfig, source: str, meta: dict) ->
     velocity, beam = (bag_fields.named_fields(fields) if fields
                       else DVL_MESSAGE_FIELDS.get(s.msgtype, DVL_MESSAGE_FIELDS[TWIST_DVL]))
     meta.setdefault("stream_fields", {})["dvl"] = velocity if v_b is not None or not beam else beam
-    return out.sanitized(where=messages(s, t0_ns)), info
+    return out.sanitized(where=where), info
 
 
 # --- depth -------------------------------------------------------------------------------------------------

@@ -234,7 +234,7 @@ SHORT_LIST_DOUBT = f"{KEY}.{{key}} past the end of the message's list: the beam 
 
 
 def _past_the_end(short: dict, n: int, spec: dict, key: str, path: str, source: str, topic: str, msgtype: str,
-                  meta: dict | None, where: list[str] | None) -> None:
+                  meta: dict | None, message_names: list[str] | None) -> None:
     """``short`` (:func:`values`) of ``path`` over ``n`` messages: past the end of every message's list a DataError
     naming the key, the topic and the lengths seen (the path names nothing the bag holds); of some, a warning naming
     the first message and their count as doubted in ``meta`` (a message lacking a beam)."""
@@ -248,7 +248,7 @@ def _past_the_end(short: dict, n: int, spec: dict, key: str, path: str, source: 
                         f"{topic} ({msgtype}): {seen} ([0] to [{lengths[-1] - 1}]); name an element it has, or "
                         f"'{name}[]' for each", source, field=topic)
     first = min(short)
-    at = where[first] if where is not None else f"message {first}"
+    at = message_names[first] if message_names is not None else f"message {first}"
     text = (f"{KEY}.{key}: {path!r} is past the end of the list {name!r} in {len(short)} of {n} messages of {topic} "
             f"({seen}), first at {at}: the beam is read as missing there")
     if meta is not None:
@@ -258,12 +258,12 @@ def _past_the_end(short: dict, n: int, spec: dict, key: str, path: str, source: 
 
 
 def table(s, spec: dict, key: str, source: str, meta: dict | None = None,
-          where: list[str] | None = None) -> np.ndarray:
+          message_names: list[str] | None = None) -> np.ndarray:
     """(M, n) values of ``spec[key]`` (n from :data:`FIELD_KEYS`) in the messages of topic ``s``
     (:class:`graphnav.io.bag_convert.Stream`); a message with fewer beams or beam flags (a beam list cut short) is
     padded with NaN, one with more, or a velocity or its flag short of values, is a DataError naming the topic,
-    message and field; an index past the end of message lists: :func:`_past_the_end` (``where``: each message named
-    for a warning)."""
+    message and field; an index past the end of message lists: :func:`_past_the_end` (``message_names``: each message
+    named for a warning)."""
     n, rows, topic = FIELD_KEYS[key], s.rows, s.topic
     paths = _paths(spec, key)
     try:
@@ -271,7 +271,7 @@ def table(s, spec: dict, key: str, source: str, meta: dict | None = None,
         for p in paths:
             short: dict = {}
             cols.append(values(rows, p, short))
-            _past_the_end(short, len(rows), spec, key, p, source, topic, s.msgtype, meta, where)
+            _past_the_end(short, len(rows), spec, key, p, source, topic, s.msgtype, meta, message_names)
     except (TypeError, ValueError) as exc:
         raise DataError(f"{KEY}.{key} = {spec[key]!r} does not name numbers (a Vector3 or numbers): {exc}", source,
                         field=topic) from None
@@ -346,11 +346,12 @@ def way_forward(fielddefs: dict, available: dict[str, str], topic: str | None) -
             f"{missing}: check the frame and unit against the driver's documentation (docs/decisions/bags.md)")
 
 
-def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict, named: list[str] | None = None):
+def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict,
+         message_names: list[str] | None = None):
     """``(beams, valid, v_d, v_ok, sigma)`` of a topic ``s`` (:class:`graphnav.io.bag_convert.Stream`) read through
     ``spec`` (:data:`KEY`), as the built-in messages give them: m/s, the velocity in the DVL frame (turned from the
     declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used). The fields read are in
-    ``info["dvl_fields"]`` and a note of the DVL stream. ``named``: each message named for a warning."""
+    ``info["dvl_fields"]`` and a note of the DVL stream. ``message_names``: each message named for a warning."""
     from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
     from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_velocity_units
     if "v_b" not in spec and "beams" not in spec:
@@ -367,18 +368,18 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict, 
     n = len(s.rows)
 
     def in_mps(key, **kw):
-        cells = table(s, spec, key, source, meta, named) * scale
+        cells = table(s, spec, key, source, meta, message_names) * scale
         return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix,
                                   key=f"{KEY}.velocity_unit", **kw)
     beams = in_mps("beams", beams=True) if "beams" in spec else np.full((n, 4), np.nan)
-    flags = table(s, spec, "valid", source, meta, named) if "valid" in spec else np.ones((n, 4))
+    flags = table(s, spec, "valid", source, meta, message_names) if "valid" in spec else np.ones((n, 4))
     valid = (np.nan_to_num(flags) != 0) & np.isfinite(beams)
     v_d = np.full((n, 3), np.nan)
     if "v_b" in spec:
         v = in_mps("v_b")
         v_d = v if frame == "instrument" else velocity_to_body(v, frame, C_d_b) @ C_d_b    # v_d = C_d_b^T v_b
     if "velocity_valid" in spec:
-        v_ok = np.nan_to_num(table(s, spec, "velocity_valid", source, meta, named)[:, 0]) != 0
+        v_ok = np.nan_to_num(table(s, spec, "velocity_valid", source, meta, message_names)[:, 0]) != 0
     else:       # as a column map's: a velocity needs three valid beams when the beams are flagged
         # the raw flags: with no beams named, every beam is NaN and would leave no velocity valid
         v_ok = np.all(np.isfinite(v_d), axis=1) & (((np.nan_to_num(flags) != 0).sum(axis=1) >= 3)

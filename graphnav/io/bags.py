@@ -442,7 +442,7 @@ def _reference_turn(imu, gt, meta: dict) -> None:
                             f"{gt.source}, field pose.pose.orientation", "a quaternion, whose angles have no unit")
 
 
-#: How the clock notes and errors name a stream.
+#: How the clock notes name a stream.
 _LABELS = {"dvl": "DVL", "gt": "GT", "fix": "fix"}
 
 

@@ -252,10 +252,9 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
     the declared unit, and under 1 (:func:`graphnav.io.units.velocity_unit_fits`). The best explained unit is named.
     ``t_imu`` (s), ``f_b`` (m/s^2), ``omega_b`` (rad/s): the IMU, FRD."""
     from graphnav.core.screening import MAX_REFUSED_FRACTION, implausible_pings
-    from graphnav.io.units import DECLARED_UNITS, KNOTS_MIX_UP, velocity_unit_fits
-    units, unit, key = DECLARED_UNITS["velocity"], declared["unit"], declared["key"]
-    factors = {u: units[u] / units[unit] for u in units
-               if units[u] / units[unit] <= 0.1 or ({u, unit} == KNOTS_MIX_UP and units[u] < units[unit])}
+    from graphnav.io.units import other_unit_factors, unit_fix, velocity_unit_fits
+    unit = declared["unit"]
+    factors = {u: k for u, k in other_unit_factors(unit).items() if k < 1}
     fits = velocity_unit_fits(t_dvl, v, (t_imu, f_b, omega_b), factors.values())
     n = int(np.all(np.isfinite(v), axis=1).sum())
     for u in sorted(factors, key=lambda u: fits[factors[u]] if fits else -factors[u]):
@@ -266,11 +265,10 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
             continue
         imu = "" if fits is None else (f", the velocity vehicle-fixed, the IMU's accelerations leaving {fits[k]:.3g} "
                                        f"of its changes unexplained against {fits[1.0]:.3g} in {unit!r}")
-        said, fix = ((f"the unit taken with none declared ({unit!r})", f"declare {key} {u!r}") if declared.get("taken")
-                     else ("the declared unit", f"set {key} to {u!r}"))
+        said = f"the unit taken with none declared ({unit!r})" if declared.get("taken") else "the declared unit"
         return (f"{said} is the likely cause: in {u!r} (x{k:.4g}) the median speed is "
                 f"{float(np.nanmedian(np.linalg.norm(w, axis=1))):.3g} m/s, {n - outside} of {n} pings within the "
-                f"vehicle's envelope{imu}: {fix}")
+                f"vehicle's envelope{imu}: {unit_fix(declared, u)}")
     return None
 
 

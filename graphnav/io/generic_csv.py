@@ -248,9 +248,9 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
     own = None if stream == "imu" or "time_unit" in spec else f"csv_columns.{stream}.time_unit"
     t = stamps_in_seconds(t, stream, str(path), meta, declared=unit, field=spec["t"], lines=lines, key=key,
                           stream_key=own)
-    if unit is not None and t_imu is not None:
-        check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
     if t_imu is not None and len(t_imu):
+        if unit is not None:
+            check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
         check_stamp_bound(t, float(t_imu[0]), stream, str(path), unit, key, spec["t"], lines, own)
     kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
     if dropped:

@@ -387,7 +387,9 @@ def _describe_jsonl(path: Path, config) -> dict:
         t = np.array([r["t"] for r in recs], float)
         entry = count_read(meta, kind, t, str(path))
         if kind == "imu":
-            entry["rate_hz"] = _sample_rate_hz(t, config, meta, str(path), np.array([r["_line"] for r in recs]))
+            restamped = _checked_imu_stamps(t, meta, str(path), np.array([r["_line"] for r in recs]))
+            rate = imu_rate_hz(restamped, config.imu_rate_hz, IMU_RATE_TOLERANCE)
+            entry["rate_hz"] = float(rate) if np.isfinite(rate) else None
     lines = stream_entry(meta, "lines")
     lines.update(source=str(path), read=reader.n_records + reader.n_bad, used=reader.n_records)
     if reader.n_bad:
@@ -415,18 +417,16 @@ def _describe_jsonl(path: Path, config) -> dict:
             "time_span_s": span, "duration_s": duration, "streams": streams, "dvl": dvl, "depth_m": depth}
 
 
-def _sample_rate_hz(t: np.ndarray, config: SensorConfig, meta: dict, source: str, lines: np.ndarray) -> float | None:
-    """The IMU's sample rate (Hz) from its stamps ``t`` (s, file order; ``lines``: their lines), None without two
-    distinct stamps: samples over time where the median step misleads (70 Hz on a 10 ms clock: 100 Hz), and samples
-    sharing a stamp (a driver's packets: 100 Hz in packets of 20 read 5 Hz) counted as the samples they are,
-    restamped as the loaders restamp them (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in
-    ``meta``). A step of the IMU clock or a gap is warned about and counted as a file's is
-    (:func:`~graphnav.core.screening.say_imu_stamp_steps`, on the stamps in time order: a stream may be late)."""
+def _checked_imu_stamps(t: np.ndarray, meta: dict, source: str, lines: np.ndarray) -> np.ndarray:
+    """An IMU's stamps ``t`` (s, file order; ``lines``: their lines) restamped as the loaders restamp samples sharing
+    a stamp (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``: a driver's packets, 100 Hz in
+    packets of 20, are the samples they hold, not 5 Hz), for the sample rate (s); a step of the IMU clock or a gap
+    warned about and counted as a file's is (:func:`~graphnav.core.screening.say_imu_stamp_steps`, on the stamps in
+    time order: a stream may be late)."""
     restamped = restamp_shared_stamps(t, source, meta)
     order = np.argsort(t, kind="stable")
     say_imu_stamp_steps(t[order], np.sort(restamped), source, "t", meta, lines=lines[order], stacklevel=3)
-    rate = imu_rate_hz(restamped, config.imu_rate_hz, IMU_RATE_TOLERANCE)
-    return float(rate) if np.isfinite(rate) else None
+    return restamped
 
 
 # --- human output ------------------------------------------------------------------------------------------

@@ -1133,9 +1133,8 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
     and a smaller unit explains them (:func:`graphnav.io.dvl_frame.smaller_unit_advice`, the body-frame velocity ``v``
     (M,3, m/s) at ``t`` (s) against ``imu``): a unit 10x too large, or knots read as m/s, puts a vehicle beyond its
     envelope, where the refusal's "check the units" does not say which; else ``{}``."""
-    from graphnav.io.units import taken_velocity_unit
-    prepare = meta.get("prepare", {})
-    declared = prepare.get("dvl_unit") or (taken_velocity_unit(meta) if prepare.get("format") == "csv" else None)
+    from graphnav.io.units import judged_velocity_unit
+    declared = judged_velocity_unit(meta)
     if not declared or not over_refused_limit(meta, "dvl"):
         return {}
     from graphnav.io.dvl_frame import smaller_unit_advice

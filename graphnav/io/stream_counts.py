@@ -9,6 +9,7 @@ had.
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -122,8 +123,6 @@ def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> Mission:
     depth or heading (the aligner gyrocompasses, or takes the initial heading) and the commands score nothing, as
     without them. Kept, the estimators would take the samples inside the span at the wrong time, and scoring failed
     on the reference. ``fields``: each stream's stamp field."""
-    import dataclasses
-
     from graphnav.core.timeseries import on_the_imu_clock, overlap_text
     t_imu, left_out = mission.imu.t, {}
     for stream, data in (("depth", mission.depth), ("gt", mission.gt), ("heading", mission.heading)):
@@ -131,10 +130,11 @@ def warn_off_the_imu_clock(mission: Mission, fields: dict[str, str]) -> Mission:
             continue
         outside = int(np.sum((data.t < t_imu[0]) | (data.t > t_imu[-1])))
         what = "reference" if stream == "gt" else stream
-        reason = (f"its stamps [{data.t[0]:.3f}, {data.t[-1]:.3f}] s lie off the IMU span [{t_imu[0]:.3f}, "
-                  f"{t_imu[-1]:.3f}] s (sharing {overlap_text(data.t, t_imu)}): a clock of its own")
+        off = (f"[{data.t[0]:.3f}, {data.t[-1]:.3f}] s lie off the IMU span [{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s "
+               f"(sharing {overlap_text(data.t, t_imu)}): a clock of its own")
+        reason = f"its stamps {off}"
         inside = f" and the {len(data.t) - outside} inside it" if outside < len(data.t) else ""
-        text = (f"field '{fields.get(stream, 't')}': the {what} stamps {reason.removeprefix('its stamps ')}; the "
+        text = (f"field '{fields.get(stream, 't')}': the {what} stamps {off}; the "
                 f"{outside} of {len(data.t)} sample(s) outside the IMU span{inside} are not used: the {what} is "
                 f"left out; {OFF_THE_IMU_CLOCK_FIX[stream]}")
         leave_out(mission.meta, stream, data.source, reason, text,

@@ -89,8 +89,17 @@ DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRA
                   "gyro": {"rad/s": 1.0, "deg/s": np.pi / 180}, "velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3,
                                                                         "kn": 1852.0 / 3600.0}}
 #: The two declared velocity units a DVL velocity is mixed up between, 1.94x apart: each is tried for the other
-#: (:func:`graphnav.calibration.dvl_scale.other_velocity_units`, :func:`graphnav.io.dvl_frame.smaller_unit_advice`).
+#: (:func:`other_unit_factors`).
 KNOTS_MIX_UP = {"m/s", "kn"}
+def other_unit_factors(unit: str) -> dict[str, float]:
+    """The velocity units a DVL velocity declared ``unit`` may be in instead -> the factor that multiplies the velocity
+    as read (unitless): a metric unit at least 10x larger or smaller, knots for m/s and m/s for knots
+    (:data:`KNOTS_MIX_UP`)."""
+    units = DECLARED_UNITS["velocity"]
+    factors = {u: units[u] / units[unit] for u in units}
+    return {u: k for u, k in factors.items() if k >= 10 or k <= 0.1 or {u, unit} == KNOTS_MIX_UP}
+
+
 #: Units of a column map's attitude columns (a reference's, an earth-frame DVL's ``angle_unit``), to rad.
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180}
 
@@ -213,6 +222,13 @@ def _plausible_units(t: np.ndarray, stream: str) -> tuple[float, tuple[float, fl
     return med, (lo, hi), [u for u, k in TIME_SCALES.items() if lo <= med * k <= hi]
 
 
+def _other_units(t: np.ndarray, declared: str, stream: str, fits) -> tuple[np.ndarray, list[str]]:
+    """Stamps ``t`` (s, the ``declared`` unit applied) as read, and the units other than ``declared`` that make their
+    step a plausible ``stream`` sample period and for which ``fits`` (of the stamps in s) holds."""
+    raw = t / TIME_SCALES[declared]
+    return raw, [u for u in _plausible_units(raw, stream)[2] if u != declared and fits(raw * TIME_SCALES[u])]
+
+
 #: How many times shorter than the IMU's a stream's span may be, or (for a unit the data did not declare) longer,
 #: and still be read as on the IMU's span: the geometric middle of 1 (the right unit) and 1000 (a unit one step off),
 #: so a reference logged over a tenth of the mission is on it and stamps 1000x too short or long are not.
@@ -242,9 +258,7 @@ def check_declared_time_span(t: np.ndarray, t_imu: np.ndarray, stream: str, sour
     t = np.asarray(t, float)
     if t.size < 2 or len(t_imu) < 2 or _on_span(t, t_imu):
         return
-    raw = t / TIME_SCALES[declared]
-    fits = [u for u in _plausible_units(raw, stream)[2]
-            if u != declared and _on_span(raw * TIME_SCALES[u], t_imu, SPAN_RATIO_MAX)]
+    raw, fits = _other_units(t, declared, stream, lambda x: _on_span(x, t_imu, SPAN_RATIO_MAX))
     if not fits:
         return
     t0, unit = float(t_imu[0]), fits[0]
@@ -276,9 +290,7 @@ def check_stamp_bound(t: np.ndarray, t0: float, stream: str, source: str, declar
             "such stamp(s)")
     fix = "micro/nanoseconds read as seconds, or corrupted"
     if declared is not None:
-        raw = t / TIME_SCALES[declared]
-        fits = [u for u in _plausible_units(raw, stream)[2]
-                if u != declared and np.all(np.abs(raw * TIME_SCALES[u] - t0) <= MAX_STAMP_S)]
+        fits = _other_units(t, declared, stream, lambda x: np.all(np.abs(x - t0) <= MAX_STAMP_S))[1]
         said += f" in the declared unit {declared!r}, {key}"
         if fits:
             fix = f"the stamps look like {fits[0]}; {_set_unit(key, fits[0], stream_key)}"
@@ -436,6 +448,12 @@ DECLARE_UNIT_FIX = "declare the velocity unit"
 MMPS_CONVERTED = "DVL velocities read as mm/s"
 
 
+def unit_fix(declared: dict, unit: str) -> str:
+    """The advice to put a DVL velocity in ``unit``: set the key of the ``declared`` unit (``{"unit", "key"}``) to
+    it, or declare it under that key when the unit was taken with none declared (``"taken": True``)."""
+    return f"declare {declared['key']} {unit!r}" if declared.get("taken") else f"set {declared['key']} to {unit!r}"
+
+
 def taken_velocity_unit(meta: dict) -> dict:
     """The DVL velocity unit a column map's loader took where none was declared, as a declared unit is given
     (``{"unit", "key", "taken": True}``): mm/s when it detected them (:data:`MMPS_CONVERTED`), else m/s. A log in
@@ -443,6 +461,14 @@ def taken_velocity_unit(meta: dict) -> dict:
     notes = meta.get("streams", {}).get("dvl", {}).get("notes", [])
     unit = "mm/s" if any(n.startswith(MMPS_CONVERTED) for n in notes) else "m/s"
     return {"unit": unit, "key": "csv_columns.dvl.velocity_unit", "taken": True}
+
+
+def judged_velocity_unit(meta: dict) -> dict | None:
+    """The DVL velocity unit the IMU judges (``{"unit", "key"}``): the one declared (``meta["prepare"]["dvl_unit"]``),
+    else a column map's as its loader took it (:func:`taken_velocity_unit`); None for other formats, whose unit is
+    fixed by the format or the message type."""
+    prepare = meta.get("prepare", {})
+    return prepare.get("dvl_unit") or (taken_velocity_unit(meta) if prepare.get("format") == "csv" else None)
 
 
 def velocity_unit_fits(t_dvl: np.ndarray, v: np.ndarray, imu, factors) -> dict[float, float] | None:
@@ -525,8 +551,7 @@ def dvl_speed_scale(beams: np.ndarray | None, velocity: np.ndarray | None, sourc
         raise DataError(f"median DVL speed {med:.4g} is beyond the {MAX_DVL_SPEED_MPS:g} m/s a DVL measures and "
                         f"not mm/s of a moving vehicle ({DVL_MMPS_RANGE[0]:g}-{DVL_MMPS_RANGE[1]:g}): {fix}", source,
                         field=field)
-    units = DECLARED_UNITS["velocity"]
-    factors = ({u: units[u] / units[declared] for u in units if units[u] < units[declared]} if declared is not None
+    factors = ({u: k for u, k in other_unit_factors(declared).items() if k < 1} if declared is not None
                else {"cm/s": 1e-2, "mm/s": 1e-3})
     if max_speed_mps is None:
         from graphnav.core.config import DvlSpec
@@ -1419,8 +1444,9 @@ def depth_clock_offset(t: np.ndarray, depth: np.ndarray, t_v: np.ndarray, v_down
     with np.errstate(invalid="ignore", divide="ignore"):
         dpc = np.where(use, dp - (use * dp).sum(axis=1, keepdims=True) / n[:, None], 0.0)
         dvc = np.where(use, dv - (use * dv).sum(axis=1, keepdims=True) / n[:, None], 0.0)
-        r = np.abs((dpc * dvc).sum(axis=1)) / np.sqrt((dpc ** 2).sum(axis=1) * (dvc ** 2).sum(axis=1))
-    r[(n < 10) | ~(np.sqrt((dvc ** 2).sum(axis=1) / np.maximum(n, 1)) >= MIN_VERTICAL_MOTION_M)] = np.nan
+        dv_squares = (dvc ** 2).sum(axis=1)
+        r = np.abs((dpc * dvc).sum(axis=1)) / np.sqrt((dpc ** 2).sum(axis=1) * dv_squares)
+    r[(n < 10) | ~(np.sqrt(dv_squares / np.maximum(n, 1)) >= MIN_VERTICAL_MOTION_M)] = np.nan
     if not np.isfinite(r).any():
         return None
     best = int(np.nanargmax(r))

@@ -213,8 +213,6 @@ class GraphContext:
             return 1.0
         if self.regressed_run_start is None:
             self.regressed_run_start = kf.t
-        if self.options.screening.prediction_var_table is None:
-            return 1.0
         return self.options.screening.table_scale(kf.n_measured, kf.t - self.regressed_run_start)
 
     def count_screening(self, stats: dict) -> None:
