@@ -150,6 +150,18 @@ def test_a_slow_vehicle_in_a_current_is_kept_as_body_and_an_earth_frame_copy_sti
         _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim)))
 
 
+def test_a_slow_vehicle_whose_velocity_noise_turns_it_more_than_it_turns_is_kept_as_body(sim, tmp_path):
+    """A vehicle at 0.28 m/s, no current, 0.06 m/s velocity noise: the noise turns the velocity's direction as much as
+    the vehicle turns (signal 1.28x), so the turn ratio (0.89) and the kinematics (1.04x) are near 1 whatever the
+    frame, and it was refused as earth-fixed. Kept as body now, with a note saying it was not judged."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.28, 0.0, noise=0.06)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
+    assert any("not judged for an earth frame" in n for n in got.meta["streams"]["dvl"]["notes"])
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+
+
 @pytest.mark.parametrize("seed", [2, 3])
 def test_an_rov_holding_station_in_a_weak_current_is_not_refused_as_turned(sim, tmp_path, seed):
     """An ROV holding station in 0.1 m/s of current goes over the ground too slowly for the body kinematics to keep it

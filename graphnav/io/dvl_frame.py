@@ -29,6 +29,8 @@ does whatever its heading: its body-frame velocity turns and spreads as an earth
 tell them apart (:func:`kinematics_ratio`): on the IMU clock, a velocity the turn check would refuse is kept as body,
 with a note, when they explain it better than they explain it taken as earth-fixed. A DVL on a clock of its own cannot
 be judged so before the clock search, and the spread check still refuses it, saying to put its stamps on the IMU clock.
+A vehicle so slow that its velocity's noise turns the direction as much as the vehicle turns
+(:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a note.
 """
 from __future__ import annotations
 
@@ -62,6 +64,11 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
 #: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above.
 BODY_KINEMATICS_RATIO = 1.0
+#: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body:
+#: its direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md):
+#: a simulated 0.28 m/s mission with 0.04 m/s beam noise 0.97; the NED copies refused, of simulated missions 2.4 and
+#: above, of the ten A-KIT trajectories (whole, 60 s and 120 s crops) 3.6 and above; the geometric middle.
+MIN_TURN_SIGNAL = 1.5
 #: The ``meta`` key set when a velocity that turns with the vehicle is kept as body by its kinematics: it
 #: points where the current carries the vehicle, not forward, and the prepare step judges it by no mean direction.
 CARRIED = "dvl_carried_by_current"
@@ -106,6 +113,42 @@ def flagged_not_turned(v: np.ndarray, turned: np.ndarray) -> np.ndarray:
     return np.where(rdi_flagged(v).any(axis=1, keepdims=True), v, turned)
 
 
+def _course_turns(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
+                  window_s: float = COURSE_WINDOW_S) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """The turn of the velocity's horizontal direction and the gyro z turn over each window of ``window_s`` moving
+    pings cover (rad, both (W,)), and the noise of a window's direction turn (rad: sqrt 2 times the ping's direction
+    noise, from the second differences of the direction over consecutive moving pings, a robust sigma); None when the
+    gyro turns too little (:data:`COURSE_MIN_TURN_RADPS`) or fewer than 3 windows are covered. Arguments as
+    :func:`course_turn_ratio`."""
+    t_dvl, v = np.asarray(t_dvl, float), np.asarray(v, float)
+    if len(t_dvl) < 3:
+        return None
+    moving = np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) >= COURSE_MIN_SPEED_MPS)
+    course = np.arctan2(v[:, 1], v[:, 0])
+    period = float(np.median(np.diff(t_dvl)))
+    # turns between consecutive moving pings only (over a gap or a hover the direction between is unknown)
+    pair = moving[1:] & moving[:-1] & (np.diff(t_dvl) <= 1.5 * period)
+    turn = np.where(pair, np.angle(np.exp(1j * np.diff(np.where(moving, course, 0.0)))), 0.0)
+    edges = np.arange(max(t_dvl[0], t_imu[0]), min(t_dvl[-1], t_imu[-1]), window_s)
+    if len(edges) < 4:
+        return None
+    k = np.digitize(t_dvl[1:], edges) - 1
+    inside = (k >= 0) & (k < len(edges) - 1)
+    n = len(edges) - 1
+    dvl_turn = np.bincount(k[inside], weights=turn[inside], minlength=n)[:n]
+    covered = np.bincount(k[inside], weights=pair[inside], minlength=n)[:n] >= 0.8 * window_s / period
+    w = np.asarray(omega_b, float)[:, 2]
+    yaw = np.concatenate([[0.0], np.cumsum(np.diff(t_imu) * 0.5 * (w[1:] + w[:-1]))])
+    gyro_turn = np.diff(np.interp(edges, t_imu, yaw))
+    dvl_turn, gyro_turn = dvl_turn[covered], gyro_turn[covered]
+    if len(dvl_turn) < 3 or np.sqrt(np.mean(gyro_turn ** 2)) / window_s < COURSE_MIN_TURN_RADPS:
+        return None
+    # a white noise of sigma on the direction gives its second differences a sigma of sqrt(6) sigma
+    second = np.diff(turn)[pair[1:] & pair[:-1]]
+    noise = np.sqrt(2.0 / 6.0) * 1.4826 * float(np.median(np.abs(second))) if len(second) else 0.0
+    return dvl_turn, gyro_turn, noise
+
+
 def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
                       window_s: float = COURSE_WINDOW_S) -> float:
     """How far the turn of the DVL velocity's horizontal direction is from the vehicle's: RMS over windows of
@@ -118,31 +161,23 @@ def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega
         t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read (its first two axes horizontal when level), m/s.
         t_imu: (K,) IMU stamps, s, on the DVL's clock. omega_b: (K,3) gyro rates, rad/s.
     """
-    t_dvl, v = np.asarray(t_dvl, float), np.asarray(v, float)
-    if len(t_dvl) < 3:
+    turns = _course_turns(t_dvl, v, t_imu, omega_b, window_s)
+    if turns is None:
         return float("nan")
-    moving = np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) >= COURSE_MIN_SPEED_MPS)
-    course = np.arctan2(v[:, 1], v[:, 0])
-    period = float(np.median(np.diff(t_dvl)))
-    # turns between consecutive moving pings only (over a gap or a hover the direction between is unknown)
-    pair = moving[1:] & moving[:-1] & (np.diff(t_dvl) <= 1.5 * period)
-    turn = np.where(pair, np.angle(np.exp(1j * np.diff(np.where(moving, course, 0.0)))), 0.0)
-    edges = np.arange(max(t_dvl[0], t_imu[0]), min(t_dvl[-1], t_imu[-1]), window_s)
-    if len(edges) < 4:
-        return float("nan")
-    k = np.digitize(t_dvl[1:], edges) - 1
-    inside = (k >= 0) & (k < len(edges) - 1)
-    n = len(edges) - 1
-    dvl_turn = np.bincount(k[inside], weights=turn[inside], minlength=n)[:n]
-    covered = np.bincount(k[inside], weights=pair[inside], minlength=n)[:n] >= 0.8 * window_s / period
-    w = np.asarray(omega_b, float)[:, 2]
-    yaw = np.concatenate([[0.0], np.cumsum(np.diff(t_imu) * 0.5 * (w[1:] + w[:-1]))])
-    gyro_turn = np.diff(np.interp(edges, t_imu, yaw))
-    dvl_turn, gyro_turn = dvl_turn[covered], gyro_turn[covered]
-    if len(dvl_turn) < 3 or np.sqrt(np.mean(gyro_turn ** 2)) / window_s < COURSE_MIN_TURN_RADPS:
-        return float("nan")
+    dvl_turn, gyro_turn, _ = turns
     apart = min(np.sqrt(np.mean((dvl_turn - s * gyro_turn) ** 2)) for s in (1.0, -1.0))
     return float(apart / max(np.sqrt(np.mean(dvl_turn ** 2)), 1e-12))
+
+
+def course_turn_signal(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -> float:
+    """The RMS gyro turn over :func:`course_turn_ratio`'s windows over the noise of a window's direction turn (the
+    velocity's own, ping to ping): under :data:`MIN_TURN_SIGNAL` the noise turns the direction as much as the vehicle
+    does, and the turn ratio is near 1 whatever the frame. NaN where the ratio is. Arguments as
+    :func:`course_turn_ratio`."""
+    turns = _course_turns(t_dvl, v, t_imu, omega_b)
+    if turns is None:
+        return float("nan")
+    return float(np.sqrt(np.mean(turns[1] ** 2)) / max(turns[2], 1e-12))
 
 
 def course_spread_ratio(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray) -> float:
@@ -306,6 +341,15 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     if advice:
         raise DataError(f"DVL velocity in the declared unit {declared['unit']!r} turns with the vehicle: {turn}; "
                         f"{judged}; {advice}", source, field=", ".join(fields))
+    signal = course_turn_signal(t_dvl, v, t_imu, omega_b)
+    if signal < MIN_TURN_SIGNAL:
+        if meta is not None:
+            from graphnav.core.streams import add_note
+            add_note(meta, "dvl", f"velocity columns {fields} not judged for an earth frame: the vehicle turns only "
+                     f"{signal:.2f}x the noise of its direction over {COURSE_WINDOW_S:g} s windows (the turn ratio "
+                     f"{ratio:.2f}{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
+                     f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame")
+        return ratio
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
