@@ -64,9 +64,9 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
 #: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above.
 BODY_KINEMATICS_RATIO = 1.0
-#: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body:
-#: its direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md):
-#: a simulated 0.28 m/s mission with 0.04 m/s beam noise 0.97; the NED copies refused, of simulated missions 2.4 and
+#: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body: its
+#: direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md): a
+#: simulated 0.28 m/s mission with 0.04 m/s beam noise 0.97; the NED copies refused, of simulated missions 2.4 and
 #: above, of the ten A-KIT trajectories (whole, 60 s and 120 s crops) 3.6 and above; the geometric middle.
 MIN_TURN_SIGNAL = 1.5
 #: The ``meta`` key set when a velocity that turns with the vehicle is kept as body by its kinematics: it
