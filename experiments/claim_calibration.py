@@ -7,12 +7,19 @@ Graph-TC's runs (no completion in its graph), at every keyframe of an outage win
 time into the outage (s), the number of beams measured, ``a`` ((m/s)^2) and the actual error ``e_p = y_p - y``
 (m/s) against the true beam (GT velocity and attitude). ``--claim-fit DIR`` writes, per fold, the scale table
 (:attr:`graphnav.estimators.options.RegressedScreeningOptions.prediction_var_table`) fitted on the other folds'
-trajectories only: per number of measured beams and range of time into the outage, ``sum(e_p^2) / sum(a)``.
+trajectories only: per number of measured beams and range of time into the outage, ``sum(e_p^2) / sum(a)``; run on
+its own, this module does that fit. Usage::
+
+    .venv/bin/python experiments/outage_position_drift.py --methods Graph-TC --claim-collect --scenarios 2-missing \\
+        3-missing 0-beams --window-s 60 120 --out out/claim/collect.json --jobs 2
+    .venv/bin/python experiments/claim_calibration.py out/claim/collect.json out/claim/time
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -112,3 +119,35 @@ def read_table(folder: Path, fold: int) -> dict[int, tuple[tuple[float, float], 
     from graphnav.estimators.options import RegressedScreeningOptions
     table = json.loads(path.read_text())["prediction_var_table"]
     return RegressedScreeningOptions(prediction_var_table=table).prediction_var_table
+
+
+def fit_folder(results: Path, folder: Path, edges=TIME_EDGES_S) -> list[Path]:
+    """Each fold's table (:func:`fold_tables`, over the five fixed folds) fitted on the ``--claim-collect`` run
+    ``results`` and written to ``folder`` (:func:`write_tables`)."""
+    if edges[0] != 0 or any(b <= e for e, b in zip(edges, edges[1:])):
+        raise SystemExit("the time edges must be ascending starts from 0 s")
+    sys.path.insert(0, str(Path(__file__).parent))
+    from hybrid_imu_folds import read_results
+    from graphnav.nets.crossval import AKIT_FOLDS
+    return write_tables(fold_tables(read_results(Path(results))[1], AKIT_FOLDS, tuple(edges)), Path(folder))
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description="Fit each fold's table of the graph's claimed-variance scales "
+                                "(screening.prediction_var_table) on the other folds' records of an "
+                                "outage_position_drift.py --claim-collect run, and write DIR/fold<k>.json "
+                                "(docs/decisions/completers.md, \"The graph's claimed variance calibrated out of "
+                                "fold\").")
+    p.add_argument("results", help="the --claim-collect run's results file (its --out)")
+    p.add_argument("folder", metavar="DIR", help="where fold<k>.json are written")
+    p.add_argument("--edges", nargs="+", type=float, metavar="S", default=list(TIME_EDGES_S),
+                   help="the starts (s, from 0) of the ranges of time into the outage a scale is fitted to (0 alone: "
+                        "one scale per number of measured beams)")
+    a = p.parse_args(argv)
+    for path in fit_folder(Path(a.results), Path(a.folder), a.edges):
+        print(f"{path}: {path.read_text()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -791,14 +791,8 @@ def main(argv=None) -> int:
         print_choices(runs, methods, AKIT_FOLDS)
         return 0
     if a.claim_fit:
-        from claim_calibration import TIME_EDGES_S, fold_tables, write_tables
-        from hybrid_imu_folds import read_results
-        edges = tuple(a.claim_edges or TIME_EDGES_S)
-        if edges[0] != 0 or any(b <= e for e, b in zip(edges, edges[1:])):
-            p.error("--claim-edges: ascending starts from 0 s")
-        for path in write_tables(fold_tables(read_results(Path(a.out))[1], AKIT_FOLDS, edges), Path(a.claim_fit)):
-            print(f"{path}: {path.read_text()}")
-        return 0
+        from claim_calibration import main as fit_claims
+        return fit_claims([a.out, a.claim_fit, *(["--edges", *map(str, a.claim_edges)] if a.claim_edges else [])])
     if a.methods[0] != GRAPH_TC:
         p.error("--methods must start with Graph-TC (the ratios are to it)")
     for flag, method, times in (("--pivot-runs", GRAPH_HNP, a.pivot_runs), ("--hni-runs", GRAPH_HNI, a.hni_runs)):
