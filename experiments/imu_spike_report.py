@@ -14,7 +14,15 @@ Part 3, the spans in seconds: a still IMU at 10-400 Hz with a turn onset (yaw ra
 starting (0.3 or 0.6 rad/s, period 2 or 5 s), a 1.2 s heading correction (0.2 rad/s) and a 12 m/s^2 half-sine shock
 of 80 ms: rows the loaders' test and the stream's refuse (off: the rate is under IMU_SPIKE_MIN_RATE_HZ).
 
+Part 4 (--shocks), a shock against a spike of its size: half-sine shocks of 5-30 m/s^2 lasting 30-100 ms on the
+still IMU at 50-400 Hz, on f_x alone and on three axes (1, 0.6, -0.5 of it), each at 8 sampling phases: rows refused
+by the loaders / the stream (mean over the phases; a shock is kept when it rises over rows, each within the limit of
+the row before); then bursts of 1-3 rows every 0.5 s on one axis, of the same size on every row, of random sizes (1-3x,
+random signs) or ramping up and down (RAMPS, a shock's shape): the fraction of bursts not refused whole (loaders,
+stream) and other rows refused.
+
     GRAPHNAV_DATA=/work/shared/data .venv/bin/python experiments/imu_spike_report.py
+    .venv/bin/python experiments/imu_spike_report.py --shocks-only
 """
 from __future__ import annotations
 
@@ -43,6 +51,7 @@ CONFIG = SensorConfig()
 ACCEL_SIZES = (2.0, 3.0, 5.0, 6.0, 8.0, 10.0, 100.0)        # m/s^2
 GYRO_SIZES = (0.05, 0.08, 0.1, 0.12, 0.15, 0.2, 0.5, 5.0)    # rad/s
 SPACING = 500
+RAMPS = {1: [1.0], 2: [0.6, 1.0], 3: [0.5, 1.0, 0.5]}        # part 4's bursts that rise and fall over rows
 
 
 def batch(t: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -118,9 +127,7 @@ def detection_table(imus: dict) -> None:
 
 def motion_cases(rate_hz: float) -> dict:
     """{name: (stamps s, rows)} of part 3 at ``rate_hz``: 120 s of a still IMU with one motion from t = 60 s."""
-    rng = np.random.default_rng(0)
-    t = np.arange(int(rate_hz * 120.0)) / rate_hz
-    x = np.hstack([[0.0, 0.0, -9.81] + rng.normal(0, 0.01, (t.size, 3)), rng.normal(0, 2e-4, (t.size, 3))])
+    t, x = still_imu(rate_hz, 120.0)
     cases = {}
     for name, axis, add in (
             ("turn onset 0.3 rad/s in 1 s", 5, np.clip(t - 60.0, 0.0, 1.0) * 0.3),
@@ -146,15 +153,69 @@ def rates_table() -> None:
             print(f"{name:28s} | {rate:5g} | {int(b.sum())} {int(s.sum())} ({bool(np.array_equal(b, s))})")
 
 
+def still_imu(rate_hz: float, duration_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps s, rows) of a still IMU at ``rate_hz`` (white noise 0.01 m/s^2, 2e-4 rad/s), as part 3's."""
+    rng = np.random.default_rng(0)
+    t = np.arange(int(rate_hz * duration_s)) / rate_hz
+    return t, np.hstack([[0.0, 0.0, -9.81] + rng.normal(0, 0.01, (t.size, 3)), rng.normal(0, 2e-4, (t.size, 3))])
+
+
+def shocks_table(phases: int = 8) -> None:
+    print("\nshocks: amplitude m/s^2 | duration ms | rate Hz | rows in it | rows refused loaders / stream, f_x alone; "
+          "three axes")
+    for rate in (50.0, 100.0, 200.0, 400.0):
+        t, x = still_imu(rate, 20.0)
+        for dur in (0.03, 0.05, 0.08, 0.1):
+            for amp in (5.0, 8.0, 12.0, 20.0, 30.0):
+                cells = []
+                for axes in ((1.0, 0.0, 0.0), (1.0, 0.6, -0.5)):
+                    refused = np.zeros(2)
+                    for p in range(phases):
+                        t0 = 10.0 + p / (phases * rate)
+                        pulse = np.where((t >= t0) & (t < t0 + dur), amp * np.sin(np.pi * (t - t0) / dur), 0.0)
+                        y = x - np.outer(pulse, axes + (0.0,) * 3)
+                        refused += [batch(t, y).sum(), stream(t, y).sum()]
+                    cells.append(f"{refused[0] / phases:4.1f} / {refused[1] / phases:4.1f}")
+                print(f"{amp:4g} | {dur * 1e3:3.0f} | {rate:3.0f} | {dur * rate:4.1f} | {cells[0]}; {cells[1]}")
+
+
+def bursts_table() -> None:
+    print("\nbursts: rate Hz | kind | rows | size on axis | not refused whole loaders, stream | other rows refused")
+    rng = np.random.default_rng(1)
+    for rate in (50.0, 100.0, 200.0, 400.0):
+        t, x = still_imu(rate, 60.0)
+        at = np.arange(int(2 * rate), len(t) - int(2 * rate), int(0.5 * rate))
+        for kind in ("same", "random", "ramp"):
+            for rows in (1, 2, 3):
+                for size, axis in ((5.5, 0), (6.0, 0), (10.0, 1), (100.0, 2), (0.12, 3), (0.5, 5), (5.0, 4)):
+                    y, hit = x.copy(), np.zeros(len(t), bool)
+                    for k, a in enumerate(at):
+                        sizes = {"same": np.full(rows, size), "random": size * rng.uniform(1.0, 3.0, rows),
+                                 "ramp": size * np.array(RAMPS[rows])}[kind]
+                        y[a:a + rows, axis] += sizes * (rng.choice([-1.0, 1.0], rows) if kind == "random" else
+                                                        (-1.0) ** k)
+                        hit[a:a + rows] = True
+                    b, s = batch(t, y), stream(t, y)
+                    whole = [np.mean([not m[a:a + rows].all() for a in at]) for m in (b, s)]
+                    print(f"{rate:3.0f} | {kind} | {rows} | {size:g} on {axis} | {whole[0]:.3f} {whole[1]:.3f} | "
+                          f"{int(b[~hit].sum())} {int(s[~hit].sum())}")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", help="A-KIT folder (default: the shared data, graphnav.io.paths)")
     p.add_argument("--no-detection", action="store_true", help="skip part 2 (the detection table)")
+    p.add_argument("--shocks", action="store_true", help="add part 4 (shocks against spikes and bursts)")
+    p.add_argument("--shocks-only", action="store_true", help="part 4 alone (no data needed)")
     args = p.parse_args(argv)
-    imus = clean_tables(akit_trajectories(args.data))
-    if not args.no_detection:
-        detection_table(imus)
-    rates_table()
+    if not args.shocks_only:
+        imus = clean_tables(akit_trajectories(args.data))
+        if not args.no_detection:
+            detection_table(imus)
+        rates_table()
+    if args.shocks or args.shocks_only:
+        shocks_table()
+        bursts_table()
     return 0
 
 

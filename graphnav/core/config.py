@@ -54,7 +54,8 @@ class ImuSpec:
             neighbours that is refused as a spike, m/s^2 (the spike test, :func:`graphnav.core.screening.imu_spikes`,
             refuses beyond the larger of this floor and 30 times the signal's local noise). Default 5 m/s^2, 14
             times the largest departure on the ten A-KIT trajectories (docs/decisions/screening.md); raise it for
-            a vehicle whose vibration or shocks really depart this far for a few samples.
+            a vehicle whose vibration or shocks really jump this far from one sample to the next (a shock that
+            rises over samples, each within the limit of the one before, is kept).
         gyro_spike_floor_rads: the same floor for the gyros, rad/s; default 0.1 rad/s (5.7 deg/s), 4.2 times the
             departure closest to its limit on the ten A-KIT trajectories.
     """

@@ -29,7 +29,10 @@ A row (or a run of up to :data:`IMU_SPIKE_HALF_WINDOW_S` of rows) is a spike whe
 running median of the rows within :data:`IMU_SPIKE_HALF_WINDOW_S` on each side by more than the larger of a physical
 floor per sensor (``ImuSpec.accel_spike_floor_mps2``, ``gyro_spike_floor_rads``) and :data:`IMU_SPIKE_NOISE_FACTOR`
 times the signal's local noise (the MAD of its first differences over blocks of :data:`IMU_SPIKE_SCALE_S`): a
-vibrating IMU raises its own threshold, a quiet one keeps the floor. The spans are in seconds and become rows at the
+vibrating IMU raises its own threshold, a quiet one keeps the floor. A departing value that got there over rows
+(within that limit of the row before, which was kept and had begun to depart the same way: :func:`jumped`) is a shock
+(a bump against the bottom or a dock) and kept: a spike jumps from the signal in one row, and the rest of its run
+goes with it. The spans are in seconds and become rows at the
 IMU's own rate (:func:`imu_spike_rows`); under :data:`IMU_SPIKE_MIN_RATE_HZ` the test is off, with a note. A row
 with a NaN or infinite value (an empty cell, ``inf``) is refused too (:func:`not_finite`), before any other
 rule looks at it.
@@ -90,6 +93,11 @@ IMU_SPIKE_RATE_ROWS = 11
 #: A spike departs from the running median by more than this many local noise scales (and the floor). The ten
 #: A-KIT trajectories depart by at most 14.3 (simulated IMUs: 7.1); docs/decisions/screening.md.
 IMU_SPIKE_NOISE_FACTOR = 30.0
+#: A departing IMU value is a shock's, and kept, when the row before it departed the same way by at least this fraction
+#: of the limit (3 noise scales, 0.5 m/s^2 at the accelerometers' floor: the shock had begun) and is within the limit
+#: of it (the value rose there over rows); with it, single-row spikes of exactly the floors are refused as often as
+#: when no shock was kept (docs/decisions/screening.md, "Shocks are not spikes").
+IMU_SHOCK_ONSET = 0.1
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
 IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
@@ -297,9 +305,10 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
     """IMU rows with a value departing from the median of the usable rows within ``IMU_SPIKE_HALF_WINDOW_S`` on each
     side of it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
     :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per
-    value, disjoint (a row under its first spiking value). The spans become rows at the rate of the usable rows'
-    stamps (:func:`imu_spike_rows`); under ``IMU_SPIKE_MIN_RATE_HZ`` nothing is refused (:func:`imu_implausible`
-    notes it).
+    value, disjoint (a row under its first spiking value), but for a shock's (:func:`_not_shocks`: a departing value
+    that did not :func:`jump <jumped>` there from the value before, itself kept, rose there over rows). The spans become rows at the rate of the
+    usable rows' stamps (:func:`imu_spike_rows`); under ``IMU_SPIKE_MIN_RATE_HZ`` nothing is refused
+    (:func:`imu_implausible` notes it).
 
     A run of up to the half window is a minority of every window it is in, so the median stays on the signal; a
     lasting change (a step, a turn) moves the median with it and is kept. The windows reflect at the ends of the
@@ -331,8 +340,28 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
         v = x[idx]
         median = median_filter(v, size=(2 * half + 1, 1), mode="mirror")
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
-        out[idx] = np.abs(v - median) > limit
+        out[idx] = _not_shocks(v, median, limit)
     return _by_first_field(out, fields, "spike in '{}'")
+
+
+def _not_shocks(v: np.ndarray, median: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """(N,k) values of ``v`` (N,k) departing from ``median`` by more than ``limit`` (N,k) that are no shock's: in
+    each run of departing rows of a column, from the first value that jumped there on (:func:`jumped`). A shock (a
+    bump against the bottom or a dock) gets there over rows; a spike in one, and the rest of its run goes with it."""
+    departing = np.abs(v - median) > limit
+    jumped_to = np.ones_like(departing)
+    jumped_to[1:] = jumped(v[1:] - median[1:], v[:-1] - median[1:], limit[1:])
+    rows = np.arange(len(v))[:, None]
+    run_start = np.maximum.accumulate(np.where(departing, -1, rows), axis=0)
+    last_jump = np.maximum.accumulate(np.where(departing & jumped_to, rows, -1), axis=0)
+    return departing & (last_jump > run_start)
+
+
+def jumped(departure, before, limit):
+    """Whether a value departing from its median by ``departure`` got there in one row from the row before, which
+    departed by ``before`` (both from this row's median): more than ``limit`` from it, or from a row that had not
+    departed the same way by :data:`IMU_SHOCK_ONSET` of the limit. Floats or arrays, units of the value."""
+    return (abs(departure - before) > limit) | (before * np.sign(departure) < IMU_SHOCK_ONSET * limit)
 
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
@@ -921,7 +950,9 @@ class ImuSpikeTest:
     ``max(floor, factor * noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows in blocks of
     ``block`` rows (:data:`IMU_SPIKE_SCALE_S`; the larger of the last two complete blocks; before the first block
     completes, the rows so far; and, for a departing value, of the block under way: vibration that just started).
-    Nothing is tested until the history is full. More than ``n`` spikes in a row are a lasting change: the history
+    A departing value that did not :func:`jump <jumped>` there from the row tested before, whose value was not
+    refused, is a shock's and accepted, as in :func:`imu_spikes`. Nothing is tested until the history is full. More than ``n`` spikes in a row
+    are a lasting change: the history
     restarts from the next departing row, which is accepted.
 
     The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
@@ -950,6 +981,8 @@ class ImuSpikeTest:
         self._block_scale: np.ndarray | None = None         # the last complete block's noise scale
         self._limit: list[float] | None = None              # per column, m/s^2 or rad/s
         self._run = 0
+        self._before = None                                 # the row tested before, as given
+        self._refused = [False] * len(self.floors)          # whether each of its values was refused
 
     def check(self, t: float, x) -> tuple[int, float, float] | None:
         """Test the row ``x`` (six floats: f_b m/s^2, omega_b rad/s) stamped ``t`` (s) and accept it when it is not
@@ -970,22 +1003,35 @@ class ImuSpikeTest:
             return None
         if not self.active:
             return None
-        limit = self._limit
-        if limit is not None and len(self._hist) == self.n:
-            lo, hi = (self.n - 1) // 2, self.n // 2
-            for j, (v, col, lim) in enumerate(zip(x, self._sorted, limit)):
-                ref = 0.5 * (col[lo] + col[hi])
-                if abs(v - ref) > lim:
-                    lim = max(lim, self._recent_limit(j))
-                    if abs(v - ref) <= lim:
-                        continue
-                    self._run += 1
-                    if self._run <= self.n:
-                        return j, ref, lim
-                    self._restart()
-                    break
+        hit = None
+        if self._limit is not None and len(self._hist) == self.n:
+            hit = self._spike(x)
+        self._before = x
+        if hit is not None:
+            self._run += 1
+            if self._run <= self.n:
+                return hit
+            self._restart()
         self._accept(x)
         return None
+
+    def _spike(self, x) -> tuple[int, float, float] | None:
+        """(index, median, limit) of the first value of ``x`` departing from the median of the history that is no
+        shock's (it :func:`jumped` there from the row tested before, or that row's value was refused: as
+        :func:`imu_spikes`), or None; marks each value refused or not."""
+        lo, hi = (self.n - 1) // 2, self.n // 2
+        hit = None
+        for j, (v, col, lim) in enumerate(zip(x, self._sorted, self._limit)):
+            ref = 0.5 * (col[lo] + col[hi])
+            refused = False
+            if abs(v - ref) > lim:
+                lim = max(lim, self._recent_limit(j))
+                refused = abs(v - ref) > lim and (self._refused[j] or self._before is None
+                                                  or bool(jumped(v - ref, self._before[j] - ref, lim)))
+                if refused and hit is None:
+                    hit = j, ref, lim
+            self._refused[j] = refused
+        return hit
 
     def _spans_the_grid(self) -> bool:
         """Whether the stamps so far measure the rate to :data:`IMU_SPIKE_RATE_TOLERANCE`: on a grid found in the
@@ -1023,6 +1069,7 @@ class ImuSpikeTest:
         return IMU_SPIKE_NOISE_FACTOR * _DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
 
     def _restart(self) -> None:
+        self._refused = [False] * len(self.floors)
         self._hist.clear()
         for col in self._sorted:
             col.clear()

@@ -16,7 +16,8 @@ What happens to a sample:
    screening of :mod:`graphnav.core.screening`, the same rules the loaders apply: a stamp beyond
    ``MAX_STAMP_S`` or more than a day ahead of the stream, an IMU value beyond the instrument's full scale or
    spiking (a run of up to 0.1 s of samples departing from the median of the last 0.1 s accepted, past the spike
-   test's floor and the signal's own noise: :class:`~graphnav.core.screening.ImuSpikeTest`, run in stamp order as
+   test's floor and the signal's own noise, unless it rose there over samples as a shock does:
+   :class:`~graphnav.core.screening.ImuSpikeTest`, run in stamp order as
    the samples leave the reorder buffer; off, with a warning and a note in :attr:`Navigator.info` (``notes``), for
    an IMU under 50 Hz), a DVL beam beyond the
    vehicle's speed or spiking (the ping is refused: one beam the instrument got wrong makes the others suspect,
