@@ -304,11 +304,12 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
                usable: np.ndarray | None = None, rate_hz: float | None = None) -> dict[str, np.ndarray]:
     """IMU rows with a value departing from the median of the usable rows within ``IMU_SPIKE_HALF_WINDOW_S`` on each
     side of it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
-    :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per
-    value, disjoint (a row under its first spiking value), but for a shock's (:func:`_not_shocks`: a departing value
-    that did not :func:`jump <jumped>` there from the value before, itself kept, rose there over rows). The spans become rows at the rate of the
-    usable rows' stamps (:func:`imu_spike_rows`); under ``IMU_SPIKE_MIN_RATE_HZ`` nothing is refused
+    :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per value,
+    disjoint (a row under its first spiking value), but for a shock's (:func:`_not_shocks`: a departing value that did
+    not :func:`jump <jumped>` there from the value before, itself kept, rose there over rows). The spans become rows at
+    the rate of the usable rows' stamps (:func:`imu_spike_rows`); under ``IMU_SPIKE_MIN_RATE_HZ`` nothing is refused
     (:func:`imu_implausible` notes it).
+
 
     A run of up to the half window is a minority of every window it is in, so the median stays on the signal; a
     lasting change (a step, a turn) moves the median with it and is kept. The windows reflect at the ends of the
@@ -945,15 +946,14 @@ class SpikeTest:
 
 
 class ImuSpikeTest:
-    """The IMU spike test of :func:`imu_spikes` on a stream, which has the past only: a row is a spike when a
-    value departs from the median of the last ``n`` accepted rows (:data:`IMU_SPIKE_HALF_WINDOW_S`) by more than
-    ``max(floor, factor * noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows in blocks of
-    ``block`` rows (:data:`IMU_SPIKE_SCALE_S`; the larger of the last two complete blocks; before the first block
-    completes, the rows so far; and, for a departing value, of the block under way: vibration that just started).
-    A departing value that did not :func:`jump <jumped>` there from the row tested before, whose value was not
-    refused, is a shock's and accepted, as in :func:`imu_spikes`. Nothing is tested until the history is full. More than ``n`` spikes in a row
-    are a lasting change: the history
-    restarts from the next departing row, which is accepted.
+    """The IMU spike test of :func:`imu_spikes` on a stream, which has the past only: a row is a spike when a value
+    departs from the median of the last ``n`` accepted rows (:data:`IMU_SPIKE_HALF_WINDOW_S`) by more than ``max(floor,
+    factor * noise)``, the noise :func:`imu_noise_scale`'s over the accepted rows in blocks of ``block`` rows
+    (:data:`IMU_SPIKE_SCALE_S`; the larger of the last two complete blocks; before the first block completes, the rows
+    so far; and, for a departing value, of the block under way: vibration that just started). A departing value that did
+    not :func:`jump <jumped>` there from the row tested before, whose value was not refused, is a shock's and accepted,
+    as in :func:`imu_spikes`. Nothing is tested until the history is full. More than ``n`` spikes in a row are a lasting
+    change: the history restarts from the next departing row, which is accepted.
 
     The rows per span come from the stream's own first :data:`IMU_SPIKE_RATE_ROWS` stamps (:func:`imu_rate_hz`;
     those rows are accepted; stamps on a clock's grid: as many as :meth:`_spans_the_grid` needs), after the burst
