@@ -91,6 +91,7 @@ def test_a_rehearsal_variant_without_rehearsed_outages_is_refused_not_ignored():
             GraphOptions(**{name: value})
         assert getattr(GraphOptions(rehearsed_outages=1.0, **{name: value}), name) == value
 
+
 def _twin_rehearsal(graph: str, var: float):
     """An OutageRehearsal on the default beams whose IMU-carried horizontal velocity has rehearsed a spread ``var``
     ((m/s)^2 per axis) at horizon 1, and one rehearsal at horizon 1: carried velocity 0.3 m/s off north, exact

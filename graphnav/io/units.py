@@ -91,6 +91,8 @@ DECLARED_UNITS = {"time": TIME_SCALES, "accel": {"m/s^2": 1.0, "g": STANDARD_GRA
 #: The two declared velocity units a DVL velocity is mixed up between, 1.94x apart: each is tried for the other
 #: (:func:`other_unit_factors`).
 KNOTS_MIX_UP = {"m/s", "kn"}
+
+
 def other_unit_factors(unit: str) -> dict[str, float]:
     """The velocity units a DVL velocity declared ``unit`` may be in instead -> the factor that multiplies the velocity
     as read (unitless): a metric unit at least 10x larger or smaller, knots for m/s and m/s for knots
