@@ -2251,3 +2251,46 @@ def test_an_imu_in_whole_ms_with_jitter_of_a_fifth_of_its_period_reads_its_rate(
         meta, stamps = _imu_stamps_read_whole(t[kept], r"^imu: imu.csv: stamps on a 1 ms grid, finer than the IMU's")
         assert imu_rate_hz(stamps) == pytest.approx(rate / (1.0 + 2e-5), rel=3e-3 if lost else 2e-4)
         assert np.max(np.abs(stamps - true[kept])) <= np.max(np.abs(t[kept] - true[kept]))
+
+
+def _knock_and_ramp(seed: int = 0):
+    """20 s of a still 100 Hz IMU with a knock (a 20 m/s^2 half-sine of 80 ms on f_x at t = 10 s: its first departing
+    row jumps 7.7 m/s^2, past the 5 m/s^2 floor) that a 1 Hz DVL sees change its velocity by the integral (1.02 m/s),
+    and a burst of bad samples at t = 14 s ramping 4, 8, ..., 20, ..., 4 m/s^2 on f_y (steps under the floor) that
+    it does not see; the DVL noisy (0.02 m/s, seeded). Returns stamps, IMU rows, the DVL (stamps, velocity)."""
+    t, x = _quiet_imu(100.0, 20.0)
+    phase = (t - 10.003) / 0.08
+    knock = np.where((phase > 0) & (phase < 1), 20.0 * np.sin(np.pi * np.clip(phase, 0, 1)), 0.0)
+    x[:, 0] -= knock
+    x[1400:1409, 1] += [4, 8, 12, 16, 20, 16, 12, 8, 4]
+    t_dvl = np.arange(20) + 0.5
+    v = np.tile([1.5, 0.0, 0.0], (20, 1)) + np.random.default_rng(seed).normal(0.0, 0.02, (20, 3))
+    v[t_dvl > 10.0, 0] -= 20.0 * 0.08 * 2 / np.pi
+    return t, x, (t_dvl, v)
+
+
+def test_a_knock_the_dvl_saw_is_kept_and_a_ramping_burst_it_did_not_see_is_refused():
+    """A knock whose first departing row jumps past the limit was refused as a spike (7 rows, its 1 m/s velocity change
+    lost), and a burst ramping under the limit per row was kept (its 1 m/s integral put in). With the DVL the loaders
+    ask whether the velocity changed across the run by its integral: the knock is kept, with a warning, its rows
+    counted as doubted and its span noted; the burst is refused with its shoulders. Without a DVL, as before; a
+    replayed mission's Navigator does not test the knock's rows again."""
+    from graphnav.core.screening import IMU_SHOCK_KEPT, imu_implausible
+    t, x, dvl = _knock_and_ramp()
+    refused = lambda masks: np.flatnonzero(np.any(list(masks.values()), axis=0)).tolist()  # noqa: E731
+    without = refused(imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig()))
+    assert without == list(range(1001, 1008))
+    meta = {}
+    with pytest.warns(RuntimeWarning, match=r"imu.csv: 1 shock\(s\) of the IMU kept.*t = 10.010-10.070 s, 7 rows, "
+                                            r"'f_b x' integrates to -0.99\d m/s, the DVL changed by 1.0\d m/s"):
+        masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta=meta, source="imu.csv", dvl=dvl)
+    assert refused(masks) == list(range(1400, 1409)) and masks["spike in 'f_b y'"].sum() == 9
+    assert meta["streams"]["imu"]["doubted"] == {IMU_SHOCK_KEPT: 7}
+    assert meta["imu_shocks"] == [[pytest.approx(10.01), pytest.approx(10.07)]]
+    for shocks, expected in (((), 7), (tuple(map(tuple, meta["imu_shocks"])), 0)):
+        nav = Navigator(SensorConfig(), "ekf", options=NavigatorOptions(imu_shocks=shocks))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for k in range(1200):
+                nav.add_imu(float(t[k]), x[k, :3], x[k, 3:])
+        assert sum(nav.info["refused"].get("imu", {}).values()) == expected

@@ -98,6 +98,17 @@ IMU_SPIKE_NOISE_FACTOR = 30.0
 #: of it (the value rose there over rows); with it, single-row spikes of exactly the floors are refused as often as
 #: when no shock was kept (docs/decisions/screening.md, "Shocks are not spikes").
 IMU_SHOCK_ONSET = 0.1
+#: A run of rows with a departing specific force (a knock, or a burst of bad samples) is judged by the DVL when it is
+#: there: a knock changes the velocity by the run's integral (its departure from the median times dt), a burst does
+#: not. The nearest valid ping before and after the run, each within :data:`IMU_SHOCK_DVL_GAP_S` of it, are compared on
+#: the axis the integral is largest on; the verdict needs the difference to be this many times the scatter of the DVL's
+#: changes between pings within :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD: noise and the vehicle's own motion), else the
+#: shape rule (:func:`jumped`) decides (docs/decisions/screening.md, "A knock the DVL saw").
+IMU_SHOCK_DVL_SIGMAS = 3.0
+IMU_SHOCK_DVL_GAP_S = 2.0
+IMU_SHOCK_DVL_SPAN_S = 30.0
+#: Count key of the IMU rows of a knock the DVL saw (kept, doubted: ``meta["streams"]["imu"]["doubted"]``).
+IMU_SHOCK_KEPT = "shock kept (the DVL saw its velocity change)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
 #: files have no column names of their own).
 IMU_FIELDS = ("f_b x", "f_b y", "f_b z", "omega_b x", "omega_b y", "omega_b z")
@@ -301,7 +312,8 @@ def imu_spike_off_note(rate_hz: float) -> str:
 
 
 def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
-               usable: np.ndarray | None = None, rate_hz: float | None = None) -> dict[str, np.ndarray]:
+               usable: np.ndarray | None = None, rate_hz: float | None = None, dvl: tuple | None = None,
+               kept: list | None = None) -> dict[str, np.ndarray]:
     """IMU rows with a value departing from the median of the usable rows within ``IMU_SPIKE_HALF_WINDOW_S`` on each
     side of it by more than ``max(floor, IMU_SPIKE_NOISE_FACTOR * local noise)`` (:func:`imu_spike_floors`,
     :func:`imu_noise_scale` over blocks of ``IMU_SPIKE_SCALE_S``): ``{"spike in '<field>'": mask}`` (N,) bool per value,
@@ -323,6 +335,10 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
             never are: they are a logger's filler, which ``ImuData.bridge_gaps`` and the keyframer drop).
         rate_hz: the IMU's rate, Hz, when the caller has it (default: :func:`imu_rate_hz` of the usable rows'
             stamps).
+        dvl: ``(t (M,) s on the IMU's clock, v (M,3) m/s)``, the DVL's velocity in the IMU's axes (any sign per axis;
+            NaN: no measurement): a run of departing specific force it judges is kept or refused as it says
+            (:func:`_dvl_verdicts`). kept: a list that gets ``(first stamp s, last stamp s, rows, integral m/s, DVL
+            change m/s, field)`` of each run kept on the DVL's word.
     """
     from scipy.ndimage import median_filter
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
@@ -342,7 +358,70 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
         median = median_filter(v, size=(2 * half + 1, 1), mode="mirror")
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = _not_shocks(v, median, limit)
+        if dvl is not None:
+            departure = v - median
+            out[idx] = _dvl_verdicts(np.asarray(t, float)[idx], departure, np.abs(departure) / limit, out[idx],
+                                     _dvl_measured(dvl, config.dvl), 1.0 / rate_hz, fields,
+                                     [] if kept is None else kept)
     return _by_first_field(out, fields, "spike in '{}'")
+
+
+def _dvl_measured(dvl: tuple, spec: DvlSpec) -> tuple[np.ndarray, np.ndarray]:
+    """``(t (K,), v (K,3))`` of ``dvl`` (:func:`imu_spikes`) the pings that can be measurements: finite, not all 0 (no
+    bottom lock) and within ``spec.max_speed_mps`` (not an RDI flag); a loader judges them further afterwards."""
+    t, v = (np.asarray(a, float) for a in dvl)
+    with np.errstate(invalid="ignore"):
+        ok = (np.linalg.norm(v, axis=1) <= spec.max_speed_mps) & np.any(v != 0.0, axis=1)
+    return t[ok], v[ok]
+
+
+def _dvl_verdicts(t: np.ndarray, departure: np.ndarray, ratio: np.ndarray, refused: np.ndarray, dvl: tuple,
+                  dt: float, fields, kept: list) -> np.ndarray:
+    """``refused`` (N,6) with the DVL's verdict on each run of rows whose specific force departs (``departure`` (N,6)
+    from the median, ``ratio`` (N,6) of it to the limit, at ``t`` (N,) s, ``dt`` s apart; ``dvl`` from
+    :func:`_dvl_measured`). On the axis its integral is largest on: kept whole when the DVL's velocity changed across it
+    by at least half the integral, refused (with the rows either side leaning its way, :func:`_leaning`) when by less;
+    either only when the integral and the DVL's change (or what it falls short by) are :data:`IMU_SHOCK_DVL_SIGMAS`
+    times the scatter of the DVL's changes, else the shape rule stands. Each run kept that it refused is appended
+    to ``kept`` (:func:`imu_spikes`). A spike or a burst of bad samples comes and goes with no velocity change; a
+    knock changes the velocity by what its specific force integrates to, whatever its shape."""
+    tp, vp = dvl
+    if len(tp) < 3:
+        return refused
+    out = refused.copy()
+    departing, leaning = ratio > 1.0, ratio > IMU_SHOCK_ONSET
+    steps, between = np.abs(np.diff(vp, axis=0)), 0.5 * (tp[1:] + tp[:-1])
+    edges = np.flatnonzero(np.diff(np.r_[0, departing[:, :3].any(axis=1), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):
+        integral = departure[a:b, :3].sum(axis=0) * dt
+        j = int(np.argmax(np.abs(integral)))
+        i0, i1 = np.searchsorted(tp, t[a]) - 1, np.searchsorted(tp, t[b - 1], side="right")
+        if i0 < 0 or i1 >= len(tp) or max(t[a] - tp[i0], tp[i1] - t[b - 1]) > IMU_SHOCK_DVL_GAP_S:
+            continue
+        near = np.abs(between - t[a]) <= IMU_SHOCK_DVL_SPAN_S
+        near[i0:i1] = False                     # the change across the run is the one judged
+        if not near.any():
+            continue
+        margin = IMU_SHOCK_DVL_SIGMAS * 1.4826 * float(np.median(steps[near, j]))
+        size, change = abs(float(integral[j])), abs(float(vp[i1, j] - vp[i0, j]))
+        if size >= margin and change >= max(0.5 * size, margin):
+            out[a:b] = False
+            if refused[a:b].any():      # the DVL's word kept it (the shape rule keeps a run that rose there)
+                kept.append((float(t[a]), float(t[b - 1]), int(b - a), float(integral[j]), change, fields[j]))
+        elif size - change >= margin:
+            out[_leaning(departure[:, j], leaning[:, j], a, b), j] = True
+    return out
+
+
+def _leaning(departure: np.ndarray, leaning: np.ndarray, a: int, b: int) -> slice:
+    """Rows ``a:b`` of a run of bad samples and the rows either side of it whose ``departure`` (N,) leans its way
+    (``leaning`` (N,): by more than :data:`IMU_SHOCK_ONSET` of the limit): the shoulders of a burst that ramps."""
+    sign = np.sign(departure[a:b].sum())
+    while a > 0 and leaning[a - 1] and np.sign(departure[a - 1]) == sign:
+        a -= 1
+    while b < len(departure) and leaning[b] and np.sign(departure[b]) == sign:
+        b += 1
+    return slice(a, b)
 
 
 def _not_shocks(v: np.ndarray, median: np.ndarray, limit: np.ndarray) -> np.ndarray:
@@ -366,11 +445,13 @@ def jumped(departure, before, limit):
 
 
 def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: SensorConfig, fields=IMU_FIELDS,
-                    meta: dict | None = None, source: str = "") -> dict[str, np.ndarray]:
+                    meta: dict | None = None, source: str = "", dvl: tuple | None = None) -> dict[str, np.ndarray]:
     """The IMU rows a loader refuses, by reason, disjoint and in the order tested: a NaN or infinite value
     (:func:`not_finite`), beyond full scale (:func:`imu_out_of_range`), a spike among the rest
-    (:func:`imu_spikes`). ``t``: (N,) stamps, s; ``fields``: names of the six values, f_b then omega_b. When the IMU
-    is too slow for the spike test, a note in ``meta``'s IMU stream (when given) and a warning naming ``source``."""
+    (:func:`imu_spikes`, with the ``dvl``'s velocity when given). ``t``: (N,) stamps, s; ``fields``: names of the six
+    values, f_b then omega_b. When the IMU is too slow for the spike test, a note in ``meta``'s IMU stream (when
+    given) and a warning naming ``source``; a knock kept on the DVL's word: a warning, counted as doubted, and its span
+    in ``meta["imu_shocks"]`` (the stream does not test those rows again: ``NavigatorOptions.imu_shocks``)."""
     nan = not_finite(np.hstack([f_b, omega_b]), fields)
     out_of_range = imu_out_of_range(f_b, omega_b, config)
     bad = np.any(list(nan.values()) + list(out_of_range.values()), axis=0)
@@ -380,7 +461,25 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
         if meta is not None:
             add_note(meta, "imu", note)
         warnings.warn(f"{source}: {note}" if source else note, RuntimeWarning, stacklevel=2)
-    return {**nan, **out_of_range, **imu_spikes(t, f_b, omega_b, config, fields, usable=~bad, rate_hz=rate)}
+    kept: list = []
+    spikes = imu_spikes(t, f_b, omega_b, config, fields, usable=~bad, rate_hz=rate, dvl=dvl, kept=kept)
+    if kept:
+        _note_shocks(kept, meta, source)
+    return {**nan, **out_of_range, **spikes}
+
+
+def _note_shocks(kept: list, meta: dict | None, source: str) -> None:
+    """Warn about the knocks :func:`imu_spikes` kept (``kept``), count their rows as doubted in ``meta`` and keep
+    their spans (s) in ``meta["imu_shocks"]``."""
+    where = "; ".join(f"t = {t0:.3f}-{t1:.3f} s, {rows} rows, '{field}' integrates to {integral:+.3g} m/s, the DVL "
+                      f"changed by {change:.3g} m/s" for t0, t1, rows, integral, change, field in kept[:5])
+    warnings.warn(f"{source + ': ' if source else ''}{len(kept)} shock(s) of the IMU kept, though they depart from "
+                  f"the signal as a spike does: the DVL's velocity changed across them as they say ({where}"
+                  f"{' ...' if len(kept) > 5 else ''}; a knock against the bottom or a dock?)", RuntimeWarning,
+                  stacklevel=3)
+    if meta is not None:
+        count_doubted(meta, "imu", IMU_SHOCK_KEPT, sum(k[2] for k in kept))
+        meta.setdefault("imu_shocks", []).extend([k[0], k[1]] for k in kept)
 
 
 def depth_implausible(t: np.ndarray, depth_m: np.ndarray, config: SensorConfig) -> dict[str, np.ndarray]:

@@ -111,6 +111,9 @@ class NavigatorOptions:
             loader knows the file's resolution and the pings after each run,
             :func:`graphnav.core.screening.no_bottom_lock`);
             the stream, which knows neither, does not judge them again.
+        imu_shocks: ``[first, last]`` stamps (s) of IMU shocks the loader kept on the DVL's word (a replayed
+            mission's ``meta["imu_shocks"]``, :func:`graphnav.core.screening.imu_implausible`): the stream, which
+            has no ping after them yet, does not test their rows again.
     """
 
     reorder_window_s: float = 0.2
@@ -120,6 +123,7 @@ class NavigatorOptions:
     align_buffer_s: float = 600.0
     align: AlignOptions = field(default_factory=AlignOptions)
     dvl_zeros_judged: bool = False
+    imu_shocks: tuple = ()
 
     def __post_init__(self):
         if self.reorder_window_s < 0:
@@ -699,6 +703,8 @@ class Navigator:
         runs here, in stamp order, not on arrival: its history is the past, and a sample that arrived late belongs
         before the ones that overtook it. The propagation :meth:`state_at` cached over the buffered samples, this
         one included, starts again without it."""
+        if any(t0 <= t <= t1 for t0, t1 in self.options.imu_shocks):
+            return False        # nor does a kept shock's row join the history its next rows are compared with
         spike = self._screen.imu_spike(t, f, w)
         if not self._imu_spike_noted and self._screen.imu_spike_note is not None:
             self._imu_spike_noted = True

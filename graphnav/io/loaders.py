@@ -417,8 +417,12 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     gt_refused = _akit_units(imu, dvl, gt, lines, files, meta, cfg)
     if rescale_stamps:
         _rescale_akit_stamps({"imu": imu, "dvl": dvl, "gt": gt}, files, meta)
+    # the DVL in the IMU's axes tells a knock from a burst of bad samples
+    with np.errstate(invalid="ignore"):
+        on_imu_axes = (dvl[:, 0], dvl[:, 1:4] @ cfg.dvl.C_d_b.T)
     imu, = refuse_rows(meta, "imu", imu_implausible(imu[:, 0], imu[:, 1:4], imu[:, 4:7], cfg, AKIT_COLUMNS["IMU"][1:],
-                                                    meta, str(files["IMU"])), str(files["IMU"]), lines["imu"], imu)
+                                                    meta, str(files["IMU"]), on_imu_axes), str(files["IMU"]),
+                       lines["imu"], imu)
     if gt is not None:
         gt, = refuse_rows(meta, "gt", gt_refused, str(files["GT"]), lines["gt"], gt)
     return AkitRaw(imu, dvl, gt, files, meta, lines["dvl"])
