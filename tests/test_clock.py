@@ -210,25 +210,32 @@ def test_a_gt_the_imu_cannot_place_is_a_clear_error(sim_gt):
     assert same is sim_gt.gt and offset == 0.0 and not meta
 
 
+def _akit_with_gt_moved(src, tmp_path, by_s: float):
+    """A copy of the A-KIT folder ``src`` under ``tmp_path`` with ``by_s`` (s) added to its GT file's stamps."""
+    import shutil
+
+    from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
+    files = akit_files(src)
+    dst = tmp_path / src.name
+    dst.mkdir()
+    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"])
+    gt[:, 0] += by_s
+    np.savetxt(dst / files["GT"].name, gt, delimiter=",", fmt="%.17g", comments="", header=",".join(AKIT_COLUMNS["GT"]))
+    for kind in ("IMU", "DVL"):
+        shutil.copy(files[kind], dst / files[kind].name)
+    return dst, dst / files["GT"].name
+
+
 @pytest.mark.parametrize("given", [False, True])
 def test_akit_loader_finds_a_gt_clock_days_away(akit_dir, tmp_path, given):
     """Trajectory5 with its GT file three days ahead (before: "too little overlap between IMU and reference" and
     numpy's "Mean of empty slice", with no file named): the GT is put on the IMU clock with a warning naming the file
     and the offset, and everything after is the published folder's; a configured GT offset that leaves the GT off
-    the IMU span is warned about and replaced by the estimate."""
-    import shutil
-
+    the IMU span is warned about naming the configuration and the offset the data give, which is used instead."""
     from graphnav.calibration.preparation import prepare
-    from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv, read_mission
+    from graphnav.io.loaders import read_mission
     src = akit_dir / "Trajectory5"
-    files = akit_files(src)
-    dst = tmp_path / src.name
-    dst.mkdir()
-    gt = read_csv(files["GT"], AKIT_COLUMNS["GT"])
-    gt[:, 0] += 3 * 86400.0
-    np.savetxt(dst / files["GT"].name, gt, delimiter=",", fmt="%.17g", comments="", header=",".join(AKIT_COLUMNS["GT"]))
-    for kind in ("IMU", "DVL"):
-        shutil.copy(files[kind], dst / files[kind].name)
+    dst, gt_file = _akit_with_gt_moved(src, tmp_path, 3 * 86400.0)
     config = None
     if given:
         config = tmp_path / "config.json"
@@ -238,13 +245,48 @@ def test_akit_loader_finds_a_gt_clock_days_away(akit_dir, tmp_path, given):
         warnings.simplefilter("always")
         m = prepare(read_mission(dst, config), imu_axis_signs=(1, -1, 1))
     text = [str(w.message) for w in caught]
-    assert any(t.startswith(str(dst / files["GT"].name)) and "GT clock offset -259199." in t for t in text), text
-    assert given == any("configured gt_time_offset_s +0.500 s puts the stamps at" in t for t in text)
+    said = (str(config), "gt_time_offset_s = +0.500 s is given, but the angles the reference turns through match the "
+            "gyro's at -259199.") if given else (str(gt_file), "GT clock offset -259199.")
+    assert any(t.startswith(said[0]) and said[1] in t for t in text), text
     assert not any("slice" in t for t in text)
     np.testing.assert_allclose(m.gt.t, ref.gt.t, atol=1e-3)
     np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=1e-3)
     assert m.config.gt_time_offset_s == pytest.approx(ref.config.gt_time_offset_s - 3 * 86400.0, abs=1e-3)
     assert m.meta["clock_offsets"]["gt"]["confident"]
+    assert bool(m.meta["streams"]["gt"].get("doubted")) == given
+
+
+@pytest.mark.parametrize("late_s", [16.0, -16.0])
+def test_a_given_akit_gt_offset_the_clock_search_contradicts_is_doubted_with_the_offset_the_data_give(
+        akit_dir, tmp_path, late_s):
+    """Trajectory1 with its GT file 16 s late (or early) and a configuration giving gt_time_offset_s 0: the given
+    offset was judged by the axis detection's +-2 s estimate alone, and the DVL, fitted against a GT 16 s off, was
+    refused as "in another frame" naming the DVL file (five of the ten trajectories; four loaded silently). The clock
+    search a column map's given offset gets names the offset the data give; the GT is used as given, counted as
+    doubted and its score says so, and the IMU axes and the DVL offset are the published folder's."""
+    import re
+
+    from graphnav.calibration.preparation import reference_notes
+    from graphnav.io.loaders import read_mission
+    src = akit_dir / "Trajectory1"
+    dst, _ = _akit_with_gt_moved(src, tmp_path, late_s)
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"gt_time_offset_s": 0.0}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref, read = load_mission(src), read_mission(dst)
+    with pytest.warns(RuntimeWarning, match=r"config.json: gt_time_offset_s = \+0\.000 s is given, but the angles the "
+                                            r"reference turns through match the gyro's at [+-]\d+\.\d+ s") as said:
+        m = load_mission(dst, config)
+    data_say = float(re.search(r"match the gyro's at ([+-]\d+\.\d+) s", str(said[0].message)).group(1))
+    moved = read.gt.t[0] - read_mission(src).gt.t[0]          # the reader's stamps, rescaled
+    assert data_say == pytest.approx(ref.config.gt_time_offset_s - moved, abs=2e-3)
+    np.testing.assert_allclose(m.gt.t, read.gt.t)                                   # used as given
+    assert m.config.gt_time_offset_s == 0.0
+    assert m.meta["streams"]["gt"]["doubted"] == {"gt_time_offset_s used as given though the data disagree": 400}
+    assert "the score is doubted" in reference_notes(m)["reference_time"]
+    np.testing.assert_array_equal(m.config.imu_axis_signs, ref.config.imu_axis_signs)
+    assert m.config.dvl_time_offset_s == pytest.approx(ref.config.dvl_time_offset_s, abs=1e-3)
 
 
 def shift_file_stamps(path, by):

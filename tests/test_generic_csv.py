@@ -951,14 +951,20 @@ def test_a_declared_time_unit_that_puts_a_stream_off_the_imu_span_is_refused_nam
         load_mission(tmp_path, _config(tmp_path, sim, cmap))
 
 
+def _another_missions_reference():
+    """The reference of another simulated 40 s mission: no clock offset puts its turns on the log's gyro."""
+    return simulate_mission(duration_s=40.0, seed=6).gt
+
+
 def test_a_stream_off_the_imu_span_in_every_unit_is_warned_about_and_counted(sim, tmp_path):
     """A depth or reference on a clock of its own (5000 s late), whose unit explains nothing: the depth loaded
     without a word and was never used ('graphnav info': usable, 41 used), the reference too until scoring failed. They
     keep today's use, but are warned about naming the file, the stamp column and both spans, and counted; a DVL on
-    a clock of its own in its declared unit is still found by the clock search."""
+    a clock of its own in its declared unit is still found by the clock search. (The reference is another mission's,
+    whose turns match the gyro's at no offset: this one's would be put on the IMU clock by them.)"""
     cmap = _separate_files(tmp_path, sim)
     cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: (t + T0 + 5000.0) * 1e3), "time_unit": "ms"}
-    g = sim.gt
+    g = _another_missions_reference()
     _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
            [(g.t + T0 + 5000.0) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
     with pytest.warns(RuntimeWarning) as caught:
@@ -1075,10 +1081,11 @@ def test_the_units_a_speed_beyond_a_dvl_names_come_most_plausible_first(tmp_path
 def test_a_depth_or_reference_off_the_imu_span_is_left_out_and_said_not_usable(sim, tmp_path, capsys):
     """A depth and a reference 5000 s late, warned about and counted, were still in the mission: ``graphnav info``
     said usable with a time span of 0-5040 s, and ``smooth`` ended in a traceback scoring the reference. Both are
-    optional: left out of the mission, marked not usable with the reason (info, summary), the span the IMU's."""
+    optional: left out of the mission, marked not usable with the reason (info, summary), the span the IMU's. (The
+    reference is another mission's: this one's turns would put it on the IMU clock.)"""
     cmap = _separate_files(tmp_path, sim)
     cmap["depth"] = {**_depth_log(tmp_path, sim, lambda t: (t + T0 + 5000.0) * 1e3), "time_unit": "ms"}
-    g = sim.gt
+    g = _another_missions_reference()
     _write(tmp_path / "nav.csv", ["time_ms", "n", "e", "d", "vn", "ve", "vd", "roll", "pitch", "yaw"],
            [(g.t + T0 + 5000.0) * 1e3, g.p_n, g.v_n, np.degrees(C_b_n_to_euler(g.C_b_n))])
     cfg = _config(tmp_path, sim, cmap)
@@ -1264,6 +1271,25 @@ def test_a_given_reference_offset_the_clock_search_contradicts_is_doubted_with_t
         warnings.simplefilter("error")
         m = load_mission(tmp_path, right)
     assert "reference_time" not in reference_notes(m) and initial_state(m, None, "auto", 0.0) is not None
+
+
+def test_a_given_reference_offset_that_leaves_it_off_the_imu_span_is_searched_and_the_data_decide(sim, tmp_path):
+    """A configuration's gt_time_offset_s 0 with the reference logged 28 s late on a 40 s log (sharing 30 %): the
+    reference was left out unsearched, though its turns match the gyro's at -28 s. It now gets the clock search a
+    reference without a given offset gets: used as given it would be lost, so the offset the data give is used,
+    warned about naming the configuration and the key, noted, counted as doubted and kept in the configuration."""
+    from graphnav.calibration.preparation import reference_notes
+    cfg = _shifted_reference(tmp_path, sim, 28.0, gt_time_offset_s=0.0)
+    with pytest.warns(RuntimeWarning, match=r"config.json: gt_time_offset_s = \+0\.000 s is given, but the angles the "
+                                            r"reference turns through match the gyro's at -2[78]\.\d+ s .* reference "
+                                            r"would be left out: -2[78]\.\d+ s is used instead"):
+        m = load_mission(tmp_path, cfg)
+    np.testing.assert_allclose(m.gt.t, sim.gt.t, atol=1e-3)
+    entry = m.meta["streams"]["gt"]
+    assert entry.get("usable", True) and not entry.get("refused")
+    assert entry["doubted"] == {"gt_time_offset_s off the IMU span: the offset the data give used instead": 401}
+    assert m.config.gt_time_offset_s == pytest.approx(-28.0, abs=1e-3)
+    assert "reference_time" not in reference_notes(m) and "gt_clock_doubted" not in m.meta
 
 
 @pytest.mark.parametrize("late_s, reference", [(16.0, True), (16.0, False), (-5.0, False)])

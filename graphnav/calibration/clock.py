@@ -36,7 +36,7 @@ from scipy.optimize import minimize_scalar
 from graphnav.calibration.reference import _sigma_from_curvature
 from graphnav.core.dvl_kinematics import dvl_window_model, with_enough_pings
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note
+from graphnav.core.streams import add_note, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
 #: Shortest overlap of the two logs at a candidate offset, s ...
@@ -404,12 +404,23 @@ def align_gt_clock(imu, gt, meta: dict | None = None, *, field: str = "t", what_
     except DataError as exc:
         raise DataError(f"{where}, and its clock offset cannot be found: {exc.message}; {todo}",
                         gt.source, field=field) from None
-    meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": gt_clock_confident(est)}
     if not gt_clock_confident(est):
+        meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": False}
         raise DataError(f"{where}, and the IMU's gyro explains the GT's attitude changes at no clear offset (best "
                         f"{est.peak:.2f} at {est.offset_s:+.3f} s, {est.second_peak:.2f} at the next best; a GT of "
                         f"another mission, or too little turning to align on); {todo}", gt.source, field=field)
     text = f"GT clock offset {est.describe()} estimated from the data and added to the GT stamps"
-    warnings.warn(f"{gt.source}: {text}", RuntimeWarning, stacklevel=2)
-    add_note(meta, "gt", text)
-    return dataclasses.replace(gt, t=np.asarray(gt.t, float) + est.offset_s), est.offset_s
+    return add_gt_clock_offset(gt, est, meta, text), est.offset_s
+
+
+def add_gt_clock_offset(gt, est: ClockOffset, meta: dict, text: str, who: str | None = None):
+    """``gt`` with the confident clock offset ``est`` (s) added to its stamps, ``text`` warned about (as said by
+    ``who``, default the GT file) and noted on the GT stream, the estimate kept in ``meta["clock_offsets"]["gt"]`` and
+    the span in ``meta["streams"]["gt"]``: the one place a GT clock offset found from the data is applied (an A-KIT GT
+    off the IMU span, a log's or bag's reference on a clock of its own, a given offset that leaves it off the span)."""
+    meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": True}
+    warnings.warn(f"{who or gt.source}: {text}", RuntimeWarning, stacklevel=4)
+    add_note(meta, "gt", f"{who}: {text}" if who else text)
+    gt = dataclasses.replace(gt, t=np.asarray(gt.t, float) + est.offset_s)
+    set_span(meta, "gt", gt.t)
+    return gt

@@ -18,9 +18,12 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
    DVL stamps lie off the IMU span (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
-   A DVL that follows the GT at no offset (another frame, other units) is a DataError. A given offset (a
-   configuration's, a written folder's) that leaves most of its file's stamps off the IMU span is warned about
-   and estimated as ``"auto"`` is.
+   A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
+   (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
+   (:func:`_given_reference_clock`): one the data contradict is used as given and doubted (the axis check and the
+   DVL's offset take the GT where the data put it), one that leaves the GT off the IMU span is replaced by theirs. A
+   given DVL offset that leaves most of its file's stamps off the IMU span is warned about and estimated as
+   ``"auto"`` is.
 3. **GT point.** The GT is moved from the published INS point to the IMU point
    (:func:`graphnav.calibration.reference.move_ground_truth`), and the depth stream with it.
 
@@ -35,7 +38,8 @@ vertical velocity
 own is put on the IMU's
 (:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
 without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
-(the configuration's ``gt_time_offset_s``, else estimated as for A-KIT and added when it is more than noise) and
+(the configuration's ``gt_time_offset_s``, judged by the same clock search, else estimated as for A-KIT and added when
+it is more than noise) and
 moved to the IMU point from the configuration's ``reference_position_b`` (:func:`_reference_on_the_imu`). A DVL or
 reference time offset a configuration gives is judged as an A-KIT folder's is (:func:`_judge_given_dvl_clock`,
 :func:`_judge_given_gt_offset`): a disagreement is warned about naming the file, and counted.
@@ -260,12 +264,20 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
                                         ("dvl_time_offset_s", dvl_time_offset_s))
                  if _is_auto(value) and key in facts.get("given", {})}
     imu_axis_signs = _pick(imu_axis_signs, facts, "imu_axis_signs")
-    gt_time_offset_s = _off_the_imu_clock(mission.gt, _pick(gt_time_offset_s, facts, "gt_time_offset_s"),
-                                          mission.imu, "gt", meta)
+    gt_time_offset_s = _pick(gt_time_offset_s, facts, "gt_time_offset_s")
+    gt_clock, used_as_given = 0.0, None
+    if mission.gt is not None and "gt_time_offset_s" in from_file:
+        data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta, facts)[1]
+        if data_s is not None:
+            # the axis check and the DVL's offset take the GT where the data put it; the GT handed on (and its depth)
+            # is stamped with a given offset used as given
+            used_as_given = float(gt_time_offset_s) if "gt_clock_doubted" in meta else None
+            gt_time_offset_s, gt_clock = AUTO, data_s
+            mission = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + data_s))
+    gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
     dvl_time_offset_s = _off_the_imu_clock(mission.dvl, _pick(dvl_time_offset_s, facts, "dvl_time_offset_s"),
                                            mission.imu, "dvl", meta)
-    gt_clock = 0.0
-    if mission.gt is not None and _is_auto(gt_time_offset_s):
+    if mission.gt is not None and _is_auto(gt_time_offset_s) and not gt_clock:
         # a GT on a clock of its own first gets its clock offset: the axis check and the fine estimate need it
         # on the IMU's (they search +-2 s)
         gt, gt_clock = _gt_clock(mission, meta)
@@ -348,6 +360,10 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
 
     t_gt = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
+    if used_as_given is not None:
+        estimates.pop("gt", None)
+        cfg.gt_time_offset_s = used_as_given
+        t_gt = g.t - gt_clock + used_as_given
     gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
     if np.any(imu_position_b):
         from graphnav.calibration.reference import move_ground_truth
@@ -700,23 +716,55 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     fine time-offset search reaches (:data:`GT_OFFSET_SEARCH_S`), as an A-KIT folder's GT is: the angles it turns
     through against the gyro's (:func:`graphnav.calibration.clock.estimate_gt_clock_offset`, confident), before the
     checks that compare it with the IMU. Off the IMU span (28 s late on a 40 s log) it was left out; on it (16 s late,
-    sharing 60 %) it was scored 16 s off. One no offset explains, or a given ``gt_time_offset_s``, is left as it is
+    sharing 60 %) it was scored 16 s off. A given ``gt_time_offset_s`` gets the same search on the stamps it gives
+    (:func:`_given_reference_clock`). One no offset explains is left as it is
     (:func:`graphnav.io.stream_counts.warn_off_the_imu_clock` leaves out one off the span)."""
     g = mission.gt
-    if g is None or facts.get("given", {}).get("gt_time_offset_s") is not None:
+    if g is None:
         return mission
+    given = facts.get("given", {}).get("gt_time_offset_s")
+    if given is not None:
+        moved = _given_reference_clock(mission.imu, g, float(given), meta, facts)[0]
+        return mission if moved is g else dataclasses.replace(mission, gt=moved)
     est = _far_reference_clock(mission.imu, g)
     if est is None:
         return mission
+    from graphnav.calibration.clock import add_gt_clock_offset
     text = (f"reference clock offset {est.describe()} estimated from the data and added to the reference stamps "
             f"[{g.t[0]:.3f}, {g.t[-1]:.3f}] s (sharing {overlap_text(g.t, mission.imu.t)} with the IMU span): a clock "
             "of its own; set gt_time_offset_s in the configuration if it is known")
-    warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
-    add_note(meta, "gt", text)
-    meta.setdefault("clock_offsets", {})["gt"] = {**est.to_dict(), "confident": True}
-    g = dataclasses.replace(g, t=np.asarray(g.t, float) + est.offset_s)
-    set_span(meta, "gt", g.t)
-    return dataclasses.replace(mission, gt=g)
+    return dataclasses.replace(mission, gt=add_gt_clock_offset(g, est, meta, text))
+
+
+def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict):
+    """The clock search a reference without a given offset gets (:func:`_far_reference_clock`), run on its stamps with
+    the configuration's ``gt_time_offset_s`` ``given`` (s) added, for an A-KIT folder's GT and a log's or bag's
+    reference alike: ``(gt, None)`` when it finds no confident offset beyond the fine search's reach (the given offset
+    stands, judged by the fine search), else ``(gt, the offset the data give in all, s)``, said as a given value the
+    data contradict. With the given offset the reference on the IMU span is used as given (:func:`_doubt_given`: its
+    score doubted, and ``meta["gt_clock_doubted"]``: no alignment starts from it) and ``gt`` comes back as it is; off
+    the span, where as given it would be lost, what the data give is added to ``gt``'s stamps instead (besides the
+    given offset), warned about naming the configuration, noted and its samples counted as doubted."""
+    key = "gt_time_offset_s"
+    shifted = dataclasses.replace(gt, t=np.asarray(gt.t, float) + given)
+    est = _far_reference_clock(imu, shifted)
+    if est is None:
+        return gt, None
+    data_s = given + est.offset_s
+    says = (f"the angles the reference turns through match the gyro's at {data_s:+.3f} s (sigma {est.sigma_s:.3f} s; "
+            f"the clock search: the gyro explains {est.peak:.2f} of them there, {est.second_peak:.2f} at the next best "
+            "offset)")
+    if on_the_imu_clock(shifted.t, imu.t):
+        _doubt_given(meta, facts, key, "gt", len(gt.t), f"{given:+.3f} s", says)
+        meta["gt_clock_doubted"] = data_s
+        return gt, data_s
+    from graphnav.calibration.clock import add_gt_clock_offset
+    text = (f"{key} = {given:+.3f} s is given, but {says}; with it the reference stamps lie at [{shifted.t[0]:.3f}, "
+            f"{shifted.t[-1]:.3f}] s, sharing {overlap_text(shifted.t, imu.t)} with the IMU span [{imu.t[0]:.3f}, "
+            f"{imu.t[-1]:.3f}] s, and the reference would be left out: {data_s:+.3f} s is used instead; set {key} to "
+            "it if it is known, or to null (or remove the key) to let the data decide")
+    count_doubted(meta, "gt", f"{key} off the IMU span: the offset the data give used instead", len(gt.t))
+    return add_gt_clock_offset(gt, est, meta, text, facts.get("given_by", {}).get(key, "the configuration")), data_s
 
 
 def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> bool:
@@ -933,7 +981,8 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
         applied = est is not None and abs(est.offset_s) > max(GT_OFFSET_SIGMAS * est.sigma_s, GT_OFFSET_MIN_S)
         offset = est.offset_s if applied else 0.0
         how = f"estimated from its attitude against the gyro, sigma {est.sigma_s:.4f} s" if applied else how
-    elif on_the_imu_clock(g.t + offset, mission.imu.t):
+    elif on_the_imu_clock(g.t + offset, mission.imu.t) and "gt_clock_doubted" not in meta \
+            and "gt" not in meta.get("clock_offsets", {}):       # the clock search has said what the data give
         _judge_given_gt_offset(mission, meta, facts, float(offset), lat)
     if offset:
         text = f"time offset {offset:+.3f} s added to the reference stamps ({how})"
@@ -962,22 +1011,13 @@ def _reference_on_the_imu(mission: Mission, meta: dict, facts: dict) -> Mission:
 
 
 def _judge_given_gt_offset(mission: Mission, meta: dict, facts: dict, given: float, lat: float | None) -> None:
-    """The configuration's ``gt_time_offset_s`` of a log or bag (s) judged as an A-KIT folder's is
-    (:func:`_judge_given_offset`): against the offset the reference's attitude increments, stamped with it, still
-    need to match the gyro's (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s), after the clock
-    search an offset not given gets (:func:`_far_reference_clock`): a confident offset beyond the fine search's reach
-    is what the data say (a configuration's 0 s with a reference logged 16 s late: the fine search said +0.380 s). A
-    reference too short to estimate cannot judge it: noted."""
+    """The configuration's ``gt_time_offset_s`` of a log or bag (s), which the clock search left standing
+    (:func:`_given_reference_clock`), judged as an A-KIT folder's is (:func:`_judge_given_offset`): against the offset
+    the reference's attitude increments, stamped with it, still need to match the gyro's
+    (:func:`graphnav.calibration.reference.estimate_gt_time_offset`, +-2 s). A reference too short to estimate cannot
+    judge it: noted."""
     from graphnav.calibration.reference import estimate_gt_time_offset
     g = mission.gt
-    clock = _far_reference_clock(mission.imu, dataclasses.replace(g, t=g.t + given))
-    if clock is not None:
-        _doubt_given(meta, facts, "gt_time_offset_s", "gt", len(g.t), f"{given:+.3f} s",
-                     f"the angles the reference turns through match the gyro's at {given + clock.offset_s:+.3f} s "
-                     f"(sigma {clock.sigma_s:.3f} s; the clock search: the gyro explains {clock.peak:.2f} of them "
-                     f"there, {clock.second_peak:.2f} at the next best offset)")
-        meta["gt_clock_doubted"] = given + clock.offset_s        # not started from (init auto)
-        return
     try:
         est = estimate_gt_time_offset(mission.imu.t, mission.imu.omega_b, g.t + given, g.C_b_n, lat, source=g.source)
     except DataError as err:
