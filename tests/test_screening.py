@@ -1783,6 +1783,15 @@ def test_packets_of_a_constant_count_on_multiples_of_their_cycle_are_spread_back
         np.testing.assert_allclose(stamps, true, rtol=0, atol=1e-6)
 
 
+def _rows_written_again(t, values, every):
+    """``(again, stamps, rows)``: IMU stamps ``t`` (s) with their ``values`` (N, k), every ``every``-th row from the
+    25th (``again``) written a second time right after itself, and the rows (stamp first) as a file holds them."""
+    again = np.arange(25, t.size, every)
+    order = np.argsort(np.r_[np.arange(t.size), again], kind="stable")
+    stamps = np.r_[t, t[again]][order]
+    return again, stamps, np.c_[stamps, np.r_[values, values[again]][order]]
+
+
 def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at_its_period():
     """An even 100 Hz log in whole 10 ms with every 50th row written again (a logger flushing a buffer again; also every
     37th and 100th) was taken for a 102 Hz IMU on a clock as coarse as its period: the copies kept as samples and
@@ -1795,10 +1804,7 @@ def test_an_even_log_writing_every_50th_row_again_is_no_faster_imu_on_a_clock_at
     even = 100.0 + np.arange(6000) * 0.01
     values = np.random.default_rng(3).normal(size=(6000, 6))
     for every in (50, 37, 100):
-        again = np.arange(25, 6000, every)
-        order = np.argsort(np.r_[np.arange(6000), again], kind="stable")
-        t = np.r_[even, even[again]][order]
-        rows = np.c_[t, np.r_[values, values[again]][order]]
+        again, t, rows = _rows_written_again(even, values, every)
         meta: dict = {}
         with pytest.warns(RuntimeWarning, match=rf"{again.size} row\(s\) repeating an earlier row exactly"):
             kept, dropped, stamps = stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, meta, "imu")
@@ -2206,6 +2212,59 @@ def test_a_step_of_the_imu_clock_or_a_gap_is_said_in_a_file_whose_stamps_are_rep
         assert any("1 duplicated and 1 out-of-order stamp(s) repaired" in m for m in every)
         assert len(said) == 1 and said[0].startswith(f"imu: imu.csv, line 3002, field 't': {what}")
         assert meta["streams"]["imu"]["doubted"] == {reason: 1}
+
+
+@pytest.mark.parametrize("jump_s, jitter_s", [(0.005, 1e-3), (-0.005, 1e-3), (0.002, 5e-4)])
+def test_a_step_of_the_imu_clock_is_said_through_the_jitter_measured_in_the_log(jump_s, jitter_s):
+    """An even 100 Hz log whose clock steps +5 or -5 ms at 1 ms of jitter, or +2 ms at 0.5 ms, was read without a word
+    in 3-10 of 10 logs: the 50 samples either side of the step had to lie wholly apart, and jitter spreads each set
+    over 4.5 sigma. A step whose sets' means jump apart by more than the log's own jumps between sets spread (its
+    measured jitter), the step itself carrying that jump, is said now, as the same clock step; the clean log and one
+    losing single samples say nothing (the line named within a few samples of the step: jitter moves it)."""
+    from graphnav.core.screening import CLOCK_STEP
+    for seed in range(10):
+        rng = np.random.default_rng(seed)
+        t = 1.7e9 + np.arange(6000) * 0.01 + rng.normal(0.0, jitter_s, 6000)
+        said, meta, _ = _steps_said(np.sort(t + np.where(np.arange(6000) >= 3000, jump_s, 0.0)))
+        assert len(said) == 1
+        assert re.match(r"imu: imu.csv, line (2999|300[0-4]), field 't': the IMU clock steps ", said[0])
+        assert meta["streams"]["imu"]["doubted"] == {CLOCK_STEP: 1}
+        assert not _steps_said(np.sort(t))[0] and not _steps_said(np.delete(np.sort(t), np.arange(40, 6000, 97)))[0]
+
+
+def test_a_gap_is_said_where_jitter_puts_a_sample_next_to_it_over_half_a_period_off():
+    """A gap of 2 samples in a 200 Hz log with 1 ms of jitter (a fifth of the period) was said nowhere in 2 of 10 logs:
+    one of the ten samples next to it lay over half a period off its set, which a sample lost a few from another does
+    too. Only a sample off toward the other set is that; these are said now, and two samples lost three apart are
+    not."""
+    from graphnav.core.screening import IMU_GAP
+    true = 1.7e9 + 0.123 + np.arange(12000) / 200.0
+    for seed in (6, 9):
+        t = np.sort(true + np.random.default_rng(seed).normal(0.0, 1e-3, true.size))
+        said, meta, _ = _steps_said(np.delete(t, [6000, 6001]))
+        assert len(said) == 1 and "(2 periods, a whole number: 2 samples lost" in said[0]
+        assert meta["streams"]["imu"]["doubted"] == {IMU_GAP: 1}
+        assert not _steps_said(np.delete(t, [6000, 6003]))[0]
+
+
+def test_an_imu_on_a_jittered_clock_with_every_50th_row_written_again_drops_every_copy():
+    """100 Hz logged in whole 10 ms with 1 ms of jitter (a clock as coarse as its period) with every 50th row written
+    again exactly: the copies at a stamp holding one sample were kept as samples (86 of 120) and the log put on a
+    9.80 ms grid, 6086 samples over 60 s; the copies were judged with the copies' own clock, the stamps restamped
+    with another. A copy that puts the samples after it a period early against the clock without the copies is a row
+    written twice, and the stamps kept decide the clock: every copy is dropped, named and counted, and the log is
+    read at 100 Hz as it is without them."""
+    from graphnav.core.screening import stamp_order
+    rng = np.random.default_rng(0)
+    true = 100.0 + np.arange(6000) * 0.01
+    even = 100.0 + np.floor((np.sort(true + rng.normal(0.0, 1e-3, 6000)) - 100.0) / 0.01 + 1e-9) * 0.01
+    _, t, rows = _rows_written_again(even, rng.normal(size=(6000, 6)), 50)
+    meta: dict = {}
+    with pytest.warns(RuntimeWarning, match=r"120 row\(s\) repeating an earlier row exactly .* line\(s\) 28, 79, "):
+        kept, dropped, stamps = stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, meta, "imu")
+    assert dropped == {"repeats an earlier row exactly": 120} and kept.size == 6000
+    assert meta["streams"]["imu"]["restamp_period_s"] == pytest.approx(0.01, rel=1e-3)
+    assert np.max(np.abs(stamps - true)) < 0.005
 
 
 def test_an_imu_in_whole_ms_with_jitter_and_samples_lost_at_random_is_read_not_refused():

@@ -731,13 +731,18 @@ def _repeats_keep_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, 
     period), with samples on both sides; with ``later``, or moves it later (a sample lost near the repeat: 200 Hz in
     whole ms with 1 ms of jitter and 1 % lost at random had one within 50 samples of most repeats), never half a
     period earlier (a row written twice puts the samples after it a period early)."""
+    return bool(np.all(_on_the_line(s, repeats, period_s, later)))
+
+
+def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> np.ndarray:
+    """Which of the ``repeats`` keep the line as :func:`_repeats_keep_the_line` asks of them all."""
     total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period_s)]
     r = np.asarray(repeats, int)    # the pair r - 1, r left out: their offsets are the jitter
     a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
-    if np.any(a == r - 1) or np.any(b == r + 1):
-        return False
-    before, after = (total[r - 1] - total[a]) / (r - 1 - a), (total[b] - total[r + 1]) / (b - r - 1)
-    return bool(np.all((after - before > -0.5 * period_s) & (later | (after - before < 0.5 * period_s))))
+    sides = (a < r - 1) & (b > r + 1)
+    before = (total[r - 1] - total[a]) / np.maximum(r - 1 - a, 1)
+    after = (total[b] - total[r + 1]) / np.maximum(b - r - 1, 1)
+    return sides & (after - before > -0.5 * period_s) & (later | (after - before < 0.5 * period_s))
 
 
 def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
@@ -762,17 +767,26 @@ def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
     repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge, and one the stamps show
     only with the copies (:func:`_clock_at_period` without them) is none: its copies are rows written twice (one
-    repeat beside a lost sample's empty grid step shows such a clock)."""
+    repeat beside a lost sample's empty grid step shows such a clock); on such a clock shown by jitter, a copy that
+    puts the samples after it a period early against a line at the period without the copies (:func:`_on_the_line`)
+    is a row written twice too. The stamps the rows
+    judged samples leave are those :func:`restamp_shared_stamps` reads: where they show no clock or packets there, no
+    row is a sample (one place decides)."""
     clock, packets = _clock_or_packets(t)
+    samples = np.ones(rows.size, bool)
     if clock and clock[0] < 1.5 * clock[1]:
         grid, d, counts, _ = _stamp_grid(t)
-        unpaired = _repeats_unpaired(counts, np.round(d / grid))
-        clock = None if unpaired or _clock_at_period(np.delete(t, rows)) is None else clock
+        without = None if _repeats_unpaired(counts, np.round(d / grid)) else _clock_at_period(np.delete(t, rows))
+        clock = without and clock     # the period without the copies: with them, rows written again fit its line
+        samples = _on_the_line(t - t[0], rows, without[1], later=True) if without else samples
     if clock is None and packets is None:
         return np.zeros(rows.size, bool)
     most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
     _, first = np.unique(t, return_index=True)
-    return rows - first[np.searchsorted(t[first], t[rows])] < most
+    samples &= rows - first[np.searchsorted(t[first], t[rows])] < most
+    if np.any(samples) and _clock_or_packets(np.delete(t, rows[~samples])) == (None, None):
+        return np.zeros(rows.size, bool)
+    return samples
 
 
 #: How far (in periods) a sample of a clock coarser than its period may be put outside its stamp's grid step:
@@ -999,8 +1013,19 @@ CLOCK_STEP_SPREAD_PERIODS = 0.75
 #: jitter at 200 Hz spreads 50 samples over about 0.9 of a period, their middle 80 % over about half of one; a sample
 #: lost inside a set still spreads its middle a period.
 CLOCK_STEP_SPREAD_TAIL = 0.1
+#: Jitter sigmas (measured in the sets of samples either side of a step, :func:`_jumps_apart`) within which a set
+#: that jumps apart from the other spreads about its line, and the step between them is the sets' jump: two samples
+#: lost in the sets tilt their line and jump them apart with no step there.
+CLOCK_STEP_CLEAN_SIGMAS = 8.0
+CLOCK_STEP_EDGE_SIGMAS = 3.5
 #: Least distance, in periods, between those samples for a step: Unix seconds carry ~1e-7 s of rounding.
 CLOCK_STEP_FLOOR_PERIODS = 1e-3
+#: Robust spreads of a log's jumps between sets of samples (:func:`_jump_limit`: the jump between the samples before
+#: and after each step) by which a jump stands out as a step where the sets are not wholly apart: jitter spreads 50
+#: samples of each over 4.5 sigma, so a +5 ms step at 1 ms of jitter (about 12 spreads) was missed in 6 of 10 logs.
+#: Clean logs with Gaussian jitter reach 4.4 spreads at most (300 simulated logs of 12000 stamps, 50-200 Hz, 0-2 ms of
+#: jitter; in whole ms up to 8.6, under the 1.5 ms the stamps' resolution asks); 7 leaves a step of 2.8 sigma found.
+CLOCK_STEP_SPREADS = 7.0
 #: Samples lost, at least, in a gap that is warned about: its step, three periods, is one the run bridges (over
 #: ``IMU_GAP_PERIODS``, 2.5); one sample lost is integrated over, as the stamps say.
 GAP_WARN_SAMPLES = 2
@@ -1008,12 +1033,14 @@ GAP_WARN_SAMPLES = 2
 
 def stamp_steps(t: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(i, jump s, lost)`` of the steps ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s, never decreasing) after which
-    each of the next :data:`CLOCK_STEP_SAMPLES` sits later (or earlier) than each of as many before against a line at
-    their own rate (:func:`_step_at`; found against one at ``period_s``, s), by more than the stamps' resolution
-    (:func:`_stamp_resolution`: a coarse clock's grid steps where its rate is off it): the jump of their mean (s) and
-    the samples lost at the step, when that many periods put the two sets back among each other; 0 where they do not:
-    a clock step, which no samples lost explain (half a period forward, or any step back). A gap of whole periods may
-    be a clock step of whole periods too: the stamps cannot tell."""
+    the next :data:`CLOCK_STEP_SAMPLES` sit later (or earlier) than as many before against a line at their own rate
+    (:func:`_step_at`; found against one at ``period_s``, s): each of them than each, or their mean by more than
+    :data:`CLOCK_STEP_SPREADS` robust spreads of the log's jumps between such sets (:func:`_jump_limit`: the jitter
+    measured in the log), and by more than the stamps' resolution (:func:`_stamp_resolution`: a coarse clock's grid
+    steps where its rate is off it): the jump of their mean (s) and the samples lost at the step, when that many
+    periods put the two sets back among each other; 0 where they do not: a clock step, which no samples lost explain
+    (half a period forward, or any step back). A gap of whole periods may be a clock step of whole periods too: the
+    stamps cannot tell."""
     t = np.asarray(t, float)
     n = CLOCK_STEP_SAMPLES
     none = np.zeros(0, int), np.zeros(0), np.zeros(0, int)
@@ -1023,24 +1050,44 @@ def stamp_steps(t: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray,
     low, high = windows.min(axis=1), windows.max(axis=1)
     floor = CLOCK_STEP_FLOOR_PERIODS * period_s
     apart = np.flatnonzero((low[n:] - high[:-n] > floor) | (low[:-n] - high[n:] > floor)) + n - 1
-    resolution = _stamp_resolution(t) if apart.size else 0.0
-    found = [(i, *step) for i in apart if (step := _step_at(t, i, resolution)) is not None]
+    jumps, limit = _jump_limit(windows)
+    resolution = _stamp_resolution(t) if apart.size or np.any(np.abs(jumps) > limit) else 0.0
+    limit = max(limit, 1.5 * resolution, floor)
+    candidates = np.union1d(apart, np.flatnonzero(np.abs(jumps) > limit) + n - 1)
+    # one step, its largest jump, within as many samples as a set: a sample's jitter may part the sets a step early
+    # or late too, and sets holding a step in them jump part of it, or off it where it tilts their line
+    runs = np.cumsum(np.diff(np.r_[-2 * n, candidates]) > n)
+    found = [(i, *step, r) for i, r in zip(candidates, runs) if (step := _step_at(t, i, resolution, limit))]
     if not found:
         return none
-    i, jump, lost = (np.asarray(x) for x in zip(*found))
-    run = np.cumsum(np.diff(np.r_[-2, i]) > 1)         # a sample's jitter may part the sets a step early or late too
+    i, jump, lost, run = (np.asarray(x) for x in zip(*found))
     order = np.lexsort((-np.abs(jump), run))
     first = order[np.diff(np.r_[0, run[order]]) > 0]
     return i[first], jump[first], lost[first].astype(int)
 
 
-def _step_at(t: np.ndarray, i: int, resolution_s: float) -> tuple[float, int] | None:
+def _jump_limit(windows: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(jumps s, limit s)``: the jump of the mean of each set of :data:`CLOCK_STEP_SAMPLES` offsets of IMU stamps
+    from a line (``windows``, s, one set a row) from the mean of the set before it against their least-squares line,
+    as :func:`_step_at` measures it, and the least jump that stands out of them as a step: :data:`CLOCK_STEP_SPREADS`
+    robust spreads (1.4826 median absolute deviations: jitter, a clock's wander, samples lost; a step moves the jumps
+    of 100 sets only); inf with fewer than 100 jumps."""
+    n = windows.shape[1]
+    k = np.arange(n) - 0.5 * (n - 1)
+    mean, tilt = windows.mean(axis=1), windows @ k
+    jumps = mean[n:] - mean[:-n] - n * (tilt[n:] + tilt[:-n]) / (2.0 * float(k @ k))
+    if jumps.size < 2 * n:
+        return jumps, math.inf
+    return jumps, CLOCK_STEP_SPREADS * 1.4826 * float(np.median(np.abs(jumps - np.median(jumps))))
+
+
+def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float = math.inf) -> tuple[float, int] | None:
     """``(jump s, lost)`` of the step ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s) when the :data:`CLOCK_STEP_SAMPLES`
     after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate (or spread
-    as jitter, :func:`_spread_as_jitter`), lie wholly apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` and their mean by
-    more than 1.5 ``resolution_s`` (s); ``lost``: the samples lost at the step, 0 where that many periods do not put
-    the sets back among each other, give or take 1.5 ``resolution_s`` (a grid step where the rate is off the grid).
-    None else."""
+    as jitter, :func:`_spread_as_jitter`), lie wholly apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` or jump apart
+    (:func:`_jumps_apart`), and their means by more than 1.5 ``resolution_s`` (s); ``lost``: the samples lost at the
+    step, 0 where that many periods do not put the sets back among each other (sets spread as their jitter: within
+    ``limit_s`` too), give or take 1.5 ``resolution_s`` (a grid step where the rate is off the grid). None else."""
     n = CLOCK_STEP_SAMPLES
     before, after = t[max(i - n + 1, 0):i + 1], t[i + 1:i + n + 1]
     if before.size < n or after.size < n:
@@ -1053,27 +1100,45 @@ def _step_at(t: np.ndarray, i: int, resolution_s: float) -> tuple[float, int] | 
     jump = float(np.mean(oa) - np.mean(ob))
     floor = CLOCK_STEP_FLOOR_PERIODS * period
     narrow = max(np.ptp(ob), np.ptp(oa)) < CLOCK_STEP_SPREAD_PERIODS * period
-    if (not (narrow or _spread_as_jitter(ob, oa, period, resolution_s)) or abs(jump) <= 1.5 * resolution_s
-            or not (oa.min() - ob.max() > floor or ob.min() - oa.max() > floor)):
+    clean, jumps_apart = _jumps_apart(ob, oa, jump, resolution_s + floor, limit_s)
+    apart = oa.min() - ob.max() > floor or ob.min() - oa.max() > floor or jumps_apart
+    if (not (narrow or _spread_as_jitter(ob, oa, period, resolution_s, jump)) or abs(jump) <= 1.5 * resolution_s
+            or not apart):
         return None
     lost = max(round(jump / period), 0)
-    whole = abs(jump - lost * period) <= max(0.5 * spread, 1.5 * resolution_s) + floor
+    off = abs(jump - lost * period)
+    allowed = max(0.5 * spread, 1.5 * resolution_s)    # sets spread as their jitter: within the limit too
+    whole = off <= allowed + floor and (not clean or off <= max(limit_s, 1.5 * resolution_s) + floor)
     return jump, lost if lost and whole else 0
 
 
-def _spread_as_jitter(ob: np.ndarray, oa: np.ndarray, period_s: float, resolution_s: float) -> bool:
+def _jumps_apart(ob: np.ndarray, oa: np.ndarray, jump_s: float, allow_s: float, limit_s: float) -> tuple[bool, bool]:
+    """``(clean, apart)`` of the offsets (s) from their line of the samples before a step ``ob`` and after it ``oa``
+    whose means jump ``jump_s`` (s): each set spread within :data:`CLOCK_STEP_CLEAN_SIGMAS` of their jitter (1.4826
+    median absolute deviations of their steps over the square root of 2; a sample lost in a set tilts their line and
+    moves its steps once), give or take ``allow_s`` (s: the stamps' resolution); and, so, the jump over ``limit_s``
+    (s, :func:`_jump_limit`) and the step itself that jump within :data:`CLOCK_STEP_EDGE_SIGMAS` of the jitter."""
+    d = np.r_[np.diff(ob), np.diff(oa)]
+    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / math.sqrt(2.0)
+    clean = max(np.ptp(ob), np.ptp(oa)) <= CLOCK_STEP_CLEAN_SIGMAS * sigma + allow_s
+    at_step = abs(oa[0] - ob[-1] - jump_s) <= CLOCK_STEP_EDGE_SIGMAS * math.sqrt(2.0) * sigma + allow_s
+    return clean, clean and at_step and abs(jump_s) > limit_s
+
+
+def _spread_as_jitter(ob: np.ndarray, oa: np.ndarray, period_s: float, resolution_s: float, jump_s: float) -> bool:
     """Whether the offsets (s) from a line at ``period_s`` (s) of the samples before a step ``ob`` and after it ``oa``
-    spread as jitter does, on stamps whose ``resolution_s`` (s) is under half a period: each set's middle (without
-    :data:`CLOCK_STEP_SPREAD_TAIL` of it at either end) under :data:`CLOCK_STEP_SPREAD_PERIODS`, and each sample that
-    leaves out next to the step within half a period of its set's median (a sample lost there puts them a period
-    off, and the sets jump a period more than the step). A coarser grid's step added to a lost sample's period reads
-    as two lost."""
+    (their means ``jump_s`` apart, s) spread as jitter does, on stamps whose ``resolution_s`` (s) is under half a
+    period: each set's middle (without :data:`CLOCK_STEP_SPREAD_TAIL` of it at either end) under
+    :data:`CLOCK_STEP_SPREAD_PERIODS`, and no sample that leaves out next to the step over half a period from its set's
+    median toward the other set (a sample lost there puts those between it and the step a period toward it, and the
+    sets jump a period more than the step; jitter of a fifth of a period puts one of ten 2.5 sigma off its set either
+    way in 1 of 8 logs). A coarser grid's step added to a lost sample's period reads as two lost."""
     near = round(CLOCK_STEP_SPREAD_TAIL * ob.size)
     middle = max(float(np.subtract(*np.quantile(o, [1.0 - CLOCK_STEP_SPREAD_TAIL, CLOCK_STEP_SPREAD_TAIL])))
                  for o in (ob, oa))
-    edge = np.r_[ob[-near:] - np.median(ob), oa[:near] - np.median(oa)]
+    toward = np.sign(jump_s) * np.r_[ob[-near:] - np.median(ob), np.median(oa) - oa[:near]]
     return bool(resolution_s < 0.5 * period_s and middle < CLOCK_STEP_SPREAD_PERIODS * period_s
-                and np.all(np.abs(edge) <= 0.5 * period_s))
+                and np.all(toward <= 0.5 * period_s))
 
 
 def _stamp_resolution(t: np.ndarray) -> float:
