@@ -2353,3 +2353,42 @@ def test_a_knock_the_dvl_saw_is_kept_and_a_ramping_burst_it_did_not_see_is_refus
             for k in range(1200):
                 nav.add_imu(float(t[k]), x[k, :3], x[k, 3:])
         assert sum(nav.info["refused"].get("imu", {}).values()) == expected
+
+
+def test_a_column_map_log_and_a_bag_ask_the_dvl_about_a_knock_too(tmp_path):
+    """The column-map reader screened its IMU before it read the DVL, and bags (screen_mission) were not given the
+    DVL: a knock the DVL saw was refused as a spike and a burst ramping under the limit per row was kept. Both ask it
+    now, as the A-KIT reader does: the knock is kept (counted as doubted, its span on the mission's clock for the
+    replay), the burst refused."""
+    import json
+
+    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.mission import DvlData, Mission
+    from graphnav.core.screening import IMU_SHOCK_KEPT
+    from graphnav.estimators.runs import replayed_shocks
+    from graphnav.io.bags import write_mission_bag
+    from graphnav.io.loaders import read_mission
+    t, x, (t_dvl, v) = _knock_and_ramp()
+    t0 = 1.7e9                                  # Unix stamps: the mission's clock starts at the first IMU row
+    np.savetxt(tmp_path / "imu.csv", np.column_stack([t + t0, x]), delimiter=",", fmt="%.12f",
+               header="t,ax,ay,az,gx,gy,gz", comments="")
+    np.savetxt(tmp_path / "dvl.csv", np.column_stack([t_dvl + t0, v]), delimiter=",", fmt="%.12f",
+               header="t,vx,vy,vz", comments="")
+    cmap = {"time_unit": "s",
+            "imu": {"file": "imu.csv", "t": "t", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"],
+                    "accel_unit": "m/s^2", "gyro_unit": "rad/s", "frame": "frd"},
+            "dvl": {"file": "dvl.csv", "t": "t", "v_b": ["vx", "vy", "vz"], "velocity_unit": "m/s", "clock": "imu"}}
+    (tmp_path / "config.json").write_text(json.dumps({"csv_columns": cmap}))
+    config = SensorConfig()
+    beams = v @ DvlGeometry.from_spec(config.dvl).T_b.T
+    bag = write_mission_bag(Mission("knock", ImuData(t, x[:, :3], x[:, 3:]),
+                                    DvlData(t_dvl, beams, np.ones((20, 4), bool), v), config),
+                            tmp_path / "knock.mcap", gt=False)
+    for data, config_path, field in ((tmp_path, tmp_path / "config.json", "ax"), (bag, None, "f_b x")):
+        with pytest.warns(RuntimeWarning, match=rf"1 shock\(s\) of the IMU kept.* 7 rows, '{field}' integrates"):
+            mission = read_mission(data, config_path)
+        imu = mission.meta["streams"]["imu"]
+        assert imu["doubted"] == {IMU_SHOCK_KEPT: 7} and sum(imu["refused"].values()) == 9, data
+        assert replayed_shocks(mission) == (pytest.approx((10.01, 10.07), abs=1e-6),)
+        kept = (mission.imu.t >= 10.0) & (mission.imu.t <= 10.08)
+        assert kept.sum() == 9 and not np.any((mission.imu.t > 13.995) & (mission.imu.t < 14.085))

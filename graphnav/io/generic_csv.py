@@ -82,7 +82,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig, check_column_map
-from graphnav.core.dvl import no_lock_pings
+from graphnav.core.dvl import no_lock_pings, ping_velocity_b
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.screening import (
@@ -297,12 +297,12 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")
     fields = _names(spec, "f_b", 3, "imu") + _names(spec, "omega_b", 3, "imu")
     # an empty, NaN or infinite cell refuses its row (before the unit checks, which need numbers); so do full
-    # scale and spikes once the units are known, all with the file's lines and columns (screen_mission leaves
-    # the IMU)
+    # scale and spikes once the units and the DVL are known, all with the file's lines and columns (screen_mission
+    # leaves the IMU)
     _count_read(meta, "imu", t_imu, path)
     rows = np.hstack([v["f_b"], v["omega_b"]])
-    t_imu, rows, lines = refuse_rows(meta, "imu", not_finite(rows, fields), str(path), v["_lines"], t_imu, rows,
-                                     v["_lines"])
+    t_imu, rows, imu_lines = refuse_rows(meta, "imu", not_finite(rows, fields), str(path), v["_lines"], t_imu, rows,
+                                         v["_lines"])
     f_b = rows[:, :3] * declared_scale(spec, "accel_unit", ACCEL_UNITS, "m/s^2", "csv_columns.imu")
     omega_b = rows[:, 3:] * declared_scale(spec, "gyro_unit", GYRO_UNITS, "rad/s", "csv_columns.imu")
     declared = {k: spec[f"{k}_unit"] for k in ("accel", "gyro") if f"{k}_unit" in spec}
@@ -312,28 +312,17 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         raise ConfigError(f"csv_columns.imu.frame = {frame!r}: choose frd, flu or auto")
     if frame == "flu":
         f_b, omega_b = f_b * [1, -1, -1], omega_b * [1, -1, -1]
-    t_imu, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t_imu, f_b, omega_b, config, fields, meta,
-                                                                   str(path)), str(path), lines, t_imu, f_b, omega_b)
-    meta["imu_screened"] = True
-    t0 = float(t_imu[0])
-    meta["t0_s"] = t0
-    imu = ImuData(t_imu - t0, f_b, omega_b, str(path))
+    imu_path = path
 
     spec = cmap.get("dvl") or {}
     if not spec and pd0_file is None:
         raise ConfigError("csv_columns needs a 'dvl' entry")
     depth, dvl_refused, dvl_lines, vdeclared = None, {}, None, None
-    if pd0_file is not None or "pd0" in spec:
-        pd0_path = pd0_file or root / spec["pd0"]
-        dvl_raw, depth, pd0_meta = read_pd0(pd0_path, config)
+    pd0 = pd0_file is not None or "pd0" in spec
+    if pd0:
+        dvl, depth, pd0_meta = read_pd0(pd0_file or root / spec["pd0"], config)
         meta.update(pd0_meta)
         config = pd0_geometry(config, pd0_meta)
-        dvl = dataclasses.replace(dvl_raw, t=dvl_raw.t - t0)
-        for entry in meta.get("streams", {}).values():     # spans on the mission's clock, like the streams
-            if entry.get("span_s"):
-                entry["span_s"] = [entry["span_s"][0] - t0, entry["span_s"][1] - t0]
-        if depth is not None:
-            depth = dataclasses.replace(depth, t=depth.t - t0)
     else:
         t_dvl, v, path = _read(root, data_file, spec, "dvl", {"beams": 4, "valid": 4, "v_b": 3, "euler": 3},
                                time_unit, tables, meta, repair, t_imu)
@@ -387,8 +376,16 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         warn_no_bottom_lock(no_lock, lines, str(path))
         meta["dvl_zeros_screened"] = True          # screen_mission would judge them again in m/s, without lines
         valid &= ~no_lock[:, None]
-        dvl = DvlData(t_dvl - t0, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized(lines=lines)
+        dvl = DvlData(t_dvl, np.where(valid, beams, np.nan), valid, v_b, str(path)).sanitized(lines=lines)
         dvl_refused = {NO_BOTTOM_LOCK: no_lock}
+    t_imu, f_b, omega_b, imu, t0 = _screened_imu(t_imu, f_b, omega_b, imu_lines, fields, dvl, config, meta, imu_path)
+    dvl = dataclasses.replace(dvl, t=dvl.t - t0)
+    if pd0:
+        for entry in meta.get("streams", {}).values():     # spans on the mission's clock, like the streams
+            if entry.get("span_s"):
+                entry["span_s"] = [entry["span_s"][0] - t0, entry["span_s"][1] - t0]
+        if depth is not None:
+            depth = dataclasses.replace(depth, t=depth.t - t0)
 
     spec = cmap.get("depth")
     if spec:
@@ -460,6 +457,23 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     _record_csv_streams(meta, cmap, imu, dvl, depth, gt, dvl_refused, dvl_lines)
     name = data.stem if data.is_file() else data.name
     return Mission(name, imu, dvl, config, gt, depth, meta)
+
+
+def _screened_imu(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, lines: np.ndarray, fields: list, dvl,
+                  config: SensorConfig, meta: dict, path: Path) -> tuple:
+    """``(t, f_b, omega_b, imu, t0)``: the IMU rows (stamps s on the file's clock, m/s^2, rad/s, FRD) without those
+    beyond full scale or spiking (:func:`graphnav.core.screening.imu_implausible`, refused with their file ``lines``
+    and ``fields``), as an :class:`ImuData` on the mission's clock, which starts at the first row kept ``t0`` (s).
+    The DVL as read (``dvl``, on the file's clock) tells a knock, which changed its velocity, from bad samples; the
+    spans of the knocks kept (``meta["imu_shocks"]``) are put on the mission's clock."""
+    t, f_b, omega_b = refuse_rows(meta, "imu", imu_implausible(t, f_b, omega_b, config, fields, meta, str(path),
+                                                               (dvl.t, ping_velocity_b(dvl, config.dvl))),
+                                  str(path), lines, t, f_b, omega_b)
+    meta["imu_screened"] = True
+    t0 = meta["t0_s"] = float(t[0])
+    for span in meta.get("imu_shocks", []):
+        span[:] = [span[0] - t0, span[1] - t0]
+    return t, f_b, omega_b, ImuData(t - t0, f_b, omega_b, str(path)), t0
 
 
 def _reference_units(t: np.ndarray, v: dict, spec: dict, t_imu: np.ndarray, omega_b: np.ndarray, path: Path,

@@ -96,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import FOUND_WHEN_PREPARED, ConfigOverrides, ImuSpec, SensorConfig, read_config
-from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams, no_lock_pings
+from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams, no_lock_pings, ping_velocity_b
 from graphnav.core.earth import gravity_magnitude, lla_to_ned
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import (
@@ -1071,7 +1071,7 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
-    full scale or spiking (:func:`graphnav.core.screening.imu_implausible`), depth rows outside the range or spiking
+    full scale or spiking (:func:`graphnav.core.screening.imu_implausible`; a knock the DVL saw is kept), depth rows outside the range or spiking
     and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
     the instrument got wrong makes the others suspect, as on the Navigator's stream), pings logged as exactly 0
     without bottom lock (:func:`graphnav.core.screening.no_bottom_lock`) and pings outside its envelope
@@ -1085,8 +1085,9 @@ def screen_mission(mission: Mission) -> Mission:
             count_read(meta, name, stream.t, stream.source)
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
     if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
-        bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta,
-                                                  source=imu.source), imu.source)
+        # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples
+        bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta, source=imu.source,
+                                                  dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl))), imu.source)
         if bad.any():
             imu = imu.take(np.flatnonzero(~bad))
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
