@@ -2340,8 +2340,8 @@ def test_a_knock_the_dvl_saw_is_kept_and_a_ramping_burst_it_did_not_see_is_refus
     without = refused(imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig()))
     assert without == list(range(1001, 1008))
     meta = {}
-    with pytest.warns(RuntimeWarning, match=r"imu.csv: 1 shock\(s\) of the IMU kept.*t = 10.010-10.070 s, 7 rows, "
-                                            r"'f_b x' integrates to -0.99\d m/s, the DVL changed by 1.0\d m/s"):
+    with pytest.warns(RuntimeWarning, match=r"imu.csv: 1 shock of the IMU kept.*t = 10.010-10.070 s, 7 rows, 'f_b x' "
+                                            r"integrates to -0.99\d m/s, the DVL saw -1.0\d m/s beyond the vehicle's"):
         masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta=meta, source="imu.csv", dvl=dvl)
     assert refused(masks) == list(range(1400, 1409)) and masks["spike in 'f_b y'"].sum() == 9
     assert meta["streams"]["imu"]["doubted"] == {IMU_SHOCK_KEPT: 7}
@@ -2392,3 +2392,42 @@ def test_a_column_map_log_and_a_bag_ask_the_dvl_about_a_knock_too(tmp_path):
         assert replayed_shocks(mission) == (pytest.approx((10.01, 10.07), abs=1e-6),)
         kept = (mission.imu.t >= 10.0) & (mission.imu.t <= 10.08)
         assert kept.sum() == 9 and not np.any((mission.imu.t > 13.995) & (mission.imu.t < 14.085))
+
+
+def _refused_rows(masks) -> list:
+    return np.flatnonzero(np.any(list(masks.values()), axis=0)).tolist()
+
+
+def test_a_burst_inside_a_manoeuvre_the_dvl_saw_is_refused_and_a_long_one_too():
+    """A 3-row burst of -12 m/s^2 inside a 0.4 m/s^2 surge of 1.5 s integrates to -0.36 m/s; the DVL changed by
+    +0.4 m/s across it, the surge's: compared by magnitude the burst was kept as a knock. Taking off what the signal
+    without the burst says the vehicle did leaves nothing the DVL saw: refused. A burst of +8 m/s^2 over 100 rows,
+    which the spike test's median follows, is refused on the DVL's word too (kept without a DVL)."""
+    from graphnav.core.screening import imu_implausible
+    t, x = _quiet_imu(100.0, 60.0)
+    surge = (t >= 20.0) & (t < 21.5)
+    x[surge, 0] += 0.4
+    x[2060:2063, 0] -= 12.0
+    x[4030:4130, 0] += 8.0
+    t_dvl = np.arange(60) + 0.5
+    v = np.tile([1.5, 0.0, 0.0], (60, 1)) + np.random.default_rng(3).normal(0.0, 0.02, (60, 3))
+    v[:, 0] += np.interp(t_dvl, t, np.cumsum(np.where(surge, 0.4, 0.0)) * 0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # no knock is kept
+        masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), dvl=(t_dvl, v))
+    refused = _refused_rows(masks)
+    assert refused[:3] == [2060, 2061, 2062] and 2063 not in refused
+    assert set(range(4030, 4130)) <= set(refused) and len(refused) <= 3 + 100 + 4
+    assert _refused_rows(imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig())) == [2060, 2061, 2062]
+
+
+def test_a_gyro_spike_inside_a_knock_the_dvl_saw_is_refused():
+    """A knock kept on the DVL's word kept all six values of its rows: a 3 rad/s gyro spike inside it went in
+    silently. The DVL speaks for the accelerometer only: the gyro's own test refuses that row."""
+    from graphnav.core.screening import imu_implausible
+    t, x, dvl = _knock_and_ramp()
+    x[1004, 5] += 3.0
+    with pytest.warns(RuntimeWarning, match=r"1 shock of the IMU kept.*t = 10.010-10.070 s, 6 rows"):
+        masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta={}, dvl=dvl)
+    assert np.flatnonzero(masks["spike in 'omega_b z'"]).tolist() == [1004]
+    assert [r for r in _refused_rows(masks) if r < 1400] == [1004]

@@ -100,13 +100,17 @@ IMU_SPIKE_NOISE_FACTOR = 30.0
 IMU_SHOCK_ONSET = 0.1
 #: A run of rows with a departing specific force (a knock, or a burst of bad samples) is judged by the DVL when it is
 #: there: a knock changes the velocity by the run's integral (its departure from the median times dt), a burst does
-#: not. The nearest valid ping before and after the run, each within :data:`IMU_SHOCK_DVL_GAP_S` of it, are compared on
-#: the axis the integral is largest on; the verdict needs the difference to be this many times the scatter of the DVL's
-#: changes between pings within :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD: noise and the vehicle's own motion), else the
-#: shape rule (:func:`jumped`) decides (docs/decisions/screening.md, "A knock the DVL saw").
+#: not. The DVL's change between the nearest valid pings before and after the run, each within
+#: :data:`IMU_SHOCK_DVL_GAP_S` of it, less what the signal without the run says the vehicle did, is compared with the
+#: integral; the verdict needs them this many times the scatter of that on the ping intervals within
+#: :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD), else the shape rule (:func:`jumped`) decides
+#: (docs/decisions/screening.md, "A knock the DVL saw").
 IMU_SHOCK_DVL_SIGMAS = 3.0
 IMU_SHOCK_DVL_GAP_S = 2.0
 IMU_SHOCK_DVL_SPAN_S = 30.0
+#: Half the window of the longer median a burst of bad samples departs from when it outlasts the spike test's half
+#: window (which then follows it), s: bursts of up to this are judged by the DVL (only refused when it denies them).
+IMU_SHOCK_LONG_HALF_WINDOW_S = 2.0
 #: Count key of the IMU rows of a knock the DVL saw (kept, doubted: ``meta["streams"]["imu"]["doubted"]``).
 IMU_SHOCK_KEPT = "shock kept (the DVL saw its velocity change)"
 #: Names of the IMU's six values, in the order of ``f_b`` then ``omega_b`` (reasons and warnings of loaders whose
@@ -337,8 +341,8 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
             stamps).
         dvl: ``(t (M,) s on the IMU's clock, v (M,3) m/s)``, the DVL's velocity in the IMU's axes (any sign per axis;
             NaN: no measurement): a run of departing specific force it judges is kept or refused as it says
-            (:func:`_dvl_verdicts`). kept: a list that gets ``(first stamp s, last stamp s, rows, integral m/s, DVL
-            change m/s, field)`` of each run kept on the DVL's word.
+            (:func:`_dvl_verdicts`). kept: a list that gets ``(first stamp s, last stamp s, rows, integral m/s, what
+            the DVL saw m/s, field)`` of each run kept on the DVL's word.
     """
     from scipy.ndimage import median_filter
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
@@ -359,10 +363,11 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = _not_shocks(v, median, limit)
         if dvl is not None:
-            departure = v - median
-            out[idx] = _dvl_verdicts(np.asarray(t, float)[idx], departure, np.abs(departure) / limit, out[idx],
-                                     _dvl_measured(dvl, config.dvl), 1.0 / rate_hz, fields,
-                                     [] if kept is None else kept)
+            ts, pings, kept = np.asarray(t, float)[idx], _dvl_measured(dvl, config.dvl), [] if kept is None else kept
+            out[idx] = _dvl_verdicts(ts, v, median, limit, out[idx], pings, 1.0 / rate_hz, fields, kept)
+            # a burst longer than the half window moves the median with it: a longer one sees it depart
+            longer = median_filter(v, size=(2 * round(IMU_SHOCK_LONG_HALF_WINDOW_S * rate_hz) + 1, 1), mode="mirror")
+            out[idx] = _dvl_verdicts(ts, v, longer, limit, out[idx], pings, 1.0 / rate_hz, fields, None, half)
     return _by_first_field(out, fields, "spike in '{}'")
 
 
@@ -375,42 +380,108 @@ def _dvl_measured(dvl: tuple, spec: DvlSpec) -> tuple[np.ndarray, np.ndarray]:
     return t[ok], v[ok]
 
 
-def _dvl_verdicts(t: np.ndarray, departure: np.ndarray, ratio: np.ndarray, refused: np.ndarray, dvl: tuple,
-                  dt: float, fields, kept: list) -> np.ndarray:
-    """``refused`` (N,6) with the DVL's verdict on each run of rows whose specific force departs (``departure`` (N,6)
-    from the median, ``ratio`` (N,6) of it to the limit, at ``t`` (N,) s, ``dt`` s apart; ``dvl`` from
-    :func:`_dvl_measured`). On the axis its integral is largest on: kept whole when the DVL's velocity changed across it
-    by at least half the integral, refused (with the rows either side leaning its way, :func:`_leaning`) when by less;
-    either only when the integral and the DVL's change (or what it falls short by) are :data:`IMU_SHOCK_DVL_SIGMAS`
-    times the scatter of the DVL's changes, else the shape rule stands. Each run kept that it refused is appended
-    to ``kept`` (:func:`imu_spikes`). A spike or a burst of bad samples comes and goes with no velocity change; a
-    knock changes the velocity by what its specific force integrates to, whatever its shape."""
-    tp, vp = dvl
-    if len(tp) < 3:
+def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.ndarray, refused: np.ndarray,
+                  dvl: tuple, dt: float, fields, kept: list | None, longer_than: int = 0) -> np.ndarray:
+    """``refused`` (N,6) with the DVL's verdict (:func:`_dvl_says`) on each run of rows whose specific force departs
+    from ``median`` (N,6) by more than ``limit`` (6,) (rows ``v`` (N,6) at ``t`` (N,) s, ``dt`` s apart; ``dvl`` from
+    :func:`_dvl_measured`). A burst: refused with the rows either side leaning its way (:func:`_leaning`), on the
+    axis its integral is largest on. A knock: its accelerometer values kept (the gyro keeps its own verdict), and
+    each run kept that was refused appended to ``kept`` (:func:`imu_spikes`); with ``kept`` None, only from the value
+    that jumped there on (:func:`_not_shocks`), and only bursts are refused: runs of a longer median, of more than
+    ``longer_than`` rows (shorter ones are the spike test's)."""
+    if len(dvl[0]) < 2 * SPIKE_NEIGHBOURS + 2:
         return refused
     out = refused.copy()
-    departing, leaning = ratio > 1.0, ratio > IMU_SHOCK_ONSET
-    steps, between = np.abs(np.diff(vp, axis=0)), 0.5 * (tp[1:] + tp[:-1])
+    departure = v - median
+    ratio = np.abs(departure) / limit
+    departing = ratio > 1.0 if kept is not None else _not_shocks(v, median, limit)
     edges = np.flatnonzero(np.diff(np.r_[0, departing[:, :3].any(axis=1), 0]))
+    pings = _Pings.of(dvl, t, median, dt) if edges.size else None
     for a, b in zip(edges[::2], edges[1::2]):
         integral = departure[a:b, :3].sum(axis=0) * dt
         j = int(np.argmax(np.abs(integral)))
-        i0, i1 = np.searchsorted(tp, t[a]) - 1, np.searchsorted(tp, t[b - 1], side="right")
-        if i0 < 0 or i1 >= len(tp) or max(t[a] - tp[i0], tp[i1] - t[b - 1]) > IMU_SHOCK_DVL_GAP_S:
-            continue
-        near = np.abs(between - t[a]) <= IMU_SHOCK_DVL_SPAN_S
-        near[i0:i1] = False                     # the change across the run is the one judged
-        if not near.any():
-            continue
-        margin = IMU_SHOCK_DVL_SIGMAS * 1.4826 * float(np.median(steps[near, j]))
-        size, change = abs(float(integral[j])), abs(float(vp[i1, j] - vp[i0, j]))
-        if size >= margin and change >= max(0.5 * size, margin):
-            out[a:b] = False
+        verdict, seen = _dvl_says(t[a], t[b - 1], integral, j, pings) if b - a > longer_than else (None, 0.0)
+        if verdict == "burst":
+            out[_leaning(departure[:, j], ratio[:, j] > IMU_SHOCK_ONSET, a, b), j] = True
+        elif verdict == "knock" and kept is not None:
+            out[a:b, :3] = False
             if refused[a:b].any():      # the DVL's word kept it (the shape rule keeps a run that rose there)
-                kept.append((float(t[a]), float(t[b - 1]), int(b - a), float(integral[j]), change, fields[j]))
-        elif size - change >= margin:
-            out[_leaning(departure[:, j], leaning[:, j], a, b), j] = True
+                rows = int((~out[a:b].any(axis=1)).sum())
+                kept.append((float(t[a]), float(t[b - 1]), rows, float(integral[j]), seen, fields[j]))
     return out
+
+
+@dataclass
+class _Pings:
+    """The DVL's pings against the IMU's signal without its departing runs (:func:`_dvl_says`): stamps ``t`` (K,) s,
+    velocity ``v`` (K,3) m/s, the signal integrated to each ping ``own`` (K,3) m/s; per ping interval and axis sign
+    (+1, -1), the ``rate`` (2,K-1,3) m/s^2 at which that integral and the DVL's change (times the sign) part, and the
+    ``residual`` (2,K-1,3) m/s of each interval from its neighbours' rate (:func:`_neighbours_rate`); ``signs`` (2,3)
+    bool: the signs tried, those whose residuals scatter by at most twice the other's over the record (a vehicle that
+    moved along an axis tells its sign, a still one does not)."""
+    t: np.ndarray
+    v: np.ndarray
+    own: np.ndarray
+    rate: np.ndarray
+    residual: np.ndarray
+    signs: np.ndarray
+
+    @classmethod
+    def of(cls, dvl: tuple, t: np.ndarray, median: np.ndarray, dt: float) -> _Pings:
+        tp, vp = dvl
+        integral = np.vstack([np.zeros(3), np.cumsum(median[:, :3], axis=0) * dt])
+        own = np.column_stack([np.interp(tp, np.r_[t, t[-1] + dt], integral[:, k]) for k in range(3)])
+        h = np.diff(tp)[:, None]
+        rate = (np.diff(own, axis=0) - _SIGNS[:, None] * np.diff(vp, axis=0)) / h
+        residual = np.stack([rate[:, k] - _neighbours_rate(rate, k, k + 1) for k in range(len(h))], axis=1) * h
+        scatter = np.median(np.abs(residual), axis=1)
+        return cls(tp, vp, own, rate, residual, scatter <= 2.0 * scatter.min(axis=0))
+
+
+#: The two signs an IMU axis may have against the DVL's before ``prepare`` knows them.
+_SIGNS = np.array([[1.0], [-1.0]])
+
+
+def _neighbours_rate(rate: np.ndarray, k0: int, k1: int) -> np.ndarray:
+    """(2,3) median of ``rate`` (2,K,3) over the :data:`SPIKE_NEIGHBOURS` intervals before ``k0`` and from ``k1`` on:
+    gravity, turns and biases, which change no velocity, and the slow part of the vehicle's own acceleration."""
+    n = SPIKE_NEIGHBOURS
+    return np.median(np.concatenate([rate[:, max(0, k0 - n):k0], rate[:, k1:k1 + n]], axis=1), axis=1)
+
+
+def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _Pings) -> tuple[str | None, float]:
+    """Whether the DVL saw a run of departing specific force from ``t0`` to ``t1`` s integrating to ``integral``
+    (3,) m/s (largest on axis ``j``): ("knock", what it saw on ``j`` m/s), ("burst", 0) or (None, 0): it cannot tell.
+
+    What the DVL saw of the run is its velocity change between the pings either side (within
+    :data:`IMU_SHOCK_DVL_GAP_S`) less what the signal without the run says the vehicle did there, once the rate at
+    which the two part on the :data:`SPIKE_NEIGHBOURS` intervals either side (gravity, turns, biases) is taken off.
+    The noise is the scatter of that on the intervals within :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD, times
+    :data:`IMU_SHOCK_DVL_SIGMAS` and the square root of the intervals spanned). The IMU's axis signs are not known
+    before ``prepare``: either sign of each axis the record does not decide (``pings.signs``) is tried. A knock: on
+    every axis what the DVL saw matches the integral within the noise under a sign tried, and on ``j`` it stands out
+    of the noise and the integral out of twice it (a burst's zero cannot match it by chance). A burst: on ``j`` the
+    integral stands out of the noise and what the DVL saw misses it under every sign tried, or the DVL's whole change
+    falls short of the integral by the noise of its own changes (where turns and waves swamp the signal's noise)."""
+    tp, vp, own = pings.t, pings.v, pings.own
+    i0, i1 = np.searchsorted(tp, t0) - 1, np.searchsorted(tp, t1, side="right")
+    if i0 < 0 or i1 >= len(tp) or max(t0 - tp[i0], tp[i1] - t1) > IMU_SHOCK_DVL_GAP_S:
+        return None, 0.0
+    near = np.abs(0.5 * (tp[1:] + tp[:-1]) - t0) <= IMU_SHOCK_DVL_SPAN_S
+    near[max(0, i0 - SPIKE_NEIGHBOURS):i1 + SPIKE_NEIGHBOURS] = False     # intervals whose baseline holds the run
+    if not near.any():
+        return None, 0.0
+    noise = IMU_SHOCK_DVL_SIGMAS * 1.4826 * np.median(np.abs(pings.residual[:, near]), axis=1) * math.sqrt(i1 - i0)
+    baseline = _neighbours_rate(pings.rate, i0, i1) * (tp[i1] - tp[i0])
+    seen = _SIGNS * (vp[i1] - vp[i0]) - (own[i1] - own[i0] - baseline)                                 # (2,3)
+    match = (np.abs(seen - integral) <= noise) & pings.signs
+    stands = match[:, j] & (np.abs(seen[:, j]) >= noise[:, j]) & (abs(integral[j]) >= 2.0 * noise[:, j])
+    if match.any(axis=0).all() and stands.any():
+        return "knock", float(seen[int(np.argmax(stands)), j])
+    denied = not match[:, j].any() and abs(integral[j]) >= noise[pings.signs[:, j], j].max()
+    steps = np.abs(np.diff(vp[:, j]))[near]
+    denied |= abs(integral[j]) - abs(vp[i1, j] - vp[i0, j]) >= IMU_SHOCK_DVL_SIGMAS * 1.4826 * np.median(steps)
+    return ("burst" if denied else None), 0.0
 
 
 def _leaning(departure: np.ndarray, leaning: np.ndarray, a: int, b: int) -> slice:
@@ -471,10 +542,12 @@ def imu_implausible(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config:
 def _note_shocks(kept: list, meta: dict | None, source: str) -> None:
     """Warn about the knocks :func:`imu_spikes` kept (``kept``), count their rows as doubted in ``meta`` and keep
     their spans (s) in ``meta["imu_shocks"]``."""
-    where = "; ".join(f"t = {t0:.3f}-{t1:.3f} s, {rows} rows, '{field}' integrates to {integral:+.3g} m/s, the DVL "
-                      f"changed by {change:.3g} m/s" for t0, t1, rows, integral, change, field in kept[:5])
-    warnings.warn(f"{source + ': ' if source else ''}{len(kept)} shock(s) of the IMU kept, though they depart from "
-                  f"the signal as a spike does: the DVL's velocity changed across them as they say ({where}"
+    where = "; ".join(f"t = {t0:.3f}-{t1:.3f} s, {rows} row{'s' * (rows != 1)}, '{field}' integrates to "
+                      f"{integral:+.3g} m/s, the DVL saw {seen:+.3g} m/s beyond the vehicle's own motion"
+                      for t0, t1, rows, integral, seen, field in kept[:5])
+    shocks = "1 shock" if len(kept) == 1 else f"{len(kept)} shocks"
+    warnings.warn(f"{source + ': ' if source else ''}{shocks} of the IMU kept, though departing from the signal as a "
+                  f"spike does: the DVL saw the velocity change it integrates to ({where}"
                   f"{' ...' if len(kept) > 5 else ''}; a knock against the bottom or a dock?)", RuntimeWarning,
                   stacklevel=3)
     if meta is not None:
