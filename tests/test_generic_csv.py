@@ -1339,3 +1339,19 @@ def test_a_reference_too_short_to_check_the_imu_axes_is_kept_unjudged_and_the_lo
     np.testing.assert_allclose(m.gt.t, g.t[k], atol=1e-6)
     np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, atol=1e-6)
     assert m.meta["streams"]["gt"]["doubted"] == {"too short to check the IMU axes against": 12}
+
+
+def test_a_column_map_imu_slower_than_its_logger_clock_is_read_at_the_configured_rate(sim, tmp_path):
+    """A 98 Hz IMU logged in whole 10 ms (every 50th step 20 ms) read 100 Hz with its stamps as written, up to 10 ms
+    late; the configuration's imu_rate_hz 98 reaches the reader, whose stamps then go on one even grid at 98 Hz,
+    warned naming the key."""
+    cmap = _separate_files(tmp_path, sim)
+    true = T0 + np.arange(sim.imu.t.size) / 98.0
+    _write(tmp_path / "imu.csv", ["time_ms", "ax", "ay", "az", "gx", "gy", "gz"],
+           [np.floor(true * 100) * 10.0, sim.imu.f_b / 9.80665, np.degrees(sim.imu.omega_b)])
+    cfg = sim.config.to_dict()
+    cfg.update(csv_columns=cmap, imu_rate_hz=98.0)
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    m, messages = _load_recording(tmp_path, tmp_path / "config.json")
+    assert any("agree with the configured imu_rate_hz 98 Hz" in s for s in messages)
+    assert np.max(np.abs(m.imu.t + m.meta["t0_s"] - true)) < 2e-4

@@ -2431,3 +2431,70 @@ def test_a_gyro_spike_inside_a_knock_the_dvl_saw_is_refused():
         masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta={}, dvl=dvl)
     assert np.flatnonzero(masks["spike in 'omega_b z'"]).tolist() == [1004]
     assert [r for r in _refused_rows(masks) if r < 1400] == [1004]
+
+
+def test_an_even_imu_log_with_every_row_written_twice_exactly_drops_the_copies_offline_and_live():
+    """An even 100 Hz log in which every row appears twice exactly (a logger writing each record two times: exact
+    stamps, whole ms, whole 10 ms with jitter) was read as a 200 Hz IMU in packets of 2, restamped at 5 ms: each
+    sample integrated twice at half the step. A packet's samples differ in value (noise), a row written again repeats
+    every value: the copies are dropped, warned with their lines and counted, the log reads 100 Hz as read. Live, each
+    sample sent twice was restamped the same way; now the copy is refused (counted) and nothing is restamped. Real
+    packets of 2 or 10 with every row written twice keep their samples and lose the copies."""
+    from graphnav.core.imu_timing import imu_rate_hz
+    from graphnav.core.screening import EXACT_COPY, stamp_order
+    n = 3000
+    true = 1.7e9 + 0.0037 + np.arange(n) * 0.01
+    values = np.random.default_rng(0).normal(size=(n, 6))
+    jittered = np.floor((true + np.random.default_rng(1).normal(0.0, 1e-3, n)) * 100) / 100
+    i = np.arange(n)
+    for stamps, packets in ((true, None), (np.floor(true * 1e3) / 1e3, None), (jittered, None),
+                            (true[np.minimum(i // 2 * 2 + 1, n - 1)], 2), (true[np.minimum(i // 10 * 10 + 9, n - 1)], 10)):
+        twice = np.repeat(i, 2)
+        t = stamps[twice]
+        meta: dict = {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            kept, dropped, out = stamp_order(t, np.c_[t, values[twice]], np.arange(t.size) + 2, "imu.csv", "t",
+                                             False, meta, "imu")
+        assert dropped == {EXACT_COPY: n} and np.array_equal(kept, 2 * i)
+        assert any(f"{n} row(s) repeating an earlier row exactly" in str(w.message) and "line(s) 3, 5, 7" in
+                   str(w.message) for w in caught)
+        if packets is None:
+            assert np.array_equal(out, stamps) and imu_rate_hz(out) == pytest.approx(100.0, rel=1e-3)
+        else:
+            np.testing.assert_allclose(out, true, rtol=0, atol=1e-6)
+            assert any(f"stamped in packets of {packets} " in str(w.message) for w in caught)
+    nav = Navigator(SensorConfig(), "ekf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in twice[:600]:
+            nav.add_imu(float(true[k] - true[0]), values[k, :3] + [0.0, 0.0, -9.81], values[k, 3:] * 1e-3)
+    assert nav.refused["imu"] == {EXACT_COPY: 300} and not nav._packets.period_s and nav._packets.restamped == 0
+
+
+def test_an_imu_slower_than_its_logger_clock_reads_the_configured_rate_the_stamps_cannot_tell():
+    """98 and 99 Hz in whole 10 ms without jitter (every 50th / 100th step 20 ms) read 100 Hz with the stamps left as
+    read, up to a grid step late (2.9 ms RMS about their mean): the stamps cannot tell them from 100 Hz losing every
+    50th / 100th sample. The configured rate can: where it agrees with the samples over the span and not with the
+    stamps' reading, the stamps go on one even grid at it, warned naming imu_rate_hz and both readings. Configured at
+    the stamps' reading, or not given, they are read as before; where no one grid fits (samples lost at random), the
+    warning says so and the stamps are left as read."""
+    from graphnav.core.screening import stamp_order
+    for rate in (98.0, 99.0):
+        true = 1.7e9 + 0.0041 + np.arange(4000) / rate
+        t = np.floor(true * 100) / 100
+        rows = np.c_[t, np.arange(t.size)]
+        for configured in (None, 100.0):
+            assert np.array_equal(stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu",
+                                              configured)[2], t)
+        meta: dict = {}
+        with pytest.warns(RuntimeWarning, match=rf"10 ms grid read 100 Hz, but the samples over their span "
+                          rf"\([\d.]+ Hz\) agree with the configured imu_rate_hz {rate:g} Hz.*4000 of 4000 stamps"):
+            out = stamp_order(t, rows, np.arange(t.size) + 2, "imu.csv", "t", False, meta, "imu", rate)[2]
+        assert np.max(np.abs(out - true)) < 2e-4 and meta["streams"]["imu"]["restamped"] == 4000
+    lossy = (1.7e9 + np.arange(6000) * 0.01)[np.random.default_rng(0).random(6000) > 0.02]
+    configured = round((lossy.size - 1) / (lossy[-1] - lossy[0]), 2)
+    with pytest.warns(RuntimeWarning, match="no one even grid at .* the stamps are left as read"):
+        out = stamp_order(lossy, np.c_[lossy, np.arange(lossy.size)], np.arange(lossy.size) + 2, "imu.csv", "t",
+                          False, {}, "imu", configured)[2]
+    assert np.array_equal(out, lossy)

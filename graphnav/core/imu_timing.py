@@ -769,10 +769,16 @@ def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     only with the copies (:func:`_clock_at_period` without them) is none: its copies are rows written twice (one
     repeat beside a lost sample's empty grid step shows such a clock); on such a clock shown by jitter, a copy that
     puts the samples after it a period early against a line at the period without the copies (:func:`_on_the_line`)
-    is a row written twice too. The stamps the rows
+    is a row written twice too. Packets or a clock coarser than the period are those the stamps show without the
+    rows (each row of an even log written again right after itself makes packets of 2; of one on a clock as coarse as
+    the period, a clock twice as fine): shown only with them, the rows are copies. The stamps the rows
     judged samples leave are those :func:`restamp_shared_stamps` reads: where they show no clock or packets there, no
     row is a sample (one place decides)."""
     clock, packets = _clock_or_packets(t)
+    if packets or clock and clock[0] >= 1.5 * clock[1]:
+        other = _clock_or_packets(np.delete(t, rows))
+        if other == (None, None) or other[0] and other[0][0] < 1.5 * other[0][1]:
+            clock, packets = other
     samples = np.ones(rows.size, bool)
     if clock and clock[0] < 1.5 * clock[1]:
         grid, d, counts, _ = _stamp_grid(t)
@@ -937,14 +943,62 @@ def quantised_note(grid_s: float, period_s: float, counts: np.ndarray, which: st
             "late)")
 
 
-def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.ndarray:
+#: How near (relative) the samples over an IMU log's span must come to its configured rate, and how much further its
+#: stamps' own reading must be, for the configured rate to be the IMU's (:func:`configured_rate_clock`): a clock is off
+#: by ppm; a 60 s log's span in whole 10 ms by up to 1.7e-4.
+CONFIGURED_RATE_SHARE = 1e-3
+
+
+def configured_rate_clock(t: np.ndarray, expected_hz: float | None) -> tuple[float, float, float] | None:
+    """``(grid s, read Hz, over span Hz)`` of increasing IMU stamps ``t`` (s) on a grid (:func:`_stamp_grid`) that
+    read a rate (:func:`imu_rate_hz`) off the configured ``expected_hz`` (Hz) by more than
+    :data:`CONFIGURED_RATE_SHARE` where the samples over their span agree with it within that share: 98 Hz in whole
+    10 ms without jitter (every 50th step 20 ms) reads 100 Hz, which the stamps alone cannot tell from 100 Hz losing
+    every 50th sample; the configuration can. None else."""
+    t = np.asarray(t, float)
+    if expected_hz is None or t.size < 3 or not t[-1] > t[0] or np.any(np.diff(t) <= 0):
+        return None
+    over_span = (t.size - 1) / float(t[-1] - t[0])
+    if abs(over_span / expected_hz - 1.0) > CONFIGURED_RATE_SHARE:
+        return None
+    read = imu_rate_hz(t)
+    grid, _, _, on_grid = _stamp_grid(t)
+    if not on_grid or abs(read / expected_hz - 1.0) <= 2.0 * CONFIGURED_RATE_SHARE:
+        return None
+    return grid, read, over_span
+
+
+def _restamp_at_configured_rate(t: np.ndarray, clock: tuple[float, float, float], expected_hz: float
+                                ) -> tuple[np.ndarray | None, float, str]:
+    """``(stamps s or None, period s, note)``: IMU stamps ``t`` (s) that :func:`configured_rate_clock` found
+    (``clock``) put on one even grid at about the configured ``expected_hz`` (:func:`restamp_quantised`), or None
+    (left as read) where one line does not keep every sample within its grid step (samples lost, or another rate:
+    the evidence is not clear), and what the note says."""
+    grid, read, over_span = clock
+    restamped, period, stretches = restamp_quantised(t, grid, 1.0 / expected_hz)
+    said = (f"stamps on a {1e3 * grid:.4g} ms grid read {read:.5g} Hz, but the samples over their span "
+            f"({over_span:.5g} Hz) agree with the configured imu_rate_hz {expected_hz:.5g} Hz: an IMU slower than its "
+            f"logger's clock, which the stamps alone cannot tell from {read:.5g} Hz losing samples")
+    if restamped is None or stretches > 1:
+        return None, period, said + (f"; no one even grid at {1e3 / expected_hz:.4g} ms keeps every sample within "
+                                     "its grid step (samples lost?): the stamps are left as read")
+    moved = int(np.sum(restamped != t))
+    return restamped, period, said + (f": {moved} of {t.size} stamps put on one even grid at the period "
+                                      f"{1e3 * period:.5g} ms, each within its grid step give or take half a period")
+
+
+def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, expected_hz: float | None = None
+                          ) -> np.ndarray:
     """IMU stamps ``t`` (s, file order) whose packets share one stamp (:func:`shared_stamp_packets`) with each
     packet spread back from its stamp at the period (:func:`restamp_packets`), or from a clock coarser than the
     period (:func:`quantised_clock`) put on an even grid (:func:`restamp_quantised`), or on a grid finer than the
     period with samples moved into the step before by jitter (:func:`grid_repeats`) those placed after it, warned
     about and noted once, their count in ``meta["streams"]["imu"]["restamped"]`` and the period in
-    ``"restamp_period_s"``; else ``t`` as given. Left as read, every sample but one of a stamp was a duplicated
-    stamp: the file was refused, and its repair dropped k - 1 in k samples."""
+    ``"restamp_period_s"``; else, even stamps on a grid that the configured rate ``expected_hz`` (Hz, None: not
+    known) and the samples over their span say are an IMU slower than its logger's clock
+    (:func:`configured_rate_clock`), put on one even grid at that rate where one fits, warned about either way; else
+    ``t`` as given. Left as read, every sample but one of a stamp was a duplicated stamp: the file was refused, and
+    its repair dropped k - 1 in k samples."""
     clock, packets = _clock_or_packets(t)
     if clock:
         restamped, period, stretches = restamp_quantised(t, *clock)
@@ -967,6 +1021,12 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None) -> np.n
                 f"of {t.size} repeat the stamp before (jitter moved a sample across the grid's edge: the samples on "
                 "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
                 "room before the next stamp later")
+    elif configured := configured_rate_clock(t, expected_hz):
+        restamped, period, note = _restamp_at_configured_rate(t, configured, expected_hz)
+        if restamped is None:
+            say_restamp(meta, source, note, 4)
+            return t
+        moved = int(np.sum(restamped != t))
     else:
         return t
     say_restamp(meta, source, note, 4, restamped, moved, period)

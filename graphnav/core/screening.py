@@ -912,7 +912,8 @@ REPAIRED_STAMP = "duplicated stamp (repair)"
 
 
 def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str, field: str, repair: bool,
-                meta: dict | None = None, stream: str = "") -> tuple[np.ndarray, dict[str, int], np.ndarray]:
+                meta: dict | None = None, stream: str = "", imu_rate_hz: float | None = None
+                ) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
     """``(indices of the rows kept, in time order; {reason: rows dropped}; their stamps, s)`` of a file's stamps
     ``t`` (N,) s and its rows as read ``rows`` (N,k), ``lines`` their file lines.
 
@@ -923,7 +924,8 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
-    warned about and counted (:func:`say_imu_stamp_steps`). The rest must increase strictly; else, with ``repair``, the
+    warned about and counted (:func:`say_imu_stamp_steps`); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
+    slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly; else, with ``repair``, the
     rows are sorted and those whose stamp repeats an earlier one dropped (the first kept), with a warning; without it
     a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``): one
     stamp on two different rows can be two streams written into one file."""
@@ -931,9 +933,11 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     t = read.copy()
     order = np.argsort(t, kind="stable")
     a, b = rows[order][:-1], rows[order][1:]
-    same = (np.diff(t[order]) == 0) & np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
-    copies = np.sort(order[1:][same])
-    if copies.size and stream == "imu":
+    equal = (a == b) | (np.isnan(a) & np.isnan(b))
+    step = np.diff(t[order])
+    copies = np.sort(order[1:][(step == 0) & np.all(equal, axis=1)])
+    stamp = np.all(rows == t[:, None], axis=0)          # the stamp's own column: it differs from stamp to stamp
+    if copies.size and stream == "imu" and readings_repeat(np.all(equal[:, ~stamp], axis=1), step):
         copies = copies[~samples_sharing_a_stamp(t, copies)]
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
@@ -941,7 +945,7 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
                       f"dropped, at line(s) {first_lines(lines[copies])}", RuntimeWarning, stacklevel=3)
     kept = np.delete(np.arange(len(t)), copies)
     if stream == "imu":
-        t[kept] = restamp_shared_stamps(read[kept], source, meta)
+        t[kept] = restamp_shared_stamps(read[kept], source, meta, imu_rate_hz)
     step = np.diff(t[kept])
     bad = np.flatnonzero(step <= 0)
     if not bad.size:
@@ -962,6 +966,16 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     if stream == "imu":
         _say_steps(read, t, kept[first], lines, source, field, meta)
     return kept[first], {**dropped, REPAIRED_STAMP: int((~first).sum())}, t[kept[first]]
+
+
+def readings_repeat(equal: np.ndarray, step: np.ndarray) -> bool:
+    """Whether an IMU's rows (``equal``: each, in time order, equal in every value to the one before it; ``step``:
+    the stamps' steps between them, s) repeat from one stamp to the next at least half as often as within a stamp:
+    an IMU at rest with coarse counts, whose rows equal to the one before at a shared stamp may be samples. Readings
+    with noise differ from sample to sample: a row repeating the one before in every value is written again (an even
+    100 Hz log with every row written twice read as packets of 2 at 200 Hz, each sample integrated twice)."""
+    within = step == 0
+    return bool(np.any(~within) and np.mean(equal[~within]) >= 0.5 * np.mean(equal[within]))
 
 
 def _say_steps(read: np.ndarray, t: np.ndarray, kept_rows: np.ndarray, lines: np.ndarray, source: str, field: str,

@@ -65,7 +65,7 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, StreamScreen
+from graphnav.core.screening import EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, StreamScreen
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -192,6 +192,8 @@ class Navigator:
         self._stamps: dict[str, set] = {k: set() for k in STREAM_ORDER}
         self._last_released: dict[str, float] = {k: -math.inf for k in STREAM_ORDER}
         self._last_imu_released = -math.inf
+        self._last_imu_in: tuple | None = None      # the latest IMU sample received (t, f, w), for a copy of it
+        self._imu_readings_repeat = False           # whether its readings were those of the sample before
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
@@ -252,6 +254,9 @@ class Navigator:
         if why is not None:
             return self._refuse("imu", t, why, f"f_b {list(f)}, omega_b {list(w)}: beyond the IMU's full scale "
                                 "(ImuSpec.accel_range_mps2 / gyro_range_rads)", screened=True)
+        if self._imu_copy(t, f, w):
+            return self._refuse("imu", t, EXACT_COPY, "the same stamp and values as the sample before it (a sample "
+                                "written again; its readings differ from stamp to stamp)", screened=True)
         packets = self._packets
         samples = packets.add(t, f, w, self._released)
         if packets.deciding and t > self._newest:   # held while its first steps decide: the other streams go on
@@ -263,6 +268,19 @@ class Navigator:
             if packets.period_s:        # the samples held while it decided come restamped too
                 self.keyframer.imu_period.restamped(min(t, samples[0][0]) if samples else t)
         return out + self._release(self._newest - self.options.reorder_window_s)
+
+    def _imu_copy(self, t: float, f, w) -> bool:
+        """Whether an IMU sample (stamp ``t`` s, ``f`` m/s^2, ``w`` rad/s) repeats the one received before it in its
+        stamp and every value while the readings differed at the latest new stamp: a sample written again (each of
+        an even 100 Hz stream's samples sent twice was restamped as packets of 2 at 200 Hz, each integrated twice).
+        Readings repeating from stamp to stamp are an IMU at rest with coarse counts, whose packets' samples sharing
+        a stamp may be equal: they pass (:func:`graphnav.core.screening.readings_repeat` offline)."""
+        sample, last = (t, tuple(f), tuple(w)), self._last_imu_in
+        self._last_imu_in = sample
+        if last is None or t != last[0]:
+            self._imu_readings_repeat = last is not None and sample[1:] == last[1:]
+            return False
+        return sample[1:] == last[1:] and not self._imu_readings_repeat
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
         """The IMU samples :class:`PacketStamps` let out into the reorder buffer, and those of a driver read it

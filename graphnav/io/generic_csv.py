@@ -217,11 +217,12 @@ def _unit_named(spec: dict, key: str) -> dict:
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
           time_unit: str | None, tables: dict, meta: dict, repair: bool = False,
-          t_imu: np.ndarray | None = None) -> tuple[np.ndarray, dict, Path]:
+          t_imu: np.ndarray | None = None, imu_rate_hz: float | None = None) -> tuple[np.ndarray, dict, Path]:
     """Stamps (s, on the file's clock, increasing) and value groups of one stream (:func:`stamp_order`: rows
     repeating an earlier one exactly dropped; with ``repair`` rows with a repeated stamp too, and sorted; each
     counted). ``t_imu``: the IMU's stamps (s, the file's clock), which a declared time unit's span is checked
-    against (:func:`graphnav.io.units.check_declared_time_span`)."""
+    against (:func:`graphnav.io.units.check_declared_time_span`); ``imu_rate_hz``: the configured IMU rate (Hz),
+    which tells an IMU slower than its logger's clock from one losing samples."""
     if "t" not in spec:
         raise ConfigError(f"csv_columns.{stream} needs 't' (the stamp column)")
     path = root / spec["file"] if "file" in spec else data_file
@@ -252,7 +253,8 @@ def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: d
         if unit is not None:
             check_declared_time_span(t, t_imu, stream, str(path), unit, key, spec["t"], own)
         check_stamp_bound(t, float(t_imu[0]), stream, str(path), unit, key, spec["t"], lines, own)
-    kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream)
+    kept, dropped, t_kept = stamp_order(t, values, lines, str(path), spec["t"], repair, meta, stream,
+                                         imu_rate_hz)
     if dropped:
         _count_read(meta, stream, t, path)       # the rows dropped were read
         for reason, n in dropped.items():
@@ -291,7 +293,8 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
     spec = cmap.get("imu")
     if not spec:
         raise ConfigError("csv_columns needs an 'imu' entry")
-    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables, meta, repair)
+    t_imu, v, path = _read(root, data_file, spec, "imu", {"f_b": 3, "omega_b": 3}, time_unit, tables, meta, repair,
+                           imu_rate_hz=config.imu_rate_hz)
     for key in ("f_b", "omega_b"):
         if key not in v:
             raise ConfigError(f"csv_columns.imu needs '{key}' (3 column names)")

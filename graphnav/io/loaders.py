@@ -223,7 +223,8 @@ PHINS_RECORDED = ImuSpec(name="phins-recorded", accel_noise_density=3.5e-3, gyro
 # ------------------------------------------------------------------------------------------------
 def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, ...] = (),
              repair: bool = False, meta: dict | None = None, stream: str = "",
-             empty_is_nan: bool = False, inf_ok: bool = False, with_lines: bool = False):
+             empty_is_nan: bool = False, inf_ok: bool = False, with_lines: bool = False,
+             imu_rate_hz: float | None = None):
     """Read a numeric CSV with a known header into an (N, len(columns)) float array.
 
     The first line must hold ``columns`` (exact names, any order is not accepted: the published order).
@@ -240,6 +241,8 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     (:func:`graphnav.core.screening.stamp_outliers`: NaN or empty (with ``empty_is_nan``), inf, 1e300, a lone
     stamp a day off) are refused and counted there, before the order check.
     ``with_lines``: return ``(data, lines)``, ``lines`` (N,) the 1-based file line of each row returned.
+    ``imu_rate_hz``: an IMU's configured rate (Hz), which tells an IMU slower than its logger's clock from one
+    losing samples where the stamps cannot (:func:`graphnav.core.screening.stamp_order`).
 
     Raises:
         DataError: with ``source`` = the file, ``line`` = the first bad line, ``field`` = its column; the
@@ -303,7 +306,8 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
             count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
             entry = meta["streams"][stream]
             entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
-    kept, dropped, t = stamp_order(data[:, 0], data, line_no, source, columns[0], repair, meta, stream)
+    kept, dropped, t = stamp_order(data[:, 0], data, line_no, source, columns[0], repair, meta, stream,
+                                   imu_rate_hz)
     for reason, n in dropped.items() if meta is not None else ():
         count_refused(meta, stream, reason, n)
     data = data[kept]
@@ -410,7 +414,8 @@ def read_akit(folder: str | Path, *, rescale_stamps: bool = True, repair: bool =
     # an empty cell is NaN (what pandas' to_csv writes for it): an invalid ping in the DVL file, a refused row in
     # the IMU and GT files (below); text that is not a number stays a DataError naming the line and column
     read = {k: read_csv(files[k], AKIT_COLUMNS[k], nan_ok=AKIT_COLUMNS[k][1:], empty_is_nan=True, inf_ok=True,
-                        repair=repair, meta=meta, stream=k.lower(), with_lines=True) for k in files}
+                        repair=repair, meta=meta, stream=k.lower(), with_lines=True,
+                        imu_rate_hz=cfg.imu_rate_hz if k == "IMU" else None) for k in files}
     lines = {k.lower(): rows for k, (_, rows) in read.items()}
     imu, dvl, gt = (read[k][0] if k in read else None for k in ("IMU", "DVL", "GT"))
     # before the screening: deg/s is not out of range; the GT rows to refuse are found with its units
