@@ -16,10 +16,11 @@ stamps alone, in this order:
   samples after it keep, off a line at the period (:func:`stamp_steps`), is a clock step or a gap, said by the reader.
 * **The rate** (:func:`imu_rate_hz`, :func:`imu_step_stats`): the median step of even stamps; the mean one-period
   step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
-  clock's grid; samples over time without the gaps for stamps in packets or bursts (:func:`imu_packet_limit`: the
-  step that ends one). ``prepare`` puts distinct stamps in packets back on the period with the same
-  :func:`restamp_packets` and uses the measured rate where the configured one is off; the IMU spike tests of
-  :mod:`graphnav.core.screening` take their windows in rows from it.
+  clock's grid, or samples over time where jitter spreads such steps (a lost sample's step counted as the periods it
+  spans, a row written twice as none: :func:`_odd_steps`); samples over time without the gaps for stamps in packets
+  or bursts (:func:`imu_packet_limit`: the step that ends one). ``prepare`` puts distinct stamps in packets back on
+  the period with the same :func:`restamp_packets` and uses the measured rate where the configured one is off; the
+  IMU spike tests of :mod:`graphnav.core.screening` take their windows in rows from it.
 * **A live stream** (the keyframer, the stream's spike test): a burst the stream starts with (:func:`start_burst`)
   is left out of its rate, and no rate is measured while packets have too few cycles to tell
   (:func:`awaits_packet_cycles`). A live IMU's stamps are decided as they come, with these rules, by
@@ -114,11 +115,11 @@ def imu_stamp_quantum(steps: np.ndarray) -> float:
     lengths, which = np.unique(np.round(near / resolution), return_inverse=True)
     if lengths.size < 2:
         return 0.0
-    grid = float(np.min(np.diff(lengths)))
-    if not np.all(np.abs(lengths / grid - np.round(lengths / grid)) <= 1.0 / grid):
-        return 0.0
     means = np.bincount(which, near) / np.bincount(which)          # each length as logged, not its rounding
     quantum = float(np.min(np.diff(means)))
+    # against the lengths as logged: rounded, 9 and 10 ms steps (110 Hz) or 5, 6 and 7 (160 Hz) fell off their grid
+    if not np.all(np.abs(means / quantum - np.round(means / quantum)) * quantum <= resolution):
+        return 0.0
     return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
 
 
@@ -131,38 +132,69 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> 
     (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
     step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
     as read, ``d`` when None) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz). On a finer grid
-    with jitter of a fifth of the period or more the steps are counted over time (:func:`_periods_over_time`)."""
+    the steps near the median taking more than two lengths (jitter) are counted over time (:func:`_counted_period`):
+    a mean over a window about the median left out more of one side (385 Hz in whole ms with 0.2 ms of jitter read
+    386.4 Hz, 150 Hz with 0.5 ms 142.86 Hz); without jitter the mean is exact, and a count misses some of many lost
+    samples."""
     near = np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med
     first = float(np.mean(d[near]))
     if quantum < 0.45 * first:
-        mean = float(np.mean(d[near][np.abs(d[near] - first) < 0.5 * first]))
-        raw = d if steps is None else steps
-        return _periods_over_time(raw, mean) if np.mean(np.abs(raw) < 0.5 * mean) >= JITTER_SHORT_SHARE else mean
+        one = d[near][np.abs(d[near] - first) < 0.5 * first]
+        if np.unique(np.round(d[near] / quantum)).size <= 2:    # a rate on a grid, no jitter: one of two steps
+            return float(np.mean(one))
+        return _counted_period(_read_steps(d if steps is None else steps), float(np.mean(one)))
     for _ in range(2):
         one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
         first = float(np.mean(d[one & ~_lost_steps(d if steps is None else steps, first)]))
     return first
 
 
-#: Share of an IMU's steps, at least, under half the period (jitter of a fifth of it or more pushing samples towards
-#: the one before: 8 % at 128 Hz in whole ms with 2 ms of jitter, 3 % at 190 Hz with 1 ms, under 0.1 % at 100 Hz with
-#: 1 ms) above which its period is counted over time (:func:`_periods_over_time`), not a mean of the steps near it.
-JITTER_SHORT_SHARE = 0.01
+def _counted_period(x: np.ndarray, mean_s: float) -> float:
+    """The period (s) of IMU steps ``x`` (s, in order; 0 for a repeated stamp) on a grid finer than it, counted over
+    time (:func:`_periods_over_time`) from the ``mean_s`` of the steps near it (s) and from the median time of
+    :data:`SPAN_STEPS` steps over their count: the count whose samples keep closer to its line, lost samples and rows
+    written twice counted (:func:`_odd_steps`). Jitter of a fifth of the period or more leaves out more long steps than
+    short ones from that mean, and a line at a period 5 % off parts its samples as a lost one does (counted from that
+    mean alone, 250 Hz in whole ms with 1 ms of jitter read 236 Hz); a row written twice among a few stamps is in
+    most spans of them."""
+    best = (math.inf, mean_s)
+    for start in (mean_s, _span_period(x)):
+        period = _periods_over_time(x, start)
+        lost, extra = _odd_steps(x, period)
+        spread = float(np.std(np.cumsum(x) - np.cumsum(np.where(lost, np.round(x / period), 1.0 - extra)) * period))
+        best = min(best, (spread, period), key=lambda b: b[0])
+    return best[1]
+
+
+#: Steps whose time over their count starts :func:`_counted_period` too (:func:`_span_period`).
+SPAN_STEPS = 4
+
+
+def _span_period(x: np.ndarray) -> float:
+    """The median time (s) of :data:`SPAN_STEPS` consecutive IMU steps ``x`` (s, in order; 0 for a repeated stamp)
+    over their count: jitter moves a span's ends alone, and a lost sample or a row written twice is in few spans."""
+    span = np.convolve(x, np.ones(SPAN_STEPS), "valid")
+    return float(np.median(span) / SPAN_STEPS) if span.size else float(np.mean(x))
+
+
+def _read_steps(steps) -> np.ndarray:
+    """The finite, non-negative ``steps`` (s) between an IMU's stamps, in order (0 for a repeated stamp)."""
+    x = np.asarray(steps, float)
+    return x[np.isfinite(x) & (x >= 0.0)]
 
 
 def _periods_over_time(steps, period_s: float) -> float:
     """The period (s) of IMU ``steps`` (s, as read, in order; 0 for a repeated stamp) near ``period_s`` (s): their time
-    over their count, a lost sample's step (:func:`_lost_steps`) counted as the periods it spans, steps over
-    :data:`IMU_BURST_GAP_CYCLES` periods (gaps, clock steps) left out; refined twice. A sample jitter moves lengthens
-    one step and shortens the next by as much: a mean of the steps near the period left out the long one of such a pair
-    and not the short one (128 Hz in whole ms with 2 ms of jitter read 130.5-131.4 Hz, 190 Hz with 2 ms 198.6 Hz)."""
-    x = np.asarray(steps, float)
-    x = x[np.isfinite(x) & (x >= 0.0)]
+    over their count, a lost sample's step counted as the periods it spans and a row written twice as none
+    (:func:`_odd_steps`), steps over :data:`IMU_BURST_GAP_CYCLES` periods (gaps, clock steps) left out; refined twice.
+    A sample jitter moves lengthens one step and shortens the next by as much: a mean of the steps near the period left
+    out the long one of such a pair and not the short one (128 Hz in whole ms with 2 ms of jitter read 130.5-131.4 Hz,
+    190 Hz with 2 ms 198.6 Hz)."""
+    x = _read_steps(steps)
     for _ in range(3):
-        lost = np.zeros(x.size, bool)
-        lost[x > 0.0] = _lost_steps(x, period_s)
+        lost, extra = _odd_steps(x, period_s)
         keep = x <= IMU_BURST_GAP_CYCLES * period_s
-        periods = float(np.sum(np.where(lost, np.round(x / period_s), 1.0)[keep]))
+        periods = float(np.sum(np.where(lost, np.round(x / period_s), 1.0 - extra)[keep]))
         if not periods > 0:
             break
         period_s = float(np.sum(x[keep])) / periods
@@ -176,22 +208,53 @@ LOST_STEP_SAMPLES = 10
 
 def _lost_steps(steps, period_s: float) -> np.ndarray:
     """Which of the positive finite ``steps`` (s, as read, in order; :func:`step_lengths`) between stamps on a grid as
-    coarse as half the ``period_s`` (s) or more span a lost sample: over 1.45 periods, and the samples after them
-    (:data:`LOST_STEP_SAMPLES`) a period or more later against a line at the period than those before (half of it
-    decides). A sample moved across a grid edge lengthens one step and shortens the next, so the line holds (50 Hz in
-    whole 10 ms: a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
+    coarse as half the ``period_s`` (s) or more span a lost sample (:func:`_odd_steps`)."""
     d = np.abs(np.asarray(steps, float))
-    d = d[np.isfinite(d)]
+    return _odd_steps(d[np.isfinite(d)], period_s)[0][d[np.isfinite(d)] > 0.0]
+
+
+def _odd_steps(d: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(lost, extra)``: which of the finite non-negative steps ``d`` (s, as read, in order) between IMU stamps span a
+    lost sample (over 1.45 periods ``period_s``, s) or end a row written twice (under half a period), the samples after
+    them (:data:`LOST_STEP_SAMPLES`) a period or more later (or earlier) against a line at the period than those before
+    (half of it decides), most so among the neighbours that may be one; in passes, each on the line that counts those
+    found before (two lost samples or rows written twice within as many samples part the line at one of them by most).
+    A sample moved across a grid edge lengthens one step and shortens the next, so the line holds (50 Hz in whole 10 ms:
+    a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
+    lost, extra = np.zeros(d.size, bool), np.zeros(d.size, bool)
+    for _ in range(ODD_STEP_PASSES):
+        jump = _line_jump(d, np.where(lost, np.round(d / period_s), 1.0 - extra), period_s)
+        # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
+        new_lost = _peaks(~lost & (d > 1.45 * period_s) & (jump > 0.5 * period_s), jump)
+        new_extra = _peaks(~extra & (d < 0.5 * period_s) & (jump < -0.5 * period_s), -jump)
+        if not (np.any(new_lost) or np.any(new_extra)):
+            break
+        lost, extra = lost | new_lost, extra | new_extra
+    return lost, extra
+
+
+#: Passes of :func:`_odd_steps`: each finds one more of lost samples or rows written twice closer together than
+#: :data:`LOST_STEP_SAMPLES`.
+ODD_STEP_PASSES = 4
+
+
+def _line_jump(d: np.ndarray, periods: np.ndarray, period_s: float) -> np.ndarray:
+    """At each of the steps ``d`` (s) between IMU stamps, spanning ``periods`` each, how much later (s) the
+    :data:`LOST_STEP_SAMPLES` samples after it sit against a line at ``period_s`` (s) than as many before it."""
     n = LOST_STEP_SAMPLES
-    off = np.r_[0.0, np.cumsum(d)] - np.arange(d.size + 1) * period_s
+    off = np.r_[0.0, np.cumsum(d) - np.cumsum(periods) * period_s]
     total = np.r_[0.0, np.cumsum(off)]
     c = np.arange(d.size)
     a, b = np.maximum(c + 1 - n, 0), np.minimum(c + 1 + n, off.size)
-    jump = (total[b] - total[c + 1]) / (b - c - 1) - (total[c + 1] - total[a]) / (c + 1 - a)
-    # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
-    peak = np.max(np.lib.stride_tricks.sliding_window_view(np.pad(jump, n - 1, constant_values=-np.inf),
-                                                           2 * n - 1), axis=1)
-    return ((d > 1.45 * period_s) & (jump > 0.5 * period_s) & (jump >= peak))[d > 0.0]
+    return (total[b] - total[c + 1]) / (b - c - 1) - (total[c + 1] - total[a]) / (c + 1 - a)
+
+
+def _peaks(candidate: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Which ``candidate`` places hold the largest of ``x`` among the candidates within :data:`LOST_STEP_SAMPLES` - 1
+    places of them."""
+    n = LOST_STEP_SAMPLES
+    padded = np.pad(np.where(candidate, x, -np.inf), n - 1, constant_values=-np.inf)
+    return candidate & (x >= np.max(np.lib.stride_tricks.sliding_window_view(padded, 2 * n - 1), axis=1))
 
 
 def awaits_packet_cycles(steps, period_s: float) -> bool:
