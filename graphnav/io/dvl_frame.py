@@ -27,7 +27,8 @@ velocity as a body one, lands tens of seconds off, where the turn check above ha
 A vehicle slower than the current it moves in (an ROV, an AUV in a tidal stream) goes over the ground much as the water
 does whatever its heading: its body-frame velocity turns and spreads as an earth-fixed one does. The body kinematics
 tell them apart (:func:`kinematics_ratio`): on the IMU clock, a velocity the turn check would refuse is kept as body,
-with a note, when they explain it better than they explain it taken as earth-fixed. A DVL on a clock of its own cannot
+with a note, when they explain it better than they explain it taken as earth-fixed, beyond what the earth reading's
+free heading per window gains from the velocity's noise alone (:func:`_kinematics`). A DVL on a clock of its own cannot
 be judged so before the clock search, and the spread check still refuses it, saying to put its stamps on the IMU clock.
 A vehicle so slow that its velocity's noise turns the direction as much as the vehicle turns
 (:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a note.
@@ -62,7 +63,9 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: :func:`kinematics_ratio` under which a velocity that turns with the vehicle is kept as body: the body kinematics
 #: leave less unexplained than the earth ones. Measured (docs/decisions/dvl-frame.md): slow vehicles in currents
 #: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
-#: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above.
+#: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above. The noise
+#: adds its margin (:func:`_kinematics`): 1.037 over 400 s, 1.065 over 60 s; slow vehicles in currents with 0.05 m/s of
+#: noise 0.99-1.023, the NED copies judged 1.08 and above.
 BODY_KINEMATICS_RATIO = 1.0
 #: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body: its
 #: direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md): a
@@ -161,7 +164,11 @@ def course_turn_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega
         t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read (its first two axes horizontal when level), m/s.
         t_imu: (K,) IMU stamps, s, on the DVL's clock. omega_b: (K,3) gyro rates, rad/s.
     """
-    turns = _course_turns(t_dvl, v, t_imu, omega_b, window_s)
+    return _turn_ratio(_course_turns(t_dvl, v, t_imu, omega_b, window_s))
+
+
+def _turn_ratio(turns: tuple | None) -> float:
+    """:func:`course_turn_ratio` of :func:`_course_turns`' answer."""
     if turns is None:
         return float("nan")
     dvl_turn, gyro_turn, _ = turns
@@ -174,7 +181,11 @@ def course_turn_signal(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omeg
     velocity's own, ping to ping): under :data:`MIN_TURN_SIGNAL` the noise turns the direction as much as the vehicle
     does, and the turn ratio is near 1 whatever the frame. NaN where the ratio is. Arguments as
     :func:`course_turn_ratio`."""
-    turns = _course_turns(t_dvl, v, t_imu, omega_b)
+    return _turn_signal(_course_turns(t_dvl, v, t_imu, omega_b))
+
+
+def _turn_signal(turns: tuple | None) -> float:
+    """:func:`course_turn_signal` of :func:`_course_turns`' answer."""
     if turns is None:
         return float("nan")
     return float(np.sqrt(np.mean(turns[1] ** 2)) / max(turns[2], 1e-12))
@@ -229,6 +240,17 @@ def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         t_dvl: (M,) ping stamps, s. v: (M,3) velocity as read, m/s. t_imu: (K,) IMU stamps, s, on the DVL's clock.
         f_b: (K,3) specific force, m/s^2. omega_b: (K,3) gyro rates, rad/s.
     """
+    return _kinematics(t_dvl, v, t_imu, f_b, omega_b)[0]
+
+
+def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
+                ) -> tuple[float, float]:
+    """(:func:`kinematics_ratio`, the ratio under which it keeps the velocity as body): the earth reading's free
+    heading per window fits the velocity's noise, so a body-frame velocity whose noise hides its turns gives over 1.
+    Per window of n pings the body reading leaves 3n - 6 numbers free (its v0 and g0 fitted), the earth reading one
+    fewer; under noise alone their ratio over W windows is 1 + chi2(W) / chi2(W (3n - 7)): the ratio keeps within
+    :data:`BODY_KINEMATICS_RATIO` plus 3 sigmas of that. Arguments as :func:`kinematics_ratio`; (NaN, NaN) where it
+    is NaN."""
     from graphnav.core.dvl_kinematics import imu_integrals
     from graphnav.core.mission import ImuData
     ok = np.all(np.isfinite(v), axis=1)
@@ -238,10 +260,11 @@ def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
         body = _kinematic_residuals(imu, ints, t, v)
     except DataError:
-        return float("nan")
+        return float("nan"), float("nan")
     if body is None:
-        return float("nan")
+        return float("nan"), float("nan")
     L, K = body
+    windows, free = len(L), L.size - 7 * len(L)
     yaw = np.interp(t, ints.t, ints.W[:, 2])
     earth = np.inf
     for sign in (1.0, -1.0):
@@ -254,7 +277,8 @@ def kinematics_ratio(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: n
         G = np.einsum("wki,wkj->wij", P, P)
         c3 = np.stack([np.cos(_HEADINGS), np.sin(_HEADINGS), np.ones_like(_HEADINGS)], axis=1)
         earth = min(earth, float(np.einsum("pi,wij,pj->wp", c3, G, c3).min(axis=1).sum()))
-    return float(np.sum((L - K) ** 2) / max(earth, 1e-300))
+    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / max(free, 1)
+    return float(np.sum((L - K) ** 2) / max(earth, 1e-300)), float(limit)
 
 
 # a slow vehicle in a strong current (0.3 m/s in 0.5 m/s) moves over the ground much as the water does, whatever its
@@ -268,12 +292,26 @@ def _said(frame: str) -> str:
     return "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
 
 
+def _evidence(t_dvl, v, t_imu, omega_b, f_b=None, v_b=None) -> tuple:
+    """(:func:`_course_turns`, :func:`course_turn_ratio`, :func:`_kinematics`) of a velocity ``v`` (M,3, m/s as read;
+    ``v_b`` turned to body, default ``v``): the kinematics judged where ``f_b`` is given and the velocity turns with
+    the vehicle, else (NaN, NaN)."""
+    turns = _course_turns(t_dvl, v, t_imu, omega_b)
+    ratio = _turn_ratio(turns)
+    kin = (float("nan"), float("nan")) if f_b is None or not _turns_with(ratio) else \
+        _kinematics(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
+    return turns, ratio, kin
+
+
+def _turns_with(ratio: float) -> bool:
+    return bool(np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO)
+
+
 def _vehicle_fixed(t_dvl, v, t_imu, f_b, omega_b) -> bool:
     """A body-frame velocity ``v`` (M,3, m/s) :func:`check_not_earth_frame` keeps: it does not turn with the vehicle,
     or the body kinematics explain it better than taken as earth-fixed."""
-    ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
-    return not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO) or \
-        kinematics_ratio(t_dvl, v, t_imu, f_b, omega_b) < BODY_KINEMATICS_RATIO
+    _, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b)
+    return not _turns_with(ratio) or kin < limit
 
 
 def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu: np.ndarray, f_b: np.ndarray,
@@ -314,37 +352,35 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
-    :data:`BODY_KINEMATICS_RATIO` it is kept as body (a vehicle slower than the current it moves in), noted in
-    ``meta`` (and ``meta[CARRIED]`` set); otherwise a DataError naming the file and columns: logged in the earth
-    frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a smaller unit
-    that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as an
-    earth-fixed one does)."""
-    ratio = course_turn_ratio(t_dvl, v, t_imu, omega_b)
-    if not (np.isfinite(ratio) and ratio < EARTH_FRAME_RATIO):
+    the ratio its noise allows (:func:`_kinematics`) it is kept as body (a vehicle slower than the current it moves
+    in), noted in ``meta`` (and ``meta[CARRIED]`` set); otherwise a DataError naming the file and columns: logged in
+    the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
+    smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
+    an earth-fixed one does)."""
+    from graphnav.core.streams import add_note
+    turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b, v_b)
+    if not _turns_with(ratio):
         return ratio
-    kin = float("nan") if f_b is None else kinematics_ratio(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
     turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
             f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
-    if kin < BODY_KINEMATICS_RATIO:
+    if kin < limit:
         if meta is not None:
-            from graphnav.core.streams import add_note
             add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
-                     f"leave {kin:.2f}x what they leave of it taken as earth-fixed: kept in the {frame} frame, a "
-                     "vehicle slower than the current it moves in")
+                     f"leave {kin:.3f}x what they leave of it taken as earth-fixed (under {limit:.3f}, what its noise "
+                     f"allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
             meta[CARRIED] = True
         return ratio
-    judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it taken "
-              f"as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under "
-              f"{BODY_KINEMATICS_RATIO:g})" if np.isfinite(kin) else "")
+    judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it "
+              f"taken as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under {limit:.3f}, "
+              f"what its noise allows)" if np.isfinite(kin) else "")
     advice = None if not declared or spec is None or f_b is None else smaller_unit_advice(
         t_dvl, v if v_b is None else v_b, declared, t_imu, f_b, omega_b, spec)
     if advice:
         raise DataError(f"DVL velocity in the declared unit {declared['unit']!r} turns with the vehicle: {turn}; "
                         f"{judged}; {advice}", source, field=", ".join(fields))
-    signal = course_turn_signal(t_dvl, v, t_imu, omega_b)
+    signal = _turn_signal(turns)
     if signal < MIN_TURN_SIGNAL:
         if meta is not None:
-            from graphnav.core.streams import add_note
             add_note(meta, "dvl", f"velocity columns {fields} not judged for an earth frame: the vehicle turns only "
                      f"{signal:.2f}x the noise of its direction over {COURSE_WINDOW_S:g} s windows (the turn ratio "
                      f"{ratio:.2f}{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
