@@ -257,13 +257,66 @@ def test_akit_loader_finds_a_gt_clock_days_away(akit_dir, tmp_path, given):
 
 
 @pytest.mark.parametrize("late_s", [16.0, -16.0])
+def test_an_akit_gt_on_a_clock_of_its_own_inside_the_imu_span_is_put_on_the_imu_clock_by_its_turns(
+        akit_dir, tmp_path, late_s):
+    """Trajectory5 with its GT file 16 s late (or early) and no configuration: the GT shares 96 % of the IMU span, so
+    only the fine search (+-2 s) ran, and the folder loaded scored 16 s off (smooth --method TC: VRMSE 1.406 against
+    0.0445 m/s) with no word. The clock search a log's reference gets puts it on the IMU clock, warned about naming the
+    GT file and the offset, noted in clock_offsets: the GT, its depth and the offsets are the published folder's."""
+    from graphnav.io.loaders import read_mission
+    src = akit_dir / "Trajectory5"
+    dst, gt_file = _akit_with_gt_moved(src, tmp_path, late_s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = load_mission(src)
+        moved = read_mission(dst).gt.t[0] - read_mission(src).gt.t[0]          # the reader's stamps, rescaled
+    with pytest.warns(RuntimeWarning, match=r"GT clock offset [+-]1[56]\.\d+ s .* added to the GT stamps") as said:
+        m = load_mission(dst)
+    assert any(str(w.message).startswith(f"{gt_file}: GT clock offset") for w in said)
+    np.testing.assert_allclose(m.gt.t, ref.gt.t, atol=1e-3)
+    np.testing.assert_allclose(m.depth.t, ref.depth.t, atol=1e-3)
+    assert m.config.gt_time_offset_s == pytest.approx(ref.config.gt_time_offset_s - moved, abs=1e-3)
+    assert m.config.dvl_time_offset_s == pytest.approx(ref.config.dvl_time_offset_s, abs=1e-3)
+    np.testing.assert_array_equal(m.config.imu_axis_signs, ref.config.imu_axis_signs)
+    assert m.meta["clock_offsets"]["gt"]["offset_s"] == pytest.approx(-moved, abs=1.0)
+
+
+def test_a_given_akit_gt_offset_beyond_the_fine_search_places_the_gt_before_the_axis_check(akit_dir, tmp_path):
+    """Trajectory10 with its GT file 16 s late and a configuration giving the right offset: the axis detection, which
+    searches +-2 s, ran on the GT as read, 16 s off, and chose imu_axis_signs (-1, -1, 1) (its x axis turned), and the
+    DVL offset came out 0.35 s off, with no word but the detection's and the DVL turn check's. The GT is now placed at the given offset first:
+    the signs, the DVL offset and the stamps are the published folder's, silently."""
+    from graphnav.io.loaders import read_mission
+    src = akit_dir / "Trajectory10"
+    dst, _ = _akit_with_gt_moved(src, tmp_path, 16.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = load_mission(src)
+        moved = read_mission(dst).gt.t[0] - read_mission(src).gt.t[0]          # the reader's stamps, rescaled
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"gt_time_offset_s": ref.config.gt_time_offset_s - moved,
+                                  "imu_axis_signs": None}))
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        m = load_mission(dst, config)
+    assert [str(w.message).split(": ", 1)[1] for w in said] == [
+        "IMU axis convention detected against the GT attitude: chose imu_axis_signs=(1, -1, 1); pass imu_axis_signs "
+        "explicitly to override"]
+    np.testing.assert_array_equal(m.config.imu_axis_signs, ref.config.imu_axis_signs)
+    assert m.config.dvl_time_offset_s == pytest.approx(ref.config.dvl_time_offset_s, abs=1e-3)
+    np.testing.assert_allclose(m.gt.t, ref.gt.t, atol=1e-3)
+    np.testing.assert_allclose(m.depth.t, ref.depth.t, atol=1e-3)
+
+
+@pytest.mark.parametrize("late_s", [16.0, -16.0])
 def test_a_given_akit_gt_offset_the_clock_search_contradicts_is_doubted_with_the_offset_the_data_give(
         akit_dir, tmp_path, late_s):
     """Trajectory1 with its GT file 16 s late (or early) and a configuration giving gt_time_offset_s 0: the given
     offset was judged by the axis detection's +-2 s estimate alone, and the DVL, fitted against a GT 16 s off, was
     refused as "in another frame" naming the DVL file (five of the ten trajectories; four loaded silently). The clock
     search a column map's given offset gets names the offset the data give; the GT is used as given, counted as
-    doubted and its score says so, and the IMU axes and the DVL offset are the published folder's."""
+    doubted and its score says so, and the IMU axes, the DVL offset and the depth's stamps are the published
+    folder's."""
     import re
 
     from graphnav.calibration.preparation import reference_notes
@@ -287,6 +340,13 @@ def test_a_given_akit_gt_offset_the_clock_search_contradicts_is_doubted_with_the
     assert "the score is doubted" in reference_notes(m)["reference_time"]
     np.testing.assert_array_equal(m.config.imu_axis_signs, ref.config.imu_axis_signs)
     assert m.config.dvl_time_offset_s == pytest.approx(ref.config.dvl_time_offset_s, abs=1e-3)
+    # the depth, the GT file's altitude on its clock, aids the estimator: at the given stamps it was fed 16 s off
+    # (the depth gate refusing it); it is placed where the data put the GT, said and counted
+    np.testing.assert_allclose(m.depth.t, ref.depth.t, atol=1e-3)
+    assert m.meta["streams"]["depth"]["doubted"] == {
+        "placed at the GT offset the data give, not the given gt_time_offset_s": 400}
+    assert any("the depth (the GT's altitude, on the GT file's clock) is placed at the offset the data give the GT, "
+               f"{data_say:+.3f} s, not at the given gt_time_offset_s +0.000 s" in str(w.message) for w in said)
 
 
 def shift_file_stamps(path, by):

@@ -1277,6 +1277,24 @@ def test_a_given_reference_offset_the_clock_search_contradicts_is_doubted_with_t
     assert "reference_time" not in reference_notes(m) and initial_state(m, None, "auto", 0.0) is not None
 
 
+@pytest.mark.parametrize("late_s, right", [(16.0, False), (-16.0, False), (16.0, True)])
+def test_a_reference_given_an_offset_checks_the_imu_axes_where_it_is_used(sim, tmp_path, late_s, right):
+    """An IMU logged with its y axis the wrong way, no frame declared, and the reference logged 16 s late (early).
+    With gt_time_offset_s 0 given (doubted, used as given) or the right -16 s given, the reference checked the axes at
+    its stamps as read, 16 s off, and the gyro against its attitude saw nothing: the IMU kept y the wrong way, without
+    a word. It now checks them where the data put it (a doubted offset, as an A-KIT folder's GT does) or at the
+    offset given: the y axis is turned back with a warning."""
+    flipped = dataclasses.replace(sim, imu=dataclasses.replace(sim.imu, f_b=sim.imu.f_b * [1, -1, 1],
+                                                                omega_b=sim.imu.omega_b * [1, -1, 1]))
+    cfg = _shifted_reference(tmp_path, flipped, late_s, gt_time_offset_s=-late_s if right else 0.0)
+    with pytest.warns(RuntimeWarning, match=r"the IMU data contradict .*need axis signs \(1, -1, 1\)"):
+        m = load_mission(tmp_path, cfg)
+    np.testing.assert_array_equal(m.config.imu_axis_signs, [1, -1, 1])
+    np.testing.assert_allclose(m.imu.omega_b, sim.imu.omega_b, atol=1e-9)
+    doubted = {} if right else {"gt_time_offset_s used as given though the data disagree": 401}
+    assert m.meta["streams"]["gt"].get("doubted", {}) == doubted
+
+
 def test_a_given_reference_offset_that_leaves_it_off_the_imu_span_is_searched_and_the_data_decide(sim, tmp_path):
     """A configuration's gt_time_offset_s 0 with the reference logged 28 s late on a 40 s log (sharing 30 %): the
     reference was left out unsearched, though its turns match the gyro's at -28 s. It now gets the clock search a

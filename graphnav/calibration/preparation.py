@@ -11,8 +11,9 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
 1. **IMU axes.** ``imu_axis_signs="auto"`` detects the file's convention
    (:func:`graphnav.calibration.axes.detect_imu_axis_signs`: gyro against the GT attitude, or gravity/gyro
    consistency without GT) and warns what it chose; the signs multiply the accelerometer and gyro x/y/z.
-2. **Time offsets.** A GT whose stamps lie off the IMU span is first put on the IMU clock
-   (:func:`graphnav.calibration.clock.align_gt_clock`, before the axis check, which needs it there).
+2. **Time offsets.** A GT on a clock of its own is first put on the IMU clock, before the axis check, which needs it
+   there: off the IMU span by :func:`graphnav.calibration.clock.align_gt_clock`, on it by the clock search a log's
+   reference gets (:func:`_searched_reference_clock`: a GT 16 s off shares 96 % of the span).
    ``gt_time_offset_s="auto"`` matches gyro-integrated attitude increments with the GT's
    (reusing the axis check's estimate), then ``dvl_time_offset_s="auto"`` regresses the DVL velocity on the GT
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
@@ -20,8 +21,9 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
-   (:func:`_given_reference_clock`): one the data contradict is used as given and doubted (the axis check and the
-   DVL's offset take the GT where the data put it), one that leaves the GT off the IMU span is replaced by theirs. A
+   (:func:`_given_reference_clock`): one the data contradict is used as given and doubted (the axis check, the
+   DVL's offset and the depth, the GT's altitude, take the GT where the data put it), one that leaves the GT off the
+   IMU span is replaced by theirs. A
    given DVL offset that leaves most of its file's stamps off the IMU span is warned about and estimated as
    ``"auto"`` is.
 3. **GT point.** The GT is moved from the published INS point to the IMU point
@@ -269,11 +271,16 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     if mission.gt is not None and "gt_time_offset_s" in from_file:
         data_s = _given_reference_clock(mission.imu, mission.gt, float(gt_time_offset_s), meta, facts)[1]
         if data_s is not None:
-            # the axis check and the DVL's offset take the GT where the data put it; the GT handed on (and its depth)
-            # is stamped with a given offset used as given
+            # the axis check, the DVL's offset and the depth take the GT where the data put it; the GT handed on is
+            # stamped with a given offset used as given
             used_as_given = float(gt_time_offset_s) if "gt_clock_doubted" in meta else None
             gt_time_offset_s, gt_clock = AUTO, data_s
-            mission = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + data_s))
+        elif _beyond_the_fine_search(mission.gt, float(gt_time_offset_s), mission.imu):
+            # a given offset the data confirm, further than the axis check's +-2 s search finds the GT: it is placed
+            # first (16 s off, it turned Trajectory10's x axis and moved its DVL 0.35 s)
+            gt_time_offset_s, gt_clock = 0.0, float(gt_time_offset_s)
+        if gt_clock:
+            mission = dataclasses.replace(mission, gt=dataclasses.replace(mission.gt, t=mission.gt.t + gt_clock))
     gt_time_offset_s = _off_the_imu_clock(mission.gt, gt_time_offset_s, mission.imu, "gt", meta)
     dvl_time_offset_s = _off_the_imu_clock(mission.dvl, _pick(dvl_time_offset_s, facts, "dvl_time_offset_s"),
                                            mission.imu, "dvl", meta)
@@ -287,8 +294,8 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         _judge_given_signs(mission, meta, facts, signs)
     if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
             and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t):
-        _judge_given_offset(meta, facts, "gt", float(gt_time_offset_s), judged.gt_offset.offset_s,
-                            judged.gt_offset.sigma_s, mission)
+        _judge_given_offset(meta, facts, "gt", gt_clock + float(gt_time_offset_s),
+                            gt_clock + judged.gt_offset.offset_s, judged.gt_offset.sigma_s, mission)
     cfg = dataclasses.replace(mission.config)
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
@@ -359,23 +366,48 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     cfg.gt_time_offset_s = gt_clock + float(gt_time_offset_s)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
 
-    t_gt = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
+    t_gt = t_depth = g.t + float(gt_time_offset_s)          # g is on the IMU clock already (gt_clock added)
     if used_as_given is not None:
         estimates.pop("gt", None)
+        _depth_where_the_data_put_it(meta, mission.depth, used_as_given, cfg.gt_time_offset_s)
         cfg.gt_time_offset_s = used_as_given
         t_gt = g.t - gt_clock + used_as_given
     gt = GroundTruth(t_gt, g.p_n, g.v_n, g.C_b_n, g.origin_lla, source=g.source)
     if np.any(imu_position_b):
         from graphnav.calibration.reference import move_ground_truth
         gt = move_ground_truth(gt, t_imu, omega_b, imu_position_b, lat_for_rate)
-    depth = DepthData(t_gt, gt.p_n[:, 2].copy(), source=mission.depth.source)
+    # the point's move changes no stamp and its position term none either: the depth is the moved GT's down
+    depth = DepthData(t_depth, gt.p_n[:, 2].copy(), source=mission.depth.source)
     dvl = dataclasses.replace(mission.dvl, t=t_dvl + cfg.dvl_time_offset_s)
     meta["gt_point_b"] = imu_position_b.tolist()
     meta["time_offsets"] = {k: {"offset_s": e.offset_s, "sigma_s": e.sigma_s, "rms": e.rms}
                             for k, e in estimates.items()}
-    _note_akit(meta, cfg, dvl, gt, estimates)
+    _note_akit(meta, cfg, dvl, gt, estimates, depth)
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, gt=gt, depth=depth, meta=meta)
+
+
+def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, data_s: float) -> None:
+    """Said of an A-KIT folder whose given GT offset (``given``, s) the clock search contradicts: the depth, the GT
+    file's altitude on the GT file's clock, is placed at the offset the data give (``data_s``, s), warned about naming
+    the file and column, noted and counted as doubted. The GT, a reference to score against, is used as given; the
+    depth aids the estimator, which at the given stamps would be fed a depth 16 s off the vehicle's motion (its
+    depth gate refusing it in every dive). Placed rather than left out, as a log's depth on a clock of its own is:
+    the GT's turns fix this clock to a millisecond, where a depth's own changes fix it to seconds."""
+    from graphnav.io.loaders import AKIT_COLUMNS
+    text = (f"field '{AKIT_COLUMNS['GT'][3]}': the depth (the GT's altitude, on the GT file's clock) is placed at the "
+            f"offset the data give the GT, {data_s:+.3f} s, not at the given gt_time_offset_s {given:+.3f} s, which "
+            f"would feed the estimator a depth {abs(data_s - given):.3f} s off the vehicle's motion")
+    add_note(meta, "depth", text)
+    count_doubted(meta, "depth", "placed at the GT offset the data give, not the given gt_time_offset_s",
+                  len(depth.t))
+    warnings.warn(f"{depth.source}: {text}", RuntimeWarning, stacklevel=4)
+
+
+def _beyond_the_fine_search(data, offset_s: float, imu: ImuData) -> bool:
+    """A given time offset (s) further than the fine search reaches (:data:`GT_OFFSET_SEARCH_S`) that puts ``data``'s
+    stamps on the IMU span: what must be added before a check that searches +-2 s compares them with the IMU."""
+    return abs(offset_s) > GT_OFFSET_SEARCH_S and on_the_imu_clock(np.asarray(data.t, float) + offset_s, imu.t)
 
 
 def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndarray):
@@ -438,9 +470,12 @@ def _off_the_imu_clock(data, offset, imu: ImuData, stream: str, meta: dict):
 
 
 def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
-    """(GT on the IMU clock, the clock offset added, s) of an A-KIT mission as read: 0 when the GT stamps lie on
-    the IMU span (the published files); otherwise :func:`graphnav.calibration.clock.align_gt_clock`'s, or
-    DataError naming the GT file."""
+    """(GT on the IMU clock, the clock offset added, s) of an A-KIT mission as read without a given GT offset. On the
+    IMU span: the clock search a log's reference gets (:func:`_searched_reference_clock`; the published files: 0);
+    a GT 16 s off shares 96 % of the span, and the fine search's +-2 s scored it 16 s off. Off it:
+    :func:`graphnav.calibration.clock.align_gt_clock`'s, or DataError naming the GT file."""
+    if on_the_imu_clock(mission.gt.t, mission.imu.t):
+        return _searched_reference_clock(mission.imu, mission.gt, meta, "GT")
     from graphnav.calibration.clock import align_gt_clock
     return align_gt_clock(mission.imu, mission.gt, meta, field="Time [s]",
                           what_to_do=_GIVE_OFFSET.format(kind="GT", stream="gt"))
@@ -581,9 +616,10 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
 OFFSET_SIGMA_WARN_S = 0.05
 
 
-def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | None, estimates: dict) -> None:
+def _note_akit(meta: dict, cfg: SensorConfig, dvl: DvlData, gt: GroundTruth | None, estimates: dict,
+               depth: DepthData | None = None) -> None:
     """``meta["streams"]``: the prepared stamps' spans, the axis signs and the time offsets added."""
-    for stream, data in (("dvl", dvl), ("gt", gt), ("depth", gt)):
+    for stream, data in (("dvl", dvl), ("gt", gt), ("depth", depth)):
         if data is not None and stream in meta["streams"]:
             set_span(meta, stream, data.t)
     signs = meta["imu_axis_signs"]
@@ -613,9 +649,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     without heading told whether it can gyrocompass."""
     mission = _reference_clock(mission, meta, facts)
     # without a reference attitude on the IMU clock, the DVL is what can see an IMU turned about z
-    judges = _reference_checks_axes(mission, meta, facts)
-    unchecked = None if judges else facts.get("imu_frame")
-    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"), judges)
+    judge = _reference_checks_axes(mission, meta, facts)
+    unchecked = None if judge is not None else facts.get("imu_frame")
+    mission = _imu_frame(_given_axis_signs(mission, meta, facts), meta, facts.get("imu_frame"), judge)
     # before the clock search and the reference's time offset, which integrate the gyro (a DVL on a clock of its own
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
@@ -726,14 +762,23 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     if given is not None:
         moved = _given_reference_clock(mission.imu, g, float(given), meta, facts)[0]
         return mission if moved is g else dataclasses.replace(mission, gt=moved)
-    est = _far_reference_clock(mission.imu, g)
+    moved = _searched_reference_clock(mission.imu, g, meta, "reference")[0]
+    return mission if moved is g else dataclasses.replace(mission, gt=moved)
+
+
+def _searched_reference_clock(imu: ImuData, gt: GroundTruth, meta: dict, name: str) -> tuple[GroundTruth, float]:
+    """``(gt, offset added, s)``: a reference without a given time offset (an A-KIT GT, a log's or bag's reference,
+    called ``name``) put on the IMU clock when the clock search finds it further off than the fine search reaches
+    (:func:`_far_reference_clock`), warned about naming its file
+    (:func:`graphnav.calibration.clock.add_gt_clock_offset`); as it is, with 0, otherwise."""
+    est = _far_reference_clock(imu, gt)
     if est is None:
-        return mission
+        return gt, 0.0
     from graphnav.calibration.clock import add_gt_clock_offset
-    text = (f"reference clock offset {est.describe()} estimated from the data and added to the reference stamps "
-            f"[{g.t[0]:.3f}, {g.t[-1]:.3f}] s (sharing {overlap_text(g.t, mission.imu.t)} with the IMU span): a clock "
+    text = (f"{name} clock offset {est.describe()} estimated from the data and added to the {name} stamps "
+            f"[{gt.t[0]:.3f}, {gt.t[-1]:.3f}] s (sharing {overlap_text(gt.t, imu.t)} with the IMU span): a clock "
             "of its own; set gt_time_offset_s in the configuration if it is known")
-    return dataclasses.replace(mission, gt=add_gt_clock_offset(g, est, meta, text))
+    return add_gt_clock_offset(gt, est, meta, text), est.offset_s
 
 
 def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: dict, facts: dict):
@@ -767,15 +812,24 @@ def _given_reference_clock(imu: ImuData, gt: GroundTruth, given: float, meta: di
     return add_gt_clock_offset(gt, est, meta, text, facts.get("given_by", {}).get(key, "the configuration")), data_s
 
 
-def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> bool:
-    """Whether a log's or bag's reference can check the IMU axes: on the IMU clock, and long enough
+def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> GroundTruth | None:
+    """The log's or bag's reference that checks the IMU axes, or None: on the IMU clock, and long enough
     (:func:`graphnav.calibration.axes.gt_checks_axes`). One too short (1 Hz over 30 % of a 40 s log: 9 intervals)
     refused the whole log; the reference is optional, so the IMU alone checks the axes (and the DVL a turn about z),
-    and the reference is kept for the scores, warned about and counted as doubted: it judged nothing."""
+    and the reference is kept for the scores, warned about and counted as doubted: it judged nothing. One whose given
+    offset the clock search contradicts (``meta["gt_clock_doubted"]``, used as given) checks them where the data put
+    it, as an A-KIT GT does: 16 s off, the gyro against its attitude misses an IMU y axis the wrong way. One given an
+    offset beyond the fine search's reach (:func:`_beyond_the_fine_search`) checks them at it: the reference as read
+    is offset by it until :func:`_reference_on_the_imu` adds it."""
     from graphnav.calibration.axes import MIN_AXIS_GT_INTERVALS, gt_checks_axes
     g, t_imu = mission.gt, mission.imu.t
+    given = facts.get("given", {}).get("gt_time_offset_s")
+    if g is not None and "gt_clock_doubted" in meta:
+        g = dataclasses.replace(g, t=g.t + meta["gt_clock_doubted"])
+    elif g is not None and given is not None and _beyond_the_fine_search(g, float(given), mission.imu):
+        g = dataclasses.replace(g, t=g.t + float(given))
     if g is None or facts.get("imu_frame") is None or not on_the_imu_clock(g.t, t_imu):
-        return False
+        return None
     enough, n = gt_checks_axes(g.t, t_imu)
     if not enough:
         text = (f"the reference [{g.t[0]:.3f}, {g.t[-1]:.3f}] s shares {n} interval(s) of about 1 s with the IMU span "
@@ -785,7 +839,7 @@ def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> bool:
         add_note(meta, "gt", text)
         count_doubted(meta, "gt", "too short to check the IMU axes against", len(g.t))
         warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
-    return enough
+    return g if enough else None
 
 
 def _far_reference_clock(imu: ImuData, gt: GroundTruth):
@@ -1074,18 +1128,18 @@ def reference_notes(mission: Mission) -> dict:
     return {k: v for k, v in (("reference_point", point), ("reference_time", time)) if v}
 
 
-def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judges: bool) -> Mission:
+def _imu_frame(mission: Mission, meta: dict, frame: dict | None, judge: GroundTruth | None) -> Mission:
     """The mission with its IMU axes as the data say (:func:`graphnav.calibration.axes.declared_frame_signs`).
 
     ``frame`` (the loader's ``meta["prepare"]["imu_frame"]``): ``declared`` (the frame a user named, or None when
     implied: a column map without ``frame`` or with ``"auto"``, a bag's frame_id), ``what`` (the declaration, for
     the messages), ``fields`` (the columns or topic). Data that contradict a declared frame are a DataError; an
-    implied one is corrected, warned about and noted. None (other formats): the mission unchanged. ``judges``: the
-    reference checks the axes (:func:`_reference_checks_axes`), else the IMU alone does."""
+    implied one is corrected, warned about and noted. None (other formats): the mission unchanged. ``judge``: the
+    reference that checks the axes (:func:`_reference_checks_axes`), else None: the IMU alone does."""
     if frame is None:
         return mission
     from graphnav.calibration.axes import FRAME_FAULTS, declared_frame_signs
-    imu, gt = mission.imu, mission.gt if judges else None
+    imu, gt = mission.imu, judge
     signs, how = declared_frame_signs(imu, mission.config, gt, imu.source, frame["fields"])
     if np.all(signs == 1):
         return mission
