@@ -2341,7 +2341,7 @@ def test_a_knock_the_dvl_saw_is_kept_and_a_ramping_burst_it_did_not_see_is_refus
     assert without == list(range(1001, 1008))
     meta = {}
     with pytest.warns(RuntimeWarning, match=r"imu.csv: 1 shock of the IMU kept.*t = 10.010-10.070 s, 7 rows, 'f_b x' "
-                                            r"integrates to -0.99\d m/s, the DVL saw -1.0\d m/s beyond the vehicle's"):
+                                            r"integrates to -1.02 m/s, the DVL saw -1.0\d m/s beyond the vehicle's"):
         masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta=meta, source="imu.csv", dvl=dvl)
     assert refused(masks) == list(range(1400, 1409)) and masks["spike in 'f_b y'"].sum() == 9
     assert meta["streams"]["imu"]["doubted"] == {IMU_SHOCK_KEPT: 7}
@@ -2431,6 +2431,32 @@ def test_a_gyro_spike_inside_a_knock_the_dvl_saw_is_refused():
         masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta={}, dvl=dvl)
     assert np.flatnonzero(masks["spike in 'omega_b z'"]).tolist() == [1004]
     assert [r for r in _refused_rows(masks) if r < 1400] == [1004]
+
+
+def test_a_knock_in_the_trajectory_is_kept_and_one_the_dvl_cannot_call_a_burst_loses_no_shoulders():
+    """A knock in the vehicle's trajectory (a 0.45 m/s half-sine of 50 ms on f_z at 100 Hz: 4, 11, 14, 11, 5 m/s^2)
+    departs past the 5 m/s^2 floor on its 3 middle rows only, which integrate to 0.36 m/s; the DVL saw 0.45 m/s, the
+    whole knock's, which missed the 3 rows' integral by more than the noise: it was refused as a burst, 5 rows with its
+    shoulders (the shape rule alone refuses 3). Integrated with its onset and tail it matches: kept. A DVL that saw
+    0.9 m/s matches neither the knock nor a burst's nothing: the shape rule's 3 rows, not the burst's 5."""
+    from graphnav.core.screening import IMU_SHOCK_KEPT, imu_implausible
+    t, x = _quiet_imu(100.0, 20.0)
+    x[1001:1006, 2] += [4.0, 11.0, 13.8, 11.4, 4.7]         # a simulated mission's knock, as its IMU read it
+    t_dvl = np.arange(20) + 0.5
+    noise = np.random.default_rng(4).normal(0.0, 0.01, (20, 3))
+    shape_rule = _refused_rows(imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig()))
+    assert shape_rule == [1002, 1003, 1004]
+    meta = {}
+    v = np.tile([1.5, 0.0, 0.0], (20, 1)) + noise
+    v[t_dvl > 10.0, 2] += 0.45
+    with pytest.warns(RuntimeWarning, match=r"1 shock of the IMU kept.*t = 10.020-10.040 s, 3 rows, 'f_b z' "
+                                            r"integrates to \+0.449 m/s, the DVL saw \+0.45\d m/s"):
+        masks = imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), meta=meta, dvl=(t_dvl, v))
+    assert _refused_rows(masks) == [] and meta["streams"]["imu"]["doubted"] == {IMU_SHOCK_KEPT: 3}
+    v[t_dvl > 10.0, 2] += 0.45
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # no knock is kept
+        assert _refused_rows(imu_implausible(t, x[:, :3], x[:, 3:], SensorConfig(), dvl=(t_dvl, v))) == shape_rule
 
 
 def test_an_even_imu_log_with_every_row_written_twice_exactly_drops_the_copies_offline_and_live():

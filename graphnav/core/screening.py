@@ -99,12 +99,12 @@ IMU_SPIKE_NOISE_FACTOR = 30.0
 #: when no shock was kept (docs/decisions/screening.md, "Shocks are not spikes").
 IMU_SHOCK_ONSET = 0.1
 #: A run of rows with a departing specific force (a knock, or a burst of bad samples) is judged by the DVL when it is
-#: there: a knock changes the velocity by the run's integral (its departure from the median times dt), a burst does
-#: not. The DVL's change between the nearest valid pings before and after the run, each within
-#: :data:`IMU_SHOCK_DVL_GAP_S` of it, less what the signal without the run says the vehicle did, is compared with the
-#: integral; the verdict needs them this many times the scatter of that on the ping intervals within
-#: :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD), else the shape rule (:func:`jumped`) decides
-#: (docs/decisions/screening.md, "A knock the DVL saw").
+#: there: a knock changes the velocity by the run's integral (its departure from the median times dt, with the rows
+#: either side leaning its way: a knock's onset and tail), a burst does not. The DVL's change between the nearest
+#: valid pings before and after the run, each within :data:`IMU_SHOCK_DVL_GAP_S` of it, less what the signal without
+#: the run says the vehicle did, is compared with the integral; the verdict needs them this many times the scatter of
+#: that on the ping intervals within :data:`IMU_SHOCK_DVL_SPAN_S` (1.4826 MAD), else the shape rule (:func:`jumped`)
+#: decides (docs/decisions/screening.md, "A knock the DVL saw").
 IMU_SHOCK_DVL_SIGMAS = 3.0
 IMU_SHOCK_DVL_GAP_S = 2.0
 IMU_SHOCK_DVL_SPAN_S = 30.0
@@ -384,11 +384,12 @@ def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.nd
                   dvl: tuple, dt: float, fields, kept: list | None, longer_than: int = 0) -> np.ndarray:
     """``refused`` (N,6) with the DVL's verdict (:func:`_dvl_says`) on each run of rows whose specific force departs
     from ``median`` (N,6) by more than ``limit`` (6,) (rows ``v`` (N,6) at ``t`` (N,) s, ``dt`` s apart; ``dvl`` from
-    :func:`_dvl_measured`). A burst: refused with the rows either side leaning its way (:func:`_leaning`), on the
-    axis its integral is largest on. A knock: its accelerometer values kept (the gyro keeps its own verdict), and
-    each run kept that was refused appended to ``kept`` (:func:`imu_spikes`); with ``kept`` None, only from the value
-    that jumped there on (:func:`_not_shocks`), and only bursts are refused: runs of a longer median, of more than
-    ``longer_than`` rows (shorter ones are the spike test's)."""
+    :func:`_dvl_measured`), integrated with the rows either side leaning its way on the axis its departure sums
+    largest on (:func:`_leaning`: a knock's onset and tail under the limit). A burst: refused with those rows, on that
+    axis. A knock: its accelerometer values kept (the gyro keeps its own verdict), and each run kept that was refused
+    appended to ``kept`` (:func:`imu_spikes`); with ``kept`` None, only from the value that jumped there on
+    (:func:`_not_shocks`), and only bursts are refused: runs of a longer median, of more than ``longer_than`` rows
+    (shorter ones are the spike test's)."""
     if len(dvl[0]) < 2 * SPIKE_NEIGHBOURS + 2:
         return refused
     out = refused.copy()
@@ -398,11 +399,13 @@ def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.nd
     edges = np.flatnonzero(np.diff(np.r_[0, departing[:, :3].any(axis=1), 0]))
     pings = _Pings.of(dvl, t, median, dt) if edges.size else None
     for a, b in zip(edges[::2], edges[1::2]):
-        integral = departure[a:b, :3].sum(axis=0) * dt
-        j = int(np.argmax(np.abs(integral)))
+        j = int(np.argmax(np.abs(departure[a:b, :3].sum(axis=0))))
+        # a knock's onset and tail under the limit change the velocity too: the run is integrated with them
+        run = _leaning(departure[:, j], ratio[:, j] > IMU_SHOCK_ONSET, a, b)
+        integral = departure[run, :3].sum(axis=0) * dt
         verdict, seen = _dvl_says(t[a], t[b - 1], integral, j, pings) if b - a > longer_than else (None, 0.0)
         if verdict == "burst":
-            out[_leaning(departure[:, j], ratio[:, j] > IMU_SHOCK_ONSET, a, b), j] = True
+            out[run, j] = True
         elif verdict == "knock" and kept is not None:
             out[a:b, :3] = False
             if refused[a:b].any():      # the DVL's word kept it (the shape rule keeps a run that rose there)
@@ -461,8 +464,9 @@ def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _Pings)
     before ``prepare``: either sign of each axis the record does not decide (``pings.signs``) is tried. A knock: on
     every axis what the DVL saw matches the integral within the noise under a sign tried, and on ``j`` it stands out
     of the noise and the integral out of twice it (a burst's zero cannot match it by chance). A burst: on ``j`` the
-    integral stands out of the noise and what the DVL saw misses it under every sign tried, or the DVL's whole change
-    falls short of the integral by the noise of its own changes (where turns and waves swamp the signal's noise)."""
+    integral stands out of the noise and what the DVL saw misses it under every sign tried and is within the noise of
+    nothing under one (a DVL that saw something else cannot call it a burst), or the DVL's whole change falls short of
+    the integral by the noise of its own changes (where turns and waves swamp the signal's noise)."""
     tp, vp, own = pings.t, pings.v, pings.own
     i0, i1 = np.searchsorted(tp, t0) - 1, np.searchsorted(tp, t1, side="right")
     if i0 < 0 or i1 >= len(tp) or max(t0 - tp[i0], tp[i1] - t1) > IMU_SHOCK_DVL_GAP_S:
@@ -475,10 +479,11 @@ def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _Pings)
     baseline = _neighbours_rate(pings.rate, i0, i1) * (tp[i1] - tp[i0])
     seen = _SIGNS * (vp[i1] - vp[i0]) - (own[i1] - own[i0] - baseline)                                 # (2,3)
     match = (np.abs(seen - integral) <= noise) & pings.signs
-    stands = match[:, j] & (np.abs(seen[:, j]) >= noise[:, j]) & (abs(integral[j]) >= 2.0 * noise[:, j])
+    nothing = (np.abs(seen[:, j]) < noise[:, j]) & pings.signs[:, j]     # what a burst leaves, under each sign
+    stands = match[:, j] & ~nothing & (abs(integral[j]) >= 2.0 * noise[:, j])
     if match.any(axis=0).all() and stands.any():
         return "knock", float(seen[int(np.argmax(stands)), j])
-    denied = not match[:, j].any() and abs(integral[j]) >= noise[pings.signs[:, j], j].max()
+    denied = not match[:, j].any() and nothing.any() and abs(integral[j]) >= noise[pings.signs[:, j], j].max()
     steps = np.abs(np.diff(vp[:, j]))[near]
     denied |= abs(integral[j]) - abs(vp[i1, j] - vp[i0, j]) >= IMU_SHOCK_DVL_SIGMAS * 1.4826 * np.median(steps)
     return ("burst" if denied else None), 0.0
