@@ -344,7 +344,6 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
             (:func:`_dvl_verdicts`). kept: a list that gets ``(first stamp s, last stamp s, rows, integral m/s, what
             the DVL saw m/s, field)`` of each run kept on the DVL's word.
     """
-    from scipy.ndimage import median_filter
     x = np.hstack([np.asarray(f_b, float), np.asarray(omega_b, float)])
     # an all-zero row is a logger's filler with a rule of its own (ImuData.bridge_gaps drops it, with a warning)
     ok = np.all(np.isfinite(x), axis=1) & np.any(x != 0.0, axis=1)
@@ -359,16 +358,25 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
     if rows is not None and idx.size >= 2 * rows[0] + 1:
         half, block = rows
         v = x[idx]
-        median = median_filter(v, size=(2 * half + 1, 1), mode="mirror")
+        median = _column_medians(v, 2 * half + 1)
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = _not_shocks(v, median, limit)
         if dvl is not None:
             ts, pings, kept = np.asarray(t, float)[idx], _dvl_measured(dvl, config.dvl), [] if kept is None else kept
             out[idx] = _dvl_verdicts(ts, v, median, limit, out[idx], pings, 1.0 / rate_hz, fields, kept)
             # a burst longer than the half window moves the median with it: a longer one sees it depart
-            longer = median_filter(v, size=(2 * round(IMU_SHOCK_LONG_HALF_WINDOW_S * rate_hz) + 1, 1), mode="mirror")
+            longer = _column_medians(v, 2 * round(IMU_SHOCK_LONG_HALF_WINDOW_S * rate_hz) + 1)
             out[idx] = _dvl_verdicts(ts, v, longer, limit, out[idx], pings, 1.0 / rate_hz, fields, None, half)
     return _by_first_field(out, fields, "spike in '{}'")
+
+
+
+def _column_medians(v: np.ndarray, size: int) -> np.ndarray:
+    """The running median of each column of ``v`` (N, K) over ``size`` rows (mirrored at the ends). Column by column:
+    scipy's 2-D filter with a (size, 1) footprint gives the same values but ranks through a generic footprint, 45x
+    slower for the 4 s median on a 1.5 h log."""
+    from scipy.ndimage import median_filter
+    return np.column_stack([median_filter(v[:, k], size=size, mode="mirror") for k in range(v.shape[1])])
 
 
 def _dvl_measured(dvl: tuple, spec: DvlSpec) -> tuple[np.ndarray, np.ndarray]:
