@@ -65,7 +65,7 @@ from graphnav.core.dvl import ping_speed
 from graphnav.core.earth import EarthModel
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import MAX_DVL_SPEED_MPS
-from graphnav.core.screening import EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, StreamScreen
+from graphnav.core.screening import EXACT_COPY, MAX_REFUSED_FRACTION, NO_BOTTOM_LOCK, RecentRepeats, StreamScreen
 from graphnav.estimators.align import AlignOptions
 from graphnav.estimators.backends import BACKENDS, make_backend
 from graphnav.estimators.coasting import CoastingMonitor, SigmaMonitor
@@ -193,7 +193,7 @@ class Navigator:
         self._last_released: dict[str, float] = {k: -math.inf for k in STREAM_ORDER}
         self._last_imu_released = -math.inf
         self._last_imu_in: tuple | None = None      # the latest IMU sample received (t, f, w), for a copy of it
-        self._imu_readings_repeat = False           # whether its readings were those of the sample before
+        self._imu_repeats = RecentRepeats()         # how often its readings repeat, within and across stamps
         self._latest: EpochEstimate | None = None
         self._prop: tuple | None = None             # cached propagation for state_at
         self._pim_params = preintegration_params(config, graph_options or GraphOptions())
@@ -271,16 +271,18 @@ class Navigator:
 
     def _imu_copy(self, t: float, f, w) -> bool:
         """Whether an IMU sample (stamp ``t`` s, ``f`` m/s^2, ``w`` rad/s) repeats the one received before it in its
-        stamp and every value while the readings differed at the latest new stamp: a sample written again (each of
-        an even 100 Hz stream's samples sent twice was restamped as packets of 2 at 200 Hz, each integrated twice).
-        Readings repeating from stamp to stamp are an IMU at rest with coarse counts, whose packets' samples sharing
-        a stamp may be equal: they pass (:func:`graphnav.core.screening.readings_repeat` offline)."""
+        stamp and every value while the readings over the latest steps differ from stamp to stamp: a sample written
+        again (each of an even 100 Hz stream's samples sent twice was restamped as packets of 2 at 200 Hz, each
+        integrated twice). Readings repeating from stamp to stamp as often as within one are an IMU at rest with
+        coarse counts, whose packets' samples sharing a stamp may be equal: they pass (:class:`RecentRepeats`, as
+        :func:`graphnav.core.screening.readings_repeat` offline)."""
         sample, last = (t, tuple(f), tuple(w)), self._last_imu_in
         self._last_imu_in = sample
-        if last is None or t != last[0]:
-            self._imu_readings_repeat = last is not None and sample[1:] == last[1:]
+        if last is None:
             return False
-        return sample[1:] == last[1:] and not self._imu_readings_repeat
+        within, equal = t == last[0], sample[1:] == last[1:]
+        self._imu_repeats.add(within, equal)
+        return within and equal and not self._imu_repeats.repeat()
 
     def _queue_packet(self, samples: list) -> list[EpochEstimate]:
         """The IMU samples :class:`PacketStamps` let out into the reorder buffer, and those of a driver read it
