@@ -118,7 +118,9 @@ def test_bad_samples_are_refused_with_a_warning_and_change_nothing(mission):
     bad = list(events)
     i = next(k for k, e in enumerate(bad) if e[0] == "imu" and e[1] > 20.0)
     t_imu = bad[i][1]
-    bad.insert(i + 1, ("imu", t_imu, bad[i][2]))                                   # duplicate stamp
+    f_b, omega_b = bad[i][2]
+    # a duplicate stamp with other values (one repeating every value is a row written again, refused as a copy)
+    bad.insert(i + 1, ("imu", t_imu, (np.asarray(f_b) + 0.01, omega_b)))
     bad.insert(i + 2, ("imu", t_imu + 0.001, ([math.nan, 0, -9.8], [0, 0, 0])))    # non-finite value
     bad.insert(i + 300, ("dvl", t_imu - 0.5, ([0.1] * 4, [True] * 4)))             # 3 s late: too old
     bad.insert(i + 400, ("dvl", t_imu + 4.3, ([0.1, math.nan, 0.1, 0.1], [True] * 4)))  # NaN on a valid beam
