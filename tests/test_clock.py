@@ -284,8 +284,8 @@ def test_an_akit_gt_on_a_clock_of_its_own_inside_the_imu_span_is_put_on_the_imu_
 def test_a_given_akit_gt_offset_beyond_the_fine_search_places_the_gt_before_the_axis_check(akit_dir, tmp_path):
     """Trajectory10 with its GT file 16 s late and a configuration giving the right offset: the axis detection, which
     searches +-2 s, ran on the GT as read, 16 s off, and chose imu_axis_signs (-1, -1, 1) (its x axis turned), and the
-    DVL offset came out 0.35 s off, with no word but the detection's and the DVL turn check's. The GT is now placed at the given offset first:
-    the signs, the DVL offset and the stamps are the published folder's, silently."""
+    DVL offset came out 0.35 s off, with no word but the detection's and the DVL turn check's. The GT is now placed at
+    the given offset first: the signs, the DVL offset and the stamps are the published folder's, silently."""
     from graphnav.io.loaders import read_mission
     src = akit_dir / "Trajectory10"
     dst, _ = _akit_with_gt_moved(src, tmp_path, 16.0)

@@ -179,7 +179,8 @@ def test_a_slow_vehicle_whose_noise_tips_the_kinematics_just_over_1_is_kept_as_b
     assert any("a vehicle slower than the current it moves in" in n for n in got.meta["streams"]["dvl"]["notes"])
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
     if current == 0.0:
-        with pytest.raises(DataError, match=r"leave 1\.13x .* under 1\.040, what its noise allows\): it is earth-fixed"):
+        with pytest.raises(DataError,
+                           match=r"leave 1\.13x .* under 1\.040, what its noise allows\): it is earth-fixed"):
             _load(_folder(tmp_path, (m_slow, t, None), v_n))
 
 

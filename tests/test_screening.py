@@ -2475,7 +2475,8 @@ def test_an_even_imu_log_with_every_row_written_twice_exactly_drops_the_copies_o
     jittered = np.floor((true + np.random.default_rng(1).normal(0.0, 1e-3, n)) * 100) / 100
     i = np.arange(n)
     for stamps, packets in ((true, None), (np.floor(true * 1e3) / 1e3, None), (jittered, None),
-                            (true[np.minimum(i // 2 * 2 + 1, n - 1)], 2), (true[np.minimum(i // 10 * 10 + 9, n - 1)], 10)):
+                            (true[np.minimum(i // 2 * 2 + 1, n - 1)], 2),
+                            (true[np.minimum(i // 10 * 10 + 9, n - 1)], 10)):
         twice = np.repeat(i, 2)
         t = stamps[twice]
         meta: dict = {}

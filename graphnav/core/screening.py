@@ -938,10 +938,10 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
     counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
     warned about and counted (:func:`say_imu_stamp_steps`); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
-    slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly; else, with ``repair``, the
-    rows are sorted and those whose stamp repeats an earlier one dropped (the first kept), with a warning; without it
-    a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``): one
-    stamp on two different rows can be two streams written into one file."""
+    slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly;
+    else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
+    with a warning; without it a DataError naming ``source``, the line, ``field`` and the way out (``--repair-stamps``):
+    one stamp on two different rows can be two streams written into one file."""
     read, rows = np.asarray(t, float), np.asarray(rows, float)
     t = read.copy()
     order = np.argsort(t, kind="stable")

@@ -1076,10 +1076,10 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
-    full scale or spiking (:func:`graphnav.core.screening.imu_implausible`; a knock the DVL saw is kept), depth rows outside the range or spiking
-    and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the whole ping: one beam
-    the instrument got wrong makes the others suspect, as on the Navigator's stream), pings logged as exactly 0
-    without bottom lock (:func:`graphnav.core.screening.no_bottom_lock`) and pings outside its envelope
+    full scale or spiking (:func:`graphnav.core.screening.imu_implausible`; a knock the DVL saw is kept), depth rows
+    outside the range or spiking and implausible GT rows are dropped; pings with a beam beyond the vehicle's speed (the
+    whole ping: one beam the instrument got wrong makes the others suspect, as on the Navigator's stream), pings logged
+    as exactly 0 without bottom lock (:func:`graphnav.core.screening.no_bottom_lock`) and pings outside its envelope
     are marked invalid; each counted with its reason in ``meta["streams"]`` and warned about; DVL outages are
     warned about; more than half of a stream refused is a DataError. Returns the screened mission (the same
     one when nothing was refused)."""
