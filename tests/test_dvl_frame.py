@@ -333,6 +333,39 @@ def test_calibrate_declares_the_columns_it_fits_a_mounting_to_in_the_instrument_
     np.testing.assert_allclose(_load((folder, config)).dvl.v_b, v_b, atol=0.03)
 
 
+
+def _given_clock(folder, offset_s, frame=None):
+    """``folder`` (:func:`_folder`) with ``dvl_time_offset_s`` = ``offset_s`` and the IMU's ``frame`` declared."""
+    cfg = json.loads(folder[1].read_text())
+    cfg["dvl_time_offset_s"] = offset_s
+    if frame:
+        cfg["csv_columns"]["imu"]["frame"] = frame
+    folder[1].write_text(json.dumps(cfg))
+    return folder
+
+
+@pytest.mark.parametrize("clock, shift", [("imu", 0.0), ("imu", 1000.0), ("auto", 1000.0)])
+def test_a_dvl_a_given_offset_puts_on_the_imu_clock_is_judged_for_turns_as_one_on_it(sim, tmp_path, clock, shift):
+    """A DVL on a clock of its own 1000 s away with the right dvl_time_offset_s given (``clock: imu``, or ``auto``
+    whose search leaves it): its turn and the IMU's turn about z were judged only on a DVL on the IMU clock as read or
+    one the clock search moved, so a DVL turned 90 deg and an IMU turned 180 deg (FRD declared) loaded silently. Now
+    they are warned about and refused as on the IMU clock (shift 0, no offset given)."""
+    from graphnav.calibration.dvl_scale import TURNED_DOUBT, turn_about_z
+    m, t, v_b = sim
+    folder = _given_clock(_folder(tmp_path, sim, v_b @ turn_about_z(90.0).T, {"clock": clock}, shift=shift), -shift)
+    with pytest.warns(RuntimeWarning, match=r"dvl\.csv: field 'vx, vy, vz': the DVL velocity .*(90 deg|turned "
+                                            r"\+(89|90)\.\d deg) about z"):
+        got = _load(folder)
+    assert got.meta["streams"]["dvl"]["doubted"] == {TURNED_DOUBT: len(t)}
+    turn = np.diag([-1.0, -1.0, 1.0])
+    turned = (dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=m.imu.f_b @ turn, omega_b=m.imu.omega_b @ turn)),
+              t, v_b)
+    folder = _given_clock(_folder(tmp_path, turned, v_b, {"clock": clock}, shift=shift), -shift, "frd")
+    with pytest.raises(DataError, match=r"the IMU's axes are turned 180 deg about z against csv_columns\.imu\.frame "
+                                        r"'frd'") as err:
+        _load(folder)
+    assert err.value.source.endswith("imu.csv")
+
 def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about_or_refused():
     # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
     # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.

@@ -656,16 +656,10 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
-    from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
-    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES, judged_velocity_unit
-    fixes = BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
-    unit_checked = on_the_imu_clock(dvl.t, mission.imu.t)
-    if unit_checked:
-        # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset; a
-        # declared unit first (a velocity 100x too small fits the IMU as badly turned as not)
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, imu_frame=unchecked, fixes=fixes,
-                                   reference=mission.gt)
+    judged = on_the_imu_clock(dvl.t, mission.imu.t)
+    if judged:
+        # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked)
     given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
@@ -687,16 +681,14 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
-    if (moved or not unit_checked) and on_the_imu_clock(dvl.t, mission.imu.t):
-        # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is
-        check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
+    if (moved or not judged) and on_the_imu_clock(dvl.t, mission.imu.t):
+        # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is (or
+        # ``clock: imu``); before the given offset is judged, which a velocity in other units or axes misleads
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=True)
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted
     mission = _reference_on_the_imu(mission, meta, facts)
-    if moved:
-        check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=True, imu_frame=unchecked,
-                                   fixes=fixes, reference=mission.gt)
     for stream, new, old in (("dvl", dvl, mission.dvl), ("depth", depth, mission.depth)):
         if new is not old and stream in meta.get("streams", {}):
             set_span(meta, stream, new.t)           # the stamps as the mission holds them
@@ -721,6 +713,23 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: dict, imu_frame: dict | None,
+                           moved: bool = False) -> None:
+    """A log's or bag's DVL ``dvl``, on the IMU clock, judged against the IMU: its declared velocity unit
+    (:func:`graphnav.calibration.dvl_scale.check_declared_velocity_unit`; first: a velocity 100x too small fits the
+    IMU as badly turned as not), then its scale, turn and FLU axes and, with ``imu_frame`` (the IMU's declared frame no
+    reference checked), the IMU's turn about z (:func:`graphnav.calibration.dvl_scale.check_velocity_against_imu`).
+    ``moved``: the DVL was put on the IMU clock here (by the clock search or a given ``dvl_time_offset_s``), where the
+    loader could not check it for an earth frame by the body kinematics: checked too. DataError or warnings as
+    those say."""
+    from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
+    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES, judged_velocity_unit
+    fixes = BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
+    check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
+    check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=moved, imu_frame=imu_frame,
+                               fixes=fixes, reference=mission.gt)
 
 
 def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | None:
