@@ -405,7 +405,7 @@ def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.nd
     ratio = np.abs(departure) / limit
     departing = ratio > 1.0 if kept is not None else _not_shocks(v, median, limit)
     edges = np.flatnonzero(np.diff(np.r_[0, departing[:, :3].any(axis=1), 0]))
-    pings = _Pings.of(dvl, t, median, dt) if edges.size else None
+    pings = _DvlPings.of(dvl, t, median, dt) if edges.size else None
     for a, b in zip(edges[::2], edges[1::2]):
         j = int(np.argmax(np.abs(departure[a:b, :3].sum(axis=0))))
         # a knock's onset and tail under the limit change the velocity too: the run is integrated with them
@@ -423,7 +423,7 @@ def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.nd
 
 
 @dataclass
-class _Pings:
+class _DvlPings:
     """The DVL's pings against the IMU's signal without its departing runs (:func:`_dvl_says`): stamps ``t`` (K,) s,
     velocity ``v`` (K,3) m/s, the signal integrated to each ping ``own`` (K,3) m/s; per ping interval and axis sign
     (+1, -1), the ``rate`` (2,K-1,3) m/s^2 at which that integral and the DVL's change (times the sign) part, and the
@@ -438,7 +438,7 @@ class _Pings:
     signs: np.ndarray
 
     @classmethod
-    def of(cls, dvl: tuple, t: np.ndarray, median: np.ndarray, dt: float) -> _Pings:
+    def of(cls, dvl: tuple, t: np.ndarray, median: np.ndarray, dt: float) -> _DvlPings:
         tp, vp = dvl
         integral = np.vstack([np.zeros(3), np.cumsum(median[:, :3], axis=0) * dt])
         own = np.column_stack([np.interp(tp, np.r_[t, t[-1] + dt], integral[:, k]) for k in range(3)])
@@ -460,7 +460,7 @@ def _neighbours_rate(rate: np.ndarray, k0: int, k1: int) -> np.ndarray:
     return np.median(np.concatenate([rate[:, max(0, k0 - n):k0], rate[:, k1:k1 + n]], axis=1), axis=1)
 
 
-def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _Pings) -> tuple[str | None, float]:
+def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _DvlPings) -> tuple[str | None, float]:
     """Whether the DVL saw a run of departing specific force from ``t0`` to ``t1`` s integrating to ``integral``
     (3,) m/s (largest on axis ``j``): ("knock", what it saw on ``j`` m/s), ("burst", 0) or (None, 0): it cannot tell.
 
