@@ -55,9 +55,9 @@ import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.imu_timing import (GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum,
-                                      imu_step_stats, restamp_shared_stamps, samples_sharing_a_stamp, stamp_steps,
-                                      stamped_in_packets, start_burst)
+from graphnav.core.imu_timing import (DIFF_MAD_TO_SIGMA, GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz,
+                                      imu_stamp_quantum, imu_step_stats, restamp_shared_stamps,
+                                      samples_sharing_a_stamp, stamp_steps, stamped_in_packets, start_burst)
 from graphnav.core.streams import add_note, count_doubted, count_refused, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
@@ -270,10 +270,6 @@ def not_finite(values: np.ndarray, fields) -> dict[str, np.ndarray]:
             **_by_first_field(infinite, fields, "infinite in '{}'")}
 
 
-#: A white noise's sigma from the median absolute first difference of its samples (1.4826 MAD / sqrt(2)).
-_DIFF_MAD_TO_SIGMA = 1.4826 / math.sqrt(2.0)
-
-
 def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     """(N,k) local noise scale of the signals ``x`` (N,k) (finite, file order), per row and column, units of x:
     ``1.4826 / sqrt(2)`` times the median absolute first difference of each block of ``block`` rows (a white
@@ -287,7 +283,7 @@ def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     if n_blocks > 1:
         s[:-1] = np.median(d[:full].reshape(n_blocks - 1, block, -1), axis=1)
     s[-1] = np.median(d[full:], axis=0) if len(d) else 0.0
-    s *= _DIFF_MAD_TO_SIGMA
+    s *= DIFF_MAD_TO_SIGMA
     s = np.max([s, np.r_[s[:1], s[:-1]], np.r_[s[1:], s[-1:]]], axis=0)
     return s[np.minimum(np.arange(len(x)) // block, n_blocks - 1)]
 
@@ -1320,7 +1316,7 @@ class ImuSpikeTest:
         if len(self._rows) <= self.n:
             return 0.0
         v = np.asarray(self._rows, float)[:, j]
-        return IMU_SPIKE_NOISE_FACTOR * _DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
+        return IMU_SPIKE_NOISE_FACTOR * DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
 
     def _restart(self) -> None:
         self._refused = [False] * len(self.floors)
@@ -1347,7 +1343,7 @@ class ImuSpikeTest:
 
     def _update_limit(self, complete: bool) -> None:
         diffs = np.abs(np.diff(np.asarray(self._rows, float), axis=0))
-        scale = _DIFF_MAD_TO_SIGMA * np.median(diffs, axis=0)
+        scale = DIFF_MAD_TO_SIGMA * np.median(diffs, axis=0)
         if complete:
             previous = scale if self._block_scale is None else self._block_scale
             self._block_scale = scale
