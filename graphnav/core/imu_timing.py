@@ -123,7 +123,7 @@ def imu_stamp_quantum(steps: np.ndarray) -> float:
     return quantum if quantum > IMU_STAMP_QUANTUM_SHARE * med else 0.0
 
 
-def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> float:
+def _quantised_period(d: np.ndarray, med: float, quantum: float, steps) -> float:
     """The mean of the steps ``d`` (s) of stamps on a ``quantum`` grid (s) that are one period long: those within a
     grid step (at least half a median) of the median ``med``, then within half their mean of that mean (a dropped
     sample's double step is left out, so is a gap). Over a run of steps it is the run's span over its count. A grid
@@ -131,21 +131,20 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float, steps=None) -> 
     step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
     (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
     step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
-    as read, ``d`` when None) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz). On a finer grid
-    the steps near the median taking more than two lengths (jitter) are counted over time (:func:`_counted_period`):
-    a mean over a window about the median left out more of one side (385 Hz in whole ms with 0.2 ms of jitter read
-    386.4 Hz, 150 Hz with 0.5 ms 142.86 Hz); without jitter the mean is exact, and a count misses some of many lost
-    samples."""
+    as read) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz). On a finer grid the steps near the
+    median taking more than two lengths (jitter) are counted over time (:func:`_counted_period`): a mean over a window
+    about the median left out more of one side (385 Hz in whole ms with 0.2 ms of jitter read 386.4 Hz, 150 Hz with
+    0.5 ms 142.86 Hz); without jitter the mean is exact, and a count misses some of many lost samples."""
     near = np.abs(d - med) <= max(0.5 * med, quantum) + 1e-3 * med
     first = float(np.mean(d[near]))
     if quantum < 0.45 * first:
         one = d[near][np.abs(d[near] - first) < 0.5 * first]
         if np.unique(np.round(d[near] / quantum)).size <= 2:    # a rate on a grid, no jitter: one of two steps
             return float(np.mean(one))
-        return _counted_period(_counted_steps(d if steps is None else steps), float(np.mean(one)))
+        return _counted_period(_counted_steps(steps), float(np.mean(one)))
     for _ in range(2):
         one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
-        first = float(np.mean(d[one & ~_lost_steps(d if steps is None else steps, first)]))
+        first = float(np.mean(d[one & ~_lost_steps(steps, first)]))
     return first
 
 
@@ -157,13 +156,14 @@ def _counted_period(x: np.ndarray, mean_s: float) -> float:
     short ones from that mean, and a line at a period 5 % off parts its samples as a lost one does (counted from that
     mean alone, 250 Hz in whole ms with 1 ms of jitter read 236 Hz); a row written twice among a few stamps is in
     most spans of them."""
-    best = (math.inf, mean_s)
-    for start in (mean_s, _span_period(x)):
-        period = _periods_over_time(x, start)
-        lost, extra = _odd_steps(x, period)
-        spread = float(np.std(np.cumsum(x) - np.cumsum(np.where(lost, np.round(x / period), 1.0 - extra)) * period))
-        best = min(best, (spread, period), key=lambda b: b[0])
-    return best[1]
+    spreads = [(_line_spread(x, p), p) for p in (_periods_over_time(x, s) for s in (mean_s, _span_period(x)))]
+    return min([(math.inf, mean_s), *spreads], key=lambda c: c[0])[1]      # a NaN spread (no steps) is never less
+
+
+def _line_spread(x: np.ndarray, period_s: float) -> float:
+    """The spread (s, standard deviation) of IMU steps ``x`` (s, in order) about a line at ``period_s`` (s), lost
+    samples and rows written twice counted (:func:`_odd_steps`); NaN without steps."""
+    return float(np.std(_line_offsets(x, _periods_spanned(x, *_odd_steps(x, period_s), period_s), period_s)))
 
 
 #: Steps whose time over their count starts :func:`_counted_period` too (:func:`_span_period`).
@@ -193,18 +193,16 @@ def _counted_steps(steps) -> np.ndarray:
     return x if np.mean(x == 0.0) <= IMU_BURST_SHARE else x[x > 0.0]
 
 
-def _periods_over_time(steps, period_s: float) -> float:
-    """The period (s) of IMU ``steps`` (s, as read, in order; 0 for a repeated stamp) near ``period_s`` (s): their time
-    over their count, a lost sample's step counted as the periods it spans and a row written twice as none
-    (:func:`_odd_steps`), steps over :data:`IMU_BURST_GAP_CYCLES` periods (gaps, clock steps) left out; refined twice.
-    A sample jitter moves lengthens one step and shortens the next by as much: a mean of the steps near the period left
-    out the long one of such a pair and not the short one (128 Hz in whole ms with 2 ms of jitter read 130.5-131.4 Hz,
-    190 Hz with 2 ms 198.6 Hz)."""
-    x = _read_steps(steps)
+def _periods_over_time(x: np.ndarray, period_s: float) -> float:
+    """The period (s) of IMU steps ``x`` (s, in order, finite, non-negative: :func:`_counted_steps`; 0 for a repeated
+    stamp) near ``period_s`` (s): their time over their count, a lost sample's step counted as the periods it spans
+    and a row written twice as none (:func:`_odd_steps`), steps over :data:`IMU_BURST_GAP_CYCLES` periods (gaps, clock
+    steps) left out; refined twice. A sample jitter moves lengthens one step and shortens the next by as much: a mean
+    of the steps near the period left out the long one of such a pair and not the short one (128 Hz in whole ms with
+    2 ms of jitter read 130.5-131.4 Hz, 190 Hz with 2 ms 198.6 Hz)."""
     for _ in range(3):
-        lost, extra = _odd_steps(x, period_s)
         keep = x <= IMU_BURST_GAP_CYCLES * period_s
-        periods = float(np.sum(np.where(lost, np.round(x / period_s), 1.0 - extra)[keep]))
+        periods = float(np.sum(_periods_spanned(x, *_odd_steps(x, period_s), period_s)[keep]))
         if not periods > 0:
             break
         period_s = float(np.sum(x[keep])) / periods
@@ -220,7 +218,8 @@ def _lost_steps(steps, period_s: float) -> np.ndarray:
     """Which of the positive finite ``steps`` (s, as read, in order; :func:`step_lengths`) between stamps on a grid as
     coarse as half the ``period_s`` (s) or more span a lost sample (:func:`_odd_steps`)."""
     d = np.abs(np.asarray(steps, float))
-    return _odd_steps(d[np.isfinite(d)], period_s)[0][d[np.isfinite(d)] > 0.0]
+    d = d[np.isfinite(d)]
+    return _odd_steps(d, period_s)[0][d > 0.0]
 
 
 def _odd_steps(d: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -233,7 +232,7 @@ def _odd_steps(d: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
     a 30 ms step may be either); one sharing the stamp before it is a step of 0, counted."""
     lost, extra = np.zeros(d.size, bool), np.zeros(d.size, bool)
     for _ in range(ODD_STEP_PASSES):
-        jump = _line_jump(d, np.where(lost, np.round(d / period_s), 1.0 - extra), period_s)
+        jump = _line_jump(d, _periods_spanned(d, lost, extra, period_s), period_s)
         # a lost sample's jump peaks at its step and tapers over the samples either side: a moved one near it is no loss
         new_lost = _peaks(~lost & (d > 1.45 * period_s) & (jump > 0.5 * period_s), jump)
         new_extra = _peaks(~extra & (d < 0.5 * period_s) & (jump < -0.5 * period_s), -jump)
@@ -248,11 +247,23 @@ def _odd_steps(d: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
 ODD_STEP_PASSES = 4
 
 
+def _periods_spanned(d: np.ndarray, lost: np.ndarray, extra: np.ndarray, period_s: float) -> np.ndarray:
+    """How many periods ``period_s`` (s) each of the steps ``d`` (s) between IMU stamps spans: as many as it is long
+    where a sample was ``lost``, none where it ends a row written twice (``extra``), else one (:func:`_odd_steps`)."""
+    return np.where(lost, np.round(d / period_s), 1.0 - extra)
+
+
+def _line_offsets(d: np.ndarray, periods: np.ndarray, period_s: float) -> np.ndarray:
+    """How far (s) each IMU stamp after the steps ``d`` (s, spanning ``periods`` each) lies from a line at
+    ``period_s`` (s) through the first."""
+    return np.cumsum(d) - np.cumsum(periods) * period_s
+
+
 def _line_jump(d: np.ndarray, periods: np.ndarray, period_s: float) -> np.ndarray:
     """At each of the steps ``d`` (s) between IMU stamps, spanning ``periods`` each, how much later (s) the
     :data:`LOST_STEP_SAMPLES` samples after it sit against a line at ``period_s`` (s) than as many before it."""
     n = LOST_STEP_SAMPLES
-    off = np.r_[0.0, np.cumsum(d) - np.cumsum(periods) * period_s]
+    off = np.r_[0.0, _line_offsets(d, periods, period_s)]
     total = np.r_[0.0, np.cumsum(off)]
     c = np.arange(d.size)
     a, b = np.maximum(c + 1 - n, 0), np.minimum(c + 1 + n, off.size)
@@ -751,12 +762,12 @@ def _slower_with_jitter(t: np.ndarray, grid_s: float) -> bool:
     """Whether IMU stamps ``t`` (s, never decreasing, some repeated) on a ``grid_s`` grid (s) are an IMU slower than
     its grid (:func:`_slower_than_grid`: 70 or 80 Hz in whole 10 ms, 30 or 25 % of the steps empty) whose repeated
     stamps are sampling jitter, each keeping the samples on either side on one line at the period
-    (:func:`_repeats_keep_the_line`). Its repeats are too few to alternate with the IMU's own empty steps or for
+    (:func:`_on_the_line`). Its repeats are too few to alternate with the IMU's own empty steps or for
     :func:`_balanced` (16-34 in 12000 samples at 80 Hz with 1 ms of jitter). A row written twice puts the samples
     after it a period behind the line: no such clock."""
     d = np.diff(t)
     period = _slower_than_grid(d, grid_s)
-    return period is not None and _repeats_keep_the_line(t - t[0], np.flatnonzero(d == 0) + 1, period)
+    return period is not None and bool(np.all(_on_the_line(t - t[0], np.flatnonzero(d == 0) + 1, period)))
 
 
 def _samples_over_time(d: np.ndarray, counts: np.ndarray, inside: np.ndarray) -> float:
@@ -791,24 +802,19 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
         return None
     period = _positive_steps(d)[1]
     repeats = np.flatnonzero(d == 0) + 1
-    if not _repeats_keep_the_line(s, repeats, period, later=True):
+    if not np.all(_on_the_line(s, repeats, period, later=True)):
         return None
     placed = place_repeats(t, repeats, period, grid)
     return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
 
 
-def _repeats_keep_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> bool:
-    """Whether each of the ``repeats`` (indexes of samples repeating the stamp before them) of relative stamps ``s``
-    (s) keeps the mean offset from a line at ``period_s`` (s) over :data:`REPEAT_CHECK_SAMPLES` samples on either side
+def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> np.ndarray:
+    """Which of the ``repeats`` (indexes of samples repeating the stamp before them) of relative stamps ``s`` (s)
+    keep the mean offset from a line at ``period_s`` (s) over :data:`REPEAT_CHECK_SAMPLES` samples on either side
     within half a period (jitter moved a sample across a grid edge; a row written twice or a sample lost moves it by a
     period), with samples on both sides; with ``later``, or moves it later (a sample lost near the repeat: 200 Hz in
     whole ms with 1 ms of jitter and 1 % lost at random had one within 50 samples of most repeats), never half a
     period earlier (a row written twice puts the samples after it a period early)."""
-    return bool(np.all(_on_the_line(s, repeats, period_s, later)))
-
-
-def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> np.ndarray:
-    """Which of the ``repeats`` keep the line as :func:`_repeats_keep_the_line` asks of them all."""
     total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period_s)]
     r = np.asarray(repeats, int)    # the pair r - 1, r left out: their offsets are the jitter
     a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
@@ -849,25 +855,35 @@ def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     rest with 55-93 % of its rows repeating most of its packets' rows are such rows. The stamps the rows
     judged samples leave are those :func:`restamp_shared_stamps` reads: where they show no clock or packets there, no
     row is a sample (one place decides)."""
-    clock, packets = _clock_or_packets(t)
-    if packets or clock and clock[0] >= 1.5 * clock[1]:
+    read = _clock_or_packets(t)
+    clock, packets = read
+    if (clock or packets) and not _at_period(clock):
         other = _clock_or_packets(np.delete(t, rows))
-        if other[0] and other[0][0] < 1.5 * other[0][1]:
+        if _at_period(other[0]):
             clock, packets = other
     samples = np.ones(rows.size, bool)
-    if clock and clock[0] < 1.5 * clock[1]:
+    if _at_period(clock):
         grid, d, counts, _ = _stamp_grid(t)
         without = None if _repeats_unpaired(counts, np.round(d / grid)) else _clock_at_period(np.delete(t, rows))
-        clock = without and clock     # the period without the copies: with them, rows written again fit its line
-        samples = _on_the_line(t - t[0], rows, without[1], later=True) if without else samples
+        if without is None:
+            clock = None
+        else:       # the period without the copies: with them, rows written again fit its line
+            samples = _on_the_line(t - t[0], rows, without[1], later=True)
     if clock is None and packets is None:
         return np.zeros(rows.size, bool)
     most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
     _, first = np.unique(t, return_index=True)
     samples &= rows - first[np.searchsorted(t[first], t[rows])] < most
-    if np.any(samples) and _clock_or_packets(np.delete(t, rows[~samples])) == (None, None):
-        return np.zeros(rows.size, bool)
-    return samples
+    if not np.any(samples):
+        return samples
+    left = read if np.all(samples) else _clock_or_packets(np.delete(t, rows[~samples]))
+    return samples if left != (None, None) else np.zeros(rows.size, bool)
+
+
+def _at_period(clock: tuple[float, float] | None) -> bool:
+    """Whether a quantised ``clock`` (``(grid s, period s)``, :func:`quantised_clock`) is about as coarse as the IMU's
+    period (under 1.5 periods), not coarser."""
+    return clock is not None and clock[0] < 1.5 * clock[1]
 
 
 #: How far (in periods) a sample of a clock coarser than its period may be put outside its stamp's grid step:
@@ -1044,22 +1060,23 @@ def configured_rate_clock(t: np.ndarray, expected_hz: float | None) -> tuple[flo
 
 
 def _restamp_at_configured_rate(t: np.ndarray, clock: tuple[float, float, float], expected_hz: float
-                                ) -> tuple[np.ndarray | None, float, str]:
-    """``(stamps s or None, period s, note)``: IMU stamps ``t`` (s) that :func:`configured_rate_clock` found
-    (``clock``) put on one even grid at about the configured ``expected_hz`` (:func:`restamp_quantised`), or None
-    (left as read) where one line does not keep every sample within its grid step (samples lost, or another rate:
-    the evidence is not clear), and what the note says."""
+                                ) -> tuple[np.ndarray | None, float, int, str]:
+    """``(stamps s or None, period s, moved, note)``: IMU stamps ``t`` (s) that :func:`configured_rate_clock` found
+    (``clock``) put on one even grid at about the configured ``expected_hz`` (:func:`restamp_quantised`), ``moved`` of
+    them, or None (left as read, 0 moved) where one line does not keep every sample within its grid step (samples
+    lost, or another rate: the evidence is not clear), and what the note says."""
     grid, read, over_span = clock
     restamped, period, stretches = restamp_quantised(t, grid, 1.0 / expected_hz)
     said = (f"stamps on a {1e3 * grid:.4g} ms grid read {read:.5g} Hz, but the samples over their span "
             f"({over_span:.5g} Hz) agree with the configured imu_rate_hz {expected_hz:.5g} Hz: an IMU slower than its "
             f"logger's clock, which the stamps alone cannot tell from {read:.5g} Hz losing samples")
     if restamped is None or stretches > 1:
-        return None, period, said + (f"; no one even grid at {1e3 / expected_hz:.4g} ms keeps every sample within "
-                                     "its grid step (samples lost?): the stamps are left as read")
+        return None, period, 0, said + (f"; no one even grid at {1e3 / expected_hz:.4g} ms keeps every sample within "
+                                        "its grid step (samples lost?): the stamps are left as read")
     moved = int(np.sum(restamped != t))
-    return restamped, period, said + (f": {moved} of {t.size} stamps put on one even grid at the period "
-                                      f"{1e3 * period:.5g} ms, each within its grid step give or take half a period")
+    return restamped, period, moved, said + (f": {moved} of {t.size} stamps put on one even grid at the period "
+                                             f"{1e3 * period:.5g} ms, each within its grid step give or take half a "
+                                             "period")
 
 
 def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, expected_hz: float | None = None
@@ -1097,11 +1114,10 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, expecte
                 "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
                 "room before the next stamp later")
     elif configured := configured_rate_clock(t, expected_hz):
-        restamped, period, note = _restamp_at_configured_rate(t, configured, expected_hz)
+        restamped, period, moved, note = _restamp_at_configured_rate(t, configured, expected_hz)
         if restamped is None:
             say_restamp(meta, source, note, 4)
             return t
-        moved = int(np.sum(restamped != t))
     else:
         return t
     say_restamp(meta, source, note, 4, restamped, moved, period)
@@ -1136,6 +1152,8 @@ def stamped_in_packets(t: np.ndarray) -> str:
             "after it)")
 
 
+#: A white noise's sigma from the median absolute first difference of its samples (1.4826 MAD / sqrt(2)).
+DIFF_MAD_TO_SIGMA = 1.4826 / math.sqrt(2.0)
 #: Samples on each side of a step of an IMU's stamps that tell a step of its clock or a gap (every one after it later
 #: against a line at the period than every one before) from jitter: 50 Gaussian draws on each side fall wholly apart by
 #: chance once in 1e29.
@@ -1152,6 +1170,8 @@ CLOCK_STEP_SPREAD_TAIL = 0.1
 #: that jumps apart from the other spreads about its line, and the step between them is the sets' jump: two samples
 #: lost in the sets tilt their line and jump them apart with no step there.
 CLOCK_STEP_CLEAN_SIGMAS = 8.0
+#: Jitter sigmas within which the jump between the two samples next to a step (the last before, the first after) is
+#: the sets' jump, for the step to be there and not spread over the sets (:func:`_jumps_apart`).
 CLOCK_STEP_EDGE_SIGMAS = 3.5
 #: Least distance, in periods, between those samples for a step: Unix seconds carry ~1e-7 s of rounding.
 CLOCK_STEP_FLOOR_PERIODS = 1e-3
@@ -1208,7 +1228,7 @@ def _jump_limit(windows: np.ndarray) -> tuple[np.ndarray, float]:
     robust spreads (1.4826 median absolute deviations: jitter, a clock's wander, samples lost; a step moves the jumps
     of 100 sets only); inf with fewer than 100 jumps."""
     n = windows.shape[1]
-    k = np.arange(n) - 0.5 * (n - 1)
+    k = _centred(n)
     mean, tilt = windows.mean(axis=1), windows @ k
     jumps = mean[n:] - mean[:-n] - n * (tilt[n:] + tilt[:-n]) / (2.0 * float(k @ k))
     if jumps.size < 2 * n:
@@ -1216,18 +1236,24 @@ def _jump_limit(windows: np.ndarray) -> tuple[np.ndarray, float]:
     return jumps, CLOCK_STEP_SPREADS * 1.4826 * float(np.median(np.abs(jumps - np.median(jumps))))
 
 
-def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float = math.inf) -> tuple[float, int] | None:
+def _centred(n: int) -> np.ndarray:
+    """The indexes of ``n`` samples less their mean: the weights of a least-squares line's slope through them."""
+    return np.arange(n) - 0.5 * (n - 1)
+
+
+def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float) -> tuple[float, int] | None:
     """``(jump s, lost)`` of the step ``t[i] -> t[i + 1]`` of IMU stamps ``t`` (s) when the :data:`CLOCK_STEP_SAMPLES`
     after it and as many before, each set within :data:`CLOCK_STEP_SPREAD_PERIODS` of a line at their rate (or spread
     as jitter, :func:`_spread_as_jitter`), lie wholly apart on it by :data:`CLOCK_STEP_FLOOR_PERIODS` or jump apart
     (:func:`_jumps_apart`), and their means by more than 1.5 ``resolution_s`` (s); ``lost``: the samples lost at the
     step, 0 where that many periods do not put the sets back among each other (sets spread as their jitter: within
-    ``limit_s`` too), give or take 1.5 ``resolution_s`` (a grid step where the rate is off the grid). None else."""
+    ``limit_s`` too, s, at least 1.5 ``resolution_s``), give or take 1.5 ``resolution_s`` (a grid step where the rate
+    is off the grid). None else."""
     n = CLOCK_STEP_SAMPLES
     before, after = t[max(i - n + 1, 0):i + 1], t[i + 1:i + n + 1]
     if before.size < n or after.size < n:
         return None
-    k = np.arange(n) - 0.5 * (n - 1)     # least squares: the ends alone tilted 1 ms of jitter's sets by a period
+    k = _centred(n)      # least squares: the ends alone tilted 1 ms of jitter's sets by a period
     period = float(k @ (before - np.mean(before)) + k @ (after - np.mean(after))) / (2.0 * float(k @ k))
     ob = before - t[i] + np.arange(n - 1, -1, -1) * period
     oa = after - t[i] - np.arange(1, n + 1) * period
@@ -1243,7 +1269,7 @@ def _step_at(t: np.ndarray, i: int, resolution_s: float, limit_s: float = math.i
     lost = max(round(jump / period), 0)
     off = abs(jump - lost * period)
     allowed = max(0.5 * spread, 1.5 * resolution_s)    # sets spread as their jitter: within the limit too
-    whole = off <= allowed + floor and (not clean or off <= max(limit_s, 1.5 * resolution_s) + floor)
+    whole = off <= allowed + floor and (not clean or off <= limit_s + floor)
     return jump, lost if lost and whole else 0
 
 
@@ -1254,7 +1280,7 @@ def _jumps_apart(ob: np.ndarray, oa: np.ndarray, jump_s: float, allow_s: float, 
     moves its steps once), give or take ``allow_s`` (s: the stamps' resolution); and, so, the jump over ``limit_s``
     (s, :func:`_jump_limit`) and the step itself that jump within :data:`CLOCK_STEP_EDGE_SIGMAS` of the jitter."""
     d = np.r_[np.diff(ob), np.diff(oa)]
-    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / math.sqrt(2.0)
+    sigma = DIFF_MAD_TO_SIGMA * float(np.median(np.abs(d - np.median(d))))
     clean = max(np.ptp(ob), np.ptp(oa)) <= CLOCK_STEP_CLEAN_SIGMAS * sigma + allow_s
     at_step = abs(oa[0] - ob[-1] - jump_s) <= CLOCK_STEP_EDGE_SIGMAS * math.sqrt(2.0) * sigma + allow_s
     return clean, clean and at_step and abs(jump_s) > limit_s

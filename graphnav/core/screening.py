@@ -55,9 +55,9 @@ import numpy as np
 
 from graphnav.core.config import DvlSpec, SensorConfig
 from graphnav.core.errors import DataError
-from graphnav.core.imu_timing import (GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz, imu_stamp_quantum,
-                                      imu_step_stats, restamp_shared_stamps, samples_sharing_a_stamp, stamp_steps,
-                                      stamped_in_packets, start_burst)
+from graphnav.core.imu_timing import (DIFF_MAD_TO_SIGMA, GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz,
+                                      imu_stamp_quantum, imu_step_stats, restamp_shared_stamps,
+                                      samples_sharing_a_stamp, stamp_steps, stamped_in_packets, start_burst)
 from graphnav.core.streams import add_note, count_doubted, count_refused, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
@@ -270,10 +270,6 @@ def not_finite(values: np.ndarray, fields) -> dict[str, np.ndarray]:
             **_by_first_field(infinite, fields, "infinite in '{}'")}
 
 
-#: A white noise's sigma from the median absolute first difference of its samples (1.4826 MAD / sqrt(2)).
-_DIFF_MAD_TO_SIGMA = 1.4826 / math.sqrt(2.0)
-
-
 def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     """(N,k) local noise scale of the signals ``x`` (N,k) (finite, file order), per row and column, units of x:
     ``1.4826 / sqrt(2)`` times the median absolute first difference of each block of ``block`` rows (a white
@@ -287,7 +283,7 @@ def imu_noise_scale(x: np.ndarray, block: int) -> np.ndarray:
     if n_blocks > 1:
         s[:-1] = np.median(d[:full].reshape(n_blocks - 1, block, -1), axis=1)
     s[-1] = np.median(d[full:], axis=0) if len(d) else 0.0
-    s *= _DIFF_MAD_TO_SIGMA
+    s *= DIFF_MAD_TO_SIGMA
     s = np.max([s, np.r_[s[:1], s[:-1]], np.r_[s[1:], s[-1:]]], axis=0)
     return s[np.minimum(np.arange(len(x)) // block, n_blocks - 1)]
 
@@ -362,11 +358,12 @@ def imu_spikes(t: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray, config: Sens
         limit = np.maximum(imu_spike_floors(config), IMU_SPIKE_NOISE_FACTOR * imu_noise_scale(v, block))
         out[idx] = _not_shocks(v, median, limit)
         if dvl is not None:
-            ts, pings, kept = np.asarray(t, float)[idx], _dvl_measured(dvl, config.dvl), [] if kept is None else kept
-            out[idx] = _dvl_verdicts(ts, v, median, limit, out[idx], pings, 1.0 / rate_hz, fields, kept)
+            ts = np.asarray(t, float)[idx]
+            measured = _dvl_measured(dvl, config.dvl)
+            out[idx] = _dvl_verdicts(ts, v, median, limit, out[idx], measured, 1.0 / rate_hz, fields, kept)
             # a burst longer than the half window moves the median with it: a longer one sees it depart
             longer = _column_medians(v, 2 * round(IMU_SHOCK_LONG_HALF_WINDOW_S * rate_hz) + 1)
-            out[idx] = _dvl_verdicts(ts, v, longer, limit, out[idx], pings, 1.0 / rate_hz, fields, None, half)
+            out[idx] = _dvl_verdicts(ts, v, longer, limit, out[idx], measured, 1.0 / rate_hz, fields, longer_than=half)
     return _by_first_field(out, fields, "spike in '{}'")
 
 
@@ -389,21 +386,21 @@ def _dvl_measured(dvl: tuple, spec: DvlSpec) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.ndarray, refused: np.ndarray,
-                  dvl: tuple, dt: float, fields, kept: list | None, longer_than: int = 0) -> np.ndarray:
+                  dvl: tuple, dt: float, fields, kept: list | None = None, longer_than: int = 0) -> np.ndarray:
     """``refused`` (N,6) with the DVL's verdict (:func:`_dvl_says`) on each run of rows whose specific force departs
     from ``median`` (N,6) by more than ``limit`` (6,) (rows ``v`` (N,6) at ``t`` (N,) s, ``dt`` s apart; ``dvl`` from
     :func:`_dvl_measured`), integrated with the rows either side leaning its way on the axis its departure sums
     largest on (:func:`_leaning`: a knock's onset and tail under the limit). A burst: refused with those rows, on that
     axis. A knock: its accelerometer values kept (the gyro keeps its own verdict), and each run kept that was refused
-    appended to ``kept`` (:func:`imu_spikes`); with ``kept`` None, only from the value that jumped there on
-    (:func:`_not_shocks`), and only bursts are refused: runs of a longer median, of more than ``longer_than`` rows
-    (shorter ones are the spike test's)."""
+    appended to ``kept`` when given (:func:`imu_spikes`). With ``longer_than`` rows (runs of a longer median: shorter
+    ones are the spike test's), only runs longer than that, from the value that jumped there on (:func:`_not_shocks`),
+    and only bursts are refused."""
     if len(dvl[0]) < 2 * SPIKE_NEIGHBOURS + 2:
         return refused
     out = refused.copy()
     departure = v - median
     ratio = np.abs(departure) / limit
-    departing = ratio > 1.0 if kept is not None else _not_shocks(v, median, limit)
+    departing = _not_shocks(v, median, limit) if longer_than else ratio > 1.0
     edges = np.flatnonzero(np.diff(np.r_[0, departing[:, :3].any(axis=1), 0]))
     pings = _DvlPings.of(dvl, t, median, dt) if edges.size else None
     for a, b in zip(edges[::2], edges[1::2]):
@@ -414,9 +411,9 @@ def _dvl_verdicts(t: np.ndarray, v: np.ndarray, median: np.ndarray, limit: np.nd
         verdict, seen = _dvl_says(t[a], t[b - 1], integral, j, pings) if b - a > longer_than else (None, 0.0)
         if verdict == "burst":
             out[run, j] = True
-        elif verdict == "knock" and kept is not None:
+        elif verdict == "knock" and not longer_than:
             out[a:b, :3] = False
-            if refused[a:b].any():      # the DVL's word kept it (the shape rule keeps a run that rose there)
+            if kept is not None and refused[a:b].any():     # the DVL's word kept it (the shape rule keeps a rise)
                 rows = int((~out[a:b].any(axis=1)).sum())
                 kept.append((float(t[a]), float(t[b - 1]), rows, float(integral[j]), seen, fields[j]))
     return out
@@ -483,7 +480,8 @@ def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _DvlPin
     near[max(0, i0 - SPIKE_NEIGHBOURS):i1 + SPIKE_NEIGHBOURS] = False     # intervals whose baseline holds the run
     if not near.any():
         return None, 0.0
-    noise = IMU_SHOCK_DVL_SIGMAS * 1.4826 * np.median(np.abs(pings.residual[:, near]), axis=1) * math.sqrt(i1 - i0)
+    sigmas = IMU_SHOCK_DVL_SIGMAS * 1.4826      # of a median absolute deviation
+    noise = sigmas * np.median(np.abs(pings.residual[:, near]), axis=1) * math.sqrt(i1 - i0)
     baseline = _neighbours_rate(pings.rate, i0, i1) * (tp[i1] - tp[i0])
     seen = _SIGNS * (vp[i1] - vp[i0]) - (own[i1] - own[i0] - baseline)                                 # (2,3)
     match = (np.abs(seen - integral) <= noise) & pings.signs
@@ -493,17 +491,17 @@ def _dvl_says(t0: float, t1: float, integral: np.ndarray, j: int, pings: _DvlPin
         return "knock", float(seen[int(np.argmax(stands)), j])
     denied = not match[:, j].any() and nothing.any() and abs(integral[j]) >= noise[pings.signs[:, j], j].max()
     steps = np.abs(np.diff(vp[:, j]))[near]
-    denied |= abs(integral[j]) - abs(vp[i1, j] - vp[i0, j]) >= IMU_SHOCK_DVL_SIGMAS * 1.4826 * np.median(steps)
+    denied |= abs(integral[j]) - abs(vp[i1, j] - vp[i0, j]) >= sigmas * np.median(steps)
     return ("burst" if denied else None), 0.0
 
 
-def _leaning(departure: np.ndarray, leaning: np.ndarray, a: int, b: int) -> slice:
+def _leaning(departure: np.ndarray, onset: np.ndarray, a: int, b: int) -> slice:
     """Rows ``a:b`` of a run of bad samples and the rows either side of it whose ``departure`` (N,) leans its way
-    (``leaning`` (N,): by more than :data:`IMU_SHOCK_ONSET` of the limit): the shoulders of a burst that ramps."""
+    (``onset`` (N,): by more than :data:`IMU_SHOCK_ONSET` of the limit): the shoulders of a burst that ramps."""
     sign = np.sign(departure[a:b].sum())
-    while a > 0 and leaning[a - 1] and np.sign(departure[a - 1]) == sign:
+    while a > 0 and onset[a - 1] and np.sign(departure[a - 1]) == sign:
         a -= 1
-    while b < len(departure) and leaning[b] and np.sign(departure[b]) == sign:
+    while b < len(departure) and onset[b] and np.sign(departure[b]) == sign:
         b += 1
     return slice(a, b)
 
@@ -1028,8 +1026,8 @@ class RecentRepeats:
     """:func:`readings_repeat` of a live IMU over its latest :data:`REPEAT_WINDOW_STEPS` steps: whether a sample
     repeating the one before at its stamp may be a sample (an IMU at rest with coarse counts) or is written again."""
 
-    def __init__(self, steps: int = REPEAT_WINDOW_STEPS):
-        self._steps: deque[tuple[int, int]] = deque(maxlen=steps)       # (within a stamp, equal), 0 or 1
+    def __init__(self):
+        self._steps: deque[tuple[int, int]] = deque(maxlen=REPEAT_WINDOW_STEPS)     # (within a stamp, equal), 0 or 1
         self._counts = np.zeros((2, 2), int)                            # [within, equal]
 
     def add(self, within: bool, equal: bool) -> None:
@@ -1320,7 +1318,7 @@ class ImuSpikeTest:
         if len(self._rows) <= self.n:
             return 0.0
         v = np.asarray(self._rows, float)[:, j]
-        return IMU_SPIKE_NOISE_FACTOR * _DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
+        return IMU_SPIKE_NOISE_FACTOR * DIFF_MAD_TO_SIGMA * float(np.median(np.abs(np.diff(v))))
 
     def _restart(self) -> None:
         self._refused = [False] * len(self.floors)
@@ -1347,7 +1345,7 @@ class ImuSpikeTest:
 
     def _update_limit(self, complete: bool) -> None:
         diffs = np.abs(np.diff(np.asarray(self._rows, float), axis=0))
-        scale = _DIFF_MAD_TO_SIGMA * np.median(diffs, axis=0)
+        scale = DIFF_MAD_TO_SIGMA * np.median(diffs, axis=0)
         if complete:
             previous = scale if self._block_scale is None else self._block_scale
             self._block_scale = scale
