@@ -15,6 +15,7 @@ from graphnav.core.dvl_kinematics import dvl_velocity_b
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.rotations import C_b_n_to_euler
+from graphnav.io.dvl_frame import FRAME_DOUBT
 from graphnav.missions import load_mission
 from graphnav.sim.simulate import simulate_mission
 
@@ -154,13 +155,17 @@ def test_a_slow_vehicle_in_a_current_is_kept_as_body_and_an_earth_frame_copy_sti
 def test_a_slow_vehicle_whose_velocity_noise_turns_it_more_than_it_turns_is_kept_as_body(sim, tmp_path):
     """A vehicle at 0.28 m/s, no current, 0.06 m/s velocity noise: the noise turns the velocity's direction as much as
     the vehicle turns (signal 1.28x), so the turn ratio (0.89) and the kinematics (1.04x) are near 1 whatever the
-    frame, and it was refused as earth-fixed. Kept as body now, with a note saying it was not judged."""
+    frame, and it was refused as earth-fixed. Kept as body now, not judged. Its NED copy (signal 0.97x, kinematics
+    1.20x) is kept so too, and was with a note only: both are warned about, naming the fix, and counted."""
     m, _, _ = sim
-    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.28, 0.0, noise=0.06)
+    t_imu, f_b, omega_b, t, v_b, v_n = _slow_in_current(1, 0.28, 0.0, noise=0.06, ned=True)
     m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
-    got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
-    assert any("not judged for an earth frame" in n for n in got.meta["streams"]["dvl"]["notes"])
-    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    for v in (v_b, v_n):
+        with pytest.warns(RuntimeWarning, match=r"dvl.csv: field 'vx, vy, vz': .* not judged for an earth frame: .* "
+                                                r"if it is earth-fixed, declare csv_columns.dvl.frame 'ned'"):
+            got = _load(_folder(tmp_path, (m_slow, t, None), v))
+        assert got.meta["streams"]["dvl"]["doubted"][FRAME_DOUBT] == len(t)      # the NED copy: sideways too
+        np.testing.assert_allclose(got.dvl.v_b, v, atol=1e-9)
 
 
 @pytest.mark.parametrize("seed, speed, current, duration, noise", [(8, 0.3, 0.3, 400.0, 0.05),
@@ -170,13 +175,16 @@ def test_a_slow_vehicle_whose_noise_tips_the_kinematics_just_over_1_is_kept_as_b
     """The earth reading of the kinematics gets a free heading per window, which fits the velocity's noise: a body
     velocity whose noise hides its turns gives a ratio just over 1 (1.023 at 0.05 m/s in 0.3 m/s of current; 1.019
     for 0.28 m/s with 0.04 m/s of noise, whose turn ratio fell to 0.27 on 3 windows by chance) and was refused as
-    earth-fixed. The ratio the noise allows over 20 and 15 windows is 1.037 and 1.040: kept. The NED copy of the
-    second, which its turn ratio judges (0.38), is still refused by its kinematics (1.13)."""
+    earth-fixed. The ratio the noise allows over 20 and 15 windows is 1.037 and 1.040: kept, with a counted warning
+    (an earth-fixed velocity can fit so too). The NED copy of the second, which its turn ratio judges (0.38), is still
+    refused by its kinematics (1.13)."""
     m, _, _ = sim
     t_imu, f_b, omega_b, t, v_b, v_n = _slow_in_current(seed, speed, current, duration, noise, ned=True)
     m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
-    got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
-    assert any("a vehicle slower than the current it moves in" in n for n in got.meta["streams"]["dvl"]["notes"])
+    with pytest.warns(RuntimeWarning, match="a vehicle slower than the current it moves in and an earth-fixed "
+                                            "velocity fit alike: kept in the body frame"):
+        got = _load(_folder(tmp_path, (m_slow, t, None), v_b))
+    assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t)}
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
     if current == 0.0:
         with pytest.raises(DataError,
@@ -742,3 +750,23 @@ def test_an_earth_frame_velocity_in_its_declared_unit_keeps_the_frame_advice(sim
     _, _, v_sim = sim
     with pytest.raises(DataError, match=r"it is earth-fixed \(NED/ENU\): declare csv_columns.dvl.frame 'ned'"):
         _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim), {"velocity_unit": "m/s"}))
+
+
+@pytest.mark.parametrize("seed, speed, current, duration, noise, every", [
+    (0, 0.5, 0.0, 60.0, 0.05, 3), (7, 0.8, 0.3, 60.0, 0.05, 3), (4, 0.3, 0.0, 120.0, 0.03, 3),
+    (9, 0.5, 0.0, 60.0, 0.05, 5)])
+def test_an_earth_frame_velocity_the_kinematics_noise_allowance_keeps_is_warned_about_and_counted(
+        sim, tmp_path, seed, speed, current, duration, noise, every):
+    """A slow vehicle's NED velocity, pinging every 3 or 5 s over 60-120 s: the kinematics leave 1.15-1.34x of it what
+    they leave of it taken as earth-fixed, under what the noise allows over so few pings (1.21-1.36), and it was kept
+    as body with a note only, calling it "a vehicle slower than the current it moves in" (0.8 m/s in 0.3 m/s). The
+    data cannot tell: kept, with a warning naming the file, the columns and the fix, and its pings counted."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, _, v_n = _slow_in_current(seed, speed, current, duration, noise, ned=True)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    t, v_n = t[::every], v_n[::every]
+    with pytest.warns(RuntimeWarning, match=r"dvl.csv: field 'vx, vy, vz': .* leave 1\.\d+x .* under 1\.\d+, what its "
+                                            r"noise allows .* fit alike: kept in the body frame; if it is earth-fixed, "
+                                            r"declare csv_columns.dvl.frame 'ned'"):
+        got = _load(_folder(tmp_path, (m_slow, t, None), v_n))
+    assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t)}

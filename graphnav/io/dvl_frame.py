@@ -27,11 +27,13 @@ velocity as a body one, lands tens of seconds off, where the turn check above ha
 A vehicle slower than the current it moves in (an ROV, an AUV in a tidal stream) goes over the ground much as the water
 does whatever its heading: its body-frame velocity turns and spreads as an earth-fixed one does. The body kinematics
 tell them apart (:func:`kinematics_ratio`): on the IMU clock, a velocity the turn check would refuse is kept as body,
-with a note, when they explain it better than they explain it taken as earth-fixed, beyond what the earth reading's
-free heading per window gains from the velocity's noise alone (:func:`_kinematics`). A DVL on a clock of its own cannot
+with a note, when they explain it better than they explain it taken as earth-fixed; within what the earth reading's
+free heading per window gains from the velocity's noise alone (:func:`_kinematics`) it is kept with a counted warning,
+as a slow vehicle's earth-fixed velocity pinging every few seconds fits so too. A DVL on a clock of its own cannot
 be judged so before the clock search, and the spread check still refuses it, saying to put its stamps on the IMU clock.
 A vehicle so slow that its velocity's noise turns the direction as much as the vehicle turns
-(:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a note.
+(:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a counted
+warning.
 """
 from __future__ import annotations
 
@@ -64,8 +66,9 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: leave less unexplained than the earth ones. Measured (docs/decisions/dvl-frame.md): slow vehicles in currents
 #: (0.2-0.4 m/s in 0.5-1.0 m/s, 0.01-0.03 m/s noise) 0.28-0.98; the NED copies the turn check refuses, of the ten
 #: A-KIT trajectories (whole, 60 s and 120 s crops) 1.60 and above, of simulated missions 3.5 and above. The noise
-#: adds its margin (:func:`_kinematics`): 1.037 over 400 s, 1.065 over 60 s; slow vehicles in currents with 0.05 m/s of
-#: noise 0.99-1.023, the NED copies judged 1.08 and above.
+#: adds its margin (:func:`_kinematics`): 1.037 over 400 s, 1.065 over 60 s at 1 Hz, 1.36 over 60 s at 1/5 Hz; slow
+#: vehicles in currents with 0.05 m/s of noise 0.99-1.023, the NED copies judged 1.08 and above at 1 Hz, but NED copies
+#: pinging every 2-5 s from 1.07: kept within the margin, they are warned about and counted (:data:`FRAME_DOUBT`).
 BODY_KINEMATICS_RATIO = 1.0
 #: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body: its
 #: direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md): a
@@ -75,6 +78,10 @@ MIN_TURN_SIGNAL = 1.5
 #: The ``meta`` key set when a velocity that turns with the vehicle is kept as body by its kinematics: it
 #: points where the current carries the vehicle, not forward, and the prepare step judges it by no mean direction.
 CARRIED = "dvl_carried_by_current"
+#: Why DVL pings kept in the vehicle's frame are counted as doubted (``meta["streams"]["dvl"]["doubted"]``): the
+#: body kinematics leave over :data:`BODY_KINEMATICS_RATIO` of them but within their noise, or the vehicle turns
+#: under :data:`MIN_TURN_SIGNAL` times that noise; an earth-fixed velocity of a slow vehicle gives the same.
+FRAME_DOUBT = "DVL velocity kept in the vehicle's frame, which its turns and kinematics cannot tell from an earth frame"
 #: Headings a window's velocity taken as earth-fixed is tried at (:func:`kinematics_ratio`), rad.
 _HEADINGS = np.deg2rad(np.arange(0.0, 360.0, 5.0))
 
@@ -353,7 +360,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
     the ratio its noise allows (:func:`_kinematics`) it is kept as body (a vehicle slower than the current it moves
-    in), noted in ``meta`` (and ``meta[CARRIED]`` set); otherwise a DataError naming the file and columns: logged in
+    in), noted in ``meta`` under :data:`BODY_KINEMATICS_RATIO`, over it warned about and counted (:data:`FRAME_DOUBT`),
+    and ``meta[CARRIED]`` set; otherwise a DataError naming the file and columns: logged in
     the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
     smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
     an earth-fixed one does)."""
@@ -363,11 +371,18 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         return ratio
     turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
             f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
+    if kin < BODY_KINEMATICS_RATIO and meta is not None:
+        add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
+                 f"leave {kin:.3f}x what they leave of it taken as earth-fixed (under {limit:.3f}, what its noise "
+                 f"allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
+    elif kin < limit and meta is not None:
+        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle "
+                      f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed: "
+                      f"over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
+                      f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
+                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
     if kin < limit:
         if meta is not None:
-            add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
-                     f"leave {kin:.3f}x what they leave of it taken as earth-fixed (under {limit:.3f}, what its noise "
-                     f"allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
             meta[CARRIED] = True
         return ratio
     judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it "
@@ -381,16 +396,29 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     signal = _turn_signal(turns)
     if signal < MIN_TURN_SIGNAL:
         if meta is not None:
-            add_note(meta, "dvl", f"velocity columns {fields} not judged for an earth frame: the vehicle turns only "
-                     f"{signal:.2f}x the noise of its direction over {COURSE_WINDOW_S:g} s windows (the turn ratio "
-                     f"{ratio:.2f}{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
-                     f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame")
+            _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame not judged for "
+                          f"an earth frame: the vehicle turns only {signal:.2f}x the noise of its direction over "
+                          f"{COURSE_WINDOW_S:g} s windows (the turn ratio {ratio:.2f}"
+                          f"{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
+                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
         return ratio
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
     raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {turn}; {judged}: {_DECLARE}",
                     source, field=", ".join(fields))
+
+
+def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray, text: str) -> None:
+    """A velocity kept in the vehicle's frame though the data cannot tell it from an earth-fixed one: ``text`` warned
+    about, noted and its pings counted (:data:`FRAME_DOUBT`)."""
+    import warnings
+
+    from graphnav.core.streams import add_note, count_doubted
+    text = f"field '{', '.join(fields)}': {text}"
+    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=4)
+    add_note(meta, "dvl", text)
+    count_doubted(meta, "dvl", FRAME_DOUBT, len(t_dvl))
 
 
 def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
