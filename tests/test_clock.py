@@ -349,6 +349,38 @@ def test_a_given_akit_gt_offset_the_clock_search_contradicts_is_doubted_with_the
                f"{data_say:+.3f} s, not at the given gt_time_offset_s +0.000 s" in str(w.message) for w in said)
 
 
+@pytest.mark.parametrize("moved_s", [0.0, 0.5])
+def test_a_given_akit_gt_offset_the_fine_search_contradicts_moves_neither_the_dvl_nor_the_depth(
+        akit_dir, tmp_path, moved_s):
+    """Trajectory13 (as published, or its GT file 0.5 s late) with a configuration giving gt_time_offset_s 0, the
+    published offset being -0.45 s: the fine search doubted it, but the DVL offset was fitted against the GT at the
+    given stamps (1.320 and 1.674 s against the published 1.055 s) and the depth kept them. As with a given offset the
+    clock search contradicts: the GT is used as given and doubted, the DVL offset and the depth are the published
+    folder's, the depth's placing said and counted."""
+    from graphnav.io.loaders import read_mission
+    src = akit_dir / "Trajectory13"
+    dst = _akit_with_gt_moved(src, tmp_path, moved_s)[0] if moved_s else src
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"gt_time_offset_s": 0.0}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref, read = load_mission(src), read_mission(dst)
+        data_say = ref.config.gt_time_offset_s - (read.gt.t[0] - read_mission(src).gt.t[0])
+    with pytest.warns(RuntimeWarning, match=r"config.json: gt_time_offset_s = \+0\.000 s is given, but the data say "
+                                            f"{data_say:+.3f} s") as said:
+        m = load_mission(dst, config)
+    np.testing.assert_allclose(m.gt.t, read.gt.t)                                   # used as given
+    assert m.config.gt_time_offset_s == 0.0
+    assert m.meta["streams"]["gt"]["doubted"] == {"gt_time_offset_s used as given though the data disagree": 400}
+    assert m.config.dvl_time_offset_s == pytest.approx(ref.config.dvl_time_offset_s, abs=2e-3)
+    np.testing.assert_allclose(m.depth.t, ref.depth.t, atol=2e-3)
+    np.testing.assert_allclose(m.depth.depth, ref.depth.depth)
+    assert m.meta["streams"]["depth"]["doubted"] == {
+        "placed at the GT offset the data give, not the given gt_time_offset_s": 400}
+    assert any("the depth (the GT's altitude, on the GT file's clock) is placed at the offset the data give the GT, "
+               f"{data_say:+.3f} s, not at the given gt_time_offset_s +0.000 s" in str(w.message) for w in said)
+
+
 def shift_file_stamps(path, by):
     """Add ``by`` s to the first column of the CSV file ``path`` (header kept; other fields as written)."""
     lines = path.read_text().splitlines()

@@ -161,7 +161,8 @@ def test_axis_signs_a_configuration_gives_a_log_are_applied_and_its_declared_fra
 def test_given_akit_offsets_and_signs_the_data_disagree_with_are_used_and_warned(akit_dir, tmp_path):
     """A configuration written before null meant 'not given' holds 0 s, 0 s and (1, 1, 1) as numbers: used as
     given (the DVL 0.98 s and the GT 0.41 s off, the y axis the wrong way on Trajectory1), now with a warning each,
-    naming the file, key, both values and null, and counted as doubted; the trajectory's own values given: silent."""
+    naming the file, key, both values and null, and counted as doubted (the depth placed where the data put the GT);
+    the trajectory's own values given: silent."""
     from graphnav.io.loaders import akit_default_config
     data = akit_dir / "Trajectory1"
     c = akit_default_config()
@@ -178,6 +179,7 @@ def test_given_akit_offsets_and_signs_the_data_disagree_with_are_used_and_warned
         assert [s.split(": ")[1].split(" = ")[0] for s in said] == keys, said
         assert all(s.startswith(str(tmp_path / name)) and "to null" in s for s in said)
         doubted = [k for e in m.meta["streams"].values() for k in (e.get("doubted") or {})]
-        assert len(doubted) == len(keys)
+        # and the depth, the GT's altitude, placed where the data put the GT
+        assert len(doubted) == len(keys) + bool(keys)
         old_said = old_said if keys == [] else said
     assert "the data say (1, -1, 1)" in old_said[0] and "the data say -0.410 s" in old_said[1]

@@ -21,9 +21,9 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
-   (:func:`_given_reference_clock`): one the data contradict is used as given and doubted (the axis check, the
-   DVL's offset and the depth, the GT's altitude, take the GT where the data put it), one that leaves the GT off the
-   IMU span is replaced by theirs. A
+   (:func:`_given_reference_clock`), then the fine search's judge: one the data contradict (either search) is used
+   as given and doubted (the axis check, the DVL's offset and the depth, the GT's altitude, take the GT where the
+   data put it), one that leaves the GT off the IMU span is replaced by theirs. A
    given DVL offset that leaves most of its file's stamps off the IMU span is warned about and estimated as
    ``"auto"`` is.
 3. **GT point.** The GT is moved from the published INS point to the IMU point
@@ -293,9 +293,12 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     judged = detected if detected is not None or "imu_axis_signs" not in from_file else \
         _judge_given_signs(mission, meta, facts, signs)
     if "gt_time_offset_s" in from_file and not _is_auto(gt_time_offset_s) and judged is not None \
-            and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t):
-        _judge_given_offset(meta, facts, "gt", gt_clock + float(gt_time_offset_s),
-                            gt_clock + judged.gt_offset.offset_s, judged.gt_offset.sigma_s, mission)
+            and judged.gt_offset is not None and on_the_imu_clock(mission.gt.t, mission.imu.t) \
+            and _judge_given_offset(meta, facts, "gt", gt_clock + float(gt_time_offset_s),
+                                    gt_clock + judged.gt_offset.offset_s, judged.gt_offset.sigma_s, mission):
+        # doubted by the fine search as by the clock search: the DVL's offset and the depth take the GT where the data
+        # put it (0 given on Trajectory13 moved the DVL 0.6 s), the GT handed on keeps the given offset
+        used_as_given, gt_time_offset_s = gt_clock + float(gt_time_offset_s), AUTO
     cfg = dataclasses.replace(mission.config)
     cfg.imu_axis_signs = signs
     t_imu = mission.imu.t
@@ -355,8 +358,9 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
         dvl_scale.warn_lever_against_reference(dl, dl_sigma, mission.dvl, meta, field, cfg.dvl.lever_arm_b, g.source,
                                                span)
         if not auto and "dvl_time_offset_s" in from_file:      # est: what the data add to the given offset
+            against = "as given" if used_as_given is None else "where the data put it"
             _judge_given_offset(meta, facts, "dvl", coarse, coarse + est.offset_s, est.sigma_s, mission,
-                                ", against the GT as given")
+                                f", against the GT {against}")
     if auto:
         est = dataclasses.replace(est, offset_s=est.offset_s + coarse)
         dvl_time_offset_s = est.offset_s
@@ -388,11 +392,11 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
 
 
 def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, data_s: float) -> None:
-    """Said of an A-KIT folder whose given GT offset (``given``, s) the clock search contradicts: the depth, the GT
-    file's altitude on the GT file's clock, is placed at the offset the data give (``data_s``, s), warned about naming
-    the file and column, noted and counted as doubted. The GT, a reference to score against, is used as given; the
-    depth aids the estimator, which at the given stamps would be fed a depth 16 s off the vehicle's motion (its
-    depth gate refusing it in every dive). Placed rather than left out, as a log's depth on a clock of its own is:
+    """Said of an A-KIT folder whose given GT offset (``given``, s) the clock or fine search contradicts: the depth,
+    the GT file's altitude on the GT file's clock, is placed at the offset the data give (``data_s``, s), warned
+    about naming the file and column, noted and counted as doubted. The GT, a reference to score against, is used as
+    given; the depth aids the estimator, which at the given stamps would be fed a depth 16 s off the vehicle's motion
+    (its depth gate refusing it in every dive). Placed rather than left out, as a log's depth on a clock of its own is:
     the GT's turns fix this clock to a millisecond, where a depth's own changes fix it to seconds."""
     from graphnav.io.loaders import AKIT_COLUMNS
     text = (f"field '{AKIT_COLUMNS['GT'][3]}': the depth (the GT's altitude, on the GT file's clock) is placed at the "
@@ -424,14 +428,17 @@ def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndar
 
 
 def _judge_given_offset(meta: dict, facts: dict, stream: str, given: float, data_say: float, sigma_s: float,
-                        mission: Mission, against: str = "", floor_s: float | None = None) -> None:
+                        mission: Mission, against: str = "", floor_s: float | None = None) -> bool:
     """A warning (:func:`_doubt_given`) when the time offset (s) a configuration file gave for ``stream`` lies off
     the one the data say (``data_say``, s, with 1-sigma ``sigma_s``) by more than 3 sigmas and ``floor_s`` (default
-    one IMU period: a rounded offset is not worth a word). ``against`` names what the estimate fits."""
+    one IMU period: a rounded offset is not worth a word). ``against`` names what the estimate fits. True when
+    doubted."""
     floor_s = 1.0 / float(mission.config.imu_rate_hz) if floor_s is None else floor_s
-    if abs(given - data_say) > max(3.0 * sigma_s, floor_s):
+    doubted = abs(given - data_say) > max(3.0 * sigma_s, floor_s)
+    if doubted:
         _doubt_given(meta, facts, f"{stream}_time_offset_s", stream, len(getattr(mission, stream).t), f"{given:+.3f} s",
                      f"the data say {data_say:+.3f} s (sigma {sigma_s:.4f} s{against})")
+    return doubted
 
 
 def _doubt_given(meta: dict, facts: dict, key: str, stream: str, n: int, given, data_say: str) -> None:
