@@ -366,8 +366,8 @@ def test_a_dvl_a_given_offset_puts_on_the_imu_clock_is_judged_for_turns_as_one_o
         got = _load(folder)
     assert got.meta["streams"]["dvl"]["doubted"] == {TURNED_DOUBT: len(t)}
     turn = np.diag([-1.0, -1.0, 1.0])
-    turned = (dataclasses.replace(m, imu=dataclasses.replace(m.imu, f_b=m.imu.f_b @ turn, omega_b=m.imu.omega_b @ turn)),
-              t, v_b)
+    imu = dataclasses.replace(m.imu, f_b=m.imu.f_b @ turn, omega_b=m.imu.omega_b @ turn)
+    turned = (dataclasses.replace(m, imu=imu), t, v_b)
     folder = _given_clock(_folder(tmp_path, turned, v_b, {"clock": clock}, shift=shift), -shift, "frd")
     with pytest.raises(DataError, match=r"the IMU's axes are turned 180 deg about z against csv_columns\.imu\.frame "
                                         r"'frd'") as err:

@@ -663,9 +663,9 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     taken where its fit is best within +- :data:`SCALE_SEARCH_S` (a wrong scale misleads the clock search by
     seconds). ``moved``: the clock search or a given time offset has just put the DVL on the IMU clock, so the loader
     could not check it for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here.
-    ``imu_frame``: the IMU's declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude checked its axes: its
-    turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which a turn leaves,
-    where that fit explains at least :data:`MIN_SCALE_R2`; else each fit at its own best offset).
+    ``imu_frame``: the IMU's declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude
+    checked its axes: its turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which
+    a turn leaves, where that fit explains at least :data:`MIN_SCALE_R2`; else each fit at its own best offset).
     ``field``: the DVL columns named (default the loader's ``meta["stream_fields"]["dvl"]``); ``fixes``: what the
     messages advise (:data:`DECLARE_DVL_FIXES`, :data:`AKIT_DVL_FIXES`); ``reference``: the mission's reference,
     which says where the vehicle moves when the fits cannot judge the DVL's turn (:func:`warn_dvl_sideways`). A turn
