@@ -174,7 +174,7 @@ def make_navigator(args, config, mission=None):
     ``--init`` (ground truth at the first ping of ``mission``) or the aligner's options."""
     from graphnav.estimators.navigator import Navigator, NavigatorOptions
     from graphnav.estimators.replay import first_ping_time
-    from graphnav.estimators.runs import initial_state, replayed_shocks
+    from graphnav.estimators.runs import initial_state, replay_options
     from graphnav.evaluation.methods import completer_for, estimator_options, get_method
     method = get_method(args.method)
     completer, described = completer_for(method.name, args.scenario, config.dvl.beam_noise_std, config)
@@ -185,9 +185,9 @@ def make_navigator(args, config, mission=None):
         method.name, {"marginals": "full", **({} if args.lag is None else {"lag_s": args.lag})})
     ekf_options = estimator_options(method.name) if ekf else None   # e.g. the -12 methods' 12-state filter
     reorder = {} if args.reorder_window is None else {"reorder_window_s": args.reorder_window}
-    # a replayed mission's loader judged the DVL's zero pings; a live stream's are judged as they come
-    nav_options = NavigatorOptions(align=align_options(args), dvl_zeros_judged=mission is not None,
-                                   imu_shocks=() if mission is None else replayed_shocks(mission), **reorder)
+    nav_options = NavigatorOptions(align=align_options(args), **reorder)
+    if mission is not None:     # a live stream's zero pings and shocks are judged as they come
+        nav_options = replay_options(nav_options, mission)
     initial = None
     if mission is not None:
         initial = initial_state(mission, None, args.init, first_ping_time(mission))

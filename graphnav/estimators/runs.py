@@ -69,14 +69,14 @@ def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions |
         raise ConfigError(f"unknown graph backend '{backend}'; choose one of {GRAPH_BACKENDS}")
     initial = initial_state(mission, initial, init, first_ping_time(mission))
     return Navigator(mission.config, backend, completer=completer, initial=initial,
-                     graph_options=options or GraphOptions(), options=with_align(navigator_options, align, mission),
+                     graph_options=options or GraphOptions(), options=replay_options(navigator_options, mission, align),
                      keep_keyframe_graphs=keep_keyframe_graphs, name=name or graph_label(completer))
 
 
-def with_align(navigator_options, align: AlignOptions | None, mission: Mission):
-    """``navigator_options`` (default :class:`~graphnav.estimators.navigator.NavigatorOptions`) with ``align``
-    as its alignment settings when given, for a replayed ``mission`` (its loader judged the DVL's zero pings and
-    the IMU shocks the DVL saw)."""
+def replay_options(navigator_options, mission: Mission, align: AlignOptions | None = None):
+    """``navigator_options`` (default :class:`~graphnav.estimators.navigator.NavigatorOptions`) for a replayed
+    ``mission`` (its loader judged the DVL's zero pings and the IMU shocks the DVL saw), with ``align`` as its
+    alignment settings when given: the one place a replay's options differ from a live stream's."""
     options = dataclasses.replace(navigator_options or NavigatorOptions(), dvl_zeros_judged=True,
                                   imu_shocks=replayed_shocks(mission))
     return options if align is None else dataclasses.replace(options, align=align)
@@ -308,7 +308,7 @@ def run_ekf(mission: Mission, *, tight: bool = True, completer=None, options: Ek
         t0 = max(t0, float(mission.gt.t[0]))     # the paper's start: the first instant with IMU and GT
     initial = initial_state(mission, initial, init, t0)
     nav = Navigator(mission.config, "ekf", completer=completer, initial=initial, ekf_options=options, tight=tight,
-                    options=with_align(navigator_options, align, mission), name=f"EKF {name}")
+                    options=replay_options(navigator_options, mission, align), name=f"EKF {name}")
     estimates = [e for e in feed_mission(nav, mission, depth=depth) if e.kind == "dvl"]
     info = nav.info
     info["t0"] = float(initial.t) if initial is not None else (nav.alignment.t if nav.alignment else float("nan"))
