@@ -42,14 +42,19 @@ def ping_speed(beams: np.ndarray, valid: np.ndarray, spec: DvlSpec) -> np.ndarra
     return np.linalg.norm(v, axis=1)
 
 
+def beam_velocity_b(dvl, spec: DvlSpec) -> np.ndarray:
+    """(M,3) each ping's velocity of the DVL head in the body frame, m/s (:class:`~graphnav.core.mission.DvlData`):
+    its ``v_b`` where the reader gives one, else the least-squares velocity of >= 3 valid beams; NaN: none."""
+    if dvl.v_b is not None:
+        return dvl.v_b
+    return DvlGeometry.from_spec(spec).velocity_from_beams(np.where(dvl.valid, dvl.beams, np.nan), dvl.valid,
+                                                           allow_missing=True)
+
+
 def ping_velocity_b(dvl, spec: DvlSpec) -> np.ndarray:
-    """(M,3) each ping's velocity of the DVL head in the body frame, m/s, as the reader has it
-    (:class:`~graphnav.core.mission.DvlData`): its ``v_b`` where given, else the least-squares velocity of >= 3
-    valid beams, else the instrument's own ``v_d`` turned by ``spec.C_d_b``; NaN: none."""
-    v = dvl.v_b
-    if v is None:
-        v = DvlGeometry.from_spec(spec).velocity_from_beams(np.where(dvl.valid, dvl.beams, np.nan), dvl.valid,
-                                                            allow_missing=True)
+    """(M,3) :func:`beam_velocity_b`, and where it has none the instrument's own ``v_d`` turned by ``spec.C_d_b``
+    (m/s, body frame; NaN: none)."""
+    v = beam_velocity_b(dvl, spec)
     if dvl.v_d is not None:
         own = dvl.v_d_valid & ~np.all(np.isfinite(v), axis=1)
         v = np.where(own[:, None], dvl.v_d @ np.asarray(spec.C_d_b, float).T, v)

@@ -1372,13 +1372,12 @@ def vertical_velocity(mission: Mission) -> tuple[np.ndarray, np.ndarray, str]:
     """``(t s, v_down m/s, what)``: the vehicle's down velocity from the GT (``v_n`` down, on the IMU clock), else the
     DVL's body velocity turned by the accelerometer's gravity direction (1 s means; no heading needed). Empty without
     either."""
-    from graphnav.core.dvl import DvlGeometry
+    from graphnav.core.dvl import beam_velocity_b
     from graphnav.core.timeseries import cumulative_integral, on_the_imu_clock
     dvl, imu = mission.dvl, mission.imu
     if mission.gt is not None and on_the_imu_clock(mission.gt.t, imu.t):
         return mission.gt.t, mission.gt.v_n[:, 2], f"the down velocity of {mission.gt.source}"
-    v = dvl.v_b if dvl.v_b is not None else DvlGeometry.from_spec(mission.config.dvl).velocity_from_beams(
-        np.where(dvl.valid, dvl.beams, np.nan), dvl.valid, allow_missing=True)
+    v = beam_velocity_b(dvl, mission.config.dvl)
     t_imu = np.ascontiguousarray(imu.t, float)
     inside = (dvl.t - 0.5 >= t_imu[0]) & (dvl.t + 0.5 <= t_imu[-1]) & np.all(np.isfinite(v), axis=1)
     F = np.asfortranarray(cumulative_integral(t_imu, imu.f_b))
