@@ -775,10 +775,8 @@ def _reference_clock(mission: Mission, meta: dict, facts: dict) -> Mission:
     if g is None:
         return mission
     given = facts.get("given", {}).get("gt_time_offset_s")
-    if given is not None:
-        moved = _given_reference_clock(mission.imu, g, float(given), meta, facts)[0]
-        return mission if moved is g else dataclasses.replace(mission, gt=moved)
-    moved = _searched_reference_clock(mission.imu, g, meta, "reference")[0]
+    moved = (_searched_reference_clock(mission.imu, g, meta, "reference") if given is None
+             else _given_reference_clock(mission.imu, g, float(given), meta, facts))[0]
     return mission if moved is g else dataclasses.replace(mission, gt=moved)
 
 
