@@ -24,7 +24,7 @@ from graphnav.calibration.clock import COARSE_MAX_WINDOWS
 from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_model, imu_integrals,
                                           without_window_fit)
 from graphnav.core.errors import DataError
-from graphnav.core.streams import add_note, count_doubted
+from graphnav.core.streams import add_note, count_doubted, say_doubted
 from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
@@ -444,9 +444,7 @@ def _say_dvl_turned(dvl, meta: dict, field: str, fixes: dict, finding: str) -> N
     if not fixes["declare"]:
         raise DataError(finding, dvl.source, field=field)
     text = f"field '{field}': {finding}"
-    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=4)
-    add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", TURNED_DOUBT, len(dvl.t))
+    say_doubted(meta, "dvl", dvl.source, text, TURNED_DOUBT, len(dvl.t), stacklevel=4)
 
 
 def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma: float, r2: float,
@@ -464,9 +462,7 @@ def warn_small_turn(dvl, meta: dict, field: str, fixes: dict, yaw: float, sigma:
             f"under {np.degrees(floor):g} deg or {YAW_SIGMAS:g} sigmas nothing is said), which puts the track "
             f"{100 * abs(np.sin(yaw)):.1f} % of the distance travelled sideways: a DVL head mounted turned, its "
             f"columns in the instrument frame read as body, or a dvl.C_d_b that is not the head's? {fixes['yaw']}")
-    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
-    add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", doubt, len(dvl.t))
+    say_doubted(meta, "dvl", dvl.source, text, doubt, len(dvl.t), stacklevel=3)
 
 
 def turn_against_reference(reference, t_dvl: np.ndarray, v_b: np.ndarray,
@@ -571,9 +567,7 @@ def warn_lever_against_reference(dl: np.ndarray, dl_sigma: np.ndarray, dvl, meta
             "said): a wrong lever arm adds omega x its error to the velocity the DVL is taken to measure while the "
             f"vehicle turns. Set dvl.lever_arm_b about {_vector_text(np.asarray(lever_arm_b) + dl)} m in a --config "
             "file (graphnav calibrate estimates it against a GT)")
-    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=2)
-    add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", GT_LEVER_DOUBT, len(dvl.t))
+    say_doubted(meta, "dvl", dvl.source, text, GT_LEVER_DOUBT, len(dvl.t))
 
 
 def _vector_text(x, sign: str = "+") -> str:
@@ -606,9 +600,7 @@ def warn_dvl_sideways(dvl, config, meta: dict, field: str, why: str, fixes: dict
                 f"move sideways (a crabbing ROV) ignore this; else {fix}")
     else:
         return
-    warnings.warn(f"{dvl.source}: {text}", RuntimeWarning, stacklevel=3)
-    add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", SIDEWAYS_DOUBT, len(dvl.t))
+    say_doubted(meta, "dvl", dvl.source, text, SIDEWAYS_DOUBT, len(dvl.t), stacklevel=3)
 
 
 def _imu_turn_fix(yaw: int, frame: dict) -> str:

@@ -70,7 +70,7 @@ from graphnav.core.config import SensorConfig
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
-from graphnav.core.streams import add_note, count_doubted, set_span
+from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
@@ -242,9 +242,8 @@ def _check_restamped_rate(meta: dict, measured_hz: float, source: str) -> None:
         note = (f"field '{meta.get('stream_fields', {}).get('imu', 't')}': IMU stamps restamped at the period "
                 f"{1e3 * period:.4g} ms read {measured_hz:.4g} Hz ({1e3 / measured_hz:.4g} ms) after: the restamping "
                 f"misread the stamps; {measured_hz:.4g} Hz is used, the samples may sit up to a period off")
-        add_note(meta, "imu", note)
-        count_doubted(meta, "imu", "restamped off the period", int(meta["streams"]["imu"].get("restamped", 0)))
-        warnings.warn(f"{source}: {note}", RuntimeWarning, stacklevel=4)
+        say_doubted(meta, "imu", source, note, "restamped off the period",
+                    int(meta["streams"]["imu"].get("restamped", 0)), stacklevel=4)
 
 
 def _is_auto(value) -> bool:
@@ -402,10 +401,8 @@ def _depth_where_the_data_put_it(meta: dict, depth: DepthData, given: float, dat
     text = (f"field '{AKIT_COLUMNS['GT'][3]}': the depth (the GT's altitude, on the GT file's clock) is placed at the "
             f"offset the data give the GT, {data_s:+.3f} s, not at the given gt_time_offset_s {given:+.3f} s, which "
             f"would feed the estimator a depth {abs(data_s - given):.3f} s off the vehicle's motion")
-    add_note(meta, "depth", text)
-    count_doubted(meta, "depth", "placed at the GT offset the data give, not the given gt_time_offset_s",
-                  len(depth.t))
-    warnings.warn(f"{depth.source}: {text}", RuntimeWarning, stacklevel=4)
+    say_doubted(meta, "depth", depth.source, text, "placed at the GT offset the data give, not the given "
+                "gt_time_offset_s", len(depth.t), stacklevel=4)
 
 
 def _beyond_the_fine_search(data, offset_s: float, imu: ImuData) -> bool:
@@ -850,9 +847,7 @@ def _reference_checks_axes(mission: Mission, meta: dict, facts: dict) -> GroundT
                 f"[{t_imu[0]:.3f}, {t_imu[-1]:.3f}] s: too few to check the IMU axes against it "
                 f"({MIN_AXIS_GT_INTERVALS} needed); the IMU alone checks them, and the reference, judged against "
                 "nothing, is kept for the scores")
-        add_note(meta, "gt", text)
-        count_doubted(meta, "gt", "too short to check the IMU axes against", len(g.t))
-        warnings.warn(f"{g.source}: {text}", RuntimeWarning, stacklevel=4)
+        say_doubted(meta, "gt", g.source, text, "too short to check the IMU axes against", len(g.t), stacklevel=4)
     return g if enough else None
 
 

@@ -11,6 +11,8 @@ Nothing a loader drops leaves without a count and a reason here, and nothing it 
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 
@@ -62,6 +64,14 @@ def count_doubted(meta: dict, stream: str, reason: str, n: int) -> dict:
         doubted = entry.setdefault("doubted", {})
         doubted[reason] = doubted.get(reason, 0) + int(n)
     return entry
+
+
+def say_doubted(meta: dict, stream: str, source: str, text: str, reason: str, n: int, stacklevel: int = 2) -> None:
+    """A suspect input kept: ``{source}: {text}`` warned about (``stacklevel`` as the caller's own warning would
+    have it), ``text`` noted on ``stream`` and its ``n`` samples counted as doubted for ``reason``."""
+    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=stacklevel + 1)
+    add_note(meta, stream, text)
+    count_doubted(meta, stream, reason, n)
 
 
 def add_note(meta: dict, stream: str, note: str) -> dict:

@@ -412,13 +412,8 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
 def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray, text: str) -> None:
     """A velocity kept in the vehicle's frame though the data cannot tell it from an earth-fixed one: ``text`` warned
     about, noted and its pings counted (:data:`FRAME_DOUBT`)."""
-    import warnings
-
-    from graphnav.core.streams import add_note, count_doubted
-    text = f"field '{', '.join(fields)}': {text}"
-    warnings.warn(f"{source}: {text}", RuntimeWarning, stacklevel=4)
-    add_note(meta, "dvl", text)
-    count_doubted(meta, "dvl", FRAME_DOUBT, len(t_dvl))
+    from graphnav.core.streams import say_doubted
+    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': {text}", FRAME_DOUBT, len(t_dvl), stacklevel=4)
 
 
 def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
