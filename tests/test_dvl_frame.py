@@ -168,6 +168,24 @@ def test_a_slow_vehicle_whose_velocity_noise_turns_it_more_than_it_turns_is_kept
         np.testing.assert_allclose(got.dvl.v_b, v, atol=1e-9)
 
 
+@pytest.mark.parametrize("clock", ["imu", "auto"])
+def test_a_dvl_put_on_the_imu_clock_in_prepare_and_kept_unjudged_is_warned_about_and_counted(sim, tmp_path, clock):
+    """The slow vehicle above with its DVL stamps 1000 s off and dvl_time_offset_s -1000 given (``clock: imu``, or
+    ``auto`` whose search leaves it): judged for an earth frame only once prepare has put it on the IMU clock, where
+    a velocity kept unjudged was kept silently. Now warned about and counted as on the IMU clock, same message."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.28, 0.0, noise=0.06)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    folder = _given_clock(_folder(tmp_path, (m_slow, t, None), v_b, {"clock": clock}, shift=1000.0), -1000.0)
+    with pytest.warns(RuntimeWarning, match=r"dvl.csv: field 'vx, vy, vz': DVL velocity taken \(no 'frame' in "
+                                            r"csv_columns.dvl\) in the body frame not judged for an earth frame: .* "
+                                            r"if it is earth-fixed, declare csv_columns.dvl.frame 'ned'"):
+        got = _load(folder)
+    assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t)}
+    assert any("not judged for an earth frame" in note for note in got.meta["streams"]["dvl"]["notes"])
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+
+
 @pytest.mark.parametrize("seed, speed, current, duration, noise", [(8, 0.3, 0.3, 400.0, 0.05),
                                                                     (9, 0.28, 0.0, 300.0, 0.04)])
 def test_a_slow_vehicle_whose_noise_tips_the_kinematics_just_over_1_is_kept_as_body(sim, tmp_path, seed, speed,

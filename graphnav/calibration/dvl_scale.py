@@ -675,7 +675,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warn_dvl_sideways(dvl, config, meta, field, exc.message, fixes, reference)
         return
     if moved:
-        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body")
+        # with ``meta``: a velocity kept unjudged is warned about and counted as on the IMU clock; no specific force,
+        # since the search's offset favours the body kinematics whatever the frame (docs/decisions/dvl-frame.md)
+        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body",
+                              meta=meta)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, yaw = fits[best]
