@@ -38,10 +38,10 @@ def nav_mission():
     return simulate_mission(160, seed=0)
 
 
-def streamed_keyframes(imu_t, dvl_t, options=None):
-    """Keyframes of a stream of IMU stamps and DVL pings (all beams valid), in time order, no look-ahead."""
-    from graphnav.core.config import SensorConfig
-    k = Keyframer(SensorConfig(), options)
+def streamed_keyframes(imu_t, dvl_t, options=None, keyframer=None):
+    """Keyframes of a stream of IMU stamps and DVL pings (all beams valid), in time order, no look-ahead, through
+    ``keyframer`` (default a new one)."""
+    k = keyframer or Keyframer(SensorConfig(), options)
     events = sorted([(t, 1, "dvl") for t in dvl_t] + [(t, 2, "imu") for t in imu_t])
     out = k.start(float(dvl_t[0]))
     for t, _, kind in events:
@@ -65,6 +65,24 @@ def test_keyframes_fill_dvl_gaps_without_look_ahead():
     # IMU-only keyframes also run up to half an interval before the end of the IMU data
     kfs = streamed_keyframes(imu_t, dvl_t[:3])
     np.testing.assert_allclose([k.t for k in kfs if k.kind == "imu"], np.arange(3.5, 19.6, 1.0))
+
+
+def test_pings_after_the_imu_ends_are_warned_about_once_with_their_count_and_time():
+    """Pings no IMU sample follows were dropped and counted (``pings_after_end``) without a word; now one warning names
+    the stream, how many and how long after the IMU's end. A last ping within the span tolerance (a recording's usual
+    end, 6-75 ms on the A-KIT trajectories) is counted quietly, as a mission drops it."""
+    imu_t = np.round(np.arange(0, 20.001, 0.01), 10)
+    k = Keyframer(SensorConfig())
+    with pytest.warns(RuntimeWarning, match=r"^dvl: 5 ping\(s\) after the IMU's last sample at t = 20\.000 s \(the "
+                                            r"last 4\.500 s after it\) dropped") as caught:
+        streamed_keyframes(imu_t, np.arange(0.5, 25.0, 1.0), keyframer=k)
+    assert k.stats.pings_after_end == 5
+    assert len([w for w in caught if "after the IMU's last sample" in str(w.message)]) == 1
+    k = Keyframer(SensorConfig())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        streamed_keyframes(imu_t, np.r_[np.arange(0.5, 20.0, 1.0), 20.05], keyframer=k)
+    assert k.stats.pings_after_end == 1
 
 
 def test_split_preintegration_matches_truth_between_imu_samples():

@@ -55,7 +55,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig
 from graphnav.core.dvl import DvlGeometry, off_period
 from graphnav.core.errors import ConfigError
-from graphnav.core.mission import ImuGap, check_imu_gap, gap_variances
+from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, ImuGap, check_imu_gap, gap_variances
 from graphnav.estimators.history import BeamHistory, run_sigma_of
 from graphnav.estimators.imu_buffer import NO_WINDOW_REASONS, ImuWindowBuffer
 from graphnav.estimators.imu_stream_timing import ImuPeriod
@@ -299,10 +299,24 @@ class Keyframer:
         if self._started and self._samples:
             out += self._close_ready()
             out += self._fill_gap(self._samples[-1][0])
-        n_late = sum(1 for p in self._pending if p.has_ping)
-        self.stats.pings_after_end += n_late
+        late = [p.t for p in self._pending if p.has_ping]
+        self.stats.pings_after_end += len(late)
+        if late:
+            self._warn_pings_after_end(late)
         self._pending.clear()
         return out
+
+    def _warn_pings_after_end(self, late: list[float]) -> None:
+        """One warning for the pings at stamps ``late`` (s, in order) that no IMU sample follows, dropped, when the
+        last lies beyond :data:`~graphnav.core.mission.OUTSIDE_SPAN_TOLERANCE_S` of the last IMU sample: within it
+        a recording's last ping is the usual end of a time offset (8 of the ten A-KIT trajectories, 6-75 ms), which
+        a mission drops quietly too."""
+        last = self._samples[-1][0] if self._samples else -math.inf
+        if late[-1] - last <= OUTSIDE_SPAN_TOLERANCE_S:
+            return
+        after = f" at t = {last:.3f} s (the last {late[-1] - last:.3f} s after it)" if self._samples else ""
+        warnings.warn(f"dvl: {len(late)} ping(s) after the IMU's last sample{after} dropped: no IMU sample covers "
+                      "them (counted as pings_after_end)", RuntimeWarning, stacklevel=4)
 
     # --- internals ----------------------------------------------------------------------------------
     def _insert_pending(self, p: _Pending) -> None:
