@@ -5,13 +5,12 @@ The ``graphnav`` commands do the two steps themselves (``commands.common.recorde
 conveniences a script calls (``graphnav.load_mission``)."""
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 from graphnav.calibration.preparation import AUTO
 from graphnav.calibration.preparation import prepare as prepare_mission
 from graphnav.core.mission import Mission
-from graphnav.core.streams import add_note
+from graphnav.io.bags import warn_depth_turn_unconfirmed
 
 
 def load_mission(data: str | Path | None = None, config_path: str | Path | None = None,
@@ -28,23 +27,10 @@ def load_mission(data: str | Path | None = None, config_path: str | Path | None 
     from graphnav.io.loaders import read_mission
     mission = read_mission(data, config_path, topics, **kwargs)
     if not prepare:
-        _warn_depth_turn_unconfirmed(mission)
+        warn_depth_turn_unconfirmed(mission)
         return mission
     return prepare_mission(mission, imu_axis_signs=imu_axis_signs, gt_time_offset_s=gt_time_offset_s,
                            dvl_time_offset_s=dvl_time_offset_s)
-
-
-def _warn_depth_turn_unconfirmed(mission: Mission) -> None:
-    """Warn about and note a bag's depth topic the reader turned positive down (read as positive up,
-    :func:`graphnav.io.bag_convert.turned_positive_up`) when the mission is not prepared: only the prepare step's
-    vertical motion confirms the turn. Kept turned: as read, the range check would have dropped every sample."""
-    if not mission.meta.get("prepare", {}).get("depth_turned_up"):
-        return
-    text = ("read as depth positive up and turned positive down, unconfirmed: the mission is not prepared, and only "
-            "the prepare step checks the turn against the vehicle's vertical motion (prepare it, or declare "
-            "bag_topics.depth.positive)")
-    warnings.warn(f"{mission.depth.source}, field 'data': {text}", RuntimeWarning, stacklevel=3)
-    add_note(mission.meta, "depth", text)
 
 
 def load_akit(folder: str | Path, *, imu_axis_signs=AUTO, dvl_time_offset_s: float | str = AUTO,

@@ -376,21 +376,47 @@ def test_an_index_past_the_end_of_the_message_lists_is_refused_or_warned_and_cou
         "bag_topics.dvl.beams past the end of the message's list: the beam read as missing": 5}
 
 
+def _int16_mm_s(standard, path):
+    """``standard`` with its DVL velocity and beams as a raw driver's int16 mm/s (vx, vy, vz; beam_vel, -32768 for
+    no beam; beam_ok)."""
+    return _retyped(standard, path, "int16 vx\nint16 vy\nint16 vz\nint16[4] beam_vel\nuint8[4] beam_ok\n",
+                    lambda m, T: dict(vx=np.int16(round(m.velocity.x * 1000)), vy=np.int16(round(m.velocity.y * 1000)),
+                                      vz=np.int16(round(m.velocity.z * 1000)), beam_vel=np.array(
+                                          [round(b.velocity * 1000) if b.valid else -32768 for b in m.beams], np.int16),
+                                      beam_ok=np.array([b.valid for b in m.beams], np.uint8)))
+
+
 def test_integer_velocities_read_in_their_declared_unit(recorded, tmp_path):
     """A raw driver's int16 mm/s velocities were refused as needing float fields; they read in the declared unit,
     -32768 (no beam) invalid, within the 0.5 mm/s of rounding to integers."""
     mission, _, standard, _, _ = recorded
     ref = bags.load_bag(standard, mission.config).dvl
-    bag = _retyped(standard, tmp_path / "int16", "int16 vx\nint16 vy\nint16 vz\nint16[4] beam_vel\nuint8[4] beam_ok\n",
-                   lambda m, T: dict(vx=np.int16(round(m.velocity.x * 1000)), vy=np.int16(round(m.velocity.y * 1000)),
-                                     vz=np.int16(round(m.velocity.z * 1000)), beam_vel=np.array(
-                                         [round(b.velocity * 1000) if b.valid else -32768 for b in m.beams], np.int16),
-                                     beam_ok=np.array([b.valid for b in m.beams], np.uint8)))
+    bag = _int16_mm_s(standard, tmp_path / "int16")
     dvl = _read(bag, mission.config, v_b=["vx", "vy", "vz"], beams="beam_vel", valid="beam_ok", velocity_unit="mm/s")
     np.testing.assert_array_equal(dvl.valid, ref.valid)
     np.testing.assert_allclose(dvl.beams[ref.valid], ref.beams[ref.valid], atol=5e-4)
     np.testing.assert_allclose(dvl.v_d, ref.v_d, atol=5e-4)
     np.testing.assert_array_equal(dvl.v_d_valid, ref.v_d_valid)
+
+
+def test_integer_mm_s_beams_and_velocity_undeclared_are_said_read_as_mm_s_once_naming_both(recorded, tmp_path):
+    """The int16 mm/s velocities above with no velocity_unit: detected as mm/s and converted, which was warned and
+    noted twice, once for the beams and once for the velocity. Once now, naming both fields."""
+    mission, _, standard, _, _ = recorded
+    ref = bags.load_bag(standard, mission.config).dvl
+    bag = _int16_mm_s(standard, tmp_path / "int16")
+    import dataclasses
+    config = dataclasses.replace(mission.config, bag_topics={"dvl": {
+        "topic": "/dvl/data", "v_b": ["vx", "vy", "vz"], "beams": "beam_vel", "valid": "beam_ok"}})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = bags.load_bag(bag, config)
+    said = [str(w.message) for w in caught if "read as mm/s" in str(w.message)]
+    assert len(said) == 1 and said[0].endswith("/dvl/data: DVL velocities read as mm/s (median speed 564 in beams "
+                                               "'beam_vel', 2137 in v_b 'vx, vy, vz') and converted to m/s"), said
+    assert len([n for n in m.meta["streams"]["dvl"]["notes"] if "read as mm/s" in n]) == 1
+    np.testing.assert_allclose(m.dvl.beams[ref.valid], ref.beams[ref.valid], atol=5e-4)
+    np.testing.assert_allclose(m.dvl.v_d, ref.v_d, atol=5e-4)
 
 
 def test_beam_flags_without_the_beams_leave_the_velocity_valid_where_three_beams_were(recorded):

@@ -685,6 +685,14 @@ def test_an_undeclared_depth_topic_positive_up_is_turned_with_a_warning_as_a_csv
                                             r"positive down, unconfirmed: the mission is not prepared"):
         m = load_mission(path, config, prepare=False)
     assert any("unconfirmed" in n for n in m.meta["streams"]["depth"]["notes"])
+    # described without prepare (graphnav info's reader alone): the same warning and note, from the same function
+    from graphnav.calibration.preparation import prepare
+    from graphnav.io.inspect import describe
+    desc = describe(path, config)
+    assert [w for w in desc["warnings"] if "field 'data': read as depth positive up and turned positive down, "
+            "unconfirmed: the mission is not prepared" in w]
+    assert any("unconfirmed" in n for n in desc["streams"]["depth"]["notes"])
+    assert not [w for w in describe(path, config, prepare=prepare)["warnings"] if "unconfirmed" in w]
     # positive down with its zero 40 m off: above the surface too, but turned it rises while the vehicle dives
     off = dataclasses.replace(mission, depth=dataclasses.replace(mission.depth, depth=mission.depth.depth - 40.0))
     path = bags.write_mission_bag(off, tmp_path / "off", storage="mcap", t0_unix_ns=T0_NS, depth_as_pressure=False)

@@ -353,7 +353,7 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict,
     declared ``frame`` with ``C_d_b``), no sigma (the configuration's noise is used). The fields read are in
     ``info["dvl_fields"]`` and a note of the DVL stream. ``message_names``: each message named for a warning."""
     from graphnav.io.dvl_frame import EARTH_FRAMES, declared_frame, velocity_to_body
-    from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_velocity_units
+    from graphnav.io.units import DECLARED_UNITS, declared_scale, dvl_values_in_mps, say_mmps
     if "v_b" not in spec and "beams" not in spec:
         raise ConfigError(f"{KEY} needs 'beams' (the four along-beam velocities) or 'v_b' (the velocity)")
     units = DECLARED_UNITS["velocity"]
@@ -367,10 +367,15 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict,
     fix = f"declare {KEY}.velocity_unit ({', '.join(units)})"
     n = len(s.rows)
 
+    mmps = {}           # key -> its fields' median speed as read, where detected as mm/s: said once for both
+
     def in_mps(key, **kw):
         cells = table(s, spec, key, source, meta, message_names) * scale
-        return dvl_velocity_units(cells, where, meta, unit, columns=", ".join(_paths(spec, key)), fix=fix,
-                                  key=f"{KEY}.velocity_unit", **kw)
+        fields = ", ".join(_paths(spec, key))
+        cells, med = dvl_values_in_mps(cells, where, unit, columns=fields, fix=fix, key=f"{KEY}.velocity_unit", **kw)
+        if med is not None:
+            mmps[key] = f"{med:.4g} in {key} '{fields}'"
+        return cells
     beams = in_mps("beams", beams=True) if "beams" in spec else np.full((n, 4), np.nan)
     flags = table(s, spec, "valid", source, meta, message_names) if "valid" in spec else np.ones((n, 4))
     valid = (np.nan_to_num(flags) != 0) & np.isfinite(beams)
@@ -378,6 +383,8 @@ def read(s, spec: dict, C_d_b: np.ndarray, source: str, meta: dict, info: dict,
     if "v_b" in spec:
         v = in_mps("v_b")
         v_d = v if frame == "instrument" else velocity_to_body(v, frame, C_d_b) @ C_d_b    # v_d = C_d_b^T v_b
+    if mmps:
+        say_mmps(meta, where, "median speed " + ", ".join(mmps.values()))
     if "velocity_valid" in spec:
         v_ok = np.nan_to_num(table(s, spec, "velocity_valid", source, meta, message_names)[:, 0]) != 0
     else:       # as a column map's: a velocity needs three valid beams when the beams are flagged

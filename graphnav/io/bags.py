@@ -424,6 +424,21 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
                    heading=heading, fixes=fixes)
 
 
+def warn_depth_turn_unconfirmed(mission: Mission, stacklevel: int = 2) -> None:
+    """Warn (``stacklevel`` as the caller's own warning would have it) about and note a bag's depth topic the reader
+    turned positive down (read as positive up, :func:`graphnav.io.bag_convert.turned_positive_up`) in a mission not
+    prepared: only the prepare step's vertical motion confirms the turn. Kept turned: as read, the range check would
+    have dropped every sample. For every path that hands on a mission unprepared (``load_mission(prepare=False)``,
+    ``describe`` without ``prepare``)."""
+    if not mission.meta.get("prepare", {}).get("depth_turned_up") or mission.meta.get("prepared"):
+        return
+    text = ("read as depth positive up and turned positive down, unconfirmed: the mission is not prepared, and only "
+            "the prepare step checks the turn against the vehicle's vertical motion (prepare it, or declare "
+            "bag_topics.depth.positive)")
+    warnings.warn(f"{mission.depth.source}, field 'data': {text}", RuntimeWarning, stacklevel=stacklevel + 1)
+    add_note(mission.meta, "depth", text)
+
+
 def _units(imu, depth, config: SensorConfig, meta: dict):
     """The IMU in SI (a driver's gyro in deg/s, an accelerometer in g: :func:`graphnav.io.units.check_units`;
     bag stamps are nanoseconds by definition) and the depth checked, each change warned about and noted in meta."""

@@ -208,7 +208,11 @@ def _describe_mission_path(path: Path, config, config_path, topics, prepare) -> 
     from graphnav.io.loaders import read_mission
     mission = read_mission(path, config_path, topics=topics) if config is None or config_path is not None \
         else _read_with_config(path, config, topics)
-    return describe_mission(mission if prepare is None else prepare(mission))
+    if prepare is None:
+        from graphnav.io.bags import warn_depth_turn_unconfirmed
+        warn_depth_turn_unconfirmed(mission)
+        return describe_mission(mission)
+    return describe_mission(prepare(mission))
 
 
 def _read_with_config(path: Path, config: SensorConfig, topics):

@@ -586,13 +586,28 @@ def dvl_velocity_units(values: np.ndarray, source: str, meta: dict | None = None
     values' columns in ``source`` (a DataError names them), ``fix``: what a DataError advises
     (:func:`dvl_speed_scale`, which also takes ``rank``: ``imu``, ``t``, ``max_speed_mps``, to order the units it
     names); ``key``: the one that ``declared`` the unit."""
+    values, med = dvl_values_in_mps(values, source, declared, beams, columns, fix, key, **rank)
+    if med is not None:
+        say_mmps(meta, source, f"median speed {med:.4g}")
+    return values
+
+
+def dvl_values_in_mps(values: np.ndarray, source: str, declared: str | None = None, beams: bool = False,
+                      columns: str | None = None, fix: str = DECLARE_UNIT_FIX, key: str | None = None,
+                      **rank) -> tuple[np.ndarray, float | None]:
+    """:func:`dvl_velocity_units` without saying it: ``(values in m/s, the median speed as read when they were
+    detected as mm/s and converted, else None)``, for a reader that says the unit once for several fields
+    (:func:`say_mmps`)."""
     field = columns or ("beams" if beams else "v_b/v_d")
     scale, med = dvl_speed_scale(values if beams else None, None if beams else values, source, field=field,
                                  columns=field, fix=fix, declared=declared, key=key, **rank)
-    if scale == 1.0:
-        return values
-    _note(meta, "dvl", f"{MMPS_CONVERTED} (median speed {med:.4g}) and converted to m/s", source)
-    return np.asarray(values, float) * scale
+    return (values, None) if scale == 1.0 else (np.asarray(values, float) * scale, med)
+
+
+def say_mmps(meta: dict | None, source: str, speeds: str) -> None:
+    """Warn about and note a DVL's values detected as mm/s and converted (:data:`MMPS_CONVERTED`), ``speeds`` the
+    median speeds as read that said so (and the fields they were read from)."""
+    _note(meta, "dvl", f"{MMPS_CONVERTED} ({speeds}) and converted to m/s", source)
 
 
 def dvl_units(dvl: DvlData, meta: dict | None = None, declared: str | None = None) -> DvlData:
@@ -1643,9 +1658,10 @@ AKIT_DVL_FIXES = {"declare": False,
 
 
 __all__ = ["check_units", "DECLARE_DVL_FIXES", "BAG_DVL_FIXES", "AKIT_DVL_FIXES", "stamps_in_seconds", "imu_units",
-           "dvl_units", "dvl_velocity_units", "time_scale", "check_declared_time_span", "check_stamp_bound",
-           "declared_scale", "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale", "attitude_rate_ratio",
-           "displacement_ratio", "vertical_sign", "reference_attitude_units", "reference_tilt_unit",
-           "reference_turn_fit", "keep_reference_turn", "check_gyro_against_reference", "gyro_scale_found",
+           "dvl_units", "dvl_velocity_units", "dvl_values_in_mps", "say_mmps", "time_scale", "check_declared_time_span",
+           "check_stamp_bound", "declared_scale", "gyro_tilt_scale", "gyro_tilt_fit", "dvl_speed_scale",
+           "attitude_rate_ratio", "displacement_ratio", "vertical_sign", "reference_attitude_units",
+           "reference_tilt_unit", "reference_turn_fit", "keep_reference_turn", "check_gyro_against_reference",
+           "gyro_scale_found",
            "accelerometer_tilt", "reference_latlon_units", "reference_depth", "check_reference_displacement",
            "check_reference_axes", "horizontal_axes_fit", "reference_speed_error", "reference_inconsistencies"]
