@@ -460,3 +460,64 @@ def test_info_on_a_json_lines_stream_warns_of_a_step_of_the_imu_clock_naming_the
         write_records(mission_records(sim), fh)
     d = describe(clean)
     assert not [w for w in d["warnings"] if "IMU clock" in w] and "doubted" not in d["streams"]["imu"]
+
+
+def _whole_ms_imu(sim, rate: float, duration_s: float = 10.0):
+    """``sim``'s IMU resampled at ``rate`` (Hz) for ``duration_s`` and stamped in whole ms (s) with up to 0.5 ms of
+    uniform jitter: steps of 6 to 9 ms at 128 Hz, their median 8 ms (125 Hz)."""
+    import dataclasses
+    t = np.arange(int(duration_s * rate)) / rate
+    stamps = np.round(1e3 * (t + np.random.default_rng(7).uniform(-5e-4, 5e-4, t.size))) / 1e3
+    return dataclasses.replace(sim.imu, t=stamps, **{k: np.column_stack([np.interp(t, sim.imu.t, getattr(
+        sim.imu, k)[:, j]) for j in range(3)]) for k in ("f_b", "omega_b")})
+
+
+def test_a_csv_log_shows_the_imu_rate_the_loaders_read_whole_ms_stamps_with_jitter(sim, tmp_path, capsys):
+    """A 128 Hz IMU logged in whole ms with 0.5 ms of jitter (steps of 6 to 9 ms, the median 8 ms) showed 125 Hz as
+    read (``describe`` without the prepare step, the mission's ``meta``) while its readers and screening read 128 Hz:
+    the shown rate is now theirs, as read and as ``graphnav info`` prepares it."""
+    from graphnav.io.loaders import read_mission
+    rate = 128.0
+    imu = _whole_ms_imu(sim, rate)
+    stamps_ms = np.round(1e3 * imu.t)
+    rows = ["ms,ax,ay,az,gx,gy,gz"] + [",".join(f"{x:.12g}" for x in r) for r in np.column_stack([stamps_ms, imu.f_b,
+                                                                                                    imu.omega_b])]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n")
+    keep = sim.dvl.t <= imu.t[-1]
+    rows = ["ms,b1,b2,b3,b4"] + [",".join(f"{x:.12g}" for x in r) for r in np.column_stack(
+        [1e3 * sim.dvl.t[keep], np.where(sim.dvl.valid, sim.dvl.beams, np.nan)[keep]])]
+    (tmp_path / "dvl.csv").write_text("\n".join(rows) + "\n")
+    cfg = sim.config.to_dict()
+    cfg.update(imu_rate_hz=rate, csv_columns={
+        "time_unit": "ms",
+        "imu": {"file": "imu.csv", "t": "ms", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+        "dvl": {"file": "dvl.csv", "t": "ms", "beams": ["b1", "b2", "b3", "b4"]}})
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps(cfg))
+    assert np.median(np.diff(stamps_ms)) == 8.0                     # the median step's 125 Hz
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert read_mission(tmp_path, config).meta["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-3)
+        assert describe(tmp_path, config)["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-3)
+    assert cli.main(["info", str(tmp_path), "--config", str(config), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["streams"]["imu"]["rate_hz"] == pytest.approx(rate, rel=1e-3)
+
+
+@pytest.mark.parametrize("form", ["bag", "akit"])
+def test_a_bag_and_an_akit_folder_show_the_imu_rate_the_loaders_read_whole_ms_stamps_with_jitter(sim, tmp_path, form):
+    """The same 128 Hz IMU in whole ms written as a ROS 2 bag and as an A-KIT folder showed 125 Hz as read (the
+    median step) and shows 128 Hz (``graphnav.core.imu_timing.shown_rate_hz``); the DVL keeps its median rate."""
+    import dataclasses
+
+    from graphnav.io.bags import write_mission_bag
+    from graphnav.io.export import write_akit
+    from graphnav.io.loaders import read_mission
+    mission = dataclasses.replace(sim, imu=_whole_ms_imu(sim, 128.0, 20.0),
+                                  config=dataclasses.replace(sim.config, imu_rate_hz=128.0))
+    path = write_mission_bag(mission, tmp_path / "m.mcap") if form == "bag" else \
+        write_akit(mission, tmp_path)["IMU"].parent
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        streams = read_mission(path).meta["streams"]
+    assert streams["imu"]["rate_hz"] == pytest.approx(128.0, rel=1e-3)
+    assert streams["dvl"]["rate_hz"] == pytest.approx(1 / np.median(np.diff(sim.dvl.t)), rel=1e-3)

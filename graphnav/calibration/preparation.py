@@ -215,7 +215,8 @@ def _measured_imu_rate(mission: Mission, meta: dict) -> Mission:
                  f"{1 / np.median(steps):.4g} Hz")
     off = abs(measured - configured) > IMU_RATE_TOLERANCE * configured      # NaN (one stamp): nothing to say
     if np.isfinite(measured) and "imu" in meta.get("streams", {}):
-        # the readers' median step read 100 Hz for a 70 or 80 Hz IMU on a 10 ms clock
+        # the readers' rate (imu_timing.shown_rate_hz) confirmed against the configured one: a median step near it is
+        # the period whatever a few long steps say
         meta["streams"]["imu"]["rate_hz"] = float(measured)
     if not off:
         if abs(measured - configured) > IMU_RATE_NOTE_SHARE * configured:

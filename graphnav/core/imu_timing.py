@@ -18,7 +18,8 @@ stamps alone, in this order:
   step of stamps on a grid coarser than a tenth of it (:func:`imu_stamp_quantum`) or of an IMU slower than its
   clock's grid, or samples over time where jitter spreads such steps (a lost sample's step counted as the periods it
   spans, a row written twice as none: :func:`_odd_steps`); samples over time without the gaps for stamps in packets
-  or bursts (:func:`imu_packet_limit`: the step that ends one). ``prepare`` puts distinct stamps in packets back on
+  or bursts (:func:`imu_packet_limit`: the step that ends one); the readers record it as the IMU's rate of a mission
+  as read (:func:`shown_rate_hz`). ``prepare`` puts distinct stamps in packets back on
   the period with the same :func:`restamp_packets` and uses the measured rate where the configured one is off; the
   IMU spike tests of :mod:`graphnav.core.screening` take their windows in rows from it.
 * **A live stream** (the keyframer, the stream's spike test): a burst the stream starts with (:func:`start_burst`)
@@ -497,6 +498,19 @@ def imu_rate_hz(t: np.ndarray, expected_hz: float | None = None, tolerance: floa
     that a median step near it confirms); NaN with fewer than two distinct finite stamps."""
     expected = None if expected_hz is None else 1.0 / expected_hz
     return 1.0 / imu_step_stats(np.diff(np.asarray(t, float)), expected, tolerance)[0]
+
+
+def shown_rate_hz(stream: str, t: np.ndarray) -> float | None:
+    """The rate (Hz) a reader records for ``stream`` (``meta["streams"][stream]["rate_hz"]``, what ``graphnav info``
+    shows of a mission as read) from its stamps ``t`` (s, any order, NaN where a sample has none): the IMU's
+    :func:`imu_rate_hz` of its finite stamps in order, as the readers and the screening read it (in whole ms the
+    median step of a 128 Hz IMU is 8 ms, 125 Hz; NaN with fewer than two distinct stamps); None for any other stream,
+    whose rate is its median step (:func:`graphnav.core.streams.set_span`). ``prepare`` confirms the IMU's against
+    the configured rate."""
+    if stream != "imu":
+        return None
+    t = np.asarray(t, float)
+    return imu_rate_hz(np.sort(t[np.isfinite(t)]))
 
 
 #: Share of the steps between an IMU's shared stamps within a hundredth of their median above which the packets come
@@ -1135,7 +1149,7 @@ def say_restamp(meta: dict | None, source: str, note: str, stacklevel: int, rest
     entry = add_note(meta, "imu", note)
     if restamped is not None:
         entry.update(restamped=moved, restamp_period_s=period_s)
-        set_span(meta, "imu", restamped)
+        set_span(meta, "imu", restamped, shown_rate_hz("imu", restamped))
 
 
 def stamped_in_packets(t: np.ndarray) -> str:

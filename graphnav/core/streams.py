@@ -22,28 +22,31 @@ def stream_entry(meta: dict, stream: str) -> dict:
         stream, {"source": "", "read": 0, "used": 0, "refused": {}, "rate_hz": None, "span_s": None, "notes": []})
 
 
-def count_read(meta: dict, stream: str, t: np.ndarray, source: str = "") -> dict:
-    """Record ``len(t)`` samples read (and the stream's median rate and span) for ``stream``."""
+def count_read(meta: dict, stream: str, t: np.ndarray, source: str = "", rate_hz: float | None = None) -> dict:
+    """Record ``len(t)`` samples read (and the stream's rate and span, :func:`set_span`) for ``stream``."""
     entry = stream_entry(meta, stream)
     t = np.asarray(t, float)
     entry["read"] += int(t.size)
     entry["used"] += int(t.size)
     if source:
         entry["source"] = source
-    return set_span(meta, stream, t)
+    return set_span(meta, stream, t, rate_hz)
 
 
-def set_span(meta: dict, stream: str, t: np.ndarray) -> dict:
-    """Record the span and median rate of ``stream`` from its stamps ``t`` (s) as the mission holds them (after
-    a loader's rescaling or clock offsets), without counting samples."""
+def set_span(meta: dict, stream: str, t: np.ndarray, rate_hz: float | None = None) -> dict:
+    """Record the span and rate of ``stream`` from its stamps ``t`` (s) as the mission holds them (after
+    a loader's rescaling or clock offsets), without counting samples. ``rate_hz``: the rate (Hz) its reader read
+    from them (the IMU's, :func:`graphnav.core.imu_timing.shown_rate_hz`); None: their median step."""
     entry = stream_entry(meta, stream)
     t = np.asarray(t, float)
     finite = t[np.isfinite(t)]
     if finite.size:
         entry["span_s"] = [float(finite.min()), float(finite.max())]
     if finite.size > 1:
-        step = np.median(np.diff(np.sort(finite)))
-        entry["rate_hz"] = float(1.0 / step) if step > 0 else None
+        if rate_hz is None:
+            step = np.median(np.diff(np.sort(finite)))
+            rate_hz = 1.0 / step if step > 0 else np.nan
+        entry["rate_hz"] = float(rate_hz) if np.isfinite(rate_hz) else None
     return entry
 
 

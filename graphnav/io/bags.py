@@ -51,6 +51,7 @@ from scipy.spatial.transform import Rotation
 
 from graphnav.core.config import SensorConfig
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import Mission
 from graphnav.core.streams import add_note, count_read, count_refused, set_span
 from graphnav.io import bag_convert as conv
@@ -303,7 +304,8 @@ def _record(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None
     """Counts and notes of a chosen topic: what it read (including messages its stamps could not order)."""
     t = (s.t_ns - t0_ns) / 1e9
     dropped = s.n_read - len(t)
-    count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})")
+    count_read(meta, stream, np.concatenate([t, np.full(dropped, np.nan)]), f"{source}:{s.topic} ({s.msgtype})",
+               shown_rate_hz(stream, t))
     for entry in s.log.values():
         for reason, n in entry["refused"].items():
             count_refused(meta, stream, reason, n)

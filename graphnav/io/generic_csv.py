@@ -84,6 +84,7 @@ import numpy as np
 from graphnav.core.config import SensorConfig, check_column_map
 from graphnav.core.dvl import no_lock_pings, ping_velocity_b
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import DepthData, DvlData, GroundTruth, ImuData, Mission
 from graphnav.core.screening import (
     NO_BOTTOM_LOCK,
@@ -273,7 +274,7 @@ def _count_read(meta: dict, stream: str, t: np.ndarray, path: Path) -> None:
     """Count ``t`` as the stream's rows read, unless they are counted (:func:`_read` counts a stream whose rows it
     drops, with all the rows it read)."""
     if not meta.get("streams", {}).get(stream, {}).get("read"):
-        count_read(meta, stream, t, str(path))
+        count_read(meta, stream, t, str(path), shown_rate_hz(stream, t))
 
 
 def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | None = None,

@@ -99,6 +99,7 @@ from graphnav.core.config import FOUND_WHEN_PREPARED, ConfigOverrides, ImuSpec, 
 from graphnav.core.dvl import describe_implausible, implausible_pings, make_beams, no_lock_pings, ping_velocity_b
 from graphnav.core.earth import gravity_magnitude, lla_to_ned
 from graphnav.core.errors import ConfigError, DataError
+from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import (
     MAX_DVL_SPEED_MPS,
     DepthData,
@@ -298,7 +299,7 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
     if problems:
         _raise_problems(source, sorted(problems))
     if meta is not None:
-        count_read(meta, stream, data[:, 0], source)
+        count_read(meta, stream, data[:, 0], source, shown_rate_hz(stream, data[:, 0]))
         bad = stamp_outliers(data[:, 0])
         if bad.any():
             refuse(meta, stream, {"stamp not a time": bad}, source, lines=line_no)
@@ -1087,7 +1088,7 @@ def screen_mission(mission: Mission) -> Mission:
     cfg = mission.config
     for name, stream in (("imu", mission.imu), ("dvl", mission.dvl), ("depth", mission.depth), ("gt", mission.gt)):
         if stream is not None and not meta.get("streams", {}).get(name, {}).get("read"):
-            count_read(meta, name, stream.t, stream.source)
+            count_read(meta, name, stream.t, stream.source, shown_rate_hz(name, stream.t))
     imu, dvl, depth, gt = mission.imu, mission.dvl, mission.depth, mission.gt
     if not meta.get("imu_screened"):       # a loader that knows the file lines screened the IMU itself
         # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples

@@ -14,6 +14,7 @@ import warnings
 
 import numpy as np
 
+from graphnav.core.imu_timing import shown_rate_hz
 from graphnav.core.mission import OUTSIDE_SPAN_TOLERANCE_S, Mission
 from graphnav.core.screening import located
 from graphnav.core.streams import add_note, count_read, count_refused, set_span, stream_entry
@@ -50,10 +51,11 @@ def record_streams(meta: dict, *, imu=None, dvl=None, depth=None, gt=None,
     for name, stream in (("imu", imu), ("dvl", dvl), ("depth", depth), ("gt", gt)):
         if stream is None:
             continue
+        rate = shown_rate_hz(name, stream.t)
         if meta.get("streams", {}).get(name, {}).get("read"):      # a reader counted it; the stamps may have moved
-            set_span(meta, name, stream.t)
+            set_span(meta, name, stream.t, rate)
         else:
-            count_read(meta, name, stream.t, stream.source)
+            count_read(meta, name, stream.t, stream.source, rate)
     if dvl is not None:
         left = ~dvl_used(dvl)
         for reason, mask in (dvl_refused or {}).items():
