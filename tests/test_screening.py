@@ -2638,3 +2638,69 @@ def test_the_rate_of_raw_shared_stamp_packets_is_read_without_dividing_by_zero()
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             assert imu_rate_hz(t) == pytest.approx(100.0 / size, rel=1e-3)
+
+
+def _resting_imu_counts(n: int, rate_hz: float, seed: int) -> np.ndarray:
+    """``(n, 6)`` readings ``[f_b, omega_b]`` of an IMU at rest sampled at ``rate_hz`` in coarse counts (0.01 m/s^2,
+    1e-4 rad/s; noise 0.004 m/s^2, 4e-5 rad/s): 3-8 % of the rows repeat the one before in all six values, at
+    random."""
+    rng = np.random.default_rng(seed)
+    f = np.round((rng.normal(0.0, 0.004, (n, 3)) + [0.0, 0.0, -9.81]) / 0.01) * 0.01
+    return np.c_[f, np.round(rng.normal(0.0, 4e-5, (n, 3)) / 1e-4) * 1e-4]
+
+
+def _copies_dropped(t: np.ndarray, values: np.ndarray, meta: dict | None = None) -> tuple[int, list[str]]:
+    """``(rows dropped as exact copies, warnings)`` of IMU stamps ``t`` (s) and ``values`` read as a file's."""
+    from graphnav.core.screening import EXACT_COPY, stamp_order
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        dropped = stamp_order(t, np.c_[t, values], np.arange(t.size) + 2, "imu.csv", "t", False,
+                              {} if meta is None else meta, "imu")[1]
+    return dropped.get(EXACT_COPY, 0), [str(w.message) for w in caught]
+
+
+def test_an_imu_at_rest_on_a_coarse_clock_keeps_the_rows_its_counts_repeat_at_random():
+    """An IMU at rest in coarse counts repeats rows at random, within a stamp and across stamps alike. 200 Hz in whole
+    10 ms with 0.5-1 ms of jitter lost 196-211 of 24000 rows as copies in 3 of 10 seeds (a stamp may hold one sample
+    more than the grid's periods: the measured period a hair over 5 ms counted one fewer), 100 Hz in whole 10 ms
+    with jitter 177-239 of 12000 in every seed (the rows were judged against a line at the period measured without
+    them, 2 % long). A row is now judged by where it leaves the samples after it against the line through the rest:
+    every row kept."""
+    for seed in (0, 5):
+        true = 100.0 + np.arange(24000) / 200.0
+        assert _copies_dropped(_coarse_clock(true, 0.01, "floor", 1e-3, seed), _resting_imu_counts(24000, 200.0,
+                                                                                                   seed))[0] == 0
+        true = 100.0 + np.arange(12000) / 100.0
+        assert _copies_dropped(_coarse_clock(true, 0.01, "floor", 1e-3, seed), _resting_imu_counts(12000, 100.0,
+                                                                                                   seed))[0] == 0
+
+
+def test_rows_written_twice_among_an_imu_at_rest_on_a_coarse_clock_or_in_packets_are_found():
+    """Every 97th row written twice among a resting IMU's rows, its counts repeating at random as often: on a whole
+    10 ms clock at 100 Hz with jitter 152-195 rows were dropped for 62 copies (its repeats taken for copies), at
+    200 Hz 27-41 for 248 (only the rows over a stamp's count), in packets of 4 none (read as a 20 ms clock). Each
+    copy moves the samples after it a period early against the line through the others: on the clocks exactly as
+    many rows as copies are dropped (a copy's twin may go instead: the same stamp and values); in packets, whose
+    stamps place a row within 4 samples, every copy and up to 2 of 12000 samples repeating their row beside one."""
+    for seed in (0, 3):
+        rest = _resting_imu_counts(24000, 200.0, seed)
+        for rate, grid, n in ((100.0, 0.01, 6000), (200.0, 0.01, 24000), (200.0, None, 12000)):
+            k = np.arange(n)
+            t = (100.0 + (k // 4 * 4 + 3) / rate if grid is None
+                 else _coarse_clock(100.0 + k / rate, grid, "floor", 1e-3, seed))
+            again, stamps, rows = _rows_written_again(t, rest[:n], 97)
+            assert again.size <= _copies_dropped(stamps, rows[:, 1:])[0] <= again.size + (2 if grid is None else 0)
+
+
+def test_a_stuck_imu_with_every_row_written_twice_keeps_its_rows_with_a_warning_and_a_count():
+    """A stuck IMU (every reading the same) with every row written twice: its pairs of rows read as packets of 2
+    sharing a stamp, the copies kept as samples without a word. The stamps and values cannot tell: the rows are
+    kept, warned about naming their count, lines and the reading taken, and counted as doubted."""
+    from graphnav.core.screening import STUCK_REPEATS
+    t = np.repeat(1.7e9 + np.arange(3000) * 0.01, 2)
+    meta: dict = {}
+    dropped, said = _copies_dropped(t, np.tile([0.0, 0.0, -9.81, 0.0, 0.0, 0.0], (t.size, 1)), meta)
+    assert dropped == 0 and meta["streams"]["imu"]["doubted"] == {STUCK_REPEATS: 3000}
+    assert any(m.startswith("imu.csv: 3000 row(s) repeating the row before them in stamp and every value") and
+               "kept as samples sharing their stamp, at line(s) 3, 5, 7" in m and "cannot tell them from rows "
+               "written twice" in m for m in said)

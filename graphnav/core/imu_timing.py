@@ -829,13 +829,28 @@ def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: boo
     period), with samples on both sides; with ``later``, or moves it later (a sample lost near the repeat: 200 Hz in
     whole ms with 1 ms of jitter and 1 % lost at random had one within 50 samples of most repeats), never half a
     period earlier (a row written twice puts the samples after it a period early)."""
-    total = np.r_[0.0, np.cumsum(s - np.arange(s.size) * period_s)]
-    r = np.asarray(repeats, int)    # the pair r - 1, r left out: their offsets are the jitter
+    moved = _moved_along_the_line(s, np.asarray(repeats, int), period_s, np.zeros(len(repeats), bool))
+    return (moved > -0.5) & (later | (moved < 0.5))
+
+
+def _moved_along_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, copies: np.ndarray) -> np.ndarray:
+    """How far (periods) the mean offset of relative stamps ``s`` (s) from a line at ``period_s`` (s) moves across
+    each of the ``repeats`` (indexes of samples repeating the stamp before them), over
+    :data:`REPEAT_CHECK_SAMPLES` samples on either side; NaN without samples on both sides. The samples after the
+    repeats judged ``copies`` (bool, each) are counted one earlier, each repeat's own move left in."""
+    r = repeats                     # the pair r - 1, r left out: their offsets are the jitter
+    total = np.r_[0.0, np.cumsum(s - _order_without(s.size, r[copies]) * period_s)]
     a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
-    sides = (a < r - 1) & (b > r + 1)
     before = (total[r - 1] - total[a]) / np.maximum(r - 1 - a, 1)
     after = (total[b] - total[r + 1]) / np.maximum(b - r - 1, 1)
-    return sides & (after - before > -0.5 * period_s) & (later | (after - before < 0.5 * period_s))
+    moved = (after - before) / period_s - copies
+    return np.where((a < r - 1) & (b > r + 1), moved, np.nan)
+
+
+def _order_without(n: int, copies: np.ndarray) -> np.ndarray:
+    """The place of each of ``n`` samples in their order once the rows ``copies`` (indexes, increasing) are taken
+    out."""
+    return np.arange(n) - np.searchsorted(copies, np.arange(n))
 
 
 def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: float) -> np.ndarray:
@@ -855,43 +870,91 @@ def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: f
 
 def samples_sharing_a_stamp(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Which of the ``rows`` (indexes into IMU stamps ``t``, s, file order) repeating the row before them exactly are
-    samples: the stamps come in packets sharing one stamp or from a quantised clock (:func:`shared_stamp_packets`,
-    :func:`quantised_clock`) and the row is among the first its stamp may hold (the packets' count, or one over the
-    grid's periods); a logger flushing its buffer again writes more. On a clock about as coarse as the period whose
-    repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid edge, and one the stamps show
-    only with the copies (:func:`_clock_at_period` without them) is none: its copies are rows written twice (one
-    repeat beside a lost sample's empty grid step shows such a clock); on such a clock shown by jitter, a copy that
-    puts the samples after it a period early against a line at the period without the copies (:func:`_on_the_line`)
-    is a row written twice too. Packets or a clock coarser than the period that show a clock about as coarse as the
-    period without the rows are that clock (each row of an even log on such a clock written again right after itself
-    makes one twice as fine). Stamps that show no packets without the rows leave them samples: the rows asked about
-    are an IMU's whose readings repeat from stamp to stamp (:func:`graphnav.core.screening.readings_repeat`), and at
-    rest with 55-93 % of its rows repeating most of its packets' rows are such rows. The stamps the rows
-    judged samples leave are those :func:`restamp_shared_stamps` reads: where they show no clock or packets there, no
-    row is a sample (one place decides)."""
+    samples: the stamps come in packets sharing one stamp and the row is among the first its stamp may hold (the
+    packets' count; a logger flushing its buffer again writes more), or from a quantised clock
+    (:func:`shared_stamp_packets`, :func:`quantised_clock`) and the row leaves the samples after it on the line
+    through the others (:func:`_rows_on_the_line`: a row written twice puts them a period early; counts at rest repeat
+    rows at random, a stamp holding one more sample than the grid's periods where jitter moves one). On a clock about
+    as coarse as the period whose repeated stamps are :func:`_repeats_unpaired` no sample was pushed across a grid
+    edge, and one the stamps show only with the copies (:func:`_clock_at_period` without them) is none: its copies are
+    rows written twice (one repeat beside a lost sample's empty grid step shows such a clock). Packets or a clock
+    coarser than the period that show a clock about as coarse as the period without the rows are that clock (each row
+    of an even log on such a clock written again right after itself makes one twice as fine). Stamps that show no
+    packets without the rows leave them samples: the rows asked about are an IMU's whose readings repeat from stamp
+    to stamp (:func:`graphnav.core.screening.readings_repeat`), and at rest with 55-93 % of its rows repeating most
+    of its packets' rows are such rows. The stamps the rows judged samples leave are those
+    :func:`restamp_shared_stamps` reads: where they show no clock or packets there, no row is a sample (one place
+    decides)."""
     read = _clock_or_packets(t)
     clock, packets = read
     if (clock or packets) and not _at_period(clock):
         other = _clock_or_packets(np.delete(t, rows))
         if _at_period(other[0]):
             clock, packets = other
-    samples = np.ones(rows.size, bool)
     if _at_period(clock):
         grid, d, counts, _ = _stamp_grid(t)
-        without = None if _repeats_unpaired(counts, np.round(d / grid)) else _clock_at_period(np.delete(t, rows))
-        if without is None:
-            clock = None
-        else:       # the period without the copies: with them, rows written again fit its line
-            samples = _on_the_line(t - t[0], rows, without[1], later=True)
-    if clock is None and packets is None:
+        if _repeats_unpaired(counts, np.round(d / grid)) or _clock_at_period(np.delete(t, rows)) is None:
+            return np.zeros(rows.size, bool)
+    if clock:
+        samples = _rows_on_the_line(t, rows)
+    elif packets:
+        _, first = np.unique(t, return_index=True)
+        samples = rows - first[np.searchsorted(t[first], t[rows])] < packets[0]
+    else:
         return np.zeros(rows.size, bool)
-    most = max(math.floor(clock[0] / clock[1]) + 1, 2) if clock else packets[0]
-    _, first = np.unique(t, return_index=True)
-    samples &= rows - first[np.searchsorted(t[first], t[rows])] < most
     if not np.any(samples):
         return samples
     left = read if np.all(samples) else _clock_or_packets(np.delete(t, rows[~samples]))
     return samples if left != (None, None) else np.zeros(rows.size, bool)
+
+
+def _rows_on_the_line(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Which of the ``rows`` (indexes into IMU stamps ``t``, s, never decreasing, each repeating the row before it)
+    are samples: judged again and again, the most clearly misjudged first (:func:`_apart`), from every row a sample
+    and from every row written twice, until a row written twice moves the samples after it a period early against
+    the line through the others (:func:`_moved_along_the_line`) and a sample does not; of the two the judgement whose
+    samples lie closer to their line (:func:`_line_through`). A row without samples on both sides cannot be told:
+    a sample. The line's period is fitted to the samples judged so: measured with rows written twice, or without
+    samples repeating their row (an IMU at rest with coarse counts), it is a few per cent off, and over
+    :data:`REPEAT_CHECK_SAMPLES` samples drifts about as far as a copy moves the samples."""
+    s = t - t[0]
+    best, spread = None, math.inf
+    for start in (False, True):
+        copies = np.full(rows.size, start)
+        for _ in range(2 * rows.size + 1):
+            period = _line_through(s, rows[copies])[0]
+            moved = np.nan_to_num(_moved_along_the_line(s, rows, period, copies))     # no side: no telling
+            wrong = np.where(copies, moved + 0.5, -0.5 - moved)
+            if not wrong.size or wrong.max() <= 0:
+                break
+            copies[_apart(rows, wrong)] ^= True
+        if _line_through(s, rows[copies])[1] < spread:
+            best, spread = ~copies, _line_through(s, rows[copies])[1]
+    return best
+
+
+def _apart(rows: np.ndarray, wrong: np.ndarray) -> np.ndarray:
+    """The indexes of the ``rows`` misjudged (``wrong`` over 0), the most clearly first, each over twice
+    :data:`REPEAT_CHECK_SAMPLES` samples from those before it: judging one moves none of the others' samples."""
+    taken: list[int] = []
+    for j in np.argsort(-wrong)[:int(np.sum(wrong > 0))]:
+        if all(abs(rows[j] - rows[i]) > 2 * REPEAT_CHECK_SAMPLES + 2 for i in taken):
+            taken.append(int(j))
+    return np.array(taken, int)
+
+
+def _line_through(s: np.ndarray, copies: np.ndarray) -> tuple[float, float]:
+    """``(period s, spread s^2)``: the least-squares line through relative stamps ``s`` (s) without the rows
+    ``copies`` (indexes, increasing) against their order, and the variance of their offsets from it about their mean
+    over :data:`REPEAT_CHECK_SAMPLES` samples on either side (a row misjudged far off moves a stretch of samples,
+    not its neighbours' offsets)."""
+    keep = np.delete(np.arange(s.size), copies)
+    order = _order_without(s.size, copies)[keep]
+    slope = float(np.polyfit(order, s[keep], 1)[0])
+    offset = s[keep] - slope * order
+    total, n = np.r_[0.0, np.cumsum(offset)], np.arange(offset.size)
+    a, b = np.maximum(0, n - REPEAT_CHECK_SAMPLES), np.minimum(offset.size, n + REPEAT_CHECK_SAMPLES + 1)
+    return slope, float(np.mean((offset - (total[b] - total[a]) / (b - a)) ** 2))
 
 
 def _at_period(clock: tuple[float, float] | None) -> bool:

@@ -58,7 +58,7 @@ from graphnav.core.errors import DataError
 from graphnav.core.imu_timing import (DIFF_MAD_TO_SIGMA, GAP_WARN_SAMPLES, awaits_packet_cycles, imu_rate_hz,
                                       imu_stamp_quantum, imu_step_stats, restamp_shared_stamps,
                                       samples_sharing_a_stamp, stamp_steps, stamped_in_packets, start_burst)
-from graphnav.core.streams import add_note, count_doubted, count_refused, stream_entry
+from graphnav.core.streams import add_note, count_doubted, count_refused, say_doubted, stream_entry
 
 #: Largest stamp accepted, s (any clock: seconds since boot or the Unix epoch, 1e10 s being the year 2286).
 #: A larger stamp is a unit error (micro/nanoseconds read as seconds) or a decoding error, never a time.
@@ -919,6 +919,7 @@ def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: s
 
 #: Reasons under which a file's rows dropped for their stamps are counted (:func:`stamp_order`).
 EXACT_COPY = "repeats an earlier row exactly"
+STUCK_REPEATS = "repeats the row before it at its stamp, as every such row does (kept; maybe written twice)"
 REPAIRED_STAMP = "duplicated stamp (repair)"
 
 
@@ -934,7 +935,9 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     about as coarse (:func:`~graphnav.core.imu_timing.quantised_clock`) are restamped at the period
     (:func:`~graphnav.core.imu_timing.restamp_shared_stamps`, noted in ``meta``); an IMU's row equal to the one
     before it at a stamp holding no more samples than such a stamp does is a sample (an IMU at rest with coarse
-    counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; a step of its clock or a gap is
+    counts, :func:`~graphnav.core.imu_timing.samples_sharing_a_stamp`), not a copy; where every row sharing a stamp
+    is such a row (a stuck sensor, or each row written twice: nothing tells) they are kept, warned about and counted
+    as doubted (:data:`STUCK_REPEATS`); a step of its clock or a gap is
     warned about and counted (:func:`say_imu_stamp_steps`); ``imu_rate_hz``, the configured rate (Hz), tells an IMU
     slower than its logger's clock from one losing samples where the stamps cannot. The rest must increase strictly;
     else, with ``repair``, the rows are sorted and those whose stamp repeats an earlier one dropped (the first kept),
@@ -949,7 +952,15 @@ def stamp_order(t: np.ndarray, rows: np.ndarray, lines: np.ndarray, source: str,
     copies = np.sort(order[1:][(step == 0) & np.all(equal, axis=1)])
     stamp = np.all(rows == t[:, None], axis=0)          # the stamp's own column: it differs from stamp to stamp
     if copies.size and stream == "imu" and readings_repeat(np.all(equal[:, ~stamp], axis=1), step):
-        copies = copies[~samples_sharing_a_stamp(t, copies)]
+        samples = samples_sharing_a_stamp(t, copies)
+        if meta is not None and 0 < np.sum(samples) == np.sum(step == 0):
+            say_doubted(meta, "imu", source, f"{int(np.sum(samples))} row(s) repeating the row before them in stamp "
+                        "and every value, every row sharing a stamp among them, with readings repeating across "
+                        "stamps as often (a sensor stuck or at rest with coarse counts), kept as samples sharing "
+                        f"their stamp, at line(s) {first_lines(lines[copies[samples]])}: the data cannot tell them "
+                        "from rows written twice (the IMU then samples at half the rate read)", STUCK_REPEATS,
+                        int(np.sum(samples)), stacklevel=3)
+        copies = copies[~samples]
     dropped = {EXACT_COPY: int(copies.size)} if copies.size else {}
     if copies.size:
         warnings.warn(f"{source}: {copies.size} row(s) repeating an earlier row exactly (same stamp and values) "
