@@ -20,7 +20,7 @@ from graphnav.core.mission import (MAX_DVL_SPEED_MPS, MAX_FIX_SIGMA_M, DepthData
                                    ImuData, PositionFixData, no_beams)
 from graphnav.core.rotations import C_NED_ENU
 from graphnav.core.screening import located, say_imu_stamp_steps
-from graphnav.core.streams import add_note, count_read, count_refused
+from graphnav.core.streams import add_note, count_refused
 from graphnav.io import bag_fields
 from graphnav.io.bag_msgs import MARINE_DVL, WL_DVL
 
@@ -506,10 +506,6 @@ def gt(s: Stream, t0_ns: int, source: str) -> GroundTruth:
     p_n = p @ A.T
     v_n = np.einsum("kij,kj->ki", C_b_n, v_child @ B)  # twist is in the child frame; B is symmetric
     return GroundTruth(_rel(s, t0_ns), p_n, v_n, C_b_n, None, f"{source}:{s.topic}")
-
-
-def count_stream(meta: dict, stream: str, s: Stream, t0_ns: int, source: str) -> None:
-    count_read(meta, stream, _rel(s, t0_ns), f"{source}:{s.topic} ({s.msgtype})")
 
 
 # --- position fixes ----------------------------------------------------------------------------------------
