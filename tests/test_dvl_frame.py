@@ -392,6 +392,46 @@ def test_a_dvl_a_given_offset_puts_on_the_imu_clock_is_judged_for_turns_as_one_o
         _load(folder)
     assert err.value.source.endswith("imu.csv")
 
+def test_a_dvl_turned_on_a_clock_of_its_own_is_refused_naming_the_turn_not_the_clock(sim, tmp_path):
+    """A DVL turned 90 deg about z (its instrument-frame columns read as body) on a clock of its own a day away,
+    no dvl_time_offset_s: the clock search found no offset and the clock was blamed ("give dvl_time_offset_s"), though
+    with the offset given the turn is named. Searched with the velocity turned back, the clock is found: refused
+    naming the turn, the offset and the dvl.C_d_b which, configured, loads the log on the IMU clock as the body's."""
+    from graphnav.calibration.dvl_scale import turn_about_z
+    m, t, v_b = sim
+    turn = 90.0
+    turned = v_b @ turn_about_z(turn).T             # the velocity turned +turn deg about z from the body's axes
+    with pytest.raises(DataError, match=rf"give dvl_time_offset_s; but read as turned \+{turn:.0f} deg about z from "
+                                        r"the IMU's axes .* the DVL finds its clock at -86(399\.9|400\.0)\d\d s .*: "
+                                        r"not the clock but a mounting turned about z\. The DVL velocity points "
+                                        r"forward only turned: a DVL mounted turned.* dvl\.C_d_b \[\[") as err:
+        _load(_folder(tmp_path, sim, turned, {"clock": "auto"}, shift=86400.0))
+    assert err.value.source.endswith("dvl.csv")
+    C_d_b = json.loads(re.search(r"dvl\.C_d_b (\[\[.*?\]\])", str(err.value)).group(1))
+    np.testing.assert_allclose(C_d_b, turn_about_z(turn).T, atol=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, sim, turned, {"clock": "auto", "frame": "instrument"}, C_d_b=C_d_b,
+                            shift=86400.0))
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    assert got.config.dvl_time_offset_s == pytest.approx(-86400.0, abs=0.1)
+
+
+def test_an_imu_turned_with_the_dvl_on_a_clock_of_its_own_is_refused_naming_the_imu(sim, tmp_path):
+    """The same search names an IMU turned 180 deg about z against its declared FRD (the DVL velocity points forward
+    as read), where the clock was blamed."""
+    m, t, v_b = sim
+    turn = np.diag([-1.0, -1.0, 1.0])
+    imu = dataclasses.replace(m.imu, f_b=m.imu.f_b @ turn, omega_b=m.imu.omega_b @ turn)
+    folder = _given_clock(_folder(tmp_path, (dataclasses.replace(m, imu=imu), t, v_b), v_b, {"clock": "auto"},
+                                  shift=86400.0), 0.0, "frd")
+    with pytest.raises(DataError, match=r"the DVL finds its clock at -86(399\.9|400\.0)\d\d s .*The DVL velocity "
+                                        r"points forward as read: an IMU mounted turned against "
+                                        r"csv_columns\.imu\.frame 'frd' \(its x axis points aft, its y axis points "
+                                        r"port"):
+        _load(folder)
+
+
 def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about_or_refused():
     # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
     # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.

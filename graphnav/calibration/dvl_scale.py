@@ -624,11 +624,9 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float, car
     why = ("its direction says nothing of the vehicle's forward (kept as body in a current, it points where the "
            "current carries the vehicle)" if carried else "it points forward neither as read nor turned back "
            f"({where}: a vehicle hovering, reversing or moving sideways)")
-    C_d_b = turn_about_z(yaw).T
-    matrix = "[" + ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in C_d_b + 0.0) + "]"
     dvl_fix = (AKIT_DVL_FIXES["yaw"] if frame.get("signs") is not None else
-               f"declare its frame, dvl.C_d_b {matrix} in the configuration (with csv_columns.dvl.frame 'instrument' "
-               "for velocity columns; graphnav calibrate estimates it and writes both)")
+               f"declare its frame, dvl.C_d_b {_mounting_matrix(yaw)} in the configuration (with csv_columns.dvl.frame "
+               "'instrument' for velocity columns; graphnav calibrate estimates it and writes both)")
     return DataError(f"the IMU's axes and the DVL velocity ({dvl.source}) are turned {yaw} deg about z against each "
                      f"other: the velocity fits the accelerometer and gyro better by {q:.3g} noise variances with the "
                      f"IMU turned ({IMU_YAW_MIN_Q:g} needed), but {why}, so the data cannot say which "
@@ -636,6 +634,35 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float, car
                      f"{_imu_turn_fix(yaw, frame)}; DVL turned (its velocity "
                      f"{(yaw + 180) % 360 - 180:+d} deg about z from the IMU's axes): {dvl_fix}", imu.source,
                      field=frame["fields"])
+
+
+def _mounting_matrix(yaw: int) -> str:
+    """The ``dvl.C_d_b`` (as configured: 3 lists of 3) of a DVL whose velocity fits the IMU turned ``yaw`` deg about z
+    into the IMU's axes (:func:`imu_yaw_fit`): Rz(-yaw), v_b = C_d_b v_d."""
+    return "[" + ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in turn_about_z(yaw).T + 0.0) + "]"
+
+
+def turn_found(dvl, config, yaw: int, frame: dict, fixes: dict) -> str:
+    """Which instrument a DVL clock found only with the DVL velocity turned ``yaw`` deg about z into the IMU's axes
+    (as :func:`imu_yaw_fit` turns it) says is mounted turned, and what to configure: the DVL when its velocity points
+    forward only turned (its ``dvl.C_d_b``, with ``fixes["yaw"]``), the IMU when it points forward as read (``frame``
+    as :func:`check_imu_yaw`'s), both when neither (:data:`FORWARD_COURSE_RAD`)."""
+    course = _course(dvl, config)
+    dvl_turned = (f"a DVL mounted turned, its velocity {signed_turn(yaw):+d} deg about z from the IMU's axes: "
+                  f"dvl.C_d_b {_mounting_matrix(yaw)}; {fixes['yaw']}")
+    imu_turned = (f"an IMU mounted turned against {frame['what']} ({mounting_text(turn_about_z(yaw))}): "
+                  f"{_imu_turn_fix(yaw, frame)}")
+    if _forward(course):
+        return f"The DVL velocity points forward as read: {imu_turned}"
+    if _forward(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))):
+        return f"The DVL velocity points forward only turned: {dvl_turned}"
+    where = f"{np.degrees(course):+.0f} deg from body x" if np.isfinite(course) else "no one way"
+    return f"The DVL velocity points {where}, forward neither as read nor turned: either {dvl_turned}; or {imu_turned}"
+
+
+def signed_turn(yaw: int) -> int:
+    """A quarter turn ``yaw`` (deg, 0-360) as -90, 90 or 180."""
+    return yaw - 360 if yaw > 180 else yaw
 
 
 def _likely_unit(scale: float, declare: bool) -> str:

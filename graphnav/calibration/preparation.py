@@ -38,7 +38,8 @@ without GT gets it with the DVL's unit, yaw and FLU checks as logs and bags do,
 vertical velocity
 (:func:`graphnav.io.units.depth_convention`: positive up turned down, other units refused); a DVL on a clock of its
 own is put on the IMU's
-(:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``); a bag
+(:func:`graphnav.calibration.clock.align_stream_clocks`, when the column map says ``"clock": "auto"``; where no
+clock is found, a DVL or IMU mounted turned about z that hides it is named, :func:`_turn_finds_the_clock`); a bag
 without a heading source is told whether the configured gyro can gyrocompass. Their reference is put on the IMU clock
 (the configuration's ``gt_time_offset_s``, judged by the same clock search, else estimated as for A-KIT and added when
 it is more than noise) and
@@ -511,11 +512,8 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     # the checks a log or bag without reference gets: the velocity's unit, its turn and FLU axes, the IMU's turn
     from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES, check_velocity_against_imu
     from graphnav.io.loaders import AKIT_COLUMNS
-    signs = tuple(int(s) for s in cfg.imu_axis_signs)
-    frame = {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
-             "fields": "/".join(AKIT_COLUMNS["IMU"][1:])}
-    check_velocity_against_imu(imu, dvl, cfg, meta, imu_frame=frame, field="/".join(AKIT_COLUMNS["DVL"][1:4]),
-                               fixes=AKIT_DVL_FIXES)
+    check_velocity_against_imu(imu, dvl, cfg, meta, imu_frame=_akit_imu_frame(cfg),
+                               field="/".join(AKIT_COLUMNS["DVL"][1:4]), fixes=AKIT_DVL_FIXES)
     meta["time_offsets"] = {}
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
@@ -602,18 +600,33 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     """``(offset, imu)``: 0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's
     clock offset from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta``), or
     DataError when it cannot be found, after the gyro's other scales (:func:`_gyro_finds_the_clock`, which may
-    convert the ``imu`` returned)."""
+    convert the ``imu`` returned) and the DVL's velocity turned about z (:func:`_turn_finds_the_clock`, which names
+    a turn that finds it)."""
     t_dvl, t_imu = dvl.t, imu.t
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return 0.0, imu
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
-    def search(imu_: ImuData, meta_: dict) -> float:
-        aligned, _ = align_stream_clocks(imu_, velocity_only, None, meta_, cfg, field="Time [s]",
+    def search(imu_: ImuData, meta_: dict, dvl_: DvlData = velocity_only) -> float:
+        aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
                                          what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
-        return float(aligned.t[0] - t_dvl[0])
-    return _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
+        return float(aligned.t[0] - dvl_.t[0])
+    try:
+        return _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
+    except DataError as err:
+        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
+        _turn_finds_the_clock(err, search, imu, velocity_only, cfg, meta, AKIT_DVL_FIXES, _akit_imu_frame(cfg))
+        raise
+
+
+def _akit_imu_frame(cfg: SensorConfig) -> dict:
+    """What an A-KIT folder's IMU axes are judged against (``frame`` of
+    :func:`graphnav.calibration.dvl_scale.check_imu_yaw`): the file's axes with ``cfg.imu_axis_signs`` applied."""
+    from graphnav.io.loaders import AKIT_COLUMNS
+    signs = tuple(int(s) for s in cfg.imu_axis_signs)
+    return {"what": f"the file's axes with imu_axis_signs {signs}", "signs": signs,
+            "fields": "/".join(AKIT_COLUMNS["IMU"][1:])}
 
 
 #: An A-KIT time offset estimated with a larger sigma (s) is warned about: a twentieth of the 1 s DVL and GT period.
@@ -682,6 +695,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
                 searched, mission.config, meta)
         except DataError as err:
             _unit_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, facts.get("dvl_unit"))
+            _turn_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, _dvl_fixes(facts),
+                                  facts.get("imu_frame") or {"what": "the body frame"})
             raise
         mission = dataclasses.replace(mission, imu=imu)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
@@ -730,11 +745,17 @@ def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: di
     loader could not check it for an earth frame by the body kinematics: checked too. DataError or warnings as
     those say."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
-    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES, judged_velocity_unit
-    fixes = BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
+    from graphnav.io.units import judged_velocity_unit
     check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=moved, imu_frame=imu_frame,
-                               fixes=fixes, reference=mission.gt)
+                               fixes=_dvl_fixes(facts), reference=mission.gt)
+
+
+def _dvl_fixes(facts: dict) -> dict:
+    """What the DVL checks' messages advise for a log or bag (:data:`graphnav.io.units.DECLARE_DVL_FIXES`,
+    :data:`~graphnav.io.units.BAG_DVL_FIXES`)."""
+    from graphnav.io.units import BAG_DVL_FIXES, DECLARE_DVL_FIXES
+    return BAG_DVL_FIXES if facts.get("format") == "bag" else DECLARE_DVL_FIXES
 
 
 def _depth_in_time(mission: Mission, meta: dict, facts: dict) -> DepthData | None:
@@ -957,6 +978,39 @@ def _unit_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
         raise DataError(f"{err.message}; with the velocity in {unit!r} instead of the declared {declared['unit']!r} "
                         f"the search finds the DVL clock at {offset:+.3f} s: check {declared['key']}", err.source,
                         err.line, err.field) from err
+
+
+def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                          fixes: dict, frame: dict) -> None:
+    """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
+    ``err``: a DVL or an IMU mounted turned about z, in a frame the configuration does not say, leaves the DVL's
+    velocity changes unexplained at every offset, and the search blamed the clock. It is tried with the DVL velocity
+    turned 90, 180 and 270 deg about z into the IMU's axes
+    (:data:`~graphnav.calibration.dvl_scale.IMU_YAWS_DEG`); the first that finds a clear clock is a DataError adding
+    to ``err`` the turn, the offset it gives and what to configure
+    (:func:`~graphnav.calibration.dvl_scale.turn_found`: ``fixes`` for the DVL, ``frame`` for the IMU). The data are
+    never read turned. Returns when no turn finds the clock (``err`` stands)."""
+    from graphnav.calibration.dvl_scale import IMU_YAWS_DEG, signed_turn, turn_about_z, turn_found
+    from graphnav.core.dvl_kinematics import dvl_velocity_b
+    t, v = dvl_velocity_b(dvl, config)
+    for yaw in IMU_YAWS_DEG:
+        turned = DvlData(t, *no_beams(len(t)), v @ turn_about_z(yaw), source=dvl.source)
+        tried: list[dict] = []              # the trial's meta, which keeps the estimate
+
+        def run(meta_: dict, turned: DvlData = turned) -> float:
+            tried.append(meta_)
+            return search(imu, meta_, turned)
+        offset = _trial(run, meta)
+        if offset is None:
+            continue
+        est = tried[0]["clock_offsets"]["dvl"]
+        raise DataError(f"{err.message}; but read as turned {signed_turn(yaw):+d} deg about z from the IMU's axes "
+                        f"(the velocity turned back into them), the DVL finds its clock at {offset:+.3f} s (the IMU "
+                        f"explains {est['peak']:.2f} of its velocity changes there, {est['second_peak']:.2f} at the "
+                        f"next best offset): not the clock but a mounting turned about z. "
+                        f"{turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
+                        "mounting fixed, the clock search finds the offset itself", err.source, err.line,
+                        err.field) from err
 
 
 #: A DVL time offset given for a log or bag is doubted when the DVL clock fit (the DVL's velocity changes against the
