@@ -2285,6 +2285,35 @@ def test_an_imu_in_whole_ms_with_jitter_and_samples_lost_at_random_is_read_not_r
         _refused_with_three_rows_written_twice(t, seed)
 
 
+@pytest.mark.parametrize("rate, jitter, seed", [(200.0, 1e-3, 6), (300.0, 1e-3, 0), (400.0, 1e-3, 0),
+                                                 (500.0, 5e-4, 0), (100.0, 2e-3, 0), (190.0, 2e-3, 0)])
+def test_an_imu_in_whole_ms_from_a_host_with_jitter_keeps_every_sample_at_its_rate(rate, jitter, seed):
+    """An IMU stamped in whole ms by a host with 1 ms of jitter (several samples share a ms, some ms are skipped) was
+    refused as duplicated stamps at 270-500 Hz, and with 2 ms at 100 and 190 Hz: a stamp holding more samples than
+    whole ms before the next could not place its repeats on the grid, a repeat of the first stamp had no samples
+    before it to check, and 1 ms at 100 Hz (a tenth of the step) was no grid. Every sample is kept now, at its rate,
+    no further from its time than as read on the whole (RMS); with three rows written twice the logs are refused."""
+    from graphnav.core.imu_timing import imu_rate_hz
+    ppm = np.random.default_rng(seed + 1000).uniform(-50.0, 50.0)
+    true, t = _drifting_clock(rate, 0.001, 12000, jitter, ppm, seed)
+    meta, stamps = _imu_stamps_read_whole(t, r"^imu: imu.csv: stamps on a 1 ms grid, finer than the IMU's [.\d]+ ms "
+                                          r"period: \d+ of 12000 repeat the stamp before")
+    assert np.all(np.diff(stamps) > 0) and meta["streams"]["imu"]["restamped"] == np.sum(np.diff(t) == 0) > 0
+    assert imu_rate_hz(stamps) == pytest.approx(rate / (1.0 + 1e-6 * ppm), rel=1e-3)
+    rms = [float(np.std(x - true)) for x in (stamps, t)]
+    assert rms[0] <= rms[1]
+    _refused_with_three_rows_written_twice(t, seed)
+
+
+def test_an_imu_in_whole_ms_with_jitter_of_half_its_period_is_refused_not_read_at_a_wrong_rate():
+    """500 Hz in whole ms with 1 ms of jitter: its repeats placed after their stamps read 585 Hz; it is refused as
+    duplicated stamps, as before, not read at that rate."""
+    from graphnav.core.screening import stamp_order
+    t = _drifting_clock(500.0, 0.001, 12000, 1e-3, 20.0, 0)[1]
+    with pytest.raises(DataError, match="time stamp duplicated"):
+        stamp_order(t, np.c_[t, np.arange(t.size)], np.arange(t.size) + 2, "imu.csv", "t", False, {}, "imu")
+
+
 def test_an_imu_one_percent_off_its_grid_step_in_whole_ms_reads_its_rate():
     """101 Hz logged in whole ms (steps of 10 ms and 9, median 10) read 100.000 Hz in 12 of 18 logs, 99 Hz in 1: their
     mean one-period step is a tenth of a grid step off the median, the least off it that was read. It is 0.05 now

@@ -132,7 +132,9 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float, steps) -> float
     step either side of the period, half a mean away or more: they are kept up to one and a half grid steps away
     (below the period), where one side alone read 60 Hz, 42.7 Hz, or 42.1 Hz over 10 steps; a lost sample's double
     step, as long there (30 ms at 55 or 60 Hz), is told by the samples after it (:func:`_lost_steps` of the ``steps``
-    as read) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz). On a finer grid the steps near the
+    as read) and left out (60 Hz in whole 10 ms with 1 % lost read 59.55-59.76 Hz), then counted over time where that
+    spreads its samples less about its line (:func:`_counted_period`: 500 Hz in whole ms with 0.5 ms of jitter, its
+    repeats placed, read 511 Hz). On a finer grid the steps near the
     median taking more than two lengths (jitter) are counted over time (:func:`_counted_period`): a mean over a window
     about the median left out more of one side (385 Hz in whole ms with 0.2 ms of jitter read 386.4 Hz, 150 Hz with
     0.5 ms 142.86 Hz); without jitter the mean is exact, and a count misses some of many lost samples."""
@@ -146,7 +148,7 @@ def _quantised_period(d: np.ndarray, med: float, quantum: float, steps) -> float
     for _ in range(2):
         one = near & (np.abs(d - first) <= min(1.5 * quantum, 0.95 * first))
         first = float(np.mean(d[one & ~_lost_steps(steps, first)]))
-    return first
+    return _counted_period(_counted_steps(steps), first)
 
 
 def _counted_period(x: np.ndarray, mean_s: float) -> float:
@@ -363,13 +365,20 @@ def _fine_grid_period(d: np.ndarray, med: float, steps) -> float:
     one-period step (:func:`_quantised_period`) where it is off the median by :data:`FINE_GRID_OFF_SHARE` of a grid
     step or more, else the median. The median of steps on a grid is a grid multiple: 55 Hz in whole ms (steps of 18
     and 19 ms) read 55.56 Hz, 60 Hz 58.82 Hz, 64 Hz 62.5 Hz."""
+    grid = _fine_grid(d, med)
+    if not grid:
+        return med
+    period = _quantised_period(d, med, grid, steps)
+    return period if abs(period - med) >= FINE_GRID_OFF_SHARE * grid else med
+
+
+def _fine_grid(d: np.ndarray, med: float) -> float:
+    """The grid (s) of whole 10 ms or 1 ms that positive IMU steps ``d`` (s; ``med`` their median) lie on, between
+    :data:`FINE_GRID_SHARE` of the median and :data:`IMU_STAMP_QUANTUM_SHARE` of it (1 ms at 100 Hz); 0 for none."""
     for grid in (1e-2, 1e-3):      # finer ones hold restamped stamps a float's rounding off a grid multiple
-        if not FINE_GRID_SHARE * med <= grid <= (1.0 + 1e-3) * IMU_STAMP_QUANTUM_SHARE * med:   # 1 ms at 100 Hz
-            continue
-        if _on_grid(d, grid):
-            period = _quantised_period(d, med, grid, steps)
-            return period if abs(period - med) >= FINE_GRID_OFF_SHARE * grid else med
-    return med
+        if FINE_GRID_SHARE * med <= grid <= (1.0 + 1e-3) * IMU_STAMP_QUANTUM_SHARE * med and _on_grid(d, grid):
+            return grid
+    return 0.0
 
 
 #: Share of an IMU's steps, at least, two grid steps long for a regular pattern of them to be an IMU slower than its
@@ -805,12 +814,14 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
     where a sample was lost near it: only the repeat is moved, less than a period) and is placed on the grid after its
     stamp (:func:`place_repeats`) before the next. None else: stamps without such a grid
     (an even log's), or a repeat the grid cannot explain (a row written twice shifts the samples after it by a
-    period; no empty grid step to place it in)."""
+    period), or placed stamps that do not read the period (:func:`_reads_period`). The grid is that of
+    :func:`imu_stamp_quantum`, or whole ms a tenth of the step (:func:`_tenth_grid`); a repeat of the first stamp is
+    judged by the first sample alone before it."""
     t = np.asarray(t, float)
     d = np.diff(t)
     if t.size < 4 or np.any(d < 0) or np.all(d > 0):
         return None
-    grid = _to_the_microsecond(imu_stamp_quantum(d))
+    grid = _to_the_microsecond(imu_stamp_quantum(d) or _tenth_grid(step_lengths(d)))
     s = t - t[0]
     if not grid or np.any(np.abs(s / grid - np.round(s / grid)) > 0.01):
         return None
@@ -819,7 +830,29 @@ def grid_repeats(t: np.ndarray) -> tuple[float, float, np.ndarray, int] | None:
     if not np.all(_on_the_line(s, repeats, period, later=True)):
         return None
     placed = place_repeats(t, repeats, period, grid)
-    return (grid, period, placed, repeats.size) if np.all(np.diff(placed) > 0) else None
+    if not np.all(np.diff(placed) > 0) or not _reads_period(placed, period):
+        return None
+    return grid, period, placed, repeats.size
+
+
+#: How far (relative) the period of restamped IMU stamps may be from the one they were placed at
+#: (:func:`grid_repeats`).
+RESTAMPED_PERIOD_SHARE = 0.01
+
+
+def _reads_period(t: np.ndarray, period_s: float) -> bool:
+    """Whether increasing IMU stamps ``t`` (s) read the ``period_s`` (s) they were placed at, within
+    :data:`RESTAMPED_PERIOD_SHARE`: jitter of half a period (500 Hz in whole ms with 1 ms) leaves repeats whose placing
+    read 585 Hz; refused, they say they were duplicated, not a wrong rate."""
+    return abs(1.0 / imu_rate_hz(t) - period_s) <= RESTAMPED_PERIOD_SHARE * period_s
+
+
+def _tenth_grid(d: np.ndarray) -> float:
+    """The grid (s) of positive IMU steps ``d`` (s) a tenth of their median or finer (:func:`_fine_grid`: 1 ms at
+    100 Hz, which :func:`imu_stamp_quantum` leaves out) that no grid ten times as coarse holds (80 Hz in whole 10 ms
+    is an IMU slower than its grid, :func:`_slower_with_jitter`); 0 for none."""
+    grid = _fine_grid(d, float(np.median(d))) if d.size else 0.0
+    return grid if grid and not _on_grid(d, 10.0 * grid) else 0.0
 
 
 def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: bool = False) -> np.ndarray:
@@ -836,15 +869,18 @@ def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: boo
 def _moved_along_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, copies: np.ndarray) -> np.ndarray:
     """How far (periods) the mean offset of relative stamps ``s`` (s) from a line at ``period_s`` (s) moves across
     each of the ``repeats`` (indexes of samples repeating the stamp before them), over
-    :data:`REPEAT_CHECK_SAMPLES` samples on either side; NaN without samples on both sides. The samples after the
+    :data:`REPEAT_CHECK_SAMPLES` samples on either side; NaN without samples after it. The samples after the
     repeats judged ``copies`` (bool, each) are counted one earlier, each repeat's own move left in."""
     r = repeats                     # the pair r - 1, r left out: their offsets are the jitter
     total = np.r_[0.0, np.cumsum(s - _order_without(s.size, r[copies]) * period_s)]
     a, b = np.maximum(0, r - 1 - REPEAT_CHECK_SAMPLES), np.minimum(s.size, r + 1 + REPEAT_CHECK_SAMPLES)
-    before = (total[r - 1] - total[a]) / np.maximum(r - 1 - a, 1)
+    # a repeat of the first stamp has the pair's first sample alone before it: a row written twice there still puts
+    # the samples after it a period early against that sample; after the last stamp nothing tells
+    end = np.maximum(r - 1, 1)
+    before = (total[end] - total[a]) / (end - a)
     after = (total[b] - total[r + 1]) / np.maximum(b - r - 1, 1)
     moved = (after - before) / period_s - copies
-    return np.where((a < r - 1) & (b > r + 1), moved, np.nan)
+    return np.where(b > r + 1, moved, np.nan)
 
 
 def _order_without(n: int, copies: np.ndarray) -> np.ndarray:
@@ -857,12 +893,16 @@ def place_repeats(t: np.ndarray, repeats: np.ndarray, period_s: float, grid_s: f
     """IMU stamps ``t`` (s, never decreasing) with each of the ``repeats`` (indexes of samples repeating the stamp
     before them) placed after its stamp at j x step (the j-th repeat of it), the step the period ``period_s`` (s) or
     the room to the next stamp shared among the stamp's samples, whichever is less, in whole ``grid_s`` (s): a step
-    off the grid would make the grid look finer than it is (a 5 ms grid read 52.5 Hz for 50 Hz in whole 10 ms)."""
+    off the grid would make the grid look finer than it is (a 5 ms grid read 52.5 Hz for 50 Hz in whole 10 ms). Where
+    that room is under a grid step (two or three samples of a 400 Hz IMU in one whole ms, the next stamp a ms later)
+    the step is the room shared, off the grid: left on its stamp the repeat refused the file."""
     t = np.asarray(t, float)
     stamps, first, counts = np.unique(t, return_index=True, return_counts=True)
     at = np.searchsorted(stamps, t[repeats])
     room = np.r_[np.diff(stamps), math.inf][at] / counts[at]
-    step = np.floor(np.minimum(period_s, room) / grid_s + 1e-6) * grid_s
+    share = np.minimum(period_s, room)
+    step = np.floor(share / grid_s + 1e-6) * grid_s
+    step = np.where(step > 0, step, share)      # no whole grid step free: the room shared, off the grid
     out = t.copy()
     out[repeats] = t[repeats] + (repeats - first[at]) * step
     return out
@@ -1189,7 +1229,7 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, expecte
         note = (f"stamps on a {1e3 * grid:.4g} ms grid, finer than the IMU's {1e3 * period:.4g} ms period: {moved} "
                 f"of {t.size} repeat the stamp before (jitter moved a sample across the grid's edge: the samples on "
                 "either side keep one line at the period), each placed on the grid after that stamp, a period or the "
-                "room before the next stamp later")
+                f"room before the next stamp later{_off_the_grid(restamped - t[0], grid)}")
     elif configured := configured_rate_clock(t, expected_hz):
         restamped, period, moved, note = _restamp_at_configured_rate(t, configured, expected_hz)
         if restamped is None:
@@ -1199,6 +1239,14 @@ def restamp_shared_stamps(t: np.ndarray, source: str, meta: dict | None, expecte
         return t
     say_restamp(meta, source, note, 4, restamped, moved, period)
     return restamped
+
+
+def _off_the_grid(s: np.ndarray, grid_s: float) -> str:
+    """What a restamping of jitter's repeats adds about the relative stamps ``s`` (s) it placed off the ``grid_s``
+    grid (s): no whole grid step was free (several samples within one, as a host's jitter leaves a 400 Hz IMU in
+    whole ms); "" for none."""
+    off = int(np.sum(np.abs(s / grid_s - np.round(s / grid_s)) > 0.01))
+    return f" ({off} off the grid, sharing the room where no whole grid step was free)" if off else ""
 
 
 def say_restamp(meta: dict | None, source: str, note: str, stacklevel: int, restamped: np.ndarray | None = None,
