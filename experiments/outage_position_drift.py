@@ -66,11 +66,12 @@ the graph's own recent prediction error on the measured beams by the margin M (`
 one (the graph's predicted missing beams and the completions against the true beams; docs/decisions/completers.md,
 "Both errors read on the beams still measured").
 ``--claim-collect`` records, in Graph-TC's windows, the graph's claimed variance of each missing beam and its actual
-error; ``--claim-fit DIR`` (with ``--out`` that run's file; ``--claim-edges`` the ranges of time into the outage) runs
-nothing and writes each fold's table of prediction variance scales, fitted on the other folds' records only;
-``--calibrated-claim DIR ...`` adds ``Graph-HN`` and ``Graph-HNP`` (those of ``--methods``) with the measured-change
-sigma and the screening's claimed variance scaled by the table of the fold that holds the trajectory out (``<method>
-measured-sigma calibrated <DIR's name>``, ``screening.prediction_var_table``; claim_calibration.py;
+error, and every beam's from 60 s before the outage with the measured beams' innovations (``claim_calibration.py
+--run-time``); ``--claim-fit DIR`` (with ``--out`` that run's file; ``--claim-edges`` the ranges of time into the
+outage) runs nothing and writes each fold's table of prediction variance scales, fitted on the other folds'
+records only; ``--calibrated-claim DIR ...`` adds ``Graph-HN`` and ``Graph-HNP`` (those of ``--methods``) with the
+measured-change sigma and the screening's claimed variance scaled by the table of the fold that holds the trajectory
+out (``<method> measured-sigma calibrated <DIR's name>``, ``screening.prediction_var_table``; claim_calibration.py;
 docs/decisions/completers.md, "The graph's claimed variance calibrated out of fold"). ``--folds F ...`` runs the
 trajectories of those folds only.
 ``--over-draws FILE ...`` runs nothing: it makes the choice over the files of several training draws of the fold
@@ -347,7 +348,7 @@ def trajectory_task(item):
     source, grade, scenario, window_s, max_windows, methods, backend, fold_nets, fold, *flags = item
     import warnings
 
-    from claim_calibration import claims_in, claims_read
+    from claim_calibration import PAST_S, claims_in, claims_read, innovations_in
     warnings.simplefilter("ignore")
     from graphnav.core.scenarios import scenario_outage
     from graphnav.evaluation.bench.cases import case_windows, prepared_mission
@@ -372,13 +373,15 @@ def trajectory_task(item):
             comp = comp or completer_for(name, scenario, mission.config.dvl.beam_noise_std, mission.config)[0]
             comp.run_sigma = "measured-change"
             comp.run_sigma_scale = float(measured.group(1) or 1.0) if measured else 1.0
-        claims = claims_read() if "claims" in flags and method == "Graph-TC" else contextlib.nullcontext()
+        claims = (claims_read([(s - PAST_S, s + window_s) for s in starts])
+                  if "claims" in flags and method == "Graph-TC" else contextlib.nullcontext())
         options = claim_options(method, options, fold, *(f for f in flags if isinstance(f, dict)))
         with rehearsals_made() as made, both_errors_read() as read, claims as claimed:
             sol = run_method(run, name, scenario, completer=comp, options=options, backend=backend)
         result[method] = [window_metrics(sol, mission.gt, s, window_s) for s in starts]
         for window, s in zip(result[method], starts) if claimed else ():
             window["claim"] = claims_in(claimed, mission, s, window_s)
+            window["innovations"] = innovations_in(claimed, mission, s, window_s)
         if read:
             for window, s in zip(result[method], starts):
                 window["both"] = both_errors_in(read, mission, s, window_s)
@@ -748,7 +751,8 @@ def main(argv=None) -> int:
                    "the graph's own on the measured beams by the margin M (<method> measured-both M, "
                    "GraphOptions.measured_both_margin); prints how well each error read predicts the outage's")
     p.add_argument("--claim-collect", action="store_true", help="record, in Graph-TC's windows, its claimed variance "
-                   "of each missing beam and its actual error (claim_calibration.py)")
+                   "of each missing beam and its actual error, and every beam's from 60 s before the outage with the "
+                   "measured beams' innovations (claim_calibration.py)")
     p.add_argument("--claim-fit", metavar="DIR", help="run nothing: fit each fold's table of prediction variance "
                    "scales on the other folds' records of --out (a --claim-collect run) and write DIR/fold<k>.json")
     p.add_argument("--claim-edges", nargs="+", type=float, metavar="S", help="the starts (s, from 0) of the ranges of "

@@ -19,7 +19,8 @@ from graphnav.estimators.regressed_screening import screen_against_prediction
 from graphnav.evaluation.methods import GRAPH_HNP, completer_for, run_method
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
-from claim_calibration import fold_tables, read_table, write_tables  # noqa: E402
+from claim_calibration import (claim_function, claims_in, claims_read, fold_tables, innovations_in,  # noqa: E402
+                               read_table, run_time_scales, window_scales, write_tables)
 
 FOLDS = [(1, 3), (2, 5), (4, 10), (6, 13), (8, 11)]
 TABLE = {1: ((0.0, 2.0), (10.0, 0.5))}
@@ -130,3 +131,67 @@ def test_a_calibrated_run_of_the_study_takes_the_table_of_the_fold_holding_its_t
     flags = {"claim_folders": {"flat": str(tmp_path / "flat")}}
     assert study.claim_options(label, None, 3, flags) == {"screening.prediction_var_table": {1: ((0.0, 4.0),)}}
     assert study.claim_options("Graph-HNP measured-sigma", {"x": 1}, 3, flags) == {"x": 1}
+
+
+def test_the_recorder_reads_every_beam_from_before_the_outage_and_the_missing_beams_claims_as_before():
+    mission = graphnav.simulate_mission(45.0, "mems", seed=2)
+    run = mission.with_outage(scenario_outage("2-missing", 30.0, 10.0))
+    read = {}
+    for windows in ((), ((10.0, 40.0),)):
+        with warnings.catch_warnings(), claims_read(windows) as made:
+            warnings.simplefilter("ignore")
+            run_method(run, "Graph-TC", "2-missing")
+        read[windows] = made
+    before, now = read[()], read[((10.0, 40.0),)]
+    # the missing beams' rows are those of the recorder without windows
+    assert claims_in(now, mission, 30.0, 10.0) == claims_in(before, mission, 30.0, 10.0) != []
+    found = innovations_in(now, mission, 30.0, 10.0, past_s=20.0)
+    rows = np.asarray(found["rows"])
+    assert found["beam_sigma"] == mission.config.dvl.beam_noise_std
+    assert rows[0, 0] >= -20.0 and rows[-1, 0] <= 10.0 and np.sum(rows[:, 0] < 0) >= 4 * 19
+    # a measured beam's innovation is its beam less the prediction, a missing beam's NaN
+    assert np.all(np.isfinite(rows[rows[:, 1] == 1, 4])) and np.all(np.isnan(rows[rows[:, 1] == 0, 4]))
+    assert np.all(rows[rows[:, 0] < 0, 1] == 1) and np.sum(rows[:, 1] == 0) == len(claims_in(now, mission, 30.0, 10.0))
+    # without windows only the pings with a missing beam are read
+    assert np.sum(np.asarray(innovations_in(before, mission, 30.0, 10.0, past_s=20.0)["rows"])[:, 0] < 0) == 0
+
+
+def _innovations(actual, past, innovation, sigma=0.04):
+    """One outage's :func:`innovations_in` records: 10 pings before it with four measured beams, 10 in it with two
+    missing; every claim a = 1e-3, the missing beams' e_p^2 = ``actual`` a, the measured beams' ``past`` a and their
+    innovations^2 ``innovation``."""
+    rows = []
+    for t in range(-10, 10):
+        for beam in range(4):
+            measured = t < 0 or beam < 2
+            rows.append([float(t), int(measured), 1e-3, np.sqrt(1e-3 * (past if measured else actual)),
+                         np.sqrt(innovation) if measured else float("nan")])
+    return {"beam_sigma": sigma, "rows": rows}
+
+
+def test_each_windows_scales_of_the_claim():
+    function = np.array([3.0, 2.0, 1.0, 1.0, 1.0, 1.0])      # sqrt(a) = 0.032 m/s: the third range
+    found = window_scales(_innovations(0.25, 2.0, 0.04 ** 2 + 1.5e-3), function, past_s=5.0)
+    assert found == {"actual": pytest.approx(0.25), "claim": 1.0, "innovations": pytest.approx(1.5),
+                     "noise-free": pytest.approx(2.0), "sqrt a measured": pytest.approx(np.sqrt(1e-3)),
+                     "sqrt a missing": pytest.approx(np.sqrt(1e-3))}
+    # innovations all beam noise: the floor
+    assert window_scales(_innovations(0.25, 2.0, 0.04 ** 2), function)["innovations"] == pytest.approx(0.05)
+    no_missing = _innovations(0.25, 2.0, 1e-3)
+    no_missing["rows"] = [r for r in no_missing["rows"] if r[1]]
+    assert window_scales(no_missing, function) is None
+    # per range of sqrt(a): 2 in the first, 0.25 in the last, the empty ones the range's before
+    assert claim_function(np.array([[1e-4, 0.02], [1e-4, 0.0], [0.01, 0.05]])) == pytest.approx([2, 2, 2, 2, 2, 0.25])
+    assert claim_function(np.array([[0.01, 0.05]])) == pytest.approx([0.25] * 6)     # the first empty: the next
+
+
+def test_the_claims_function_of_itself_is_fitted_on_the_other_folds_only():
+    runs = _runs([1.0, 2.0, 3.0, 4.0, 5.0])
+    for key, result in runs.items():
+        result["Graph-TC"][0]["innovations"] = _innovations(1.0, 1.0, 2e-3)
+    scales = {w["fold"]: w for w in run_time_scales(runs, FOLDS)}
+    runs[("Trajectory6", "tactical", "3-missing", 60.0)]["Graph-TC"][0]["claim"][0][3] = 10.0
+    changed = {w["fold"]: w for w in run_time_scales(runs, FOLDS)}
+    assert changed[3] == scales[3] and changed[0]["claim"] != scales[0]["claim"]
+    del runs[("Trajectory6", "tactical", "3-missing", 60.0)]["Graph-TC"][0]["innovations"]
+    assert len(run_time_scales(runs, FOLDS)) == 9
