@@ -682,6 +682,10 @@ def test_a_log_whose_dvl_is_turned_a_few_degrees_is_warned_about_beyond_its_sigm
             assert meta["streams"]["dvl"]["doubted"] == {dvl_scale.YAW_DOUBT: len(t)}
 
 
+#: A clock offset of a day (s, as a message gives it), to within 0.1 s.
+_A_DAY = r"\+(86399\.9|86400\.0)\d* s"
+
+
 def _akit_log_on_its_own_clock(akit_dir, folder, seconds, earth, dvl_shift=-86400.0):
     """The first ``seconds`` of A-KIT Trajectory1 as a column-map log (no reference), its DVL velocity turned to NED by
     the GT attitude when ``earth`` (read as body: no 'frame'), its stamps ``dvl_shift`` s (a day) early on a clock to
@@ -710,16 +714,51 @@ def test_an_earth_frame_velocity_on_a_clock_of_its_own_is_refused_before_the_clo
                                                                                           seconds):
     """Read as body, an NED velocity a day off the IMU clock fooled the clock search: the first 60 s loaded silently
     15 s off (turn ratio 1.03 there, against 1), the whole log was blamed on its clock. Its direction spreads as the
-    gyro's heading does (1.15x, 0.94x), a body-frame velocity's 0.02-0.05x: refused naming the columns."""
+    gyro's heading does (1.15x, 0.94x), a body-frame velocity's 0.02-0.05x, and the body kinematics, each reading at
+    its own best clock offset, find it earth-fixed a day off (161x, 87x): refused naming the columns and that
+    offset."""
     with pytest.raises(DataError, match=r"turns with the vehicle: its direction spreads \d\.\d\dx as much as the "
-                                        r"gyro's heading.*earth-fixed \(NED/ENU\).*a vehicle slower than "
-                                        r"the current it moves in .* on the IMU clock") as err:
+                                        r"gyro's heading.*the body kinematics .* leave \d+\.\d\dx what they leave of "
+                                        r"it taken as earth-fixed, each reading at its own best DVL clock offset \(as "
+                                        rf"body [+-]\d+\.\d+ s, as earth-fixed {_A_DAY}\).*: it is earth-fixed "
+                                        r"\(NED/ENU\)") as err:
         _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "earth", seconds, earth=True))
     assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
     with warnings.catch_warnings(record=True):
         warnings.simplefilter("always")
         m = _load(_akit_log_on_its_own_clock(akit_dir, tmp_path / "body", seconds, earth=False))
     assert m.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)
+
+
+@pytest.mark.parametrize("seed, speed, current, judged", [
+    (0, 0.3, 0.6, rf"spreads .* \(as body {_A_DAY}, "), (0, 0.2, 0.6, rf"spreads .* \(as body {_A_DAY}, "),
+    (0, 0.2, 0.3, r"turn minus the gyro's .* \(as body [+-]0\.\d+ s, .*, added to the stamps the clock search")])
+def test_a_slow_vehicle_in_a_current_on_a_clock_of_its_own_is_kept_as_body_at_its_own_offset(sim, tmp_path, seed,
+                                                                                             speed, current, judged):
+    """A vehicle slower than the current it moves in, its DVL a day off the IMU clock (``clock: auto``): its body-frame
+    velocity spreads as the heading does (0.98x, 1.06x) and was refused as earth-fixed before the clock search, told
+    to put its stamps on the IMU clock; or it spread less (0.30x) and, the search having put it on the IMU clock, was
+    refused as turning with the vehicle (no kinematics judged it there). The body kinematics now judge it with each
+    reading at its own best clock offset (body 0.74x, 0.72x, 0.90x what the earth reading leaves): kept, with a note,
+    at the offset the search finds. The simulated mission's NED copy a day off is still refused, naming the offset its
+    earth reading fits best (29x)."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(seed, speed, current, 400.0)
+    slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=-86400.0))
+    said = [str(w.message) for w in caught]
+    assert not [w for w in said if not re.search(rf"DVL clock offset {_A_DAY}", w)], said
+    assert got.config.dvl_time_offset_s == pytest.approx(86400.0, abs=0.1)
+    notes = got.meta["streams"]["dvl"]["notes"]
+    assert any(re.search(rf"{judged}.*a vehicle slower than the current it moves in", n) for n in notes), notes
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    _, t_sim, v_sim = sim
+    with pytest.raises(DataError, match=rf"as earth-fixed {_A_DAY}\).*: it is earth-fixed \(NED/ENU\)") as err:
+        _load(_folder(tmp_path, sim, np.einsum("kij,kj->ki", _euler_at(sim), v_sim), {"clock": "auto"},
+                      shift=-86400.0))
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
 
 
 def test_a_crabbing_vehicle_with_a_reference_is_judged_by_where_the_reference_moves():

@@ -34,21 +34,15 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
-from graphnav.core.dvl_kinematics import dvl_window_model, with_enough_pings
+from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MIN_OVERLAP_S, dvl_window_model, offset_grid,
+                                          search_overlap, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
 
-#: Shortest overlap of the two logs at a candidate offset, s ...
-MIN_OVERLAP_S = 60.0
 #: When the DVL already overlaps the IMU, :func:`align_stream_clocks` searches offsets within +- this, s
 #: (a clock set by hand or drifting; the whole range of a long log would cost minutes).
 NEAR_SEARCH_S = 300.0
-#: Windows the coarse scan scores at each offset (spread over the log; the refinement uses them all): 60 x 20 s
-#: is 20 minutes of a 1 Hz DVL, plenty to tell offsets apart, and keeps a long log's scan to seconds.
-COARSE_MAX_WINDOWS = 60
-#: ... and at least this fraction of the shorter log.
-MIN_OVERLAP_FRACTION = 0.5
 #: Lags closer than this to the peak do not count as a competing peak, s.
 PEAK_EXCLUSION_S = 5.0
 #: Lowest explained fraction accepted at the peak, and the lowest ratio of the residual at the best
@@ -125,7 +119,7 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
         dvl: :class:`~graphnav.core.mission.DvlData` on its own clock (seconds, any origin: days apart is fine).
         config: a SensorConfig (C_d_b, beam geometry, lever arm) or None.
         min_overlap_s: shortest overlap a candidate offset must leave between the two logs, s (at least
-            :data:`MIN_OVERLAP_FRACTION` of the shorter log in any case).
+            :data:`~graphnav.core.dvl_kinematics.MIN_OVERLAP_FRACTION` of the shorter log in any case).
         lever_arm_b: DVL position relative to the IMU, m (default: the config's, else zero).
         window_pings: pings per window of the gravity fit (default :data:`WINDOW_S` worth).
         search_s: (lo, hi) offsets to search, s; default: every offset leaving ``min_overlap_s`` of overlap.
@@ -140,10 +134,7 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     ints, window = model.imu, model.window
     period = float(np.median(np.diff(t_dvl)))
     span_imu, span_dvl = ints.t[-1] - ints.t[0], t_dvl[-1] - t_dvl[0]
-    # the two logs of one mission overlap mostly; a candidate sharing only a sliver scores on a few windows
-    # and can win by chance (a 1 h log six days away did, 3538 s off, before this)
-    min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * min(span_imu, span_dvl)),
-                        min(span_imu, span_dvl) - window * period)
+    min_overlap_s = search_overlap(span_imu, span_dvl, window * period, min_overlap_s)
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
 
@@ -181,18 +172,7 @@ def _coarse_offset(coarse_model, t_imu: np.ndarray, t_other: np.ndarray, min_ove
     Raises:
         DataError: the logs are too short to share ``min_overlap_s`` at any offset, naming ``name`` and ``source``.
     """
-    lo = float(t_imu[0] - t_other[-1]) + min_overlap_s
-    hi = float(t_imu[-1] - t_other[0]) - min_overlap_s
-    if search_s is not None:
-        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
-    h = max(0.5 * period, (hi - lo) / 4000)
-    # offsets relative to the one that puts the two starts together: a grid of absolute offsets days long
-    # would lose the step's digits
-    start = float(t_imu[0] - t_other[0])
-    grid = start + np.arange(lo - start, hi - start + 0.5 * h, h)
-    if grid.size == 0:
-        raise DataError(f"the IMU ({t_imu[-1] - t_imu[0]:.0f} s) and {name} ({t_other[-1] - t_other[0]:.0f} s) logs "
-                        f"are too short to share {min_overlap_s:.0f} s at any offset", source, field="t")
+    h, grid = offset_grid(t_imu, t_other, min_overlap_s, period, name, source, search_s)
     scores = np.array([coarse_model.score(o)[0] for o in grid])
     i = int(np.argmax(scores))
     far = np.abs(grid - grid[i]) > PEAK_EXCLUSION_S
@@ -325,8 +305,9 @@ class _AngleModel:
 def estimate_gt_clock_offset(imu, gt, *, min_overlap_s: float = MIN_OVERLAP_S) -> ClockOffset:
     """The offset to add to the GT stamps to put them on the IMU clock, from the angles the vehicle turned through
     (:class:`_AngleModel`): every offset at which the two logs share ``min_overlap_s`` (at least
-    :data:`MIN_OVERLAP_FRACTION` of the shorter log), on a grid of half a GT period (coarser for long logs), the
-    best refined by minimising the residual. Quality as :func:`estimate_dvl_clock_offset`'s (``confident``).
+    :data:`~graphnav.core.dvl_kinematics.MIN_OVERLAP_FRACTION` of the shorter log), on a grid of half a GT period
+    (coarser for long logs), the best refined by minimising the residual. Quality as
+    :func:`estimate_dvl_clock_offset`'s (``confident``).
 
     Args:
         imu: :class:`~graphnav.core.mission.ImuData` (gyro in rad/s; any axis convention).
@@ -340,8 +321,7 @@ def estimate_gt_clock_offset(imu, gt, *, min_overlap_s: float = MIN_OVERLAP_S) -
         raise DataError(f"{len(model.a)} GT interval(s) without a hole: too few to find a clock offset (need 20)",
                         gt.source, field="t")
     span_imu, span_gt = float(imu.t[-1] - imu.t[0]), float(gt.t[-1] - gt.t[0])
-    shorter = min(span_imu, span_gt)
-    min_overlap_s = min(max(min_overlap_s, MIN_OVERLAP_FRACTION * shorter), shorter - 10 * model.period)
+    min_overlap_s = search_overlap(span_imu, span_gt, 10 * model.period, min_overlap_s)
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_GT_INTERVALS), imu.t, gt.t, min_overlap_s,
                                              model.period, "GT", gt.source)
     use = model.inside(coarse - h) & model.inside(coarse + h)       # the same intervals at every candidate

@@ -94,7 +94,7 @@ SCALE_SEARCH_S = 20.0
 #: The DVL offsets (s) the scale and gyro fits take their best of: every 0.5 s within +- SCALE_SEARCH_S.
 SCALE_OFFSETS_S = np.arange(-SCALE_SEARCH_S, SCALE_SEARCH_S + 0.25, 0.5)
 #: Where a long log's IMU-turn fits search the DVL offset, each model's best is found on
-#: :data:`~graphnav.calibration.clock.COARSE_MAX_WINDOWS` windows spread over it and all its windows are scored within
+#: :data:`~graphnav.core.dvl_kinematics.COARSE_MAX_WINDOWS` windows spread over it and all its windows are scored within
 #: this of there, s (:func:`imu_yaw_fit`).
 OFFSET_REFINE_S = 1.0
 #: The DVL velocity must change by at least this within the clock model's windows (RMS about each window's mean,
@@ -681,7 +681,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     (``meta["stream_fields"]["dvl"]``); nothing when the fit tells too little (module docstring). The scale is
     taken where its fit is best within +- :data:`SCALE_SEARCH_S` (a wrong scale misleads the clock search by
     seconds). ``moved``: the clock search or a given time offset has just put the DVL on the IMU clock, so the loader
-    could not check it for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here.
+    could not check it for an earth frame (:func:`graphnav.io.dvl_frame.check_not_earth_frame`): checked here, the body
+    kinematics judging a velocity that turns with the vehicle at each reading's own best DVL clock offset.
     ``imu_frame``: the IMU's declared frame (the loader's ``meta["prepare"]["imu_frame"]``) when no reference attitude
     checked its axes: its turn about z is checked too (:func:`check_imu_yaw`, at the offset of the best scale fit, which
     a turn leaves, where that fit explains at least :data:`MIN_SCALE_R2`; else each fit at its own best offset).
@@ -702,10 +703,10 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
         warn_dvl_sideways(dvl, config, meta, field, exc.message, fixes, reference)
         return
     if moved:
-        # with ``meta``: a velocity kept unjudged is warned about and counted as on the IMU clock; no specific force,
-        # since the search's offset favours the body kinematics whatever the frame (docs/decisions/dvl-frame.md)
-        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body",
-                              meta=meta)
+        # with ``meta``: a velocity kept unjudged is warned about and counted as on the IMU clock; the specific force
+        # judges each reading at its own best offset (docs/decisions/dvl-frame.md)
+        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body", imu.f_b,
+                              meta=meta, own_offsets=True)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, yaw = fits[best]

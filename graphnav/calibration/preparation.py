@@ -73,6 +73,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
 from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
+from graphnav.io.dvl_frame import CARRIED
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
 #: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
@@ -703,8 +704,9 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
     if (moved or not judged) and on_the_imu_clock(dvl.t, mission.imu.t):
         # however the DVL got onto the IMU clock: searched, or by a given offset the search left as it is (or
-        # ``clock: imu``); before the given offset is judged, which a velocity in other units or axes misleads
-        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=True)
+        # ``clock: imu``); before the given offset is judged, which a velocity in other units or axes misleads. One
+        # the loader kept as carried by a current off the IMU clock was judged for an earth frame at its own offsets
+        _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked, moved=judged or not meta.get(CARRIED))
     if given is not None:
         _judge_given_dvl_clock(mission, searched, dvl, meta, facts, float(given))
     # after the DVL has judged the gyro (on its clock too): the reference's offset integrates the gyro as converted

@@ -26,6 +26,13 @@ WINDOW_S = 20.0
 #: Fewest pings a window reaching past the IMU's ends keeps to be fitted by the clock search: its v0 and g0 are 6
 #: numbers, the straight line's too, and 6 pings give them 18.
 MIN_WINDOW_PINGS = 6
+#: Shortest overlap of the two logs at a candidate clock offset, s ...
+MIN_OVERLAP_S = 60.0
+#: ... and at least this fraction of the shorter log.
+MIN_OVERLAP_FRACTION = 0.5
+#: Windows the coarse scan scores at each offset (spread over the log; the refinement uses them all): 60 x 20 s
+#: is 20 minutes of a 1 Hz DVL, plenty to tell offsets apart, and keeps a long log's scan to seconds.
+COARSE_MAX_WINDOWS = 60
 
 
 @dataclass
@@ -241,3 +248,36 @@ def dvl_window_model(imu, dvl, config=None, lever_arm_b=None, window_pings: int 
         lever_arm_b = np.zeros(3) if config is None else config.dvl.lever_arm_b
     ints = imu_integrals(imu.t, imu.f_b, imu.omega_b) if ints is None else ints
     return _WindowModel(ints, t_dvl, v, np.asarray(lever_arm_b, float), window, trim), t_dvl
+
+
+def search_overlap(span_imu: float, span_dvl: float, window_s: float, min_overlap_s: float = MIN_OVERLAP_S) -> float:
+    """The overlap (s) a clock search asks of the two logs (spans in s) at a candidate offset: ``min_overlap_s``
+    and :data:`MIN_OVERLAP_FRACTION` of the shorter log (the two logs of one mission overlap mostly; a candidate
+    sharing only a sliver scores on a few windows and can win by chance: a 1 h log six days away did, 3538 s off),
+    but at most the shorter log less a window (``window_s``)."""
+    shorter = min(span_imu, span_dvl)
+    return min(max(min_overlap_s, MIN_OVERLAP_FRACTION * shorter), shorter - window_s)
+
+
+def offset_grid(t_imu: np.ndarray, t_other: np.ndarray, min_overlap_s: float, period: float, name: str, source: str,
+                search_s: tuple[float, float] | None = None) -> tuple[float, np.ndarray]:
+    """``(step, offsets)``, s: every offset (added to ``t_other`` to put it on the IMU clock) at which the two logs
+    share ``min_overlap_s`` (within ``search_s`` when given), on a grid of half the stream's ``period`` (coarser for
+    long logs, at most 4000 steps).
+
+    Raises:
+        DataError: the logs are too short to share ``min_overlap_s`` at any offset, naming ``name`` and ``source``.
+    """
+    lo = float(t_imu[0] - t_other[-1]) + min_overlap_s
+    hi = float(t_imu[-1] - t_other[0]) - min_overlap_s
+    if search_s is not None:
+        lo, hi = max(lo, search_s[0]), min(hi, search_s[1])
+    h = max(0.5 * period, (hi - lo) / 4000)
+    # offsets relative to the one that puts the two starts together: a grid of absolute offsets days long
+    # would lose the step's digits
+    start = float(t_imu[0] - t_other[0])
+    grid = start + np.arange(lo - start, hi - start + 0.5 * h, h)
+    if grid.size == 0:
+        raise DataError(f"the IMU ({t_imu[-1] - t_imu[0]:.0f} s) and {name} ({t_other[-1] - t_other[0]:.0f} s) logs "
+                        f"are too short to share {min_overlap_s:.0f} s at any offset", source, field="t")
+    return h, grid

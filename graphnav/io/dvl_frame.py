@@ -29,8 +29,11 @@ does whatever its heading: its body-frame velocity turns and spreads as an earth
 tell them apart (:func:`kinematics_ratio`): on the IMU clock, a velocity the turn check would refuse is kept as body,
 with a note, when they explain it better than they explain it taken as earth-fixed; within what the earth reading's
 free heading per window gains from the velocity's noise alone (:func:`_kinematics`) it is kept with a counted warning,
-as a slow vehicle's earth-fixed velocity pinging every few seconds fits so too. A DVL on a clock of its own cannot
-be judged so before the clock search, and the spread check still refuses it, saying to put its stamps on the IMU clock.
+as a slow vehicle's earth-fixed velocity pinging every few seconds fits so too. A DVL on a clock of its own that the
+spread check would refuse is judged so before the clock search, each reading at its own best DVL clock offset
+(:func:`_own_offsets`): the search alone picks the offset where the velocity read as body fits best, where an
+earth-fixed velocity fits the body kinematics better than at its own clock; the same goes for a DVL the search has
+put on the IMU clock that the turn check would refuse.
 A vehicle so slow that its velocity's noise turns the direction as much as the vehicle turns
 (:func:`course_turn_signal` under :data:`MIN_TURN_SIGNAL`) is not judged by either: kept as body, with a counted
 warning.
@@ -288,9 +291,97 @@ def _kinematics(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nda
     return float(np.sum((L - K) ** 2) / max(earth, 1e-300)), float(limit)
 
 
+def _readings(model, offset: float, use: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """What the body kinematics leave per window (win,) of the clock model ``model``'s velocity (whole windows) at
+    ``offset`` s over the pings ``use`` (default those inside the IMU span): read as body, and read as earth-fixed
+    (turned into the body by the gyro's heading at the heading that fits the window best, :func:`kinematics_ratio`'s
+    earth reading); NaN at the windows not fitted."""
+    from graphnav.core.dvl_kinematics import without_window_fit
+    at = model.imu_at(offset, use)
+    windows, terms = model.terms(offset, at=at)
+    body, earth = np.full(len(model.t), np.nan), np.full(len(model.t), np.nan)
+    if terms is None:
+        return body, earth
+    v, _, F, lever, A, _ = terms
+    W, n = at[2][1], len(v)
+    zero, yaw = 0 * v[..., 0], W[..., 2]
+    readings = [v, np.stack([zero, zero, v[..., 2]], axis=-1)]
+    for sign in (1.0, -1.0):
+        c, s = np.cos(-sign * yaw), np.sin(-sign * yaw)
+        u = np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1], zero], axis=-1)
+        readings += [u, np.stack([-u[..., 1], u[..., 0], zero], axis=-1)]     # Rz(psi) u = cos psi u + sin psi J u
+    # the velocity's share of the residual (v + int omega x v, less its fit per window) is linear in it: the six
+    # readings in one fit, and the IMU's share (int f_b) subtracted
+    x = np.concatenate(readings)
+    rot = np.cross(np.tile(np.diff(W, axis=1), (6, 1, 1)), 0.5 * (x[:, 1:] + x[:, :-1]))
+    x = x + np.concatenate([0 * x[:, :1], np.cumsum(rot, axis=1)], axis=1)
+    r = without_window_fit(x, np.tile(A, (6, 1, 1))).reshape(6, n, -1)
+    r[:2] -= without_window_fit(F + lever, A)
+    body[windows] = np.sum(r[0] ** 2, axis=1)
+    # |cos psi r_u + sin psi r_Ju + r_z|^2 per window at each heading psi, either sign of the gyro's z
+    c, s, z = np.cos(_HEADINGS), np.sin(_HEADINGS), r[1]
+    trig = np.stack([c * c, s * s, 2 * c * s, 2 * c, 2 * s], axis=1)
+    earth[windows] = np.sum(z ** 2, axis=1) + np.min(
+        [(trig @ np.stack([np.sum(a * a, 1), np.sum(b * b, 1), np.sum(a * b, 1), np.sum(a * z, 1),
+                           np.sum(b * z, 1)])).min(axis=0) for a, b in (r[2:4], r[4:6])], axis=0)
+    return body, earth
+
+
+def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.ndarray, omega_b: np.ndarray
+                 ) -> tuple[float, float, float, float]:
+    """(:func:`kinematics_ratio`, the ratio its noise allows, the velocity's best DVL clock offset read as body, and
+    read as earth-fixed, s) of a DVL on a clock of its own, each reading judged at its own best offset: every offset of
+    the DVL clock search (:func:`graphnav.core.dvl_kinematics.offset_grid`) is scored for both readings (what the
+    body kinematics leave over the straight line's), each best refined, and the two compared over the windows both
+    offsets fit. The search alone would pick the offset where the velocity read as body fits best, and an earth-fixed
+    one read there fits the body kinematics better than at its own clock. NaN where fewer than two windows are fitted
+    at both. Arguments as :func:`kinematics_ratio`, the DVL stamps on their own clock."""
+    from scipy.optimize import minimize_scalar
+
+    from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, dvl_window_model, imu_integrals, offset_grid,
+                                              search_overlap)
+    from graphnav.core.mission import DvlData, ImuData, no_beams
+    nan = (float("nan"),) * 4
+    ok = np.all(np.isfinite(v), axis=1)
+    t, v = np.asarray(t_dvl, float)[ok], np.asarray(v, float)[ok]
+    imu = ImuData(np.asarray(t_imu, float), np.asarray(f_b, float), np.asarray(omega_b, float))
+    try:
+        ints = imu_integrals(imu.t, imu.f_b, imu.omega_b)
+        model, t = dvl_window_model(imu, DvlData(t, *no_beams(len(t)), v), ints=ints)
+        period = float(np.median(np.diff(t)))
+        overlap = search_overlap(ints.t[-1] - ints.t[0], t[-1] - t[0], model.window * period)
+        h, grid = offset_grid(ints.t, t, overlap, period, "DVL", "dvl")
+    except DataError:
+        return nan
+
+    def score(m, o, use=None, k=slice(None)):        # what each reading leaves over the straight line's
+        out = np.array(_readings(m, o, use))[k]
+        fitted = np.isfinite(out if out.ndim == 1 else out[0])
+        if fitted.sum() < 2:                        # worse than any fit (the straight line's is 1)
+            return np.full(out.shape[:-1], 1e12)
+        return np.sum(out[..., fitted], axis=-1) / max(float(np.sum(m.sse_null_w[fitted])), 1e-12)
+    coarse = model.thinned(COARSE_MAX_WINDOWS)
+    grid = grid[::2]                                # a ping period: the refinement reaches one each way
+    scores = np.array([score(coarse, o) for o in grid])
+    offsets = []
+    for k in (0, 1):
+        best = float(grid[int(np.argmin(scores[:, k]))])
+        use = model.pings(best - 2 * h) & model.pings(best + 2 * h)       # the same pings at every offset tried
+        offsets.append(float(minimize_scalar(lambda o: score(model, o, use, k), bounds=(best - 2 * h, best + 2 * h),
+                                             method="bounded", options={"xatol": 1e-3}).x))
+    common = model.pings(offsets[0]) & model.pings(offsets[1])
+    body, earth = _readings(model, offsets[0], common)[0], _readings(model, offsets[1], common)[1]
+    fitted = np.isfinite(body) & np.isfinite(earth)
+    windows = int(fitted.sum())
+    if windows < 2:
+        return nan
+    limit = BODY_KINEMATICS_RATIO + (windows + 3.0 * np.sqrt(2.0 * windows)) / (windows * (3 * model.window - 7))
+    return float(np.sum(body[fitted]) / max(np.sum(earth[fitted]), 1e-300)), float(limit), *offsets
+
+
 # a slow vehicle in a strong current (0.3 m/s in 0.5 m/s) moves over the ground much as the water does, whatever its
 # heading: its direction turns and spreads as an earth-fixed velocity's does, and only the body kinematics tell them
-# apart (kinematics_ratio), which need the DVL on the IMU clock
+# apart (kinematics_ratio), on the IMU clock or at each reading's own best clock offset (_own_offsets)
 _DECLARE = ("declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, pitch and heading columns ('euler', "
             "'angle_unit')")
 
@@ -355,7 +446,7 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
                           source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None,
                           v_b: np.ndarray | None = None, meta: dict | None = None, declared: dict | None = None,
-                          spec=None) -> float:
+                          spec=None, own_offsets: bool = False) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
@@ -364,30 +455,18 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     and ``meta[CARRIED]`` set; otherwise a DataError naming the file and columns: logged in
     the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
     smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
-    an earth-fixed one does)."""
-    from graphnav.core.streams import add_note
-    turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b, v_b)
+    an earth-fixed one does). ``own_offsets``: the DVL was put on the IMU clock by a clock search or a given offset,
+    so the kinematics at its stamps would favour the body reading: they judge it, with each reading at its own best
+    DVL clock offset (:func:`_own_offsets`), only where it would otherwise be refused; a velocity whose noise hides
+    its turns (:data:`MIN_TURN_SIGNAL`) is kept there with a counted warning, as on the IMU clock."""
+    turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, None if own_offsets else f_b, v_b)
     if not _turns_with(ratio):
         return ratio
     turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
             f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
-    if kin < BODY_KINEMATICS_RATIO and meta is not None:
-        add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
-                 f"leave {kin:.3f}x what they leave of it taken as earth-fixed (under {limit:.3f}, what its noise "
-                 f"allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
-    elif kin < limit and meta is not None:
-        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle "
-                      f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed: "
-                      f"over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
-                      f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
-                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
-    if kin < limit:
-        if meta is not None:
-            meta[CARRIED] = True
+    if _kept_carried(meta, source, fields, t_dvl, frame, turn, kin, limit):
         return ratio
-    judged = (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it "
-              f"taken as earth-fixed (a body-frame velocity's, a slow vehicle's in a current too: under {limit:.3f}, "
-              f"what its noise allows)" if np.isfinite(kin) else "")
+    judged = _judged(kin, limit) if np.isfinite(kin) else ""
     advice = None if not declared or spec is None or f_b is None else smaller_unit_advice(
         t_dvl, v if v_b is None else v_b, declared, t_imu, f_b, omega_b, spec)
     if advice:
@@ -402,6 +481,11 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                           f"{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
                           f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
         return ratio
+    if own_offsets and f_b is not None:
+        kin, limit, *offsets = _own_offsets(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
+        if _kept_carried(meta, source, fields, t_dvl, frame, turn, kin, limit, _at_own_offsets(*offsets, True)):
+            return ratio
+        judged = _judged(kin, limit, _at_own_offsets(*offsets, True))
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
@@ -409,26 +493,78 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                     source, field=", ".join(fields))
 
 
-def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray, text: str) -> None:
+def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, frame: str, turn: str,
+                  kin: float, limit: float, where: str = "") -> bool:
+    """Whether a velocity that turns with the vehicle (``turn`` says how) is kept as body by the body kinematics
+    (:func:`kinematics_ratio` ``kin`` under the ``limit`` its noise allows; ``where``: the offsets they were judged at,
+    when not the stamps'): noted in ``meta`` under :data:`BODY_KINEMATICS_RATIO`, over it warned about and counted
+    (:data:`FRAME_DOUBT`), and ``meta[CARRIED]`` set."""
+    from graphnav.core.streams import add_note
+    if not kin < limit:
+        return False
+    if meta is None:
+        return True
+    if kin < BODY_KINEMATICS_RATIO:
+        add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
+                 f"leave {kin:.3f}x what they leave of it taken as earth-fixed{where} (under {limit:.3f}, what its "
+                 f"noise allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
+    else:
+        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle "
+                      f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed"
+                      f"{where}: over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
+                      f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
+                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {_DECLARE}", stacklevel=5)
+    meta[CARRIED] = True
+    return True
+
+
+def _judged(kin: float, limit: float, where: str = "") -> str:
+    """What the body kinematics say of a velocity they refuse as earth-fixed (:func:`_kept_carried`'s arguments)."""
+    return (f"the body kinematics (dv_b/dt = f_b + g_b - omega_b x v_b) leave {kin:.2f}x what they leave of it "
+            f"taken as earth-fixed{where} (a body-frame velocity's, a slow vehicle's in a current too: under "
+            f"{limit:.3f}, what its noise allows)")
+
+
+def _at_own_offsets(body_s: float, earth_s: float, moved: bool = False) -> str:
+    """Where :func:`_own_offsets` judged the two readings (s, added to the DVL stamps as read, or with ``moved`` as
+    the clock search or a given offset set them), for a message."""
+    return (f", each reading at its own best DVL clock offset (as body {body_s:+.3f} s, as earth-fixed {earth_s:+.3f} s"
+            f"{', added to the stamps the clock search or a given offset set' if moved else ''})")
+
+
+def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray, text: str, stacklevel: int = 4
+                  ) -> None:
     """A velocity kept in the vehicle's frame though the data cannot tell it from an earth-fixed one: ``text`` warned
     about, noted and its pings counted (:data:`FRAME_DOUBT`)."""
     from graphnav.core.streams import say_doubted
-    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': {text}", FRAME_DOUBT, len(t_dvl), stacklevel=4)
+    say_doubted(meta, "dvl", source, f"field '{', '.join(fields)}': {text}", FRAME_DOUBT, len(t_dvl),
+                stacklevel=stacklevel)
 
 
-def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
-                  frame: str) -> None:
-    """DataError naming the file and columns when a velocity on a clock of its own spreads with the heading
-    (:func:`course_spread_ratio`): logged in the earth frame."""
+def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
+                  source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None, meta: dict | None = None
+                  ) -> None:
+    """A velocity ``v`` (M,3, m/s as read; ``v_b`` turned to body) on a clock of its own that spreads with the heading
+    (:func:`course_spread_ratio`) judged by the body kinematics with the specific force ``f_b``, each reading at its
+    own best DVL clock offset (:func:`_own_offsets`): kept as body as :func:`check_not_earth_frame` keeps one on the
+    IMU clock (a vehicle slower than the current it moves in), else a DataError naming the file and columns: logged
+    in the earth frame."""
     ratio = course_spread_ratio(v, t_imu, omega_b)
-    if np.isfinite(ratio) and ratio > EARTH_FRAME_SPREAD_RATIO:
-        raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: its direction spreads "
-                        f"{ratio:.2f}x as much as the gyro's heading (a vehicle-fixed velocity's: under "
-                        f"{EARTH_FRAME_SPREAD_RATIO:g}, 0.01-0.24 on the A-KIT trajectories; compared without a common "
-                        f"clock, the DVL's being its own): it looks earth-fixed (NED/ENU): {_DECLARE}; a vehicle "
-                        "slower than the current it moves in spreads so too, and only the body kinematics tell it "
-                        "apart, on the IMU clock: put the DVL stamps on it ('clock': 'imu')", source,
-                        field=", ".join(fields))
+    if not (np.isfinite(ratio) and ratio > EARTH_FRAME_SPREAD_RATIO):
+        return
+    spread = (f"its direction spreads {ratio:.2f}x as much as the gyro's heading (a vehicle-fixed velocity's: under "
+              f"{EARTH_FRAME_SPREAD_RATIO:g}, 0.01-0.24 on the A-KIT trajectories; compared without a common clock, "
+              f"the DVL's being its own)")
+    kin, limit, *offsets = (float("nan"),) * 4 if f_b is None else _own_offsets(t_dvl, v_b, t_imu, f_b, omega_b)
+    where = _at_own_offsets(*offsets)
+    if _kept_carried(meta, source, fields, t_dvl, frame, spread, kin, limit, where):
+        return
+    judged = (f"{_judged(kin, limit, where)}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
+              "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
+              "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
+              "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
+    raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {spread}; {judged}: "
+                    f"{_DECLARE}", source, field=", ".join(fields))
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
@@ -456,14 +592,15 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     fields = list(spec["v_b"])
     meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
     if frame not in EARTH_FRAMES:
+        v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
         if on_the_imu_clock(t_dvl, t_imu):
-            v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
             declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
                 if spec.get("velocity_unit") else None
             check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta, declared, envelope)
         else:
-            _check_spread(v, t_imu, omega_b, source, fields, frame)
-            add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
+            _check_spread(t_dvl, v, v_b, t_imu, omega_b, source, fields, frame, f_b, meta)
+            if not meta.get(CARRIED):
+                add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
         if frame == "body":
             return v
         add_note(meta, "dvl", f"velocity columns {fields} in the {frame} frame turned to body (FRD)")
