@@ -295,8 +295,43 @@ _DECLARE = ("declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, p
             "'angle_unit')")
 
 
-def _said(frame: str) -> str:
-    return "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
+#: What to do with an earth-fixed velocity in a bag, whose DVL entry takes no earth frame.
+_BAG_DECLARE = ("republish it in the DVL's or the vehicle's frame (bag_topics.dvl.frame takes instrument, body or "
+                "flu: an earth frame needs the head's attitude at each ping)")
+
+
+def _said(spec: dict) -> str:
+    """How a column map's DVL velocity (``csv_columns.dvl`` ``spec``) got its frame, as the frame messages say it."""
+    frame = declared_frame(spec)
+    if "v_b" not in spec:
+        return f"solved from the beam columns (on the configured geometry) in the {frame} frame"
+    how = "declared" if "frame" in spec else "taken (no 'frame' in csv_columns.dvl)"
+    return f"{how} in the {frame} frame"
+
+
+def _column_frame(spec: dict) -> dict:
+    return {"frame": declared_frame(spec), "said": _said(spec), "declare": _DECLARE}
+
+
+def velocity_frame(config, meta: dict) -> dict:
+    """How a log's or bag's DVL velocity got its frame, for the frame check the prepare step runs once it has put the
+    DVL on the IMU clock: ``{"frame", "said", "declare"}``, the frame's name, the words saying what declared or
+    assumed it (a column map's ``csv_columns.dvl.frame`` or its absence, its beams; a bag's DVL message or
+    ``bag_topics.dvl.frame``) and what to do if the velocity is earth-fixed."""
+    if meta.get("prepare", {}).get("format") != "bag":
+        spec = (config.csv_columns or {}).get("dvl") or {}
+        return _column_frame(spec)
+    message = (meta.get("topics") or {}).get("dvl", "DVL topic")
+    if "dvl_fields" in meta:                # a vendor's message read through bag_topics.dvl
+        frame = meta["dvl_fields"]["frame"]
+        how = "declared" if "frame" in (config.bag_topics.get("dvl") or {}) else "taken (no 'frame' in bag_topics.dvl)"
+        said = f"of the bag's {message} {how} in the {frame} frame"
+    elif "dvl_twist_frame" in meta:
+        frame = "instrument" if meta["dvl_twist_frame"].endswith("DVL frame") else "body"
+        said = f"of the bag's {message} (frame_id {meta['dvl_twist_frame']})"
+    else:
+        frame, said = "instrument", f"of the bag's {message} in the DVL frame of its message"
+    return {"frame": frame, "said": said, "declare": _BAG_DECLARE}
 
 
 def _evidence(t_dvl, v, t_imu, omega_b, f_b=None, v_b=None) -> tuple:
@@ -353,7 +388,7 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
 
 
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
-                          source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None,
+                          source: str, fields: list[str], said: dict, f_b: np.ndarray | None = None,
                           v_b: np.ndarray | None = None, meta: dict | None = None, declared: dict | None = None,
                           spec=None) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
@@ -364,8 +399,10 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     and ``meta[CARRIED]`` set; otherwise a DataError naming the file and columns: logged in
     the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
     smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
-    an earth-fixed one does)."""
+    an earth-fixed one does). ``said``: the frame, how it was declared or assumed and what to do if the velocity is
+    earth-fixed (:func:`velocity_frame`)."""
     from graphnav.core.streams import add_note
+    frame = said["frame"]
     turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b, v_b)
     if not _turns_with(ratio):
         return ratio
@@ -376,11 +413,11 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
                  f"leave {kin:.3f}x what they leave of it taken as earth-fixed (under {limit:.3f}, what its noise "
                  f"allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
     elif kin < limit and meta is not None:
-        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle "
+        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} turns with the vehicle "
                       f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed: "
                       f"over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
                       f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
-                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
+                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {said['declare']}")
     if kin < limit:
         if meta is not None:
             meta[CARRIED] = True
@@ -396,16 +433,17 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     signal = _turn_signal(turns)
     if signal < MIN_TURN_SIGNAL:
         if meta is not None:
-            _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame not judged for "
+            _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} not judged for "
                           f"an earth frame: the vehicle turns only {signal:.2f}x the noise of its direction over "
                           f"{COURSE_WINDOW_S:g} s windows (the turn ratio {ratio:.2f}"
                           f"{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
-                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
+                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame; if it is earth-fixed, "
+                          f"{said['declare']}")
         return ratio
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
-    raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {turn}; {judged}: {_DECLARE}",
+    raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {turn}; {judged}: {said['declare']}",
                     source, field=", ".join(fields))
 
 
@@ -417,17 +455,17 @@ def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray,
 
 
 def _check_spread(v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray, source: str, fields: list[str],
-                  frame: str) -> None:
+                  said: dict) -> None:
     """DataError naming the file and columns when a velocity on a clock of its own spreads with the heading
     (:func:`course_spread_ratio`): logged in the earth frame."""
     ratio = course_spread_ratio(v, t_imu, omega_b)
     if np.isfinite(ratio) and ratio > EARTH_FRAME_SPREAD_RATIO:
-        raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: its direction spreads "
+        raise DataError(f"DVL velocity {said['said']} turns with the vehicle: its direction spreads "
                         f"{ratio:.2f}x as much as the gyro's heading (a vehicle-fixed velocity's: under "
                         f"{EARTH_FRAME_SPREAD_RATIO:g}, 0.01-0.24 on the A-KIT trajectories; compared without a common "
-                        f"clock, the DVL's being its own): it looks earth-fixed (NED/ENU): {_DECLARE}; a vehicle "
-                        "slower than the current it moves in spreads so too, and only the body kinematics tell it "
-                        "apart, on the IMU clock: put the DVL stamps on it ('clock': 'imu')", source,
+                        f"clock, the DVL's being its own): it looks earth-fixed (NED/ENU): {said['declare']}; a "
+                        "vehicle slower than the current it moves in spreads so too, and only the body kinematics tell "
+                        "it apart, on the IMU clock: put the DVL stamps on it ('clock': 'imu')", source,
                         field=", ".join(fields))
 
 
@@ -452,7 +490,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
-    frame = declared_frame(spec)
+    said = _column_frame(spec)
+    frame = said["frame"]
     fields = list(spec["v_b"])
     meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
     if frame not in EARTH_FRAMES:
@@ -460,9 +499,9 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
             v_b = np.where(rdi_flagged(v).any(axis=1, keepdims=True), np.nan, velocity_to_body(v, frame, C_d_b))
             declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
                 if spec.get("velocity_unit") else None
-            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta, declared, envelope)
+            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared, envelope)
         else:
-            _check_spread(v, t_imu, omega_b, source, fields, frame)
+            _check_spread(v, t_imu, omega_b, source, fields, said)
             add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
         if frame == "body":
             return v
