@@ -186,6 +186,51 @@ def test_a_dvl_put_on_the_imu_clock_in_prepare_and_kept_unjudged_is_warned_about
     np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
 
 
+def test_a_dvl_put_on_the_imu_clock_in_prepare_is_said_in_the_frame_its_columns_declare(sim, tmp_path):
+    """The slow vehicle above, its velocity columns in FLU with ``frame: flu`` declared, its DVL stamps 1000 s late
+    with dvl_time_offset_s -1000: the warning of the check prepare runs on the IMU clock said the velocity was
+    "taken (no 'frame' in csv_columns.dvl) in the body frame"; it names the declared frame now."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.28, 0.0, noise=0.06)
+    m_slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    folder = _given_clock(_folder(tmp_path, (m_slow, t, None), v_b * [1.0, -1.0, -1.0], {"frame": "flu"},
+                                  shift=1000.0), -1000.0)
+    with pytest.warns(RuntimeWarning, match=r"DVL velocity declared in the flu frame not judged for an earth frame: "
+                                            r".* kept in the flu frame") as caught:
+        got = _load(folder)
+    assert not any("no 'frame'" in str(w.message) for w in caught)
+    assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t)}
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+
+
+@pytest.mark.parametrize("meta, said, kept", [
+    ({"topics": {"dvl": "/dvl/data (dvl_msgs/msg/DVL)"}}, r"of the bag's /dvl/data \(dvl_msgs/msg/DVL\) in the DVL "
+     r"frame of its message", "instrument"),
+    ({"topics": {"dvl": "/dvl/data (vendor/msg/Dvl)"}, "dvl_fields": {"frame": "flu"}},
+     r"of the bag's /dvl/data \(vendor/msg/Dvl\) declared in the flu frame", "flu"),
+    ({"topics": {"dvl": "/dvl/twist (geometry_msgs/msg/TwistWithCovarianceStamped)"},
+      "dvl_twist_frame": "base_link: body frame turned into the DVL frame with C_d_b"},
+     r"of the bag's /dvl/twist \(geometry_msgs/msg/TwistWithCovarianceStamped\) \(frame_id base_link: body frame "
+     r"turned into the DVL frame with C_d_b\)", "body")])
+def test_a_bag_dvl_put_on_the_imu_clock_in_prepare_is_said_as_its_message_gives_it(meta, said, kept):
+    """The same check on a bag's DVL (prepare's clock search puts it on the IMU clock): it named a column map's
+    missing 'frame' key and advised declaring csv_columns.dvl.frame; it names the bag's message and the frame it or
+    bag_topics.dvl.frame gives, and what a bag can do."""
+    from graphnav.calibration.dvl_scale import check_velocity_against_imu
+    from graphnav.core.mission import DvlData, ImuData
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(1, 0.28, 0.0, noise=0.06)
+    cfg = SensorConfig()
+    if "dvl_fields" in meta:
+        cfg.bag_topics = {"dvl": {"topic": "/dvl/data", "v_b": "velocity", "frame": "flu"}}
+    beams = np.full((len(t), 4), np.nan)
+    dvl = DvlData(t, beams, np.zeros((len(t), 4), bool), v_b=v_b, source="bag.mcap:/dvl/data")
+    meta = {"prepare": {"format": "bag"}, **meta}
+    with pytest.warns(RuntimeWarning, match=rf"DVL velocity {said} not judged for an earth frame: .* kept in the "
+                                            rf"{kept} frame; if it is earth-fixed, republish it") as caught:
+        check_velocity_against_imu(ImuData(t_imu, f_b, omega_b), dvl, cfg, meta, moved=True, field="velocity")
+    assert not any("csv_columns" in str(w.message) for w in caught)
+
+
 @pytest.mark.parametrize("seed, speed, current, duration, noise", [(8, 0.3, 0.3, 400.0, 0.05),
                                                                     (9, 0.28, 0.0, 300.0, 0.04)])
 def test_a_slow_vehicle_whose_noise_tips_the_kinematics_just_over_1_is_kept_as_body(sim, tmp_path, seed, speed,

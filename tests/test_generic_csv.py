@@ -78,6 +78,28 @@ def test_separate_files_with_units(sim, tmp_path):
     np.testing.assert_allclose(m.gt.C_b_n, sim.gt.C_b_n, atol=1e-9)
 
 
+def test_beams_and_velocity_in_whole_mm_s_undeclared_are_said_read_as_mm_s_once_naming_both(sim, tmp_path):
+    """Beams and the velocity, both in whole mm/s with no velocity_unit: detected as mm/s and converted, which was
+    warned and noted twice, naming neither's columns. Once now, naming both, as a bag's DVL fields are."""
+    cmap = _separate_files(tmp_path, sim)
+    beams = np.where(sim.dvl.valid, np.round(sim.dvl.beams * 1e3), np.nan)
+    _write(tmp_path / "dvl.csv", ["time_ms", "b1", "b2", "b3", "b4", "ok1", "ok2", "ok3", "ok4", "vx", "vy", "vz"],
+           [(sim.dvl.t + T0) * 1e3, beams, sim.dvl.valid.astype(float), np.round(sim.dvl.v_b * 1e3)])
+    del cmap["dvl"]["velocity_unit"]
+    cmap["dvl"]["v_b"] = ["vx", "vy", "vz"]
+    cfg = _config(tmp_path, sim, cmap)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = load_mission(tmp_path, cfg, prepare=False)
+    said = [str(w.message) for w in caught if "read as mm/s" in str(w.message)]
+    assert len(said) == 1 and re.fullmatch(r".*dvl\.csv: DVL velocities read as mm/s \(median speed \d+ in beams "
+                                           r"'b1, b2, b3, b4', \d+ in v_b 'vx, vy, vz'\) and converted to m/s",
+                                           said[0]), said
+    assert len([n for n in m.meta["streams"]["dvl"]["notes"] if "read as mm/s" in n]) == 1
+    np.testing.assert_allclose(m.dvl.beams[m.dvl.valid], sim.dvl.beams[m.dvl.valid], atol=5e-4)
+    np.testing.assert_allclose(m.dvl.v_b, sim.dvl.v_b, atol=5e-4)
+
+
 def test_merged_log_and_body_velocity_dvl_through_smooth(sim, tmp_path, capsys):
     # One file, one row per IMU sample; the DVL body velocity only on the ping rows and the reference only on
     # its 10 Hz rows (empty cells elsewhere).

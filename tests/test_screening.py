@@ -664,6 +664,45 @@ def test_read_csv_counts_what_it_drops(tmp_path):
     assert entry["span_s"] == [0.0, 3.0]
 
 
+def test_read_csv_records_the_span_and_rate_of_the_stamps_it_keeps(tmp_path):
+    """A 10 Hz DVL file whose last 12 rows are stamped 1e300: the span and rate recorded were those of every row (the
+    span then mended by hand, the rate left at none, the median step of all the stamps being 0). Both are the kept
+    rows' now."""
+    from graphnav.io.loaders import AKIT_COLUMNS, read_csv
+    p = tmp_path / "DVL.csv"
+    stamps = [0.1 * k for k in range(10)] + [1e300] * 12
+    p.write_text("\n".join([",".join(AKIT_COLUMNS["DVL"])] + [f"{t!r},1.0,0.1,0.0" for t in stamps]) + "\n")
+    meta = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        read_csv(p, AKIT_COLUMNS["DVL"], nan_ok=AKIT_COLUMNS["DVL"][1:], meta=meta, stream="dvl")
+    entry = meta["streams"]["dvl"]
+    assert entry["refused"] == {"stamp not a time": 12}
+    assert entry["span_s"] == [0.0, 0.9] and entry["rate_hz"] == pytest.approx(10.0)
+
+
+def test_screening_records_the_span_of_the_samples_it_keeps(mission):
+    """IMU rows beyond full scale over the last 5 s and depths 20 km deep over the last 10 s, dropped by the
+    screening of a bag's, a PD0's or a column map's streams: their spans stayed those of every row read (``graphnav
+    info``'s span of a bag 5 s longer than the IMU it holds). Each is the span of the samples kept now."""
+    import dataclasses
+
+    from graphnav.io.loaders import screen_mission
+    imu, depth = mission.imu, mission.depth
+    f_b = np.where((imu.t > imu.t[-1] - 5.0)[:, None], 1000.0, imu.f_b)
+    d = np.where(depth.t > depth.t[-1] - 10.0, 20000.0, depth.depth)
+    bad = dataclasses.replace(mission, imu=dataclasses.replace(imu, f_b=f_b),
+                              depth=dataclasses.replace(depth, depth=d), meta={})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = screen_mission(bad)
+    for name in ("imu", "depth"):
+        t = getattr(got, name).t
+        assert len(t) < len(getattr(mission, name).t)
+        assert got.meta["streams"][name]["span_s"] == [t[0], t[-1]]
+    assert got.meta["streams"]["imu"]["rate_hz"] == pytest.approx(mission.config.imu_rate_hz)
+
+
 def _burst_stamps(n_cycles=2000, cycle_s=0.03, per_burst=3, spacing_s=1e-4):
     """A driver that stamps messages on receipt: ``per_burst`` samples ``spacing_s`` apart every ``cycle_s``."""
     return (np.arange(n_cycles)[:, None] * cycle_s + np.arange(per_burst)[None, :] * spacing_s).ravel()

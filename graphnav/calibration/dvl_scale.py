@@ -25,7 +25,7 @@ from graphnav.core.dvl_kinematics import (WINDOW_S, dvl_velocity_b, dvl_window_m
                                           without_window_fit)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, count_doubted, say_doubted
-from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame
+from graphnav.io.dvl_frame import CARRIED, COURSE_MIN_SPEED_MPS, check_not_earth_frame, velocity_frame
 from graphnav.io.units import (AKIT_DVL_FIXES, DECLARE_DVL_FIXES, GYRO_UNJUDGED, check_gyro_against_reference,
                                gyro_scale_found, other_unit_factors, unit_fix)
 
@@ -705,8 +705,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if moved:
         # with ``meta``: a velocity kept unjudged is warned about and counted as on the IMU clock; the specific force
         # judges each reading at its own best offset (docs/decisions/dvl-frame.md)
-        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field], "body", imu.f_b,
-                              meta=meta, own_offsets=True)
+        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field],
+                              velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))
     scale, r2, yaw = fits[best]

@@ -386,8 +386,43 @@ _DECLARE = ("declare csv_columns.dvl.frame 'ned' or 'enu' with the DVL's roll, p
             "'angle_unit')")
 
 
-def _said(frame: str) -> str:
-    return "declared in the" if frame != "body" else "taken (no 'frame' in csv_columns.dvl) in the"
+#: What to do with an earth-fixed velocity in a bag, whose DVL entry takes no earth frame.
+_BAG_DECLARE = ("republish it in the DVL's or the vehicle's frame (bag_topics.dvl.frame takes instrument, body or "
+                "flu: an earth frame needs the head's attitude at each ping)")
+
+
+def _said(spec: dict) -> str:
+    """How a column map's DVL velocity (``csv_columns.dvl`` ``spec``) got its frame, as the frame messages say it."""
+    frame = declared_frame(spec)
+    if "v_b" not in spec:
+        return f"solved from the beam columns (on the configured geometry) in the {frame} frame"
+    how = "declared" if "frame" in spec else "taken (no 'frame' in csv_columns.dvl)"
+    return f"{how} in the {frame} frame"
+
+
+def _column_frame(spec: dict) -> dict:
+    return {"frame": declared_frame(spec), "said": _said(spec), "declare": _DECLARE}
+
+
+def velocity_frame(config, meta: dict) -> dict:
+    """How a log's or bag's DVL velocity got its frame, for the frame check the prepare step runs once it has put the
+    DVL on the IMU clock: ``{"frame", "said", "declare"}``, the frame's name, the words saying what declared or
+    assumed it (a column map's ``csv_columns.dvl.frame`` or its absence, its beams; a bag's DVL message or
+    ``bag_topics.dvl.frame``) and what to do if the velocity is earth-fixed."""
+    if meta.get("prepare", {}).get("format") != "bag":
+        spec = (config.csv_columns or {}).get("dvl") or {}
+        return _column_frame(spec)
+    message = (meta.get("topics") or {}).get("dvl", "DVL topic")
+    if "dvl_fields" in meta:                # a vendor's message read through bag_topics.dvl
+        frame = meta["dvl_fields"]["frame"]
+        how = "declared" if "frame" in (config.bag_topics.get("dvl") or {}) else "taken (no 'frame' in bag_topics.dvl)"
+        said = f"of the bag's {message} {how} in the {frame} frame"
+    elif "dvl_twist_frame" in meta:
+        frame = "instrument" if meta["dvl_twist_frame"].endswith("DVL frame") else "body"
+        said = f"of the bag's {message} (frame_id {meta['dvl_twist_frame']})"
+    else:
+        frame, said = "instrument", f"of the bag's {message} in the DVL frame of its message"
+    return {"frame": frame, "said": said, "declare": _BAG_DECLARE}
 
 
 def _evidence(t_dvl, v, t_imu, omega_b, f_b=None, v_b=None) -> tuple:
@@ -444,7 +479,7 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
 
 
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
-                          source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None,
+                          source: str, fields: list[str], said: dict, f_b: np.ndarray | None = None,
                           v_b: np.ndarray | None = None, meta: dict | None = None, declared: dict | None = None,
                           spec=None, own_offsets: bool = False) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
@@ -458,13 +493,14 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     an earth-fixed one does). ``own_offsets``: the DVL was put on the IMU clock by a clock search or a given offset,
     so the kinematics at its stamps would favour the body reading: they judge it, with each reading at its own best
     DVL clock offset (:func:`_own_offsets`), only where it would otherwise be refused; a velocity whose noise hides
-    its turns (:data:`MIN_TURN_SIGNAL`) is kept there with a counted warning, as on the IMU clock."""
+    its turns (:data:`MIN_TURN_SIGNAL`) is kept there with a counted warning, as on the IMU clock. ``said``: the frame,
+    how it was declared or assumed and what to do if the velocity is earth-fixed (:func:`velocity_frame`)."""
     turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, None if own_offsets else f_b, v_b)
     if not _turns_with(ratio):
         return ratio
     turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
             f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
-    if _kept_carried(meta, source, fields, t_dvl, frame, turn, kin, limit):
+    if _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit):
         return ratio
     judged = _judged(kin, limit) if np.isfinite(kin) else ""
     advice = None if not declared or spec is None or f_b is None else smaller_unit_advice(
@@ -475,25 +511,26 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     signal = _turn_signal(turns)
     if signal < MIN_TURN_SIGNAL:
         if meta is not None:
-            _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame not judged for "
+            _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} not judged for "
                           f"an earth frame: the vehicle turns only {signal:.2f}x the noise of its direction over "
                           f"{COURSE_WINDOW_S:g} s windows (the turn ratio {ratio:.2f}"
                           f"{', the kinematics ' + format(kin, '.2f') if np.isfinite(kin) else ''} say nothing "
-                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {frame} frame; if it is earth-fixed, {_DECLARE}")
+                          f"under {MIN_TURN_SIGNAL:g}x): kept in the {said['frame']} frame; if it is earth-fixed, "
+                          f"{said['declare']}")
         return ratio
     if own_offsets and f_b is not None:
         kin, limit, *offsets = _own_offsets(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
-        if _kept_carried(meta, source, fields, t_dvl, frame, turn, kin, limit, _at_own_offsets(*offsets, True)):
+        if _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit, _at_own_offsets(*offsets, True)):
             return ratio
         judged = _judged(kin, limit, _at_own_offsets(*offsets, True))
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
-    raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {turn}; {judged}: {_DECLARE}",
+    raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {turn}; {judged}: {said['declare']}",
                     source, field=", ".join(fields))
 
 
-def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, frame: str, turn: str,
+def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.ndarray, said: dict, turn: str,
                   kin: float, limit: float, where: str = "") -> bool:
     """Whether a velocity that turns with the vehicle (``turn`` says how) is kept as body by the body kinematics
     (:func:`kinematics_ratio` ``kin`` under the ``limit`` its noise allows; ``where``: the offsets they were judged at,
@@ -507,13 +544,14 @@ def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.n
     if kin < BODY_KINEMATICS_RATIO:
         add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
                  f"leave {kin:.3f}x what they leave of it taken as earth-fixed{where} (under {limit:.3f}, what its "
-                 f"noise allows): kept in the {frame} frame, a vehicle slower than the current it moves in")
+                 f"noise allows): kept in the {said['frame']} frame, a vehicle slower than the current it moves in")
     else:
-        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle "
+        _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} turns with the vehicle "
                       f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed"
                       f"{where}: over {BODY_KINEMATICS_RATIO:g}, but under {limit:.3f}, what its noise allows over "
                       f"{len(t_dvl)} pings, so a vehicle slower than the current it moves in and an earth-fixed "
-                      f"velocity fit alike: kept in the {frame} frame; if it is earth-fixed, {_DECLARE}", stacklevel=5)
+                      f"velocity fit alike: kept in the {said['frame']} frame; if it is earth-fixed, {said['declare']}",
+                      stacklevel=5)
     meta[CARRIED] = True
     return True
 
@@ -542,7 +580,7 @@ def _keep_doubted(meta: dict, source: str, fields: list[str], t_dvl: np.ndarray,
 
 
 def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
-                  source: str, fields: list[str], frame: str, f_b: np.ndarray | None = None, meta: dict | None = None
+                  source: str, fields: list[str], said: dict, f_b: np.ndarray | None = None, meta: dict | None = None
                   ) -> None:
     """A velocity ``v`` (M,3, m/s as read; ``v_b`` turned to body) on a clock of its own that spreads with the heading
     (:func:`course_spread_ratio`) judged by the body kinematics with the specific force ``f_b``, each reading at its
@@ -557,14 +595,14 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
               f"the DVL's being its own)")
     kin, limit, *offsets = (float("nan"),) * 4 if f_b is None else _own_offsets(t_dvl, v_b, t_imu, f_b, omega_b)
     where = _at_own_offsets(*offsets)
-    if _kept_carried(meta, source, fields, t_dvl, frame, spread, kin, limit, where):
+    if _kept_carried(meta, source, fields, t_dvl, said, spread, kin, limit, where):
         return
     judged = (f"{_judged(kin, limit, where)}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in, which spreads so "
               "too and only the body kinematics tell apart: they could not judge it (under two windows of pings at "
               "both readings' best DVL clock offsets); put the DVL stamps on the IMU clock ('clock': 'imu')")
-    raise DataError(f"DVL velocity {_said(frame)} {frame} frame turns with the vehicle: {spread}; {judged}: "
-                    f"{_DECLARE}", source, field=", ".join(fields))
+    raise DataError(f"DVL velocity {said['said']} turns with the vehicle: {spread}; {judged}: "
+                    f"{said['declare']}", source, field=", ".join(fields))
 
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
@@ -588,7 +626,8 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
     """
     from graphnav.core.streams import add_note
     from graphnav.core.timeseries import on_the_imu_clock
-    frame = declared_frame(spec)
+    said = _column_frame(spec)
+    frame = said["frame"]
     fields = list(spec["v_b"])
     meta.setdefault("stream_fields", {})["dvl"] = ", ".join(fields)     # named by a later check of the velocity
     if frame not in EARTH_FRAMES:
@@ -596,9 +635,9 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         if on_the_imu_clock(t_dvl, t_imu):
             declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
                 if spec.get("velocity_unit") else None
-            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, frame, f_b, v_b, meta, declared, envelope)
+            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared, envelope)
         else:
-            _check_spread(t_dvl, v, v_b, t_imu, omega_b, source, fields, frame, f_b, meta)
+            _check_spread(t_dvl, v, v_b, t_imu, omega_b, source, fields, said, f_b, meta)
             if not meta.get(CARRIED):
                 add_note(meta, "dvl", "checked for an earth-frame velocity once on the IMU clock (a clock of its own)")
         if frame == "body":

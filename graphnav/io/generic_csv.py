@@ -103,7 +103,8 @@ from graphnav.core.streams import add_note, count_read, count_refused
 from graphnav.io.dvl_frame import columns_to_body
 from graphnav.io.pd0 import pd0_geometry, read_pd0
 from graphnav.io.units import (ANGLE_UNITS, DECLARED_UNITS, check_declared_time_span, check_stamp_bound,
-                               declared_scale, dvl_velocity_units, imu_units, stamps_in_seconds)
+                               declared_scale, dvl_values_in_mps, dvl_velocity_units, imu_units, say_mmps,
+                               stamps_in_seconds)
 
 TIME_UNITS, ACCEL_UNITS, GYRO_UNITS, VELOCITY_UNITS = (DECLARED_UNITS[k]
                                                        for k in ("time", "accel", "gyro", "velocity"))
@@ -214,6 +215,18 @@ def _unit_named(spec: dict, key: str) -> dict:
     return {"columns": ", ".join(_names(spec, key, {"v_b": 3, "beams": 4}[key], "dvl")),
             "fix": f"declare csv_columns.dvl.velocity_unit ({', '.join(VELOCITY_UNITS)})",
             "key": "csv_columns.dvl.velocity_unit"}
+
+
+def _in_mps(values: np.ndarray, path: Path, spec: dict, key: str, declared: str | None, mmps: dict, **kw
+            ) -> np.ndarray:
+    """A column map's DVL ``values`` of ``spec[key]`` in m/s (:func:`graphnav.io.units.dvl_values_in_mps`, ``kw``
+    its ``beams`` and ranking arguments); where mm/s were detected, their median speed as read and columns in
+    ``mmps[key]``, for the one warning of the DVL's units (:func:`graphnav.io.units.say_mmps`)."""
+    named = _unit_named(spec, key)
+    values, med = dvl_values_in_mps(values, str(path), declared, **named, **kw)
+    if med is not None:
+        mmps[key] = f"{med:.4g} in {key} '{named['columns']}'"
+    return values
 
 
 def _read(root: Path, data_file: Path | None, spec: dict, stream: str, groups: dict[str, int],
@@ -339,14 +352,19 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
         zero, (on, off) = zero_pings(raw), on_resolution_grid(raw)
         no_lock = np.zeros(len(t_dvl), bool)
         v_b = None
+        mmps: dict[str, str] = {}           # the columns detected as mm/s with their median speeds: said once
+        if "beams" in v and vdeclared is None:
+            beams_mps = _in_mps(v["beams"], path, spec, "beams", None, mmps, beams=True)
         if "v_b" in v:
             # a zero tells nothing of the unit: hidden from its detection, and 0 in any unit after it
             # the IMU's accelerations order the units a refusal names, for a velocity in the body's axes
             body = spec.get("frame", "body") in ("body", "frd")
-            v_b = dvl_velocity_units(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, str(path), meta,
-                                     vdeclared, **_unit_named(spec, "v_b"), t=t_dvl,
-                                     imu=(t_imu, f_b, omega_b) if body else None,
-                                     max_speed_mps=config.dvl.max_speed_mps)
+            v_b = _in_mps(np.where(zero[:, None], np.nan, v["v_b"]) * vscale, path, spec, "v_b", vdeclared, mmps,
+                          t=t_dvl, imu=(t_imu, f_b, omega_b) if body else None,
+                          max_speed_mps=config.dvl.max_speed_mps)
+        if mmps:
+            say_mmps(meta, str(path), "median speed " + ", ".join(mmps[k] for k in ("beams", "v_b") if k in mmps))
+        if "v_b" in v:
             v_b[zero] = 0.0
             no_lock = no_lock_pings(t_dvl, config.dvl, off > on, v=v_b)
             # the flags are per beam: a velocity needs three valid beams
@@ -358,8 +376,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             if v_b is None:         # the columns a later message about the DVL names (the velocity's, with both)
                 meta.setdefault("stream_fields", {})["dvl"] = _unit_named(spec, "beams")["columns"]
             if vdeclared is None:
-                raw = dvl_velocity_units(raw, str(path), meta, None, beams=True,   # m/s (mm/s detected)
-                                         **_unit_named(spec, "beams"))
+                raw = beams_mps         # m/s (mm/s detected)
             flag = np.isin(raw, (-32768.0, -32.768))
             if vdeclared is not None:       # the declared unit's speeds judged as the velocity columns' are
                 dvl_velocity_units(np.where(flag, np.nan, raw) * vscale, str(path), meta, vdeclared, beams=True,

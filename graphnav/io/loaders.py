@@ -304,9 +304,7 @@ def read_csv(path: str | Path, columns: tuple[str, ...], *, nan_ok: tuple[str, .
         if bad.any():
             refuse(meta, stream, {"stamp not a time": bad}, source, lines=line_no)
             data, line_no = data[~bad], line_no[~bad]
-            count_read(meta, stream, np.array([]))          # the span and rate of the stamps kept
-            entry = meta["streams"][stream]
-            entry["span_s"] = [float(data[0, 0]), float(data[-1, 0])] if len(data) else None
+            _record_kept(meta, stream, data[:, 0])
     kept, dropped, t = stamp_order(data[:, 0], data, line_no, source, columns[0], repair, meta, stream,
                                    imu_rate_hz)
     for reason, n in dropped.items() if meta is not None else ():
@@ -1074,6 +1072,25 @@ def warn_replaced(overrides: ConfigOverrides, mission: Mission) -> None:
         add_note(mission.meta, "config", note)
 
 
+def _record_kept(meta: dict, stream: str, t: np.ndarray) -> None:
+    """The span and rate of ``stream`` recorded from the stamps ``t`` (s) of the samples kept after some were
+    refused (none kept: no span)."""
+    from graphnav.core.streams import set_span
+    if len(t):
+        set_span(meta, stream, t, shown_rate_hz(stream, t))
+    else:
+        meta["streams"][stream]["span_s"] = None
+
+
+def _kept(meta: dict, name: str, stream, bad: np.ndarray):
+    """``stream`` without its samples ``bad`` (refused), its span and rate recorded from those kept."""
+    if not bad.any():
+        return stream
+    stream = stream.take(np.flatnonzero(~bad))
+    _record_kept(meta, name, stream.t)
+    return stream
+
+
 def screen_mission(mission: Mission) -> Mission:
     """The screening of :mod:`graphnav.core.screening` applied to a loaded mission (bags, PD0, generic CSV; the
     A-KIT loader screens its files itself, the column-map loader its IMU and GT rows): IMU rows with a NaN value, beyond
@@ -1094,8 +1111,7 @@ def screen_mission(mission: Mission) -> Mission:
         # the DVL as read tells a knock, which changed its velocity, from a burst of bad samples
         bad = refuse(meta, "imu", imu_implausible(imu.t, imu.f_b, imu.omega_b, cfg, meta=meta, source=imu.source,
                                                   dvl=(dvl.t, ping_velocity_b(dvl, cfg.dvl))), imu.source)
-        if bad.any():
-            imu = imu.take(np.flatnonzero(~bad))
+        imu = _kept(meta, "imu", imu, bad)
     beam_bad = beams_out_of_range(dvl.beams, dvl.valid, cfg.dvl)
     masks = {f"beam beyond {cfg.dvl.max_speed_mps:g} m/s": beam_bad.any(axis=1)}
     valid = dvl.valid & ~beam_bad
@@ -1126,12 +1142,10 @@ def screen_mission(mission: Mission) -> Mission:
         where = meta.pop("depth_where", None)       # a PD0 ensemble, a bag message, for this warning only
         bad = refuse(meta, "depth", depth_implausible(depth.t, depth.depth, cfg), depth.source,
                      where=where if where is not None and len(where) == len(depth.t) else None, t=depth.t)
-        if bad.any():
-            depth = depth.take(np.flatnonzero(~bad))
+        depth = _kept(meta, "depth", depth, bad)
     if gt is not None and not meta.get("gt_screened"):     # the column-map loader screened it with its lines
         bad = refuse(meta, "gt", gt_implausible(gt.t, gt.v_n, cfg.dvl), gt.source)
-        if bad.any():
-            gt = gt.take(np.flatnonzero(~bad))
+        gt = _kept(meta, "gt", gt, bad)
     check_refused_fraction(meta, advice=_declared_unit_advice(meta, imu, dvl.t, v, cfg))
     if all(a is b for a, b in zip((imu, dvl, depth, gt), (mission.imu, mission.dvl, mission.depth, mission.gt))):
         return mission
