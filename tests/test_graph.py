@@ -85,6 +85,19 @@ def test_pings_after_the_imu_ends_are_warned_about_once_with_their_count_and_tim
     assert k.stats.pings_after_end == 1
 
 
+def test_a_replayed_missions_pings_after_the_imu_ends_are_warned_about_once_by_the_mission():
+    """A recorded mission's pings after the IMU's end are warned about and counted when it is built (``Mission.validate``,
+    the count in summary.json); the replay's keyframer dropped them with a second warning naming a count not shown."""
+    m = simulate_mission(20, seed=3)
+    late = dataclasses.replace(m.dvl, t=m.dvl.t + 2.0)
+    with pytest.warns(RuntimeWarning) as caught:
+        mission = dataclasses.replace(m, dvl=late)
+        list(mission_keyframes(mission, GraphOptions()))
+        run_graph(mission, init="gt")
+    said = [str(w.message) for w in caught if "ping(s)" in str(w.message)]
+    assert len(said) == 1 and "outside the IMU span" in said[0], said
+
+
 def test_split_preintegration_matches_truth_between_imu_samples():
     """Keyframes off the IMU grid: preintegrating the split intervals predicts the exact state."""
     m = simulate_mission(30, seed=3, noiseless=True)

@@ -77,12 +77,15 @@ class KeyframeOptions:
         imu_keyframe_interval_s: spacing of IMU-only keyframes in such a gap.
         aiding_max_age_s: depth/heading older than this at a keyframe (with nothing newer) are not used.
         fix_min_interval_s: position fixes closer than this to the previous fix used are decimated.
+        late_pings_said: the pings after the IMU's last sample were warned about and counted when the data were
+            read (a replayed mission: ``Mission.validate``), so they are dropped here without a second warning.
     """
 
     max_keyframe_gap_s: float = 2.0
     imu_keyframe_interval_s: float = 1.0
     aiding_max_age_s: float = 1.5
     fix_min_interval_s: float = 1.0
+    late_pings_said: bool = False
 
     def __post_init__(self):
         if self.imu_keyframe_interval_s <= 0 or self.max_keyframe_gap_s < self.imu_keyframe_interval_s:
@@ -301,7 +304,7 @@ class Keyframer:
             out += self._fill_gap(self._samples[-1][0])
         late = [p.t for p in self._pending if p.has_ping]
         self.stats.pings_after_end += len(late)
-        if late:
+        if late and not self.options.late_pings_said:
             self._warn_pings_after_end(late)
         self._pending.clear()
         return out

@@ -75,10 +75,12 @@ def graph_navigator(mission: Mission, *, completer=None, options: GraphOptions |
 
 def replay_options(navigator_options, mission: Mission, align: AlignOptions | None = None):
     """``navigator_options`` (default :class:`~graphnav.estimators.navigator.NavigatorOptions`) for a replayed
-    ``mission`` (its loader judged the DVL's zero pings and the IMU shocks the DVL saw), with ``align`` as its
+    ``mission`` (its loader judged the DVL's zero pings and the IMU shocks the DVL saw, and warned about its pings
+    after the IMU's end), with ``align`` as its
     alignment settings when given: the one place a replay's options differ from a live stream's."""
-    options = dataclasses.replace(navigator_options or NavigatorOptions(), dvl_zeros_judged=True,
-                                  imu_shocks=replayed_shocks(mission))
+    options = navigator_options or NavigatorOptions()
+    options = dataclasses.replace(options, dvl_zeros_judged=True, imu_shocks=replayed_shocks(mission),
+                                  keyframes=dataclasses.replace(options.keyframes, late_pings_said=True))
     return options if align is None else dataclasses.replace(options, align=align)
 
 

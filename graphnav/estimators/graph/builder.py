@@ -306,7 +306,9 @@ def mission_keyframes(mission, options: GraphOptions, completer=None,
     lever-arm calibration)."""
     from graphnav.estimators.replay import first_ping_time, replay
     ctx = GraphContext(mission.config, options)
-    keyframer = kfs.Keyframer(mission.config, keyframe_options, completer)
+    # Mission.validate warned about the pings after the IMU's end
+    said = dataclasses.replace(keyframe_options or kfs.KeyframeOptions(), late_pings_said=True)
+    keyframer = kfs.Keyframer(mission.config, said, completer)
     started = False
     t0 = first_ping_time(mission)
     for kind, t, payload in replay(mission):
