@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import warnings
 
 import numpy as np
@@ -442,3 +443,71 @@ def test_an_uncertain_clock_offset_is_applied_with_a_warning_saying_so(sim):
         warnings.simplefilter("always")
         align_stream_clocks(sim.imu, _shifted(sim.dvl, DAYS6), None, {}, sim.config)
     assert not [w for w in caught if "barely" in str(w.message)]
+
+
+def _beams_log(sim, folder, late_s: float, clock: str, offset_s: float | None = None):
+    """``sim`` as a column-map log in ``folder`` (Unix seconds, IMU FRD, DVL beams ``late_s`` s late); returns the
+    configuration path."""
+    folder.mkdir()
+    t0 = 1_700_000_000.0
+    _write(folder / "imu.csv", ["stamp", "ax", "ay", "az", "gx", "gy", "gz"],
+           [sim.imu.t + t0, sim.imu.f_b, sim.imu.omega_b])
+    _write(folder / "dvl.csv", ["stamp", "b1", "b2", "b3", "b4"], [sim.dvl.t + t0 + late_s, sim.dvl.beams])
+    cfg = sim.config.to_dict()
+    if offset_s is not None:
+        cfg["dvl_time_offset_s"] = offset_s
+    cfg["csv_columns"] = {
+        "imu": {"file": "imu.csv", "t": "stamp", "f_b": ["ax", "ay", "az"], "omega_b": ["gx", "gy", "gz"]},
+        "dvl": {"file": "dvl.csv", "t": "stamp", "beams": ["b1", "b2", "b3", "b4"], "clock": clock}}
+    (folder / "config.json").write_text(json.dumps(cfg))
+    return folder / "config.json"
+
+
+def test_a_dvl_on_the_imu_span_further_off_than_the_near_search_is_found(sim, tmp_path, monkeypatch):
+    """A DVL whose span overlaps the IMU's but further off than the near search (+-300 s; here narrowed to +-30 s so
+    that a 400 s log shows it: 80 s late, 80 % of its pings on the IMU span) was loaded that far off, only its pings
+    past the IMU's end counted (a 5400 s log 600 s late). Now every offset keeping the overlap is searched."""
+    from graphnav.calibration import clock
+    monkeypatch.setattr(clock, "NEAR_SEARCH_S", 30.0)
+    config = _beams_log(sim, tmp_path / "late", 80.0, "auto")
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset -80\.\d+ s"):
+        m = load_mission(config.parent, config)
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=0.1)
+    assert m.meta["streams"]["dvl"]["refused"] == {}
+
+
+def test_a_dvl_declared_on_the_imu_clock_but_off_it_is_refused_naming_the_offset(sim, tmp_path):
+    """``clock: imu`` and the DVL 60 s late: loaded 60 s off, its 60 pings past the IMU's end only counted. Now
+    refused naming the offset the IMU explains and how to give it; given, the log loads on the IMU clock."""
+    config = _beams_log(sim, tmp_path / "late", 60.0, "imu")
+    with pytest.raises(DataError, match=r"the DVL stamps, declared on the IMU clock \(csv_columns\.dvl\.clock 'imu'\), "
+                                        r"are not on it: .* at -60\.\d+ s .*: give dvl_time_offset_s (-60\.\d+)") as err:
+        load_mission(config.parent, config)
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "stamp"
+    offset = float(re.search(r"give dvl_time_offset_s (-60\.\d+)", str(err.value)).group(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = load_mission(config.parent, _beams_log(sim, tmp_path / "given", 60.0, "imu", offset))
+    np.testing.assert_allclose(m.dvl.t, sim.dvl.t, atol=0.1)
+
+
+@pytest.mark.parametrize("with_gt", [True, False])
+def test_an_akit_dvl_a_minute_off_on_the_imu_span_is_found(akit_dir, tmp_path, with_gt):
+    """An A-KIT DVL file 60 s late (85 % of its pings on the IMU span) was taken as on the IMU clock: with GT refused
+    as a DVL in another frame, without loaded 60 s off (the vehicle's default offset). Its clock is now found as a
+    DVL file days away is."""
+    import shutil
+
+    from graphnav.io.loaders import akit_files
+    src = akit_dir / "Trajectory5"
+    files = akit_files(src)
+    dst = tmp_path / src.name
+    dst.mkdir()
+    for kind in ("DVL", "IMU", "GT")[:3 if with_gt else 2]:
+        shutil.copy(files[kind], dst / files[kind].name)
+    shift_file_stamps(dst / files["DVL"].name, 60.0)
+    ref = load_akit(src, imu_axis_signs=(1, -1, 1))
+    with pytest.warns(RuntimeWarning, match=r"DVL clock offset -5\d\.\d+ s"):
+        m = load_akit(dst, imu_axis_signs=(1, -1, 1))
+    period = float(np.median(np.diff(ref.dvl.t)))
+    np.testing.assert_allclose(m.dvl.t, ref.dvl.t, atol=0.02 if with_gt else 0.1 * period)

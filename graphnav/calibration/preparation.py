@@ -17,7 +17,8 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    ``gt_time_offset_s="auto"`` matches gyro-integrated attitude increments with the GT's
    (reusing the axis check's estimate), then ``dvl_time_offset_s="auto"`` regresses the DVL velocity on the GT
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
-   DVL stamps lie off the IMU span (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
+   DVL stamps lie off the IMU span, or on it further off than that search reaches
+   (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
    DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
@@ -311,7 +312,7 @@ def _prepare_akit(mission: Mission, meta: dict, facts: dict, imu_axis_signs, gt_
     imu = ImuData(t_imu, f_b, omega_b, source=mission.imu.source)
     coarse, imu = _coarse_dvl_clock(imu, mission.dvl, meta, cfg) if auto else (0.0, imu)
     dvl = mission.dvl
-    if not on_the_imu_clock(dvl.t, t_imu):
+    if coarse or not on_the_imu_clock(dvl.t, t_imu):
         dvl = dataclasses.replace(dvl, t=dvl.t + (coarse if auto else float(dvl_time_offset_s)))
     imu = _gyro_against_dvl(imu, dvl, cfg, meta)
     omega_b = imu.omega_b
@@ -598,14 +599,13 @@ def _check_dvl_follows_gt(rms: float, source, gt: GroundTruth | None = None, imu
 
 
 def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig) -> tuple[float, ImuData]:
-    """``(offset, imu)``: 0 when the DVL stamps lie on the IMU's span (the published files); otherwise the DVL's
+    """``(offset, imu)``: 0 when the DVL stamps lie on the IMU's span (the published files), unless the clock search
+    finds them further off than the fine search reaches (:func:`_clock_beyond_the_fine_search`); otherwise the DVL's
     clock offset from the data (:func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta``), or
     DataError when it cannot be found, after the gyro's other scales (:func:`_gyro_finds_the_clock`, which may
     convert the ``imu`` returned) and the DVL's velocity turned about z (:func:`_turn_finds_the_clock`, which names
     a turn that finds it)."""
     t_dvl, t_imu = dvl.t, imu.t
-    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
-        return 0.0, imu
     from graphnav.calibration.clock import align_stream_clocks
     velocity_only = DvlData(t_dvl, *no_beams(len(t_dvl)), dvl.v_b, source=dvl.source)
 
@@ -613,12 +613,35 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
         aligned, _ = align_stream_clocks(imu_, dvl_, None, meta_, cfg, field="Time [s]",
                                          what_to_do=_GIVE_OFFSET.format(kind="DVL", stream="dvl"))
         return float(aligned.t[0] - dvl_.t[0])
+    if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
+        return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
     try:
         return _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
     except DataError as err:
         from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
         _turn_finds_the_clock(err, search, imu, velocity_only, cfg, meta, AKIT_DVL_FIXES, _akit_imu_frame(cfg))
         raise
+
+
+#: How far (s, either way) the fine DVL time-offset search against the GT reaches
+#: (:func:`graphnav.calibration.reference.estimate_dvl_time_offset`).
+DVL_OFFSET_SEARCH_S = 3.0
+
+
+def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig, meta: dict, search) -> float:
+    """0, or the clock offset (s) of an A-KIT DVL whose pings lie on the IMU span but further off than the fine search
+    reaches (:data:`DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta)`` where the IMU explains its velocity changes
+    poorly as stamped (under the clock search's ``MIN_PEAK``). 60 s late on a 400 s trajectory, it was refused as a
+    DVL in another frame (with GT) or loaded 60 s off (without). The published files' DVL, about 1 s early, explains
+    -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine search's reach, which is left to take
+    it, so they load as before."""
+    from graphnav.calibration.clock import MIN_PEAK, explained_as_stamped
+    if not explained_as_stamped(imu, dvl, cfg) < MIN_PEAK:
+        return 0.0
+    found = _trial(lambda meta_: search(imu, meta_), meta)
+    if found is None or abs(found) <= DVL_OFFSET_SEARCH_S:
+        return 0.0
+    return search(imu, meta)            # again, for its warning and notes
 
 
 def _akit_imu_frame(cfg: SensorConfig) -> dict:
@@ -700,6 +723,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
                                   facts.get("imu_frame") or {"what": "the body frame"})
             raise
         mission = dataclasses.replace(mission, imu=imu)
+    elif on_the_imu_clock(dvl.t, mission.imu.t):
+        _check_declared_clock(mission, dvl, given)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
     moved = facts.get("dvl_clock") == AUTO and dvl is not searched
     if (moved or not judged) and on_the_imu_clock(dvl.t, mission.imu.t):
@@ -735,6 +760,33 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _warn_no_heading(mission.config, meta.get("source", "bag"), meta)
     meta["prepared"] = True
     return dataclasses.replace(mission, dvl=dvl, depth=depth, meta=meta)
+
+
+def _check_declared_clock(mission: Mission, dvl: DvlData, given: float | None) -> None:
+    """DataError when a DVL declared on the IMU clock (``clock: imu``; ``dvl``: its stamps with the ``given``
+    ``dvl_time_offset_s`` added, s) is not on it: the IMU explains its velocity changes poorly at its stamps (under the
+    clock search's ``MIN_PEAK``) and clearly (``confident``) at an offset further than ``PEAK_EXCLUSION_S``, searched
+    over every offset keeping the overlap. A DVL 60 s late on a 600 s log was loaded 60 s off, its pings outside the
+    IMU span only counted. A log whose velocity changes hide in the DVL noise (-0.07..0.13 explained on simulated
+    600 s ones with the default beams) pays the search and is left as declared: no offset is clear."""
+    from graphnav.calibration.clock import (MIN_PEAK, PEAK_EXCLUSION_S, estimate_dvl_clock_offset,
+                                            explained_as_stamped)
+    here = explained_as_stamped(mission.imu, dvl, mission.config)
+    if not here < MIN_PEAK:
+        return
+    try:
+        est = estimate_dvl_clock_offset(mission.imu, dvl, mission.config)
+    except DataError:
+        return
+    if not (est.confident and abs(est.offset_s) > PEAK_EXCLUSION_S):
+        return
+    stamps = ((mission.config.csv_columns or {}).get("dvl") or {}).get("t", "t")
+    plus = f" plus the given dvl_time_offset_s {given:+.3f} s" if given else ""
+    raise DataError(f"the DVL stamps{plus}, declared on the IMU clock (csv_columns.dvl.clock 'imu'), are not on it: the "
+                    f"IMU's accelerations explain {max(here, 0.0):.2f} of the DVL's velocity changes at them, and at "
+                    f"{est.describe()}: give dvl_time_offset_s {(given or 0.0) + est.offset_s:+.3f} (s added to the DVL "
+                    "stamps) in the configuration, or set csv_columns.dvl.clock to 'auto' to have it found",
+                    dvl.source, field=stamps)
 
 
 def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: dict, imu_frame: dict | None,

@@ -64,7 +64,8 @@ may run on a clock of its own (seconds or days away): with ``"dvl": {"clock": "a
 is estimated from the data and applied when the mission is prepared (:func:`graphnav.calibration.preparation.prepare`
 through :func:`graphnav.calibration.clock.align_stream_clocks`, noted in ``meta["streams"]["dvl"]`` and
 ``meta["clock_offsets"]``); ``"clock": "imu"`` declares the DVL stamps on the
-IMU clock already.
+IMU clock already (refused where the data put them clearly elsewhere,
+:func:`graphnav.calibration.preparation._check_declared_clock`).
 Bad input is reported with the file, the 1-based line and the column (:class:`graphnav.core.errors.DataError`).
 An IMU, depth or reference row with an empty, NaN or infinite cell is refused (counted, warned with its line and
 column), as are reference rows whose velocity the vehicle cannot have or whose position jumps where its velocity
