@@ -22,15 +22,19 @@ from graphnav.sim.simulate import simulate_mission
 KNOT = 1852.0 / 3600.0
 
 
-@pytest.fixture(scope="module")
-def sim():
+def _simulated(duration_s):
     # beam noise 5 mm/s (the A-KIT DVL shows 5-15 mm/s): the simulator's gentle manoeuvres then show in the velocity
     # changes as clearly as the A-KIT vehicle's do (r^2 0.97 against 0.98-1.0)
     cfg = SensorConfig()
     cfg.dvl = dataclasses.replace(cfg.dvl, beam_noise_std=0.005)
-    m = simulate_mission(300.0, seed=1, config=cfg)
+    m = simulate_mission(duration_s, seed=1, config=cfg)
     t, v_b = dvl_velocity_b(m.dvl, m.config)
     return m, t, v_b
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return _simulated(300.0)
 
 
 def _write(path, header, columns):
@@ -477,6 +481,47 @@ def test_an_imu_turned_with_the_dvl_on_a_clock_of_its_own_is_refused_naming_the_
         _load(folder)
 
 
+@pytest.fixture(scope="module")
+def sim600():
+    # the 600 s mission of the clock-search table in docs/decisions/units-clocks-axes.md: in knots read as m/s, 229 of
+    # its pings are beyond the vehicle's 4 m/s, in one stretch
+    return _simulated(600.0)
+
+
+@pytest.mark.parametrize("turn", [0.0, 90.0])
+def test_knots_read_as_m_s_with_the_dvl_a_day_off_are_refused_naming_the_unit_not_loaded_off(sim600, tmp_path,
+                                                                                              turn):
+    """Knots with no velocity_unit, the DVL a day off, clock auto: the envelope refused 229 pings, the window across
+    the hole they leave spoiled the true offset, and the clock search settled 252 s off (explained 0.34): loaded there
+    with warnings only. Turned 90 deg too, the turn was announced at that offset. Now the knots are named."""
+    from graphnav.calibration.dvl_scale import turn_about_z
+    m, t, v_b = sim600
+    v = v_b @ turn_about_z(turn).T / KNOT
+    said = (r"declare csv_columns\.dvl\.velocity_unit 'kn'$" if not turn else
+            r"refused for their speed, and a turn of \+90 deg about z finds the clock only at -86651\.\d+ s, where "
+            r"\d+ of the \d+ pings on the IMU span are among those without a velocity: .*the velocity's unit is the "
+            r"likelier fault: declare csv_columns\.dvl\.velocity_unit$")
+    with pytest.raises(DataError, match=said) as err:
+        _load(_folder(tmp_path, sim600, v, {"clock": "auto"}, shift=86400.0))
+    assert err.value.source.endswith("dvl.csv")
+    if not turn:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            got = _load(_folder(tmp_path, sim600, v, {"clock": "auto", "velocity_unit": "kn"}, shift=86400.0))
+        assert got.config.dvl_time_offset_s == pytest.approx(-86400.0, abs=0.05)
+
+
+def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
+    """A DVL turned 100 deg on a clock of its own was named turned "+90 deg"; a turn of 180 deg was printed -180."""
+    from graphnav.calibration import dvl_scale
+    m, t, v_b = sim
+    with pytest.raises(DataError, match=r"read as turned about \+90 deg about z \(the quarter turn and \+(9|10)\.\d "
+                                        r"deg more, which the DVL's turn check warns about"):
+        _load(_folder(tmp_path, sim, v_b @ dvl_scale.turn_about_z(100.0).T, {"clock": "auto"}, shift=86400.0))
+    err = dvl_scale._either_turned(m.imu, m.dvl, {"what": "x", "fields": "f"}, 100.0, 180, float("nan"))
+    assert "its velocity +180 deg about z" in str(err)
+
+
 def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_about_or_refused():
     # The DVL's own yaw fit explains too little here (r2 0.33: a vehicle holding its speed) to warn; the IMU-turn
     # fit still sees the turn (q 1341) and the velocity points forward only turned back: the DVL is the one turned.
@@ -507,9 +552,10 @@ def test_a_dvl_turned_90_deg_on_a_vehicle_holding_its_speed_is_still_warned_abou
                                              fixes=dvl_scale.AKIT_DVL_FIXES)
 
 
-def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False):
+def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False, imu_signs=(1, 1, 1), dvl_shift=0.0):
     """The IMU and DVL files of the A-KIT folder ``src`` cut to ``seconds`` from ``start`` (no GT file, as a vehicle
-    has them, unless ``gt``) in ``dst``, the DVL velocity columns multiplied by ``C`` (3,3)."""
+    has them, unless ``gt``) in ``dst``, the DVL velocity columns multiplied by ``C`` (3,3) and its stamps moved
+    ``dvl_shift`` s, the IMU's axes by ``imu_signs``."""
     from graphnav.io.loaders import AKIT_COLUMNS, akit_files, read_csv
     dst = dst / src.name
     dst.mkdir(parents=True)
@@ -520,9 +566,30 @@ def _akit_crop_without_gt(src, dst, C, seconds=200.0, start=0.0, gt=False):
         rows = rows[(rows[:, 0] >= start) & (rows[:, 0] <= start + seconds)]
         if kind == "DVL":
             rows[:, 1:4] = rows[:, 1:4] @ np.asarray(C).T
+            rows[:, 0] += dvl_shift
+        if kind == "IMU":
+            rows[:, 1:] *= np.tile(imu_signs, 2)
         np.savetxt(dst / path.name, rows, delimiter=",", fmt="%.12g", comments="", header=",".join(AKIT_COLUMNS[kind]))
     return dst
 
+
+def test_an_akit_imu_turned_180_deg_loads_as_advised_without_a_doubt(akit_dir, tmp_path):
+    """Trajectory1 without GT, its IMU's x and y negated, its DVL a day off: refused advising imu_axis_signs
+    (-1, 1, 1), which loaded it right but warned that the data say (1, -1, 1) (the gravity/gyro check takes x
+    forward, blind to a turn about z) and told to set it to null, which brings the refusal back."""
+    src = _akit_crop_without_gt(akit_dir / "Trajectory1", tmp_path, np.eye(3), imu_signs=(-1, -1, 1),
+                                dvl_shift=86400.0)
+    with pytest.raises(DataError, match=r"set imu_axis_signs \(-1, 1, 1\) in a --config file"):
+        _load((src, None))
+    cfg = SensorConfig().to_dict()
+    cfg["imu_axis_signs"] = [-1, 1, 1]
+    (tmp_path / "config.json").write_text(json.dumps(cfg))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = _load((src, tmp_path / "config.json"))
+    assert not [w for w in caught if "imu_axis_signs" in str(w.message)], [str(w.message) for w in caught]
+    assert got.config.dvl_time_offset_s == pytest.approx(-86399.0, abs=0.1)
+    assert "imu_axis_signs used as given though the data disagree" not in got.meta["streams"]["imu"].get("doubted", {})
 
 
 def _turned(deg):

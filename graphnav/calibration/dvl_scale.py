@@ -632,7 +632,7 @@ def _either_turned(imu, dvl, frame: dict, q: float, yaw: int, course: float, car
                      f"IMU turned ({IMU_YAW_MIN_Q:g} needed), but {why}, so the data cannot say which "
                      f"instrument is turned. IMU turned against {frame['what']} ({mounting_text(turn_about_z(yaw))}): "
                      f"{_imu_turn_fix(yaw, frame)}; DVL turned (its velocity "
-                     f"{(yaw + 180) % 360 - 180:+d} deg about z from the IMU's axes): {dvl_fix}", imu.source,
+                     f"{signed_turn(yaw):+d} deg about z from the IMU's axes): {dvl_fix}", imu.source,
                      field=frame["fields"])
 
 

@@ -69,12 +69,14 @@ from pathlib import Path
 import numpy as np
 
 from graphnav.core.config import SensorConfig
+from graphnav.core.dvl_kinematics import dvl_velocity_b
 from graphnav.core.earth import gravity_magnitude
 from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
 from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
 from graphnav.io.dvl_frame import CARRIED
+from graphnav.io.units import judged_velocity_unit, unit_fix
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
 #: that is still the same vehicle in the same frame: 0.007-0.044 m/s on the ten shared trajectories (0.044 on
@@ -417,11 +419,15 @@ def _beyond_the_fine_search(data, offset_s: float, imu: ImuData) -> bool:
 
 def _judge_given_signs(mission: Mission, meta: dict, facts: dict, signs: np.ndarray):
     """The axis detection (:func:`detect_akit_axis_signs`, its own warning left out) run to judge the
-    ``imu_axis_signs`` a configuration file gave: a warning (:func:`_doubt_given`) when it decides on others."""
+    ``imu_axis_signs`` a configuration file gave: a warning (:func:`_doubt_given`) when it decides on others. Without
+    a GT it takes x forward, blind to a turn about z: signs that differ from its only by x and y both negated (a turn
+    of 180 deg about z) are the DVL's to judge (:func:`_prepare_akit_without_gt`), as the clock search's refusal that
+    advised them did."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         detection = detect_akit_axis_signs(mission, facts.get("gt_mean_depth_m"))
-    if detection.decided and not np.array_equal(np.asarray(detection.signs, float), signs):
+    turned = mission.gt is None and np.array_equal(np.asarray(detection.signs, float) * signs, [-1.0, -1.0, 1.0])
+    if detection.decided and not turned and not np.array_equal(np.asarray(detection.signs, float), signs):
         _doubt_given(meta, facts, "imu_axis_signs", "imu", len(mission.imu.t), tuple(int(x) for x in signs),
                      f"the data say {tuple(int(x) for x in detection.signs)}"
                      + (f" ({'; '.join(detection.notes)})" if detection.notes else ""))
@@ -615,12 +621,15 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
         return float(aligned.t[0] - dvl_.t[0])
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
+    from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
     try:
-        return _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
+        found = _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
     except DataError as err:
-        from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
+        _unit_finds_the_clock(err, search, imu, velocity_only, cfg, meta, None, AKIT_DVL_FIXES)
         _turn_finds_the_clock(err, search, imu, velocity_only, cfg, meta, AKIT_DVL_FIXES, _akit_imu_frame(cfg))
         raise
+    _unit_finds_the_clock(None, search, found[1], velocity_only, cfg, meta, None, AKIT_DVL_FIXES)
+    return found
 
 
 #: How far (s, either way) the fine DVL time-offset search against the GT reaches
@@ -718,10 +727,13 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
                 lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu,
                 searched, mission.config, meta)
         except DataError as err:
-            _unit_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, facts.get("dvl_unit"))
+            _unit_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, judged_velocity_unit(meta),
+                                  _dvl_fixes(facts))
             _turn_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, _dvl_fixes(facts),
-                                  facts.get("imu_frame") or {"what": "the body frame"})
+                                  facts.get("imu_frame") or {"what": "the body frame"}, judged_velocity_unit(meta))
             raise
+        _unit_finds_the_clock(None, search, imu, searched, mission.config, meta, judged_velocity_unit(meta),
+                              _dvl_fixes(facts))
         mission = dataclasses.replace(mission, imu=imu)
     elif on_the_imu_clock(dvl.t, mission.imu.t):
         _check_declared_clock(mission, dvl, given)
@@ -799,7 +811,6 @@ def _judge_dvl_against_imu(mission: Mission, dvl: DvlData, meta: dict, facts: di
     loader could not check it for an earth frame by the body kinematics: checked too. DataError or warnings as
     those say."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, check_velocity_against_imu
-    from graphnav.io.units import judged_velocity_unit
     check_declared_velocity_unit(mission.imu, dvl, mission.config, meta, judged_velocity_unit(meta))
     check_velocity_against_imu(mission.imu, dvl, mission.config, meta, moved=moved, imu_frame=imu_frame,
                                fixes=_dvl_fixes(facts), reference=mission.gt)
@@ -1006,36 +1017,115 @@ def _trial(run, meta: dict) -> float | None:
         return None
 
 
-def _unit_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
-                          declared: dict | None) -> None:
+def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlData, config: SensorConfig,
+                          meta: dict, declared: dict | None, fixes: dict) -> None:
     """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
-    ``err``: a declared velocity unit 100x too small leaves the velocity's
-    changes within its noise, which hides the clock, and the search then asks for a ``dvl_time_offset_s`` under which
-    the wrong unit would load unseen. The search is tried with the velocity in each other plausible unit
-    (:func:`~graphnav.calibration.dvl_scale.other_velocity_units`); where one finds the clock, the declared unit is
+    ``err``, or found a clock (``err`` None: ``meta["clock_offsets"]["dvl"]``), it is tried with the velocity in each
+    other plausible unit (:func:`~graphnav.calibration.dvl_scale.other_velocity_units`) than the one ``declared``
+    (a loader's taken unit has ``"taken": True``; None: m/s, fixed by the format, ``fixes["unit"]`` says what to do):
+    a declared unit 100x too small leaves the velocity's changes within its noise, which hides the clock; knots read as
+    m/s put the vehicle beyond its envelope, and the hole its refused pings leave let the search settle on a weak peak
+    252 s off. Tried where the search failed on a declared unit, or where pings were refused for their speed
+    (:func:`_speed_refused`). Where another unit finds the clock (more clearly than the one found), the unit is
     judged there (:func:`~graphnav.calibration.dvl_scale.check_declared_velocity_unit`, a DataError naming the key),
-    else a DataError adds to ``err`` the unit that found it. Returns when none does (``err`` stands)."""
+    else a DataError adds that unit's clock to ``err`` (or the clock found). A clock found that no unit beats is then
+    judged for the hole (:func:`_refuse_a_clock_by_a_hole`). Returns when nothing is wrong (``err`` stands)."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, other_velocity_units
-    from graphnav.core.dvl_kinematics import dvl_velocity_b
-    if not declared:
+    refused = _speed_refused(meta)
+    if not refused and (err is None or not declared or declared.get("taken")):
         return
-    speed = float(np.nanmedian(np.linalg.norm(dvl_velocity_b(dvl, config)[1], axis=1)))
-    for unit, k in other_velocity_units(declared["unit"], speed, config).items():
-        def scaled(a):
-            return None if a is None else a * k
-        rescaled = dataclasses.replace(dvl, beams=scaled(dvl.beams), v_b=scaled(dvl.v_b), v_d=scaled(dvl.v_d),
-                                       v_d_sigma=scaled(dvl.v_d_sigma))
-        offset = _trial(lambda meta_: search(imu, meta_, rescaled), meta)
-        if offset is None:
+    found = None if err is not None else meta["clock_offsets"]["dvl"]
+    unit = declared["unit"] if declared else "m/s"
+    t, v = dvl_velocity_b(dvl, config)
+    for other, k in other_velocity_units(unit, float(np.median(np.linalg.norm(v, axis=1))), config).items():
+        est = _trial_estimate(search, imu, DvlData(t, *no_beams(len(t)), v * k, source=dvl.source), meta)
+        if est is None or found is not None and not est["peak"] > found["peak"]:
             continue
-        check_declared_velocity_unit(imu, dataclasses.replace(dvl, t=dvl.t + offset), config, meta, declared)
-        raise DataError(f"{err.message}; with the velocity in {unit!r} instead of the declared {declared['unit']!r} "
-                        f"the search finds the DVL clock at {offset:+.3f} s: check {declared['key']}", err.source,
-                        err.line, err.field) from err
+        if declared:
+            shifted = dataclasses.replace(dvl, t=dvl.t + est["offset_s"])
+            check_declared_velocity_unit(imu, shifted, config, meta, declared)
+        said = "the declared " if declared and not declared.get("taken") else ""
+        raise DataError(f"{_clock_said(err, found)}; with the velocity in {other!r} instead of {said}{unit!r} the "
+                        f"search finds the DVL clock at {est['offset_s']:+.3f} s (the IMU explains {est['peak']:.2f} "
+                        f"of its velocity changes there){_speed_said(meta, refused)}: "
+                        f"{_unit_advice(declared, fixes, other)}", *_where(err, dvl, meta, fixes)) from err
+    if found is not None:
+        _refuse_a_clock_by_a_hole(None, found["offset_s"], imu, dvl, meta, declared, fixes)
+
+
+def _trial_estimate(search, imu: ImuData, dvl: DvlData, meta: dict) -> dict | None:
+    """The DVL clock ``search(imu, meta, dvl)`` as a :func:`_trial`: its estimate (``clock_offsets["dvl"]``), None
+    where it finds none."""
+    tried: list[dict] = []
+
+    def run(meta_: dict) -> float:
+        tried.append(meta_)
+        return search(imu, meta_, dvl)
+    return None if _trial(run, meta) is None else tried[0]["clock_offsets"]["dvl"]
+
+
+def _speed_refused(meta: dict) -> int:
+    """DVL pings the loader refused for their speed (beyond the vehicle's envelope or a beam beyond its speed)."""
+    refused = meta.get("streams", {}).get("dvl", {}).get("refused", {})
+    return sum(n for reason, n in refused.items() if "speed" in reason or "beam beyond" in reason)
+
+
+def _speed_said(meta: dict, refused: int) -> str:
+    """How many pings were refused for their speed, for a message; '' for none."""
+    read = meta.get("streams", {}).get("dvl", {}).get("read")
+    return f"; as read, {refused}{f' of {read}' if read else ''} pings were refused for their speed" if refused else ""
+
+
+def _unit_advice(declared: dict | None, fixes: dict, unit: str | None = None) -> str:
+    """What to do about a DVL velocity unit the data contradict (``unit``: the one that fits, when known)."""
+    if not declared:
+        return fixes["unit"] or "check the DVL velocity's unit"
+    if declared.get("taken"):
+        return unit_fix(declared, unit) if unit else f"declare {declared['key']}"
+    return f"check {declared['key']} (declared {declared['unit']!r})"
+
+
+def _clock_said(err: DataError | None, found: dict | None) -> str:
+    """The failed search's message, or the clock it found."""
+    return err.message if err is not None else (f"the DVL clock search finds the offset {found['offset_s']:+.3f} s "
+                                                f"(the IMU explains {found['peak']:.2f} of its velocity changes there)")
+
+
+def _where(err: DataError | None, dvl: DvlData, meta: dict, fixes: dict) -> tuple:
+    """``(source, line, field)`` of a DataError about the DVL clock: ``err``'s, else the DVL's velocity fields (an
+    A-KIT file's columns: ``fixes`` that cannot declare)."""
+    from graphnav.io.loaders import AKIT_COLUMNS
+    field = meta.get("stream_fields", {}).get("dvl") or (
+        "velocity" if fixes["declare"] else "/".join(AKIT_COLUMNS["DVL"][1:4]))
+    return (err.source, err.line, err.field) if err is not None else (dvl.source, None, field)
+
+
+#: A clock found with this share or more of the pings it puts on the IMU span left without a velocity (refused for
+#: their speed) rests on a hole, not on the vehicle's motion: knots read as m/s, 229 of 600 pings refused, put 228 of
+#: the 348 pings on the IMU span at 252 s off into the hole (0.66). A clean clock leaves none there.
+HOLE_SHARE = 0.5
+
+
+def _refuse_a_clock_by_a_hole(err: DataError | None, offset: float, imu: ImuData, dvl: DvlData, meta: dict,
+                              declared: dict | None, fixes: dict, what: str = "") -> None:
+    """A DataError when pings were refused for their speed and the DVL clock ``offset`` (s; found as read, or by a
+    turn, ``what``) puts :data:`HOLE_SHARE` or more of the pings on the IMU span among those without a velocity: the
+    unit is the likelier fault, which no turn or clock fixes. ``err``: the failed search's, added to."""
+    refused = _speed_refused(meta)
+    t, t_with = dvl.t + offset, dvl_velocity_b(dvl, None)[0] + offset
+    on = (t >= imu.t[0]) & (t <= imu.t[-1])
+    hole = int(on.sum()) - int(((t_with >= imu.t[0]) & (t_with <= imu.t[-1])).sum())
+    if not refused or not hole >= HOLE_SHARE * max(int(on.sum()), 1):
+        return
+    raise DataError(f"{_clock_said(err, None if err is not None else meta['clock_offsets']['dvl'])}"
+                    f"{_speed_said(meta, refused)}, and {what or 'the search settles on'} {offset:+.3f} s, where "
+                    f"{hole} of the {int(on.sum())} pings on the IMU span are among those without a velocity: a clock "
+                    "beside the hole they leave, not the vehicle's motion; the velocity's unit is the likelier fault: "
+                    f"{_unit_advice(declared, fixes)}", *_where(err, dvl, meta, fixes)) from err
 
 
 def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
-                          fixes: dict, frame: dict) -> None:
+                          fixes: dict, frame: dict, declared: dict | None = None) -> None:
     """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
     ``err``: a DVL or an IMU mounted turned about z, in a frame the configuration does not say, leaves the DVL's
     velocity changes unexplained at every offset, and the search blamed the clock. It is tried with the DVL velocity
@@ -1043,28 +1133,49 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
     (:data:`~graphnav.calibration.dvl_scale.IMU_YAWS_DEG`); the first that finds a clear clock is a DataError adding
     to ``err`` the turn, the offset it gives and what to configure
     (:func:`~graphnav.calibration.dvl_scale.turn_found`: ``fixes`` for the DVL, ``frame`` for the IMU). The data are
-    never read turned. Returns when no turn finds the clock (``err`` stands)."""
+    never read turned. A turn whose clock rests on the hole pings refused for their speed leave is not announced: the
+    unit (``declared``, as :func:`_unit_finds_the_clock` takes it) is named instead (:func:`_refuse_a_clock_by_a_hole`).
+    Returns when no turn finds the clock (``err`` stands)."""
     from graphnav.calibration.dvl_scale import IMU_YAWS_DEG, signed_turn, turn_about_z, turn_found
-    from graphnav.core.dvl_kinematics import dvl_velocity_b
     t, v = dvl_velocity_b(dvl, config)
     for yaw in IMU_YAWS_DEG:
         turned = DvlData(t, *no_beams(len(t)), v @ turn_about_z(yaw), source=dvl.source)
-        tried: list[dict] = []              # the trial's meta, which keeps the estimate
-
-        def run(meta_: dict, turned: DvlData = turned) -> float:
-            tried.append(meta_)
-            return search(imu, meta_, turned)
-        offset = _trial(run, meta)
-        if offset is None:
+        est = _trial_estimate(search, imu, turned, meta)
+        if est is None:
             continue
-        est = tried[0]["clock_offsets"]["dvl"]
-        raise DataError(f"{err.message}; but read as turned {signed_turn(yaw):+d} deg about z from the IMU's axes "
-                        f"(the velocity turned back into them), the DVL finds its clock at {offset:+.3f} s (the IMU "
-                        f"explains {est['peak']:.2f} of its velocity changes there, {est['second_peak']:.2f} at the "
-                        f"next best offset): not the clock but a mounting turned about z. "
-                        f"{turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
+        offset = est["offset_s"]
+        _refuse_a_clock_by_a_hole(err, offset, imu, dvl, meta, declared, fixes,
+                                  f"a turn of {signed_turn(yaw):+d} deg about z finds the clock only at")
+        raise DataError(f"{err.message}; but read as turned {_quarter_turn_said(imu, turned, offset, config, yaw)} "
+                        f"from the IMU's axes (the velocity turned back into them), the DVL finds its clock at "
+                        f"{offset:+.3f} s (the IMU explains {est['peak']:.2f} of its velocity changes there, "
+                        f"{est['second_peak']:.2f} at the next best offset): not the clock but a mounting turned about "
+                        f"z. {turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
                         "mounting fixed, the clock search finds the offset itself", err.source, err.line,
                         err.field) from err
+
+
+#: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.
+TURN_REMAINDER_SAID_DEG = 1.0
+
+
+def _quarter_turn_said(imu: ImuData, turned: DvlData, offset: float, config: SensorConfig, yaw: int) -> str:
+    """The quarter turn ``yaw`` (deg) a DVL clock was found with (at ``offset`` s, ``turned`` the velocity turned back
+    by it), as a message says it: "+90 deg", or "about +90 deg (... and X deg more ...)" where the DVL's own fit
+    there finds a remainder (a DVL mounted 100 deg off), which the DVL's turn check warns about once the quarter turn
+    is configured."""
+    from graphnav.calibration.dvl_scale import signed_turn, speed_scale
+    from graphnav.core.dvl_kinematics import dvl_window_model
+    said = f"{signed_turn(yaw):+d} deg about z"
+    try:
+        rest = float(np.degrees(speed_scale(dvl_window_model(imu, dataclasses.replace(turned, t=turned.t + offset),
+                                                             config)[0])[2]))
+    except DataError:
+        return said
+    if not abs(rest) >= TURN_REMAINDER_SAID_DEG:
+        return said
+    return (f"about {said} (the quarter turn and {rest:+.1f} deg more, which the DVL's turn check warns about once the "
+            "quarter turn is configured)")
 
 
 #: A DVL time offset given for a log or bag is doubted when the DVL clock fit (the DVL's velocity changes against the
