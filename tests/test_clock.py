@@ -480,8 +480,9 @@ def test_a_dvl_declared_on_the_imu_clock_but_off_it_is_refused_naming_the_offset
     """``clock: imu`` and the DVL 60 s late: loaded 60 s off, its 60 pings past the IMU's end only counted. Now
     refused naming the offset the IMU explains and how to give it; given, the log loads on the IMU clock."""
     config = _beams_log(sim, tmp_path / "late", 60.0, "imu")
-    with pytest.raises(DataError, match=r"the DVL stamps, declared on the IMU clock \(csv_columns\.dvl\.clock 'imu'\), "
-                                        r"are not on it: .* at -60\.\d+ s .*: give dvl_time_offset_s (-60\.\d+)") as err:
+    named = (r"the DVL stamps, declared on the IMU clock \(csv_columns\.dvl\.clock 'imu'\), are not on it: .* at "
+             r"-60\.\d+ s .*: give dvl_time_offset_s (-60\.\d+)")
+    with pytest.raises(DataError, match=named) as err:
         load_mission(config.parent, config)
     assert err.value.source.endswith("dvl.csv") and err.value.field == "stamp"
     offset = float(re.search(r"give dvl_time_offset_s (-60\.\d+)", str(err.value)).group(1))

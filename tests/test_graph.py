@@ -86,8 +86,9 @@ def test_pings_after_the_imu_ends_are_warned_about_once_with_their_count_and_tim
 
 
 def test_a_replayed_missions_pings_after_the_imu_ends_are_warned_about_once_by_the_mission():
-    """A recorded mission's pings after the IMU's end are warned about and counted when it is built (``Mission.validate``,
-    the count in summary.json); the replay's keyframer dropped them with a second warning naming a count not shown."""
+    """A recorded mission's pings after the IMU's end are warned about and counted when it is built
+    (``Mission.validate``, the count in summary.json); the replay's keyframer dropped them with a second warning naming
+    a count not shown."""
     m = simulate_mission(20, seed=3)
     late = dataclasses.replace(m.dvl, t=m.dvl.t + 2.0)
     with pytest.warns(RuntimeWarning) as caught:

@@ -794,10 +794,10 @@ def _check_declared_clock(mission: Mission, dvl: DvlData, given: float | None) -
         return
     stamps = ((mission.config.csv_columns or {}).get("dvl") or {}).get("t", "t")
     plus = f" plus the given dvl_time_offset_s {given:+.3f} s" if given else ""
-    raise DataError(f"the DVL stamps{plus}, declared on the IMU clock (csv_columns.dvl.clock 'imu'), are not on it: the "
-                    f"IMU's accelerations explain {max(here, 0.0):.2f} of the DVL's velocity changes at them, and at "
-                    f"{est.describe()}: give dvl_time_offset_s {(given or 0.0) + est.offset_s:+.3f} (s added to the DVL "
-                    "stamps) in the configuration, or set csv_columns.dvl.clock to 'auto' to have it found",
+    raise DataError(f"the DVL stamps{plus}, declared on the IMU clock (csv_columns.dvl.clock 'imu'), are not on it: "
+                    f"the IMU's accelerations explain {max(here, 0.0):.2f} of the DVL's velocity changes at them, and "
+                    f"at {est.describe()}: give dvl_time_offset_s {(given or 0.0) + est.offset_s:+.3f} (s added to the "
+                    "DVL stamps) in the configuration, or set csv_columns.dvl.clock to 'auto' to have it found",
                     dvl.source, field=stamps)
 
 
