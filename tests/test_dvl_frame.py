@@ -511,6 +511,23 @@ def test_knots_read_as_m_s_with_the_dvl_a_day_off_are_refused_naming_the_unit_no
         assert got.config.dvl_time_offset_s == pytest.approx(-86400.0, abs=0.05)
 
 
+def test_a_few_speed_spikes_on_a_dvl_whose_clock_is_found_are_not_searched_again_in_other_units(sim600, tmp_path,
+                                                                                                 monkeypatch):
+    """1 % of the pings at 3x speed, refused by the envelope, with a clock found: the search ran again in each other
+    unit (a log 9.5 -> 27.7 s at 5400 s) though a few spikes leave no hole a clock could settle on."""
+    from graphnav.calibration import preparation
+    m, t, v_b = sim600
+    v = v_b.copy()
+    v[::100] *= 3.0
+    tried = []
+    monkeypatch.setattr(preparation, "_trial_estimate", lambda *a: tried.append(a) or None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, sim600, v, {"clock": "auto"}, shift=30.0))
+    assert got.config.dvl_time_offset_s == pytest.approx(-30.0, abs=0.05)
+    assert tried == []
+
+
 def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
     """A DVL turned 100 deg on a clock of its own was named turned "+90 deg"; a turn of 180 deg was printed -180."""
     from graphnav.calibration import dvl_scale
