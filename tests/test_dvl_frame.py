@@ -996,3 +996,83 @@ def test_an_earth_frame_velocity_the_kinematics_noise_allowance_keeps_is_warned_
                                             r"declare csv_columns.dvl.frame 'ned'"):
         got = _load(_folder(tmp_path, (m_slow, t, None), v_n))
     assert got.meta["streams"]["dvl"]["doubted"] == {FRAME_DOUBT: len(t)}
+
+
+def _slow_seconds_off(sim, tmp_path, velocity="body", shift=7.3, dvl_entry=None, given=None):
+    """The 0.35 m/s vehicle in a 0.7 m/s current (seed 0, 200 s) of the sim's IMU rate as a column map whose DVL
+    stamps are ``shift`` s late (``velocity``: ``body`` as recorded, or its NED copy, whose turn ratio is near 1 for
+    the vehicle in a 0.3 m/s current); ``given``: ``dvl_time_offset_s``."""
+    m, _, _ = sim
+    current = 0.7 if velocity == "body" else 0.3
+    t_imu, f_b, omega_b, t, v_b, v_n = _slow_in_current(0, 0.35, current, 200.0, 0.01, ned=True)
+    slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    folder = _folder(tmp_path, (slow, t, None), v_b if velocity == "body" else v_n, dvl_entry or {"clock": "auto"},
+                     shift=shift)
+    return (folder if given is None else _given_clock(folder, given)), t, v_b
+
+
+@pytest.mark.parametrize("clock, given", [("auto", None), ("auto", -7.3), ("imu", -7.3)])
+def test_a_slow_vehicle_in_a_current_whose_dvl_is_seconds_off_is_kept_as_body(sim, tmp_path, clock, given):
+    """The DVL 7.3 s late overlaps the IMU span, so the loader judged it at its stamps as if on the IMU clock (turn
+    ratio 0.95, kinematics 1.58 against 1.046) and refused it as earth-fixed, telling to declare NED for a body log;
+    giving the right offset did not help, judged before it was added. Now a clock found by the search is judged at
+    each reading's own best offset (body -7.20 s), a given one at the given offset (kinematics 0.565): kept as body,
+    said once, with its columns listed as the loader lists them."""
+    folder, t, v_b = _slow_seconds_off(sim, tmp_path, dvl_entry={"clock": clock}, given=given)
+    got = _load(folder)
+    assert got.config.dvl_time_offset_s == pytest.approx(-7.3, abs=0.15)
+    carried = [n for n in got.meta["streams"]["dvl"]["notes"] if "a vehicle slower than the current" in n]
+    assert len(carried) == 1 and carried[0].startswith("velocity columns ['vx', 'vy', 'vz'] turn with"), carried
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+
+
+def test_a_slow_vehicle_in_a_current_whose_dvl_is_seconds_off_is_noted_once_after_the_clock_search(sim, tmp_path):
+    """The vehicle above 2 s late: kept by the loader at its stamps and again after the clock search put it on the
+    IMU clock, it was noted twice, its columns listed ``['vx', 'vy', 'vz']`` then ``['vx, vy, vz']``. One note now, the
+    later judgement's."""
+    folder, _, _ = _slow_seconds_off(sim, tmp_path, shift=2.0)
+    got = _load(folder)
+    carried = [n for n in got.meta["streams"]["dvl"]["notes"] if "turn with the vehicle" in n]
+    assert len(carried) == 1 and carried[0].startswith("velocity columns ['vx', 'vy', 'vz']"), carried
+    assert "each reading at its own best DVL clock offset" in carried[0]
+
+
+def test_an_earth_frame_velocity_turning_about_as_the_gyro_turns_seconds_off_is_refused(sim, tmp_path):
+    """The NED copy of a 0.35 m/s vehicle in a 0.3 m/s current, its DVL 7.3 s late (``clock: auto``): its turn ratio
+    is near 1 (1.39 at its stamps, 1.02 on the IMU clock), so the kinematics (1.54, 2.55) never judged it, and the
+    clock search finding no clear offset left it on its stamps with a note: loaded as body. Now refused by the
+    kinematics, which judge a turn ratio under 2."""
+    folder, _, _ = _slow_seconds_off(sim, tmp_path, velocity="ned")
+    with pytest.raises(DataError, match=r"is 1\.39 of its turn .*under 2 the body kinematics judge it\).*: it is "
+                                        r"earth-fixed \(NED/ENU\): declare csv_columns\.dvl\.frame 'ned'") as err:
+        _load(folder)
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
+
+
+def test_a_dvl_clock_the_search_cannot_find_is_warned_about_and_counted(sim, tmp_path):
+    """The body-frame velocity of the 0.35 m/s vehicle in a 0.3 m/s current with 0.03 m/s of noise, 7.3 s late
+    (``clock: auto``): the clock search finds no clear offset and the stamps were kept as read with a note only (the
+    velocity fused 7.3 s off). Now a warning, and every ping counted."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(0, 0.35, 0.3, 200.0, 0.03)
+    slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with pytest.warns(RuntimeWarning, match=r"dvl\.csv: DVL clock offset not found .*no clear offset.*kept as read.*: "
+                                            r"declare csv_columns\.dvl\.clock 'imu' .* give dvl_time_offset_s"):
+        got = _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
+    from graphnav.calibration.preparation import CLOCK_NOT_FOUND
+    assert got.meta["streams"]["dvl"]["doubted"] == {CLOCK_NOT_FOUND: len(t)}
+
+
+def test_a_slow_vehicle_kept_at_its_own_offset_whose_clock_the_search_cannot_find_is_refused_naming_the_clock(
+        sim, tmp_path):
+    """The vehicle above with 0.03 m/s of noise, 7.3 s late (``clock: auto``): refused as earth-fixed before, told to
+    declare NED for a body log. Kept as body only at its own best offset, its clock not found by the search, it is
+    refused naming the clock; judged at its stamps as read, it was blamed on an IMU turned 270 deg."""
+    m, _, _ = sim
+    t_imu, f_b, omega_b, t, v_b = _slow_in_current(0, 0.35, 0.7, 200.0, 0.03)
+    slow = dataclasses.replace(m, imu=dataclasses.replace(m.imu, t=t_imu, f_b=f_b, omega_b=omega_b))
+    with pytest.raises(DataError, match=r"DVL clock offset not found .*body-fixed only at its own best clock offset, "
+                                        r"not at its stamps as read: give dvl_time_offset_s") as err:
+        _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
+    assert "declare csv_columns.dvl.frame" not in str(err.value)

@@ -705,7 +705,8 @@ def check_velocity_against_imu(imu, dvl, config, meta: dict, moved: bool = False
     if moved:
         # with ``meta``: a velocity kept unjudged is warned about and counted as on the IMU clock; the specific force
         # judges each reading at its own best offset (docs/decisions/dvl-frame.md)
-        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, [field],
+        # the columns listed as the loader's own check lists them
+        check_not_earth_frame(*dvl_velocity_b(dvl, config), imu.t, imu.omega_b, dvl.source, field.split(", "),
                               velocity_frame(config, meta), imu.f_b, meta=meta, own_offsets=True)
     fits = [speed_scale(model, o) for o in SCALE_OFFSETS_S]
     best = int(np.argmax([np.nan_to_num(f[1], nan=-1.0) for f in fits]))

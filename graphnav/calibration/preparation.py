@@ -75,7 +75,7 @@ from graphnav.core.errors import ConfigError, DataError
 from graphnav.core.mission import IMU_RATE_TOLERANCE, DepthData, DvlData, GroundTruth, ImuData, Mission, no_beams
 from graphnav.core.streams import add_note, count_doubted, say_doubted, set_span
 from graphnav.core.timeseries import on_the_imu_clock, overlap_text
-from graphnav.io.dvl_frame import CARRIED
+from graphnav.io.dvl_frame import CARRIED, OFF_ITS_STAMPS
 from graphnav.io.units import judged_velocity_unit, unit_fix
 
 #: Largest RMS residual (m/s per axis) of the DVL velocity against the GT body velocity at the best time offset
@@ -707,11 +707,13 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
     # judges it once the search has put it on the IMU's)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, mission.dvl, mission.config, meta))
     dvl, depth = mission.dvl, mission.depth
-    judged = on_the_imu_clock(dvl.t, mission.imu.t)
+    given = facts.get("given", {}).get("dvl_time_offset_s")
+    # stamps a given offset moves, or that the loader kept at the velocity's own best clock offsets, are not known to
+    # be on the IMU clock: judged as a DVL off it, once the offset or the clock search has moved them
+    judged = on_the_imu_clock(dvl.t, mission.imu.t) and not given and not meta.get(OFF_ITS_STAMPS)
     if judged:
         # before the clock search: a velocity in other units or axes can fit the IMU best at a wrong offset
         _judge_dvl_against_imu(mission, dvl, meta, facts, unchecked)
-    given = facts.get("given", {}).get("dvl_time_offset_s")
     if given is not None:
         dvl, depth = _given_dvl_offset(dvl, depth, float(given), meta)
     searched = dvl
@@ -735,6 +737,8 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
         _unit_finds_the_clock(None, search, imu, searched, mission.config, meta, judged_velocity_unit(meta),
                               _dvl_fixes(facts))
         mission = dataclasses.replace(mission, imu=imu)
+        if not given and dvl is searched and facts.get("format") == "csv":
+            _say_clock_not_found(dvl, meta)
     elif on_the_imu_clock(dvl.t, mission.imu.t):
         _check_declared_clock(mission, dvl, given)
     mission = dataclasses.replace(mission, imu=_gyro_against_dvl(mission.imu, dvl, mission.config, meta))
@@ -967,6 +971,32 @@ def _gyro_against_dvl(imu: ImuData, dvl: DvlData, config: SensorConfig, meta: di
         return imu
     from graphnav.calibration.dvl_scale import check_gyro_against_dvl
     return check_gyro_against_dvl(imu, dvl, config, meta)
+
+
+#: Why the pings of a column map's DVL overlapping the IMU span are counted when the clock search (``clock: auto``, no
+#: offset given) finds no clear offset: kept on their stamps as read, which may lie seconds off the IMU clock (a bag's
+#: header stamps, which no key declares on the IMU clock, keep the note only).
+CLOCK_NOT_FOUND = "DVL stamps kept as read: the clock search found no clear offset"
+
+
+def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
+    """A column map's DVL the clock search left on its stamps as read for want of a clear offset
+    (``meta["clock_offsets"]["dvl"]`` not confident): warned about and its pings counted (:data:`CLOCK_NOT_FOUND`); its
+    note says why."""
+    est = meta.get("clock_offsets", {}).get("dvl")
+    if est is None or est["confident"]:
+        return
+    found = (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
+             f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f})")
+    if meta.get(OFF_ITS_STAMPS):
+        # judged at the stamps as read, its units and turn would blame the instruments for the clock
+        raise DataError(f"{found}, and its velocity, which turns with the vehicle, is body-fixed only at its own best "
+                        "clock offset, not at its stamps as read: give dvl_time_offset_s (s added to the DVL stamps)",
+                        dvl.source, field=meta.get("stream_fields", {}).get("dvl"))
+    warnings.warn(f"{dvl.source}: {found}: its stamps are kept as read, on the IMU clock, and a DVL seconds off it is "
+                  "judged and fused there: declare csv_columns.dvl.clock 'imu' if it is on the IMU clock, else give "
+                  "dvl_time_offset_s", RuntimeWarning, stacklevel=4)
+    count_doubted(meta, "dvl", CLOCK_NOT_FOUND, len(dvl.t))
 
 
 def _with_the_gyro_tried(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict):

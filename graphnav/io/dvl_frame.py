@@ -73,6 +73,11 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: vehicles in currents with 0.05 m/s of noise 0.99-1.023, the NED copies judged 1.08 and above at 1 Hz, but NED copies
 #: pinging every 2-5 s from 1.07: kept within the margin, they are warned about and counted (:data:`FRAME_DOUBT`).
 BODY_KINEMATICS_RATIO = 1.0
+#: :func:`course_turn_ratio` under which the body kinematics judge a velocity (between :data:`EARTH_FRAME_RATIO` and
+#: it they only refuse it: a vehicle about as fast as the current it moves in turns its earth-fixed velocity's direction
+#: about as the gyro turns, ratio near 1). Measured (docs/decisions/dvl-frame.md): as recorded, the ten A-KIT trajectories
+#: 2.14 and above whole, their crops in [1, 2) (60-200 s) at kinematics 0.45 at most; slow vehicles' NED copies 0.8-4.2.
+KINEMATICS_JUDGE_RATIO = 2.0
 #: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body: its
 #: direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md): a
 #: simulated 0.28 m/s mission with 0.04 m/s beam noise 0.97; the NED copies refused, of simulated missions 2.4 and
@@ -81,10 +86,18 @@ MIN_TURN_SIGNAL = 1.5
 #: The ``meta`` key set when a velocity that turns with the vehicle is kept as body by its kinematics: it
 #: points where the current carries the vehicle, not forward, and the prepare step judges it by no mean direction.
 CARRIED = "dvl_carried_by_current"
+#: The ``meta`` key set when the loader kept a velocity as body at each reading's own best DVL clock offset, its stamps
+#: overlapping the IMU span but not known to be on its clock: the prepare step judges it as one off the IMU clock.
+OFF_ITS_STAMPS = "dvl_carried_off_its_stamps"
 #: Why DVL pings kept in the vehicle's frame are counted as doubted (``meta["streams"]["dvl"]["doubted"]``): the
 #: body kinematics leave over :data:`BODY_KINEMATICS_RATIO` of them but within their noise, or the vehicle turns
 #: under :data:`MIN_TURN_SIGNAL` times that noise; an earth-fixed velocity of a slow vehicle gives the same.
 FRAME_DOUBT = "DVL velocity kept in the vehicle's frame, which its turns and kinematics cannot tell from an earth frame"
+#: Windows :func:`_own_offsets`' coarse scan scores at each offset (the clock search's 60 cost 1.6x as much on long
+#: logs). Measured (docs/decisions/dvl-frame.md): logs up to 600 s have fewer; 5400 s slow vehicles a day off and their
+#: NED copies get the same decisions, the body logs' offsets and the copies' earth offsets within 0.5 s of those at 60
+#: windows (at 20 windows a body log's earth offset moved 2600 s).
+OWN_OFFSETS_WINDOWS = 30
 #: Headings a window's velocity taken as earth-fixed is tried at (:func:`kinematics_ratio`), rad.
 _HEADINGS = np.deg2rad(np.arange(0.0, 360.0, 5.0))
 
@@ -338,8 +351,7 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
     at both. Arguments as :func:`kinematics_ratio`, the DVL stamps on their own clock."""
     from scipy.optimize import minimize_scalar
 
-    from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, dvl_window_model, imu_integrals, offset_grid,
-                                              search_overlap)
+    from graphnav.core.dvl_kinematics import dvl_window_model, imu_integrals, offset_grid, search_overlap
     from graphnav.core.mission import DvlData, ImuData, no_beams
     nan = (float("nan"),) * 4
     ok = np.all(np.isfinite(v), axis=1)
@@ -360,7 +372,8 @@ def _own_offsets(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, f_b: np.nd
         if fitted.sum() < 2:                        # worse than any fit (the straight line's is 1)
             return np.full(out.shape[:-1], 1e12)
         return np.sum(out[..., fitted], axis=-1) / max(float(np.sum(m.sse_null_w[fitted])), 1e-12)
-    coarse = model.thinned(COARSE_MAX_WINDOWS)
+    # the coarse scan is most of the cost (a 5400 s log a day off: 2000 offsets), in proportion to its windows
+    coarse = model.thinned(OWN_OFFSETS_WINDOWS)
     grid = grid[::2]                                # a ping period: the refinement reaches one each way
     scores = np.array([score(coarse, o) for o in grid])
     offsets = []
@@ -427,11 +440,11 @@ def velocity_frame(config, meta: dict) -> dict:
 
 def _evidence(t_dvl, v, t_imu, omega_b, f_b=None, v_b=None) -> tuple:
     """(:func:`_course_turns`, :func:`course_turn_ratio`, :func:`_kinematics`) of a velocity ``v`` (M,3, m/s as read;
-    ``v_b`` turned to body, default ``v``): the kinematics judged where ``f_b`` is given and the velocity turns with
-    the vehicle, else (NaN, NaN)."""
+    ``v_b`` turned to body, default ``v``): the kinematics judged where ``f_b`` is given and the turn ratio is under
+    :data:`KINEMATICS_JUDGE_RATIO`, else (NaN, NaN)."""
     turns = _course_turns(t_dvl, v, t_imu, omega_b)
     ratio = _turn_ratio(turns)
-    kin = (float("nan"), float("nan")) if f_b is None or not _turns_with(ratio) else \
+    kin = (float("nan"), float("nan")) if f_b is None or not ratio < KINEMATICS_JUDGE_RATIO else \
         _kinematics(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
     return turns, ratio, kin
 
@@ -481,7 +494,7 @@ def smaller_unit_advice(t_dvl: np.ndarray, v: np.ndarray, declared: dict, t_imu:
 def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, omega_b: np.ndarray,
                           source: str, fields: list[str], said: dict, f_b: np.ndarray | None = None,
                           v_b: np.ndarray | None = None, meta: dict | None = None, declared: dict | None = None,
-                          spec=None, own_offsets: bool = False) -> float:
+                          spec=None, own_offsets: bool = False, at_stamps: bool | None = None) -> float:
     """The :func:`course_turn_ratio` of a velocity declared (or taken) in a vehicle frame. When it turns with the
     vehicle (:data:`EARTH_FRAME_RATIO`) and the specific force ``f_b`` (K,3, m/s^2, at ``t_imu``) is given, the body
     kinematics judge it (:func:`kinematics_ratio` of ``v_b``, the velocity turned to body, default ``v``): under
@@ -490,17 +503,31 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     and ``meta[CARRIED]`` set; otherwise a DataError naming the file and columns: logged in
     the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
     smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
-    an earth-fixed one does). ``own_offsets``: the DVL was put on the IMU clock by a clock search or a given offset,
-    so the kinematics at its stamps would favour the body reading: they judge it, with each reading at its own best
-    DVL clock offset (:func:`_own_offsets`), only where it would otherwise be refused; a velocity whose noise hides
-    its turns (:data:`MIN_TURN_SIGNAL`) is kept there with a counted warning, as on the IMU clock. ``said``: the frame,
-    how it was declared or assumed and what to do if the velocity is earth-fixed (:func:`velocity_frame`)."""
-    turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, None if own_offsets else f_b, v_b)
-    if not _turns_with(ratio):
+    an earth-fixed one does). A velocity whose turn ratio lies near 1 (under :data:`KINEMATICS_JUDGE_RATIO`: an
+    earth-fixed velocity of a vehicle about as fast as the current turns so) is refused where the kinematics say it is
+    earth-fixed and otherwise kept as before, without a word. ``own_offsets``: the DVL's clock is not known to be the
+    IMU's (put there by a clock search or a given offset, or ``clock: auto``), so the kinematics at its stamps may
+    favour either reading: they judge it, with each reading at its own best DVL clock offset (:func:`_own_offsets`),
+    only where it would otherwise be refused; a velocity whose noise hides its turns (:data:`MIN_TURN_SIGNAL`) is
+    kept there with a counted warning, as on the IMU clock. ``at_stamps`` (default: not ``own_offsets``): the
+    kinematics at the stamps judge first (a clock search has not moved them to where the body reading fits best).
+    ``said``: the frame, how it was declared or assumed and what to do if the velocity is earth-fixed
+    (:func:`velocity_frame`)."""
+    at_stamps = not own_offsets if at_stamps is None else at_stamps
+    turns, ratio, (kin, limit) = _evidence(t_dvl, v, t_imu, omega_b, f_b if at_stamps else None, v_b)
+    if not ratio < KINEMATICS_JUDGE_RATIO:
+        return ratio
+    near = not _turns_with(ratio)       # kept by the turn check: only the kinematics refuse it
+    if near and f_b is not None and not at_stamps:
+        # at stamps a clock search moved too: a body log's own clock (A-KIT Trajectory11's crops 1.06x at each
+        # reading's own offset, 0.33x there), and such a velocity was never refused before
+        kin, limit = _kinematics(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
+    if near and (f_b is None or not kin >= limit):
         return ratio
     turn = (f"over {COURSE_WINDOW_S:g} s windows its direction's turn minus the gyro's is {ratio:.2f} of its turn (a "
-            f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories)")
-    if _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit):
+            f"vehicle-fixed velocity's: above {EARTH_FRAME_RATIO:g}, 2.1-6.2 on the A-KIT trajectories"
+            f"{'; under ' + format(KINEMATICS_JUDGE_RATIO, 'g') + ' the body kinematics judge it' if near else ''})")
+    if not near and _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit):
         return ratio
     judged = _judged(kin, limit) if np.isfinite(kin) else ""
     advice = None if not declared or spec is None or f_b is None else smaller_unit_advice(
@@ -509,7 +536,7 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         raise DataError(f"DVL velocity in the declared unit {declared['unit']!r} turns with the vehicle: {turn}; "
                         f"{judged}; {advice}", source, field=", ".join(fields))
     signal = _turn_signal(turns)
-    if signal < MIN_TURN_SIGNAL:
+    if not near and signal < MIN_TURN_SIGNAL:
         if meta is not None:
             _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} not judged for "
                           f"an earth frame: the vehicle turns only {signal:.2f}x the noise of its direction over "
@@ -520,9 +547,12 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
         return ratio
     if own_offsets and f_b is not None:
         kin, limit, *offsets = _own_offsets(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
-        if _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit, _at_own_offsets(*offsets, True)):
+        where = _at_own_offsets(*offsets, not at_stamps)
+        if (not kin >= limit) if near else _kept_carried(meta, source, fields, t_dvl, said, turn, kin, limit, where):
+            if at_stamps and meta is not None and not near:
+                meta[OFF_ITS_STAMPS] = True
             return ratio
-        judged = _judged(kin, limit, _at_own_offsets(*offsets, True))
+        judged = _judged(kin, limit, where)
     judged = (f"{judged}: it is earth-fixed (NED/ENU)" if np.isfinite(kin) else
               "it looks earth-fixed (NED/ENU), or a vehicle slower than the current it moves in whose velocity the "
               "body kinematics could not judge (under two windows of pings)")
@@ -536,15 +566,19 @@ def _kept_carried(meta: dict | None, source: str, fields: list[str], t_dvl: np.n
     (:func:`kinematics_ratio` ``kin`` under the ``limit`` its noise allows; ``where``: the offsets they were judged at,
     when not the stamps'): noted in ``meta`` under :data:`BODY_KINEMATICS_RATIO`, over it warned about and counted
     (:data:`FRAME_DOUBT`), and ``meta[CARRIED]`` set."""
-    from graphnav.core.streams import add_note
+    from graphnav.core.streams import add_note, stream_entry
     if not kin < limit:
         return False
     if meta is None:
         return True
     if kin < BODY_KINEMATICS_RATIO:
-        add_note(meta, "dvl", f"velocity columns {fields} turn with the vehicle ({turn}), but the body kinematics "
-                 f"leave {kin:.3f}x what they leave of it taken as earth-fixed{where} (under {limit:.3f}, what its "
-                 f"noise allows): kept in the {said['frame']} frame, a vehicle slower than the current it moves in")
+        # judged again once a clock search has moved the stamps: the later judgement replaces the earlier one's note
+        said_before = f"velocity columns {fields} turn with the vehicle ("
+        notes = stream_entry(meta, "dvl")["notes"]
+        notes[:] = [n for n in notes if not n.startswith(said_before)]
+        add_note(meta, "dvl", f"{said_before}{turn}), but the body kinematics leave {kin:.3f}x what they leave of it "
+                 f"taken as earth-fixed{where} (under {limit:.3f}, what its noise allows): kept in the "
+                 f"{said['frame']} frame, a vehicle slower than the current it moves in")
     else:
         _keep_doubted(meta, source, fields, t_dvl, f"DVL velocity {said['said']} turns with the vehicle "
                       f"({turn}), and the body kinematics leave {kin:.3f}x what they leave of it taken as earth-fixed"
@@ -607,7 +641,7 @@ def _check_spread(t_dvl: np.ndarray, v: np.ndarray, v_b: np.ndarray, t_imu: np.n
 
 def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, spec: dict, C_d_b: np.ndarray,
                     t_imu: np.ndarray, omega_b: np.ndarray, source: str, meta: dict, f_b: np.ndarray | None = None,
-                    envelope=None) -> np.ndarray:
+                    envelope=None, given_offset_s: float = 0.0) -> np.ndarray:
     """A column map's DVL velocity (M,3), m/s, in its declared ``frame`` turned to the body frame; a velocity in a
     vehicle frame checked not to be earth-fixed (:func:`check_not_earth_frame`); the frame noted in
     ``meta["streams"]["dvl"]``.
@@ -619,6 +653,10 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         f_b: the IMU's specific force, m/s^2, for the body kinematics that keep a slow vehicle in a current.
         envelope: the vehicle's ``DvlSpec``, with which a velocity in a declared unit (``velocity_unit``) that turns
             with the vehicle is judged in smaller units (:func:`smaller_unit_advice`).
+        given_offset_s: the configuration's ``dvl_time_offset_s`` (s), which prepare adds to the DVL stamps: a
+            velocity overlapping the IMU span is judged there, and with ``clock`` ``auto`` (or an offset that leaves the
+            IMU span), at each reading's own best offset too where it would be refused (:func:`check_not_earth_frame`'s
+            ``own_offsets``).
 
     Raises:
         ConfigError: an earth frame without attitude columns or their unit.
@@ -635,7 +673,13 @@ def columns_to_body(t_dvl: np.ndarray, v: np.ndarray, euler: np.ndarray | None, 
         if on_the_imu_clock(t_dvl, t_imu):
             declared = {"unit": spec["velocity_unit"], "key": "csv_columns.dvl.velocity_unit"} \
                 if spec.get("velocity_unit") else None
-            check_not_earth_frame(t_dvl, v, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared, envelope)
+            # judged at the given offset, which prepare adds; at the stamps as read only when they are known to be on
+            # the IMU clock, else each reading also at its own best offset where the stamps would refuse it
+            given = on_the_imu_clock(t_dvl + given_offset_s, t_imu)
+            t_at = t_dvl + given_offset_s if given else t_dvl
+            known = spec.get("clock", "auto") == "imu" and given
+            check_not_earth_frame(t_at, v, t_imu, omega_b, source, fields, said, f_b, v_b, meta, declared, envelope,
+                                  own_offsets=not known, at_stamps=True)
         else:
             _check_spread(t_dvl, v, v_b, t_imu, omega_b, source, fields, said, f_b, meta)
             if not meta.get(CARRIED):

@@ -371,7 +371,7 @@ def load_csv_mission(data: str | Path, config: SensorConfig, pd0_file: Path | No
             # the flags are per beam: a velocity needs three valid beams
             v_b[no_lock | (flags.sum(axis=1) < 3)] = np.nan
             v_b = columns_to_body(t_dvl, v_b, v.get("euler"), spec, config.dvl.C_d_b, t_imu, omega_b, str(path),
-                                  meta, f_b, config.dvl)
+                                  meta, f_b, config.dvl, config.dvl_time_offset_s or 0.0)
         if "beams" in v:
             raw = v["beams"]
             if v_b is None:         # the columns a later message about the DVL names (the velocity's, with both)
