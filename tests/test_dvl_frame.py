@@ -528,6 +528,20 @@ def test_a_few_speed_spikes_on_a_dvl_whose_clock_is_found_are_not_searched_again
     assert tried == []
 
 
+def test_a_short_dvl_with_speed_spikes_whose_clock_cannot_be_modelled_loads_on_its_stamps(tmp_path):
+    """30 s of pings on a 300 s IMU span, a quarter of them beyond the envelope, clock auto: too few pings for the
+    clock model, kept on their stamps with a note; the unit retry then read the clock it never found (KeyError)."""
+    m, t, v_b = _simulated(300.0)
+    keep = t < t[0] + 30.0
+    v = v_b.copy()
+    v[::4] *= 3.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, (m, t[keep], v[keep]), v[keep], {"clock": "auto"}))
+    assert got.meta["streams"]["dvl"]["refused"]
+    assert "dvl" not in got.meta.get("clock_offsets", {})
+
+
 def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
     """A DVL turned 100 deg on a clock of its own was named turned "+90 deg"; a turn of 180 deg was printed -180."""
     from graphnav.calibration import dvl_scale

@@ -1063,11 +1063,16 @@ def _unit_finds_the_clock(err: DataError | None, search, imu: ImuData, dvl: DvlD
     judged for the hole (:func:`_refuse_a_clock_by_a_hole`). Returns when nothing is wrong (``err`` stands)."""
     from graphnav.calibration.dvl_scale import check_declared_velocity_unit, other_velocity_units
     refused = _speed_refused(meta)
-    if not refused and (err is None or not declared or declared.get("taken")):
+    found = meta.get("clock_offsets", {}).get("dvl")
+    if err is None:
+        # scattered spikes leave no hole a clock could settle on (three searches for nothing); a DVL too short for
+        # the clock model was kept on its stamps with a note, no clock found to doubt
+        if refused < HOLE_MIN_REFUSED_SHARE * len(dvl.t) or found is None:
+            return
+    elif not refused and (not declared or declared.get("taken")):
         return
-    if err is None and refused < HOLE_MIN_REFUSED_SHARE * len(dvl.t):
-        return          # scattered spikes leave no hole a clock could settle on (three searches for nothing)
-    found = None if err is not None else meta["clock_offsets"]["dvl"]
+    else:
+        found = None
     unit = declared["unit"] if declared else "m/s"
     t, v = dvl_velocity_b(dvl, config)
     for other, k in other_velocity_units(unit, float(np.median(np.linalg.norm(v, axis=1))), config).items():

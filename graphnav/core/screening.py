@@ -917,8 +917,9 @@ def refuse_rows(meta: dict, stream: str, masks: dict[str, np.ndarray], source: s
     return tuple(a[~bad] for a in arrays)
 
 
-#: Reasons under which a file's rows dropped for their stamps are counted (:func:`stamp_order`).
+#: Reason under which a file's rows dropped for their stamps are counted (:func:`stamp_order`).
 EXACT_COPY = "repeats an earlier row exactly"
+#: Reason under which rows kept though they may be written twice are counted as doubted (:func:`stamp_order`).
 STUCK_REPEATS = "repeats the row before it at its stamp, as every such row does (kept; maybe written twice)"
 #: Share of an IMU's rows sharing a stamp that may differ from the row before them, the others repeating it, for
 #: those kept as samples to be doubted (:data:`STUCK_REPEATS`): a stuck sensor's, or one whose counts barely change

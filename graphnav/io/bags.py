@@ -426,8 +426,8 @@ def load_bag(path: str | Path, config: SensorConfig | None = None, topics: dict[
                    heading=heading, fixes=fixes)
 
 
-def warn_depth_turn_unconfirmed(mission: Mission, stacklevel: int = 2) -> None:
-    """Warn (``stacklevel`` as the caller's own warning would have it) about and note a bag's depth topic the reader
+def warn_depth_turn_unconfirmed(mission: Mission) -> None:
+    """Warn (at the caller's caller, as the caller's own warning would be) about and note a bag's depth topic the reader
     turned positive down (read as positive up, :func:`graphnav.io.bag_convert.turned_positive_up`) in a mission not
     prepared: only the prepare step's vertical motion confirms the turn. Kept turned: as read, the range check would
     have dropped every sample. For every path that hands on a mission unprepared (``load_mission(prepare=False)``,
@@ -437,7 +437,7 @@ def warn_depth_turn_unconfirmed(mission: Mission, stacklevel: int = 2) -> None:
     text = ("read as depth positive up and turned positive down, unconfirmed: the mission is not prepared, and only "
             "the prepare step checks the turn against the vehicle's vertical motion (prepare it, or declare "
             "bag_topics.depth.positive)")
-    warnings.warn(f"{mission.depth.source}, field 'data': {text}", RuntimeWarning, stacklevel=stacklevel + 1)
+    warnings.warn(f"{mission.depth.source}, field 'data': {text}", RuntimeWarning, stacklevel=3)
     add_note(mission.meta, "depth", text)
 
 
