@@ -881,9 +881,9 @@ def _on_the_line(s: np.ndarray, repeats: np.ndarray, period_s: float, later: boo
     keep the mean offset from a line at ``period_s`` (s) over :data:`REPEAT_CHECK_SAMPLES` samples on either side
     within half a period (jitter moved a sample across a grid edge; a row written twice or a sample lost moves it by a
     period), with samples after it (a repeat of the first stamp judged against that sample alone); with ``later``, or
-    moves it later (a sample lost near the repeat: 200 Hz in
-    whole ms with 1 ms of jitter and 1 % lost at random had one within 50 samples of most repeats), never half a
-    period earlier (a row written twice puts the samples after it a period early)."""
+    moves it later (a sample lost near the repeat: 200 Hz in whole ms with 1 ms of jitter and 1 % lost at random had
+    one within 50 samples of most repeats), never half a period earlier (a row written twice puts the samples after it
+    a period early)."""
     moved = _moved_along_the_line(s, np.asarray(repeats, int), period_s, np.zeros(len(repeats), bool))
     return (moved > -0.5) & (later | (moved < 0.5))
 
