@@ -504,8 +504,9 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     the earth frame, or, with a ``declared`` unit (``{"unit", "key"}``) and the vehicle's envelope ``spec``, in a
     smaller unit that explains it (:func:`smaller_unit_advice`: a hovering vehicle's velocity 10x too large turns as
     an earth-fixed one does). A velocity whose turn ratio lies near 1 (under :data:`KINEMATICS_JUDGE_RATIO`: an
-    earth-fixed velocity of a vehicle about as fast as the current turns so) is refused where the kinematics say it is
-    earth-fixed and otherwise kept as before, without a word. ``own_offsets``: the DVL's clock is not known to be the
+    earth-fixed velocity of a vehicle about as fast as the current turns so) is refused, once a clock search or a given
+    offset has put the DVL on the IMU clock, where the kinematics say it is earth-fixed there and at each reading's
+    own offset, and otherwise kept as before, without a word. ``own_offsets``: the DVL's clock is not known to be the
     IMU's (put there by a clock search or a given offset, or ``clock: auto``), so the kinematics at its stamps may
     favour either reading: they judge it, with each reading at its own best DVL clock offset (:func:`_own_offsets`),
     only where it would otherwise be refused; a velocity whose noise hides its turns (:data:`MIN_TURN_SIGNAL`) is
@@ -518,7 +519,11 @@ def check_not_earth_frame(t_dvl: np.ndarray, v: np.ndarray, t_imu: np.ndarray, o
     if not ratio < KINEMATICS_JUDGE_RATIO:
         return ratio
     near = not _turns_with(ratio)       # kept by the turn check: only the kinematics refuse it
-    if near and f_b is not None and not at_stamps:
+    if near and at_stamps:
+        # only once the DVL is on a clock known or found: at the stamps as read, clean A-KIT body crops 1-2 s late
+        # (Trajectory11 0-120 s, Trajectory1 180-240 s) fail at the stamps and at each reading's own offset alike
+        return ratio
+    if near and f_b is not None:
         # at stamps a clock search moved too: a body log's own clock (A-KIT Trajectory11's crops 1.06x at each
         # reading's own offset, 0.33x there), and such a velocity was never refused before
         kin, limit = _kinematics(t_dvl, v if v_b is None else v_b, t_imu, f_b, omega_b)
