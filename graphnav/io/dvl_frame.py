@@ -74,9 +74,10 @@ EARTH_FRAME_SPREAD_RATIO = 0.4
 #: pinging every 2-5 s from 1.07: kept within the margin, they are warned about and counted (:data:`FRAME_DOUBT`).
 BODY_KINEMATICS_RATIO = 1.0
 #: :func:`course_turn_ratio` under which the body kinematics judge a velocity (between :data:`EARTH_FRAME_RATIO` and
-#: it they only refuse it: a vehicle about as fast as the current it moves in turns its earth-fixed velocity's direction
-#: about as the gyro turns, ratio near 1). Measured (docs/decisions/dvl-frame.md): as recorded, the ten A-KIT trajectories
-#: 2.14 and above whole, their crops in [1, 2) (60-200 s) at kinematics 0.45 at most; slow vehicles' NED copies 0.8-4.2.
+#: it they only refuse it, on a clock known or found: a vehicle about as fast as the current it moves in turns its
+#: earth-fixed velocity's direction about as the gyro turns, ratio near 1). Measured (docs/decisions/dvl-frame.md): as
+#: recorded, the ten A-KIT trajectories 2.14 and above whole, their crops in [1, 2) (60-200 s) at kinematics 0.45 at
+#: most; slow vehicles' NED copies 0.8-4.2.
 KINEMATICS_JUDGE_RATIO = 2.0
 #: :func:`course_turn_signal` under which a velocity the turn check and the kinematics would refuse is kept as body: its
 #: direction's noise turns it as much as the vehicle turns, and neither tells. Measured (docs/decisions/dvl-frame.md): a
