@@ -622,29 +622,19 @@ def _coarse_dvl_clock(imu: ImuData, dvl: DvlData, meta: dict, cfg: SensorConfig)
     if np.mean((t_dvl >= t_imu[0]) & (t_dvl <= t_imu[-1])) >= 0.5:
         return _clock_beyond_the_fine_search(imu, velocity_only, cfg, meta, search), imu
     from graphnav.calibration.dvl_scale import AKIT_DVL_FIXES
-    try:
-        found = _with_the_gyro_tried(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta)
-    except DataError as err:
-        _unit_finds_the_clock(err, search, imu, velocity_only, cfg, meta, None, AKIT_DVL_FIXES)
-        _turn_finds_the_clock(err, search, imu, velocity_only, cfg, meta, AKIT_DVL_FIXES, _akit_imu_frame(cfg))
-        raise
-    _unit_finds_the_clock(None, search, found[1], velocity_only, cfg, meta, None, AKIT_DVL_FIXES)
-    return found
-
-
-#: How far (s, either way) the fine DVL time-offset search against the GT reaches
-#: (:func:`graphnav.calibration.reference.estimate_dvl_time_offset`).
-DVL_OFFSET_SEARCH_S = 3.0
+    return _clock_searched(lambda imu_: search(imu_, meta), search, imu, velocity_only, cfg, meta, None,
+                           AKIT_DVL_FIXES, _akit_imu_frame(cfg))
 
 
 def _clock_beyond_the_fine_search(imu: ImuData, dvl: DvlData, cfg: SensorConfig, meta: dict, search) -> float:
     """0, or the clock offset (s) of an A-KIT DVL whose pings lie on the IMU span but further off than the fine search
-    reaches (:data:`DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta)`` where the IMU explains its velocity changes
-    poorly as stamped (under the clock search's ``MIN_PEAK``). 60 s late on a 400 s trajectory, it was refused as a
-    DVL in another frame (with GT) or loaded 60 s off (without). The published files' DVL, about 1 s early, explains
-    -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine search's reach, which is left to take
-    it, so they load as before."""
+    reaches (:data:`~graphnav.calibration.reference.DVL_OFFSET_SEARCH_S`): found by ``search(imu, meta)`` where the
+    IMU explains its velocity changes poorly as stamped (under the clock search's ``MIN_PEAK``). 60 s late on a 400 s
+    trajectory, it was refused as a DVL in another frame (with GT) or loaded 60 s off (without). The published files'
+    DVL, about 1 s early, explains -1.3 (Trajectory11) to 0.79 as stamped: the search finds it within the fine
+    search's reach, which is left to take it, so they load as before."""
     from graphnav.calibration.clock import MIN_PEAK, explained_as_stamped
+    from graphnav.calibration.reference import DVL_OFFSET_SEARCH_S
     if not explained_as_stamped(imu, dvl, cfg) < MIN_PEAK:
         return 0.0
     found = _trial(lambda meta_: search(imu, meta_), meta)
@@ -724,18 +714,10 @@ def _prepare_streams(mission: Mission, meta: dict, facts: dict) -> Mission:
 
         def search(imu: ImuData, meta_: dict, dvl_: DvlData = searched) -> float:
             return float(align_stream_clocks(imu, dvl_, None, meta_, mission.config)[0].t[0] - dvl_.t[0])
-        try:
-            (dvl, depth), imu = _with_the_gyro_tried(
-                lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu,
-                searched, mission.config, meta)
-        except DataError as err:
-            _unit_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, judged_velocity_unit(meta),
-                                  _dvl_fixes(facts))
-            _turn_finds_the_clock(err, search, mission.imu, searched, mission.config, meta, _dvl_fixes(facts),
-                                  facts.get("imu_frame") or {"what": "the body frame"}, judged_velocity_unit(meta))
-            raise
-        _unit_finds_the_clock(None, search, imu, searched, mission.config, meta, judged_velocity_unit(meta),
-                              _dvl_fixes(facts))
+        (dvl, depth), imu = _clock_searched(
+            lambda imu_: align_stream_clocks(imu_, dvl, depth, meta, mission.config), search, mission.imu, searched,
+            mission.config, meta, judged_velocity_unit(meta), _dvl_fixes(facts),
+            facts.get("imu_frame") or {"what": "the body frame"})
         mission = dataclasses.replace(mission, imu=imu)
         if not given and dvl is searched and facts.get("format") == "csv":
             _say_clock_not_found(dvl, meta)
@@ -997,6 +979,23 @@ def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
                   "judged and fused there: declare csv_columns.dvl.clock 'imu' if it is on the IMU clock, else give "
                   "dvl_time_offset_s", RuntimeWarning, stacklevel=4)
     count_doubted(meta, "dvl", CLOCK_NOT_FOUND, len(dvl.t))
+
+
+def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                    declared: dict | None, fixes: dict, frame: dict):
+    """``(run(imu), imu)``: the DVL clock search ``run`` with the gyro's scales tried (:func:`_with_the_gyro_tried`);
+    a failure tried again in other units (:func:`_unit_finds_the_clock`) and with the velocity turned about z
+    (:func:`_turn_finds_the_clock`, ``frame`` the IMU's axes judged), each a DataError where it finds the clock, else
+    the failure raised; a clock found is tried in other units where pings were refused for their speed. ``declared``:
+    the DVL velocity unit the IMU judges, ``fixes`` what the messages advise."""
+    try:
+        found = _with_the_gyro_tried(run, search, imu, dvl, config, meta)
+    except DataError as err:
+        _unit_finds_the_clock(err, search, imu, dvl, config, meta, declared, fixes)
+        _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
+        raise
+    _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
+    return found
 
 
 def _with_the_gyro_tried(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict):

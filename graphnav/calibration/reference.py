@@ -265,9 +265,13 @@ def lever_arm_fit(r: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndar
     return l, cov, sse
 
 
+#: How far (s, either way) the fine DVL time-offset search against the GT reaches (:func:`estimate_dvl_time_offset`).
+DVL_OFFSET_SEARCH_S = 3.0
+
+
 def estimate_dvl_time_offset(reference: Reference, t_dvl_raw: np.ndarray, v_dvl: np.ndarray,
                              lever_arm_b: np.ndarray | None = None,
-                             search_s: tuple[float, float] = (-3.0, 3.0),
+                             search_s: tuple[float, float] = (-DVL_OFFSET_SEARCH_S, DVL_OFFSET_SEARCH_S),
                              step_s: float = 0.1) -> OffsetEstimate:
     """Offset to add to raw DVL stamps so the DVL velocity matches the reference body velocity.
 
