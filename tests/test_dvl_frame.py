@@ -961,6 +961,40 @@ def test_an_akit_folder_without_gt_has_its_given_dvl_time_offset_judged(akit_dir
         assert doubted == {"dvl_time_offset_s used as given though the data disagree": 200}, doubted
 
 
+@pytest.mark.parametrize("name, seconds, start, shift", [("Trajectory1", 400.0, 0.0, 3.0),
+                                                         ("Trajectory5", 60.0, 240.0, 2.5),
+                                                         ("Trajectory11", 120.0, 140.0, -1.5)])
+def test_an_akit_folder_without_gt_whose_dvl_is_seconds_off_loads_where_the_clock_fit_puts_it(akit_dir, tmp_path, name,
+                                                                                             seconds, start, shift):
+    """Without GT a DVL file 2.5-3.5 s late (or 1.5 s early) loaded that far off the IMU clock at the vehicle's +1.02 s
+    with only the default's warning: the clock search leaves offsets within 3 s to the fine search, which needs the
+    GT. The DVL clock fit now places it (within 0.15 s of the clean copy at +1.02 s, whole and 60-120 s pieces), warned
+    about naming the offset and dvl_time_offset_s, and its pings are counted as doubted; the clean copy loads at +1.02 s
+    with the default's warning and no doubt, as before."""
+    src = akit_dir / name
+
+    def loaded(folder):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            m = load_mission(folder)
+        return m, [str(w.message) for w in caught if "DVL" in str(w.message)]
+    clean, said = loaded(_akit_crop_without_gt(src, tmp_path / "clean", np.eye(3), seconds, start))
+    assert clean.config.dvl_time_offset_s == 1.02 and "doubted" not in clean.meta["streams"]["dvl"]
+    assert len(said) == 1 and "no GT file, so the DVL time offset cannot be estimated; using this vehicle's +1.02 s" \
+        in said[0], said
+    m, said = loaded(_akit_crop_without_gt(src, tmp_path / "off", np.eye(3), seconds, start, dvl_shift=shift))
+    assert len(m.dvl.t) == len(clean.dvl.t)
+    np.testing.assert_allclose(m.dvl.t, clean.dvl.t, atol=0.15)
+    number = name.removeprefix("Trajectory")
+    used = re.escape(f"{m.config.dvl_time_offset_s:+.3f} s")
+    found = re.match(rf".*DVL_trajectory{number}\.csv: field 'Time \[s\]': no GT file, and the DVL clock fit .* puts "
+                     rf"the DVL at {used} \(sigma .*, ([+-]\d\.\d\d) s from this vehicle's usual \+1\.02 s: {used} is "
+                     "used. Give dvl_time_offset_s", said[0]) if len(said) == 1 else None
+    assert found and float(found.group(1)) == pytest.approx(-shift, abs=0.15), said
+    from graphnav.calibration.preparation import AKIT_DVL_CLOCK_DOUBT
+    assert m.meta["streams"]["dvl"]["doubted"] == {AKIT_DVL_CLOCK_DOUBT: len(m.dvl.t)}
+
+
 def test_a_declared_velocity_unit_no_unit_explains_is_kept_with_a_counted_warning(sim, monkeypatch):
     """Where m/s fits the IMU 4x better than the declared cm/s but explains none of the velocity's changes either (a
     DVL noisier than the IMU's accelerations), the declared unit is kept: a warning naming the key, a note, and the

@@ -19,7 +19,8 @@ A-KIT folders (:func:`graphnav.io.loaders.read_akit_mission`; the module docstri
    body velocity plus ``omega x l`` (:mod:`graphnav.calibration.reference`), after a coarse clock offset when the
    DVL stamps lie off the IMU span, or on it further off than that search reaches
    (:func:`graphnav.calibration.clock.align_stream_clocks`). Without a GT file the
-   DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`.
+   DVL offset is that coarse offset or the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`, unless the
+   DVL clock fit puts the DVL clearly off it (:func:`_akit_dvl_offset_without_gt`: its offset then, warned and counted).
    A DVL that follows the GT at no offset (another frame, other units) is a DataError. A GT offset a configuration
    (or a written folder's) gives gets the GT clock search on the stamps it gives, as a log's does
    (:func:`_given_reference_clock`), then the fine search's judge: one the data contradict (either search) is used
@@ -101,7 +102,8 @@ def prepare(mission: Mission, *, imu_axis_signs=AUTO, gt_time_offset_s: float | 
             ones a configuration file set (``meta["prepare"]["given"]``), else detected with a warning.
         gt_time_offset_s: seconds added to the GT stamps, or ``"auto"``: the configured one, else estimated.
         dvl_time_offset_s: seconds added to the DVL stamps, or ``"auto"``: the configured one, else estimated
-            (without GT: the DVL's coarse clock offset, or the vehicle's default with a warning).
+            (without GT: the DVL's coarse clock offset, else the vehicle's default with a warning, or the DVL clock
+            fit's offset where it puts the DVL clearly off the default, warned about and counted).
         The three apply to A-KIT folders; other formats take ``"auto"`` only.
 
     Returns:
@@ -498,19 +500,15 @@ def _gt_clock(mission: Mission, meta: dict) -> tuple[GroundTruth, float]:
 def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: SensorConfig, imu: ImuData,
                              dvl_time_offset_s, coarse: float, judge: bool) -> Mission:
     """An A-KIT folder with IMU and DVL files only, as a vehicle has them: the DVL time offset given, its coarse
-    clock offset (``coarse``, s, 0 on the IMU span), or :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` for
-    ``"auto"`` (it cannot be estimated against a missing GT). A given offset a configuration file set (``judge``) is
-    judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
-    from graphnav.io.loaders import AKIT_DVL_TIME_OFFSET_S
+    clock offset (``coarse``, s, 0 on the IMU span), or for ``"auto"`` the vehicle's
+    :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S` unless the DVL clock fit puts the DVL clearly off it
+    (:func:`_akit_dvl_offset_without_gt`; the fine estimate needs the missing GT). A given offset a configuration file
+    set (``judge``) is judged against the DVL clock fit, as a log's is (:func:`_judge_given_dvl_clock`)."""
     auto = _is_auto(dvl_time_offset_s)
     if auto and coarse:
         dvl_time_offset_s = coarse        # the clock estimate is all there is without GT (no fine reference)
     if _is_auto(dvl_time_offset_s):
-        dvl_time_offset_s = AKIT_DVL_TIME_OFFSET_S
-        warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
-                      f"vehicle's {AKIT_DVL_TIME_OFFSET_S:+.2f} s (the mean of the estimates on the shared "
-                      "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
-                      RuntimeWarning, stacklevel=4)
+        dvl_time_offset_s = _akit_dvl_offset_without_gt(mission.dvl, imu, cfg, meta)
     cfg.dvl_time_offset_s = float(dvl_time_offset_s)
     cfg.gt_time_offset_s = 0.0
     dvl = dataclasses.replace(mission.dvl, t=mission.dvl.t + cfg.dvl_time_offset_s)
@@ -526,6 +524,55 @@ def _prepare_akit_without_gt(mission: Mission, meta: dict, facts: dict, cfg: Sen
     _note_akit(meta, cfg, dvl, None, {})
     meta["prepared"] = True
     return dataclasses.replace(mission, imu=imu, dvl=dvl, config=cfg, meta=meta)
+
+
+#: Without a GT file, the DVL clock fit replaces the vehicle's DVL time offset
+#: (:data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`) where it is confident and puts the DVL further than this (s)
+#: and 3 of its sigmas from it (:func:`_akit_dvl_offset_without_gt`). Measured on the ten shared trajectories without
+#: GT (the fit within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of +1.02 s), what it adds: -0.001..+0.033 s whole (sigmas
+#: 0.002-0.014 s), -0.034..+0.055 s on 200 s pieces (20), -0.027..+0.054 s on 120 s (30), -0.042..+0.130 s on 60 s
+#: (40; sigmas up to 0.077 s), all confident; the same 100 pieces with the DVL stamps 1.5-6 s late or early: all
+#: confident, as far from the truth as clean. Half the 1 s ping period: 3.8x the largest clean (a 60 s piece), a third
+#: of the least shift tried.
+AKIT_DVL_CLOCK_MARGIN_S = 0.5
+#: Why the pings of an A-KIT DVL placed by the clock fit, not at the vehicle's offset, are counted as doubted.
+AKIT_DVL_CLOCK_DOUBT = "DVL time offset from the DVL clock fit, off the vehicle's (no GT file to check it against)"
+
+
+def _akit_dvl_offset_without_gt(dvl: DvlData, imu: ImuData, cfg: SensorConfig, meta: dict) -> float:
+    """The DVL time offset (s, added to the stamps of ``dvl``) of an A-KIT folder without GT whose DVL is on the IMU
+    span within the fine search's reach: the vehicle's :data:`~graphnav.io.loaders.AKIT_DVL_TIME_OFFSET_S`, warned
+    about, unless the DVL clock fit (:func:`_dvl_clock_fit_near` at it: the DVL's velocity changes against the IMU's
+    accelerations) is confident and puts the DVL further than :data:`AKIT_DVL_CLOCK_MARGIN_S` and 3 sigmas from it.
+    Its offset is then used, warned about naming it and ``dvl_time_offset_s``, and the pings are counted as doubted
+    (:data:`AKIT_DVL_CLOCK_DOUBT`): a DVL file 2.5-3.5 s late was loaded that far off the IMU clock with only the
+    default's warning. A fit that cannot judge leaves the default, noted."""
+    from graphnav.io.loaders import AKIT_COLUMNS, AKIT_DVL_TIME_OFFSET_S
+    default = AKIT_DVL_TIME_OFFSET_S
+    try:
+        est = _dvl_clock_fit_near(imu, dataclasses.replace(dvl, t=dvl.t + default), cfg)
+    except DataError as err:
+        est, why = None, str(err)
+    if est is not None and not est.confident:
+        why = f"the IMU explains {est.peak:.2f} of the DVL's velocity changes at best"
+    if est is not None and est.confident and abs(est.offset_s) > max(AKIT_DVL_CLOCK_MARGIN_S, 3.0 * est.sigma_s):
+        offset = default + est.offset_s
+        found = dataclasses.replace(est, offset_s=offset)
+        text = (f"field '{AKIT_COLUMNS['DVL'][0]}': no GT file, and the DVL clock fit (its velocity changes against "
+                f"the IMU's accelerations) puts the DVL at {found.describe()}, {est.offset_s:+.2f} s from this "
+                f"vehicle's usual {default:+.2f} s: {offset:+.3f} s is used. Give dvl_time_offset_s (s added to the "
+                "DVL stamps) in a --config file if it is known")
+        say_doubted(meta, "dvl", str(dvl.source), text, AKIT_DVL_CLOCK_DOUBT, len(dvl.t), stacklevel=5)
+        meta.setdefault("clock_offsets", {})["dvl"] = found.to_dict()
+        return offset
+    if est is None or not est.confident:
+        add_note(meta, "dvl", f"the vehicle's DVL time offset {default:+.2f} s is not checked against the DVL clock "
+                 f"fit ({why})")
+    warnings.warn(f"{meta.get('source')}: no GT file, so the DVL time offset cannot be estimated; using this "
+                  f"vehicle's {default:+.2f} s (the mean of the estimates on the shared "
+                  "trajectories, spread 0.025 s); `graphnav calibrate --mode graph` estimates it without GT",
+                  RuntimeWarning, stacklevel=5)
+    return default
 
 
 def _axis_signs(mission: Mission, meta: dict, facts: dict, imu_axis_signs) -> tuple[np.ndarray, object]:
@@ -1225,9 +1272,9 @@ def _quarter_turn_said(imu: ImuData, turned: DvlData, offset: float, config: Sen
 #: the GT, it adds -0.024..+0.076 s (200 s) and -0.016..+0.067 s (400 s) with sigmas of 0.004-0.019 s, up to 12 of
 #: them; 2.6x the largest, and under half the 1 s ping period the clock search moves a DVL by.
 GIVEN_DVL_CLOCK_FLOOR_S = 0.2
-#: Where a DVL declared on the IMU clock (``clock: imu``) has its given offset judged, the DVL clock fit searches this
-#: far either side of it, s: a configuration from another vehicle is a second or two off, and the clock search's
-#: +-300 s would cost ~10 s of CPU on an hour's log.
+#: Where a DVL declared on the IMU clock (``clock: imu``) has its given offset judged, or an A-KIT DVL without GT its
+#: vehicle's offset, the DVL clock fit searches this far either side of it, s: a configuration from another vehicle is a
+#: second or two off, and the clock search's +-300 s would cost ~10 s of CPU on an hour's log.
 GIVEN_DVL_CLOCK_SEARCH_S = 20.0
 
 
@@ -1239,7 +1286,6 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     (:func:`_judge_given_offset`, :data:`GIVEN_DVL_CLOCK_FLOOR_S`) when they disagree. A DVL the clock search moved
     on (``dvl``'s stamps not ``shifted``'s) is not: the data decided, and a note names the file and key (the search's
     warning does not). A fit without a confident offset cannot judge it: noted."""
-    from graphnav.calibration.clock import estimate_dvl_clock_offset
     if dvl is not shifted and len(dvl.t) and dvl.t[0] != shifted.t[0]:
         moved = float(dvl.t[0] - shifted.t[0])
         add_note(meta, "dvl", f"{facts.get('given_by', {}).get('dvl_time_offset_s', 'the configuration')}: "
@@ -1249,8 +1295,7 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None:
         try:
-            est = estimate_dvl_clock_offset(mission.imu, shifted, mission.config,
-                                            search_s=(-GIVEN_DVL_CLOCK_SEARCH_S, GIVEN_DVL_CLOCK_SEARCH_S)).to_dict()
+            est = _dvl_clock_fit_near(mission.imu, shifted, mission.config).to_dict()
         except DataError as err:
             add_note(meta, "dvl", f"the configuration's dvl_time_offset_s is not judged ({err})")
             return
@@ -1260,6 +1305,14 @@ def _judge_given_dvl_clock(mission: Mission, shifted: DvlData, dvl: DvlData, met
         return
     _judge_given_offset(meta, facts, "dvl", given, given + est["offset_s"], est["sigma_s"], mission,
                         ", the DVL's velocity changes against the IMU's accelerations", GIVEN_DVL_CLOCK_FLOOR_S)
+
+
+def _dvl_clock_fit_near(imu: ImuData, dvl: DvlData, config: SensorConfig):
+    """The DVL clock fit (:func:`graphnav.calibration.clock.estimate_dvl_clock_offset`: the DVL's velocity changes
+    against the IMU's accelerations) within +-:data:`GIVEN_DVL_CLOCK_SEARCH_S` of the stamps of ``dvl``: its
+    ``offset_s`` is what the data add to them, s. DataError where the pings are too few."""
+    from graphnav.calibration.clock import estimate_dvl_clock_offset
+    return estimate_dvl_clock_offset(imu, dvl, config, search_s=(-GIVEN_DVL_CLOCK_SEARCH_S, GIVEN_DVL_CLOCK_SEARCH_S))
 
 
 def _given_dvl_offset(dvl: DvlData, depth: DepthData | None, offset_s: float, meta: dict):
