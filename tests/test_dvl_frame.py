@@ -583,10 +583,10 @@ def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit
     v = v_b.copy()
     v[::50] *= 3.0
     v[np.random.default_rng(1).random(len(t)) < 0.6] = np.nan
-    with pytest.raises(DataError, match=r"^.*dvl\.csv, field 'vx, vy, vz': 373 of 601 dvl samples refused .*: more "
-                                        r"than 50% of the stream; 367 of the 601 pings are refused for what no velocity "
-                                        r"unit changes \(no valid beam\), over 50% without the 6 beyond the vehicle's "
-                                        r"envelope: check that the DVL kept bottom lock") as err:
+    with pytest.raises(DataError, match=r"^.*dvl\.csv, field 'vx, vy, vz': 373 of 601 dvl samples refused .*: "
+                                        r"more than 50% of the stream; 367 of the 601 pings are refused for what no "
+                                        r"velocity unit changes \(no valid beam\), over 50% without the 6 beyond the "
+                                        r"vehicle's envelope: check that the DVL kept bottom lock") as err:
         _load(_folder(tmp_path, sim600, v, {"clock": "auto"}, shift=86400.0))
     assert "'kn'" not in str(err.value)
 

@@ -153,7 +153,8 @@ def gaps_said(t: np.ndarray, window: int) -> str:
 
 
 class _WindowModel:
-    """The DVL pings in windows of :data:`WINDOW_PINGS` (cut at gaps, :func:`window_rows`); for a candidate offset, the residual of
+    """The DVL pings in windows of :data:`WINDOW_PINGS` (cut at gaps, :func:`window_rows`); for a candidate offset,
+    the residual of
 
         v_j = v0 + int f_b dt + (int R^T dt) g0 - int omega x v dt - omega_j x l       (per window: v0, g0)
 

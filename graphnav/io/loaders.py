@@ -1176,8 +1176,8 @@ def _declared_unit_advice(meta: dict, imu, t: np.ndarray, v: np.ndarray, cfg: Se
 def _refused_whatever_the_unit(meta: dict) -> str | None:
     """What to check when the DVL pings refused for reasons a velocity unit does not change (all but the vehicle's
     envelope and a beam beyond its speed) are over :data:`~graphnav.core.screening.MAX_REFUSED_FRACTION` of the
-    stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could; else None. Over half the
-    pings without a valid beam and a few speed spikes were advised a knots unit, which refused as many."""
+    stream by themselves (``meta["streams"]["dvl"]``), naming them and the few a unit could; else None. A DVL with
+    over half its pings without a valid beam and a few speed spikes was advised knots, in which as many are refused."""
     entry = meta["streams"]["dvl"]
     by_speed = {r: n for r, n in entry["refused"].items() if r.startswith("outside the envelope") or "beam beyond" in r}
     others = {r: n for r, n in entry["refused"].items() if r not in by_speed}
@@ -1188,7 +1188,8 @@ def _refused_whatever_the_unit(meta: dict) -> str | None:
             f"({', '.join(r.split(' (')[0] for r in sorted(others, key=others.get, reverse=True))})")
     if by_speed:
         said += f", over {MAX_REFUSED_FRACTION:.0%} without the {sum(by_speed.values())} beyond the vehicle's envelope"
-    what = ("that the DVL kept bottom lock (altitude within its range) and the column map's velocity columns"
+    what = ("that the DVL kept bottom lock (altitude within its range) and that its velocity is read from the right "
+            "columns"
             if main.startswith("no valid beam") or main == NO_BOTTOM_LOCK else
             "the column map and the configuration's sensor ranges")
     return f"{said}: check {what}"
