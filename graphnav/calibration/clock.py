@@ -34,8 +34,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from graphnav.calibration.reference import _sigma_from_curvature
-from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MIN_OVERLAP_S, dvl_window_model, gaps_said,
-                                          offset_grid, search_overlap, with_enough_pings)
+from graphnav.core.dvl_kinematics import (COARSE_MAX_WINDOWS, MAX_WINDOW_GAP_S, MIN_OVERLAP_S, dvl_window_model,
+                                          gaps_said, offset_grid, search_overlap, with_enough_pings)
 from graphnav.core.errors import DataError
 from graphnav.core.streams import add_note, set_span
 from graphnav.core.timeseries import cumulative_integral, interp_rows, on_the_imu_clock, overlap_text
@@ -141,9 +141,10 @@ def estimate_dvl_clock_offset(imu, dvl, config=None, *, min_overlap_s: float = M
     h, coarse, best, second = _coarse_offset(model.thinned(COARSE_MAX_WINDOWS), ints.t, t_dvl, min_overlap_s,
                                              period, "DVL", dvl.source, search_s)
     if not np.isfinite(best):
-        raise DataError(f"the DVL's pings are too broken up to find its clock: {gaps_said(t_dvl, window)}, and no "
-                        f"offset keeping {min_overlap_s:.0f} s of overlap puts two of those windows on the IMU span",
-                        dvl.source, field="t")
+        broken = np.any(np.diff(t_dvl) > MAX_WINDOW_GAP_S)
+        raise DataError(f"the DVL's pings are too {'broken up' if broken else 'few'} to find its clock: "
+                        f"{gaps_said(t_dvl, window)}, and no offset keeping {min_overlap_s:.0f} s of overlap puts two "
+                        "of those windows on the IMU span", dvl.source, field="t")
 
     # the same pings at every offset the refinement tries: one that left some out would fit the rest better. Two
     # grid steps each way: a ping entering the span moves the coarse scores by its share (a 60 s simulated log's
