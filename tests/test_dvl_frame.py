@@ -493,12 +493,13 @@ def test_knots_read_as_m_s_with_the_dvl_a_day_off_are_refused_naming_the_unit_no
                                                                                               turn):
     """Knots with no velocity_unit, the DVL a day off, clock auto: the envelope refused 229 pings, the window across
     the hole they leave spoiled the true offset, and the clock search settled 252 s off (explained 0.34): loaded there
-    with warnings only. Turned 90 deg too, the turn was announced at that offset. Now the knots are named."""
+    with warnings only. Turned 90 deg too, the turn was announced at that offset (a weak peak beside the hole, 250-275 s
+    off as the windows fall about it). Now the knots are named."""
     from graphnav.calibration.dvl_scale import turn_about_z
     m, t, v_b = sim600
     v = v_b @ turn_about_z(turn).T / KNOT
     said = (r"declare csv_columns\.dvl\.velocity_unit 'kn'$" if not turn else
-            r"refused for their speed, and a turn of \+90 deg about z finds the clock only at -86651\.\d+ s, where "
+            r"refused for their speed, and a turn of \+90 deg about z finds the clock only at -866\d\d\.\d+ s, where "
             r"\d+ of the \d+ pings on the IMU span are among those without a velocity: .*the velocity's unit is the "
             r"likelier fault: declare csv_columns\.dvl\.velocity_unit$")
     with pytest.raises(DataError, match=said) as err:
@@ -540,6 +541,54 @@ def test_a_short_dvl_with_speed_spikes_whose_clock_cannot_be_modelled_loads_on_i
         got = _load(_folder(tmp_path, (m, t[keep], v[keep]), v[keep], {"clock": "auto"}))
     assert got.meta["streams"]["dvl"]["refused"]
     assert "dvl" not in got.meta.get("clock_offsets", {})
+
+
+def _outages(t, every_s, gap_s):
+    """True at the pings kept when the DVL loses bottom lock for ``gap_s`` s every ``every_s`` s (from 10 s in)."""
+    since = t - t[0] - 10.0
+    return (since < 0.0) | (since % every_s >= gap_s)
+
+
+def test_a_dvl_a_day_off_that_loses_bottom_lock_every_42_s_finds_its_clock_between_the_outages(sim600, tmp_path):
+    """25 s without pings every 42 s, the DVL a day off, clock auto: every clock-search window crossed a gap over 20 s
+    and was dropped, and the load was refused blaming the DVL noise ("best -inf"). The windows are cut at the gaps:
+    the 17 s of pings between two outages are fitted and the clock is found."""
+    m, t, v_b = sim600
+    keep = _outages(t, 42.0, 25.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0))
+    assert got.config.dvl_time_offset_s == pytest.approx(-86400.0, abs=0.05)
+    found = got.meta["clock_offsets"]["dvl"]
+    assert found["confident"] and 0.5 < found["peak"] < 1.0 and found["second_peak"] < found["peak"]
+
+
+def test_a_dvl_too_broken_up_for_its_clock_is_refused_naming_the_gaps_not_the_noise(sim600, tmp_path):
+    """26 s without pings every 30 s leaves 4 pings between outages, too few for any window: the refusal says the
+    pings are too broken up and how (it blamed the DVL noise and printed a peak of -inf)."""
+    m, t, v_b = sim600
+    keep = _outages(t, 30.0, 26.0)
+    with pytest.raises(DataError, match=r"the DVL's pings are too broken up to find its clock: \d+ pings with a "
+                                        r"velocity over \d+ s, with 19 gap\(s\) over 20 s without one \(27 s long, "
+                                        r"starting every 30 s\), leaving 1 window\(s\) between them") as err:
+        _load(_folder(tmp_path, (m, t[keep], v_b[keep]), v_b[keep], {"clock": "auto"}, shift=86400.0))
+    assert err.value.source.endswith("dvl.csv") and "inf" not in str(err.value) and "noise" not in str(err.value)
+
+
+def test_a_dvl_mostly_without_pings_and_a_few_spikes_is_not_advised_a_knots_unit(sim600, tmp_path):
+    """61 % of the pings without a velocity (bottom lock lost) and 1 in 50 at 3x speed, the DVL a day off: the refusal
+    of the stream (over half refused) advised declaring knots, though in knots as many pings are refused. It now
+    says what the pings are refused for and that no unit changes it."""
+    m, t, v_b = sim600
+    v = v_b.copy()
+    v[::50] *= 3.0
+    v[np.random.default_rng(1).random(len(t)) < 0.6] = np.nan
+    with pytest.raises(DataError, match=r"^.*dvl\.csv, field 'vx, vy, vz': 373 of 601 dvl samples refused .*: "
+                                        r"more than 50% of the stream; 367 of the 601 pings are refused for what no "
+                                        r"velocity unit changes \(no valid beam\), over 50% without the 6 beyond the "
+                                        r"vehicle's envelope: check that the DVL kept bottom lock") as err:
+        _load(_folder(tmp_path, sim600, v, {"clock": "auto"}, shift=86400.0))
+    assert "'kn'" not in str(err.value)
 
 
 def test_a_turn_off_a_quarter_turn_is_said_about_it_with_the_remainder(sim, tmp_path):
