@@ -1199,3 +1199,48 @@ def test_a_slow_vehicle_kept_at_its_own_offset_whose_clock_the_search_cannot_fin
         _load(_folder(tmp_path, (slow, t, None), v_b, {"clock": "auto"}, shift=7.3))
     assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
     assert "declare csv_columns.dvl.frame" not in str(err.value)
+
+
+@pytest.mark.parametrize("turn", [90.0, 180.0, 270.0])
+def test_a_dvl_turned_and_far_off_on_the_imu_span_is_refused_naming_the_turn_and_the_offset(sim, tmp_path, turn):
+    """A DVL turned about z (instrument-frame columns read as body) whose stamps lie on the IMU span but 60 s late
+    (``clock: auto``; 600 s late on a 5400 s log is the same): the clock search finds no clear offset for the turned
+    velocity, and the retry with the velocity turned back ran only off the span, so the log loaded 60 s off with the
+    turn warned about at the wrong clock. Now refused as off the span, naming the turn and the offset; the advised
+    ``dvl.C_d_b`` loads it on the IMU clock as the body's. On its right clock it loads as before, its turn warned
+    about."""
+    from graphnav.calibration.dvl_scale import TURNED_DOUBT, signed_turn, turn_about_z
+    m, t, v_b = sim
+    turned = v_b @ turn_about_z(turn).T
+    said = re.escape(f"{signed_turn(int(turn)):+d}")
+    with pytest.raises(DataError, match=rf"DVL clock offset not found .* with the stamps on the IMU span; but read as "
+                                        rf"turned {said} deg about z from the IMU's axes .* the DVL finds its clock at "
+                                        r"-(59\.9|60\.0)\d\d s .*: not the clock but a mounting turned about z\. The "
+                                        r"DVL velocity points forward only turned: .* dvl\.C_d_b \[\[") as err:
+        _load(_folder(tmp_path, sim, turned, {"clock": "auto"}, shift=60.0))
+    assert err.value.source.endswith("dvl.csv") and err.value.field == "vx, vy, vz"
+    C_d_b = json.loads(re.search(r"dvl\.C_d_b (\[\[.*?\]\])", str(err.value)).group(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, sim, turned, {"clock": "auto", "frame": "instrument"}, C_d_b=C_d_b, shift=60.0))
+    np.testing.assert_allclose(got.dvl.v_b, v_b, atol=1e-9)
+    assert got.config.dvl_time_offset_s == pytest.approx(-60.0, abs=0.1)
+    with pytest.warns(RuntimeWarning, match=r"dvl\.csv: field 'vx, vy, vz': the DVL velocity .*about z"):
+        got = _load(_folder(tmp_path, sim, turned, {"clock": "auto"}))
+    assert got.config.dvl_time_offset_s == 0.0 and TURNED_DOUBT in got.meta["streams"]["dvl"]["doubted"]
+    np.testing.assert_array_equal(got.dvl.t, t)
+
+
+def test_a_noisy_dvl_pointing_forward_whose_clock_is_not_found_is_not_searched_turned(tmp_path, monkeypatch):
+    """A clean log with the default 0.042 m/s beam noise on its IMU span (``clock: auto``): the search finds no clear
+    offset, as for a turned DVL, but its velocity points forward and fits the IMU's axes: the three searches with the
+    velocity turned are not run (they tripled the clock search's cost on every such log)."""
+    from graphnav.calibration import preparation
+    tried = []
+    monkeypatch.setattr(preparation, "_turn_finds_the_clock", lambda *a, **k: tried.append(a))
+    m = simulate_mission(300.0, seed=1)
+    t, v_b = dvl_velocity_b(m.dvl, m.config)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = _load(_folder(tmp_path, (m, t, v_b), v_b, {"clock": "auto"}))
+    assert not got.meta["clock_offsets"]["dvl"]["confident"] and tried == []

@@ -662,6 +662,16 @@ def turn_found(dvl, config, yaw: int, frame: dict, fixes: dict) -> str:
     return f"The DVL velocity points {where}, forward neither as read nor turned: either {dvl_turned}; or {imu_turned}"
 
 
+def yaws_to_try(dvl, config) -> list[int]:
+    """:data:`IMU_YAWS_DEG` in the order a search with the DVL velocity turned back about z tries them: the turn
+    that brings its mean direction (:func:`_course`) nearest body +x first (a DVL turned 270 deg is found on the first
+    search, not the third), as listed where it points no one way (an IMU turned, the velocity forward as read)."""
+    course = _course(dvl, config)
+    if not np.isfinite(course):
+        return list(IMU_YAWS_DEG)
+    return sorted(IMU_YAWS_DEG, key=lambda yaw: abs(np.angle(np.exp(1j * (course - np.deg2rad(yaw))))))
+
+
 def signed_turn(yaw: int) -> int:
     """A quarter turn ``yaw`` (deg, 0-360) as -90, 90 or 180."""
     return yaw - 360 if yaw > 180 else yaw

@@ -1015,8 +1015,7 @@ def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
     est = meta.get("clock_offsets", {}).get("dvl")
     if est is None or est["confident"]:
         return
-    found = (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
-             f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f})")
+    found = _clock_not_found_said(est)
     if meta.get(OFF_ITS_STAMPS):
         # judged at the stamps as read, its units and turn would blame the instruments for the clock
         raise DataError(f"{found}, and its velocity, which turns with the vehicle, is body-fixed only at its own best "
@@ -1028,13 +1027,21 @@ def _say_clock_not_found(dvl: DvlData, meta: dict) -> None:
     count_doubted(meta, "dvl", CLOCK_NOT_FOUND, len(dvl.t))
 
 
+def _clock_not_found_said(est: dict) -> str:
+    """A DVL clock search's estimate ``est`` (``meta["clock_offsets"]["dvl"]``) that found no clear offset, said."""
+    return (f"DVL clock offset not found (the IMU's accelerations explain the DVL's velocity changes at no clear "
+            f"offset: best {est['peak']:.2f}, next {est['second_peak']:.2f})")
+
+
 def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
                     declared: dict | None, fixes: dict, frame: dict):
     """``(run(imu), imu)``: the DVL clock search ``run`` with the gyro's scales tried (:func:`_with_the_gyro_tried`);
     a failure tried again in other units (:func:`_unit_finds_the_clock`) and with the velocity turned about z
     (:func:`_turn_finds_the_clock`, ``frame`` the IMU's axes judged), each a DataError where it finds the clock, else
-    the failure raised; a clock found is tried in other units where pings were refused for their speed. ``declared``:
-    the DVL velocity unit the IMU judges, ``fixes`` what the messages advise."""
+    the failure raised; a clock found is tried in other units where pings were refused for their speed, and a DVL on
+    the IMU span the search found no clear offset for is tried turned where its turn check saw a turn
+    (:func:`_turn_finds_the_clock_on_the_span`). ``declared``: the DVL velocity unit the IMU judges, ``fixes`` what
+    the messages advise."""
     try:
         found = _with_the_gyro_tried(run, search, imu, dvl, config, meta)
     except DataError as err:
@@ -1042,6 +1049,7 @@ def _clock_searched(run, search, imu: ImuData, dvl: DvlData, config: SensorConfi
         _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
         raise
     _unit_finds_the_clock(None, search, found[1], dvl, config, meta, declared, fixes)
+    _turn_finds_the_clock_on_the_span(search, found[1], dvl, config, meta, fixes, frame, declared)
     return found
 
 
@@ -1217,21 +1225,25 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
     """After the DVL clock search ``search(imu, meta, dvl) -> offset`` (s added to the ``dvl`` stamps) failed with
     ``err``: a DVL or an IMU mounted turned about z, in a frame the configuration does not say, leaves the DVL's
     velocity changes unexplained at every offset, and the search blamed the clock. It is tried with the DVL velocity
-    turned 90, 180 and 270 deg about z into the IMU's axes
-    (:data:`~graphnav.calibration.dvl_scale.IMU_YAWS_DEG`); the first that finds a clear clock is a DataError adding
+    turned 90, 180 and 270 deg about z into the IMU's axes (the turn its mean direction suggests first,
+    :func:`~graphnav.calibration.dvl_scale.yaws_to_try`); the first that finds a clear clock is a DataError adding
     to ``err`` the turn, the offset it gives and what to configure
     (:func:`~graphnav.calibration.dvl_scale.turn_found`: ``fixes`` for the DVL, ``frame`` for the IMU). The data are
     never read turned. A turn whose clock rests on the hole pings refused for their speed leave is not announced: the
     unit (``declared``, as :func:`_unit_finds_the_clock` takes it) is named instead (:func:`_refuse_a_clock_by_a_hole`).
-    Returns when no turn finds the clock (``err`` stands)."""
-    from graphnav.calibration.dvl_scale import IMU_YAWS_DEG, signed_turn, turn_about_z, turn_found
+    Returns when no turn finds the clock (``err`` stands), or (a DVL on the IMU span) when a turn finds it within half
+    a ping period of the stamps: they are on the IMU clock, and the DVL's turn check has judged the turn there."""
+    from graphnav.calibration.dvl_scale import signed_turn, turn_about_z, turn_found, yaws_to_try
     t, v = dvl_velocity_b(dvl, config)
-    for yaw in IMU_YAWS_DEG:
+    for yaw in yaws_to_try(dvl, config):
         turned = DvlData(t, *no_beams(len(t)), v @ turn_about_z(yaw), source=dvl.source)
         est = _trial_estimate(search, imu, turned, meta)
-        if est is None:
+        # on the IMU span the search keeps the stamps, with its estimate, where it finds no clear offset
+        if est is None or not est["confident"]:
             continue
         offset = est["offset_s"]
+        if abs(offset) < 0.5 * float(np.median(np.diff(t))):
+            return
         _refuse_a_clock_by_a_hole(err, offset, imu, dvl, meta, declared, fixes,
                                   f"a turn of {signed_turn(yaw):+d} deg about z finds the clock only at")
         raise DataError(f"{err.message}; but read as turned {_quarter_turn_said(imu, turned, offset, config, yaw)} "
@@ -1241,6 +1253,26 @@ def _turn_finds_the_clock(err: DataError, search, imu: ImuData, dvl: DvlData, co
                         f"z. {turn_found(dvl, config, yaw, frame, fixes)}. The data are not read turned: with the "
                         "mounting fixed, the clock search finds the offset itself", err.source, err.line,
                         err.field) from err
+
+
+def _turn_finds_the_clock_on_the_span(search, imu: ImuData, dvl: DvlData, config: SensorConfig, meta: dict,
+                                      fixes: dict, frame: dict, declared: dict | None) -> None:
+    """A DVL on the IMU span for which the clock search ``search(imu, meta, dvl) -> offset`` found no clear offset
+    (``meta["clock_offsets"]["dvl"]`` not confident) and whose turn check, at the stamps as read before the search
+    (:func:`_judge_dvl_against_imu`), saw its velocity turned about z or pointing sideways or backward
+    (:data:`~graphnav.calibration.dvl_scale.TURNED_DOUBT`, :data:`~graphnav.calibration.dvl_scale.SIDEWAYS_DOUBT`
+    counted): searched again with the velocity turned about z (:func:`_turn_finds_the_clock`), a DataError where a
+    turn finds the clock off the stamps, as off the span. A DVL turned 90, 180 or 270 deg and 400-1800 s late on a
+    5400 s simulated log (30-250 s on a 600 s one) was loaded that far off, its turn warned about at the wrong clock.
+    A clean log with the default beam noise finds no clear offset either, but its velocity points forward and fits
+    the IMU's axes: it is not searched three more times."""
+    from graphnav.calibration.dvl_scale import SIDEWAYS_DOUBT, TURNED_DOUBT
+    est = meta.get("clock_offsets", {}).get("dvl")
+    doubted = meta.get("streams", {}).get("dvl", {}).get("doubted", {})
+    if est is None or est["confident"] or not (TURNED_DOUBT in doubted or SIDEWAYS_DOUBT in doubted):
+        return
+    err = DataError(f"{_clock_not_found_said(est)} with the stamps on the IMU span", *_where(None, dvl, meta, fixes))
+    _turn_finds_the_clock(err, search, imu, dvl, config, meta, fixes, frame, declared)
 
 
 #: A turn left over after the quarter turn a clock was found with, deg, from which the turn is said to be "about" it.
